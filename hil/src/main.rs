@@ -1,0 +1,2 @@
+//! `hil`: the harness's command line.
+fn main() {}

@@ -1,0 +1,1 @@
+//! The plant simulator: the railway wheelset with its traction drive on a canted curve.

@@ -1,0 +1,2 @@
+//! `sim-host`: the plant simulator's command line.
+fn main() {}
