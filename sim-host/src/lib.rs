@@ -1,1 +1,3 @@
 //! The plant simulator: the railway wheelset with its traction drive on a canted curve.
+
+pub mod link;
