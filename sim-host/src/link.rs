@@ -39,6 +39,8 @@ pub struct Outage {
     pub start_ns: u64,
     /// Length, ns.
     pub len_ns: u64,
+    /// Directions cut (within those the `dir` key allows).
+    pub dir: FaultDir,
 }
 
 /// Error bursts: a Poisson process of `rate_hz` bursts per second; each burst garbles
@@ -71,7 +73,7 @@ pub enum FaultDir {
 /// | `ber` | `P` in [0, 1) | bit error rate per data bit |
 /// | `drop` | `P` in [0, 1] | probability a whole frame is lost |
 /// | `byte_drop` | `P` in [0, 1] | probability a byte is lost |
-/// | `outage` | `START_S:LEN_S` | outage from `START_S` seconds for `LEN_S` seconds (repeatable) |
+/// | `outage` | `START_S:LEN_S[:up\|down]` | outage from `START_S` seconds for `LEN_S` seconds, both directions or one (repeatable) |
 /// | `burst` | `RATE_HZ:LEN_BYTES` | error bursts, mean rate per second, bytes per burst |
 /// | `dir` | `both`, `up`, `down` | directions the faults apply to (default both) |
 ///
@@ -174,10 +176,17 @@ impl FromStr for Faults {
                 "drop" => f.frame_drop = prob(item, v.trim(), false)?,
                 "byte_drop" => f.byte_drop = prob(item, v.trim(), false)?,
                 "outage" => {
-                    let (s, l) = pair(item, v.trim(), "START_S:LEN_S")?;
+                    let v = v.trim();
+                    let (v, dir) = match v.rsplit_once(':') {
+                        Some((head, "up")) => (head, FaultDir::Up),
+                        Some((head, "down")) => (head, FaultDir::Down),
+                        _ => (v, FaultDir::Both),
+                    };
+                    let (s, l) = pair(item, v, "START_S:LEN_S[:up|down]")?;
                     f.outages.push(Outage {
                         start_ns: secs_to_ns(s),
                         len_ns: secs_to_ns(l),
+                        dir,
                     });
                 }
                 "burst" => {
@@ -217,7 +226,15 @@ impl Faults {
     }
 
     fn applies(&self, up: bool) -> bool {
-        match self.dir {
+        self.dir.includes(up)
+    }
+}
+
+impl FaultDir {
+    /// Whether this covers the host -> device (`up`) or device -> host direction.
+    #[must_use]
+    pub fn includes(self, up: bool) -> bool {
+        match self {
             FaultDir::Both => true,
             FaultDir::Up => up,
             FaultDir::Down => !up,
@@ -383,6 +400,7 @@ pub struct Channel {
     latency_ns: u64,
     faults: Faults,
     active: bool,
+    up: bool,
     rng: Pcg64,
     line_free_ns: u64,
     queue: VecDeque<Delivery>,
@@ -409,6 +427,7 @@ impl Channel {
             latency_ns: cfg.latency_ns,
             faults: cfg.faults.clone(),
             active,
+            up,
             rng,
             line_free_ns: 0,
             queue: VecDeque::new(),
@@ -453,9 +472,10 @@ impl Channel {
             return Some(b);
         }
         let f = &self.faults;
+        let up = self.up;
         if f.outages
             .iter()
-            .any(|o| t_ns >= o.start_ns && t_ns - o.start_ns < o.len_ns)
+            .any(|o| o.dir.includes(up) && t_ns >= o.start_ns && t_ns - o.start_ns < o.len_ns)
         {
             self.counters.bytes_outage += 1;
             return None;
@@ -760,7 +780,7 @@ mod tests {
     #[test]
     fn fault_spec_parses_and_refuses() {
         let f: Faults =
-            "ber=1e-3, drop=0.1,outage=8.0:0.05,outage=9:1,burst=2:5,byte_drop=0.01,dir=up"
+            "ber=1e-3, drop=0.1,outage=8.0:0.05,outage=9:1:down,burst=2:5,byte_drop=0.01,dir=up"
                 .parse()
                 .expect("valid");
         assert_eq!(f.ber, 1e-3);
@@ -771,11 +791,13 @@ mod tests {
             vec![
                 Outage {
                     start_ns: 8_000_000_000,
-                    len_ns: 50_000_000
+                    len_ns: 50_000_000,
+                    dir: FaultDir::Both,
                 },
                 Outage {
                     start_ns: 9_000_000_000,
-                    len_ns: 1_000_000_000
+                    len_ns: 1_000_000_000,
+                    dir: FaultDir::Down,
                 }
             ]
         );
@@ -787,6 +809,7 @@ mod tests {
             })
         );
         assert_eq!(f.dir, FaultDir::Up);
+        assert!("outage=1:2:sideways".parse::<Faults>().is_err());
         assert_eq!("".parse::<Faults>(), Ok(Faults::none()));
         for (bad, needle) in [
             ("ber=1", "outside [0, 1)"),
