@@ -1,4 +1,26 @@
 //! The plant simulator: the railway wheelset with its traction drive on a canted curve.
+//!
+//! - [`params`]: typed parameters with the paper's defaults, loadable from TOML.
+//! - [`scenario`]: track scenarios as data (built-in `curve`, `beating`, or a file).
+//! - [`plant`]: the nonlinear model, eqs. (1)-(10) as corrected in `spec/model.md`.
+//! - [`control`]: continuous reference controllers and the [`control::SampledController`]
+//!   interface for discrete ones.
+//! - [`sim`]: fixed-step RK4 on integer-nanosecond time; continuous and sampled runs.
+//! - [`linear`]: linearisation about straight-track pure rolling (analytic and
+//!   complex-step), the linear model `(A, B, C)`.
+//! - [`modes`]: modal sweep over the creep coefficient, mode tracking and naming,
+//!   instability crossings.
+//! - [`svg`]: a small dependency-free SVG plotting module (line, scatter, bars).
+//! - [`figures`]: the paper's figures from runs and sweeps.
+#![deny(missing_docs)]
 
+pub mod control;
 pub mod device;
 pub mod link;
+pub mod error;
+pub mod figures;
+pub mod params;
+pub mod plant;
+pub mod scenario;
+pub mod sim;
+pub mod svg;
