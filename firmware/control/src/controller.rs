@@ -81,11 +81,11 @@ pub struct Counters {
     pub traction_steps: u32,
     /// Input `y'` (clamp `limits.y_dot`).
     pub y_dot: SignalCounts,
-    /// Input current (clamp `limits.current`).
+    /// Input current (clamp `limits.current`; read on traction steps with traction on).
     pub current: SignalCounts,
-    /// Input speed (clamp `limits.speed`).
+    /// Input speed (clamp `limits.speed`; read only for the bumpless preset).
     pub speed: SignalCounts,
-    /// Input demand (clamp `limits.demand`).
+    /// Input demand (clamp `limits.demand`; as the current).
     pub demand: SignalCounts,
     /// Output yaw torque against `limits.torque` (the safe-state ramp is not counted).
     pub yaw_torque: SignalCounts,
@@ -240,7 +240,7 @@ pub struct Controller<T: Sample> {
     counters: Counters,
 }
 
-/// The project's production controller: Q4.28 signals, Q2.30 coefficients.
+/// The project's production controller: Q4.28 signals, Q1.31 coefficients.
 pub type FixedController = Controller<Fx>;
 /// The FPU build.
 pub type F32Controller = Controller<f32>;
@@ -387,15 +387,16 @@ impl<T: Sample> Controller<T> {
         let law = &self.law;
         let c = &mut self.counters;
         c.traction_steps = c.traction_steps.wrapping_add(1);
-        let i = Self::input(inp.current, law.current_max, &mut c.current);
-        let w = Self::input(inp.speed, law.speed_max, &mut c.speed);
-        let d = Self::input(inp.demand, law.demand_max, &mut c.demand);
         if !self.traction {
             self.out.voltage = T::ZERO;
             self.armed = false;
             return;
         }
+        let i = Self::input(inp.current, law.current_max, &mut c.current);
+        let d = Self::input(inp.demand, law.demand_max, &mut c.demand);
         if !self.armed {
+            // Bumpless start: the only use of the speed.
+            let w = Self::input(inp.speed, law.speed_max, &mut c.speed);
             law.pi.preset(&mut self.pi_state, w.mul_c(law.back_emf));
             self.armed = true;
         }

@@ -11,8 +11,8 @@
 //! let mut c = FixedController::try_new(&Config::default()).unwrap();
 //! // 83.3 m/s: motor speed 925.6 rad/s (codes of 1 mrad/s), y' = 1 mm/s (codes of 1 um/s)
 //! let out = c.tick_codes(&InputCodes { y_dot: 1000, current: 0, speed: 925_600, demand: 0 });
-//! // Bumpless start: u_a = K_m omega = 4.28 * 925.6 = 3961.6 V (codes of 1 mV).
-//! assert!((out.voltage - 3_961_568).abs() <= 2);
+//! // Bumpless start: u_a = K_m omega = 4.28 * 925.6 = 3961.6 V (codes of 10 mV).
+//! assert!((out.voltage - 396_157).abs() <= 1);
 //! // T_psi = +Ks(s) y': the lead's first sample is close to its HF gain 7.875e5 N m s/m.
 //! assert!(out.yaw_torque > 0);
 //! ```
@@ -24,9 +24,9 @@
 //! | `y'` lateral velocity rel. track, + right | m/s | 1 m/s | ±1 m/s | 1 um/s |
 //! | `T_psi` yaw torque | N m | 1e6 N m | ±2e4 N m | 0.1 N m |
 //! | `i_a` motor current | A | 1000 A | ±2000 A | 1 mA |
-//! | `u_a` motor voltage | V | 1e4 V | [-6000, 6000] V | 1 mV |
+//! | `u_a` motor voltage | V | 1e4 V | [-6000, 6000] V | 10 mV |
 //! | `theta_m'` motor speed | rad/s | 1000 rad/s | ±2000 rad/s | 1 mrad/s |
-//! | traction demand (wheel torque) | N m | 1e4 N m | ±2e4 N m | 0.1 N m |
+//! | traction demand (wheel torque) | N m | 1e4 N m | ±2e4 N m | 1 N m |
 //!
 //! Sign of the yaw torque: eq. 5 of the model, `J psi'' + ... = -T_psi`; the active law
 //! is `T_psi = +K y'` (or `+Ks(s) y'`): a wheelset moving right is yawed nose-left.
@@ -60,8 +60,9 @@
 //! # Q formats (fixed point, [`FixedController`])
 //!
 //! Every signal and state is Q4.28 per unit (`i32`, range `[-8, 8)`, LSB `2^-28`), every
-//! coefficient Q2.30 (`[-2, 2)`, LSB `2^-30`); products are exact 64-bit
-//! (`SMULL` on Cortex-M4), rounded to nearest and saturated back. Range analysis with
+//! coefficient Q1.31 validated into `(-1, 1)` (LSB `2^-31`); products are exact 64-bit
+//! (`SMLAL` on Cortex-M4), rounded to nearest, and cannot overflow ([`sample::mul_q31`]);
+//! sums saturate (`QADD`/`QSUB`). Range analysis with
 //! the inputs clamped to `|x| <= X` pu, `X <= 2` (enforced by [`Config::validate`]):
 //!
 //! | signal / state | bound | why |
@@ -79,8 +80,8 @@
 //! So no internal saturation can engage (a full-scale test checks it); the largest
 //! value is 4 pu of the 8 available. Resolution: y' 3.7e-9 m/s, T_psi 3.7e-3 N m,
 //! i_a 3.7e-6 A, u_a 3.7e-5 V: far below the wire LSBs. Coefficient quantisation
-//! (Q2.30, relative error <= 2^-31/|c|): `K_hf` 6e-10, `g/2` 1e-9, `kappa` (5 kHz)
-//! 2e-8, PI `Ki` (5 kHz, Ti = 0.5 s) 1.2e-5 relative.
+//! (Q1.31, relative error <= 2^-32/|c|): `K_hf` 3e-10, `g/2` 5e-10, `kappa` (5 kHz)
+//! 9e-9, PI `Ki` (5 kHz, Ti = 0.5 s) 5.8e-6 relative.
 //!
 //! # Rates
 //!

@@ -84,7 +84,7 @@ fn bad_configs_give_typed_errors_naming_the_field() {
         let msg = format!("{e}");
         assert!(msg.contains(field), "{field}: {msg}");
     }
-    // A coefficient that does not fit Q2.30 is refused for fixed point only.
+    // A coefficient that does not fit Q1.31 is refused for fixed point only.
     let big = Config {
         gain_k: 3.0e6,
         ..base
