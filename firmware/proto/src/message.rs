@@ -36,7 +36,7 @@ pub struct Sensor {
     pub i_a_ma: i32,
     /// Motor speed `theta_m'` in mrad/s, positive forwards.
     pub omega_m_mrad_s: i32,
-    /// Traction demand as motor-side torque `n K_m i_ref` in N m (0: none).
+    /// Traction demand as wheel torque `n K_m i_ref` in N m (0: none).
     pub demand_nm: i32,
 }
 

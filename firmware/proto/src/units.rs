@@ -7,7 +7,7 @@
 //! | lateral acceleration `y''` | `i32` varint | 0.1 mm/s^2 | +-214 km/s^2 | ~30 m/s^2 |
 //! | motor current `i_a` | `i32` varint | 1 mA | +-2.1 MA | ~115 A |
 //! | motor speed `theta_m'` | `i32` varint | 1 mrad/s | +-2.1e6 rad/s | ~925.6 rad/s |
-//! | traction demand (motor-side torque `n K_m i_ref`) | `i32` varint | 1 N m | +-2.1e9 N m | 2460 N m |
+//! | traction demand (wheel torque `n K_m i_ref`) | `i32` varint | 1 N m | +-2.1e9 N m | 2460 N m |
 //! | yaw torque `T_psi` | `i32` varint | 0.1 N m | +-2.1e8 N m | ~1e4 N m |
 //! | motor voltage `u_a` | `i32` varint | 10 mV | +-2.1e7 V | ~3961 V (back-EMF) |
 //! | host timestamp | `u16` fixed | 1 us | wraps every 65.536 ms | - |
@@ -30,7 +30,7 @@ pub const LAT_ACC_LSB_M_PER_S2: f64 = 1e-4;
 pub const CURRENT_LSB_A: f64 = 1e-3;
 /// Motor speed LSB: 1 mrad/s, in rad/s.
 pub const SPEED_LSB_RAD_PER_S: f64 = 1e-3;
-/// Traction demand (motor-side torque) LSB: 1 N m.
+/// Traction demand (wheel torque `n K_m i_ref`) LSB: 1 N m.
 pub const DEMAND_LSB_NM: f64 = 1.0;
 /// Yaw torque LSB: 0.1 N m.
 pub const TORQUE_LSB_NM: f64 = 0.1;
