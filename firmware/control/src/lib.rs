@@ -134,7 +134,7 @@
 //! computation, 70 % utilisation needs `610 bits / (0.7 T - 10 us)`: 4.7 Mbaud at 5 kHz,
 //! 10.2 Mbaud at 10 kHz. At the 2 Mbaud of a typical USB-serial bridge the largest rate
 //! that fits is 2.26 kHz, where the current loop is unstable: **the default needs a
-//! >= 5 Mbaud link** (the STM32F446's USART1/6 on the 90 MHz APB2 reach 11.25 Mbaud with
+//! link of at least 5 Mbaud** (the STM32F446's USART1/6 on the 90 MHz APB2 reach 11.25 Mbaud with
 //! 8x oversampling; e.g. 6 Mbaud = 90 MHz / 15) or, at 2 Mbaud, a lower current-loop
 //! gain than the paper's. [`Config::check_link`] refuses a configuration that does not
 //! fit. 10 kHz would halve the damping loss but does not fit any realistic UART with
