@@ -47,12 +47,9 @@ pub fn limit_cycles<T: Sample>(
 ) -> Result<Vec<LimitCycle>, wheelset_control::ConfigError> {
     let fs = kind.rate_hz(cfg);
     let (clamp, in_fs, out_fs, unit) = match kind {
-        Kind::YawLead | Kind::YawGain => (
-            cfg.limits.y_dot,
-            cfg.scales.y_dot,
-            cfg.scales.torque,
-            "N m",
-        ),
+        Kind::YawLead | Kind::YawGain => {
+            (cfg.limits.y_dot, cfg.scales.y_dot, cfg.scales.torque, "N m")
+        }
         Kind::TractionPi => (
             // The PI's error is kept well inside the voltage limits.
             5.0,

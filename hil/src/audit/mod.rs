@@ -26,6 +26,7 @@
 //! fail; the exit code is 1 on any fail.
 
 pub mod limits;
+pub mod plots;
 pub mod qdyn;
 pub mod ranges;
 pub mod report;
@@ -153,6 +154,8 @@ pub struct Tolerances {
     pub noise_wire_lsb: (f64, f64),
     /// Limit-cycle amplitude / dead-band offset, wire LSBs of the output.
     pub limit_cycle_wire_lsb: (f64, f64),
+    /// Max output error vs f64 during the safe-state ramps, fraction of the output limit.
+    pub ramp_of_limit: (f64, f64),
 }
 
 impl Default for Tolerances {
@@ -169,6 +172,7 @@ impl Default for Tolerances {
             headroom_bits: (1.0, 0.0),
             noise_wire_lsb: (0.5, 2.0),
             limit_cycle_wire_lsb: (0.5, 2.0),
+            ramp_of_limit: (1e-4, 1e-3),
         }
     }
 }
@@ -489,7 +493,12 @@ pub fn grid(fs: f64) -> Vec<(f64, bool)> {
         .map(|i| (a * (b / a).powf(i as f64 / (n - 1) as f64), false))
         .filter(|(f, _)| !NAMED_HZ.iter().any(|g| (g - f).abs() < 1e-9))
         .collect();
-    v.extend(NAMED_HZ.iter().filter(|f| **f < 0.5 * fs).map(|f| (*f, true)));
+    v.extend(
+        NAMED_HZ
+            .iter()
+            .filter(|f| **f < 0.5 * fs)
+            .map(|f| (*f, true)),
+    );
     v.sort_by(|x, y| x.0.total_cmp(&y.0));
     v
 }
@@ -605,7 +614,10 @@ pub fn audit_controller<T: Sample>(
             .iter()
             .filter(|p| p.f_hz <= below)
             .map(|p| (g(p), p.f_hz))
-            .fold((0.0f64, 0.0f64), |a, b| if b.0.abs() > a.0.abs() { b } else { a })
+            .fold(
+                (0.0f64, 0.0f64),
+                |a, b| if b.0.abs() > a.0.abs() { b } else { a },
+            )
     };
     let worst = Worst {
         below_hz: below,
@@ -615,9 +627,7 @@ pub fn audit_controller<T: Sample>(
         discrete_phase_deg: worst_of(&|p| p.f64_vs_continuous_deg),
         measurement_gain_db: freq_response
             .iter()
-            .map(|p| {
-                (20.0 * (p.discrete_f64_measured.gain / p.discrete_f64.gain).log10()).abs()
-            })
+            .map(|p| (20.0 * (p.discrete_f64_measured.gain / p.discrete_f64.gain).log10()).abs())
             .fold(0.0, f64::max),
     };
     let limit_cycles = limits::limit_cycles::<T>(kind, cfg, lsb)?;
@@ -673,7 +683,10 @@ pub fn controller_checks(a: &ControllerAudit, tol: &Tolerances, cfg: &Config) ->
     let w = &a.worst;
     v.push(judge(
         n,
-        &format!("gain error fixed vs f64 below {:.0} Hz (worst at {:.3} Hz)", w.below_hz, w.fixed_gain_db.1),
+        &format!(
+            "gain error fixed vs f64 below {:.0} Hz (worst at {:.3} Hz)",
+            w.below_hz, w.fixed_gain_db.1
+        ),
         w.fixed_gain_db.0,
         tol.fixed_gain_db,
         "dB",
@@ -681,7 +694,10 @@ pub fn controller_checks(a: &ControllerAudit, tol: &Tolerances, cfg: &Config) ->
     ));
     v.push(judge(
         n,
-        &format!("phase error fixed vs f64 below {:.0} Hz (worst at {:.3} Hz)", w.below_hz, w.fixed_phase_deg.1),
+        &format!(
+            "phase error fixed vs f64 below {:.0} Hz (worst at {:.3} Hz)",
+            w.below_hz, w.fixed_phase_deg.1
+        ),
         w.fixed_phase_deg.0,
         tol.fixed_phase_deg,
         "deg",
@@ -689,7 +705,10 @@ pub fn controller_checks(a: &ControllerAudit, tol: &Tolerances, cfg: &Config) ->
     ));
     v.push(judge(
         n,
-        &format!("gain error discrete f64 vs continuous below {:.0} Hz (worst at {:.3} Hz)", w.below_hz, w.discrete_gain_db.1),
+        &format!(
+            "gain error discrete f64 vs continuous below {:.0} Hz (worst at {:.3} Hz)",
+            w.below_hz, w.discrete_gain_db.1
+        ),
         w.discrete_gain_db.0,
         tol.discrete_gain_db,
         "dB",
@@ -697,7 +716,10 @@ pub fn controller_checks(a: &ControllerAudit, tol: &Tolerances, cfg: &Config) ->
     ));
     v.push(judge(
         n,
-        &format!("phase error discrete f64 vs continuous below {:.0} Hz (worst at {:.3} Hz)", w.below_hz, w.discrete_phase_deg.1),
+        &format!(
+            "phase error discrete f64 vs continuous below {:.0} Hz (worst at {:.3} Hz)",
+            w.below_hz, w.discrete_phase_deg.1
+        ),
         w.discrete_phase_deg.0,
         tol.discrete_phase_deg,
         "deg",
@@ -771,7 +793,10 @@ pub fn observed_checks(o: &Observed, tol: &Tolerances) -> Vec<Check> {
             fail: tol.headroom_bits.1,
             unit: "bits".into(),
             status,
-            reason: format!("headroom {h:.2} bits (warn below {} bits, fail below {})", tol.headroom_bits.0, tol.headroom_bits.1),
+            reason: format!(
+                "headroom {h:.2} bits (warn below {} bits, fail below {})",
+                tol.headroom_bits.0, tol.headroom_bits.1
+            ),
         });
     }
     for nz in &o.noise {
@@ -780,14 +805,27 @@ pub fn observed_checks(o: &Observed, tol: &Tolerances) -> Vec<Check> {
         } else {
             format!("yaw_{}", nz.yaw_mode)
         };
-        v.push(judge(
-            &ctrl,
-            &format!("{} max error vs f64, scenario {}", nz.output, nz.scenario),
-            nz.max_wire_lsb,
-            tol.noise_wire_lsb,
-            "wire LSB",
-            "max quantisation error",
-        ));
+        v.push(match nz.phase {
+            ranges::Phase::Normal => judge(
+                &ctrl,
+                &format!("{} max error vs f64, scenario {}", nz.output, nz.scenario),
+                nz.max_wire_lsb,
+                tol.noise_wire_lsb,
+                "wire LSB",
+                "max quantisation error",
+            ),
+            ranges::Phase::SafeRamp => judge(
+                &ctrl,
+                &format!(
+                    "{} max error vs f64 during the safe-state ramps, scenario {}",
+                    nz.output, nz.scenario
+                ),
+                nz.max_of_limit,
+                tol.ramp_of_limit,
+                "of the output limit",
+                "ramp-profile error (quantised per-step increment, accumulated)",
+            ),
+        });
     }
     v
 }
@@ -923,7 +961,11 @@ fn sweep(cfg: &Config, tol: &Tolerances, fmt: &Formats, coefs: &[CoefRow]) -> Sw
     let min_coef = coefs
         .iter()
         .filter(|c| c.ideal_pu != 0.0)
-        .map(|c| (-(tol.coef_rel.0 * c.ideal_pu.abs()).log2() - 1.0).ceil().max(0.0) as u32)
+        .map(|c| {
+            (-(tol.coef_rel.0 * c.ideal_pu.abs()).log2() - 1.0)
+                .ceil()
+                .max(0.0) as u32
+        })
         .max()
         .unwrap_or(0);
     Sweep {
@@ -981,8 +1023,7 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
         // the scenarios too to count the arithmetic saturations Fx performs silently.
         let o = qdyn::with_formats(fmt, || {
             qdyn::take_saturations();
-            ranges::observe::<QDyn>(&cfg, &scenarios, fmt.signal)
-                .map(|_| qdyn::take_saturations())
+            ranges::observe::<QDyn>(&cfg, &scenarios, fmt.signal).map(|_| qdyn::take_saturations())
         })?;
         c.observed.arithmetic_saturations = Some(o);
         c
@@ -1079,7 +1120,12 @@ fn command_line(a: &AuditArgs) -> String {
 /// Recommended word and fraction lengths per signal: integer bits for the observed
 /// peak plus one bit of margin (a factor 2); fraction bits from the sweep plus two bits
 /// of margin (a factor 4 on the error), or the audited ones without a sweep.
-fn recommend(o: &Observed, fmt: &Formats, sw: Option<&Sweep>, _cfg: &Config) -> Vec<Recommendation> {
+fn recommend(
+    o: &Observed,
+    fmt: &Formats,
+    sw: Option<&Sweep>,
+    _cfg: &Config,
+) -> Vec<Recommendation> {
     let frac = sw
         .and_then(|s| s.min_signal_frac_bits)
         .map(|f| (f + 2).min(31))

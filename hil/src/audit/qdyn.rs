@@ -203,7 +203,13 @@ impl Sample for QDyn {
         QDyn(sat((self.0 * c.0 + half) >> cf, &fm.signal))
     }
     fn limit(self, lo: Self, hi: Self) -> (Self, bool) {
-        let y = self.max(lo).min(hi);
+        let y = if self < lo {
+            lo
+        } else if self > hi {
+            hi
+        } else {
+            self
+        };
         (y, y != self)
     }
     fn sanitize(self) -> (Self, bool) {

@@ -78,17 +78,53 @@ const SIGNALS: [(&str, &str, &str, Fs, bool); 19] = [
     ("lead x - z", "yaw_lead", "m/s", Fs::YDot, false),
     ("T_psi before limit", "yaw", "N m", Fs::Torque, false),
     ("T_psi (output)", "yaw", "N m", Fs::Torque, false),
-    ("i_a (clamped input)", "traction_pi", "A", Fs::Current, false),
-    ("demand (clamped input)", "traction_pi", "N m", Fs::Demand, false),
+    (
+        "i_a (clamped input)",
+        "traction_pi",
+        "A",
+        Fs::Current,
+        false,
+    ),
+    (
+        "demand (clamped input)",
+        "traction_pi",
+        "N m",
+        Fs::Demand,
+        false,
+    ),
     ("i_ref target", "traction_pi", "A", Fs::Current, false),
-    ("i_ref (ramped, state)", "traction_pi", "A", Fs::Current, true),
+    (
+        "i_ref (ramped, state)",
+        "traction_pi",
+        "A",
+        Fs::Current,
+        true,
+    ),
     ("e = i_ref - i_a", "traction_pi", "A", Fs::Current, false),
     ("PI Kp e", "traction_pi", "V", Fs::Voltage, false),
-    ("PI I + Ki e (before clamp)", "traction_pi", "V", Fs::Voltage, false),
+    (
+        "PI I + Ki e (before clamp)",
+        "traction_pi",
+        "V",
+        Fs::Voltage,
+        false,
+    ),
     ("PI I (state)", "traction_pi", "V", Fs::Voltage, true),
-    ("PI Kp e + I (before limit)", "traction_pi", "V", Fs::Voltage, false),
+    (
+        "PI Kp e + I (before limit)",
+        "traction_pi",
+        "V",
+        Fs::Voltage,
+        false,
+    ),
     ("u_a (output)", "traction_pi", "V", Fs::Voltage, false),
-    ("back-EMF preset K_m omega", "traction_pi", "V", Fs::Voltage, false),
+    (
+        "back-EMF preset K_m omega",
+        "traction_pi",
+        "V",
+        Fs::Voltage,
+        false,
+    ),
 ];
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -157,6 +193,10 @@ pub struct Noise {
     pub scenario: String,
     /// Yaw mode of the run (`lead`, `gain`).
     pub yaw_mode: String,
+    /// Normal operation, or the safe-state ramps.
+    pub phase: Phase,
+    /// Max |error| as a fraction of the output's limit.
+    pub max_of_limit: f64,
     /// Max |error|, LSB of the signal format.
     pub max_lsb: f64,
     /// RMS error, LSB.
@@ -173,6 +213,17 @@ pub struct Noise {
     pub unit: String,
     /// Samples.
     pub samples: u64,
+}
+
+/// Which ticks a [`Noise`] figure covers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Phase {
+    /// Outside the safe state and its ramp back.
+    Normal,
+    /// In the safe state or ramping back out of it: the ramps' quantised per-step
+    /// increments accumulate over the ramp (a timing error of the profile).
+    SafeRamp,
 }
 
 /// Designed clamps counted by the controller (not overflows).
@@ -194,6 +245,9 @@ pub struct Clamps {
     pub integrator: u64,
 }
 
+/// `(t_s, T_psi error N m, u_a error V)`.
+pub type ErrSample = (f64, f64, f64);
+
 /// Everything observed over a set of scenarios with one sample type.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Observed {
@@ -207,7 +261,7 @@ pub struct Observed {
     /// the production type, whose saturations are inferred from `overflows`).
     pub arithmetic_saturations: Option<u64>,
     /// Per scenario: `(t_s, T_psi error N m, u_a error V)` decimated, for the plots.
-    pub traces: Vec<(String, Vec<(f64, f64, f64)>)>,
+    pub traces: Vec<(String, Vec<ErrSample>)>,
 }
 
 fn q<T: Sample>(v: f64) -> T {
@@ -261,6 +315,14 @@ pub fn observe<T: Sample>(
             let d2i = s.demand / (cfg.motor.n * cfg.motor.k_m * s.current);
             let bemf = cfg.motor.k_m * s.speed / s.voltage;
             let (mut ey, mut eu) = (Acc::default(), Acc::default());
+            // Ticks in or within the ramp-back time after the safe state: the ramps'
+            // quantised per-step increments accumulate; judged separately.
+            let (mut ry, mut ru) = (Acc::default(), Acc::default());
+            let mut in_safe = false;
+            let ramp_ticks = ((cfg.safe.yaw_s.max(cfg.safe.traction_s)) * cfg.base_rate_hz as f64)
+                .ceil() as usize
+                + 2;
+            let mut ramp_end = 0usize;
             let mut trace = Vec::new();
             let dec = (sc.ticks.len() / 2000).max(1);
             // Mirrors the controller's bumpless-start flag: the first traction step
@@ -272,6 +334,10 @@ pub fn observe<T: Sample>(
                     Some(Event::Safe(b)) => {
                         fx.set_safe(b);
                         fl.set_safe(b);
+                        if in_safe && !b {
+                            ramp_end = n + ramp_ticks;
+                        }
+                        in_safe = b;
                     }
                     Some(Event::Traction(b)) => {
                         fx.set_traction(b);
@@ -363,8 +429,13 @@ pub fn observe<T: Sample>(
                 }
                 let dy = o.yaw_torque.to_f64() - of.yaw_torque;
                 let du = o.voltage.to_f64() - of.voltage;
-                ey.add(dy);
-                eu.add(du);
+                if in_safe || n < ramp_end {
+                    ry.add(dy);
+                    ru.add(du);
+                } else {
+                    ey.add(dy);
+                    eu.add(du);
+                }
                 if mode == YawMode::Lead && n % dec == 0 {
                     trace.push((n as f64 * base_t, dy * s.torque, du * s.voltage));
                 }
@@ -377,26 +448,42 @@ pub fn observe<T: Sample>(
             clamps.yaw_torque += c.yaw_torque.clamped as u64;
             clamps.voltage += c.voltage.clamped as u64;
             clamps.integrator += c.integrator.clamped as u64;
-            let mname = if mode == YawMode::Lead { "lead" } else { "gain" };
-            noise.push(ey.noise(
-                "T_psi",
-                &sc.name,
-                mname,
-                lsb,
-                s.torque,
-                cfg.wire.torque,
-                "N m",
-            ));
+            let mname = if mode == YawMode::Lead {
+                "lead"
+            } else {
+                "gain"
+            };
+            for (acc, phase) in [(&ey, Phase::Normal), (&ry, Phase::SafeRamp)] {
+                if acc.n > 0 {
+                    noise.push(acc.noise(
+                        "T_psi",
+                        &sc.name,
+                        mname,
+                        phase,
+                        lsb,
+                        s.torque,
+                        cfg.wire.torque,
+                        l.torque,
+                        "N m",
+                    ));
+                }
+            }
             if mode == YawMode::Lead {
-                noise.push(eu.noise(
-                    "u_a",
-                    &sc.name,
-                    mname,
-                    lsb,
-                    s.voltage,
-                    cfg.wire.voltage,
-                    "V",
-                ));
+                for (acc, phase) in [(&eu, Phase::Normal), (&ru, Phase::SafeRamp)] {
+                    if acc.n > 0 {
+                        noise.push(acc.noise(
+                            "u_a",
+                            &sc.name,
+                            mname,
+                            phase,
+                            lsb,
+                            s.voltage,
+                            cfg.wire.voltage,
+                            l.voltage_max.abs().max(l.voltage_min.abs()),
+                            "V",
+                        ));
+                    }
+                }
                 traces.push((sc.name.clone(), trace));
             }
         }
@@ -439,9 +526,11 @@ impl Acc {
         out: &str,
         sc: &str,
         mode: &str,
+        phase: Phase,
         lsb: f64,
         fs: f64,
         wire: f64,
+        limit: f64,
         unit: &str,
     ) -> Noise {
         let rms = (self.sq / self.n.max(1) as f64).sqrt();
@@ -449,6 +538,8 @@ impl Acc {
             output: out.to_string(),
             scenario: sc.to_string(),
             yaw_mode: mode.to_string(),
+            phase,
+            max_of_limit: self.max * fs / limit,
             max_lsb: self.max / lsb,
             rms_lsb: rms / lsb,
             max_si: self.max * fs,
@@ -491,12 +582,7 @@ pub fn synthetic(cfg: &Config) -> Vec<Scenario> {
     for (k, lv) in levels.iter().enumerate() {
         for j in 0..n(0.2) {
             let mut tk = Tick {
-                si: [
-                    lv * l.y_dot,
-                    -lv * l.current,
-                    l.speed,
-                    lv * l.demand,
-                ],
+                si: [lv * l.y_dot, -lv * l.current, l.speed, lv * l.demand],
                 event: None,
             };
             if k == 4 && j == 0 {

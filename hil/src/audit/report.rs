@@ -41,8 +41,8 @@ pub fn summary(a: &Audit, quiet: bool) -> String {
         if !quiet {
             let _ = writeln!(
                 s,
-                "  noise {:<6} {:<22} ({}): max {:.2} LSB = {:.3e} {} ({:.3} wire LSB), rms {:.2} LSB",
-                n.output, n.scenario, n.yaw_mode, n.max_lsb, n.max_si, n.unit, n.max_wire_lsb, n.rms_lsb
+                "  noise {:<6} {:<18} ({}, {:?}): max {:.2} LSB = {:.3e} {} ({:.3} wire LSB), rms {:.2} LSB",
+                n.output, n.scenario, n.yaw_mode, n.phase, n.max_lsb, n.max_si, n.unit, n.max_wire_lsb, n.rms_lsb
             );
         }
     }
@@ -103,17 +103,27 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
     let t = &a.tolerances;
     let _ = writeln!(w, "## Tolerances (warn / fail)\n");
     let _ = writeln!(w, "| figure | warn | fail |\n|---|---|---|");
-    let rows: [(&str, (f64, f64)); 10] = [
+    let rows: [(&str, (f64, f64)); 11] = [
         ("fixed (measured) vs discrete f64 gain, dB", t.fixed_gain_db),
         ("fixed vs discrete f64 phase, deg", t.fixed_phase_deg),
         ("discrete f64 vs continuous gain, dB", t.discrete_gain_db),
-        ("discrete f64 vs continuous phase, deg", t.discrete_phase_deg),
+        (
+            "discrete f64 vs continuous phase, deg",
+            t.discrete_phase_deg,
+        ),
         ("coefficient relative error", t.coef_rel),
         ("pole/zero relative shift (quantised vs f64)", t.root_rel),
         ("DC gain relative error, fixed vs continuous", t.dc_rel),
         ("headroom, bits (below)", t.headroom_bits),
         ("max output error vs f64, wire LSBs", t.noise_wire_lsb),
-        ("limit-cycle amplitude / dead band, wire LSBs", t.limit_cycle_wire_lsb),
+        (
+            "limit-cycle amplitude / dead band, wire LSBs",
+            t.limit_cycle_wire_lsb,
+        ),
+        (
+            "max output error during the safe-state ramps, fraction of the limit",
+            t.ramp_of_limit,
+        ),
     ];
     for (n, (a_, b)) in rows {
         let _ = writeln!(w, "| {n} | {a_:.1e} | {b:.1e} |");
@@ -183,7 +193,11 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
             "Fixed point measured on the running controller: input {} ({}), fitted sine + \
              cosine + constant over whole periods. The named frequencies:\n",
             c.measure_amplitude,
-            if c.name == "traction_pi" { "A of current error" } else { "m/s of y'" }
+            if c.name == "traction_pi" {
+                "A of current error"
+            } else {
+                "m/s of y'"
+            }
         );
         let _ = writeln!(
             w,
@@ -306,15 +320,19 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
     let _ = writeln!(w, "## Quantisation noise (fixed minus f64, same inputs)\n");
     let _ = writeln!(
         w,
-        "| output | scenario | yaw mode | max (LSB) | rms (LSB) | max (SI) | rms (SI) | max (wire LSB) | bits lost |\n|---|---|---|---|---|---|---|---|---|"
+        "| output | scenario | yaw mode | ticks | max (LSB) | rms (LSB) | max (SI) | rms (SI) | max (wire LSB) | bits lost |\n|---|---|---|---|---|---|---|---|---|---|"
     );
     for n in &o.noise {
         let _ = writeln!(
             w,
-            "| {} | {} | {} | {:.2} | {:.2} | {:.3e} {} | {:.3e} {} | {:.3} | {:.2} |",
+            "| {} | {} | {} | {} | {:.2} | {:.2} | {:.3e} {} | {:.3e} {} | {:.3} | {:.2} |",
             n.output,
             n.scenario,
             n.yaw_mode,
+            match n.phase {
+                super::ranges::Phase::Normal => "normal",
+                super::ranges::Phase::SafeRamp => "safe-state ramps",
+            },
             n.max_lsb,
             n.rms_lsb,
             n.max_si,
@@ -372,7 +390,10 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
         }
     }
     let _ = writeln!(w, "## Checks\n");
-    let _ = writeln!(w, "| status | controller | item | reason |\n|---|---|---|---|");
+    let _ = writeln!(
+        w,
+        "| status | controller | item | reason |\n|---|---|---|---|"
+    );
     for c in &a.checks {
         let _ = writeln!(
             w,

@@ -36,18 +36,18 @@ impl C64 {
         self.im.atan2(self.re).to_degrees()
     }
     /// Sum.
-    pub fn add(self, o: Self) -> Self {
+    pub fn plus(self, o: Self) -> Self {
         Self::new(self.re + o.re, self.im + o.im)
     }
     /// Product.
-    pub fn mul(self, o: Self) -> Self {
+    pub fn times(self, o: Self) -> Self {
         Self::new(
             self.re * o.re - self.im * o.im,
             self.re * o.im + self.im * o.re,
         )
     }
     /// Quotient.
-    pub fn div(self, o: Self) -> Self {
+    pub fn over(self, o: Self) -> Self {
         let d = o.re * o.re + o.im * o.im;
         Self::new(
             (self.re * o.re + self.im * o.im) / d,
@@ -123,15 +123,15 @@ pub fn continuous(kind: Kind, cfg: &Config, f_hz: f64) -> C64 {
     match kind {
         Kind::YawLead => {
             let l = &cfg.lead;
-            s.add(C64::new(l.w1, 0.0))
-                .div(s.add(C64::new(l.w2, 0.0)))
+            s.plus(C64::new(l.w1, 0.0))
+                .over(s.plus(C64::new(l.w2, 0.0)))
                 .scale(l.k * l.a)
         }
         Kind::YawGain => C64::new(cfg.gain_k, 0.0),
         Kind::TractionPi => {
             let p = &cfg.pi;
             C64::new(1.0, 0.0)
-                .add(C64::new(1.0, 0.0).div(s.scale(p.ti)))
+                .plus(C64::new(1.0, 0.0).over(s.scale(p.ti)))
                 .scale(p.kp)
         }
     }
@@ -196,10 +196,9 @@ impl Coeffs {
                 ("kappa", kappa, "1", false),
             ],
             Coeffs::Gain { k } => vec![("k", k, "N m s/m", true)],
-            Coeffs::Pi { kp, ki } => vec![
-                ("kp", kp, "V/A", true),
-                ("ki", ki, "V/A per sample", true),
-            ],
+            Coeffs::Pi { kp, ki } => {
+                vec![("kp", kp, "V/A", true), ("ki", ki, "V/A per sample", true)]
+            }
         }
     }
 
@@ -211,11 +210,13 @@ impl Coeffs {
             Coeffs::Lead { .. } => {
                 let (b0, b1, a1) = self.lead_direct_form();
                 C64::new(b0, 0.0)
-                    .add(zi.scale(b1))
-                    .div(one.add(zi.scale(-a1)))
+                    .plus(zi.scale(b1))
+                    .over(one.plus(zi.scale(-a1)))
             }
             Coeffs::Gain { k } => C64::new(k, 0.0),
-            Coeffs::Pi { kp, ki } => C64::new(kp, 0.0).add(C64::new(ki, 0.0).div(one.add(zi.scale(-1.0)))),
+            Coeffs::Pi { kp, ki } => {
+                C64::new(kp, 0.0).plus(C64::new(ki, 0.0).over(one.plus(zi.scale(-1.0))))
+            }
         }
     }
 
@@ -292,7 +293,10 @@ pub fn coefficients<T: Sample>(
     Ok(match kind {
         Kind::YawLead => {
             let ideal = c.lead_discrete().to_pu(s.y_dot, s.torque);
-            (Coeffs::lead(&ideal, cfg), Coeffs::lead(&c.lead().quantised(), cfg))
+            (
+                Coeffs::lead(&ideal, cfg),
+                Coeffs::lead(&c.lead().quantised(), cfg),
+            )
         }
         Kind::YawGain => {
             let k_pu = cfg.gain_k * s.y_dot / s.torque;
@@ -309,7 +313,10 @@ pub fn coefficients<T: Sample>(
         }
         Kind::TractionPi => {
             let ideal = c.pi_discrete().to_pu(s.current, s.voltage);
-            (Coeffs::pi(&ideal, cfg), Coeffs::pi(&c.pi().quantised(), cfg))
+            (
+                Coeffs::pi(&ideal, cfg),
+                Coeffs::pi(&c.pi().quantised(), cfg),
+            )
         }
     })
 }
@@ -415,8 +422,9 @@ fn fit_sine(y: &[f64], w: f64, n0: usize) -> (f64, f64, f64) {
         for r in 0..3 {
             if r != col {
                 let f = m[r][col] / d;
-                for c in col..4 {
-                    m[r][c] -= f * m[col][c];
+                let pivot = m[col];
+                for (x, p) in m[r].iter_mut().zip(pivot).skip(col) {
+                    *x -= f * p;
                 }
             }
         }
