@@ -7,8 +7,10 @@
 //! - [`closed_loop`]: the device as the plant's sampled controller.
 //! - [`timing`], [`numerics`], [`frames`]: the checks; [`budget`]: their limits.
 //! - [`run`]: `hil run`; [`report`]: JSON, CSV and the Markdown report.
+//! - [`audit`]: `hil audit`, the fixed-point accuracy audit of the control core.
 #![deny(missing_docs)]
 
+pub mod audit;
 pub mod budget;
 pub mod closed_loop;
 pub mod frames;

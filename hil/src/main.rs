@@ -39,6 +39,8 @@ enum Cmd {
     /// Closed loop of a scenario with the device on a target; timing, numerics and
     /// frame-accounting verdicts.
     Run(RunArgs),
+    /// Fixed-point accuracy audit of the control core (JSON + Markdown report).
+    Audit(hil::audit::AuditArgs),
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -261,6 +263,10 @@ fn main() -> ExitCode {
     let res = match &cli.cmd {
         Some(Cmd::Run(a)) => cmd_run(a, &command),
         None => cmd_run(&cli.run, &command),
+        Some(Cmd::Audit(a)) => match hil::audit::run(a) {
+            Ok(code) => return ExitCode::from(code),
+            Err(e) => Err(input(e.to_string())),
+        },
     };
     match res {
         Ok(Verdict::Fail) => ExitCode::from(1),
