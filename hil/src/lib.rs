@@ -3,7 +3,8 @@
 //! serial port), through one [`transport::Transport`], with timing, numerics and
 //! frame-accounting verdicts and reports.
 //!
-//! - [`transport`]: the trait; [`inproc`]: the in-process device.
+//! - [`transport`]: the trait; [`inproc`]: the in-process device; [`serial`]: a serial
+//!   port; [`lockstep`]: the bookkeeping of frame-clocked devices.
 //! - [`closed_loop`]: the device as the plant's sampled controller.
 //! - [`timing`], [`numerics`], [`frames`]: the checks; [`budget`]: their limits.
 //! - [`run`]: `hil run`; [`report`]: JSON, CSV and the Markdown report.
@@ -15,8 +16,10 @@ pub mod budget;
 pub mod closed_loop;
 pub mod frames;
 pub mod inproc;
+pub mod lockstep;
 pub mod numerics;
 pub mod report;
 pub mod run;
+pub mod serial;
 pub mod timing;
 pub mod transport;

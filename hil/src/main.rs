@@ -51,6 +51,14 @@ enum Control {
     Lead,
 }
 
+#[derive(Clone, Copy, ValueEnum)]
+enum PaceArg {
+    /// Wall-clock periods.
+    Realtime,
+    /// Wait for each answer.
+    Lockstep,
+}
+
 #[derive(Args, Clone)]
 struct RunArgs {
     /// Where the device runs: inproc, qemu or serial:PATH.
@@ -89,6 +97,13 @@ struct RunArgs {
     /// Seed of the simulated link's faults.
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// Serial target pacing: realtime (a board on its own timer) or lockstep (a
+    /// frame-clocked device answering each frame).
+    #[arg(long, value_enum, default_value = "realtime")]
+    pace: PaceArg,
+    /// Core clock of the board, Hz (converts its cycle counts to time).
+    #[arg(long, default_value_t = hil::run::DEFAULT_CPU_HZ)]
+    cpu_hz: f64,
     /// Never show the progress bar.
     #[arg(long)]
     quiet: bool,
@@ -124,6 +139,9 @@ fn cmd_run(a: &RunArgs, command: &str) -> Result<Verdict, Failure> {
     if a.baud == 0 {
         return Err(input("--baud: must be positive"));
     }
+    if !(a.cpu_hz.is_finite() && a.cpu_hz > 0.0) {
+        return Err(input("--cpu-hz: must be a positive number"));
+    }
     let faults_spec = std::env::args()
         .skip_while(|x| x != "--faults")
         .nth(1)
@@ -144,6 +162,12 @@ fn cmd_run(a: &RunArgs, command: &str) -> Result<Verdict, Failure> {
             seed: a.seed,
             ..LinkConfig::default()
         },
+        pace: match a.pace {
+            PaceArg::Realtime => hil::serial::Pace::RealTime,
+            PaceArg::Lockstep => hil::serial::Pace::LockStep,
+        },
+        cpu_hz: a.cpu_hz,
+        timeout: std::time::Duration::from_secs(5),
         progress: !a.quiet && std::io::stderr().is_terminal(),
     };
     let out = run(&opts).map_err(|e| match e {

@@ -8,6 +8,7 @@
 //! chosen by `--control`.
 
 use std::fmt;
+use std::time::Duration;
 
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
@@ -25,8 +26,12 @@ use crate::closed_loop::DeviceController;
 use crate::frames::FramesReport;
 use crate::inproc::{DeviceFault, InProc};
 use crate::numerics::{compare, NumericsReport};
+use crate::serial::{Pace, Serial};
 use crate::timing::{analyse, TimingContext, TimingReport};
 use crate::transport::{Transport, TransportError};
+
+/// Default core clock of a board: the STM32F446RE at 180 MHz.
+pub const DEFAULT_CPU_HZ: f64 = 180e6;
 
 /// Where the device runs.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -110,6 +115,12 @@ pub struct RunOptions {
     /// Link: baud, latency, faults and seed (faults only on the simulated link; the
     /// baud also for the other targets' link utilisation).
     pub link: LinkConfig,
+    /// Pacing of the serial target.
+    pub pace: Pace,
+    /// Core clock of a board, Hz: converts its `exec` cycles to ns (serial target).
+    pub cpu_hz: f64,
+    /// Longest wait for a lock-step answer.
+    pub timeout: Duration,
     /// Show a progress bar.
     pub progress: bool,
 }
@@ -124,6 +135,9 @@ impl Default for RunOptions {
             device_fault: DeviceFault::None,
             budgets: Budgets::default(),
             link: LinkConfig::default(),
+            pace: Pace::RealTime,
+            cpu_hz: DEFAULT_CPU_HZ,
+            timeout: Duration::from_secs(5),
             progress: false,
         }
     }
@@ -207,9 +221,11 @@ pub fn open_transport(
         Target::Qemu => Err(RunError::Target(TransportError::Unavailable(
             "the QEMU transport is not built yet".into(),
         ))),
-        Target::Serial(p) => Err(RunError::Target(TransportError::Unavailable(format!(
-            "serial:{p}: the serial transport is not built yet"
-        )))),
+        Target::Serial(p) => {
+            let t = Serial::open(p, opts.link.baud, opts.pace, opts.cpu_hz, opts.timeout)
+                .map_err(RunError::Target)?;
+            Ok(Box::new(t))
+        }
     }
 }
 

@@ -171,3 +171,15 @@ fn bad_flags_and_files_exit_2_with_a_clear_message() {
         assert!(!err.contains("panicked"), "{args:?}: {err}");
     }
 }
+
+#[test]
+fn a_missing_serial_port_is_a_clear_target_error() {
+    let out = hil(&["run", "--target", "serial:/dev/no-such-port", "--quiet"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(3), "{err}");
+    assert!(
+        err.contains("/dev/no-such-port") && err.contains("cannot open"),
+        "{err}"
+    );
+    assert!(!err.contains("panicked"), "{err}");
+}
