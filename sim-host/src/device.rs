@@ -26,11 +26,31 @@ use wheelset_proto::units::{
     TORQUE_LSB_NM, VOLTAGE_LSB_V,
 };
 use wheelset_proto::{
-    encode_vec, Actuation, Command, Flags, Lateral, Message, Sensor, Status, MAX_FRAME,
+    encode_vec, Actuation, Command, Flags, FrameError, Lateral, Message, Sensor, Status, MAX_FRAME,
 };
 use wheelset_runtime::{Runtime, RuntimeConfig, RuntimeError};
 
 use crate::link::{check_budget, wire_ns, Accounting, Link, LinkBudgetError, LinkConfig, RxPort};
+
+/// The outcome of the frame a `Runtime::receive` call closed, from its counters.
+fn outcome(before: &Status, after: &Status) -> Option<Result<(), FrameError>> {
+    let d = |a: u32, b: u32| a != b;
+    if d(before.rx_ok, after.rx_ok) {
+        Some(Ok(()))
+    } else if d(before.rx_crc, after.rx_crc) {
+        Some(Err(FrameError::Crc))
+    } else if d(before.rx_cobs, after.rx_cobs) {
+        Some(Err(FrameError::Cobs))
+    } else if d(before.rx_version, after.rx_version) {
+        Some(Err(FrameError::Version))
+    } else if d(before.rx_length, after.rx_length) {
+        Some(Err(FrameError::Length))
+    } else if d(before.rx_postcard, after.rx_postcard) {
+        Some(Err(FrameError::Postcard))
+    } else {
+        None
+    }
+}
 
 /// Worst-case Sensor frame (velocity only) on the wire, bytes (the proto `sizes` test).
 pub const SENSOR_WORST_BYTES: usize = 33;
@@ -257,8 +277,8 @@ impl<T: Sample> DeviceLoop<T> {
         // The device's tick.
         let t_dev = t_ns + self.tick_offset_ns;
         self.device_receive(t_dev);
-        let out = self.rt.tick(0).to_vec();
-        self.link.down.send(t_dev, &out);
+        let out = self.rt.tick(0);
+        self.link.down.send(t_dev, out);
         // What reaches the host before the next sample instant.
         let t_next = t_ns + self.period_ns;
         let fresh = self.host_receive(t_next - 1);
@@ -277,24 +297,30 @@ impl<T: Sample> DeviceLoop<T> {
 
     fn device_receive(&mut self, t: u64) {
         let (rt, port) = (&mut self.rt, &mut self.dev_rx);
-        self.link.up.deliver(t, |b, id| {
-            rt.receive(&[b]);
-            let _ = port.push(b, id);
+        self.link.up.deliver(t, |run, id| {
+            // The runtime decodes; its counters tell the outcome of each closed frame.
+            port.push_with(run, id, |piece| {
+                let before = *rt.counters();
+                rt.receive(piece);
+                outcome(&before, rt.counters())
+            });
         });
     }
 
     fn host_receive(&mut self, t: u64) -> bool {
         let mut fresh = false;
         let (port, held, held_si) = (&mut self.host_rx, &mut self.held, &mut self.held_si);
-        self.link.down.deliver(t, |b, id| {
-            if let Some(Ok(Message::Actuation(a))) = port.push(b, id) {
-                *held = Some(a);
-                *held_si = (
-                    to_si(a.t_psi_dnm, TORQUE_LSB_NM),
-                    to_si(a.u_a_cv, VOLTAGE_LSB_V),
-                );
-                fresh = true;
-            }
+        self.link.down.deliver(t, |run, id| {
+            port.push(run, id, |m| {
+                if let Message::Actuation(a) = m {
+                    *held = Some(a);
+                    *held_si = (
+                        to_si(a.t_psi_dnm, TORQUE_LSB_NM),
+                        to_si(a.u_a_cv, VOLTAGE_LSB_V),
+                    );
+                    fresh = true;
+                }
+            });
         });
         fresh
     }
@@ -313,10 +339,12 @@ impl<T: Sample> DeviceLoop<T> {
         let t_end = self.link.down.line_free_ns() + 4 * wire_ns(MAX_FRAME, 9_600);
         let mut status = None;
         let port = &mut self.host_rx;
-        self.link.down.deliver(t_end, |b, id| {
-            if let Some(Ok(Message::Status(s))) = port.push(b, id) {
-                status = Some(s);
-            }
+        self.link.down.deliver(t_end, |run, id| {
+            port.push(run, id, |m| {
+                if let Message::Status(s) = m {
+                    status = Some(s);
+                }
+            });
         });
         self.device_receive(t_end);
         let mut safe_periods = 0;

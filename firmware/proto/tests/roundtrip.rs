@@ -38,6 +38,12 @@ proptest! {
     }
 
     #[test]
+    fn crc_table_choice_does_not_change_the_checksum(data in proptest::collection::vec(any::<u8>(), 0..200)) {
+        let reference = crc::Crc::<u32, crc::NoTable>::new(&crc::CRC_32_ISCSI);
+        prop_assert_eq!(CRC.checksum(&data), reference.checksum(&data));
+    }
+
+    #[test]
     fn arbitrary_bytes_never_panic(bytes in proptest::collection::vec(any::<u8>(), 0..600)) {
         let results = decode_all(&bytes);
         // One result per non-empty run closed by a delimiter, at most.
@@ -64,6 +70,12 @@ proptest! {
             prop_assert!((x / lsb).abs() >= 2.0e9);
         }
     }
+}
+
+#[test]
+fn crc_is_crc32c() {
+    // The catalogue's check value of CRC-32C over "123456789".
+    assert_eq!(CRC.checksum(b"123456789"), 0xE306_9283);
 }
 
 #[test]
