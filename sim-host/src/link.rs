@@ -386,11 +386,14 @@ pub struct ChannelCounters {
     pub burst_bytes: u64,
 }
 
-#[derive(Debug, Clone, Copy)]
-struct Delivery {
-    at_ns: u64,
-    byte: u8,
+/// The surviving bytes of one frame on their way, with their arrival times.
+#[derive(Debug, Clone, Default)]
+struct Segment {
     frame: FrameId,
+    bytes: Vec<u8>,
+    at_ns: Vec<u64>,
+    /// Bytes already delivered.
+    pos: usize,
 }
 
 /// One direction of the link.
@@ -405,8 +408,8 @@ pub struct Channel {
     line_free_ns: u64,
     /// `wire_ns(k, baud)` for k = 0 ..= 2 MAX_FRAME (no 128-bit division per byte).
     byte_ns: Vec<u64>,
-    queue: VecDeque<Delivery>,
-    run: Vec<u8>,
+    queue: VecDeque<Segment>,
+    spare: Vec<Segment>,
     bits_to_error: u64,
     next_burst_ns: u64,
     burst_left: u32,
@@ -443,7 +446,7 @@ impl Channel {
                 .map(|k| wire_ns(k, cfg.baud.max(1)))
                 .collect(),
             queue: VecDeque::new(),
-            run: Vec::new(),
+            spare: Vec::new(),
             bits_to_error,
             next_burst_ns,
             burst_left: 0,
@@ -470,16 +473,30 @@ impl Channel {
             self.counters.frames_dropped += 1;
             return id;
         }
-        for (k, &b) in bytes.iter().enumerate() {
-            let on_wire = start + at(k + 1, self.baud, &self.byte_ns);
-            if let Some(b) = self.corrupt(on_wire, b) {
-                self.counters.bytes_delivered += 1;
-                self.queue.push_back(Delivery {
-                    at_ns: on_wire + self.latency_ns,
-                    byte: b,
-                    frame: id,
-                });
+        let mut seg = self.spare.pop().unwrap_or_default();
+        seg.frame = id;
+        seg.pos = 0;
+        seg.bytes.clear();
+        seg.at_ns.clear();
+        if self.active {
+            for (k, &b) in bytes.iter().enumerate() {
+                let on_wire = start + at(k + 1, self.baud, &self.byte_ns);
+                if let Some(b) = self.corrupt(on_wire, b) {
+                    seg.bytes.push(b);
+                    seg.at_ns.push(on_wire + self.latency_ns);
+                }
             }
+        } else {
+            let first = start + self.latency_ns;
+            seg.bytes.extend_from_slice(bytes);
+            seg.at_ns
+                .extend((1..=bytes.len()).map(|k| first + at(k, self.baud, &self.byte_ns)));
+        }
+        self.counters.bytes_delivered += seg.bytes.len() as u64;
+        if seg.bytes.is_empty() {
+            self.spare.push(seg);
+        } else {
+            self.queue.push_back(seg);
         }
         id
     }
@@ -532,32 +549,25 @@ impl Channel {
     /// Delivers every byte that has arrived by `t_ns`, in order, as runs of consecutive
     /// bytes of one frame: `f(bytes, frame)`.
     pub fn deliver(&mut self, t_ns: u64, mut f: impl FnMut(&[u8], FrameId)) {
-        let mut run = std::mem::take(&mut self.run);
-        let mut id = None;
-        while let Some(d) = self.queue.front().copied() {
-            if d.at_ns > t_ns {
+        while let Some(seg) = self.queue.front_mut() {
+            let rest = seg.at_ns.get(seg.pos..).unwrap_or(&[]);
+            let n = rest.partition_point(|&a| a <= t_ns);
+            if n > 0 {
+                f(seg.bytes.get(seg.pos..seg.pos + n).unwrap_or(&[]), seg.frame);
+                seg.pos += n;
+            }
+            if seg.pos < seg.bytes.len() {
                 break;
             }
-            self.queue.pop_front();
-            if id != Some(d.frame) {
-                if let Some(prev) = id {
-                    f(&run, prev);
-                }
-                run.clear();
-                id = Some(d.frame);
+            if let Some(done) = self.queue.pop_front() {
+                self.spare.push(done);
             }
-            run.push(d.byte);
         }
-        if let Some(prev) = id {
-            f(&run, prev);
-        }
-        run.clear();
-        self.run = run;
     }
 
     /// Frames with bytes still travelling.
     pub fn queued_frames(&self) -> impl Iterator<Item = FrameId> + '_ {
-        self.queue.iter().map(|d| d.frame)
+        self.queue.iter().map(|s| s.frame)
     }
 
     /// When the line is free again, ns.
@@ -668,11 +678,7 @@ impl RxPort {
         let mut dec = std::mem::take(&mut self.decoder);
         self.push_with(run, id, |piece| {
             let mut out = None;
-            for &b in piece {
-                if let Some(r) = dec.push(b) {
-                    out = Some(r.map(&mut on_msg));
-                }
-            }
+            dec.feed(piece, |r| out = Some(r.map(&mut on_msg)));
             out
         });
         self.decoder = dec;

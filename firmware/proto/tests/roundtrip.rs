@@ -51,6 +51,34 @@ proptest! {
     }
 
     #[test]
+    fn feed_equals_push_byte_by_byte(
+        parts in proptest::collection::vec(
+            prop_oneof![
+                message().prop_map(|m| encode_vec(&m).expect("fits").to_vec()),
+                proptest::collection::vec(any::<u8>(), 0..250),
+            ],
+            0..8,
+        ),
+        cut in 0usize..400,
+    ) {
+        let stream: Vec<u8> = parts.concat();
+        let mut a: Decoder = Decoder::new();
+        let mut by_byte = Vec::new();
+        for &b in &stream {
+            if let Some(r) = a.push(b) {
+                by_byte.push(r);
+            }
+        }
+        let mut b: Decoder = Decoder::new();
+        let mut fed = Vec::new();
+        let cut = cut.min(stream.len());
+        b.feed(&stream[..cut], |r| fed.push(r));
+        b.feed(&stream[cut..], |r| fed.push(r));
+        prop_assert_eq!(by_byte, fed);
+        prop_assert_eq!(a.pending(), b.pending());
+    }
+
+    #[test]
     fn resync_after_garbage(garbage in proptest::collection::vec(any::<u8>(), 0..300), msg in message()) {
         // Garbage, then a delimiter, then a valid frame: the frame is always recovered.
         let mut stream = garbage;
