@@ -553,7 +553,10 @@ impl Channel {
             let rest = seg.at_ns.get(seg.pos..).unwrap_or(&[]);
             let n = rest.partition_point(|&a| a <= t_ns);
             if n > 0 {
-                f(seg.bytes.get(seg.pos..seg.pos + n).unwrap_or(&[]), seg.frame);
+                f(
+                    seg.bytes.get(seg.pos..seg.pos + n).unwrap_or(&[]),
+                    seg.frame,
+                );
                 seg.pos += n;
             }
             if seg.pos < seg.bytes.len() {
