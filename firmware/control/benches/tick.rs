@@ -33,7 +33,7 @@ fn bench_codes(c: &mut Criterion) {
             y_dot: (k * 37) % 2001 - 1000,
             current: 115_000 + (k * 13) % 999,
             speed: 925_600,
-            demand: 24_600,
+            demand: 2460,
         })
         .collect();
     let mut k = 0usize;

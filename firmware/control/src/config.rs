@@ -18,7 +18,7 @@ pub enum YawMode {
 
 /// Per-unit full scales: a signal `x` (SI) is `x / FS` inside the controller. Chosen so
 /// that every signal and state sits in `[-2, 2]` pu at its limits (the Q4.28 range
-/// analysis in the crate docs) and every coefficient in `[-2, 2)` (Q2.30).
+/// analysis in the crate docs) and every coefficient in `(-1, 1)` (Q1.31).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FullScales {
     /// Lateral velocity y', m/s (1).
@@ -110,11 +110,11 @@ pub struct WireLsb {
     pub current: f64,
     /// Motor speed, rad/s per code (1e-3).
     pub speed: f64,
-    /// Demand, N m per code (0.1).
+    /// Demand, N m per code (1, as `wheelset_proto::units`).
     pub demand: f64,
     /// Yaw torque, N m per code (0.1).
     pub torque: f64,
-    /// Voltage, V per code (1e-3).
+    /// Voltage, V per code (1e-2, as `wheelset_proto::units`).
     pub voltage: f64,
 }
 
@@ -124,9 +124,9 @@ impl Default for WireLsb {
             y_dot: 1e-6,
             current: 1e-3,
             speed: 1e-3,
-            demand: 0.1,
+            demand: 1.0,
             torque: 0.1,
-            voltage: 1e-3,
+            voltage: 1e-2,
         }
     }
 }
@@ -246,7 +246,7 @@ impl core::fmt::Display for ConfigError {
             Self::Coefficient { name, value } => write!(
                 f,
                 "coefficient `{name}` = {value:e} does not fit the sample type's coefficient \
-                 format (fixed point: Q2.30, [-2, 2)); change the full scales"
+                 format (fixed point: Q1.31, (-1, 1)); change the full scales"
             ),
         }
     }

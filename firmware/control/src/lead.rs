@@ -25,8 +25,8 @@
 //! ```
 //!
 //! DC: `z = g x` whatever `kappa` quantises to, so the DC gain is `K_hf (1 - g)` =
-//! `K a w1/w2` up to the quantisation of `K_hf` and `g/2` alone (relative `2^-30`
-//! each in Q2.30). The equivalent direct form is returned by
+//! `K a w1/w2` up to the quantisation of `K_hf` and `g/2` alone (relative `2^-31`
+//! each in Q1.31). The equivalent direct form is returned by
 //! [`LeadDiscrete::direct_form`] for audit and tests.
 //!
 //! Sign: `T_psi = +Ks(s) y'` (eq. 5 as printed: `J psi'' + ... = -T_psi`).

@@ -6,24 +6,26 @@
 //! - `f64`: the reference. `f32`: the FPU build. [`Fx`] (= `fixed::types::I4F28`,
 //!   Q4.28, range `[-8, 8)` pu, LSB `2^-28` = 3.7e-9 pu): the production build.
 //! - Coefficients are quantised once, at construction ([`Sample::quantise`]); for
-//!   [`Fx`] they are Q2.30 ([`Coef`], range `[-2, 2)`, LSB `2^-30` = 9.3e-10).
-//! - Fixed-point arithmetic saturates; a product is the exact 64-bit `i32 x i32`
-//!   product, rounded to nearest (ties up) and saturated back to 32 bits:
-//!   `y = sat32((x * c + 2^29) >> 30)`. The range analysis in the crate docs shows the
-//!   saturations cannot engage inside the filters once the inputs are clamped; they are
-//!   the belt, the input clamps (counted) are the braces.
+//!   [`Fx`] they are Q1.31 ([`Coef`], validated into `(-1, 1)`, LSB `2^-31` = 4.7e-10).
+//! - Fixed-point sums and differences saturate (`QADD`/`QSUB` on Cortex-M4); a product
+//!   is the exact 64-bit `i32 x i32` product rounded to nearest (ties up),
+//!   `y = (x c + 2^30) >> 31` ([`mul_q31`]), which cannot overflow because `|c| < 1`.
+//!   The range analysis in the crate docs shows the saturations cannot engage inside
+//!   the filters once the inputs are clamped; they are the belt, the input clamps
+//!   (counted) are the braces.
 
-use fixed::types::{I2F30, I4F28};
+use fixed::types::{I1F31, I4F28};
 
 /// The production fixed-point signal type: Q4.28 per unit (`[-8, 8)`, LSB `2^-28`).
 pub type Fx = I4F28;
-/// The production fixed-point coefficient type: Q2.30 (`[-2, 2)`, LSB `2^-30`).
-pub type Coef = I2F30;
+/// The production fixed-point coefficient type: Q1.31, validated into `(-1, 1)`
+/// (LSB `2^-31`), so that a product with a Q4.28 signal cannot overflow.
+pub type Coef = I1F31;
 
 /// Number of fractional bits of [`Fx`] signals.
 pub const FX_FRAC: u32 = 28;
 /// Number of fractional bits of [`Coef`] coefficients.
-pub const COEF_FRAC: u32 = 30;
+pub const COEF_FRAC: u32 = 31;
 
 /// A wire-code scale for the fixed-point type, precomputed at construction:
 /// `out = sat32((in * mul + round) >> shift)`, i.e. a multiplication by `mul / 2^shift`.
@@ -103,10 +105,21 @@ pub(crate) fn sat32(x: i64) -> i32 {
     }
 }
 
+/// `(x c + 2^30) >> 31`: the Q4.28 x Q1.31 product, rounded to nearest (ties up).
+///
+/// Never overflows, so needs no saturation: `|x| <= 2^31` and `|c| <= 2^31 - 1` (a
+/// [`Coef`] is validated into `(-1, 1)` by [`Sample::quantise`]) give
+/// `|x c + 2^30| < 2^62`, so the shifted result lies in `[-2^31, 2^31 - 1]`. Cortex-M4:
+/// `SMLAL` + two ALU instructions.
+#[inline(always)]
+pub fn mul_q31(x: i32, c: i32) -> i32 {
+    ((x as i64 * c as i64 + (1 << (COEF_FRAC - 1))) >> COEF_FRAC) as i32
+}
+
 /// A per-unit sample: the operations the filters use. One filter implementation serves
 /// every type (idsp style); nothing here allocates, divides or panics.
 pub trait Sample: Copy + Default + PartialEq + PartialOrd + core::fmt::Debug {
-    /// Quantised coefficient (`Self` for floats, [`Coef`] Q2.30 for [`Fx`]).
+    /// Quantised coefficient (`Self` for floats, [`Coef`] Q1.31 for [`Fx`]).
     type Coeff: Copy + core::fmt::Debug + PartialEq;
     /// Precomputed wire-code scale (`Self` for floats, [`FxScale`] for [`Fx`]).
     type Scale: Copy + core::fmt::Debug + PartialEq;
@@ -240,7 +253,8 @@ impl Sample for Fx {
         self.to_bits() as f64 / (1u64 << FX_FRAC) as f64
     }
     fn quantise(c: f64) -> Option<Coef> {
-        Coef::checked_from_num(c)
+        // (-1, 1) strictly: keeps `mul_q31` free of overflow (see there).
+        Coef::checked_from_num(c).filter(|q| *q != Coef::MIN)
     }
     fn coeff_to_f64(c: Coef) -> f64 {
         c.to_bits() as f64 / (1u64 << COEF_FRAC) as f64
@@ -255,8 +269,7 @@ impl Sample for Fx {
     }
     #[inline(always)]
     fn mul_c(self, c: Coef) -> Self {
-        let p = self.to_bits() as i64 * c.to_bits() as i64;
-        Fx::from_bits(sat32((p + (1 << (COEF_FRAC - 1))) >> COEF_FRAC))
+        Fx::from_bits(mul_q31(self.to_bits(), c.to_bits()))
     }
     #[inline(always)]
     fn limit(self, lo: Self, hi: Self) -> (Self, bool) {
@@ -290,15 +303,46 @@ mod tests {
     use super::*;
 
     #[test]
-    fn fixed_mul_rounds_to_nearest_and_saturates() {
+    fn fixed_mul_rounds_to_nearest() {
         let half = Coef::from_num(0.5);
         // 3 LSB * 0.5 = 1.5 LSB -> 2 (ties up); -3 LSB * 0.5 = -1.5 -> -1 (ties up).
         assert_eq!(Fx::from_bits(3).mul_c(half).to_bits(), 2);
         assert_eq!(Fx::from_bits(-3).mul_c(half).to_bits(), -1);
-        let big = Coef::from_num(1.99);
-        assert_eq!(Fx::MAX.mul_c(big), Fx::MAX);
-        assert_eq!(Fx::MIN.mul_c(big), Fx::MIN);
-        assert_eq!(Fx::MIN.mul_c(Coef::from_num(-2.0)), Fx::MAX);
+        assert!(Fx::quantise(-1.0).is_none() && Fx::quantise(1.0).is_none());
+        assert!(Fx::quantise(0.999_999_999).is_some());
+    }
+
+    #[test]
+    fn mul_q31_never_overflows_for_valid_coefficients() {
+        let reference = |x: i32, c: i32| (x as i128 * c as i128 + (1 << 30)) >> 31;
+        let cmax = i32::MAX;
+        let edges = [
+            i32::MIN,
+            i32::MIN + 1,
+            -(1 << 30),
+            -3,
+            -1,
+            0,
+            1,
+            3,
+            1 << 30,
+            i32::MAX,
+        ];
+        for &x in &edges {
+            for &c in &[-cmax, -cmax + 1, -1, 0, 1, cmax - 1, cmax] {
+                let r = reference(x, c);
+                assert!(r >= i32::MIN as i128 && r <= i32::MAX as i128, "{x} {c}");
+                assert_eq!(mul_q31(x, c) as i128, r, "{x} {c}");
+            }
+        }
+        let mut s = 0x2545_f491_4f6c_dd1du64;
+        for _ in 0..200_000 {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            let (x, c) = (s as i32, ((s >> 32) as i32).max(-cmax));
+            assert_eq!(mul_q31(x, c) as i128, reference(x, c), "{x} {c}");
+        }
     }
 
     #[test]

@@ -233,7 +233,7 @@ proptest! {
             let (oa, ob) = (a.tick_codes(&c), b.tick_codes(&c));
             prop_assert_eq!(oa, ob);
             prop_assert!(oa.yaw_torque.unsigned_abs() <= 200_000); // 2e4 N m / 0.1
-            prop_assert!((-6_000_000..=6_000_000).contains(&oa.voltage));
+            prop_assert!((-600_000..=600_000).contains(&oa.voltage));
         }
         prop_assert_eq!(a.counters(), b.counters());
     }
