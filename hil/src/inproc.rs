@@ -137,9 +137,9 @@ impl InProc {
 
     fn tick(&mut self, t_ns: u64) {
         let (rt, port) = (&mut self.rt, &mut self.dev_rx);
-        self.link.up.deliver(t_ns, |b, id| {
-            rt.receive(&[b]);
-            let _ = port.push(b, id);
+        self.link.up.deliver(t_ns, |run, id| {
+            rt.receive(run);
+            port.push(run, id, |_| {});
         });
         let start = Instant::now();
         let out = self.rt.tick(self.last_exec).to_vec();
@@ -224,10 +224,10 @@ impl Transport for InProc {
             self.next_tick += 1;
         }
         let (port, arrival) = (&mut self.host_rx, &self.arrival_ns);
-        self.link.down.deliver(deadline_ns, |b, id| {
-            let _ = port.push(b, id);
+        self.link.down.deliver(deadline_ns, |run, id| {
+            port.push(run, id, |_| {});
             let at = arrival.get(id as usize).copied().unwrap_or(deadline_ns);
-            sink(at, &[b]);
+            sink(at, run);
         });
         Ok(())
     }

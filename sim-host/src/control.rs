@@ -11,7 +11,7 @@
 //! is yawed nose-left.
 
 use crate::params::Params;
-use crate::plant::{ix, Scalar, NX};
+use crate::plant::{ix, Inputs, Plant, Scalar, NX};
 use serde::Serialize;
 
 /// The yaw stabilisation law.
@@ -111,6 +111,62 @@ impl ContinuousController {
             dx[ix::PI] = c(self.kp / self.ti) * (i_ref - x[ix::IA]);
         }
     }
+}
+
+/// Exogenous inputs of a closed-loop run (SI).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Exogenous<S> {
+    /// Track curvature `1/R`, 1/m.
+    pub curvature: S,
+    /// Cant angle, rad.
+    pub cant: S,
+    /// Running resistance, N.
+    pub f_run: S,
+    /// Current reference, A (drive).
+    pub i_ref: S,
+    /// Traction demand at the wheel, N m (acts directly on the left wheel without drive).
+    pub demand: S,
+}
+
+impl<S: Scalar> Exogenous<S> {
+    /// Straight level track, no traction, no resistance.
+    pub fn zero() -> Self {
+        Exogenous {
+            curvature: S::c(0.0),
+            cant: S::c(0.0),
+            f_run: S::c(0.0),
+            i_ref: S::c(0.0),
+            demand: S::c(0.0),
+        }
+    }
+}
+
+/// The closed loop's right-hand side: plant with `T_psi` from the yaw law and `u_a`
+/// from the PI (drive), plus the controller state derivatives. Generic so that the
+/// same code is simulated (`f64`) and differentiated by complex step.
+#[inline(always)]
+pub fn closed_loop_rhs<S: Scalar>(
+    plant: &Plant,
+    ctrl: &ContinuousController,
+    x: &[S; NX],
+    e: &Exogenous<S>,
+) -> [S; NX] {
+    let drive = plant.cfg.drive;
+    let u = Inputs {
+        t_psi: ctrl.yaw_torque(x),
+        u_a: if drive {
+            ctrl.voltage(x, e.i_ref)
+        } else {
+            S::c(0.0)
+        },
+        curvature: e.curvature,
+        cant: e.cant,
+        f_run: e.f_run,
+        t_drive: if drive { S::c(0.0) } else { e.demand },
+    };
+    let (mut dx, _) = plant.rhs(x, &u);
+    ctrl.derivs(x, e.i_ref, drive, &mut dx);
+    dx
 }
 
 /// What one sensor frame carries (SI units).

@@ -6,19 +6,16 @@
 //! - [`control`]: continuous reference controllers and the [`control::SampledController`]
 //!   interface for discrete ones.
 //! - [`sim`]: fixed-step RK4 on integer-nanosecond time; continuous and sampled runs.
-//! - [`linear`]: linearisation about straight-track pure rolling (analytic and
-//!   complex-step), the linear model `(A, B, C)`.
-//! - [`modes`]: modal sweep over the creep coefficient, mode tracking and naming,
-//!   instability crossings.
 //! - [`svg`]: a small dependency-free SVG plotting module (line, scatter, bars).
-//! - [`figures`]: the paper's figures from runs and sweeps.
+//! - [`figures`]: the paper's time-history figures.
+//! - [`link`], [`device`]: the simulated serial link and the device runtime behind it.
 #![deny(missing_docs)]
 
 pub mod control;
 pub mod device;
-pub mod link;
 pub mod error;
 pub mod figures;
+pub mod link;
 pub mod params;
 pub mod plant;
 pub mod scenario;

@@ -6,7 +6,10 @@
 //! inputs (traction demand, `F_run`) are sampled once at the start of each step, so a
 //! step at 5 s acts from exactly 5 s. Time is `k * dt_ns`, never accumulated in floats.
 
-use crate::control::{Actuation, ContinuousController, Measurements, SampledController, YawLaw};
+use crate::control::{
+    closed_loop_rhs, Actuation, ContinuousController, Exogenous, Measurements, SampledController,
+    YawLaw,
+};
 use crate::plant::{ix, Inputs, Plant, PlantConfig, State, NX};
 use crate::scenario::{track_at, Scenario};
 use rand::{Rng, SeedableRng};
@@ -383,21 +386,14 @@ pub fn run_continuous_with(sc: &Scenario, ctrl: ContinuousController) -> Traject
         }
         x = rk4_step(&x, h, |stage, xs| {
             let j = stage_slot(stage);
-            let u = Inputs {
-                t_psi: ctrl.yaw_torque(xs),
-                u_a: if drive {
-                    ctrl.voltage(xs, e.i_ref)
-                } else {
-                    0.0
-                },
+            let ex = Exogenous {
                 curvature: e.curv[j],
                 cant: e.cant[j],
                 f_run: e.f_run,
-                t_drive: if drive { 0.0 } else { e.demand },
+                i_ref: e.i_ref,
+                demand: e.demand,
             };
-            let (mut dx, _) = plant.rhs(xs, &u);
-            ctrl.derivs(xs, e.i_ref, drive, &mut dx);
-            dx
+            closed_loop_rhs(&plant, &ctrl, xs, &ex)
         });
     }
     let t_end = n_steps * sc.dt_ns;
