@@ -43,7 +43,10 @@ fn device_loop_with_faults_writes_the_csv_and_accounts_for_every_frame() {
     let text = std::fs::read_to_string(&csv).expect("csv written");
     let header = text.lines().next().expect("header");
     assert!(header.starts_with("t_s,y_m,psi_rad,T_psi_Nm,Fx_R_N,Fx_L_N,Fy_N,v_mps,i_a_A,u_a_V"));
-    assert!(header.ends_with(",seq,seq_echo,frame_age,flags,fresh"), "{header}");
+    assert!(
+        header.ends_with(",seq,seq_echo,frame_age,flags,fresh"),
+        "{header}"
+    );
     let rows = text.lines().count() - 1;
     assert!(rows >= 20_000, "{rows} rows");
     // Every row has as many fields as the header.
@@ -56,10 +59,16 @@ fn device_loop_with_faults_writes_the_csv_and_accounts_for_every_frame() {
 fn bad_faults_and_a_slow_link_exit_2_with_the_reason() {
     let (code, _, err) = sim_host(&["run", "--loop", "device", "--faults", "ber=1e-3,jitter=4"]);
     assert_eq!(code, 2);
-    assert!(err.contains("jitter=4") && err.contains("unknown key"), "{err}");
+    assert!(
+        err.contains("jitter=4") && err.contains("unknown key"),
+        "{err}"
+    );
     let (code, _, err) = sim_host(&["run", "--loop", "device", "--baud", "115200"]);
     assert_eq!(code, 2);
-    assert!(err.contains("link budget exceeded") && err.contains("115200 baud"), "{err}");
+    assert!(
+        err.contains("link budget exceeded") && err.contains("115200 baud"),
+        "{err}"
+    );
     let (code, _, err) = sim_host(&["run", "--loop", "sideways"]);
     assert_eq!(code, 2, "{err}");
 }
