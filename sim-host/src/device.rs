@@ -595,6 +595,9 @@ pub struct Deviation {
     pub f_max_abs_n: f64,
     /// The same relative to the largest reference creep force over the run.
     pub f_max_rel: f64,
+    /// A value of either run was NaN or infinite (a diverged run): the figures above
+    /// are then meaningless (`f64::max` skips NaN).
+    pub diverged: bool,
 }
 
 /// Deviation in one time window.
@@ -643,6 +646,13 @@ pub fn deviation(run: &Trajectory, reference: &Trajectory, windows: [(f64, f64);
         w.f_rel = df / f_scale.max(1e-300);
     }
     let (mut y_ref_max, mut f_ref_max) = (0.0f64, 0.0f64);
+    d.diverged = pairs().any(|(a, b)| {
+        !(a.y_m.is_finite() && b.y_m.is_finite())
+            || forces(a)
+                .into_iter()
+                .chain(forces(b))
+                .any(|f| !f.is_finite())
+    });
     for (a, b) in pairs() {
         d.y_max_abs_m = d.y_max_abs_m.max((a.y_m - b.y_m).abs());
         y_ref_max = y_ref_max.max(b.y_m.abs());
@@ -658,6 +668,9 @@ pub fn deviation(run: &Trajectory, reference: &Trajectory, windows: [(f64, f64);
 
 impl fmt::Display for Deviation {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.diverged {
+            return write!(f, "not comparable: a run diverged (NaN or infinite values)");
+        }
         for w in &self.windows {
             write!(
                 f,

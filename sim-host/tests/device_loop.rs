@@ -41,6 +41,7 @@ fn curve_with_lead_reproduces_the_continuous_reference() {
     let reference = run_continuous(&sc, YawLaw::Lead);
     let d = deviation(&run.trajectory, &reference, CURVE_WINDOWS);
     println!("device vs continuous: {d}");
+    assert!(!d.diverged);
     for w in &d.windows {
         assert!(w.y_rel < 0.01, "y off by {} % in {w:?}", w.y_rel * 100.0);
         assert!(
@@ -158,4 +159,17 @@ fn a_link_budget_that_does_not_fit_is_refused() {
             other.map(|r| r.report.to_string())
         ),
     }
+}
+
+#[test]
+fn a_faulted_run_is_deterministic_for_its_seed() {
+    let sc = curve();
+    let spec = "ber=1e-3,drop=0.1,burst=5:8,outage=3.0:0.02";
+    let a = run_device(&sc, YawLaw::Lead, &with_faults(spec, 9)).expect("runs");
+    let b = run_device(&sc, YawLaw::Lead, &with_faults(spec, 9)).expect("runs");
+    let c = run_device(&sc, YawLaw::Lead, &with_faults(spec, 10)).expect("runs");
+    assert_eq!(a.trajectory.records, b.trajectory.records);
+    assert_eq!(a.link, b.link);
+    assert_eq!(a.report.up, b.report.up);
+    assert_ne!(a.link, c.link);
 }
