@@ -173,3 +173,24 @@ fn a_faulted_run_is_deterministic_for_its_seed() {
     assert_eq!(a.report.up, b.report.up);
     assert_ne!(a.link, c.link);
 }
+
+#[test]
+fn acceleration_sensing_integrated_on_the_device_also_reproduces_the_reference() {
+    let sc = curve();
+    let opt = DeviceOptions {
+        lateral: sim_host::device::LateralSensing::Acceleration,
+        ..DeviceOptions::default()
+    };
+    let run = run_device(&sc, YawLaw::Lead, &opt).expect("runs");
+    let d = deviation(
+        &run.trajectory,
+        &run_continuous(&sc, YawLaw::Lead),
+        CURVE_WINDOWS,
+    );
+    println!("device (y'' sensing) vs continuous: {d}");
+    assert!(!d.diverged);
+    for w in &d.windows {
+        assert!(w.y_rel < 0.01 && w.f_rel < 0.02, "{d}");
+    }
+    assert_eq!(run.report.device.map(|s| s.rx_unexpected), Some(0));
+}
