@@ -54,7 +54,7 @@
 //! e = i_ref - i_a,  I[n] = clamp(I[n-1] + (Kp T/Ti) e[n]),  u[n] = clamp(Kp e[n] + I[n])
 //! ```
 //!
-//! **Delay compensation** of the yaw loop (on by default): the yaw law sees
+//! **Delay compensation** of the yaw loop (optional, off by default): the yaw law sees
 //! `x = y'[n] + alpha (y'[n] - y'[n-1])`, `alpha = yaw_predict_ticks/yaw_divisor`, a linear
 //! extrapolation over the ZOH's half period plus the one tick of transport delay
 //! ([`Config::yaw_predict_ticks`] = 1.5 at the default rates). Low-frequency phase

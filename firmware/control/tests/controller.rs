@@ -402,6 +402,7 @@ fn yaw_predictor_extrapolates_linearly() {
     // to 2 pu and counted.
     let cfg = Config {
         yaw_mode: YawMode::Gain,
+        yaw_predict_ticks: 1.5,
         ..Config::default()
     };
     let mut c = F64Controller::try_new(&cfg).expect("ok");
