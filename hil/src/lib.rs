@@ -1,1 +1,4 @@
 //! The hardware-in-the-loop harness.
+#![deny(missing_docs)]
+
+pub mod audit;
