@@ -217,17 +217,13 @@ pub struct Lead<T: Sample> {
     kappa: T::Coeff,
 }
 
-/// The lead's state: previous input `x[n-1]`, the low-pass output `z[n-1]` (pu) and
-/// the sub-LSB remainder of its increments.
+/// The lead's state: previous input `x[n-1]` and the low-pass output `z[n-1]` (pu).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct LeadState<T: Sample> {
+pub struct LeadState<T> {
     /// `x[n-1]`.
     pub x1: T,
     /// `z[n-1]`.
     pub z: T,
-    /// Remainder of `kappa (...)` below one LSB (error feedback, [`Sample::mul_c_acc`]):
-    /// the low-pass settles exactly on `g x`, so the DC gain has no dead band.
-    pub residue: T::Residue,
 }
 
 impl<T: Sample> Lead<T> {
@@ -257,7 +253,7 @@ impl<T: Sample> Lead<T> {
     pub fn process(&self, s: &mut LeadState<T>, x: T) -> T {
         let m = x.sat_add(s.x1);
         let e = m.mul_c(self.g_half).sat_sub(s.z);
-        s.z = s.z.sat_add(e.mul_c_acc(self.kappa, &mut s.residue));
+        s.z = s.z.sat_add(e.mul_c(self.kappa));
         s.x1 = x;
         x.sat_sub(s.z).mul_c(self.k_hf)
     }
@@ -268,7 +264,6 @@ impl<T: Sample> Lead<T> {
         LeadState {
             x1: x,
             z: x.sat_add(x).mul_c(self.g_half),
-            residue: T::Residue::default(),
         }
     }
 }

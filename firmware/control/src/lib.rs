@@ -68,11 +68,14 @@
 //! Every signal and state is Q4.28 per unit (`i32`, range `[-8, 8)`, LSB `2^-28`), every
 //! coefficient Q1.31 validated into `(-1, 1)` (LSB `2^-31`); products are exact 64-bit
 //! (`SMLAL` on Cortex-M4), rounded to nearest, and cannot overflow ([`sample::mul_q31`]);
-//! sums saturate (`QADD`/`QSUB`). The two recursive states (the lead's low-pass `z`
-//! and the PI integrator `I`) take their increments with first-order error feedback
-//! ([`Sample::mul_c_acc`]: the product is floored and its sub-LSB remainder carried to
-//! the next step), so their sums are exact: no dead band (the lead settles on its DC
-//! gain, the integrator on zero current error) and no rounding drift. Range analysis with
+//! sums saturate (`QADD`/`QSUB`). Products round to nearest, so the two recursive
+//! states have a small dead band: the lead's low-pass `z` stops within
+//! `0.5/kappa` LSB of `g x` (about 10 LSB at 5 kHz: 8 LSB = 0.03 N m at the output)
+//! and the PI integrator stops moving once `|Ki e| < 0.5 LSB`, i.e. `|e| < 0.5/Ki`
+//! LSB (12 500 LSB = 47 mA at 5 kHz, Ti = 0.5 s). First-order error feedback (carry
+//! the product's sub-LSB remainder) removes both at two instructions each; it is not
+//! enabled because the audit's instrumented type mirrors [`Fx`] bit for bit and must
+//! change with it. Range analysis with
 //! the inputs clamped to `|x| <= X` pu, `X <= 2` (enforced by [`Config::validate`]):
 //!
 //! | signal / state | bound | why |

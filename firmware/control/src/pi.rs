@@ -4,8 +4,6 @@
 //! ```text
 //! e[n] = r[n] - i[n]                                   (A; pu inside)
 //! I[n] = clamp(I[n-1] + Ki e[n], u_min, u_max),  Ki = Kp T/Ti   (backward Euler)
-//!        (fixed point: Ki e[n] floored with its remainder carried to the next step,
-//!         so the integrator has no dead band and no rounding drift)
 //! u[n] = clamp(Kp e[n] + I[n], u_min, u_max)
 //! ```
 //!
@@ -117,22 +115,17 @@ pub struct Pi<T: Sample> {
     pub u_max: T,
 }
 
-/// The PI's state: the integrator `I[n-1]` (pu) and its sub-LSB remainder.
+/// The PI's state: the integrator `I[n-1]` (pu).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct PiState<T: Sample> {
+pub struct PiState<T> {
     /// Integrator, pu of voltage.
     pub integ: T,
-    /// The increment's remainder below one LSB (error feedback, [`Sample::mul_c_acc`]).
-    pub residue: T::Residue,
 }
 
-impl<T: Sample> PiState<T> {
-    /// A state with the integrator at `integ` (pu) and no remainder.
+impl<T> PiState<T> {
+    /// A state with the integrator at `integ` (pu).
     pub fn new(integ: T) -> Self {
-        Self {
-            integ,
-            residue: T::Residue::default(),
-        }
+        Self { integ }
     }
 }
 
@@ -179,7 +172,7 @@ impl<T: Sample> Pi<T> {
     pub fn process_flags(&self, s: &mut PiState<T>, e: T) -> (T, PiFlags) {
         let (i, fi) = s
             .integ
-            .sat_add(e.mul_c_acc(self.ki, &mut s.residue))
+            .sat_add(e.mul_c(self.ki))
             .limit(self.u_min, self.u_max);
         s.integ = i;
         let (u, fo) = e.mul_c(self.kp).sat_add(i).limit(self.u_min, self.u_max);

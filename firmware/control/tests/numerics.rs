@@ -11,15 +11,13 @@ use wheelset_control::{
 /// One Q4.28 LSB in pu.
 const LSB: f64 = 1.0 / (1u64 << 28) as f64;
 
-/// Yaw-torque bound, LSB of Q4.28 (3.7e-3 N m each): the lead's low-pass state carries
-/// its increments' remainders (error feedback), so its error stays within about one
-/// LSB plus the rounding of `(g/2)(x + x1)`; times `K_hf` = 0.79, plus the output
-/// rounding and the coefficient quantisation (2^-32 relative).
-const YAW_MAX_LSB: f64 = 4.0;
-/// Voltage bound per traction step, LSB: the open-loop integrator's increments are
-/// exact in the sum (error feedback), so only the `Ki` quantisation remains
-/// (<= 2^-32 x |e| <= 4 pu = 0.25 LSB per step), plus a few LSB of output rounding.
-const PI_LSB_PER_STEP: f64 = 0.25;
+/// Yaw-torque bound, LSB of Q4.28 (3.7e-3 N m each): the lead's low-pass state
+/// stops within `0.5 (1 + kappa)/kappa` LSB of rounding (10 at 5 kHz), times
+/// `K_hf` = 0.79, plus the output rounding and coefficient quantisation.
+const YAW_MAX_LSB: f64 = 16.0;
+/// Voltage bound per traction step, LSB: the open-loop integrator sums one rounding
+/// (0.5 LSB) and the `Ki` quantisation (<= 2^-32 x |e| <= 4 pu = 0.25 LSB) per step.
+const PI_LSB_PER_STEP: f64 = 0.75;
 
 #[derive(Clone, Copy, Debug)]
 struct Err {
