@@ -146,6 +146,19 @@ struct DeviceArgs {
     /// Ticks the device bridges a missing sensor frame before its safe state.
     #[arg(long, default_value_t = wheelset_runtime::DEFAULT_HOLD_TICKS)]
     hold_ticks: u16,
+    /// What the Sensor frames carry of the lateral motion: `velocity` (y') or
+    /// `acceleration` (y'', integrated on the device with a wash-out).
+    #[arg(long, value_enum, default_value = "velocity")]
+    lateral: Lateral,
+}
+
+/// Lateral sensing over the link.
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
+enum Lateral {
+    /// Lateral velocity `y'`.
+    Velocity,
+    /// Lateral acceleration `y''`.
+    Acceleration,
 }
 
 /// A command failure with its exit code.
@@ -347,6 +360,10 @@ fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
         },
         hold_ticks: d.hold_ticks,
         base_rate_hz: d.rate_hz,
+        lateral: match d.lateral {
+            Lateral::Velocity => sim_host::device::LateralSensing::Velocity,
+            Lateral::Acceleration => sim_host::device::LateralSensing::Acceleration,
+        },
     };
     let run = run_device(sc, a.control.into(), &opt).map_err(|e| Failure {
         code: 2,
