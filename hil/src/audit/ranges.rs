@@ -264,8 +264,9 @@ pub struct Observed {
     pub traces: Vec<(String, Vec<ErrSample>)>,
 }
 
+/// Quantise an input; a non-finite one becomes 0 (`Fx::from_f64` panics on NaN).
 fn q<T: Sample>(v: f64) -> T {
-    T::from_f64(v)
+    T::from_f64(if v.is_finite() { v } else { 0.0 })
 }
 
 /// Run every scenario twice (yaw mode lead, then gain; traction on) with sample type

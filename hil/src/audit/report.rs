@@ -274,6 +274,9 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
     for (n, src, k) in &a.scenarios {
         let _ = writeln!(w, "| {n} | {k} | {src} |");
     }
+    for n in &a.scenario_notes {
+        let _ = writeln!(w, "\nNote: {n}.");
+    }
     let _ = writeln!(
         w,
         "\nEach scenario runs twice (yaw lead, yaw gain; traction on), fixed point and f64 \
@@ -282,12 +285,13 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
     let _ = writeln!(w, "## Ranges and headroom\n");
     let _ = writeln!(
         w,
-        "| signal | controller | state | min (SI) | max (SI) | unit | peak (pu) | headroom (bits) | overflows | worst scenario |\n|---|---|---|---|---|---|---|---|---|---|"
+        "| # | signal | controller | state | min (SI) | max (SI) | unit | peak (pu) | headroom (bits) | overflows | worst scenario |\n|---|---|---|---|---|---|---|---|---|---|---|"
     );
-    for r in o.signals.iter().filter(|r| r.samples > 0) {
+    for (i, r) in o.signals.iter().filter(|r| r.samples > 0).enumerate() {
         let _ = writeln!(
             w,
-            "| {} | {} | {} | {:.4e} | {:.4e} | {} | {:.4} | {:.2} | {} | {} |",
+            "| {} | {} | {} | {} | {:.4e} | {:.4e} | {} | {:.4} | {:.2} | {} | {} |",
+            i,
             r.name,
             r.controller,
             if r.state { "yes" } else { "" },
