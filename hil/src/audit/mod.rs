@@ -1091,7 +1091,7 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
         sweep,
         target: Target {
             available: false,
-            note: "target: not available (no QEMU comparison implemented in this build)".into(),
+            note: "target: not available: the QEMU launcher (`hil::qemu`, firmware branch) is not in this build".into(),
         },
         checks,
         verdict,

@@ -347,6 +347,24 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
             n.bits_lost
         );
     }
+    if let Some(worst) = o
+        .noise
+        .iter()
+        .filter(|n| n.output == "u_a" && n.max_wire_lsb > a.tolerances.noise_wire_lsb.0)
+        .max_by(|x, y| x.max_lsb.total_cmp(&y.max_lsb))
+    {
+        let _ = writeln!(
+            w,
+            "\nFinding: the largest `u_a` error ({:.0} LSB = {:.3e} V in `{}`) is a drift, \
+             not noise: the PI integrator adds `Ki e` rounded to nearest every step; `Ki` is \
+             4e-5 pu at 5 kHz, so with a slowly varying error `e` the rounding error has a \
+             bias, and an open-loop replay of 20 s (1e5 steps) sums it. In closed loop the \
+             current loop absorbs it (a drift of this size is cancelled by a current error of \
+             about drift rate / (Kp/Ti), i.e. milliamperes). First-order error feedback on \
+             the increment (carry the sub-LSB remainder to the next step) removes the bias.",
+            worst.max_lsb, worst.max_si, worst.scenario
+        );
+    }
     let _ = writeln!(w, "\n## Recommended formats\n");
     if let Some(sw) = &a.sweep {
         let _ = writeln!(
