@@ -1,6 +1,8 @@
 //! `sim-host`: the plant simulator's command line.
 //!
 //! - `sim-host run --scenario curve|beating|FILE --control passive|gain|lead [--csv FILE] [--plot DIR]`
+//! - `sim-host run ... --loop device [--faults SPEC] [--seed N] [--baud B] [--latency-us L]`:
+//!   the firmware runtime in the loop over the simulated serial link
 //!
 //! Exit codes: 0 success, 2 bad usage or bad input file, 1 other failures (writing output).
 
@@ -69,6 +71,57 @@ struct RunArgs {
     /// Also run these modes and overlay them on the plots (e.g. `--compare passive`).
     #[arg(long, value_enum)]
     compare: Vec<Control>,
+    #[command(flatten)]
+    device: DeviceArgs,
+}
+
+/// Which controllers close the loop.
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
+enum LoopKind {
+    /// The continuous-time reference controllers (extra ODE states).
+    Continuous,
+    /// The firmware runtime (fixed point) over the simulated serial link.
+    Device,
+}
+
+/// The device loop's options (`--loop device`).
+#[derive(clap::Args)]
+struct DeviceArgs {
+    /// Loop kind.
+    #[arg(long = "loop", value_enum, default_value = "continuous")]
+    loop_kind: LoopKind,
+    /// Link faults, e.g. `ber=1e-3,drop=0.1,outage=8.0:0.05` (keys: ber, drop, byte_drop,
+    /// outage=START_S:LEN_S[:up|down], burst=RATE_HZ:LEN_BYTES, dir=both|up|down).
+    #[arg(long, default_value = "")]
+    faults: String,
+    /// Seed of the link's fault injection.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Link baud rate (10 bits per byte).
+    #[arg(long, default_value_t = sim_host::link::DEFAULT_BAUD)]
+    baud: u32,
+    /// One-way link latency, us.
+    #[arg(long, default_value_t = 2.0)]
+    latency_us: f64,
+    /// Device base rate, Hz (default: the control core's).
+    #[arg(long)]
+    rate_hz: Option<u32>,
+    /// Ticks the device bridges a missing sensor frame before its safe state.
+    #[arg(long, default_value_t = wheelset_runtime::DEFAULT_HOLD_TICKS)]
+    hold_ticks: u16,
+    /// What the Sensor frames carry of the lateral motion: `velocity` (y') or
+    /// `acceleration` (y'', integrated on the device with a wash-out).
+    #[arg(long, value_enum, default_value = "velocity")]
+    lateral: Lateral,
+}
+
+/// Lateral sensing over the link.
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
+enum Lateral {
+    /// Lateral velocity `y'`.
+    Velocity,
+    /// Lateral acceleration `y''`.
+    Acceleration,
 }
 
 /// A command failure with its exit code.
@@ -109,6 +162,9 @@ fn simulate(sc: &Scenario, control: Control) -> Trajectory {
 fn cmd_run(a: &RunArgs) -> Result<(), Failure> {
     let base = load_params(&a.params)?;
     let sc = Scenario::load(&a.scenario, &base)?;
+    if a.device.loop_kind == LoopKind::Device {
+        return cmd_run_device(a, &sc);
+    }
     let main = simulate(&sc, a.control);
     let mut runs = vec![main];
     for &c in &a.compare {
@@ -128,6 +184,91 @@ fn cmd_run(a: &RunArgs) -> Result<(), Failure> {
         println!("csv: {} ({} rows)", path.display(), main.records.len());
     }
     if let Some(dir) = &a.plot {
+        let files =
+            sim_host::figures::write_time_histories(&runs, dir).map_err(|e| io_fail(dir, e))?;
+        for f in files {
+            println!("plot: {}", f.display());
+        }
+    }
+    Ok(())
+}
+
+/// `--loop device`: the firmware runtime over the simulated link; prints the frame
+/// accounting and the deviation from the continuous reference.
+fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
+    use sim_host::device::{deviation, run_device, DeviceOptions, CURVE_WINDOWS};
+    let d = &a.device;
+    if !(d.latency_us.is_finite() && d.latency_us >= 0.0) {
+        return Err(Failure {
+            code: 2,
+            msg: format!("--latency-us {}: must be a finite value >= 0", d.latency_us),
+        });
+    }
+    let faults: sim_host::link::Faults =
+        d.faults
+            .parse()
+            .map_err(|e: sim_host::link::FaultSpecError| Failure {
+                code: 2,
+                msg: e.to_string(),
+            })?;
+    let opt = DeviceOptions {
+        link: sim_host::link::LinkConfig {
+            baud: d.baud,
+            latency_ns: (d.latency_us * 1e3).round() as u64,
+            faults,
+            seed: d.seed,
+        },
+        hold_ticks: d.hold_ticks,
+        base_rate_hz: d.rate_hz,
+        lateral: match d.lateral {
+            Lateral::Velocity => sim_host::device::LateralSensing::Velocity,
+            Lateral::Acceleration => sim_host::device::LateralSensing::Acceleration,
+        },
+    };
+    let run = run_device(sc, a.control.into(), &opt).map_err(|e| Failure {
+        code: 2,
+        msg: e.to_string(),
+    })?;
+    print_summary(sc, &run.trajectory);
+    println!(
+        "link: {} baud, latency {} us, period {} us, faults `{}` (seed {})",
+        opt.link.baud,
+        d.latency_us,
+        run.period_ns as f64 / 1e3,
+        if d.faults.is_empty() {
+            "none"
+        } else {
+            &d.faults
+        },
+        d.seed
+    );
+    print!("{}", run.report);
+    println!();
+    let reference = simulate(sc, a.control);
+    println!(
+        "vs continuous reference: {}",
+        deviation(&run.trajectory, &reference, CURVE_WINDOWS)
+    );
+    if let Some(path) = &a.csv {
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).map_err(|e| io_fail(dir, e))?;
+        }
+        let f = std::fs::File::create(path).map_err(|e| io_fail(path, e))?;
+        run.write_csv(std::io::BufWriter::new(f))
+            .map_err(|e| io_fail(path, e))?;
+        println!(
+            "csv: {} ({} rows)",
+            path.display(),
+            run.trajectory.records.len()
+        );
+    }
+    if let Some(dir) = &a.plot {
+        let mut runs = vec![run.trajectory, reference];
+        for &c in &a.compare {
+            if c != a.control {
+                runs.push(simulate(sc, c));
+            }
+        }
         let files =
             sim_host::figures::write_time_histories(&runs, dir).map_err(|e| io_fail(dir, e))?;
         for f in files {
