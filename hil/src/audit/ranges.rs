@@ -388,6 +388,9 @@ pub fn observe<T: Sample>(
                     let raw = match mode {
                         YawMode::Lead => {
                             let ls1 = *fx.lead_state();
+                            // The lead's input as it ran (after the optional y'
+                            // predictor): the state keeps it exactly.
+                            let x = ls1.x1.to_f64();
                             let m = x + ls0.x1.to_f64();
                             put(Sig::LeadSum, m);
                             put(Sig::LeadErr, m * lead.g_half - ls0.z.to_f64());
