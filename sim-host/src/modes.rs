@@ -63,7 +63,7 @@ impl Case {
             Case::A => "passive yaw stiffness, rigid axle, no traction dynamics (Fig. 2)",
             Case::B => "active yaw damping, pure gain, rigid axle (Fig. 3)",
             Case::C => "active yaw damping, phase lead, rigid axle (Fig. 4)",
-            Case::D => "phase lead, flexible axle (40 Hz), gear spring, motor, armature, PI current loop (Fig. 5)",
+            Case::D => "phase lead, flexible axle 40 Hz, gear spring, motor, armature, PI (Fig. 5)",
         }
     }
 
