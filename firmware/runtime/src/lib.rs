@@ -57,6 +57,11 @@
 //!    are [`Runtime::safe_outputs`] (zero torque, zero voltage; [`Flags::NO_SAMPLE`] /
 //!    no [`Flags::ENABLED`]). These are also what a panic handler drives.
 //!
+//! A [`Config`] applies mode, traction, enable and `hold_ticks` at once; new rates
+//! rebuild the control core (validated first; an invalid one is refused, counted,
+//! flagged [`Flags::CMD_REFUSED`], and the old core stays). A rebuilt core restarts its
+//! filter states; the traction loop restarts bumpless from the back-EMF.
+//!
 //! Counters ([`RuntimeCounters`] = the [`Status`] message) go out in a Status frame after
 //! the next actuation frame when a [`Command::RequestStatus`] arrives;
 //! [`Command::ResetCounters`] zeroes them.

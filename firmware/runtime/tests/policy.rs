@@ -346,3 +346,36 @@ fn acceleration_frames_are_integrated_with_washout() {
         Err(RuntimeError::Washout)
     ));
 }
+
+#[test]
+fn a_valid_rate_change_rebuilds_the_core() {
+    let mut r = rt();
+    r.receive(&sensor(1, 1_000));
+    let before = act(r.tick(0));
+    let cfg = Config {
+        mode: YawMode::Lead,
+        traction: true,
+        enable: true,
+        base_rate_hz: 10_000,
+        yaw_div: 2,
+        traction_div: 1,
+        hold_ticks: 20,
+    };
+    r.receive(&encode_vec(&Message::Config(cfg)).expect("fits"));
+    r.receive(&sensor(2, 1_000));
+    let a = act(r.tick(0));
+    assert!(!a.flags.has(Flags::CMD_REFUSED));
+    let c = r.config();
+    assert_eq!(
+        (c.control.base_rate_hz, c.control.yaw_divisor, c.hold_ticks),
+        (10_000, 2, 20)
+    );
+    assert_eq!(r.counters().cmd_refused, 0);
+    // The rebuilt core starts bumpless on the traction side again (back-EMF).
+    assert!(
+        (a.u_a_cv - before.u_a_cv).abs() < 200,
+        "{} vs {}",
+        a.u_a_cv,
+        before.u_a_cv
+    );
+}
