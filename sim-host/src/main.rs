@@ -399,6 +399,7 @@ fn cmd_modes(a: &ModesArgs) -> Result<(), Failure> {
         "kinematic_hz": p.kinematic_hz(),
         "note": "structural zero eigenvalue (free rolling at any speed) reported as structural_zero and excluded from stability verdicts",
         "params": &p,
+        "derived": {"k_t": p.k_t(), "k_gear": p.k_gear(), "y0_at_2300m": p.pure_rolling_y(1.0 / 2300.0)},
         "cases": sweeps.iter().map(|s| s.to_json()).collect::<Vec<_>>(),
     });
     if let Some(dir) = a.json.parent().filter(|d| !d.as_os_str().is_empty()) {
