@@ -189,7 +189,7 @@
 //! loops, input clamps, reference ramp, safe-state logic, counters) 211 instructions
 //! for Q4.28 and 244 for f32; the control law alone (lead + PI with its limits, called
 //! through a non-inlined function) 72 for Q4.28. The issue's 45/40 targets are met by
-//! the law's arithmetic only (the lead is 3 `SMLAL` + 6 ALU + 3 `QADD/QSUB`); the
+//! the law's arithmetic only (the lead is 3 `SMLAL`, 6 shifts/ORs, 4 `QADD/QSUB`); the
 //! rest of a tick is the input clamps, ramps and bookkeeping the issue also asks for.
 #![no_std]
 #![deny(missing_docs)]
