@@ -744,9 +744,13 @@ mod tests {
     }
 
     fn run(faults: &str, periods: u64) -> (DeviceLoop<Fx>, LinkReport) {
+        run_seeded(faults, periods, 11)
+    }
+
+    fn run_seeded(faults: &str, periods: u64, seed: u64) -> (DeviceLoop<Fx>, LinkReport) {
         let link = LinkConfig {
             faults: faults.parse().expect("valid spec"),
-            seed: 11,
+            seed,
             ..LinkConfig::default()
         };
         let mut d = DeviceLoop::<Fx>::try_new(RuntimeConfig::default(), &link).expect("fits");
@@ -779,8 +783,14 @@ mod tests {
 
     #[test]
     fn faults_are_accounted_and_the_outage_trips_the_safe_state() {
+        for seed in 1..=10 {
+            faults_seed(seed);
+        }
+    }
+
+    fn faults_seed(seed: u64) {
         // 5 kHz: 2 s = 10 000 periods; the outage at 1 s for 50 ms.
-        let (d, r) = run("ber=1e-3,drop=0.1,outage=1.0:0.05", 10_000);
+        let (d, r) = run_seeded("ber=1e-3,drop=0.1,outage=1.0:0.05", 10_000, seed);
         println!("{r}");
         assert!(r.up.adds_up() && r.down.adds_up(), "{r}");
         assert_eq!(r.up.in_flight + r.down.in_flight, 0, "{r}");
@@ -788,16 +798,25 @@ mod tests {
             r.up.rejected > 0 && r.up.dropped >= r.up.link_dropped_whole,
             "{r}"
         );
-        assert!(r.safe_entries_seen >= 1 && r.safe_exits_seen >= 1, "{r}");
-        // The device's own view agrees with the shadow decoder's.
-        if let Some(st) = r.device {
-            assert_eq!(u64::from(st.rx_ok), r.up.received, "{r}");
-            assert!(st.safe_entries >= 1 && st.safe_exits >= 1, "{r}");
-        }
+        // The outage cuts both directions, so whether an actuation frame flagged SAFE
+        // reaches the host is down to the seed: the device's own counters (read back
+        // after the run) are the evidence that it entered and left the safe state.
+        let st = r.device.expect("status read back after the run");
+        assert_eq!(u64::from(st.rx_ok), r.up.received, "{r}");
+        assert!(st.safe_entries >= 1 && st.safe_exits >= 1, "{r}");
+        assert!(st.safe_ticks >= 200, "{r}");
         // Frame age grows during the outage and returns to 0 after it.
         let max_age = d.log().iter().map(|s| s.age).max().unwrap_or(0);
         assert!(max_age >= 250, "max age {max_age}");
-        assert_eq!(d.log().last().map(|s| s.age), Some(0));
+        // (Any single exchange may fail: 10 % drops and BER 1e-3 on ~200 bits each
+        // way leave roughly (0.9 x 0.82)^2 = 54 % of round trips intact.) After the
+        // outage, i.e. from 1.06 s on, fresh actuation is common again and no gap
+        // comes near the outage's 250 periods.
+        let after = &d.log()[5300..];
+        let fresh = after.iter().filter(|s| s.age == 0).count();
+        assert!(fresh * 5 >= after.len() * 2, "{fresh} of {}", after.len());
+        let worst = after.iter().map(|s| s.age).max().unwrap_or(0);
+        assert!(worst < 50, "stale for {worst} periods after the outage");
     }
 
     #[test]
