@@ -100,6 +100,25 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
         a.formats.coef.lsb(),
         a.sample_type
     );
+    let bad: Vec<_> = a
+        .checks
+        .iter()
+        .filter(|c| c.status != Status::Pass)
+        .collect();
+    if !bad.is_empty() {
+        let _ = writeln!(w, "Checks not passed:\n");
+        for c in bad {
+            let _ = writeln!(
+                w,
+                "- **{}** `{}` {}: {}",
+                c.status.as_str(),
+                c.controller,
+                c.item,
+                c.reason
+            );
+        }
+        let _ = writeln!(w);
+    }
     let t = &a.tolerances;
     let _ = writeln!(w, "## Tolerances (warn / fail)\n");
     let _ = writeln!(w, "| figure | warn | fail |\n|---|---|---|");
