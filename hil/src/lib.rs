@@ -1,1 +1,3 @@
 //! The hardware-in-the-loop harness.
+
+pub mod qemu;
