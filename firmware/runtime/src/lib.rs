@@ -1,4 +1,430 @@
-//! The device runtime, `no_std` and board independent: frame handling, the fault
-//! policy and the control tick. The board binaries and the host's in-process device
-//! run this same code.
+//! The device runtime, `no_std`, no allocation, board independent: frame handling, the
+//! fault policy and the control tick. The board binaries (from embassy tasks) and the
+//! host's in-process device (`sim-host run --loop device`) run this same code; the board
+//! layer only moves bytes and measures time.
+//!
+//! ```
+//! use wheelset_proto::{encode_vec, Lateral, Message, Sensor, Decoder, Flags};
+//! use wheelset_runtime::{Runtime, RuntimeConfig};
+//! use wheelset_control::Fx;
+//!
+//! let mut rt = Runtime::<Fx>::try_new(RuntimeConfig::default()).unwrap();
+//! let s = Sensor { seq: 7, t_us: 0, lateral: Lateral::Velocity(1_000),
+//!                  i_a_ma: 0, omega_m_mrad_s: 925_600, demand_nm: 0 };
+//! rt.receive(&encode_vec(&Message::Sensor(s)).unwrap());
+//! let frame = rt.tick(0).to_vec();              // COBS frame incl. the 0x00 delimiter
+//! let mut dec: Decoder = Decoder::new();
+//! let mut out = None;
+//! dec.feed(&frame, |r| out = r.ok());
+//! let Some(Message::Actuation(a)) = out else { panic!() };
+//! assert_eq!(a.seq_echo, 7);
+//! assert!(a.flags.has(Flags::ENABLED) && !a.flags.has(Flags::HOLDING));
+//! assert!((a.u_a_cv - 396_157).abs() <= 1);   // bumpless: u_a = K_m omega = 3961.57 V
+//! ```
+//!
+//! # One tick
+//!
+//! [`Runtime::receive`] takes bytes in any chunking (UART RX, DMA, the simulated link):
+//! valid [`Sensor`] frames become the latest sample, [`Config`] and [`Command`] frames
+//! are applied, everything else is counted. [`Runtime::tick`], once per base period, runs
+//! the control core on the latest sample and returns the [`Actuation`] frame (COBS,
+//! delimiter included), echoing the sample's `seq`, carrying the tick count, the
+//! previous tick's execution time and the [`Flags`].
+//!
+//! # Fault policy
+//!
+//! 1. **Bad frames** (CRC, COBS, version, length, postcard) are dropped and counted by
+//!    kind ([`Status`] `rx_*`); the next actuation frame carries [`Flags::RX_ERROR`].
+//!    Valid frames of a type the device does not take (Actuation, Status, and
+//!    acceleration-only Sensor frames, which this runtime does not integrate yet) count
+//!    as `rx_unexpected`. A Sensor `seq` that is not the previous + 1 counts a `seq_gap`.
+//! 2. **A missing sensor frame** (no new valid Sensor since the last tick): the tick runs
+//!    on the held last sample, flag [`Flags::HOLDING`], `held_ticks` counted, for at most
+//!    `hold_ticks` consecutive ticks ([`RuntimeConfig::hold_ticks`], default
+//!    [`DEFAULT_HOLD_TICKS`] = 2 ms at 5 kHz).
+//! 3. **Safe state** after `hold_ticks + 1` consecutive ticks without one: flag
+//!    [`Flags::SAFE`], `safe_entries` / `safe_ticks` counted. The yaw torque limit ramps
+//!    to zero (the control core's safe ramp, 0.1 s by default) on the held `y'`. The
+//!    traction current reference is zero and, because the held current is stale, the
+//!    traction loop does not integrate it: each safe tick presets the PI to the back-EMF
+//!    of the held speed (`u_a = K_m omega_m`), the voltage at which the armature current
+//!    decays to zero (time constant `L_a/R_a` = 10 ms) instead of winding up on old data.
+//! 4. **Recovery**: the first valid Sensor frame leaves the safe state (`safe_exits`):
+//!    the PI restarts from the back-EMF with the current reference ramping up from zero at
+//!    its normal slew rate, the torque limit ramps back up (bumpless both ways).
+//! 5. **Before the first sample**, or with outputs disabled by a [`Config`], the outputs
+//!    are [`Runtime::safe_outputs`] (zero torque, zero voltage; [`Flags::NO_SAMPLE`] /
+//!    no [`Flags::ENABLED`]). These are also what a panic handler drives.
+//!
+//! Counters ([`RuntimeCounters`] = the [`Status`] message) go out in a Status frame after
+//! the next actuation frame when a [`Command::RequestStatus`] arrives;
+//! [`Command::ResetCounters`] zeroes them.
 #![no_std]
+#![deny(missing_docs)]
+
+use wheelset_control::{
+    Config as ControlConfig, ConfigError, Controller, InputCodes, Sample, WireLsb,
+};
+use wheelset_proto::units::{
+    CURRENT_LSB_A, DEMAND_LSB_NM, LAT_VEL_LSB_M_PER_S, SPEED_LSB_RAD_PER_S, TORQUE_LSB_NM,
+    VOLTAGE_LSB_V,
+};
+use wheelset_proto::{encode, Decoder, FrameError, Lateral, YawMode, MAX_FRAME};
+pub use wheelset_proto::{Actuation, Command, Config, Flags, Message, Sensor, Status};
+
+/// The counters: the [`Status`] message is their only definition.
+pub type RuntimeCounters = Status;
+
+/// Default ticks bridged by the held sample before the safe state: 10 (2 ms at 5 kHz).
+pub const DEFAULT_HOLD_TICKS: u16 = 10;
+
+/// Bytes [`Runtime::tick`] may return: an Actuation frame plus a Status frame.
+pub const TX_CAPACITY: usize = 2 * MAX_FRAME;
+
+/// The runtime configuration: the control core's configuration and the fault policy.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RuntimeConfig {
+    /// The control core's configuration. Its `wire` LSBs are overwritten with the
+    /// protocol's ([`protocol_wire_lsb`]): the format has one definition.
+    pub control: ControlConfig,
+    /// Consecutive ticks without a new sensor frame that run on the held sample before
+    /// the safe state (0: the first missing frame enters it).
+    pub hold_ticks: u16,
+    /// Outputs enabled at start.
+    pub enable: bool,
+}
+
+impl Default for RuntimeConfig {
+    fn default() -> Self {
+        Self {
+            control: ControlConfig::default(),
+            hold_ticks: DEFAULT_HOLD_TICKS,
+            enable: true,
+        }
+    }
+}
+
+/// The wire LSBs of `wheelset-proto` in the control core's terms.
+#[must_use]
+pub fn protocol_wire_lsb() -> WireLsb {
+    WireLsb {
+        y_dot: LAT_VEL_LSB_M_PER_S,
+        current: CURRENT_LSB_A,
+        speed: SPEED_LSB_RAD_PER_S,
+        demand: DEMAND_LSB_NM,
+        torque: TORQUE_LSB_NM,
+        voltage: VOLTAGE_LSB_V,
+    }
+}
+
+/// Why a runtime could not be built.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum RuntimeError {
+    /// The control configuration is invalid.
+    Control(ConfigError),
+}
+
+impl core::fmt::Display for RuntimeError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::Control(e) => write!(f, "runtime: control configuration: {e}"),
+        }
+    }
+}
+
+impl From<ConfigError> for RuntimeError {
+    fn from(e: ConfigError) -> Self {
+        Self::Control(e)
+    }
+}
+
+/// The outputs the device drives when it has nothing valid to say.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SafeOutputs {
+    /// Yaw torque, 0.1 N m: 0.
+    pub t_psi_dnm: i32,
+    /// Motor voltage, 10 mV: 0.
+    pub u_a_cv: i32,
+}
+
+/// Control core + frame decoder + fault policy + counters. See the crate docs.
+#[derive(Debug, Clone)]
+pub struct Runtime<T: Sample> {
+    core: Controller<T>,
+    cfg: RuntimeConfig,
+    decoder: Decoder,
+    sample: Option<InputCodes>,
+    seq: u16,
+    fresh: bool,
+    missing: u32,
+    safe: bool,
+    enabled: bool,
+    rx_error: bool,
+    refused: bool,
+    status_requested: bool,
+    ticks: u32,
+    counters: RuntimeCounters,
+    tx: [u8; TX_CAPACITY],
+}
+
+impl<T: Sample> Runtime<T> {
+    /// Builds the control core (validated) and an idle runtime.
+    pub fn try_new(cfg: RuntimeConfig) -> Result<Self, RuntimeError> {
+        let mut cfg = cfg;
+        cfg.control.wire = protocol_wire_lsb();
+        let core = Controller::try_new(&cfg.control)?;
+        Ok(Self {
+            core,
+            cfg,
+            decoder: Decoder::new(),
+            sample: None,
+            seq: 0,
+            fresh: false,
+            missing: 0,
+            safe: false,
+            enabled: cfg.enable,
+            rx_error: false,
+            refused: false,
+            status_requested: false,
+            ticks: 0,
+            counters: RuntimeCounters::default(),
+            tx: [0; TX_CAPACITY],
+        })
+    }
+
+    /// What a panic handler drives: zero torque, zero voltage.
+    #[must_use]
+    pub const fn safe_outputs() -> SafeOutputs {
+        SafeOutputs {
+            t_psi_dnm: 0,
+            u_a_cv: 0,
+        }
+    }
+
+    /// Takes received bytes in any chunking; decodes frames, applies commands, counts bad
+    /// frames. Never panics.
+    pub fn receive(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            if let Some(r) = self.decoder.push(b) {
+                self.on_frame(r);
+            }
+        }
+    }
+
+    fn on_frame(&mut self, r: Result<Message, FrameError>) {
+        let c = &mut self.counters;
+        let m = match r {
+            Ok(m) => m,
+            Err(e) => {
+                let n = match e {
+                    FrameError::Crc => &mut c.rx_crc,
+                    FrameError::Cobs => &mut c.rx_cobs,
+                    FrameError::Version => &mut c.rx_version,
+                    FrameError::Length => &mut c.rx_length,
+                    FrameError::Postcard => &mut c.rx_postcard,
+                };
+                *n = n.wrapping_add(1);
+                self.rx_error = true;
+                return;
+            }
+        };
+        c.rx_ok = c.rx_ok.wrapping_add(1);
+        match m {
+            Message::Sensor(s) => self.on_sensor(&s),
+            Message::Config(cfg) => self.on_config(&cfg),
+            Message::Command(Command::ResetCounters) => {
+                self.counters = RuntimeCounters::default();
+                self.core.reset_counters();
+                self.refused = false;
+            }
+            Message::Command(Command::RequestStatus) => self.status_requested = true,
+            Message::Actuation(_) | Message::Status(_) => {
+                c.rx_unexpected = c.rx_unexpected.wrapping_add(1);
+            }
+        }
+    }
+
+    fn on_sensor(&mut self, s: &Sensor) {
+        let y_dot = match s.lateral {
+            Lateral::Velocity(v) | Lateral::Both { vel_um_s: v, .. } => v,
+            Lateral::Acceleration(_) => {
+                let c = &mut self.counters;
+                c.rx_unexpected = c.rx_unexpected.wrapping_add(1);
+                return;
+            }
+        };
+        if self.sample.is_some() && s.seq != self.seq.wrapping_add(1) {
+            self.counters.seq_gaps = self.counters.seq_gaps.wrapping_add(1);
+        }
+        self.seq = s.seq;
+        self.sample = Some(InputCodes {
+            y_dot,
+            current: s.i_a_ma,
+            speed: s.omega_m_mrad_s,
+            demand: s.demand_nm,
+        });
+        self.fresh = true;
+    }
+
+    fn on_config(&mut self, c: &Config) {
+        let cc = &self.cfg.control;
+        let rates_changed = c.base_rate_hz != cc.base_rate_hz
+            || c.yaw_div != cc.yaw_divisor
+            || c.traction_div != cc.traction_divisor;
+        if rates_changed {
+            let mut next = self.cfg;
+            next.control.base_rate_hz = c.base_rate_hz;
+            next.control.yaw_divisor = c.yaw_div;
+            next.control.traction_divisor = c.traction_div;
+            match Controller::try_new(&next.control) {
+                Ok(core) => {
+                    self.core = core;
+                    self.cfg = next;
+                    if self.safe {
+                        self.core.set_safe(true);
+                    }
+                }
+                Err(_) => {
+                    self.refused = true;
+                    self.counters.cmd_refused = self.counters.cmd_refused.wrapping_add(1);
+                    return;
+                }
+            }
+        }
+        let mode = match c.mode {
+            YawMode::Passive => wheelset_control::YawMode::Passive,
+            YawMode::Gain => wheelset_control::YawMode::Gain,
+            YawMode::Lead => wheelset_control::YawMode::Lead,
+        };
+        self.core.set_mode(mode);
+        self.core.set_traction(c.traction);
+        self.enabled = c.enable;
+        self.cfg.hold_ticks = c.hold_ticks;
+        self.cfg.control.yaw_mode = mode;
+        self.cfg.control.traction_enabled = c.traction;
+        self.cfg.enable = c.enable;
+        self.refused = false;
+    }
+
+    /// One base-rate tick (see the crate docs for the policy). Returns the Actuation frame
+    /// (COBS, 0x00 delimiter included), followed by a Status frame if one was requested.
+    /// `last_exec`: the measured execution time of the previous tick (cycles or
+    /// instructions), reported in the frame. Never panics.
+    pub fn tick(&mut self, last_exec: u32) -> &[u8] {
+        self.ticks = self.ticks.wrapping_add(1);
+        let hold = u32::from(self.cfg.hold_ticks);
+        let fresh = core::mem::replace(&mut self.fresh, false);
+        let mut flags = Flags::default();
+        let c = &mut self.counters;
+        c.ticks = c.ticks.wrapping_add(1);
+        if fresh {
+            self.missing = 0;
+            if self.safe {
+                self.safe = false;
+                c.safe_exits = c.safe_exits.wrapping_add(1);
+                self.core.set_safe(false);
+                if let Some(s) = self.sample {
+                    // Bumpless restart of the traction loop from the back-EMF, reference
+                    // ramping up from zero.
+                    let speed = self.core.codec().decode(&s).speed;
+                    self.core.preset_back_emf(speed);
+                }
+            }
+        } else if self.sample.is_some() {
+            self.missing = self.missing.saturating_add(1);
+            if self.missing > hold && !self.safe {
+                self.safe = true;
+                c.safe_entries = c.safe_entries.wrapping_add(1);
+                self.core.set_safe(true);
+            }
+            if !self.safe {
+                c.held_ticks = c.held_ticks.wrapping_add(1);
+                flags.set(Flags::HOLDING, true);
+            }
+        }
+        if self.safe {
+            c.safe_ticks = c.safe_ticks.wrapping_add(1);
+            flags.set(Flags::SAFE | Flags::HOLDING, true);
+        }
+        let before = *self.core.counters();
+        let (t_psi, u_a) = match (self.sample, self.enabled) {
+            (Some(s), true) => {
+                let mut inp = self.core.codec().decode(&s);
+                if self.safe {
+                    // Stale current: do not integrate it (policy item 3).
+                    self.core.preset_back_emf(inp.speed);
+                    inp.current = T::ZERO;
+                }
+                let out = self.core.tick(&inp);
+                let o = self.core.codec().encode(&out);
+                (o.yaw_torque, o.voltage)
+            }
+            (None, _) | (_, false) => {
+                let s = Self::safe_outputs();
+                (s.t_psi_dnm, s.u_a_cv)
+            }
+        };
+        let after = self.core.counters();
+        let yaw_sat = after.yaw_torque.clamped != before.yaw_torque.clamped;
+        let tr_sat = after.voltage.clamped != before.voltage.clamped;
+        let inputs = |k: &wheelset_control::Counters| {
+            [k.y_dot, k.current, k.speed, k.demand]
+                .iter()
+                .fold(0u32, |a, s| {
+                    a.wrapping_add(s.clamped).wrapping_add(s.invalid)
+                })
+        };
+        let clamped = inputs(after).wrapping_sub(inputs(&before));
+        let c = &mut self.counters;
+        c.yaw_sat = c.yaw_sat.wrapping_add(u32::from(yaw_sat));
+        c.traction_sat = c.traction_sat.wrapping_add(u32::from(tr_sat));
+        c.input_clamped = c.input_clamped.wrapping_add(clamped);
+        flags.set(Flags::ENABLED, self.enabled);
+        flags.set(Flags::YAW_SAT, yaw_sat);
+        flags.set(Flags::TRACTION_SAT, tr_sat);
+        flags.set(Flags::NO_SAMPLE, self.sample.is_none());
+        flags.set(
+            Flags::RX_ERROR,
+            core::mem::replace(&mut self.rx_error, false),
+        );
+        flags.set(Flags::CMD_REFUSED, self.refused);
+        c.flags = flags;
+        let act = Message::Actuation(Actuation {
+            seq_echo: self.seq,
+            tick: self.ticks as u16,
+            exec: last_exec,
+            flags,
+            t_psi_dnm: t_psi,
+            u_a_cv: u_a,
+        });
+        // MAX_FRAME always fits (the proto tests prove every message encodes within it).
+        let mut n = encode(&act, &mut self.tx).unwrap_or(0);
+        if core::mem::replace(&mut self.status_requested, false) {
+            let st = Message::Status(self.counters);
+            if let Some(rest) = self.tx.get_mut(n..) {
+                n += encode(&st, rest).unwrap_or(0);
+            }
+        }
+        self.tx.get(..n).unwrap_or(&[])
+    }
+
+    /// The counters.
+    pub fn counters(&self) -> &RuntimeCounters {
+        &self.counters
+    }
+
+    /// The control core (read only: coefficients, states, its own counters).
+    pub fn core(&self) -> &Controller<T> {
+        &self.core
+    }
+
+    /// The configuration in force.
+    pub fn config(&self) -> &RuntimeConfig {
+        &self.cfg
+    }
+
+    /// In the safe state?
+    pub fn is_safe(&self) -> bool {
+        self.safe
+    }
+}

@@ -1,0 +1,527 @@
+//! The multi-rate controller: input sanitising and clamps, the yaw loop (passive / gain /
+//! lead) and the traction loop (ramped reference + PI), output limits, the safe state,
+//! counters, and wire-code conversion.
+
+use crate::config::{Config, ConfigError, FullScales, WireLsb, YawMode};
+use crate::lead::{Lead, LeadDiscrete, LeadState};
+use crate::pi::{Pi, PiDiscrete, PiState};
+use crate::sample::{Fx, Sample};
+
+/// One tick's inputs, per unit (`x_SI / FS`, [`FullScales`]). Build them from SI values
+/// with [`Inputs::from_si`] or from wire codes with [`Codec::decode`].
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Inputs<T> {
+    /// Lateral velocity `y'` relative to the track, pu of `scales.y_dot` (+ = right).
+    pub y_dot: T,
+    /// Motor current `i_a`, pu of `scales.current`.
+    pub current: T,
+    /// Motor speed `theta_m'`, pu of `scales.speed`.
+    pub speed: T,
+    /// Traction demand (wheel torque), pu of `scales.demand`; `i_ref = demand/(n K_m)`.
+    pub demand: T,
+}
+
+impl<T: Sample> Inputs<T> {
+    /// From SI values (m/s, A, rad/s, N m): `x / FS`, rounded to `T`.
+    pub fn from_si(s: &FullScales, y_dot: f64, current: f64, speed: f64, demand: f64) -> Self {
+        Self {
+            y_dot: T::from_f64(y_dot / s.y_dot),
+            current: T::from_f64(current / s.current),
+            speed: T::from_f64(speed / s.speed),
+            demand: T::from_f64(demand / s.demand),
+        }
+    }
+}
+
+/// One tick's outputs, per unit.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Outputs<T> {
+    /// Yaw control torque `T_psi`, pu of `scales.torque`. Sign: eq. 5
+    /// `J psi'' + ... = -T_psi`; the active law is `T_psi = +K y'`.
+    pub yaw_torque: T,
+    /// Motor voltage `u_a`, pu of `scales.voltage` (0 while traction is off).
+    pub voltage: T,
+}
+
+impl<T: Sample> Outputs<T> {
+    /// To SI: `(T_psi in N m, u_a in V)`.
+    pub fn to_si(&self, s: &FullScales) -> (f64, f64) {
+        (
+            self.yaw_torque.to_f64() * s.torque,
+            self.voltage.to_f64() * s.voltage,
+        )
+    }
+}
+
+/// How often one signal was invalid (NaN, floats only) or clamped.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SignalCounts {
+    /// NaN replaced by 0.
+    pub invalid: u32,
+    /// Clamped to its limit.
+    pub clamped: u32,
+}
+
+impl SignalCounts {
+    #[inline(always)]
+    fn count(&mut self, invalid: bool, clamped: bool) {
+        self.invalid = self.invalid.wrapping_add(invalid as u32);
+        self.clamped = self.clamped.wrapping_add(clamped as u32);
+    }
+}
+
+/// Saturation and invalid-input counters (wrapping `u32`), readable by the runtime.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Counters {
+    /// Ticks run.
+    pub ticks: u32,
+    /// Yaw-loop steps run.
+    pub yaw_steps: u32,
+    /// Traction-loop steps run.
+    pub traction_steps: u32,
+    /// Input `y'` (clamp `limits.y_dot`).
+    pub y_dot: SignalCounts,
+    /// Input current (clamp `limits.current`; read on traction steps with traction on).
+    pub current: SignalCounts,
+    /// Input speed (clamp `limits.speed`; read only for the bumpless preset).
+    pub speed: SignalCounts,
+    /// Input demand (clamp `limits.demand`; as the current).
+    pub demand: SignalCounts,
+    /// Output yaw torque against `limits.torque` (the safe-state ramp is not counted).
+    pub yaw_torque: SignalCounts,
+    /// PI output against the voltage limits.
+    pub voltage: SignalCounts,
+    /// PI integrator clamps (anti-windup engaged).
+    pub integrator: SignalCounts,
+}
+
+impl Counters {
+    /// Sum of all clamps and invalid inputs.
+    pub fn total(&self) -> u64 {
+        [
+            self.y_dot,
+            self.current,
+            self.speed,
+            self.demand,
+            self.yaw_torque,
+            self.voltage,
+            self.integrator,
+        ]
+        .iter()
+        .map(|c| c.invalid as u64 + c.clamped as u64)
+        .sum()
+    }
+}
+
+/// Integer wire codes of the inputs (LSBs in [`WireLsb`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct InputCodes {
+    /// y', codes of `wire.y_dot`.
+    pub y_dot: i32,
+    /// Current, codes of `wire.current`.
+    pub current: i32,
+    /// Speed, codes of `wire.speed`.
+    pub speed: i32,
+    /// Demand, codes of `wire.demand`.
+    pub demand: i32,
+}
+
+/// Integer wire codes of the outputs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct OutputCodes {
+    /// Yaw torque, codes of `wire.torque`.
+    pub yaw_torque: i32,
+    /// Voltage, codes of `wire.voltage`.
+    pub voltage: i32,
+}
+
+/// Wire-code <-> per-unit conversion with factors precomputed at construction
+/// (`pu = code * LSB/FS`; for [`Fx`] an integer multiply and shift, no float).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Codec<T: Sample> {
+    y_dot: T::Scale,
+    current: T::Scale,
+    speed: T::Scale,
+    demand: T::Scale,
+    torque: T::Scale,
+    voltage: T::Scale,
+}
+
+impl<T: Sample> Codec<T> {
+    /// Precompute the six factors; an error names a factor that does not fit.
+    pub fn try_new(lsb: &WireLsb, fs: &FullScales) -> Result<Self, ConfigError> {
+        let sc = |name: &'static str, f: f64| {
+            T::scale_in(f).ok_or(ConfigError::Coefficient { name, value: f })
+        };
+        let so = |name: &'static str, f: f64| {
+            T::scale_out(f).ok_or(ConfigError::Coefficient { name, value: f })
+        };
+        Ok(Self {
+            y_dot: sc("wire.y_dot/scales.y_dot", lsb.y_dot / fs.y_dot)?,
+            current: sc("wire.current/scales.current", lsb.current / fs.current)?,
+            speed: sc("wire.speed/scales.speed", lsb.speed / fs.speed)?,
+            demand: sc("wire.demand/scales.demand", lsb.demand / fs.demand)?,
+            torque: so("scales.torque/wire.torque", fs.torque / lsb.torque)?,
+            voltage: so("scales.voltage/wire.voltage", fs.voltage / lsb.voltage)?,
+        })
+    }
+
+    /// Codes -> per-unit inputs.
+    #[inline]
+    pub fn decode(&self, c: &InputCodes) -> Inputs<T> {
+        Inputs {
+            y_dot: T::from_code(c.y_dot, &self.y_dot),
+            current: T::from_code(c.current, &self.current),
+            speed: T::from_code(c.speed, &self.speed),
+            demand: T::from_code(c.demand, &self.demand),
+        }
+    }
+
+    /// Per-unit outputs -> codes (rounded, saturating at the `i32` range).
+    #[inline]
+    pub fn encode(&self, o: &Outputs<T>) -> OutputCodes {
+        OutputCodes {
+            yaw_torque: o.yaw_torque.to_code(&self.torque),
+            voltage: o.voltage.to_code(&self.voltage),
+        }
+    }
+}
+
+/// The discretised, quantised configuration (immutable while running).
+#[derive(Clone, Copy, Debug)]
+struct Law<T: Sample> {
+    lead: Lead<T>,
+    gain: T::Coeff,
+    pi: Pi<T>,
+    /// Input clamps, pu.
+    y_dot_max: T,
+    current_max: T,
+    speed_max: T,
+    demand_max: T,
+    /// Output torque limit, pu.
+    torque_max: T,
+    /// `scales.demand/(n K_m scales.current)`: demand pu -> current-reference pu.
+    demand_to_iref: T::Coeff,
+    /// `K_m scales.speed/scales.voltage`: speed pu -> back-EMF pu.
+    back_emf: T::Coeff,
+    /// Reference slew per traction step, pu (normal and safe state).
+    iref_step: T,
+    iref_safe_step: T,
+    /// Torque-limit ramp per yaw step, pu.
+    torque_step: T,
+    yaw_divisor: u16,
+    traction_divisor: u16,
+}
+
+/// The controller: configuration, filter states, counters. See the crate docs.
+#[derive(Clone, Debug)]
+pub struct Controller<T: Sample> {
+    law: Law<T>,
+    codec: Codec<T>,
+    config: Config,
+    lead_disc: LeadDiscrete,
+    pi_disc: PiDiscrete,
+    mode: YawMode,
+    traction: bool,
+    safe: bool,
+    /// The integrator has been preset since traction was (re)enabled.
+    armed: bool,
+    yaw_phase: u16,
+    traction_phase: u16,
+    lead_state: LeadState<T>,
+    pi_state: PiState<T>,
+    /// Ramped current reference, pu.
+    iref: T,
+    /// Present torque limit (ramps to 0 in the safe state), pu.
+    torque_lim: T,
+    /// Last clamped y' (for a bumpless switch into the lead).
+    last_y_dot: T,
+    out: Outputs<T>,
+    counters: Counters,
+}
+
+/// The project's production controller: Q4.28 signals, Q1.31 coefficients.
+pub type FixedController = Controller<Fx>;
+/// The FPU build.
+pub type F32Controller = Controller<f32>;
+/// The reference.
+pub type F64Controller = Controller<f64>;
+
+impl<T: Sample> Controller<T> {
+    /// Validate `config`, discretise (f64), quantise. Starts in `config.yaw_mode`, with
+    /// traction as configured, not safe, all states zero and the integrator *not yet
+    /// preset*: the first traction step presets it to the back-EMF `K_m omega_m` of the
+    /// measured speed (bumpless start), unless [`Self::preset_back_emf`] ran before.
+    pub fn try_new(config: &Config) -> Result<Self, ConfigError> {
+        config.validate()?;
+        let s = &config.scales;
+        let l = &config.limits;
+        let lead_disc = config.lead.discretise(config.yaw_period())?;
+        let pi_disc = config.pi.discretise(config.traction_period())?;
+        let lead = Lead::new(&lead_disc.to_pu(s.y_dot, s.torque))?;
+        let pi = Pi::new(
+            &pi_disc.to_pu(s.current, s.voltage),
+            l.voltage_min / s.voltage,
+            l.voltage_max / s.voltage,
+        )?;
+        let q = |name: &'static str, v: f64| {
+            T::quantise(v).ok_or(ConfigError::Coefficient { name, value: v })
+        };
+        let gain = q("gain_k (pu)", config.gain_k * s.y_dot / s.torque)?;
+        let iref_max = l.demand / (config.motor.n * config.motor.k_m) / s.current;
+        let law = Law {
+            lead,
+            gain,
+            pi,
+            y_dot_max: T::from_f64(l.y_dot / s.y_dot),
+            current_max: T::from_f64(l.current / s.current),
+            speed_max: T::from_f64(l.speed / s.speed),
+            demand_max: T::from_f64(l.demand / s.demand),
+            torque_max: T::from_f64(l.torque / s.torque),
+            demand_to_iref: q(
+                "demand_to_iref (pu)",
+                s.demand / (config.motor.n * config.motor.k_m * s.current),
+            )?,
+            back_emf: q("back_emf K_m (pu)", config.motor.k_m * s.speed / s.voltage)?,
+            iref_step: T::from_f64(l.current_ref_rate * config.traction_period() / s.current),
+            iref_safe_step: T::from_f64(
+                iref_max * config.traction_period() / config.safe.traction_s,
+            ),
+            torque_step: T::from_f64(l.torque / s.torque * config.yaw_period() / config.safe.yaw_s),
+            yaw_divisor: config.yaw_divisor,
+            traction_divisor: config.traction_divisor,
+        };
+        let w = &config.wire;
+        let codec = Codec::<T>::try_new(w, s)?;
+        Ok(Self {
+            law,
+            codec,
+            config: *config,
+            lead_disc,
+            pi_disc,
+            mode: config.yaw_mode,
+            traction: config.traction_enabled,
+            safe: false,
+            armed: false,
+            yaw_phase: 0,
+            traction_phase: 0,
+            lead_state: LeadState::default(),
+            pi_state: PiState::default(),
+            iref: T::ZERO,
+            torque_lim: law.torque_max,
+            last_y_dot: T::ZERO,
+            out: Outputs::default(),
+            counters: Counters::default(),
+        })
+    }
+
+    /// One base-rate tick: sanitise and clamp the inputs (counted), run the yaw loop
+    /// every `yaw_divisor` ticks and the traction loop every `traction_divisor` ticks
+    /// (both on tick 0), hold the other outputs. Never fails, never panics.
+    #[inline]
+    pub fn tick(&mut self, inp: &Inputs<T>) -> Outputs<T> {
+        let c = &mut self.counters;
+        c.ticks = c.ticks.wrapping_add(1);
+        if self.yaw_phase == 0 {
+            self.yaw_phase = self.law.yaw_divisor - 1;
+            self.yaw_step(inp.y_dot);
+        } else {
+            self.yaw_phase -= 1;
+        }
+        if self.traction_phase == 0 {
+            self.traction_phase = self.law.traction_divisor - 1;
+            self.traction_step(inp);
+        } else {
+            self.traction_phase -= 1;
+        }
+        self.out
+    }
+
+    /// Tick on wire codes: decode, [`Self::tick`], encode.
+    #[inline]
+    pub fn tick_codes(&mut self, inp: &InputCodes) -> OutputCodes {
+        let i = self.codec.decode(inp);
+        let o = self.tick(&i);
+        self.codec.encode(&o)
+    }
+
+    #[inline(always)]
+    fn input(x: T, max: T, c: &mut SignalCounts) -> T {
+        let (x, bad) = x.sanitize();
+        let (x, sat) = x.limit(T::ZERO.sat_sub(max), max);
+        c.count(bad, sat);
+        x
+    }
+
+    #[inline(always)]
+    fn yaw_step(&mut self, y_dot: T) {
+        let law = &self.law;
+        let c = &mut self.counters;
+        c.yaw_steps = c.yaw_steps.wrapping_add(1);
+        let x = Self::input(y_dot, law.y_dot_max, &mut c.y_dot);
+        self.last_y_dot = x;
+        let raw = match self.mode {
+            YawMode::Passive => T::ZERO,
+            YawMode::Gain => x.mul_c(law.gain),
+            YawMode::Lead => law.lead.process(&mut self.lead_state, x),
+        };
+        let (t, sat) = raw.limit(T::ZERO.sat_sub(law.torque_max), law.torque_max);
+        c.yaw_torque.count(false, sat);
+        // Safe-state ramp of the limit (not counted as a saturation).
+        self.torque_lim = if self.safe {
+            self.torque_lim
+                .sat_sub(law.torque_step)
+                .limit(T::ZERO, law.torque_max)
+                .0
+        } else {
+            self.torque_lim
+                .sat_add(law.torque_step)
+                .limit(T::ZERO, law.torque_max)
+                .0
+        };
+        self.out.yaw_torque = t.limit(T::ZERO.sat_sub(self.torque_lim), self.torque_lim).0;
+    }
+
+    #[inline(always)]
+    fn traction_step(&mut self, inp: &Inputs<T>) {
+        let law = &self.law;
+        let c = &mut self.counters;
+        c.traction_steps = c.traction_steps.wrapping_add(1);
+        if !self.traction {
+            self.out.voltage = T::ZERO;
+            self.armed = false;
+            return;
+        }
+        let i = Self::input(inp.current, law.current_max, &mut c.current);
+        let d = Self::input(inp.demand, law.demand_max, &mut c.demand);
+        if !self.armed {
+            // Bumpless start: the only use of the speed.
+            let w = Self::input(inp.speed, law.speed_max, &mut c.speed);
+            law.pi.preset(&mut self.pi_state, w.mul_c(law.back_emf));
+            self.armed = true;
+        }
+        let (target, step) = if self.safe {
+            (T::ZERO, law.iref_safe_step)
+        } else {
+            (d.mul_c(law.demand_to_iref), law.iref_step)
+        };
+        let delta = target
+            .sat_sub(self.iref)
+            .limit(T::ZERO.sat_sub(step), step)
+            .0;
+        self.iref = self.iref.sat_add(delta);
+        let (u, f) = law
+            .pi
+            .process_flags(&mut self.pi_state, self.iref.sat_sub(i));
+        c.integrator.count(false, f.integ);
+        c.voltage.count(false, f.output);
+        self.out.voltage = u;
+    }
+
+    /// The counters.
+    pub fn counters(&self) -> &Counters {
+        &self.counters
+    }
+    /// Reset the counters to zero.
+    pub fn reset_counters(&mut self) {
+        self.counters = Counters::default();
+    }
+
+    /// Enter (`true`) or leave the safe state. Entering: the yaw torque limit ramps
+    /// linearly to 0 over `safe.yaw_s` and the current reference to 0 over at most
+    /// `safe.traction_s`; leaving: the torque limit ramps back up at the same rate and
+    /// the reference follows the demand at its normal slew rate.
+    pub fn set_safe(&mut self, safe: bool) {
+        self.safe = safe;
+    }
+    /// In the safe state?
+    pub fn is_safe(&self) -> bool {
+        self.safe
+    }
+
+    /// Change the yaw mode. Switching into [`YawMode::Lead`] starts the lead from its
+    /// steady state for the last `y'` (bumpless).
+    pub fn set_mode(&mut self, mode: YawMode) {
+        if mode == YawMode::Lead && self.mode != YawMode::Lead {
+            self.lead_state = self.law.lead.steady_state(self.last_y_dot);
+        }
+        self.mode = mode;
+    }
+    /// The yaw mode.
+    pub fn mode(&self) -> YawMode {
+        self.mode
+    }
+
+    /// Traction loop on/off. Off: `u_a = 0` and the integrator is disarmed; on again:
+    /// the next traction step presets it to the back-EMF (bumpless).
+    pub fn set_traction(&mut self, on: bool) {
+        self.traction = on;
+        if !on {
+            self.armed = false;
+        }
+    }
+    /// Traction loop on?
+    pub fn traction_enabled(&self) -> bool {
+        self.traction
+    }
+
+    /// Bumpless start: preset the PI integrator to the back-EMF `K_m omega_m` of the
+    /// motor speed `speed` (pu), clamped to the voltage limits, and the reference to 0.
+    pub fn preset_back_emf(&mut self, speed: T) {
+        let law = &self.law;
+        let w = speed
+            .sanitize()
+            .0
+            .limit(T::ZERO.sat_sub(law.speed_max), law.speed_max)
+            .0;
+        law.pi.preset(&mut self.pi_state, w.mul_c(law.back_emf));
+        self.iref = T::ZERO;
+        self.armed = true;
+    }
+    /// Preset the PI integrator to a voltage `u0` (pu), clamped to the limits.
+    pub fn preset_integrator(&mut self, u0: T) {
+        self.law.pi.preset(&mut self.pi_state, u0);
+        self.armed = true;
+    }
+
+    /// The configuration this controller was built from.
+    pub fn config(&self) -> &Config {
+        &self.config
+    }
+    /// The discrete lead (f64, SI) before quantisation.
+    pub fn lead_discrete(&self) -> &LeadDiscrete {
+        &self.lead_disc
+    }
+    /// The discrete PI (f64, SI) before quantisation.
+    pub fn pi_discrete(&self) -> &PiDiscrete {
+        &self.pi_disc
+    }
+    /// The lead as quantised for `T`.
+    pub fn lead(&self) -> &Lead<T> {
+        &self.law.lead
+    }
+    /// The PI as quantised for `T`.
+    pub fn pi(&self) -> &Pi<T> {
+        &self.law.pi
+    }
+    /// The wire codec.
+    pub fn codec(&self) -> &Codec<T> {
+        &self.codec
+    }
+    /// The lead's state.
+    pub fn lead_state(&self) -> &LeadState<T> {
+        &self.lead_state
+    }
+    /// The PI's state.
+    pub fn pi_state(&self) -> &PiState<T> {
+        &self.pi_state
+    }
+    /// The ramped current reference, pu.
+    pub fn current_ref(&self) -> T {
+        self.iref
+    }
+    /// The outputs held from the last tick.
+    pub fn outputs(&self) -> Outputs<T> {
+        self.out
+    }
+}

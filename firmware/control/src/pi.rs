@@ -1,0 +1,191 @@
+//! PI traction current controller `Kt(s) = Kp (1 + 1/(Ti s))`, backward-Euler integrator
+//! with clamping anti-windup.
+//!
+//! ```text
+//! e[n] = r[n] - i[n]                                   (A; pu inside)
+//! I[n] = clamp(I[n-1] + Ki e[n], u_min, u_max),  Ki = Kp T/Ti   (backward Euler)
+//! u[n] = clamp(Kp e[n] + I[n], u_min, u_max)
+//! ```
+//!
+//! Transfer function while unsaturated: `U/E = Kp + Ki/(1 - z^-1)`, i.e.
+//! `Kt(s)` with `1/s -> T/(1 - z^-1)`; DC gain infinite (exact integrator: the
+//! integrator's pole is exactly `z = 1` in every number type since no coefficient
+//! multiplies the state).
+//!
+//! Anti-windup: the integrator is clamped to the output range, so after a saturated
+//! run it sits at most at the limit and the output leaves saturation as soon as
+//! `Kp e` changes sign; the overshoot bound is tested.
+//!
+//! Bumpless start: [`PiState::integ`] is preset to the back-EMF `K_m omega_m` so the
+//! first output is the voltage that keeps the current at zero (3961 V at 83.3 m/s).
+
+use crate::sample::Sample;
+use crate::ConfigError;
+
+/// The continuous PI: `Kp (1 + 1/(Ti s))`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PiParams {
+    /// Proportional gain `Kp`, V/A (1).
+    pub kp: f64,
+    /// Integral time `Ti`, s (0.5; the appendix's 0.05 is also valid).
+    pub ti: f64,
+}
+
+impl Default for PiParams {
+    /// `Kp = 1 V/A`, `Ti = 0.5 s` (`Kt(s) = (0.5 s + 1)/(0.5 s)`).
+    fn default() -> Self {
+        Self { kp: 1.0, ti: 0.5 }
+    }
+}
+
+impl PiParams {
+    /// Backward-Euler discretisation at period `t_s`.
+    pub fn discretise(&self, t_s: f64) -> Result<PiDiscrete, ConfigError> {
+        if !(self.kp.is_finite() && self.ti.is_finite() && t_s.is_finite()) {
+            return Err(ConfigError::NotFinite { field: "pi" });
+        }
+        if self.kp <= 0.0 || self.ti <= 0.0 || t_s <= 0.0 {
+            return Err(ConfigError::Range {
+                field: "pi.kp/ti",
+                value: self.kp.min(self.ti),
+                reason: "Kp and Ti must be positive",
+            });
+        }
+        Ok(PiDiscrete {
+            t_s,
+            kp: self.kp,
+            ki: self.kp * t_s / self.ti,
+        })
+    }
+}
+
+/// The discrete PI in SI units (V/A).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PiDiscrete {
+    /// Sample period, s.
+    pub t_s: f64,
+    /// `Kp`, V/A.
+    pub kp: f64,
+    /// `Ki = Kp T/Ti`, V/A per sample.
+    pub ki: f64,
+}
+
+impl PiDiscrete {
+    /// Per-unit coefficients for `e_pu = e/current_fs`, `u_pu = u/voltage_fs`.
+    pub fn to_pu(&self, current_fs: f64, voltage_fs: f64) -> PiPu {
+        let s = current_fs / voltage_fs;
+        PiPu {
+            kp: self.kp * s,
+            ki: self.ki * s,
+        }
+    }
+}
+
+impl core::fmt::Display for PiDiscrete {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(
+            f,
+            "PI backward Euler T={:.3e} s: Kp={:.6e} V/A, Ki=Kp T/Ti={:.9e} V/A per sample \
+             (Ti={:.6} s)",
+            self.t_s,
+            self.kp,
+            self.ki,
+            self.kp * self.t_s / self.ki
+        )
+    }
+}
+
+/// Per-unit PI coefficients.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PiPu {
+    /// `Kp current_fs/voltage_fs`.
+    pub kp: f64,
+    /// `Ki current_fs/voltage_fs`.
+    pub ki: f64,
+}
+
+/// The PI as it runs: quantised coefficients and output limits (configuration).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Pi<T: Sample> {
+    kp: T::Coeff,
+    ki: T::Coeff,
+    /// Lower output (and integrator) limit, pu.
+    pub u_min: T,
+    /// Upper output (and integrator) limit, pu.
+    pub u_max: T,
+}
+
+/// The PI's state: the integrator `I[n-1]` (pu).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PiState<T> {
+    /// Integrator, pu of voltage.
+    pub integ: T,
+}
+
+/// Which limits engaged in one PI step.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PiFlags {
+    /// The integrator was clamped (anti-windup active).
+    pub integ: bool,
+    /// The output was clamped.
+    pub output: bool,
+}
+
+impl<T: Sample> Pi<T> {
+    /// Quantise the coefficients; limits in pu (`u_min < u_max`).
+    pub fn new(pu: &PiPu, u_min: f64, u_max: f64) -> Result<Self, ConfigError> {
+        let q = |name: &'static str, v: f64| {
+            T::quantise(v).ok_or(ConfigError::Coefficient { name, value: v })
+        };
+        if u_min.partial_cmp(&u_max) != Some(core::cmp::Ordering::Less) {
+            return Err(ConfigError::Range {
+                field: "limits.voltage_min/max",
+                value: u_min,
+                reason: "need voltage_min < voltage_max",
+            });
+        }
+        Ok(Self {
+            kp: q("pi.kp (pu)", pu.kp)?,
+            ki: q("pi.ki (pu)", pu.ki)?,
+            u_min: T::from_f64(u_min),
+            u_max: T::from_f64(u_max),
+        })
+    }
+
+    /// The quantised coefficients as f64.
+    pub fn quantised(&self) -> PiPu {
+        PiPu {
+            kp: T::coeff_to_f64(self.kp),
+            ki: T::coeff_to_f64(self.ki),
+        }
+    }
+
+    /// One step on the error `e` (pu), reporting which limits engaged.
+    #[inline(always)]
+    pub fn process_flags(&self, s: &mut PiState<T>, e: T) -> (T, PiFlags) {
+        let (i, fi) = s
+            .integ
+            .sat_add(e.mul_c(self.ki))
+            .limit(self.u_min, self.u_max);
+        s.integ = i;
+        let (u, fo) = e.mul_c(self.kp).sat_add(i).limit(self.u_min, self.u_max);
+        (
+            u,
+            PiFlags {
+                integ: fi,
+                output: fo,
+            },
+        )
+    }
+
+    /// One step on the error `e` (pu): `u = clamp(Kp e + I)`.
+    #[inline]
+    pub fn process(&self, s: &mut PiState<T>, e: T) -> T {
+        self.process_flags(s, e).0
+    }
+
+    /// Preset the integrator to `u0` (pu), clamped to the limits; NaN gives 0.
+    pub fn preset(&self, s: &mut PiState<T>, u0: T) {
+        s.integ = u0.sanitize().0.limit(self.u_min, self.u_max).0;
+    }
+}

@@ -1,0 +1,372 @@
+//! The sample trait: the few operations a filter needs, for `f64`, `f32` and fixed point.
+//!
+//! Every signal inside the controller is **per unit** (`x_pu = x_SI / FS`, the full
+//! scales are in [`crate::FullScales`]), so one sample type serves every signal.
+//!
+//! - `f64`: the reference. `f32`: the FPU build. [`Fx`] (= `fixed::types::I4F28`,
+//!   Q4.28, range `[-8, 8)` pu, LSB `2^-28` = 3.7e-9 pu): the production build.
+//! - Coefficients are quantised once, at construction ([`Sample::quantise`]); for
+//!   [`Fx`] they are Q1.31 ([`Coef`], validated into `(-1, 1)`, LSB `2^-31` = 4.7e-10).
+//! - Fixed-point sums and differences saturate (`QADD`/`QSUB` on Cortex-M4); a product
+//!   is the exact 64-bit `i32 x i32` product rounded to nearest (ties up),
+//!   `y = (x c + 2^30) >> 31` ([`mul_q31`]), which cannot overflow because `|c| < 1`.
+//!   The range analysis in the crate docs shows the saturations cannot engage inside
+//!   the filters once the inputs are clamped; they are the belt, the input clamps
+//!   (counted) are the braces.
+
+use fixed::types::{I1F31, I4F28};
+
+/// The production fixed-point signal type: Q4.28 per unit (`[-8, 8)`, LSB `2^-28`).
+pub type Fx = I4F28;
+/// The production fixed-point coefficient type: Q1.31, validated into `(-1, 1)`
+/// (LSB `2^-31`), so that a product with a Q4.28 signal cannot overflow.
+pub type Coef = I1F31;
+
+/// Number of fractional bits of [`Fx`] signals.
+pub const FX_FRAC: u32 = 28;
+/// Number of fractional bits of [`Coef`] coefficients.
+pub const COEF_FRAC: u32 = 31;
+
+/// A wire-code scale for the fixed-point type, precomputed at construction:
+/// `out = sat32((in * mul + round) >> shift)`, i.e. a multiplication by `mul / 2^shift`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FxScale {
+    /// Multiplier (positive, `< 2^31`).
+    pub mul: i32,
+    /// Right shift, `0..=62`.
+    pub shift: u32,
+    /// `2^(shift-1)` (0 for `shift == 0`): rounds to nearest.
+    pub round: i64,
+}
+
+impl FxScale {
+    /// The scale closest to `factor` with the most precision: the largest `shift` such
+    /// that `round(factor 2^shift) < 2^31`. `None` if `factor` is not finite, not
+    /// positive, `>= 2^31`, or smaller than `2^-40` (no useful precision left).
+    pub fn new(factor: f64) -> Option<Self> {
+        if !(1e-12..2_147_483_647.0).contains(&factor) {
+            return None;
+        }
+        let mut shift = 0u32;
+        let mut scaled = factor;
+        while shift < 62 && scaled * 2.0 < 2_147_483_647.0 {
+            scaled *= 2.0;
+            shift += 1;
+        }
+        let mul = round_f64(scaled);
+        if !(1.0..2_147_483_648.0).contains(&mul) || mul < 1024.0 {
+            return None;
+        }
+        Some(Self {
+            mul: mul as i32,
+            shift,
+            round: if shift == 0 { 0 } else { 1i64 << (shift - 1) },
+        })
+    }
+
+    /// `sat32((x * mul + round) >> shift)`.
+    #[inline]
+    pub fn apply(&self, x: i32) -> i32 {
+        sat32((x as i64 * self.mul as i64 + self.round) >> self.shift)
+    }
+
+    /// The factor this scale really applies, `mul / 2^shift`.
+    pub fn factor(&self) -> f64 {
+        let mut f = self.mul as f64;
+        for _ in 0..self.shift {
+            f *= 0.5;
+        }
+        f
+    }
+}
+
+/// Round half away from zero in `no_std` (construction-time only).
+pub(crate) fn round_f64(x: f64) -> f64 {
+    let t = x as i64 as f64; // truncation; |x| < 2^63 at every call site
+    let d = x - t;
+    if d >= 0.5 {
+        t + 1.0
+    } else if d <= -0.5 {
+        t - 1.0
+    } else {
+        t
+    }
+}
+
+/// Saturate an `i64` to `i32`.
+#[inline(always)]
+pub(crate) fn sat32(x: i64) -> i32 {
+    if x > i32::MAX as i64 {
+        i32::MAX
+    } else if x < i32::MIN as i64 {
+        i32::MIN
+    } else {
+        x as i32
+    }
+}
+
+/// `(x c + 2^30) >> 31`: the Q4.28 x Q1.31 product, rounded to nearest (ties up).
+///
+/// Never overflows, so needs no saturation: `|x| <= 2^31` and `|c| <= 2^31 - 1` (a
+/// [`Coef`] is validated into `(-1, 1)` by [`Sample::quantise`]) give
+/// `|x c + 2^30| < 2^62`, so the shifted result lies in `[-2^31, 2^31 - 1]`. Cortex-M4:
+/// `SMLAL` + two ALU instructions.
+#[inline(always)]
+pub fn mul_q31(x: i32, c: i32) -> i32 {
+    ((x as i64 * c as i64 + (1 << (COEF_FRAC - 1))) >> COEF_FRAC) as i32
+}
+
+/// A per-unit sample: the operations the filters use. One filter implementation serves
+/// every type (idsp style); nothing here allocates, divides or panics.
+pub trait Sample: Copy + Default + PartialEq + PartialOrd + core::fmt::Debug {
+    /// Quantised coefficient (`Self` for floats, [`Coef`] Q1.31 for [`Fx`]).
+    type Coeff: Copy + core::fmt::Debug + PartialEq;
+    /// Precomputed wire-code scale (`Self` for floats, [`FxScale`] for [`Fx`]).
+    type Scale: Copy + core::fmt::Debug + PartialEq;
+    /// Zero.
+    const ZERO: Self;
+    /// Short type name for reports (`"f64"`, `"f32"`, `"Q4.28"`).
+    const NAME: &'static str;
+
+    /// Nearest representable value, saturating (construction time and host use).
+    fn from_f64(x: f64) -> Self;
+    /// The exact value as `f64`.
+    fn to_f64(self) -> f64;
+    /// Quantise a coefficient; `None` if it is not finite or out of the coefficient range.
+    fn quantise(c: f64) -> Option<Self::Coeff>;
+    /// A quantised coefficient's exact value.
+    fn coeff_to_f64(c: Self::Coeff) -> f64;
+    /// `self + rhs`, saturating.
+    fn sat_add(self, rhs: Self) -> Self;
+    /// `self - rhs`, saturating.
+    fn sat_sub(self, rhs: Self) -> Self;
+    /// `self * c`, rounded to nearest and saturating.
+    fn mul_c(self, c: Self::Coeff) -> Self;
+    /// `clamp(self, lo, hi)` and whether it clamped (`lo <= hi` assumed).
+    fn limit(self, lo: Self, hi: Self) -> (Self, bool);
+    /// Replace NaN by zero (floats); reports whether it did. Identity for fixed point.
+    fn sanitize(self) -> (Self, bool);
+    /// Input scale: `factor` = per-unit value of one wire code.
+    fn scale_in(factor: f64) -> Option<Self::Scale>;
+    /// Output scale: `factor` = wire codes per per-unit.
+    fn scale_out(factor: f64) -> Option<Self::Scale>;
+    /// `code * scale` (saturating for fixed point).
+    fn from_code(code: i32, scale: &Self::Scale) -> Self;
+    /// `round(self * scale)` to a code, saturating at the `i32` range (NaN gives 0).
+    fn to_code(self, scale: &Self::Scale) -> i32;
+}
+
+macro_rules! float_sample {
+    ($t:ty, $name:literal) => {
+        impl Sample for $t {
+            type Coeff = $t;
+            type Scale = $t;
+            const ZERO: Self = 0.0;
+            const NAME: &'static str = $name;
+
+            #[inline]
+            fn from_f64(x: f64) -> Self {
+                x as $t
+            }
+            #[inline]
+            fn to_f64(self) -> f64 {
+                self as f64
+            }
+            fn quantise(c: f64) -> Option<$t> {
+                let q = c as $t;
+                if q.is_finite() {
+                    Some(q)
+                } else {
+                    None
+                }
+            }
+            fn coeff_to_f64(c: $t) -> f64 {
+                c as f64
+            }
+            #[inline(always)]
+            fn sat_add(self, rhs: Self) -> Self {
+                self + rhs
+            }
+            #[inline(always)]
+            fn sat_sub(self, rhs: Self) -> Self {
+                self - rhs
+            }
+            #[inline(always)]
+            fn mul_c(self, c: $t) -> Self {
+                self * c
+            }
+            #[inline(always)]
+            fn limit(self, lo: Self, hi: Self) -> (Self, bool) {
+                let y = if self < lo {
+                    lo
+                } else if self > hi {
+                    hi
+                } else {
+                    self
+                };
+                (y, y != self)
+            }
+            #[inline(always)]
+            fn sanitize(self) -> (Self, bool) {
+                #[allow(clippy::eq_op)]
+                let ok = self == self;
+                (if ok { self } else { 0.0 }, !ok)
+            }
+            fn scale_in(factor: f64) -> Option<$t> {
+                let q = factor as $t;
+                if q.is_finite() && q > 0.0 {
+                    Some(q)
+                } else {
+                    None
+                }
+            }
+            fn scale_out(factor: f64) -> Option<$t> {
+                Self::scale_in(factor)
+            }
+            #[inline]
+            fn from_code(code: i32, scale: &$t) -> Self {
+                code as $t * *scale
+            }
+            #[inline]
+            fn to_code(self, scale: &$t) -> i32 {
+                let v = self * *scale;
+                // `as` saturates at the i32 range and maps NaN to 0.
+                (if v >= 0.0 { v + 0.5 } else { v - 0.5 }) as i32
+            }
+        }
+    };
+}
+
+float_sample!(f64, "f64");
+float_sample!(f32, "f32");
+
+impl Sample for Fx {
+    type Coeff = Coef;
+    type Scale = FxScale;
+    const ZERO: Self = Fx::ZERO;
+    const NAME: &'static str = "Q4.28";
+
+    fn from_f64(x: f64) -> Self {
+        Fx::saturating_from_num(x)
+    }
+    fn to_f64(self) -> f64 {
+        self.to_bits() as f64 / (1u64 << FX_FRAC) as f64
+    }
+    fn quantise(c: f64) -> Option<Coef> {
+        // (-1, 1) strictly: keeps `mul_q31` free of overflow (see there).
+        Coef::checked_from_num(c).filter(|q| *q != Coef::MIN)
+    }
+    fn coeff_to_f64(c: Coef) -> f64 {
+        c.to_bits() as f64 / (1u64 << COEF_FRAC) as f64
+    }
+    #[inline(always)]
+    fn sat_add(self, rhs: Self) -> Self {
+        self.saturating_add(rhs)
+    }
+    #[inline(always)]
+    fn sat_sub(self, rhs: Self) -> Self {
+        self.saturating_sub(rhs)
+    }
+    #[inline(always)]
+    fn mul_c(self, c: Coef) -> Self {
+        Fx::from_bits(mul_q31(self.to_bits(), c.to_bits()))
+    }
+    #[inline(always)]
+    fn limit(self, lo: Self, hi: Self) -> (Self, bool) {
+        let y = self.max(lo).min(hi);
+        (y, y != self)
+    }
+    #[inline(always)]
+    fn sanitize(self) -> (Self, bool) {
+        (self, false)
+    }
+    fn scale_in(factor: f64) -> Option<FxScale> {
+        // Codes -> bits: factor (pu per code) * 2^28 bits per pu.
+        FxScale::new(factor * (1u64 << FX_FRAC) as f64)
+    }
+    fn scale_out(factor: f64) -> Option<FxScale> {
+        // Bits -> codes: factor (codes per pu) / 2^28 bits per pu.
+        FxScale::new(factor / (1u64 << FX_FRAC) as f64)
+    }
+    #[inline]
+    fn from_code(code: i32, scale: &FxScale) -> Self {
+        Fx::from_bits(scale.apply(code))
+    }
+    #[inline]
+    fn to_code(self, scale: &FxScale) -> i32 {
+        scale.apply(self.to_bits())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fixed_mul_rounds_to_nearest() {
+        let half = Coef::from_num(0.5);
+        // 3 LSB * 0.5 = 1.5 LSB -> 2 (ties up); -3 LSB * 0.5 = -1.5 -> -1 (ties up).
+        assert_eq!(Fx::from_bits(3).mul_c(half).to_bits(), 2);
+        assert_eq!(Fx::from_bits(-3).mul_c(half).to_bits(), -1);
+        assert!(Fx::quantise(-1.0).is_none() && Fx::quantise(1.0).is_none());
+        assert!(Fx::quantise(0.999_999_999).is_some());
+    }
+
+    #[test]
+    fn mul_q31_never_overflows_for_valid_coefficients() {
+        let reference = |x: i32, c: i32| (x as i128 * c as i128 + (1 << 30)) >> 31;
+        let cmax = i32::MAX;
+        let edges = [
+            i32::MIN,
+            i32::MIN + 1,
+            -(1 << 30),
+            -3,
+            -1,
+            0,
+            1,
+            3,
+            1 << 30,
+            i32::MAX,
+        ];
+        for &x in &edges {
+            for &c in &[-cmax, -cmax + 1, -1, 0, 1, cmax - 1, cmax] {
+                let r = reference(x, c);
+                assert!(r >= i32::MIN as i128 && r <= i32::MAX as i128, "{x} {c}");
+                assert_eq!(mul_q31(x, c) as i128, r, "{x} {c}");
+            }
+        }
+        let mut s = 0x2545_f491_4f6c_dd1du64;
+        for _ in 0..200_000 {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            let (x, c) = (s as i32, ((s >> 32) as i32).max(-cmax));
+            assert_eq!(mul_q31(x, c) as i128, reference(x, c), "{x} {c}");
+        }
+    }
+
+    #[test]
+    fn fx_scale_is_accurate() {
+        for f in [1e-6 * 268_435_456.0, 0.037_252_902_984, 1.0, 3.3e5, 7.0e-9] {
+            let s = FxScale::new(f).expect("representable");
+            assert!((s.factor() / f - 1.0).abs() < 1e-6, "{f}: {s:?}");
+        }
+        assert!(FxScale::new(f64::NAN).is_none());
+        assert!(FxScale::new(-1.0).is_none());
+        assert!(FxScale::new(3e9).is_none());
+        let s = FxScale::new(1000.0).expect("ok");
+        assert_eq!(s.apply(i32::MAX), i32::MAX);
+        assert_eq!(s.apply(i32::MIN), i32::MIN);
+        assert_eq!(s.apply(-7), -7000);
+    }
+
+    #[test]
+    fn float_sanitize_and_codes() {
+        assert_eq!(f32::NAN.sanitize(), (0.0, true));
+        assert_eq!(1.5f32.sanitize(), (1.5, false));
+        assert_eq!(f64::INFINITY.to_code(&1.0), i32::MAX);
+        assert_eq!(f64::NAN.to_code(&1.0), 0);
+        assert_eq!((-2.5f64).to_code(&1.0), -3);
+        assert!(f32::NAN.limit(-1.0, 1.0).1);
+    }
+}

@@ -1,0 +1,88 @@
+//! The streaming frame accumulator: bytes in any chunking, frames out.
+
+use crate::frame::{decode_frame, FrameError, MAX_FRAME};
+use crate::message::Message;
+
+/// Collects bytes up to each 0x00 delimiter in a fixed buffer and decodes the frame.
+///
+/// - Empty frames (repeated delimiters) are skipped silently: a sender may put a 0x00
+///   before a frame to resynchronise the receiver.
+/// - A frame longer than [`MAX_FRAME`] is discarded up to the next delimiter and
+///   reported once as [`FrameError::Length`]: the decoder resynchronises on 0x00.
+/// - Never panics, never allocates; `N` bounds the memory (default [`MAX_FRAME`]).
+///
+/// ```
+/// use wheelset_proto::{encode_vec, Command, Decoder, Message};
+/// let frame = encode_vec(&Message::Command(Command::ResetCounters)).unwrap();
+/// let mut dec: Decoder = Decoder::new();
+/// let mut got = None;
+/// for &b in &frame {
+///     if let Some(r) = dec.push(b) {
+///         got = Some(r);
+///     }
+/// }
+/// assert_eq!(got, Some(Ok(Message::Command(Command::ResetCounters))));
+/// ```
+#[derive(Debug, Clone)]
+pub struct Decoder<const N: usize = MAX_FRAME> {
+    buf: heapless::Vec<u8, N>,
+    overflow: bool,
+}
+
+impl<const N: usize> Default for Decoder<N> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const N: usize> Decoder<N> {
+    /// An empty decoder, waiting for the first byte of a frame.
+    #[must_use]
+    pub const fn new() -> Self {
+        Self {
+            buf: heapless::Vec::new(),
+            overflow: false,
+        }
+    }
+
+    /// Discards any partial frame.
+    pub fn reset(&mut self) {
+        self.buf.clear();
+        self.overflow = false;
+    }
+
+    /// Bytes of the frame in progress.
+    #[must_use]
+    pub fn pending(&self) -> usize {
+        self.buf.len()
+    }
+
+    /// Takes one byte; returns a result when the byte closed a non-empty frame.
+    pub fn push(&mut self, byte: u8) -> Option<Result<Message, FrameError>> {
+        if byte != 0 {
+            if !self.overflow && self.buf.push(byte).is_err() {
+                self.overflow = true;
+            }
+            return None;
+        }
+        if self.overflow {
+            self.reset();
+            return Some(Err(FrameError::Length));
+        }
+        if self.buf.is_empty() {
+            return None;
+        }
+        let r = decode_frame(&mut self.buf);
+        self.buf.clear();
+        Some(r)
+    }
+
+    /// Takes a chunk of bytes, calling `f` for every frame closed in it.
+    pub fn feed(&mut self, bytes: &[u8], mut f: impl FnMut(Result<Message, FrameError>)) {
+        for &b in bytes {
+            if let Some(r) = self.push(b) {
+                f(r);
+            }
+        }
+    }
+}

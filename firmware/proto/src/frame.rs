@@ -1,0 +1,154 @@
+//! Framing: `COBS( VERSION | postcard(Message) | CRC-32C LE ) 0x00`.
+//!
+//! The CRC covers the version byte and the postcard bytes. Decoding checks, in order:
+//! COBS structure, length, CRC, version, postcard, no trailing bytes; the first failure is
+//! the [`FrameError`].
+
+use crate::message::Message;
+
+/// Protocol version, the first byte of every decoded frame.
+pub const VERSION: u8 = 1;
+
+/// The frame CRC: CRC-32C (Castagnoli, `crc::CRC_32_ISCSI`), stored little-endian.
+///
+/// Why 32 bits: a 1- or 2-bit flip inside COBS data bytes is a 1- or 2-bit error of the
+/// payload, which any CRC with Hamming distance >= 3 rejects (CRC-16/CCITT: HD 4 up to
+/// 32 751 bits). But a flip in a COBS code byte, or one that creates or destroys a 0x00
+/// delimiter, moves zeros around or splits/merges frames: the decoded payload then differs
+/// in many bits, and a CRC rejects it only with probability `1 - 2^-n`.
+///
+/// Measured (`cargo test -p wheelset-proto --test flips -- --nocapture`): of the 2.44 M
+/// one- and two-bit corruptions of 120 random Sensor/Actuation frames, 51 446 (2.1 %)
+/// reach the CRC with a scrambled payload. At BER 1e-3 a 23-byte frame takes a structural
+/// hit with probability ~4e-3; with 16 bits `4e-3 * 2^-16` ~ 6e-8 per frame pass the CRC
+/// (before the version and exact-length checks), i.e. at 2 x 2000 frames/s an undetected,
+/// wrong torque command every ~70 min. CRC-32C makes it `2^-32` (~9 years of continuous
+/// BER 1e-3, before the version and length checks) for two more
+/// bytes per frame. Castagnoli's polynomial keeps Hamming distance 6 at these lengths.
+pub const CRC: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISCSI);
+
+/// CRC length in bytes.
+pub const CRC_LEN: usize = 4;
+
+/// Largest `VERSION | postcard(Message)` (the [`crate::Status`] with every counter at
+/// `u32::MAX`: 1 + 1 + 17 * 5 + 1 = 88).
+pub const MAX_RAW: usize = 96;
+
+/// Largest COBS-encoded frame including the 0x00 delimiter:
+/// `MAX_RAW + CRC_LEN` bytes need one COBS overhead byte per 254 (here 1).
+pub const MAX_FRAME: usize = MAX_RAW + CRC_LEN + 1 + 1;
+
+/// Shortest valid decoded frame: version, type, CRC.
+pub const MIN_DECODED: usize = 1 + 1 + CRC_LEN;
+
+/// Why a frame was rejected.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FrameError {
+    /// The CRC does not match.
+    Crc,
+    /// The bytes between two delimiters are not valid COBS.
+    Cobs,
+    /// A valid frame of another protocol version.
+    Version,
+    /// Too short, longer than [`MAX_FRAME`], or bytes left after the message.
+    Length,
+    /// The CRC matched but postcard could not decode a [`Message`].
+    Postcard,
+}
+
+impl core::fmt::Display for FrameError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Self::Crc => "frame rejected: CRC mismatch",
+            Self::Cobs => "frame rejected: invalid COBS encoding",
+            Self::Version => "frame rejected: unknown protocol version",
+            Self::Length => "frame rejected: bad length",
+            Self::Postcard => "frame rejected: message does not decode",
+        })
+    }
+}
+
+#[cfg(feature = "std")]
+impl std::error::Error for FrameError {}
+
+/// Why a message could not be encoded.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum EncodeError {
+    /// The output buffer is shorter than the frame (use [`MAX_FRAME`]).
+    BufferTooSmall,
+}
+
+impl core::fmt::Display for EncodeError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str("output buffer too small for the frame (MAX_FRAME bytes always fit)")
+    }
+}
+
+#[cfg(feature = "std")]
+impl std::error::Error for EncodeError {}
+
+/// Encodes `msg` as one wire frame, delimiter included, into `out`; returns its length.
+///
+/// ```
+/// use wheelset_proto::{encode, Command, Message, MAX_FRAME};
+/// let mut buf = [0u8; MAX_FRAME];
+/// let n = encode(&Message::Command(Command::RequestStatus), &mut buf).unwrap();
+/// assert_eq!(buf[n - 1], 0);
+/// assert!(!buf[..n - 1].contains(&0));
+/// ```
+pub fn encode(msg: &Message, out: &mut [u8]) -> Result<usize, EncodeError> {
+    let mut raw = [0u8; MAX_RAW + CRC_LEN];
+    raw[0] = VERSION;
+    let body = postcard::to_slice(msg, &mut raw[1..MAX_RAW])
+        .map_err(|_| EncodeError::BufferTooSmall)?
+        .len();
+    let n = 1 + body;
+    let crc = CRC.checksum(&raw[..n]).to_le_bytes();
+    let with_crc = n + CRC_LEN;
+    raw.get_mut(n..with_crc)
+        .ok_or(EncodeError::BufferTooSmall)?
+        .copy_from_slice(&crc);
+    let src = raw.get(..with_crc).ok_or(EncodeError::BufferTooSmall)?;
+    let len = cobs::try_encode(src, out).map_err(|_| EncodeError::BufferTooSmall)?;
+    *out.get_mut(len).ok_or(EncodeError::BufferTooSmall)? = 0;
+    Ok(len + 1)
+}
+
+/// Encodes into a fixed-capacity vector (convenience for callers that keep frames).
+pub fn encode_vec(msg: &Message) -> Result<heapless::Vec<u8, MAX_FRAME>, EncodeError> {
+    let mut buf = [0u8; MAX_FRAME];
+    let n = encode(msg, &mut buf)?;
+    heapless::Vec::from_slice(buf.get(..n).ok_or(EncodeError::BufferTooSmall)?)
+        .map_err(|_| EncodeError::BufferTooSmall)
+}
+
+/// Decodes one frame: the COBS bytes between two delimiters (no 0x00), decoded in place.
+/// Never panics, whatever the bytes.
+pub fn decode_frame(encoded: &mut [u8]) -> Result<Message, FrameError> {
+    if encoded.len() + 1 > MAX_FRAME {
+        return Err(FrameError::Length);
+    }
+    let n = match cobs::decode_in_place_report(encoded) {
+        Ok(r) if r.src_used == encoded.len() => r.dst_used,
+        _ => return Err(FrameError::Cobs),
+    };
+    let frame = encoded.get(..n).ok_or(FrameError::Cobs)?;
+    if n < MIN_DECODED {
+        return Err(FrameError::Length);
+    }
+    let (body, crc) = frame.split_at(n - CRC_LEN);
+    let mut crc_bytes = [0u8; CRC_LEN];
+    crc_bytes.copy_from_slice(crc);
+    if CRC.checksum(body) != u32::from_le_bytes(crc_bytes) {
+        return Err(FrameError::Crc);
+    }
+    let (version, msg) = body.split_first().ok_or(FrameError::Length)?;
+    if *version != VERSION {
+        return Err(FrameError::Version);
+    }
+    match postcard::take_from_bytes::<Message>(msg) {
+        Ok((m, [])) => Ok(m),
+        Ok(_) => Err(FrameError::Length),
+        Err(_) => Err(FrameError::Postcard),
+    }
+}

@@ -1,0 +1,195 @@
+//! The messages. Every physical field is an integer count of the LSB stated in
+//! [`crate::units`]; the field name carries the unit.
+
+use serde::{Deserialize, Serialize};
+
+/// The lateral measurement of the wheelset, relative to the track (so it is zero on a
+/// constant curve): velocity `y'`, acceleration `y''`, or both. Positive towards +y
+/// (right, the outer rail of the left-hand `curve`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Lateral {
+    /// `y'` in um/s ([`crate::units::LAT_VEL_LSB_M_PER_S`]).
+    Velocity(i32),
+    /// `y''` in 0.1 mm/s^2 ([`crate::units::LAT_ACC_LSB_M_PER_S2`]); the device integrates.
+    Acceleration(i32),
+    /// Both, e.g. for a complementary filter on the device.
+    Both {
+        /// `y'` in um/s.
+        vel_um_s: i32,
+        /// `y''` in 0.1 mm/s^2.
+        acc_dmm_s2: i32,
+    },
+}
+
+/// Host -> device, once per base-rate tick: the sampled plant measurements.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Sensor {
+    /// Sequence number, +1 per frame (wrapping); the device echoes the latest one.
+    #[serde(with = "postcard::fixint::le")]
+    pub seq: u16,
+    /// Host sampling instant in us, modulo 2^16 (wraps every 65.536 ms).
+    #[serde(with = "postcard::fixint::le")]
+    pub t_us: u16,
+    /// Lateral velocity and/or acceleration of the wheelset, track relative.
+    pub lateral: Lateral,
+    /// Motor armature current `i_a` in mA, positive motoring.
+    pub i_a_ma: i32,
+    /// Motor speed `theta_m'` in mrad/s, positive forwards.
+    pub omega_m_mrad_s: i32,
+    /// Traction demand as wheel torque `n K_m i_ref` in N m (0: none).
+    pub demand_nm: i32,
+}
+
+/// Status and fault flags carried in every [`Actuation`] and [`Status`] (bit set = true).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(transparent)]
+pub struct Flags(pub u8);
+
+impl Flags {
+    /// Outputs enabled (a [`Config`] with `enable = true` was applied, or the default).
+    pub const ENABLED: u8 = 1 << 0;
+    /// This tick ran on a held sample: no new valid sensor frame since the last tick.
+    pub const HOLDING: u8 = 1 << 1;
+    /// The safe state is active: yaw torque ramping to / held at zero, traction demand zero.
+    pub const SAFE: u8 = 1 << 2;
+    /// At least one frame was rejected (CRC, COBS, version, length, postcard) since the
+    /// previous actuation frame.
+    pub const RX_ERROR: u8 = 1 << 3;
+    /// The yaw torque saturated this tick.
+    pub const YAW_SAT: u8 = 1 << 4;
+    /// The traction loop (voltage) saturated this tick.
+    pub const TRACTION_SAT: u8 = 1 << 5;
+    /// No valid sensor frame since start or the last reset: outputs are the safe outputs.
+    pub const NO_SAMPLE: u8 = 1 << 6;
+    /// The latest [`Config`] or [`Command`] was refused (invalid rates, unknown request).
+    pub const CMD_REFUSED: u8 = 1 << 7;
+
+    /// Whether every bit of `mask` is set.
+    #[must_use]
+    pub const fn has(self, mask: u8) -> bool {
+        self.0 & mask == mask
+    }
+    /// Sets or clears the bits of `mask`.
+    pub fn set(&mut self, mask: u8, on: bool) {
+        if on {
+            self.0 |= mask;
+        } else {
+            self.0 &= !mask;
+        }
+    }
+}
+
+/// Device -> host, once per base-rate tick: the actuator commands and the tick's record.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Actuation {
+    /// The `seq` of the latest valid [`Sensor`] the device used (0 before the first).
+    #[serde(with = "postcard::fixint::le")]
+    pub seq_echo: u16,
+    /// Device tick count modulo 2^16.
+    #[serde(with = "postcard::fixint::le")]
+    pub tick: u16,
+    /// Execution time of the previous tick: cycles (board, DWT) or instructions (QEMU).
+    pub exec: u32,
+    /// Status and fault flags.
+    pub flags: Flags,
+    /// Yaw torque `T_psi` in 0.1 N m (sign as in `model.md` eq. 5: `J psi'' ... = -T_psi`).
+    pub t_psi_dnm: i32,
+    /// Motor voltage `u_a` in 10 mV.
+    pub u_a_cv: i32,
+}
+
+/// Yaw damping law selected on the device.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum YawMode {
+    /// Passive: the device's yaw output is zero (the yaw spring is mechanical).
+    Passive,
+    /// Pure gain `T_psi = K y'`.
+    Gain,
+    /// Phase lead `Ks(s) y'`.
+    Lead,
+}
+
+/// Host -> device: configuration. Applied at the next tick if valid, refused (and
+/// counted, [`Flags::CMD_REFUSED`]) otherwise; the previous configuration stays.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Config {
+    /// Yaw damping law.
+    pub mode: YawMode,
+    /// Traction on; off: the device treats the traction demand as zero.
+    pub traction: bool,
+    /// Outputs enabled; disabled drives the safe outputs.
+    pub enable: bool,
+    /// Base (tick) rate in Hz.
+    pub base_rate_hz: u32,
+    /// Yaw loop runs every `yaw_div` base ticks.
+    pub yaw_div: u16,
+    /// Traction loop runs every `traction_div` base ticks.
+    pub traction_div: u16,
+    /// Ticks a missing sensor frame is bridged by the held sample before the safe state.
+    pub hold_ticks: u16,
+}
+
+/// Host -> device: one-shot requests.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Command {
+    /// Zero every counter of the [`Status`].
+    ResetCounters,
+    /// Send a [`Status`] frame (after the next actuation frame).
+    RequestStatus,
+}
+
+/// Device -> host, on request: the counters (all wrap at 2^32).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct Status {
+    /// Base-rate ticks run.
+    pub ticks: u32,
+    /// Valid frames received (any type).
+    pub rx_ok: u32,
+    /// Frames rejected: CRC mismatch.
+    pub rx_crc: u32,
+    /// Frames rejected: invalid COBS.
+    pub rx_cobs: u32,
+    /// Frames rejected: protocol version.
+    pub rx_version: u32,
+    /// Frames rejected: too short, too long, or trailing bytes.
+    pub rx_length: u32,
+    /// Frames rejected: postcard could not decode the message.
+    pub rx_postcard: u32,
+    /// Valid frames of a type the device does not accept (e.g. an Actuation).
+    pub rx_unexpected: u32,
+    /// Sensor frames whose `seq` was not the previous one + 1 (a gap or a repeat).
+    pub seq_gaps: u32,
+    /// Ticks run on a held sample.
+    pub held_ticks: u32,
+    /// Ticks in the safe state.
+    pub safe_ticks: u32,
+    /// Entries into the safe state.
+    pub safe_entries: u32,
+    /// Exits from the safe state (valid frames returned).
+    pub safe_exits: u32,
+    /// Ticks with the yaw torque saturated.
+    pub yaw_sat: u32,
+    /// Ticks with the motor voltage saturated.
+    pub traction_sat: u32,
+    /// Input values clamped while converting to the control core's sample type.
+    pub input_clamped: u32,
+    /// Refused configurations and commands.
+    pub cmd_refused: u32,
+    /// The current flags.
+    pub flags: Flags,
+}
+
+/// Every message; the postcard variant index is the message type byte.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Message {
+    /// Type 0, host -> device.
+    Sensor(Sensor),
+    /// Type 1, device -> host.
+    Actuation(Actuation),
+    /// Type 2, host -> device.
+    Config(Config),
+    /// Type 3, host -> device.
+    Command(Command),
+    /// Type 4, device -> host.
+    Status(Status),
+}

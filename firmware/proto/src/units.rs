@@ -1,0 +1,71 @@
+//! Wire units: every physical quantity crosses the link as an integer count of a stated
+//! least significant bit (LSB). `value_SI = count * LSB`.
+//!
+//! | field | type | LSB | range on the wire | largest value in `model.md` |
+//! |---|---|---|---|---|
+//! | lateral velocity `y'` (track relative) | `i32` varint | 1 um/s | +-2147 m/s | ~0.5 m/s (8 mm at 10 Hz) |
+//! | lateral acceleration `y''` | `i32` varint | 0.1 mm/s^2 | +-214 km/s^2 | ~30 m/s^2 |
+//! | motor current `i_a` | `i32` varint | 1 mA | +-2.1 MA | ~115 A |
+//! | motor speed `theta_m'` | `i32` varint | 1 mrad/s | +-2.1e6 rad/s | ~925.6 rad/s |
+//! | traction demand (wheel torque `n K_m i_ref`) | `i32` varint | 1 N m | +-2.1e9 N m | 2460 N m |
+//! | yaw torque `T_psi` | `i32` varint | 0.1 N m | +-2.1e8 N m | ~1e4 N m |
+//! | motor voltage `u_a` | `i32` varint | 10 mV | +-2.1e7 V | ~3961 V (back-EMF) |
+//! | host timestamp | `u16` fixed | 1 us | wraps every 65.536 ms | - |
+//! | device tick count | `u16` fixed | 1 tick | wraps every 65 536 ticks | - |
+//! | execution time of the previous tick | `u32` varint | 1 cycle (board: DWT) or 1 instruction (QEMU) | 4.29e9 | - |
+//!
+//! Why these LSBs: each is at least 100 times finer than the resolution the loops need
+//! (1 um/s of `y'` is 0.1 N m of pure-gain torque; 10 mV is 0.025 % of the back-EMF), and
+//! each keeps the typical values of the `curve` scenario inside the short postcard varints
+//! (a zigzag varint takes 1 byte below 64 counts, 2 below 8192, 3 below 1 048 576): 1 mV
+//! would push the back-EMF to 4 bytes, 0.1 N m for the 2.46 kN m demand to 3.
+//! The two wrapping 16-bit counters save 4 bytes per exchange; the receiver unwraps them
+//! against its own clock (a frame every tick, never 65 536 ticks apart).
+
+/// `y'` LSB: 1 um/s, in m/s.
+pub const LAT_VEL_LSB_M_PER_S: f64 = 1e-6;
+/// `y''` LSB: 0.1 mm/s^2, in m/s^2.
+pub const LAT_ACC_LSB_M_PER_S2: f64 = 1e-4;
+/// Motor current LSB: 1 mA, in A.
+pub const CURRENT_LSB_A: f64 = 1e-3;
+/// Motor speed LSB: 1 mrad/s, in rad/s.
+pub const SPEED_LSB_RAD_PER_S: f64 = 1e-3;
+/// Traction demand (wheel torque `n K_m i_ref`) LSB: 1 N m.
+pub const DEMAND_LSB_NM: f64 = 1.0;
+/// Yaw torque LSB: 0.1 N m.
+pub const TORQUE_LSB_NM: f64 = 0.1;
+/// Motor voltage LSB: 10 mV, in V.
+pub const VOLTAGE_LSB_V: f64 = 1e-2;
+/// Host timestamp LSB: 1 us, in s (the field wraps every 65.536 ms).
+pub const TIME_LSB_S: f64 = 1e-6;
+
+/// Quantises an SI value to wire counts: `round(x / lsb)`, half away from zero.
+///
+/// Returns the count and whether it was clamped: values beyond the `i32` range saturate
+/// to `i32::MIN`/`i32::MAX`, and NaN maps to 0 (also reported as clamped), so the caller
+/// can count every value it could not carry. `no_std`: no `libm` needed.
+///
+/// ```
+/// use wheelset_proto::units::{quantize, VOLTAGE_LSB_V};
+/// assert_eq!(quantize(3961.234, VOLTAGE_LSB_V), (396_123, false));
+/// assert_eq!(quantize(-0.000_004_9, 1e-5), (0, false));
+/// assert_eq!(quantize(1e300, 1.0), (i32::MAX, true));
+/// ```
+#[must_use]
+pub fn quantize(x: f64, lsb: f64) -> (i32, bool) {
+    let q = x / lsb;
+    if q.is_nan() {
+        return (0, true);
+    }
+    let r = if q >= 0.0 { q + 0.5 } else { q - 0.5 };
+    // `as` saturates at the i32 range; detect it so it is counted, never silent.
+    // Truncation toward zero keeps everything in (-2^31 - 1, 2^31) inside the range.
+    let clamped = !(r > -2_147_483_649.0 && r < 2_147_483_648.0);
+    (r as i32, clamped)
+}
+
+/// Converts wire counts back to SI: `count * lsb`.
+#[must_use]
+pub fn to_si(count: i32, lsb: f64) -> f64 {
+    f64::from(count) * lsb
+}

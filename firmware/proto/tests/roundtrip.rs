@@ -1,0 +1,127 @@
+//! Every message survives encode -> any chunking -> decode, extremes included; the
+//! decoder never panics on arbitrary bytes and resynchronises on 0x00.
+
+mod common;
+
+use common::*;
+use proptest::prelude::*;
+use wheelset_proto::*;
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(2000))]
+
+    #[test]
+    fn round_trip_any_chunking(msg in message(), cuts in proptest::collection::vec(0usize..200, 0..6)) {
+        let frame = encode_vec(&msg).expect("every message fits MAX_FRAME");
+        prop_assert!(frame.len() <= MAX_FRAME);
+        prop_assert_eq!(frame.last().copied(), Some(0));
+        prop_assert!(!frame[..frame.len() - 1].contains(&0));
+        // Split the frame at arbitrary points and feed the chunks one by one.
+        let mut cuts: Vec<usize> = cuts.into_iter().map(|c| c % (frame.len() + 1)).collect();
+        cuts.sort_unstable();
+        let mut dec: Decoder = Decoder::new();
+        let mut got = Vec::new();
+        let mut prev = 0;
+        for c in cuts.into_iter().chain([frame.len()]) {
+            dec.feed(&frame[prev..c], |r| got.push(r));
+            prev = c;
+        }
+        prop_assert_eq!(got, vec![Ok(msg)]);
+        prop_assert_eq!(dec.pending(), 0);
+    }
+
+    #[test]
+    fn encode_into_short_buffer_is_an_error(msg in message()) {
+        let n = encode_vec(&msg).expect("fits").len();
+        let mut buf = vec![0u8; n - 1];
+        prop_assert_eq!(encode(&msg, &mut buf), Err(EncodeError::BufferTooSmall));
+    }
+
+    #[test]
+    fn arbitrary_bytes_never_panic(bytes in proptest::collection::vec(any::<u8>(), 0..600)) {
+        let results = decode_all(&bytes);
+        // One result per non-empty run closed by a delimiter, at most.
+        prop_assert!(results.len() <= bytes.iter().filter(|&&b| b == 0).count());
+    }
+
+    #[test]
+    fn resync_after_garbage(garbage in proptest::collection::vec(any::<u8>(), 0..300), msg in message()) {
+        // Garbage, then a delimiter, then a valid frame: the frame is always recovered.
+        let mut stream = garbage;
+        stream.push(0);
+        stream.extend_from_slice(&encode_vec(&msg).expect("fits"));
+        let results = decode_all(&stream);
+        prop_assert_eq!(results.last().cloned(), Some(Ok(msg)));
+    }
+
+    #[test]
+    fn quantize_round_trips_within_half_lsb(x in -1.0e6f64..1.0e6, lsb in prop_oneof![Just(1e-6), Just(1e-3), Just(0.1), Just(1.0)]) {
+        let (q, clamped) = units::quantize(x, lsb);
+        if !clamped {
+            prop_assert!((units::to_si(q, lsb) - x).abs() <= 0.5 * lsb * (1.0 + 1e-9));
+        } else {
+            prop_assert!(q == i32::MAX || q == i32::MIN);
+            prop_assert!((x / lsb).abs() >= 2.0e9);
+        }
+    }
+}
+
+#[test]
+fn overlong_frame_is_a_length_error_then_resync() {
+    let ok = Message::Command(Command::RequestStatus);
+    let mut stream = vec![0x55u8; MAX_FRAME * 3];
+    stream.push(0);
+    stream.extend_from_slice(&encode_vec(&ok).expect("fits"));
+    assert_eq!(decode_all(&stream), vec![Err(FrameError::Length), Ok(ok)]);
+}
+
+#[test]
+fn each_error_kind_is_reported() {
+    let msg = Message::Command(Command::ResetCounters);
+    let mut raw = [0u8; MAX_FRAME];
+    // Version: re-frame with version 2 and a valid CRC.
+    let mut body = vec![2u8];
+    body.extend_from_slice(&postcard::to_allocvec(&msg).expect("postcard"));
+    let mut with_crc = body.clone();
+    with_crc.extend_from_slice(&CRC.checksum(&body).to_le_bytes());
+    let n = cobs::encode(&with_crc, &mut raw);
+    assert_eq!(
+        decode_frame(&mut raw[..n].to_vec()),
+        Err(FrameError::Version)
+    );
+
+    // Postcard: valid CRC over an unknown message type (enum index 9).
+    let body = vec![VERSION, 9];
+    let mut with_crc = body.clone();
+    with_crc.extend_from_slice(&CRC.checksum(&body).to_le_bytes());
+    let n = cobs::encode(&with_crc, &mut raw);
+    assert_eq!(
+        decode_frame(&mut raw[..n].to_vec()),
+        Err(FrameError::Postcard)
+    );
+
+    // Length: trailing byte after a valid message.
+    let mut body = vec![VERSION];
+    body.extend_from_slice(&postcard::to_allocvec(&msg).expect("postcard"));
+    body.push(7);
+    let mut with_crc = body.clone();
+    with_crc.extend_from_slice(&CRC.checksum(&body).to_le_bytes());
+    let n = cobs::encode(&with_crc, &mut raw);
+    assert_eq!(
+        decode_frame(&mut raw[..n].to_vec()),
+        Err(FrameError::Length)
+    );
+
+    // Length: too short.
+    assert_eq!(decode_frame(&mut [2, 1, 1]), Err(FrameError::Length));
+    // COBS: the code byte points past the end.
+    assert_eq!(decode_frame(&mut [9, 1, 1]), Err(FrameError::Cobs));
+    // CRC: one byte changed.
+    let mut frame = encode_vec(&msg).expect("fits");
+    let last = frame.len() - 2;
+    frame[last] ^= 0x10;
+    if frame[last] == 0 {
+        frame[last] = 0x33;
+    }
+    assert_eq!(decode_all(&frame), vec![Err(FrameError::Crc)]);
+}

@@ -1,0 +1,93 @@
+//! Frame sizes on the wire, at the `curve` scenario's typical values and at the extremes.
+//! Run with `--nocapture` to see the table quoted in the crate docs.
+
+use wheelset_proto::*;
+
+fn len(m: Message) -> usize {
+    encode_vec(&m).expect("fits").len()
+}
+
+fn sensor(lateral: Lateral, i_a_ma: i32, omega: i32, demand_nm: i32) -> Message {
+    Message::Sensor(Sensor {
+        seq: 40_000,
+        t_us: 12_345,
+        lateral,
+        i_a_ma,
+        omega_m_mrad_s: omega,
+        demand_nm,
+    })
+}
+
+fn actuation(exec: u32, t_psi_dnm: i32, u_a_cv: i32) -> Message {
+    Message::Actuation(Actuation {
+        seq_echo: 40_000,
+        tick: 40_001,
+        exec,
+        flags: Flags(Flags::ENABLED),
+        t_psi_dnm,
+        u_a_cv,
+    })
+}
+
+#[test]
+fn sizes_within_budget() {
+    use units::*;
+    let q = |x, lsb| quantize(x, lsb).0;
+    // Typical, curve with traction: y' 2 mm/s, i_a 115 A, 925.6 rad/s, demand 2460 N m;
+    // T_psi 200 N m, u_a 3965 V, a tick of 600 cycles.
+    let s_typ = len(sensor(
+        Lateral::Velocity(q(2e-3, LAT_VEL_LSB_M_PER_S)),
+        q(115.0, CURRENT_LSB_A),
+        q(925.6, SPEED_LSB_RAD_PER_S),
+        q(2460.0, DEMAND_LSB_NM),
+    ));
+    let a_typ = len(actuation(
+        600,
+        q(200.0, TORQUE_LSB_NM),
+        q(3965.0, VOLTAGE_LSB_V),
+    ));
+    let s_max = len(sensor(
+        Lateral::Velocity(i32::MIN),
+        i32::MIN,
+        i32::MIN,
+        i32::MIN,
+    ));
+    let s_both = len(sensor(
+        Lateral::Both {
+            vel_um_s: i32::MIN,
+            acc_dmm_s2: i32::MIN,
+        },
+        i32::MIN,
+        i32::MIN,
+        i32::MIN,
+    ));
+    let a_max = len(actuation(u32::MAX, i32::MIN, i32::MIN));
+    let st_max = len(Message::Status(Status {
+        ticks: u32::MAX,
+        rx_ok: u32::MAX,
+        rx_crc: u32::MAX,
+        rx_cobs: u32::MAX,
+        rx_version: u32::MAX,
+        rx_length: u32::MAX,
+        rx_postcard: u32::MAX,
+        rx_unexpected: u32::MAX,
+        seq_gaps: u32::MAX,
+        held_ticks: u32::MAX,
+        safe_ticks: u32::MAX,
+        safe_entries: u32::MAX,
+        safe_exits: u32::MAX,
+        yaw_sat: u32::MAX,
+        traction_sat: u32::MAX,
+        input_clamped: u32::MAX,
+        cmd_refused: u32::MAX,
+        flags: Flags(0xff),
+    }));
+    println!("wire bytes incl. delimiter: sensor typical {s_typ}, worst {s_max} (both lateral: {s_both}); actuation typical {a_typ}, worst {a_max}; both typical {}, worst {}; status worst {st_max}; MAX_FRAME {MAX_FRAME}", s_typ + a_typ, s_max + a_max);
+    // Overhead 8 (COBS 1, delimiter 1, version 1, type 1, CRC 4) + the fields: sensor
+    // seq 2 + t 2 + lateral tag 1 + y' 2 + i_a 3 + speed 3 + demand 2.
+    assert!(s_typ <= 8 + 15, "sensor {s_typ}");
+    // Actuation: seq 2 + tick 2 + exec 2 + flags 1 + torque 2 + voltage 3.
+    assert!(a_typ <= 8 + 12, "actuation {a_typ}");
+    assert!(s_both <= 40 && a_max <= 30);
+    assert!(st_max <= MAX_FRAME);
+}

@@ -1,0 +1,283 @@
+//! The fault policy, on the host: holds, safe state, recovery, bad frames, commands.
+
+use proptest::prelude::*;
+use wheelset_control::Fx;
+use wheelset_proto::*;
+use wheelset_runtime::*;
+
+fn sensor(seq: u16, y_um_s: i32) -> Vec<u8> {
+    encode_vec(&Message::Sensor(Sensor {
+        seq,
+        t_us: seq.wrapping_mul(200),
+        lateral: Lateral::Velocity(y_um_s),
+        i_a_ma: 115_000,
+        omega_m_mrad_s: 925_600,
+        demand_nm: 2_460,
+    }))
+    .expect("fits")
+    .to_vec()
+}
+
+/// Every message in the bytes a tick returned.
+fn frames(bytes: &[u8]) -> Vec<Message> {
+    let mut dec: Decoder = Decoder::new();
+    let mut out = Vec::new();
+    dec.feed(bytes, |r| {
+        out.push(r.expect("the runtime only sends valid frames"))
+    });
+    out
+}
+
+fn act(bytes: &[u8]) -> Actuation {
+    match frames(bytes).first() {
+        Some(Message::Actuation(a)) => *a,
+        other => panic!("expected an actuation frame, got {other:?}"),
+    }
+}
+
+fn rt() -> Runtime<Fx> {
+    Runtime::try_new(RuntimeConfig::default()).expect("default config is valid")
+}
+
+const BASE_HZ: u32 = wheelset_control::DEFAULT_BASE_RATE_HZ;
+
+#[test]
+fn no_sample_yet_drives_the_safe_outputs() {
+    let mut r = rt();
+    let a = act(r.tick(0));
+    assert!(a.flags.has(Flags::NO_SAMPLE | Flags::ENABLED));
+    let s = Runtime::<Fx>::safe_outputs();
+    assert_eq!((a.t_psi_dnm, a.u_a_cv), (s.t_psi_dnm, s.u_a_cv));
+    assert_eq!((s.t_psi_dnm, s.u_a_cv), (0, 0));
+}
+
+#[test]
+fn fresh_samples_are_echoed_and_exec_reported() {
+    let mut r = rt();
+    for k in 1..=50u16 {
+        r.receive(&sensor(k, 500));
+        let a = act(r.tick(u32::from(k) * 3));
+        assert_eq!(a.seq_echo, k);
+        assert_eq!(a.tick, k);
+        assert_eq!(a.exec, u32::from(k) * 3);
+        assert!(!a.flags.has(Flags::HOLDING) && !a.flags.has(Flags::SAFE));
+        assert!(!a.flags.has(Flags::NO_SAMPLE));
+    }
+    let c = r.counters();
+    assert_eq!(
+        (c.rx_ok, c.held_ticks, c.seq_gaps, c.safe_entries),
+        (50, 0, 0, 0)
+    );
+}
+
+#[test]
+fn hold_then_safe_then_recover() {
+    let hold = 4u16;
+    let mut r: Runtime<Fx> = Runtime::try_new(RuntimeConfig {
+        hold_ticks: hold,
+        ..RuntimeConfig::default()
+    })
+    .expect("valid");
+    // Run with a lateral velocity so that the yaw torque is clearly non-zero.
+    let mut seq = 0u16;
+    let mut last = None;
+    for _ in 0..200 {
+        seq += 1;
+        r.receive(&sensor(seq, 5_000));
+        last = Some(act(r.tick(0)));
+    }
+    let last = last.expect("ran");
+    assert!(last.t_psi_dnm > 1_000, "lead on 5 mm/s: {}", last.t_psi_dnm);
+    let torque0 = last.t_psi_dnm;
+    // Frames stop: `hold` ticks on the held sample.
+    for k in 1..=hold {
+        let a = act(r.tick(0));
+        assert!(a.flags.has(Flags::HOLDING), "tick {k}");
+        assert!(!a.flags.has(Flags::SAFE), "tick {k}");
+        assert_eq!(a.seq_echo, seq);
+    }
+    // Then the safe state: torque ramps monotonically to zero within the 0.1 s ramp,
+    // voltage at the back-EMF of the held speed (4.28 V s/rad x 925.6 rad/s).
+    let ramp_ticks = (0.1 * f64::from(BASE_HZ)) as usize + 2;
+    let mut prev = torque0.abs();
+    let mut t_zero = None;
+    for k in 0..ramp_ticks + 50 {
+        let a = act(r.tick(0));
+        assert!(a.flags.has(Flags::SAFE | Flags::HOLDING));
+        assert!(
+            a.t_psi_dnm.abs() <= prev,
+            "tick {k}: {} after {prev}",
+            a.t_psi_dnm
+        );
+        prev = a.t_psi_dnm.abs();
+        if prev == 0 && t_zero.is_none() {
+            t_zero = Some(k);
+        }
+        let back_emf_cv = 4.28 * 925.6 * 100.0;
+        assert!(
+            (f64::from(a.u_a_cv) - back_emf_cv).abs() <= 2.0,
+            "u_a {}",
+            a.u_a_cv
+        );
+    }
+    assert!(
+        t_zero.is_some_and(|k| k <= ramp_ticks),
+        "torque zero at {t_zero:?}"
+    );
+    let c = *r.counters();
+    assert_eq!(
+        (c.safe_entries, c.safe_exits, c.held_ticks),
+        (1, 0, u32::from(hold))
+    );
+    assert_eq!(c.safe_ticks as usize, ramp_ticks + 50);
+    // Frames return: the safe state is left at once, the voltage restarts from the
+    // back-EMF (bumpless) and the torque limit ramps back up.
+    seq += 1;
+    r.receive(&sensor(seq, 5_000));
+    let a = act(r.tick(0));
+    assert!(!a.flags.has(Flags::SAFE) && !a.flags.has(Flags::HOLDING));
+    assert_eq!(a.seq_echo, seq);
+    // e = i_ref(first ramp step, 4 A at 20 kA/s and 5 kHz) - 115 A: Kp e ~ -111 V.
+    assert!(
+        (f64::from(a.u_a_cv) / 100.0 - 3961.6).abs() < 120.0,
+        "u_a {}",
+        a.u_a_cv
+    );
+    let mut torque = 0;
+    for _ in 0..(0.2 * f64::from(BASE_HZ)) as usize {
+        seq += 1;
+        r.receive(&sensor(seq, 5_000));
+        torque = act(r.tick(0)).t_psi_dnm;
+    }
+    assert!(
+        (torque - torque0).abs() <= torque0 / 50,
+        "{torque} vs {torque0}"
+    );
+    let c = r.counters();
+    assert_eq!((c.safe_entries, c.safe_exits), (1, 1));
+}
+
+#[test]
+fn bad_frames_counted_by_kind_and_flagged_once() {
+    let mut r = rt();
+    r.receive(&sensor(1, 0));
+    let _ = r.tick(0);
+    // A CRC error: flip a data bit (not into a zero).
+    let mut f = sensor(2, 0);
+    f[5] ^= if f[5] == 0x01 { 0x02 } else { 0x01 };
+    r.receive(&f);
+    // A COBS error: a code byte pointing past the end.
+    r.receive(&[0x30, 1, 2, 0]);
+    // A length error: an over-long run.
+    r.receive(&[0x11; 300]);
+    r.receive(&[0]);
+    // Garbage split over calls, then a valid frame in two chunks.
+    let good = sensor(3, 0);
+    r.receive(&good[..4]);
+    r.receive(&good[4..]);
+    let a = act(r.tick(0));
+    assert!(a.flags.has(Flags::RX_ERROR));
+    assert_eq!(a.seq_echo, 3);
+    let c = r.counters();
+    assert_eq!((c.rx_crc, c.rx_cobs, c.rx_length, c.rx_ok), (1, 1, 1, 2));
+    assert_eq!(c.seq_gaps, 1, "2 never arrived");
+    r.receive(&sensor(4, 0));
+    assert!(!act(r.tick(0)).flags.has(Flags::RX_ERROR));
+}
+
+#[test]
+fn config_and_commands() {
+    let mut r = rt();
+    for k in 1..=20 {
+        r.receive(&sensor(k, 5_000));
+        let _ = r.tick(0);
+    }
+    let cfg = Config {
+        mode: YawMode::Passive,
+        traction: true,
+        enable: true,
+        base_rate_hz: BASE_HZ,
+        yaw_div: 1,
+        traction_div: 1,
+        hold_ticks: 3,
+    };
+    r.receive(&encode_vec(&Message::Config(cfg)).expect("fits"));
+    r.receive(&sensor(21, 5_000));
+    let a = act(r.tick(0));
+    assert_eq!(a.t_psi_dnm, 0, "passive: no device torque");
+    assert_eq!(r.config().hold_ticks, 3);
+    // Invalid rates are refused and the old configuration stays.
+    let bad = Config {
+        base_rate_hz: 0,
+        ..cfg
+    };
+    r.receive(&encode_vec(&Message::Config(bad)).expect("fits"));
+    r.receive(&sensor(22, 5_000));
+    let a = act(r.tick(0));
+    assert!(a.flags.has(Flags::CMD_REFUSED));
+    assert_eq!(r.counters().cmd_refused, 1);
+    assert_eq!(r.config().control.base_rate_hz, BASE_HZ);
+    // Disabled: the safe outputs.
+    r.receive(
+        &encode_vec(&Message::Config(Config {
+            enable: false,
+            ..cfg
+        }))
+        .expect("fits"),
+    );
+    r.receive(&sensor(23, 5_000));
+    let a = act(r.tick(0));
+    assert!(!a.flags.has(Flags::ENABLED));
+    assert_eq!((a.t_psi_dnm, a.u_a_cv), (0, 0));
+    // Status on request, after the actuation frame; reset zeroes the counters.
+    r.receive(&encode_vec(&Message::Command(Command::RequestStatus)).expect("fits"));
+    let out = frames(r.tick(0));
+    assert_eq!(out.len(), 2);
+    let Message::Status(st) = out[1] else {
+        panic!("{out:?}")
+    };
+    assert_eq!(st.ticks, 24);
+    assert_eq!(st.rx_ok, 23 + 3 + 1);
+    assert_eq!(st.cmd_refused, 1);
+    r.receive(&encode_vec(&Message::Command(Command::ResetCounters)).expect("fits"));
+    let _ = r.tick(0);
+    assert_eq!(r.counters().ticks, 1);
+    assert_eq!(r.counters().rx_ok, 0);
+    // A frame the device does not take.
+    r.receive(&encode_vec(&Message::Status(Status::default())).expect("fits"));
+    assert_eq!(r.counters().rx_unexpected, 1);
+}
+
+#[test]
+fn f32_and_fixed_builds_agree() {
+    let mut a: Runtime<Fx> = rt();
+    let mut b: Runtime<f32> = Runtime::try_new(RuntimeConfig::default()).expect("valid");
+    for k in 1..=500u16 {
+        let y = (f64::from(k) * 0.05).sin() * 3_000.0;
+        let f = sensor(k, y as i32);
+        a.receive(&f);
+        b.receive(&f);
+        let (x, z) = (act(a.tick(0)), act(b.tick(0)));
+        // 0.1 N m and 10 mV codes: within a few LSB plus f32's 2^-24 relative.
+        assert!((x.t_psi_dnm - z.t_psi_dnm).abs() <= 3, "{x:?} {z:?}");
+        assert!((x.u_a_cv - z.u_a_cv).abs() <= 8, "{x:?} {z:?}");
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(300))]
+
+    /// Whatever arrives, every tick returns one valid actuation frame.
+    #[test]
+    fn arbitrary_input_never_panics(chunks in proptest::collection::vec(proptest::collection::vec(any::<u8>(), 0..80), 1..40)) {
+        let mut r = rt();
+        for (k, ch) in chunks.iter().enumerate() {
+            r.receive(ch);
+            if k % 3 == 0 {
+                r.receive(&sensor(k as u16, (k as i32 - 20) * 10_000));
+            }
+            let out = frames(r.tick(k as u32));
+            prop_assert!(matches!(out.first(), Some(Message::Actuation(_))));
+        }
+    }
+}

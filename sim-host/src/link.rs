@@ -1,0 +1,970 @@
+//! The simulated serial link: two byte streams (host -> device "up", device -> host
+//! "down"), each a UART timed by its baud rate (10 bits per byte: start, 8 data, stop)
+//! plus a fixed latency, in integer-nanosecond simulated time, with seeded fault
+//! injection. Deterministic for a seed.
+//!
+//! Byte `k` (from 0) of a frame handed to [`Channel::send`] at `t` leaves the line at
+//! `start + ceil((k+1) * 10 * 1e9 / baud)` ns, `start = max(t, line free)`, and reaches the
+//! receiver `latency` ns later.
+//!
+//! Faults ([`Faults`], parsed from `--faults SPEC`), applied per direction in this order:
+//! whole-frame drop, outage (bytes on the wire during an outage are lost), byte drop,
+//! bit errors (each data bit flips with probability `ber`, drawn by geometric skips),
+//! bursts (a Poisson process of `rate` bursts per second, each XOR-ing `len` consecutive
+//! bytes with random non-zero values).
+//!
+//! Frame accounting ([`RxPort`], [`Accounting`]): every byte carries the id of the frame it
+//! belongs to, and the receiving port attributes each sent frame to exactly one fate:
+//! received (decoded valid), rejected (part of a frame the decoder rejected: CRC, COBS,
+//! length ...), dropped by the link (none of its bytes reached the decoder), or in flight
+//! at the end of the run.
+
+use std::collections::VecDeque;
+use std::fmt;
+use std::str::FromStr;
+
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64;
+use wheelset_proto::{Decoder, FrameError, Message};
+
+/// Bits on the line per byte (8N1).
+pub const BITS_PER_BYTE: u64 = 10;
+/// Nanoseconds per second.
+pub const NS_PER_S: u64 = 1_000_000_000;
+
+/// A link outage: every byte on the wire in `[start_ns, start_ns + len_ns)` is lost.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Outage {
+    /// Start, ns of simulated time.
+    pub start_ns: u64,
+    /// Length, ns.
+    pub len_ns: u64,
+    /// Directions cut (within those the `dir` key allows).
+    pub dir: FaultDir,
+}
+
+/// Error bursts: a Poisson process of `rate_hz` bursts per second; each burst garbles
+/// `len_bytes` consecutive bytes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Burst {
+    /// Mean bursts per second.
+    pub rate_hz: f64,
+    /// Bytes garbled per burst.
+    pub len_bytes: u32,
+}
+
+/// Which directions the faults apply to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum FaultDir {
+    /// Host -> device and device -> host (the default).
+    #[default]
+    Both,
+    /// Host -> device only.
+    Up,
+    /// Device -> host only.
+    Down,
+}
+
+/// The fault injection of one link, `--faults SPEC`:
+/// a comma-separated list of `key=value`:
+///
+/// | key | value | meaning |
+/// |---|---|---|
+/// | `ber` | `P` in [0, 1) | bit error rate per data bit |
+/// | `drop` | `P` in [0, 1] | probability a whole frame is lost |
+/// | `byte_drop` | `P` in [0, 1] | probability a byte is lost |
+/// | `outage` | `START_S:LEN_S[:up\|down]` | outage from `START_S` seconds for `LEN_S` seconds, both directions or one (repeatable) |
+/// | `burst` | `RATE_HZ:LEN_BYTES` | error bursts, mean rate per second, bytes per burst |
+/// | `dir` | `both`, `up`, `down` | directions the faults apply to (default both) |
+///
+/// ```
+/// use sim_host::link::Faults;
+/// let f: Faults = "ber=1e-3,drop=0.1,outage=8.0:0.05".parse().unwrap();
+/// assert_eq!(f.outages[0].len_ns, 50_000_000);
+/// assert!("ber=2".parse::<Faults>().is_err());
+/// ```
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Faults {
+    /// Bit error rate per data bit.
+    pub ber: f64,
+    /// Whole-frame drop probability.
+    pub frame_drop: f64,
+    /// Byte drop probability.
+    pub byte_drop: f64,
+    /// Outages.
+    pub outages: Vec<Outage>,
+    /// Error bursts.
+    pub burst: Option<Burst>,
+    /// Directions affected.
+    pub dir: FaultDir,
+}
+
+/// A `--faults` string that does not parse: names the item and the reason.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct FaultSpecError {
+    /// The offending `key=value` item.
+    pub item: String,
+    /// Why it was refused.
+    pub reason: String,
+}
+
+impl fmt::Display for FaultSpecError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "--faults: `{}`: {}", self.item, self.reason)
+    }
+}
+
+impl std::error::Error for FaultSpecError {}
+
+fn prob(item: &str, v: &str, upper_open: bool) -> Result<f64, FaultSpecError> {
+    let err = |reason: String| FaultSpecError {
+        item: item.to_owned(),
+        reason,
+    };
+    let p: f64 = v
+        .parse()
+        .map_err(|_| err(format!("`{v}` is not a number")))?;
+    let ok = p >= 0.0 && if upper_open { p < 1.0 } else { p <= 1.0 };
+    if !ok {
+        let range = if upper_open { "[0, 1)" } else { "[0, 1]" };
+        return Err(err(format!("{p} is outside {range}")));
+    }
+    Ok(p)
+}
+
+fn pair(item: &str, v: &str, what: &str) -> Result<(f64, f64), FaultSpecError> {
+    let err = |reason: String| FaultSpecError {
+        item: item.to_owned(),
+        reason,
+    };
+    let (a, b) = v
+        .split_once(':')
+        .ok_or_else(|| err(format!("expected {what}")))?;
+    let a: f64 = a
+        .parse()
+        .map_err(|_| err(format!("`{a}` is not a number ({what})")))?;
+    let b: f64 = b
+        .parse()
+        .map_err(|_| err(format!("`{b}` is not a number ({what})")))?;
+    if !(a.is_finite() && b.is_finite() && a >= 0.0 && b > 0.0) {
+        return Err(err(format!(
+            "{what}: need finite values, first >= 0, second > 0"
+        )));
+    }
+    Ok((a, b))
+}
+
+fn secs_to_ns(s: f64) -> u64 {
+    (s * 1e9).round() as u64
+}
+
+impl FromStr for Faults {
+    type Err = FaultSpecError;
+
+    fn from_str(spec: &str) -> Result<Self, Self::Err> {
+        let mut f = Faults::default();
+        for item in spec.split(',').map(str::trim).filter(|s| !s.is_empty()) {
+            let err = |reason: &str| FaultSpecError {
+                item: item.to_owned(),
+                reason: reason.to_owned(),
+            };
+            let (k, v) = item
+                .split_once('=')
+                .ok_or_else(|| err("expected key=value"))?;
+            match k.trim() {
+                "ber" => f.ber = prob(item, v.trim(), true)?,
+                "drop" => f.frame_drop = prob(item, v.trim(), false)?,
+                "byte_drop" => f.byte_drop = prob(item, v.trim(), false)?,
+                "outage" => {
+                    let v = v.trim();
+                    let (v, dir) = match v.rsplit_once(':') {
+                        Some((head, "up")) => (head, FaultDir::Up),
+                        Some((head, "down")) => (head, FaultDir::Down),
+                        _ => (v, FaultDir::Both),
+                    };
+                    let (s, l) = pair(item, v, "START_S:LEN_S[:up|down]")?;
+                    f.outages.push(Outage {
+                        start_ns: secs_to_ns(s),
+                        len_ns: secs_to_ns(l),
+                        dir,
+                    });
+                }
+                "burst" => {
+                    let (r, n) = pair(item, v.trim(), "RATE_HZ:LEN_BYTES")?;
+                    if n.fract() != 0.0 || n > 1e6 {
+                        return Err(err("LEN_BYTES must be a whole number <= 1e6"));
+                    }
+                    f.burst = Some(Burst {
+                        rate_hz: r,
+                        len_bytes: n as u32,
+                    });
+                }
+                "dir" => {
+                    f.dir = match v.trim() {
+                        "both" => FaultDir::Both,
+                        "up" => FaultDir::Up,
+                        "down" => FaultDir::Down,
+                        _ => return Err(err("expected both, up or down")),
+                    }
+                }
+                _ => {
+                    return Err(err(
+                        "unknown key (known: ber, drop, byte_drop, outage, burst, dir)",
+                    ))
+                }
+            }
+        }
+        Ok(f)
+    }
+}
+
+impl Faults {
+    /// No faults.
+    #[must_use]
+    pub fn none() -> Self {
+        Self::default()
+    }
+
+    fn applies(&self, up: bool) -> bool {
+        self.dir.includes(up)
+    }
+}
+
+impl FaultDir {
+    /// Whether this covers the host -> device (`up`) or device -> host direction.
+    #[must_use]
+    pub fn includes(self, up: bool) -> bool {
+        match self {
+            FaultDir::Both => true,
+            FaultDir::Up => up,
+            FaultDir::Down => !up,
+        }
+    }
+}
+
+/// Timing and faults of a link.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LinkConfig {
+    /// Baud rate (bits per second, 10 bits per byte).
+    pub baud: u32,
+    /// One-way latency added to every byte, ns.
+    pub latency_ns: u64,
+    /// Fault injection.
+    pub faults: Faults,
+    /// RNG seed (each direction derives its own stream).
+    pub seed: u64,
+}
+
+/// Default baud: 4 Mbaud. The STM32F446's USART1/6 on the 90 MHz APB2 reach it exactly
+/// (OVER8, USARTDIV 22.5); it carries the default 5 kHz round trip with margin (see
+/// [`check_budget`]).
+pub const DEFAULT_BAUD: u32 = 4_000_000;
+/// Default one-way latency: 2 us (UART FIFO + DMA hand-off).
+pub const DEFAULT_LATENCY_NS: u64 = 2_000;
+/// Share of the period the round trip may use; the rest is margin for the device's
+/// execution time and jitter.
+pub const BUDGET_SHARE: f64 = 0.85;
+
+impl Default for LinkConfig {
+    fn default() -> Self {
+        Self {
+            baud: DEFAULT_BAUD,
+            latency_ns: DEFAULT_LATENCY_NS,
+            faults: Faults::none(),
+            seed: 1,
+        }
+    }
+}
+
+/// A link that cannot carry the configured exchange.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LinkBudgetError {
+    /// Bytes per period, host -> device.
+    pub up_bytes: usize,
+    /// Bytes per period, device -> host.
+    pub down_bytes: usize,
+    /// Baud.
+    pub baud: u32,
+    /// Latency, ns.
+    pub latency_ns: u64,
+    /// Period, ns.
+    pub period_ns: u64,
+    /// Round-trip time needed, ns.
+    pub needed_ns: u64,
+    /// Round-trip time allowed (`BUDGET_SHARE` of the period), ns.
+    pub allowed_ns: u64,
+}
+
+impl fmt::Display for LinkBudgetError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let rate = NS_PER_S as f64 / self.period_ns as f64;
+        write!(
+            f,
+            "link budget exceeded: ({} + {}) bytes x {} bits / {} baud + 2 x {} ns latency = {:.1} us \
+             per {:.0} Hz period, but only {:.0} % of the {:.1} us period = {:.1} us is allowed; \
+             raise the baud to at least {:.0} or lower the rate",
+            self.up_bytes,
+            self.down_bytes,
+            BITS_PER_BYTE,
+            self.baud,
+            self.latency_ns,
+            self.needed_ns as f64 / 1e3,
+            rate,
+            BUDGET_SHARE * 100.0,
+            self.period_ns as f64 / 1e3,
+            self.allowed_ns as f64 / 1e3,
+            min_baud(self.up_bytes + self.down_bytes, self.latency_ns, self.period_ns)
+                .unwrap_or(f64::INFINITY),
+        )
+    }
+}
+
+impl std::error::Error for LinkBudgetError {}
+
+/// Time on the line for `n` bytes at `baud`, ns (rounded up).
+#[must_use]
+pub fn wire_ns(n: usize, baud: u32) -> u64 {
+    let bits = n as u128 * u128::from(BITS_PER_BYTE) * u128::from(NS_PER_S);
+    bits.div_ceil(u128::from(baud.max(1))) as u64
+}
+
+fn min_baud(bytes: usize, latency_ns: u64, period_ns: u64) -> Option<f64> {
+    let avail = BUDGET_SHARE * period_ns as f64 - 2.0 * latency_ns as f64;
+    (avail > 0.0).then(|| bytes as f64 * BITS_PER_BYTE as f64 * 1e9 / avail)
+}
+
+/// The link budget of a lock-step exchange: the sensor frame goes up, the device ticks,
+/// the actuation frame comes down, all within one period:
+/// `(up + down) bytes x 10 / baud + 2 latency <= BUDGET_SHARE x period`.
+/// Returns the round-trip time, or an error naming the numbers.
+pub fn check_budget(
+    up_bytes: usize,
+    down_bytes: usize,
+    baud: u32,
+    latency_ns: u64,
+    period_ns: u64,
+) -> Result<u64, LinkBudgetError> {
+    let needed_ns = wire_ns(up_bytes + down_bytes, baud) + 2 * latency_ns;
+    let allowed_ns = (BUDGET_SHARE * period_ns as f64) as u64;
+    if baud == 0 || needed_ns > allowed_ns {
+        return Err(LinkBudgetError {
+            up_bytes,
+            down_bytes,
+            baud,
+            latency_ns,
+            period_ns,
+            needed_ns,
+            allowed_ns,
+        });
+    }
+    Ok(needed_ns)
+}
+
+/// Identifies a frame within one direction (0, 1, 2 ... in send order).
+pub type FrameId = u32;
+
+/// Counters of one direction.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct ChannelCounters {
+    /// Frames handed to the link.
+    pub frames_sent: u64,
+    /// Frames the link dropped whole (`drop=`).
+    pub frames_dropped: u64,
+    /// Bytes handed to the link.
+    pub bytes_sent: u64,
+    /// Bytes delivered (possibly corrupted).
+    pub bytes_delivered: u64,
+    /// Bytes lost in outages.
+    pub bytes_outage: u64,
+    /// Bytes lost by `byte_drop`.
+    pub bytes_dropped: u64,
+    /// Bits flipped by `ber`.
+    pub bits_flipped: u64,
+    /// Bursts started.
+    pub bursts: u64,
+    /// Bytes garbled by bursts.
+    pub burst_bytes: u64,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Delivery {
+    at_ns: u64,
+    byte: u8,
+    frame: FrameId,
+}
+
+/// One direction of the link.
+#[derive(Debug, Clone)]
+pub struct Channel {
+    baud: u32,
+    latency_ns: u64,
+    faults: Faults,
+    active: bool,
+    up: bool,
+    rng: Pcg64,
+    line_free_ns: u64,
+    queue: VecDeque<Delivery>,
+    bits_to_error: u64,
+    next_burst_ns: u64,
+    burst_left: u32,
+    counters: ChannelCounters,
+}
+
+impl Channel {
+    /// A channel; `up` selects the host -> device direction (for `dir=` and the RNG stream).
+    #[must_use]
+    pub fn new(cfg: &LinkConfig, up: bool) -> Self {
+        let stream = if up { 0x5eed_0001 } else { 0x5eed_0002 };
+        let mut rng = Pcg64::seed_from_u64(cfg.seed ^ (stream << 32));
+        let active = cfg.faults.applies(up);
+        let bits_to_error = geometric(&mut rng, if active { cfg.faults.ber } else { 0.0 });
+        let next_burst_ns = match (active, cfg.faults.burst) {
+            (true, Some(b)) => exponential_ns(&mut rng, b.rate_hz),
+            _ => u64::MAX,
+        };
+        Self {
+            baud: cfg.baud.max(1),
+            latency_ns: cfg.latency_ns,
+            faults: cfg.faults.clone(),
+            active,
+            up,
+            rng,
+            line_free_ns: 0,
+            queue: VecDeque::new(),
+            bits_to_error,
+            next_burst_ns,
+            burst_left: 0,
+            counters: ChannelCounters::default(),
+        }
+    }
+
+    /// Hands a frame to the UART at `t_ns`; returns its id. Bytes are queued behind any
+    /// frame still on the line.
+    pub fn send(&mut self, t_ns: u64, bytes: &[u8]) -> FrameId {
+        let id = self.counters.frames_sent as FrameId;
+        self.counters.frames_sent += 1;
+        self.counters.bytes_sent += bytes.len() as u64;
+        let start = t_ns.max(self.line_free_ns);
+        self.line_free_ns = start + wire_ns(bytes.len(), self.baud);
+        if self.active
+            && self.faults.frame_drop > 0.0
+            && self.rng.random::<f64>() < self.faults.frame_drop
+        {
+            self.counters.frames_dropped += 1;
+            return id;
+        }
+        for (k, &b) in bytes.iter().enumerate() {
+            let on_wire = start + wire_ns(k + 1, self.baud);
+            if let Some(b) = self.corrupt(on_wire, b) {
+                self.counters.bytes_delivered += 1;
+                self.queue.push_back(Delivery {
+                    at_ns: on_wire + self.latency_ns,
+                    byte: b,
+                    frame: id,
+                });
+            }
+        }
+        id
+    }
+
+    fn corrupt(&mut self, t_ns: u64, mut b: u8) -> Option<u8> {
+        if !self.active {
+            return Some(b);
+        }
+        let f = &self.faults;
+        let up = self.up;
+        if f.outages
+            .iter()
+            .any(|o| o.dir.includes(up) && t_ns >= o.start_ns && t_ns - o.start_ns < o.len_ns)
+        {
+            self.counters.bytes_outage += 1;
+            return None;
+        }
+        if f.byte_drop > 0.0 && self.rng.random::<f64>() < f.byte_drop {
+            self.counters.bytes_dropped += 1;
+            return None;
+        }
+        if f.ber > 0.0 {
+            let mut bit = 0u64;
+            while bit.saturating_add(self.bits_to_error) < 8 {
+                bit += self.bits_to_error;
+                b ^= 1 << bit;
+                self.counters.bits_flipped += 1;
+                bit += 1;
+                self.bits_to_error = geometric(&mut self.rng, f.ber);
+            }
+            self.bits_to_error -= 8 - bit;
+        }
+        if let Some(burst) = f.burst {
+            while t_ns >= self.next_burst_ns {
+                self.counters.bursts += 1;
+                self.burst_left = burst.len_bytes;
+                self.next_burst_ns = self
+                    .next_burst_ns
+                    .saturating_add(exponential_ns(&mut self.rng, burst.rate_hz).max(1));
+            }
+            if self.burst_left > 0 {
+                self.burst_left -= 1;
+                self.counters.burst_bytes += 1;
+                b ^= self.rng.random_range(1..=255u8);
+            }
+        }
+        Some(b)
+    }
+
+    /// Delivers every byte that has arrived by `t_ns`, in order.
+    pub fn deliver(&mut self, t_ns: u64, mut f: impl FnMut(u8, FrameId)) {
+        while let Some(d) = self.queue.front().copied() {
+            if d.at_ns > t_ns {
+                break;
+            }
+            self.queue.pop_front();
+            f(d.byte, d.frame);
+        }
+    }
+
+    /// Frames with bytes still travelling.
+    pub fn queued_frames(&self) -> impl Iterator<Item = FrameId> + '_ {
+        self.queue.iter().map(|d| d.frame)
+    }
+
+    /// When the line is free again, ns.
+    #[must_use]
+    pub fn line_free_ns(&self) -> u64 {
+        self.line_free_ns
+    }
+
+    /// The counters.
+    #[must_use]
+    pub fn counters(&self) -> &ChannelCounters {
+        &self.counters
+    }
+}
+
+/// Bits until the next error: `floor(ln(1-U) / ln(1-p))`, geometric with parameter `p`.
+fn geometric(rng: &mut Pcg64, p: f64) -> u64 {
+    if p <= 0.0 {
+        return u64::MAX;
+    }
+    let u: f64 = rng.random();
+    let k = ((-u).ln_1p() / (-p).ln_1p()).floor();
+    if k.is_finite() && k < 1e18 {
+        k as u64
+    } else {
+        u64::MAX
+    }
+}
+
+/// Time to the next event of a Poisson process of `rate_hz`, ns.
+fn exponential_ns(rng: &mut Pcg64, rate_hz: f64) -> u64 {
+    if rate_hz <= 0.0 {
+        return u64::MAX;
+    }
+    let u: f64 = rng.random();
+    let t = -(-u).ln_1p() / rate_hz * 1e9;
+    if t.is_finite() && t < 1.8e19 {
+        t as u64
+    } else {
+        u64::MAX
+    }
+}
+
+/// Both directions.
+#[derive(Debug, Clone)]
+pub struct Link {
+    /// Host -> device.
+    pub up: Channel,
+    /// Device -> host.
+    pub down: Channel,
+}
+
+impl Link {
+    /// A link from its configuration.
+    #[must_use]
+    pub fn new(cfg: &LinkConfig) -> Self {
+        Self {
+            up: Channel::new(cfg, true),
+            down: Channel::new(cfg, false),
+        }
+    }
+}
+
+/// The fate of a sent frame, as seen by the receiving port.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Fate {
+    Open,
+    Received,
+    Rejected,
+}
+
+/// The receiving end of a channel: a frame decoder that also attributes every sent frame
+/// to its fate. (The device side runs its own decoder inside the runtime; this port then
+/// decodes the same bytes as a shadow, which sees exactly the same frames.)
+#[derive(Debug, Clone, Default)]
+pub struct RxPort {
+    decoder: Decoder,
+    pending: Vec<FrameId>,
+    fates: Vec<Fate>,
+    reached: Vec<bool>,
+    /// Valid frames.
+    pub received: u64,
+    /// Frames that took part in a rejected frame.
+    pub rejected: u64,
+    /// Decoder rejections by kind: CRC, COBS, version, length, postcard.
+    pub errors: [u64; 5],
+}
+
+impl RxPort {
+    /// An idle port.
+    #[must_use]
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    fn fate(&mut self, id: FrameId) -> &mut Fate {
+        let i = id as usize;
+        if self.fates.len() <= i {
+            self.fates.resize(i + 1, Fate::Open);
+            self.reached.resize(i + 1, false);
+        }
+        &mut self.fates[i]
+    }
+
+    /// Takes one delivered byte of frame `id`; returns the decoder's result when a frame
+    /// closes.
+    pub fn push(&mut self, byte: u8, id: FrameId) -> Option<Result<Message, FrameError>> {
+        self.fate(id);
+        if byte != 0 {
+            self.reached[id as usize] = true;
+            if self.pending.last() != Some(&id) {
+                self.pending.push(id);
+            }
+        }
+        let r = self.decoder.push(byte);
+        if byte == 0 {
+            let ids = std::mem::take(&mut self.pending);
+            match &r {
+                Some(Ok(_)) => {
+                    for id in ids {
+                        let f = self.fate(id);
+                        if *f == Fate::Open {
+                            *f = Fate::Received;
+                            self.received += 1;
+                        }
+                    }
+                }
+                Some(Err(e)) => {
+                    self.errors[error_index(*e)] += 1;
+                    for id in ids {
+                        let f = self.fate(id);
+                        if *f == Fate::Open {
+                            *f = Fate::Rejected;
+                            self.rejected += 1;
+                        }
+                    }
+                }
+                None => {}
+            }
+        }
+        r
+    }
+
+    /// The final accounting of `channel`'s frames at the end of a run.
+    #[must_use]
+    pub fn account(&self, channel: &Channel) -> Accounting {
+        let sent = channel.counters().frames_sent;
+        let mut in_flight: Vec<FrameId> = channel.queued_frames().collect();
+        in_flight.extend(self.pending.iter().copied());
+        in_flight.sort_unstable();
+        in_flight.dedup();
+        let open = |id: FrameId| self.fates.get(id as usize).is_none_or(|f| *f == Fate::Open);
+        in_flight.retain(|&id| open(id));
+        // Dropped by the link: no byte of the frame reached the decoder (lost whole, in an
+        // outage, byte by byte, or only its delimiter survived), and none is on its way.
+        let dropped = (0..sent as FrameId)
+            .filter(|&id| {
+                !self.reached.get(id as usize).copied().unwrap_or(false)
+                    && in_flight.binary_search(&id).is_err()
+            })
+            .count() as u64;
+        Accounting {
+            sent,
+            received: self.received,
+            rejected: self.rejected,
+            dropped,
+            in_flight: in_flight.len() as u64,
+            link_dropped_whole: channel.counters().frames_dropped,
+            errors: self.errors,
+        }
+    }
+}
+
+fn error_index(e: FrameError) -> usize {
+    match e {
+        FrameError::Crc => 0,
+        FrameError::Cobs => 1,
+        FrameError::Version => 2,
+        FrameError::Length => 3,
+        FrameError::Postcard => 4,
+    }
+}
+
+/// Every frame of one direction, accounted for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Accounting {
+    /// Frames sent.
+    pub sent: u64,
+    /// Frames received valid.
+    pub received: u64,
+    /// Frames rejected by the receiver (they were part of a CRC/COBS/length/... reject).
+    pub rejected: u64,
+    /// Frames of which no byte reached the receiver's decoder.
+    pub dropped: u64,
+    /// Frames still on the way at the end.
+    pub in_flight: u64,
+    /// Of `dropped`: frames the link dropped whole (`drop=`).
+    pub link_dropped_whole: u64,
+    /// Decoder rejections (events) by kind: CRC, COBS, version, length, postcard.
+    pub errors: [u64; 5],
+}
+
+impl Accounting {
+    /// `sent == received + rejected + dropped + in_flight`.
+    #[must_use]
+    pub fn adds_up(&self) -> bool {
+        self.sent == self.received + self.rejected + self.dropped + self.in_flight
+    }
+}
+
+impl fmt::Display for Accounting {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let [crc, cobs, ver, len, pc] = self.errors;
+        write!(
+            f,
+            "sent {} = received {} + rejected {} + dropped {} + in flight {} [{}] \
+             (rejects: crc {crc}, cobs {cobs}, version {ver}, length {len}, postcard {pc}; \
+             dropped whole by the link {})",
+            self.sent,
+            self.received,
+            self.rejected,
+            self.dropped,
+            self.in_flight,
+            if self.adds_up() {
+                "adds up"
+            } else {
+                "DOES NOT ADD UP"
+            },
+            self.link_dropped_whole
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use wheelset_proto::{encode_vec, Command, Sensor};
+
+    fn frame(seq: u16) -> Vec<u8> {
+        encode_vec(&Message::Sensor(Sensor {
+            seq,
+            t_us: seq.wrapping_mul(200),
+            lateral: wheelset_proto::Lateral::Velocity(i32::from(seq) * 7 - 3000),
+            i_a_ma: 115_000,
+            omega_m_mrad_s: 925_600,
+            demand_nm: 2460,
+        }))
+        .expect("fits")
+        .to_vec()
+    }
+
+    #[test]
+    fn fault_spec_parses_and_refuses() {
+        let f: Faults =
+            "ber=1e-3, drop=0.1,outage=8.0:0.05,outage=9:1:down,burst=2:5,byte_drop=0.01,dir=up"
+                .parse()
+                .expect("valid");
+        assert_eq!(f.ber, 1e-3);
+        assert_eq!(f.frame_drop, 0.1);
+        assert_eq!(f.byte_drop, 0.01);
+        assert_eq!(
+            f.outages,
+            vec![
+                Outage {
+                    start_ns: 8_000_000_000,
+                    len_ns: 50_000_000,
+                    dir: FaultDir::Both,
+                },
+                Outage {
+                    start_ns: 9_000_000_000,
+                    len_ns: 1_000_000_000,
+                    dir: FaultDir::Down,
+                }
+            ]
+        );
+        assert_eq!(
+            f.burst,
+            Some(Burst {
+                rate_hz: 2.0,
+                len_bytes: 5
+            })
+        );
+        assert_eq!(f.dir, FaultDir::Up);
+        assert!("outage=1:2:sideways".parse::<Faults>().is_err());
+        assert_eq!("".parse::<Faults>(), Ok(Faults::none()));
+        for (bad, needle) in [
+            ("ber=1", "outside [0, 1)"),
+            ("ber=x", "not a number"),
+            ("drop=-0.1", "outside [0, 1]"),
+            ("outage=8", "START_S:LEN_S"),
+            ("outage=8:0", "second > 0"),
+            ("burst=1:2.5", "whole number"),
+            ("nope=1", "unknown key"),
+            ("ber", "key=value"),
+            ("dir=left", "both, up or down"),
+        ] {
+            let e = bad.parse::<Faults>().expect_err(bad);
+            assert!(e.to_string().contains(needle), "{bad}: {e}");
+            assert!(e.to_string().contains(bad), "{bad}: {e}");
+        }
+    }
+
+    #[test]
+    fn bytes_arrive_at_baud_plus_latency_in_order() {
+        let cfg = LinkConfig {
+            baud: 1_000_000,
+            latency_ns: 3_000,
+            ..LinkConfig::default()
+        };
+        let mut link = Link::new(&cfg);
+        let a = frame(1);
+        let b = frame(2);
+        link.up.send(1_000, &a);
+        link.up.send(1_000, &b); // queued behind `a`
+        let n = a.len() + b.len();
+        // 10 us per byte at 1 Mbaud: the last byte arrives after n * 10 us + latency.
+        let last = 1_000 + n as u64 * 10_000 + 3_000;
+        let mut got = Vec::new();
+        link.up.deliver(last - 1, |byte, id| got.push((byte, id)));
+        assert_eq!(got.len(), n - 1);
+        link.up.deliver(last, |byte, id| got.push((byte, id)));
+        let bytes: Vec<u8> = got.iter().map(|g| g.0).collect();
+        assert_eq!(bytes, [a.clone(), b.clone()].concat());
+        assert_eq!(got[a.len() - 1].1, 0);
+        assert_eq!(got[a.len()].1, 1);
+        assert_eq!(link.up.line_free_ns(), last - 3_000);
+        assert_eq!(link.down.counters().frames_sent, 0);
+    }
+
+    fn run(cfg: &LinkConfig, frames: u16) -> (Vec<u8>, Accounting, ChannelCounters) {
+        let mut link = Link::new(cfg);
+        let mut rx = RxPort::new();
+        let mut out = Vec::new();
+        let period = 200_000;
+        for k in 0..frames {
+            let t = u64::from(k) * period;
+            link.up.send(t, &frame(k));
+            link.up.deliver(t + period - 1, |b, id| {
+                out.push(b);
+                let _ = rx.push(b, id);
+            });
+        }
+        (out, rx.account(&link.up), *link.up.counters())
+    }
+
+    #[test]
+    fn deterministic_for_a_seed() {
+        let faults: Faults = "ber=1e-3,drop=0.1,byte_drop=0.01,burst=20:4"
+            .parse()
+            .expect("valid");
+        let cfg = LinkConfig {
+            faults,
+            seed: 7,
+            ..LinkConfig::default()
+        };
+        let (a, acc_a, _) = run(&cfg, 2000);
+        let (b, acc_b, _) = run(&cfg, 2000);
+        assert_eq!(a, b);
+        assert_eq!(acc_a, acc_b);
+        let (c, _, _) = run(&LinkConfig { seed: 8, ..cfg }, 2000);
+        assert_ne!(a, c);
+    }
+
+    #[test]
+    fn bit_error_rate_matches() {
+        let cfg = LinkConfig {
+            faults: "ber=1e-2".parse().expect("valid"),
+            ..LinkConfig::default()
+        };
+        let (_, _, c) = run(&cfg, 5000);
+        let bits = (c.bytes_delivered * 8) as f64;
+        let expect = bits * 1e-2;
+        // Binomial: 5 sigma.
+        let sigma = (bits * 1e-2 * 0.99).sqrt();
+        assert!(
+            (c.bits_flipped as f64 - expect).abs() < 5.0 * sigma,
+            "{} flips, expected {expect}",
+            c.bits_flipped
+        );
+    }
+
+    #[test]
+    fn outage_loses_exactly_its_window() {
+        let cfg = LinkConfig {
+            faults: "outage=0.1:0.05".parse().expect("valid"),
+            ..LinkConfig::default()
+        };
+        let (_, acc, c) = run(&cfg, 1000);
+        // 0.05 s at 200 us per frame: 250 frames lost whole, the two at the edges damaged.
+        assert!((249..=251).contains(&acc.dropped), "{acc}");
+        assert!(acc.rejected <= 2, "{acc}");
+        assert!(c.bytes_outage > 0);
+        assert!(acc.adds_up(), "{acc}");
+        assert_eq!(acc.received + acc.rejected + acc.dropped, 1000);
+    }
+
+    #[test]
+    fn every_frame_accounted_under_every_fault() {
+        let faults: Faults = "ber=1e-3,drop=0.1,byte_drop=0.005,burst=50:6,outage=0.2:0.05"
+            .parse()
+            .expect("valid");
+        let cfg = LinkConfig {
+            faults,
+            seed: 3,
+            ..LinkConfig::default()
+        };
+        let (_, acc, c) = run(&cfg, 5000);
+        assert!(acc.adds_up(), "{acc}");
+        assert!(acc.dropped >= acc.link_dropped_whole);
+        assert_eq!(acc.link_dropped_whole, c.frames_dropped);
+        // 10 % whole-frame drops, within 5 sigma.
+        assert!(
+            (c.frames_dropped as f64 - 500.0).abs() < 5.0 * (450.0f64).sqrt(),
+            "{acc}"
+        );
+        assert!(acc.rejected > 0 && acc.received > 2500, "{acc}");
+        // Without faults, every frame arrives valid.
+        let (_, clean, _) = run(&LinkConfig::default(), 500);
+        assert_eq!((clean.received, clean.rejected, clean.dropped), (500, 0, 0));
+        let _ = Command::ResetCounters;
+    }
+
+    #[test]
+    fn budget_fits_or_names_the_numbers() {
+        // 5 kHz, worst-case 33 + 28 bytes at 4 Mbaud, 2 us latency: 152.5 + 4 us of 200.
+        let rt = check_budget(33, 28, DEFAULT_BAUD, DEFAULT_LATENCY_NS, 200_000).expect("fits");
+        assert_eq!(rt, 152_500 + 4_000);
+        let e = check_budget(33, 28, 1_000_000, 2_000, 200_000).expect_err("too slow");
+        let msg = e.to_string();
+        for needle in [
+            "33 + 28",
+            "1000000 baud",
+            "614.0 us",
+            "5000 Hz",
+            "170.0 us",
+            "3674699",
+        ] {
+            assert!(msg.contains(needle), "missing {needle}: {msg}");
+        }
+        assert!(check_budget(33, 28, 0, 0, 200_000).is_err());
+    }
+}
