@@ -87,7 +87,8 @@ pub struct Counters {
     pub speed: SignalCounts,
     /// Input demand (clamp `limits.demand`; as the current).
     pub demand: SignalCounts,
-    /// Output yaw torque against `limits.torque` (the safe-state ramp is not counted).
+    /// Output yaw torque against `limits.torque` (clamps by the safe-state ramp of the
+    /// limit are not counted).
     pub yaw_torque: SignalCounts,
     /// PI output against the voltage limits.
     pub voltage: SignalCounts,
@@ -95,7 +96,36 @@ pub struct Counters {
     pub integrator: SignalCounts,
 }
 
+/// Bit positions of the per-tick event mask (inputs: `bit` invalid, `bit + 1` clamped).
+mod event {
+    pub const Y_DOT: u32 = 0;
+    pub const CURRENT: u32 = 2;
+    pub const SPEED: u32 = 4;
+    pub const DEMAND: u32 = 6;
+    pub const TORQUE: u32 = 9;
+    pub const VOLTAGE: u32 = 11;
+    pub const INTEGRATOR: u32 = 13;
+}
+
 impl Counters {
+    /// Count the events of one tick (cold: only runs when something was clamped).
+    #[cold]
+    #[inline(never)]
+    fn record(&mut self, ev: u32) {
+        let bit = |b: u32| (ev >> b) & 1 == 1;
+        for (c, b) in [
+            (&mut self.y_dot, event::Y_DOT),
+            (&mut self.current, event::CURRENT),
+            (&mut self.speed, event::SPEED),
+            (&mut self.demand, event::DEMAND),
+            (&mut self.yaw_torque, event::TORQUE - 1),
+            (&mut self.voltage, event::VOLTAGE - 1),
+            (&mut self.integrator, event::INTEGRATOR - 1),
+        ] {
+            c.count(bit(b), bit(b + 1));
+        }
+    }
+
     /// Sum of all clamps and invalid inputs.
     pub fn total(&self) -> u64 {
         [
@@ -320,19 +350,24 @@ impl<T: Sample> Controller<T> {
     /// (both on tick 0), hold the other outputs. Never fails, never panics.
     #[inline]
     pub fn tick(&mut self, inp: &Inputs<T>) -> Outputs<T> {
-        let c = &mut self.counters;
-        c.ticks = c.ticks.wrapping_add(1);
+        self.counters.ticks = self.counters.ticks.wrapping_add(1);
+        // Clamp/invalid events of this tick, one bit each; the counters are updated off
+        // the hot path, only on ticks where something was clamped.
+        let mut ev = 0u32;
         if self.yaw_phase == 0 {
             self.yaw_phase = self.law.yaw_divisor - 1;
-            self.yaw_step(inp.y_dot);
+            self.yaw_step(inp.y_dot, &mut ev);
         } else {
             self.yaw_phase -= 1;
         }
         if self.traction_phase == 0 {
             self.traction_phase = self.law.traction_divisor - 1;
-            self.traction_step(inp);
+            self.traction_step(inp, &mut ev);
         } else {
             self.traction_phase -= 1;
+        }
+        if ev != 0 {
+            self.counters.record(ev);
         }
         self.out
     }
@@ -345,58 +380,63 @@ impl<T: Sample> Controller<T> {
         self.codec.encode(&o)
     }
 
+    /// Sanitise and clamp an input; events at bits `bit` (invalid) and `bit + 1` (clamped).
     #[inline(always)]
-    fn input(x: T, max: T, c: &mut SignalCounts) -> T {
+    fn input(x: T, max: T, bit: u32, ev: &mut u32) -> T {
         let (x, bad) = x.sanitize();
         let (x, sat) = x.limit(T::ZERO.sat_sub(max), max);
-        c.count(bad, sat);
+        *ev |= ((bad as u32) | ((sat as u32) << 1)) << bit;
         x
     }
 
     #[inline(always)]
-    fn yaw_step(&mut self, y_dot: T) {
+    fn yaw_step(&mut self, y_dot: T, ev: &mut u32) {
         let law = &self.law;
-        let c = &mut self.counters;
-        c.yaw_steps = c.yaw_steps.wrapping_add(1);
-        let x = Self::input(y_dot, law.y_dot_max, &mut c.y_dot);
+        self.counters.yaw_steps = self.counters.yaw_steps.wrapping_add(1);
+        let x = Self::input(y_dot, law.y_dot_max, event::Y_DOT, ev);
         self.last_y_dot = x;
         let raw = match self.mode {
             YawMode::Passive => T::ZERO,
             YawMode::Gain => x.mul_c(law.gain),
             YawMode::Lead => law.lead.process(&mut self.lead_state, x),
         };
-        let (t, sat) = raw.limit(T::ZERO.sat_sub(law.torque_max), law.torque_max);
-        c.yaw_torque.count(false, sat);
-        // Safe-state ramp of the limit (not counted as a saturation).
-        self.torque_lim = if self.safe {
+        // The torque limit: `torque_max`, ramped towards 0 in the safe state and back up
+        // after it. A clamp counts as a saturation only at the full limit (the ramp is
+        // not a saturation).
+        // (Normal running, limit at its maximum, skips the ramp: a branch on state.)
+        let lim = if self.safe {
             self.torque_lim
                 .sat_sub(law.torque_step)
                 .limit(T::ZERO, law.torque_max)
                 .0
-        } else {
+        } else if self.torque_lim != law.torque_max {
             self.torque_lim
                 .sat_add(law.torque_step)
                 .limit(T::ZERO, law.torque_max)
                 .0
+        } else {
+            law.torque_max
         };
-        self.out.yaw_torque = t.limit(T::ZERO.sat_sub(self.torque_lim), self.torque_lim).0;
+        self.torque_lim = lim;
+        let (t, sat) = raw.limit(T::ZERO.sat_sub(lim), lim);
+        *ev |= ((sat & (lim == law.torque_max)) as u32) << event::TORQUE;
+        self.out.yaw_torque = t;
     }
 
     #[inline(always)]
-    fn traction_step(&mut self, inp: &Inputs<T>) {
+    fn traction_step(&mut self, inp: &Inputs<T>, ev: &mut u32) {
         let law = &self.law;
-        let c = &mut self.counters;
-        c.traction_steps = c.traction_steps.wrapping_add(1);
+        self.counters.traction_steps = self.counters.traction_steps.wrapping_add(1);
         if !self.traction {
             self.out.voltage = T::ZERO;
             self.armed = false;
             return;
         }
-        let i = Self::input(inp.current, law.current_max, &mut c.current);
-        let d = Self::input(inp.demand, law.demand_max, &mut c.demand);
+        let i = Self::input(inp.current, law.current_max, event::CURRENT, ev);
+        let d = Self::input(inp.demand, law.demand_max, event::DEMAND, ev);
         if !self.armed {
             // Bumpless start: the only use of the speed.
-            let w = Self::input(inp.speed, law.speed_max, &mut c.speed);
+            let w = Self::input(inp.speed, law.speed_max, event::SPEED, ev);
             law.pi.preset(&mut self.pi_state, w.mul_c(law.back_emf));
             self.armed = true;
         }
@@ -413,8 +453,7 @@ impl<T: Sample> Controller<T> {
         let (u, f) = law
             .pi
             .process_flags(&mut self.pi_state, self.iref.sat_sub(i));
-        c.integrator.count(false, f.integ);
-        c.voltage.count(false, f.output);
+        *ev |= ((f.integ as u32) << event::INTEGRATOR) | ((f.output as u32) << event::VOLTAGE);
         self.out.voltage = u;
     }
 

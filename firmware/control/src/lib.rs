@@ -83,14 +83,62 @@
 //! (Q1.31, relative error <= 2^-32/|c|): `K_hf` 3e-10, `g/2` 5e-10, `kappa` (5 kHz)
 //! 9e-9, PI `Ki` (5 kHz, Ti = 0.5 s) 5.8e-6 relative.
 //!
-//! # Rates
+//! # Rates (default: base 5 kHz, yaw and traction both every tick)
 //!
-//! Defaults: base [`DEFAULT_BASE_RATE_HZ`], yaw divisor [`DEFAULT_YAW_DIVISOR`],
-//! traction divisor [`DEFAULT_TRACTION_DIVISOR`]. The traction current loop crosses
-//! over at `Kp/L_a` = 2500 rad/s (398 Hz); with ZOH and one period of delay its phase
-//! margin is about `90 deg - 1.5 T w_c`: 47 deg at 5 kHz, 36 deg at 4 kHz, 4 deg at
-//! 2.5 kHz, so the traction loop needs >= 5 kHz. (The full sampled-data analysis of
-//! both loops over creep and conicity is in progress; these defaults are provisional.)
+//! Chosen from a sampled-data analysis of the loops as they run: the plant discretised
+//! exactly with a zero-order hold, **one base period of computation and transport
+//! delay** on the actuation (the Actuation frame computed from the Sensor frame of tick
+//! `k` is applied at tick `k+1`), these controllers with the f64 coefficients of this
+//! crate at their divisors, and the closed-loop (monodromy) eigenvalues over the
+//! creep/conicity grid `f11 = f22` in {1, 2, 3, 5, 7, 10} MN x `lambda` in
+//! {0.05, 0.1, 0.2, 0.3, 0.4} (`sim-host/src/sampled.rs`; the free-rolling eigenvalue is
+//! left out). Numbers below are for the reduced plant (case (c) of the model: rigid axle,
+//! no yaw spring, lateral/yaw eqs. 4-5 linearised at 83.3 m/s, plus the armature circuit
+//! eq. 9 at constant speed), lead mode, PI `Kp = 1 V/A`, `Ti = 0.5 s`.
+//!
+//! **Traction current loop.** Continuous crossover `Kp/L_a` = 2500 rad/s (398 Hz); with
+//! ZOH and one period of delay its fast closed-loop pair has, per base tick:
+//!
+//! | base rate | 1 kHz | 2 kHz | 2.5 kHz | 4 kHz | **5 kHz** | 8 kHz | 10 kHz |
+//! |---|---|---|---|---|---|---|---|
+//! | pole radius | 1.544 | 1.105 | 0.990 | 0.786 | **0.704** | 0.557 | 0.499 |
+//! | damping ratio | unstable | unstable | 0.009 | 0.26 | **0.40** | 0.77 | 0.985 |
+//!
+//! (The test `current_loop_is_unstable_at_2_khz` shows the 2 kHz instability with this
+//! controller; `current_loop_settles_at_the_default_rate` the 5 kHz settling.)
+//!
+//! **Yaw loop (lead).** The continuous lead loop itself is unstable below a creep of
+//! 1.33 MN (conicity 0.05) to 1.49 MN (0.4): a high-frequency mode (~13 Hz at 1 MN) the
+//! paper's Fig. 4 shows approaching instability. So the 1 MN row of the grid is lost by
+//! the control law, not by the rate; over the rest of the grid the question is how much
+//! damping sampling costs:
+//!
+//! | base / yaw divisor | worst sampled zeta where the continuous loop is stable | largest damping loss vs continuous | grid points destabilised by sampling | zeta at 10 MN, 0.2 |
+//! |---|---|---|---|---|
+//! | 2.5 kHz / 1 | +0.003 (17 Hz, 2 MN, 0.4) | 0.32 (current loop) | 0 | 0.009 |
+//! | 4 kHz / 1 | +0.016 | 0.071 | 0 | 0.258 |
+//! | **5 kHz / 1** | **+0.020** (17.4 Hz, 2 MN, 0.4) | **0.024** | **0** | **0.310** |
+//! | 5 kHz / 2 | +0.014 | 0.032 | 0 | 0.302 |
+//! | 5 kHz / 5 (yaw 1 kHz) | -0.003 | 0.056 | 1 | 0.278 |
+//! | 10 kHz / 1 | +0.028 | 0.012 | 0 | 0.322 |
+//!
+//! The least-damped corner (2 MN, conicity 0.4, 17 Hz) is weak in continuous time too;
+//! every grid point the continuous loop holds, 5 kHz holds, losing at most 0.024 of
+//! damping ratio. Running the yaw loop slower saves nothing that matters (the law costs
+//! well under a microsecond; the frames go every base tick anyway) and costs damping,
+//! so the yaw divisor is 1; the multi-rate machinery stays for other configurations.
+//!
+//! **Link budget.** One period must carry the Sensor frame in, the computation and the
+//! Actuation frame out (sequential: the reply must be back before the next tick). With
+//! the wire format's worst-case frames (33 + 28 bytes, 10 bits per byte) and 10 us of
+//! computation, 70 % utilisation needs `610 bits / (0.7 T - 10 us)`: 4.7 Mbaud at 5 kHz,
+//! 10.2 Mbaud at 10 kHz. At the 2 Mbaud of a typical USB-serial bridge the largest rate
+//! that fits is 2.26 kHz, where the current loop is unstable: **the default needs a
+//! link of at least 5 Mbaud** (the STM32F446's USART1/6 on the 90 MHz APB2 reach 11.25 Mbaud with
+//! 8x oversampling; e.g. 6 Mbaud = 90 MHz / 15) or, at 2 Mbaud, a lower current-loop
+//! gain than the paper's. [`Config::check_link`] refuses a configuration that does not
+//! fit. 10 kHz would halve the damping loss but does not fit any realistic UART with
+//! these frames.
 #![no_std]
 #![deny(missing_docs)]
 

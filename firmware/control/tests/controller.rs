@@ -319,3 +319,42 @@ fn anti_windup_recovers_without_overshoot() {
         "without anti-windup it must be much worse: {late_w} {low_w}"
     );
 }
+
+/// Every counter counts its own signal, once per step where it clamped.
+#[test]
+fn counters_count_per_signal() {
+    let cfg = Config {
+        yaw_mode: YawMode::Gain,
+        ..Config::default()
+    };
+    let mut c = F64Controller::try_new(&cfg).expect("ok");
+    // 10 ticks: y' beyond its clamp (1 m/s) -> y' clamped and torque saturated.
+    for _ in 0..10 {
+        c.tick(&si(&cfg, 3.0, 0.0, 900.0, 0.0));
+    }
+    // 7 ticks: torque saturated only (0.5 m/s * 1.05e5 > 2e4 N m).
+    for _ in 0..7 {
+        c.tick(&si(&cfg, 0.5, 0.0, 900.0, 0.0));
+    }
+    // 3 ticks: current and demand beyond their clamps, NaN y'.
+    for _ in 0..3 {
+        c.tick(&Inputs {
+            y_dot: f64::NAN,
+            current: 5.0,
+            speed: 0.9,
+            demand: -5.0,
+        });
+    }
+    let k = *c.counters();
+    assert_eq!(k.ticks, 20);
+    assert_eq!((k.y_dot.clamped, k.y_dot.invalid), (10, 3));
+    assert_eq!(k.yaw_torque.clamped, 17);
+    assert_eq!(k.current.clamped, 3);
+    assert_eq!(k.demand.clamped, 3);
+    assert_eq!((k.speed.clamped, k.speed.invalid), (0, 0));
+    // -2000 A error at Kp = 1 V/A on 3961 V: not clamped at +-6000 V.
+    assert_eq!(k.voltage.clamped, 0);
+    assert_eq!(k.total(), 10 + 3 + 17 + 3 + 3);
+    c.reset_counters();
+    assert_eq!(c.counters().total(), 0);
+}
