@@ -1,9 +1,11 @@
-//! Processor in the loop: the `wheelset-qemu` firmware under QEMU, lock-step over its
-//! UART. Skips when QEMU or the ELF is missing, unless `REQUIRE_QEMU=1` (set by
-//! `cargo xtest` when QEMU is installed), in which case that is a failure.
+//! Processor in the loop: the `wheelset-qemu` firmware (the real runtime and control
+//! core on an emulated Cortex-M4) under QEMU, lock-step over its UART. Skips when QEMU
+//! or the ELF is missing, unless `REQUIRE_QEMU=1` (set by `cargo xtest` when QEMU is
+//! installed), in which case that is a failure.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 use hil::qemu::{Qemu, QemuConfig};
+use wheelset_proto::{encode_vec, Actuation, Decoder, Flags, Lateral, Message, Sensor};
 
 /// Starts the emulated device, or `None` (skip) when it cannot run here and the run
 /// does not require it.
@@ -22,88 +24,117 @@ fn start_or_skip(test: &str) -> Option<Qemu> {
     }
 }
 
-fn cobs_encode(data: &[u8]) -> Vec<u8> {
-    let mut out = vec![0u8];
-    let mut code_at = 0;
-    for &b in data {
-        if b == 0 {
-            out[code_at] = (out.len() - code_at) as u8;
-            code_at = out.len();
-            out.push(0);
-        } else {
-            out.push(b);
-            if out.len() - code_at == 0xFF {
-                out[code_at] = 0xFF;
-                code_at = out.len();
-                out.push(0);
+/// Motor speed at 25 m/s (rad/s, the wire's 1e-3 rad/s LSB): 925.6 rad/s.
+const OMEGA_MRAD_S: i32 = 925_600;
+
+fn sensor(seq: u16, y_dot_um_s: i32) -> Vec<u8> {
+    let s = Sensor {
+        seq,
+        t_us: seq.wrapping_mul(200),
+        lateral: Lateral::Velocity(y_dot_um_s),
+        i_a_ma: 0,
+        omega_m_mrad_s: OMEGA_MRAD_S,
+        demand_nm: 0,
+    };
+    encode_vec(&Message::Sensor(s)).unwrap().to_vec()
+}
+
+/// One tick: sends `bytes` (a frame, or a bare delimiter for a tick without one) and
+/// returns the device's actuation frame.
+fn tick(q: &mut Qemu, dec: &mut Decoder, bytes: &[u8]) -> Actuation {
+    q.send(bytes).unwrap();
+    let mut frame = q.recv_frame().unwrap();
+    frame.push(0);
+    let mut out = None;
+    dec.feed(&frame, |r| out = Some(r));
+    match out {
+        Some(Ok(Message::Actuation(a))) => a,
+        other => panic!("expected an actuation frame, got {other:?}"),
+    }
+}
+
+/// `ticks` lock-step exchanges with a lateral velocity that rings down like a damped
+/// yaw mode, so the lead filter has something to chew on.
+fn run_exchange(q: &mut Qemu, ticks: u16) -> Vec<Actuation> {
+    let mut dec = Decoder::new();
+    (1..=ticks)
+        .map(|k| {
+            let t = f64::from(k) / 5000.0;
+            let y_dot = 0.02 * (-3.0 * t).exp() * (2.0 * std::f64::consts::PI * 8.0 * t).sin();
+            let a = tick(q, &mut dec, &sensor(k, (y_dot * 1e6) as i32));
+            assert_eq!(
+                a.seq_echo, k,
+                "the tick used this period's frame (lock-step)"
+            );
+            assert_eq!(a.tick, k, "one device tick per host frame");
+            assert!(a.flags.has(Flags::ENABLED), "tick {k}: flags {:?}", a.flags);
+            assert!(!a.flags.has(Flags::HOLDING | Flags::SAFE | Flags::RX_ERROR));
+            if k > 1 {
+                assert!(a.exec > 0, "tick {k}: no execution time measured");
             }
-        }
-    }
-    out[code_at] = (out.len() - code_at) as u8;
-    out.push(0);
-    out
-}
-
-fn cobs_decode(frame: &[u8]) -> Vec<u8> {
-    let mut out = Vec::new();
-    let mut i = 0;
-    while i < frame.len() {
-        let code = frame[i] as usize;
-        assert!(
-            code > 0 && i + code <= frame.len(),
-            "bad COBS frame {frame:?}"
-        );
-        out.extend_from_slice(&frame[i + 1..i + code]);
-        i += code;
-        if code < 0xFF && i < frame.len() {
-            out.push(0);
-        }
-    }
-    out
-}
-
-/// One tick's reply of the link-test stub: (tick, last_exec, frames, echoed payload).
-type Reply = (u32, u32, u32, Vec<u8>);
-
-/// Runs `ticks` lock-step exchanges: one sensor-sized frame in, one reply out.
-fn run_link(q: &mut Qemu, ticks: u32) -> Vec<Reply> {
-    let mut trace = Vec::new();
-    for k in 0..ticks {
-        // Varying payload with zeros in it (COBS must carry them).
-        let payload: Vec<u8> = (0..12u32).map(|i| ((k * 7 + i * 13) % 256) as u8).collect();
-        q.send(&cobs_encode(&payload)).unwrap();
-        let raw = cobs_decode(&q.recv_frame().unwrap());
-        assert!(raw.len() >= 12, "tick {k}: short reply {raw:?}");
-        let word = |i: usize| u32::from_le_bytes(raw[i..i + 4].try_into().unwrap());
-        let reply = (word(0), word(4), word(8), raw[12..].to_vec());
-        // The device ticked once per host frame and saw exactly that frame: the
-        // frame-clocked lock-step.
-        assert_eq!(reply.0, k + 1, "tick count");
-        assert_eq!(reply.2, k + 1, "frames received");
-        assert_eq!(cobs_decode(&reply.3), payload, "tick {k}: echo");
-        if k > 0 {
-            assert!(reply.1 > 0, "tick {k}: no execution time measured");
-        }
-        trace.push(reply);
-    }
-    trace
+            a
+        })
+        .collect()
 }
 
 #[test]
-fn lock_step_link_is_closed_and_deterministic() {
-    let Some(mut q) = start_or_skip("lock_step_link_is_closed_and_deterministic") else {
+fn the_emulated_device_runs_the_controller_in_deterministic_lock_step() {
+    let Some(mut q) = start_or_skip("lock-step") else {
         return;
     };
-    let first = run_link(&mut q, 300);
+    let first = run_exchange(&mut q, 300);
     drop(q);
-    let mut q = start_or_skip("second run").unwrap();
-    let second = run_link(&mut q, 300);
+    let mut q = start_or_skip("lock-step, second run").unwrap();
+    let second = run_exchange(&mut q, 300);
     // Same bytes in, same per-tick trace out, execution times (instruction counts)
     // included.
     assert_eq!(first, second);
-    // Execution time is counted in instructions: plausible for a tick, not zero.
-    let max = first.iter().map(|r| r.1).max().unwrap();
+    // The controller acts: bumpless traction voltage near the back-EMF K_m * omega
+    // (K_m = 4.28 V s/rad -> ~3962 V), and a yaw torque that follows y'.
+    let u = first.last().unwrap().u_a_cv;
+    assert!((390_000..400_000).contains(&u), "u_a {u} cV");
+    assert!(
+        first.iter().any(|a| a.t_psi_dnm != 0),
+        "no yaw torque at all"
+    );
+    // Execution time is counted in instructions: plausible for a tick.
+    let max = first.iter().map(|a| a.exec).max().unwrap();
+    let min = first.iter().skip(1).map(|a| a.exec).min().unwrap();
+    eprintln!("instructions per tick (drain + decode + control + encode): min {min}, max {max}");
     assert!((50..100_000).contains(&max), "max exec {max}");
+}
+
+#[test]
+fn missing_frames_hold_then_enter_the_safe_state() {
+    let Some(mut q) = start_or_skip("hold and safe state") else {
+        return;
+    };
+    let mut dec = Decoder::new();
+    for k in 1..=5 {
+        let a = tick(&mut q, &mut dec, &sensor(k, 1000));
+        assert!(!a.flags.has(Flags::HOLDING));
+    }
+    // Bare delimiters: the clock advances, no sensor frame arrives.
+    let hold = wheelset_runtime::DEFAULT_HOLD_TICKS;
+    let mut entered_safe_at = None;
+    for n in 1..=u32::from(hold) + 3 {
+        let a = tick(&mut q, &mut dec, &[0]);
+        assert_eq!(a.seq_echo, 5, "held sample");
+        if a.flags.has(Flags::SAFE) && entered_safe_at.is_none() {
+            entered_safe_at = Some(n);
+        }
+        if n <= u32::from(hold) {
+            assert!(
+                a.flags.has(Flags::HOLDING),
+                "tick {n} without a frame holds"
+            );
+        }
+    }
+    assert_eq!(entered_safe_at, Some(u32::from(hold) + 1));
+    // A valid frame leaves the safe state.
+    let a = tick(&mut q, &mut dec, &sensor(6, 1000));
+    assert_eq!(a.seq_echo, 6);
+    assert!(!a.flags.has(Flags::SAFE));
 }
 
 #[test]

@@ -1,6 +1,6 @@
 //! The board-independent task structure: the pipes between the UART and the control
-//! task, and the control loop itself. Each board supplies the executors, the UART tasks
-//! and a [`Stopwatch`].
+//! task, and the control loop itself. Each board supplies the executors, the UART tasks,
+//! a [`Stopwatch`] and `set_period` (the QEMU frame clock needs the period).
 //!
 //! ```text
 //!  UART RX (ISR or DMA task) --RX pipe--> control task --TX pipe--> UART TX task
@@ -12,9 +12,9 @@ use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::pipe::Pipe;
 use embassy_time::{Duration, Instant, Ticker};
 
-use crate::config::{LATE_AFTER_TICKS, PERIOD_TICKS, RX_PIPE, TX_PIPE};
-use crate::device::{Device, EchoStub};
-use crate::tick::{TickMonitor, TickWake};
+use crate::config::{RX_PIPE, TX_PIPE};
+use crate::device::{new_runtime, Device, FwRuntime};
+use crate::tick::{period_ticks, TickMonitor, TickWake};
 
 /// Bytes from the UART receiver to the control task.
 pub static RX: Pipe<CriticalSectionRawMutex, RX_PIPE> = Pipe::new();
@@ -30,17 +30,17 @@ pub trait Stopwatch {
     fn stop(&mut self, start: u32) -> u32;
 }
 
-/// The device the control task drives. Today: the link-test stub (see the README's
-/// Firmware section); the control runtime replaces it.
-pub fn new_device() -> EchoStub {
-    EchoStub::default()
-}
-
-/// The frame the panic handler sends to put the actuators in their safe state (zero yaw
-/// torque, zero traction demand). Empty while the link-test stub is wired: the stub
-/// commands nothing, so there is nothing to make safe.
-pub fn safe_frame() -> &'static [u8] {
-    &[]
+/// The device the control task drives: the runtime with its default configuration. A
+/// configuration the control core refuses is a build error in disguise (it is not
+/// input): the board halts.
+pub fn new_device() -> FwRuntime {
+    match new_runtime() {
+        Ok(rt) => rt,
+        Err(_) => {
+            defmt::error!("runtime refused its default configuration");
+            crate::board::panic_halt()
+        }
+    }
 }
 
 /// Unwraps a task's spawn token; a full task pool is a build error in disguise, so it
@@ -55,27 +55,35 @@ pub fn token<S>(t: Result<SpawnToken<S>, SpawnError>) -> SpawnToken<S> {
     }
 }
 
+/// A ticker whose first tick is one period from now.
+fn new_ticker(period: u64) -> (Ticker, u64) {
+    let start = Instant::now();
+    let mut t = Ticker::every(Duration::from_ticks(period));
+    // `reset_at(t)` makes `t` the last tick: the next one is due at `t + period`.
+    t.reset_at(start);
+    (t, start.as_ticks().saturating_add(period))
+}
+
 /// The control task's body. Deadline: one base period per tick.
 ///
 /// Each tick: apply the missed-tick policy ([`crate::tick`]), feed the bytes received
 /// since the last tick to the device, run the device's tick with the previous tick's
 /// execution time, and queue the encoded frame for the transmitter. The execution time
 /// is measured from the wake-up to the encoded frame (drain + decode + control +
-/// encode).
+/// encode). A host Config frame that changes the base rate re-arms the schedule.
 pub async fn control_loop(mut device: impl Device, mut stopwatch: impl Stopwatch) -> ! {
-    let period = Duration::from_ticks(PERIOD_TICKS);
-    let start = Instant::now();
-    let first = start + period;
-    let mut ticker = Ticker::every(period);
-    // `reset_at(t)` makes `t` the last tick: the next one is due at `t + period`.
-    ticker.reset_at(start);
-    let mut monitor = match TickMonitor::try_new(PERIOD_TICKS, first.as_ticks(), LATE_AFTER_TICKS) {
-        Ok(m) => m,
-        Err(_) => {
-            defmt::error!("bad tick configuration");
-            crate::board::panic_halt()
-        }
+    let mut rate = device.base_rate_hz();
+    let Some(mut period) = period_ticks(rate) else {
+        defmt::error!("base rate {=u32} Hz is not a whole number of us", rate);
+        crate::board::panic_halt()
     };
+    crate::board::set_period(period);
+    let (mut ticker, first) = new_ticker(period);
+    let Ok(mut monitor) = TickMonitor::try_new(period, first, period / 4) else {
+        defmt::error!("bad tick configuration");
+        crate::board::panic_halt()
+    };
+    defmt::info!("control task: {=u32} Hz, period {=u64} us", rate, period);
     let mut last_exec = 0u32;
     let mut tx_dropped = 0u32;
     let mut chunk = [0u8; 32];
@@ -89,9 +97,7 @@ pub async fn control_loop(mut device: impl Device, mut stopwatch: impl Stopwatch
                 missed,
                 next_deadline,
             } => {
-                ticker.reset_at(Instant::from_ticks(
-                    next_deadline.saturating_sub(PERIOD_TICKS),
-                ));
+                ticker.reset_at(Instant::from_ticks(next_deadline.saturating_sub(period)));
                 defmt::warn!("stalled: skipped {=u32} ticks", missed);
             }
         }
@@ -119,6 +125,25 @@ pub async fn control_loop(mut device: impl Device, mut stopwatch: impl Stopwatch
             } else {
                 tx_dropped = tx_dropped.wrapping_add(1);
                 defmt::warn!("TX pipe full: frame dropped ({=u32})", tx_dropped);
+            }
+        }
+        // A Config frame from the host may have changed the base rate.
+        let now_rate = device.base_rate_hz();
+        if now_rate != rate {
+            match period_ticks(now_rate) {
+                Some(p) => {
+                    rate = now_rate;
+                    period = p;
+                    crate::board::set_period(period);
+                    let (t, first) = new_ticker(period);
+                    ticker = t;
+                    monitor.rearm(period, first);
+                    defmt::info!("base rate now {=u32} Hz", rate);
+                }
+                None => defmt::warn!(
+                    "base rate {=u32} Hz refused: not a whole number of us",
+                    now_rate
+                ),
             }
         }
     }

@@ -36,7 +36,7 @@ pub mod app;
 pub mod board;
 #[cfg(target_os = "none")]
 #[allow(unsafe_code)]
-mod panic;
+pub mod panic;
 
 #[cfg(target_os = "none")]
 defmt::timestamp!("{=u64:us}", embassy_time::Instant::now().as_micros());

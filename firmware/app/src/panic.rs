@@ -6,6 +6,15 @@
 //! torque and zero traction demand), logs, and halts (QEMU: exits with a failure code).
 
 use core::panic::PanicInfo;
+use core::sync::atomic::{AtomicBool, Ordering};
+
+static HALTING: AtomicBool = AtomicBool::new(false);
+
+/// Marks the board as halting; `true` if it already was (a panic while sending the safe
+/// frame must not try again).
+pub fn enter_halt() -> bool {
+    HALTING.swap(true, Ordering::Relaxed)
+}
 
 #[panic_handler]
 fn panic(info: &PanicInfo) -> ! {

@@ -91,6 +91,14 @@ impl TickMonitor {
         })
     }
 
+    /// A new period, first deadline at `first_deadline`, late after a quarter period;
+    /// the counters carry on (a base-rate change at run time).
+    pub fn rearm(&mut self, period: u64, first_deadline: u64) {
+        self.period = period.max(1);
+        self.late_after = self.period / 4;
+        self.next_deadline = first_deadline;
+    }
+
     /// The deadline the next wake-up is expected for, in timer ticks.
     pub fn next_deadline(&self) -> u64 {
         self.next_deadline
@@ -119,10 +127,14 @@ impl TickMonitor {
                 TickWake::OnTime
             }
         } else {
-            let missed = lateness / self.period;
-            let next_deadline = deadline.saturating_add(missed.saturating_add(1) * self.period);
+            // 32-bit division (the M4 has it in hardware; a u64 one pulls in ~1 KiB of
+            // library code): periods are far below 2^32 ticks, a stall of more than
+            // 2^32 us (71 min) saturates.
+            let period32 = u32::try_from(self.period).unwrap_or(u32::MAX);
+            let missed = u32::try_from(lateness).unwrap_or(u32::MAX) / period32;
+            let next_deadline =
+                deadline.saturating_add((u64::from(missed) + 1).saturating_mul(self.period));
             self.next_deadline = next_deadline;
-            let missed = u32::try_from(missed).unwrap_or(u32::MAX);
             c.late = c.late.saturating_add(1);
             c.skipped_periods = c.skipped_periods.saturating_add(missed);
             TickWake::Skipped {
@@ -133,11 +145,43 @@ impl TickMonitor {
     }
 }
 
+/// The tick period in embassy-time ticks (1 us) of a base rate in Hz, if it is a whole
+/// number of ticks: `1e6 / hz`.
+pub fn period_ticks(hz: u32) -> Option<u64> {
+    let timer = crate::config::TIMER_HZ;
+    if hz == 0 || hz > timer || timer % hz != 0 {
+        None
+    } else {
+        Some(u64::from(timer / hz))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     const T: u64 = 250; // 4 kHz at 1 us per timer tick
+
+    #[test]
+    fn periods_must_be_whole_microseconds() {
+        assert_eq!(period_ticks(5_000), Some(200));
+        assert_eq!(period_ticks(1_000_000), Some(1));
+        assert_eq!(period_ticks(3_000), None);
+        assert_eq!(period_ticks(0), None);
+        assert_eq!(period_ticks(2_000_000), None);
+    }
+
+    #[test]
+    fn rearming_keeps_the_counters() {
+        let mut m = TickMonitor::try_new(T, T, T / 4).unwrap();
+        m.on_wake(3 * T);
+        m.rearm(2 * T, 10 * T);
+        assert_eq!(m.next_deadline(), 10 * T);
+        assert_eq!(m.on_wake(10 * T), TickWake::OnTime);
+        assert_eq!(m.next_deadline(), 12 * T);
+        assert_eq!(m.counters().skipped_periods, 2);
+        assert_eq!(m.counters().ticks, 2);
+    }
 
     #[test]
     fn refuses_bad_configuration() {

@@ -6,7 +6,7 @@
 //! "instantly" in wall time, before the host's next frame could arrive, and the tick
 //! would see old or new data depending on host speed. Here device time is instead
 //!
-//! `now = frame_edges * PERIOD_TICKS` (embassy-time ticks of 1 us),
+//! `now = frame_edges * period` (embassy-time ticks of 1 us),
 //!
 //! where a frame edge is the delimiter byte 0x00 that ends each host frame: the host
 //! sends exactly one frame per control period, so the control task's `Ticker` fires
@@ -16,13 +16,20 @@
 //! run) sends a bare 0x00, which every COBS decoder ignores as an empty frame.
 
 use core::cell::{Cell, RefCell};
+use core::sync::atomic::{AtomicU32, Ordering};
 use core::task::Waker;
 
 use critical_section::Mutex;
 use embassy_time_driver::Driver;
 use embassy_time_queue_utils::Queue;
 
-use crate::config::PERIOD_TICKS;
+/// The control period in embassy-time ticks (1 us), set by the control task.
+static PERIOD: AtomicU32 = AtomicU32::new(0);
+
+/// Sets the period one frame edge advances the clock by.
+pub fn set_period(ticks: u64) {
+    PERIOD.store(u32::try_from(ticks).unwrap_or(u32::MAX), Ordering::Relaxed);
+}
 
 struct FrameClock {
     now: Mutex<Cell<u64>>,
@@ -55,7 +62,9 @@ embassy_time_driver::time_driver_impl!(static CLOCK: FrameClock = FrameClock {
 pub fn frame_edge() {
     critical_section::with(|cs| {
         let now = CLOCK.now.borrow(cs);
-        let t = now.get().saturating_add(PERIOD_TICKS);
+        let t = now
+            .get()
+            .saturating_add(u64::from(PERIOD.load(Ordering::Relaxed)));
         now.set(t);
         CLOCK.queue.borrow_ref_mut(cs).next_expiration(t);
     });

@@ -69,9 +69,14 @@ async fn tx_task() {
     }
 }
 
+pub use clock::set_period;
+
 /// Sends the safe frame and exits QEMU with a failure status.
 pub fn panic_halt() -> ! {
-    uart::write_blocking(app::safe_frame());
+    if !crate::panic::enter_halt() {
+        let mut buf = [0u8; wheelset_proto::MAX_FRAME];
+        uart::write_blocking(crate::device::safe_frame(&mut buf));
+    }
     loop {
         cortex_m_semihosting::debug::exit(cortex_m_semihosting::debug::EXIT_FAILURE);
     }
