@@ -8,7 +8,7 @@ pub const BASE_RATE_HZ: u32 = wheelset_control::DEFAULT_BASE_RATE_HZ;
 pub const TIMER_HZ: u32 = 1_000_000;
 
 // The default period must be a whole number of timer ticks.
-const _: () = assert!(TIMER_HZ % BASE_RATE_HZ == 0);
+const _: () = assert!(TIMER_HZ.is_multiple_of(BASE_RATE_HZ));
 
 /// Bytes buffered between the UART receiver and the control task.
 pub const RX_PIPE: usize = 256;

@@ -149,7 +149,7 @@ impl TickMonitor {
 /// number of ticks: `1e6 / hz`.
 pub fn period_ticks(hz: u32) -> Option<u64> {
     let timer = crate::config::TIMER_HZ;
-    if hz == 0 || hz > timer || timer % hz != 0 {
+    if hz == 0 || hz > timer || !timer.is_multiple_of(hz) {
         None
     } else {
         Some(u64::from(timer / hz))
