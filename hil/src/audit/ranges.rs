@@ -1,0 +1,667 @@
+//! Ranges, headroom and quantisation noise over input scenarios.
+//!
+//! A scenario is a per-tick sequence of the controller's four inputs (per unit) plus
+//! events (safe state, traction on/off). The fixed-point controller and the f64
+//! reference run in lock-step on the *same* inputs (the f64 one gets the fixed-point
+//! inputs exactly, so only arithmetic and coefficient quantisation count). After every
+//! tick the observer reads the fixed-point states through the controller's accessors and
+//! rebuilds each intermediate signal of the lead and the PI in f64 from them and the
+//! quantised coefficients (exact up to one LSB of rounding), *before* any saturation:
+//! a value outside the signal format's range is an overflow, counted per signal.
+
+use serde::Serialize;
+use wheelset_control::{Config, Controller, Inputs, Sample, YawMode};
+
+use super::qdyn::QFormat;
+
+/// A scenario event applied before a tick.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Event {
+    /// Enter (`true`) or leave the safe state.
+    Safe(bool),
+    /// Traction loop on/off.
+    Traction(bool),
+}
+
+/// One base tick of a scenario: inputs in SI units (m/s, A, rad/s, N m), and an event.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Tick {
+    /// `[y', i_a, omega_m, demand]`, SI.
+    pub si: [f64; 4],
+    /// Event applied before this tick.
+    pub event: Option<Event>,
+}
+
+/// A named input sequence at the configuration's base rate.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scenario {
+    /// Name (`curve`, `beating`, `fault_outage`, `full_scale_steps`, ...).
+    pub name: String,
+    /// Where it comes from (closed-loop plant run, synthetic, ...).
+    pub source: String,
+    /// The ticks.
+    pub ticks: Vec<Tick>,
+}
+
+/// Index of each observed signal in [`Observed::signals`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(usize)]
+enum Sig {
+    YDot,
+    LeadSum,
+    LeadErr,
+    LeadZ,
+    LeadX1,
+    LeadDiff,
+    YawRaw,
+    YawOut,
+    Current,
+    Demand,
+    IrefTarget,
+    Iref,
+    PiErr,
+    PiProp,
+    PiIntegPre,
+    PiInteg,
+    PiRaw,
+    Voltage,
+    BackEmf,
+}
+
+/// `(name, kind, SI unit, full scale selector, is a state)`.
+const SIGNALS: [(&str, &str, &str, Fs, bool); 19] = [
+    ("y_dot (clamped input)", "yaw", "m/s", Fs::YDot, false),
+    ("lead x + x1", "yaw_lead", "m/s", Fs::YDot, false),
+    ("lead (g/2)(x + x1) - z", "yaw_lead", "m/s", Fs::YDot, false),
+    ("lead z (state)", "yaw_lead", "m/s", Fs::YDot, true),
+    ("lead x1 (state)", "yaw_lead", "m/s", Fs::YDot, true),
+    ("lead x - z", "yaw_lead", "m/s", Fs::YDot, false),
+    ("T_psi before limit", "yaw", "N m", Fs::Torque, false),
+    ("T_psi (output)", "yaw", "N m", Fs::Torque, false),
+    (
+        "i_a (clamped input)",
+        "traction_pi",
+        "A",
+        Fs::Current,
+        false,
+    ),
+    (
+        "demand (clamped input)",
+        "traction_pi",
+        "N m",
+        Fs::Demand,
+        false,
+    ),
+    ("i_ref target", "traction_pi", "A", Fs::Current, false),
+    (
+        "i_ref (ramped, state)",
+        "traction_pi",
+        "A",
+        Fs::Current,
+        true,
+    ),
+    ("e = i_ref - i_a", "traction_pi", "A", Fs::Current, false),
+    ("PI Kp e", "traction_pi", "V", Fs::Voltage, false),
+    (
+        "PI I + Ki e (before clamp)",
+        "traction_pi",
+        "V",
+        Fs::Voltage,
+        false,
+    ),
+    ("PI I (state)", "traction_pi", "V", Fs::Voltage, true),
+    (
+        "PI Kp e + I (before limit)",
+        "traction_pi",
+        "V",
+        Fs::Voltage,
+        false,
+    ),
+    ("u_a (output)", "traction_pi", "V", Fs::Voltage, false),
+    (
+        "back-EMF preset K_m omega",
+        "traction_pi",
+        "V",
+        Fs::Voltage,
+        false,
+    ),
+];
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Fs {
+    YDot,
+    Torque,
+    Current,
+    Demand,
+    Voltage,
+}
+
+fn fs_of(f: Fs, c: &Config) -> f64 {
+    let s = &c.scales;
+    match f {
+        Fs::YDot => s.y_dot,
+        Fs::Torque => s.torque,
+        Fs::Current => s.current,
+        Fs::Demand => s.demand,
+        Fs::Voltage => s.voltage,
+    }
+}
+
+/// Range of one signal or state over the scenarios.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SignalRange {
+    /// Signal name.
+    pub name: String,
+    /// Which controller it belongs to (`yaw` = lead and gain paths).
+    pub controller: String,
+    /// Whether it is a filter state.
+    pub state: bool,
+    /// SI unit.
+    pub unit: String,
+    /// SI per pu.
+    pub full_scale: f64,
+    /// Minimum, pu.
+    pub min_pu: f64,
+    /// Maximum, pu.
+    pub max_pu: f64,
+    /// Minimum, SI.
+    pub min_si: f64,
+    /// Maximum, SI.
+    pub max_si: f64,
+    /// Scenario in which the largest magnitude occurred.
+    pub worst_scenario: String,
+    /// `log2(range / max|v|)`, bits (infinite when the signal stayed 0).
+    pub headroom_bits: f64,
+    /// Samples outside the signal format's range (would saturate).
+    pub overflows: u64,
+    /// Samples observed.
+    pub samples: u64,
+}
+
+impl SignalRange {
+    fn peak(&self) -> f64 {
+        self.min_pu.abs().max(self.max_pu.abs())
+    }
+}
+
+/// Quantisation noise of one output over a scenario: fixed minus f64 on the same inputs.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Noise {
+    /// Output name (`T_psi` or `u_a`).
+    pub output: String,
+    /// Scenario.
+    pub scenario: String,
+    /// Yaw mode of the run (`lead`, `gain`).
+    pub yaw_mode: String,
+    /// Normal operation, or the safe-state ramps.
+    pub phase: Phase,
+    /// Max |error| as a fraction of the output's limit.
+    pub max_of_limit: f64,
+    /// Max |error|, LSB of the signal format.
+    pub max_lsb: f64,
+    /// RMS error, LSB.
+    pub rms_lsb: f64,
+    /// Max |error|, SI.
+    pub max_si: f64,
+    /// RMS error, SI.
+    pub rms_si: f64,
+    /// Max |error| in wire LSBs of the output (the protocol's resolution).
+    pub max_wire_lsb: f64,
+    /// `log2(max |error| / LSB)` (bits of the word lost to noise; 0 if <= 1 LSB).
+    pub bits_lost: f64,
+    /// SI unit.
+    pub unit: String,
+    /// Samples.
+    pub samples: u64,
+}
+
+/// Which ticks a [`Noise`] figure covers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Phase {
+    /// Outside the safe state and its ramp back.
+    Normal,
+    /// In the safe state or ramping back out of it: the ramps' quantised per-step
+    /// increments accumulate over the ramp (a timing error of the profile).
+    SafeRamp,
+}
+
+/// Designed clamps counted by the controller (not overflows).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct Clamps {
+    /// Input y' clamps.
+    pub y_dot: u64,
+    /// Input current clamps.
+    pub current: u64,
+    /// Input speed clamps.
+    pub speed: u64,
+    /// Input demand clamps.
+    pub demand: u64,
+    /// Output torque limit.
+    pub yaw_torque: u64,
+    /// Output voltage limit.
+    pub voltage: u64,
+    /// Integrator anti-windup clamps.
+    pub integrator: u64,
+}
+
+/// `(t_s, T_psi error N m, u_a error V)`.
+pub type ErrSample = (f64, f64, f64);
+
+/// Everything observed over a set of scenarios with one sample type.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Observed {
+    /// Per-signal ranges.
+    pub signals: Vec<SignalRange>,
+    /// Noise per (scenario, yaw mode, output).
+    pub noise: Vec<Noise>,
+    /// Designed clamps, summed over the runs.
+    pub clamps: Clamps,
+    /// Saturations counted inside the arithmetic by [`super::qdyn::QDyn`] (`None` for
+    /// the production type, whose saturations are inferred from `overflows`).
+    pub arithmetic_saturations: Option<u64>,
+    /// Per scenario: `(t_s, T_psi error N m, u_a error V)` decimated, for the plots.
+    pub traces: Vec<(String, Vec<ErrSample>)>,
+}
+
+fn q<T: Sample>(v: f64) -> T {
+    T::from_f64(v)
+}
+
+/// Run every scenario twice (yaw mode lead, then gain; traction on) with sample type
+/// `T` (signal format `fmt`) against f64, collecting ranges, overflows and noise.
+pub fn observe<T: Sample>(
+    base: &Config,
+    scenarios: &[Scenario],
+    fmt: QFormat,
+) -> Result<Observed, wheelset_control::ConfigError> {
+    let mut sig: Vec<SignalRange> = SIGNALS
+        .iter()
+        .map(|(n, k, u, f, st)| SignalRange {
+            name: n.to_string(),
+            controller: k.to_string(),
+            state: *st,
+            unit: u.to_string(),
+            full_scale: fs_of(*f, base),
+            min_pu: 0.0,
+            max_pu: 0.0,
+            min_si: 0.0,
+            max_si: 0.0,
+            worst_scenario: String::new(),
+            headroom_bits: f64::INFINITY,
+            overflows: 0,
+            samples: 0,
+        })
+        .collect();
+    let mut noise = Vec::new();
+    let mut clamps = Clamps::default();
+    let mut traces = Vec::new();
+    let range = fmt.range();
+    let lsb = fmt.lsb();
+    for sc in scenarios {
+        for mode in [YawMode::Lead, YawMode::Gain] {
+            let mut cfg = *base;
+            cfg.yaw_mode = mode;
+            cfg.traction_enabled = true;
+            let mut fx = Controller::<T>::try_new(&cfg)?;
+            let mut fl = Controller::<f64>::try_new(&cfg)?;
+            let s = cfg.scales;
+            let l = cfg.limits;
+            let lead = fx.lead().quantised();
+            let pi = fx.pi().quantised();
+            let k_gain = T::quantise(cfg.gain_k * s.y_dot / s.torque)
+                .map(T::coeff_to_f64)
+                .unwrap_or(0.0);
+            let d2i = s.demand / (cfg.motor.n * cfg.motor.k_m * s.current);
+            let bemf = cfg.motor.k_m * s.speed / s.voltage;
+            let (mut ey, mut eu) = (Acc::default(), Acc::default());
+            // Ticks in or within the ramp-back time after the safe state: the ramps'
+            // quantised per-step increments accumulate; judged separately.
+            let (mut ry, mut ru) = (Acc::default(), Acc::default());
+            let mut in_safe = false;
+            let ramp_ticks = ((cfg.safe.yaw_s.max(cfg.safe.traction_s)) * cfg.base_rate_hz as f64)
+                .ceil() as usize
+                + 2;
+            let mut ramp_end = 0usize;
+            let mut trace = Vec::new();
+            let dec = (sc.ticks.len() / 2000).max(1);
+            // Mirrors the controller's bumpless-start flag: the first traction step
+            // after (re)enabling presets the integrator to the back-EMF.
+            let mut armed = false;
+            let base_t = cfg.base_period();
+            for (n, t) in sc.ticks.iter().enumerate() {
+                match t.event {
+                    Some(Event::Safe(b)) => {
+                        fx.set_safe(b);
+                        fl.set_safe(b);
+                        if in_safe && !b {
+                            ramp_end = n + ramp_ticks;
+                        }
+                        in_safe = b;
+                    }
+                    Some(Event::Traction(b)) => {
+                        fx.set_traction(b);
+                        fl.set_traction(b);
+                        armed = false;
+                    }
+                    None => {}
+                }
+                let inp = Inputs::<T> {
+                    y_dot: q(t.si[0] / s.y_dot),
+                    current: q(t.si[1] / s.current),
+                    speed: q(t.si[2] / s.speed),
+                    demand: q(t.si[3] / s.demand),
+                };
+                let inf = Inputs::<f64> {
+                    y_dot: inp.y_dot.to_f64(),
+                    current: inp.current.to_f64(),
+                    speed: inp.speed.to_f64(),
+                    demand: inp.demand.to_f64(),
+                };
+                let ls0 = *fx.lead_state();
+                let ps0 = *fx.pi_state();
+                let c0 = *fx.counters();
+                let o = fx.tick(&inp);
+                let of = fl.tick(&inf);
+                let c1 = *fx.counters();
+                let mut put = |i: Sig, v: f64| {
+                    let r = &mut sig[i as usize];
+                    r.samples += 1;
+                    if v < r.min_pu {
+                        r.min_pu = v;
+                    }
+                    if v > r.max_pu {
+                        r.max_pu = v;
+                    }
+                    if v.abs() >= r.peak() && v != 0.0 {
+                        r.worst_scenario = sc.name.clone();
+                    }
+                    if v >= range || v < -range {
+                        r.overflows += 1;
+                    }
+                };
+                if c1.yaw_steps != c0.yaw_steps {
+                    let ym = l.y_dot / s.y_dot;
+                    let x = inf.y_dot.clamp(-ym, ym);
+                    put(Sig::YDot, x);
+                    let raw = match mode {
+                        YawMode::Lead => {
+                            let ls1 = *fx.lead_state();
+                            let m = x + ls0.x1.to_f64();
+                            put(Sig::LeadSum, m);
+                            put(Sig::LeadErr, m * lead.g_half - ls0.z.to_f64());
+                            put(Sig::LeadZ, ls1.z.to_f64());
+                            put(Sig::LeadX1, ls1.x1.to_f64());
+                            let d = x - ls1.z.to_f64();
+                            put(Sig::LeadDiff, d);
+                            d * lead.k_hf
+                        }
+                        YawMode::Gain => x * k_gain,
+                        YawMode::Passive => 0.0,
+                    };
+                    put(Sig::YawRaw, raw);
+                    put(Sig::YawOut, o.yaw_torque.to_f64());
+                }
+                if c1.traction_steps != c0.traction_steps && fx.traction_enabled() {
+                    let im = l.current / s.current;
+                    let i = inf.current.clamp(-im, im);
+                    let dm = l.demand / s.demand;
+                    let d = inf.demand.clamp(-dm, dm);
+                    put(Sig::Current, i);
+                    put(Sig::Demand, d);
+                    put(Sig::IrefTarget, d * d2i);
+                    let iref = fx.current_ref().to_f64();
+                    put(Sig::Iref, iref);
+                    let e = iref - i;
+                    put(Sig::PiErr, e);
+                    put(Sig::PiProp, e * pi.kp);
+                    let integ = fx.pi_state().integ.to_f64();
+                    if armed {
+                        put(Sig::PiIntegPre, ps0.integ.to_f64() + e * pi.ki);
+                    } else {
+                        let sm = l.speed / s.speed;
+                        put(Sig::BackEmf, inf.speed.clamp(-sm, sm) * bemf);
+                        armed = true;
+                    }
+                    put(Sig::PiInteg, integ);
+                    put(Sig::PiRaw, e * pi.kp + integ);
+                    put(Sig::Voltage, o.voltage.to_f64());
+                }
+                let dy = o.yaw_torque.to_f64() - of.yaw_torque;
+                let du = o.voltage.to_f64() - of.voltage;
+                if in_safe || n < ramp_end {
+                    ry.add(dy);
+                    ru.add(du);
+                } else {
+                    ey.add(dy);
+                    eu.add(du);
+                }
+                if mode == YawMode::Lead && n % dec == 0 {
+                    trace.push((n as f64 * base_t, dy * s.torque, du * s.voltage));
+                }
+            }
+            let c = fx.counters();
+            clamps.y_dot += c.y_dot.clamped as u64;
+            clamps.current += c.current.clamped as u64;
+            clamps.speed += c.speed.clamped as u64;
+            clamps.demand += c.demand.clamped as u64;
+            clamps.yaw_torque += c.yaw_torque.clamped as u64;
+            clamps.voltage += c.voltage.clamped as u64;
+            clamps.integrator += c.integrator.clamped as u64;
+            let mname = if mode == YawMode::Lead {
+                "lead"
+            } else {
+                "gain"
+            };
+            for (acc, phase) in [(&ey, Phase::Normal), (&ry, Phase::SafeRamp)] {
+                if acc.n > 0 {
+                    noise.push(acc.noise(
+                        "T_psi",
+                        &sc.name,
+                        mname,
+                        phase,
+                        lsb,
+                        s.torque,
+                        cfg.wire.torque,
+                        l.torque,
+                        "N m",
+                    ));
+                }
+            }
+            if mode == YawMode::Lead {
+                for (acc, phase) in [(&eu, Phase::Normal), (&ru, Phase::SafeRamp)] {
+                    if acc.n > 0 {
+                        noise.push(acc.noise(
+                            "u_a",
+                            &sc.name,
+                            mname,
+                            phase,
+                            lsb,
+                            s.voltage,
+                            cfg.wire.voltage,
+                            l.voltage_max.abs().max(l.voltage_min.abs()),
+                            "V",
+                        ));
+                    }
+                }
+                traces.push((sc.name.clone(), trace));
+            }
+        }
+    }
+    for r in &mut sig {
+        r.min_si = r.min_pu * r.full_scale;
+        r.max_si = r.max_pu * r.full_scale;
+        let p = r.peak();
+        r.headroom_bits = if p > 0.0 {
+            (range / p).log2()
+        } else {
+            f64::INFINITY
+        };
+    }
+    Ok(Observed {
+        signals: sig,
+        noise,
+        clamps,
+        arithmetic_saturations: None,
+        traces,
+    })
+}
+
+#[derive(Default)]
+struct Acc {
+    max: f64,
+    sq: f64,
+    n: u64,
+}
+
+impl Acc {
+    fn add(&mut self, e: f64) {
+        self.max = self.max.max(e.abs());
+        self.sq += e * e;
+        self.n += 1;
+    }
+    #[allow(clippy::too_many_arguments)]
+    fn noise(
+        &self,
+        out: &str,
+        sc: &str,
+        mode: &str,
+        phase: Phase,
+        lsb: f64,
+        fs: f64,
+        wire: f64,
+        limit: f64,
+        unit: &str,
+    ) -> Noise {
+        let rms = (self.sq / self.n.max(1) as f64).sqrt();
+        Noise {
+            output: out.to_string(),
+            scenario: sc.to_string(),
+            yaw_mode: mode.to_string(),
+            phase,
+            max_of_limit: self.max * fs / limit,
+            max_lsb: self.max / lsb,
+            rms_lsb: rms / lsb,
+            max_si: self.max * fs,
+            rms_si: rms * fs,
+            max_wire_lsb: self.max * fs / wire,
+            bits_lost: (self.max / lsb).max(1.0).log2(),
+            unit: unit.to_string(),
+            samples: self.n,
+        }
+    }
+}
+
+/// A small deterministic generator (PCG-style LCG), for the random scenario.
+struct Lcg(u64);
+
+impl Lcg {
+    fn next(&mut self) -> f64 {
+        self.0 = self
+            .0
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        ((self.0 >> 11) as f64) / (1u64 << 53) as f64
+    }
+    fn uniform(&mut self, a: f64) -> f64 {
+        a * (2.0 * self.next() - 1.0)
+    }
+}
+
+/// The synthetic scenarios: full-scale steps (every input to and beyond its clamp,
+/// Nyquist alternation, safe-state and traction toggles), a chirp to `0.45 fs`, and
+/// uniform random full-scale inputs. `speed` for the bumpless preset at the limit.
+pub fn synthetic(cfg: &Config) -> Vec<Scenario> {
+    let fs = cfg.base_rate_hz as f64;
+    let l = cfg.limits;
+    let n = |s: f64| (s * fs).round() as usize;
+    // Full-scale steps.
+    let mut t = Vec::new();
+    let levels = [1.0, -1.0, 1.5, -1.5, 0.0, 1.0, -1.0, 0.0];
+    let iref_max = l.demand / (cfg.motor.n * cfg.motor.k_m);
+    for (k, lv) in levels.iter().enumerate() {
+        for j in 0..n(0.2) {
+            let mut tk = Tick {
+                si: [lv * l.y_dot, -lv * l.current, l.speed, lv * l.demand],
+                event: None,
+            };
+            if k == 4 && j == 0 {
+                tk.event = Some(Event::Safe(true));
+            }
+            if k == 5 && j == 0 {
+                tk.event = Some(Event::Safe(false));
+            }
+            t.push(tk);
+        }
+    }
+    // Nyquist alternation at full scale, then traction off/on with the speed at its limit.
+    for j in 0..n(0.05) {
+        let s = if j % 2 == 0 { 1.0 } else { -1.0 };
+        t.push(Tick {
+            si: [s * l.y_dot, s * l.current, -l.speed, -s * l.demand],
+            event: None,
+        });
+    }
+    t.push(Tick {
+        si: [0.0, 0.0, -l.speed, 0.0],
+        event: Some(Event::Traction(false)),
+    });
+    for j in 0..n(0.3) {
+        t.push(Tick {
+            si: [0.0, l.current, -l.speed, -l.demand],
+            event: if j == 0 {
+                Some(Event::Traction(true))
+            } else {
+                None
+            },
+        });
+    }
+    let _ = iref_max;
+    let steps = Scenario {
+        name: "full_scale_steps".into(),
+        source: "synthetic: every input stepped to +-1 and +-1.5 x its clamp, Nyquist \
+                 alternation, safe state and traction toggles"
+            .into(),
+        ticks: t,
+    };
+    // Chirp 0.1 Hz .. 0.45 fs (exponential), 10 mm/s and 50 A around the paper's point.
+    let dur = 4.0;
+    let (f0, f1) = (0.1, 0.45 * fs);
+    let m = n(dur);
+    let k = (f1 / f0).ln() / dur;
+    let mut ticks = Vec::with_capacity(m);
+    for i in 0..m {
+        let tt = i as f64 / fs;
+        let ph = 2.0 * std::f64::consts::PI * f0 * ((k * tt).exp() - 1.0) / k;
+        ticks.push(Tick {
+            si: [0.01 * ph.sin(), 115.0 + 50.0 * ph.sin(), 925.6, 2460.0],
+            event: None,
+        });
+    }
+    let chirp = Scenario {
+        name: "chirp".into(),
+        source: format!(
+            "synthetic: exponential chirp {f0} Hz .. {f1:.0} Hz over {dur} s, y' 10 mm/s, \
+             i_a 115 +- 50 A, demand 2460 N m"
+        ),
+        ticks,
+    };
+    let mut g = Lcg(0x5eed_a0d1);
+    let ticks = (0..n(1.0))
+        .map(|_| Tick {
+            si: [
+                g.uniform(1.2 * l.y_dot),
+                g.uniform(1.2 * l.current),
+                g.uniform(l.speed),
+                g.uniform(1.2 * l.demand),
+            ],
+            event: None,
+        })
+        .collect();
+    let random = Scenario {
+        name: "random_full_scale".into(),
+        source: "synthetic: uniform random inputs over 1.2 x each clamp, 1 s".into(),
+        ticks,
+    };
+    vec![steps, chirp, random]
+}

@@ -1,0 +1,523 @@
+//! Transfer functions of the three controllers: continuous (model.md), discrete from the
+//! f64 coefficients, discrete from the quantised coefficients (computed), and the
+//! fixed-point controller's response *measured* by driving it with sinusoids and fitting.
+//! Poles, zeros and DC gains.
+//!
+//! Units: the yaw controllers map `y'` (m/s) to `T_psi` (N m): gain in N m s/m; the PI
+//! maps the current error `e = i_ref - i_a` (A) to `u_a` (V): gain in V/A.
+
+use serde::Serialize;
+use wheelset_control::{Config, Controller, Inputs, LeadPu, PiPu, Sample, YawMode};
+
+/// A complex number (the few operations needed here).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct C64 {
+    /// Real part.
+    pub re: f64,
+    /// Imaginary part.
+    pub im: f64,
+}
+
+impl C64 {
+    /// `re + j im`.
+    pub const fn new(re: f64, im: f64) -> Self {
+        Self { re, im }
+    }
+    /// `e^{j w}`.
+    pub fn expj(w: f64) -> Self {
+        Self::new(w.cos(), w.sin())
+    }
+    /// Magnitude.
+    pub fn abs(self) -> f64 {
+        self.re.hypot(self.im)
+    }
+    /// Argument, degrees.
+    pub fn arg_deg(self) -> f64 {
+        self.im.atan2(self.re).to_degrees()
+    }
+    /// Sum.
+    pub fn plus(self, o: Self) -> Self {
+        Self::new(self.re + o.re, self.im + o.im)
+    }
+    /// Product.
+    pub fn times(self, o: Self) -> Self {
+        Self::new(
+            self.re * o.re - self.im * o.im,
+            self.re * o.im + self.im * o.re,
+        )
+    }
+    /// Quotient.
+    pub fn over(self, o: Self) -> Self {
+        let d = o.re * o.re + o.im * o.im;
+        Self::new(
+            (self.re * o.re + self.im * o.im) / d,
+            (self.im * o.re - self.re * o.im) / d,
+        )
+    }
+    /// `k self`.
+    pub fn scale(self, k: f64) -> Self {
+        Self::new(self.re * k, self.im * k)
+    }
+}
+
+/// The audited controllers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Kind {
+    /// Phase-lead yaw damping `Ks(s) = K a (s + w1)/(s + w2)` on `y'`.
+    YawLead,
+    /// Pure-gain yaw damping `T_psi = K y'`.
+    YawGain,
+    /// PI traction current loop `Kp (1 + 1/(Ti s))` on `i_ref - i_a`.
+    TractionPi,
+}
+
+impl Kind {
+    /// All, in report order.
+    pub const ALL: [Kind; 3] = [Kind::YawLead, Kind::YawGain, Kind::TractionPi];
+    /// Name in the JSON and the report.
+    pub fn name(self) -> &'static str {
+        match self {
+            Kind::YawLead => "yaw_lead",
+            Kind::YawGain => "yaw_gain",
+            Kind::TractionPi => "traction_pi",
+        }
+    }
+    /// Gain unit.
+    pub fn unit(self) -> &'static str {
+        match self {
+            Kind::YawLead | Kind::YawGain => "N m s/m",
+            Kind::TractionPi => "V/A",
+        }
+    }
+    /// The continuous law, as in model.md.
+    pub fn law(self) -> &'static str {
+        match self {
+            Kind::YawLead => "Ks(s) = K a (s + w1)/(s + w2), Tustin",
+            Kind::YawGain => "T_psi = K y'",
+            Kind::TractionPi => "Kt(s) = Kp (1 + 1/(Ti s)), backward-Euler integrator",
+        }
+    }
+    /// Sample rate of this controller under `cfg`, Hz.
+    pub fn rate_hz(self, cfg: &Config) -> f64 {
+        match self {
+            Kind::YawLead | Kind::YawGain => 1.0 / cfg.yaw_period(),
+            Kind::TractionPi => 1.0 / cfg.traction_period(),
+        }
+    }
+    /// SI per per-unit of the output over SI per per-unit of the input: a pu gain times
+    /// this is the SI gain.
+    pub fn pu_to_si(self, cfg: &Config) -> f64 {
+        let s = &cfg.scales;
+        match self {
+            Kind::YawLead | Kind::YawGain => s.torque / s.y_dot,
+            Kind::TractionPi => s.voltage / s.current,
+        }
+    }
+}
+
+/// Continuous frequency response at `f_hz` (SI units), from the configuration's
+/// continuous parameters.
+pub fn continuous(kind: Kind, cfg: &Config, f_hz: f64) -> C64 {
+    let s = C64::new(0.0, 2.0 * std::f64::consts::PI * f_hz);
+    match kind {
+        Kind::YawLead => {
+            let l = &cfg.lead;
+            s.plus(C64::new(l.w1, 0.0))
+                .over(s.plus(C64::new(l.w2, 0.0)))
+                .scale(l.k * l.a)
+        }
+        Kind::YawGain => C64::new(cfg.gain_k, 0.0),
+        Kind::TractionPi => {
+            let p = &cfg.pi;
+            C64::new(1.0, 0.0)
+                .plus(C64::new(1.0, 0.0).over(s.scale(p.ti)))
+                .scale(p.kp)
+        }
+    }
+}
+
+/// A controller's discrete coefficients in SI units (one set: f64 or quantised).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[serde(tag = "form", rename_all = "snake_case")]
+pub enum Coeffs {
+    /// Lead: `y = K_hf (x - z)`, `z += kappa ((g/2)(x + x1) - z)`.
+    Lead {
+        /// `K_hf`, N m s/m.
+        k_hf: f64,
+        /// `g/2`.
+        g_half: f64,
+        /// `kappa`.
+        kappa: f64,
+    },
+    /// Gain `K`, N m s/m.
+    Gain {
+        /// `K`.
+        k: f64,
+    },
+    /// PI: `u = Kp e + I`, `I += Ki e`.
+    Pi {
+        /// `Kp`, V/A.
+        kp: f64,
+        /// `Ki = Kp T/Ti`, V/A per sample.
+        ki: f64,
+    },
+}
+
+impl Coeffs {
+    /// From per-unit lead coefficients.
+    pub fn lead(pu: &LeadPu, cfg: &Config) -> Self {
+        Coeffs::Lead {
+            k_hf: pu.k_hf * Kind::YawLead.pu_to_si(cfg),
+            g_half: pu.g_half,
+            kappa: pu.kappa,
+        }
+    }
+    /// From per-unit PI coefficients.
+    pub fn pi(pu: &PiPu, cfg: &Config) -> Self {
+        let k = Kind::TractionPi.pu_to_si(cfg);
+        Coeffs::Pi {
+            kp: pu.kp * k,
+            ki: pu.ki * k,
+        }
+    }
+
+    /// `(name, value, unit, scaled)` of each coefficient, SI; `scaled` = its per-unit
+    /// value is the SI one over [`Kind::pu_to_si`] (else the two are equal).
+    pub fn list(&self) -> Vec<(&'static str, f64, &'static str, bool)> {
+        match *self {
+            Coeffs::Lead {
+                k_hf,
+                g_half,
+                kappa,
+            } => vec![
+                ("k_hf", k_hf, "N m s/m", true),
+                ("g_half", g_half, "1", false),
+                ("kappa", kappa, "1", false),
+            ],
+            Coeffs::Gain { k } => vec![("k", k, "N m s/m", true)],
+            Coeffs::Pi { kp, ki } => {
+                vec![("kp", kp, "V/A", true), ("ki", ki, "V/A per sample", true)]
+            }
+        }
+    }
+
+    /// The discrete transfer function at `z = e^{j 2 pi f T}`.
+    pub fn response(&self, f_hz: f64, t_s: f64) -> C64 {
+        let zi = C64::expj(-2.0 * std::f64::consts::PI * f_hz * t_s); // z^-1
+        let one = C64::new(1.0, 0.0);
+        match *self {
+            Coeffs::Lead { .. } => {
+                let (b0, b1, a1) = self.lead_direct_form();
+                C64::new(b0, 0.0)
+                    .plus(zi.scale(b1))
+                    .over(one.plus(zi.scale(-a1)))
+            }
+            Coeffs::Gain { k } => C64::new(k, 0.0),
+            Coeffs::Pi { kp, ki } => {
+                C64::new(kp, 0.0).plus(C64::new(ki, 0.0).over(one.plus(zi.scale(-1.0))))
+            }
+        }
+    }
+
+    /// Lead direct form `(b0, b1, a1)` of `y[n] = a1 y[n-1] + b0 x[n] + b1 x[n-1]`:
+    /// with `h = kappa g/2`, `alpha = 1 - kappa`: `b0 = K(1 - h)`, `b1 = -K(alpha + h)`,
+    /// `a1 = alpha`. Zeros for the other forms.
+    pub fn lead_direct_form(&self) -> (f64, f64, f64) {
+        match *self {
+            Coeffs::Lead {
+                k_hf,
+                g_half,
+                kappa,
+            } => {
+                let h = kappa * g_half;
+                let alpha = 1.0 - kappa;
+                (k_hf * (1.0 - h), -k_hf * (alpha + h), alpha)
+            }
+            _ => (0.0, 0.0, 0.0),
+        }
+    }
+
+    /// DC gain; `None` = infinite (the PI's integrator).
+    pub fn dc_gain(&self) -> Option<f64> {
+        match *self {
+            Coeffs::Lead { .. } => {
+                let (b0, b1, a1) = self.lead_direct_form();
+                Some((b0 + b1) / (1.0 - a1))
+            }
+            Coeffs::Gain { k } => Some(k),
+            Coeffs::Pi { .. } => None,
+        }
+    }
+
+    /// Discrete poles and zeros (real, in the z-plane).
+    pub fn poles_zeros(&self) -> (Vec<f64>, Vec<f64>) {
+        match *self {
+            Coeffs::Lead { .. } => {
+                let (b0, b1, a1) = self.lead_direct_form();
+                (vec![a1], vec![-b1 / b0])
+            }
+            Coeffs::Gain { .. } => (vec![], vec![]),
+            // U/E = ((Kp + Ki) - Kp z^-1)/(1 - z^-1)
+            Coeffs::Pi { kp, ki } => (vec![1.0], vec![kp / (kp + ki)]),
+        }
+    }
+}
+
+/// Continuous poles and zeros (real, rad/s) and DC gain (`None` = infinite).
+pub fn continuous_pz(kind: Kind, cfg: &Config) -> (Vec<f64>, Vec<f64>, Option<f64>) {
+    match kind {
+        Kind::YawLead => (
+            vec![-cfg.lead.w2],
+            vec![-cfg.lead.w1],
+            Some(cfg.lead.dc_gain()),
+        ),
+        Kind::YawGain => (vec![], vec![], Some(cfg.gain_k)),
+        Kind::TractionPi => (vec![0.0], vec![-1.0 / cfg.pi.ti], None),
+    }
+}
+
+/// Equivalent continuous root of a discrete one by the inverse bilinear map
+/// `s = (2/T)(z - 1)/(z + 1)`, rad/s (exact inverse of plain Tustin).
+pub fn z_to_s(z: f64, t_s: f64) -> f64 {
+    2.0 / t_s * (z - 1.0) / (z + 1.0)
+}
+
+/// The f64 and the quantised coefficients of `kind` for sample type `T` under `cfg`.
+pub fn coefficients<T: Sample>(
+    kind: Kind,
+    cfg: &Config,
+) -> Result<(Coeffs, Coeffs), wheelset_control::ConfigError> {
+    let c = Controller::<T>::try_new(cfg)?;
+    let s = &cfg.scales;
+    Ok(match kind {
+        Kind::YawLead => {
+            let ideal = c.lead_discrete().to_pu(s.y_dot, s.torque);
+            (
+                Coeffs::lead(&ideal, cfg),
+                Coeffs::lead(&c.lead().quantised(), cfg),
+            )
+        }
+        Kind::YawGain => {
+            let k_pu = cfg.gain_k * s.y_dot / s.torque;
+            let q = T::quantise(k_pu).ok_or(wheelset_control::ConfigError::Coefficient {
+                name: "gain_k (pu)",
+                value: k_pu,
+            })?;
+            (
+                Coeffs::Gain { k: cfg.gain_k },
+                Coeffs::Gain {
+                    k: T::coeff_to_f64(q) * s.torque / s.y_dot,
+                },
+            )
+        }
+        Kind::TractionPi => {
+            let ideal = c.pi_discrete().to_pu(s.current, s.voltage);
+            (
+                Coeffs::pi(&ideal, cfg),
+                Coeffs::pi(&c.pi().quantised(), cfg),
+            )
+        }
+    })
+}
+
+/// The configuration that isolates `kind` inside the whole controller: yaw mode lead or
+/// gain with traction off, or yaw passive with traction on.
+pub fn isolate(kind: Kind, base: &Config) -> Config {
+    let mut c = *base;
+    match kind {
+        Kind::YawLead => {
+            c.yaw_mode = YawMode::Lead;
+            c.traction_enabled = false;
+        }
+        Kind::YawGain => {
+            c.yaw_mode = YawMode::Gain;
+            c.traction_enabled = false;
+        }
+        Kind::TractionPi => {
+            c.yaw_mode = YawMode::Passive;
+            c.traction_enabled = true;
+        }
+    }
+    c
+}
+
+/// A driver of one controller inside [`Controller`]: an SI input sample in, the SI
+/// output out, one controller step per call (the controller's own rate; the base tick
+/// is repeated `divisor` times and the last output taken).
+pub struct Drive<T: Sample> {
+    ctrl: Controller<T>,
+    kind: Kind,
+    divisor: u16,
+}
+
+impl<T: Sample> Drive<T> {
+    /// Build from the isolated configuration of `kind`.
+    pub fn new(kind: Kind, base: &Config) -> Result<Self, wheelset_control::ConfigError> {
+        let cfg = isolate(kind, base);
+        let divisor = match kind {
+            Kind::YawLead | Kind::YawGain => cfg.yaw_divisor,
+            Kind::TractionPi => cfg.traction_divisor,
+        };
+        Ok(Self {
+            ctrl: Controller::try_new(&cfg)?,
+            kind,
+            divisor,
+        })
+    }
+
+    /// One controller step on the SI input `x` (m/s of `y'`, or A of current error).
+    pub fn step(&mut self, x: f64) -> f64 {
+        let s = self.ctrl.config().scales;
+        let inp = match self.kind {
+            Kind::YawLead | Kind::YawGain => Inputs {
+                y_dot: T::from_f64(x / s.y_dot),
+                ..Inputs::default()
+            },
+            // Reference 0 (no demand), so e = -i_a: drive i_a = -x.
+            Kind::TractionPi => Inputs {
+                current: T::from_f64(-x / s.current),
+                ..Inputs::default()
+            },
+        };
+        let mut out = self.ctrl.tick(&inp);
+        for _ in 1..self.divisor {
+            out = self.ctrl.tick(&inp);
+        }
+        match self.kind {
+            Kind::YawLead | Kind::YawGain => out.yaw_torque.to_f64() * s.torque,
+            Kind::TractionPi => out.voltage.to_f64() * s.voltage,
+        }
+    }
+
+    /// The controller (states, counters).
+    pub fn controller(&self) -> &Controller<T> {
+        &self.ctrl
+    }
+}
+
+/// Least-squares fit of `y[n] ~ a sin(w n) + b cos(w n) + d`; returns `(a, b, d)`.
+fn fit_sine(y: &[f64], w: f64, n0: usize) -> (f64, f64, f64) {
+    let mut m = [[0.0f64; 4]; 3];
+    for (k, &v) in y.iter().enumerate() {
+        let ph = w * (n0 + k) as f64;
+        let r = [ph.sin(), ph.cos(), 1.0];
+        for i in 0..3 {
+            for j in 0..3 {
+                m[i][j] += r[i] * r[j];
+            }
+            m[i][3] += r[i] * v;
+        }
+    }
+    // Gaussian elimination with partial pivoting on the 3x3 normal equations.
+    for col in 0..3 {
+        let p = (col..3)
+            .max_by(|&a, &b| m[a][col].abs().total_cmp(&m[b][col].abs()))
+            .unwrap_or(col);
+        m.swap(col, p);
+        let d = m[col][col];
+        if d == 0.0 {
+            return (0.0, 0.0, 0.0);
+        }
+        for r in 0..3 {
+            if r != col {
+                let f = m[r][col] / d;
+                let pivot = m[col];
+                for (x, p) in m[r].iter_mut().zip(pivot).skip(col) {
+                    *x -= f * p;
+                }
+            }
+        }
+    }
+    (m[0][3] / m[0][0], m[1][3] / m[1][1], m[2][3] / m[2][2])
+}
+
+/// Stimulus amplitudes used to measure the responses, SI: `y'` 10 mm/s (a typical
+/// hunting amplitude; the lead's peak output 7.9 kN m stays below the 20 kN m torque
+/// limit) and a current error of 10 A.
+pub fn measure_amplitude(kind: Kind) -> f64 {
+    match kind {
+        Kind::YawLead | Kind::YawGain => 0.01,
+        Kind::TractionPi => 10.0,
+    }
+}
+
+/// Settling steps before fitting: 30 time constants of the lead's pole; none otherwise
+/// (the PI's constant integrator offset is fitted as `d`).
+fn settle_steps(kind: Kind, cfg: &Config) -> usize {
+    match kind {
+        Kind::YawLead => {
+            let d = cfg.lead.discretise(cfg.yaw_period());
+            match d {
+                Ok(d) if d.alpha > 0.0 && d.alpha < 1.0 => (30.0 / -d.alpha.ln()).ceil() as usize,
+                _ => 1000,
+            }
+        }
+        _ => 0,
+    }
+}
+
+/// The response of the controller as it runs with sample type `T`, *measured*: drive it
+/// with `A sin(2 pi f n T)` (A from [`measure_amplitude`]), let it settle, fit a sine,
+/// cosine and constant over an integer number of periods of at least 2000 samples.
+pub fn measured<T: Sample>(
+    kind: Kind,
+    cfg: &Config,
+    f_hz: f64,
+) -> Result<C64, wheelset_control::ConfigError> {
+    let mut d = Drive::<T>::new(kind, cfg)?;
+    let fs = kind.rate_hz(cfg);
+    let w = 2.0 * std::f64::consts::PI * f_hz / fs;
+    let amp = measure_amplitude(kind);
+    let settle = settle_steps(kind, cfg);
+    let per = fs / f_hz;
+    let cycles = (2000.0 / per).ceil().max(1.0);
+    let n = (cycles * per).round().max(8.0) as usize;
+    for k in 0..settle {
+        d.step(amp * (w * k as f64).sin());
+    }
+    let y: Vec<f64> = (settle..settle + n)
+        .map(|k| d.step(amp * (w * k as f64).sin()))
+        .collect();
+    let (a, b, _) = fit_sine(&y, w, settle);
+    Ok(C64::new(a / amp, b / amp))
+}
+
+/// The DC gain measured on the running controller: a constant input (SI: `y'` 0.15 m/s,
+/// output 16 kN m below the torque limit; or 10 A) held until the lead settles
+/// (60 time constants), output over input. `None` for the PI (its integrator ramps).
+pub fn measured_dc<T: Sample>(
+    kind: Kind,
+    cfg: &Config,
+) -> Result<Option<f64>, wheelset_control::ConfigError> {
+    if kind == Kind::TractionPi {
+        return Ok(None);
+    }
+    let mut d = Drive::<T>::new(kind, cfg)?;
+    let x = 0.15;
+    let n = 2 * settle_steps(kind, cfg) + 2;
+    let mut y = 0.0;
+    for _ in 0..n {
+        y = d.step(x);
+    }
+    // The input as the controller saw it (quantised).
+    let xq = T::from_f64(x / cfg.scales.y_dot).to_f64() * cfg.scales.y_dot;
+    Ok(Some(y / xq))
+}
+
+/// Gain error `20 log10(|a|/|b|)`, dB.
+pub fn gain_err_db(a: C64, b: C64) -> f64 {
+    20.0 * (a.abs() / b.abs()).log10()
+}
+
+/// Phase error `arg(a) - arg(b)` wrapped to `(-180, 180]`, degrees.
+pub fn phase_err_deg(a: C64, b: C64) -> f64 {
+    let mut d = a.arg_deg() - b.arg_deg();
+    while d > 180.0 {
+        d -= 360.0;
+    }
+    while d <= -180.0 {
+        d += 360.0;
+    }
+    d
+}
