@@ -26,11 +26,35 @@ use wheelset_proto::units::{
     TORQUE_LSB_NM, VOLTAGE_LSB_V,
 };
 use wheelset_proto::{
-    encode_vec, Actuation, Command, Flags, Lateral, Message, Sensor, Status, MAX_FRAME,
+    encode_vec, Actuation, Command, Flags, FrameError, Lateral, Message, Sensor, Status, MAX_FRAME,
 };
 use wheelset_runtime::{Runtime, RuntimeConfig, RuntimeError};
 
+use crate::control::{Actuation as PlantActuation, Measurements, SampledController, YawLaw};
 use crate::link::{check_budget, wire_ns, Accounting, Link, LinkBudgetError, LinkConfig, RxPort};
+use crate::params::Params;
+use crate::scenario::Scenario;
+use crate::sim::{run_sampled, ActuatorModel, Record, SensorModel, SimError, Trajectory};
+
+/// The outcome of the frame a `Runtime::receive` call closed, from its counters.
+fn outcome(before: &Status, after: &Status) -> Option<Result<(), FrameError>> {
+    let d = |a: u32, b: u32| a != b;
+    if d(before.rx_ok, after.rx_ok) {
+        Some(Ok(()))
+    } else if d(before.rx_crc, after.rx_crc) {
+        Some(Err(FrameError::Crc))
+    } else if d(before.rx_cobs, after.rx_cobs) {
+        Some(Err(FrameError::Cobs))
+    } else if d(before.rx_version, after.rx_version) {
+        Some(Err(FrameError::Version))
+    } else if d(before.rx_length, after.rx_length) {
+        Some(Err(FrameError::Length))
+    } else if d(before.rx_postcard, after.rx_postcard) {
+        Some(Err(FrameError::Postcard))
+    } else {
+        None
+    }
+}
 
 /// Worst-case Sensor frame (velocity only) on the wire, bytes (the proto `sizes` test).
 pub const SENSOR_WORST_BYTES: usize = 33;
@@ -46,6 +70,8 @@ pub enum DeviceError {
     Budget(LinkBudgetError),
     /// The base rate does not give a whole number of nanoseconds.
     Rate(u32),
+    /// The plant run refused the period (not a multiple of the integration step).
+    Sim(SimError),
 }
 
 impl fmt::Display for DeviceError {
@@ -57,6 +83,7 @@ impl fmt::Display for DeviceError {
                 f,
                 "device base rate {hz} Hz: the period must be a whole number of nanoseconds"
             ),
+            Self::Sim(e) => write!(f, "device loop: {e}"),
         }
     }
 }
@@ -92,8 +119,8 @@ pub struct LinkReport {
     pub up: Accounting,
     /// Device -> host.
     pub down: Accounting,
-    /// The device's counters as read back over the link in a Status frame (None if that
-    /// frame was lost).
+    /// The device's counters as read back over the link in a Status frame, asked for
+    /// after the run (None if every try was lost).
     pub device: Option<Status>,
     /// Periods in which the safe flag was set in the applied actuation.
     pub safe_periods: u64,
@@ -182,6 +209,7 @@ impl<T: Sample> DeviceLoop<T> {
     /// The runtime with `rt_cfg`, behind a link with `link_cfg`; refuses a link that
     /// cannot carry one exchange per period.
     pub fn try_new(rt_cfg: RuntimeConfig, link_cfg: &LinkConfig) -> Result<Self, DeviceError> {
+        // (validated below: rate, then link budget, then the control configuration)
         let hz = rt_cfg.control.base_rate_hz;
         if hz == 0 || 1_000_000_000 % u64::from(hz) != 0 {
             return Err(DeviceError::Rate(hz));
@@ -257,8 +285,8 @@ impl<T: Sample> DeviceLoop<T> {
         // The device's tick.
         let t_dev = t_ns + self.tick_offset_ns;
         self.device_receive(t_dev);
-        let out = self.rt.tick(0).to_vec();
-        self.link.down.send(t_dev, &out);
+        let out = self.rt.tick(0);
+        self.link.down.send(t_dev, out);
         // What reaches the host before the next sample instant.
         let t_next = t_ns + self.period_ns;
         let fresh = self.host_receive(t_next - 1);
@@ -277,24 +305,30 @@ impl<T: Sample> DeviceLoop<T> {
 
     fn device_receive(&mut self, t: u64) {
         let (rt, port) = (&mut self.rt, &mut self.dev_rx);
-        self.link.up.deliver(t, |b, id| {
-            rt.receive(&[b]);
-            let _ = port.push(b, id);
+        self.link.up.deliver(t, |run, id| {
+            // The runtime decodes; its counters tell the outcome of each closed frame.
+            port.push_with(run, id, |piece| {
+                let before = *rt.counters();
+                rt.receive(piece);
+                outcome(&before, rt.counters())
+            });
         });
     }
 
     fn host_receive(&mut self, t: u64) -> bool {
         let mut fresh = false;
         let (port, held, held_si) = (&mut self.host_rx, &mut self.held, &mut self.held_si);
-        self.link.down.deliver(t, |b, id| {
-            if let Some(Ok(Message::Actuation(a))) = port.push(b, id) {
-                *held = Some(a);
-                *held_si = (
-                    to_si(a.t_psi_dnm, TORQUE_LSB_NM),
-                    to_si(a.u_a_cv, VOLTAGE_LSB_V),
-                );
-                fresh = true;
-            }
+        self.link.down.deliver(t, |run, id| {
+            port.push(run, id, |m| {
+                if let Message::Actuation(a) = m {
+                    *held = Some(a);
+                    *held_si = (
+                        to_si(a.t_psi_dnm, TORQUE_LSB_NM),
+                        to_si(a.u_a_cv, VOLTAGE_LSB_V),
+                    );
+                    fresh = true;
+                }
+            });
         });
         fresh
     }
@@ -302,23 +336,39 @@ impl<T: Sample> DeviceLoop<T> {
     /// Ends the run: asks the device for its counters over the link, lets every byte in
     /// flight arrive, and accounts for every frame in both directions.
     pub fn finish(&mut self) -> LinkReport {
-        let t = self.last_t_ns;
+        // Ask for the status until it arrives (the link's faults may eat the request or
+        // the reply), at most `STATUS_TRIES` times, one exchange period apart.
+        const STATUS_TRIES: usize = 20;
         let req = encode_vec(&Message::Command(Command::RequestStatus)).unwrap_or_default();
-        self.link.up.send(t, &req);
-        let t_dev = self.link.up.line_free_ns() + self.tick_offset_ns;
-        self.device_receive(t_dev);
-        let out = self.rt.tick(0).to_vec();
-        self.link.down.send(t_dev, &out);
-        // Drain: long enough for two maximal frames plus latency.
-        let t_end = self.link.down.line_free_ns() + 4 * wire_ns(MAX_FRAME, 9_600);
         let mut status = None;
-        let port = &mut self.host_rx;
-        self.link.down.deliver(t_end, |b, id| {
-            if let Some(Ok(Message::Status(s))) = port.push(b, id) {
-                status = Some(s);
+        let mut t = self.last_t_ns;
+        for _ in 0..STATUS_TRIES {
+            self.link.up.send(t, &req);
+            let t_dev = self.link.up.line_free_ns() + self.tick_offset_ns;
+            self.device_receive(t_dev);
+            let out = self.rt.tick(0);
+            self.link.down.send(t_dev, out);
+            // Long enough for the actuation and a maximal status frame, plus latency.
+            t = self.link.down.line_free_ns() + 2 * self.tick_offset_ns;
+            let port = &mut self.host_rx;
+            self.link.down.deliver(t, |run, id| {
+                port.push(run, id, |m| {
+                    if let Message::Status(s) = m {
+                        status = Some(s);
+                    }
+                });
+            });
+            if status.is_some() {
+                break;
             }
-        });
+        }
+        // Drain whatever is still travelling.
+        let t_end = t + 4 * wire_ns(MAX_FRAME, 9_600);
         self.device_receive(t_end);
+        let port = &mut self.host_rx;
+        self.link.down.deliver(t_end, |run, id| {
+            port.push(run, id, |_| {});
+        });
         let mut safe_periods = 0;
         let (mut entries, mut exits) = (0, 0);
         let mut prev = false;
@@ -342,6 +392,296 @@ impl<T: Sample> DeviceLoop<T> {
             host_clamped: self.host_clamped,
             mean_bytes: (up_c.bytes_sent as f64 / n, down_c.bytes_sent as f64 / n),
         }
+    }
+}
+
+/// The control core's configuration for a scenario: the lead, gain, PI and motor
+/// constants from its parameters (so a scenario file that changes them changes the
+/// device too), the yaw mode from `law`, traction on when the drive is modelled.
+#[must_use]
+pub fn control_config(p: &Params, law: YawLaw, drive: bool) -> wheelset_control::Config {
+    let d = wheelset_control::Config::default();
+    wheelset_control::Config {
+        yaw_mode: match law {
+            YawLaw::Passive => wheelset_control::YawMode::Passive,
+            YawLaw::Gain => wheelset_control::YawMode::Gain,
+            YawLaw::Lead => wheelset_control::YawMode::Lead,
+        },
+        traction_enabled: drive,
+        gain_k: p.k_active,
+        lead: wheelset_control::LeadParams {
+            k: p.k_active,
+            a: p.lead_gain,
+            w1: p.lead_zero,
+            w2: p.lead_pole,
+            ..d.lead
+        },
+        pi: wheelset_control::PiParams {
+            kp: p.pi_kp,
+            ti: p.pi_ti,
+        },
+        motor: wheelset_control::Motor {
+            k_m: p.k_m,
+            n: p.n_gear,
+        },
+        ..d
+    }
+}
+
+/// Options of a device-in-the-loop run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DeviceOptions {
+    /// The link (baud, latency, faults, seed).
+    pub link: LinkConfig,
+    /// The runtime's hold ticks before the safe state.
+    pub hold_ticks: u16,
+    /// Base rate override, Hz (None: the control core's default).
+    pub base_rate_hz: Option<u32>,
+}
+
+impl Default for DeviceOptions {
+    fn default() -> Self {
+        Self {
+            link: LinkConfig::default(),
+            hold_ticks: wheelset_runtime::DEFAULT_HOLD_TICKS,
+            base_rate_hz: None,
+        }
+    }
+}
+
+/// A finished device-in-the-loop run.
+#[derive(Debug, Clone)]
+pub struct DeviceRun {
+    /// The plant's trajectory (same records as a continuous run).
+    pub trajectory: Trajectory,
+    /// One link record per control period.
+    pub link: Vec<LinkSample>,
+    /// Frame accounting and the device's counters.
+    pub report: LinkReport,
+    /// Control period, ns.
+    pub period_ns: u64,
+}
+
+impl DeviceRun {
+    /// The link record describing the actuation in force at `t_ns` (computed from the
+    /// sample of the previous period); None before the first.
+    #[must_use]
+    pub fn link_at(&self, t_ns: u64) -> Option<&LinkSample> {
+        let k = (t_ns / self.period_ns).checked_sub(1)?;
+        self.link.get(usize::try_from(k).ok()?)
+    }
+
+    /// Writes the CSV: the continuous run's columns, then [`LINK_COLUMNS`].
+    pub fn write_csv<W: std::io::Write>(&self, mut w: W) -> std::io::Result<()> {
+        use std::fmt::Write as _;
+        writeln!(
+            w,
+            "{},{}",
+            Record::COLUMNS.join(","),
+            LINK_COLUMNS.join(",")
+        )?;
+        let mut line = String::with_capacity(600);
+        for r in &self.trajectory.records {
+            line.clear();
+            for (i, v) in r.values().iter().enumerate() {
+                if i > 0 {
+                    line.push(',');
+                }
+                let _ = write!(line, "{v:.9e}");
+            }
+            let t_ns = (r.t_s * 1e9).round() as u64;
+            let l = self.link_at(t_ns).copied().unwrap_or_default();
+            let _ = write!(
+                line,
+                ",{},{},{},{},{}",
+                l.seq,
+                l.seq_echo,
+                l.age,
+                l.flags,
+                u8::from(l.fresh)
+            );
+            writeln!(w, "{line}")?;
+        }
+        Ok(())
+    }
+}
+
+/// The device loop as the plant's sampled controller.
+struct Sampled<'a, T: Sample> {
+    dev: &'a mut DeviceLoop<T>,
+    k_m: f64,
+}
+
+impl<T: Sample> SampledController for Sampled<'_, T> {
+    fn period_ns(&self) -> u64 {
+        self.dev.period_ns()
+    }
+
+    fn step(&mut self, t_ns: u64, m: &Measurements) -> PlantActuation {
+        let sample = HostSample {
+            y_dot: m.yd_mps,
+            i_a: m.i_a,
+            w_m: m.w_m,
+            demand_nm: m.demand_nm,
+        };
+        let (t_psi, u_a) = self.dev.exchange(t_ns, &sample, (0.0, self.k_m * m.w_m));
+        PlantActuation { t_psi, u_a }
+    }
+}
+
+/// Runs `sc` with the firmware runtime (fixed point, the production build) in the loop
+/// over the simulated link. The actuation computed from the sample at `t_k` acts on the
+/// plant from `t_k + T` (ZOH).
+pub fn run_device(
+    sc: &Scenario,
+    law: YawLaw,
+    opt: &DeviceOptions,
+) -> Result<DeviceRun, DeviceError> {
+    let mut control = control_config(&sc.params, law, sc.drive);
+    if let Some(hz) = opt.base_rate_hz {
+        control.base_rate_hz = hz;
+    }
+    let rt_cfg = RuntimeConfig {
+        control,
+        hold_ticks: opt.hold_ticks,
+        enable: true,
+    };
+    let mut dev = DeviceLoop::<wheelset_control::Fx>::try_new(rt_cfg, &opt.link)?;
+    let period_ns = dev.period_ns();
+    let mut actuator = ActuatorModel::ideal();
+    actuator.delay_ns = period_ns;
+    let label = format!(
+        "{} (device, {} Hz, {} baud)",
+        match law {
+            YawLaw::Passive => "passive",
+            YawLaw::Gain => "gain",
+            YawLaw::Lead => "lead",
+        },
+        rt_cfg.control.base_rate_hz,
+        opt.link.baud
+    );
+    let mut ctrl = Sampled {
+        dev: &mut dev,
+        k_m: sc.params.k_m,
+    };
+    let trajectory = run_sampled(
+        sc,
+        &mut ctrl,
+        &mut SensorModel::ideal(),
+        &mut actuator,
+        law.has_spring(),
+        &label,
+    )
+    .map_err(DeviceError::Sim)?;
+    let report = dev.finish();
+    Ok(DeviceRun {
+        trajectory,
+        link: dev.log().to_vec(),
+        report,
+        period_ns,
+    })
+}
+
+/// How far a run is from a reference run of the same scenario (same output times).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Deviation {
+    /// Per window `[from_s, to_s)`: max relative deviation of `y` and of the creep forces.
+    pub windows: [WindowDeviation; 2],
+    /// Max `|y - y_ref|` over the whole run, m.
+    pub y_max_abs_m: f64,
+    /// The same relative to `max |y_ref|` over the run.
+    pub y_max_rel: f64,
+    /// Max creep-force deviation over the run, N (any of the three).
+    pub f_max_abs_n: f64,
+    /// The same relative to the largest reference creep force over the run.
+    pub f_max_rel: f64,
+}
+
+/// Deviation in one time window.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct WindowDeviation {
+    /// Window start, s.
+    pub from_s: f64,
+    /// Window end, s.
+    pub to_s: f64,
+    /// Max `|y - y_ref| / |y_ref|`.
+    pub y_rel: f64,
+    /// Max over the window and over `Fx_R`, `Fx_L`, `Fy` of `|F - F_ref|`, relative to
+    /// the window's largest reference creep force (before the traction step the
+    /// longitudinal forces are ~0.1 N against a lateral 1.2 kN: a per-force ratio there
+    /// would measure noise, not the loop).
+    pub f_rel: f64,
+}
+
+/// The windows of the acceptance check on `curve`: the constant curve (4-12 s) before the
+/// traction step at 5 s (settled: 4.5-5 s) and after it (settled: 10-12 s).
+pub const CURVE_WINDOWS: [(f64, f64); 2] = [(4.5, 5.0), (10.0, 12.0)];
+
+/// Compares `run` with `reference` (records at the same times).
+#[must_use]
+pub fn deviation(run: &Trajectory, reference: &Trajectory, windows: [(f64, f64); 2]) -> Deviation {
+    let pairs = || {
+        run.records
+            .iter()
+            .zip(&reference.records)
+            .filter(|(a, b)| (a.t_s - b.t_s).abs() < 1e-9)
+    };
+    let forces = |r: &Record| [r.fx_r_n, r.fx_l_n, r.fy_n];
+    let rel = |a: f64, b: f64| (a - b).abs() / b.abs().max(1e-300);
+    let mut d = Deviation::default();
+    for (w, &(from_s, to_s)) in d.windows.iter_mut().zip(&windows) {
+        w.from_s = from_s;
+        w.to_s = to_s;
+        let (mut df, mut f_scale) = (0.0f64, 0.0f64);
+        for (a, b) in pairs().filter(|(_, b)| b.t_s >= from_s && b.t_s < to_s) {
+            w.y_rel = w.y_rel.max(rel(a.y_m, b.y_m));
+            for (fa, fb) in forces(a).into_iter().zip(forces(b)) {
+                df = df.max((fa - fb).abs());
+                f_scale = f_scale.max(fb.abs());
+            }
+        }
+        w.f_rel = df / f_scale.max(1e-300);
+    }
+    let (mut y_ref_max, mut f_ref_max) = (0.0f64, 0.0f64);
+    for (a, b) in pairs() {
+        d.y_max_abs_m = d.y_max_abs_m.max((a.y_m - b.y_m).abs());
+        y_ref_max = y_ref_max.max(b.y_m.abs());
+        for (fa, fb) in forces(a).into_iter().zip(forces(b)) {
+            d.f_max_abs_n = d.f_max_abs_n.max((fa - fb).abs());
+            f_ref_max = f_ref_max.max(fb.abs());
+        }
+    }
+    d.y_max_rel = d.y_max_abs_m / y_ref_max.max(1e-300);
+    d.f_max_rel = d.f_max_abs_n / f_ref_max.max(1e-300);
+    d
+}
+
+impl fmt::Display for Deviation {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for w in &self.windows {
+            write!(
+                f,
+                "{:.1}-{:.1} s: y within {:.3} %, creep forces within {:.3} %; ",
+                w.from_s,
+                w.to_s,
+                w.y_rel * 100.0,
+                w.f_rel * 100.0
+            )?;
+        }
+        write!(
+            f,
+            "whole run: max |dy| {:.4} mm ({:.2} % of max |y|), max |dF| {:.1} N ({:.2} % of max |F|)",
+            self.y_max_abs_m * 1e3,
+            self.y_max_rel * 100.0,
+            self.f_max_abs_n,
+            self.f_max_rel * 100.0
+        )
+    }
+}
+
+impl From<LinkBudgetError> for DeviceError {
+    fn from(e: LinkBudgetError) -> Self {
+        Self::Budget(e)
     }
 }
 

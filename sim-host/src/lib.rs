@@ -1,4 +1,23 @@
 //! The plant simulator: the railway wheelset with its traction drive on a canted curve.
+//!
+//! - [`params`]: typed parameters with the paper's defaults, loadable from TOML.
+//! - [`scenario`]: track scenarios as data (built-in `curve`, `beating`, or a file).
+//! - [`plant`]: the nonlinear model, eqs. (1)-(10) as corrected in `spec/model.md`.
+//! - [`control`]: continuous reference controllers and the [`control::SampledController`]
+//!   interface for discrete ones.
+//! - [`sim`]: fixed-step RK4 on integer-nanosecond time; continuous and sampled runs.
+//! - [`svg`]: a small dependency-free SVG plotting module (line, scatter, bars).
+//! - [`figures`]: the paper's time-history figures.
+//! - [`link`], [`device`]: the simulated serial link and the device runtime behind it.
+#![deny(missing_docs)]
 
+pub mod control;
 pub mod device;
+pub mod error;
+pub mod figures;
 pub mod link;
+pub mod params;
+pub mod plant;
+pub mod scenario;
+pub mod sim;
+pub mod svg;

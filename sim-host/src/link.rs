@@ -386,11 +386,14 @@ pub struct ChannelCounters {
     pub burst_bytes: u64,
 }
 
-#[derive(Debug, Clone, Copy)]
-struct Delivery {
-    at_ns: u64,
-    byte: u8,
+/// The surviving bytes of one frame on their way, with their arrival times.
+#[derive(Debug, Clone, Default)]
+struct Segment {
     frame: FrameId,
+    bytes: Vec<u8>,
+    at_ns: Vec<u64>,
+    /// Bytes already delivered.
+    pos: usize,
 }
 
 /// One direction of the link.
@@ -403,7 +406,10 @@ pub struct Channel {
     up: bool,
     rng: Pcg64,
     line_free_ns: u64,
-    queue: VecDeque<Delivery>,
+    /// `wire_ns(k, baud)` for k = 0 ..= 2 MAX_FRAME (no 128-bit division per byte).
+    byte_ns: Vec<u64>,
+    queue: VecDeque<Segment>,
+    spare: Vec<Segment>,
     bits_to_error: u64,
     next_burst_ns: u64,
     burst_left: u32,
@@ -416,7 +422,13 @@ impl Channel {
     pub fn new(cfg: &LinkConfig, up: bool) -> Self {
         let stream = if up { 0x5eed_0001 } else { 0x5eed_0002 };
         let mut rng = Pcg64::seed_from_u64(cfg.seed ^ (stream << 32));
-        let active = cfg.faults.applies(up);
+        let f = &cfg.faults;
+        let active = f.applies(up)
+            && (f.ber > 0.0
+                || f.frame_drop > 0.0
+                || f.byte_drop > 0.0
+                || f.burst.is_some()
+                || f.outages.iter().any(|o| o.dir.includes(up)));
         let bits_to_error = geometric(&mut rng, if active { cfg.faults.ber } else { 0.0 });
         let next_burst_ns = match (active, cfg.faults.burst) {
             (true, Some(b)) => exponential_ns(&mut rng, b.rate_hz),
@@ -430,7 +442,11 @@ impl Channel {
             up,
             rng,
             line_free_ns: 0,
+            byte_ns: (0..=2 * wheelset_proto::MAX_FRAME)
+                .map(|k| wire_ns(k, cfg.baud.max(1)))
+                .collect(),
             queue: VecDeque::new(),
+            spare: Vec::new(),
             bits_to_error,
             next_burst_ns,
             burst_left: 0,
@@ -445,7 +461,11 @@ impl Channel {
         self.counters.frames_sent += 1;
         self.counters.bytes_sent += bytes.len() as u64;
         let start = t_ns.max(self.line_free_ns);
-        self.line_free_ns = start + wire_ns(bytes.len(), self.baud);
+        let at = |k: usize, baud: u32, table: &[u64]| match table.get(k) {
+            Some(&ns) => ns,
+            None => wire_ns(k, baud),
+        };
+        self.line_free_ns = start + at(bytes.len(), self.baud, &self.byte_ns);
         if self.active
             && self.faults.frame_drop > 0.0
             && self.rng.random::<f64>() < self.faults.frame_drop
@@ -453,16 +473,30 @@ impl Channel {
             self.counters.frames_dropped += 1;
             return id;
         }
-        for (k, &b) in bytes.iter().enumerate() {
-            let on_wire = start + wire_ns(k + 1, self.baud);
-            if let Some(b) = self.corrupt(on_wire, b) {
-                self.counters.bytes_delivered += 1;
-                self.queue.push_back(Delivery {
-                    at_ns: on_wire + self.latency_ns,
-                    byte: b,
-                    frame: id,
-                });
+        let mut seg = self.spare.pop().unwrap_or_default();
+        seg.frame = id;
+        seg.pos = 0;
+        seg.bytes.clear();
+        seg.at_ns.clear();
+        if self.active {
+            for (k, &b) in bytes.iter().enumerate() {
+                let on_wire = start + at(k + 1, self.baud, &self.byte_ns);
+                if let Some(b) = self.corrupt(on_wire, b) {
+                    seg.bytes.push(b);
+                    seg.at_ns.push(on_wire + self.latency_ns);
+                }
             }
+        } else {
+            let first = start + self.latency_ns;
+            seg.bytes.extend_from_slice(bytes);
+            seg.at_ns
+                .extend((1..=bytes.len()).map(|k| first + at(k, self.baud, &self.byte_ns)));
+        }
+        self.counters.bytes_delivered += seg.bytes.len() as u64;
+        if seg.bytes.is_empty() {
+            self.spare.push(seg);
+        } else {
+            self.queue.push_back(seg);
         }
         id
     }
@@ -512,20 +546,31 @@ impl Channel {
         Some(b)
     }
 
-    /// Delivers every byte that has arrived by `t_ns`, in order.
-    pub fn deliver(&mut self, t_ns: u64, mut f: impl FnMut(u8, FrameId)) {
-        while let Some(d) = self.queue.front().copied() {
-            if d.at_ns > t_ns {
+    /// Delivers every byte that has arrived by `t_ns`, in order, as runs of consecutive
+    /// bytes of one frame: `f(bytes, frame)`.
+    pub fn deliver(&mut self, t_ns: u64, mut f: impl FnMut(&[u8], FrameId)) {
+        while let Some(seg) = self.queue.front_mut() {
+            let rest = seg.at_ns.get(seg.pos..).unwrap_or(&[]);
+            let n = rest.partition_point(|&a| a <= t_ns);
+            if n > 0 {
+                f(
+                    seg.bytes.get(seg.pos..seg.pos + n).unwrap_or(&[]),
+                    seg.frame,
+                );
+                seg.pos += n;
+            }
+            if seg.pos < seg.bytes.len() {
                 break;
             }
-            self.queue.pop_front();
-            f(d.byte, d.frame);
+            if let Some(done) = self.queue.pop_front() {
+                self.spare.push(done);
+            }
         }
     }
 
     /// Frames with bytes still travelling.
     pub fn queued_frames(&self) -> impl Iterator<Item = FrameId> + '_ {
-        self.queue.iter().map(|d| d.frame)
+        self.queue.iter().map(|s| s.frame)
     }
 
     /// When the line is free again, ns.
@@ -630,22 +675,45 @@ impl RxPort {
         &mut self.fates[i]
     }
 
-    /// Takes one delivered byte of frame `id`; returns the decoder's result when a frame
-    /// closes.
-    pub fn push(&mut self, byte: u8, id: FrameId) -> Option<Result<Message, FrameError>> {
+    /// Takes a run of delivered bytes of frame `id` and decodes it with the port's own
+    /// decoder, calling `on_msg` for every valid message.
+    pub fn push(&mut self, run: &[u8], id: FrameId, mut on_msg: impl FnMut(Message)) {
+        let mut dec = std::mem::take(&mut self.decoder);
+        self.push_with(run, id, |piece| {
+            let mut out = None;
+            dec.feed(piece, |r| out = Some(r.map(&mut on_msg)));
+            out
+        });
+        self.decoder = dec;
+    }
+
+    /// Takes a run of delivered bytes of frame `id` that another decoder (the device's
+    /// runtime) decodes: `decode(piece)` gets the run split after each 0x00 and returns
+    /// the outcome of the frame the piece closed (None: no frame closed, e.g. an empty
+    /// one). The port attributes the outcome to every frame with bytes in it.
+    pub fn push_with(
+        &mut self,
+        run: &[u8],
+        id: FrameId,
+        mut decode: impl FnMut(&[u8]) -> Option<Result<(), FrameError>>,
+    ) {
         self.fate(id);
-        if byte != 0 {
-            self.reached[id as usize] = true;
-            if self.pending.last() != Some(&id) {
-                self.pending.push(id);
+        for piece in run.split_inclusive(|&b| b == 0) {
+            let closes = piece.last() == Some(&0);
+            if piece.len() > usize::from(closes) {
+                self.reached[id as usize] = true;
+                if self.pending.last() != Some(&id) {
+                    self.pending.push(id);
+                }
             }
-        }
-        let r = self.decoder.push(byte);
-        if byte == 0 {
+            let r = decode(piece);
+            if !closes {
+                continue;
+            }
             let ids = std::mem::take(&mut self.pending);
-            match &r {
-                Some(Ok(_)) => {
-                    for id in ids {
+            match r {
+                Some(Ok(())) => {
+                    for id in ids.iter().copied() {
                         let f = self.fate(id);
                         if *f == Fate::Open {
                             *f = Fate::Received;
@@ -654,8 +722,8 @@ impl RxPort {
                     }
                 }
                 Some(Err(e)) => {
-                    self.errors[error_index(*e)] += 1;
-                    for id in ids {
+                    self.errors[error_index(e)] += 1;
+                    for id in ids.iter().copied() {
                         let f = self.fate(id);
                         if *f == Fate::Open {
                             *f = Fate::Rejected;
@@ -665,8 +733,9 @@ impl RxPort {
                 }
                 None => {}
             }
+            self.pending = ids;
+            self.pending.clear();
         }
-        r
     }
 
     /// The final accounting of `channel`'s frames at the end of a run.
@@ -844,9 +913,11 @@ mod tests {
         // 10 us per byte at 1 Mbaud: the last byte arrives after n * 10 us + latency.
         let last = 1_000 + n as u64 * 10_000 + 3_000;
         let mut got = Vec::new();
-        link.up.deliver(last - 1, |byte, id| got.push((byte, id)));
+        link.up
+            .deliver(last - 1, |run, id| got.extend(run.iter().map(|&b| (b, id))));
         assert_eq!(got.len(), n - 1);
-        link.up.deliver(last, |byte, id| got.push((byte, id)));
+        link.up
+            .deliver(last, |run, id| got.extend(run.iter().map(|&b| (b, id))));
         let bytes: Vec<u8> = got.iter().map(|g| g.0).collect();
         assert_eq!(bytes, [a.clone(), b.clone()].concat());
         assert_eq!(got[a.len() - 1].1, 0);
@@ -863,9 +934,9 @@ mod tests {
         for k in 0..frames {
             let t = u64::from(k) * period;
             link.up.send(t, &frame(k));
-            link.up.deliver(t + period - 1, |b, id| {
-                out.push(b);
-                let _ = rx.push(b, id);
+            link.up.deliver(t + period - 1, |run, id| {
+                out.extend_from_slice(run);
+                rx.push(run, id, |_| {});
             });
         }
         (out, rx.account(&link.up), *link.up.counters())

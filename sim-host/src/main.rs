@@ -1,2 +1,322 @@
 //! `sim-host`: the plant simulator's command line.
-fn main() {}
+//!
+//! - `sim-host run --scenario curve|beating|FILE --control passive|gain|lead [--csv FILE] [--plot DIR]`
+//! - `sim-host run ... --loop device [--faults SPEC] [--seed N] [--baud B] [--latency-us L]`:
+//!   the firmware runtime in the loop over the simulated serial link
+//!
+//! Exit codes: 0 success, 2 bad usage or bad input file, 1 other failures (writing output).
+
+use clap::{Parser, Subcommand, ValueEnum};
+use sim_host::control::YawLaw;
+use sim_host::error::ConfigError;
+use sim_host::params::Params;
+use sim_host::scenario::Scenario;
+use sim_host::sim::{run_continuous, Trajectory};
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// Plant simulator of a railway wheelset with traction (spec/model.md).
+#[derive(Parser)]
+#[command(name = "sim-host", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    cmd: Cmd,
+}
+
+#[derive(Subcommand)]
+enum Cmd {
+    /// Simulate a track scenario with the continuous-time reference controllers.
+    Run(RunArgs),
+}
+
+/// Yaw control mode.
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
+enum Control {
+    /// Mechanical yaw spring `k_yaw psi` (no actuator).
+    Passive,
+    /// Active yaw damping, pure gain `T = K y'` (spring replaced by the actuator).
+    Gain,
+    /// Active yaw damping with phase lead `K 7.5 (s+37)/(s+274)` on `y'`.
+    Lead,
+}
+
+impl From<Control> for YawLaw {
+    fn from(c: Control) -> Self {
+        match c {
+            Control::Passive => YawLaw::Passive,
+            Control::Gain => YawLaw::Gain,
+            Control::Lead => YawLaw::Lead,
+        }
+    }
+}
+
+#[derive(clap::Args)]
+struct RunArgs {
+    /// Built-in scenario (`curve`, `beating`) or a scenario TOML file.
+    #[arg(long, default_value = "curve")]
+    scenario: String,
+    /// Yaw control mode.
+    #[arg(long, value_enum, default_value = "lead")]
+    control: Control,
+    /// Parameter file (TOML, any subset of the parameters); the scenario's [params]
+    /// table is applied on top.
+    #[arg(long)]
+    params: Option<PathBuf>,
+    /// Write the trajectory as CSV (1 ms samples by default; directories created).
+    #[arg(long)]
+    csv: Option<PathBuf>,
+    /// Write SVG plots (lateral, torque, creep, traction) into this directory.
+    #[arg(long)]
+    plot: Option<PathBuf>,
+    /// Also run these modes and overlay them on the plots (e.g. `--compare passive`).
+    #[arg(long, value_enum)]
+    compare: Vec<Control>,
+    #[command(flatten)]
+    device: DeviceArgs,
+}
+
+/// Which controllers close the loop.
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
+enum LoopKind {
+    /// The continuous-time reference controllers (extra ODE states).
+    Continuous,
+    /// The firmware runtime (fixed point) over the simulated serial link.
+    Device,
+}
+
+/// The device loop's options (`--loop device`).
+#[derive(clap::Args)]
+struct DeviceArgs {
+    /// Loop kind.
+    #[arg(long = "loop", value_enum, default_value = "continuous")]
+    loop_kind: LoopKind,
+    /// Link faults, e.g. `ber=1e-3,drop=0.1,outage=8.0:0.05` (keys: ber, drop, byte_drop,
+    /// outage=START_S:LEN_S[:up|down], burst=RATE_HZ:LEN_BYTES, dir=both|up|down).
+    #[arg(long, default_value = "")]
+    faults: String,
+    /// Seed of the link's fault injection.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Link baud rate (10 bits per byte).
+    #[arg(long, default_value_t = sim_host::link::DEFAULT_BAUD)]
+    baud: u32,
+    /// One-way link latency, us.
+    #[arg(long, default_value_t = 2.0)]
+    latency_us: f64,
+    /// Device base rate, Hz (default: the control core's).
+    #[arg(long)]
+    rate_hz: Option<u32>,
+    /// Ticks the device bridges a missing sensor frame before its safe state.
+    #[arg(long, default_value_t = wheelset_runtime::DEFAULT_HOLD_TICKS)]
+    hold_ticks: u16,
+}
+
+/// A command failure with its exit code.
+struct Failure {
+    code: u8,
+    msg: String,
+}
+
+impl From<ConfigError> for Failure {
+    fn from(e: ConfigError) -> Self {
+        Failure {
+            code: 2,
+            msg: e.to_string(),
+        }
+    }
+}
+
+fn io_fail(what: &std::path::Path, e: std::io::Error) -> Failure {
+    Failure {
+        code: 1,
+        msg: format!("{}: cannot write: {e}", what.display()),
+    }
+}
+
+fn load_params(path: &Option<PathBuf>) -> Result<Params, ConfigError> {
+    match path {
+        Some(p) => Params::from_file(p),
+        None => Ok(Params::default()),
+    }
+}
+
+/// One simulation of the scenario. This is the place where further loop kinds (the
+/// device over the link) plug in: they produce the same [`Trajectory`].
+fn simulate(sc: &Scenario, control: Control) -> Trajectory {
+    run_continuous(sc, control.into())
+}
+
+fn cmd_run(a: &RunArgs) -> Result<(), Failure> {
+    let base = load_params(&a.params)?;
+    let sc = Scenario::load(&a.scenario, &base)?;
+    if a.device.loop_kind == LoopKind::Device {
+        return cmd_run_device(a, &sc);
+    }
+    let main = simulate(&sc, a.control);
+    let mut runs = vec![main];
+    for &c in &a.compare {
+        if c != a.control {
+            runs.push(simulate(&sc, c));
+        }
+    }
+    let main = &runs[0];
+    print_summary(&sc, main);
+    if let Some(path) = &a.csv {
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).map_err(|e| io_fail(dir, e))?;
+        }
+        let f = std::fs::File::create(path).map_err(|e| io_fail(path, e))?;
+        main.write_csv(std::io::BufWriter::new(f))
+            .map_err(|e| io_fail(path, e))?;
+        println!("csv: {} ({} rows)", path.display(), main.records.len());
+    }
+    if let Some(dir) = &a.plot {
+        let files =
+            sim_host::figures::write_time_histories(&runs, dir).map_err(|e| io_fail(dir, e))?;
+        for f in files {
+            println!("plot: {}", f.display());
+        }
+    }
+    Ok(())
+}
+
+/// `--loop device`: the firmware runtime over the simulated link; prints the frame
+/// accounting and the deviation from the continuous reference.
+fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
+    use sim_host::device::{deviation, run_device, DeviceOptions, CURVE_WINDOWS};
+    let d = &a.device;
+    if !(d.latency_us.is_finite() && d.latency_us >= 0.0) {
+        return Err(Failure {
+            code: 2,
+            msg: format!("--latency-us {}: must be a finite value >= 0", d.latency_us),
+        });
+    }
+    let faults: sim_host::link::Faults =
+        d.faults
+            .parse()
+            .map_err(|e: sim_host::link::FaultSpecError| Failure {
+                code: 2,
+                msg: e.to_string(),
+            })?;
+    let opt = DeviceOptions {
+        link: sim_host::link::LinkConfig {
+            baud: d.baud,
+            latency_ns: (d.latency_us * 1e3).round() as u64,
+            faults,
+            seed: d.seed,
+        },
+        hold_ticks: d.hold_ticks,
+        base_rate_hz: d.rate_hz,
+    };
+    let run = run_device(sc, a.control.into(), &opt).map_err(|e| Failure {
+        code: 2,
+        msg: e.to_string(),
+    })?;
+    print_summary(sc, &run.trajectory);
+    println!(
+        "link: {} baud, latency {} us, period {} us, faults `{}` (seed {})",
+        opt.link.baud,
+        d.latency_us,
+        run.period_ns as f64 / 1e3,
+        if d.faults.is_empty() {
+            "none"
+        } else {
+            &d.faults
+        },
+        d.seed
+    );
+    print!("{}", run.report);
+    println!();
+    let reference = simulate(sc, a.control);
+    println!(
+        "vs continuous reference: {}",
+        deviation(&run.trajectory, &reference, CURVE_WINDOWS)
+    );
+    if let Some(path) = &a.csv {
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).map_err(|e| io_fail(dir, e))?;
+        }
+        let f = std::fs::File::create(path).map_err(|e| io_fail(path, e))?;
+        run.write_csv(std::io::BufWriter::new(f))
+            .map_err(|e| io_fail(path, e))?;
+        println!(
+            "csv: {} ({} rows)",
+            path.display(),
+            run.trajectory.records.len()
+        );
+    }
+    if let Some(dir) = &a.plot {
+        let mut runs = vec![run.trajectory, reference];
+        for &c in &a.compare {
+            if c != a.control {
+                runs.push(simulate(sc, c));
+            }
+        }
+        let files =
+            sim_host::figures::write_time_histories(&runs, dir).map_err(|e| io_fail(dir, e))?;
+        for f in files {
+            println!("plot: {}", f.display());
+        }
+    }
+    Ok(())
+}
+
+fn print_summary(sc: &Scenario, tr: &Trajectory) {
+    let p = &sc.params;
+    println!(
+        "scenario {} ({}), control {}, {} s, RK4 dt {} s, {} steps",
+        sc.name,
+        sc.source,
+        tr.info.control,
+        sc.duration_ns as f64 * 1e-9,
+        tr.info.dt_s,
+        tr.info.steps
+    );
+    println!(
+        "plant: axle {:?}, drive {}, yaw spring {}; project defaults used: k_lat {} N/m, k_t {:.4e} N m/rad, k_gear {:.4e} N m/rad, PI Ti {} s",
+        sc.axle,
+        sc.drive,
+        tr.info.control == "passive",
+        p.k_lat,
+        p.k_t(),
+        p.k_gear(),
+        p.pi_ti
+    );
+    let max = |f: &dyn Fn(&sim_host::sim::Record) -> f64| {
+        tr.records.iter().map(f).fold(0.0f64, |a, b| a.max(b.abs()))
+    };
+    println!(
+        "max |y| {:.4} mm, max |T_psi| {:.1} N m, max |F_x| {:.1} N, max |F_y| {:.1} N",
+        max(&|r| r.y_m) * 1e3,
+        max(&|r| r.t_psi_nm),
+        max(&|r| r.fx_r_n.abs().max(r.fx_l_n.abs())),
+        max(&|r| r.fy_n)
+    );
+    if let Some(last) = tr.records.last() {
+        println!(
+            "end: v {:.4} m/s, i_a {:.2} A, u_a {:.1} V",
+            last.v_mps, last.i_a_a, last.u_a_v
+        );
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => {
+            let code = if e.use_stderr() { 2 } else { 0 };
+            let _ = e.print();
+            return ExitCode::from(code);
+        }
+    };
+    let res = match &cli.cmd {
+        Cmd::Run(a) => cmd_run(a),
+    };
+    match res {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(f) => {
+            eprintln!("sim-host: error: {}", f.msg);
+            ExitCode::from(f.code)
+        }
+    }
+}

@@ -11,6 +11,8 @@
 //!   `wheelset-nucleo-f32.elf`, `wheelset-qemu-f32.elf`). Prints flash and RAM of each
 //!   against the budget (flash 24 KiB, static RAM 8 KiB); fails above the RAM budget or
 //!   the flash ceiling (the 24 KiB flash budget is not met yet: printed as an overrun).
+//! - `cargo xtask fw-bench`: builds `wheelset-qemu-bench` (fixed point and f32) and runs
+//!   it under QEMU: instructions per control-law step and per whole runtime tick.
 
 mod elf;
 
@@ -289,13 +291,66 @@ fn test(extra: &[String]) -> Result<(), String> {
     run(&mut cmd)
 }
 
+/// `-icount shift` of the QEMU runs: 1024 ns of virtual time per instruction, 25.6
+/// SysTick counts per instruction at the mps2's 25 MHz, so counts convert to exact
+/// instruction counts (the firmware's `config::QEMU_ICOUNT_SHIFT`).
+const ICOUNT_SHIFT: u32 = 10;
+
+/// Builds the QEMU benchmark firmware (fixed point and f32) and runs it: instruction
+/// counts of the control-law step and of the whole runtime tick.
+fn fw_bench() -> Result<(), String> {
+    ensure_targets()?;
+    let benches = [
+        Firmware {
+            bin: "wheelset-qemu-bench",
+            features: "board-qemu",
+            elf: "wheelset-qemu-bench.elf",
+        },
+        Firmware {
+            bin: "wheelset-qemu-bench",
+            features: "board-qemu,f32",
+            elf: "wheelset-qemu-bench-f32.elf",
+        },
+    ];
+    let mut elfs = Vec::new();
+    for fw in &benches {
+        elfs.extend(build_firmware(std::slice::from_ref(fw))?);
+    }
+    if !have_qemu() {
+        return Err("qemu-system-arm is not installed: `apt-get install qemu-system-arm`".into());
+    }
+    for elf in &elfs {
+        let mut cmd = Command::new("qemu-system-arm");
+        cmd.args([
+            "-machine",
+            "mps2-an386",
+            "-cpu",
+            "cortex-m4",
+            "-nographic",
+            "-monitor",
+            "none",
+            "-serial",
+            "null",
+            "-icount",
+            &format!("shift={ICOUNT_SHIFT},sleep=off"),
+            "-semihosting-config",
+            "enable=on,target=native",
+            "-kernel",
+        ])
+        .arg(elf);
+        run(&mut cmd)?;
+    }
+    Ok(())
+}
+
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let result = match args.first().map(String::as_str) {
         Some("test") => test(&args[1..]),
         Some("fw") => fw(&args[1..]).map(|_| ()),
+        Some("fw-bench") => fw_bench(),
         _ => {
-            eprintln!("usage: cargo xtask <test [cargo test args]|fw [--f32]>");
+            eprintln!("usage: cargo xtask <test [cargo test args]|fw [--f32]|fw-bench>");
             return ExitCode::from(2);
         }
     };

@@ -77,11 +77,28 @@ impl<const N: usize> Decoder<N> {
         Some(r)
     }
 
-    /// Takes a chunk of bytes, calling `f` for every frame closed in it.
+    /// Takes a chunk of bytes, calling `f` for every frame closed in it. Same results as
+    /// [`Self::push`] byte by byte, but copies the runs between delimiters at once.
     pub fn feed(&mut self, bytes: &[u8], mut f: impl FnMut(Result<Message, FrameError>)) {
-        for &b in bytes {
-            if let Some(r) = self.push(b) {
-                f(r);
+        let mut rest = bytes;
+        while !rest.is_empty() {
+            let (run, closes) = match rest.iter().position(|&b| b == 0) {
+                Some(i) => (rest.get(..i).unwrap_or(&[]), true),
+                None => (rest, false),
+            };
+            if !self.overflow {
+                let room = N - self.buf.len();
+                if run.len() > room {
+                    self.overflow = true;
+                }
+                // Fits by construction: `room` bytes at most.
+                let _ = self.buf.extend_from_slice(run.get(..room).unwrap_or(run));
+            }
+            rest = rest.get(run.len() + usize::from(closes)..).unwrap_or(&[]);
+            if closes {
+                if let Some(r) = self.push(0) {
+                    f(r);
+                }
             }
         }
     }

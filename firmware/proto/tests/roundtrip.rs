@@ -38,10 +38,44 @@ proptest! {
     }
 
     #[test]
+    fn crc_table_choice_does_not_change_the_checksum(data in proptest::collection::vec(any::<u8>(), 0..200)) {
+        let reference = crc::Crc::<u32, crc::NoTable>::new(&crc::CRC_32_ISCSI);
+        prop_assert_eq!(CRC.checksum(&data), reference.checksum(&data));
+    }
+
+    #[test]
     fn arbitrary_bytes_never_panic(bytes in proptest::collection::vec(any::<u8>(), 0..600)) {
         let results = decode_all(&bytes);
         // One result per non-empty run closed by a delimiter, at most.
         prop_assert!(results.len() <= bytes.iter().filter(|&&b| b == 0).count());
+    }
+
+    #[test]
+    fn feed_equals_push_byte_by_byte(
+        parts in proptest::collection::vec(
+            prop_oneof![
+                message().prop_map(|m| encode_vec(&m).expect("fits").to_vec()),
+                proptest::collection::vec(any::<u8>(), 0..250),
+            ],
+            0..8,
+        ),
+        cut in 0usize..400,
+    ) {
+        let stream: Vec<u8> = parts.concat();
+        let mut a: Decoder = Decoder::new();
+        let mut by_byte = Vec::new();
+        for &b in &stream {
+            if let Some(r) = a.push(b) {
+                by_byte.push(r);
+            }
+        }
+        let mut b: Decoder = Decoder::new();
+        let mut fed = Vec::new();
+        let cut = cut.min(stream.len());
+        b.feed(&stream[..cut], |r| fed.push(r));
+        b.feed(&stream[cut..], |r| fed.push(r));
+        prop_assert_eq!(by_byte, fed);
+        prop_assert_eq!(a.pending(), b.pending());
     }
 
     #[test]
@@ -64,6 +98,12 @@ proptest! {
             prop_assert!((x / lsb).abs() >= 2.0e9);
         }
     }
+}
+
+#[test]
+fn crc_is_crc32c() {
+    // The catalogue's check value of CRC-32C over "123456789".
+    assert_eq!(CRC.checksum(b"123456789"), 0xE306_9283);
 }
 
 #[test]

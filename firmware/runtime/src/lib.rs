@@ -204,11 +204,9 @@ impl<T: Sample> Runtime<T> {
     /// Takes received bytes in any chunking; decodes frames, applies commands, counts bad
     /// frames. Never panics.
     pub fn receive(&mut self, bytes: &[u8]) {
-        for &b in bytes {
-            if let Some(r) = self.decoder.push(b) {
-                self.on_frame(r);
-            }
-        }
+        let mut dec = core::mem::take(&mut self.decoder);
+        dec.feed(bytes, |r| self.on_frame(r));
+        self.decoder = dec;
     }
 
     fn on_frame(&mut self, r: Result<Message, FrameError>) {

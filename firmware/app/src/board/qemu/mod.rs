@@ -37,6 +37,16 @@ pub struct SysTickStopwatch {
     syst: SYST,
 }
 
+impl SysTickStopwatch {
+    /// Takes SysTick: core clock, no interrupt, stopped until [`Stopwatch::start`].
+    pub fn new(mut syst: SYST) -> Self {
+        syst.set_clock_source(SystClkSource::Core);
+        syst.disable_interrupt();
+        syst.disable_counter();
+        Self { syst }
+    }
+}
+
 impl Stopwatch for SysTickStopwatch {
     fn start(&mut self) -> u32 {
         self.syst.set_reload(0x00FF_FFFF);
@@ -88,8 +98,7 @@ pub fn run() -> ! {
         defmt::error!("core peripherals taken twice");
         panic_halt();
     };
-    core.SYST.set_clock_source(SystClkSource::Core);
-    core.SYST.disable_interrupt();
+    let stopwatch = SysTickStopwatch::new(core.SYST);
     uart::init();
     defmt::info!(
         "wheelset-qemu: {} Hz base rate, {} build, frame-clocked lock-step",
@@ -106,9 +115,7 @@ pub fn run() -> ! {
         core.NVIC.set_priority(Interrupt::Swi1, 0xC0);
     }
     let control = EXEC_CONTROL.start(Interrupt::Swi0);
-    control.spawn(app::token(control_task(SysTickStopwatch {
-        syst: core.SYST,
-    })));
+    control.spawn(app::token(control_task(stopwatch)));
     let comms = EXEC_COMMS.start(Interrupt::Swi1);
     comms.spawn(app::token(tx_task()));
 

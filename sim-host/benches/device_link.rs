@@ -1,0 +1,36 @@
+//! The device loop over the link without the plant: 20 s at the default 5 kHz rate
+//! (100 000 exchanges), to separate the link + runtime cost from the plant's.
+#![allow(missing_docs)]
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use sim_host::device::{DeviceLoop, HostSample};
+use sim_host::link::LinkConfig;
+use wheelset_control::Fx;
+use wheelset_runtime::RuntimeConfig;
+
+fn bench(c: &mut Criterion) {
+    let mut g = c.benchmark_group("device_link");
+    g.sample_size(10);
+    g.bench_function("20 s at 5 kHz, no plant", |b| {
+        b.iter(|| {
+            let mut d = DeviceLoop::<Fx>::try_new(RuntimeConfig::default(), &LinkConfig::default())
+                .unwrap_or_else(|e| panic!("{e}"));
+            let t = d.period_ns();
+            let mut acc = 0.0;
+            for k in 0..100_000u64 {
+                let m = HostSample {
+                    y_dot: 1e-3 * ((k as f64) * 1e-3).sin(),
+                    i_a: 100.0,
+                    w_m: 925.6,
+                    demand_nm: 2460.0,
+                };
+                acc += d.exchange(k * t, &m, (0.0, 3961.6)).0;
+            }
+            acc
+        });
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

@@ -1,0 +1,2 @@
+//! Placeholder replaced by the modal sweep benchmark.
+fn main() {}

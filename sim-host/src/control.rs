@@ -1,0 +1,270 @@
+//! Controllers.
+//!
+//! - Continuous-time reference controllers ([`YawLaw`], [`ContinuousController`]) are
+//!   extra ODE states integrated with the plant.
+//! - A discrete controller (the firmware over the link, or a host reference) plugs in
+//!   through [`SampledController`]: it is called once per period with the sensor frame
+//!   ([`Measurements`]) and returns the [`Actuation`], which the plant holds (ZOH).
+//!
+//! Signs (eq. 5 as printed, `J psi'' + ... = -T_psi`): passive `T_psi = +k_yaw psi`
+//! (the plant's spring); active `T_psi = +K y'` or `+Ks(s) y'`: a wheelset moving right
+//! is yawed nose-left.
+
+use crate::params::Params;
+use crate::plant::{ix, Inputs, Plant, Scalar, NX};
+use serde::Serialize;
+
+/// The yaw stabilisation law.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum YawLaw {
+    /// Mechanical yaw spring `k_yaw psi` in the plant; controller torque zero.
+    Passive,
+    /// `T_psi = K y'`; no spring.
+    Gain,
+    /// `T_psi = K a (s + z)/(s + p) y'`; no spring.
+    Lead,
+}
+
+impl YawLaw {
+    /// Whether the plant carries the passive yaw spring under this law.
+    pub fn has_spring(self) -> bool {
+        self == YawLaw::Passive
+    }
+
+    /// Lower-case name (`passive`, `gain`, `lead`).
+    pub fn name(self) -> &'static str {
+        match self {
+            YawLaw::Passive => "passive",
+            YawLaw::Gain => "gain",
+            YawLaw::Lead => "lead",
+        }
+    }
+}
+
+/// Continuous-time controllers as ODE states.
+///
+/// Phase lead: `Ks(s) = K a (s + z)/(s + p) = K a [1 - (p - z)/(s + p)]`, realised as
+/// `x_c' = -p x_c + y'`, `T_psi = K a (y' - (p - z) x_c)`.
+///
+/// PI current loop: `Kt(s) = Kp (1 + 1/(Ti s))`, `e = i_ref - i_a`,
+/// `u_a = Kp e + x_i`, `x_i' = Kp e / Ti`; `x_i` in volts, preset to the back-EMF.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ContinuousController {
+    /// Yaw law.
+    pub law: YawLaw,
+    /// `K`, N m s/m (a negative value reverses the sign, for tests).
+    pub k: f64,
+    /// Lead factor `a`.
+    pub lead_a: f64,
+    /// Lead zero `z`, rad/s.
+    pub lead_z: f64,
+    /// Lead pole `p`, rad/s.
+    pub lead_p: f64,
+    /// PI `Kp`, V/A.
+    pub kp: f64,
+    /// PI `Ti`, s.
+    pub ti: f64,
+}
+
+impl ContinuousController {
+    /// The paper's controllers with `law`.
+    pub fn new(p: &Params, law: YawLaw) -> Self {
+        ContinuousController {
+            law,
+            k: p.k_active,
+            lead_a: p.lead_gain,
+            lead_z: p.lead_zero,
+            lead_p: p.lead_pole,
+            kp: p.pi_kp,
+            ti: p.pi_ti,
+        }
+    }
+
+    /// Control torque `T_psi`, N m, from the states (zero for passive).
+    #[inline(always)]
+    pub fn yaw_torque<S: Scalar>(&self, x: &[S; NX]) -> S {
+        let c = S::c;
+        match self.law {
+            YawLaw::Passive => c(0.0),
+            YawLaw::Gain => c(self.k) * x[ix::YD],
+            YawLaw::Lead => {
+                c(self.k * self.lead_a) * (x[ix::YD] - c(self.lead_p - self.lead_z) * x[ix::LEAD])
+            }
+        }
+    }
+
+    /// Armature voltage `u_a = Kp (i_ref - i_a) + x_i`, V.
+    #[inline(always)]
+    pub fn voltage<S: Scalar>(&self, x: &[S; NX], i_ref: S) -> S {
+        S::c(self.kp) * (i_ref - x[ix::IA]) + x[ix::PI]
+    }
+
+    /// Writes the controller state derivatives into `dx`.
+    #[inline(always)]
+    pub fn derivs<S: Scalar>(&self, x: &[S; NX], i_ref: S, drive: bool, dx: &mut [S; NX]) {
+        let c = S::c;
+        if self.law == YawLaw::Lead {
+            dx[ix::LEAD] = -c(self.lead_p) * x[ix::LEAD] + x[ix::YD];
+        }
+        if drive {
+            dx[ix::PI] = c(self.kp / self.ti) * (i_ref - x[ix::IA]);
+        }
+    }
+}
+
+/// Exogenous inputs of a closed-loop run (SI).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Exogenous<S> {
+    /// Track curvature `1/R`, 1/m.
+    pub curvature: S,
+    /// Cant angle, rad.
+    pub cant: S,
+    /// Running resistance, N.
+    pub f_run: S,
+    /// Current reference, A (drive).
+    pub i_ref: S,
+    /// Traction demand at the wheel, N m (acts directly on the left wheel without drive).
+    pub demand: S,
+}
+
+impl<S: Scalar> Exogenous<S> {
+    /// Straight level track, no traction, no resistance.
+    pub fn zero() -> Self {
+        Exogenous {
+            curvature: S::c(0.0),
+            cant: S::c(0.0),
+            f_run: S::c(0.0),
+            i_ref: S::c(0.0),
+            demand: S::c(0.0),
+        }
+    }
+}
+
+/// The closed loop's right-hand side: plant with `T_psi` from the yaw law and `u_a`
+/// from the PI (drive), plus the controller state derivatives. Generic so that the
+/// same code is simulated (`f64`) and differentiated by complex step.
+#[inline(always)]
+pub fn closed_loop_rhs<S: Scalar>(
+    plant: &Plant,
+    ctrl: &ContinuousController,
+    x: &[S; NX],
+    e: &Exogenous<S>,
+) -> [S; NX] {
+    let drive = plant.cfg.drive;
+    let u = Inputs {
+        t_psi: ctrl.yaw_torque(x),
+        u_a: if drive {
+            ctrl.voltage(x, e.i_ref)
+        } else {
+            S::c(0.0)
+        },
+        curvature: e.curvature,
+        cant: e.cant,
+        f_run: e.f_run,
+        t_drive: if drive { S::c(0.0) } else { e.demand },
+    };
+    let (mut dx, _) = plant.rhs(x, &u);
+    ctrl.derivs(x, e.i_ref, drive, &mut dx);
+    dx
+}
+
+/// What one sensor frame carries (SI units).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
+pub struct Measurements {
+    /// Lateral velocity of the wheelset relative to the track `y'`, m/s.
+    pub yd_mps: f64,
+    /// Lateral acceleration relative to the track `y''`, m/s^2 (with the actuation held
+    /// from the previous period).
+    pub ydd_mps2: f64,
+    /// Armature current `i_a`, A.
+    pub i_a: f64,
+    /// Motor speed `theta_m'`, rad/s.
+    pub w_m: f64,
+    /// Wheel speed (mean of the two wheels), rad/s.
+    pub w_wheel: f64,
+    /// Traction demand at the wheel, N m.
+    pub demand_nm: f64,
+    /// Current reference `demand / (n K_m)`, A.
+    pub i_ref: f64,
+}
+
+/// What the controller commands (SI units).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
+pub struct Actuation {
+    /// Yaw torque `T_psi`, N m, with the sign of eq. 5 (`... = -T_psi`).
+    pub t_psi: f64,
+    /// Armature voltage `u_a`, V.
+    pub u_a: f64,
+}
+
+/// A discrete controller called at a fixed period; the plant holds its output (ZOH).
+pub trait SampledController {
+    /// Sampling period, ns (a multiple of the integration step).
+    fn period_ns(&self) -> u64;
+    /// One control step at `t_ns` from the (sensor-modelled) measurements.
+    fn step(&mut self, t_ns: u64, meas: &Measurements) -> Actuation;
+    /// Actuation before the first step (default: zero torque, `u_a` = the measured
+    /// back-EMF so the current stays at zero).
+    fn initial(&self, meas: &Measurements, k_m: f64) -> Actuation {
+        Actuation {
+            t_psi: 0.0,
+            u_a: k_m * meas.w_m,
+        }
+    }
+}
+
+/// A plain f64 reference discrete controller: pure gain or forward-Euler/Tustin lead on
+/// `y'`, and a PI on the current (integrator preset to the back-EMF on the first call).
+/// Used in tests to show the sampled path approaches the continuous one.
+#[derive(Debug, Clone)]
+pub struct F64Sampled {
+    /// Period, ns.
+    pub period_ns: u64,
+    /// Continuous controller whose law is discretised.
+    pub ctrl: ContinuousController,
+    /// Motor constant used for the integrator preset.
+    pub k_m: f64,
+    lead_x: f64,
+    pi_x: Option<f64>,
+}
+
+impl F64Sampled {
+    /// A discrete version of `ctrl` at `period_ns` (lead by the exact ZOH discretisation
+    /// of its state equation, PI by forward Euler).
+    pub fn new(ctrl: ContinuousController, period_ns: u64, k_m: f64) -> Self {
+        F64Sampled {
+            period_ns,
+            ctrl,
+            k_m,
+            lead_x: 0.0,
+            pi_x: None,
+        }
+    }
+}
+
+impl SampledController for F64Sampled {
+    fn period_ns(&self) -> u64 {
+        self.period_ns
+    }
+
+    fn step(&mut self, _t_ns: u64, meas: &Measurements) -> Actuation {
+        let h = self.period_ns as f64 * 1e-9;
+        let c = &self.ctrl;
+        let t_psi = match c.law {
+            YawLaw::Passive => 0.0,
+            YawLaw::Gain => c.k * meas.yd_mps,
+            YawLaw::Lead => {
+                let t = c.k * c.lead_a * (meas.yd_mps - (c.lead_p - c.lead_z) * self.lead_x);
+                let ad = (-c.lead_p * h).exp();
+                self.lead_x = ad * self.lead_x + (1.0 - ad) / c.lead_p * meas.yd_mps;
+                t
+            }
+        };
+        let xi = *self.pi_x.get_or_insert(self.k_m * meas.w_m);
+        let e = meas.i_ref - meas.i_a;
+        let u_a = c.kp * e + xi;
+        self.pi_x = Some(xi + h * c.kp / c.ti * e);
+        Actuation { t_psi, u_a }
+    }
+}

@@ -1,0 +1,168 @@
+//! Typed errors for configuration input (parameter and scenario files).
+//!
+//! Every error names the file (or `<builtin:NAME>` for an embedded scenario), the key
+//! (a dotted TOML path such as `params.f11` or `track[2].t_s`) where one is known, and
+//! the reason. The command line maps all of them to exit code 2.
+
+use std::fmt;
+
+/// A problem with a parameter or scenario file. Never a panic: every bad input ends here.
+#[derive(Debug)]
+pub enum ConfigError {
+    /// The file could not be read.
+    Io {
+        /// The file as given.
+        file: String,
+        /// What the operating system said.
+        reason: String,
+    },
+    /// The file is not valid TOML for this schema (syntax, unknown key, wrong type).
+    Parse {
+        /// The file as given.
+        file: String,
+        /// The offending key, when the parser located one.
+        key: Option<String>,
+        /// 1-based line of the problem, when known.
+        line: Option<usize>,
+        /// The parser's explanation.
+        reason: String,
+    },
+    /// A value parsed but is outside its allowed range or inconsistent with another.
+    Invalid {
+        /// The file as given.
+        file: String,
+        /// Dotted key of the value.
+        key: String,
+        /// Why it was refused (with the allowed range).
+        reason: String,
+    },
+    /// `--scenario NAME` is neither a built-in scenario nor an existing file.
+    UnknownScenario {
+        /// What was asked for.
+        name: String,
+        /// The built-in names.
+        builtin: Vec<&'static str>,
+    },
+}
+
+impl ConfigError {
+    /// The file this error is about (empty for an unknown scenario name).
+    pub fn file(&self) -> &str {
+        match self {
+            ConfigError::Io { file, .. }
+            | ConfigError::Parse { file, .. }
+            | ConfigError::Invalid { file, .. } => file,
+            ConfigError::UnknownScenario { .. } => "",
+        }
+    }
+
+    /// The dotted key this error is about, if known.
+    pub fn key(&self) -> Option<&str> {
+        match self {
+            ConfigError::Parse { key, .. } => key.as_deref(),
+            ConfigError::Invalid { key, .. } => Some(key),
+            _ => None,
+        }
+    }
+
+    /// Rewrites the file name (used when the same text is checked under another name).
+    pub(crate) fn with_file(mut self, name: &str) -> Self {
+        match &mut self {
+            ConfigError::Io { file, .. }
+            | ConfigError::Parse { file, .. }
+            | ConfigError::Invalid { file, .. } => *file = name.to_string(),
+            ConfigError::UnknownScenario { .. } => {}
+        }
+        self
+    }
+
+    /// Prefixes the key with a table name, e.g. `f11` -> `params.f11`.
+    pub(crate) fn under(mut self, table: &str) -> Self {
+        match &mut self {
+            ConfigError::Invalid { key, .. } => *key = format!("{table}.{key}"),
+            ConfigError::Parse { key: Some(key), .. } => *key = format!("{table}.{key}"),
+            _ => {}
+        }
+        self
+    }
+}
+
+impl fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ConfigError::Io { file, reason } => write!(f, "{file}: cannot read: {reason}"),
+            ConfigError::Parse {
+                file,
+                key,
+                line,
+                reason,
+            } => {
+                write!(f, "{file}")?;
+                if let Some(l) = line {
+                    write!(f, ":{l}")?;
+                }
+                if let Some(k) = key {
+                    write!(f, ": key `{k}`")?;
+                }
+                write!(f, ": {reason}")
+            }
+            ConfigError::Invalid { file, key, reason } => {
+                write!(f, "{file}: key `{key}`: {reason}")
+            }
+            ConfigError::UnknownScenario { name, builtin } => write!(
+                f,
+                "scenario `{name}`: not a built-in scenario ({}) and no such file",
+                builtin.join(", ")
+            ),
+        }
+    }
+}
+
+impl std::error::Error for ConfigError {}
+
+/// Converts a `toml` deserialisation error into [`ConfigError::Parse`], locating the
+/// key from the error's span in the source text.
+pub(crate) fn from_toml(file: &str, src: &str, e: &toml::de::Error) -> ConfigError {
+    let mut key = None;
+    let mut line = None;
+    if let Some(span) = e.span() {
+        line = Some(src[..span.start.min(src.len())].matches('\n').count() + 1);
+        let start = span.start.min(src.len());
+        let line_start = src[..start].rfind('\n').map_or(0, |i| i + 1);
+        let before = &src[line_start..start];
+        let bare = |t: &str| {
+            !t.is_empty()
+                && t.len() <= 64
+                && t.chars()
+                    .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-' || c == '.')
+        };
+        if let Some(eq) = before.find('=') {
+            // The span is a value: the key is the left-hand side of its line.
+            let k = before[..eq].trim();
+            if bare(k) {
+                key = Some(k.to_string());
+            }
+        } else if let Some(text) = src.get(span.clone()) {
+            // The span is a key (e.g. an unknown field).
+            let t = text.trim();
+            if bare(t) {
+                key = Some(t.to_string());
+            }
+        }
+    }
+    let msg = e.message().trim().to_string();
+    if key.is_none() {
+        // "unknown field `foo`, expected ..." / "missing field `bar`"
+        if let Some(start) = msg.find('`') {
+            if let Some(len) = msg[start + 1..].find('`') {
+                key = Some(msg[start + 1..start + 1 + len].to_string());
+            }
+        }
+    }
+    ConfigError::Parse {
+        file: file.to_string(),
+        key,
+        line,
+        reason: msg,
+    }
+}

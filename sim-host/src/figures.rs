@@ -1,0 +1,117 @@
+//! The paper's figures from simulation results: time histories (Figs. 6-9) and root
+//! loci (Figs. 2-5, in [`crate::modes`]'s output), written as SVG with [`crate::svg`].
+
+use crate::sim::{Record, Trajectory};
+use crate::svg::{Figure, Plot, Series, Style};
+use std::path::{Path, PathBuf};
+
+fn series(tr: &Trajectory, label: &str, f: impl Fn(&Record) -> f64) -> Series {
+    Series::line(label, tr.records.iter().map(|r| (r.t_s, f(r))).collect())
+}
+
+fn label(tr: &Trajectory) -> String {
+    tr.info.control.clone()
+}
+
+/// Writes the time-history figures of `runs` (first = main run, others overlaid for
+/// comparison) into `dir`; returns the files written.
+///
+/// - `lateral.svg` (Fig. 6): `y` in mm against the pure rolling line `y0`.
+/// - `torque.svg` (Fig. 7): yaw torque (control torque or passive spring torque).
+/// - `creep.svg` (Fig. 8): longitudinal and lateral creep forces.
+/// - `traction.svg`: current and reference, voltage, speed, gear wind-up (Fig. 9's
+///   beating shows in the wind-up and in `y`).
+pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<Vec<PathBuf>> {
+    let Some(main) = runs.first() else {
+        return Ok(vec![]);
+    };
+    let title = format!("scenario {}", main.info.scenario);
+    let mut files = Vec::new();
+    let mut save = |name: &str, fig: Figure| -> std::io::Result<()> {
+        let p = dir.join(name);
+        fig.save(&p)?;
+        files.push(p);
+        Ok(())
+    };
+
+    // Fig. 6
+    let mut p = Plot::new("Lateral displacement (Fig. 6)")
+        .x_label("t (s)")
+        .y_label("y (mm)");
+    for tr in runs {
+        p = p.series(series(tr, &format!("y, {}", label(tr)), |r| r.y_m * 1e3));
+    }
+    p = p.series(
+        series(main, "pure rolling line y0", |r| r.y0_m * 1e3)
+            .style(Style::Dashed)
+            .color("#000"),
+    );
+    let mut psi = Plot::new("Yaw angle")
+        .x_label("t (s)")
+        .y_label("psi (mrad)");
+    for tr in runs {
+        psi = psi.series(series(tr, &label(tr), |r| r.psi_rad * 1e3));
+    }
+    save("lateral.svg", Figure::new(&title).panel(p).panel(psi))?;
+
+    // Fig. 7
+    let mut p = Plot::new("Yaw torque: control (active) / suspension (passive) (Fig. 7)")
+        .x_label("t (s)")
+        .y_label("T_psi (N m)");
+    for tr in runs {
+        p = p.series(series(tr, &format!("T_psi, {}", label(tr)), |r| r.t_psi_nm));
+    }
+    save("torque.svg", Figure::new(&title).panel(p))?;
+
+    // Fig. 8
+    let mut fx = Plot::new("Longitudinal creep forces (Fig. 8)")
+        .x_label("t (s)")
+        .y_label("F_x (kN)");
+    let mut fy = Plot::new("Lateral creep force per wheel")
+        .x_label("t (s)")
+        .y_label("F_y (kN)");
+    for tr in runs {
+        fx = fx
+            .series(series(tr, &format!("F_xR, {}", label(tr)), |r| {
+                r.fx_r_n * 1e-3
+            }))
+            .series(series(tr, &format!("F_xL, {}", label(tr)), |r| {
+                r.fx_l_n * 1e-3
+            }));
+        fy = fy.series(series(tr, &format!("F_y, {}", label(tr)), |r| {
+            r.fy_n * 1e-3
+        }));
+    }
+    save("creep.svg", Figure::new(&title).panel(fx).panel(fy))?;
+
+    // Traction and Fig. 9 view.
+    let ia = Plot::new("Armature current")
+        .x_label("t (s)")
+        .y_label("i_a (A)")
+        .series(series(main, "i_a", |r| r.i_a_a))
+        .series(series(main, "i_ref", |r| r.i_ref_a).style(Style::Dashed));
+    let ua = Plot::new("Armature voltage")
+        .x_label("t (s)")
+        .y_label("u_a (V)")
+        .series(series(main, "u_a", |r| r.u_a_v));
+    let wind = Plot::new("Gear wind-up and axle twist (Fig. 9: beating)")
+        .x_label("t (s)")
+        .y_label("angle (mrad)")
+        .series(series(main, "wind-up phi_L - theta_m/n", |r| {
+            r.wind_rad * 1e3
+        }))
+        .series(series(main, "twist phi_R - phi_L", |r| r.twist_rad * 1e3));
+    let v = Plot::new("Forward speed")
+        .x_label("t (s)")
+        .y_label("v (m/s)")
+        .series(series(main, "v", |r| r.v_mps));
+    save(
+        "traction.svg",
+        Figure::new(&format!("{title}, control {}", label(main)))
+            .panel(ia)
+            .panel(ua)
+            .panel(wind)
+            .panel(v),
+    )?;
+    Ok(files)
+}

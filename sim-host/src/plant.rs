@@ -1,0 +1,380 @@
+//! The nonlinear wheelset plant, eqs. (1)-(10) of `spec/model.md` as corrected, on
+//! relative angles.
+//!
+//! # State (index constants in [`ix`])
+//!
+//! | index | symbol | unit | meaning |
+//! |---|---|---|---|
+//! | `Y` | `y` | m | lateral displacement from the track centre line, + right |
+//! | `YD` | `y'` | m/s | lateral velocity relative to the track |
+//! | `PSI` | `psi` | rad | yaw relative to the track tangent, + nose towards +y |
+//! | `PSID` | `psi'` | rad/s | yaw rate |
+//! | `WR`, `WL` | `phi_R'`, `phi_L'` | rad/s | wheel speeds (rigid axle: `WL` mirrors `WR`) |
+//! | `TWIST` | `phi_R - phi_L` | rad | axle twist (flexible axle) |
+//! | `WIND` | `phi_L - theta_m/n` | rad | gear wind-up (drive) |
+//! | `WM` | `theta_m'` | rad/s | motor speed (drive) |
+//! | `IA` | `i_a` | A | armature current (drive) |
+//! | `V` | `v` | m/s | forward speed (eq. 8) |
+//! | `LEAD` | `x_c` | m | phase-lead compensator state (controller) |
+//! | `PI` | `x_i` | V | PI integrator state (controller) |
+//!
+//! No absolute rotation angle is a state, so long runs keep full precision.
+//!
+//! # Sign conventions
+//! x forward, y right, psi nose-right positive; right wheel rolling radius `r0 + lambda y`;
+//! curvature `1/R > 0` bends left (right wheel on the outer rail); `F_x` is the rail's
+//! force on the wheel, + forward; the yaw torque `T_psi` enters eq. (5) as
+//! `J psi'' + Lg (F_xR - F_xL) = -T_psi`.
+//!
+//! # Yaw spring
+//! The passive mechanical yaw spring `T_spring = k_yaw psi` is part of the plant only
+//! when [`PlantConfig::yaw_spring`] is set (passive mode). The active modes **replace**
+//! the spring by the actuator (the paper: "actuators are used to replace the yaw
+//! stiffness"), so their plant has no spring and the controller supplies `T_psi`.
+//!
+//! # Traction
+//! With [`PlantConfig::drive`] the motor drives the left wheel through the gear spring:
+//! wheel torque `k_gear (theta_m/n - phi_L) = -k_gear WIND`. Without it, the traction
+//! demand acts directly as the torque [`Inputs::t_drive`] on the left wheel.
+
+use crate::params::Params;
+use crate::scenario::Axle;
+use nalgebra::Complex;
+use std::ops::{Add, Div, Mul, Neg, Sub};
+
+/// Indices into the state vector.
+pub mod ix {
+    /// Lateral displacement `y`, m.
+    pub const Y: usize = 0;
+    /// Lateral velocity `y'`, m/s.
+    pub const YD: usize = 1;
+    /// Yaw angle `psi`, rad.
+    pub const PSI: usize = 2;
+    /// Yaw rate `psi'`, rad/s.
+    pub const PSID: usize = 3;
+    /// Right wheel speed, rad/s.
+    pub const WR: usize = 4;
+    /// Left wheel speed, rad/s.
+    pub const WL: usize = 5;
+    /// Axle twist `phi_R - phi_L`, rad.
+    pub const TWIST: usize = 6;
+    /// Gear wind-up `phi_L - theta_m / n`, rad.
+    pub const WIND: usize = 7;
+    /// Motor speed `theta_m'`, rad/s.
+    pub const WM: usize = 8;
+    /// Armature current `i_a`, A.
+    pub const IA: usize = 9;
+    /// Forward speed `v`, m/s.
+    pub const V: usize = 10;
+    /// Phase-lead compensator state.
+    pub const LEAD: usize = 11;
+    /// PI integrator state (volts).
+    pub const PI: usize = 12;
+}
+
+/// Length of the state vector.
+pub const NX: usize = 13;
+
+/// Short names of the states, in index order (CSV/JSON labels).
+pub const STATE_NAMES: [&str; NX] = [
+    "y_m",
+    "yd_mps",
+    "psi_rad",
+    "psid_radps",
+    "w_r_radps",
+    "w_l_radps",
+    "twist_rad",
+    "wind_rad",
+    "w_m_radps",
+    "i_a_A",
+    "v_mps",
+    "x_lead",
+    "x_pi_V",
+];
+
+/// A state vector.
+pub type State = [f64; NX];
+
+/// The arithmetic the right-hand side needs: implemented for `f64` (simulation) and
+/// `Complex<f64>` (complex-step differentiation). No branches on values, so the RHS is
+/// analytic in every state and input.
+pub trait Scalar:
+    Copy
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + Neg<Output = Self>
+{
+    /// Lifts a real constant.
+    fn c(x: f64) -> Self;
+}
+
+impl Scalar for f64 {
+    #[inline(always)]
+    fn c(x: f64) -> Self {
+        x
+    }
+}
+
+impl Scalar for Complex<f64> {
+    #[inline(always)]
+    fn c(x: f64) -> Self {
+        Complex::new(x, 0.0)
+    }
+}
+
+/// Which parts of the plant are present.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PlantConfig {
+    /// Rigid or flexible axle.
+    pub axle: Axle,
+    /// Traction drive (gear spring, motor, armature) present.
+    pub drive: bool,
+    /// Passive yaw spring `k_yaw psi` present (passive mode only; see module docs).
+    pub yaw_spring: bool,
+}
+
+impl PlantConfig {
+    /// The states this configuration actually has (indices into the full vector),
+    /// excluding controller states.
+    pub fn plant_states(&self) -> Vec<usize> {
+        let mut s = vec![ix::Y, ix::YD, ix::PSI, ix::PSID, ix::WR];
+        if self.axle == Axle::Flexible {
+            s.extend([ix::WL, ix::TWIST]);
+        }
+        if self.drive {
+            s.extend([ix::WIND, ix::WM, ix::IA]);
+        }
+        s.push(ix::V);
+        s
+    }
+}
+
+/// Plant inputs (SI).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Inputs<S> {
+    /// Yaw torque from the actuator `T_psi`, N m (eq. 5 sign).
+    pub t_psi: S,
+    /// Armature voltage `u_a`, V (drive only).
+    pub u_a: S,
+    /// Track curvature `1/R`, 1/m.
+    pub curvature: S,
+    /// Cant angle `theta`, rad.
+    pub cant: S,
+    /// Running resistance `F_run`, N.
+    pub f_run: S,
+    /// Direct traction torque on the left wheel, N m (used only without the drive).
+    pub t_drive: S,
+}
+
+impl<S: Scalar> Inputs<S> {
+    /// All inputs zero.
+    pub fn zero() -> Self {
+        Inputs {
+            t_psi: S::c(0.0),
+            u_a: S::c(0.0),
+            curvature: S::c(0.0),
+            cant: S::c(0.0),
+            f_run: S::c(0.0),
+            t_drive: S::c(0.0),
+        }
+    }
+}
+
+/// Creep forces (eqs. 1-3), N: the rail's forces on the wheels.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Creep<S> {
+    /// Longitudinal force on the right wheel, + forward.
+    pub fx_r: S,
+    /// Longitudinal force on the left wheel, + forward.
+    pub fx_l: S,
+    /// Lateral force per wheel, + right.
+    pub fy: S,
+}
+
+/// The plant: parameters reduced to the coefficients the RHS needs, plus its
+/// configuration. Cheap to copy; the RHS does not allocate.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Plant {
+    /// Configuration.
+    pub cfg: PlantConfig,
+    m: f64,
+    m_long: f64,
+    j: f64,
+    i_w: f64,
+    i_m: f64,
+    f11: f64,
+    f22: f64,
+    c_lat: f64,
+    k_lat: f64,
+    k_yaw: f64,
+    k_t: f64,
+    k_gear: f64,
+    l_g: f64,
+    r0: f64,
+    lambda: f64,
+    g: f64,
+    n: f64,
+    k_m: f64,
+    l_a: f64,
+    r_a: f64,
+}
+
+impl Plant {
+    /// Builds the plant from parameters.
+    pub fn new(p: &Params, cfg: PlantConfig) -> Plant {
+        Plant {
+            cfg,
+            m: p.m,
+            m_long: p.m + p.m_v / 2.0,
+            j: p.j,
+            i_w: p.i_w,
+            i_m: p.i_m,
+            f11: p.f11,
+            f22: p.f22,
+            c_lat: p.c_lat,
+            k_lat: p.k_lat,
+            k_yaw: p.k_yaw,
+            k_t: p.k_t(),
+            k_gear: p.k_gear(),
+            l_g: p.l_g,
+            r0: p.r0,
+            lambda: p.lambda,
+            g: p.g,
+            n: p.n_gear,
+            k_m: p.k_m,
+            l_a: p.l_a,
+            r_a: p.r_a,
+        }
+    }
+
+    /// Left wheel speed as the model sees it (the right one on a rigid axle).
+    #[inline(always)]
+    fn w_l<S: Scalar>(&self, x: &[S; NX]) -> S {
+        match self.cfg.axle {
+            Axle::Rigid => x[ix::WR],
+            Axle::Flexible => x[ix::WL],
+        }
+    }
+
+    /// Creep forces, eqs. (1)-(3):
+    ///
+    /// `F_xR =  f11 [-1 + Lg psi'/v + phi_R' (r0 + lambda y)/v - Lg/R]`,
+    /// `F_xL = -f11 [ 1 + Lg psi'/v - phi_L' (r0 - lambda y)/v - Lg/R]`,
+    /// `F_y  = -f22 (y' - v psi)/v` per wheel.
+    #[inline(always)]
+    pub fn creep<S: Scalar>(&self, x: &[S; NX], curvature: S) -> Creep<S> {
+        let c = S::c;
+        let v = x[ix::V];
+        let y = x[ix::Y];
+        let lg_psid_v = c(self.l_g) * x[ix::PSID] / v;
+        let lg_k = c(self.l_g) * curvature;
+        let fx_r = c(self.f11)
+            * (c(-1.0) + lg_psid_v + x[ix::WR] * (c(self.r0) + c(self.lambda) * y) / v - lg_k);
+        let fx_l = -c(self.f11)
+            * (c(1.0) + lg_psid_v - self.w_l(x) * (c(self.r0) - c(self.lambda) * y) / v - lg_k);
+        let fy = -c(self.f22) * (x[ix::YD] - v * x[ix::PSI]) / v;
+        Creep { fx_r, fx_l, fy }
+    }
+
+    /// Passive spring torque `k_yaw psi` (zero when the spring is absent), N m.
+    #[inline(always)]
+    pub fn spring_torque<S: Scalar>(&self, x: &[S; NX]) -> S {
+        if self.cfg.yaw_spring {
+            S::c(self.k_yaw) * x[ix::PSI]
+        } else {
+            S::c(0.0)
+        }
+    }
+
+    /// Time derivative of the plant states (controller entries `LEAD`, `PI` are left
+    /// zero) and the creep forces. Newton's laws on the creep forces:
+    ///
+    /// - (4) `m y'' = 2 F_y - c_lat y' - k_lat y + m v^2/R - m g theta`
+    /// - (5) `J psi'' = -Lg (F_xR - F_xL) - T_spring - T_psi`
+    /// - (6) `I_w phi_R'' = -r0 F_xR - k_t (phi_R - phi_L)`
+    /// - (7) `I_w phi_L'' = -r0 F_xL + k_t (phi_R - phi_L) + k_gear (theta_m/n - phi_L)`
+    /// - (8) `(m + m_v/2) v' = F_xR + F_xL - F_run`
+    /// - (9) `L_a i_a' = u_a - R_a i_a - K_m theta_m'`
+    /// - (10) `I_m theta_m'' = K_m i_a + (k_gear/n) (phi_L - theta_m/n)`
+    ///
+    /// Rigid axle: `2 I_w phi'' = -r0 (F_xR + F_xL) + gear torque`.
+    #[inline(always)]
+    pub fn rhs<S: Scalar>(&self, x: &[S; NX], u: &Inputs<S>) -> ([S; NX], Creep<S>) {
+        let c = S::c;
+        let zero = c(0.0);
+        let mut dx = [zero; NX];
+        let cr = self.creep(x, u.curvature);
+        let v = x[ix::V];
+
+        // (4) lateral
+        dx[ix::Y] = x[ix::YD];
+        dx[ix::YD] = (c(2.0) * cr.fy - c(self.c_lat) * x[ix::YD] - c(self.k_lat) * x[ix::Y]
+            + c(self.m) * v * v * u.curvature
+            - c(self.m * self.g) * u.cant)
+            / c(self.m);
+        // (5) yaw
+        dx[ix::PSI] = x[ix::PSID];
+        dx[ix::PSID] =
+            (-c(self.l_g) * (cr.fx_r - cr.fx_l) - self.spring_torque(x) - u.t_psi) / c(self.j);
+
+        // Torque on the left wheel from the transmission.
+        let t_gear = if self.cfg.drive {
+            -c(self.k_gear) * x[ix::WIND]
+        } else {
+            u.t_drive
+        };
+        match self.cfg.axle {
+            Axle::Flexible => {
+                let t_tors = c(self.k_t) * x[ix::TWIST];
+                dx[ix::WR] = (-c(self.r0) * cr.fx_r - t_tors) / c(self.i_w);
+                dx[ix::WL] = (-c(self.r0) * cr.fx_l + t_tors + t_gear) / c(self.i_w);
+                dx[ix::TWIST] = x[ix::WR] - x[ix::WL];
+            }
+            Axle::Rigid => {
+                let a = (-c(self.r0) * (cr.fx_r + cr.fx_l) + t_gear) / c(2.0 * self.i_w);
+                dx[ix::WR] = a;
+                dx[ix::WL] = a;
+            }
+        }
+        if self.cfg.drive {
+            let w_l = self.w_l(x);
+            dx[ix::WIND] = w_l - x[ix::WM] / c(self.n);
+            dx[ix::WM] =
+                (c(self.k_m) * x[ix::IA] + c(self.k_gear / self.n) * x[ix::WIND]) / c(self.i_m);
+            dx[ix::IA] = (u.u_a - c(self.r_a) * x[ix::IA] - c(self.k_m) * x[ix::WM]) / c(self.l_a);
+        }
+        // (8) longitudinal
+        dx[ix::V] = (cr.fx_r + cr.fx_l - u.f_run) / c(self.m_long);
+        (dx, cr)
+    }
+
+    /// Pure rolling on straight track at speed `v`: `y = psi = 0`, wheels at `v/r0`,
+    /// motor at `n v/r0`, no wind-up, no twist, zero current. Controller entries zero.
+    pub fn rolling_state(&self, v: f64) -> State {
+        let mut x = [0.0; NX];
+        x[ix::V] = v;
+        x[ix::WR] = v / self.r0;
+        x[ix::WL] = v / self.r0;
+        if self.cfg.drive {
+            x[ix::WM] = self.n * v / self.r0;
+        }
+        x
+    }
+
+    /// Motor back-EMF `K_m theta_m'`, V.
+    pub fn back_emf(&self, x: &State) -> f64 {
+        self.k_m * x[ix::WM]
+    }
+
+    /// Gear ratio `n`.
+    pub fn n(&self) -> f64 {
+        self.n
+    }
+
+    /// Motor constant `K_m`.
+    pub fn k_m(&self) -> f64 {
+        self.k_m
+    }
+}
