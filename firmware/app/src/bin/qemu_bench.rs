@@ -76,15 +76,19 @@ mod bench {
     /// branch of the loops is exercised; the demand steps up at mid-run.
     fn si_inputs(k: u32) -> (f64, f64, f64, f64) {
         let t = f64::from(k) / 5000.0;
-        let ring = if (k / 50) % 2 == 0 { 1.0 } else { -1.0 } * 0.02 / (1.0 + t);
+        let ring = if (k / 50).is_multiple_of(2) {
+            1.0
+        } else {
+            -1.0
+        } * 0.02
+            / (1.0 + t);
         let demand = if k > N / 2 { 2460.0 } else { 0.0 };
         (ring, 100.0 * ring, 925.6, demand)
     }
 
     pub fn run() -> ! {
         let Some(core) = cortex_m::Peripherals::take() else {
-            debug::exit(debug::EXIT_FAILURE);
-            loop {}
+            exit(debug::EXIT_FAILURE)
         };
         let mut sw = SysTickStopwatch::new(core.SYST);
 
@@ -99,8 +103,7 @@ mod bench {
         let cfg = Config::default();
         let Ok(mut c) = Controller::<Num>::try_new(&cfg) else {
             hprintln!("controller refused the default configuration");
-            debug::exit(debug::EXIT_FAILURE);
-            loop {}
+            exit(debug::EXIT_FAILURE)
         };
         let mut law = Stats::new();
         for k in 0..N {
@@ -117,8 +120,7 @@ mod bench {
 
         let Ok(mut rt) = new_runtime() else {
             hprintln!("runtime refused the default configuration");
-            debug::exit(debug::EXIT_FAILURE);
-            loop {}
+            exit(debug::EXIT_FAILURE)
         };
         let mut whole = Stats::new();
         let mut exec = 0;
@@ -144,8 +146,14 @@ mod bench {
             "whole tick (decode sensor frame + control + encode actuation frame)",
             overhead,
         );
-        debug::exit(debug::EXIT_SUCCESS);
-        loop {}
+        exit(debug::EXIT_SUCCESS)
+    }
+
+    /// Ends the QEMU run with `status`.
+    fn exit(status: debug::ExitStatus) -> ! {
+        loop {
+            debug::exit(status);
+        }
     }
 }
 
