@@ -489,8 +489,12 @@ impl Channel {
         } else {
             let first = start + self.latency_ns;
             seg.bytes.extend_from_slice(bytes);
-            seg.at_ns
-                .extend((1..=bytes.len()).map(|k| first + at(k, self.baud, &self.byte_ns)));
+            match self.byte_ns.get(1..=bytes.len()) {
+                Some(times) => seg.at_ns.extend(times.iter().map(|&ns| first + ns)),
+                None => seg
+                    .at_ns
+                    .extend((1..=bytes.len()).map(|k| first + wire_ns(k, self.baud))),
+            }
         }
         self.counters.bytes_delivered += seg.bytes.len() as u64;
         if seg.bytes.is_empty() {

@@ -54,7 +54,7 @@ pub mod units;
 
 pub use decoder::Decoder;
 pub use frame::{
-    decode_frame, encode, encode_vec, EncodeError, FrameError, CRC, CRC_LEN, MAX_FRAME, MAX_RAW,
-    MIN_DECODED, VERSION,
+    cobs_encode, decode_frame, encode, encode_vec, EncodeError, FrameError, CRC, CRC_LEN,
+    MAX_FRAME, MAX_RAW, MIN_DECODED, VERSION,
 };
 pub use message::{Actuation, Command, Config, Flags, Lateral, Message, Sensor, Status, YawMode};

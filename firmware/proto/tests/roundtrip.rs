@@ -38,6 +38,27 @@ proptest! {
     }
 
     #[test]
+    fn cobs_encode_matches_the_cobs_crate(
+        data in prop_oneof![
+            proptest::collection::vec(any::<u8>(), 0..300),
+            proptest::collection::vec(1u8..=255, 0..600),
+            proptest::collection::vec(prop_oneof![Just(0u8), 1u8..=255], 0..300),
+        ]
+    ) {
+        let mut ours = vec![0u8; data.len() + data.len() / 254 + 2];
+        let mut theirs = ours.clone();
+        let n = cobs_encode(&data, &mut ours);
+        let m = cobs::try_encode(&data, &mut theirs).ok();
+        prop_assert_eq!(n, m);
+        if let Some(n) = n {
+            prop_assert_eq!(&ours[..n], &theirs[..n]);
+        }
+        // Too short an output buffer is refused, never a panic.
+        let mut short = vec![0u8; data.len() / 2];
+        let _ = cobs_encode(&data, &mut short);
+    }
+
+    #[test]
     fn crc_table_choice_does_not_change_the_checksum(data in proptest::collection::vec(any::<u8>(), 0..200)) {
         let reference = crc::Crc::<u32, crc::NoTable>::new(&crc::CRC_32_ISCSI);
         prop_assert_eq!(CRC.checksum(&data), reference.checksum(&data));
