@@ -20,6 +20,7 @@ fn bench(c: &mut Criterion) {
             for k in 0..100_000u64 {
                 let m = HostSample {
                     y_dot: 1e-3 * ((k as f64) * 1e-3).sin(),
+                    y_ddot: 0.0,
                     i_a: 100.0,
                     w_m: 925.6,
                     demand_nm: 2460.0,

@@ -1,2 +1,29 @@
-//! Placeholder replaced by the modal sweep benchmark.
-fn main() {}
+//! The modal sweep: 1000 creep points for each of the four cases (a)-(d), with mode
+//! tracking and crossing bisection. Target: at most 20 ms.
+//! Run: `cargo bench -p sim-host --bench sweep`.
+
+use criterion::{black_box, criterion_main, Criterion};
+use sim_host::modes::{creep_grid, sweep_case, Case};
+use sim_host::params::Params;
+
+fn bench(c: &mut Criterion) {
+    let p = Params::default();
+    let grid = creep_grid(1000);
+    let mut g = c.benchmark_group("modes");
+    g.sample_size(10);
+    g.bench_function("sweep_4_cases_x_1000_points", |b| {
+        b.iter(|| {
+            for case in Case::ALL {
+                black_box(sweep_case(&p, case, black_box(&grid), || {}).ok());
+            }
+        })
+    });
+    g.finish();
+}
+
+#[allow(missing_docs)]
+mod group {
+    criterion::criterion_group!(benches, super::bench);
+}
+use group::benches;
+criterion_main!(benches);

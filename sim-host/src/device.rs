@@ -22,8 +22,8 @@ use std::fmt;
 
 use wheelset_control::Sample;
 use wheelset_proto::units::{
-    quantize, to_si, CURRENT_LSB_A, DEMAND_LSB_NM, LAT_VEL_LSB_M_PER_S, SPEED_LSB_RAD_PER_S,
-    TORQUE_LSB_NM, VOLTAGE_LSB_V,
+    quantize, to_si, CURRENT_LSB_A, DEMAND_LSB_NM, LAT_ACC_LSB_M_PER_S2, LAT_VEL_LSB_M_PER_S,
+    SPEED_LSB_RAD_PER_S, TORQUE_LSB_NM, VOLTAGE_LSB_V,
 };
 use wheelset_proto::{
     encode_vec, Actuation, Command, Flags, FrameError, Lateral, Message, Sensor, Status, MAX_FRAME,
@@ -175,12 +175,24 @@ impl fmt::Display for LinkReport {
     }
 }
 
-/// The measurements the host sends (SI): `y'` m/s, `i_a` A, motor speed rad/s,
-/// traction demand (wheel torque) N m.
+/// What the Sensor frame carries of the lateral motion.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum LateralSensing {
+    /// `y'` (the default).
+    #[default]
+    Velocity,
+    /// `y''` only: the device integrates it (with wash-out).
+    Acceleration,
+}
+
+/// The measurements the host sends (SI): `y'` m/s, `y''` m/s^2, `i_a` A, motor speed
+/// rad/s, traction demand (wheel torque) N m.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct HostSample {
     /// Lateral velocity relative to the track, m/s.
     pub y_dot: f64,
+    /// Lateral acceleration relative to the track, m/s^2.
+    pub y_ddot: f64,
     /// Armature current, A.
     pub i_a: f64,
     /// Motor speed, rad/s.
@@ -203,6 +215,7 @@ pub struct DeviceLoop<T: Sample> {
     log: Vec<LinkSample>,
     host_clamped: u64,
     last_t_ns: u64,
+    lateral: LateralSensing,
 }
 
 impl<T: Sample> DeviceLoop<T> {
@@ -237,7 +250,13 @@ impl<T: Sample> DeviceLoop<T> {
             log: Vec::new(),
             host_clamped: 0,
             last_t_ns: 0,
+            lateral: LateralSensing::Velocity,
         })
+    }
+
+    /// Sends `y''` instead of `y'` from now on (or back).
+    pub fn set_lateral(&mut self, lateral: LateralSensing) {
+        self.lateral = lateral;
     }
 
     /// The control period, ns.
@@ -275,7 +294,12 @@ impl<T: Sample> DeviceLoop<T> {
         let sensor = Sensor {
             seq: self.seq,
             t_us: ((t_ns / 1_000) & 0xffff) as u16,
-            lateral: Lateral::Velocity(self.q(m.y_dot, LAT_VEL_LSB_M_PER_S)),
+            lateral: match self.lateral {
+                LateralSensing::Velocity => Lateral::Velocity(self.q(m.y_dot, LAT_VEL_LSB_M_PER_S)),
+                LateralSensing::Acceleration => {
+                    Lateral::Acceleration(self.q(m.y_ddot, LAT_ACC_LSB_M_PER_S2))
+                }
+            },
             i_a_ma: self.q(m.i_a, CURRENT_LSB_A),
             omega_m_mrad_s: self.q(m.w_m, SPEED_LSB_RAD_PER_S),
             demand_nm: self.q(m.demand_nm, DEMAND_LSB_NM),
@@ -437,6 +461,8 @@ pub struct DeviceOptions {
     pub hold_ticks: u16,
     /// Base rate override, Hz (None: the control core's default).
     pub base_rate_hz: Option<u32>,
+    /// `y'` or `y''` in the Sensor frames.
+    pub lateral: LateralSensing,
 }
 
 impl Default for DeviceOptions {
@@ -445,6 +471,7 @@ impl Default for DeviceOptions {
             link: LinkConfig::default(),
             hold_ticks: wheelset_runtime::DEFAULT_HOLD_TICKS,
             base_rate_hz: None,
+            lateral: LateralSensing::Velocity,
         }
     }
 }
@@ -520,6 +547,7 @@ impl<T: Sample> SampledController for Sampled<'_, T> {
     fn step(&mut self, t_ns: u64, m: &Measurements) -> PlantActuation {
         let sample = HostSample {
             y_dot: m.yd_mps,
+            y_ddot: m.ydd_mps2,
             i_a: m.i_a,
             w_m: m.w_m,
             demand_nm: m.demand_nm,
@@ -545,8 +573,10 @@ pub fn run_device(
         control,
         hold_ticks: opt.hold_ticks,
         enable: true,
+        ..RuntimeConfig::default()
     };
     let mut dev = DeviceLoop::<wheelset_control::Fx>::try_new(rt_cfg, &opt.link)?;
+    dev.set_lateral(opt.lateral);
     let period_ns = dev.period_ns();
     let mut actuator = ActuatorModel::ideal();
     actuator.delay_ns = period_ns;
@@ -595,6 +625,9 @@ pub struct Deviation {
     pub f_max_abs_n: f64,
     /// The same relative to the largest reference creep force over the run.
     pub f_max_rel: f64,
+    /// A value of either run was NaN or infinite (a diverged run): the figures above
+    /// are then meaningless (`f64::max` skips NaN).
+    pub diverged: bool,
 }
 
 /// Deviation in one time window.
@@ -643,6 +676,13 @@ pub fn deviation(run: &Trajectory, reference: &Trajectory, windows: [(f64, f64);
         w.f_rel = df / f_scale.max(1e-300);
     }
     let (mut y_ref_max, mut f_ref_max) = (0.0f64, 0.0f64);
+    d.diverged = pairs().any(|(a, b)| {
+        !(a.y_m.is_finite() && b.y_m.is_finite())
+            || forces(a)
+                .into_iter()
+                .chain(forces(b))
+                .any(|f| !f.is_finite())
+    });
     for (a, b) in pairs() {
         d.y_max_abs_m = d.y_max_abs_m.max((a.y_m - b.y_m).abs());
         y_ref_max = y_ref_max.max(b.y_m.abs());
@@ -658,6 +698,9 @@ pub fn deviation(run: &Trajectory, reference: &Trajectory, windows: [(f64, f64);
 
 impl fmt::Display for Deviation {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.diverged {
+            return write!(f, "not comparable: a run diverged (NaN or infinite values)");
+        }
         for w in &self.windows {
             write!(
                 f,
@@ -693,6 +736,7 @@ mod tests {
     fn sample(k: u64) -> HostSample {
         HostSample {
             y_dot: 1e-3 * ((k as f64) * 0.01).sin(),
+            y_ddot: 0.0,
             i_a: 0.0,
             w_m: 925.6,
             demand_nm: 0.0,

@@ -1,8 +1,9 @@
 //! The paper's figures from simulation results: time histories (Figs. 6-9) and root
-//! loci (Figs. 2-5, in [`crate::modes`]'s output), written as SVG with [`crate::svg`].
+//! loci (Figs. 2-5, from [`crate::modes`] sweeps), written as SVG with [`crate::svg`].
 
+use crate::modes::{CaseSweep, STRUCTURAL_ZERO};
 use crate::sim::{Record, Trajectory};
-use crate::svg::{Figure, Plot, Series, Style};
+use crate::svg::{Figure, Plot, Series, Style, PALETTE};
 use std::path::{Path, PathBuf};
 
 fn series(tr: &Trajectory, label: &str, f: impl Fn(&Record) -> f64) -> Series {
@@ -114,4 +115,94 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
             .panel(v),
     )?;
     Ok(files)
+}
+
+/// Writes `modes_case_<id>.svg`: the root locus (eigenvalues of every named mode over
+/// the sweep, structural zero left out; the 10 MN end marked with crosses), and the
+/// frequency and damping ratio of each mode against the creep coefficient.
+pub fn write_root_locus(sw: &CaseSweep, dir: &Path) -> std::io::Result<std::path::PathBuf> {
+    let names = sw.mode_names();
+    let n_pts = sw.creep.len();
+    let stride = (n_pts / 150).max(1);
+    // Axis window: the modes that are not far out on the real axis.
+    let mut re_lo: f64 = -1.0;
+    let mut im_hi: f64 = 1.0;
+    for row in &sw.eig {
+        for (b, l) in row.iter().enumerate() {
+            if sw.branch_names[b] == STRUCTURAL_ZERO || l.re < -400.0 {
+                continue;
+            }
+            re_lo = re_lo.min(l.re);
+            im_hi = im_hi.max(l.im.abs());
+        }
+    }
+    let re_hi = sw
+        .eig
+        .iter()
+        .flatten()
+        .map(|l| l.re)
+        .fold(0.0f64, f64::max)
+        .max(-0.05 * re_lo);
+    let mut locus = Plot::new(&format!(
+        "Root locus, case ({}), f11 = f22 = 1-10 MN",
+        sw.case.id()
+    ))
+    .x_label("Re (1/s)")
+    .y_label("Im (rad/s)")
+    .x_range(1.05 * re_lo, 1.05 * re_hi)
+    .y_range(-1.05 * im_hi, 1.05 * im_hi)
+    .size(720.0, 520.0)
+    .vline(0.0);
+    let mut freq = Plot::new("Damped frequency of each mode")
+        .x_label("creep coefficient f11 = f22 (MN)")
+        .y_label("frequency (Hz)");
+    let mut zeta = Plot::new("Damping ratio of each mode (below 0 = unstable)")
+        .x_label("creep coefficient f11 = f22 (MN)")
+        .y_label("zeta")
+        .hline(0.0);
+    for (m, name) in names.iter().enumerate() {
+        let col = PALETTE[m % PALETTE.len()];
+        let mut pts = Vec::new();
+        for k in (0..n_pts).step_by(stride) {
+            for (b, l) in sw.eig[k].iter().enumerate() {
+                if &sw.branch_names[b] == name {
+                    pts.push((l.re, l.im));
+                }
+            }
+        }
+        locus = locus.series(Series::scatter(name, pts).color(col));
+        let top: Vec<(f64, f64)> = sw.eig[n_pts - 1]
+            .iter()
+            .enumerate()
+            .filter(|(b, _)| &sw.branch_names[*b] == name)
+            .map(|(_, l)| (l.re, l.im))
+            .collect();
+        locus = locus.series(Series::scatter("", top).style(Style::Crosses).color(col));
+        let vals: Vec<(f64, f64, f64)> = (0..n_pts)
+            .filter_map(|k| {
+                sw.mode_eig(name, k).map(|(_, l)| {
+                    let mag = l.norm();
+                    (
+                        sw.creep[k] * 1e-6,
+                        l.im.abs() / (2.0 * std::f64::consts::PI),
+                        if mag > 0.0 { -l.re / mag } else { 0.0 },
+                    )
+                })
+            })
+            .collect();
+        freq =
+            freq.series(Series::line(name, vals.iter().map(|v| (v.0, v.1)).collect()).color(col));
+        zeta =
+            zeta.series(Series::line(name, vals.iter().map(|v| (v.0, v.2)).collect()).color(col));
+    }
+    for c in &sw.crossings {
+        zeta = zeta.vline(c.creep_n * 1e-6);
+    }
+    let path = dir.join(format!("modes_case_{}.svg", sw.case.id()));
+    Figure::new(&format!("Case ({}): {}", sw.case.id(), sw.case.label()))
+        .panel(locus)
+        .panel(freq)
+        .panel(zeta)
+        .save(&path)?;
+    Ok(path)
 }

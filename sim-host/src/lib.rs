@@ -6,8 +6,12 @@
 //! - [`control`]: continuous reference controllers and the [`control::SampledController`]
 //!   interface for discrete ones.
 //! - [`sim`]: fixed-step RK4 on integer-nanosecond time; continuous and sampled runs.
+//! - [`linear`]: linearisation about straight-track pure rolling (analytic and
+//!   complex-step Jacobians), the linear model `(A, B, C)`.
+//! - [`modes`]: modal sweep over the creep coefficient, mode tracking and naming,
+//!   instability crossings.
 //! - [`svg`]: a small dependency-free SVG plotting module (line, scatter, bars).
-//! - [`figures`]: the paper's time-history figures.
+//! - [`figures`]: the paper's figures (time histories, root loci).
 //! - [`link`], [`device`]: the simulated serial link and the device runtime behind it.
 #![deny(missing_docs)]
 
@@ -15,7 +19,9 @@ pub mod control;
 pub mod device;
 pub mod error;
 pub mod figures;
+pub mod linear;
 pub mod link;
+pub mod modes;
 pub mod params;
 pub mod plant;
 pub mod scenario;

@@ -1,5 +1,6 @@
 //! `sim-host`: the plant simulator's command line.
 //!
+//! - `sim-host modes [--case a|b|c|d] [--points N] --json FILE [--plot DIR]`
 //! - `sim-host run --scenario curve|beating|FILE --control passive|gain|lead [--csv FILE] [--plot DIR]`
 //! - `sim-host run ... --loop device [--faults SPEC] [--seed N] [--baud B] [--latency-us L]`:
 //!   the firmware runtime in the loop over the simulated serial link
@@ -9,6 +10,7 @@
 use clap::{Parser, Subcommand, ValueEnum};
 use sim_host::control::YawLaw;
 use sim_host::error::ConfigError;
+use sim_host::modes::{creep_grid, sweep_case, Case};
 use sim_host::params::Params;
 use sim_host::scenario::Scenario;
 use sim_host::sim::{run_continuous, Trajectory};
@@ -25,6 +27,8 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Cmd {
+    /// Modal analysis along the creep sweep f11 = f22 = 1-10 MN (Figs. 2-5).
+    Modes(ModesArgs),
     /// Simulate a track scenario with the continuous-time reference controllers.
     Run(RunArgs),
 }
@@ -48,6 +52,39 @@ impl From<Control> for YawLaw {
             Control::Lead => YawLaw::Lead,
         }
     }
+}
+
+/// Analysis case of spec/model.md.
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
+enum CaseArg {
+    /// Passive yaw spring, rigid axle, no traction dynamics.
+    A,
+    /// Active pure gain, rigid axle.
+    B,
+    /// Active phase lead, rigid axle.
+    C,
+    /// Phase lead, flexible axle, gear spring, motor, armature, PI current loop.
+    D,
+}
+
+#[derive(clap::Args)]
+struct ModesArgs {
+    /// Analyse only this case (default: all four).
+    #[arg(long, value_enum)]
+    case: Option<CaseArg>,
+    /// Points of the sweep, evenly spaced over 1-10 MN (1, 2, 5 and 10 MN are always
+    /// included exactly).
+    #[arg(long, default_value_t = 1000, value_parser = clap::value_parser!(u32).range(2..=1_000_000))]
+    points: u32,
+    /// Write the results as JSON here (directories created).
+    #[arg(long)]
+    json: PathBuf,
+    /// Write one root-locus SVG per case into this directory.
+    #[arg(long)]
+    plot: Option<PathBuf>,
+    /// Parameter file (TOML, any subset of the parameters).
+    #[arg(long)]
+    params: Option<PathBuf>,
 }
 
 #[derive(clap::Args)]
@@ -109,6 +146,19 @@ struct DeviceArgs {
     /// Ticks the device bridges a missing sensor frame before its safe state.
     #[arg(long, default_value_t = wheelset_runtime::DEFAULT_HOLD_TICKS)]
     hold_ticks: u16,
+    /// What the Sensor frames carry of the lateral motion: `velocity` (y') or
+    /// `acceleration` (y'', integrated on the device with a wash-out).
+    #[arg(long, value_enum, default_value = "velocity")]
+    lateral: Lateral,
+}
+
+/// Lateral sensing over the link.
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
+enum Lateral {
+    /// Lateral velocity `y'`.
+    Velocity,
+    /// Lateral acceleration `y''`.
+    Acceleration,
 }
 
 /// A command failure with its exit code.
@@ -180,6 +230,109 @@ fn cmd_run(a: &RunArgs) -> Result<(), Failure> {
     Ok(())
 }
 
+fn progress(total: u64, msg: &str) -> indicatif::ProgressBar {
+    use std::io::IsTerminal;
+    if !std::io::stderr().is_terminal() {
+        return indicatif::ProgressBar::hidden();
+    }
+    let pb = indicatif::ProgressBar::new(total);
+    if let Ok(style) =
+        indicatif::ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} points ({eta})")
+    {
+        pb.set_style(style.progress_chars("=> "));
+    }
+    pb.set_message(msg.to_string());
+    pb
+}
+
+fn cmd_modes(a: &ModesArgs) -> Result<(), Failure> {
+    let p = load_params(&a.params)?;
+    let cases: Vec<Case> = match a.case {
+        None => Case::ALL.to_vec(),
+        Some(CaseArg::A) => vec![Case::A],
+        Some(CaseArg::B) => vec![Case::B],
+        Some(CaseArg::C) => vec![Case::C],
+        Some(CaseArg::D) => vec![Case::D],
+    };
+    let grid = creep_grid(a.points as usize);
+    let pb = progress((grid.len() * cases.len()) as u64, "modal sweep");
+    let mut sweeps = Vec::new();
+    for &case in &cases {
+        let sw = sweep_case(&p, case, &grid, || pb.inc(1)).map_err(|e| Failure {
+            code: 1,
+            msg: e.to_string(),
+        })?;
+        sweeps.push(sw);
+    }
+    pb.finish_and_clear();
+    println!(
+        "modal sweep: v = {} m/s, f11 = f22 over {} points in 1-10 MN; kinematic frequency v sqrt(lambda/(r0 Lg))/2pi = {:.3} Hz",
+        p.v,
+        grid.len(),
+        p.kinematic_hz()
+    );
+    println!(
+        "the structural zero eigenvalue (free rolling at any speed) is excluded from every verdict"
+    );
+    for sw in &sweeps {
+        println!("case ({}): {}", sw.case.id(), sw.case.label());
+        for c in [1e6, 2e6, 5e6, 1e7] {
+            let Some(k) = sw.index_of(c) else { continue };
+            let modes: Vec<String> = sw
+                .modes_at(k)
+                .iter()
+                .map(|m| format!("{} {:.2} Hz zeta {:.3}", m.name, m.freq_hz, m.zeta))
+                .collect();
+            let z = sw.structural_zero(k).map_or(f64::NAN, |l| l.norm());
+            println!(
+                "  {:>4.0} MN {}: {} | structural zero |lambda| = {z:.1e}",
+                c * 1e-6,
+                if sw.stable_at(k) {
+                    "stable  "
+                } else {
+                    "UNSTABLE"
+                },
+                modes.join("; ")
+            );
+        }
+        if sw.crossings.is_empty() {
+            println!("  no crossing in 1-10 MN");
+        }
+        for c in &sw.crossings {
+            println!(
+                "  crossing: {} at {:.4} MN, {:.2} Hz, unstable {}",
+                c.mode,
+                c.creep_n * 1e-6,
+                c.freq_hz,
+                if c.unstable_below { "below" } else { "above" }
+            );
+        }
+    }
+    let json = serde_json::json!({
+        "speed_mps": p.v,
+        "kinematic_hz": p.kinematic_hz(),
+        "note": "structural zero eigenvalue (free rolling at any speed) reported as structural_zero and excluded from stability verdicts",
+        "params": &p,
+        "cases": sweeps.iter().map(|s| s.to_json()).collect::<Vec<_>>(),
+    });
+    if let Some(dir) = a.json.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| io_fail(dir, e))?;
+    }
+    let text = serde_json::to_string(&json).map_err(|e| Failure {
+        code: 1,
+        msg: e.to_string(),
+    })?;
+    std::fs::write(&a.json, text).map_err(|e| io_fail(&a.json, e))?;
+    println!("json: {}", a.json.display());
+    if let Some(dir) = &a.plot {
+        for sw in &sweeps {
+            let f = sim_host::figures::write_root_locus(sw, dir).map_err(|e| io_fail(dir, e))?;
+            println!("plot: {}", f.display());
+        }
+    }
+    Ok(())
+}
+
 /// `--loop device`: the firmware runtime over the simulated link; prints the frame
 /// accounting and the deviation from the continuous reference.
 fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
@@ -207,6 +360,10 @@ fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
         },
         hold_ticks: d.hold_ticks,
         base_rate_hz: d.rate_hz,
+        lateral: match d.lateral {
+            Lateral::Velocity => sim_host::device::LateralSensing::Velocity,
+            Lateral::Acceleration => sim_host::device::LateralSensing::Acceleration,
+        },
     };
     let run = run_device(sc, a.control.into(), &opt).map_err(|e| Failure {
         code: 2,
@@ -292,6 +449,11 @@ fn print_summary(sc: &Scenario, tr: &Trajectory) {
         max(&|r| r.fx_r_n.abs().max(r.fx_l_n.abs())),
         max(&|r| r.fy_n)
     );
+    if let Some(t) = tr.info.diverged_at_s {
+        println!(
+            "WARNING: the run diverged (unstable loop) at t = {t:.3} s; stopped there, records end at {t:.3} s"
+        );
+    }
     if let Some(last) = tr.records.last() {
         println!(
             "end: v {:.4} m/s, i_a {:.2} A, u_a {:.1} V",
@@ -310,6 +472,7 @@ fn main() -> ExitCode {
         }
     };
     let res = match &cli.cmd {
+        Cmd::Modes(a) => cmd_modes(a),
         Cmd::Run(a) => cmd_run(a),
     };
     match res {

@@ -174,6 +174,17 @@ pub struct RunInfo {
     pub controller_calls: u64,
     /// Actuator clamps counted (sampled runs).
     pub actuator_clamps: u64,
+    /// Time at which the run was stopped because it diverged (a state not finite or
+    /// `|y|` beyond [`DIVERGED_Y_M`]: an unstable loop), s; records end there.
+    pub diverged_at_s: Option<f64>,
+}
+
+/// `|y|` beyond which a run counts as diverged (far outside the flange clearance and
+/// the linear creep law), m.
+pub const DIVERGED_Y_M: f64 = 0.05;
+
+fn diverged(x: &State) -> bool {
+    !x.iter().all(|v| v.is_finite()) || x[ix::Y].abs() > DIVERGED_Y_M
 }
 
 /// A run's records and description.
@@ -373,6 +384,7 @@ pub fn run_continuous_with(sc: &Scenario, ctrl: ContinuousController) -> Traject
     let (n_steps, every) = s.steps();
     let h = sc.dt_ns as f64 * 1e-9;
     let mut records = Vec::with_capacity((n_steps / every + 2) as usize);
+    let mut diverged_at = None;
     for k in 0..n_steps {
         let t_ns = k * sc.dt_ns;
         let e = s.exo(t_ns);
@@ -383,6 +395,10 @@ pub fn run_continuous_with(sc: &Scenario, ctrl: ContinuousController) -> Traject
                 0.0
             };
             records.push(s.record(t_ns, &x, &e, ctrl.yaw_torque(&x), u_a));
+            if diverged(&x) {
+                diverged_at = Some(t_ns as f64 * 1e-9);
+                break;
+            }
         }
         x = rk4_step(&x, h, |stage, xs| {
             let j = stage_slot(stage);
@@ -396,14 +412,16 @@ pub fn run_continuous_with(sc: &Scenario, ctrl: ContinuousController) -> Traject
             closed_loop_rhs(&plant, &ctrl, xs, &ex)
         });
     }
-    let t_end = n_steps * sc.dt_ns;
-    let e = s.exo(t_end);
-    let u_a = if drive {
-        ctrl.voltage(&x, e.i_ref)
-    } else {
-        0.0
-    };
-    records.push(s.record(t_end, &x, &e, ctrl.yaw_torque(&x), u_a));
+    if diverged_at.is_none() {
+        let t_end = n_steps * sc.dt_ns;
+        let e = s.exo(t_end);
+        let u_a = if drive {
+            ctrl.voltage(&x, e.i_ref)
+        } else {
+            0.0
+        };
+        records.push(s.record(t_end, &x, &e, ctrl.yaw_torque(&x), u_a));
+    }
     Trajectory {
         records,
         info: RunInfo {
@@ -414,6 +432,7 @@ pub fn run_continuous_with(sc: &Scenario, ctrl: ContinuousController) -> Traject
             steps: n_steps,
             controller_calls: 0,
             actuator_clamps: 0,
+            diverged_at_s: diverged_at,
         },
     }
 }
@@ -612,6 +631,7 @@ pub fn run_sampled(
         e0.i_ref,
     );
     let mut held = ctrl.initial(&m0, plant.k_m());
+    let mut diverged_at = None;
     for k in 0..=n_steps {
         let t_ns = k * sc.dt_ns;
         let e = s.exo(t_ns);
@@ -635,6 +655,10 @@ pub fn run_sampled(
                 r.u_a_v = 0.0;
             }
             records.push(r);
+            if diverged(&x) {
+                diverged_at = Some(t_ns as f64 * 1e-9);
+                break;
+            }
         }
         if k == n_steps {
             break;
@@ -654,6 +678,7 @@ pub fn run_sampled(
             steps: n_steps,
             controller_calls: calls,
             actuator_clamps: actuator.clamps,
+            diverged_at_s: diverged_at,
         },
     })
 }

@@ -41,6 +41,7 @@ fn curve_with_lead_reproduces_the_continuous_reference() {
     let reference = run_continuous(&sc, YawLaw::Lead);
     let d = deviation(&run.trajectory, &reference, CURVE_WINDOWS);
     println!("device vs continuous: {d}");
+    assert!(!d.diverged);
     for w in &d.windows {
         assert!(w.y_rel < 0.01, "y off by {} % in {w:?}", w.y_rel * 100.0);
         assert!(
@@ -158,4 +159,38 @@ fn a_link_budget_that_does_not_fit_is_refused() {
             other.map(|r| r.report.to_string())
         ),
     }
+}
+
+#[test]
+fn a_faulted_run_is_deterministic_for_its_seed() {
+    let sc = curve();
+    let spec = "ber=1e-3,drop=0.1,burst=5:8,outage=3.0:0.02";
+    let a = run_device(&sc, YawLaw::Lead, &with_faults(spec, 9)).expect("runs");
+    let b = run_device(&sc, YawLaw::Lead, &with_faults(spec, 9)).expect("runs");
+    let c = run_device(&sc, YawLaw::Lead, &with_faults(spec, 10)).expect("runs");
+    assert_eq!(a.trajectory.records, b.trajectory.records);
+    assert_eq!(a.link, b.link);
+    assert_eq!(a.report.up, b.report.up);
+    assert_ne!(a.link, c.link);
+}
+
+#[test]
+fn acceleration_sensing_integrated_on_the_device_also_reproduces_the_reference() {
+    let sc = curve();
+    let opt = DeviceOptions {
+        lateral: sim_host::device::LateralSensing::Acceleration,
+        ..DeviceOptions::default()
+    };
+    let run = run_device(&sc, YawLaw::Lead, &opt).expect("runs");
+    let d = deviation(
+        &run.trajectory,
+        &run_continuous(&sc, YawLaw::Lead),
+        CURVE_WINDOWS,
+    );
+    println!("device (y'' sensing) vs continuous: {d}");
+    assert!(!d.diverged);
+    for w in &d.windows {
+        assert!(w.y_rel < 0.01 && w.f_rel < 0.02, "{d}");
+    }
+    assert_eq!(run.report.device.map(|s| s.rx_unexpected), Some(0));
 }

@@ -167,6 +167,13 @@ pub struct Config {
     pub lead: LeadParams,
     /// Pure-gain `K`, N m s/m (1.05e5).
     pub gain_k: f64,
+    /// Delay compensation of the yaw loop: `y'` is extrapolated linearly this many base
+    /// ticks ahead before the yaw law, `y'_p = y' + (tau/T_yaw) (y'[n] - y'[n-1])`.
+    /// The zero-order hold (half a yaw period) plus the one tick of computation and
+    /// transport delay is `1 + yaw_divisor/2` ticks: 1.5 at the default rates, which the
+    /// sampled-data analysis shows restores the continuous loop's damping (crate docs).
+    /// 0 = off (the default: the paper's law as it is). `tau/T_yaw` must be in `[0, 2)`.
+    pub yaw_predict_ticks: f64,
     /// PI parameters.
     pub pi: PiParams,
     /// Motor constants.
@@ -198,6 +205,7 @@ impl Default for Config {
             traction_enabled: true,
             lead: LeadParams::default(),
             gain_k: 1.05e5,
+            yaw_predict_ticks: 0.0,
             pi: PiParams::default(),
             motor: Motor::default(),
             limits: Limits::default(),
@@ -368,6 +376,13 @@ impl Config {
             "the largest current reference demand/(n K_m) must be within 2 current full scales",
         )?;
         range("gain_k", self.gain_k, true, "")?;
+        let alpha = self.yaw_predict_ticks / self.yaw_divisor as f64;
+        range(
+            "yaw_predict_ticks",
+            self.yaw_predict_ticks,
+            (0.0..2.0).contains(&alpha),
+            "yaw_predict_ticks / yaw_divisor must be in [0, 2)",
+        )?;
         range(
             "safe.yaw_s",
             self.safe.yaw_s,

@@ -234,6 +234,10 @@ struct Law<T: Sample> {
     demand_to_iref: T::Coeff,
     /// `K_m scales.speed/scales.voltage`: speed pu -> back-EMF pu.
     back_emf: T::Coeff,
+    /// Half the prediction factor `alpha/2 = yaw_predict_ticks/(2 yaw_divisor)`.
+    predict_half: T::Coeff,
+    /// Clamp of the predicted `y'`, pu ([`crate::config::MAX_LIMIT_PU`]).
+    y_dot_pred_max: T,
     /// Reference slew per traction step, pu (normal and safe state).
     iref_step: T,
     iref_safe_step: T,
@@ -264,7 +268,7 @@ pub struct Controller<T: Sample> {
     iref: T,
     /// Present torque limit (ramps to 0 in the safe state), pu.
     torque_lim: T,
-    /// Last clamped y' (for a bumpless switch into the lead).
+    /// Last clamped y' (the predictor's `y'[n-1]`; a bumpless switch into the lead).
     last_y_dot: T,
     out: Outputs<T>,
     counters: Counters,
@@ -313,6 +317,11 @@ impl<T: Sample> Controller<T> {
                 s.demand / (config.motor.n * config.motor.k_m * s.current),
             )?,
             back_emf: q("back_emf K_m (pu)", config.motor.k_m * s.speed / s.voltage)?,
+            predict_half: q(
+                "yaw_predict_ticks/(2 yaw_divisor)",
+                config.yaw_predict_ticks / (2.0 * config.yaw_divisor as f64),
+            )?,
+            y_dot_pred_max: T::from_f64(crate::config::MAX_LIMIT_PU),
             iref_step: T::from_f64(l.current_ref_rate * config.traction_period() / s.current),
             iref_safe_step: T::from_f64(
                 iref_max * config.traction_period() / config.safe.traction_s,
@@ -393,8 +402,17 @@ impl<T: Sample> Controller<T> {
     fn yaw_step(&mut self, y_dot: T, ev: &mut u32) {
         let law = &self.law;
         self.counters.yaw_steps = self.counters.yaw_steps.wrapping_add(1);
-        let x = Self::input(y_dot, law.y_dot_max, event::Y_DOT, ev);
-        self.last_y_dot = x;
+        let y = Self::input(y_dot, law.y_dot_max, event::Y_DOT, ev);
+        // Delay compensation: x = y + alpha (y - y_prev), computed as two adds of
+        // (y - y_prev) alpha/2 so the coefficient stays in Q1.31; clamped to 2 pu (the
+        // range analysis), counted with the y' clamps.
+        let d = y.sat_sub(self.last_y_dot).mul_c(law.predict_half);
+        let (x, sat) = y
+            .sat_add(d)
+            .sat_add(d)
+            .limit(T::ZERO.sat_sub(law.y_dot_pred_max), law.y_dot_pred_max);
+        *ev |= (sat as u32) << (event::Y_DOT + 1);
+        self.last_y_dot = y;
         let raw = match self.mode {
             YawMode::Passive => T::ZERO,
             YawMode::Gain => x.mul_c(law.gain),

@@ -54,24 +54,39 @@
 //! e = i_ref - i_a,  I[n] = clamp(I[n-1] + (Kp T/Ti) e[n]),  u[n] = clamp(Kp e[n] + I[n])
 //! ```
 //!
+//! **Delay compensation** of the yaw loop (optional, off by default): the yaw law sees
+//! `x = y'[n] + alpha (y'[n] - y'[n-1])`, `alpha = yaw_predict_ticks/yaw_divisor`, a linear
+//! extrapolation over the ZOH's half period plus the one tick of transport delay
+//! ([`Config::yaw_predict_ticks`] = 1.5 at the default rates). Low-frequency phase
+//! `+alpha w T`, gain `1 + O((wT)^2)`; at Nyquist the gain is `1 + 2 alpha` = 4.
+//!
 //! **Reference ramp** `i_ref[n] = i_ref[n-1] + clamp(target - i_ref[n-1], ±r T)`.
-//! **Pure gain** `T_psi = K y'`. **Passive** `T_psi = 0`.
+//! **Pure gain** `T_psi = K x`. **Passive** `T_psi = 0`.
 //!
 //! # Q formats (fixed point, [`FixedController`])
 //!
 //! Every signal and state is Q4.28 per unit (`i32`, range `[-8, 8)`, LSB `2^-28`), every
 //! coefficient Q1.31 validated into `(-1, 1)` (LSB `2^-31`); products are exact 64-bit
 //! (`SMLAL` on Cortex-M4), rounded to nearest, and cannot overflow ([`sample::mul_q31`]);
-//! sums saturate (`QADD`/`QSUB`). Range analysis with
+//! sums saturate (`QADD`/`QSUB`). Products round to nearest, so the two recursive
+//! states have a small dead band: the lead's low-pass `z` stops within
+//! `0.5/kappa` LSB of `g x` (about 10 LSB at 5 kHz: 8 LSB = 0.03 N m at the output)
+//! and the PI integrator stops moving once `|Ki e| < 0.5 LSB`, i.e. `|e| < 0.5/Ki`
+//! LSB (12 500 LSB = 47 mA at 5 kHz, Ti = 0.5 s). First-order error feedback (carry
+//! the product's sub-LSB remainder) removes both at two instructions each; it is not
+//! enabled because the audit's instrumented type mirrors [`Fx`] bit for bit and must
+//! change with it. Range analysis with
 //! the inputs clamped to `|x| <= X` pu, `X <= 2` (enforced by [`Config::validate`]):
 //!
 //! | signal / state | bound | why |
 //! |---|---|---|
-//! | `x = y'` | `X` (1) | clamped, counted |
-//! | `x[n] + x[n-1]` | `2X` (2) | |
-//! | lead `z` | `g X` (0.87) | Tustin low-pass with `alpha > 0` has a positive impulse response summing to `g` (`alpha > 0` is enforced: `w2 T/2 < 1`) |
-//! | `x - z` | `(1+g) X` (1.87) | |
-//! | `T_psi` before limit | `K_hf (1+g) X` = 1.47 pu | K_hf = 0.7875 pu |
+//! | `y'` | `X` (1) | clamped, counted |
+//! | `(y'[n] - y'[n-1]) alpha/2` | `alpha X` (1.5) | predictor, `alpha = 1.5 < 2` |
+//! | `x = y' + alpha (y'[n] - y'[n-1])` | 2 | clamped to 2 pu, counted with `y'` |
+//! | `x[n] + x[n-1]` | 4 | |
+//! | lead `z` | `2 g` (1.73) | Tustin low-pass with `alpha > 0` has a positive impulse response summing to `g` (`alpha > 0` is enforced: `w2 T/2 < 1`) |
+//! | `x - z` | `2 (1+g)` (3.73) | |
+//! | `T_psi` before limit | `2 K_hf (1+g)` = 2.94 pu | K_hf = 0.7875 pu |
 //! | `i_a`, `i_ref`, `e = i_ref - i_a` | 2, 2, 4 pu | clamps, `demand_max/(n K_m)` validated <= 2 pu |
 //! | PI `Kp e` | 0.4 pu | Kp = 0.1 pu |
 //! | PI `I`, `u` | 0.6 pu | clamped to the voltage limits |

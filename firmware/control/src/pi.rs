@@ -122,6 +122,13 @@ pub struct PiState<T> {
     pub integ: T,
 }
 
+impl<T> PiState<T> {
+    /// A state with the integrator at `integ` (pu).
+    pub fn new(integ: T) -> Self {
+        Self { integ }
+    }
+}
+
 /// Which limits engaged in one PI step.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct PiFlags {
@@ -186,6 +193,6 @@ impl<T: Sample> Pi<T> {
 
     /// Preset the integrator to `u0` (pu), clamped to the limits; NaN gives 0.
     pub fn preset(&self, s: &mut PiState<T>, u0: T) {
-        s.integ = u0.sanitize().0.limit(self.u_min, self.u_max).0;
+        *s = PiState::new(u0.sanitize().0.limit(self.u_min, self.u_max).0);
     }
 }

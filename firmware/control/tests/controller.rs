@@ -132,7 +132,10 @@ fn multi_rate_divisors_schedule_the_loops() {
 
 #[test]
 fn modes_and_sign_convention() {
-    let cfg = Config::default();
+    let cfg = Config {
+        yaw_predict_ticks: 0.0,
+        ..Config::default()
+    };
     let inp = si::<f64>(&cfg, 1e-3, 0.0, 0.0, 0.0); // 1 mm/s to the right
     let mut c = F64Controller::try_new(&Config {
         yaw_mode: YawMode::Gain,
@@ -275,9 +278,7 @@ fn anti_windup_recovers_without_overshoot() {
         let (u_min, u_max) = if linear { (lo, hi) } else { (u_min, u_max) };
         let i_hi = if linear { 500.0 } else { i_hi };
         let i0 = if linear { 500.0 } else { 0.0 };
-        let mut st = PiState {
-            integ: (e_b + ra * i0) / s.voltage,
-        };
+        let mut st = PiState::new((e_b + ra * i0) / s.voltage);
         let (mut i, mut u_prev) = (i0, e_b + ra * i0);
         let (mut peak, mut low, mut late_excess) = (0.0f64, f64::INFINITY, 0.0f64);
         let mut sat = 0;
@@ -325,6 +326,7 @@ fn anti_windup_recovers_without_overshoot() {
 fn counters_count_per_signal() {
     let cfg = Config {
         yaw_mode: YawMode::Gain,
+        yaw_predict_ticks: 0.0,
         ..Config::default()
     };
     let mut c = F64Controller::try_new(&cfg).expect("ok");
@@ -357,4 +359,55 @@ fn counters_count_per_signal() {
     assert_eq!(k.total(), 10 + 3 + 17 + 3 + 3);
     c.reset_counters();
     assert_eq!(c.counters().total(), 0);
+}
+
+/// The yaw loop's delay compensation: `x = y + alpha (y[n] - y[n-1])`,
+/// `alpha = yaw_predict_ticks / yaw_divisor`; a constant input passes unchanged, a ramp
+/// is extrapolated `alpha` samples ahead, and the prediction is clamped to 2 pu.
+#[test]
+fn yaw_predictor_extrapolates_linearly() {
+    for (ticks, yd) in [(1.5, 1u16), (2.0, 2), (0.0, 1), (3.0, 2)] {
+        let cfg = Config {
+            yaw_mode: YawMode::Gain,
+            yaw_predict_ticks: ticks,
+            yaw_divisor: yd,
+            ..Config::default()
+        };
+        let alpha = ticks / yd as f64;
+        let k = cfg.gain_k;
+        let mut c = F64Controller::try_new(&cfg).expect("ok");
+        let mut prev = 0.0;
+        for n in 0..40u32 {
+            let y = 1e-4 * n as f64; // a ramp of y' (m/s)
+            let (t, _) = c.tick(&si(&cfg, y, 0.0, 0.0, 0.0)).to_si(&cfg.scales);
+            if n % yd as u32 == 0 {
+                let want = k * (y + alpha * (y - prev));
+                assert!((t - want).abs() < 1e-9, "{ticks}/{yd} n={n}: {t} vs {want}");
+                prev = y;
+            }
+        }
+        // Constant input: no change.
+        for _ in 0..4 {
+            c.tick(&si(&cfg, 0.01, 0.0, 0.0, 0.0));
+        }
+        let (t, _) = c.tick(&si(&cfg, 0.01, 0.0, 0.0, 0.0)).to_si(&cfg.scales);
+        assert!((t - k * 0.01).abs() < 1e-9);
+    }
+    let bad = Config {
+        yaw_predict_ticks: 2.0,
+        ..Config::default()
+    };
+    assert!(F64Controller::try_new(&bad).is_err());
+    // Clamp: from rest, -1 pu predicts -2.5 pu; then +1 pu predicts +4 pu: both clamped
+    // to 2 pu and counted.
+    let cfg = Config {
+        yaw_mode: YawMode::Gain,
+        yaw_predict_ticks: 1.5,
+        ..Config::default()
+    };
+    let mut c = F64Controller::try_new(&cfg).expect("ok");
+    c.tick(&si(&cfg, -1.0, 0.0, 0.0, 0.0));
+    let (t, _) = c.tick(&si(&cfg, 1.0, 0.0, 0.0, 0.0)).to_si(&cfg.scales);
+    assert!((t - cfg.limits.torque).abs() < 1e-6);
+    assert_eq!(c.counters().y_dot.clamped, 2);
 }

@@ -12,12 +12,12 @@ use wheelset_control::{
 const LSB: f64 = 1.0 / (1u64 << 28) as f64;
 
 /// Yaw-torque bound, LSB of Q4.28 (3.7e-3 N m each): the lead's low-pass state
-/// accumulates at most `0.5 (1 + kappa)/kappa` LSB of rounding (10 at 5 kHz), times
+/// stops within `0.5 (1 + kappa)/kappa` LSB of rounding (10 at 5 kHz), times
 /// `K_hf` = 0.79, plus the output rounding and coefficient quantisation.
 const YAW_MAX_LSB: f64 = 16.0;
 /// Voltage bound per traction step, LSB: the open-loop integrator sums one rounding
-/// (0.5 LSB) and the `Ki` quantisation (<= 2^-31 x |e| <= 4 pu = 0.5 LSB) per step.
-const PI_LSB_PER_STEP: f64 = 1.0;
+/// (0.5 LSB) and the `Ki` quantisation (<= 2^-32 x |e| <= 4 pu = 0.25 LSB) per step.
+const PI_LSB_PER_STEP: f64 = 0.75;
 
 #[derive(Clone, Copy, Debug)]
 struct Err {

@@ -43,6 +43,8 @@
 //! all flip pairs of sample frames, and by a property test over random frames): flips in
 //! COBS data bytes are caught by the CRC's Hamming distance; flips that disturb the COBS
 //! structure scramble the payload and are caught with probability `1 - 2^-32`.
+//! A cargo-fuzz target for the decoder lives in `firmware/proto/fuzz` (outside the
+//! workspace; `cargo +nightly fuzz run decode`).
 
 #![cfg_attr(not(feature = "std"), no_std)]
 #![deny(missing_docs)]

@@ -35,9 +35,10 @@
 //!
 //! 1. **Bad frames** (CRC, COBS, version, length, postcard) are dropped and counted by
 //!    kind ([`Status`] `rx_*`); the next actuation frame carries [`Flags::RX_ERROR`].
-//!    Valid frames of a type the device does not take (Actuation, Status, and
-//!    acceleration-only Sensor frames, which this runtime does not integrate yet) count
-//!    as `rx_unexpected`. A Sensor `seq` that is not the previous + 1 counts a `seq_gap`.
+//!    Valid frames of a type the device does not take (Actuation, Status) count as
+//!    `rx_unexpected`. Sensor frames with `y'` use it; frames with only `y''` feed an
+//!    integrator with wash-out ([`RuntimeConfig::acc_washout_s`]) that runs every tick
+//!    (re-seeded by the next frame that carries `y'`). A Sensor `seq` that is not the previous + 1 counts a `seq_gap`.
 //! 2. **A missing sensor frame** (no new valid Sensor since the last tick): the tick runs
 //!    on the held last sample, flag [`Flags::HOLDING`], `held_ticks` counted, for at most
 //!    `hold_ticks` consecutive ticks ([`RuntimeConfig::hold_ticks`], default
@@ -55,6 +56,11 @@
 //! 5. **Before the first sample**, or with outputs disabled by a [`Config`], the outputs
 //!    are [`Runtime::safe_outputs`] (zero torque, zero voltage; [`Flags::NO_SAMPLE`] /
 //!    no [`Flags::ENABLED`]). These are also what a panic handler drives.
+//!
+//! A [`Config`] applies mode, traction, enable and `hold_ticks` at once; new rates
+//! rebuild the control core (validated first; an invalid one is refused, counted,
+//! flagged [`Flags::CMD_REFUSED`], and the old core stays). A rebuilt core restarts its
+//! filter states; the traction loop restarts bumpless from the back-EMF.
 //!
 //! Counters ([`RuntimeCounters`] = the [`Status`] message) go out in a Status frame after
 //! the next actuation frame when a [`Command::RequestStatus`] arrives;
@@ -92,7 +98,15 @@ pub struct RuntimeConfig {
     pub hold_ticks: u16,
     /// Outputs enabled at start.
     pub enable: bool,
+    /// Wash-out time constant of the `y''` integrator, s (acceleration-only frames):
+    /// `v[n] = v[n-1] (1 - T/tau) + a[n] T`. A high-pass against accelerometer offset
+    /// drift; 0 disables the wash-out (a pure integrator).
+    pub acc_washout_s: f64,
 }
+
+/// Default wash-out of the `y''` integrator: 2 s (corner 0.08 Hz, below the 3 s curve
+/// transitions' content and far below the ~10 Hz kinematic mode).
+pub const DEFAULT_ACC_WASHOUT_S: f64 = 2.0;
 
 impl Default for RuntimeConfig {
     fn default() -> Self {
@@ -100,6 +114,7 @@ impl Default for RuntimeConfig {
             control: ControlConfig::default(),
             hold_ticks: DEFAULT_HOLD_TICKS,
             enable: true,
+            acc_washout_s: DEFAULT_ACC_WASHOUT_S,
         }
     }
 }
@@ -122,12 +137,18 @@ pub fn protocol_wire_lsb() -> WireLsb {
 pub enum RuntimeError {
     /// The control configuration is invalid.
     Control(ConfigError),
+    /// The wash-out time constant is negative, not finite, or shorter than one tick.
+    Washout,
 }
 
 impl core::fmt::Display for RuntimeError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
             Self::Control(e) => write!(f, "runtime: control configuration: {e}"),
+            Self::Washout => write!(
+                f,
+                "runtime: acc_washout_s must be 0 or a finite time of at least one tick"
+            ),
         }
     }
 }
@@ -136,6 +157,29 @@ impl From<ConfigError> for RuntimeError {
     fn from(e: ConfigError) -> Self {
         Self::Control(e)
     }
+}
+
+/// The `y''` integrator's factors in Q32: `T` (um/s per 0.1 mm/s^2 code per tick) and
+/// `T/tau`. Computed once here (f64), so the tick has no division.
+fn acc_factors(cfg: &RuntimeConfig) -> Result<(i64, i64), RuntimeError> {
+    let t = 1.0 / f64::from(cfg.control.base_rate_hz.max(1));
+    let q32 = 4_294_967_296.0;
+    // 1 code = 1e-4 m/s^2 = 100 um/s^2.
+    let gain = 100.0 * t * q32;
+    let tau = cfg.acc_washout_s;
+    let leak = if tau == 0.0 {
+        0.0
+    } else if tau.is_finite() && tau >= t {
+        t / tau * q32
+    } else {
+        return Err(RuntimeError::Washout);
+    };
+    Ok((round_q(gain), round_q(leak)))
+}
+
+fn round_q(x: f64) -> i64 {
+    // x >= 0 here; no libm in no_std: round half up by hand.
+    (x + 0.5) as i64
 }
 
 /// The outputs the device drives when it has nothing valid to say.
@@ -154,6 +198,14 @@ pub struct Runtime<T: Sample> {
     cfg: RuntimeConfig,
     decoder: Decoder,
     sample: Option<InputCodes>,
+    /// The latest sample carried only `y''` (codes of 0.1 mm/s^2): integrate it.
+    acc: Option<i32>,
+    /// `y'` estimate from `y''`, um/s in Q32.
+    vel_q32: i64,
+    /// `T` in the integrator: um/s per (0.1 mm/s^2 code) per tick, Q32.
+    acc_gain_q32: i64,
+    /// Wash-out shift-free factor `T/tau` in Q32 (0: none).
+    leak_q32: i64,
     seq: u16,
     fresh: bool,
     missing: u32,
@@ -173,11 +225,16 @@ impl<T: Sample> Runtime<T> {
         let mut cfg = cfg;
         cfg.control.wire = protocol_wire_lsb();
         let core = Controller::try_new(&cfg.control)?;
+        let (acc_gain_q32, leak_q32) = acc_factors(&cfg)?;
         Ok(Self {
             core,
             cfg,
             decoder: Decoder::new(),
             sample: None,
+            acc: None,
+            vel_q32: 0,
+            acc_gain_q32,
+            leak_q32,
             seq: 0,
             fresh: false,
             missing: 0,
@@ -244,11 +301,15 @@ impl<T: Sample> Runtime<T> {
 
     fn on_sensor(&mut self, s: &Sensor) {
         let y_dot = match s.lateral {
-            Lateral::Velocity(v) | Lateral::Both { vel_um_s: v, .. } => v,
-            Lateral::Acceleration(_) => {
-                let c = &mut self.counters;
-                c.rx_unexpected = c.rx_unexpected.wrapping_add(1);
-                return;
+            Lateral::Velocity(v) | Lateral::Both { vel_um_s: v, .. } => {
+                // A measured velocity also re-seeds the integrator (bumpless switch).
+                self.acc = None;
+                self.vel_q32 = i64::from(v) << 32;
+                v
+            }
+            Lateral::Acceleration(a) => {
+                self.acc = Some(a);
+                (self.vel_q32 >> 32) as i32
             }
         };
         if self.sample.is_some() && s.seq != self.seq.wrapping_add(1) {
@@ -276,6 +337,10 @@ impl<T: Sample> Runtime<T> {
             next.control.traction_divisor = c.traction_div;
             match Controller::try_new(&next.control) {
                 Ok(core) => {
+                    if let Ok((g, l)) = acc_factors(&next) {
+                        self.acc_gain_q32 = g;
+                        self.leak_q32 = l;
+                    }
                     self.core = core;
                     self.cfg = next;
                     if self.safe {
@@ -345,6 +410,21 @@ impl<T: Sample> Runtime<T> {
             flags.set(Flags::SAFE | Flags::HOLDING, true);
         }
         let before = *self.core.counters();
+        if let (Some(a), Some(s)) = (self.acc, self.sample.as_mut()) {
+            // Integrate on every tick with the latest y'' (held when frames are missing).
+            let v = {
+                let leak = ((i128::from(self.vel_q32) * i128::from(self.leak_q32)) >> 32) as i64;
+                let step = i64::from(a).saturating_mul(self.acc_gain_q32);
+                let lim = i64::from(i32::MAX) << 32;
+                self.vel_q32 = self
+                    .vel_q32
+                    .saturating_sub(leak)
+                    .saturating_add(step)
+                    .clamp(-lim, lim);
+                (self.vel_q32 >> 32) as i32
+            };
+            s.y_dot = v;
+        }
         let (t_psi, u_a) = match (self.sample, self.enabled) {
             (Some(s), true) => {
                 let mut inp = self.core.codec().decode(&s);

@@ -281,3 +281,101 @@ proptest! {
         }
     }
 }
+
+fn accel(seq: u16, a_dmm_s2: i32) -> Vec<u8> {
+    encode_vec(&Message::Sensor(Sensor {
+        seq,
+        t_us: 0,
+        lateral: Lateral::Acceleration(a_dmm_s2),
+        i_a_ma: 0,
+        omega_m_mrad_s: 925_600,
+        demand_nm: 0,
+    }))
+    .expect("fits")
+    .to_vec()
+}
+
+#[test]
+fn acceleration_frames_are_integrated_with_washout() {
+    // Passive yaw output would hide y'; use pure gain: T_psi = K y', K = 1.05e5 N m s/m,
+    // so the torque code (0.1 N m) is 1.05 x y' in um/s.
+    let mut cfg = RuntimeConfig::default();
+    cfg.control.yaw_mode = wheelset_control::YawMode::Gain;
+    cfg.acc_washout_s = 0.0;
+    let mut r: Runtime<Fx> = Runtime::try_new(cfg).expect("valid");
+    // A constant y'' = 0.1 m/s^2 (1000 codes) for 0.1 s: y' = 10 mm/s at the end.
+    let ticks = (0.1 * f64::from(BASE_HZ)) as u16;
+    let mut last = 0;
+    for k in 1..=ticks {
+        r.receive(&accel(k, 1000));
+        last = act(r.tick(0)).t_psi_dnm;
+    }
+    let expect = 1.05 * 10_000.0;
+    assert!(
+        (f64::from(last) - expect).abs() < 0.002 * expect,
+        "{last} vs {expect}"
+    );
+    // A velocity frame re-seeds the estimate.
+    r.receive(&sensor(ticks + 1, 2_000));
+    let t = act(r.tick(0)).t_psi_dnm;
+    assert!((f64::from(t) - 1.05 * 2_000.0).abs() < 5.0, "{t}");
+    assert_eq!(r.counters().rx_unexpected, 0);
+
+    // With the wash-out, a constant y'' settles at a T tau instead of growing.
+    let mut cfg = RuntimeConfig::default();
+    cfg.control.yaw_mode = wheelset_control::YawMode::Gain;
+    cfg.acc_washout_s = 0.05;
+    let mut r: Runtime<Fx> = Runtime::try_new(cfg).expect("valid");
+    for k in 1..=2_000u16 {
+        r.receive(&accel(k, 1000));
+        last = act(r.tick(0)).t_psi_dnm;
+    }
+    // a tau = 0.1 m/s^2 x 0.05 s = 5 mm/s.
+    let settled = 1.05 * 5_000.0;
+    assert!(
+        (f64::from(last) - settled).abs() < 0.01 * settled,
+        "{last} vs {settled}"
+    );
+    // Invalid wash-out is refused.
+    let bad = RuntimeConfig {
+        acc_washout_s: -1.0,
+        ..RuntimeConfig::default()
+    };
+    assert!(matches!(
+        Runtime::<Fx>::try_new(bad),
+        Err(RuntimeError::Washout)
+    ));
+}
+
+#[test]
+fn a_valid_rate_change_rebuilds_the_core() {
+    let mut r = rt();
+    r.receive(&sensor(1, 1_000));
+    let before = act(r.tick(0));
+    let cfg = Config {
+        mode: YawMode::Lead,
+        traction: true,
+        enable: true,
+        base_rate_hz: 10_000,
+        yaw_div: 2,
+        traction_div: 1,
+        hold_ticks: 20,
+    };
+    r.receive(&encode_vec(&Message::Config(cfg)).expect("fits"));
+    r.receive(&sensor(2, 1_000));
+    let a = act(r.tick(0));
+    assert!(!a.flags.has(Flags::CMD_REFUSED));
+    let c = r.config();
+    assert_eq!(
+        (c.control.base_rate_hz, c.control.yaw_divisor, c.hold_ticks),
+        (10_000, 2, 20)
+    );
+    assert_eq!(r.counters().cmd_refused, 0);
+    // The rebuilt core starts bumpless on the traction side again (back-EMF).
+    assert!(
+        (a.u_a_cv - before.u_a_cv).abs() < 200,
+        "{} vs {}",
+        a.u_a_cv,
+        before.u_a_cv
+    );
+}

@@ -1,0 +1,332 @@
+//! Linearisation about straight-track pure rolling.
+//!
+//! The operating point: `y = psi = 0`, wheels at `v/r0`, motor at `n v/r0`, zero
+//! current, no twist or wind-up, the PI integrator at the back-EMF, the lead state zero.
+//! Two independent Jacobians of the same right-hand side:
+//!
+//! - [`plant_jacobian`]: analytic, term by term from the creep-force gradients;
+//! - [`plant_jacobian_complex_step`] / [`closed_loop_jacobian_complex_step`]:
+//!   `df/dx_j = Im f(x + i h e_j) / h` with `h = 1e-20`, exact to rounding because there
+//!   is no subtraction.
+//!
+//! A test cross-checks them at random states. Free rolling at any speed is an
+//! equilibrium, so every linear model here has one eigenvalue at exactly zero (the
+//! rolling/speed direction); [`crate::modes`] reports it separately and leaves it out of
+//! stability verdicts.
+//!
+//! [`LinearModel`] is the open-loop plant `x' = A x + B u`, `y = C x` with inputs
+//! `[T_psi (N m), u_a (V)]` and outputs `[y' (m/s), i_a (A), theta_m' (rad/s)]`, the
+//! interface for sampled-data (ZOH + delay) analyses of the discrete controllers.
+
+use crate::control::{closed_loop_rhs, ContinuousController, Exogenous, YawLaw};
+use crate::params::Params;
+use crate::plant::{ix, Inputs, Plant, PlantConfig, State, NX, STATE_NAMES};
+use crate::scenario::Axle;
+use nalgebra::{Complex, DMatrix, SMatrix};
+
+/// Full-size Jacobian (all 13 state slots; absent states have zero rows and columns).
+pub type Jac = SMatrix<f64, NX, NX>;
+/// Full-size input matrix for `[T_psi, u_a]`.
+pub type InJac = SMatrix<f64, NX, 2>;
+
+/// Step of the complex-step derivative.
+pub const COMPLEX_STEP: f64 = 1e-20;
+
+/// The operating point: pure rolling on straight track at the parameters' speed, with
+/// the PI integrator preset to the back-EMF.
+pub fn operating_point(plant: &Plant, p: &Params) -> State {
+    let mut x = plant.rolling_state(p.v);
+    if plant.cfg.drive {
+        x[ix::PI] = plant.back_emf(&x);
+    }
+    x
+}
+
+/// Analytic Jacobians `(df/dx, df/d[T_psi, u_a])` of the plant RHS at any state `x`
+/// and inputs `u` (not only the operating point).
+///
+/// Creep-force gradients (`w_L` is `w_R` on a rigid axle):
+/// `dF_xR/dpsi' = f11 Lg/v`, `dF_xR/dw_R = f11 (r0 + lambda y)/v`,
+/// `dF_xR/dy = f11 lambda w_R/v`, `dF_xR/dv = -f11 (Lg psi' + w_R (r0 + lambda y))/v^2`;
+/// `dF_xL/dpsi' = -f11 Lg/v`, `dF_xL/dw_L = f11 (r0 - lambda y)/v`,
+/// `dF_xL/dy = -f11 lambda w_L/v`, `dF_xL/dv = f11 (Lg psi' - w_L (r0 - lambda y))/v^2`;
+/// `dF_y/dy' = -f22/v`, `dF_y/dpsi = f22`, `dF_y/dv = f22 y'/v^2`.
+/// Each equation of motion is linear in the forces, so its row is the matching
+/// combination of these gradients plus its direct terms.
+pub fn plant_jacobian(plant: &Plant, p: &Params, x: &State, u: &Inputs<f64>) -> (Jac, InJac) {
+    let cfg = plant.cfg;
+    let rigid = cfg.axle == Axle::Rigid;
+    let wl_ix = if rigid { ix::WR } else { ix::WL };
+    let (f11, f22, lg, r0, lam) = (p.f11, p.f22, p.l_g, p.r0, p.lambda);
+    let v = x[ix::V];
+    let (y, yd, psid, wr, wl) = (x[ix::Y], x[ix::YD], x[ix::PSID], x[ix::WR], x[wl_ix]);
+    let mut g_xr = [0.0; NX];
+    g_xr[ix::PSID] = f11 * lg / v;
+    g_xr[ix::WR] = f11 * (r0 + lam * y) / v;
+    g_xr[ix::Y] = f11 * lam * wr / v;
+    g_xr[ix::V] = -f11 * (lg * psid + wr * (r0 + lam * y)) / (v * v);
+    let mut g_xl = [0.0; NX];
+    g_xl[ix::PSID] = -f11 * lg / v;
+    g_xl[wl_ix] += f11 * (r0 - lam * y) / v;
+    g_xl[ix::Y] = -f11 * lam * wl / v;
+    g_xl[ix::V] = f11 * (lg * psid - wl * (r0 - lam * y)) / (v * v);
+    let mut g_y = [0.0; NX];
+    g_y[ix::YD] = -f22 / v;
+    g_y[ix::PSI] = f22;
+    g_y[ix::V] = f22 * yd / (v * v);
+
+    let (k_t, k_g, n) = (p.k_t(), p.k_gear(), p.n_gear);
+    let m_long = p.m + p.m_v / 2.0;
+    let mut a = Jac::zeros();
+    let mut b = InJac::zeros();
+    a[(ix::Y, ix::YD)] = 1.0;
+    a[(ix::PSI, ix::PSID)] = 1.0;
+    for j in 0..NX {
+        a[(ix::YD, j)] = 2.0 * g_y[j] / p.m;
+        a[(ix::PSID, j)] = -lg * (g_xr[j] - g_xl[j]) / p.j;
+        a[(ix::V, j)] = (g_xr[j] + g_xl[j]) / m_long;
+        if rigid {
+            let row = -r0 * (g_xr[j] + g_xl[j]) / (2.0 * p.i_w);
+            a[(ix::WR, j)] = row;
+            a[(ix::WL, j)] = row;
+        } else {
+            a[(ix::WR, j)] = -r0 * g_xr[j] / p.i_w;
+            a[(ix::WL, j)] = -r0 * g_xl[j] / p.i_w;
+        }
+    }
+    // Direct terms of (4).
+    a[(ix::YD, ix::YD)] -= p.c_lat / p.m;
+    a[(ix::YD, ix::Y)] -= p.k_lat / p.m;
+    a[(ix::YD, ix::V)] += 2.0 * v * u.curvature;
+    // (5): spring and actuator.
+    if cfg.yaw_spring {
+        a[(ix::PSID, ix::PSI)] -= p.k_yaw / p.j;
+    }
+    b[(ix::PSID, 0)] = -1.0 / p.j;
+    // (6), (7): torsion and gear.
+    if rigid {
+        if cfg.drive {
+            a[(ix::WR, ix::WIND)] -= k_g / (2.0 * p.i_w);
+            a[(ix::WL, ix::WIND)] -= k_g / (2.0 * p.i_w);
+        }
+    } else {
+        a[(ix::WR, ix::TWIST)] -= k_t / p.i_w;
+        a[(ix::WL, ix::TWIST)] += k_t / p.i_w;
+        if cfg.drive {
+            a[(ix::WL, ix::WIND)] -= k_g / p.i_w;
+        }
+        a[(ix::TWIST, ix::WR)] = 1.0;
+        a[(ix::TWIST, ix::WL)] = -1.0;
+    }
+    if cfg.drive {
+        a[(ix::WIND, wl_ix)] += 1.0;
+        a[(ix::WIND, ix::WM)] = -1.0 / n;
+        a[(ix::WM, ix::IA)] = p.k_m / p.i_m;
+        a[(ix::WM, ix::WIND)] = k_g / (n * p.i_m);
+        a[(ix::IA, ix::IA)] = -p.r_a / p.l_a;
+        a[(ix::IA, ix::WM)] = -p.k_m / p.l_a;
+        b[(ix::IA, 1)] = 1.0 / p.l_a;
+    }
+    (a, b)
+}
+
+/// Complex-step Jacobians of the plant RHS (same layout as [`plant_jacobian`]).
+pub fn plant_jacobian_complex_step(plant: &Plant, x: &State, u: &Inputs<f64>) -> (Jac, InJac) {
+    let xc: [Complex<f64>; NX] = x.map(|v| Complex::new(v, 0.0));
+    let lift = |v: f64| Complex::new(v, 0.0);
+    let uc = Inputs {
+        t_psi: lift(u.t_psi),
+        u_a: lift(u.u_a),
+        curvature: lift(u.curvature),
+        cant: lift(u.cant),
+        f_run: lift(u.f_run),
+        t_drive: lift(u.t_drive),
+    };
+    let mut a = Jac::zeros();
+    for j in 0..NX {
+        let mut xp = xc;
+        xp[j].im = COMPLEX_STEP;
+        let (f, _) = plant.rhs(&xp, &uc);
+        for i in 0..NX {
+            a[(i, j)] = f[i].im / COMPLEX_STEP;
+        }
+    }
+    let mut b = InJac::zeros();
+    for k in 0..2 {
+        let mut up = uc;
+        if k == 0 {
+            up.t_psi.im = COMPLEX_STEP;
+        } else {
+            up.u_a.im = COMPLEX_STEP;
+        }
+        let (f, _) = plant.rhs(&xc, &up);
+        for i in 0..NX {
+            b[(i, k)] = f[i].im / COMPLEX_STEP;
+        }
+    }
+    (a, b)
+}
+
+/// Analytic closed-loop Jacobian: plant Jacobian plus `B dT/dx + B du_a/dx` plus the
+/// controller rows (lead `x_c' = -p x_c + y'`, PI `x_i' = Kp (i_ref - i_a)/Ti`).
+pub fn closed_loop_jacobian(
+    plant: &Plant,
+    p: &Params,
+    ctrl: &ContinuousController,
+    x: &State,
+    e: &Exogenous<f64>,
+) -> Jac {
+    let drive = plant.cfg.drive;
+    let u = Inputs {
+        t_psi: ctrl.yaw_torque(x),
+        u_a: if drive { ctrl.voltage(x, e.i_ref) } else { 0.0 },
+        curvature: e.curvature,
+        cant: e.cant,
+        f_run: e.f_run,
+        t_drive: if drive { 0.0 } else { e.demand },
+    };
+    let (mut a, b) = plant_jacobian(plant, p, x, &u);
+    let mut dt = [0.0; NX];
+    match ctrl.law {
+        YawLaw::Passive => {}
+        YawLaw::Gain => dt[ix::YD] = ctrl.k,
+        YawLaw::Lead => {
+            dt[ix::YD] = ctrl.k * ctrl.lead_a;
+            dt[ix::LEAD] = -ctrl.k * ctrl.lead_a * (ctrl.lead_p - ctrl.lead_z);
+        }
+    }
+    let mut du = [0.0; NX];
+    if drive {
+        du[ix::IA] = -ctrl.kp;
+        du[ix::PI] = 1.0;
+    }
+    for i in 0..NX {
+        for j in 0..NX {
+            a[(i, j)] += b[(i, 0)] * dt[j] + b[(i, 1)] * du[j];
+        }
+    }
+    if ctrl.law == YawLaw::Lead {
+        a[(ix::LEAD, ix::LEAD)] = -ctrl.lead_p;
+        a[(ix::LEAD, ix::YD)] = 1.0;
+    }
+    if drive {
+        a[(ix::PI, ix::IA)] = -ctrl.kp / ctrl.ti;
+    }
+    a
+}
+
+/// Complex-step closed-loop Jacobian of [`closed_loop_rhs`].
+pub fn closed_loop_jacobian_complex_step(
+    plant: &Plant,
+    ctrl: &ContinuousController,
+    x: &State,
+    e: &Exogenous<f64>,
+) -> Jac {
+    let lift = |v: f64| Complex::new(v, 0.0);
+    let ec = Exogenous {
+        curvature: lift(e.curvature),
+        cant: lift(e.cant),
+        f_run: lift(e.f_run),
+        i_ref: lift(e.i_ref),
+        demand: lift(e.demand),
+    };
+    let xc: [Complex<f64>; NX] = x.map(lift);
+    let mut a = Jac::zeros();
+    for j in 0..NX {
+        let mut xp = xc;
+        xp[j].im = COMPLEX_STEP;
+        let f = closed_loop_rhs(plant, ctrl, &xp, &ec);
+        for i in 0..NX {
+            a[(i, j)] = f[i].im / COMPLEX_STEP;
+        }
+    }
+    a
+}
+
+/// The states of a closed loop: the plant's, then the lead state (lead law) and the PI
+/// integrator (drive).
+pub fn closed_loop_states(cfg: &PlantConfig, law: YawLaw) -> Vec<usize> {
+    let mut s = cfg.plant_states();
+    if law == YawLaw::Lead {
+        s.push(ix::LEAD);
+    }
+    if cfg.drive {
+        s.push(ix::PI);
+    }
+    s
+}
+
+/// Restricts a full-size matrix to the rows and columns in `states`.
+pub fn select(a: &Jac, states: &[usize]) -> DMatrix<f64> {
+    DMatrix::from_fn(states.len(), states.len(), |i, j| a[(states[i], states[j])])
+}
+
+/// The closed-loop `A` at the operating point for `law` on the plant `cfg` (the yaw
+/// spring is set from the law), restricted to the loop's states, analytic.
+pub fn closed_loop_a(
+    p: &Params,
+    axle: Axle,
+    drive: bool,
+    law: YawLaw,
+) -> (DMatrix<f64>, Vec<usize>) {
+    let cfg = PlantConfig {
+        axle,
+        drive,
+        yaw_spring: law.has_spring(),
+    };
+    let plant = Plant::new(p, cfg);
+    let ctrl = ContinuousController::new(p, law);
+    let x = operating_point(&plant, p);
+    let a = closed_loop_jacobian(&plant, p, &ctrl, &x, &Exogenous::zero());
+    let states = closed_loop_states(&cfg, law);
+    (select(&a, &states), states)
+}
+
+/// A linear state-space model `x' = A x + B u`, `y = C x` (open loop, no controller).
+#[derive(Debug, Clone, PartialEq)]
+pub struct LinearModel {
+    /// State matrix, `n x n`.
+    pub a: DMatrix<f64>,
+    /// Input matrix, `n x 2`, inputs [`LinearModel::INPUTS`].
+    pub b: DMatrix<f64>,
+    /// Output matrix, `3 x n`, outputs [`LinearModel::OUTPUTS`].
+    pub c: DMatrix<f64>,
+    /// Which full-state slot each state is ([`crate::plant::ix`]).
+    pub states: Vec<usize>,
+}
+
+impl LinearModel {
+    /// Input names and units.
+    pub const INPUTS: [&'static str; 2] = ["T_psi_Nm", "u_a_V"];
+    /// Output names and units.
+    pub const OUTPUTS: [&'static str; 3] = ["yd_mps", "i_a_A", "w_m_radps"];
+
+    /// State names (CSV-style, with units).
+    pub fn state_names(&self) -> Vec<&'static str> {
+        self.states.iter().map(|&i| STATE_NAMES[i]).collect()
+    }
+}
+
+/// The open-loop plant linearised at pure rolling on straight track. Inputs `T_psi`
+/// (eq. 5 sign) and `u_a`; outputs `y'`, `i_a`, `theta_m'` (the last two are zero rows
+/// without the drive). With `cfg.yaw_spring` the passive spring is inside `A`.
+pub fn linear_plant(p: &Params, cfg: PlantConfig) -> LinearModel {
+    let plant = Plant::new(p, cfg);
+    let x = operating_point(&plant, p);
+    let mut u = Inputs::zero();
+    if cfg.drive {
+        u.u_a = plant.back_emf(&x);
+    }
+    let (a, b) = plant_jacobian(&plant, p, &x, &u);
+    let states = cfg.plant_states();
+    let n = states.len();
+    let bm = DMatrix::from_fn(n, 2, |i, k| b[(states[i], k)]);
+    let out = [ix::YD, ix::IA, ix::WM];
+    let c = DMatrix::from_fn(3, n, |r, j| if states[j] == out[r] { 1.0 } else { 0.0 });
+    LinearModel {
+        a: select(&a, &states),
+        b: bm,
+        c,
+        states,
+    }
+}
