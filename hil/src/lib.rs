@@ -1,5 +1,26 @@
-//! The hardware-in-the-loop harness.
+//! The hardware-in-the-loop harness: the plant of `sim-host` against the device wherever
+//! it runs (in process over the simulated link, the firmware under QEMU, a board on a
+//! serial port), through one [`transport::Transport`], with timing, numerics and
+//! frame-accounting verdicts and reports.
+//!
+//! - [`transport`]: the trait; [`inproc`]: the in-process device; [`serial`]: a serial
+//!   port; [`lockstep`]: the bookkeeping of frame-clocked devices.
+//! - [`closed_loop`]: the device as the plant's sampled controller.
+//! - [`timing`], [`numerics`], [`frames`]: the checks; [`budget`]: their limits.
+//! - [`run`]: `hil run`; [`report`]: JSON, CSV and the Markdown report.
+//! - [`audit`]: `hil audit`, the fixed-point accuracy audit of the control core.
 #![deny(missing_docs)]
 
 pub mod audit;
+pub mod budget;
+pub mod closed_loop;
+pub mod frames;
+pub mod inproc;
+pub mod lockstep;
+pub mod numerics;
 pub mod qemu;
+pub mod report;
+pub mod run;
+pub mod serial;
+pub mod timing;
+pub mod transport;

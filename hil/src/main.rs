@@ -1,38 +1,303 @@
-//! `hil`: the harness's command line.
+//! `hil`: the harness's command line. `hil` alone is `hil run` with the defaults (the
+//! in-process target, the `curve` scenario, the phase-lead law).
+//!
+//! Exit codes: 0 pass (warnings included), 1 a check failed, 2 bad flags or input files,
+//! 3 the target could not be used (QEMU or the ELF missing, no such port, I/O).
 
+use std::io::IsTerminal;
+use std::path::PathBuf;
 use std::process::ExitCode;
 
-use clap::{Parser, Subcommand};
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use hil::budget::{Budgets, Verdict};
+use hil::inproc::DeviceFault;
+use hil::report;
+use hil::run::{run, Law, RunError, RunOptions, Target};
+use sim_host::link::{Faults, LinkConfig};
 
-/// The wheelset controller's harness.
-#[derive(Debug, Parser)]
-#[command(name = "hil", version, about)]
-struct Cli {
-    #[command(subcommand)]
-    command: Command,
+/// `println!` that ignores a closed stdout (`hil | head`) instead of panicking.
+macro_rules! say {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($t)*);
+    }};
 }
 
-#[derive(Debug, Subcommand)]
-enum Command {
+/// The HIL harness: the plant against the device wherever it runs, with timing and
+/// numerics verdicts. Without a subcommand: `hil run`.
+#[derive(Parser)]
+#[command(name = "hil", version, about, args_conflicts_with_subcommands = true)]
+struct Cli {
+    #[command(subcommand)]
+    cmd: Option<Cmd>,
+    #[command(flatten)]
+    run: RunArgs,
+}
+
+#[derive(Subcommand)]
+enum Cmd {
+    /// Closed loop of a scenario with the device on a target; timing, numerics and
+    /// frame-accounting verdicts.
+    Run(RunArgs),
     /// Fixed-point accuracy audit of the control core (JSON + Markdown report).
     Audit(hil::audit::AuditArgs),
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum Control {
+    /// Pure gain `T = K y'`.
+    Gain,
+    /// Phase lead `K 7.5 (s+37)/(s+274)` on `y'`.
+    Lead,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum PaceArg {
+    /// Wall-clock periods.
+    Realtime,
+    /// Wait for each answer.
+    Lockstep,
+}
+
+#[derive(Args, Clone)]
+struct RunArgs {
+    /// Where the device runs: inproc, qemu or serial:PATH.
+    #[arg(long, default_value = "inproc", value_parser = parse_target)]
+    target: Target,
+    /// Built-in scenario (curve, beating) or a scenario TOML file.
+    #[arg(long, default_value = "curve")]
+    scenario: String,
+    /// Yaw control law of the device (and of the reference).
+    #[arg(long, value_enum, default_value = "lead")]
+    control: Control,
+    /// Link faults, e.g. `ber=1e-4,drop=0.01,outage=8:0.05` (simulated link only).
+    #[arg(long, default_value = "", value_parser = parse_faults)]
+    faults: Faults,
+    /// Write the verdict document (JSON).
+    #[arg(long)]
+    json: Option<PathBuf>,
+    /// Write the closed-loop trajectory (sim-host's CSV columns).
+    #[arg(long)]
+    csv: Option<PathBuf>,
+    /// Write a Markdown report with SVG plots into this directory.
+    #[arg(long)]
+    report: Option<PathBuf>,
+    /// Budget file (TOML; see `hil::budget` for the keys and defaults).
+    #[arg(long)]
+    budget: Option<PathBuf>,
+    /// Override one budget, e.g. `--set timing.cpu_max.fail=0.5` (repeatable).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    sets: Vec<String>,
+    /// A deliberately broken in-process device: wrong-sign, slow[:EXEC_US], corrupt[:EVERY].
+    #[arg(long, default_value = "none", value_parser = parse_device_fault)]
+    device_fault: DeviceFault,
+    /// Link baud (10 bits per byte).
+    #[arg(long, default_value_t = sim_host::link::DEFAULT_BAUD)]
+    baud: u32,
+    /// Seed of the simulated link's faults.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Serial target pacing: realtime (a board on its own timer) or lockstep (a
+    /// frame-clocked device answering each frame).
+    #[arg(long, value_enum, default_value = "realtime")]
+    pace: PaceArg,
+    /// Core clock of the board, Hz (converts its cycle counts to time).
+    #[arg(long, default_value_t = hil::run::DEFAULT_CPU_HZ)]
+    cpu_hz: f64,
+    /// Never show the progress bar.
+    #[arg(long)]
+    quiet: bool,
+}
+
+fn parse_target(s: &str) -> Result<Target, String> {
+    s.parse()
+}
+
+fn parse_faults(s: &str) -> Result<Faults, String> {
+    s.parse::<Faults>().map_err(|e| e.to_string())
+}
+
+fn parse_device_fault(s: &str) -> Result<DeviceFault, String> {
+    s.parse()
+}
+
+/// A failure with its exit code.
+struct Failure {
+    code: u8,
+    msg: String,
+}
+
+fn input(msg: impl Into<String>) -> Failure {
+    Failure {
+        code: 2,
+        msg: msg.into(),
+    }
+}
+
+fn cmd_run(a: &RunArgs, command: &str) -> Result<Verdict, Failure> {
+    let budgets = Budgets::load(a.budget.as_deref(), &a.sets).map_err(|e| input(e.to_string()))?;
+    if a.baud == 0 {
+        return Err(input("--baud: must be positive"));
+    }
+    if !(a.cpu_hz.is_finite() && a.cpu_hz > 0.0) {
+        return Err(input("--cpu-hz: must be a positive number"));
+    }
+    let faults_spec = std::env::args()
+        .skip_while(|x| x != "--faults")
+        .nth(1)
+        .unwrap_or_default();
+    let opts = RunOptions {
+        target: a.target.clone(),
+        scenario: a.scenario.clone(),
+        control: match a.control {
+            Control::Gain => Law::Gain,
+            Control::Lead => Law::Lead,
+        },
+        faults_spec,
+        device_fault: a.device_fault,
+        budgets,
+        link: LinkConfig {
+            baud: a.baud,
+            faults: a.faults.clone(),
+            seed: a.seed,
+            ..LinkConfig::default()
+        },
+        pace: match a.pace {
+            PaceArg::Realtime => hil::serial::Pace::RealTime,
+            PaceArg::Lockstep => hil::serial::Pace::LockStep,
+        },
+        cpu_hz: a.cpu_hz,
+        timeout: std::time::Duration::from_secs(5),
+        progress: !a.quiet && std::io::stderr().is_terminal(),
+    };
+    let out = run(&opts).map_err(|e| match e {
+        RunError::Input(m) => input(m),
+        RunError::Target(e) => Failure {
+            code: 3,
+            msg: e.to_string(),
+        },
+    })?;
+    print_summary(&out.report);
+    let io = |what: &std::path::Path, e: std::io::Error| {
+        input(format!("{}: cannot write: {e}", what.display()))
+    };
+    if let Some(p) = &a.json {
+        report::write_json(&out.report, p).map_err(|e| io(p, e))?;
+        say!("json: {}", p.display());
+    }
+    if let Some(p) = &a.csv {
+        report::write_csv(&out.trajectory, p).map_err(|e| io(p, e))?;
+        say!(
+            "csv: {} ({} rows)",
+            p.display(),
+            out.trajectory.records.len()
+        );
+    }
+    if let Some(d) = &a.report {
+        let files = report::write_report(&out, d, command).map_err(|e| io(d, e))?;
+        for f in files {
+            say!("report: {}", f.display());
+        }
+    }
+    Ok(out.report.verdict)
+}
+
+fn print_summary(r: &hil::run::RunReport) {
+    let t = &r.timing;
+    say!(
+        "hil run: target {}, scenario {} ({}), control {:?}, {} periods of {} ns",
+        r.target,
+        r.scenario,
+        r.scenario_source,
+        r.control,
+        t.periods,
+        t.period_ns
+    );
+    say!(
+        "timing {}: exec {:.0}/{:.0}/{:.0} {} (min/mean/max), latency max {:.1} us{}, jitter max {}, \
+         missed {}, overruns {}, CPU max {:.2} %, link {:.1} %",
+        t.verdict,
+        t.exec_units.min,
+        t.exec_units.mean,
+        t.exec_units.max,
+        t.exec_unit,
+        t.latency_ns.max * 1e-3,
+        if t.latency_modelled { " (modelled)" } else { "" },
+        t.jitter_max_ns
+            .map_or("n/a".to_string(), |j| format!("{:.1} us", j * 1e-3)),
+        t.missed_ticks,
+        t.overruns,
+        t.cpu_max * 100.0,
+        t.link_utilisation * 100.0
+    );
+    for c in t.checks.iter().filter(|c| c.verdict != Verdict::Pass) {
+        say!(
+            "  timing.{}: {:.4} of T > {} {} (warn {}, fail {})",
+            c.name,
+            c.value,
+            c.verdict,
+            if c.verdict == Verdict::Fail {
+                c.limit.fail
+            } else {
+                c.limit.warn
+            },
+            c.limit.warn,
+            c.limit.fail
+        );
+    }
+    say!(
+        "numerics {} (vs {}):",
+        r.numerics.verdict,
+        r.numerics.reference
+    );
+    for s in &r.numerics.signals {
+        say!(
+            "  {:<10} max err {:.3e} (at {:.3} s) of allowed {:.3e}: {}",
+            s.name,
+            s.max_err,
+            s.max_err_t_s,
+            s.allowed,
+            s.verdict
+        );
+    }
+    let f = &r.frames;
+    say!(
+        "frames {} ({}): sent {} = received {} + rejected {} + dropped {} + in flight {}",
+        r.frames_verdict,
+        f.source,
+        f.sent,
+        f.received,
+        f.rejected,
+        f.dropped,
+        f.in_flight
+    );
+    say!("verdict: {}", r.verdict);
 }
 
 fn main() -> ExitCode {
     let cli = match Cli::try_parse() {
         Ok(c) => c,
         Err(e) => {
+            let code = if e.use_stderr() { 2 } else { 0 };
             let _ = e.print();
-            return ExitCode::from(if e.use_stderr() { 2 } else { 0 });
+            return ExitCode::from(code);
         }
     };
-    match cli.command {
-        Command::Audit(a) => match hil::audit::run(&a) {
-            Ok(code) => ExitCode::from(code),
-            Err(e) => {
-                eprintln!("{e}");
-                ExitCode::from(2)
-            }
+    let command = std::env::args().collect::<Vec<_>>().join(" ");
+    let res = match &cli.cmd {
+        Some(Cmd::Run(a)) => cmd_run(a, &command),
+        None => cmd_run(&cli.run, &command),
+        Some(Cmd::Audit(a)) => match hil::audit::run(a) {
+            Ok(code) => return ExitCode::from(code),
+            Err(e) => Err(input(e.to_string())),
         },
+    };
+    match res {
+        Ok(Verdict::Fail) => ExitCode::from(1),
+        Ok(_) => ExitCode::SUCCESS,
+        Err(f) => {
+            eprintln!("hil: error: {}", f.msg);
+            ExitCode::from(f.code)
+        }
     }
 }

@@ -53,7 +53,29 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
     for tr in runs {
         psi = psi.series(series(tr, &label(tr), |r| r.psi_rad * 1e3));
     }
-    save("lateral.svg", Figure::new(&title).panel(p).panel(psi))?;
+    // Zoom on the traction step (Fig. 9's beating shows here).
+    let t_step = main
+        .records
+        .iter()
+        .find(|r| r.demand_nm != 0.0)
+        .map_or(5.0, |r| r.t_s);
+    let mut zoom = Plot::new("y - y0 around the traction step")
+        .x_label("t (s)")
+        .y_label("y - y0 (mm)")
+        .x_range(t_step - 0.2, t_step + 2.0);
+    for tr in runs {
+        let pts = tr
+            .records
+            .iter()
+            .filter(|r| r.t_s >= t_step - 0.2 && r.t_s <= t_step + 2.0)
+            .map(|r| (r.t_s, (r.y_m - r.y0_m) * 1e3))
+            .collect();
+        zoom = zoom.series(Series::line(&label(tr), pts));
+    }
+    save(
+        "lateral.svg",
+        Figure::new(&title).panel(p).panel(psi).panel(zoom),
+    )?;
 
     // Fig. 7
     let mut p = Plot::new("Yaw torque: control (active) / suspension (passive) (Fig. 7)")
@@ -143,20 +165,19 @@ pub fn write_root_locus(sw: &CaseSweep, dir: &Path) -> std::io::Result<std::path
         .map(|l| l.re)
         .fold(0.0f64, f64::max)
         .max(-0.05 * re_lo);
-    let mut locus = Plot::new(&format!(
-        "Root locus, case ({}), f11 = f22 = 1-10 MN",
-        sw.case.id()
-    ))
-    .x_label("Re (1/s)")
-    .y_label("Im (rad/s)")
-    .x_range(1.05 * re_lo, 1.05 * re_hi)
-    .y_range(-1.05 * im_hi, 1.05 * im_hi)
-    .size(720.0, 520.0)
-    .vline(0.0);
+    let mut locus = Plot::new("Root locus over f11 = f22 = 1-10 MN (crosses: 10 MN)")
+        .x_label("Re (1/s)")
+        .y_label("Im (rad/s)")
+        .x_range(1.05 * re_lo, 1.05 * re_hi)
+        .y_range(-1.05 * im_hi, 1.05 * im_hi)
+        .size(900.0, 560.0)
+        .vline(0.0);
     let mut freq = Plot::new("Damped frequency of each mode")
+        .size(900.0, 360.0)
         .x_label("creep coefficient f11 = f22 (MN)")
         .y_label("frequency (Hz)");
     let mut zeta = Plot::new("Damping ratio of each mode (below 0 = unstable)")
+        .size(900.0, 360.0)
         .x_label("creep coefficient f11 = f22 (MN)")
         .y_label("zeta")
         .hline(0.0);

@@ -63,7 +63,7 @@ impl Case {
             Case::A => "passive yaw stiffness, rigid axle, no traction dynamics (Fig. 2)",
             Case::B => "active yaw damping, pure gain, rigid axle (Fig. 3)",
             Case::C => "active yaw damping, phase lead, rigid axle (Fig. 4)",
-            Case::D => "phase lead, flexible axle (40 Hz), gear spring, motor, armature, PI current loop (Fig. 5)",
+            Case::D => "phase lead, flexible axle 40 Hz, gear spring, motor, armature, PI (Fig. 5)",
         }
     }
 
@@ -494,12 +494,13 @@ impl CaseSweep {
 }
 
 /// Sweeps `case` over `grid` (ascending). Names modes at the highest creep, tracks
-/// downwards, then finds the crossings by bisection. `tick` is called once per point.
+/// downwards, then finds the crossings by bisection. `tick` is called once per point
+/// (from worker threads).
 pub fn sweep_case(
     p: &Params,
     case: Case,
     grid: &[f64],
-    mut tick: impl FnMut(),
+    tick: impl Fn() + Sync,
 ) -> Result<CaseSweep, SweepError> {
     let mut desc: Vec<f64> = grid.to_vec();
     desc.sort_by(|a, b| b.total_cmp(a));
@@ -507,21 +508,20 @@ pub fn sweep_case(
         return Err(SweepError("empty creep grid".into()));
     };
     let (a0, states) = case.matrix(p, top);
-    let e0 = eigenvalues(&a0).ok_or_else(|| {
-        SweepError(format!(
-            "case {}: eigenvalues did not converge at {top} N",
+    // The eigenvalue problems are independent: solve them on all cores, then track.
+    let all = eigen_sweep(p, case, &desc, &tick);
+    let Some(e0) = all.first().cloned().flatten() else {
+        return Err(SweepError(format!(
+            "case {}: eigenvalues not computable at {top} N",
             case.id()
-        ))
-    })?;
+        )));
+    };
     let names = name_modes(&a0, &states, &e0, 2.0 * PI * p.kinematic_hz());
     let mut eig: Vec<Vec<Complex<f64>>> = vec![e0];
     let mut creep = vec![top];
     let mut failed = Vec::new();
-    tick();
-    for &c in desc.iter().skip(1) {
-        tick();
-        let (a, _) = case.matrix(p, c);
-        let Some(e) = eigenvalues(&a) else {
+    for (&c, e) in desc.iter().zip(all).skip(1) {
+        let Some(e) = e else {
             failed.push(c);
             continue;
         };
@@ -554,6 +554,43 @@ pub fn sweep_case(
     };
     sw.crossings = find_crossings(p, &sw);
     Ok(sw)
+}
+
+/// Eigenvalues at every creep value of `grid`, computed on up to
+/// `available_parallelism` threads (scoped; no pool). `tick` is called once per point.
+fn eigen_sweep(
+    p: &Params,
+    case: Case,
+    grid: &[f64],
+    tick: &(impl Fn() + Sync),
+) -> Vec<Option<Vec<Complex<f64>>>> {
+    let solve = |c: f64| {
+        let r = eigenvalues(&case.matrix(p, c).0);
+        tick();
+        r
+    };
+    let threads = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .min(grid.len() / 64)
+        .max(1);
+    if threads == 1 {
+        return grid.iter().map(|&c| solve(c)).collect();
+    }
+    let chunk = grid.len().div_ceil(threads);
+    std::thread::scope(|scope| {
+        let handles: Vec<_> = grid
+            .chunks(chunk)
+            .map(|part| scope.spawn(move || part.iter().map(|&c| solve(c)).collect::<Vec<_>>()))
+            .collect();
+        handles
+            .into_iter()
+            .flat_map(|h| {
+                // A worker cannot panic on these inputs; if one did, its points count as failed.
+                h.join().unwrap_or_else(|_| vec![None; chunk])
+            })
+            .take(grid.len())
+            .collect()
+    })
 }
 
 /// Locates sign changes of each mode's real part between adjacent points by bisection.

@@ -219,6 +219,19 @@ pub struct Plant {
     k_m: f64,
     l_a: f64,
     r_a: f64,
+    inv: Inverses,
+}
+
+/// Reciprocals of the divisors, so the RHS multiplies instead of dividing.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Inverses {
+    m: f64,
+    m_long: f64,
+    j: f64,
+    i_w: f64,
+    i_m: f64,
+    n: f64,
+    l_a: f64,
 }
 
 impl Plant {
@@ -246,6 +259,15 @@ impl Plant {
             k_m: p.k_m,
             l_a: p.l_a,
             r_a: p.r_a,
+            inv: Inverses {
+                m: 1.0 / p.m,
+                m_long: 1.0 / (p.m + p.m_v / 2.0),
+                j: 1.0 / p.j,
+                i_w: 1.0 / p.i_w,
+                i_m: 1.0 / p.i_m,
+                n: 1.0 / p.n_gear,
+                l_a: 1.0 / p.l_a,
+            },
         }
     }
 
@@ -268,13 +290,15 @@ impl Plant {
         let c = S::c;
         let v = x[ix::V];
         let y = x[ix::Y];
-        let lg_psid_v = c(self.l_g) * x[ix::PSID] / v;
+        let inv_v = c(1.0) / v;
+        let lg_psid_v = c(self.l_g) * x[ix::PSID] * inv_v;
         let lg_k = c(self.l_g) * curvature;
-        let fx_r = c(self.f11)
-            * (c(-1.0) + lg_psid_v + x[ix::WR] * (c(self.r0) + c(self.lambda) * y) / v - lg_k);
-        let fx_l = -c(self.f11)
-            * (c(1.0) + lg_psid_v - self.w_l(x) * (c(self.r0) - c(self.lambda) * y) / v - lg_k);
-        let fy = -c(self.f22) * (x[ix::YD] - v * x[ix::PSI]) / v;
+        let ly = c(self.lambda) * y;
+        let fx_r =
+            c(self.f11) * (c(-1.0) + lg_psid_v + x[ix::WR] * (c(self.r0) + ly) * inv_v - lg_k);
+        let fx_l =
+            -c(self.f11) * (c(1.0) + lg_psid_v - self.w_l(x) * (c(self.r0) - ly) * inv_v - lg_k);
+        let fy = -c(self.f22) * (x[ix::YD] * inv_v - x[ix::PSI]);
         Creep { fx_r, fx_l, fy }
     }
 
@@ -313,11 +337,11 @@ impl Plant {
         dx[ix::YD] = (c(2.0) * cr.fy - c(self.c_lat) * x[ix::YD] - c(self.k_lat) * x[ix::Y]
             + c(self.m) * v * v * u.curvature
             - c(self.m * self.g) * u.cant)
-            / c(self.m);
+            * c(self.inv.m);
         // (5) yaw
         dx[ix::PSI] = x[ix::PSID];
         dx[ix::PSID] =
-            (-c(self.l_g) * (cr.fx_r - cr.fx_l) - self.spring_torque(x) - u.t_psi) / c(self.j);
+            (-c(self.l_g) * (cr.fx_r - cr.fx_l) - self.spring_torque(x) - u.t_psi) * c(self.inv.j);
 
         // Torque on the left wheel from the transmission.
         let t_gear = if self.cfg.drive {
@@ -328,25 +352,26 @@ impl Plant {
         match self.cfg.axle {
             Axle::Flexible => {
                 let t_tors = c(self.k_t) * x[ix::TWIST];
-                dx[ix::WR] = (-c(self.r0) * cr.fx_r - t_tors) / c(self.i_w);
-                dx[ix::WL] = (-c(self.r0) * cr.fx_l + t_tors + t_gear) / c(self.i_w);
+                dx[ix::WR] = (-c(self.r0) * cr.fx_r - t_tors) * c(self.inv.i_w);
+                dx[ix::WL] = (-c(self.r0) * cr.fx_l + t_tors + t_gear) * c(self.inv.i_w);
                 dx[ix::TWIST] = x[ix::WR] - x[ix::WL];
             }
             Axle::Rigid => {
-                let a = (-c(self.r0) * (cr.fx_r + cr.fx_l) + t_gear) / c(2.0 * self.i_w);
+                let a = (-c(self.r0) * (cr.fx_r + cr.fx_l) + t_gear) * c(0.5 * self.inv.i_w);
                 dx[ix::WR] = a;
                 dx[ix::WL] = a;
             }
         }
         if self.cfg.drive {
             let w_l = self.w_l(x);
-            dx[ix::WIND] = w_l - x[ix::WM] / c(self.n);
-            dx[ix::WM] =
-                (c(self.k_m) * x[ix::IA] + c(self.k_gear / self.n) * x[ix::WIND]) / c(self.i_m);
-            dx[ix::IA] = (u.u_a - c(self.r_a) * x[ix::IA] - c(self.k_m) * x[ix::WM]) / c(self.l_a);
+            dx[ix::WIND] = w_l - x[ix::WM] * c(self.inv.n);
+            dx[ix::WM] = (c(self.k_m) * x[ix::IA] + c(self.k_gear * self.inv.n) * x[ix::WIND])
+                * c(self.inv.i_m);
+            dx[ix::IA] =
+                (u.u_a - c(self.r_a) * x[ix::IA] - c(self.k_m) * x[ix::WM]) * c(self.inv.l_a);
         }
         // (8) longitudinal
-        dx[ix::V] = (cr.fx_r + cr.fx_l - u.f_run) / c(self.m_long);
+        dx[ix::V] = (cr.fx_r + cr.fx_l - u.f_run) * c(self.inv.m_long);
         (dx, cr)
     }
 

@@ -101,7 +101,7 @@ pub struct Plot {
 }
 
 impl Plot {
-    /// An empty 720 x 360 panel.
+    /// An empty 860 x 360 panel.
     pub fn new(title: &str) -> Self {
         Plot {
             title: title.to_string(),
@@ -111,7 +111,7 @@ impl Plot {
             x_range: None,
             y_range: None,
             bars: Vec::new(),
-            width: 720.0,
+            width: 860.0,
             height: 360.0,
             vlines: Vec::new(),
             hlines: Vec::new(),
@@ -207,9 +207,27 @@ impl Plot {
         )
     }
 
+    /// Width of the legend column, px (0 without labelled series).
+    pub fn legend_width(&self) -> f64 {
+        self.series
+            .iter()
+            .filter(|s| !s.label.is_empty())
+            .map(|s| s.label.chars().count())
+            .max()
+            .map_or(0.0, |n| n as f64 * 6.5 + 34.0)
+    }
+
     /// Renders the panel as an SVG group translated to `(ox, oy)`.
     pub fn render_group(&self, ox: f64, oy: f64) -> String {
-        let (ml, mr, mt, mb) = (78.0, 16.0, 30.0, 46.0);
+        self.render_group_with(ox, oy, self.legend_width())
+    }
+
+    /// As [`Plot::render_group`] with the legend column `legend_w` px wide (a figure
+    /// uses its widest legend for every panel so the plotting areas line up).
+    pub fn render_group_with(&self, ox: f64, oy: f64, legend_w: f64) -> String {
+        // The legend sits in a column right of the plotting area, so it never hides data.
+        let legend_w = legend_w.max(self.legend_width());
+        let (ml, mr, mt, mb) = (78.0, 16.0 + legend_w, 30.0, 46.0);
         let (pw, ph) = (self.width - ml - mr, self.height - mt - mb);
         let ((x0, x1), (y0, y1)) = self.data_range();
         let xt = nice_ticks(x0, x1, 7);
@@ -384,14 +402,8 @@ impl Plot {
             .filter(|(_, s)| !s.label.is_empty())
             .collect();
         if !labelled.is_empty() {
-            let lw = labelled
-                .iter()
-                .map(|(_, s)| s.label.len())
-                .max()
-                .unwrap_or(0) as f64
-                * 6.5
-                + 34.0;
-            let lx = ml + pw - lw - 6.0;
+            let lw = legend_w;
+            let lx = ml + pw + 8.0;
             let ly = mt + 6.0;
             let _ = writeln!(
                 o,
@@ -493,9 +505,14 @@ impl Figure {
                 esc(&self.title)
             );
         }
+        let lw = self
+            .panels
+            .iter()
+            .map(Plot::legend_width)
+            .fold(0.0, f64::max);
         let mut y = top;
         for p in &self.panels {
-            o.push_str(&p.render_group(0.0, y));
+            o.push_str(&p.render_group_with(0.0, y, lw));
             y += p.height;
         }
         o.push_str("</svg>\n");
@@ -541,6 +558,16 @@ pub fn nice_ticks(lo: f64, hi: f64, n: usize) -> Vec<f64> {
     (start..=end).map(|k| k as f64 * step).collect()
 }
 
+/// Decimal places needed to write multiples of `step` exactly (at most 12).
+fn decimals(step: f64) -> usize {
+    (0..12)
+        .find(|&d| {
+            let x = step * 10f64.powi(d as i32);
+            (x - x.round()).abs() < 1e-6 * x.abs().max(1.0)
+        })
+        .unwrap_or(12)
+}
+
 fn fmt_tick(v: f64, ticks: &[f64]) -> String {
     let step = if ticks.len() > 1 {
         (ticks[1] - ticks[0]).abs()
@@ -553,11 +580,13 @@ fn fmt_tick(v: f64, ticks: &[f64]) -> String {
     }
     if !(1e-3..1e5).contains(&big) {
         let e = big.log10().floor() as i32;
-        let digits = ((big / step).log10().ceil() as i32).clamp(0, 6) as usize;
-        return format!("{:.*}e{e}", digits.saturating_sub(1), v / 10f64.powi(e));
+        return format!(
+            "{:.*}e{e}",
+            decimals(step / 10f64.powi(e)),
+            v / 10f64.powi(e)
+        );
     }
-    let dec = (-step.log10().floor()).max(0.0) as usize;
-    format!("{v:.dec$}")
+    format!("{v:.*}", decimals(step))
 }
 
 /// Keeps at most about `max` points by taking min/max pairs per bucket (so peaks stay).
@@ -606,6 +635,17 @@ mod tests {
         let t = nice_ticks(-0.37, 1.2, 6);
         assert!(t.iter().all(|v| *v >= -0.37 && *v <= 1.2));
         assert!(t.len() >= 3 && t.len() <= 9, "{t:?}");
+    }
+
+    #[test]
+    fn tick_labels_are_exact() {
+        let t = nice_ticks(0.0, 1.2, 5); // step 0.25
+        let labels: Vec<String> = t.iter().map(|v| fmt_tick(*v, &t)).collect();
+        assert_eq!(labels, ["0", "0.25", "0.50", "0.75", "1.00"]);
+        let t = nice_ticks(0.0, 3e6, 3);
+        assert_eq!(fmt_tick(t[1], &t), "1e6");
+        let t = nice_ticks(1.0, 10.0, 4); // step 2.5
+        assert_eq!(fmt_tick(2.5, &t), "2.5");
     }
 
     #[test]

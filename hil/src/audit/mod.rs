@@ -26,6 +26,7 @@
 //! fail; the exit code is 1 on any fail.
 
 pub mod limits;
+pub mod plant;
 pub mod plots;
 pub mod qdyn;
 pub mod ranges;
@@ -71,6 +72,9 @@ pub struct AuditArgs {
     /// Skip the word-length bisection (faster; no fraction-bit recommendation).
     #[arg(long)]
     pub no_sweep: bool,
+    /// Skip the closed-loop plant scenarios (curve, beating, fault runs).
+    #[arg(long)]
+    pub no_plant: bool,
     /// Print only the verdict lines.
     #[arg(long)]
     pub quiet: bool,
@@ -87,6 +91,7 @@ impl Default for AuditArgs {
             signal_q: None,
             coef_q: None,
             no_sweep: false,
+            no_plant: false,
             quiet: true,
         }
     }
@@ -456,6 +461,8 @@ pub struct Audit {
     pub observed: Observed,
     /// The scenarios: `(name, source, ticks)`.
     pub scenarios: Vec<(String, String, usize)>,
+    /// Scenarios that could not run, and why.
+    pub scenario_notes: Vec<String>,
     /// Recommended formats.
     pub recommendations: Vec<Recommendation>,
     /// The signal fraction bits found by the bisection (smallest passing) and the
@@ -1015,7 +1022,14 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
     cfg.validate()?;
     let tol = Tolerances::default();
     let mut scenarios = ranges::synthetic(&cfg);
-    scenarios.extend(plant_scenarios(&cfg));
+    let mut scenario_notes = Vec::new();
+    if args.no_plant {
+        scenario_notes.push("closed-loop plant scenarios skipped (--no-plant)".to_string());
+    } else {
+        let (s, n) = plant::scenarios(&cfg);
+        scenarios.extend(s);
+        scenario_notes.extend(n);
+    }
     let production = fmt == Formats::PRODUCTION;
     let c = if production {
         let mut c = core::<Fx>(&cfg, &tol, &fmt, &scenarios, &|fs| grid(fs))?;
@@ -1072,20 +1086,16 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
             .iter()
             .map(|s| (s.name.clone(), s.source.clone(), s.ticks.len()))
             .collect(),
+        scenario_notes,
         recommendations,
         sweep,
         target: Target {
             available: false,
-            note: "target: not available (no QEMU comparison implemented in this build)".into(),
+            note: "target: not available: the QEMU launcher (`hil::qemu`, firmware branch) is not in this build".into(),
         },
         checks,
         verdict,
     })
-}
-
-/// The closed-loop plant scenarios (none in this build).
-fn plant_scenarios(_cfg: &Config) -> Vec<Scenario> {
-    Vec::new()
 }
 
 fn command_line(a: &AuditArgs) -> String {
@@ -1107,6 +1117,9 @@ fn command_line(a: &AuditArgs) -> String {
     }
     if a.no_sweep {
         s += " --no-sweep";
+    }
+    if a.no_plant {
+        s += " --no-plant";
     }
     if let Some(p) = &a.json {
         s += &format!(" --json {}", p.display());
@@ -1147,15 +1160,26 @@ fn recommend(
                 1
             };
             let int_bits = need + 1;
+            let word = int_bits + frac;
+            let note = if word > 32 {
+                format!(
+                    "; {word} bits exceed an i32: in 32 bits keep Q{}.{} (margin {} bits)",
+                    need,
+                    32 - need,
+                    (32 - need) as i64 - frac as i64 + 2
+                )
+            } else {
+                String::new()
+            };
             Recommendation {
                 signal: s.name.clone(),
                 controller: s.controller.clone(),
                 peak_pu: peak,
                 int_bits,
                 frac_bits: frac,
-                word: int_bits + frac,
+                word,
                 format: format!("Q{int_bits}.{frac}"),
-                margin: format!("+1 integer bit (x2) over the observed peak; {fmargin}"),
+                margin: format!("+1 integer bit (x2) over the observed peak; {fmargin}{note}"),
             }
         })
         .collect()

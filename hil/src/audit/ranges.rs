@@ -264,8 +264,9 @@ pub struct Observed {
     pub traces: Vec<(String, Vec<ErrSample>)>,
 }
 
+/// Quantise an input; a non-finite one becomes 0 (`Fx::from_f64` panics on NaN).
 fn q<T: Sample>(v: f64) -> T {
-    T::from_f64(v)
+    T::from_f64(if v.is_finite() { v } else { 0.0 })
 }
 
 /// Run every scenario twice (yaw mode lead, then gain; traction on) with sample type
@@ -387,6 +388,9 @@ pub fn observe<T: Sample>(
                     let raw = match mode {
                         YawMode::Lead => {
                             let ls1 = *fx.lead_state();
+                            // The lead's input as it ran (after the optional y'
+                            // predictor): the state keeps it exactly.
+                            let x = ls1.x1.to_f64();
                             let m = x + ls0.x1.to_f64();
                             put(Sig::LeadSum, m);
                             put(Sig::LeadErr, m * lead.g_half - ls0.z.to_f64());

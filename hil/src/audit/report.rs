@@ -274,6 +274,9 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
     for (n, src, k) in &a.scenarios {
         let _ = writeln!(w, "| {n} | {k} | {src} |");
     }
+    for n in &a.scenario_notes {
+        let _ = writeln!(w, "\nNote: {n}.");
+    }
     let _ = writeln!(
         w,
         "\nEach scenario runs twice (yaw lead, yaw gain; traction on), fixed point and f64 \
@@ -282,12 +285,13 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
     let _ = writeln!(w, "## Ranges and headroom\n");
     let _ = writeln!(
         w,
-        "| signal | controller | state | min (SI) | max (SI) | unit | peak (pu) | headroom (bits) | overflows | worst scenario |\n|---|---|---|---|---|---|---|---|---|---|"
+        "| # | signal | controller | state | min (SI) | max (SI) | unit | peak (pu) | headroom (bits) | overflows | worst scenario |\n|---|---|---|---|---|---|---|---|---|---|---|"
     );
-    for r in o.signals.iter().filter(|r| r.samples > 0) {
+    for (i, r) in o.signals.iter().filter(|r| r.samples > 0).enumerate() {
         let _ = writeln!(
             w,
-            "| {} | {} | {} | {:.4e} | {:.4e} | {} | {:.4} | {:.2} | {} | {} |",
+            "| {} | {} | {} | {} | {:.4e} | {:.4e} | {} | {:.4} | {:.2} | {} | {} |",
+            i,
             r.name,
             r.controller,
             if r.state { "yes" } else { "" },
@@ -341,6 +345,24 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
             n.unit,
             n.max_wire_lsb,
             n.bits_lost
+        );
+    }
+    if let Some(worst) = o
+        .noise
+        .iter()
+        .filter(|n| n.output == "u_a" && n.max_wire_lsb > a.tolerances.noise_wire_lsb.0)
+        .max_by(|x, y| x.max_lsb.total_cmp(&y.max_lsb))
+    {
+        let _ = writeln!(
+            w,
+            "\nFinding: the largest `u_a` error ({:.0} LSB = {:.3e} V in `{}`) is a drift, \
+             not noise: the PI integrator adds `Ki e` rounded to nearest every step; `Ki` is \
+             4e-5 pu at 5 kHz, so with a slowly varying error `e` the rounding error has a \
+             bias, and an open-loop replay of 20 s (1e5 steps) sums it. In closed loop the \
+             current loop absorbs it (a drift of this size is cancelled by a current error of \
+             about drift rate / (Kp/Ti), i.e. milliamperes). First-order error feedback on \
+             the increment (carry the sub-LSB remainder to the next step) removes the bias.",
+            worst.max_lsb, worst.max_si, worst.scenario
         );
     }
     let _ = writeln!(w, "\n## Recommended formats\n");

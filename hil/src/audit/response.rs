@@ -322,9 +322,12 @@ pub fn coefficients<T: Sample>(
 }
 
 /// The configuration that isolates `kind` inside the whole controller: yaw mode lead or
-/// gain with traction off, or yaw passive with traction on.
+/// gain with traction off, or yaw passive with traction on; the y' predictor off.
 pub fn isolate(kind: Kind, base: &Config) -> Config {
     let mut c = *base;
+    // The y' predictor (delay compensation, off by default) is not part of the lead's
+    // or the gain's transfer function: audited without it.
+    c.yaw_predict_ticks = 0.0;
     match kind {
         Kind::YawLead => {
             c.yaw_mode = YawMode::Lead;

@@ -1,0 +1,210 @@
+//! Closed-loop scenarios from the plant simulator: the f64 reference controller runs the
+//! wheelset (sim-host's nonlinear plant, RK4) on the `curve` and `beating` tracks, and
+//! on `curve` with link faults; the controller's inputs and events are recorded tick by
+//! tick and replayed through the fixed-point and f64 controllers ([`super::ranges`]).
+//!
+//! Fault runs emulate the device runtime's policy at the controller: a missing frame
+//! holds the last valid inputs; after [`HOLD_TICKS`] missing frames in a row the
+//! controller enters the safe state, and leaves it at the next valid frame. The plant
+//! sees the resulting actuation (closed loop), so the recorded inputs include the
+//! wheelset's response to the safe state.
+
+use sim_host::control::{Actuation, Measurements, SampledController};
+use sim_host::params::Params;
+use sim_host::scenario::Scenario as Track;
+use sim_host::sim::{run_sampled, ActuatorModel, SensorModel};
+use wheelset_control::{Config, Controller, Inputs};
+
+use super::ranges::{Event, Scenario, Tick};
+
+/// Missing frames tolerated before the safe state (the runtime's default: 2 ms at 5 kHz).
+pub const HOLD_TICKS: u32 = 10;
+
+/// Which frames are lost.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Faults {
+    None,
+    /// One outage `[from, to)` seconds.
+    Outage(f64, f64),
+    /// Each frame lost independently with this probability (deterministic generator).
+    Drops(f64),
+}
+
+struct Recorder {
+    ctrl: Controller<f64>,
+    cfg: Config,
+    period_ns: u64,
+    faults: Faults,
+    rng: u64,
+    held: [f64; 4],
+    missing: u32,
+    safe: bool,
+    ticks: Vec<Tick>,
+    frames_lost: u64,
+    safe_entries: u64,
+}
+
+impl Recorder {
+    fn lost(&mut self, t_ns: u64) -> bool {
+        let t = t_ns as f64 * 1e-9;
+        match self.faults {
+            Faults::None => false,
+            Faults::Outage(a, b) => t >= a && t < b,
+            Faults::Drops(p) => {
+                self.rng = self
+                    .rng
+                    .wrapping_mul(6_364_136_223_846_793_005)
+                    .wrapping_add(1_442_695_040_888_963_407);
+                ((self.rng >> 11) as f64 / (1u64 << 53) as f64) < p
+            }
+        }
+    }
+}
+
+impl SampledController for Recorder {
+    fn period_ns(&self) -> u64 {
+        self.period_ns
+    }
+
+    fn step(&mut self, t_ns: u64, m: &Measurements) -> Actuation {
+        let mut event = None;
+        if self.lost(t_ns) && !self.ticks.is_empty() {
+            self.frames_lost += 1;
+            self.missing += 1;
+            if self.missing > HOLD_TICKS && !self.safe {
+                self.safe = true;
+                self.safe_entries += 1;
+                event = Some(Event::Safe(true));
+            }
+        } else {
+            self.held = [m.yd_mps, m.i_a, m.w_m, m.demand_nm];
+            self.missing = 0;
+            if self.safe {
+                self.safe = false;
+                event = Some(Event::Safe(false));
+            }
+        }
+        if let Some(Event::Safe(b)) = event {
+            self.ctrl.set_safe(b);
+        }
+        let si = self.held;
+        self.ticks.push(Tick { si, event });
+        let s = self.cfg.scales;
+        let o = self
+            .ctrl
+            .tick(&Inputs::<f64>::from_si(&s, si[0], si[1], si[2], si[3]));
+        let (t_psi, u_a) = o.to_si(&s);
+        Actuation { t_psi, u_a }
+    }
+}
+
+fn gcd(a: u64, b: u64) -> u64 {
+    if b == 0 {
+        a
+    } else {
+        gcd(b, a % b)
+    }
+}
+
+/// Run one closed loop; `Err` says why it could not run.
+fn record(cfg: &Config, track: &str, faults: Faults, name: &str) -> Result<Scenario, String> {
+    let mut sc = Track::load(track, &Params::default()).map_err(|e| e.to_string())?;
+    let period_ns = 1_000_000_000u64 / cfg.base_rate_hz as u64;
+    if period_ns * cfg.base_rate_hz as u64 != 1_000_000_000 {
+        return Err(format!(
+            "base period of {} Hz is not a whole number of ns",
+            cfg.base_rate_hz
+        ));
+    }
+    if !period_ns.is_multiple_of(sc.dt_ns) {
+        let dt = gcd(period_ns, sc.dt_ns);
+        if dt < 10_000 || !sc.output_dt_ns.is_multiple_of(dt) {
+            return Err(format!(
+                "the control period {period_ns} ns does not fit the plant step {} ns",
+                sc.dt_ns
+            ));
+        }
+        sc.dt_ns = dt;
+    }
+    let ctrl = Controller::<f64>::try_new(cfg).map_err(|e| e.to_string())?;
+    let mut rec = Recorder {
+        ctrl,
+        cfg: *cfg,
+        period_ns,
+        faults,
+        rng: 0x00fa_0175,
+        held: [0.0; 4],
+        missing: 0,
+        safe: false,
+        ticks: Vec::new(),
+        frames_lost: 0,
+        safe_entries: 0,
+    };
+    // One period of computation/transport delay, as the device loop runs.
+    let mut act = ActuatorModel::ideal();
+    act.delay_ns = period_ns;
+    run_sampled(
+        &sc,
+        &mut rec,
+        &mut SensorModel::ideal(),
+        &mut act,
+        false,
+        "f64 reference",
+    )
+    .map_err(|e| format!("{e:?}"))?;
+    if let Some(k) = rec
+        .ticks
+        .iter()
+        .position(|t| t.si.iter().any(|v| !v.is_finite()))
+    {
+        return Err(format!(
+            "the closed loop diverged (non-finite measurement at t = {:.4} s)",
+            k as f64 * period_ns as f64 * 1e-9
+        ));
+    }
+    let fault_note = match faults {
+        Faults::None => String::new(),
+        _ => format!(
+            "; {} frames lost, {} safe-state entries (hold {HOLD_TICKS} ticks, then safe, \
+             recover on the next valid frame)",
+            rec.frames_lost, rec.safe_entries
+        ),
+    };
+    Ok(Scenario {
+        name: name.to_string(),
+        source: format!(
+            "closed loop: sim-host plant, track `{track}`, f64 controller (yaw lead, \
+             traction on), one period of actuation delay, controller inputs recorded{}",
+            match faults {
+                Faults::None => String::new(),
+                Faults::Outage(a, b) => format!("; link outage {a} s .. {b} s{fault_note}"),
+                Faults::Drops(p) => format!("; random frame loss p = {p}{fault_note}"),
+            }
+        ),
+        ticks: rec.ticks,
+    })
+}
+
+/// The closed-loop scenarios: `curve`, `beating`, `curve` with a 30 ms outage at 6 s (hold, then 20 ms in the safe state),
+/// `curve` with 2 % random frame loss. Returns the scenarios and a note per scenario
+/// that could not run.
+pub fn scenarios(cfg: &Config) -> (Vec<Scenario>, Vec<String>) {
+    let mut cfg = *cfg;
+    cfg.yaw_mode = wheelset_control::YawMode::Lead;
+    cfg.traction_enabled = true;
+    let runs = [
+        ("curve", Faults::None, "curve"),
+        ("beating", Faults::None, "beating"),
+        ("curve", Faults::Outage(6.0, 6.03), "fault_outage"),
+        ("curve", Faults::Drops(0.02), "fault_drops"),
+    ];
+    let mut out = Vec::new();
+    let mut notes = Vec::new();
+    for (track, f, name) in runs {
+        match record(&cfg, track, f, name) {
+            Ok(s) => out.push(s),
+            Err(e) => notes.push(format!("scenario {name}: not run: {e}")),
+        }
+    }
+    (out, notes)
+}

@@ -1,0 +1,269 @@
+//! The in-process target: the firmware's own [`Runtime`] (control core, protocol, fault
+//! policy) behind the simulated serial link of `sim_host::link`, on simulated time.
+//! Needs nothing installed; deterministic for a seed.
+//!
+//! The device ticks on its own timer: tick `j` at `t_j = j T + phase`, with `phase` =
+//! the worst-case Sensor frame's wire time + the link latency (so the frame sent at a
+//! sample instant `k T` has arrived when the tick after it runs; the same schedule as
+//! `sim_host::device`). Tick `j` takes the bytes that arrived by `t_j`, runs
+//! [`Runtime::tick`] and hands its output to the down link at `t_j + exec`, where `exec`
+//! is a simulated execution time (0 by default; see [`DeviceFault::TooSlow`]), which is
+//! also what the next Actuation frame reports as `exec` (ns): the verdicts stay
+//! deterministic. The host's own wall-clock time per [`Runtime::tick`] call is measured
+//! too and reported as an informative figure ([`Transport::extra`]: `host_tick_ns`),
+//! never judged.
+//!
+//! Deliberately broken devices ([`DeviceFault`]) exist so the harness's checks can be
+//! shown to fail.
+
+use std::time::Instant;
+
+use sim_host::device::SENSOR_WORST_BYTES;
+use sim_host::link::{wire_ns, Link, LinkConfig, RxPort};
+use wheelset_control::Fx;
+use wheelset_proto::{encode_vec, Decoder, Message};
+use wheelset_runtime::{Runtime, RuntimeConfig, RuntimeError};
+
+use crate::transport::{Clock, LinkAccounting, Transport, TransportError};
+
+/// A deliberately broken device, to prove the checks can fail.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum DeviceFault {
+    /// A correct device.
+    #[default]
+    None,
+    /// The yaw torque's sign is reversed (a wrong sign convention in the firmware).
+    WrongSign,
+    /// Every tick takes `exec_ns` of simulated time before its frame leaves (and reports
+    /// it as its execution time).
+    TooSlow {
+        /// Simulated execution time per tick, ns.
+        exec_ns: u64,
+    },
+    /// Every `every`-th outgoing frame has one bit flipped (a broken UART or buffer).
+    Corrupt {
+        /// Period of the corruption, frames (>= 1).
+        every: u32,
+    },
+}
+
+impl std::str::FromStr for DeviceFault {
+    type Err = String;
+
+    /// `none`, `wrong-sign`, `slow[:EXEC_US]` (default 300 us), `corrupt[:EVERY]`
+    /// (default every 10th frame).
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let (kind, arg) = match s.split_once(':') {
+            Some((k, a)) => (k, Some(a)),
+            None => (s, None),
+        };
+        let num = |a: Option<&str>, default: u64| -> Result<u64, String> {
+            match a {
+                None => Ok(default),
+                Some(a) => a
+                    .parse::<u64>()
+                    .ok()
+                    .filter(|&v| v > 0)
+                    .ok_or_else(|| format!("`{a}` is not a positive whole number")),
+            }
+        };
+        match kind {
+            "none" => Ok(Self::None),
+            "wrong-sign" => Ok(Self::WrongSign),
+            "slow" => Ok(Self::TooSlow {
+                exec_ns: num(arg, 300)? * 1_000,
+            }),
+            "corrupt" => Ok(Self::Corrupt {
+                every: u32::try_from(num(arg, 10)?).map_err(|e| e.to_string())?,
+            }),
+            _ => Err(format!(
+                "unknown device fault `{s}` (known: none, wrong-sign, slow[:EXEC_US], corrupt[:EVERY])"
+            )),
+        }
+    }
+}
+
+/// The in-process device behind the simulated link.
+pub struct InProc {
+    link: Link,
+    latency_ns: u64,
+    baud: u32,
+    rt: Runtime<Fx>,
+    dev_rx: RxPort,
+    host_rx: RxPort,
+    fault: DeviceFault,
+    period_ns: u64,
+    phase_ns: u64,
+    next_tick: u64,
+    last_exec: u32,
+    frames_out: u64,
+    /// Arrival time of the last byte of each down-link frame (index: frame id).
+    arrival_ns: Vec<u64>,
+    host_tick_ns: Vec<f64>,
+}
+
+impl InProc {
+    /// The runtime with `rt_cfg` behind a link with `link_cfg`.
+    pub fn try_new(
+        rt_cfg: RuntimeConfig,
+        link_cfg: &LinkConfig,
+        fault: DeviceFault,
+    ) -> Result<Self, RuntimeError> {
+        let rt = Runtime::<Fx>::try_new(rt_cfg)?;
+        let hz = u64::from(rt.config().control.base_rate_hz.max(1));
+        Ok(Self {
+            link: Link::new(link_cfg),
+            latency_ns: link_cfg.latency_ns,
+            baud: link_cfg.baud,
+            rt,
+            dev_rx: RxPort::new(),
+            host_rx: RxPort::new(),
+            fault,
+            period_ns: 1_000_000_000 / hz,
+            phase_ns: wire_ns(SENSOR_WORST_BYTES, link_cfg.baud) + link_cfg.latency_ns,
+            next_tick: 0,
+            last_exec: 0,
+            frames_out: 0,
+            arrival_ns: Vec::new(),
+            host_tick_ns: Vec::new(),
+        })
+    }
+
+    /// The device's runtime (read only).
+    #[must_use]
+    pub fn runtime(&self) -> &Runtime<Fx> {
+        &self.rt
+    }
+
+    fn tick(&mut self, t_ns: u64) {
+        let (rt, port) = (&mut self.rt, &mut self.dev_rx);
+        self.link.up.deliver(t_ns, |run, id| {
+            rt.receive(run);
+            port.push(run, id, |_| {});
+        });
+        let start = Instant::now();
+        let out = self.rt.tick(self.last_exec).to_vec();
+        let measured = u32::try_from(start.elapsed().as_nanos()).unwrap_or(u32::MAX);
+        let (out, exec_ns) = match self.fault {
+            DeviceFault::None => (out, 0),
+            DeviceFault::WrongSign => (negate_torque(&out), 0),
+            DeviceFault::TooSlow { exec_ns } => (out, exec_ns),
+            DeviceFault::Corrupt { every } => {
+                let mut out = out;
+                if self.frames_out.is_multiple_of(u64::from(every.max(1))) && out.len() > 3 {
+                    out[2] ^= 0x10;
+                }
+                (out, 0)
+            }
+        };
+        self.last_exec = u32::try_from(exec_ns).unwrap_or(u32::MAX);
+        self.frames_out += 1;
+        self.host_tick_ns.push(f64::from(measured));
+        // Each frame (Actuation, then a Status if requested) is its own frame on the link,
+        // stamped with the arrival of its last byte.
+        for frame in out.split_inclusive(|&b| b == 0) {
+            let id = self.link.down.send(t_ns + exec_ns, frame) as usize;
+            if self.arrival_ns.len() <= id {
+                self.arrival_ns.resize(id + 1, 0);
+            }
+            self.arrival_ns[id] = self.link.down.line_free_ns() + self.latency_ns;
+        }
+    }
+}
+
+/// Re-encodes every Actuation frame in `out` with the yaw torque negated.
+fn negate_torque(out: &[u8]) -> Vec<u8> {
+    let mut dec: Decoder = Decoder::new();
+    let mut res = Vec::with_capacity(out.len());
+    dec.feed(out, |r| {
+        if let Ok(mut m) = r {
+            if let Message::Actuation(a) = &mut m {
+                a.t_psi_dnm = a.t_psi_dnm.saturating_neg();
+            }
+            if let Ok(f) = encode_vec(&m) {
+                res.extend_from_slice(&f);
+            }
+        }
+    });
+    res
+}
+
+impl Transport for InProc {
+    fn name(&self) -> String {
+        "inproc".into()
+    }
+
+    fn clock(&self) -> Clock {
+        Clock::Simulated
+    }
+
+    fn baud(&self) -> u32 {
+        self.baud
+    }
+
+    fn exec_unit(&self) -> (&'static str, f64) {
+        ("ns", 1.0)
+    }
+
+    fn send(&mut self, t_ns: u64, bytes: &[u8]) -> Result<(), TransportError> {
+        self.link.up.send(t_ns, bytes);
+        Ok(())
+    }
+
+    fn recv(
+        &mut self,
+        deadline_ns: u64,
+        sink: &mut dyn FnMut(u64, &[u8]),
+    ) -> Result<(), TransportError> {
+        loop {
+            let t = self.next_tick * self.period_ns + self.phase_ns;
+            if t > deadline_ns {
+                break;
+            }
+            self.tick(t);
+            self.next_tick += 1;
+        }
+        let (port, arrival) = (&mut self.host_rx, &self.arrival_ns);
+        self.link.down.deliver(deadline_ns, |run, id| {
+            port.push(run, id, |_| {});
+            let at = arrival.get(id as usize).copied().unwrap_or(deadline_ns);
+            sink(at, run);
+        });
+        Ok(())
+    }
+
+    fn extra(&self) -> Option<serde_json::Value> {
+        let s = crate::timing::Stats::of(&self.host_tick_ns);
+        Some(serde_json::json!({ "host_tick_ns": s }))
+    }
+
+    fn link_accounting(&self) -> Option<LinkAccounting> {
+        Some(LinkAccounting {
+            up: self.dev_rx.account(&self.link.up),
+            down: self.host_rx.account(&self.link.down),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn device_fault_parses_and_refuses() {
+        assert_eq!("none".parse(), Ok(DeviceFault::None));
+        assert_eq!("wrong-sign".parse(), Ok(DeviceFault::WrongSign));
+        assert_eq!(
+            "slow".parse(),
+            Ok(DeviceFault::TooSlow { exec_ns: 300_000 })
+        );
+        assert_eq!(
+            "slow:50".parse(),
+            Ok(DeviceFault::TooSlow { exec_ns: 50_000 })
+        );
+        assert_eq!("corrupt:3".parse(), Ok(DeviceFault::Corrupt { every: 3 }));
+        for bad in ["slow:0", "slow:x", "corrupt:-1", "sideways"] {
+            assert!(bad.parse::<DeviceFault>().is_err(), "{bad}");
+        }
+    }
+}

@@ -1,0 +1,251 @@
+//! Outputs of a run: the verdict JSON (`--json`), the trajectory CSV (`--csv`, the
+//! columns of `sim-host`'s run CSV), and a Markdown report with SVG plots (`--report
+//! DIR`: `report.md`, `trajectories.svg`, `exec_histogram.svg`, `latency.svg`).
+
+use std::fmt::Write as _;
+use std::io;
+use std::path::{Path, PathBuf};
+
+use sim_host::sim::{Record, Trajectory};
+use sim_host::svg::{Figure, Plot, Series, Style};
+
+use crate::run::{RunOutcome, RunReport};
+
+fn create_parent(path: &Path) -> io::Result<()> {
+    match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => std::fs::create_dir_all(d),
+        _ => Ok(()),
+    }
+}
+
+/// Writes the verdict document as pretty JSON.
+pub fn write_json(report: &RunReport, path: &Path) -> io::Result<()> {
+    create_parent(path)?;
+    let text = serde_json::to_string_pretty(report).map_err(io::Error::other)?;
+    std::fs::write(path, text + "\n")
+}
+
+/// Writes the closed-loop trajectory as CSV (the columns of `sim-host run --csv`).
+pub fn write_csv(tr: &Trajectory, path: &Path) -> io::Result<()> {
+    create_parent(path)?;
+    let f = std::fs::File::create(path)?;
+    tr.write_csv(io::BufWriter::new(f))
+}
+
+fn series(tr: &Trajectory, label: &str, f: impl Fn(&Record) -> f64) -> Series {
+    Series::line(label, tr.records.iter().map(|r| (r.t_s, f(r))).collect())
+}
+
+/// The plotted signals: (title, unit label, scale, accessor).
+type Signal = (&'static str, &'static str, f64, fn(&Record) -> f64);
+
+const SIGNALS: [Signal; 5] = [
+    ("Lateral displacement y", "y (mm)", 1e3, |r| r.y_m),
+    ("Yaw angle psi", "psi (mrad)", 1e3, |r| r.psi_rad),
+    ("Control yaw torque T_ctrl", "T_ctrl (kN m)", 1e-3, |r| {
+        r.t_ctrl_nm
+    }),
+    ("Armature current i_a", "i_a (A)", 1.0, |r| r.i_a_a),
+    ("Armature voltage u_a", "u_a (V)", 1.0, |r| r.u_a_v),
+];
+
+/// Writes `report.md` and its SVG plots into `dir`; returns the files written.
+pub fn write_report(out: &RunOutcome, dir: &Path, command: &str) -> io::Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(dir)?;
+    let r = &out.report;
+    let mut files = Vec::new();
+    let mut fig = Figure::new(&format!(
+        "{} on {}: device (solid) vs f64 continuous reference (dashed)",
+        r.scenario, r.target
+    ));
+    for (title, unit, k, f) in SIGNALS {
+        fig = fig.panel(
+            Plot::new(title)
+                .x_label("t (s)")
+                .y_label(unit)
+                .series(series(&out.trajectory, "device", |x| f(x) * k))
+                .series(series(&out.reference, "reference", |x| f(x) * k).style(Style::Dashed)),
+        );
+    }
+    let p = dir.join("trajectories.svg");
+    fig.save(&p)?;
+    files.push(p);
+
+    let h = &r.timing.exec_histogram;
+    let edges_us: Vec<f64> = h.edges_ns.iter().map(|e| e * 1e-3).collect();
+    let counts: Vec<f64> = h.counts.iter().map(|&c| c as f64).collect();
+    let p = dir.join("exec_histogram.svg");
+    Figure::new(&format!(
+        "Execution time per tick ({}; {} ns per {})",
+        r.target, r.timing.exec_ns_per_unit, r.timing.exec_unit
+    ))
+    .panel(
+        Plot::histogram("Execution time", &edges_us, &counts)
+            .x_label("exec (us)")
+            .y_label("ticks"),
+    )
+    .save(&p)?;
+    files.push(p);
+
+    let md = markdown(out, command);
+    let p = dir.join("report.md");
+    std::fs::write(&p, md)?;
+    files.push(p);
+    Ok(files)
+}
+
+fn f(x: f64) -> String {
+    if x == 0.0 {
+        "0".into()
+    } else if x.abs() >= 1e4 || x.abs() < 1e-3 {
+        format!("{x:.3e}")
+    } else {
+        format!("{x:.4}")
+    }
+}
+
+/// The Markdown text of the report.
+#[must_use]
+pub fn markdown(out: &RunOutcome, command: &str) -> String {
+    let r = &out.report;
+    let t = &r.timing;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "# HIL run: {} on {} ({})\n",
+        r.scenario, r.target, r.verdict
+    );
+    let _ = writeln!(s, "Reproduce: `{command}`\n");
+    let _ = writeln!(
+        s,
+        "| | |\n|---|---|\n| verdict | **{}** |\n| target | {} ({:?} clock) |\n| scenario | {} ({}) |\n| control | {:?} |\n| link faults | {} |\n| device fault | {} |\n",
+        r.verdict,
+        r.target,
+        t.clock,
+        r.scenario,
+        r.scenario_source,
+        r.control,
+        if r.faults.is_empty() { "none" } else { &r.faults },
+        r.device_fault
+    );
+    let _ = writeln!(s, "## Timing ({})\n", t.verdict);
+    let _ = writeln!(
+        s,
+        "Period T = {} ns, {} periods, {} baud.\n",
+        t.period_ns, t.periods, t.baud
+    );
+    let _ = writeln!(
+        s,
+        "| figure | min | mean | p99 | max |\n|---|---|---|---|---|"
+    );
+    let _ = writeln!(
+        s,
+        "| execution time ({}) | {} | {} | {} | {} |",
+        t.exec_unit,
+        f(t.exec_units.min),
+        f(t.exec_units.mean),
+        f(t.exec_units.p99),
+        f(t.exec_units.max)
+    );
+    let _ = writeln!(
+        s,
+        "| latency (ns{}) | {} | {} | {} | {} |\n",
+        if t.latency_modelled { ", modelled" } else { "" },
+        f(t.latency_ns.min),
+        f(t.latency_ns.mean),
+        f(t.latency_ns.p99),
+        f(t.latency_ns.max)
+    );
+    let _ = writeln!(
+        s,
+        "Jitter max {} ns (RMS {} ns); missed ticks {}; device tick gaps {}; overruns {}; \
+         CPU mean {:.3} % / max {:.3} %; link {:.1} % ({:.1} + {:.1} bytes per period).\n",
+        t.jitter_max_ns.map_or("n/a".into(), f),
+        t.jitter_rms_ns.map_or("n/a".into(), f),
+        t.missed_ticks,
+        t.tick_gaps,
+        t.overruns,
+        t.cpu_mean * 100.0,
+        t.cpu_max * 100.0,
+        t.link_utilisation * 100.0,
+        t.bytes_up_per_period,
+        t.bytes_down_per_period
+    );
+    let _ = writeln!(
+        s,
+        "| budget | value (of T) | warn | fail | verdict |\n|---|---|---|---|---|"
+    );
+    for c in &t.checks {
+        let _ = writeln!(
+            s,
+            "| timing.{} | {} | {} | {} | {}{} |",
+            c.name,
+            f(c.value),
+            c.limit.warn,
+            c.limit.fail,
+            c.verdict,
+            if c.applicable { "" } else { " (n/a)" }
+        );
+    }
+    let _ = writeln!(s, "\n![execution time](exec_histogram.svg)\n");
+    let n = &r.numerics;
+    let _ = writeln!(
+        s,
+        "## Numerics ({})\n\nAgainst the {}.\n",
+        n.verdict, n.reference
+    );
+    let _ = writeln!(
+        s,
+        "| signal | max error | at t (s) | RMS error | reference peak | allowed | verdict |\n|---|---|---|---|---|---|---|"
+    );
+    for c in &n.signals {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {:.3} | {} | {} | {} | {} |",
+            c.name,
+            f(c.max_err),
+            c.max_err_t_s,
+            f(c.rms_err),
+            f(c.ref_peak),
+            f(c.allowed),
+            c.verdict
+        );
+    }
+    let _ = writeln!(s, "\n![trajectories](trajectories.svg)\n");
+    let fr = &r.frames;
+    let _ = writeln!(
+        s,
+        "## Frames ({}; source: {})\n\n| direction | sent | received | rejected | dropped | in flight |\n|---|---|---|---|---|---|",
+        r.frames_verdict, fr.source
+    );
+    for (name, d) in [("host -> device", fr.up), ("device -> host", fr.down)] {
+        let _ = writeln!(
+            s,
+            "| {name} | {} | {} | {} | {} | {} |",
+            d.sent, d.received, d.rejected, d.dropped, d.in_flight
+        );
+    }
+    let _ = writeln!(
+        s,
+        "| total | {} | {} | {} | {} | {} |",
+        fr.sent, fr.received, fr.rejected, fr.dropped, fr.in_flight
+    );
+    if let Some(st) = &r.device_status {
+        let _ = writeln!(
+            s,
+            "\nDevice counters: ticks {}, rx ok {}, seq gaps {}, held ticks {}, safe ticks {} \
+             (entries {}, exits {}), yaw saturated {}, traction saturated {}, inputs clamped {}.",
+            st.ticks,
+            st.rx_ok,
+            st.seq_gaps,
+            st.held_ticks,
+            st.safe_ticks,
+            st.safe_entries,
+            st.safe_exits,
+            st.yaw_sat,
+            st.traction_sat,
+            st.input_clamped
+        );
+    }
+    s
+}

@@ -1,0 +1,341 @@
+//! `hil run`: one closed loop of the plant with the device on a target, checked.
+//!
+//! The plant is `sim_host::sim::run_sampled` (RK4 at the scenario's step) with the
+//! device as its sampled controller ([`crate::closed_loop`]) and an actuator delay of
+//! one control period; the reference is `sim_host::sim::run_continuous` with the same
+//! scenario and law. The device runs the control core's default configuration
+//! (`wheelset_control::Config::default()`: 5 kHz, Q4.28 fixed point) with the yaw law
+//! chosen by `--control`.
+
+use std::fmt;
+use std::time::Duration;
+
+use indicatif::{ProgressBar, ProgressStyle};
+use serde::Serialize;
+use sim_host::control::YawLaw;
+use sim_host::device::{ACTUATION_WORST_BYTES, SENSOR_WORST_BYTES};
+use sim_host::link::{check_budget, LinkConfig};
+use sim_host::params::Params;
+use sim_host::scenario::Scenario;
+use sim_host::sim::{run_continuous, run_sampled, ActuatorModel, SensorModel, Trajectory};
+use wheelset_proto::Status;
+use wheelset_runtime::RuntimeConfig;
+
+use crate::budget::{Budgets, Verdict};
+use crate::closed_loop::DeviceController;
+use crate::frames::FramesReport;
+use crate::inproc::{DeviceFault, InProc};
+use crate::numerics::{compare, NumericsReport};
+use crate::serial::{Pace, Serial};
+use crate::timing::{analyse, TimingContext, TimingReport};
+use crate::transport::{Transport, TransportError};
+
+/// Default core clock of a board: the STM32F446RE at 180 MHz.
+pub const DEFAULT_CPU_HZ: f64 = 180e6;
+
+/// Where the device runs.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Target {
+    /// In process, over the simulated link.
+    InProc,
+    /// The firmware under QEMU (mps2-an386), lock-step.
+    Qemu,
+    /// A board on a serial port.
+    Serial(String),
+}
+
+impl std::str::FromStr for Target {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "inproc" => Ok(Self::InProc),
+            "qemu" => Ok(Self::Qemu),
+            _ => match s.strip_prefix("serial:") {
+                Some(p) if !p.is_empty() => Ok(Self::Serial(p.to_string())),
+                _ => Err(format!(
+                    "unknown target `{s}` (expected inproc, qemu or serial:PATH)"
+                )),
+            },
+        }
+    }
+}
+
+impl fmt::Display for Target {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::InProc => f.write_str("inproc"),
+            Self::Qemu => f.write_str("qemu"),
+            Self::Serial(p) => write!(f, "serial:{p}"),
+        }
+    }
+}
+
+/// The yaw law of the device (and of the reference).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Law {
+    /// `T_psi = K y'`.
+    Gain,
+    /// `T_psi = Ks(s) y'`.
+    Lead,
+}
+
+impl Law {
+    fn yaw(self) -> YawLaw {
+        match self {
+            Self::Gain => YawLaw::Gain,
+            Self::Lead => YawLaw::Lead,
+        }
+    }
+
+    fn device(self) -> wheelset_control::YawMode {
+        match self {
+            Self::Gain => wheelset_control::YawMode::Gain,
+            Self::Lead => wheelset_control::YawMode::Lead,
+        }
+    }
+}
+
+/// Everything a run needs.
+#[derive(Debug, Clone)]
+pub struct RunOptions {
+    /// Target.
+    pub target: Target,
+    /// Built-in scenario name or a scenario file.
+    pub scenario: String,
+    /// Yaw law.
+    pub control: Law,
+    /// The text of `--faults`, for the report.
+    pub faults_spec: String,
+    /// A deliberately broken device (in process only).
+    pub device_fault: DeviceFault,
+    /// Budgets.
+    pub budgets: Budgets,
+    /// Link: baud, latency, faults and seed (faults only on the simulated link; the
+    /// baud also for the other targets' link utilisation).
+    pub link: LinkConfig,
+    /// Pacing of the serial target.
+    pub pace: Pace,
+    /// Core clock of a board, Hz: converts its `exec` cycles to ns (serial target).
+    pub cpu_hz: f64,
+    /// Longest wait for a lock-step answer.
+    pub timeout: Duration,
+    /// Show a progress bar.
+    pub progress: bool,
+}
+
+impl Default for RunOptions {
+    fn default() -> Self {
+        Self {
+            target: Target::InProc,
+            scenario: "curve".into(),
+            control: Law::Lead,
+            faults_spec: String::new(),
+            device_fault: DeviceFault::None,
+            budgets: Budgets::default(),
+            link: LinkConfig::default(),
+            pace: Pace::RealTime,
+            cpu_hz: DEFAULT_CPU_HZ,
+            timeout: Duration::from_secs(5),
+            progress: false,
+        }
+    }
+}
+
+/// Why a run could not be made (as opposed to a run that fails its checks).
+#[derive(Debug)]
+pub enum RunError {
+    /// Bad input: scenario file, configuration, budget (exit code 2).
+    Input(String),
+    /// The target could not be used (exit code 3).
+    Target(TransportError),
+}
+
+impl fmt::Display for RunError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Input(m) => f.write_str(m),
+            Self::Target(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl std::error::Error for RunError {}
+
+/// The verdict document (`--json`).
+#[derive(Debug, Clone, Serialize)]
+pub struct RunReport {
+    /// Worst of timing, numerics and frames.
+    pub verdict: Verdict,
+    /// Target.
+    pub target: String,
+    /// Scenario name.
+    pub scenario: String,
+    /// Scenario source.
+    pub scenario_source: String,
+    /// Yaw law.
+    pub control: Law,
+    /// `--faults` as given.
+    pub faults: String,
+    /// The deliberately broken device, if any.
+    pub device_fault: String,
+    /// Timing.
+    pub timing: TimingReport,
+    /// Numerics.
+    pub numerics: NumericsReport,
+    /// Frame accounting.
+    pub frames: FramesReport,
+    /// Verdict of the frame accounting (fail if it does not add up; else the rejected and
+    /// dropped fractions against `frames.*` budgets).
+    pub frames_verdict: Verdict,
+    /// The device's counters (its Status frame), if it arrived.
+    pub device_status: Option<Status>,
+    /// Host-side values clamped while quantising to the wire.
+    pub host_clamped: u64,
+    /// Transport-specific figures (informative; e.g. the host's time per tick in process).
+    pub transport: Option<serde_json::Value>,
+}
+
+/// A finished run: the report and both trajectories.
+pub struct RunOutcome {
+    /// The checks.
+    pub report: RunReport,
+    /// The closed loop through the device.
+    pub trajectory: Trajectory,
+    /// The f64 continuous reference.
+    pub reference: Trajectory,
+}
+
+/// Opens the transport for `opts.target`.
+pub fn open_transport(
+    opts: &RunOptions,
+    rt: RuntimeConfig,
+) -> Result<Box<dyn Transport>, RunError> {
+    match &opts.target {
+        Target::InProc => {
+            let t = InProc::try_new(rt, &opts.link, opts.device_fault)
+                .map_err(|e| RunError::Input(e.to_string()))?;
+            Ok(Box::new(t))
+        }
+        Target::Qemu => Err(RunError::Target(TransportError::Unavailable(
+            "the QEMU transport is not built yet".into(),
+        ))),
+        Target::Serial(p) => {
+            let t = Serial::open(p, opts.link.baud, opts.pace, opts.cpu_hz, opts.timeout)
+                .map_err(RunError::Target)?;
+            Ok(Box::new(t))
+        }
+    }
+}
+
+/// Runs the closed loop and the checks.
+pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
+    let sc = Scenario::load(&opts.scenario, &Params::default())
+        .map_err(|e| RunError::Input(e.to_string()))?;
+    let mut rt = RuntimeConfig::default();
+    rt.control.yaw_mode = opts.control.device();
+    let period_ns = 1_000_000_000 / u64::from(rt.control.base_rate_hz.max(1));
+    check_budget(
+        SENSOR_WORST_BYTES,
+        ACTUATION_WORST_BYTES,
+        opts.link.baud,
+        opts.link.latency_ns,
+        period_ns,
+    )
+    .map_err(|e| RunError::Input(e.to_string()))?;
+    let mut tr = open_transport(opts, rt)?;
+    let progress = opts.progress.then(|| {
+        let pb = ProgressBar::new(sc.duration_ns / 1_000_000);
+        pb.set_style(
+            ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} ms simulated")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        pb.set_message(format!("hil run {} {}", tr.name(), sc.name));
+        pb
+    });
+    let ctx = TimingContext {
+        clock: tr.clock(),
+        period_ns,
+        baud: tr.baud(),
+        latency_ns: if opts.target == Target::InProc {
+            opts.link.latency_ns
+        } else {
+            0
+        },
+        exec_unit: tr.exec_unit().0,
+        exec_ns_per_unit: tr.exec_unit().1,
+    };
+    let target_name = tr.name();
+    let mut ctrl = DeviceController::new(tr.as_mut(), period_ns, sc.params.k_m, progress);
+    let mut actuator = ActuatorModel {
+        delay_ns: period_ns,
+        ..ActuatorModel::ideal()
+    };
+    let label = format!("{} on {}", law_name(opts.control), target_name);
+    let trajectory = run_sampled(
+        &sc,
+        &mut ctrl,
+        &mut SensorModel::ideal(),
+        &mut actuator,
+        false,
+        &label,
+    )
+    .map_err(|e| RunError::Input(format!("scenario {}: {e}", sc.source)))?;
+    let t_end = ctrl.periods.last().map_or(0, |p| p.t_ns + period_ns);
+    ctrl.finish(t_end);
+    if let Some(e) = ctrl.error.take() {
+        return Err(RunError::Target(e));
+    }
+    let reference = run_continuous(&sc, opts.control.yaw());
+    let timing = analyse(
+        &ctx,
+        &ctrl.periods,
+        &ctrl.actuations,
+        (ctrl.host.bytes_sent, ctrl.host.bytes_received),
+        &opts.budgets.timing,
+    );
+    let numerics = compare(&trajectory, &reference, &opts.budgets.numerics);
+    let (periods, actuations, host, status) = (
+        std::mem::take(&mut ctrl.periods),
+        std::mem::take(&mut ctrl.actuations),
+        ctrl.host,
+        ctrl.status,
+    );
+    drop((periods, actuations));
+    drop(ctrl);
+    let transport = tr.extra();
+    let frames = match tr.link_accounting() {
+        Some(l) => FramesReport::from_link(&l),
+        None => FramesReport::from_status(status.as_ref(), &host),
+    };
+    let frames_verdict = crate::frames::judge(&frames, &opts.budgets.frames);
+    let verdict = timing.verdict.max(numerics.verdict).max(frames_verdict);
+    Ok(RunOutcome {
+        report: RunReport {
+            verdict,
+            target: target_name,
+            scenario: sc.name.clone(),
+            scenario_source: sc.source.clone(),
+            control: opts.control,
+            faults: opts.faults_spec.clone(),
+            device_fault: format!("{:?}", opts.device_fault),
+            timing,
+            numerics,
+            frames,
+            frames_verdict,
+            device_status: status,
+            host_clamped: host.clamped,
+            transport,
+        },
+        trajectory,
+        reference,
+    })
+}
+
+fn law_name(l: Law) -> &'static str {
+    match l {
+        Law::Gain => "gain",
+        Law::Lead => "lead",
+    }
+}
