@@ -329,3 +329,39 @@ fn json_has_the_issue_fields_and_the_binary_exit_codes_follow_the_verdict() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("--signal-q"));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn the_yaw_predictor_is_audited_when_enabled() {
+    let mut a = args();
+    a.no_plant = true;
+    a.yaw_predict_ticks = Some(1.5);
+    let r = audit::build(&a).unwrap();
+    let p = r
+        .controllers
+        .iter()
+        .find(|c| c.name == "yaw_predictor")
+        .expect("audited when enabled");
+    let fs = p.rate_hz;
+    for q in p.freq_response.iter().filter(|q| q.f_hz <= 0.1 * fs) {
+        let w = 2.0 * PI * q.f_hz;
+        // Reference: the ideal advance of 1.5 base periods.
+        assert!((q.continuous.gain - 1.0).abs() < 1e-12);
+        assert!((q.continuous.phase_deg - (w * 1.5 / fs).to_degrees()).abs() < 1e-9);
+        // x = y + 1.5 (y - y z^-1), computed here.
+        let (re, im) = (1.0 + 1.5 - 1.5 * (w / fs).cos(), 1.5 * (w / fs).sin());
+        let (g, ph) = (re.hypot(im), im.atan2(re).to_degrees());
+        assert!(
+            (20.0 * (q.fixed.gain / g).log10()).abs() < r.tolerances.fixed_gain_db.1,
+            "{} Hz",
+            q.f_hz
+        );
+        assert!((q.fixed.phase_deg - ph).abs() < r.tolerances.fixed_phase_deg.1);
+    }
+    // Off by default: not audited.
+    let r = audit::build(&AuditArgs {
+        no_plant: true,
+        ..args()
+    })
+    .unwrap();
+    assert!(!r.controllers.iter().any(|c| c.name == "yaw_predictor"));
+}

@@ -214,9 +214,11 @@ pub trait SampledController {
     }
 }
 
-/// A plain f64 reference discrete controller: pure gain or forward-Euler/Tustin lead on
-/// `y'`, and a PI on the current (integrator preset to the back-EMF on the first call).
-/// Used in tests to show the sampled path approaches the continuous one.
+/// A plain f64 reference discrete controller: pure gain, or the lead's state equation
+/// discretised exactly under ZOH (`x_c[k+1] = e^{-pT} x_c[k] + (1 - e^{-pT})/p y'[k]`),
+/// and a forward-Euler PI on the current (integrator preset to the measured back-EMF on
+/// the first call). No computation delay. Used in tests to show the sampled path
+/// approaches the continuous one; the firmware's controllers live in `wheelset-control`.
 #[derive(Debug, Clone)]
 pub struct F64Sampled {
     /// Period, ns.

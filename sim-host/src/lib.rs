@@ -24,6 +24,7 @@ pub mod link;
 pub mod modes;
 pub mod params;
 pub mod plant;
+pub mod sampled;
 pub mod scenario;
 pub mod sim;
 pub mod svg;

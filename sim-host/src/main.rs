@@ -1,6 +1,8 @@
 //! `sim-host`: the plant simulator's command line.
 //!
 //! - `sim-host modes [--case a|b|c|d] [--points N] --json FILE [--plot DIR]`
+//! - `sim-host rates [--control lead|gain|passive] [--model full|reduced] [--delay N]
+//!   [--max-baud B] [--json FILE]`: the sampled-data rate analysis of the firmware loops
 //! - `sim-host run --scenario curve|beating|FILE --control passive|gain|lead [--csv FILE] [--plot DIR]`
 //! - `sim-host run ... --loop device [--faults SPEC] [--seed N] [--baud B] [--latency-us L]`:
 //!   the firmware runtime in the loop over the simulated serial link
@@ -31,6 +33,40 @@ enum Cmd {
     Modes(ModesArgs),
     /// Simulate a track scenario with the continuous-time reference controllers.
     Run(RunArgs),
+    /// Sampled-data rate analysis of the firmware's loops (ZOH + delay, the discrete
+    /// controllers of wheelset-control) over creep 1-10 MN and conicity 0.05-0.4.
+    Rates(RatesArgs),
+}
+
+/// Plant of the rate analysis.
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
+enum RatesModel {
+    /// Case (d) linearisation: flexible axle, motor on its gear spring, armature.
+    Full,
+    /// Case (a) lateral/yaw plus the armature circuit alone.
+    Reduced,
+}
+
+#[derive(clap::Args)]
+struct RatesArgs {
+    /// Yaw control mode analysed.
+    #[arg(long, value_enum, default_value = "lead")]
+    control: Control,
+    /// Plant model.
+    #[arg(long, value_enum, default_value = "full")]
+    model: RatesModel,
+    /// Parameter file (TOML, any subset of the parameters).
+    #[arg(long)]
+    params: Option<PathBuf>,
+    /// Ticks of computation and transport delay on the actuation (the firmware: 1).
+    #[arg(long, default_value_t = 1)]
+    delay: usize,
+    /// The fastest UART baud the link may assume (selection criterion).
+    #[arg(long, default_value_t = 6_000_000)]
+    max_baud: u32,
+    /// Write the table as JSON (directories created).
+    #[arg(long)]
+    json: Option<PathBuf>,
 }
 
 /// Yaw control mode.
@@ -245,6 +281,56 @@ fn progress(total: u64, msg: &str) -> indicatif::ProgressBar {
     pb
 }
 
+fn cmd_rates(a: &RatesArgs) -> Result<(), Failure> {
+    use sim_host::sampled::{rates, Criteria, LinkBudget, Model};
+    if a.delay > 10 {
+        return Err(Failure {
+            code: 2,
+            msg: format!("--delay {}: at most 10 ticks", a.delay),
+        });
+    }
+    let p = load_params(&a.params)?;
+    let mode = match a.control {
+        Control::Passive => wheelset_control::YawMode::Passive,
+        Control::Gain => wheelset_control::YawMode::Gain,
+        Control::Lead => wheelset_control::YawMode::Lead,
+    };
+    let model = match a.model {
+        RatesModel::Full => Model::Full,
+        RatesModel::Reduced => Model::Reduced,
+    };
+    let mut cfg = wheelset_control::Config {
+        yaw_mode: mode,
+        ..wheelset_control::Config::default()
+    };
+    cfg.motor.k_m = p.k_m;
+    cfg.motor.n = p.n_gear;
+    let criteria = Criteria {
+        max_baud: a.max_baud as f64,
+        ..Criteria::default()
+    };
+    let report =
+        rates(&p, model, &cfg, a.delay, &LinkBudget::default(), &criteria).map_err(|e| {
+            Failure {
+                code: 2,
+                msg: format!("rate analysis: {e}"),
+            }
+        })?;
+    print!("{}", report.render());
+    if let Some(path) = &a.json {
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).map_err(|e| io_fail(dir, e))?;
+        }
+        let text = serde_json::to_string_pretty(&report.to_json()).map_err(|e| Failure {
+            code: 1,
+            msg: format!("JSON: {e}"),
+        })?;
+        std::fs::write(path, text).map_err(|e| io_fail(path, e))?;
+        println!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
 fn cmd_modes(a: &ModesArgs) -> Result<(), Failure> {
     let p = load_params(&a.params)?;
     let cases: Vec<Case> = match a.case {
@@ -313,6 +399,7 @@ fn cmd_modes(a: &ModesArgs) -> Result<(), Failure> {
         "kinematic_hz": p.kinematic_hz(),
         "note": "structural zero eigenvalue (free rolling at any speed) reported as structural_zero and excluded from stability verdicts",
         "params": &p,
+        "derived": {"k_t": p.k_t(), "k_gear": p.k_gear(), "y0_at_2300m": p.pure_rolling_y(1.0 / 2300.0)},
         "cases": sweeps.iter().map(|s| s.to_json()).collect::<Vec<_>>(),
     });
     if let Some(dir) = a.json.parent().filter(|d| !d.as_os_str().is_empty()) {
@@ -474,6 +561,7 @@ fn main() -> ExitCode {
     let res = match &cli.cmd {
         Cmd::Modes(a) => cmd_modes(a),
         Cmd::Run(a) => cmd_run(a),
+        Cmd::Rates(a) => cmd_rates(a),
     };
     match res {
         Ok(()) => ExitCode::SUCCESS,

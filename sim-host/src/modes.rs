@@ -12,6 +12,15 @@
 //! The structural zero eigenvalue (free rolling at any speed is an equilibrium) is
 //! identified, reported separately as `rolling (structural zero)`, and excluded from
 //! every stability verdict.
+//!
+//! Naming rules (at the highest creep of the sweep): the lateral/yaw-dominated
+//! eigenvalue nearest the kinematic eigenvalue `j v sqrt(lambda/(r0 Lg))` is
+//! `kinematic`; other lateral complex pairs are `high-frequency`; lateral real ones are
+//! `high-frequency` (over-damped) when no other lateral pair exists, else
+//! `lateral (real)`; then `torsional` / `longitudinal` (axle and speed states), `gear`,
+//! `current loop`, `lead compensator`. Branches keep their names along the sweep, and
+//! a mode's value is its least stable branch. Limitation: two real branches named
+//! differently at the start that later merge into a complex pair keep both names.
 
 use crate::control::YawLaw;
 use crate::linear::closed_loop_a;

@@ -133,6 +133,19 @@ fn cli_exits_2_on_bad_input_and_names_the_problem() {
         (vec!["run", "--control", "sideways"], "sideways"),
         (vec!["run", "--params", badp.to_str().unwrap()], "f22"),
         (vec!["fly"], "fly"),
+        (vec!["modes", "--points", "1", "--json", "x.json"], "points"),
+        (vec!["modes", "--case", "e", "--json", "x.json"], "case"),
+        (vec!["modes"], "--json"),
+        (
+            vec![
+                "modes",
+                "--json",
+                "x.json",
+                "--params",
+                badp.to_str().unwrap(),
+            ],
+            "f22",
+        ),
     ];
     for (args, needle) in cases {
         let out = sim_host(&args);
@@ -146,7 +159,11 @@ fn cli_exits_2_on_bad_input_and_names_the_problem() {
 
 #[test]
 fn cli_help_works_everywhere() {
-    for args in [vec!["--help"], vec!["run", "--help"]] {
+    for args in [
+        vec!["--help"],
+        vec!["run", "--help"],
+        vec!["modes", "--help"],
+    ] {
         let out = sim_host(&args);
         assert_eq!(out.status.code(), Some(0), "{args:?}");
         assert!(String::from_utf8_lossy(&out.stdout).contains("Usage"));

@@ -45,9 +45,13 @@ pub fn limit_cycles<T: Sample>(
     cfg: &Config,
     lsb: f64,
 ) -> Result<Vec<LimitCycle>, wheelset_control::ConfigError> {
+    if kind == Kind::YawPredictor {
+        // FIR: no recursion, no limit cycle.
+        return Ok(Vec::new());
+    }
     let fs = kind.rate_hz(cfg);
     let (clamp, in_fs, out_fs, unit) = match kind {
-        Kind::YawLead | Kind::YawGain => {
+        Kind::YawLead | Kind::YawGain | Kind::YawPredictor => {
             (cfg.limits.y_dot, cfg.scales.y_dot, cfg.scales.torque, "N m")
         }
         Kind::TractionPi => (

@@ -70,17 +70,30 @@ pub enum Kind {
     YawGain,
     /// PI traction current loop `Kp (1 + 1/(Ti s))` on `i_ref - i_a`.
     TractionPi,
+    /// The optional `y'` predictor (delay compensation) ahead of the yaw law,
+    /// `x = y' + alpha (y'[n] - y'[n-1])`; audited when enabled.
+    YawPredictor,
 }
 
 impl Kind {
-    /// All, in report order.
+    /// The three controllers, in report order.
     pub const ALL: [Kind; 3] = [Kind::YawLead, Kind::YawGain, Kind::TractionPi];
+
+    /// The filters active under `cfg`: [`Self::ALL`], plus the predictor if enabled.
+    pub fn active(cfg: &Config) -> Vec<Kind> {
+        let mut v = Self::ALL.to_vec();
+        if cfg.yaw_predict_ticks > 0.0 {
+            v.push(Kind::YawPredictor);
+        }
+        v
+    }
     /// Name in the JSON and the report.
     pub fn name(self) -> &'static str {
         match self {
             Kind::YawLead => "yaw_lead",
             Kind::YawGain => "yaw_gain",
             Kind::TractionPi => "traction_pi",
+            Kind::YawPredictor => "yaw_predictor",
         }
     }
     /// Gain unit.
@@ -88,6 +101,7 @@ impl Kind {
         match self {
             Kind::YawLead | Kind::YawGain => "N m s/m",
             Kind::TractionPi => "V/A",
+            Kind::YawPredictor => "1 (x per y')",
         }
     }
     /// The continuous law, as in model.md.
@@ -96,12 +110,17 @@ impl Kind {
             Kind::YawLead => "Ks(s) = K a (s + w1)/(s + w2), Tustin",
             Kind::YawGain => "T_psi = K y'",
             Kind::TractionPi => "Kt(s) = Kp (1 + 1/(Ti s)), backward-Euler integrator",
+            Kind::YawPredictor => {
+                "x = y' + alpha (y'[n] - y'[n-1]), alpha = yaw_predict_ticks/yaw_divisor; \
+                 reference: the ideal advance e^(s tau), tau = yaw_predict_ticks base periods \
+                 (FIR: no limit cycles)"
+            }
         }
     }
     /// Sample rate of this controller under `cfg`, Hz.
     pub fn rate_hz(self, cfg: &Config) -> f64 {
         match self {
-            Kind::YawLead | Kind::YawGain => 1.0 / cfg.yaw_period(),
+            Kind::YawLead | Kind::YawGain | Kind::YawPredictor => 1.0 / cfg.yaw_period(),
             Kind::TractionPi => 1.0 / cfg.traction_period(),
         }
     }
@@ -112,6 +131,7 @@ impl Kind {
         match self {
             Kind::YawLead | Kind::YawGain => s.torque / s.y_dot,
             Kind::TractionPi => s.voltage / s.current,
+            Kind::YawPredictor => 1.0,
         }
     }
 }
@@ -134,6 +154,7 @@ pub fn continuous(kind: Kind, cfg: &Config, f_hz: f64) -> C64 {
                 .plus(C64::new(1.0, 0.0).over(s.scale(p.ti)))
                 .scale(p.kp)
         }
+        Kind::YawPredictor => C64::expj(s.im * cfg.yaw_predict_ticks * cfg.base_period()),
     }
 }
 
@@ -154,6 +175,11 @@ pub enum Coeffs {
     Gain {
         /// `K`.
         k: f64,
+    },
+    /// Predictor `x = y + alpha (y[n] - y[n-1])`.
+    Predictor {
+        /// `alpha`.
+        alpha: f64,
     },
     /// PI: `u = Kp e + I`, `I += Ki e`.
     Pi {
@@ -196,6 +222,7 @@ impl Coeffs {
                 ("kappa", kappa, "1", false),
             ],
             Coeffs::Gain { k } => vec![("k", k, "N m s/m", true)],
+            Coeffs::Predictor { alpha } => vec![("alpha", alpha, "1", false)],
             Coeffs::Pi { kp, ki } => {
                 vec![("kp", kp, "V/A", true), ("ki", ki, "V/A per sample", true)]
             }
@@ -214,6 +241,7 @@ impl Coeffs {
                     .over(one.plus(zi.scale(-a1)))
             }
             Coeffs::Gain { k } => C64::new(k, 0.0),
+            Coeffs::Predictor { alpha } => C64::new(1.0 + alpha, 0.0).plus(zi.scale(-alpha)),
             Coeffs::Pi { kp, ki } => {
                 C64::new(kp, 0.0).plus(C64::new(ki, 0.0).over(one.plus(zi.scale(-1.0))))
             }
@@ -246,6 +274,7 @@ impl Coeffs {
                 Some((b0 + b1) / (1.0 - a1))
             }
             Coeffs::Gain { k } => Some(k),
+            Coeffs::Predictor { .. } => Some(1.0),
             Coeffs::Pi { .. } => None,
         }
     }
@@ -258,6 +287,8 @@ impl Coeffs {
                 (vec![a1], vec![-b1 / b0])
             }
             Coeffs::Gain { .. } => (vec![], vec![]),
+            // (1 + alpha) - alpha z^-1: a zero at alpha/(1 + alpha) (FIR).
+            Coeffs::Predictor { alpha } => (vec![], vec![alpha / (1.0 + alpha)]),
             // U/E = ((Kp + Ki) - Kp z^-1)/(1 - z^-1)
             Coeffs::Pi { kp, ki } => (vec![1.0], vec![kp / (kp + ki)]),
         }
@@ -274,6 +305,7 @@ pub fn continuous_pz(kind: Kind, cfg: &Config) -> (Vec<f64>, Vec<f64>, Option<f6
         ),
         Kind::YawGain => (vec![], vec![], Some(cfg.gain_k)),
         Kind::TractionPi => (vec![0.0], vec![-1.0 / cfg.pi.ti], None),
+        Kind::YawPredictor => (vec![], vec![], Some(1.0)),
     }
 }
 
@@ -318,6 +350,20 @@ pub fn coefficients<T: Sample>(
                 Coeffs::pi(&c.pi().quantised(), cfg),
             )
         }
+        Kind::YawPredictor => {
+            // The controller multiplies by alpha/2 twice (keeps it in Q1.31).
+            let half = cfg.yaw_predict_ticks / (2.0 * cfg.yaw_divisor as f64);
+            let q = T::quantise(half).ok_or(wheelset_control::ConfigError::Coefficient {
+                name: "yaw_predict_ticks/(2 yaw_divisor)",
+                value: half,
+            })?;
+            (
+                Coeffs::Predictor { alpha: 2.0 * half },
+                Coeffs::Predictor {
+                    alpha: 2.0 * T::coeff_to_f64(q),
+                },
+            )
+        }
     })
 }
 
@@ -326,14 +372,17 @@ pub fn coefficients<T: Sample>(
 pub fn isolate(kind: Kind, base: &Config) -> Config {
     let mut c = *base;
     // The y' predictor (delay compensation, off by default) is not part of the lead's
-    // or the gain's transfer function: audited without it.
-    c.yaw_predict_ticks = 0.0;
+    // or the gain's transfer function: audited without it, and on its own (behind the
+    // gain, whose quantised value is divided out).
+    if kind != Kind::YawPredictor {
+        c.yaw_predict_ticks = 0.0;
+    }
     match kind {
         Kind::YawLead => {
             c.yaw_mode = YawMode::Lead;
             c.traction_enabled = false;
         }
-        Kind::YawGain => {
+        Kind::YawGain | Kind::YawPredictor => {
             c.yaw_mode = YawMode::Gain;
             c.traction_enabled = false;
         }
@@ -352,6 +401,8 @@ pub struct Drive<T: Sample> {
     ctrl: Controller<T>,
     kind: Kind,
     divisor: u16,
+    /// Output divisor: the quantised gain (SI) for the predictor, else 1.
+    out_div: f64,
 }
 
 impl<T: Sample> Drive<T> {
@@ -359,13 +410,22 @@ impl<T: Sample> Drive<T> {
     pub fn new(kind: Kind, base: &Config) -> Result<Self, wheelset_control::ConfigError> {
         let cfg = isolate(kind, base);
         let divisor = match kind {
-            Kind::YawLead | Kind::YawGain => cfg.yaw_divisor,
+            Kind::YawLead | Kind::YawGain | Kind::YawPredictor => cfg.yaw_divisor,
             Kind::TractionPi => cfg.traction_divisor,
+        };
+        let out_div = if kind == Kind::YawPredictor {
+            coefficients::<T>(Kind::YawGain, &cfg)?
+                .1
+                .dc_gain()
+                .unwrap_or(1.0)
+        } else {
+            1.0
         };
         Ok(Self {
             ctrl: Controller::try_new(&cfg)?,
             kind,
             divisor,
+            out_div,
         })
     }
 
@@ -373,7 +433,7 @@ impl<T: Sample> Drive<T> {
     pub fn step(&mut self, x: f64) -> f64 {
         let s = self.ctrl.config().scales;
         let inp = match self.kind {
-            Kind::YawLead | Kind::YawGain => Inputs {
+            Kind::YawLead | Kind::YawGain | Kind::YawPredictor => Inputs {
                 y_dot: T::from_f64(x / s.y_dot),
                 ..Inputs::default()
             },
@@ -388,7 +448,9 @@ impl<T: Sample> Drive<T> {
             out = self.ctrl.tick(&inp);
         }
         match self.kind {
-            Kind::YawLead | Kind::YawGain => out.yaw_torque.to_f64() * s.torque,
+            Kind::YawLead | Kind::YawGain | Kind::YawPredictor => {
+                out.yaw_torque.to_f64() * s.torque / self.out_div
+            }
             Kind::TractionPi => out.voltage.to_f64() * s.voltage,
         }
     }
@@ -440,7 +502,7 @@ fn fit_sine(y: &[f64], w: f64, n0: usize) -> (f64, f64, f64) {
 /// limit) and a current error of 10 A.
 pub fn measure_amplitude(kind: Kind) -> f64 {
     match kind {
-        Kind::YawLead | Kind::YawGain => 0.01,
+        Kind::YawLead | Kind::YawGain | Kind::YawPredictor => 0.01,
         Kind::TractionPi => 10.0,
     }
 }
@@ -456,6 +518,8 @@ fn settle_steps(kind: Kind, cfg: &Config) -> usize {
                 _ => 1000,
             }
         }
+        // The predictor needs one previous sample; the PI's constant offset is fitted.
+        Kind::YawPredictor => 2,
         _ => 0,
     }
 }
