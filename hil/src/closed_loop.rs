@@ -82,6 +82,8 @@ pub struct DeviceController<'a> {
     pub actuations: Vec<RxActuation>,
     /// Every period.
     pub periods: Vec<Period>,
+    /// The sensor samples sent, in wire codes, one per period (a recorded sensor stream).
+    pub sent_codes: Vec<wheelset_control::InputCodes>,
     /// Host-side counts.
     pub host: HostCounts,
     /// The device's counters, if its Status frame arrived.
@@ -113,6 +115,7 @@ impl<'a> DeviceController<'a> {
             frame_bytes: 0,
             actuations: Vec::new(),
             periods: Vec::new(),
+            sent_codes: Vec::new(),
             host: HostCounts::default(),
             status: None,
             error: None,
@@ -231,6 +234,14 @@ impl SampledController for DeviceController<'_> {
             omega_m_mrad_s: self.q(m.w_m, SPEED_LSB_RAD_PER_S),
             demand_nm: self.q(m.demand_nm, DEMAND_LSB_NM),
         };
+        if let Lateral::Velocity(v) = sensor.lateral {
+            self.sent_codes.push(wheelset_control::InputCodes {
+                y_dot: v,
+                current: sensor.i_a_ma,
+                speed: sensor.omega_m_mrad_s,
+                demand: sensor.demand_nm,
+            });
+        }
         let before = self.host.bytes_sent;
         self.send(t_ns, &Message::Sensor(sensor));
         self.periods.push(Period {

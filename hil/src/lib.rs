@@ -8,6 +8,7 @@
 //! - [`closed_loop`]: the device as the plant's sampled controller.
 //! - [`timing`], [`numerics`], [`frames`]: the checks; [`budget`]: their limits.
 //! - [`run`]: `hil run`; [`report`]: JSON, CSV and the Markdown report.
+//! - [`golden`]: `hil golden`, open-loop golden vectors host vs target, bit for bit.
 //! - [`audit`]: `hil audit`, the fixed-point accuracy audit of the control core.
 #![deny(missing_docs)]
 
@@ -15,9 +16,11 @@ pub mod audit;
 pub mod budget;
 pub mod closed_loop;
 pub mod frames;
+pub mod golden;
 pub mod inproc;
 pub mod lockstep;
 pub mod numerics;
+pub mod qemu;
 pub mod report;
 pub mod run;
 pub mod serial;

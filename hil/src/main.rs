@@ -39,8 +39,32 @@ enum Cmd {
     /// Closed loop of a scenario with the device on a target; timing, numerics and
     /// frame-accounting verdicts.
     Run(RunArgs),
+    /// Open-loop golden vectors (steps, a chirp, saturation, a recorded sensor stream)
+    /// through the fixed-point core on the host and on a target, compared bit for bit.
+    Golden(GoldenArgs),
     /// Fixed-point accuracy audit of the control core (JSON + Markdown report).
     Audit(hil::audit::AuditArgs),
+}
+
+#[derive(Args, Clone)]
+struct GoldenArgs {
+    /// Where the target side runs: inproc or qemu.
+    #[arg(long, default_value = "inproc", value_parser = parse_golden_target)]
+    target: Target,
+    /// Write the comparison (JSON).
+    #[arg(long)]
+    json: Option<PathBuf>,
+    /// Instead of comparing: re-record the sensor stream of the `recorded_curve` vector
+    /// from the in-process closed loop of `curve` (4.9-5.3 s) into this CSV file.
+    #[arg(long)]
+    record: Option<PathBuf>,
+}
+
+fn parse_golden_target(s: &str) -> Result<Target, String> {
+    match s.parse::<Target>()? {
+        t @ (Target::InProc | Target::Qemu) => Ok(t),
+        Target::Serial(_) => Err("golden vectors run on inproc or qemu".into()),
+    }
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -202,6 +226,99 @@ fn cmd_run(a: &RunArgs, command: &str) -> Result<Verdict, Failure> {
     Ok(out.report.verdict)
 }
 
+fn cmd_golden(g: &GoldenArgs) -> Result<Verdict, Failure> {
+    use hil::golden;
+    if let Some(path) = &g.record {
+        let out = run(&RunOptions {
+            progress: false,
+            ..RunOptions::default()
+        })
+        .map_err(|e| input(e.to_string()))?;
+        let (from, to) = (4_900_000_000 / out.period_ns, 5_300_000_000 / out.period_ns);
+        let mut text = String::from("y_dot_um_s,i_a_ma,omega_mrad_s,demand_nm\n");
+        for c in out
+            .sensor_codes
+            .iter()
+            .take(to as usize)
+            .skip(from as usize)
+        {
+            text.push_str(&format!(
+                "{},{},{},{}\n",
+                c.y_dot, c.current, c.speed, c.demand
+            ));
+        }
+        std::fs::write(path, text)
+            .map_err(|e| input(format!("{}: cannot write: {e}", path.display())))?;
+        say!(
+            "golden: recorded {} samples into {}",
+            to - from,
+            path.display()
+        );
+        return Ok(Verdict::Pass);
+    }
+    let vectors = golden::vectors().map_err(|e| input(format!("golden vectors: {e}")))?;
+    let opts = RunOptions {
+        target: g.target.clone(),
+        ..RunOptions::default()
+    };
+    let rt = wheelset_runtime::RuntimeConfig::default();
+    let period_ns = 1_000_000_000 / u64::from(rt.control.base_rate_hz);
+    let mut results = Vec::new();
+    for v in &vectors {
+        let host = golden::run_host(v).map_err(|e| input(e.to_string()))?;
+        // A fresh device per vector: every vector starts from reset.
+        let mut tr = hil::run::open_transport(&opts, rt).map_err(|e| match e {
+            RunError::Input(m) => input(m),
+            RunError::Target(e) => Failure {
+                code: 3,
+                msg: e.to_string(),
+            },
+        })?;
+        let target = golden::run_target(v, tr.as_mut(), period_ns).map_err(|e| Failure {
+            code: 3,
+            msg: e.to_string(),
+        })?;
+        let c = golden::compare(v, &host, &target);
+        say!(
+            "{:<15} {:>5} ticks  host vs {}: {}  (peak |T_psi| {} x 0.1 N m, |u_a| {} x 10 mV)  {}",
+            c.name,
+            c.ticks,
+            g.target,
+            if c.identical {
+                "identical bit for bit".to_string()
+            } else {
+                format!(
+                    "{} ticks DIFFER, first at tick {:?}",
+                    c.mismatches, c.first_mismatch
+                )
+            },
+            c.host_peak.0,
+            c.host_peak.1,
+            c.about
+        );
+        results.push(c);
+    }
+    let all = results.iter().all(|c| c.identical);
+    say!(
+        "golden: host and {} {} on {} of {} vectors",
+        g.target,
+        if all { "agree bit for bit" } else { "DISAGREE" },
+        results.iter().filter(|c| c.identical).count(),
+        results.len()
+    );
+    if let Some(p) = &g.json {
+        let doc = serde_json::json!({
+            "verdict": if all { "pass" } else { "fail" },
+            "target": g.target.to_string(),
+            "vectors": results,
+        });
+        let text = serde_json::to_string_pretty(&doc).unwrap_or_default();
+        std::fs::write(p, text + "\n")
+            .map_err(|e| input(format!("{}: cannot write: {e}", p.display())))?;
+    }
+    Ok(if all { Verdict::Pass } else { Verdict::Fail })
+}
+
 fn print_summary(r: &hil::run::RunReport) {
     let t = &r.timing;
     say!(
@@ -287,6 +404,7 @@ fn main() -> ExitCode {
     let res = match &cli.cmd {
         Some(Cmd::Run(a)) => cmd_run(a, &command),
         None => cmd_run(&cli.run, &command),
+        Some(Cmd::Golden(g)) => cmd_golden(g),
         Some(Cmd::Audit(a)) => match hil::audit::run(a) {
             Ok(code) => return ExitCode::from(code),
             Err(e) => Err(input(e.to_string())),

@@ -205,6 +205,10 @@ pub struct RunOutcome {
     pub trajectory: Trajectory,
     /// The f64 continuous reference.
     pub reference: Trajectory,
+    /// The sensor samples the device received (wire codes), one per period from t = 0.
+    pub sensor_codes: Vec<wheelset_control::InputCodes>,
+    /// The control period, ns.
+    pub period_ns: u64,
 }
 
 /// Opens the transport for `opts.target`.
@@ -303,6 +307,7 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
         ctrl.status,
     );
     drop((periods, actuations));
+    let sensor_codes = std::mem::take(&mut ctrl.sent_codes);
     drop(ctrl);
     let transport = tr.extra();
     let frames = match tr.link_accounting() {
@@ -330,6 +335,8 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
         },
         trajectory,
         reference,
+        sensor_codes,
+        period_ns,
     })
 }
 

@@ -101,6 +101,9 @@ impl ClosedLoop {
     }
 }
 
+/// Largest hyper-period (ticks) and delay the analysis accepts.
+pub const MAX_HYPER_PERIOD: usize = 1000;
+
 /// Loop timing: the base rate, the divisors and the actuation delay.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Timing {
@@ -219,6 +222,17 @@ pub fn tick_matrices(
     }
 
     let l = tm.yaw_divisor / gcd(tm.yaw_divisor, tm.traction_divisor) * tm.traction_divisor;
+    if l > MAX_HYPER_PERIOD {
+        return Err(format!(
+            "hyper-period lcm(yaw_divisor {}, traction_divisor {}) = {l} ticks: at most {MAX_HYPER_PERIOD}",
+            tm.yaw_divisor, tm.traction_divisor
+        ));
+    }
+    if delay_ticks > MAX_HYPER_PERIOD {
+        return Err(format!(
+            "delay {delay_ticks} ticks: at most {MAX_HYPER_PERIOD}"
+        ));
+    }
     let mut mats = Vec::with_capacity(l);
     for k in 0..l {
         let yaw = k % tm.yaw_divisor == 0;
@@ -1047,6 +1061,30 @@ mod tests {
         let json = r.to_json();
         assert_eq!(json["variants"][1]["chosen"]["base_hz"], 5000);
         assert!(r.render().contains("chosen: base 5000 Hz, yaw divisor 1"));
+    }
+
+    #[test]
+    fn absurd_timings_are_refused() {
+        let p = armature(4e-4, 0.04);
+        let cfg = Config {
+            yaw_divisor: 37,
+            traction_divisor: 41,
+            base_rate_hz: 100_000,
+            ..Config::default()
+        };
+        cfg.validate().expect("a valid controller configuration");
+        assert!(closed_loop(&p, &cfg, 1)
+            .expect_err("hyper-period 1517")
+            .contains("hyper-period"));
+        assert!(closed_loop(&p, &Config::default(), 5000).is_err());
+        let bad = LinearPlant {
+            a: DMatrix::zeros(2, 2),
+            b: DMatrix::zeros(2, 1),
+            c: DMatrix::zeros(3, 2),
+        };
+        assert!(closed_loop(&bad, &Config::default(), 1)
+            .expect_err("shape")
+            .contains("plant shapes"));
     }
 
     #[test]

@@ -145,3 +145,30 @@ fn sensor_model_quantises_and_adds_seeded_noise() {
         "mean {mean} sd {sd}"
     );
 }
+
+#[test]
+fn noisy_quantised_delayed_loop_still_follows_the_pure_rolling_line() {
+    let sc = Scenario::load("curve", &Params::default()).unwrap();
+    let ctrl = ContinuousController::new(&sc.params, YawLaw::Lead);
+    let mut d = F64Sampled::new(ctrl, 2 * sc.dt_ns, sc.params.k_m); // 5 kHz
+                                                                    // 1 mm/s noise on y', 0.1 mm/s LSB, 0.5 A noise, 0.1 A LSB; 0.2 ms delay; limits.
+    let mut sensor = SensorModel::new([1e-3, 0.0, 0.5, 0.0, 0.0], [1e-4, 0.0, 0.1, 0.0, 0.0], 9);
+    let mut act = ActuatorModel::ideal();
+    act.delay_ns = 2 * sc.dt_ns;
+    act.t_psi_max = 2e4;
+    act.u_a_range = (0.0, 5000.0);
+    let tr = run_sampled(&sc, &mut d, &mut sensor, &mut act, false, "noisy").unwrap();
+    assert_eq!(tr.info.diverged_at_s, None);
+    let r = tr.at(11.9).unwrap();
+    let rel = (r.y_m - r.y0_m).abs() / r.y0_m;
+    assert!(rel < 0.01, "y = {} vs y0 = {} ({rel})", r.y_m, r.y0_m);
+    assert!((r.i_a_a - 114.95).abs() < 2.0, "{}", r.i_a_a);
+    // Noise reaches the torque: it is not exactly zero on the constant curve.
+    let spread = tr
+        .records
+        .iter()
+        .filter(|r| r.t_s > 8.0 && r.t_s < 11.0)
+        .map(|r| r.t_ctrl_nm.abs())
+        .fold(0.0, f64::max);
+    assert!(spread > 1.0 && spread < 5e3, "{spread}");
+}

@@ -1,0 +1,88 @@
+//! The QEMU target: the `wheelset-qemu` firmware (the real runtime and control core,
+//! compiled for the Cortex-M4F) on `qemu-system-arm -machine mps2-an386`, started and
+//! stopped by the launcher [`crate::qemu`], lock-step: each frame delimiter the host
+//! sends is one device tick, and virtual time is `2^ICOUNT_SHIFT` ns per instruction,
+//! so a run depends only on the bytes exchanged.
+//!
+//! The `exec` field is in instructions (the firmware's SysTick stopwatch converted with
+//! the icount shift). Its time scale for the CPU-utilisation check is the emulated
+//! board's core clock, 25 MHz at one instruction per cycle (40 ns per instruction):
+//! `--cpu-hz` sets another (e.g. 180e6 for an estimate on the F446 at CPI 1).
+
+use std::time::Duration;
+
+use crate::lockstep::Expect;
+use crate::qemu::{Qemu, QemuConfig};
+use crate::transport::{Clock, Transport, TransportError};
+
+/// The emulated board's core clock, Hz (mps2-an386: 25 MHz).
+pub const MPS2_CPU_HZ: f64 = 25e6;
+
+/// The firmware under QEMU.
+pub struct QemuTarget {
+    q: Qemu,
+    baud: u32,
+    cpu_hz: f64,
+    expect: Expect,
+}
+
+impl QemuTarget {
+    /// Starts QEMU with the default ELF (`cargo fw`); a clear error if QEMU or the ELF is
+    /// missing. `baud` is the line rate the timing model assumes; `timeout` bounds each
+    /// wait for an answer.
+    pub fn start(baud: u32, cpu_hz: f64, timeout: Duration) -> Result<Self, TransportError> {
+        let cfg = QemuConfig {
+            timeout,
+            ..QemuConfig::new()
+        };
+        let q = Qemu::start(&cfg).map_err(|e| TransportError::Unavailable(e.to_string()))?;
+        Ok(Self {
+            q,
+            baud,
+            cpu_hz,
+            expect: Expect::new(),
+        })
+    }
+}
+
+impl Transport for QemuTarget {
+    fn name(&self) -> String {
+        "qemu".into()
+    }
+
+    fn clock(&self) -> Clock {
+        Clock::LockStep
+    }
+
+    fn baud(&self) -> u32 {
+        self.baud
+    }
+
+    fn exec_unit(&self) -> (&'static str, f64) {
+        ("instructions", 1e9 / self.cpu_hz)
+    }
+
+    fn send(&mut self, _t_ns: u64, bytes: &[u8]) -> Result<(), TransportError> {
+        self.expect.sent(bytes);
+        self.q
+            .send(bytes)
+            .map_err(|e| TransportError::Io(e.to_string()))
+    }
+
+    fn recv(
+        &mut self,
+        deadline_ns: u64,
+        sink: &mut dyn FnMut(u64, &[u8]),
+    ) -> Result<(), TransportError> {
+        while self.expect.owed() > 0 {
+            let mut frame = self
+                .q
+                .recv_frame()
+                .map_err(|e| TransportError::Io(e.to_string()))?;
+            frame.push(0);
+            self.expect.received(&frame);
+            sink(deadline_ns, &frame);
+        }
+        Ok(())
+    }
+}
