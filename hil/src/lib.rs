@@ -20,6 +20,7 @@ pub mod golden;
 pub mod inproc;
 pub mod lockstep;
 pub mod numerics;
+pub mod qemu;
 pub mod report;
 pub mod run;
 pub mod serial;
