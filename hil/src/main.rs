@@ -367,6 +367,12 @@ fn print_summary(r: &hil::run::RunReport) {
         r.numerics.verdict,
         r.numerics.reference
     );
+    if let Some(t) = r.numerics.run_diverged_at_s {
+        say!("  the closed loop DIVERGED at {t:.3} s (run stopped)");
+    }
+    if let Some(t) = r.numerics.reference_diverged_at_s {
+        say!("  the f64 continuous reference DIVERGED at {t:.3} s (no yardstick)");
+    }
     for s in &r.numerics.signals {
         say!(
             "  {:<10} max err {:.3e} (at {:.3} s) of allowed {:.3e}: {}",
