@@ -166,6 +166,20 @@ fn cmd_run(a: &RunArgs, command: &str) -> Result<Verdict, Failure> {
     if !(a.cpu_hz.is_finite() && a.cpu_hz > 0.0) {
         return Err(input("--cpu-hz: must be a positive number"));
     }
+    if a.target != Target::InProc {
+        if a.faults != Faults::none() {
+            return Err(input(format!(
+                "--faults: the fault injection is part of the simulated link; target {} has a real one",
+                a.target
+            )));
+        }
+        if a.device_fault != DeviceFault::None {
+            return Err(input(format!(
+                "--device-fault: only the in-process device can be broken on purpose, not {}",
+                a.target
+            )));
+        }
+    }
     let faults_spec = std::env::args()
         .skip_while(|x| x != "--faults")
         .nth(1)

@@ -161,6 +161,20 @@ fn bad_flags_and_files_exit_2_with_a_clear_message() {
         ),
         (vec!["run", "--baud", "0"], "baud"),
         (
+            vec!["run", "--target", "qemu", "--faults", "ber=1e-3"],
+            "simulated link",
+        ),
+        (
+            vec![
+                "run",
+                "--target",
+                "serial:/dev/null",
+                "--device-fault",
+                "slow",
+            ],
+            "in-process",
+        ),
+        (
             vec![
                 "run",
                 "--scenario",
