@@ -28,10 +28,11 @@ const FW_TARGET: &str = "thumbv7em-none-eabihf";
 /// Flash budget of each firmware binary (issue 5), bytes. NOT MET by the runtime build:
 /// printed as the target, with the overrun; the build fails above [`FLASH_CEILING`].
 const FLASH_BUDGET: u64 = 24 * 1024;
-/// Flash ceiling that fails the build: the measured size plus ~10 %, a guard against
-/// regressions until the 24 KiB budget is met (see the README, Firmware, for where the
-/// bytes go: embassy-stm32 ~17 KiB, the runtime's on-device f64 discretisation ~10 KiB).
-const FLASH_CEILING: u64 = 42 * 1024;
+/// Flash ceiling that fails the build: the measured size (Nucleo 39.6 KiB) plus ~20 %,
+/// a guard against gross regressions until the 24 KiB budget is met (see the README,
+/// Firmware, for where the bytes go: embassy-stm32, the runtime's on-device f64
+/// discretisation).
+const FLASH_CEILING: u64 = 48 * 1024;
 /// Static RAM budget of each firmware binary (.data + .bss + .uninit; the stack is not a
 /// section: cortex-m-rt puts it at the top of RAM), bytes.
 /// Enforced.
