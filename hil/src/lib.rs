@@ -4,7 +4,8 @@
 //! frame-accounting verdicts and reports.
 //!
 //! - [`transport`]: the trait; [`inproc`]: the in-process device; [`serial`]: a serial
-//!   port; [`lockstep`]: the bookkeeping of frame-clocked devices.
+//!   port; [`qemu_target`]: the firmware under QEMU (launched by [`qemu`]);
+//!   [`lockstep`]: the bookkeeping of frame-clocked devices.
 //! - [`closed_loop`]: the device as the plant's sampled controller.
 //! - [`timing`], [`numerics`], [`frames`]: the checks; [`budget`]: their limits.
 //! - [`run`]: `hil run`; [`report`]: JSON, CSV and the Markdown report.
@@ -20,6 +21,8 @@ pub mod golden;
 pub mod inproc;
 pub mod lockstep;
 pub mod numerics;
+pub mod qemu;
+pub mod qemu_target;
 pub mod report;
 pub mod run;
 pub mod serial;

@@ -112,7 +112,8 @@ struct RunArgs {
     /// Override one budget, e.g. `--set timing.cpu_max.fail=0.5` (repeatable).
     #[arg(long = "set", value_name = "KEY=VALUE")]
     sets: Vec<String>,
-    /// A deliberately broken in-process device: wrong-sign, slow[:EXEC_US], corrupt[:EVERY].
+    /// A deliberately broken in-process device: wrong-sign, slow[:EXEC_US], jitter[:MAX_US],
+    /// corrupt[:EVERY].
     #[arg(long, default_value = "none", value_parser = parse_device_fault)]
     device_fault: DeviceFault,
     /// Link baud (10 bits per byte).
@@ -165,6 +166,20 @@ fn cmd_run(a: &RunArgs, command: &str) -> Result<Verdict, Failure> {
     }
     if !(a.cpu_hz.is_finite() && a.cpu_hz > 0.0) {
         return Err(input("--cpu-hz: must be a positive number"));
+    }
+    if a.target != Target::InProc {
+        if a.faults != Faults::none() {
+            return Err(input(format!(
+                "--faults: the fault injection is part of the simulated link; target {} has a real one",
+                a.target
+            )));
+        }
+        if a.device_fault != DeviceFault::None {
+            return Err(input(format!(
+                "--device-fault: only the in-process device can be broken on purpose, not {}",
+                a.target
+            )));
+        }
     }
     let faults_spec = std::env::args()
         .skip_while(|x| x != "--faults")
@@ -367,6 +382,12 @@ fn print_summary(r: &hil::run::RunReport) {
         r.numerics.verdict,
         r.numerics.reference
     );
+    if let Some(t) = r.numerics.run_diverged_at_s {
+        say!("  the closed loop DIVERGED at {t:.3} s (run stopped)");
+    }
+    if let Some(t) = r.numerics.reference_diverged_at_s {
+        say!("  the f64 continuous reference DIVERGED at {t:.3} s (no yardstick)");
+    }
     for s in &r.numerics.signals {
         say!(
             "  {:<10} max err {:.3e} (at {:.3} s) of allowed {:.3e}: {}",

@@ -8,7 +8,8 @@
 //! (so a step the device follows a little later, or ramps through, is not an error while
 //! it stays inside the reference's range over `t +- tau`). The signal passes if
 //! `max_t e(t) <= abs + rel * max_t |r(t)|`, warns up to `warn_factor` times that, and
-//! fails beyond (or if the run produced a non-finite value).
+//! fails beyond (or if the run produced a non-finite value). A run or a reference that
+//! diverged (and was stopped by `sim_host::sim`) fails the numerics outright.
 
 use std::collections::BTreeMap;
 
@@ -47,6 +48,11 @@ pub struct NumericsReport {
     pub verdict: Verdict,
     /// What the run was compared with.
     pub reference: String,
+    /// When the closed-loop run diverged and stopped (|y| > 5 cm or not finite), s: a
+    /// failure whatever the signals' errors up to then.
+    pub run_diverged_at_s: Option<f64>,
+    /// When the reference diverged and stopped, s (it is then no yardstick: failure).
+    pub reference_diverged_at_s: Option<f64>,
     /// Per signal.
     pub signals: Vec<SignalCheck>,
 }
@@ -139,13 +145,21 @@ pub fn compare(
             verdict,
         });
     }
-    let verdict = signals
-        .iter()
-        .map(|s| s.verdict)
-        .max()
-        .unwrap_or(Verdict::Pass);
+    let (run_div, ref_div) = (run.info.diverged_at_s, reference.info.diverged_at_s);
+    let stopped_short = run.records.len() != reference.records.len();
+    let verdict = if run_div.is_some() || ref_div.is_some() || stopped_short {
+        Verdict::Fail
+    } else {
+        signals
+            .iter()
+            .map(|s| s.verdict)
+            .max()
+            .unwrap_or(Verdict::Pass)
+    };
     NumericsReport {
         verdict,
+        run_diverged_at_s: run_div,
+        reference_diverged_at_s: ref_div,
         reference: format!(
             "f64 continuous-time reference, control {}",
             reference.info.control

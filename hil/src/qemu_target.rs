@@ -5,9 +5,9 @@
 //! so a run depends only on the bytes exchanged.
 //!
 //! The `exec` field is in instructions (the firmware's SysTick stopwatch converted with
-//! the icount shift). Its time scale for the CPU-utilisation check is the emulated
-//! board's core clock, 25 MHz at one instruction per cycle (40 ns per instruction):
-//! `--cpu-hz` sets another (e.g. 180e6 for an estimate on the F446 at CPI 1).
+//! the icount shift), deterministic run to run. Its time scale for the timing checks is
+//! `--cpu-hz` at one instruction per cycle (default the board's 180 MHz, an estimate; the
+//! emulated mps2-an386 itself is nominally 25 MHz, [`MPS2_CPU_HZ`]).
 
 use std::time::Duration;
 

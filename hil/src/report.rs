@@ -1,6 +1,6 @@
 //! Outputs of a run: the verdict JSON (`--json`), the trajectory CSV (`--csv`, the
 //! columns of `sim-host`'s run CSV), and a Markdown report with SVG plots (`--report
-//! DIR`: `report.md`, `trajectories.svg`, `exec_histogram.svg`, `latency.svg`).
+//! DIR`: `report.md`, `trajectories.svg`, `exec_histogram.svg`).
 
 use std::fmt::Write as _;
 use std::io;
@@ -194,6 +194,18 @@ pub fn markdown(out: &RunOutcome, command: &str) -> String {
         "## Numerics ({})\n\nAgainst the {}.\n",
         n.verdict, n.reference
     );
+    if let Some(t) = n.run_diverged_at_s {
+        let _ = writeln!(
+            s,
+            "**The closed loop diverged at {t:.3} s** (run stopped).\n"
+        );
+    }
+    if let Some(t) = n.reference_diverged_at_s {
+        let _ = writeln!(
+            s,
+            "**The reference diverged at {t:.3} s** (no yardstick).\n"
+        );
+    }
     let _ = writeln!(
         s,
         "| signal | max error | at t (s) | RMS error | reference peak | allowed | verdict |\n|---|---|---|---|---|---|---|"

@@ -26,11 +26,15 @@ use crate::closed_loop::DeviceController;
 use crate::frames::FramesReport;
 use crate::inproc::{DeviceFault, InProc};
 use crate::numerics::{compare, NumericsReport};
+use crate::qemu_target::QemuTarget;
 use crate::serial::{Pace, Serial};
 use crate::timing::{analyse, TimingContext, TimingReport};
 use crate::transport::{Transport, TransportError};
 
-/// Default core clock of a board: the STM32F446RE at 180 MHz.
+/// Default core clock of the device, Hz: the board's STM32F446RE at 180 MHz. A board's
+/// `exec` is in cycles of it; the QEMU target's `exec` is in instructions, converted at
+/// one instruction per cycle of it (an estimate: flash wait states and multi-cycle
+/// instructions make the real board slower).
 pub const DEFAULT_CPU_HZ: f64 = 180e6;
 
 /// Where the device runs.
@@ -222,9 +226,11 @@ pub fn open_transport(
                 .map_err(|e| RunError::Input(e.to_string()))?;
             Ok(Box::new(t))
         }
-        Target::Qemu => Err(RunError::Target(TransportError::Unavailable(
-            "the QEMU transport is not built yet".into(),
-        ))),
+        Target::Qemu => {
+            let t = QemuTarget::start(opts.link.baud, opts.cpu_hz, opts.timeout)
+                .map_err(RunError::Target)?;
+            Ok(Box::new(t))
+        }
         Target::Serial(p) => {
             let t = Serial::open(p, opts.link.baud, opts.pace, opts.cpu_hz, opts.timeout)
                 .map_err(RunError::Target)?;

@@ -13,6 +13,7 @@ use hil::audit::{self, AuditArgs, Status};
 fn args() -> AuditArgs {
     AuditArgs {
         no_sweep: true,
+        no_target: true,
         quiet: true,
         ..AuditArgs::default()
     }
@@ -256,7 +257,14 @@ fn json_has_the_issue_fields_and_the_binary_exit_codes_follow_the_verdict() {
     let rep = dir.join("report");
     let exe = env!("CARGO_BIN_EXE_hil");
     let st = Command::new(exe)
-        .args(["audit", "--no-sweep", "--quiet", "--json"])
+        .args([
+            "audit",
+            "--no-sweep",
+            "--quiet",
+            "--target-ticks",
+            "200",
+            "--json",
+        ])
         .arg(&json)
         .arg("--report")
         .arg(&rep)
@@ -317,7 +325,14 @@ fn json_has_the_issue_fields_and_the_binary_exit_codes_follow_the_verdict() {
     }
     // A too-narrow format: exit 1. A malformed one: exit 2.
     let st = Command::new(exe)
-        .args(["audit", "--no-sweep", "--quiet", "--signal-q", "2.30"])
+        .args([
+            "audit",
+            "--no-sweep",
+            "--no-target",
+            "--quiet",
+            "--signal-q",
+            "2.30",
+        ])
         .status()
         .unwrap();
     assert_eq!(st.code(), Some(1));
@@ -364,4 +379,50 @@ fn the_yaw_predictor_is_audited_when_enabled() {
     })
     .unwrap();
     assert!(!r.controllers.iter().any(|c| c.name == "yaw_predictor"));
+}
+
+/// The same numbers from the target: the firmware under QEMU on the same bytes as the
+/// host's runtime. Skips when QEMU or the ELF is missing, unless `REQUIRE_QEMU=1` (set
+/// by `cargo xtest` when QEMU is installed).
+#[test]
+fn target_outputs_equal_the_hosts_bit_for_bit() {
+    let mut a = args();
+    a.no_target = false;
+    a.no_plant = true;
+    a.target_ticks = 300;
+    let r = audit::build(&a).unwrap();
+    if !r.target.available {
+        assert_ne!(
+            std::env::var("REQUIRE_QEMU").as_deref(),
+            Ok("1"),
+            "REQUIRE_QEMU=1 but {}",
+            r.target.note
+        );
+        eprintln!("SKIPPED: {}", r.target.note);
+        return;
+    }
+    assert!(r.target.runs.len() >= 2, "{:?}", r.target.runs);
+    for run in &r.target.runs {
+        assert_eq!(run.ticks, 300, "{run:?}");
+        assert_eq!(run.mismatches, 0, "{run:?}");
+        // Wire-code rounding only: at most one code from the f64 core.
+        assert!(run.target_vs_f64_wire_lsb.0 <= 1.0, "{run:?}");
+        assert!(run.mean_exec > 0.0, "{run:?}");
+    }
+    let c = r
+        .checks
+        .iter()
+        .find(|c| c.item.starts_with("target vs host"))
+        .unwrap();
+    assert_eq!(c.status, Status::Pass);
+    // A non-default configuration is refused with a reason, not compared.
+    let mut b = a.clone();
+    b.rate = Some(4000);
+    let r = audit::build(&b).unwrap();
+    assert!(!r.target.available);
+    assert!(
+        r.target.note.contains("default configuration"),
+        "{}",
+        r.target.note
+    );
 }

@@ -89,6 +89,17 @@ fn no_subcommand_is_run_and_writes_the_verdict_document() {
 }
 
 #[test]
+fn a_warning_exits_zero_and_says_so() {
+    let short = data("short.toml");
+    // 25 us of execution puts the latency just above 0.8 T: a warning, not a failure.
+    let out = hil(&["run", "--scenario", &short, "--device-fault", "slow:25"]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(0), "{stdout}");
+    assert!(stdout.contains("verdict: warn"), "{stdout}");
+    assert!(stdout.contains("timing.latency_max"), "{stdout}");
+}
+
+#[test]
 fn a_failing_check_exits_non_zero() {
     let short = data("short.toml");
     let out = hil(&["run", "--scenario", &short, "--device-fault", "wrong-sign"]);
@@ -149,6 +160,20 @@ fn bad_flags_and_files_exit_2_with_a_clear_message() {
             "link budget exceeded",
         ),
         (vec!["run", "--baud", "0"], "baud"),
+        (
+            vec!["run", "--target", "qemu", "--faults", "ber=1e-3"],
+            "simulated link",
+        ),
+        (
+            vec![
+                "run",
+                "--target",
+                "serial:/dev/null",
+                "--device-fault",
+                "slow",
+            ],
+            "in-process",
+        ),
         (
             vec![
                 "run",

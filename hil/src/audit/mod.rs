@@ -32,6 +32,7 @@ pub mod qdyn;
 pub mod ranges;
 pub mod report;
 pub mod response;
+pub mod target;
 
 use std::path::PathBuf;
 
@@ -76,6 +77,12 @@ pub struct AuditArgs {
     /// core's default, 0 = off); the predictor is then audited as a filter of its own.
     #[arg(long, value_name = "TICKS")]
     pub yaw_predict_ticks: Option<f64>,
+    /// Skip the target (QEMU) comparison.
+    #[arg(long)]
+    pub no_target: bool,
+    /// Ticks per scenario window sent to the target (QEMU exchanges ~300 ticks/s).
+    #[arg(long, value_name = "N", default_value_t = 2000)]
+    pub target_ticks: usize,
     /// Skip the closed-loop plant scenarios (curve, beating, fault runs).
     #[arg(long)]
     pub no_plant: bool,
@@ -96,6 +103,8 @@ impl Default for AuditArgs {
             coef_q: None,
             no_sweep: false,
             no_plant: false,
+            no_target: false,
+            target_ticks: 2000,
             yaw_predict_ticks: None,
             quiet: true,
         }
@@ -438,15 +447,6 @@ pub struct Recommendation {
     pub margin: String,
 }
 
-/// The target (QEMU) comparison.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct Target {
-    /// Whether target numbers are included.
-    pub available: bool,
-    /// Why not, or what was compared.
-    pub note: String,
-}
-
 /// The whole audit.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Audit {
@@ -474,7 +474,7 @@ pub struct Audit {
     /// coefficient fraction bits needed, if the sweep ran.
     pub sweep: Option<Sweep>,
     /// Target comparison.
-    pub target: Target,
+    pub target: target::TargetReport,
     /// Every judged figure.
     pub checks: Vec<Check>,
     /// Worst status.
@@ -1075,6 +1075,54 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
         .collect();
     let sweep = (!args.no_sweep).then(|| sweep(&cfg, &tol, &fmt, &coefs));
     let recommendations = recommend(&c.observed, &fmt, sweep.as_ref(), &cfg);
+    let target = if args.no_target {
+        target::TargetReport {
+            available: false,
+            note: "target: not run (--no-target)".into(),
+            runs: Vec::new(),
+        }
+    } else if !production {
+        target::TargetReport {
+            available: false,
+            note: "target: not applicable (the firmware runs the production formats)".into(),
+            runs: Vec::new(),
+        }
+    } else {
+        let pick = |n: &str| scenarios.iter().find(|s| s.name == n);
+        let mut w: Vec<(&Scenario, f64)> = Vec::new();
+        for (n, from) in [("full_scale_steps", 0.0), ("chirp", 0.0), ("curve", 4.8)] {
+            if let Some(s) = pick(n) {
+                w.push((s, from));
+            }
+        }
+        target::compare(&w, args.target_ticks, &cfg)
+    };
+    for r in &target.runs {
+        let mut c = judge(
+            "all",
+            &format!(
+                "target vs host Actuation frames, scenario {} ({} ticks)",
+                r.scenario, r.ticks
+            ),
+            r.mismatches as f64,
+            (0.0, 0.0),
+            "frames",
+            "frames differing",
+        );
+        c.reason = format!(
+            "{} of {} frames differ between QEMU and the host (max code difference T_psi {} \
+             dNm, u_a {} cV); target vs f64 max {:.1}/{:.1} wire LSB, host vs f64 {:.1}/{:.1}",
+            r.mismatches,
+            r.ticks,
+            r.max_code_diff.0,
+            r.max_code_diff.1,
+            r.target_vs_f64_wire_lsb.0,
+            r.target_vs_f64_wire_lsb.1,
+            r.host_vs_f64_wire_lsb.0,
+            r.host_vs_f64_wire_lsb.1
+        );
+        checks.push(c);
+    }
     let verdict = checks
         .iter()
         .map(|c| c.status)
@@ -1102,10 +1150,7 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
         scenario_notes,
         recommendations,
         sweep,
-        target: Target {
-            available: false,
-            note: "target: not available: the QEMU launcher (`hil::qemu`, firmware branch) is not in this build".into(),
-        },
+        target,
         checks,
         verdict,
     })
@@ -1136,6 +1181,9 @@ fn command_line(a: &AuditArgs) -> String {
     }
     if a.no_plant {
         s += " --no-plant";
+    }
+    if a.no_target {
+        s += " --no-target";
     }
     if let Some(p) = &a.json {
         s += &format!(" --json {}", p.display());

@@ -100,6 +100,25 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
         a.formats.coef.lsb(),
         a.sample_type
     );
+    let bad: Vec<_> = a
+        .checks
+        .iter()
+        .filter(|c| c.status != Status::Pass)
+        .collect();
+    if !bad.is_empty() {
+        let _ = writeln!(w, "Checks not passed:\n");
+        for c in bad {
+            let _ = writeln!(
+                w,
+                "- **{}** `{}` {}: {}",
+                c.status.as_str(),
+                c.controller,
+                c.item,
+                c.reason
+            );
+        }
+        let _ = writeln!(w);
+    }
     let t = &a.tolerances;
     let _ = writeln!(w, "## Tolerances (warn / fail)\n");
     let _ = writeln!(w, "| figure | warn | fail |\n|---|---|---|");
@@ -404,7 +423,36 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
             r.signal, r.controller, r.peak_pu, r.format, r.word, r.margin
         );
     }
-    let _ = writeln!(w, "\n## Target (QEMU)\n\n{}\n", a.target.note);
+    let _ = writeln!(w, "\n## Target (QEMU)\n\n{}.\n", a.target.note);
+    if !a.target.runs.is_empty() {
+        let _ = writeln!(
+            w,
+            "| scenario | from tick | ticks | frames differing | max code diff (T_psi dNm, u_a cV) | target vs f64 (wire LSB) | host vs f64 (wire LSB) | mean instructions/tick |\n|---|---|---|---|---|---|---|---|"
+        );
+        for r in &a.target.runs {
+            let _ = writeln!(
+                w,
+                "| {} | {} | {} | {} | {}, {} | {:.1}, {:.1} | {:.1}, {:.1} | {:.0} |",
+                r.scenario,
+                r.from_tick,
+                r.ticks,
+                r.mismatches,
+                r.max_code_diff.0,
+                r.max_code_diff.1,
+                r.target_vs_f64_wire_lsb.0,
+                r.target_vs_f64_wire_lsb.1,
+                r.host_vs_f64_wire_lsb.0,
+                r.host_vs_f64_wire_lsb.1,
+                r.mean_exec
+            );
+        }
+        let _ = writeln!(
+            w,
+            "\nThe target's outputs are visible only as wire codes (0.1 N m, 10 mV), so its \
+             error against f64 is stated in wire LSBs; the host's internal-resolution figures \
+             are in the noise table above.\n"
+        );
+    }
     if !plots.is_empty() {
         let _ = writeln!(w, "## Plots\n");
         for (cap, f) in plots {

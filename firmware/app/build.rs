@@ -1,0 +1,48 @@
+//! Link set-up for the board binaries: puts the board's `memory.x` (and, for QEMU, the
+//! interrupt names of the crate's own vector table in `device.x`) on the linker search
+//! path and passes the cortex-m-rt and defmt linker scripts. Does nothing on the host.
+
+use std::{env, fs, path::PathBuf};
+
+fn main() {
+    println!("cargo:rerun-if-changed=build.rs");
+    println!("cargo:rerun-if-changed=../../memory.x");
+    println!("cargo:rerun-if-changed=qemu/memory-qemu.x");
+    println!("cargo:rerun-if-changed=qemu/device.x");
+    println!("cargo:rerun-if-changed=qemu/link.x");
+    if env::var("CARGO_CFG_TARGET_OS").as_deref() != Ok("none") {
+        return;
+    }
+    let nucleo = env::var_os("CARGO_FEATURE_BOARD_NUCLEO").is_some();
+    let qemu = env::var_os("CARGO_FEATURE_BOARD_QEMU").is_some();
+    let manifest = PathBuf::from(env::var_os("CARGO_MANIFEST_DIR").unwrap_or_default());
+    let out = PathBuf::from(env::var_os("OUT_DIR").unwrap_or_default());
+    let copy = |from: PathBuf, to: &str| {
+        if let Err(e) = fs::copy(&from, out.join(to)) {
+            println!("cargo:warning=cannot copy {}: {e}", from.display());
+            std::process::exit(1);
+        }
+    };
+    // The linker runs in the workspace root and looks there first for an INCLUDEd file,
+    // so the QEMU map cannot be called `memory.x` (the top-level STM32 one would win):
+    // the QEMU build uses its own copy of cortex-m-rt's link.x that includes
+    // `memory-qemu.x` (see qemu/link.x).
+    let script = match (nucleo, qemu) {
+        (true, false) => {
+            copy(manifest.join("../../memory.x"), "memory.x");
+            "link.x"
+        }
+        (false, true) => {
+            copy(manifest.join("qemu/memory-qemu.x"), "memory-qemu.x");
+            copy(manifest.join("qemu/device.x"), "device.x");
+            copy(manifest.join("qemu/link.x"), "link-qemu.x");
+            "link-qemu.x"
+        }
+        // The library's compile_error! explains the feature choice; no link set-up.
+        _ => return,
+    };
+    println!("cargo:rustc-link-search={}", out.display());
+    println!("cargo:rustc-link-arg-bins=--nmagic");
+    println!("cargo:rustc-link-arg-bins=-T{script}");
+    println!("cargo:rustc-link-arg-bins=-Tdefmt.x");
+}

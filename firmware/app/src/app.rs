@@ -1,0 +1,150 @@
+//! The board-independent task structure: the pipes between the UART and the control
+//! task, and the control loop itself. Each board supplies the executors, the UART tasks,
+//! a [`Stopwatch`] and `set_period` (the QEMU frame clock needs the period).
+//!
+//! ```text
+//!  UART RX (ISR or DMA task) --RX pipe--> control task --TX pipe--> UART TX task
+//!                                         (Ticker, base rate, highest executor)
+//! ```
+
+use embassy_executor::{SpawnError, SpawnToken};
+use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
+use embassy_sync::pipe::Pipe;
+use embassy_time::{Duration, Instant, Ticker};
+
+use crate::config::{RX_PIPE, TX_PIPE};
+use crate::device::{new_runtime, Device, FwRuntime};
+use crate::tick::{period_ticks, TickMonitor, TickWake};
+
+/// Bytes from the UART receiver to the control task.
+pub static RX: Pipe<CriticalSectionRawMutex, RX_PIPE> = Pipe::new();
+/// Encoded frames from the control task to the UART transmitter.
+pub static TX: Pipe<CriticalSectionRawMutex, TX_PIPE> = Pipe::new();
+
+/// The execution-time counter of a board.
+pub trait Stopwatch {
+    /// Starts a measurement; returns the raw start reading.
+    fn start(&mut self) -> u32;
+    /// Ends the measurement started at `start`; returns cycles (board) or instructions
+    /// (QEMU).
+    fn stop(&mut self, start: u32) -> u32;
+}
+
+/// The device the control task drives: the runtime with its default configuration. A
+/// configuration the control core refuses is a build error in disguise (it is not
+/// input): the board halts.
+pub fn new_device() -> FwRuntime {
+    match new_runtime() {
+        Ok(rt) => rt,
+        Err(_) => {
+            defmt::error!("runtime refused its default configuration");
+            crate::board::panic_halt()
+        }
+    }
+}
+
+/// Unwraps a task's spawn token; a full task pool is a build error in disguise, so it
+/// halts the board (it cannot depend on input: tasks are spawned once at start-up).
+pub fn token<S>(t: Result<SpawnToken<S>, SpawnError>) -> SpawnToken<S> {
+    match t {
+        Ok(t) => t,
+        Err(_) => {
+            defmt::error!("task pool exhausted at start-up");
+            crate::board::panic_halt()
+        }
+    }
+}
+
+/// A ticker whose first tick is one period from now.
+fn new_ticker(period: u64) -> (Ticker, u64) {
+    let start = Instant::now();
+    let mut t = Ticker::every(Duration::from_ticks(period));
+    // `reset_at(t)` makes `t` the last tick: the next one is due at `t + period`.
+    t.reset_at(start);
+    (t, start.as_ticks().saturating_add(period))
+}
+
+/// The control task's body. Deadline: one base period per tick.
+///
+/// Each tick: apply the missed-tick policy ([`crate::tick`]), feed the bytes received
+/// since the last tick to the device, run the device's tick with the previous tick's
+/// execution time, and queue the encoded frame for the transmitter. The execution time
+/// is measured from the wake-up to the encoded frame (drain + decode + control +
+/// encode). A host Config frame that changes the base rate re-arms the schedule.
+pub async fn control_loop(mut device: impl Device, mut stopwatch: impl Stopwatch) -> ! {
+    let mut rate = device.base_rate_hz();
+    let Some(mut period) = period_ticks(rate) else {
+        defmt::error!("base rate {=u32} Hz is not a whole number of us", rate);
+        crate::board::panic_halt()
+    };
+    crate::board::set_period(period);
+    let (mut ticker, first) = new_ticker(period);
+    let Ok(mut monitor) = TickMonitor::try_new(period, first, period / 4) else {
+        defmt::error!("bad tick configuration");
+        crate::board::panic_halt()
+    };
+    defmt::info!("control task: {=u32} Hz, period {=u64} us", rate, period);
+    let mut last_exec = 0u32;
+    let mut tx_dropped = 0u32;
+    let mut chunk = [0u8; 32];
+    loop {
+        ticker.next().await;
+        let t0 = stopwatch.start();
+        match monitor.on_wake(Instant::now().as_ticks()) {
+            TickWake::OnTime => {}
+            TickWake::Late { lateness } => defmt::warn!("late tick: {=u64} us", lateness),
+            TickWake::Skipped {
+                missed,
+                next_deadline,
+            } => {
+                ticker.reset_at(Instant::from_ticks(next_deadline.saturating_sub(period)));
+                defmt::warn!("stalled: skipped {=u32} ticks", missed);
+            }
+        }
+        // Bounded: the pipe holds at most RX_PIPE bytes.
+        for _ in 0..RX_PIPE / chunk.len() + 1 {
+            match RX.try_read(&mut chunk) {
+                Ok(n) => device.receive(chunk.get(..n).unwrap_or(&[])),
+                Err(_) => break,
+            }
+        }
+        let frame = device.tick(last_exec);
+        // The measurement ends with the encoded frame: handing it to the transmitter
+        // costs more or less depending on whether the TX task is already waiting,
+        // which under lock-step depends on host timing, not on the tick.
+        last_exec = stopwatch.stop(t0);
+        // A frame goes out whole or not at all.
+        if !frame.is_empty() {
+            if TX.free_capacity() >= frame.len() {
+                // The pipe is a ring: one write stops at its end, so write until done
+                // (at most two writes; the room was checked above).
+                let mut rest = frame;
+                while let Ok(n @ 1..) = TX.try_write(rest) {
+                    rest = rest.get(n..).unwrap_or(&[]);
+                }
+            } else {
+                tx_dropped = tx_dropped.wrapping_add(1);
+                defmt::warn!("TX pipe full: frame dropped ({=u32})", tx_dropped);
+            }
+        }
+        // A Config frame from the host may have changed the base rate.
+        let now_rate = device.base_rate_hz();
+        if now_rate != rate {
+            match period_ticks(now_rate) {
+                Some(p) => {
+                    rate = now_rate;
+                    period = p;
+                    crate::board::set_period(period);
+                    let (t, first) = new_ticker(period);
+                    ticker = t;
+                    monitor.rearm(period, first);
+                    defmt::info!("base rate now {=u32} Hz", rate);
+                }
+                None => defmt::warn!(
+                    "base rate {=u32} Hz refused: not a whole number of us",
+                    now_rate
+                ),
+            }
+        }
+    }
+}

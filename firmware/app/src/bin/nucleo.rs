@@ -1,0 +1,22 @@
+//! Firmware for the Nucleo-F446RE. Build with `cargo fw`; flash with
+//! `cargo flash-board` (probe-rs).
+#![cfg_attr(target_os = "none", no_std, no_main)]
+
+#[cfg(target_os = "none")]
+#[cortex_m_rt::entry]
+fn main() -> ! {
+    wheelset_fw::board::run()
+}
+
+#[cfg(not(target_os = "none"))]
+fn main() {
+    use wheelset_fw::config;
+    println!(
+        "wheelset-nucleo: Nucleo-F446RE firmware; base rate {} Hz, {} build, USART2 (ST-LINK VCP)",
+        config::BASE_RATE_HZ,
+        config::NUMERIC
+    );
+    println!(
+        "build it with `cargo fw` (target/fw/wheelset-nucleo.elf), flash with `cargo flash-board`"
+    );
+}

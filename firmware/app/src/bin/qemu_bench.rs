@@ -1,0 +1,169 @@
+//! Instruction counts of the control law and of the whole runtime tick on the emulated
+//! Cortex-M4 (QEMU `mps2-an386`, `-icount shift=10`: SysTick counts convert exactly to
+//! instructions). Run with `cargo xtask fw-bench` (fixed point and f32). Prints one line
+//! per measurement over semihosting, then exits QEMU.
+#![cfg_attr(target_os = "none", no_std, no_main)]
+
+#[cfg(target_os = "none")]
+mod bench {
+    use cortex_m_semihosting::{debug, hprintln};
+    use wheelset_control::{Config, Controller, Inputs, Outputs};
+    use wheelset_fw::app::Stopwatch;
+    use wheelset_fw::board::qemu::SysTickStopwatch;
+    use wheelset_fw::device::{new_runtime, FwRuntime, Num};
+    use wheelset_proto::{encode_vec, Lateral, Message, Sensor};
+
+    const N: u32 = 2_000;
+
+    /// The control-law step: both loops, limits, safe ramp; per-unit in and out.
+    #[inline(never)]
+    fn law_step(c: &mut Controller<Num>, i: &Inputs<Num>) -> Outputs<Num> {
+        c.tick(i)
+    }
+
+    /// Decode one sensor frame, run the tick, encode the actuation frame.
+    #[inline(never)]
+    fn whole_tick(rt: &mut FwRuntime, frame: &[u8], exec: u32) -> usize {
+        rt.receive(frame);
+        rt.tick(exec).len()
+    }
+
+    /// Calibration: the same call shape doing nothing.
+    #[inline(never)]
+    fn nothing(x: u32) -> u32 {
+        core::hint::black_box(x)
+    }
+
+    #[derive(Clone, Copy)]
+    struct Stats {
+        min: u32,
+        max: u32,
+        sum: u64,
+        n: u32,
+    }
+
+    impl Stats {
+        const fn new() -> Self {
+            Self {
+                min: u32::MAX,
+                max: 0,
+                sum: 0,
+                n: 0,
+            }
+        }
+        fn add(&mut self, x: u32) {
+            self.min = self.min.min(x);
+            self.max = self.max.max(x);
+            self.sum += u64::from(x);
+            self.n += 1;
+        }
+        fn print(&self, what: &str, overhead: u32) {
+            let n = u64::from(self.n.max(1));
+            hprintln!(
+                "{} [{}]: min {} mean {} max {} instructions (n = {}, stopwatch overhead {} removed)",
+                what,
+                wheelset_fw::config::NUMERIC,
+                self.min.saturating_sub(overhead),
+                (self.sum / n).saturating_sub(u64::from(overhead)),
+                self.max.saturating_sub(overhead),
+                self.n,
+                overhead
+            );
+        }
+    }
+
+    /// A y' that rings like a damped yaw mode and a current near its reference, so every
+    /// branch of the loops is exercised; the demand steps up at mid-run.
+    fn si_inputs(k: u32) -> (f64, f64, f64, f64) {
+        let t = f64::from(k) / 5000.0;
+        let ring = if (k / 50).is_multiple_of(2) {
+            1.0
+        } else {
+            -1.0
+        } * 0.02
+            / (1.0 + t);
+        let demand = if k > N / 2 { 2460.0 } else { 0.0 };
+        (ring, 100.0 * ring, 925.6, demand)
+    }
+
+    pub fn run() -> ! {
+        let Some(core) = cortex_m::Peripherals::take() else {
+            exit(debug::EXIT_FAILURE)
+        };
+        let mut sw = SysTickStopwatch::new(core.SYST);
+
+        let mut cal = Stats::new();
+        for k in 0..64 {
+            let t0 = sw.start();
+            core::hint::black_box(nothing(k));
+            cal.add(sw.stop(t0));
+        }
+        let overhead = cal.min;
+
+        let cfg = Config::default();
+        let Ok(mut c) = Controller::<Num>::try_new(&cfg) else {
+            hprintln!("controller refused the default configuration");
+            exit(debug::EXIT_FAILURE)
+        };
+        let mut law = Stats::new();
+        for k in 0..N {
+            let (y, i, w, d) = si_inputs(k);
+            let inp = Inputs::<Num>::from_si(&cfg.scales, y, i, w, d);
+            let t0 = sw.start();
+            core::hint::black_box(law_step(&mut c, &inp));
+            law.add(sw.stop(t0));
+        }
+        law.print(
+            "control-law step (yaw lead + traction PI + limits)",
+            overhead,
+        );
+
+        let Ok(mut rt) = new_runtime() else {
+            hprintln!("runtime refused the default configuration");
+            exit(debug::EXIT_FAILURE)
+        };
+        let mut whole = Stats::new();
+        let mut exec = 0;
+        for k in 0..N {
+            let (y, i, w, d) = si_inputs(k);
+            let s = Sensor {
+                seq: k as u16,
+                t_us: (k * 200) as u16,
+                lateral: Lateral::Velocity((y * 1e6) as i32),
+                i_a_ma: (i * 1e3) as i32,
+                omega_m_mrad_s: (w * 1e3) as i32,
+                demand_nm: d as i32,
+            };
+            let Ok(frame) = encode_vec(&Message::Sensor(s)) else {
+                continue;
+            };
+            let t0 = sw.start();
+            core::hint::black_box(whole_tick(&mut rt, &frame, exec));
+            exec = sw.stop(t0);
+            whole.add(exec);
+        }
+        whole.print(
+            "whole tick (decode sensor frame + control + encode actuation frame)",
+            overhead,
+        );
+        exit(debug::EXIT_SUCCESS)
+    }
+
+    /// Ends the QEMU run with `status`.
+    fn exit(status: debug::ExitStatus) -> ! {
+        loop {
+            debug::exit(status);
+        }
+    }
+}
+
+#[cfg(target_os = "none")]
+#[cortex_m_rt::entry]
+fn main() -> ! {
+    bench::run()
+}
+
+#[cfg(not(target_os = "none"))]
+fn main() {
+    println!("wheelset-qemu-bench runs under QEMU: `cargo xtask fw-bench`");
+}

@@ -1,0 +1,11 @@
+//! The board layers; exactly one is compiled into a firmware binary.
+
+#[cfg(feature = "board-nucleo")]
+pub mod nucleo;
+#[cfg(feature = "board-nucleo")]
+pub use nucleo::{panic_halt, run, set_period};
+
+#[cfg(feature = "board-qemu")]
+pub mod qemu;
+#[cfg(feature = "board-qemu")]
+pub use qemu::{panic_halt, run, set_period};

@@ -1,0 +1,190 @@
+//! Nucleo-F446RE board layer (STM32F446RE, Cortex-M4F): embassy-stm32 with its TIM2
+//! time driver, USART2 (PA2 TX / PA3 RX, the ST-LINK virtual COM port) with DMA, defmt
+//! over RTT, the DWT cycle counter as stopwatch.
+//!
+//! Clocks: HSI 16 MHz -> PLL (M 16, N 336, P 2) -> SYSCLK 168 MHz, APB1 42 MHz,
+//! APB2 84 MHz (no over-drive needed below 180 MHz).
+//!
+//! Executors and priorities (STM32: 4 priority bits, lower = more urgent):
+//!
+//! | context | priority | job |
+//! |---|---|---|
+//! | TIM2 (time driver) | embassy default P0-P15 set by the HAL | wakes the ticker |
+//! | UART4 (unused peripheral, software-pended) | P6 | control executor: the control task |
+//! | USART2, DMA1 stream 5/6 | HAL default | UART driver |
+//! | thread mode | lowest | RX task, TX task (embassy thread executor, WFE idle) |
+//!
+//! A UART burst is handled by the DMA and the thread-mode tasks, which the control
+//! executor preempts: it cannot delay a tick.
+
+use core::ptr::addr_of_mut;
+
+use cortex_m::peripheral::DWT;
+use defmt_rtt as _;
+use embassy_executor::{Executor, InterruptExecutor};
+use embassy_stm32::interrupt::{InterruptExt, Priority};
+use embassy_stm32::usart::{self, RingBufferedUartRx, Uart, UartTx};
+use embassy_stm32::{bind_interrupts, dma, interrupt, pac, peripherals, Config};
+
+use crate::app::{self, Stopwatch};
+use crate::exec::cyccnt_elapsed;
+
+bind_interrupts!(struct Irqs {
+    USART2 => usart::InterruptHandler<peripherals::USART2>;
+    DMA1_STREAM5 => dma::InterruptHandler<peripherals::DMA1_CH5>;
+    DMA1_STREAM6 => dma::InterruptHandler<peripherals::DMA1_CH6>;
+});
+
+/// Link baud rate (ST-LINK VCP).
+pub const BAUD: u32 = 921_600;
+
+static EXEC_CONTROL: InterruptExecutor = InterruptExecutor::new();
+
+/// The DWT cycle counter as a stopwatch (core cycles at 168 MHz).
+pub struct DwtStopwatch;
+
+impl Stopwatch for DwtStopwatch {
+    fn start(&mut self) -> u32 {
+        DWT::cycle_count()
+    }
+
+    fn stop(&mut self, start: u32) -> u32 {
+        cyccnt_elapsed(start, DWT::cycle_count())
+    }
+}
+
+#[embassy_executor::task]
+async fn control_task() {
+    app::control_loop(app::new_device(), DwtStopwatch).await
+}
+
+#[embassy_executor::task]
+async fn rx_task(mut rx: RingBufferedUartRx<'static>) {
+    let mut buf = [0u8; 32];
+    let mut dropped = 0u32;
+    loop {
+        match rx.read(&mut buf).await {
+            Ok(n) => {
+                let mut rest = buf.get(..n).unwrap_or(&[]);
+                while let Ok(w @ 1..) = app::RX.try_write(rest) {
+                    rest = rest.get(w..).unwrap_or(&[]);
+                }
+                if !rest.is_empty() {
+                    dropped = dropped.wrapping_add(rest.len() as u32);
+                    defmt::warn!("RX pipe full: {=u32} bytes dropped", dropped);
+                }
+            }
+            // Overrun, framing or noise error: the bytes in flight are lost; the frame
+            // decoder resynchronises on the next delimiter. Reception restarts.
+            Err(e) => defmt::warn!("USART2 RX error: {}", e),
+        }
+    }
+}
+
+#[embassy_executor::task]
+async fn tx_task(mut tx: UartTx<'static, embassy_stm32::mode::Async>) {
+    let mut buf = [0u8; 64];
+    loop {
+        let n = app::TX.read(&mut buf).await;
+        if let Err(e) = tx.write(buf.get(..n).unwrap_or(&[])).await {
+            defmt::warn!("USART2 TX error: {}", e);
+        }
+    }
+}
+
+/// The hardware timer needs no period: the ticker schedules its own alarms.
+pub fn set_period(_ticks: u64) {}
+
+/// Sends the safe frame by polling USART2 (DMA off), then sleeps forever; probe-rs
+/// shows the defmt panic message.
+pub fn panic_halt() -> ! {
+    if !crate::panic::enter_halt() {
+        let usart = pac::USART2;
+        usart.cr3().modify(|w| w.set_dmat(false));
+        let mut buf = [0u8; wheelset_proto::MAX_FRAME];
+        for &b in crate::device::safe_frame(&mut buf) {
+            while !usart.sr().read().txe() {}
+            usart.dr().write(|w| w.set_dr(u16::from(b)));
+        }
+    }
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
+
+/// Brings the board up and runs forever.
+pub fn run() -> ! {
+    let mut config = Config::default();
+    {
+        use embassy_stm32::rcc::*;
+        config.rcc.hsi = true;
+        config.rcc.pll_src = PllSource::HSI;
+        config.rcc.pll = Some(Pll {
+            prediv: PllPreDiv::DIV16,
+            mul: PllMul::MUL336,
+            divp: Some(PllPDiv::DIV2),
+            divq: Some(PllQDiv::DIV7),
+            divr: None,
+        });
+        config.rcc.sys = Sysclk::PLL1_P;
+        config.rcc.ahb_pre = AHBPrescaler::DIV1;
+        config.rcc.apb1_pre = APBPrescaler::DIV4;
+        config.rcc.apb2_pre = APBPrescaler::DIV2;
+    }
+    let p = embassy_stm32::init(config);
+
+    // The cycle counter: enable tracing, then the counter.
+    if let Some(mut core) = cortex_m::Peripherals::take() {
+        core.DCB.enable_trace();
+        core.DWT.enable_cycle_counter();
+    }
+
+    let mut uart_config = usart::Config::default();
+    uart_config.baudrate = BAUD;
+    let uart = match Uart::new(
+        p.USART2,
+        p.PA3,
+        p.PA2,
+        p.DMA1_CH6,
+        p.DMA1_CH5,
+        Irqs,
+        uart_config,
+    ) {
+        Ok(u) => u,
+        Err(_) => {
+            defmt::error!("USART2 configuration refused");
+            panic_halt()
+        }
+    };
+    let (tx, rx) = uart.split();
+    static mut RX_DMA: [u8; 256] = [0; 256];
+    // SAFETY: `run` executes once (it never returns), so this is the only reference to
+    // RX_DMA ever created; the DMA owns it from here on.
+    let rx = rx.into_ring_buffered(unsafe { &mut *addr_of_mut!(RX_DMA) });
+
+    defmt::info!(
+        "wheelset-nucleo: {} Hz base rate, {} build, USART2 at {} baud",
+        crate::config::BASE_RATE_HZ,
+        crate::config::NUMERIC,
+        BAUD
+    );
+
+    interrupt::UART4.set_priority(Priority::P6);
+    let control = EXEC_CONTROL.start(interrupt::UART4);
+    control.spawn(app::token(control_task()));
+
+    static mut EXECUTOR: Option<Executor> = None;
+    // SAFETY: as above, `run` executes once: this is the only reference to EXECUTOR.
+    let executor = unsafe { (*addr_of_mut!(EXECUTOR)).insert(Executor::new()) };
+    executor.run(|spawner| {
+        spawner.spawn(app::token(rx_task(rx)));
+        spawner.spawn(app::token(tx_task(tx)));
+    })
+}
+
+#[allow(non_snake_case)]
+#[interrupt]
+unsafe fn UART4() {
+    // SAFETY: this is UART4's handler, the interrupt EXEC_CONTROL was started on.
+    unsafe { EXEC_CONTROL.on_interrupt() }
+}

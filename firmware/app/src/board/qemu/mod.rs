@@ -1,0 +1,159 @@
+//! QEMU `mps2-an386` board layer (Cortex-M4F at 25 MHz): CMSDK UART0 for frames, a
+//! frame-clocked embassy-time driver, SysTick as the instruction stopwatch, defmt over
+//! semihosting, semihosting exit.
+//!
+//! Executors: both run in interrupt mode, so thread mode only sleeps. embassy's thread
+//! executor idles with WFE, which QEMU treats as a no-op (the CPU spins and virtual time
+//! runs away); with every task in an interrupt executor the idle loop is a plain WFI,
+//! which QEMU does sleep on, and every wake-up is an interrupt that WFI returns for.
+//!
+//! | interrupt | priority (NVIC, lower = more urgent) | job |
+//! |---|---|---|
+//! | UART0 RX (IRQ 0) | 0x20 | bytes to the RX pipe, frame edges to the clock |
+//! | SWI0 (IRQ 16) | 0x40 | control executor: the control task |
+//! | UART0 TX (IRQ 1) | 0x80 | holding register free |
+//! | SWI1 (IRQ 17) | 0xC0 | communication executor: the TX task |
+
+pub mod clock;
+mod log;
+pub mod pac;
+pub mod uart;
+
+use cortex_m::peripheral::syst::SystClkSource;
+use cortex_m::peripheral::{NVIC, SYST};
+use embassy_executor::InterruptExecutor;
+
+use crate::app::{self, Stopwatch};
+use crate::exec::{systick_elapsed, systick_to_instructions};
+use pac::Interrupt;
+
+static EXEC_CONTROL: InterruptExecutor = InterruptExecutor::new();
+static EXEC_COMMS: InterruptExecutor = InterruptExecutor::new();
+
+/// SysTick as a stopwatch, running only while a tick executes: stopped, it arms no
+/// timer, so QEMU's `sleep=off` has nothing to jump virtual time to while the guest
+/// waits for the host. Reports instructions (`counts * 40 ns / 2^shift`).
+pub struct SysTickStopwatch {
+    syst: SYST,
+}
+
+impl SysTickStopwatch {
+    /// Takes SysTick: core clock, no interrupt, stopped until [`Stopwatch::start`].
+    pub fn new(mut syst: SYST) -> Self {
+        syst.set_clock_source(SystClkSource::Core);
+        syst.disable_interrupt();
+        syst.disable_counter();
+        Self { syst }
+    }
+}
+
+impl Stopwatch for SysTickStopwatch {
+    fn start(&mut self) -> u32 {
+        self.syst.set_reload(0x00FF_FFFF);
+        self.syst.clear_current();
+        self.syst.enable_counter();
+        SYST::get_current()
+    }
+
+    fn stop(&mut self, start: u32) -> u32 {
+        let end = SYST::get_current();
+        self.syst.disable_counter();
+        systick_to_instructions(
+            systick_elapsed(start, end),
+            crate::config::QEMU_ICOUNT_SHIFT,
+        )
+    }
+}
+
+#[embassy_executor::task]
+async fn control_task(stopwatch: SysTickStopwatch) {
+    app::control_loop(app::new_device(), stopwatch).await
+}
+
+#[embassy_executor::task]
+async fn tx_task() {
+    let mut buf = [0u8; 64];
+    loop {
+        let n = app::TX.read(&mut buf).await;
+        uart::write_all(buf.get(..n).unwrap_or(&[])).await;
+    }
+}
+
+pub use clock::set_period;
+
+/// Sends the safe frame and exits QEMU with a failure status.
+pub fn panic_halt() -> ! {
+    if !crate::panic::enter_halt() {
+        let mut buf = [0u8; wheelset_proto::MAX_FRAME];
+        uart::write_blocking(crate::device::safe_frame(&mut buf));
+    }
+    loop {
+        cortex_m_semihosting::debug::exit(cortex_m_semihosting::debug::EXIT_FAILURE);
+    }
+}
+
+/// Brings the board up and runs forever.
+pub fn run() -> ! {
+    let Some(mut core) = cortex_m::Peripherals::take() else {
+        defmt::error!("core peripherals taken twice");
+        panic_halt();
+    };
+    let stopwatch = SysTickStopwatch::new(core.SYST);
+    uart::init();
+    defmt::info!(
+        "wheelset-qemu: {} Hz base rate, {} build, frame-clocked lock-step",
+        crate::config::BASE_RATE_HZ,
+        crate::config::NUMERIC
+    );
+
+    // SAFETY: priorities are set before any of these interrupts is enabled, so no
+    // priority-based critical section can be broken by the change.
+    unsafe {
+        core.NVIC.set_priority(Interrupt::Uart0Rx, 0x20);
+        core.NVIC.set_priority(Interrupt::Swi0, 0x40);
+        core.NVIC.set_priority(Interrupt::Uart0Tx, 0x80);
+        core.NVIC.set_priority(Interrupt::Swi1, 0xC0);
+    }
+    let control = EXEC_CONTROL.start(Interrupt::Swi0);
+    control.spawn(app::token(control_task(stopwatch)));
+    let comms = EXEC_COMMS.start(Interrupt::Swi1);
+    comms.spawn(app::token(tx_task()));
+
+    // SAFETY: the handlers of both UART interrupts are defined below and only touch the
+    // UART and lock-protected queues.
+    unsafe {
+        NVIC::unmask(Interrupt::Uart0Rx);
+        NVIC::unmask(Interrupt::Uart0Tx);
+    }
+    // A byte that arrived before the RX interrupt was enabled raised none: look once.
+    NVIC::pend(Interrupt::Uart0Rx);
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
+
+#[allow(non_snake_case)]
+#[unsafe(no_mangle)]
+extern "C" fn SWI0() {
+    // SAFETY: this is SWI0's handler, the interrupt EXEC_CONTROL was started on.
+    unsafe { EXEC_CONTROL.on_interrupt() }
+}
+
+#[allow(non_snake_case)]
+#[unsafe(no_mangle)]
+extern "C" fn SWI1() {
+    // SAFETY: this is SWI1's handler, the interrupt EXEC_COMMS was started on.
+    unsafe { EXEC_COMMS.on_interrupt() }
+}
+
+#[allow(non_snake_case)]
+#[unsafe(no_mangle)]
+extern "C" fn UART0RX() {
+    uart::on_rx_interrupt();
+}
+
+#[allow(non_snake_case)]
+#[unsafe(no_mangle)]
+extern "C" fn UART0TX() {
+    uart::on_tx_interrupt();
+}

@@ -1,0 +1,110 @@
+//! CMSDK APB UART0 of the mps2-an386 (0x4000_4000): the control link.
+//!
+//! The CMSDK UART has a one-byte holding register and no FIFO, so the RX interrupt
+//! handler is the receiver: it moves each byte into the RX pipe of the control task and,
+//! on the frame delimiter 0x00, advances the frame clock ([`super::clock`]). QEMU hands
+//! the UART the next byte only after the previous one was read, so nothing is overrun.
+//! Transmission is a task: one byte per write, waiting for the TX interrupt when the
+//! holding register is full.
+
+use core::future::poll_fn;
+use core::ptr::{read_volatile, write_volatile};
+use core::sync::atomic::{AtomicU32, Ordering};
+use core::task::Poll;
+
+use embassy_sync::waitqueue::AtomicWaker;
+
+const BASE: usize = 0x4000_4000;
+const DATA: usize = BASE;
+const STATE: usize = BASE + 0x04;
+const CTRL: usize = BASE + 0x08;
+const INTCLEAR: usize = BASE + 0x0C;
+const BAUDDIV: usize = BASE + 0x10;
+
+const STATE_TXFULL: u32 = 1 << 0;
+const STATE_RXFULL: u32 = 1 << 1;
+const CTRL_TX_EN: u32 = 1 << 0;
+const CTRL_RX_EN: u32 = 1 << 1;
+const CTRL_TX_INTEN: u32 = 1 << 2;
+const CTRL_RX_INTEN: u32 = 1 << 3;
+const INT_TX: u32 = 1 << 0;
+const INT_RX: u32 = 1 << 1;
+
+/// 25 MHz / 115200 baud. QEMU does not time the bytes, but ignores a divider below 16.
+const BAUD_DIVIDER: u32 = 217;
+
+static TX_WAKER: AtomicWaker = AtomicWaker::new();
+/// Bytes the RX pipe had no room for (dropped).
+pub static RX_DROPPED: AtomicU32 = AtomicU32::new(0);
+
+fn read(addr: usize) -> u32 {
+    // SAFETY: `addr` is one of the UART0 registers above: a valid, aligned MMIO word of
+    // the mps2-an386; reading it has no side effect except DATA (which the caller wants).
+    unsafe { read_volatile(addr as *const u32) }
+}
+
+fn write(addr: usize, value: u32) {
+    // SAFETY: as in `read`; the UART is owned by this module alone.
+    unsafe { write_volatile(addr as *mut u32, value) }
+}
+
+/// Enables the transmitter and the receiver with its interrupt.
+pub fn init() {
+    write(BAUDDIV, BAUD_DIVIDER);
+    write(INTCLEAR, INT_TX | INT_RX);
+    write(CTRL, CTRL_TX_EN | CTRL_RX_EN | CTRL_RX_INTEN);
+}
+
+/// UART0 RX interrupt: drain the holding register into the RX pipe. Deadline: one byte
+/// time (QEMU: before the next byte can be delivered, which it waits for anyway).
+pub fn on_rx_interrupt() {
+    loop {
+        // Clear first, then read: a byte arriving after the read raises a new interrupt.
+        write(INTCLEAR, INT_RX);
+        if read(STATE) & STATE_RXFULL == 0 {
+            break;
+        }
+        let byte = (read(DATA) & 0xFF) as u8;
+        if crate::app::RX.try_write(&[byte]) != Ok(1) {
+            RX_DROPPED.fetch_add(1, Ordering::Relaxed);
+        }
+        if byte == 0 {
+            super::clock::frame_edge();
+        }
+    }
+}
+
+/// UART0 TX interrupt: the holding register has room again.
+pub fn on_tx_interrupt() {
+    write(INTCLEAR, INT_TX);
+    write(CTRL, read(CTRL) & !CTRL_TX_INTEN);
+    TX_WAKER.wake();
+}
+
+/// Writes `bytes`, waiting (asynchronously) whenever the holding register is full.
+pub async fn write_all(bytes: &[u8]) {
+    for &b in bytes {
+        poll_fn(|cx| {
+            if read(STATE) & STATE_TXFULL == 0 {
+                return Poll::Ready(());
+            }
+            TX_WAKER.register(cx.waker());
+            critical_section::with(|_| write(CTRL, read(CTRL) | CTRL_TX_INTEN));
+            if read(STATE) & STATE_TXFULL == 0 {
+                Poll::Ready(())
+            } else {
+                Poll::Pending
+            }
+        })
+        .await;
+        write(DATA, u32::from(b));
+    }
+}
+
+/// Polled write for the panic handler (interrupts are off there).
+pub fn write_blocking(bytes: &[u8]) {
+    for &b in bytes {
+        while read(STATE) & STATE_TXFULL != 0 {}
+        write(DATA, u32::from(b));
+    }
+}

@@ -1,0 +1,130 @@
+//! What the control task drives: bytes in, one encoded frame out per tick.
+//!
+//! The board binaries call this interface only. It is implemented by the board-
+//! independent runtime (`wheelset-runtime`: frame decoding, fault policy, the control
+//! core, frame encoding), the same code the host's in-process device runs.
+
+use wheelset_control::Sample;
+use wheelset_proto::{encode, Actuation, Flags, Message, MAX_FRAME};
+use wheelset_runtime::{Runtime, RuntimeConfig, RuntimeError};
+
+/// The device side of the control loop, as the control task sees it.
+pub trait Device {
+    /// Feeds bytes received from the UART since the previous call (any split).
+    fn receive(&mut self, bytes: &[u8]);
+    /// Runs one control tick; `last_exec` is the execution time of the previous tick
+    /// (cycles on the board, instructions under QEMU). Returns the encoded frame(s) to
+    /// transmit, delimiters included.
+    fn tick(&mut self, last_exec: u32) -> &[u8];
+    /// The base (tick) rate the device runs at now, Hz (a host Config frame may change
+    /// it).
+    fn base_rate_hz(&self) -> u32;
+}
+
+impl<T: Sample> Device for Runtime<T> {
+    fn receive(&mut self, bytes: &[u8]) {
+        Runtime::receive(self, bytes);
+    }
+
+    fn tick(&mut self, last_exec: u32) -> &[u8] {
+        Runtime::tick(self, last_exec)
+    }
+
+    fn base_rate_hz(&self) -> u32 {
+        self.config().control.base_rate_hz
+    }
+}
+
+/// The sample type of the control core in this build: fixed point (`I4F28`) by
+/// default, `f32` with the `f32` feature.
+#[cfg(not(feature = "f32"))]
+pub type Num = wheelset_control::Fx;
+/// The sample type of the control core in this build: fixed point (`I4F28`) by
+/// default, `f32` with the `f32` feature.
+#[cfg(feature = "f32")]
+pub type Num = f32;
+
+/// The firmware's runtime.
+pub type FwRuntime = Runtime<Num>;
+
+/// The firmware's runtime with the default configuration (the control core's default
+/// rates, gains and limits, validated).
+pub fn new_runtime() -> Result<FwRuntime, RuntimeError> {
+    FwRuntime::try_new(RuntimeConfig::default())
+}
+
+/// Encodes the frame that puts the actuators in their safe state
+/// ([`Runtime::safe_outputs`]: zero yaw torque, zero motor voltage; flag `SAFE`, not
+/// `ENABLED`) into `out`; returns the frame with its delimiter (empty if it does not
+/// fit, which `MAX_FRAME` rules out).
+pub fn safe_frame(out: &mut [u8; MAX_FRAME]) -> &[u8] {
+    let safe = FwRuntime::safe_outputs();
+    let msg = Message::Actuation(Actuation {
+        seq_echo: 0,
+        tick: 0,
+        exec: 0,
+        flags: Flags(Flags::SAFE),
+        t_psi_dnm: safe.t_psi_dnm,
+        u_a_cv: safe.u_a_cv,
+    });
+    match encode(&msg, out) {
+        Ok(n) => out.get(..n).unwrap_or(&[]),
+        Err(_) => &[],
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use wheelset_proto::{encode_vec, Decoder, Lateral, Sensor};
+
+    fn decode_all(bytes: &[u8]) -> Vec<Message> {
+        let mut dec: Decoder = Decoder::new();
+        let mut out = Vec::new();
+        dec.feed(bytes, |r| out.push(r.unwrap()));
+        out
+    }
+
+    #[test]
+    fn the_safe_frame_commands_zero_and_says_safe() {
+        let mut buf = [0u8; MAX_FRAME];
+        let frame = safe_frame(&mut buf).to_vec();
+        assert_eq!(frame.last(), Some(&0));
+        let msgs = decode_all(&frame);
+        let [Message::Actuation(a)] = msgs.as_slice() else {
+            panic!("{msgs:?}")
+        };
+        assert_eq!((a.t_psi_dnm, a.u_a_cv), (0, 0));
+        assert!(a.flags.has(Flags::SAFE) && !a.flags.has(Flags::ENABLED));
+    }
+
+    #[test]
+    fn the_device_interface_is_the_runtime() {
+        let mut dev = new_runtime().unwrap();
+        assert_eq!(
+            Device::base_rate_hz(&dev),
+            wheelset_control::DEFAULT_BASE_RATE_HZ
+        );
+        let s = Sensor {
+            seq: 41,
+            t_us: 0,
+            lateral: Lateral::Velocity(0),
+            i_a_ma: 0,
+            omega_m_mrad_s: 925_600,
+            demand_nm: 0,
+        };
+        let frame = encode_vec(&Message::Sensor(s)).unwrap();
+        // Any chunking.
+        let (a, b) = frame.split_at(3);
+        Device::receive(&mut dev, a);
+        Device::receive(&mut dev, b);
+        let out = Device::tick(&mut dev, 1234).to_vec();
+        let msgs = decode_all(&out);
+        let [Message::Actuation(a)] = msgs.as_slice() else {
+            panic!("{msgs:?}")
+        };
+        assert_eq!(a.seq_echo, 41);
+        assert_eq!(a.exec, 1234);
+        assert!(a.flags.has(Flags::ENABLED));
+    }
+}

@@ -1,0 +1,269 @@
+//! The missed-tick policy of the control task: detect, count, and skip.
+//!
+//! embassy-time's `Ticker` neither reports nor limits lateness: after a long stall it
+//! fires once per missed period, back to back, until it has caught up. For a control
+//! loop that is wrong twice over: the catch-up ticks all see the same (newest) sensor
+//! sample, and they emit a burst of actuation frames that the plant applies within a
+//! fraction of a period. The policy here is **skip**:
+//!
+//! - every wake-up is compared with the deadline it was scheduled for:
+//!   `lateness = now - deadline` (in timer ticks; 1 tick = 1 us with
+//!   `tick-hz-1_000_000`);
+//! - `lateness <= late_after`: on time;
+//! - `late_after < lateness < period`: a **late** tick, counted, still run;
+//! - `lateness >= period`: `missed = floor(lateness / period)` deadlines passed without a
+//!   tick. They are **skipped** (counted in `skipped_periods`), the tick runs once with
+//!   the newest sample, and the schedule re-aligns to the original phase grid: the next
+//!   deadline is `deadline + (missed + 1) * period`, the first grid point after `now`.
+//!
+//! The monitor is pure arithmetic on `u64` ticks, so it is tested on the host.
+
+/// Counters of the tick schedule, reported by the control task.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TickCounters {
+    /// Ticks run.
+    pub ticks: u32,
+    /// Ticks that started more than `late_after` after their deadline (skips included).
+    pub late: u32,
+    /// Deadlines that passed without a tick (skipped, not caught up).
+    pub skipped_periods: u32,
+    /// Largest lateness seen, in timer ticks.
+    pub max_lateness: u64,
+}
+
+/// What the control task must do after a wake-up.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TickWake {
+    /// Run the tick; the ticker's own next deadline is right.
+    OnTime,
+    /// Run the tick; it started `lateness` ticks after its deadline (less than a period).
+    Late {
+        /// Timer ticks after the deadline.
+        lateness: u64,
+    },
+    /// Run the tick once; `missed` deadlines were skipped. The ticker must be re-armed
+    /// at `next_deadline` (the next point of the phase grid after now).
+    Skipped {
+        /// Deadlines that passed without a tick.
+        missed: u32,
+        /// The next deadline on the phase grid, in timer ticks.
+        next_deadline: u64,
+    },
+}
+
+/// A configuration the monitor refuses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TickConfigError {
+    /// The period is zero.
+    ZeroPeriod,
+    /// `late_after` is not below the period.
+    LateAfterNotBelowPeriod,
+}
+
+/// Tracks the deadlines of a fixed-period tick and applies the skip policy.
+#[derive(Clone, Debug)]
+pub struct TickMonitor {
+    period: u64,
+    late_after: u64,
+    next_deadline: u64,
+    counters: TickCounters,
+}
+
+impl TickMonitor {
+    /// A monitor for ticks every `period` timer ticks, the first due at `first_deadline`;
+    /// a tick more than `late_after` ticks after its deadline counts as late.
+    pub fn try_new(
+        period: u64,
+        first_deadline: u64,
+        late_after: u64,
+    ) -> Result<Self, TickConfigError> {
+        if period == 0 {
+            return Err(TickConfigError::ZeroPeriod);
+        }
+        if late_after >= period {
+            return Err(TickConfigError::LateAfterNotBelowPeriod);
+        }
+        Ok(Self {
+            period,
+            late_after,
+            next_deadline: first_deadline,
+            counters: TickCounters::default(),
+        })
+    }
+
+    /// A new period, first deadline at `first_deadline`, late after a quarter period;
+    /// the counters carry on (a base-rate change at run time).
+    pub fn rearm(&mut self, period: u64, first_deadline: u64) {
+        self.period = period.max(1);
+        self.late_after = self.period / 4;
+        self.next_deadline = first_deadline;
+    }
+
+    /// The deadline the next wake-up is expected for, in timer ticks.
+    pub fn next_deadline(&self) -> u64 {
+        self.next_deadline
+    }
+
+    /// The counters so far.
+    pub fn counters(&self) -> TickCounters {
+        self.counters
+    }
+
+    /// Classifies a wake-up at `now` (timer ticks) and advances the schedule.
+    ///
+    /// A wake-up before the deadline (which a `Ticker` never does) counts as on time.
+    pub fn on_wake(&mut self, now: u64) -> TickWake {
+        let deadline = self.next_deadline;
+        let lateness = now.saturating_sub(deadline);
+        let c = &mut self.counters;
+        c.ticks = c.ticks.saturating_add(1);
+        c.max_lateness = c.max_lateness.max(lateness);
+        if lateness < self.period {
+            self.next_deadline = deadline.saturating_add(self.period);
+            if lateness > self.late_after {
+                c.late = c.late.saturating_add(1);
+                TickWake::Late { lateness }
+            } else {
+                TickWake::OnTime
+            }
+        } else {
+            // 32-bit division (the M4 has it in hardware; a u64 one pulls in ~1 KiB of
+            // library code): periods are far below 2^32 ticks, a stall of more than
+            // 2^32 us (71 min) saturates.
+            let period32 = u32::try_from(self.period).unwrap_or(u32::MAX);
+            let missed = u32::try_from(lateness).unwrap_or(u32::MAX) / period32;
+            let next_deadline =
+                deadline.saturating_add((u64::from(missed) + 1).saturating_mul(self.period));
+            self.next_deadline = next_deadline;
+            c.late = c.late.saturating_add(1);
+            c.skipped_periods = c.skipped_periods.saturating_add(missed);
+            TickWake::Skipped {
+                missed,
+                next_deadline,
+            }
+        }
+    }
+}
+
+/// The tick period in embassy-time ticks (1 us) of a base rate in Hz, if it is a whole
+/// number of ticks: `1e6 / hz`.
+pub fn period_ticks(hz: u32) -> Option<u64> {
+    let timer = crate::config::TIMER_HZ;
+    if hz == 0 || hz > timer || !timer.is_multiple_of(hz) {
+        None
+    } else {
+        Some(u64::from(timer / hz))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const T: u64 = 250; // 4 kHz at 1 us per timer tick
+
+    #[test]
+    fn periods_must_be_whole_microseconds() {
+        assert_eq!(period_ticks(5_000), Some(200));
+        assert_eq!(period_ticks(1_000_000), Some(1));
+        assert_eq!(period_ticks(3_000), None);
+        assert_eq!(period_ticks(0), None);
+        assert_eq!(period_ticks(2_000_000), None);
+    }
+
+    #[test]
+    fn rearming_keeps_the_counters() {
+        let mut m = TickMonitor::try_new(T, T, T / 4).unwrap();
+        m.on_wake(3 * T);
+        m.rearm(2 * T, 10 * T);
+        assert_eq!(m.next_deadline(), 10 * T);
+        assert_eq!(m.on_wake(10 * T), TickWake::OnTime);
+        assert_eq!(m.next_deadline(), 12 * T);
+        assert_eq!(m.counters().skipped_periods, 2);
+        assert_eq!(m.counters().ticks, 2);
+    }
+
+    #[test]
+    fn refuses_bad_configuration() {
+        assert_eq!(
+            TickMonitor::try_new(0, 0, 0).err(),
+            Some(TickConfigError::ZeroPeriod)
+        );
+        assert_eq!(
+            TickMonitor::try_new(T, T, T).err(),
+            Some(TickConfigError::LateAfterNotBelowPeriod)
+        );
+    }
+
+    #[test]
+    fn punctual_ticks_advance_one_period_each() {
+        let mut m = TickMonitor::try_new(T, T, T / 4).unwrap();
+        for k in 1..=100u64 {
+            // A few ticks of wake-up latency, within tolerance.
+            assert_eq!(m.on_wake(k * T + k % 5), TickWake::OnTime);
+            assert_eq!(m.next_deadline(), (k + 1) * T);
+        }
+        let c = m.counters();
+        assert_eq!((c.ticks, c.late, c.skipped_periods), (100, 0, 0));
+        assert_eq!(c.max_lateness, 4);
+    }
+
+    #[test]
+    fn a_late_tick_is_counted_but_keeps_the_grid() {
+        let mut m = TickMonitor::try_new(T, T, T / 4).unwrap();
+        assert_eq!(m.on_wake(T + T / 2), TickWake::Late { lateness: T / 2 });
+        assert_eq!(m.next_deadline(), 2 * T);
+        assert_eq!(m.on_wake(2 * T), TickWake::OnTime);
+        assert_eq!(m.counters().late, 1);
+        assert_eq!(m.counters().skipped_periods, 0);
+    }
+
+    #[test]
+    fn a_stall_skips_missed_deadlines_instead_of_catching_up() {
+        let mut m = TickMonitor::try_new(T, T, T / 4).unwrap();
+        assert_eq!(m.on_wake(T), TickWake::OnTime);
+        // Stalled: the tick due at 2T runs at 5T + 10, so 2T, 3T, 4T and 5T passed; the
+        // tick runs once for them, 3 deadlines are skipped, and the next is 6T.
+        let wake = m.on_wake(5 * T + 10);
+        assert_eq!(
+            wake,
+            TickWake::Skipped {
+                missed: 3,
+                next_deadline: 6 * T
+            }
+        );
+        // The next wake-up on the re-armed grid is on time: no burst of catch-up ticks.
+        assert_eq!(m.on_wake(6 * T), TickWake::OnTime);
+        let c = m.counters();
+        assert_eq!((c.ticks, c.late, c.skipped_periods), (3, 1, 3));
+        assert_eq!(c.max_lateness, 3 * T + 10);
+    }
+
+    #[test]
+    fn exactly_one_period_late_skips_one() {
+        let mut m = TickMonitor::try_new(T, T, 0).unwrap();
+        assert_eq!(
+            m.on_wake(2 * T),
+            TickWake::Skipped {
+                missed: 1,
+                next_deadline: 3 * T
+            }
+        );
+    }
+
+    #[test]
+    fn an_early_wake_is_on_time_and_saturates_nothing() {
+        let mut m = TickMonitor::try_new(T, 10 * T, 0).unwrap();
+        assert_eq!(m.on_wake(0), TickWake::OnTime);
+        assert_eq!(m.next_deadline(), 11 * T);
+        // Far in the future: no overflow, a huge skip count saturates.
+        let mut m = TickMonitor::try_new(1, 0, 0).unwrap();
+        assert!(matches!(
+            m.on_wake(u64::MAX),
+            TickWake::Skipped {
+                missed: u32::MAX,
+                ..
+            }
+        ));
+    }
+}

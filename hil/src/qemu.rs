@@ -1,0 +1,297 @@
+//! The QEMU launcher: runs the `wheelset-qemu` firmware on `qemu-system-arm -machine
+//! mps2-an386` and connects its UART0 over TCP, for lock-step processor-in-the-loop runs.
+//!
+//! QEMU runs with `-icount shift=N,sleep=off`: virtual time is `2^N` ns per executed
+//! instruction and never advances while the guest sleeps, and the firmware's clock is
+//! the host's frames (each 0x00 frame delimiter is one control period), so a run depends
+//! only on the bytes exchanged: the same run twice gives the same per-tick trace.
+//! QEMU is killed when the [`Qemu`] is dropped, on every exit path (including a panic
+//! unwinding through the owner).
+
+use std::fmt;
+use std::fs::File;
+use std::io::{self, Read, Write};
+use std::net::{Ipv4Addr, TcpListener, TcpStream};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// `-icount shift` used by the launcher; the firmware converts SysTick counts to
+/// instructions with the same value (`wheelset_fw::config::QEMU_ICOUNT_SHIFT`).
+pub const ICOUNT_SHIFT: u32 = 10;
+
+/// The QEMU executable.
+pub const QEMU_BIN: &str = "qemu-system-arm";
+
+/// Largest frame [`Qemu::recv_frame`] accepts, delimiter excluded.
+pub const MAX_FRAME: usize = 256;
+
+/// Why the emulated device could not be started or talked to.
+#[derive(Debug)]
+pub enum QemuError {
+    /// `qemu-system-arm` is not installed (or not runnable).
+    QemuMissing(io::Error),
+    /// The firmware ELF does not exist.
+    ElfMissing(PathBuf),
+    /// QEMU started but could not be connected to.
+    Connect {
+        /// The TCP port of the serial chardev.
+        port: u16,
+        /// QEMU's stderr, if it exited.
+        stderr: String,
+    },
+    /// QEMU exited while the link was in use.
+    Exited(String),
+    /// Reading or writing the serial link failed (a timeout included).
+    Link(io::Error),
+    /// A frame longer than [`MAX_FRAME`] arrived.
+    FrameTooLong,
+    /// A file or process could not be set up.
+    Io(io::Error),
+}
+
+impl fmt::Display for QemuError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            QemuError::QemuMissing(e) => write!(
+                f,
+                "{QEMU_BIN} not found ({e}): install it with `apt-get install qemu-system-arm`"
+            ),
+            QemuError::ElfMissing(p) => write!(
+                f,
+                "firmware ELF {} not found: build it with `cargo fw`",
+                p.display()
+            ),
+            QemuError::Connect { port, stderr } => write!(
+                f,
+                "cannot connect to QEMU's serial port 127.0.0.1:{port}: {stderr}"
+            ),
+            QemuError::Exited(stderr) => write!(f, "QEMU exited: {stderr}"),
+            QemuError::Link(e) => write!(f, "serial link to QEMU: {e}"),
+            QemuError::FrameTooLong => write!(f, "frame longer than {MAX_FRAME} bytes"),
+            QemuError::Io(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl std::error::Error for QemuError {}
+
+/// How to start the emulated device.
+#[derive(Debug, Clone)]
+pub struct QemuConfig {
+    /// The firmware (`target/fw/wheelset-qemu.elf`, built by `cargo fw`).
+    pub elf: PathBuf,
+    /// Where QEMU's stdout (the defmt log over semihosting) goes; `None` discards it.
+    /// Decode with `defmt-print -e ELF < FILE`.
+    pub log: Option<PathBuf>,
+    /// Read timeout of the serial link (a guest that stops answering).
+    pub timeout: Duration,
+}
+
+impl QemuConfig {
+    /// The default ELF: `$WHEELSET_QEMU_ELF`, else `target/fw/wheelset-qemu.elf` in the
+    /// workspace (honouring `$CARGO_TARGET_DIR`).
+    pub fn default_elf() -> PathBuf {
+        if let Some(p) = std::env::var_os("WHEELSET_QEMU_ELF") {
+            return PathBuf::from(p);
+        }
+        let target = std::env::var_os("CARGO_TARGET_DIR")
+            .map(PathBuf::from)
+            .unwrap_or_else(|| {
+                Path::new(env!("CARGO_MANIFEST_DIR"))
+                    .join("..")
+                    .join("target")
+            });
+        target.join("fw").join("wheelset-qemu.elf")
+    }
+
+    /// The default ELF, no log, a 10 s timeout.
+    pub fn new() -> Self {
+        Self {
+            elf: Self::default_elf(),
+            log: None,
+            timeout: Duration::from_secs(10),
+        }
+    }
+
+    /// Checks that QEMU and the ELF are there, with a message saying how to get them.
+    pub fn check(&self) -> Result<(), QemuError> {
+        Command::new(QEMU_BIN)
+            .arg("--version")
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .status()
+            .map_err(QemuError::QemuMissing)?;
+        if !self.elf.is_file() {
+            return Err(QemuError::ElfMissing(self.elf.clone()));
+        }
+        Ok(())
+    }
+}
+
+impl Default for QemuConfig {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// A running emulated device with its UART0 connected. Dropping it kills QEMU.
+#[derive(Debug)]
+pub struct Qemu {
+    child: Child,
+    stream: TcpStream,
+    stderr_path: PathBuf,
+    rx: Vec<u8>,
+}
+
+/// A free loopback TCP port (bound and released; QEMU binds it right after).
+fn free_port() -> io::Result<u16> {
+    let l = TcpListener::bind((Ipv4Addr::LOCALHOST, 0))?;
+    Ok(l.local_addr()?.port())
+}
+
+impl Qemu {
+    /// The full QEMU command line for `elf` with the serial chardev on `port`.
+    pub fn command(elf: &Path, port: u16) -> Command {
+        let mut cmd = Command::new(QEMU_BIN);
+        cmd.args([
+            "-machine",
+            "mps2-an386",
+            "-cpu",
+            "cortex-m4",
+            "-nographic",
+            "-monitor",
+            "none",
+            "-icount",
+            &format!("shift={ICOUNT_SHIFT},sleep=off"),
+            "-semihosting-config",
+            "enable=on,target=native",
+            "-serial",
+            &format!("tcp:127.0.0.1:{port},server=on,wait=on,nodelay=on"),
+            "-kernel",
+        ])
+        .arg(elf);
+        cmd
+    }
+
+    /// Starts QEMU and connects to the firmware's UART0.
+    pub fn start(cfg: &QemuConfig) -> Result<Self, QemuError> {
+        cfg.check()?;
+        let port = free_port().map_err(QemuError::Io)?;
+        let stderr_path =
+            std::env::temp_dir().join(format!("wheelset-qemu-{}-{port}.err", std::process::id()));
+        let stderr = File::create(&stderr_path).map_err(QemuError::Io)?;
+        let stdout = match &cfg.log {
+            Some(p) => Stdio::from(File::create(p).map_err(QemuError::Io)?),
+            None => Stdio::null(),
+        };
+        let child = Self::command(&cfg.elf, port)
+            .stdin(Stdio::null())
+            .stdout(stdout)
+            .stderr(stderr)
+            .spawn()
+            .map_err(QemuError::QemuMissing)?;
+        // From here on, `guard` kills QEMU on every early return.
+        let mut guard = Guard(Some(child));
+        let deadline = Instant::now() + Duration::from_secs(10);
+        let stream = loop {
+            match TcpStream::connect((Ipv4Addr::LOCALHOST, port)) {
+                Ok(s) => break s,
+                Err(_) if Instant::now() < deadline => {
+                    if let Some(c) = guard.0.as_mut() {
+                        if let Ok(Some(_)) = c.try_wait() {
+                            return Err(QemuError::Connect {
+                                port,
+                                stderr: read_to_string(&stderr_path),
+                            });
+                        }
+                    }
+                    std::thread::sleep(Duration::from_millis(10));
+                }
+                Err(e) => {
+                    return Err(QemuError::Connect {
+                        port,
+                        stderr: format!("{e}; {}", read_to_string(&stderr_path)),
+                    })
+                }
+            }
+        };
+        stream.set_nodelay(true).map_err(QemuError::Io)?;
+        stream
+            .set_read_timeout(Some(cfg.timeout))
+            .map_err(QemuError::Io)?;
+        let child = guard.0.take().ok_or(QemuError::Exited(String::new()))?;
+        Ok(Self {
+            child,
+            stream,
+            stderr_path,
+            rx: Vec::with_capacity(MAX_FRAME),
+        })
+    }
+
+    /// Sends raw bytes to the firmware's UART0.
+    pub fn send(&mut self, bytes: &[u8]) -> Result<(), QemuError> {
+        self.stream.write_all(bytes).map_err(|e| self.link_error(e))
+    }
+
+    /// Receives bytes up to and including the next 0x00 delimiter; returns the frame
+    /// without its delimiter (COBS-encoded, as sent).
+    pub fn recv_frame(&mut self) -> Result<Vec<u8>, QemuError> {
+        let mut buf = [0u8; 512];
+        loop {
+            if let Some(end) = self.rx.iter().position(|&b| b == 0) {
+                let frame: Vec<u8> = self.rx.drain(..=end).take(end).collect();
+                return Ok(frame);
+            }
+            if self.rx.len() > MAX_FRAME {
+                return Err(QemuError::FrameTooLong);
+            }
+            let n = match self.stream.read(&mut buf) {
+                Ok(0) => {
+                    let e = io::Error::new(io::ErrorKind::UnexpectedEof, "QEMU closed the link");
+                    return Err(self.link_error(e));
+                }
+                Ok(n) => n,
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+                Err(e) => return Err(self.link_error(e)),
+            };
+            self.rx.extend_from_slice(buf.get(..n).unwrap_or(&[]));
+        }
+    }
+
+    /// A link error, or QEMU's exit with its stderr if it is gone.
+    fn link_error(&mut self, e: io::Error) -> QemuError {
+        match self.child.try_wait() {
+            Ok(Some(status)) => {
+                QemuError::Exited(format!("{status}; {}", read_to_string(&self.stderr_path)))
+            }
+            _ => QemuError::Link(e),
+        }
+    }
+}
+
+impl Drop for Qemu {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+        let _ = std::fs::remove_file(&self.stderr_path);
+    }
+}
+
+/// Kills a child on drop unless taken.
+struct Guard(Option<Child>);
+
+impl Drop for Guard {
+    fn drop(&mut self) {
+        if let Some(c) = self.0.as_mut() {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+    }
+}
+
+fn read_to_string(p: &Path) -> String {
+    std::fs::read_to_string(p)
+        .map(|s| s.trim().to_string())
+        .unwrap_or_default()
+}
