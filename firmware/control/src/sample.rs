@@ -247,7 +247,13 @@ impl Sample for Fx {
     const NAME: &'static str = "Q4.28";
 
     fn from_f64(x: f64) -> Self {
-        Fx::saturating_from_num(x)
+        // `saturating_from_num` panics on NaN: a NaN is no value, so it becomes 0
+        // (callers that care count it as invalid before converting).
+        if x.is_nan() {
+            Fx::ZERO
+        } else {
+            Fx::saturating_from_num(x)
+        }
     }
     fn to_f64(self) -> f64 {
         self.to_bits() as f64 / (1u64 << FX_FRAC) as f64
@@ -368,5 +374,14 @@ mod tests {
         assert_eq!(f64::NAN.to_code(&1.0), 0);
         assert_eq!((-2.5f64).to_code(&1.0), -3);
         assert!(f32::NAN.limit(-1.0, 1.0).1);
+    }
+
+    #[test]
+    fn fixed_from_non_finite_f64_does_not_panic() {
+        assert_eq!(Fx::from_f64(f64::NAN), Fx::ZERO);
+        assert_eq!(Fx::from_f64(f64::INFINITY), Fx::MAX);
+        assert_eq!(Fx::from_f64(f64::NEG_INFINITY), Fx::MIN);
+        assert_eq!(Fx::from_f64(1e300), Fx::MAX);
+        assert_eq!(Fx::from_f64(0.5).to_f64(), 0.5);
     }
 }
