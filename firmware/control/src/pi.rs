@@ -4,6 +4,8 @@
 //! ```text
 //! e[n] = r[n] - i[n]                                   (A; pu inside)
 //! I[n] = clamp(I[n-1] + Ki e[n], u_min, u_max),  Ki = Kp T/Ti   (backward Euler)
+//!        (fixed point: Ki e[n] is floored and its remainder carried to the next step,
+//!         so the integrator has no dead band and no rounding drift)
 //! u[n] = clamp(Kp e[n] + I[n], u_min, u_max)
 //! ```
 //!
@@ -115,17 +117,22 @@ pub struct Pi<T: Sample> {
     pub u_max: T,
 }
 
-/// The PI's state: the integrator `I[n-1]` (pu).
+/// The PI's state: the integrator `I[n-1]` (pu) and its sub-LSB remainder.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct PiState<T> {
+pub struct PiState<T: Sample> {
     /// Integrator, pu of voltage.
     pub integ: T,
+    /// The increment's remainder below one LSB (error feedback, [`Sample::mul_c_acc`]).
+    pub residue: T::Residue,
 }
 
-impl<T> PiState<T> {
-    /// A state with the integrator at `integ` (pu).
+impl<T: Sample> PiState<T> {
+    /// A state with the integrator at `integ` (pu) and no remainder.
     pub fn new(integ: T) -> Self {
-        Self { integ }
+        Self {
+            integ,
+            residue: T::Residue::default(),
+        }
     }
 }
 
@@ -172,7 +179,7 @@ impl<T: Sample> Pi<T> {
     pub fn process_flags(&self, s: &mut PiState<T>, e: T) -> (T, PiFlags) {
         let (i, fi) = s
             .integ
-            .sat_add(e.mul_c(self.ki))
+            .sat_add(e.mul_c_acc(self.ki, &mut s.residue))
             .limit(self.u_min, self.u_max);
         s.integ = i;
         let (u, fo) = e.mul_c(self.kp).sat_add(i).limit(self.u_min, self.u_max);

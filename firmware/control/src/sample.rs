@@ -121,6 +121,8 @@ pub fn mul_q31(x: i32, c: i32) -> i32 {
 pub trait Sample: Copy + Default + PartialEq + PartialOrd + core::fmt::Debug {
     /// Quantised coefficient (`Self` for floats, [`Coef`] Q1.31 for [`Fx`]).
     type Coeff: Copy + core::fmt::Debug + PartialEq;
+    /// An integrator's sub-LSB remainder (`()` for floats, `u32` for [`Fx`]).
+    type Residue: Copy + Default + core::fmt::Debug + PartialEq;
     /// Precomputed wire-code scale (`Self` for floats, [`FxScale`] for [`Fx`]).
     type Scale: Copy + core::fmt::Debug + PartialEq;
     /// Zero.
@@ -142,6 +144,11 @@ pub trait Sample: Copy + Default + PartialEq + PartialOrd + core::fmt::Debug {
     fn sat_sub(self, rhs: Self) -> Self;
     /// `self * c`, rounded to nearest and saturating.
     fn mul_c(self, c: Self::Coeff) -> Self;
+    /// `self * c` for an integrator's increment, with first-order error feedback: fixed
+    /// point floors the product and carries the remainder in `r` to the next call, so
+    /// the running sum of increments is exact to one LSB (no dead band, no drift from a
+    /// rounding bias); floats just multiply.
+    fn mul_c_acc(self, c: Self::Coeff, r: &mut Self::Residue) -> Self;
     /// `clamp(self, lo, hi)` and whether it clamped (`lo <= hi` assumed).
     fn limit(self, lo: Self, hi: Self) -> (Self, bool);
     /// Replace NaN by zero (floats); reports whether it did. Identity for fixed point.
@@ -161,6 +168,7 @@ macro_rules! float_sample {
         impl Sample for $t {
             type Coeff = $t;
             type Scale = $t;
+            type Residue = ();
             const ZERO: Self = 0.0;
             const NAME: &'static str = $name;
 
@@ -193,6 +201,10 @@ macro_rules! float_sample {
             }
             #[inline(always)]
             fn mul_c(self, c: $t) -> Self {
+                self * c
+            }
+            #[inline(always)]
+            fn mul_c_acc(self, c: $t, _r: &mut ()) -> Self {
                 self * c
             }
             #[inline(always)]
@@ -243,6 +255,7 @@ float_sample!(f32, "f32");
 impl Sample for Fx {
     type Coeff = Coef;
     type Scale = FxScale;
+    type Residue = u32;
     const ZERO: Self = Fx::ZERO;
     const NAME: &'static str = "Q4.28";
 
@@ -276,6 +289,15 @@ impl Sample for Fx {
     #[inline(always)]
     fn mul_c(self, c: Coef) -> Self {
         Fx::from_bits(mul_q31(self.to_bits(), c.to_bits()))
+    }
+    #[inline(always)]
+    fn mul_c_acc(self, c: Coef, r: &mut u32) -> Self {
+        // p = x c + r (one SMLAL); floor to Q4.28 and keep the low 31 bits as the
+        // remainder. No overflow: |x c| < 2^62 (|x| <= 2^31, |c| < 2^31) and
+        // 0 <= r < 2^31, so p >> 31 lies in [-2^31, 2^31).
+        let p = self.to_bits() as i64 * c.to_bits() as i64 + *r as i64;
+        *r = (p & ((1 << COEF_FRAC) - 1)) as u32;
+        Fx::from_bits((p >> COEF_FRAC) as i32)
     }
     #[inline(always)]
     fn limit(self, lo: Self, hi: Self) -> (Self, bool) {
@@ -374,6 +396,36 @@ mod tests {
         assert_eq!(f64::NAN.to_code(&1.0), 0);
         assert_eq!((-2.5f64).to_code(&1.0), -3);
         assert!(f32::NAN.limit(-1.0, 1.0).1);
+    }
+
+    /// Error feedback: a constant increment of 0.3 LSB accumulates exactly, where the
+    /// rounded product adds 0 forever (a dead band).
+    #[test]
+    fn integrator_increment_has_no_dead_band() {
+        let c = Coef::from_num(0.3 / 1000.0); // x = 1000 LSB -> 0.3 LSB per step
+        let x = Fx::from_bits(1000);
+        let mut r = 0u32;
+        let mut acc = 0i64;
+        for n in 1..=10_000i64 {
+            acc += x.mul_c_acc(c, &mut r).to_bits() as i64;
+            let exact = (x.to_bits() as i64 * c.to_bits() as i64 * n) >> 31;
+            assert!((acc - exact).abs() <= 1, "{n}: {acc} vs {exact}");
+        }
+        assert_eq!(
+            x.mul_c(c).to_bits(),
+            0,
+            "the rounded product is a dead band"
+        );
+        // Negative increments and the extremes stay in range.
+        let mut r = 0u32;
+        for (x, c) in [
+            (Fx::MIN, Coef::MAX),
+            (Fx::MAX, Coef::MAX),
+            (Fx::MIN, -Coef::MAX),
+        ] {
+            let y = x.mul_c_acc(c, &mut r).to_f64();
+            assert!((y - x.to_f64() * c.to_num::<f64>()).abs() < 1e-6, "{x} {c}");
+        }
     }
 
     #[test]

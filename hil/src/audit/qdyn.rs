@@ -155,6 +155,7 @@ pub struct QCoef(pub i64);
 impl Sample for QDyn {
     type Coeff = QCoef;
     type Scale = f64;
+    type Residue = i64;
     const ZERO: Self = QDyn(0);
     const NAME: &'static str = "QDyn";
 
@@ -201,6 +202,16 @@ impl Sample for QDyn {
         let cf = fm.coef.frac_bits;
         let half = if cf == 0 { 0 } else { 1i64 << (cf - 1) };
         QDyn(sat((self.0 * c.0 + half) >> cf, &fm.signal))
+    }
+    /// Mirrors `Fx::mul_c_acc`: floor with the remainder carried (error feedback).
+    fn mul_c_acc(self, c: QCoef, r: &mut i64) -> Self {
+        let fm = formats();
+        let cf = fm.coef.frac_bits;
+        let p = self.0 as i128 * c.0 as i128 + *r as i128;
+        let mask = (1i128 << cf) - 1;
+        *r = (p & mask) as i64;
+        let q = (p >> cf).clamp(i64::MIN as i128, i64::MAX as i128) as i64;
+        QDyn(sat(q, &fm.signal))
     }
     fn limit(self, lo: Self, hi: Self) -> (Self, bool) {
         let y = if self < lo {
