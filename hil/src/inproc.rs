@@ -40,6 +40,12 @@ pub enum DeviceFault {
         /// Simulated execution time per tick, ns.
         exec_ns: u64,
     },
+    /// Each tick takes a pseudo-random simulated execution time, uniform in
+    /// `[0, max_ns]` (a deterministic sequence): its output instants jitter.
+    Jitter {
+        /// Largest execution time, ns.
+        max_ns: u64,
+    },
     /// Every `every`-th outgoing frame has one bit flipped (a broken UART or buffer).
     Corrupt {
         /// Period of the corruption, frames (>= 1).
@@ -50,8 +56,8 @@ pub enum DeviceFault {
 impl std::str::FromStr for DeviceFault {
     type Err = String;
 
-    /// `none`, `wrong-sign`, `slow[:EXEC_US]` (default 300 us), `corrupt[:EVERY]`
-    /// (default every 10th frame).
+    /// `none`, `wrong-sign`, `slow[:EXEC_US]` (default 300 us), `jitter[:MAX_US]`
+    /// (default 40 us), `corrupt[:EVERY]` (default every 10th frame).
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         let (kind, arg) = match s.split_once(':') {
             Some((k, a)) => (k, Some(a)),
@@ -73,11 +79,14 @@ impl std::str::FromStr for DeviceFault {
             "slow" => Ok(Self::TooSlow {
                 exec_ns: num(arg, 300)? * 1_000,
             }),
+            "jitter" => Ok(Self::Jitter {
+                max_ns: num(arg, 40)? * 1_000,
+            }),
             "corrupt" => Ok(Self::Corrupt {
                 every: u32::try_from(num(arg, 10)?).map_err(|e| e.to_string())?,
             }),
             _ => Err(format!(
-                "unknown device fault `{s}` (known: none, wrong-sign, slow[:EXEC_US], corrupt[:EVERY])"
+                "unknown device fault `{s}` (known: none, wrong-sign, slow[:EXEC_US], jitter[:MAX_US], corrupt[:EVERY])"
             )),
         }
     }
@@ -148,6 +157,15 @@ impl InProc {
             DeviceFault::None => (out, 0),
             DeviceFault::WrongSign => (negate_torque(&out), 0),
             DeviceFault::TooSlow { exec_ns } => (out, exec_ns),
+            DeviceFault::Jitter { max_ns } => {
+                // xorshift64*: deterministic, no extra state beyond the tick count.
+                let mut x = self.frames_out.wrapping_add(0x9e37_79b9_7f4a_7c15);
+                x ^= x >> 12;
+                x ^= x << 25;
+                x ^= x >> 27;
+                let r = x.wrapping_mul(0x2545_f491_4f6c_dd1d);
+                (out, r % (max_ns + 1))
+            }
             DeviceFault::Corrupt { every } => {
                 let mut out = out;
                 if self.frames_out.is_multiple_of(u64::from(every.max(1))) && out.len() > 3 {

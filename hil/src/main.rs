@@ -112,7 +112,8 @@ struct RunArgs {
     /// Override one budget, e.g. `--set timing.cpu_max.fail=0.5` (repeatable).
     #[arg(long = "set", value_name = "KEY=VALUE")]
     sets: Vec<String>,
-    /// A deliberately broken in-process device: wrong-sign, slow[:EXEC_US], corrupt[:EVERY].
+    /// A deliberately broken in-process device: wrong-sign, slow[:EXEC_US], jitter[:MAX_US],
+    /// corrupt[:EVERY].
     #[arg(long, default_value = "none", value_parser = parse_device_fault)]
     device_fault: DeviceFault,
     /// Link baud (10 bits per byte).

@@ -10,8 +10,9 @@
 //!   clock, it is modelled: wire time of both frames at the link's baud + the reported
 //!   execution time).
 //! - **period jitter**: the device's output instants (arrival - the frame's wire time -
-//!   the link latency) against the ideal schedule `t_0 + j T` (`t_0` = the first
-//!   output's instant, `j` from the device's tick counter): max |deviation| and RMS. Not
+//!   the link latency) against the ideal schedule `t_0 + j T` (`j` from the device's
+//!   tick counter, `t_0` the earliest phase seen, so the deviations are lateness and
+//!   their maximum is the peak-to-peak jitter): max and RMS. Not
 //!   applicable under lock-step (the host's frame is the clock).
 //! - **missed ticks**: periods without an actuation echoing their own sample by `t_k + T`;
 //!   device tick-counter gaps are counted separately. **Overruns**: execution time > T.
@@ -134,7 +135,8 @@ pub struct TimingReport {
     pub latency_ns: Stats,
     /// Whether the latency is modelled (lock-step) rather than measured.
     pub latency_modelled: bool,
-    /// Largest |output instant - ideal schedule|, ns (None: not applicable).
+    /// Largest lateness of an output instant behind the ideal schedule (peak-to-peak
+    /// jitter), ns (None: not applicable).
     pub jitter_max_ns: Option<f64>,
     /// RMS of the same, ns.
     pub jitter_rms_ns: Option<f64>,
@@ -240,7 +242,12 @@ pub fn analyse(
                 a.at_ns as f64 - wire_ns(a.wire_bytes, ctx.baud) as f64 - ctx.latency_ns as f64;
             ticks.push((j as f64, out));
         }
-        let t0 = ticks[0].1;
+        // The ideal schedule's phase is the earliest output: deviations are lateness >= 0,
+        // and their maximum is the peak-to-peak jitter.
+        let t0 = ticks
+            .iter()
+            .map(|&(j, o)| o - j * t)
+            .fold(f64::INFINITY, f64::min);
         let dev: Vec<f64> = ticks.iter().map(|&(j, o)| o - (t0 + j * t)).collect();
         let max = dev.iter().fold(0.0f64, |m, d| m.max(d.abs()));
         let rms = (dev.iter().map(|d| d * d).sum::<f64>() / dev.len() as f64).sqrt();

@@ -169,3 +169,28 @@ fn link_faults_are_accounted_and_reported() {
         "over the default frame budget"
     );
 }
+
+#[test]
+fn a_jittery_device_fails_the_jitter_check_and_fills_the_histogram() {
+    let out = run_with(DeviceFault::Jitter { max_ns: 40_000 });
+    let t = &out.report.timing;
+    let jitter = t.checks.iter().find(|c| c.name == "jitter_max").unwrap();
+    assert_eq!(jitter.verdict, Verdict::Fail, "{jitter:?}");
+    // Uniform in [0, 40 us]: the deviation from the schedule spans nearly all of it.
+    let j = t.jitter_max_ns.unwrap();
+    assert!((30_000.0..=40_000.0).contains(&j), "jitter {j}");
+    assert!(t.exec_ns.max <= 40_000.0 && t.exec_ns.max > 35_000.0);
+    assert!(t.exec_histogram.counts.iter().filter(|&&c| c > 0).count() >= 15);
+    // The rest of the timing is within budget (max latency 136.5 + 40 us < 0.9 T).
+    assert_eq!(t.missed_ticks, 0);
+    // A small jitter passes.
+    let ok = run_with(DeviceFault::Jitter { max_ns: 5_000 });
+    let c = ok
+        .report
+        .timing
+        .checks
+        .iter()
+        .find(|c| c.name == "jitter_max")
+        .unwrap();
+    assert_eq!(c.verdict, Verdict::Pass, "{c:?}");
+}

@@ -329,6 +329,9 @@ pub fn observe<T: Sample>(
             // Mirrors the controller's bumpless-start flag: the first traction step
             // after (re)enabling presets the integrator to the back-EMF.
             let mut armed = false;
+            // The y' predictor's previous sample and factor (0 when off).
+            let mut y_prev = 0.0f64;
+            let alpha = cfg.yaw_predict_ticks / cfg.yaw_divisor as f64;
             let base_t = cfg.base_period();
             for (n, t) in sc.ticks.iter().enumerate() {
                 match t.event {
@@ -384,6 +387,8 @@ pub fn observe<T: Sample>(
                 if c1.yaw_steps != c0.yaw_steps {
                     let ym = l.y_dot / s.y_dot;
                     let x = inf.y_dot.clamp(-ym, ym);
+                    let xp = (x + alpha * (x - y_prev)).clamp(-2.0, 2.0);
+                    y_prev = x;
                     put(Sig::YDot, x);
                     let raw = match mode {
                         YawMode::Lead => {
@@ -400,7 +405,7 @@ pub fn observe<T: Sample>(
                             put(Sig::LeadDiff, d);
                             d * lead.k_hf
                         }
-                        YawMode::Gain => x * k_gain,
+                        YawMode::Gain => xp * k_gain,
                         YawMode::Passive => 0.0,
                     };
                     put(Sig::YawRaw, raw);
