@@ -68,14 +68,14 @@
 //! Every signal and state is Q4.28 per unit (`i32`, range `[-8, 8)`, LSB `2^-28`), every
 //! coefficient Q1.31 validated into `(-1, 1)` (LSB `2^-31`); products are exact 64-bit
 //! (`SMLAL` on Cortex-M4), rounded to nearest, and cannot overflow ([`sample::mul_q31`]);
-//! sums saturate (`QADD`/`QSUB`). Products round to nearest, so the two recursive
-//! states have a small dead band: the lead's low-pass `z` stops within
-//! `0.5/kappa` LSB of `g x` (about 10 LSB at 5 kHz: 8 LSB = 0.03 N m at the output)
-//! and the PI integrator stops moving once `|Ki e| < 0.5 LSB`, i.e. `|e| < 0.5/Ki`
-//! LSB (12 500 LSB = 47 mA at 5 kHz, Ti = 0.5 s). First-order error feedback (carry
-//! the product's sub-LSB remainder) removes both at two instructions each; it is not
-//! enabled because the audit's instrumented type mirrors [`Fx`] bit for bit and must
-//! change with it. Range analysis with
+//! sums saturate (`QADD`/`QSUB`). Products round to nearest, so the lead's low-pass
+//! `z` has a small dead band: it stops within `0.5/kappa` LSB of `g x` (about 10 LSB at
+//! 5 kHz: 8 LSB = 0.03 N m at the output). The PI integrator's increment `Ki e` instead
+//! uses first-order error feedback ([`Sample::mul_c_acc`]: floor, carry the sub-LSB
+//! remainder to the next step): with round-to-nearest it stopped moving for
+//! `|e| < 0.5/Ki` LSB (47 mA at 5 kHz, Ti = 0.5 s) and summed a rounding bias to 0.18 V
+//! over a 20 s open-loop replay (`hil audit` failed on it); with the carry the running
+//! sum is exact to one LSB. Range analysis with
 //! the inputs clamped to `|x| <= X` pu, `X <= 2` (enforced by [`Config::validate`]):
 //!
 //! | signal / state | bound | why |
@@ -172,14 +172,13 @@
 //!
 //! | input | `T_psi` max / RMS error | `u_a` max / RMS error |
 //! |---|---|---|
-//! | steps (y' 1 mm/s .. 1 m/s, current step) | 7.3 / 7.1 LSB (0.027 N m) | 1989 / 1044 LSB (0.074 V) |
-//! | chirp 0.1 Hz .. fs/2 | 2.1 / 0.19 LSB (0.008 N m) | 39 / 24 LSB (0.0014 V) |
-//! | full scale, alternating rails | 0.12 / 0.12 LSB | 136 / 72 LSB (0.005 V) |
+//! | steps (y' 1 mm/s .. 1 m/s, current step) | 7.3 / 7.1 LSB (0.027 N m) | 14 / 11 LSB (0.0005 V) |
+//! | chirp 0.1 Hz .. fs/2 | 2.1 / 0.19 LSB (0.008 N m) | 26 / 15 LSB (0.001 V) |
+//! | full scale, alternating rails | 0.12 / 0.12 LSB | 198 / 107 LSB (0.007 V) |
 //!
 //! (1 LSB = `2^-28` pu: 3.7e-3 N m of torque, 3.7e-5 V of voltage.) The torque error is
-//! the lead's dead band; the voltage error is the open-loop integrator summing the
-//! same rounding every step while the error is constant (0.4 LSB per step; in closed
-//! loop the current loop removes it). Asserted bounds: 16 LSB of torque, `4 + 0.75 N`
+//! the lead's dead band; the voltage error is the PI's output rounding plus at most one
+//! LSB of carried integrator remainder. Asserted bounds: 16 LSB of torque, `4 + 0.75 N`
 //! LSB of voltage after `N` traction steps, over random, step, chirp and full-scale
 //! property tests.
 //!
