@@ -926,21 +926,8 @@ mod tests {
             }
             .plant();
             let t0 = 1.0 / cfg.base_rate_hz as f64;
-            let (ad, bd) = zoh(&p.a, &p.b, t0);
             let x0 = DMatrix::from_column_slice(5, 1, &[1e-3, 2e-3, -1e-3, 0.01, 5.0]);
-            // Real controller.
-            let mut c = F64Controller::try_new(&cfg).expect("valid");
-            let mut x = x0.clone();
-            let mut applied = DMatrix::<f64>::zeros(2, 1);
-            let mut real = Vec::new();
-            for _ in 0..60 {
-                let y = &p.c * &x;
-                let o = c.tick(&Inputs::from_si(&cfg.scales, y[0], y[1], 0.0, 0.0));
-                let (t, u) = o.to_si(&cfg.scales);
-                x = &ad * &x + &bd * &applied;
-                applied = DMatrix::from_column_slice(2, 1, &[t, u]);
-                real.push(x.clone());
-            }
+            let real = simulate_controller(&p, &cfg, t0, &x0, 60);
             // Matrix model: the same steps, from X = [x0; 0...].
             let model = simulate_matrices(&p, &cfg, 1, &x0, 60);
             for (k, (r, m)) in real.iter().zip(&model).enumerate() {
@@ -952,6 +939,32 @@ mod tests {
 
     /// Helper for the test above: run the per-tick matrices of `closed_loop`'s
     /// construction from plant state `x0` and return the plant states.
+    /// The real `F64Controller` ticking on the exactly discretised (ZOH) plant, its
+    /// output applied one tick later; the plant state after each tick. Deviations: current
+    /// and speed around the operating point, no demand.
+    fn simulate_controller(
+        p: &LinearPlant,
+        cfg: &Config,
+        t0: f64,
+        x0: &DMatrix<f64>,
+        ticks: usize,
+    ) -> Vec<DMatrix<f64>> {
+        let (ad, bd) = zoh(&p.a, &p.b, t0);
+        let mut c = F64Controller::try_new(cfg).expect("valid");
+        let mut x = x0.clone();
+        let mut applied = DMatrix::<f64>::zeros(2, 1);
+        let mut real = Vec::new();
+        for _ in 0..ticks {
+            let y = &p.c * &x;
+            let o = c.tick(&Inputs::from_si(&cfg.scales, y[0], y[1], 0.0, 0.0));
+            let (t, u) = o.to_si(&cfg.scales);
+            x = &ad * &x + &bd * &applied;
+            applied = DMatrix::from_column_slice(2, 1, &[t, u]);
+            real.push(x.clone());
+        }
+        real
+    }
+
     fn simulate_matrices(
         p: &LinearPlant,
         cfg: &Config,
@@ -1007,23 +1020,10 @@ mod tests {
         cfg.limits.current_ref_rate = 1e9;
         let p = Model::Full.plant(&Params::default(), 5e6, 0.2, false);
         let n = p.a.nrows();
-        let (ad, bd) = zoh(&p.a, &p.b, 1.0 / cfg.base_rate_hz as f64);
         let mut x0 = DMatrix::<f64>::zeros(n, 1);
         x0[(1, 0)] = 2e-3; // y'
         x0[(3, 0)] = 0.01; // psi'
-        let mut c = F64Controller::try_new(&cfg).expect("valid");
-        let mut x = x0.clone();
-        let mut applied = DMatrix::<f64>::zeros(2, 1);
-        let mut real = Vec::new();
-        for _ in 0..200 {
-            let y = &p.c * &x;
-            // Deviations: current and speed around the operating point, no demand.
-            let o = c.tick(&Inputs::from_si(&cfg.scales, y[0], y[1], 0.0, 0.0));
-            let (t, u) = o.to_si(&cfg.scales);
-            x = &ad * &x + &bd * &applied;
-            applied = DMatrix::from_column_slice(2, 1, &[t, u]);
-            real.push(x.clone());
-        }
+        let real = simulate_controller(&p, &cfg, 1.0 / cfg.base_rate_hz as f64, &x0, 200);
         let model = simulate_matrices(&p, &cfg, 1, &x0, 200);
         for (k, (r, m)) in real.iter().zip(&model).enumerate() {
             let err = (r - m).norm() / r.norm().max(1e-12);
