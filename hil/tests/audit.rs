@@ -292,7 +292,9 @@ fn json_has_the_issue_fields_and_the_binary_exit_codes_follow_the_verdict() {
         assert!(names.contains(&n), "{names:?}");
     }
     let cs = v["controllers"].as_array().unwrap();
-    assert_eq!(cs.len(), 3);
+    // Lead, gain, PI, and the y' predictor (on by default).
+    assert_eq!(cs.len(), 4);
+    assert!(cs.iter().any(|c| c["name"] == "yaw_predictor"));
     for c in cs {
         assert!(c["name"].is_string());
         assert!(c["rate_hz"].as_f64().unwrap() > 0.0);
@@ -347,9 +349,9 @@ fn json_has_the_issue_fields_and_the_binary_exit_codes_follow_the_verdict() {
 
 #[test]
 fn the_yaw_predictor_is_audited_when_enabled() {
+    // On by default (1.5 ticks at the default rates).
     let mut a = args();
     a.no_plant = true;
-    a.yaw_predict_ticks = Some(1.5);
     let r = audit::build(&a).unwrap();
     let p = r
         .controllers
@@ -372,12 +374,9 @@ fn the_yaw_predictor_is_audited_when_enabled() {
         );
         assert!((q.fixed.phase_deg - ph).abs() < r.tolerances.fixed_phase_deg.1);
     }
-    // Off by default: not audited.
-    let r = audit::build(&AuditArgs {
-        no_plant: true,
-        ..args()
-    })
-    .unwrap();
+    // Turned off (`--yaw-predict-ticks 0`): not audited.
+    a.yaw_predict_ticks = Some(0.0);
+    let r = audit::build(&a).unwrap();
     assert!(!r.controllers.iter().any(|c| c.name == "yaw_predictor"));
 }
 

@@ -172,7 +172,7 @@ pub struct Config {
     /// The zero-order hold (half a yaw period) plus the one tick of computation and
     /// transport delay is `1 + yaw_divisor/2` ticks: 1.5 at the default rates, which the
     /// sampled-data analysis shows restores the continuous loop's damping (crate docs).
-    /// 0 = off (the default: the paper's law as it is). `tau/T_yaw` must be in `[0, 2)`.
+    /// Default 1.5; 0 = off (the paper's law as it is). `tau/T_yaw` must be in `[0, 2)`.
     pub yaw_predict_ticks: f64,
     /// PI parameters.
     pub pi: PiParams,
@@ -205,7 +205,7 @@ impl Default for Config {
             traction_enabled: true,
             lead: LeadParams::default(),
             gain_k: 1.05e5,
-            yaw_predict_ticks: 0.0,
+            yaw_predict_ticks: 1.5,
             pi: PiParams::default(),
             motor: Motor::default(),
             limits: Limits::default(),

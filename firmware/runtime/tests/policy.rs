@@ -302,6 +302,8 @@ fn acceleration_frames_are_integrated_with_washout() {
     let mut cfg = RuntimeConfig::default();
     cfg.control.yaw_mode = wheelset_control::YawMode::Gain;
     cfg.acc_washout_s = 0.0;
+    // Without the y' predictor, which would add 1.5 ticks of the ramp's slope.
+    cfg.control.yaw_predict_ticks = 0.0;
     let mut r: Runtime<Fx> = Runtime::try_new(cfg).expect("valid");
     // A constant y'' = 0.1 m/s^2 (1000 codes) for 0.1 s: y' = 10 mm/s at the end.
     let ticks = (0.1 * f64::from(BASE_HZ)) as u16;

@@ -73,8 +73,8 @@ pub struct AuditArgs {
     /// Skip the word-length bisection (faster; no fraction-bit recommendation).
     #[arg(long)]
     pub no_sweep: bool,
-    /// Enable the control core's y' predictor with this many base ticks (default: the
-    /// core's default, 0 = off); the predictor is then audited as a filter of its own.
+    /// The control core's y' predictor, base ticks (default: the core's default, 1.5;
+    /// 0 = off); when on, the predictor is audited as a filter of its own.
     #[arg(long, value_name = "TICKS")]
     pub yaw_predict_ticks: Option<f64>,
     /// Skip the target (QEMU) comparison.
