@@ -7,6 +7,14 @@
 //! only on the bytes exchanged: the same run twice gives the same per-tick trace.
 //! QEMU is killed when the [`Qemu`] is dropped, on every exit path (including a panic
 //! unwinding through the owner).
+//!
+//! Each QEMU is pinned to one core (`taskset -c N`, round robin over the cores this
+//! process may use; `WHEELSET_QEMU_PIN=off` turns it off). The CMSDK UART has a one-byte
+//! holding register, so QEMU's I/O thread and its vCPU thread hand every byte to each
+//! other (read one byte, raise the interrupt, wait for the guest to read it, poll again);
+//! on one core those hand-offs need no cross-core wake-up. Measured with a bare lock-step
+//! client (23-byte frames in, 19 out, `-icount shift=10`, load ~2 on 2 cores): 744
+//! exchanges per second unpinned, 1345 pinned.
 
 use std::fmt;
 use std::fs::File;
@@ -144,6 +152,60 @@ pub struct Qemu {
     rx: Vec<u8>,
 }
 
+/// The cores this process may run on, from `Cpus_allowed_list` in `/proc/self/status`
+/// (e.g. `0-1,4`); `None` where that is not available.
+fn allowed_cores() -> Option<Vec<usize>> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    parse_cpu_list(
+        status
+            .lines()
+            .find_map(|l| l.strip_prefix("Cpus_allowed_list:"))?,
+    )
+}
+
+/// A Linux CPU list (`0-3,6`) as core numbers; `None` if malformed or empty.
+fn parse_cpu_list(list: &str) -> Option<Vec<usize>> {
+    let list = list.trim();
+    let mut cores = Vec::new();
+    for part in list.split(',') {
+        match part.split_once('-') {
+            Some((a, b)) => cores.extend(a.trim().parse::<usize>().ok()?..=b.trim().parse().ok()?),
+            None => cores.push(part.trim().parse().ok()?),
+        }
+    }
+    (!cores.is_empty()).then_some(cores)
+}
+
+/// The core the next QEMU is pinned to: round robin over [`allowed_cores`], so that
+/// QEMUs started side by side (parallel tests) spread over the cores. `None` (no
+/// pinning) with `WHEELSET_QEMU_PIN=off`, without `taskset`, or without the core list.
+fn next_core() -> Option<usize> {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    use std::sync::OnceLock;
+    static CORES: OnceLock<Option<Vec<usize>>> = OnceLock::new();
+    static NEXT: AtomicUsize = AtomicUsize::new(0);
+    if std::env::var("WHEELSET_QEMU_PIN").is_ok_and(|v| v == "off") {
+        return None;
+    }
+    let cores = CORES
+        .get_or_init(|| {
+            let taskset = Command::new("taskset")
+                .arg("-V")
+                .stdout(Stdio::null())
+                .stderr(Stdio::null())
+                .status()
+                .is_ok_and(|s| s.success());
+            if taskset {
+                allowed_cores()
+            } else {
+                None
+            }
+        })
+        .as_ref()?;
+    let k = NEXT.fetch_add(1, Ordering::Relaxed);
+    cores.get(k % cores.len()).copied()
+}
+
 /// A free loopback TCP port (bound and released; QEMU binds it right after).
 fn free_port() -> io::Result<u16> {
     let l = TcpListener::bind((Ipv4Addr::LOCALHOST, 0))?;
@@ -185,7 +247,17 @@ impl Qemu {
             Some(p) => Stdio::from(File::create(p).map_err(QemuError::Io)?),
             None => Stdio::null(),
         };
-        let child = Self::command(&cfg.elf, port)
+        let mut cmd = Self::command(&cfg.elf, port);
+        if let Some(core) = next_core() {
+            let mut pinned = Command::new("taskset");
+            pinned
+                .arg("-c")
+                .arg(core.to_string())
+                .arg(cmd.get_program())
+                .args(cmd.get_args());
+            cmd = pinned;
+        }
+        let child = cmd
             .stdin(Stdio::null())
             .stdout(stdout)
             .stderr(stderr)
@@ -294,4 +366,19 @@ fn read_to_string(p: &Path) -> String {
     std::fs::read_to_string(p)
         .map(|s| s.trim().to_string())
         .unwrap_or_default()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cpu_lists_parse_and_malformed_ones_do_not() {
+        assert_eq!(parse_cpu_list("\t0-1\n"), Some(vec![0, 1]));
+        assert_eq!(parse_cpu_list("0-2,5,7-8"), Some(vec![0, 1, 2, 5, 7, 8]));
+        assert_eq!(parse_cpu_list("3"), Some(vec![3]));
+        assert_eq!(parse_cpu_list(""), None);
+        assert_eq!(parse_cpu_list("0-x"), None);
+        assert_eq!(parse_cpu_list("2-1"), None);
+    }
 }
