@@ -59,6 +59,39 @@ proptest! {
     }
 
     #[test]
+    fn cobs_decode_matches_the_cobs_crate(
+        data in prop_oneof![
+            // Valid encodings (of data with and without zeros, short and > 254 bytes) ...
+            proptest::collection::vec(prop_oneof![Just(0u8), 1u8..=255], 0..600)
+                .prop_map(|d| cobs::encode_vec(&d)),
+            proptest::collection::vec(1u8..=255, 0..600).prop_map(|d| cobs::encode_vec(&d)),
+            // ... with a byte changed ...
+            (proptest::collection::vec(any::<u8>(), 1..120), any::<usize>(), any::<u8>())
+                .prop_map(|(d, i, b)| {
+                    let mut e = cobs::encode_vec(&d);
+                    let i = i % e.len();
+                    e[i] = b;
+                    e
+                }),
+            // ... and arbitrary bytes, mostly without zeros.
+            proptest::collection::vec(1u8..=255, 0..300),
+            proptest::collection::vec(any::<u8>(), 0..300),
+        ]
+    ) {
+        let mut ours = data.clone();
+        let mut theirs = data.clone();
+        let n = cobs_decode_in_place(&mut ours);
+        let m = match cobs::decode_in_place_report(&mut theirs) {
+            Ok(r) if r.src_used == data.len() => Some(r.dst_used),
+            _ => None,
+        };
+        prop_assert_eq!(n, m);
+        if let Some(n) = n {
+            prop_assert_eq!(&ours[..n], &theirs[..n]);
+        }
+    }
+
+    #[test]
     fn crc_table_choice_does_not_change_the_checksum(data in proptest::collection::vec(any::<u8>(), 0..200)) {
         let reference = crc::Crc::<u32, crc::NoTable>::new(&crc::CRC_32_ISCSI);
         prop_assert_eq!(CRC.checksum(&data), reference.checksum(&data));
