@@ -109,9 +109,13 @@ impl std::error::Error for EncodeError {}
 pub fn encode(msg: &Message, out: &mut [u8]) -> Result<usize, EncodeError> {
     let mut raw = [0u8; MAX_RAW + CRC_LEN];
     raw[0] = VERSION;
-    let body = postcard::to_slice(msg, &mut raw[1..MAX_RAW])
-        .map_err(|_| EncodeError::BufferTooSmall)?
-        .len();
+    // The per-tick messages without serde (same bytes, see `fast`); the rest by postcard.
+    let body = match crate::fast::encode_body(msg, &mut raw[1..MAX_RAW]) {
+        Some(n) => n,
+        None => postcard::to_slice(msg, &mut raw[1..MAX_RAW])
+            .map_err(|_| EncodeError::BufferTooSmall)?
+            .len(),
+    };
     let n = 1 + body;
     let crc = CRC.checksum(&raw[..n]).to_le_bytes();
     let with_crc = n + CRC_LEN;
@@ -217,6 +221,13 @@ pub fn decode_frame(encoded: &mut [u8]) -> Result<Message, FrameError> {
     let (version, msg) = body.split_first().ok_or(FrameError::Length)?;
     if *version != VERSION {
         return Err(FrameError::Version);
+    }
+    // The per-tick messages without serde (same decisions, see `fast`).
+    match crate::fast::decode_body(msg) {
+        Some(Ok(m)) => return Ok(m),
+        Some(Err(crate::fast::BodyError::Trailing)) => return Err(FrameError::Length),
+        Some(Err(crate::fast::BodyError::Postcard)) => return Err(FrameError::Postcard),
+        None => {}
     }
     match postcard::take_from_bytes::<Message>(msg) {
         Ok((m, [])) => Ok(m),

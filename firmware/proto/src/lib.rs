@@ -50,6 +50,7 @@
 #![deny(missing_docs)]
 
 mod decoder;
+mod fast;
 mod frame;
 mod message;
 pub mod units;
