@@ -11,7 +11,7 @@ use crate::control::{
     YawLaw,
 };
 use crate::plant::{ix, Inputs, Plant, PlantConfig, State, NX};
-use crate::scenario::{track_at, Scenario};
+use crate::scenario::{Scenario, TrackCursor};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use serde::Serialize;
@@ -283,7 +283,7 @@ fn stage_slot(stage: usize) -> usize {
 struct Setup<'a> {
     sc: &'a Scenario,
     plant: Plant,
-    hint: usize,
+    track: TrackCursor,
 }
 
 impl<'a> Setup<'a> {
@@ -296,7 +296,7 @@ impl<'a> Setup<'a> {
         Setup {
             sc,
             plant: Plant::new(&sc.params, cfg),
-            hint: 0,
+            track: TrackCursor::new(),
         }
     }
 
@@ -306,7 +306,7 @@ impl<'a> Setup<'a> {
         let mut curv = [0.0; 3];
         let mut cant = [0.0; 3];
         for (j, t) in [t_ns, t_ns + h / 2, t_ns + h].into_iter().enumerate() {
-            let (c, th) = track_at(&sc.track, t, &mut self.hint);
+            let (c, th) = self.track.at(&sc.track, t);
             curv[j] = c;
             cant[j] = th;
         }
