@@ -26,7 +26,8 @@ use wheelset_proto::units::{
     SPEED_LSB_RAD_PER_S, TORQUE_LSB_NM, VOLTAGE_LSB_V,
 };
 use wheelset_proto::{
-    encode_vec, Actuation, Command, Flags, FrameError, Lateral, Message, Sensor, Status, MAX_FRAME,
+    encode, encode_vec, Actuation, Command, Flags, FrameError, Lateral, Message, Sensor, Status,
+    MAX_FRAME,
 };
 use wheelset_runtime::{Runtime, RuntimeConfig, RuntimeError};
 
@@ -216,6 +217,8 @@ pub struct DeviceLoop<T: Sample> {
     host_clamped: u64,
     last_t_ns: u64,
     lateral: LateralSensing,
+    /// The host's Sensor frame being sent.
+    tx: [u8; MAX_FRAME],
 }
 
 impl<T: Sample> DeviceLoop<T> {
@@ -251,6 +254,7 @@ impl<T: Sample> DeviceLoop<T> {
             host_clamped: 0,
             last_t_ns: 0,
             lateral: LateralSensing::Velocity,
+            tx: [0; MAX_FRAME],
         })
     }
 
@@ -304,8 +308,9 @@ impl<T: Sample> DeviceLoop<T> {
             omega_m_mrad_s: self.q(m.w_m, SPEED_LSB_RAD_PER_S),
             demand_nm: self.q(m.demand_nm, DEMAND_LSB_NM),
         };
-        let frame = encode_vec(&Message::Sensor(sensor)).unwrap_or_default();
-        self.link.up.send(t_ns, &frame);
+        // MAX_FRAME always fits (the proto tests prove every message encodes within it).
+        let n = encode(&Message::Sensor(sensor), &mut self.tx).unwrap_or(0);
+        self.link.up.send(t_ns, self.tx.get(..n).unwrap_or(&[]));
         // The device's tick.
         let t_dev = t_ns + self.tick_offset_ns;
         self.device_receive(t_dev);

@@ -386,12 +386,16 @@ pub struct ChannelCounters {
     pub burst_bytes: u64,
 }
 
-/// The surviving bytes of one frame on their way, with their arrival times.
+/// The surviving bytes of one frame on their way, with their arrival times: listed in
+/// `at_ns` when faults may drop bytes; otherwise (`at_ns` empty) byte `k` arrives at
+/// `first_ns + byte_ns[k + 1]` (the channel's table), with nothing stored per byte.
 #[derive(Debug, Clone, Default)]
 struct Segment {
     frame: FrameId,
     bytes: Vec<u8>,
     at_ns: Vec<u64>,
+    /// Send start + latency, ns (untimed segments).
+    first_ns: u64,
     /// Bytes already delivered.
     pos: usize,
 }
@@ -488,12 +492,12 @@ impl Channel {
             }
         } else {
             let first = start + self.latency_ns;
+            seg.first_ns = first;
             seg.bytes.extend_from_slice(bytes);
-            match self.byte_ns.get(1..=bytes.len()) {
-                Some(times) => seg.at_ns.extend(times.iter().map(|&ns| first + ns)),
-                None => seg
-                    .at_ns
-                    .extend((1..=bytes.len()).map(|k| first + wire_ns(k, self.baud))),
+            // Within the table: times implied (see `Segment`); beyond it, listed.
+            if bytes.len() >= self.byte_ns.len() {
+                seg.at_ns
+                    .extend((1..=bytes.len()).map(|k| first + wire_ns(k, self.baud)));
             }
         }
         self.counters.bytes_delivered += seg.bytes.len() as u64;
@@ -554,8 +558,20 @@ impl Channel {
     /// bytes of one frame: `f(bytes, frame)`.
     pub fn deliver(&mut self, t_ns: u64, mut f: impl FnMut(&[u8], FrameId)) {
         while let Some(seg) = self.queue.front_mut() {
-            let rest = seg.at_ns.get(seg.pos..).unwrap_or(&[]);
-            let n = rest.partition_point(|&a| a <= t_ns);
+            let n = if seg.at_ns.is_empty() {
+                // Byte k arrived iff first + byte_ns[k + 1] <= t.
+                match t_ns.checked_sub(seg.first_ns) {
+                    Some(dt) => self
+                        .byte_ns
+                        .get(seg.pos + 1..=seg.bytes.len())
+                        .unwrap_or(&[])
+                        .partition_point(|&ns| ns <= dt),
+                    None => 0,
+                }
+            } else {
+                let rest = seg.at_ns.get(seg.pos..).unwrap_or(&[]);
+                rest.partition_point(|&a| a <= t_ns)
+            };
             if n > 0 {
                 f(
                     seg.bytes.get(seg.pos..seg.pos + n).unwrap_or(&[]),
@@ -670,25 +686,15 @@ impl RxPort {
         Self::default()
     }
 
-    fn fate(&mut self, id: FrameId) -> &mut Fate {
-        let i = id as usize;
-        if self.fates.len() <= i {
-            self.fates.resize(i + 1, Fate::Open);
-            self.reached.resize(i + 1, false);
-        }
-        &mut self.fates[i]
-    }
-
     /// Takes a run of delivered bytes of frame `id` and decodes it with the port's own
     /// decoder, calling `on_msg` for every valid message.
     pub fn push(&mut self, run: &[u8], id: FrameId, mut on_msg: impl FnMut(Message)) {
-        let mut dec = std::mem::take(&mut self.decoder);
-        self.push_with(run, id, |piece| {
+        let (dec, mut book) = self.split();
+        book.attribute(run, id, |piece| {
             let mut out = None;
             dec.feed(piece, |r| out = Some(r.map(&mut on_msg)));
             out
         });
-        self.decoder = dec;
     }
 
     /// Takes a run of delivered bytes of frame `id` that another decoder (the device's
@@ -699,47 +705,33 @@ impl RxPort {
         &mut self,
         run: &[u8],
         id: FrameId,
-        mut decode: impl FnMut(&[u8]) -> Option<Result<(), FrameError>>,
+        decode: impl FnMut(&[u8]) -> Option<Result<(), FrameError>>,
     ) {
-        self.fate(id);
-        for piece in run.split_inclusive(|&b| b == 0) {
-            let closes = piece.last() == Some(&0);
-            if piece.len() > usize::from(closes) {
-                self.reached[id as usize] = true;
-                if self.pending.last() != Some(&id) {
-                    self.pending.push(id);
-                }
-            }
-            let r = decode(piece);
-            if !closes {
-                continue;
-            }
-            let ids = std::mem::take(&mut self.pending);
-            match r {
-                Some(Ok(())) => {
-                    for id in ids.iter().copied() {
-                        let f = self.fate(id);
-                        if *f == Fate::Open {
-                            *f = Fate::Received;
-                            self.received += 1;
-                        }
-                    }
-                }
-                Some(Err(e)) => {
-                    self.errors[error_index(e)] += 1;
-                    for id in ids.iter().copied() {
-                        let f = self.fate(id);
-                        if *f == Fate::Open {
-                            *f = Fate::Rejected;
-                            self.rejected += 1;
-                        }
-                    }
-                }
-                None => {}
-            }
-            self.pending = ids;
-            self.pending.clear();
-        }
+        self.split().1.attribute(run, id, decode);
+    }
+
+    /// The decoder and the bookkeeping, borrowed apart.
+    fn split(&mut self) -> (&mut Decoder, Book<'_>) {
+        let RxPort {
+            decoder,
+            pending,
+            fates,
+            reached,
+            received,
+            rejected,
+            errors,
+        } = self;
+        (
+            decoder,
+            Book {
+                pending,
+                fates,
+                reached,
+                received,
+                rejected,
+                errors,
+            },
+        )
     }
 
     /// The final accounting of `channel`'s frames at the end of a run.
@@ -779,6 +771,68 @@ fn error_index(e: FrameError) -> usize {
         FrameError::Version => 2,
         FrameError::Length => 3,
         FrameError::Postcard => 4,
+    }
+}
+
+/// The attribution state of an [`RxPort`], borrowed apart from its decoder.
+struct Book<'a> {
+    pending: &'a mut Vec<FrameId>,
+    fates: &'a mut Vec<Fate>,
+    reached: &'a mut Vec<bool>,
+    received: &'a mut u64,
+    rejected: &'a mut u64,
+    errors: &'a mut [u64; 5],
+}
+
+impl Book<'_> {
+    /// See [`RxPort::push_with`].
+    fn attribute(
+        &mut self,
+        run: &[u8],
+        id: FrameId,
+        mut decode: impl FnMut(&[u8]) -> Option<Result<(), FrameError>>,
+    ) {
+        let i = id as usize;
+        if self.fates.len() <= i {
+            self.fates.resize(i + 1, Fate::Open);
+            self.reached.resize(i + 1, false);
+        }
+        for piece in run.split_inclusive(|&b| b == 0) {
+            let closes = piece.last() == Some(&0);
+            if piece.len() > usize::from(closes) {
+                if let Some(r) = self.reached.get_mut(i) {
+                    *r = true;
+                }
+                if self.pending.last() != Some(&id) {
+                    self.pending.push(id);
+                }
+            }
+            let r = decode(piece);
+            if !closes {
+                continue;
+            }
+            let (to, count) = match r {
+                Some(Ok(())) => (Fate::Received, &mut *self.received),
+                Some(Err(e)) => {
+                    self.errors[error_index(e)] += 1;
+                    (Fate::Rejected, &mut *self.rejected)
+                }
+                None => {
+                    self.pending.clear();
+                    continue;
+                }
+            };
+            // (Every pending id is below `fates.len()`: resized when its bytes came.)
+            for &p in self.pending.iter() {
+                if let Some(f) = self.fates.get_mut(p as usize) {
+                    if *f == Fate::Open {
+                        *f = to;
+                        *count += 1;
+                    }
+                }
+            }
+            self.pending.clear();
+        }
     }
 }
 
