@@ -1,6 +1,6 @@
 //! The streaming frame accumulator: bytes in any chunking, frames out.
 
-use crate::frame::{decode_frame, FrameError, MAX_FRAME};
+use crate::frame::{decode_nonzero_frame, FrameError, MAX_FRAME};
 use crate::message::Message;
 
 /// Collects bytes up to each 0x00 delimiter in a fixed buffer and decodes the frame.
@@ -72,7 +72,8 @@ impl<const N: usize> Decoder<N> {
         if self.buf.is_empty() {
             return None;
         }
-        let r = decode_frame(&mut self.buf);
+        // (`buf` holds no 0x00: `push` and `feed` end the frame at every one.)
+        let r = decode_nonzero_frame(&mut self.buf);
         self.buf.clear();
         Some(r)
     }

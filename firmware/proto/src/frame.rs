@@ -106,26 +106,49 @@ impl std::error::Error for EncodeError {}
 /// assert_eq!(buf[n - 1], 0);
 /// assert!(!buf[..n - 1].contains(&0));
 /// ```
+///
+/// Built in place: `VERSION | body | CRC` is written at `out[1..]`, one byte to the right
+/// of its COBS encoding, so the encoding only writes the code bytes (at `out[0]` and at
+/// each 0x00 of the raw frame): non-zero bytes are already where COBS puts them. The
+/// output is identical to [`cobs_encode`] of the raw frame (tested against postcard +
+/// the `cobs` crate).
 pub fn encode(msg: &Message, out: &mut [u8]) -> Result<usize, EncodeError> {
-    let mut raw = [0u8; MAX_RAW + CRC_LEN];
-    raw[0] = VERSION;
+    let too_small = EncodeError::BufferTooSmall;
+    // Raw byte k lives at out[k + 1]; the body is raw[1..MAX_RAW].
+    let body_end = out.len().min(MAX_RAW + 1);
+    let body_area = out.get_mut(2..body_end).ok_or(too_small)?;
     // The per-tick messages without serde (same bytes, see `fast`); the rest by postcard.
-    let body = match crate::fast::encode_body(msg, &mut raw[1..MAX_RAW]) {
+    let body = match crate::fast::encode_body(msg, body_area) {
         Some(n) => n,
-        None => postcard::to_slice(msg, &mut raw[1..MAX_RAW])
-            .map_err(|_| EncodeError::BufferTooSmall)?
+        None => postcard::to_slice(msg, body_area)
+            .map_err(|_| too_small)?
             .len(),
     };
+    *out.get_mut(1).ok_or(too_small)? = VERSION;
     let n = 1 + body;
-    let crc = CRC.checksum(&raw[..n]).to_le_bytes();
+    let crc = CRC.checksum(out.get(1..=n).ok_or(too_small)?).to_le_bytes();
     let with_crc = n + CRC_LEN;
-    raw.get_mut(n..with_crc)
-        .ok_or(EncodeError::BufferTooSmall)?
+    out.get_mut(n + 1..=with_crc)
+        .ok_or(too_small)?
         .copy_from_slice(&crc);
-    let src = raw.get(..with_crc).ok_or(EncodeError::BufferTooSmall)?;
-    let len = cobs_encode(src, out).ok_or(EncodeError::BufferTooSmall)?;
-    *out.get_mut(len).ok_or(EncodeError::BufferTooSmall)? = 0;
-    Ok(len + 1)
+    // COBS in place (with_crc <= MAX_RAW + CRC_LEN < 254: no 0xFF blocks, no overflow
+    // of `code`).
+    let raw = out.get_mut(..=with_crc).ok_or(too_small)?;
+    let (mut code_idx, mut code) = (0usize, 1u8);
+    for i in 1..raw.len() {
+        if raw.get(i) == Some(&0) {
+            if let Some(c) = raw.get_mut(code_idx) {
+                *c = code;
+            }
+            code_idx = i;
+            code = 1;
+        } else {
+            code += 1;
+        }
+    }
+    *raw.get_mut(code_idx).ok_or(too_small)? = code;
+    *out.get_mut(with_crc + 1).ok_or(too_small)? = 0;
+    Ok(with_crc + 2)
 }
 
 /// COBS-encodes `src` into `dst` (no delimiter); returns the encoded length, or None if
@@ -167,16 +190,26 @@ pub fn cobs_encode(src: &[u8], dst: &mut [u8]) -> Option<usize> {
 /// the largest single cost of decoding a frame in the host's closed loop.
 pub fn cobs_decode_in_place(buf: &mut [u8]) -> Option<usize> {
     // A 0x00 anywhere ends the crate's frame early: `src_used` would fall short.
-    if buf.is_empty() || buf.contains(&0) {
+    if buf.contains(&0) {
+        return None;
+    }
+    cobs_decode_nonzero(buf)
+}
+
+/// [`cobs_decode_in_place`] of bytes known to hold no 0x00 (the [`crate::Decoder`]'s
+/// buffer: it splits at every delimiter), without scanning for one.
+pub(crate) fn cobs_decode_nonzero(buf: &mut [u8]) -> Option<usize> {
+    if buf.is_empty() {
         return None;
     }
     let end = buf.len();
     let (mut src, mut dst) = (0usize, 0usize);
     while let Some(&code) = buf.get(src) {
         let code = usize::from(code);
-        // `code >= 1` (no zeros); the block's `code - 1` data bytes must lie within.
+        // The block's `code - 1` data bytes must lie within (a 0x00 code, impossible
+        // here, would not advance: refused).
         let next = src + code;
-        if next > end {
+        if code == 0 || next > end {
             return None;
         }
         if code > 1 {
@@ -207,7 +240,18 @@ pub fn decode_frame(encoded: &mut [u8]) -> Result<Message, FrameError> {
     if encoded.len() + 1 > MAX_FRAME {
         return Err(FrameError::Length);
     }
-    let n = cobs_decode_in_place(encoded).ok_or(FrameError::Cobs)?;
+    if encoded.contains(&0) {
+        return Err(FrameError::Cobs);
+    }
+    decode_nonzero_frame(encoded)
+}
+
+/// [`decode_frame`] of bytes known to hold no 0x00 (the [`crate::Decoder`]'s buffer).
+pub(crate) fn decode_nonzero_frame(encoded: &mut [u8]) -> Result<Message, FrameError> {
+    if encoded.len() + 1 > MAX_FRAME {
+        return Err(FrameError::Length);
+    }
+    let n = cobs_decode_nonzero(encoded).ok_or(FrameError::Cobs)?;
     let frame = encoded.get(..n).ok_or(FrameError::Cobs)?;
     if n < MIN_DECODED {
         return Err(FrameError::Length);
