@@ -19,7 +19,6 @@
 //! length ...), dropped by the link (none of its bytes reached the decoder), or in flight
 //! at the end of the run.
 
-use std::collections::VecDeque;
 use std::fmt;
 use std::str::FromStr;
 
@@ -400,6 +399,52 @@ struct Segment {
     pos: usize,
 }
 
+/// The segments in flight, a ring over reused storage: sending and delivering a frame
+/// moves no `Segment` and allocates nothing once the ring has grown to the frames in
+/// flight (1-2 on a clean link).
+#[derive(Debug, Clone, Default)]
+struct Ring {
+    segs: Vec<Segment>,
+    head: usize,
+    len: usize,
+}
+
+impl Ring {
+    /// The free slot behind the last queued segment (queued by [`Self::commit`]).
+    fn tail_slot(&mut self) -> &mut Segment {
+        if self.len == self.segs.len() {
+            self.segs.rotate_left(self.head);
+            self.head = 0;
+            self.segs.push(Segment::default());
+        }
+        let i = (self.head + self.len) % self.segs.len();
+        &mut self.segs[i]
+    }
+
+    /// Queues the segment filled in [`Self::tail_slot`].
+    fn commit(&mut self) {
+        self.len += 1;
+    }
+
+    fn front_mut(&mut self) -> Option<&mut Segment> {
+        if self.len == 0 {
+            return None;
+        }
+        self.segs.get_mut(self.head)
+    }
+
+    fn pop_front(&mut self) {
+        if self.len > 0 {
+            self.head = (self.head + 1) % self.segs.len();
+            self.len -= 1;
+        }
+    }
+
+    fn iter(&self) -> impl Iterator<Item = &Segment> + '_ {
+        (0..self.len).filter_map(|k| self.segs.get((self.head + k) % self.segs.len()))
+    }
+}
+
 /// One direction of the link.
 #[derive(Debug, Clone)]
 pub struct Channel {
@@ -412,8 +457,7 @@ pub struct Channel {
     line_free_ns: u64,
     /// `wire_ns(k, baud)` for k = 0 ..= 2 MAX_FRAME (no 128-bit division per byte).
     byte_ns: Vec<u64>,
-    queue: VecDeque<Segment>,
-    spare: Vec<Segment>,
+    queue: Ring,
     bits_to_error: u64,
     next_burst_ns: u64,
     burst_left: u32,
@@ -449,8 +493,7 @@ impl Channel {
             byte_ns: (0..=2 * wheelset_proto::MAX_FRAME)
                 .map(|k| wire_ns(k, cfg.baud.max(1)))
                 .collect(),
-            queue: VecDeque::new(),
-            spare: Vec::new(),
+            queue: Ring::default(),
             bits_to_error,
             next_burst_ns,
             burst_left: 0,
@@ -477,34 +520,49 @@ impl Channel {
             self.counters.frames_dropped += 1;
             return id;
         }
-        let mut seg = self.spare.pop().unwrap_or_default();
-        seg.frame = id;
-        seg.pos = 0;
-        seg.bytes.clear();
-        seg.at_ns.clear();
-        if self.active {
+        let (latency_ns, baud) = (self.latency_ns, self.baud);
+        let n = if self.active {
+            // (The slot's buffers are taken out while `corrupt` borrows the channel.)
+            let seg = self.queue.tail_slot();
+            let (mut kept, mut at_ns) = (
+                std::mem::take(&mut seg.bytes),
+                std::mem::take(&mut seg.at_ns),
+            );
+            kept.clear();
+            at_ns.clear();
             for (k, &b) in bytes.iter().enumerate() {
-                let on_wire = start + at(k + 1, self.baud, &self.byte_ns);
+                let on_wire = start + at(k + 1, baud, &self.byte_ns);
                 if let Some(b) = self.corrupt(on_wire, b) {
-                    seg.bytes.push(b);
-                    seg.at_ns.push(on_wire + self.latency_ns);
+                    kept.push(b);
+                    at_ns.push(on_wire + latency_ns);
                 }
             }
+            let seg = self.queue.tail_slot();
+            seg.bytes = kept;
+            seg.at_ns = at_ns;
+            seg.frame = id;
+            seg.pos = 0;
+            seg.bytes.len()
         } else {
-            let first = start + self.latency_ns;
+            let table = self.byte_ns.len();
+            let seg = self.queue.tail_slot();
+            let first = start + latency_ns;
+            seg.frame = id;
+            seg.pos = 0;
             seg.first_ns = first;
+            seg.bytes.clear();
             seg.bytes.extend_from_slice(bytes);
+            seg.at_ns.clear();
             // Within the table: times implied (see `Segment`); beyond it, listed.
-            if bytes.len() >= self.byte_ns.len() {
+            if bytes.len() >= table {
                 seg.at_ns
-                    .extend((1..=bytes.len()).map(|k| first + wire_ns(k, self.baud)));
+                    .extend((1..=bytes.len()).map(|k| first + wire_ns(k, baud)));
             }
-        }
-        self.counters.bytes_delivered += seg.bytes.len() as u64;
-        if seg.bytes.is_empty() {
-            self.spare.push(seg);
-        } else {
-            self.queue.push_back(seg);
+            bytes.len()
+        };
+        self.counters.bytes_delivered += n as u64;
+        if n > 0 {
+            self.queue.commit();
         }
         id
     }
@@ -582,9 +640,7 @@ impl Channel {
             if seg.pos < seg.bytes.len() {
                 break;
             }
-            if let Some(done) = self.queue.pop_front() {
-                self.spare.push(done);
-            }
+            self.queue.pop_front();
         }
     }
 
@@ -794,8 +850,11 @@ impl Book<'_> {
     ) {
         let i = id as usize;
         if self.fates.len() <= i {
-            self.fates.resize(i + 1, Fate::Open);
-            self.reached.resize(i + 1, false);
+            // Grown in chunks (ids come in order); entries past the last id sent stay
+            // Open / not reached, which is what `account` assumes for missing ones.
+            let len = (i + 1).max(2 * self.fates.len()).max(1024);
+            self.fates.resize(len, Fate::Open);
+            self.reached.resize(len, false);
         }
         for piece in run.split_inclusive(|&b| b == 0) {
             let closes = piece.last() == Some(&0);
@@ -982,6 +1041,58 @@ mod tests {
         assert_eq!(got[a.len()].1, 1);
         assert_eq!(link.up.line_free_ns(), last - 3_000);
         assert_eq!(link.down.counters().frames_sent, 0);
+    }
+
+    #[test]
+    fn frames_in_flight_wrap_the_ring_in_order() {
+        // 100 kbaud: 100 us per byte, so frames pile up behind each other; deliveries in
+        // between take the front off while sends add at the back (the ring wraps and grows).
+        let cfg = LinkConfig {
+            baud: 100_000,
+            latency_ns: 0,
+            ..LinkConfig::default()
+        };
+        for faults in ["", "dir=up,ber=1e-12"] {
+            let cfg = LinkConfig {
+                faults: faults.parse().expect("valid"),
+                ..cfg.clone()
+            };
+            let mut link = Link::new(&cfg);
+            let mut sent: Vec<Vec<u8>> = Vec::new();
+            let mut got: Vec<(u8, FrameId)> = Vec::new();
+            let mut t = 0;
+            for round in 0..6u16 {
+                for k in 0..(1 + round % 4) {
+                    let f = frame(round * 10 + k);
+                    assert_eq!(link.up.send(t, &f) as usize, sent.len());
+                    sent.push(f);
+                }
+                t += 3_000_000; // 30 bytes' time: less than the frames sent
+                link.up
+                    .deliver(t, |run, id| got.extend(run.iter().map(|&b| (b, id))));
+                // What is still queued is exactly the frames not yet complete, in order.
+                let done = sent
+                    .iter()
+                    .enumerate()
+                    .filter(|(id, f)| got.iter().filter(|g| g.1 as usize == *id).count() == f.len())
+                    .count();
+                let queued: Vec<FrameId> = link.up.queued_frames().collect();
+                let expect: Vec<FrameId> = (done as FrameId..sent.len() as FrameId).collect();
+                assert_eq!(queued, expect, "{faults:?} round {round}");
+            }
+            link.up
+                .deliver(u64::MAX, |run, id| got.extend(run.iter().map(|&b| (b, id))));
+            assert_eq!(link.up.queued_frames().count(), 0);
+            let bytes: Vec<u8> = got.iter().map(|g| g.0).collect();
+            assert_eq!(bytes, sent.concat(), "{faults:?}");
+            let ids: Vec<FrameId> = got.iter().map(|g| g.1).collect();
+            let expect: Vec<FrameId> = sent
+                .iter()
+                .enumerate()
+                .flat_map(|(id, f)| std::iter::repeat_n(id as FrameId, f.len()))
+                .collect();
+            assert_eq!(ids, expect, "{faults:?}");
+        }
     }
 
     fn run(cfg: &LinkConfig, frames: u16) -> (Vec<u8>, Accounting, ChannelCounters) {
