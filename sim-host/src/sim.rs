@@ -701,7 +701,7 @@ pub fn run_sampled(
             break;
         }
         let a = held;
-        let u = [0, 1, 2].map(|j| inputs(&e, j, &a));
+        let u = [inputs(&e, 0, &a), inputs(&e, 1, &a), inputs(&e, 2, &a)];
         x = rk4_step_with(&x, h, PlantStages { plant: &plant, u });
     }
     Ok(Trajectory {
