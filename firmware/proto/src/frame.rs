@@ -37,6 +37,92 @@ pub static CRC: crc::Crc<u32, crc::Table<16>> =
 pub static CRC: crc::Crc<u32, crc::Table<1>> =
     crc::Crc::<u32, crc::Table<1>>::new(&crc::CRC_32_ISCSI);
 
+/// The frame CRC of `bytes`: CRC-32C, the same value as [`CRC`]`.checksum(bytes)`
+/// (tested). On the host (`std`) a slice-by-16 over compile-time tables specialised to
+/// CRC-32C (reflected, init and xor-out `0xFFFF_FFFF`): ~85 instructions per ~20-byte
+/// frame (callgrind). The `crc` crate's generic version reads the algorithm's parameters
+/// at run time and measured 92 in one build and 156 in another (inlining), four calls per
+/// exchange in the closed loop. On the device: the crate's byte-wise 1 KiB table.
+#[must_use]
+pub fn crc32c(bytes: &[u8]) -> u32 {
+    #[cfg(feature = "std")]
+    {
+        slice16(bytes)
+    }
+    #[cfg(not(feature = "std"))]
+    {
+        CRC.checksum(bytes)
+    }
+}
+
+/// `TABLES[k][b]`: the CRC-32C register contribution of byte `b` followed by `k` zero
+/// bytes (reflected polynomial `0x82F6_3B78`).
+#[cfg(feature = "std")]
+static TABLES: [[u32; 256]; 16] = crc_tables();
+
+#[cfg(feature = "std")]
+const fn crc_tables() -> [[u32; 256]; 16] {
+    let mut t = [[0u32; 256]; 16];
+    let mut i = 0;
+    while i < 256 {
+        let mut c = i as u32;
+        let mut k = 0;
+        while k < 8 {
+            c = if c & 1 != 0 {
+                (c >> 1) ^ 0x82F6_3B78
+            } else {
+                c >> 1
+            };
+            k += 1;
+        }
+        t[0][i] = c;
+        i += 1;
+    }
+    let mut k = 1;
+    while k < 16 {
+        let mut i = 0;
+        while i < 256 {
+            let prev = t[k - 1][i];
+            t[k][i] = (prev >> 8) ^ t[0][(prev & 0xFF) as usize];
+            i += 1;
+        }
+        k += 1;
+    }
+    t
+}
+
+#[cfg(feature = "std")]
+fn slice16(bytes: &[u8]) -> u32 {
+    let t = &TABLES;
+    let mut crc = !0u32;
+    let mut chunks = bytes.chunks_exact(16);
+    for c in &mut chunks {
+        let mut w = [0u8; 16];
+        w.copy_from_slice(c);
+        let [a0, a1, a2, a3] = (u32::from_le_bytes([w[0], w[1], w[2], w[3]]) ^ crc).to_le_bytes();
+        crc = t[15][usize::from(a0)]
+            ^ t[14][usize::from(a1)]
+            ^ t[13][usize::from(a2)]
+            ^ t[12][usize::from(a3)]
+            ^ t[11][usize::from(w[4])]
+            ^ t[10][usize::from(w[5])]
+            ^ t[9][usize::from(w[6])]
+            ^ t[8][usize::from(w[7])]
+            ^ t[7][usize::from(w[8])]
+            ^ t[6][usize::from(w[9])]
+            ^ t[5][usize::from(w[10])]
+            ^ t[4][usize::from(w[11])]
+            ^ t[3][usize::from(w[12])]
+            ^ t[2][usize::from(w[13])]
+            ^ t[1][usize::from(w[14])]
+            ^ t[0][usize::from(w[15])];
+    }
+    for &b in chunks.remainder() {
+        crc = (crc >> 8) ^ t[0][usize::from((crc as u8) ^ b)];
+    }
+    !crc
+}
+
 /// CRC length in bytes.
 pub const CRC_LEN: usize = 4;
 
@@ -126,7 +212,7 @@ pub fn encode(msg: &Message, out: &mut [u8]) -> Result<usize, EncodeError> {
     };
     *out.get_mut(1).ok_or(too_small)? = VERSION;
     let n = 1 + body;
-    let crc = CRC.checksum(out.get(1..=n).ok_or(too_small)?).to_le_bytes();
+    let crc = crc32c(out.get(1..=n).ok_or(too_small)?).to_le_bytes();
     let with_crc = n + CRC_LEN;
     out.get_mut(n + 1..=with_crc)
         .ok_or(too_small)?
@@ -259,7 +345,7 @@ pub(crate) fn decode_nonzero_frame(encoded: &mut [u8]) -> Result<Message, FrameE
     let (body, crc) = frame.split_at(n - CRC_LEN);
     let mut crc_bytes = [0u8; CRC_LEN];
     crc_bytes.copy_from_slice(crc);
-    if CRC.checksum(body) != u32::from_le_bytes(crc_bytes) {
+    if crc32c(body) != u32::from_le_bytes(crc_bytes) {
         return Err(FrameError::Crc);
     }
     let (version, msg) = body.split_first().ok_or(FrameError::Length)?;

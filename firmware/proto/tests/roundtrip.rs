@@ -136,6 +136,8 @@ proptest! {
     fn crc_table_choice_does_not_change_the_checksum(data in proptest::collection::vec(any::<u8>(), 0..200)) {
         let reference = crc::Crc::<u32, crc::NoTable>::new(&crc::CRC_32_ISCSI);
         prop_assert_eq!(CRC.checksum(&data), reference.checksum(&data));
+        // The frame path's own CRC (slice-by-16 on the host) too.
+        prop_assert_eq!(crc32c(&data), reference.checksum(&data));
     }
 
     #[test]
@@ -215,6 +217,7 @@ fn reference_frame(msg: &Message) -> Vec<u8> {
 fn crc_is_crc32c() {
     // The catalogue's check value of CRC-32C over "123456789".
     assert_eq!(CRC.checksum(b"123456789"), 0xE306_9283);
+    assert_eq!(crc32c(b"123456789"), 0xE306_9283);
 }
 
 #[test]
