@@ -1,11 +1,44 @@
-//! Link set-up for the board binaries: puts the board's `memory.x` (and, for QEMU, the
-//! interrupt names of the crate's own vector table in `device.x`) on the linker search
-//! path and passes the cortex-m-rt and defmt linker scripts. Does nothing on the host.
+//! 1. The default controller, compiled: discretises and quantises the default
+//!    configuration with the firmware's own control code (`wheelset-control`, f64 then
+//!    quantised for the build's sample type) and writes it as exact constants
+//!    (`$OUT_DIR/default_runtime.rs`, a `wheelset_runtime::RuntimeBits`), so the device
+//!    starts without any float maths. Host builds too (their tests check the constants).
+//! 2. Link set-up for the board binaries: puts the board's `memory.x` (and, for QEMU, the
+//!    interrupt names of the crate's own vector table in `device.x`) on the linker search
+//!    path and passes the cortex-m-rt and defmt linker scripts. Nothing on the host.
 
 use std::{env, fs, path::PathBuf};
 
+use wheelset_runtime::{RuntimeBits, RuntimeConfig};
+
+/// The default runtime, compiled for the build's sample type, as Rust source.
+fn default_runtime() -> String {
+    let cfg = RuntimeConfig::default();
+    let bits = if env::var_os("CARGO_FEATURE_F32").is_some() {
+        RuntimeBits::try_new::<f32>(&cfg)
+    } else {
+        RuntimeBits::try_new::<wheelset_control::Fx>(&cfg)
+    };
+    match bits {
+        // The derived `Debug` of these plain structs (integers, bools, arrays, a unit
+        // enum) is Rust expression syntax; the host test `default_runtime_is_compiled`
+        // checks the constant against a fresh compilation.
+        Ok(b) => format!("pub const DEFAULT_RUNTIME: RuntimeBits = {b:#?};\n"),
+        Err(e) => {
+            println!("cargo:warning=the default configuration does not compile: {e}");
+            std::process::exit(1);
+        }
+    }
+}
+
 fn main() {
     println!("cargo:rerun-if-changed=build.rs");
+    println!("cargo:rerun-if-env-changed=CARGO_FEATURE_F32");
+    let out = PathBuf::from(env::var_os("OUT_DIR").unwrap_or_default());
+    if let Err(e) = fs::write(out.join("default_runtime.rs"), default_runtime()) {
+        println!("cargo:warning=cannot write default_runtime.rs: {e}");
+        std::process::exit(1);
+    }
     println!("cargo:rerun-if-changed=../../memory.x");
     println!("cargo:rerun-if-changed=qemu/memory-qemu.x");
     println!("cargo:rerun-if-changed=qemu/device.x");
@@ -16,7 +49,6 @@ fn main() {
     let nucleo = env::var_os("CARGO_FEATURE_BOARD_NUCLEO").is_some();
     let qemu = env::var_os("CARGO_FEATURE_BOARD_QEMU").is_some();
     let manifest = PathBuf::from(env::var_os("CARGO_MANIFEST_DIR").unwrap_or_default());
-    let out = PathBuf::from(env::var_os("OUT_DIR").unwrap_or_default());
     let copy = |from: PathBuf, to: &str| {
         if let Err(e) = fs::copy(&from, out.join(to)) {
             println!("cargo:warning=cannot copy {}: {e}", from.display());

@@ -119,7 +119,7 @@ impl InProc {
         fault: DeviceFault,
     ) -> Result<Self, RuntimeError> {
         let rt = Runtime::<Fx>::try_new(rt_cfg)?;
-        let hz = u64::from(rt.config().control.base_rate_hz.max(1));
+        let hz = u64::from(rt.base_rate_hz().max(1));
         Ok(Self {
             link: Link::new(link_cfg),
             latency_ns: link_cfg.latency_ns,

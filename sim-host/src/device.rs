@@ -20,7 +20,7 @@
 
 use std::fmt;
 
-use wheelset_control::Sample;
+use wheelset_control::SampleBits;
 use wheelset_proto::units::{
     quantize, to_si, CURRENT_LSB_A, DEMAND_LSB_NM, LAT_ACC_LSB_M_PER_S2, LAT_VEL_LSB_M_PER_S,
     SPEED_LSB_RAD_PER_S, TORQUE_LSB_NM, VOLTAGE_LSB_V,
@@ -203,7 +203,7 @@ pub struct HostSample {
 }
 
 /// The device behind the link, in lock-step with the plant.
-pub struct DeviceLoop<T: Sample> {
+pub struct DeviceLoop<T: SampleBits> {
     link: Link,
     rt: Runtime<T>,
     host_rx: RxPort,
@@ -221,7 +221,7 @@ pub struct DeviceLoop<T: Sample> {
     tx: [u8; MAX_FRAME],
 }
 
-impl<T: Sample> DeviceLoop<T> {
+impl<T: SampleBits> DeviceLoop<T> {
     /// The runtime with `rt_cfg`, behind a link with `link_cfg`; refuses a link that
     /// cannot carry one exchange per period.
     pub fn try_new(rt_cfg: RuntimeConfig, link_cfg: &LinkConfig) -> Result<Self, DeviceError> {
@@ -539,12 +539,12 @@ impl DeviceRun {
 }
 
 /// The device loop as the plant's sampled controller.
-struct Sampled<'a, T: Sample> {
+struct Sampled<'a, T: SampleBits> {
     dev: &'a mut DeviceLoop<T>,
     k_m: f64,
 }
 
-impl<T: Sample> SampledController for Sampled<'_, T> {
+impl<T: SampleBits> SampledController for Sampled<'_, T> {
     fn period_ns(&self) -> u64 {
         self.dev.period_ns()
     }

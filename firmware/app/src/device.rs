@@ -4,9 +4,16 @@
 //! independent runtime (`wheelset-runtime`: frame decoding, fault policy, the control
 //! core, frame encoding), the same code the host's in-process device runs.
 
-use wheelset_control::Sample;
+use wheelset_control::SampleBits;
 use wheelset_proto::{encode, Actuation, Flags, Message, MAX_FRAME};
-use wheelset_runtime::{Runtime, RuntimeConfig, RuntimeError};
+use wheelset_runtime::{Runtime, RuntimeBits, RuntimeError};
+
+/// The default runtime compiled at build time (`build.rs`): the generated constant.
+mod generated {
+    use wheelset_control::{CompiledBits, ScaleBits, ScheduleBits, YawMode::*};
+    use wheelset_runtime::{AccBits, RuntimeBits};
+    include!(concat!(env!("OUT_DIR"), "/default_runtime.rs"));
+}
 
 /// The device side of the control loop, as the control task sees it.
 pub trait Device {
@@ -21,7 +28,7 @@ pub trait Device {
     fn base_rate_hz(&self) -> u32;
 }
 
-impl<T: Sample> Device for Runtime<T> {
+impl<T: SampleBits> Device for Runtime<T> {
     fn receive(&mut self, bytes: &[u8]) {
         Runtime::receive(self, bytes);
     }
@@ -31,7 +38,7 @@ impl<T: Sample> Device for Runtime<T> {
     }
 
     fn base_rate_hz(&self) -> u32 {
-        self.config().control.base_rate_hz
+        Runtime::base_rate_hz(self)
     }
 }
 
@@ -47,10 +54,15 @@ pub type Num = f32;
 /// The firmware's runtime.
 pub type FwRuntime = Runtime<Num>;
 
-/// The firmware's runtime with the default configuration (the control core's default
-/// rates, gains and limits, validated).
+/// The default configuration (the control core's default rates, gains and limits, the
+/// fault policy's defaults), discretised and quantised for [`Num`] at build time by the
+/// same control code the host runs: exact bits, so the device needs no float maths.
+pub const DEFAULT_RUNTIME: RuntimeBits = generated::DEFAULT_RUNTIME;
+
+/// The firmware's runtime with the default configuration ([`DEFAULT_RUNTIME`],
+/// validated; integer work only).
 pub fn new_runtime() -> Result<FwRuntime, RuntimeError> {
-    FwRuntime::try_new(RuntimeConfig::default())
+    FwRuntime::from_bits(&DEFAULT_RUNTIME)
 }
 
 /// Encodes the frame that puts the actuators in their safe state
@@ -96,6 +108,22 @@ mod tests {
         };
         assert_eq!((a.t_psi_dnm, a.u_a_cv), (0, 0));
         assert!(a.flags.has(Flags::SAFE) && !a.flags.has(Flags::ENABLED));
+    }
+
+    /// The build script's constants are today's compilation of the default
+    /// configuration, and the device built from them is the host's runtime, bit for bit.
+    #[test]
+    fn default_runtime_is_compiled() {
+        let cfg = wheelset_runtime::RuntimeConfig::default();
+        assert_eq!(
+            RuntimeBits::try_new::<Num>(&cfg).unwrap(),
+            DEFAULT_RUNTIME,
+            "stale build-script output"
+        );
+        let dev = new_runtime().unwrap();
+        let host = FwRuntime::try_new(cfg).unwrap();
+        assert_eq!(dev.core().compiled(), host.core().compiled());
+        assert_eq!(dev.core().compiled().to_bits(), DEFAULT_RUNTIME.control);
     }
 
     #[test]

@@ -2,9 +2,10 @@
 //! lead) and the traction loop (ramped reference + PI), output limits, the safe state,
 //! counters, and wire-code conversion.
 
+use crate::compiled::Compiled;
 use crate::config::{Config, ConfigError, FullScales, WireLsb, YawMode};
-use crate::lead::{Lead, LeadDiscrete, LeadState};
-use crate::pi::{Pi, PiDiscrete, PiState};
+use crate::lead::{Lead, LeadState};
+use crate::pi::{Pi, PiState};
 use crate::sample::{Fx, Sample};
 
 /// One tick's inputs, per unit (`x_SI / FS`, [`FullScales`]). Build them from SI values
@@ -169,12 +170,12 @@ pub struct OutputCodes {
 /// (`pu = code * LSB/FS`; for [`Fx`] an integer multiply and shift, no float).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Codec<T: Sample> {
-    y_dot: T::Scale,
-    current: T::Scale,
-    speed: T::Scale,
-    demand: T::Scale,
-    torque: T::Scale,
-    voltage: T::Scale,
+    pub(crate) y_dot: T::Scale,
+    pub(crate) current: T::Scale,
+    pub(crate) speed: T::Scale,
+    pub(crate) demand: T::Scale,
+    pub(crate) torque: T::Scale,
+    pub(crate) voltage: T::Scale,
 }
 
 impl<T: Sample> Codec<T> {
@@ -217,44 +218,10 @@ impl<T: Sample> Codec<T> {
     }
 }
 
-/// The discretised, quantised configuration (immutable while running).
-#[derive(Clone, Copy, Debug)]
-struct Law<T: Sample> {
-    lead: Lead<T>,
-    gain: T::Coeff,
-    pi: Pi<T>,
-    /// Input clamps, pu.
-    y_dot_max: T,
-    current_max: T,
-    speed_max: T,
-    demand_max: T,
-    /// Output torque limit, pu.
-    torque_max: T,
-    /// `scales.demand/(n K_m scales.current)`: demand pu -> current-reference pu.
-    demand_to_iref: T::Coeff,
-    /// `K_m scales.speed/scales.voltage`: speed pu -> back-EMF pu.
-    back_emf: T::Coeff,
-    /// Half the prediction factor `alpha/2 = yaw_predict_ticks/(2 yaw_divisor)`.
-    predict_half: T::Coeff,
-    /// Clamp of the predicted `y'`, pu ([`crate::config::MAX_LIMIT_PU`]).
-    y_dot_pred_max: T,
-    /// Reference slew per traction step, pu (normal and safe state).
-    iref_step: T,
-    iref_safe_step: T,
-    /// Torque-limit ramp per yaw step, pu.
-    torque_step: T,
-    yaw_divisor: u16,
-    traction_divisor: u16,
-}
-
 /// The controller: configuration, filter states, counters. See the crate docs.
 #[derive(Clone, Debug)]
 pub struct Controller<T: Sample> {
-    law: Law<T>,
-    codec: Codec<T>,
-    config: Config,
-    lead_disc: LeadDiscrete,
-    pi_disc: PiDiscrete,
+    law: Compiled<T>,
     mode: YawMode,
     traction: bool,
     safe: bool,
@@ -282,64 +249,21 @@ pub type F32Controller = Controller<f32>;
 pub type F64Controller = Controller<f64>;
 
 impl<T: Sample> Controller<T> {
-    /// Validate `config`, discretise (f64), quantise. Starts in `config.yaw_mode`, with
-    /// traction as configured, not safe, all states zero and the integrator *not yet
+    /// Validate `config`, discretise (f64), quantise ([`Compiled::try_new`]), and
+    /// [`Self::new`]. Host and build-script use: the device starts from bits.
+    pub fn try_new(config: &Config) -> Result<Self, ConfigError> {
+        Ok(Self::new(&Compiled::try_new(config)?))
+    }
+
+    /// A controller running `law` (no float maths). Starts in `law`'s yaw mode, with
+    /// traction as there, not safe, all states zero and the integrator *not yet
     /// preset*: the first traction step presets it to the back-EMF `K_m omega_m` of the
     /// measured speed (bumpless start), unless [`Self::preset_back_emf`] ran before.
-    pub fn try_new(config: &Config) -> Result<Self, ConfigError> {
-        config.validate()?;
-        let s = &config.scales;
-        let l = &config.limits;
-        let lead_disc = config.lead.discretise(config.yaw_period())?;
-        let pi_disc = config.pi.discretise(config.traction_period())?;
-        let lead = Lead::new(&lead_disc.to_pu(s.y_dot, s.torque))?;
-        let pi = Pi::new(
-            &pi_disc.to_pu(s.current, s.voltage),
-            l.voltage_min / s.voltage,
-            l.voltage_max / s.voltage,
-        )?;
-        let q = |name: &'static str, v: f64| {
-            T::quantise(v).ok_or(ConfigError::Coefficient { name, value: v })
-        };
-        let gain = q("gain_k (pu)", config.gain_k * s.y_dot / s.torque)?;
-        let iref_max = l.demand / (config.motor.n * config.motor.k_m) / s.current;
-        let law = Law {
-            lead,
-            gain,
-            pi,
-            y_dot_max: T::from_f64(l.y_dot / s.y_dot),
-            current_max: T::from_f64(l.current / s.current),
-            speed_max: T::from_f64(l.speed / s.speed),
-            demand_max: T::from_f64(l.demand / s.demand),
-            torque_max: T::from_f64(l.torque / s.torque),
-            demand_to_iref: q(
-                "demand_to_iref (pu)",
-                s.demand / (config.motor.n * config.motor.k_m * s.current),
-            )?,
-            back_emf: q("back_emf K_m (pu)", config.motor.k_m * s.speed / s.voltage)?,
-            predict_half: q(
-                "yaw_predict_ticks/(2 yaw_divisor)",
-                config.yaw_predict_ticks / (2.0 * config.yaw_divisor as f64),
-            )?,
-            y_dot_pred_max: T::from_f64(crate::config::MAX_LIMIT_PU),
-            iref_step: T::from_f64(l.current_ref_rate * config.traction_period() / s.current),
-            iref_safe_step: T::from_f64(
-                iref_max * config.traction_period() / config.safe.traction_s,
-            ),
-            torque_step: T::from_f64(l.torque / s.torque * config.yaw_period() / config.safe.yaw_s),
-            yaw_divisor: config.yaw_divisor,
-            traction_divisor: config.traction_divisor,
-        };
-        let w = &config.wire;
-        let codec = Codec::<T>::try_new(w, s)?;
-        Ok(Self {
-            law,
-            codec,
-            config: *config,
-            lead_disc,
-            pi_disc,
-            mode: config.yaw_mode,
-            traction: config.traction_enabled,
+    pub fn new(law: &Compiled<T>) -> Self {
+        Self {
+            law: *law,
+            mode: law.yaw_mode,
+            traction: law.traction_enabled,
             safe: false,
             armed: false,
             yaw_phase: 0,
@@ -351,7 +275,7 @@ impl<T: Sample> Controller<T> {
             last_y_dot: T::ZERO,
             out: Outputs::default(),
             counters: Counters::default(),
-        })
+        }
     }
 
     /// One base-rate tick: sanitise and clamp the inputs (counted), run the yaw loop
@@ -384,9 +308,9 @@ impl<T: Sample> Controller<T> {
     /// Tick on wire codes: decode, [`Self::tick`], encode.
     #[inline]
     pub fn tick_codes(&mut self, inp: &InputCodes) -> OutputCodes {
-        let i = self.codec.decode(inp);
+        let i = self.law.codec.decode(inp);
         let o = self.tick(&i);
-        self.codec.encode(&o)
+        self.law.codec.encode(&o)
     }
 
     /// Sanitise and clamp an input; events at bits `bit` (invalid) and `bit + 1` (clamped).
@@ -541,17 +465,9 @@ impl<T: Sample> Controller<T> {
         self.armed = true;
     }
 
-    /// The configuration this controller was built from.
-    pub fn config(&self) -> &Config {
-        &self.config
-    }
-    /// The discrete lead (f64, SI) before quantisation.
-    pub fn lead_discrete(&self) -> &LeadDiscrete {
-        &self.lead_disc
-    }
-    /// The discrete PI (f64, SI) before quantisation.
-    pub fn pi_discrete(&self) -> &PiDiscrete {
-        &self.pi_disc
+    /// The compiled (discretised, quantised) controller this runs.
+    pub fn compiled(&self) -> &Compiled<T> {
+        &self.law
     }
     /// The lead as quantised for `T`.
     pub fn lead(&self) -> &Lead<T> {
@@ -563,7 +479,7 @@ impl<T: Sample> Controller<T> {
     }
     /// The wire codec.
     pub fn codec(&self) -> &Codec<T> {
-        &self.codec
+        &self.law.codec
     }
     /// The lead's state.
     pub fn lead_state(&self) -> &LeadState<T> {

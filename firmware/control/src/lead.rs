@@ -212,9 +212,9 @@ pub struct LeadPu {
 /// The lead as it runs: quantised per-unit coefficients (configuration).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Lead<T: Sample> {
-    k_hf: T::Coeff,
-    g_half: T::Coeff,
-    kappa: T::Coeff,
+    pub(crate) k_hf: T::Coeff,
+    pub(crate) g_half: T::Coeff,
+    pub(crate) kappa: T::Coeff,
 }
 
 /// The lead's state: previous input `x[n-1]` and the low-pass output `z[n-1]` (pu).

@@ -194,12 +194,14 @@
 #![no_std]
 #![deny(missing_docs)]
 
+pub mod compiled;
 pub mod config;
 pub mod controller;
 pub mod lead;
 pub mod pi;
 pub mod sample;
 
+pub use compiled::{BitsError, Compiled, CompiledBits, ScaleBits, ScheduleBits};
 pub use config::{
     Config, ConfigError, FullScales, Limits, Motor, SafeRamps, WireLsb, YawMode,
     DEFAULT_BASE_RATE_HZ, DEFAULT_TRACTION_DIVISOR, DEFAULT_YAW_DIVISOR,
@@ -210,4 +212,4 @@ pub use controller::{
 };
 pub use lead::{Lead, LeadDiscrete, LeadParams, LeadPu, LeadState};
 pub use pi::{Pi, PiDiscrete, PiFlags, PiParams, PiPu, PiState};
-pub use sample::{Coef, Fx, FxScale, Sample};
+pub use sample::{Coef, Fx, FxScale, Sample, SampleBits};

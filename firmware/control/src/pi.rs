@@ -109,8 +109,8 @@ pub struct PiPu {
 /// The PI as it runs: quantised coefficients and output limits (configuration).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Pi<T: Sample> {
-    kp: T::Coeff,
-    ki: T::Coeff,
+    pub(crate) kp: T::Coeff,
+    pub(crate) ki: T::Coeff,
     /// Lower output (and integrator) limit, pu.
     pub u_min: T,
     /// Upper output (and integrator) limit, pu.

@@ -64,6 +64,20 @@ impl FxScale {
         })
     }
 
+    /// The scale `mul / 2^shift` from its parts, as [`Self::new`] produces them: `None`
+    /// unless `mul` is in `[1024, 2^31)` and `shift <= 62`. Integer work only.
+    pub fn from_bits(mul: u64, shift: u8) -> Option<Self> {
+        let shift = u32::from(shift);
+        if !(1024..(1u64 << 31)).contains(&mul) || shift > 62 {
+            return None;
+        }
+        Some(Self {
+            mul: mul as i32,
+            shift,
+            round: if shift == 0 { 0 } else { 1i64 << (shift - 1) },
+        })
+    }
+
     /// `sat32((x * mul + round) >> shift)`.
     #[inline]
     pub fn apply(&self, x: i32) -> i32 {
@@ -129,7 +143,6 @@ pub trait Sample: Copy + Default + PartialEq + PartialOrd + core::fmt::Debug {
     const ZERO: Self;
     /// Short type name for reports (`"f64"`, `"f32"`, `"Q4.28"`).
     const NAME: &'static str;
-
     /// Nearest representable value, saturating (construction time and host use).
     fn from_f64(x: f64) -> Self;
     /// The exact value as `f64`.
@@ -163,15 +176,47 @@ pub trait Sample: Copy + Default + PartialEq + PartialOrd + core::fmt::Debug {
     fn to_code(self, scale: &Self::Scale) -> i32;
 }
 
+/// Exact bit patterns of a [`Sample`]'s values, coefficients and scales: how a compiled
+/// controller is written as constants and sent over the wire ([`crate::CompiledBits`]).
+/// Conversions are integer work only (no float maths on the device).
+pub trait SampleBits: Sample {
+    /// The type's tag in exact bit patterns ([`crate::CompiledBits::numeric`]): 0 Q4.28 /
+    /// Q1.31, 1 `f32`, 2 `f64`.
+    const NUMERIC: u8;
+    /// The largest per-unit magnitude of a clamp or limit, 2 pu
+    /// ([`crate::config::MAX_LIMIT_PU`], the Q4.28 range analysis).
+    const MAX_LIMIT: Self;
+    /// The zero coefficient.
+    const COEFF_ZERO: Self::Coeff;
+
+    /// The exact bit pattern of a signal value (Q4.28: the `i32` bits; floats: IEEE bits),
+    /// zero-extended to 64 bits.
+    fn to_bits64(self) -> u64;
+    /// A signal value from its bit pattern; `None` for a pattern of another width or a
+    /// non-finite float. Integer work only.
+    fn from_bits64(b: u64) -> Option<Self>;
+    /// The exact bit pattern of a coefficient (Q1.31 `i32` bits; floats: IEEE bits).
+    fn coeff_to_bits64(c: Self::Coeff) -> u64;
+    /// A coefficient from its bit pattern; `None` if it is not a valid coefficient (Q1.31:
+    /// `-1` itself, which [`Sample::quantise`] never produces; floats: not finite).
+    fn coeff_from_bits64(b: u64) -> Option<Self::Coeff>;
+    /// `0 < c < 1` (`0 <= c < 1` with `zero_ok`).
+    fn coeff_in_unit(c: Self::Coeff, zero_ok: bool) -> bool;
+    /// The exact bits of a wire-code scale: `(mul, shift)` (floats: the IEEE bits, 0).
+    fn scale_to_bits(s: &Self::Scale) -> (u64, u8);
+    /// A wire-code scale from [`Sample::scale_to_bits`]'s bits; `None` if invalid (fixed
+    /// point: `mul` in `[1024, 2^31)`, `shift <= 62`; floats: finite and positive).
+    fn scale_from_bits(mul: u64, shift: u8) -> Option<Self::Scale>;
+}
+
 macro_rules! float_sample {
-    ($t:ty, $name:literal) => {
+    ($t:ty, $bits:ty, $name:literal, $numeric:literal) => {
         impl Sample for $t {
             type Coeff = $t;
             type Scale = $t;
             type Residue = ();
             const ZERO: Self = 0.0;
             const NAME: &'static str = $name;
-
             #[inline]
             fn from_f64(x: f64) -> Self {
                 x as $t
@@ -246,11 +291,44 @@ macro_rules! float_sample {
                 (if v >= 0.0 { v + 0.5 } else { v - 0.5 }) as i32
             }
         }
+
+        impl SampleBits for $t {
+            const NUMERIC: u8 = $numeric;
+            const MAX_LIMIT: Self = 2.0;
+            const COEFF_ZERO: $t = 0.0;
+
+            fn to_bits64(self) -> u64 {
+                u64::from(self.to_bits())
+            }
+            fn from_bits64(b: u64) -> Option<Self> {
+                let v = <$t>::from_bits(<$bits>::try_from(b).ok()?);
+                if v.is_finite() {
+                    Some(v)
+                } else {
+                    None
+                }
+            }
+            fn coeff_to_bits64(c: $t) -> u64 {
+                c.to_bits64()
+            }
+            fn coeff_from_bits64(b: u64) -> Option<$t> {
+                Self::from_bits64(b)
+            }
+            fn coeff_in_unit(c: $t, zero_ok: bool) -> bool {
+                (c > 0.0 || (zero_ok && c == 0.0)) && c < 1.0
+            }
+            fn scale_to_bits(s: &$t) -> (u64, u8) {
+                (s.to_bits64(), 0)
+            }
+            fn scale_from_bits(mul: u64, shift: u8) -> Option<$t> {
+                Self::from_bits64(mul).filter(|s| *s > 0.0 && shift == 0)
+            }
+        }
     };
 }
 
-float_sample!(f64, "f64");
-float_sample!(f32, "f32");
+float_sample!(f64, u64, "f64", 2);
+float_sample!(f32, u32, "f32", 1);
 
 impl Sample for Fx {
     type Coeff = Coef;
@@ -258,7 +336,6 @@ impl Sample for Fx {
     type Residue = u32;
     const ZERO: Self = Fx::ZERO;
     const NAME: &'static str = "Q4.28";
-
     fn from_f64(x: f64) -> Self {
         // `saturating_from_num` panics on NaN: a NaN is no value, so it becomes 0
         // (callers that care count it as invalid before converting).
@@ -323,6 +400,36 @@ impl Sample for Fx {
     #[inline]
     fn to_code(self, scale: &FxScale) -> i32 {
         scale.apply(self.to_bits())
+    }
+}
+
+impl SampleBits for Fx {
+    const NUMERIC: u8 = 0;
+    const MAX_LIMIT: Self = Fx::from_bits(2 << FX_FRAC);
+    const COEFF_ZERO: Coef = Coef::ZERO;
+
+    fn to_bits64(self) -> u64 {
+        u64::from(self.to_bits() as u32)
+    }
+    fn from_bits64(b: u64) -> Option<Self> {
+        Some(Fx::from_bits(u32::try_from(b).ok()? as i32))
+    }
+    fn coeff_to_bits64(c: Coef) -> u64 {
+        u64::from(c.to_bits() as u32)
+    }
+    fn coeff_from_bits64(b: u64) -> Option<Coef> {
+        // (-1, 1) strictly, as `quantise` (keeps `mul_q31` free of overflow).
+        Some(Coef::from_bits(u32::try_from(b).ok()? as i32)).filter(|q| *q != Coef::MIN)
+    }
+    fn coeff_in_unit(c: Coef, zero_ok: bool) -> bool {
+        // Below 1 by the format.
+        c > Coef::ZERO || (zero_ok && c == Coef::ZERO)
+    }
+    fn scale_to_bits(s: &FxScale) -> (u64, u8) {
+        (u64::from(s.mul as u32), s.shift as u8)
+    }
+    fn scale_from_bits(mul: u64, shift: u8) -> Option<FxScale> {
+        FxScale::from_bits(mul, shift)
     }
 }
 

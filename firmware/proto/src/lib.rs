@@ -60,4 +60,6 @@ pub use frame::{
     cobs_decode_in_place, cobs_encode, crc32c, decode_frame, encode, encode_vec, EncodeError,
     FrameError, CRC, CRC_LEN, MAX_FRAME, MAX_RAW, MIN_DECODED, VERSION,
 };
-pub use message::{Actuation, Command, Config, Flags, Lateral, Message, Sensor, Status, YawMode};
+pub use message::{
+    Actuation, Command, Config, Flags, Lateral, Message, Rates, Sensor, Status, YawMode,
+};

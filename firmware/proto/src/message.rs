@@ -119,14 +119,51 @@ pub struct Config {
     pub traction: bool,
     /// Outputs enabled; disabled drives the safe outputs.
     pub enable: bool,
+    /// Ticks a missing sensor frame is bridged by the held sample before the safe state.
+    pub hold_ticks: u16,
+    /// New rates with their coefficients (the control core restarts on them); `None`
+    /// keeps the rates.
+    pub rates: Option<Rates>,
+}
+
+/// Rates and the rate-dependent coefficients of the control core and the runtime, as
+/// exact bit patterns, computed by the host with the device's own control code
+/// (`wheelset_runtime::rates_for`): the device does no discretisation, it validates and
+/// applies them.
+///
+/// A coefficient or per-unit signal is the bit pattern of the device's sample type
+/// (`numeric`): fixed point (0) Q1.31 / Q4.28 `i32` bits, `f32` (1) IEEE bits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Rates {
+    /// The device's sample type: 0 fixed point, 1 `f32`; another is refused.
+    pub numeric: u8,
+    /// Fingerprint of the rate-independent part of the control core these coefficients
+    /// were computed against (`wheelset_control::CompiledBits::fingerprint`); a
+    /// mismatch is refused.
+    #[serde(with = "postcard::fixint::le")]
+    pub fingerprint: u32,
     /// Base (tick) rate in Hz.
     pub base_rate_hz: u32,
     /// Yaw loop runs every `yaw_div` base ticks.
     pub yaw_div: u16,
     /// Traction loop runs every `traction_div` base ticks.
     pub traction_div: u16,
-    /// Ticks a missing sensor frame is bridged by the held sample before the safe state.
-    pub hold_ticks: u16,
+    /// Lead `kappa` at the yaw period (coefficient bits).
+    pub kappa: u32,
+    /// PI `Ki` at the traction period (coefficient bits).
+    pub ki: u32,
+    /// Delay-compensation factor `alpha/2` (coefficient bits).
+    pub predict_half: u32,
+    /// Current-reference slew per traction step (per-unit signal bits).
+    pub iref_step: u32,
+    /// Safe-state current-reference ramp per traction step (per-unit signal bits).
+    pub iref_safe_step: u32,
+    /// Safe-state torque-limit ramp per yaw step (per-unit signal bits).
+    pub torque_step: u32,
+    /// `y''` integrator: `T` in Q32 (um/s per 0.1 mm/s^2 code per tick), `<= 2^32`.
+    pub acc_gain_q32: u64,
+    /// `y''` integrator wash-out `T/tau` in Q32, `<= 2^32` (0: none).
+    pub acc_leak_q32: u64,
 }
 
 /// Host -> device: one-shot requests.

@@ -82,7 +82,28 @@ fn sizes_within_budget() {
         cmd_refused: u32::MAX,
         flags: Flags(0xff),
     }));
-    println!("wire bytes incl. delimiter: sensor typical {s_typ}, worst {s_max} (both lateral: {s_both}); actuation typical {a_typ}, worst {a_max}; both typical {}, worst {}; status worst {st_max}; MAX_FRAME {MAX_FRAME}", s_typ + a_typ, s_max + a_max);
+    let cfg_max = len(Message::Config(Config {
+        mode: YawMode::Lead,
+        traction: true,
+        enable: true,
+        hold_ticks: u16::MAX,
+        rates: Some(Rates {
+            numeric: u8::MAX,
+            fingerprint: u32::MAX,
+            base_rate_hz: u32::MAX,
+            yaw_div: u16::MAX,
+            traction_div: u16::MAX,
+            kappa: u32::MAX,
+            ki: u32::MAX,
+            predict_half: u32::MAX,
+            iref_step: u32::MAX,
+            iref_safe_step: u32::MAX,
+            torque_step: u32::MAX,
+            acc_gain_q32: u64::MAX,
+            acc_leak_q32: u64::MAX,
+        }),
+    }));
+    println!("wire bytes incl. delimiter: sensor typical {s_typ}, worst {s_max} (both lateral: {s_both}); actuation typical {a_typ}, worst {a_max}; both typical {}, worst {}; status worst {st_max}; config with rates worst {cfg_max}; MAX_FRAME {MAX_FRAME}", s_typ + a_typ, s_max + a_max);
     // Overhead 8 (COBS 1, delimiter 1, version 1, type 1, CRC 4) + the fields: sensor
     // seq 2 + t 2 + lateral tag 1 + y' 2 + i_a 3 + speed 3 + demand 2.
     assert!(s_typ <= 8 + 15, "sensor {s_typ}");
@@ -90,4 +111,5 @@ fn sizes_within_budget() {
     assert!(a_typ <= 8 + 12, "actuation {a_typ}");
     assert!(s_both <= 40 && a_max <= 30);
     assert!(st_max <= MAX_FRAME);
+    assert!(cfg_max <= MAX_FRAME, "config {cfg_max}");
 }

@@ -57,10 +57,14 @@
 //!    are [`Runtime::safe_outputs`] (zero torque, zero voltage; [`Flags::NO_SAMPLE`] /
 //!    no [`Flags::ENABLED`]). These are also what a panic handler drives.
 //!
-//! A [`Config`] applies mode, traction, enable and `hold_ticks` at once; new rates
-//! rebuild the control core (validated first; an invalid one is refused, counted,
-//! flagged [`Flags::CMD_REFUSED`], and the old core stays). A rebuilt core restarts its
-//! filter states; the traction loop restarts bumpless from the back-EMF.
+//! A [`Config`] applies mode, traction, enable and `hold_ticks` at once. New rates come
+//! with their coefficients ([`Rates`], computed by the host with this same code:
+//! [`rates_for`]); the device does no discretisation (no float maths at all: it starts
+//! from [`RuntimeBits`] constants, [`Runtime::from_bits`]), it validates them (sample
+//! type, the fingerprint of the rate-independent part, ranges) and restarts the control
+//! core on them; an invalid one is refused, counted, flagged [`Flags::CMD_REFUSED`], and
+//! the old core stays. A restarted core restarts its filter states; the traction loop
+//! restarts bumpless from the back-EMF.
 //!
 //! Counters ([`RuntimeCounters`] = the [`Status`] message) go out in a Status frame after
 //! the next actuation frame when a [`Command::RequestStatus`] arrives;
@@ -69,14 +73,15 @@
 #![deny(missing_docs)]
 
 use wheelset_control::{
-    Config as ControlConfig, ConfigError, Controller, InputCodes, Sample, WireLsb,
+    BitsError, Compiled, CompiledBits, Config as ControlConfig, ConfigError, Controller,
+    InputCodes, Sample, SampleBits, ScheduleBits, WireLsb,
 };
 use wheelset_proto::units::{
     CURRENT_LSB_A, DEMAND_LSB_NM, LAT_VEL_LSB_M_PER_S, SPEED_LSB_RAD_PER_S, TORQUE_LSB_NM,
     VOLTAGE_LSB_V,
 };
 use wheelset_proto::{encode, Decoder, FrameError, Lateral, YawMode, MAX_FRAME};
-pub use wheelset_proto::{Actuation, Command, Config, Flags, Message, Sensor, Status};
+pub use wheelset_proto::{Actuation, Command, Config, Flags, Message, Rates, Sensor, Status};
 
 /// The counters: the [`Status`] message is their only definition.
 pub type RuntimeCounters = Status;
@@ -139,6 +144,8 @@ pub enum RuntimeError {
     Control(ConfigError),
     /// The wash-out time constant is negative, not finite, or shorter than one tick.
     Washout,
+    /// Exact bits ([`RuntimeBits`], [`Rates`]) are invalid: the field named.
+    Bits(BitsError),
 }
 
 impl core::fmt::Display for RuntimeError {
@@ -149,7 +156,14 @@ impl core::fmt::Display for RuntimeError {
                 f,
                 "runtime: acc_washout_s must be 0 or a finite time of at least one tick"
             ),
+            Self::Bits(e) => write!(f, "runtime: {e}"),
         }
+    }
+}
+
+impl From<BitsError> for RuntimeError {
+    fn from(e: BitsError) -> Self {
+        Self::Bits(e)
     }
 }
 
@@ -161,7 +175,7 @@ impl From<ConfigError> for RuntimeError {
 
 /// The `y''` integrator's factors in Q32: `T` (um/s per 0.1 mm/s^2 code per tick) and
 /// `T/tau`. Computed once here (f64), so the tick has no division.
-fn acc_factors(cfg: &RuntimeConfig) -> Result<(i64, i64), RuntimeError> {
+fn acc_factors(cfg: &RuntimeConfig) -> Result<AccBits, RuntimeError> {
     let t = 1.0 / f64::from(cfg.control.base_rate_hz.max(1));
     let q32 = 4_294_967_296.0;
     // 1 code = 1e-4 m/s^2 = 100 um/s^2.
@@ -174,12 +188,102 @@ fn acc_factors(cfg: &RuntimeConfig) -> Result<(i64, i64), RuntimeError> {
     } else {
         return Err(RuntimeError::Washout);
     };
-    Ok((round_q(gain), round_q(leak)))
+    Ok(AccBits {
+        gain_q32: round_q(gain),
+        leak_q32: round_q(leak),
+    })
 }
 
-fn round_q(x: f64) -> i64 {
+fn round_q(x: f64) -> u64 {
     // x >= 0 here; no libm in no_std: round half up by hand.
-    (x + 0.5) as i64
+    (x + 0.5) as u64
+}
+
+/// The `y''` integrator's factors in Q32 (see [`RuntimeConfig::acc_washout_s`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct AccBits {
+    /// `T` in Q32: um/s per 0.1 mm/s^2 code per tick, in `[1, 2^32]`.
+    pub gain_q32: u64,
+    /// Wash-out `T/tau` in Q32, in `[0, 2^32]` (0: a pure integrator).
+    pub leak_q32: u64,
+}
+
+impl AccBits {
+    /// Validated (positive gain, both at most `2^32`, i.e. `T <= 1 s` per 100 um/s^2 and
+    /// `tau >= T`) as signed Q32 factors.
+    fn check(&self) -> Result<(i64, i64), RuntimeError> {
+        const ONE: u64 = 1 << 32;
+        if !(1..=ONE).contains(&self.gain_q32) {
+            return Err(BitsError {
+                field: "acc_gain_q32",
+            }
+            .into());
+        }
+        if self.leak_q32 > ONE {
+            return Err(BitsError {
+                field: "acc_leak_q32",
+            }
+            .into());
+        }
+        Ok((self.gain_q32 as i64, self.leak_q32 as i64))
+    }
+}
+
+/// A whole runtime configuration as exact bits: the compiled control core, the `y''`
+/// integrator's factors, the fault policy. The firmware's build script writes the
+/// default one as a constant ([`RuntimeBits::try_new`] on the host); the device starts
+/// from it with [`Runtime::from_bits`], without float maths.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RuntimeBits {
+    /// The control core ([`Compiled::to_bits`]).
+    pub control: CompiledBits,
+    /// The `y''` integrator.
+    pub acc: AccBits,
+    /// [`RuntimeConfig::hold_ticks`].
+    pub hold_ticks: u16,
+    /// [`RuntimeConfig::enable`].
+    pub enable: bool,
+}
+
+impl RuntimeBits {
+    /// Compile `cfg` for sample type `T` (f64 discretisation, then quantisation; the
+    /// protocol's wire LSBs replace `cfg.control.wire`). Host and build-script use.
+    pub fn try_new<T: SampleBits>(cfg: &RuntimeConfig) -> Result<Self, RuntimeError> {
+        let mut control = cfg.control;
+        control.wire = protocol_wire_lsb();
+        Ok(Self {
+            control: Compiled::<T>::try_new(&control)?.to_bits(),
+            acc: acc_factors(cfg)?,
+            hold_ticks: cfg.hold_ticks,
+            enable: cfg.enable,
+        })
+    }
+}
+
+/// The [`Rates`] that switch a device running `T` with the rate-independent part of
+/// `cfg` to the rates of `cfg` (its base rate and divisors): the coefficients computed
+/// here, with the device's control code. Host use.
+///
+/// Errors: `cfg` is invalid, or `T` has no 32-bit wire form (`f64`).
+pub fn rates_for<T: SampleBits>(cfg: &RuntimeConfig) -> Result<Rates, RuntimeError> {
+    let b = RuntimeBits::try_new::<T>(cfg)?;
+    let s = b.control.schedule;
+    let w = |field, v: u64| u32::try_from(v).map_err(|_| RuntimeError::Bits(BitsError { field }));
+    Ok(Rates {
+        numeric: T::NUMERIC,
+        fingerprint: b.control.fingerprint(),
+        base_rate_hz: s.base_rate_hz,
+        yaw_div: s.yaw_divisor,
+        traction_div: s.traction_divisor,
+        kappa: w("kappa", s.kappa)?,
+        ki: w("ki", s.ki)?,
+        predict_half: w("predict_half", s.predict_half)?,
+        iref_step: w("iref_step", s.iref_step)?,
+        iref_safe_step: w("iref_safe_step", s.iref_safe_step)?,
+        torque_step: w("torque_step", s.torque_step)?,
+        acc_gain_q32: b.acc.gain_q32,
+        acc_leak_q32: b.acc.leak_q32,
+    })
 }
 
 /// The outputs the device drives when it has nothing valid to say.
@@ -195,7 +299,9 @@ pub struct SafeOutputs {
 #[derive(Debug, Clone)]
 pub struct Runtime<T: Sample> {
     core: Controller<T>,
-    cfg: RuntimeConfig,
+    /// [`CompiledBits::fingerprint`] of the core's rate-independent part.
+    fingerprint: u32,
+    hold_ticks: u16,
     decoder: Decoder,
     sample: Option<InputCodes>,
     /// The latest sample carried only `y''` (codes of 0.1 mm/s^2): integrate it.
@@ -219,16 +325,23 @@ pub struct Runtime<T: Sample> {
     tx: [u8; TX_CAPACITY],
 }
 
-impl<T: Sample> Runtime<T> {
-    /// Builds the control core (validated) and an idle runtime.
+impl<T: SampleBits> Runtime<T> {
+    /// Builds the control core (validated, discretised in f64, quantised) and an idle
+    /// runtime: [`RuntimeBits::try_new`] then [`Self::from_bits`], the device's path.
+    /// Host use.
     pub fn try_new(cfg: RuntimeConfig) -> Result<Self, RuntimeError> {
-        let mut cfg = cfg;
-        cfg.control.wire = protocol_wire_lsb();
-        let core = Controller::try_new(&cfg.control)?;
-        let (acc_gain_q32, leak_q32) = acc_factors(&cfg)?;
+        Self::from_bits(&RuntimeBits::try_new::<T>(&cfg)?)
+    }
+
+    /// An idle runtime running exactly `bits` (validated; integer work only): how the
+    /// device starts.
+    pub fn from_bits(bits: &RuntimeBits) -> Result<Self, RuntimeError> {
+        let core = Controller::new(&Compiled::from_bits(&bits.control)?);
+        let (acc_gain_q32, leak_q32) = bits.acc.check()?;
         Ok(Self {
             core,
-            cfg,
+            fingerprint: bits.control.fingerprint(),
+            hold_ticks: bits.hold_ticks,
             decoder: Decoder::new(),
             sample: None,
             acc: None,
@@ -239,7 +352,7 @@ impl<T: Sample> Runtime<T> {
             fresh: false,
             missing: 0,
             safe: false,
-            enabled: cfg.enable,
+            enabled: bits.enable,
             rx_error: false,
             refused: false,
             status_requested: false,
@@ -326,32 +439,11 @@ impl<T: Sample> Runtime<T> {
     }
 
     fn on_config(&mut self, c: &Config) {
-        let cc = &self.cfg.control;
-        let rates_changed = c.base_rate_hz != cc.base_rate_hz
-            || c.yaw_div != cc.yaw_divisor
-            || c.traction_div != cc.traction_divisor;
-        if rates_changed {
-            let mut next = self.cfg;
-            next.control.base_rate_hz = c.base_rate_hz;
-            next.control.yaw_divisor = c.yaw_div;
-            next.control.traction_divisor = c.traction_div;
-            match Controller::try_new(&next.control) {
-                Ok(core) => {
-                    if let Ok((g, l)) = acc_factors(&next) {
-                        self.acc_gain_q32 = g;
-                        self.leak_q32 = l;
-                    }
-                    self.core = core;
-                    self.cfg = next;
-                    if self.safe {
-                        self.core.set_safe(true);
-                    }
-                }
-                Err(_) => {
-                    self.refused = true;
-                    self.counters.cmd_refused = self.counters.cmd_refused.wrapping_add(1);
-                    return;
-                }
+        if let Some(r) = &c.rates {
+            if self.apply_rates(r).is_err() {
+                self.refused = true;
+                self.counters.cmd_refused = self.counters.cmd_refused.wrapping_add(1);
+                return;
             }
         }
         let mode = match c.mode {
@@ -362,11 +454,47 @@ impl<T: Sample> Runtime<T> {
         self.core.set_mode(mode);
         self.core.set_traction(c.traction);
         self.enabled = c.enable;
-        self.cfg.hold_ticks = c.hold_ticks;
-        self.cfg.control.yaw_mode = mode;
-        self.cfg.control.traction_enabled = c.traction;
-        self.cfg.enable = c.enable;
+        self.hold_ticks = c.hold_ticks;
         self.refused = false;
+    }
+
+    /// Validates `r` against this core (sample type, fingerprint, the schedule's and the
+    /// integrator's ranges) and, if valid, restarts the core on it.
+    fn apply_rates(&mut self, r: &Rates) -> Result<(), RuntimeError> {
+        if r.numeric != T::NUMERIC {
+            return Err(BitsError { field: "numeric" }.into());
+        }
+        if r.fingerprint != self.fingerprint {
+            return Err(BitsError {
+                field: "fingerprint",
+            }
+            .into());
+        }
+        let (g, l) = AccBits {
+            gain_q32: r.acc_gain_q32,
+            leak_q32: r.acc_leak_q32,
+        }
+        .check()?;
+        let law = self.core.compiled().with_schedule(&ScheduleBits {
+            base_rate_hz: r.base_rate_hz,
+            yaw_divisor: r.yaw_div,
+            traction_divisor: r.traction_div,
+            kappa: u64::from(r.kappa),
+            ki: u64::from(r.ki),
+            predict_half: u64::from(r.predict_half),
+            iref_step: u64::from(r.iref_step),
+            iref_safe_step: u64::from(r.iref_safe_step),
+            torque_step: u64::from(r.torque_step),
+        })?;
+        // A fresh core (filter states zero, integrator to be preset from the back-EMF);
+        // the Config sets its mode and traction right after.
+        self.core = Controller::new(&law);
+        self.acc_gain_q32 = g;
+        self.leak_q32 = l;
+        if self.safe {
+            self.core.set_safe(true);
+        }
+        Ok(())
     }
 
     /// One base-rate tick (see the crate docs for the policy). Returns the Actuation frame
@@ -375,7 +503,7 @@ impl<T: Sample> Runtime<T> {
     /// instructions), reported in the frame. Never panics.
     pub fn tick(&mut self, last_exec: u32) -> &[u8] {
         self.ticks = self.ticks.wrapping_add(1);
-        let hold = u32::from(self.cfg.hold_ticks);
+        let hold = u32::from(self.hold_ticks);
         let fresh = core::mem::replace(&mut self.fresh, false);
         let mut flags = Flags::default();
         let c = &mut self.counters;
@@ -496,9 +624,19 @@ impl<T: Sample> Runtime<T> {
         &self.core
     }
 
-    /// The configuration in force.
-    pub fn config(&self) -> &RuntimeConfig {
-        &self.cfg
+    /// The base (tick) rate in force, Hz.
+    pub fn base_rate_hz(&self) -> u32 {
+        self.core.compiled().base_rate_hz()
+    }
+
+    /// Ticks bridged by the held sample before the safe state, in force.
+    pub fn hold_ticks(&self) -> u16 {
+        self.hold_ticks
+    }
+
+    /// Outputs enabled?
+    pub fn is_enabled(&self) -> bool {
+        self.enabled
     }
 
     /// In the safe state?

@@ -196,19 +196,20 @@ fn config_and_commands() {
         mode: YawMode::Passive,
         traction: true,
         enable: true,
-        base_rate_hz: BASE_HZ,
-        yaw_div: 1,
-        traction_div: 1,
         hold_ticks: 3,
+        rates: None,
     };
     r.receive(&encode_vec(&Message::Config(cfg)).expect("fits"));
     r.receive(&sensor(21, 5_000));
     let a = act(r.tick(0));
     assert_eq!(a.t_psi_dnm, 0, "passive: no device torque");
-    assert_eq!(r.config().hold_ticks, 3);
+    assert_eq!(r.hold_ticks(), 3);
     // Invalid rates are refused and the old configuration stays.
+    let mut rates = rates_for::<Fx>(&RuntimeConfig::default()).expect("valid");
+    rates.base_rate_hz = 0;
     let bad = Config {
-        base_rate_hz: 0,
+        rates: Some(rates),
+        hold_ticks: 7,
         ..cfg
     };
     r.receive(&encode_vec(&Message::Config(bad)).expect("fits"));
@@ -216,7 +217,8 @@ fn config_and_commands() {
     let a = act(r.tick(0));
     assert!(a.flags.has(Flags::CMD_REFUSED));
     assert_eq!(r.counters().cmd_refused, 1);
-    assert_eq!(r.config().control.base_rate_hz, BASE_HZ);
+    assert_eq!(r.base_rate_hz(), BASE_HZ);
+    assert_eq!(r.hold_ticks(), 3, "a refused Config applies nothing");
     // Disabled: the safe outputs.
     r.receive(
         &encode_vec(&Message::Config(Config {
@@ -349,30 +351,45 @@ fn acceleration_frames_are_integrated_with_washout() {
     ));
 }
 
+/// The Config of a rate change: the coefficients computed on the host for `cfg`.
+fn rate_change<T: wheelset_control::SampleBits>(cfg: &RuntimeConfig) -> Config {
+    Config {
+        mode: YawMode::Lead,
+        traction: true,
+        enable: true,
+        hold_ticks: 20,
+        rates: Some(rates_for::<T>(cfg).expect("valid")),
+    }
+}
+
+fn at_rates(base_rate_hz: u32, yaw_divisor: u16, traction_divisor: u16) -> RuntimeConfig {
+    let mut c = RuntimeConfig::default();
+    c.control.base_rate_hz = base_rate_hz;
+    c.control.yaw_divisor = yaw_divisor;
+    c.control.traction_divisor = traction_divisor;
+    c
+}
+
 #[test]
 fn a_valid_rate_change_rebuilds_the_core() {
     let mut r = rt();
     r.receive(&sensor(1, 1_000));
     let before = act(r.tick(0));
-    let cfg = Config {
-        mode: YawMode::Lead,
-        traction: true,
-        enable: true,
-        base_rate_hz: 10_000,
-        yaw_div: 2,
-        traction_div: 1,
-        hold_ticks: 20,
-    };
-    r.receive(&encode_vec(&Message::Config(cfg)).expect("fits"));
+    let host = at_rates(10_000, 2, 1);
+    r.receive(&encode_vec(&Message::Config(rate_change::<Fx>(&host))).expect("fits"));
     r.receive(&sensor(2, 1_000));
     let a = act(r.tick(0));
     assert!(!a.flags.has(Flags::CMD_REFUSED));
-    let c = r.config();
-    assert_eq!(
-        (c.control.base_rate_hz, c.control.yaw_divisor, c.hold_ticks),
-        (10_000, 2, 20)
-    );
+    assert_eq!((r.base_rate_hz(), r.hold_ticks()), (10_000, 20));
     assert_eq!(r.counters().cmd_refused, 0);
+    // The device now runs exactly the host's compilation at the new rates.
+    let reference = Runtime::<Fx>::try_new(host).expect("valid");
+    let (mut got, want) = (*r.core().compiled(), *reference.core().compiled());
+    assert_eq!(got.to_bits().schedule, want.to_bits().schedule);
+    assert_eq!(got.yaw_divisor(), 2);
+    // (The start mode is the only difference: the Config set it.)
+    got = got.with_schedule(&want.schedule()).expect("valid");
+    assert_eq!(got, want);
     // The rebuilt core starts bumpless on the traction side again (back-EMF).
     assert!(
         (a.u_a_cv - before.u_a_cv).abs() < 200,
@@ -380,4 +397,106 @@ fn a_valid_rate_change_rebuilds_the_core() {
         a.u_a_cv,
         before.u_a_cv
     );
+    // Back at the default rates: the same outputs as a fresh runtime on the same frames.
+    r.receive(
+        &encode_vec(&Message::Config(rate_change::<Fx>(
+            &RuntimeConfig::default(),
+        )))
+        .expect("fits"),
+    );
+    let mut fresh = rt();
+    r.receive(
+        &encode_vec(&Message::Config(Config {
+            rates: None,
+            hold_ticks: DEFAULT_HOLD_TICKS,
+            ..rate_change::<Fx>(&RuntimeConfig::default())
+        }))
+        .expect("fits"),
+    );
+    for k in 3..200u16 {
+        let f = sensor(k, 3_000);
+        r.receive(&f);
+        fresh.receive(&f);
+        let (x, y) = (act(r.tick(0)), act(fresh.tick(0)));
+        assert_eq!((x.t_psi_dnm, x.u_a_cv), (y.t_psi_dnm, y.u_a_cv), "tick {k}");
+    }
+}
+
+#[test]
+fn rates_for_another_controller_or_out_of_range_are_refused() {
+    let good = rates_for::<Fx>(&at_rates(10_000, 1, 1)).expect("valid");
+    let mut other = at_rates(10_000, 1, 1);
+    other.control.pi.kp = 2.0;
+    let foreign = rates_for::<Fx>(&other).expect("valid");
+    assert_ne!(foreign.fingerprint, good.fingerprint);
+    let f32_rates = rates_for::<f32>(&at_rates(10_000, 1, 1)).expect("valid");
+    let bad: [(&str, Rates); 9] = [
+        ("another controller", foreign),
+        ("another sample type", f32_rates),
+        (
+            "rate",
+            Rates {
+                base_rate_hz: 99,
+                ..good
+            },
+        ),
+        ("divisor", Rates { yaw_div: 0, ..good }),
+        (
+            "divisor",
+            Rates {
+                traction_div: 0,
+                ..good
+            },
+        ),
+        ("kappa <= 0", Rates { kappa: 0, ..good }),
+        (
+            "Ki < 0",
+            Rates {
+                ki: (-5i32) as u32,
+                ..good
+            },
+        ),
+        (
+            "step above 2 pu",
+            Rates {
+                torque_step: (3 << 28) as u32,
+                ..good
+            },
+        ),
+        (
+            "integrator gain",
+            Rates {
+                acc_gain_q32: (1 << 32) + 1,
+                ..good
+            },
+        ),
+    ];
+    for (why, rates) in bad {
+        let mut r = rt();
+        r.receive(&sensor(1, 1_000));
+        let _ = r.tick(0);
+        let c = Config {
+            rates: Some(rates),
+            ..rate_change::<Fx>(&RuntimeConfig::default())
+        };
+        r.receive(&encode_vec(&Message::Config(c)).expect("fits"));
+        r.receive(&sensor(2, 1_000));
+        let a = act(r.tick(0));
+        assert!(a.flags.has(Flags::CMD_REFUSED), "{why}");
+        assert_eq!(r.counters().cmd_refused, 1, "{why}");
+        assert_eq!(r.base_rate_hz(), BASE_HZ, "{why}: the old core stays");
+        assert_eq!(r.hold_ticks(), DEFAULT_HOLD_TICKS, "{why}: nothing applied");
+    }
+    // The good one is taken, also by an f32 device when computed for f32.
+    let mut r: Runtime<f32> = Runtime::try_new(RuntimeConfig::default()).expect("valid");
+    let c = Config {
+        rates: Some(f32_rates),
+        ..rate_change::<f32>(&RuntimeConfig::default())
+    };
+    r.receive(&encode_vec(&Message::Config(c)).expect("fits"));
+    r.receive(&sensor(1, 1_000));
+    assert!(!act(r.tick(0)).flags.has(Flags::CMD_REFUSED));
+    assert_eq!(r.base_rate_hz(), 10_000);
+    // The host reference type has no 32-bit wire form.
+    assert!(rates_for::<f64>(&RuntimeConfig::default()).is_err());
 }

@@ -324,7 +324,10 @@ pub fn coefficients<T: Sample>(
     let s = &cfg.scales;
     Ok(match kind {
         Kind::YawLead => {
-            let ideal = c.lead_discrete().to_pu(s.y_dot, s.torque);
+            let ideal = cfg
+                .lead
+                .discretise(cfg.yaw_period())?
+                .to_pu(s.y_dot, s.torque);
             (
                 Coeffs::lead(&ideal, cfg),
                 Coeffs::lead(&c.lead().quantised(), cfg),
@@ -344,7 +347,10 @@ pub fn coefficients<T: Sample>(
             )
         }
         Kind::TractionPi => {
-            let ideal = c.pi_discrete().to_pu(s.current, s.voltage);
+            let ideal = cfg
+                .pi
+                .discretise(cfg.traction_period())?
+                .to_pu(s.current, s.voltage);
             (
                 Coeffs::pi(&ideal, cfg),
                 Coeffs::pi(&c.pi().quantised(), cfg),
@@ -399,6 +405,8 @@ pub fn isolate(kind: Kind, base: &Config) -> Config {
 /// is repeated `divisor` times and the last output taken).
 pub struct Drive<T: Sample> {
     ctrl: Controller<T>,
+    /// The full scales of the configuration `ctrl` was built from.
+    scales: wheelset_control::FullScales,
     kind: Kind,
     divisor: u16,
     /// Output divisor: the quantised gain (SI) for the predictor, else 1.
@@ -423,6 +431,7 @@ impl<T: Sample> Drive<T> {
         };
         Ok(Self {
             ctrl: Controller::try_new(&cfg)?,
+            scales: cfg.scales,
             kind,
             divisor,
             out_div,
@@ -431,7 +440,7 @@ impl<T: Sample> Drive<T> {
 
     /// One controller step on the SI input `x` (m/s of `y'`, or A of current error).
     pub fn step(&mut self, x: f64) -> f64 {
-        let s = self.ctrl.config().scales;
+        let s = self.scales;
         let inp = match self.kind {
             Kind::YawLead | Kind::YawGain | Kind::YawPredictor => Inputs {
                 y_dot: T::from_f64(x / s.y_dot),

@@ -74,6 +74,42 @@ pub fn actuation() -> impl Strategy<Value = Actuation> {
         )
 }
 
+/// Any u64, extremes over-represented.
+pub fn any_u64() -> impl Strategy<Value = u64> {
+    prop_oneof![Just(0), Just(u64::MAX), 0..(1u64 << 33), any::<u64>()]
+}
+
+pub fn rates() -> impl Strategy<Value = Rates> {
+    (
+        (
+            any::<u8>(),
+            any_u32(),
+            any_u32(),
+            any::<u16>(),
+            any::<u16>(),
+        ),
+        proptest::array::uniform6(any_u32()),
+        (any_u64(), any_u64()),
+    )
+        .prop_map(
+            |((numeric, fingerprint, base_rate_hz, yaw_div, traction_div), c, (g, l))| Rates {
+                numeric,
+                fingerprint,
+                base_rate_hz,
+                yaw_div,
+                traction_div,
+                kappa: c[0],
+                ki: c[1],
+                predict_half: c[2],
+                iref_step: c[3],
+                iref_safe_step: c[4],
+                torque_step: c[5],
+                acc_gain_q32: g,
+                acc_leak_q32: l,
+            },
+        )
+}
+
 pub fn config() -> impl Strategy<Value = Config> {
     (
         prop_oneof![
@@ -83,22 +119,16 @@ pub fn config() -> impl Strategy<Value = Config> {
         ],
         any::<bool>(),
         any::<bool>(),
-        any_u32(),
         any::<u16>(),
-        any::<u16>(),
-        any::<u16>(),
+        proptest::option::of(rates()),
     )
-        .prop_map(
-            |(mode, traction, enable, base_rate_hz, yaw_div, traction_div, hold_ticks)| Config {
-                mode,
-                traction,
-                enable,
-                base_rate_hz,
-                yaw_div,
-                traction_div,
-                hold_ticks,
-            },
-        )
+        .prop_map(|(mode, traction, enable, hold_ticks, rates)| Config {
+            mode,
+            traction,
+            enable,
+            hold_ticks,
+            rates,
+        })
 }
 
 pub fn status() -> impl Strategy<Value = Status> {

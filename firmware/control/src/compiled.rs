@@ -1,0 +1,435 @@
+//! The compiled controller: everything the tick multiplies, compares and divides by,
+//! discretised (f64) and quantised for one sample type, and its exact bit patterns.
+//!
+//! ```text
+//!  Config (SI, f64) --Compiled::try_new (host, build script: f64 + quantise)--> Compiled<T>
+//!  Compiled<T> <--to_bits / from_bits (integer work, validated)--> CompiledBits
+//!  Compiled<T> --Controller::new (no float maths)--> Controller<T>
+//! ```
+//!
+//! The device never discretises: its default set is computed at build time by this code
+//! (the firmware's build script) and written as [`CompiledBits`] constants; a new rate
+//! arrives as a [`ScheduleBits`] (the rate-dependent part) computed by the host with this
+//! code. Host and device therefore run the identical quantised numbers, and the device
+//! only validates them ([`Compiled::from_bits`], [`Compiled::with_schedule`]: formats,
+//! signs, the 2 pu range of limits, divisors and rates).
+//!
+//! The split: the **schedule** ([`ScheduleBits`]) is what depends on the rates (the
+//! base rate, the divisors, the lead's `kappa`, the PI's `Ki`, the predictor's `alpha/2`,
+//! the per-step ramps); the rest (gains, limits, the wire codec) does not, and
+//! [`CompiledBits::fingerprint`] identifies it, so a schedule computed against another
+//! controller can be refused.
+
+use crate::config::{Config, ConfigError, YawMode, MAX_LIMIT_PU};
+use crate::controller::Codec;
+use crate::lead::Lead;
+use crate::pi::Pi;
+use crate::sample::{Sample, SampleBits};
+
+/// The discretised, quantised controller for sample type `T` (immutable while running).
+/// Build it from a [`Config`] with [`Compiled::try_new`] (f64; host and build script) or
+/// from exact bits with [`Compiled::from_bits`] (integer work; the device).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Compiled<T: Sample> {
+    pub(crate) lead: Lead<T>,
+    pub(crate) gain: T::Coeff,
+    pub(crate) pi: Pi<T>,
+    /// Input clamps, pu.
+    pub(crate) y_dot_max: T,
+    pub(crate) current_max: T,
+    pub(crate) speed_max: T,
+    pub(crate) demand_max: T,
+    /// Output torque limit, pu.
+    pub(crate) torque_max: T,
+    /// `scales.demand/(n K_m scales.current)`: demand pu -> current-reference pu.
+    pub(crate) demand_to_iref: T::Coeff,
+    /// `K_m scales.speed/scales.voltage`: speed pu -> back-EMF pu.
+    pub(crate) back_emf: T::Coeff,
+    /// Half the prediction factor `alpha/2 = yaw_predict_ticks/(2 yaw_divisor)`.
+    pub(crate) predict_half: T::Coeff,
+    /// Clamp of the predicted `y'`, pu ([`MAX_LIMIT_PU`]).
+    pub(crate) y_dot_pred_max: T,
+    /// Reference slew per traction step, pu (normal and safe state).
+    pub(crate) iref_step: T,
+    pub(crate) iref_safe_step: T,
+    /// Torque-limit ramp per yaw step, pu.
+    pub(crate) torque_step: T,
+    pub(crate) yaw_divisor: u16,
+    pub(crate) traction_divisor: u16,
+    pub(crate) base_rate_hz: u32,
+    pub(crate) codec: Codec<T>,
+    pub(crate) yaw_mode: YawMode,
+    pub(crate) traction_enabled: bool,
+}
+
+/// The exact bits of one wire-code scale ([`Sample::scale_to_bits`]): fixed point
+/// `out = (in mul + 2^(shift-1)) >> shift`; floats `mul` = the IEEE bits, `shift` = 0.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ScaleBits {
+    /// Multiplier (fixed point, in `[1024, 2^31)`) or the float's bits.
+    pub mul: u64,
+    /// Right shift (fixed point, `<= 62`), 0 for floats.
+    pub shift: u8,
+}
+
+/// The rate-dependent part of a [`Compiled`], as exact bits (a coefficient or signal is
+/// its [`Sample`] bit pattern: Q1.31 / Q4.28 `i32` bits zero-extended, or IEEE bits).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ScheduleBits {
+    /// Base (tick) rate, Hz (100 ..= 100 000).
+    pub base_rate_hz: u32,
+    /// The yaw loop runs every `yaw_divisor` ticks (>= 1).
+    pub yaw_divisor: u16,
+    /// The traction loop runs every `traction_divisor` ticks (>= 1).
+    pub traction_divisor: u16,
+    /// Lead `kappa = 1 - alpha` at the yaw period, coefficient, in `(0, 1)`.
+    pub kappa: u64,
+    /// PI `Ki = Kp T/Ti` at the traction period (pu), coefficient, in `(0, 1)`.
+    pub ki: u64,
+    /// Predictor `alpha/2 = yaw_predict_ticks/(2 yaw_divisor)`, coefficient, in `[0, 1)`.
+    pub predict_half: u64,
+    /// Current-reference slew per traction step, pu signal, in `(0, 2]`.
+    pub iref_step: u64,
+    /// Its safe-state ramp per traction step, pu signal, in `(0, 2]`.
+    pub iref_safe_step: u64,
+    /// Torque-limit ramp per yaw step, pu signal, in `(0, 2]`.
+    pub torque_step: u64,
+}
+
+/// A whole [`Compiled`] as exact bits: what the firmware's build script writes as
+/// constants (so the device needs no float maths to start) and what the tests compare.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CompiledBits {
+    /// The sample type ([`Sample::NUMERIC`]): 0 fixed point, 1 `f32`, 2 `f64`.
+    pub numeric: u8,
+    /// Lead `K_hf` (pu), coefficient.
+    pub lead_k_hf: u64,
+    /// Lead `g/2`, coefficient.
+    pub lead_g_half: u64,
+    /// Pure gain `K` (pu), coefficient.
+    pub gain: u64,
+    /// PI `Kp` (pu), coefficient.
+    pub pi_kp: u64,
+    /// PI lower output limit, pu signal.
+    pub u_min: u64,
+    /// PI upper output limit, pu signal.
+    pub u_max: u64,
+    /// Input clamps and the torque limit, pu signals in `(0, 2]`: `y'`, current, speed,
+    /// demand, torque.
+    pub clamps: [u64; 5],
+    /// Demand -> current reference, coefficient.
+    pub demand_to_iref: u64,
+    /// Speed -> back-EMF `K_m`, coefficient.
+    pub back_emf: u64,
+    /// Clamp of the predicted `y'`, pu signal in `(0, 2]`.
+    pub y_dot_pred_max: u64,
+    /// The wire codec's scales: `y'`, current, speed, demand (in), torque, voltage (out).
+    pub codec: [ScaleBits; 6],
+    /// Yaw mode at start.
+    pub yaw_mode: YawMode,
+    /// Traction loop on at start.
+    pub traction_enabled: bool,
+    /// The rate-dependent part.
+    pub schedule: ScheduleBits,
+}
+
+/// Why exact bits were refused: the field that is invalid.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BitsError {
+    /// The field ([`CompiledBits`] / [`ScheduleBits`] name).
+    pub field: &'static str,
+}
+
+impl core::fmt::Display for BitsError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(
+            f,
+            "compiled controller bits: `{}` is invalid for this sample type",
+            self.field
+        )
+    }
+}
+
+impl core::error::Error for BitsError {}
+
+impl<T: Sample> Compiled<T> {
+    /// Validate `config`, discretise (f64), quantise for `T`. The only place the
+    /// controller does float maths; the device never calls it.
+    pub fn try_new(config: &Config) -> Result<Self, ConfigError> {
+        config.validate()?;
+        let s = &config.scales;
+        let l = &config.limits;
+        let lead_disc = config.lead.discretise(config.yaw_period())?;
+        let pi_disc = config.pi.discretise(config.traction_period())?;
+        let lead = Lead::new(&lead_disc.to_pu(s.y_dot, s.torque))?;
+        let pi = Pi::new(
+            &pi_disc.to_pu(s.current, s.voltage),
+            l.voltage_min / s.voltage,
+            l.voltage_max / s.voltage,
+        )?;
+        let q = |name: &'static str, v: f64| {
+            T::quantise(v).ok_or(ConfigError::Coefficient { name, value: v })
+        };
+        let iref_max = l.demand / (config.motor.n * config.motor.k_m) / s.current;
+        Ok(Self {
+            lead,
+            gain: q("gain_k (pu)", config.gain_k * s.y_dot / s.torque)?,
+            pi,
+            y_dot_max: T::from_f64(l.y_dot / s.y_dot),
+            current_max: T::from_f64(l.current / s.current),
+            speed_max: T::from_f64(l.speed / s.speed),
+            demand_max: T::from_f64(l.demand / s.demand),
+            torque_max: T::from_f64(l.torque / s.torque),
+            demand_to_iref: q(
+                "demand_to_iref (pu)",
+                s.demand / (config.motor.n * config.motor.k_m * s.current),
+            )?,
+            back_emf: q("back_emf K_m (pu)", config.motor.k_m * s.speed / s.voltage)?,
+            predict_half: q(
+                "yaw_predict_ticks/(2 yaw_divisor)",
+                config.yaw_predict_ticks / (2.0 * config.yaw_divisor as f64),
+            )?,
+            y_dot_pred_max: T::from_f64(MAX_LIMIT_PU),
+            iref_step: T::from_f64(l.current_ref_rate * config.traction_period() / s.current),
+            iref_safe_step: T::from_f64(
+                iref_max * config.traction_period() / config.safe.traction_s,
+            ),
+            torque_step: T::from_f64(l.torque / s.torque * config.yaw_period() / config.safe.yaw_s),
+            yaw_divisor: config.yaw_divisor,
+            traction_divisor: config.traction_divisor,
+            base_rate_hz: config.base_rate_hz,
+            codec: Codec::try_new(&config.wire, s)?,
+            yaw_mode: config.yaw_mode,
+            traction_enabled: config.traction_enabled,
+        })
+    }
+
+    /// Base (tick) rate, Hz.
+    pub fn base_rate_hz(&self) -> u32 {
+        self.base_rate_hz
+    }
+    /// Yaw divisor.
+    pub fn yaw_divisor(&self) -> u16 {
+        self.yaw_divisor
+    }
+    /// Traction divisor.
+    pub fn traction_divisor(&self) -> u16 {
+        self.traction_divisor
+    }
+    /// The lead as quantised.
+    pub fn lead(&self) -> &Lead<T> {
+        &self.lead
+    }
+    /// The PI as quantised.
+    pub fn pi(&self) -> &Pi<T> {
+        &self.pi
+    }
+    /// The wire codec.
+    pub fn codec(&self) -> &Codec<T> {
+        &self.codec
+    }
+}
+
+impl<T: SampleBits> Compiled<T> {
+    /// The exact bits (integer work).
+    pub fn to_bits(&self) -> CompiledBits {
+        let c = |v: T::Coeff| T::coeff_to_bits64(v);
+        let sc = |v: &T::Scale| {
+            let (mul, shift) = T::scale_to_bits(v);
+            ScaleBits { mul, shift }
+        };
+        let k = &self.codec;
+        CompiledBits {
+            numeric: T::NUMERIC,
+            lead_k_hf: c(self.lead.k_hf),
+            lead_g_half: c(self.lead.g_half),
+            gain: c(self.gain),
+            pi_kp: c(self.pi.kp),
+            u_min: self.pi.u_min.to_bits64(),
+            u_max: self.pi.u_max.to_bits64(),
+            clamps: [
+                self.y_dot_max.to_bits64(),
+                self.current_max.to_bits64(),
+                self.speed_max.to_bits64(),
+                self.demand_max.to_bits64(),
+                self.torque_max.to_bits64(),
+            ],
+            demand_to_iref: c(self.demand_to_iref),
+            back_emf: c(self.back_emf),
+            y_dot_pred_max: self.y_dot_pred_max.to_bits64(),
+            codec: [
+                sc(&k.y_dot),
+                sc(&k.current),
+                sc(&k.speed),
+                sc(&k.demand),
+                sc(&k.torque),
+                sc(&k.voltage),
+            ],
+            yaw_mode: self.yaw_mode,
+            traction_enabled: self.traction_enabled,
+            schedule: self.schedule(),
+        }
+    }
+
+    /// The rate-dependent part's exact bits.
+    pub fn schedule(&self) -> ScheduleBits {
+        ScheduleBits {
+            base_rate_hz: self.base_rate_hz,
+            yaw_divisor: self.yaw_divisor,
+            traction_divisor: self.traction_divisor,
+            kappa: T::coeff_to_bits64(self.lead.kappa),
+            ki: T::coeff_to_bits64(self.pi.ki),
+            predict_half: T::coeff_to_bits64(self.predict_half),
+            iref_step: self.iref_step.to_bits64(),
+            iref_safe_step: self.iref_safe_step.to_bits64(),
+            torque_step: self.torque_step.to_bits64(),
+        }
+    }
+
+    /// From exact bits, validated (integer work only): the sample type must match, every
+    /// coefficient, signal and scale must be valid for `T`, the clamps and limits within
+    /// `(0, 2]` pu (`u_min < u_max` within `[-2, 2]`), the schedule as
+    /// [`Self::with_schedule`].
+    pub fn from_bits(b: &CompiledBits) -> Result<Self, BitsError> {
+        if b.numeric != T::NUMERIC {
+            return Err(BitsError { field: "numeric" });
+        }
+        let coef = |field, v| T::coeff_from_bits64(v).ok_or(BitsError { field });
+        let limit = |field, v| pu_limit::<T>(v).ok_or(BitsError { field });
+        let scale =
+            |field, s: ScaleBits| T::scale_from_bits(s.mul, s.shift).ok_or(BitsError { field });
+        let [y_dot, current, speed, demand, torque] = b.clamps;
+        let [sy, si, sw, sd, st, su] = b.codec;
+        let u_min = signal::<T>(b.u_min).ok_or(BitsError { field: "u_min" })?;
+        let u_max = signal::<T>(b.u_max).ok_or(BitsError { field: "u_max" })?;
+        let m = T::MAX_LIMIT;
+        if !(u_min < u_max && T::ZERO.sat_sub(m) <= u_min && u_max <= m) {
+            return Err(BitsError {
+                field: "u_min/u_max",
+            });
+        }
+        let c = Self {
+            lead: Lead {
+                k_hf: coef("lead_k_hf", b.lead_k_hf)?,
+                g_half: coef("lead_g_half", b.lead_g_half)?,
+                kappa: T::COEFF_ZERO,
+            },
+            gain: coef("gain", b.gain)?,
+            pi: Pi {
+                kp: coef("pi_kp", b.pi_kp)?,
+                ki: T::COEFF_ZERO,
+                u_min,
+                u_max,
+            },
+            y_dot_max: limit("clamps.y_dot", y_dot)?,
+            current_max: limit("clamps.current", current)?,
+            speed_max: limit("clamps.speed", speed)?,
+            demand_max: limit("clamps.demand", demand)?,
+            torque_max: limit("clamps.torque", torque)?,
+            demand_to_iref: coef("demand_to_iref", b.demand_to_iref)?,
+            back_emf: coef("back_emf", b.back_emf)?,
+            predict_half: T::COEFF_ZERO,
+            y_dot_pred_max: limit("y_dot_pred_max", b.y_dot_pred_max)?,
+            iref_step: T::ZERO,
+            iref_safe_step: T::ZERO,
+            torque_step: T::ZERO,
+            yaw_divisor: 1,
+            traction_divisor: 1,
+            base_rate_hz: 0,
+            codec: Codec {
+                y_dot: scale("codec.y_dot", sy)?,
+                current: scale("codec.current", si)?,
+                speed: scale("codec.speed", sw)?,
+                demand: scale("codec.demand", sd)?,
+                torque: scale("codec.torque", st)?,
+                voltage: scale("codec.voltage", su)?,
+            },
+            yaw_mode: b.yaw_mode,
+            traction_enabled: b.traction_enabled,
+        };
+        c.with_schedule(&b.schedule)
+    }
+
+    /// The same controller at other rates: `s` replaces the rate-dependent part,
+    /// validated (integer work only): base rate 100 ..= 100 000 Hz, divisors >= 1,
+    /// `kappa` in `(0, 1)` (a discrete lead pole `alpha = 1 - kappa` in `(0, 1)`, as the
+    /// range analysis assumes), `Ki` in `(0, 1)`, `alpha/2` in `[0, 1)`, steps in
+    /// `(0, 2]` pu.
+    pub fn with_schedule(&self, s: &ScheduleBits) -> Result<Self, BitsError> {
+        let e = |field| BitsError { field };
+        if !(100..=100_000).contains(&s.base_rate_hz) {
+            return Err(e("base_rate_hz"));
+        }
+        if s.yaw_divisor == 0 {
+            return Err(e("yaw_divisor"));
+        }
+        if s.traction_divisor == 0 {
+            return Err(e("traction_divisor"));
+        }
+        let unit = |field, v, zero_ok| {
+            T::coeff_from_bits64(v)
+                .filter(|c| T::coeff_in_unit(*c, zero_ok))
+                .ok_or(e(field))
+        };
+        let kappa = unit("kappa", s.kappa, false)?;
+        let ki = unit("ki", s.ki, false)?;
+        let predict_half = unit("predict_half", s.predict_half, true)?;
+        let mut c = *self;
+        c.lead.kappa = kappa;
+        c.pi.ki = ki;
+        c.predict_half = predict_half;
+        c.iref_step = pu_limit::<T>(s.iref_step).ok_or(e("iref_step"))?;
+        c.iref_safe_step = pu_limit::<T>(s.iref_safe_step).ok_or(e("iref_safe_step"))?;
+        c.torque_step = pu_limit::<T>(s.torque_step).ok_or(e("torque_step"))?;
+        c.yaw_divisor = s.yaw_divisor;
+        c.traction_divisor = s.traction_divisor;
+        c.base_rate_hz = s.base_rate_hz;
+        Ok(c)
+    }
+}
+
+/// A signal from bits.
+fn signal<T: SampleBits>(v: u64) -> Option<T> {
+    T::from_bits64(v)
+}
+
+/// A positive per-unit limit or step, at most 2 pu.
+fn pu_limit<T: SampleBits>(v: u64) -> Option<T> {
+    T::from_bits64(v).filter(|x| *x > T::ZERO && *x <= T::MAX_LIMIT)
+}
+
+impl CompiledBits {
+    /// A 32-bit FNV-1a hash of everything but the schedule, the start mode and traction:
+    /// identifies the rate-independent part, so that a [`ScheduleBits`] computed against
+    /// another controller (other gains, limits, scales or sample type) can be refused.
+    pub fn fingerprint(&self) -> u32 {
+        let mut h: u32 = 0x811c_9dc5;
+        let mut word = |w: u64| {
+            for b in w.to_le_bytes() {
+                h = (h ^ u32::from(b)).wrapping_mul(0x0100_0193);
+            }
+        };
+        word(u64::from(self.numeric));
+        for w in [
+            self.lead_k_hf,
+            self.lead_g_half,
+            self.gain,
+            self.pi_kp,
+            self.u_min,
+            self.u_max,
+            self.demand_to_iref,
+            self.back_emf,
+            self.y_dot_pred_max,
+        ] {
+            word(w);
+        }
+        for w in self.clamps {
+            word(w);
+        }
+        for s in self.codec {
+            word(s.mul);
+            word(u64::from(s.shift));
+        }
+        h
+    }
+}

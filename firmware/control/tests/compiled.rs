@@ -1,0 +1,213 @@
+//! The compiled controller and its exact bits: round trips, validation, schedules.
+
+use wheelset_control::{
+    Compiled, CompiledBits, Config, Controller, Fx, InputCodes, SampleBits, ScheduleBits,
+};
+
+fn at(base_rate_hz: u32, yaw_divisor: u16, traction_divisor: u16) -> Config {
+    Config {
+        base_rate_hz,
+        yaw_divisor,
+        traction_divisor,
+        yaw_predict_ticks: 1.5,
+        ..Config::default()
+    }
+}
+
+fn round_trip<T: SampleBits>() {
+    for cfg in [Config::default(), at(10_000, 2, 1), at(2_000, 1, 4)] {
+        let c = Compiled::<T>::try_new(&cfg).expect("valid");
+        let b = c.to_bits();
+        assert_eq!(b.numeric, T::NUMERIC);
+        assert_eq!(Compiled::<T>::from_bits(&b), Ok(c), "{}", T::NAME);
+    }
+}
+
+#[test]
+fn bits_round_trip_exactly_for_every_sample_type() {
+    round_trip::<Fx>();
+    round_trip::<f32>();
+    round_trip::<f64>();
+}
+
+/// A controller built from bits runs bit for bit like one built from the configuration.
+#[test]
+fn a_controller_from_bits_is_the_same_controller() {
+    let cfg = at(5_000, 1, 1);
+    let mut a = Controller::<Fx>::try_new(&cfg).expect("valid");
+    let bits = Compiled::<Fx>::try_new(&cfg).expect("valid").to_bits();
+    let mut b = Controller::new(&Compiled::<Fx>::from_bits(&bits).expect("valid"));
+    for k in 0..2_000i32 {
+        let inp = InputCodes {
+            y_dot: (k * 7_919) % 40_001 - 20_000,
+            current: 115_000 + (k % 13) * 1_000,
+            speed: 925_600,
+            demand: 2_460,
+        };
+        assert_eq!(a.tick_codes(&inp), b.tick_codes(&inp), "tick {k}");
+    }
+    assert_eq!(a.counters(), b.counters());
+}
+
+/// The schedule of another rate, applied to a compiled controller, gives exactly the
+/// compilation at that rate: the rate-independent part does not depend on the rates.
+#[test]
+fn a_schedule_is_all_that_depends_on_the_rates() {
+    let base = Compiled::<Fx>::try_new(&at(5_000, 1, 1)).expect("valid");
+    for (hz, yd, td) in [(10_000, 2, 1), (2_000, 1, 1), (4_000, 4, 2), (1_000, 1, 1)] {
+        let other = Compiled::<Fx>::try_new(&at(hz, yd, td)).expect("valid");
+        assert_eq!(
+            base.to_bits().fingerprint(),
+            other.to_bits().fingerprint(),
+            "{hz}"
+        );
+        assert_eq!(base.with_schedule(&other.schedule()), Ok(other), "{hz}");
+    }
+    // Another gain is another controller.
+    let mut cfg = at(5_000, 1, 1);
+    cfg.pi.kp = 2.0;
+    let other = Compiled::<Fx>::try_new(&cfg).expect("valid");
+    assert_ne!(base.to_bits().fingerprint(), other.to_bits().fingerprint());
+    // Another sample type too.
+    let f = Compiled::<f32>::try_new(&at(5_000, 1, 1)).expect("valid");
+    assert_ne!(base.to_bits().fingerprint(), f.to_bits().fingerprint());
+}
+
+#[test]
+fn invalid_bits_are_refused_by_name() {
+    let good: CompiledBits = Compiled::<Fx>::try_new(&Config::default())
+        .expect("valid")
+        .to_bits();
+    let two_pu = 2u64 << 28;
+    let cases: Vec<(&str, CompiledBits)> = vec![
+        ("numeric", CompiledBits { numeric: 1, ..good }),
+        (
+            "lead_k_hf",
+            CompiledBits {
+                lead_k_hf: 0x8000_0000, // -1: not a Q1.31 coefficient here
+                ..good
+            },
+        ),
+        (
+            "lead_g_half",
+            CompiledBits {
+                lead_g_half: 1 << 32, // wider than 32 bits
+                ..good
+            },
+        ),
+        (
+            "clamps.torque",
+            CompiledBits {
+                clamps: [
+                    good.clamps[0],
+                    good.clamps[1],
+                    good.clamps[2],
+                    good.clamps[3],
+                    0,
+                ],
+                ..good
+            },
+        ),
+        (
+            "clamps.y_dot",
+            CompiledBits {
+                clamps: [
+                    two_pu + 1,
+                    good.clamps[1],
+                    good.clamps[2],
+                    good.clamps[3],
+                    good.clamps[4],
+                ],
+                ..good
+            },
+        ),
+        (
+            "u_min/u_max",
+            CompiledBits {
+                u_min: good.u_max,
+                ..good
+            },
+        ),
+        (
+            "codec.voltage",
+            CompiledBits {
+                codec: {
+                    let mut c = good.codec;
+                    c[5].shift = 63;
+                    c
+                },
+                ..good
+            },
+        ),
+        (
+            "yaw_divisor",
+            CompiledBits {
+                schedule: ScheduleBits {
+                    yaw_divisor: 0,
+                    ..good.schedule
+                },
+                ..good
+            },
+        ),
+        (
+            "base_rate_hz",
+            CompiledBits {
+                schedule: ScheduleBits {
+                    base_rate_hz: 100_001,
+                    ..good.schedule
+                },
+                ..good
+            },
+        ),
+        (
+            "kappa",
+            CompiledBits {
+                schedule: ScheduleBits {
+                    kappa: 0,
+                    ..good.schedule
+                },
+                ..good
+            },
+        ),
+        (
+            "iref_step",
+            CompiledBits {
+                schedule: ScheduleBits {
+                    iref_step: u64::from((-1i32) as u32),
+                    ..good.schedule
+                },
+                ..good
+            },
+        ),
+    ];
+    for (field, bits) in cases {
+        assert_eq!(
+            Compiled::<Fx>::from_bits(&bits).map_err(|e| e.field),
+            Err(field)
+        );
+    }
+    // Floats: non-finite values and coefficients of 1 or more are refused.
+    let f: CompiledBits = Compiled::<f32>::try_new(&Config::default())
+        .expect("valid")
+        .to_bits();
+    let nan = u64::from(f32::NAN.to_bits());
+    let one = u64::from(1.0f32.to_bits());
+    for (field, bits) in [
+        ("gain", CompiledBits { gain: nan, ..f }),
+        (
+            "kappa",
+            CompiledBits {
+                schedule: ScheduleBits {
+                    kappa: one,
+                    ..f.schedule
+                },
+                ..f
+            },
+        ),
+    ] {
+        assert_eq!(
+            Compiled::<f32>::from_bits(&bits).map_err(|e| e.field),
+            Err(field)
+        );
+    }
+}
