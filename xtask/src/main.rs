@@ -139,15 +139,49 @@ fn check_no_std() -> Result<(), String> {
     Ok(())
 }
 
+/// `--remap-path-prefix` flags that shorten the source paths the firmware carries for its
+/// panic locations (`/home/me/.cargo/registry/src/index.crates.io-<hash>/embassy-stm32-
+/// 0.6.0/src/..` becomes `embassy-stm32-0.6.0/src/..`): about 1 KiB of flash. The
+/// workspace's own paths are relative already.
+fn remap_flags() -> Vec<String> {
+    let home = std::env::var_os("CARGO_HOME")
+        .map(PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cargo")));
+    let Some(home) = home else {
+        return Vec::new();
+    };
+    let mut flags = Vec::new();
+    let src = home.join("registry").join("src");
+    if let Ok(dirs) = std::fs::read_dir(&src) {
+        for d in dirs.flatten() {
+            flags.push(format!("--remap-path-prefix={}/=", d.path().display()));
+        }
+    }
+    flags.push(format!(
+        "--remap-path-prefix={}/=",
+        home.join("git").join("checkouts").display()
+    ));
+    flags
+}
+
 /// Builds the given firmware binaries, one cargo invocation each (so no board's HAL can
 /// reach another board's binary), and copies them to `target/fw/`.
 fn build_firmware(list: &[Firmware]) -> Result<Vec<PathBuf>, String> {
     let out_dir = target_dir().join("fw");
     std::fs::create_dir_all(&out_dir)
         .map_err(|e| format!("cannot create {}: {e}", out_dir.display()))?;
+    // The target's flags only (with `--target`, build scripts do not get them); any
+    // flags already given are kept.
+    let mut flags: Vec<String> = match std::env::var("CARGO_ENCODED_RUSTFLAGS") {
+        Ok(f) if !f.is_empty() => f.split('\x1f').map(String::from).collect(),
+        _ => std::env::var("RUSTFLAGS")
+            .map(|f| f.split_whitespace().map(String::from).collect())
+            .unwrap_or_default(),
+    };
+    flags.extend(remap_flags());
     let mut elfs = Vec::new();
     for fw in list {
-        run(cargo().args([
+        run(cargo().env("CARGO_ENCODED_RUSTFLAGS", flags.join("\x1f")).args([
             "build",
             "-p",
             "wheelset-fw",
