@@ -181,19 +181,21 @@ fn build_firmware(list: &[Firmware]) -> Result<Vec<PathBuf>, String> {
     flags.extend(remap_flags());
     let mut elfs = Vec::new();
     for fw in list {
-        run(cargo().env("CARGO_ENCODED_RUSTFLAGS", flags.join("\x1f")).args([
-            "build",
-            "-p",
-            "wheelset-fw",
-            "--profile",
-            "fw",
-            "--target",
-            FW_TARGET,
-            "--features",
-            fw.features,
-            "--bin",
-            fw.bin,
-        ]))?;
+        run(cargo()
+            .env("CARGO_ENCODED_RUSTFLAGS", flags.join("\x1f"))
+            .args([
+                "build",
+                "-p",
+                "wheelset-fw",
+                "--profile",
+                "fw",
+                "--target",
+                FW_TARGET,
+                "--features",
+                fw.features,
+                "--bin",
+                fw.bin,
+            ]))?;
         let built = target_dir().join(FW_TARGET).join("fw").join(fw.bin);
         let dest = out_dir.join(fw.elf);
         std::fs::copy(&built, &dest)

@@ -1,6 +1,6 @@
 //! The streaming frame accumulator: bytes in any chunking, frames out.
 
-use crate::frame::{decode_nonzero_frame, FrameError, MAX_FRAME};
+use crate::frame::{decode_nonzero_frame, decode_nonzero_request, FrameError, Request, MAX_FRAME};
 use crate::message::Message;
 
 /// Collects bytes up to each 0x00 delimiter in a fixed buffer and decodes the frame.
@@ -59,6 +59,27 @@ impl<const N: usize> Decoder<N> {
 
     /// Takes one byte; returns a result when the byte closed a non-empty frame.
     pub fn push(&mut self, byte: u8) -> Option<Result<Message, FrameError>> {
+        self.push_with(byte, decode_nonzero_frame)
+    }
+
+    /// Takes a chunk of bytes, calling `f` for every frame closed in it. Same results as
+    /// [`Self::push`] byte by byte, but copies the runs between delimiters at once.
+    pub fn feed(&mut self, bytes: &[u8], f: impl FnMut(Result<Message, FrameError>)) {
+        self.feed_with(bytes, decode_nonzero_frame, f);
+    }
+
+    /// [`Self::feed`] for the device: frames decoded as by [`crate::decode_request`] (the
+    /// messages the device takes; the others recognised by their type only).
+    pub fn feed_requests(&mut self, bytes: &[u8], f: impl FnMut(Result<Request, FrameError>)) {
+        self.feed_with(bytes, decode_nonzero_request, f);
+    }
+
+    #[inline(always)]
+    fn push_with<M>(
+        &mut self,
+        byte: u8,
+        decode: impl FnOnce(&mut [u8]) -> Result<M, FrameError>,
+    ) -> Option<Result<M, FrameError>> {
         if byte != 0 {
             if !self.overflow && self.buf.push(byte).is_err() {
                 self.overflow = true;
@@ -73,14 +94,18 @@ impl<const N: usize> Decoder<N> {
             return None;
         }
         // (`buf` holds no 0x00: `push` and `feed` end the frame at every one.)
-        let r = decode_nonzero_frame(&mut self.buf);
+        let r = decode(&mut self.buf);
         self.buf.clear();
         Some(r)
     }
 
-    /// Takes a chunk of bytes, calling `f` for every frame closed in it. Same results as
-    /// [`Self::push`] byte by byte, but copies the runs between delimiters at once.
-    pub fn feed(&mut self, bytes: &[u8], mut f: impl FnMut(Result<Message, FrameError>)) {
+    #[inline(always)]
+    fn feed_with<M>(
+        &mut self,
+        bytes: &[u8],
+        decode: impl Fn(&mut [u8]) -> Result<M, FrameError>,
+        mut f: impl FnMut(Result<M, FrameError>),
+    ) {
         let mut rest = bytes;
         while !rest.is_empty() {
             let (run, closes) = match rest.iter().position(|&b| b == 0) {
@@ -97,7 +122,7 @@ impl<const N: usize> Decoder<N> {
             }
             rest = rest.get(run.len() + usize::from(closes)..).unwrap_or(&[]);
             if closes {
-                if let Some(r) = self.push(0) {
+                if let Some(r) = self.push_with(0, &decode) {
                     f(r);
                 }
             }

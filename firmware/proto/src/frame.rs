@@ -4,7 +4,7 @@
 //! COBS structure, length, CRC, version, postcard, no trailing bytes; the first failure is
 //! the [`FrameError`].
 
-use crate::message::Message;
+use crate::message::{Actuation, Command, Config, Message, Sensor, Status};
 
 /// Protocol version, the first byte of every decoded frame.
 pub const VERSION: u8 = 1;
@@ -235,17 +235,51 @@ impl std::error::Error for EncodeError {}
 /// output is identical to [`cobs_encode`] of the raw frame (tested against postcard +
 /// the `cobs` crate).
 pub fn encode(msg: &Message, out: &mut [u8]) -> Result<usize, EncodeError> {
+    encode_with(out, |body_area| {
+        // The per-tick messages without serde (same bytes, see `fast`); the rest by
+        // postcard.
+        match crate::fast::encode_body(msg, body_area) {
+            Some(n) => Some(n),
+            None => postcard::to_slice(msg, body_area).ok().map(|b| b.len()),
+        }
+    })
+}
+
+/// The device's encoder for [`Message::Actuation`]: the frame of [`encode`] (tested),
+/// without the encoders of the messages the device never sends.
+pub fn encode_actuation(a: &Actuation, out: &mut [u8]) -> Result<usize, EncodeError> {
+    encode_with(out, |body_area| {
+        crate::fast::encode_body(&Message::Actuation(*a), body_area)
+    })
+}
+
+/// The device's encoder for [`Message::Status`]: the frame of [`encode`] (tested),
+/// without the serialisers of the other messages.
+pub fn encode_status(s: &Status, out: &mut [u8]) -> Result<usize, EncodeError> {
+    encode_with(out, |body_area| {
+        // postcard writes an enum as its variant index (a varint: one byte below 128),
+        // then the variant.
+        let (ty, rest) = body_area.split_first_mut()?;
+        *ty = STATUS;
+        Some(1 + postcard::to_slice(s, rest).ok()?.len())
+    })
+}
+
+/// [`Message::Status`]'s variant index (its type byte).
+const STATUS: u8 = 4;
+
+/// The frame around a body: `write_body` writes the postcard body of the message (type
+/// byte first) into the slice it gets and returns its length (`None`: it does not fit).
+#[inline(always)]
+fn encode_with(
+    out: &mut [u8],
+    write_body: impl FnOnce(&mut [u8]) -> Option<usize>,
+) -> Result<usize, EncodeError> {
     let too_small = EncodeError::BufferTooSmall;
     // Raw byte k lives at out[k + 1]; the body is raw[1..MAX_RAW].
     let body_end = out.len().min(MAX_RAW + 1);
     let body_area = out.get_mut(2..body_end).ok_or(too_small)?;
-    // The per-tick messages without serde (same bytes, see `fast`); the rest by postcard.
-    let body = match crate::fast::encode_body(msg, body_area) {
-        Some(n) => n,
-        None => postcard::to_slice(msg, body_area)
-            .map_err(|_| too_small)?
-            .len(),
-    };
+    let body = write_body(body_area).ok_or(too_small)?;
     *out.get_mut(1).ok_or(too_small)? = VERSION;
     let n = 1 + body;
     let crc = crc32c(out.get(1..=n).ok_or(too_small)?).to_le_bytes();
@@ -370,6 +404,21 @@ pub fn decode_frame(encoded: &mut [u8]) -> Result<Message, FrameError> {
 
 /// [`decode_frame`] of bytes known to hold no 0x00 (the [`crate::Decoder`]'s buffer).
 pub(crate) fn decode_nonzero_frame(encoded: &mut [u8]) -> Result<Message, FrameError> {
+    let msg = open_nonzero(encoded)?;
+    // The per-tick messages without serde (same decisions, see `fast`).
+    match crate::fast::decode_body(msg) {
+        Some(Ok(m)) => return Ok(m),
+        Some(Err(crate::fast::BodyError::Trailing)) => return Err(FrameError::Length),
+        Some(Err(crate::fast::BodyError::Postcard)) => return Err(FrameError::Postcard),
+        None => {}
+    }
+    take(msg)
+}
+
+/// COBS-decodes in place (bytes known to hold no 0x00) and checks length, CRC and
+/// version; returns the message bytes (type byte first).
+#[inline(always)]
+fn open_nonzero(encoded: &mut [u8]) -> Result<&[u8], FrameError> {
     if encoded.len() + 1 > MAX_FRAME {
         return Err(FrameError::Length);
     }
@@ -388,17 +437,64 @@ pub(crate) fn decode_nonzero_frame(encoded: &mut [u8]) -> Result<Message, FrameE
     if *version != VERSION {
         return Err(FrameError::Version);
     }
-    // The per-tick messages without serde (same decisions, see `fast`).
-    match crate::fast::decode_body(msg) {
-        Some(Ok(m)) => return Ok(m),
-        Some(Err(crate::fast::BodyError::Trailing)) => return Err(FrameError::Length),
-        Some(Err(crate::fast::BodyError::Postcard)) => return Err(FrameError::Postcard),
-        None => {}
-    }
-    match postcard::take_from_bytes::<Message>(msg) {
+    Ok(msg)
+}
+
+/// The whole of `bytes` as one `M` (postcard).
+#[inline(always)]
+fn take<M: serde::de::DeserializeOwned>(bytes: &[u8]) -> Result<M, FrameError> {
+    match postcard::take_from_bytes::<M>(bytes) {
         Ok((m, [])) => Ok(m),
         Ok(_) => Err(FrameError::Length),
         Err(_) => Err(FrameError::Postcard),
+    }
+}
+
+/// What the device takes from a frame: the host -> device messages. Frames of the
+/// device -> host types ([`Message::Actuation`], [`Message::Status`]) are recognised by
+/// their type byte and not decoded further ([`Request::Unexpected`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Request {
+    /// [`Message::Sensor`].
+    Sensor(Sensor),
+    /// [`Message::Config`].
+    Config(Config),
+    /// [`Message::Command`].
+    Command(Command),
+    /// A frame with a valid CRC and version whose type is one the device sends, not
+    /// takes (Actuation, Status); its body is not checked.
+    Unexpected,
+}
+
+/// The device's decoder: [`decode_frame`] for the messages the device takes (the same
+/// result, tested), [`Request::Unexpected`] for the others, without the decoders of the
+/// messages the device never takes. Never panics, whatever the bytes.
+pub fn decode_request(encoded: &mut [u8]) -> Result<Request, FrameError> {
+    if encoded.len() + 1 > MAX_FRAME {
+        return Err(FrameError::Length);
+    }
+    if encoded.contains(&0) {
+        return Err(FrameError::Cobs);
+    }
+    decode_nonzero_request(encoded)
+}
+
+/// [`decode_request`] of bytes known to hold no 0x00 (the [`crate::Decoder`]'s buffer).
+pub(crate) fn decode_nonzero_request(encoded: &mut [u8]) -> Result<Request, FrameError> {
+    let msg = open_nonzero(encoded)?;
+    // postcard writes an enum as its variant index (a varint: one byte below 128), then
+    // the variant.
+    let (ty, body) = msg.split_first().ok_or(FrameError::Postcard)?;
+    match *ty {
+        0 => match crate::fast::decode_body(msg) {
+            Some(Ok(Message::Sensor(s))) => Ok(Request::Sensor(s)),
+            Some(Err(crate::fast::BodyError::Trailing)) => Err(FrameError::Length),
+            _ => Err(FrameError::Postcard),
+        },
+        2 => take(body).map(Request::Config),
+        3 => take(body).map(Request::Command),
+        1 | STATUS => Ok(Request::Unexpected),
+        _ => Err(FrameError::Postcard),
     }
 }
 

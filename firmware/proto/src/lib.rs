@@ -57,8 +57,9 @@ pub mod units;
 
 pub use decoder::Decoder;
 pub use frame::{
-    cobs_decode_in_place, cobs_encode, crc32c, decode_frame, encode, encode_vec, EncodeError,
-    FrameError, CRC, CRC_LEN, MAX_FRAME, MAX_RAW, MIN_DECODED, VERSION,
+    cobs_decode_in_place, cobs_encode, crc32c, decode_frame, decode_request, encode,
+    encode_actuation, encode_status, encode_vec, EncodeError, FrameError, Request, CRC, CRC_LEN,
+    MAX_FRAME, MAX_RAW, MIN_DECODED, VERSION,
 };
 pub use message::{
     Actuation, Command, Config, Flags, Lateral, Message, Rates, Sensor, Status, YawMode,

@@ -192,7 +192,8 @@ pub struct Status {
     pub rx_length: u32,
     /// Frames rejected: postcard could not decode the message.
     pub rx_postcard: u32,
-    /// Valid frames of a type the device does not accept (e.g. an Actuation).
+    /// Frames (CRC and version valid) of a type the device does not accept (an Actuation
+    /// or a Status; their bodies are not decoded).
     pub rx_unexpected: u32,
     /// Sensor frames whose `seq` was not the previous one + 1 (a gap or a repeat).
     pub seq_gaps: u32,

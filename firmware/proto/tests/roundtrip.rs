@@ -30,6 +30,61 @@ proptest! {
         prop_assert_eq!(dec.pending(), 0);
     }
 
+    /// The device's encoders write exactly the frames of `encode`.
+    #[test]
+    fn device_encoders_are_encode(a in actuation(), st in status()) {
+        let mut buf = [0u8; MAX_FRAME];
+        let n = encode_actuation(&a, &mut buf).expect("fits");
+        prop_assert_eq!(&buf[..n], &encode_vec(&Message::Actuation(a)).expect("fits")[..]);
+        let n = encode_status(&st, &mut buf).expect("fits");
+        prop_assert_eq!(&buf[..n], &encode_vec(&Message::Status(st)).expect("fits")[..]);
+        let mut short = [0u8; 8];
+        prop_assert_eq!(encode_status(&st, &mut short), Err(EncodeError::BufferTooSmall));
+    }
+
+    /// The device's decoder agrees with `decode_frame` on every message: the same message
+    /// for the host -> device types, `Unexpected` for the others.
+    #[test]
+    fn device_decoder_is_decode_frame(msg in message()) {
+        let frame = encode_vec(&msg).expect("fits");
+        let mut dec: Decoder = Decoder::new();
+        let mut got = Vec::new();
+        dec.feed_requests(&frame, |r| got.push(r));
+        let want = match msg {
+            Message::Sensor(s) => Request::Sensor(s),
+            Message::Config(c) => Request::Config(c),
+            Message::Command(c) => Request::Command(c),
+            Message::Actuation(_) | Message::Status(_) => Request::Unexpected,
+        };
+        prop_assert_eq!(got, vec![Ok(want)]);
+    }
+
+    /// On arbitrary bytes the two decoders agree, except that the device does not decode
+    /// the bodies of the types it does not take; neither panics.
+    #[test]
+    fn device_decoder_agrees_on_garbage(body in proptest::collection::vec(any::<u8>(), 0..120), ty in 0u8..7) {
+        // A CRC-valid frame with a random body of type `ty`, and the raw garbage itself.
+        let mut raw = vec![VERSION, ty];
+        raw.extend_from_slice(&body);
+        raw.extend_from_slice(&CRC.checksum(&raw).to_le_bytes());
+        let mut framed = vec![0u8; raw.len() + 2];
+        let n = cobs_encode(&raw, &mut framed).expect("fits");
+        for bytes in [&mut framed[..n], &mut body.clone()[..]] {
+            let (mut a, mut b) = (bytes.to_vec(), bytes.to_vec());
+            let full = decode_frame(&mut a);
+            let dev = decode_request(&mut b);
+            match (full, dev) {
+                (Ok(Message::Sensor(x)), Ok(Request::Sensor(y))) => prop_assert_eq!(x, y),
+                (Ok(Message::Config(x)), Ok(Request::Config(y))) => prop_assert_eq!(x, y),
+                (Ok(Message::Command(x)), Ok(Request::Command(y))) => prop_assert_eq!(x, y),
+                (Ok(Message::Actuation(_) | Message::Status(_)), Ok(Request::Unexpected)) => {}
+                (Err(_), Ok(Request::Unexpected)) => prop_assert!(ty == 1 || ty == 4),
+                (Err(e), Err(f)) => prop_assert_eq!(e, f),
+                (x, y) => prop_assert!(false, "{:?} vs {:?}", x, y),
+            }
+        }
+    }
+
     #[test]
     fn encode_into_short_buffer_is_an_error(msg in message()) {
         let n = encode_vec(&msg).expect("fits").len();

@@ -35,8 +35,8 @@
 //!
 //! 1. **Bad frames** (CRC, COBS, version, length, postcard) are dropped and counted by
 //!    kind ([`Status`] `rx_*`); the next actuation frame carries [`Flags::RX_ERROR`].
-//!    Valid frames of a type the device does not take (Actuation, Status) count as
-//!    `rx_unexpected`. Sensor frames with `y'` use it; frames with only `y''` feed an
+//!    Frames (CRC and version valid) of a type the device does not take (Actuation,
+//!    Status) count as `rx_unexpected`; their bodies are not decoded. Sensor frames with `y'` use it; frames with only `y''` feed an
 //!    integrator with wash-out ([`RuntimeConfig::acc_washout_s`]) that runs every tick
 //!    (re-seeded by the next frame that carries `y'`). A Sensor `seq` that is not the previous + 1 counts a `seq_gap`.
 //! 2. **A missing sensor frame** (no new valid Sensor since the last tick): the tick runs
@@ -80,7 +80,9 @@ use wheelset_proto::units::{
     CURRENT_LSB_A, DEMAND_LSB_NM, LAT_VEL_LSB_M_PER_S, SPEED_LSB_RAD_PER_S, TORQUE_LSB_NM,
     VOLTAGE_LSB_V,
 };
-use wheelset_proto::{encode, Decoder, FrameError, Lateral, YawMode, MAX_FRAME};
+use wheelset_proto::{
+    encode_actuation, encode_status, Decoder, FrameError, Lateral, Request, YawMode, MAX_FRAME,
+};
 pub use wheelset_proto::{Actuation, Command, Config, Flags, Message, Rates, Sensor, Status};
 
 /// The counters: the [`Status`] message is their only definition.
@@ -375,11 +377,11 @@ impl<T: SampleBits> Runtime<T> {
     /// frames. Never panics.
     pub fn receive(&mut self, bytes: &[u8]) {
         let mut dec = core::mem::take(&mut self.decoder);
-        dec.feed(bytes, |r| self.on_frame(r));
+        dec.feed_requests(bytes, |r| self.on_frame(r));
         self.decoder = dec;
     }
 
-    fn on_frame(&mut self, r: Result<Message, FrameError>) {
+    fn on_frame(&mut self, r: Result<Request, FrameError>) {
         let c = &mut self.counters;
         let m = match r {
             Ok(m) => m,
@@ -398,15 +400,15 @@ impl<T: SampleBits> Runtime<T> {
         };
         c.rx_ok = c.rx_ok.wrapping_add(1);
         match m {
-            Message::Sensor(s) => self.on_sensor(&s),
-            Message::Config(cfg) => self.on_config(&cfg),
-            Message::Command(Command::ResetCounters) => {
+            Request::Sensor(s) => self.on_sensor(&s),
+            Request::Config(cfg) => self.on_config(&cfg),
+            Request::Command(Command::ResetCounters) => {
                 self.counters = RuntimeCounters::default();
                 self.core.reset_counters();
                 self.refused = false;
             }
-            Message::Command(Command::RequestStatus) => self.status_requested = true,
-            Message::Actuation(_) | Message::Status(_) => {
+            Request::Command(Command::RequestStatus) => self.status_requested = true,
+            Request::Unexpected => {
                 c.rx_unexpected = c.rx_unexpected.wrapping_add(1);
             }
         }
@@ -595,20 +597,19 @@ impl<T: SampleBits> Runtime<T> {
         );
         flags.set(Flags::CMD_REFUSED, self.refused);
         c.flags = flags;
-        let act = Message::Actuation(Actuation {
+        let act = Actuation {
             seq_echo: self.seq,
             tick: self.ticks as u16,
             exec: last_exec,
             flags,
             t_psi_dnm: t_psi,
             u_a_cv: u_a,
-        });
+        };
         // MAX_FRAME always fits (the proto tests prove every message encodes within it).
-        let mut n = encode(&act, &mut self.tx).unwrap_or(0);
+        let mut n = encode_actuation(&act, &mut self.tx).unwrap_or(0);
         if core::mem::replace(&mut self.status_requested, false) {
-            let st = Message::Status(self.counters);
             if let Some(rest) = self.tx.get_mut(n..) {
-                n += encode(&st, rest).unwrap_or(0);
+                n += encode_status(&self.counters, rest).unwrap_or(0);
             }
         }
         self.tx.get(..n).unwrap_or(&[])
