@@ -28,14 +28,14 @@ pub const VERSION: u8 = 1;
 ///
 /// The table: slice-by-16 (16 KiB) with the `std` feature on the host, where the
 /// simulated loop encodes and decodes four frames per period; byte-wise (1 KiB) on the
-/// device. Same polynomial, same checksums (tested).
+/// device, built in RAM on first use ([`crate::RamCrc`]: no flash for the table). Same
+/// polynomial, same checksums (tested).
 #[cfg(feature = "std")]
 pub static CRC: crc::Crc<u32, crc::Table<16>> =
     crc::Crc::<u32, crc::Table<16>>::new(&crc::CRC_32_ISCSI);
 /// See the `std` variant.
 #[cfg(not(feature = "std"))]
-pub static CRC: crc::Crc<u32, crc::Table<1>> =
-    crc::Crc::<u32, crc::Table<1>>::new(&crc::CRC_32_ISCSI);
+pub static CRC: crate::RamCrc = crate::RamCrc::new();
 
 /// The frame CRC of `bytes`: CRC-32C, the same value as [`CRC`]`.checksum(bytes)`
 /// (tested). On the host (`std`) a slice-by-16 over compile-time tables specialised to

@@ -49,12 +49,14 @@
 #![cfg_attr(not(feature = "std"), no_std)]
 #![deny(missing_docs)]
 
+mod crc_ram;
 mod decoder;
 mod fast;
 mod frame;
 mod message;
 pub mod units;
 
+pub use crc_ram::RamCrc;
 pub use decoder::Decoder;
 pub use frame::{
     cobs_decode_in_place, cobs_encode, crc32c, decode_frame, decode_request, encode,
