@@ -4,8 +4,8 @@
 //! independent runtime (`wheelset-runtime`: frame decoding, fault policy, the control
 //! core, frame encoding), the same code the host's in-process device runs.
 
-use wheelset_control::SampleBits;
-use wheelset_proto::{encode, Actuation, Flags, Message, MAX_FRAME};
+use wheelset_control::{Compiled, SampleBits};
+use wheelset_proto::{encode_actuation, Actuation, Flags, MAX_FRAME};
 use wheelset_runtime::{Runtime, RuntimeBits, RuntimeError};
 
 /// The default runtime compiled at build time (`build.rs`): the generated constant.
@@ -59,10 +59,24 @@ pub type FwRuntime = Runtime<Num>;
 /// same control code the host runs: exact bits, so the device needs no float maths.
 pub const DEFAULT_RUNTIME: RuntimeBits = generated::DEFAULT_RUNTIME;
 
-/// The firmware's runtime with the default configuration ([`DEFAULT_RUNTIME`],
-/// validated; integer work only).
+/// The default control core, converted from [`DEFAULT_RUNTIME`] at compile time (the
+/// bits are valid: [`wheelset_control::Compiled::to_bits`] output, and the host test
+/// `default_runtime_is_compiled` validates them).
+pub const DEFAULT_CORE: Compiled<Num> = Compiled::<Num>::from_valid_bits(&DEFAULT_RUNTIME.control);
+
+/// The fingerprint of the default core's rate-independent part, at compile time.
+pub const DEFAULT_FINGERPRINT: u32 = DEFAULT_RUNTIME.control.fingerprint();
+
+/// The firmware's runtime with the default configuration ([`DEFAULT_CORE`]; no float
+/// maths and no conversion code on the device).
 pub fn new_runtime() -> Result<FwRuntime, RuntimeError> {
-    FwRuntime::from_bits(&DEFAULT_RUNTIME)
+    FwRuntime::with_core(
+        &DEFAULT_CORE,
+        DEFAULT_FINGERPRINT,
+        DEFAULT_RUNTIME.acc,
+        DEFAULT_RUNTIME.hold_ticks,
+        DEFAULT_RUNTIME.enable,
+    )
 }
 
 /// Encodes the frame that puts the actuators in their safe state
@@ -71,15 +85,15 @@ pub fn new_runtime() -> Result<FwRuntime, RuntimeError> {
 /// fit, which `MAX_FRAME` rules out).
 pub fn safe_frame(out: &mut [u8; MAX_FRAME]) -> &[u8] {
     let safe = FwRuntime::safe_outputs();
-    let msg = Message::Actuation(Actuation {
+    let msg = Actuation {
         seq_echo: 0,
         tick: 0,
         exec: 0,
         flags: Flags(Flags::SAFE),
         t_psi_dnm: safe.t_psi_dnm,
         u_a_cv: safe.u_a_cv,
-    });
-    match encode(&msg, out) {
+    };
+    match encode_actuation(&msg, out) {
         Ok(n) => out.get(..n).unwrap_or(&[]),
         Err(_) => &[],
     }
@@ -88,7 +102,7 @@ pub fn safe_frame(out: &mut [u8; MAX_FRAME]) -> &[u8] {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use wheelset_proto::{encode_vec, Decoder, Lateral, Sensor};
+    use wheelset_proto::{encode_vec, Decoder, Lateral, Message, Sensor};
 
     fn decode_all(bytes: &[u8]) -> Vec<Message> {
         let mut dec: Decoder = Decoder::new();
@@ -120,10 +134,32 @@ mod tests {
             DEFAULT_RUNTIME,
             "stale build-script output"
         );
+        // The compile-time conversion is the validated one.
+        assert_eq!(
+            Compiled::from_bits(&DEFAULT_RUNTIME.control),
+            Ok(DEFAULT_CORE)
+        );
         let dev = new_runtime().unwrap();
         let host = FwRuntime::try_new(cfg).unwrap();
         assert_eq!(dev.core().compiled(), host.core().compiled());
         assert_eq!(dev.core().compiled().to_bits(), DEFAULT_RUNTIME.control);
+        assert_eq!(DEFAULT_FINGERPRINT, DEFAULT_RUNTIME.control.fingerprint());
+        // Both start alike: the same outputs on the same frames.
+        let (mut dev, mut host) = (dev, host);
+        for k in 1..=200u16 {
+            let s = Sensor {
+                seq: k,
+                t_us: 0,
+                lateral: Lateral::Velocity(i32::from(k) * 37 - 3_000),
+                i_a_ma: 115_000,
+                omega_m_mrad_s: 925_600,
+                demand_nm: 2_460,
+            };
+            let f = encode_vec(&Message::Sensor(s)).unwrap();
+            Device::receive(&mut dev, &f);
+            host.receive(&f);
+            assert_eq!(Device::tick(&mut dev, 0), host.tick(0), "tick {k}");
+        }
     }
 
     #[test]

@@ -24,7 +24,7 @@ use crate::config::{Config, ConfigError, YawMode, MAX_LIMIT_PU};
 use crate::controller::Codec;
 use crate::lead::Lead;
 use crate::pi::Pi;
-use crate::sample::{Sample, SampleBits};
+use crate::sample::{Coef, Fx, FxScale, Sample, SampleBits};
 
 /// The discretised, quantised controller for sample type `T` (immutable while running).
 /// Build it from a [`Config`] with [`Compiled::try_new`] (f64; host and build script) or
@@ -402,15 +402,19 @@ impl CompiledBits {
     /// A 32-bit FNV-1a hash of everything but the schedule, the start mode and traction:
     /// identifies the rate-independent part, so that a [`ScheduleBits`] computed against
     /// another controller (other gains, limits, scales or sample type) can be refused.
-    pub fn fingerprint(&self) -> u32 {
-        let mut h: u32 = 0x811c_9dc5;
-        let mut word = |w: u64| {
-            for b in w.to_le_bytes() {
-                h = (h ^ u32::from(b)).wrapping_mul(0x0100_0193);
+    /// A `const fn`: the firmware computes its own at compile time.
+    pub const fn fingerprint(&self) -> u32 {
+        const fn word(mut h: u32, w: u64) -> u32 {
+            let mut i = 0;
+            while i < 8 {
+                h = (h ^ ((w >> (8 * i)) & 0xff) as u32).wrapping_mul(0x0100_0193);
+                i += 1;
             }
-        };
-        word(u64::from(self.numeric));
-        for w in [
+            h
+        }
+        let mut h: u32 = 0x811c_9dc5;
+        h = word(h, self.numeric as u64);
+        let words = [
             self.lead_k_hf,
             self.lead_g_half,
             self.gain,
@@ -420,16 +424,109 @@ impl CompiledBits {
             self.demand_to_iref,
             self.back_emf,
             self.y_dot_pred_max,
-        ] {
-            word(w);
+        ];
+        let mut i = 0;
+        while i < words.len() {
+            h = word(h, words[i]);
+            i += 1;
         }
-        for w in self.clamps {
-            word(w);
+        let mut i = 0;
+        while i < self.clamps.len() {
+            h = word(h, self.clamps[i]);
+            i += 1;
         }
-        for s in self.codec {
-            word(s.mul);
-            word(u64::from(s.shift));
+        let mut i = 0;
+        while i < self.codec.len() {
+            h = word(h, self.codec[i].mul);
+            h = word(h, self.codec[i].shift as u64);
+            i += 1;
         }
         h
     }
 }
+
+/// `from_valid_bits` for each sample type with a `const` bit conversion.
+macro_rules! from_valid_bits {
+    ($t:ty, $signal:expr, $coeff:expr, $scale:expr) => {
+        impl Compiled<$t> {
+            /// The controller of `b` without validation, in a `const` context: for bits
+            /// that are known valid, i.e. [`Compiled::to_bits`] output (the firmware's
+            /// build-time constants, checked by [`Compiled::from_bits`] in a test). The
+            /// device then starts with no conversion code at all. Invalid bits give a
+            /// controller that runs (nothing here is unsafe) but not one that was
+            /// validated.
+            pub const fn from_valid_bits(b: &CompiledBits) -> Self {
+                let s = $signal;
+                let c = $coeff;
+                let sc = $scale;
+                let sch = &b.schedule;
+                Self {
+                    lead: Lead {
+                        k_hf: c(b.lead_k_hf),
+                        g_half: c(b.lead_g_half),
+                        kappa: c(sch.kappa),
+                    },
+                    gain: c(b.gain),
+                    pi: Pi {
+                        kp: c(b.pi_kp),
+                        ki: c(sch.ki),
+                        u_min: s(b.u_min),
+                        u_max: s(b.u_max),
+                    },
+                    y_dot_max: s(b.clamps[0]),
+                    current_max: s(b.clamps[1]),
+                    speed_max: s(b.clamps[2]),
+                    demand_max: s(b.clamps[3]),
+                    torque_max: s(b.clamps[4]),
+                    demand_to_iref: c(b.demand_to_iref),
+                    back_emf: c(b.back_emf),
+                    predict_half: c(sch.predict_half),
+                    y_dot_pred_max: s(b.y_dot_pred_max),
+                    iref_step: s(sch.iref_step),
+                    iref_safe_step: s(sch.iref_safe_step),
+                    torque_step: s(sch.torque_step),
+                    yaw_divisor: sch.yaw_divisor,
+                    traction_divisor: sch.traction_divisor,
+                    base_rate_hz: sch.base_rate_hz,
+                    codec: Codec {
+                        y_dot: sc(b.codec[0]),
+                        current: sc(b.codec[1]),
+                        speed: sc(b.codec[2]),
+                        demand: sc(b.codec[3]),
+                        torque: sc(b.codec[4]),
+                        voltage: sc(b.codec[5]),
+                    },
+                    yaw_mode: b.yaw_mode,
+                    traction_enabled: b.traction_enabled,
+                }
+            }
+        }
+    };
+}
+
+const fn fx_signal(v: u64) -> Fx {
+    Fx::from_bits(v as u32 as i32)
+}
+const fn fx_coeff(v: u64) -> Coef {
+    Coef::from_bits(v as u32 as i32)
+}
+const fn fx_scale(x: ScaleBits) -> FxScale {
+    FxScale {
+        mul: x.mul as u32 as i32,
+        shift: x.shift as u32,
+        round: if x.shift == 0 || x.shift > 63 {
+            0
+        } else {
+            1i64 << (x.shift - 1)
+        },
+    }
+}
+const fn f32_value(v: u64) -> f32 {
+    f32::from_bits(v as u32)
+}
+const fn f32_scale(x: ScaleBits) -> f32 {
+    f32::from_bits(x.mul as u32)
+}
+
+from_valid_bits!(Fx, fx_signal, fx_coeff, fx_scale);
+from_valid_bits!(f32, f32_value, f32_value, f32_scale);

@@ -87,7 +87,11 @@ mod tests {
                 s ^= s << 5;
                 *b = s as u8;
             }
-            assert_eq!(ours.checksum(&data[..n]), reference.checksum(&data[..n]), "{n}");
+            assert_eq!(
+                ours.checksum(&data[..n]),
+                reference.checksum(&data[..n]),
+                "{n}"
+            );
         }
     }
 }

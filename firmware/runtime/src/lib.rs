@@ -338,12 +338,33 @@ impl<T: SampleBits> Runtime<T> {
     /// An idle runtime running exactly `bits` (validated; integer work only): how the
     /// device starts.
     pub fn from_bits(bits: &RuntimeBits) -> Result<Self, RuntimeError> {
-        let core = Controller::new(&Compiled::from_bits(&bits.control)?);
-        let (acc_gain_q32, leak_q32) = bits.acc.check()?;
+        Self::with_core(
+            &Compiled::from_bits(&bits.control)?,
+            bits.control.fingerprint(),
+            bits.acc,
+            bits.hold_ticks,
+            bits.enable,
+        )
+    }
+
+    /// An idle runtime on an already validated core `law` whose bits have the
+    /// fingerprint `fingerprint` ([`CompiledBits::fingerprint`]), with the other fields of
+    /// [`RuntimeBits`]: the device's start from build-time constants
+    /// (`Compiled::from_valid_bits` and the fingerprint evaluated at compile time), with
+    /// no conversion code. [`Self::from_bits`] is this after validating the bits.
+    pub fn with_core(
+        law: &Compiled<T>,
+        fingerprint: u32,
+        acc: AccBits,
+        hold_ticks: u16,
+        enable: bool,
+    ) -> Result<Self, RuntimeError> {
+        let core = Controller::new(law);
+        let (acc_gain_q32, leak_q32) = acc.check()?;
         Ok(Self {
             core,
-            fingerprint: bits.control.fingerprint(),
-            hold_ticks: bits.hold_ticks,
+            fingerprint,
+            hold_ticks,
             decoder: Decoder::new(),
             sample: None,
             acc: None,
@@ -354,7 +375,7 @@ impl<T: SampleBits> Runtime<T> {
             fresh: false,
             missing: 0,
             safe: false,
-            enabled: bits.enable,
+            enabled: enable,
             rx_error: false,
             refused: false,
             status_requested: false,
