@@ -69,7 +69,10 @@ proptest! {
         raw.extend_from_slice(&CRC.checksum(&raw).to_le_bytes());
         let mut framed = vec![0u8; raw.len() + 2];
         let n = cobs_encode(&raw, &mut framed).expect("fits");
-        for bytes in [&mut framed[..n], &mut body.clone()[..]] {
+        // Also the garbage with its zeros replaced: COBS-shaped input the decoders must
+        // accept or reject alike.
+        let mut nonzero: Vec<u8> = body.iter().map(|&b| b.max(1)).collect();
+        for bytes in [&mut framed[..n], &mut body.clone()[..], &mut nonzero[..]] {
             let (mut a, mut b) = (bytes.to_vec(), bytes.to_vec());
             let full = decode_frame(&mut a);
             let dev = decode_request(&mut b);
