@@ -5,7 +5,8 @@
 //! 8 KiB). Same algorithm as `crc::CRC_32_ISCSI` (reflected polynomial `0x82F63B78`,
 //! initial value and final XOR `0xFFFFFFFF`), same per-byte work (one table load, a
 //! shift and two XORs); the table is filled in zero-initialised RAM by the first
-//! checksum. Tested against the `crc` crate.
+//! checksum (about 10 000 instructions on the Cortex-M4: `wheelset-runtime` makes that
+//! call at start-up, outside the ticks). Tested against the `crc` crate.
 
 use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 

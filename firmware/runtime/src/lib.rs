@@ -361,6 +361,9 @@ impl<T: SampleBits> Runtime<T> {
     ) -> Result<Self, RuntimeError> {
         let core = Controller::new(law);
         let (acc_gain_q32, leak_q32) = acc.check()?;
+        // The device's CRC table is built in RAM by the first checksum (about 10 000
+        // instructions): here, at start-up, not in the first tick.
+        let _ = wheelset_proto::CRC.checksum(&[]);
         Ok(Self {
             core,
             fingerprint,
