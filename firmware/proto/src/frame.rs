@@ -42,7 +42,8 @@ pub static CRC: crate::RamCrc = crate::RamCrc::new();
 /// CRC-32C (reflected, init and xor-out `0xFFFF_FFFF`): ~85 instructions per ~20-byte
 /// frame (callgrind). The `crc` crate's generic version reads the algorithm's parameters
 /// at run time and measured 92 in one build and 156 in another (inlining), four calls per
-/// exchange in the closed loop. On the device: the crate's byte-wise 1 KiB table.
+/// exchange in the closed loop. On the device: the byte-wise table in RAM
+/// ([`crate::RamCrc`]).
 #[must_use]
 pub fn crc32c(bytes: &[u8]) -> u32 {
     #[cfg(feature = "std")]
