@@ -2,7 +2,7 @@
 //! and the two board layers.
 //!
 //! - `wheelset-nucleo` (feature `board-nucleo`): Nucleo-F446RE, embassy-stm32, USART2 +
-//!   interrupt-driven ring buffers, defmt over RTT, DWT cycle counter.
+//!   DMA, defmt over RTT, DWT cycle counter.
 //! - `wheelset-qemu` (feature `board-qemu`): QEMU `mps2-an386`, the crate's own board
 //!   layer ([`board`]), frame-clocked lock-step, SysTick instruction counts, defmt over
 //!   semihosting.

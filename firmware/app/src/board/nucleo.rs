@@ -1,13 +1,6 @@
 //! Nucleo-F446RE board layer (STM32F446RE, Cortex-M4F): embassy-stm32 with its TIM2
-//! time driver, USART2 (PA2 TX / PA3 RX, the ST-LINK virtual COM port), interrupt-driven
-//! with ring buffers (`BufferedUart`), defmt over RTT, the DWT cycle counter as stopwatch.
-//!
-//! Why not DMA: embassy-stm32's DMA channel and ring-buffer code cost about 1.9 KiB more
-//! flash than the interrupt-driven driver, and the 24 KiB flash budget does not have it.
-//! The price is one interrupt per byte: at the 921 600 baud of the ST-LINK link about
-//! 92 000 per second (estimated at a few per cent of the 168 MHz core; not measured, no
-//! board here); at the 5+ Mbaud the default 5 kHz rate needs (see `wheelset-control`'s
-//! rate analysis) several times that, where DMA would be the better trade.
+//! time driver, USART2 (PA2 TX / PA3 RX, the ST-LINK virtual COM port) with DMA, defmt
+//! over RTT, the DWT cycle counter as stopwatch.
 //!
 //! Clocks: HSI 16 MHz -> PLL (M 16, N 336, P 2) -> SYSCLK 168 MHz, APB1 42 MHz,
 //! APB2 84 MHz (no over-drive needed below 180 MHz).
@@ -18,12 +11,11 @@
 //! |---|---|---|
 //! | TIM2 (time driver) | embassy default P0-P15 set by the HAL | wakes the ticker |
 //! | UART4 (unused peripheral, software-pended) | P6 | control executor: the control task |
-//! | USART2 | HAL default | UART driver (a byte per interrupt into / out of its rings) |
+//! | USART2, DMA1 stream 5/6 | HAL default | UART driver |
 //! | thread mode | lowest | RX task, TX task (embassy thread executor, WFE idle) |
 //!
-//! A UART burst is handled by the USART2 interrupt (short) and the thread-mode tasks,
-//! which the control executor preempts: it cannot delay a tick by more than the byte
-//! interrupts themselves.
+//! A UART burst is handled by the DMA and the thread-mode tasks, which the control
+//! executor preempts: it cannot delay a tick.
 
 use core::ptr::addr_of_mut;
 
@@ -31,15 +23,16 @@ use cortex_m::peripheral::DWT;
 use defmt_rtt as _;
 use embassy_executor::{Executor, InterruptExecutor};
 use embassy_stm32::interrupt::{InterruptExt, Priority};
-use embassy_stm32::usart::{self, BufferedUart, BufferedUartRx, BufferedUartTx};
-use embassy_stm32::{bind_interrupts, interrupt, pac, peripherals, Config};
-use embedded_io_async::{Read, Write};
+use embassy_stm32::usart::{self, RingBufferedUartRx, Uart, UartTx};
+use embassy_stm32::{bind_interrupts, dma, interrupt, pac, peripherals, Config};
 
 use crate::app::{self, Stopwatch};
 use crate::exec::cyccnt_elapsed;
 
 bind_interrupts!(struct Irqs {
-    USART2 => usart::BufferedInterruptHandler<peripherals::USART2>;
+    USART2 => usart::InterruptHandler<peripherals::USART2>;
+    DMA1_STREAM5 => dma::InterruptHandler<peripherals::DMA1_CH5>;
+    DMA1_STREAM6 => dma::InterruptHandler<peripherals::DMA1_CH6>;
 });
 
 /// Link baud rate (ST-LINK VCP).
@@ -66,7 +59,7 @@ async fn control_task() {
 }
 
 #[embassy_executor::task]
-async fn rx_task(mut rx: BufferedUartRx<'static>) {
+async fn rx_task(mut rx: RingBufferedUartRx<'static>) {
     let mut buf = [0u8; 32];
     let mut dropped = 0u32;
     loop {
@@ -89,11 +82,11 @@ async fn rx_task(mut rx: BufferedUartRx<'static>) {
 }
 
 #[embassy_executor::task]
-async fn tx_task(mut tx: BufferedUartTx<'static>) {
+async fn tx_task(mut tx: UartTx<'static, embassy_stm32::mode::Async>) {
     let mut buf = [0u8; 64];
     loop {
         let n = app::TX.read(&mut buf).await;
-        if let Err(e) = tx.write_all(buf.get(..n).unwrap_or(&[])).await {
+        if let Err(e) = tx.write(buf.get(..n).unwrap_or(&[])).await {
             defmt::warn!("USART2 TX error: {}", e);
         }
     }
@@ -102,12 +95,12 @@ async fn tx_task(mut tx: BufferedUartTx<'static>) {
 /// The hardware timer needs no period: the ticker schedules its own alarms.
 pub fn set_period(_ticks: u64) {}
 
-/// Sends the safe frame by polling USART2 (its TX interrupt off), then sleeps forever; probe-rs
+/// Sends the safe frame by polling USART2 (DMA off), then sleeps forever; probe-rs
 /// shows the defmt panic message.
 pub fn panic_halt() -> ! {
     if !crate::panic::enter_halt() {
         let usart = pac::USART2;
-        usart.cr1().modify(|w| w.set_txeie(false));
+        usart.cr3().modify(|w| w.set_dmat(false));
         let mut buf = [0u8; wheelset_proto::MAX_FRAME];
         for &b in crate::device::safe_frame(&mut buf) {
             while !usart.sr().read().txe() {}
@@ -148,12 +141,15 @@ pub fn run() -> ! {
 
     let mut uart_config = usart::Config::default();
     uart_config.baudrate = BAUD;
-    static mut RX_BUF: [u8; 256] = [0; 256];
-    static mut TX_BUF: [u8; 128] = [0; 128];
-    // SAFETY: `run` executes once (it never returns), so these are the only references
-    // to RX_BUF and TX_BUF ever created; the UART driver owns them from here on.
-    let (rx_buf, tx_buf) = unsafe { (&mut *addr_of_mut!(RX_BUF), &mut *addr_of_mut!(TX_BUF)) };
-    let uart = match BufferedUart::new(p.USART2, p.PA3, p.PA2, tx_buf, rx_buf, Irqs, uart_config) {
+    let uart = match Uart::new(
+        p.USART2,
+        p.PA3,
+        p.PA2,
+        p.DMA1_CH6,
+        p.DMA1_CH5,
+        Irqs,
+        uart_config,
+    ) {
         Ok(u) => u,
         Err(_) => {
             defmt::error!("USART2 configuration refused");
@@ -161,6 +157,10 @@ pub fn run() -> ! {
         }
     };
     let (tx, rx) = uart.split();
+    static mut RX_DMA: [u8; 256] = [0; 256];
+    // SAFETY: `run` executes once (it never returns), so this is the only reference to
+    // RX_DMA ever created; the DMA owns it from here on.
+    let rx = rx.into_ring_buffered(unsafe { &mut *addr_of_mut!(RX_DMA) });
 
     defmt::info!(
         "wheelset-nucleo: {} Hz base rate, {} build, USART2 at {} baud",
