@@ -73,14 +73,18 @@ fn new_ticker(period: u64) -> (Ticker, u64) {
 /// encode). A host Config frame that changes the base rate re-arms the schedule.
 pub async fn control_loop(mut device: impl Device, mut stopwatch: impl Stopwatch) -> ! {
     let mut rate = device.base_rate_hz();
-    let Some(mut period) = period_ticks(rate) else {
-        defmt::error!("base rate {=u32} Hz is not a whole number of us", rate);
-        crate::board::panic_halt()
-    };
-    crate::board::set_period(period);
-    let (mut ticker, first) = new_ticker(period);
-    let Ok(mut monitor) = TickMonitor::try_new(period, first, period / 4) else {
-        defmt::error!("bad tick configuration");
+    // The schedule: a whole number of us per period, and a tick monitor for it.
+    let schedule = period_ticks(rate).and_then(|p| {
+        crate::board::set_period(p);
+        let (ticker, first) = new_ticker(p);
+        let monitor = TickMonitor::try_new(p, first, p / 4).ok()?;
+        Some((p, ticker, monitor))
+    });
+    let Some((mut period, mut ticker, mut monitor)) = schedule else {
+        defmt::error!(
+            "base rate {=u32} Hz: no tick schedule (period not a whole number of us)",
+            rate
+        );
         crate::board::panic_halt()
     };
     defmt::info!("control task: {=u32} Hz, period {=u64} us", rate, period);

@@ -1,23 +1,31 @@
-//! Hand-written postcard for the two per-tick messages, [`Sensor`] and [`Actuation`]:
-//! the same bytes as `postcard` (serde) writes and the same accept/reject decisions as it
-//! makes when reading, without serde's per-field call chain. Every other message goes
-//! through postcard itself. Equivalence is tested against postcard in
-//! `tests/roundtrip.rs` (every message; arbitrary and mutated bodies).
+//! Hand-written postcard for every message: the same bytes as `postcard` (serde) writes
+//! and the same accept/reject decisions as it makes when reading, without serde's
+//! per-field call chain. Equivalence is tested against postcard in `tests/roundtrip.rs`
+//! (every message; arbitrary and mutated bodies).
 //!
 //! Why: in the host's closed loop (one Sensor and one Actuation frame each way per
 //! 200 us tick) postcard's serialize took ~240 and its deserialize ~200 instructions per
-//! frame (callgrind), more than the CRC and COBS together.
+//! frame (callgrind), more than the CRC and COBS together; on the device, postcard and
+//! serde's code for [`Config`] and [`Command`] cost ~1.2 KiB of the 24 KiB flash budget.
+//! Each message has its own function, so the device links only the ones it uses.
 //!
-//! postcard's rules used here: the enum variant index is a varint `u32`; `i32` is
-//! zig-zag then varint `u32`; `u32` is varint (at most 5 bytes, the fifth < 0x10, longer
-//! zero-padded forms accepted); `u8` is one raw byte; `fixint::le` `u16` is 2 raw bytes
-//! little-endian; struct fields follow in declaration order with no framing.
+//! postcard's rules used here: an enum variant index is a varint `u32`; `bool` is one
+//! byte, 0 or 1; `Option` a byte 0 (None) or 1 (Some) before the value; `u16`, `u32`,
+//! are varints (at most 3 and 5 bytes, the last at most 0x03 and 0x0F; longer
+//! zero-padded forms accepted); `i32` is zig-zag then varint `u32`; `u8` is one raw byte;
+//! `fixint::le` is raw little-endian; struct fields follow in declaration order with no
+//! framing.
 
-use crate::message::{Actuation, Flags, Lateral, Message, Sensor};
+use crate::message::{
+    Actuation, Command, Config, Flags, Lateral, Message, Rates, Sensor, Status, YawMode,
+};
 
 /// Message variant indices (declaration order in [`Message`]).
-const SENSOR: u8 = 0;
-const ACTUATION: u8 = 1;
+pub(crate) const SENSOR: u8 = 0;
+pub(crate) const ACTUATION: u8 = 1;
+pub(crate) const CONFIG: u8 = 2;
+pub(crate) const COMMAND: u8 = 3;
+pub(crate) const STATUS: u8 = 4;
 
 /// A bounded writer; `None` once the buffer is full.
 struct Out<'a> {
@@ -49,71 +57,222 @@ impl Out<'_> {
         self.byte(v as u8)
     }
 
+    fn u64_le(&mut self, v: u64) -> Option<()> {
+        for b in v.to_le_bytes() {
+            self.byte(b)?;
+        }
+        Some(())
+    }
+
+    fn u32_le(&mut self, v: u32) -> Option<()> {
+        for b in v.to_le_bytes() {
+            self.byte(b)?;
+        }
+        Some(())
+    }
+
     #[inline(always)]
     fn i32(&mut self, v: i32) -> Option<()> {
         self.varint(((v << 1) ^ (v >> 31)) as u32)
     }
 }
 
-/// Writes the postcard body of a Sensor or Actuation message into `out`; returns its
-/// length. `None`: another message (use postcard), or `out` too short.
+/// Writes the postcard body of `msg` (type byte first) into `out`; returns its length.
+/// `None`: `out` too short.
 pub(crate) fn encode_body(msg: &Message, out: &mut [u8]) -> Option<usize> {
-    let mut w = Out { buf: out, n: 0 };
     match msg {
-        Message::Sensor(s) => {
-            let Sensor {
-                seq,
-                t_us,
-                lateral,
-                i_a_ma,
-                omega_m_mrad_s,
-                demand_nm,
-            } = *s;
-            w.byte(SENSOR)?;
-            w.u16_le(seq)?;
-            w.u16_le(t_us)?;
-            match lateral {
-                Lateral::Velocity(v) => {
-                    w.byte(0)?;
-                    w.i32(v)?;
-                }
-                Lateral::Acceleration(a) => {
-                    w.byte(1)?;
-                    w.i32(a)?;
-                }
-                Lateral::Both {
-                    vel_um_s,
-                    acc_dmm_s2,
-                } => {
-                    w.byte(2)?;
-                    w.i32(vel_um_s)?;
-                    w.i32(acc_dmm_s2)?;
-                }
+        Message::Sensor(s) => encode_sensor(s, out),
+        Message::Actuation(a) => encode_actuation(a, out),
+        Message::Config(c) => encode_config(c, out),
+        Message::Command(c) => encode_command(*c, out),
+        Message::Status(s) => encode_status(s, out),
+    }
+}
+
+/// [`encode_body`] of a [`Sensor`].
+#[inline(always)]
+pub(crate) fn encode_sensor(s: &Sensor, out: &mut [u8]) -> Option<usize> {
+    let mut w = Out { buf: out, n: 0 };
+    let Sensor {
+        seq,
+        t_us,
+        lateral,
+        i_a_ma,
+        omega_m_mrad_s,
+        demand_nm,
+    } = *s;
+    w.byte(SENSOR)?;
+    w.u16_le(seq)?;
+    w.u16_le(t_us)?;
+    match lateral {
+        Lateral::Velocity(v) => {
+            w.byte(0)?;
+            w.i32(v)?;
+        }
+        Lateral::Acceleration(a) => {
+            w.byte(1)?;
+            w.i32(a)?;
+        }
+        Lateral::Both {
+            vel_um_s,
+            acc_dmm_s2,
+        } => {
+            w.byte(2)?;
+            w.i32(vel_um_s)?;
+            w.i32(acc_dmm_s2)?;
+        }
+    }
+    w.i32(i_a_ma)?;
+    w.i32(omega_m_mrad_s)?;
+    w.i32(demand_nm)?;
+    Some(w.n)
+}
+
+/// [`encode_body`] of an [`Actuation`].
+#[inline(always)]
+pub(crate) fn encode_actuation(a: &Actuation, out: &mut [u8]) -> Option<usize> {
+    let mut w = Out { buf: out, n: 0 };
+    let Actuation {
+        seq_echo,
+        tick,
+        exec,
+        flags,
+        t_psi_dnm,
+        u_a_cv,
+    } = *a;
+    w.byte(ACTUATION)?;
+    w.u16_le(seq_echo)?;
+    w.u16_le(tick)?;
+    w.varint(exec)?;
+    w.byte(flags.0)?;
+    w.i32(t_psi_dnm)?;
+    w.i32(u_a_cv)?;
+    Some(w.n)
+}
+
+/// [`encode_body`] of a [`Config`].
+pub(crate) fn encode_config(c: &Config, out: &mut [u8]) -> Option<usize> {
+    let mut w = Out { buf: out, n: 0 };
+    let Config {
+        mode,
+        traction,
+        enable,
+        hold_ticks,
+        rates,
+    } = *c;
+    w.byte(CONFIG)?;
+    w.byte(match mode {
+        YawMode::Passive => 0,
+        YawMode::Gain => 1,
+        YawMode::Lead => 2,
+    })?;
+    w.byte(u8::from(traction))?;
+    w.byte(u8::from(enable))?;
+    w.varint(u32::from(hold_ticks))?;
+    match rates {
+        None => w.byte(0)?,
+        Some(r) => {
+            let Rates {
+                numeric,
+                fingerprint,
+                base_rate_hz,
+                yaw_div,
+                traction_div,
+                kappa,
+                ki,
+                predict_half,
+                iref_step,
+                iref_safe_step,
+                torque_step,
+                acc_gain_q32,
+                acc_leak_q32,
+            } = r;
+            w.byte(1)?;
+            w.byte(numeric)?;
+            w.u32_le(fingerprint)?;
+            w.varint(base_rate_hz)?;
+            w.varint(u32::from(yaw_div))?;
+            w.varint(u32::from(traction_div))?;
+            for v in [
+                kappa,
+                ki,
+                predict_half,
+                iref_step,
+                iref_safe_step,
+                torque_step,
+            ] {
+                w.varint(v)?;
             }
-            w.i32(i_a_ma)?;
-            w.i32(omega_m_mrad_s)?;
-            w.i32(demand_nm)?;
+            w.u64_le(acc_gain_q32)?;
+            w.u64_le(acc_leak_q32)?;
         }
-        Message::Actuation(a) => {
-            let Actuation {
-                seq_echo,
-                tick,
-                exec,
-                flags,
-                t_psi_dnm,
-                u_a_cv,
-            } = *a;
-            w.byte(ACTUATION)?;
-            w.u16_le(seq_echo)?;
-            w.u16_le(tick)?;
-            w.varint(exec)?;
-            w.byte(flags.0)?;
-            w.i32(t_psi_dnm)?;
-            w.i32(u_a_cv)?;
-        }
-        Message::Config(_) | Message::Command(_) | Message::Status(_) => return None,
     }
     Some(w.n)
+}
+
+/// [`encode_body`] of a [`Command`].
+pub(crate) fn encode_command(c: Command, out: &mut [u8]) -> Option<usize> {
+    let mut w = Out { buf: out, n: 0 };
+    w.byte(COMMAND)?;
+    w.byte(match c {
+        Command::ResetCounters => 0,
+        Command::RequestStatus => 1,
+    })?;
+    Some(w.n)
+}
+
+/// [`encode_body`] of a [`Status`].
+pub(crate) fn encode_status(s: &Status, out: &mut [u8]) -> Option<usize> {
+    let mut w = Out { buf: out, n: 0 };
+    w.byte(STATUS)?;
+    for v in status_counters(s) {
+        w.varint(v)?;
+    }
+    w.byte(s.flags.0)?;
+    Some(w.n)
+}
+
+/// The counters of a [`Status`] in declaration order (its fields but the flags).
+fn status_counters(s: &Status) -> [u32; 17] {
+    let Status {
+        ticks,
+        rx_ok,
+        rx_crc,
+        rx_cobs,
+        rx_version,
+        rx_length,
+        rx_postcard,
+        rx_unexpected,
+        seq_gaps,
+        held_ticks,
+        safe_ticks,
+        safe_entries,
+        safe_exits,
+        yaw_sat,
+        traction_sat,
+        input_clamped,
+        cmd_refused,
+        flags: _,
+    } = *s;
+    [
+        ticks,
+        rx_ok,
+        rx_crc,
+        rx_cobs,
+        rx_version,
+        rx_length,
+        rx_postcard,
+        rx_unexpected,
+        seq_gaps,
+        held_ticks,
+        safe_ticks,
+        safe_entries,
+        safe_exits,
+        yaw_sat,
+        traction_sat,
+        input_clamped,
+        cmd_refused,
+    ]
 }
 
 /// Why a body did not decode.
@@ -125,7 +284,7 @@ pub(crate) enum BodyError {
 }
 
 /// A reader; `None` where postcard reports an error.
-struct In<'a> {
+pub(crate) struct In<'a> {
     rest: &'a [u8],
 }
 
@@ -156,6 +315,43 @@ impl In<'_> {
         None
     }
 
+    /// postcard's `try_take_varint_u16`: up to 3 bytes, the third at most 0x03.
+    fn varint16(&mut self) -> Option<u16> {
+        let mut out = 0u16;
+        for i in 0..3 {
+            let b = self.byte()?;
+            out |= u16::from(b & 0x7F) << (7 * i);
+            if b & 0x80 == 0 {
+                return (i < 2 || b <= 0x03).then_some(out);
+            }
+        }
+        None
+    }
+
+    fn u64_le(&mut self) -> Option<u64> {
+        let lo = self.u32_le()?;
+        let hi = self.u32_le()?;
+        Some(u64::from(lo) | (u64::from(hi) << 32))
+    }
+
+    fn u32_le(&mut self) -> Option<u32> {
+        Some(u32::from_le_bytes([
+            self.byte()?,
+            self.byte()?,
+            self.byte()?,
+            self.byte()?,
+        ]))
+    }
+
+    /// postcard's `bool`: 0 or 1.
+    fn bool(&mut self) -> Option<bool> {
+        match self.byte()? {
+            0 => Some(false),
+            1 => Some(true),
+            _ => None,
+        }
+    }
+
     #[inline(always)]
     fn i32(&mut self) -> Option<i32> {
         let n = self.varint()?;
@@ -163,25 +359,52 @@ impl In<'_> {
     }
 }
 
-/// Decodes a Sensor or Actuation body (the bytes after the version byte). `None`:
-/// another message type (or a non-minimal variant index): use postcard.
-pub(crate) fn decode_body(body: &[u8]) -> Option<Result<Message, BodyError>> {
-    let (&ty, rest) = body.split_first()?;
+/// Decodes a message body (type first: postcard's enum variant index, a varint; the
+/// bytes after the version byte).
+pub(crate) fn decode_body(body: &[u8]) -> Result<Message, BodyError> {
+    let (ty, rest) = message_type(body).ok_or(BodyError::Postcard)?;
+    match ty {
+        SENSOR => finish(rest, sensor).map(Message::Sensor),
+        ACTUATION => finish(rest, actuation).map(Message::Actuation),
+        CONFIG => finish(rest, config).map(Message::Config),
+        COMMAND => finish(rest, command).map(Message::Command),
+        STATUS => finish(rest, status).map(Message::Status),
+        _ => Err(BodyError::Postcard),
+    }
+}
+
+/// The message type (variant index; `u8::MAX` for any index above 254) and the bytes
+/// after it; `None`: no valid varint.
+#[inline(always)]
+pub(crate) fn message_type(body: &[u8]) -> Option<(u8, &[u8])> {
+    // One byte below 0x80 is the encoder's form; longer zero-padded forms are accepted.
+    if let Some((&t, rest)) = body.split_first() {
+        if t < 0x80 {
+            return Some((t, rest));
+        }
+    }
+    let mut r = In { rest: body };
+    let t = r.varint()?;
+    Some((u8::try_from(t).unwrap_or(u8::MAX), r.rest))
+}
+
+/// One message from the whole of `rest` (the body after its type byte): postcard's
+/// `take_from_bytes` with nothing left over.
+#[inline(always)]
+pub(crate) fn finish<M>(
+    rest: &[u8],
+    f: impl FnOnce(&mut In<'_>) -> Option<M>,
+) -> Result<M, BodyError> {
     let mut r = In { rest };
-    let msg = match ty {
-        SENSOR => sensor(&mut r).map(Message::Sensor),
-        ACTUATION => actuation(&mut r).map(Message::Actuation),
-        _ => return None,
-    };
-    Some(match msg {
+    match f(&mut r) {
         Some(m) if r.rest.is_empty() => Ok(m),
         Some(_) => Err(BodyError::Trailing),
         None => Err(BodyError::Postcard),
-    })
+    }
 }
 
 #[inline(always)]
-fn sensor(r: &mut In<'_>) -> Option<Sensor> {
+pub(crate) fn sensor(r: &mut In<'_>) -> Option<Sensor> {
     let seq = r.u16_le()?;
     let t_us = r.u16_le()?;
     let lateral = match r.varint()? {
@@ -204,7 +427,7 @@ fn sensor(r: &mut In<'_>) -> Option<Sensor> {
 }
 
 #[inline(always)]
-fn actuation(r: &mut In<'_>) -> Option<Actuation> {
+pub(crate) fn actuation(r: &mut In<'_>) -> Option<Actuation> {
     Some(Actuation {
         seq_echo: r.u16_le()?,
         tick: r.u16_le()?,
@@ -212,5 +435,74 @@ fn actuation(r: &mut In<'_>) -> Option<Actuation> {
         flags: Flags(r.byte()?),
         t_psi_dnm: r.i32()?,
         u_a_cv: r.i32()?,
+    })
+}
+
+pub(crate) fn config(r: &mut In<'_>) -> Option<Config> {
+    let mode = match r.varint()? {
+        0 => YawMode::Passive,
+        1 => YawMode::Gain,
+        2 => YawMode::Lead,
+        _ => return None,
+    };
+    let traction = r.bool()?;
+    let enable = r.bool()?;
+    let hold_ticks = r.varint16()?;
+    let rates = match r.byte()? {
+        0 => None,
+        1 => Some(Rates {
+            numeric: r.byte()?,
+            fingerprint: r.u32_le()?,
+            base_rate_hz: r.varint()?,
+            yaw_div: r.varint16()?,
+            traction_div: r.varint16()?,
+            kappa: r.varint()?,
+            ki: r.varint()?,
+            predict_half: r.varint()?,
+            iref_step: r.varint()?,
+            iref_safe_step: r.varint()?,
+            torque_step: r.varint()?,
+            acc_gain_q32: r.u64_le()?,
+            acc_leak_q32: r.u64_le()?,
+        }),
+        _ => return None,
+    };
+    Some(Config {
+        mode,
+        traction,
+        enable,
+        hold_ticks,
+        rates,
+    })
+}
+
+pub(crate) fn command(r: &mut In<'_>) -> Option<Command> {
+    match r.varint()? {
+        0 => Some(Command::ResetCounters),
+        1 => Some(Command::RequestStatus),
+        _ => None,
+    }
+}
+
+fn status(r: &mut In<'_>) -> Option<Status> {
+    Some(Status {
+        ticks: r.varint()?,
+        rx_ok: r.varint()?,
+        rx_crc: r.varint()?,
+        rx_cobs: r.varint()?,
+        rx_version: r.varint()?,
+        rx_length: r.varint()?,
+        rx_postcard: r.varint()?,
+        rx_unexpected: r.varint()?,
+        seq_gaps: r.varint()?,
+        held_ticks: r.varint()?,
+        safe_ticks: r.varint()?,
+        safe_entries: r.varint()?,
+        safe_exits: r.varint()?,
+        yaw_sat: r.varint()?,
+        traction_sat: r.varint()?,
+        input_clamped: r.varint()?,
+        cmd_refused: r.varint()?,
+        flags: Flags(r.byte()?),
     })
 }

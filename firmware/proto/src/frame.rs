@@ -236,38 +236,21 @@ impl std::error::Error for EncodeError {}
 /// output is identical to [`cobs_encode`] of the raw frame (tested against postcard +
 /// the `cobs` crate).
 pub fn encode(msg: &Message, out: &mut [u8]) -> Result<usize, EncodeError> {
-    encode_with(out, |body_area| {
-        // The per-tick messages without serde (same bytes, see `fast`); the rest by
-        // postcard.
-        match crate::fast::encode_body(msg, body_area) {
-            Some(n) => Some(n),
-            None => postcard::to_slice(msg, body_area).ok().map(|b| b.len()),
-        }
-    })
+    // postcard's bytes without serde (same bytes, see `fast`).
+    encode_with(out, |body_area| crate::fast::encode_body(msg, body_area))
 }
 
 /// The device's encoder for [`Message::Actuation`]: the frame of [`encode`] (tested),
 /// without the encoders of the messages the device never sends.
 pub fn encode_actuation(a: &Actuation, out: &mut [u8]) -> Result<usize, EncodeError> {
-    encode_with(out, |body_area| {
-        crate::fast::encode_body(&Message::Actuation(*a), body_area)
-    })
+    encode_with(out, |body_area| crate::fast::encode_actuation(a, body_area))
 }
 
 /// The device's encoder for [`Message::Status`]: the frame of [`encode`] (tested),
 /// without the serialisers of the other messages.
 pub fn encode_status(s: &Status, out: &mut [u8]) -> Result<usize, EncodeError> {
-    encode_with(out, |body_area| {
-        // postcard writes an enum as its variant index (a varint: one byte below 128),
-        // then the variant.
-        let (ty, rest) = body_area.split_first_mut()?;
-        *ty = STATUS;
-        Some(1 + postcard::to_slice(s, rest).ok()?.len())
-    })
+    encode_with(out, |body_area| crate::fast::encode_status(s, body_area))
 }
-
-/// [`Message::Status`]'s variant index (its type byte).
-const STATUS: u8 = 4;
 
 /// The frame around a body: `write_body` writes the postcard body of the message (type
 /// byte first) into the slice it gets and returns its length (`None`: it does not fit).
@@ -406,14 +389,8 @@ pub fn decode_frame(encoded: &mut [u8]) -> Result<Message, FrameError> {
 /// [`decode_frame`] of bytes known to hold no 0x00 (the [`crate::Decoder`]'s buffer).
 pub(crate) fn decode_nonzero_frame(encoded: &mut [u8]) -> Result<Message, FrameError> {
     let msg = open_nonzero(encoded)?;
-    // The per-tick messages without serde (same decisions, see `fast`).
-    match crate::fast::decode_body(msg) {
-        Some(Ok(m)) => return Ok(m),
-        Some(Err(crate::fast::BodyError::Trailing)) => return Err(FrameError::Length),
-        Some(Err(crate::fast::BodyError::Postcard)) => return Err(FrameError::Postcard),
-        None => {}
-    }
-    take(msg)
+    // postcard's decisions without serde (see `fast`).
+    crate::fast::decode_body(msg).map_err(FrameError::from)
 }
 
 /// COBS-decodes in place (bytes known to hold no 0x00) and checks length, CRC and
@@ -477,13 +454,12 @@ fn cobs_decode_nonzero_to(src: &[u8], dst: &mut [u8]) -> Option<usize> {
     Some(d)
 }
 
-/// The whole of `bytes` as one `M` (postcard).
-#[inline(always)]
-fn take<M: serde::de::DeserializeOwned>(bytes: &[u8]) -> Result<M, FrameError> {
-    match postcard::take_from_bytes::<M>(bytes) {
-        Ok((m, [])) => Ok(m),
-        Ok(_) => Err(FrameError::Length),
-        Err(_) => Err(FrameError::Postcard),
+impl From<crate::fast::BodyError> for FrameError {
+    fn from(e: crate::fast::BodyError) -> Self {
+        match e {
+            crate::fast::BodyError::Trailing => FrameError::Length,
+            crate::fast::BodyError::Postcard => FrameError::Postcard,
+        }
     }
 }
 
@@ -525,20 +501,16 @@ pub(crate) fn decode_nonzero_request(encoded: &mut [u8]) -> Result<Request, Fram
     let mut raw = [0u8; MAX_FRAME];
     let n = cobs_decode_nonzero_to(encoded, &mut raw).ok_or(FrameError::Cobs)?;
     let msg = check(raw.get(..n).ok_or(FrameError::Cobs)?)?;
-    // postcard writes an enum as its variant index (a varint: one byte below 128), then
-    // the variant.
-    let (ty, body) = msg.split_first().ok_or(FrameError::Postcard)?;
-    match *ty {
-        0 => match crate::fast::decode_body(msg) {
-            Some(Ok(Message::Sensor(s))) => Ok(Request::Sensor(s)),
-            Some(Err(crate::fast::BodyError::Trailing)) => Err(FrameError::Length),
-            _ => Err(FrameError::Postcard),
-        },
-        2 => take(body).map(Request::Config),
-        3 => take(body).map(Request::Command),
-        1 | STATUS => Ok(Request::Unexpected),
-        _ => Err(FrameError::Postcard),
-    }
+    // postcard writes an enum as its variant index (a varint), then the variant.
+    use crate::fast::{finish, message_type, ACTUATION, COMMAND, CONFIG, SENSOR, STATUS};
+    let (ty, body) = message_type(msg).ok_or(FrameError::Postcard)?;
+    Ok(match ty {
+        SENSOR => Request::Sensor(finish(body, crate::fast::sensor)?),
+        CONFIG => Request::Config(finish(body, crate::fast::config)?),
+        COMMAND => Request::Command(finish(body, crate::fast::command)?),
+        ACTUATION | STATUS => Request::Unexpected,
+        _ => return Err(FrameError::Postcard),
+    })
 }
 
 #[cfg(test)]

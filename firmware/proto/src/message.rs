@@ -160,9 +160,12 @@ pub struct Rates {
     pub iref_safe_step: u32,
     /// Safe-state torque-limit ramp per yaw step (per-unit signal bits).
     pub torque_step: u32,
-    /// `y''` integrator: `T` in Q32 (um/s per 0.1 mm/s^2 code per tick), `<= 2^32`.
+    /// `y''` integrator: `T` in Q32 (um/s per 0.1 mm/s^2 code per tick), `<= 2^32`
+    /// (fixed 8 bytes: shorter than a varint's worst case, and simpler to read).
+    #[serde(with = "postcard::fixint::le")]
     pub acc_gain_q32: u64,
-    /// `y''` integrator wash-out `T/tau` in Q32, `<= 2^32` (0: none).
+    /// `y''` integrator wash-out `T/tau` in Q32, `<= 2^32` (0: none; fixed 8 bytes).
+    #[serde(with = "postcard::fixint::le")]
     pub acc_leak_q32: u64,
 }
 

@@ -173,9 +173,20 @@ proptest! {
                     }
                     v
                 }),
-            // Arbitrary bodies of the two hot types, varint-heavy bytes included.
-            (0u8..2, proptest::collection::vec(prop_oneof![any::<u8>(), 0x80u8..=0xFF, 0u8..0x20], 0..30))
-                .prop_map(|(t, rest)| [vec![t], rest].concat()),
+            // Arbitrary bodies of every type (and an unknown one), varint-heavy bytes
+            // included, some with the type as a zero-padded varint.
+            (0u8..6, any::<bool>(), proptest::collection::vec(prop_oneof![any::<u8>(), 0x80u8..=0xFF, 0u8..0x20, 0u8..2], 0..90))
+                .prop_map(|(t, padded, rest)| {
+                    let ty = if padded { vec![t | 0x80, 0] } else { vec![t] };
+                    [ty, rest].concat()
+                }),
+            // A valid body whose type is written as a zero-padded varint.
+            message().prop_map(|m| {
+                let mut v = postcard::to_allocvec(&m).expect("postcard");
+                v[0] |= 0x80;
+                v.insert(1, 0);
+                v
+            }),
         ]
     ) {
         let mut frame = reference_wire(&body);
@@ -336,4 +347,99 @@ fn each_error_kind_is_reported() {
         frame[last] = 0x33;
     }
     assert_eq!(decode_all(&frame), vec![Err(FrameError::Crc)]);
+}
+
+/// What postcard decides on a body, as `decode_frame` reports it.
+fn postcard_decides(body: &[u8]) -> Result<Message, FrameError> {
+    match postcard::take_from_bytes::<Message>(body) {
+        _ if body.is_empty() => Err(FrameError::Length),
+        Ok((m, [])) => Ok(m),
+        Ok(_) => Err(FrameError::Length),
+        Err(_) => Err(FrameError::Postcard),
+    }
+}
+
+/// The edges of postcard's rules that random bodies rarely reach, one field of a valid
+/// Config at a time: varint lengths and last-byte limits of u16/u32/u64 (valid, padded,
+/// too long, last byte one over), bool and Option bytes 0/1/2, enum indices in and out
+/// of range, padded type bytes.
+#[test]
+fn config_edges_decide_as_postcard() {
+    let varints: Vec<Vec<u8>> = vec![
+        vec![0x00],
+        vec![0x7F],
+        vec![0x80, 0x00],
+        vec![0xFF, 0x7F],
+        vec![0x80, 0x80, 0x03],
+        vec![0x80, 0x80, 0x04],
+        vec![0xFF, 0xFF, 0x03],
+        vec![0x80, 0x80, 0x80, 0x00],
+        vec![0x80, 0x80, 0x80, 0x80, 0x0F],
+        vec![0x80, 0x80, 0x80, 0x80, 0x10],
+        vec![0xFF, 0xFF, 0xFF, 0xFF, 0x0F],
+        vec![0x80, 0x80, 0x80, 0x80, 0x80, 0x00],
+        [vec![0x80; 9], vec![0x01]].concat(),
+        [vec![0x80; 9], vec![0x02]].concat(),
+        [vec![0xFF; 9], vec![0x01]].concat(),
+        vec![0x80; 10],
+        vec![0x80; 11],
+    ];
+    let small: Vec<Vec<u8>> = (0u8..4).map(|b| vec![b]).chain(varints.clone()).collect();
+    // type, mode, traction, enable, hold_ticks, Some, numeric, fingerprint (4 raw),
+    // base rate, yaw div, traction div, six u32 coefficients, two fixint u64 (8 raw).
+    let base: Vec<Vec<u8>> = [
+        vec![
+            vec![2],
+            vec![2],
+            vec![1],
+            vec![0],
+            vec![10],
+            vec![1],
+            vec![0],
+        ],
+        vec![vec![1, 2, 3, 4]],
+        vec![vec![0x88, 0x27]; 3],
+        vec![vec![5]; 6],
+        vec![vec![7, 0, 0, 0, 0, 0, 0, 0]; 2],
+    ]
+    .concat();
+    let mut tried = 0;
+    for field in 0..base.len() {
+        let choices = match field {
+            0..=3 | 5 | 6 => &small,
+            7 | 17 | 18 => continue, // raw bytes: any value is valid
+            _ => &varints,
+        };
+        for c in choices {
+            let mut parts = base.clone();
+            parts[field] = c.clone();
+            let body = parts.concat();
+            let mut frame = reference_wire(&body);
+            assert_eq!(
+                decode_frame(&mut frame),
+                postcard_decides(&body),
+                "field {field}, bytes {c:02x?}"
+            );
+            // Cut short, and with a byte left over.
+            for b in [&body[..body.len() - 1], &[&body[..], &[0]].concat()[..]] {
+                let mut frame = reference_wire(b);
+                assert_eq!(decode_frame(&mut frame), postcard_decides(b));
+            }
+            tried += 1;
+        }
+    }
+    assert!(tried > 250, "{tried}");
+    // Commands and a Status too, with their type padded.
+    for body in [
+        vec![0x83, 0x00, 0x01],
+        vec![0x83, 0x00, 0x02],
+        vec![0x84, 0x80, 0x00],
+    ] {
+        let mut frame = reference_wire(&body);
+        assert_eq!(
+            decode_frame(&mut frame),
+            postcard_decides(&body),
+            "{body:02x?}"
+        );
+    }
 }
