@@ -74,6 +74,18 @@ impl<const N: usize> Decoder<N> {
         self.feed_with(bytes, decode_nonzero_request, f);
     }
 
+    /// Takes `bytes` up to and including the first delimiter: returns the frame's result
+    /// if that closed one (as [`Self::feed_requests`] would report it) and the bytes not
+    /// yet taken. A caller loops until the rest is empty; unlike the callback form, it
+    /// may use its own state (the one that owns the decoder) between frames.
+    #[inline(never)]
+    pub fn next_request<'b>(
+        &mut self,
+        bytes: &'b [u8],
+    ) -> (Option<Result<Request, FrameError>>, &'b [u8]) {
+        self.next_with(bytes, decode_nonzero_request)
+    }
+
     #[inline(always)]
     fn push_with<M>(
         &mut self,
@@ -108,24 +120,39 @@ impl<const N: usize> Decoder<N> {
     ) {
         let mut rest = bytes;
         while !rest.is_empty() {
-            let (run, closes) = match rest.iter().position(|&b| b == 0) {
-                Some(i) => (rest.get(..i).unwrap_or(&[]), true),
-                None => (rest, false),
-            };
-            if !self.overflow {
-                let room = N - self.buf.len();
-                if run.len() > room {
-                    self.overflow = true;
-                }
-                // Fits by construction: `room` bytes at most.
-                let _ = self.buf.extend_from_slice(run.get(..room).unwrap_or(run));
-            }
-            rest = rest.get(run.len() + usize::from(closes)..).unwrap_or(&[]);
-            if closes {
-                if let Some(r) = self.push_with(0, &decode) {
-                    f(r);
-                }
+            let (r, more) = self.next_with(rest, &decode);
+            rest = more;
+            if let Some(r) = r {
+                f(r);
             }
         }
+    }
+
+    /// One run of bytes up to and including the next delimiter (or all of them).
+    #[inline(always)]
+    fn next_with<'b, M>(
+        &mut self,
+        bytes: &'b [u8],
+        decode: impl FnOnce(&mut [u8]) -> Result<M, FrameError>,
+    ) -> (Option<Result<M, FrameError>>, &'b [u8]) {
+        let (run, closes) = match bytes.iter().position(|&b| b == 0) {
+            Some(i) => (bytes.get(..i).unwrap_or(&[]), true),
+            None => (bytes, false),
+        };
+        if !self.overflow {
+            let room = N - self.buf.len();
+            if run.len() > room {
+                self.overflow = true;
+            }
+            // Fits by construction: `room` bytes at most.
+            let _ = self.buf.extend_from_slice(run.get(..room).unwrap_or(run));
+        }
+        let rest = bytes.get(run.len() + usize::from(closes)..).unwrap_or(&[]);
+        let r = if closes {
+            self.push_with(0, decode)
+        } else {
+            None
+        };
+        (r, rest)
     }
 }

@@ -443,3 +443,24 @@ fn config_edges_decide_as_postcard() {
         );
     }
 }
+
+/// `next_request` stops after each delimiter and hands back the rest; split frames
+/// complete across calls; an empty frame yields nothing.
+#[test]
+fn next_request_stops_after_each_frame() {
+    let a = encode_vec(&Message::Command(Command::RequestStatus)).expect("fits");
+    let b = encode_vec(&Message::Command(Command::ResetCounters)).expect("fits");
+    let stream = [&a[..], &[0u8][..], &b[..3]].concat();
+    let mut dec: Decoder = Decoder::new();
+    let (r, rest) = dec.next_request(&stream);
+    assert_eq!(r, Some(Ok(Request::Command(Command::RequestStatus))));
+    assert_eq!(rest, &stream[a.len()..]);
+    let (r, rest) = dec.next_request(rest);
+    assert_eq!(r, None);
+    assert_eq!(rest, &b[..3]);
+    let (r, rest) = dec.next_request(rest);
+    assert_eq!((r, rest.len()), (None, 0));
+    let (r, rest) = dec.next_request(&b[3..]);
+    assert_eq!(r, Some(Ok(Request::Command(Command::ResetCounters))));
+    assert!(rest.is_empty());
+}

@@ -400,9 +400,16 @@ impl<T: SampleBits> Runtime<T> {
     /// Takes received bytes in any chunking; decodes frames, applies commands, counts bad
     /// frames. Never panics.
     pub fn receive(&mut self, bytes: &[u8]) {
-        let mut dec = core::mem::take(&mut self.decoder);
-        dec.feed_requests(bytes, |r| self.on_frame(r));
-        self.decoder = dec;
+        // Frame by frame (not a callback into `self` with the decoder moved out and back:
+        // two copies of its buffer per call).
+        let mut rest = bytes;
+        while !rest.is_empty() {
+            let (r, more) = self.decoder.next_request(rest);
+            rest = more;
+            if let Some(r) = r {
+                self.on_frame(r);
+            }
+        }
     }
 
     fn on_frame(&mut self, r: Result<Request, FrameError>) {
@@ -563,7 +570,18 @@ impl<T: SampleBits> Runtime<T> {
             c.safe_ticks = c.safe_ticks.wrapping_add(1);
             flags.set(Flags::SAFE | Flags::HOLDING, true);
         }
-        let before = *self.core.counters();
+        // The counters this tick can move (not a copy of all of them: a 68-byte memcpy).
+        let inputs = |k: &wheelset_control::Counters| {
+            [k.y_dot, k.current, k.speed, k.demand]
+                .iter()
+                .fold(0u32, |a, s| {
+                    a.wrapping_add(s.clamped).wrapping_add(s.invalid)
+                })
+        };
+        let before = {
+            let k = self.core.counters();
+            (k.yaw_torque.clamped, k.voltage.clamped, inputs(k))
+        };
         if let (Some(a), Some(s)) = (self.acc, self.sample.as_mut()) {
             // Integrate on every tick with the latest y'' (held when frames are missing).
             let v = {
@@ -597,16 +615,9 @@ impl<T: SampleBits> Runtime<T> {
             }
         };
         let after = self.core.counters();
-        let yaw_sat = after.yaw_torque.clamped != before.yaw_torque.clamped;
-        let tr_sat = after.voltage.clamped != before.voltage.clamped;
-        let inputs = |k: &wheelset_control::Counters| {
-            [k.y_dot, k.current, k.speed, k.demand]
-                .iter()
-                .fold(0u32, |a, s| {
-                    a.wrapping_add(s.clamped).wrapping_add(s.invalid)
-                })
-        };
-        let clamped = inputs(after).wrapping_sub(inputs(&before));
+        let yaw_sat = after.yaw_torque.clamped != before.0;
+        let tr_sat = after.voltage.clamped != before.1;
+        let clamped = inputs(after).wrapping_sub(before.2);
         let c = &mut self.counters;
         c.yaw_sat = c.yaw_sat.wrapping_add(u32::from(yaw_sat));
         c.traction_sat = c.traction_sat.wrapping_add(u32::from(tr_sat));
