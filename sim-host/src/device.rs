@@ -583,6 +583,12 @@ pub fn run_device(
     let mut dev = DeviceLoop::<wheelset_control::Fx>::try_new(rt_cfg, &opt.link)?;
     dev.set_lateral(opt.lateral);
     let period_ns = dev.period_ns();
+    // One record per period: reserved once (doubling to 100 000 records re-copies and
+    // re-faults megabytes).
+    // (Capped: a very long scenario grows the rest as it goes.)
+    let periods = (sc.duration_ns / period_ns.max(1)).min(1 << 22);
+    dev.log
+        .reserve(usize::try_from(periods).unwrap_or(0).saturating_add(2));
     let mut actuator = ActuatorModel::ideal();
     actuator.delay_ns = period_ns;
     let label = format!(
