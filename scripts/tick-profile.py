@@ -1,0 +1,82 @@
+#!/usr/bin/env python3
+"""Per-source-file instruction profile of one function of the QEMU bench firmware.
+
+Usage (from the repository root, after `cargo xtask fw-bench` built the ELF):
+
+    qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -nographic -monitor none \
+        -serial null -icount shift=10,sleep=off \
+        -semihosting-config enable=on,target=native \
+        -kernel target/fw/wheelset-qemu-bench.elf -singlestep -d exec,nochain -D exec.log
+    python3 scripts/tick-profile.py exec.log [whole_tick|law_step]
+
+The log holds one line per executed instruction (the bench's 2 000 calls of each
+function give ~1 GB; build the bench with a smaller `N` in
+firmware/app/src/bin/qemu_bench.rs for a quicker run: the averages per call are the
+same). Every instruction executed between the function's entry and the return to its
+caller is attributed to the source file of the innermost inlined frame
+(`arm-none-eabi-addr2line`); prints instructions per call by file. Needs Debian's
+`binutils-arm-none-eabi`.
+"""
+import collections
+import re
+import subprocess
+import sys
+
+ELF = "target/fw/wheelset-qemu-bench.elf"
+
+
+def main() -> None:
+    if len(sys.argv) < 2:
+        sys.exit(__doc__)
+    log, name = sys.argv[1], (sys.argv[2] if len(sys.argv) > 2 else "whole_tick")
+    dis = subprocess.run(["arm-none-eabi-objdump", "-d", "-C", ELF],
+                         capture_output=True, text=True, check=True).stdout
+    entry = ret = None
+    for line in dis.splitlines():
+        m = re.match(r"^([0-9a-f]+) <wheelset_qemu_bench::bench::(\w+)>:", line)
+        if m and m.group(2) == name:
+            entry = int(m.group(1), 16)
+        m = re.match(r"\s+([0-9a-f]+):\s+(?:[0-9a-f]{4} ?){2}\s+bl\s+[0-9a-f]+ <wheelset_qemu_bench::bench::(\w+)>", line)
+        if m and m.group(2) == name:
+            ret = int(m.group(1), 16) + 4  # a 32-bit BL
+    if entry is None or ret is None:
+        sys.exit(f"{name}: entry or call site not found in {ELF}")
+    pcs = collections.Counter()
+    calls = 0
+    inside = False
+    with open(log) as f:
+        for line in f:
+            m = re.search(r"\[[0-9a-f]+/([0-9a-f]+)/", line)
+            if not m:
+                continue
+            pc = int(m.group(1), 16)
+            if pc == entry and not inside:
+                inside, calls = True, calls + 1
+            elif inside and pc == ret:
+                inside = False
+            if inside:
+                pcs[pc] += 1
+    if calls == 0:
+        sys.exit(f"{name} never ran in {log}")
+    addrs = sorted(pcs)
+    out = subprocess.run(["arm-none-eabi-addr2line", "-f", "-e", ELF] + [hex(a) for a in addrs],
+                         capture_output=True, text=True, check=True).stdout.splitlines()
+    by_file = collections.Counter()
+    for i, a in enumerate(addrs):
+        path = out[2 * i + 1].split(":")[0]
+        if "firmware/" in path:
+            key = path.split("firmware/")[-1]
+        elif "compiler-builtins" in path:
+            key = "compiler-builtins (memcpy/memset)"
+        elif "/rustc/" in path:
+            key = "core (inlined)"
+        else:
+            key = path.rsplit("/src/", 1)[0].rsplit("/", 1)[-1] or path
+        by_file[key] += pcs[a]
+    print(f"{name}: {calls} calls, {sum(pcs.values()) / calls:.1f} instructions per call")
+    for key, n in by_file.most_common():
+        print(f"{n / calls:8.1f}  {key}")
+
+
+if __name__ == "__main__":
+    main()
