@@ -36,6 +36,9 @@ pub mod app;
 pub mod board;
 #[cfg(target_os = "none")]
 #[allow(unsafe_code)]
+mod mem;
+#[cfg(target_os = "none")]
+#[allow(unsafe_code)]
 pub mod panic;
 
 #[cfg(target_os = "none")]
