@@ -12,9 +12,12 @@
 //!   instability crossings.
 //! - [`svg`]: a small dependency-free SVG plotting module (line, scatter, bars).
 //! - [`figures`]: the paper's figures (time histories, root loci).
+//! - [`adhesion`]: Polach's adhesion-limited creep law, rail conditions as data.
+//! - [`traction`]: creep characteristics, the per-section adhesion summary, runaway.
 //! - [`link`], [`device`]: the simulated serial link and the device runtime behind it.
 #![deny(missing_docs)]
 
+pub mod adhesion;
 pub mod control;
 pub mod device;
 pub mod error;
@@ -28,3 +31,4 @@ pub mod sampled;
 pub mod scenario;
 pub mod sim;
 pub mod svg;
+pub mod traction;

@@ -6,6 +6,10 @@
 //! - `sim-host run --scenario curve|beating|FILE --control passive|gain|lead [--csv FILE] [--plot DIR]`
 //! - `sim-host run ... --loop device [--faults SPEC] [--seed N] [--baud B] [--latency-us L]`:
 //!   the firmware runtime in the loop over the simulated serial link
+//! - `sim-host run ... --json FILE`: the run's summary (with `[[adhesion]]` sections: the
+//!   per-section adhesion table and the runaway verdict, `sim_host::traction`)
+//! - `sim-host adhesion --condition dry|wet|low [--v-mps V] --json FILE [--plot DIR]`:
+//!   Polach's creep characteristic `F/Q` against creepage 0..0.2
 //!
 //! Exit codes: 0 success, 2 bad usage or bad input file, 1 other failures (writing output).
 
@@ -36,6 +40,52 @@ enum Cmd {
     /// Sampled-data rate analysis of the firmware's loops (ZOH + delay, the discrete
     /// controllers of wheelset-control) over creep 1-10 MN and conicity 0.05-0.4.
     Rates(RatesArgs),
+    /// Polach's adhesion-limited creep characteristic of a rail condition.
+    Adhesion(AdhesionArgs),
+}
+
+/// Rail condition on the command line.
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
+enum ConditionArg {
+    /// Dry rail.
+    Dry,
+    /// Wet rail.
+    Wet,
+    /// Low adhesion (leaves, contamination).
+    Low,
+}
+
+impl From<ConditionArg> for sim_host::adhesion::Condition {
+    fn from(c: ConditionArg) -> Self {
+        use sim_host::adhesion::Condition;
+        match c {
+            ConditionArg::Dry => Condition::Dry,
+            ConditionArg::Wet => Condition::Wet,
+            ConditionArg::Low => Condition::Low,
+        }
+    }
+}
+
+#[derive(clap::Args)]
+struct AdhesionArgs {
+    /// Rail condition.
+    #[arg(long, value_enum)]
+    condition: ConditionArg,
+    /// Speed, m/s (default: the parameters' `v`, 83.3).
+    #[arg(long = "v-mps")]
+    v_mps: Option<f64>,
+    /// Points over creepage 0..0.2 (at least 200).
+    #[arg(long, default_value_t = 401, value_parser = clap::value_parser!(u32).range(200..=1_000_000))]
+    points: u32,
+    /// Write the characteristic as JSON here (directories created).
+    #[arg(long)]
+    json: PathBuf,
+    /// Write `adhesion-<condition>.svg` into this directory.
+    #[arg(long)]
+    plot: Option<PathBuf>,
+    /// Parameter file (TOML, any subset of the parameters: `q`, `f11`, `v` ...).
+    #[arg(long)]
+    params: Option<PathBuf>,
 }
 
 /// Plant of the rate analysis.
@@ -138,6 +188,10 @@ struct RunArgs {
     /// Write the trajectory as CSV (1 ms samples by default; directories created).
     #[arg(long)]
     csv: Option<PathBuf>,
+    /// Write the run's summary as JSON (with `[[adhesion]]` sections: the `adhesion`
+    /// object of `sim_host::traction`; directories created).
+    #[arg(long)]
+    json: Option<PathBuf>,
     /// Write SVG plots (lateral, torque, creep, traction) into this directory.
     #[arg(long)]
     plot: Option<PathBuf>,
@@ -247,6 +301,7 @@ fn cmd_run(a: &RunArgs) -> Result<(), Failure> {
     }
     let main = &runs[0];
     print_summary(&sc, main);
+    write_run_summary(&a.json, &sc, main, None)?;
     if let Some(path) = &a.csv {
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir).map_err(|e| io_fail(dir, e))?;
@@ -457,6 +512,7 @@ fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
         msg: e.to_string(),
     })?;
     print_summary(sc, &run.trajectory);
+    write_run_summary(&a.json, sc, &run.trajectory, None)?;
     println!(
         "link: {} baud, latency {} us, period {} us, faults `{}` (seed {})",
         opt.link.baud,
@@ -501,6 +557,85 @@ fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
         for f in files {
             println!("plot: {}", f.display());
         }
+    }
+    Ok(())
+}
+
+/// Writes `value` as pretty JSON to `path` (directories created).
+fn write_json(path: &std::path::Path, value: &serde_json::Value) -> Result<(), Failure> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| io_fail(dir, e))?;
+    }
+    let text = serde_json::to_string_pretty(value).map_err(|e| Failure {
+        code: 1,
+        msg: format!("{}: {e}", path.display()),
+    })?;
+    std::fs::write(path, text).map_err(|e| io_fail(path, e))?;
+    println!("json: {}", path.display());
+    Ok(())
+}
+
+/// The summary JSON of a run (`--json`): the run's description, and with `[[adhesion]]`
+/// sections the `adhesion` object; prints the sections table.
+fn write_run_summary(
+    path: &Option<PathBuf>,
+    sc: &Scenario,
+    tr: &Trajectory,
+    wsp: Option<bool>,
+) -> Result<(), Failure> {
+    let adhesion = sim_host::traction::summary(sc, tr);
+    if let Some(a) = &adhesion {
+        println!(
+            "adhesion: runaway {}, slip peak {:.3} m/s",
+            a.runaway, a.slip_peak_mps
+        );
+        println!("  t0-t1 s      condition  mu_peak  mu_used_mean  utilisation  slip_peak_mps");
+        for s in &a.sections {
+            println!(
+                "  {:>5.1}-{:<5.1}  {:<9}  {:>7.4}  {:>12.4}  {:>11.3}  {:>13.3}",
+                s.t0, s.t1, s.condition, s.mu_peak, s.mu_used_mean, s.utilisation, s.slip_peak_mps
+            );
+        }
+    }
+    let Some(path) = path else {
+        return Ok(());
+    };
+    let json = serde_json::json!({
+        "scenario": sc.name,
+        "source": sc.source,
+        "run": tr.info,
+        "wsp": wsp,
+        "adhesion": adhesion,
+    });
+    write_json(path, &json)
+}
+
+fn cmd_adhesion(a: &AdhesionArgs) -> Result<(), Failure> {
+    let p = load_params(&a.params)?;
+    let v = a.v_mps.unwrap_or(p.v);
+    if !(v.is_finite() && (0.1..=200.0).contains(&v)) {
+        return Err(Failure {
+            code: 2,
+            msg: format!("--v-mps {v}: must be within [0.1, 200] m/s"),
+        });
+    }
+    let ch = sim_host::traction::characteristic(a.condition.into(), v, &p, a.points as usize);
+    println!(
+        "adhesion {}: v {} m/s, Q {:.1} N, f11 {:.3e} N, mu0 {} A {} B {} s/m kA {} kS {}; peak F/Q {:.4} at creepage {:.5} (slip {:.3} m/s)",
+        ch.condition, ch.v_mps, ch.q_n, ch.f11_n, ch.mu0, ch.a, ch.b, ch.ka, ch.ks,
+        ch.mu_peak, ch.creepage_peak, ch.slip_peak_mps
+    );
+    println!("source: {}", ch.source);
+    let json = serde_json::to_value(&ch).map_err(|e| Failure {
+        code: 1,
+        msg: e.to_string(),
+    })?;
+    write_json(&a.json, &json)?;
+    if let Some(dir) = &a.plot {
+        std::fs::create_dir_all(dir).map_err(|e| io_fail(dir, e))?;
+        let path = dir.join(format!("adhesion-{}.svg", ch.condition));
+        ch.figure().save(&path).map_err(|e| io_fail(&path, e))?;
+        println!("plot: {}", path.display());
     }
     Ok(())
 }
@@ -562,6 +697,7 @@ fn main() -> ExitCode {
         Cmd::Modes(a) => cmd_modes(a),
         Cmd::Run(a) => cmd_run(a),
         Cmd::Rates(a) => cmd_rates(a),
+        Cmd::Adhesion(a) => cmd_adhesion(a),
     };
     match res {
         Ok(()) => ExitCode::SUCCESS,

@@ -79,6 +79,9 @@ pub struct Params {
     /// Traction PI integral time `Ti`, s (0.5 from `Kt = (0.5 s + 1)/(0.5 s)`; the
     /// appendix lists 0.05).
     pub pi_ti: f64,
+    /// Vertical wheel load `Q` per wheel, N, for the adhesion law ([`crate::adhesion`]);
+    /// absent: `(m + m_v/2) g / 2` (55.2 kN with the defaults).
+    pub q: Option<f64>,
 }
 
 impl Default for Params {
@@ -113,6 +116,7 @@ impl Default for Params {
             lead_pole: 274.0,
             pi_kp: 1.0,
             pi_ti: 0.5,
+            q: None,
         }
     }
 }
@@ -168,6 +172,12 @@ impl Params {
         self.v * (self.lambda / (self.r0 * self.l_g)).sqrt() / (2.0 * PI)
     }
 
+    /// Wheel load `Q`, N (explicit, or `(m + m_v/2) g / 2`).
+    pub fn q(&self) -> f64 {
+        self.q
+            .unwrap_or_else(|| (self.m + self.m_v / 2.0) * self.g / 2.0)
+    }
+
     /// Motor speed at pure rolling, `n v / r0`, rad/s.
     pub fn rolling_motor_speed(&self) -> f64 {
         self.n_gear * self.v / self.r0
@@ -205,6 +215,7 @@ impl Params {
             ("lead_pole", self.lead_pole),
             ("pi_kp", self.pi_kp),
             ("pi_ti", self.pi_ti),
+            ("q", self.q()),
         ]
     }
 
@@ -245,6 +256,7 @@ impl Params {
             pos("lead_pole", 1e6),
             pos("pi_kp", 1e6),
             pos("pi_ti", 1e6),
+            pos("q", 1e7),
         ];
         for (key, value) in self.entries() {
             let Some(r) = RANGES.iter().find(|r| r.key == key) else {

@@ -37,6 +37,7 @@
 //! wheel torque `k_gear (theta_m/n - phi_L) = -k_gear WIND`. Without it, the traction
 //! demand acts directly as the torque [`Inputs::t_drive`] on the left wheel.
 
+use crate::adhesion::Adhesion;
 use crate::params::Params;
 use crate::scenario::Axle;
 use nalgebra::Complex;
@@ -108,6 +109,14 @@ pub trait Scalar:
 {
     /// Lifts a real constant.
     fn c(x: f64) -> Self;
+    /// The real part (for branches of the adhesion law only: see [`crate::adhesion`]).
+    fn re(self) -> f64;
+    /// Square root (principal branch).
+    fn sqrt(self) -> Self;
+    /// Arc tangent.
+    fn atan(self) -> Self;
+    /// Exponential.
+    fn exp(self) -> Self;
 }
 
 impl Scalar for f64 {
@@ -115,12 +124,44 @@ impl Scalar for f64 {
     fn c(x: f64) -> Self {
         x
     }
+    #[inline(always)]
+    fn re(self) -> f64 {
+        self
+    }
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        f64::sqrt(self)
+    }
+    #[inline(always)]
+    fn atan(self) -> Self {
+        f64::atan(self)
+    }
+    #[inline(always)]
+    fn exp(self) -> Self {
+        f64::exp(self)
+    }
 }
 
 impl Scalar for Complex<f64> {
     #[inline(always)]
     fn c(x: f64) -> Self {
         Complex::new(x, 0.0)
+    }
+    #[inline(always)]
+    fn re(self) -> f64 {
+        self.re
+    }
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        Complex::sqrt(self)
+    }
+    #[inline(always)]
+    fn atan(self) -> Self {
+        Complex::atan(self)
+    }
+    #[inline(always)]
+    fn exp(self) -> Self {
+        Complex::exp(self)
     }
 }
 
@@ -199,6 +240,9 @@ pub struct Creep<S> {
 pub struct Plant {
     /// Configuration.
     pub cfg: PlantConfig,
+    /// The adhesion law in force ([`crate::adhesion`]); `None` = the linear creep law.
+    /// A run sets it per integration step from the scenario's `[[adhesion]]` sections.
+    pub adhesion: Option<Adhesion>,
     m: f64,
     m_long: f64,
     j: f64,
@@ -232,6 +276,8 @@ struct Inverses {
     i_m: f64,
     n: f64,
     l_a: f64,
+    f11: f64,
+    f22: f64,
 }
 
 impl Plant {
@@ -239,6 +285,7 @@ impl Plant {
     pub fn new(p: &Params, cfg: PlantConfig) -> Plant {
         Plant {
             cfg,
+            adhesion: None,
             m: p.m,
             m_long: p.m + p.m_v / 2.0,
             j: p.j,
@@ -267,6 +314,8 @@ impl Plant {
                 i_m: 1.0 / p.i_m,
                 n: 1.0 / p.n_gear,
                 l_a: 1.0 / p.l_a,
+                f11: 1.0 / p.f11,
+                f22: 1.0 / p.f22,
             },
         }
     }
@@ -299,7 +348,26 @@ impl Plant {
         let fx_l =
             -c(self.f11) * (c(1.0) + lg_psid_v - self.w_l(x) * (c(self.r0) - ly) * inv_v - lg_k);
         let fy = -c(self.f22) * (x[ix::YD] * inv_v - x[ix::PSI]);
-        Creep { fx_r, fx_l, fy }
+        match &self.adhesion {
+            None => Creep { fx_r, fx_l, fy },
+            Some(a) => self.limit(a, Creep { fx_r, fx_l, fy }, v),
+        }
+    }
+
+    /// The adhesion-limited forces of the two wheels ([`Adhesion::apply`] on each wheel's
+    /// linear forces). The lateral force of the plant is per wheel; with adhesion the two
+    /// wheels' lateral forces differ (each is limited with its own longitudinal
+    /// creepage), and [`Creep::fy`] is their mean, so `2 F_y` in eq. (4) is their sum.
+    #[inline(never)]
+    fn limit<S: Scalar>(&self, a: &Adhesion, lin: Creep<S>, v: S) -> Creep<S> {
+        let (ix, iy) = (self.inv.f11, self.inv.f22);
+        let (fx_r, fy_r) = a.apply(lin.fx_r, lin.fy, ix, iy, v);
+        let (fx_l, fy_l) = a.apply(lin.fx_l, lin.fy, ix, iy, v);
+        Creep {
+            fx_r,
+            fx_l,
+            fy: S::c(0.5) * (fy_r + fy_l),
+        }
     }
 
     /// Passive spring torque `k_yaw psi` (zero when the spring is absent), N m.

@@ -21,8 +21,19 @@
 //! t_on_s = 5.0
 //! [params]             # any key of `Params`
 //! k_gear = 1.0e6
+//! [[adhesion]]         # optional: Polach's adhesion law (crate::adhesion) on sections
+//! start_s = 6.0
+//! end_s = 10.0
+//! condition = "low"    # dry | wet | low
 //! ```
+//!
+//! Adhesion: without any `[[adhesion]]` section the plant uses the paper's linear creep
+//! law. With at least one, the adhesion law is on for the whole run: each section's
+//! condition holds on `[start_s, end_s)` (sorted, not overlapping), and the rail is
+//! `dry` outside every section. The condition is sampled at each integration step's
+//! start, like the traction and resistance steps.
 
+use crate::adhesion::{Adhesion, Condition};
 use crate::error::{from_toml, ConfigError};
 use crate::params::Params;
 use serde::Deserialize;
@@ -32,6 +43,10 @@ use std::path::Path;
 pub const BUILTIN: &[(&str, &str)] = &[
     ("curve", include_str!("../scenarios/curve.toml")),
     ("beating", include_str!("../scenarios/beating.toml")),
+    (
+        "low-adhesion",
+        include_str!("../scenarios/low-adhesion.toml"),
+    ),
 ];
 
 /// Nanoseconds per second.
@@ -122,6 +137,27 @@ pub struct Scenario {
     pub drive: bool,
     /// Parameters after the scenario's overrides.
     pub params: Params,
+    /// Rail-condition sections (sorted, disjoint); empty = the linear creep law.
+    pub adhesion: Vec<AdhesionSection>,
+}
+
+/// One `[[adhesion]]` section: a rail condition on `[t0_ns, t1_ns)`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AdhesionSection {
+    /// Start, ns.
+    pub t0_ns: u64,
+    /// End (exclusive), ns.
+    pub t1_ns: u64,
+    /// Rail condition.
+    pub condition: Condition,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawAdhesion {
+    start_s: f64,
+    end_s: f64,
+    condition: String,
 }
 
 #[derive(Deserialize)]
@@ -196,6 +232,8 @@ struct RawScenario {
     traction: Option<RawTraction>,
     resistance: Option<RawResistance>,
     params: Option<toml::Table>,
+    #[serde(default)]
+    adhesion: Vec<RawAdhesion>,
 }
 
 fn invalid(file: &str, key: impl Into<String>, reason: impl Into<String>) -> ConfigError {
@@ -340,6 +378,39 @@ impl Scenario {
                 .map_err(|e| e.under("params"))?,
             None => base.clone(),
         };
+        let mut adhesion: Vec<AdhesionSection> = Vec::with_capacity(raw.adhesion.len());
+        for (i, a) in raw.adhesion.iter().enumerate() {
+            let t0_ns = time(file, &format!("adhesion[{i}].start_s"), a.start_s, 1e5)?;
+            let t1_ns = time(file, &format!("adhesion[{i}].end_s"), a.end_s, 1e5)?;
+            if t1_ns <= t0_ns {
+                return Err(invalid(
+                    file,
+                    format!("adhesion[{i}].end_s"),
+                    format!("{} s must be after start_s = {} s", a.end_s, a.start_s),
+                ));
+            }
+            if let Some(prev) = adhesion.last() {
+                if t0_ns < prev.t1_ns {
+                    return Err(invalid(
+                        file,
+                        format!("adhesion[{i}].start_s"),
+                        "sections must be sorted and must not overlap",
+                    ));
+                }
+            }
+            let Some(condition) = Condition::from_name(&a.condition) else {
+                return Err(invalid(
+                    file,
+                    format!("adhesion[{i}].condition"),
+                    format!("`{}` is not a rail condition (dry, wet, low)", a.condition),
+                ));
+            };
+            adhesion.push(AdhesionSection {
+                t0_ns,
+                t1_ns,
+                condition,
+            });
+        }
         let name = raw.name.unwrap_or_else(|| {
             Path::new(file)
                 .file_stem()
@@ -359,10 +430,11 @@ impl Scenario {
             axle: plant.axle,
             drive: plant.drive,
             params,
+            adhesion,
         })
     }
 
-    /// Loads `name_or_path`: a built-in name (`curve`, `beating`) or a TOML file.
+    /// Loads `name_or_path`: a built-in name (`curve`, `beating`, `low-adhesion`) or a TOML file.
     pub fn load(name_or_path: &str, base: &Params) -> Result<Scenario, ConfigError> {
         if let Some((name, src)) = BUILTIN.iter().find(|(n, _)| *n == name_or_path) {
             return Self::from_toml_str(src, &format!("<builtin:{name}>"), base);
@@ -379,6 +451,26 @@ impl Scenario {
             reason: e.to_string(),
         })?;
         Self::from_toml_str(&src, name_or_path, base)
+    }
+
+    /// The rail condition at `t_ns`: `None` without `[[adhesion]]` sections (the linear
+    /// law), else the section's condition, `dry` outside every section.
+    pub fn condition_at(&self, t_ns: u64) -> Option<Condition> {
+        if self.adhesion.is_empty() {
+            return None;
+        }
+        Some(
+            self.adhesion
+                .iter()
+                .find(|s| t_ns >= s.t0_ns && t_ns < s.t1_ns)
+                .map_or(Condition::Dry, |s| s.condition),
+        )
+    }
+
+    /// The adhesion law at `t_ns` ([`Self::condition_at`] with the wheel load `Q`).
+    pub fn adhesion_at(&self, t_ns: u64) -> Option<Adhesion> {
+        self.condition_at(t_ns)
+            .map(|c| Adhesion::new(c, self.params.q()))
     }
 
     /// Track curvature and cant at `t_ns` (linear between knots, held outside).

@@ -132,11 +132,21 @@ pub struct Record {
     pub cant_rad: f64,
     /// Pure rolling line `r0 Lg / (lambda R)` for the current curvature, m.
     pub y0_m: f64,
+    /// Longitudinal slip velocity of the wheelset, the mean of the two wheels'
+    /// `v s_x` (`s_x` the creepage of eqs. 1-2: circumferential minus forward speed over
+    /// `v`), m/s; + = the wheels turn faster than the vehicle runs (traction).
+    pub slip_mps: f64,
+    /// Adhesion available: the peak `F/Q` of the present rail condition's longitudinal
+    /// characteristic at the present speed ([`crate::adhesion::Adhesion::peak`]); `inf`
+    /// under the linear law (no limit).
+    pub mu_avail: f64,
+    /// Adhesion used: the traction coefficient `(F_xR + F_xL) / (2 Q)`.
+    pub mu_used: f64,
 }
 
 impl Record {
     /// CSV header names, in the order of [`Record::values`].
-    pub const COLUMNS: [&'static str; 24] = [
+    pub const COLUMNS: [&'static str; 27] = [
         "t_s",
         "y_m",
         "psi_rad",
@@ -161,10 +171,13 @@ impl Record {
         "curvature_1pm",
         "cant_rad",
         "y0_m",
+        "slip_mps",
+        "mu_avail",
+        "mu_used",
     ];
 
     /// The values in [`Record::COLUMNS`] order.
-    pub fn values(&self) -> [f64; 24] {
+    pub fn values(&self) -> [f64; 27] {
         [
             self.t_s,
             self.y_m,
@@ -190,6 +203,9 @@ impl Record {
             self.curvature_1pm,
             self.cant_rad,
             self.y0_m,
+            self.slip_mps,
+            self.mu_avail,
+            self.mu_used,
         ]
     }
 }
@@ -321,6 +337,9 @@ struct Setup<'a> {
     sc: &'a Scenario,
     plant: Plant,
     track: TrackCursor,
+    /// `(condition, v, peak)` of the last [`Setup::mu_avail`], recomputed when the
+    /// condition changes or the speed moves by more than 1 mm/s.
+    peak_cache: Option<(crate::adhesion::Condition, f64, f64)>,
 }
 
 impl<'a> Setup<'a> {
@@ -334,7 +353,31 @@ impl<'a> Setup<'a> {
             sc,
             plant: Plant::new(&sc.params, cfg),
             track: TrackCursor::new(),
+            peak_cache: None,
         }
+    }
+
+    /// Puts the rail condition of `t_ns` on the setup's plant and returns the law (the
+    /// run copies it onto its own plant). A no-op without `[[adhesion]]` sections.
+    fn adhesion(&mut self, t_ns: u64) -> Option<crate::adhesion::Adhesion> {
+        let a = self.sc.adhesion_at(t_ns);
+        self.plant.adhesion = a;
+        a
+    }
+
+    /// The peak adhesion of the present condition at speed `v` (`inf` without a law).
+    fn mu_avail(&mut self, v: f64) -> f64 {
+        let Some(a) = self.plant.adhesion else {
+            return f64::INFINITY;
+        };
+        if let Some((c, v0, peak)) = self.peak_cache {
+            if c == a.condition && (v - v0).abs() <= 1e-3 {
+                return peak;
+            }
+        }
+        let peak = a.peak(self.sc.params.f11, v);
+        self.peak_cache = Some((a.condition, v, peak));
+        peak
     }
 
     fn exo(&mut self, t_ns: u64) -> Exo {
@@ -358,9 +401,14 @@ impl<'a> Setup<'a> {
     }
 
     #[allow(clippy::too_many_arguments)]
-    fn record(&self, t_ns: u64, x: &State, e: &Exo, t_ctrl: f64, u_a: f64) -> Record {
+    fn record(&mut self, t_ns: u64, x: &State, e: &Exo, t_ctrl: f64, u_a: f64) -> Record {
+        let mu_avail = self.mu_avail(x[ix::V]);
         let p = &self.sc.params;
         let cr = self.plant.creep(x, e.curv[0]);
+        let mut linear = self.plant;
+        linear.adhesion = None;
+        let lin = linear.creep(x, e.curv[0]);
+        let slip = 0.5 * (lin.fx_r + lin.fx_l) / p.f11 * x[ix::V];
         let t_spring = self.plant.spring_torque(x);
         Record {
             t_s: t_ns as f64 * 1e-9,
@@ -391,6 +439,9 @@ impl<'a> Setup<'a> {
             curvature_1pm: e.curv[0],
             cant_rad: e.cant[0],
             y0_m: p.pure_rolling_y(e.curv[0]),
+            slip_mps: slip,
+            mu_avail,
+            mu_used: (cr.fx_r + cr.fx_l) / (2.0 * p.q()),
         }
     }
 
@@ -412,7 +463,7 @@ pub fn run_continuous(sc: &Scenario, law: YawLaw) -> Trajectory {
 /// As [`run_continuous`] with an explicit controller (e.g. a reversed sign in tests).
 pub fn run_continuous_with(sc: &Scenario, ctrl: ContinuousController) -> Trajectory {
     let mut s = Setup::new(sc, ctrl.law.has_spring());
-    let plant = s.plant;
+    let mut plant = s.plant;
     let drive = sc.drive;
     let mut x = plant.rolling_state(sc.params.v);
     if drive {
@@ -425,6 +476,7 @@ pub fn run_continuous_with(sc: &Scenario, ctrl: ContinuousController) -> Traject
     for k in 0..n_steps {
         let t_ns = k * sc.dt_ns;
         let e = s.exo(t_ns);
+        plant.adhesion = s.adhesion(t_ns);
         if k % every == 0 {
             let u_a = if drive {
                 ctrl.voltage(&x, e.i_ref)
@@ -452,6 +504,7 @@ pub fn run_continuous_with(sc: &Scenario, ctrl: ContinuousController) -> Traject
     if diverged_at.is_none() {
         let t_end = n_steps * sc.dt_ns;
         let e = s.exo(t_end);
+        s.adhesion(t_end);
         let u_a = if drive {
             ctrl.voltage(&x, e.i_ref)
         } else {
@@ -642,7 +695,7 @@ pub fn run_sampled(
         });
     }
     let mut s = Setup::new(sc, yaw_spring);
-    let plant = s.plant;
+    let mut plant = s.plant;
     let drive = sc.drive;
     let mut x = plant.rolling_state(sc.params.v);
     let (n_steps, every) = s.steps();
@@ -659,6 +712,7 @@ pub fn run_sampled(
         t_drive: if drive { 0.0 } else { e.demand },
     };
     let e0 = s.exo(0);
+    plant.adhesion = s.adhesion(0);
     let m0 = measure(
         &plant,
         &x,
@@ -672,6 +726,7 @@ pub fn run_sampled(
     for k in 0..=n_steps {
         let t_ns = k * sc.dt_ns;
         let e = s.exo(t_ns);
+        plant.adhesion = s.adhesion(t_ns);
         if k < n_steps && t_ns.is_multiple_of(period) {
             let m = measure(&plant, &x, &held, &inputs(&e, 0, &held), e.demand, e.i_ref);
             let m = sensor.apply(&m);

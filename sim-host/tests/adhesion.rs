@@ -1,0 +1,252 @@
+//! Issue 11, plant side: Polach's law reduces to the linear law (no `[[adhesion]]`:
+//! bit-identical; huge `mu0`: within a tight tolerance), the scenario sections, the
+//! `low-adhesion` scenario (an unprotected wheel runs away), and `sim-host adhesion`.
+
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use sim_host::adhesion::{Adhesion, Condition, Polach};
+use sim_host::control::{closed_loop_rhs, ContinuousController, Exogenous, YawLaw};
+use sim_host::params::Params;
+use sim_host::plant::{ix, Plant, PlantConfig};
+use sim_host::scenario::{Axle, Scenario};
+use sim_host::sim::{rk4_step, run_continuous};
+use std::process::Command;
+
+fn curve() -> Scenario {
+    Scenario::load("curve", &Params::default()).unwrap()
+}
+
+/// The curve run with the continuous lead controller, and the same run integrated here
+/// with the plant's law set to `law` (same RK4, same inputs sampled at step starts).
+fn run_with(sc: &Scenario, law: Option<Adhesion>, t_end_s: f64) -> Vec<[f64; 13]> {
+    let cfg = PlantConfig {
+        axle: sc.axle,
+        drive: sc.drive,
+        yaw_spring: false,
+    };
+    let mut plant = Plant::new(&sc.params, cfg);
+    plant.adhesion = law;
+    let ctrl = ContinuousController::new(&sc.params, YawLaw::Lead);
+    let mut x = plant.rolling_state(sc.params.v);
+    x[ix::PI] = plant.back_emf(&x);
+    let h = sc.dt_ns as f64 * 1e-9;
+    let n = (t_end_s / h).round() as u64;
+    let mut out = Vec::new();
+    for k in 0..n {
+        let t = k * sc.dt_ns;
+        if k % 10 == 0 {
+            out.push(x); // the state at t, as the run's 1 ms records
+        }
+        let demand = sc.traction.at(t);
+        let f_run = sc.resistance.at(t);
+        let i_ref = demand / (sc.params.n_gear * sc.params.k_m);
+        let tr = [t, t + sc.dt_ns / 2, t + sc.dt_ns].map(|tt| sc.track_at(tt));
+        x = rk4_step(&x, h, |stage, xs| {
+            let j = match stage {
+                0 => 0,
+                3 => 2,
+                _ => 1,
+            };
+            let e = Exogenous {
+                curvature: tr[j].0,
+                cant: tr[j].1,
+                f_run,
+                i_ref,
+                demand,
+            };
+            closed_loop_rhs(&plant, &ctrl, xs, &e)
+        });
+    }
+    out
+}
+
+#[test]
+fn without_adhesion_sections_the_run_is_the_linear_law_bit_for_bit() {
+    let sc = curve();
+    assert!(sc.adhesion.is_empty());
+    assert_eq!(sc.condition_at(5_000_000_000), None);
+    // The library run (per-step adhesion hook) against this file's integration with the
+    // plant's law explicitly off: every state bit-identical.
+    let tr = run_continuous(&sc, YawLaw::Lead);
+    let here = run_with(&sc, None, 8.0);
+    for (i, x) in here.iter().enumerate() {
+        let r = &tr.records[i];
+        assert_eq!(r.y_m.to_bits(), x[ix::Y].to_bits(), "y at record {i}");
+        assert_eq!(r.v_mps.to_bits(), x[ix::V].to_bits(), "v at record {i}");
+        assert_eq!(r.i_a_a.to_bits(), x[ix::IA].to_bits(), "i_a at record {i}");
+        assert_eq!(r.mu_avail, f64::INFINITY);
+    }
+}
+
+#[test]
+fn a_huge_mu0_is_the_linear_law_within_a_tight_tolerance() {
+    let sc = curve();
+    let huge = Adhesion {
+        q: sc.params.q(),
+        condition: Condition::Dry,
+        law: Polach {
+            mu0: 1e6,
+            ..Condition::Dry.polach()
+        },
+    };
+    let lin = run_with(&sc, None, 8.0);
+    let big = run_with(&sc, Some(huge), 8.0);
+    let mut worst = [0.0f64; 3];
+    for (a, b) in lin.iter().zip(&big) {
+        for (w, i) in worst.iter_mut().zip([ix::Y, ix::PSI, ix::IA]) {
+            *w = w.max((a[i] - b[i]).abs());
+        }
+    }
+    // y ~ 0.7 mm, psi ~ 0.1 mrad, i_a ~ 115 A on this run: errors 1e-9 relative or less.
+    assert!(worst[0] < 1e-12, "y differs by {} m", worst[0]);
+    assert!(worst[1] < 1e-12, "psi differs by {} rad", worst[1]);
+    assert!(worst[2] < 1e-6, "i_a differs by {} A", worst[2]);
+    // And a realistic law does change the run (the test can fail).
+    let dry = run_with(&sc, Some(Adhesion::new(Condition::Dry, sc.params.q())), 8.0);
+    let d = lin
+        .iter()
+        .zip(&dry)
+        .map(|(a, b)| (a[ix::Y] - b[ix::Y]).abs())
+        .fold(0.0, f64::max);
+    assert!(d > 1e-7, "dry rail left y unchanged ({d} m)");
+}
+
+#[test]
+fn sections_are_validated_with_the_key_named() {
+    let base = "duration_s = 10.0\n";
+    let cases = [
+        (
+            "[[adhesion]]\nstart_s = 1.0\nend_s = 1.0\ncondition = \"wet\"\n",
+            "adhesion[0].end_s",
+        ),
+        (
+            "[[adhesion]]\nstart_s = 1.0\nend_s = 3.0\ncondition = \"ice\"\n",
+            "adhesion[0].condition",
+        ),
+        (
+            "[[adhesion]]\nstart_s = 1.0\nend_s = 3.0\ncondition = \"wet\"\n[[adhesion]]\nstart_s = 2.0\nend_s = 4.0\ncondition = \"low\"\n",
+            "adhesion[1].start_s",
+        ),
+        (
+            "[[adhesion]]\nstart_s = -1.0\nend_s = 3.0\ncondition = \"wet\"\n",
+            "adhesion[0].start_s",
+        ),
+        (
+            "[[adhesion]]\nstart_s = 1.0\nend_s = 3.0\ncondition = \"wet\"\nmu = 0.1\n",
+            "mu",
+        ),
+    ];
+    for (extra, key) in cases {
+        let src = format!("{base}{extra}");
+        let err = Scenario::from_toml_str(&src, "x.toml", &Params::default()).unwrap_err();
+        assert!(err.to_string().contains(key), "{extra}: {err}");
+    }
+    let ok = "[[adhesion]]\nstart_s = 1.0\nend_s = 3.0\ncondition = \"wet\"\n";
+    let sc = Scenario::from_toml_str(&format!("{base}{ok}"), "x.toml", &Params::default()).unwrap();
+    assert_eq!(sc.condition_at(0), Some(Condition::Dry));
+    assert_eq!(sc.condition_at(1_000_000_000), Some(Condition::Wet));
+    assert_eq!(sc.condition_at(3_000_000_000), Some(Condition::Dry));
+}
+
+#[test]
+fn low_adhesion_scenario_needs_a_quarter_of_adhesion_and_runs_away_unprotected() {
+    let sc = Scenario::load("low-adhesion", &Params::default()).unwrap();
+    assert_eq!(sc.axle, Axle::Flexible);
+    // The curve track.
+    assert_eq!(sc.track, curve().track);
+    // Demand ramped (not a step) to about 0.25 of the axle's adhesion 2 Q.
+    assert!(sc.traction.ramp_ns > 0);
+    let need = sc.traction.value / sc.params.r0 / (2.0 * sc.params.q());
+    assert!((need - 0.25).abs() < 0.01, "needs {need}");
+    let conds: Vec<Condition> = sc.adhesion.iter().map(|s| s.condition).collect();
+    assert!(conds.contains(&Condition::Low) && conds.contains(&Condition::Wet));
+    for s in &sc.adhesion {
+        if s.condition != Condition::Dry {
+            assert!(
+                s.t1_ns - s.t0_ns >= 3_000_000_000,
+                "section {s:?} too short"
+            );
+        }
+    }
+    // The continuous controllers have no wheel-slip protection: the wheel runs away in
+    // the low section.
+    let tr = run_continuous(&sc, YawLaw::Lead);
+    let sum = sim_host::traction::summary(&sc, &tr).unwrap();
+    assert!(sum.runaway, "{sum:?}");
+    let low = sum
+        .sections
+        .iter()
+        .find(|s| s.condition == Condition::Low)
+        .unwrap();
+    assert!(low.slip_peak_mps > sim_host::traction::RUNAWAY_SLIP_MPS);
+    // Before the low section the dry rail carries the demand at a small slip.
+    let dry = &sum.sections[0];
+    assert!(dry.slip_peak_mps < 0.5, "{dry:?}");
+    let at6 = tr.at(5.9).unwrap();
+    assert!((at6.mu_used - 0.25).abs() < 0.02, "mu_used {}", at6.mu_used);
+    assert!(at6.mu_avail > 0.3);
+}
+
+#[test]
+fn adhesion_command_writes_the_characteristic_fields() {
+    let dir = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("adhesion");
+    let json = dir.join("wet.json");
+    let out = Command::new(env!("CARGO_BIN_EXE_sim-host"))
+        .args(["adhesion", "--condition", "wet", "--v-mps", "50", "--json"])
+        .arg(&json)
+        .arg("--plot")
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    for key in [
+        "condition",
+        "v_mps",
+        "q_n",
+        "f11_n",
+        "mu0",
+        "a",
+        "b",
+        "ka",
+        "ks",
+        "creepage",
+        "force_over_q",
+    ] {
+        assert!(v.get(key).is_some(), "missing {key}");
+    }
+    assert_eq!(v["condition"], "wet");
+    assert_eq!(v["v_mps"], 50.0);
+    let s = v["creepage"].as_array().unwrap();
+    let f = v["force_over_q"].as_array().unwrap();
+    assert!(s.len() >= 200 && s.len() == f.len());
+    assert_eq!(s[0], 0.0);
+    assert!((s[s.len() - 1].as_f64().unwrap() - 0.2).abs() < 1e-12);
+    // Rises with the paper's slope, peaks, falls: the peak is interior.
+    let fs: Vec<f64> = f.iter().map(|x| x.as_f64().unwrap()).collect();
+    let imax = (0..fs.len())
+        .max_by(|&a, &b| fs[a].total_cmp(&fs[b]))
+        .unwrap();
+    assert!(imax > 0 && imax < fs.len() - 1);
+    assert!(fs[fs.len() - 1] < fs[imax]);
+    assert!(dir.join("adhesion-wet.svg").exists());
+    // Bad input: exit 2 with the flag named.
+    let bad = Command::new(env!("CARGO_BIN_EXE_sim-host"))
+        .args(["adhesion", "--condition", "wet", "--v-mps=-3", "--json"])
+        .arg(&json)
+        .output()
+        .unwrap();
+    assert_eq!(bad.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("--v-mps"));
+    let bad = Command::new(env!("CARGO_BIN_EXE_sim-host"))
+        .args(["adhesion", "--condition", "ice", "--json"])
+        .arg(&json)
+        .output()
+        .unwrap();
+    assert_eq!(bad.status.code(), Some(2));
+}
