@@ -267,7 +267,8 @@ pub fn analyse(
 
     let n = periods.len().max(1) as f64;
     let (up, down) = (bytes.0 as f64 / n, bytes.1 as f64 / n);
-    let link = (up + down) * 10.0 / f64::from(ctx.baud.max(1)) * 1e9 / t;
+    let bits = wheelset_proto::link::BITS_PER_BYTE as f64;
+    let link = (up + down) * bits / f64::from(ctx.baud.max(1)) * 1e9 / t;
     let cpu_mean = exec_ns.mean / t;
     let cpu_max = exec_ns.max / t;
     let mut checks = Vec::new();

@@ -57,10 +57,11 @@ fn outcome(before: &Status, after: &Status) -> Option<Result<(), FrameError>> {
     }
 }
 
-/// Worst-case Sensor frame (velocity only) on the wire, bytes (the proto `sizes` test).
-pub const SENSOR_WORST_BYTES: usize = 33;
-/// Worst-case Actuation frame on the wire, bytes.
-pub const ACTUATION_WORST_BYTES: usize = 28;
+/// Worst-case Sensor frame (one lateral value) on the wire, bytes: the wire crate's
+/// [`wheelset_proto::SENSOR_ONE_LATERAL_MAX_FRAME`].
+pub const SENSOR_WORST_BYTES: usize = wheelset_proto::SENSOR_ONE_LATERAL_MAX_FRAME;
+/// Worst-case Actuation frame on the wire, bytes ([`wheelset_proto::ACTUATION_MAX_FRAME`]).
+pub const ACTUATION_WORST_BYTES: usize = wheelset_proto::ACTUATION_MAX_FRAME;
 
 /// Why the device loop cannot be built.
 #[derive(Debug, Clone, PartialEq)]

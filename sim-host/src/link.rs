@@ -27,7 +27,7 @@ use rand_pcg::Pcg64;
 use wheelset_proto::{Decoder, FrameError, Message};
 
 /// Bits on the line per byte (8N1).
-pub const BITS_PER_BYTE: u64 = 10;
+pub const BITS_PER_BYTE: u64 = wheelset_proto::link::BITS_PER_BYTE;
 /// Nanoseconds per second.
 pub const NS_PER_S: u64 = 1_000_000_000;
 
@@ -261,8 +261,8 @@ pub const DEFAULT_BAUD: u32 = 4_000_000;
 /// Default one-way latency: 2 us (UART FIFO + DMA hand-off).
 pub const DEFAULT_LATENCY_NS: u64 = 2_000;
 /// Share of the period the round trip may use; the rest is margin for the device's
-/// execution time and jitter.
-pub const BUDGET_SHARE: f64 = 0.85;
+/// execution time and jitter ([`wheelset_proto::link::LINK_SHARE_MAX_PERMILLE`]).
+pub const BUDGET_SHARE: f64 = wheelset_proto::link::LINK_SHARE_MAX_PERMILLE as f64 / 1000.0;
 
 impl Default for LinkConfig {
     fn default() -> Self {
@@ -312,30 +312,32 @@ impl fmt::Display for LinkBudgetError {
             BUDGET_SHARE * 100.0,
             self.period_ns as f64 / 1e3,
             self.allowed_ns as f64 / 1e3,
-            min_baud(self.up_bytes + self.down_bytes, self.latency_ns, self.period_ns)
-                .unwrap_or(f64::INFINITY),
+            wheelset_proto::link::min_baud(
+                u32::try_from(NS_PER_S / self.period_ns.max(1)).unwrap_or(u32::MAX),
+                u32::try_from(self.up_bytes).unwrap_or(u32::MAX),
+                u32::try_from(self.down_bytes).unwrap_or(u32::MAX),
+                self.latency_ns,
+                wheelset_proto::link::LINK_SHARE_MAX_PERMILLE,
+            )
+            .map_or(f64::INFINITY, f64::from),
         )
     }
 }
 
 impl std::error::Error for LinkBudgetError {}
 
-/// Time on the line for `n` bytes at `baud`, ns (rounded up).
+/// Time on the line for `n` bytes at `baud`, ns (rounded up):
+/// [`wheelset_proto::link::wire_ns`].
 #[must_use]
 pub fn wire_ns(n: usize, baud: u32) -> u64 {
-    let bits = n as u128 * u128::from(BITS_PER_BYTE) * u128::from(NS_PER_S);
-    bits.div_ceil(u128::from(baud.max(1))) as u64
-}
-
-fn min_baud(bytes: usize, latency_ns: u64, period_ns: u64) -> Option<f64> {
-    let avail = BUDGET_SHARE * period_ns as f64 - 2.0 * latency_ns as f64;
-    (avail > 0.0).then(|| bytes as f64 * BITS_PER_BYTE as f64 * 1e9 / avail)
+    wheelset_proto::link::wire_ns(n as u64, baud)
 }
 
 /// The link budget of a lock-step exchange: the sensor frame goes up, the device ticks,
 /// the actuation frame comes down, all within one period:
-/// `(up + down) bytes x 10 / baud + 2 latency <= BUDGET_SHARE x period`.
-/// Returns the round-trip time, or an error naming the numbers.
+/// `(up + down) bytes x 10 / baud + 2 latency <= BUDGET_SHARE x period`, evaluated by
+/// the one link budget, [`wheelset_proto::link::link_fits`] (at the rate
+/// `1e9 / period_ns`). Returns the round-trip time, or an error naming the numbers.
 pub fn check_budget(
     up_bytes: usize,
     down_bytes: usize,
@@ -343,20 +345,23 @@ pub fn check_budget(
     latency_ns: u64,
     period_ns: u64,
 ) -> Result<u64, LinkBudgetError> {
-    let needed_ns = wire_ns(up_bytes + down_bytes, baud) + 2 * latency_ns;
-    let allowed_ns = (BUDGET_SHARE * period_ns as f64) as u64;
-    if baud == 0 || needed_ns > allowed_ns {
-        return Err(LinkBudgetError {
+    use wheelset_proto::link::{allowed_ns, link_fits, round_trip_ns, LINK_SHARE_MAX_PERMILLE};
+    let rate_hz = u32::try_from(NS_PER_S / period_ns.max(1)).unwrap_or(u32::MAX);
+    let (up, down) = (
+        u32::try_from(up_bytes).unwrap_or(u32::MAX),
+        u32::try_from(down_bytes).unwrap_or(u32::MAX),
+    );
+    link_fits(rate_hz, baud, up, down, latency_ns, LINK_SHARE_MAX_PERMILLE).map_err(|_| {
+        LinkBudgetError {
             up_bytes,
             down_bytes,
             baud,
             latency_ns,
             period_ns,
-            needed_ns,
-            allowed_ns,
-        });
-    }
-    Ok(needed_ns)
+            needed_ns: round_trip_ns(baud, up, down, latency_ns),
+            allowed_ns: allowed_ns(rate_hz, LINK_SHARE_MAX_PERMILLE),
+        }
+    })
 }
 
 /// Identifies a frame within one direction (0, 1, 2 ... in send order).

@@ -554,17 +554,20 @@ pub const CONICITY_GRID: [f64; 5] = [0.05, 0.1, 0.2, 0.3, 0.4];
 pub const NOMINAL: (f64, f64) = (10e6, 0.2);
 
 /// Link budget assumptions: a Sensor frame in, an Actuation frame out, sequential within
-/// one period (the reply must be back before the next tick for one period of delay).
+/// one period (the reply must be back before the next tick for one period of delay),
+/// evaluated by the one link budget, [`wheelset_proto::link`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LinkBudget {
-    /// Sensor frame bytes on the wire (wheelset-proto worst case: 33).
+    /// Sensor frame bytes on the wire (`wheelset_proto::SENSOR_ONE_LATERAL_MAX_FRAME`).
     pub bytes_in: u32,
-    /// Actuation frame bytes (worst case: 28).
+    /// Actuation frame bytes (`wheelset_proto::ACTUATION_MAX_FRAME`).
     pub bytes_out: u32,
-    /// Device computation and turnaround, s.
-    pub compute_s: f64,
-    /// Largest acceptable fraction of the period.
-    pub max_utilisation: f64,
+    /// One-way latency, ns; the round trip takes it twice (5 us: 10 us per period of
+    /// device computation and turnaround).
+    pub latency_ns: u64,
+    /// Largest acceptable share of the period, permille (the design target,
+    /// [`wheelset_proto::link::LINK_SHARE_WARN_PERMILLE`]).
+    pub share_permille: u32,
     /// The baud the table quotes utilisation at.
     pub baud: u32,
 }
@@ -572,28 +575,42 @@ pub struct LinkBudget {
 impl Default for LinkBudget {
     fn default() -> Self {
         Self {
-            bytes_in: 33,
-            bytes_out: 28,
-            compute_s: 10e-6,
-            max_utilisation: 0.7,
+            bytes_in: wheelset_proto::SENSOR_ONE_LATERAL_MAX_FRAME as u32,
+            bytes_out: wheelset_proto::ACTUATION_MAX_FRAME as u32,
+            latency_ns: 5_000,
+            share_permille: wheelset_proto::link::LINK_SHARE_WARN_PERMILLE,
             baud: 2_000_000,
         }
     }
 }
 
 impl LinkBudget {
-    /// Fraction of the period `1/base_hz` used at `baud` (10 bits per byte).
+    /// Fraction of the period `1/base_hz` the round trip takes at `baud`
+    /// ([`wheelset_proto::link::round_trip_ns`]).
     pub fn utilisation(&self, base_hz: f64, baud: f64) -> f64 {
-        ((self.bytes_in + self.bytes_out) as f64 * 10.0 / baud + self.compute_s) * base_hz
+        let rt = wheelset_proto::link::round_trip_ns(
+            baud as u32,
+            self.bytes_in,
+            self.bytes_out,
+            self.latency_ns,
+        );
+        rt as f64 * base_hz / 1e9
     }
-    /// The smallest baud that keeps the utilisation at `max_utilisation`.
+    /// The smallest baud that keeps the round trip within `share_permille`
+    /// ([`wheelset_proto::link::min_baud`]; infinite if none does).
     pub fn min_baud(&self, base_hz: f64) -> f64 {
-        let t = self.max_utilisation / base_hz - self.compute_s;
-        if t <= 0.0 {
-            f64::INFINITY
-        } else {
-            (self.bytes_in + self.bytes_out) as f64 * 10.0 / t
-        }
+        wheelset_proto::link::min_baud(
+            base_hz as u32,
+            self.bytes_in,
+            self.bytes_out,
+            self.latency_ns,
+            self.share_permille,
+        )
+        .map_or(f64::INFINITY, f64::from)
+    }
+    /// [`Self::share_permille`] as a fraction.
+    pub fn max_utilisation(&self) -> f64 {
+        f64::from(self.share_permille) / 1000.0
     }
 }
 
@@ -1090,10 +1107,14 @@ mod tests {
     #[test]
     fn link_budget_arithmetic() {
         let l = LinkBudget::default();
-        // 61 bytes = 610 bits at 2 Mbaud = 305 us, + 10 us, at 2 kHz = 0.63.
+        // 61 bytes = 610 bits at 2 Mbaud = 305 us, + 2 x 5 us, at 2 kHz = 0.63.
+        assert_eq!((l.bytes_in, l.bytes_out), (33, 28));
         assert!((l.utilisation(2000.0, 2e6) - 0.63).abs() < 1e-12);
+        // The smallest baud: 610 bits / (0.7 x 200 us - 10 us) = 4.692 Mbaud.
         let b = l.min_baud(5000.0);
-        assert!((l.utilisation(5000.0, b) - 0.7).abs() < 1e-12);
+        assert_eq!(b, 4_692_308.0);
+        assert!(l.utilisation(5000.0, b) <= 0.7);
+        assert!(l.utilisation(5000.0, b - 1.0) > 0.7);
     }
 }
 
@@ -1307,8 +1328,8 @@ impl RatesReport {
             "link": {
                 "bytes_in": self.link.bytes_in,
                 "bytes_out": self.link.bytes_out,
-                "compute_s": self.link.compute_s,
-                "max_utilisation": self.link.max_utilisation,
+                "latency_ns": self.link.latency_ns,
+                "max_utilisation": self.link.max_utilisation(),
                 "baud": self.link.baud,
             },
             "criteria": {
@@ -1356,11 +1377,11 @@ impl RatesReport {
         }
         let _ = writeln!(
             s,
-            "link: {} + {} bytes x 10 bits + {:.0} us per period, <= {:.0} % (utilisation quoted at {} baud)",
+            "link: {} + {} bytes x 10 bits + 2 x {:.0} us latency per period, <= {:.0} % (utilisation quoted at {} baud)",
             self.link.bytes_in,
             self.link.bytes_out,
-            self.link.compute_s * 1e6,
-            self.link.max_utilisation * 100.0,
+            self.link.latency_ns as f64 * 1e-3,
+            self.link.max_utilisation() * 100.0,
             self.link.baud
         );
         for v in &self.variants {

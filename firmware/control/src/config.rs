@@ -410,41 +410,4 @@ impl Config {
         self.pi.discretise(self.traction_period())?;
         Ok(())
     }
-
-    /// Link budget: the fraction of one base period taken by a request frame of
-    /// `bytes_in` and a reply of `bytes_out` bytes sent one after the other at `baud`
-    /// (10 bits per byte: start, 8 data, stop), plus `compute_s` of computation.
-    pub fn link_utilisation(
-        &self,
-        bytes_in: u32,
-        bytes_out: u32,
-        baud: u32,
-        compute_s: f64,
-    ) -> f64 {
-        let t = (bytes_in + bytes_out) as f64 * 10.0 / baud as f64 + compute_s;
-        t * self.base_rate_hz as f64
-    }
-
-    /// Refuse a rate whose frames do not fit: [`Self::link_utilisation`] must be at most
-    /// `max_utilisation` (e.g. 0.7 leaves 30 % margin for jitter and the host).
-    pub fn check_link(
-        &self,
-        bytes_in: u32,
-        bytes_out: u32,
-        baud: u32,
-        compute_s: f64,
-        max_utilisation: f64,
-    ) -> Result<f64, ConfigError> {
-        let u = self.link_utilisation(bytes_in, bytes_out, baud, compute_s);
-        if u.is_finite() && u <= max_utilisation {
-            Ok(u)
-        } else {
-            Err(ConfigError::Range {
-                field: "base_rate_hz",
-                value: self.base_rate_hz as f64,
-                reason: "the frames (bytes x 10 bits / baud) plus computation do not fit in \
-                         the period with the required margin",
-            })
-        }
-    }
 }

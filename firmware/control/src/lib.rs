@@ -158,9 +158,10 @@
 //! that fits is 2.26 kHz, where the current loop is unstable: **the default needs a
 //! link of at least 5 Mbaud** (the STM32F446's USART1/6 on the 90 MHz APB2 reach
 //! 11.25 Mbaud with 8x oversampling; e.g. 6 Mbaud = 90 MHz / 15) or, at 2 Mbaud, a
-//! lower current-loop gain than the paper's. [`Config::check_link`] refuses a
-//! configuration that does not fit. 10 kHz does not fit a realistic UART with these
-//! frames. Selection rule of `sim-host rates`: the lowest base rate whose current loop
+//! lower current-loop gain than the paper's. The one link budget,
+//! `wheelset_proto::link::link_fits` (integer, `const fn`: the rate table at 70 %, the
+//! device loop and hil at 85 % of the period), refuses a configuration that does not
+//! fit. 10 kHz does not fit a realistic UART with these frames. Selection rule of `sim-host rates`: the lowest base rate whose current loop
 //! has radius <= 0.75 per tick, with no grid point destabilised by sampling and a link
 //! within 6 Mbaud, ties broken by the smaller damping loss: 5 kHz / 1 / 1 (with the
 //! compensation; without it no candidate up to 10 kHz qualifies, and 5 kHz is the

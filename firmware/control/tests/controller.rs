@@ -97,15 +97,6 @@ fn bad_configs_give_typed_errors_naming_the_field() {
 }
 
 #[test]
-fn link_budget_refuses_frames_that_do_not_fit() {
-    let c = Config::default();
-    // 40 + 40 bytes at 2 Mbaud = 400 us: never fits a 200 us period.
-    assert!(c.check_link(40, 40, 2_000_000, 20e-6, 0.7).is_err());
-    let u = c.check_link(24, 20, 10_000_000, 10e-6, 0.7).expect("fits");
-    assert!((u - (440.0 / 10e6 + 10e-6) * c.base_rate_hz as f64).abs() < 1e-12);
-}
-
-#[test]
 fn multi_rate_divisors_schedule_the_loops() {
     let cfg = Config {
         base_rate_hz: 10_000,

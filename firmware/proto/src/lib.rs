@@ -53,7 +53,9 @@ mod crc_ram;
 mod decoder;
 mod fast;
 mod frame;
+pub mod link;
 mod message;
+mod sizes;
 pub mod units;
 
 pub use crc_ram::RamCrc;
@@ -65,4 +67,8 @@ pub use frame::{
 };
 pub use message::{
     Actuation, Command, Config, Flags, Lateral, Message, Rates, Sensor, Status, YawMode,
+};
+pub use sizes::{
+    frame_len, ACTUATION_MAX_FRAME, COMMAND_MAX_FRAME, CONFIG_MAX_FRAME, SENSOR_MAX_FRAME,
+    SENSOR_ONE_LATERAL_MAX_FRAME, STATUS_MAX_FRAME,
 };

@@ -29,6 +29,53 @@ fn actuation(exec: u32, t_psi_dnm: i32, u_a_cv: i32) -> Message {
     })
 }
 
+fn worst_status() -> Status {
+    Status {
+        ticks: u32::MAX,
+        rx_ok: u32::MAX,
+        rx_crc: u32::MAX,
+        rx_cobs: u32::MAX,
+        rx_version: u32::MAX,
+        rx_length: u32::MAX,
+        rx_postcard: u32::MAX,
+        rx_unexpected: u32::MAX,
+        seq_gaps: u32::MAX,
+        held_ticks: u32::MAX,
+        safe_ticks: u32::MAX,
+        safe_entries: u32::MAX,
+        safe_exits: u32::MAX,
+        yaw_sat: u32::MAX,
+        traction_sat: u32::MAX,
+        input_clamped: u32::MAX,
+        cmd_refused: u32::MAX,
+        flags: Flags(0xff),
+    }
+}
+
+fn worst_config() -> Config {
+    Config {
+        mode: YawMode::Lead,
+        traction: true,
+        enable: true,
+        hold_ticks: u16::MAX,
+        rates: Some(Rates {
+            numeric: u8::MAX,
+            fingerprint: u32::MAX,
+            base_rate_hz: u32::MAX,
+            yaw_div: u16::MAX,
+            traction_div: u16::MAX,
+            kappa: u32::MAX,
+            ki: u32::MAX,
+            predict_half: u32::MAX,
+            iref_step: u32::MAX,
+            iref_safe_step: u32::MAX,
+            torque_step: u32::MAX,
+            acc_gain_q32: u64::MAX,
+            acc_leak_q32: u64::MAX,
+        }),
+    }
+}
+
 #[test]
 fn sizes_within_budget() {
     use units::*;
@@ -62,47 +109,8 @@ fn sizes_within_budget() {
         i32::MIN,
     ));
     let a_max = len(actuation(u32::MAX, i32::MIN, i32::MIN));
-    let st_max = len(Message::Status(Status {
-        ticks: u32::MAX,
-        rx_ok: u32::MAX,
-        rx_crc: u32::MAX,
-        rx_cobs: u32::MAX,
-        rx_version: u32::MAX,
-        rx_length: u32::MAX,
-        rx_postcard: u32::MAX,
-        rx_unexpected: u32::MAX,
-        seq_gaps: u32::MAX,
-        held_ticks: u32::MAX,
-        safe_ticks: u32::MAX,
-        safe_entries: u32::MAX,
-        safe_exits: u32::MAX,
-        yaw_sat: u32::MAX,
-        traction_sat: u32::MAX,
-        input_clamped: u32::MAX,
-        cmd_refused: u32::MAX,
-        flags: Flags(0xff),
-    }));
-    let cfg_max = len(Message::Config(Config {
-        mode: YawMode::Lead,
-        traction: true,
-        enable: true,
-        hold_ticks: u16::MAX,
-        rates: Some(Rates {
-            numeric: u8::MAX,
-            fingerprint: u32::MAX,
-            base_rate_hz: u32::MAX,
-            yaw_div: u16::MAX,
-            traction_div: u16::MAX,
-            kappa: u32::MAX,
-            ki: u32::MAX,
-            predict_half: u32::MAX,
-            iref_step: u32::MAX,
-            iref_safe_step: u32::MAX,
-            torque_step: u32::MAX,
-            acc_gain_q32: u64::MAX,
-            acc_leak_q32: u64::MAX,
-        }),
-    }));
+    let st_max = len(Message::Status(worst_status()));
+    let cfg_max = len(Message::Config(worst_config()));
     println!("wire bytes incl. delimiter: sensor typical {s_typ}, worst {s_max} (both lateral: {s_both}); actuation typical {a_typ}, worst {a_max}; both typical {}, worst {}; status worst {st_max}; config with rates worst {cfg_max}; MAX_FRAME {MAX_FRAME}", s_typ + a_typ, s_max + a_max);
     // Overhead 8 (COBS 1, delimiter 1, version 1, type 1, CRC 4) + the fields: sensor
     // seq 2 + t 2 + lateral tag 1 + y' 2 + i_a 3 + speed 3 + demand 2.
@@ -112,4 +120,35 @@ fn sizes_within_budget() {
     assert!(s_both <= 40 && a_max <= 30);
     assert!(st_max <= MAX_FRAME);
     assert!(cfg_max <= MAX_FRAME, "config {cfg_max}");
+}
+
+/// The worst cases are the constants of the crate (every link budget uses them) and
+/// each is reached: the longest encoding of each message.
+#[test]
+fn worst_cases_are_the_crate_constants() {
+    let m = i32::MIN;
+    let s = |lateral| len(sensor(lateral, m, m, m));
+    assert_eq!(s(Lateral::Velocity(m)), SENSOR_ONE_LATERAL_MAX_FRAME);
+    assert_eq!(s(Lateral::Acceleration(m)), SENSOR_ONE_LATERAL_MAX_FRAME);
+    assert_eq!(
+        s(Lateral::Both {
+            vel_um_s: m,
+            acc_dmm_s2: m
+        }),
+        SENSOR_MAX_FRAME
+    );
+    assert_eq!(len(actuation(u32::MAX, m, m)), ACTUATION_MAX_FRAME);
+    for c in [Command::ResetCounters, Command::RequestStatus] {
+        assert_eq!(len(Message::Command(c)), COMMAND_MAX_FRAME);
+    }
+    assert_eq!(len(Message::Config(worst_config())), CONFIG_MAX_FRAME);
+    assert_eq!(len(Message::Status(worst_status())), STATUS_MAX_FRAME);
+    for n in [
+        SENSOR_MAX_FRAME,
+        ACTUATION_MAX_FRAME,
+        CONFIG_MAX_FRAME,
+        STATUS_MAX_FRAME,
+    ] {
+        assert!(n <= MAX_FRAME, "{n} > MAX_FRAME {MAX_FRAME}");
+    }
 }

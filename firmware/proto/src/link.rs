@@ -1,0 +1,276 @@
+//! The link budget: the one definition of "the frames of one tick fit the period".
+//!
+//! A lock-step exchange sends the Sensor frame up, the device ticks, the Actuation frame
+//! comes down, all within one base period `T = 1/rate`:
+//!
+//! ```text
+//! needed  = ceil((up + down) bytes x BITS_PER_BYTE / baud)  + 2 latency     (ns)
+//! allowed = share x T = share_permille / 1000 x 1e9 / rate_hz               (ns)
+//! fits    <=> needed <= allowed
+//! ```
+//!
+//! `latency_ns` is the one-way latency of the link (UART FIFO, DMA hand-off, USB, the
+//! device's turnaround); the share leaves the rest of the period as margin for the
+//! device's execution time and jitter. Two shares are stated here, once:
+//! [`LINK_SHARE_MAX_PERMILLE`] (85 %, above it a configuration is refused) and
+//! [`LINK_SHARE_WARN_PERMILLE`] (70 %, the design target the rate table sizes the baud
+//! for; above it a check warns).
+//!
+//! Integer arithmetic only (exact, `u128` intermediates) and `const fn`, so a board
+//! build asserts its own link at compile time:
+//!
+//! ```
+//! use wheelset_proto::link::{link_fits, LINK_SHARE_MAX_PERMILLE};
+//! use wheelset_proto::{ACTUATION_MAX_FRAME, SENSOR_MAX_FRAME};
+//! const _: () = assert!(link_fits(
+//!     5_000, 4_000_000, SENSOR_MAX_FRAME as u32, ACTUATION_MAX_FRAME as u32, 2_000,
+//!     LINK_SHARE_MAX_PERMILLE,
+//! ).is_ok());
+//! ```
+
+/// Bits on the line per byte: start, 8 data, stop (8N1).
+pub const BITS_PER_BYTE: u64 = 10;
+
+/// The largest share of the period the round trip may take (85 %): above it a
+/// configuration is refused.
+pub const LINK_SHARE_MAX_PERMILLE: u32 = 850;
+
+/// The design target (70 %): the rate table sizes the baud for it, and a measured
+/// utilisation above it is a warning.
+pub const LINK_SHARE_WARN_PERMILLE: u32 = 700;
+
+const NS_PER_S: u128 = 1_000_000_000;
+
+/// Why a link does not carry the exchange.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum LinkError {
+    /// The rate is zero.
+    ZeroRate,
+    /// The baud is zero.
+    ZeroBaud,
+    /// The share is zero or above 1000 permille.
+    Share,
+    /// The round trip does not fit.
+    TooSlow {
+        /// Round-trip time needed, ns.
+        needed_ns: u64,
+        /// Round-trip time allowed (the share of the period), ns.
+        allowed_ns: u64,
+    },
+}
+
+impl core::fmt::Display for LinkError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::ZeroRate => write!(f, "link budget: the rate is 0 Hz"),
+            Self::ZeroBaud => write!(f, "link budget: the baud is 0"),
+            Self::Share => write!(f, "link budget: the share must be 1 ..= 1000 permille"),
+            Self::TooSlow {
+                needed_ns,
+                allowed_ns,
+            } => write!(
+                f,
+                "link budget exceeded: the round trip needs {needed_ns} ns, the period \
+                 allows {allowed_ns} ns"
+            ),
+        }
+    }
+}
+
+#[cfg(feature = "std")]
+impl std::error::Error for LinkError {}
+
+/// Time on the line for `bytes` at `baud`, ns, rounded up:
+/// `ceil(bytes x BITS_PER_BYTE x 1e9 / baud)` (`u64::MAX` for baud 0, saturating).
+#[must_use]
+pub const fn wire_ns(bytes: u64, baud: u32) -> u64 {
+    if baud == 0 {
+        return u64::MAX;
+    }
+    let bits = bytes as u128 * BITS_PER_BYTE as u128 * NS_PER_S;
+    let ns = bits.div_ceil(baud as u128);
+    if ns > u64::MAX as u128 {
+        u64::MAX
+    } else {
+        ns as u64
+    }
+}
+
+/// The round trip of one tick, ns: `wire_ns(up + down, baud) + 2 latency_ns`
+/// (saturating).
+#[must_use]
+pub const fn round_trip_ns(baud: u32, up_bytes: u32, down_bytes: u32, latency_ns: u64) -> u64 {
+    wire_ns(up_bytes as u64 + down_bytes as u64, baud).saturating_add(latency_ns.saturating_mul(2))
+}
+
+/// The share of the period allowed, ns: `floor(share_permille x 1e6 / rate_hz)`
+/// (0 for rate 0).
+#[must_use]
+pub const fn allowed_ns(rate_hz: u32, share_permille: u32) -> u64 {
+    if rate_hz == 0 {
+        return 0;
+    }
+    (share_permille as u128 * 1_000_000 / rate_hz as u128) as u64
+}
+
+/// Whether the frames of one tick (`up_bytes` host -> device, `down_bytes` back) plus
+/// twice the one-way `latency_ns` fit `share_permille` of the period at `rate_hz` on a
+/// `baud` link (see the module docs for the equation). Returns the round-trip time, ns.
+///
+/// The comparison is exact: `needed x rate x 1000 <= share x 1e9`.
+pub const fn link_fits(
+    rate_hz: u32,
+    baud: u32,
+    up_bytes: u32,
+    down_bytes: u32,
+    latency_ns: u64,
+    share_permille: u32,
+) -> Result<u64, LinkError> {
+    if rate_hz == 0 {
+        return Err(LinkError::ZeroRate);
+    }
+    if baud == 0 {
+        return Err(LinkError::ZeroBaud);
+    }
+    if share_permille == 0 || share_permille > 1000 {
+        return Err(LinkError::Share);
+    }
+    let needed_ns = round_trip_ns(baud, up_bytes, down_bytes, latency_ns);
+    if needed_ns as u128 * rate_hz as u128 * 1000 <= share_permille as u128 * NS_PER_S {
+        Ok(needed_ns)
+    } else {
+        Err(LinkError::TooSlow {
+            needed_ns,
+            allowed_ns: allowed_ns(rate_hz, share_permille),
+        })
+    }
+}
+
+/// The highest rate, Hz, at which the exchange fits ([`link_fits`]); 0 if none does
+/// (baud 0, share invalid, or the latency alone takes more than the share of a second).
+#[must_use]
+pub const fn max_rate_hz(
+    baud: u32,
+    up_bytes: u32,
+    down_bytes: u32,
+    latency_ns: u64,
+    share_permille: u32,
+) -> u32 {
+    if baud == 0 || share_permille == 0 || share_permille > 1000 {
+        return 0;
+    }
+    let needed = round_trip_ns(baud, up_bytes, down_bytes, latency_ns) as u128;
+    if needed == 0 {
+        return u32::MAX;
+    }
+    // rate <= share x 1e9 / (1000 needed)
+    let r = share_permille as u128 * NS_PER_S / (1000 * needed);
+    if r > u32::MAX as u128 {
+        u32::MAX
+    } else {
+        r as u32
+    }
+}
+
+/// The lowest baud at which the exchange fits at `rate_hz` ([`link_fits`]); `None` if no
+/// baud does (the latency alone takes the share, rate 0, share invalid, or above
+/// `u32::MAX` baud).
+#[must_use]
+pub const fn min_baud(
+    rate_hz: u32,
+    up_bytes: u32,
+    down_bytes: u32,
+    latency_ns: u64,
+    share_permille: u32,
+) -> Option<u32> {
+    if rate_hz == 0 || share_permille == 0 || share_permille > 1000 {
+        return None;
+    }
+    // Time left for the bytes, in units of 1 / (1000 rate) ns: share x 1e9 - 2 lat x 1000 rate.
+    let budget = share_permille as u128 * NS_PER_S;
+    let lat = latency_ns as u128 * 2 * 1000 * rate_hz as u128;
+    if lat >= budget {
+        return None;
+    }
+    let avail = budget - lat;
+    let bits = (up_bytes as u128 + down_bytes as u128) * BITS_PER_BYTE as u128;
+    // wire_ns(bits, baud) x 1000 rate <= avail  <=  bits x 1e9 x 1000 rate / baud <= avail
+    // (plus the rounding of wire_ns: search upward from the real-valued bound).
+    let mut baud = (bits * NS_PER_S * 1000 * rate_hz as u128).div_ceil(avail);
+    if baud == 0 {
+        baud = 1;
+    }
+    let mut i = 0;
+    while i < 4 {
+        if baud > u32::MAX as u128 {
+            return None;
+        }
+        if link_fits(
+            rate_hz,
+            baud as u32,
+            up_bytes,
+            down_bytes,
+            latency_ns,
+            share_permille,
+        )
+        .is_ok()
+        {
+            return Some(baud as u32);
+        }
+        baud += 1;
+        i += 1;
+    }
+    None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_default_link_fits_with_its_round_trip() {
+        // 61 bytes x 10 bits at 4 Mbaud = 152.5 us -> 152 500 ns, + 2 x 2 us.
+        assert_eq!(link_fits(5_000, 4_000_000, 33, 28, 2_000, 850), Ok(156_500));
+        // 1 Mbaud: 610 us > 170 us.
+        assert_eq!(
+            link_fits(5_000, 1_000_000, 33, 28, 2_000, 850),
+            Err(LinkError::TooSlow {
+                needed_ns: 614_000,
+                allowed_ns: 170_000
+            })
+        );
+    }
+
+    #[test]
+    fn degenerate_inputs_are_errors_not_panics() {
+        assert_eq!(link_fits(0, 1, 1, 1, 0, 850), Err(LinkError::ZeroRate));
+        assert_eq!(link_fits(1, 0, 1, 1, 0, 850), Err(LinkError::ZeroBaud));
+        assert_eq!(link_fits(1, 1, 1, 1, 0, 0), Err(LinkError::Share));
+        assert_eq!(link_fits(1, 1, 1, 1, 0, 1001), Err(LinkError::Share));
+        assert!(link_fits(u32::MAX, 1, u32::MAX, u32::MAX, u64::MAX, 1000).is_err());
+        assert_eq!(max_rate_hz(0, 1, 1, 0, 850), 0);
+        assert_eq!(min_baud(5_000, 33, 28, 100_000, 850), None);
+        assert_eq!(wire_ns(1, 0), u64::MAX);
+    }
+
+    #[test]
+    fn the_helpers_are_the_edges_of_link_fits() {
+        for (rate, up, down, lat) in [
+            (5_000u32, 33u32, 28u32, 2_000u64),
+            (3_125, 38, 28, 0),
+            (20_000, 33, 28, 500),
+            (100, 1, 1, 1_000_000),
+        ] {
+            for share in [LINK_SHARE_WARN_PERMILLE, LINK_SHARE_MAX_PERMILLE, 1000] {
+                let b = min_baud(rate, up, down, lat, share).expect("some baud");
+                assert!(link_fits(rate, b, up, down, lat, share).is_ok());
+                assert!(link_fits(rate, b - 1, up, down, lat, share).is_err());
+                let r = max_rate_hz(b, up, down, lat, share);
+                assert!(r >= rate);
+                assert!(link_fits(r, b, up, down, lat, share).is_ok());
+                assert!(link_fits(r + 1, b, up, down, lat, share).is_err());
+            }
+        }
+    }
+}

@@ -1,0 +1,44 @@
+//! Worst-case frame sizes on the wire, delimiter included: the one definition every
+//! link budget uses (pinned by `tests/sizes.rs`, which encodes each message at the
+//! values that make every varint longest).
+//!
+//! A frame is `COBS(version | type | body | CRC) 0x00`; below 254 raw bytes COBS adds
+//! exactly one byte, so a frame is `body + 8` bytes ([`frame_len`]). Field widths at
+//! their worst: `i32` (zig-zag varint) 5, `u32` varint 5, `u16` varint 3, fixed `u16` 2,
+//! fixed `u32` 4, fixed `u64` 8, `u8`/`bool`/enum tag/`Option` tag 1.
+
+use crate::frame::CRC_LEN;
+
+/// Worst-case varint widths (postcard): `u32`/`i32` 5 bytes, `u16` 3.
+const V32: usize = 5;
+const V16: usize = 3;
+
+/// Bytes on the wire of a message whose body (its fields, after the type byte) takes
+/// `body` bytes: COBS 1 + version 1 + type 1 + body + CRC + delimiter 1 (valid below 254
+/// raw bytes, where COBS adds one byte).
+#[must_use]
+pub const fn frame_len(body: usize) -> usize {
+    1 + 1 + 1 + body + CRC_LEN + 1
+}
+
+/// Sensor, `Lateral::Velocity` or `Acceleration` (one lateral value): seq 2, t 2,
+/// lateral tag 1 + 5, current 5, speed 5, demand 5.
+pub const SENSOR_ONE_LATERAL_MAX_FRAME: usize = frame_len(2 + 2 + 1 + V32 + V32 + V32 + V32);
+
+/// Any Sensor (`Lateral::Both`: two lateral values): the host -> device budget per tick.
+pub const SENSOR_MAX_FRAME: usize = SENSOR_ONE_LATERAL_MAX_FRAME + V32;
+
+/// Actuation: seq echo 2, tick 2, exec 5, flags 1, torque 5, voltage 5.
+pub const ACTUATION_MAX_FRAME: usize = frame_len(2 + 2 + V32 + 1 + V32 + V32);
+
+/// Command: the variant index, 1 byte.
+pub const COMMAND_MAX_FRAME: usize = frame_len(1);
+
+/// Config with rates: mode 1, traction 1, enable 1, hold 3, Some 1, numeric 1,
+/// fingerprint 4, base rate 5, divisors 3 + 3, six coefficients 6 x 5, two Q32 factors
+/// 2 x 8.
+pub const CONFIG_MAX_FRAME: usize =
+    frame_len(1 + 1 + 1 + V16 + 1 + 1 + 4 + V32 + 2 * V16 + 6 * V32 + 16);
+
+/// Status: 17 counters x 5, flags 1.
+pub const STATUS_MAX_FRAME: usize = frame_len(17 * V32 + 1);
