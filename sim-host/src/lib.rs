@@ -2,6 +2,7 @@
 //!
 //! - [`params`]: typed parameters with the paper's defaults, loadable from TOML.
 //! - [`scenario`]: track scenarios as data (built-in `curve`, `beating`, or a file).
+//! - [`fault`]: plant-side yaw-actuator faults (scenario data).
 //! - [`plant`]: the nonlinear model, eqs. (1)-(10) as corrected in `spec/model.md`.
 //! - [`control`]: continuous reference controllers and the [`control::SampledController`]
 //!   interface for discrete ones.
@@ -21,6 +22,7 @@ pub mod adhesion;
 pub mod control;
 pub mod device;
 pub mod error;
+pub mod fault;
 pub mod figures;
 pub mod linear;
 pub mod link;

@@ -1,7 +1,7 @@
 //! Track scenarios as data: piecewise-linear curvature and cant in time, the traction
 //! demand and running-resistance steps, parameter overrides and integration settings.
 //!
-//! Two scenarios ship in `sim-host/scenarios/` and are embedded in the binary, so
+//! Four scenarios ship in `sim-host/scenarios/` and are embedded in the binary, so
 //! `--scenario curve` works from any directory; any other argument is read as a file.
 //!
 //! ```toml
@@ -25,6 +25,9 @@
 //! start_s = 6.0
 //! end_s = 10.0
 //! condition = "low"    # dry | wet | low
+//! [actuator_fault]     # optional: the yaw actuator fails (see `fault`)
+//! t_s = 6.0
+//! mode = "off"         # off | fraction (with fraction = F) | reversed
 //! ```
 //!
 //! Adhesion: without any `[[adhesion]]` section the plant uses the paper's linear creep
@@ -35,6 +38,7 @@
 
 use crate::adhesion::{Adhesion, Condition};
 use crate::error::{from_toml, ConfigError};
+use crate::fault::{ActuatorFault, RawActuatorFault};
 use crate::params::Params;
 use serde::Deserialize;
 use std::path::Path;
@@ -47,6 +51,7 @@ pub const BUILTIN: &[(&str, &str)] = &[
         "low-adhesion",
         include_str!("../scenarios/low-adhesion.toml"),
     ),
+    ("actuator-fault", include_str!("../scenarios/actuator-fault.toml")),
 ];
 
 /// Nanoseconds per second.
@@ -139,6 +144,8 @@ pub struct Scenario {
     pub params: Params,
     /// Rail-condition sections (sorted, disjoint); empty = the linear creep law.
     pub adhesion: Vec<AdhesionSection>,
+    /// A yaw-actuator fault of the plant (`[actuator_fault]`), if any.
+    pub actuator_fault: Option<ActuatorFault>,
 }
 
 /// One `[[adhesion]]` section: a rail condition on `[t0_ns, t1_ns)`.
@@ -234,6 +241,7 @@ struct RawScenario {
     params: Option<toml::Table>,
     #[serde(default)]
     adhesion: Vec<RawAdhesion>,
+    actuator_fault: Option<RawActuatorFault>,
 }
 
 fn invalid(file: &str, key: impl Into<String>, reason: impl Into<String>) -> ConfigError {
@@ -411,6 +419,10 @@ impl Scenario {
                 condition,
             });
         }
+        let actuator_fault = match &raw.actuator_fault {
+            Some(f) => Some(f.validate(file, raw.duration_s)?),
+            None => None,
+        };
         let name = raw.name.unwrap_or_else(|| {
             Path::new(file)
                 .file_stem()
@@ -431,10 +443,12 @@ impl Scenario {
             drive: plant.drive,
             params,
             adhesion,
+            actuator_fault,
         })
     }
 
-    /// Loads `name_or_path`: a built-in name (`curve`, `beating`, `low-adhesion`) or a TOML file.
+    /// Loads `name_or_path`: a built-in name (`curve`, `beating`, `low-adhesion`,
+    /// `actuator-fault`) or a TOML file.
     pub fn load(name_or_path: &str, base: &Params) -> Result<Scenario, ConfigError> {
         if let Some((name, src)) = BUILTIN.iter().find(|(n, _)| *n == name_or_path) {
             return Self::from_toml_str(src, &format!("<builtin:{name}>"), base);

@@ -477,6 +477,14 @@ pub fn run_continuous_with(sc: &Scenario, ctrl: ContinuousController) -> Traject
         let t_ns = k * sc.dt_ns;
         let e = s.exo(t_ns);
         plant.adhesion = s.adhesion(t_ns);
+        // A scenario's actuator fault scales the (linear) yaw law: the delivered torque.
+        let ctrl = match &sc.actuator_fault {
+            Some(f) => ContinuousController {
+                k: ctrl.k * f.gain(t_ns),
+                ..ctrl
+            },
+            None => ctrl,
+        };
         if k % every == 0 {
             let u_a = if drive {
                 ctrl.voltage(&x, e.i_ref)
@@ -510,7 +518,8 @@ pub fn run_continuous_with(sc: &Scenario, ctrl: ContinuousController) -> Traject
         } else {
             0.0
         };
-        records.push(s.record(t_end, &x, &e, ctrl.yaw_torque(&x), u_a));
+        let g = sc.actuator_fault.map_or(1.0, |f| f.gain(t_end));
+        records.push(s.record(t_end, &x, &e, g * ctrl.yaw_torque(&x), u_a));
     }
     Trajectory {
         records,
@@ -711,6 +720,15 @@ pub fn run_sampled(
         f_run: e.f_run,
         t_drive: if drive { 0.0 } else { e.demand },
     };
+    // The plant's actuator: the torque it delivers for the held command (a scenario
+    // fault scales it from its time on; sampled at integrator step starts).
+    let fault = |t_ns: u64, a: &Actuation| match &sc.actuator_fault {
+        Some(f) => Actuation {
+            t_psi: f.delivered(t_ns, a.t_psi),
+            ..*a
+        },
+        None => *a,
+    };
     let e0 = s.exo(0);
     plant.adhesion = s.adhesion(0);
     let m0 = measure(
@@ -728,7 +746,8 @@ pub fn run_sampled(
         let e = s.exo(t_ns);
         plant.adhesion = s.adhesion(t_ns);
         if k < n_steps && t_ns.is_multiple_of(period) {
-            let m = measure(&plant, &x, &held, &inputs(&e, 0, &held), e.demand, e.i_ref);
+            let on = fault(t_ns, &held);
+            let m = measure(&plant, &x, &on, &inputs(&e, 0, &on), e.demand, e.i_ref);
             let m = sensor.apply(&m);
             let a = actuator.limit(ctrl.step(t_ns, &m));
             calls += 1;
@@ -742,7 +761,8 @@ pub fn run_sampled(
             pending.pop_front();
         }
         if k % every == 0 || k == n_steps {
-            let mut r = s.record(t_ns, &x, &e, held.t_psi, if drive { held.u_a } else { 0.0 });
+            let t_psi = fault(t_ns, &held).t_psi;
+            let mut r = s.record(t_ns, &x, &e, t_psi, if drive { held.u_a } else { 0.0 });
             if !drive {
                 r.u_a_v = 0.0;
             }
@@ -755,7 +775,7 @@ pub fn run_sampled(
         if k == n_steps {
             break;
         }
-        let a = held;
+        let a = fault(t_ns, &held);
         let u = [inputs(&e, 0, &a), inputs(&e, 1, &a), inputs(&e, 2, &a)];
         x = rk4_step_with(&x, h, PlantStages { plant: &plant, u });
     }
