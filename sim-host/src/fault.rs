@@ -173,7 +173,9 @@ impl RawActuatorFault {
             ("fraction", Some(f)) => {
                 return Err(invalid(
                     "fraction",
-                    format!("{f} is outside [0, 1) (1 is no fault; use mode = \"reversed\" for -1)"),
+                    format!(
+                        "{f} is outside [0, 1) (1 is no fault; use mode = \"reversed\" for -1)"
+                    ),
                 ))
             }
             ("fraction", None) => {
@@ -185,7 +187,10 @@ impl RawActuatorFault {
             ("off" | "reversed", Some(_)) => {
                 return Err(invalid(
                     "fraction",
-                    format!("only mode = \"fraction\" takes a fraction (mode is \"{}\")", self.mode),
+                    format!(
+                        "only mode = \"fraction\" takes a fraction (mode is \"{}\")",
+                        self.mode
+                    ),
                 ))
             }
             (m, _) => {
@@ -248,21 +253,52 @@ mod tests {
                 m.time_to_grow(10.0).unwrap_or(f64::NAN)
             );
             assert!(m.sigma_per_s > 0.0, "{lambda}: {m:?}");
-            assert!((m.f_hz / klingel - 1.0).abs() < 0.3, "{lambda}: {m:?} vs {klingel}");
+            assert!(
+                (m.f_hz / klingel - 1.0).abs() < 0.3,
+                "{lambda}: {m:?} vs {klingel}"
+            );
         }
     }
 
     #[test]
     fn bad_tables_are_refused_with_the_key() {
-        let key = |r: RawActuatorFault| r.validate("x.toml", 20.0).unwrap_err().key().map(String::from);
-        assert_eq!(key(raw(-1.0, "off", None)).as_deref(), Some("actuator_fault.t_s"));
-        assert_eq!(key(raw(21.0, "off", None)).as_deref(), Some("actuator_fault.t_s"));
-        assert_eq!(key(raw(1.0, "stuck", None)).as_deref(), Some("actuator_fault.mode"));
-        assert_eq!(key(raw(1.0, "fraction", None)).as_deref(), Some("actuator_fault.fraction"));
-        assert_eq!(key(raw(1.0, "fraction", Some(1.0))).as_deref(), Some("actuator_fault.fraction"));
-        assert_eq!(key(raw(1.0, "fraction", Some(f64::NAN))).as_deref(), Some("actuator_fault.fraction"));
-        assert_eq!(key(raw(1.0, "off", Some(0.5))).as_deref(), Some("actuator_fault.fraction"));
-        let ok = raw(1.5, "fraction", Some(0.5)).validate("x.toml", 20.0).unwrap();
+        let key = |r: RawActuatorFault| {
+            r.validate("x.toml", 20.0)
+                .unwrap_err()
+                .key()
+                .map(String::from)
+        };
+        assert_eq!(
+            key(raw(-1.0, "off", None)).as_deref(),
+            Some("actuator_fault.t_s")
+        );
+        assert_eq!(
+            key(raw(21.0, "off", None)).as_deref(),
+            Some("actuator_fault.t_s")
+        );
+        assert_eq!(
+            key(raw(1.0, "stuck", None)).as_deref(),
+            Some("actuator_fault.mode")
+        );
+        assert_eq!(
+            key(raw(1.0, "fraction", None)).as_deref(),
+            Some("actuator_fault.fraction")
+        );
+        assert_eq!(
+            key(raw(1.0, "fraction", Some(1.0))).as_deref(),
+            Some("actuator_fault.fraction")
+        );
+        assert_eq!(
+            key(raw(1.0, "fraction", Some(f64::NAN))).as_deref(),
+            Some("actuator_fault.fraction")
+        );
+        assert_eq!(
+            key(raw(1.0, "off", Some(0.5))).as_deref(),
+            Some("actuator_fault.fraction")
+        );
+        let ok = raw(1.5, "fraction", Some(0.5))
+            .validate("x.toml", 20.0)
+            .unwrap();
         assert_eq!(ok.mode, FaultMode::Fraction(0.5));
         assert_eq!(ok.t_on_ns, 1_500_000_000);
     }

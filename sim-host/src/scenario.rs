@@ -51,7 +51,10 @@ pub const BUILTIN: &[(&str, &str)] = &[
         "low-adhesion",
         include_str!("../scenarios/low-adhesion.toml"),
     ),
-    ("actuator-fault", include_str!("../scenarios/actuator-fault.toml")),
+    (
+        "actuator-fault",
+        include_str!("../scenarios/actuator-fault.toml"),
+    ),
 ];
 
 /// Nanoseconds per second.
