@@ -1,6 +1,7 @@
 //! The plant's yaw-actuator faults (scenario data): the run is the healthy one before the
 //! fault, and after it the wheelset hunts at the growth rate of the passive-less plant's
 //! unstable mode (`sim_host::fault::failed_actuator_mode`).
+#![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use sim_host::control::YawLaw;
 use sim_host::fault::{failed_actuator_mode, ActuatorFault, FaultMode};
