@@ -11,8 +11,12 @@
 //!   `wheelset-nucleo-f32.elf`, `wheelset-qemu-f32.elf`). Prints flash and RAM of each
 //!   against the budget (flash 24 KiB, static RAM 8 KiB) and fails above either (the f32
 //!   measurement builds: printed, not enforced).
-//! - `cargo xtask fw-bench`: builds `wheelset-qemu-bench` (fixed point and f32) and runs
-//!   it under QEMU: instructions per control-law step and per whole runtime tick.
+//! - `cargo xtask fw-bench [--json FILE]`: builds `wheelset-qemu-bench` (fixed point and
+//!   f32, for the Cortex-M4F on `mps2-an386` and the Cortex-M3 on `mps2-an385`) and runs
+//!   it under QEMU: instructions per control-law step and per whole runtime tick, and the
+//!   stack high-water mark; prints a table, and with `--json` writes
+//!   `{"cortex-m4":{"fixed":{"law":{"min","mean","max"},"tick":{..},"stack_peak_bytes":N},
+//!   "f32":{..}},"cortex-m3":{..}}`.
 
 mod elf;
 
@@ -25,6 +29,8 @@ const NO_STD_CRATES: &[&str] = &["wheelset-control", "wheelset-proto", "wheelset
 const MCU_TARGETS: &[&str] = &["thumbv7em-none-eabihf", "thumbv6m-none-eabi"];
 /// The firmware's target.
 const FW_TARGET: &str = "thumbv7em-none-eabihf";
+/// The Cortex-M3 (no FPU) of QEMU's mps2-an385: the fixed-point build where it matters.
+const M3_TARGET: &str = "thumbv7m-none-eabi";
 /// Flash budget of each firmware binary (issue 5), bytes (.vector_table + .text +
 /// .rodata + .data). Enforced.
 const FLASH_BUDGET: u64 = 24 * 1024;
@@ -33,11 +39,13 @@ const FLASH_BUDGET: u64 = 24 * 1024;
 /// Enforced.
 const RAM_BUDGET: u64 = 8 * 1024;
 
-/// One firmware binary: cargo bin name, features, and the name it gets in `target/fw`.
+/// One firmware binary: cargo bin name, features, the name it gets in `target/fw`, and
+/// the target it is built for.
 struct Firmware {
     bin: &'static str,
     features: &'static str,
     elf: &'static str,
+    target: &'static str,
 }
 
 const FIRMWARE: &[Firmware] = &[
@@ -45,11 +53,21 @@ const FIRMWARE: &[Firmware] = &[
         bin: "wheelset-nucleo",
         features: "board-nucleo",
         elf: "wheelset-nucleo.elf",
+        target: FW_TARGET,
     },
     Firmware {
         bin: "wheelset-qemu",
         features: "board-qemu",
         elf: "wheelset-qemu.elf",
+        target: FW_TARGET,
+    },
+    // The same QEMU firmware for the Cortex-M3 of mps2-an385 (same memory map, CMSDK
+    // UART0 and interrupts; no FPU): `hil run --target qemu --machine mps2-an385`.
+    Firmware {
+        bin: "wheelset-qemu",
+        features: "board-qemu",
+        elf: "wheelset-qemu-m3.elf",
+        target: M3_TARGET,
     },
 ];
 
@@ -58,11 +76,13 @@ const FIRMWARE_F32: &[Firmware] = &[
         bin: "wheelset-nucleo",
         features: "board-nucleo,f32",
         elf: "wheelset-nucleo-f32.elf",
+        target: FW_TARGET,
     },
     Firmware {
         bin: "wheelset-qemu",
         features: "board-qemu,f32",
         elf: "wheelset-qemu-f32.elf",
+        target: FW_TARGET,
     },
 ];
 
@@ -110,6 +130,7 @@ fn ensure_targets() -> Result<(), String> {
     let missing: Vec<&str> = MCU_TARGETS
         .iter()
         .copied()
+        .chain([M3_TARGET])
         .filter(|t| !installed.lines().any(|l| l.trim() == *t))
         .collect();
     if missing.is_empty() {
@@ -185,13 +206,13 @@ fn build_firmware(list: &[Firmware]) -> Result<Vec<PathBuf>, String> {
                 "--profile",
                 "fw",
                 "--target",
-                FW_TARGET,
+                fw.target,
                 "--features",
                 fw.features,
                 "--bin",
                 fw.bin,
             ]))?;
-        let built = target_dir().join(FW_TARGET).join("fw").join(fw.bin);
+        let built = target_dir().join(fw.target).join("fw").join(fw.bin);
         let dest = out_dir.join(fw.elf);
         std::fs::copy(&built, &dest)
             .map_err(|e| format!("cannot copy {} to {}: {e}", built.display(), dest.display()))?;
@@ -334,36 +355,223 @@ fn test(extra: &[String]) -> Result<(), String> {
 /// instruction counts (the firmware's `config::QEMU_ICOUNT_SHIFT`).
 const ICOUNT_SHIFT: u32 = 10;
 
-/// Builds the QEMU benchmark firmware (fixed point and f32) and runs it: instruction
-/// counts of the control-law step and of the whole runtime tick.
-fn fw_bench() -> Result<(), String> {
+/// One `fw-bench` configuration: core, numeric build, target, QEMU machine and CPU.
+struct BenchConfig {
+    core: &'static str,
+    numeric: &'static str,
+    fw: Firmware,
+    machine: &'static str,
+    cpu: &'static str,
+}
+
+/// The four configurations, in the order of the JSON and the table.
+fn bench_configs() -> [BenchConfig; 4] {
+    let bench = |features, elf, target| Firmware {
+        bin: "wheelset-qemu-bench",
+        features,
+        elf,
+        target,
+    };
+    [
+        BenchConfig {
+            core: "cortex-m4",
+            numeric: "fixed",
+            fw: bench("board-qemu", "wheelset-qemu-bench.elf", FW_TARGET),
+            machine: "mps2-an386",
+            cpu: "cortex-m4",
+        },
+        BenchConfig {
+            core: "cortex-m4",
+            numeric: "f32",
+            fw: bench("board-qemu,f32", "wheelset-qemu-bench-f32.elf", FW_TARGET),
+            machine: "mps2-an386",
+            cpu: "cortex-m4",
+        },
+        BenchConfig {
+            core: "cortex-m3",
+            numeric: "fixed",
+            fw: bench("board-qemu", "wheelset-qemu-bench-m3.elf", M3_TARGET),
+            machine: "mps2-an385",
+            cpu: "cortex-m3",
+        },
+        BenchConfig {
+            core: "cortex-m3",
+            numeric: "f32",
+            fw: bench(
+                "board-qemu,f32",
+                "wheelset-qemu-bench-m3-f32.elf",
+                M3_TARGET,
+            ),
+            machine: "mps2-an385",
+            cpu: "cortex-m3",
+        },
+    ]
+}
+
+/// Minimum, mean and maximum instructions of one measurement.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct MinMeanMax {
+    min: u64,
+    mean: u64,
+    max: u64,
+}
+
+/// What one bench run reports (its `FWBENCH` line).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct BenchResult {
+    law: MinMeanMax,
+    tick: MinMeanMax,
+    stack_peak_bytes: u64,
+}
+
+/// Parses the bench's machine-readable line,
+/// `FWBENCH law <min> <mean> <max> tick <min> <mean> <max> stack <bytes>`, out of its
+/// semihosting output.
+fn parse_bench(output: &str) -> Result<BenchResult, String> {
+    let line = output
+        .lines()
+        .find_map(|l| l.trim().strip_prefix("FWBENCH "))
+        .ok_or("the bench printed no FWBENCH line")?;
+    let w: Vec<&str> = line.split_whitespace().collect();
+    let num = |i: usize| -> Result<u64, String> {
+        w.get(i)
+            .and_then(|s| s.parse().ok())
+            .ok_or_else(|| format!("FWBENCH line `{line}`: field {i} is not a number"))
+    };
+    let key = |i: usize, k: &str| -> Result<(), String> {
+        if w.get(i) == Some(&k) {
+            Ok(())
+        } else {
+            Err(format!(
+                "FWBENCH line `{line}`: expected `{k}` at field {i}"
+            ))
+        }
+    };
+    key(0, "law")?;
+    key(4, "tick")?;
+    key(8, "stack")?;
+    if w.len() != 10 {
+        return Err(format!(
+            "FWBENCH line `{line}`: {} fields, expected 10",
+            w.len()
+        ));
+    }
+    Ok(BenchResult {
+        law: MinMeanMax {
+            min: num(1)?,
+            mean: num(2)?,
+            max: num(3)?,
+        },
+        tick: MinMeanMax {
+            min: num(5)?,
+            mean: num(6)?,
+            max: num(7)?,
+        },
+        stack_peak_bytes: num(9)?,
+    })
+}
+
+/// The issue's JSON: `{"cortex-m4":{"fixed":{..},"f32":{..}},"cortex-m3":{..}}`, each
+/// with `law` and `tick` (`min`, `mean`, `max` instructions) and `stack_peak_bytes`, plus
+/// the QEMU `machine` and the Rust `target` (extra fields).
+fn bench_json(results: &[(&BenchConfig, BenchResult)]) -> String {
+    let mmm = |m: &MinMeanMax| {
+        format!(
+            "{{\"min\":{},\"mean\":{},\"max\":{}}}",
+            m.min, m.mean, m.max
+        )
+    };
+    let mut cores: Vec<&str> = Vec::new();
+    for (c, _) in results {
+        if !cores.contains(&c.core) {
+            cores.push(c.core);
+        }
+    }
+    let per_core: Vec<String> = cores
+        .iter()
+        .map(|core| {
+            let builds: Vec<String> = results
+                .iter()
+                .filter(|(c, _)| c.core == *core)
+                .map(|(c, r)| {
+                    format!(
+                        "\"{}\":{{\"law\":{},\"tick\":{},\"stack_peak_bytes\":{},\
+                         \"machine\":\"{}\",\"target\":\"{}\"}}",
+                        c.numeric,
+                        mmm(&r.law),
+                        mmm(&r.tick),
+                        r.stack_peak_bytes,
+                        c.machine,
+                        c.fw.target
+                    )
+                })
+                .collect();
+            format!("\"{core}\":{{{}}}", builds.join(","))
+        })
+        .collect();
+    format!("{{{}}}\n", per_core.join(","))
+}
+
+/// The same figures as a table.
+fn bench_table(results: &[(&BenchConfig, BenchResult)]) -> String {
+    let mut t = String::from(
+        "| core | build | law min | law mean | law max | tick min | tick mean | tick max | stack peak B |\n\
+         |---|---|---|---|---|---|---|---|---|\n",
+    );
+    for (c, r) in results {
+        t.push_str(&format!(
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
+            c.core,
+            c.numeric,
+            r.law.min,
+            r.law.mean,
+            r.law.max,
+            r.tick.min,
+            r.tick.mean,
+            r.tick.max,
+            r.stack_peak_bytes
+        ));
+    }
+    t
+}
+
+/// `fw-bench` arguments: `[--json FILE]`.
+fn parse_bench_args(args: &[String]) -> Result<Option<PathBuf>, String> {
+    let usage = "usage: cargo xtask fw-bench [--json FILE]";
+    match args {
+        [] => Ok(None),
+        [flag, file] if flag == "--json" && !file.starts_with("--") => {
+            Ok(Some(PathBuf::from(file)))
+        }
+        [flag] if flag == "--json" => Err(format!("fw-bench: --json needs a FILE ({usage})")),
+        _ => Err(format!(
+            "fw-bench: unknown arguments `{}` ({usage})",
+            args.join(" ")
+        )),
+    }
+}
+
+/// Builds the QEMU benchmark firmware (fixed point and f32, Cortex-M4 and Cortex-M3) and
+/// runs it: instruction counts of the control-law step and of the whole runtime tick,
+/// and the stack high-water mark. Prints the table; writes the JSON to `json` if given.
+fn fw_bench(json: Option<PathBuf>) -> Result<(), String> {
     ensure_targets()?;
-    let benches = [
-        Firmware {
-            bin: "wheelset-qemu-bench",
-            features: "board-qemu",
-            elf: "wheelset-qemu-bench.elf",
-        },
-        Firmware {
-            bin: "wheelset-qemu-bench",
-            features: "board-qemu,f32",
-            elf: "wheelset-qemu-bench-f32.elf",
-        },
-    ];
+    let configs = bench_configs();
     let mut elfs = Vec::new();
-    for fw in &benches {
-        elfs.extend(build_firmware(std::slice::from_ref(fw))?);
+    for c in &configs {
+        elfs.extend(build_firmware(std::slice::from_ref(&c.fw))?);
     }
     if !have_qemu() {
         return Err("qemu-system-arm is not installed: `apt-get install qemu-system-arm`".into());
     }
-    for elf in &elfs {
+    let mut results = Vec::new();
+    for (c, elf) in configs.iter().zip(&elfs) {
         let mut cmd = Command::new("qemu-system-arm");
         cmd.args([
             "-machine",
-            "mps2-an386",
+            c.machine,
             "-cpu",
-            "cortex-m4",
+            c.cpu,
             "-nographic",
             "-monitor",
             "none",
@@ -376,9 +584,119 @@ fn fw_bench() -> Result<(), String> {
             "-kernel",
         ])
         .arg(elf);
-        run(&mut cmd)?;
+        eprintln!("xtask: {cmd:?}");
+        let out = cmd
+            .output()
+            .map_err(|e| format!("cannot start {cmd:?}: {e}"))?;
+        let text = String::from_utf8_lossy(&out.stdout);
+        // The human-readable lines, prefixed with the configuration.
+        for l in text.lines().filter(|l| !l.starts_with("FWBENCH ")) {
+            println!("{} {}: {l}", c.core, c.numeric);
+        }
+        if !out.status.success() {
+            return Err(format!(
+                "{cmd:?} failed with {}: {}",
+                out.status,
+                String::from_utf8_lossy(&out.stderr)
+            ));
+        }
+        let r = parse_bench(&text).map_err(|e| format!("{}: {e}", elf.display()))?;
+        results.push((c, r));
+    }
+    println!();
+    print!("{}", bench_table(&results));
+    if let Some(path) = json {
+        std::fs::write(&path, bench_json(&results))
+            .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        println!("wrote {}", path.display());
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_bench_line_parses_and_bad_ones_are_named() {
+        let out = "law ...\nFWBENCH law 40 45 90 tick 500 600 700 stack 1234\n";
+        let r = parse_bench(out).unwrap();
+        assert_eq!(
+            r,
+            BenchResult {
+                law: MinMeanMax {
+                    min: 40,
+                    mean: 45,
+                    max: 90
+                },
+                tick: MinMeanMax {
+                    min: 500,
+                    mean: 600,
+                    max: 700
+                },
+                stack_peak_bytes: 1234
+            }
+        );
+        assert!(parse_bench("nothing").unwrap_err().contains("no FWBENCH"));
+        assert!(parse_bench("FWBENCH law 1 2 x tick 1 2 3 stack 4")
+            .unwrap_err()
+            .contains("field 3"));
+        assert!(parse_bench("FWBENCH law 1 2 3 tock 1 2 3 stack 4")
+            .unwrap_err()
+            .contains("`tick`"));
+    }
+
+    #[test]
+    fn the_json_has_the_issue_structure() {
+        let configs = bench_configs();
+        let r = |k: u64| BenchResult {
+            law: MinMeanMax {
+                min: k,
+                mean: k + 1,
+                max: k + 2,
+            },
+            tick: MinMeanMax {
+                min: 10 * k,
+                mean: 10 * k + 1,
+                max: 10 * k + 2,
+            },
+            stack_peak_bytes: 100 * k,
+        };
+        let results: Vec<_> = configs
+            .iter()
+            .zip([1, 2, 3, 4])
+            .map(|(c, k)| (c, r(k)))
+            .collect();
+        let j = bench_json(&results);
+        assert!(j.starts_with(
+            "{\"cortex-m4\":{\"fixed\":{\"law\":{\"min\":1,\"mean\":2,\"max\":3},\
+             \"tick\":{\"min\":10,\"mean\":11,\"max\":12},\"stack_peak_bytes\":100,"
+        ));
+        assert!(j.contains(
+            "\"cortex-m3\":{\"fixed\":{\"law\":{\"min\":3,\"mean\":4,\"max\":5},\
+             \"tick\":{\"min\":30,\"mean\":31,\"max\":32},\"stack_peak_bytes\":300,"
+        ));
+        assert!(j.contains("},\"f32\":{\"law\":{\"min\":4,"));
+        let t = bench_table(&results);
+        assert_eq!(t.lines().count(), 6);
+        assert!(t.contains("| cortex-m3 | f32 | 4 | 5 | 6 | 40 | 41 | 42 | 400 |"));
+    }
+
+    #[test]
+    fn bench_arguments() {
+        let a = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+        assert_eq!(parse_bench_args(&a(&[])), Ok(None));
+        assert_eq!(
+            parse_bench_args(&a(&["--json", "x.json"])),
+            Ok(Some(PathBuf::from("x.json")))
+        );
+        assert!(parse_bench_args(&a(&["--json"]))
+            .unwrap_err()
+            .contains("needs a FILE"));
+        assert!(parse_bench_args(&a(&["--jsn", "x"]))
+            .unwrap_err()
+            .contains("unknown"));
+    }
 }
 
 fn main() -> ExitCode {
@@ -386,9 +704,17 @@ fn main() -> ExitCode {
     let result = match args.first().map(String::as_str) {
         Some("test") => test(&args[1..]),
         Some("fw") => fw(&args[1..]).map(|_| ()),
-        Some("fw-bench") => fw_bench(),
+        Some("fw-bench") => match parse_bench_args(&args[1..]) {
+            Ok(json) => fw_bench(json),
+            Err(e) => {
+                eprintln!("xtask: {e}");
+                return ExitCode::from(2);
+            }
+        },
         _ => {
-            eprintln!("usage: cargo xtask <test [cargo test args]|fw [--f32]|fw-bench>");
+            eprintln!(
+                "usage: cargo xtask <test [cargo test args]|fw [--f32]|fw-bench [--json FILE]>"
+            );
             return ExitCode::from(2);
         }
     };

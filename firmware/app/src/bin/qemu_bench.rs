@@ -1,7 +1,15 @@
 //! Instruction counts of the control law and of the whole runtime tick on the emulated
 //! Cortex-M4 (QEMU `mps2-an386`, `-icount shift=10`: SysTick counts convert exactly to
-//! instructions). Run with `cargo xtask fw-bench` (fixed point and f32). Prints one line
-//! per measurement over semihosting, then exits QEMU.
+//! instructions). Run with `cargo xtask fw-bench` (fixed point and f32, Cortex-M4 on
+//! `mps2-an386` and Cortex-M3 on `mps2-an385`). Prints one line per measurement over
+//! semihosting, then one machine-readable line for the xtask
+//! (`FWBENCH law <min> <mean> <max> tick <min> <mean> <max> stack <bytes>`), then exits
+//! QEMU.
+//!
+//! Stack: the bench paints [`STACK_WINDOW`] bytes below its stack pointer at start-up and
+//! after the runs reports the high-water mark (`_stack_start` minus the lowest word that
+//! is no longer the paint): the deepest the whole tick's call chain (decode, control,
+//! encode) and the bench's own frames went.
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
 #[cfg(target_os = "none")]
@@ -14,6 +22,48 @@ mod bench {
     use wheelset_proto::{encode_vec, Lateral, Message, Sensor};
 
     const N: u32 = 2_000;
+
+    /// Bytes of stack painted below the stack pointer at start-up (the firmware needs a
+    /// small fraction of it; QEMU's RAM is 4 MiB).
+    pub const STACK_WINDOW: usize = 16 * 1024;
+    /// The paint: a word no pointer or small integer of the program looks like.
+    const PAINT: u32 = 0xC5AC_CE55;
+
+    extern "C" {
+        /// The initial stack pointer (cortex-m-rt's linker script: the top of RAM).
+        static _stack_start: u32;
+    }
+
+    /// Paints the window below the current stack pointer; returns its lowest address.
+    #[inline(never)]
+    #[allow(unsafe_code)]
+    fn paint_stack() -> usize {
+        let sp = cortex_m::register::msp::read() as usize;
+        // Below this function's own frame nothing is live (no interrupt is enabled).
+        let end = (sp - 64) & !3;
+        let bottom = end - STACK_WINDOW;
+        let mut a = bottom;
+        while a < end {
+            // SAFETY: `a` is word aligned and below the live stack, inside QEMU's 4 MiB
+            // RAM (above the statics: the window is far smaller than the RAM).
+            unsafe { core::ptr::write_volatile(a as *mut u32, PAINT) };
+            a += 4;
+        }
+        bottom
+    }
+
+    /// Bytes of stack used since [`paint_stack`]: from the top of the stack down to the
+    /// lowest word no longer painted.
+    #[allow(unsafe_code)]
+    fn stack_peak(bottom: usize) -> usize {
+        let top = core::ptr::addr_of!(_stack_start) as usize;
+        let mut a = bottom;
+        // SAFETY: word-aligned reads within the painted window and the live stack.
+        while a < top && unsafe { core::ptr::read_volatile(a as *const u32) } == PAINT {
+            a += 4;
+        }
+        top - a
+    }
 
     /// The control-law step: both loops, limits, safe ramp; per-unit in and out.
     #[inline(never)]
@@ -57,6 +107,15 @@ mod bench {
             self.sum += u64::from(x);
             self.n += 1;
         }
+        /// (min, mean, max) with the stopwatch overhead removed.
+        fn figures(&self, overhead: u32) -> (u32, u64, u32) {
+            let n = u64::from(self.n.max(1));
+            (
+                self.min.saturating_sub(overhead),
+                (self.sum / n).saturating_sub(u64::from(overhead)),
+                self.max.saturating_sub(overhead),
+            )
+        }
         fn print(&self, what: &str, overhead: u32) {
             let n = u64::from(self.n.max(1));
             hprintln!(
@@ -87,6 +146,7 @@ mod bench {
     }
 
     pub fn run() -> ! {
+        let stack_bottom = paint_stack();
         let Some(core) = cortex_m::Peripherals::take() else {
             exit(debug::EXIT_FAILURE)
         };
@@ -145,6 +205,24 @@ mod bench {
         whole.print(
             "whole tick (decode sensor frame + control + encode actuation frame)",
             overhead,
+        );
+        let peak = stack_peak(stack_bottom);
+        hprintln!(
+            "stack high-water mark [{}]: {} bytes (painted window {} bytes)",
+            wheelset_fw::config::NUMERIC,
+            peak,
+            STACK_WINDOW
+        );
+        let (l, t) = (law.figures(overhead), whole.figures(overhead));
+        hprintln!(
+            "FWBENCH law {} {} {} tick {} {} {} stack {}",
+            l.0,
+            l.1,
+            l.2,
+            t.0,
+            t.1,
+            t.2,
+            peak
         );
         exit(debug::EXIT_SUCCESS)
     }
