@@ -20,6 +20,7 @@ pub mod frames;
 pub mod golden;
 pub mod inproc;
 pub mod lockstep;
+pub mod machine;
 pub mod numerics;
 pub mod qemu;
 pub mod qemu_target;

@@ -11,6 +11,7 @@ use std::process::ExitCode;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use hil::budget::{Budgets, Verdict};
 use hil::inproc::DeviceFault;
+use hil::machine::Machine;
 use hil::report;
 use hil::run::{run, Law, RunError, RunOptions, Target};
 use sim_host::link::{Faults, LinkConfig};
@@ -51,6 +52,10 @@ struct GoldenArgs {
     /// Where the target side runs: inproc or qemu.
     #[arg(long, default_value = "inproc", value_parser = parse_golden_target)]
     target: Target,
+    /// The QEMU target's emulated board: mps2-an386 (Cortex-M4F) or mps2-an385
+    /// (Cortex-M3, no FPU; `target/fw/wheelset-qemu-m3.elf`).
+    #[arg(long, default_value = "mps2-an386", value_parser = parse_machine)]
+    machine: Machine,
     /// Write the comparison (JSON).
     #[arg(long)]
     json: Option<PathBuf>,
@@ -58,6 +63,10 @@ struct GoldenArgs {
     /// from the in-process closed loop of `curve` (4.9-5.3 s) into this CSV file.
     #[arg(long)]
     record: Option<PathBuf>,
+}
+
+fn parse_machine(s: &str) -> Result<Machine, String> {
+    s.parse()
 }
 
 fn parse_golden_target(s: &str) -> Result<Target, String> {
@@ -88,6 +97,10 @@ struct RunArgs {
     /// Where the device runs: inproc, qemu or serial:PATH.
     #[arg(long, default_value = "inproc", value_parser = parse_target)]
     target: Target,
+    /// The QEMU target's emulated board: mps2-an386 (Cortex-M4F) or mps2-an385
+    /// (Cortex-M3, no FPU; `target/fw/wheelset-qemu-m3.elf`).
+    #[arg(long, default_value = "mps2-an386", value_parser = parse_machine)]
+    machine: Machine,
     /// Built-in scenario (curve, beating) or a scenario TOML file.
     #[arg(long, default_value = "curve")]
     scenario: String,
@@ -167,6 +180,12 @@ fn cmd_run(a: &RunArgs, command: &str) -> Result<Verdict, Failure> {
     if !(a.cpu_hz.is_finite() && a.cpu_hz > 0.0) {
         return Err(input("--cpu-hz: must be a positive number"));
     }
+    if a.target != Target::Qemu && a.machine != Machine::default() {
+        return Err(input(format!(
+            "--machine {}: the emulated board is for --target qemu, not {}",
+            a.machine, a.target
+        )));
+    }
     if a.target != Target::InProc {
         if a.faults != Faults::none() {
             return Err(input(format!(
@@ -207,6 +226,7 @@ fn cmd_run(a: &RunArgs, command: &str) -> Result<Verdict, Failure> {
         },
         cpu_hz: a.cpu_hz,
         timeout: std::time::Duration::from_secs(5),
+        machine: a.machine,
         progress: !a.quiet && std::io::stderr().is_terminal(),
     };
     let out = run(&opts).map_err(|e| match e {
@@ -274,6 +294,7 @@ fn cmd_golden(g: &GoldenArgs) -> Result<Verdict, Failure> {
     let vectors = golden::vectors().map_err(|e| input(format!("golden vectors: {e}")))?;
     let opts = RunOptions {
         target: g.target.clone(),
+        machine: g.machine,
         ..RunOptions::default()
     };
     let rt = wheelset_runtime::RuntimeConfig::default();

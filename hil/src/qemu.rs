@@ -24,6 +24,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
+pub use crate::machine::Machine;
+
 /// `-icount shift` used by the launcher; the firmware converts SysTick counts to
 /// instructions with the same value (`wheelset_fw::config::QEMU_ICOUNT_SHIFT`).
 pub const ICOUNT_SHIFT: u32 = 10;
@@ -94,6 +96,8 @@ pub struct QemuConfig {
     pub log: Option<PathBuf>,
     /// Read timeout of the serial link (a guest that stops answering).
     pub timeout: Duration,
+    /// The emulated board (`-machine`, `-cpu`): mps2-an386 (Cortex-M4F) by default.
+    pub machine: Machine,
 }
 
 impl QemuConfig {
@@ -103,6 +107,13 @@ impl QemuConfig {
         if let Some(p) = std::env::var_os("WHEELSET_QEMU_ELF") {
             return PathBuf::from(p);
         }
+        Self::built_elf(Machine::An386)
+    }
+
+    /// The ELF `cargo fw` builds for `machine`'s core: `target/fw/wheelset-qemu.elf`
+    /// (Cortex-M4F) or `target/fw/wheelset-qemu-m3.elf` (Cortex-M3), honouring
+    /// `$CARGO_TARGET_DIR`.
+    pub fn built_elf(machine: Machine) -> PathBuf {
         let target = std::env::var_os("CARGO_TARGET_DIR")
             .map(PathBuf::from)
             .unwrap_or_else(|| {
@@ -110,7 +121,21 @@ impl QemuConfig {
                     .join("..")
                     .join("target")
             });
-        target.join("fw").join("wheelset-qemu.elf")
+        target.join("fw").join(machine.elf_name())
+    }
+
+    /// The default configuration on `machine`: its ELF (`$WHEELSET_QEMU_ELF` for the
+    /// default machine only), no log, a 10 s timeout.
+    pub fn on(machine: Machine) -> Self {
+        Self {
+            elf: if machine == Machine::default() {
+                Self::default_elf()
+            } else {
+                Self::built_elf(machine)
+            },
+            machine,
+            ..Self::new()
+        }
     }
 
     /// The default ELF, no log, a 10 s timeout.
@@ -119,6 +144,7 @@ impl QemuConfig {
             elf: Self::default_elf(),
             log: None,
             timeout: Duration::from_secs(10),
+            machine: Machine::default(),
         }
     }
 
@@ -215,12 +241,17 @@ fn free_port() -> io::Result<u16> {
 impl Qemu {
     /// The full QEMU command line for `elf` with the serial chardev on `port`.
     pub fn command(elf: &Path, port: u16) -> Command {
+        Self::command_on(Machine::default(), elf, port)
+    }
+
+    /// [`Self::command`] on `machine`.
+    pub fn command_on(machine: Machine, elf: &Path, port: u16) -> Command {
         let mut cmd = Command::new(QEMU_BIN);
         cmd.args([
             "-machine",
-            "mps2-an386",
+            machine.name(),
             "-cpu",
-            "cortex-m4",
+            machine.cpu(),
             "-nographic",
             "-monitor",
             "none",
@@ -247,7 +278,7 @@ impl Qemu {
             Some(p) => Stdio::from(File::create(p).map_err(QemuError::Io)?),
             None => Stdio::null(),
         };
-        let mut cmd = Self::command(&cfg.elf, port);
+        let mut cmd = Self::command_on(cfg.machine, &cfg.elf, port);
         if let Some(core) = next_core() {
             let mut pinned = Command::new("taskset");
             pinned

@@ -12,7 +12,7 @@
 use std::time::Duration;
 
 use crate::lockstep::Expect;
-use crate::qemu::{Qemu, QemuConfig};
+use crate::qemu::{Machine, Qemu, QemuConfig};
 use crate::transport::{Clock, Transport, TransportError};
 
 /// The emulated board's core clock, Hz (mps2-an386: 25 MHz).
@@ -31,9 +31,20 @@ impl QemuTarget {
     /// missing. `baud` is the line rate the timing model assumes; `timeout` bounds each
     /// wait for an answer.
     pub fn start(baud: u32, cpu_hz: f64, timeout: Duration) -> Result<Self, TransportError> {
+        Self::start_on(Machine::default(), baud, cpu_hz, timeout)
+    }
+
+    /// [`Self::start`] on `machine` (mps2-an385: the Cortex-M3 build of the firmware,
+    /// `target/fw/wheelset-qemu-m3.elf`).
+    pub fn start_on(
+        machine: Machine,
+        baud: u32,
+        cpu_hz: f64,
+        timeout: Duration,
+    ) -> Result<Self, TransportError> {
         let cfg = QemuConfig {
             timeout,
-            ..QemuConfig::new()
+            ..QemuConfig::on(machine)
         };
         let q = Qemu::start(&cfg).map_err(|e| TransportError::Unavailable(e.to_string()))?;
         Ok(Self {

@@ -125,6 +125,8 @@ pub struct RunOptions {
     pub cpu_hz: f64,
     /// Longest wait for a lock-step answer.
     pub timeout: Duration,
+    /// The emulated board of the QEMU target (`--machine`).
+    pub machine: crate::machine::Machine,
     /// Show a progress bar.
     pub progress: bool,
 }
@@ -142,6 +144,7 @@ impl Default for RunOptions {
             pace: Pace::RealTime,
             cpu_hz: DEFAULT_CPU_HZ,
             timeout: Duration::from_secs(5),
+            machine: crate::machine::Machine::default(),
             progress: false,
         }
     }
@@ -227,7 +230,7 @@ pub fn open_transport(
             Ok(Box::new(t))
         }
         Target::Qemu => {
-            let t = QemuTarget::start(opts.link.baud, opts.cpu_hz, opts.timeout)
+            let t = QemuTarget::start_on(opts.machine, opts.link.baud, opts.cpu_hz, opts.timeout)
                 .map_err(RunError::Target)?;
             Ok(Box::new(t))
         }
