@@ -67,6 +67,7 @@ impl FromStr for Machine {
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
 

@@ -1,0 +1,356 @@
+//! `cargo xtask fw-bench [--json FILE]`: the QEMU benchmark firmware
+//! (`wheelset-qemu-bench`) built for the Cortex-M4F (`mps2-an386`) and the Cortex-M3
+//! (`mps2-an385`), fixed point and f32, run under QEMU; its `FWBENCH` lines become a
+//! table and the issue's JSON.
+
+use std::path::PathBuf;
+use std::process::Command;
+
+use crate::{
+    build_firmware, ensure_targets, have_qemu, Firmware, FW_TARGET, ICOUNT_SHIFT, M3_TARGET,
+};
+
+/// One `fw-bench` configuration: core, numeric build, target, QEMU machine and CPU.
+struct BenchConfig {
+    core: &'static str,
+    numeric: &'static str,
+    fw: Firmware,
+    machine: &'static str,
+    cpu: &'static str,
+}
+
+/// The four configurations, in the order of the JSON and the table.
+fn bench_configs() -> [BenchConfig; 4] {
+    let bench = |features, elf, target| Firmware {
+        bin: "wheelset-qemu-bench",
+        features,
+        elf,
+        target,
+    };
+    [
+        BenchConfig {
+            core: "cortex-m4",
+            numeric: "fixed",
+            fw: bench("board-qemu", "wheelset-qemu-bench.elf", FW_TARGET),
+            machine: "mps2-an386",
+            cpu: "cortex-m4",
+        },
+        BenchConfig {
+            core: "cortex-m4",
+            numeric: "f32",
+            fw: bench("board-qemu,f32", "wheelset-qemu-bench-f32.elf", FW_TARGET),
+            machine: "mps2-an386",
+            cpu: "cortex-m4",
+        },
+        BenchConfig {
+            core: "cortex-m3",
+            numeric: "fixed",
+            fw: bench("board-qemu", "wheelset-qemu-bench-m3.elf", M3_TARGET),
+            machine: "mps2-an385",
+            cpu: "cortex-m3",
+        },
+        BenchConfig {
+            core: "cortex-m3",
+            numeric: "f32",
+            fw: bench(
+                "board-qemu,f32",
+                "wheelset-qemu-bench-m3-f32.elf",
+                M3_TARGET,
+            ),
+            machine: "mps2-an385",
+            cpu: "cortex-m3",
+        },
+    ]
+}
+
+/// Minimum, mean and maximum instructions of one measurement.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct MinMeanMax {
+    min: u64,
+    mean: u64,
+    max: u64,
+}
+
+/// What one bench run reports (its `FWBENCH` line).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct BenchResult {
+    law: MinMeanMax,
+    tick: MinMeanMax,
+    stack_peak_bytes: u64,
+}
+
+/// Parses the bench's machine-readable line,
+/// `FWBENCH law <min> <mean> <max> tick <min> <mean> <max> stack <bytes>`, out of its
+/// semihosting output.
+fn parse_bench(output: &str) -> Result<BenchResult, String> {
+    let line = output
+        .lines()
+        .find_map(|l| l.trim().strip_prefix("FWBENCH "))
+        .ok_or("the bench printed no FWBENCH line")?;
+    let w: Vec<&str> = line.split_whitespace().collect();
+    let num = |i: usize| -> Result<u64, String> {
+        w.get(i)
+            .and_then(|s| s.parse().ok())
+            .ok_or_else(|| format!("FWBENCH line `{line}`: field {i} is not a number"))
+    };
+    let key = |i: usize, k: &str| -> Result<(), String> {
+        if w.get(i) == Some(&k) {
+            Ok(())
+        } else {
+            Err(format!(
+                "FWBENCH line `{line}`: expected `{k}` at field {i}"
+            ))
+        }
+    };
+    key(0, "law")?;
+    key(4, "tick")?;
+    key(8, "stack")?;
+    if w.len() != 10 {
+        return Err(format!(
+            "FWBENCH line `{line}`: {} fields, expected 10",
+            w.len()
+        ));
+    }
+    Ok(BenchResult {
+        law: MinMeanMax {
+            min: num(1)?,
+            mean: num(2)?,
+            max: num(3)?,
+        },
+        tick: MinMeanMax {
+            min: num(5)?,
+            mean: num(6)?,
+            max: num(7)?,
+        },
+        stack_peak_bytes: num(9)?,
+    })
+}
+
+/// The issue's JSON: `{"cortex-m4":{"fixed":{..},"f32":{..}},"cortex-m3":{..}}`, each
+/// with `law` and `tick` (`min`, `mean`, `max` instructions) and `stack_peak_bytes`, plus
+/// the QEMU `machine` and the Rust `target` (extra fields).
+fn bench_json(results: &[(&BenchConfig, BenchResult)]) -> String {
+    let mmm = |m: &MinMeanMax| {
+        format!(
+            "{{\"min\":{},\"mean\":{},\"max\":{}}}",
+            m.min, m.mean, m.max
+        )
+    };
+    let mut cores: Vec<&str> = Vec::new();
+    for (c, _) in results {
+        if !cores.contains(&c.core) {
+            cores.push(c.core);
+        }
+    }
+    let per_core: Vec<String> = cores
+        .iter()
+        .map(|core| {
+            let builds: Vec<String> = results
+                .iter()
+                .filter(|(c, _)| c.core == *core)
+                .map(|(c, r)| {
+                    format!(
+                        "\"{}\":{{\"law\":{},\"tick\":{},\"stack_peak_bytes\":{},\
+                         \"machine\":\"{}\",\"target\":\"{}\"}}",
+                        c.numeric,
+                        mmm(&r.law),
+                        mmm(&r.tick),
+                        r.stack_peak_bytes,
+                        c.machine,
+                        c.fw.target
+                    )
+                })
+                .collect();
+            format!("\"{core}\":{{{}}}", builds.join(","))
+        })
+        .collect();
+    format!("{{{}}}\n", per_core.join(","))
+}
+
+/// The same figures as a table.
+fn bench_table(results: &[(&BenchConfig, BenchResult)]) -> String {
+    let mut t = String::from(
+        "| core | build | law min | law mean | law max | tick min | tick mean | tick max | stack peak B |\n\
+         |---|---|---|---|---|---|---|---|---|\n",
+    );
+    for (c, r) in results {
+        t.push_str(&format!(
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
+            c.core,
+            c.numeric,
+            r.law.min,
+            r.law.mean,
+            r.law.max,
+            r.tick.min,
+            r.tick.mean,
+            r.tick.max,
+            r.stack_peak_bytes
+        ));
+    }
+    t
+}
+
+/// `fw-bench` arguments: `[--json FILE]`.
+pub(crate) fn parse_bench_args(args: &[String]) -> Result<Option<PathBuf>, String> {
+    let usage = "usage: cargo xtask fw-bench [--json FILE]";
+    match args {
+        [] => Ok(None),
+        [flag, file] if flag == "--json" && !file.starts_with("--") => {
+            Ok(Some(PathBuf::from(file)))
+        }
+        [flag] if flag == "--json" => Err(format!("fw-bench: --json needs a FILE ({usage})")),
+        _ => Err(format!(
+            "fw-bench: unknown arguments `{}` ({usage})",
+            args.join(" ")
+        )),
+    }
+}
+
+/// Builds the QEMU benchmark firmware (fixed point and f32, Cortex-M4 and Cortex-M3) and
+/// runs it: instruction counts of the control-law step and of the whole runtime tick,
+/// and the stack high-water mark. Prints the table; writes the JSON to `json` if given.
+pub(crate) fn fw_bench(json: Option<PathBuf>) -> Result<(), String> {
+    ensure_targets()?;
+    let configs = bench_configs();
+    let mut elfs = Vec::new();
+    for c in &configs {
+        elfs.extend(build_firmware(std::slice::from_ref(&c.fw))?);
+    }
+    if !have_qemu() {
+        return Err("qemu-system-arm is not installed: `apt-get install qemu-system-arm`".into());
+    }
+    let mut results = Vec::new();
+    for (c, elf) in configs.iter().zip(&elfs) {
+        let mut cmd = Command::new("qemu-system-arm");
+        cmd.args([
+            "-machine",
+            c.machine,
+            "-cpu",
+            c.cpu,
+            "-nographic",
+            "-monitor",
+            "none",
+            "-serial",
+            "null",
+            "-icount",
+            &format!("shift={ICOUNT_SHIFT},sleep=off"),
+            "-semihosting-config",
+            "enable=on,target=native",
+            "-kernel",
+        ])
+        .arg(elf);
+        eprintln!("xtask: {cmd:?}");
+        let out = cmd
+            .output()
+            .map_err(|e| format!("cannot start {cmd:?}: {e}"))?;
+        let text = String::from_utf8_lossy(&out.stdout);
+        // The human-readable lines, prefixed with the configuration.
+        for l in text.lines().filter(|l| !l.starts_with("FWBENCH ")) {
+            println!("{} {}: {l}", c.core, c.numeric);
+        }
+        if !out.status.success() {
+            return Err(format!(
+                "{cmd:?} failed with {}: {}",
+                out.status,
+                String::from_utf8_lossy(&out.stderr)
+            ));
+        }
+        let r = parse_bench(&text).map_err(|e| format!("{}: {e}", elf.display()))?;
+        results.push((c, r));
+    }
+    println!();
+    print!("{}", bench_table(&results));
+    if let Some(path) = json {
+        std::fs::write(&path, bench_json(&results))
+            .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        println!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_bench_line_parses_and_bad_ones_are_named() {
+        let out = "law ...\nFWBENCH law 40 45 90 tick 500 600 700 stack 1234\n";
+        let r = parse_bench(out).unwrap();
+        assert_eq!(
+            r,
+            BenchResult {
+                law: MinMeanMax {
+                    min: 40,
+                    mean: 45,
+                    max: 90
+                },
+                tick: MinMeanMax {
+                    min: 500,
+                    mean: 600,
+                    max: 700
+                },
+                stack_peak_bytes: 1234
+            }
+        );
+        assert!(parse_bench("nothing").unwrap_err().contains("no FWBENCH"));
+        assert!(parse_bench("FWBENCH law 1 2 x tick 1 2 3 stack 4")
+            .unwrap_err()
+            .contains("field 3"));
+        assert!(parse_bench("FWBENCH law 1 2 3 tock 1 2 3 stack 4")
+            .unwrap_err()
+            .contains("`tick`"));
+    }
+
+    #[test]
+    fn the_json_has_the_issue_structure() {
+        let configs = bench_configs();
+        let r = |k: u64| BenchResult {
+            law: MinMeanMax {
+                min: k,
+                mean: k + 1,
+                max: k + 2,
+            },
+            tick: MinMeanMax {
+                min: 10 * k,
+                mean: 10 * k + 1,
+                max: 10 * k + 2,
+            },
+            stack_peak_bytes: 100 * k,
+        };
+        let results: Vec<_> = configs
+            .iter()
+            .zip([1, 2, 3, 4])
+            .map(|(c, k)| (c, r(k)))
+            .collect();
+        let j = bench_json(&results);
+        assert!(j.starts_with(
+            "{\"cortex-m4\":{\"fixed\":{\"law\":{\"min\":1,\"mean\":2,\"max\":3},\
+             \"tick\":{\"min\":10,\"mean\":11,\"max\":12},\"stack_peak_bytes\":100,"
+        ));
+        assert!(j.contains(
+            "\"cortex-m3\":{\"fixed\":{\"law\":{\"min\":3,\"mean\":4,\"max\":5},\
+             \"tick\":{\"min\":30,\"mean\":31,\"max\":32},\"stack_peak_bytes\":300,"
+        ));
+        assert!(j.contains("},\"f32\":{\"law\":{\"min\":4,"));
+        let t = bench_table(&results);
+        assert_eq!(t.lines().count(), 6);
+        assert!(t.contains("| cortex-m3 | f32 | 4 | 5 | 6 | 40 | 41 | 42 | 400 |"));
+    }
+
+    #[test]
+    fn bench_arguments() {
+        let a = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+        assert_eq!(parse_bench_args(&a(&[])), Ok(None));
+        assert_eq!(
+            parse_bench_args(&a(&["--json", "x.json"])),
+            Ok(Some(PathBuf::from("x.json")))
+        );
+        assert!(parse_bench_args(&a(&["--json"]))
+            .unwrap_err()
+            .contains("needs a FILE"));
+        assert!(parse_bench_args(&a(&["--jsn", "x"]))
+            .unwrap_err()
+            .contains("unknown"));
+    }
+}
