@@ -59,6 +59,10 @@ pub struct FramesReport {
     pub up: Direction,
     /// Device -> host.
     pub down: Direction,
+    /// Frames from the device discarded before the run (a free-running device talks
+    /// before the run's first Sensor frame is answered; `hil::realtime`): never applied
+    /// to the plant and not part of the sums above.
+    pub pre_run: u64,
 }
 
 impl FramesReport {
@@ -73,6 +77,7 @@ impl FramesReport {
             source: source.into(),
             up,
             down,
+            pre_run: 0,
         }
     }
 

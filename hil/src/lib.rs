@@ -4,7 +4,10 @@
 //! frame-accounting verdicts and reports.
 //!
 //! - [`transport`]: the trait; [`inproc`]: the in-process device; [`serial`]: a serial
-//!   port; [`qemu_target`]: the firmware under QEMU (launched by [`qemu`]);
+//!   port (lock-step); [`realtime`]: a free-running device paced in real time (with
+//!   [`rt_os`], what the operating system grants it); [`serve`]: `hil serve --pty`, the
+//!   free-running stand-in for a board; [`qemu_target`]: the firmware under QEMU
+//!   (launched by [`qemu`]);
 //!   [`lockstep`]: the bookkeeping of frame-clocked devices.
 //! - [`closed_loop`]: the device as the plant's sampled controller.
 //! - [`timing`], [`numerics`], [`frames`]: the checks; [`budget`]: their limits.
@@ -19,13 +22,17 @@ pub mod closed_loop;
 pub mod frames;
 pub mod golden;
 pub mod inproc;
+pub mod link_check;
 pub mod lockstep;
 pub mod machine;
 pub mod numerics;
 pub mod qemu;
 pub mod qemu_target;
+pub mod realtime;
 pub mod report;
+pub mod rt_os;
 pub mod run;
 pub mod serial;
+pub mod serve;
 pub mod timing;
 pub mod transport;

@@ -45,6 +45,35 @@ enum Cmd {
     Golden(GoldenArgs),
     /// Fixed-point accuracy audit of the control core (JSON + Markdown report).
     Audit(hil::audit::AuditArgs),
+    /// A free-running stand-in for a board: the firmware's runtime on its own clock at
+    /// the base rate behind a pseudo-terminal it creates (prints its path), answering
+    /// every tick. For `hil run --target serial:PATH` (real-time pacing).
+    Serve(ServeArgs),
+}
+
+#[derive(Args, Clone)]
+struct ServeArgs {
+    /// Create a pseudo-terminal and serve on it (the only transport so far).
+    #[arg(long, required = true)]
+    pty: bool,
+    /// Base rate at start, Hz (a host Config frame may change it, as on the board).
+    #[arg(long, default_value_t = wheelset_control::DEFAULT_BASE_RATE_HZ)]
+    rate_hz: u32,
+    /// Stop after this many seconds (default: until killed).
+    #[arg(long)]
+    duration_s: Option<f64>,
+    /// Pin the stand-in to this CPU (default: the first one allowed).
+    #[arg(long)]
+    cpu: Option<usize>,
+    /// Core clock the `exec` field is expressed in, Hz.
+    #[arg(long, default_value_t = hil::run::DEFAULT_CPU_HZ)]
+    cpu_hz: f64,
+    /// Do not ask for SCHED_FIFO, locked memory or a pinned core.
+    #[arg(long)]
+    no_rt: bool,
+    /// Write what the stand-in did (JSON) at the end.
+    #[arg(long)]
+    json: Option<PathBuf>,
 }
 
 #[derive(Args, Clone)]
@@ -142,6 +171,19 @@ struct RunArgs {
     /// Core clock of the board, Hz (converts its cycle counts to time).
     #[arg(long, default_value_t = hil::run::DEFAULT_CPU_HZ)]
     cpu_hz: f64,
+    /// Base rate of the device, Hz (default: the control core's 5000). In process the
+    /// device is built at it; a free-running serial device is configured over the wire
+    /// (rates and coefficients from `wheelset_runtime::rates_for`). The link is checked
+    /// against it before the run.
+    #[arg(long)]
+    rate_hz: Option<u32>,
+    /// Real-time pacing: pin the harness's loop to this CPU (default: the last one
+    /// allowed).
+    #[arg(long)]
+    rt_cpu: Option<usize>,
+    /// Real-time pacing: do not ask for SCHED_FIFO, locked memory or a pinned core.
+    #[arg(long)]
+    no_rt: bool,
     /// Never show the progress bar.
     #[arg(long)]
     quiet: bool,
@@ -228,6 +270,15 @@ fn cmd_run(a: &RunArgs, command: &str) -> Result<Verdict, Failure> {
         timeout: std::time::Duration::from_secs(5),
         machine: a.machine,
         progress: !a.quiet && std::io::stderr().is_terminal(),
+        rate_hz: a.rate_hz,
+        realtime: if a.no_rt {
+            hil::rt_os::Want::none()
+        } else {
+            hil::rt_os::Want::all(
+                a.rt_cpu
+                    .or_else(|| hil::rt_os::allowed_cpus().last().copied()),
+            )
+        },
     };
     let out = run(&opts).map_err(|e| match e {
         RunError::Input(m) => input(m),
@@ -355,6 +406,73 @@ fn cmd_golden(g: &GoldenArgs) -> Result<Verdict, Failure> {
     Ok(if all { Verdict::Pass } else { Verdict::Fail })
 }
 
+fn cmd_serve(a: &ServeArgs) -> Result<Verdict, Failure> {
+    use hil::serve;
+    use std::io::Write as _;
+    let duration = match a.duration_s {
+        None => None,
+        Some(d) if d.is_finite() && d > 0.0 => Some(std::time::Duration::from_secs_f64(d)),
+        Some(d) => {
+            return Err(input(format!(
+                "--duration-s {d}: must be a positive number"
+            )))
+        }
+    };
+    if !(a.cpu_hz.is_finite() && a.cpu_hz > 0.0) {
+        return Err(input("--cpu-hz: must be a positive number"));
+    }
+    let rt = serve::runtime_at(a.rate_hz).map_err(input)?;
+    let opts = serve::ServeOptions {
+        rate_hz: a.rate_hz,
+        duration,
+        cpu_hz: a.cpu_hz,
+        want: if a.no_rt {
+            hil::rt_os::Want::none()
+        } else {
+            hil::rt_os::Want::all(
+                a.cpu
+                    .or_else(|| hil::rt_os::allowed_cpus().first().copied()),
+            )
+        },
+    };
+    let (mut master, slave, path) = serve::open_pty().map_err(|e| Failure {
+        code: 3,
+        msg: format!("cannot create a pseudo-terminal: {e}"),
+    })?;
+    // The path first, alone on its line, for whoever starts the stand-in.
+    say!("{path}");
+    let _ = std::io::stdout().flush();
+    eprintln!(
+        "hil serve: the runtime (fixed point) free-running at {} Hz on {path};          `hil run --target serial:{path}`",
+        a.rate_hz
+    );
+    let stop = std::sync::atomic::AtomicBool::new(false);
+    let rep = serve::serve(&mut master, rt, &opts, &stop).map_err(|e| Failure {
+        code: 3,
+        msg: format!("{path}: {e}"),
+    })?;
+    drop(slave);
+    eprintln!(
+        "hil serve: {} ticks, {} late, {} skipped (max lateness {:.1} us), rx {} B, tx {} B, \
+         {} frames dropped, {} Hz at the end; realtime {:?}",
+        rep.ticks,
+        rep.late,
+        rep.skipped,
+        rep.max_lateness_ns as f64 * 1e-3,
+        rep.rx_bytes,
+        rep.tx_bytes,
+        rep.tx_dropped,
+        rep.rate_hz,
+        rep.realtime
+    );
+    if let Some(p) = &a.json {
+        let text = serde_json::to_string_pretty(&rep).unwrap_or_default();
+        std::fs::write(p, text + "\n")
+            .map_err(|e| input(format!("{}: cannot write: {e}", p.display())))?;
+    }
+    Ok(Verdict::Pass)
+}
+
 fn print_summary(r: &hil::run::RunReport) {
     let t = &r.timing;
     say!(
@@ -421,15 +539,35 @@ fn print_summary(r: &hil::run::RunReport) {
     }
     let f = &r.frames;
     say!(
-        "frames {} ({}): sent {} = received {} + rejected {} + dropped {} + in flight {}",
+        "frames {} ({}): sent {} = received {} + rejected {} + dropped {} + in flight {}{}",
         r.frames_verdict,
         f.source,
         f.sent,
         f.received,
         f.rejected,
         f.dropped,
-        f.in_flight
+        f.in_flight,
+        if f.pre_run > 0 {
+            format!("; {} frames before the run discarded (pre_run)", f.pre_run)
+        } else {
+            String::new()
+        }
     );
+    if let Some(h) = r.transport.as_ref().and_then(|t| t.get("host")) {
+        say!(
+            "host (real time): missed {} of {} deadlines ({} late sends, {} late receives), \
+             send lateness p99 {:.1} us; obtained {}",
+            h["missed_deadlines"],
+            h["periods"],
+            h["late_sends"],
+            h["late_receives"],
+            h["send_lateness_ns"]["p99"].as_f64().unwrap_or(0.0) * 1e-3,
+            r.transport
+                .as_ref()
+                .and_then(|t| t.get("realtime"))
+                .map_or(String::new(), ToString::to_string)
+        );
+    }
     say!("verdict: {}", r.verdict);
 }
 
@@ -447,6 +585,7 @@ fn main() -> ExitCode {
         Some(Cmd::Run(a)) => cmd_run(a, &command),
         None => cmd_run(&cli.run, &command),
         Some(Cmd::Golden(g)) => cmd_golden(g),
+        Some(Cmd::Serve(a)) => cmd_serve(a),
         Some(Cmd::Audit(a)) => match hil::audit::run(a) {
             Ok(code) => return ExitCode::from(code),
             Err(e) => Err(input(e.to_string())),

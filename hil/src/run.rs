@@ -13,8 +13,7 @@ use std::time::Duration;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 use sim_host::control::YawLaw;
-use sim_host::device::{ACTUATION_WORST_BYTES, SENSOR_WORST_BYTES};
-use sim_host::link::{check_budget, LinkConfig};
+use sim_host::link::LinkConfig;
 use sim_host::params::Params;
 use sim_host::scenario::Scenario;
 use sim_host::sim::{run_continuous, run_sampled, ActuatorModel, SensorModel, Trajectory};
@@ -27,6 +26,8 @@ use crate::frames::FramesReport;
 use crate::inproc::{DeviceFault, InProc};
 use crate::numerics::{compare, NumericsReport};
 use crate::qemu_target::QemuTarget;
+use crate::realtime::{RealTime, RealTimeOptions};
+use crate::rt_os::Want;
 use crate::serial::{Pace, Serial};
 use crate::timing::{analyse, TimingContext, TimingReport};
 use crate::transport::{Transport, TransportError};
@@ -129,6 +130,12 @@ pub struct RunOptions {
     pub machine: crate::machine::Machine,
     /// Show a progress bar.
     pub progress: bool,
+    /// Base rate of the device, Hz (None: the control core's default). The in-process
+    /// device is built at it; a device elsewhere is configured over the wire with the
+    /// rates and coefficients of `wheelset_runtime::rates_for`.
+    pub rate_hz: Option<u32>,
+    /// What the real-time loop asks of the operating system (real-time pacing).
+    pub realtime: Want,
 }
 
 impl Default for RunOptions {
@@ -146,6 +153,8 @@ impl Default for RunOptions {
             timeout: Duration::from_secs(5),
             machine: crate::machine::Machine::default(),
             progress: false,
+            rate_hz: None,
+            realtime: Want::all(crate::rt_os::allowed_cpus().last().copied()),
         }
     }
 }
@@ -234,12 +243,93 @@ pub fn open_transport(
                 .map_err(RunError::Target)?;
             Ok(Box::new(t))
         }
+        Target::Serial(p) if opts.pace == Pace::RealTime => {
+            Ok(Box::new(open_realtime(p, opts, &rt)?))
+        }
         Target::Serial(p) => {
-            let t = Serial::open(p, opts.link.baud, opts.pace, opts.cpu_hz, opts.timeout)
+            let t = Serial::open(p, opts.link.baud, opts.cpu_hz, opts.timeout)
                 .map_err(RunError::Target)?;
             Ok(Box::new(t))
         }
     }
+}
+
+/// The Config frame that puts a device elsewhere on `rt` (law, hold ticks, rates).
+pub fn device_config(rt: &RuntimeConfig) -> Result<wheelset_proto::Config, RunError> {
+    use wheelset_proto::YawMode as W;
+    let rates = wheelset_runtime::rates_for::<wheelset_control::Fx>(rt)
+        .map_err(|e| RunError::Input(format!("--rate-hz {}: {e}", rt.control.base_rate_hz)))?;
+    Ok(wheelset_proto::Config {
+        mode: match rt.control.yaw_mode {
+            wheelset_control::YawMode::Passive => W::Passive,
+            wheelset_control::YawMode::Gain => W::Gain,
+            wheelset_control::YawMode::Lead => W::Lead,
+        },
+        traction: rt.control.traction_enabled,
+        enable: rt.enable,
+        hold_ticks: rt.hold_ticks,
+        rates: Some(rates),
+    })
+}
+
+/// Opens a free-running device on `path`, configures it and locks onto its tick.
+fn open_realtime(path: &str, opts: &RunOptions, rt: &RuntimeConfig) -> Result<RealTime, RunError> {
+    let cfg = device_config(rt)?;
+    let mut t = RealTime::open(
+        path,
+        RealTimeOptions {
+            period_ns: 1_000_000_000 / u64::from(rt.control.base_rate_hz.max(1)),
+            baud: opts.link.baud,
+            cpu_hz: opts.cpu_hz,
+            timeout: opts.timeout,
+            want: opts.realtime,
+        },
+    )
+    .map_err(RunError::Target)?;
+    t.prepare(&cfg).map_err(RunError::Target)?;
+    Ok(t)
+}
+
+/// The base rate of a run: `opts.rate_hz` or the control core's default, checked for the
+/// target (a whole number of ns per period in process; of us elsewhere, as the
+/// firmware's ticker needs), then the link against it ([`crate::link_check`]).
+fn run_rate(opts: &RunOptions, default_hz: u32) -> Result<u32, RunError> {
+    let hz = opts.rate_hz.unwrap_or(default_hz);
+    let unit = if opts.target == Target::InProc {
+        1_000_000_000
+    } else {
+        1_000_000
+    };
+    if hz == 0 || unit % u64::from(hz) != 0 {
+        return Err(RunError::Input(format!(
+            "--rate-hz {hz}: the period must be a whole number of {} (a divisor of {unit} Hz)",
+            if unit == 1_000_000 {
+                "microseconds on a device's ticker"
+            } else {
+                "nanoseconds"
+            }
+        )));
+    }
+    let lockstep = matches!(opts.target, Target::Qemu)
+        || (matches!(opts.target, Target::Serial(_)) && opts.pace == Pace::LockStep);
+    if lockstep && hz != default_hz {
+        return Err(RunError::Input(format!(
+            "--rate-hz {hz}: lock-step targets run the firmware's default rate ({default_hz} Hz); \
+             another rate is configured over the wire on the in-process and real-time serial \
+             targets"
+        )));
+    }
+    crate::link_check::check(
+        opts.link.baud,
+        hz,
+        if opts.target == Target::InProc {
+            opts.link.latency_ns
+        } else {
+            sim_host::link::DEFAULT_LATENCY_NS
+        },
+    )
+    .map_err(RunError::Input)?;
+    Ok(hz)
 }
 
 /// Runs the closed loop and the checks.
@@ -248,16 +338,22 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
         .map_err(|e| RunError::Input(e.to_string()))?;
     let mut rt = RuntimeConfig::default();
     rt.control.yaw_mode = opts.control.device();
+    rt.control.base_rate_hz = run_rate(opts, rt.control.base_rate_hz)?;
     let period_ns = 1_000_000_000 / u64::from(rt.control.base_rate_hz.max(1));
-    check_budget(
-        SENSOR_WORST_BYTES,
-        ACTUATION_WORST_BYTES,
-        opts.link.baud,
-        opts.link.latency_ns,
-        period_ns,
-    )
-    .map_err(|e| RunError::Input(e.to_string()))?;
-    let mut tr = open_transport(opts, rt)?;
+    // A free-running device is held concretely: its start-up baseline is needed after.
+    let mut realtime = match &opts.target {
+        Target::Serial(p) if opts.pace == Pace::RealTime => Some(open_realtime(p, opts, &rt)?),
+        _ => None,
+    };
+    let mut other = match realtime {
+        Some(_) => None,
+        None => Some(open_transport(opts, rt)?),
+    };
+    let tr: &mut dyn Transport = match (realtime.as_mut(), other.as_mut()) {
+        (Some(r), _) => r,
+        (None, Some(b)) => b.as_mut(),
+        (None, None) => return Err(RunError::Input("no transport".into())),
+    };
     let progress = opts.progress.then(|| {
         let pb = ProgressBar::new(sc.duration_ns / 1_000_000);
         pb.set_style(
@@ -280,7 +376,7 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
         exec_ns_per_unit: tr.exec_unit().1,
     };
     let target_name = tr.name();
-    let mut ctrl = DeviceController::new(tr.as_mut(), period_ns, sc.params.k_m, progress);
+    let mut ctrl = DeviceController::new(tr, period_ns, sc.params.k_m, progress);
     let mut actuator = ActuatorModel {
         delay_ns: period_ns,
         ..ActuatorModel::ideal()
@@ -297,6 +393,8 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     .map_err(|e| RunError::Input(format!("scenario {}: {e}", sc.source)))?;
     let t_end = ctrl.periods.last().map_or(0, |p| p.t_ns + period_ns);
     ctrl.finish(t_end);
+    // The loop is over: back to the normal scheduler for the analysis.
+    crate::rt_os::release();
     if let Some(e) = ctrl.error.take() {
         return Err(RunError::Target(e));
     }
@@ -309,7 +407,7 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
         &opts.budgets.timing,
     );
     let numerics = compare(&trajectory, &reference, &opts.budgets.numerics);
-    let (periods, actuations, host, status) = (
+    let (periods, actuations, host, mut status) = (
         std::mem::take(&mut ctrl.periods),
         std::mem::take(&mut ctrl.actuations),
         ctrl.host,
@@ -319,10 +417,17 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     let sensor_codes = std::mem::take(&mut ctrl.sent_codes);
     drop(ctrl);
     let transport = tr.extra();
-    let frames = match tr.link_accounting() {
+    let link = tr.link_accounting();
+    // A free-running device's counters count from its start, not the run's.
+    let start = realtime.as_ref().and_then(RealTime::run_start);
+    if let (Some(st), Some(s)) = (&start, status.as_mut()) {
+        *s = st.relative(s);
+    }
+    let mut frames = match link {
         Some(l) => FramesReport::from_link(&l),
         None => FramesReport::from_status(status.as_ref(), &host),
     };
+    frames.pre_run = start.map_or(0, |s| s.pre_run);
     let frames_verdict = crate::frames::judge(&frames, &opts.budgets.frames);
     let verdict = timing.verdict.max(numerics.verdict).max(frames_verdict);
     Ok(RunOutcome {

@@ -4,12 +4,12 @@
 //!
 //! Two pacings:
 //! - [`Pace::RealTime`] (the default, a board whose control task runs on its own timer):
-//!   the host sends each Sensor frame when the wall clock reaches `t_k` after the start
-//!   and takes whatever arrived by `t_k + T`, stamped with its wall-clock arrival;
-//! - [`Pace::LockStep`] (a frame-clocked device, like the firmware under QEMU, or
-//!   [`serve_lockstep`] on the other end of a pseudo-terminal in the tests): the host
-//!   waits for each tick's answer (bounded by a timeout), and the timing is modelled
-//!   from the baud and the reported execution time.
+//!   [`crate::realtime::RealTime`], deadline-driven, synchronised to the device's tick;
+//! - [`Pace::LockStep`] (a frame-clocked device, like the firmware under QEMU, the
+//!   frame-clocked Nucleo build, or [`serve_lockstep`] on the other end of a
+//!   pseudo-terminal in the tests): [`Serial`], the host waits for each tick's answer
+//!   (bounded by a timeout), and the timing is modelled from the baud and the reported
+//!   execution time.
 
 use std::io::{self, Read, Write};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -31,15 +31,13 @@ pub enum Pace {
     LockStep,
 }
 
-/// A device on a serial port.
+/// A frame-clocked device on a serial port, in lock-step.
 pub struct Serial {
     path: String,
     port: Box<dyn SerialPort>,
     baud: u32,
-    pace: Pace,
     cpu_hz: f64,
     timeout: Duration,
-    start: Option<Instant>,
     expect: Expect,
 }
 
@@ -49,7 +47,6 @@ impl Serial {
     pub fn open(
         path: &str,
         baud: u32,
-        pace: Pace,
         cpu_hz: f64,
         timeout: Duration,
     ) -> Result<Self, TransportError> {
@@ -67,17 +64,10 @@ impl Serial {
             path: path.to_string(),
             port,
             baud,
-            pace,
             cpu_hz,
             timeout,
-            start: None,
             expect: Expect::new(),
         })
-    }
-
-    fn now_ns(&mut self) -> u64 {
-        let s = *self.start.get_or_insert_with(Instant::now);
-        u64::try_from(s.elapsed().as_nanos()).unwrap_or(u64::MAX)
     }
 
     fn io(&self, e: &io::Error) -> TransportError {
@@ -109,10 +99,7 @@ impl Transport for Serial {
     }
 
     fn clock(&self) -> Clock {
-        match self.pace {
-            Pace::RealTime => Clock::RealTime,
-            Pace::LockStep => Clock::LockStep,
-        }
+        Clock::LockStep
     }
 
     fn baud(&self) -> u32 {
@@ -123,13 +110,7 @@ impl Transport for Serial {
         ("cycles", 1e9 / self.cpu_hz)
     }
 
-    fn send(&mut self, t_ns: u64, bytes: &[u8]) -> Result<(), TransportError> {
-        if self.pace == Pace::RealTime {
-            let now = self.now_ns();
-            if t_ns > now {
-                std::thread::sleep(Duration::from_nanos(t_ns - now));
-            }
-        }
+    fn send(&mut self, _t_ns: u64, bytes: &[u8]) -> Result<(), TransportError> {
         self.expect.sent(bytes);
         self.port.write_all(bytes).map_err(|e| self.io(&e))
     }
@@ -140,36 +121,22 @@ impl Transport for Serial {
         sink: &mut dyn FnMut(u64, &[u8]),
     ) -> Result<(), TransportError> {
         let mut buf = [0u8; 256];
-        match self.pace {
-            Pace::RealTime => loop {
-                let n = self.read_some(&mut buf)?;
-                let at = self.now_ns();
-                if n > 0 {
-                    sink(at, &buf[..n]);
-                }
-                if at >= deadline_ns {
-                    return Ok(());
-                }
-            },
-            Pace::LockStep => {
-                let give_up = Instant::now() + self.timeout;
-                while self.expect.owed() > 0 {
-                    let n = self.read_some(&mut buf)?;
-                    if n > 0 {
-                        self.expect.received(&buf[..n]);
-                        sink(deadline_ns, &buf[..n]);
-                    } else if Instant::now() > give_up {
-                        return Err(TransportError::Timeout(format!(
-                            "serial:{}: no answer within {:?} ({} frames owed)",
-                            self.path,
-                            self.timeout,
-                            self.expect.owed()
-                        )));
-                    }
-                }
-                Ok(())
+        let give_up = Instant::now() + self.timeout;
+        while self.expect.owed() > 0 {
+            let n = self.read_some(&mut buf)?;
+            if n > 0 {
+                self.expect.received(&buf[..n]);
+                sink(deadline_ns, &buf[..n]);
+            } else if Instant::now() > give_up {
+                return Err(TransportError::Timeout(format!(
+                    "serial:{}: no answer within {:?} ({} frames owed)",
+                    self.path,
+                    self.timeout,
+                    self.expect.owed()
+                )));
             }
         }
+        Ok(())
     }
 }
 

@@ -1,0 +1,751 @@
+//! Real-time pacing against a free-running device on a serial port (a board on its own
+//! ticker, `hil serve --pty`, the firmware under QEMU on its own timer): the
+//! [`RealTime`] transport.
+//!
+//! **Deadline-driven.** Every wait is against a deadline on the host's monotonic clock:
+//! the port is polled for input with a bounded wait (at most a quarter period, never a
+//! blocking read past the deadline) until `spin` before the deadline, then with
+//! non-blocking reads until it. Each chunk is stamped at its read; bytes stamped after a
+//! period's deadline belong to the next period. Where permitted the loop runs with
+//! `SCHED_FIFO`, locked memory and a pinned core ([`crate::rt_os`]); what was obtained
+//! is reported.
+//!
+//! **Host deadlines apart from the device's answers.** A Sensor frame written more than
+//! a quarter period after its instant `t_k`, or a receive deadline overshot by as much,
+//! is a *host* miss (`host.missed_deadlines`); the device's late or missing answers are
+//! the timing checks' `missed_ticks` as on every target.
+//!
+//! **Start-up.** A free-running device talks before the run (a powered board sends an
+//! Actuation every tick). [`RealTime::prepare`]:
+//! 1. listens for a few periods (a silent device is refused: frame-clocked devices take
+//!    `--pace lockstep`);
+//! 2. sends the run's Config (yaw law, hold ticks, the rates computed by
+//!    `wheelset_runtime::rates_for`) with a status request, and checks that the device
+//!    applied it;
+//! 3. asks for a second Status: its counters are the *baseline* the end-of-run counters
+//!    are taken relative to ([`RunStart`]);
+//! 4. measures the device's tick phase from the arrival of its frames (the earliest
+//!    output instant `o_j - j T` over 32 ticks, `j` from the frames' tick counter) and
+//!    its period, and refuses a device that does not tick at the configured rate.
+//!
+//! The plant's clock then starts so that each Sensor frame reaches the device half a
+//! period before its tick (`lead_ns`): the Actuation echoing sample `k` arrives about
+//! `T/2 + exec + wire` after `t_k`, and a host up to `T/2` late is still in time. Every
+//! frame that arrives before the device answers the run's first Sensor frame (by
+//! echoing its `seq`) is discarded and counted (`pre_run`), never passed on. During the
+//! run the phase is re-measured every 256 device frames and the schedule follows a
+//! drifting device clock (a board's crystal against the host's).
+
+use std::collections::VecDeque;
+use std::io::{self, Read, Write};
+use std::time::{Duration, Instant};
+
+use serde::Serialize;
+use serialport::{SerialPort, TTYPort};
+use sim_host::link::wire_ns;
+use wheelset_proto::{encode_vec, Command, Config, Decoder, Flags, Message, Status};
+
+use crate::rt_os::{self, Obtained, Want};
+use crate::timing::Stats;
+use crate::transport::{Clock, Transport, TransportError};
+
+/// Device frames over which the tick phase is measured before the run.
+pub const PHASE_FRAMES: usize = 32;
+/// Device frames per phase re-measurement during the run.
+pub const TRACK_FRAMES: usize = 256;
+
+/// The run's start as the device's counters saw it (see the module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RunStart {
+    /// The device's counters just before the run.
+    pub baseline: Status,
+    /// Frames the device sent after the baseline Status and before the run's first
+    /// echo (ticks that belong to no period of the run).
+    pub ticks_before_run: u64,
+    /// Every frame discarded before the run (before and after the baseline).
+    pub pre_run: u64,
+}
+
+impl RunStart {
+    /// The end-of-run counters `end` relative to the start of the run: the fields the
+    /// frame accounting reads (ticks, received and rejected frames) less the baseline,
+    /// the ticks before the run's first echo taken off.
+    #[must_use]
+    pub fn relative(&self, end: &Status) -> Status {
+        let b = &self.baseline;
+        let d = |e: u32, s: u32| e.wrapping_sub(s);
+        let mut s = *end;
+        s.ticks = d(end.ticks, b.ticks).wrapping_sub(self.ticks_before_run as u32);
+        s.rx_ok = d(end.rx_ok, b.rx_ok);
+        s.rx_crc = d(end.rx_crc, b.rx_crc);
+        s.rx_cobs = d(end.rx_cobs, b.rx_cobs);
+        s.rx_version = d(end.rx_version, b.rx_version);
+        s.rx_length = d(end.rx_length, b.rx_length);
+        s.rx_postcard = d(end.rx_postcard, b.rx_postcard);
+        s
+    }
+}
+
+/// The host's own deadlines (the `host` section of the transport JSON).
+#[derive(Debug, Clone, Serialize)]
+pub struct HostDeadlines {
+    /// Periods run.
+    pub periods: u64,
+    /// Periods in which the host wrote its Sensor frame, or ended its receive, more
+    /// than a quarter period late.
+    pub missed_deadlines: u64,
+    /// `missed_deadlines / periods`.
+    pub missed_frac: f64,
+    /// Sensor frames written more than a quarter period after `t_k`.
+    pub late_sends: u64,
+    /// Receive deadlines overshot by more than a quarter period.
+    pub late_receives: u64,
+    /// Lateness of the Sensor frame's write behind `t_k`, ns.
+    pub send_lateness_ns: Stats,
+    /// Overshoot of the receive deadline, ns.
+    pub recv_overshoot_ns: Stats,
+}
+
+/// The start-up synchronisation (the `sync` section of the transport JSON).
+#[derive(Debug, Clone, Serialize, Default)]
+pub struct SyncReport {
+    /// Frames discarded before the run (never applied to the plant).
+    pub pre_run: u64,
+    /// Of these, frames after the baseline Status.
+    pub ticks_before_run: u64,
+    /// The device's period measured from its frames before the run, ns.
+    pub device_period_ns: f64,
+    /// How far ahead of the device's tick each Sensor frame is written, ns.
+    pub lead_ns: u64,
+    /// Corrections of the schedule to the device's drifting phase during the run.
+    pub phase_corrections: u64,
+    /// Their sum, ns (positive: the device's clock runs slow against the host's).
+    pub phase_correction_ns: i64,
+}
+
+/// Options of the real-time transport.
+#[derive(Debug, Clone, Copy)]
+pub struct RealTimeOptions {
+    /// Control period, ns.
+    pub period_ns: u64,
+    /// Line rate (for the wire time of frames).
+    pub baud: u32,
+    /// Core clock of the device, Hz (its `exec` cycles).
+    pub cpu_hz: f64,
+    /// The longest the host waits for a start-up answer.
+    pub timeout: Duration,
+    /// What to ask of the operating system.
+    pub want: Want,
+}
+
+/// A free-running device on a serial port, paced in real time (see the module docs).
+pub struct RealTime {
+    path: String,
+    port: TTYPort,
+    o: RealTimeOptions,
+    /// Plant time zero on the host's clock.
+    origin: Instant,
+    /// Chunks read and not yet delivered: (arrival ns after `origin`, bytes).
+    pending: VecDeque<(u64, Vec<u8>)>,
+    /// The frame being assembled from the device's bytes, with its decoder.
+    decoder: Decoder,
+    frame: Vec<u8>,
+    /// The seq of the run's first Sensor frame, once sent.
+    first_seq: Option<u16>,
+    synced: bool,
+    sync: SyncReport,
+    baseline: Option<Status>,
+    /// The last Status seen during start-up.
+    last_status: Option<Status>,
+    /// Actuation frames seen during start-up: (arrival ns, wire bytes, tick, exec).
+    seen: Vec<(u64, usize, u16, u32)>,
+    /// Phase tracking during the run: the device's output phase on the run's clock,
+    /// and the window of residuals.
+    phase_ref_ns: f64,
+    window: Vec<f64>,
+    send_late: Vec<f64>,
+    recv_over: Vec<f64>,
+    late_sends: u64,
+    late_receives: u64,
+    missed: u64,
+    period_missed: bool,
+    status_owed: bool,
+    obtained: Obtained,
+}
+
+fn io_err(path: &str, e: &io::Error) -> TransportError {
+    TransportError::Io(format!("serial:{path}: {e}"))
+}
+
+impl RealTime {
+    /// Opens `path` at `o.baud` (8N1) and asks the operating system for `o.want` on the
+    /// calling thread (the harness's loop).
+    pub fn open(path: &str, o: RealTimeOptions) -> Result<Self, TransportError> {
+        let port = serialport::new(path, o.baud)
+            .timeout(Duration::ZERO)
+            .open_native()
+            .map_err(|e| {
+                TransportError::Unavailable(format!(
+                    "serial:{path}: cannot open at {} baud: {e} (is the board connected, \
+                     and is the path right?)",
+                    o.baud
+                ))
+            })?;
+        let _ = port.clear(serialport::ClearBuffer::All);
+        let obtained = rt_os::obtain(o.want);
+        Ok(Self {
+            path: path.to_string(),
+            port,
+            o,
+            origin: Instant::now(),
+            pending: VecDeque::new(),
+            decoder: Decoder::new(),
+            frame: Vec::new(),
+            first_seq: None,
+            synced: false,
+            sync: SyncReport::default(),
+            baseline: None,
+            last_status: None,
+            seen: Vec::new(),
+            phase_ref_ns: 0.0,
+            window: Vec::with_capacity(TRACK_FRAMES),
+            send_late: Vec::new(),
+            recv_over: Vec::new(),
+            late_sends: 0,
+            late_receives: 0,
+            missed: 0,
+            period_missed: false,
+            status_owed: false,
+            obtained,
+        })
+    }
+
+    fn period(&self) -> Duration {
+        Duration::from_nanos(self.o.period_ns)
+    }
+
+    /// Spin window before a deadline: a fifth of the period, at most 80 us.
+    fn spin(&self) -> Duration {
+        Duration::from_nanos((self.o.period_ns / 5).min(80_000))
+    }
+
+    fn at_ns(&self, t: Instant) -> u64 {
+        u64::try_from(t.saturating_duration_since(self.origin).as_nanos()).unwrap_or(u64::MAX)
+    }
+
+    fn wall(&self, t_ns: u64) -> Instant {
+        self.origin + Duration::from_nanos(t_ns)
+    }
+
+    /// One read of what is there, waiting at most `wait` for it; the chunk is stamped
+    /// and filtered.
+    fn read_once(&mut self, wait: Duration) -> Result<(), TransportError> {
+        let mut buf = [0u8; 512];
+        let _ = self.port.set_timeout(wait);
+        match self.port.read(&mut buf) {
+            Ok(0) => Ok(()),
+            Ok(n) => {
+                let at = self.at_ns(Instant::now());
+                self.ingest(at, buf.get(..n).unwrap_or(&[]));
+                Ok(())
+            }
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    io::ErrorKind::TimedOut
+                        | io::ErrorKind::WouldBlock
+                        | io::ErrorKind::Interrupted
+                ) =>
+            {
+                Ok(())
+            }
+            Err(e) => Err(io_err(&self.path, &e)),
+        }
+    }
+
+    /// Reads until `deadline`: bounded waits for input up to `spin` before it, then
+    /// non-blocking reads.
+    fn wait_until(&mut self, deadline: Instant) -> Result<(), TransportError> {
+        let max_block = self.period() / 4;
+        let spin = self.spin();
+        loop {
+            let now = Instant::now();
+            if now >= deadline {
+                return Ok(());
+            }
+            let left = deadline - now;
+            let wait = if left > spin {
+                (left - spin).min(max_block)
+            } else {
+                Duration::ZERO
+            };
+            self.read_once(wait)?;
+        }
+    }
+
+    /// Splits the device's bytes into frames; before the run's first echo every frame is
+    /// examined and discarded (counted), from it on every byte is passed on.
+    fn ingest(&mut self, at: u64, bytes: &[u8]) {
+        for &b in bytes {
+            self.frame.push(b);
+            let Some(r) = self.decoder.push(b) else {
+                continue;
+            };
+            let frame = std::mem::take(&mut self.frame);
+            let n = frame.len();
+            match r {
+                Ok(Message::Actuation(a)) => {
+                    if !self.synced && self.first_seq.is_some_and(|s| a.seq_echo == s && s != 0) {
+                        self.synced = true;
+                    }
+                    if self.synced {
+                        self.track(at, n);
+                    } else {
+                        self.seen.push((at, n, a.tick, a.exec));
+                    }
+                }
+                Ok(Message::Status(s)) if !self.synced => self.last_status = Some(s),
+                _ => {}
+            }
+            if self.synced {
+                // Stamped with the arrival of the frame's last byte, as received.
+                match self.pending.back_mut() {
+                    Some((t, v)) if *t == at => v.extend_from_slice(&frame),
+                    _ => self.pending.push_back((at, frame)),
+                }
+            } else {
+                self.sync.pre_run += 1;
+                if self.baseline.is_some() {
+                    self.sync.ticks_before_run += 1;
+                }
+            }
+        }
+        // A partial frame is passed on whole when its delimiter arrives.
+    }
+
+    /// Phase tracking during the run (see the module docs): the device's output
+    /// instants modulo the period against the reference phase; every
+    /// [`TRACK_FRAMES`] frames the schedule follows the window's lower decile (robust to
+    /// frames delayed on the way and to ticks the device skipped).
+    fn track(&mut self, at: u64, wire_bytes: usize) {
+        let t = self.o.period_ns as f64;
+        let o = at as f64 - wire_ns(wire_bytes, self.o.baud) as f64;
+        self.window.push(wrap(o - self.phase_ref_ns, t));
+        if self.window.len() >= TRACK_FRAMES {
+            let drift = lower_decile(&mut self.window);
+            self.window.clear();
+            if drift.abs() > t / 50.0 {
+                // Follow at most an eighth of a period per window.
+                let step = drift.clamp(-t / 8.0, t / 8.0) as i64;
+                if step > 0 {
+                    self.origin += Duration::from_nanos(step as u64);
+                } else {
+                    self.origin -= Duration::from_nanos(step.unsigned_abs());
+                }
+                // The reference is on the run's clock, which moved with the origin.
+                self.sync.phase_corrections += 1;
+                self.sync.phase_correction_ns += step;
+            }
+        }
+    }
+
+    fn write(&mut self, bytes: &[u8]) -> Result<(), TransportError> {
+        let _ = self.port.set_timeout(self.period());
+        self.port
+            .write_all(bytes)
+            .map_err(|e| io_err(&self.path, &e))
+    }
+
+    /// Reads until a Status frame arrives after this call (at most `timeout`).
+    fn await_status(&mut self, what: &str) -> Result<Status, TransportError> {
+        self.last_status = None;
+        let give_up = Instant::now() + self.o.timeout;
+        while Instant::now() < give_up {
+            let d = Instant::now() + self.period();
+            self.wait_until(d)?;
+            if let Some(s) = self.last_status.take() {
+                return Ok(s);
+            }
+        }
+        Err(TransportError::Timeout(format!(
+            "serial:{}: no Status frame within {:?} after {what}",
+            self.path, self.o.timeout
+        )))
+    }
+
+    /// The start-up sequence (see the module docs): configures the device with `cfg`,
+    /// takes the baseline counters and locks the schedule to the device's tick phase.
+    pub fn prepare(&mut self, cfg: &Config) -> Result<(), TransportError> {
+        let t = self.o.period_ns;
+        // 1. Is anybody there, ticking on its own?
+        let listen = Instant::now() + Duration::from_nanos((4 * t).max(20_000_000));
+        self.wait_until(listen)?;
+        if self.sync.pre_run == 0 {
+            let give_up = Instant::now() + self.o.timeout;
+            while self.sync.pre_run == 0 && Instant::now() < give_up {
+                let d = Instant::now() + self.period();
+                self.wait_until(d)?;
+            }
+            if self.sync.pre_run == 0 {
+                return Err(TransportError::Timeout(format!(
+                    "serial:{}: the device sent nothing in {:?}: a free-running device \
+                     answers every tick (a frame-clocked one needs --pace lockstep)",
+                    self.path, self.o.timeout
+                )));
+            }
+        }
+        // 2. The run's configuration, checked.
+        let mut out = Vec::new();
+        for m in [
+            Message::Config(*cfg),
+            Message::Command(Command::RequestStatus),
+        ] {
+            let f = encode_vec(&m).map_err(|e| {
+                TransportError::Io(format!("cannot encode the start-up frames: {e:?}"))
+            })?;
+            out.extend_from_slice(&f);
+        }
+        self.write(&out)?;
+        let s = self.await_status("the Config frame")?;
+        if s.flags.has(Flags::CMD_REFUSED) {
+            return Err(TransportError::Unavailable(format!(
+                "serial:{}: the device refused the run's configuration (Status cmd_refused \
+                 {}): another sample type or control core than this harness's fixed-point \
+                 default, or a rate its link cannot carry",
+                self.path, s.cmd_refused
+            )));
+        }
+        // Let a re-armed ticker settle, then 3. the baseline.
+        let settle = Instant::now() + Duration::from_nanos(3 * t);
+        self.wait_until(settle)?;
+        let f = encode_vec(&Message::Command(Command::RequestStatus))
+            .map_err(|e| TransportError::Io(format!("cannot encode a status request: {e:?}")))?;
+        self.write(&f)?;
+        let b = self.await_status("the baseline status request")?;
+        self.baseline = Some(b);
+        // 4. The device's phase and period.
+        self.seen.clear();
+        let give_up = Instant::now() + self.o.timeout;
+        while self.seen.len() < PHASE_FRAMES && Instant::now() < give_up {
+            let d = Instant::now() + self.period();
+            self.wait_until(d)?;
+        }
+        let seen = std::mem::take(&mut self.seen);
+        if seen.len() < PHASE_FRAMES {
+            return Err(TransportError::Timeout(format!(
+                "serial:{}: {} of {PHASE_FRAMES} Actuation frames within {:?} after the \
+                 baseline: the device does not answer every tick",
+                self.path,
+                seen.len(),
+                self.o.timeout
+            )));
+        }
+        let tf = t as f64;
+        let outs: Vec<f64> = seen
+            .iter()
+            .map(|&(at, n, _, _)| at as f64 - wire_ns(n, self.o.baud) as f64)
+            .collect();
+        // The period: the median spacing per device tick (robust to a skipped tick).
+        let mut spacing: Vec<f64> = seen
+            .windows(2)
+            .zip(outs.windows(2))
+            .filter_map(|(s, o)| {
+                let dj = s[1].2.wrapping_sub(s[0].2);
+                (dj > 0).then(|| (o[1] - o[0]) / f64::from(dj))
+            })
+            .collect();
+        spacing.sort_by(f64::total_cmp);
+        let measured = spacing.get(spacing.len() / 2).copied().unwrap_or(0.0);
+        self.sync.device_period_ns = measured;
+        if (measured - tf).abs() > 0.1 * tf {
+            return Err(TransportError::Unavailable(format!(
+                "serial:{}: the device ticks every {:.1} us, not every {:.1} us of the run's \
+                 rate: it did not take the rate (--rate-hz) or cannot hold it",
+                self.path,
+                measured * 1e-3,
+                tf * 1e-3
+            )));
+        }
+        // The phase of its output instants: the lower decile of the residuals modulo T.
+        let first = outs.first().copied().unwrap_or(0.0);
+        let mut res: Vec<f64> = outs.iter().map(|&o| wrap(o - first, tf)).collect();
+        let phase = first + lower_decile(&mut res);
+        // Its tick: the output instant less the median reported execution time.
+        let mut execs: Vec<f64> = seen
+            .iter()
+            .map(|s| f64::from(s.3) * 1e9 / self.o.cpu_hz)
+            .collect();
+        execs.sort_by(f64::total_cmp);
+        let exec_ns = execs.get(execs.len() / 2).copied().unwrap_or(0.0);
+        // The next device tick at least two periods from now, and the first send half
+        // a period before it.
+        let now = self.at_ns(Instant::now()) as f64;
+        let mut tick_at = phase - exec_ns;
+        let k = ((now + 2.0 * tf - tick_at) / tf).ceil().max(0.0);
+        tick_at += k * tf;
+        self.sync.lead_ns = t / 2;
+        let first = (tick_at - (t / 2) as f64).max(now) as u64;
+        // The device's output phase on the run's clock (origin = `first`).
+        self.phase_ref_ns = wrap(phase - first as f64, tf);
+        self.origin += Duration::from_nanos(first);
+        // Everything read so far was re-stamped against the old origin: it is pre-run
+        // and nothing of it is pending.
+        self.pending.clear();
+        Ok(())
+    }
+
+    fn host_report(&self) -> HostDeadlines {
+        let periods = self.send_late.len() as u64;
+        HostDeadlines {
+            periods,
+            missed_deadlines: self.missed,
+            missed_frac: self.missed as f64 / periods.max(1) as f64,
+            late_sends: self.late_sends,
+            late_receives: self.late_receives,
+            send_lateness_ns: Stats::of(&self.send_late),
+            recv_overshoot_ns: Stats::of(&self.recv_over),
+        }
+    }
+
+    /// The host's deadlines so far.
+    #[must_use]
+    pub fn host_deadlines(&self) -> HostDeadlines {
+        self.host_report()
+    }
+
+    /// The start-up synchronisation so far.
+    #[must_use]
+    pub fn sync_report(&self) -> &SyncReport {
+        &self.sync
+    }
+}
+
+impl Transport for RealTime {
+    fn name(&self) -> String {
+        format!("serial:{}", self.path)
+    }
+
+    fn clock(&self) -> Clock {
+        Clock::RealTime
+    }
+
+    fn baud(&self) -> u32 {
+        self.o.baud
+    }
+
+    fn exec_unit(&self) -> (&'static str, f64) {
+        ("cycles", 1e9 / self.o.cpu_hz)
+    }
+
+    fn send(&mut self, t_ns: u64, bytes: &[u8]) -> Result<(), TransportError> {
+        // Only a Sensor frame opens a period (not the status request at the end).
+        let mut d: Decoder = Decoder::new();
+        let mut sensor = None;
+        for &b in bytes {
+            match d.push(b) {
+                Some(Ok(Message::Sensor(s))) => sensor = Some(s.seq),
+                Some(Ok(Message::Command(Command::RequestStatus))) if self.synced => {
+                    self.status_owed = true;
+                }
+                _ => {}
+            }
+        }
+        if self.first_seq.is_none() {
+            self.first_seq = sensor;
+        }
+        let target = self.wall(t_ns);
+        self.wait_until(target)?;
+        let late = Instant::now().saturating_duration_since(target).as_nanos() as f64;
+        let quarter = (self.o.period_ns / 4) as f64;
+        self.write(bytes)?;
+        if sensor.is_some() {
+            self.send_late.push(late);
+            self.period_missed = late > quarter;
+            if self.period_missed {
+                self.late_sends += 1;
+            }
+        }
+        Ok(())
+    }
+
+    fn recv(
+        &mut self,
+        deadline_ns: u64,
+        sink: &mut dyn FnMut(u64, &[u8]),
+    ) -> Result<(), TransportError> {
+        let deadline = self.wall(deadline_ns);
+        self.wait_until(deadline)?;
+        // The Status frame requested at the end of the run may come later than a
+        // period on a stalled device: wait for it (bounded), it is after the run.
+        if self.status_owed {
+            let give_up = Instant::now() + self.o.timeout;
+            while !self.pending.iter().any(|(_, f)| is_status(f)) && Instant::now() < give_up {
+                let d = Instant::now() + self.period();
+                self.wait_until(d)?;
+            }
+            self.status_owed = false;
+            while let Some((at, bytes)) = self.pending.pop_front() {
+                sink(at.min(deadline_ns), &bytes);
+            }
+            return Ok(());
+        }
+        let over = Instant::now()
+            .saturating_duration_since(deadline)
+            .as_nanos() as f64;
+        if self.recv_over.len() < self.send_late.len() {
+            self.recv_over.push(over);
+            if over > (self.o.period_ns / 4) as f64 {
+                self.late_receives += 1;
+                self.period_missed = true;
+            }
+            if std::mem::take(&mut self.period_missed) {
+                self.missed += 1;
+            }
+        }
+        while let Some((at, _)) = self.pending.front() {
+            if *at > deadline_ns {
+                break;
+            }
+            if let Some((at, bytes)) = self.pending.pop_front() {
+                sink(at, &bytes);
+            }
+        }
+        Ok(())
+    }
+
+    fn extra(&self) -> Option<serde_json::Value> {
+        Some(serde_json::json!({
+            "pace": "realtime",
+            "realtime": self.obtained,
+            "host": self.host_report(),
+            "sync": self.sync,
+        }))
+    }
+}
+
+impl RealTime {
+    /// The run's start for the frame accounting, once the baseline was taken.
+    #[must_use]
+    pub fn run_start(&self) -> Option<RunStart> {
+        self.baseline.map(|baseline| RunStart {
+            baseline,
+            ticks_before_run: self.sync.ticks_before_run,
+            pre_run: self.sync.pre_run,
+        })
+    }
+}
+
+/// Whether the frames in `bytes` hold a Status frame.
+fn is_status(bytes: &[u8]) -> bool {
+    let mut d: Decoder = Decoder::new();
+    bytes
+        .iter()
+        .any(|&b| matches!(d.push(b), Some(Ok(Message::Status(_)))))
+}
+
+/// `x` wrapped into `[-t/2, t/2)`.
+fn wrap(x: f64, t: f64) -> f64 {
+    x - t * (x / t).round()
+}
+
+/// The lower decile of `v` (reorders it; 0 when empty).
+fn lower_decile(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v.get(v.len() / 10).copied().unwrap_or(0.0)
+}
+
+/// Writes `bytes` to `port` without waiting: what does not fit now is kept in `queue`
+/// (at most `cap` bytes; a frame that does not fit whole is dropped, returns false).
+pub fn queue_frame(queue: &mut VecDeque<u8>, cap: usize, bytes: &[u8]) -> bool {
+    if queue.len() + bytes.len() > cap {
+        return false;
+    }
+    queue.extend(bytes);
+    true
+}
+
+/// Writes as much of `queue` as `port` takes now.
+pub fn flush_queue<W: Write + ?Sized>(port: &mut W, queue: &mut VecDeque<u8>) -> io::Result<()> {
+    while !queue.is_empty() {
+        let (a, _) = queue.as_slices();
+        match port.write(a) {
+            Ok(0) => return Ok(()),
+            Ok(n) => {
+                queue.drain(..n);
+            }
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    io::ErrorKind::TimedOut
+                        | io::ErrorKind::WouldBlock
+                        | io::ErrorKind::Interrupted
+                ) =>
+            {
+                return Ok(())
+            }
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_counters_are_taken_relative_to_the_baseline() {
+        let baseline = Status {
+            ticks: 1_000,
+            rx_ok: 7,
+            rx_crc: 2,
+            ..Status::default()
+        };
+        let start = RunStart {
+            baseline,
+            ticks_before_run: 3,
+            pre_run: 1_200,
+        };
+        let end = Status {
+            ticks: 3_003,
+            rx_ok: 2_008,
+            rx_crc: 2,
+            safe_ticks: 9,
+            ..Status::default()
+        };
+        let r = start.relative(&end);
+        assert_eq!((r.ticks, r.rx_ok, r.rx_crc), (2_000, 2_001, 0));
+        // Fields the accounting does not read stay as the device sent them.
+        assert_eq!(r.safe_ticks, 9);
+        // Counters wrap at 2^32.
+        let wrapped = RunStart {
+            baseline: Status {
+                ticks: u32::MAX,
+                ..Status::default()
+            },
+            ticks_before_run: 0,
+            pre_run: 0,
+        };
+        assert_eq!(
+            wrapped
+                .relative(&Status {
+                    ticks: 4,
+                    ..Status::default()
+                })
+                .ticks,
+            5
+        );
+    }
+
+    #[test]
+    fn a_frame_that_does_not_fit_the_queue_is_dropped_whole() {
+        let mut q = VecDeque::new();
+        assert!(queue_frame(&mut q, 8, &[1, 2, 3, 0]));
+        assert!(!queue_frame(&mut q, 8, &[1, 2, 3, 4, 0]));
+        assert_eq!(q.len(), 4);
+        let mut out = Vec::new();
+        flush_queue(&mut out, &mut q).unwrap_or_default();
+        assert_eq!(out, vec![1, 2, 3, 0]);
+        assert!(q.is_empty());
+    }
+}

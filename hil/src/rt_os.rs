@@ -1,0 +1,191 @@
+//! What the operating system grants a real-time loop (Linux): `SCHED_FIFO` priority,
+//! locked memory (`mlockall`) and a pinned core (`sched_setaffinity`). Each is asked for
+//! and what was obtained is reported ([`Obtained`], in the run's JSON): without the
+//! privilege (not root, no `CAP_SYS_NICE` / `RLIMIT_MEMLOCK`) the loop still runs, with
+//! the reason recorded. Elsewhere than Linux nothing is obtained.
+//!
+//! The only `unsafe` of the harness: three libc calls on the calling thread, each with
+//! its arguments built here.
+#![allow(unsafe_code)]
+
+use serde::Serialize;
+
+/// What a real-time loop asks for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Want {
+    /// `SCHED_FIFO` at this priority (1-99); `None`: the normal scheduler.
+    pub fifo_priority: Option<i32>,
+    /// Lock every current and future page in memory (no page fault in the loop).
+    pub lock_memory: bool,
+    /// Pin the calling thread to this CPU.
+    pub cpu: Option<usize>,
+}
+
+impl Want {
+    /// Everything: `SCHED_FIFO` priority 50, locked memory, and the given core.
+    #[must_use]
+    pub fn all(cpu: Option<usize>) -> Self {
+        Self {
+            fifo_priority: Some(50),
+            lock_memory: true,
+            cpu,
+        }
+    }
+
+    /// Nothing (the normal scheduler, pageable memory, any core).
+    #[must_use]
+    pub fn none() -> Self {
+        Self {
+            fifo_priority: None,
+            lock_memory: false,
+            cpu: None,
+        }
+    }
+}
+
+/// What was obtained (the `realtime` section of a run's JSON).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Default)]
+pub struct Obtained {
+    /// `SCHED_FIFO` priority obtained, if any.
+    pub sched_fifo: Option<i32>,
+    /// Whether `mlockall(MCL_CURRENT | MCL_FUTURE)` succeeded.
+    pub mlockall: bool,
+    /// The CPU the thread is pinned to, if any.
+    pub pinned_cpu: Option<usize>,
+    /// Why something asked for was not obtained.
+    pub refused: Vec<String>,
+}
+
+/// The CPUs this process may run on (empty if unknown).
+#[must_use]
+pub fn allowed_cpus() -> Vec<usize> {
+    #[cfg(target_os = "linux")]
+    {
+        // SAFETY: `set` is a plain bit set of the size passed; the kernel writes it.
+        let mut set: libc::cpu_set_t = unsafe { std::mem::zeroed() };
+        // SAFETY: pid 0 = the calling thread; the size and pointer describe `set`.
+        let r = unsafe {
+            libc::sched_getaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &raw mut set)
+        };
+        if r != 0 {
+            return Vec::new();
+        }
+        (0..libc::CPU_SETSIZE as usize)
+            // SAFETY: `cpu` < CPU_SETSIZE, within `set`.
+            .filter(|&cpu| unsafe { libc::CPU_ISSET(cpu, &set) })
+            .collect()
+    }
+    #[cfg(not(target_os = "linux"))]
+    Vec::new()
+}
+
+/// Asks for `want` on the calling thread; never fails (refusals are reported).
+#[must_use]
+pub fn obtain(want: Want) -> Obtained {
+    let mut got = Obtained::default();
+    #[cfg(target_os = "linux")]
+    {
+        let err = || std::io::Error::last_os_error().to_string();
+        if let Some(cpu) = want.cpu {
+            if cpu >= libc::CPU_SETSIZE as usize {
+                got.refused.push(format!("cpu {cpu}: out of range"));
+            } else {
+                // SAFETY: a zeroed bit set, then one bit below CPU_SETSIZE set in it.
+                let mut set: libc::cpu_set_t = unsafe { std::mem::zeroed() };
+                // SAFETY: `cpu` < CPU_SETSIZE (checked above).
+                unsafe { libc::CPU_SET(cpu, &mut set) };
+                // SAFETY: pid 0 = the calling thread; size and pointer describe `set`.
+                let r = unsafe {
+                    libc::sched_setaffinity(
+                        0,
+                        std::mem::size_of::<libc::cpu_set_t>(),
+                        &raw const set,
+                    )
+                };
+                if r == 0 {
+                    got.pinned_cpu = Some(cpu);
+                } else {
+                    got.refused.push(format!("pin to cpu {cpu}: {}", err()));
+                }
+            }
+        }
+        if want.lock_memory {
+            // SAFETY: no pointer arguments; flags are libc's constants.
+            let r = unsafe { libc::mlockall(libc::MCL_CURRENT | libc::MCL_FUTURE) };
+            if r == 0 {
+                got.mlockall = true;
+            } else {
+                got.refused.push(format!("mlockall: {}", err()));
+            }
+        }
+        if let Some(prio) = want.fifo_priority {
+            let param = libc::sched_param {
+                sched_priority: prio,
+            };
+            // SAFETY: pid 0 = the calling thread; `param` outlives the call.
+            let r = unsafe { libc::sched_setscheduler(0, libc::SCHED_FIFO, &raw const param) };
+            if r == 0 {
+                got.sched_fifo = Some(prio);
+            } else {
+                got.refused
+                    .push(format!("SCHED_FIFO priority {prio}: {}", err()));
+            }
+        }
+    }
+    #[cfg(not(target_os = "linux"))]
+    {
+        if want != Want::none() {
+            got.refused
+                .push("real-time scheduling: only on Linux".to_string());
+        }
+    }
+    got
+}
+
+/// Back to the normal scheduler (`SCHED_OTHER`) and pageable memory on the calling
+/// thread, after the loop; the pinning stays.
+pub fn release() {
+    #[cfg(target_os = "linux")]
+    {
+        let param = libc::sched_param { sched_priority: 0 };
+        // SAFETY: pid 0 = the calling thread; `param` outlives the call.
+        let _ = unsafe { libc::sched_setscheduler(0, libc::SCHED_OTHER, &raw const param) };
+        // SAFETY: no arguments.
+        let _ = unsafe { libc::munlockall() };
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn asking_for_nothing_obtains_nothing_and_refuses_nothing() {
+        assert_eq!(obtain(Want::none()), Obtained::default());
+    }
+
+    #[test]
+    fn pinning_to_an_allowed_cpu_is_obtained_or_refused_with_a_reason() {
+        let cpus = allowed_cpus();
+        let Some(&cpu) = cpus.last() else { return };
+        // In a thread of its own: the pin stays with that thread.
+        let got = std::thread::spawn(move || {
+            obtain(Want {
+                cpu: Some(cpu),
+                ..Want::none()
+            })
+        })
+        .join()
+        .unwrap_or_default();
+        assert!(
+            got.pinned_cpu == Some(cpu) || !got.refused.is_empty(),
+            "{got:?}"
+        );
+        let bad = obtain(Want {
+            cpu: Some(1 << 20),
+            ..Want::none()
+        });
+        assert_eq!(bad.pinned_cpu, None);
+        assert_eq!(bad.refused.len(), 1);
+    }
+}
