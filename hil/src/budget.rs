@@ -251,19 +251,52 @@ impl Budgets {
             reason: e.to_string(),
         })?;
         let mut table = defaults;
+        let mut last = "defaults".to_string();
         if let Some(path) = file {
             let src = path.display().to_string();
-            let text = std::fs::read_to_string(path).map_err(|e| BudgetError {
+            let text = sim_host::input::read_input(path).map_err(|e| BudgetError {
                 source: src.clone(),
-                reason: format!("cannot read: {e}"),
+                reason: match e {
+                    sim_host::error::ConfigError::Io { reason, .. } => {
+                        format!("cannot read: {reason}")
+                    }
+                    e => e.to_string(),
+                },
             })?;
+            // Typed once from the text itself, so an error names the key and the line
+            // as written in the file.
+            if let Err(e) = toml::from_str::<Budgets>(&text) {
+                let e = sim_host::error::from_toml(&src, &text, &e);
+                return Err(BudgetError {
+                    source: src,
+                    reason: match e {
+                        sim_host::error::ConfigError::Parse {
+                            key, line, reason, ..
+                        } => {
+                            let mut r = String::new();
+                            if let Some(l) = line {
+                                r += &format!("line {l}: ");
+                            }
+                            if let Some(k) = key {
+                                r += &format!("key `{k}`: ");
+                            }
+                            r + &reason
+                        }
+                        e => e.to_string(),
+                    },
+                });
+            }
             let t: toml::Table = text.parse().map_err(|e: toml::de::Error| BudgetError {
                 source: src.clone(),
                 reason: e.message().to_string(),
             })?;
             merge(&mut table, t);
-            Self::from_table(table.clone(), &src)?;
+            Self::typed(table.clone(), &src)?;
+            last = src;
         }
+        // Each `--set` is parsed and typed alone (so a syntax or type error names it);
+        // the limits are validated once, on the whole result, so the order of a
+        // `warn`/`fail` pair does not matter.
         for s in sets {
             let src = format!("--set {s}");
             if !s.contains('=') {
@@ -277,21 +310,28 @@ impl Budgets {
                 reason: e.message().to_string(),
             })?;
             merge(&mut table, t);
-            Self::from_table(table.clone(), &src)?;
+            Self::typed(table.clone(), &src)?;
         }
-        Self::from_table(table, "budgets")
-    }
-
-    fn from_table(t: toml::Table, src: &str) -> Result<Self, BudgetError> {
-        let b: Budgets = t.try_into().map_err(|e: toml::de::Error| BudgetError {
-            source: src.to_string(),
-            reason: e.message().to_string(),
-        })?;
+        if !sets.is_empty() {
+            last = if file.is_some() {
+                format!("{last} with --set")
+            } else {
+                "--set".to_string()
+            };
+        }
+        let b = Self::typed(table, &last)?;
         b.validate().map_err(|reason| BudgetError {
-            source: src.to_string(),
+            source: last,
             reason,
         })?;
         Ok(b)
+    }
+
+    fn typed(t: toml::Table, src: &str) -> Result<Self, BudgetError> {
+        t.try_into().map_err(|e: toml::de::Error| BudgetError {
+            source: src.to_string(),
+            reason: e.message().to_string(),
+        })
     }
 
     /// Refuses unknown signals, negative or NaN limits, and `warn > fail`.
@@ -375,6 +415,24 @@ mod tests {
         ] {
             let e = Budgets::load(None, &[bad.into()]).expect_err(bad);
             assert!(e.to_string().contains(needle), "{bad}: {e}");
+        }
+    }
+
+    #[test]
+    fn sets_are_validated_as_a_whole_in_any_order() {
+        // warn 0.9 > the default fail 0.8 alone, but the pair is consistent.
+        let pair = ["timing.cpu_max.warn=0.9", "timing.cpu_max.fail=0.95"];
+        for order in [[0, 1], [1, 0]] {
+            let sets: Vec<String> = order.iter().map(|&i| pair[i].to_string()).collect();
+            let b = Budgets::load(None, &sets).expect("consistent pair");
+            assert_eq!((b.timing.cpu_max.warn, b.timing.cpu_max.fail), (0.9, 0.95));
+        }
+        // An inconsistent pair is refused in both orders, naming the key.
+        let bad = ["timing.cpu_max.warn=0.9", "timing.cpu_max.fail=0.85"];
+        for order in [[0, 1], [1, 0]] {
+            let sets: Vec<String> = order.iter().map(|&i| bad[i].to_string()).collect();
+            let e = Budgets::load(None, &sets).expect_err("inconsistent pair");
+            assert!(e.to_string().contains("timing.cpu_max"), "{e}");
         }
     }
 }

@@ -19,6 +19,7 @@
 pub mod audit;
 pub mod budget;
 pub mod closed_loop;
+pub mod elf;
 pub mod frames;
 pub mod golden;
 pub mod inproc;

@@ -242,10 +242,9 @@ fn cmd_run(a: &RunArgs, command: &str) -> Result<Verdict, Failure> {
             )));
         }
     }
-    let faults_spec = std::env::args()
-        .skip_while(|x| x != "--faults")
-        .nth(1)
-        .unwrap_or_default();
+    // The faults as applied (canonical spec), whichever form the flag took
+    // (`--faults SPEC` or `--faults=SPEC`).
+    let faults_spec = a.faults.to_string();
     let opts = RunOptions {
         target: a.target.clone(),
         scenario: a.scenario.clone(),

@@ -43,6 +43,8 @@ pub enum QemuError {
     QemuMissing(io::Error),
     /// The firmware ELF does not exist.
     ElfMissing(PathBuf),
+    /// The firmware file is not an ELF for the target ([`crate::elf`]).
+    NotElf(PathBuf, String),
     /// QEMU started but could not be connected to.
     Connect {
         /// The TCP port of the serial chardev.
@@ -72,6 +74,7 @@ impl fmt::Display for QemuError {
                 "firmware ELF {} not found: build it with `cargo fw`",
                 p.display()
             ),
+            QemuError::NotElf(p, why) => write!(f, "firmware image {}: {why}", p.display()),
             QemuError::Connect { port, stderr } => write!(
                 f,
                 "cannot connect to QEMU's serial port 127.0.0.1:{port}: {stderr}"
@@ -159,6 +162,8 @@ impl QemuConfig {
         if !self.elf.is_file() {
             return Err(QemuError::ElfMissing(self.elf.clone()));
         }
+        crate::elf::check_target_elf(&self.elf)
+            .map_err(|why| QemuError::NotElf(self.elf.clone(), why))?;
         Ok(())
     }
 }

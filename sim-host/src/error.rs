@@ -122,7 +122,7 @@ impl std::error::Error for ConfigError {}
 
 /// Converts a `toml` deserialisation error into [`ConfigError::Parse`], locating the
 /// key from the error's span in the source text.
-pub(crate) fn from_toml(file: &str, src: &str, e: &toml::de::Error) -> ConfigError {
+pub fn from_toml(file: &str, src: &str, e: &toml::de::Error) -> ConfigError {
     let mut key = None;
     let mut line = None;
     if let Some(span) = e.span() {

@@ -3,7 +3,7 @@
 //! - [`params`]: typed parameters with the paper's defaults, loadable from TOML.
 //! - [`scenario`]: track scenarios as data (built-in `curve`, `beating`, or a file).
 //! - [`fault`]: plant-side yaw-actuator faults (scenario data).
-//! - [`plant`]: the nonlinear model, eqs. (1)-(10) as corrected in `spec/model.md`.
+//! - [`plant`]: the nonlinear model, eqs. (1)-(10) as corrected in `docs/model.md`.
 //! - [`control`]: continuous reference controllers and the [`control::SampledController`]
 //!   interface for discrete ones.
 //! - [`sim`]: fixed-step RK4 on integer-nanosecond time; continuous and sampled runs.
@@ -15,6 +15,11 @@
 //! - [`figures`]: the paper's figures (time histories, root loci).
 //! - [`adhesion`]: Polach's adhesion-limited creep law, rail conditions as data.
 //! - [`traction`]: creep characteristics, the per-section adhesion summary, runaway.
+//! - [`numeric`]: finiteness before every eigenvalue/exponential, blame, conditioning.
+//! - [`outcome`]: a stopped run is a numerical failure or an unstable loop.
+//! - [`rate_check`]: the warning before a device run at a rate the analysis finds unstable.
+//! - [`memory`]: the memory estimate of a run or a sweep, refused above 2 GiB.
+//! - [`input`]: the one reader of input files (regular files up to 1 MiB).
 //! - [`link`], [`device`]: the simulated serial link and the device runtime behind it.
 #![deny(missing_docs)]
 
@@ -24,11 +29,16 @@ pub mod device;
 pub mod error;
 pub mod fault;
 pub mod figures;
+pub mod input;
 pub mod linear;
 pub mod link;
+pub mod memory;
 pub mod modes;
+pub mod numeric;
+pub mod outcome;
 pub mod params;
 pub mod plant;
+pub mod rate_check;
 pub mod sampled;
 pub mod scenario;
 pub mod sim;

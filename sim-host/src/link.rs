@@ -72,8 +72,8 @@ pub enum FaultDir {
 /// | `ber` | `P` in [0, 1) | bit error rate per data bit |
 /// | `drop` | `P` in [0, 1] | probability a whole frame is lost |
 /// | `byte_drop` | `P` in [0, 1] | probability a byte is lost |
-/// | `outage` | `START_S:LEN_S[:up\|down]` | outage from `START_S` seconds for `LEN_S` seconds, both directions or one (repeatable) |
-/// | `burst` | `RATE_HZ:LEN_BYTES` | error bursts, mean rate per second, bytes per burst |
+/// | `outage` | `START_S:LEN_S[:up\|down]` | outage from `START_S` seconds for `LEN_S` seconds (each at most [`MAX_OUTAGE_S`]), both directions or one (repeatable) |
+/// | `burst` | `RATE_HZ:LEN_BYTES` | error bursts, mean rate per second (at most [`MAX_BURST_RATE_HZ`]), bytes per burst (a whole number up to 1e6) |
 /// | `dir` | `both`, `up`, `down` | directions the faults apply to (default both) |
 ///
 /// ```
@@ -153,6 +153,11 @@ fn pair(item: &str, v: &str, what: &str) -> Result<(f64, f64), FaultSpecError> {
     Ok((a, b))
 }
 
+/// Largest outage start and length, s (the longest scenario is 1e5 s).
+pub const MAX_OUTAGE_S: f64 = 1e5;
+/// Largest burst rate, bursts per second.
+pub const MAX_BURST_RATE_HZ: f64 = 1e5;
+
 fn secs_to_ns(s: f64) -> u64 {
     (s * 1e9).round() as u64
 }
@@ -182,6 +187,11 @@ impl FromStr for Faults {
                         _ => (v, FaultDir::Both),
                     };
                     let (s, l) = pair(item, v, "START_S:LEN_S[:up|down]")?;
+                    if s > MAX_OUTAGE_S || l > MAX_OUTAGE_S {
+                        return Err(err(&format!(
+                            "START_S and LEN_S must be at most {MAX_OUTAGE_S} s (the longest scenario)"
+                        )));
+                    }
                     f.outages.push(Outage {
                         start_ns: secs_to_ns(s),
                         len_ns: secs_to_ns(l),
@@ -190,6 +200,12 @@ impl FromStr for Faults {
                 }
                 "burst" => {
                     let (r, n) = pair(item, v.trim(), "RATE_HZ:LEN_BYTES")?;
+                    if r > MAX_BURST_RATE_HZ {
+                        return Err(err(&format!(
+                            "RATE_HZ {r} is above the maximum {MAX_BURST_RATE_HZ} bursts per second \
+                             (a 1 Mbaud line carries 1e5 bytes per second: more bursts than bytes)"
+                        )));
+                    }
                     if n.fract() != 0.0 || n > 1e6 {
                         return Err(err("LEN_BYTES must be a whole number <= 1e6"));
                     }
@@ -214,6 +230,52 @@ impl FromStr for Faults {
             }
         }
         Ok(f)
+    }
+}
+
+/// The canonical spec of the faults, `key=value` items in a fixed order, only those
+/// that act (empty for none); it parses back to the same [`Faults`] (outages to the ns).
+///
+/// ```
+/// use sim_host::link::Faults;
+/// let f: Faults = " drop=0.05 ,ber=1e-3,outage=8:0.05:up".parse().unwrap();
+/// assert_eq!(f.to_string(), "ber=0.001,drop=0.05,outage=8:0.05:up");
+/// assert_eq!(f.to_string().parse::<Faults>().unwrap(), f);
+/// assert_eq!(Faults::none().to_string(), "");
+/// ```
+impl fmt::Display for Faults {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let mut items: Vec<String> = Vec::new();
+        if self.ber > 0.0 {
+            items.push(format!("ber={}", self.ber));
+        }
+        if self.frame_drop > 0.0 {
+            items.push(format!("drop={}", self.frame_drop));
+        }
+        if self.byte_drop > 0.0 {
+            items.push(format!("byte_drop={}", self.byte_drop));
+        }
+        for o in &self.outages {
+            let dir = match o.dir {
+                FaultDir::Both => "",
+                FaultDir::Up => ":up",
+                FaultDir::Down => ":down",
+            };
+            items.push(format!(
+                "outage={}:{}{dir}",
+                o.start_ns as f64 / 1e9,
+                o.len_ns as f64 / 1e9
+            ));
+        }
+        if let Some(b) = self.burst {
+            items.push(format!("burst={}:{}", b.rate_hz, b.len_bytes));
+        }
+        match self.dir {
+            FaultDir::Both => {}
+            FaultDir::Up => items.push("dir=up".into()),
+            FaultDir::Down => items.push("dir=down".into()),
+        }
+        f.write_str(&items.join(","))
     }
 }
 
@@ -745,6 +807,9 @@ pub struct RxPort {
     pub rejected: u64,
     /// Decoder rejections by kind: CRC, COBS, version, length, postcard.
     pub errors: [u64; 5],
+    /// Rejected frames by the kind of the reject they took part in (sums to
+    /// `rejected`; a burst that destroys a delimiter merges two frames into one reject).
+    pub rejected_by: [u64; 5],
 }
 
 impl RxPort {
@@ -788,6 +853,7 @@ impl RxPort {
             received,
             rejected,
             errors,
+            rejected_by,
         } = self;
         (
             decoder,
@@ -798,6 +864,7 @@ impl RxPort {
                 received,
                 rejected,
                 errors,
+                rejected_by,
             },
         )
     }
@@ -828,6 +895,7 @@ impl RxPort {
             in_flight: in_flight.len() as u64,
             link_dropped_whole: channel.counters().frames_dropped,
             errors: self.errors,
+            rejected_by: self.rejected_by,
         }
     }
 }
@@ -850,6 +918,7 @@ struct Book<'a> {
     received: &'a mut u64,
     rejected: &'a mut u64,
     errors: &'a mut [u64; 5],
+    rejected_by: &'a mut [u64; 5],
 }
 
 impl Book<'_> {
@@ -900,10 +969,12 @@ impl Book<'_> {
         if !closes {
             return;
         }
+        let mut cause = None;
         let (to, count) = match r {
             Some(Ok(())) => (Fate::Received, &mut *self.received),
             Some(Err(e)) => {
                 self.errors[error_index(e)] += 1;
+                cause = Some(error_index(e));
                 (Fate::Rejected, &mut *self.rejected)
             }
             None => {
@@ -917,6 +988,9 @@ impl Book<'_> {
                 if *f == Fate::Open {
                     *f = to;
                     *count += 1;
+                    if let Some(c) = cause {
+                        self.rejected_by[c] += 1;
+                    }
                 }
             }
         }
@@ -941,24 +1015,30 @@ pub struct Accounting {
     pub link_dropped_whole: u64,
     /// Decoder rejections (events) by kind: CRC, COBS, version, length, postcard.
     pub errors: [u64; 5],
+    /// Rejected frames by the kind of their reject, same order; sums to `rejected`
+    /// (one reject event can take several frames when a delimiter was destroyed).
+    pub rejected_by: [u64; 5],
 }
 
 impl Accounting {
-    /// `sent == received + rejected + dropped + in_flight`.
+    /// `sent == received + rejected + dropped + in_flight`, and the rejected frames by
+    /// cause sum to `rejected`.
     #[must_use]
     pub fn adds_up(&self) -> bool {
         self.sent == self.received + self.rejected + self.dropped + self.in_flight
+            && self.rejected_by.iter().sum::<u64>() == self.rejected
     }
 }
 
 impl fmt::Display for Accounting {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let [crc, cobs, ver, len, pc] = self.errors;
+        let [crc, cobs, ver, len, pc] = self.rejected_by;
+        let events: u64 = self.errors.iter().sum();
         write!(
             f,
             "sent {} = received {} + rejected {} + dropped {} + in flight {} [{}] \
-             (rejects: crc {crc}, cobs {cobs}, version {ver}, length {len}, postcard {pc}; \
-             dropped whole by the link {})",
+             (rejected frames: crc {crc} + cobs {cobs} + version {ver} + length {len} + postcard {pc}, \
+             in {events} decoder rejects; dropped whole by the link {})",
             self.sent,
             self.received,
             self.rejected,

@@ -23,7 +23,7 @@ use sim_host::sim::{run_continuous, Trajectory};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-/// Plant simulator of a railway wheelset with traction (spec/model.md).
+/// Plant simulator of a railway wheelset with traction (docs/model.md).
 #[derive(Parser)]
 #[command(name = "sim-host", version, about, long_about = None)]
 struct Cli {
@@ -109,10 +109,10 @@ struct RatesArgs {
     #[arg(long)]
     params: Option<PathBuf>,
     /// Ticks of computation and transport delay on the actuation (the firmware: 1).
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
     delay: usize,
     /// The fastest UART baud the link may assume (selection criterion).
-    #[arg(long, default_value_t = 6_000_000)]
+    #[arg(long, default_value_t = 6_000_000, allow_negative_numbers = true)]
     max_baud: u32,
     /// Write the table as JSON (directories created).
     #[arg(long)]
@@ -140,7 +140,7 @@ impl From<Control> for YawLaw {
     }
 }
 
-/// Analysis case of spec/model.md.
+/// Analysis case of docs/model.md.
 #[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
 enum CaseArg {
     /// Passive yaw spring, rigid axle, no traction dynamics.
@@ -160,7 +160,8 @@ struct ModesArgs {
     case: Option<CaseArg>,
     /// Points of the sweep, evenly spaced over 1-10 MN (1, 2, 5 and 10 MN are always
     /// included exactly).
-    #[arg(long, default_value_t = 1000, value_parser = clap::value_parser!(u32).range(2..=1_000_000))]
+    #[arg(long, default_value_t = 1000, allow_negative_numbers = true,
+          value_parser = clap::value_parser!(u32).range(2..=1_000_000))]
     points: u32,
     /// Write the results as JSON here (directories created).
     #[arg(long)]
@@ -211,36 +212,61 @@ enum LoopKind {
     Device,
 }
 
-/// The device loop's options (`--loop device`).
+/// The device loop's options (`--loop device`). All but `--loop` apply to the device
+/// loop only: given without `--loop device` they are refused, naming the flag.
 #[derive(clap::Args)]
 struct DeviceArgs {
     /// Loop kind.
     #[arg(long = "loop", value_enum, default_value = "continuous")]
     loop_kind: LoopKind,
     /// Link faults, e.g. `ber=1e-3,drop=0.1,outage=8.0:0.05` (keys: ber, drop, byte_drop,
-    /// outage=START_S:LEN_S[:up|down], burst=RATE_HZ:LEN_BYTES, dir=both|up|down).
-    #[arg(long, default_value = "")]
-    faults: String,
-    /// Seed of the link's fault injection.
-    #[arg(long, default_value_t = 1)]
-    seed: u64,
-    /// Link baud rate (10 bits per byte).
-    #[arg(long, default_value_t = sim_host::link::DEFAULT_BAUD)]
-    baud: u32,
-    /// One-way link latency, us.
-    #[arg(long, default_value_t = 2.0)]
-    latency_us: f64,
+    /// outage=START_S:LEN_S[:up|down], burst=RATE_HZ:LEN_BYTES, dir=both|up|down);
+    /// default none.
+    #[arg(long, allow_hyphen_values = true)]
+    faults: Option<String>,
+    /// Seed of the link's fault injection [default: 1].
+    #[arg(long, allow_negative_numbers = true)]
+    seed: Option<u64>,
+    /// Link baud rate (10 bits per byte) [default: 4000000].
+    #[arg(long, allow_negative_numbers = true)]
+    baud: Option<u32>,
+    /// One-way link latency, us, in [0, 1e6] [default: 2].
+    #[arg(long, allow_negative_numbers = true)]
+    latency_us: Option<f64>,
     /// Device base rate, Hz (default: the control core's).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     rate_hz: Option<u32>,
-    /// Ticks the device bridges a missing sensor frame before its safe state.
-    #[arg(long, default_value_t = wheelset_runtime::DEFAULT_HOLD_TICKS)]
-    hold_ticks: u16,
+    /// Ticks the device bridges a missing sensor frame before its safe state
+    /// [default: the runtime's].
+    #[arg(long, allow_negative_numbers = true)]
+    hold_ticks: Option<u16>,
     /// What the Sensor frames carry of the lateral motion: `velocity` (y') or
-    /// `acceleration` (y'', integrated on the device with a wash-out).
-    #[arg(long, value_enum, default_value = "velocity")]
-    lateral: Lateral,
+    /// `acceleration` (y'', integrated on the device with a wash-out) [default: velocity].
+    #[arg(long, value_enum)]
+    lateral: Option<Lateral>,
 }
+
+impl DeviceArgs {
+    /// The device-loop flags that were given (for refusing them on the continuous loop).
+    fn given(&self) -> Vec<&'static str> {
+        [
+            ("--faults", self.faults.is_some()),
+            ("--seed", self.seed.is_some()),
+            ("--baud", self.baud.is_some()),
+            ("--latency-us", self.latency_us.is_some()),
+            ("--rate-hz", self.rate_hz.is_some()),
+            ("--hold-ticks", self.hold_ticks.is_some()),
+            ("--lateral", self.lateral.is_some()),
+        ]
+        .into_iter()
+        .filter(|(_, g)| *g)
+        .map(|(f, _)| f)
+        .collect()
+    }
+}
+
+/// Largest `--latency-us`: 1 s (a link slower than that cannot carry any control rate).
+const MAX_LATENCY_US: f64 = 1e6;
 
 /// Lateral sensing over the link.
 #[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
@@ -286,9 +312,29 @@ fn simulate(sc: &Scenario, control: Control) -> Trajectory {
     run_continuous(sc, control.into())
 }
 
+fn warn(msg: &str) {
+    eprintln!("sim-host: warning: {msg}");
+}
+
 fn cmd_run(a: &RunArgs) -> Result<(), Failure> {
+    if a.device.loop_kind != LoopKind::Device {
+        if let Some(flag) = a.device.given().first() {
+            return Err(Failure {
+                code: 2,
+                msg: format!(
+                    "{flag}: applies only to the device loop over the simulated link (add --loop device); \
+                     the continuous loop has no link, rate or device"
+                ),
+            });
+        }
+    }
     let base = load_params(&a.params)?;
     let sc = Scenario::load(&a.scenario, &base)?;
+    for law in std::iter::once(a.control).chain(a.compare.iter().copied()) {
+        if let Some(w) = sc.law_warning(law.into()) {
+            warn(&w);
+        }
+    }
     if a.device.loop_kind == LoopKind::Device {
         return cmd_run_device(a, &sc);
     }
@@ -344,6 +390,12 @@ fn cmd_rates(a: &RatesArgs) -> Result<(), Failure> {
             msg: format!("--delay {}: at most 10 ticks", a.delay),
         });
     }
+    if a.max_baud == 0 {
+        return Err(Failure {
+            code: 2,
+            msg: "--max-baud 0: must be positive".into(),
+        });
+    }
     let p = load_params(&a.params)?;
     let mode = match a.control {
         Control::Passive => wheelset_control::YawMode::Passive,
@@ -395,6 +447,8 @@ fn cmd_modes(a: &ModesArgs) -> Result<(), Failure> {
         Some(CaseArg::C) => vec![Case::C],
         Some(CaseArg::D) => vec![Case::D],
     };
+    sim_host::memory::check_modes(u64::from(a.points), cases.len() as u64)
+        .map_err(|msg| Failure { code: 2, msg })?;
     let grid = creep_grid(a.points as usize);
     let pb = progress((grid.len() * cases.len()) as u64, "modal sweep");
     let mut sweeps = Vec::new();
@@ -416,6 +470,24 @@ fn cmd_modes(a: &ModesArgs) -> Result<(), Failure> {
         "the structural zero eigenvalue (free rolling at any speed) is excluded from every verdict"
     );
     for sw in &sweeps {
+        // Conditioning at the reported points: eig(A) against eig(A^T).
+        let worst = [1e6, 2e6, 5e6, 1e7]
+            .iter()
+            .filter_map(|&c| {
+                sim_host::numeric::eigen_disagreement(&sw.case.matrix(&p, c).0).map(|d| (d, c))
+            })
+            .fold((0.0f64, 0.0), |a, b| if b.0 > a.0 { b } else { a });
+        if worst.0 > sim_host::numeric::ILL_CONDITIONED {
+            warn(&format!(
+                "case ({}): the eigenvalue problem is ill-conditioned with these parameters: the \
+                 eigenvalues of A and A^T differ by {:.1e} (relative) at {} MN, so the modes below \
+                 carry only about {} correct digits",
+                sw.case.id(),
+                worst.0,
+                worst.1 * 1e-6,
+                (-worst.0.log10()).floor().max(0.0)
+            ));
+        }
         println!("case ({}): {}", sw.case.id(), sw.case.label());
         for c in [1e6, 2e6, 5e6, 1e7] {
             let Some(k) = sw.index_of(c) else { continue };
@@ -480,14 +552,31 @@ fn cmd_modes(a: &ModesArgs) -> Result<(), Failure> {
 fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
     use sim_host::device::{deviation, run_device, DeviceOptions, CURVE_WINDOWS};
     let d = &a.device;
-    if !(d.latency_us.is_finite() && d.latency_us >= 0.0) {
+    let latency_us = d.latency_us.unwrap_or(2.0);
+    if !(latency_us.is_finite() && (0.0..=MAX_LATENCY_US).contains(&latency_us)) {
         return Err(Failure {
             code: 2,
-            msg: format!("--latency-us {}: must be a finite value >= 0", d.latency_us),
+            msg: format!(
+                "--latency-us {latency_us:e}: must be a finite value in [0, {MAX_LATENCY_US:e}] us"
+            ),
         });
     }
+    let baud = d.baud.unwrap_or(sim_host::link::DEFAULT_BAUD);
+    if baud == 0 {
+        return Err(Failure {
+            code: 2,
+            msg: "--baud 0: must be positive".into(),
+        });
+    }
+    if d.rate_hz == Some(0) {
+        return Err(Failure {
+            code: 2,
+            msg: "--rate-hz 0: must be positive".into(),
+        });
+    }
+    let faults_spec = d.faults.clone().unwrap_or_default();
     let faults: sim_host::link::Faults =
-        d.faults
+        faults_spec
             .parse()
             .map_err(|e: sim_host::link::FaultSpecError| Failure {
                 code: 2,
@@ -495,18 +584,31 @@ fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
             })?;
     let opt = DeviceOptions {
         link: sim_host::link::LinkConfig {
-            baud: d.baud,
-            latency_ns: (d.latency_us * 1e3).round() as u64,
+            baud,
+            latency_ns: (latency_us * 1e3).round() as u64,
             faults,
-            seed: d.seed,
+            seed: d.seed.unwrap_or(1),
         },
-        hold_ticks: d.hold_ticks,
+        hold_ticks: d.hold_ticks.unwrap_or(wheelset_runtime::DEFAULT_HOLD_TICKS),
         base_rate_hz: d.rate_hz,
-        lateral: match d.lateral {
+        lateral: match d.lateral.unwrap_or(Lateral::Velocity) {
             Lateral::Velocity => sim_host::device::LateralSensing::Velocity,
             Lateral::Acceleration => sim_host::device::LateralSensing::Acceleration,
         },
     };
+    let hz = d
+        .rate_hz
+        .unwrap_or(wheelset_control::Config::default().base_rate_hz);
+    let period_ns = 1_000_000_000 / u64::from(hz.max(1));
+    sim_host::memory::check_run(sc.duration_ns, sc.output_dt_ns, Some(period_ns)).map_err(
+        |msg| Failure {
+            code: 2,
+            msg: format!("{}: {msg}", sc.source),
+        },
+    )?;
+    if let Some(w) = sim_host::rate_check::warning(sc, a.control.into(), hz) {
+        warn(&w);
+    }
     let run = run_device(sc, a.control.into(), &opt).map_err(|e| Failure {
         code: 2,
         msg: e.to_string(),
@@ -516,14 +618,14 @@ fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
     println!(
         "link: {} baud, latency {} us, period {} us, faults `{}` (seed {})",
         opt.link.baud,
-        d.latency_us,
+        latency_us,
         run.period_ns as f64 / 1e3,
-        if d.faults.is_empty() {
+        if faults_spec.is_empty() {
             "none"
         } else {
-            &d.faults
+            &faults_spec
         },
-        d.seed
+        opt.link.seed
     );
     print!("{}", run.report);
     println!();
@@ -671,10 +773,8 @@ fn print_summary(sc: &Scenario, tr: &Trajectory) {
         max(&|r| r.fx_r_n.abs().max(r.fx_l_n.abs())),
         max(&|r| r.fy_n)
     );
-    if let Some(t) = tr.info.diverged_at_s {
-        println!(
-            "WARNING: the run diverged (unstable loop) at t = {t:.3} s; stopped there, records end at {t:.3} s"
-        );
+    if let Some(stop) = sim_host::outcome::stop_of(tr) {
+        println!("WARNING: {stop}");
     }
     if let Some(last) = tr.records.last() {
         println!(

@@ -121,28 +121,246 @@ impl Default for Params {
     }
 }
 
-/// Allowed range of one parameter (inclusive unless stated).
-struct Range {
-    key: &'static str,
-    lo: f64,
-    hi: f64,
-    lo_open: bool,
+/// The plausible range of one parameter: values outside `[min, max]` are refused by
+/// [`Params::validate`] with `why`. The table [`RANGES`] is the one source of truth; the
+/// model document (`docs/model.md`, "Plausible ranges") prints the same rows, and a test
+/// compares the two.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Range {
+    /// The TOML key.
+    pub key: &'static str,
+    /// SI unit of the value (`1` for a pure number).
+    pub unit: &'static str,
+    /// Smallest accepted value (inclusive).
+    pub min: f64,
+    /// Largest accepted value (inclusive).
+    pub max: f64,
+    /// Why these bounds: what is physically plausible, and what breaks outside.
+    pub why: &'static str,
 }
 
-const fn pos(key: &'static str, hi: f64) -> Range {
+const fn r(key: &'static str, unit: &'static str, min: f64, max: f64, why: &'static str) -> Range {
     Range {
         key,
-        lo: 0.0,
-        hi,
-        lo_open: true,
+        unit,
+        min,
+        max,
+        why,
     }
 }
-const fn nonneg(key: &'static str, hi: f64) -> Range {
-    Range {
-        key,
-        lo: 0.0,
-        hi,
-        lo_open: false,
+
+/// Plausible range of every parameter (SI), in [`Params::entries`] order. Every bound is
+/// a physical limit with a generous margin (light rail to heavy freight, 0.1 m/s to the
+/// speed record), so a study anywhere in the paper's envelope is accepted; what lies
+/// outside is a typing error or a value no wheelset has, and makes the linear algebra
+/// meaningless (e.g. `l_a = 1e-61` H puts `R_a / L_a = 4e59` 1/s in the plant matrix).
+pub const RANGES: &[Range] = &[
+    r(
+        "m",
+        "kg",
+        100.0,
+        1e4,
+        "a wheelset: light rail ~500 kg, heavy freight ~2.5 t",
+    ),
+    r(
+        "m_v",
+        "kg",
+        0.0,
+        2e5,
+        "vehicle mass on the wheelset's share; 0 = none; a heavy locomotive ~120 t",
+    ),
+    r(
+        "j",
+        "kg m^2",
+        10.0,
+        1e4,
+        "wheelset yaw inertia ~ m Lg^2 (600 at 1.25 t)",
+    ),
+    r(
+        "i_w",
+        "kg m^2",
+        1.0,
+        1e3,
+        "one wheel (with its half axle): 20-100 kg m^2",
+    ),
+    r(
+        "i_m",
+        "kg m^2",
+        0.01,
+        1e3,
+        "motor rotor: 1-50 kg m^2 for traction motors",
+    ),
+    r(
+        "f11",
+        "N",
+        1e5,
+        1e8,
+        "Kalker coefficient: 1-10 MN for 5-20 t wheel loads; 0.1 MN = severely reduced adhesion",
+    ),
+    r("f22", "N", 1e5, 1e8, "as f11"),
+    r(
+        "c_lat",
+        "N s/m",
+        0.0,
+        1e7,
+        "lateral (primary) damping: 0-100 kN s/m typical",
+    ),
+    r(
+        "k_lat",
+        "N/m",
+        0.0,
+        1e9,
+        "lateral (primary) stiffness: 0-10 MN/m typical",
+    ),
+    r(
+        "k_yaw",
+        "N m/rad",
+        0.0,
+        1e9,
+        "passive yaw stiffness: 1-20 MN m/rad typical",
+    ),
+    r(
+        "torsion_hz",
+        "Hz",
+        1.0,
+        1e3,
+        "axle torsion mode: 30-100 Hz for solid axles",
+    ),
+    r(
+        "k_t",
+        "N m/rad",
+        1e3,
+        1e10,
+        "axle torsional stiffness: ~1e6-1e8 N m/rad",
+    ),
+    r(
+        "gear_hz",
+        "Hz",
+        1.0,
+        1e3,
+        "motor-on-gear mode (wheel held): 5-100 Hz",
+    ),
+    r(
+        "k_gear",
+        "N m/rad",
+        1e3,
+        1e10,
+        "gear stiffness at the wheel: ~1e5-1e8 N m/rad",
+    ),
+    r(
+        "l_g",
+        "m",
+        0.3,
+        1.0,
+        "half gauge: 600 mm narrow gauge to 1676 mm broad gauge, contact points",
+    ),
+    r(
+        "r0",
+        "m",
+        0.2,
+        0.8,
+        "wheel rolling radius: tram 0.3 m to locomotive 0.63 m",
+    ),
+    r(
+        "lambda",
+        "1",
+        0.01,
+        1.0,
+        "effective conicity: new profiles 0.05-0.4, worn up to ~0.8",
+    ),
+    r(
+        "g",
+        "m/s^2",
+        1.0,
+        20.0,
+        "gravity: 9.78-9.83 on Earth; other values only to study the gravitational stiffness",
+    ),
+    r(
+        "v",
+        "m/s",
+        0.1,
+        160.0,
+        "forward speed: standstill excluded (the model divides by v) to the 160 m/s record",
+    ),
+    r("n_gear", "1", 1.0, 20.0, "traction gear ratio: 2-8 typical"),
+    r(
+        "k_m",
+        "N m/A",
+        0.1,
+        100.0,
+        "motor constant (= V s/rad): 1-10 typical",
+    ),
+    r(
+        "l_a",
+        "H",
+        1e-5,
+        1.0,
+        "armature inductance: 0.1-10 mH; below 10 uH the armature pole is past any sampling rate",
+    ),
+    r(
+        "r_a",
+        "ohm",
+        0.0,
+        10.0,
+        "armature resistance: 10-100 mOhm typical; 0 = ideal",
+    ),
+    r(
+        "k_active",
+        "N m s/m",
+        0.0,
+        1e7,
+        "active yaw damping gain: the paper's 1.05e5 with two decades of margin",
+    ),
+    r(
+        "lead_gain",
+        "1",
+        1.0,
+        100.0,
+        "phase-lead high-frequency factor a >= 1 (the paper: 7.5)",
+    ),
+    r(
+        "lead_zero",
+        "rad/s",
+        0.1,
+        1e4,
+        "phase-lead zero (the paper: 37 rad/s)",
+    ),
+    r(
+        "lead_pole",
+        "rad/s",
+        0.1,
+        1e5,
+        "phase-lead pole (the paper: 274 rad/s)",
+    ),
+    r(
+        "pi_kp",
+        "V/A",
+        1e-3,
+        1e3,
+        "traction PI proportional gain (the paper: 1 V/A)",
+    ),
+    r(
+        "pi_ti",
+        "s",
+        1e-4,
+        100.0,
+        "traction PI integral time (the paper: 0.5 s)",
+    ),
+    r(
+        "q",
+        "N",
+        1e3,
+        5e5,
+        "vertical wheel load: a light tram ~20 kN to a 35 t freight axle ~170 kN per wheel",
+    ),
+];
+
+/// `v` for messages: plain between 1e-3 and 1e6, else in exponent form (`1e-61`).
+fn num(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() || (1e-3..1e6).contains(&v.abs()) {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
     }
 }
 
@@ -219,62 +437,43 @@ impl Params {
         ]
     }
 
-    /// Checks every value against its physical range. The error names the key.
+    /// Checks every value against its plausible range ([`RANGES`]). The error names the
+    /// key, the value, the range with its unit, and why.
     pub fn validate(&self) -> Result<(), ConfigError> {
-        const RANGES: &[Range] = &[
-            pos("m", 1e6),
-            nonneg("m_v", 1e7),
-            pos("j", 1e6),
-            pos("i_w", 1e4),
-            pos("i_m", 1e4),
-            pos("f11", 1e9),
-            pos("f22", 1e9),
-            nonneg("c_lat", 1e9),
-            nonneg("k_lat", 1e10),
-            nonneg("k_yaw", 1e10),
-            pos("torsion_hz", 1e4),
-            pos("k_t", 1e12),
-            pos("gear_hz", 1e4),
-            pos("k_gear", 1e12),
-            pos("l_g", 5.0),
-            pos("r0", 5.0),
-            pos("lambda", 1.0),
-            nonneg("g", 100.0),
-            Range {
-                key: "v",
-                lo: 0.1,
-                hi: 200.0,
-                lo_open: false,
-            },
-            pos("n_gear", 100.0),
-            pos("k_m", 1e3),
-            pos("l_a", 10.0),
-            nonneg("r_a", 1e3),
-            nonneg("k_active", 1e9),
-            pos("lead_gain", 1e3),
-            pos("lead_zero", 1e6),
-            pos("lead_pole", 1e6),
-            pos("pi_kp", 1e6),
-            pos("pi_ti", 1e6),
-            pos("q", 1e7),
-        ];
-        for (key, value) in self.entries() {
+        // The values as given first, then the stiffnesses derived from them, so a bad
+        // `n_gear` is named as such rather than through `k_gear`.
+        let derived = |key: &str| {
+            (key == "k_t" && self.k_t.is_none())
+                || (key == "k_gear" && self.k_gear.is_none())
+                || (key == "q" && self.q.is_none())
+        };
+        let entries = self.entries();
+        let ordered = entries
+            .iter()
+            .filter(|(k, _)| !derived(k))
+            .chain(entries.iter().filter(|(k, _)| derived(k)));
+        for &(key, value) in ordered {
             let Some(r) = RANGES.iter().find(|r| r.key == key) else {
                 continue;
             };
-            let below = if r.lo_open {
-                value <= r.lo
-            } else {
-                value < r.lo
-            };
-            if !value.is_finite() || below || value > r.hi {
-                let open = if r.lo_open { "(" } else { "[" };
+            if !value.is_finite() || value < r.min || value > r.max {
+                // A derived stiffness out of range names the key it came from.
+                let from = match (key, self.k_t, self.k_gear, self.q) {
+                    ("k_t", None, _, _) => " (derived from i_w and torsion_hz)",
+                    ("k_gear", _, None, _) => " (derived from n_gear, i_m and gear_hz)",
+                    ("q", _, _, None) => " (derived from m, m_v and g)",
+                    _ => "",
+                };
                 return Err(ConfigError::Invalid {
                     file: String::new(),
                     key: key.to_string(),
                     reason: format!(
-                        "value {value} is outside the allowed range {open}{}, {}]",
-                        r.lo, r.hi
+                        "value {}{from} is outside the plausible range [{}, {}] {}: {}",
+                        num(value),
+                        num(r.min),
+                        num(r.max),
+                        r.unit,
+                        r.why
                     ),
                 });
             }
@@ -293,10 +492,7 @@ impl Params {
     /// Reads and validates a parameter file.
     pub fn from_file(path: &std::path::Path) -> Result<Params, ConfigError> {
         let file = path.display().to_string();
-        let src = std::fs::read_to_string(path).map_err(|e| ConfigError::Io {
-            file: file.clone(),
-            reason: e.to_string(),
-        })?;
+        let src = crate::input::read_input(path)?;
         Self::from_toml_str(&src, &file)
     }
 

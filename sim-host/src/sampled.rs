@@ -161,7 +161,11 @@ pub fn tick_matrices(
     let traction = cfg.traction_enabled && plant.c.row(1).iter().any(|v| *v != 0.0);
     let tm = Timing::of(cfg, delay_ticks);
     let t0 = 1.0 / tm.base_hz;
+    crate::numeric::check_finite(&plant.a, "the plant matrix A")?;
+    crate::numeric::check_finite(&plant.b, "the plant matrix B")?;
     let (ad, bd) = zoh(&plant.a, &plant.b, t0);
+    crate::numeric::check_finite(&ad, "the discretised plant matrix Ad")?;
+    crate::numeric::check_finite(&bd, "the discretised plant matrix Bd")?;
     let lead = cfg
         .lead
         .discretise(cfg.yaw_period())
@@ -320,8 +324,7 @@ pub fn closed_loop(
         .iter()
         .fold(DMatrix::<f64>::identity(nx, nx), |acc, m| m * acc);
     let th = l as f64 * t0;
-    let mut modes: Vec<Mode> = phi
-        .complex_eigenvalues()
+    let mut modes: Vec<Mode> = crate::numeric::eigenvalues(&phi, "the monodromy matrix")?
         .iter()
         .map(|&mu| {
             let s = if mu.norm() > 0.0 {
@@ -388,12 +391,11 @@ pub fn closed_loop(
 
 /// The continuous closed loop (no sampling): plant + continuous lead/gain + continuous
 /// PI, for comparison. Returns the eigenvalues (free-rolling ones removed).
+///
+/// A matrix with a non-finite entry is not passed to the solver: the result is then one
+/// NaN eigenvalue (neither stable nor unstable; [`rates`] refuses such a plant first).
 pub fn continuous_closed_loop(plant: &LinearPlant, cfg: &Config) -> Vec<Complex<f64>> {
-    let mut ev: Vec<Complex<f64>> = continuous_matrix(plant, cfg)
-        .complex_eigenvalues()
-        .iter()
-        .copied()
-        .collect();
+    let mut ev: Vec<Complex<f64>> = continuous_closed_loop_all(plant, cfg);
     let nz = count_zeros(&ev);
     ev.sort_by(|x, y| {
         x.norm()
@@ -467,11 +469,8 @@ pub fn free_rolling_modes(plant: &LinearPlant, cfg: &Config) -> usize {
 }
 
 fn continuous_closed_loop_all(plant: &LinearPlant, cfg: &Config) -> Vec<Complex<f64>> {
-    continuous_matrix(plant, cfg)
-        .complex_eigenvalues()
-        .iter()
-        .copied()
-        .collect()
+    crate::numeric::eigenvalues(&continuous_matrix(plant, cfg), "the continuous loop")
+        .unwrap_or_else(|_| vec![Complex::new(f64::NAN, 0.0)])
 }
 
 /// Damping ratio of a continuous eigenvalue (`1` for a real stable one).
@@ -1250,6 +1249,38 @@ pub fn rates(
     let plant = |c: f64, l: f64, s: bool| model.plant(params, c, l, s);
     let arm = armature(params.l_a, params.r_a);
     let cfg = *base;
+    // Every matrix finite before any eigenvalue or exponential: a non-finite one is
+    // refused with the parameter to blame.
+    let corners = |q: &Params| {
+        let mut v = vec![armature(q.l_a, q.r_a).a];
+        for &c in &[CREEP_GRID[0], CREEP_GRID[CREEP_GRID.len() - 1]] {
+            for &l in &[CONICITY_GRID[0], CONICITY_GRID[CONICITY_GRID.len() - 1]] {
+                for s in [false, true] {
+                    let lp = model.plant(q, c, l, s);
+                    let t0 = 1.0 / f64::from(base.base_rate_hz.max(1));
+                    let finite = crate::numeric::check_finite(&lp.a, "").is_ok()
+                        && crate::numeric::check_finite(&lp.b, "").is_ok();
+                    if finite {
+                        let (ad, bd) = zoh(&lp.a, &lp.b, t0);
+                        v.extend([ad, bd]);
+                    }
+                    v.extend([lp.a, lp.b]);
+                }
+            }
+        }
+        v
+    };
+    if let Some(m) = corners(params)
+        .iter()
+        .find_map(|m| crate::numeric::check_finite(m, "a plant matrix").err())
+    {
+        return Err(match crate::numeric::blame_nonfinite(params, corners) {
+            Some(key) => format!(
+                "{m}; parameter `{key}` is to blame (its default makes the matrices finite)"
+            ),
+            None => m,
+        });
+    }
     let critical_creep = CONICITY_GRID
         .iter()
         .map(|&l| (l, critical_creep(&cfg, l, &plant)))

@@ -30,6 +30,11 @@
 //! mode = "off"         # off | fraction (with fraction = F) | reversed
 //! ```
 //!
+//! An optional top-level `laws = ["passive"]` lists the yaw laws the scenario is meant
+//! for; the tools warn before running it with another ([`Scenario::law_warning`]). The
+//! plausible ranges of every key are in `docs/model.md`; a scenario whose output would
+//! not fit in memory ([`crate::memory`]) is refused with the estimate.
+//!
 //! Adhesion: without any `[[adhesion]]` section the plant uses the paper's linear creep
 //! law. With at least one, the adhesion law is on for the whole run: each section's
 //! condition holds on `[start_s, end_s)` (sorted, not overlapping), and the rail is
@@ -37,6 +42,7 @@
 //! start, like the traction and resistance steps.
 
 use crate::adhesion::{Adhesion, Condition};
+use crate::control::YawLaw;
 use crate::error::{from_toml, ConfigError};
 use crate::fault::{ActuatorFault, RawActuatorFault};
 use crate::params::Params;
@@ -149,6 +155,8 @@ pub struct Scenario {
     pub adhesion: Vec<AdhesionSection>,
     /// A yaw-actuator fault of the plant (`[actuator_fault]`), if any.
     pub actuator_fault: Option<ActuatorFault>,
+    /// The yaw laws the scenario is meant for (its `laws` key); empty = every law.
+    pub laws: Vec<YawLaw>,
 }
 
 /// One `[[adhesion]]` section: a rail condition on `[t0_ns, t1_ns)`.
@@ -245,6 +253,45 @@ struct RawScenario {
     #[serde(default)]
     adhesion: Vec<RawAdhesion>,
     actuator_fault: Option<RawActuatorFault>,
+    laws: Option<Vec<String>>,
+}
+
+/// The `laws` list: each `passive`, `gain` or `lead`, at least one, no repeats.
+fn parse_laws(file: &str, laws: &Option<Vec<String>>) -> Result<Vec<YawLaw>, ConfigError> {
+    let Some(names) = laws else {
+        return Ok(Vec::new());
+    };
+    if names.is_empty() {
+        return Err(invalid(
+            file,
+            "laws",
+            "an empty list: omit `laws` for a scenario meant for every law",
+        ));
+    }
+    let mut out = Vec::with_capacity(names.len());
+    for (i, n) in names.iter().enumerate() {
+        let law = match n.as_str() {
+            "passive" => YawLaw::Passive,
+            "gain" => YawLaw::Gain,
+            "lead" => YawLaw::Lead,
+            _ => {
+                return Err(invalid(
+                    file,
+                    format!("laws[{i}]"),
+                    format!("`{n}` is not a yaw law (passive, gain, lead)"),
+                ))
+            }
+        };
+        if out.contains(&law) {
+            return Err(invalid(
+                file,
+                format!("laws[{i}]"),
+                format!("`{n}` is listed twice"),
+            ));
+        }
+        out.push(law);
+    }
+    Ok(out)
 }
 
 fn invalid(file: &str, key: impl Into<String>, reason: impl Into<String>) -> ConfigError {
@@ -298,6 +345,9 @@ impl Scenario {
                 ),
             ));
         }
+        crate::memory::check_run(duration_ns, out_ns, None)
+            .map_err(|r| invalid(file, "duration_s", r))?;
+        let laws = parse_laws(file, &raw.laws)?;
         let plant = raw.plant.unwrap_or(RawPlant {
             axle: Axle::Flexible,
             drive: true,
@@ -447,6 +497,7 @@ impl Scenario {
             params,
             adhesion,
             actuator_fault,
+            laws,
         })
     }
 
@@ -463,10 +514,7 @@ impl Scenario {
                 builtin: BUILTIN.iter().map(|(n, _)| *n).collect(),
             });
         }
-        let src = std::fs::read_to_string(path).map_err(|e| ConfigError::Io {
-            file: name_or_path.to_string(),
-            reason: e.to_string(),
-        })?;
+        let src = crate::input::read_input(path)?;
         Self::from_toml_str(&src, name_or_path, base)
     }
 
@@ -488,6 +536,31 @@ impl Scenario {
     pub fn adhesion_at(&self, t_ns: u64) -> Option<Adhesion> {
         self.condition_at(t_ns)
             .map(|c| Adhesion::new(c, self.params.q()))
+    }
+
+    /// The warning to print before running this scenario with `law` when its `laws`
+    /// key does not list it (e.g. `beating` with the phase lead, which destabilises the
+    /// high-frequency mode at that gear stiffness); `None` when the law is meant.
+    pub fn law_warning(&self, law: YawLaw) -> Option<String> {
+        if self.laws.is_empty() || self.laws.contains(&law) {
+            return None;
+        }
+        let name = |l: &YawLaw| match l {
+            YawLaw::Passive => "passive",
+            YawLaw::Gain => "gain",
+            YawLaw::Lead => "lead",
+        };
+        Some(format!(
+            "scenario {} is meant for --control {} (its `laws`), not {}: expect a result outside what it was made to show{}",
+            self.name,
+            self.laws.iter().map(name).collect::<Vec<_>>().join(" or "),
+            name(&law),
+            if self.description.is_empty() {
+                String::new()
+            } else {
+                format!(" ({})", self.description)
+            }
+        ))
     }
 
     /// Track curvature and cant at `t_ns` (linear between knots, held outside).
