@@ -159,17 +159,17 @@ struct RunArgs {
     #[arg(long, default_value = "none", value_parser = parse_device_fault)]
     device_fault: DeviceFault,
     /// Link baud (10 bits per byte).
-    #[arg(long, default_value_t = sim_host::link::DEFAULT_BAUD)]
+    #[arg(long, default_value_t = sim_host::link::DEFAULT_BAUD, allow_negative_numbers = true)]
     baud: u32,
     /// Seed of the simulated link's faults.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
     seed: u64,
     /// Serial target pacing: realtime (a board on its own timer) or lockstep (a
     /// frame-clocked device answering each frame).
     #[arg(long, value_enum, default_value = "realtime")]
     pace: PaceArg,
     /// Core clock of the board, Hz (converts its cycle counts to time).
-    #[arg(long, default_value_t = hil::run::DEFAULT_CPU_HZ)]
+    #[arg(long, default_value_t = hil::run::DEFAULT_CPU_HZ, allow_negative_numbers = true)]
     cpu_hz: f64,
     /// Base rate of the device, Hz (default: the control core's 5000). In process the
     /// device is built at it; a free-running serial device is configured over the wire
@@ -220,7 +220,23 @@ fn cmd_run(a: &RunArgs, command: &str) -> Result<Verdict, Failure> {
         return Err(input("--baud: must be positive"));
     }
     if !(a.cpu_hz.is_finite() && a.cpu_hz > 0.0) {
-        return Err(input("--cpu-hz: must be a positive number"));
+        return Err(input(format!(
+            "--cpu-hz {}: must be a positive number",
+            a.cpu_hz
+        )));
+    }
+    // A scenario meant for other laws (its `laws` key) warns before the run; a file
+    // that does not load is reported by the run itself.
+    if let Ok(sc) =
+        sim_host::scenario::Scenario::load(&a.scenario, &sim_host::params::Params::default())
+    {
+        let law = match a.control {
+            Control::Gain => sim_host::control::YawLaw::Gain,
+            Control::Lead => sim_host::control::YawLaw::Lead,
+        };
+        if let Some(w) = sc.law_warning(law) {
+            eprintln!("hil: warning: {w}");
+        }
     }
     if a.target != Target::Qemu && a.machine != Machine::default() {
         return Err(input(format!(

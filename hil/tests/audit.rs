@@ -1,4 +1,4 @@
-//! `hil audit`: the continuous responses are model.md's controllers (computed here
+//! `hil audit`: the continuous responses are docs/model.md's controllers (computed here
 //! independently), the measured fixed-point responses track the discrete f64 ones within
 //! the stated tolerances, too-narrow Q formats fail with the right reason, the JSON keeps
 //! the field names, and the binary's exit codes follow the verdict.
@@ -32,14 +32,14 @@ fn ratio(num: (f64, f64), den: (f64, f64)) -> (f64, f64) {
     (g, p)
 }
 
-/// model.md: lead `1.05e5 * 7.5 (s + 37)/(s + 274)`.
+/// docs/model.md: lead `1.05e5 * 7.5 (s + 37)/(s + 274)`.
 fn lead_model(f: f64) -> (f64, f64) {
     let w = 2.0 * PI * f;
     let (g, p) = ratio((37.0, w), (274.0, w));
     (1.05e5 * 7.5 * g, p)
 }
 
-/// model.md: PI `(0.5 s + 1)/(0.5 s)`.
+/// docs/model.md: PI `(0.5 s + 1)/(0.5 s)`.
 fn pi_model(f: f64) -> (f64, f64) {
     let w = 2.0 * PI * f;
     ratio((1.0, 0.5 * w), (0.0, 0.5 * w))
@@ -121,7 +121,7 @@ fn measured_fixed_response_tracks_f64_within_tolerance() {
         .iter()
         .filter(|p| p.f_hz <= tol.frac_fs * fs)
     {
-        // Against an independent Tustin of model.md's lead (not the audit's own f64).
+        // Against an independent Tustin of docs/model.md's lead (not the audit's own f64).
         let (g, ph) = lead_tustin(p.f_hz, fs);
         let db = 20.0 * (p.fixed.gain / g).log10();
         assert!(

@@ -60,6 +60,7 @@ fn scratch(test: &str) -> PathBuf {
     std::fs::create_dir_all(&dir).unwrap();
     let w = |name: &str, text: &str| std::fs::write(dir.join(name), text).unwrap();
     w("short.toml", "duration_s = 0.2\n");
+    w("meant.toml", "duration_s = 0.2\nlaws = [\"passive\"]\n");
     w("garbage.elf", "this is not firmware\n");
     w(
         "budget.toml",
@@ -114,6 +115,15 @@ const ROWS: &[Row] = &[
     Row { args: "run --faults burst=1e308:6", code: 2, want: &["burst", "maximum"] },
     Row { args: "run --faults=outage=1e308:1", code: 2, want: &["outage", "at most"] },
     Row { args: "run --faults ber=2", code: 2, want: &["ber=2", "[0, 1)"] },
+    // Negative numbers name the flag.
+    Row { args: "run --cpu-hz -1", code: 2, want: &["--cpu-hz -1", "positive"] },
+    Row { args: "run --baud -5", code: 2, want: &["--baud", "-5"] },
+    // A scenario meant for other laws warns before the run.
+    Row {
+        args: "run --scenario {F}/meant.toml --control gain --quiet",
+        code: 0,
+        want: &["warning: scenario meant is meant for --control passive", "verdict"],
+    },
 ];
 
 #[test]

@@ -6,7 +6,7 @@
 //! # The law
 //!
 //! For one wheel with longitudinal creepage `s_x` and lateral creepage `s_y` the linear
-//! law (eqs. 1-3 of `spec/model.md`) gives the force vector `F_lin = (f11 s_x, f22 s_y)`,
+//! law (eqs. 1-3 of `docs/model.md`) gives the force vector `F_lin = (f11 s_x, f22 s_y)`,
 //! N. With adhesion, the force keeps the direction of `F_lin` and its magnitude follows
 //! Polach's saturating characteristic:
 //!
@@ -37,7 +37,7 @@
 //! |---|---|---|---|---|---|---|
 //! | `dry` | 0.55 | 0.40 | 0.60 | 0.54 | 0.18 | Polach 2005 (its validation parameter sets): the dry-rail set fitted to the SBB Re 460 locomotive measurements |
 //! | `wet` | 0.30 | 0.40 | 0.29 | 0.30 | 0.075 | Polach 2005 (its validation parameter sets): the wet-rail set fitted to the measurements of the 12X locomotive |
-//! | `low` | 0.08 | 0.40 | 0.29 | 0.30 | 0.075 | **project choice**: Polach gives no set for leaves or oil; the `wet` shape with `mu0` scaled so the peak at 83.3 m/s is ~0.06, inside the 0.03-0.08 range of contaminated rail in issue 11 / `spec/model.md` |
+//! | `low` | 0.08 | 0.40 | 0.29 | 0.30 | 0.075 | **project choice**: Polach gives no set for leaves or oil; the `wet` shape with `mu0` scaled so the peak at 83.3 m/s is ~0.06, inside the 0.03-0.08 range of contaminated rail in issue 11 / `docs/model.md` |
 //!
 //! `sim-host adhesion --condition C --v-mps V --json F` prints the characteristic and its
 //! peak for any condition and speed.

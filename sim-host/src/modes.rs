@@ -1,6 +1,6 @@
 //! Modal analysis along the creep-coefficient sweep (Figs. 2-5 of the paper).
 //!
-//! For each analysis case ([`Case`], as `spec/model.md` defines them) and each creep
+//! For each analysis case ([`Case`], as `docs/model.md` defines them) and each creep
 //! coefficient `f11 = f22` of the sweep, the closed loop is linearised at pure rolling
 //! on straight track ([`crate::linear`]) and its eigenvalues computed (nalgebra, real
 //! Schur form). Eigenvalues are tracked from point to point by continuity (greedy
@@ -34,7 +34,7 @@ use std::f64::consts::PI;
 /// Name given to the structural zero eigenvalue.
 pub const STRUCTURAL_ZERO: &str = "rolling (structural zero)";
 
-/// The analysis cases of `spec/model.md`.
+/// The analysis cases of `docs/model.md`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 pub enum Case {
     /// (a) passive yaw spring, rigid axle, no traction dynamics.

@@ -1,5 +1,5 @@
 //! Physical and controller parameters of the wheelset, its traction drive and the
-//! continuous-time reference controllers, with the paper's defaults (`spec/model.md`).
+//! continuous-time reference controllers, with the paper's defaults (`docs/model.md`).
 //!
 //! All values are SI. A TOML table may override any subset of the fields; unknown keys
 //! and out-of-range values are refused with a [`ConfigError`] naming the key.

@@ -1,4 +1,4 @@
-//! The nonlinear wheelset plant, eqs. (1)-(10) of `spec/model.md` as corrected, on
+//! The nonlinear wheelset plant, eqs. (1)-(10) of `docs/model.md` as corrected, on
 //! relative angles.
 //!
 //! # State (index constants in [`ix`])

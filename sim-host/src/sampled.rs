@@ -509,7 +509,7 @@ pub struct Reduced {
 }
 
 impl Reduced {
-    /// Build the linear plant with the parameters of `model.md` (defaults).
+    /// Build the linear plant with the parameters of `docs/model.md` (defaults).
     pub fn plant(&self) -> LinearPlant {
         self.plant_with(&Params::default())
     }
@@ -549,7 +549,7 @@ impl Reduced {
 pub const CREEP_GRID: [f64; 6] = [1e6, 2e6, 3e6, 5e6, 7e6, 10e6];
 /// Conicities of the robustness grid.
 pub const CONICITY_GRID: [f64; 5] = [0.05, 0.1, 0.2, 0.3, 0.4];
-/// The nominal point (model.md defaults): 10 MN, conicity 0.2.
+/// The nominal point (docs/model.md defaults): 10 MN, conicity 0.2.
 pub const NOMINAL: (f64, f64) = (10e6, 0.2);
 
 /// Link budget assumptions: a Sensor frame in, an Actuation frame out, sequential within
@@ -1001,7 +1001,7 @@ mod tests {
         out
     }
 
-    /// The sign fact of model.md on the reduced plant: `T_psi = +Ks y'` is stable at the
+    /// The sign fact of docs/model.md on the reduced plant: `T_psi = +Ks y'` is stable at the
     /// nominal point, the opposite sign unstable across the creep grid.
     #[test]
     fn opposite_active_sign_is_unstable() {

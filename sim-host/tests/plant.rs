@@ -146,7 +146,7 @@ fn every_corrected_term_matches_its_derivation_from_the_creep_forces() {
             "longitudinal force",
         );
 
-        // The corrected equations (4)-(10) of model.md, expanded as printed there.
+        // The corrected equations (4)-(10) of docs/model.md, expanded as printed there.
         let lhs4 = p.m * dx[ix::YD] + (2.0 * f22 / v + p.c_lat) * yd + p.k_lat * y
             - 2.0 * f22 * psi
             - p.m * v * v * k;

@@ -1,5 +1,5 @@
 //! The controller as it runs (F64Controller, per-unit, limits, one tick of delay) closing
-//! the loop on reduced plants of `spec/model.md`: the armature circuit (eq. 9 at
+//! the loop on reduced plants of `docs/model.md`: the armature circuit (eq. 9 at
 //! constant speed, exact ZOH) and the lateral/yaw dynamics of case (a) without the yaw
 //! spring (eqs. 4-5 linearised, straight track; RK4 with 16 substeps per tick). These
 //! guard the default rates; the full sampled-data analysis is in the crate docs.
@@ -135,7 +135,7 @@ fn yaw_cfg(mode: YawMode, sign: f64) -> Config {
 }
 
 /// Nominal point (10 MN, conicity 0.2): the sampled lead loop at the default rate
-/// decays; with the opposite active sign it diverges (model.md: "the opposite active
+/// decays; with the opposite active sign it diverges (docs/model.md: "the opposite active
 /// sign is unstable everywhere").
 #[test]
 fn yaw_loop_sign_and_stability_at_the_default_rate() {

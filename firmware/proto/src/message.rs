@@ -92,7 +92,7 @@ pub struct Actuation {
     pub exec: u32,
     /// Status and fault flags.
     pub flags: Flags,
-    /// Yaw torque `T_psi` in 0.1 N m (sign as in `model.md` eq. 5: `J psi'' ... = -T_psi`).
+    /// Yaw torque `T_psi` in 0.1 N m (sign as in `docs/model.md` eq. 5: `J psi'' ... = -T_psi`).
     pub t_psi_dnm: i32,
     /// Motor voltage `u_a` in 10 mV.
     pub u_a_cv: i32,

@@ -1,7 +1,7 @@
 //! Wire units: every physical quantity crosses the link as an integer count of a stated
 //! least significant bit (LSB). `value_SI = count * LSB`.
 //!
-//! | field | type | LSB | range on the wire | largest value in `model.md` |
+//! | field | type | LSB | range on the wire | largest value in `docs/model.md` |
 //! |---|---|---|---|---|
 //! | lateral velocity `y'` (track relative) | `i32` varint | 1 um/s | +-2147 m/s | ~0.5 m/s (8 mm at 10 Hz) |
 //! | lateral acceleration `y''` | `i32` varint | 0.1 mm/s^2 | +-214 km/s^2 | ~30 m/s^2 |

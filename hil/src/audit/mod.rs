@@ -7,7 +7,7 @@
 //!   [`wheelset_control::PiParams::discretise`]) against the quantised values the
 //!   controller really multiplies by (read back from [`wheelset_control::Lead::quantised`]
 //!   and [`wheelset_control::Pi::quantised`]); absolute and relative errors.
-//! - **Poles, zeros, DC gain**: continuous (model.md), discrete f64 and discrete
+//! - **Poles, zeros, DC gain**: continuous (docs/model.md), discrete f64 and discrete
 //!   quantised (from the direct form of each), the discrete roots also mapped back to
 //!   rad/s by the inverse bilinear map; shifts between them. The fixed-point DC gain is
 //!   *measured* with a constant input.

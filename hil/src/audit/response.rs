@@ -1,4 +1,4 @@
-//! Transfer functions of the three controllers: continuous (model.md), discrete from the
+//! Transfer functions of the three controllers: continuous (docs/model.md), discrete from the
 //! f64 coefficients, discrete from the quantised coefficients (computed), and the
 //! fixed-point controller's response *measured* by driving it with sinusoids and fitting.
 //! Poles, zeros and DC gains.
@@ -104,7 +104,7 @@ impl Kind {
             Kind::YawPredictor => "1 (x per y')",
         }
     }
-    /// The continuous law, as in model.md.
+    /// The continuous law, as in docs/model.md.
     pub fn law(self) -> &'static str {
         match self {
             Kind::YawLead => "Ks(s) = K a (s + w1)/(s + w2), Tustin",
