@@ -10,7 +10,7 @@ use wheelset_runtime::{Runtime, RuntimeBits, RuntimeError};
 
 /// The default runtime compiled at build time (`build.rs`): the generated constant.
 mod generated {
-    use wheelset_control::{CompiledBits, ScaleBits, ScheduleBits, YawMode::*};
+    use wheelset_control::{CompiledBits, ScaleBits, ScheduleBits, WspBits, YawMode::*};
     use wheelset_runtime::{AccBits, RuntimeBits};
     include!(concat!(env!("OUT_DIR"), "/default_runtime.rs"));
 }

@@ -25,6 +25,7 @@ use crate::controller::Codec;
 use crate::lead::Lead;
 use crate::pi::Pi;
 use crate::sample::{Coef, Fx, FxScale, Sample, SampleBits};
+use crate::wsp::{Wsp, WspBits};
 
 /// The discretised, quantised controller for sample type `T` (immutable while running).
 /// Build it from a [`Config`] with [`Compiled::try_new`] (f64; host and build script) or
@@ -60,6 +61,8 @@ pub struct Compiled<T: Sample> {
     pub(crate) codec: Codec<T>,
     pub(crate) yaw_mode: YawMode,
     pub(crate) traction_enabled: bool,
+    /// Wheel-slip protection ([`crate::wsp`]).
+    pub(crate) wsp: Wsp<T>,
 }
 
 /// The exact bits of one wire-code scale ([`Sample::scale_to_bits`]): fixed point
@@ -131,6 +134,9 @@ pub struct CompiledBits {
     pub traction_enabled: bool,
     /// The rate-dependent part.
     pub schedule: ScheduleBits,
+    /// Wheel-slip protection (rate-independent: its per-step quantities are ratios to
+    /// the schedule's `iref_step`, [`crate::wsp`]).
+    pub wsp: WspBits,
 }
 
 /// Why exact bits were refused: the field that is invalid.
@@ -201,6 +207,7 @@ impl<T: Sample> Compiled<T> {
             codec: Codec::try_new(&config.wire, s)?,
             yaw_mode: config.yaw_mode,
             traction_enabled: config.traction_enabled,
+            wsp: Wsp::try_new(&config.wsp, &config.motor, s, l)?,
         })
     }
 
@@ -227,6 +234,10 @@ impl<T: Sample> Compiled<T> {
     /// The wire codec.
     pub fn codec(&self) -> &Codec<T> {
         &self.codec
+    }
+    /// The wheel-slip protection as quantised.
+    pub fn wsp(&self) -> &Wsp<T> {
+        &self.wsp
     }
 }
 
@@ -268,6 +279,7 @@ impl<T: SampleBits> Compiled<T> {
             yaw_mode: self.yaw_mode,
             traction_enabled: self.traction_enabled,
             schedule: self.schedule(),
+            wsp: self.wsp.to_bits(),
         }
     }
 
@@ -346,6 +358,7 @@ impl<T: SampleBits> Compiled<T> {
             },
             yaw_mode: b.yaw_mode,
             traction_enabled: b.traction_enabled,
+            wsp: Wsp::from_bits(&b.wsp)?,
         };
         c.with_schedule(&b.schedule)
     }
@@ -424,6 +437,15 @@ impl CompiledBits {
             self.demand_to_iref,
             self.back_emf,
             self.y_dot_pred_max,
+            self.wsp.slip_on,
+            self.wsp.slip_hold,
+            self.wsp.slip_target,
+            self.wsp.accel_ratio,
+            self.wsp.reapply_ratio,
+            self.wsp.cut,
+            self.wsp.probe_level,
+            self.wsp.v_ref.mul,
+            self.wsp.v_ref.shift as u64,
         ];
         let mut i = 0;
         while i < words.len() {
@@ -498,6 +520,17 @@ macro_rules! from_valid_bits {
                     },
                     yaw_mode: b.yaw_mode,
                     traction_enabled: b.traction_enabled,
+                    wsp: Wsp {
+                        enabled: b.wsp.enabled,
+                        slip_on: s(b.wsp.slip_on),
+                        slip_hold: s(b.wsp.slip_hold),
+                        slip_target: s(b.wsp.slip_target),
+                        accel_ratio: c(b.wsp.accel_ratio),
+                        reapply_ratio: c(b.wsp.reapply_ratio),
+                        cut: c(b.wsp.cut),
+                        probe_level: s(b.wsp.probe_level),
+                        v_ref: sc(b.wsp.v_ref),
+                    },
                 }
             }
         }

@@ -3,6 +3,7 @@
 
 use crate::lead::LeadParams;
 use crate::pi::PiParams;
+use crate::wsp::WspParams;
 
 /// Yaw control mode.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -186,6 +187,8 @@ pub struct Config {
     pub scales: FullScales,
     /// Wire LSBs.
     pub wire: WireLsb,
+    /// Wheel-slip protection ([`crate::wsp`]).
+    pub wsp: WspParams,
 }
 
 /// Default base rate, Hz (see the crate docs' rate analysis).
@@ -212,6 +215,7 @@ impl Default for Config {
             safe: SafeRamps::default(),
             scales: FullScales::default(),
             wire: WireLsb::default(),
+            wsp: WspParams::default(),
         }
     }
 }
@@ -408,6 +412,7 @@ impl Config {
         }
         self.lead.discretise(self.yaw_period())?;
         self.pi.discretise(self.traction_period())?;
+        crate::wsp::Wsp::<f64>::try_new(&self.wsp, &self.motor, s, l)?;
         Ok(())
     }
 }

@@ -7,6 +7,7 @@ use crate::config::{Config, ConfigError, FullScales, WireLsb, YawMode};
 use crate::lead::{Lead, LeadState};
 use crate::pi::{Pi, PiState};
 use crate::sample::{Fx, Sample};
+use crate::wsp::WspState;
 
 /// One tick's inputs, per unit (`x_SI / FS`, [`FullScales`]). Build them from SI values
 /// with [`Inputs::from_si`] or from wire codes with [`Codec::decode`].
@@ -84,7 +85,8 @@ pub struct Counters {
     pub y_dot: SignalCounts,
     /// Input current (clamp `limits.current`; read on traction steps with traction on).
     pub current: SignalCounts,
-    /// Input speed (clamp `limits.speed`; read only for the bumpless preset).
+    /// Input speed (clamp `limits.speed`; read for the bumpless preset and, with the
+    /// wheel-slip protection on, on every traction step).
     pub speed: SignalCounts,
     /// Input demand (clamp `limits.demand`; as the current).
     pub demand: SignalCounts,
@@ -95,6 +97,10 @@ pub struct Counters {
     pub voltage: SignalCounts,
     /// PI integrator clamps (anti-windup engaged).
     pub integrator: SignalCounts,
+    /// Traction steps on which the wheel-slip protection acted ([`crate::wsp`]).
+    pub wsp_ticks: u32,
+    /// Times the wheel-slip protection started acting.
+    pub wsp_events: u32,
 }
 
 /// Bit positions of the per-tick event mask (inputs: `bit` invalid, `bit + 1` clamped).
@@ -239,6 +245,10 @@ pub struct Controller<T: Sample> {
     last_y_dot: T,
     out: Outputs<T>,
     counters: Counters,
+    /// Wheel-slip protection: on, state, acted on the last traction step.
+    wsp_on: bool,
+    wsp: WspState<T>,
+    wsp_acting: bool,
 }
 
 /// The project's production controller: Q4.28 signals, Q1.31 coefficients.
@@ -275,6 +285,9 @@ impl<T: Sample> Controller<T> {
             last_y_dot: T::ZERO,
             out: Outputs::default(),
             counters: Counters::default(),
+            wsp_on: law.wsp.enabled,
+            wsp: WspState::default(),
+            wsp_acting: false,
         }
     }
 
@@ -377,9 +390,10 @@ impl<T: Sample> Controller<T> {
         let i = Self::input(inp.current, law.current_max, event::CURRENT, ev);
         let d = Self::input(inp.demand, law.demand_max, event::DEMAND, ev);
         if !self.armed {
-            // Bumpless start: the only use of the speed.
+            // Bumpless start.
             let w = Self::input(inp.speed, law.speed_max, event::SPEED, ev);
             law.pi.preset(&mut self.pi_state, w.mul_c(law.back_emf));
+            self.wsp.w_prev = w;
             self.armed = true;
         }
         let (target, step) = if self.safe {
@@ -392,9 +406,20 @@ impl<T: Sample> Controller<T> {
             .limit(T::ZERO.sat_sub(step), step)
             .0;
         self.iref = self.iref.sat_add(delta);
-        let (u, f) = law
-            .pi
-            .process_flags(&mut self.pi_state, self.iref.sat_sub(i));
+        // Wheel-slip protection (crate::wsp): caps the reference while the wheel slips.
+        let mut iref = self.iref;
+        self.wsp_acting = false;
+        if self.wsp_on & !self.safe {
+            let w = Self::input(inp.speed, law.speed_max, event::SPEED, ev);
+            let (r, acting, new) = law.wsp.process(&mut self.wsp, w, iref, law.iref_step);
+            iref = r;
+            self.wsp_acting = acting;
+            self.counters.wsp_ticks = self.counters.wsp_ticks.wrapping_add(acting as u32);
+            self.counters.wsp_events = self.counters.wsp_events.wrapping_add(new as u32);
+        } else {
+            self.wsp.active = false;
+        }
+        let (u, f) = law.pi.process_flags(&mut self.pi_state, iref.sat_sub(i));
         *ev |= ((f.integ as u32) << event::INTEGRATOR) | ((f.output as u32) << event::VOLTAGE);
         self.out.voltage = u;
     }
@@ -444,6 +469,37 @@ impl<T: Sample> Controller<T> {
     /// Traction loop on?
     pub fn traction_enabled(&self) -> bool {
         self.traction
+    }
+
+    /// Wheel-slip protection on/off ([`crate::wsp`]); off releases it at once.
+    pub fn set_wsp(&mut self, on: bool) {
+        self.wsp_on = on;
+        if !on {
+            self.wsp.active = false;
+            self.wsp_acting = false;
+        }
+    }
+    /// Wheel-slip protection on?
+    pub fn wsp_enabled(&self) -> bool {
+        self.wsp_on
+    }
+    /// The protection acted on the last traction step (the `WHEEL_SLIP` flag).
+    pub fn wheel_slip(&self) -> bool {
+        self.wsp_acting
+    }
+    /// The vehicle reference speed as motor speed `n v_ref / r0`, pu of `scales.speed`
+    /// (held until the next call; sanitised and clamped to the speed limit).
+    pub fn set_v_ref(&mut self, w_ref: T) {
+        let m = self.law.speed_max;
+        self.wsp.w_ref = w_ref.sanitize().0.limit(T::ZERO.sat_sub(m), m).0;
+    }
+    /// [`Self::set_v_ref`] from the Sensor frame's code (`v_ref` LSBs, 1 mm/s).
+    pub fn set_v_ref_code(&mut self, code: i32) {
+        self.set_v_ref(self.law.wsp.w_ref(code));
+    }
+    /// The protection's state.
+    pub fn wsp_state(&self) -> &WspState<T> {
+        &self.wsp
     }
 
     /// Bumpless start: preset the PI integrator to the back-EMF `K_m omega_m` of the

@@ -1,5 +1,6 @@
-//! The wheelset's control laws, `no_std`: discretised phase-lead yaw damping and the PI
-//! traction current loop, generic over the sample type (`f64` reference, `f32`, and the
+//! The wheelset's control laws, `no_std`: discretised phase-lead yaw damping, the PI
+//! traction current loop and its wheel-slip protection ([`wsp`]), generic over the
+//! sample type (`f64` reference, `f32`, and the
 //! fixed-point production type [`Fx`] = Q4.28).
 //!
 //! No allocation, no HAL, no division, no panic on the tick path. Configuration is
@@ -201,6 +202,7 @@ pub mod controller;
 pub mod lead;
 pub mod pi;
 pub mod sample;
+pub mod wsp;
 
 pub use compiled::{BitsError, Compiled, CompiledBits, ScaleBits, ScheduleBits};
 pub use config::{
@@ -214,3 +216,4 @@ pub use controller::{
 pub use lead::{Lead, LeadDiscrete, LeadParams, LeadPu, LeadState};
 pub use pi::{Pi, PiDiscrete, PiFlags, PiParams, PiPu, PiState};
 pub use sample::{Coef, Fx, FxScale, Sample, SampleBits};
+pub use wsp::{Wsp, WspBits, WspParams, WspState};
