@@ -42,7 +42,8 @@ fn iref_a<T: Sample>(c: &Controller<T>) -> f64 {
 
 #[test]
 fn invalid_parameters_are_refused_with_the_field_named() {
-    let cases: [(&str, fn(&mut WspParams)); 6] = [
+    type Spoil = fn(&mut WspParams);
+    let cases: [(&str, Spoil); 6] = [
         ("wsp.slip_hold_mps", |p| p.slip_hold_mps = p.slip_on_mps),
         ("wsp.slip_target_mps", |p| {
             p.slip_target_mps = p.slip_hold_mps
