@@ -477,12 +477,6 @@ pub enum Request {
     /// A frame with a valid CRC and version whose type is one the device sends, not
     /// takes (Actuation, Status); its body is not checked.
     Unexpected,
-    /// A Command whose variant index, or a Config whose `mode` index, this version does
-    /// not define (the leading byte of the body, below 0x80; the rest is not checked; a
-    /// multi-byte index is a decoding error like any other malformed varint): the device
-    /// refuses it as an unknown request (`CMD_REFUSED`,
-    /// [`crate::RefuseReason::UnknownRequest`]), not as a decoding error.
-    Unknown,
 }
 
 /// The device's decoder: [`decode_frame`] for the messages the device takes (the same
@@ -508,19 +502,8 @@ pub(crate) fn decode_nonzero_request(encoded: &mut [u8]) -> Result<Request, Fram
     let n = cobs_decode_nonzero_to(encoded, &mut raw).ok_or(FrameError::Cobs)?;
     let msg = check(raw.get(..n).ok_or(FrameError::Cobs)?)?;
     // postcard writes an enum as its variant index (a varint), then the variant.
-    use crate::fast::{
-        finish, leading_index, message_type, ACTUATION, COMMAND, COMMANDS, CONFIG, SENSOR, STATUS,
-        YAW_MODES,
-    };
+    use crate::fast::{finish, message_type, ACTUATION, COMMAND, CONFIG, SENSOR, STATUS};
     let (ty, body) = message_type(msg).ok_or(FrameError::Postcard)?;
-    let defined = match ty {
-        COMMAND => COMMANDS,
-        CONFIG => YAW_MODES,
-        _ => u32::MAX,
-    };
-    if leading_index(body).is_some_and(|i| i >= defined) {
-        return Ok(Request::Unknown);
-    }
     Ok(match ty {
         SENSOR => Request::Sensor(finish(body, crate::fast::sensor)?),
         CONFIG => Request::Config(finish(body, crate::fast::config)?),
