@@ -1,6 +1,6 @@
 //! The streaming frame accumulator: bytes in any chunking, frames out.
 
-use crate::frame::{decode_nonzero_frame, decode_nonzero_request, FrameError, Request, MAX_FRAME};
+use crate::frame::{message_from_raw, request_from_raw, FrameError, Request, MAX_FRAME};
 use crate::message::Message;
 
 /// Collects bytes up to each 0x00 delimiter in a fixed buffer and decodes the frame.
@@ -25,8 +25,18 @@ use crate::message::Message;
 /// ```
 #[derive(Debug, Clone)]
 pub struct Decoder<const N: usize = MAX_FRAME> {
-    buf: heapless::Vec<u8, N>,
-    overflow: bool,
+    /// The frame in progress, COBS-decoded as its bytes arrive (one pass, no copy of
+    /// the encoded bytes and no zeroing per frame).
+    raw: [u8; N],
+    /// Decoded bytes in `raw`.
+    n: usize,
+    /// Encoded bytes of the frame in progress (saturating).
+    enc: usize,
+    /// Data bytes the current COBS block still owes.
+    left: u8,
+    /// The current block ends in an implied 0x00 (its code byte is not 0xFF): written
+    /// when the next block's code byte arrives.
+    zero: bool,
 }
 
 impl<const N: usize> Default for Decoder<N> {
@@ -36,42 +46,70 @@ impl<const N: usize> Default for Decoder<N> {
 }
 
 impl<const N: usize> Decoder<N> {
+    /// Longest frame (encoded, delimiter excluded) that is decoded: the buffer's `N`,
+    /// and at most `MAX_FRAME - 1`. Longer ones are [`FrameError::Length`].
+    const LIMIT: usize = if N < MAX_FRAME - 1 { N } else { MAX_FRAME - 1 };
+
     /// An empty decoder, waiting for the first byte of a frame.
     #[must_use]
     pub const fn new() -> Self {
         Self {
-            buf: heapless::Vec::new(),
-            overflow: false,
+            raw: [0; N],
+            n: 0,
+            enc: 0,
+            left: 0,
+            zero: false,
         }
     }
 
     /// Discards any partial frame.
     pub fn reset(&mut self) {
-        self.buf.clear();
-        self.overflow = false;
+        self.n = 0;
+        self.enc = 0;
+        self.left = 0;
+        self.zero = false;
     }
 
-    /// Bytes of the frame in progress.
+    /// Bytes of the frame in progress (at most `N`).
     #[must_use]
     pub fn pending(&self) -> usize {
-        self.buf.len()
+        self.enc.min(N)
     }
 
     /// Takes one byte; returns a result when the byte closed a non-empty frame.
     pub fn push(&mut self, byte: u8) -> Option<Result<Message, FrameError>> {
-        self.push_with(byte, decode_nonzero_frame)
+        if byte == 0 {
+            self.close(message_from_raw)
+        } else {
+            self.step(byte);
+            None
+        }
     }
 
     /// Takes a chunk of bytes, calling `f` for every frame closed in it. Same results as
-    /// [`Self::push`] byte by byte, but copies the runs between delimiters at once.
-    pub fn feed(&mut self, bytes: &[u8], f: impl FnMut(Result<Message, FrameError>)) {
-        self.feed_with(bytes, decode_nonzero_frame, f);
+    /// [`Self::push`] byte by byte.
+    pub fn feed(&mut self, bytes: &[u8], mut f: impl FnMut(Result<Message, FrameError>)) {
+        let mut rest = bytes;
+        while !rest.is_empty() {
+            let (r, more) = self.next_with(rest, message_from_raw);
+            rest = more;
+            if let Some(r) = r {
+                f(r);
+            }
+        }
     }
 
     /// [`Self::feed`] for the device: frames decoded as by [`crate::decode_request`] (the
     /// messages the device takes; the others recognised by their type only).
-    pub fn feed_requests(&mut self, bytes: &[u8], f: impl FnMut(Result<Request, FrameError>)) {
-        self.feed_with(bytes, decode_nonzero_request, f);
+    pub fn feed_requests(&mut self, bytes: &[u8], mut f: impl FnMut(Result<Request, FrameError>)) {
+        let mut rest = bytes;
+        while !rest.is_empty() {
+            let (r, more) = self.next_with(rest, request_from_raw);
+            rest = more;
+            if let Some(r) = r {
+                f(r);
+            }
+        }
     }
 
     /// Takes `bytes` up to and including the first delimiter: returns the frame's result
@@ -83,76 +121,70 @@ impl<const N: usize> Decoder<N> {
         &mut self,
         bytes: &'b [u8],
     ) -> (Option<Result<Request, FrameError>>, &'b [u8]) {
-        self.next_with(bytes, decode_nonzero_request)
+        self.next_with(bytes, request_from_raw)
     }
 
+    /// One non-zero byte of the frame in progress: COBS-decoded on the spot. A code byte
+    /// writes the previous block's implied 0x00 (unless that block's code was 0xFF) and
+    /// opens a block of `code - 1` data bytes; a data byte is stored. (Decoded bytes never
+    /// outnumber encoded ones, so within [`Self::LIMIT`] they always fit in `raw`; beyond
+    /// it the frame is a length error and its bytes are dropped.)
     #[inline(always)]
-    fn push_with<M>(
-        &mut self,
-        byte: u8,
-        decode: impl FnOnce(&mut [u8]) -> Result<M, FrameError>,
-    ) -> Option<Result<M, FrameError>> {
-        if byte != 0 {
-            if !self.overflow && self.buf.push(byte).is_err() {
-                self.overflow = true;
+    fn step(&mut self, b: u8) {
+        self.enc = self.enc.saturating_add(1);
+        let byte = if self.left == 0 {
+            let zero = core::mem::replace(&mut self.zero, b != 0xFF);
+            self.left = b - 1;
+            if !zero {
+                return;
             }
+            0
+        } else {
+            self.left -= 1;
+            b
+        };
+        if let Some(slot) = self.raw.get_mut(self.n) {
+            *slot = byte;
+            self.n += 1;
+        }
+    }
+
+    /// The delimiter: the frame's result (`None` for an empty frame), decisions in the
+    /// order of [`crate::decode_frame`]: length, COBS (a block cut short by the
+    /// delimiter), then `decode` (length, CRC, version, message).
+    #[inline(always)]
+    fn close<M>(
+        &mut self,
+        decode: impl FnOnce(&[u8]) -> Result<M, FrameError>,
+    ) -> Option<Result<M, FrameError>> {
+        if self.enc == 0 {
             return None;
         }
-        if self.overflow {
-            self.reset();
-            return Some(Err(FrameError::Length));
-        }
-        if self.buf.is_empty() {
-            return None;
-        }
-        // (`buf` holds no 0x00: `push` and `feed` end the frame at every one.)
-        let r = decode(&mut self.buf);
-        self.buf.clear();
+        let r = if self.enc > Self::LIMIT {
+            Err(FrameError::Length)
+        } else if self.left != 0 {
+            Err(FrameError::Cobs)
+        } else {
+            decode(self.raw.get(..self.n).unwrap_or(&[]))
+        };
+        self.reset();
         Some(r)
     }
 
-    #[inline(always)]
-    fn feed_with<M>(
-        &mut self,
-        bytes: &[u8],
-        decode: impl Fn(&mut [u8]) -> Result<M, FrameError>,
-        mut f: impl FnMut(Result<M, FrameError>),
-    ) {
-        let mut rest = bytes;
-        while !rest.is_empty() {
-            let (r, more) = self.next_with(rest, &decode);
-            rest = more;
-            if let Some(r) = r {
-                f(r);
-            }
-        }
-    }
-
-    /// One run of bytes up to and including the next delimiter (or all of them).
+    /// The bytes up to and including the next delimiter (or all of them).
     #[inline(always)]
     fn next_with<'b, M>(
         &mut self,
         bytes: &'b [u8],
-        decode: impl FnOnce(&mut [u8]) -> Result<M, FrameError>,
+        decode: impl FnOnce(&[u8]) -> Result<M, FrameError>,
     ) -> (Option<Result<M, FrameError>>, &'b [u8]) {
-        let (run, closes) = match bytes.iter().position(|&b| b == 0) {
-            Some(i) => (bytes.get(..i).unwrap_or(&[]), true),
-            None => (bytes, false),
-        };
-        if !self.overflow {
-            let room = N - self.buf.len();
-            if run.len() > room {
-                self.overflow = true;
+        let mut it = bytes.iter();
+        for &b in it.by_ref() {
+            if b == 0 {
+                return (self.close(decode), it.as_slice());
             }
-            // Fits by construction: `room` bytes at most.
-            let _ = self.buf.extend_from_slice(run.get(..room).unwrap_or(run));
+            self.step(b);
         }
-        let rest = bytes.get(run.len() + usize::from(closes)..).unwrap_or(&[]);
-        let r = if closes {
-            self.push_with(0, decode)
-        } else {
-            None
-        };
-        (r, rest)
+        (None, &[])
     }
 }

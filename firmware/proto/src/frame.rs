@@ -500,7 +500,19 @@ pub(crate) fn decode_nonzero_request(encoded: &mut [u8]) -> Result<Request, Fram
     }
     let mut raw = [0u8; MAX_FRAME];
     let n = cobs_decode_nonzero_to(encoded, &mut raw).ok_or(FrameError::Cobs)?;
-    let msg = check(raw.get(..n).ok_or(FrameError::Cobs)?)?;
+    request_from_raw(raw.get(..n).ok_or(FrameError::Cobs)?)
+}
+
+/// [`decode_nonzero_frame`] of a frame already COBS-decoded (the [`crate::Decoder`]
+/// decodes COBS as the bytes arrive): length, CRC, version, then the message.
+pub(crate) fn message_from_raw(raw: &[u8]) -> Result<Message, FrameError> {
+    crate::fast::decode_body(check(raw)?).map_err(FrameError::from)
+}
+
+/// [`decode_nonzero_request`] of a frame already COBS-decoded: length, CRC, version,
+/// then the request.
+pub(crate) fn request_from_raw(raw: &[u8]) -> Result<Request, FrameError> {
+    let msg = check(raw)?;
     // postcard writes an enum as its variant index (a varint), then the variant.
     use crate::fast::{finish, message_type, ACTUATION, COMMAND, CONFIG, SENSOR, STATUS};
     let (ty, body) = message_type(msg).ok_or(FrameError::Postcard)?;

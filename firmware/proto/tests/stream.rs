@@ -1,0 +1,68 @@
+//! The streaming decoder (COBS decoded as the bytes arrive) decides every frame as the
+//! whole-frame decoders do: `Decoder::feed` = `decode_frame` and
+//! `Decoder::next_request` = `decode_request`, on arbitrary byte strings (every COBS,
+//! length and CRC failure) and on valid frames with bytes changed, dropped or added.
+
+mod common;
+
+use common::*;
+use proptest::prelude::*;
+use wheelset_proto::*;
+
+/// The decoders' results for one frame body (no 0x00) followed by a delimiter.
+fn both(body: &[u8]) {
+    assert!(!body.contains(&0));
+    let mut wire = body.to_vec();
+    wire.push(0);
+    let mut dec: Decoder = Decoder::new();
+    let mut got = Vec::new();
+    dec.feed(&wire, |r| got.push(r));
+    let mut dev: Decoder = Decoder::new();
+    let (req, rest) = dev.next_request(&wire);
+    assert!(rest.is_empty());
+    if body.is_empty() {
+        assert!(got.is_empty() && req.is_none(), "an empty frame is skipped");
+        return;
+    }
+    assert_eq!(got, vec![decode_frame(&mut body.to_vec())], "{body:02x?}");
+    assert_eq!(req, Some(decode_request(&mut body.to_vec())), "{body:02x?}");
+    assert_eq!((dec.pending(), dev.pending()), (0, 0));
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(4000))]
+
+    #[test]
+    fn arbitrary_frames(body in proptest::collection::vec(1u8..=255, 0..130)) {
+        both(&body);
+    }
+
+    #[test]
+    fn changed_valid_frames(
+        msg in message(),
+        edits in proptest::collection::vec((0usize..120, 1u8..=255, 0u8..3), 0..4),
+    ) {
+        let f = encode_vec(&msg).expect("fits");
+        let mut body = f[..f.len() - 1].to_vec();
+        for (at, b, kind) in edits {
+            let at = at % (body.len() + 1);
+            match kind {
+                0 if at < body.len() => body[at] = b,
+                1 if at < body.len() => {
+                    body.remove(at);
+                }
+                _ => body.insert(at, b),
+            }
+        }
+        both(&body);
+    }
+}
+
+#[test]
+fn length_limits_are_the_whole_frame_decoders() {
+    // Code bytes only (each a valid one-byte block) up to and past MAX_FRAME.
+    for n in 1..=MAX_FRAME + 3 {
+        both(&vec![1u8; n]);
+        both(&vec![0xFFu8; n]);
+    }
+}
