@@ -171,20 +171,47 @@ impl<const N: usize> Decoder<N> {
         Some(r)
     }
 
-    /// The bytes up to and including the next delimiter (or all of them).
+    /// The bytes up to and including the next delimiter (or all of them): [`Self::step`]
+    /// per byte, on the state held in locals for the run (the encoded count added once).
     #[inline(always)]
     fn next_with<'b, M>(
         &mut self,
         bytes: &'b [u8],
         decode: impl FnOnce(&[u8]) -> Result<M, FrameError>,
     ) -> (Option<Result<M, FrameError>>, &'b [u8]) {
+        let (mut n, mut left, mut zero) = (self.n, self.left, self.zero);
         let mut it = bytes.iter();
+        let mut closed = false;
         for &b in it.by_ref() {
             if b == 0 {
-                return (self.close(decode), it.as_slice());
+                closed = true;
+                break;
             }
-            self.step(b);
+            let byte = if left == 0 {
+                let z = zero;
+                zero = b != 0xFF;
+                left = b - 1;
+                if !z {
+                    continue;
+                }
+                0
+            } else {
+                left -= 1;
+                b
+            };
+            if let Some(slot) = self.raw.get_mut(n) {
+                *slot = byte;
+                n += 1;
+            }
         }
-        (None, &[])
+        let rest = it.as_slice();
+        let taken = bytes.len() - rest.len() - usize::from(closed);
+        self.enc = self.enc.saturating_add(taken);
+        (self.n, self.left, self.zero) = (n, left, zero);
+        if closed {
+            (self.close(decode), rest)
+        } else {
+            (None, &[])
+        }
     }
 }
