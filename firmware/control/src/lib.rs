@@ -200,6 +200,7 @@ pub mod compiled;
 pub mod config;
 pub mod controller;
 pub mod lead;
+pub mod monitor;
 pub mod pi;
 pub mod sample;
 pub mod wsp;
@@ -214,6 +215,7 @@ pub use controller::{
     OutputCodes, Outputs, SignalCounts,
 };
 pub use lead::{Lead, LeadDiscrete, LeadParams, LeadPu, LeadState};
+pub use monitor::{Monitor, MonitorBits, MonitorEvents, MonitorParams, MonitorState, Square};
 pub use pi::{Pi, PiDiscrete, PiFlags, PiParams, PiPu, PiState};
 pub use sample::{Coef, Fx, FxScale, Sample, SampleBits};
 pub use wsp::{Wsp, WspBits, WspParams, WspState};

@@ -1,0 +1,267 @@
+//! The stability monitor and the actuator check (`wheelset_control::monitor`): alarm
+//! levels with hysteresis, the band, the growth test, the three sample types from one
+//! implementation, and the exact-bit round trip.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use std::f64::consts::PI;
+use wheelset_control::{Fx, Monitor, MonitorEvents, MonitorParams, MonitorState, Sample, Square};
+
+const BASE: u32 = 5000;
+
+/// Runs `f(t)` (y' in m/s = pu) through a monitor at the base rate for `dur` seconds;
+/// returns the times of the rising edges (hunting, actuator) and the final events.
+fn drive<T: Sample + Square>(
+    p: &MonitorParams,
+    dur: f64,
+    commanding: bool,
+    f: impl Fn(f64) -> f64,
+) -> (Vec<f64>, Vec<f64>, MonitorEvents) {
+    let m = Monitor::<T>::try_new(p, BASE).unwrap();
+    let mut s = MonitorState::default();
+    let (mut h, mut a) = (Vec::new(), Vec::new());
+    let mut ev = MonitorEvents::default();
+    let n = (dur * f64::from(BASE)) as usize;
+    for k in 0..n {
+        let t = k as f64 / f64::from(BASE);
+        ev = m.tick(&mut s, T::from_f64(f(t)), commanding);
+        if ev.hunting_rose {
+            h.push(t);
+        }
+        if ev.actuator_rose {
+            a.push(t);
+        }
+    }
+    (h, a, ev)
+}
+
+fn sine(f_hz: f64, rms: f64) -> impl Fn(f64) -> f64 {
+    move |t| rms * 2f64.sqrt() * (2.0 * PI * f_hz * t).sin()
+}
+
+#[test]
+fn a_sustained_oscillation_in_band_alarms_and_its_end_releases() {
+    let p = MonitorParams::default();
+    // RMS 1.5 x the threshold at 10 Hz for 3 s, then 0.85 x (between release and
+    // threshold: held), then 0.5 x (released).
+    let amp = |t: f64| {
+        if t < 3.0 {
+            1.5
+        } else if t < 6.0 {
+            0.85
+        } else {
+            0.5
+        }
+    };
+    let f = move |t: f64| sine(10.0, p.threshold_m_s * amp(t))(t);
+    for (name, (h, a, ev)) in [
+        ("Q4.28", drive::<Fx>(&p, 9.0, true, f)),
+        ("f32", drive::<f32>(&p, 9.0, true, f)),
+        ("f64", drive::<f64>(&p, 9.0, true, f)),
+    ] {
+        assert_eq!(h.len(), 1, "{name}: one hunting alarm, {h:?}");
+        // The exponential mean square of a constant power P: P (1 - e^{-t/tau}) (the band
+        // gain at 10 Hz is ~0.95): 1.5^2 x 0.9 > 1 after about tau ln(1/(1 - 1/2.0)).
+        assert!(h[0] > 0.3 && h[0] < 1.5, "{name}: alarm at {}", h[0]);
+        assert!(
+            a.is_empty(),
+            "{name}: constant amplitude is no growth: {a:?}"
+        );
+        assert!(!ev.hunting, "{name}: released at the end");
+    }
+    // Held between the levels: still on at 5.9 s.
+    let (_, _, ev) = drive::<Fx>(&p, 5.9, true, f);
+    assert!(ev.hunting);
+}
+
+#[test]
+fn out_of_band_motion_does_not_alarm() {
+    let p = MonitorParams::default();
+    // 5 x the threshold's RMS, at 0.2 Hz (curve transitions) and at 120 Hz.
+    for f_hz in [0.2, 120.0] {
+        let (h, _, _) = drive::<Fx>(&p, 8.0, true, sine(f_hz, 5.0 * p.threshold_m_s));
+        assert!(h.is_empty(), "{f_hz} Hz: {h:?}");
+    }
+    // In band it would: 1.5 x at 5 Hz and at 15 Hz (the band's gain is 0.83 at 5 Hz,
+    // 0.80 at 15 Hz: first-order edges at 3 and 20 Hz).
+    for f_hz in [5.0, 15.0] {
+        let (h, _, _) = drive::<Fx>(&p, 8.0, true, sine(f_hz, 1.5 * p.threshold_m_s));
+        assert_eq!(h.len(), 1, "{f_hz} Hz: {h:?}");
+    }
+}
+
+/// A mode growing at `sigma` from `a0` (m/s) at 8 Hz, from t = 1 s.
+fn growing(sigma: f64, a0: f64) -> impl Fn(f64) -> f64 {
+    move |t| {
+        if t < 1.0 {
+            0.0
+        } else {
+            a0 * (sigma * (t - 1.0)).exp() * (2.0 * PI * 8.0 * (t - 1.0)).sin()
+        }
+    }
+}
+
+#[test]
+fn growth_while_commanding_is_an_actuator_fault_and_precedes_hunting() {
+    let p = MonitorParams::default();
+    // sigma = 5 1/s (the failed wheelset at conicity 0.05) from 0.1 mm/s.
+    let f = growing(5.0, 1e-4);
+    let (h, a, _) = drive::<Fx>(&p, 3.0, true, &f);
+    assert_eq!(a.len(), 1, "{a:?}");
+    assert_eq!(h.len(), 1, "{h:?}");
+    assert!(a[0] < h[0], "actuator {a:?} before hunting {h:?}");
+    // The floor (RMS 1 mm/s, peak 1.4 mm/s) is reached at 1 + ln(14)/5 = 1.53 s; the
+    // alarm within two blocks (plus one for the phase) after it.
+    assert!(a[0] > 1.4 && a[0] < 1.53 + 0.3, "{a:?}");
+    // Not commanding (passive mode, safe state): growth is no actuator fault.
+    let (h2, a2, _) = drive::<Fx>(&p, 3.0, false, &f);
+    assert!(a2.is_empty());
+    assert_eq!(h2, h);
+    // Slower than the check's rate (1 1/s < 3 1/s): not an actuator fault.
+    let (_, a3, _) = drive::<Fx>(&p, 3.0, true, growing(1.0, 2e-3));
+    assert!(a3.is_empty(), "{a3:?}");
+}
+
+#[test]
+fn a_damped_disturbance_is_no_actuator_fault() {
+    let p = MonitorParams::default();
+    // Bursts of 40 mm/s decaying at zeta omega = 6 1/s (the passive beating's, the
+    // lightest damping of the healthy runs), every 2 s.
+    let f = |t: f64| {
+        let tt = t % 2.0;
+        0.04 * (-6.0 * tt).exp() * (2.0 * PI * 9.0 * tt).sin()
+    };
+    let (_, a, _) = drive::<Fx>(&p, 8.0, true, f);
+    assert!(a.is_empty(), "{a:?}");
+}
+
+#[test]
+fn fixed_point_and_floats_alarm_together() {
+    let p = MonitorParams::default();
+    let f = growing(12.0, 1e-5);
+    let (hf, af, _) = drive::<Fx>(&p, 3.0, true, &f);
+    let (h32, a32, _) = drive::<f32>(&p, 3.0, true, &f);
+    let (h64, a64, _) = drive::<f64>(&p, 3.0, true, &f);
+    let step = 1.0 / f64::from(p.rate_hz);
+    for (x, y) in [(&hf, &h64), (&h32, &h64), (&af, &a64), (&a32, &a64)] {
+        assert_eq!(x.len(), 1, "{x:?}");
+        assert!((x[0] - y[0]).abs() <= step + 1e-9, "{x:?} vs {y:?}");
+    }
+}
+
+#[test]
+fn bits_round_trip_and_invalid_bits_are_refused() {
+    let p = MonitorParams::default();
+    let m = Monitor::<Fx>::try_new(&p, BASE).unwrap();
+    assert_eq!(m.divisor(), 10);
+    let b = m.to_bits();
+    assert_eq!(Monitor::<Fx>::from_bits(&b, BASE), Ok(m));
+    assert_eq!(Monitor::<Fx>::from_valid_bits(&b, BASE), m);
+    let m32 = Monitor::<f32>::try_new(&p, BASE).unwrap();
+    assert_eq!(Monitor::<f32>::from_valid_bits(&m32.to_bits(), BASE), m32);
+    assert_eq!(Monitor::<f32>::from_bits(&m32.to_bits(), BASE), Ok(m32));
+    // Another base rate: the sub-rate follows.
+    assert_eq!(Monitor::<Fx>::from_bits(&b, 4000).unwrap().divisor(), 8);
+    let bad = |f: &dyn Fn(&mut wheelset_control::MonitorBits)| {
+        let mut x = b;
+        f(&mut x);
+        Monitor::<Fx>::from_bits(&x, BASE).unwrap_err().field
+    };
+    assert_eq!(bad(&|x| x.k_lo = 0), "monitor.k_lo");
+    assert_eq!(bad(&|x| x.k_ms = 0x8000_0000), "monitor.k_ms");
+    assert_eq!(bad(&|x| x.levels.swap(0, 1)), "monitor.levels");
+    assert_eq!(bad(&|x| x.levels[2] = 0), "monitor.levels");
+    assert_eq!(bad(&|x| x.block = 0), "monitor.block");
+    assert_eq!(bad(&|x| x.levels[0] = 1 << 40), "monitor.levels");
+}
+
+#[test]
+fn bad_parameters_name_the_field() {
+    let d = MonitorParams::default();
+    let field = |p: MonitorParams| match Monitor::<Fx>::try_new(&p, BASE).unwrap_err() {
+        wheelset_control::ConfigError::Range { field, .. } => field,
+        e => panic!("{e:?}"),
+    };
+    assert_eq!(field(MonitorParams { rate_hz: 10, ..d }), "monitor.rate_hz");
+    assert_eq!(
+        field(MonitorParams { rate_hz: 6000, ..d }),
+        "monitor.rate_hz"
+    );
+    assert_eq!(
+        field(MonitorParams {
+            band_lo_hz: 25.0,
+            ..d
+        }),
+        "monitor.band_lo_hz"
+    );
+    assert_eq!(
+        field(MonitorParams {
+            band_hi_hz: f64::NAN,
+            ..d
+        }),
+        "monitor.band_hi_hz"
+    );
+    assert_eq!(
+        field(MonitorParams {
+            band_hi_hz: 200.0,
+            ..d
+        }),
+        "monitor.band_hi_hz"
+    );
+    assert_eq!(
+        field(MonitorParams {
+            window_s: 0.001,
+            ..d
+        }),
+        "monitor.window_s"
+    );
+    assert_eq!(
+        field(MonitorParams {
+            threshold_m_s: 0.0,
+            ..d
+        }),
+        "monitor.threshold_m_s"
+    );
+    assert_eq!(
+        field(MonitorParams { release: 1.0, ..d }),
+        "monitor.release"
+    );
+    assert_eq!(
+        field(MonitorParams {
+            act_floor_m_s: 0.05,
+            ..d
+        }),
+        "monitor.act_floor_m_s"
+    );
+    assert_eq!(
+        field(MonitorParams {
+            act_growth_per_s: -1.0,
+            ..d
+        }),
+        "monitor.act_growth_per_s"
+    );
+    assert_eq!(
+        field(MonitorParams {
+            act_block_s: 0.0,
+            ..d
+        }),
+        "monitor.act_block_s"
+    );
+    assert_eq!(
+        field(MonitorParams { act_blocks: 0, ..d }),
+        "monitor.act_blocks"
+    );
+}
+
+#[test]
+fn an_off_monitor_never_alarms() {
+    let m = Monitor::<Fx>::off();
+    let mut s = MonitorState::default();
+    for k in 0..10_000 {
+        let ev = m.tick(
+            &mut s,
+            Fx::from_num(if k % 2 == 0 { 1.0 } else { -1.0 }),
+            true,
+        );
+        assert!(!ev.hunting && !ev.actuator);
+    }
+}
