@@ -10,7 +10,8 @@
 //!   (launched by [`qemu`]);
 //!   [`lockstep`]: the bookkeeping of frame-clocked devices.
 //! - [`closed_loop`]: the device as the plant's sampled controller.
-//! - [`timing`], [`numerics`], [`frames`]: the checks; [`budget`]: their limits.
+//! - [`timing`], [`numerics`], [`frames`], [`monitor`]: the checks; [`budget`]: their
+//!   limits.
 //! - [`run`]: `hil run`; [`report`]: JSON, CSV and the Markdown report.
 //! - [`golden`]: `hil golden`, open-loop golden vectors host vs target, bit for bit.
 //! - [`audit`]: `hil audit`, the fixed-point accuracy audit of the control core.
@@ -26,6 +27,7 @@ pub mod inproc;
 pub mod link_check;
 pub mod lockstep;
 pub mod machine;
+pub mod monitor;
 pub mod numerics;
 pub mod qemu;
 pub mod qemu_target;

@@ -107,6 +107,8 @@ fn parse_golden_target(s: &str) -> Result<Target, String> {
 
 #[derive(Clone, Copy, ValueEnum)]
 enum Control {
+    /// Passive: the mechanical yaw spring in the plant, no yaw torque from the device.
+    Passive,
     /// Pure gain `T = K y'`.
     Gain,
     /// Phase lead `K 7.5 (s+37)/(s+274)` on `y'`.
@@ -130,7 +132,8 @@ struct RunArgs {
     /// (Cortex-M3, no FPU; `target/fw/wheelset-qemu-m3.elf`).
     #[arg(long, default_value = "mps2-an386", value_parser = parse_machine)]
     machine: Machine,
-    /// Built-in scenario (curve, beating) or a scenario TOML file.
+    /// Built-in scenario (curve, beating, low-adhesion, actuator-fault) or a scenario TOML
+    /// file.
     #[arg(long, default_value = "curve")]
     scenario: String,
     /// Yaw control law of the device (and of the reference).
@@ -265,6 +268,7 @@ fn cmd_run(a: &RunArgs, command: &str) -> Result<Verdict, Failure> {
         target: a.target.clone(),
         scenario: a.scenario.clone(),
         control: match a.control {
+            Control::Passive => Law::Passive,
             Control::Gain => Law::Gain,
             Control::Lead => Law::Lead,
         },

@@ -80,6 +80,8 @@ impl fmt::Display for Target {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Law {
+    /// The passive yaw spring in the plant; the device commands no yaw torque.
+    Passive,
     /// `T_psi = K y'`.
     Gain,
     /// `T_psi = Ks(s) y'`.
@@ -89,6 +91,7 @@ pub enum Law {
 impl Law {
     fn yaw(self) -> YawLaw {
         match self {
+            Self::Passive => YawLaw::Passive,
             Self::Gain => YawLaw::Gain,
             Self::Lead => YawLaw::Lead,
         }
@@ -96,6 +99,7 @@ impl Law {
 
     fn device(self) -> wheelset_control::YawMode {
         match self {
+            Self::Passive => wheelset_control::YawMode::Passive,
             Self::Gain => wheelset_control::YawMode::Gain,
             Self::Lead => wheelset_control::YawMode::Lead,
         }
@@ -387,7 +391,7 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
         &mut ctrl,
         &mut SensorModel::ideal(),
         &mut actuator,
-        false,
+        opts.control.yaw().has_spring(),
         &label,
     )
     .map_err(|e| RunError::Input(format!("scenario {}: {e}", sc.source)))?;
@@ -456,6 +460,7 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
 
 fn law_name(l: Law) -> &'static str {
     match l {
+        Law::Passive => "passive",
         Law::Gain => "gain",
         Law::Lead => "lead",
     }
