@@ -15,7 +15,9 @@
 #[cfg(target_os = "none")]
 mod bench {
     use cortex_m_semihosting::{debug, hprintln};
-    use wheelset_control::{Config, Controller, Inputs, Outputs};
+    use wheelset_control::{
+        Config, Controller, Inputs, Monitor, MonitorEvents, MonitorParams, MonitorState, Outputs,
+    };
     use wheelset_fw::app::Stopwatch;
     use wheelset_fw::board::qemu::SysTickStopwatch;
     use wheelset_fw::device::{new_runtime, FwRuntime, Num};
@@ -76,6 +78,13 @@ mod bench {
     fn whole_tick(rt: &mut FwRuntime, frame: &[u8], exec: u32) -> usize {
         rt.receive(frame);
         rt.tick(exec).len()
+    }
+
+    /// One base tick of the stability monitor and actuator check (a monitor step every
+    /// `div` ticks, 500 Hz; a phase count on the others).
+    #[inline(never)]
+    fn monitor_tick(m: &Monitor<Num>, s: &mut MonitorState<Num>, y: Num) -> MonitorEvents {
+        m.tick(s, y, true)
     }
 
     /// Calibration: the same call shape doing nothing.
@@ -177,6 +186,30 @@ mod bench {
             "control-law step (yaw lead + traction PI + limits)",
             overhead,
         );
+
+        let Ok(mon) = Monitor::<Num>::try_new(&MonitorParams::default(), cfg.base_rate_hz) else {
+            hprintln!("monitor refused its default configuration");
+            exit(debug::EXIT_FAILURE)
+        };
+        let mut ms = MonitorState::default();
+        let (mut mon_all, mut mon_step) = (Stats::new(), Stats::new());
+        for k in 0..N {
+            let (y, i, w, d) = si_inputs(k);
+            let inp = Inputs::<Num>::from_si(&cfg.scales, y, i, w, d);
+            let t0 = sw.start();
+            core::hint::black_box(monitor_tick(&mon, &mut ms, inp.y_dot));
+            let n = sw.stop(t0);
+            mon_all.add(n);
+            // The ticks that ran a monitor step reset the phase to the divisor.
+            if ms.phase == mon.divisor() {
+                mon_step.add(n);
+            }
+        }
+        mon_all.print(
+            "monitor, per base tick (stability monitor + actuator check at 500 Hz)",
+            overhead,
+        );
+        mon_step.print("monitor, the ticks that run its step", overhead);
 
         let Ok(mut rt) = new_runtime() else {
             hprintln!("runtime refused the default configuration");
