@@ -65,7 +65,7 @@
 //! # Fixed point
 //!
 //! Every state is a Q4.28 signal (pu; the mean square in pu^2); coefficients are Q1.31.
-//! The square `b^2` is the exact 64-bit product rounded to Q4.28 and saturated (it
+//! The square `b^2` ([`Sample::square`]) is the exact 64-bit product rounded to Q4.28 and saturated (it
 //! cannot saturate for `|b| < 2.8` pu = 2.8 m/s); the mean square's increment uses the
 //! integrator's error feedback ([`Sample::mul_c_acc`]) so it has no dead band. At the
 //! default threshold (RMS 0.03 m/s) the mean square is 2.4e5 LSB; the check's floor
@@ -73,7 +73,7 @@
 //! saturates (at 8 pu^2, an RMS of 0.4 m/s over a block), long after the hunting alarm.
 
 use crate::config::ConfigError;
-use crate::sample::{sat32, Coef, Fx, Sample, SampleBits, FX_FRAC};
+use crate::sample::{Coef, Fx, Sample, SampleBits};
 
 /// The monitor's configuration in SI units (host and build script; the device starts
 /// from [`MonitorBits`]).
@@ -219,55 +219,7 @@ pub struct MonitorState<T: Sample> {
     pub ev: MonitorEvents,
 }
 
-/// The signal square for the mean square: `x^2`, rounded and saturating (fixed point).
-pub trait Square: Sample {
-    /// `x^2` in the sample type (pu^2).
-    fn square(self) -> Self;
-}
-
-impl Square for f64 {
-    #[inline(always)]
-    fn square(self) -> Self {
-        self * self
-    }
-}
-
-impl Square for f32 {
-    #[inline(always)]
-    fn square(self) -> Self {
-        self * self
-    }
-}
-
-impl Square for Fx {
-    #[inline(always)]
-    fn square(self) -> Self {
-        let x = i64::from(self.to_bits());
-        Fx::from_bits(sat32((x * x + (1 << (FX_FRAC - 1))) >> FX_FRAC))
-    }
-}
-
 impl<T: Sample> Monitor<T> {
-    /// A monitor that never runs (rate 0): no alarms.
-    pub fn off() -> Self
-    where
-        T::Coeff: Default,
-    {
-        Self {
-            rate_hz: 0,
-            div: 0,
-            k_lo: T::Coeff::default(),
-            k_hi: T::Coeff::default(),
-            k_ms: T::Coeff::default(),
-            on: T::ZERO,
-            off: T::ZERO,
-            floor: T::ZERO,
-            shrink: T::Coeff::default(),
-            block: 0,
-            blocks: 0,
-        }
-    }
-
     /// Validate `p`, discretise at `p.rate_hz` (f64) and quantise, for a base rate of
     /// `base_rate_hz`. Errors name the field. Host and build script.
     pub fn try_new(p: &MonitorParams, base_rate_hz: u32) -> Result<Self, ConfigError> {
@@ -391,11 +343,8 @@ impl<T: Sample> Monitor<T> {
     /// One base tick: every `div` ticks a monitor step on `y_dot` (pu), with
     /// `commanding` = the yaw law is acting (an active mode, enabled, not safe). Returns
     /// the alarm states and their rising edges. Never fails, never panics.
-    #[inline]
-    pub fn tick(&self, s: &mut MonitorState<T>, y_dot: T, commanding: bool) -> MonitorEvents
-    where
-        T: Square,
-    {
+    #[inline(never)]
+    pub fn tick(&self, s: &mut MonitorState<T>, y_dot: T, commanding: bool) -> MonitorEvents {
         s.ev.hunting_rose = false;
         s.ev.actuator_rose = false;
         if s.phase > 1 {
@@ -411,11 +360,8 @@ impl<T: Sample> Monitor<T> {
     }
 
     /// One monitor step (see the module docs).
-    #[inline(never)]
-    fn step(&self, s: &mut MonitorState<T>, x: T, commanding: bool)
-    where
-        T: Square,
-    {
+    #[inline(always)]
+    fn step(&self, s: &mut MonitorState<T>, x: T, commanding: bool) {
         s.lo = s.lo.sat_add(x.sat_sub(s.lo).mul_c(self.k_lo));
         let h = x.sat_sub(s.lo);
         s.band = s.band.sat_add(h.sat_sub(s.band).mul_c(self.k_hi));
@@ -453,6 +399,24 @@ impl<T: Sample> Monitor<T> {
 }
 
 impl<T: SampleBits> Monitor<T> {
+    /// A monitor that never runs (rate 0): no alarms.
+    pub fn off() -> Self {
+        let z = T::COEFF_ZERO;
+        Self {
+            rate_hz: 0,
+            div: 0,
+            k_lo: z,
+            k_hi: z,
+            k_ms: z,
+            on: T::ZERO,
+            off: T::ZERO,
+            floor: T::ZERO,
+            shrink: z,
+            block: 0,
+            blocks: 0,
+        }
+    }
+
     /// The exact bits.
     pub fn to_bits(&self) -> MonitorBits {
         let c = |v: T::Coeff| T::coeff_to_bits64(v);

@@ -157,6 +157,14 @@ pub trait Sample: Copy + Default + PartialEq + PartialOrd + core::fmt::Debug {
     fn sat_sub(self, rhs: Self) -> Self;
     /// `self * c`, rounded to nearest and saturating.
     fn mul_c(self, c: Self::Coeff) -> Self;
+    /// `self^2` (a signal squared, pu^2), rounded to nearest and saturating: the
+    /// stability monitor's mean square ([`crate::monitor`]). The default goes through
+    /// `f64`; `f32`, `f64` and [`Fx`] (the exact 64-bit product) override it.
+    #[inline]
+    fn square(self) -> Self {
+        let x = self.to_f64();
+        Self::from_f64(x * x)
+    }
     /// `self * c` for an integrator's increment, with first-order error feedback: fixed
     /// point floors the product and carries the remainder in `r` to the next call, so
     /// the running sum of increments is exact to one LSB (no dead band, no drift from a
@@ -247,6 +255,10 @@ macro_rules! float_sample {
             #[inline(always)]
             fn mul_c(self, c: $t) -> Self {
                 self * c
+            }
+            #[inline(always)]
+            fn square(self) -> Self {
+                self * self
             }
             #[inline(always)]
             fn mul_c_acc(self, c: $t, _r: &mut ()) -> Self {
@@ -366,6 +378,12 @@ impl Sample for Fx {
     #[inline(always)]
     fn mul_c(self, c: Coef) -> Self {
         Fx::from_bits(mul_q31(self.to_bits(), c.to_bits()))
+    }
+    #[inline(always)]
+    fn square(self) -> Self {
+        // Q4.28 x Q4.28 = Q8.56, rounded to Q4.28 and saturated (|x| >= 2.83 pu).
+        let x = i64::from(self.to_bits());
+        Fx::from_bits(sat32((x * x + (1 << (FX_FRAC - 1))) >> FX_FRAC))
     }
     #[inline(always)]
     fn mul_c_acc(self, c: Coef, r: &mut u32) -> Self {

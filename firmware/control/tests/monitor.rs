@@ -4,13 +4,13 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use std::f64::consts::PI;
-use wheelset_control::{Fx, Monitor, MonitorEvents, MonitorParams, MonitorState, Sample, Square};
+use wheelset_control::{Fx, Monitor, MonitorEvents, MonitorParams, MonitorState, Sample};
 
 const BASE: u32 = 5000;
 
 /// Runs `f(t)` (y' in m/s = pu) through a monitor at the base rate for `dur` seconds;
 /// returns the times of the rising edges (hunting, actuator) and the final events.
-fn drive<T: Sample + Square>(
+fn drive<T: Sample>(
     p: &MonitorParams,
     dur: f64,
     commanding: bool,
