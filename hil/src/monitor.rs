@@ -96,7 +96,7 @@ pub fn alarms(samples: impl IntoIterator<Item = (u64, bool, bool)>) -> Vec<Alarm
 /// filter in f64 on the trajectory's records (their own rate).
 fn band_rms_before(p: &MonitorParams, tr: &Trajectory, t_s: f64) -> Option<f64> {
     let dt = tr.records.get(1)?.t_s - tr.records.first()?.t_s;
-    if !(dt > 0.0) {
+    if dt.is_nan() || dt <= 0.0 {
         return None;
     }
     let rate = (1.0 / dt).round() as u32;
