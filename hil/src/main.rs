@@ -234,6 +234,7 @@ fn cmd_run(a: &RunArgs, command: &str) -> Result<Verdict, Failure> {
         sim_host::scenario::Scenario::load(&a.scenario, &sim_host::params::Params::default())
     {
         let law = match a.control {
+            Control::Passive => sim_host::control::YawLaw::Passive,
             Control::Gain => sim_host::control::YawLaw::Gain,
             Control::Lead => sim_host::control::YawLaw::Lead,
         };
