@@ -17,9 +17,14 @@
 //!   stack high-water mark; prints a table, and with `--json` writes
 //!   `{"cortex-m4":{"fixed":{"law":{"min","mean","max"},"tick":{..},"stack_peak_bytes":N},
 //!   "f32":{..}},"cortex-m3":{..}}`.
+//! - `cargo xtask fuzz --frames N [--seed S]`: random, mutated, truncated and bit-flipped
+//!   frames and hostile Configs into `Runtime<Fx>` and `Runtime<f32>`, with overflow
+//!   checks: no panic, every output within the actuator limits, every frame accounted
+//!   ([`fuzz`]; a short seeded run is a unit test of this crate, so `cargo xtest` runs it).
 
 mod bench;
 mod elf;
+mod fuzz;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
@@ -368,9 +373,11 @@ fn main() -> ExitCode {
                 return ExitCode::from(2);
             }
         },
+        Some("fuzz") => return fuzz::main(&args[1..]),
         _ => {
             eprintln!(
-                "usage: cargo xtask <test [cargo test args]|fw [--f32]|fw-bench [--json FILE]>"
+                "usage: cargo xtask <test [cargo test args]|fw [--f32]|fw-bench [--json FILE]|\
+                 fuzz --frames N [--seed S]>"
             );
             return ExitCode::from(2);
         }

@@ -1,0 +1,682 @@
+//! `cargo xtask fuzz --frames N [--seed S]`: hostile frames into the device runtime.
+//!
+//! For each sample type of the control core (`Runtime<Fx>`, the production fixed point,
+//! and `Runtime<f32>`), `N` frames drawn from a seeded generator
+//! ([`Gen`]; splitmix64, so a seed reproduces a run exactly):
+//!
+//! | kind | what |
+//! |---|---|
+//! | sensor | a valid Sensor frame with random fields (extremes of every range included) |
+//! | config | a valid Config: random rates, or the device's own rates for a random base rate with one field scaled (x0, 1 LSB, x0.5, x2, x4, x100, max) |
+//! | command | a valid Command (status requests, counter resets) |
+//! | bitflip | a valid frame with 1-3 bits flipped (a flip to 0x00 splits it) |
+//! | truncated | a valid frame cut short |
+//! | random | random bytes, 1-120 of them |
+//! | crc_valid | a version byte and random body with a correct CRC, COBS-encoded (reaches the message decoder) |
+//! | oversize | 103-300 random non-zero bytes (longer than `MAX_FRAME`) |
+//!
+//! Each frame is fed in random chunks, then 0-2 ticks run. Checked after every frame and
+//! every tick (a failure names the seed, the sample type and the frame index):
+//!
+//! - **no panic** (xtask builds with the dev profile: overflow checks on, so an
+//!   arithmetic overflow is a panic too);
+//! - **every frame accounted**: each non-empty frame between two delimiters moves
+//!   exactly one of the device's receive counters by one (`rx_ok` or one `rx_*` error),
+//!   the one the host's decoder expects (`Decoder`, the host's full message decoder, as
+//!   opposed to the device's request decoder), and a counter reset leaves them zero;
+//! - **outputs within the actuator limits**: every Actuation has `|T_psi|` within the
+//!   torque limit and `u_a` within the voltage limits of the control core's
+//!   configuration (wire LSBs of `wheelset_proto::units`);
+//! - **what goes out decodes**: every byte the tick returns is valid frames (one
+//!   Actuation, plus a Status when one was requested, equal to the device's counters).
+//!
+//! CI runs a short seeded version (the `fuzz_short_seeded` test of this crate, inside
+//! `cargo xtest`); the README gives the figures of the last long run.
+
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::process::ExitCode;
+use std::time::Instant;
+
+use wheelset_control::{Config as ControlConfig, Fx, SampleBits};
+use wheelset_proto::units::{TORQUE_LSB_NM, VOLTAGE_LSB_V};
+use wheelset_proto::{
+    cobs_encode, crc32c, encode_vec, Command, Config, Decoder, FrameError, Lateral, Message, Rates,
+    Sensor, Status, YawMode, MAX_FRAME, VERSION,
+};
+use wheelset_runtime::{rates_for, Runtime, RuntimeConfig};
+
+/// The command line: `--frames N` (per sample type), `--seed S`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Args {
+    /// Frames per sample type.
+    pub frames: u64,
+    /// Seed of the generator.
+    pub seed: u64,
+}
+
+/// Parses `--frames N [--seed S]` (both also as `--x=V`).
+pub fn parse_args(args: &[String]) -> Result<Args, String> {
+    let usage = "usage: cargo xtask fuzz --frames N [--seed S]";
+    let mut frames = None;
+    let mut seed = 1u64;
+    let mut it = args.iter();
+    while let Some(a) = it.next() {
+        let (flag, inline) = match a.split_once('=') {
+            Some((f, v)) => (f, Some(v.to_string())),
+            None => (a.as_str(), None),
+        };
+        let mut value = |name: &str| -> Result<u64, String> {
+            let v = inline
+                .clone()
+                .or_else(|| it.next().cloned())
+                .ok_or_else(|| format!("{name}: needs a value ({usage})"))?;
+            let v = v.replace('_', "");
+            v.parse::<u64>()
+                .map_err(|_| format!("{name}: `{v}` is not a whole number >= 0 ({usage})"))
+        };
+        match flag {
+            "--frames" => {
+                let n = value("--frames")?;
+                if n == 0 {
+                    return Err(format!("--frames: must be at least 1 ({usage})"));
+                }
+                frames = Some(n);
+            }
+            "--seed" => seed = value("--seed")?,
+            other => {
+                return Err(format!(
+                    "cargo xtask fuzz: unknown argument `{other}` ({usage})"
+                ))
+            }
+        }
+    }
+    let frames = frames.ok_or_else(|| format!("--frames is required ({usage})"))?;
+    Ok(Args { frames, seed })
+}
+
+/// splitmix64: small, fast, reproducible.
+#[derive(Debug, Clone)]
+pub struct Gen(u64);
+
+impl Gen {
+    /// A generator from `seed`.
+    pub fn new(seed: u64) -> Self {
+        Self(seed)
+    }
+
+    /// The next 64 random bits.
+    pub fn u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in `0..n` (`n > 0`).
+    pub fn below(&mut self, n: u64) -> u64 {
+        self.u64() % n.max(1)
+    }
+
+    fn chance(&mut self, per_mille: u64) -> bool {
+        self.below(1000) < per_mille
+    }
+
+    fn byte(&mut self) -> u8 {
+        self.u64() as u8
+    }
+
+    /// An `i32` that is an extreme, a small value or anything, with equal odds.
+    fn i32(&mut self) -> i32 {
+        const EDGES: [i32; 7] = [i32::MIN, i32::MIN + 1, -1, 0, 1, i32::MAX - 1, i32::MAX];
+        match self.below(3) {
+            0 => EDGES[self.below(EDGES.len() as u64) as usize],
+            1 => (self.below(2_000_001) as i64 - 1_000_000) as i32,
+            _ => self.u64() as i32,
+        }
+    }
+
+    /// A `u32` that is an extreme, small, or anything.
+    fn u32(&mut self) -> u32 {
+        match self.below(3) {
+            0 => [0, 1, 2, u32::MAX - 1, u32::MAX][self.below(5) as usize],
+            1 => self.below(100_000) as u32,
+            _ => self.u64() as u32,
+        }
+    }
+}
+
+/// The frame kinds (the table of the module docs), in report order.
+pub const KINDS: [&str; 8] = [
+    "sensor",
+    "config",
+    "command",
+    "bitflip",
+    "truncated",
+    "random",
+    "crc_valid",
+    "oversize",
+];
+
+/// What one sample type's run saw.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Report {
+    /// The sample type.
+    pub numeric: &'static str,
+    /// Frames generated, per kind ([`KINDS`]).
+    pub generated: [u64; 8],
+    /// Non-empty frames the device saw (a flipped byte to 0x00 splits one in two).
+    pub frames_seen: u64,
+    /// Of those, frames that reset the counters (not in `rx`).
+    pub resets: u64,
+    /// Ticks run.
+    pub ticks: u64,
+    /// The device's receive counters summed over the run: valid, CRC, COBS, version,
+    /// length, postcard (rejections).
+    pub rx: [u64; 6],
+    /// Config frames the device took / refused.
+    pub configs_applied: u64,
+    /// Config frames refused.
+    pub configs_refused: u64,
+    /// Status frames received and checked.
+    pub status_frames: u64,
+    /// Largest `|T_psi|` and `|u_a|` emitted, wire LSBs.
+    pub max_torque: i64,
+    /// See `max_torque`.
+    pub max_voltage: i64,
+}
+
+/// The device's receive counters, in [`Report::rx`] order.
+fn rx_counts(s: &Status) -> [u32; 6] {
+    [
+        s.rx_ok,
+        s.rx_crc,
+        s.rx_cobs,
+        s.rx_version,
+        s.rx_length,
+        s.rx_postcard,
+    ]
+}
+
+/// Which receive counter a frame should move, by the host's decoder.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Expect {
+    /// `rx_ok` (index 0); `reset`: the counters are zero afterwards.
+    Ok { reset: bool },
+    /// An error counter (index 1-5).
+    Err(usize),
+    /// The host's decoder says length or postcard error (index 4 or 5): the device's
+    /// request decoder rejects it the same way, or, for a frame of a type it does not
+    /// take (Actuation, Status), counts it valid and unexpected without decoding it.
+    ErrOrUnexpected(usize),
+}
+
+fn host_expect(frame: &[u8]) -> Expect {
+    let mut dec: Decoder = Decoder::new();
+    let mut out = None;
+    dec.feed(frame, |r| out = Some(r));
+    match out {
+        Some(Ok(Message::Command(Command::ResetCounters))) => Expect::Ok { reset: true },
+        Some(Ok(_)) => Expect::Ok { reset: false },
+        Some(Err(FrameError::Crc)) => Expect::Err(1),
+        Some(Err(FrameError::Cobs)) => Expect::Err(2),
+        Some(Err(FrameError::Version)) => Expect::Err(3),
+        Some(Err(FrameError::Length)) => Expect::ErrOrUnexpected(4),
+        Some(Err(FrameError::Postcard)) => Expect::ErrOrUnexpected(5),
+        // The host's decoder saw no frame: the device must not count one either.
+        None => Expect::Err(usize::MAX),
+    }
+}
+
+/// Limits of the outputs, wire LSBs: `|T_psi| <= torque`, `voltage.0 <= u_a <= voltage.1`.
+#[derive(Debug, Clone, Copy)]
+struct OutputLimits {
+    torque: i64,
+    voltage: (i64, i64),
+}
+
+fn output_limits() -> OutputLimits {
+    let l = ControlConfig::default().limits;
+    // One LSB of slack for the rounding of the limit itself to the wire.
+    OutputLimits {
+        torque: (l.torque / TORQUE_LSB_NM).ceil() as i64 + 1,
+        voltage: (
+            (l.voltage_min / VOLTAGE_LSB_V).floor() as i64 - 1,
+            (l.voltage_max / VOLTAGE_LSB_V).ceil() as i64 + 1,
+        ),
+    }
+}
+
+/// The device's own rates for `base_rate_hz` (the default configuration otherwise), if
+/// the host-side compilation takes that rate.
+fn own_rates<T: SampleBits>(base_rate_hz: u32) -> Option<Rates> {
+    let mut cfg = RuntimeConfig::default();
+    cfg.control.base_rate_hz = base_rate_hz;
+    rates_for::<T>(&cfg).ok()
+}
+
+/// A field of `r` scaled hostilely (see the module docs).
+fn mutate_rates(g: &mut Gen, r: &mut Rates) {
+    let scale = |g: &mut Gen, v: u32| -> u32 {
+        match g.below(7) {
+            0 => 0,
+            1 => 1,
+            2 => v / 2,
+            3 => v.saturating_mul(2),
+            4 => v.saturating_mul(4),
+            5 => v.saturating_mul(100),
+            _ => u32::MAX,
+        }
+    };
+    match g.below(11) {
+        0 => r.kappa = scale(g, r.kappa),
+        1 => r.ki = scale(g, r.ki),
+        2 => r.predict_half = scale(g, r.predict_half),
+        3 => r.iref_step = scale(g, r.iref_step),
+        4 => r.iref_safe_step = scale(g, r.iref_safe_step),
+        5 => r.torque_step = scale(g, r.torque_step),
+        6 => r.acc_gain_q32 = u64::from(scale(g, r.acc_gain_q32 as u32)),
+        7 => r.acc_leak_q32 = g.u64() >> g.below(64),
+        8 => r.base_rate_hz = scale(g, r.base_rate_hz),
+        9 => r.yaw_div = g.below(u64::from(u16::MAX) + 1) as u16,
+        _ => r.traction_div = g.below(u64::from(u16::MAX) + 1) as u16,
+    }
+}
+
+fn config<T: SampleBits>(g: &mut Gen) -> Config {
+    let mode = [YawMode::Passive, YawMode::Gain, YawMode::Lead][g.below(3) as usize];
+    let rates = match g.below(4) {
+        0 => None,
+        1 => Some(Rates {
+            numeric: g.byte() % 4,
+            fingerprint: g.u32(),
+            base_rate_hz: g.u32(),
+            yaw_div: g.u64() as u16,
+            traction_div: g.u64() as u16,
+            kappa: g.u32(),
+            ki: g.u32(),
+            predict_half: g.u32(),
+            iref_step: g.u32(),
+            iref_safe_step: g.u32(),
+            torque_step: g.u32(),
+            acc_gain_q32: g.u64() >> g.below(64),
+            acc_leak_q32: g.u64() >> g.below(64),
+        }),
+        k => {
+            const RATES: [u32; 8] = [1000, 2000, 2500, 4000, 5000, 8000, 10_000, 20_000];
+            let mut r = own_rates::<T>(RATES[g.below(RATES.len() as u64) as usize]);
+            if let (Some(r), true) = (r.as_mut(), k == 2) {
+                mutate_rates(g, r);
+            }
+            r
+        }
+    };
+    Config {
+        mode,
+        traction: g.chance(500),
+        enable: g.chance(900),
+        hold_ticks: match g.below(3) {
+            0 => g.below(20) as u16,
+            1 => u16::MAX,
+            _ => g.u64() as u16,
+        },
+        rates,
+    }
+}
+
+fn sensor(g: &mut Gen, seq: &mut u16) -> Sensor {
+    *seq = if g.chance(950) {
+        seq.wrapping_add(1)
+    } else {
+        g.u64() as u16
+    };
+    let lateral = match g.below(3) {
+        0 => Lateral::Velocity(g.i32()),
+        1 => Lateral::Acceleration(g.i32()),
+        _ => Lateral::Both {
+            vel_um_s: g.i32(),
+            acc_dmm_s2: g.i32(),
+        },
+    };
+    Sensor {
+        seq: *seq,
+        t_us: g.u64() as u16,
+        lateral,
+        i_a_ma: g.i32(),
+        omega_m_mrad_s: g.i32(),
+        demand_nm: g.i32(),
+    }
+}
+
+fn command(g: &mut Gen) -> Command {
+    match g.below(10) {
+        0 => Command::ResetCounters,
+        _ => Command::RequestStatus,
+    }
+}
+
+/// A valid message's frame, without its delimiter.
+fn valid_body<T: SampleBits>(g: &mut Gen, seq: &mut u16) -> (usize, Vec<u8>) {
+    let (kind, m) = match g.below(10) {
+        0..=5 => (0, Message::Sensor(sensor(g, seq))),
+        6..=7 => (1, Message::Config(config::<T>(g))),
+        _ => (2, Message::Command(command(g))),
+    };
+    let mut f = encode_vec(&m).map(|v| v.to_vec()).unwrap_or_default();
+    f.pop(); // the delimiter
+    (kind, f)
+}
+
+/// One generated frame (without the final delimiter; may contain 0x00 after a flip).
+fn frame<T: SampleBits>(g: &mut Gen, seq: &mut u16) -> (usize, Vec<u8>) {
+    match g.below(100) {
+        0..=44 => valid_body::<T>(g, seq),
+        45..=64 => {
+            let (_, mut f) = valid_body::<T>(g, seq);
+            for _ in 0..=g.below(3) {
+                if !f.is_empty() {
+                    let i = g.below(f.len() as u64) as usize;
+                    f[i] ^= 1 << g.below(8);
+                }
+            }
+            (3, f)
+        }
+        65..=74 => {
+            let (_, mut f) = valid_body::<T>(g, seq);
+            let n = g.below(f.len() as u64) as usize;
+            f.truncate(n);
+            (4, f)
+        }
+        75..=84 => {
+            let n = 1 + g.below(120) as usize;
+            (5, (0..n).map(|_| g.byte()).collect())
+        }
+        85..=96 => {
+            let n = g.below(100) as usize;
+            let mut raw = vec![if g.chance(900) { VERSION } else { g.byte() }];
+            raw.push(g.byte() % 6); // the type byte, mostly in range
+            raw.extend((0..n).map(|_| g.byte()));
+            let crc = crc32c(&raw);
+            raw.extend_from_slice(&crc.to_le_bytes());
+            let mut out = vec![0u8; raw.len() + raw.len() / 254 + 2];
+            let k = cobs_encode(&raw, &mut out).unwrap_or(0);
+            out.truncate(k);
+            (6, out)
+        }
+        _ => {
+            let n = MAX_FRAME + 1 + g.below(200) as usize;
+            (7, (0..n).map(|_| g.byte() | 1).collect())
+        }
+    }
+}
+
+fn fail(numeric: &str, seed: u64, i: u64, what: String) -> String {
+    format!("fuzz FAILED ({numeric}, seed {seed}, frame {i}): {what}")
+}
+
+/// One sample type's run of `n` frames from `seed`.
+pub fn run<T: SampleBits>(n: u64, seed: u64) -> Result<Report, String> {
+    let numeric = if T::NUMERIC == 0 { "Fx" } else { "f32" };
+    let mut g = Gen::new(seed ^ (u64::from(T::NUMERIC) << 56));
+    let mut rt = Runtime::<T>::try_new(RuntimeConfig::default())
+        .map_err(|e| format!("fuzz: the default runtime does not build: {e}"))?;
+    let lim = output_limits();
+    let mut rep = Report {
+        numeric,
+        ..Report::default()
+    };
+    let mut seq = 0u16;
+    let mut exec = 0u32;
+    for i in 0..n {
+        let (kind, body) = frame::<T>(&mut g, &mut seq);
+        rep.generated[kind] += 1;
+        // The frames the device will see: the non-empty runs between delimiters.
+        for part in body.split(|&b| b == 0).filter(|p| !p.is_empty()) {
+            let mut bytes = part.to_vec();
+            bytes.push(0);
+            let expect = host_expect(&bytes);
+            let before = *rt.counters();
+            let refused_before = before.cmd_refused;
+            let fed = catch_unwind(AssertUnwindSafe(|| {
+                let mut rest = &bytes[..];
+                while !rest.is_empty() {
+                    let k = 1 + g.below(rest.len() as u64) as usize;
+                    let (a, b) = rest.split_at(k);
+                    rt.receive(a);
+                    rest = b;
+                }
+            }));
+            if fed.is_err() {
+                return Err(fail(
+                    numeric,
+                    seed,
+                    i,
+                    format!("receive panicked on {bytes:02x?}"),
+                ));
+            }
+            rep.frames_seen += 1;
+            let after = *rt.counters();
+            let (b, a) = (rx_counts(&before), rx_counts(&after));
+            let moved: Vec<usize> = (0..6).filter(|&k| a[k] != b[k]).collect();
+            let one_up = |k: usize| moved == [k] && a[k] == b[k].wrapping_add(1);
+            let ok = match expect {
+                Expect::Ok { reset: true } => a == [0; 6],
+                Expect::Ok { reset: false } => one_up(0),
+                Expect::Err(k) => one_up(k),
+                Expect::ErrOrUnexpected(k) => {
+                    one_up(k)
+                        || (one_up(0)
+                            && after.rx_unexpected == before.rx_unexpected.wrapping_add(1))
+                }
+            };
+            if !ok {
+                return Err(fail(
+                    numeric,
+                    seed,
+                    i,
+                    format!(
+                        "frame {bytes:02x?} not accounted: host expects {expect:?}, device \
+                         counters {b:?} -> {a:?}"
+                    ),
+                ));
+            }
+            if matches!(expect, Expect::Ok { reset: true }) {
+                rep.resets += 1;
+                continue;
+            }
+            for k in 0..6 {
+                rep.rx[k] += u64::from(a[k].wrapping_sub(b[k]));
+            }
+            if kind == 1 {
+                if after.cmd_refused != refused_before {
+                    rep.configs_refused += 1;
+                } else {
+                    rep.configs_applied += 1;
+                }
+            }
+        }
+        for _ in 0..g.below(3) {
+            let out = catch_unwind(AssertUnwindSafe(|| rt.tick(exec).to_vec()));
+            let Ok(out) = out else {
+                return Err(fail(numeric, seed, i, "tick panicked".into()));
+            };
+            exec = g.u64() as u32;
+            rep.ticks += 1;
+            check_output(&out, &rt, &lim, &mut rep).map_err(|e| fail(numeric, seed, i, e))?;
+        }
+    }
+    Ok(rep)
+}
+
+/// The checks of one tick's output (see the module docs).
+fn check_output<T: SampleBits>(
+    out: &[u8],
+    rt: &Runtime<T>,
+    lim: &OutputLimits,
+    rep: &mut Report,
+) -> Result<(), String> {
+    let mut dec: Decoder = Decoder::new();
+    let mut msgs = Vec::new();
+    dec.feed(out, |r| msgs.push(r));
+    let mut actuations = 0;
+    for m in msgs {
+        match m {
+            Ok(Message::Actuation(a)) => {
+                actuations += 1;
+                let (t, u) = (i64::from(a.t_psi_dnm), i64::from(a.u_a_cv));
+                if t.abs() > lim.torque || u < lim.voltage.0 || u > lim.voltage.1 {
+                    return Err(format!(
+                        "output out of the actuator limits: T_psi {t} (|.| <= {}), u_a {u} \
+                         (in {:?}) in {a:?}",
+                        lim.torque, lim.voltage
+                    ));
+                }
+                rep.max_torque = rep.max_torque.max(t.abs());
+                rep.max_voltage = rep.max_voltage.max(u.abs());
+            }
+            Ok(Message::Status(s)) => {
+                if s != *rt.counters() {
+                    return Err(format!(
+                        "Status frame {s:?} is not the device's counters {:?}",
+                        rt.counters()
+                    ));
+                }
+                rep.status_frames += 1;
+            }
+            other => return Err(format!("the tick sent {other:?}")),
+        }
+    }
+    if actuations != 1 {
+        return Err(format!("{actuations} actuation frames in one tick"));
+    }
+    Ok(())
+}
+
+/// The command: both sample types, a summary; exit 0 when every check held, 1 on a
+/// failed check (the message names the seed and the frame), 2 on a usage error.
+pub fn main(args: &[String]) -> ExitCode {
+    let a = match parse_args(args) {
+        Ok(a) => a,
+        Err(e) => {
+            eprintln!("xtask: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    match fuzz(a) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("xtask: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn fuzz(a: Args) -> Result<(), String> {
+    println!(
+        "fuzz: {} frames per sample type, seed {} (overflow checks on: {})",
+        a.frames,
+        a.seed,
+        cfg!(debug_assertions)
+    );
+    let t0 = Instant::now();
+    let fx = run::<Fx>(a.frames, a.seed)?;
+    print_report(&fx);
+    let f = run::<f32>(a.frames, a.seed)?;
+    print_report(&f);
+    println!(
+        "fuzz: {} frames in {:.1} s: no panic, every output within the actuator limits, \
+         every frame accounted",
+        2 * a.frames,
+        t0.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+fn print_report(r: &Report) {
+    let kinds: Vec<String> = KINDS
+        .iter()
+        .zip(r.generated)
+        .map(|(k, n)| format!("{k} {n}"))
+        .collect();
+    println!("  Runtime<{}>: generated {}", r.numeric, kinds.join(", "));
+    println!(
+        "    frames seen {}, ticks {}; rx ok {}, crc {}, cobs {}, version {}, length {}, \
+         postcard {}; configs applied {} / refused {}; status frames {}; max |T_psi| {} \
+         dNm, max |u_a| {} cV",
+        r.frames_seen,
+        r.ticks,
+        r.rx[0],
+        r.rx[1],
+        r.rx[2],
+        r.rx[3],
+        r.rx[4],
+        r.rx[5],
+        r.configs_applied,
+        r.configs_refused,
+        r.status_frames,
+        r.max_torque,
+        r.max_voltage
+    );
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    fn s(v: &[&str]) -> Vec<String> {
+        v.iter().map(|x| x.to_string()).collect()
+    }
+
+    #[test]
+    fn the_command_line_parses_and_refuses() {
+        assert_eq!(
+            parse_args(&s(&["--frames", "10_000", "--seed=7"])),
+            Ok(Args {
+                frames: 10_000,
+                seed: 7
+            })
+        );
+        assert_eq!(parse_args(&s(&["--frames=5"])).map(|a| a.seed), Ok(1));
+        for bad in [
+            &["--frames"][..],
+            &["--frames", "0"],
+            &["--frames", "-3"],
+            &["--frames", "1e6"],
+            &["--seed", "4"],
+            &["--frames", "4", "--bogus"],
+        ] {
+            let e = parse_args(&s(bad)).unwrap_err();
+            assert!(
+                e.contains("usage") || e.contains("required"),
+                "{bad:?}: {e}"
+            );
+        }
+    }
+
+    /// The CI run: short, seeded, both sample types. Each kind of frame occurs, the
+    /// device saw all of them, refused hostile Configs and took its own.
+    #[test]
+    fn fuzz_short_seeded() {
+        for r in [
+            run::<Fx>(20_000, 1).unwrap(),
+            run::<f32>(20_000, 1).unwrap(),
+        ] {
+            assert!(r.generated.iter().all(|&n| n > 100), "{r:?}");
+            assert_eq!(r.rx.iter().sum::<u64>() + r.resets, r.frames_seen, "{r:?}");
+            assert!(r.resets > 0, "{r:?}");
+            assert!(
+                r.rx[1..].iter().all(|&n| n > 0),
+                "every error kind seen: {r:?}"
+            );
+            assert!(r.configs_refused > 100 && r.configs_applied > 100, "{r:?}");
+            assert!(r.status_frames > 100, "{r:?}");
+        }
+    }
+
+    #[test]
+    fn a_seed_reproduces_a_run() {
+        assert_eq!(run::<Fx>(2_000, 9), run::<Fx>(2_000, 9));
+        assert_ne!(run::<Fx>(2_000, 9), run::<Fx>(2_000, 10));
+    }
+}
