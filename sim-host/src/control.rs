@@ -187,6 +187,9 @@ pub struct Measurements {
     pub demand_nm: f64,
     /// Current reference `demand / (n K_m)`, A.
     pub i_ref: f64,
+    /// Forward speed of the wheelset `v` (the vehicle reference speed a real vehicle
+    /// measures on unpowered axles or by radar), m/s.
+    pub v_mps: f64,
 }
 
 /// What the controller commands (SI units).

@@ -20,11 +20,13 @@
 //! - [`rate_check`]: the warning before a device run at a rate the analysis finds unstable.
 //! - [`memory`]: the memory estimate of a run or a sweep, refused above 2 GiB.
 //! - [`input`]: the one reader of input files (regular files up to 1 MiB).
+//! - [`core_loop`]: the control core (e.g. f64) on the plant without the link.
 //! - [`link`], [`device`]: the simulated serial link and the device runtime behind it.
 #![deny(missing_docs)]
 
 pub mod adhesion;
 pub mod control;
+pub mod core_loop;
 pub mod device;
 pub mod error;
 pub mod fault;

@@ -6,6 +6,8 @@
 //! - `sim-host run --scenario curve|beating|FILE --control passive|gain|lead [--csv FILE] [--plot DIR]`
 //! - `sim-host run ... --loop device [--faults SPEC] [--seed N] [--baud B] [--latency-us L]`:
 //!   the firmware runtime in the loop over the simulated serial link
+//! - `sim-host run ... --loop core [--wsp on|off]`: the f64 control core on the plant
+//!   (the device's laws and timing without the link)
 //! - `sim-host run ... --json FILE`: the run's summary (with `[[adhesion]]` sections: the
 //!   per-section adhesion table and the runaway verdict, `sim_host::traction`)
 //! - `sim-host adhesion --condition dry|wet|low [--v-mps V] --json FILE [--plot DIR]`:
@@ -210,6 +212,18 @@ enum LoopKind {
     Continuous,
     /// The firmware runtime (fixed point) over the simulated serial link.
     Device,
+    /// The control core in f64 on the plant, no link (one period of delay, wire
+    /// quantisation of the inputs): the reference of the device, protection included.
+    Core,
+}
+
+/// Wheel-slip protection switch.
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
+enum OnOff {
+    /// On.
+    On,
+    /// Off.
+    Off,
 }
 
 /// The device loop's options (`--loop device`). All but `--loop` apply to the device
@@ -219,6 +233,9 @@ struct DeviceArgs {
     /// Loop kind.
     #[arg(long = "loop", value_enum, default_value = "continuous")]
     loop_kind: LoopKind,
+    /// Wheel-slip protection of the device / core (`Config::wsp`; `--loop device|core`).
+    #[arg(long, value_enum, default_value = "on")]
+    wsp: OnOff,
     /// Link faults, e.g. `ber=1e-3,drop=0.1,outage=8.0:0.05` (keys: ber, drop, byte_drop,
     /// outage=START_S:LEN_S[:up|down], burst=RATE_HZ:LEN_BYTES, dir=both|up|down);
     /// default none.
@@ -337,6 +354,9 @@ fn cmd_run(a: &RunArgs) -> Result<(), Failure> {
     }
     if a.device.loop_kind == LoopKind::Device {
         return cmd_run_device(a, &sc);
+    }
+    if a.device.loop_kind == LoopKind::Core {
+        return cmd_run_core(a, &sc);
     }
     let main = simulate(&sc, a.control);
     let mut runs = vec![main];
@@ -541,6 +561,61 @@ fn cmd_modes(a: &ModesArgs) -> Result<(), Failure> {
     if let Some(dir) = &a.plot {
         for sw in &sweeps {
             let f = sim_host::figures::write_root_locus(sw, dir).map_err(|e| io_fail(dir, e))?;
+            println!("plot: {}", f.display());
+        }
+    }
+    Ok(())
+}
+
+/// `--loop core`: the f64 control core on the plant; with `--plot` and `[[adhesion]]`
+/// sections also the traction figure with and without protection (`adhesion.svg`).
+fn cmd_run_core(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
+    use sim_host::core_loop::run_core;
+    let fail = |e: sim_host::core_loop::CoreError| Failure {
+        code: 2,
+        msg: e.to_string(),
+    };
+    let wsp = a.device.wsp == OnOff::On;
+    let (tr, c) = run_core::<f64>(sc, a.control.into(), wsp).map_err(fail)?;
+    print_summary(sc, &tr);
+    println!(
+        "wheel-slip protection {}: {} events, {} ticks acting",
+        if wsp { "on" } else { "off" },
+        c.wsp_events,
+        c.wsp_ticks
+    );
+    write_run_summary(&a.json, sc, &tr, Some(wsp))?;
+    if let Some(path) = &a.csv {
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).map_err(|e| io_fail(dir, e))?;
+        }
+        let f = std::fs::File::create(path).map_err(|e| io_fail(path, e))?;
+        tr.write_csv(std::io::BufWriter::new(f))
+            .map_err(|e| io_fail(path, e))?;
+        println!("csv: {} ({} rows)", path.display(), tr.records.len());
+    }
+    if let Some(dir) = &a.plot {
+        let mut runs = vec![tr];
+        for &k in &a.compare {
+            runs.push(simulate(sc, k));
+        }
+        let files =
+            sim_host::figures::write_time_histories(&runs, dir).map_err(|e| io_fail(dir, e))?;
+        for f in files {
+            println!("plot: {}", f.display());
+        }
+        if !sc.adhesion.is_empty() {
+            let (other, _) = run_core::<f64>(sc, a.control.into(), !wsp).map_err(fail)?;
+            let (on, off) = if wsp {
+                (&runs[0], &other)
+            } else {
+                (&other, &runs[0])
+            };
+            let f = sim_host::traction::write_figure(
+                &[("protection on", on), ("protection off", off)],
+                dir,
+            )
+            .map_err(|e| io_fail(dir, e))?;
             println!("plot: {}", f.display());
         }
     }

@@ -674,6 +674,7 @@ pub fn measure(
         w_wheel: 0.5 * (x[ix::WR] + w_l),
         demand_nm: demand,
         i_ref,
+        v_mps: x[ix::V],
     }
 }
 

@@ -250,3 +250,42 @@ fn adhesion_command_writes_the_characteristic_fields() {
         .unwrap();
     assert_eq!(bad.status.code(), Some(2));
 }
+
+#[test]
+fn the_core_with_protection_holds_the_wheel_and_without_it_runs_away() {
+    use sim_host::core_loop::run_core;
+    let sc = Scenario::load("low-adhesion", &Params::default()).unwrap();
+    let (on, c_on) = run_core::<f64>(&sc, YawLaw::Lead, true).unwrap();
+    let (off, c_off) = run_core::<f64>(&sc, YawLaw::Lead, false).unwrap();
+    let s_on = sim_host::traction::summary(&sc, &on).unwrap();
+    let s_off = sim_host::traction::summary(&sc, &off).unwrap();
+    // Protected: no runaway, the slip bounded (README: 0.5 m/s), the yaw loop stable
+    // (the run ends, |y| stays at the curve's millimetre), the protection acted and
+    // released (the last dry section carries the full demand again).
+    assert!(!s_on.runaway, "{s_on:?}");
+    assert!(on.info.diverged_at_s.is_none());
+    assert!(s_on.slip_peak_mps < 0.5, "{s_on:?}");
+    let max_y = on.records.iter().map(|r| r.y_m.abs()).fold(0.0, f64::max);
+    assert!(max_y < 2e-3, "max |y| {max_y} m");
+    assert!(c_on.wsp_events >= 2 && c_on.wsp_ticks > 0, "{c_on:?}");
+    let last = s_on.sections.last().unwrap();
+    assert_eq!(last.condition, Condition::Dry);
+    let end = on.records.last().unwrap();
+    assert!(
+        (end.mu_used - 0.25).abs() < 0.01,
+        "released: mu_used {}",
+        end.mu_used
+    );
+    for s in &s_on.sections {
+        assert!(s.mu_used_mean.is_finite() && s.mu_used_mean > 0.0, "{s:?}");
+    }
+    // Unprotected: the runaway, and the same track no longer carries the yaw loop.
+    assert!(s_off.runaway, "{s_off:?}");
+    assert_eq!(c_off.wsp_events, 0);
+    assert!(s_off.slip_peak_mps > 10.0 * s_on.slip_peak_mps);
+    // The production type takes the same course.
+    let (fx, c_fx) = run_core::<wheelset_control::Fx>(&sc, YawLaw::Lead, true).unwrap();
+    let s_fx = sim_host::traction::summary(&sc, &fx).unwrap();
+    assert!(!s_fx.runaway && fx.info.diverged_at_s.is_none());
+    assert_eq!(c_fx.wsp_events, c_on.wsp_events);
+}
