@@ -6,7 +6,8 @@
 //!   `cargo test --workspace` (with `REQUIRE_QEMU=1` when QEMU is there, so the
 //!   processor-in-the-loop smoke test cannot silently skip).
 //! - `cargo fw [--f32]`: builds the board binaries for `thumbv7em-none-eabihf` with the
-//!   `fw` profile (release, LTO, size-optimised) and copies them to `target/fw/`:
+//!   `fw` profile (release, LTO, size-optimised; the Nucleo build linked with flip-link,
+//!   installed when missing, in `target/flip-link`) and copies them to `target/fw/`:
 //!   `wheelset-nucleo.elf`, `wheelset-qemu.elf` (and with `--f32` the f32 builds
 //!   `wheelset-nucleo-f32.elf`, `wheelset-qemu-f32.elf`). Prints flash and RAM of each
 //!   against the budget (flash 24 KiB, static RAM 8 KiB) and fails above either (the f32
@@ -186,6 +187,24 @@ fn remap_flags() -> Vec<String> {
     flags
 }
 
+/// The cargo `--config` that links the board build with flip-link.
+const FLIP_LINK_CONFIG: &str = "target.thumbv7em-none-eabihf.linker=\"flip-link\"";
+
+/// Makes sure `flip-link` (the board build's linker) is installed: `cargo install
+/// flip-link --locked` if it is not (3-5 minutes of build on two busy cores).
+fn ensure_flip_link() -> Result<(), String> {
+    let found = Command::new("flip-link")
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .status()
+        .is_ok();
+    if found {
+        return Ok(());
+    }
+    eprintln!("xtask: flip-link missing (the Nucleo build's linker): installing it");
+    run(cargo().args(["install", "flip-link", "--locked"]))
+}
+
 /// Builds the given firmware binaries, one cargo invocation each (so no board's HAL can
 /// reach another board's binary), and copies them to `target/fw/`.
 fn build_firmware(list: &[Firmware]) -> Result<Vec<PathBuf>, String> {
@@ -203,8 +222,19 @@ fn build_firmware(list: &[Firmware]) -> Result<Vec<PathBuf>, String> {
     flags.extend(remap_flags());
     let mut elfs = Vec::new();
     for fw in list {
-        run(cargo()
-            .env("CARGO_ENCODED_RUSTFLAGS", flags.join("\x1f"))
+        // The board build links with flip-link (stack below the static data: an overflow
+        // faults instead of corrupting them), in its own target directory: a different
+        // linker changes every unit's fingerprint, and sharing one directory with the
+        // QEMU builds would rebuild everything at each switch.
+        let flip = fw.features.contains("board-nucleo");
+        let dir = if flip {
+            ensure_flip_link()?;
+            target_dir().join("flip-link")
+        } else {
+            target_dir()
+        };
+        let mut cmd = cargo();
+        cmd.env("CARGO_ENCODED_RUSTFLAGS", flags.join("\x1f"))
             .args([
                 "build",
                 "-p",
@@ -217,8 +247,14 @@ fn build_firmware(list: &[Firmware]) -> Result<Vec<PathBuf>, String> {
                 fw.features,
                 "--bin",
                 fw.bin,
-            ]))?;
-        let built = target_dir().join(fw.target).join("fw").join(fw.bin);
+            ])
+            .arg("--target-dir")
+            .arg(&dir);
+        if flip {
+            cmd.args(["--config", FLIP_LINK_CONFIG]);
+        }
+        run(&mut cmd)?;
+        let built = dir.join(fw.target).join("fw").join(fw.bin);
         let dest = out_dir.join(fw.elf);
         std::fs::copy(&built, &dest)
             .map_err(|e| format!("cannot copy {} to {}: {e}", built.display(), dest.display()))?;
