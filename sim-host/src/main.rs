@@ -347,6 +347,17 @@ fn cmd_run(a: &RunArgs) -> Result<(), Failure> {
     }
     let base = load_params(&a.params)?;
     let sc = Scenario::load(&a.scenario, &base)?;
+    // Every trajectory kept at once: this one, the compared ones, and on the device loop
+    // the continuous reference (the device's own records are checked with its rate).
+    let kept = 1
+        + a.compare.iter().filter(|&&c| c != a.control).count() as u64
+        + u64::from(a.device.loop_kind == LoopKind::Device);
+    sim_host::memory::check_runs(sc.duration_ns, sc.output_dt_ns, None, kept).map_err(|msg| {
+        Failure {
+            code: 2,
+            msg: format!("{}: {msg}", sc.source),
+        }
+    })?;
     for law in std::iter::once(a.control).chain(a.compare.iter().copied()) {
         if let Some(w) = sc.law_warning(law.into()) {
             warn(&w);
@@ -675,7 +686,8 @@ fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
         .rate_hz
         .unwrap_or(wheelset_control::Config::default().base_rate_hz);
     let period_ns = 1_000_000_000 / u64::from(hz.max(1));
-    sim_host::memory::check_run(sc.duration_ns, sc.output_dt_ns, Some(period_ns)).map_err(
+    let kept = 2 + a.compare.iter().filter(|&&c| c != a.control).count() as u64;
+    sim_host::memory::check_runs(sc.duration_ns, sc.output_dt_ns, Some(period_ns), kept).map_err(
         |msg| Failure {
             code: 2,
             msg: format!("{}: {msg}", sc.source),

@@ -78,15 +78,35 @@ pub fn check_run(
     output_dt_ns: u64,
     device_period_ns: Option<u64>,
 ) -> Result<(), String> {
-    let bytes = run_bytes(duration_ns, output_dt_ns, device_period_ns);
+    check_runs(duration_ns, output_dt_ns, device_period_ns, 1)
+}
+
+/// [`check_run`] for `runs` trajectories kept at once (`--compare`, the continuous
+/// reference of a device run); the device records count once.
+pub fn check_runs(
+    duration_ns: u64,
+    output_dt_ns: u64,
+    device_period_ns: Option<u64>,
+    runs: u64,
+) -> Result<(), String> {
+    let runs = runs.max(1);
+    let extra = run_bytes(duration_ns, output_dt_ns, None).saturating_mul(runs - 1);
+    let bytes = run_bytes(duration_ns, output_dt_ns, device_period_ns).saturating_add(extra);
     if bytes <= MAX_BYTES {
         return Ok(());
     }
-    let per_s = run_bytes(1_000_000_000, output_dt_ns, device_period_ns).max(1);
+    let per_s = run_bytes(1_000_000_000, output_dt_ns, device_period_ns)
+        .saturating_add(run_bytes(1_000_000_000, output_dt_ns, None).saturating_mul(runs - 1))
+        .max(1);
     let fits_s = MAX_BYTES / per_s;
     Err(format!(
-        "the run would keep about {} in memory ({} records of {RECORD_BYTES} B at sim.output_dt_s = {} s{}), \
+        "{} would keep about {} in memory ({} records of {RECORD_BYTES} B at sim.output_dt_s = {} s{}), \
          above the limit of {}: lower duration_s to at most about {fits_s} s, or raise sim.output_dt_s",
+        if runs == 1 {
+            "the run".to_string()
+        } else {
+            format!("{runs} runs kept together (--compare, the reference)")
+        },
         human(bytes),
         duration_ns / output_dt_ns.max(1) + 2,
         output_dt_ns as f64 * 1e-9,
@@ -145,6 +165,10 @@ mod tests {
         );
         // Raising the output interval is the way out that the message names.
         assert!(check_run(100_000_000_000_000, 100_000_000, None).is_ok());
+        // Runs kept together count together.
+        assert!(check_runs(2_000_000_000_000, 1_000_000, None, 1).is_ok());
+        let e = check_runs(2_000_000_000_000, 1_000_000, None, 8).unwrap_err();
+        assert!(e.contains("8 runs"), "{e}");
         assert!(check_modes(1000, 4).is_ok());
         let e = check_modes(1_000_000, 4).unwrap_err();
         assert!(

@@ -64,6 +64,7 @@ impl Files {
         let w = |name: &str, text: &str| std::fs::write(dir.join(name), text).unwrap();
         w("l_a.toml", "l_a = 1e-61\n");
         w("long.toml", "duration_s = 1e5\n");
+        w("s4000.toml", "duration_s = 4000.0\n");
         w("short.toml", "duration_s = 0.2\n");
         w("meant.toml", "duration_s = 0.2\nlaws = [\"passive\"]\n");
         w("badlaw.toml", "duration_s = 0.2\nlaws = [\"sideways\"]\n");
@@ -145,6 +146,12 @@ const ROWS: &[Row] = &[
         "modes --points 1000000 --json {F}/m.json",
         2,
         &["--points 1000000", "GiB", "use at most"],
+    ),
+    // 4000 s fits alone (0.8 GiB) but not three runs kept together.
+    row(
+        "run --scenario {F}/s4000.toml --compare passive --compare gain",
+        2,
+        &["3 runs kept together", "lower duration_s"],
     ),
     // Non-finite and overflowing numbers.
     row(
@@ -368,4 +375,86 @@ fn a_nan_run_is_a_numerical_failure_not_unstable() {
         "{:?}",
         stop_of(&tr)
     );
+}
+
+/// The rate analysis never reaches an eigenvalue or exponential solver with a
+/// non-finite matrix: with `l_a = 1e-61` (refused by the plausible ranges, bypassed
+/// here) it returns an error naming `l_a` instead of looping (it hung).
+#[test]
+fn the_rate_analysis_refuses_a_non_finite_plant_naming_the_parameter() {
+    use sim_host::params::Params;
+    use sim_host::sampled::{rates, Criteria, LinkBudget, Model};
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let p = Params {
+            l_a: 1e-61,
+            ..Params::default()
+        };
+        let cfg = wheelset_control::Config::default();
+        let r = rates(
+            &p,
+            Model::Full,
+            &cfg,
+            1,
+            &LinkBudget::default(),
+            &Criteria::default(),
+        );
+        let _ = tx.send(r.map(|_| ()));
+    });
+    let r = rx.recv_timeout(TIMEOUT).expect("rates returned (no hang)");
+    let e = r.expect_err("a non-finite plant is refused");
+    assert!(e.contains("not finite") && e.contains("`l_a`"), "{e}");
+}
+
+/// Under error bursts (which destroy delimiters and merge frames into one reject) the
+/// reject breakdown counts frames and sums to the rejected total, both directions.
+#[test]
+fn the_reject_breakdown_sums_to_the_total_under_bursts() {
+    let dir = std::env::temp_dir().join(format!("sim-host-bursts-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let sc = dir.join("short.toml");
+    std::fs::write(&sc, "duration_s = 0.5\n").unwrap();
+    let args: Vec<String> = [
+        "run",
+        "--scenario",
+        sc.to_str().unwrap(),
+        "--loop",
+        "device",
+        "--faults",
+        "burst=400:6",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    let (code, text) = run(&args).expect("no hang");
+    let _ = std::fs::remove_dir_all(&dir);
+    assert_eq!(code, 0, "{text}");
+    let num = |line: &str, key: &str| -> u64 {
+        let i = line
+            .find(key)
+            .unwrap_or_else(|| panic!("no `{key}` in {line}"))
+            + key.len();
+        line[i..]
+            .trim_start()
+            .split(|c: char| !c.is_ascii_digit())
+            .next()
+            .and_then(|d| d.parse().ok())
+            .unwrap_or_else(|| panic!("no number after `{key}` in {line}"))
+    };
+    let mut seen = 0;
+    for line in text
+        .lines()
+        .filter(|l| l.contains("> device: sent") || l.contains("> host: sent"))
+    {
+        seen += 1;
+        assert!(line.contains("[adds up]"), "{line}");
+        let total = num(line, "+ rejected");
+        let parts: u64 = ["crc", "cobs", "version", "length", "postcard"]
+            .iter()
+            .map(|k| num(line, &format!("{k} ")))
+            .sum();
+        assert!(total > 0, "bursts must cause rejects: {line}");
+        assert_eq!(parts, total, "{line}");
+    }
+    assert_eq!(seen, 2, "{text}");
 }
