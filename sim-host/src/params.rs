@@ -166,8 +166,8 @@ pub const RANGES: &[Range] = &[
         "m_v",
         "kg",
         0.0,
-        2e5,
-        "vehicle mass on the wheelset's share; 0 = none; a heavy locomotive ~120 t",
+        2e6,
+        "vehicle (or hauled train) mass per driven wheelset; 0 = none; a heavy train ~2000 t on 4 driven axles is 5e5",
     ),
     r(
         "j",
