@@ -340,7 +340,12 @@ fn cmd_run(a: &RunArgs) -> Result<(), Failure> {
                 code: 2,
                 msg: format!(
                     "{flag}: applies only to the device loop over the simulated link (add --loop device); \
-                     the continuous loop has no link, rate or device"
+                     the {} loop has no link, rate or device",
+                    if a.device.loop_kind == LoopKind::Core {
+                        "core"
+                    } else {
+                        "continuous"
+                    }
                 ),
             });
         }
