@@ -589,6 +589,26 @@ fn print_summary(r: &hil::run::RunReport) {
         );
     }
     say!("verdict: {}", r.verdict);
+    let m = &r.monitor;
+    say!(
+        "  monitor ({}): {} alarm(s){}; expected {}{}: {}{}",
+        m.source,
+        m.alarms.len(),
+        m.first_alarm_s
+            .map_or(String::new(), |t| format!(", first at {t:.3} s")),
+        m.expect,
+        m.deadline_s.map_or(String::new(), |d| format!(
+            " by {d:.3} s (fault at {:.3} s, sigma {:.1} 1/s)",
+            m.fault_s.unwrap_or(0.0),
+            m.sigma_per_s.unwrap_or(0.0)
+        )),
+        m.verdict,
+        if m.reason.is_empty() {
+            String::new()
+        } else {
+            format!(" ({})", m.reason)
+        }
+    );
 }
 
 fn main() -> ExitCode {

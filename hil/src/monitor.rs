@@ -1,6 +1,14 @@
-//! The `monitor` section of `hil run`: the device's stability-monitor and actuator-check
-//! alarms as the host saw them (rising edges of `Flags::HUNTING` / `Flags::ACTUATOR_FAULT`
-//! in the Actuation frames), and the check of them against the scenario.
+//! The `monitor` section of `hil run`: the stability-monitor and actuator-check alarms of
+//! the run (rising edges of the monitor's two alarm states), and the check of them
+//! against the scenario.
+//!
+//! **Source.** The wire does not carry the monitor's flags yet (`Flags::HUNTING`,
+//! `Flags::ACTUATOR_FAULT` come with wire v2), so the alarms are the device's own
+//! monitor code ([`wheelset_control::Monitor`] in Q4.28 with its default configuration,
+//! [`MonitorParams::default`]) replayed on the `y'` codes the device received, one
+//! per period, decoded by the device's codec (`source = "device-replay"`). It assumes the
+//! device never entered its safe state during the run (a safe state pauses the actuator
+//! check); `frames`/`device_status` tell whether it did.
 //!
 //! ```json
 //! "monitor": {"alarms": [{"kind": "actuator", "t_s": 6.2}, {"kind": "hunting", "t_s": 6.28}],
@@ -8,8 +16,9 @@
 //! ```
 //!
 //! **Expected.** A scenario without a plant fault must raise no alarm at all (the
-//! healthy loop is damped; a plant that hunts on its own, e.g. passive control above its
-//! critical conicity, is reported by its divergence). With an `[actuator_fault]` from
+//! healthy loop is damped), unless the plant hunts on its own (e.g. passive control
+//! above its critical conicity: the run diverges), where an alarm is due before the
+//! divergence. With an `[actuator_fault]` from
 //! `t_f`: no alarm before `t_f`, and the first alarm by the **deadline**, stated from the
 //! growth rate `sigma` of the unstable mode of the passive-less wheelset
 //! (`sim_host::fault::failed_actuator_mode`, the scenario's parameters):
@@ -31,7 +40,8 @@ use serde::Serialize;
 use sim_host::fault::{failed_actuator_mode, FaultMode};
 use sim_host::scenario::Scenario;
 use sim_host::sim::Trajectory;
-use wheelset_control::{Monitor, MonitorParams, MonitorState};
+use wheelset_control::{Compiled, Fx, InputCodes, Monitor, MonitorParams, MonitorState, YawMode};
+use wheelset_runtime::RuntimeConfig;
 
 use crate::budget::Verdict;
 
@@ -47,6 +57,8 @@ pub struct Alarm {
 /// The `monitor` section of the run report.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct MonitorReport {
+    /// Where the alarms come from (`device-replay`, see the module docs).
+    pub source: &'static str,
     /// Every alarm, in time order.
     pub alarms: Vec<Alarm>,
     /// The first alarm's time, s (`null`: none).
@@ -92,6 +104,44 @@ pub fn alarms(samples: impl IntoIterator<Item = (u64, bool, bool)>) -> Vec<Alarm
     out
 }
 
+/// One period's monitor flags: `(t_ns, hunting, actuator)`.
+pub type FlagSample = (u64, bool, bool);
+/// A replay: the flags per period and the mean square `(t_s, (m/s)^2)` per monitor step.
+pub type Replay = (Vec<FlagSample>, Vec<(f64, f64)>);
+
+/// The device's monitor replayed on the samples it received (one per period from
+/// `t = 0`, wire codes), for the runtime configuration `rt` (its yaw mode decides whether
+/// the law commands) and the monitor configuration `p`. Returns the flag samples `(t_ns, hunting, actuator)` per period
+/// and the mean square `(t_s, ms in (m/s)^2)` at each monitor step; `None` if the
+/// configuration does not compile.
+#[must_use]
+pub fn replay(
+    codes: &[InputCodes],
+    period_ns: u64,
+    rt: &RuntimeConfig,
+    p: &MonitorParams,
+) -> Option<Replay> {
+    let mut control = rt.control;
+    control.wire = wheelset_runtime::protocol_wire_lsb();
+    let codec = *Compiled::<Fx>::try_new(&control).ok()?.codec();
+    let m = Monitor::<Fx>::try_new(p, control.base_rate_hz).ok()?;
+    let commanding = rt.enable && control.yaw_mode != YawMode::Passive;
+    let mut s = MonitorState::<Fx>::default();
+    let mut flags = Vec::with_capacity(codes.len());
+    let mut ms = Vec::with_capacity(codes.len() / usize::from(m.divisor().max(1)) + 1);
+    for (k, c) in codes.iter().enumerate() {
+        let t_ns = k as u64 * period_ns;
+        let ev = m.tick(&mut s, codec.decode(c).y_dot, commanding);
+        // The actuation computed from sample k arrives one period later.
+        flags.push((t_ns + period_ns, ev.hunting, ev.actuator));
+        if s.phase == m.divisor() {
+            // 1 pu of y' = 1 m/s: the mean square is in (m/s)^2.
+            ms.push((t_ns as f64 * 1e-9, s.ms.to_num::<f64>()));
+        }
+    }
+    Some((flags, ms))
+}
+
 /// Band-passed RMS of the plant's `y'` over the block before `t_s`, with the device's
 /// filter in f64 on the trajectory's records (their own rate).
 fn band_rms_before(p: &MonitorParams, tr: &Trajectory, t_s: f64) -> Option<f64> {
@@ -124,6 +174,7 @@ pub fn judge(
 ) -> MonitorReport {
     let first = alarms.first().map(|a| a.t_s);
     let mut r = MonitorReport {
+        source: "device-replay",
         alarms,
         first_alarm_s: first,
         expect: "none",
@@ -136,7 +187,16 @@ pub fn judge(
     };
     let fault = sc.actuator_fault.filter(|f| f.mode.gain() < 1.0);
     let Some(f) = fault else {
-        if let Some(t) = first {
+        // A plant that hunts on its own (passive control above its critical conicity):
+        // an alarm is due before the run diverges, and none is false.
+        if let Some(d) = tr.info.diverged_at_s {
+            r.expect = "alarm";
+            r.deadline_s = Some(d);
+            if !first.is_some_and(|t| t <= d) {
+                r.verdict = Verdict::Fail;
+                r.reason = format!("the plant hunted (diverged at {d:.3} s) with no alarm before");
+            }
+        } else if let Some(t) = first {
             r.verdict = Verdict::Fail;
             r.reason = format!("an alarm at {t:.3} s on a scenario without a fault");
         }

@@ -71,6 +71,38 @@ pub fn write_report(out: &RunOutcome, dir: &Path, command: &str) -> io::Result<V
     fig.save(&p)?;
     files.push(p);
 
+    // The monitor: lateral displacement, and the mean square against its threshold.
+    let m = &r.monitor;
+    let thr2 = {
+        let p = wheelset_control::MonitorParams::default();
+        p.threshold_m_s * p.threshold_m_s * 1e6
+    };
+    let ms: Vec<(f64, f64)> = out.monitor_ms.iter().map(|&(t, v)| (t, v * 1e6)).collect();
+    let p = dir.join("monitor.svg");
+    Figure::new(&format!(
+        "{} on {}: stability monitor ({} alarm(s), first {})",
+        r.scenario,
+        r.target,
+        m.alarms.len(),
+        m.first_alarm_s
+            .map_or("none".to_string(), |t| format!("at {t:.3} s"))
+    ))
+    .panel(
+        Plot::new("Lateral displacement y")
+            .x_label("t (s)")
+            .y_label("y (mm)")
+            .series(series(&out.trajectory, "device", |x| x.y_m * 1e3)),
+    )
+    .panel(
+        Plot::new("Band-passed mean square of y' against the alarm threshold")
+            .x_label("t (s)")
+            .y_label("mean square ((mm/s)^2)")
+            .series(Series::line("mean square", ms))
+            .hline(thr2),
+    )
+    .save(&p)?;
+    files.push(p);
+
     let h = &r.timing.exec_histogram;
     let edges_us: Vec<f64> = h.edges_ns.iter().map(|e| e * 1e-3).collect();
     let counts: Vec<f64> = h.counts.iter().map(|&c| c as f64).collect();

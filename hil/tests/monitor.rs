@@ -1,0 +1,122 @@
+//! The stability monitor and actuator check in the closed loop (issue 12), in process:
+//! an alarm within the stated deadline after the yaw actuator fails, and no false alarm
+//! on the healthy scenarios over the conicity range 0.05-0.4 at 10 MN.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use hil::run::{run, Law, RunOptions};
+use std::path::PathBuf;
+
+fn opts(scenario: &str, control: Law) -> RunOptions {
+    RunOptions {
+        scenario: scenario.into(),
+        control,
+        progress: false,
+        ..RunOptions::default()
+    }
+}
+
+#[test]
+fn the_failed_actuator_alarms_by_the_deadline() {
+    let out = run(&opts("actuator-fault", Law::Lead)).unwrap();
+    let m = &out.report.monitor;
+    println!("{}", serde_json::to_string(m).unwrap());
+    assert_eq!(m.expect, "alarm");
+    let (t_f, d, t) = (
+        m.fault_s.unwrap(),
+        m.deadline_s.unwrap(),
+        m.first_alarm_s.unwrap(),
+    );
+    assert!(
+        t > t_f && t <= d,
+        "fault {t_f} s, alarm {t} s, deadline {d} s"
+    );
+    // Before the plant's divergence (|y| > 50 mm), both kinds.
+    assert!(t < out.trajectory.info.diverged_at_s.unwrap());
+    assert!(m.alarms.iter().any(|a| a.kind == "hunting"));
+    assert!(m.alarms.iter().any(|a| a.kind == "actuator"));
+    assert_eq!(
+        out.report.verdict,
+        hil::budget::Verdict::Pass,
+        "{:?}",
+        out.report.numerics
+    );
+    // The JSON interface of the issue.
+    let j = serde_json::to_value(&out.report).unwrap();
+    assert!(j["monitor"]["alarms"][0]["kind"].is_string());
+    assert!(j["monitor"]["alarms"][0]["t_s"].is_number());
+    assert!(j["monitor"]["first_alarm_s"].is_number());
+}
+
+/// A scenario file: the built-in `name` with conicity `lambda`.
+fn with_lambda(name: &str, lambda: f64, dir: &std::path::Path) -> PathBuf {
+    let (_, src) = sim_host::scenario::BUILTIN
+        .iter()
+        .find(|(n, _)| *n == name)
+        .unwrap();
+    let text = if src.contains("\nlambda = ") {
+        src.replacen("\nlambda = 0.3\n", &format!("\nlambda = {lambda}\n"), 1)
+    } else if src.contains("\n[params]\n") {
+        src.replacen(
+            "\n[params]\n",
+            &format!("\n[params]\nlambda = {lambda}\n"),
+            1,
+        )
+    } else {
+        format!("{src}\n[params]\nlambda = {lambda}\n")
+    };
+    let p = dir.join(format!("{name}-{lambda}.toml"));
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+/// Conicity 0.05-0.4 at 10 MN (the default creep): `curve` with the lead, `beating`
+/// with passive control. No alarm wherever the plant does not hunt on its own; where it
+/// does (passive above its critical conicity: the run diverges), an alarm before that.
+#[test]
+fn no_false_alarm_over_the_conicity_range() {
+    let dir = std::env::temp_dir().join(format!("hil-monitor-sweep-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut quiet = 0;
+    for (name, law) in [("curve", Law::Lead), ("beating", Law::Passive)] {
+        for lambda in [0.05, 0.1, 0.2, 0.3, 0.4] {
+            let f = with_lambda(name, lambda, &dir);
+            let out = run(&opts(f.to_str().unwrap(), law)).unwrap();
+            let m = &out.report.monitor;
+            let div = out.trajectory.info.diverged_at_s;
+            println!(
+                "{name} {law:?} lambda {lambda}: alarms {:?}, diverged {div:?}: {}",
+                m.alarms, m.verdict
+            );
+            assert_eq!(
+                m.verdict,
+                hil::budget::Verdict::Pass,
+                "{name} {lambda}: {}",
+                m.reason
+            );
+            if div.is_none() {
+                assert!(m.alarms.is_empty(), "{name} {lambda}: {:?}", m.alarms);
+                quiet += 1;
+            }
+        }
+    }
+    // The lead keeps every conicity stable; passive beating up to 0.2.
+    assert!(quiet >= 8, "{quiet}");
+    // The failed actuator at every conicity: an alarm by the deadline (growth 5-25 1/s).
+    for lambda in [0.05, 0.1, 0.2, 0.4] {
+        let f = with_lambda("actuator-fault", lambda, &dir);
+        let out = run(&opts(f.to_str().unwrap(), Law::Lead)).unwrap();
+        let m = &out.report.monitor;
+        println!(
+            "actuator-fault lambda {lambda}: sigma {:?}, alarms {:?}, deadline {:?}, diverged {:?}",
+            m.sigma_per_s, m.alarms, m.deadline_s, out.trajectory.info.diverged_at_s
+        );
+        assert_eq!(m.expect, "alarm");
+        assert_eq!(
+            m.verdict,
+            hil::budget::Verdict::Pass,
+            "{lambda}: {}",
+            m.reason
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
