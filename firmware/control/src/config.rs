@@ -5,17 +5,11 @@ use crate::lead::LeadParams;
 use crate::pi::PiParams;
 use crate::wsp::WspParams;
 
-/// Yaw control mode.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum YawMode {
-    /// `T_psi = 0` from the controller: the yaw spring `k_yaw psi` is mechanical.
-    Passive,
-    /// Pure gain `T_psi = K y'` ([`Config::gain_k`]).
-    Gain,
-    /// Phase lead `T_psi = Ks(s) y'` ([`Config::lead`]).
-    #[default]
-    Lead,
-}
+/// Yaw control mode: the wire's enum ([`wheelset_proto::YawMode`]; the device applies a
+/// Config's mode as it is). `Passive`: `T_psi = 0` from the controller (the yaw spring is
+/// mechanical); `Gain`: `T_psi = K y'` ([`Config::gain_k`]); `Lead` (default):
+/// `T_psi = Ks(s) y'` ([`Config::lead`]).
+pub use wheelset_proto::YawMode;
 
 /// Per-unit full scales: a signal `x` (SI) is `x / FS` inside the controller. Chosen so
 /// that every signal and state sits in `[-2, 2]` pu at its limits (the Q4.28 range

@@ -241,6 +241,9 @@ pub struct Controller<T: Sample> {
     iref: T,
     /// Present torque limit (ramps to 0 in the safe state), pu.
     torque_lim: T,
+    /// A law change is being slewed: the torque moves from the old law's output towards
+    /// the new one's by at most `torque_step` per yaw step (bumpless switch).
+    slewing: bool,
     /// Last clamped y' (the predictor's `y'[n-1]`; a bumpless switch into the lead).
     last_y_dot: T,
     out: Outputs<T>,
@@ -282,6 +285,7 @@ impl<T: Sample> Controller<T> {
             pi_state: PiState::default(),
             iref: T::ZERO,
             torque_lim: law.torque_max,
+            slewing: false,
             last_y_dot: T::ZERO,
             out: Outputs::default(),
             counters: Counters::default(),
@@ -355,9 +359,21 @@ impl<T: Sample> Controller<T> {
             YawMode::Gain => x.mul_c(law.gain),
             YawMode::Lead => law.lead.process(&mut self.lead_state, x),
         };
+        // Bumpless law change: from the old output towards the new law's, at most
+        // `torque_step` per yaw step, until it has caught up.
+        let raw = if self.slewing {
+            let step = law.torque_step;
+            let (d, limited) = raw
+                .sat_sub(self.out.yaw_torque)
+                .limit(T::ZERO.sat_sub(step), step);
+            self.slewing = limited;
+            self.out.yaw_torque.sat_add(d)
+        } else {
+            raw
+        };
         // The torque limit: `torque_max`, ramped towards 0 in the safe state and back up
-        // after it. A clamp counts as a saturation only at the full limit (the ramp is
-        // not a saturation).
+        // after it. A clamp by the full limit or by the ramp is a saturation (the output
+        // is not what the law asked for).
         // (Normal running, limit at its maximum, skips the ramp: a branch on state.)
         let lim = if self.safe {
             self.torque_lim
@@ -374,7 +390,7 @@ impl<T: Sample> Controller<T> {
         };
         self.torque_lim = lim;
         let (t, sat) = raw.limit(T::ZERO.sat_sub(lim), lim);
-        *ev |= ((sat & (lim == law.torque_max)) as u32) << event::TORQUE;
+        *ev |= (sat as u32) << event::TORQUE;
         self.out.yaw_torque = t;
     }
 
@@ -383,7 +399,10 @@ impl<T: Sample> Controller<T> {
         let law = &self.law;
         self.counters.traction_steps = self.counters.traction_steps.wrapping_add(1);
         if !self.traction {
-            self.out.voltage = T::ZERO;
+            // Zero current, not 0 V (a short circuit at speed): the back-EMF of the
+            // present speed.
+            let w = Self::input(inp.speed, law.speed_max, event::SPEED, ev);
+            self.out.voltage = w.mul_c(law.back_emf);
             self.armed = false;
             return;
         }
@@ -445,21 +464,47 @@ impl<T: Sample> Controller<T> {
         self.safe
     }
 
-    /// Change the yaw mode. Switching into [`YawMode::Lead`] starts the lead from its
-    /// steady state for the last `y'` (bumpless).
+    /// Change the yaw mode, bumpless: switching into [`YawMode::Lead`] starts the lead
+    /// from its steady state for the last `y'`, and any change of the law slews the
+    /// torque from the old law's last output to the new law's at most `torque_step` per
+    /// yaw step (the safe-state ramp's rate, `limits.torque / safe.yaw_s` = 2e5 N m/s by
+    /// default: 40 N m per 200 us tick), until it has caught up with it.
     pub fn set_mode(&mut self, mode: YawMode) {
         if mode == YawMode::Lead && self.mode != YawMode::Lead {
             self.lead_state = self.law.lead.steady_state(self.last_y_dot);
         }
+        if mode != self.mode {
+            self.slewing = true;
+        }
         self.mode = mode;
+    }
+
+    /// Continue from a yaw torque `t_psi` (pu) output before, e.g. by a core at other
+    /// rates: the next yaw steps slew from it to this law's output (as a law change does).
+    pub fn continue_from(&mut self, t_psi: T) {
+        self.out.yaw_torque = t_psi;
+        self.slewing = true;
+    }
+
+    /// The back-EMF `K_m omega_m` of the motor speed `speed` (pu, clamped to its limit),
+    /// pu: the motor voltage at which the armature current is zero.
+    pub fn back_emf(&self, speed: T) -> T {
+        let law = &self.law;
+        speed
+            .sanitize()
+            .0
+            .limit(T::ZERO.sat_sub(law.speed_max), law.speed_max)
+            .0
+            .mul_c(law.back_emf)
     }
     /// The yaw mode.
     pub fn mode(&self) -> YawMode {
         self.mode
     }
 
-    /// Traction loop on/off. Off: `u_a = 0` and the integrator is disarmed; on again:
-    /// the next traction step presets it to the back-EMF (bumpless).
+    /// Traction loop on/off. Off: `u_a = K_m omega_m`, the back-EMF of the present speed
+    /// (zero current; 0 V would short the motor at speed), and the integrator is
+    /// disarmed; on again: the next traction step presets it to the back-EMF (bumpless).
     pub fn set_traction(&mut self, on: bool) {
         self.traction = on;
         if !on {
@@ -505,13 +550,8 @@ impl<T: Sample> Controller<T> {
     /// Bumpless start: preset the PI integrator to the back-EMF `K_m omega_m` of the
     /// motor speed `speed` (pu), clamped to the voltage limits, and the reference to 0.
     pub fn preset_back_emf(&mut self, speed: T) {
-        let law = &self.law;
-        let w = speed
-            .sanitize()
-            .0
-            .limit(T::ZERO.sat_sub(law.speed_max), law.speed_max)
-            .0;
-        law.pi.preset(&mut self.pi_state, w.mul_c(law.back_emf));
+        let u = self.back_emf(speed);
+        self.law.pi.preset(&mut self.pi_state, u);
         self.iref = T::ZERO;
         self.armed = true;
     }

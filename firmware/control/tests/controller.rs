@@ -135,16 +135,31 @@ fn modes_and_sign_convention() {
     .expect("ok");
     let (t, _) = c.tick(&inp).to_si(&cfg.scales);
     assert!((t - 1.05e5 * 1e-3).abs() < 1e-9, "T_psi = +K y': {t}");
+    // A law change slews from the old output at the torque slew (the safe ramp's rate,
+    // 2e4 N m / 0.1 s = 40 N m per 200 us tick) until it has caught up.
+    let slew = cfg.limits.torque / cfg.safe.yaw_s / f64::from(cfg.base_rate_hz);
+    let settle = |c: &mut F64Controller, from: f64, to: f64| {
+        let mut last = from;
+        for k in 1..=10 {
+            let (t, _) = c.tick(&inp).to_si(&cfg.scales);
+            assert!(
+                (t - last).abs() <= slew * (1.0 + 1e-9),
+                "tick {k}: {last} -> {t}"
+            );
+            last = t;
+            if (t - to).abs() < 1e-9 * to.abs().max(1.0) {
+                return k;
+            }
+        }
+        panic!("{from} -> {to}: not there after 10 ticks ({last})");
+    };
     c.set_mode(YawMode::Passive);
-    assert_eq!(c.tick(&inp).yaw_torque, 0.0);
-    // Bumpless into the lead: the first output is the DC gain times y'.
+    assert_eq!(settle(&mut c, t, 0.0), 3, "105 N m at 40 N m per tick");
+    // Bumpless into the lead: it starts from its steady state (DC gain times y') and the
+    // torque slews there from 0.
     c.set_mode(YawMode::Lead);
-    let (t, _) = c.tick(&inp).to_si(&cfg.scales);
     let dc = 1.05e5 * 7.5 * 37.0 / 274.0 * 1e-3;
-    assert!(
-        (t - dc).abs() < 1e-9 * dc,
-        "bumpless lead start {t} vs {dc}"
-    );
+    assert_eq!(settle(&mut c, 0.0, dc), 3, "bumpless lead start at {dc}");
     // A fresh lead on a step starts near its high-frequency gain.
     let mut c = F64Controller::try_new(&cfg).expect("ok");
     let (t, _) = c.tick(&inp).to_si(&cfg.scales);
@@ -159,9 +174,11 @@ fn bumpless_start_presets_the_back_emf() {
     let (_, u) = c.tick(&si(&cfg, 0.0, 0.0, w, 0.0)).to_si(&cfg.scales);
     assert!((u - 4.28 * w).abs() < 1e-9, "u = K_m w = {}: {u}", 4.28 * w);
     assert!((u - 3961.5).abs() < 1.0);
-    // Explicit preset, then traction off and on again: presets again.
+    // Traction off: zero current, so the back-EMF (not 0 V, a short circuit at speed);
+    // on again: presets again.
     c.set_traction(false);
-    assert_eq!(c.tick(&si(&cfg, 0.0, 0.0, w, 0.0)).voltage, 0.0);
+    let (_, u) = c.tick(&si(&cfg, 0.0, 0.0, w, 0.0)).to_si(&cfg.scales);
+    assert!((u - 4.28 * w).abs() < 1e-9, "traction off: {u}");
     c.set_traction(true);
     let (_, u) = c.tick(&si(&cfg, 0.0, 0.0, w, 0.0)).to_si(&cfg.scales);
     assert!((u - 4.28 * w).abs() < 1e-9);

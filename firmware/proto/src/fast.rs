@@ -26,6 +26,17 @@ pub(crate) const ACTUATION: u8 = 1;
 pub(crate) const CONFIG: u8 = 2;
 pub(crate) const COMMAND: u8 = 3;
 pub(crate) const STATUS: u8 = 4;
+/// [`Command`] variants this version defines (indices `0..COMMANDS`).
+pub(crate) const COMMANDS: u32 = 2;
+/// [`YawMode`] variants (the first field of a [`Config`]), indices `0..YAW_MODES`.
+pub(crate) const YAW_MODES: u32 = 3;
+
+/// The variant index a body starts with (a Command's variant, a Config's mode) if it is
+/// one byte (below 0x80, the encoder's form); `None` otherwise (longer forms are decoded,
+/// or refused as malformed, by the message's decoder).
+pub(crate) fn leading_index(body: &[u8]) -> Option<u32> {
+    body.first().filter(|b| **b < 0x80).map(|b| u32::from(*b))
+}
 
 /// A bounded writer; `None` once the buffer is full.
 struct Out<'a> {

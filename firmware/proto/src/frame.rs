@@ -477,6 +477,12 @@ pub enum Request {
     /// A frame with a valid CRC and version whose type is one the device sends, not
     /// takes (Actuation, Status); its body is not checked.
     Unexpected,
+    /// A Command whose variant index, or a Config whose `mode` index, this version does
+    /// not define (the leading byte of the body, below 0x80; the rest is not checked; a
+    /// multi-byte index is a decoding error like any other malformed varint): the device
+    /// refuses it as an unknown request (`CMD_REFUSED`,
+    /// [`crate::RefuseReason::UnknownRequest`]), not as a decoding error.
+    Unknown,
 }
 
 /// The device's decoder: [`decode_frame`] for the messages the device takes (the same
@@ -514,8 +520,19 @@ pub(crate) fn message_from_raw(raw: &[u8]) -> Result<Message, FrameError> {
 pub(crate) fn request_from_raw(raw: &[u8]) -> Result<Request, FrameError> {
     let msg = check(raw)?;
     // postcard writes an enum as its variant index (a varint), then the variant.
-    use crate::fast::{finish, message_type, ACTUATION, COMMAND, CONFIG, SENSOR, STATUS};
+    use crate::fast::{
+        finish, leading_index, message_type, ACTUATION, COMMAND, COMMANDS, CONFIG, SENSOR, STATUS,
+        YAW_MODES,
+    };
     let (ty, body) = message_type(msg).ok_or(FrameError::Postcard)?;
+    let defined = match ty {
+        COMMAND => COMMANDS,
+        CONFIG => YAW_MODES,
+        _ => u32::MAX,
+    };
+    if leading_index(body).is_some_and(|i| i >= defined) {
+        return Ok(Request::Unknown);
+    }
     Ok(match ty {
         SENSOR => Request::Sensor(finish(body, crate::fast::sensor)?),
         CONFIG => Request::Config(finish(body, crate::fast::config)?),

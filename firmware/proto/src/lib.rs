@@ -55,6 +55,7 @@ mod fast;
 mod frame;
 pub mod link;
 mod message;
+pub mod plausible;
 mod sizes;
 pub mod units;
 
@@ -68,6 +69,7 @@ pub use frame::{
 pub use message::{
     Actuation, Command, Config, Flags, Lateral, Message, Rates, Sensor, Status, YawMode,
 };
+pub use plausible::RefuseReason;
 pub use sizes::{
     frame_len, ACTUATION_MAX_FRAME, COMMAND_MAX_FRAME, CONFIG_MAX_FRAME, SENSOR_MAX_FRAME,
     SENSOR_ONE_LATERAL_MAX_FRAME, STATUS_MAX_FRAME,

@@ -98,15 +98,19 @@ pub struct Actuation {
     pub u_a_cv: i32,
 }
 
-/// Yaw damping law selected on the device.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+/// Yaw damping law selected on the device; the control core's own enum
+/// (`wheelset_control::YawMode` is this type). Wire index: `Passive` 0, `Gain` 1,
+/// `Lead` 2; another index is an unknown request (refused, not a decoding error).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum YawMode {
-    /// Passive: the device's yaw output is zero (the yaw spring is mechanical).
-    Passive,
-    /// Pure gain `T_psi = K y'`.
-    Gain,
-    /// Phase lead `Ks(s) y'`.
-    Lead,
+    /// 0. Passive: the device's yaw output is zero (the yaw spring is mechanical).
+    Passive = 0,
+    /// 1. Pure gain `T_psi = K y'`.
+    Gain = 1,
+    /// 2. Phase lead `Ks(s) y'` (the default).
+    #[default]
+    Lead = 2,
 }
 
 /// Host -> device: configuration. Applied at the next tick if valid, refused (and

@@ -82,6 +82,13 @@ proptest! {
                 (Ok(Message::Command(x)), Ok(Request::Command(y))) => prop_assert_eq!(x, y),
                 (Ok(Message::Actuation(_) | Message::Status(_)), Ok(Request::Unexpected)) => {}
                 (Err(_), Ok(Request::Unexpected)) => prop_assert!(ty == 1 || ty == 4),
+                // An undefined Command variant or Config mode: an unknown request.
+                (Err(FrameError::Postcard), Ok(Request::Unknown)) => {
+                    prop_assert!(ty == 2 || ty == 3);
+                    let lead = body.first().copied().unwrap_or(0);
+                    let defined = if ty == 3 { 2 } else { 3 };
+                    prop_assert!(lead < 0x80 && lead >= defined);
+                }
                 (Err(e), Err(f)) => prop_assert_eq!(e, f),
                 (x, y) => prop_assert!(false, "{:?} vs {:?}", x, y),
             }
