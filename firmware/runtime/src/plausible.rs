@@ -125,6 +125,18 @@ pub(crate) fn check_rates<T: SampleBits>(r: &Rates, r0: &Reference) -> Result<()
             return Err(R::PredictHalf);
         }
     }
+    if cfg!(feature = "coefficient-check") {
+        check_coefficients::<T>(r, r0)
+    } else {
+        Ok(())
+    }
+}
+
+/// The rate-dependent coefficients against the start-up core's at the requested rates
+/// (feature `coefficient-check`: see the crate's `Cargo.toml`).
+fn check_coefficients<T: SampleBits>(r: &Rates, r0: &Reference) -> Result<(), RefuseReason> {
+    use RefuseReason as R;
+    let hz = r.base_rate_hz;
     let s0 = &r0.schedule;
     // T/T0 = num/den for the three periods, each below 2^20 (or refused).
     let ratio = |d: u16, d0: u16| {
