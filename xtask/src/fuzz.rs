@@ -172,8 +172,8 @@ pub struct Report {
     /// Ticks run.
     pub ticks: u64,
     /// The device's receive counters summed over the run: valid, CRC, COBS, version,
-    /// length, postcard (rejections).
-    pub rx: [u64; 6],
+    /// length, postcard (rejections), unexpected (valid frames of a device -> host type).
+    pub rx: [u64; 7],
     /// Config frames the device took / refused.
     pub configs_applied: u64,
     /// Config frames refused.
@@ -187,7 +187,7 @@ pub struct Report {
 }
 
 /// The device's receive counters, in [`Report::rx`] order.
-fn rx_counts(s: &Status) -> [u32; 6] {
+fn rx_counts(s: &Status) -> [u32; 7] {
     [
         s.rx_ok,
         s.rx_crc,
@@ -195,6 +195,7 @@ fn rx_counts(s: &Status) -> [u32; 6] {
         s.rx_version,
         s.rx_length,
         s.rx_postcard,
+        s.rx_unexpected,
     ]
 }
 
@@ -207,8 +208,12 @@ enum Expect {
     Err(usize),
     /// The host's decoder says length or postcard error (index 4 or 5): the device's
     /// request decoder rejects it the same way, or, for a frame of a type it does not
-    /// take (Actuation, Status), counts it valid and unexpected without decoding it.
+    /// take (Actuation, Status), counts it unexpected (index 6) without decoding it, or,
+    /// for a postcard error that is an undefined Command variant or Config mode, counts
+    /// it valid (an unknown request, refused).
     ErrOrUnexpected(usize),
+    /// A valid frame of a device -> host type: `rx_unexpected` only (index 6).
+    Unexpected,
 }
 
 fn host_expect(frame: &[u8]) -> Expect {
@@ -217,6 +222,7 @@ fn host_expect(frame: &[u8]) -> Expect {
     dec.feed(frame, |r| out = Some(r));
     match out {
         Some(Ok(Message::Command(Command::ResetCounters))) => Expect::Ok { reset: true },
+        Some(Ok(Message::Actuation(_) | Message::Status(_))) => Expect::Unexpected,
         Some(Ok(_)) => Expect::Ok { reset: false },
         Some(Err(FrameError::Crc)) => Expect::Err(1),
         Some(Err(FrameError::Cobs)) => Expect::Err(2),
@@ -457,16 +463,19 @@ pub fn run<T: SampleBits>(n: u64, seed: u64) -> Result<Report, String> {
             rep.frames_seen += 1;
             let after = *rt.counters();
             let (b, a) = (rx_counts(&before), rx_counts(&after));
-            let moved: Vec<usize> = (0..6).filter(|&k| a[k] != b[k]).collect();
+            let moved: Vec<usize> = (0..7).filter(|&k| a[k] != b[k]).collect();
             let one_up = |k: usize| moved == [k] && a[k] == b[k].wrapping_add(1);
             let ok = match expect {
-                Expect::Ok { reset: true } => a == [0; 6],
+                Expect::Ok { reset: true } => a == [0; 7],
                 Expect::Ok { reset: false } => one_up(0),
                 Expect::Err(k) => one_up(k),
+                Expect::Unexpected => one_up(6),
                 Expect::ErrOrUnexpected(k) => {
                     one_up(k)
-                        || (one_up(0)
-                            && after.rx_unexpected == before.rx_unexpected.wrapping_add(1))
+                        || one_up(6)
+                        || (k == 5
+                            && one_up(0)
+                            && after.cmd_refused == before.cmd_refused.wrapping_add(1))
                 }
             };
             if !ok {
@@ -484,7 +493,7 @@ pub fn run<T: SampleBits>(n: u64, seed: u64) -> Result<Report, String> {
                 rep.resets += 1;
                 continue;
             }
-            for k in 0..6 {
+            for k in 0..7 {
                 rep.rx[k] += u64::from(a[k].wrapping_sub(b[k]));
             }
             if kind == 1 {
@@ -601,7 +610,7 @@ fn print_report(r: &Report) {
     println!("  Runtime<{}>: generated {}", r.numeric, kinds.join(", "));
     println!(
         "    frames seen {}, ticks {}; rx ok {}, crc {}, cobs {}, version {}, length {}, \
-         postcard {}; configs applied {} / refused {}; status frames {}; max |T_psi| {} \
+         postcard {}, unexpected {}; configs applied {} / refused {}; status frames {}; max |T_psi| {} \
          dNm, max |u_a| {} cV",
         r.frames_seen,
         r.ticks,
@@ -611,6 +620,7 @@ fn print_report(r: &Report) {
         r.rx[3],
         r.rx[4],
         r.rx[5],
+        r.rx[6],
         r.configs_applied,
         r.configs_refused,
         r.status_frames,
@@ -666,7 +676,7 @@ mod tests {
             assert_eq!(r.rx.iter().sum::<u64>() + r.resets, r.frames_seen, "{r:?}");
             assert!(r.resets > 0, "{r:?}");
             assert!(
-                r.rx[1..].iter().all(|&n| n > 0),
+                r.rx[1..6].iter().all(|&n| n > 0),
                 "every error kind seen: {r:?}"
             );
             assert!(r.configs_refused > 100 && r.configs_applied > 100, "{r:?}");

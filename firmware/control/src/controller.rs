@@ -402,7 +402,7 @@ impl<T: Sample> Controller<T> {
             // Zero current, not 0 V (a short circuit at speed): the back-EMF of the
             // present speed.
             let w = Self::input(inp.speed, law.speed_max, event::SPEED, ev);
-            self.out.voltage = w.mul_c(law.back_emf);
+            self.out.voltage = w.mul_c(law.back_emf).limit(law.pi.u_min, law.pi.u_max).0;
             self.armed = false;
             return;
         }
@@ -487,7 +487,8 @@ impl<T: Sample> Controller<T> {
     }
 
     /// The back-EMF `K_m omega_m` of the motor speed `speed` (pu, clamped to its limit),
-    /// pu: the motor voltage at which the armature current is zero.
+    /// pu, clamped to the voltage limits: the motor voltage at which the armature current
+    /// is zero (or as close as the limits allow).
     pub fn back_emf(&self, speed: T) -> T {
         let law = &self.law;
         speed
@@ -496,6 +497,8 @@ impl<T: Sample> Controller<T> {
             .limit(T::ZERO.sat_sub(law.speed_max), law.speed_max)
             .0
             .mul_c(law.back_emf)
+            .limit(law.pi.u_min, law.pi.u_max)
+            .0
     }
     /// The yaw mode.
     pub fn mode(&self) -> YawMode {
