@@ -3,7 +3,8 @@
 //! The plant is `sim_host::sim::run_sampled` (RK4 at the scenario's step) with the
 //! device as its sampled controller ([`crate::closed_loop`]) and an actuator delay of
 //! one control period; the reference is `sim_host::sim::run_continuous` with the same
-//! scenario and law. The device runs the control core's default configuration
+//! scenario and law (with `[[adhesion]]` sections: the f64 control core with the
+//! device's wheel-slip protection, `sim_host::core_loop`). The device runs the control core's default configuration
 //! (`wheelset_control::Config::default()`: 5 kHz, Q4.28 fixed point) with the yaw law
 //! chosen by `--control`.
 
@@ -411,7 +412,17 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     if let Some(e) = ctrl.error.take() {
         return Err(RunError::Target(e));
     }
-    let reference = run_continuous(&sc, opts.control.yaw());
+    // With `[[adhesion]]` sections the continuous controllers (no wheel-slip protection)
+    // are no yardstick: the reference is then the control core itself in f64 with the
+    // device's protection (on, the device's default), timing and wire quantisation
+    // (`sim_host::core_loop`).
+    let reference = if sc.adhesion.is_empty() {
+        run_continuous(&sc, opts.control.yaw())
+    } else {
+        sim_host::core_loop::run_core::<f64>(&sc, opts.control.yaw(), true)
+            .map_err(|e| RunError::Input(format!("scenario {}: {e}", sc.source)))?
+            .0
+    };
     let timing = analyse(
         &ctx,
         &ctrl.periods,
