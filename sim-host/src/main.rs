@@ -233,9 +233,10 @@ struct DeviceArgs {
     /// Loop kind.
     #[arg(long = "loop", value_enum, default_value = "continuous")]
     loop_kind: LoopKind,
-    /// Wheel-slip protection of the device / core (`Config::wsp`; `--loop device|core`).
-    #[arg(long, value_enum, default_value = "on")]
-    wsp: OnOff,
+    /// Wheel-slip protection of the control core (`--loop core`; default on). The device
+    /// loop refuses it until the runtime forwards wire v2's `Config::wsp` to the core.
+    #[arg(long, value_enum)]
+    wsp: Option<OnOff>,
     /// Link faults, e.g. `ber=1e-3,drop=0.1,outage=8.0:0.05` (keys: ber, drop, byte_drop,
     /// outage=START_S:LEN_S[:up|down], burst=RATE_HZ:LEN_BYTES, dir=both|up|down);
     /// default none.
@@ -591,7 +592,7 @@ fn cmd_run_core(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
         code: 2,
         msg: e.to_string(),
     };
-    let wsp = a.device.wsp == OnOff::On;
+    let wsp = a.device.wsp != Some(OnOff::Off);
     let (tr, c) = run_core::<f64>(sc, a.control.into(), wsp).map_err(fail)?;
     print_summary(sc, &tr);
     println!(
@@ -643,6 +644,14 @@ fn cmd_run_core(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
 fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
     use sim_host::device::{deviation, run_device, DeviceOptions, CURVE_WINDOWS};
     let d = &a.device;
+    if d.wsp.is_some() {
+        return Err(Failure {
+            code: 2,
+            msg: "--wsp: the device loop cannot switch the wheel-slip protection yet (the \
+                  runtime does not forward Config.wsp to the control core); use --loop core"
+                .to_string(),
+        });
+    }
     let latency_us = d.latency_us.unwrap_or(2.0);
     if !(latency_us.is_finite() && (0.0..=MAX_LATENCY_US).contains(&latency_us)) {
         return Err(Failure {
