@@ -9,6 +9,21 @@
 //! crc   = CRC-32C(raw), little-endian, 4 bytes
 //! ```
 //!
+//! Numbers on the wire (postcard variant indices, declaration order, stated here so a
+//! client needs no source):
+//!
+//! | type byte | message | direction | | enum | indices |
+//! |---|---|---|---|---|---|
+//! | 0 | [`Sensor`] | host -> device | | [`Lateral`] | 0 `Velocity`, 1 `Acceleration`, 2 `Both` |
+//! | 1 | [`Actuation`] | device -> host | | [`YawMode`] | 0 `Passive`, 1 `Gain`, 2 `Lead` |
+//! | 2 | [`Config`] | host -> device | | [`Command`] | 0 `ResetCounters`, 1 `RequestStatus` |
+//! | 3 | [`Command`] | host -> device | | [`RefuseReason`] | [`plausible`] |
+//! | 4 | [`Status`] | device -> host | | | |
+//!
+//! [`Actuation`] `tick` counts the device's ticks from 1 (the first tick after start-up
+//! sends 1; modulo 2^16). An undefined Command or YawMode index is refused by the device
+//! as an unknown request, not counted as a decoding error.
+//!
 //! - [`Message`]: [`Sensor`] (host -> device, every tick), [`Actuation`] (device -> host,
 //!   every tick), [`Config`] and [`Command`] (host -> device), [`Status`] (device -> host,
 //!   the counters). Physical quantities are integers with the LSBs of [`units`].

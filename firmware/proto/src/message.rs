@@ -5,14 +5,16 @@ use serde::{Deserialize, Serialize};
 
 /// The lateral measurement of the wheelset, relative to the track (so it is zero on a
 /// constant curve): velocity `y'`, acceleration `y''`, or both. Positive towards +y
-/// (right, the outer rail of the left-hand `curve`).
+/// (right, the outer rail of the left-hand `curve`). Wire index: `Velocity` 0,
+/// `Acceleration` 1, `Both` 2.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Lateral {
     /// `y'` in um/s ([`crate::units::LAT_VEL_LSB_M_PER_S`]).
     Velocity(i32),
     /// `y''` in 0.1 mm/s^2 ([`crate::units::LAT_ACC_LSB_M_PER_S2`]); the device integrates.
     Acceleration(i32),
-    /// Both, e.g. for a complementary filter on the device.
+    /// Both: the device runs a complementary filter of the two (crossover at the `y''`
+    /// wash-out, `wheelset_runtime` crate docs).
     Both {
         /// `y'` in um/s.
         vel_um_s: i32,
@@ -48,14 +50,16 @@ pub struct Flags(pub u8);
 impl Flags {
     /// Outputs enabled (a [`Config`] with `enable = true` was applied, or the default).
     pub const ENABLED: u8 = 1 << 0;
-    /// This tick ran on a held sample: no new valid sensor frame since the last tick.
+    /// This tick ran on a held sample: no new valid sensor frame since the last tick (in
+    /// the safe state too; `held_ticks` counts these ticks).
     pub const HOLDING: u8 = 1 << 1;
     /// The safe state is active: yaw torque ramping to / held at zero, traction demand zero.
     pub const SAFE: u8 = 1 << 2;
     /// At least one frame was rejected (CRC, COBS, version, length, postcard) since the
     /// previous actuation frame.
     pub const RX_ERROR: u8 = 1 << 3;
-    /// The yaw torque saturated this tick.
+    /// The yaw torque was limited this tick: by the fixed limit, or by the safe-state /
+    /// recovery ramp of the limit.
     pub const YAW_SAT: u8 = 1 << 4;
     /// The traction loop (voltage) saturated this tick.
     pub const TRACTION_SAT: u8 = 1 << 5;
@@ -85,7 +89,7 @@ pub struct Actuation {
     /// The `seq` of the latest valid [`Sensor`] the device used (0 before the first).
     #[serde(with = "postcard::fixint::le")]
     pub seq_echo: u16,
-    /// Device tick count modulo 2^16.
+    /// Device tick count modulo 2^16, from 1 (the first tick after start-up sends 1).
     #[serde(with = "postcard::fixint::le")]
     pub tick: u16,
     /// Execution time of the previous tick: cycles (board, DWT) or instructions (QEMU).
@@ -183,11 +187,20 @@ pub enum Command {
 }
 
 /// Device -> host, on request: the counters (all wrap at 2^32).
+///
+/// Accounting identity (receive side): every frame the device's decoder delimits (bytes
+/// between two 0x00, empty ones ignored) counts in exactly one of `rx_ok`,
+/// `rx_unexpected`, `rx_crc`, `rx_cobs`, `rx_version`, `rx_length`, `rx_postcard`; so a
+/// host that sent `n` frames over a clean link reads `n` as their sum. `cmd_refused`
+/// counts the refused Configs and Commands among `rx_ok` (unknown requests included);
+/// `held_ticks` counts the ticks flagged [`Flags::HOLDING`], `safe_ticks` those flagged
+/// [`Flags::SAFE`], `yaw_sat` those flagged [`Flags::YAW_SAT`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 pub struct Status {
     /// Base-rate ticks run.
     pub ticks: u32,
-    /// Valid frames received (any type).
+    /// Valid frames of a type the device takes (Sensor, Config, Command; refused ones
+    /// included).
     pub rx_ok: u32,
     /// Frames rejected: CRC mismatch.
     pub rx_crc: u32,
@@ -200,11 +213,11 @@ pub struct Status {
     /// Frames rejected: postcard could not decode the message.
     pub rx_postcard: u32,
     /// Frames (CRC and version valid) of a type the device does not accept (an Actuation
-    /// or a Status; their bodies are not decoded).
+    /// or a Status; their bodies are not decoded); not also in `rx_ok`.
     pub rx_unexpected: u32,
     /// Sensor frames whose `seq` was not the previous one + 1 (a gap or a repeat).
     pub seq_gaps: u32,
-    /// Ticks run on a held sample.
+    /// Ticks run on a held sample ([`Flags::HOLDING`], in the safe state too).
     pub held_ticks: u32,
     /// Ticks in the safe state.
     pub safe_ticks: u32,
@@ -212,7 +225,7 @@ pub struct Status {
     pub safe_entries: u32,
     /// Exits from the safe state (valid frames returned).
     pub safe_exits: u32,
-    /// Ticks with the yaw torque saturated.
+    /// Ticks with the yaw torque limited: by the fixed limit or the safe/recovery ramp.
     pub yaw_sat: u32,
     /// Ticks with the motor voltage saturated.
     pub traction_sat: u32,
