@@ -597,11 +597,14 @@ fn print_summary(r: &hil::run::RunReport) {
         m.first_alarm_s
             .map_or(String::new(), |t| format!(", first at {t:.3} s")),
         m.expect,
-        m.deadline_s.map_or(String::new(), |d| format!(
-            " by {d:.3} s (fault at {:.3} s, sigma {:.1} 1/s)",
-            m.fault_s.unwrap_or(0.0),
-            m.sigma_per_s.unwrap_or(0.0)
-        )),
+        match (m.deadline_s, m.fault_s) {
+            (Some(d), Some(f)) => format!(
+                " by {d:.3} s (fault at {f:.3} s, sigma {:.1} 1/s)",
+                m.sigma_per_s.unwrap_or(0.0)
+            ),
+            (Some(d), None) => format!(" by {d:.3} s (the plant diverged there on its own)"),
+            _ => String::new(),
+        },
         m.verdict,
         if m.reason.is_empty() {
             String::new()
