@@ -71,6 +71,8 @@ mod frame;
 pub mod link;
 mod message;
 pub mod plausible;
+#[cfg(feature = "std")]
+mod si;
 mod sizes;
 pub mod units;
 
@@ -85,6 +87,8 @@ pub use message::{
     Actuation, Command, Config, Flags, Lateral, Message, Rates, Sensor, Status, YawMode,
 };
 pub use plausible::RefuseReason;
+#[cfg(feature = "std")]
+pub use si::{t_us_of, ActuationSi, LateralSensing, Quantized, SensorSi};
 pub use sizes::{
     frame_len, ACTUATION_MAX_FRAME, COMMAND_MAX_FRAME, CONFIG_MAX_FRAME, SENSOR_MAX_FRAME,
     SENSOR_ONE_LATERAL_MAX_FRAME, STATUS_MAX_FRAME,

@@ -1,0 +1,146 @@
+//! SI <-> wire codes on the host (`std` feature): the only conversion between the
+//! plant's measurements and actuation (SI units) and the messages (integer counts of the
+//! LSBs of [`crate::units`]).
+//!
+//! One rounding rule, [`units::quantize`]: `count = round(x / LSB)`, half away from zero;
+//! a value beyond the `i32` range saturates and NaN maps to 0, and each such value is
+//! counted in [`Quantized::clamped`] so the caller can report it. Back to SI is exact:
+//! `x = count * LSB` ([`units::to_si`]). So `|from_si(x) -> to_si - x| <= LSB / 2` for
+//! every value inside the range.
+//!
+//! ```
+//! use wheelset_proto::{Lateral, LateralSensing, Sensor, SensorSi};
+//! let m = SensorSi { y_dot: 2.0004e-3, i_a: 115.0, w_m: 925.6, demand_nm: 2460.0,
+//!                    ..SensorSi::default() };
+//! let q = Sensor::from_si(7, 1_400_000, &m, LateralSensing::Velocity);
+//! assert_eq!(q.msg.lateral, Lateral::Velocity(2_000));  // 1 um/s LSB
+//! assert_eq!((q.msg.i_a_ma, q.msg.omega_m_mrad_s), (115_000, 925_600));
+//! assert_eq!(q.msg.t_us, 1_400);                          // t_ns / 1000 mod 2^16
+//! assert_eq!(q.clamped, 0);
+//! ```
+
+use crate::units::{
+    self, CURRENT_LSB_A, DEMAND_LSB_NM, LAT_ACC_LSB_M_PER_S2, LAT_VEL_LSB_M_PER_S,
+    SPEED_LSB_RAD_PER_S, TORQUE_LSB_NM, VOLTAGE_LSB_V,
+};
+use crate::{Actuation, Lateral, Sensor};
+
+/// What a Sensor frame carries of the lateral motion.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum LateralSensing {
+    /// `y'` only ([`Lateral::Velocity`], the default).
+    #[default]
+    Velocity,
+    /// `y''` only ([`Lateral::Acceleration`]): the device integrates it.
+    Acceleration,
+    /// Both ([`Lateral::Both`]).
+    Both,
+}
+
+/// The measurements the host samples, SI units; signs as in [`Sensor`] (`y` positive
+/// towards +y, the current positive motoring, the speed positive forwards).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct SensorSi {
+    /// Lateral velocity of the wheelset relative to the track `y'`, m/s.
+    pub y_dot: f64,
+    /// Lateral acceleration relative to the track `y''`, m/s^2.
+    pub y_ddot: f64,
+    /// Motor armature current `i_a`, A.
+    pub i_a: f64,
+    /// Motor speed `theta_m'`, rad/s.
+    pub w_m: f64,
+    /// Traction demand as wheel torque `n K_m i_ref`, N m.
+    pub demand_nm: f64,
+}
+
+/// The actuation a device commands, SI units: what the plant applies.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ActuationSi {
+    /// Yaw torque `T_psi`, N m (sign as in [`Actuation::t_psi_dnm`]).
+    pub t_psi: f64,
+    /// Motor voltage `u_a`, V.
+    pub u_a: f64,
+}
+
+/// A message quantised from SI values, with the number of values that did not fit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Quantized<M> {
+    /// The message.
+    pub msg: M,
+    /// Values clamped to the `i32` range or NaN mapped to 0 (see [`units::quantize`]).
+    pub clamped: u32,
+}
+
+/// Host timestamp field of the sample instant `t_ns`: `t_ns / 1000` modulo 2^16 (us).
+#[must_use]
+pub fn t_us_of(t_ns: u64) -> u16 {
+    ((t_ns / 1_000) & 0xffff) as u16
+}
+
+impl Sensor {
+    /// The Sensor frame `seq` of the sample `m` taken at `t_ns` (host time, ns), the
+    /// lateral motion as `lateral` asks; every field by [`units::quantize`].
+    #[must_use]
+    pub fn from_si(seq: u16, t_ns: u64, m: &SensorSi, lateral: LateralSensing) -> Quantized<Self> {
+        let mut clamped = 0u32;
+        let mut q = |x: f64, lsb: f64| {
+            let (v, c) = units::quantize(x, lsb);
+            clamped += u32::from(c);
+            v
+        };
+        let lateral = match lateral {
+            LateralSensing::Velocity => Lateral::Velocity(q(m.y_dot, LAT_VEL_LSB_M_PER_S)),
+            LateralSensing::Acceleration => {
+                Lateral::Acceleration(q(m.y_ddot, LAT_ACC_LSB_M_PER_S2))
+            }
+            LateralSensing::Both => Lateral::Both {
+                vel_um_s: q(m.y_dot, LAT_VEL_LSB_M_PER_S),
+                acc_dmm_s2: q(m.y_ddot, LAT_ACC_LSB_M_PER_S2),
+            },
+        };
+        let msg = Sensor {
+            seq,
+            t_us: t_us_of(t_ns),
+            lateral,
+            i_a_ma: q(m.i_a, CURRENT_LSB_A),
+            omega_m_mrad_s: q(m.w_m, SPEED_LSB_RAD_PER_S),
+            demand_nm: q(m.demand_nm, DEMAND_LSB_NM),
+        };
+        Quantized { msg, clamped }
+    }
+
+    /// The sample this frame carries, back in SI (`count * LSB`); a lateral quantity the
+    /// frame does not carry is 0.
+    #[must_use]
+    pub fn to_si(&self) -> SensorSi {
+        let (y_dot, y_ddot) = match self.lateral {
+            Lateral::Velocity(v) => (units::to_si(v, LAT_VEL_LSB_M_PER_S), 0.0),
+            Lateral::Acceleration(a) => (0.0, units::to_si(a, LAT_ACC_LSB_M_PER_S2)),
+            Lateral::Both {
+                vel_um_s,
+                acc_dmm_s2,
+            } => (
+                units::to_si(vel_um_s, LAT_VEL_LSB_M_PER_S),
+                units::to_si(acc_dmm_s2, LAT_ACC_LSB_M_PER_S2),
+            ),
+        };
+        SensorSi {
+            y_dot,
+            y_ddot,
+            i_a: units::to_si(self.i_a_ma, CURRENT_LSB_A),
+            w_m: units::to_si(self.omega_m_mrad_s, SPEED_LSB_RAD_PER_S),
+            demand_nm: units::to_si(self.demand_nm, DEMAND_LSB_NM),
+        }
+    }
+}
+
+impl Actuation {
+    /// The commanded actuation in SI: `T_psi = t_psi_dnm * 0.1 N m`, `u_a = u_a_cv * 10 mV`.
+    #[must_use]
+    pub fn to_si(&self) -> ActuationSi {
+        ActuationSi {
+            t_psi: units::to_si(self.t_psi_dnm, TORQUE_LSB_NM),
+            u_a: units::to_si(self.u_a_cv, VOLTAGE_LSB_V),
+        }
+    }
+}
