@@ -4,9 +4,11 @@
 //! device as its sampled controller ([`crate::closed_loop`]) and an actuator delay of
 //! one control period; the reference is `sim_host::sim::run_continuous` with the same
 //! scenario and law (with `[[adhesion]]` sections: the f64 control core with the
-//! device's wheel-slip protection, `sim_host::core_loop`). The device runs the control core's default configuration
-//! (`wheelset_control::Config::default()`: 5 kHz, Q4.28 fixed point) with the yaw law
-//! chosen by `--control`.
+//! device's wheel-slip protection, `sim_host::core_loop`). The device's configuration
+//! follows the scenario and its parameters ([`runtime_config_for`], the same rule as
+//! `sim-host run --loop device`): the yaw law of `--control`, traction when the drive is
+//! modelled, the lead, gain, PI and motor constants from the parameters, the default
+//! rates (5 kHz, Q4.28 fixed point).
 
 use std::fmt;
 use std::time::Duration;
@@ -14,15 +16,17 @@ use std::time::Duration;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 use sim_host::control::YawLaw;
+use sim_host::device::{runtime_config, DeviceOptions};
 use sim_host::link::LinkConfig;
 use sim_host::params::Params;
 use sim_host::scenario::Scenario;
-use sim_host::sim::{run_continuous, run_sampled, ActuatorModel, SensorModel, Trajectory};
+use sim_host::sim::{run_continuous, Trajectory};
+use wheelset_control::Fx;
 use wheelset_proto::Status;
 use wheelset_runtime::RuntimeConfig;
 
 use crate::budget::{Budgets, Verdict};
-use crate::closed_loop::DeviceController;
+use crate::closed_loop::{close_loop, LoopSetup};
 use crate::frames::FramesReport;
 use crate::inproc::{DeviceFault, InProc};
 use crate::numerics::{compare, NumericsReport};
@@ -95,14 +99,6 @@ impl Law {
             Self::Passive => YawLaw::Passive,
             Self::Gain => YawLaw::Gain,
             Self::Lead => YawLaw::Lead,
-        }
-    }
-
-    fn device(self) -> wheelset_control::YawMode {
-        match self {
-            Self::Passive => wheelset_control::YawMode::Passive,
-            Self::Gain => wheelset_control::YawMode::Gain,
-            Self::Lead => wheelset_control::YawMode::Lead,
         }
     }
 }
@@ -236,14 +232,14 @@ pub struct RunOutcome {
     pub monitor_ms: Vec<(f64, f64)>,
 }
 
-/// Opens the transport for `opts.target`.
+/// Opens the transport for `opts.target`; an in-process device is built from `rt`.
 pub fn open_transport(
     opts: &RunOptions,
     rt: RuntimeConfig,
 ) -> Result<Box<dyn Transport>, RunError> {
     match &opts.target {
         Target::InProc => {
-            let t = InProc::try_new(rt, &opts.link, opts.device_fault)
+            let t = InProc::<Fx>::try_new(rt, &opts.link, opts.device_fault)
                 .map_err(|e| RunError::Input(e.to_string()))?;
             Ok(Box::new(t))
         }
@@ -346,12 +342,19 @@ fn run_rate(opts: &RunOptions, default_hz: u32) -> Result<u32, RunError> {
     Ok(hz)
 }
 
+/// The device's runtime configuration for a run of `sc`: the scenario's parameters, the
+/// law, the default hold ticks and rates (`sim_host::device::runtime_config`, the rule
+/// `sim-host run --loop device` follows too).
+#[must_use]
+pub fn runtime_config_for(sc: &Scenario, law: Law) -> RuntimeConfig {
+    runtime_config(sc, law.yaw(), &DeviceOptions::default())
+}
+
 /// Runs the closed loop and the checks.
 pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     let sc = Scenario::load(&opts.scenario, &Params::default())
         .map_err(|e| RunError::Input(e.to_string()))?;
-    let mut rt = RuntimeConfig::default();
-    rt.control.yaw_mode = opts.control.device();
+    let mut rt = runtime_config_for(&sc, opts.control);
     rt.control.base_rate_hz = run_rate(opts, rt.control.base_rate_hz)?;
     let period_ns = 1_000_000_000 / u64::from(rt.control.base_rate_hz.max(1));
     // A free-running device is held concretely: its start-up baseline is needed after.
@@ -390,26 +393,22 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
         exec_ns_per_unit: tr.exec_unit().1,
     };
     let target_name = tr.name();
-    let mut ctrl = DeviceController::new(tr, period_ns, sc.params.k_m, progress);
-    let mut actuator = ActuatorModel {
-        delay_ns: period_ns,
-        ..ActuatorModel::ideal()
-    };
     let label = format!("{} on {}", law_name(opts.control), target_name);
-    let trajectory = run_sampled(
+    let mut cl = close_loop(
         &sc,
-        &mut ctrl,
-        &mut SensorModel::ideal(),
-        &mut actuator,
-        opts.control.yaw().has_spring(),
-        &label,
+        tr,
+        LoopSetup {
+            period_ns,
+            yaw_spring: opts.control.yaw().has_spring(),
+            progress,
+            label: &label,
+            ..LoopSetup::default()
+        },
     )
     .map_err(|e| RunError::Input(format!("scenario {}: {e}", sc.source)))?;
-    let t_end = ctrl.periods.last().map_or(0, |p| p.t_ns + period_ns);
-    ctrl.finish(t_end);
     // The loop is over: back to the normal scheduler for the analysis.
     crate::rt_os::release();
-    if let Some(e) = ctrl.error.take() {
+    if let Some(e) = cl.error.take() {
         return Err(RunError::Target(e));
     }
     // With `[[adhesion]]` sections the continuous controllers (no wheel-slip protection)
@@ -425,13 +424,14 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     };
     let timing = analyse(
         &ctx,
-        &ctrl.periods,
-        &ctrl.actuations,
-        (ctrl.host.bytes_sent, ctrl.host.bytes_received),
+        &cl.periods,
+        &cl.actuations,
+        (cl.host.bytes_sent, cl.host.bytes_received),
         &opts.budgets.timing,
     );
     // A plant fault (scenario data) makes the wheelset hunt by design after it: the
     // numerics judge the device against the reference up to the fault.
+    let trajectory = cl.trajectory;
     let numerics = match sc.actuator_fault {
         Some(f) => compare(
             &before(&trajectory, f.t_on_s()),
@@ -440,15 +440,8 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
         ),
         None => compare(&trajectory, &reference, &opts.budgets.numerics),
     };
-    let (periods, actuations, host, mut status) = (
-        std::mem::take(&mut ctrl.periods),
-        std::mem::take(&mut ctrl.actuations),
-        ctrl.host,
-        ctrl.status,
-    );
-    drop((periods, actuations));
-    let sensor_codes = std::mem::take(&mut ctrl.sent_codes);
-    drop(ctrl);
+    let (host, mut status) = (cl.host, cl.status);
+    let sensor_codes = std::mem::take(&mut cl.sent_codes);
     let transport = tr.extra();
     let link = tr.link_accounting();
     // A free-running device's counters count from its start, not the run's.

@@ -1,9 +1,12 @@
 //! The device loop over the link without the plant: 20 s at the default 5 kHz rate
-//! (100 000 exchanges), to separate the link + runtime cost from the plant's.
+//! (100 000 exchanges through the closed-loop adapter and the in-process device), to
+//! separate the link + runtime cost from the plant's.
 #![allow(missing_docs)]
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use sim_host::device::{DeviceLoop, HostSample};
+use sim_host::control::{Measurements, SampledController};
+use sim_host::device::{DeviceFault, InProc};
+use sim_host::exchange::DeviceController;
 use sim_host::link::LinkConfig;
 use wheelset_control::Fx;
 use wheelset_runtime::RuntimeConfig;
@@ -13,19 +16,25 @@ fn bench(c: &mut Criterion) {
     g.sample_size(10);
     g.bench_function("20 s at 5 kHz, no plant", |b| {
         b.iter(|| {
-            let mut d = DeviceLoop::<Fx>::try_new(RuntimeConfig::default(), &LinkConfig::default())
-                .unwrap_or_else(|e| panic!("{e}"));
+            let mut d = InProc::<Fx>::try_new(
+                RuntimeConfig::default(),
+                &LinkConfig::default(),
+                DeviceFault::None,
+            )
+            .unwrap_or_else(|e| panic!("{e}"));
             let t = d.period_ns();
+            let mut ctrl = DeviceController::new(&mut d, t, 4.28, None);
+            ctrl.reserve(100_000);
             let mut acc = 0.0;
             for k in 0..100_000u64 {
-                let m = HostSample {
-                    y_dot: 1e-3 * ((k as f64) * 1e-3).sin(),
-                    y_ddot: 0.0,
+                let m = Measurements {
+                    yd_mps: 1e-3 * ((k as f64) * 1e-3).sin(),
                     i_a: 100.0,
                     w_m: 925.6,
                     demand_nm: 2460.0,
+                    ..Measurements::default()
                 };
-                acc += d.exchange(k * t, &m, (0.0, 3961.6)).0;
+                acc += ctrl.step(k * t, &m).t_psi;
             }
             acc
         });

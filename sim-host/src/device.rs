@@ -1,6 +1,7 @@
 //! The device in process, behind the simulated serial link: the firmware's own
-//! [`Runtime`] (control core + protocol + fault policy), driven in lock-step by simulated
-//! time, receiving and sending bytes only.
+//! [`Runtime`](wheelset_runtime::Runtime) (control core + protocol + fault policy) as an
+//! [`InProc`] transport on simulated time, closed with the plant through the one
+//! closed-loop adapter [`crate::exchange`] (the same code `hil run` uses on every target).
 //!
 //! One exchange per control period `T` (the device's base rate), starting at the sample
 //! instant `t_k = k T`:
@@ -20,42 +21,20 @@
 
 use std::fmt;
 
-use wheelset_control::SampleBits;
-use wheelset_proto::units::{
-    quantize, to_si, CURRENT_LSB_A, DEMAND_LSB_NM, LAT_ACC_LSB_M_PER_S2, LAT_VEL_LSB_M_PER_S,
-    SPEED_LSB_RAD_PER_S, TORQUE_LSB_NM, VOLTAGE_LSB_V,
-};
-use wheelset_proto::{
-    encode, encode_vec, Actuation, Command, Flags, FrameError, Lateral, Message, Sensor, Status,
-    MAX_FRAME,
-};
-use wheelset_runtime::{Runtime, RuntimeConfig, RuntimeError};
+use wheelset_control::Fx;
+use wheelset_proto::{Flags, Status};
+use wheelset_runtime::{RuntimeConfig, RuntimeError};
 
-use crate::control::{Actuation as PlantActuation, Measurements, SampledController, YawLaw};
-use crate::link::{check_budget, wire_ns, Accounting, Link, LinkBudgetError, LinkConfig, RxPort};
+pub use crate::exchange::{LinkSample, LINK_COLUMNS};
+pub use crate::inproc::{DeviceFault, InProc};
+pub use wheelset_proto::LateralSensing;
+
+use crate::control::YawLaw;
+use crate::exchange::{close_loop, HostCounts, LoopSetup};
+use crate::link::{Accounting, LinkBudgetError, LinkConfig};
 use crate::params::Params;
 use crate::scenario::Scenario;
-use crate::sim::{run_sampled, ActuatorModel, Record, SensorModel, SimError, Trajectory};
-
-/// The outcome of the frame a `Runtime::receive` call closed, from its counters.
-fn outcome(before: &Status, after: &Status) -> Option<Result<(), FrameError>> {
-    let d = |a: u32, b: u32| a != b;
-    if d(before.rx_ok, after.rx_ok) {
-        Some(Ok(()))
-    } else if d(before.rx_crc, after.rx_crc) {
-        Some(Err(FrameError::Crc))
-    } else if d(before.rx_cobs, after.rx_cobs) {
-        Some(Err(FrameError::Cobs))
-    } else if d(before.rx_version, after.rx_version) {
-        Some(Err(FrameError::Version))
-    } else if d(before.rx_length, after.rx_length) {
-        Some(Err(FrameError::Length))
-    } else if d(before.rx_postcard, after.rx_postcard) {
-        Some(Err(FrameError::Postcard))
-    } else {
-        None
-    }
-}
+use crate::sim::{Record, SimError, Trajectory};
 
 /// Worst-case Sensor frame (one lateral value) on the wire, bytes: the wire crate's
 /// [`wheelset_proto::SENSOR_ONE_LATERAL_MAX_FRAME`].
@@ -92,28 +71,6 @@ impl fmt::Display for DeviceError {
 
 impl std::error::Error for DeviceError {}
 
-/// One period's link record (the CSV's link columns).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct LinkSample {
-    /// Sample instant, ns.
-    pub t_ns: u64,
-    /// Sequence number of the Sensor frame sent at `t_ns`.
-    pub seq: u16,
-    /// `seq_echo` of the actuation in force from `t_ns + T`.
-    pub seq_echo: u16,
-    /// Age of that actuation's sample, periods: `seq - seq_echo` (0: computed from this
-    /// period's sample, the normal case; more when frames were lost and an older
-    /// actuation is held).
-    pub age: u16,
-    /// Its flags.
-    pub flags: u8,
-    /// A new valid Actuation frame arrived in this period.
-    pub fresh: bool,
-}
-
-/// The link columns appended to the standard CSV.
-pub const LINK_COLUMNS: [&str; 5] = ["seq", "seq_echo", "frame_age", "flags", "fresh"];
-
 /// End-of-run report: every frame accounted for, and the device's own counters.
 #[derive(Debug, Clone)]
 pub struct LinkReport {
@@ -132,8 +89,41 @@ pub struct LinkReport {
     pub safe_exits_seen: u64,
     /// Inputs clamped while quantising for the wire (host side).
     pub host_clamped: u64,
-    /// Mean wire bytes per period, up and down.
+    /// Mean wire bytes per period, up (sent by the host) and down (received by it).
     pub mean_bytes: (f64, f64),
+}
+
+impl LinkReport {
+    /// The report of a finished in-process run.
+    fn of(
+        log: &[LinkSample],
+        status: Option<Status>,
+        host: &HostCounts,
+        up: Accounting,
+        down: Accounting,
+    ) -> Self {
+        let mut safe_periods = 0;
+        let (mut entries, mut exits) = (0, 0);
+        let mut prev = false;
+        for s in log {
+            let safe = Flags(s.flags).has(Flags::SAFE);
+            safe_periods += u64::from(safe);
+            entries += u64::from(safe && !prev);
+            exits += u64::from(!safe && prev);
+            prev = safe;
+        }
+        let n = log.len().max(1) as f64;
+        LinkReport {
+            up,
+            down,
+            device: status,
+            safe_periods,
+            safe_entries_seen: entries,
+            safe_exits_seen: exits,
+            host_clamped: host.clamped,
+            mean_bytes: (host.bytes_sent as f64 / n, host.bytes_received as f64 / n),
+        }
+    }
 }
 
 impl fmt::Display for LinkReport {
@@ -173,254 +163,6 @@ impl fmt::Display for LinkReport {
                 s.traction_sat
             ),
             None => write!(f, "device status: the status frame was lost"),
-        }
-    }
-}
-
-/// What the Sensor frame carries of the lateral motion.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum LateralSensing {
-    /// `y'` (the default).
-    #[default]
-    Velocity,
-    /// `y''` only: the device integrates it (with wash-out).
-    Acceleration,
-}
-
-/// The measurements the host sends (SI): `y'` m/s, `y''` m/s^2, `i_a` A, motor speed
-/// rad/s, traction demand (wheel torque) N m.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct HostSample {
-    /// Lateral velocity relative to the track, m/s.
-    pub y_dot: f64,
-    /// Lateral acceleration relative to the track, m/s^2.
-    pub y_ddot: f64,
-    /// Armature current, A.
-    pub i_a: f64,
-    /// Motor speed, rad/s.
-    pub w_m: f64,
-    /// Traction demand at the wheel, N m.
-    pub demand_nm: f64,
-}
-
-/// The device behind the link, in lock-step with the plant.
-pub struct DeviceLoop<T: SampleBits> {
-    link: Link,
-    rt: Runtime<T>,
-    host_rx: RxPort,
-    dev_rx: RxPort,
-    period_ns: u64,
-    tick_offset_ns: u64,
-    seq: u16,
-    held: Option<Actuation>,
-    held_si: (f64, f64),
-    log: Vec<LinkSample>,
-    host_clamped: u64,
-    last_t_ns: u64,
-    lateral: LateralSensing,
-    /// The host's Sensor frame being sent.
-    tx: [u8; MAX_FRAME],
-}
-
-impl<T: SampleBits> DeviceLoop<T> {
-    /// The runtime with `rt_cfg`, behind a link with `link_cfg`; refuses a link that
-    /// cannot carry one exchange per period.
-    pub fn try_new(rt_cfg: RuntimeConfig, link_cfg: &LinkConfig) -> Result<Self, DeviceError> {
-        // (validated below: rate, then link budget, then the control configuration)
-        let hz = rt_cfg.control.base_rate_hz;
-        if hz == 0 || 1_000_000_000 % u64::from(hz) != 0 {
-            return Err(DeviceError::Rate(hz));
-        }
-        let period_ns = 1_000_000_000 / u64::from(hz);
-        check_budget(
-            SENSOR_WORST_BYTES,
-            ACTUATION_WORST_BYTES,
-            link_cfg.baud,
-            link_cfg.latency_ns,
-            period_ns,
-        )
-        .map_err(DeviceError::Budget)?;
-        let rt = Runtime::try_new(rt_cfg).map_err(DeviceError::Runtime)?;
-        Ok(Self {
-            link: Link::new(link_cfg),
-            rt,
-            host_rx: RxPort::new(),
-            dev_rx: RxPort::new(),
-            period_ns,
-            tick_offset_ns: wire_ns(SENSOR_WORST_BYTES, link_cfg.baud) + link_cfg.latency_ns,
-            seq: 0,
-            held: None,
-            held_si: (0.0, 0.0),
-            log: Vec::new(),
-            host_clamped: 0,
-            last_t_ns: 0,
-            lateral: LateralSensing::Velocity,
-            tx: [0; MAX_FRAME],
-        })
-    }
-
-    /// Sends `y''` instead of `y'` from now on (or back).
-    pub fn set_lateral(&mut self, lateral: LateralSensing) {
-        self.lateral = lateral;
-    }
-
-    /// The control period, ns.
-    #[must_use]
-    pub fn period_ns(&self) -> u64 {
-        self.period_ns
-    }
-
-    /// The runtime (read only).
-    #[must_use]
-    pub fn runtime(&self) -> &Runtime<T> {
-        &self.rt
-    }
-
-    /// The per-period link records.
-    #[must_use]
-    pub fn log(&self) -> &[LinkSample] {
-        &self.log
-    }
-
-    fn q(&mut self, x: f64, lsb: f64) -> i32 {
-        let (v, clamped) = quantize(x, lsb);
-        self.host_clamped += u64::from(clamped);
-        v
-    }
-
-    /// One exchange at the sample instant `t_ns` (see the module docs). Returns the
-    /// actuation in force from `t_ns + T`: `(T_psi N m, u_a V)`; before the first valid
-    /// actuation frame, `initial`.
-    pub fn exchange(&mut self, t_ns: u64, m: &HostSample, initial: (f64, f64)) -> (f64, f64) {
-        if self.held.is_none() && self.log.is_empty() {
-            self.held_si = initial;
-        }
-        self.seq = self.seq.wrapping_add(1);
-        let sensor = Sensor {
-            seq: self.seq,
-            t_us: ((t_ns / 1_000) & 0xffff) as u16,
-            lateral: match self.lateral {
-                LateralSensing::Velocity => Lateral::Velocity(self.q(m.y_dot, LAT_VEL_LSB_M_PER_S)),
-                LateralSensing::Acceleration => {
-                    Lateral::Acceleration(self.q(m.y_ddot, LAT_ACC_LSB_M_PER_S2))
-                }
-            },
-            i_a_ma: self.q(m.i_a, CURRENT_LSB_A),
-            omega_m_mrad_s: self.q(m.w_m, SPEED_LSB_RAD_PER_S),
-            demand_nm: self.q(m.demand_nm, DEMAND_LSB_NM),
-        };
-        // MAX_FRAME always fits (the proto tests prove every message encodes within it).
-        let n = encode(&Message::Sensor(sensor), &mut self.tx).unwrap_or(0);
-        self.link.up.send(t_ns, self.tx.get(..n).unwrap_or(&[]));
-        // The device's tick.
-        let t_dev = t_ns + self.tick_offset_ns;
-        self.device_receive(t_dev);
-        let out = self.rt.tick(0);
-        self.link.down.send(t_dev, out);
-        // What reaches the host before the next sample instant.
-        let t_next = t_ns + self.period_ns;
-        let fresh = self.host_receive(t_next - 1);
-        self.last_t_ns = t_next;
-        let (seq_echo, flags) = self.held.map_or((0, 0), |a| (a.seq_echo, a.flags.0));
-        self.log.push(LinkSample {
-            t_ns,
-            seq: self.seq,
-            seq_echo,
-            age: self.seq.wrapping_sub(seq_echo),
-            flags,
-            fresh,
-        });
-        self.held_si
-    }
-
-    fn device_receive(&mut self, t: u64) {
-        let (rt, port) = (&mut self.rt, &mut self.dev_rx);
-        self.link.up.deliver(t, |run, id| {
-            // The runtime decodes; its counters tell the outcome of each closed frame.
-            port.push_with(run, id, |piece| {
-                let before = *rt.counters();
-                rt.receive(piece);
-                outcome(&before, rt.counters())
-            });
-        });
-    }
-
-    fn host_receive(&mut self, t: u64) -> bool {
-        let mut fresh = false;
-        let (port, held, held_si) = (&mut self.host_rx, &mut self.held, &mut self.held_si);
-        self.link.down.deliver(t, |run, id| {
-            port.push(run, id, |m| {
-                if let Message::Actuation(a) = m {
-                    *held = Some(a);
-                    *held_si = (
-                        to_si(a.t_psi_dnm, TORQUE_LSB_NM),
-                        to_si(a.u_a_cv, VOLTAGE_LSB_V),
-                    );
-                    fresh = true;
-                }
-            });
-        });
-        fresh
-    }
-
-    /// Ends the run: asks the device for its counters over the link, lets every byte in
-    /// flight arrive, and accounts for every frame in both directions.
-    pub fn finish(&mut self) -> LinkReport {
-        // Ask for the status until it arrives (the link's faults may eat the request or
-        // the reply), at most `STATUS_TRIES` times, one exchange period apart.
-        const STATUS_TRIES: usize = 20;
-        let req = encode_vec(&Message::Command(Command::RequestStatus)).unwrap_or_default();
-        let mut status = None;
-        let mut t = self.last_t_ns;
-        for _ in 0..STATUS_TRIES {
-            self.link.up.send(t, &req);
-            let t_dev = self.link.up.line_free_ns() + self.tick_offset_ns;
-            self.device_receive(t_dev);
-            let out = self.rt.tick(0);
-            self.link.down.send(t_dev, out);
-            // Long enough for the actuation and a maximal status frame, plus latency.
-            t = self.link.down.line_free_ns() + 2 * self.tick_offset_ns;
-            let port = &mut self.host_rx;
-            self.link.down.deliver(t, |run, id| {
-                port.push(run, id, |m| {
-                    if let Message::Status(s) = m {
-                        status = Some(s);
-                    }
-                });
-            });
-            if status.is_some() {
-                break;
-            }
-        }
-        // Drain whatever is still travelling.
-        let t_end = t + 4 * wire_ns(MAX_FRAME, 9_600);
-        self.device_receive(t_end);
-        let port = &mut self.host_rx;
-        self.link.down.deliver(t_end, |run, id| {
-            port.push(run, id, |_| {});
-        });
-        let mut safe_periods = 0;
-        let (mut entries, mut exits) = (0, 0);
-        let mut prev = false;
-        for s in &self.log {
-            let safe = Flags(s.flags).has(Flags::SAFE);
-            safe_periods += u64::from(safe);
-            entries += u64::from(safe && !prev);
-            exits += u64::from(!safe && prev);
-            prev = safe;
-        }
-        let n = self.log.len().max(1) as f64;
-        let up_c = self.link.up.counters();
-        let down_c = self.link.down.counters();
-        LinkReport {
-            up: self.dev_rx.account(&self.link.up),
-            down: self.host_rx.account(&self.link.down),
-            device: status,
-            safe_periods,
-            safe_entries_seen: entries,
-            safe_exits_seen: exits,
-            host_clamped: self.host_clamped,
-            mean_bytes: (up_c.bytes_sent as f64 / n, down_c.bytes_sent as f64 / n),
         }
     }
 }
@@ -539,87 +281,60 @@ impl DeviceRun {
     }
 }
 
-/// The device loop as the plant's sampled controller.
-struct Sampled<'a, T: SampleBits> {
-    dev: &'a mut DeviceLoop<T>,
-    k_m: f64,
-}
-
-impl<T: SampleBits> SampledController for Sampled<'_, T> {
-    fn period_ns(&self) -> u64 {
-        self.dev.period_ns()
+/// The runtime configuration of a device running `sc` with `law`: the control core from
+/// the scenario's parameters ([`control_config`]), the hold ticks and base rate of `opt`,
+/// outputs enabled. The one rule every path follows (`sim-host --loop device`, `hil run`,
+/// `hil golden`): the device's configuration follows the scenario and the parameters.
+#[must_use]
+pub fn runtime_config(sc: &Scenario, law: YawLaw, opt: &DeviceOptions) -> RuntimeConfig {
+    let mut control = control_config(&sc.params, law, sc.drive);
+    if let Some(hz) = opt.base_rate_hz {
+        control.base_rate_hz = hz;
     }
-
-    fn step(&mut self, t_ns: u64, m: &Measurements) -> PlantActuation {
-        let sample = HostSample {
-            y_dot: m.yd_mps,
-            y_ddot: m.ydd_mps2,
-            i_a: m.i_a,
-            w_m: m.w_m,
-            demand_nm: m.demand_nm,
-        };
-        let (t_psi, u_a) = self.dev.exchange(t_ns, &sample, (0.0, self.k_m * m.w_m));
-        PlantActuation { t_psi, u_a }
+    RuntimeConfig {
+        control,
+        hold_ticks: opt.hold_ticks,
+        enable: true,
+        ..RuntimeConfig::default()
     }
 }
 
 /// Runs `sc` with the firmware runtime (fixed point, the production build) in the loop
-/// over the simulated link. The actuation computed from the sample at `t_k` acts on the
-/// plant from `t_k + T` (ZOH).
+/// over the simulated link ([`InProc`] through [`close_loop`]). The actuation computed
+/// from the sample at `t_k` acts on the plant from `t_k + T` (ZOH).
 pub fn run_device(
     sc: &Scenario,
     law: YawLaw,
     opt: &DeviceOptions,
 ) -> Result<DeviceRun, DeviceError> {
-    let mut control = control_config(&sc.params, law, sc.drive);
-    if let Some(hz) = opt.base_rate_hz {
-        control.base_rate_hz = hz;
-    }
-    let rt_cfg = RuntimeConfig {
-        control,
-        hold_ticks: opt.hold_ticks,
-        enable: true,
-        ..RuntimeConfig::default()
-    };
-    let mut dev = DeviceLoop::<wheelset_control::Fx>::try_new(rt_cfg, &opt.link)?;
-    dev.set_lateral(opt.lateral);
+    let rt_cfg = runtime_config(sc, law, opt);
+    let mut dev = InProc::<Fx>::try_new(rt_cfg, &opt.link, DeviceFault::None)?;
     let period_ns = dev.period_ns();
-    // One record per period: reserved once (doubling to 100 000 records re-copies and
-    // re-faults megabytes).
-    // (Capped: a very long scenario grows the rest as it goes.)
-    let periods = (sc.duration_ns / period_ns.max(1)).min(1 << 22);
-    dev.log
-        .reserve(usize::try_from(periods).unwrap_or(0).saturating_add(2));
-    let mut actuator = ActuatorModel::ideal();
-    actuator.delay_ns = period_ns;
     let label = format!(
         "{} (device, {} Hz, {} baud)",
-        match law {
-            YawLaw::Passive => "passive",
-            YawLaw::Gain => "gain",
-            YawLaw::Lead => "lead",
-        },
+        law.name(),
         rt_cfg.control.base_rate_hz,
         opt.link.baud
     );
-    let mut ctrl = Sampled {
-        dev: &mut dev,
-        k_m: sc.params.k_m,
-    };
-    let trajectory = run_sampled(
+    let run = close_loop(
         sc,
-        &mut ctrl,
-        &mut SensorModel::ideal(),
-        &mut actuator,
-        law.has_spring(),
-        &label,
+        &mut dev,
+        LoopSetup {
+            period_ns,
+            yaw_spring: law.has_spring(),
+            lateral: opt.lateral,
+            label: &label,
+            ..LoopSetup::default()
+        },
     )
     .map_err(DeviceError::Sim)?;
-    let report = dev.finish();
+    // (The simulated link always accounts exactly.)
+    let acc = dev.accounting();
+    let (up, down) = (acc.up, acc.down);
+    let report = LinkReport::of(&run.log, run.status, &run.host, up, down);
     Ok(DeviceRun {
-        trajectory,
-        // (Moved out, not copied: 100 000 records.)
-        link: std::mem::take(&mut dev.log),
+        trajectory: run.trajectory,
+        link: run.log,
         report,
         period_ns,
     })
@@ -744,48 +459,57 @@ impl From<LinkBudgetError> for DeviceError {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use wheelset_control::Fx;
+    use crate::control::{Measurements, SampledController};
+    use crate::exchange::DeviceController;
 
-    fn sample(k: u64) -> HostSample {
-        HostSample {
-            y_dot: 1e-3 * ((k as f64) * 0.01).sin(),
-            y_ddot: 0.0,
-            i_a: 0.0,
+    fn sample(k: u64) -> Measurements {
+        Measurements {
+            yd_mps: 1e-3 * ((k as f64) * 0.01).sin(),
             w_m: 925.6,
-            demand_nm: 0.0,
+            ..Measurements::default()
         }
     }
 
-    fn run(faults: &str, periods: u64) -> (DeviceLoop<Fx>, LinkReport) {
-        run_seeded(faults, periods, 11)
-    }
-
-    fn run_seeded(faults: &str, periods: u64, seed: u64) -> (DeviceLoop<Fx>, LinkReport) {
+    /// `periods` exchanges of a synthetic sample through the in-process device, then the
+    /// status fetch; the link log and the report.
+    fn run_seeded(faults: &str, periods: u64, seed: u64) -> (Vec<LinkSample>, LinkReport) {
         let link = LinkConfig {
             faults: faults.parse().expect("valid spec"),
             seed,
             ..LinkConfig::default()
         };
-        let mut d = DeviceLoop::<Fx>::try_new(RuntimeConfig::default(), &link).expect("fits");
+        let mut d = InProc::<Fx>::try_new(RuntimeConfig::default(), &link, DeviceFault::None)
+            .expect("fits");
         let t = d.period_ns();
+        let mut c = DeviceController::new(&mut d, t, 4.28, None);
         for k in 0..periods {
-            let _ = d.exchange(k * t, &sample(k), (0.0, 3961.6));
+            let _ = c.step(k * t, &sample(k));
         }
-        let r = d.finish();
-        (d, r)
+        c.finish(periods * t);
+        let log = std::mem::take(&mut c.log);
+        let (status, host) = (c.status, c.host);
+        drop(c);
+        let acc = d.accounting();
+        let r = LinkReport::of(&log, status, &host, acc.up, acc.down);
+        (log, r)
+    }
+
+    fn run(faults: &str, periods: u64) -> (Vec<LinkSample>, LinkReport) {
+        run_seeded(faults, periods, 11)
     }
 
     #[test]
     fn clean_link_echoes_every_sample_within_the_period() {
-        let (d, r) = run("", 2000);
-        assert!(d
-            .log()
+        let (log, r) = run("", 2000);
+        assert!(log
             .iter()
             .all(|s| s.fresh && s.age == 0 && s.seq_echo == s.seq));
+        // 2000 sensor frames + the status request; 2000 actuations, then the fetch's
+        // three periods: 3 actuations and the status frame.
         assert_eq!((r.up.received, r.up.rejected, r.up.dropped), (2001, 0, 0));
         assert_eq!(
             (r.down.received, r.down.rejected, r.down.dropped),
-            (2001, 0, 0)
+            (2004, 0, 0)
         );
         let st = r.device.expect("status arrives on a clean link");
         assert_eq!(st.rx_ok, 2001);
@@ -803,7 +527,7 @@ mod tests {
 
     fn faults_seed(seed: u64) {
         // 5 kHz: 2 s = 10 000 periods; the outage at 1 s for 50 ms.
-        let (d, r) = run_seeded("ber=1e-3,drop=0.1,outage=1.0:0.05", 10_000, seed);
+        let (log, r) = run_seeded("ber=1e-3,drop=0.1,outage=1.0:0.05", 10_000, seed);
         println!("{r}");
         assert!(r.up.adds_up() && r.down.adds_up(), "{r}");
         assert_eq!(r.up.in_flight + r.down.in_flight, 0, "{r}");
@@ -819,13 +543,13 @@ mod tests {
         assert!(st.safe_entries >= 1 && st.safe_exits >= 1, "{r}");
         assert!(st.safe_ticks >= 200, "{r}");
         // Frame age grows during the outage and returns to 0 after it.
-        let max_age = d.log().iter().map(|s| s.age).max().unwrap_or(0);
+        let max_age = log.iter().map(|s| s.age).max().unwrap_or(0);
         assert!(max_age >= 250, "max age {max_age}");
         // (Any single exchange may fail: 10 % drops and BER 1e-3 on ~200 bits each
         // way leave roughly (0.9 x 0.82)^2 = 54 % of round trips intact.) After the
         // outage, i.e. from 1.06 s on, fresh actuation is common again and no gap
         // comes near the outage's 250 periods.
-        let after = &d.log()[5300..];
+        let after = &log[5300..];
         let fresh = after.iter().filter(|s| s.age == 0).count();
         assert!(fresh * 5 >= after.len() * 2, "{fresh} of {}", after.len());
         let worst = after.iter().map(|s| s.age).max().unwrap_or(0);
@@ -835,18 +559,20 @@ mod tests {
     #[test]
     fn a_sensor_outage_puts_the_safe_outputs_on_the_plant() {
         // Only host -> device is cut: the device's safe state reaches the plant.
-        let (d, r) = run("outage=1.0:0.05:up", 10_000);
+        let (log, r) = run("outage=1.0:0.05:up", 10_000);
         let hold = u64::from(wheelset_runtime::DEFAULT_HOLD_TICKS);
         // 250 periods without a sensor frame: `hold` on the held sample, the rest safe.
         assert_eq!(r.safe_periods, 250 - hold, "{r}");
         assert_eq!((r.safe_entries_seen, r.safe_exits_seen), (1, 1), "{r}");
         let st = r.device.expect("status");
         assert_eq!((st.safe_entries, st.safe_exits), (1, 1));
-        // (+1: the final tick that answers the status request has no new sample.)
-        assert_eq!(st.held_ticks as u64, hold + 1);
+        // Every tick without a new sample runs on the held one, in the safe state too
+        // (the runtime's HOLDING rule): the 250 of the outage, +1 for the tick that
+        // answers the status request.
+        assert_eq!(st.held_ticks as u64, 250 + 1);
         assert_eq!(r.up.dropped, 250, "{r}");
         assert_eq!(r.down.received, r.down.sent, "{r}");
-        assert!(d.log().iter().filter(|s| s.age > 0).count() as u64 == 250);
+        assert!(log.iter().filter(|s| s.age > 0).count() as u64 == 250);
     }
 
     #[test]
@@ -855,7 +581,7 @@ mod tests {
             baud: 115_200,
             ..LinkConfig::default()
         };
-        let e = DeviceLoop::<Fx>::try_new(RuntimeConfig::default(), &link)
+        let e = InProc::<Fx>::try_new(RuntimeConfig::default(), &link, DeviceFault::None)
             .err()
             .expect("refused");
         let msg = e.to_string();

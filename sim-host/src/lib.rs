@@ -21,7 +21,10 @@
 //! - [`memory`]: the memory estimate of a run or a sweep, refused above 2 GiB.
 //! - [`input`]: the one reader of input files (regular files up to 1 MiB).
 //! - [`core_loop`]: the control core (e.g. f64) on the plant without the link.
-//! - [`link`], [`device`]: the simulated serial link and the device runtime behind it.
+//! - [`link`], [`device`]: the simulated serial link and the device runtime behind it;
+//!   [`transport`]: the one transport trait (bytes out, bytes in with a deadline);
+//!   [`inproc`]: the in-process device as a transport; [`exchange`]: the closed-loop
+//!   adapter every device loop uses.
 #![deny(missing_docs)]
 
 pub mod adhesion;
@@ -29,8 +32,10 @@ pub mod control;
 pub mod core_loop;
 pub mod device;
 pub mod error;
+pub mod exchange;
 pub mod fault;
 pub mod figures;
+pub mod inproc;
 pub mod input;
 pub mod linear;
 pub mod link;
@@ -46,3 +51,4 @@ pub mod scenario;
 pub mod sim;
 pub mod svg;
 pub mod traction;
+pub mod transport;
