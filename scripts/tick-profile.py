@@ -3,11 +3,12 @@
 
 Usage (from the repository root, after `cargo xtask fw-bench` built the ELF):
 
-    qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -nographic -monitor none \
-        -serial null -icount shift=10,sleep=off \
-        -semihosting-config enable=on,target=native \
-        -kernel target/fw/wheelset-qemu-bench.elf -singlestep -d exec,nochain -D exec.log
-    python3 scripts/tick-profile.py exec.log [whole_tick|law_step]
+    python3 scripts/tick-profile.py --record exec.log [whole_tick|law_step]
+    python3 scripts/tick-profile.py exec.log [whole_tick|law_step]   # profile a log again
+
+`--record` runs QEMU with the project's one command line (`cargo xtask qemu-cmd ELF --
+-singlestep -d exec,nochain -D exec.log`, defined in hil/src/qemu_cmd.rs: the board,
+the CPU and the `-icount` shift of every run), then profiles the log.
 
 The log holds one line per executed instruction (the bench's 2 000 calls of each
 function give ~1 GB; build the bench with a smaller `N` in
@@ -19,16 +20,33 @@ caller is attributed to the source file of the innermost inlined frame
 """
 import collections
 import re
+import shlex
 import subprocess
 import sys
 
 ELF = "target/fw/wheelset-qemu-bench.elf"
 
 
+def record(log: str) -> None:
+    """Runs the bench firmware under QEMU with the project's command line, tracing."""
+    line = subprocess.run(
+        ["cargo", "-q", "xtask", "qemu-cmd", ELF, "--",
+         "-singlestep", "-d", "exec,nochain", "-D", log],
+        capture_output=True, text=True, check=True).stdout.strip()
+    print(f"running: {line}", file=sys.stderr)
+    subprocess.run(shlex.split(line), check=True)
+
+
 def main() -> None:
-    if len(sys.argv) < 2:
+    args = sys.argv[1:]
+    if args[:1] == ["--record"]:
+        args = args[1:]
+        if not args:
+            sys.exit(__doc__)
+        record(args[0])
+    if not args:
         sys.exit(__doc__)
-    log, name = sys.argv[1], (sys.argv[2] if len(sys.argv) > 2 else "whole_tick")
+    log, name = args[0], (args[1] if len(args) > 1 else "whole_tick")
     dis = subprocess.run(["arm-none-eabi-objdump", "-d", "-C", ELF],
                          capture_output=True, text=True, check=True).stdout
     entry = ret = None

@@ -7,7 +7,7 @@
 //!   port (lock-step); [`realtime`]: a free-running device paced in real time (with
 //!   [`rt_os`], what the operating system grants it); [`serve`]: `hil serve --pty`, the
 //!   free-running stand-in for a board; [`qemu_target`]: the firmware under QEMU
-//!   (launched by [`qemu`]);
+//!   (launched by [`qemu`], with the command line of [`qemu_cmd`]);
 //!   [`lockstep`]: the bookkeeping of frame-clocked devices.
 //! - [`closed_loop`]: the device as the plant's sampled controller.
 //! - [`timing`], [`numerics`], [`frames`], [`monitor`]: the checks; [`budget`]: their
@@ -30,6 +30,7 @@ pub mod machine;
 pub mod monitor;
 pub mod numerics;
 pub mod qemu;
+pub mod qemu_cmd;
 pub mod qemu_target;
 pub mod realtime;
 pub mod report;

@@ -1,7 +1,8 @@
 //! The QEMU launcher: runs the `wheelset-qemu` firmware on `qemu-system-arm -machine
 //! mps2-an386` and connects its UART0 over TCP, for lock-step processor-in-the-loop runs.
 //!
-//! QEMU runs with `-icount shift=N,sleep=off`: virtual time is `2^N` ns per executed
+//! The command line is [`crate::qemu_cmd`]'s (defined once). QEMU runs with
+//! `-icount shift=N,sleep=off`: virtual time is `2^N` ns per executed
 //! instruction and never advances while the guest sleeps, and the firmware's clock is
 //! the host's frames (each 0x00 frame delimiter is one control period), so a run depends
 //! only on the bytes exchanged: the same run twice gives the same per-tick trace.
@@ -26,12 +27,9 @@ use std::time::{Duration, Instant};
 
 pub use crate::machine::Machine;
 
-/// `-icount shift` used by the launcher; the firmware converts SysTick counts to
-/// instructions with the same value (`wheelset_fw::config::QEMU_ICOUNT_SHIFT`).
-pub const ICOUNT_SHIFT: u32 = 10;
-
-/// The QEMU executable.
-pub const QEMU_BIN: &str = "qemu-system-arm";
+use crate::qemu_cmd::{qemu_args, SerialTo};
+/// The command line's constants, defined once in [`crate::qemu_cmd`].
+pub use crate::qemu_cmd::{ICOUNT_SHIFT, QEMU_BIN};
 
 /// Largest frame [`Qemu::recv_frame`] accepts, delimiter excluded.
 pub const MAX_FRAME: usize = 256;
@@ -252,23 +250,12 @@ impl Qemu {
     /// [`Self::command`] on `machine`.
     pub fn command_on(machine: Machine, elf: &Path, port: u16) -> Command {
         let mut cmd = Command::new(QEMU_BIN);
-        cmd.args([
-            "-machine",
+        cmd.args(qemu_args(
             machine.name(),
-            "-cpu",
             machine.cpu(),
-            "-nographic",
-            "-monitor",
-            "none",
-            "-icount",
-            &format!("shift={ICOUNT_SHIFT},sleep=off"),
-            "-semihosting-config",
-            "enable=on,target=native",
-            "-serial",
-            &format!("tcp:127.0.0.1:{port},server=on,wait=on,nodelay=on"),
-            "-kernel",
-        ])
-        .arg(elf);
+            &elf.to_string_lossy(),
+            SerialTo::Tcp(port),
+        ));
         cmd
     }
 

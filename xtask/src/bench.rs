@@ -6,9 +6,7 @@
 use std::path::PathBuf;
 use std::process::Command;
 
-use crate::{
-    build_firmware, ensure_targets, have_qemu, Firmware, FW_TARGET, ICOUNT_SHIFT, M3_TARGET,
-};
+use crate::{build_firmware, ensure_targets, have_qemu, Firmware, FW_TARGET, M3_TARGET};
 
 /// One `fw-bench` configuration: core, numeric build, target, QEMU machine and CPU.
 struct BenchConfig {
@@ -221,24 +219,13 @@ pub(crate) fn fw_bench(json: Option<PathBuf>) -> Result<(), String> {
     }
     let mut results = Vec::new();
     for (c, elf) in configs.iter().zip(&elfs) {
-        let mut cmd = Command::new("qemu-system-arm");
-        cmd.args([
-            "-machine",
+        let mut cmd = Command::new(crate::qemu_cmd::QEMU_BIN);
+        cmd.args(crate::qemu_cmd::qemu_args(
             c.machine,
-            "-cpu",
             c.cpu,
-            "-nographic",
-            "-monitor",
-            "none",
-            "-serial",
-            "null",
-            "-icount",
-            &format!("shift={ICOUNT_SHIFT},sleep=off"),
-            "-semihosting-config",
-            "enable=on,target=native",
-            "-kernel",
-        ])
-        .arg(elf);
+            &elf.to_string_lossy(),
+            crate::qemu_cmd::SerialTo::Null,
+        ));
         eprintln!("xtask: {cmd:?}");
         let out = cmd
             .output()

@@ -22,10 +22,20 @@
 //!   frames and hostile Configs into `Runtime<Fx>` and `Runtime<f32>`, with overflow
 //!   checks: no panic, every output within the actuator limits, every frame accounted
 //!   ([`fuzz`]; a short seeded run is a unit test of this crate, so `cargo xtest` runs it).
+//! - `cargo xtask qemu-cmd [ELF] [--machine M --cpu C] [--tcp PORT] [-- QEMU ARGS]`:
+//!   prints the QEMU command line of every project run (the harness's,
+//!   `hil/src/qemu_cmd.rs`) for `ELF`, UART0 to null or to a TCP server, with the extra
+//!   arguments appended (`scripts/tick-profile.py --record` runs it).
 
 mod bench;
 mod elf;
 mod fuzz;
+
+/// The QEMU command line, defined once in the harness (`hil/src/qemu_cmd.rs`, no
+/// dependencies): compiled in here so xtask needs no crate of the workspace.
+#[allow(dead_code)]
+#[path = "../../hil/src/qemu_cmd.rs"]
+mod qemu_cmd;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
@@ -392,10 +402,51 @@ fn test(extra: &[String]) -> Result<(), String> {
     run(&mut cmd)
 }
 
-/// `-icount shift` of the QEMU runs: 1024 ns of virtual time per instruction, 25.6
-/// SysTick counts per instruction at the mps2's 25 MHz, so counts convert to exact
-/// instruction counts (the firmware's `config::QEMU_ICOUNT_SHIFT`).
-const ICOUNT_SHIFT: u32 = 10;
+/// `cargo xtask qemu-cmd [ELF] [--machine M --cpu C] [--tcp PORT] [-- EXTRA...]`: prints
+/// the QEMU command line of the project's runs (the harness's launcher's arguments) for
+/// `ELF` (default `target/fw/wheelset-qemu-bench.elf`) on `M`/`C` (default mps2-an386 /
+/// cortex-m4), UART0 to null or, with `--tcp PORT`, to a TCP server on 127.0.0.1:PORT as
+/// the harness connects to it, with `EXTRA` appended: what `scripts/tick-profile.py
+/// --record` runs.
+fn qemu_cmd_line(args: &[String]) -> Result<(), String> {
+    let usage = "qemu-cmd: usage: cargo xtask qemu-cmd [ELF] [--machine M --cpu C] \
+                 [--tcp PORT] [-- QEMU ARGS]";
+    let (own, extra) = match args.iter().position(|a| a == "--") {
+        Some(i) => (&args[..i], args.get(i + 1..).unwrap_or(&[])),
+        None => (args, &[][..]),
+    };
+    let mut elf = None;
+    let mut serial = qemu_cmd::SerialTo::Null;
+    let (mut machine, mut cpu) = (qemu_cmd::MACHINE.to_string(), qemu_cmd::CPU.to_string());
+    let mut it = own.iter();
+    while let Some(a) = it.next() {
+        let mut value = || {
+            it.next()
+                .cloned()
+                .ok_or_else(|| format!("{usage}: {a} needs a value"))
+        };
+        match a.as_str() {
+            "--tcp" => {
+                let p = value()?;
+                let port = p
+                    .parse::<u16>()
+                    .ok()
+                    .filter(|&p| p > 0)
+                    .ok_or_else(|| format!("qemu-cmd: --tcp {p}: not a TCP port (1-65535)"))?;
+                serial = qemu_cmd::SerialTo::Tcp(port);
+            }
+            "--machine" => machine = value()?,
+            "--cpu" => cpu = value()?,
+            e if !e.starts_with('-') && elf.is_none() => elf = Some(e.to_string()),
+            other => return Err(format!("{usage}: unexpected `{other}`")),
+        }
+    }
+    let elf = elf.unwrap_or_else(|| "target/fw/wheelset-qemu-bench.elf".to_string());
+    let mut a = qemu_cmd::qemu_args(&machine, &cpu, &elf, serial);
+    a.extend(extra.iter().cloned());
+    println!("{}", qemu_cmd::shell_line(&a));
+    Ok(())
+}
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -410,10 +461,18 @@ fn main() -> ExitCode {
             }
         },
         Some("fuzz") => return fuzz::main(&args[1..]),
+        Some("qemu-cmd") => {
+            if let Err(e) = qemu_cmd_line(&args[1..]) {
+                eprintln!("xtask: {e}");
+                return ExitCode::from(2);
+            }
+            Ok(())
+        }
         _ => {
             eprintln!(
                 "usage: cargo xtask <test [cargo test args]|fw [--f32]|fw-bench [--json FILE]|\
-                 fuzz --frames N [--seed S]>"
+                 fuzz --frames N [--seed S]|qemu-cmd [ELF] [--machine M --cpu C] [--tcp PORT] \
+                 [-- QEMU ARGS]>"
             );
             return ExitCode::from(2);
         }
