@@ -72,6 +72,13 @@ const FIRMWARE: &[Firmware] = &[
         elf: "wheelset-nucleo.elf",
         target: FW_TARGET,
     },
+    // The Nucleo frame-clocked (lock-step over the ST-LINK VCP; feature `frame-clock`).
+    Firmware {
+        bin: "wheelset-nucleo",
+        features: "frame-clock",
+        elf: "wheelset-nucleo-frame.elf",
+        target: FW_TARGET,
+    },
     Firmware {
         bin: "wheelset-qemu",
         features: "board-qemu",

@@ -35,7 +35,11 @@ pub trait Stopwatch {
 /// input): the board halts.
 pub fn new_device() -> FwRuntime {
     match new_runtime() {
-        Ok(rt) => rt,
+        Ok(mut rt) => {
+            // A Config may not set a rate the board's link cannot carry.
+            rt.set_link_limit(crate::board::LINK_MAX_RATE_HZ);
+            rt
+        }
         Err(_) => {
             defmt::error!("runtime refused its default configuration");
             crate::board::panic_halt()
@@ -64,6 +68,49 @@ fn new_ticker(period: u64) -> (Ticker, u64) {
     (t, start.as_ticks().saturating_add(period))
 }
 
+/// One tick's work, from the wake-up at stopwatch reading `t0`: feed the bytes received
+/// since the last tick to the device, run its tick with the previous tick's execution
+/// time, and queue the encoded frame for the transmitter (whole or not at all: a frame
+/// that does not fit is dropped and counted in `tx_dropped`). Returns this tick's
+/// execution time (drain + decode + control + encode).
+#[inline(always)]
+fn exchange(
+    device: &mut impl Device,
+    stopwatch: &mut impl Stopwatch,
+    t0: u32,
+    last_exec: u32,
+    tx_dropped: &mut u32,
+) -> u32 {
+    let mut chunk = [0u8; 32];
+    // Bounded: the pipe holds at most RX_PIPE bytes.
+    for _ in 0..RX_PIPE / chunk.len() + 1 {
+        match RX.try_read(&mut chunk) {
+            Ok(n) => device.receive(chunk.get(..n).unwrap_or(&[])),
+            Err(_) => break,
+        }
+    }
+    let frame = device.tick(last_exec);
+    // The measurement ends with the encoded frame: handing it to the transmitter
+    // costs more or less depending on whether the TX task is already waiting,
+    // which under lock-step depends on host timing, not on the tick.
+    let exec = stopwatch.stop(t0);
+    // A frame goes out whole or not at all.
+    if !frame.is_empty() {
+        if TX.free_capacity() >= frame.len() {
+            // The pipe is a ring: one write stops at its end, so write until done
+            // (at most two writes; the room was checked above).
+            let mut rest = frame;
+            while let Ok(n @ 1..) = TX.try_write(rest) {
+                rest = rest.get(n..).unwrap_or(&[]);
+            }
+        } else {
+            *tx_dropped = tx_dropped.wrapping_add(1);
+            defmt::warn!("TX pipe full: frame dropped ({=u32})", *tx_dropped);
+        }
+    }
+    exec
+}
+
 /// The control task's body. Deadline: one base period per tick.
 ///
 /// Each tick: apply the missed-tick policy ([`crate::tick`]), feed the bytes received
@@ -90,7 +137,6 @@ pub async fn control_loop(mut device: impl Device, mut stopwatch: impl Stopwatch
     defmt::info!("control task: {=u32} Hz, period {=u64} us", rate, period);
     let mut last_exec = 0u32;
     let mut tx_dropped = 0u32;
-    let mut chunk = [0u8; 32];
     loop {
         ticker.next().await;
         let t0 = stopwatch.start();
@@ -105,32 +151,7 @@ pub async fn control_loop(mut device: impl Device, mut stopwatch: impl Stopwatch
                 defmt::warn!("stalled: skipped {=u32} ticks", missed);
             }
         }
-        // Bounded: the pipe holds at most RX_PIPE bytes.
-        for _ in 0..RX_PIPE / chunk.len() + 1 {
-            match RX.try_read(&mut chunk) {
-                Ok(n) => device.receive(chunk.get(..n).unwrap_or(&[])),
-                Err(_) => break,
-            }
-        }
-        let frame = device.tick(last_exec);
-        // The measurement ends with the encoded frame: handing it to the transmitter
-        // costs more or less depending on whether the TX task is already waiting,
-        // which under lock-step depends on host timing, not on the tick.
-        last_exec = stopwatch.stop(t0);
-        // A frame goes out whole or not at all.
-        if !frame.is_empty() {
-            if TX.free_capacity() >= frame.len() {
-                // The pipe is a ring: one write stops at its end, so write until done
-                // (at most two writes; the room was checked above).
-                let mut rest = frame;
-                while let Ok(n @ 1..) = TX.try_write(rest) {
-                    rest = rest.get(n..).unwrap_or(&[]);
-                }
-            } else {
-                tx_dropped = tx_dropped.wrapping_add(1);
-                defmt::warn!("TX pipe full: frame dropped ({=u32})", tx_dropped);
-            }
-        }
+        last_exec = exchange(&mut device, &mut stopwatch, t0, last_exec, &mut tx_dropped);
         // A Config frame from the host may have changed the base rate.
         let now_rate = device.base_rate_hz();
         if now_rate != rate {
@@ -149,6 +170,57 @@ pub async fn control_loop(mut device: impl Device, mut stopwatch: impl Stopwatch
                     now_rate
                 ),
             }
+        }
+    }
+}
+
+/// The frame-clocked control task (feature `frame-clock`, the Nucleo's lock-step build):
+/// one tick per frame delimiter (0x00) received, as the QEMU build's frame clock, so a
+/// board behind a USB serial bridge runs in lock-step at the full rate (the host waits
+/// for each answer). No ticker and no missed-tick policy: the host's frames are the
+/// clock. The execution time is measured as in [`control_loop`] (DWT cycles).
+#[cfg(feature = "frame-clock")]
+pub async fn frame_loop(mut device: impl Device, mut stopwatch: impl Stopwatch) -> ! {
+    defmt::info!(
+        "control task: frame-clocked, {=u32} Hz nominal",
+        device.base_rate_hz()
+    );
+    let mut last_exec = 0u32;
+    let mut tx_dropped = 0u32;
+    loop {
+        edges::next().await;
+        let t0 = stopwatch.start();
+        last_exec = exchange(&mut device, &mut stopwatch, t0, last_exec, &mut tx_dropped);
+    }
+}
+
+/// Frame edges from the receiver to the frame-clocked control task.
+#[cfg(feature = "frame-clock")]
+pub mod edges {
+    use core::sync::atomic::{AtomicU32, Ordering};
+
+    use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
+    use embassy_sync::signal::Signal;
+
+    static PENDING: AtomicU32 = AtomicU32::new(0);
+    static EDGE: Signal<CriticalSectionRawMutex, ()> = Signal::new();
+
+    /// The receiver saw `n` frame delimiters (after putting their bytes in the RX pipe).
+    pub fn add(n: u32) {
+        if n > 0 {
+            PENDING.fetch_add(n, Ordering::Release);
+            EDGE.signal(());
+        }
+    }
+
+    /// Waits for the next frame edge (only the control task consumes them).
+    pub async fn next() {
+        loop {
+            if PENDING.load(Ordering::Acquire) > 0 {
+                PENDING.fetch_sub(1, Ordering::AcqRel);
+                return;
+            }
+            EDGE.wait().await;
         }
     }
 }

@@ -363,6 +363,8 @@ pub struct Runtime<T: Sample> {
     refuse_reason: RefuseReason,
     status_requested: bool,
     ticks: u32,
+    /// The board's link limit: the highest base rate a Config may set, Hz.
+    max_rate_hz: u32,
     counters: RuntimeCounters,
     tx: [u8; TX_CAPACITY],
 }
@@ -429,9 +431,19 @@ impl<T: SampleBits> Runtime<T> {
             refuse_reason: RefuseReason::None,
             status_requested: false,
             ticks: 0,
+            max_rate_hz: u32::MAX,
             counters: RuntimeCounters::default(),
             tx: [0; TX_CAPACITY],
         })
+    }
+
+    /// The board's link limit: from now on a Config whose base rate is above
+    /// `max_rate_hz` is refused (counted, [`Flags::CMD_REFUSED`]), because the board's
+    /// link cannot carry one exchange per period at it. A board computes it at build time
+    /// from its baud and the worst-case frames (`wheelset_proto::link::max_rate_hz`);
+    /// `u32::MAX` (the default) is no limit (a frame-clocked device in lock-step).
+    pub fn set_link_limit(&mut self, max_rate_hz: u32) {
+        self.max_rate_hz = max_rate_hz;
     }
 
     /// What a panic handler drives: zero torque, zero voltage.
@@ -577,6 +589,11 @@ impl<T: SampleBits> Runtime<T> {
         }
         if r.fingerprint != self.fingerprint {
             return Err(RefuseReason::Fingerprint);
+        }
+        // The board's link cannot carry one exchange per period above its limit: out of
+        // this board's range of base rates.
+        if r.base_rate_hz > self.max_rate_hz {
+            return Err(RefuseReason::BaseRate);
         }
         plausible::check_rates::<T>(r, &self.reference)?;
         plausible::check_hold(hold_ticks, r.base_rate_hz)?;

@@ -1,6 +1,11 @@
 //! Nucleo-F446RE board layer (STM32F446RE, Cortex-M4F): embassy-stm32 with its TIM2
-//! time driver, USART2 (PA2 TX / PA3 RX, the ST-LINK virtual COM port) with DMA, defmt
-//! over RTT, the DWT cycle counter as stopwatch.
+//! time driver, USART2 (PA2 TX / PA3 RX) with DMA, defmt over RTT, the DWT cycle counter
+//! as stopwatch.
+//!
+//! Two builds: the default one free-running on the ticker at the 5 kHz base rate with
+//! USART2 at 5.25 Mbaud on a direct link ([`BAUD`]; checked against the rate at compile
+//! time), and the frame-clocked one (feature `frame-clock`: one tick per frame received,
+//! lock-step over the ST-LINK virtual COM port at 921600 baud).
 //!
 //! Clocks: HSI 16 MHz -> PLL (M 16, N 336, P 2) -> SYSCLK 168 MHz, APB1 42 MHz,
 //! APB2 84 MHz (no over-drive needed below 180 MHz).
@@ -37,8 +42,54 @@ bind_interrupts!(struct Irqs {
     DMA1_STREAM6 => dma::InterruptHandler<peripherals::DMA1_CH6>;
 });
 
-/// Link baud rate (ST-LINK VCP).
+/// Link baud rate of the free-running build: 5.25 Mbaud, USART2's highest (APB1 42 MHz,
+/// oversampling by 8, USARTDIV 1: exact). The 5 kHz base rate needs 4.69 Mbaud
+/// (`cargo sim rates`), beyond the ST-LINK virtual COM port: USART2 goes to Arduino
+/// D1/D0 (solder bridges SB13/SB14 open, SB62/SB63 closed) and a direct serial link.
+/// The build checks it against the base rate (the const assertion below).
+#[cfg(not(feature = "frame-clock"))]
+pub const BAUD: u32 = 5_250_000;
+
+/// Link baud rate of the frame-clocked build (feature `frame-clock`): the ST-LINK
+/// virtual COM port at 921600 baud, in lock-step (the host's frames are the clock, so
+/// the link need not carry a period's exchange in real time).
+#[cfg(feature = "frame-clock")]
 pub const BAUD: u32 = 921_600;
+
+/// One-way latency of the link the budget allows for (UART FIFO + DMA hand-off), ns.
+pub const LINK_LATENCY_NS: u64 = 2_000;
+
+/// The highest base rate USART2 at [`BAUD`] carries: one worst-case Sensor frame up and
+/// one Actuation frame down per period within the project's link budget
+/// (`wheelset_proto::link`). A host Config above it is refused.
+#[cfg(not(feature = "frame-clock"))]
+pub const LINK_MAX_RATE_HZ: u32 = wheelset_proto::link::max_rate_hz(
+    BAUD,
+    wheelset_proto::SENSOR_MAX_FRAME as u32,
+    wheelset_proto::ACTUATION_MAX_FRAME as u32,
+    LINK_LATENCY_NS,
+    wheelset_proto::link::LINK_SHARE_MAX_PERMILLE,
+);
+
+/// The frame-clocked build has no link limit on the rate: its frames are the clock.
+#[cfg(feature = "frame-clock")]
+pub const LINK_MAX_RATE_HZ: u32 = u32::MAX;
+
+// The build's base rate, baud and worst-case frames checked against each other: a
+// free-running board whose link cannot carry its own exchange does not build.
+#[cfg(not(feature = "frame-clock"))]
+const _: () = assert!(
+    wheelset_proto::link::link_fits(
+        crate::config::BASE_RATE_HZ,
+        BAUD,
+        wheelset_proto::SENSOR_MAX_FRAME as u32,
+        wheelset_proto::ACTUATION_MAX_FRAME as u32,
+        LINK_LATENCY_NS,
+        wheelset_proto::link::LINK_SHARE_MAX_PERMILLE,
+    )
+    .is_ok(),
+    "the Nucleo's USART2 baud cannot carry one exchange per period at its base rate"
+);
 
 static EXEC_CONTROL: InterruptExecutor = InterruptExecutor::new();
 static EXEC_COMMS: InterruptExecutor = InterruptExecutor::new();
@@ -58,7 +109,10 @@ impl Stopwatch for DwtStopwatch {
 
 #[embassy_executor::task]
 async fn control_task() {
-    app::control_loop(app::new_device(), DwtStopwatch).await
+    #[cfg(not(feature = "frame-clock"))]
+    app::control_loop(app::new_device(), DwtStopwatch).await;
+    #[cfg(feature = "frame-clock")]
+    app::frame_loop(app::new_device(), DwtStopwatch).await
 }
 
 #[embassy_executor::task]
@@ -69,9 +123,14 @@ async fn rx_task(mut rx: RingBufferedUartRx<'static>) {
         match rx.read(&mut buf).await {
             Ok(n) => {
                 let mut rest = buf.get(..n).unwrap_or(&[]);
+                #[cfg(feature = "frame-clock")]
+                let edges = rest.iter().filter(|&&b| b == 0).count() as u32;
                 while let Ok(w @ 1..) = app::RX.try_write(rest) {
                     rest = rest.get(w..).unwrap_or(&[]);
                 }
+                // One tick per frame delimiter, after its bytes are in the pipe.
+                #[cfg(feature = "frame-clock")]
+                app::edges::add(edges);
                 if !rest.is_empty() {
                     dropped = dropped.wrapping_add(rest.len() as u32);
                     defmt::warn!("RX pipe full: {=u32} bytes dropped", dropped);
@@ -166,10 +225,15 @@ pub fn run() -> ! {
     let rx = rx.into_ring_buffered(unsafe { &mut *addr_of_mut!(RX_DMA) });
 
     defmt::info!(
-        "wheelset-nucleo: {} Hz base rate, {} build, USART2 at {} baud",
+        "wheelset-nucleo: {} Hz base rate, {} build, USART2 at {} baud, {}",
         crate::config::BASE_RATE_HZ,
         crate::config::NUMERIC,
-        BAUD
+        BAUD,
+        if cfg!(feature = "frame-clock") {
+            "frame-clocked lock-step"
+        } else {
+            "free-running ticker"
+        }
     );
 
     interrupt::UART4.set_priority(Priority::P6);

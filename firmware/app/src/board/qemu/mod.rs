@@ -81,6 +81,10 @@ async fn tx_task() {
 
 pub use clock::set_period;
 
+/// The highest base rate a host Config may set: no limit, the QEMU build is
+/// frame-clocked (lock-step: its frames are the clock, whatever the link's speed).
+pub const LINK_MAX_RATE_HZ: u32 = u32::MAX;
+
 /// Sends the safe frame and exits QEMU with a failure status.
 pub fn panic_halt() -> ! {
     if !crate::panic::enter_halt() {
