@@ -44,13 +44,21 @@ pub enum Verdict {
     Fail,
 }
 
-impl fmt::Display for Verdict {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
+impl Verdict {
+    /// `"pass"`, `"warn"`, `"fail"` (as serialised).
+    #[must_use]
+    pub fn as_str(self) -> &'static str {
+        match self {
             Self::Pass => "pass",
             Self::Warn => "warn",
             Self::Fail => "fail",
-        })
+        }
+    }
+}
+
+impl fmt::Display for Verdict {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
     }
 }
 

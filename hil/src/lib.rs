@@ -12,7 +12,8 @@
 //! - [`closed_loop`]: the device as the plant's sampled controller.
 //! - [`timing`], [`numerics`], [`frames`], [`monitor`]: the checks; [`budget`]: their
 //!   limits.
-//! - [`run`]: `hil run`; [`report`]: JSON, CSV and the Markdown report.
+//! - [`run`]: `hil run`; [`report`]: JSON, CSV and the Markdown report; [`table`]: the
+//!   one Markdown table writer of every report.
 //! - [`golden`]: `hil golden`, open-loop golden vectors host vs target, bit for bit.
 //! - [`audit`]: `hil audit`, the fixed-point accuracy audit of the control core.
 #![deny(missing_docs)]
@@ -38,5 +39,6 @@ pub mod rt_os;
 pub mod run;
 pub mod serial;
 pub mod serve;
+pub mod table;
 pub mod timing;
 pub mod transport;

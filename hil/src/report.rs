@@ -10,6 +10,7 @@ use sim_host::sim::{Record, Trajectory};
 use sim_host::svg::{Figure, Plot, Series, Style};
 
 use crate::run::{RunOutcome, RunReport};
+use crate::table::Table;
 
 fn create_parent(path: &Path) -> io::Result<()> {
     match path.parent() {
@@ -148,46 +149,52 @@ pub fn markdown(out: &RunOutcome, command: &str) -> String {
         r.scenario, r.target, r.verdict
     );
     let _ = writeln!(s, "Reproduce: `{command}`\n");
-    let _ = writeln!(
-        s,
-        "| | |\n|---|---|\n| verdict | **{}** |\n| target | {} ({:?} clock) |\n| scenario | {} ({}) |\n| control | {:?} |\n| link faults | {} |\n| device fault | {} |\n",
-        r.verdict,
-        r.target,
-        t.clock,
-        r.scenario,
-        r.scenario_source,
-        r.control,
-        if r.faults.is_empty() { "none" } else { &r.faults },
-        r.device_fault
-    );
+    let mut tb = Table::new(["", ""]);
+    tb.row(["verdict".to_string(), format!("**{}**", r.verdict)])
+        .row([
+            "target".to_string(),
+            format!("{} ({:?} clock)", r.target, t.clock),
+        ])
+        .row([
+            "scenario".to_string(),
+            format!("{} ({})", r.scenario, r.scenario_source),
+        ])
+        .row(["control".to_string(), format!("{:?}", r.control)])
+        .row([
+            "link faults".to_string(),
+            if r.faults.is_empty() {
+                "none".to_string()
+            } else {
+                r.faults.clone()
+            },
+        ])
+        .row(["device fault".to_string(), r.device_fault.to_string()]);
+    let _ = writeln!(s, "{tb}");
     let _ = writeln!(s, "## Timing ({})\n", t.verdict);
     let _ = writeln!(
         s,
         "Period T = {} ns, {} periods, {} baud.\n",
         t.period_ns, t.periods, t.baud
     );
-    let _ = writeln!(
-        s,
-        "| figure | min | mean | p99 | max |\n|---|---|---|---|---|"
-    );
-    let _ = writeln!(
-        s,
-        "| execution time ({}) | {} | {} | {} | {} |",
-        t.exec_unit,
+    let mut tb = Table::new(["figure", "min", "mean", "p99", "max"]);
+    tb.row([
+        format!("execution time ({})", t.exec_unit),
         f(t.exec_units.min),
         f(t.exec_units.mean),
         f(t.exec_units.p99),
-        f(t.exec_units.max)
-    );
-    let _ = writeln!(
-        s,
-        "| latency (ns{}) | {} | {} | {} | {} |\n",
-        if t.latency_modelled { ", modelled" } else { "" },
+        f(t.exec_units.max),
+    ])
+    .row([
+        format!(
+            "latency (ns{})",
+            if t.latency_modelled { ", modelled" } else { "" }
+        ),
         f(t.latency_ns.min),
         f(t.latency_ns.mean),
         f(t.latency_ns.p99),
-        f(t.latency_ns.max)
-    );
+        f(t.latency_ns.max),
+    ]);
+    let _ = writeln!(s, "{tb}");
     let _ = writeln!(
         s,
         "Jitter max {} ns (RMS {} ns); missed ticks {}; device tick gaps {}; overruns {}; \
@@ -203,22 +210,17 @@ pub fn markdown(out: &RunOutcome, command: &str) -> String {
         t.bytes_up_per_period,
         t.bytes_down_per_period
     );
-    let _ = writeln!(
-        s,
-        "| budget | value (of T) | warn | fail | verdict |\n|---|---|---|---|---|"
-    );
+    let mut tb = Table::new(["budget", "value (of T)", "warn", "fail", "verdict"]);
     for c in &t.checks {
-        let _ = writeln!(
-            s,
-            "| timing.{} | {} | {} | {} | {}{} |",
-            c.name,
+        tb.row([
+            format!("timing.{}", c.name),
             f(c.value),
-            c.limit.warn,
-            c.limit.fail,
-            c.verdict,
-            if c.applicable { "" } else { " (n/a)" }
-        );
+            c.limit.warn.to_string(),
+            c.limit.fail.to_string(),
+            format!("{}{}", c.verdict, if c.applicable { "" } else { " (n/a)" }),
+        ]);
     }
+    let _ = write!(s, "{tb}");
     let _ = writeln!(s, "\n![execution time](exec_histogram.svg)\n");
     let n = &r.numerics;
     let _ = writeln!(
@@ -238,42 +240,61 @@ pub fn markdown(out: &RunOutcome, command: &str) -> String {
             "**The reference diverged at {t:.3} s** (no yardstick).\n"
         );
     }
-    let _ = writeln!(
-        s,
-        "| signal | max error | at t (s) | RMS error | reference peak | allowed | verdict |\n|---|---|---|---|---|---|---|"
-    );
+    let mut tb = Table::new([
+        "signal",
+        "max error",
+        "at t (s)",
+        "RMS error",
+        "reference peak",
+        "allowed",
+        "verdict",
+    ]);
     for c in &n.signals {
-        let _ = writeln!(
-            s,
-            "| {} | {} | {:.3} | {} | {} | {} | {} |",
-            c.name,
+        tb.row([
+            c.name.to_string(),
             f(c.max_err),
-            c.max_err_t_s,
+            format!("{:.3}", c.max_err_t_s),
             f(c.rms_err),
             f(c.ref_peak),
             f(c.allowed),
-            c.verdict
-        );
+            c.verdict.to_string(),
+        ]);
     }
+    let _ = write!(s, "{tb}");
     let _ = writeln!(s, "\n![trajectories](trajectories.svg)\n");
     let fr = &r.frames;
     let _ = writeln!(
         s,
-        "## Frames ({}; source: {})\n\n| direction | sent | received | rejected | dropped | in flight |\n|---|---|---|---|---|---|",
+        "## Frames ({}; source: {})\n",
         r.frames_verdict, fr.source
     );
+    let mut tb = Table::new([
+        "direction",
+        "sent",
+        "received",
+        "rejected",
+        "dropped",
+        "in flight",
+    ]);
     for (name, d) in [("host -> device", fr.up), ("device -> host", fr.down)] {
-        let _ = writeln!(
-            s,
-            "| {name} | {} | {} | {} | {} | {} |",
-            d.sent, d.received, d.rejected, d.dropped, d.in_flight
-        );
+        tb.row([
+            name.to_string(),
+            d.sent.to_string(),
+            d.received.to_string(),
+            d.rejected.to_string(),
+            d.dropped.to_string(),
+            d.in_flight.to_string(),
+        ]);
     }
-    let _ = writeln!(
-        s,
-        "| total | {} | {} | {} | {} | {} |",
-        fr.sent, fr.received, fr.rejected, fr.dropped, fr.in_flight
-    );
+    tb.row([
+        "total".to_string(),
+        fr.sent.to_string(),
+        fr.received.to_string(),
+        fr.rejected.to_string(),
+        fr.dropped.to_string(),
+        fr.in_flight.to_string(),
+    ]);
+    let _ = write!(s, "{tb}");
     if let Some(st) = &r.device_status {
         let _ = writeln!(
             s,

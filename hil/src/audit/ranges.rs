@@ -48,6 +48,8 @@ pub struct Scenario {
 #[repr(usize)]
 enum Sig {
     YDot,
+    PredDiff,
+    PredRaw,
     LeadSum,
     LeadErr,
     LeadZ,
@@ -69,8 +71,16 @@ enum Sig {
 }
 
 /// `(name, kind, SI unit, full scale selector, is a state)`.
-const SIGNALS: [(&str, &str, &str, Fs, bool); 19] = [
+const SIGNALS: [(&str, &str, &str, Fs, bool); 21] = [
     ("y_dot (clamped input)", "yaw", "m/s", Fs::YDot, false),
+    ("predictor y' - y'[n-1]", "yaw", "m/s", Fs::YDot, false),
+    (
+        "predictor y' + 2d (before clamp)",
+        "yaw",
+        "m/s",
+        Fs::YDot,
+        false,
+    ),
     ("lead x + x1", "yaw_lead", "m/s", Fs::YDot, false),
     ("lead (g/2)(x + x1) - z", "yaw_lead", "m/s", Fs::YDot, false),
     ("lead z (state)", "yaw_lead", "m/s", Fs::YDot, true),
@@ -387,9 +397,12 @@ pub fn observe<T: Sample>(
                 if c1.yaw_steps != c0.yaw_steps {
                     let ym = l.y_dot / s.y_dot;
                     let x = inf.y_dot.clamp(-ym, ym);
-                    let xp = (x + alpha * (x - y_prev)).clamp(-2.0, 2.0);
-                    y_prev = x;
+                    let xr = x + alpha * (x - y_prev);
+                    let xp = xr.clamp(-2.0, 2.0);
                     put(Sig::YDot, x);
+                    put(Sig::PredDiff, x - y_prev);
+                    put(Sig::PredRaw, xr);
+                    y_prev = x;
                     let raw = match mode {
                         YawMode::Lead => {
                             let ls1 = *fx.lead_state();

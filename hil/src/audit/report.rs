@@ -5,6 +5,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use super::{Audit, AuditError, Status};
+use crate::table::Table;
 
 fn fmt_opt(v: Option<f64>) -> String {
     match v {
@@ -119,71 +120,89 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
         }
         let _ = writeln!(w);
     }
-    let t = &a.tolerances;
+    let tol = &a.tolerances;
     let _ = writeln!(w, "## Tolerances (warn / fail)\n");
-    let _ = writeln!(w, "| figure | warn | fail |\n|---|---|---|");
+    let mut t = Table::new(["figure", "warn", "fail"]);
     let rows: [(&str, (f64, f64)); 11] = [
-        ("fixed (measured) vs discrete f64 gain, dB", t.fixed_gain_db),
-        ("fixed vs discrete f64 phase, deg", t.fixed_phase_deg),
-        ("discrete f64 vs continuous gain, dB", t.discrete_gain_db),
+        (
+            "fixed (measured) vs discrete f64 gain, dB",
+            tol.fixed_gain_db,
+        ),
+        ("fixed vs discrete f64 phase, deg", tol.fixed_phase_deg),
+        ("discrete f64 vs continuous gain, dB", tol.discrete_gain_db),
         (
             "discrete f64 vs continuous phase, deg",
-            t.discrete_phase_deg,
+            tol.discrete_phase_deg,
         ),
-        ("coefficient relative error", t.coef_rel),
-        ("pole/zero relative shift (quantised vs f64)", t.root_rel),
-        ("DC gain relative error, fixed vs continuous", t.dc_rel),
-        ("headroom, bits (below)", t.headroom_bits),
-        ("max output error vs f64, wire LSBs", t.noise_wire_lsb),
+        ("coefficient relative error", tol.coef_rel),
+        ("pole/zero relative shift (quantised vs f64)", tol.root_rel),
+        ("DC gain relative error, fixed vs continuous", tol.dc_rel),
+        ("headroom, bits (below)", tol.headroom_bits),
+        ("max output error vs f64, wire LSBs", tol.noise_wire_lsb),
         (
             "limit-cycle amplitude / dead band, wire LSBs",
-            t.limit_cycle_wire_lsb,
+            tol.limit_cycle_wire_lsb,
         ),
         (
             "max output error during the safe-state ramps, fraction of the limit",
-            t.ramp_of_limit,
+            tol.ramp_of_limit,
         ),
     ];
     for (n, (a_, b)) in rows {
-        let _ = writeln!(w, "| {n} | {a_:.1e} | {b:.1e} |");
+        t.row([n.to_string(), format!("{a_:.1e}"), format!("{b:.1e}")]);
     }
+    let _ = write!(w, "{t}");
     let _ = writeln!(
         w,
         "\nFrequency-response errors are judged for f <= {} x the controller's rate.\n",
-        t.frac_fs
+        tol.frac_fs
     );
     for c in &a.controllers {
         let _ = writeln!(w, "## Controller `{}` ({:.0} Hz)\n", c.name, c.rate_hz);
         let _ = writeln!(w, "Law: {}. Gain unit: {}.\n", c.law, c.unit);
         let _ = writeln!(w, "### Coefficients\n");
-        let _ = writeln!(
-            w,
-            "| name | unit | ideal (f64) | quantised | abs error | rel error |\n|---|---|---|---|---|---|"
-        );
+        let mut t = Table::new([
+            "name",
+            "unit",
+            "ideal (f64)",
+            "quantised",
+            "abs error",
+            "rel error",
+        ]);
         for r in &c.coefficients {
-            let _ = writeln!(
-                w,
-                "| {} | {} | {:.12e} | {:.12e} | {:.3e} | {:.3e} |",
-                r.name, r.unit, r.ideal, r.quantised, r.abs_err, r.rel_err
-            );
+            t.row([
+                r.name.to_string(),
+                r.unit.to_string(),
+                format!("{:.12e}", r.ideal),
+                format!("{:.12e}", r.quantised),
+                format!("{:.3e}", r.abs_err),
+                format!("{:.3e}", r.rel_err),
+            ]);
         }
+        let _ = write!(w, "{t}");
         let pz = &c.poles_zeros;
         let _ = writeln!(w, "\n### Poles, zeros, DC gain\n");
-        let _ = writeln!(w, "| form | poles (z) | zeros (z) | poles (rad/s) | zeros (rad/s) |\n|---|---|---|---|---|");
+        let mut t = Table::new([
+            "form",
+            "poles (z)",
+            "zeros (z)",
+            "poles (rad/s)",
+            "zeros (rad/s)",
+        ]);
         for (n, r) in [
             ("continuous", &pz.continuous),
             ("discrete f64", &pz.discrete_f64),
             ("discrete quantised", &pz.discrete_quantised),
         ] {
-            let _ = writeln!(
-                w,
-                "| {n} | {} | {} | {} | {} |",
-                list(&r.poles_z),
-                list(&r.zeros_z),
-                list(&r.poles_s),
-                list(&r.zeros_s)
-            );
+            t.row([
+                n.to_string(),
+                list(&r.poles_z).to_string(),
+                list(&r.zeros_z).to_string(),
+                list(&r.poles_s).to_string(),
+                list(&r.zeros_s).to_string(),
+            ]);
         }
+        let _ = write!(w, "{t}");
         let _ = writeln!(
             w,
             "\nShifts: quantisation (z-plane) {}; quantisation (relative, rad/s) {}; \
@@ -218,27 +237,35 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
                 "m/s of y'"
             }
         );
-        let _ = writeln!(
-            w,
-            "| f (Hz) | continuous | discrete f64 | fixed (measured) | fixed-f64 dB | fixed-f64 deg | f64-cont dB | f64-cont deg |\n|---|---|---|---|---|---|---|---|"
-        );
+        let mut t = Table::new([
+            "f (Hz)",
+            "continuous",
+            "discrete f64",
+            "fixed (measured)",
+            "fixed-f64 dB",
+            "fixed-f64 deg",
+            "f64-cont dB",
+            "f64-cont deg",
+        ]);
         for p in c.freq_response.iter().filter(|p| p.named) {
-            let _ = writeln!(
-                w,
-                "| {} | {:.6e} / {:.3} deg | {:.6e} / {:.3} deg | {:.6e} / {:.3} deg | {:.2e} | {:.2e} | {:.2e} | {:.2e} |",
-                p.f_hz,
-                p.continuous.gain,
-                p.continuous.phase_deg,
-                p.discrete_f64.gain,
-                p.discrete_f64.phase_deg,
-                p.fixed.gain,
-                p.fixed.phase_deg,
-                p.fixed_vs_f64_db,
-                p.fixed_vs_f64_deg,
-                p.f64_vs_continuous_db,
-                p.f64_vs_continuous_deg
-            );
+            t.row([
+                p.f_hz.to_string(),
+                format!(
+                    "{:.6e} / {:.3} deg",
+                    p.continuous.gain, p.continuous.phase_deg
+                ),
+                format!(
+                    "{:.6e} / {:.3} deg",
+                    p.discrete_f64.gain, p.discrete_f64.phase_deg
+                ),
+                format!("{:.6e} / {:.3} deg", p.fixed.gain, p.fixed.phase_deg),
+                format!("{:.2e}", p.fixed_vs_f64_db),
+                format!("{:.2e}", p.fixed_vs_f64_deg),
+                format!("{:.2e}", p.f64_vs_continuous_db),
+                format!("{:.2e}", p.f64_vs_continuous_deg),
+            ]);
         }
+        let _ = write!(w, "{t}");
         let wo = &c.worst;
         let _ = writeln!(
             w,
@@ -263,36 +290,41 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
             w,
             "After 0.2 s of random input, the input is held for 2 s; last second observed.\n"
         );
-        let _ = writeln!(
-            w,
-            "| hold input | value (SI) | oscillates | p2p (LSB) | amplitude | period (samples) | offset vs f64 | offset (LSB) |\n|---|---|---|---|---|---|---|---|"
-        );
+        let mut t = Table::new([
+            "hold input",
+            "value (SI)",
+            "oscillates",
+            "p2p (LSB)",
+            "amplitude",
+            "period (samples)",
+            "offset vs f64",
+            "offset (LSB)",
+        ]);
         for l in &c.limit_cycles {
-            let _ = writeln!(
-                w,
-                "| {} | {:.3e} | {} | {:.2} | {:.3e} {} | {} | {:.3e} {} | {:.2} |",
-                l.hold,
-                l.hold_input_si,
-                if l.oscillates { "yes" } else { "no" },
-                l.p2p_lsb,
-                l.amplitude_si,
-                l.unit,
+            t.row([
+                l.hold.to_string(),
+                format!("{:.3e}", l.hold_input_si),
+                if l.oscillates { "yes" } else { "no" }.to_string(),
+                format!("{:.2}", l.p2p_lsb),
+                format!("{:.3e} {}", l.amplitude_si, l.unit),
                 l.period_samples
                     .map(|p| format!("{p:.1}"))
-                    .unwrap_or_else(|| "-".into()),
-                l.offset_si,
-                l.unit,
-                l.offset_lsb
-            );
+                    .unwrap_or_else(|| "-".into())
+                    .to_string(),
+                format!("{:.3e} {}", l.offset_si, l.unit),
+                format!("{:.2}", l.offset_lsb),
+            ]);
         }
+        let _ = write!(w, "{t}");
         let _ = writeln!(w);
     }
     let o = &a.observed;
     let _ = writeln!(w, "## Scenarios\n");
-    let _ = writeln!(w, "| name | ticks | source |\n|---|---|---|");
+    let mut t = Table::new(["name", "ticks", "source"]);
     for (n, src, k) in &a.scenarios {
-        let _ = writeln!(w, "| {n} | {k} | {src} |");
+        t.row([n.to_string(), k.to_string(), src.to_string()]);
     }
+    let _ = write!(w, "{t}");
     for n in &a.scenario_notes {
         let _ = writeln!(w, "\nNote: {n}.");
     }
@@ -302,27 +334,35 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
          in lock-step on the same quantised inputs.\n"
     );
     let _ = writeln!(w, "## Ranges and headroom\n");
-    let _ = writeln!(
-        w,
-        "| # | signal | controller | state | min (SI) | max (SI) | unit | peak (pu) | headroom (bits) | overflows | worst scenario |\n|---|---|---|---|---|---|---|---|---|---|---|"
-    );
+    let mut t = Table::new([
+        "#",
+        "signal",
+        "controller",
+        "state",
+        "min (SI)",
+        "max (SI)",
+        "unit",
+        "peak (pu)",
+        "headroom (bits)",
+        "overflows",
+        "worst scenario",
+    ]);
     for (i, r) in o.signals.iter().filter(|r| r.samples > 0).enumerate() {
-        let _ = writeln!(
-            w,
-            "| {} | {} | {} | {} | {:.4e} | {:.4e} | {} | {:.4} | {:.2} | {} | {} |",
-            i,
-            r.name,
-            r.controller,
-            if r.state { "yes" } else { "" },
-            r.min_si,
-            r.max_si,
-            r.unit,
-            r.min_pu.abs().max(r.max_pu.abs()),
-            r.headroom_bits,
-            r.overflows,
-            r.worst_scenario
-        );
+        t.row([
+            i.to_string(),
+            r.name.to_string(),
+            r.controller.to_string(),
+            if r.state { "yes" } else { "" }.to_string(),
+            format!("{:.4e}", r.min_si),
+            format!("{:.4e}", r.max_si),
+            r.unit.to_string(),
+            format!("{:.4}", r.min_pu.abs().max(r.max_pu.abs())),
+            format!("{:.2}", r.headroom_bits),
+            r.overflows.to_string(),
+            r.worst_scenario.to_string(),
+        ]);
     }
+    let _ = write!(w, "{t}");
     let c = &o.clamps;
     let _ = writeln!(
         w,
@@ -341,31 +381,37 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
             .unwrap_or_else(|| "not counted".into())
     );
     let _ = writeln!(w, "## Quantisation noise (fixed minus f64, same inputs)\n");
-    let _ = writeln!(
-        w,
-        "| output | scenario | yaw mode | ticks | max (LSB) | rms (LSB) | max (SI) | rms (SI) | max (wire LSB) | bits lost |\n|---|---|---|---|---|---|---|---|---|---|"
-    );
+    let mut t = Table::new([
+        "output",
+        "scenario",
+        "yaw mode",
+        "ticks",
+        "max (LSB)",
+        "rms (LSB)",
+        "max (SI)",
+        "rms (SI)",
+        "max (wire LSB)",
+        "bits lost",
+    ]);
     for n in &o.noise {
-        let _ = writeln!(
-            w,
-            "| {} | {} | {} | {} | {:.2} | {:.2} | {:.3e} {} | {:.3e} {} | {:.3} | {:.2} |",
-            n.output,
-            n.scenario,
-            n.yaw_mode,
+        t.row([
+            n.output.to_string(),
+            n.scenario.to_string(),
+            n.yaw_mode.to_string(),
             match n.phase {
                 super::ranges::Phase::Normal => "normal",
                 super::ranges::Phase::SafeRamp => "safe-state ramps",
-            },
-            n.max_lsb,
-            n.rms_lsb,
-            n.max_si,
-            n.unit,
-            n.rms_si,
-            n.unit,
-            n.max_wire_lsb,
-            n.bits_lost
-        );
+            }
+            .to_string(),
+            format!("{:.2}", n.max_lsb),
+            format!("{:.2}", n.rms_lsb),
+            format!("{:.3e} {}", n.max_si, n.unit),
+            format!("{:.3e} {}", n.rms_si, n.unit),
+            format!("{:.3}", n.max_wire_lsb),
+            format!("{:.2}", n.bits_lost),
+        ]);
     }
+    let _ = write!(w, "{t}");
     if let Some(worst) = o
         .noise
         .iter()
@@ -384,12 +430,94 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
             worst.max_lsb, worst.max_si, worst.scenario
         );
     }
+    let _ = writeln!(w, "\n## Proven bounds\n");
+    let _ = writeln!(
+        w,
+        "{}\n\nRanges: the worst-case peak gain (WCPG) of each linear part from the \
+         quantised coefficients, times the input clamps, plus the rounding-error bound; \
+         interval arithmetic through the clamps, ramps, predictor and anti-windup \
+         (`hil::audit::bounds` states each step). Observed = the largest magnitude over \
+         the scenarios.\n",
+        a.proof_statement
+    );
+    let mut t = Table::new([
+        "signal",
+        "unit",
+        "observed max",
+        "proven max",
+        "format",
+        "margin (bits)",
+        "proof",
+    ]);
+    for b in &a.bounds {
+        t.row([
+            b.signal.clone(),
+            b.unit.clone(),
+            b.observed_max
+                .map(|v| format!("{v:.6e}"))
+                .unwrap_or_else(|| "-".into()),
+            format!("{:.6e}", b.proven_max),
+            b.format.clone(),
+            format!("{:.2}", b.margin_bits),
+            b.proof.clone(),
+        ]);
+    }
+    let _ = write!(w, "{t}");
+    let _ = writeln!(
+        w,
+        "\nRounding error of the fixed-point core against exact arithmetic on the same \
+         quantised coefficients and inputs (each rounding point's error filter's peak gain \
+         x its rounding step):\n"
+    );
+    let mut t = Table::new([
+        "output",
+        "observed",
+        "proven",
+        "unit",
+        "proven (wire LSB)",
+        "per rounding point",
+    ]);
+    for e in &a.error_bounds {
+        t.row([
+            e.output.clone(),
+            format!("{:.4e}", e.observed),
+            format!("{:.4e}", e.proven),
+            e.unit.clone(),
+            format!("{:.4}", e.proven_wire_lsb),
+            e.rounding_points
+                .iter()
+                .map(|(n, v)| format!("{n} {v:.2e}"))
+                .collect::<Vec<_>>()
+                .join("; "),
+        ]);
+    }
+    let _ = write!(w, "{t}");
+    let _ = writeln!(w, "\nWCPG per linear part (tail bound and terms summed):\n");
+    let mut t = Table::new(["part", "path", "WCPG", "terms", "tail bound", "note"]);
+    for l in &a.linear_parts {
+        let (v, k, tb) = match &l.wcpg {
+            Some(g) => (
+                format!("{:.9}", g.value),
+                g.terms.to_string(),
+                format!("{:.1e}", g.tail_bound),
+            ),
+            None => ("infinite".into(), "-".into(), "-".into()),
+        };
+        t.row([l.part.clone(), l.path.clone(), v, k, tb, l.note.clone()]);
+    }
+    let _ = write!(w, "{t}");
     let _ = writeln!(w, "\n## Recommended formats\n");
+    let _ = writeln!(
+        w,
+        "From the proven bounds: integer bits hold the proven maximum (no overflow for any \
+         input within the clamps); fraction bits keep the proven rounding error of the \
+         chain's output (T_psi, u_a) within half a wire LSB.\n"
+    );
     if let Some(sw) = &a.sweep {
         let _ = writeln!(
             w,
-            "Bisection over the signal fraction bits at {} integer bits (synthetic \
-             scenarios, named frequencies): smallest passing: {}. Tried: {}.\n\nCoefficients: \
+            "A weaker, empirical statement: bisection over the signal fraction bits at {} integer bits (synthetic \
+             scenarios, named frequencies): smallest format with no failing check: {} (no overflow or error bound is implied). Tried: {}.\n\nCoefficients: \
              {} fraction bits are needed for every coefficient's relative error to stay \
              within {:.0e} (the audited format has {}).\n",
             a.formats.signal.int_bits,
@@ -412,40 +540,62 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
             a.formats.coef.frac_bits
         );
     }
-    let _ = writeln!(
-        w,
-        "| signal | controller | peak (pu) | recommended | word | margin |\n|---|---|---|---|---|---|"
-    );
+    let mut t = Table::new([
+        "signal",
+        "controller",
+        "observed peak (pu)",
+        "proven max (pu)",
+        "recommended",
+        "word",
+        "guarantee",
+    ]);
     for r in &a.recommendations {
-        let _ = writeln!(
-            w,
-            "| {} | {} | {:.4} | {} | {} | {} |",
-            r.signal, r.controller, r.peak_pu, r.format, r.word, r.margin
-        );
+        t.row([
+            r.signal.clone(),
+            r.controller.clone(),
+            if r.observed {
+                format!("{:.4}", r.peak_pu)
+            } else {
+                "-".into()
+            },
+            format!("{:.4}", r.proven_max_pu),
+            r.format.clone(),
+            r.word.to_string(),
+            r.guarantee.clone(),
+        ]);
     }
+    let _ = write!(w, "{t}");
     let _ = writeln!(w, "\n## Target (QEMU)\n\n{}.\n", a.target.note);
     if !a.target.runs.is_empty() {
-        let _ = writeln!(
-            w,
-            "| scenario | from tick | ticks | frames differing | max code diff (T_psi dNm, u_a cV) | target vs f64 (wire LSB) | host vs f64 (wire LSB) | mean instructions/tick |\n|---|---|---|---|---|---|---|---|"
-        );
+        let mut t = Table::new([
+            "scenario",
+            "from tick",
+            "ticks",
+            "frames differing",
+            "max code diff (T_psi dNm, u_a cV)",
+            "target vs f64 (wire LSB)",
+            "host vs f64 (wire LSB)",
+            "mean instructions/tick",
+        ]);
         for r in &a.target.runs {
-            let _ = writeln!(
-                w,
-                "| {} | {} | {} | {} | {}, {} | {:.1}, {:.1} | {:.1}, {:.1} | {:.0} |",
-                r.scenario,
-                r.from_tick,
-                r.ticks,
-                r.mismatches,
-                r.max_code_diff.0,
-                r.max_code_diff.1,
-                r.target_vs_f64_wire_lsb.0,
-                r.target_vs_f64_wire_lsb.1,
-                r.host_vs_f64_wire_lsb.0,
-                r.host_vs_f64_wire_lsb.1,
-                r.mean_exec
-            );
+            t.row([
+                r.scenario.to_string(),
+                r.from_tick.to_string(),
+                r.ticks.to_string(),
+                r.mismatches.to_string(),
+                format!("{}, {}", r.max_code_diff.0, r.max_code_diff.1),
+                format!(
+                    "{:.1}, {:.1}",
+                    r.target_vs_f64_wire_lsb.0, r.target_vs_f64_wire_lsb.1
+                ),
+                format!(
+                    "{:.1}, {:.1}",
+                    r.host_vs_f64_wire_lsb.0, r.host_vs_f64_wire_lsb.1
+                ),
+                format!("{:.0}", r.mean_exec),
+            ]);
         }
+        let _ = write!(w, "{t}");
         let _ = writeln!(
             w,
             "\nThe target's outputs are visible only as wire codes (0.1 N m, 10 mV), so its \
@@ -460,20 +610,16 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
         }
     }
     let _ = writeln!(w, "## Checks\n");
-    let _ = writeln!(
-        w,
-        "| status | controller | item | reason |\n|---|---|---|---|"
-    );
+    let mut t = Table::new(["status", "controller", "item", "reason"]);
     for c in &a.checks {
-        let _ = writeln!(
-            w,
-            "| {} | {} | {} | {} |",
-            c.status.as_str(),
-            c.controller,
-            c.item,
-            c.reason
-        );
+        t.row([
+            c.status.as_str().to_string(),
+            c.controller.to_string(),
+            c.item.to_string(),
+            c.reason.to_string(),
+        ]);
     }
+    let _ = write!(w, "{t}");
     s
 }
 

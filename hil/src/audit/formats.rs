@@ -1,0 +1,146 @@
+//! Format proposals: the word-length bisection over the signal format and the
+//! recommended formats per signal; the instrumented type's identity with `Fx`.
+
+use wheelset_control::{Config, Fx, Sample};
+
+use super::bounds::Proofs;
+use super::checks::all_checks;
+use super::controller::NAMED_HZ;
+use super::core_dyn;
+use super::model::{CoefRow, Recommendation, Sweep};
+use super::qdyn::{self, Formats, QDyn, QFormat};
+use super::ranges::{self, Observed};
+use super::verdict::{Status, Tolerances};
+
+/// Bisection over the signal fraction bits (integer bits as audited) for the smallest
+/// format passing every accuracy check on the synthetic scenarios and the named
+/// frequencies.
+pub(crate) fn sweep(cfg: &Config, tol: &Tolerances, fmt: &Formats, coefs: &[CoefRow]) -> Sweep {
+    let scen = ranges::synthetic(cfg);
+    let named = |fs: f64| -> Vec<(f64, bool)> {
+        NAMED_HZ
+            .iter()
+            .filter(|f| **f < tol.frac_fs * fs)
+            .map(|f| (*f, true))
+            .collect()
+    };
+    let max_f = 32 - fmt.signal.int_bits;
+    let mut tried = Vec::new();
+    let mut eval = |f: u32| -> bool {
+        let mut fm = *fmt;
+        fm.signal = QFormat::new(fmt.signal.int_bits, f);
+        let r = core_dyn(cfg, tol, fm, &scen, &named);
+        let (ok, why) = match r {
+            Ok(c) => {
+                let checks = all_checks(&c, tol, cfg);
+                match checks.iter().find(|c| c.status == Status::Fail) {
+                    Some(c) => (false, format!("{}: {}", c.controller, c.reason)),
+                    None => (true, String::new()),
+                }
+            }
+            Err(e) => (false, e.to_string()),
+        };
+        tried.push((f, ok, why));
+        ok
+    };
+    let (mut lo, mut hi) = (4u32, max_f);
+    let min = if !eval(hi) {
+        None
+    } else {
+        while hi - lo > 1 {
+            let mid = (lo + hi) / 2;
+            if eval(mid) {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        Some(hi)
+    };
+    tried.sort_by_key(|t| t.0);
+    // Coefficients: a relative error <= warn needs 2^-(F+1) <= warn |c_pu|.
+    let min_coef = coefs
+        .iter()
+        .filter(|c| c.ideal_pu != 0.0)
+        .map(|c| {
+            (-(tol.coef_rel.0 * c.ideal_pu.abs()).log2() - 1.0)
+                .ceil()
+                .max(0.0) as u32
+        })
+        .max()
+        .unwrap_or(0);
+    Sweep {
+        min_signal_frac_bits: min,
+        tried,
+        min_coef_frac_bits: min_coef,
+    }
+}
+
+/// Recommended formats per signal, from the proofs ([`super::bounds`]): integer bits
+/// (incl. sign) the smallest with `2^(i-1)` above the *proven* bound (no overflow for
+/// any input within the clamps), fraction bits the smallest for which the proven
+/// rounding error of the signal's chain output stays within half a wire LSB. The
+/// observed peak is stated next to it; the sweep's smallest passing format (if run) is a
+/// separate, weaker statement (no check failed on the scenarios).
+pub(crate) fn recommend(o: &Observed, p: &Proofs) -> Vec<Recommendation> {
+    p.proposals
+        .iter()
+        .zip(&p.bounds)
+        .map(|(pr, b)| {
+            let peak = o
+                .signals
+                .iter()
+                .find(|s| s.name == pr.signal && s.samples > 0)
+                .map(|s| s.min_pu.abs().max(s.max_pu.abs()));
+            let word = pr.int_bits + pr.frac_bits;
+            let note = if word > 32 {
+                format!("; {word} bits exceed an i32")
+            } else {
+                String::new()
+            };
+            Recommendation {
+                signal: pr.signal.clone(),
+                controller: b.controller.clone(),
+                peak_pu: peak.unwrap_or(0.0),
+                observed: peak.is_some(),
+                proven_max_pu: pr.proven_max_pu,
+                int_bits: pr.int_bits,
+                frac_bits: pr.frac_bits,
+                word,
+                format: pr.format.clone(),
+                margin: format!("integer bits from the proven bound{note}"),
+                guarantee: pr.guarantee.clone(),
+            }
+        })
+        .collect()
+}
+
+/// Identity check used by tests and the report: run `T` and the instrumented type at
+/// `fmt` side by side on `xs` (pu, y' and current) and count differing output bits.
+pub fn bit_identical_to_fx(xs: &[(f64, f64)]) -> bool {
+    let cfg = Config::default();
+    let Ok(mut a) = wheelset_control::Controller::<Fx>::try_new(&cfg) else {
+        return false;
+    };
+    qdyn::with_formats(Formats::PRODUCTION, || {
+        let Ok(mut b) = wheelset_control::Controller::<QDyn>::try_new(&cfg) else {
+            return false;
+        };
+        xs.iter().all(|&(y, i)| {
+            let oa = a.tick(&wheelset_control::Inputs {
+                y_dot: Fx::from_f64(y),
+                current: Fx::from_f64(i),
+                speed: Fx::from_f64(0.9256),
+                demand: Fx::from_f64(0.246),
+            });
+            let ob = b.tick(&wheelset_control::Inputs {
+                y_dot: QDyn::from_f64(y),
+                current: QDyn::from_f64(i),
+                speed: QDyn::from_f64(0.9256),
+                demand: QDyn::from_f64(0.246),
+            });
+            oa.yaw_torque.to_bits() as i64 == ob.yaw_torque.0
+                && oa.voltage.to_bits() as i64 == ob.voltage.0
+        })
+    })
+}

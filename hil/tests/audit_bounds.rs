@@ -1,0 +1,145 @@
+//! `hil audit`'s proofs: no observed value exceeds its proven bound (ranges and rounding
+//! errors, over every scenario including the closed-loop plant runs), the WCPGs agree
+//! with independent sums, and the lead's range bound is attained by the worst-case
+//! input (so it is tight, not vacuous).
+
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use hil::audit::bounds::{self, Quantised};
+use hil::audit::wcpg::wcpg;
+use hil::audit::{self, AuditArgs};
+use wheelset_control::{Config, Fx, Lead, LeadState, Sample};
+
+fn args() -> AuditArgs {
+    AuditArgs {
+        no_sweep: true,
+        no_target: true,
+        quiet: true,
+        ..AuditArgs::default()
+    }
+}
+
+#[test]
+fn no_observed_value_exceeds_its_proven_bound() {
+    let a = audit::build(&args()).unwrap();
+    assert!(a.overflow_free, "{}", a.proof_statement);
+    assert!(a.proof_statement.starts_with("No overflow for any input"));
+    // Every observed signal of the ranges table has a proven bound.
+    for r in a.observed.signals.iter().filter(|r| r.samples > 0) {
+        assert!(
+            a.bounds.iter().any(|b| b.signal == r.name),
+            "{} has no proven bound",
+            r.name
+        );
+    }
+    let mut compared = 0;
+    for b in &a.bounds {
+        assert!(b.proven_max.is_finite() && b.proven_max > 0.0, "{b:?}");
+        assert!(b.margin_bits > 0.0, "{b:?}");
+        if let Some(o) = b.observed_max {
+            assert!(
+                o <= b.proven_max,
+                "{}: observed {o} > proven {}",
+                b.signal,
+                b.proven_max
+            );
+            compared += 1;
+        }
+    }
+    assert!(compared >= 21, "{compared} signals compared");
+    assert_eq!(a.error_bounds.len(), 4);
+    for e in &a.error_bounds {
+        assert!(e.observed > 0.0, "{} never rounded", e.output);
+        assert!(
+            e.observed <= e.proven,
+            "{}: {} > {}",
+            e.output,
+            e.observed,
+            e.proven
+        );
+        // The bound is the sum of its rounding points.
+        let s: f64 = e.rounding_points.iter().map(|p| p.1).sum();
+        assert!((s - e.proven).abs() <= 1e-12 * e.proven, "{}", e.output);
+    }
+    // The format proposals hold the proven bound.
+    for r in &a.recommendations {
+        assert!(2f64.powi(r.int_bits as i32 - 1) > r.proven_max_pu, "{r:?}");
+        assert!(r.guarantee.contains("cannot overflow"));
+    }
+    // JSON field names of the issue.
+    let v = serde_json::to_value(&a).unwrap();
+    for k in [
+        "signal",
+        "observed_max",
+        "proven_max",
+        "format",
+        "margin_bits",
+    ] {
+        assert!(v["bounds"][0].get(k).is_some(), "bounds.{k}");
+    }
+    for k in ["output", "observed", "proven", "unit"] {
+        assert!(v["error_bounds"][0].get(k).is_some(), "error_bounds.{k}");
+    }
+}
+
+#[test]
+fn lead_wcpgs_agree_with_independent_sums() {
+    let cfg = Config::default();
+    let k = Quantised::of::<Fx>(&cfg).unwrap();
+    let l = k.lead;
+    let kappa = l.kappa;
+    let es = bounds::lead_error_systems(&l);
+    // r1 -> dz: kappa sum (1 - kappa)^k = 1; r2 -> dz: 1/kappa.
+    let w1 = wcpg(&es[0]).unwrap().value;
+    let w2 = wcpg(&es[1]).unwrap().value;
+    assert!(w1 >= 1.0 && w1 - 1.0 < 1e-9, "{w1}");
+    assert!(w2 >= 1.0 / kappa && w2 - 1.0 / kappa < 1e-9 / kappa, "{w2}");
+    // x -> x - z by simulating the impulse response directly (not the state space).
+    let mut z = 0.0f64;
+    let mut x1 = 0.0f64;
+    let mut sum = 0.0;
+    for n in 0..200_000 {
+        let x = if n == 0 { 1.0 } else { 0.0 };
+        z += kappa * (l.g_half * (x + x1) - z);
+        x1 = x;
+        sum += (x - z).abs();
+    }
+    let (_, s) = &bounds::lead_systems(&l)[4];
+    let w = wcpg(s).unwrap().value;
+    assert!(w >= sum && w - sum < 1e-9, "{w} vs {sum}");
+}
+
+#[test]
+fn the_lead_range_bound_is_attained_by_the_worst_case_input() {
+    let cfg = Config::default();
+    let k = Quantised::of::<Fx>(&cfg).unwrap();
+    let q = 2f64.powi(-28);
+    let p = bounds::proven(&k, &cfg, q);
+    let (_, s) = &bounds::lead_systems(&k.lead)[4];
+    let w = wcpg(s).unwrap().value;
+    // Impulse response h of x -> x - z, then x[n] = X sign h[N - n] maximises the
+    // output at n = N.
+    let n = 4000usize;
+    let (mut z, mut x1, mut h) = (0.0f64, 0.0f64, Vec::with_capacity(n));
+    for i in 0..n {
+        let x = if i == 0 { 1.0 } else { 0.0 };
+        z += k.lead.kappa * (k.lead.g_half * (x + x1) - z);
+        x1 = x;
+        h.push(x - z);
+    }
+    let lead = Lead::<Fx>::new(&k.lead).unwrap();
+    let mut st = LeadState::<Fx>::default();
+    let mut last = 0.0;
+    for i in 0..n {
+        let x = Fx::from_f64(p.x * h[n - 1 - i].signum());
+        let _ = lead.process(&mut st, x);
+        last = x.to_f64() - st.z.to_f64();
+    }
+    let proven = p.signals.iter().find(|s| s.0 == "lead x - z").unwrap().4;
+    assert!(last.abs() <= proven, "{last} > {proven}");
+    assert!(
+        last.abs() >= 0.999 * w * p.x,
+        "{last} vs WCPG X {}",
+        w * p.x
+    );
+}
