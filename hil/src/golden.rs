@@ -174,9 +174,33 @@ fn decode_actuations(bytes: &[u8], dec: &mut Decoder, out: &mut Vec<Out>) {
     });
 }
 
-/// The host result: the firmware's runtime in this process, one tick per sample.
+/// The device's configuration for the golden vectors at parameters `p` (`--params`):
+/// the firmware's default (its law, traction on, its rates) with the gains and motor
+/// constants of `p` (`sim_host::device::control_config`, the rule of `hil run`). At the
+/// default parameters this is `RuntimeConfig::default()`.
+#[must_use]
+pub fn runtime_for(p: &sim_host::params::Params) -> RuntimeConfig {
+    let d = RuntimeConfig::default();
+    let law = match d.control.yaw_mode {
+        wheelset_control::YawMode::Passive => sim_host::control::YawLaw::Passive,
+        wheelset_control::YawMode::Gain => sim_host::control::YawLaw::Gain,
+        wheelset_control::YawMode::Lead => sim_host::control::YawLaw::Lead,
+    };
+    RuntimeConfig {
+        control: sim_host::device::control_config(p, law, d.control.traction_enabled),
+        ..d
+    }
+}
+
+/// The host result: the firmware's runtime in this process at its default
+/// configuration, one tick per sample.
 pub fn run_host(v: &Vector) -> Result<Vec<Out>, RuntimeError> {
-    let mut rt = Runtime::<Fx>::try_new(RuntimeConfig::default())?;
+    run_host_with(v, RuntimeConfig::default())
+}
+
+/// The host result on the runtime configured by `cfg` ([`runtime_for`]).
+pub fn run_host_with(v: &Vector, cfg: RuntimeConfig) -> Result<Vec<Out>, RuntimeError> {
+    let mut rt = Runtime::<Fx>::try_new(cfg)?;
     let mut dec = Decoder::new();
     let mut out = Vec::with_capacity(v.samples.len());
     for (k, s) in v.samples.iter().enumerate() {

@@ -14,6 +14,7 @@
 //!   limits.
 //! - [`run`]: `hil run`; [`report`]: JSON, CSV and the Markdown report; [`table`]: the
 //!   one Markdown table writer of every report.
+//! - [`sweep`]: `hil sweep`, the closed loop over a parameter grid, sharded and merged.
 //! - [`golden`]: `hil golden`, open-loop golden vectors host vs target, bit for bit.
 //! - [`audit`]: `hil audit`, the fixed-point accuracy audit of the control core.
 #![deny(missing_docs)]
@@ -39,6 +40,7 @@ pub mod rt_os;
 pub mod run;
 pub mod serial;
 pub mod serve;
+pub mod sweep;
 pub mod table;
 pub mod timing;
 pub mod transport;

@@ -4,17 +4,20 @@
 //! device as its sampled controller ([`crate::closed_loop`]) and an actuator delay of
 //! one control period; the reference is `sim_host::sim::run_continuous` with the same
 //! scenario and law (with `[[adhesion]]` sections: the f64 control core with the
-//! device's wheel-slip protection, `sim_host::core_loop`). The device's configuration
-//! follows the scenario and its parameters ([`runtime_config_for`], the same rule as
-//! `sim-host run --loop device`): the yaw law of `--control`, traction when the drive is
-//! modelled, the lead, gain, PI and motor constants from the parameters, the default
-//! rates (5 kHz, Q4.28 fixed point).
+//! device's wheel-slip protection, `sim_host::core_loop`). The parameters are
+//! [`RunOptions::params`] (`--params FILE`) with the scenario's `[params]` on top, the
+//! rule of `sim-host --params`; the plant, the reference and the device's configuration
+//! follow them ([`runtime_config_for`], the same rule as `sim-host run --loop device`):
+//! the yaw law of `--control`, traction when the drive is modelled, the lead, gain, PI
+//! and motor constants from the parameters, the default rates (5 kHz, Q4.28 fixed
+//! point). A device on another target has its gains compiled in: parameters that change
+//! them are refused there ([`remote_gains`]).
 
 use std::fmt;
 use std::time::Duration;
 
 use indicatif::{ProgressBar, ProgressStyle};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use sim_host::control::YawLaw;
 use sim_host::device::{runtime_config, DeviceOptions};
 use sim_host::link::LinkConfig;
@@ -82,7 +85,7 @@ impl fmt::Display for Target {
 }
 
 /// The yaw law of the device (and of the reference).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Law {
     /// The passive yaw spring in the plant; the device commands no yaw torque.
@@ -137,6 +140,11 @@ pub struct RunOptions {
     pub rate_hz: Option<u32>,
     /// What the real-time loop asks of the operating system (real-time pacing).
     pub realtime: Want,
+    /// The base parameters (`--params FILE`; default: the paper's). The scenario's
+    /// `[params]` apply on top of them (the rule of `sim-host --params`); the plant, the
+    /// reference and the device's configuration ([`runtime_config_for`]) all follow the
+    /// result.
+    pub params: Params,
 }
 
 impl Default for RunOptions {
@@ -156,6 +164,7 @@ impl Default for RunOptions {
             progress: false,
             rate_hz: None,
             realtime: Want::all(crate::rt_os::allowed_cpus().last().copied()),
+            params: Params::default(),
         }
     }
 }
@@ -214,6 +223,9 @@ pub struct RunReport {
     pub transport: Option<serde_json::Value>,
     /// The stability monitor's and actuator check's alarms, checked ([`crate::monitor`]).
     pub monitor: crate::monitor::MonitorReport,
+    /// The parameters the run applied (`--params` with the scenario's `[params]` on
+    /// top): the plant's, the reference's and the device's.
+    pub params: Params,
 }
 
 /// A finished run: the report and both trajectories.
@@ -230,6 +242,8 @@ pub struct RunOutcome {
     pub period_ns: u64,
     /// The monitor's mean square `(t_s, (m/s)^2)` at each of its steps.
     pub monitor_ms: Vec<(f64, f64)>,
+    /// The device's configuration as applied (from the parameters, the law and the rate).
+    pub runtime: RuntimeConfig,
 }
 
 /// Opens the transport for `opts.target`; an in-process device is built from `rt`.
@@ -352,8 +366,11 @@ pub fn runtime_config_for(sc: &Scenario, law: Law) -> RuntimeConfig {
 
 /// Runs the closed loop and the checks.
 pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
-    let sc = Scenario::load(&opts.scenario, &Params::default())
-        .map_err(|e| RunError::Input(e.to_string()))?;
+    let sc =
+        Scenario::load(&opts.scenario, &opts.params).map_err(|e| RunError::Input(e.to_string()))?;
+    if opts.target != Target::InProc {
+        remote_gains(&sc.params, &opts.target)?;
+    }
     let mut rt = runtime_config_for(&sc, opts.control);
     rt.control.base_rate_hz = run_rate(opts, rt.control.base_rate_hz)?;
     let period_ns = 1_000_000_000 / u64::from(rt.control.base_rate_hz.max(1));
@@ -482,13 +499,53 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
             host_clamped: host.clamped,
             transport,
             monitor,
+            params: sc.params.clone(),
         },
         trajectory,
         reference,
         sensor_codes,
         period_ns,
         monitor_ms,
+        runtime: rt,
     })
+}
+
+/// The parameter keys that set the device's control gains and motor constants
+/// (`sim_host::device::control_config`): the lead, the pure gain, the traction PI and
+/// the motor.
+pub const DEVICE_KEYS: &[&str] = &[
+    "k_active",
+    "lead_gain",
+    "lead_zero",
+    "lead_pole",
+    "pi_kp",
+    "pi_ti",
+    "k_m",
+    "n_gear",
+];
+
+/// A device outside this process has its gains compiled in: a Config frame carries the
+/// rates (with their coefficients), the law and the limits, not the gains. Parameters
+/// that change the gains ([`DEVICE_KEYS`]) are refused there, naming them, instead of
+/// running a device that does not follow them.
+pub fn remote_gains(p: &Params, target: &Target) -> Result<(), RunError> {
+    let d = Params::default();
+    let (given, default) = (p.entries(), d.entries());
+    let changed: Vec<String> = given
+        .iter()
+        .zip(&default)
+        .filter(|((k, a), (_, b))| DEVICE_KEYS.contains(k) && a != b)
+        .map(|((k, a), _)| format!("{k} = {a}"))
+        .collect();
+    if changed.is_empty() {
+        return Ok(());
+    }
+    Err(RunError::Input(format!(
+        "parameters {}: they set the device's gains, which a device on {target} has compiled \
+         in (its Config frame carries the rates, the law and the limits, not the gains); \
+         run them with --target inproc",
+        changed.join(", ")
+    )))
 }
 
 /// The part of `tr` before `t_s` (a run that diverged later did not diverge there).

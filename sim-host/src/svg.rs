@@ -1,5 +1,6 @@
 //! A small, dependency-free SVG plotting module: line plots with several series,
-//! scatter plots (root loci), bar histograms, and vertical stacks of panels.
+//! scatter plots (root loci), bar histograms, vertical stacks of panels, and heat maps
+//! of a parameter grid ([`heatmap`]).
 //!
 //! ```
 //! use sim_host::svg::{Plot, Series};
@@ -12,6 +13,8 @@
 
 use std::fmt::Write as _;
 use std::path::Path;
+
+pub mod heatmap;
 
 /// Default colour cycle (colour-blind friendly).
 pub const PALETTE: [&str; 8] = [
