@@ -555,48 +555,45 @@ pub fn sweep_markdown(doc: &crate::sweep::SweepDoc, command: &str) -> String {
         ))
     );
     let _ = writeln!(s, "![verdicts](verdict.svg)\n\n![peak |y|](peak_y.svg)\n");
-    let mut head = String::from("| # |");
-    let mut rule = String::from("|---|");
     let keys: Vec<String> = doc
         .records
         .first()
         .map(|r| r.params.iter().map(|(k, _)| k.clone()).collect())
         .unwrap_or_default();
-    for k in &keys {
-        head.push_str(&format!(" {k} |"));
-        rule.push_str("---|");
-    }
-    head.push_str(" verdict | peak \\|y\\| (mm) | diverged at (s) | checks not passed |");
-    rule.push_str("---|---|---|---|");
-    let _ = writeln!(s, "{head}\n{rule}");
+    let mut t = crate::table::Table::new(
+        std::iter::once("#".to_string())
+            .chain(keys.iter().cloned())
+            .chain(
+                [
+                    "verdict",
+                    "peak |y| (mm)",
+                    "diverged at (s)",
+                    "checks not passed",
+                ]
+                .map(String::from),
+            ),
+    );
     for r in &doc.records {
-        let mut row = format!("| {} |", r.index);
-        for (_, v) in &r.params {
-            row.push_str(&format!(" {} |", value_label(*v)));
-        }
         let checks = if r.failing.is_empty() {
             "-".to_string()
         } else {
             r.failing
                 .iter()
-                .map(|c| {
-                    format!(
-                        "{} {}: {}",
-                        c.check,
-                        c.verdict,
-                        c.reason.replace('|', "\\|")
-                    )
-                })
+                .map(|c| format!("{} {}: {}", c.check, c.verdict, c.reason))
                 .collect::<Vec<_>>()
                 .join("; ")
         };
-        let _ = writeln!(
-            s,
-            "{row} {} | {:.3} | {} | {checks} |",
-            r.verdict,
-            r.peak_abs_y_m * 1e3,
-            r.diverged_at_s.map_or("-".into(), |t| format!("{t:.3}"))
+        t.row(
+            std::iter::once(r.index.to_string())
+                .chain(r.params.iter().map(|(_, v)| value_label(*v)))
+                .chain([
+                    r.verdict.to_string(),
+                    format!("{:.3}", r.peak_abs_y_m * 1e3),
+                    r.diverged_at_s.map_or("-".into(), |t| format!("{t:.3}")),
+                    checks,
+                ]),
         );
     }
+    s.push_str(&t.render());
     s
 }
