@@ -227,3 +227,34 @@ fn the_binary_takes_params_and_refuses_a_bad_file() {
     let out = hil(&["run", "--params", "/nonexistent/p.toml"]);
     assert_eq!(out.status.code(), Some(2));
 }
+
+/// `hil audit --params FILE`: the audited configuration takes the file's gains; a bad
+/// file is refused naming the flag, before any audit runs.
+#[test]
+fn the_audit_takes_the_gains_of_the_file() {
+    use clap::Parser;
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        a: hil::audit::AuditArgs,
+    }
+    let (file, p) = params_file("audit.toml", "k_active = 5.0e4\nlead_zero = 30.0\n");
+    let cli = Cli::try_parse_from(["audit", "--params", file.to_str().unwrap()]).unwrap();
+    let c = hil::audit::config_of(&cli.a);
+    assert_eq!(c.gain_k, p.k_active);
+    assert_eq!(c.lead.w1, p.lead_zero);
+    assert_eq!(c, hil::golden::runtime_for(&p).control);
+    assert_eq!(
+        hil::audit::config_of(&hil::audit::AuditArgs::default()),
+        wheelset_control::Config::default()
+    );
+    let bad = tmp("audit_bad.toml");
+    std::fs::write(&bad, "k_active = -1.0\n").unwrap();
+    let out = hil(&["audit", "--params", bad.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("--params") && stderr.contains("k_active"),
+        "{stderr}"
+    );
+}

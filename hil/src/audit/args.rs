@@ -20,6 +20,10 @@ pub struct AuditArgs {
     /// Traction-loop divisor (default: the control core's).
     #[arg(long, value_name = "N")]
     pub traction_divisor: Option<u16>,
+    /// Parameter file (TOML, as `hil run --params`): the audited configuration takes
+    /// its gains and motor constants (`hil::golden::runtime_for`).
+    #[arg(long, value_name = "FILE", value_parser = params_file)]
+    pub params: Option<ParamsFile>,
     /// Write the JSON here.
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
@@ -60,6 +64,7 @@ impl Default for AuditArgs {
             rate: None,
             yaw_divisor: None,
             traction_divisor: None,
+            params: None,
             json: None,
             report: None,
             signal_q: None,
@@ -72,6 +77,21 @@ impl Default for AuditArgs {
             quiet: true,
         }
     }
+}
+
+/// `--params FILE`: the file as given and the parameters it holds.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ParamsFile {
+    /// The file as given.
+    pub path: PathBuf,
+    /// Its parameters (validated against the plausible ranges).
+    pub params: sim_host::params::Params,
+}
+
+fn params_file(s: &str) -> Result<ParamsFile, String> {
+    let path = PathBuf::from(s);
+    let params = sim_host::params::Params::from_file(&path).map_err(|e| e.to_string())?;
+    Ok(ParamsFile { path, params })
 }
 
 /// Why the audit could not run (usage or input errors: exit code 2).
@@ -122,9 +142,12 @@ pub(crate) fn formats_of(args: &AuditArgs) -> Result<Formats, AuditError> {
     Ok(f)
 }
 
-/// The configuration audited: the control core's default with the rate options.
+/// The configuration audited: the control core's default (with the gains and motor
+/// constants of `--params`) with the rate options.
 pub fn config_of(args: &AuditArgs) -> Config {
-    let mut c = Config::default();
+    let mut c = args.params.as_ref().map_or_else(Config::default, |p| {
+        crate::golden::runtime_for(&p.params).control
+    });
     if let Some(r) = args.rate {
         c.base_rate_hz = r;
     }
@@ -150,6 +173,9 @@ pub(crate) fn command_line(a: &AuditArgs) -> String {
     }
     if let Some(d) = a.traction_divisor {
         s += &format!(" --traction-divisor {d}");
+    }
+    if let Some(p) = &a.params {
+        s += &format!(" --params {}", p.path.display());
     }
     if let Some(t) = a.yaw_predict_ticks {
         s += &format!(" --yaw-predict-ticks {t}");
