@@ -143,3 +143,47 @@ fn the_lead_range_bound_is_attained_by_the_worst_case_input() {
         w * p.x
     );
 }
+
+#[test]
+fn the_closed_loop_section_measures_and_attributes_the_straight_track_cycle() {
+    let a = audit::build(&args()).unwrap();
+    let cl = a.closed_loop.as_ref().expect("closed loop ran");
+    let lc = &cl.limit_cycle;
+    // The core adapter with every source is the device: same torque figures.
+    assert!(
+        (lc.core_all_sources.torque_p2p_nm - lc.device.torque_p2p_nm).abs() <= 0.1 + 1e-9,
+        "{:?} vs {:?}",
+        lc.core_all_sources,
+        lc.device
+    );
+    assert_eq!(lc.amplitude, lc.device.torque_p2p_nm);
+    // One attribution per removed source, each the p2p of its run.
+    assert_eq!(lc.attribution.len(), lc.removed.len());
+    for (n, c) in &lc.removed {
+        assert_eq!(lc.attribution[n], c.torque_p2p_nm);
+    }
+    // The classification follows the definition: self-sustained iff above twice the
+    // proven rounding bound (or one wire LSB).
+    let selfs = lc.amplitude > (2.0 * lc.dither_limit_nm).max(0.1);
+    assert_eq!(lc.classification.starts_with("self-sustained"), selfs);
+    if selfs {
+        assert!(lc.freq_hz > 0.0);
+        assert!(lc.reference.torque_p2p_nm < lc.amplitude);
+    }
+    // JSON spelled as the issue.
+    let v = serde_json::to_value(&a).unwrap();
+    let j = &v["closed_loop"];
+    for k in ["amplitude", "unit", "freq_hz", "attribution"] {
+        assert!(j["limit_cycle"].get(k).is_some(), "limit_cycle.{k}");
+    }
+    assert_eq!(j["margins"].as_array().unwrap().len(), 2);
+    for k in [
+        "loop",
+        "gain_db_ideal",
+        "gain_db_quantised",
+        "phase_deg_ideal",
+        "phase_deg_quantised",
+    ] {
+        assert!(j["margins"][0].get(k).is_some(), "margins.{k}");
+    }
+}

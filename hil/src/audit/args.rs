@@ -53,6 +53,9 @@ pub struct AuditArgs {
     /// Skip the closed-loop plant scenarios (curve, beating, fault runs).
     #[arg(long)]
     pub no_plant: bool,
+    /// Skip the closed-loop audit (device in the loop, limit cycle, margins).
+    #[arg(long)]
+    pub no_closed_loop: bool,
     /// Print only the verdict lines.
     #[arg(long)]
     pub quiet: bool,
@@ -72,6 +75,7 @@ impl Default for AuditArgs {
             no_sweep: false,
             no_plant: false,
             no_target: false,
+            no_closed_loop: false,
             target_ticks: 2000,
             yaw_predict_ticks: None,
             quiet: true,
@@ -194,6 +198,9 @@ pub(crate) fn command_line(a: &AuditArgs) -> String {
     }
     if a.no_target {
         s += " --no-target";
+    }
+    if a.no_closed_loop {
+        s += " --no-closed-loop";
     }
     if let Some(p) = &a.json {
         s += &format!(" --json {}", p.display());

@@ -3,6 +3,8 @@
 use wheelset_control::Config;
 
 use super::bounds::Proofs;
+use super::closed::LimitCycleReport;
+use super::margins::Margin;
 use super::model::ControllerAudit;
 use super::ranges::{self, Observed};
 use super::verdict::{judge, Check, Status, Tolerances};
@@ -280,6 +282,59 @@ pub fn proof_checks(p: &Proofs, tol: &Tolerances) -> Vec<Check> {
             "wire LSB",
             "proven worst-case error",
         ));
+    }
+    v
+}
+
+/// Judge the closed loop: the straight-track limit cycle's amplitude in wire LSBs of the
+/// torque (against the limit-cycle tolerance: a self-sustained cycle of several LSB is a
+/// warning, a dither within the proven rounding bound passes) and the margins' loss by
+/// quantisation (informational: the change in dB / degrees, judged against the
+/// discretisation tolerances).
+pub fn closed_loop_checks(lc: &LimitCycleReport, m: &[Margin], cfg: &Config) -> Vec<Check> {
+    let mut v = Vec::new();
+    let lsb = cfg.wire.torque;
+    let mut c = judge(
+        "yaw_lead",
+        "closed-loop limit cycle on straight track (device in the loop, curve 17-20 s)",
+        lc.amplitude / lsb,
+        // A self-sustained cycle (above twice the proven rounding bound or one wire
+        // LSB, the dither limit of `closed`) warns; the loop stays bounded, so no fail.
+        ((2.0 * lc.dither_limit_nm).max(lsb) / lsb, f64::INFINITY),
+        "wire LSB peak to peak",
+        "torque peak to peak",
+    );
+    c.reason = format!(
+        "{}; attribution (p2p with the source removed): {}",
+        lc.classification,
+        lc.attribution
+            .iter()
+            .map(|(k, a)| format!("{k} {a:.2} N m"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    v.push(c);
+    for x in m {
+        if let (Some(a), Some(b)) = (x.phase_deg_ideal, x.phase_deg_quantised) {
+            v.push(judge(
+                &x.loop_name,
+                "phase margin change by quantisation",
+                b - a,
+                (0.1, 1.0),
+                "deg",
+                "phase margin change",
+            ));
+        }
+        if let (Some(a), Some(b)) = (x.gain_db_ideal, x.gain_db_quantised) {
+            v.push(judge(
+                &x.loop_name,
+                "gain margin change by quantisation",
+                b - a,
+                (0.01, 0.1),
+                "dB",
+                "gain margin change",
+            ));
+        }
     }
     v
 }

@@ -35,9 +35,11 @@
 pub mod args;
 pub mod bounds;
 pub mod checks;
+pub mod closed;
 pub mod controller;
 pub mod formats;
 pub mod limits;
+pub mod margins;
 pub mod model;
 pub mod plant;
 pub mod plots;
@@ -211,6 +213,30 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
         })?
     };
     checks.extend(checks::proof_checks(&proofs, &tol));
+    let closed_loop = if args.no_plant || args.no_closed_loop {
+        scenario_notes
+            .push("closed-loop audit skipped (--no-plant or --no-closed-loop)".to_string());
+        None
+    } else {
+        let lead_err = proofs.error_bounds.first().map(|e| e.proven).unwrap_or(0.0);
+        let k = bounds::Quantised::of::<Fx>(&cfg)?;
+        match (closed::limit_cycle(lead_err), margins::margins(&cfg, &k)) {
+            (Ok(lc), Ok(m)) => {
+                checks.extend(checks::closed_loop_checks(&lc, &m, &cfg));
+                Some(closed::ClosedLoopAudit {
+                    limit_cycle: lc,
+                    margins: m,
+                    note: "the fixed-point runtime in the loop with the plant through the \
+                           wire (curve, lead), against the continuous f64 reference"
+                        .into(),
+                })
+            }
+            (Err(e), _) | (_, Err(e)) => {
+                scenario_notes.push(format!("closed-loop audit not run: {e}"));
+                None
+            }
+        }
+    };
     let recommendations = formats::recommend(&c.observed, &proofs);
     let target = if args.no_target {
         target::TargetReport {
@@ -291,6 +317,7 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
         proof_statement: proofs.statement,
         overflow_free: proofs.overflow_free,
         recommendations,
+        closed_loop,
         sweep,
         target,
         checks,

@@ -224,6 +224,8 @@ pub struct Audit {
     pub overflow_free: bool,
     /// Recommended formats, from the proven bounds.
     pub recommendations: Vec<Recommendation>,
+    /// The closed-loop audit (`null` with `--no-plant` / `--no-closed-loop`).
+    pub closed_loop: Option<super::closed::ClosedLoopAudit>,
     /// The signal fraction bits found by the bisection (smallest passing) and the
     /// coefficient fraction bits needed, if the sweep ran.
     pub sweep: Option<Sweep>,

@@ -9,7 +9,7 @@
 //! sees the resulting actuation (closed loop), so the recorded inputs include the
 //! wheelset's response to the safe state.
 
-use sim_host::control::{Actuation, Measurements, SampledController};
+use sim_host::control::{Actuation, Measurements, SampledController, YawLaw};
 use sim_host::params::Params;
 use sim_host::scenario::Scenario as Track;
 use sim_host::sim::{run_sampled, ActuatorModel, SensorModel};
@@ -109,6 +109,17 @@ fn gcd(a: u64, b: u64) -> u64 {
 /// Run one closed loop; `Err` says why it could not run.
 fn record(cfg: &Config, track: &str, faults: Faults, name: &str) -> Result<Scenario, String> {
     let mut sc = Track::load(track, &Params::default()).map_err(|e| e.to_string())?;
+    let unstable = (!sc.laws.is_empty() && !sc.laws.contains(&YawLaw::Lead)).then(|| {
+        format!(
+            "track `{track}` is meant for the {} law(s), not the lead under audit (the lead \
+             destabilises it)",
+            sc.laws
+                .iter()
+                .map(|l| l.name())
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    });
     let period_ns = 1_000_000_000u64 / cfg.base_rate_hz as u64;
     if period_ns * cfg.base_rate_hz as u64 != 1_000_000_000 {
         return Err(format!(
@@ -171,6 +182,7 @@ fn record(cfg: &Config, track: &str, faults: Faults, name: &str) -> Result<Scena
         ),
     };
     Ok(Scenario {
+        unstable,
         name: name.to_string(),
         source: format!(
             "closed loop: sim-host plant, track `{track}`, f64 controller (yaw lead, \
@@ -202,7 +214,15 @@ pub fn scenarios(cfg: &Config) -> (Vec<Scenario>, Vec<String>) {
     let mut notes = Vec::new();
     for (track, f, name) in runs {
         match record(&cfg, track, f, name) {
-            Ok(s) => out.push(s),
+            Ok(s) => {
+                if let Some(why) = &s.unstable {
+                    notes.push(format!(
+                        "scenario {name}: unstable with the lead ({why}); left out of the \
+                         ranges, kept for the noise figures"
+                    ));
+                }
+                out.push(s)
+            }
             Err(e) => notes.push(format!("scenario {name}: not run: {e}")),
         }
     }

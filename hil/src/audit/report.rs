@@ -506,6 +506,82 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
         t.row([l.part.clone(), l.path.clone(), v, k, tb, l.note.clone()]);
     }
     let _ = write!(w, "{t}");
+    if let Some(cl) = &a.closed_loop {
+        let lc = &cl.limit_cycle;
+        let _ = writeln!(w, "\n## Closed loop (device in the loop)\n");
+        let _ = writeln!(
+            w,
+            "{}: {}.\n\nStraight track `curve` {:.0}-{:.0} s: torque {:.3} N m peak to peak \
+             (RMS {:.3} N m) at {:.2} Hz, `y` {:.1} nm peak to peak. Attribution: the core \
+             in the loop with every source reproduces the device ({:.3} N m p2p), then one \
+             source removed at a time:\n",
+            cl.note,
+            lc.classification,
+            lc.window_s.0,
+            lc.window_s.1,
+            lc.device.torque_p2p_nm,
+            lc.device.torque_rms_nm,
+            lc.device.freq_hz,
+            lc.device.y_p2p_m * 1e9,
+            lc.core_all_sources.torque_p2p_nm
+        );
+        let mut t = Table::new([
+            "run",
+            "torque p2p (N m)",
+            "torque RMS (N m)",
+            "frequency (Hz)",
+            "y p2p (nm)",
+        ]);
+        let mut rows = vec![
+            (
+                "device (Runtime<Fx>, in-process link)".to_string(),
+                &lc.device,
+            ),
+            ("continuous f64 reference".to_string(), &lc.reference),
+            (
+                "core in the loop, every source".to_string(),
+                &lc.core_all_sources,
+            ),
+        ];
+        for (n, c) in &lc.removed {
+            rows.push((format!("without {n}"), c));
+        }
+        for (n, c) in rows {
+            t.row([
+                n,
+                format!("{:.4}", c.torque_p2p_nm),
+                format!("{:.4}", c.torque_rms_nm),
+                format!("{:.2}", c.freq_hz),
+                format!("{:.2}", c.y_p2p_m * 1e9),
+            ]);
+        }
+        let _ = write!(w, "{t}");
+        let _ = writeln!(
+            w,
+            "\nMargins (plant linearised on straight track, one period of delay; see \
+             `hil::audit::margins`):\n"
+        );
+        let mut t = Table::new([
+            "loop",
+            "gain margin ideal (dB)",
+            "gain margin quantised (dB)",
+            "phase margin ideal (deg)",
+            "phase margin quantised (deg)",
+            "phase / gain crossover (Hz)",
+        ]);
+        let o = |v: Option<f64>| v.map(|x| format!("{x:.6}")).unwrap_or_else(|| "-".into());
+        for m in &cl.margins {
+            t.row([
+                m.loop_name.clone(),
+                o(m.gain_db_ideal),
+                o(m.gain_db_quantised),
+                o(m.phase_deg_ideal),
+                o(m.phase_deg_quantised),
+                format!("{} / {}", o(m.phase_crossover_hz), o(m.gain_crossover_hz)),
+            ]);
+        }
+        let _ = write!(w, "{t}");
+    }
     let _ = writeln!(w, "\n## Recommended formats\n");
     let _ = writeln!(
         w,
