@@ -756,6 +756,15 @@ fn cmd_serve(a: &ServeArgs) -> Result<Verdict, Failure> {
     Ok(Verdict::Pass)
 }
 
+/// What a timing check's value is a fraction of (`hil::timing`'s checks).
+fn check_unit(name: &str) -> &'static str {
+    match name {
+        "missed_frac" | "overrun_frac" => "of the periods",
+        "link" => "of the link's capacity",
+        _ => "of T",
+    }
+}
+
 fn print_summary(r: &hil::run::RunReport) {
     let t = &r.timing;
     say!(
@@ -786,9 +795,10 @@ fn print_summary(r: &hil::run::RunReport) {
     );
     for c in t.checks.iter().filter(|c| c.verdict != Verdict::Pass) {
         say!(
-            "  timing.{}: {:.4} of T > {} {} (warn {}, fail {})",
+            "  timing.{}: {:.4} {} > {} {} (warn {}, fail {})",
             c.name,
             c.value,
+            check_unit(&c.name),
             c.verdict,
             if c.verdict == Verdict::Fail {
                 c.limit.fail
@@ -836,6 +846,16 @@ fn print_summary(r: &hil::run::RunReport) {
             String::new()
         }
     );
+    for (name, d) in [("host -> device", &f.up), ("device -> host", &f.down)] {
+        say!(
+            "  {name}: sent {} = received {} + rejected {} + dropped {} + in flight {}",
+            d.sent,
+            d.received,
+            d.rejected,
+            d.dropped,
+            d.in_flight
+        );
+    }
     if let Some(h) = r.transport.as_ref().and_then(|t| t.get("host")) {
         say!(
             "host (real time): missed {} of {} deadlines ({} late sends, {} late receives), \

@@ -112,11 +112,22 @@ pub fn write_report(out: &RunOutcome, dir: &Path, command: &str) -> io::Result<V
         "Execution time per tick ({}; {} ns per {})",
         r.target, r.timing.exec_ns_per_unit, r.timing.exec_unit
     ))
-    .panel(
+    .panel(if r.timing.exec_ns.max > 0.0 {
         Plot::histogram("Execution time", &edges_us, &counts)
             .x_label("exec (us)")
-            .y_label("ticks"),
-    )
+            .y_label("ticks")
+    } else {
+        // The in-process device's execution time is simulated as 0 ns (the host's own
+        // time per tick is `transport.host_tick_ns`): one bar at 0 would read as a
+        // measurement.
+        Plot::new("Execution time")
+            .x_label("exec (us)")
+            .y_label("ticks")
+            .note(&format!(
+                "not measured: the {} device reports no execution time (every tick 0 ns)",
+                r.target
+            ))
+    })
     .save(&p)?;
     files.push(p);
 

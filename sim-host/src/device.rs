@@ -132,8 +132,11 @@ impl fmt::Display for LinkReport {
         writeln!(f, "device -> host: {}", self.down)?;
         writeln!(
             f,
-            "safe state: {} periods, entered {} x, left {} x (seen in the actuation flags); \
-             mean bytes per period: {:.1} up, {:.1} down; host-side clamps: {}",
+            "safe state as the host saw it (the SAFE flag of the actuation in force each \
+             period): {} periods, entered {} x, left {} x (a safe state that ends before the \
+             link recovers, as in an outage of both directions, is not seen here: the device's \
+             own count is its status below); mean bytes per period: {:.1} up, {:.1} down; \
+             host-side clamps: {}",
             self.safe_periods,
             self.safe_entries_seen,
             self.safe_exits_seen,

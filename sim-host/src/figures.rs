@@ -17,16 +17,34 @@ fn label(tr: &Trajectory) -> String {
 /// Writes the time-history figures of `runs` (first = main run, others overlaid for
 /// comparison) into `dir`; returns the files written.
 ///
-/// - `lateral.svg` (Fig. 6): `y` in mm against the pure rolling line `y0`.
-/// - `torque.svg` (Fig. 7): yaw torque (control torque or passive spring torque).
-/// - `creep.svg` (Fig. 8): longitudinal and lateral creep forces.
-/// - `traction.svg`: current and reference, voltage, speed, gear wind-up (Fig. 9's
-///   beating shows in the wind-up and in `y`).
+/// - `lateral.svg` (Fig. 6 for `curve`, Fig. 9 for `beating`): `y` in mm against the
+///   pure rolling line `y0`.
+/// - `torque.svg` (Fig. 7 for `curve`): yaw torque (control torque or passive spring
+///   torque).
+/// - `creep.svg` (Fig. 8 for `curve`): longitudinal and lateral creep forces.
+/// - `traction.svg`: current and reference, voltage, speed, gear wind-up (Fig. 9 for
+///   `beating`: the beating shows in the wind-up and in `y`).
+///
+/// Titles name the paper's figure only for the scenario that reproduces it.
 pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<Vec<PathBuf>> {
     let Some(main) = runs.first() else {
         return Ok(vec![]);
     };
     let title = format!("scenario {}", main.info.scenario);
+    // The paper's figure each plot reproduces: `curve` is Figs. 6-8, `beating` Fig. 9;
+    // other scenarios are no figure of the paper.
+    let fig = |curve: &str, beating: &str| -> String {
+        let n = match main.info.scenario.as_str() {
+            "curve" => curve,
+            "beating" => beating,
+            _ => "",
+        };
+        if n.is_empty() {
+            String::new()
+        } else {
+            format!(" (Fig. {n})")
+        }
+    };
     let mut files = Vec::new();
     let mut save = |name: &str, fig: Figure| -> std::io::Result<()> {
         let p = dir.join(name);
@@ -36,7 +54,7 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
     };
 
     // Fig. 6
-    let mut p = Plot::new("Lateral displacement (Fig. 6)")
+    let mut p = Plot::new(&format!("Lateral displacement{}", fig("6", "9")))
         .x_label("t (s)")
         .y_label("y (mm)");
     for tr in runs {
@@ -78,16 +96,19 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
     )?;
 
     // Fig. 7
-    let mut p = Plot::new("Yaw torque: control (active) / suspension (passive) (Fig. 7)")
-        .x_label("t (s)")
-        .y_label("T_psi (N m)");
+    let mut p = Plot::new(&format!(
+        "Yaw torque: control (active) / suspension (passive){}",
+        fig("7", "")
+    ))
+    .x_label("t (s)")
+    .y_label("T_psi (N m)");
     for tr in runs {
         p = p.series(series(tr, &format!("T_psi, {}", label(tr)), |r| r.t_psi_nm));
     }
     save("torque.svg", Figure::new(&title).panel(p))?;
 
     // Fig. 8
-    let mut fx = Plot::new("Longitudinal creep forces (Fig. 8)")
+    let mut fx = Plot::new(&format!("Longitudinal creep forces{}", fig("8", "")))
         .x_label("t (s)")
         .y_label("F_x (kN)");
     let mut fy = Plot::new("Lateral creep force per wheel")
@@ -117,13 +138,16 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
         .x_label("t (s)")
         .y_label("u_a (V)")
         .series(series(main, "u_a", |r| r.u_a_v));
-    let wind = Plot::new("Gear wind-up and axle twist (Fig. 9: beating)")
-        .x_label("t (s)")
-        .y_label("angle (mrad)")
-        .series(series(main, "wind-up phi_L - theta_m/n", |r| {
-            r.wind_rad * 1e3
-        }))
-        .series(series(main, "twist phi_R - phi_L", |r| r.twist_rad * 1e3));
+    let wind = Plot::new(&format!(
+        "Gear wind-up and axle twist{}",
+        fig("", "9: beating")
+    ))
+    .x_label("t (s)")
+    .y_label("angle (mrad)")
+    .series(series(main, "wind-up phi_L - theta_m/n", |r| {
+        r.wind_rad * 1e3
+    }))
+    .series(series(main, "twist phi_R - phi_L", |r| r.twist_rad * 1e3));
     let v = Plot::new("Forward speed")
         .x_label("t (s)")
         .y_label("v (m/s)")
@@ -165,13 +189,26 @@ pub fn write_root_locus(sw: &CaseSweep, dir: &Path) -> std::io::Result<std::path
         .map(|l| l.re)
         .fold(0.0f64, f64::max)
         .max(-0.05 * re_lo);
-    let mut locus = Plot::new("Root locus over f11 = f22 = 1-10 MN (crosses: 10 MN)")
-        .x_label("Re (1/s)")
-        .y_label("Im (rad/s)")
-        .x_range(1.05 * re_lo, 1.05 * re_hi)
-        .y_range(-1.05 * im_hi, 1.05 * im_hi)
-        .size(900.0, 560.0)
-        .vline(0.0);
+    // The subtitle states where the stability changes (the bisected crossings), so the
+    // 10 MN end's markers are not read as a crossing there.
+    let crossings = if sw.crossings.is_empty() {
+        "no stability change in 1-10 MN".to_string()
+    } else {
+        sw.crossings
+            .iter()
+            .map(|c| format!("{} crosses at {:.2} MN", c.mode, c.creep_n * 1e-6))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let mut locus = Plot::new(&format!(
+        "Root locus over f11 = f22 = 1-10 MN ({crossings}; x markers: the 10 MN end)"
+    ))
+    .x_label("Re (1/s)")
+    .y_label("Im (rad/s)")
+    .x_range(1.05 * re_lo, 1.05 * re_hi)
+    .y_range(-1.05 * im_hi, 1.05 * im_hi)
+    .size(900.0, 560.0)
+    .vline(0.0);
     let mut freq = Plot::new("Damped frequency of each mode")
         .size(900.0, 360.0)
         .x_label("creep coefficient f11 = f22 (MN)")

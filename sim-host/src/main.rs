@@ -201,6 +201,10 @@ struct RunArgs {
     /// Also run these modes and overlay them on the plots (e.g. `--compare passive`).
     #[arg(long, value_enum)]
     compare: Vec<Control>,
+    /// Print the state of every run (this one and the `--compare` ones) at this time, s
+    /// (repeatable; the nearest output sample), and each run's peaks.
+    #[arg(long = "at", value_name = "T_S", allow_negative_numbers = true)]
+    at: Vec<f64>,
     #[command(flatten)]
     device: DeviceArgs,
 }
@@ -353,6 +357,22 @@ fn cmd_run(a: &RunArgs) -> Result<(), Failure> {
     }
     let base = load_params(&a.params)?;
     let sc = Scenario::load(&a.scenario, &base)?;
+    let end_s = sc.duration_ns as f64 * 1e-9;
+    if let Some(t) =
+        a.at.iter()
+            .find(|t| !(t.is_finite() && (0.0..=end_s).contains(*t)))
+    {
+        return Err(Failure {
+            code: 2,
+            msg: format!("--at {t}: must be a time within the run, 0-{end_s} s"),
+        });
+    }
+    if !a.at.is_empty() && a.device.loop_kind != LoopKind::Continuous {
+        return Err(Failure {
+            code: 2,
+            msg: "--at: only for the continuous loop (the default --loop)".into(),
+        });
+    }
     // Every trajectory kept at once: this one, the compared ones, and on the device loop
     // the continuous reference (the device's own records are checked with its rate).
     let kept = 1
@@ -384,6 +404,8 @@ fn cmd_run(a: &RunArgs) -> Result<(), Failure> {
     }
     let main = &runs[0];
     print_summary(&sc, main);
+    print_modes(&sc, a.control);
+    print_at(&runs, &a.at);
     write_run_summary(&a.json, &sc, main, None)?;
     if let Some(path) = &a.csv {
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
@@ -402,6 +424,99 @@ fn cmd_run(a: &RunArgs) -> Result<(), Failure> {
         }
     }
     Ok(())
+}
+
+/// Prints the linearised modes of the scenario's plant with `law` at its operating point
+/// (pure rolling, straight track, the scenario's creep coefficients), least damped first.
+fn print_modes(sc: &Scenario, law: Control) {
+    let Some(modes) = sim_host::modes::modes_at_point(&sc.params, sc.axle, sc.drive, law.into())
+    else {
+        return;
+    };
+    println!(
+        "modes of this plant and law at pure rolling on straight track, f11 {:.1} MN, f22 {:.1} MN (least damped first; structural zero left out):",
+        sc.params.f11 * 1e-6,
+        sc.params.f22 * 1e-6
+    );
+    for m in modes {
+        let shares: Vec<String> = sim_host::modes::GROUPS
+            .iter()
+            .zip(m.participation)
+            .filter(|(_, x)| *x >= 0.05)
+            .map(|(g, x)| format!("{g} {x:.2}"))
+            .collect();
+        println!(
+            "  {:<16} {:>7.2} Hz  zeta {:+.3}  lambda {:+.2} {:+.2}j 1/s; participation: {}",
+            m.mode.name,
+            m.mode.freq_hz,
+            m.mode.zeta,
+            m.mode.re,
+            m.mode.im,
+            shares.join(", ")
+        );
+    }
+}
+
+/// `--at`: the state of every run at each time (nearest output sample), then each
+/// run's peaks. `y/y0` is the displacement over the pure rolling line (1 = on it).
+fn print_at(runs: &[Trajectory], at: &[f64]) {
+    if at.is_empty() {
+        return;
+    }
+    println!(
+        "{:>6} {:<8} {:>9} {:>9} {:>7} {:>9} {:>11} {:>8} {:>8} {:>8}",
+        "t_s",
+        "control",
+        "y_mm",
+        "y0_mm",
+        "y/y0",
+        "T_psi_Nm",
+        "T_spring_Nm",
+        "Fx_R_N",
+        "Fx_L_N",
+        "Fy_N"
+    );
+    for &t in at {
+        for tr in runs {
+            let Some(r) = tr
+                .records
+                .iter()
+                .min_by(|a, b| (a.t_s - t).abs().total_cmp(&(b.t_s - t).abs()))
+            else {
+                continue;
+            };
+            println!(
+                "{:>6.3} {:<8} {:>9.4} {:>9.4} {:>7.3} {:>9.1} {:>11.1} {:>8.1} {:>8.1} {:>8.1}",
+                r.t_s,
+                tr.info.control,
+                r.y_m * 1e3,
+                r.y0_m * 1e3,
+                if r.y0_m != 0.0 {
+                    r.y_m / r.y0_m
+                } else {
+                    f64::NAN
+                },
+                r.t_psi_nm,
+                r.t_spring_nm,
+                r.fx_r_n,
+                r.fx_l_n,
+                r.fy_n
+            );
+        }
+    }
+    for tr in runs {
+        let peak = |f: &dyn Fn(&sim_host::sim::Record) -> f64| {
+            tr.records.iter().map(f).fold(0.0f64, |a, b| a.max(b.abs()))
+        };
+        println!(
+            "peaks, {}: |y| {:.4} mm, |T_psi| {:.1} N m, |F_x| {:.1} N, |F_y| {:.1} N",
+            tr.info.control,
+            peak(&|r| r.y_m) * 1e3,
+            peak(&|r| r.t_psi_nm),
+            peak(&|r| r.fx_r_n.abs().max(r.fx_l_n.abs())),
+            peak(&|r| r.fy_n)
+        );
+    }
 }
 
 fn progress(total: u64, msg: &str) -> indicatif::ProgressBar {

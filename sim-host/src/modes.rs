@@ -453,6 +453,62 @@ pub fn name_modes(
     names
 }
 
+/// Names of the state groups of [`ModeAtPoint::participation`], in order.
+pub const GROUPS: [&str; 5] = ["lateral/yaw", "wheels", "gear/motor", "armature/PI", "lead"];
+
+/// One mode of [`modes_at_point`]: its value and how much each state group takes part.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModeAtPoint {
+    /// Name, eigenvalue, frequency, damping.
+    pub mode: ModeValue,
+    /// Participation of each group of [`GROUPS`]: the sum over the group's states of
+    /// `|w_k v_k|` (left and right eigenvectors), normalised to sum to 1. A mode with
+    /// two large shares is a coupled one (e.g. `beating`'s 8.1 Hz mode: lateral/yaw and
+    /// gear/motor).
+    pub participation: [f64; 5],
+}
+
+/// The named modes of one closed loop at its operating point (pure rolling on straight
+/// track, the creep coefficients of `p`): the plant `axle`/`drive` with the yaw `law`, the
+/// structural zero left out, one entry per complex pair (positive imaginary part) and
+/// per real eigenvalue, least damped first. Each is `lambda = re + j im`, `freq_hz =
+/// im / 2 pi`, `zeta = -re / |lambda|`. What `sim-host run` prints for a scenario's plant
+/// (e.g. `beating`: the gear mode next to the kinematic mode, Fig. 9). `None` if the
+/// eigenvalues are not computable (a non-finite matrix).
+pub fn modes_at_point(
+    p: &Params,
+    axle: Axle,
+    drive: bool,
+    law: YawLaw,
+) -> Option<Vec<ModeAtPoint>> {
+    let (a, states) = closed_loop_a(p, axle, drive, law);
+    let eig = eigenvalues(&a)?;
+    let names = name_modes(&a, &states, &eig, 2.0 * PI * p.kinematic_hz());
+    let mut out: Vec<ModeAtPoint> = eig
+        .iter()
+        .zip(&names)
+        .filter(|(l, n)| *n != STRUCTURAL_ZERO && l.im >= 0.0)
+        .map(|(&l, n)| {
+            let v = eigvec(&a, l, false);
+            let w = eigvec(&a, l, true);
+            let mut share = [0.0f64; 5];
+            for (k, &s) in states.iter().enumerate() {
+                share[group(s)] += (w[k] * v[k]).norm();
+            }
+            let sum: f64 = share.iter().sum();
+            if sum > 0.0 {
+                share.iter_mut().for_each(|x| *x /= sum);
+            }
+            ModeAtPoint {
+                mode: ModeValue::new(n, l),
+                participation: share,
+            }
+        })
+        .collect();
+    out.sort_by(|x, y| x.mode.zeta.total_cmp(&y.mode.zeta));
+    Some(out)
+}
+
 impl CaseSweep {
     /// Unique mode names in order of first appearance (structural zero excluded).
     pub fn mode_names(&self) -> Vec<String> {

@@ -101,6 +101,9 @@ pub struct Plot {
     pub vlines: Vec<f64>,
     /// Horizontal reference lines at these y.
     pub hlines: Vec<f64>,
+    /// A note written across the middle of the plotting area (e.g. "not measured" for
+    /// a panel without data to show; empty = none).
+    pub note: String,
 }
 
 impl Plot {
@@ -118,7 +121,13 @@ impl Plot {
             height: 360.0,
             vlines: Vec::new(),
             hlines: Vec::new(),
+            note: String::new(),
         }
+    }
+    /// Sets the note written across the plotting area.
+    pub fn note(mut self, s: &str) -> Self {
+        self.note = s.to_string();
+        self
     }
     /// Sets the x label.
     pub fn x_label(mut self, s: &str) -> Self {
@@ -451,6 +460,15 @@ impl Plot {
                     esc(&s.label)
                 );
             }
+        }
+        if !self.note.is_empty() {
+            let _ = writeln!(
+                o,
+                r##"<text x="{:.1}" y="{:.1}" text-anchor="middle" font-size="14" fill="#555">{}</text>"##,
+                ml + pw / 2.0,
+                mt + ph / 2.0,
+                esc(&self.note)
+            );
         }
         o.push_str("</g>\n");
         o
