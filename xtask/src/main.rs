@@ -26,10 +26,16 @@
 //!   prints the QEMU command line of every project run (the harness's,
 //!   `hil/src/qemu_cmd.rs`) for `ELF`, UART0 to null or to a TCP server, with the extra
 //!   arguments appended (`scripts/tick-profile.py --record` runs it).
+//! - `cargo xtask readme [--check] [--dev]`: reruns the commands of the README's
+//!   generated blocks and rewrites them; `--check` fails naming the drifted ones;
+//!   `cargo xtask readme --commands [--long]` runs the README's board-free commands
+//!   against their stated exit codes ([`readme`]; `cargo xtest` runs the check and the
+//!   short commands after the tests).
 
 mod bench;
 mod elf;
 mod fuzz;
+mod readme;
 
 /// The QEMU command line, defined once in the harness (`hil/src/qemu_cmd.rs`, no
 /// dependencies): compiled in here so xtask needs no crate of the workspace.
@@ -406,7 +412,24 @@ fn test(extra: &[String]) -> Result<(), String> {
     if let Some(qemu_elf) = elfs.iter().find(|p| p.ends_with("wheelset-qemu.elf")) {
         cmd.env("WHEELSET_QEMU_ELF", qemu_elf);
     }
-    run(&mut cmd)
+    run(&mut cmd)?;
+    // The README: its generated figures against their commands, then its short
+    // board-free commands against their stated exit codes (`cargo xtask readme`).
+    if !readme::run(true, false)? {
+        return Err(
+            "README.md: generated blocks drifted (`cargo xtask readme` rewrites them)".into(),
+        );
+    }
+    let failed = readme::run_commands(false)?;
+    if failed.is_empty() {
+        Ok(())
+    } else {
+        Err(format!(
+            "README.md: {} command(s) failed:\n{}",
+            failed.len(),
+            failed.join("\n")
+        ))
+    }
 }
 
 /// `cargo xtask qemu-cmd [ELF] [--machine M --cpu C] [--tcp PORT] [-- EXTRA...]`: prints
@@ -468,6 +491,7 @@ fn main() -> ExitCode {
             }
         },
         Some("fuzz") => return fuzz::main(&args[1..]),
+        Some("readme") => return readme::main(&args[1..]),
         Some("qemu-cmd") => {
             if let Err(e) = qemu_cmd_line(&args[1..]) {
                 eprintln!("xtask: {e}");
@@ -479,7 +503,7 @@ fn main() -> ExitCode {
             eprintln!(
                 "usage: cargo xtask <test [cargo test args]|fw [--f32]|fw-bench [--json FILE]|\
                  fuzz --frames N [--seed S]|qemu-cmd [ELF] [--machine M --cpu C] [--tcp PORT] \
-                 [-- QEMU ARGS]>"
+                 [-- QEMU ARGS]|readme [--check] [--dev] | --commands [--long]>"
             );
             return ExitCode::from(2);
         }
