@@ -252,6 +252,19 @@ pub struct Controller<T: Sample> {
     wsp_on: bool,
     wsp: WspState<T>,
     wsp_acting: bool,
+    /// The next tick may try the fast path (normal running: see [`Self::tick`]).
+    fast: bool,
+    /// The fast path is turned off ([`Self::set_fast_path`]).
+    fast_off: bool,
+    /// The configuration meets the fast path's preconditions (checked in [`Self::new`]).
+    fast_ok: bool,
+    /// `g_half` and `Kp` in [`Sample::pre_coeff`] form (the fast path's products).
+    g_half_pre: T::Coeff,
+    kp_pre: T::Coeff,
+    /// The reference ramp has settled on the demand `settled_demand`: `iref` equals its
+    /// target, so a tick with the same demand leaves `iref` as it is.
+    ramp_settled: bool,
+    settled_demand: T,
 }
 
 /// The project's production controller: Q4.28 signals, Q1.31 coefficients.
@@ -273,7 +286,18 @@ impl<T: Sample> Controller<T> {
     /// preset*: the first traction step presets it to the back-EMF `K_m omega_m` of the
     /// measured speed (bumpless start), unless [`Self::preset_back_emf`] ran before.
     pub fn new(law: &Compiled<T>) -> Self {
-        Self {
+        // The fast path's preconditions (see `fast_tick`): the products it computes in
+        // their short forms are exact for every state the loops can reach.
+        let g_half_pre = T::pre_coeff(law.lead.g_half);
+        let kp_pre = T::pre_coeff(law.pi.kp);
+        let fast_ok = g_half_pre.is_some()
+            && kp_pre.is_some()
+            && law.y_dot_max < T::two_pu()
+            && law.y_dot_pred_max <= T::two_pu()
+            && law.demand_max <= T::two_pu()
+            && law.yaw_divisor == 1
+            && law.traction_divisor == 1;
+        let mut c = Self {
             law: *law,
             mode: law.yaw_mode,
             traction: law.traction_enabled,
@@ -292,34 +316,214 @@ impl<T: Sample> Controller<T> {
             wsp_on: law.wsp.enabled,
             wsp: WspState::default(),
             wsp_acting: false,
-        }
+            fast: false,
+            fast_off: false,
+            fast_ok,
+            g_half_pre: g_half_pre.unwrap_or(law.lead.g_half),
+            kp_pre: kp_pre.unwrap_or(law.pi.kp),
+            ramp_settled: false,
+            settled_demand: T::ZERO,
+        };
+        c.refresh();
+        c
+    }
+
+    /// Recomputes whether the fast path applies: normal running (lead mode, traction on
+    /// with its integrator preset, no safe state, no law change being slewed, the torque
+    /// limit at its maximum, no wheel-slip protection) on a configuration that meets its
+    /// preconditions. Called after every change of those states.
+    #[inline(always)]
+    fn refresh(&mut self) {
+        self.fast = self.fast_ok
+            && !self.fast_off
+            && !self.safe
+            && !self.slewing
+            && self.mode == YawMode::Lead
+            && self.traction
+            && self.armed
+            && !self.wsp_on
+            && self.torque_lim == self.law.torque_max;
     }
 
     /// One base-rate tick: sanitise and clamp the inputs (counted), run the yaw loop
     /// every `yaw_divisor` ticks and the traction loop every `traction_divisor` ticks
     /// (both on tick 0), hold the other outputs. Never fails, never panics.
+    ///
+    /// Two paths, one result (bit for bit, tested against each other):
+    /// - the **fast path**, in normal running (see `refresh`): the lead, the predictor,
+    ///   the reference and the PI computed straight through, the torque limit applied
+    ///   (and counted) as there, every other clamp replaced by a check that it would
+    ///   not engage; the reference ramp skipped while it has settled on an unchanged
+    ///   demand. If one of those clamps would engage (or an input is NaN) it returns
+    ///   without touching the state and the tick runs the general path;
+    /// - the **general path**: every clamp, ramp, slew and safe-state rule, the events
+    ///   counted.
     #[inline]
     pub fn tick(&mut self, inp: &Inputs<T>) -> Outputs<T> {
+        T::controller_tick(self, inp)
+    }
+
+    /// [`Self::tick`]'s body (called through [`Sample::controller_tick`]).
+    #[inline(always)]
+    pub(crate) fn tick_impl(&mut self, inp: &Inputs<T>) -> Outputs<T> {
+        if !self.fast {
+            return self.general_tick(inp);
+        }
+        // Normal running: both loops every tick (`fast_ok`), each on its fast path or,
+        // if that declines, on its general step; neither changes a state `refresh`
+        // reads in normal running, so `fast` stays as it is.
+        let k = &mut self.counters;
+        k.ticks = k.ticks.wrapping_add(1);
+        k.yaw_steps = k.yaw_steps.wrapping_add(1);
+        k.traction_steps = k.traction_steps.wrapping_add(1);
+        let mut ev = 0u32;
+        if !self.fast_yaw(inp.y_dot) {
+            ev = self.yaw_general(inp.y_dot);
+        }
+        if !self.fast_traction(inp) {
+            ev |= self.traction_general(inp);
+        }
+        if ev != 0 {
+            self.counters.record(ev);
+        }
+        self.out
+    }
+
+    /// The yaw loop's fast path (`yaw_step` in normal running): `false`, with nothing
+    /// changed, if the `y'` or the predictor clamp would engage. Exact: no clamp but the
+    /// torque limit engages, so each other `limit` is the identity; the short products
+    /// are exact by [`Self::new`]'s preconditions and the ranges they imply (`|y'| < 2`
+    /// so `|y'[n] - y'[n-1]| < 4`; the lead's `x, x[n-1]` within 2 pu and
+    /// `|g/2| <= 0.5 - 2^-30` keep `(g/2)(x + x[n-1])`, hence `z` (a convex update of
+    /// it, rounded), below 2 pu, so `|e| < 4` and `|x - z| < 4`).
+    #[inline(always)]
+    fn fast_yaw(&mut self, y: T) -> bool {
+        let law = &self.law;
+        if !y.abs_within(law.y_dot_max) {
+            return false;
+        }
+        // Predictor and lead (`Lead::process`), as in `yaw_step`.
+        let d = y.sat_sub(self.last_y_dot).mul_c_small(law.predict_half);
+        let x = y.sat_add(d).sat_add(d);
+        if !x.abs_within(law.y_dot_pred_max) {
+            return false;
+        }
+        let LeadState { x1, z } = self.lead_state;
+        let e = x.sat_add(x1).mul_pre(self.g_half_pre).sat_sub(z);
+        let z = z.sat_add(e.mul_c_small(law.lead.kappa));
+        let t = x.sat_sub(z).mul_c_small(law.lead.k_hf);
+        self.last_y_dot = y;
+        self.lead_state = LeadState { x1: x, z };
+        // The torque limit (at its maximum in normal running) engages with a large y':
+        // applied and counted here.
+        let tmax = law.torque_max;
+        self.out.yaw_torque = if t.abs_within(tmax) {
+            t
+        } else {
+            let k = &mut self.counters.yaw_torque;
+            k.clamped = k.clamped.wrapping_add(1);
+            t.limit(T::ZERO.sat_sub(tmax), tmax).0
+        };
+        true
+    }
+
+    /// The traction loop's fast path (`traction_step` in normal running): `false`, with
+    /// nothing changed, if a clamp (current, demand, reference ramp, integrator, output)
+    /// would engage. While the ramp has settled on an unchanged demand, `iref` is its
+    /// target and the ramp is skipped. The demand's product is exact (`|demand| <= 2`),
+    /// `Kp`'s by [`Self::new`]'s precondition.
+    #[inline(always)]
+    fn fast_traction(&mut self, inp: &Inputs<T>) -> bool {
+        let law = &self.law;
+        let i = inp.current;
+        if !i.abs_within(law.current_max) {
+            return false;
+        }
+        let dm = inp.demand;
+        // `Some(settled)`: the ramp ran (and has now settled or not).
+        let mut ramp = None;
+        let iref = if self.ramp_settled && dm == self.settled_demand {
+            self.iref
+        } else {
+            if !dm.abs_within(law.demand_max) {
+                return false;
+            }
+            let target = dm.mul_c_small(law.demand_to_iref);
+            let delta = target.sat_sub(self.iref);
+            if !delta.abs_within(law.iref_step) {
+                return false;
+            }
+            let iref = self.iref.sat_add(delta);
+            ramp = Some(iref == target);
+            iref
+        };
+        let e = iref.sat_sub(i);
+        let mut residue = self.pi_state.residue;
+        let integ = self
+            .pi_state
+            .integ
+            .sat_add(e.mul_c_acc(law.pi.ki, &mut residue));
+        let (u_min, u_max) = (law.pi.u_min, law.pi.u_max);
+        if !integ.within(u_min, u_max) {
+            return false;
+        }
+        let u = e.mul_pre(self.kp_pre).sat_add(integ);
+        if !u.within(u_min, u_max) {
+            return false;
+        }
+        if let Some(settled) = ramp {
+            self.ramp_settled = settled;
+            self.settled_demand = dm;
+            self.iref = iref;
+        }
+        self.pi_state = PiState { integ, residue };
+        self.out.voltage = u;
+        true
+    }
+
+    /// The general path of [`Self::tick`].
+    #[inline(never)]
+    fn general_tick(&mut self, inp: &Inputs<T>) -> Outputs<T> {
         self.counters.ticks = self.counters.ticks.wrapping_add(1);
         // Clamp/invalid events of this tick, one bit each; the counters are updated off
         // the hot path, only on ticks where something was clamped.
         let mut ev = 0u32;
         if self.yaw_phase == 0 {
             self.yaw_phase = self.law.yaw_divisor - 1;
-            self.yaw_step(inp.y_dot, &mut ev);
+            self.counters.yaw_steps = self.counters.yaw_steps.wrapping_add(1);
+            ev = self.yaw_general(inp.y_dot);
         } else {
             self.yaw_phase -= 1;
         }
         if self.traction_phase == 0 {
             self.traction_phase = self.law.traction_divisor - 1;
-            self.traction_step(inp, &mut ev);
+            self.counters.traction_steps = self.counters.traction_steps.wrapping_add(1);
+            ev |= self.traction_general(inp);
         } else {
             self.traction_phase -= 1;
         }
         if ev != 0 {
             self.counters.record(ev);
         }
+        self.refresh();
         self.out
+    }
+
+    /// [`Self::yaw_step`], one copy for both paths; returns its events.
+    #[inline(never)]
+    fn yaw_general(&mut self, y_dot: T) -> u32 {
+        let mut ev = 0;
+        self.yaw_step(y_dot, &mut ev);
+        ev
+    }
+
+    /// [`Self::traction_step`], one copy for both paths; returns its events.
+    #[inline(never)]
+    fn traction_general(&mut self, inp: &Inputs<T>) -> u32 {
+        let mut ev = 0;
+        self.ramp_settled = false;
+        self.traction_step(inp, &mut ev);
+        ev
     }
 
     /// Tick on wire codes: decode, [`Self::tick`], encode.
@@ -342,7 +546,6 @@ impl<T: Sample> Controller<T> {
     #[inline(always)]
     fn yaw_step(&mut self, y_dot: T, ev: &mut u32) {
         let law = &self.law;
-        self.counters.yaw_steps = self.counters.yaw_steps.wrapping_add(1);
         let y = Self::input(y_dot, law.y_dot_max, event::Y_DOT, ev);
         // Delay compensation: x = y + alpha (y - y_prev), computed as two adds of
         // (y - y_prev) alpha/2 so the coefficient stays in Q1.31; clamped to 2 pu (the
@@ -397,7 +600,6 @@ impl<T: Sample> Controller<T> {
     #[inline(always)]
     fn traction_step(&mut self, inp: &Inputs<T>, ev: &mut u32) {
         let law = &self.law;
-        self.counters.traction_steps = self.counters.traction_steps.wrapping_add(1);
         if !self.traction {
             // Zero current, not 0 V (a short circuit at speed): the back-EMF of the
             // present speed.
@@ -443,6 +645,19 @@ impl<T: Sample> Controller<T> {
         self.out.voltage = u;
     }
 
+    /// Turns the fast path of [`Self::tick`] off (`false`) or back on (the default): the
+    /// general path alone gives the same results bit for bit, only slower (the
+    /// `fast_path` tests compare the two).
+    pub fn set_fast_path(&mut self, on: bool) {
+        self.fast_off = !on;
+        self.refresh();
+    }
+    /// Whether the next tick may take the fast path (normal running on a configuration
+    /// that meets its preconditions, and not turned off).
+    pub fn fast_path_armed(&self) -> bool {
+        self.fast
+    }
+
     /// The counters.
     pub fn counters(&self) -> &Counters {
         &self.counters
@@ -458,6 +673,7 @@ impl<T: Sample> Controller<T> {
     /// the reference follows the demand at its normal slew rate.
     pub fn set_safe(&mut self, safe: bool) {
         self.safe = safe;
+        self.refresh();
     }
     /// In the safe state?
     pub fn is_safe(&self) -> bool {
@@ -477,6 +693,7 @@ impl<T: Sample> Controller<T> {
             self.slewing = true;
         }
         self.mode = mode;
+        self.refresh();
     }
 
     /// Continue from a yaw torque `t_psi` (pu) output before, e.g. by a core at other
@@ -484,6 +701,7 @@ impl<T: Sample> Controller<T> {
     pub fn continue_from(&mut self, t_psi: T) {
         self.out.yaw_torque = t_psi;
         self.slewing = true;
+        self.refresh();
     }
 
     /// The back-EMF `K_m omega_m` of the motor speed `speed` (pu, clamped to its limit),
@@ -513,6 +731,7 @@ impl<T: Sample> Controller<T> {
         if !on {
             self.armed = false;
         }
+        self.refresh();
     }
     /// Traction loop on?
     pub fn traction_enabled(&self) -> bool {
@@ -526,6 +745,7 @@ impl<T: Sample> Controller<T> {
             self.wsp.active = false;
             self.wsp_acting = false;
         }
+        self.refresh();
     }
     /// Wheel-slip protection on?
     pub fn wsp_enabled(&self) -> bool {
@@ -556,12 +776,15 @@ impl<T: Sample> Controller<T> {
         let u = self.back_emf(speed);
         self.law.pi.preset(&mut self.pi_state, u);
         self.iref = T::ZERO;
+        self.ramp_settled = false;
         self.armed = true;
+        self.refresh();
     }
     /// Preset the PI integrator to a voltage `u0` (pu), clamped to the limits.
     pub fn preset_integrator(&mut self, u0: T) {
         self.law.pi.preset(&mut self.pi_state, u0);
         self.armed = true;
+        self.refresh();
     }
 
     /// The compiled (discretised, quantised) controller this runs.

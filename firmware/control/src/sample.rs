@@ -79,9 +79,32 @@ impl FxScale {
     }
 
     /// `sat32((x * mul + round) >> shift)`.
+    ///
+    /// Without a 64-bit shift by a variable amount (on a 32-bit core a library call,
+    /// `__aeabi_lasr`, ~11 instructions): the product is one `SMLAL` into `(hi, lo)`;
+    /// `shift >= 32` (the output scales) is `hi >> (shift - 32)`, which always fits; a
+    /// shorter shift (the input scales) combines the words and saturates when the high
+    /// word is not the sign extension of the result.
     #[inline]
     pub fn apply(&self, x: i32) -> i32 {
-        sat32((x as i64 * self.mul as i64 + self.round) >> self.shift)
+        let p = x as i64 * self.mul as i64 + self.round;
+        let (hi, lo) = ((p >> 32) as i32, p as u32);
+        let s = self.shift;
+        if s >= 32 {
+            // |p| < 2^62, so `p >> s` is within `i32` (no saturation can engage).
+            hi >> (s - 32).min(31)
+        } else if s == 0 {
+            sat32(p)
+        } else {
+            let q = ((lo >> s) | ((hi as u32) << (32 - s))) as i32;
+            if hi >> s == q >> 31 {
+                q
+            } else if hi < 0 {
+                i32::MIN
+            } else {
+                i32::MAX
+            }
+        }
     }
 
     /// The factor this scale really applies, `mul / 2^shift`.
@@ -128,6 +151,14 @@ pub(crate) fn sat32(x: i64) -> i32 {
 #[inline(always)]
 pub fn mul_q31(x: i32, c: i32) -> i32 {
     ((x as i64 * c as i64 + (1 << (COEF_FRAC - 1))) >> COEF_FRAC) as i32
+}
+
+/// `(a b + 2^31) >> 32`, the high word of the product rounded (Cortex-M4: `SMMULR`).
+/// With `a = 2x` (or `b = 2c`) it is [`mul_q31`]`(x, c)` exactly:
+/// `(2 x c + 2^31) >> 32 = (x c + 2^30) >> 31`.
+#[inline(always)]
+pub fn smmulr(a: i32, b: i32) -> i32 {
+    ((a as i64 * b as i64 + (1 << 31)) >> 32) as i32
 }
 
 /// A per-unit sample: the operations the filters use. One filter implementation serves
@@ -182,6 +213,63 @@ pub trait Sample: Copy + Default + PartialEq + PartialOrd + core::fmt::Debug {
     fn from_code(code: i32, scale: &Self::Scale) -> Self;
     /// `round(self * scale)` to a code, saturating at the `i32` range (NaN gives 0).
     fn to_code(self, scale: &Self::Scale) -> i32;
+
+    // The fast path's operations ([`crate::Controller::tick`]): each gives exactly the
+    // result of the general operation it stands for, under the condition stated. The
+    // defaults are the general operations themselves, and `pre_coeff` `None`, which
+    // keeps a type without its own versions on the general path.
+
+    /// Two per unit (the range bound of the fast path's preconditions).
+    #[inline(always)]
+    fn two_pu() -> Self {
+        Self::from_f64(2.0)
+    }
+    /// `|self| <= max` (`false` for NaN): the clamp `limit(-max, max)` would not engage
+    /// (`0 <= max <= 2` pu).
+    #[inline(always)]
+    fn abs_within(self, max: Self) -> bool {
+        let (x, bad) = self.sanitize();
+        !bad && !x.limit(Self::ZERO.sat_sub(max), max).1
+    }
+    /// `lo <= self <= hi` (`false` for NaN): `limit(lo, hi)` would not engage
+    /// (`lo <= hi`).
+    #[inline(always)]
+    fn within(self, lo: Self, hi: Self) -> bool {
+        let (x, bad) = self.sanitize();
+        !bad && !x.limit(lo, hi).1
+    }
+    /// `c` in the form [`Sample::mul_pre`] takes, if it has one: fixed point `2c`,
+    /// for `|c| <= 0.5 - 2^-30` (so `2c` is a Q1.31 coefficient, and a product with
+    /// `|x| <= 4` pu stays below 2 pu by at least one LSB); floats `c` itself.
+    #[inline(always)]
+    fn pre_coeff(_c: Self::Coeff) -> Option<Self::Coeff> {
+        None
+    }
+    /// `self * c` from `pc = pre_coeff(c)`: the same value as [`Sample::mul_c`]`(c)`.
+    /// Fixed point: `SMMULR(x, 2c) = (2 x c + 2^31) >> 32 = (x c + 2^30) >> 31` (one
+    /// instruction instead of five).
+    #[inline(always)]
+    fn mul_pre(self, pc: Self::Coeff) -> Self {
+        self.mul_c(pc)
+    }
+    /// `self * c`, the same value as [`Sample::mul_c`] when `-4 <= self < 4` pu (fixed
+    /// point: `SMMULR(2x, c)`, two instructions; `2x` does not overflow in that range).
+    #[inline(always)]
+    fn mul_c_small(self, c: Self::Coeff) -> Self {
+        self.mul_c(c)
+    }
+
+    /// [`crate::Controller::tick`] for this type: the production types implement it as
+    /// a non-generic function of this crate, so it is compiled with this crate's
+    /// optimisation level (the `fw` profile gives it `s`: see the workspace
+    /// `Cargo.toml`), not the caller's.
+    #[inline(always)]
+    fn controller_tick(
+        c: &mut crate::Controller<Self>,
+        inp: &crate::Inputs<Self>,
+    ) -> crate::Outputs<Self> {
+        c.tick_impl(inp)
+    }
 }
 
 /// Exact bit patterns of a [`Sample`]'s values, coefficients and scales: how a compiled
@@ -302,6 +390,38 @@ macro_rules! float_sample {
                 // `as` saturates at the i32 range and maps NaN to 0.
                 (if v >= 0.0 { v + 0.5 } else { v - 0.5 }) as i32
             }
+            #[inline(always)]
+            fn two_pu() -> Self {
+                2.0
+            }
+            #[inline(always)]
+            fn abs_within(self, max: Self) -> bool {
+                // `abs` is exact; NaN compares false.
+                self.abs() <= max
+            }
+            #[inline(always)]
+            fn within(self, lo: Self, hi: Self) -> bool {
+                lo <= self && self <= hi
+            }
+            #[inline(always)]
+            fn pre_coeff(c: $t) -> Option<$t> {
+                Some(c)
+            }
+            #[inline(always)]
+            fn mul_pre(self, pc: $t) -> Self {
+                self * pc
+            }
+            #[inline(always)]
+            fn mul_c_small(self, c: $t) -> Self {
+                self * c
+            }
+            #[inline(never)]
+            fn controller_tick(
+                c: &mut crate::Controller<Self>,
+                inp: &crate::Inputs<Self>,
+            ) -> crate::Outputs<Self> {
+                c.tick_impl(inp)
+            }
         }
 
         impl SampleBits for $t {
@@ -419,6 +539,44 @@ impl Sample for Fx {
     fn to_code(self, scale: &FxScale) -> i32 {
         scale.apply(self.to_bits())
     }
+    #[inline(always)]
+    fn two_pu() -> Self {
+        Fx::from_bits(2 << FX_FRAC)
+    }
+    #[inline(always)]
+    fn abs_within(self, max: Self) -> bool {
+        // One unsigned compare (`ADD`, `CMP ..., LSL #1`): `x + max` in `[0, 2 max]`
+        // (for `0 <= max < 2^30`, which every limit is; below `-max` or above `max`
+        // it wraps or lands beyond `2 max`).
+        let m = max.to_bits();
+        (self.to_bits().wrapping_add(m) as u32) <= (m as u32) << 1
+    }
+    #[inline(always)]
+    fn within(self, lo: Self, hi: Self) -> bool {
+        // `x - lo` in `[0, hi - lo]`, unsigned (for `lo <= hi`).
+        let l = lo.to_bits();
+        (self.to_bits().wrapping_sub(l) as u32) <= (hi.to_bits().wrapping_sub(l) as u32)
+    }
+    #[inline(always)]
+    fn pre_coeff(c: Coef) -> Option<Coef> {
+        let b = c.to_bits();
+        (b.unsigned_abs() <= (1 << 30) - 2).then(|| Coef::from_bits(2 * b))
+    }
+    #[inline(always)]
+    fn mul_pre(self, pc: Coef) -> Self {
+        Fx::from_bits(smmulr(self.to_bits(), pc.to_bits()))
+    }
+    #[inline(always)]
+    fn mul_c_small(self, c: Coef) -> Self {
+        Fx::from_bits(smmulr(self.to_bits().wrapping_shl(1), c.to_bits()))
+    }
+    #[inline(never)]
+    fn controller_tick(
+        c: &mut crate::Controller<Self>,
+        inp: &crate::Inputs<Self>,
+    ) -> crate::Outputs<Self> {
+        c.tick_impl(inp)
+    }
 }
 
 impl SampleBits for Fx {
@@ -495,6 +653,44 @@ mod tests {
             s ^= s << 17;
             let (x, c) = (s as i32, ((s >> 32) as i32).max(-cmax));
             assert_eq!(mul_q31(x, c) as i128, reference(x, c), "{x} {c}");
+        }
+    }
+
+    /// `apply` without the 64-bit variable shift is the plain formula, bit for bit, for
+    /// every shift and at the edges of `x` and `mul` (saturation both ways included).
+    #[test]
+    fn fx_scale_apply_is_the_formula() {
+        let reference = |x: i32, f: &FxScale| sat32((x as i64 * f.mul as i64 + f.round) >> f.shift);
+        let xs = [
+            i32::MIN,
+            i32::MIN + 1,
+            -(1 << 30),
+            -12345,
+            -1,
+            0,
+            1,
+            7,
+            1 << 30,
+            i32::MAX,
+        ];
+        let muls = [1024u64, 1025, 268_435_456, (1 << 31) - 1];
+        let mut seed = 0x9E37_79B9_7F4A_7C15u64;
+        for shift in 0..=62u8 {
+            for &m in &muls {
+                let f = FxScale::from_bits(m, shift).expect("valid");
+                for &x in &xs {
+                    assert_eq!(f.apply(x), reference(x, &f), "{x} {m} {shift}");
+                }
+                for _ in 0..2000 {
+                    seed ^= seed << 13;
+                    seed ^= seed >> 7;
+                    seed ^= seed << 17;
+                    let x = seed as i32 >> (seed >> 59);
+                    let f = FxScale::from_bits(1024 + (seed >> 33) % ((1 << 31) - 1024), shift)
+                        .expect("valid");
+                    assert_eq!(f.apply(x), reference(x, &f), "{x} {f:?}");
+                }
+            }
         }
     }
 

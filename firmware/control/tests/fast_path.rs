@@ -1,0 +1,168 @@
+//! The fast path of `Controller::tick` against the general path alone
+//! (`set_fast_path(false)`): outputs, counters and every state bit for bit, in
+//! fixed point, f32 and f64, over random and edge inputs (the clamp limits and one LSB
+//! either side, the type's extremes, NaN for floats) and the supervisory changes
+//! (safe state, law changes, traction off/on, presets) between ticks.
+
+use proptest::prelude::*;
+use wheelset_control::{Config, Controller, Fx, Inputs, Sample, YawMode};
+
+/// One step of a scenario.
+#[derive(Clone, Copy, Debug)]
+enum Op {
+    /// A tick with inputs picked by index from the edge table (or random, see `value`).
+    Tick([u32; 4]),
+    /// The same demand for `n` ticks with small random y' and current (the settled ramp).
+    Hold(u32, u32),
+    Safe(bool),
+    Mode(u8),
+    Traction(bool),
+    ContinueFrom(u32),
+    Preset(u32),
+}
+
+fn op() -> impl Strategy<Value = Op> {
+    prop_oneof![
+        8 => any::<[u32; 4]>().prop_map(Op::Tick),
+        3 => (1u32..200, any::<u32>()).prop_map(|(n, s)| Op::Hold(n, s)),
+        1 => any::<bool>().prop_map(Op::Safe),
+        1 => (0u8..3).prop_map(Op::Mode),
+        1 => any::<bool>().prop_map(Op::Traction),
+        1 => any::<u32>().prop_map(Op::ContinueFrom),
+        1 => any::<u32>().prop_map(Op::Preset),
+    ]
+}
+
+/// An input value in pu: the limits `lims` and one LSB-ish either side, 0, the type's
+/// extremes, NaN, or a random value within +-2.5 pu (`r` picks).
+fn value<T: Sample>(r: u32, lims: &[f64]) -> T {
+    let k = r % 16;
+    let frac = f64::from(r >> 4) / f64::from(u32::MAX >> 4);
+    let lsb = 1.0 / (1u64 << 28) as f64;
+    match k {
+        0 => T::ZERO,
+        1 => T::from_f64(f64::NAN),
+        2 => T::from_f64(1e9),
+        3 => T::from_f64(-1e9),
+        4..=9 => {
+            let l = lims[(r as usize >> 4) % lims.len()];
+            let s = if k.is_multiple_of(2) { 1.0 } else { -1.0 };
+            T::from_f64(s * l + [0.0, lsb, -lsb][(k as usize - 4) / 2])
+        }
+        _ => T::from_f64((frac * 2.0 - 1.0) * 2.5 * if k > 12 { 0.01 } else { 1.0 }),
+    }
+}
+
+/// Everything observable and every state, exactly (`{:?}` of floats is exact and tells
+/// -0 from +0).
+fn snapshot<T: Sample>(c: &Controller<T>, out: &wheelset_control::Outputs<T>) -> String {
+    format!(
+        "{:?} {:?} {:?} {:?} {:?} {:?} {}",
+        out,
+        c.counters(),
+        c.lead_state(),
+        c.pi_state(),
+        c.current_ref(),
+        c.outputs(),
+        c.is_safe()
+    )
+}
+
+fn run<T: Sample>(ops: &[Op]) -> usize {
+    let cfg = Config::default();
+    let mut fast = Controller::<T>::try_new(&cfg).expect("default config");
+    let mut general = fast.clone();
+    general.set_fast_path(false);
+    assert!(!general.fast_path_armed());
+    let lims = [1.0, 2.0, 0.02, 1.0, 0.6, 0.5, 2.0 / 4.28];
+    let mut armed = 0;
+    let mut step = |a: &mut Controller<T>, b: &mut Controller<T>, i: &Inputs<T>| {
+        armed += usize::from(a.fast_path_armed());
+        let (oa, ob) = (a.tick(i), b.tick(i));
+        assert_eq!(snapshot(a, &oa), snapshot(b, &ob), "inputs {i:?}");
+    };
+    for op in ops {
+        match *op {
+            Op::Tick(r) => {
+                let i = Inputs {
+                    y_dot: value(r[0], &lims),
+                    current: value(r[1], &lims),
+                    speed: value(r[2], &lims),
+                    demand: value(r[3], &lims),
+                };
+                step(&mut fast, &mut general, &i);
+            }
+            Op::Hold(n, seed) => {
+                let mut s = u64::from(seed) | 1;
+                let demand = T::from_f64(f64::from(seed % 2000) / 1000.0 - 1.0);
+                for _ in 0..n {
+                    s ^= s << 13;
+                    s ^= s >> 7;
+                    s ^= s << 17;
+                    let small = |v: u64| T::from_f64(((v % 20_001) as f64 - 10_000.0) * 1e-5);
+                    let i = Inputs {
+                        y_dot: small(s),
+                        current: small(s >> 20),
+                        speed: T::from_f64(0.9),
+                        demand,
+                    };
+                    step(&mut fast, &mut general, &i);
+                }
+            }
+            Op::Safe(on) => {
+                fast.set_safe(on);
+                general.set_safe(on);
+            }
+            Op::Mode(m) => {
+                let m = [YawMode::Passive, YawMode::Gain, YawMode::Lead][usize::from(m)];
+                fast.set_mode(m);
+                general.set_mode(m);
+            }
+            Op::Traction(on) => {
+                fast.set_traction(on);
+                general.set_traction(on);
+            }
+            Op::ContinueFrom(r) => {
+                let t = value::<T>(r, &lims);
+                fast.continue_from(t);
+                general.continue_from(t);
+            }
+            Op::Preset(r) => {
+                let w = value::<T>(r, &lims);
+                fast.preset_back_emf(w);
+                general.preset_back_emf(w);
+            }
+        }
+    }
+    armed
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(256))]
+    #[test]
+    fn fixed_point_fast_path_is_the_general_path(ops in prop::collection::vec(op(), 1..60)) {
+        run::<Fx>(&ops);
+    }
+    #[test]
+    fn f32_fast_path_is_the_general_path(ops in prop::collection::vec(op(), 1..60)) {
+        run::<f32>(&ops);
+    }
+    #[test]
+    fn f64_fast_path_is_the_general_path(ops in prop::collection::vec(op(), 1..60)) {
+        run::<f64>(&ops);
+    }
+}
+
+/// Normal running takes the fast path (so the tests above compare something): after the
+/// first tick (the bumpless preset) every tick of a quiet run is armed for it.
+#[test]
+fn normal_running_arms_the_fast_path() {
+    let ops = [Op::Hold(500, 7)];
+    assert_eq!(run::<Fx>(&ops), 499);
+    assert_eq!(run::<f32>(&ops), 499);
+    let mut c = Controller::<Fx>::try_new(&Config::default()).expect("default config");
+    c.tick(&Inputs::default());
+    assert!(c.fast_path_armed());
+    c.set_safe(true);
+    assert!(!c.fast_path_armed(), "the safe state runs the general path");
+}
