@@ -17,6 +17,11 @@
 //! [`LinearModel`] is the open-loop plant `x' = A x + B u`, `y = C x` with inputs
 //! `[T_psi (N m), u_a (V)]` and outputs `[y' (m/s), i_a (A), theta_m' (rad/s)]`, the
 //! interface for sampled-data (ZOH + delay) analyses of the discrete controllers.
+//!
+//! The plant variants those analyses ([`crate::sampled`]) close their loops on:
+//! [`LinearPlant`] (`A`, `B`, `C` of any of them), [`Model`] (the full linearisation or
+//! the [`Reduced`] lateral/yaw + armature plant) and [`armature`] (the current loop's
+//! plant alone).
 
 use crate::control::{closed_loop_rhs, ContinuousController, Exogenous, YawLaw};
 use crate::params::Params;
@@ -328,5 +333,130 @@ pub fn linear_plant(p: &Params, cfg: PlantConfig) -> LinearModel {
         b: bm,
         c,
         states,
+    }
+}
+
+/// A linear plant `x' = A x + B u`, `y = C x`.
+#[derive(Debug, Clone)]
+pub struct LinearPlant {
+    /// `n x n`.
+    pub a: DMatrix<f64>,
+    /// `n x 2`: columns `T_psi` (N m, eq. 5 sign), `u_a` (V).
+    pub b: DMatrix<f64>,
+    /// `3 x n`: rows `y'` (m/s), `i_a` (A), `theta_m'` (rad/s).
+    pub c: DMatrix<f64>,
+}
+
+/// The armature circuit alone at constant motor speed, `L_a i' = u_a - R_a i_a` (the
+/// back-EMF is a constant bias): the current loop's plant.
+pub fn armature(l_a: f64, r_a: f64) -> LinearPlant {
+    let a = DMatrix::from_element(1, 1, -r_a / l_a);
+    let mut b = DMatrix::<f64>::zeros(1, 2);
+    b[(0, 1)] = 1.0 / l_a;
+    let mut c = DMatrix::<f64>::zeros(3, 1);
+    c[(1, 0)] = 1.0;
+    LinearPlant { a, b, c }
+}
+
+/// The reduced plant: the lateral/yaw dynamics of case (a) (rigid axle, straight
+/// track, speed constant, eqs. 4-5 linearised; no yaw spring, the active modes replace
+/// it; with the spring for [`YawMode::Passive`]) and the armature circuit at constant
+/// motor speed (eq. 9). States `[y, y', psi, psi', i_a]`. For cross-checks and quick
+/// looks; the rate table uses the full linearisation by default.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Reduced {
+    /// Creep coefficients f11 = f22, N.
+    pub creep: f64,
+    /// Conicity.
+    pub lambda: f64,
+    /// Include the passive yaw spring `k_yaw psi`.
+    pub yaw_spring: bool,
+}
+
+impl Reduced {
+    /// Build the linear plant with the parameters of `docs/model.md` (defaults).
+    pub fn plant(&self) -> LinearPlant {
+        self.plant_with(&Params::default())
+    }
+
+    /// Build the linear plant with parameters `p` (creep and conicity from `self`).
+    pub fn plant_with(&self, p: &Params) -> LinearPlant {
+        let (m, j, c_lat, k_lat, k_yaw) = (p.m, p.j, p.c_lat, p.k_lat, p.k_yaw);
+        let (lg, r0, v) = (p.l_g, p.r0, p.v);
+        let (la, ra) = (p.l_a, p.r_a);
+        let f = self.creep;
+        let mut a = DMatrix::<f64>::zeros(5, 5);
+        a[(0, 1)] = 1.0;
+        // m y'' = -(2 f22/v + c_lat) y' - k_lat y + 2 f22 psi
+        a[(1, 0)] = -k_lat / m;
+        a[(1, 1)] = -(2.0 * f / v + c_lat) / m;
+        a[(1, 2)] = 2.0 * f / m;
+        a[(2, 3)] = 1.0;
+        // J psi'' = -2 f11 Lg^2 psi'/v - 2 Lg f11 lambda y / r0 - T_psi (- k_yaw psi)
+        a[(3, 0)] = -2.0 * lg * f * self.lambda / r0 / j;
+        a[(3, 3)] = -2.0 * f * lg * lg / v / j;
+        if self.yaw_spring {
+            a[(3, 2)] = -k_yaw / j;
+        }
+        // L i' = u - R i (back-EMF constant: a bias)
+        a[(4, 4)] = -ra / la;
+        let mut b = DMatrix::<f64>::zeros(5, 2);
+        b[(3, 0)] = -1.0 / j;
+        b[(4, 1)] = 1.0 / la;
+        let mut c = DMatrix::<f64>::zeros(3, 5);
+        c[(0, 1)] = 1.0;
+        c[(1, 4)] = 1.0;
+        LinearPlant { a, b, c }
+    }
+}
+
+/// The plant the rate table closes the loops on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Model {
+    /// Case (d): flexible axle (40 Hz), motor on its gear spring, armature circuit,
+    /// forward speed: `crate::linear::linear_plant`.
+    Full,
+    /// [`Reduced`]: lateral/yaw of case (a) plus the armature circuit.
+    Reduced,
+}
+
+impl Model {
+    /// Name for reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Model::Full => "full (case d: flexible axle, drive, armature)",
+            Model::Reduced => "reduced (case a lateral/yaw + armature)",
+        }
+    }
+
+    /// The linear plant at `creep` (f11 = f22) and `lambda`, spring for passive mode.
+    pub fn plant(self, p: &Params, creep: f64, lambda: f64, yaw_spring: bool) -> LinearPlant {
+        match self {
+            Model::Full => {
+                let mut q = p.clone();
+                q.f11 = creep;
+                q.f22 = creep;
+                q.lambda = lambda;
+                let m = linear_plant(
+                    &q,
+                    PlantConfig {
+                        axle: Axle::Flexible,
+                        drive: true,
+                        yaw_spring,
+                    },
+                );
+                LinearPlant {
+                    a: m.a,
+                    b: m.b,
+                    c: m.c,
+                }
+            }
+            Model::Reduced => Reduced {
+                creep,
+                lambda,
+                yaw_spring,
+            }
+            .plant_with(p),
+        }
     }
 }
