@@ -10,6 +10,26 @@
 //! ```
 //!
 //! Output is plain SVG 1.1 text; write it with [`Plot::save`] or [`Figure::save`].
+//!
+//! # Why SVG by hand rather than `plotters` (measured 2026-12-02)
+//!
+//! Cost is not the reason: `plotters` 0.3.7 with only its `svg_backend` (plus
+//! `line_series`, `point_series`, `histogram`; `default-features = false`) is 5 crates
+//! (`plotters`, `plotters-backend`, `plotters-svg`, `num-traits`, `autocfg`) and builds
+//! in release in 3.9 s of CPU (10 s wall at load average 8 on the 2-core machine), and
+//! its SVG backend writes `<text>` without system fonts (a probe crate drawing a line
+//! chart with a caption and axis labels: 25 `<text>` elements). The reasons to keep this
+//! module:
+//! - `plotters`' backends take integer pixel coordinates (`BackendCoord = (i32, i32)`):
+//!   the probe's polylines are whole pixels (`points="39,20 39,329"`); this module writes
+//!   0.1 px, which keeps sub-pixel traces (`y - y0` around the traction step, the
+//!   monitor's mean square far below its threshold) as they are instead of stair steps.
+//! - Without a font feature `plotters` sizes text from estimates (the probe's 13 px
+//!   caption came out at `font-size="10.48"`); this module lays out labels itself.
+//! - 43 call sites in `sim-host` and `hil` use what this module has and `plotters` would
+//!   need code for at each site: the legend in a column right of the plotting area (it
+//!   never hides data), one legend width across stacked panels so their axes line up,
+//!   reference lines, notes ("not measured"), category axes and heat maps.
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -104,6 +124,10 @@ pub struct Plot {
     /// A note written across the middle of the plotting area (e.g. "not measured" for
     /// a panel without data to show; empty = none).
     pub note: String,
+    /// Category names of the x axis: when given, category `i` spans `[i, i + 1)` and
+    /// its name is written under `i + 0.5`, slanted, instead of numeric x ticks (a bar
+    /// or scatter per named item; the bottom margin grows to fit the longest name).
+    pub x_categories: Vec<String>,
 }
 
 impl Plot {
@@ -122,7 +146,15 @@ impl Plot {
             vlines: Vec::new(),
             hlines: Vec::new(),
             note: String::new(),
+            x_categories: Vec::new(),
         }
+    }
+    /// Names the x axis's categories (see [`Plot::x_categories`]); the x range becomes
+    /// `[0, names.len()]`.
+    pub fn x_categories(mut self, names: &[String]) -> Self {
+        self.x_range = Some((0.0, names.len().max(1) as f64));
+        self.x_categories = names.to_vec();
+        self
     }
     /// Sets the note written across the plotting area.
     pub fn note(mut self, s: &str) -> Self {
@@ -239,7 +271,20 @@ impl Plot {
     pub fn render_group_with(&self, ox: f64, oy: f64, legend_w: f64) -> String {
         // The legend sits in a column right of the plotting area, so it never hides data.
         let legend_w = legend_w.max(self.legend_width());
-        let (ml, mr, mt, mb) = (78.0, 16.0 + legend_w, 30.0, 46.0);
+        // Slanted category names (40 degrees, ~6 px per character at font-size 11)
+        // take sin(40) of their length below the axis.
+        let longest = self
+            .x_categories
+            .iter()
+            .map(|c| c.chars().count())
+            .max()
+            .unwrap_or(0);
+        let cat_h = if longest == 0 {
+            0.0
+        } else {
+            longest as f64 * 6.0 * 0.643 + 8.0
+        };
+        let (ml, mr, mt, mb) = (78.0, 16.0 + legend_w, 30.0, 46.0 + cat_h);
         let (pw, ph) = (self.width - ml - mr, self.height - mt - mb);
         let ((x0, x1), (y0, y1)) = self.data_range();
         let xt = nice_ticks(x0, x1, 7);
@@ -261,7 +306,16 @@ impl Plot {
             ml + pw / 2.0,
             esc(&self.title)
         );
-        for &t in &xt {
+        for (i, c) in self.x_categories.iter().enumerate() {
+            let x = sx(i as f64 + 0.5);
+            let y = mt + ph + 12.0;
+            let _ = writeln!(
+                o,
+                r#"<text transform="translate({x:.1},{y:.1}) rotate(-40)" text-anchor="end">{}</text>"#,
+                esc(c)
+            );
+        }
+        for &t in xt.iter().filter(|_| self.x_categories.is_empty()) {
             let x = sx(t);
             let _ = writeln!(
                 o,
@@ -686,5 +740,26 @@ mod tests {
         let p = Plot::histogram("h", &[0.0, 1.0, 2.0, 3.0], &[1.0, 4.0, 2.0]);
         let s = p.to_svg();
         assert_eq!(s.matches("fill=\"#56B4E9\"").count(), 3);
+    }
+
+    #[test]
+    fn categories_replace_the_numeric_x_ticks_and_a_note_is_written() {
+        let names = ["yaw_lead.x".to_string(), "traction_pi.e".to_string()];
+        let p = Plot::histogram("h", &[0.0, 1.0, 2.0], &[1.0, 2.0])
+            .x_categories(&names)
+            .note("not measured");
+        let s = p.to_svg();
+        assert!(s.contains(">yaw_lead.x</text>"), "{s}");
+        assert!(s.contains(">traction_pi.e</text>"), "{s}");
+        assert_eq!(s.matches("rotate(-40)").count(), 2);
+        // No numeric x tick label (the tick labels are the names).
+        let numeric_x = s
+            .split("text-anchor=\"middle\">")
+            .skip(1)
+            .filter_map(|t| t.split('<').next())
+            .filter(|t| t.parse::<f64>().is_ok())
+            .count();
+        assert_eq!(numeric_x, 0, "{s}");
+        assert!(s.contains(">not measured</text>"), "{s}");
     }
 }

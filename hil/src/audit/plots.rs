@@ -105,23 +105,35 @@ pub fn write_plots(a: &Audit, dir: &Path) -> Result<Vec<(String, String)>, Audit
         })
         .collect();
     let range = a.formats.signal.range().log2();
-    let fig = Figure::new(&format!(
-        "Ranges against {} (signal index as in the report's range table)",
-        a.formats.signal
-    ))
-    .panel(
-        Plot::histogram("headroom (bits)", &edges, &head)
-            .x_label("signal index")
-            .y_label("bits")
-            .hline(1.0),
-    )
-    .panel(
-        Plot::new("log2 peak |value| (pu); line: the format's range")
-            .x_label("signal index")
+    // The names of the report's range table, and a y range that holds the format's
+    // range line as well as the peaks (the line sits above every peak with headroom).
+    let names: Vec<String> = sigs
+        .iter()
+        .map(|s| format!("{}.{}", s.controller, s.name))
+        .collect();
+    let (lo, hi) = peaks
+        .iter()
+        .map(|p| p.1)
+        .fold((range, range), |(lo, hi), y| (lo.min(y), hi.max(y)));
+    let fig = Figure::new(&format!("Ranges against {}", a.formats.signal))
+        .panel(
+            Plot::histogram("headroom (bits); line: 1 bit", &edges, &head)
+                .x_label("signal")
+                .y_label("bits")
+                .x_categories(&names)
+                .hline(1.0),
+        )
+        .panel(
+            Plot::new(&format!(
+                "log2 peak |value| (pu); line: the format's range, {range:.0}"
+            ))
+            .x_label("signal")
             .y_label("log2 pu")
+            .x_categories(&names)
+            .y_range(lo - 1.0, hi + 1.0)
             .series(Series::scatter("peak", peaks))
             .hline(range),
-    );
+        );
     let f = save(&fig, dir, "ranges.svg")?;
     out.push(("Ranges and headroom per signal".to_string(), f));
     for (name, tr) in &a.observed.traces {
