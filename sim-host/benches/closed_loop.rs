@@ -2,6 +2,8 @@
 //! the fixed-point firmware runtime at its default rate, default link, no faults.
 //! Target (issue 4): at most 50 ms. Run: `cargo bench -p sim-host --bench closed_loop`.
 
+mod common;
+
 use criterion::{black_box, criterion_main, Criterion};
 use sim_host::control::YawLaw;
 use sim_host::device::{run_device, DeviceOptions};
@@ -17,6 +19,9 @@ fn bench(c: &mut Criterion) {
         b.iter(|| black_box(run_device(black_box(&sc), YawLaw::Lead, &opt).expect("runs")))
     });
     g.finish();
+    common::ratio("curve_20s_lead_device_link", 10, || {
+        run_device(&sc, YawLaw::Lead, &opt).expect("runs")
+    });
 }
 
 #[allow(missing_docs)]

@@ -2,6 +2,8 @@
 //! RK4 at 1e-4 s (200 000 steps). Target: at most 50 ms.
 //! Run: `cargo bench -p sim-host --bench curve`.
 
+mod common;
+
 use criterion::{black_box, criterion_main, Criterion};
 use sim_host::control::YawLaw;
 use sim_host::params::Params;
@@ -16,6 +18,9 @@ fn bench(c: &mut Criterion) {
         b.iter(|| black_box(run_continuous(black_box(&sc), YawLaw::Lead)))
     });
     g.finish();
+    common::ratio("curve_20s_rk4_1e-4_lead", 20, || {
+        run_continuous(&sc, YawLaw::Lead)
+    });
 }
 
 #[allow(missing_docs)]

@@ -2,6 +2,8 @@
 //! tracking and crossing bisection. Target: at most 20 ms.
 //! Run: `cargo bench -p sim-host --bench sweep`.
 
+mod common;
+
 use criterion::{black_box, criterion_main, Criterion};
 use sim_host::modes::{creep_grid, sweep_case, Case};
 use sim_host::params::Params;
@@ -19,6 +21,11 @@ fn bench(c: &mut Criterion) {
         })
     });
     g.finish();
+    common::ratio("sweep_4_cases_x_1000_points", 10, || {
+        for case in Case::ALL {
+            black_box(sweep_case(&p, case, &grid, || {}).ok());
+        }
+    });
 }
 
 #[allow(missing_docs)]

@@ -121,6 +121,7 @@ pub fn write_plots(a: &Audit, dir: &Path) -> Result<Vec<(String, String)>, Audit
                 .x_label("signal")
                 .y_label("bits")
                 .x_categories(&names)
+                .size(1100.0, 560.0)
                 .hline(1.0),
         )
         .panel(
@@ -130,6 +131,7 @@ pub fn write_plots(a: &Audit, dir: &Path) -> Result<Vec<(String, String)>, Audit
             .x_label("signal")
             .y_label("log2 pu")
             .x_categories(&names)
+            .size(1100.0, 560.0)
             .y_range(lo - 1.0, hi + 1.0)
             .series(Series::scatter("peak", peaks))
             .hline(range),
