@@ -162,6 +162,49 @@ pub const BLOCKS: &[Block] = &[
         exit: 0,
         keep: Keep::All,
     },
+    // Adhesion-limited traction.
+    Block {
+        name: "adhesion-dry",
+        bin: Bin::Sim,
+        args: &["adhesion", "--condition", "dry", "--json", "out/adh-dry.json", "--plot", "out/adh"],
+        exit: 0,
+        keep: Keep::All,
+    },
+    Block {
+        name: "adhesion-wet",
+        bin: Bin::Sim,
+        args: &["adhesion", "--condition", "wet", "--json", "out/adh-wet.json", "--plot", "out/adh"],
+        exit: 0,
+        keep: Keep::All,
+    },
+    Block {
+        name: "adhesion-low",
+        bin: Bin::Sim,
+        args: &["adhesion", "--condition", "low", "--json", "out/adh-low.json", "--plot", "out/adh"],
+        exit: 0,
+        keep: Keep::All,
+    },
+    Block {
+        name: "low-adhesion-on",
+        bin: Bin::Sim,
+        args: &["run", "--scenario", "low-adhesion", "--control", "lead", "--loop", "core", "--wsp", "on", "--json", "out/low-on.json", "--csv", "out/low-on.csv", "--plot", "out/low"],
+        exit: 0,
+        keep: Keep::All,
+    },
+    Block {
+        name: "low-adhesion-off",
+        bin: Bin::Sim,
+        args: &["run", "--scenario", "low-adhesion", "--control", "lead", "--loop", "core", "--wsp", "off", "--json", "out/low-off.json"],
+        exit: 0,
+        keep: Keep::All,
+    },
+    Block {
+        name: "actuator-fault",
+        bin: Bin::Hil,
+        args: &["run", "--scenario", "actuator-fault", "--report", "out/af"],
+        exit: 0,
+        keep: Keep::AllBut(MACHINE_DEPENDENT),
+    },
     // The closed loop over the simulated link.
     Block {
         name: "device-clean",
