@@ -11,7 +11,8 @@
 //!
 //! and the text between the two markers is the output of one command of [`BLOCKS`], the
 //! one table of them: the command as a user types it (`$ cargo sim ...`, `$ cargo hil
-//! ...`) followed by the lines of its standard output the block keeps, in a `text`
+//! ...`) followed by the lines of its standard output (of its standard error for a
+//! refusal's message) the block keeps, in a `text`
 //! code block. `cargo xtask readme` reruns every command and rewrites the blocks;
 //! `--check` rewrites nothing and exits 1 naming each block that drifted, with a line
 //! diff (`-` the README, `+` the command). A marker without a table entry, an entry
@@ -90,6 +91,8 @@ pub struct Block {
     pub exit: i32,
     /// The lines of standard output kept.
     pub keep: Keep,
+    /// Quote standard error instead of standard output (a refusal's message).
+    pub stderr: bool,
 }
 
 impl Block {
@@ -114,6 +117,7 @@ pub const BLOCKS: &[Block] = &[
         args: &["modes", "--json", "out/modes.json", "--plot", "out/modes"],
         exit: 0,
         keep: Keep::All,
+        stderr: false,
     },
     Block {
         name: "fig6-8",
@@ -137,6 +141,7 @@ pub const BLOCKS: &[Block] = &[
         ],
         exit: 0,
         keep: Keep::All,
+        stderr: false,
     },
     Block {
         name: "fig9",
@@ -154,6 +159,7 @@ pub const BLOCKS: &[Block] = &[
         ],
         exit: 0,
         keep: Keep::All,
+        stderr: false,
     },
     Block {
         name: "fig9-lead",
@@ -161,6 +167,7 @@ pub const BLOCKS: &[Block] = &[
         args: &["run", "--scenario", "beating", "--control", "lead"],
         exit: 0,
         keep: Keep::All,
+        stderr: false,
     },
     // Adhesion-limited traction.
     Block {
@@ -177,6 +184,7 @@ pub const BLOCKS: &[Block] = &[
         ],
         exit: 0,
         keep: Keep::All,
+        stderr: false,
     },
     Block {
         name: "adhesion-wet",
@@ -192,6 +200,7 @@ pub const BLOCKS: &[Block] = &[
         ],
         exit: 0,
         keep: Keep::All,
+        stderr: false,
     },
     Block {
         name: "adhesion-low",
@@ -207,6 +216,7 @@ pub const BLOCKS: &[Block] = &[
         ],
         exit: 0,
         keep: Keep::All,
+        stderr: false,
     },
     Block {
         name: "low-adhesion-on",
@@ -230,6 +240,7 @@ pub const BLOCKS: &[Block] = &[
         ],
         exit: 0,
         keep: Keep::All,
+        stderr: false,
     },
     Block {
         name: "low-adhesion-off",
@@ -249,6 +260,7 @@ pub const BLOCKS: &[Block] = &[
         ],
         exit: 0,
         keep: Keep::All,
+        stderr: false,
     },
     Block {
         name: "actuator-fault",
@@ -256,6 +268,7 @@ pub const BLOCKS: &[Block] = &[
         args: &["run", "--scenario", "actuator-fault", "--report", "out/af"],
         exit: 0,
         keep: Keep::AllBut(MACHINE_DEPENDENT),
+        stderr: false,
     },
     // The closed loop over the simulated link.
     Block {
@@ -274,6 +287,7 @@ pub const BLOCKS: &[Block] = &[
         ],
         exit: 0,
         keep: Keep::All,
+        stderr: false,
     },
     Block {
         name: "device-faults-seed1",
@@ -293,6 +307,43 @@ pub const BLOCKS: &[Block] = &[
         ],
         exit: 0,
         keep: Keep::All,
+        stderr: false,
+    },
+    Block {
+        name: "device-acceleration",
+        bin: Bin::Sim,
+        args: &[
+            "run",
+            "--scenario",
+            "curve",
+            "--control",
+            "lead",
+            "--loop",
+            "device",
+            "--lateral",
+            "acceleration",
+        ],
+        exit: 0,
+        keep: Keep::Starting(&["vs continuous reference"]),
+        stderr: false,
+    },
+    Block {
+        name: "device-baud-refused",
+        bin: Bin::Sim,
+        args: &[
+            "run",
+            "--scenario",
+            "curve",
+            "--control",
+            "lead",
+            "--loop",
+            "device",
+            "--baud",
+            "115200",
+        ],
+        exit: 2,
+        keep: Keep::All,
+        stderr: true,
     },
     Block {
         name: "rates",
@@ -300,6 +351,7 @@ pub const BLOCKS: &[Block] = &[
         args: &["rates"],
         exit: 0,
         keep: Keep::All,
+        stderr: false,
     },
     // The harness, in process.
     Block {
@@ -308,6 +360,7 @@ pub const BLOCKS: &[Block] = &[
         args: &[],
         exit: 0,
         keep: Keep::AllBut(MACHINE_DEPENDENT),
+        stderr: false,
     },
     Block {
         name: "hil-faults",
@@ -315,6 +368,7 @@ pub const BLOCKS: &[Block] = &[
         args: &["run", "--faults", "ber=1e-4,drop=0.01"],
         exit: 1,
         keep: Keep::AllBut(MACHINE_DEPENDENT),
+        stderr: false,
     },
     Block {
         name: "hil-wrong-sign",
@@ -322,6 +376,7 @@ pub const BLOCKS: &[Block] = &[
         args: &["run", "--device-fault", "wrong-sign"],
         exit: 1,
         keep: Keep::AllBut(MACHINE_DEPENDENT),
+        stderr: false,
     },
     Block {
         name: "hil-slow",
@@ -329,6 +384,7 @@ pub const BLOCKS: &[Block] = &[
         args: &["run", "--device-fault", "slow:300"],
         exit: 1,
         keep: Keep::AllBut(MACHINE_DEPENDENT),
+        stderr: false,
     },
     Block {
         name: "hil-jitter",
@@ -336,6 +392,7 @@ pub const BLOCKS: &[Block] = &[
         args: &["run", "--device-fault", "jitter:40"],
         exit: 1,
         keep: Keep::AllBut(MACHINE_DEPENDENT),
+        stderr: false,
     },
     Block {
         name: "hil-corrupt",
@@ -343,6 +400,7 @@ pub const BLOCKS: &[Block] = &[
         args: &["run", "--device-fault", "corrupt:10"],
         exit: 1,
         keep: Keep::AllBut(MACHINE_DEPENDENT),
+        stderr: false,
     },
     Block {
         name: "hil-gain",
@@ -350,6 +408,7 @@ pub const BLOCKS: &[Block] = &[
         args: &["run", "--control", "gain"],
         exit: 0,
         keep: Keep::AllBut(MACHINE_DEPENDENT),
+        stderr: false,
     },
     Block {
         name: "hil-beating",
@@ -357,6 +416,7 @@ pub const BLOCKS: &[Block] = &[
         args: &["run", "--scenario", "beating"],
         exit: 1,
         keep: Keep::AllBut(MACHINE_DEPENDENT),
+        stderr: false,
     },
     Block {
         name: "hil-short",
@@ -364,6 +424,7 @@ pub const BLOCKS: &[Block] = &[
         args: &["run", "--scenario", "hil/tests/data/short.toml"],
         exit: 0,
         keep: Keep::AllBut(MACHINE_DEPENDENT),
+        stderr: false,
     },
     // The fixed-point audit without QEMU: its header, every check that is not a pass,
     // and the verdict with the counts.
@@ -373,6 +434,7 @@ pub const BLOCKS: &[Block] = &[
         args: &["audit", "--no-target"],
         exit: 0,
         keep: Keep::Starting(&["hil audit:", "  warn ", "  fail ", "verdict:"]),
+        stderr: false,
     },
     Block {
         name: "golden",
@@ -380,6 +442,7 @@ pub const BLOCKS: &[Block] = &[
         args: &["golden"],
         exit: 0,
         keep: Keep::AllBut(MACHINE_DEPENDENT),
+        stderr: false,
     },
 ];
 
@@ -401,7 +464,7 @@ fn generate(root: &Path, bin_dir: &Path, b: &Block) -> Result<String, String> {
             String::from_utf8_lossy(&out.stderr)
         ));
     }
-    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stdout = String::from_utf8_lossy(if b.stderr { &out.stderr } else { &out.stdout });
     let mut text = String::new();
     let _ = writeln!(text, "```text");
     let _ = writeln!(text, "$ {shown}");
