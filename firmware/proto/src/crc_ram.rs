@@ -52,6 +52,21 @@ impl RamCrc {
         !crc
     }
 
+    /// Fills the table if it is not yet (before a run of [`Self::step`]).
+    #[inline(always)]
+    pub fn ensure(&self) {
+        if !self.ready.load(Ordering::Acquire) {
+            self.fill();
+        }
+    }
+
+    /// One byte into the register (reflected, no final XOR): `T[(reg ^ b) & 0xFF] ^
+    /// (reg >> 8)`, four instructions. The table must be ready ([`Self::ensure`]).
+    #[inline(always)]
+    pub fn step(&self, reg: u32, b: u8) -> u32 {
+        self.table[usize::from((reg as u8) ^ b)].load(Ordering::Relaxed) ^ (reg >> 8)
+    }
+
     #[cold]
     #[inline(never)]
     fn fill(&self) {
@@ -93,6 +108,22 @@ mod tests {
                 reference.checksum(&data[..n]),
                 "{n}"
             );
+            // The register stepped over the bytes and their CRC (little-endian) ends
+            // at the residue the streaming decoder compares with.
+            ours.ensure();
+            let crc = ours.checksum(&data[..n]).to_le_bytes();
+            let reg = data[..n]
+                .iter()
+                .chain(&crc)
+                .fold(!0u32, |r, &b| ours.step(r, b));
+            assert_eq!(reg, crate::frame::CRC_RESIDUE, "{n}");
+            let mut bad = crc;
+            bad[n % 4] ^= 1 << (n % 8);
+            let reg = data[..n]
+                .iter()
+                .chain(&bad)
+                .fold(!0u32, |r, &b| ours.step(r, b));
+            assert_ne!(reg, crate::frame::CRC_RESIDUE, "{n}");
         }
     }
 }

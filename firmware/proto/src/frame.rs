@@ -265,19 +265,28 @@ fn encode_with(
     let body_area = out.get_mut(2..body_end).ok_or(too_small)?;
     let body = write_body(body_area).ok_or(too_small)?;
     *out.get_mut(1).ok_or(too_small)? = VERSION;
-    let n = 1 + body;
-    let crc = crc32c(out.get(1..=n).ok_or(too_small)?).to_le_bytes();
+    finish_frame(out, 1 + body)
+}
+
+/// The frame around the raw bytes `out[1..=n]` (version and body): their CRC after
+/// them, the COBS code bytes, the delimiter; returns the frame's length. One copy for
+/// every message's encoder.
+#[inline(never)]
+fn finish_frame(out: &mut [u8], n: usize) -> Result<usize, EncodeError> {
+    let too_small = EncodeError::BufferTooSmall;
     let with_crc = n + CRC_LEN;
-    out.get_mut(n + 1..=with_crc)
-        .ok_or(too_small)?
-        .copy_from_slice(&crc);
-    // COBS in place (with_crc <= MAX_RAW + CRC_LEN < 254: no 0xFF blocks, no overflow
-    // of `code`).
-    let raw = out.get_mut(..=with_crc).ok_or(too_small)?;
-    let (mut code_idx, mut code) = (0usize, 1u8);
-    for i in 1..raw.len() {
-        if raw.get(i) == Some(&0) {
-            if let Some(c) = raw.get_mut(code_idx) {
+    // The frame: code byte, raw bytes out[1..=n], CRC, delimiter.
+    let frame = out.get_mut(..with_crc + 2).ok_or(too_small)?;
+    // One pass over the raw bytes: the CRC register and the COBS code bytes together
+    // (with_crc <= MAX_RAW + CRC_LEN < 254: no 0xFF blocks, no overflow of `code`).
+    // (Plain `while` loops: at opt-level z the range and array iterators stay calls.)
+    crc_ready();
+    let (mut reg, mut code_idx, mut code) = (!0u32, 0usize, 1u8);
+    let mut i = 1;
+    while let Some(&b) = frame.get(i).filter(|_| i <= n) {
+        reg = crc_byte(reg, b);
+        if b == 0 {
+            if let Some(c) = frame.get_mut(code_idx) {
                 *c = code;
             }
             code_idx = i;
@@ -285,9 +294,27 @@ fn encode_with(
         } else {
             code += 1;
         }
+        i += 1;
     }
-    *raw.get_mut(code_idx).ok_or(too_small)? = code;
-    *out.get_mut(with_crc + 1).ok_or(too_small)? = 0;
+    // The CRC, little-endian, then its COBS codes.
+    frame
+        .get_mut(n + 1..=with_crc)
+        .ok_or(too_small)?
+        .copy_from_slice(&(!reg).to_le_bytes());
+    while let Some(&b) = frame.get(i).filter(|_| i <= with_crc) {
+        if b == 0 {
+            if let Some(c) = frame.get_mut(code_idx) {
+                *c = code;
+            }
+            code_idx = i;
+            code = 1;
+        } else {
+            code += 1;
+        }
+        i += 1;
+    }
+    *frame.get_mut(code_idx).ok_or(too_small)? = code;
+    *frame.get_mut(with_crc + 1).ok_or(too_small)? = 0;
     Ok(with_crc + 2)
 }
 
@@ -407,14 +434,54 @@ fn open_nonzero(encoded: &mut [u8]) -> Result<&[u8], FrameError> {
 /// Checks a COBS-decoded frame's length, CRC and version; returns the message bytes.
 #[inline(always)]
 fn check(frame: &[u8]) -> Result<&[u8], FrameError> {
+    check_reg(frame, None)
+}
+
+/// The CRC-32C register (reflected, before the final XOR) after a frame's bytes
+/// followed by their own CRC, little-endian: the same for every frame (the CRC's
+/// residue), so a receiver that runs the register over all the decoded bytes, CRC
+/// included, checks the CRC with one compare.
+pub(crate) const CRC_RESIDUE: u32 = 0xB798_B438;
+
+/// One byte into the CRC-32C register (reflected, no final XOR: start from `!0`,
+/// compare with [`CRC_RESIDUE`]). Call [`crc_ready`] once before a run of these.
+#[inline(always)]
+pub(crate) fn crc_byte(reg: u32, b: u8) -> u32 {
+    #[cfg(feature = "std")]
+    {
+        TABLES[0][usize::from((reg as u8) ^ b)] ^ (reg >> 8)
+    }
+    #[cfg(not(feature = "std"))]
+    {
+        CRC.step(reg, b)
+    }
+}
+
+/// Makes [`crc_byte`]'s table ready (the device's RAM table is filled on first use).
+#[inline(always)]
+pub(crate) fn crc_ready() {
+    #[cfg(not(feature = "std"))]
+    CRC.ensure();
+}
+
+/// [`check`], with the CRC register `reg` already run over all of `frame` (the
+/// streaming decoder's), or `None` to compute the CRC here.
+#[inline(always)]
+fn check_reg(frame: &[u8], reg: Option<u32>) -> Result<&[u8], FrameError> {
     let n = frame.len();
     if n < MIN_DECODED {
         return Err(FrameError::Length);
     }
     let (body, crc) = frame.split_at(n - CRC_LEN);
-    let mut crc_bytes = [0u8; CRC_LEN];
-    crc_bytes.copy_from_slice(crc);
-    if crc32c(body) != u32::from_le_bytes(crc_bytes) {
+    let ok = match reg {
+        Some(reg) => reg == CRC_RESIDUE,
+        None => {
+            let mut crc_bytes = [0u8; CRC_LEN];
+            crc_bytes.copy_from_slice(crc);
+            crc32c(body) == u32::from_le_bytes(crc_bytes)
+        }
+    };
+    if !ok {
         return Err(FrameError::Crc);
     }
     let (version, msg) = body.split_first().ok_or(FrameError::Length)?;
@@ -506,19 +573,19 @@ pub(crate) fn decode_nonzero_request(encoded: &mut [u8]) -> Result<Request, Fram
     }
     let mut raw = [0u8; MAX_FRAME];
     let n = cobs_decode_nonzero_to(encoded, &mut raw).ok_or(FrameError::Cobs)?;
-    request_from_raw(raw.get(..n).ok_or(FrameError::Cobs)?)
+    request_from_raw(raw.get(..n).ok_or(FrameError::Cobs)?, None)
 }
 
 /// [`decode_nonzero_frame`] of a frame already COBS-decoded (the [`crate::Decoder`]
 /// decodes COBS as the bytes arrive): length, CRC, version, then the message.
-pub(crate) fn message_from_raw(raw: &[u8]) -> Result<Message, FrameError> {
-    crate::fast::decode_body(check(raw)?).map_err(FrameError::from)
+pub(crate) fn message_from_raw(raw: &[u8], reg: Option<u32>) -> Result<Message, FrameError> {
+    crate::fast::decode_body(check_reg(raw, reg)?).map_err(FrameError::from)
 }
 
 /// [`decode_nonzero_request`] of a frame already COBS-decoded: length, CRC, version,
 /// then the request.
-pub(crate) fn request_from_raw(raw: &[u8]) -> Result<Request, FrameError> {
-    let msg = check(raw)?;
+pub(crate) fn request_from_raw(raw: &[u8], reg: Option<u32>) -> Result<Request, FrameError> {
+    let msg = check_reg(raw, reg)?;
     // postcard writes an enum as its variant index (a varint), then the variant.
     use crate::fast::{
         finish, leading_index, message_type, ACTUATION, COMMAND, COMMANDS, CONFIG, SENSOR, STATUS,
