@@ -569,6 +569,27 @@ fn cmd_sweep(c: &SweepCmd, command: &str) -> Result<Verdict, Failure> {
                     say!("report: {}", f.display());
                 }
             }
+            for r in &doc.records {
+                let checks: Vec<&str> = r.failing.iter().map(|c| c.check.as_str()).collect();
+                say!(
+                    "  {:>4}  {}: {}, peak |y| {:.3} mm{}{}",
+                    r.index,
+                    r.params
+                        .iter()
+                        .map(|(k, v)| format!("{k} = {}", report::value_label(*v)))
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                    r.verdict,
+                    r.peak_abs_y_m * 1e3,
+                    r.diverged_at_s
+                        .map_or(String::new(), |t| format!(", diverged at {t:.3} s")),
+                    if checks.is_empty() {
+                        String::new()
+                    } else {
+                        format!("; not passed: {}", checks.join(", "))
+                    }
+                );
+            }
             let s = &doc.summary;
             say!(
                 "hil sweep: {} of {} points{}: {} pass, {} warn, {} fail",
@@ -870,6 +891,18 @@ fn print_summary(r: &hil::run::RunReport) {
                 .and_then(|t| t.get("realtime"))
                 .map_or(String::new(), ToString::to_string)
         );
+    }
+    let default = Params::default().entries();
+    let changed: Vec<String> = r
+        .params
+        .entries()
+        .iter()
+        .zip(&default)
+        .filter(|((_, a), (_, b))| a != b)
+        .map(|((k, a), _)| format!("{k} = {}", report::value_label(*a)))
+        .collect();
+    if !changed.is_empty() {
+        say!("parameters (the paper's but): {}", changed.join(", "));
     }
     say!("verdict: {}", r.verdict);
     let m = &r.monitor;

@@ -338,8 +338,8 @@ fn axis_indices(axes: &[crate::sweep::Axis], index: usize) -> Vec<usize> {
     idx
 }
 
-/// A parameter value for a label: 3 significant digits.
-fn value_label(v: f64) -> String {
+/// A parameter value for a label: 3 significant digits (`1.00e6`, `0.167`).
+pub fn value_label(v: f64) -> String {
     if v == 0.0 {
         "0".into()
     } else if v.abs() >= 1e4 || v.abs() < 1e-2 {

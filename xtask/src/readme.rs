@@ -444,6 +444,38 @@ pub const BLOCKS: &[Block] = &[
         keep: Keep::AllBut(MACHINE_DEPENDENT),
         stderr: false,
     },
+    // Any operating point and campaigns over the envelope (issue 15).
+    Block {
+        name: "hil-params-3mn",
+        bin: Bin::Hil,
+        args: &["run", "--params", "sim-host/params/creep-3mn.toml"],
+        exit: 0,
+        keep: Keep::AllBut(MACHINE_DEPENDENT),
+    },
+    Block {
+        name: "hil-params-conicity",
+        bin: Bin::Hil,
+        args: &["run", "--params", "sim-host/params/conicity-0.4.toml"],
+        exit: 0,
+        keep: Keep::AllBut(MACHINE_DEPENDENT),
+    },
+    Block {
+        name: "hil-sweep",
+        bin: Bin::Hil,
+        args: &[
+            "sweep",
+            "--param",
+            "f11=1e6..1e7:5",
+            "--param",
+            "lambda=0.05..0.4:4",
+            "--json",
+            "out/sweep.json",
+            "--report",
+            "out/sweep",
+        ],
+        exit: 1,
+        keep: Keep::All,
+    },
 ];
 
 /// A run of every block's command: the block's new text, or why it could not be made.
