@@ -451,6 +451,7 @@ pub const BLOCKS: &[Block] = &[
         args: &["run", "--params", "sim-host/params/creep-3mn.toml"],
         exit: 0,
         keep: Keep::AllBut(MACHINE_DEPENDENT),
+        stderr: false,
     },
     Block {
         name: "hil-params-conicity",
@@ -458,6 +459,7 @@ pub const BLOCKS: &[Block] = &[
         args: &["run", "--params", "sim-host/params/conicity-0.4.toml"],
         exit: 0,
         keep: Keep::AllBut(MACHINE_DEPENDENT),
+        stderr: false,
     },
     Block {
         name: "hil-sweep",
@@ -475,6 +477,7 @@ pub const BLOCKS: &[Block] = &[
         ],
         exit: 1,
         keep: Keep::All,
+        stderr: false,
     },
 ];
 
