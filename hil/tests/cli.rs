@@ -72,6 +72,11 @@ fn no_subcommand_is_run_and_writes_the_verdict_document() {
         let s = std::fs::read_to_string(report.join(svg)).unwrap();
         assert!(s.starts_with("<svg"), "{svg}");
     }
+    // In process the device's exec is a simulated 0 ns: the histogram says so instead
+    // of drawing one bar at 0.
+    let h = std::fs::read_to_string(report.join("exec_histogram.svg")).unwrap();
+    assert!(h.contains("not measured"), "{h}");
+    assert!(!h.contains("fill=\"#56B4E9\""), "a bar was drawn");
     // `hil run` with the same flags gives the same verdict document.
     let json2 = tmp("run.json");
     let out = hil(&[
