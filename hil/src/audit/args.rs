@@ -56,6 +56,10 @@ pub struct AuditArgs {
     /// Skip the closed-loop audit (device in the loop, limit cycle, margins).
     #[arg(long)]
     pub no_closed_loop: bool,
+    /// Print only the README's generated audit block (`hil::audit::readme`); skips the
+    /// word-length sweep (its figure is not in the block).
+    #[arg(long)]
+    pub readme_block: bool,
     /// Print only the verdict lines.
     #[arg(long)]
     pub quiet: bool,
@@ -76,6 +80,7 @@ impl Default for AuditArgs {
             no_plant: false,
             no_target: false,
             no_closed_loop: false,
+            readme_block: false,
             target_ticks: 2000,
             yaw_predict_ticks: None,
             quiet: true,

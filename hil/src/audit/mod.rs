@@ -45,6 +45,7 @@ pub mod plant;
 pub mod plots;
 pub mod qdyn;
 pub mod ranges;
+pub mod readme;
 pub mod report;
 pub mod response;
 pub mod target;
@@ -139,7 +140,11 @@ pub fn run(args: &AuditArgs) -> Result<u8, AuditError> {
     if let Some(dir) = &args.report {
         report::write_report(&audit, dir)?;
     }
-    print!("{}", report::summary(&audit, args.quiet));
+    if args.readme_block {
+        print!("{}", readme::block(&audit));
+    } else {
+        print!("{}", report::summary(&audit, args.quiet));
+    }
     Ok(if audit.verdict == Status::Fail { 1 } else { 0 })
 }
 
@@ -204,7 +209,8 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
         .iter()
         .flat_map(|a| a.coefficients.clone())
         .collect();
-    let sweep = (!args.no_sweep).then(|| formats::sweep(&cfg, &tol, &fmt, &coefs));
+    let sweep =
+        (!args.no_sweep && !args.readme_block).then(|| formats::sweep(&cfg, &tol, &fmt, &coefs));
     let proofs = if production {
         proofs_for::<Fx>(&cfg, fmt, &c.observed, &scenarios)?
     } else {
