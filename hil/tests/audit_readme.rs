@@ -15,12 +15,11 @@ fn the_readme_audit_block_is_the_tools_output() {
         .output()
         .unwrap();
     let printed = String::from_utf8(out.stdout).unwrap();
-    assert!(printed.starts_with(readme::BEGIN), "{printed}");
-    assert!(printed.trim_end().ends_with(readme::END));
+    assert!(printed.contains("Verdict: **"), "{printed}");
     let md = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../README.md")).unwrap();
     let block = readme::extract(&md).expect("README has the generated audit block");
     assert!(
-        block == printed.trim_end(),
+        block == printed,
         "README's audit block differs from `{}`; regenerate it.\n--- tool ---\n{printed}",
         readme::COMMAND
     );

@@ -1,8 +1,8 @@
-//! The README's generated audit block: the audit's headline figures as Markdown between
-//! [`BEGIN`] and [`END`], printed by `hil audit --no-target --readme-block` and checked
+//! The README's generated audit block: the audit's headline figures as Markdown, the
+//! body between [`BEGIN`] and [`END`], printed by `hil audit --no-target --readme-block` and checked
 //! against `README.md` by `hil/tests/audit_readme.rs`, so a change that moves a figure
-//! fails until the README follows. [`generate`] is the entry point a README rewriter
-//! (`cargo xtask readme`) calls.
+//! fails until the README follows. `cargo xtask readme` rewrites it like its other
+//! blocks (a Markdown block: the output verbatim); [`generate`] is the same in process.
 
 use std::fmt::Write as _;
 
@@ -33,10 +33,11 @@ pub fn generate() -> Result<String, AuditError> {
     Ok(block(&build(&args())?))
 }
 
-/// The part of `text` from [`BEGIN`] to [`END`] (both included), if present.
+/// The body of the block in `text`: the lines between the [`BEGIN`] line and the
+/// [`END`] line (markers excluded), if present.
 pub fn extract(text: &str) -> Option<&str> {
-    let a = text.find(BEGIN)?;
-    let b = text[a..].find(END)? + a + END.len();
+    let a = text.find(&format!("{BEGIN}\n"))? + BEGIN.len() + 1;
+    let b = text[a..].find(&format!("\n{END}"))? + a + 1;
     Some(&text[a..b])
 }
 
@@ -53,11 +54,11 @@ fn worst_coef(a: &Audit, name: &str) -> String {
         .unwrap_or_else(|| "-".into())
 }
 
-/// The block for `a` (every line ends in `\n`; the last is [`END`]).
+/// The block's body for `a`, what goes between [`BEGIN`] and [`END`] (every line ends
+/// in `\n`).
 pub fn block(a: &Audit) -> String {
     let mut s = String::new();
     let w = &mut s;
-    let _ = writeln!(w, "{BEGIN}");
     let _ = writeln!(
         w,
         "Figures of `{COMMAND}` at {} Hz, signals {}, coefficients {} (generated; a test \
@@ -258,6 +259,5 @@ pub fn block(a: &Audit) -> String {
             c.reason
         );
     }
-    let _ = writeln!(w, "{END}");
     s
 }
