@@ -187,3 +187,58 @@ fn the_closed_loop_section_measures_and_attributes_the_straight_track_cycle() {
         assert!(j["margins"][0].get(k).is_some(), "margins.{k}");
     }
 }
+
+#[test]
+fn findings_are_attributed_by_experiment() {
+    let a = audit::build(&args()).unwrap();
+    let d = a.diagnosis.as_ref().expect("production formats: diagnosis");
+    let p = d.pi.as_ref().expect("full-scale steps ran");
+    // Each removal can only take error away, and the shares account for the baseline.
+    assert!(p.with_quantised_ki_lsb < p.baseline_lsb);
+    let sum: f64 = p.shares.iter().map(|s| s.1).sum();
+    assert!((sum - p.baseline_lsb).abs() < 1e-9 * p.baseline_lsb);
+    // The baseline is the audit's own u_a figure for that scenario.
+    let n = a
+        .observed
+        .noise
+        .iter()
+        .find(|n| {
+            n.output == "u_a"
+                && n.scenario == p.scenario
+                && n.yaw_mode == "lead"
+                && n.phase == hil::audit::ranges::Phase::Normal
+        })
+        .unwrap();
+    assert_eq!(n.max_lsb, p.baseline_lsb);
+    // The remedy follows the largest share.
+    if p.shares[0].0 == "quantisation of Ki" {
+        assert!(p.remedy.starts_with("a finer representation of Ki"));
+    }
+    // Amplitude sweep: descending, and the stated threshold is where the warn
+    // tolerances stop holding.
+    let la = &d.lead_amplitude;
+    assert!(la
+        .points
+        .windows(2)
+        .all(|w| w[0].amplitude_mps > w[1].amplitude_mps));
+    let t = a.tolerances;
+    if let Some(x) = la.within_tolerance_down_to_mps {
+        for p in la.points.iter().filter(|p| p.amplitude_mps >= x) {
+            assert!(p.gain_db <= t.fixed_gain_db.0 && p.phase_deg <= t.fixed_phase_deg.0);
+        }
+        if let Some(b) = la.points.iter().find(|p| p.amplitude_mps < x) {
+            assert!(b.gain_db > t.fixed_gain_db.0 || b.phase_deg > t.fixed_phase_deg.0);
+        }
+    }
+    // One limit-cycle definition: a dither moves by at most one LSB.
+    for c in &a.controllers {
+        for l in &c.limit_cycles {
+            match l.classification.as_str() {
+                "none" => assert!(!l.oscillates),
+                "bounded dither" => assert!(l.p2p_lsb <= 1.0 + 1e-9),
+                "self-sustained oscillation" => assert!(l.p2p_lsb > 1.0),
+                other => panic!("unknown classification {other}"),
+            }
+        }
+    }
+}

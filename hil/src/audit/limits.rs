@@ -25,8 +25,12 @@ pub struct LimitCycle {
     pub p2p_lsb: f64,
     /// Oscillation amplitude `(max - min)/2`, SI.
     pub amplitude_si: f64,
-    /// Sustained oscillation seen (`p2p > 0`).
+    /// The output moves in the window (`p2p > 0.5 LSB`).
     pub oscillates: bool,
+    /// One definition ([`super::closed`]): `none`, `bounded dither` (the output moves
+    /// by at most one LSB of its format, e.g. the PI integrator stepping by one LSB on a
+    /// ramp) or `self-sustained oscillation` (more than one LSB without a driving input).
+    pub classification: String,
     /// Period of the oscillation in samples (from the zero crossings of the mean-removed
     /// output), if it oscillates.
     pub period_samples: Option<f64>,
@@ -141,6 +145,13 @@ pub fn limit_cycles<T: Sample>(
             p2p_lsb: op2p / out_lsb,
             amplitude_si: op2p / 2.0,
             oscillates,
+            classification: if !oscillates {
+                "none".into()
+            } else if op2p <= out_lsb * (1.0 + 1e-9) {
+                "bounded dither".into()
+            } else {
+                "self-sustained oscillation".into()
+            },
             period_samples: period,
             offset_si: offset,
             offset_lsb: offset / out_lsb,

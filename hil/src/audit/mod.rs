@@ -37,6 +37,7 @@ pub mod bounds;
 pub mod checks;
 pub mod closed;
 pub mod controller;
+pub mod diagnose;
 pub mod formats;
 pub mod limits;
 pub mod margins;
@@ -244,6 +245,33 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
         }
     };
     let recommendations = formats::recommend(&c.observed, &proofs);
+    let diagnosis = if production {
+        let pi = match scenarios.iter().find(|s| s.name == "full_scale_steps") {
+            Some(sc) => Some(diagnose::pi_attribution(&cfg, sc)?),
+            None => None,
+        };
+        Some(diagnose::Diagnosis {
+            pi,
+            lead_amplitude: diagnose::lead_amplitude(&cfg, &tol)?,
+        })
+    } else {
+        None
+    };
+    if let Some(p) = diagnosis.as_ref().and_then(|d| d.pi.as_ref()) {
+        let item = format!("u_a max error vs f64, scenario {}", p.scenario);
+        for c in checks.iter_mut().filter(|c| c.item == item) {
+            c.reason += &format!(
+                "; by experiment: {} (of {:.1} LSB); remedy: {}",
+                p.shares
+                    .iter()
+                    .map(|(n, v)| format!("{n} {v:.1} LSB"))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                p.baseline_lsb,
+                p.remedy
+            );
+        }
+    }
     let target = if args.no_target {
         target::TargetReport {
             available: false,
@@ -324,6 +352,7 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
         overflow_free: proofs.overflow_free,
         recommendations,
         closed_loop,
+        diagnosis,
         sweep,
         target,
         checks,

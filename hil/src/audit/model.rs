@@ -226,6 +226,8 @@ pub struct Audit {
     pub recommendations: Vec<Recommendation>,
     /// The closed-loop audit (`null` with `--no-plant` / `--no-closed-loop`).
     pub closed_loop: Option<super::closed::ClosedLoopAudit>,
+    /// Findings attributed by experiment (production formats only).
+    pub diagnosis: Option<super::diagnose::Diagnosis>,
     /// The signal fraction bits found by the bisection (smallest passing) and the
     /// coefficient fraction bits needed, if the sweep ran.
     pub sweep: Option<Sweep>,

@@ -290,6 +290,18 @@ pub fn observe<T: Sample>(
     scenarios: &[Scenario],
     fmt: QFormat,
 ) -> Result<Observed, wheelset_control::ConfigError> {
+    observe_against::<T>(base, scenarios, fmt, &|c| *c)
+}
+
+/// As [`observe`], with the f64 reference built from `reference(cfg)` instead of `cfg`
+/// (the attribution experiments of [`super::diagnose`]: a reference that holds a
+/// quantised constant removes that constant's quantisation from the error).
+pub fn observe_against<T: Sample>(
+    base: &Config,
+    scenarios: &[Scenario],
+    fmt: QFormat,
+    reference: &dyn Fn(&Config) -> Config,
+) -> Result<Observed, wheelset_control::ConfigError> {
     let mut sig: Vec<SignalRange> = SIGNALS
         .iter()
         .map(|(n, k, u, f, st)| SignalRange {
@@ -319,7 +331,7 @@ pub fn observe<T: Sample>(
             cfg.yaw_mode = mode;
             cfg.traction_enabled = true;
             let mut fx = Controller::<T>::try_new(&cfg)?;
-            let mut fl = Controller::<f64>::try_new(&cfg)?;
+            let mut fl = Controller::<f64>::try_new(&reference(&cfg))?;
             let s = cfg.scales;
             let l = cfg.limits;
             let lead = fx.lead().quantised();

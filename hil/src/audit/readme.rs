@@ -207,6 +207,28 @@ pub fn block(a: &Audit) -> String {
             );
         }
     }
+    if let Some(d) = &a.diagnosis {
+        if let Some(p) = &d.pi {
+            let _ = writeln!(
+                w,
+                "- The `u_a` error in `{}` by experiment: {}; Ki has {:.1} significant bits \
+                 (relative error {:.2e}).",
+                p.scenario,
+                p.shares
+                    .iter()
+                    .map(|(n, v)| format!("{n} {v:.1} LSB"))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                p.ki_significant_bits,
+                p.ki_rel_err
+            );
+        }
+        let _ = writeln!(
+            w,
+            "- The lead over the stimulus amplitude: {}.",
+            d.lead_amplitude.statement
+        );
+    }
     if let Some(cl) = &a.closed_loop {
         let lc = &cl.limit_cycle;
         let _ = writeln!(

@@ -293,7 +293,7 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
         let mut t = Table::new([
             "hold input",
             "value (SI)",
-            "oscillates",
+            "moves (definition: hil::audit::closed)",
             "p2p (LSB)",
             "amplitude",
             "period (samples)",
@@ -304,7 +304,7 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
             t.row([
                 l.hold.to_string(),
                 format!("{:.3e}", l.hold_input_si),
-                if l.oscillates { "yes" } else { "no" }.to_string(),
+                l.classification.clone(),
                 format!("{:.2}", l.p2p_lsb),
                 format!("{:.3e} {}", l.amplitude_si, l.unit),
                 l.period_samples
@@ -412,23 +412,49 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
         ]);
     }
     let _ = write!(w, "{t}");
-    if let Some(worst) = o
-        .noise
-        .iter()
-        .filter(|n| n.output == "u_a" && n.max_wire_lsb > a.tolerances.noise_wire_lsb.0)
-        .max_by(|x, y| x.max_lsb.total_cmp(&y.max_lsb))
-    {
+    if let Some(d) = &a.diagnosis {
+        let _ = writeln!(w, "\n## Findings attributed by experiment\n");
+        if let Some(p) = &d.pi {
+            let _ = writeln!(
+                w,
+                "PI steady error (`u_a` vs f64, scenario `{}`): {:.1} LSB; with the f64 \
+                 reference holding the quantised `Ki` {:.1} LSB; also the quantised ramp \
+                 steps {:.1} LSB. Shares: {}. `Ki` has {:.1} significant bits in Q1.31 \
+                 (relative error {:.2e}). Remedy: {}\n",
+                p.scenario,
+                p.baseline_lsb,
+                p.with_quantised_ki_lsb,
+                p.with_quantised_ki_and_ramps_lsb,
+                p.shares
+                    .iter()
+                    .map(|(n, v)| format!("{n} {v:.1} LSB"))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                p.ki_significant_bits,
+                p.ki_rel_err,
+                p.remedy
+            );
+        }
+        let la = &d.lead_amplitude;
         let _ = writeln!(
             w,
-            "\nFinding: the largest `u_a` error ({:.0} LSB = {:.3e} V in `{}`) is a drift, \
-             not noise: the PI integrator adds `Ki e` rounded to nearest every step; `Ki` is \
-             4e-5 pu at 5 kHz, so with a slowly varying error `e` the rounding error has a \
-             bias, and an open-loop replay of 20 s (1e5 steps) sums it. In closed loop the \
-             current loop absorbs it (a drift of this size is cancelled by a current error of \
-             about drift rate / (Kp/Ti), i.e. milliamperes). First-order error feedback on \
-             the increment (carry the sub-LSB remainder to the next step) removes the bias.",
-            worst.max_lsb, worst.max_si, worst.scenario
+            "Lead response over the stimulus amplitude (fixed measured vs discrete f64, \
+             worst over {:?} Hz): {}.\n",
+            la.freqs_hz, la.statement
         );
+        let mut t = Table::new([
+            "y' amplitude (m/s)",
+            "worst gain error (dB)",
+            "worst phase error (deg)",
+        ]);
+        for p in &la.points {
+            t.row([
+                format!("{:.0e}", p.amplitude_mps),
+                format!("{:.2e}", p.gain_db),
+                format!("{:.2e}", p.phase_deg),
+            ]);
+        }
+        let _ = write!(w, "{t}");
     }
     let _ = writeln!(w, "\n## Proven bounds\n");
     let _ = writeln!(

@@ -541,10 +541,19 @@ pub fn measured<T: Sample>(
     cfg: &Config,
     f_hz: f64,
 ) -> Result<C64, wheelset_control::ConfigError> {
+    measured_at::<T>(kind, cfg, f_hz, measure_amplitude(kind))
+}
+
+/// As [`measured`] with the stimulus amplitude `amp` (SI input unit).
+pub fn measured_at<T: Sample>(
+    kind: Kind,
+    cfg: &Config,
+    f_hz: f64,
+    amp: f64,
+) -> Result<C64, wheelset_control::ConfigError> {
     let mut d = Drive::<T>::new(kind, cfg)?;
     let fs = kind.rate_hz(cfg);
     let w = 2.0 * std::f64::consts::PI * f_hz / fs;
-    let amp = measure_amplitude(kind);
     let settle = settle_steps(kind, cfg);
     let per = fs / f_hz;
     let cycles = (2000.0 / per).ceil().max(1.0);
