@@ -61,8 +61,6 @@ impl Bin {
 pub enum Keep {
     /// Every line.
     All,
-    /// Only the lines starting with one of these (a long report's summary lines).
-    Starting(&'static [&'static str]),
     /// Every line but those containing one of these (figures that depend on the
     /// machine: wall times, host nanoseconds).
     AllBut(&'static [&'static str]),
@@ -75,7 +73,6 @@ impl Keep {
     fn keeps(self, line: &str) -> bool {
         match self {
             Keep::All | Keep::Markdown => true,
-            Keep::Starting(p) => p.iter().any(|p| line.starts_with(p)),
             Keep::AllBut(p) => !p.iter().any(|p| line.contains(p)),
         }
     }
