@@ -64,6 +64,8 @@ pub enum Keep {
     /// Every line but those containing one of these (figures that depend on the
     /// machine: wall times, host nanoseconds).
     AllBut(&'static [&'static str]),
+    /// Only the lines starting with one of these (a long report's summary lines).
+    Starting(&'static [&'static str]),
     /// The output is Markdown: the block is the output verbatim, no text fence and no
     /// command line (the block says its command itself).
     Markdown,
@@ -73,6 +75,7 @@ impl Keep {
     fn keeps(self, line: &str) -> bool {
         match self {
             Keep::All | Keep::Markdown => true,
+            Keep::Starting(p) => p.iter().any(|p| line.starts_with(p)),
             Keep::AllBut(p) => !p.iter().any(|p| line.contains(p)),
         }
     }
@@ -1107,6 +1110,8 @@ mod tests {
     fn keep_filters() {
         assert!(Keep::All.keeps("anything"));
         assert!(Keep::Markdown.keeps("| a | b |"));
+        assert!(Keep::Starting(&["  warn "]).keeps("  warn yaw_lead x"));
+        assert!(!Keep::Starting(&["  warn "]).keeps("  pass yaw_lead x"));
         assert!(!Keep::AllBut(MACHINE_DEPENDENT).keeps("pass, 0.5 s wall"));
         assert!(Keep::AllBut(MACHINE_DEPENDENT).keeps("frames 200 005 sent"));
     }
