@@ -1,0 +1,351 @@
+//! Proven ranges and rounding-error bounds of the control core, from the coefficients as
+//! the device holds them (quantised), next to what the scenarios observed.
+//!
+//! # Ranges (no overflow for any input within the clamps)
+//!
+//! All in per unit (pu); `q` is the signal LSB (`2^-28` for Q4.28). The inputs are
+//! clamped first: `|y'| <= Y`, `|i_a| <= I`, `|demand| <= Dm`, `|omega| <= S`.
+//!
+//! - **Predictor** (interval arithmetic): `y' - y'[n-1]` in `[-2Y, 2Y]` (exact);
+//!   `d = round((y' - y'[n-1]) p)` with `p = predict_half`, so `|y' + 2d| <= Y(1 + 4|p|) + q`
+//!   before the clamp to `+-P` (2 pu); the lead's input is `|x| <= X = min(P, that)`
+//!   (`X = Y` exactly when the predictor is off, `p = 0`).
+//! - **Lead** (linear; WCPG, [`super::wcpg`]): state `s[n] = (z[n-1], x[n-1])`,
+//!   `a = 1 - kappa`, `h = kappa g/2` (quantised coefficients, exact arithmetic):
+//!
+//!   ```text
+//!   s[n+1] = [[a, h], [0, 0]] s[n] + [h, 1] x[n]
+//!   x + x1 = [0, 1] s + 1 x          e = (g/2)(x + x1) - z = [-1, g/2] s + (g/2) x
+//!   z[n]   = [a, h] s + h x          x - z[n] = [-a, -h] s + (1 - h) x,   y = K_hf (x - z)
+//!   ```
+//!
+//!   Each signal's exact value is at most `WCPG X`; the fixed-point value differs from
+//!   it by at most its rounding-error bound (below), so `proven = WCPG X + error`. The
+//!   bumpless start from the steady state of a held input is the response to an input
+//!   held forever (within the bound), plus one rounding of `z`, `q/2`, decaying.
+//! - **Gain**: `|round(x k)| <= |k| X + q/2`. A law change slews the output between the
+//!   old output and the new law's (`|.| <= max(T_max, raw)`); the limit gives `T_max`.
+//! - **Traction** (interval arithmetic): target `round(d d2i)`, `|.| <= Dm |d2i| + q/2`;
+//!   the ramp moves `i_ref` towards the target by at most one step, so it stays in the
+//!   hull of 0 and the targets; the wheel-slip protection only lowers it to a cap in
+//!   `[0, i_ref]` ([`wheelset_control::wsp`]); `|e| <= Iref + I`; `|round(Kp e)| <=
+//!   |Kp| E + q/2`; the integrator's increment is floored with its remainder carried,
+//!   `|.| <= |Ki| E + q`; the integrator is clamped to `[u_min, u_max]` (anti-windup),
+//!   so its pre-clamp value is at most `U + |Ki| E + q` and the PI sum `|Kp| E + q/2 +
+//!   U`; the output is limited to `U`. The PI's linear part is not BIBO (pole `z = 1`):
+//!   only the anti-windup clamp bounds it.
+//!
+//! # Rounding-error bounds (fixed point vs exact arithmetic on the same quantised
+//! coefficients and the same inputs)
+//!
+//! Every product is rounded to nearest (`|r| <= q/2`); the integrator's increment is
+//! floored with error feedback. The error of each signal is a linear filter of the
+//! rounding errors (the saturations never act: the ranges above are inside the format):
+//!
+//! - Lead: `r1` at `(g/2)(x + x1)`, `r2` at `kappa e`, `r3` at `K_hf (x - z)`;
+//!   `dz[n] = a dz[n-1] + kappa r1 + r2`, so `|dz| <= W(r1->z) q/2 + W(r2->z) q/2 + q/2`
+//!   (WCPGs `1` and `1/kappa`; the last term the bumpless start), `|dy| <= K_hf |dz| + q/2`.
+//!   The predictor's rounding `r_p` enters the lead's input twice: `|dx| <= q`, and
+//!   adds `W(x->y) q` to the torque.
+//! - PI, given its input `e`: `|du| <= q/2 (Kp e) + q (integrator)`. The integrator
+//!   bound is an invariant: with `rho` the carried remainder in `[0, q)`, `eps = dI +
+//!   rho` stays in `[0, q)` through every step (unclamped: unchanged; clamped: the
+//!   clamp is monotone and non-expansive, so `eps` lands between `rho` and its old value).
+//! - The reference: the target's rounding (`q/2`) passes through the ramp unchanged in
+//!   size (the ramp is monotone in both arguments and commutes with a common shift), so
+//!   `|d i_ref| <= q/2`. Open loop, the PI integrates that offset without bound; closed
+//!   loop the current loop absorbs it: stated, not bounded here.
+
+mod observed;
+mod proven;
+
+pub use observed::observed_errors;
+pub use proven::{lead_error_systems, lead_systems, proven, Proven, Quantised};
+
+use serde::Serialize;
+use wheelset_control::Config;
+
+use super::qdyn::QFormat;
+use super::ranges::Observed;
+use super::wcpg::Wcpg;
+
+/// One signal's observed and proven magnitude (the issue's record, extended).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Bound {
+    /// Signal name (as in the ranges table; predictor and intermediates added).
+    pub signal: String,
+    /// Controller.
+    pub controller: String,
+    /// SI unit of the magnitudes.
+    pub unit: String,
+    /// Largest |value| observed over the scenarios, SI (`null`: not observed).
+    pub observed_max: Option<f64>,
+    /// Proven largest |value| for any input within the clamps, SI.
+    pub proven_max: f64,
+    /// The audited signal format.
+    pub format: String,
+    /// `log2(format range / proven_max)`, bits (negative: the proof does not exclude
+    /// an overflow).
+    pub margin_bits: f64,
+    /// How it is proven.
+    pub proof: String,
+}
+
+/// One output's rounding error: observed and proven, against exact arithmetic on the
+/// same quantised coefficients and inputs.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ErrorBound {
+    /// Output (`T_psi (lead)`, `T_psi (gain)`, `u_a (PI)`, `i_ref`).
+    pub output: String,
+    /// Largest |fixed - exact| observed over the scenarios.
+    pub observed: f64,
+    /// Proven bound.
+    pub proven: f64,
+    /// Unit of `observed` and `proven`.
+    pub unit: String,
+    /// The proven bound in wire LSBs of the output.
+    pub proven_wire_lsb: f64,
+    /// Per rounding point: `(where, contribution in unit)`.
+    pub rounding_points: Vec<(String, f64)>,
+}
+
+/// The WCPG of one linear part, input -> output.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct LinearPart {
+    /// Part (`lead`, `PI`, `y'' integrator`, lead rounding-error filters).
+    pub part: String,
+    /// Input -> output.
+    pub path: String,
+    /// The WCPG (`null`: infinite, e.g. an integrator).
+    pub wcpg: Option<Wcpg>,
+    /// What it means.
+    pub note: String,
+}
+
+/// A format proposal from the bounds.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Proposal {
+    /// Signal.
+    pub signal: String,
+    /// Proven |max|, pu.
+    pub proven_max_pu: f64,
+    /// Integer bits incl. sign: the smallest with `2^(i-1) > proven_max_pu`.
+    pub int_bits: u32,
+    /// Fraction bits: the smallest meeting the output-error budget of its chain.
+    pub frac_bits: u32,
+    /// `Qi.f`.
+    pub format: String,
+    /// What the proposal guarantees.
+    pub guarantee: String,
+}
+
+/// Everything proven.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Proofs {
+    /// Per signal.
+    pub bounds: Vec<Bound>,
+    /// Per output.
+    pub error_bounds: Vec<ErrorBound>,
+    /// The linear parts' WCPGs.
+    pub linear_parts: Vec<LinearPart>,
+    /// Format proposals from the bounds.
+    pub proposals: Vec<Proposal>,
+    /// The stated result.
+    pub statement: String,
+    /// Whether every proven bound lies inside the audited format.
+    pub overflow_free: bool,
+}
+
+/// Smallest integer bits (incl. sign) with `2^(i-1) > v`.
+pub fn int_bits_for(v: f64) -> u32 {
+    let mut i = 1u32;
+    while i < 64 && 2f64.powi(i as i32 - 1) <= v {
+        i += 1;
+    }
+    i
+}
+
+/// Smallest fraction bits `F` with `err_per_lsb 2^-F <= budget` (both pu).
+pub fn frac_bits_for(err_per_lsb: f64, budget: f64) -> u32 {
+    if !(err_per_lsb > 0.0 && budget > 0.0) {
+        return 0;
+    }
+    (err_per_lsb / budget).log2().ceil().max(0.0) as u32
+}
+
+/// Proofs for the audited configuration and format, with the observed ranges and the
+/// observed errors (pu, from [`observed_errors`]).
+pub fn prove(
+    cfg: &Config,
+    k: &Quantised,
+    fmt: QFormat,
+    observed: &Observed,
+    obs_err: [f64; 4],
+) -> Proofs {
+    let q = fmt.lsb();
+    let range = fmt.range();
+    let p = proven(k, cfg, q);
+    let fmt_s = fmt.to_string();
+    let bounds: Vec<Bound> = p
+        .signals
+        .iter()
+        .map(|(n, c, u, fs, v, proof)| {
+            let obs = observed
+                .signals
+                .iter()
+                .find(|r| &r.name == n && r.samples > 0)
+                .map(|r| r.min_si.abs().max(r.max_si.abs()));
+            Bound {
+                signal: n.clone(),
+                controller: c.clone(),
+                unit: u.clone(),
+                observed_max: obs,
+                proven_max: v * fs,
+                format: fmt_s.clone(),
+                margin_bits: (range / v).log2(),
+                proof: proof.clone(),
+            }
+        })
+        .collect();
+    let s = &cfg.scales;
+    let wire = &cfg.wire;
+    let eb =
+        |o: &str, obs: f64, pr: f64, fs: f64, unit: &str, lsb: f64, pts: Vec<(String, f64)>| {
+            ErrorBound {
+                output: o.into(),
+                observed: obs * fs,
+                proven: pr * fs,
+                unit: unit.into(),
+                proven_wire_lsb: pr * fs / lsb,
+                rounding_points: pts.into_iter().map(|(n, v)| (n, v * fs)).collect(),
+            }
+        };
+    let error_bounds = vec![
+        eb(
+            "T_psi (lead, with the predictor)",
+            obs_err[0],
+            p.lead_err,
+            s.torque,
+            "N m",
+            wire.torque,
+            p.lead_err_points.clone(),
+        ),
+        eb(
+            "T_psi (gain, with the predictor)",
+            obs_err[1],
+            p.gain_err,
+            s.torque,
+            "N m",
+            wire.torque,
+            vec![
+                ("predictor".into(), p.gain_err - q / 2.0),
+                ("x k".into(), q / 2.0),
+            ],
+        ),
+        eb(
+            "u_a (PI, given its error input)",
+            obs_err[2],
+            p.pi_err,
+            s.voltage,
+            "V",
+            wire.voltage,
+            vec![
+                ("Kp e".into(), q / 2.0),
+                ("integrator (floored, remainder carried)".into(), q),
+            ],
+        ),
+        eb(
+            "i_ref (ramped reference)",
+            obs_err[3],
+            p.iref_err,
+            s.current,
+            "A",
+            wire.current,
+            vec![("demand d2i".into(), q / 2.0)],
+        ),
+    ];
+    let overflow_free = p.signals.iter().all(|x| x.4 < range);
+    // Proposals: integer bits from the proven bound; fraction bits from half a wire LSB
+    // of the chain's output (T_psi for the yaw signals, u_a for the traction ones).
+    let budget_t = 0.5 * wire.torque / s.torque;
+    let budget_u = 0.5 * wire.voltage / s.voltage;
+    let f_yaw = frac_bits_for(p.lead_err.max(p.gain_err) / q, budget_t);
+    let f_tr = frac_bits_for(p.pi_err / q, budget_u);
+    let proposals = p
+        .signals
+        .iter()
+        .map(|(n, c, _, _, v, _)| {
+            let i = int_bits_for(*v);
+            let (f, out, per, budget, lsb) = if c == "traction_pi" {
+                (
+                    f_tr,
+                    "u_a",
+                    p.pi_err / q,
+                    budget_u * s.voltage,
+                    wire.voltage,
+                )
+            } else {
+                (
+                    f_yaw,
+                    "T_psi",
+                    p.lead_err.max(p.gain_err) / q,
+                    budget_t * s.torque,
+                    wire.torque,
+                )
+            };
+            let fs = if c == "traction_pi" {
+                s.voltage
+            } else {
+                s.torque
+            };
+            let e = per * 2f64.powi(-(f as i32)) * fs;
+            Proposal {
+                signal: n.clone(),
+                proven_max_pu: *v,
+                int_bits: i,
+                frac_bits: f,
+                format: format!("Q{i}.{f}"),
+                guarantee: format!(
+                    "cannot overflow for any input within the clamps (proven {v:.4} pu < \
+                     2^{}); {out} rounding error vs exact arithmetic <= {e:.3e} ({:.3} wire \
+                     LSB, budget {budget:.3e} = half a wire LSB)",
+                    i - 1,
+                    e / lsb
+                ),
+            }
+        })
+        .collect();
+    let statement = if overflow_free {
+        format!(
+            "No overflow for any input within the clamps: every internal signal's proven \
+             bound lies inside {fmt_s} (smallest margin {:.2} bits, {}); the rounding error \
+             of T_psi against exact arithmetic on the quantised coefficients is at most \
+             {:.3e} N m ({:.3} wire LSB), of u_a given the PI's input {:.3e} V.",
+            bounds
+                .iter()
+                .map(|b| b.margin_bits)
+                .fold(f64::INFINITY, f64::min),
+            bounds
+                .iter()
+                .min_by(|a, b| a.margin_bits.total_cmp(&b.margin_bits))
+                .map(|b| b.signal.as_str())
+                .unwrap_or(""),
+            p.lead_err * s.torque,
+            p.lead_err * s.torque / wire.torque,
+            p.pi_err * s.voltage
+        )
+    } else {
+        format!(
+            "Overflow not excluded: {} proven bound(s) exceed the range of {fmt_s}.",
+            p.signals.iter().filter(|x| x.4 >= range).count()
+        )
+    };
+    Proofs {
+        bounds,
+        error_bounds,
+        linear_parts: p.parts,
+        proposals,
+        statement,
+        overflow_free,
+    }
+}

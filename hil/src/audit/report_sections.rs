@@ -1,0 +1,208 @@
+//! The Markdown report's sections on the proofs, the closed loop and the findings
+//! attributed by experiment ([`super::report::markdown`] calls them in place).
+
+use std::fmt::Write as _;
+
+use super::Audit;
+use crate::table::Table;
+
+/// Write the findings, proven bounds, rounding-error bounds, WCPGs and the closed-loop
+/// section of `a` to `w`.
+pub(crate) fn proofs_and_findings(a: &Audit, w: &mut String) {
+    if let Some(d) = &a.diagnosis {
+        let _ = writeln!(w, "\n## Findings attributed by experiment\n");
+        if let Some(p) = &d.pi {
+            let _ = writeln!(
+                w,
+                "PI steady error (`u_a` vs f64, scenario `{}`): {:.1} LSB; with the f64 \
+                 reference holding the quantised `Ki` {:.1} LSB; also the quantised ramp \
+                 steps {:.1} LSB. Shares: {}. `Ki` has {:.1} significant bits in Q1.31 \
+                 (relative error {:.2e}). Remedy: {}\n",
+                p.scenario,
+                p.baseline_lsb,
+                p.with_quantised_ki_lsb,
+                p.with_quantised_ki_and_ramps_lsb,
+                p.shares
+                    .iter()
+                    .map(|(n, v)| format!("{n} {v:.1} LSB"))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                p.ki_significant_bits,
+                p.ki_rel_err,
+                p.remedy
+            );
+        }
+        let la = &d.lead_amplitude;
+        let _ = writeln!(
+            w,
+            "Lead response over the stimulus amplitude (fixed measured vs discrete f64, \
+             worst over {:?} Hz): {}.\n",
+            la.freqs_hz, la.statement
+        );
+        let mut t = Table::new([
+            "y' amplitude (m/s)",
+            "worst gain error (dB)",
+            "worst phase error (deg)",
+        ]);
+        for p in &la.points {
+            t.row([
+                format!("{:.0e}", p.amplitude_mps),
+                format!("{:.2e}", p.gain_db),
+                format!("{:.2e}", p.phase_deg),
+            ]);
+        }
+        let _ = write!(w, "{t}");
+    }
+    let _ = writeln!(w, "\n## Proven bounds\n");
+    let _ = writeln!(
+        w,
+        "{}\n\nRanges: the worst-case peak gain (WCPG) of each linear part from the \
+         quantised coefficients, times the input clamps, plus the rounding-error bound; \
+         interval arithmetic through the clamps, ramps, predictor and anti-windup \
+         (`hil::audit::bounds` states each step). Observed = the largest magnitude over \
+         the scenarios.\n",
+        a.proof_statement
+    );
+    let mut t = Table::new([
+        "signal",
+        "unit",
+        "observed max",
+        "proven max",
+        "format",
+        "margin (bits)",
+        "proof",
+    ]);
+    for b in &a.bounds {
+        t.row([
+            b.signal.clone(),
+            b.unit.clone(),
+            b.observed_max
+                .map(|v| format!("{v:.6e}"))
+                .unwrap_or_else(|| "-".into()),
+            format!("{:.6e}", b.proven_max),
+            b.format.clone(),
+            format!("{:.2}", b.margin_bits),
+            b.proof.clone(),
+        ]);
+    }
+    let _ = write!(w, "{t}");
+    let _ = writeln!(
+        w,
+        "\nRounding error of the fixed-point core against exact arithmetic on the same \
+         quantised coefficients and inputs (each rounding point's error filter's peak gain \
+         x its rounding step):\n"
+    );
+    let mut t = Table::new([
+        "output",
+        "observed",
+        "proven",
+        "unit",
+        "proven (wire LSB)",
+        "per rounding point",
+    ]);
+    for e in &a.error_bounds {
+        t.row([
+            e.output.clone(),
+            format!("{:.4e}", e.observed),
+            format!("{:.4e}", e.proven),
+            e.unit.clone(),
+            format!("{:.4}", e.proven_wire_lsb),
+            e.rounding_points
+                .iter()
+                .map(|(n, v)| format!("{n} {v:.2e}"))
+                .collect::<Vec<_>>()
+                .join("; "),
+        ]);
+    }
+    let _ = write!(w, "{t}");
+    let _ = writeln!(w, "\nWCPG per linear part (tail bound and terms summed):\n");
+    let mut t = Table::new(["part", "path", "WCPG", "terms", "tail bound", "note"]);
+    for l in &a.linear_parts {
+        let (v, k, tb) = match &l.wcpg {
+            Some(g) => (
+                format!("{:.9}", g.value),
+                g.terms.to_string(),
+                format!("{:.1e}", g.tail_bound),
+            ),
+            None => ("infinite".into(), "-".into(), "-".into()),
+        };
+        t.row([l.part.clone(), l.path.clone(), v, k, tb, l.note.clone()]);
+    }
+    let _ = write!(w, "{t}");
+    if let Some(cl) = &a.closed_loop {
+        let lc = &cl.limit_cycle;
+        let _ = writeln!(w, "\n## Closed loop (device in the loop)\n");
+        let _ = writeln!(
+            w,
+            "{}: {}.\n\nStraight track `curve` {:.0}-{:.0} s: torque {:.3} N m peak to peak \
+             (RMS {:.3} N m) at {:.2} Hz, `y` {:.1} nm peak to peak. Attribution: the core \
+             in the loop with every source reproduces the device ({:.3} N m p2p), then one \
+             source removed at a time:\n",
+            cl.note,
+            lc.classification,
+            lc.window_s.0,
+            lc.window_s.1,
+            lc.device.torque_p2p_nm,
+            lc.device.torque_rms_nm,
+            lc.device.freq_hz,
+            lc.device.y_p2p_m * 1e9,
+            lc.core_all_sources.torque_p2p_nm
+        );
+        let mut t = Table::new([
+            "run",
+            "torque p2p (N m)",
+            "torque RMS (N m)",
+            "frequency (Hz)",
+            "y p2p (nm)",
+        ]);
+        let mut rows = vec![
+            (
+                "device (Runtime<Fx>, in-process link)".to_string(),
+                &lc.device,
+            ),
+            ("continuous f64 reference".to_string(), &lc.reference),
+            (
+                "core in the loop, every source".to_string(),
+                &lc.core_all_sources,
+            ),
+        ];
+        for (n, c) in &lc.removed {
+            rows.push((format!("without {n}"), c));
+        }
+        for (n, c) in rows {
+            t.row([
+                n,
+                format!("{:.4}", c.torque_p2p_nm),
+                format!("{:.4}", c.torque_rms_nm),
+                format!("{:.2}", c.freq_hz),
+                format!("{:.2}", c.y_p2p_m * 1e9),
+            ]);
+        }
+        let _ = write!(w, "{t}");
+        let _ = writeln!(
+            w,
+            "\nMargins (plant linearised on straight track, one period of delay; see \
+             `hil::audit::margins`):\n"
+        );
+        let mut t = Table::new([
+            "loop",
+            "gain margin ideal (dB)",
+            "gain margin quantised (dB)",
+            "phase margin ideal (deg)",
+            "phase margin quantised (deg)",
+            "phase / gain crossover (Hz)",
+        ]);
+        let o = |v: Option<f64>| v.map(|x| format!("{x:.6}")).unwrap_or_else(|| "-".into());
+        for m in &cl.margins {
+            t.row([
+                m.loop_name.clone(),
+                o(m.gain_db_ideal),
+                o(m.gain_db_quantised),
+                o(m.phase_deg_ideal),
+                o(m.phase_deg_quantised),
+                format!("{} / {}", o(m.phase_crossover_hz), o(m.gain_crossover_hz)),
+            ]);
+        }
+        let _ = write!(w, "{t}");
+    }
+}
