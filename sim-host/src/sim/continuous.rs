@@ -1,0 +1,235 @@
+//! The continuous-time reference run (the f64 controllers in the state), and the set-up
+//! shared with the sampled run.
+
+use super::*;
+use crate::control::{closed_loop_rhs, ContinuousController, Exogenous, YawLaw};
+use crate::plant::{ix, Plant, PlantConfig, State};
+use crate::scenario::{Scenario, TrackCursor};
+
+/// Per-step exogenous inputs shared by both run kinds.
+pub(super) struct Exo {
+    pub(super) demand: f64,
+    pub(super) f_run: f64,
+    pub(super) i_ref: f64,
+    pub(super) curv: [f64; 3],
+    pub(super) cant: [f64; 3],
+}
+
+pub(super) fn stage_slot(stage: usize) -> usize {
+    match stage {
+        0 => 0,
+        3 => 2,
+        _ => 1,
+    }
+}
+
+/// Sets up the plant, initial state and exogenous input function for a scenario.
+pub(super) struct Setup<'a> {
+    pub(super) sc: &'a Scenario,
+    pub(super) plant: Plant,
+    pub(super) track: TrackCursor,
+    /// `(condition, v, peak)` of the last [`Setup::mu_avail`], recomputed when the
+    /// condition changes or the speed moves by more than 1 mm/s.
+    pub(super) peak_cache: Option<(crate::adhesion::Condition, f64, f64)>,
+}
+
+impl<'a> Setup<'a> {
+    pub(super) fn new(sc: &'a Scenario, yaw_spring: bool) -> Self {
+        let cfg = PlantConfig {
+            axle: sc.axle,
+            drive: sc.drive,
+            yaw_spring,
+        };
+        Setup {
+            sc,
+            plant: Plant::new(&sc.params, cfg),
+            track: TrackCursor::new(),
+            peak_cache: None,
+        }
+    }
+
+    /// Puts the rail condition of `t_ns` on the setup's plant and returns the law (the
+    /// run copies it onto its own plant). A no-op without `[[adhesion]]` sections.
+    pub(super) fn adhesion(&mut self, t_ns: u64) -> Option<crate::adhesion::Adhesion> {
+        let a = self.sc.adhesion_at(t_ns);
+        self.plant.adhesion = a;
+        a
+    }
+
+    /// The peak adhesion of the present condition at speed `v` (`inf` without a law).
+    pub(super) fn mu_avail(&mut self, v: f64) -> f64 {
+        let Some(a) = self.plant.adhesion else {
+            return f64::INFINITY;
+        };
+        if let Some((c, v0, peak)) = self.peak_cache {
+            if c == a.condition && (v - v0).abs() <= 1e-3 {
+                return peak;
+            }
+        }
+        let peak = a.peak(self.sc.params.f11, v);
+        self.peak_cache = Some((a.condition, v, peak));
+        peak
+    }
+
+    pub(super) fn exo(&mut self, t_ns: u64) -> Exo {
+        let sc = self.sc;
+        let h = sc.dt_ns;
+        let mut curv = [0.0; 3];
+        let mut cant = [0.0; 3];
+        for (j, t) in [t_ns, t_ns + h / 2, t_ns + h].into_iter().enumerate() {
+            let (c, th) = self.track.at(&sc.track, t);
+            curv[j] = c;
+            cant[j] = th;
+        }
+        let demand = sc.traction.at(t_ns);
+        Exo {
+            demand,
+            f_run: sc.resistance.at(t_ns),
+            i_ref: demand / (sc.params.n_gear * sc.params.k_m),
+            curv,
+            cant,
+        }
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn record(
+        &mut self,
+        t_ns: u64,
+        x: &State,
+        e: &Exo,
+        t_ctrl: f64,
+        u_a: f64,
+    ) -> Record {
+        let mu_avail = self.mu_avail(x[ix::V]);
+        let p = &self.sc.params;
+        let cr = self.plant.creep(x, e.curv[0]);
+        let mut linear = self.plant;
+        linear.adhesion = None;
+        let lin = linear.creep(x, e.curv[0]);
+        let slip = 0.5 * (lin.fx_r + lin.fx_l) / p.f11 * x[ix::V];
+        let t_spring = self.plant.spring_torque(x);
+        Record {
+            t_s: t_ns as f64 * 1e-9,
+            y_m: x[ix::Y],
+            psi_rad: x[ix::PSI],
+            t_psi_nm: t_ctrl + t_spring,
+            fx_r_n: cr.fx_r,
+            fx_l_n: cr.fx_l,
+            fy_n: cr.fy,
+            v_mps: x[ix::V],
+            i_a_a: x[ix::IA],
+            u_a_v: u_a,
+            yd_mps: x[ix::YD],
+            t_ctrl_nm: t_ctrl,
+            t_spring_nm: t_spring,
+            w_r_radps: x[ix::WR],
+            w_l_radps: if self.plant.cfg.axle == crate::scenario::Axle::Rigid {
+                x[ix::WR]
+            } else {
+                x[ix::WL]
+            },
+            w_m_radps: x[ix::WM],
+            twist_rad: x[ix::TWIST],
+            wind_rad: x[ix::WIND],
+            i_ref_a: e.i_ref,
+            demand_nm: e.demand,
+            f_run_n: e.f_run,
+            curvature_1pm: e.curv[0],
+            cant_rad: e.cant[0],
+            y0_m: p.pure_rolling_y(e.curv[0]),
+            slip_mps: slip,
+            mu_avail,
+            mu_used: (cr.fx_r + cr.fx_l) / (2.0 * p.q()),
+        }
+    }
+
+    pub(super) fn steps(&self) -> (u64, u64) {
+        let sc = self.sc;
+        (
+            sc.duration_ns.div_ceil(sc.dt_ns),
+            sc.output_dt_ns / sc.dt_ns,
+        )
+    }
+}
+
+/// Runs `sc` with the continuous-time controllers (yaw `law`, PI current loop when the
+/// drive is modelled). The plant has the passive spring only for [`YawLaw::Passive`].
+pub fn run_continuous(sc: &Scenario, law: YawLaw) -> Trajectory {
+    run_continuous_with(sc, ContinuousController::new(&sc.params, law))
+}
+
+/// As [`run_continuous`] with an explicit controller (e.g. a reversed sign in tests).
+pub fn run_continuous_with(sc: &Scenario, ctrl: ContinuousController) -> Trajectory {
+    let mut s = Setup::new(sc, ctrl.law.has_spring());
+    let mut plant = s.plant;
+    let drive = sc.drive;
+    let mut x = plant.rolling_state(sc.params.v);
+    if drive {
+        x[ix::PI] = plant.back_emf(&x);
+    }
+    let (n_steps, every) = s.steps();
+    let h = sc.dt_ns as f64 * 1e-9;
+    let mut records = Vec::with_capacity((n_steps / every + 2) as usize);
+    let mut diverged_at = None;
+    for k in 0..n_steps {
+        let t_ns = k * sc.dt_ns;
+        let e = s.exo(t_ns);
+        plant.adhesion = s.adhesion(t_ns);
+        // A scenario's actuator fault scales the (linear) yaw law: the delivered torque.
+        let ctrl = match &sc.actuator_fault {
+            Some(f) => ContinuousController {
+                k: ctrl.k * f.gain(t_ns),
+                ..ctrl
+            },
+            None => ctrl,
+        };
+        if k % every == 0 {
+            let u_a = if drive {
+                ctrl.voltage(&x, e.i_ref)
+            } else {
+                0.0
+            };
+            records.push(s.record(t_ns, &x, &e, ctrl.yaw_torque(&x), u_a));
+            if diverged(&x) {
+                diverged_at = Some(t_ns as f64 * 1e-9);
+                break;
+            }
+        }
+        x = rk4_step(&x, h, |stage, xs| {
+            let j = stage_slot(stage);
+            let ex = Exogenous {
+                curvature: e.curv[j],
+                cant: e.cant[j],
+                f_run: e.f_run,
+                i_ref: e.i_ref,
+                demand: e.demand,
+            };
+            closed_loop_rhs(&plant, &ctrl, xs, &ex)
+        });
+    }
+    if diverged_at.is_none() {
+        let t_end = n_steps * sc.dt_ns;
+        let e = s.exo(t_end);
+        s.adhesion(t_end);
+        let u_a = if drive {
+            ctrl.voltage(&x, e.i_ref)
+        } else {
+            0.0
+        };
+        let g = sc.actuator_fault.map_or(1.0, |f| f.gain(t_end));
+        records.push(s.record(t_end, &x, &e, g * ctrl.yaw_torque(&x), u_a));
+    }
+    Trajectory {
+        records,
+        info: RunInfo {
+            scenario: sc.name.clone(),
+            source: sc.source.clone(),
+            control: ctrl.law.name().to_string(),
+            dt_s: h,
+            steps: n_steps,
+            controller_calls: 0,
+            actuator_clamps: 0,
+            diverged_at_s: diverged_at,
+        },
+    }
+}

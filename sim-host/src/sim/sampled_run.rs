@@ -1,0 +1,269 @@
+//! The sampled-data run: a [`SampledController`] at its period behind optional sensor
+//! and actuator models, the plant between its calls.
+
+use super::*;
+use crate::control::{Actuation, Measurements, SampledController};
+use crate::plant::{ix, Inputs, Plant, State};
+use crate::scenario::Scenario;
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64;
+use std::collections::VecDeque;
+
+/// Sensor model applied to each measurement before the controller sees it: additive
+/// Gaussian noise (standard deviation per channel) then quantisation to an LSB
+/// (0 = none). Deterministic: seeded PCG64.
+#[derive(Debug, Clone)]
+pub struct SensorModel {
+    /// Noise standard deviations for `[yd, ydd, i_a, w_m, w_wheel]`.
+    pub noise_std: [f64; 5],
+    /// Quantisation steps for the same channels (0 = none).
+    pub lsb: [f64; 5],
+    rng: Pcg64,
+}
+
+impl SensorModel {
+    /// Perfect sensors.
+    pub fn ideal() -> Self {
+        Self::new([0.0; 5], [0.0; 5], 0)
+    }
+
+    /// Sensors with noise and quantisation; `seed` makes runs repeatable.
+    pub fn new(noise_std: [f64; 5], lsb: [f64; 5], seed: u64) -> Self {
+        SensorModel {
+            noise_std,
+            lsb,
+            rng: Pcg64::seed_from_u64(seed),
+        }
+    }
+
+    fn gauss(&mut self) -> f64 {
+        // Box-Muller; u1 in (0, 1].
+        let u1: f64 = 1.0 - self.rng.random::<f64>();
+        let u2: f64 = self.rng.random::<f64>();
+        (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
+    }
+
+    /// Applies noise then quantisation.
+    pub fn apply(&mut self, m: &Measurements) -> Measurements {
+        let mut ch = [m.yd_mps, m.ydd_mps2, m.i_a, m.w_m, m.w_wheel];
+        for (i, v) in ch.iter_mut().enumerate() {
+            if self.noise_std[i] > 0.0 {
+                *v += self.noise_std[i] * self.gauss();
+            }
+            if self.lsb[i] > 0.0 {
+                *v = (*v / self.lsb[i]).round() * self.lsb[i];
+            }
+        }
+        Measurements {
+            yd_mps: ch[0],
+            ydd_mps2: ch[1],
+            i_a: ch[2],
+            w_m: ch[3],
+            w_wheel: ch[4],
+            ..*m
+        }
+    }
+}
+
+/// Actuator model: limits on torque and voltage (each clamp counted), then a transport
+/// delay (a multiple of the integration step), then zero-order hold until the next
+/// command takes effect.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ActuatorModel {
+    /// `|T_psi|` limit, N m (infinite = none).
+    pub t_psi_max: f64,
+    /// Voltage range `[min, max]`, V.
+    pub u_a_range: (f64, f64),
+    /// Delay from the controller call to the actuation taking effect, ns.
+    pub delay_ns: u64,
+    /// Clamps counted so far.
+    pub clamps: u64,
+}
+
+impl ActuatorModel {
+    /// No limits, no delay.
+    pub fn ideal() -> Self {
+        ActuatorModel {
+            t_psi_max: f64::INFINITY,
+            u_a_range: (f64::NEG_INFINITY, f64::INFINITY),
+            delay_ns: 0,
+            clamps: 0,
+        }
+    }
+
+    /// Clamps `a` to the limits, counting each clamp.
+    pub fn limit(&mut self, a: Actuation) -> Actuation {
+        let mut out = a;
+        if !a.t_psi.is_finite() || a.t_psi.abs() > self.t_psi_max {
+            out.t_psi = if a.t_psi.is_nan() {
+                0.0
+            } else {
+                a.t_psi.clamp(-self.t_psi_max, self.t_psi_max)
+            };
+            self.clamps += 1;
+        }
+        let (lo, hi) = self.u_a_range;
+        if !a.u_a.is_finite() || a.u_a < lo || a.u_a > hi {
+            out.u_a = if a.u_a.is_nan() {
+                0.0f64.clamp(lo, hi)
+            } else {
+                a.u_a.clamp(lo, hi)
+            };
+            self.clamps += 1;
+        }
+        out
+    }
+}
+
+/// The sensor frame the plant produces at state `x` with actuation `held` in force.
+pub fn measure(
+    plant: &Plant,
+    x: &State,
+    held: &Actuation,
+    u: &Inputs<f64>,
+    demand: f64,
+    i_ref: f64,
+) -> Measurements {
+    let uu = Inputs {
+        t_psi: held.t_psi,
+        u_a: held.u_a,
+        ..*u
+    };
+    let (dx, _) = plant.rhs(x, &uu);
+    let w_l = if plant.cfg.axle == crate::scenario::Axle::Rigid {
+        x[ix::WR]
+    } else {
+        x[ix::WL]
+    };
+    Measurements {
+        yd_mps: x[ix::YD],
+        ydd_mps2: dx[ix::YD],
+        i_a: x[ix::IA],
+        w_m: if plant.cfg.drive {
+            x[ix::WM]
+        } else {
+            plant.n() * 0.5 * (x[ix::WR] + w_l)
+        },
+        w_wheel: 0.5 * (x[ix::WR] + w_l),
+        demand_nm: demand,
+        i_ref,
+        v_mps: x[ix::V],
+    }
+}
+
+/// Runs `sc` with a discrete controller. The plant has no yaw spring unless
+/// `yaw_spring` (the active controller replaces it). Each period: measure (with the
+/// actuation held from before), apply the sensor model, call the controller, apply the
+/// actuator model, and hold the result from `t + delay` (ZOH). Records carry the held
+/// actuation. Without the drive, `u_a` is ignored and the demand acts on the wheel.
+pub fn run_sampled(
+    sc: &Scenario,
+    ctrl: &mut dyn SampledController,
+    sensor: &mut SensorModel,
+    actuator: &mut ActuatorModel,
+    yaw_spring: bool,
+    label: &str,
+) -> Result<Trajectory, SimError> {
+    let period = ctrl.period_ns();
+    if period == 0 || !period.is_multiple_of(sc.dt_ns) {
+        return Err(SimError::Period {
+            period_ns: period,
+            dt_ns: sc.dt_ns,
+        });
+    }
+    if !actuator.delay_ns.is_multiple_of(sc.dt_ns) {
+        return Err(SimError::Delay {
+            delay_ns: actuator.delay_ns,
+            dt_ns: sc.dt_ns,
+        });
+    }
+    let mut s = Setup::new(sc, yaw_spring);
+    let mut plant = s.plant;
+    let drive = sc.drive;
+    let mut x = plant.rolling_state(sc.params.v);
+    let (n_steps, every) = s.steps();
+    let h = sc.dt_ns as f64 * 1e-9;
+    let mut records = Vec::with_capacity((n_steps / every + 2) as usize);
+    let mut pending: VecDeque<(u64, Actuation)> = VecDeque::new();
+    let mut calls = 0u64;
+    let inputs = |e: &Exo, j: usize, a: &Actuation| Inputs {
+        t_psi: a.t_psi,
+        u_a: if drive { a.u_a } else { 0.0 },
+        curvature: e.curv[j],
+        cant: e.cant[j],
+        f_run: e.f_run,
+        t_drive: if drive { 0.0 } else { e.demand },
+    };
+    // The plant's actuator: the torque it delivers for the held command (a scenario
+    // fault scales it from its time on; sampled at integrator step starts).
+    let fault = |t_ns: u64, a: &Actuation| match &sc.actuator_fault {
+        Some(f) => Actuation {
+            t_psi: f.delivered(t_ns, a.t_psi),
+            ..*a
+        },
+        None => *a,
+    };
+    let e0 = s.exo(0);
+    plant.adhesion = s.adhesion(0);
+    let m0 = measure(
+        &plant,
+        &x,
+        &Actuation::default(),
+        &inputs(&e0, 0, &Actuation::default()),
+        e0.demand,
+        e0.i_ref,
+    );
+    let mut held = ctrl.initial(&m0, plant.k_m());
+    let mut diverged_at = None;
+    for k in 0..=n_steps {
+        let t_ns = k * sc.dt_ns;
+        let e = s.exo(t_ns);
+        plant.adhesion = s.adhesion(t_ns);
+        if k < n_steps && t_ns.is_multiple_of(period) {
+            let on = fault(t_ns, &held);
+            let m = measure(&plant, &x, &on, &inputs(&e, 0, &on), e.demand, e.i_ref);
+            let m = sensor.apply(&m);
+            let a = actuator.limit(ctrl.step(t_ns, &m));
+            calls += 1;
+            pending.push_back((t_ns + actuator.delay_ns, a));
+        }
+        while let Some(&(due, a)) = pending.front() {
+            if due > t_ns {
+                break;
+            }
+            held = a;
+            pending.pop_front();
+        }
+        if k % every == 0 || k == n_steps {
+            let t_psi = fault(t_ns, &held).t_psi;
+            let mut r = s.record(t_ns, &x, &e, t_psi, if drive { held.u_a } else { 0.0 });
+            if !drive {
+                r.u_a_v = 0.0;
+            }
+            records.push(r);
+            if diverged(&x) {
+                diverged_at = Some(t_ns as f64 * 1e-9);
+                break;
+            }
+        }
+        if k == n_steps {
+            break;
+        }
+        let a = fault(t_ns, &held);
+        let u = [inputs(&e, 0, &a), inputs(&e, 1, &a), inputs(&e, 2, &a)];
+        x = rk4_step_with(&x, h, PlantStages { plant: &plant, u });
+    }
+    Ok(Trajectory {
+        records,
+        info: RunInfo {
+            scenario: sc.name.clone(),
+            source: sc.source.clone(),
+            control: label.to_string(),
+            dt_s: h,
+            steps: n_steps,
+            controller_calls: calls,
+            actuator_clamps: actuator.clamps,
+            diverged_at_s: diverged_at,
+        },
+    })
+}
