@@ -253,10 +253,10 @@ fn core_run<T: SampleBits>(sc: &Track, cfg: &Config, src: Sources) -> Result<Cyc
 }
 
 /// The straight-track limit cycle of the lead on `curve`, measured on the device and
-/// attributed with the core in the loop; `lead_err_nm` is the proven rounding-error
+/// attributed with the core in the loop, at the operating point `params`; `lead_err_nm` is the proven rounding-error
 /// bound of the torque (the dither limit).
-pub fn limit_cycle(lead_err_nm: f64) -> Result<LimitCycleReport, String> {
-    let mut sc = Track::load("curve", &Params::default()).map_err(|e| e.to_string())?;
+pub fn limit_cycle(lead_err_nm: f64, params: &Params) -> Result<LimitCycleReport, String> {
+    let mut sc = Track::load("curve", params).map_err(|e| e.to_string())?;
     let law = YawLaw::Lead;
     let cfg = control_config(&sc.params, law, sc.drive);
     let period_ns = 1_000_000_000 / u64::from(cfg.base_rate_hz.max(1));

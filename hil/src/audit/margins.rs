@@ -141,10 +141,9 @@ fn margins_of(f: &[f64], l: &[C64]) -> (Crossing, Crossing) {
 }
 
 /// The margins of the yaw (lead) and traction (PI) loops for `cfg` (one base period of
-/// delay), ideal (f64 coefficients) and quantised (`q`, as the device holds them).
-pub fn margins(cfg: &Config, q: &Quantised) -> Result<Vec<Margin>, String> {
-    let p = Params::default();
-    let plant = Model::Full.plant(&p, p.f11, p.lambda, false);
+/// delay) at the operating point `p`, ideal (f64 coefficients) and quantised (`q`, as the device holds them).
+pub fn margins(cfg: &Config, q: &Quantised, p: &Params) -> Result<Vec<Margin>, String> {
+    let plant = Model::Full.plant(p, p.f11, p.lambda, false);
     let t0 = cfg.base_period();
     let (ad, bd) = zoh(&plant.a, &plant.b, t0);
     let n = ad.nrows();

@@ -171,6 +171,11 @@ pub(crate) fn write(p: &std::path::Path, s: &str) -> Result<(), AuditError> {
 pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
     let fmt = formats_of(args)?;
     let cfg = config_of(args);
+    // The operating point of the plant runs (`--params`, else the paper's).
+    let params = args
+        .params
+        .as_ref()
+        .map_or_else(sim_host::params::Params::default, |p| p.params.clone());
     cfg.validate()?;
     let tol = Tolerances::default();
     let mut scenarios = ranges::synthetic(&cfg);
@@ -178,7 +183,7 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
     if args.no_plant {
         scenario_notes.push("closed-loop plant scenarios skipped (--no-plant)".to_string());
     } else {
-        let (s, n) = plant::scenarios(&cfg);
+        let (s, n) = plant::scenarios(&cfg, &params);
         scenarios.extend(s);
         scenario_notes.extend(n);
     }
@@ -229,7 +234,10 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
     } else {
         let lead_err = proofs.error_bounds.first().map(|e| e.proven).unwrap_or(0.0);
         let k = bounds::Quantised::of::<Fx>(&cfg)?;
-        match (closed::limit_cycle(lead_err), margins::margins(&cfg, &k)) {
+        match (
+            closed::limit_cycle(lead_err, &params),
+            margins::margins(&cfg, &k, &params),
+        ) {
             (Ok(lc), Ok(m)) => {
                 checks.extend(checks::closed_loop_checks(&lc, &m, &cfg));
                 Some(closed::ClosedLoopAudit {

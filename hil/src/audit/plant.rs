@@ -107,8 +107,14 @@ fn gcd(a: u64, b: u64) -> u64 {
 }
 
 /// Run one closed loop; `Err` says why it could not run.
-fn record(cfg: &Config, track: &str, faults: Faults, name: &str) -> Result<Scenario, String> {
-    let mut sc = Track::load(track, &Params::default()).map_err(|e| e.to_string())?;
+fn record(
+    cfg: &Config,
+    params: &Params,
+    track: &str,
+    faults: Faults,
+    name: &str,
+) -> Result<Scenario, String> {
+    let mut sc = Track::load(track, params).map_err(|e| e.to_string())?;
     let unstable = (!sc.laws.is_empty() && !sc.laws.contains(&YawLaw::Lead)).then(|| {
         format!(
             "track `{track}` is meant for the {} law(s), not the lead under audit (the lead \
@@ -200,7 +206,7 @@ fn record(cfg: &Config, track: &str, faults: Faults, name: &str) -> Result<Scena
 /// The closed-loop scenarios: `curve`, `beating`, `curve` with a 30 ms outage at 6 s (hold, then 20 ms in the safe state),
 /// `curve` with 2 % random frame loss. Returns the scenarios and a note per scenario
 /// that could not run.
-pub fn scenarios(cfg: &Config) -> (Vec<Scenario>, Vec<String>) {
+pub fn scenarios(cfg: &Config, params: &Params) -> (Vec<Scenario>, Vec<String>) {
     let mut cfg = *cfg;
     cfg.yaw_mode = wheelset_control::YawMode::Lead;
     cfg.traction_enabled = true;
@@ -213,7 +219,7 @@ pub fn scenarios(cfg: &Config) -> (Vec<Scenario>, Vec<String>) {
     let mut out = Vec::new();
     let mut notes = Vec::new();
     for (track, f, name) in runs {
-        match record(&cfg, track, f, name) {
+        match record(&cfg, params, track, f, name) {
             Ok(s) => {
                 if let Some(why) = &s.unstable {
                     notes.push(format!(
