@@ -47,6 +47,10 @@ pub fn summary(a: &Audit, quiet: bool) -> String {
             );
         }
     }
+    let _ = writeln!(s, "  proofs: {}", a.proof_statement);
+    if let Some(cl) = &a.closed_loop {
+        let _ = writeln!(s, "  closed loop: {}", cl.limit_cycle.classification);
+    }
     let _ = writeln!(s, "  {}", a.target.note);
     for c in &a.checks {
         if !quiet || c.status != Status::Pass {
