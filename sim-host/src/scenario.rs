@@ -49,6 +49,10 @@ use crate::params::Params;
 use serde::Deserialize;
 use std::path::Path;
 
+// The track's knots and lookups: `scenario/track.rs`.
+mod track;
+pub use track::{track_at, Knot, TrackCursor};
+
 /// The built-in scenarios: `(name, TOML source)`.
 pub const BUILTIN: &[(&str, &str)] = &[
     ("curve", include_str!("../scenarios/curve.toml")),
@@ -69,17 +73,6 @@ pub const NS_PER_S: f64 = 1e9;
 /// Converts seconds to integer nanoseconds (rounded to nearest).
 pub fn s_to_ns(t: f64) -> u64 {
     (t * NS_PER_S).round() as u64
-}
-
-/// One knot of the track: curvature and cant at a time; linear in between.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Knot {
-    /// Time, ns (the track is laid out in time at the initial speed).
-    pub t_ns: u64,
-    /// Curvature `1/R`, 1/m; positive = curve to the left (right wheel on the outer rail).
-    pub curvature: f64,
-    /// Cant angle `theta`, rad.
-    pub cant: f64,
 }
 
 /// A step (or ramp) of a scalar input switched on at `t_on_ns`.
@@ -566,185 +559,5 @@ impl Scenario {
     /// Track curvature and cant at `t_ns` (linear between knots, held outside).
     pub fn track_at(&self, t_ns: u64) -> (f64, f64) {
         track_at(&self.track, t_ns, &mut 0)
-    }
-}
-
-/// Curvature and cant at `t_ns`, with a cursor `hint` that makes monotone time
-/// look-ups O(1). Straight, level track if there are no knots.
-pub fn track_at(track: &[Knot], t_ns: u64, hint: &mut usize) -> (f64, f64) {
-    let n = track.len();
-    let (Some(first), Some(last)) = (track.first(), track.last()) else {
-        return (0.0, 0.0);
-    };
-    if t_ns <= first.t_ns {
-        return (first.curvature, first.cant);
-    }
-    if t_ns >= last.t_ns {
-        return (last.curvature, last.cant);
-    }
-    let mut i = (*hint).min(n - 2);
-    if track[i].t_ns > t_ns {
-        i = 0;
-    }
-    while i + 1 < n - 1 && track[i + 1].t_ns <= t_ns {
-        i += 1;
-    }
-    *hint = i;
-    let (a, b) = (track[i], track[i + 1]);
-    let s = (t_ns - a.t_ns) as f64 / (b.t_ns - a.t_ns) as f64;
-    (
-        a.curvature + s * (b.curvature - a.curvature),
-        a.cant + s * (b.cant - a.cant),
-    )
-}
-
-/// [`track_at`] for monotone (or any) times, remembering the span of time over which
-/// the last value holds exactly: before the first knot, after the last, and on a level
-/// segment (equal curvature and cant at both knots, where `a + s (b - a)` is `a + 0.0`
-/// for every `s`). Inside the span a look-up is one comparison; the values are
-/// bit-identical to [`track_at`]'s.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct TrackCursor {
-    hint: usize,
-    /// `[from, to)` ns over which `value` holds.
-    span: (u64, u64),
-    value: (f64, f64),
-}
-
-impl TrackCursor {
-    /// A cursor at the start (empty span).
-    #[must_use]
-    pub fn new() -> Self {
-        Self::default()
-    }
-
-    /// Curvature `1/R` (1/m) and cant (rad) at `t_ns`, as [`track_at`].
-    pub fn at(&mut self, track: &[Knot], t_ns: u64) -> (f64, f64) {
-        if t_ns >= self.span.0 && t_ns < self.span.1 {
-            return self.value;
-        }
-        let v = track_at(track, t_ns, &mut self.hint);
-        self.value = v;
-        self.span = (0, 0);
-        if let (Some(first), Some(last)) = (track.first(), track.last()) {
-            if t_ns <= first.t_ns {
-                // `track_at` returns the first knot for every t <= first.
-                self.span = (0, first.t_ns + 1);
-            } else if t_ns >= last.t_ns {
-                self.span = (last.t_ns, u64::MAX);
-            } else if let (Some(a), Some(b)) = (track.get(self.hint), track.get(self.hint + 1)) {
-                // Interior: `hint` is the segment `[a, b)` that holds `t_ns`.
-                if a.curvature == b.curvature && a.cant == b.cant {
-                    self.span = (a.t_ns.max(first.t_ns + 1), b.t_ns);
-                }
-            }
-        }
-        v
-    }
-}
-
-#[cfg(test)]
-#[allow(clippy::unwrap_used)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn track_cursor_is_bit_identical_to_track_at() {
-        // Every built-in track, a hand-made one with a level segment at the start and
-        // signed zeros, stepped forwards at RK4 stage times, then at scattered times.
-        let mut tracks: Vec<Vec<Knot>> = BUILTIN
-            .iter()
-            .map(|(name, _)| Scenario::load(name, &Params::default()).unwrap().track)
-            .collect();
-        let k = |t_ns, curvature, cant| Knot {
-            t_ns,
-            curvature,
-            cant,
-        };
-        // (At 5 us `track_at` gives `-0 + 0 (-1e-3 + 0) = -0`, the level span's `+0`.)
-        tracks.push(vec![
-            k(1_000, -0.0, -0.0),
-            k(5_000, -0.0, -0.0),
-            k(9_000, -1e-3, -0.1),
-            k(12_000, -1e-3, -0.1),
-            k(13_000, 0.0, 0.0),
-        ]);
-        tracks.push(Vec::new());
-        for track in &tracks {
-            let end = track.last().map_or(20_000, |k| k.t_ns + 20_000);
-            let step = (end / 20_000).max(1);
-            let mut cur = TrackCursor::new();
-            let mut spans = 0;
-            let mut t = 0;
-            while t <= end {
-                for tt in [t, t + step / 2, t + step] {
-                    let (a, b) = (cur.at(track, tt), track_at(track, tt, &mut 0));
-                    assert_eq!(
-                        (a.0.to_bits(), a.1.to_bits()),
-                        (b.0.to_bits(), b.1.to_bits()),
-                        "t = {tt} ns"
-                    );
-                    spans += usize::from(cur.span.1 > cur.span.0);
-                }
-                t += step;
-            }
-            assert!(track.len() < 2 || spans > 0, "no span was ever cached");
-            // Around every knot: from each time of the neighbourhood to each other.
-            for knot in track {
-                let near = (knot.t_ns.saturating_sub(2))..=(knot.t_ns + 2);
-                for p in near.clone() {
-                    for q in near.clone() {
-                        let mut cur = TrackCursor::new();
-                        let _ = cur.at(track, p);
-                        let (a, b) = (cur.at(track, q), track_at(track, q, &mut 0));
-                        assert_eq!(
-                            (a.0.to_bits(), a.1.to_bits()),
-                            (b.0.to_bits(), b.1.to_bits()),
-                            "{p} ns then {q} ns"
-                        );
-                    }
-                }
-            }
-            for i in 0..5_000u64 {
-                let tt = (i * 7_919_993) % (end + 1);
-                let (a, b) = (cur.at(track, tt), track_at(track, tt, &mut 0));
-                assert_eq!(
-                    (a.0.to_bits(), a.1.to_bits()),
-                    (b.0.to_bits(), b.1.to_bits())
-                );
-            }
-        }
-    }
-
-    #[test]
-    fn builtin_curve_matches_spec_table() {
-        let s = Scenario::load("curve", &Params::default()).unwrap();
-        assert_eq!(s.duration_ns, 20_000_000_000);
-        let (c, th) = s.track_at(8_000_000_000);
-        assert!((c - 1.0 / 2300.0).abs() < 1e-12);
-        assert!((th - 6f64.to_radians()).abs() < 1e-12);
-        let (c, _) = s.track_at(2_500_000_000); // half-way up the entry transition
-        assert!((c - 0.5 / 2300.0).abs() < 1e-12);
-        assert_eq!(s.track_at(500_000_000), (0.0, 0.0));
-        assert_eq!(s.track_at(17_000_000_000), (0.0, 0.0));
-        assert_eq!(s.traction.at(4_999_999_999), 0.0);
-        assert!((s.traction.at(5_000_000_000) - 2460.0).abs() < 1e-9);
-        assert!((s.resistance.at(5_000_000_000) - 5470.0).abs() < 1e-9);
-    }
-
-    #[test]
-    fn beating_moves_the_gear_stiffness() {
-        let s = Scenario::load("beating", &Params::default()).unwrap();
-        assert!(s.params.k_gear() < Params::default().k_gear());
-    }
-
-    #[test]
-    fn cursor_lookup_equals_fresh_lookup() {
-        let s = Scenario::load("curve", &Params::default()).unwrap();
-        let mut hint = 0;
-        for k in 0..2000u64 {
-            let t = k * 10_000_000;
-            assert_eq!(track_at(&s.track, t, &mut hint), s.track_at(t));
-        }
     }
 }
