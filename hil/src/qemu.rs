@@ -99,6 +99,21 @@ pub struct QemuConfig {
     pub timeout: Duration,
     /// The emulated board (`-machine`, `-cpu`): mps2-an386 (Cortex-M4F) by default.
     pub machine: Machine,
+    /// How the frames travel: UART0 over TCP (the default, the faithful path) or the
+    /// semihosting bulk channel.
+    pub channel: Channel,
+}
+
+/// The link between the harness and the emulated device.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum Channel {
+    /// UART0 over a TCP chardev: byte by byte through the emulated CMSDK UART and its
+    /// interrupts, as on a board.
+    #[default]
+    Uart,
+    /// Semihosting file I/O on two FIFOs (firmware/app/src/board/qemu/bulk.rs): one
+    /// trap per frame instead of one interrupt per byte, the same frames bit for bit.
+    Bulk,
 }
 
 impl QemuConfig {
@@ -146,6 +161,7 @@ impl QemuConfig {
             log: None,
             timeout: Duration::from_secs(10),
             machine: Machine::default(),
+            channel: Channel::Uart,
         }
     }
 
@@ -176,9 +192,50 @@ impl Default for QemuConfig {
 #[derive(Debug)]
 pub struct Qemu {
     child: Child,
-    stream: TcpStream,
+    link: Link,
     stderr_path: PathBuf,
     rx: Vec<u8>,
+    timeout: Duration,
+}
+
+/// The open link ([`Channel`]).
+#[derive(Debug)]
+enum Link {
+    Tcp(TcpStream),
+    Bulk {
+        /// Host -> device (`DIR/rx`, written).
+        tx: File,
+        /// Device -> host (`DIR/tx`, read, non-blocking: waited for with `poll`).
+        rx: File,
+        /// The directory of the two FIFOs (removed on drop).
+        dir: PathBuf,
+    },
+}
+
+/// `O_NONBLOCK` (Linux).
+const O_NONBLOCK: i32 = libc::O_NONBLOCK;
+
+/// Waits until `f` is readable (or hung up) for at most `timeout`; `false` on timeout.
+#[allow(unsafe_code)]
+fn poll_readable(f: &File, timeout: Duration) -> io::Result<bool> {
+    use std::os::fd::AsRawFd;
+    let mut p = libc::pollfd {
+        fd: f.as_raw_fd(),
+        events: libc::POLLIN,
+        revents: 0,
+    };
+    let ms = i32::try_from(timeout.as_millis()).unwrap_or(i32::MAX);
+    // SAFETY: one valid `pollfd` for the call, an fd owned by `f` and open throughout.
+    let r = unsafe { libc::poll(&mut p, 1, ms) };
+    if r < 0 {
+        let e = io::Error::last_os_error();
+        return if e.kind() == io::ErrorKind::Interrupted {
+            Ok(true)
+        } else {
+            Err(e)
+        };
+    }
+    Ok(r > 0)
 }
 
 /// The cores this process may run on, from `Cpus_allowed_list` in `/proc/self/status`
@@ -259,9 +316,13 @@ impl Qemu {
         cmd
     }
 
-    /// Starts QEMU and connects to the firmware's UART0.
+    /// Starts QEMU and connects to the firmware's UART0 (or its bulk channel,
+    /// [`QemuConfig::channel`]).
     pub fn start(cfg: &QemuConfig) -> Result<Self, QemuError> {
         cfg.check()?;
+        if cfg.channel == Channel::Bulk {
+            return Self::start_bulk(cfg);
+        }
         let port = free_port().map_err(QemuError::Io)?;
         let stderr_path =
             std::env::temp_dir().join(format!("wheelset-qemu-{}-{port}.err", std::process::id()));
@@ -318,15 +379,148 @@ impl Qemu {
         let child = guard.0.take().ok_or(QemuError::Exited(String::new()))?;
         Ok(Self {
             child,
-            stream,
+            link: Link::Tcp(stream),
             stderr_path,
             rx: Vec::with_capacity(MAX_FRAME),
+            timeout: cfg.timeout,
+        })
+    }
+
+    /// [`Self::start`] with the bulk channel: two FIFOs in a fresh directory, QEMU told
+    /// where (`arg=bulk:DIR`), the host's ends opened once the firmware has opened its
+    /// own (a non-blocking open of a FIFO's write end fails until it has a reader).
+    fn start_bulk(cfg: &QemuConfig) -> Result<Self, QemuError> {
+        use std::os::unix::fs::OpenOptionsExt;
+        static SEQ: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
+        let k = SEQ.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let dir = std::env::temp_dir().join(format!("wheelset-bulk-{}-{k}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).map_err(QemuError::Io)?;
+        let (rx_path, tx_path) = (dir.join("rx"), dir.join("tx"));
+        let made = Command::new("mkfifo")
+            .arg(&rx_path)
+            .arg(&tx_path)
+            .status()
+            .map_err(QemuError::Io)?;
+        if !made.success() {
+            return Err(QemuError::Io(io::Error::other(format!(
+                "mkfifo {} {} failed",
+                rx_path.display(),
+                tx_path.display()
+            ))));
+        }
+        let stderr_path = dir.join("qemu.err");
+        let stderr = File::create(&stderr_path).map_err(QemuError::Io)?;
+        let stdout = match &cfg.log {
+            Some(p) => Stdio::from(File::create(p).map_err(QemuError::Io)?),
+            None => Stdio::null(),
+        };
+        let mut cmd = Command::new(QEMU_BIN);
+        cmd.args(qemu_args(
+            cfg.machine.name(),
+            cfg.machine.cpu(),
+            &cfg.elf.to_string_lossy(),
+            SerialTo::Bulk(dir.to_string_lossy().into_owned()),
+        ));
+        if let Some(core) = next_core() {
+            let mut pinned = Command::new("taskset");
+            pinned
+                .arg("-c")
+                .arg(core.to_string())
+                .arg(cmd.get_program())
+                .args(cmd.get_args());
+            cmd = pinned;
+        }
+        let child = cmd
+            .stdin(Stdio::null())
+            .stdout(stdout)
+            .stderr(stderr)
+            .spawn()
+            .map_err(QemuError::QemuMissing)?;
+        let mut guard = Guard(Some(child));
+        // Our reading end first (a non-blocking open for reading never waits), so the
+        // firmware's open of `tx` for writing finds a reader.
+        let rx = std::fs::OpenOptions::new()
+            .read(true)
+            .custom_flags(O_NONBLOCK)
+            .open(&tx_path)
+            .map_err(QemuError::Io)?;
+        let deadline = Instant::now() + Duration::from_secs(10);
+        let tx = loop {
+            match std::fs::OpenOptions::new()
+                .write(true)
+                .custom_flags(O_NONBLOCK)
+                .open(&rx_path)
+            {
+                // The firmware has it open for reading: open it again, blocking writes.
+                Ok(_probe) => {
+                    break std::fs::OpenOptions::new()
+                        .write(true)
+                        .open(&rx_path)
+                        .map_err(QemuError::Io)?
+                }
+                Err(e) if Instant::now() < deadline => {
+                    if let Some(c) = guard.0.as_mut() {
+                        if let Ok(Some(_)) = c.try_wait() {
+                            return Err(QemuError::Exited(read_to_string(&stderr_path)));
+                        }
+                    }
+                    let _ = e;
+                    std::thread::sleep(Duration::from_millis(5));
+                }
+                Err(e) => {
+                    return Err(QemuError::Exited(format!(
+                        "the firmware did not open its bulk channel ({e}); {}",
+                        read_to_string(&stderr_path)
+                    )))
+                }
+            }
+        };
+        let child = guard.0.take().ok_or(QemuError::Exited(String::new()))?;
+        Ok(Self {
+            child,
+            link: Link::Bulk { tx, rx, dir },
+            stderr_path,
+            rx: Vec::with_capacity(MAX_FRAME),
+            timeout: cfg.timeout,
         })
     }
 
     /// Sends raw bytes to the firmware's UART0.
     pub fn send(&mut self, bytes: &[u8]) -> Result<(), QemuError> {
-        self.stream.write_all(bytes).map_err(|e| self.link_error(e))
+        let r = match &mut self.link {
+            Link::Tcp(s) => s.write_all(bytes),
+            Link::Bulk { tx, .. } => tx.write_all(bytes),
+        };
+        r.map_err(|e| self.link_error(e))
+    }
+
+    /// Reads what the device sent: at least one byte, or an error (end of stream, or
+    /// nothing within the timeout).
+    fn read_some(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        match &mut self.link {
+            Link::Tcp(s) => s.read(buf),
+            Link::Bulk { rx, .. } => {
+                let deadline = Instant::now() + self.timeout;
+                loop {
+                    let left = deadline.saturating_duration_since(Instant::now());
+                    if left.is_zero() || !poll_readable(rx, left)? {
+                        return Err(io::Error::new(
+                            io::ErrorKind::TimedOut,
+                            "no answer from the device within the timeout",
+                        ));
+                    }
+                    match rx.read(buf) {
+                        Ok(0) if self.child.try_wait().ok().flatten().is_none() => {
+                            // No writer yet (the firmware opens `tx` after `rx`).
+                            std::thread::sleep(Duration::from_millis(1));
+                        }
+                        Err(e) if e.kind() == io::ErrorKind::WouldBlock => {}
+                        r => return r,
+                    }
+                }
+            }
+        }
     }
 
     /// Receives bytes up to and including the next 0x00 delimiter; returns the frame
@@ -341,7 +535,7 @@ impl Qemu {
             if self.rx.len() > MAX_FRAME {
                 return Err(QemuError::FrameTooLong);
             }
-            let n = match self.stream.read(&mut buf) {
+            let n = match self.read_some(&mut buf) {
                 Ok(0) => {
                     let e = io::Error::new(io::ErrorKind::UnexpectedEof, "QEMU closed the link");
                     return Err(self.link_error(e));
@@ -370,6 +564,9 @@ impl Drop for Qemu {
         let _ = self.child.kill();
         let _ = self.child.wait();
         let _ = std::fs::remove_file(&self.stderr_path);
+        if let Link::Bulk { dir, .. } = &self.link {
+            let _ = std::fs::remove_dir_all(dir);
+        }
     }
 }
 

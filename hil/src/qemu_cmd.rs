@@ -24,14 +24,21 @@ pub const MACHINE: &str = "mps2-an386";
 /// The default emulated CPU (of [`MACHINE`]).
 pub const CPU: &str = "cortex-m4";
 
+/// Semihosting on, to the host's files (stdout for the log, exit, the bulk channel).
+const SEMIHOSTING: &str = "enable=on,target=native";
+
 /// Where the guest's UART0 goes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub enum SerialTo {
     /// Nowhere (the benchmarks talk over semihosting only).
     Null,
     /// A TCP server on `127.0.0.1:PORT` that waits for the harness to connect (the
     /// lock-step device), `nodelay` so each frame leaves at once.
     Tcp(u16),
+    /// Nowhere: the frames go over the semihosting bulk channel instead, the FIFOs
+    /// `DIR/rx` and `DIR/tx` (the firmware finds `DIR` in its semihosting arguments,
+    /// `arg=bulk:DIR`; firmware/app/src/board/qemu/bulk.rs).
+    Bulk(String),
 }
 
 /// The arguments (after [`QEMU_BIN`]) that run the firmware `elf` on the board
@@ -39,9 +46,16 @@ pub enum SerialTo {
 /// display, no monitor, the [`ICOUNT_SHIFT`] clock, semihosting to the host's stdout.
 #[must_use]
 pub fn qemu_args(machine: &str, cpu: &str, elf: &str, serial: SerialTo) -> Vec<String> {
-    let serial = match serial {
-        SerialTo::Null => "null".to_string(),
-        SerialTo::Tcp(port) => format!("tcp:127.0.0.1:{port},server=on,wait=on,nodelay=on"),
+    let (serial, semihosting) = match serial {
+        SerialTo::Null => ("null".to_string(), SEMIHOSTING.to_string()),
+        SerialTo::Tcp(port) => (
+            format!("tcp:127.0.0.1:{port},server=on,wait=on,nodelay=on"),
+            SEMIHOSTING.to_string(),
+        ),
+        SerialTo::Bulk(dir) => (
+            "null".to_string(),
+            format!("{SEMIHOSTING},arg=wheelset-qemu,arg=bulk:{dir}"),
+        ),
     };
     [
         "-machine",
@@ -56,7 +70,7 @@ pub fn qemu_args(machine: &str, cpu: &str, elf: &str, serial: SerialTo) -> Vec<S
         "-icount",
         &format!("shift={ICOUNT_SHIFT},sleep=off"),
         "-semihosting-config",
-        "enable=on,target=native",
+        &semihosting,
         "-kernel",
         elf,
     ]
@@ -106,6 +120,10 @@ mod tests {
             at("-serial").as_deref(),
             Some("tcp:127.0.0.1:4321,server=on,wait=on,nodelay=on")
         );
+        let c = qemu_args(MACHINE, CPU, "x", SerialTo::Bulk("/tmp/d".into()));
+        assert!(c.windows(2).any(|w| w[0] == "-serial" && w[1] == "null"));
+        assert!(c.windows(2).any(|w| w[0] == "-semihosting-config"
+            && w[1] == "enable=on,target=native,arg=wheelset-qemu,arg=bulk:/tmp/d"));
         let b = qemu_args(MACHINE, CPU, "x", SerialTo::Null);
         assert!(b.windows(2).any(|w| w[0] == "-serial" && w[1] == "null"));
         let line = shell_line(&qemu_args(MACHINE, CPU, "my fw.elf", SerialTo::Null));

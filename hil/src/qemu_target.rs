@@ -12,7 +12,7 @@
 use std::time::Duration;
 
 use crate::lockstep::Expect;
-use crate::qemu::{Machine, Qemu, QemuConfig};
+use crate::qemu::{Channel, Machine, Qemu, QemuConfig};
 use crate::transport::{Clock, Transport, TransportError};
 
 /// The emulated board's core clock, Hz (mps2-an386: 25 MHz).
@@ -42,8 +42,21 @@ impl QemuTarget {
         cpu_hz: f64,
         timeout: Duration,
     ) -> Result<Self, TransportError> {
+        Self::start_with(machine, Channel::Uart, baud, cpu_hz, timeout)
+    }
+
+    /// [`Self::start_on`] over `channel` (the UART, or the semihosting bulk channel:
+    /// the same frames, faster).
+    pub fn start_with(
+        machine: Machine,
+        channel: Channel,
+        baud: u32,
+        cpu_hz: f64,
+        timeout: Duration,
+    ) -> Result<Self, TransportError> {
         let cfg = QemuConfig {
             timeout,
+            channel,
             ..QemuConfig::on(machine)
         };
         let q = Qemu::start(&cfg).map_err(|e| TransportError::Unavailable(e.to_string()))?;

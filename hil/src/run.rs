@@ -132,6 +132,8 @@ pub struct RunOptions {
     pub timeout: Duration,
     /// The emulated board of the QEMU target (`--machine`).
     pub machine: crate::machine::Machine,
+    /// The QEMU target's link (`--qemu-link`).
+    pub qemu_link: crate::qemu::Channel,
     /// Show a progress bar.
     pub progress: bool,
     /// Base rate of the device, Hz (None: the control core's default). The in-process
@@ -161,6 +163,7 @@ impl Default for RunOptions {
             cpu_hz: DEFAULT_CPU_HZ,
             timeout: Duration::from_secs(5),
             machine: crate::machine::Machine::default(),
+            qemu_link: crate::qemu::Channel::Uart,
             progress: false,
             rate_hz: None,
             realtime: Want::all(crate::rt_os::allowed_cpus().last().copied()),
@@ -258,8 +261,14 @@ pub fn open_transport(
             Ok(Box::new(t))
         }
         Target::Qemu => {
-            let t = QemuTarget::start_on(opts.machine, opts.link.baud, opts.cpu_hz, opts.timeout)
-                .map_err(RunError::Target)?;
+            let t = QemuTarget::start_with(
+                opts.machine,
+                opts.qemu_link,
+                opts.link.baud,
+                opts.cpu_hz,
+                opts.timeout,
+            )
+            .map_err(RunError::Target)?;
             Ok(Box::new(t))
         }
         Target::Serial(p) if opts.pace == Pace::RealTime => {

@@ -1,0 +1,141 @@
+//! The bulk channel: the control frames over semihosting file I/O on two host pipes
+//! instead of UART0, for runs faster than real time.
+//!
+//! The CMSDK UART hands over one byte per interrupt, and QEMU's I/O thread and vCPU
+//! thread hand every byte to each other: ~1 300 exchanges per second of wall time. A
+//! semihosting `SYS_READ` takes a whole frame in one trap. The harness asks for the
+//! channel with a semihosting argument `bulk:DIR` (`-semihosting-config
+//! ...,arg=wheelset-qemu,arg=bulk:DIR`, [`open`] reads it with `SYS_GET_CMDLINE`),
+//! where `DIR/rx` and `DIR/tx` are FIFOs it created: the firmware reads host -> device
+//! bytes from `DIR/rx` and writes device -> host frames to `DIR/tx`.
+//!
+//! Everything else is the UART build's: the bytes go into the same RX pipe, a frame
+//! delimiter is the same frame edge of the clock ([`super::clock`]), the same control
+//! task runs the same tick and the TX task writes its frames here instead of to the
+//! UART. Since the tick sees the same bytes in the same RX pipe, its instructions (the
+//! `exec` field) are the same as well: the two channels give the same Actuation frames
+//! bit for bit (`hil/tests/qemu_bulk.rs`). A semihosting read blocks the whole vCPU
+//! until the host writes, so nothing counts time while the guest waits.
+
+use core::sync::atomic::{AtomicI32, Ordering};
+
+use cortex_m_semihosting::nr;
+
+/// The TX FIFO's semihosting handle, or -1 (the UART is the channel).
+static TX: AtomicI32 = AtomicI32::new(-1);
+
+/// The opened bulk channel's receive side.
+pub struct Bulk {
+    rx: usize,
+}
+
+/// `SYS_OPEN` of the NUL-terminated `path` (without its NUL: `len`) in `mode`; the
+/// handle, or `None`.
+fn open_file(path: &[u8], mode: usize) -> Option<usize> {
+    let len = path.iter().position(|&b| b == 0)?;
+    // SAFETY: the parameter block names a NUL-terminated string that lives for the
+    // call; QEMU only reads it.
+    let h = unsafe { cortex_m_semihosting::syscall!(OPEN, path.as_ptr(), mode, len) } as isize;
+    (h >= 0).then_some(h as usize)
+}
+
+/// The bulk channel if the semihosting command line asks for it (`bulk:DIR`), opened
+/// (blocking until the host has opened its ends of both FIFOs); `None` otherwise.
+pub fn open() -> Option<Bulk> {
+    let mut cmd = [0u8; 256];
+    let mut block = [cmd.as_mut_ptr() as usize, cmd.len() - 1];
+    // SAFETY: `SYS_GET_CMDLINE` writes at most `block[1]` bytes into `cmd` and the
+    // length into `block`, both live and exclusively borrowed for the call.
+    let r = unsafe { cortex_m_semihosting::syscall1(nr::GET_CMDLINE, block.as_mut_ptr() as usize) };
+    if r != 0 {
+        return None;
+    }
+    let line = cmd.get(..block[1].min(cmd.len() - 1))?;
+    let dir = line
+        .split(|&b| b == b' ')
+        .find_map(|arg| arg.strip_prefix(b"bulk:"))?;
+    let mut path = [0u8; 200];
+    let name = |path: &mut [u8; 200], leaf: &[u8]| -> Option<()> {
+        let n = dir.len();
+        path.get_mut(..n)?.copy_from_slice(dir);
+        path.get_mut(n..n + leaf.len())?.copy_from_slice(leaf);
+        *path.get_mut(n + leaf.len())? = 0;
+        Some(())
+    };
+    name(&mut path, b"/rx")?;
+    let rx = open_file(&path, nr::open::R_BINARY)?;
+    name(&mut path, b"/tx")?;
+    let tx = open_file(&path, nr::open::W_TRUNC_BINARY)?;
+    TX.store(tx as i32, Ordering::Relaxed);
+    Some(Bulk { rx })
+}
+
+/// Whether the frames go over the bulk channel.
+pub fn active() -> bool {
+    TX.load(Ordering::Relaxed) >= 0
+}
+
+/// Writes `bytes` to the TX FIFO (blocking). A failed write loses the frame; the host
+/// sees it missing.
+pub fn write_all(bytes: &[u8]) {
+    let h = TX.load(Ordering::Relaxed) as usize;
+    let mut rest = bytes;
+    while !rest.is_empty() {
+        // SAFETY: the block names `rest`, live for the call; QEMU only reads it.
+        let left = unsafe { cortex_m_semihosting::syscall!(WRITE, h, rest.as_ptr(), rest.len()) };
+        if left >= rest.len() {
+            return;
+        }
+        rest = rest.get(rest.len() - left..).unwrap_or(&[]);
+    }
+}
+
+impl Bulk {
+    /// Reads what the host has written (blocking for at least one byte); 0 at the end
+    /// of the stream (the host closed its end).
+    fn read(&self, buf: &mut [u8]) -> usize {
+        // SAFETY: QEMU writes at most `buf.len()` bytes into `buf`, live and exclusively
+        // borrowed for the call.
+        let left =
+            unsafe { cortex_m_semihosting::syscall!(READ, self.rx, buf.as_mut_ptr(), buf.len()) };
+        buf.len().saturating_sub(left)
+    }
+
+    /// The receiver, in thread mode, forever: each chunk into the RX pipe up to and
+    /// including each delimiter, then that frame edge, as the UART's RX interrupt does
+    /// byte by byte (the edge pends the control executor, which runs the tick before
+    /// this loop goes on). Exits QEMU when the host closes the channel.
+    pub fn run(self) -> ! {
+        let mut buf = [0u8; 256];
+        loop {
+            let n = self.read(&mut buf);
+            if n == 0 {
+                loop {
+                    cortex_m_semihosting::debug::exit(cortex_m_semihosting::debug::EXIT_SUCCESS);
+                }
+            }
+            let mut rest = buf.get(..n).unwrap_or(&[]);
+            while !rest.is_empty() {
+                let end = rest
+                    .iter()
+                    .position(|&b| b == 0)
+                    .map_or(rest.len(), |i| i + 1);
+                let (part, more) = rest.split_at(end);
+                let mut left = part;
+                while !left.is_empty() {
+                    match crate::app::RX.try_write(left) {
+                        Ok(k) => left = left.get(k..).unwrap_or(&[]),
+                        Err(_) => {
+                            super::uart::RX_DROPPED.fetch_add(left.len() as u32, Ordering::Relaxed);
+                            break;
+                        }
+                    }
+                }
+                if part.last() == Some(&0) {
+                    super::clock::frame_edge();
+                }
+                rest = more;
+            }
+        }
+    }
+}
