@@ -1,0 +1,62 @@
+//! The JSON form of a case's sweep.
+
+use super::*;
+use serde::Serialize;
+
+/// JSON form of one point.
+#[derive(Debug, Serialize)]
+pub struct PointJson {
+    /// `f11 = f22`, N.
+    pub creep_n: f64,
+    /// All eigenvalues `[re, im]` (including the structural zero).
+    pub eigenvalues: Vec<[f64; 2]>,
+    /// Named modes (structural zero excluded).
+    pub modes: Vec<ModeValue>,
+    /// The structural zero eigenvalue `[re, im]` (excluded from verdicts).
+    pub structural_zero: Option<[f64; 2]>,
+    /// Whether all modes are stable here (structural zero excluded).
+    pub stable: bool,
+}
+
+/// JSON form of one case.
+#[derive(Debug, Serialize)]
+pub struct CaseJson {
+    /// `a`..`d`.
+    pub id: &'static str,
+    /// Description.
+    pub label: &'static str,
+    /// Closed-loop states.
+    pub states: Vec<&'static str>,
+    /// Points, ascending creep.
+    pub points: Vec<PointJson>,
+    /// Instability crossings.
+    pub crossings: Vec<Crossing>,
+    /// Stable at every point of the sweep (structural zero excluded).
+    pub stable_everywhere: bool,
+    /// Creep values where the eigenvalue solver failed.
+    pub failed_points: Vec<f64>,
+}
+
+impl CaseSweep {
+    /// The JSON form.
+    pub fn to_json(&self) -> CaseJson {
+        let points: Vec<PointJson> = (0..self.creep.len())
+            .map(|k| PointJson {
+                creep_n: self.creep[k],
+                eigenvalues: self.eig[k].iter().map(|l| [l.re, l.im]).collect(),
+                modes: self.modes_at(k),
+                structural_zero: self.structural_zero(k).map(|l| [l.re, l.im]),
+                stable: self.stable_at(k),
+            })
+            .collect();
+        CaseJson {
+            id: self.case.id(),
+            label: self.case.label(),
+            states: self.states.clone(),
+            stable_everywhere: points.iter().all(|p| p.stable),
+            points,
+            crossings: self.crossings.clone(),
+            failed_points: self.failed_points.clone(),
+        }
+    }
+}
