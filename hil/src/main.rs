@@ -817,16 +817,25 @@ fn print_summary(r: &hil::run::RunReport) {
         t.periods,
         t.period_ns
     );
+    let exec = if t.exec_measured || t.exec_units.max > 0.0 {
+        format!(
+            "exec {:.0}/{:.0}/{:.0} {} (min/mean/max)",
+            t.exec_units.min, t.exec_units.mean, t.exec_units.max, t.exec_unit
+        )
+    } else {
+        "exec not measured in process (real figures: --target qemu, cargo xtask fw-bench, a board)"
+            .to_string()
+    };
     say!(
-        "timing {}: exec {:.0}/{:.0}/{:.0} {} (min/mean/max), latency max {:.1} us{}, jitter max {}, \
+        "timing {}: {exec}, latency max {:.1} us{}, jitter max {}, \
          missed {}, overruns {}, CPU max {:.2} %, link {:.1} %",
         t.verdict,
-        t.exec_units.min,
-        t.exec_units.mean,
-        t.exec_units.max,
-        t.exec_unit,
         t.latency_ns.max * 1e-3,
-        if t.latency_modelled { " (modelled)" } else { "" },
+        if t.latency_modelled {
+            " (modelled)"
+        } else {
+            ""
+        },
         t.jitter_max_ns
             .map_or("n/a".to_string(), |j| format!("{:.1} us", j * 1e-3)),
         t.missed_ticks,

@@ -187,13 +187,24 @@ pub fn markdown(out: &RunOutcome, command: &str) -> String {
         "Period T = {} ns, {} periods, {} baud.\n",
         t.period_ns, t.periods, t.baud
     );
+    if !t.exec_measured {
+        let _ = writeln!(s, "Execution time {}.\n", t.exec_note);
+    }
+    let shown = t.exec_measured || t.exec_units.max > 0.0;
+    let cell = |v: f64| {
+        if shown {
+            f(v)
+        } else {
+            "not measured".to_string()
+        }
+    };
     let mut tb = Table::new(["figure", "min", "mean", "p99", "max"]);
     tb.row([
         format!("execution time ({})", t.exec_unit),
-        f(t.exec_units.min),
-        f(t.exec_units.mean),
-        f(t.exec_units.p99),
-        f(t.exec_units.max),
+        cell(t.exec_units.min),
+        cell(t.exec_units.mean),
+        cell(t.exec_units.p99),
+        cell(t.exec_units.max),
     ])
     .row([
         format!(

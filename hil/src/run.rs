@@ -417,6 +417,7 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
         },
         exec_unit: tr.exec_unit().0,
         exec_ns_per_unit: tr.exec_unit().1,
+        exec_measured: opts.target != Target::InProc,
     };
     let target_name = tr.name();
     let label = format!("{} on {}", law_name(opts.control), target_name);

@@ -125,6 +125,12 @@ pub struct TimingReport {
     pub exec_unit: String,
     /// ns per exec unit.
     pub exec_ns_per_unit: f64,
+    /// Whether the device measured its execution time (`false` in process: the figures
+    /// below are then zeros, not a measurement; `exec_note` says where real ones come
+    /// from).
+    pub exec_measured: bool,
+    /// What the execution-time figures are, or where to get them when not measured.
+    pub exec_note: String,
     /// Execution time per tick, in the device's unit.
     pub exec_units: Stats,
     /// Execution time per tick, ns.
@@ -177,7 +183,17 @@ pub struct TimingContext {
     pub exec_unit: &'static str,
     /// ns per exec unit.
     pub exec_ns_per_unit: f64,
+    /// Whether the device measures its execution time (not the in-process one).
+    pub exec_measured: bool,
 }
+
+/// Where real execution-time figures come from, for a device that measures none (the
+/// in-process one).
+pub const EXEC_NOT_MEASURED: &str = "not measured: the in-process device runs on the host \
+     and reports no execution time (0 in every Actuation frame); real figures: \
+     --target qemu (instructions of the Cortex-M4/M3 firmware, deterministic; per \
+     function: cargo xtask fw-bench) or a board (--target serial:PATH, DWT cycles at \
+     --cpu-hz)";
 
 /// Analyses one run.
 #[must_use]
@@ -319,6 +335,20 @@ pub fn analyse(
         periods: periods.len() as u64,
         exec_unit: ctx.exec_unit.into(),
         exec_ns_per_unit: ctx.exec_ns_per_unit,
+        exec_measured: ctx.exec_measured,
+        exec_note: if ctx.exec_measured {
+            format!(
+                "measured by the device: {} per tick, {} ns each",
+                ctx.exec_unit, ctx.exec_ns_per_unit
+            )
+        } else if exec_u.iter().any(|&e| e > 0.0) {
+            format!(
+                "simulated, not measured: the in-process device's fault model sets it; {}",
+                EXEC_NOT_MEASURED.trim_start_matches("not measured: ")
+            )
+        } else {
+            EXEC_NOT_MEASURED.to_string()
+        },
         exec_units: Stats::of(&exec_u),
         exec_ns,
         exec_histogram: Histogram::of(&exec_n, 20),

@@ -59,6 +59,15 @@ fn the_in_process_device_closes_the_loop_and_passes() {
     for s in &r.numerics.signals {
         assert!(s.max_err <= s.allowed, "{s:?}");
     }
+    // The in-process device measures no execution time: said so, with where real
+    // figures come from, not reported as 0 ns.
+    let t = &r.timing;
+    assert!(!t.exec_measured && t.exec_units.max == 0.0);
+    assert!(t.exec_note.starts_with("not measured") && t.exec_note.contains("--target qemu"));
+    let json = serde_json::to_string(r).unwrap();
+    assert!(json.contains("\"exec_measured\":false"), "{json}");
+    let md = hil::report::markdown(&out, "hil run");
+    assert!(md.contains("| not measured |"), "{md}");
 }
 
 #[test]
