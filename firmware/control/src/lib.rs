@@ -189,14 +189,14 @@
 //! Q4.28 about 40-60 ns, f32 30-50 ns. On the Cortex-M4 (QEMU `mps2-an386`, instructions
 //! executed, `cargo xtask fw-bench`, profile `fw`): a whole controller tick (both
 //! loops, the y' predictor, input clamps, reference ramp, safe-state logic, counters)
-//! 103 instructions on average for Q4.28 and 108 for f32 (min 102 / 106), down from 214
+//! 101 instructions on average for Q4.28 and 108 for f32 (min 100 / 106), down from 214
 //! / 276 before the fast path of [`Controller::tick`]: in normal running each loop runs
 //! straight through, each clamp a single unsigned compare that it would not engage (the
 //! torque limit applied inline), the reference ramp skipped while settled, products in
 //! one `SMMULR` where the ranges allow it ([`Sample::mul_pre`], [`Sample::mul_c_small`]);
 //! anything else (a clamp, NaN, the safe state, a law change, traction off) takes the
 //! general path, which the fast path equals bit for bit (`tests/fast_path.rs`). What
-//! the 103 are: 6 products (2 instructions each but the integrator's `SMLAL` with its
+//! the 101 are: 6 products (2 instructions each but the integrator's `SMLAL` with its
 //! carry, 5), 11 saturating adds, ~20 loads of coefficients and states and ~10 stores,
 //! 6 range checks (3 each), 3 counters, and the call, the mode check and the
 //! prologue/epilogue (~15). The 60 (aim 45) is not reached: the loads, stores and
