@@ -196,6 +196,9 @@ fn parse_shard(s: &str) -> Result<hil::sweep::Shard, String> {
 fn parse_sweep_target(s: &str) -> Result<Target, String> {
     match s.parse::<Target>()? {
         t @ (Target::InProc | Target::Qemu) => Ok(t),
+        Target::QemuAt(_) => {
+            Err("a sweep starts its own QEMUs (--target qemu), not one started by hand".into())
+        }
         Target::Serial(_) => {
             Err("a sweep runs on inproc or qemu (one board cannot run a grid in parallel)".into())
         }
@@ -217,6 +220,10 @@ fn parse_channel(s: &str) -> Result<hil::qemu::Channel, String> {
 fn parse_golden_target(s: &str) -> Result<Target, String> {
     match s.parse::<Target>()? {
         t @ (Target::InProc | Target::Qemu) => Ok(t),
+        Target::QemuAt(_) => Err(
+            "golden vectors start a fresh QEMU per vector (--target qemu), not one started by hand"
+                .into(),
+        ),
         Target::Serial(_) => Err("golden vectors run on inproc or qemu".into()),
     }
 }

@@ -188,10 +188,12 @@ impl Default for QemuConfig {
     }
 }
 
-/// A running emulated device with its UART0 connected. Dropping it kills QEMU.
+/// A running emulated device with its UART0 connected. Dropping it kills QEMU (when
+/// this process started it: [`Qemu::start`]; one started by hand and reached with
+/// [`Qemu::connect`] is left running).
 #[derive(Debug)]
 pub struct Qemu {
-    child: Child,
+    child: Option<Child>,
     link: Link,
     stderr_path: PathBuf,
     rx: Vec<u8>,
@@ -378,7 +380,7 @@ impl Qemu {
             .map_err(QemuError::Io)?;
         let child = guard.0.take().ok_or(QemuError::Exited(String::new()))?;
         Ok(Self {
-            child,
+            child: Some(child),
             link: Link::Tcp(stream),
             stderr_path,
             rx: Vec::with_capacity(MAX_FRAME),
@@ -478,11 +480,48 @@ impl Qemu {
         };
         let child = guard.0.take().ok_or(QemuError::Exited(String::new()))?;
         Ok(Self {
-            child,
+            child: Some(child),
             link: Link::Bulk { tx, rx, dir },
             stderr_path,
             rx: Vec::with_capacity(MAX_FRAME),
             timeout: cfg.timeout,
+        })
+    }
+
+    /// Connects to a QEMU started by hand with its UART0 on a TCP server at
+    /// `127.0.0.1:port` (`cargo xtask qemu-cmd ELF --tcp PORT` prints that command line):
+    /// the client the README's by-hand run waits for (`hil run --target qemu:PORT`).
+    /// Tries for `timeout` to connect; `timeout` also bounds each read.
+    pub fn connect(port: u16, timeout: Duration) -> Result<Self, QemuError> {
+        let deadline = Instant::now() + timeout;
+        let stream = loop {
+            match TcpStream::connect((Ipv4Addr::LOCALHOST, port)) {
+                Ok(s) => break s,
+                Err(_) if Instant::now() < deadline => {
+                    std::thread::sleep(Duration::from_millis(50));
+                }
+                Err(e) => {
+                    return Err(QemuError::Connect {
+                        port,
+                        stderr: format!(
+                            "{e} (is QEMU running with -serial tcp:127.0.0.1:{port},server=on? \
+                             `cargo xtask qemu-cmd target/fw/wheelset-qemu.elf --tcp {port}` \
+                             prints its command line)"
+                        ),
+                    })
+                }
+            }
+        };
+        stream.set_nodelay(true).map_err(QemuError::Io)?;
+        stream
+            .set_read_timeout(Some(timeout))
+            .map_err(QemuError::Io)?;
+        Ok(Self {
+            child: None,
+            link: Link::Tcp(stream),
+            stderr_path: PathBuf::new(),
+            rx: Vec::with_capacity(MAX_FRAME),
+            timeout,
         })
     }
 
@@ -511,7 +550,12 @@ impl Qemu {
                         ));
                     }
                     match rx.read(buf) {
-                        Ok(0) if self.child.try_wait().ok().flatten().is_none() => {
+                        Ok(0)
+                            if self
+                                .child
+                                .as_mut()
+                                .is_some_and(|c| c.try_wait().ok().flatten().is_none()) =>
+                        {
                             // No writer yet (the firmware opens `tx` after `rx`).
                             std::thread::sleep(Duration::from_millis(1));
                         }
@@ -550,8 +594,8 @@ impl Qemu {
 
     /// A link error, or QEMU's exit with its stderr if it is gone.
     fn link_error(&mut self, e: io::Error) -> QemuError {
-        match self.child.try_wait() {
-            Ok(Some(status)) => {
+        match self.child.as_mut().map(Child::try_wait) {
+            Some(Ok(Some(status))) => {
                 QemuError::Exited(format!("{status}; {}", read_to_string(&self.stderr_path)))
             }
             _ => QemuError::Link(e),
@@ -561,9 +605,11 @@ impl Qemu {
 
 impl Drop for Qemu {
     fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-        let _ = std::fs::remove_file(&self.stderr_path);
+        if let Some(c) = self.child.as_mut() {
+            let _ = c.kill();
+            let _ = c.wait();
+            let _ = std::fs::remove_file(&self.stderr_path);
+        }
         if let Link::Bulk { dir, .. } = &self.link {
             let _ = std::fs::remove_dir_all(dir);
         }

@@ -69,6 +69,26 @@ impl QemuTarget {
     }
 }
 
+impl QemuTarget {
+    /// The firmware under a QEMU started by hand, its UART0 a TCP server on
+    /// `127.0.0.1:port` ([`Qemu::connect`]); QEMU is left running at the end.
+    pub fn connect(
+        port: u16,
+        baud: u32,
+        cpu_hz: f64,
+        timeout: Duration,
+    ) -> Result<Self, TransportError> {
+        let q =
+            Qemu::connect(port, timeout).map_err(|e| TransportError::Unavailable(e.to_string()))?;
+        Ok(Self {
+            q,
+            baud,
+            cpu_hz,
+            expect: Expect::new(),
+        })
+    }
+}
+
 impl Transport for QemuTarget {
     fn name(&self) -> String {
         "qemu".into()

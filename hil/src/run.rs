@@ -53,6 +53,10 @@ pub enum Target {
     InProc,
     /// The firmware under QEMU (mps2-an386), lock-step.
     Qemu,
+    /// The firmware under a QEMU started by hand, its UART0 a TCP server on
+    /// `127.0.0.1:PORT` (`qemu:PORT`; `cargo xtask qemu-cmd ELF --tcp PORT` prints the
+    /// command line), lock-step. The harness connects and leaves QEMU running.
+    QemuAt(u16),
     /// A board on a serial port.
     Serial(String),
 }
@@ -64,12 +68,24 @@ impl std::str::FromStr for Target {
         match s {
             "inproc" => Ok(Self::InProc),
             "qemu" => Ok(Self::Qemu),
-            _ => match s.strip_prefix("serial:") {
-                Some(p) if !p.is_empty() => Ok(Self::Serial(p.to_string())),
-                _ => Err(format!(
-                    "unknown target `{s}` (expected inproc, qemu or serial:PATH)"
-                )),
-            },
+            _ => {
+                if let Some(port) = s.strip_prefix("qemu:") {
+                    return port
+                        .parse::<u16>()
+                        .ok()
+                        .filter(|&p| p > 0)
+                        .map(Self::QemuAt)
+                        .ok_or_else(|| {
+                            format!("target `{s}`: `{port}` is not a TCP port (1-65535)")
+                        });
+                }
+                match s.strip_prefix("serial:") {
+                    Some(p) if !p.is_empty() => Ok(Self::Serial(p.to_string())),
+                    _ => Err(format!(
+                        "unknown target `{s}` (expected inproc, qemu, qemu:PORT or serial:PATH)"
+                    )),
+                }
+            }
         }
     }
 }
@@ -79,6 +95,7 @@ impl fmt::Display for Target {
         match self {
             Self::InProc => f.write_str("inproc"),
             Self::Qemu => f.write_str("qemu"),
+            Self::QemuAt(port) => write!(f, "qemu:{port}"),
             Self::Serial(p) => write!(f, "serial:{p}"),
         }
     }
@@ -271,6 +288,11 @@ pub fn open_transport(
             .map_err(RunError::Target)?;
             Ok(Box::new(t))
         }
+        Target::QemuAt(port) => {
+            let t = QemuTarget::connect(*port, opts.link.baud, opts.cpu_hz, opts.timeout)
+                .map_err(RunError::Target)?;
+            Ok(Box::new(t))
+        }
         Target::Serial(p) if opts.pace == Pace::RealTime => {
             Ok(Box::new(open_realtime(p, opts, &rt)?))
         }
@@ -339,7 +361,7 @@ fn run_rate(opts: &RunOptions, default_hz: u32) -> Result<u32, RunError> {
             }
         )));
     }
-    let lockstep = matches!(opts.target, Target::Qemu)
+    let lockstep = matches!(opts.target, Target::Qemu | Target::QemuAt(_))
         || (matches!(opts.target, Target::Serial(_)) && opts.pace == Pace::LockStep);
     if lockstep && hz != default_hz {
         return Err(RunError::Input(format!(

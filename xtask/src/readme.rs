@@ -700,6 +700,10 @@ const RULES: &[(&str, Class)] = &[
         "--frames 10000000",
         Class::Skip("a 3-minute run (its seeded short form is a test)"),
     ),
+    (
+        "--target qemu:",
+        Class::Skip("needs a QEMU started by hand (hil/tests/qemu_by_hand.rs runs the pair)"),
+    ),
     ("--target qemu", Class::Long),
     ("cargo fw", Class::Long),
     ("fw-bench", Class::Long),
@@ -1079,6 +1083,10 @@ mod tests {
             Class::Skip(_)
         ));
         assert_eq!(classify("cargo hil run --target qemu"), Class::Long);
+        assert!(matches!(
+            classify("cargo hil run --target qemu:4444"),
+            Class::Skip(_)
+        ));
         assert_eq!(
             classify("cargo clippy --workspace --all-targets -- -D warnings"),
             Class::Long
