@@ -143,7 +143,7 @@ pub struct Out {
     /// Motor voltage, 10 mV.
     pub u_a_cv: i32,
     /// Flags.
-    pub flags: u8,
+    pub flags: u16,
     /// Echoed sequence number.
     pub seq_echo: u16,
 }
@@ -157,6 +157,7 @@ fn sensor_frame(k: usize, s: &InputCodes) -> Vec<u8> {
         i_a_ma: s.current,
         omega_m_mrad_s: s.speed,
         demand_nm: s.demand,
+        v_ref_mm_s: 0,
     });
     encode_vec(&m).map(|f| f.to_vec()).unwrap_or_default()
 }

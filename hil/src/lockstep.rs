@@ -60,6 +60,7 @@ mod tests {
             i_a_ma: 0,
             omega_m_mrad_s: 0,
             demand_nm: 0,
+            v_ref_mm_s: 0,
         };
         e.sent(&encode_vec(&Message::Sensor(s)).unwrap_or_default());
         assert_eq!(e.owed(), 1);

@@ -319,6 +319,8 @@ pub fn device_config(rt: &RuntimeConfig) -> Result<wheelset_proto::Config, RunEr
         enable: rt.enable,
         hold_ticks: rt.hold_ticks,
         rates: Some(rates),
+        monitor_safe: false,
+        wsp: false,
     })
 }
 

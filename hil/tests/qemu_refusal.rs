@@ -31,6 +31,7 @@ fn sensor(seq: u16) -> Vec<u8> {
         i_a_ma: 0,
         omega_m_mrad_s: 925_600,
         demand_nm: 0,
+        v_ref_mm_s: 0,
     }))
     .unwrap()
     .to_vec()
@@ -67,6 +68,8 @@ fn config_at(hz: u32) -> Vec<u8> {
         enable: true,
         hold_ticks: DEFAULT_HOLD_TICKS,
         rates: Some(rates),
+        monitor_safe: false,
+        wsp: false,
     }))
     .unwrap()
     .to_vec()

@@ -35,6 +35,7 @@ fn sensor(seq: u16, y_dot_um_s: i32) -> Vec<u8> {
         i_a_ma: 0,
         omega_m_mrad_s: OMEGA_MRAD_S,
         demand_nm: 0,
+        v_ref_mm_s: 0,
     };
     encode_vec(&Message::Sensor(s)).unwrap().to_vec()
 }
@@ -187,6 +188,7 @@ impl SampledController for QemuDevice {
             i_a_ma: quantize(m.i_a, CURRENT_LSB_A).0,
             omega_m_mrad_s: quantize(m.w_m, SPEED_LSB_RAD_PER_S).0,
             demand_nm: quantize(m.demand_nm, DEMAND_LSB_NM).0,
+            v_ref_mm_s: 0,
         };
         let frame = encode_vec(&Message::Sensor(s)).unwrap();
         let a = tick(&mut self.q, &mut self.dec, &frame);

@@ -79,7 +79,7 @@ pub struct LinkSample {
     /// actuation is held).
     pub age: u16,
     /// Its flags (the bits of [`Flags`]).
-    pub flags: u8,
+    pub flags: u16,
     /// A new valid Actuation frame arrived in this period.
     pub fresh: bool,
 }
@@ -321,6 +321,7 @@ impl SampledController for DeviceController<'_> {
             i_a: m.i_a,
             w_m: m.w_m,
             demand_nm: m.demand_nm,
+            v_ref: m.v_mps,
         };
         let q = Sensor::from_si(self.seq, t_ns, &sample, self.lateral);
         self.host.clamped += u64::from(q.clamped);

@@ -249,7 +249,7 @@ struct DeviceArgs {
     /// Seed of the link's fault injection [default: 1].
     #[arg(long, allow_negative_numbers = true)]
     seed: Option<u64>,
-    /// Link baud rate (10 bits per byte) [default: 4000000].
+    /// Link baud rate (10 bits per byte) [default: 5000000].
     #[arg(long, allow_negative_numbers = true)]
     baud: Option<u32>,
     /// One-way link latency, us, in [0, 1e6] [default: 2].

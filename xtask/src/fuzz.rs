@@ -326,6 +326,8 @@ fn config<T: SampleBits>(g: &mut Gen) -> Config {
             1 => u16::MAX,
             _ => g.u64() as u16,
         },
+        wsp: g.below(2) == 0,
+        monitor_safe: g.below(4) == 0,
         rates,
     }
 }
@@ -351,12 +353,14 @@ fn sensor(g: &mut Gen, seq: &mut u16) -> Sensor {
         i_a_ma: g.i32(),
         omega_m_mrad_s: g.i32(),
         demand_nm: g.i32(),
+        v_ref_mm_s: g.i32(),
     }
 }
 
 fn command(g: &mut Gen) -> Command {
     match g.below(10) {
         0 => Command::ResetCounters,
+        1 => Command::ClearFaults,
         _ => Command::RequestStatus,
     }
 }

@@ -4,13 +4,15 @@
 //! independent runtime (`wheelset-runtime`: frame decoding, fault policy, the control
 //! core, frame encoding), the same code the host's in-process device runs.
 
-use wheelset_control::{Compiled, SampleBits};
+use wheelset_control::{Compiled, Monitor, SampleBits};
 use wheelset_proto::{encode_actuation, Actuation, Flags, MAX_FRAME};
 use wheelset_runtime::{Runtime, RuntimeBits, RuntimeError};
 
 /// The default runtime compiled at build time (`build.rs`): the generated constant.
 mod generated {
-    use wheelset_control::{CompiledBits, ScaleBits, ScheduleBits, WspBits, YawMode::*};
+    use wheelset_control::{
+        CompiledBits, MonitorBits, ScaleBits, ScheduleBits, WspBits, YawMode::*,
+    };
     use wheelset_runtime::{AccBits, RuntimeBits};
     include!(concat!(env!("OUT_DIR"), "/default_runtime.rs"));
 }
@@ -64,6 +66,13 @@ pub const DEFAULT_RUNTIME: RuntimeBits = generated::DEFAULT_RUNTIME;
 /// `default_runtime_is_compiled` validates them).
 pub const DEFAULT_CORE: Compiled<Num> = Compiled::<Num>::from_valid_bits(&DEFAULT_RUNTIME.control);
 
+/// The default stability monitor at the default base rate, converted at compile time
+/// (bits validated by the host test `default_runtime_is_compiled`).
+pub const DEFAULT_MONITOR: Monitor<Num> = Monitor::<Num>::from_valid_bits(
+    &DEFAULT_RUNTIME.monitor,
+    DEFAULT_RUNTIME.control.schedule.base_rate_hz,
+);
+
 /// The fingerprint of the default core's rate-independent part, at compile time.
 pub const DEFAULT_FINGERPRINT: u32 = DEFAULT_RUNTIME.control.fingerprint();
 
@@ -76,6 +85,7 @@ pub fn new_runtime() -> Result<FwRuntime, RuntimeError> {
         DEFAULT_RUNTIME.acc,
         DEFAULT_RUNTIME.hold_ticks,
         DEFAULT_RUNTIME.enable,
+        DEFAULT_MONITOR,
     )
 }
 
@@ -154,6 +164,7 @@ mod tests {
                 i_a_ma: 115_000,
                 omega_m_mrad_s: 925_600,
                 demand_nm: 2_460,
+                v_ref_mm_s: 0,
             };
             let f = encode_vec(&Message::Sensor(s)).unwrap();
             Device::receive(&mut dev, &f);
@@ -176,6 +187,7 @@ mod tests {
             i_a_ma: 0,
             omega_m_mrad_s: 925_600,
             demand_nm: 0,
+            v_ref_mm_s: 0,
         };
         let frame = encode_vec(&Message::Sensor(s)).unwrap();
         // Any chunking.

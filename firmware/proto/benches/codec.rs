@@ -12,6 +12,7 @@ fn bench(c: &mut Criterion) {
         i_a_ma: 115_000,
         omega_m_mrad_s: 925_600,
         demand_nm: 2_460,
+        v_ref_mm_s: 0,
     });
     let act = Message::Actuation(Actuation {
         seq_echo: 40_000,

@@ -27,7 +27,7 @@ pub(crate) const CONFIG: u8 = 2;
 pub(crate) const COMMAND: u8 = 3;
 pub(crate) const STATUS: u8 = 4;
 /// [`Command`] variants this version defines (indices `0..COMMANDS`).
-pub(crate) const COMMANDS: u32 = 2;
+pub(crate) const COMMANDS: u32 = 3;
 /// [`YawMode`] variants (the first field of a [`Config`]), indices `0..YAW_MODES`.
 pub(crate) const YAW_MODES: u32 = 3;
 
@@ -111,6 +111,7 @@ pub(crate) fn encode_sensor(s: &Sensor, out: &mut [u8]) -> Option<usize> {
         i_a_ma,
         omega_m_mrad_s,
         demand_nm,
+        v_ref_mm_s,
     } = *s;
     w.byte(SENSOR)?;
     w.u16_le(seq)?;
@@ -136,6 +137,7 @@ pub(crate) fn encode_sensor(s: &Sensor, out: &mut [u8]) -> Option<usize> {
     w.i32(i_a_ma)?;
     w.i32(omega_m_mrad_s)?;
     w.i32(demand_nm)?;
+    w.i32(v_ref_mm_s)?;
     Some(w.n)
 }
 
@@ -155,7 +157,7 @@ pub(crate) fn encode_actuation(a: &Actuation, out: &mut [u8]) -> Option<usize> {
     w.u16_le(seq_echo)?;
     w.u16_le(tick)?;
     w.varint(exec)?;
-    w.byte(flags.0)?;
+    w.varint(u32::from(flags.0))?;
     w.i32(t_psi_dnm)?;
     w.i32(u_a_cv)?;
     Some(w.n)
@@ -169,6 +171,8 @@ pub(crate) fn encode_config(c: &Config, out: &mut [u8]) -> Option<usize> {
         traction,
         enable,
         hold_ticks,
+        wsp,
+        monitor_safe,
         rates,
     } = *c;
     w.byte(CONFIG)?;
@@ -180,6 +184,8 @@ pub(crate) fn encode_config(c: &Config, out: &mut [u8]) -> Option<usize> {
     w.byte(u8::from(traction))?;
     w.byte(u8::from(enable))?;
     w.varint(u32::from(hold_ticks))?;
+    w.byte(u8::from(wsp))?;
+    w.byte(u8::from(monitor_safe))?;
     match rates {
         None => w.byte(0)?,
         Some(r) => {
@@ -228,6 +234,7 @@ pub(crate) fn encode_command(c: Command, out: &mut [u8]) -> Option<usize> {
     w.byte(match c {
         Command::ResetCounters => 0,
         Command::RequestStatus => 1,
+        Command::ClearFaults => 2,
     })?;
     Some(w.n)
 }
@@ -239,12 +246,15 @@ pub(crate) fn encode_status(s: &Status, out: &mut [u8]) -> Option<usize> {
     for v in status_counters(s) {
         w.varint(v)?;
     }
-    w.byte(s.flags.0)?;
+    w.byte(s.refuse_reason)?;
+    w.byte(s.reset_cause)?;
+    w.varint(u32::from(s.flags.0))?;
     Some(w.n)
 }
 
-/// The counters of a [`Status`] in declaration order (its fields but the flags).
-fn status_counters(s: &Status) -> [u32; 17] {
+/// The `u32` counters of a [`Status`] in declaration order (its fields but the two
+/// codes and the flags, which follow them).
+fn status_counters(s: &Status) -> [u32; STATUS_COUNTERS] {
     let Status {
         ticks,
         rx_ok,
@@ -263,6 +273,19 @@ fn status_counters(s: &Status) -> [u32; 17] {
         traction_sat,
         input_clamped,
         cmd_refused,
+        ticks_late,
+        ticks_missed,
+        rx_overrun,
+        tx_dropped,
+        wsp_ticks,
+        wsp_events,
+        hunt_alarms,
+        act_alarms,
+        first_alarm_tick,
+        boot_count,
+        stack_peak,
+        refuse_reason: _,
+        reset_cause: _,
         flags: _,
     } = *s;
     [
@@ -283,8 +306,22 @@ fn status_counters(s: &Status) -> [u32; 17] {
         traction_sat,
         input_clamped,
         cmd_refused,
+        ticks_late,
+        ticks_missed,
+        rx_overrun,
+        tx_dropped,
+        wsp_ticks,
+        wsp_events,
+        hunt_alarms,
+        act_alarms,
+        first_alarm_tick,
+        boot_count,
+        stack_peak,
     ]
 }
+
+/// The number of `u32` counters of a [`Status`] (its worst case is 5 bytes each).
+pub(crate) const STATUS_COUNTERS: usize = 28;
 
 /// Why a body did not decode.
 pub(crate) enum BodyError {
@@ -459,6 +496,7 @@ pub(crate) fn sensor(r: &mut In<'_>) -> Option<Sensor> {
         i_a_ma: r.i32()?,
         omega_m_mrad_s: r.i32()?,
         demand_nm: r.i32()?,
+        v_ref_mm_s: r.i32()?,
     })
 }
 
@@ -468,7 +506,7 @@ pub(crate) fn actuation(r: &mut In<'_>) -> Option<Actuation> {
         seq_echo: r.u16_le()?,
         tick: r.u16_le()?,
         exec: r.varint()?,
-        flags: Flags(r.byte()?),
+        flags: Flags(r.varint16()?),
         t_psi_dnm: r.i32()?,
         u_a_cv: r.i32()?,
     })
@@ -484,6 +522,8 @@ pub(crate) fn config(r: &mut In<'_>) -> Option<Config> {
     let traction = r.bool()?;
     let enable = r.bool()?;
     let hold_ticks = r.varint16()?;
+    let wsp = r.bool()?;
+    let monitor_safe = r.bool()?;
     let rates = match r.byte()? {
         0 => None,
         1 => Some(Rates {
@@ -508,6 +548,8 @@ pub(crate) fn config(r: &mut In<'_>) -> Option<Config> {
         traction,
         enable,
         hold_ticks,
+        wsp,
+        monitor_safe,
         rates,
     })
 }
@@ -516,6 +558,7 @@ pub(crate) fn command(r: &mut In<'_>) -> Option<Command> {
     match r.varint()? {
         0 => Some(Command::ResetCounters),
         1 => Some(Command::RequestStatus),
+        2 => Some(Command::ClearFaults),
         _ => None,
     }
 }
@@ -539,6 +582,19 @@ fn status(r: &mut In<'_>) -> Option<Status> {
         traction_sat: r.varint()?,
         input_clamped: r.varint()?,
         cmd_refused: r.varint()?,
-        flags: Flags(r.byte()?),
+        ticks_late: r.varint()?,
+        ticks_missed: r.varint()?,
+        rx_overrun: r.varint()?,
+        tx_dropped: r.varint()?,
+        wsp_ticks: r.varint()?,
+        wsp_events: r.varint()?,
+        hunt_alarms: r.varint()?,
+        act_alarms: r.varint()?,
+        first_alarm_tick: r.varint()?,
+        boot_count: r.varint()?,
+        stack_peak: r.varint()?,
+        refuse_reason: r.byte()?,
+        reset_cause: r.byte()?,
+        flags: Flags(r.varint16()?),
     })
 }

@@ -5,7 +5,7 @@
 //!
 //! ```text
 //! wire  = COBS( raw | crc ) 0x00
-//! raw   = VERSION (1 byte, = 1) | postcard(Message)     (the enum index is the type byte)
+//! raw   = VERSION (1 byte, = 2) | postcard(Message)     (the enum index is the type byte)
 //! crc   = CRC-32C(raw), little-endian, 4 bytes
 //! ```
 //!
@@ -16,9 +16,15 @@
 //! |---|---|---|---|---|---|
 //! | 0 | [`Sensor`] | host -> device | | [`Lateral`] | 0 `Velocity`, 1 `Acceleration`, 2 `Both` |
 //! | 1 | [`Actuation`] | device -> host | | [`YawMode`] | 0 `Passive`, 1 `Gain`, 2 `Lead` |
-//! | 2 | [`Config`] | host -> device | | [`Command`] | 0 `ResetCounters`, 1 `RequestStatus` |
+//! | 2 | [`Config`] | host -> device | | [`Command`] | 0 `ResetCounters`, 1 `RequestStatus`, 2 `ClearFaults` |
 //! | 3 | [`Command`] | host -> device | | [`RefuseReason`] | [`plausible`] |
-//! | 4 | [`Status`] | device -> host | | | |
+//! | 4 | [`Status`] | device -> host | | `reset_cause` | [`reset_cause`] |
+//!
+//! Version 2 (this one) added to version 1: the Sensor's `v_ref_mm_s` (the wheel-slip
+//! protection's reference speed), 16-bit [`Flags`] (a varint: `WHEEL_SLIP`, `HUNTING`,
+//! `ACTUATOR_FAULT`, `FAULT_LATCHED`), the Config's `wsp` and `monitor_safe`,
+//! [`Command::ClearFaults`], and the Status's board, supervision and boot fields. A
+//! version-1 frame is refused as `rx_version`.
 //!
 //! [`Actuation`] `tick` counts the device's ticks from 1 (the first tick after start-up
 //! sends 1; modulo 2^16). An undefined Command or YawMode index is refused by the device
@@ -75,6 +81,23 @@ pub mod plausible;
 mod si;
 mod sizes;
 pub mod units;
+
+/// [`Status::reset_cause`] codes: why the board last started.
+pub mod reset_cause {
+    /// Not known or not measured (the in-process device; a board without the register).
+    pub const UNKNOWN: u8 = 0;
+    /// Power-on (or brown-out) reset.
+    pub const POWER_ON: u8 = 1;
+    /// The reset pin (or the debugger).
+    pub const PIN: u8 = 2;
+    /// The independent hardware watchdog expired: a stalled control tick or receive path.
+    pub const WATCHDOG: u8 = 3;
+    /// A software reset request (`SYSRESETREQ`).
+    pub const SOFTWARE: u8 = 4;
+    /// A reset after a HardFault or a panic (the handler drove the safe outputs, then
+    /// reset).
+    pub const FAULT: u8 = 5;
+}
 
 pub use crc_ram::RamCrc;
 pub use decoder::Decoder;

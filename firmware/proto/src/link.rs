@@ -23,7 +23,7 @@
 //! use wheelset_proto::link::{link_fits, LINK_SHARE_MAX_PERMILLE};
 //! use wheelset_proto::{ACTUATION_MAX_FRAME, SENSOR_MAX_FRAME};
 //! const _: () = assert!(link_fits(
-//!     5_000, 4_000_000, SENSOR_MAX_FRAME as u32, ACTUATION_MAX_FRAME as u32, 2_000,
+//!     5_000, 5_000_000, SENSOR_MAX_FRAME as u32, ACTUATION_MAX_FRAME as u32, 2_000,
 //!     LINK_SHARE_MAX_PERMILLE,
 //! ).is_ok());
 //! ```

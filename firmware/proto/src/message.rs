@@ -40,41 +40,66 @@ pub struct Sensor {
     pub omega_m_mrad_s: i32,
     /// Traction demand as wheel torque `n K_m i_ref` in N m (0: none).
     pub demand_nm: i32,
+    /// Vehicle reference speed `v` in mm/s ([`crate::units::V_REF_LSB_M_PER_S`]),
+    /// positive forwards, from a source independent of this wheelset's drive (the
+    /// train's speed estimate): what the wheel-slip protection compares the wheel's
+    /// circumferential speed with. 0: unknown (the protection then does not act).
+    pub v_ref_mm_s: i32,
 }
 
 /// Status and fault flags carried in every [`Actuation`] and [`Status`] (bit set = true).
+/// 16 bits, a postcard varint on the wire (1 byte while only bits 0-6 are set, 2 up to
+/// bit 13, 3 above).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(transparent)]
-pub struct Flags(pub u8);
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Flags(pub u16);
 
 impl Flags {
-    /// Outputs enabled (a [`Config`] with `enable = true` was applied, or the default).
-    pub const ENABLED: u8 = 1 << 0;
-    /// This tick ran on a held sample: no new valid sensor frame since the last tick (in
-    /// the safe state too; `held_ticks` counts these ticks).
-    pub const HOLDING: u8 = 1 << 1;
-    /// The safe state is active: yaw torque ramping to / held at zero, traction demand zero.
-    pub const SAFE: u8 = 1 << 2;
-    /// At least one frame was rejected (CRC, COBS, version, length, postcard) since the
-    /// previous actuation frame.
-    pub const RX_ERROR: u8 = 1 << 3;
-    /// The yaw torque was limited this tick: by the fixed limit, or by the safe-state /
-    /// recovery ramp of the limit.
-    pub const YAW_SAT: u8 = 1 << 4;
-    /// The traction loop (voltage) saturated this tick.
-    pub const TRACTION_SAT: u8 = 1 << 5;
-    /// No valid sensor frame since start or the last reset: outputs are the safe outputs.
-    pub const NO_SAMPLE: u8 = 1 << 6;
-    /// The latest [`Config`] or [`Command`] was refused (invalid rates, unknown request).
-    pub const CMD_REFUSED: u8 = 1 << 7;
+    /// Bit 0. Outputs enabled (a [`Config`] with `enable = true` was applied, or the
+    /// default).
+    pub const ENABLED: u16 = 1 << 0;
+    /// Bit 1. This tick ran on a held sample: no new valid sensor frame since the last
+    /// tick (in the safe state too; `held_ticks` counts these ticks).
+    pub const HOLDING: u16 = 1 << 1;
+    /// Bit 2. The safe state is active: yaw torque ramping to / held at zero, traction
+    /// demand zero.
+    pub const SAFE: u16 = 1 << 2;
+    /// Bit 3. At least one frame was rejected (CRC, COBS, version, length, postcard)
+    /// since the previous actuation frame.
+    pub const RX_ERROR: u16 = 1 << 3;
+    /// Bit 4. The yaw torque was limited this tick: by the fixed limit, or by the
+    /// safe-state / recovery ramp of the limit.
+    pub const YAW_SAT: u16 = 1 << 4;
+    /// Bit 5. The traction loop (voltage) saturated this tick.
+    pub const TRACTION_SAT: u16 = 1 << 5;
+    /// Bit 6. No valid sensor frame since start or the last reset: outputs are the safe
+    /// outputs.
+    pub const NO_SAMPLE: u16 = 1 << 6;
+    /// Bit 7. The latest [`Config`] or [`Command`] was refused (the reason in
+    /// [`Status::refuse_reason`]).
+    pub const CMD_REFUSED: u16 = 1 << 7;
+    /// Bit 8. The wheel-slip protection acts this tick: the wheel's slip velocity
+    /// against the Sensor's `v_ref_mm_s` is above its threshold and the traction torque
+    /// is reduced (`Config.wsp` on).
+    pub const WHEEL_SLIP: u16 = 1 << 8;
+    /// Bit 9. The stability monitor's hunting alarm is raised (band-passed `y'` RMS above
+    /// its threshold).
+    pub const HUNTING: u16 = 1 << 9;
+    /// Bit 10. The stability monitor's actuator alarm is raised (the commanded yaw torque
+    /// has no effect on the measured motion, or the actuator reports a fault).
+    pub const ACTUATOR_FAULT: u16 = 1 << 10;
+    /// Bit 11. Sticky: an alarm (bits 9-10) or a watchdog / fault reset happened since
+    /// start-up or the last [`Command::ClearFaults`].
+    pub const FAULT_LATCHED: u16 = 1 << 11;
 
     /// Whether every bit of `mask` is set.
     #[must_use]
-    pub const fn has(self, mask: u8) -> bool {
+    pub const fn has(self, mask: u16) -> bool {
         self.0 & mask == mask
     }
     /// Sets or clears the bits of `mask`.
-    pub fn set(&mut self, mask: u8, on: bool) {
+    pub fn set(&mut self, mask: u16, on: bool) {
         if on {
             self.0 |= mask;
         } else {
@@ -129,6 +154,12 @@ pub struct Config {
     pub enable: bool,
     /// Ticks a missing sensor frame is bridged by the held sample before the safe state.
     pub hold_ticks: u16,
+    /// Wheel-slip protection on: the traction torque is reduced while the wheel slips
+    /// against the Sensor's `v_ref_mm_s` ([`Flags::WHEEL_SLIP`]).
+    pub wsp: bool,
+    /// A stability alarm ([`Flags::HUNTING`], [`Flags::ACTUATOR_FAULT`]) enters the safe
+    /// state and keeps it until [`Command::ClearFaults`]; off: the alarm is only reported.
+    pub monitor_safe: bool,
     /// New rates with their coefficients (the control core restarts on them); `None`
     /// keeps the rates.
     pub rates: Option<Rates>,
@@ -184,6 +215,9 @@ pub enum Command {
     ResetCounters,
     /// Send a [`Status`] frame (after the next actuation frame).
     RequestStatus,
+    /// Clear [`Flags::FAULT_LATCHED`] and leave a safe state held by a stability alarm
+    /// (`Config.monitor_safe`): the host's acknowledgement after it has acted.
+    ClearFaults,
 }
 
 /// Device -> host, on request: the counters (all wrap at 2^32).
@@ -233,6 +267,37 @@ pub struct Status {
     pub input_clamped: u32,
     /// Refused configurations and commands.
     pub cmd_refused: u32,
+    /// Board: ticks that started later than their deadline (the ticker fell behind by at
+    /// least one period's quarter); 0 from a frame-clocked or in-process device.
+    pub ticks_late: u32,
+    /// Board: deadlines that passed without a tick (the ticker skipped them).
+    pub ticks_missed: u32,
+    /// Board: bytes lost to a UART receive overrun (or a full receive buffer).
+    pub rx_overrun: u32,
+    /// Board: transmit frames dropped because the previous one was still being sent.
+    pub tx_dropped: u32,
+    /// Ticks with the wheel-slip protection acting ([`Flags::WHEEL_SLIP`]).
+    pub wsp_ticks: u32,
+    /// Entries into wheel-slip protection (rising edges of [`Flags::WHEEL_SLIP`]).
+    pub wsp_events: u32,
+    /// Hunting alarms raised (rising edges of [`Flags::HUNTING`]).
+    pub hunt_alarms: u32,
+    /// Actuator alarms raised (rising edges of [`Flags::ACTUATOR_FAULT`]).
+    pub act_alarms: u32,
+    /// The `ticks` value at the first alarm since the last reset of the counters
+    /// (0: none).
+    pub first_alarm_tick: u32,
+    /// Board: boots since power-on, kept in RAM outside the zeroed sections (survives a
+    /// watchdog reset; not zeroed by [`Command::ResetCounters`]).
+    pub boot_count: u32,
+    /// Board: the stack's high-water mark in bytes (painted at start-up, measured on
+    /// request; 0 where not measured). Not zeroed by [`Command::ResetCounters`].
+    pub stack_peak: u32,
+    /// Why the latest Config or Command was refused ([`crate::RefuseReason`] code; 0 none).
+    pub refuse_reason: u8,
+    /// Why the board last started ([`crate::reset_cause`] code). Not zeroed by
+    /// [`Command::ResetCounters`].
+    pub reset_cause: u8,
     /// The current flags.
     pub flags: Flags,
 }

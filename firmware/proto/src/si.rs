@@ -21,7 +21,7 @@
 
 use crate::units::{
     self, CURRENT_LSB_A, DEMAND_LSB_NM, LAT_ACC_LSB_M_PER_S2, LAT_VEL_LSB_M_PER_S,
-    SPEED_LSB_RAD_PER_S, TORQUE_LSB_NM, VOLTAGE_LSB_V,
+    SPEED_LSB_RAD_PER_S, TORQUE_LSB_NM, VOLTAGE_LSB_V, V_REF_LSB_M_PER_S,
 };
 use crate::{Actuation, Lateral, Sensor};
 
@@ -51,6 +51,8 @@ pub struct SensorSi {
     pub w_m: f64,
     /// Traction demand as wheel torque `n K_m i_ref`, N m.
     pub demand_nm: f64,
+    /// Vehicle reference speed `v`, m/s, positive forwards (0: unknown).
+    pub v_ref: f64,
 }
 
 /// The actuation a device commands, SI units: what the plant applies.
@@ -105,6 +107,7 @@ impl Sensor {
             i_a_ma: q(m.i_a, CURRENT_LSB_A),
             omega_m_mrad_s: q(m.w_m, SPEED_LSB_RAD_PER_S),
             demand_nm: q(m.demand_nm, DEMAND_LSB_NM),
+            v_ref_mm_s: q(m.v_ref, V_REF_LSB_M_PER_S),
         };
         Quantized { msg, clamped }
     }
@@ -130,6 +133,7 @@ impl Sensor {
             i_a: units::to_si(self.i_a_ma, CURRENT_LSB_A),
             w_m: units::to_si(self.omega_m_mrad_s, SPEED_LSB_RAD_PER_S),
             demand_nm: units::to_si(self.demand_nm, DEMAND_LSB_NM),
+            v_ref: units::to_si(self.v_ref_mm_s, V_REF_LSB_M_PER_S),
         }
     }
 }

@@ -22,23 +22,24 @@ pub const fn frame_len(body: usize) -> usize {
 }
 
 /// Sensor, `Lateral::Velocity` or `Acceleration` (one lateral value): seq 2, t 2,
-/// lateral tag 1 + 5, current 5, speed 5, demand 5.
-pub const SENSOR_ONE_LATERAL_MAX_FRAME: usize = frame_len(2 + 2 + 1 + V32 + V32 + V32 + V32);
+/// lateral tag 1 + 5, current 5, speed 5, demand 5, reference speed 5.
+pub const SENSOR_ONE_LATERAL_MAX_FRAME: usize = frame_len(2 + 2 + 1 + V32 + V32 + V32 + V32 + V32);
 
 /// Any Sensor (`Lateral::Both`: two lateral values): the host -> device budget per tick.
 pub const SENSOR_MAX_FRAME: usize = SENSOR_ONE_LATERAL_MAX_FRAME + V32;
 
-/// Actuation: seq echo 2, tick 2, exec 5, flags 1, torque 5, voltage 5.
-pub const ACTUATION_MAX_FRAME: usize = frame_len(2 + 2 + V32 + 1 + V32 + V32);
+/// Actuation: seq echo 2, tick 2, exec 5, flags 3 (a `u16` varint), torque 5,
+/// voltage 5.
+pub const ACTUATION_MAX_FRAME: usize = frame_len(2 + 2 + V32 + V16 + V32 + V32);
 
 /// Command: the variant index, 1 byte.
 pub const COMMAND_MAX_FRAME: usize = frame_len(1);
 
-/// Config with rates: mode 1, traction 1, enable 1, hold 3, Some 1, numeric 1,
-/// fingerprint 4, base rate 5, divisors 3 + 3, six coefficients 6 x 5, two Q32 factors
-/// 2 x 8.
+/// Config with rates: mode 1, traction 1, enable 1, hold 3, wsp 1, monitor_safe 1,
+/// Some 1, numeric 1, fingerprint 4, base rate 5, divisors 3 + 3, six coefficients
+/// 6 x 5, two Q32 factors 2 x 8.
 pub const CONFIG_MAX_FRAME: usize =
-    frame_len(1 + 1 + 1 + V16 + 1 + 1 + 4 + V32 + 2 * V16 + 6 * V32 + 16);
+    frame_len(1 + 1 + 1 + V16 + 1 + 1 + 1 + 1 + 4 + V32 + 2 * V16 + 6 * V32 + 16);
 
-/// Status: 17 counters x 5, flags 1.
-pub const STATUS_MAX_FRAME: usize = frame_len(17 * V32 + 1);
+/// Status: 28 counters x 5, refuse reason 1, reset cause 1, flags 3.
+pub const STATUS_MAX_FRAME: usize = frame_len(28 * V32 + 1 + 1 + V16);

@@ -36,6 +36,8 @@ pub const DEMAND_LSB_NM: f64 = 1.0;
 pub const TORQUE_LSB_NM: f64 = 0.1;
 /// Motor voltage LSB: 10 mV, in V.
 pub const VOLTAGE_LSB_V: f64 = 1e-2;
+/// Vehicle reference speed LSB ([`crate::Sensor::v_ref_mm_s`]): 1 mm/s, in m/s.
+pub const V_REF_LSB_M_PER_S: f64 = 1e-3;
 /// Host timestamp LSB: 1 us, in s (the field wraps every 65.536 ms).
 pub const TIME_LSB_S: f64 = 1e-6;
 

@@ -309,8 +309,8 @@ fn overlong_frame_is_a_length_error_then_resync() {
 fn each_error_kind_is_reported() {
     let msg = Message::Command(Command::ResetCounters);
     let mut raw = [0u8; MAX_FRAME];
-    // Version: re-frame with version 2 and a valid CRC.
-    let mut body = vec![2u8];
+    // Version: re-frame with another version (the next one) and a valid CRC.
+    let mut body = vec![VERSION.wrapping_add(1)];
     body.extend_from_slice(&postcard::to_allocvec(&msg).expect("postcard"));
     let mut with_crc = body.clone();
     with_crc.extend_from_slice(&CRC.checksum(&body).to_le_bytes());

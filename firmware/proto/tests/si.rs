@@ -6,7 +6,7 @@
 use proptest::prelude::*;
 use wheelset_proto::units::{
     quantize, CURRENT_LSB_A, DEMAND_LSB_NM, LAT_ACC_LSB_M_PER_S2, LAT_VEL_LSB_M_PER_S,
-    SPEED_LSB_RAD_PER_S, TORQUE_LSB_NM, VOLTAGE_LSB_V,
+    SPEED_LSB_RAD_PER_S, TORQUE_LSB_NM, VOLTAGE_LSB_V, V_REF_LSB_M_PER_S,
 };
 use wheelset_proto::{
     decode_frame, encode_vec, Actuation, Flags, Lateral, LateralSensing, Message, Sensor, SensorSi,
@@ -25,10 +25,11 @@ proptest! {
         i_a in -2e6f64..2e6,
         w_m in -2e6f64..2e6,
         demand in -2e9f64..2e9,
+        v_ref in -2e6f64..2e6,
         seq in any::<u16>(),
         t_ns in any::<u64>(),
     ) {
-        let m = SensorSi { y_dot, y_ddot, i_a, w_m, demand_nm: demand };
+        let m = SensorSi { y_dot, y_ddot, i_a, w_m, demand_nm: demand, v_ref };
         for lat in [LateralSensing::Velocity, LateralSensing::Acceleration, LateralSensing::Both] {
             let q = Sensor::from_si(seq, t_ns, &m, lat);
             prop_assert_eq!(q.clamped, 0);
@@ -43,6 +44,7 @@ proptest! {
             prop_assert_eq!(s, q.msg);
             let b = s.to_si();
             prop_assert!(within_half_lsb(b.i_a, i_a, CURRENT_LSB_A), "{} {}", b.i_a, i_a);
+            prop_assert!(within_half_lsb(b.v_ref, v_ref, V_REF_LSB_M_PER_S), "{} {}", b.v_ref, v_ref);
             prop_assert!(within_half_lsb(b.w_m, w_m, SPEED_LSB_RAD_PER_S));
             prop_assert!(within_half_lsb(b.demand_nm, demand, DEMAND_LSB_NM));
             match lat {
@@ -102,9 +104,11 @@ fn values_that_do_not_fit_are_clamped_and_counted() {
         i_a: -1e7,        // -1e10 mA
         w_m: f64::INFINITY,
         demand_nm: 5.0,
+        v_ref: f64::NEG_INFINITY,
     };
     let q = Sensor::from_si(1, 0, &m, LateralSensing::Both);
-    assert_eq!(q.clamped, 4);
+    assert_eq!(q.clamped, 5);
+    assert_eq!(q.msg.v_ref_mm_s, i32::MIN);
     assert_eq!(
         q.msg.lateral,
         Lateral::Both {
@@ -118,7 +122,7 @@ fn values_that_do_not_fit_are_clamped_and_counted() {
     // Velocity only: the NaN acceleration is not sent, so not counted.
     assert_eq!(
         Sensor::from_si(1, 0, &m, LateralSensing::Velocity).clamped,
-        3
+        4
     );
 }
 

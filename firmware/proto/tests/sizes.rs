@@ -7,7 +7,7 @@ fn len(m: Message) -> usize {
     encode_vec(&m).expect("fits").len()
 }
 
-fn sensor(lateral: Lateral, i_a_ma: i32, omega: i32, demand_nm: i32) -> Message {
+fn sensor(lateral: Lateral, i_a_ma: i32, omega: i32, demand_nm: i32, v_ref_mm_s: i32) -> Message {
     Message::Sensor(Sensor {
         seq: 40_000,
         t_us: 12_345,
@@ -15,15 +15,16 @@ fn sensor(lateral: Lateral, i_a_ma: i32, omega: i32, demand_nm: i32) -> Message 
         i_a_ma,
         omega_m_mrad_s: omega,
         demand_nm,
+        v_ref_mm_s,
     })
 }
 
-fn actuation(exec: u32, t_psi_dnm: i32, u_a_cv: i32) -> Message {
+fn actuation(exec: u32, flags: u16, t_psi_dnm: i32, u_a_cv: i32) -> Message {
     Message::Actuation(Actuation {
         seq_echo: 40_000,
         tick: 40_001,
         exec,
-        flags: Flags(Flags::ENABLED),
+        flags: Flags(flags),
         t_psi_dnm,
         u_a_cv,
     })
@@ -48,7 +49,20 @@ fn worst_status() -> Status {
         traction_sat: u32::MAX,
         input_clamped: u32::MAX,
         cmd_refused: u32::MAX,
-        flags: Flags(0xff),
+        ticks_late: u32::MAX,
+        ticks_missed: u32::MAX,
+        rx_overrun: u32::MAX,
+        tx_dropped: u32::MAX,
+        wsp_ticks: u32::MAX,
+        wsp_events: u32::MAX,
+        hunt_alarms: u32::MAX,
+        act_alarms: u32::MAX,
+        first_alarm_tick: u32::MAX,
+        boot_count: u32::MAX,
+        stack_peak: u32::MAX,
+        refuse_reason: u8::MAX,
+        reset_cause: u8::MAX,
+        flags: Flags(u16::MAX),
     }
 }
 
@@ -58,6 +72,8 @@ fn worst_config() -> Config {
         traction: true,
         enable: true,
         hold_ticks: u16::MAX,
+        wsp: true,
+        monitor_safe: true,
         rates: Some(Rates {
             numeric: u8::MAX,
             fingerprint: u32::MAX,
@@ -80,44 +96,46 @@ fn worst_config() -> Config {
 fn sizes_within_budget() {
     use units::*;
     let q = |x, lsb| quantize(x, lsb).0;
-    // Typical, curve with traction: y' 2 mm/s, i_a 115 A, 925.6 rad/s, demand 2460 N m;
-    // T_psi 200 N m, u_a 3965 V, a tick of 600 cycles.
+    // Typical, curve with traction: y' 2 mm/s, i_a 115 A, 925.6 rad/s, demand 2460 N m,
+    // v 83.3 m/s; T_psi 200 N m, u_a 3965 V, a tick of 600 cycles, flags ENABLED.
+    let m = i32::MIN;
     let s_typ = len(sensor(
         Lateral::Velocity(q(2e-3, LAT_VEL_LSB_M_PER_S)),
         q(115.0, CURRENT_LSB_A),
         q(925.6, SPEED_LSB_RAD_PER_S),
         q(2460.0, DEMAND_LSB_NM),
+        q(83.3, V_REF_LSB_M_PER_S),
     ));
     let a_typ = len(actuation(
         600,
+        Flags::ENABLED,
         q(200.0, TORQUE_LSB_NM),
         q(3965.0, VOLTAGE_LSB_V),
     ));
-    let s_max = len(sensor(
-        Lateral::Velocity(i32::MIN),
-        i32::MIN,
-        i32::MIN,
-        i32::MIN,
-    ));
+    let s_max = len(sensor(Lateral::Velocity(m), m, m, m, m));
     let s_both = len(sensor(
         Lateral::Both {
             vel_um_s: i32::MIN,
             acc_dmm_s2: i32::MIN,
         },
-        i32::MIN,
-        i32::MIN,
-        i32::MIN,
+        m,
+        m,
+        m,
+        m,
     ));
-    let a_max = len(actuation(u32::MAX, i32::MIN, i32::MIN));
+    let a_max = len(actuation(u32::MAX, u16::MAX, m, m));
     let st_max = len(Message::Status(worst_status()));
     let cfg_max = len(Message::Config(worst_config()));
     println!("wire bytes incl. delimiter: sensor typical {s_typ}, worst {s_max} (both lateral: {s_both}); actuation typical {a_typ}, worst {a_max}; both typical {}, worst {}; status worst {st_max}; config with rates worst {cfg_max}; MAX_FRAME {MAX_FRAME}", s_typ + a_typ, s_max + a_max);
     // Overhead 8 (COBS 1, delimiter 1, version 1, type 1, CRC 4) + the fields: sensor
-    // seq 2 + t 2 + lateral tag 1 + y' 2 + i_a 3 + speed 3 + demand 2.
-    assert!(s_typ <= 8 + 15, "sensor {s_typ}");
+    // seq 2 + t 2 + lateral tag 1 + y' 2 + i_a 3 + speed 3 + demand 2 + v_ref 3.
+    assert!(s_typ <= 8 + 18, "sensor {s_typ}");
     // Actuation: seq 2 + tick 2 + exec 2 + flags 1 + torque 2 + voltage 3.
     assert!(a_typ <= 8 + 12, "actuation {a_typ}");
-    assert!(s_both <= 40 && a_max <= 30);
+    assert!(
+        s_both <= 43 && a_max <= 30,
+        "sensor {s_both}, actuation {a_max}"
+    );
     assert!(st_max <= MAX_FRAME);
     assert!(cfg_max <= MAX_FRAME, "config {cfg_max}");
 }
@@ -127,7 +145,7 @@ fn sizes_within_budget() {
 #[test]
 fn worst_cases_are_the_crate_constants() {
     let m = i32::MIN;
-    let s = |lateral| len(sensor(lateral, m, m, m));
+    let s = |lateral| len(sensor(lateral, m, m, m, m));
     assert_eq!(s(Lateral::Velocity(m)), SENSOR_ONE_LATERAL_MAX_FRAME);
     assert_eq!(s(Lateral::Acceleration(m)), SENSOR_ONE_LATERAL_MAX_FRAME);
     assert_eq!(
@@ -137,8 +155,15 @@ fn worst_cases_are_the_crate_constants() {
         }),
         SENSOR_MAX_FRAME
     );
-    assert_eq!(len(actuation(u32::MAX, m, m)), ACTUATION_MAX_FRAME);
-    for c in [Command::ResetCounters, Command::RequestStatus] {
+    assert_eq!(
+        len(actuation(u32::MAX, u16::MAX, m, m)),
+        ACTUATION_MAX_FRAME
+    );
+    for c in [
+        Command::ResetCounters,
+        Command::RequestStatus,
+        Command::ClearFaults,
+    ] {
         assert_eq!(len(Message::Command(c)), COMMAND_MAX_FRAME);
     }
     assert_eq!(len(Message::Config(worst_config())), CONFIG_MAX_FRAME);

@@ -10,7 +10,7 @@
 //!
 //! let mut rt = Runtime::<Fx>::try_new(RuntimeConfig::default()).unwrap();
 //! let s = Sensor { seq: 7, t_us: 0, lateral: Lateral::Velocity(1_000),
-//!                  i_a_ma: 0, omega_m_mrad_s: 925_600, demand_nm: 0 };
+//!                  i_a_ma: 0, omega_m_mrad_s: 925_600, demand_nm: 0, v_ref_mm_s: 0 };
 //! rt.receive(&encode_vec(&Message::Sensor(s)).unwrap());
 //! let frame = rt.tick(0).to_vec();              // COBS frame incl. the 0x00 delimiter
 //! let mut dec: Decoder = Decoder::new();
@@ -106,7 +106,8 @@
 
 use wheelset_control::{
     BitsError, Compiled, CompiledBits, Config as ControlConfig, ConfigError, Controller,
-    InputCodes, Sample, SampleBits, ScheduleBits, WireLsb,
+    InputCodes, Monitor, MonitorBits, MonitorParams, MonitorState, Sample, SampleBits,
+    ScheduleBits, WireLsb, YawMode,
 };
 use wheelset_proto::units::{
     CURRENT_LSB_A, DEMAND_LSB_NM, LAT_VEL_LSB_M_PER_S, SPEED_LSB_RAD_PER_S, TORQUE_LSB_NM,
@@ -143,6 +144,9 @@ pub struct RuntimeConfig {
     /// `v[n] = v[n-1] (1 - T/tau) + a[n] T`. A high-pass against accelerometer offset
     /// drift; 0 disables the wash-out (a pure integrator).
     pub acc_washout_s: f64,
+    /// The stability monitor (`wheelset_control::monitor`: hunting and actuator alarms on
+    /// the received `y'`); `None`: off (no alarms).
+    pub monitor: Option<MonitorParams>,
 }
 
 /// Default wash-out of the `y''` integrator: 2 s (corner 0.08 Hz, below the 3 s curve
@@ -156,6 +160,7 @@ impl Default for RuntimeConfig {
             hold_ticks: DEFAULT_HOLD_TICKS,
             enable: true,
             acc_washout_s: DEFAULT_ACC_WASHOUT_S,
+            monitor: Some(MonitorParams::default()),
         }
     }
 }
@@ -279,6 +284,8 @@ pub struct RuntimeBits {
     pub hold_ticks: u16,
     /// [`RuntimeConfig::enable`].
     pub enable: bool,
+    /// The stability monitor ([`RuntimeConfig::monitor`]; `rate_hz` 0: off).
+    pub monitor: MonitorBits,
 }
 
 impl RuntimeBits {
@@ -287,11 +294,16 @@ impl RuntimeBits {
     pub fn try_new<T: SampleBits>(cfg: &RuntimeConfig) -> Result<Self, RuntimeError> {
         let mut control = cfg.control;
         control.wire = protocol_wire_lsb();
+        let monitor = match &cfg.monitor {
+            Some(p) => Monitor::<T>::try_new(p, control.base_rate_hz)?.to_bits(),
+            None => Monitor::<T>::off().to_bits(),
+        };
         Ok(Self {
             control: Compiled::<T>::try_new(&control)?.to_bits(),
             acc: acc_factors(cfg)?,
             hold_ticks: cfg.hold_ticks,
             enable: cfg.enable,
+            monitor,
         })
     }
 }
@@ -361,6 +373,15 @@ pub struct Runtime<T: Sample> {
     rx_error: bool,
     refused: bool,
     refuse_reason: RefuseReason,
+    /// The stability monitor and its state.
+    monitor: Monitor<T>,
+    mon: MonitorState<T>,
+    /// A stability alarm holds the safe state (`Config.monitor_safe`) until
+    /// `Command::ClearFaults`.
+    monitor_safe: bool,
+    alarm_safe: bool,
+    /// Sticky [`Flags::FAULT_LATCHED`].
+    fault_latched: bool,
     status_requested: bool,
     ticks: u32,
     /// The board's link limit: the highest base rate a Config may set, Hz.
@@ -380,12 +401,14 @@ impl<T: SampleBits> Runtime<T> {
     /// An idle runtime running exactly `bits` (validated; integer work only): how the
     /// device starts.
     pub fn from_bits(bits: &RuntimeBits) -> Result<Self, RuntimeError> {
+        let base = bits.control.schedule.base_rate_hz;
         Self::with_core(
             &Compiled::from_bits(&bits.control)?,
             bits.control.fingerprint(),
             bits.acc,
             bits.hold_ticks,
             bits.enable,
+            Monitor::from_bits(&bits.monitor, base)?,
         )
     }
 
@@ -400,6 +423,7 @@ impl<T: SampleBits> Runtime<T> {
         acc: AccBits,
         hold_ticks: u16,
         enable: bool,
+        monitor: Monitor<T>,
     ) -> Result<Self, RuntimeError> {
         let core = Controller::new(law);
         let (acc_gain_q32, leak_q32) = acc.check()?;
@@ -429,6 +453,11 @@ impl<T: SampleBits> Runtime<T> {
             rx_error: false,
             refused: false,
             refuse_reason: RefuseReason::None,
+            monitor,
+            mon: MonitorState::default(),
+            monitor_safe: false,
+            alarm_safe: false,
+            fault_latched: false,
             status_requested: false,
             ticks: 0,
             max_rate_hz: u32::MAX,
@@ -498,11 +527,18 @@ impl<T: SampleBits> Runtime<T> {
             Request::Sensor(s) => self.on_sensor(&s),
             Request::Config(cfg) => self.on_config(&cfg),
             Request::Command(Command::ResetCounters) => {
-                self.counters = RuntimeCounters::default();
+                // The board's boot record and stack measurement are not counters.
+                let keep = (c.boot_count, c.reset_cause, c.stack_peak);
+                *c = RuntimeCounters::default();
+                (c.boot_count, c.reset_cause, c.stack_peak) = keep;
                 self.core.reset_counters();
                 self.refused = false;
             }
             Request::Command(Command::RequestStatus) => self.status_requested = true,
+            Request::Command(Command::ClearFaults) => {
+                self.fault_latched = false;
+                self.alarm_safe = false;
+            }
             Request::Unknown => self.refuse(RefuseReason::UnknownRequest),
             Request::Unexpected => {}
         }
@@ -539,6 +575,7 @@ impl<T: SampleBits> Runtime<T> {
             self.counters.seq_gaps = self.counters.seq_gaps.wrapping_add(1);
         }
         self.seq = s.seq;
+        self.core.set_v_ref_code(s.v_ref_mm_s);
         self.sample = Some(InputCodes {
             y_dot,
             current: s.i_a_ma,
@@ -565,6 +602,8 @@ impl<T: SampleBits> Runtime<T> {
         }
         self.core.set_mode(c.mode);
         self.core.set_traction(c.traction);
+        self.core.set_wsp(c.wsp);
+        self.monitor_safe = c.monitor_safe;
         self.enabled = c.enable;
         self.hold_ticks = c.hold_ticks;
         self.refused = false;
@@ -575,7 +614,8 @@ impl<T: SampleBits> Runtime<T> {
     fn refuse(&mut self, why: RefuseReason) {
         self.refused = true;
         self.counters.cmd_refused = self.counters.cmd_refused.wrapping_add(1);
-        self.refuse_reason = why; // TODO(v2): Status.refuse_reason
+        self.refuse_reason = why;
+        self.counters.refuse_reason = why as u8;
     }
 
     /// Validates `r` against this core (sample type, fingerprint, the plausible ranges of
@@ -622,8 +662,12 @@ impl<T: SampleBits> Runtime<T> {
         // A fresh core (filter states zero, integrator to be preset from the back-EMF);
         // the Config sets its mode and traction right after.
         let t_psi = self.core.outputs().yaw_torque;
+        let wsp = self.core.wsp_enabled();
         self.core = Controller::new(&law);
         self.core.continue_from(t_psi);
+        self.core.set_wsp(wsp);
+        self.monitor.retime(r.base_rate_hz);
+        self.mon = MonitorState::default();
         self.acc_gain_q32 = g;
         self.leak_q32 = l;
         if self.safe {
@@ -645,10 +689,22 @@ impl<T: SampleBits> Runtime<T> {
         c.ticks = c.ticks.wrapping_add(1);
         if fresh {
             self.missing = 0;
-            if self.safe {
-                self.safe = false;
+        } else if self.sample.is_some() {
+            self.missing = self.missing.saturating_add(1);
+            // Held, in the safe state or not: HOLDING and `held_ticks` alike.
+            c.held_ticks = c.held_ticks.wrapping_add(1);
+            flags.set(Flags::HOLDING, true);
+        }
+        // The safe state: too many ticks without a frame, or a stability alarm held by
+        // `Config.monitor_safe` (until `Command::ClearFaults`).
+        let want_safe = (self.sample.is_some() && self.missing > hold) || self.alarm_safe;
+        if want_safe != self.safe {
+            self.safe = want_safe;
+            self.core.set_safe(want_safe);
+            if want_safe {
+                c.safe_entries = c.safe_entries.wrapping_add(1);
+            } else {
                 c.safe_exits = c.safe_exits.wrapping_add(1);
-                self.core.set_safe(false);
                 if let Some(s) = self.sample {
                     // Bumpless restart of the traction loop from the back-EMF, reference
                     // ramping up from zero.
@@ -656,16 +712,6 @@ impl<T: SampleBits> Runtime<T> {
                     self.core.preset_back_emf(speed);
                 }
             }
-        } else if self.sample.is_some() {
-            self.missing = self.missing.saturating_add(1);
-            if self.missing > hold && !self.safe {
-                self.safe = true;
-                c.safe_entries = c.safe_entries.wrapping_add(1);
-                self.core.set_safe(true);
-            }
-            // Held, in the safe state or not: HOLDING and `held_ticks` alike.
-            c.held_ticks = c.held_ticks.wrapping_add(1);
-            flags.set(Flags::HOLDING, true);
         }
         if self.safe {
             c.safe_ticks = c.safe_ticks.wrapping_add(1);
@@ -681,7 +727,13 @@ impl<T: SampleBits> Runtime<T> {
         };
         let before = {
             let k = self.core.counters();
-            (k.yaw_torque.clamped, k.voltage.clamped, inputs(k))
+            (
+                k.yaw_torque.clamped,
+                k.voltage.clamped,
+                inputs(k),
+                k.wsp_ticks,
+                k.wsp_events,
+            )
         };
         if let (Some(a), Some(s)) = (self.acc, self.sample.as_mut()) {
             // Integrate on every tick with the latest y'' (held when frames are missing).
@@ -698,6 +750,18 @@ impl<T: SampleBits> Runtime<T> {
                 (self.vel_q32 >> 32) as i32
             };
             s.y_dot = v;
+        }
+        let commanding = self.enabled && !self.safe && self.core.mode() != YawMode::Passive;
+        if let Some(s) = &self.sample {
+            // The stability monitor on the received (or integrated) `y'`, at its own
+            // sub-rate inside `Monitor::tick`.
+            let y_dot = self.core.codec().decode(s).y_dot;
+            let ev = self.monitor.tick(&mut self.mon, y_dot, commanding);
+            if ev.hunting_rose | ev.actuator_rose {
+                self.on_alarm(ev.hunting_rose, ev.actuator_rose);
+            }
+            flags.set(Flags::HUNTING, ev.hunting);
+            flags.set(Flags::ACTUATOR_FAULT, ev.actuator);
         }
         let (t_psi, u_a) = match (self.sample, self.enabled) {
             (Some(s), true) => {
@@ -730,7 +794,13 @@ impl<T: SampleBits> Runtime<T> {
         let yaw_sat = after.yaw_torque.clamped != before.0;
         let tr_sat = after.voltage.clamped != before.1;
         let clamped = inputs(after).wrapping_sub(before.2);
+        let wsp = (
+            after.wsp_ticks.wrapping_sub(before.3),
+            after.wsp_events.wrapping_sub(before.4),
+        );
         let c = &mut self.counters;
+        c.wsp_ticks = c.wsp_ticks.wrapping_add(wsp.0);
+        c.wsp_events = c.wsp_events.wrapping_add(wsp.1);
         c.yaw_sat = c.yaw_sat.wrapping_add(u32::from(yaw_sat));
         c.traction_sat = c.traction_sat.wrapping_add(u32::from(tr_sat));
         c.input_clamped = c.input_clamped.wrapping_add(clamped);
@@ -743,6 +813,8 @@ impl<T: SampleBits> Runtime<T> {
             core::mem::replace(&mut self.rx_error, false),
         );
         flags.set(Flags::CMD_REFUSED, self.refused);
+        flags.set(Flags::WHEEL_SLIP, self.core.wheel_slip());
+        flags.set(Flags::FAULT_LATCHED, self.fault_latched);
         c.flags = flags;
         let act = Actuation {
             seq_echo: self.seq,
@@ -762,9 +834,65 @@ impl<T: SampleBits> Runtime<T> {
         self.tx.get(..n).unwrap_or(&[])
     }
 
+    /// A stability alarm rose: counted, the fault latched, and with `monitor_safe` the
+    /// safe state held from the next tick until [`Command::ClearFaults`].
+    #[inline(never)]
+    fn on_alarm(&mut self, hunting: bool, actuator: bool) {
+        let c = &mut self.counters;
+        c.hunt_alarms = c.hunt_alarms.wrapping_add(u32::from(hunting));
+        c.act_alarms = c.act_alarms.wrapping_add(u32::from(actuator));
+        if c.first_alarm_tick == 0 {
+            c.first_alarm_tick = c.ticks;
+        }
+        self.fault_latched = true;
+        if self.monitor_safe {
+            self.alarm_safe = true;
+        }
+    }
+
     /// The counters.
     pub fn counters(&self) -> &RuntimeCounters {
         &self.counters
+    }
+
+    /// The board's own counters since its previous call (added, wrapping): ticks that
+    /// started late, deadlines skipped, bytes lost to a receive overrun, transmit frames
+    /// dropped. Reported in the [`Status`].
+    pub fn note_board(&mut self, late: u32, missed: u32, rx_overrun: u32, tx_dropped: u32) {
+        let c = &mut self.counters;
+        c.ticks_late = c.ticks_late.wrapping_add(late);
+        c.ticks_missed = c.ticks_missed.wrapping_add(missed);
+        c.rx_overrun = c.rx_overrun.wrapping_add(rx_overrun);
+        c.tx_dropped = c.tx_dropped.wrapping_add(tx_dropped);
+    }
+
+    /// The board's boot record: boots since power-on and the reset cause
+    /// (`wheelset_proto::reset_cause`). A reset by the watchdog or after a fault latches
+    /// [`Flags::FAULT_LATCHED`] (until [`Command::ClearFaults`]).
+    pub fn set_boot(&mut self, boot_count: u32, reset_cause: u8) {
+        self.counters.boot_count = boot_count;
+        self.counters.reset_cause = reset_cause;
+        if matches!(
+            reset_cause,
+            wheelset_proto::reset_cause::WATCHDOG | wheelset_proto::reset_cause::FAULT
+        ) {
+            self.fault_latched = true;
+        }
+    }
+
+    /// The stack's high-water mark in bytes, as the board measured it.
+    pub fn set_stack_peak(&mut self, bytes: u32) {
+        self.counters.stack_peak = bytes;
+    }
+
+    /// The sticky fault flag ([`Flags::FAULT_LATCHED`]).
+    pub fn fault_latched(&self) -> bool {
+        self.fault_latched
+    }
+
+    /// The stability monitor's state (its filters and alarms).
+    pub fn monitor_state(&self) -> &MonitorState<T> {
+        &self.mon
     }
 
     /// The control core (read only: coefficients, states, its own counters).

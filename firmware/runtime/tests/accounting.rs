@@ -15,6 +15,7 @@ fn sensor(seq: u16, lateral: Lateral) -> Vec<u8> {
         i_a_ma: 115_000,
         omega_m_mrad_s: 925_600,
         demand_nm: 2_460,
+        v_ref_mm_s: 0,
     }))
     .expect("fits")
     .to_vec()
@@ -57,6 +58,8 @@ fn config(mode: YawMode, enable: bool) -> Config {
         enable,
         hold_ticks: DEFAULT_HOLD_TICKS,
         rates: None,
+        monitor_safe: false,
+        wsp: false,
     }
 }
 

@@ -16,6 +16,8 @@ fn config_at(rate_hz: u32) -> Vec<u8> {
         enable: true,
         hold_ticks: cfg.hold_ticks,
         rates: Some(rates_for::<Fx>(&cfg).unwrap()),
+        monitor_safe: false,
+        wsp: false,
     });
     encode_vec(&m).unwrap().to_vec()
 }

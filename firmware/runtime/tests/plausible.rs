@@ -14,6 +14,7 @@ fn sensor(seq: u16) -> Vec<u8> {
         i_a_ma: 115_000,
         omega_m_mrad_s: 925_600,
         demand_nm: 2_460,
+        v_ref_mm_s: 0,
     }))
     .expect("fits")
     .to_vec()
@@ -44,6 +45,8 @@ fn config(hold_ticks: u16, rates: Option<Rates>) -> Config {
         enable: true,
         hold_ticks,
         rates,
+        monitor_safe: false,
+        wsp: false,
     }
 }
 

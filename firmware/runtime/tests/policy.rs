@@ -13,6 +13,7 @@ fn sensor(seq: u16, y_um_s: i32) -> Vec<u8> {
         i_a_ma: 115_000,
         omega_m_mrad_s: 925_600,
         demand_nm: 2_460,
+        v_ref_mm_s: 0,
     }))
     .expect("fits")
     .to_vec()
@@ -199,6 +200,8 @@ fn config_and_commands() {
         enable: true,
         hold_ticks: 3,
         rates: None,
+        monitor_safe: false,
+        wsp: false,
     };
     r.receive(&encode_vec(&Message::Config(cfg)).expect("fits"));
     r.receive(&sensor(21, 5_000));
@@ -317,6 +320,7 @@ fn accel(seq: u16, a_dmm_s2: i32) -> Vec<u8> {
         i_a_ma: 0,
         omega_m_mrad_s: 925_600,
         demand_nm: 0,
+        v_ref_mm_s: 0,
     }))
     .expect("fits")
     .to_vec()
@@ -383,6 +387,8 @@ fn rate_change<T: wheelset_control::SampleBits>(cfg: &RuntimeConfig) -> Config {
         traction: true,
         enable: true,
         hold_ticks: 20,
+        wsp: false,
+        monitor_safe: false,
         rates: Some(rates_for::<T>(cfg).expect("valid")),
     }
 }

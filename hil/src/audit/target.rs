@@ -76,6 +76,7 @@ fn frame(seq: u16, c: &InputCodes) -> Result<Vec<u8>, String> {
         i_a_ma: c.current,
         omega_m_mrad_s: c.speed,
         demand_nm: c.demand,
+        v_ref_mm_s: 0,
     };
     encode_vec(&Message::Sensor(s))
         .map(|v| v.to_vec())

@@ -40,15 +40,17 @@ pub fn sensor() -> impl Strategy<Value = Sensor> {
         any_i32(),
         any_i32(),
         any_i32(),
+        any_i32(),
     )
         .prop_map(
-            |(seq, t_us, lateral, i_a_ma, omega_m_mrad_s, demand_nm)| Sensor {
+            |(seq, t_us, lateral, i_a_ma, omega_m_mrad_s, demand_nm, v_ref_mm_s)| Sensor {
                 seq,
                 t_us,
                 lateral,
                 i_a_ma,
                 omega_m_mrad_s,
                 demand_nm,
+                v_ref_mm_s,
             },
         )
 }
@@ -58,7 +60,7 @@ pub fn actuation() -> impl Strategy<Value = Actuation> {
         any::<u16>(),
         any::<u16>(),
         any_u32(),
-        any::<u8>(),
+        any::<u16>(),
         any_i32(),
         any_i32(),
     )
@@ -120,38 +122,63 @@ pub fn config() -> impl Strategy<Value = Config> {
         any::<bool>(),
         any::<bool>(),
         any::<u16>(),
+        (any::<bool>(), any::<bool>()),
         proptest::option::of(rates()),
     )
-        .prop_map(|(mode, traction, enable, hold_ticks, rates)| Config {
-            mode,
-            traction,
-            enable,
-            hold_ticks,
-            rates,
-        })
+        .prop_map(
+            |(mode, traction, enable, hold_ticks, (wsp, monitor_safe), rates)| Config {
+                mode,
+                traction,
+                enable,
+                hold_ticks,
+                wsp,
+                monitor_safe,
+                rates,
+            },
+        )
 }
 
 pub fn status() -> impl Strategy<Value = Status> {
-    (proptest::array::uniform17(any_u32()), any::<u8>()).prop_map(|(c, flags)| Status {
-        ticks: c[0],
-        rx_ok: c[1],
-        rx_crc: c[2],
-        rx_cobs: c[3],
-        rx_version: c[4],
-        rx_length: c[5],
-        rx_postcard: c[6],
-        rx_unexpected: c[7],
-        seq_gaps: c[8],
-        held_ticks: c[9],
-        safe_ticks: c[10],
-        safe_entries: c[11],
-        safe_exits: c[12],
-        yaw_sat: c[13],
-        traction_sat: c[14],
-        input_clamped: c[15],
-        cmd_refused: c[16],
-        flags: Flags(flags),
-    })
+    // A Vec, not an array: a 28-element array strategy overflowed the test's stack.
+    (
+        proptest::collection::vec(any_u32(), 28),
+        any::<u8>(),
+        any::<u8>(),
+        any::<u16>(),
+    )
+        .prop_map(|(c, refuse_reason, reset_cause, flags)| Status {
+            ticks: c[0],
+            rx_ok: c[1],
+            rx_crc: c[2],
+            rx_cobs: c[3],
+            rx_version: c[4],
+            rx_length: c[5],
+            rx_postcard: c[6],
+            rx_unexpected: c[7],
+            seq_gaps: c[8],
+            held_ticks: c[9],
+            safe_ticks: c[10],
+            safe_entries: c[11],
+            safe_exits: c[12],
+            yaw_sat: c[13],
+            traction_sat: c[14],
+            input_clamped: c[15],
+            cmd_refused: c[16],
+            ticks_late: c[17],
+            ticks_missed: c[18],
+            rx_overrun: c[19],
+            tx_dropped: c[20],
+            wsp_ticks: c[21],
+            wsp_events: c[22],
+            hunt_alarms: c[23],
+            act_alarms: c[24],
+            first_alarm_tick: c[25],
+            boot_count: c[26],
+            stack_peak: c[27],
+            refuse_reason,
+            reset_cause,
+            flags: Flags(flags),
+        })
 }
 
 pub fn message() -> impl Strategy<Value = Message> {
