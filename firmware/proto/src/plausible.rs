@@ -101,11 +101,14 @@ pub enum RefuseReason {
     /// A value's bit pattern is not valid for the sample type (the control core's format
     /// check, after every range above passed).
     Bits = 17,
+    /// A switch this build of the device does not have: `wsp` or `monitor_safe` on a
+    /// firmware built without the wheel-slip protection or the stability monitor.
+    Unsupported = 18,
 }
 
 impl RefuseReason {
     /// Every reason, in code order.
-    pub const ALL: [Self; 18] = [
+    pub const ALL: [Self; 19] = [
         Self::None,
         Self::UnknownRequest,
         Self::Numeric,
@@ -124,6 +127,7 @@ impl RefuseReason {
         Self::AccGain,
         Self::AccLeak,
         Self::Bits,
+        Self::Unsupported,
     ];
 
     /// The wire code.
@@ -160,6 +164,7 @@ impl RefuseReason {
             Self::AccGain => "rates.acc_gain_q32",
             Self::AccLeak => "rates.acc_leak_q32",
             Self::Bits => "rates (bit pattern)",
+            Self::Unsupported => "wsp / monitor_safe (not in this build)",
         }
     }
 }

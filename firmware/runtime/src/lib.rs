@@ -107,7 +107,7 @@
 use wheelset_control::{
     BitsError, Compiled, CompiledBits, Config as ControlConfig, ConfigError, Controller,
     InputCodes, Monitor, MonitorBits, MonitorParams, MonitorState, Sample, SampleBits,
-    ScheduleBits, WireLsb, YawMode,
+    ScheduleBits, WireLsb,
 };
 use wheelset_proto::units::{
     CURRENT_LSB_A, DEMAND_LSB_NM, LAT_VEL_LSB_M_PER_S, SPEED_LSB_RAD_PER_S, TORQUE_LSB_NM,
@@ -374,6 +374,7 @@ pub struct Runtime<T: Sample> {
     refused: bool,
     refuse_reason: RefuseReason,
     /// The stability monitor and its state.
+    #[cfg_attr(not(feature = "monitor"), allow(dead_code))]
     monitor: Monitor<T>,
     mon: MonitorState<T>,
     /// A stability alarm holds the safe state (`Config.monitor_safe`) until
@@ -575,6 +576,7 @@ impl<T: SampleBits> Runtime<T> {
             self.counters.seq_gaps = self.counters.seq_gaps.wrapping_add(1);
         }
         self.seq = s.seq;
+        #[cfg(feature = "wsp")]
         self.core.set_v_ref_code(s.v_ref_mm_s);
         self.sample = Some(InputCodes {
             y_dot,
@@ -587,9 +589,15 @@ impl<T: SampleBits> Runtime<T> {
 
     #[inline(never)]
     fn on_config(&mut self, c: &Config) {
-        let checked = match &c.rates {
-            Some(r) => self.apply_rates(r, c.hold_ticks),
-            None => plausible::check_hold(c.hold_ticks, self.base_rate_hz()),
+        let unsupported =
+            (c.wsp && !cfg!(feature = "wsp")) || (c.monitor_safe && !cfg!(feature = "monitor"));
+        let checked = if unsupported {
+            Err(RefuseReason::Unsupported)
+        } else {
+            match &c.rates {
+                Some(r) => self.apply_rates(r, c.hold_ticks),
+                None => plausible::check_hold(c.hold_ticks, self.base_rate_hz()),
+            }
         };
         if let Err(why) = checked {
             self.refuse(why);
@@ -602,6 +610,7 @@ impl<T: SampleBits> Runtime<T> {
         }
         self.core.set_mode(c.mode);
         self.core.set_traction(c.traction);
+        #[cfg(feature = "wsp")]
         self.core.set_wsp(c.wsp);
         self.monitor_safe = c.monitor_safe;
         self.enabled = c.enable;
@@ -665,9 +674,14 @@ impl<T: SampleBits> Runtime<T> {
         let wsp = self.core.wsp_enabled();
         self.core = Controller::new(&law);
         self.core.continue_from(t_psi);
-        self.core.set_wsp(wsp);
-        self.monitor.retime(r.base_rate_hz);
-        self.mon = MonitorState::default();
+        if wsp {
+            self.core.set_wsp(true);
+        }
+        #[cfg(feature = "monitor")]
+        {
+            self.monitor.retime(r.base_rate_hz);
+            self.mon = MonitorState::default();
+        }
         self.acc_gain_q32 = g;
         self.leak_q32 = l;
         if self.safe {
@@ -751,8 +765,11 @@ impl<T: SampleBits> Runtime<T> {
             };
             s.y_dot = v;
         }
-        let commanding = self.enabled && !self.safe && self.core.mode() != YawMode::Passive;
+        #[cfg(feature = "monitor")]
         if let Some(s) = &self.sample {
+            let commanding = self.enabled
+                && !self.safe
+                && self.core.mode() != wheelset_control::YawMode::Passive;
             // The stability monitor on the received (or integrated) `y'`, at its own
             // sub-rate inside `Monitor::tick`.
             let y_dot = self.core.codec().decode(s).y_dot;
@@ -794,13 +811,17 @@ impl<T: SampleBits> Runtime<T> {
         let yaw_sat = after.yaw_torque.clamped != before.0;
         let tr_sat = after.voltage.clamped != before.1;
         let clamped = inputs(after).wrapping_sub(before.2);
+        #[cfg(feature = "wsp")]
         let wsp = (
             after.wsp_ticks.wrapping_sub(before.3),
             after.wsp_events.wrapping_sub(before.4),
         );
         let c = &mut self.counters;
-        c.wsp_ticks = c.wsp_ticks.wrapping_add(wsp.0);
-        c.wsp_events = c.wsp_events.wrapping_add(wsp.1);
+        #[cfg(feature = "wsp")]
+        {
+            c.wsp_ticks = c.wsp_ticks.wrapping_add(wsp.0);
+            c.wsp_events = c.wsp_events.wrapping_add(wsp.1);
+        }
         c.yaw_sat = c.yaw_sat.wrapping_add(u32::from(yaw_sat));
         c.traction_sat = c.traction_sat.wrapping_add(u32::from(tr_sat));
         c.input_clamped = c.input_clamped.wrapping_add(clamped);
@@ -813,6 +834,7 @@ impl<T: SampleBits> Runtime<T> {
             core::mem::replace(&mut self.rx_error, false),
         );
         flags.set(Flags::CMD_REFUSED, self.refused);
+        #[cfg(feature = "wsp")]
         flags.set(Flags::WHEEL_SLIP, self.core.wheel_slip());
         flags.set(Flags::FAULT_LATCHED, self.fault_latched);
         c.flags = flags;
@@ -836,6 +858,7 @@ impl<T: SampleBits> Runtime<T> {
 
     /// A stability alarm rose: counted, the fault latched, and with `monitor_safe` the
     /// safe state held from the next tick until [`Command::ClearFaults`].
+    #[cfg(feature = "monitor")]
     #[inline(never)]
     fn on_alarm(&mut self, hunting: bool, actuator: bool) {
         let c = &mut self.counters;
