@@ -60,6 +60,7 @@ impl SampledController for QemuDevice {
             i_a_ma: quantize(m.i_a, CURRENT_LSB_A).0,
             omega_m_mrad_s: quantize(m.w_m, SPEED_LSB_RAD_PER_S).0,
             demand_nm: quantize(m.demand_nm, DEMAND_LSB_NM).0,
+            v_ref_mm_s: 0,
         };
         self.q
             .send(&encode_vec(&Message::Sensor(s)).unwrap())

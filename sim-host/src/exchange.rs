@@ -236,11 +236,13 @@ impl<'a> DeviceController<'a> {
     }
 
     fn on_frame(&mut self, at_ns: u64, wire_bytes: usize, r: Result<Message, FrameError>) {
-        // Every frame counts, the ones after the Status too (with the larger Status of
-        // wire version 2 the next Actuation can arrive in the same period).
-        match r {
-            Ok(_) => self.host.received += 1,
-            Err(_) => self.host.rejected += 1,
+        // Frames after the Status are not counted: the Status's counters are the device's
+        // side of the identity, up to the Status.
+        if !self.status_seen {
+            match r {
+                Ok(_) => self.host.received += 1,
+                Err(_) => self.host.rejected += 1,
+            }
         }
         match r {
             Ok(Message::Actuation(a)) => {
