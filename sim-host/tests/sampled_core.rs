@@ -250,12 +250,20 @@ fn absurd_timings_are_refused() {
 #[test]
 fn link_budget_arithmetic() {
     let l = LinkBudget::default();
-    // 61 bytes = 610 bits at 2 Mbaud = 305 us, + 2 x 5 us, at 2 kHz = 0.63.
-    assert_eq!((l.bytes_in, l.bytes_out), (33, 28));
-    assert!((l.utilisation(2000.0, 2e6) - 0.63).abs() < 1e-12);
-    // The smallest baud: 610 bits / (0.7 x 200 us - 10 us) = 4.692 Mbaud.
+    // The wire crate's worst-case one-lateral Sensor and Actuation frames.
+    let (up, down) = (
+        wheelset_proto::SENSOR_ONE_LATERAL_MAX_FRAME,
+        wheelset_proto::ACTUATION_MAX_FRAME,
+    );
+    assert_eq!((l.bytes_in as usize, l.bytes_out as usize), (up, down));
+    // 68 bytes = 680 bits at 2 Mbaud = 340 us, + 2 x 5 us, at 2 kHz (500 us) = 0.70.
+    let bits = ((up + down) * 10) as f64;
+    let u = (bits / 2e6 + 10e-6) * 2000.0;
+    assert!((l.utilisation(2000.0, 2e6) - u).abs() < 1e-12);
+    assert!((u - 0.70).abs() < 1e-12);
+    // The smallest baud: 680 bits / (0.7 x 200 us - 10 us) = 5.231 Mbaud, rounded up.
     let b = l.min_baud(5000.0);
-    assert_eq!(b, 4_692_308.0);
+    assert_eq!(b, (bits / (0.7 * 200e-6 - 10e-6)).ceil());
     assert!(l.utilisation(5000.0, b) <= 0.7);
     assert!(l.utilisation(5000.0, b - 1.0) > 0.7);
 }
