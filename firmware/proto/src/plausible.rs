@@ -202,7 +202,7 @@ const HI: f64 = 1.0 + RATE_TOLERANCE;
 
 /// The plausibility table (see the module docs), one row per [`RefuseReason`] but
 /// `None`.
-pub const PLAUSIBLE: [Plausible; 17] = [
+pub const PLAUSIBLE: [Plausible; 18] = [
     Plausible {
         reason: RefuseReason::UnknownRequest,
         min: f64::NAN,
@@ -321,6 +321,13 @@ pub const PLAUSIBLE: [Plausible; 17] = [
         max: f64::NAN,
         unit: "-",
         why: "every value must be a valid bit pattern of the device's sample type",
+    },
+    Plausible {
+        reason: RefuseReason::Unsupported,
+        min: f64::NAN,
+        max: f64::NAN,
+        unit: "-",
+        why: "wsp or monitor_safe on a firmware built without the protection or the monitor (the Nucleo build, for flash)",
     },
 ];
 
