@@ -1,0 +1,166 @@
+//! Build-time bits: the runtime's configuration ([`RuntimeConfig`]), its compiled form as
+//! exact bits ([`RuntimeBits`], written by the firmware's build script, the device's
+//! start without float maths) and the coefficients of a rate switch ([`rates_for`]),
+//! computed on the host with the device's control code.
+
+use wheelset_control::{
+    BitsError, Compiled, CompiledBits, Config as ControlConfig, ConfigError, Monitor, MonitorBits,
+    MonitorParams, SampleBits, WireLsb,
+};
+use wheelset_proto::units::{
+    CURRENT_LSB_A, DEMAND_LSB_NM, LAT_VEL_LSB_M_PER_S, SPEED_LSB_RAD_PER_S, TORQUE_LSB_NM,
+    VOLTAGE_LSB_V,
+};
+
+use crate::{acc_factors, AccBits, Rates, DEFAULT_HOLD_TICKS};
+
+/// The runtime configuration: the control core's configuration and the fault policy.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RuntimeConfig {
+    /// The control core's configuration. Its `wire` LSBs are overwritten with the
+    /// protocol's ([`protocol_wire_lsb`]): the format has one definition.
+    pub control: ControlConfig,
+    /// Consecutive ticks without a new sensor frame that run on the held sample before
+    /// the safe state (0: the first missing frame enters it).
+    pub hold_ticks: u16,
+    /// Outputs enabled at start.
+    pub enable: bool,
+    /// Wash-out time constant of the `y''` integrator, s (acceleration-only frames):
+    /// `v[n] = v[n-1] (1 - T/tau) + a[n] T`. A high-pass against accelerometer offset
+    /// drift; 0 disables the wash-out (a pure integrator).
+    pub acc_washout_s: f64,
+    /// The stability monitor (`wheelset_control::monitor`: hunting and actuator alarms on
+    /// the received `y'`); `None`: off (no alarms).
+    pub monitor: Option<MonitorParams>,
+}
+
+/// Default wash-out of the `y''` integrator: 2 s (corner 0.08 Hz, below the 3 s curve
+/// transitions' content and far below the ~10 Hz kinematic mode).
+pub const DEFAULT_ACC_WASHOUT_S: f64 = 2.0;
+
+impl Default for RuntimeConfig {
+    fn default() -> Self {
+        Self {
+            control: ControlConfig::default(),
+            hold_ticks: DEFAULT_HOLD_TICKS,
+            enable: true,
+            acc_washout_s: DEFAULT_ACC_WASHOUT_S,
+            monitor: Some(MonitorParams::default()),
+        }
+    }
+}
+
+/// The wire LSBs of `wheelset-proto` in the control core's terms.
+#[must_use]
+pub fn protocol_wire_lsb() -> WireLsb {
+    WireLsb {
+        y_dot: LAT_VEL_LSB_M_PER_S,
+        current: CURRENT_LSB_A,
+        speed: SPEED_LSB_RAD_PER_S,
+        demand: DEMAND_LSB_NM,
+        torque: TORQUE_LSB_NM,
+        voltage: VOLTAGE_LSB_V,
+    }
+}
+
+/// Why a runtime could not be built.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum RuntimeError {
+    /// The control configuration is invalid.
+    Control(ConfigError),
+    /// The wash-out time constant is negative, not finite, or shorter than one tick.
+    Washout,
+    /// Exact bits ([`RuntimeBits`], [`Rates`]) are invalid: the field named.
+    Bits(BitsError),
+}
+
+impl core::fmt::Display for RuntimeError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::Control(e) => write!(f, "runtime: control configuration: {e}"),
+            Self::Washout => write!(
+                f,
+                "runtime: acc_washout_s must be 0 or a finite time of at least one tick"
+            ),
+            Self::Bits(e) => write!(f, "runtime: {e}"),
+        }
+    }
+}
+
+impl From<BitsError> for RuntimeError {
+    fn from(e: BitsError) -> Self {
+        Self::Bits(e)
+    }
+}
+
+impl From<ConfigError> for RuntimeError {
+    fn from(e: ConfigError) -> Self {
+        Self::Control(e)
+    }
+}
+
+/// A whole runtime configuration as exact bits: the compiled control core, the `y''`
+/// integrator's factors, the fault policy. The firmware's build script writes the
+/// default one as a constant ([`RuntimeBits::try_new`] on the host); the device starts
+/// from it with [`Runtime::from_bits`], without float maths.
+///
+/// [`Runtime::from_bits`]: crate::Runtime::from_bits
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RuntimeBits {
+    /// The control core ([`Compiled::to_bits`]).
+    pub control: CompiledBits,
+    /// The `y''` integrator.
+    pub acc: AccBits,
+    /// [`RuntimeConfig::hold_ticks`].
+    pub hold_ticks: u16,
+    /// [`RuntimeConfig::enable`].
+    pub enable: bool,
+    /// The stability monitor ([`RuntimeConfig::monitor`]; `rate_hz` 0: off).
+    pub monitor: MonitorBits,
+}
+
+impl RuntimeBits {
+    /// Compile `cfg` for sample type `T` (f64 discretisation, then quantisation; the
+    /// protocol's wire LSBs replace `cfg.control.wire`). Host and build-script use.
+    pub fn try_new<T: SampleBits>(cfg: &RuntimeConfig) -> Result<Self, RuntimeError> {
+        let mut control = cfg.control;
+        control.wire = protocol_wire_lsb();
+        let monitor = match &cfg.monitor {
+            Some(p) => Monitor::<T>::try_new(p, control.base_rate_hz)?.to_bits(),
+            None => Monitor::<T>::off().to_bits(),
+        };
+        Ok(Self {
+            control: Compiled::<T>::try_new(&control)?.to_bits(),
+            acc: acc_factors(cfg)?,
+            hold_ticks: cfg.hold_ticks,
+            enable: cfg.enable,
+            monitor,
+        })
+    }
+}
+
+/// The [`Rates`] that switch a device running `T` with the rate-independent part of
+/// `cfg` to the rates of `cfg` (its base rate and divisors): the coefficients computed
+/// here, with the device's control code. Host use.
+///
+/// Errors: `cfg` is invalid, or `T` has no 32-bit wire form (`f64`).
+pub fn rates_for<T: SampleBits>(cfg: &RuntimeConfig) -> Result<Rates, RuntimeError> {
+    let b = RuntimeBits::try_new::<T>(cfg)?;
+    let s = b.control.schedule;
+    let w = |field, v: u64| u32::try_from(v).map_err(|_| RuntimeError::Bits(BitsError { field }));
+    Ok(Rates {
+        numeric: T::NUMERIC,
+        fingerprint: b.control.fingerprint(),
+        base_rate_hz: s.base_rate_hz,
+        yaw_div: s.yaw_divisor,
+        traction_div: s.traction_divisor,
+        kappa: w("kappa", s.kappa)?,
+        ki: w("ki", s.ki)?,
+        predict_half: w("predict_half", s.predict_half)?,
+        iref_step: w("iref_step", s.iref_step)?,
+        iref_safe_step: w("iref_safe_step", s.iref_safe_step)?,
+        torque_step: w("torque_step", s.torque_step)?,
+        acc_gain_q32: b.acc.gain_q32,
+        acc_leak_q32: b.acc.leak_q32,
+    })
+}

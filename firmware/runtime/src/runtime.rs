@@ -1,0 +1,432 @@
+//! The runtime: the [`Runtime`] state, its start (from a configuration, from exact bits,
+//! from a validated core), the tick with the fault policy, and the accessors. The
+//! receive side (frames decoded, counted and applied) is in `receive`.
+
+mod receive;
+
+use wheelset_control::{
+    Compiled, Controller, InputCodes, Monitor, MonitorState, Sample, SampleBits,
+};
+use wheelset_proto::{encode_actuation, encode_status, Decoder, RefuseReason};
+
+use crate::plausible;
+use crate::{
+    AccBits, Actuation, Flags, RuntimeBits, RuntimeConfig, RuntimeCounters, RuntimeError,
+    TX_CAPACITY,
+};
+
+/// The outputs the device drives when it has nothing valid to say.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SafeOutputs {
+    /// Yaw torque, 0.1 N m: 0.
+    pub t_psi_dnm: i32,
+    /// Motor voltage, 10 mV: 0.
+    pub u_a_cv: i32,
+}
+
+/// Control core + frame decoder + fault policy + counters. See the crate docs.
+#[derive(Debug, Clone)]
+pub struct Runtime<T: Sample> {
+    core: Controller<T>,
+    /// [`CompiledBits::fingerprint`] of the core's rate-independent part.
+    fingerprint: u32,
+    /// The start-up core's rates: what a received [`Rates`] is checked against.
+    reference: plausible::Reference,
+    hold_ticks: u16,
+    decoder: Decoder,
+    sample: Option<InputCodes>,
+    /// The latest sample carried only `y''` (codes of 0.1 mm/s^2): integrate it.
+    acc: Option<i32>,
+    /// `y'` estimate from `y''`, um/s in Q32.
+    vel_q32: i64,
+    /// What the estimate washes out towards, um/s in Q32: 0 (`y''` only) or the measured
+    /// `y'` (`Lateral::Both`, the complementary filter).
+    acc_ref_q32: i64,
+    /// `T` in the integrator: um/s per (0.1 mm/s^2 code) per tick, Q32.
+    acc_gain_q32: i64,
+    /// Wash-out shift-free factor `T/tau` in Q32 (0: none).
+    leak_q32: i64,
+    seq: u16,
+    fresh: bool,
+    missing: u32,
+    safe: bool,
+    enabled: bool,
+    rx_error: bool,
+    refused: bool,
+    refuse_reason: RefuseReason,
+    /// The stability monitor and its state.
+    #[cfg_attr(not(feature = "monitor"), allow(dead_code))]
+    monitor: Monitor<T>,
+    mon: MonitorState<T>,
+    /// A stability alarm holds the safe state (`Config.monitor_safe`) until
+    /// `Command::ClearFaults`.
+    monitor_safe: bool,
+    alarm_safe: bool,
+    /// Sticky [`Flags::FAULT_LATCHED`].
+    fault_latched: bool,
+    status_requested: bool,
+    ticks: u32,
+    /// The board's link limit: the highest base rate a Config may set, Hz.
+    max_rate_hz: u32,
+    counters: RuntimeCounters,
+    tx: [u8; TX_CAPACITY],
+}
+
+impl<T: SampleBits> Runtime<T> {
+    /// Builds the control core (validated, discretised in f64, quantised) and an idle
+    /// runtime: [`RuntimeBits::try_new`] then [`Self::from_bits`], the device's path.
+    /// Host use.
+    pub fn try_new(cfg: RuntimeConfig) -> Result<Self, RuntimeError> {
+        Self::from_bits(&RuntimeBits::try_new::<T>(&cfg)?)
+    }
+
+    /// An idle runtime running exactly `bits` (validated; integer work only): how the
+    /// device starts.
+    pub fn from_bits(bits: &RuntimeBits) -> Result<Self, RuntimeError> {
+        let base = bits.control.schedule.base_rate_hz;
+        Self::with_core(
+            &Compiled::from_bits(&bits.control)?,
+            bits.control.fingerprint(),
+            bits.acc,
+            bits.hold_ticks,
+            bits.enable,
+            Monitor::from_bits(&bits.monitor, base)?,
+        )
+    }
+
+    /// An idle runtime on an already validated core `law` whose bits have the
+    /// fingerprint `fingerprint` ([`CompiledBits::fingerprint`]), with the other fields of
+    /// [`RuntimeBits`]: the device's start from build-time constants
+    /// (`Compiled::from_valid_bits` and the fingerprint evaluated at compile time), with
+    /// no conversion code. [`Self::from_bits`] is this after validating the bits.
+    ///
+    /// [`CompiledBits::fingerprint`]: wheelset_control::CompiledBits::fingerprint
+    pub fn with_core(
+        law: &Compiled<T>,
+        fingerprint: u32,
+        acc: AccBits,
+        hold_ticks: u16,
+        enable: bool,
+        monitor: Monitor<T>,
+    ) -> Result<Self, RuntimeError> {
+        let core = Controller::new(law);
+        let (acc_gain_q32, leak_q32) = acc.check()?;
+        // The device's CRC table is built in RAM by the first checksum (about 10 000
+        // instructions): here, at start-up, not in the first tick.
+        let _ = wheelset_proto::CRC.checksum(&[]);
+        Ok(Self {
+            core,
+            fingerprint,
+            reference: plausible::Reference {
+                schedule: law.schedule(),
+                acc,
+            },
+            hold_ticks,
+            decoder: Decoder::new(),
+            sample: None,
+            acc: None,
+            vel_q32: 0,
+            acc_ref_q32: 0,
+            acc_gain_q32,
+            leak_q32,
+            seq: 0,
+            fresh: false,
+            missing: 0,
+            safe: false,
+            enabled: enable,
+            rx_error: false,
+            refused: false,
+            refuse_reason: RefuseReason::None,
+            monitor,
+            mon: MonitorState::default(),
+            monitor_safe: false,
+            alarm_safe: false,
+            fault_latched: false,
+            status_requested: false,
+            ticks: 0,
+            max_rate_hz: u32::MAX,
+            counters: RuntimeCounters::default(),
+            tx: [0; TX_CAPACITY],
+        })
+    }
+
+    /// The board's link limit: from now on a Config whose base rate is above
+    /// `max_rate_hz` is refused (counted, [`Flags::CMD_REFUSED`]), because the board's
+    /// link cannot carry one exchange per period at it. A board computes it at build time
+    /// from its baud and the worst-case frames (`wheelset_proto::link::max_rate_hz`);
+    /// `u32::MAX` (the default) is no limit (a frame-clocked device in lock-step).
+    pub fn set_link_limit(&mut self, max_rate_hz: u32) {
+        self.max_rate_hz = max_rate_hz;
+    }
+
+    /// What a panic handler drives: zero torque, zero voltage.
+    #[must_use]
+    pub const fn safe_outputs() -> SafeOutputs {
+        SafeOutputs {
+            t_psi_dnm: 0,
+            u_a_cv: 0,
+        }
+    }
+
+    /// One base-rate tick (see the crate docs for the policy). Returns the Actuation frame
+    /// (COBS, 0x00 delimiter included), followed by a Status frame if one was requested.
+    /// `last_exec`: the measured execution time of the previous tick (cycles or
+    /// instructions), reported in the frame. Never panics.
+    pub fn tick(&mut self, last_exec: u32) -> &[u8] {
+        self.ticks = self.ticks.wrapping_add(1);
+        let hold = u32::from(self.hold_ticks);
+        let fresh = core::mem::replace(&mut self.fresh, false);
+        let mut flags = Flags::default();
+        let c = &mut self.counters;
+        c.ticks = c.ticks.wrapping_add(1);
+        if fresh {
+            self.missing = 0;
+        } else if self.sample.is_some() {
+            self.missing = self.missing.saturating_add(1);
+            // Held, in the safe state or not: HOLDING and `held_ticks` alike.
+            c.held_ticks = c.held_ticks.wrapping_add(1);
+            flags.set(Flags::HOLDING, true);
+        }
+        // The safe state: too many ticks without a frame, or a stability alarm held by
+        // `Config.monitor_safe` (until `Command::ClearFaults`).
+        let want_safe = (self.sample.is_some() && self.missing > hold) || self.alarm_safe;
+        if want_safe != self.safe {
+            self.safe = want_safe;
+            self.core.set_safe(want_safe);
+            if want_safe {
+                c.safe_entries = c.safe_entries.wrapping_add(1);
+            } else {
+                c.safe_exits = c.safe_exits.wrapping_add(1);
+                if let Some(s) = self.sample {
+                    // Bumpless restart of the traction loop from the back-EMF, reference
+                    // ramping up from zero.
+                    let speed = self.core.codec().decode(&s).speed;
+                    self.core.preset_back_emf(speed);
+                }
+            }
+        }
+        if self.safe {
+            c.safe_ticks = c.safe_ticks.wrapping_add(1);
+            flags.set(Flags::SAFE, true);
+        }
+        // The counters this tick can move (not a copy of all of them: a 68-byte memcpy).
+        let inputs = |k: &wheelset_control::Counters| {
+            [k.y_dot, k.current, k.speed, k.demand]
+                .iter()
+                .fold(0u32, |a, s| {
+                    a.wrapping_add(s.clamped).wrapping_add(s.invalid)
+                })
+        };
+        let before = {
+            let k = self.core.counters();
+            (
+                k.yaw_torque.clamped,
+                k.voltage.clamped,
+                inputs(k),
+                k.wsp_ticks,
+                k.wsp_events,
+            )
+        };
+        if let (Some(a), Some(s)) = (self.acc, self.sample.as_mut()) {
+            // Integrate on every tick with the latest y'' (held when frames are missing).
+            let v = {
+                let err = self.vel_q32.saturating_sub(self.acc_ref_q32);
+                let leak = ((i128::from(err) * i128::from(self.leak_q32)) >> 32) as i64;
+                let step = i64::from(a).saturating_mul(self.acc_gain_q32);
+                let lim = i64::from(i32::MAX) << 32;
+                self.vel_q32 = self
+                    .vel_q32
+                    .saturating_sub(leak)
+                    .saturating_add(step)
+                    .clamp(-lim, lim);
+                (self.vel_q32 >> 32) as i32
+            };
+            s.y_dot = v;
+        }
+        #[cfg(feature = "monitor")]
+        if let Some(s) = &self.sample {
+            let commanding = self.enabled
+                && !self.safe
+                && self.core.mode() != wheelset_control::YawMode::Passive;
+            // The stability monitor on the received (or integrated) `y'`, at its own
+            // sub-rate inside `Monitor::tick`.
+            let y_dot = self.core.codec().decode(s).y_dot;
+            let ev = self.monitor.tick(&mut self.mon, y_dot, commanding);
+            if ev.hunting_rose | ev.actuator_rose {
+                self.on_alarm(ev.hunting_rose, ev.actuator_rose);
+            }
+            flags.set(Flags::HUNTING, ev.hunting);
+            flags.set(Flags::ACTUATOR_FAULT, ev.actuator);
+        }
+        let (t_psi, u_a) = match (self.sample, self.enabled) {
+            (Some(s), true) => {
+                let mut inp = self.core.codec().decode(&s);
+                if self.safe {
+                    // Stale current: do not integrate it (policy item 3).
+                    self.core.preset_back_emf(inp.speed);
+                    inp.current = T::ZERO;
+                }
+                let out = self.core.tick(&inp);
+                let o = self.core.codec().encode(&out);
+                (o.yaw_torque, o.voltage)
+            }
+            (Some(s), false) => {
+                // Outputs disabled: zero torque and zero current, i.e. the back-EMF of
+                // the latest speed (0 V would short the motor at speed).
+                let speed = self.core.codec().decode(&s).speed;
+                let o = self.core.codec().encode(&wheelset_control::Outputs {
+                    yaw_torque: T::ZERO,
+                    voltage: self.core.back_emf(speed),
+                });
+                (o.yaw_torque, o.voltage)
+            }
+            (None, _) => {
+                let s = Self::safe_outputs();
+                (s.t_psi_dnm, s.u_a_cv)
+            }
+        };
+        let after = self.core.counters();
+        let yaw_sat = after.yaw_torque.clamped != before.0;
+        let tr_sat = after.voltage.clamped != before.1;
+        let clamped = inputs(after).wrapping_sub(before.2);
+        #[cfg(feature = "wsp")]
+        let wsp = (
+            after.wsp_ticks.wrapping_sub(before.3),
+            after.wsp_events.wrapping_sub(before.4),
+        );
+        let c = &mut self.counters;
+        #[cfg(feature = "wsp")]
+        {
+            c.wsp_ticks = c.wsp_ticks.wrapping_add(wsp.0);
+            c.wsp_events = c.wsp_events.wrapping_add(wsp.1);
+        }
+        c.yaw_sat = c.yaw_sat.wrapping_add(u32::from(yaw_sat));
+        c.traction_sat = c.traction_sat.wrapping_add(u32::from(tr_sat));
+        c.input_clamped = c.input_clamped.wrapping_add(clamped);
+        flags.set(Flags::ENABLED, self.enabled);
+        flags.set(Flags::YAW_SAT, yaw_sat);
+        flags.set(Flags::TRACTION_SAT, tr_sat);
+        flags.set(Flags::NO_SAMPLE, self.sample.is_none());
+        flags.set(
+            Flags::RX_ERROR,
+            core::mem::replace(&mut self.rx_error, false),
+        );
+        flags.set(Flags::CMD_REFUSED, self.refused);
+        #[cfg(feature = "wsp")]
+        flags.set(Flags::WHEEL_SLIP, self.core.wheel_slip());
+        flags.set(Flags::FAULT_LATCHED, self.fault_latched);
+        c.flags = flags;
+        let act = Actuation {
+            seq_echo: self.seq,
+            tick: self.ticks as u16,
+            exec: last_exec,
+            flags,
+            t_psi_dnm: t_psi,
+            u_a_cv: u_a,
+        };
+        // MAX_FRAME always fits (the proto tests prove every message encodes within it).
+        let mut n = encode_actuation(&act, &mut self.tx).unwrap_or(0);
+        if core::mem::replace(&mut self.status_requested, false) {
+            if let Some(rest) = self.tx.get_mut(n..) {
+                n += encode_status(&self.counters, rest).unwrap_or(0);
+            }
+        }
+        self.tx.get(..n).unwrap_or(&[])
+    }
+
+    /// A stability alarm rose: counted, the fault latched, and with `monitor_safe` the
+    /// safe state held from the next tick until [`Command::ClearFaults`].
+    #[cfg(feature = "monitor")]
+    #[inline(never)]
+    fn on_alarm(&mut self, hunting: bool, actuator: bool) {
+        let c = &mut self.counters;
+        c.hunt_alarms = c.hunt_alarms.wrapping_add(u32::from(hunting));
+        c.act_alarms = c.act_alarms.wrapping_add(u32::from(actuator));
+        if c.first_alarm_tick == 0 {
+            c.first_alarm_tick = c.ticks;
+        }
+        self.fault_latched = true;
+        if self.monitor_safe {
+            self.alarm_safe = true;
+        }
+    }
+
+    /// The counters.
+    pub fn counters(&self) -> &RuntimeCounters {
+        &self.counters
+    }
+
+    /// The board's own counters since its previous call (added, wrapping): ticks that
+    /// started late, deadlines skipped, bytes lost to a receive overrun, transmit frames
+    /// dropped. Reported in the [`Status`].
+    ///
+    /// [`Status`]: crate::Status
+    pub fn note_board(&mut self, late: u32, missed: u32, rx_overrun: u32, tx_dropped: u32) {
+        let c = &mut self.counters;
+        c.ticks_late = c.ticks_late.wrapping_add(late);
+        c.ticks_missed = c.ticks_missed.wrapping_add(missed);
+        c.rx_overrun = c.rx_overrun.wrapping_add(rx_overrun);
+        c.tx_dropped = c.tx_dropped.wrapping_add(tx_dropped);
+    }
+
+    /// The board's boot record: boots since power-on and the reset cause
+    /// (`wheelset_proto::reset_cause`). A reset by the watchdog or after a fault latches
+    /// [`Flags::FAULT_LATCHED`] (until [`Command::ClearFaults`]).
+    ///
+    /// [`Command::ClearFaults`]: crate::Command::ClearFaults
+    pub fn set_boot(&mut self, boot_count: u32, reset_cause: u8) {
+        self.counters.boot_count = boot_count;
+        self.counters.reset_cause = reset_cause;
+        if matches!(
+            reset_cause,
+            wheelset_proto::reset_cause::WATCHDOG | wheelset_proto::reset_cause::FAULT
+        ) {
+            self.fault_latched = true;
+        }
+    }
+
+    /// The stack's high-water mark in bytes, as the board measured it.
+    pub fn set_stack_peak(&mut self, bytes: u32) {
+        self.counters.stack_peak = bytes;
+    }
+
+    /// The sticky fault flag ([`Flags::FAULT_LATCHED`]).
+    pub fn fault_latched(&self) -> bool {
+        self.fault_latched
+    }
+
+    /// The stability monitor's state (its filters and alarms).
+    pub fn monitor_state(&self) -> &MonitorState<T> {
+        &self.mon
+    }
+
+    /// The control core (read only: coefficients, states, its own counters).
+    pub fn core(&self) -> &Controller<T> {
+        &self.core
+    }
+
+    /// The base (tick) rate in force, Hz.
+    pub fn base_rate_hz(&self) -> u32 {
+        self.core.compiled().base_rate_hz()
+    }
+
+    /// Ticks bridged by the held sample before the safe state, in force.
+    pub fn hold_ticks(&self) -> u16 {
+        self.hold_ticks
+    }
+
+    /// Outputs enabled?
+    pub fn is_enabled(&self) -> bool {
+        self.enabled
+    }
+
+    /// In the safe state?
+    pub fn is_safe(&self) -> bool {
+        self.safe
+    }
+
+    /// Why the latest refused Config or Command was refused.
+    pub fn refuse_reason(&self) -> RefuseReason {
+        self.refuse_reason
+    }
+}

@@ -1,0 +1,218 @@
+//! The receive side of [`Runtime`]: bytes in any chunking decoded into frames, bad ones
+//! counted by kind, Sensor frames taken as the latest sample, Config (with its
+//! [`Rates`]) and Command frames validated and applied or refused.
+
+#[cfg(feature = "monitor")]
+use wheelset_control::MonitorState;
+use wheelset_control::{Controller, InputCodes, SampleBits, ScheduleBits};
+use wheelset_proto::{FrameError, Lateral, RefuseReason, Request};
+
+use crate::plausible;
+use crate::{AccBits, Command, Config, Rates, Runtime, RuntimeCounters, Sensor};
+
+impl<T: SampleBits> Runtime<T> {
+    /// Takes received bytes in any chunking; decodes frames, applies commands, counts bad
+    /// frames. Never panics.
+    pub fn receive(&mut self, bytes: &[u8]) {
+        // Frame by frame (not a callback into `self` with the decoder moved out and back:
+        // two copies of its buffer per call).
+        let mut rest = bytes;
+        while !rest.is_empty() {
+            let (r, more) = self.decoder.next_request(rest);
+            rest = more;
+            if let Some(r) = r {
+                self.on_frame(r);
+            }
+        }
+    }
+
+    fn on_frame(&mut self, r: Result<Request, FrameError>) {
+        let c = &mut self.counters;
+        let m = match r {
+            Ok(m) => m,
+            Err(e) => {
+                let n = match e {
+                    FrameError::Crc => &mut c.rx_crc,
+                    FrameError::Cobs => &mut c.rx_cobs,
+                    FrameError::Version => &mut c.rx_version,
+                    FrameError::Length => &mut c.rx_length,
+                    FrameError::Postcard => &mut c.rx_postcard,
+                };
+                *n = n.wrapping_add(1);
+                self.rx_error = true;
+                return;
+            }
+        };
+        if matches!(m, Request::Unexpected) {
+            // A valid frame of a device -> host type: counted here only (the accounting
+            // identity of the Status docs).
+            c.rx_unexpected = c.rx_unexpected.wrapping_add(1);
+            return;
+        }
+        c.rx_ok = c.rx_ok.wrapping_add(1);
+        match m {
+            Request::Sensor(s) => self.on_sensor(&s),
+            Request::Config(cfg) => self.on_config(&cfg),
+            Request::Command(Command::ResetCounters) => {
+                // The board's boot record and stack measurement are not counters.
+                let keep = (c.boot_count, c.reset_cause, c.stack_peak);
+                *c = RuntimeCounters::default();
+                (c.boot_count, c.reset_cause, c.stack_peak) = keep;
+                self.core.reset_counters();
+                self.refused = false;
+            }
+            Request::Command(Command::RequestStatus) => self.status_requested = true,
+            Request::Command(Command::ClearFaults) => {
+                self.fault_latched = false;
+                self.alarm_safe = false;
+            }
+            Request::Unknown => self.refuse(RefuseReason::UnknownRequest),
+            Request::Unexpected => {}
+        }
+    }
+
+    fn on_sensor(&mut self, s: &Sensor) {
+        let y_dot = match s.lateral {
+            Lateral::Both {
+                vel_um_s: v,
+                acc_dmm_s2: a,
+            } if self.leak_q32 != 0 => {
+                // The complementary filter (crate docs): y' pulls the estimate at the
+                // wash-out rate, y'' is integrated.
+                if self.acc.is_none() {
+                    self.vel_q32 = i64::from(v) << 32;
+                }
+                self.acc = Some(a);
+                self.acc_ref_q32 = i64::from(v) << 32;
+                (self.vel_q32 >> 32) as i32
+            }
+            Lateral::Velocity(v) | Lateral::Both { vel_um_s: v, .. } => {
+                // A measured velocity also re-seeds the integrator (bumpless switch).
+                self.acc = None;
+                self.vel_q32 = i64::from(v) << 32;
+                v
+            }
+            Lateral::Acceleration(a) => {
+                self.acc = Some(a);
+                self.acc_ref_q32 = 0;
+                (self.vel_q32 >> 32) as i32
+            }
+        };
+        if self.sample.is_some() && s.seq != self.seq.wrapping_add(1) {
+            self.counters.seq_gaps = self.counters.seq_gaps.wrapping_add(1);
+        }
+        self.seq = s.seq;
+        #[cfg(feature = "wsp")]
+        self.core.set_v_ref_code(s.v_ref_mm_s);
+        self.sample = Some(InputCodes {
+            y_dot,
+            current: s.i_a_ma,
+            speed: s.omega_m_mrad_s,
+            demand: s.demand_nm,
+        });
+        self.fresh = true;
+    }
+
+    #[inline(never)]
+    fn on_config(&mut self, c: &Config) {
+        let unsupported =
+            (c.wsp && !cfg!(feature = "wsp")) || (c.monitor_safe && !cfg!(feature = "monitor"));
+        let checked = if unsupported {
+            Err(RefuseReason::Unsupported)
+        } else {
+            match &c.rates {
+                Some(r) => self.apply_rates(r, c.hold_ticks),
+                None => plausible::check_hold(c.hold_ticks, self.base_rate_hz()),
+            }
+        };
+        if let Err(why) = checked {
+            self.refuse(why);
+            return;
+        }
+        if c.enable && !self.enabled {
+            // Re-enabled: the torque slews up from 0, the PI restarts from the back-EMF.
+            self.core.continue_from(T::ZERO);
+            self.core.set_traction(false);
+        }
+        self.core.set_mode(c.mode);
+        self.core.set_traction(c.traction);
+        #[cfg(feature = "wsp")]
+        self.core.set_wsp(c.wsp);
+        self.monitor_safe = c.monitor_safe;
+        self.enabled = c.enable;
+        self.hold_ticks = c.hold_ticks;
+        self.refused = false;
+    }
+
+    /// A refused Config or Command: counted, flagged until the next accepted one, the
+    /// reason kept for the Status; nothing else changes.
+    fn refuse(&mut self, why: RefuseReason) {
+        self.refused = true;
+        self.counters.cmd_refused = self.counters.cmd_refused.wrapping_add(1);
+        self.refuse_reason = why;
+        self.counters.refuse_reason = why as u8;
+    }
+
+    /// Validates `r` against this core (sample type, fingerprint, the plausible ranges of
+    /// `wheelset_proto::plausible`, the coefficients against the start-up core's at the
+    /// requested rates, `hold_ticks` at the new rate, the formats) and, if valid,
+    /// restarts the core on it. Nothing changes when it is refused.
+    #[inline(never)]
+    fn apply_rates(&mut self, r: &Rates, hold_ticks: u16) -> Result<(), RefuseReason> {
+        if r.numeric != T::NUMERIC {
+            return Err(RefuseReason::Numeric);
+        }
+        if r.fingerprint != self.fingerprint {
+            return Err(RefuseReason::Fingerprint);
+        }
+        // The board's link cannot carry one exchange per period above its limit: out of
+        // this board's range of base rates.
+        if r.base_rate_hz > self.max_rate_hz {
+            return Err(RefuseReason::BaseRate);
+        }
+        plausible::check_rates::<T>(r, &self.reference)?;
+        plausible::check_hold(hold_ticks, r.base_rate_hz)?;
+        let bits = RefuseReason::Bits;
+        let (g, l) = AccBits {
+            gain_q32: r.acc_gain_q32,
+            leak_q32: r.acc_leak_q32,
+        }
+        .check()
+        .map_err(|_| bits)?;
+        let law = self
+            .core
+            .compiled()
+            .with_schedule(&ScheduleBits {
+                base_rate_hz: r.base_rate_hz,
+                yaw_divisor: r.yaw_div,
+                traction_divisor: r.traction_div,
+                kappa: u64::from(r.kappa),
+                ki: u64::from(r.ki),
+                predict_half: u64::from(r.predict_half),
+                iref_step: u64::from(r.iref_step),
+                iref_safe_step: u64::from(r.iref_safe_step),
+                torque_step: u64::from(r.torque_step),
+            })
+            .map_err(|_| bits)?;
+        // A fresh core (filter states zero, integrator to be preset from the back-EMF);
+        // the Config sets its mode and traction right after.
+        let t_psi = self.core.outputs().yaw_torque;
+        let wsp = self.core.wsp_enabled();
+        self.core = Controller::new(&law);
+        self.core.continue_from(t_psi);
+        if wsp {
+            self.core.set_wsp(true);
+        }
+        #[cfg(feature = "monitor")]
+        {
+            self.monitor.retime(r.base_rate_hz);
+            self.mon = MonitorState::default();
+        }
+        self.acc_gain_q32 = g;
+        self.leak_q32 = l;
+        if self.safe {
+            self.core.set_safe(true);
+        }
+        Ok(())
+    }
+}
