@@ -1,0 +1,278 @@
+//! Frame accounting: the receiving port ([`RxPort`]) attributes every sent frame to one
+//! fate (received, rejected, dropped, in flight), summed in [`Accounting`].
+
+use std::fmt;
+
+use wheelset_proto::{Decoder, FrameError, Message};
+
+use super::{Channel, FrameId};
+
+/// The fate of a sent frame, as seen by the receiving port.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Fate {
+    Open,
+    Received,
+    Rejected,
+}
+
+/// The receiving end of a channel: a frame decoder that also attributes every sent frame
+/// to its fate. (The device side runs its own decoder inside the runtime; this port then
+/// decodes the same bytes as a shadow, which sees exactly the same frames.)
+#[derive(Debug, Clone, Default)]
+pub struct RxPort {
+    decoder: Decoder,
+    pending: Vec<FrameId>,
+    fates: Vec<Fate>,
+    reached: Vec<bool>,
+    /// Valid frames.
+    pub received: u64,
+    /// Frames that took part in a rejected frame.
+    pub rejected: u64,
+    /// Decoder rejections by kind: CRC, COBS, version, length, postcard.
+    pub errors: [u64; 5],
+    /// Rejected frames by the kind of the reject they took part in (sums to
+    /// `rejected`; a burst that destroys a delimiter merges two frames into one reject).
+    pub rejected_by: [u64; 5],
+}
+
+impl RxPort {
+    /// An idle port.
+    #[must_use]
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Takes a run of delivered bytes of frame `id` and decodes it with the port's own
+    /// decoder, calling `on_msg` for every valid message.
+    pub fn push(&mut self, run: &[u8], id: FrameId, mut on_msg: impl FnMut(Message)) {
+        let (dec, mut book) = self.split();
+        book.attribute(run, id, |piece| {
+            let mut out = None;
+            dec.feed(piece, |r| out = Some(r.map(&mut on_msg)));
+            out
+        });
+    }
+
+    /// Takes a run of delivered bytes of frame `id` that another decoder (the device's
+    /// runtime) decodes: `decode(piece)` gets the run split after each 0x00 and returns
+    /// the outcome of the frame the piece closed (None: no frame closed, e.g. an empty
+    /// one). The port attributes the outcome to every frame with bytes in it.
+    pub fn push_with(
+        &mut self,
+        run: &[u8],
+        id: FrameId,
+        decode: impl FnMut(&[u8]) -> Option<Result<(), FrameError>>,
+    ) {
+        self.split().1.attribute(run, id, decode);
+    }
+
+    /// The decoder and the bookkeeping, borrowed apart.
+    fn split(&mut self) -> (&mut Decoder, Book<'_>) {
+        let RxPort {
+            decoder,
+            pending,
+            fates,
+            reached,
+            received,
+            rejected,
+            errors,
+            rejected_by,
+        } = self;
+        (
+            decoder,
+            Book {
+                pending,
+                fates,
+                reached,
+                received,
+                rejected,
+                errors,
+                rejected_by,
+            },
+        )
+    }
+
+    /// The final accounting of `channel`'s frames at the end of a run.
+    #[must_use]
+    pub fn account(&self, channel: &Channel) -> Accounting {
+        let sent = channel.counters().frames_sent;
+        let mut in_flight: Vec<FrameId> = channel.queued_frames().collect();
+        in_flight.extend(self.pending.iter().copied());
+        in_flight.sort_unstable();
+        in_flight.dedup();
+        let open = |id: FrameId| self.fates.get(id as usize).is_none_or(|f| *f == Fate::Open);
+        in_flight.retain(|&id| open(id));
+        // Dropped by the link: no byte of the frame reached the decoder (lost whole, in an
+        // outage, byte by byte, or only its delimiter survived), and none is on its way.
+        let dropped = (0..sent as FrameId)
+            .filter(|&id| {
+                !self.reached.get(id as usize).copied().unwrap_or(false)
+                    && in_flight.binary_search(&id).is_err()
+            })
+            .count() as u64;
+        Accounting {
+            sent,
+            received: self.received,
+            rejected: self.rejected,
+            dropped,
+            in_flight: in_flight.len() as u64,
+            link_dropped_whole: channel.counters().frames_dropped,
+            errors: self.errors,
+            rejected_by: self.rejected_by,
+        }
+    }
+}
+
+fn error_index(e: FrameError) -> usize {
+    match e {
+        FrameError::Crc => 0,
+        FrameError::Cobs => 1,
+        FrameError::Version => 2,
+        FrameError::Length => 3,
+        FrameError::Postcard => 4,
+    }
+}
+
+/// The attribution state of an [`RxPort`], borrowed apart from its decoder.
+struct Book<'a> {
+    pending: &'a mut Vec<FrameId>,
+    fates: &'a mut Vec<Fate>,
+    reached: &'a mut Vec<bool>,
+    received: &'a mut u64,
+    rejected: &'a mut u64,
+    errors: &'a mut [u64; 5],
+    rejected_by: &'a mut [u64; 5],
+}
+
+impl Book<'_> {
+    /// See [`RxPort::push_with`].
+    fn attribute(
+        &mut self,
+        run: &[u8],
+        id: FrameId,
+        mut decode: impl FnMut(&[u8]) -> Option<Result<(), FrameError>>,
+    ) {
+        let i = id as usize;
+        if self.fates.len() <= i {
+            // Grown in chunks (ids come in order); entries past the last id sent stay
+            // Open / not reached, which is what `account` assumes for missing ones.
+            let len = (i + 1).max(2 * self.fates.len()).max(1024);
+            self.fates.resize(len, Fate::Open);
+            self.reached.resize(len, false);
+        }
+        match run.split_last() {
+            // Typical: one whole frame, its delimiter last (one word-wise scan).
+            Some((&0, head)) if !head.contains(&0) => self.piece(run, id, &mut decode),
+            _ => {
+                for piece in run.split_inclusive(|&b| b == 0) {
+                    self.piece(piece, id, &mut decode);
+                }
+            }
+        }
+    }
+
+    /// One piece of a run: bytes up to and including a 0x00, or the run's tail.
+    #[inline(always)]
+    fn piece(
+        &mut self,
+        piece: &[u8],
+        id: FrameId,
+        decode: &mut impl FnMut(&[u8]) -> Option<Result<(), FrameError>>,
+    ) {
+        let closes = piece.last() == Some(&0);
+        if piece.len() > usize::from(closes) {
+            if let Some(r) = self.reached.get_mut(id as usize) {
+                *r = true;
+            }
+            if self.pending.last() != Some(&id) {
+                self.pending.push(id);
+            }
+        }
+        let r = decode(piece);
+        if !closes {
+            return;
+        }
+        let mut cause = None;
+        let (to, count) = match r {
+            Some(Ok(())) => (Fate::Received, &mut *self.received),
+            Some(Err(e)) => {
+                self.errors[error_index(e)] += 1;
+                cause = Some(error_index(e));
+                (Fate::Rejected, &mut *self.rejected)
+            }
+            None => {
+                self.pending.clear();
+                return;
+            }
+        };
+        // (Every pending id is below `fates.len()`: resized when its bytes came.)
+        for &p in self.pending.iter() {
+            if let Some(f) = self.fates.get_mut(p as usize) {
+                if *f == Fate::Open {
+                    *f = to;
+                    *count += 1;
+                    if let Some(c) = cause {
+                        self.rejected_by[c] += 1;
+                    }
+                }
+            }
+        }
+        self.pending.clear();
+    }
+}
+
+/// Every frame of one direction, accounted for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Accounting {
+    /// Frames sent.
+    pub sent: u64,
+    /// Frames received valid.
+    pub received: u64,
+    /// Frames rejected by the receiver (they were part of a CRC/COBS/length/... reject).
+    pub rejected: u64,
+    /// Frames of which no byte reached the receiver's decoder.
+    pub dropped: u64,
+    /// Frames still on the way at the end.
+    pub in_flight: u64,
+    /// Of `dropped`: frames the link dropped whole (`drop=`).
+    pub link_dropped_whole: u64,
+    /// Decoder rejections (events) by kind: CRC, COBS, version, length, postcard.
+    pub errors: [u64; 5],
+    /// Rejected frames by the kind of their reject, same order; sums to `rejected`
+    /// (one reject event can take several frames when a delimiter was destroyed).
+    pub rejected_by: [u64; 5],
+}
+
+impl Accounting {
+    /// `sent == received + rejected + dropped + in_flight`, and the rejected frames by
+    /// cause sum to `rejected`.
+    #[must_use]
+    pub fn adds_up(&self) -> bool {
+        self.sent == self.received + self.rejected + self.dropped + self.in_flight
+            && self.rejected_by.iter().sum::<u64>() == self.rejected
+    }
+}
+
+impl fmt::Display for Accounting {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let [crc, cobs, ver, len, pc] = self.rejected_by;
+        let events: u64 = self.errors.iter().sum();
+        write!(
+            f,
+            "sent {} = received {} + rejected {} + dropped {} + in flight {} [{}] \
+             (rejected frames: crc {crc} + cobs {cobs} + version {ver} + length {len} + postcard {pc}, \
+             in {events} decoder rejects; dropped whole by the link {})",
+            self.sent,
+            self.received,
+            self.rejected,
+            self.dropped,
+            self.in_flight,
+            if self.adds_up() {
+                "adds up"
+            } else {
+                "DOES NOT ADD UP"
+            },
+            self.link_dropped_whole
+        )
+    }
+}

@@ -1,0 +1,131 @@
+//! The link budget: the link's configuration ([`LinkConfig`]: baud, latency, faults) and
+//! whether one exchange per period fits the line ([`check_budget`]).
+
+use std::fmt;
+
+use super::{Faults, BITS_PER_BYTE, NS_PER_S};
+
+/// Timing and faults of a link.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LinkConfig {
+    /// Baud rate (bits per second, 10 bits per byte).
+    pub baud: u32,
+    /// One-way latency added to every byte, ns.
+    pub latency_ns: u64,
+    /// Fault injection.
+    pub faults: Faults,
+    /// RNG seed (each direction derives its own stream).
+    pub seed: u64,
+}
+
+/// Default baud: 5 Mbaud. The STM32F446's USART1/6 on the 90 MHz APB2 reach it exactly
+/// (OVER8 = 1, USARTDIV = 90 MHz / (8 x 5 Mbaud) = 2.25); it carries the default 5 kHz
+/// round trip of the worst-case frames (43 + 30 bytes, 146 us + 2 x 2 us of latency) within
+/// the 85 % share (170 us; see [`check_budget`]). 4 Mbaud (183 us) no longer does since
+/// wire version 2 (the reference speed and 16-bit flags).
+pub const DEFAULT_BAUD: u32 = 5_000_000;
+/// Default one-way latency: 2 us (UART FIFO + DMA hand-off).
+pub const DEFAULT_LATENCY_NS: u64 = 2_000;
+/// Share of the period the round trip may use; the rest is margin for the device's
+/// execution time and jitter ([`wheelset_proto::link::LINK_SHARE_MAX_PERMILLE`]).
+pub const BUDGET_SHARE: f64 = wheelset_proto::link::LINK_SHARE_MAX_PERMILLE as f64 / 1000.0;
+
+impl Default for LinkConfig {
+    fn default() -> Self {
+        Self {
+            baud: DEFAULT_BAUD,
+            latency_ns: DEFAULT_LATENCY_NS,
+            faults: Faults::none(),
+            seed: 1,
+        }
+    }
+}
+
+/// A link that cannot carry the configured exchange.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LinkBudgetError {
+    /// Bytes per period, host -> device.
+    pub up_bytes: usize,
+    /// Bytes per period, device -> host.
+    pub down_bytes: usize,
+    /// Baud.
+    pub baud: u32,
+    /// Latency, ns.
+    pub latency_ns: u64,
+    /// Period, ns.
+    pub period_ns: u64,
+    /// Round-trip time needed, ns.
+    pub needed_ns: u64,
+    /// Round-trip time allowed (`BUDGET_SHARE` of the period), ns.
+    pub allowed_ns: u64,
+}
+
+impl fmt::Display for LinkBudgetError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let rate = NS_PER_S as f64 / self.period_ns as f64;
+        write!(
+            f,
+            "link budget exceeded: ({} + {}) bytes x {} bits / {} baud + 2 x {} ns latency = {:.1} us \
+             per {:.0} Hz period, but only {:.0} % of the {:.1} us period = {:.1} us is allowed; \
+             raise the baud to at least {:.0} or lower the rate",
+            self.up_bytes,
+            self.down_bytes,
+            BITS_PER_BYTE,
+            self.baud,
+            self.latency_ns,
+            self.needed_ns as f64 / 1e3,
+            rate,
+            BUDGET_SHARE * 100.0,
+            self.period_ns as f64 / 1e3,
+            self.allowed_ns as f64 / 1e3,
+            wheelset_proto::link::min_baud(
+                u32::try_from(NS_PER_S / self.period_ns.max(1)).unwrap_or(u32::MAX),
+                u32::try_from(self.up_bytes).unwrap_or(u32::MAX),
+                u32::try_from(self.down_bytes).unwrap_or(u32::MAX),
+                self.latency_ns,
+                wheelset_proto::link::LINK_SHARE_MAX_PERMILLE,
+            )
+            .map_or(f64::INFINITY, f64::from),
+        )
+    }
+}
+
+impl std::error::Error for LinkBudgetError {}
+
+/// Time on the line for `n` bytes at `baud`, ns (rounded up):
+/// [`wheelset_proto::link::wire_ns`].
+#[must_use]
+pub fn wire_ns(n: usize, baud: u32) -> u64 {
+    wheelset_proto::link::wire_ns(n as u64, baud)
+}
+
+/// The link budget of a lock-step exchange: the sensor frame goes up, the device ticks,
+/// the actuation frame comes down, all within one period:
+/// `(up + down) bytes x 10 / baud + 2 latency <= BUDGET_SHARE x period`, evaluated by
+/// the one link budget, [`wheelset_proto::link::link_fits`] (at the rate
+/// `1e9 / period_ns`). Returns the round-trip time, or an error naming the numbers.
+pub fn check_budget(
+    up_bytes: usize,
+    down_bytes: usize,
+    baud: u32,
+    latency_ns: u64,
+    period_ns: u64,
+) -> Result<u64, LinkBudgetError> {
+    use wheelset_proto::link::{allowed_ns, link_fits, round_trip_ns, LINK_SHARE_MAX_PERMILLE};
+    let rate_hz = u32::try_from(NS_PER_S / period_ns.max(1)).unwrap_or(u32::MAX);
+    let (up, down) = (
+        u32::try_from(up_bytes).unwrap_or(u32::MAX),
+        u32::try_from(down_bytes).unwrap_or(u32::MAX),
+    );
+    link_fits(rate_hz, baud, up, down, latency_ns, LINK_SHARE_MAX_PERMILLE).map_err(|_| {
+        LinkBudgetError {
+            up_bytes,
+            down_bytes,
+            baud,
+            latency_ns,
+            period_ns,
+            needed_ns: round_trip_ns(baud, up, down, latency_ns),
+            allowed_ns: allowed_ns(rate_hz, LINK_SHARE_MAX_PERMILLE),
+        }
+    })
+}
