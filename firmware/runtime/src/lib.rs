@@ -110,6 +110,7 @@ use wheelset_proto::MAX_FRAME;
 
 mod acc;
 mod bits;
+mod hold;
 mod plausible;
 mod runtime;
 
@@ -118,6 +119,7 @@ pub use acc::AccBits;
 pub use bits::{
     protocol_wire_lsb, rates_for, RuntimeBits, RuntimeConfig, RuntimeError, DEFAULT_ACC_WASHOUT_S,
 };
+pub use hold::{HoldPolicy, HoldStep, SafeChange};
 pub use runtime::{Runtime, SafeOutputs};
 pub use wheelset_proto::{Actuation, Command, Config, Flags, Message, Rates, Sensor, Status};
 

@@ -11,8 +11,8 @@ use wheelset_proto::{encode_actuation, encode_status, Decoder, RefuseReason};
 
 use crate::plausible;
 use crate::{
-    AccBits, Actuation, Flags, RuntimeBits, RuntimeConfig, RuntimeCounters, RuntimeError,
-    TX_CAPACITY,
+    AccBits, Actuation, Flags, HoldPolicy, RuntimeBits, RuntimeConfig, RuntimeCounters,
+    RuntimeError, SafeChange, TX_CAPACITY,
 };
 
 /// The outputs the device drives when it has nothing valid to say.
@@ -48,8 +48,8 @@ pub struct Runtime<T: Sample> {
     leak_q32: i64,
     seq: u16,
     fresh: bool,
-    missing: u32,
-    safe: bool,
+    /// The hold-safe policy (ticks without a frame, the safe state).
+    hold: HoldPolicy,
     enabled: bool,
     rx_error: bool,
     refused: bool,
@@ -131,8 +131,7 @@ impl<T: SampleBits> Runtime<T> {
             leak_q32,
             seq: 0,
             fresh: false,
-            missing: 0,
-            safe: false,
+            hold: HoldPolicy::new(),
             enabled: enable,
             rx_error: false,
             refused: false,
@@ -174,26 +173,27 @@ impl<T: SampleBits> Runtime<T> {
     /// instructions), reported in the frame. Never panics.
     pub fn tick(&mut self, last_exec: u32) -> &[u8] {
         self.ticks = self.ticks.wrapping_add(1);
-        let hold = u32::from(self.hold_ticks);
         let fresh = core::mem::replace(&mut self.fresh, false);
         let mut flags = Flags::default();
         let c = &mut self.counters;
         c.ticks = c.ticks.wrapping_add(1);
-        if fresh {
-            self.missing = 0;
-        } else if self.sample.is_some() {
-            self.missing = self.missing.saturating_add(1);
+        // The safe state: too many ticks without a frame, or a stability alarm held by
+        // `Config.monitor_safe` (until `Command::ClearFaults`).
+        let step = self.hold.step(
+            fresh,
+            self.sample.is_some(),
+            self.hold_ticks,
+            self.alarm_safe,
+        );
+        if step.holding {
             // Held, in the safe state or not: HOLDING and `held_ticks` alike.
             c.held_ticks = c.held_ticks.wrapping_add(1);
             flags.set(Flags::HOLDING, true);
         }
-        // The safe state: too many ticks without a frame, or a stability alarm held by
-        // `Config.monitor_safe` (until `Command::ClearFaults`).
-        let want_safe = (self.sample.is_some() && self.missing > hold) || self.alarm_safe;
-        if want_safe != self.safe {
-            self.safe = want_safe;
-            self.core.set_safe(want_safe);
-            if want_safe {
+        if let Some(change) = step.change {
+            let enter = change == SafeChange::Enter;
+            self.core.set_safe(enter);
+            if enter {
                 c.safe_entries = c.safe_entries.wrapping_add(1);
             } else {
                 c.safe_exits = c.safe_exits.wrapping_add(1);
@@ -205,7 +205,7 @@ impl<T: SampleBits> Runtime<T> {
                 }
             }
         }
-        if self.safe {
+        if step.safe {
             c.safe_ticks = c.safe_ticks.wrapping_add(1);
             flags.set(Flags::SAFE, true);
         }
@@ -246,7 +246,7 @@ impl<T: SampleBits> Runtime<T> {
         #[cfg(feature = "monitor")]
         if let Some(s) = &self.sample {
             let commanding = self.enabled
-                && !self.safe
+                && !self.hold.is_safe()
                 && self.core.mode() != wheelset_control::YawMode::Passive;
             // The stability monitor on the received (or integrated) `y'`, at its own
             // sub-rate inside `Monitor::tick`.
@@ -261,7 +261,7 @@ impl<T: SampleBits> Runtime<T> {
         let (t_psi, u_a) = match (self.sample, self.enabled) {
             (Some(s), true) => {
                 let mut inp = self.core.codec().decode(&s);
-                if self.safe {
+                if self.hold.is_safe() {
                     // Stale current: do not integrate it (policy item 3).
                     self.core.preset_back_emf(inp.speed);
                     inp.current = T::ZERO;
@@ -422,7 +422,7 @@ impl<T: SampleBits> Runtime<T> {
 
     /// In the safe state?
     pub fn is_safe(&self) -> bool {
-        self.safe
+        self.hold.is_safe()
     }
 
     /// Why the latest refused Config or Command was refused.

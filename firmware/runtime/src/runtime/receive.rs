@@ -210,7 +210,7 @@ impl<T: SampleBits> Runtime<T> {
         }
         self.acc_gain_q32 = g;
         self.leak_q32 = l;
-        if self.safe {
+        if self.hold.is_safe() {
             self.core.set_safe(true);
         }
         Ok(())
