@@ -1,0 +1,152 @@
+//! The blocks' markers in the README: finding them, rewriting the text between them and
+//! the line diff of a drifted block.
+
+use std::fmt::Write as _;
+
+pub(super) fn open(name: &str) -> String {
+    format!("<!-- generated:{name} -->")
+}
+
+pub(super) fn close(name: &str) -> String {
+    format!("<!-- /generated:{name} -->")
+}
+
+/// The blocks of `readme`: `(name, byte range of the text between the markers)`, in
+/// order. A marker is a line of its own (a marker quoted inside a line of text is not
+/// one); an error for a marker without its close, a nested or a repeated block.
+pub fn find_blocks(readme: &str) -> Result<Vec<(String, std::ops::Range<usize>)>, String> {
+    let mut found: Vec<(String, std::ops::Range<usize>)> = Vec::new();
+    // (name, body start, line number) of the open block.
+    let mut open_block: Option<(String, usize, usize)> = None;
+    let mut at = 0;
+    for (i, line) in readme.split_inclusive('\n').enumerate() {
+        let start = at;
+        at += line.len();
+        let t = line.trim();
+        let marker = |prefix: &str| {
+            t.strip_prefix(prefix)
+                .and_then(|r| r.strip_suffix(" -->"))
+                .map(str::to_string)
+        };
+        if let Some(name) = marker("<!-- generated:") {
+            if let Some((outer, _, l)) = &open_block {
+                return Err(format!(
+                    "README.md:{}: block `{name}` inside block `{outer}` (opened at line {l})",
+                    i + 1
+                ));
+            }
+            if name.is_empty() || name.contains(char::is_whitespace) {
+                return Err(format!("README.md:{}: a bad block name `{name}`", i + 1));
+            }
+            if found.iter().any(|(n, _)| *n == name) {
+                return Err(format!("README.md:{}: block `{name}` appears twice", i + 1));
+            }
+            open_block = Some((name, at, i + 1));
+        } else if let Some(name) = marker("<!-- /generated:") {
+            match open_block.take() {
+                Some((n, body, _)) if n == name => found.push((n, body..start)),
+                Some((n, _, l)) => {
+                    return Err(format!(
+                        "README.md:{}: `{}` closes block `{n}` (opened at line {l})",
+                        i + 1,
+                        close(&name)
+                    ))
+                }
+                None => {
+                    return Err(format!(
+                        "README.md:{}: `{}` without its opening marker",
+                        i + 1,
+                        close(&name)
+                    ))
+                }
+            }
+        }
+    }
+    if let Some((name, _, l)) = open_block {
+        return Err(format!(
+            "README.md:{l}: block `{name}` has no `{}`",
+            close(&name)
+        ));
+    }
+    Ok(found)
+}
+
+/// A line diff of `old` and `new` (longest common subsequence): `-` lines only in
+/// `old`, `+` lines only in `new`, two-space lines common to both.
+pub fn diff(old: &str, new: &str) -> String {
+    let a: Vec<&str> = old.lines().collect();
+    let b: Vec<&str> = new.lines().collect();
+    let (n, m) = (a.len(), b.len());
+    // lcs[i][j]: the longest common subsequence of a[i..] and b[j..].
+    let mut lcs = vec![vec![0usize; m + 1]; n + 1];
+    for i in (0..n).rev() {
+        for j in (0..m).rev() {
+            lcs[i][j] = if a[i] == b[j] {
+                lcs[i + 1][j + 1] + 1
+            } else {
+                lcs[i + 1][j].max(lcs[i][j + 1])
+            };
+        }
+    }
+    let mut s = String::new();
+    let (mut i, mut j) = (0, 0);
+    while i < n || j < m {
+        if i < n && j < m && a[i] == b[j] {
+            let _ = writeln!(s, "  {}", a[i]);
+            i += 1;
+            j += 1;
+        } else if i < n && (j == m || lcs[i + 1][j] >= lcs[i][j + 1]) {
+            let _ = writeln!(s, "- {}", a[i]);
+            i += 1;
+        } else {
+            let _ = writeln!(s, "+ {}", b[j]);
+            j += 1;
+        }
+    }
+    s
+}
+
+/// Rewrites (or with `check`, compares) the blocks of `readme` with `fresh`, the new
+/// text per block name. Returns the new README and the names of the blocks that
+/// differ, with their diffs.
+pub fn update(
+    readme: &str,
+    fresh: &[(&str, String)],
+) -> Result<(String, Vec<(String, String)>), String> {
+    let found = find_blocks(readme)?;
+    for (name, _) in &found {
+        if !fresh.iter().any(|(n, _)| n == name) {
+            return Err(format!(
+                "README.md: block `{name}` has no command in the table of xtask/src/readme.rs"
+            ));
+        }
+    }
+    for (name, _) in fresh {
+        if !found.iter().any(|(n, _)| n == name) {
+            return Err(format!(
+                "README.md: no block `{name}` (xtask/src/readme.rs lists it): add `{}` and `{}`",
+                open(name),
+                close(name)
+            ));
+        }
+    }
+    let mut out = String::with_capacity(readme.len());
+    let mut drifted = Vec::new();
+    let mut at = 0;
+    for (name, range) in &found {
+        let new = &fresh
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, t)| t.as_str())
+            .unwrap_or_default();
+        let old = &readme[range.clone()];
+        if old != *new {
+            drifted.push((name.clone(), diff(old, new)));
+        }
+        out.push_str(&readme[at..range.start]);
+        out.push_str(new);
+        at = range.end;
+    }
+    out.push_str(&readme[at..]);
+    Ok((out, drifted))
+}
