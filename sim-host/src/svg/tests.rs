@@ -1,0 +1,64 @@
+//! The plots' ticks, labels, legend, escaping and histograms.
+
+use super::*;
+
+#[test]
+fn ticks_cover_range_with_nice_steps() {
+    let t = nice_ticks(0.0, 20.0, 7);
+    assert_eq!(t.first(), Some(&0.0));
+    assert_eq!(t.last(), Some(&20.0));
+    let t = nice_ticks(-0.37, 1.2, 6);
+    assert!(t.iter().all(|v| *v >= -0.37 && *v <= 1.2));
+    assert!(t.len() >= 3 && t.len() <= 9, "{t:?}");
+}
+
+#[test]
+fn tick_labels_are_exact() {
+    let t = nice_ticks(0.0, 1.2, 5); // step 0.25
+    let labels: Vec<String> = t.iter().map(|v| fmt_tick(*v, &t)).collect();
+    assert_eq!(labels, ["0", "0.25", "0.50", "0.75", "1.00"]);
+    let t = nice_ticks(0.0, 3e6, 3);
+    assert_eq!(fmt_tick(t[1], &t), "1e6");
+    let t = nice_ticks(1.0, 10.0, 4); // step 2.5
+    assert_eq!(fmt_tick(2.5, &t), "2.5");
+}
+
+#[test]
+fn svg_contains_series_legend_and_escapes() {
+    let p = Plot::new("a<b")
+        .series(Series::line("y & z", vec![(0.0, 1.0), (1.0, 2.0)]))
+        .series(Series::scatter("pts", vec![(0.5, 1.5), (f64::NAN, 0.0)]));
+    let s = p.to_svg();
+    assert!(s.contains("a&lt;b"));
+    assert!(s.contains("y &amp; z"));
+    assert_eq!(s.matches("<circle").count(), 2); // one point + one legend marker
+    assert!(s.trim_end().ends_with("</svg>"));
+}
+
+#[test]
+fn histogram_has_one_rect_per_bin() {
+    let p = Plot::histogram("h", &[0.0, 1.0, 2.0, 3.0], &[1.0, 4.0, 2.0]);
+    let s = p.to_svg();
+    assert_eq!(s.matches("fill=\"#56B4E9\"").count(), 3);
+}
+
+#[test]
+fn categories_replace_the_numeric_x_ticks_and_a_note_is_written() {
+    let names = ["yaw_lead.x".to_string(), "traction_pi.e".to_string()];
+    let p = Plot::histogram("h", &[0.0, 1.0, 2.0], &[1.0, 2.0])
+        .x_categories(&names)
+        .note("not measured");
+    let s = p.to_svg();
+    assert!(s.contains(">yaw_lead.x</text>"), "{s}");
+    assert!(s.contains(">traction_pi.e</text>"), "{s}");
+    assert_eq!(s.matches("rotate(-40)").count(), 2);
+    // No numeric x tick label (the tick labels are the names).
+    let numeric_x = s
+        .split("text-anchor=\"middle\">")
+        .skip(1)
+        .filter_map(|t| t.split('<').next())
+        .filter(|t| t.parse::<f64>().is_ok())
+        .count();
+    assert_eq!(numeric_x, 0, "{s}");
+    assert!(s.contains(">not measured</text>"), "{s}");
+}

@@ -1,0 +1,92 @@
+//! Axis ticks and labels: "nice" tick values (1, 2, 5 times a power of ten), their
+//! labels with just the decimals the step needs, XML escaping, and the decimation of long
+//! polylines.
+
+/// Escapes text for SVG.
+pub fn esc(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+/// "Nice" tick positions (1-2-5 steps) covering `[lo, hi]`, about `n` of them.
+pub fn nice_ticks(lo: f64, hi: f64, n: usize) -> Vec<f64> {
+    if !(lo.is_finite() && hi.is_finite()) || hi <= lo || n == 0 {
+        return vec![];
+    }
+    let raw = (hi - lo) / n as f64;
+    let mag = 10f64.powf(raw.log10().floor());
+    let step = [1.0, 2.0, 2.5, 5.0, 10.0]
+        .iter()
+        .map(|m| m * mag)
+        .find(|s| *s >= raw)
+        .unwrap_or(10.0 * mag);
+    let start = (lo / step).ceil() as i64;
+    let end = (hi / step).floor() as i64;
+    (start..=end).map(|k| k as f64 * step).collect()
+}
+
+/// Decimal places needed to write multiples of `step` exactly (at most 12).
+pub(crate) fn decimals(step: f64) -> usize {
+    (0..12)
+        .find(|&d| {
+            let x = step * 10f64.powi(d as i32);
+            (x - x.round()).abs() < 1e-6 * x.abs().max(1.0)
+        })
+        .unwrap_or(12)
+}
+
+pub(crate) fn fmt_tick(v: f64, ticks: &[f64]) -> String {
+    let step = if ticks.len() > 1 {
+        (ticks[1] - ticks[0]).abs()
+    } else {
+        v.abs().max(1.0)
+    };
+    let big = ticks.iter().fold(0f64, |a, t| a.max(t.abs()));
+    if v == 0.0 {
+        return "0".into();
+    }
+    if !(1e-3..1e5).contains(&big) {
+        let e = big.log10().floor() as i32;
+        return format!(
+            "{:.*}e{e}",
+            decimals(step / 10f64.powi(e)),
+            v / 10f64.powi(e)
+        );
+    }
+    format!("{v:.*}", decimals(step))
+}
+
+/// Keeps at most about `max` points by taking min/max pairs per bucket (so peaks stay).
+pub(crate) fn decimate(p: &[(f64, f64)], max: usize) -> Vec<(f64, f64)> {
+    if p.len() <= max.max(4) {
+        return p.to_vec();
+    }
+    let buckets = (max / 2).max(2);
+    let per = p.len().div_ceil(buckets);
+    let mut out = Vec::with_capacity(buckets * 2 + 1);
+    for chunk in p.chunks(per) {
+        let mut lo = chunk[0];
+        let mut hi = chunk[0];
+        for &q in chunk {
+            if q.1 < lo.1 {
+                lo = q;
+            }
+            if q.1 > hi.1 {
+                hi = q;
+            }
+        }
+        if lo.0 <= hi.0 {
+            out.push(lo);
+            out.push(hi);
+        } else {
+            out.push(hi);
+            out.push(lo);
+        }
+    }
+    if let Some(&last) = p.last() {
+        out.push(last);
+    }
+    out
+}
