@@ -28,8 +28,14 @@ use std::time::{Duration, Instant};
 pub use crate::machine::Machine;
 
 use crate::qemu_cmd::{qemu_args, SerialTo};
+
+mod bulk;
+mod pin;
+
 /// The command line's constants, defined once in [`crate::qemu_cmd`].
 pub use crate::qemu_cmd::{ICOUNT_SHIFT, QEMU_BIN};
+use bulk::poll_readable;
+use pin::next_core;
 
 /// Largest frame [`Qemu::recv_frame`] accepts, delimiter excluded.
 pub const MAX_FRAME: usize = 256;
@@ -214,86 +220,6 @@ enum Link {
     },
 }
 
-/// `O_NONBLOCK` (Linux).
-const O_NONBLOCK: i32 = libc::O_NONBLOCK;
-
-/// Waits until `f` is readable (or hung up) for at most `timeout`; `false` on timeout.
-#[allow(unsafe_code)]
-fn poll_readable(f: &File, timeout: Duration) -> io::Result<bool> {
-    use std::os::fd::AsRawFd;
-    let mut p = libc::pollfd {
-        fd: f.as_raw_fd(),
-        events: libc::POLLIN,
-        revents: 0,
-    };
-    let ms = i32::try_from(timeout.as_millis()).unwrap_or(i32::MAX);
-    // SAFETY: one valid `pollfd` for the call, an fd owned by `f` and open throughout.
-    let r = unsafe { libc::poll(&mut p, 1, ms) };
-    if r < 0 {
-        let e = io::Error::last_os_error();
-        return if e.kind() == io::ErrorKind::Interrupted {
-            Ok(true)
-        } else {
-            Err(e)
-        };
-    }
-    Ok(r > 0)
-}
-
-/// The cores this process may run on, from `Cpus_allowed_list` in `/proc/self/status`
-/// (e.g. `0-1,4`); `None` where that is not available.
-fn allowed_cores() -> Option<Vec<usize>> {
-    let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    parse_cpu_list(
-        status
-            .lines()
-            .find_map(|l| l.strip_prefix("Cpus_allowed_list:"))?,
-    )
-}
-
-/// A Linux CPU list (`0-3,6`) as core numbers; `None` if malformed or empty.
-fn parse_cpu_list(list: &str) -> Option<Vec<usize>> {
-    let list = list.trim();
-    let mut cores = Vec::new();
-    for part in list.split(',') {
-        match part.split_once('-') {
-            Some((a, b)) => cores.extend(a.trim().parse::<usize>().ok()?..=b.trim().parse().ok()?),
-            None => cores.push(part.trim().parse().ok()?),
-        }
-    }
-    (!cores.is_empty()).then_some(cores)
-}
-
-/// The core the next QEMU is pinned to: round robin over [`allowed_cores`], so that
-/// QEMUs started side by side (parallel tests) spread over the cores. `None` (no
-/// pinning) with `WHEELSET_QEMU_PIN=off`, without `taskset`, or without the core list.
-fn next_core() -> Option<usize> {
-    use std::sync::atomic::{AtomicUsize, Ordering};
-    use std::sync::OnceLock;
-    static CORES: OnceLock<Option<Vec<usize>>> = OnceLock::new();
-    static NEXT: AtomicUsize = AtomicUsize::new(0);
-    if std::env::var("WHEELSET_QEMU_PIN").is_ok_and(|v| v == "off") {
-        return None;
-    }
-    let cores = CORES
-        .get_or_init(|| {
-            let taskset = Command::new("taskset")
-                .arg("-V")
-                .stdout(Stdio::null())
-                .stderr(Stdio::null())
-                .status()
-                .is_ok_and(|s| s.success());
-            if taskset {
-                allowed_cores()
-            } else {
-                None
-            }
-        })
-        .as_ref()?;
-    let k = NEXT.fetch_add(1, Ordering::Relaxed);
-    cores.get(k % cores.len()).copied()
-}
-
 /// A free loopback TCP port (bound and released; QEMU binds it right after).
 fn free_port() -> io::Result<u16> {
     let l = TcpListener::bind((Ipv4Addr::LOCALHOST, 0))?;
@@ -308,32 +234,31 @@ impl Qemu {
 
     /// [`Self::command`] on `machine`.
     pub fn command_on(machine: Machine, elf: &Path, port: u16) -> Command {
+        Self::command_to(machine, elf, SerialTo::Tcp(port))
+    }
+
+    /// The QEMU command line for `elf` on `machine` with the frames on `to`.
+    fn command_to(machine: Machine, elf: &Path, to: SerialTo) -> Command {
         let mut cmd = Command::new(QEMU_BIN);
         cmd.args(qemu_args(
             machine.name(),
             machine.cpu(),
             &elf.to_string_lossy(),
-            SerialTo::Tcp(port),
+            to,
         ));
         cmd
     }
 
-    /// Starts QEMU and connects to the firmware's UART0 (or its bulk channel,
-    /// [`QemuConfig::channel`]).
-    pub fn start(cfg: &QemuConfig) -> Result<Self, QemuError> {
-        cfg.check()?;
-        if cfg.channel == Channel::Bulk {
-            return Self::start_bulk(cfg);
-        }
-        let port = free_port().map_err(QemuError::Io)?;
-        let stderr_path =
-            std::env::temp_dir().join(format!("wheelset-qemu-{}-{port}.err", std::process::id()));
-        let stderr = File::create(&stderr_path).map_err(QemuError::Io)?;
+    /// Launches QEMU as `cfg` says with the frames on `to` (the launch both channels
+    /// share): pinned to the next core ([`next_core`]), standard output to `cfg.log`,
+    /// standard error to `stderr_path`. The [`Guard`] kills it on every early return.
+    fn spawn(cfg: &QemuConfig, to: SerialTo, stderr_path: &Path) -> Result<Guard, QemuError> {
+        let stderr = File::create(stderr_path).map_err(QemuError::Io)?;
         let stdout = match &cfg.log {
             Some(p) => Stdio::from(File::create(p).map_err(QemuError::Io)?),
             None => Stdio::null(),
         };
-        let mut cmd = Self::command_on(cfg.machine, &cfg.elf, port);
+        let mut cmd = Self::command_to(cfg.machine, &cfg.elf, to);
         if let Some(core) = next_core() {
             let mut pinned = Command::new("taskset");
             pinned
@@ -349,20 +274,48 @@ impl Qemu {
             .stderr(stderr)
             .spawn()
             .map_err(QemuError::QemuMissing)?;
+        Ok(Guard(Some(child)))
+    }
+
+    /// The running QEMU of `guard` on `link`, no longer killed by the guard.
+    fn started(
+        mut guard: Guard,
+        link: Link,
+        stderr_path: PathBuf,
+        timeout: Duration,
+    ) -> Result<Self, QemuError> {
+        let child = guard.0.take().ok_or(QemuError::Exited(String::new()))?;
+        Ok(Self {
+            child: Some(child),
+            link,
+            stderr_path,
+            rx: Vec::with_capacity(MAX_FRAME),
+            timeout,
+        })
+    }
+
+    /// Starts QEMU and connects to the firmware's UART0 (or its bulk channel,
+    /// [`QemuConfig::channel`]).
+    pub fn start(cfg: &QemuConfig) -> Result<Self, QemuError> {
+        cfg.check()?;
+        if cfg.channel == Channel::Bulk {
+            return Self::start_bulk(cfg);
+        }
+        let port = free_port().map_err(QemuError::Io)?;
+        let stderr_path =
+            std::env::temp_dir().join(format!("wheelset-qemu-{}-{port}.err", std::process::id()));
         // From here on, `guard` kills QEMU on every early return.
-        let mut guard = Guard(Some(child));
+        let mut guard = Self::spawn(cfg, SerialTo::Tcp(port), &stderr_path)?;
         let deadline = Instant::now() + Duration::from_secs(10);
         let stream = loop {
             match TcpStream::connect((Ipv4Addr::LOCALHOST, port)) {
                 Ok(s) => break s,
                 Err(_) if Instant::now() < deadline => {
-                    if let Some(c) = guard.0.as_mut() {
-                        if let Ok(Some(_)) = c.try_wait() {
-                            return Err(QemuError::Connect {
-                                port,
-                                stderr: read_to_string(&stderr_path),
-                            });
-                        }
+                    if guard.exited() {
+                        return Err(QemuError::Connect {
+                            port,
+                            stderr: read_to_string(&stderr_path),
+                        });
                     }
                     std::thread::sleep(Duration::from_millis(10));
                 }
@@ -378,114 +331,7 @@ impl Qemu {
         stream
             .set_read_timeout(Some(cfg.timeout))
             .map_err(QemuError::Io)?;
-        let child = guard.0.take().ok_or(QemuError::Exited(String::new()))?;
-        Ok(Self {
-            child: Some(child),
-            link: Link::Tcp(stream),
-            stderr_path,
-            rx: Vec::with_capacity(MAX_FRAME),
-            timeout: cfg.timeout,
-        })
-    }
-
-    /// [`Self::start`] with the bulk channel: two FIFOs in a fresh directory, QEMU told
-    /// where (`arg=bulk:DIR`), the host's ends opened once the firmware has opened its
-    /// own (a non-blocking open of a FIFO's write end fails until it has a reader).
-    fn start_bulk(cfg: &QemuConfig) -> Result<Self, QemuError> {
-        use std::os::unix::fs::OpenOptionsExt;
-        static SEQ: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
-        let k = SEQ.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        let dir = std::env::temp_dir().join(format!("wheelset-bulk-{}-{k}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).map_err(QemuError::Io)?;
-        let (rx_path, tx_path) = (dir.join("rx"), dir.join("tx"));
-        let made = Command::new("mkfifo")
-            .arg(&rx_path)
-            .arg(&tx_path)
-            .status()
-            .map_err(QemuError::Io)?;
-        if !made.success() {
-            return Err(QemuError::Io(io::Error::other(format!(
-                "mkfifo {} {} failed",
-                rx_path.display(),
-                tx_path.display()
-            ))));
-        }
-        let stderr_path = dir.join("qemu.err");
-        let stderr = File::create(&stderr_path).map_err(QemuError::Io)?;
-        let stdout = match &cfg.log {
-            Some(p) => Stdio::from(File::create(p).map_err(QemuError::Io)?),
-            None => Stdio::null(),
-        };
-        let mut cmd = Command::new(QEMU_BIN);
-        cmd.args(qemu_args(
-            cfg.machine.name(),
-            cfg.machine.cpu(),
-            &cfg.elf.to_string_lossy(),
-            SerialTo::Bulk(dir.to_string_lossy().into_owned()),
-        ));
-        if let Some(core) = next_core() {
-            let mut pinned = Command::new("taskset");
-            pinned
-                .arg("-c")
-                .arg(core.to_string())
-                .arg(cmd.get_program())
-                .args(cmd.get_args());
-            cmd = pinned;
-        }
-        let child = cmd
-            .stdin(Stdio::null())
-            .stdout(stdout)
-            .stderr(stderr)
-            .spawn()
-            .map_err(QemuError::QemuMissing)?;
-        let mut guard = Guard(Some(child));
-        // Our reading end first (a non-blocking open for reading never waits), so the
-        // firmware's open of `tx` for writing finds a reader.
-        let rx = std::fs::OpenOptions::new()
-            .read(true)
-            .custom_flags(O_NONBLOCK)
-            .open(&tx_path)
-            .map_err(QemuError::Io)?;
-        let deadline = Instant::now() + Duration::from_secs(10);
-        let tx = loop {
-            match std::fs::OpenOptions::new()
-                .write(true)
-                .custom_flags(O_NONBLOCK)
-                .open(&rx_path)
-            {
-                // The firmware has it open for reading: open it again, blocking writes.
-                Ok(_probe) => {
-                    break std::fs::OpenOptions::new()
-                        .write(true)
-                        .open(&rx_path)
-                        .map_err(QemuError::Io)?
-                }
-                Err(e) if Instant::now() < deadline => {
-                    if let Some(c) = guard.0.as_mut() {
-                        if let Ok(Some(_)) = c.try_wait() {
-                            return Err(QemuError::Exited(read_to_string(&stderr_path)));
-                        }
-                    }
-                    let _ = e;
-                    std::thread::sleep(Duration::from_millis(5));
-                }
-                Err(e) => {
-                    return Err(QemuError::Exited(format!(
-                        "the firmware did not open its bulk channel ({e}); {}",
-                        read_to_string(&stderr_path)
-                    )))
-                }
-            }
-        };
-        let child = guard.0.take().ok_or(QemuError::Exited(String::new()))?;
-        Ok(Self {
-            child: Some(child),
-            link: Link::Bulk { tx, rx, dir },
-            stderr_path,
-            rx: Vec::with_capacity(MAX_FRAME),
-            timeout: cfg.timeout,
-        })
+        Self::started(guard, Link::Tcp(stream), stderr_path, cfg.timeout)
     }
 
     /// Connects to a QEMU started by hand with its UART0 on a TCP server at
@@ -619,6 +465,13 @@ impl Drop for Qemu {
 /// Kills a child on drop unless taken.
 struct Guard(Option<Child>);
 
+impl Guard {
+    /// The child has exited (QEMU gave up: its stderr says why).
+    fn exited(&mut self) -> bool {
+        matches!(self.0.as_mut().map(Child::try_wait), Some(Ok(Some(_))))
+    }
+}
+
 impl Drop for Guard {
     fn drop(&mut self) {
         if let Some(c) = self.0.as_mut() {
@@ -632,19 +485,4 @@ fn read_to_string(p: &Path) -> String {
     std::fs::read_to_string(p)
         .map(|s| s.trim().to_string())
         .unwrap_or_default()
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn cpu_lists_parse_and_malformed_ones_do_not() {
-        assert_eq!(parse_cpu_list("\t0-1\n"), Some(vec![0, 1]));
-        assert_eq!(parse_cpu_list("0-2,5,7-8"), Some(vec![0, 1, 2, 5, 7, 8]));
-        assert_eq!(parse_cpu_list("3"), Some(vec![3]));
-        assert_eq!(parse_cpu_list(""), None);
-        assert_eq!(parse_cpu_list("0-x"), None);
-        assert_eq!(parse_cpu_list("2-1"), None);
-    }
 }

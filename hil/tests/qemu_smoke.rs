@@ -4,24 +4,15 @@
 //! installed), in which case that is a failure.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
-use hil::qemu::{Qemu, QemuConfig};
+mod common;
+
+use common::{qemu_curve, tick};
+use hil::qemu::{Channel, Qemu, QemuConfig};
 use wheelset_proto::{encode_vec, Actuation, Decoder, Flags, Lateral, Message, Sensor};
 
-/// Starts the emulated device, or `None` (skip) when it cannot run here and the run
-/// does not require it.
+/// The emulated device on UART0, or `None` (skip).
 fn start_or_skip(test: &str) -> Option<Qemu> {
-    let cfg = QemuConfig::new();
-    if let Err(e) = cfg.check() {
-        if std::env::var("REQUIRE_QEMU").as_deref() == Ok("1") {
-            panic!("{test}: REQUIRE_QEMU=1 but the emulated device cannot run: {e}");
-        }
-        eprintln!("{test}: SKIPPED: {e}");
-        return None;
-    }
-    match Qemu::start(&cfg) {
-        Ok(q) => Some(q),
-        Err(e) => panic!("{test}: {e}"),
-    }
+    common::start_or_skip(test, Channel::Uart)
 }
 
 /// Motor speed at 25 m/s (rad/s, the wire's 1e-3 rad/s LSB): 925.6 rad/s.
@@ -38,20 +29,6 @@ fn sensor(seq: u16, y_dot_um_s: i32) -> Vec<u8> {
         v_ref_mm_s: 0,
     };
     encode_vec(&Message::Sensor(s)).unwrap().to_vec()
-}
-
-/// One tick: sends `bytes` (a frame, or a bare delimiter for a tick without one) and
-/// returns the device's actuation frame.
-fn tick(q: &mut Qemu, dec: &mut Decoder, bytes: &[u8]) -> Actuation {
-    q.send(bytes).unwrap();
-    let mut frame = q.recv_frame().unwrap();
-    frame.push(0);
-    let mut out = None;
-    dec.feed(&frame, |r| out = Some(r));
-    match out {
-        Some(Ok(Message::Actuation(a))) => a,
-        other => panic!("expected an actuation frame, got {other:?}"),
-    }
 }
 
 /// `ticks` lock-step exchanges with a lateral velocity that rings down like a damped
@@ -154,78 +131,10 @@ fn a_missing_elf_is_a_clear_error() {
 // ---------------------------------------------------------------------------------------
 // Closed loop with the plant: sim-host's wheelset drives the emulated device.
 
-use sim_host::control::{Actuation as PlantActuation, Measurements, SampledController, YawLaw};
+use sim_host::control::YawLaw;
 use sim_host::device::{run_device, DeviceOptions};
 use sim_host::params::Params;
 use sim_host::scenario::Scenario;
-use sim_host::sim::{run_sampled, ActuatorModel, SensorModel, Trajectory};
-use wheelset_proto::units::{
-    quantize, to_si, CURRENT_LSB_A, DEMAND_LSB_NM, LAT_VEL_LSB_M_PER_S, SPEED_LSB_RAD_PER_S,
-    TORQUE_LSB_NM, VOLTAGE_LSB_V,
-};
-
-/// The emulated device as the plant's sampled controller: one lock-step exchange per
-/// control period (the Sensor frame is the device's clock).
-struct QemuDevice {
-    q: Qemu,
-    dec: Decoder,
-    seq: u16,
-    period_ns: u64,
-    actuations: Vec<Actuation>,
-}
-
-impl SampledController for QemuDevice {
-    fn period_ns(&self) -> u64 {
-        self.period_ns
-    }
-
-    fn step(&mut self, t_ns: u64, m: &Measurements) -> PlantActuation {
-        self.seq = self.seq.wrapping_add(1);
-        let s = Sensor {
-            seq: self.seq,
-            t_us: ((t_ns / 1_000) & 0xffff) as u16,
-            lateral: Lateral::Velocity(quantize(m.yd_mps, LAT_VEL_LSB_M_PER_S).0),
-            i_a_ma: quantize(m.i_a, CURRENT_LSB_A).0,
-            omega_m_mrad_s: quantize(m.w_m, SPEED_LSB_RAD_PER_S).0,
-            demand_nm: quantize(m.demand_nm, DEMAND_LSB_NM).0,
-            v_ref_mm_s: 0,
-        };
-        let frame = encode_vec(&Message::Sensor(s)).unwrap();
-        let a = tick(&mut self.q, &mut self.dec, &frame);
-        self.actuations.push(a);
-        PlantActuation {
-            t_psi: to_si(a.t_psi_dnm, TORQUE_LSB_NM),
-            u_a: to_si(a.u_a_cv, VOLTAGE_LSB_V),
-        }
-    }
-}
-
-/// Runs `duration_s` of the `curve` scenario with the phase lead, the emulated device in
-/// the loop. Returns the trajectory and the device's actuation frames.
-fn qemu_curve(q: Qemu, duration_s: f64) -> (Trajectory, Vec<Actuation>) {
-    let mut sc = Scenario::load("curve", &Params::default()).unwrap();
-    sc.duration_ns = (duration_s * 1e9) as u64;
-    let period_ns = 1_000_000_000 / u64::from(wheelset_control::DEFAULT_BASE_RATE_HZ);
-    let mut dev = QemuDevice {
-        q,
-        dec: Decoder::new(),
-        seq: 0,
-        period_ns,
-        actuations: Vec::new(),
-    };
-    let mut actuator = ActuatorModel::ideal();
-    actuator.delay_ns = period_ns;
-    let traj = run_sampled(
-        &sc,
-        &mut dev,
-        &mut SensorModel::ideal(),
-        &mut actuator,
-        YawLaw::Lead.has_spring(),
-        "lead (QEMU device)",
-    )
-    .unwrap();
-    (traj, dev.actuations)
-}
 
 #[test]
 fn the_loop_closes_through_the_emulated_device_like_the_in_process_one() {

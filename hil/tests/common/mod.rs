@@ -1,0 +1,113 @@
+//! The QEMU tests' driver (`qemu_smoke`, `qemu_bulk`): starting the emulated device or
+//! skipping, one lock-step tick, and the device as the plant's sampled controller over
+//! a run of `curve`.
+#![allow(dead_code, clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
+use hil::qemu::{Channel, Qemu, QemuConfig};
+use sim_host::control::{Actuation as PlantActuation, Measurements, SampledController, YawLaw};
+use sim_host::params::Params;
+use sim_host::scenario::Scenario;
+use sim_host::sim::{run_sampled, ActuatorModel, SensorModel, Trajectory};
+use wheelset_proto::units::{
+    quantize, to_si, CURRENT_LSB_A, DEMAND_LSB_NM, LAT_VEL_LSB_M_PER_S, SPEED_LSB_RAD_PER_S,
+    TORQUE_LSB_NM, VOLTAGE_LSB_V,
+};
+use wheelset_proto::{encode_vec, Actuation, Decoder, Lateral, Message, Sensor};
+
+/// Starts the emulated device on `channel`, or `None` (skip) when it cannot run here and
+/// the run does not require it (`REQUIRE_QEMU=1`, set by `cargo xtest` when QEMU is
+/// installed, makes that a failure).
+pub fn start_or_skip(test: &str, channel: Channel) -> Option<Qemu> {
+    let cfg = QemuConfig {
+        channel,
+        ..QemuConfig::new()
+    };
+    if let Err(e) = cfg.check() {
+        if std::env::var("REQUIRE_QEMU").as_deref() == Ok("1") {
+            panic!("{test}: REQUIRE_QEMU=1 but the emulated device cannot run: {e}");
+        }
+        eprintln!("{test}: SKIPPED: {e}");
+        return None;
+    }
+    match Qemu::start(&cfg) {
+        Ok(q) => Some(q),
+        Err(e) => panic!("{test}: {e}"),
+    }
+}
+
+/// One tick: sends `bytes` (a frame, or a bare delimiter for a tick without one) and
+/// returns the device's actuation frame.
+pub fn tick(q: &mut Qemu, dec: &mut Decoder, bytes: &[u8]) -> Actuation {
+    q.send(bytes).unwrap();
+    let mut frame = q.recv_frame().unwrap();
+    frame.push(0);
+    let mut out = None;
+    dec.feed(&frame, |r| out = Some(r));
+    match out {
+        Some(Ok(Message::Actuation(a))) => a,
+        other => panic!("expected an actuation frame, got {other:?}"),
+    }
+}
+
+/// The emulated device as the plant's sampled controller: one lock-step exchange per
+/// control period (the Sensor frame is the device's clock).
+pub struct QemuDevice {
+    q: Qemu,
+    dec: Decoder,
+    seq: u16,
+    period_ns: u64,
+    actuations: Vec<Actuation>,
+}
+
+impl SampledController for QemuDevice {
+    fn period_ns(&self) -> u64 {
+        self.period_ns
+    }
+
+    fn step(&mut self, t_ns: u64, m: &Measurements) -> PlantActuation {
+        self.seq = self.seq.wrapping_add(1);
+        let s = Sensor {
+            seq: self.seq,
+            t_us: ((t_ns / 1_000) & 0xffff) as u16,
+            lateral: Lateral::Velocity(quantize(m.yd_mps, LAT_VEL_LSB_M_PER_S).0),
+            i_a_ma: quantize(m.i_a, CURRENT_LSB_A).0,
+            omega_m_mrad_s: quantize(m.w_m, SPEED_LSB_RAD_PER_S).0,
+            demand_nm: quantize(m.demand_nm, DEMAND_LSB_NM).0,
+            v_ref_mm_s: 0,
+        };
+        let frame = encode_vec(&Message::Sensor(s)).unwrap();
+        let a = tick(&mut self.q, &mut self.dec, &frame);
+        self.actuations.push(a);
+        PlantActuation {
+            t_psi: to_si(a.t_psi_dnm, TORQUE_LSB_NM),
+            u_a: to_si(a.u_a_cv, VOLTAGE_LSB_V),
+        }
+    }
+}
+
+/// Runs `duration_s` of the `curve` scenario with the phase lead, the emulated device in
+/// the loop. Returns the trajectory and the device's actuation frames.
+pub fn qemu_curve(q: Qemu, duration_s: f64) -> (Trajectory, Vec<Actuation>) {
+    let mut sc = Scenario::load("curve", &Params::default()).unwrap();
+    sc.duration_ns = (duration_s * 1e9) as u64;
+    let period_ns = 1_000_000_000 / u64::from(wheelset_control::DEFAULT_BASE_RATE_HZ);
+    let mut dev = QemuDevice {
+        q,
+        dec: Decoder::new(),
+        seq: 0,
+        period_ns,
+        actuations: Vec::new(),
+    };
+    let mut actuator = ActuatorModel::ideal();
+    actuator.delay_ns = period_ns;
+    let traj = run_sampled(
+        &sc,
+        &mut dev,
+        &mut SensorModel::ideal(),
+        &mut actuator,
+        YawLaw::Lead.has_spring(),
+        "lead (QEMU device)",
+    )
+    .unwrap();
+    (traj, dev.actuations)
+}
