@@ -20,8 +20,10 @@ mod bench {
     };
     use wheelset_fw::app::Stopwatch;
     use wheelset_fw::board::qemu::SysTickStopwatch;
-    use wheelset_fw::device::{new_runtime, FwRuntime, Num};
-    use wheelset_proto::{encode_vec, Lateral, Message, Sensor};
+    use wheelset_fw::device::{new_runtime, FwRuntime, Num, DEFAULT_RUNTIME};
+    use wheelset_proto::{
+        encode_vec, Config as WheelsetConfig, Lateral, Message, RefuseReason, Sensor, YawMode,
+    };
 
     const N: u32 = 2_000;
 
@@ -140,18 +142,118 @@ mod bench {
         }
     }
 
-    /// A y' that rings like a damped yaw mode and a current near its reference, so every
-    /// branch of the loops is exercised; the demand steps up at mid-run.
-    fn si_inputs(k: u32) -> (f64, f64, f64, f64) {
-        let t = f64::from(k) / 5000.0;
-        let ring = if (k / 50).is_multiple_of(2) {
-            1.0
-        } else {
-            -1.0
-        } * 0.02
-            / (1.0 + t);
-        let demand = if k > N / 2 { 2460.0 } else { 0.0 };
-        (ring, 100.0 * ring, 925.6, demand)
+    /// Base rate of the stimulus (Hz): one sample per tick.
+    const RATE_HZ: f64 = 5000.0;
+    /// The yaw mode's ringing frequency (Hz) and its decay time constant (s).
+    const RING_HZ: f64 = 50.0;
+    const RING_TAU_S: f64 = 0.2;
+    /// Initial y' amplitude (m/s).
+    const RING_AMP_M_S: f64 = 0.02;
+    /// The vehicle's reference speed in the sensor frame (m/s; wire v2's `v_ref_mm_s`).
+    const V_REF_M_S: f64 = 83.3;
+
+    /// `(cos x, sin x)` for a small `|x|` (here 2 pi 50 / 5000 = 0.063 rad) by their
+    /// Taylor series to x^13 (remainder below 1e-20): `core` has no `sin` in `no_std`.
+    const fn cos_sin(x: f64) -> (f64, f64) {
+        let (mut c, mut s, mut term, mut k) = (0.0, 0.0, 1.0, 0);
+        // term = x^k / k!; even k go to cos, odd to sin, signs alternate in pairs.
+        while k <= 13 {
+            let sign = if (k / 2) % 2 == 0 { 1.0 } else { -1.0 };
+            if k % 2 == 0 {
+                c += sign * term;
+            } else {
+                s += sign * term;
+            }
+            k += 1;
+            term = term * x / k as f64;
+        }
+        (c, s)
+    }
+
+    /// `exp(-x)` for a small `x >= 0` (here 1 / (0.2 * 5000) = 0.001) by its Taylor
+    /// series to x^8.
+    const fn exp_neg(x: f64) -> f64 {
+        let (mut e, mut term, mut k) = (0.0, 1.0, 0);
+        while k <= 8 {
+            e += term;
+            k += 1;
+            term = -term * x / k as f64;
+        }
+        e
+    }
+
+    /// The stimulus (issue 14): y' rings like a damped yaw mode, a decaying sine
+    /// `y'(t) = A exp(-t / tau) sin(2 pi f t)` (A = 20 mm/s, f = 50 Hz, tau = 0.2 s),
+    /// generated per tick by rotating the phasor `(c, s)` by `2 pi f / rate` and scaling
+    /// it by `exp(-1 / (tau rate))`; the current follows at 100 A per m/s, the wheel
+    /// turns at 925.6 rad/s with the vehicle at [`V_REF_M_S`] (the control core's default
+    /// scales: 925.6 rad/s at 83.3 m/s, so no slip), and the demand steps up at
+    /// mid-run, so every branch of the loops is exercised.
+    struct Stimulus {
+        k: u32,
+        c: f64,
+        s: f64,
+    }
+
+    impl Stimulus {
+        const ROT: (f64, f64) = cos_sin(2.0 * core::f64::consts::PI * RING_HZ / RATE_HZ);
+        const DECAY: f64 = exp_neg(1.0 / (RING_TAU_S * RATE_HZ));
+
+        const fn new() -> Self {
+            Self {
+                k: 0,
+                c: RING_AMP_M_S,
+                s: 0.0,
+            }
+        }
+
+        /// `(y' m/s, current A, motor speed rad/s, demand N m)` of the next tick.
+        fn next_si(&mut self) -> (f64, f64, f64, f64) {
+            let ring = self.s;
+            let demand = if self.k > N / 2 { 2460.0 } else { 0.0 };
+            let (rc, rs) = Self::ROT;
+            let (c, s) = (self.c * rc - self.s * rs, self.s * rc + self.c * rs);
+            self.c = c * Self::DECAY;
+            self.s = s * Self::DECAY;
+            self.k += 1;
+            (ring, 100.0 * ring, 925.6, demand)
+        }
+    }
+
+    /// `N` whole ticks of a fresh default runtime (optionally sent `config` first) on
+    /// the stimulus; `None` if the runtime or the Config is refused.
+    fn whole_ticks(sw: &mut SysTickStopwatch, config: Option<WheelsetConfig>) -> Option<Stats> {
+        let mut rt = new_runtime().ok()?;
+        if let Some(c) = config {
+            let frame = encode_vec(&Message::Config(c)).ok()?;
+            rt.receive(&frame);
+            if rt.refuse_reason() != RefuseReason::None {
+                return None;
+            }
+        }
+        let mut whole = Stats::new();
+        let mut exec = 0;
+        let mut stim = Stimulus::new();
+        for k in 0..N {
+            let (y, i, w, d) = stim.next_si();
+            let s = Sensor {
+                seq: k as u16,
+                t_us: (k * 200) as u16,
+                lateral: Lateral::Velocity((y * 1e6) as i32),
+                i_a_ma: (i * 1e3) as i32,
+                omega_m_mrad_s: (w * 1e3) as i32,
+                demand_nm: d as i32,
+                v_ref_mm_s: (V_REF_M_S * 1e3) as i32,
+            };
+            let Ok(frame) = encode_vec(&Message::Sensor(s)) else {
+                continue;
+            };
+            let t0 = sw.start();
+            core::hint::black_box(whole_tick(&mut rt, &frame, exec));
+            exec = sw.stop(t0);
+            whole.add(exec);
+        }
+        Some(whole)
     }
 
     pub fn run() -> ! {
@@ -175,8 +277,9 @@ mod bench {
             exit(debug::EXIT_FAILURE)
         };
         let mut law = Stats::new();
-        for k in 0..N {
-            let (y, i, w, d) = si_inputs(k);
+        let mut stim = Stimulus::new();
+        for _ in 0..N {
+            let (y, i, w, d) = stim.next_si();
             let inp = Inputs::<Num>::from_si(&cfg.scales, y, i, w, d);
             let t0 = sw.start();
             core::hint::black_box(law_step(&mut c, &inp));
@@ -193,8 +296,9 @@ mod bench {
         };
         let mut ms = MonitorState::default();
         let (mut mon_all, mut mon_step) = (Stats::new(), Stats::new());
-        for k in 0..N {
-            let (y, i, w, d) = si_inputs(k);
+        let mut stim = Stimulus::new();
+        for _ in 0..N {
+            let (y, i, w, d) = stim.next_si();
             let inp = Inputs::<Num>::from_si(&cfg.scales, y, i, w, d);
             let t0 = sw.start();
             core::hint::black_box(monitor_tick(&mon, &mut ms, inp.y_dot));
@@ -211,34 +315,30 @@ mod bench {
         );
         mon_step.print("monitor, the ticks that run its step", overhead);
 
-        let Ok(mut rt) = new_runtime() else {
+        let Some(whole) = whole_ticks(&mut sw, None) else {
             hprintln!("runtime refused the default configuration");
             exit(debug::EXIT_FAILURE)
         };
-        let mut whole = Stats::new();
-        let mut exec = 0;
-        for k in 0..N {
-            let (y, i, w, d) = si_inputs(k);
-            let s = Sensor {
-                seq: k as u16,
-                t_us: (k * 200) as u16,
-                lateral: Lateral::Velocity((y * 1e6) as i32),
-                i_a_ma: (i * 1e3) as i32,
-                omega_m_mrad_s: (w * 1e3) as i32,
-                demand_nm: d as i32,
-            };
-            let Ok(frame) = encode_vec(&Message::Sensor(s)) else {
-                continue;
-            };
-            let t0 = sw.start();
-            core::hint::black_box(whole_tick(&mut rt, &frame, exec));
-            exec = sw.stop(t0);
-            whole.add(exec);
-        }
         whole.print(
             "whole tick (decode sensor frame + control + encode actuation frame)",
             overhead,
         );
+        // The same ticks with the wheel-slip protection switched on by a Config frame
+        // (no slip in the stimulus: the cost of the check itself, every tick).
+        let wsp_on = WheelsetConfig {
+            mode: YawMode::Lead,
+            traction: true,
+            enable: true,
+            hold_ticks: DEFAULT_RUNTIME.hold_ticks,
+            wsp: true,
+            monitor_safe: false,
+            rates: None,
+        };
+        let Some(whole_wsp) = whole_ticks(&mut sw, Some(wsp_on)) else {
+            hprintln!("runtime refused the default configuration with WSP");
+            exit(debug::EXIT_FAILURE)
+        };
+        whole_wsp.print("whole tick with wheel-slip protection on", overhead);
         let peak = stack_peak(stack_bottom);
         hprintln!(
             "stack high-water mark [{}]: {} bytes (painted window {} bytes)",
