@@ -9,12 +9,12 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 use hil::budget::Verdict;
 
-/// `println!` that ignores a closed stdout (`hil | head`) instead of panicking.
+/// `println!` that ends the program quietly with success on a closed stdout (`hil |
+/// head`), as Unix tools do, instead of panicking (`sim_host::out`).
 macro_rules! say {
-    ($($t:tt)*) => {{
-        use std::io::Write as _;
-        let _ = writeln!(std::io::stdout(), $($t)*);
-    }};
+    ($($t:tt)*) => {
+        sim_host::outln!($($t)*)
+    };
 }
 
 mod cli;

@@ -42,6 +42,7 @@ pub mod link;
 pub mod memory;
 pub mod modes;
 pub mod numeric;
+pub mod out;
 pub mod outcome;
 pub mod params;
 pub mod plant;

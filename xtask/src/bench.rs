@@ -233,7 +233,7 @@ pub(crate) fn fw_bench(json: Option<PathBuf>) -> Result<(), String> {
         let text = String::from_utf8_lossy(&out.stdout);
         // The human-readable lines, prefixed with the configuration.
         for l in text.lines().filter(|l| !l.starts_with("FWBENCH ")) {
-            println!("{} {}: {l}", c.core, c.numeric);
+            outln!("{} {}: {l}", c.core, c.numeric);
         }
         if !out.status.success() {
             return Err(format!(
@@ -245,12 +245,12 @@ pub(crate) fn fw_bench(json: Option<PathBuf>) -> Result<(), String> {
         let r = parse_bench(&text).map_err(|e| format!("{}: {e}", elf.display()))?;
         results.push((c, r));
     }
-    println!();
-    print!("{}", bench_table(&results));
+    outln!();
+    out!("{}", bench_table(&results));
     if let Some(path) = json {
         std::fs::write(&path, bench_json(&results))
             .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
-        println!("wrote {}", path.display());
+        outln!("wrote {}", path.display());
     }
     Ok(())
 }

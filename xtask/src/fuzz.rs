@@ -585,7 +585,7 @@ pub fn main(args: &[String]) -> ExitCode {
 }
 
 fn fuzz(a: Args) -> Result<(), String> {
-    println!(
+    outln!(
         "fuzz: {} frames per sample type, seed {} (overflow checks on: {})",
         a.frames,
         a.seed,
@@ -596,7 +596,7 @@ fn fuzz(a: Args) -> Result<(), String> {
     print_report(&fx);
     let f = run::<f32>(a.frames, a.seed)?;
     print_report(&f);
-    println!(
+    outln!(
         "fuzz: {} frames in {:.1} s: no panic, every output within the actuator limits, \
          every frame accounted",
         2 * a.frames,
@@ -611,8 +611,8 @@ fn print_report(r: &Report) {
         .zip(r.generated)
         .map(|(k, n)| format!("{k} {n}"))
         .collect();
-    println!("  Runtime<{}>: generated {}", r.numeric, kinds.join(", "));
-    println!(
+    outln!("  Runtime<{}>: generated {}", r.numeric, kinds.join(", "));
+    outln!(
         "    frames seen {}, ticks {}; rx ok {}, crc {}, cobs {}, version {}, length {}, \
          postcard {}, unexpected {}; configs applied {} / refused {}; status frames {}; max |T_psi| {} \
          dNm, max |u_a| {} cV",

@@ -32,6 +32,25 @@
 //!   against their stated exit codes ([`readme`]; `cargo xtest` runs the check and the
 //!   short commands after the tests).
 
+/// `print!` for the tasks' output: a closed standard output (`cargo xtask ... | head`)
+/// ends the task quietly with exit code 0, as Unix tools do, instead of panicking; another
+/// write error ends it with 1 and the reason.
+macro_rules! out {
+    ($($t:tt)*) => {
+        $crate::write_stdout(format_args!($($t)*))
+    };
+}
+
+/// `println!` through [`out!`].
+macro_rules! outln {
+    () => {
+        $crate::write_stdout(format_args!("\n"))
+    };
+    ($($t:tt)*) => {
+        $crate::write_stdout(format_args!("{}\n", format_args!($($t)*)))
+    };
+}
+
 mod bench;
 mod elf;
 mod fuzz;
@@ -298,7 +317,7 @@ fn build_firmware(list: &[Firmware]) -> Result<Vec<PathBuf>, String> {
 /// build is ~0.4 KiB larger: the f32 control core plus its conversions).
 fn check_sizes(elfs: &[PathBuf]) -> Result<(), String> {
     let mut over = Vec::new();
-    println!(
+    outln!(
         "firmware size (budget: flash {FLASH_BUDGET} B, static RAM {RAM_BUDGET} B excluding \
          the stack; the build fails above either)"
     );
@@ -310,7 +329,7 @@ fn check_sizes(elfs: &[PathBuf]) -> Result<(), String> {
             || path.display().to_string(),
             |n| n.to_string_lossy().into_owned(),
         );
-        println!(
+        outln!(
             "  {name:<26} flash {:>6} B ({:>5.1} KiB)   static RAM {:>5} B ({:>4.1} KiB)",
             size.flash,
             size.flash as f64 / 1024.0,
@@ -319,13 +338,13 @@ fn check_sizes(elfs: &[PathBuf]) -> Result<(), String> {
         );
         let enforced = !name.contains("-f32");
         if size.flash > FLASH_TARGET && size.flash <= FLASH_BUDGET {
-            println!(
+            outln!(
                 "  {name:<26} above the {FLASH_TARGET} B target by {} B (within the enforced budget)",
                 size.flash - FLASH_TARGET
             );
         }
         if size.flash > FLASH_BUDGET {
-            println!(
+            outln!(
                 "  {name:<26} OVER the flash budget by {} B{}",
                 size.flash - FLASH_BUDGET,
                 if enforced {
@@ -486,7 +505,7 @@ fn qemu_cmd_line(args: &[String]) -> Result<(), String> {
     let elf = elf.unwrap_or_else(|| "target/fw/wheelset-qemu-bench.elf".to_string());
     let mut a = qemu_cmd::qemu_args(&machine, &cpu, &elf, serial);
     a.extend(extra.iter().cloned());
-    println!("{}", qemu_cmd::shell_line(&a));
+    outln!("{}", qemu_cmd::shell_line(&a));
     Ok(())
 }
 
@@ -526,5 +545,18 @@ fn main() -> ExitCode {
             eprintln!("xtask: {e}");
             ExitCode::FAILURE
         }
+    }
+}
+
+/// Writes to standard output for [`out!`] and [`outln!`].
+fn write_stdout(args: std::fmt::Arguments<'_>) {
+    use std::io::Write as _;
+    let mut out = std::io::stdout().lock();
+    if let Err(e) = out.write_fmt(args).and_then(|()| out.flush()) {
+        if e.kind() == std::io::ErrorKind::BrokenPipe {
+            std::process::exit(0);
+        }
+        eprintln!("xtask: error: cannot write to standard output: {e}");
+        std::process::exit(1);
     }
 }

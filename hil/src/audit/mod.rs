@@ -144,9 +144,9 @@ pub fn run(args: &AuditArgs) -> Result<u8, AuditError> {
         report::write_report(&audit, dir)?;
     }
     if args.readme_block {
-        print!("{}", readme::block(&audit));
+        sim_host::out!("{}", readme::block(&audit));
     } else {
-        print!("{}", report::summary(&audit, args.quiet));
+        sim_host::out!("{}", report::summary(&audit, args.quiet));
     }
     Ok(if audit.verdict == Status::Fail { 1 } else { 0 })
 }

@@ -1,6 +1,7 @@
 //! `sim-host adhesion`: Polach's creep characteristic of a rail condition.
 
 use clap::ValueEnum;
+use sim_host::outln;
 use std::path::PathBuf;
 
 use super::{io_fail, load_params, write_json, Failure};
@@ -59,12 +60,12 @@ pub(crate) fn cmd_adhesion(a: &AdhesionArgs) -> Result<(), Failure> {
         });
     }
     let ch = sim_host::traction::characteristic(a.condition.into(), v, &p, a.points as usize);
-    println!(
+    outln!(
         "adhesion {}: v {} m/s, Q {:.1} N, f11 {:.3e} N, mu0 {} A {} B {} s/m kA {} kS {}; peak F/Q {:.4} at creepage {:.5} (slip {:.3} m/s)",
         ch.condition, ch.v_mps, ch.q_n, ch.f11_n, ch.mu0, ch.a, ch.b, ch.ka, ch.ks,
         ch.mu_peak, ch.creepage_peak, ch.slip_peak_mps
     );
-    println!("source: {}", ch.source);
+    outln!("source: {}", ch.source);
     let json = serde_json::to_value(&ch).map_err(|e| Failure {
         code: 1,
         msg: e.to_string(),
@@ -74,7 +75,7 @@ pub(crate) fn cmd_adhesion(a: &AdhesionArgs) -> Result<(), Failure> {
         std::fs::create_dir_all(dir).map_err(|e| io_fail(dir, e))?;
         let path = dir.join(format!("adhesion-{}.svg", ch.condition));
         ch.figure().save(&path).map_err(|e| io_fail(&path, e))?;
-        println!("plot: {}", path.display());
+        outln!("plot: {}", path.display());
     }
     Ok(())
 }

@@ -3,6 +3,7 @@
 
 use clap::ValueEnum;
 use sim_host::scenario::Scenario;
+use sim_host::{out, outln};
 
 use super::run::{print_summary, write_run_summary, RunArgs};
 use super::{io_fail, simulate, warn, Failure};
@@ -174,7 +175,7 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
     })?;
     print_summary(sc, &run.trajectory);
     write_run_summary(&a.json, sc, &run.trajectory, None)?;
-    println!(
+    outln!(
         "link: {} baud, latency {} us, period {} us, faults `{}` (seed {})",
         opt.link.baud,
         latency_us,
@@ -186,10 +187,10 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
         },
         opt.link.seed
     );
-    print!("{}", run.report);
-    println!();
+    out!("{}", run.report);
+    outln!();
     let reference = simulate(sc, a.control);
-    println!(
+    outln!(
         "vs continuous reference: {}",
         deviation(&run.trajectory, &reference, CURVE_WINDOWS)
     );
@@ -200,7 +201,7 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
         let f = std::fs::File::create(path).map_err(|e| io_fail(path, e))?;
         run.write_csv(std::io::BufWriter::new(f))
             .map_err(|e| io_fail(path, e))?;
-        println!(
+        outln!(
             "csv: {} ({} rows)",
             path.display(),
             run.trajectory.records.len()
@@ -216,7 +217,7 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
         let files =
             sim_host::figures::write_time_histories(&runs, dir).map_err(|e| io_fail(dir, e))?;
         for f in files {
-            println!("plot: {}", f.display());
+            outln!("plot: {}", f.display());
         }
     }
     Ok(())

@@ -16,6 +16,7 @@ pub(crate) use run::{cmd_run, RunArgs};
 use clap::ValueEnum;
 use sim_host::control::YawLaw;
 use sim_host::error::ConfigError;
+use sim_host::outln;
 use sim_host::params::Params;
 use sim_host::scenario::Scenario;
 use sim_host::sim::{run_continuous, Trajectory};
@@ -91,6 +92,6 @@ pub(crate) fn write_json(path: &std::path::Path, value: &serde_json::Value) -> R
         msg: format!("{}: {e}", path.display()),
     })?;
     std::fs::write(path, text).map_err(|e| io_fail(path, e))?;
-    println!("json: {}", path.display());
+    outln!("json: {}", path.display());
     Ok(())
 }

@@ -2,6 +2,7 @@
 
 use clap::ValueEnum;
 use sim_host::modes::{creep_grid, sweep_case, Case};
+use sim_host::outln;
 use std::path::PathBuf;
 
 use super::{io_fail, load_params, warn, Failure};
@@ -77,13 +78,13 @@ pub(crate) fn cmd_modes(a: &ModesArgs) -> Result<(), Failure> {
         sweeps.push(sw);
     }
     pb.finish_and_clear();
-    println!(
+    outln!(
         "modal sweep: v = {} m/s, f11 = f22 over {} points in 1-10 MN; kinematic frequency v sqrt(lambda/(r0 Lg))/2pi = {:.3} Hz",
         p.v,
         grid.len(),
         p.kinematic_hz()
     );
-    println!(
+    outln!(
         "the structural zero eigenvalue (free rolling at any speed) is excluded from every verdict"
     );
     for sw in &sweeps {
@@ -105,7 +106,7 @@ pub(crate) fn cmd_modes(a: &ModesArgs) -> Result<(), Failure> {
                 (-worst.0.log10()).floor().max(0.0)
             ));
         }
-        println!("case ({}): {}", sw.case.id(), sw.case.label());
+        outln!("case ({}): {}", sw.case.id(), sw.case.label());
         for c in [1e6, 2e6, 5e6, 1e7] {
             let Some(k) = sw.index_of(c) else { continue };
             let modes: Vec<String> = sw
@@ -114,7 +115,7 @@ pub(crate) fn cmd_modes(a: &ModesArgs) -> Result<(), Failure> {
                 .map(|m| format!("{} {:.2} Hz zeta {:.3}", m.name, m.freq_hz, m.zeta))
                 .collect();
             let z = sw.structural_zero(k).map_or(f64::NAN, |l| l.norm());
-            println!(
+            outln!(
                 "  {:>4.0} MN {}: {} | structural zero |lambda| = {z:.1e}",
                 c * 1e-6,
                 if sw.stable_at(k) {
@@ -126,10 +127,10 @@ pub(crate) fn cmd_modes(a: &ModesArgs) -> Result<(), Failure> {
             );
         }
         if sw.crossings.is_empty() {
-            println!("  no crossing in 1-10 MN");
+            outln!("  no crossing in 1-10 MN");
         }
         for c in &sw.crossings {
-            println!(
+            outln!(
                 "  crossing: {} at {:.4} MN, {:.2} Hz, unstable {}",
                 c.mode,
                 c.creep_n * 1e-6,
@@ -154,11 +155,11 @@ pub(crate) fn cmd_modes(a: &ModesArgs) -> Result<(), Failure> {
         msg: e.to_string(),
     })?;
     std::fs::write(&a.json, text).map_err(|e| io_fail(&a.json, e))?;
-    println!("json: {}", a.json.display());
+    outln!("json: {}", a.json.display());
     if let Some(dir) = &a.plot {
         for sw in &sweeps {
             let f = sim_host::figures::write_root_locus(sw, dir).map_err(|e| io_fail(dir, e))?;
-            println!("plot: {}", f.display());
+            outln!("plot: {}", f.display());
         }
     }
     Ok(())

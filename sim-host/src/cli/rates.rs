@@ -1,6 +1,7 @@
 //! `sim-host rates`: the sampled-data rate analysis of the firmware's loops.
 
 use clap::ValueEnum;
+use sim_host::{out, outln};
 use std::path::PathBuf;
 
 use super::{io_fail, load_params, Control, Failure};
@@ -77,7 +78,7 @@ pub(crate) fn cmd_rates(a: &RatesArgs) -> Result<(), Failure> {
                 msg: format!("rate analysis: {e}"),
             }
         })?;
-    print!("{}", report.render());
+    out!("{}", report.render());
     if let Some(path) = &a.json {
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir).map_err(|e| io_fail(dir, e))?;
@@ -87,7 +88,7 @@ pub(crate) fn cmd_rates(a: &RatesArgs) -> Result<(), Failure> {
             msg: format!("JSON: {e}"),
         })?;
         std::fs::write(path, text).map_err(|e| io_fail(path, e))?;
-        println!("wrote {}", path.display());
+        outln!("wrote {}", path.display());
     }
     Ok(())
 }

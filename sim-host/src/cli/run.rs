@@ -1,6 +1,7 @@
 //! `sim-host run`: a scenario on the continuous loop or the control core, the printed
 //! summary and the run's JSON summary.
 
+use sim_host::outln;
 use sim_host::scenario::Scenario;
 use sim_host::sim::Trajectory;
 use std::path::PathBuf;
@@ -117,13 +118,13 @@ pub(crate) fn cmd_run(a: &RunArgs) -> Result<(), Failure> {
         let f = std::fs::File::create(path).map_err(|e| io_fail(path, e))?;
         main.write_csv(std::io::BufWriter::new(f))
             .map_err(|e| io_fail(path, e))?;
-        println!("csv: {} ({} rows)", path.display(), main.records.len());
+        outln!("csv: {} ({} rows)", path.display(), main.records.len());
     }
     if let Some(dir) = &a.plot {
         let files =
             sim_host::figures::write_time_histories(&runs, dir).map_err(|e| io_fail(dir, e))?;
         for f in files {
-            println!("plot: {}", f.display());
+            outln!("plot: {}", f.display());
         }
     }
     Ok(())
@@ -136,7 +137,7 @@ pub(crate) fn print_modes(sc: &Scenario, law: Control) {
     else {
         return;
     };
-    println!(
+    outln!(
         "modes of this plant and law at pure rolling on straight track, f11 {:.1} MN, f22 {:.1} MN (least damped first; structural zero left out):",
         sc.params.f11 * 1e-6,
         sc.params.f22 * 1e-6
@@ -148,7 +149,7 @@ pub(crate) fn print_modes(sc: &Scenario, law: Control) {
             .filter(|(_, x)| *x >= 0.05)
             .map(|(g, x)| format!("{g} {x:.2}"))
             .collect();
-        println!(
+        outln!(
             "  {:<16} {:>7.2} Hz  zeta {:+.3}  lambda {:+.2} {:+.2}j 1/s; participation: {}",
             m.mode.name,
             m.mode.freq_hz,
@@ -166,7 +167,7 @@ pub(crate) fn print_at(runs: &[Trajectory], at: &[f64]) {
     if at.is_empty() {
         return;
     }
-    println!(
+    outln!(
         "{:>6} {:<8} {:>9} {:>9} {:>7} {:>9} {:>11} {:>8} {:>8} {:>8}",
         "t_s",
         "control",
@@ -188,7 +189,7 @@ pub(crate) fn print_at(runs: &[Trajectory], at: &[f64]) {
             else {
                 continue;
             };
-            println!(
+            outln!(
                 "{:>6.3} {:<8} {:>9.4} {:>9.4} {:>7.3} {:>9.1} {:>11.1} {:>8.1} {:>8.1} {:>8.1}",
                 r.t_s,
                 tr.info.control,
@@ -211,7 +212,7 @@ pub(crate) fn print_at(runs: &[Trajectory], at: &[f64]) {
         let peak = |f: &dyn Fn(&sim_host::sim::Record) -> f64| {
             tr.records.iter().map(f).fold(0.0f64, |a, b| a.max(b.abs()))
         };
-        println!(
+        outln!(
             "peaks, {}: |y| {:.4} mm, |T_psi| {:.1} N m, |F_x| {:.1} N, |F_y| {:.1} N",
             tr.info.control,
             peak(&|r| r.y_m) * 1e3,
@@ -233,7 +234,7 @@ pub(crate) fn cmd_run_core(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
     let wsp = a.device.wsp != Some(OnOff::Off);
     let (tr, c) = run_core::<f64>(sc, a.control.into(), wsp).map_err(fail)?;
     print_summary(sc, &tr);
-    println!(
+    outln!(
         "wheel-slip protection {}: {} events, {} ticks acting",
         if wsp { "on" } else { "off" },
         c.wsp_events,
@@ -247,7 +248,7 @@ pub(crate) fn cmd_run_core(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
         let f = std::fs::File::create(path).map_err(|e| io_fail(path, e))?;
         tr.write_csv(std::io::BufWriter::new(f))
             .map_err(|e| io_fail(path, e))?;
-        println!("csv: {} ({} rows)", path.display(), tr.records.len());
+        outln!("csv: {} ({} rows)", path.display(), tr.records.len());
     }
     if let Some(dir) = &a.plot {
         let mut runs = vec![tr];
@@ -257,7 +258,7 @@ pub(crate) fn cmd_run_core(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
         let files =
             sim_host::figures::write_time_histories(&runs, dir).map_err(|e| io_fail(dir, e))?;
         for f in files {
-            println!("plot: {}", f.display());
+            outln!("plot: {}", f.display());
         }
         if !sc.adhesion.is_empty() {
             let (other, _) = run_core::<f64>(sc, a.control.into(), !wsp).map_err(fail)?;
@@ -271,7 +272,7 @@ pub(crate) fn cmd_run_core(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
                 dir,
             )
             .map_err(|e| io_fail(dir, e))?;
-            println!("plot: {}", f.display());
+            outln!("plot: {}", f.display());
         }
     }
     Ok(())
@@ -287,15 +288,22 @@ pub(crate) fn write_run_summary(
 ) -> Result<(), Failure> {
     let adhesion = sim_host::traction::summary(sc, tr);
     if let Some(a) = &adhesion {
-        println!(
+        outln!(
             "adhesion: runaway {}, slip peak {:.3} m/s",
-            a.runaway, a.slip_peak_mps
+            a.runaway,
+            a.slip_peak_mps
         );
-        println!("  t0-t1 s      condition  mu_peak  mu_used_mean  utilisation  slip_peak_mps");
+        outln!("  t0-t1 s      condition  mu_peak  mu_used_mean  utilisation  slip_peak_mps");
         for s in &a.sections {
-            println!(
+            outln!(
                 "  {:>5.1}-{:<5.1}  {:<9}  {:>7.4}  {:>12.4}  {:>11.3}  {:>13.3}",
-                s.t0, s.t1, s.condition, s.mu_peak, s.mu_used_mean, s.utilisation, s.slip_peak_mps
+                s.t0,
+                s.t1,
+                s.condition,
+                s.mu_peak,
+                s.mu_used_mean,
+                s.utilisation,
+                s.slip_peak_mps
             );
         }
     }
@@ -314,7 +322,7 @@ pub(crate) fn write_run_summary(
 
 pub(crate) fn print_summary(sc: &Scenario, tr: &Trajectory) {
     let p = &sc.params;
-    println!(
+    outln!(
         "scenario {} ({}), control {}, {} s, RK4 dt {} s, {} steps",
         sc.name,
         sc.source,
@@ -323,7 +331,7 @@ pub(crate) fn print_summary(sc: &Scenario, tr: &Trajectory) {
         tr.info.dt_s,
         tr.info.steps
     );
-    println!(
+    outln!(
         "plant: axle {:?}, drive {}, yaw spring {}; project defaults used: k_lat {} N/m, k_t {:.4e} N m/rad, k_gear {:.4e} N m/rad, PI Ti {} s",
         sc.axle,
         sc.drive,
@@ -336,7 +344,7 @@ pub(crate) fn print_summary(sc: &Scenario, tr: &Trajectory) {
     let max = |f: &dyn Fn(&sim_host::sim::Record) -> f64| {
         tr.records.iter().map(f).fold(0.0f64, |a, b| a.max(b.abs()))
     };
-    println!(
+    outln!(
         "max |y| {:.4} mm, max |T_psi| {:.1} N m, max |F_x| {:.1} N, max |F_y| {:.1} N",
         max(&|r| r.y_m) * 1e3,
         max(&|r| r.t_psi_nm),
@@ -344,12 +352,14 @@ pub(crate) fn print_summary(sc: &Scenario, tr: &Trajectory) {
         max(&|r| r.fy_n)
     );
     if let Some(stop) = sim_host::outcome::stop_of(tr) {
-        println!("WARNING: {stop}");
+        outln!("WARNING: {stop}");
     }
     if let Some(last) = tr.records.last() {
-        println!(
+        outln!(
             "end: v {:.4} m/s, i_a {:.2} A, u_a {:.1} V",
-            last.v_mps, last.i_a_a, last.u_a_v
+            last.v_mps,
+            last.i_a_a,
+            last.u_a_v
         );
     }
 }

@@ -1,0 +1,48 @@
+//! The command lines' standard output: `sim-host ... | head` and `hil ... | head` end
+//! quietly with exit code 0 when the reader closes the pipe, as Unix tools do
+//! (`println!` panics there: Rust ignores `SIGPIPE`, so the write fails with `EPIPE`).
+//!
+//! [`outln!`](crate::outln) and [`out!`](crate::out) are `println!` and `print!` through
+//! [`write`]: a closed pipe (`BrokenPipe`) exits with 0 at once, saying nothing; any other
+//! write error exits with 1 and the reason on standard error.
+
+use std::io::Write as _;
+
+/// Writes `args` to standard output (see the module docs for the failures).
+pub fn write(args: std::fmt::Arguments<'_>) {
+    let mut out = std::io::stdout().lock();
+    if let Err(e) = out.write_fmt(args).and_then(|()| out.flush()) {
+        failed(&e);
+    }
+}
+
+/// The end of a failed write to standard output: quiet success on a closed pipe,
+/// exit code 1 with the reason otherwise.
+pub fn failed(e: &std::io::Error) -> ! {
+    if e.kind() == std::io::ErrorKind::BrokenPipe {
+        std::process::exit(0);
+    }
+    eprintln!("error: cannot write to standard output: {e}");
+    std::process::exit(1);
+}
+
+/// `print!` that ends the program quietly with success on a closed pipe
+/// ([`crate::out`]).
+#[macro_export]
+macro_rules! out {
+    ($($t:tt)*) => {
+        $crate::out::write(format_args!($($t)*))
+    };
+}
+
+/// `println!` that ends the program quietly with success on a closed pipe
+/// ([`crate::out`]).
+#[macro_export]
+macro_rules! outln {
+    () => {
+        $crate::out::write(format_args!("\n"))
+    };
+    ($($t:tt)*) => {
+        $crate::out::write(format_args!("{}\n", format_args!($($t)*)))
+    };
+}
