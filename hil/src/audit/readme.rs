@@ -7,6 +7,7 @@
 use std::fmt::Write as _;
 
 use super::ranges::Phase;
+use super::report_sections::{bounds_table, error_bounds_table, Detail};
 use super::{build, Audit, AuditArgs, AuditError, Status};
 use crate::table::Table;
 
@@ -154,42 +155,8 @@ pub fn block(a: &Audit) -> String {
     );
     let _ = writeln!(w, "{t}");
     let _ = writeln!(w, "{}\n", a.proof_statement);
-    let mut t = Table::new([
-        "signal",
-        "unit",
-        "observed max",
-        "proven max",
-        "margin (bits)",
-    ]);
-    for b in &a.bounds {
-        t.row([
-            format!("`{}`", b.signal),
-            b.unit.clone(),
-            b.observed_max
-                .map(|v| format!("{v:.4e}"))
-                .unwrap_or_else(|| "-".into()),
-            format!("{:.4e}", b.proven_max),
-            format!("{:.2}", b.margin_bits),
-        ]);
-    }
-    let _ = writeln!(w, "{t}");
-    let mut t = Table::new([
-        "rounding error vs exact arithmetic",
-        "observed",
-        "proven",
-        "unit",
-        "proven (wire LSB)",
-    ]);
-    for e in &a.error_bounds {
-        t.row([
-            e.output.clone(),
-            format!("{:.3e}", e.observed),
-            format!("{:.3e}", e.proven),
-            e.unit.clone(),
-            format!("{:.3}", e.proven_wire_lsb),
-        ]);
-    }
-    let _ = writeln!(w, "{t}");
+    let _ = writeln!(w, "{}", bounds_table(a, Detail::Readme));
+    let _ = writeln!(w, "{}", error_bounds_table(a, Detail::Readme));
     // Noise against f64 (coefficients unquantised), normal running.
     for out in ["T_psi", "u_a"] {
         if let Some(n) = a

@@ -63,58 +63,14 @@ pub(crate) fn proofs_and_findings(a: &Audit, w: &mut String) {
          the scenarios.\n",
         a.proof_statement
     );
-    let mut t = Table::new([
-        "signal",
-        "unit",
-        "observed max",
-        "proven max",
-        "format",
-        "margin (bits)",
-        "proof",
-    ]);
-    for b in &a.bounds {
-        t.row([
-            b.signal.clone(),
-            b.unit.clone(),
-            b.observed_max
-                .map(|v| format!("{v:.6e}"))
-                .unwrap_or_else(|| "-".into()),
-            format!("{:.6e}", b.proven_max),
-            b.format.clone(),
-            format!("{:.2}", b.margin_bits),
-            b.proof.clone(),
-        ]);
-    }
-    let _ = write!(w, "{t}");
+    let _ = write!(w, "{}", bounds_table(a, Detail::Report));
     let _ = writeln!(
         w,
         "\nRounding error of the fixed-point core against exact arithmetic on the same \
          quantised coefficients and inputs (each rounding point's error filter's peak gain \
          x its rounding step):\n"
     );
-    let mut t = Table::new([
-        "output",
-        "observed",
-        "proven",
-        "unit",
-        "proven (wire LSB)",
-        "per rounding point",
-    ]);
-    for e in &a.error_bounds {
-        t.row([
-            e.output.clone(),
-            format!("{:.4e}", e.observed),
-            format!("{:.4e}", e.proven),
-            e.unit.clone(),
-            format!("{:.4}", e.proven_wire_lsb),
-            e.rounding_points
-                .iter()
-                .map(|(n, v)| format!("{n} {v:.2e}"))
-                .collect::<Vec<_>>()
-                .join("; "),
-        ]);
-    }
-    let _ = write!(w, "{t}");
+    let _ = write!(w, "{}", error_bounds_table(a, Detail::Report));
     let _ = writeln!(w, "\nWCPG per linear part (tail bound and terms summed):\n");
     let mut t = Table::new(["part", "path", "WCPG", "terms", "tail bound", "note"]);
     for l in &a.linear_parts {
@@ -205,4 +161,90 @@ pub(crate) fn proofs_and_findings(a: &Audit, w: &mut String) {
         }
         let _ = write!(w, "{t}");
     }
+}
+
+/// How much a proof table says: the README's short form or the report's full one.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Detail {
+    /// The README's block: the figures with four (bounds) or three (errors) digits.
+    Readme,
+    /// The report: two more digits plus each bound's format and proof, each error
+    /// bound's rounding points.
+    Report,
+}
+
+/// The proven bounds per signal against the observed ones (one table for the README's
+/// block and the report).
+pub(crate) fn bounds_table(a: &Audit, d: Detail) -> Table {
+    let full = d == Detail::Report;
+    let p = if full { 6 } else { 4 };
+    let mut head = vec!["signal", "unit", "observed max", "proven max"];
+    if full {
+        head.push("format");
+    }
+    head.push("margin (bits)");
+    if full {
+        head.push("proof");
+    }
+    let mut t = Table::new(head);
+    for b in &a.bounds {
+        let mut r = vec![
+            if full {
+                b.signal.clone()
+            } else {
+                format!("`{}`", b.signal)
+            },
+            b.unit.clone(),
+            b.observed_max
+                .map(|v| format!("{v:.p$e}"))
+                .unwrap_or_else(|| "-".into()),
+            format!("{:.p$e}", b.proven_max),
+        ];
+        if full {
+            r.push(b.format.clone());
+        }
+        r.push(format!("{:.2}", b.margin_bits));
+        if full {
+            r.push(b.proof.clone());
+        }
+        t.row(r);
+    }
+    t
+}
+
+/// The rounding-error bounds per output against the observed errors (one table for the
+/// README's block and the report).
+pub(crate) fn error_bounds_table(a: &Audit, d: Detail) -> Table {
+    let full = d == Detail::Report;
+    let p = if full { 4 } else { 3 };
+    let first = if full {
+        "output"
+    } else {
+        "rounding error vs exact arithmetic"
+    };
+    let mut head = vec![first, "observed", "proven", "unit", "proven (wire LSB)"];
+    if full {
+        head.push("per rounding point");
+    }
+    let mut t = Table::new(head);
+    for e in &a.error_bounds {
+        let mut r = vec![
+            e.output.clone(),
+            format!("{:.p$e}", e.observed),
+            format!("{:.p$e}", e.proven),
+            e.unit.clone(),
+            format!("{:.p$}", e.proven_wire_lsb),
+        ];
+        if full {
+            r.push(
+                e.rounding_points
+                    .iter()
+                    .map(|(n, v)| format!("{n} {v:.2e}"))
+                    .collect::<Vec<_>>()
+                    .join("; "),
+            );
+        }
+        t.row(r);
+    }
+    t
 }
