@@ -7,36 +7,11 @@ use wheelset_control::Fx;
 use wheelset_proto::*;
 use wheelset_runtime::*;
 
+mod common;
+use common::{act, sample, sensor_frame, vel};
+
 fn sensor(seq: u16, lateral: Lateral) -> Vec<u8> {
-    encode_vec(&Message::Sensor(Sensor {
-        seq,
-        t_us: 0,
-        lateral,
-        i_a_ma: 115_000,
-        omega_m_mrad_s: 925_600,
-        demand_nm: 2_460,
-        v_ref_mm_s: 0,
-    }))
-    .expect("fits")
-    .to_vec()
-}
-
-fn vel(seq: u16, um_s: i32) -> Vec<u8> {
-    sensor(seq, Lateral::Velocity(um_s))
-}
-
-fn act(bytes: &[u8]) -> Actuation {
-    let mut dec: Decoder = Decoder::new();
-    let mut out = None;
-    dec.feed(bytes, |r| {
-        if out.is_none() {
-            out = r.ok();
-        }
-    });
-    match out {
-        Some(Message::Actuation(a)) => a,
-        other => panic!("{other:?}"),
-    }
+    sensor_frame(sample(seq, lateral))
 }
 
 /// A CRC- and version-valid frame of message type `ty` with body `body`.

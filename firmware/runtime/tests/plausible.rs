@@ -6,25 +6,11 @@ use wheelset_control::{Fx, SampleBits};
 use wheelset_proto::*;
 use wheelset_runtime::*;
 
-fn sensor(seq: u16) -> Vec<u8> {
-    encode_vec(&Message::Sensor(Sensor {
-        seq,
-        t_us: 0,
-        lateral: Lateral::Velocity(2_000),
-        i_a_ma: 115_000,
-        omega_m_mrad_s: 925_600,
-        demand_nm: 2_460,
-        v_ref_mm_s: 0,
-    }))
-    .expect("fits")
-    .to_vec()
-}
+mod common;
+use common::{frames, vel};
 
-fn decode(bytes: &[u8]) -> Vec<Message> {
-    let mut dec: Decoder = Decoder::new();
-    let mut out = Vec::new();
-    dec.feed(bytes, |r| out.push(r.expect("valid")));
-    out
+fn sensor(seq: u16) -> Vec<u8> {
+    vel(seq, 2_000)
 }
 
 fn at_rates(base_rate_hz: u32, yaw_div: u16, traction_div: u16) -> RuntimeConfig {
@@ -69,7 +55,7 @@ fn send<T: SampleBits>(cfg: &Config) -> (Runtime<T>, Flags, Status) {
     rt.receive(&encode_vec(&Message::Config(*cfg)).expect("fits"));
     rt.receive(&sensor(6));
     rt.receive(&encode_vec(&Message::Command(Command::RequestStatus)).expect("fits"));
-    let out = decode(rt.tick(0));
+    let out = frames(rt.tick(0));
     let (Some(Message::Actuation(a)), Some(Message::Status(s))) = (out.first(), out.get(1)) else {
         panic!("{out:?}")
     };

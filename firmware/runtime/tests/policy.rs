@@ -5,36 +5,8 @@ use wheelset_control::Fx;
 use wheelset_proto::*;
 use wheelset_runtime::*;
 
-fn sensor(seq: u16, y_um_s: i32) -> Vec<u8> {
-    encode_vec(&Message::Sensor(Sensor {
-        seq,
-        t_us: seq.wrapping_mul(200),
-        lateral: Lateral::Velocity(y_um_s),
-        i_a_ma: 115_000,
-        omega_m_mrad_s: 925_600,
-        demand_nm: 2_460,
-        v_ref_mm_s: 0,
-    }))
-    .expect("fits")
-    .to_vec()
-}
-
-/// Every message in the bytes a tick returned.
-fn frames(bytes: &[u8]) -> Vec<Message> {
-    let mut dec: Decoder = Decoder::new();
-    let mut out = Vec::new();
-    dec.feed(bytes, |r| {
-        out.push(r.expect("the runtime only sends valid frames"))
-    });
-    out
-}
-
-fn act(bytes: &[u8]) -> Actuation {
-    match frames(bytes).first() {
-        Some(Message::Actuation(a)) => *a,
-        other => panic!("expected an actuation frame, got {other:?}"),
-    }
-}
+mod common;
+use common::{act, frames, vel};
 
 fn rt() -> Runtime<Fx> {
     Runtime::try_new(RuntimeConfig::default()).expect("default config is valid")
@@ -56,7 +28,7 @@ fn no_sample_yet_drives_the_safe_outputs() {
 fn fresh_samples_are_echoed_and_exec_reported() {
     let mut r = rt();
     for k in 1..=50u16 {
-        r.receive(&sensor(k, 500));
+        r.receive(&vel(k, 500));
         let a = act(r.tick(u32::from(k) * 3));
         assert_eq!(a.seq_echo, k);
         assert_eq!(a.tick, k);
@@ -84,7 +56,7 @@ fn hold_then_safe_then_recover() {
     let mut last = None;
     for _ in 0..200 {
         seq += 1;
-        r.receive(&sensor(seq, 5_000));
+        r.receive(&vel(seq, 5_000));
         last = Some(act(r.tick(0)));
     }
     let last = last.expect("ran");
@@ -135,7 +107,7 @@ fn hold_then_safe_then_recover() {
     // Frames return: the safe state is left at once, the voltage restarts from the
     // back-EMF (bumpless) and the torque limit ramps back up.
     seq += 1;
-    r.receive(&sensor(seq, 5_000));
+    r.receive(&vel(seq, 5_000));
     let a = act(r.tick(0));
     assert!(!a.flags.has(Flags::SAFE) && !a.flags.has(Flags::HOLDING));
     assert_eq!(a.seq_echo, seq);
@@ -148,7 +120,7 @@ fn hold_then_safe_then_recover() {
     let mut torque = 0;
     for _ in 0..(0.2 * f64::from(BASE_HZ)) as usize {
         seq += 1;
-        r.receive(&sensor(seq, 5_000));
+        r.receive(&vel(seq, 5_000));
         torque = act(r.tick(0)).t_psi_dnm;
     }
     assert!(
@@ -162,10 +134,10 @@ fn hold_then_safe_then_recover() {
 #[test]
 fn bad_frames_counted_by_kind_and_flagged_once() {
     let mut r = rt();
-    r.receive(&sensor(1, 0));
+    r.receive(&vel(1, 0));
     let _ = r.tick(0);
     // A CRC error: flip a data bit (not into a zero).
-    let mut f = sensor(2, 0);
+    let mut f = vel(2, 0);
     f[5] ^= if f[5] == 0x01 { 0x02 } else { 0x01 };
     r.receive(&f);
     // A COBS error: a code byte pointing past the end.
@@ -174,7 +146,7 @@ fn bad_frames_counted_by_kind_and_flagged_once() {
     r.receive(&[0x11; 300]);
     r.receive(&[0]);
     // Garbage split over calls, then a valid frame in two chunks.
-    let good = sensor(3, 0);
+    let good = vel(3, 0);
     r.receive(&good[..4]);
     r.receive(&good[4..]);
     let a = act(r.tick(0));
@@ -183,7 +155,7 @@ fn bad_frames_counted_by_kind_and_flagged_once() {
     let c = r.counters();
     assert_eq!((c.rx_crc, c.rx_cobs, c.rx_length, c.rx_ok), (1, 1, 1, 2));
     assert_eq!(c.seq_gaps, 1, "2 never arrived");
-    r.receive(&sensor(4, 0));
+    r.receive(&vel(4, 0));
     assert!(!act(r.tick(0)).flags.has(Flags::RX_ERROR));
 }
 
@@ -191,7 +163,7 @@ fn bad_frames_counted_by_kind_and_flagged_once() {
 fn config_and_commands() {
     let mut r = rt();
     for k in 1..=20 {
-        r.receive(&sensor(k, 5_000));
+        r.receive(&vel(k, 5_000));
         let _ = r.tick(0);
     }
     let cfg = Config {
@@ -204,7 +176,7 @@ fn config_and_commands() {
         wsp: false,
     };
     r.receive(&encode_vec(&Message::Config(cfg)).expect("fits"));
-    r.receive(&sensor(21, 5_000));
+    r.receive(&vel(21, 5_000));
     let a = act(r.tick(0));
     assert_eq!(r.hold_ticks(), 3);
     // Passive: no device torque, reached bumpless at the torque slew (40 N m per tick).
@@ -214,7 +186,7 @@ fn config_and_commands() {
     while prev != 0 {
         seq += 1;
         assert!(seq < 100, "the torque does not reach 0: {prev}");
-        r.receive(&sensor(seq, 5_000));
+        r.receive(&vel(seq, 5_000));
         let t = act(r.tick(0)).t_psi_dnm;
         assert!(
             (prev - t).abs() <= 400 && t.abs() < prev.abs(),
@@ -233,7 +205,7 @@ fn config_and_commands() {
     };
     r.receive(&encode_vec(&Message::Config(bad)).expect("fits"));
     seq += 1;
-    r.receive(&sensor(seq, 5_000));
+    r.receive(&vel(seq, 5_000));
     let a = act(r.tick(0));
     assert!(a.flags.has(Flags::CMD_REFUSED));
     assert_eq!(r.counters().cmd_refused, 1);
@@ -250,7 +222,7 @@ fn config_and_commands() {
         .expect("fits"),
     );
     seq += 1;
-    r.receive(&sensor(seq, 5_000));
+    r.receive(&vel(seq, 5_000));
     let a = act(r.tick(0));
     assert!(!a.flags.has(Flags::ENABLED));
     assert_eq!(a.t_psi_dnm, 0);
@@ -284,7 +256,7 @@ fn f32_and_fixed_builds_agree() {
     let mut b: Runtime<f32> = Runtime::try_new(RuntimeConfig::default()).expect("valid");
     for k in 1..=500u16 {
         let y = (f64::from(k) * 0.05).sin() * 3_000.0;
-        let f = sensor(k, y as i32);
+        let f = vel(k, y as i32);
         a.receive(&f);
         b.receive(&f);
         let (x, z) = (act(a.tick(0)), act(b.tick(0)));
@@ -304,7 +276,7 @@ proptest! {
         for (k, ch) in chunks.iter().enumerate() {
             r.receive(ch);
             if k % 3 == 0 {
-                r.receive(&sensor(k as u16, (k as i32 - 20) * 10_000));
+                r.receive(&vel(k as u16, (k as i32 - 20) * 10_000));
             }
             let out = frames(r.tick(k as u32));
             prop_assert!(matches!(out.first(), Some(Message::Actuation(_))));
@@ -349,7 +321,7 @@ fn acceleration_frames_are_integrated_with_washout() {
         "{last} vs {expect}"
     );
     // A velocity frame re-seeds the estimate.
-    r.receive(&sensor(ticks + 1, 2_000));
+    r.receive(&vel(ticks + 1, 2_000));
     let t = act(r.tick(0)).t_psi_dnm;
     assert!((f64::from(t) - 1.05 * 2_000.0).abs() < 5.0, "{t}");
     assert_eq!(r.counters().rx_unexpected, 0);
@@ -404,11 +376,11 @@ fn at_rates(base_rate_hz: u32, yaw_divisor: u16, traction_divisor: u16) -> Runti
 #[test]
 fn a_valid_rate_change_rebuilds_the_core() {
     let mut r = rt();
-    r.receive(&sensor(1, 1_000));
+    r.receive(&vel(1, 1_000));
     let before = act(r.tick(0));
     let host = at_rates(10_000, 2, 1);
     r.receive(&encode_vec(&Message::Config(rate_change::<Fx>(&host))).expect("fits"));
-    r.receive(&sensor(2, 1_000));
+    r.receive(&vel(2, 1_000));
     let a = act(r.tick(0));
     assert!(!a.flags.has(Flags::CMD_REFUSED));
     assert_eq!((r.base_rate_hz(), r.hold_ticks()), (10_000, 20));
@@ -447,7 +419,7 @@ fn a_valid_rate_change_rebuilds_the_core() {
     // (The rebuilt core continues from the old core's torque and slews to its own
     // output at 40 N m per tick; the fresh one starts from 0: the same once caught up.)
     for k in 3..200u16 {
-        let f = sensor(k, 3_000);
+        let f = vel(k, 3_000);
         r.receive(&f);
         fresh.receive(&f);
         let (x, y) = (act(r.tick(0)), act(fresh.tick(0)));
@@ -509,14 +481,14 @@ fn rates_for_another_controller_or_out_of_range_are_refused() {
     ];
     for (why, rates) in bad {
         let mut r = rt();
-        r.receive(&sensor(1, 1_000));
+        r.receive(&vel(1, 1_000));
         let _ = r.tick(0);
         let c = Config {
             rates: Some(rates),
             ..rate_change::<Fx>(&RuntimeConfig::default())
         };
         r.receive(&encode_vec(&Message::Config(c)).expect("fits"));
-        r.receive(&sensor(2, 1_000));
+        r.receive(&vel(2, 1_000));
         let a = act(r.tick(0));
         assert!(a.flags.has(Flags::CMD_REFUSED), "{why}");
         assert_eq!(r.counters().cmd_refused, 1, "{why}");
@@ -530,7 +502,7 @@ fn rates_for_another_controller_or_out_of_range_are_refused() {
         ..rate_change::<f32>(&RuntimeConfig::default())
     };
     r.receive(&encode_vec(&Message::Config(c)).expect("fits"));
-    r.receive(&sensor(1, 1_000));
+    r.receive(&vel(1, 1_000));
     assert!(!act(r.tick(0)).flags.has(Flags::CMD_REFUSED));
     assert_eq!(r.base_rate_hz(), 10_000);
     // The host reference type has no 32-bit wire form.

@@ -6,32 +6,15 @@ use wheelset_control::Fx;
 use wheelset_proto::*;
 use wheelset_runtime::*;
 
+mod common;
+use common::{act, frames, sample, sensor_frame};
+
 fn sensor(seq: u16, y_um_s: i32, omega_mrad_s: i32, v_ref_mm_s: i32) -> Vec<u8> {
-    encode_vec(&Message::Sensor(Sensor {
-        seq,
-        t_us: seq.wrapping_mul(200),
-        lateral: Lateral::Velocity(y_um_s),
-        i_a_ma: 115_000,
+    sensor_frame(Sensor {
         omega_m_mrad_s: omega_mrad_s,
-        demand_nm: 2_460,
         v_ref_mm_s,
-    }))
-    .expect("fits")
-    .to_vec()
-}
-
-fn frames(bytes: &[u8]) -> Vec<Message> {
-    let mut dec: Decoder = Decoder::new();
-    let mut out = Vec::new();
-    dec.feed(bytes, |r| out.push(r.expect("valid")));
-    out
-}
-
-fn act(bytes: &[u8]) -> Actuation {
-    match frames(bytes).first() {
-        Some(Message::Actuation(a)) => *a,
-        other => panic!("expected an actuation frame, got {other:?}"),
-    }
+        ..sample(seq, Lateral::Velocity(y_um_s))
+    })
 }
 
 fn config(mode: YawMode, wsp: bool, monitor_safe: bool, hold_ticks: u16) -> Vec<u8> {
