@@ -78,7 +78,9 @@ const M3_TARGET: &str = "thumbv7m-none-eabi";
 /// version 2 (the reference speed, 16-bit flags, the Status's board, supervision and boot
 /// fields: issues 11, 12, 14, 20) took the Nucleo build to 25 048 B without the monitor
 /// and the wheel-slip protection, so the enforced limit is 25 KiB until the hot-path work
-/// wins the difference back; the target is printed beside it.
+/// wins the difference back; the target is printed beside it. With the panic-free pipe
+/// (firmware/app/src/ring.rs) the Nucleo build carries the monitor and the WSP in
+/// 25 108 B.
 const FLASH_BUDGET: u64 = 25 * 1024;
 /// Issue 13's flash target, bytes: printed (the overrun stated), not enforced.
 const FLASH_TARGET: u64 = 24 * 1024;

@@ -7,19 +7,82 @@
 //!                                         (Ticker, base rate, highest executor)
 //! ```
 
+use core::future::poll_fn;
+use core::task::Poll;
+
 use embassy_executor::{SpawnError, SpawnToken};
-use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
-use embassy_sync::pipe::Pipe;
+use embassy_sync::waitqueue::AtomicWaker;
 use embassy_time::{Duration, Instant, Ticker};
 
 use crate::config::{RX_PIPE, TX_PIPE};
 use crate::device::{new_runtime, Device, FwRuntime};
+use crate::ring::{ByteRing, Empty};
 use crate::tick::{period_ticks, TickMonitor, TickWake};
 
 /// Bytes from the UART receiver to the control task.
-pub static RX: Pipe<CriticalSectionRawMutex, RX_PIPE> = Pipe::new();
+pub static RX: Pipe<RX_PIPE> = Pipe::new();
 /// Encoded frames from the control task to the UART transmitter.
-pub static TX: Pipe<CriticalSectionRawMutex, TX_PIPE> = Pipe::new();
+pub static TX: Pipe<TX_PIPE> = Pipe::new();
+
+/// A byte pipe between one producer and one consumer: the panic-free [`ByteRing`] and
+/// the consumer's waker (instead of `embassy_sync::pipe::Pipe`, whose panic paths link
+/// `core::fmt`; see [`crate::ring`]).
+pub struct Pipe<const N: usize> {
+    ring: ByteRing<N>,
+    reader: AtomicWaker,
+}
+
+impl<const N: usize> Default for Pipe<N> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const N: usize> Pipe<N> {
+    /// An empty pipe.
+    pub const fn new() -> Self {
+        Self {
+            ring: ByteRing::new(),
+            reader: AtomicWaker::new(),
+        }
+    }
+
+    /// Writes as much of `data` as fits ([`ByteRing::try_write`]) and wakes the reader.
+    pub fn try_write(&self, data: &[u8]) -> Result<usize, Empty> {
+        let r = self.ring.try_write(data);
+        if r.is_ok() {
+            self.reader.wake();
+        }
+        r
+    }
+
+    /// Reads what is held, up to `out.len()` ([`ByteRing::try_read`]).
+    pub fn try_read(&self, out: &mut [u8]) -> Result<usize, Empty> {
+        self.ring.try_read(out)
+    }
+
+    /// Room for this many more bytes.
+    pub fn free_capacity(&self) -> usize {
+        self.ring.free_capacity()
+    }
+
+    /// Waits until at least one byte is held, then reads up to `out.len()` (0 only for
+    /// an empty `out`).
+    pub async fn read(&self, out: &mut [u8]) -> usize {
+        if out.is_empty() {
+            return 0;
+        }
+        poll_fn(|cx| {
+            // Register first: a write after the check below wakes this task.
+            self.reader.register(cx.waker());
+            match self.ring.try_read(out) {
+                Ok(n) => Poll::Ready(n),
+                Err(Empty) => Poll::Pending,
+            }
+        })
+        .await
+    }
+}
 
 /// The execution-time counter of a board.
 pub trait Stopwatch {

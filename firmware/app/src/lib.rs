@@ -17,6 +17,8 @@
 pub mod config;
 pub mod device;
 pub mod exec;
+#[allow(unsafe_code)]
+pub mod ring;
 pub mod tick;
 
 #[cfg(all(target_os = "none", feature = "board-nucleo", feature = "board-qemu"))]

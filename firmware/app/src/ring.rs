@@ -1,0 +1,159 @@
+//! A single-producer single-consumer byte ring that cannot panic.
+//!
+//! It replaces `embassy_sync::pipe::Pipe` between the UART and the control task: the
+//! pipe's `RefCell`, slice indexing and `copy_from_slice` carry panic paths whose
+//! messages format a `usize` (`core::fmt`), and its two copy loops plus the checks cost
+//! about 570 B of Nucleo flash (`arm-none-eabi-nm --size-sort`); this ring is two
+//! counters and a byte loop, and it has no panic path at all.
+//!
+//! `head` counts the bytes ever written, `tail` the bytes ever read (both wrap at
+//! `usize::MAX + 1`); the bytes held are `head - tail` (wrapping), at most `N`. Byte `k`
+//! of the stream lives at `buf[k % N]`. Only the producer stores `head`, only the
+//! consumer stores `tail`: a Release store after the bytes are written (read) and an
+//! Acquire load on the other side order the byte accesses, so an interrupt handler may
+//! produce while a task consumes (or the other way round) without a lock.
+
+use core::cell::UnsafeCell;
+use core::sync::atomic::{AtomicUsize, Ordering};
+
+/// The ring had no room (a write) or no byte (a read) at all.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Empty;
+
+/// A byte ring of `N` bytes for one producer and one consumer (see the module).
+pub struct ByteRing<const N: usize> {
+    buf: UnsafeCell<[u8; N]>,
+    head: AtomicUsize,
+    tail: AtomicUsize,
+}
+
+// SAFETY: the producer writes only bytes outside `[tail, head)` and publishes them with
+// the Release store of `head`; the consumer reads only bytes inside `[tail, head)` and
+// frees them with the Release store of `tail`. With one producer and one consumer (the
+// contract of `try_write` / `try_read`) no byte is accessed by both at once.
+#[allow(unsafe_code)]
+unsafe impl<const N: usize> Sync for ByteRing<N> {}
+
+impl<const N: usize> Default for ByteRing<N> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const N: usize> ByteRing<N> {
+    /// An empty ring.
+    pub const fn new() -> Self {
+        Self {
+            buf: UnsafeCell::new([0; N]),
+            head: AtomicUsize::new(0),
+            tail: AtomicUsize::new(0),
+        }
+    }
+
+    /// Bytes held now.
+    pub fn len(&self) -> usize {
+        let head = self.head.load(Ordering::Acquire);
+        head.wrapping_sub(self.tail.load(Ordering::Acquire))
+    }
+
+    /// No byte held?
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Room for this many more bytes (`N - len`).
+    pub fn free_capacity(&self) -> usize {
+        N.saturating_sub(self.len())
+    }
+
+    /// Copies as much of `data` as fits (across the end of the buffer); returns the
+    /// bytes taken, or [`Empty`] if there was no room at all (or `data` is empty). Only
+    /// one producer may call it.
+    pub fn try_write(&self, data: &[u8]) -> Result<usize, Empty> {
+        let head = self.head.load(Ordering::Relaxed);
+        let tail = self.tail.load(Ordering::Acquire);
+        let free = N.saturating_sub(head.wrapping_sub(tail));
+        let n = free.min(data.len());
+        if n == 0 {
+            return Err(Empty);
+        }
+        let base = self.buf.get().cast::<u8>();
+        for (k, &b) in data.iter().take(n).enumerate() {
+            // `% N` keeps the index inside the buffer (N > 0: `n` is 0 otherwise).
+            let at = head.wrapping_add(k) % N;
+            // SAFETY: `at < N` is inside the array; the byte is free (outside
+            // `[tail, head)`), so the consumer does not read it until `head` is stored.
+            #[allow(unsafe_code)]
+            unsafe {
+                base.add(at).write(b)
+            };
+        }
+        self.head.store(head.wrapping_add(n), Ordering::Release);
+        Ok(n)
+    }
+
+    /// Moves as many bytes as are held and fit into `out`; returns the count, or
+    /// [`Empty`] if none was held (or `out` is empty). Only one consumer may call it.
+    pub fn try_read(&self, out: &mut [u8]) -> Result<usize, Empty> {
+        let tail = self.tail.load(Ordering::Relaxed);
+        let head = self.head.load(Ordering::Acquire);
+        let n = head.wrapping_sub(tail).min(out.len());
+        if n == 0 {
+            return Err(Empty);
+        }
+        let base = self.buf.get().cast::<u8>();
+        for (k, o) in out.iter_mut().take(n).enumerate() {
+            let at = tail.wrapping_add(k) % N;
+            // SAFETY: `at < N` is inside the array; the byte is held (inside
+            // `[tail, head)`, published by the producer's Release store of `head`).
+            #[allow(unsafe_code)]
+            let b = unsafe { base.add(at).read() };
+            *o = b;
+        }
+        self.tail.store(tail.wrapping_add(n), Ordering::Release);
+        Ok(n)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bytes_come_out_in_order_across_the_end_and_full_empty_are_reported() {
+        let r = ByteRing::<8>::new();
+        let mut out = [0u8; 8];
+        assert_eq!(r.try_read(&mut out), Err(Empty));
+        assert_eq!(r.try_write(&[1, 2, 3, 4, 5, 6]), Ok(6));
+        assert_eq!(r.try_read(&mut out[..4]), Ok(4));
+        assert_eq!(out[..4], [1, 2, 3, 4]);
+        // 2 held, 6 free: the write wraps past the end of the buffer and stops when full.
+        assert_eq!(r.free_capacity(), 6);
+        assert_eq!(r.try_write(&[7, 8, 9, 10, 11, 12, 13]), Ok(6));
+        assert_eq!(r.try_write(&[14]), Err(Empty));
+        assert_eq!(r.len(), 8);
+        assert_eq!(r.try_read(&mut out), Ok(8));
+        assert_eq!(out, [5, 6, 7, 8, 9, 10, 11, 12]);
+        assert!(r.is_empty());
+        assert_eq!(r.try_write(&[]), Err(Empty));
+    }
+
+    #[test]
+    fn a_long_stream_through_a_small_ring_arrives_whole() {
+        // Counters far beyond N (and the stream's bytes) check the modular indexing.
+        let r = ByteRing::<5>::new();
+        let stream: Vec<u8> = (0..1000u32).map(|k| (k * 7 % 251) as u8).collect();
+        let (mut sent, mut got) = (0, Vec::new());
+        let mut chunk = [0u8; 3];
+        while got.len() < stream.len() {
+            if let Ok(n) = r.try_write(&stream[sent..(sent + 4).min(stream.len())]) {
+                sent += n;
+            }
+            if let Ok(n) = r.try_read(&mut chunk) {
+                got.extend_from_slice(&chunk[..n]);
+            }
+            assert!(r.len() <= 5);
+        }
+        assert_eq!(got, stream);
+    }
+}
