@@ -43,11 +43,18 @@ use std::time::{Duration, Instant};
 use serde::Serialize;
 use serialport::{SerialPort, TTYPort};
 use sim_host::link::wire_ns;
-use wheelset_proto::{encode_vec, Command, Config, Decoder, Flags, Message, Status};
+use wheelset_proto::{Command, Decoder, Message, Status};
 
 use crate::rt_os::{self, Obtained, Want};
+
+mod prepare;
+mod queue;
+#[cfg(test)]
+mod tests;
+
 use crate::timing::Stats;
 use crate::transport::{Clock, Transport, TransportError};
+pub use queue::{flush_queue, queue_frame};
 
 /// Device frames over which the tick phase is measured before the run.
 pub const PHASE_FRAMES: usize = 32;
@@ -356,144 +363,6 @@ impl RealTime {
             .map_err(|e| io_err(&self.path, &e))
     }
 
-    /// Reads until a Status frame arrives after this call (at most `timeout`).
-    fn await_status(&mut self, what: &str) -> Result<Status, TransportError> {
-        self.last_status = None;
-        let give_up = Instant::now() + self.o.timeout;
-        while Instant::now() < give_up {
-            let d = Instant::now() + self.period();
-            self.wait_until(d)?;
-            if let Some(s) = self.last_status.take() {
-                return Ok(s);
-            }
-        }
-        Err(TransportError::Timeout(format!(
-            "serial:{}: no Status frame within {:?} after {what}",
-            self.path, self.o.timeout
-        )))
-    }
-
-    /// The start-up sequence (see the module docs): configures the device with `cfg`,
-    /// takes the baseline counters and locks the schedule to the device's tick phase.
-    pub fn prepare(&mut self, cfg: &Config) -> Result<(), TransportError> {
-        let t = self.o.period_ns;
-        // 1. Is anybody there, ticking on its own?
-        let listen = Instant::now() + Duration::from_nanos((4 * t).max(20_000_000));
-        self.wait_until(listen)?;
-        if self.sync.pre_run == 0 {
-            let give_up = Instant::now() + self.o.timeout;
-            while self.sync.pre_run == 0 && Instant::now() < give_up {
-                let d = Instant::now() + self.period();
-                self.wait_until(d)?;
-            }
-            if self.sync.pre_run == 0 {
-                return Err(TransportError::Timeout(format!(
-                    "serial:{}: the device sent nothing in {:?}: a free-running device \
-                     answers every tick (a frame-clocked one needs --pace lockstep)",
-                    self.path, self.o.timeout
-                )));
-            }
-        }
-        // 2. The run's configuration, checked.
-        let mut out = Vec::new();
-        for m in [
-            Message::Config(*cfg),
-            Message::Command(Command::RequestStatus),
-        ] {
-            let f = encode_vec(&m).map_err(|e| {
-                TransportError::Io(format!("cannot encode the start-up frames: {e:?}"))
-            })?;
-            out.extend_from_slice(&f);
-        }
-        self.write(&out)?;
-        let s = self.await_status("the Config frame")?;
-        if s.flags.has(Flags::CMD_REFUSED) {
-            return Err(TransportError::Unavailable(format!(
-                "serial:{}: the device refused the run's configuration (Status cmd_refused \
-                 {}): another sample type or control core than this harness's fixed-point \
-                 default, or a rate its link cannot carry",
-                self.path, s.cmd_refused
-            )));
-        }
-        // Let a re-armed ticker settle, then 3. the baseline.
-        let settle = Instant::now() + Duration::from_nanos(3 * t);
-        self.wait_until(settle)?;
-        let f = encode_vec(&Message::Command(Command::RequestStatus))
-            .map_err(|e| TransportError::Io(format!("cannot encode a status request: {e:?}")))?;
-        self.write(&f)?;
-        let b = self.await_status("the baseline status request")?;
-        self.baseline = Some(b);
-        // 4. The device's phase and period.
-        self.seen.clear();
-        let give_up = Instant::now() + self.o.timeout;
-        while self.seen.len() < PHASE_FRAMES && Instant::now() < give_up {
-            let d = Instant::now() + self.period();
-            self.wait_until(d)?;
-        }
-        let seen = std::mem::take(&mut self.seen);
-        if seen.len() < PHASE_FRAMES {
-            return Err(TransportError::Timeout(format!(
-                "serial:{}: {} of {PHASE_FRAMES} Actuation frames within {:?} after the \
-                 baseline: the device does not answer every tick",
-                self.path,
-                seen.len(),
-                self.o.timeout
-            )));
-        }
-        let tf = t as f64;
-        let outs: Vec<f64> = seen
-            .iter()
-            .map(|&(at, n, _, _)| at as f64 - wire_ns(n, self.o.baud) as f64)
-            .collect();
-        // The period: the median spacing per device tick (robust to a skipped tick).
-        let mut spacing: Vec<f64> = seen
-            .windows(2)
-            .zip(outs.windows(2))
-            .filter_map(|(s, o)| {
-                let dj = s[1].2.wrapping_sub(s[0].2);
-                (dj > 0).then(|| (o[1] - o[0]) / f64::from(dj))
-            })
-            .collect();
-        spacing.sort_by(f64::total_cmp);
-        let measured = spacing.get(spacing.len() / 2).copied().unwrap_or(0.0);
-        self.sync.device_period_ns = measured;
-        if (measured - tf).abs() > 0.1 * tf {
-            return Err(TransportError::Unavailable(format!(
-                "serial:{}: the device ticks every {:.1} us, not every {:.1} us of the run's \
-                 rate: it did not take the rate (--rate-hz) or cannot hold it",
-                self.path,
-                measured * 1e-3,
-                tf * 1e-3
-            )));
-        }
-        // The phase of its output instants: the lower decile of the residuals modulo T.
-        let first = outs.first().copied().unwrap_or(0.0);
-        let mut res: Vec<f64> = outs.iter().map(|&o| wrap(o - first, tf)).collect();
-        let phase = first + lower_decile(&mut res);
-        // Its tick: the output instant less the median reported execution time.
-        let mut execs: Vec<f64> = seen
-            .iter()
-            .map(|s| f64::from(s.3) * 1e9 / self.o.cpu_hz)
-            .collect();
-        execs.sort_by(f64::total_cmp);
-        let exec_ns = execs.get(execs.len() / 2).copied().unwrap_or(0.0);
-        // The next device tick at least two periods from now, and the first send half
-        // a period before it.
-        let now = self.at_ns(Instant::now()) as f64;
-        let mut tick_at = phase - exec_ns;
-        let k = ((now + 2.0 * tf - tick_at) / tf).ceil().max(0.0);
-        tick_at += k * tf;
-        self.sync.lead_ns = t / 2;
-        let first = (tick_at - (t / 2) as f64).max(now) as u64;
-        // The device's output phase on the run's clock (origin = `first`).
-        self.phase_ref_ns = wrap(phase - first as f64, tf);
-        self.origin += Duration::from_nanos(first);
-        // Everything read so far was re-stamped against the old origin: it is pre-run
-        // and nothing of it is pending.
-        self.pending.clear();
-        Ok(())
-    }
-
     fn host_report(&self) -> HostDeadlines {
         let periods = self.send_late.len() as u64;
         HostDeadlines {
@@ -652,100 +521,4 @@ fn wrap(x: f64, t: f64) -> f64 {
 fn lower_decile(v: &mut [f64]) -> f64 {
     v.sort_by(f64::total_cmp);
     v.get(v.len() / 10).copied().unwrap_or(0.0)
-}
-
-/// Writes `bytes` to `port` without waiting: what does not fit now is kept in `queue`
-/// (at most `cap` bytes; a frame that does not fit whole is dropped, returns false).
-pub fn queue_frame(queue: &mut VecDeque<u8>, cap: usize, bytes: &[u8]) -> bool {
-    if queue.len() + bytes.len() > cap {
-        return false;
-    }
-    queue.extend(bytes);
-    true
-}
-
-/// Writes as much of `queue` as `port` takes now.
-pub fn flush_queue<W: Write + ?Sized>(port: &mut W, queue: &mut VecDeque<u8>) -> io::Result<()> {
-    while !queue.is_empty() {
-        let (a, _) = queue.as_slices();
-        match port.write(a) {
-            Ok(0) => return Ok(()),
-            Ok(n) => {
-                queue.drain(..n);
-            }
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    io::ErrorKind::TimedOut
-                        | io::ErrorKind::WouldBlock
-                        | io::ErrorKind::Interrupted
-                ) =>
-            {
-                return Ok(())
-            }
-            Err(e) => return Err(e),
-        }
-    }
-    Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_counters_are_taken_relative_to_the_baseline() {
-        let baseline = Status {
-            ticks: 1_000,
-            rx_ok: 7,
-            rx_crc: 2,
-            ..Status::default()
-        };
-        let start = RunStart {
-            baseline,
-            ticks_before_run: 3,
-            pre_run: 1_200,
-        };
-        let end = Status {
-            ticks: 3_003,
-            rx_ok: 2_008,
-            rx_crc: 2,
-            safe_ticks: 9,
-            ..Status::default()
-        };
-        let r = start.relative(&end);
-        assert_eq!((r.ticks, r.rx_ok, r.rx_crc), (2_000, 2_001, 0));
-        // Fields the accounting does not read stay as the device sent them.
-        assert_eq!(r.safe_ticks, 9);
-        // Counters wrap at 2^32.
-        let wrapped = RunStart {
-            baseline: Status {
-                ticks: u32::MAX,
-                ..Status::default()
-            },
-            ticks_before_run: 0,
-            pre_run: 0,
-        };
-        assert_eq!(
-            wrapped
-                .relative(&Status {
-                    ticks: 4,
-                    ..Status::default()
-                })
-                .ticks,
-            5
-        );
-    }
-
-    #[test]
-    fn a_frame_that_does_not_fit_the_queue_is_dropped_whole() {
-        let mut q = VecDeque::new();
-        assert!(queue_frame(&mut q, 8, &[1, 2, 3, 0]));
-        assert!(!queue_frame(&mut q, 8, &[1, 2, 3, 4, 0]));
-        assert_eq!(q.len(), 4);
-        let mut out = Vec::new();
-        flush_queue(&mut out, &mut q).unwrap_or_default();
-        assert_eq!(out, vec![1, 2, 3, 0]);
-        assert!(q.is_empty());
-    }
 }

@@ -1,0 +1,152 @@
+//! [`RealTime::prepare`]: the start of a run against a free-running device (listen,
+//! configure, take the baseline, measure the tick phase and period; the module docs of
+//! [`super`]).
+
+use std::time::{Duration, Instant};
+
+use sim_host::link::wire_ns;
+use wheelset_proto::{encode_vec, Command, Config, Flags, Message, Status};
+
+use crate::transport::TransportError;
+
+use super::{lower_decile, wrap, RealTime, PHASE_FRAMES};
+
+impl RealTime {
+    /// Reads until a Status frame arrives after this call (at most `timeout`).
+    fn await_status(&mut self, what: &str) -> Result<Status, TransportError> {
+        self.last_status = None;
+        let give_up = Instant::now() + self.o.timeout;
+        while Instant::now() < give_up {
+            let d = Instant::now() + self.period();
+            self.wait_until(d)?;
+            if let Some(s) = self.last_status.take() {
+                return Ok(s);
+            }
+        }
+        Err(TransportError::Timeout(format!(
+            "serial:{}: no Status frame within {:?} after {what}",
+            self.path, self.o.timeout
+        )))
+    }
+
+    /// The start-up sequence (see the module docs): configures the device with `cfg`,
+    /// takes the baseline counters and locks the schedule to the device's tick phase.
+    pub fn prepare(&mut self, cfg: &Config) -> Result<(), TransportError> {
+        let t = self.o.period_ns;
+        // 1. Is anybody there, ticking on its own?
+        let listen = Instant::now() + Duration::from_nanos((4 * t).max(20_000_000));
+        self.wait_until(listen)?;
+        if self.sync.pre_run == 0 {
+            let give_up = Instant::now() + self.o.timeout;
+            while self.sync.pre_run == 0 && Instant::now() < give_up {
+                let d = Instant::now() + self.period();
+                self.wait_until(d)?;
+            }
+            if self.sync.pre_run == 0 {
+                return Err(TransportError::Timeout(format!(
+                    "serial:{}: the device sent nothing in {:?}: a free-running device \
+                     answers every tick (a frame-clocked one needs --pace lockstep)",
+                    self.path, self.o.timeout
+                )));
+            }
+        }
+        // 2. The run's configuration, checked.
+        let mut out = Vec::new();
+        for m in [
+            Message::Config(*cfg),
+            Message::Command(Command::RequestStatus),
+        ] {
+            let f = encode_vec(&m).map_err(|e| {
+                TransportError::Io(format!("cannot encode the start-up frames: {e:?}"))
+            })?;
+            out.extend_from_slice(&f);
+        }
+        self.write(&out)?;
+        let s = self.await_status("the Config frame")?;
+        if s.flags.has(Flags::CMD_REFUSED) {
+            return Err(TransportError::Unavailable(format!(
+                "serial:{}: the device refused the run's configuration (Status cmd_refused \
+                 {}): another sample type or control core than this harness's fixed-point \
+                 default, or a rate its link cannot carry",
+                self.path, s.cmd_refused
+            )));
+        }
+        // Let a re-armed ticker settle, then 3. the baseline.
+        let settle = Instant::now() + Duration::from_nanos(3 * t);
+        self.wait_until(settle)?;
+        let f = encode_vec(&Message::Command(Command::RequestStatus))
+            .map_err(|e| TransportError::Io(format!("cannot encode a status request: {e:?}")))?;
+        self.write(&f)?;
+        let b = self.await_status("the baseline status request")?;
+        self.baseline = Some(b);
+        // 4. The device's phase and period.
+        self.seen.clear();
+        let give_up = Instant::now() + self.o.timeout;
+        while self.seen.len() < PHASE_FRAMES && Instant::now() < give_up {
+            let d = Instant::now() + self.period();
+            self.wait_until(d)?;
+        }
+        let seen = std::mem::take(&mut self.seen);
+        if seen.len() < PHASE_FRAMES {
+            return Err(TransportError::Timeout(format!(
+                "serial:{}: {} of {PHASE_FRAMES} Actuation frames within {:?} after the \
+                 baseline: the device does not answer every tick",
+                self.path,
+                seen.len(),
+                self.o.timeout
+            )));
+        }
+        let tf = t as f64;
+        let outs: Vec<f64> = seen
+            .iter()
+            .map(|&(at, n, _, _)| at as f64 - wire_ns(n, self.o.baud) as f64)
+            .collect();
+        // The period: the median spacing per device tick (robust to a skipped tick).
+        let mut spacing: Vec<f64> = seen
+            .windows(2)
+            .zip(outs.windows(2))
+            .filter_map(|(s, o)| {
+                let dj = s[1].2.wrapping_sub(s[0].2);
+                (dj > 0).then(|| (o[1] - o[0]) / f64::from(dj))
+            })
+            .collect();
+        spacing.sort_by(f64::total_cmp);
+        let measured = spacing.get(spacing.len() / 2).copied().unwrap_or(0.0);
+        self.sync.device_period_ns = measured;
+        if (measured - tf).abs() > 0.1 * tf {
+            return Err(TransportError::Unavailable(format!(
+                "serial:{}: the device ticks every {:.1} us, not every {:.1} us of the run's \
+                 rate: it did not take the rate (--rate-hz) or cannot hold it",
+                self.path,
+                measured * 1e-3,
+                tf * 1e-3
+            )));
+        }
+        // The phase of its output instants: the lower decile of the residuals modulo T.
+        let first = outs.first().copied().unwrap_or(0.0);
+        let mut res: Vec<f64> = outs.iter().map(|&o| wrap(o - first, tf)).collect();
+        let phase = first + lower_decile(&mut res);
+        // Its tick: the output instant less the median reported execution time.
+        let mut execs: Vec<f64> = seen
+            .iter()
+            .map(|s| f64::from(s.3) * 1e9 / self.o.cpu_hz)
+            .collect();
+        execs.sort_by(f64::total_cmp);
+        let exec_ns = execs.get(execs.len() / 2).copied().unwrap_or(0.0);
+        // The next device tick at least two periods from now, and the first send half
+        // a period before it.
+        let now = self.at_ns(Instant::now()) as f64;
+        let mut tick_at = phase - exec_ns;
+        let k = ((now + 2.0 * tf - tick_at) / tf).ceil().max(0.0);
+        tick_at += k * tf;
+        self.sync.lead_ns = t / 2;
+        let first = (tick_at - (t / 2) as f64).max(now) as u64;
+        // The device's output phase on the run's clock (origin = `first`).
+        self.phase_ref_ns = wrap(phase - first as f64, tf);
+        self.origin += Duration::from_nanos(first);
+        // Everything read so far was re-stamped against the old origin: it is pre-run
+        // and nothing of it is pending.
+        self.pending.clear();
+        Ok(())
+    }
+}
