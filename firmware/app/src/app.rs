@@ -9,6 +9,7 @@
 
 use core::future::poll_fn;
 use core::task::Poll;
+use core::sync::atomic::{AtomicU32, Ordering};
 
 use embassy_executor::{SpawnError, SpawnToken};
 use embassy_sync::waitqueue::AtomicWaker;
@@ -84,6 +85,11 @@ impl<const N: usize> Pipe<N> {
     }
 }
 
+/// Bytes the board's receive path lost since the control task last looked (the RX pipe
+/// was full, or the UART reported an overrun: one per error event on the Nucleo), for
+/// the Status `rx_overrun`.
+pub static RX_OVERRUN: AtomicU32 = AtomicU32::new(0);
+
 /// The execution-time counter of a board.
 pub trait Stopwatch {
     /// Starts a measurement; returns the raw start reading.
@@ -101,6 +107,9 @@ pub fn new_device() -> FwRuntime {
         Ok(mut rt) => {
             // A Config may not set a rate the board's link cannot carry.
             rt.set_link_limit(crate::board::LINK_MAX_RATE_HZ);
+            // The boot record the board read at start-up (crate::boot).
+            let (count, cause) = crate::boot::this_boot();
+            rt.set_boot(count, cause);
             rt
         }
         Err(_) => {
@@ -131,8 +140,19 @@ fn new_ticker(period: u64) -> (Ticker, u64) {
     (t, start.as_ticks().saturating_add(period))
 }
 
-/// One tick's work, from the wake-up at stopwatch reading `t0`: feed the bytes received
-/// since the last tick to the device, run its tick with the previous tick's execution
+/// The board's counters not yet handed to the device: ticks late and deadlines skipped
+/// (the tick monitor's classification of each wake-up) and frames the TX pipe had no
+/// room for.
+#[derive(Default)]
+struct BoardNote {
+    late: u32,
+    missed: u32,
+    tx_dropped: u32,
+}
+
+/// One tick's work, from the wake-up at stopwatch reading `t0`: hand the board's
+/// counters to the device (`note_board`, with the bytes lost on receive from
+/// [`RX_OVERRUN`]), feed the bytes received since the last tick to the device, run its tick with the previous tick's execution
 /// time, and queue the encoded frame for the transmitter (whole or not at all: a frame
 /// that does not fit is dropped and counted in `tx_dropped`). Returns this tick's
 /// execution time (drain + decode + control + encode).
@@ -142,8 +162,15 @@ fn exchange(
     stopwatch: &mut impl Stopwatch,
     t0: u32,
     last_exec: u32,
-    tx_dropped: &mut u32,
+    note: &mut BoardNote,
 ) -> u32 {
+    let taken = core::mem::take(note);
+    device.note_board(
+        taken.late,
+        taken.missed,
+        RX_OVERRUN.swap(0, Ordering::Relaxed),
+        taken.tx_dropped,
+    );
     let mut chunk = [0u8; 32];
     // Bounded: the pipe holds at most RX_PIPE bytes.
     for _ in 0..RX_PIPE / chunk.len() + 1 {
@@ -167,8 +194,8 @@ fn exchange(
                 rest = rest.get(n..).unwrap_or(&[]);
             }
         } else {
-            *tx_dropped = tx_dropped.wrapping_add(1);
-            defmt::warn!("TX pipe full: frame dropped ({=u32})", *tx_dropped);
+            note.tx_dropped = note.tx_dropped.wrapping_add(1);
+            defmt::warn!("TX pipe full: frame dropped");
         }
     }
     exec
@@ -199,22 +226,27 @@ pub async fn control_loop(mut device: impl Device, mut stopwatch: impl Stopwatch
     };
     defmt::info!("control task: {=u32} Hz, period {=u64} us", rate, period);
     let mut last_exec = 0u32;
-    let mut tx_dropped = 0u32;
+    let mut note = BoardNote::default();
     loop {
         ticker.next().await;
         let t0 = stopwatch.start();
         match monitor.on_wake(Instant::now().as_ticks()) {
             TickWake::OnTime => {}
-            TickWake::Late { lateness } => defmt::warn!("late tick: {=u64} us", lateness),
+            TickWake::Late { lateness } => {
+                note.late = note.late.wrapping_add(1);
+                defmt::warn!("late tick: {=u64} us", lateness)
+            }
             TickWake::Skipped {
                 missed,
                 next_deadline,
             } => {
                 ticker.reset_at(Instant::from_ticks(next_deadline.saturating_sub(period)));
+                note.late = note.late.wrapping_add(1);
+                note.missed = note.missed.wrapping_add(missed);
                 defmt::warn!("stalled: skipped {=u32} ticks", missed);
             }
         }
-        last_exec = exchange(&mut device, &mut stopwatch, t0, last_exec, &mut tx_dropped);
+        last_exec = exchange(&mut device, &mut stopwatch, t0, last_exec, &mut note);
         // A Config frame from the host may have changed the base rate.
         let now_rate = device.base_rate_hz();
         if now_rate != rate {
@@ -249,11 +281,11 @@ pub async fn frame_loop(mut device: impl Device, mut stopwatch: impl Stopwatch) 
         device.base_rate_hz()
     );
     let mut last_exec = 0u32;
-    let mut tx_dropped = 0u32;
+    let mut note = BoardNote::default();
     loop {
         edges::next().await;
         let t0 = stopwatch.start();
-        last_exec = exchange(&mut device, &mut stopwatch, t0, last_exec, &mut tx_dropped);
+        last_exec = exchange(&mut device, &mut stopwatch, t0, last_exec, &mut note);
     }
 }
 

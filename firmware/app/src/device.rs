@@ -28,6 +28,12 @@ pub trait Device {
     /// The base (tick) rate the device runs at now, Hz (a host Config frame may change
     /// it).
     fn base_rate_hz(&self) -> u32;
+    /// The board's counters since the previous call (ticks late, deadlines skipped,
+    /// bytes lost on receive, frames dropped on transmit), for the Status.
+    fn note_board(&mut self, late: u32, missed: u32, rx_overrun: u32, tx_dropped: u32);
+    /// The boot record: boots since power-on and the reset cause
+    /// (`wheelset_proto::reset_cause`).
+    fn set_boot(&mut self, boot_count: u32, reset_cause: u8);
 }
 
 impl<T: SampleBits> Device for Runtime<T> {
@@ -41,6 +47,14 @@ impl<T: SampleBits> Device for Runtime<T> {
 
     fn base_rate_hz(&self) -> u32 {
         Runtime::base_rate_hz(self)
+    }
+
+    fn note_board(&mut self, late: u32, missed: u32, rx_overrun: u32, tx_dropped: u32) {
+        Runtime::note_board(self, late, missed, rx_overrun, tx_dropped);
+    }
+
+    fn set_boot(&mut self, boot_count: u32, reset_cause: u8) {
+        Runtime::set_boot(self, boot_count, reset_cause);
     }
 }
 

@@ -38,6 +38,9 @@ pub mod app;
 pub mod board;
 #[cfg(target_os = "none")]
 #[allow(unsafe_code)]
+pub mod boot;
+#[cfg(target_os = "none")]
+#[allow(unsafe_code)]
 mod mem;
 #[cfg(target_os = "none")]
 #[allow(unsafe_code)]

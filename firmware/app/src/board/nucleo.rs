@@ -25,6 +25,7 @@
 //! the thread executor is not linked: 0.4 KiB less flash.)
 
 use core::ptr::addr_of_mut;
+use core::sync::atomic::Ordering;
 
 use cortex_m::peripheral::DWT;
 use defmt_rtt as _;
@@ -118,7 +119,6 @@ async fn control_task() {
 #[embassy_executor::task]
 async fn rx_task(mut rx: RingBufferedUartRx<'static>) {
     let mut buf = [0u8; 32];
-    let mut dropped = 0u32;
     loop {
         match rx.read(&mut buf).await {
             Ok(n) => {
@@ -132,13 +132,18 @@ async fn rx_task(mut rx: RingBufferedUartRx<'static>) {
                 #[cfg(feature = "frame-clock")]
                 app::edges::add(edges);
                 if !rest.is_empty() {
-                    dropped = dropped.wrapping_add(rest.len() as u32);
-                    defmt::warn!("RX pipe full: {=u32} bytes dropped", dropped);
+                    // Lost: counted for the Status (`rx_overrun`).
+                    app::RX_OVERRUN.fetch_add(rest.len() as u32, Ordering::Relaxed);
+                    defmt::warn!("RX pipe full: {=usize} bytes dropped", rest.len());
                 }
             }
-            // Overrun, framing or noise error: the bytes in flight are lost; the frame
+            // Overrun, framing or noise error: the bytes in flight are lost (counted as
+            // one in `rx_overrun`: the DMA ring does not say how many); the frame
             // decoder resynchronises on the next delimiter. Reception restarts.
-            Err(e) => defmt::warn!("USART2 RX error: {}", e),
+            Err(_) => {
+                app::RX_OVERRUN.fetch_add(1, Ordering::Relaxed);
+                defmt::warn!("USART2 RX error")
+            }
         }
     }
 }
@@ -174,8 +179,37 @@ pub fn panic_halt() -> ! {
     }
 }
 
+/// The reset cause from the RCC CSR flags (RM0390 6.3.21), in priority order (the
+/// reset pin flag is set by every internal reset too, so it comes last), and whether it
+/// was a power-on or brown-out reset; the flags are then cleared (RMVF) so the next
+/// reset reports only its own.
+fn reset_flags() -> (u8, bool) {
+    use wheelset_proto::reset_cause as rc;
+    let rcc = pac::RCC;
+    let csr = rcc.csr().read();
+    let power_on = csr.porrstf() || csr.borrstf();
+    let cause = if power_on {
+        rc::POWER_ON
+    } else if csr.wdgrstf() || csr.wwdgrstf() {
+        rc::WATCHDOG
+    } else if csr.sftrstf() {
+        rc::SOFTWARE
+    } else if csr.padrstf() {
+        rc::PIN
+    } else {
+        rc::UNKNOWN
+    };
+    rcc.csr().modify(|w| w.set_rmvf(true));
+    (cause, power_on)
+}
+
 /// Brings the board up and runs forever.
 pub fn run() -> ! {
+    // The boot record (crate::boot) with the hardware's reset cause: a cause a handler
+    // recorded before its reset (FAULT) wins over the SOFTWARE flag of that reset.
+    let (hw_cause, power_on) = reset_flags();
+    // (The Status reports them: no log line, for flash.)
+    let _ = crate::boot::start(Some(hw_cause), power_on);
     let mut config = Config::default();
     {
         use embassy_stm32::rcc::*;

@@ -126,7 +126,7 @@ impl Bulk {
                     match crate::app::RX.try_write(left) {
                         Ok(k) => left = left.get(k..).unwrap_or(&[]),
                         Err(_) => {
-                            super::uart::RX_DROPPED.fetch_add(left.len() as u32, Ordering::Relaxed);
+                            crate::app::RX_OVERRUN.fetch_add(left.len() as u32, Ordering::Relaxed);
                             break;
                         }
                     }

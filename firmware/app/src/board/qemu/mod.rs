@@ -115,6 +115,11 @@ pub fn run() -> ! {
         panic_halt();
     };
     let stopwatch = SysTickStopwatch::new(core.SYST);
+    // The boot record (crate::boot): QEMU has no reset-cause register, so a reset
+    // nobody recorded a cause for is UNKNOWN; a fresh QEMU process starts from zeroed
+    // RAM (no valid record: boot 1, POWER_ON).
+    let (boot_count, reset_cause) = crate::boot::start(None, false);
+    defmt::info!("boot {=u32}, reset cause {=u8}", boot_count, reset_cause);
     // The bulk channel if the harness asked for it (blocks until it opened its ends).
     let bulk = bulk::open();
     uart::init();

@@ -9,7 +9,7 @@
 
 use core::future::poll_fn;
 use core::ptr::{read_volatile, write_volatile};
-use core::sync::atomic::{AtomicU32, Ordering};
+use core::sync::atomic::Ordering;
 use core::task::Poll;
 
 use embassy_sync::waitqueue::AtomicWaker;
@@ -34,8 +34,6 @@ const INT_RX: u32 = 1 << 1;
 const BAUD_DIVIDER: u32 = 217;
 
 static TX_WAKER: AtomicWaker = AtomicWaker::new();
-/// Bytes the RX pipe had no room for (dropped).
-pub static RX_DROPPED: AtomicU32 = AtomicU32::new(0);
 
 fn read(addr: usize) -> u32 {
     // SAFETY: `addr` is one of the UART0 registers above: a valid, aligned MMIO word of
@@ -66,7 +64,8 @@ pub fn on_rx_interrupt() {
         }
         let byte = (read(DATA) & 0xFF) as u8;
         if crate::app::RX.try_write(&[byte]) != Ok(1) {
-            RX_DROPPED.fetch_add(1, Ordering::Relaxed);
+            // Lost: counted for the Status (`rx_overrun`).
+            crate::app::RX_OVERRUN.fetch_add(1, Ordering::Relaxed);
         }
         if byte == 0 {
             super::clock::frame_edge();
