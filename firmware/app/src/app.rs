@@ -107,9 +107,6 @@ pub fn new_device() -> FwRuntime {
         Ok(mut rt) => {
             // A Config may not set a rate the board's link cannot carry.
             rt.set_link_limit(crate::board::LINK_MAX_RATE_HZ);
-            // The boot record the board read at start-up (crate::boot).
-            let (count, cause) = crate::boot::this_boot();
-            rt.set_boot(count, cause);
             rt
         }
         Err(_) => {
@@ -209,6 +206,9 @@ fn exchange(
 /// is measured from the wake-up to the encoded frame (drain + decode + control +
 /// encode). A host Config frame that changes the base rate re-arms the schedule.
 pub async fn control_loop(mut device: impl Device, mut stopwatch: impl Stopwatch) -> ! {
+    // The boot record the board read at start-up (crate::boot).
+    let (count, cause) = crate::boot::this_boot();
+    device.set_boot(count, cause);
     let mut rate = device.base_rate_hz();
     // The schedule: a whole number of us per period, and a tick monitor for it.
     let schedule = period_ticks(rate).and_then(|p| {
@@ -276,6 +276,8 @@ pub async fn control_loop(mut device: impl Device, mut stopwatch: impl Stopwatch
 /// clock. The execution time is measured as in [`control_loop`] (DWT cycles).
 #[cfg(feature = "frame-clock")]
 pub async fn frame_loop(mut device: impl Device, mut stopwatch: impl Stopwatch) -> ! {
+    let (count, cause) = crate::boot::this_boot();
+    device.set_boot(count, cause);
     defmt::info!(
         "control task: frame-clocked, {=u32} Hz nominal",
         device.base_rate_hz()
