@@ -8,8 +8,8 @@
 //! ```
 
 use core::future::poll_fn;
-use core::task::Poll;
 use core::sync::atomic::{AtomicU32, Ordering};
+use core::task::Poll;
 
 use embassy_executor::{SpawnError, SpawnToken};
 use embassy_sync::waitqueue::AtomicWaker;
