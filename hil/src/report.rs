@@ -325,7 +325,8 @@ pub fn markdown(out: &RunOutcome, command: &str) -> String {
         let _ = writeln!(
             s,
             "\nDevice counters: ticks {}, rx ok {}, seq gaps {}, held ticks {}, safe ticks {} \
-             (entries {}, exits {}), yaw saturated {}, traction saturated {}, inputs clamped {}.",
+             (entries {}, exits {}), yaw saturated {}, traction saturated {}, inputs clamped {}, \
+             stack peak {} B.",
             st.ticks,
             st.rx_ok,
             st.seq_gaps,
@@ -335,7 +336,8 @@ pub fn markdown(out: &RunOutcome, command: &str) -> String {
             st.safe_exits,
             st.yaw_sat,
             st.traction_sat,
-            st.input_clamped
+            st.input_clamped,
+            st.stack_peak
         );
     }
     s

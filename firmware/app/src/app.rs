@@ -198,6 +198,17 @@ fn exchange(
     exec
 }
 
+/// Every [`crate::stack::SCAN_TICKS`] ticks (counted in `ticks`), the stack's
+/// high-water mark into the device's Status ([`crate::stack`]).
+#[inline(always)]
+fn note_stack(device: &mut impl Device, ticks: &mut u32) {
+    *ticks = ticks.wrapping_add(1);
+    if *ticks >= crate::stack::SCAN_TICKS {
+        *ticks = 0;
+        device.set_stack_peak(crate::stack::peak());
+    }
+}
+
 /// The control task's body. Deadline: one base period per tick.
 ///
 /// Each tick: apply the missed-tick policy ([`crate::tick`]), feed the bytes received
@@ -225,8 +236,10 @@ pub async fn control_loop(mut device: impl Device, mut stopwatch: impl Stopwatch
         crate::board::panic_halt()
     };
     defmt::info!("control task: {=u32} Hz, period {=u64} us", rate, period);
+    crate::stack::paint();
     let mut last_exec = 0u32;
     let mut note = BoardNote::default();
+    let mut stack_ticks = 0u32;
     loop {
         ticker.next().await;
         let t0 = stopwatch.start();
@@ -247,6 +260,7 @@ pub async fn control_loop(mut device: impl Device, mut stopwatch: impl Stopwatch
             }
         }
         last_exec = exchange(&mut device, &mut stopwatch, t0, last_exec, &mut note);
+        note_stack(&mut device, &mut stack_ticks);
         // A Config frame from the host may have changed the base rate.
         let now_rate = device.base_rate_hz();
         if now_rate != rate {
@@ -282,12 +296,15 @@ pub async fn frame_loop(mut device: impl Device, mut stopwatch: impl Stopwatch) 
         "control task: frame-clocked, {=u32} Hz nominal",
         device.base_rate_hz()
     );
+    crate::stack::paint();
     let mut last_exec = 0u32;
     let mut note = BoardNote::default();
+    let mut stack_ticks = 0u32;
     loop {
         edges::next().await;
         let t0 = stopwatch.start();
         last_exec = exchange(&mut device, &mut stopwatch, t0, last_exec, &mut note);
+        note_stack(&mut device, &mut stack_ticks);
     }
 }
 

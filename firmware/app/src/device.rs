@@ -34,6 +34,8 @@ pub trait Device {
     /// The boot record: boots since power-on and the reset cause
     /// (`wheelset_proto::reset_cause`).
     fn set_boot(&mut self, boot_count: u32, reset_cause: u8);
+    /// The board's stack high-water mark, bytes (reported in `Status.stack_peak`).
+    fn set_stack_peak(&mut self, bytes: u32);
 }
 
 impl<T: SampleBits> Device for Runtime<T> {
@@ -55,6 +57,10 @@ impl<T: SampleBits> Device for Runtime<T> {
 
     fn set_boot(&mut self, boot_count: u32, reset_cause: u8) {
         Runtime::set_boot(self, boot_count, reset_cause);
+    }
+
+    fn set_stack_peak(&mut self, bytes: u32) {
+        Runtime::set_stack_peak(self, bytes);
     }
 }
 

@@ -45,6 +45,9 @@ mod mem;
 #[cfg(target_os = "none")]
 #[allow(unsafe_code)]
 pub mod panic;
+#[cfg(target_os = "none")]
+#[allow(unsafe_code)]
+pub mod stack;
 
 #[cfg(target_os = "none")]
 defmt::timestamp!("{=u64:us}", embassy_time::Instant::now().as_micros());

@@ -1,0 +1,70 @@
+//! The stack's high-water mark on the board (issue 13, issue 20): painted once at the
+//! control task's start, read back every [`SCAN_TICKS`] ticks into the runtime's
+//! `set_stack_peak`, so it reaches `Status.stack_peak` (bytes).
+//!
+//! [`paint`] fills the window of up to [`WINDOW`] bytes below the current stack pointer
+//! (never below `_stack_end`, the end of the statics in cortex-m-rt's linker script)
+//! with [`PAINT`], interrupts off (an interrupt handler uses the same main stack). The
+//! peak is `_stack_start - a`, with `a` the lowest word of the window that no longer
+//! holds the paint: everything above the window's top (the start-up frames and the task
+//! that painted) counts as used. A deeper use than the window reads as the whole window
+//! (the peak is then a lower bound: it saturates at `_stack_start - bottom`).
+//!
+//! Cost: the scan reads the unused part of the window word by word (at most 4 096 words:
+//! ~12 k instructions, once per [`SCAN_TICKS`] ticks, after the tick's frame is queued,
+//! outside its measured execution time).
+
+use core::sync::atomic::{AtomicUsize, Ordering};
+
+/// Bytes painted below the stack pointer (the firmware uses a few KiB; both boards'
+/// RAM leaves far more than this above the statics).
+pub const WINDOW: usize = 16 * 1024;
+/// The paint: a word no pointer or small integer of the program looks like.
+pub const PAINT: u32 = 0xC5AC_CE55;
+/// The peak is read every this many ticks (0.2 s at 5 kHz).
+pub const SCAN_TICKS: u32 = 1024;
+
+/// The lowest painted address; 0: not painted.
+static BOTTOM: AtomicUsize = AtomicUsize::new(0);
+
+extern "C" {
+    /// The initial stack pointer (the top of RAM).
+    static _stack_start: u32;
+    /// The end of the statics (`.bss`, `.uninit`): the stack may grow down to here.
+    static _stack_end: u32;
+}
+
+/// Paints the window below the current stack pointer (once; interrupts off while it
+/// does).
+pub fn paint() {
+    cortex_m::interrupt::free(|_| {
+        let sp = cortex_m::register::msp::read() as usize;
+        // Below this frame nothing is live (interrupts are off): keep 64 B of margin.
+        let end = sp.saturating_sub(64) & !3;
+        let floor = (core::ptr::addr_of!(_stack_end) as usize + 3) & !3;
+        let bottom = end.saturating_sub(WINDOW).max(floor);
+        let mut a = bottom;
+        while a < end {
+            // SAFETY: `a` is word aligned, above the statics (`_stack_end`) and below
+            // the live stack (interrupts are off, so nothing else writes there now).
+            unsafe { core::ptr::write_volatile(a as *mut u32, PAINT) };
+            a += 4;
+        }
+        BOTTOM.store(bottom, Ordering::Relaxed);
+    });
+}
+
+/// Bytes of stack used since [`paint`] (0 if it has not painted).
+pub fn peak() -> u32 {
+    let bottom = BOTTOM.load(Ordering::Relaxed);
+    if bottom == 0 {
+        return 0;
+    }
+    let top = core::ptr::addr_of!(_stack_start) as usize;
+    let mut a = bottom;
+    // SAFETY: word-aligned reads between the painted bottom and the top of RAM.
+    while a < top && unsafe { core::ptr::read_volatile(a as *const u32) } == PAINT {
+        a += 4;
+    }
+    u32::try_from(top - a).unwrap_or(u32::MAX)
+}
