@@ -1,0 +1,223 @@
+//! The controller's signals: one tick's inputs and outputs per unit ([`Inputs`],
+//! [`Outputs`]), their wire codes and the conversion ([`InputCodes`], [`OutputCodes`],
+//! [`Codec`]), and the clamp, saturation and event counters ([`Counters`]).
+
+use crate::config::{ConfigError, FullScales, WireLsb};
+use crate::sample::Sample;
+
+/// One tick's inputs, per unit (`x_SI / FS`, [`FullScales`]). Build them from SI values
+/// with [`Inputs::from_si`] or from wire codes with [`Codec::decode`].
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Inputs<T> {
+    /// Lateral velocity `y'` relative to the track, pu of `scales.y_dot` (+ = right).
+    pub y_dot: T,
+    /// Motor current `i_a`, pu of `scales.current`.
+    pub current: T,
+    /// Motor speed `theta_m'`, pu of `scales.speed`.
+    pub speed: T,
+    /// Traction demand (wheel torque), pu of `scales.demand`; `i_ref = demand/(n K_m)`.
+    pub demand: T,
+}
+
+impl<T: Sample> Inputs<T> {
+    /// From SI values (m/s, A, rad/s, N m): `x / FS`, rounded to `T`.
+    pub fn from_si(s: &FullScales, y_dot: f64, current: f64, speed: f64, demand: f64) -> Self {
+        Self {
+            y_dot: T::from_f64(y_dot / s.y_dot),
+            current: T::from_f64(current / s.current),
+            speed: T::from_f64(speed / s.speed),
+            demand: T::from_f64(demand / s.demand),
+        }
+    }
+}
+
+/// One tick's outputs, per unit.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Outputs<T> {
+    /// Yaw control torque `T_psi`, pu of `scales.torque`. Sign: eq. 5
+    /// `J psi'' + ... = -T_psi`; the active law is `T_psi = +K y'`.
+    pub yaw_torque: T,
+    /// Motor voltage `u_a`, pu of `scales.voltage` (0 while traction is off).
+    pub voltage: T,
+}
+
+impl<T: Sample> Outputs<T> {
+    /// To SI: `(T_psi in N m, u_a in V)`.
+    pub fn to_si(&self, s: &FullScales) -> (f64, f64) {
+        (
+            self.yaw_torque.to_f64() * s.torque,
+            self.voltage.to_f64() * s.voltage,
+        )
+    }
+}
+
+/// How often one signal was invalid (NaN, floats only) or clamped.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SignalCounts {
+    /// NaN replaced by 0.
+    pub invalid: u32,
+    /// Clamped to its limit.
+    pub clamped: u32,
+}
+
+impl SignalCounts {
+    #[inline(always)]
+    pub(super) fn count(&mut self, invalid: bool, clamped: bool) {
+        self.invalid = self.invalid.wrapping_add(invalid as u32);
+        self.clamped = self.clamped.wrapping_add(clamped as u32);
+    }
+}
+
+/// Saturation and invalid-input counters (wrapping `u32`), readable by the runtime.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Counters {
+    /// Ticks run.
+    pub ticks: u32,
+    /// Yaw-loop steps run.
+    pub yaw_steps: u32,
+    /// Traction-loop steps run.
+    pub traction_steps: u32,
+    /// Input `y'` (clamp `limits.y_dot`).
+    pub y_dot: SignalCounts,
+    /// Input current (clamp `limits.current`; read on traction steps with traction on).
+    pub current: SignalCounts,
+    /// Input speed (clamp `limits.speed`; read for the bumpless preset and, with the
+    /// wheel-slip protection on, on every traction step).
+    pub speed: SignalCounts,
+    /// Input demand (clamp `limits.demand`; as the current).
+    pub demand: SignalCounts,
+    /// Output yaw torque against `limits.torque` (clamps by the safe-state ramp of the
+    /// limit are not counted).
+    pub yaw_torque: SignalCounts,
+    /// PI output against the voltage limits.
+    pub voltage: SignalCounts,
+    /// PI integrator clamps (anti-windup engaged).
+    pub integrator: SignalCounts,
+    /// Traction steps on which the wheel-slip protection acted ([`crate::wsp`]).
+    pub wsp_ticks: u32,
+    /// Times the wheel-slip protection started acting.
+    pub wsp_events: u32,
+}
+
+/// Bit positions of the per-tick event mask (inputs: `bit` invalid, `bit + 1` clamped).
+pub(super) mod event {
+    pub const Y_DOT: u32 = 0;
+    pub const CURRENT: u32 = 2;
+    pub const SPEED: u32 = 4;
+    pub const DEMAND: u32 = 6;
+    pub const TORQUE: u32 = 9;
+    pub const VOLTAGE: u32 = 11;
+    pub const INTEGRATOR: u32 = 13;
+}
+
+impl Counters {
+    /// Count the events of one tick (cold: only runs when something was clamped).
+    #[cold]
+    #[inline(never)]
+    pub(super) fn record(&mut self, ev: u32) {
+        let bit = |b: u32| (ev >> b) & 1 == 1;
+        for (c, b) in [
+            (&mut self.y_dot, event::Y_DOT),
+            (&mut self.current, event::CURRENT),
+            (&mut self.speed, event::SPEED),
+            (&mut self.demand, event::DEMAND),
+            (&mut self.yaw_torque, event::TORQUE - 1),
+            (&mut self.voltage, event::VOLTAGE - 1),
+            (&mut self.integrator, event::INTEGRATOR - 1),
+        ] {
+            c.count(bit(b), bit(b + 1));
+        }
+    }
+
+    /// Sum of all clamps and invalid inputs.
+    pub fn total(&self) -> u64 {
+        [
+            self.y_dot,
+            self.current,
+            self.speed,
+            self.demand,
+            self.yaw_torque,
+            self.voltage,
+            self.integrator,
+        ]
+        .iter()
+        .map(|c| c.invalid as u64 + c.clamped as u64)
+        .sum()
+    }
+}
+
+/// Integer wire codes of the inputs (LSBs in [`WireLsb`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct InputCodes {
+    /// y', codes of `wire.y_dot`.
+    pub y_dot: i32,
+    /// Current, codes of `wire.current`.
+    pub current: i32,
+    /// Speed, codes of `wire.speed`.
+    pub speed: i32,
+    /// Demand, codes of `wire.demand`.
+    pub demand: i32,
+}
+
+/// Integer wire codes of the outputs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct OutputCodes {
+    /// Yaw torque, codes of `wire.torque`.
+    pub yaw_torque: i32,
+    /// Voltage, codes of `wire.voltage`.
+    pub voltage: i32,
+}
+
+/// Wire-code <-> per-unit conversion with factors precomputed at construction
+/// (`pu = code * LSB/FS`; for [`Fx`] an integer multiply and shift, no float).
+///
+/// [`Fx`]: crate::Fx
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Codec<T: Sample> {
+    pub(crate) y_dot: T::Scale,
+    pub(crate) current: T::Scale,
+    pub(crate) speed: T::Scale,
+    pub(crate) demand: T::Scale,
+    pub(crate) torque: T::Scale,
+    pub(crate) voltage: T::Scale,
+}
+
+impl<T: Sample> Codec<T> {
+    /// Precompute the six factors; an error names a factor that does not fit.
+    pub fn try_new(lsb: &WireLsb, fs: &FullScales) -> Result<Self, ConfigError> {
+        let sc = |name: &'static str, f: f64| {
+            T::scale_in(f).ok_or(ConfigError::Coefficient { name, value: f })
+        };
+        let so = |name: &'static str, f: f64| {
+            T::scale_out(f).ok_or(ConfigError::Coefficient { name, value: f })
+        };
+        Ok(Self {
+            y_dot: sc("wire.y_dot/scales.y_dot", lsb.y_dot / fs.y_dot)?,
+            current: sc("wire.current/scales.current", lsb.current / fs.current)?,
+            speed: sc("wire.speed/scales.speed", lsb.speed / fs.speed)?,
+            demand: sc("wire.demand/scales.demand", lsb.demand / fs.demand)?,
+            torque: so("scales.torque/wire.torque", fs.torque / lsb.torque)?,
+            voltage: so("scales.voltage/wire.voltage", fs.voltage / lsb.voltage)?,
+        })
+    }
+
+    /// Codes -> per-unit inputs.
+    #[inline]
+    pub fn decode(&self, c: &InputCodes) -> Inputs<T> {
+        Inputs {
+            y_dot: T::from_code(c.y_dot, &self.y_dot),
+            current: T::from_code(c.current, &self.current),
+            speed: T::from_code(c.speed, &self.speed),
+            demand: T::from_code(c.demand, &self.demand),
+        }
+    }
+
+    /// Per-unit outputs -> codes (rounded, saturating at the `i32` range).
+    #[inline]
+    pub fn encode(&self, o: &Outputs<T>) -> OutputCodes {
+        OutputCodes {
+            yaw_torque: o.yaw_torque.to_code(&self.torque),
+            voltage: o.voltage.to_code(&self.voltage),
+        }
+    }
+}
