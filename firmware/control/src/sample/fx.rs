@@ -1,0 +1,286 @@
+//! The fixed-point sample [`Fx`] (Q4.28) with Q1.31 coefficients: its wire-code scales
+//! ([`FxScale`]), the rounding Q31 products ([`mul_q31`], [`smmulr`]) and its
+//! [`Sample`] and [`SampleBits`] implementations.
+
+use super::{Coef, Fx, Sample, SampleBits, COEF_FRAC, FX_FRAC};
+
+/// A wire-code scale for the fixed-point type, precomputed at construction:
+/// `out = sat32((in * mul + round) >> shift)`, i.e. a multiplication by `mul / 2^shift`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FxScale {
+    /// Multiplier (positive, `< 2^31`).
+    pub mul: i32,
+    /// Right shift, `0..=62`.
+    pub shift: u32,
+    /// `2^(shift-1)` (0 for `shift == 0`): rounds to nearest.
+    pub round: i64,
+}
+
+impl FxScale {
+    /// The scale closest to `factor` with the most precision: the largest `shift` such
+    /// that `round(factor 2^shift) < 2^31`. `None` if `factor` is not finite, not
+    /// positive, `>= 2^31`, or smaller than `2^-40` (no useful precision left).
+    pub fn new(factor: f64) -> Option<Self> {
+        if !(1e-12..2_147_483_647.0).contains(&factor) {
+            return None;
+        }
+        let mut shift = 0u32;
+        let mut scaled = factor;
+        while shift < 62 && scaled * 2.0 < 2_147_483_647.0 {
+            scaled *= 2.0;
+            shift += 1;
+        }
+        let mul = round_f64(scaled);
+        if !(1.0..2_147_483_648.0).contains(&mul) || mul < 1024.0 {
+            return None;
+        }
+        Some(Self {
+            mul: mul as i32,
+            shift,
+            round: if shift == 0 { 0 } else { 1i64 << (shift - 1) },
+        })
+    }
+
+    /// The scale `mul / 2^shift` from its parts, as [`Self::new`] produces them: `None`
+    /// unless `mul` is in `[1024, 2^31)` and `shift <= 62`. Integer work only.
+    pub fn from_bits(mul: u64, shift: u8) -> Option<Self> {
+        let shift = u32::from(shift);
+        if !(1024..(1u64 << 31)).contains(&mul) || shift > 62 {
+            return None;
+        }
+        Some(Self {
+            mul: mul as i32,
+            shift,
+            round: if shift == 0 { 0 } else { 1i64 << (shift - 1) },
+        })
+    }
+
+    /// `sat32((x * mul + round) >> shift)`.
+    ///
+    /// Without a 64-bit shift by a variable amount (on a 32-bit core a library call,
+    /// `__aeabi_lasr`, ~11 instructions): the product is one `SMLAL` into `(hi, lo)`;
+    /// `shift >= 32` (the output scales) is `hi >> (shift - 32)`, which always fits; a
+    /// shorter shift (the input scales) combines the words and saturates when the high
+    /// word is not the sign extension of the result.
+    #[inline]
+    pub fn apply(&self, x: i32) -> i32 {
+        let p = x as i64 * self.mul as i64 + self.round;
+        let (hi, lo) = ((p >> 32) as i32, p as u32);
+        let s = self.shift;
+        if s >= 32 {
+            // |p| < 2^62, so `p >> s` is within `i32` (no saturation can engage).
+            hi >> (s - 32).min(31)
+        } else if s == 0 {
+            sat32(p)
+        } else {
+            let q = ((lo >> s) | ((hi as u32) << (32 - s))) as i32;
+            if hi >> s == q >> 31 {
+                q
+            } else if hi < 0 {
+                i32::MIN
+            } else {
+                i32::MAX
+            }
+        }
+    }
+
+    /// The factor this scale really applies, `mul / 2^shift`.
+    pub fn factor(&self) -> f64 {
+        let mut f = self.mul as f64;
+        for _ in 0..self.shift {
+            f *= 0.5;
+        }
+        f
+    }
+}
+
+/// Round half away from zero in `no_std` (construction-time only).
+pub(crate) fn round_f64(x: f64) -> f64 {
+    let t = x as i64 as f64; // truncation; |x| < 2^63 at every call site
+    let d = x - t;
+    if d >= 0.5 {
+        t + 1.0
+    } else if d <= -0.5 {
+        t - 1.0
+    } else {
+        t
+    }
+}
+
+/// Saturate an `i64` to `i32`.
+#[inline(always)]
+pub(crate) fn sat32(x: i64) -> i32 {
+    if x > i32::MAX as i64 {
+        i32::MAX
+    } else if x < i32::MIN as i64 {
+        i32::MIN
+    } else {
+        x as i32
+    }
+}
+
+/// `(x c + 2^30) >> 31`: the Q4.28 x Q1.31 product, rounded to nearest (ties up).
+///
+/// Never overflows, so needs no saturation: `|x| <= 2^31` and `|c| <= 2^31 - 1` (a
+/// [`Coef`] is validated into `(-1, 1)` by [`Sample::quantise`]) give
+/// `|x c + 2^30| < 2^62`, so the shifted result lies in `[-2^31, 2^31 - 1]`. Cortex-M4:
+/// `SMLAL` + two ALU instructions.
+#[inline(always)]
+pub fn mul_q31(x: i32, c: i32) -> i32 {
+    ((x as i64 * c as i64 + (1 << (COEF_FRAC - 1))) >> COEF_FRAC) as i32
+}
+
+/// `(a b + 2^31) >> 32`, the high word of the product rounded (Cortex-M4: `SMMULR`).
+/// With `a = 2x` (or `b = 2c`) it is [`mul_q31`]`(x, c)` exactly:
+/// `(2 x c + 2^31) >> 32 = (x c + 2^30) >> 31`.
+#[inline(always)]
+pub fn smmulr(a: i32, b: i32) -> i32 {
+    ((a as i64 * b as i64 + (1 << 31)) >> 32) as i32
+}
+
+impl Sample for Fx {
+    type Coeff = Coef;
+    type Scale = FxScale;
+    type Residue = u32;
+    const ZERO: Self = Fx::ZERO;
+    const NAME: &'static str = "Q4.28";
+    fn from_f64(x: f64) -> Self {
+        // `saturating_from_num` panics on NaN: a NaN is no value, so it becomes 0
+        // (callers that care count it as invalid before converting).
+        if x.is_nan() {
+            Fx::ZERO
+        } else {
+            Fx::saturating_from_num(x)
+        }
+    }
+    fn to_f64(self) -> f64 {
+        self.to_bits() as f64 / (1u64 << FX_FRAC) as f64
+    }
+    fn quantise(c: f64) -> Option<Coef> {
+        // (-1, 1) strictly: keeps `mul_q31` free of overflow (see there).
+        Coef::checked_from_num(c).filter(|q| *q != Coef::MIN)
+    }
+    fn coeff_to_f64(c: Coef) -> f64 {
+        c.to_bits() as f64 / (1u64 << COEF_FRAC) as f64
+    }
+    #[inline(always)]
+    fn sat_add(self, rhs: Self) -> Self {
+        self.saturating_add(rhs)
+    }
+    #[inline(always)]
+    fn sat_sub(self, rhs: Self) -> Self {
+        self.saturating_sub(rhs)
+    }
+    #[inline(always)]
+    fn mul_c(self, c: Coef) -> Self {
+        Fx::from_bits(mul_q31(self.to_bits(), c.to_bits()))
+    }
+    #[inline(always)]
+    fn square(self) -> Self {
+        // Q4.28 x Q4.28 = Q8.56, rounded to Q4.28 and saturated (|x| >= 2.83 pu).
+        let x = i64::from(self.to_bits());
+        Fx::from_bits(sat32((x * x + (1 << (FX_FRAC - 1))) >> FX_FRAC))
+    }
+    #[inline(always)]
+    fn mul_c_acc(self, c: Coef, r: &mut u32) -> Self {
+        // p = x c + r (one SMLAL); floor to Q4.28 and keep the low 31 bits as the
+        // remainder. No overflow: |x c| < 2^62 (|x| <= 2^31, |c| < 2^31) and
+        // 0 <= r < 2^31, so p >> 31 lies in [-2^31, 2^31).
+        let p = self.to_bits() as i64 * c.to_bits() as i64 + *r as i64;
+        *r = (p & ((1 << COEF_FRAC) - 1)) as u32;
+        Fx::from_bits((p >> COEF_FRAC) as i32)
+    }
+    #[inline(always)]
+    fn limit(self, lo: Self, hi: Self) -> (Self, bool) {
+        let y = self.max(lo).min(hi);
+        (y, y != self)
+    }
+    #[inline(always)]
+    fn sanitize(self) -> (Self, bool) {
+        (self, false)
+    }
+    fn scale_in(factor: f64) -> Option<FxScale> {
+        // Codes -> bits: factor (pu per code) * 2^28 bits per pu.
+        FxScale::new(factor * (1u64 << FX_FRAC) as f64)
+    }
+    fn scale_out(factor: f64) -> Option<FxScale> {
+        // Bits -> codes: factor (codes per pu) / 2^28 bits per pu.
+        FxScale::new(factor / (1u64 << FX_FRAC) as f64)
+    }
+    #[inline]
+    fn from_code(code: i32, scale: &FxScale) -> Self {
+        Fx::from_bits(scale.apply(code))
+    }
+    #[inline]
+    fn to_code(self, scale: &FxScale) -> i32 {
+        scale.apply(self.to_bits())
+    }
+    #[inline(always)]
+    fn two_pu() -> Self {
+        Fx::from_bits(2 << FX_FRAC)
+    }
+    #[inline(always)]
+    fn abs_within(self, max: Self) -> bool {
+        // One unsigned compare (`ADD`, `CMP ..., LSL #1`): `x + max` in `[0, 2 max]`
+        // (for `0 <= max < 2^30`, which every limit is; below `-max` or above `max`
+        // it wraps or lands beyond `2 max`).
+        let m = max.to_bits();
+        (self.to_bits().wrapping_add(m) as u32) <= (m as u32) << 1
+    }
+    #[inline(always)]
+    fn within(self, lo: Self, hi: Self) -> bool {
+        // `x - lo` in `[0, hi - lo]`, unsigned (for `lo <= hi`).
+        let l = lo.to_bits();
+        (self.to_bits().wrapping_sub(l) as u32) <= (hi.to_bits().wrapping_sub(l) as u32)
+    }
+    #[inline(always)]
+    fn pre_coeff(c: Coef) -> Option<Coef> {
+        let b = c.to_bits();
+        (b.unsigned_abs() <= (1 << 30) - 2).then(|| Coef::from_bits(2 * b))
+    }
+    #[inline(always)]
+    fn mul_pre(self, pc: Coef) -> Self {
+        Fx::from_bits(smmulr(self.to_bits(), pc.to_bits()))
+    }
+    #[inline(always)]
+    fn mul_c_small(self, c: Coef) -> Self {
+        Fx::from_bits(smmulr(self.to_bits().wrapping_shl(1), c.to_bits()))
+    }
+    #[inline(never)]
+    fn controller_tick(
+        c: &mut crate::Controller<Self>,
+        inp: &crate::Inputs<Self>,
+    ) -> crate::Outputs<Self> {
+        c.tick_impl(inp)
+    }
+}
+
+impl SampleBits for Fx {
+    const NUMERIC: u8 = 0;
+    const MAX_LIMIT: Self = Fx::from_bits(2 << FX_FRAC);
+    const COEFF_ZERO: Coef = Coef::ZERO;
+
+    fn to_bits64(self) -> u64 {
+        u64::from(self.to_bits() as u32)
+    }
+    fn from_bits64(b: u64) -> Option<Self> {
+        Some(Fx::from_bits(u32::try_from(b).ok()? as i32))
+    }
+    fn coeff_to_bits64(c: Coef) -> u64 {
+        u64::from(c.to_bits() as u32)
+    }
+    fn coeff_from_bits64(b: u64) -> Option<Coef> {
+        // (-1, 1) strictly, as `quantise` (keeps `mul_q31` free of overflow).
+        Some(Coef::from_bits(u32::try_from(b).ok()? as i32)).filter(|q| *q != Coef::MIN)
+    }
+    fn coeff_in_unit(c: Coef, zero_ok: bool) -> bool {
+        // Below 1 by the format.
+        c > Coef::ZERO || (zero_ok && c == Coef::ZERO)
+    }
+    fn scale_to_bits(s: &FxScale) -> (u64, u8) {
+        (u64::from(s.mul as u32), s.shift as u8)
+    }
+    fn scale_from_bits(mul: u64, shift: u8) -> Option<FxScale> {
+        FxScale::from_bits(mul, shift)
+    }
+}

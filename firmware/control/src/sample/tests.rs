@@ -1,0 +1,149 @@
+//! The sample types' arithmetic: rounding, saturation, Q31 products, quantisation.
+
+use super::fx::sat32;
+use super::*;
+
+#[test]
+fn fixed_mul_rounds_to_nearest() {
+    let half = Coef::from_num(0.5);
+    // 3 LSB * 0.5 = 1.5 LSB -> 2 (ties up); -3 LSB * 0.5 = -1.5 -> -1 (ties up).
+    assert_eq!(Fx::from_bits(3).mul_c(half).to_bits(), 2);
+    assert_eq!(Fx::from_bits(-3).mul_c(half).to_bits(), -1);
+    assert!(Fx::quantise(-1.0).is_none() && Fx::quantise(1.0).is_none());
+    assert!(Fx::quantise(0.999_999_999).is_some());
+}
+
+#[test]
+fn mul_q31_never_overflows_for_valid_coefficients() {
+    let reference = |x: i32, c: i32| (x as i128 * c as i128 + (1 << 30)) >> 31;
+    let cmax = i32::MAX;
+    let edges = [
+        i32::MIN,
+        i32::MIN + 1,
+        -(1 << 30),
+        -3,
+        -1,
+        0,
+        1,
+        3,
+        1 << 30,
+        i32::MAX,
+    ];
+    for &x in &edges {
+        for &c in &[-cmax, -cmax + 1, -1, 0, 1, cmax - 1, cmax] {
+            let r = reference(x, c);
+            assert!(r >= i32::MIN as i128 && r <= i32::MAX as i128, "{x} {c}");
+            assert_eq!(mul_q31(x, c) as i128, r, "{x} {c}");
+        }
+    }
+    let mut s = 0x2545_f491_4f6c_dd1du64;
+    for _ in 0..200_000 {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        let (x, c) = (s as i32, ((s >> 32) as i32).max(-cmax));
+        assert_eq!(mul_q31(x, c) as i128, reference(x, c), "{x} {c}");
+    }
+}
+
+/// `apply` without the 64-bit variable shift is the plain formula, bit for bit, for
+/// every shift and at the edges of `x` and `mul` (saturation both ways included).
+#[test]
+fn fx_scale_apply_is_the_formula() {
+    let reference = |x: i32, f: &FxScale| sat32((x as i64 * f.mul as i64 + f.round) >> f.shift);
+    let xs = [
+        i32::MIN,
+        i32::MIN + 1,
+        -(1 << 30),
+        -12345,
+        -1,
+        0,
+        1,
+        7,
+        1 << 30,
+        i32::MAX,
+    ];
+    let muls = [1024u64, 1025, 268_435_456, (1 << 31) - 1];
+    let mut seed = 0x9E37_79B9_7F4A_7C15u64;
+    for shift in 0..=62u8 {
+        for &m in &muls {
+            let f = FxScale::from_bits(m, shift).expect("valid");
+            for &x in &xs {
+                assert_eq!(f.apply(x), reference(x, &f), "{x} {m} {shift}");
+            }
+            for _ in 0..2000 {
+                seed ^= seed << 13;
+                seed ^= seed >> 7;
+                seed ^= seed << 17;
+                let x = seed as i32 >> (seed >> 59);
+                let f = FxScale::from_bits(1024 + (seed >> 33) % ((1 << 31) - 1024), shift)
+                    .expect("valid");
+                assert_eq!(f.apply(x), reference(x, &f), "{x} {f:?}");
+            }
+        }
+    }
+}
+
+#[test]
+fn fx_scale_is_accurate() {
+    for f in [1e-6 * 268_435_456.0, 0.037_252_902_984, 1.0, 3.3e5, 7.0e-9] {
+        let s = FxScale::new(f).expect("representable");
+        assert!((s.factor() / f - 1.0).abs() < 1e-6, "{f}: {s:?}");
+    }
+    assert!(FxScale::new(f64::NAN).is_none());
+    assert!(FxScale::new(-1.0).is_none());
+    assert!(FxScale::new(3e9).is_none());
+    let s = FxScale::new(1000.0).expect("ok");
+    assert_eq!(s.apply(i32::MAX), i32::MAX);
+    assert_eq!(s.apply(i32::MIN), i32::MIN);
+    assert_eq!(s.apply(-7), -7000);
+}
+
+#[test]
+fn float_sanitize_and_codes() {
+    assert_eq!(f32::NAN.sanitize(), (0.0, true));
+    assert_eq!(1.5f32.sanitize(), (1.5, false));
+    assert_eq!(f64::INFINITY.to_code(&1.0), i32::MAX);
+    assert_eq!(f64::NAN.to_code(&1.0), 0);
+    assert_eq!((-2.5f64).to_code(&1.0), -3);
+    assert!(f32::NAN.limit(-1.0, 1.0).1);
+}
+
+/// Error feedback: a constant increment of 0.3 LSB accumulates exactly, where the
+/// rounded product adds 0 forever (a dead band).
+#[test]
+fn integrator_increment_has_no_dead_band() {
+    let c = Coef::from_num(0.3 / 1000.0); // x = 1000 LSB -> 0.3 LSB per step
+    let x = Fx::from_bits(1000);
+    let mut r = 0u32;
+    let mut acc = 0i64;
+    for n in 1..=10_000i64 {
+        acc += x.mul_c_acc(c, &mut r).to_bits() as i64;
+        let exact = (x.to_bits() as i64 * c.to_bits() as i64 * n) >> 31;
+        assert!((acc - exact).abs() <= 1, "{n}: {acc} vs {exact}");
+    }
+    assert_eq!(
+        x.mul_c(c).to_bits(),
+        0,
+        "the rounded product is a dead band"
+    );
+    // Negative increments and the extremes stay in range.
+    let mut r = 0u32;
+    for (x, c) in [
+        (Fx::MIN, Coef::MAX),
+        (Fx::MAX, Coef::MAX),
+        (Fx::MIN, -Coef::MAX),
+    ] {
+        let y = x.mul_c_acc(c, &mut r).to_f64();
+        assert!((y - x.to_f64() * c.to_num::<f64>()).abs() < 1e-6, "{x} {c}");
+    }
+}
+
+#[test]
+fn fixed_from_non_finite_f64_does_not_panic() {
+    assert_eq!(Fx::from_f64(f64::NAN), Fx::ZERO);
+    assert_eq!(Fx::from_f64(f64::INFINITY), Fx::MAX);
+    assert_eq!(Fx::from_f64(f64::NEG_INFINITY), Fx::MIN);
+    assert_eq!(Fx::from_f64(1e300), Fx::MAX);
+    assert_eq!(Fx::from_f64(0.5).to_f64(), 0.5);
+}
