@@ -117,14 +117,14 @@ pub fn update(
     for (name, _) in &found {
         if !fresh.iter().any(|(n, _)| n == name) {
             return Err(format!(
-                "README.md: block `{name}` has no command in the table of xtask/src/readme.rs"
+                "README.md: block `{name}` has no command in the table of xtask/src/readme/blocks.rs"
             ));
         }
     }
     for (name, _) in fresh {
         if !found.iter().any(|(n, _)| n == name) {
             return Err(format!(
-                "README.md: no block `{name}` (xtask/src/readme.rs lists it): add `{}` and `{}`",
+                "README.md: no block `{name}` (xtask/src/readme/blocks.rs lists it): add `{}` and `{}`",
                 open(name),
                 close(name)
             ));
