@@ -1,14 +1,14 @@
 //! The `monitor` section of `hil run`: the stability-monitor and actuator-check alarms of
-//! the run (rising edges of the monitor's two alarm states), and the check of them
-//! against the scenario.
+//! the run, and the check of them against the scenario.
 //!
-//! **Source.** The wire does not carry the monitor's flags yet (`Flags::HUNTING`,
-//! `Flags::ACTUATOR_FAULT` come with wire v2), so the alarms are the device's own
-//! monitor code ([`wheelset_control::Monitor`] in Q4.28 with its default configuration,
-//! [`MonitorParams::default`]) replayed on the `y'` codes the device received, one
-//! per period, decoded by the device's codec (`source = "device-replay"`). It assumes the
-//! device never entered its safe state during the run (a safe state pauses the actuator
-//! check); `frames`/`device_status` tell whether it did.
+//! **Source** (`source = "device-flags"`). The alarms are the rising edges of the
+//! device's own flags, `Flags::HUNTING` and `Flags::ACTUATOR_FAULT`, in the Actuation
+//! frames the host received (each alarm's `t_s`: the arrival of the first frame carrying
+//! it), on every target alike; the device's Status adds its `first_alarm_tick`
+//! (`device_first_alarm_tick`, and that tick's sample instant `device_first_alarm_s`).
+//! The monitor's mean square for the figure (`RunOutcome::monitor_ms`) is the device's
+//! monitor code ([`wheelset_control::Monitor`] in Q4.28, [`MonitorParams::default`])
+//! replayed on the `y'` codes the device received ([`replay`]): the wire does not carry it.
 //!
 //! ```json
 //! "monitor": {"alarms": [{"kind": "actuator", "t_s": 6.2}, {"kind": "hunting", "t_s": 6.28}],
@@ -57,7 +57,7 @@ pub struct Alarm {
 /// The `monitor` section of the run report.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct MonitorReport {
-    /// Where the alarms come from (`device-replay`, see the module docs).
+    /// Where the alarms come from (`device-flags`, see the module docs).
     pub source: &'static str,
     /// Every alarm, in time order.
     pub alarms: Vec<Alarm>,
@@ -78,6 +78,10 @@ pub struct MonitorReport {
     pub verdict: Verdict,
     /// Why it failed (empty on pass).
     pub reason: String,
+    /// The device's Status `first_alarm_tick` (`null`: no alarm, or no Status).
+    pub device_first_alarm_tick: Option<u32>,
+    /// The sample instant of that tick, s.
+    pub device_first_alarm_s: Option<f64>,
 }
 
 /// Rising edges of `(t_ns, hunting, actuator)` flag samples, in order.
@@ -174,7 +178,7 @@ pub fn judge(
 ) -> MonitorReport {
     let first = alarms.first().map(|a| a.t_s);
     let mut r = MonitorReport {
-        source: "device-replay",
+        source: "device-flags",
         alarms,
         first_alarm_s: first,
         expect: "none",
@@ -184,6 +188,8 @@ pub fn judge(
         deadline_s: None,
         verdict: Verdict::Pass,
         reason: String::new(),
+        device_first_alarm_tick: None,
+        device_first_alarm_s: None,
     };
     let fault = sc.actuator_fault.filter(|f| f.mode.gain() < 1.0);
     let Some(f) = fault else {

@@ -164,6 +164,23 @@ pub struct RunOptions {
     /// reference and the device's configuration ([`runtime_config_for`]) all follow the
     /// result.
     pub params: Params,
+    /// Wheel-slip protection of the device (`--wsp on|off`, sent as `Config.wsp`); `None`:
+    /// on (every firmware build has the `wsp` feature; one without it refuses the Config
+    /// with `Unsupported`, reported as such).
+    pub wsp: Option<bool>,
+    /// A stability alarm holds the device's safe state until `ClearFaults`
+    /// (`--monitor-safe`, sent as `Config.monitor_safe`).
+    pub monitor_safe: bool,
+    /// Send `Command::ClearFaults` at this time, s (`--clear-faults-at T`).
+    pub clear_faults_at_s: Option<f64>,
+}
+
+impl RunOptions {
+    /// The wheel-slip protection this run asks of the device (see [`Self::wsp`]).
+    #[must_use]
+    pub fn wsp_on(&self) -> bool {
+        self.wsp.unwrap_or(true)
+    }
 }
 
 impl Default for RunOptions {
@@ -185,6 +202,9 @@ impl Default for RunOptions {
             rate_hz: None,
             realtime: Want::all(crate::rt_os::allowed_cpus().last().copied()),
             params: Params::default(),
+            wsp: None,
+            monitor_safe: false,
+            clear_faults_at_s: None,
         }
     }
 }
@@ -273,8 +293,14 @@ pub fn open_transport(
 ) -> Result<Box<dyn Transport>, RunError> {
     match &opts.target {
         Target::InProc => {
-            let t = InProc::<Fx>::try_new(rt, &opts.link, opts.device_fault)
+            let mut t = InProc::<Fx>::try_new(rt, &opts.link, opts.device_fault)
                 .map_err(|e| RunError::Input(e.to_string()))?;
+            let cfg = sim_host::device::run_config(&rt, opts.wsp_on(), opts.monitor_safe);
+            t.configure(&cfg).map_err(|why| {
+                RunError::Target(TransportError::Unavailable(
+                    sim_host::device::DeviceError::Refused(why, cfg).to_string(),
+                ))
+            })?;
             Ok(Box::new(t))
         }
         Target::Qemu => {
@@ -304,29 +330,25 @@ pub fn open_transport(
     }
 }
 
-/// The Config frame that puts a device elsewhere on `rt` (law, hold ticks, rates).
-pub fn device_config(rt: &RuntimeConfig) -> Result<wheelset_proto::Config, RunError> {
-    use wheelset_proto::YawMode as W;
+/// The Config frame that puts a free-running device elsewhere on `rt` (law, hold
+/// ticks, rates) with the protection `wsp` and the monitor's response `monitor_safe`
+/// (`sim_host::device::run_config` with the rates).
+pub fn device_config(
+    rt: &RuntimeConfig,
+    wsp: bool,
+    monitor_safe: bool,
+) -> Result<wheelset_proto::Config, RunError> {
     let rates = wheelset_runtime::rates_for::<wheelset_control::Fx>(rt)
         .map_err(|e| RunError::Input(format!("--rate-hz {}: {e}", rt.control.base_rate_hz)))?;
     Ok(wheelset_proto::Config {
-        mode: match rt.control.yaw_mode {
-            wheelset_control::YawMode::Passive => W::Passive,
-            wheelset_control::YawMode::Gain => W::Gain,
-            wheelset_control::YawMode::Lead => W::Lead,
-        },
-        traction: rt.control.traction_enabled,
-        enable: rt.enable,
-        hold_ticks: rt.hold_ticks,
         rates: Some(rates),
-        monitor_safe: false,
-        wsp: false,
+        ..sim_host::device::run_config(rt, wsp, monitor_safe)
     })
 }
 
 /// Opens a free-running device on `path`, configures it and locks onto its tick.
 fn open_realtime(path: &str, opts: &RunOptions, rt: &RuntimeConfig) -> Result<RealTime, RunError> {
-    let cfg = device_config(rt)?;
+    let cfg = device_config(rt, opts.wsp_on(), opts.monitor_safe)?;
     let mut t = RealTime::open(
         path,
         RealTimeOptions {
@@ -412,6 +434,7 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
         Target::Serial(p) if opts.pace == Pace::RealTime => Some(open_realtime(p, opts, &rt)?),
         _ => None,
     };
+    let is_lockstep_remote = realtime.is_none() && opts.target != Target::InProc;
     let mut other = match realtime {
         Some(_) => None,
         None => Some(open_transport(opts, rt)?),
@@ -445,6 +468,21 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     };
     let target_name = tr.name();
     let label = format!("{} on {}", law_name(opts.control), target_name);
+    let wsp = opts.wsp_on();
+    // The in-process device was configured before the run (`InProc::configure`), a
+    // free-running one by `RealTime::prepare`; a lock-step device gets the Config frame
+    // (rates unchanged) as the first frame of the run.
+    let lockstep_config =
+        is_lockstep_remote.then(|| sim_host::device::run_config(&rt, wsp, opts.monitor_safe));
+    let clear_faults_at_ns = match opts.clear_faults_at_s {
+        Some(t) if t.is_finite() && t >= 0.0 => Some((t * 1e9).round() as u64),
+        Some(t) => {
+            return Err(RunError::Input(format!(
+                "--clear-faults-at {t}: must be a time of the run, s (>= 0)"
+            )))
+        }
+        None => None,
+    };
     let mut cl = close_loop(
         &sc,
         tr,
@@ -453,6 +491,8 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
             yaw_spring: opts.control.yaw().has_spring(),
             progress,
             label: &label,
+            config: lockstep_config,
+            clear_faults_at_ns,
             ..LoopSetup::default()
         },
     )
@@ -462,14 +502,24 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     if let Some(e) = cl.error.take() {
         return Err(RunError::Target(e));
     }
+    if let (true, Some(cfg)) = (cl.config_refused, lockstep_config) {
+        let why = cl
+            .status
+            .as_ref()
+            .and_then(|s| wheelset_proto::RefuseReason::from_code(s.refuse_reason))
+            .unwrap_or(wheelset_proto::RefuseReason::None);
+        return Err(RunError::Target(TransportError::Unavailable(
+            sim_host::device::DeviceError::Refused(why, cfg).to_string(),
+        )));
+    }
     // With `[[adhesion]]` sections the continuous controllers (no wheel-slip protection)
     // are no yardstick: the reference is then the control core itself in f64 with the
-    // device's protection (on, the device's default), timing and wire quantisation
+    // device's protection (as the run set it, `Config.wsp`), timing and wire quantisation
     // (`sim_host::core_loop`).
     let reference = if sc.adhesion.is_empty() {
         run_continuous(&sc, opts.control.yaw())
     } else {
-        sim_host::core_loop::run_core::<f64>(&sc, opts.control.yaw(), true)
+        sim_host::core_loop::run_core::<f64>(&sc, opts.control.yaw(), wsp)
             .map_err(|e| RunError::Input(format!("scenario {}: {e}", sc.source)))?
             .0
     };
@@ -507,10 +557,30 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     frames.pre_run = start.map_or(0, |s| s.pre_run);
     let frames_verdict = crate::frames::judge(&frames, &opts.budgets.frames);
     let mon_params = wheelset_control::MonitorParams::default();
-    let (flags, monitor_ms) =
+    // The mean square for the figure: the device's monitor code replayed on the samples
+    // it received. The alarms: the device's own flags, as its Actuation frames carried them.
+    let (_, monitor_ms) =
         crate::monitor::replay(&sensor_codes, period_ns, &rt, &mon_params).unwrap_or_default();
-    let monitor =
+    let flags = cl.actuations.iter().map(|a| {
+        (
+            a.at_ns,
+            a.frame.flags.has(wheelset_proto::Flags::HUNTING),
+            a.frame.flags.has(wheelset_proto::Flags::ACTUATOR_FAULT),
+        )
+    });
+    let mut monitor =
         crate::monitor::judge(&sc, &trajectory, &mon_params, crate::monitor::alarms(flags));
+    // The Status's first alarm: its tick, and that tick's sample instant (ticks count from
+    // the run's start; a lock-step device's Config frame was one tick before the first
+    // sample).
+    let pre = u32::from(lockstep_config.is_some());
+    monitor.device_first_alarm_tick = status
+        .as_ref()
+        .map(|s| s.first_alarm_tick)
+        .filter(|&n| n > 0);
+    monitor.device_first_alarm_s = monitor
+        .device_first_alarm_tick
+        .map(|n| f64::from(n.saturating_sub(1 + pre)) * period_ns as f64 * 1e-9);
     let verdict = timing
         .verdict
         .max(numerics.verdict)

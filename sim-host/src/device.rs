@@ -53,6 +53,8 @@ pub enum DeviceError {
     Rate(u32),
     /// The plant run refused the period (not a multiple of the integration step).
     Sim(SimError),
+    /// The device refused the run's Config frame ([`run_config`]).
+    Refused(wheelset_proto::RefuseReason, wheelset_proto::Config),
 }
 
 impl fmt::Display for DeviceError {
@@ -65,6 +67,18 @@ impl fmt::Display for DeviceError {
                 "device base rate {hz} Hz: the period must be a whole number of nanoseconds"
             ),
             Self::Sim(e) => write!(f, "device loop: {e}"),
+            Self::Refused(why, c) => write!(
+                f,
+                "the device refused the run's Config (wsp {}, monitor_safe {}): {why}{}",
+                on_off(c.wsp),
+                on_off(c.monitor_safe),
+                if *why == wheelset_proto::RefuseReason::Unsupported {
+                    " (a build without the `wsp`/`monitor` runtime features cannot run \
+                     them: --wsp off, no --monitor-safe)"
+                } else {
+                    ""
+                }
+            ),
         }
     }
 }
@@ -203,6 +217,37 @@ pub fn control_config(p: &Params, law: YawLaw, drive: bool) -> wheelset_control:
     }
 }
 
+fn on_off(b: bool) -> &'static str {
+    if b {
+        "on"
+    } else {
+        "off"
+    }
+}
+
+/// The Config frame of a run on `rt` (law, traction, enable, hold ticks) with the
+/// wheel-slip protection `wsp` and the monitor's response `monitor_safe`; the rates
+/// unchanged (`rates: None`). Every host path sends it before the first Sensor frame:
+/// the in-process device through [`InProc::configure`], a device elsewhere as the first
+/// frame of the run.
+#[must_use]
+pub fn run_config(rt: &RuntimeConfig, wsp: bool, monitor_safe: bool) -> wheelset_proto::Config {
+    use wheelset_proto::YawMode as W;
+    wheelset_proto::Config {
+        mode: match rt.control.yaw_mode {
+            wheelset_control::YawMode::Passive => W::Passive,
+            wheelset_control::YawMode::Gain => W::Gain,
+            wheelset_control::YawMode::Lead => W::Lead,
+        },
+        traction: rt.control.traction_enabled,
+        enable: rt.enable,
+        hold_ticks: rt.hold_ticks,
+        rates: None,
+        monitor_safe,
+        wsp,
+    }
+}
+
 /// Options of a device-in-the-loop run.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DeviceOptions {
@@ -214,6 +259,13 @@ pub struct DeviceOptions {
     pub base_rate_hz: Option<u32>,
     /// `y'` or `y''` in the Sensor frames.
     pub lateral: LateralSensing,
+    /// Wheel-slip protection (`Config.wsp`; default on).
+    pub wsp: bool,
+    /// A stability alarm holds the safe state until `ClearFaults` (`Config.monitor_safe`;
+    /// default off: report only).
+    pub monitor_safe: bool,
+    /// Send `Command::ClearFaults` at the first sample instant at or after this time, ns.
+    pub clear_faults_at_ns: Option<u64>,
 }
 
 impl Default for DeviceOptions {
@@ -223,6 +275,9 @@ impl Default for DeviceOptions {
             hold_ticks: wheelset_runtime::DEFAULT_HOLD_TICKS,
             base_rate_hz: None,
             lateral: LateralSensing::Velocity,
+            wsp: true,
+            monitor_safe: false,
+            clear_faults_at_ns: None,
         }
     }
 }
@@ -312,6 +367,9 @@ pub fn run_device(
 ) -> Result<DeviceRun, DeviceError> {
     let rt_cfg = runtime_config(sc, law, opt);
     let mut dev = InProc::<Fx>::try_new(rt_cfg, &opt.link, DeviceFault::None)?;
+    let cfg = run_config(&rt_cfg, opt.wsp, opt.monitor_safe);
+    dev.configure(&cfg)
+        .map_err(|why| DeviceError::Refused(why, cfg))?;
     let period_ns = dev.period_ns();
     let label = format!(
         "{} (device, {} Hz, {} baud)",
@@ -327,6 +385,7 @@ pub fn run_device(
             yaw_spring: law.has_spring(),
             lateral: opt.lateral,
             label: &label,
+            clear_faults_at_ns: opt.clear_faults_at_ns,
             ..LoopSetup::default()
         },
     )

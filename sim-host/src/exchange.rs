@@ -139,6 +139,11 @@ pub struct DeviceController<'a> {
     config_echo_pending: bool,
     progress: Option<ProgressBar>,
     status_seen: bool,
+    /// Send `Command::ClearFaults` before the Sensor frame of the first sample instant at
+    /// or after this time, ns (once).
+    pub clear_faults_at_ns: Option<u64>,
+    /// When the ClearFaults command went out, ns.
+    pub clear_faults_sent_ns: Option<u64>,
 }
 
 impl<'a> DeviceController<'a> {
@@ -175,6 +180,8 @@ impl<'a> DeviceController<'a> {
             config_echo_pending: false,
             progress,
             status_seen: false,
+            clear_faults_at_ns: None,
+            clear_faults_sent_ns: None,
         }
     }
 
@@ -343,6 +350,15 @@ impl SampledController for DeviceController<'_> {
             sensor_bytes: (self.host.bytes_sent - before) as usize,
             echo_at_ns: None,
         });
+        // After the Sensor frame, so this period's sample is on time: the device applies
+        // the command at its next tick.
+        if self
+            .clear_faults_at_ns
+            .is_some_and(|t| t_ns >= t && self.clear_faults_sent_ns.is_none())
+        {
+            self.clear_faults_sent_ns = Some(t_ns);
+            self.send(t_ns, &Message::Command(Command::ClearFaults));
+        }
         self.fresh = false;
         self.receive(t_ns + self.period_ns);
         let (seq_echo, flags) = self
@@ -383,6 +399,9 @@ pub struct LoopSetup<'l> {
     pub lateral: LateralSensing,
     /// A Config frame to send before the first Sensor frame.
     pub config: Option<Config>,
+    /// Send `Command::ClearFaults` (the latch and a held alarm safe state cleared) with
+    /// the Sensor frame of the first sample instant at or after this time, ns.
+    pub clear_faults_at_ns: Option<u64>,
     /// A progress bar to advance (simulated ms).
     pub progress: Option<ProgressBar>,
     /// The trajectory's label.
@@ -411,6 +430,8 @@ pub struct ClosedLoop {
     pub error: Option<TransportError>,
     /// The device flagged the Config frame refused.
     pub config_refused: bool,
+    /// When `Command::ClearFaults` went out ([`LoopSetup::clear_faults_at_ns`]), ns.
+    pub clear_faults_sent_ns: Option<u64>,
 }
 
 /// Runs `sc` with the device behind `tr` as the plant's sampled controller (actuator
@@ -426,6 +447,7 @@ pub fn close_loop(
     if let Some(cfg) = setup.config {
         ctrl = ctrl.with_config(cfg);
     }
+    ctrl.clear_faults_at_ns = setup.clear_faults_at_ns;
     // One record per period, reserved once (doubling to 100 000 records re-copies and
     // re-faults megabytes); capped: a very long scenario grows the rest as it goes.
     let periods = (sc.duration_ns / period_ns.max(1)).min(1 << 22);
@@ -454,5 +476,6 @@ pub fn close_loop(
         status: ctrl.status,
         error: ctrl.error.take(),
         config_refused: ctrl.config_refused,
+        clear_faults_sent_ns: ctrl.clear_faults_sent_ns,
     })
 }

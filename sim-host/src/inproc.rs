@@ -174,6 +174,30 @@ impl<T: SampleBits> InProc<T> {
         self.host_tick_ns.reserve(ticks);
     }
 
+    /// Brings the device to `cfg` before the run, the way a board is configured before
+    /// it is started: the Config frame's bytes through the runtime's own receive path
+    /// (decoded, validated, applied or refused exactly as over the link), then a
+    /// `ResetCounters` so the run's counters (and the link's frame accounting) start from
+    /// zero. Out of band: no byte of it is on the simulated link, so the first period's
+    /// timing is the run's own. Refused: the reason the runtime gave
+    /// (`RefuseReason::Unsupported` from a build without the `wsp` or `monitor` feature).
+    pub fn configure(
+        &mut self,
+        cfg: &wheelset_proto::Config,
+    ) -> Result<(), wheelset_proto::RefuseReason> {
+        use wheelset_proto::{Command, RefuseReason};
+        let frame = encode_vec(&Message::Config(*cfg)).map_err(|_| RefuseReason::Bits)?;
+        self.rt.receive(&frame);
+        let why = self.rt.refuse_reason();
+        if why != RefuseReason::None && self.rt.counters().cmd_refused > 0 {
+            return Err(why);
+        }
+        let reset = encode_vec(&Message::Command(Command::ResetCounters))
+            .map_err(|_| RefuseReason::Bits)?;
+        self.rt.receive(&reset);
+        Ok(())
+    }
+
     /// The device's runtime (read only).
     #[must_use]
     pub fn runtime(&self) -> &Runtime<T> {

@@ -4,7 +4,7 @@
 //! - `sim-host rates [--control lead|gain|passive] [--model full|reduced] [--delay N]
 //!   [--max-baud B] [--json FILE]`: the sampled-data rate analysis of the firmware loops
 //! - `sim-host run --scenario curve|beating|FILE --control passive|gain|lead [--csv FILE] [--plot DIR]`
-//! - `sim-host run ... --loop device [--faults SPEC] [--seed N] [--baud B] [--latency-us L]`:
+//! - `sim-host run ... --loop device [--wsp on|off] [--faults SPEC] [--seed N] [--baud B] [--latency-us L]`:
 //!   the firmware runtime in the loop over the simulated serial link
 //! - `sim-host run ... --loop core [--wsp on|off]`: the f64 control core on the plant
 //!   (the device's laws and timing without the link)

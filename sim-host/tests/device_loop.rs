@@ -194,3 +194,70 @@ fn acceleration_sensing_integrated_on_the_device_also_reproduces_the_reference()
     }
     assert_eq!(run.report.device.map(|s| s.rx_unexpected), Some(0));
 }
+
+/// `--wsp on|off` on the device loop (issue 11): the host sets `Config.wsp`; with it the
+/// device's protection acts (its Status counts it, the `WHEEL_SLIP` flag reaches the
+/// host) and no wheel runs away; without it the runaway shows. The device's section
+/// table follows the f64 control core's (`--loop core`, the same laws) to 0.02 in
+/// utilisation.
+#[test]
+fn low_adhesion_protection_is_switched_by_the_config() {
+    let sc = Scenario::load("low-adhesion", &Params::default()).expect("built-in scenario");
+    let on = run_device(&sc, YawLaw::Lead, &DeviceOptions::default()).expect("runs");
+    let off = run_device(
+        &sc,
+        YawLaw::Lead,
+        &DeviceOptions {
+            wsp: false,
+            ..DeviceOptions::default()
+        },
+    )
+    .expect("runs");
+    let s_on = on.report.device.expect("status");
+    let s_off = off.report.device.expect("status");
+    assert!(s_on.wsp_events >= 1 && s_on.wsp_ticks > 0, "{s_on:?}");
+    assert_eq!((s_off.wsp_events, s_off.wsp_ticks), (0, 0));
+    let slip_flags = on
+        .link
+        .iter()
+        .filter(|l| Flags(l.flags).has(Flags::WHEEL_SLIP))
+        .count();
+    assert!(slip_flags > 0);
+    let a_on = sim_host::traction::summary(&sc, &on.trajectory).expect("sections");
+    let a_off = sim_host::traction::summary(&sc, &off.trajectory).expect("sections");
+    assert!(!a_on.runaway, "{a_on:?}");
+    assert!(a_off.runaway, "{a_off:?}");
+    let (core, _) =
+        sim_host::core_loop::run_core::<f64>(&sc, YawLaw::Lead, true).expect("core runs");
+    let a_core = sim_host::traction::summary(&sc, &core).expect("sections");
+    for (d, c) in a_on.sections.iter().zip(&a_core.sections) {
+        assert!(
+            (d.utilisation - c.utilisation).abs() < 0.02,
+            "{} {}-{} s: device {} core {}",
+            d.condition,
+            d.t0,
+            d.t1,
+            d.utilisation,
+            c.utilisation
+        );
+    }
+}
+
+/// A configuration the device cannot run is refused before the run, with its reason.
+#[test]
+fn a_refused_config_is_an_error_naming_it() {
+    let e = DeviceError::Refused(
+        wheelset_proto::RefuseReason::Unsupported,
+        wheelset_proto::Config {
+            mode: wheelset_proto::YawMode::Lead,
+            traction: true,
+            enable: true,
+            hold_ticks: 1,
+            wsp: true,
+            monitor_safe: false,
+            rates: None,
+        },
+    )
+    .to_string();
+    assert!(e.contains("wsp on") && e.contains("--wsp off"), "{e}");
+}

@@ -100,6 +100,27 @@ pub(crate) struct RunArgs {
     /// Never show the progress bar.
     #[arg(long)]
     quiet: bool,
+    /// Wheel-slip protection of the device, sent as `Config.wsp` before the run
+    /// [default: on; a firmware build without it refuses with Unsupported, reported].
+    #[arg(long, value_enum)]
+    wsp: Option<OnOffArg>,
+    /// A stability alarm holds the device's safe state until `ClearFaults`
+    /// (`Config.monitor_safe`; default: the alarm is only reported).
+    #[arg(long)]
+    monitor_safe: bool,
+    /// Send `Command::ClearFaults` (clears FAULT_LATCHED and a held alarm safe state) at
+    /// this time of the run, s.
+    #[arg(long, value_name = "T_S")]
+    clear_faults_at: Option<f64>,
+}
+
+/// `--wsp` values.
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq)]
+pub(crate) enum OnOffArg {
+    /// On.
+    On,
+    /// Off.
+    Off,
 }
 
 pub(crate) fn parse_target(s: &str) -> Result<Target, String> {
@@ -198,6 +219,9 @@ pub(crate) fn cmd_run(a: &RunArgs, command: &str) -> Result<Verdict, Failure> {
         qemu_link: a.qemu_link,
         progress: !a.quiet && std::io::stderr().is_terminal(),
         rate_hz: a.rate_hz,
+        wsp: a.wsp.map(|w| w == OnOffArg::On),
+        monitor_safe: a.monitor_safe,
+        clear_faults_at_s: a.clear_faults_at,
         realtime: if a.no_rt {
             hil::rt_os::Want::none()
         } else {

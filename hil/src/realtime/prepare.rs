@@ -64,11 +64,24 @@ impl RealTime {
         self.write(&out)?;
         let s = self.await_status("the Config frame")?;
         if s.flags.has(Flags::CMD_REFUSED) {
+            let why = wheelset_proto::RefuseReason::from_code(s.refuse_reason);
+            if why == Some(wheelset_proto::RefuseReason::Unsupported) {
+                return Err(TransportError::Unavailable(format!(
+                    "serial:{}: the device refused the run's Config (wsp {}, monitor_safe {}) \
+                     as Unsupported: its build lacks the `wsp`/`monitor` runtime features; run \
+                     with --wsp off and without --monitor-safe",
+                    self.path,
+                    if cfg.wsp { "on" } else { "off" },
+                    if cfg.monitor_safe { "on" } else { "off" }
+                )));
+            }
             return Err(TransportError::Unavailable(format!(
                 "serial:{}: the device refused the run's configuration (Status cmd_refused \
-                 {}): another sample type or control core than this harness's fixed-point \
-                 default, or a rate its link cannot carry",
-                self.path, s.cmd_refused
+                 {}, reason {}): another sample type or control core than this harness's \
+                 fixed-point default, or a rate its link cannot carry",
+                self.path,
+                s.cmd_refused,
+                why.map_or_else(|| format!("code {}", s.refuse_reason), |w| w.to_string())
             )));
         }
         // Let a re-armed ticker settle, then 3. the baseline.

@@ -36,8 +36,8 @@ pub(crate) struct DeviceArgs {
     /// Loop kind.
     #[arg(long = "loop", value_enum, default_value = "continuous")]
     pub(crate) loop_kind: LoopKind,
-    /// Wheel-slip protection of the control core (`--loop core`; default on). The device
-    /// loop refuses it until the runtime forwards wire v2's `Config::wsp` to the core.
+    /// Wheel-slip protection (default on): of the f64 control core (`--loop core`), or of
+    /// the device (`--loop device`: the host sets `Config.wsp` before the run).
     #[arg(long, value_enum)]
     pub(crate) wsp: Option<OnOff>,
     /// Link faults, e.g. `ber=1e-3,drop=0.1,outage=8.0:0.05` (keys: ber, drop, byte_drop,
@@ -103,14 +103,7 @@ pub(crate) enum Lateral {
 pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
     use sim_host::device::{deviation, run_device, DeviceOptions, CURVE_WINDOWS};
     let d = &a.device;
-    if d.wsp.is_some() {
-        return Err(Failure {
-            code: 2,
-            msg: "--wsp: the device loop cannot switch the wheel-slip protection yet (the \
-                  runtime does not forward Config.wsp to the control core); use --loop core"
-                .to_string(),
-        });
-    }
+    let wsp = d.wsp != Some(OnOff::Off);
     let latency_us = d.latency_us.unwrap_or(2.0);
     if !(latency_us.is_finite() && (0.0..=MAX_LATENCY_US).contains(&latency_us)) {
         return Err(Failure {
@@ -154,6 +147,8 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
             Lateral::Velocity => sim_host::device::LateralSensing::Velocity,
             Lateral::Acceleration => sim_host::device::LateralSensing::Acceleration,
         },
+        wsp,
+        ..DeviceOptions::default()
     };
     let hz = d
         .rate_hz
@@ -174,7 +169,15 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
         msg: e.to_string(),
     })?;
     print_summary(sc, &run.trajectory);
-    write_run_summary(&a.json, sc, &run.trajectory, None)?;
+    if let Some(s) = &run.report.device {
+        outln!(
+            "wheel-slip protection {} (Config.wsp): {} events, {} ticks acting (device status)",
+            if wsp { "on" } else { "off" },
+            s.wsp_events,
+            s.wsp_ticks
+        );
+    }
+    write_run_summary(&a.json, sc, &run.trajectory, Some(wsp))?;
     outln!(
         "link: {} baud, latency {} us, period {} us, faults `{}` (seed {})",
         opt.link.baud,
