@@ -261,3 +261,65 @@ fn a_refused_config_is_an_error_naming_it() {
     .to_string();
     assert!(e.contains("wsp on") && e.contains("--wsp off"), "{e}");
 }
+
+/// `Config.monitor_safe` and `Command::ClearFaults` from the host (issue 12): on
+/// `actuator-fault` the alarm latches `FAULT_LATCHED` and holds the safe state; the
+/// ClearFaults the host sends 30 ms after the first alarm clears both (the alarm state
+/// stays high, so no new rising edge re-latches it).
+#[test]
+fn clear_faults_from_the_host_releases_the_monitor_latch() {
+    let sc = Scenario::load("actuator-fault", &Params::default()).expect("built-in scenario");
+    let probe = run_device(
+        &sc,
+        YawLaw::Lead,
+        &DeviceOptions {
+            monitor_safe: true,
+            ..DeviceOptions::default()
+        },
+    )
+    .expect("runs");
+    let alarm = Flags::HUNTING | Flags::ACTUATOR_FAULT;
+    let first = probe
+        .link
+        .iter()
+        .find(|l| l.flags & alarm != 0)
+        .expect("an alarm")
+        .t_ns;
+    let latched = |l: &&sim_host::device::LinkSample| Flags(l.flags).has(Flags::FAULT_LATCHED);
+    let safe = |l: &&sim_host::device::LinkSample| Flags(l.flags).has(Flags::SAFE);
+    assert!(probe
+        .link
+        .iter()
+        .filter(|l| l.t_ns > first)
+        .all(|l| latched(&l)));
+    assert!(probe.link.iter().any(|l| safe(&l)));
+    let clear = first + 30_000_000;
+    let run = run_device(
+        &sc,
+        YawLaw::Lead,
+        &DeviceOptions {
+            monitor_safe: true,
+            clear_faults_at_ns: Some(clear),
+            ..DeviceOptions::default()
+        },
+    )
+    .expect("runs");
+    let before: Vec<_> = run
+        .link
+        .iter()
+        .filter(|l| l.t_ns > first && l.t_ns < clear)
+        .collect();
+    assert!(!before.is_empty() && before.iter().all(latched) && before.iter().any(safe));
+    // Applied at the device's next tick, seen in the actuation after it.
+    let after: Vec<_> = run
+        .link
+        .iter()
+        .filter(|l| l.t_ns >= clear + 3 * run.period_ns)
+        .collect();
+    assert!(!after.is_empty());
+    assert!(
+        after.iter().all(|l| !latched(l) && !safe(l)),
+        "{:?}",
+        after.first()
+    );
+}
