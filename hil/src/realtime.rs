@@ -31,8 +31,10 @@
 //! The plant's clock then starts so that each Sensor frame reaches the device half a
 //! period before its tick (`lead_ns`): the Actuation echoing sample `k` arrives about
 //! `T/2 + exec + wire` after `t_k`, and a host up to `T/2` late is still in time. Every
-//! frame that arrives before the device answers the run's first Sensor frame (by
-//! echoing its `seq`) is discarded and counted (`pre_run`), never passed on. During the
+//! frame that arrives before the device first answers one of the run's Sensor frames
+//! (by echoing its `seq`: the first one, or a later one if the first was superseded
+//! within one device tick, [`echoes_this_run`]) is discarded and counted (`pre_run`),
+//! never passed on. During the
 //! run the phase is re-measured every 256 device frames and the schedule follows a
 //! drifting device clock (a board's crystal against the host's).
 
@@ -54,6 +56,7 @@ mod tests;
 
 use crate::timing::Stats;
 use crate::transport::{Clock, Transport, TransportError};
+pub use prepare::envelope_period;
 pub use queue::{flush_queue, queue_frame};
 
 /// Device frames over which the tick phase is measured before the run.
@@ -159,6 +162,8 @@ pub struct RealTime {
     frame: Vec<u8>,
     /// The seq of the run's first Sensor frame, once sent.
     first_seq: Option<u16>,
+    /// The seq of the latest Sensor frame sent.
+    last_seq: u16,
     synced: bool,
     sync: SyncReport,
     baseline: Option<Status>,
@@ -209,6 +214,7 @@ impl RealTime {
             decoder: Decoder::new(),
             frame: Vec::new(),
             first_seq: None,
+            last_seq: 0,
             synced: false,
             sync: SyncReport::default(),
             baseline: None,
@@ -302,7 +308,11 @@ impl RealTime {
             let n = frame.len();
             match r {
                 Ok(Message::Actuation(a)) => {
-                    if !self.synced && self.first_seq.is_some_and(|s| a.seq_echo == s && s != 0) {
+                    if !self.synced
+                        && self
+                            .first_seq
+                            .is_some_and(|s| echoes_this_run(a.seq_echo, s, self.last_seq))
+                    {
                         self.synced = true;
                     }
                     if self.synced {
@@ -422,6 +432,9 @@ impl Transport for RealTime {
         if self.first_seq.is_none() {
             self.first_seq = sensor;
         }
+        if let Some(seq) = sensor {
+            self.last_seq = seq;
+        }
         let target = self.wall(t_ns);
         self.wait_until(target)?;
         let late = Instant::now().saturating_duration_since(target).as_nanos() as f64;
@@ -502,6 +515,16 @@ impl RealTime {
             pre_run: self.sync.pre_run,
         })
     }
+}
+
+/// Whether an Actuation echoing `echo` answers a Sensor frame this run sent: seqs
+/// `first..=last` (16-bit, wrapping; 0 is the echo of no sample). The run starts at the
+/// first such answer, not only at the echo of `first`: a device that received the first
+/// two Sensor frames within one of its ticks (a host late by a period) echoes only the
+/// second, and waiting for the first would discard the whole run.
+#[must_use]
+pub fn echoes_this_run(echo: u16, first: u16, last: u16) -> bool {
+    echo != 0 && echo.wrapping_sub(first) <= last.wrapping_sub(first)
 }
 
 /// Whether the frames in `bytes` hold a Status frame.

@@ -187,37 +187,87 @@ fn a_silent_port_is_refused_with_the_reason() {
     assert!(msg.contains("--pace lockstep"), "{msg}");
 }
 
-/// The 5 kHz figures of the README (not in CI: a shared machine).
-#[test]
-#[ignore = "5 kHz real time: run by hand on a quiet machine (README)"]
-fn realtime_pacing_at_5khz() {
-    let device = StandIn::start(5_000, 5.0, "5k");
+/// One rate's real-time run against the stand-in started 0.3 s first, as one row of the
+/// README's table; the frame accounting is asserted, the timing figures are printed.
+fn figures(rate: u32, serve_s: f64) -> String {
+    let device = StandIn::start(rate, serve_s, &format!("fig{rate}"));
     std::thread::sleep(Duration::from_millis(300));
     let out = run(&RunOptions {
         target: Target::Serial(device.path.clone()),
         scenario: scenario(),
+        pace: Pace::RealTime,
+        rate_hz: Some(rate),
         ..RunOptions::default()
     })
     .expect("the run is made");
     let served = device.finish();
     let r = &out.report;
-    let tr = r.transport.as_ref().unwrap();
-    eprintln!(
-        "5 kHz: verdict {}, numerics {}, {} periods, host missed {}, device missed {}, latency \
-         mean {:.0} p99 {:.0} max {:.0} us, jitter {:?} ns, pre-run {}, frames {:?}; stand-in {}",
-        r.verdict,
-        r.numerics.verdict,
-        r.timing.periods,
-        tr["host"]["missed_deadlines"],
+    let tr = r
+        .transport
+        .as_ref()
+        .expect("the real-time transport's report");
+    let period = 1e9 / f64::from(rate);
+    let host_missed = tr["host"]["missed_deadlines"].as_u64().unwrap();
+    let periods = r.timing.periods;
+    assert_eq!(tr["host"]["periods"].as_u64(), Some(periods));
+    assert!(r.frames.pre_run > 0, "{:?}", r.frames);
+    assert_eq!(r.frames.pre_run, tr["sync"]["pre_run"].as_u64().unwrap());
+    assert!(r.frames.adds_up, "{:?}", r.frames);
+    assert_eq!(served["rate_hz"].as_u64(), Some(u64::from(rate)));
+    let host_frac = host_missed as f64 / periods.max(1) as f64;
+    let p99 = r.timing.latency_ns.p99;
+    let holds = host_frac < 0.01 && p99 < 2.0 * period;
+    let rt = &tr["realtime"];
+    let row = format!(
+        "| {} Hz | {periods}{} | {host_missed} ({:.2} %) | {} ({:.2} %) | {:.0} / {:.0} / {:.0} us \
+         ({:.2} / {:.2} T) | {:.1} us | {} | {} | {} | {} of {} | fifo {}, \
+         mlockall {}, cpu {}, slack {} ns |",
+        rate,
+        if r.numerics.run_diverged_at_s.is_some() { " (diverged)" } else { "" },
+        100.0 * host_frac,
         r.timing.missed_ticks,
+        100.0 * r.timing.missed_ticks as f64 / periods.max(1) as f64,
         r.timing.latency_ns.mean * 1e-3,
-        r.timing.latency_ns.p99 * 1e-3,
+        p99 * 1e-3,
         r.timing.latency_ns.max * 1e-3,
-        r.timing.jitter_max_ns,
+        r.timing.latency_ns.mean / period,
+        p99 / period,
+        r.timing.jitter_max_ns.unwrap_or(0.0) * 1e-3,
         r.frames.pre_run,
-        r.frames,
-        served
+        r.numerics.verdict,
+        if holds { "holds" } else { "does not hold" },
+        served["late"].as_u64().unwrap() + served["skipped"].as_u64().unwrap(),
+        served["ticks"],
+        rt["sched_fifo"],
+        rt["mlockall"],
+        rt["pinned_cpu"],
+        rt["timer_slack_ns"],
     );
-    assert_eq!(r.numerics.verdict, hil::budget::Verdict::Pass);
-    assert!(r.frames.adds_up);
+    eprintln!("{row}");
+    row
+}
+
+/// The README's real-time figures (section "Real time against the free-running stand-in:
+/// the figures"): 1 kHz and 5 kHz, one after the other, each against a stand-in started
+/// 0.3 s before the host. Ignored in the test suites (a shared machine's timing says
+/// nothing about the harness; the README's command check runs it with `--long` for the
+/// accounting); the figures are read on a quiet machine:
+/// `cargo test --release -p hil --test realtime_pty -- --ignored --nocapture`.
+#[test]
+#[ignore = "real-time figures: run by hand on a quiet machine (README)"]
+fn realtime_figures_at_1khz_and_5khz() {
+    let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
+    let k1 = figures(1_000, 4.0);
+    let k5 = figures(5_000, 5.0);
+    eprintln!(
+        "\nreal-time pacing against `hil serve --pty` started 0.3 s first, scenario short \
+         (3 s), load average {}:\n\
+         | rate | periods | host missed | device missed | latency mean / p99 / max | \
+         jitter | pre-run | numerics | < 1 % and p99 < 2 T | stand-in late or skipped | obtained |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|\n{k1}\n{k5}",
+        load.split_whitespace()
+            .take(3)
+            .collect::<Vec<_>>()
+            .join(" ")
+    );
 }

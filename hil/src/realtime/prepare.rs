@@ -114,17 +114,10 @@ impl RealTime {
             .iter()
             .map(|&(at, n, _, _)| at as f64 - wire_ns(n, self.o.baud) as f64)
             .collect();
-        // The period: the median spacing per device tick (robust to a skipped tick).
-        let mut spacing: Vec<f64> = seen
-            .windows(2)
-            .zip(outs.windows(2))
-            .filter_map(|(s, o)| {
-                let dj = s[1].2.wrapping_sub(s[0].2);
-                (dj > 0).then(|| (o[1] - o[0]) / f64::from(dj))
-            })
-            .collect();
-        spacing.sort_by(f64::total_cmp);
-        let measured = spacing.get(spacing.len() / 2).copied().unwrap_or(0.0);
+        // The period: the slope of the lower envelope of the output instants against the
+        // device's tick counter (robust to a skipped tick, and to frames read in bursts,
+        // which all carry the stamp of the read: only the earliest of each half counts).
+        let measured = envelope_period(&seen.iter().map(|s| s.2).collect::<Vec<_>>(), &outs, tf);
         self.sync.device_period_ns = measured;
         if (measured - tf).abs() > 0.1 * tf {
             return Err(TransportError::Unavailable(format!(
@@ -162,4 +155,34 @@ impl RealTime {
         self.pending.clear();
         Ok(())
     }
+}
+
+/// The device's period, ns, from its output instants `outs` (ns) and tick counters
+/// `ticks` (16-bit, wrapping): the nominal period `t` corrected by the slope of the lower
+/// envelope of the residuals `r_i = o_i - j_i t` (`j_i` ticks since the first frame)
+/// between the first and the second half of the frames,
+/// `T = t + (r_b - r_a) / (j_b - j_a)`, `a` and `b` the frames of least residual in each
+/// half. A frame delayed on its way through the host (frames read in a burst all carry
+/// the stamp of the read) only raises its residual, so the earliest frames set the
+/// estimate. 0 if fewer than 4 frames or the two frames are the same tick.
+#[must_use]
+pub fn envelope_period(ticks: &[u16], outs: &[f64], t: f64) -> f64 {
+    let n = ticks.len().min(outs.len());
+    let (Some(&j0), true) = (ticks.first(), n >= 4) else {
+        return 0.0;
+    };
+    let least = |r: std::ops::Range<usize>| {
+        r.map(|i| {
+            let j = f64::from(ticks.get(i).copied().unwrap_or(j0).wrapping_sub(j0));
+            (outs.get(i).copied().unwrap_or(0.0) - j * t, j)
+        })
+        .min_by(|x, y| x.0.total_cmp(&y.0))
+        .unwrap_or((0.0, 0.0))
+    };
+    let (ra, ja) = least(0..n / 2);
+    let (rb, jb) = least(n / 2..n);
+    if jb <= ja {
+        return 0.0;
+    }
+    t + (rb - ra) / (jb - ja)
 }
