@@ -27,7 +27,7 @@ use std::time::{Duration, Instant};
 
 pub use crate::machine::Machine;
 
-use crate::qemu_cmd::{qemu_args, SerialTo};
+use crate::qemu_cmd::{qemu_args, without_icount, SerialTo};
 
 mod bulk;
 mod pin;
@@ -108,6 +108,9 @@ pub struct QemuConfig {
     /// How the frames travel: UART0 over TCP (the default, the faithful path) or the
     /// semihosting bulk channel.
     pub channel: Channel,
+    /// QEMU without `-icount` (its clock follows the host's), for the free-running
+    /// firmware `wheelset-qemu-free.elf` ([`QemuConfig::free_running`]).
+    pub free_run: bool,
 }
 
 /// The link between the harness and the emulated device.
@@ -168,6 +171,23 @@ impl QemuConfig {
             timeout: Duration::from_secs(10),
             machine: Machine::default(),
             channel: Channel::Uart,
+            free_run: false,
+        }
+    }
+
+    /// The free-running firmware (`target/fw/wheelset-qemu-free.elf`, or
+    /// `$WHEELSET_QEMU_FREE_ELF`) on mps2-an386 without `-icount`: its tick comes from
+    /// TIMER0 on QEMU's clock, which follows the host's.
+    pub fn free_running() -> Self {
+        let elf = std::env::var_os("WHEELSET_QEMU_FREE_ELF")
+            .map(PathBuf::from)
+            .unwrap_or_else(|| {
+                Self::built_elf(Machine::An386).with_file_name("wheelset-qemu-free.elf")
+            });
+        Self {
+            elf,
+            free_run: true,
+            ..Self::new()
         }
     }
 
@@ -259,6 +279,14 @@ impl Qemu {
             None => Stdio::null(),
         };
         let mut cmd = Self::command_to(cfg.machine, &cfg.elf, to);
+        if cfg.free_run {
+            let args: Vec<String> = cmd
+                .get_args()
+                .map(|a| a.to_string_lossy().into_owned())
+                .collect();
+            cmd = Command::new(QEMU_BIN);
+            cmd.args(without_icount(args));
+        }
         if let Some(core) = next_core() {
             let mut pinned = Command::new("taskset");
             pinned
@@ -369,6 +397,17 @@ impl Qemu {
             rx: Vec::with_capacity(MAX_FRAME),
             timeout,
         })
+    }
+
+    /// A second handle on the TCP link to UART0 (the real-time transport reads and
+    /// writes it directly); an error on the bulk channel.
+    pub fn tcp_stream(&self) -> Result<TcpStream, QemuError> {
+        match &self.link {
+            Link::Tcp(s) => s.try_clone().map_err(QemuError::Io),
+            Link::Bulk { .. } => Err(QemuError::Io(io::Error::other(
+                "the bulk channel has no TCP stream",
+            ))),
+        }
     }
 
     /// Sends raw bytes to the firmware's UART0.

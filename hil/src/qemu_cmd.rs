@@ -79,6 +79,23 @@ pub fn qemu_args(machine: &str, cpu: &str, elf: &str, serial: SerialTo) -> Vec<S
     .collect()
 }
 
+/// `args` ([`qemu_args`]) without `-icount`: QEMU's virtual clock then follows the
+/// host's (the free-running firmware, `wheelset-qemu-free.elf`, ticks on its own timer
+/// in real time; instruction counts are not exact any more).
+#[must_use]
+pub fn without_icount(args: Vec<String>) -> Vec<String> {
+    let mut out = Vec::with_capacity(args.len());
+    let mut it = args.into_iter();
+    while let Some(a) = it.next() {
+        if a == "-icount" {
+            let _ = it.next();
+        } else {
+            out.push(a);
+        }
+    }
+    out
+}
+
 /// The command line as one shell line (arguments with characters outside
 /// `[A-Za-z0-9_./=:,+-]` single-quoted).
 #[must_use]
@@ -124,6 +141,12 @@ mod tests {
         assert!(c.windows(2).any(|w| w[0] == "-serial" && w[1] == "null"));
         assert!(c.windows(2).any(|w| w[0] == "-semihosting-config"
             && w[1] == "enable=on,target=native,arg=wheelset-qemu,arg=bulk:/tmp/d"));
+        let free = without_icount(a.clone());
+        assert_eq!(free.len() + 2, a.len());
+        assert!(!free.iter().any(|x| x.contains("icount")));
+        assert!(free
+            .windows(2)
+            .any(|w| w[0] == "-kernel" && w[1] == "fw.elf"));
         let b = qemu_args(MACHINE, CPU, "x", SerialTo::Null);
         assert!(b.windows(2).any(|w| w[0] == "-serial" && w[1] == "null"));
         let line = shell_line(&qemu_args(MACHINE, CPU, "my fw.elf", SerialTo::Null));

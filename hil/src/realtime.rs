@@ -40,6 +40,7 @@
 
 use std::collections::VecDeque;
 use std::io::{self, Read, Write};
+use std::net::TcpStream;
 use std::time::{Duration, Instant};
 
 use serde::Serialize;
@@ -148,10 +149,59 @@ pub struct RealTimeOptions {
     pub want: Want,
 }
 
+/// The byte stream to a free-running device: a serial port, or the TCP chardev of
+/// QEMU's UART0 (the free-running firmware, `--target qemu-free`; the QEMU it belongs
+/// to is held here, so it is killed when the transport is dropped).
+pub enum Port {
+    /// A serial port (a board, `hil serve --pty`).
+    Tty(TTYPort),
+    /// A TCP stream, and what must live as long as it.
+    Tcp(TcpStream, Option<crate::qemu::Qemu>),
+}
+
+impl Port {
+    /// Bounds the next read to `wait` (zero: non-blocking) and writes to a period.
+    fn set_timeout(&mut self, wait: Duration) -> io::Result<()> {
+        match self {
+            Self::Tty(p) => p.set_timeout(wait).map_err(io::Error::other),
+            Self::Tcp(s, _) if wait.is_zero() => s.set_nonblocking(true),
+            Self::Tcp(s, _) => {
+                s.set_nonblocking(false)?;
+                s.set_read_timeout(Some(wait))?;
+                s.set_write_timeout(Some(wait))
+            }
+        }
+    }
+
+    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        match self {
+            Self::Tty(p) => p.read(buf),
+            Self::Tcp(s, _) => match s.read(buf) {
+                Ok(0) => Err(io::Error::new(
+                    io::ErrorKind::UnexpectedEof,
+                    "the device closed the link",
+                )),
+                r => r,
+            },
+        }
+    }
+
+    fn write_all(&mut self, bytes: &[u8]) -> io::Result<()> {
+        match self {
+            Self::Tty(p) => p.write_all(bytes),
+            Self::Tcp(s, _) => {
+                // A non-blocking socket left from the last read: block for the write.
+                s.set_nonblocking(false)?;
+                s.write_all(bytes)
+            }
+        }
+    }
+}
+
 /// A free-running device on a serial port, paced in real time (see the module docs).
 pub struct RealTime {
     path: String,
-    port: TTYPort,
+    port: Port,
     o: RealTimeOptions,
     /// Plant time zero on the host's clock.
     origin: Instant,
@@ -186,7 +236,7 @@ pub struct RealTime {
 }
 
 fn io_err(path: &str, e: &io::Error) -> TransportError {
-    TransportError::Io(format!("serial:{path}: {e}"))
+    TransportError::Io(format!("{path}: {e}"))
 }
 
 impl RealTime {
@@ -204,9 +254,16 @@ impl RealTime {
                 ))
             })?;
         let _ = port.clear(serialport::ClearBuffer::All);
+        Ok(Self::on(&format!("serial:{path}"), Port::Tty(port), o))
+    }
+
+    /// Real-time pacing over `port` (named `name` in messages and the report); asks the
+    /// operating system for `o.want` on the calling thread.
+    #[must_use]
+    pub fn on(name: &str, port: Port, o: RealTimeOptions) -> Self {
         let obtained = rt_os::obtain(o.want);
-        Ok(Self {
-            path: path.to_string(),
+        Self {
+            path: name.to_string(),
             port,
             o,
             origin: Instant::now(),
@@ -230,7 +287,7 @@ impl RealTime {
             period_missed: false,
             status_owed: false,
             obtained,
-        })
+        }
     }
 
     fn period(&self) -> Duration {
@@ -401,7 +458,7 @@ impl RealTime {
 
 impl Transport for RealTime {
     fn name(&self) -> String {
-        format!("serial:{}", self.path)
+        self.path.clone()
     }
 
     fn clock(&self) -> Clock {

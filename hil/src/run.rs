@@ -34,7 +34,7 @@ use crate::frames::FramesReport;
 use crate::inproc::{DeviceFault, InProc};
 use crate::numerics::{compare, NumericsReport};
 use crate::qemu_target::QemuTarget;
-use crate::realtime::{RealTime, RealTimeOptions};
+use crate::realtime::{Port, RealTime, RealTimeOptions};
 use crate::rt_os::Want;
 use crate::serial::{Pace, Serial};
 use crate::timing::{analyse, TimingContext, TimingReport};
@@ -57,9 +57,24 @@ pub enum Target {
     /// `127.0.0.1:PORT` (`qemu:PORT`; `cargo xtask qemu-cmd ELF --tcp PORT` prints the
     /// command line), lock-step. The harness connects and leaves QEMU running.
     QemuAt(u16),
+    /// The free-running firmware under QEMU (`qemu-free`): `wheelset-qemu-free.elf`,
+    /// ticking on its own TIMER0 with QEMU's clock following the host's (no
+    /// `-icount`), paced in real time over UART0's TCP chardev as a board on a serial
+    /// port is ([`crate::realtime`]). Default rate [`QEMU_FREE_RATE_HZ`].
+    QemuFree,
     /// A board on a serial port.
     Serial(String),
 }
+
+/// The default (and highest) base rate of `--target qemu-free`: what QEMU's CMSDK UART
+/// over a TCP chardev carries in real time (the firmware's `LINK_MAX_RATE_HZ` of the
+/// `free-run` build; measured in the README, "QEMU free-running").
+pub const QEMU_FREE_RATE_HZ: u32 = 1_000;
+
+/// The line rate the link check and the timing model assume for `--target qemu-free`:
+/// QEMU does not time the UART's bytes; this is the byte rate it sustains in real time,
+/// times 10 bits (README, "QEMU free-running").
+pub const QEMU_FREE_BAUD: u32 = 1_000_000;
 
 impl std::str::FromStr for Target {
     type Err = String;
@@ -68,6 +83,7 @@ impl std::str::FromStr for Target {
         match s {
             "inproc" => Ok(Self::InProc),
             "qemu" => Ok(Self::Qemu),
+            "qemu-free" => Ok(Self::QemuFree),
             _ => {
                 if let Some(port) = s.strip_prefix("qemu:") {
                     return port
@@ -82,7 +98,7 @@ impl std::str::FromStr for Target {
                 match s.strip_prefix("serial:") {
                     Some(p) if !p.is_empty() => Ok(Self::Serial(p.to_string())),
                     _ => Err(format!(
-                        "unknown target `{s}` (expected inproc, qemu, qemu:PORT or serial:PATH)"
+                        "unknown target `{s}` (expected inproc, qemu, qemu:PORT, qemu-free or serial:PATH)"
                     )),
                 }
             }
@@ -96,6 +112,7 @@ impl fmt::Display for Target {
             Self::InProc => f.write_str("inproc"),
             Self::Qemu => f.write_str("qemu"),
             Self::QemuAt(port) => write!(f, "qemu:{port}"),
+            Self::QemuFree => f.write_str("qemu-free"),
             Self::Serial(p) => write!(f, "serial:{p}"),
         }
     }
@@ -322,6 +339,7 @@ pub fn open_transport(
         Target::Serial(p) if opts.pace == Pace::RealTime => {
             Ok(Box::new(open_realtime(p, opts, &rt)?))
         }
+        Target::QemuFree => Ok(Box::new(open_qemu_free(opts, &rt)?)),
         Target::Serial(p) => {
             let t = Serial::open(p, opts.link.baud, opts.cpu_hz, opts.timeout)
                 .map_err(RunError::Target)?;
@@ -351,15 +369,43 @@ fn open_realtime(path: &str, opts: &RunOptions, rt: &RuntimeConfig) -> Result<Re
     let cfg = device_config(rt, opts.wsp_on(), opts.monitor_safe)?;
     let mut t = RealTime::open(
         path,
-        RealTimeOptions {
-            period_ns: 1_000_000_000 / u64::from(rt.control.base_rate_hz.max(1)),
-            baud: opts.link.baud,
-            cpu_hz: opts.cpu_hz,
-            timeout: opts.timeout,
-            want: opts.realtime,
-        },
+        realtime_options(opts, rt, opts.link.baud, opts.cpu_hz),
     )
     .map_err(RunError::Target)?;
+    t.prepare(&cfg).map_err(RunError::Target)?;
+    Ok(t)
+}
+
+fn realtime_options(
+    opts: &RunOptions,
+    rt: &RuntimeConfig,
+    baud: u32,
+    cpu_hz: f64,
+) -> RealTimeOptions {
+    RealTimeOptions {
+        period_ns: 1_000_000_000 / u64::from(rt.control.base_rate_hz.max(1)),
+        baud,
+        cpu_hz,
+        timeout: opts.timeout,
+        want: opts.realtime,
+    }
+}
+
+/// Starts the free-running firmware under QEMU (no `-icount`), configures it and locks
+/// onto its tick. Its `exec` is SysTick counts of the 25 MHz clock.
+fn open_qemu_free(opts: &RunOptions, rt: &RuntimeConfig) -> Result<RealTime, RunError> {
+    let cfg = device_config(rt)?;
+    let qcfg = crate::qemu::QemuConfig {
+        timeout: opts.timeout,
+        ..crate::qemu::QemuConfig::free_running()
+    };
+    let q = crate::qemu::Qemu::start(&qcfg)
+        .map_err(|e| RunError::Target(TransportError::Unavailable(e.to_string())))?;
+    let stream = q
+        .tcp_stream()
+        .map_err(|e| RunError::Target(TransportError::Unavailable(e.to_string())))?;
+    let o = realtime_options(opts, rt, QEMU_FREE_BAUD, crate::qemu_target::MPS2_CPU_HZ);
+    let mut t = RealTime::on("qemu-free", Port::Tcp(stream, Some(q)), o);
     t.prepare(&cfg).map_err(RunError::Target)?;
     Ok(t)
 }
@@ -369,7 +415,11 @@ fn open_realtime(path: &str, opts: &RunOptions, rt: &RuntimeConfig) -> Result<Re
 /// firmware's ticker needs), then the link against it ([`crate::link_check`]; not under
 /// lock-step, where the frames are the device's clock).
 fn run_rate(opts: &RunOptions, default_hz: u32) -> Result<u32, RunError> {
-    let hz = opts.rate_hz.unwrap_or(default_hz);
+    let hz = opts.rate_hz.unwrap_or(if opts.target == Target::QemuFree {
+        QEMU_FREE_RATE_HZ
+    } else {
+        default_hz
+    });
     let unit = if opts.target == Target::InProc {
         1_000_000_000
     } else {
@@ -398,7 +448,11 @@ fn run_rate(opts: &RunOptions, default_hz: u32) -> Result<u32, RunError> {
     // an exchange per period of wall time (the run just takes longer).
     if !lockstep {
         crate::link_check::check(
-            opts.link.baud,
+            if opts.target == Target::QemuFree {
+                QEMU_FREE_BAUD
+            } else {
+                opts.link.baud
+            },
             hz,
             if opts.target == Target::InProc {
                 opts.link.latency_ns
@@ -432,6 +486,7 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     // A free-running device is held concretely: its start-up baseline is needed after.
     let mut realtime = match &opts.target {
         Target::Serial(p) if opts.pace == Pace::RealTime => Some(open_realtime(p, opts, &rt)?),
+        Target::QemuFree => Some(open_qemu_free(opts, &rt)?),
         _ => None,
     };
     let is_lockstep_remote = realtime.is_none() && opts.target != Target::InProc;

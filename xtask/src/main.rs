@@ -118,6 +118,14 @@ const FIRMWARE: &[Firmware] = &[
         elf: "wheelset-qemu.elf",
         target: FW_TARGET,
     },
+    // QEMU free-running: the tick from TIMER0, QEMU without -icount, paced in real
+    // time (`hil run --target qemu-free`).
+    Firmware {
+        bin: "wheelset-qemu",
+        features: "free-run",
+        elf: "wheelset-qemu-free.elf",
+        target: FW_TARGET,
+    },
     // The same QEMU firmware for the Cortex-M3 of mps2-an385 (same memory map, CMSDK
     // UART0 and interrupts; no FPU): `hil run --target qemu --machine mps2-an385`.
     Firmware {

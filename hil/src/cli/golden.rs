@@ -41,7 +41,7 @@ pub(crate) fn parse_golden_target(s: &str) -> Result<Target, String> {
             "golden vectors start a fresh QEMU per vector (--target qemu), not one started by hand"
                 .into(),
         ),
-        Target::Serial(_) => Err("golden vectors run on inproc or qemu".into()),
+        Target::Serial(_) | Target::QemuFree => Err("golden vectors run on inproc or qemu".into()),
     }
 }
 

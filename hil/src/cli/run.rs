@@ -25,7 +25,8 @@ pub(crate) enum PaceArg {
 
 #[derive(Args, Clone)]
 pub(crate) struct RunArgs {
-    /// Where the device runs: inproc, qemu or serial:PATH.
+    /// Where the device runs: inproc, qemu, qemu:PORT, qemu-free (the free-running
+    /// firmware under QEMU without -icount, paced in real time) or serial:PATH.
     #[arg(long, default_value = "inproc", value_parser = parse_target)]
     target: Target,
     /// The QEMU target's emulated board: mps2-an386 (Cortex-M4F) or mps2-an385

@@ -105,7 +105,7 @@ pub(crate) fn parse_sweep_target(s: &str) -> Result<Target, String> {
         Target::QemuAt(_) => {
             Err("a sweep starts its own QEMUs (--target qemu), not one started by hand".into())
         }
-        Target::Serial(_) => {
+        Target::Serial(_) | Target::QemuFree => {
             Err("a sweep runs on inproc or qemu (one board cannot run a grid in parallel)".into())
         }
     }

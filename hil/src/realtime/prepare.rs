@@ -24,7 +24,7 @@ impl RealTime {
             }
         }
         Err(TransportError::Timeout(format!(
-            "serial:{}: no Status frame within {:?} after {what}",
+            "{}: no Status frame within {:?} after {what}",
             self.path, self.o.timeout
         )))
     }
@@ -44,7 +44,7 @@ impl RealTime {
             }
             if self.sync.pre_run == 0 {
                 return Err(TransportError::Timeout(format!(
-                    "serial:{}: the device sent nothing in {:?}: a free-running device \
+                    "{}: the device sent nothing in {:?}: a free-running device \
                      answers every tick (a frame-clocked one needs --pace lockstep)",
                     self.path, self.o.timeout
                 )));
@@ -67,7 +67,7 @@ impl RealTime {
             let why = wheelset_proto::RefuseReason::from_code(s.refuse_reason);
             if why == Some(wheelset_proto::RefuseReason::Unsupported) {
                 return Err(TransportError::Unavailable(format!(
-                    "serial:{}: the device refused the run's Config (wsp {}, monitor_safe {}) \
+                    "{}: the device refused the run's Config (wsp {}, monitor_safe {}) \
                      as Unsupported: its build lacks the `wsp`/`monitor` runtime features; run \
                      with --wsp off and without --monitor-safe",
                     self.path,
@@ -76,7 +76,7 @@ impl RealTime {
                 )));
             }
             return Err(TransportError::Unavailable(format!(
-                "serial:{}: the device refused the run's configuration (Status cmd_refused \
+                "{}: the device refused the run's configuration (Status cmd_refused \
                  {}, reason {}): another sample type or control core than this harness's \
                  fixed-point default, or a rate its link cannot carry",
                 self.path,
@@ -102,7 +102,7 @@ impl RealTime {
         let seen = std::mem::take(&mut self.seen);
         if seen.len() < PHASE_FRAMES {
             return Err(TransportError::Timeout(format!(
-                "serial:{}: {} of {PHASE_FRAMES} Actuation frames within {:?} after the \
+                "{}: {} of {PHASE_FRAMES} Actuation frames within {:?} after the \
                  baseline: the device does not answer every tick",
                 self.path,
                 seen.len(),
@@ -121,7 +121,7 @@ impl RealTime {
         self.sync.device_period_ns = measured;
         if (measured - tf).abs() > 0.1 * tf {
             return Err(TransportError::Unavailable(format!(
-                "serial:{}: the device ticks every {:.1} us, not every {:.1} us of the run's \
+                "{}: the device ticks every {:.1} us, not every {:.1} us of the run's \
                  rate: it did not take the rate (--rate-hz) or cannot hold it",
                 self.path,
                 measured * 1e-3,

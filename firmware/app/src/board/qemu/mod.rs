@@ -10,6 +10,7 @@
 //!
 //! | interrupt | priority (NVIC, lower = more urgent) | job |
 //! |---|---|---|
+//! | TIMER0 (IRQ 8, `free-run` only) | 0x10 | one clock edge per period |
 //! | UART0 RX (IRQ 0) | 0x20 | bytes to the RX pipe, frame edges to the clock |
 //! | SWI0 (IRQ 16) | 0x40 | control executor: the control task |
 //! | UART0 TX (IRQ 1) | 0x80 | holding register free |
@@ -60,6 +61,12 @@ impl Stopwatch for SysTickStopwatch {
     fn stop(&mut self, start: u32) -> u32 {
         let end = SYST::get_current();
         self.syst.disable_counter();
+        // Free-running (no -icount): SysTick counts the 25 MHz clock of virtual time,
+        // which follows the host's; the counts are reported as they are (cycles of
+        // 25 MHz, 40 ns each), not as instructions.
+        if cfg!(feature = "free-run") {
+            return systick_elapsed(start, end);
+        }
         systick_to_instructions(
             systick_elapsed(start, end),
             crate::config::QEMU_ICOUNT_SHIFT,
@@ -90,7 +97,14 @@ pub use clock::set_period;
 
 /// The highest base rate a host Config may set: no limit, the QEMU build is
 /// frame-clocked (lock-step: its frames are the clock, whatever the link's speed).
+#[cfg(not(feature = "free-run"))]
 pub const LINK_MAX_RATE_HZ: u32 = u32::MAX;
+
+/// The highest base rate a host Config may set on the free-running build: what QEMU's
+/// CMSDK UART over a TCP chardev carries in real time (one byte per hand-off between
+/// QEMU's I/O and vCPU threads; measured in the README, "QEMU free-running").
+#[cfg(feature = "free-run")]
+pub const LINK_MAX_RATE_HZ: u32 = 1_000;
 
 /// Sends the safe frame and exits QEMU with a failure status.
 pub fn panic_halt() -> ! {
@@ -124,14 +138,20 @@ pub fn run() -> ! {
     let bulk = bulk::open();
     uart::init();
     defmt::info!(
-        "wheelset-qemu: {} Hz base rate, {} build, frame-clocked lock-step",
+        "wheelset-qemu: {} Hz base rate, {} build, {}",
         crate::config::BASE_RATE_HZ,
-        crate::config::NUMERIC
+        crate::config::NUMERIC,
+        if cfg!(feature = "free-run") {
+            "free-running on TIMER0"
+        } else {
+            "frame-clocked lock-step"
+        }
     );
 
     // SAFETY: priorities are set before any of these interrupts is enabled, so no
     // priority-based critical section can be broken by the change.
     unsafe {
+        core.NVIC.set_priority(Interrupt::Timer0, 0x10);
         core.NVIC.set_priority(Interrupt::Uart0Rx, 0x20);
         core.NVIC.set_priority(Interrupt::Swi0, 0x40);
         core.NVIC.set_priority(Interrupt::Uart0Tx, 0x80);
@@ -147,6 +167,8 @@ pub fn run() -> ! {
     unsafe {
         NVIC::unmask(Interrupt::Uart0Rx);
         NVIC::unmask(Interrupt::Uart0Tx);
+        #[cfg(feature = "free-run")]
+        NVIC::unmask(Interrupt::Timer0);
     }
     if let Some(bulk) = bulk {
         defmt::info!("frames over the semihosting bulk channel");
@@ -177,6 +199,13 @@ extern "C" fn SWI1() {
 #[unsafe(no_mangle)]
 extern "C" fn UART0RX() {
     uart::on_rx_interrupt();
+}
+
+#[cfg(feature = "free-run")]
+#[allow(non_snake_case)]
+#[unsafe(no_mangle)]
+extern "C" fn TIMER0() {
+    clock::timer::on_interrupt();
 }
 
 #[allow(non_snake_case)]

@@ -11,6 +11,8 @@ pub enum Interrupt {
     Uart0Rx = 0,
     /// CMSDK UART0 transmit.
     Uart0Tx = 1,
+    /// CMSDK TIMER0 (the free-running build's tick).
+    Timer0 = 8,
     /// Software interrupt: the control executor.
     Swi0 = 16,
     /// Software interrupt: the communication executor.
