@@ -394,7 +394,7 @@ fn realtime_options(
 /// Starts the free-running firmware under QEMU (no `-icount`), configures it and locks
 /// onto its tick. Its `exec` is SysTick counts of the 25 MHz clock.
 fn open_qemu_free(opts: &RunOptions, rt: &RuntimeConfig) -> Result<RealTime, RunError> {
-    let cfg = device_config(rt)?;
+    let cfg = device_config(rt, opts.wsp_on(), opts.monitor_safe)?;
     let qcfg = crate::qemu::QemuConfig {
         timeout: opts.timeout,
         ..crate::qemu::QemuConfig::free_running()
