@@ -7,7 +7,7 @@
 
 use hil::qemu::{Qemu, QemuConfig};
 use wheelset_proto::{
-    encode_vec, reset_cause, Command, Decoder, Flags, Lateral, Message, Sensor, Status,
+    encode_vec, reset_cause, Actuation, Command, Decoder, Flags, Lateral, Message, Sensor, Status,
 };
 
 /// The firmware's RX pipe between the UART interrupt and the control task, bytes
@@ -101,4 +101,72 @@ fn the_qemu_board_reports_its_counters_and_boot_record() {
     assert_eq!(s.rx_overrun as usize, burst + 1 - RX_PIPE);
     assert_eq!((s.ticks_late, s.ticks_missed, s.tx_dropped), (0, 0, 0));
     assert_eq!(s.boot_count, 1);
+}
+
+fn command(c: Command) -> Vec<u8> {
+    encode_vec(&Message::Command(c)).unwrap().to_vec()
+}
+
+/// Injects `fault`, expects the safe frame from the handler, waits for the reset and
+/// returns the first Status of the new boot and the first Actuation after it.
+fn fault_and_rejoin(q: &mut Qemu, fault: Command) -> (Actuation, Status) {
+    for k in 1..=5 {
+        exchange(q, &sensor(k), 1);
+    }
+    // The tick that takes the command queues its Actuation, then stalls (or faults);
+    // that Actuation may or may not leave before the handler's safe frame, which comes
+    // last (at most two frames).
+    let mut m = exchange(q, &command(fault), 1);
+    if !matches!(m.first(), Some(Message::Actuation(a)) if a.flags.has(Flags::SAFE)) {
+        m = exchange(q, &[], 1);
+    }
+    let Some(Message::Actuation(safe)) = m.first() else {
+        panic!("{m:?}")
+    };
+    assert!(safe.flags.has(Flags::SAFE) && !safe.flags.has(Flags::ENABLED));
+    assert_eq!((safe.t_psi_dnm, safe.u_a_cv, safe.tick), (0, 0, 0));
+    // The reset follows within milliseconds of wall time; let the new boot come up.
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    let m = exchange(q, &sensor(100), 1);
+    let Some(Message::Actuation(first)) = m.first() else {
+        panic!("{m:?}")
+    };
+    (*first, status(q))
+}
+
+#[test]
+#[ignore = "the QEMU watchdog is not started yet (firmware/app/src/board/qemu/wdog.rs, ENABLED)"]
+fn a_stalled_control_task_trips_the_watchdog_and_the_board_rejoins() {
+    let Some(mut q) = start_or_skip("watchdog reset") else {
+        return;
+    };
+    let (first, s) = fault_and_rejoin(&mut q, Command::InjectStall);
+    // A new boot: its tick counter restarts, the record counts the second boot, the
+    // cause is the watchdog, and the fault is latched.
+    assert_eq!(first.tick, 1, "{first:?}");
+    assert_eq!(first.seq_echo, 100);
+    assert!(first.flags.has(Flags::FAULT_LATCHED), "{:?}", first.flags);
+    assert_eq!((s.boot_count, s.reset_cause), (2, reset_cause::WATCHDOG));
+    assert!(s.flags.has(Flags::FAULT_LATCHED));
+    // ClearFaults clears the latch; the loop goes on.
+    exchange(&mut q, &command(Command::ClearFaults), 1);
+    let m = exchange(&mut q, &sensor(101), 1);
+    let Some(Message::Actuation(a)) = m.first() else {
+        panic!("{m:?}")
+    };
+    assert!(!a.flags.has(Flags::FAULT_LATCHED) && a.flags.has(Flags::ENABLED));
+    // A second stall: boot 3.
+    let (_, s) = fault_and_rejoin(&mut q, Command::InjectStall);
+    assert_eq!((s.boot_count, s.reset_cause), (3, reset_cause::WATCHDOG));
+}
+
+#[test]
+fn a_hardfault_drives_the_safe_outputs_and_resets() {
+    let Some(mut q) = start_or_skip("hardfault reset") else {
+        return;
+    };
+    let (first, s) = fault_and_rejoin(&mut q, Command::InjectHardFault);
+    assert_eq!(first.tick, 1, "{first:?}");
+    assert_eq!((s.boot_count, s.reset_cause), (2, reset_cause::FAULT));
+    assert!(s.flags.has(Flags::FAULT_LATCHED));
 }

@@ -261,6 +261,11 @@ pub async fn control_loop(mut device: impl Device, mut stopwatch: impl Stopwatch
         }
         last_exec = exchange(&mut device, &mut stopwatch, t0, last_exec, &mut note);
         note_stack(&mut device, &mut stack_ticks);
+        crate::watchdog::tick_ran();
+        #[cfg(feature = "board-qemu")]
+        if let Some(c) = device.take_injected() {
+            crate::panic::inject(c);
+        }
         // A Config frame from the host may have changed the base rate.
         let now_rate = device.base_rate_hz();
         if now_rate != rate {
@@ -305,6 +310,11 @@ pub async fn frame_loop(mut device: impl Device, mut stopwatch: impl Stopwatch) 
         let t0 = stopwatch.start();
         last_exec = exchange(&mut device, &mut stopwatch, t0, last_exec, &mut note);
         note_stack(&mut device, &mut stack_ticks);
+        crate::watchdog::tick_ran();
+        #[cfg(feature = "board-qemu")]
+        if let Some(c) = device.take_injected() {
+            crate::panic::inject(c);
+        }
     }
 }
 

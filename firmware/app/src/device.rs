@@ -36,6 +36,8 @@ pub trait Device {
     fn set_boot(&mut self, boot_count: u32, reset_cause: u8);
     /// The board's stack high-water mark, bytes (reported in `Status.stack_peak`).
     fn set_stack_peak(&mut self, bytes: u32);
+    /// A fault injection received (test builds with `fault-inject` only).
+    fn take_injected(&mut self) -> Option<wheelset_proto::Command>;
 }
 
 impl<T: SampleBits> Device for Runtime<T> {
@@ -61,6 +63,8 @@ impl<T: SampleBits> Device for Runtime<T> {
 
     fn set_stack_peak(&mut self, bytes: u32) {
         Runtime::set_stack_peak(self, bytes);
+    fn take_injected(&mut self) -> Option<wheelset_proto::Command> {
+        Runtime::take_injected(self)
     }
 }
 

@@ -20,6 +20,8 @@ pub mod exec;
 #[allow(unsafe_code)]
 pub mod ring;
 pub mod tick;
+#[cfg(target_os = "none")]
+pub mod watchdog;
 
 #[cfg(all(target_os = "none", feature = "board-nucleo", feature = "board-qemu"))]
 compile_error!("enable exactly one of the features `board-nucleo` and `board-qemu`");

@@ -16,6 +16,41 @@ pub fn enter_halt() -> bool {
     HALTING.swap(true, Ordering::Relaxed)
 }
 
+/// The HardFault handler: the safe outputs first (as the panic handler), then the
+/// cause FAULT in the boot record (`crate::boot`), then a system reset (SYSRESETREQ):
+/// the board boots into its safe outputs, reports `reset_cause` FAULT with
+/// `FAULT_LATCHED`, and rejoins the loop.
+#[cortex_m_rt::exception(trampoline = false)]
+unsafe fn HardFault() -> ! {
+    cortex_m::interrupt::disable();
+    if !enter_halt() {
+        crate::board::send_safe_frame();
+    }
+    crate::boot::record_cause(wheelset_proto::reset_cause::FAULT);
+    cortex_m::peripheral::SCB::sys_reset()
+}
+
+/// Carries out a fault injection (`Command::InjectStall`, `InjectHardFault`; QEMU
+/// builds with `fault-inject` only): the control task loops forever without letting the
+/// watchdog be fed, or executes an undefined instruction (a UsageFault, escalated to
+/// HardFault since the UsageFault handler is not enabled).
+#[cfg(feature = "board-qemu")]
+pub fn inject(c: wheelset_proto::Command) {
+    match c {
+        wheelset_proto::Command::InjectStall => {
+            defmt::warn!("fault injection: control task stalled");
+            loop {
+                core::hint::spin_loop();
+            }
+        }
+        wheelset_proto::Command::InjectHardFault => {
+            defmt::warn!("fault injection: HardFault");
+            cortex_m::asm::udf()
+        }
+        _ => {}
+    }
+}
+
 #[panic_handler]
 fn panic(info: &PanicInfo) -> ! {
     cortex_m::interrupt::disable();

@@ -27,7 +27,7 @@ pub(crate) const CONFIG: u8 = 2;
 pub(crate) const COMMAND: u8 = 3;
 pub(crate) const STATUS: u8 = 4;
 /// [`Command`] variants this version defines (indices `0..COMMANDS`).
-pub(crate) const COMMANDS: u32 = 3;
+pub(crate) const COMMANDS: u32 = 5;
 /// [`YawMode`] variants (the first field of a [`Config`]), indices `0..YAW_MODES`.
 pub(crate) const YAW_MODES: u32 = 3;
 
@@ -235,6 +235,8 @@ pub(crate) fn encode_command(c: Command, out: &mut [u8]) -> Option<usize> {
         Command::ResetCounters => 0,
         Command::RequestStatus => 1,
         Command::ClearFaults => 2,
+        Command::InjectStall => 3,
+        Command::InjectHardFault => 4,
     })?;
     Some(w.n)
 }
@@ -559,6 +561,8 @@ pub(crate) fn command(r: &mut In<'_>) -> Option<Command> {
         0 => Some(Command::ResetCounters),
         1 => Some(Command::RequestStatus),
         2 => Some(Command::ClearFaults),
+        3 => Some(Command::InjectStall),
+        4 => Some(Command::InjectHardFault),
         _ => None,
     }
 }

@@ -218,6 +218,14 @@ pub enum Command {
     /// Clear [`Flags::FAULT_LATCHED`] and leave a safe state held by a stability alarm
     /// (`Config.monitor_safe`): the host's acknowledgement after it has acted.
     ClearFaults,
+    /// Test only (index 3): stall the control task (it loops without letting the
+    /// watchdog be fed) so the watchdog resets the board. Honoured only by a firmware
+    /// built with the `fault-inject` feature (the QEMU build); refused elsewhere with
+    /// `RefuseReason::Unsupported`. A new index and no new field: `VERSION` stays 2, and
+    /// a device without it refuses it as an unknown request.
+    InjectStall,
+    /// Test only (index 4): trigger a HardFault (as [`Command::InjectStall`]).
+    InjectHardFault,
 }
 
 /// Device -> host, on request: the counters (all wrap at 2^32).

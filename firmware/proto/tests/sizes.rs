@@ -163,6 +163,8 @@ fn worst_cases_are_the_crate_constants() {
         Command::ResetCounters,
         Command::RequestStatus,
         Command::ClearFaults,
+        Command::InjectStall,
+        Command::InjectHardFault,
     ] {
         assert_eq!(len(Message::Command(c)), COMMAND_MAX_FRAME);
     }

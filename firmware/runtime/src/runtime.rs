@@ -11,7 +11,7 @@ use wheelset_proto::{encode_actuation, encode_status, Decoder, RefuseReason};
 
 use crate::plausible;
 use crate::{
-    AccBits, Actuation, Flags, HoldPolicy, RuntimeBits, RuntimeConfig, RuntimeCounters,
+    AccBits, Actuation, Command, Flags, HoldPolicy, RuntimeBits, RuntimeConfig, RuntimeCounters,
     RuntimeError, SafeChange, TX_CAPACITY,
 };
 
@@ -65,6 +65,8 @@ pub struct Runtime<T: Sample> {
     /// Sticky [`Flags::FAULT_LATCHED`].
     fault_latched: bool,
     status_requested: bool,
+    /// A fault injection the board is to carry out (feature `fault-inject`).
+    injected: Option<Command>,
     ticks: u32,
     /// The board's link limit: the highest base rate a Config may set, Hz.
     max_rate_hz: u32,
@@ -142,6 +144,7 @@ impl<T: SampleBits> Runtime<T> {
             alarm_safe: false,
             fault_latched: false,
             status_requested: false,
+            injected: None,
             ticks: 0,
             max_rate_hz: u32::MAX,
             counters: RuntimeCounters::default(),
@@ -383,6 +386,17 @@ impl<T: SampleBits> Runtime<T> {
         ) {
             self.fault_latched = true;
         }
+    }
+
+    /// The fault injection received since the last call ([`Command::InjectStall`] or
+    /// [`Command::InjectHardFault`]; only with the `fault-inject` feature, otherwise
+    /// they are refused as `Unsupported` and this is always `None`): the board carries
+    /// it out after the tick.
+    ///
+    /// [`Command::InjectStall`]: crate::Command::InjectStall
+    /// [`Command::InjectHardFault`]: crate::Command::InjectHardFault
+    pub fn take_injected(&mut self) -> Option<Command> {
+        self.injected.take()
     }
 
     /// The stack's high-water mark in bytes, as the board measured it.

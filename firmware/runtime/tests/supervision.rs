@@ -202,3 +202,23 @@ fn the_status_carries_the_refusal_reason_and_the_board_fields() {
         (7, reset_cause::WATCHDOG, 3_152)
     );
 }
+
+/// Without the `fault-inject` feature (every build but the QEMU firmware) the fault
+/// injections are refused as Unsupported and nothing is handed to the board.
+#[cfg(not(feature = "fault-inject"))]
+#[test]
+fn fault_injection_is_refused_without_the_feature() {
+    let mut r = Runtime::<Fx>::try_new(RuntimeConfig::default()).expect("valid");
+    for (k, c) in [Command::InjectStall, Command::InjectHardFault]
+        .into_iter()
+        .enumerate()
+    {
+        r.receive(&command(c));
+        let a = act(r.tick(0));
+        assert!(a.flags.has(Flags::CMD_REFUSED), "{c:?}: {:?}", a.flags);
+        assert_eq!(r.take_injected(), None);
+        let s = status(&mut r, 10 + k as u16);
+        assert_eq!(s.cmd_refused, k as u32 + 1);
+        assert_eq!(s.refuse_reason, RefuseReason::Unsupported.code());
+    }
+}

@@ -3,9 +3,9 @@
 #[cfg(feature = "board-nucleo")]
 pub mod nucleo;
 #[cfg(feature = "board-nucleo")]
-pub use nucleo::{panic_halt, run, set_period, LINK_MAX_RATE_HZ};
+pub use nucleo::{panic_halt, run, send_safe_frame, set_period, LINK_MAX_RATE_HZ};
 
 #[cfg(feature = "board-qemu")]
 pub mod qemu;
 #[cfg(feature = "board-qemu")]
-pub use qemu::{panic_halt, run, set_period, LINK_MAX_RATE_HZ};
+pub use qemu::{panic_halt, run, send_safe_frame, set_period, LINK_MAX_RATE_HZ};

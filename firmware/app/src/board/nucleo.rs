@@ -162,17 +162,21 @@ async fn tx_task(mut tx: UartTx<'static, embassy_stm32::mode::Async>) {
 /// The hardware timer needs no period: the ticker schedules its own alarms.
 pub fn set_period(_ticks: u64) {}
 
-/// Sends the safe frame by polling USART2 (DMA off), then sleeps forever; probe-rs
-/// shows the defmt panic message.
+/// Sends the safe frame by polling USART2 (DMA off).
+pub fn send_safe_frame() {
+    let usart = pac::USART2;
+    usart.cr3().modify(|w| w.set_dmat(false));
+    let mut buf = [0u8; wheelset_proto::MAX_FRAME];
+    for &b in crate::device::safe_frame(&mut buf) {
+        while !usart.sr().read().txe() {}
+        usart.dr().write(|w| w.set_dr(u16::from(b)));
+    }
+}
+
+/// Sends the safe frame, then sleeps forever; probe-rs shows the defmt panic message.
 pub fn panic_halt() -> ! {
     if !crate::panic::enter_halt() {
-        let usart = pac::USART2;
-        usart.cr3().modify(|w| w.set_dmat(false));
-        let mut buf = [0u8; wheelset_proto::MAX_FRAME];
-        for &b in crate::device::safe_frame(&mut buf) {
-            while !usart.sr().read().txe() {}
-            usart.dr().write(|w| w.set_dr(u16::from(b)));
-        }
+        send_safe_frame();
     }
     loop {
         cortex_m::asm::wfi();

@@ -66,6 +66,13 @@ impl<T: SampleBits> Runtime<T> {
                 self.fault_latched = false;
                 self.alarm_safe = false;
             }
+            Request::Command(c @ (Command::InjectStall | Command::InjectHardFault)) => {
+                if cfg!(feature = "fault-inject") {
+                    self.injected = Some(c);
+                } else {
+                    self.refuse(RefuseReason::Unsupported);
+                }
+            }
             Request::Unknown => self.refuse(RefuseReason::UnknownRequest),
             Request::Unexpected => {}
         }

@@ -131,8 +131,12 @@ impl Bulk {
                         }
                     }
                 }
+                crate::watchdog::rx_ran();
                 if part.last() == Some(&0) {
                     super::clock::frame_edge();
+                }
+                if crate::watchdog::take_both() {
+                    super::wdog::feed();
                 }
                 rest = more;
             }

@@ -21,6 +21,7 @@ pub mod clock;
 mod log;
 pub mod pac;
 pub mod uart;
+pub mod wdog;
 
 use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m::peripheral::{NVIC, SYST};
@@ -106,16 +107,36 @@ pub const LINK_MAX_RATE_HZ: u32 = u32::MAX;
 #[cfg(feature = "free-run")]
 pub const LINK_MAX_RATE_HZ: u32 = 1_000;
 
+/// Sends the safe frame by polling (interrupts off).
+pub fn send_safe_frame() {
+    let mut buf = [0u8; wheelset_proto::MAX_FRAME];
+    let frame = crate::device::safe_frame(&mut buf);
+    if bulk::active() {
+        bulk::write_all(frame);
+    } else {
+        uart::write_blocking(frame);
+    }
+}
+
+/// The watchdog's first expiry (its interrupt is the NMI): a stalled control task or
+/// receive path. Records the cause WATCHDOG in the boot record, sends the safe frame
+/// and waits for the second expiry, which resets the board ([`wdog::GRACE_COUNTS`]).
+#[cortex_m_rt::exception]
+unsafe fn NonMaskableInt() {
+    wdog::grace();
+    crate::boot::record_cause(wheelset_proto::reset_cause::WATCHDOG);
+    if !crate::panic::enter_halt() {
+        send_safe_frame();
+    }
+    loop {
+        core::hint::spin_loop();
+    }
+}
+
 /// Sends the safe frame and exits QEMU with a failure status.
 pub fn panic_halt() -> ! {
     if !crate::panic::enter_halt() {
-        let mut buf = [0u8; wheelset_proto::MAX_FRAME];
-        let frame = crate::device::safe_frame(&mut buf);
-        if bulk::active() {
-            bulk::write_all(frame);
-        } else {
-            uart::write_blocking(frame);
-        }
+        send_safe_frame();
     }
     loop {
         cortex_m_semihosting::debug::exit(cortex_m_semihosting::debug::EXIT_FAILURE);
@@ -172,12 +193,39 @@ pub fn run() -> ! {
     }
     if let Some(bulk) = bulk {
         defmt::info!("frames over the semihosting bulk channel");
+        // Its loop is thread mode's (a blocking read does not advance virtual time):
+        // the watchdog runs throughout and bulk::run feeds it.
+        if wdog::ENABLED {
+            wdog::start();
+        }
         bulk.run();
     }
     // A byte that arrived before the RX interrupt was enabled raised none: look once.
     NVIC::pend(Interrupt::Uart0Rx);
+    // The watchdog (wdog) would be fed here when the tick and the receive path have
+    // both run, stopped around WFI so that it counts busy time only (lock-step). Not
+    // started yet: see wdog::ENABLED.
+    if wdog::ENABLED {
+        wdog::start();
+    }
+    if !wdog::ENABLED {
+        loop {
+            cortex_m::asm::wfi();
+        }
+    }
     loop {
+        cortex_m::interrupt::disable();
+        if crate::watchdog::take_both() {
+            wdog::feed();
+        }
+        let left = wdog::idle_enter();
+        // WFI returns for a pending interrupt even with PRIMASK set; its handler runs
+        // at the `enable` below, with the watchdog counting again.
         cortex_m::asm::wfi();
+        wdog::idle_exit(left);
+        // SAFETY: not inside a critical section (thread mode's idle loop, which masked
+        // interrupts itself just above).
+        unsafe { cortex_m::interrupt::enable() };
     }
 }
 

@@ -63,6 +63,7 @@ pub fn on_rx_interrupt() {
             break;
         }
         let byte = (read(DATA) & 0xFF) as u8;
+        crate::watchdog::rx_ran();
         if crate::app::RX.try_write(&[byte]) != Ok(1) {
             // Lost: counted for the Status (`rx_overrun`).
             crate::app::RX_OVERRUN.fetch_add(1, Ordering::Relaxed);
