@@ -63,6 +63,8 @@ impl<T: SampleBits> Device for Runtime<T> {
 
     fn set_stack_peak(&mut self, bytes: u32) {
         Runtime::set_stack_peak(self, bytes);
+    }
+
     fn take_injected(&mut self) -> Option<wheelset_proto::Command> {
         Runtime::take_injected(self)
     }
