@@ -24,21 +24,23 @@ use sim_host::link::LinkConfig;
 use sim_host::params::Params;
 use sim_host::scenario::Scenario;
 use sim_host::sim::{run_continuous, Trajectory};
-use wheelset_control::Fx;
 use wheelset_proto::Status;
 use wheelset_runtime::RuntimeConfig;
 
 use crate::budget::{Budgets, Verdict};
 use crate::closed_loop::{close_loop, LoopSetup};
 use crate::frames::FramesReport;
-use crate::inproc::{DeviceFault, InProc};
+use crate::inproc::DeviceFault;
 use crate::numerics::{compare, NumericsReport};
-use crate::qemu_target::QemuTarget;
-use crate::realtime::{Port, RealTime, RealTimeOptions};
+use crate::realtime::RealTime;
 use crate::rt_os::Want;
-use crate::serial::{Pace, Serial};
+use crate::serial::Pace;
 use crate::timing::{analyse, TimingContext, TimingReport};
 use crate::transport::{Transport, TransportError};
+
+mod open;
+pub use open::{device_config, open_transport};
+use open::{open_qemu_free, open_realtime, run_rate};
 
 /// Default core clock of the device, Hz: the board's STM32F446RE at 180 MHz. A board's
 /// `exec` is in cycles of it; the QEMU target's `exec` is in instructions, converted at
@@ -301,168 +303,6 @@ pub struct RunOutcome {
     pub monitor_ms: Vec<(f64, f64)>,
     /// The device's configuration as applied (from the parameters, the law and the rate).
     pub runtime: RuntimeConfig,
-}
-
-/// Opens the transport for `opts.target`; an in-process device is built from `rt`.
-pub fn open_transport(
-    opts: &RunOptions,
-    rt: RuntimeConfig,
-) -> Result<Box<dyn Transport>, RunError> {
-    match &opts.target {
-        Target::InProc => {
-            let mut t = InProc::<Fx>::try_new(rt, &opts.link, opts.device_fault)
-                .map_err(|e| RunError::Input(e.to_string()))?;
-            let cfg = sim_host::device::run_config(&rt, opts.wsp_on(), opts.monitor_safe);
-            t.configure(&cfg).map_err(|why| {
-                RunError::Target(TransportError::Unavailable(
-                    sim_host::device::DeviceError::Refused(why, cfg).to_string(),
-                ))
-            })?;
-            Ok(Box::new(t))
-        }
-        Target::Qemu => {
-            let t = QemuTarget::start_with(
-                opts.machine,
-                opts.qemu_link,
-                opts.link.baud,
-                opts.cpu_hz,
-                opts.timeout,
-            )
-            .map_err(RunError::Target)?;
-            Ok(Box::new(t))
-        }
-        Target::QemuAt(port) => {
-            let t = QemuTarget::connect(*port, opts.link.baud, opts.cpu_hz, opts.timeout)
-                .map_err(RunError::Target)?;
-            Ok(Box::new(t))
-        }
-        Target::Serial(p) if opts.pace == Pace::RealTime => {
-            Ok(Box::new(open_realtime(p, opts, &rt)?))
-        }
-        Target::QemuFree => Ok(Box::new(open_qemu_free(opts, &rt)?)),
-        Target::Serial(p) => {
-            let t = Serial::open(p, opts.link.baud, opts.cpu_hz, opts.timeout)
-                .map_err(RunError::Target)?;
-            Ok(Box::new(t))
-        }
-    }
-}
-
-/// The Config frame that puts a free-running device elsewhere on `rt` (law, hold
-/// ticks, rates) with the protection `wsp` and the monitor's response `monitor_safe`
-/// (`sim_host::device::run_config` with the rates).
-pub fn device_config(
-    rt: &RuntimeConfig,
-    wsp: bool,
-    monitor_safe: bool,
-) -> Result<wheelset_proto::Config, RunError> {
-    let rates = wheelset_runtime::rates_for::<wheelset_control::Fx>(rt)
-        .map_err(|e| RunError::Input(format!("--rate-hz {}: {e}", rt.control.base_rate_hz)))?;
-    Ok(wheelset_proto::Config {
-        rates: Some(rates),
-        ..sim_host::device::run_config(rt, wsp, monitor_safe)
-    })
-}
-
-/// Opens a free-running device on `path`, configures it and locks onto its tick.
-fn open_realtime(path: &str, opts: &RunOptions, rt: &RuntimeConfig) -> Result<RealTime, RunError> {
-    let cfg = device_config(rt, opts.wsp_on(), opts.monitor_safe)?;
-    let mut t = RealTime::open(
-        path,
-        realtime_options(opts, rt, opts.link.baud, opts.cpu_hz),
-    )
-    .map_err(RunError::Target)?;
-    t.prepare(&cfg).map_err(RunError::Target)?;
-    Ok(t)
-}
-
-fn realtime_options(
-    opts: &RunOptions,
-    rt: &RuntimeConfig,
-    baud: u32,
-    cpu_hz: f64,
-) -> RealTimeOptions {
-    RealTimeOptions {
-        period_ns: 1_000_000_000 / u64::from(rt.control.base_rate_hz.max(1)),
-        baud,
-        cpu_hz,
-        timeout: opts.timeout,
-        want: opts.realtime,
-    }
-}
-
-/// Starts the free-running firmware under QEMU (no `-icount`), configures it and locks
-/// onto its tick. Its `exec` is SysTick counts of the 25 MHz clock.
-fn open_qemu_free(opts: &RunOptions, rt: &RuntimeConfig) -> Result<RealTime, RunError> {
-    let cfg = device_config(rt, opts.wsp_on(), opts.monitor_safe)?;
-    let qcfg = crate::qemu::QemuConfig {
-        timeout: opts.timeout,
-        ..crate::qemu::QemuConfig::free_running()
-    };
-    let q = crate::qemu::Qemu::start(&qcfg)
-        .map_err(|e| RunError::Target(TransportError::Unavailable(e.to_string())))?;
-    let stream = q
-        .tcp_stream()
-        .map_err(|e| RunError::Target(TransportError::Unavailable(e.to_string())))?;
-    let o = realtime_options(opts, rt, QEMU_FREE_BAUD, crate::qemu_target::MPS2_CPU_HZ);
-    let mut t = RealTime::on("qemu-free", Port::Tcp(stream, Some(q)), o);
-    t.prepare(&cfg).map_err(RunError::Target)?;
-    Ok(t)
-}
-
-/// The base rate of a run: `opts.rate_hz` or the control core's default, checked for the
-/// target (a whole number of ns per period in process; of us elsewhere, as the
-/// firmware's ticker needs), then the link against it ([`crate::link_check`]; not under
-/// lock-step, where the frames are the device's clock).
-fn run_rate(opts: &RunOptions, default_hz: u32) -> Result<u32, RunError> {
-    let hz = opts.rate_hz.unwrap_or(if opts.target == Target::QemuFree {
-        QEMU_FREE_RATE_HZ
-    } else {
-        default_hz
-    });
-    let unit = if opts.target == Target::InProc {
-        1_000_000_000
-    } else {
-        1_000_000
-    };
-    if hz == 0 || unit % u64::from(hz) != 0 {
-        return Err(RunError::Input(format!(
-            "--rate-hz {hz}: the period must be a whole number of {} (a divisor of {unit} Hz)",
-            if unit == 1_000_000 {
-                "microseconds on a device's ticker"
-            } else {
-                "nanoseconds"
-            }
-        )));
-    }
-    let lockstep = matches!(opts.target, Target::Qemu | Target::QemuAt(_))
-        || (matches!(opts.target, Target::Serial(_)) && opts.pace == Pace::LockStep);
-    if lockstep && hz != default_hz {
-        return Err(RunError::Input(format!(
-            "--rate-hz {hz}: lock-step targets run the firmware's default rate ({default_hz} Hz); \
-             another rate is configured over the wire on the in-process and real-time serial \
-             targets"
-        )));
-    }
-    // Lock-step: the host's frames are the device's clock, so the link need not carry
-    // an exchange per period of wall time (the run just takes longer).
-    if !lockstep {
-        crate::link_check::check(
-            if opts.target == Target::QemuFree {
-                QEMU_FREE_BAUD
-            } else {
-                opts.link.baud
-            },
-            hz,
-            if opts.target == Target::InProc {
-                opts.link.latency_ns
-            } else {
-                sim_host::link::DEFAULT_LATENCY_NS
-            },
-        )
-        .map_err(RunError::Input)?;
-    }
-    Ok(hz)
 }
 
 /// The device's runtime configuration for a run of `sc`: the scenario's parameters, the
