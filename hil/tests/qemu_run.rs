@@ -49,7 +49,9 @@ fn the_qemu_target_closes_the_loop_bit_identical_to_the_in_process_one() {
     // Accounted from the firmware's own Status frame: nothing lost.
     assert_eq!(r.frames.source, "device-status");
     assert!(r.frames.adds_up);
-    assert_eq!(r.frames.up.received, 15_001);
+    // Up: the run's Config (its first frame: wsp and monitor_safe), one Sensor frame per
+    // period (15 000) and the closing Status request.
+    assert_eq!(r.frames.up.received, 15_000 + 2);
     assert_eq!(r.frames.down.received, r.frames.down.sent);
     // Execution time in instructions, measured on the emulated Cortex-M4.
     let t = &r.timing;
