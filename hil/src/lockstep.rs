@@ -2,6 +2,14 @@
 //! every 0x00 frame delimiter the host sends is one device tick, and each tick answers
 //! with one Actuation frame, followed by a Status frame when the tick's input held a
 //! `RequestStatus` command. [`Expect`] counts the frames the host must wait for.
+//!
+//! **One frame in flight.** A device that ticks on delimiters runs one tick per frame only
+//! if it is idle when each frame arrives: two frames that reach it back to back (the
+//! run's Config and the first Sensor frame, a Sensor frame and a `ClearFaults`) are two
+//! clock edges in one burst of its receiver, so the tick monitor sees one late tick and
+//! skips the other, and the host waits forever for the answer that never comes. So a
+//! lock-step transport waits for what is owed before it sends the next frame, and keeps
+//! those early answers ([`Expect::stash`]) for the next receive ([`Expect::take_early`]).
 
 use wheelset_proto::{Command, Decoder, Message};
 
@@ -10,6 +18,7 @@ use wheelset_proto::{Command, Decoder, Message};
 pub struct Expect {
     decoder: Decoder,
     owed: u64,
+    early: Vec<u8>,
 }
 
 impl Expect {
@@ -43,6 +52,17 @@ impl Expect {
     pub fn owed(&self) -> u64 {
         self.owed
     }
+
+    /// Keeps bytes received before a send (answers to earlier frames) for the next
+    /// receive.
+    pub fn stash(&mut self, bytes: &[u8]) {
+        self.early.extend_from_slice(bytes);
+    }
+
+    /// The bytes kept by [`Self::stash`], in arrival order; empty after.
+    pub fn take_early(&mut self) -> Vec<u8> {
+        std::mem::take(&mut self.early)
+    }
 }
 
 #[cfg(test)]
@@ -70,5 +90,14 @@ mod tests {
         assert_eq!(e.owed(), 4);
         e.received(&[1, 2, 0, 5, 0]);
         assert_eq!(e.owed(), 2);
+    }
+
+    #[test]
+    fn stashed_answers_come_back_once_in_order() {
+        let mut e = Expect::new();
+        e.stash(&[1, 2, 0]);
+        e.stash(&[3, 0]);
+        assert_eq!(e.take_early(), vec![1, 2, 0, 3, 0]);
+        assert!(e.take_early().is_empty());
     }
 }

@@ -107,6 +107,10 @@ impl Transport for QemuTarget {
     }
 
     fn send(&mut self, _t_ns: u64, bytes: &[u8]) -> Result<(), TransportError> {
+        // One frame in flight (`crate::lockstep`): the answers still owed first.
+        let mut early = Vec::new();
+        self.wait_owed(&mut |b| early.extend_from_slice(b))?;
+        self.expect.stash(&early);
         self.expect.sent(bytes);
         self.q
             .send(bytes)
@@ -118,6 +122,17 @@ impl Transport for QemuTarget {
         deadline_ns: u64,
         sink: &mut dyn FnMut(u64, &[u8]),
     ) -> Result<(), TransportError> {
+        let early = self.expect.take_early();
+        if !early.is_empty() {
+            sink(deadline_ns, &early);
+        }
+        self.wait_owed(&mut |b| sink(deadline_ns, b))
+    }
+}
+
+impl QemuTarget {
+    /// Receives every frame owed, each to `sink` (its delimiter included).
+    fn wait_owed(&mut self, sink: &mut dyn FnMut(&[u8])) -> Result<(), TransportError> {
         while self.expect.owed() > 0 {
             let mut frame = self
                 .q
@@ -125,7 +140,7 @@ impl Transport for QemuTarget {
                 .map_err(|e| TransportError::Io(e.to_string()))?;
             frame.push(0);
             self.expect.received(&frame);
-            sink(deadline_ns, &frame);
+            sink(&frame);
         }
         Ok(())
     }

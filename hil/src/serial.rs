@@ -111,6 +111,10 @@ impl Transport for Serial {
     }
 
     fn send(&mut self, _t_ns: u64, bytes: &[u8]) -> Result<(), TransportError> {
+        // One frame in flight (`crate::lockstep`): the answers still owed first.
+        let mut early = Vec::new();
+        self.wait_owed(&mut |b| early.extend_from_slice(b))?;
+        self.expect.stash(&early);
         self.expect.sent(bytes);
         self.port.write_all(bytes).map_err(|e| self.io(&e))
     }
@@ -120,13 +124,25 @@ impl Transport for Serial {
         deadline_ns: u64,
         sink: &mut dyn FnMut(u64, &[u8]),
     ) -> Result<(), TransportError> {
+        let early = self.expect.take_early();
+        if !early.is_empty() {
+            sink(deadline_ns, &early);
+        }
+        self.wait_owed(&mut |b| sink(deadline_ns, b))
+    }
+}
+
+impl Serial {
+    /// Reads until nothing is owed, every run of bytes to `sink`; a timeout error if the
+    /// device stays silent for `timeout`.
+    fn wait_owed(&mut self, sink: &mut dyn FnMut(&[u8])) -> Result<(), TransportError> {
         let mut buf = [0u8; 256];
         let give_up = Instant::now() + self.timeout;
         while self.expect.owed() > 0 {
             let n = self.read_some(&mut buf)?;
             if n > 0 {
                 self.expect.received(&buf[..n]);
-                sink(deadline_ns, &buf[..n]);
+                sink(&buf[..n]);
             } else if Instant::now() > give_up {
                 return Err(TransportError::Timeout(format!(
                     "serial:{}: no answer within {:?} ({} frames owed)",
