@@ -446,7 +446,8 @@ fn test(extra: &[String]) -> Result<(), String> {
     let elfs = build_firmware(FIRMWARE)?;
     check_sizes(&elfs)?;
     let mut cmd = cargo();
-    cmd.args(["test", "--workspace"]).args(extra);
+    // Every test binary, so one failure does not hide the others behind it.
+    cmd.args(["test", "--workspace", "--no-fail-fast"]).args(extra);
     if ensure_qemu() {
         cmd.env("REQUIRE_QEMU", "1");
     }
