@@ -325,8 +325,9 @@ fn build_firmware(list: &[Firmware]) -> Result<Vec<PathBuf>, String> {
 /// over budget. The `-f32` variants are measurement builds (`cargo fw --f32`, the f32
 /// column of the benchmarks): their overrun is printed, not enforced (the Nucleo's f32
 /// build is ~0.4 KiB larger: the f32 control core plus its conversions).
-fn check_sizes(elfs: &[PathBuf]) -> Result<(), String> {
+fn check_sizes(elfs: &[PathBuf]) -> Result<Vec<(String, elf::Sizes)>, String> {
     let mut over = Vec::new();
+    let mut all = Vec::new();
     outln!(
         "firmware size (budget: flash {FLASH_BUDGET} B, static RAM {RAM_BUDGET} B excluding \
          the stack; the build fails above either)"
@@ -373,11 +374,66 @@ fn check_sizes(elfs: &[PathBuf]) -> Result<(), String> {
                 size.ram
             ));
         }
+        all.push((name, size));
     }
     if over.is_empty() {
-        Ok(())
+        Ok(all)
     } else {
         Err(format!("over the size budget: {}", over.join("; ")))
+    }
+}
+
+/// The README rows that state each enforced build's flash / static RAM: the figures
+/// must be what the build gives (`cargo fw` prints them), so they cannot drift.
+const README_SIZE_ROWS: &[(&str, &str)] = &[
+    ("wheelset-nucleo.elf", "| flash / static RAM, Nucleo |"),
+    (
+        "wheelset-nucleo-frame.elf",
+        "| flash / static RAM, Nucleo |",
+    ),
+    ("wheelset-qemu.elf", "| flash / static RAM, QEMU |"),
+    ("wheelset-qemu-m3.elf", "| flash / static RAM, QEMU |"),
+    ("wheelset-qemu-free.elf", "| flash / static RAM, QEMU |"),
+];
+
+/// `25464` as the README writes it: `25 464`.
+fn grouped(n: u64) -> String {
+    let digits = n.to_string();
+    let mut out = String::new();
+    for (i, c) in digits.chars().enumerate() {
+        if i > 0 && (digits.len() - i).is_multiple_of(3) {
+            out.push(' ');
+        }
+        out.push(c);
+    }
+    out
+}
+
+/// Checks that the README's size rows hold `flash B / ram B` of every build they name.
+fn readme_sizes(sizes: &[(String, elf::Sizes)]) -> Result<(), String> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../README.md");
+    let readme = std::fs::read_to_string(&path)
+        .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let mut wrong = Vec::new();
+    for (name, size) in sizes {
+        let Some((_, row)) = README_SIZE_ROWS.iter().find(|(n, _)| n == name) else {
+            continue;
+        };
+        let want = format!("{} B / {} B", grouped(size.flash), grouped(size.ram));
+        let ok = readme
+            .lines()
+            .any(|l| l.starts_with(row) && l.contains(&want));
+        if !ok {
+            wrong.push(format!("{name}: the row `{row}` must say {want}"));
+        }
+    }
+    if wrong.is_empty() {
+        Ok(())
+    } else {
+        Err(format!(
+            "README.md: firmware sizes drifted from the build (`cargo fw` prints them): {}",
+            wrong.join("; ")
+        ))
     }
 }
 
@@ -444,10 +500,12 @@ fn test(extra: &[String]) -> Result<(), String> {
     ensure_targets()?;
     check_no_std()?;
     let elfs = build_firmware(FIRMWARE)?;
-    check_sizes(&elfs)?;
+    let sizes = check_sizes(&elfs)?;
+    readme_sizes(&sizes)?;
     let mut cmd = cargo();
     // Every test binary, so one failure does not hide the others behind it.
-    cmd.args(["test", "--workspace", "--no-fail-fast"]).args(extra);
+    cmd.args(["test", "--workspace", "--no-fail-fast"])
+        .args(extra);
     if ensure_qemu() {
         cmd.env("REQUIRE_QEMU", "1");
     }
@@ -569,5 +627,38 @@ fn write_stdout(args: std::fmt::Arguments<'_>) {
         }
         eprintln!("xtask: error: cannot write to standard output: {e}");
         std::process::exit(1);
+    }
+}
+
+#[cfg(test)]
+mod size_tests {
+    use super::*;
+
+    #[test]
+    fn figures_are_grouped_as_the_readme_writes_them() {
+        assert_eq!(grouped(7), "7");
+        assert_eq!(grouped(999), "999");
+        assert_eq!(grouped(1_000), "1 000");
+        assert_eq!(grouped(25_464), "25 464");
+        assert_eq!(grouped(1_234_567), "1 234 567");
+    }
+
+    #[test]
+    fn the_readme_size_rows_are_checked_against_the_build() {
+        let nucleo = |flash| {
+            vec![(
+                "wheelset-nucleo.elf".to_string(),
+                elf::Sizes { flash, ram: 1 },
+            )]
+        };
+        // A size no row states is caught, naming the row and the figure it wants.
+        let e = readme_sizes(&nucleo(3)).expect_err("no row says 3 B / 1 B");
+        assert!(
+            e.contains("flash / static RAM, Nucleo") && e.contains("3 B / 1 B"),
+            "{e}"
+        );
+        // A build without a row is not checked.
+        let other = vec![("x.elf".to_string(), elf::Sizes { flash: 3, ram: 1 })];
+        assert!(readme_sizes(&other).is_ok());
     }
 }
