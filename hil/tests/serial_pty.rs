@@ -13,22 +13,56 @@ use serialport::{SerialPort, TTYPort};
 use wheelset_control::Fx;
 use wheelset_runtime::{Runtime, RuntimeConfig};
 
+/// A pseudo-terminal pair with a device thread on its master side, running `serve` with a
+/// default runtime until [`PtyDevice::finish`].
+struct PtyDevice<T> {
+    path: String,
+    slave: TTYPort,
+    stop: Arc<AtomicBool>,
+    thread: std::thread::JoinHandle<T>,
+}
+
+impl<T: Send + 'static> PtyDevice<T> {
+    fn spawn(
+        serve: impl FnOnce(&mut TTYPort, &mut Runtime<Fx>, &AtomicBool) -> T + Send + 'static,
+    ) -> Self {
+        // `pair` neither sets TIOCEXCL nor flocks the slave: the harness can open it by
+        // its path. Ours stays open so the master never sees the slave side closed.
+        let (mut master, slave) = TTYPort::pair().expect("a pseudo-terminal pair");
+        let path = slave.name().expect("the slave has a path");
+        master
+            .set_timeout(std::time::Duration::from_millis(5))
+            .unwrap();
+        let stop = Arc::new(AtomicBool::new(false));
+        let stop2 = Arc::clone(&stop);
+        let thread = std::thread::spawn(move || {
+            let mut rt = Runtime::<Fx>::try_new(RuntimeConfig::default()).unwrap();
+            serve(&mut master, &mut rt, &stop2)
+        });
+        Self {
+            path,
+            slave,
+            stop,
+            thread,
+        }
+    }
+
+    /// Stops the device and returns what it served.
+    fn finish(self) -> T {
+        self.stop.store(true, Ordering::Relaxed);
+        let out = self.thread.join().unwrap();
+        drop(self.slave);
+        out
+    }
+}
+
 #[test]
 fn the_serial_transport_closes_the_loop_over_a_pty() {
-    // `pair` neither sets TIOCEXCL nor flocks the slave: the harness can open it by its
-    // path. Ours stays open so the master never sees the slave side closed.
-    let (mut master, slave) = TTYPort::pair().expect("a pseudo-terminal pair");
-    let path = slave.name().expect("the slave has a path");
-    master
-        .set_timeout(std::time::Duration::from_millis(5))
-        .unwrap();
-    let stop = Arc::new(AtomicBool::new(false));
-    let stop2 = Arc::clone(&stop);
-    let device = std::thread::spawn(move || {
-        let mut rt = Runtime::<Fx>::try_new(RuntimeConfig::default()).unwrap();
-        let ticks = serve_lockstep(&mut master, &mut rt, &stop2);
+    let device = PtyDevice::spawn(|port, rt, stop| {
+        let ticks = serve_lockstep(port, rt, stop);
         (ticks.map_err(|e| e.to_string()), *rt.counters())
     });
+    let path = device.path.clone();
     let opts = RunOptions {
         target: Target::Serial(path.clone()),
         scenario: concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/short.toml").into(),
@@ -36,10 +70,8 @@ fn the_serial_transport_closes_the_loop_over_a_pty() {
         ..RunOptions::default()
     };
     let out = run(&opts);
-    stop.store(true, Ordering::Relaxed);
-    let (ticks, counters) = device.join().unwrap();
+    let (ticks, counters) = device.finish();
     let out = out.expect("the run is made");
-    drop(slave);
     let r = &out.report;
     assert_eq!(r.target, format!("serial:{path}"));
     // Every frame accounted for from the device's own counters, nothing lost.
@@ -106,26 +138,15 @@ fn a_lock_step_transport_keeps_one_frame_in_flight() {
     // The run's Config goes out just before its first Sensor frame: sent back to back,
     // they would reach this device as one burst, one tick, and the host would wait for
     // the second answer until its timeout.
-    let (mut master, slave) = TTYPort::pair().expect("a pseudo-terminal pair");
-    let path = slave.name().expect("the slave has a path");
-    master
-        .set_timeout(std::time::Duration::from_millis(5))
-        .unwrap();
-    let stop = Arc::new(AtomicBool::new(false));
-    let stop2 = Arc::clone(&stop);
-    let device = std::thread::spawn(move || {
-        let mut rt = Runtime::<Fx>::try_new(RuntimeConfig::default()).unwrap();
-        serve_in_bursts(&mut master, &mut rt, &stop2)
-    });
+    let device = PtyDevice::spawn(serve_in_bursts);
+    let path = device.path.clone();
     let out = run(&RunOptions {
         target: Target::Serial(path.clone()),
         scenario: concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/tiny.toml").into(),
         pace: Pace::LockStep,
         ..RunOptions::default()
     });
-    stop.store(true, Ordering::Relaxed);
-    let (ticks, most) = device.join().unwrap();
-    drop(slave);
+    let (ticks, most) = device.finish();
     let out = out.expect("the run is made: every frame answered");
     // One tick per frame: the Config, 1 000 Sensor frames, the Status request.
     assert_eq!(most, 1, "a burst held {most} frames");
