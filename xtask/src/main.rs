@@ -55,6 +55,7 @@ mod bench;
 mod elf;
 mod fuzz;
 mod readme;
+mod size;
 
 /// The QEMU command line, defined once in the harness (`hil/src/qemu_cmd.rs`, no
 /// dependencies): compiled in here so xtask needs no crate of the workspace.
@@ -73,22 +74,6 @@ const MCU_TARGETS: &[&str] = &["thumbv7em-none-eabihf", "thumbv6m-none-eabi"];
 const FW_TARGET: &str = "thumbv7em-none-eabihf";
 /// The Cortex-M3 (no FPU) of QEMU's mps2-an385: the fixed-point build where it matters.
 const M3_TARGET: &str = "thumbv7m-none-eabi";
-/// Flash budget of each firmware binary, bytes (.vector_table + .text + .rodata + .data).
-/// Enforced. It was 24 KiB (issue 5, and issue 13's target, [`FLASH_TARGET`]); wire
-/// version 2 (the reference speed, 16-bit flags, the Status's board, supervision and boot
-/// fields: issues 11, 12, 14, 20) took the Nucleo build to 25 048 B without the monitor
-/// and the wheel-slip protection, so the enforced limit is 25 KiB until the hot-path work
-/// wins the difference back; the target is printed beside it. With the panic-free pipe
-/// (firmware/app/src/ring.rs) the Nucleo build carries the monitor and the WSP in
-/// 25 108 B.
-const FLASH_BUDGET: u64 = 25 * 1024;
-/// Issue 13's flash target, bytes: printed (the overrun stated), not enforced.
-const FLASH_TARGET: u64 = 24 * 1024;
-/// Static RAM budget of each firmware binary (.data + .bss + .uninit; the stack is not a
-/// section: cortex-m-rt puts it at the top of RAM), bytes.
-/// Enforced.
-const RAM_BUDGET: u64 = 8 * 1024;
-
 /// One firmware binary: cargo bin name, features, the name it gets in `target/fw`, and
 /// the target it is built for.
 struct Firmware {
@@ -325,118 +310,6 @@ fn build_firmware(list: &[Firmware]) -> Result<Vec<PathBuf>, String> {
 /// over budget. The `-f32` variants are measurement builds (`cargo fw --f32`, the f32
 /// column of the benchmarks): their overrun is printed, not enforced (the Nucleo's f32
 /// build is ~0.4 KiB larger: the f32 control core plus its conversions).
-fn check_sizes(elfs: &[PathBuf]) -> Result<Vec<(String, elf::Sizes)>, String> {
-    let mut over = Vec::new();
-    let mut all = Vec::new();
-    outln!(
-        "firmware size (budget: flash {FLASH_BUDGET} B, static RAM {RAM_BUDGET} B excluding \
-         the stack; the build fails above either)"
-    );
-    for path in elfs {
-        let bytes =
-            std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-        let size = elf::sizes(&bytes).map_err(|e| format!("{}: {e}", path.display()))?;
-        let name = path.file_name().map_or_else(
-            || path.display().to_string(),
-            |n| n.to_string_lossy().into_owned(),
-        );
-        outln!(
-            "  {name:<26} flash {:>6} B ({:>5.1} KiB)   static RAM {:>5} B ({:>4.1} KiB)",
-            size.flash,
-            size.flash as f64 / 1024.0,
-            size.ram,
-            size.ram as f64 / 1024.0
-        );
-        let enforced = !name.contains("-f32");
-        if size.flash > FLASH_TARGET && size.flash <= FLASH_BUDGET {
-            outln!(
-                "  {name:<26} above the {FLASH_TARGET} B target by {} B (within the enforced budget)",
-                size.flash - FLASH_TARGET
-            );
-        }
-        if size.flash > FLASH_BUDGET {
-            outln!(
-                "  {name:<26} OVER the flash budget by {} B{}",
-                size.flash - FLASH_BUDGET,
-                if enforced {
-                    ""
-                } else {
-                    " (f32 measurement build: not enforced)"
-                }
-            );
-            if enforced {
-                over.push(format!("{name}: flash {} B > {FLASH_BUDGET} B", size.flash));
-            }
-        }
-        if size.ram > RAM_BUDGET {
-            over.push(format!(
-                "{name}: static RAM {} B > {RAM_BUDGET} B",
-                size.ram
-            ));
-        }
-        all.push((name, size));
-    }
-    if over.is_empty() {
-        Ok(all)
-    } else {
-        Err(format!("over the size budget: {}", over.join("; ")))
-    }
-}
-
-/// The README rows that state each enforced build's flash / static RAM: the figures
-/// must be what the build gives (`cargo fw` prints them), so they cannot drift.
-const README_SIZE_ROWS: &[(&str, &str)] = &[
-    ("wheelset-nucleo.elf", "| flash / static RAM, Nucleo |"),
-    (
-        "wheelset-nucleo-frame.elf",
-        "| flash / static RAM, Nucleo |",
-    ),
-    ("wheelset-qemu.elf", "| flash / static RAM, QEMU |"),
-    ("wheelset-qemu-m3.elf", "| flash / static RAM, QEMU |"),
-    ("wheelset-qemu-free.elf", "| flash / static RAM, QEMU |"),
-];
-
-/// `25464` as the README writes it: `25 464`.
-fn grouped(n: u64) -> String {
-    let digits = n.to_string();
-    let mut out = String::new();
-    for (i, c) in digits.chars().enumerate() {
-        if i > 0 && (digits.len() - i).is_multiple_of(3) {
-            out.push(' ');
-        }
-        out.push(c);
-    }
-    out
-}
-
-/// Checks that the README's size rows hold `flash B / ram B` of every build they name.
-fn readme_sizes(sizes: &[(String, elf::Sizes)]) -> Result<(), String> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../README.md");
-    let readme = std::fs::read_to_string(&path)
-        .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-    let mut wrong = Vec::new();
-    for (name, size) in sizes {
-        let Some((_, row)) = README_SIZE_ROWS.iter().find(|(n, _)| n == name) else {
-            continue;
-        };
-        let want = format!("{} B / {} B", grouped(size.flash), grouped(size.ram));
-        let ok = readme
-            .lines()
-            .any(|l| l.starts_with(row) && l.contains(&want));
-        if !ok {
-            wrong.push(format!("{name}: the row `{row}` must say {want}"));
-        }
-    }
-    if wrong.is_empty() {
-        Ok(())
-    } else {
-        Err(format!(
-            "README.md: firmware sizes drifted from the build (`cargo fw` prints them): {}",
-            wrong.join("; ")
-        ))
-    }
-}
-
 fn have_qemu() -> bool {
     Command::new("qemu-system-arm")
         .arg("--version")
@@ -492,7 +365,7 @@ fn fw(args: &[String]) -> Result<Vec<PathBuf>, String> {
     for fw in list {
         elfs.extend(build_firmware(std::slice::from_ref(fw))?);
     }
-    check_sizes(&elfs)?;
+    size::check_sizes(&elfs)?;
     Ok(elfs)
 }
 
@@ -500,8 +373,8 @@ fn test(extra: &[String]) -> Result<(), String> {
     ensure_targets()?;
     check_no_std()?;
     let elfs = build_firmware(FIRMWARE)?;
-    let sizes = check_sizes(&elfs)?;
-    readme_sizes(&sizes)?;
+    let sizes = size::check_sizes(&elfs)?;
+    size::readme_sizes(&sizes)?;
     let mut cmd = cargo();
     // Every test binary, so one failure does not hide the others behind it.
     cmd.args(["test", "--workspace", "--no-fail-fast"])
@@ -627,38 +500,5 @@ fn write_stdout(args: std::fmt::Arguments<'_>) {
         }
         eprintln!("xtask: error: cannot write to standard output: {e}");
         std::process::exit(1);
-    }
-}
-
-#[cfg(test)]
-mod size_tests {
-    use super::*;
-
-    #[test]
-    fn figures_are_grouped_as_the_readme_writes_them() {
-        assert_eq!(grouped(7), "7");
-        assert_eq!(grouped(999), "999");
-        assert_eq!(grouped(1_000), "1 000");
-        assert_eq!(grouped(25_464), "25 464");
-        assert_eq!(grouped(1_234_567), "1 234 567");
-    }
-
-    #[test]
-    fn the_readme_size_rows_are_checked_against_the_build() {
-        let nucleo = |flash| {
-            vec![(
-                "wheelset-nucleo.elf".to_string(),
-                elf::Sizes { flash, ram: 1 },
-            )]
-        };
-        // A size no row states is caught, naming the row and the figure it wants.
-        let e = readme_sizes(&nucleo(3)).expect_err("no row says 3 B / 1 B");
-        assert!(
-            e.contains("flash / static RAM, Nucleo") && e.contains("3 B / 1 B"),
-            "{e}"
-        );
-        // A build without a row is not checked.
-        let other = vec![("x.elf".to_string(), elf::Sizes { flash: 3, ram: 1 })];
-        assert!(readme_sizes(&other).is_ok());
     }
 }
