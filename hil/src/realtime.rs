@@ -37,6 +37,11 @@
 //! never passed on. During the
 //! run the phase is re-measured every 256 device frames and the schedule follows a
 //! drifting device clock (a board's crystal against the host's).
+//!
+//! Files: the start-up in `realtime/prepare.rs`, the send queue in `realtime/queue.rs`,
+//! the tests in `realtime/tests.rs`; what stays here (~600 lines) is the one deadline loop
+//! of [`RealTime`] (`send`, `recv`) with the phase and envelope estimates it needs on
+//! every period, kept together because each step of the loop reads them.
 
 use std::collections::VecDeque;
 use std::io::{self, Read, Write};

@@ -9,6 +9,10 @@
 //! serde's code for [`Config`] and [`Command`] cost ~1.2 KiB of the 24 KiB flash budget.
 //! Each message has its own function, so the device links only the ones it uses.
 //!
+//! One file of ~600 lines on purpose: the writer ([`Out`]) and the reader ([`In`]) of each
+//! message stand side by side, so a field's two directions are read and changed
+//! together against the one list of postcard's rules below.
+//!
 //! postcard's rules used here: an enum variant index is a varint `u32`; `bool` is one
 //! byte, 0 or 1; `Option` a byte 0 (None) or 1 (Some) before the value; `u16`, `u32`,
 //! are varints (at most 3 and 5 bytes, the last at most 0x03 and 0x0F; longer

@@ -1,0 +1,195 @@
+//! The fixed-point (or any [`Sample`]) controller's response *measured*: a [`Drive`]
+//! steps one controller isolated inside [`Controller`] with a sinusoid (or a constant),
+//! and a least-squares fit of the settled output gives its gain and phase.
+
+use super::*;
+
+/// A driver of one controller inside [`Controller`]: an SI input sample in, the SI
+/// output out, one controller step per call (the controller's own rate; the base tick
+/// is repeated `divisor` times and the last output taken).
+pub struct Drive<T: Sample> {
+    ctrl: Controller<T>,
+    /// The full scales of the configuration `ctrl` was built from.
+    scales: wheelset_control::FullScales,
+    kind: Kind,
+    divisor: u16,
+    /// Output divisor: the quantised gain (SI) for the predictor, else 1.
+    out_div: f64,
+}
+
+impl<T: Sample> Drive<T> {
+    /// Build from the isolated configuration of `kind`.
+    pub fn new(kind: Kind, base: &Config) -> Result<Self, wheelset_control::ConfigError> {
+        let cfg = isolate(kind, base);
+        let divisor = match kind {
+            Kind::YawLead | Kind::YawGain | Kind::YawPredictor => cfg.yaw_divisor,
+            Kind::TractionPi => cfg.traction_divisor,
+        };
+        let out_div = if kind == Kind::YawPredictor {
+            coefficients::<T>(Kind::YawGain, &cfg)?
+                .1
+                .dc_gain()
+                .unwrap_or(1.0)
+        } else {
+            1.0
+        };
+        Ok(Self {
+            ctrl: Controller::try_new(&cfg)?,
+            scales: cfg.scales,
+            kind,
+            divisor,
+            out_div,
+        })
+    }
+
+    /// One controller step on the SI input `x` (m/s of `y'`, or A of current error).
+    pub fn step(&mut self, x: f64) -> f64 {
+        let s = self.scales;
+        let inp = match self.kind {
+            Kind::YawLead | Kind::YawGain | Kind::YawPredictor => Inputs {
+                y_dot: T::from_f64(x / s.y_dot),
+                ..Inputs::default()
+            },
+            // Reference 0 (no demand), so e = -i_a: drive i_a = -x.
+            Kind::TractionPi => Inputs {
+                current: T::from_f64(-x / s.current),
+                ..Inputs::default()
+            },
+        };
+        let mut out = self.ctrl.tick(&inp);
+        for _ in 1..self.divisor {
+            out = self.ctrl.tick(&inp);
+        }
+        match self.kind {
+            Kind::YawLead | Kind::YawGain | Kind::YawPredictor => {
+                out.yaw_torque.to_f64() * s.torque / self.out_div
+            }
+            Kind::TractionPi => out.voltage.to_f64() * s.voltage,
+        }
+    }
+
+    /// The controller (states, counters).
+    pub fn controller(&self) -> &Controller<T> {
+        &self.ctrl
+    }
+}
+
+/// Least-squares fit of `y[n] ~ a sin(w n) + b cos(w n) + d`; returns `(a, b, d)`.
+fn fit_sine(y: &[f64], w: f64, n0: usize) -> (f64, f64, f64) {
+    let mut m = [[0.0f64; 4]; 3];
+    for (k, &v) in y.iter().enumerate() {
+        let ph = w * (n0 + k) as f64;
+        let r = [ph.sin(), ph.cos(), 1.0];
+        for i in 0..3 {
+            for j in 0..3 {
+                m[i][j] += r[i] * r[j];
+            }
+            m[i][3] += r[i] * v;
+        }
+    }
+    // Gaussian elimination with partial pivoting on the 3x3 normal equations.
+    for col in 0..3 {
+        let p = (col..3)
+            .max_by(|&a, &b| m[a][col].abs().total_cmp(&m[b][col].abs()))
+            .unwrap_or(col);
+        m.swap(col, p);
+        let d = m[col][col];
+        if d == 0.0 {
+            return (0.0, 0.0, 0.0);
+        }
+        for r in 0..3 {
+            if r != col {
+                let f = m[r][col] / d;
+                let pivot = m[col];
+                for (x, p) in m[r].iter_mut().zip(pivot).skip(col) {
+                    *x -= f * p;
+                }
+            }
+        }
+    }
+    (m[0][3] / m[0][0], m[1][3] / m[1][1], m[2][3] / m[2][2])
+}
+
+/// Stimulus amplitudes used to measure the responses, SI: `y'` 10 mm/s (a typical
+/// hunting amplitude; the lead's peak output 7.9 kN m stays below the 20 kN m torque
+/// limit) and a current error of 10 A.
+pub fn measure_amplitude(kind: Kind) -> f64 {
+    match kind {
+        Kind::YawLead | Kind::YawGain | Kind::YawPredictor => 0.01,
+        Kind::TractionPi => 10.0,
+    }
+}
+
+/// Settling steps before fitting: 30 time constants of the lead's pole; none otherwise
+/// (the PI's constant integrator offset is fitted as `d`).
+fn settle_steps(kind: Kind, cfg: &Config) -> usize {
+    match kind {
+        Kind::YawLead => {
+            let d = cfg.lead.discretise(cfg.yaw_period());
+            match d {
+                Ok(d) if d.alpha > 0.0 && d.alpha < 1.0 => (30.0 / -d.alpha.ln()).ceil() as usize,
+                _ => 1000,
+            }
+        }
+        // The predictor needs one previous sample; the PI's constant offset is fitted.
+        Kind::YawPredictor => 2,
+        _ => 0,
+    }
+}
+
+/// The response of the controller as it runs with sample type `T`, *measured*: drive it
+/// with `A sin(2 pi f n T)` (A from [`measure_amplitude`]), let it settle, fit a sine,
+/// cosine and constant over an integer number of periods of at least 2000 samples.
+pub fn measured<T: Sample>(
+    kind: Kind,
+    cfg: &Config,
+    f_hz: f64,
+) -> Result<C64, wheelset_control::ConfigError> {
+    measured_at::<T>(kind, cfg, f_hz, measure_amplitude(kind))
+}
+
+/// As [`measured`] with the stimulus amplitude `amp` (SI input unit).
+pub fn measured_at<T: Sample>(
+    kind: Kind,
+    cfg: &Config,
+    f_hz: f64,
+    amp: f64,
+) -> Result<C64, wheelset_control::ConfigError> {
+    let mut d = Drive::<T>::new(kind, cfg)?;
+    let fs = kind.rate_hz(cfg);
+    let w = 2.0 * std::f64::consts::PI * f_hz / fs;
+    let settle = settle_steps(kind, cfg);
+    let per = fs / f_hz;
+    let cycles = (2000.0 / per).ceil().max(1.0);
+    let n = (cycles * per).round().max(8.0) as usize;
+    for k in 0..settle {
+        d.step(amp * (w * k as f64).sin());
+    }
+    let y: Vec<f64> = (settle..settle + n)
+        .map(|k| d.step(amp * (w * k as f64).sin()))
+        .collect();
+    let (a, b, _) = fit_sine(&y, w, settle);
+    Ok(C64::new(a / amp, b / amp))
+}
+
+/// The DC gain measured on the running controller: a constant input (SI: `y'` 0.15 m/s,
+/// output 16 kN m below the torque limit; or 10 A) held until the lead settles
+/// (60 time constants), output over input. `None` for the PI (its integrator ramps).
+pub fn measured_dc<T: Sample>(
+    kind: Kind,
+    cfg: &Config,
+) -> Result<Option<f64>, wheelset_control::ConfigError> {
+    if kind == Kind::TractionPi {
+        return Ok(None);
+    }
+    let mut d = Drive::<T>::new(kind, cfg)?;
+    let x = 0.15;
+    let n = 2 * settle_steps(kind, cfg) + 2;
+    let mut y = 0.0;
+    for _ in 0..n {
+        y = d.step(x);
+    }
+    // The input as the controller saw it (quantised).
+    let xq = T::from_f64(x / cfg.scales.y_dot).to_f64() * cfg.scales.y_dot;
+    Ok(Some(y / xq))
+}
