@@ -118,14 +118,21 @@ pub fn send_safe_frame() {
     }
 }
 
-/// The watchdog's first expiry (its interrupt is the NMI): a stalled control task or
-/// receive path. Records the cause WATCHDOG in the boot record, sends the safe frame
-/// and waits for the second expiry, which resets the board ([`wdog::GRACE_COUNTS`]).
+/// The watchdog's first expiry (its interrupt is the NMI; free-running build only): a
+/// stalled control task or receive path. Records the cause WATCHDOG in the boot record,
+/// sends the safe frame and waits for the second expiry, which resets the board
+/// ([`wdog::GRACE_COUNTS`]). The safe frame goes after a lone delimiter: the control
+/// task stalls at a higher priority than the TX task, which may have had a frame half on
+/// the wire; the delimiter ends that one (the host drops it as a bad frame) so that the
+/// safe frame arrives whole.
 #[cortex_m_rt::exception]
 unsafe fn NonMaskableInt() {
     wdog::grace();
     crate::boot::record_cause(wheelset_proto::reset_cause::WATCHDOG);
     if !crate::panic::enter_halt() {
+        if !bulk::active() {
+            uart::write_blocking(&[0]);
+        }
         send_safe_frame();
     }
     loop {
@@ -194,7 +201,8 @@ pub fn run() -> ! {
     if let Some(bulk) = bulk {
         defmt::info!("frames over the semihosting bulk channel");
         // Its loop is thread mode's (a blocking read does not advance virtual time):
-        // the watchdog runs throughout and bulk::run feeds it.
+        // the watchdog would run throughout and bulk::run feeds it (lock-step only,
+        // so not started: wdog::ENABLED).
         if wdog::ENABLED {
             wdog::start();
         }
@@ -202,27 +210,35 @@ pub fn run() -> ! {
     }
     // A byte that arrived before the RX interrupt was enabled raised none: look once.
     NVIC::pend(Interrupt::Uart0Rx);
-    // The watchdog (wdog) would be fed here when the tick and the receive path have
-    // both run, stopped around WFI so that it counts busy time only (lock-step). Not
-    // started yet: see wdog::ENABLED.
-    if wdog::ENABLED {
-        wdog::start();
+    idle()
+}
+
+/// Thread mode's idle loop, lock-step (`-icount`): a plain WFI, no watchdog (QEMU 7.2's
+/// cannot be paused while the guest waits for the host: [`wdog`]).
+#[cfg(not(feature = "free-run"))]
+fn idle() -> ! {
+    loop {
+        cortex_m::asm::wfi();
     }
-    if !wdog::ENABLED {
-        loop {
-            cortex_m::asm::wfi();
-        }
-    }
+}
+
+/// Thread mode's idle loop, free-running (QEMU's clock follows the host's, WFI sleeps
+/// without clock jumps): the watchdog counts wall time as on a board; it starts at the
+/// first feed (the host's first bytes and a tick after them) and is fed by the same rule.
+#[cfg(feature = "free-run")]
+fn idle() -> ! {
+    let mut started = false;
     loop {
         cortex_m::interrupt::disable();
         if crate::watchdog::take_both() {
-            wdog::feed();
+            if started {
+                wdog::feed();
+            } else {
+                wdog::start();
+                started = true;
+            }
         }
-        let left = wdog::idle_enter();
-        // WFI returns for a pending interrupt even with PRIMASK set; its handler runs
-        // at the `enable` below, with the watchdog counting again.
         cortex_m::asm::wfi();
-        wdog::idle_exit(left);
         // SAFETY: not inside a critical section (thread mode's idle loop, which masked
         // interrupts itself just above).
         unsafe { cortex_m::interrupt::enable() };
