@@ -70,14 +70,20 @@ fn with_lambda(name: &str, lambda: f64, dir: &std::path::Path) -> PathBuf {
 }
 
 /// Conicity 0.05-0.4 at 10 MN (the default creep): `curve` with the lead, `beating`
-/// with passive control. No alarm wherever the plant does not hunt on its own; where it
+/// with passive control, `low-adhesion` with the lead and the wheel-slip protection on
+/// (hil run's default). No alarm wherever the plant does not hunt on its own; where it
 /// does (passive above its critical conicity: the run diverges), an alarm before that.
 #[test]
 fn no_false_alarm_over_the_conicity_range() {
     let dir = std::env::temp_dir().join(format!("hil-monitor-sweep-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let mut quiet = 0;
-    for (name, law) in [("curve", Law::Lead), ("beating", Law::Passive)] {
+    let mut quiet_low_adhesion = 0;
+    for (name, law) in [
+        ("curve", Law::Lead),
+        ("beating", Law::Passive),
+        ("low-adhesion", Law::Lead),
+    ] {
         for lambda in [0.05, 0.1, 0.2, 0.3, 0.4] {
             let f = with_lambda(name, lambda, &dir);
             let out = run(&opts(f.to_str().unwrap(), law)).unwrap();
@@ -96,11 +102,21 @@ fn no_false_alarm_over_the_conicity_range() {
             if div.is_none() {
                 assert!(m.alarms.is_empty(), "{name} {lambda}: {:?}", m.alarms);
                 quiet += 1;
+                quiet_low_adhesion += usize::from(name == "low-adhesion");
+            }
+            if name == "low-adhesion" {
+                // The protection cut the traction (its first cut on the low rail; the
+                // probe cycles on the wet rail are what the check once took for a
+                // failed actuator, at 14.2 s and 16.3 s).
+                let st = out.report.device_status.as_ref().unwrap();
+                assert!(st.wsp_events >= 1 && st.wsp_ticks > 10_000, "{st:?}");
             }
         }
     }
-    // The lead keeps every conicity stable; passive beating up to 0.2.
-    assert!(quiet >= 8, "{quiet}");
+    // The lead keeps every conicity stable (on low adhesion too); passive beating up to
+    // 0.2.
+    assert_eq!(quiet_low_adhesion, 5);
+    assert!(quiet >= 13, "{quiet}");
     // The failed actuator at every conicity: an alarm by the deadline (growth 5-25 1/s).
     for lambda in [0.05, 0.1, 0.2, 0.4] {
         let f = with_lambda("actuator-fault", lambda, &dir);
@@ -117,6 +133,59 @@ fn no_false_alarm_over_the_conicity_range() {
             "{lambda}: {}",
             m.reason
         );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `low-adhesion` (the protection on, cutting the traction in its probe cycles on the wet
+/// rail from 13 s) with a plant fault of the yaw actuator at 14.0 s, just before the
+/// protection's cut at about 14.05 s: the failed actuator is still caught. Stopped or
+/// reversed: the first alarm by the deadline at conicity 0.05 and 0.3; at a fraction of
+/// 0.3 (the loop unstable at conicity 0.3: the check's own alarm), an actuator alarm.
+#[test]
+fn a_failed_actuator_is_caught_on_low_adhesion_with_the_protection_cutting() {
+    let dir = std::env::temp_dir().join(format!("hil-monitor-la-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for (lambda, mode) in [
+        (0.05, "mode = \"off\""),
+        (0.3, "mode = \"off\""),
+        (0.3, "mode = \"reversed\""),
+        (0.3, "mode = \"fraction\"\nfraction = 0.3"),
+    ] {
+        let f = with_lambda("low-adhesion", lambda, &dir);
+        let mut text = std::fs::read_to_string(&f).unwrap();
+        text.push_str(&format!("\n[actuator_fault]\nt_s = 14.0\n{mode}\n"));
+        std::fs::write(&f, text).unwrap();
+        let out = run(&opts(f.to_str().unwrap(), Law::Lead)).unwrap();
+        let m = &out.report.monitor;
+        println!(
+            "low-adhesion lambda {lambda} {mode}: alarms {:?}, deadline {:?}",
+            m.alarms, m.deadline_s
+        );
+        assert_eq!(
+            m.verdict,
+            hil::budget::Verdict::Pass,
+            "{lambda} {mode}: {}",
+            m.reason
+        );
+        assert!(m.alarms.iter().all(|a| a.t_s > 14.0), "{:?}", m.alarms);
+        if mode.contains("fraction") {
+            assert!(
+                m.alarms.iter().any(|a| a.kind == "actuator"),
+                "{:?}",
+                m.alarms
+            );
+        } else {
+            assert_eq!(m.expect, "alarm");
+            assert!(m.first_alarm_s.unwrap() <= m.deadline_s.unwrap());
+        }
+        if mode.contains("off") {
+            assert!(
+                m.alarms.iter().any(|a| a.kind == "actuator"),
+                "{:?}",
+                m.alarms
+            );
+        }
     }
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -223,7 +223,7 @@ pub use controller::{
     OutputCodes, Outputs, SignalCounts,
 };
 pub use lead::{Lead, LeadDiscrete, LeadParams, LeadPu, LeadState};
-pub use monitor::{Monitor, MonitorBits, MonitorEvents, MonitorParams, MonitorState};
+pub use monitor::{Monitor, MonitorBits, MonitorEvents, MonitorParams, MonitorState, QUIET_BLOCKS};
 pub use pi::{Pi, PiDiscrete, PiFlags, PiParams, PiPu, PiState};
 pub use sample::{Coef, Fx, FxScale, Sample, SampleBits};
 pub use wsp::{Wsp, WspBits, WspParams, WspState};

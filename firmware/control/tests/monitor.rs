@@ -134,6 +134,99 @@ fn a_damped_disturbance_is_no_actuator_fault() {
     assert!(a.is_empty(), "{a:?}");
 }
 
+/// As [`drive`] in Q4.28, commanding, with a traction step the device made itself
+/// (`Monitor::traction_step`) on the first tick at or after each of `steps` (s); returns
+/// the actuator alarms' times.
+fn drive_with_steps(
+    p: &MonitorParams,
+    dur: f64,
+    steps: &[f64],
+    f: impl Fn(f64) -> f64,
+) -> Vec<f64> {
+    let m = Monitor::<Fx>::try_new(p, BASE).unwrap();
+    let mut s = MonitorState::default();
+    let mut a = Vec::new();
+    let mut next = steps.iter().copied().peekable();
+    let n = (dur * f64::from(BASE)) as usize;
+    for k in 0..n {
+        let t = k as f64 / f64::from(BASE);
+        if m.tick(&mut s, Fx::from_f64(f(t)), true).actuator_rose {
+            a.push(t);
+        }
+        if next.peek().is_some_and(|&ts| t >= ts) {
+            next.next();
+            m.traction_step(&mut s);
+        }
+    }
+    a
+}
+
+/// The response to a traction step as `low-adhesion` shows it (the protection's cut):
+/// 9 Hz, the envelope rising as `(tau/0.15 s)^2` to 20 mm/s over 0.15 s from the step at
+/// `t0`, then decaying at 8 1/s (the healthy loop's damping).
+fn step_response(t0: f64) -> impl Fn(f64) -> f64 {
+    move |t| {
+        let tau = t - t0;
+        if tau < 0.0 {
+            return 0.0;
+        }
+        let env = if tau < 0.15 {
+            (tau / 0.15).powi(2)
+        } else {
+            (-8.0 * (tau - 0.15)).exp()
+        };
+        0.02 * env * (2.0 * PI * 9.0 * tau).sin()
+    }
+}
+
+#[test]
+fn a_traction_step_the_device_made_is_no_actuator_fault_whatever_its_phase() {
+    let p = MonitorParams::default();
+    let mut alarmed_without = 0;
+    // Steps at 2.0 s + every phase of a 0.1 s block (blocks end at multiples of 0.1 s).
+    for k in 0..10 {
+        let t0 = 2.0 + 0.01 * f64::from(k);
+        let f = step_response(t0);
+        // Unannounced, the onset's two growing blocks raise the alarm for some phases:
+        // the false alarm of `low-adhesion` before the rule.
+        alarmed_without += usize::from(!drive_with_steps(&p, 4.0, &[], &f).is_empty());
+        // Announced by the device's own cut on that tick: silent.
+        let a = drive_with_steps(&p, 4.0, &[t0], &f);
+        assert!(a.is_empty(), "step at {t0}: {a:?}");
+    }
+    assert!(
+        alarmed_without > 0,
+        "the test response must challenge the check"
+    );
+}
+
+#[test]
+fn a_failed_actuator_is_caught_through_traction_steps() {
+    let p = MonitorParams::default();
+    // sigma = 5 1/s (conicity 0.05) from t = 1 s: the alarm without any step, then with
+    // the protection cutting just before it, and every 0.5 s (twice its cycle on
+    // `low-adhesion`; cuts closer than (QUIET_BLOCKS + act_blocks) blocks = 0.4 s apart
+    // would hide the growth from the check, not from the hunting alarm).
+    let f = growing(5.0, 1e-4);
+    let a0 = drive_with_steps(&p, 3.0, &[], &f);
+    assert_eq!(a0.len(), 1, "{a0:?}");
+    for steps in [
+        vec![a0[0] - 0.01],
+        vec![a0[0] - 0.15],
+        (0..6).map(|k| 0.9 + 0.5 * f64::from(k)).collect(),
+    ] {
+        let a = drive_with_steps(&p, 3.0, &steps, &f);
+        assert_eq!(a.len(), 1, "steps {steps:?}: {a:?}");
+        // At most QUIET_BLOCKS blocks later (plus one block's phase).
+        let late = a[0] - a0[0];
+        let bound = f64::from(wheelset_control::QUIET_BLOCKS + 1) * p.act_block_s;
+        assert!(
+            late >= 0.0 && late <= bound + 1e-9,
+            "steps {steps:?}: {late} s later"
+        );
+    }
+}
+
 #[test]
 fn fixed_point_and_floats_alarm_together() {
     let p = MonitorParams::default();

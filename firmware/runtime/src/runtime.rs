@@ -269,7 +269,23 @@ impl<T: SampleBits> Runtime<T> {
                     self.core.preset_back_emf(inp.speed);
                     inp.current = T::ZERO;
                 }
+                #[cfg(all(feature = "monitor", feature = "wsp"))]
+                let wsp_was = {
+                    let w = self.core.wsp_state();
+                    (w.active, w.probing)
+                };
                 let out = self.core.tick(&inp);
+                #[cfg(all(feature = "monitor", feature = "wsp"))]
+                {
+                    // The protection cut the traction on this tick (its first cut, or a
+                    // re-cut ending a probe): a traction step the device made itself,
+                    // which the actuator check does not take for a failed actuator
+                    // (wheelset_control::monitor, the rule for such steps).
+                    let w = self.core.wsp_state();
+                    if w.active && (!wsp_was.0 || (wsp_was.1 && !w.probing)) {
+                        self.monitor.traction_step(&mut self.mon);
+                    }
+                }
                 let o = self.core.codec().encode(&out);
                 (o.yaw_torque, o.voltage)
             }
