@@ -326,7 +326,7 @@ pub fn markdown(out: &RunOutcome, command: &str) -> String {
             s,
             "\nDevice counters: ticks {}, rx ok {}, seq gaps {}, held ticks {}, safe ticks {} \
              (entries {}, exits {}), yaw saturated {}, traction saturated {}, inputs clamped {}, \
-             stack peak {} B.",
+             stack peak {} B; boot {} (last reset: {}){}.",
             st.ticks,
             st.rx_ok,
             st.seq_gaps,
@@ -337,8 +337,51 @@ pub fn markdown(out: &RunOutcome, command: &str) -> String {
             st.yaw_sat,
             st.traction_sat,
             st.input_clamped,
-            st.stack_peak
+            st.stack_peak,
+            st.boot_count,
+            reset_cause_name(st.reset_cause),
+            if st.flags.has(wheelset_proto::Flags::FAULT_LATCHED) {
+                ", fault latched"
+            } else {
+                ""
+            }
         );
     }
     s
+}
+
+/// The name of a [`wheelset_proto::reset_cause`] code, as the report prints it.
+pub fn reset_cause_name(code: u8) -> &'static str {
+    use wheelset_proto::reset_cause as rc;
+    match code {
+        rc::POWER_ON => "power-on",
+        rc::PIN => "reset pin",
+        rc::WATCHDOG => "watchdog",
+        rc::SOFTWARE => "software",
+        rc::FAULT => "fault",
+        _ => "unknown",
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::reset_cause_name;
+    use wheelset_proto::reset_cause as rc;
+
+    #[test]
+    fn every_reset_cause_has_its_own_name_and_other_codes_are_unknown() {
+        let codes = [
+            rc::UNKNOWN,
+            rc::POWER_ON,
+            rc::PIN,
+            rc::WATCHDOG,
+            rc::SOFTWARE,
+            rc::FAULT,
+        ];
+        let names: std::collections::BTreeSet<_> =
+            codes.iter().map(|&c| reset_cause_name(c)).collect();
+        assert_eq!(names.len(), codes.len());
+        assert_eq!(reset_cause_name(rc::WATCHDOG), "watchdog");
+        assert_eq!(reset_cause_name(200), "unknown");
+    }
 }

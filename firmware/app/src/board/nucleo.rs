@@ -122,6 +122,7 @@ async fn rx_task(mut rx: RingBufferedUartRx<'static>) {
     loop {
         match rx.read(&mut buf).await {
             Ok(n) => {
+                crate::watchdog::rx_ran();
                 let mut rest = buf.get(..n).unwrap_or(&[]);
                 #[cfg(feature = "frame-clock")]
                 let edges = rest.iter().filter(|&&b| b == 0).count() as u32;
@@ -283,9 +284,70 @@ pub fn run() -> ! {
     comms.spawn(app::token(rx_task(rx)));
     comms.spawn(app::token(tx_task(tx)));
 
-    // Every task runs in an interrupt executor: thread mode only sleeps.
+    // Every task runs in an interrupt executor: thread mode only sleeps, and feeds the
+    // independent watchdog when the tick and the receive path have both run
+    // (crate::watchdog). It starts at the first such feed (the host's first bytes and a
+    // tick after them), so a board waiting for its host is not reset.
+    let mut started = false;
     loop {
+        if crate::watchdog::take_both() {
+            if !started {
+                iwdg::start();
+                started = true;
+            }
+            iwdg::feed();
+        }
         cortex_m::asm::wfi();
+    }
+}
+
+/// The STM32's independent watchdog (RM0390 section 19), on the LSI oscillator (32 kHz
+/// typical, 17 to 47 kHz over process and temperature: datasheet DS10693, table
+/// "LSI oscillator characteristics"), independent of the system clock. Once started it
+/// runs until the next reset; its reset sets RCC CSR IWDGRSTF, which the boot record
+/// reports as `reset_cause` WATCHDOG ([`reset_flags`]).
+///
+/// **Timeout**: prescaler /32 (PR = 3, one count per ~1 ms) and reload [`RELOAD`] = 250:
+/// 250 ms at 32 kHz, between 170 ms (47 kHz) and 470 ms (17 kHz). The board feeds it
+/// once per control period when the host's frames come (200 us at the 5 kHz base
+/// rate): 250 ms is 1 250 periods (850 at the fastest LSI), so neither a late tick nor
+/// the frame-clocked build's USB latency (about 1 ms per frame over the ST-LINK VCP)
+/// comes near it, while a stalled control task or a silent link puts the outputs back
+/// to the reset state within half a second. (A debugger halting the core does not stop
+/// it: DBGMCU is left as it is.)
+mod iwdg {
+    use core::ptr::{read_volatile, write_volatile};
+
+    const KR: usize = 0x4000_3000;
+    const PR: usize = KR + 0x04;
+    const RLR: usize = KR + 0x08;
+    const SR: usize = KR + 0x0C;
+
+    /// Counts of the /32 prescaled LSI (~1 ms each) to the reset.
+    pub const RELOAD: u32 = 250;
+
+    fn write(addr: usize, value: u32) {
+        // SAFETY: `addr` is one of the IWDG's registers above (STM32F446 memory map,
+        // RM0390 table 1): a valid, aligned MMIO word; only this module touches it.
+        unsafe { write_volatile(addr as *mut u32, value) }
+    }
+
+    /// Starts the count (from 0xFFF at /4, 512 ms), unlocks PR and RLR, sets the
+    /// prescaler and the reload and waits until both reached the LSI domain (SR's PVU
+    /// and RVU clear: a few LSI periods; a dead LSI leaves the default count to reset
+    /// the board), as ST's HAL does. The caller feeds it next.
+    pub fn start() {
+        write(KR, 0xCCCC);
+        write(KR, 0x5555);
+        write(PR, 3);
+        write(RLR, RELOAD);
+        // SAFETY: as in `write`; reading SR has no side effect.
+        while unsafe { read_volatile(SR as *const u32) } & 0b11 != 0 {}
+    }
+
+    /// Reloads the count with [`RELOAD`].
+    pub fn feed() {
+        write(KR, 0xAAAA);
     }
 }
 
