@@ -321,6 +321,15 @@ pub fn markdown(out: &RunOutcome, command: &str) -> String {
         fr.in_flight.to_string(),
     ]);
     let _ = write!(s, "{tb}");
+    if r.device_resets > 0 {
+        let _ = writeln!(
+            s,
+            "\nDevice resets seen by the host: {} (the first at {:.3} s; the Config went out \
+             again after each).",
+            r.device_resets,
+            r.first_reset_s.unwrap_or(f64::NAN)
+        );
+    }
     if let Some(st) = &r.device_status {
         let _ = writeln!(
             s,

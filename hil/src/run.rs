@@ -276,6 +276,13 @@ pub struct RunReport {
     pub frames_verdict: Verdict,
     /// The device's counters (its Status frame), if it arrived.
     pub device_status: Option<Status>,
+    /// Resets of the device the host saw during the run (its tick counter going back,
+    /// `sim_host::exchange::DeviceController::device_resets`); the Config went out again
+    /// after each. The Status above is then the last boot's (`boot_count`,
+    /// `reset_cause`).
+    pub device_resets: u32,
+    /// When the first reset was seen, s of the run.
+    pub first_reset_s: Option<f64>,
     /// Host-side values clamped while quantising to the wire.
     pub host_clamped: u64,
     /// Transport-specific figures (informative; e.g. the host's time per tick in process).
@@ -369,6 +376,22 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     // (rates unchanged) as the first frame of the run.
     let lockstep_config =
         is_lockstep_remote.then(|| sim_host::device::run_config(&rt, wsp, opts.monitor_safe));
+    // `--device-fault stall:T`: the harness sends InjectStall at T to a device whose
+    // watchdog resets it (the free-running QEMU build; the lock-step one has no watchdog,
+    // firmware/app/src/board/qemu/wdog.rs) and sends the Config again after the reset.
+    let stall_at_ns = match (opts.device_fault, &opts.target) {
+        (DeviceFault::Stall { at_ns }, Target::QemuFree) => Some(at_ns),
+        (DeviceFault::Stall { .. }, t) => {
+            return Err(RunError::Input(format!(
+                "--device-fault stall:T needs a device with a running watchdog: --target \
+                 qemu-free (the free-running QEMU build), not {t}"
+            )))
+        }
+        _ => None,
+    };
+    let reset_config = stall_at_ns
+        .is_some()
+        .then(|| sim_host::device::run_config(&rt, wsp, opts.monitor_safe));
     let clear_faults_at_ns = match opts.clear_faults_at_s {
         Some(t) if t.is_finite() && t >= 0.0 => Some((t * 1e9).round() as u64),
         Some(t) => {
@@ -388,6 +411,8 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
             label: &label,
             config: lockstep_config,
             clear_faults_at_ns,
+            stall_at_ns,
+            reset_config,
             ..LoopSetup::default()
         },
     )
@@ -437,6 +462,8 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
         None => compare(&trajectory, &reference, &opts.budgets.numerics),
     };
     let (host, mut status) = (cl.host, cl.status);
+    let (device_resets, first_reset_s) =
+        (cl.device_resets, cl.first_reset_ns.map(|t| t as f64 * 1e-9));
     let sensor_codes = std::mem::take(&mut cl.sent_codes);
     let transport = tr.extra();
     let link = tr.link_accounting();
@@ -495,6 +522,8 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
             frames,
             frames_verdict,
             device_status: status,
+            device_resets,
+            first_reset_s,
             host_clamped: host.clamped,
             transport,
             monitor,

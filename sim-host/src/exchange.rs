@@ -144,6 +144,24 @@ pub struct DeviceController<'a> {
     pub clear_faults_at_ns: Option<u64>,
     /// When the ClearFaults command went out, ns.
     pub clear_faults_sent_ns: Option<u64>,
+    /// Send `Command::InjectStall` (a device built with `fault-inject` stalls its control
+    /// task: its watchdog resets it) with the Sensor frame of the first sample instant at
+    /// or after this time, ns (once).
+    pub stall_at_ns: Option<u64>,
+    /// When the InjectStall command went out, ns.
+    pub stall_sent_ns: Option<u64>,
+    /// The Config frame sent again after the device is seen to reset (a free-running
+    /// device configured before the run: [`DeviceController::with_config`]'s frame is
+    /// sent again in any case).
+    pub reset_config: Option<Config>,
+    /// Resets of the device seen: an Actuation whose tick counter went back (by less
+    /// than half its 16-bit range, so not a wrap) or that raised `FAULT_LATCHED` with a
+    /// tick below the one before. The Config goes out again after each.
+    pub device_resets: u32,
+    /// When the first reset was seen, ns.
+    pub first_reset_ns: Option<u64>,
+    last_tick: u16,
+    last_latched: bool,
 }
 
 impl<'a> DeviceController<'a> {
@@ -182,6 +200,13 @@ impl<'a> DeviceController<'a> {
             status_seen: false,
             clear_faults_at_ns: None,
             clear_faults_sent_ns: None,
+            stall_at_ns: None,
+            stall_sent_ns: None,
+            reset_config: None,
+            device_resets: 0,
+            first_reset_ns: None,
+            last_tick: 0,
+            last_latched: false,
         }
     }
 
@@ -265,6 +290,7 @@ impl<'a> DeviceController<'a> {
                     echo,
                     frame: a,
                 });
+                self.note_tick(at_ns, &a);
                 if std::mem::take(&mut self.config_echo_pending) {
                     self.config_refused |= a.flags.has(Flags::CMD_REFUSED);
                 }
@@ -288,6 +314,26 @@ impl<'a> DeviceController<'a> {
                 self.status_seen = true;
             }
             _ => {}
+        }
+    }
+
+    /// Watches the device's tick counter for a reset ([`Self::device_resets`]); after one
+    /// the Config goes out again with the next Sensor frame.
+    fn note_tick(&mut self, at_ns: u64, a: &wheelset_proto::Actuation) {
+        let latched = a.flags.has(Flags::FAULT_LATCHED);
+        // Tick 0 is the safe frame of a handler (no tick ran), not a new boot's.
+        if a.tick != 0 {
+            let back = self.last_tick.wrapping_sub(a.tick);
+            let went_back = a.tick < self.last_tick;
+            if went_back && (back < 0x8000 || (latched && !self.last_latched)) {
+                self.device_resets += 1;
+                self.first_reset_ns.get_or_insert(at_ns);
+                if self.config.is_some() || self.reset_config.is_some() {
+                    self.config_sent = false;
+                }
+            }
+            self.last_tick = a.tick;
+            self.last_latched = latched;
         }
     }
 
@@ -317,7 +363,7 @@ impl SampledController for DeviceController<'_> {
     }
 
     fn step(&mut self, t_ns: u64, m: &Measurements) -> SiActuation {
-        if let (Some(cfg), false) = (self.config, self.config_sent) {
+        if let (Some(cfg), false) = (self.config.or(self.reset_config), self.config_sent) {
             self.config_sent = true;
             self.config_echo_pending = true;
             self.send(t_ns, &Message::Config(cfg));
@@ -358,6 +404,13 @@ impl SampledController for DeviceController<'_> {
         {
             self.clear_faults_sent_ns = Some(t_ns);
             self.send(t_ns, &Message::Command(Command::ClearFaults));
+        }
+        if self
+            .stall_at_ns
+            .is_some_and(|t| t_ns >= t && self.stall_sent_ns.is_none())
+        {
+            self.stall_sent_ns = Some(t_ns);
+            self.send(t_ns, &Message::Command(Command::InjectStall));
         }
         self.fresh = false;
         self.receive(t_ns + self.period_ns);
@@ -402,6 +455,12 @@ pub struct LoopSetup<'l> {
     /// Send `Command::ClearFaults` (the latch and a held alarm safe state cleared) with
     /// the Sensor frame of the first sample instant at or after this time, ns.
     pub clear_faults_at_ns: Option<u64>,
+    /// Send `Command::InjectStall` with the Sensor frame of the first sample instant at
+    /// or after this time, ns ([`DeviceController::stall_at_ns`]).
+    pub stall_at_ns: Option<u64>,
+    /// The Config to send again after a device reset
+    /// ([`DeviceController::reset_config`]).
+    pub reset_config: Option<Config>,
     /// A progress bar to advance (simulated ms).
     pub progress: Option<ProgressBar>,
     /// The trajectory's label.
@@ -432,6 +491,12 @@ pub struct ClosedLoop {
     pub config_refused: bool,
     /// When `Command::ClearFaults` went out ([`LoopSetup::clear_faults_at_ns`]), ns.
     pub clear_faults_sent_ns: Option<u64>,
+    /// When `Command::InjectStall` went out ([`LoopSetup::stall_at_ns`]), ns.
+    pub stall_sent_ns: Option<u64>,
+    /// Device resets the host saw ([`DeviceController::device_resets`]).
+    pub device_resets: u32,
+    /// When the first was seen, ns.
+    pub first_reset_ns: Option<u64>,
 }
 
 /// Runs `sc` with the device behind `tr` as the plant's sampled controller (actuator
@@ -448,6 +513,8 @@ pub fn close_loop(
         ctrl = ctrl.with_config(cfg);
     }
     ctrl.clear_faults_at_ns = setup.clear_faults_at_ns;
+    ctrl.stall_at_ns = setup.stall_at_ns;
+    ctrl.reset_config = setup.reset_config;
     // One record per period, reserved once (doubling to 100 000 records re-copies and
     // re-faults megabytes); capped: a very long scenario grows the rest as it goes.
     let periods = (sc.duration_ns / period_ns.max(1)).min(1 << 22);
@@ -477,5 +544,129 @@ pub fn close_loop(
         error: ctrl.error.take(),
         config_refused: ctrl.config_refused,
         clear_faults_sent_ns: ctrl.clear_faults_sent_ns,
+        stall_sent_ns: ctrl.stall_sent_ns,
+        device_resets: ctrl.device_resets,
+        first_reset_ns: ctrl.first_reset_ns,
     })
+}
+
+#[cfg(test)]
+mod reset_tests {
+    #![allow(clippy::unwrap_used, clippy::expect_used)]
+
+    use super::*;
+    use crate::transport::Clock;
+
+    /// Records the messages the host sent; delivers nothing (the test feeds the frames).
+    #[derive(Default)]
+    struct Recorder {
+        sent: Vec<Message>,
+    }
+
+    impl Transport for Recorder {
+        fn name(&self) -> String {
+            "recorder".into()
+        }
+        fn clock(&self) -> Clock {
+            Clock::RealTime
+        }
+        fn baud(&self) -> u32 {
+            1_000_000
+        }
+        fn exec_unit(&self) -> (&'static str, f64) {
+            ("ns", 1.0)
+        }
+        fn send(&mut self, _t_ns: u64, bytes: &[u8]) -> Result<(), TransportError> {
+            let mut dec: Decoder = Decoder::new();
+            for &b in bytes {
+                if let Some(r) = dec.push(b) {
+                    self.sent.push(r.expect("the host's own frame decodes"));
+                }
+            }
+            Ok(())
+        }
+        fn recv(
+            &mut self,
+            _deadline_ns: u64,
+            _sink: &mut dyn FnMut(u64, &[u8]),
+        ) -> Result<(), TransportError> {
+            Ok(())
+        }
+    }
+
+    fn act(tick: u16, latched: bool) -> Message {
+        let mut flags = Flags(0);
+        if latched {
+            flags.0 |= Flags::FAULT_LATCHED;
+        }
+        Message::Actuation(wheelset_proto::Actuation {
+            seq_echo: 0,
+            tick,
+            exec: 0,
+            flags,
+            t_psi_dnm: 0,
+            u_a_cv: 0,
+        })
+    }
+
+    fn configs(sent: &[Message]) -> usize {
+        sent.iter()
+            .filter(|m| matches!(m, Message::Config(_)))
+            .count()
+    }
+
+    #[test]
+    fn a_tick_counter_that_goes_back_is_a_reset_and_the_config_goes_out_again() {
+        let mut tr = Recorder::default();
+        let cfg = crate::device::run_config(&Default::default(), false, false);
+        let period = 1_000_000;
+        let mut ctrl = DeviceController::new(&mut tr, period, 0.0, None);
+        ctrl.reset_config = Some(cfg);
+        ctrl.config_sent = true; // configured before the run, as RealTime::prepare does
+        ctrl.stall_at_ns = Some(2 * period);
+        let m = Measurements::default();
+        for k in 0..4u16 {
+            ctrl.step(u64::from(k) * period, &m);
+            ctrl.on_frame(u64::from(k) * period, 10, Ok(act(100 + k, false)));
+        }
+        assert_eq!(ctrl.stall_sent_ns, Some(2 * period));
+        assert_eq!(ctrl.device_resets, 0);
+        // The handler's safe frame (tick 0) is not a boot; the new boot's tick 1 is.
+        ctrl.on_frame(5 * period, 10, Ok(act(0, false)));
+        assert_eq!(ctrl.device_resets, 0);
+        ctrl.on_frame(6 * period, 10, Ok(act(1, true)));
+        assert_eq!(
+            (ctrl.device_resets, ctrl.first_reset_ns),
+            (1, Some(6 * period))
+        );
+        ctrl.step(7 * period, &m);
+        ctrl.on_frame(7 * period, 10, Ok(act(2, true)));
+        // A 16-bit wrap without a new latch is not a reset; a restart from a high tick
+        // that raises the latch is.
+        ctrl.on_frame(8 * period, 10, Ok(act(65_535, false)));
+        ctrl.on_frame(9 * period, 10, Ok(act(0x0001, false)));
+        assert_eq!(ctrl.device_resets, 1);
+        ctrl.on_frame(10 * period, 10, Ok(act(40_000, false)));
+        ctrl.on_frame(11 * period, 10, Ok(act(3, true)));
+        assert_eq!(ctrl.device_resets, 2);
+        drop(ctrl);
+        let stalls = tr
+            .sent
+            .iter()
+            .filter(|m| matches!(m, Message::Command(Command::InjectStall)))
+            .count();
+        assert_eq!(stalls, 1);
+        // Once after the first reset (the step at 7 T); none before.
+        assert_eq!(configs(&tr.sent), 1);
+        let first_config = tr
+            .sent
+            .iter()
+            .position(|m| matches!(m, Message::Config(_)))
+            .unwrap();
+        let sensors_before = tr.sent[..first_config]
+            .iter()
+            .filter(|m| matches!(m, Message::Sensor(_)))
+            .count();
+        assert_eq!(sensors_before, 4);
+    }
 }

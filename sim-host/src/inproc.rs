@@ -63,13 +63,21 @@ pub enum DeviceFault {
         /// Period of the corruption, frames (>= 1).
         every: u32,
     },
+    /// Not the in-process device's: the harness sends `Command::InjectStall` at `at_ns`
+    /// to a firmware built with `fault-inject` (`hil run --target qemu-free
+    /// --device-fault stall:T`), whose watchdog resets it. The in-process device has no
+    /// watchdog: `hil run` refuses it there, and it would tick on unharmed.
+    Stall {
+        /// When the command goes out, ns of the run.
+        at_ns: u64,
+    },
 }
 
 impl std::str::FromStr for DeviceFault {
     type Err = String;
 
     /// `none`, `wrong-sign`, `slow[:EXEC_US]` (default 300 us), `jitter[:MAX_US]`
-    /// (default 40 us), `corrupt[:EVERY]` (default every 10th frame).
+    /// (default 40 us), `corrupt[:EVERY]` (default every 10th frame), `stall:T` (T in s).
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         let (kind, arg) = match s.split_once(':') {
             Some((k, a)) => (k, Some(a)),
@@ -97,8 +105,17 @@ impl std::str::FromStr for DeviceFault {
             "corrupt" => Ok(Self::Corrupt {
                 every: u32::try_from(num(arg, 10)?).map_err(|e| e.to_string())?,
             }),
+            "stall" => {
+                let t = arg.ok_or("stall:T needs the time T of the run, s")?;
+                match t.parse::<f64>() {
+                    Ok(v) if v.is_finite() && v >= 0.0 => Ok(Self::Stall {
+                        at_ns: (v * 1e9).round() as u64,
+                    }),
+                    _ => Err(format!("stall:{t}: T must be a time of the run, s (>= 0)")),
+                }
+            }
             _ => Err(format!(
-                "unknown device fault `{s}` (known: none, wrong-sign, slow[:EXEC_US], jitter[:MAX_US], corrupt[:EVERY])"
+                "unknown device fault `{s}` (known: none, wrong-sign, slow[:EXEC_US], jitter[:MAX_US], corrupt[:EVERY], stall:T)"
             )),
         }
     }
@@ -235,7 +252,7 @@ impl<T: SampleBits> InProc<T> {
         let out = self.rt.tick(self.last_exec);
         let measured = u32::try_from(start.elapsed().as_nanos()).unwrap_or(u32::MAX);
         let (out, exec_ns): (&[u8], u64) = match self.fault {
-            DeviceFault::None => (out, 0),
+            DeviceFault::None | DeviceFault::Stall { .. } => (out, 0),
             DeviceFault::WrongSign => {
                 negate_torque(out, &mut self.scratch);
                 (&self.scratch, 0)
@@ -384,6 +401,15 @@ mod tests {
             Ok(DeviceFault::TooSlow { exec_ns: 50_000 })
         );
         assert_eq!("corrupt:3".parse(), Ok(DeviceFault::Corrupt { every: 3 }));
+        assert_eq!(
+            "stall:1.5".parse(),
+            Ok(DeviceFault::Stall {
+                at_ns: 1_500_000_000
+            })
+        );
+        assert!("stall".parse::<DeviceFault>().is_err());
+        assert!("stall:-1".parse::<DeviceFault>().is_err());
+        assert!("stall:nan".parse::<DeviceFault>().is_err());
         for bad in ["slow:0", "slow:x", "corrupt:-1", "sideways"] {
             assert!(bad.parse::<DeviceFault>().is_err(), "{bad}");
         }

@@ -69,7 +69,9 @@ pub(crate) struct RunArgs {
     #[arg(long = "set", value_name = "KEY=VALUE")]
     sets: Vec<String>,
     /// A deliberately broken in-process device: wrong-sign, slow[:EXEC_US], jitter[:MAX_US],
-    /// corrupt[:EVERY].
+    /// corrupt[:EVERY]; or stall:T (s) for --target qemu-free: the harness sends
+    /// InjectStall at T, the firmware's watchdog resets the device, the host sends its
+    /// Config again.
     #[arg(long, default_value = "none", value_parser = parse_device_fault)]
     device_fault: DeviceFault,
     /// Link baud (10 bits per byte).
@@ -183,9 +185,13 @@ pub(crate) fn cmd_run(a: &RunArgs, command: &str) -> Result<Verdict, Failure> {
                 a.target
             )));
         }
-        if a.device_fault != DeviceFault::None {
+        if a.device_fault != DeviceFault::None
+            && !(a.target == Target::QemuFree
+                && matches!(a.device_fault, DeviceFault::Stall { .. }))
+        {
             return Err(input(format!(
-                "--device-fault: only the in-process device can be broken on purpose, not {}",
+                "--device-fault: only the in-process device can be broken on purpose (and \
+                 `stall:T` needs --target qemu-free), not {}",
                 a.target
             )));
         }
