@@ -28,6 +28,7 @@
 //!          slip > slip_hold      ->  cap -= 2 r T      (cut at twice the reference slew)
 //!          slip < slip_target    ->  cap += r_up T     (re-apply: re-adhesion)
 //!          calm (no slip > slip_hold) for probe_after  ->  probing
+//!            (timer += r_up T each calm step; probing once timer >= r_up probe_after - r_up T/2)
 //! probing: cap += r_up T whatever the slip; detect -> cap = cut cap, back to the band
 //! release: cap >= i_ref (the rail carries the demand again)
 //! output:  min(i_ref, cap) while active, i_ref otherwise
@@ -335,9 +336,16 @@ impl<T: Sample> Wsp<T> {
             if slip < self.slip_target {
                 st.cap = st.cap.sat_add(up);
             }
-            // Calm in the band: after `probe_after` start probing.
+            // Calm in the band: after `probe_after` start probing. The timer is a count of
+            // re-apply steps, `probe_level / up` of them (an integer with the default
+            // schedules), so the level sits half a step below: `2 timer >= 2 level - up`,
+            // exact doublings, no coefficient. A rounding of the sum smaller than half a
+            // step then cannot move the decision by a tick, and the fixed-point, f32 and
+            // f64 builds start probing on the same tick (at `level` itself they did not:
+            // Q4.28 rounds `up` up and reached it one step before f64 did).
             st.timer = st.timer.sat_add(up);
-            st.probing = st.timer >= self.probe_level;
+            st.probing = st.timer.sat_add(st.timer)
+                >= self.probe_level.sat_add(self.probe_level).sat_sub(up);
         }
         if st.cap >= iref {
             st.active = false;

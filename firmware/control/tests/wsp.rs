@@ -226,3 +226,43 @@ fn fixed_point_and_f32_take_the_f64_decisions() {
     let _ = FixedController::try_new(&cfg()).unwrap();
     let _ = F32Controller::try_new(&cfg()).unwrap();
 }
+
+/// The tick (counted from the first calm one) on which the protection starts probing,
+/// after a detection at 0.3 m/s and then a calm slip in the band (0.045 m/s).
+fn probe_tick<T: Sample>(c: &Config) -> u32 {
+    let mut ctl = Controller::<T>::try_new(c).unwrap();
+    run(&mut ctl, c, 0.3, 12_400.0, 50);
+    assert!(ctl.wheel_slip() && !ctl.wsp_state().probing);
+    let (inp, w_ref) = at::<T>(c, 0.045, 12_400.0);
+    ctl.set_v_ref(w_ref);
+    for k in 1..=20_000u32 {
+        ctl.tick(&inp);
+        if ctl.wsp_state().probing {
+            return k;
+        }
+    }
+    panic!("{}: no probing after 4 s of calm", T::NAME);
+}
+
+#[test]
+fn every_build_starts_probing_on_the_same_tick() {
+    // The probe timer sums `probe_after / T` re-apply steps: an integer count (4 000 at
+    // the 5 kHz traction rate), so the level `r_up probe_after` is where the sum lands
+    // and the rounding of the sum decided the tick (Q4.28 one step before f64). The level
+    // half a step below makes the count exact in every build.
+    let c = cfg();
+    let base = c.base_rate_hz as f64;
+    let steps = (c.wsp.probe_after_s / c.traction_period()).round() as u32;
+    assert!(steps > 100, "{steps}");
+    // Ticks are base ticks; the traction step runs every `traction_divisor` of them.
+    let per = (c.traction_period() * base).round() as u32;
+    let f64_tick = probe_tick::<f64>(&c);
+    assert_eq!(probe_tick::<Fx>(&c), f64_tick, "Q4.28 against f64");
+    assert_eq!(probe_tick::<f32>(&c), f64_tick, "f32 against f64");
+    // `probe_after` of calm: `steps` traction steps (within one step of the phase).
+    assert!(
+        f64_tick.abs_diff(steps * per) <= per,
+        "{f64_tick} vs {}",
+        steps * per
+    );
+}
