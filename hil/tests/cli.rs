@@ -161,6 +161,15 @@ fn bad_flags_and_files_exit_2_with_a_clear_message() {
             vec!["run", "--device-fault", "melt"],
             "unknown device fault",
         ),
+        (vec!["run", "--device-fault", "stall"], "needs the time T"),
+        (
+            vec!["run", "--scenario", &short, "--device-fault", "stall:1"],
+            "needs a device with a running watchdog",
+        ),
+        (
+            vec!["run", "--target", "qemu", "--device-fault", "stall:1"],
+            "needs --target qemu-free",
+        ),
         (
             vec!["run", "--scenario", &short, "--baud", "115200"],
             "link budget exceeded",
