@@ -8,6 +8,8 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
+mod common;
+
 use hil::budget::Verdict;
 use hil::qemu::QemuConfig;
 use hil::run::{run, RunOptions, Target, QEMU_FREE_RATE_HZ};
@@ -18,16 +20,7 @@ use hil::run::{run, RunOptions, Target, QEMU_FREE_RATE_HZ};
 static ONE_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
 fn available(test: &str) -> bool {
-    match QemuConfig::free_running().check() {
-        Ok(()) => true,
-        Err(e) if std::env::var("REQUIRE_QEMU").as_deref() == Ok("1") => {
-            panic!("{test}: REQUIRE_QEMU=1 but the free-running firmware cannot run: {e}")
-        }
-        Err(e) => {
-            eprintln!("{test}: SKIPPED: {e}");
-            false
-        }
-    }
+    common::can_run(test, &QemuConfig::free_running())
 }
 
 #[test]

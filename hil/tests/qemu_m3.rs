@@ -6,6 +6,8 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
+mod common;
+
 use std::time::Duration;
 
 use hil::golden::{compare, run_host, run_target, vectors};
@@ -14,16 +16,7 @@ use hil::qemu_target::QemuTarget;
 use hil::run::DEFAULT_CPU_HZ;
 
 fn available(test: &str, m: Machine) -> bool {
-    match QemuConfig::on(m).check() {
-        Ok(()) => true,
-        Err(e) if std::env::var("REQUIRE_QEMU").as_deref() == Ok("1") => {
-            panic!("{test}: REQUIRE_QEMU=1 but the emulated {m} cannot run: {e}")
-        }
-        Err(e) => {
-            eprintln!("{test}: SKIPPED: {e}");
-            false
-        }
-    }
+    common::can_run(&format!("{test} ({m})"), &QemuConfig::on(m))
 }
 
 /// The host's runtime and the Cortex-M4F build agree bit for bit on the full vectors

@@ -8,6 +8,8 @@
 //! `REQUIRE_QEMU=1`.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
+mod common;
+
 use hil::budget::Verdict;
 use hil::qemu::{Channel, QemuConfig};
 use hil::run::{run, RunOptions, Target};
@@ -17,16 +19,7 @@ fn available(test: &str) -> bool {
         channel: Channel::Bulk,
         ..QemuConfig::new()
     };
-    match cfg.check() {
-        Ok(()) => true,
-        Err(e) if std::env::var("REQUIRE_QEMU").as_deref() == Ok("1") => {
-            panic!("{test}: REQUIRE_QEMU=1 but the emulated device cannot run: {e}")
-        }
-        Err(e) => {
-            eprintln!("{test}: SKIPPED: {e}");
-            false
-        }
-    }
+    common::can_run(test, &cfg)
 }
 
 #[test]

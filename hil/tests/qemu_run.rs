@@ -4,6 +4,8 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
+mod common;
+
 use hil::budget::Verdict;
 use hil::golden::{compare, run_host, run_target, vectors};
 use hil::qemu::QemuConfig;
@@ -11,16 +13,7 @@ use hil::qemu_target::QemuTarget;
 use hil::run::{run, RunOptions, Target, DEFAULT_CPU_HZ};
 
 fn available(test: &str) -> bool {
-    match QemuConfig::new().check() {
-        Ok(()) => true,
-        Err(e) if std::env::var("REQUIRE_QEMU").as_deref() == Ok("1") => {
-            panic!("{test}: REQUIRE_QEMU=1 but the emulated device cannot run: {e}")
-        }
-        Err(e) => {
-            eprintln!("{test}: SKIPPED: {e}");
-            false
-        }
-    }
+    common::can_run(test, &QemuConfig::new())
 }
 
 fn short() -> String {

@@ -1,5 +1,5 @@
-//! The QEMU tests' driver (`qemu_smoke`, `qemu_bulk`): starting the emulated device or
-//! skipping, one lock-step tick, and the device as the plant's sampled controller over
+//! The QEMU tests' driver: whether the emulated device can run here ([`can_run`], every
+//! `qemu_*` test), starting it or skipping (`qemu_smoke`, `qemu_bulk`), one lock-step tick, and the device as the plant's sampled controller over
 //! a run of `curve`.
 #![allow(dead_code, clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
@@ -14,19 +14,29 @@ use wheelset_proto::units::{
 };
 use wheelset_proto::{encode_vec, Actuation, Decoder, Lateral, Message, Sensor};
 
-/// Starts the emulated device on `channel`, or `None` (skip) when it cannot run here and
-/// the run does not require it (`REQUIRE_QEMU=1`, set by `cargo xtest` when QEMU is
-/// installed, makes that a failure).
+/// Whether QEMU and the firmware of `cfg` can run here: `false` (skip, said on stderr)
+/// when they cannot and the run does not require them; a failure when `REQUIRE_QEMU=1`
+/// (set by `cargo xtest` when QEMU is installed).
+pub fn can_run(test: &str, cfg: &QemuConfig) -> bool {
+    match cfg.check() {
+        Ok(()) => true,
+        Err(e) if std::env::var("REQUIRE_QEMU").as_deref() == Ok("1") => {
+            panic!("{test}: REQUIRE_QEMU=1 but the emulated device cannot run: {e}")
+        }
+        Err(e) => {
+            eprintln!("{test}: SKIPPED: {e}");
+            false
+        }
+    }
+}
+
+/// Starts the emulated device on `channel`, or `None` (skip, [`can_run`]).
 pub fn start_or_skip(test: &str, channel: Channel) -> Option<Qemu> {
     let cfg = QemuConfig {
         channel,
         ..QemuConfig::new()
     };
-    if let Err(e) = cfg.check() {
-        if std::env::var("REQUIRE_QEMU").as_deref() == Ok("1") {
-            panic!("{test}: REQUIRE_QEMU=1 but the emulated device cannot run: {e}");
-        }
-        eprintln!("{test}: SKIPPED: {e}");
+    if !can_run(test, &cfg) {
         return None;
     }
     match Qemu::start(&cfg) {
