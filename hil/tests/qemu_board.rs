@@ -8,70 +8,21 @@
 //! unless `REQUIRE_QEMU=1`.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
+mod common;
+
+use common::{exchange, sensor, status};
 use hil::qemu::{Qemu, QemuConfig};
 use wheelset_proto::{
-    encode_vec, reset_cause, Actuation, Command, Decoder, Flags, Lateral, Message, Sensor, Status,
+    encode_vec, reset_cause, Actuation, Command, Decoder, Flags, Message, Status,
 };
 
 /// The firmware's RX pipe between the UART interrupt and the control task, bytes
 /// (`firmware/app/src/config.rs`, `RX_PIPE`).
 const RX_PIPE: usize = 256;
 
-fn start_or_skip(test: &str) -> Option<Qemu> {
-    let cfg = QemuConfig::new();
-    if let Err(e) = cfg.check() {
-        if std::env::var("REQUIRE_QEMU").as_deref() == Ok("1") {
-            panic!("{test}: REQUIRE_QEMU=1 but the emulated device cannot run: {e}");
-        }
-        eprintln!("{test}: SKIPPED: {e}");
-        return None;
-    }
-    Some(Qemu::start(&cfg).unwrap_or_else(|e| panic!("{test}: {e}")))
-}
-
-fn sensor(seq: u16) -> Vec<u8> {
-    encode_vec(&Message::Sensor(Sensor {
-        seq,
-        t_us: seq.wrapping_mul(200),
-        lateral: Lateral::Velocity(1_000),
-        i_a_ma: 0,
-        omega_m_mrad_s: 925_600,
-        demand_nm: 0,
-        v_ref_mm_s: 0,
-    }))
-    .unwrap()
-    .to_vec()
-}
-
-/// Sends bytes ending in one delimiter (one device tick) and returns the `frames`
-/// messages the device sent for it.
-fn exchange(q: &mut Qemu, bytes: &[u8], frames: usize) -> Vec<Message> {
-    q.send(bytes).unwrap();
-    let mut dec: Decoder = Decoder::new();
-    let mut out = Vec::new();
-    for _ in 0..frames {
-        let mut f = q.recv_frame().unwrap();
-        f.push(0);
-        dec.feed(&f, |r| out.push(r.expect("a valid frame from the device")));
-    }
-    out
-}
-
-fn status(q: &mut Qemu) -> Status {
-    let m = exchange(
-        q,
-        &encode_vec(&Message::Command(Command::RequestStatus)).unwrap(),
-        2,
-    );
-    match m.get(1) {
-        Some(Message::Status(s)) => *s,
-        other => panic!("expected a Status, got {other:?}"),
-    }
-}
-
 #[test]
 fn the_qemu_board_reports_its_counters_and_boot_record() {
-    let Some(mut q) = start_or_skip("board counters") else {
+    let Some(mut q) = common::start_cfg_or_skip("board counters", &QemuConfig::new()) else {
         return;
     };
     for k in 1..=5 {
@@ -135,20 +86,6 @@ fn fault_and_rejoin(q: &mut Qemu, fault: Command) -> (Actuation, Status) {
         panic!("{m:?}")
     };
     (*first, status(q))
-}
-
-/// The free-running device (`wheelset-qemu-free.elf`, QEMU without `-icount`: the
-/// watchdog runs there only, `firmware/app/src/board/qemu/wdog.rs`), or `None` (skipped).
-fn start_free_or_skip(test: &str) -> Option<Qemu> {
-    let cfg = QemuConfig::free_running();
-    if let Err(e) = cfg.check() {
-        if std::env::var("REQUIRE_QEMU").as_deref() == Ok("1") {
-            panic!("{test}: REQUIRE_QEMU=1 but the free-running device cannot run: {e}");
-        }
-        eprintln!("{test}: SKIPPED: {e}");
-        return None;
-    }
-    Some(Qemu::start(&cfg).unwrap_or_else(|e| panic!("{test}: {e}")))
 }
 
 /// The next frame from a free-running device (it sends one Actuation per tick of its
@@ -280,7 +217,8 @@ fn stall_and_rejoin(q: &mut Qemu, seq0: u16) -> (u16, Actuation, Status) {
 
 #[test]
 fn a_stalled_control_task_trips_the_watchdog_and_the_board_rejoins() {
-    let Some(mut q) = start_free_or_skip("watchdog reset") else {
+    let Some(mut q) = common::start_cfg_or_skip("watchdog reset", &QemuConfig::free_running())
+    else {
         return;
     };
     let s = free_status(&mut q, 0);
@@ -315,7 +253,7 @@ fn a_stalled_control_task_trips_the_watchdog_and_the_board_rejoins() {
 
 #[test]
 fn a_hardfault_drives_the_safe_outputs_and_resets() {
-    let Some(mut q) = start_or_skip("hardfault reset") else {
+    let Some(mut q) = common::start_cfg_or_skip("hardfault reset", &QemuConfig::new()) else {
         return;
     };
     let (first, s) = fault_and_rejoin(&mut q, Command::InjectHardFault);

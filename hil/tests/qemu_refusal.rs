@@ -5,51 +5,12 @@
 //! unless `REQUIRE_QEMU=1`.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
-use hil::qemu::{Qemu, QemuConfig};
-use wheelset_proto::{
-    encode_vec, Actuation, Command, Config, Decoder, Flags, Lateral, Message, Sensor, YawMode,
-};
+mod common;
+
+use common::{exchange, sensor};
+use hil::qemu::QemuConfig;
+use wheelset_proto::{encode_vec, Actuation, Command, Config, Flags, Message, YawMode};
 use wheelset_runtime::{rates_for, RuntimeConfig, DEFAULT_HOLD_TICKS};
-
-fn start_or_skip(test: &str) -> Option<Qemu> {
-    let cfg = QemuConfig::new();
-    if let Err(e) = cfg.check() {
-        if std::env::var("REQUIRE_QEMU").as_deref() == Ok("1") {
-            panic!("{test}: REQUIRE_QEMU=1 but the emulated device cannot run: {e}");
-        }
-        eprintln!("{test}: SKIPPED: {e}");
-        return None;
-    }
-    Some(Qemu::start(&cfg).unwrap_or_else(|e| panic!("{test}: {e}")))
-}
-
-fn sensor(seq: u16) -> Vec<u8> {
-    encode_vec(&Message::Sensor(Sensor {
-        seq,
-        t_us: seq.wrapping_mul(200),
-        lateral: Lateral::Velocity(1_000),
-        i_a_ma: 0,
-        omega_m_mrad_s: 925_600,
-        demand_nm: 0,
-        v_ref_mm_s: 0,
-    }))
-    .unwrap()
-    .to_vec()
-}
-
-/// Sends one frame (its delimiter clocks one device tick) and returns every message the
-/// device sent for that tick (the Actuation, and a Status if one was requested).
-fn exchange(q: &mut Qemu, bytes: &[u8], frames: usize) -> Vec<Message> {
-    q.send(bytes).unwrap();
-    let mut dec: Decoder = Decoder::new();
-    let mut out = Vec::new();
-    for _ in 0..frames {
-        let mut f = q.recv_frame().unwrap();
-        f.push(0);
-        dec.feed(&f, |r| out.push(r.expect("a valid frame from the device")));
-    }
-    out
-}
 
 fn actuation(m: &[Message]) -> Actuation {
     match m.first() {
@@ -77,7 +38,7 @@ fn config_at(hz: u32) -> Vec<u8> {
 
 #[test]
 fn the_qemu_firmware_refuses_a_period_it_cannot_honour() {
-    let Some(mut q) = start_or_skip("3 kHz refused") else {
+    let Some(mut q) = common::start_cfg_or_skip("3 kHz refused", &QemuConfig::new()) else {
         return;
     };
     for k in 1..=5 {

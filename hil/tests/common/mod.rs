@@ -12,7 +12,7 @@ use wheelset_proto::units::{
     quantize, to_si, CURRENT_LSB_A, DEMAND_LSB_NM, LAT_VEL_LSB_M_PER_S, SPEED_LSB_RAD_PER_S,
     TORQUE_LSB_NM, VOLTAGE_LSB_V,
 };
-use wheelset_proto::{encode_vec, Actuation, Decoder, Lateral, Message, Sensor};
+use wheelset_proto::{encode_vec, Actuation, Command, Decoder, Lateral, Message, Sensor, Status};
 
 /// Whether QEMU and the firmware of `cfg` can run here: `false` (skip, said on stderr)
 /// when they cannot and the run does not require them; a failure when `REQUIRE_QEMU=1`
@@ -30,18 +30,62 @@ pub fn can_run(test: &str, cfg: &QemuConfig) -> bool {
     }
 }
 
+/// Starts the emulated device of `cfg`, or `None` (skip, [`can_run`]).
+pub fn start_cfg_or_skip(test: &str, cfg: &QemuConfig) -> Option<Qemu> {
+    if !can_run(test, cfg) {
+        return None;
+    }
+    Some(Qemu::start(cfg).unwrap_or_else(|e| panic!("{test}: {e}")))
+}
+
 /// Starts the emulated device on `channel`, or `None` (skip, [`can_run`]).
 pub fn start_or_skip(test: &str, channel: Channel) -> Option<Qemu> {
     let cfg = QemuConfig {
         channel,
         ..QemuConfig::new()
     };
-    if !can_run(test, &cfg) {
-        return None;
+    start_cfg_or_skip(test, &cfg)
+}
+
+/// A Sensor frame `seq` of a wheelset at speed (motor 925.6 rad/s), no demand, 1 mm/s
+/// lateral velocity: a still input for the board tests.
+pub fn sensor(seq: u16) -> Vec<u8> {
+    encode_vec(&Message::Sensor(Sensor {
+        seq,
+        t_us: seq.wrapping_mul(200),
+        lateral: Lateral::Velocity(1_000),
+        i_a_ma: 0,
+        omega_m_mrad_s: 925_600,
+        demand_nm: 0,
+        v_ref_mm_s: 0,
+    }))
+    .unwrap()
+    .to_vec()
+}
+
+/// Sends `bytes` and returns the next `frames` messages the device sends.
+pub fn exchange(q: &mut Qemu, bytes: &[u8], frames: usize) -> Vec<Message> {
+    q.send(bytes).unwrap();
+    let mut dec: Decoder = Decoder::new();
+    let mut out = Vec::new();
+    for _ in 0..frames {
+        let mut f = q.recv_frame().unwrap();
+        f.push(0);
+        dec.feed(&f, |r| out.push(r.expect("a valid frame from the device")));
     }
-    match Qemu::start(&cfg) {
-        Ok(q) => Some(q),
-        Err(e) => panic!("{test}: {e}"),
+    out
+}
+
+/// The device's Status (a `RequestStatus`: its tick's Actuation, then the Status).
+pub fn status(q: &mut Qemu) -> Status {
+    let m = exchange(
+        q,
+        &encode_vec(&Message::Command(Command::RequestStatus)).unwrap(),
+        2,
+    );
+    match m.get(1) {
+        Some(Message::Status(s)) => *s,
+        other => panic!("expected a Status, got {other:?}"),
     }
 }
 
