@@ -393,7 +393,7 @@ fn test(extra: &[String]) -> Result<(), String> {
             "README.md: generated blocks drifted (`cargo xtask readme` rewrites them)".into(),
         );
     }
-    let failed = readme::run_commands(false)?;
+    let failed = readme::run_commands(false, false)?;
     if failed.is_empty() {
         Ok(())
     } else {

@@ -75,30 +75,32 @@ fn generate(root: &Path, bin_dir: &Path, b: &Block) -> Result<String, String> {
     Ok(text)
 }
 
-/// `cargo xtask readme [--check] [--dev] [--commands [--long]]` (the arguments after
-/// `readme`).
+/// `cargo xtask readme [--check] [--dev] [--commands [--long] [--list]]` (the arguments
+/// after `readme`; `--list` prints each command's class without running any).
 pub fn main(args: &[String]) -> ExitCode {
     let mut check = false;
     let mut dev = false;
     let mut cmds = false;
     let mut long = false;
+    let mut list = false;
     for a in args {
         match a.as_str() {
             "--check" => check = true,
             "--dev" => dev = true,
             "--commands" => cmds = true,
             "--long" => long = true,
+            "--list" => list = true,
             other => {
                 eprintln!(
                     "xtask readme: unknown argument `{other}` (usage: cargo xtask readme \
-                     [--check] [--dev] | --commands [--long])"
+                     [--check] [--dev] | --commands [--long] [--list])"
                 );
                 return ExitCode::from(2);
             }
         }
     }
     if cmds {
-        return match run_commands(long) {
+        return match run_commands(long, list) {
             Ok(f) if f.is_empty() => ExitCode::SUCCESS,
             Ok(f) => {
                 for e in &f {

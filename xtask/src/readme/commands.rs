@@ -31,6 +31,7 @@ pub(super) const RULES: &[(&str, Class)] = &[
     ("[", Class::Skip("a form with optional parts")),
     ("$(", Class::Skip("starts QEMU waiting for a client")),
     ("--frames N", Class::Skip("a form with placeholders")),
+    ("stall:T", Class::Skip("a form with placeholders")),
     ("--condition C ", Class::Skip("a form with placeholders")),
     ("defmt-print", Class::Skip("needs defmt-print installed")),
     (
@@ -141,9 +142,9 @@ pub fn commands(readme: &str) -> Vec<ReadmeCommand> {
 }
 
 /// Runs the README's commands (`long`: also the long ones) from the workspace root with
-/// `sh -c`, each checked against its stated exit code. Prints one line per command;
-/// returns the failures.
-pub fn run_commands(long: bool) -> Result<Vec<String>, String> {
+/// `sh -c`, each checked against its stated exit code (`list`: none run, each printed with
+/// its class). Prints one line per command; returns the failures.
+pub fn run_commands(long: bool, list: bool) -> Result<Vec<String>, String> {
     let root = crate::workspace_root();
     let path = root.join("README.md");
     let readme = std::fs::read_to_string(&path)
@@ -167,6 +168,16 @@ pub fn run_commands(long: bool) -> Result<Vec<String>, String> {
                 continue;
             }
             _ => {}
+        }
+        if list {
+            eprintln!(
+                "xtask readme: {}  README.md:{} `{}` (exit {})",
+                if class == Class::Long { "long" } else { "run " },
+                c.line,
+                c.text,
+                c.exit
+            );
+            continue;
         }
         let t0 = std::time::Instant::now();
         let out = Command::new("sh")
