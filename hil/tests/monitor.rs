@@ -189,3 +189,40 @@ fn a_failed_actuator_is_caught_on_low_adhesion_with_the_protection_cutting() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A reversed actuator on the `low` rail at conicity 0.05 (the fault at 7.0 s) does not
+/// make the wheelset hunt: it drifts to the flange at an almost constant `y'` of about
+/// 45 mm/s, which the band-pass rejects. The actuator check's drift rule (the low-passed
+/// `y'` above 25 mm/s, `wheelset_control::monitor`, "Drift") catches it, by the deadline
+/// and before the run diverges (|y| > 50 mm at about 8.0 s).
+#[test]
+fn a_reversed_actuator_drifting_to_the_flange_is_caught() {
+    let dir = std::env::temp_dir().join(format!("hil-monitor-drift-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let f = with_lambda("low-adhesion", 0.05, &dir);
+    let mut text = std::fs::read_to_string(&f).unwrap();
+    text.push_str("\n[actuator_fault]\nt_s = 7.0\nmode = \"reversed\"\n");
+    std::fs::write(&f, text).unwrap();
+    let out = run(&opts(f.to_str().unwrap(), Law::Lead)).unwrap();
+    let m = &out.report.monitor;
+    println!(
+        "low-adhesion lambda 0.05, reversed at 7.0 s: alarms {:?}, deadline {:?}",
+        m.alarms, m.deadline_s
+    );
+    assert_eq!(m.verdict, hil::budget::Verdict::Pass, "{}", m.reason);
+    assert!(
+        m.alarms.iter().any(|a| a.kind == "actuator" && a.t_s > 7.0),
+        "{:?}",
+        m.alarms
+    );
+    assert!(
+        !m.alarms.iter().any(|a| a.kind == "hunting"),
+        "{:?}",
+        m.alarms
+    );
+    let first = m.first_alarm_s.unwrap();
+    assert!(first <= m.deadline_s.unwrap());
+    let end = out.trajectory.records.last().unwrap().t_s;
+    assert!(first < end, "alarm at {first} s, the run ends at {end} s");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -264,6 +264,7 @@ fn bits_round_trip_and_invalid_bits_are_refused() {
     assert_eq!(bad(&|x| x.levels.swap(0, 1)), "monitor.levels");
     assert_eq!(bad(&|x| x.levels[2] = 0), "monitor.levels");
     assert_eq!(bad(&|x| x.block = 0), "monitor.block");
+    assert_eq!(bad(&|x| x.drift = 0), "monitor.drift");
     assert_eq!(bad(&|x| x.levels[0] = 1 << 40), "monitor.levels");
 }
 
@@ -327,6 +328,13 @@ fn bad_parameters_name_the_field() {
     );
     assert_eq!(
         field(MonitorParams {
+            act_drift_m_s: 0.0005,
+            ..d
+        }),
+        "monitor.act_drift_m_s"
+    );
+    assert_eq!(
+        field(MonitorParams {
             act_growth_per_s: -1.0,
             ..d
         }),
@@ -357,4 +365,39 @@ fn an_off_monitor_never_alarms() {
         );
         assert!(!ev.hunting && !ev.actuator);
     }
+}
+
+/// The drift (module docs, "Drift"): a failed wheelset pushed to the flange at a nearly
+/// constant `y'` has no band-passed energy, so only the low-passed `y'` shows it. A ramp
+/// to 45 mm/s (the reversed actuator on `low-adhesion` at conicity 0.05) while the law
+/// commands raises the actuator alarm within the low-pass's settling and two blocks;
+/// 10 mm/s (the healthy runs' peak) and the same drift without the law commanding do not.
+#[test]
+fn a_drift_to_the_flange_raises_the_actuator_alarm() {
+    let p = MonitorParams::default();
+    let ramp = |v: f64| {
+        move |t: f64| {
+            if t < 1.0 {
+                0.0
+            } else {
+                v * ((t - 1.0) / 0.1).min(1.0)
+            }
+        }
+    };
+    for (name, (h, a, ev)) in [
+        ("Q4.28", drive::<Fx>(&p, 2.0, true, ramp(0.045))),
+        ("f32", drive::<f32>(&p, 2.0, true, ramp(0.045))),
+        ("f64", drive::<f64>(&p, 2.0, true, ramp(0.045))),
+    ] {
+        assert!(h.is_empty(), "{name}: a drift is no hunting: {h:?}");
+        assert_eq!(a.len(), 1, "{name}: {a:?}");
+        // |l| passes 25 mm/s about 0.1 + ln(45/20)/(2 pi 3) = 0.14 s after the ramp's
+        // start; two block ends after that (blocks of 0.1 s): by 1.4 s.
+        assert!(a[0] > 1.1 && a[0] <= 1.4, "{name}: alarm at {}", a[0]);
+        assert!(ev.actuator, "{name}: the alarm holds while the drift lasts");
+    }
+    let (_, a, _) = drive::<Fx>(&p, 2.0, true, ramp(0.010));
+    assert!(a.is_empty(), "10 mm/s: {a:?}");
+    let (_, a, _) = drive::<Fx>(&p, 2.0, false, ramp(0.045));
+    assert!(a.is_empty(), "not commanding: {a:?}");
 }
