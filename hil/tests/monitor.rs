@@ -69,6 +69,22 @@ fn with_lambda(name: &str, lambda: f64, dir: &std::path::Path) -> PathBuf {
     p
 }
 
+/// Runs the built-in scenario `name` at conicity `lambda` with the lead, a plant fault of
+/// the yaw actuator at `t_s` (`mode`: the `[actuator_fault]` lines after `t_s`).
+fn run_with_fault(
+    name: &str,
+    lambda: f64,
+    t_s: f64,
+    mode: &str,
+    dir: &std::path::Path,
+) -> hil::run::RunOutcome {
+    let f = with_lambda(name, lambda, dir);
+    let mut text = std::fs::read_to_string(&f).unwrap();
+    text.push_str(&format!("\n[actuator_fault]\nt_s = {t_s}\n{mode}\n"));
+    std::fs::write(&f, text).unwrap();
+    run(&opts(f.to_str().unwrap(), Law::Lead)).unwrap()
+}
+
 /// Conicity 0.05-0.4 at 10 MN (the default creep): `curve` with the lead, `beating`
 /// with passive control, `low-adhesion` with the lead and the wheel-slip protection on
 /// (hil run's default). No alarm wherever the plant does not hunt on its own; where it
@@ -152,11 +168,7 @@ fn a_failed_actuator_is_caught_on_low_adhesion_with_the_protection_cutting() {
         (0.3, "mode = \"reversed\""),
         (0.3, "mode = \"fraction\"\nfraction = 0.3"),
     ] {
-        let f = with_lambda("low-adhesion", lambda, &dir);
-        let mut text = std::fs::read_to_string(&f).unwrap();
-        text.push_str(&format!("\n[actuator_fault]\nt_s = 14.0\n{mode}\n"));
-        std::fs::write(&f, text).unwrap();
-        let out = run(&opts(f.to_str().unwrap(), Law::Lead)).unwrap();
+        let out = run_with_fault("low-adhesion", lambda, 14.0, mode, &dir);
         let m = &out.report.monitor;
         println!(
             "low-adhesion lambda {lambda} {mode}: alarms {:?}, deadline {:?}",
@@ -199,11 +211,7 @@ fn a_failed_actuator_is_caught_on_low_adhesion_with_the_protection_cutting() {
 fn a_reversed_actuator_drifting_to_the_flange_is_caught() {
     let dir = std::env::temp_dir().join(format!("hil-monitor-drift-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let f = with_lambda("low-adhesion", 0.05, &dir);
-    let mut text = std::fs::read_to_string(&f).unwrap();
-    text.push_str("\n[actuator_fault]\nt_s = 7.0\nmode = \"reversed\"\n");
-    std::fs::write(&f, text).unwrap();
-    let out = run(&opts(f.to_str().unwrap(), Law::Lead)).unwrap();
+    let out = run_with_fault("low-adhesion", 0.05, 7.0, "mode = \"reversed\"", &dir);
     let m = &out.report.monitor;
     println!(
         "low-adhesion lambda 0.05, reversed at 7.0 s: alarms {:?}, deadline {:?}",
