@@ -10,8 +10,17 @@
 //! skips the other, and the host waits forever for the answer that never comes. So a
 //! lock-step transport waits for what is owed before it sends the next frame, and keeps
 //! those early answers ([`Expect::stash`]) for the next receive ([`Expect::take_early`]).
+//! The same holds inside one write: a write with several delimiters (two frames passed
+//! at once, or a frame whose byte a fault turned into 0x00) is sent as its [`frames`],
+//! one at a time, each after the answers owed before it.
 
 use wheelset_proto::{Command, Decoder, Message};
+
+/// The parts of one write as the device's clock sees them: each up to and including a
+/// 0x00 delimiter, then the rest without one (if any). Empty input gives nothing.
+pub fn frames(bytes: &[u8]) -> impl Iterator<Item = &[u8]> {
+    bytes.split_inclusive(|&b| b == 0)
+}
 
 /// Frames the device owes the host.
 #[derive(Debug, Default)]
@@ -90,6 +99,13 @@ mod tests {
         assert_eq!(e.owed(), 4);
         e.received(&[1, 2, 0, 5, 0]);
         assert_eq!(e.owed(), 2);
+    }
+
+    #[test]
+    fn a_write_splits_after_each_delimiter() {
+        let parts: Vec<&[u8]> = frames(&[1, 2, 0, 0, 3, 0, 4]).collect();
+        assert_eq!(parts, vec![&[1, 2, 0][..], &[0][..], &[3, 0][..], &[4][..]]);
+        assert_eq!(frames(&[]).count(), 0);
     }
 
     #[test]

@@ -107,14 +107,18 @@ impl Transport for QemuTarget {
     }
 
     fn send(&mut self, _t_ns: u64, bytes: &[u8]) -> Result<(), TransportError> {
-        // One frame in flight (`crate::lockstep`): the answers still owed first.
-        let mut early = Vec::new();
-        self.wait_owed(&mut |b| early.extend_from_slice(b))?;
-        self.expect.stash(&early);
-        self.expect.sent(bytes);
-        self.q
-            .send(bytes)
-            .map_err(|e| TransportError::Io(e.to_string()))
+        // One frame in flight (`crate::lockstep`): each frame of the write after the
+        // answers still owed.
+        for part in crate::lockstep::frames(bytes) {
+            let mut early = Vec::new();
+            self.wait_owed(&mut |b| early.extend_from_slice(b))?;
+            self.expect.stash(&early);
+            self.expect.sent(part);
+            self.q
+                .send(part)
+                .map_err(|e| TransportError::Io(e.to_string()))?;
+        }
+        Ok(())
     }
 
     fn recv(

@@ -111,12 +111,16 @@ impl Transport for Serial {
     }
 
     fn send(&mut self, _t_ns: u64, bytes: &[u8]) -> Result<(), TransportError> {
-        // One frame in flight (`crate::lockstep`): the answers still owed first.
-        let mut early = Vec::new();
-        self.wait_owed(&mut |b| early.extend_from_slice(b))?;
-        self.expect.stash(&early);
-        self.expect.sent(bytes);
-        self.port.write_all(bytes).map_err(|e| self.io(&e))
+        // One frame in flight (`crate::lockstep`): each frame of the write after the
+        // answers still owed.
+        for part in crate::lockstep::frames(bytes) {
+            let mut early = Vec::new();
+            self.wait_owed(&mut |b| early.extend_from_slice(b))?;
+            self.expect.stash(&early);
+            self.expect.sent(part);
+            self.port.write_all(part).map_err(|e| self.io(&e))?;
+        }
+        Ok(())
     }
 
     fn recv(

@@ -154,3 +154,50 @@ fn a_lock_step_transport_keeps_one_frame_in_flight() {
     assert_eq!(out.report.timing.missed_ticks, 0);
     assert_eq!(out.report.verdict, Verdict::Pass, "{:?}", out.report);
 }
+
+/// Two frames in one write (here two Sensor frames; a fault that turns a byte of one frame
+/// into 0x00 makes the same two delimiters) reach a device that ticks once per burst as
+/// two bursts: the transport sends a write's frames one at a time
+/// (`hil::lockstep::frames`), so both are answered and nothing is left owed.
+#[test]
+fn two_frames_in_one_write_are_two_ticks_and_two_answers() {
+    use sim_host::transport::Transport;
+    use wheelset_proto::{encode_vec, Decoder, Lateral, Message, Sensor};
+    let device = PtyDevice::spawn(serve_in_bursts);
+    let mut port = hil::serial::Serial::open(
+        &device.path,
+        921_600,
+        180e6,
+        std::time::Duration::from_secs(2),
+    )
+    .unwrap();
+    let sensor = |seq| {
+        encode_vec(&Message::Sensor(Sensor {
+            seq,
+            t_us: 0,
+            lateral: Lateral::Velocity(0),
+            i_a_ma: 0,
+            omega_m_mrad_s: 0,
+            demand_nm: 0,
+            v_ref_mm_s: 0,
+        }))
+        .unwrap()
+    };
+    let mut write = sensor(1);
+    write.extend_from_slice(&sensor(2)).unwrap();
+    port.send(0, &write).expect("sent");
+    let mut got = Vec::new();
+    port.recv(1, &mut |_, b| got.extend_from_slice(b))
+        .expect("both answers arrive (a lost one is a timeout error)");
+    let (ticks, most) = device.finish();
+    let mut dec: Decoder = Decoder::new();
+    let mut echoes = Vec::new();
+    dec.feed(&got, |m| {
+        if let Ok(Message::Actuation(a)) = m {
+            echoes.push(a.seq_echo);
+        }
+    });
+    assert_eq!(most, 1, "a burst held {most} frames");
+    assert_eq!(ticks, 2);
+    assert_eq!(echoes, vec![1, 2]);
+}
