@@ -3,6 +3,8 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+mod common;
+
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
@@ -161,8 +163,9 @@ fn a_lock_step_transport_keeps_one_frame_in_flight() {
 /// (`hil::lockstep::frames`), so both are answered and nothing is left owed.
 #[test]
 fn two_frames_in_one_write_are_two_ticks_and_two_answers() {
+    use common::sensor;
     use sim_host::transport::Transport;
-    use wheelset_proto::{encode_vec, Decoder, Lateral, Message, Sensor};
+    use wheelset_proto::{Decoder, Message};
     let device = PtyDevice::spawn(serve_in_bursts);
     let mut port = hil::serial::Serial::open(
         &device.path,
@@ -171,20 +174,8 @@ fn two_frames_in_one_write_are_two_ticks_and_two_answers() {
         std::time::Duration::from_secs(2),
     )
     .unwrap();
-    let sensor = |seq| {
-        encode_vec(&Message::Sensor(Sensor {
-            seq,
-            t_us: 0,
-            lateral: Lateral::Velocity(0),
-            i_a_ma: 0,
-            omega_m_mrad_s: 0,
-            demand_nm: 0,
-            v_ref_mm_s: 0,
-        }))
-        .unwrap()
-    };
     let mut write = sensor(1);
-    write.extend_from_slice(&sensor(2)).unwrap();
+    write.extend_from_slice(&sensor(2));
     port.send(0, &write).expect("sent");
     let mut got = Vec::new();
     port.recv(1, &mut |_, b| got.extend_from_slice(b))
