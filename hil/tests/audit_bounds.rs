@@ -214,6 +214,19 @@ fn findings_are_attributed_by_experiment() {
     if p.shares[0].0 == "quantisation of Ki" {
         assert!(p.remedy.starts_with("a finer representation of Ki"));
     }
+    // Issue 17's remedy is in place: Ki is held with its own shift, keeps more than 27
+    // significant bits, and its quantisation is no longer a visible share (it was
+    // 138.4 of 149.4 LSB with Ki in plain Q1.31, 16.4 significant bits).
+    assert!(p.ki_shift >= 1, "{p:?}");
+    assert!(p.ki_significant_bits > 27.0, "{p:?}");
+    let ki_share = p
+        .shares
+        .iter()
+        .find(|s| s.0 == "quantisation of Ki")
+        .map(|s| s.1)
+        .unwrap();
+    assert!(ki_share.abs() < 1.0, "{p:?}");
+    assert_ne!(p.shares[0].0, "quantisation of Ki", "{p:?}");
     // Amplitude sweep: descending, and the stated threshold is where the warn
     // tolerances stop holding.
     let la = &d.lead_amplitude;

@@ -87,7 +87,8 @@ pub struct ScheduleBits {
     pub traction_divisor: u16,
     /// Lead `kappa = 1 - alpha` at the yaw period, coefficient, in `(0, 1)`.
     pub kappa: u64,
-    /// PI `Ki = Kp T/Ti` at the traction period (pu), coefficient, in `(0, 1)`.
+    /// PI `Ki = Kp T/Ti` at the traction period (pu) times `2^s`
+    /// ([`CompiledBits::pi_ki_shift`]), coefficient, in `(0, 1)`.
     pub ki: u64,
     /// Predictor `alpha/2 = yaw_predict_ticks/(2 yaw_divisor)`, coefficient, in `[0, 1)`.
     pub predict_half: u64,
@@ -113,6 +114,10 @@ pub struct CompiledBits {
     pub gain: u64,
     /// PI `Kp` (pu), coefficient.
     pub pi_kp: u64,
+    /// PI `Ki`'s shift `s` (the schedule's `ki` is `Ki 2^s`, [`crate::Pi::ki_shift`]):
+    /// fixed point `1..=30`, floats 0. Rate-independent (chosen for the slowest
+    /// traction period, [`crate::pi::KI_SHIFT_PERIOD_S`]).
+    pub pi_ki_shift: u8,
     /// PI lower output limit, pu signal.
     pub u_min: u64,
     /// PI upper output limit, pu signal.
@@ -168,8 +173,13 @@ impl<T: Sample> Compiled<T> {
         let lead_disc = config.lead.discretise(config.yaw_period())?;
         let pi_disc = config.pi.discretise(config.traction_period())?;
         let lead = Lead::new(&lead_disc.to_pu(s.y_dot, s.torque))?;
-        let pi = Pi::new(
-            &pi_disc.to_pu(s.current, s.voltage),
+        // Ki's shift holds Ki at the slowest traction period a device accepts (or this
+        // configuration's, if slower): rate-independent, so every schedule fits it.
+        let pi_pu = pi_disc.to_pu(s.current, s.voltage);
+        let t_tr = config.traction_period();
+        let pi = Pi::with_ki_max(
+            &pi_pu,
+            pi_pu.ki * (crate::pi::KI_SHIFT_PERIOD_S.max(t_tr) / t_tr),
             l.voltage_min / s.voltage,
             l.voltage_max / s.voltage,
         )?;
@@ -256,6 +266,7 @@ impl<T: SampleBits> Compiled<T> {
             lead_g_half: c(self.lead.g_half),
             gain: c(self.gain),
             pi_kp: c(self.pi.kp),
+            pi_ki_shift: self.pi.ki_shift as u8,
             u_min: self.pi.u_min.to_bits64(),
             u_max: self.pi.u_max.to_bits64(),
             clamps: [
@@ -330,6 +341,11 @@ impl<T: SampleBits> Compiled<T> {
             pi: Pi {
                 kp: coef("pi_kp", b.pi_kp)?,
                 ki: T::COEFF_ZERO,
+                ki_shift: Some(u32::from(b.pi_ki_shift))
+                    .filter(|s| T::acc_shift_ok(*s))
+                    .ok_or(BitsError {
+                        field: "pi_ki_shift",
+                    })?,
                 u_min,
                 u_max,
             },
@@ -427,6 +443,7 @@ impl CompiledBits {
         }
         let mut h: u32 = 0x811c_9dc5;
         h = word(h, self.numeric as u64);
+        h = word(h, self.pi_ki_shift as u64);
         let words = [
             self.lead_k_hf,
             self.lead_g_half,
@@ -492,6 +509,7 @@ macro_rules! from_valid_bits {
                     pi: Pi {
                         kp: c(b.pi_kp),
                         ki: c(sch.ki),
+                        ki_shift: b.pi_ki_shift as u32,
                         u_min: s(b.u_min),
                         u_max: s(b.u_max),
                     },

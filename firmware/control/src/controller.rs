@@ -251,10 +251,10 @@ impl<T: Sample> Controller<T> {
         };
         let e = iref.sat_sub(i);
         let mut residue = self.pi_state.residue;
-        let integ = self
-            .pi_state
-            .integ
-            .sat_add(e.mul_c_acc(law.pi.ki, &mut residue));
+        let integ =
+            self.pi_state
+                .integ
+                .sat_add(e.mul_c_acc_shr(law.pi.ki, law.pi.ki_shift, &mut residue));
         let (u_min, u_max) = (law.pi.u_min, law.pi.u_max);
         if !integ.within(u_min, u_max) {
             return false;

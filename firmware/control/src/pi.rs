@@ -9,6 +9,23 @@
 //! u[n] = clamp(Kp e[n] + I[n], u_min, u_max)
 //! ```
 //!
+//! `Ki` is small (4.0e-5 pu per sample at the default 5 kHz traction rate): in Q1.31 it
+//! would keep only 16.4 significant bits (relative error -4.0e-6, which the audit found
+//! to be 138 of the 149 LSB of the `u_a` error against f64). The fixed-point build holds
+//! it with its own shift `s` ([`Sample::acc_shift`]): the Q1.31 coefficient is
+//! `Ki 2^s` and the product is shifted back by `s` ([`Sample::mul_c_acc_shr`], the same
+//! instruction count as without the shift). `s` is chosen once, at construction, for the
+//! largest `Ki` the controller may be rescheduled to: `Ki` at the slowest traction
+//! period a device accepts, [`KI_SHIFT_PERIOD_S`] (or the configured period if that is
+//! slower), so `s` does not depend on the rates (it is part of the rate-independent
+//! bits, [`crate::CompiledBits::pi_ki_shift`]) and every plausible schedule's `Ki` fits
+//! the same shift. The default set gets `s = 11` (`Ki` at 500 Hz is 4.0e-4 pu, times
+//! `2^11` 0.82): at 5 kHz `Ki 2^11` holds 27.4 significant bits.
+//!
+//! ```text
+//! fixed point:  Ki e[n] = floor((e c + r) / 2^(31+s)),  c = round(Ki 2^(31+s))  (Q1.31 of Ki 2^s)
+//! ```
+//!
 //! Transfer function while unsaturated: `U/E = Kp + Ki/(1 - z^-1)`, i.e.
 //! `Kt(s)` with `1/s -> T/(1 - z^-1)`; DC gain infinite (exact integrator: the
 //! integrator's pole is exactly `z = 1` in every number type since no coefficient
@@ -23,6 +40,12 @@
 
 use crate::sample::Sample;
 use crate::ConfigError;
+
+/// The slowest traction period a device accepts, s: `1/LOOP_RATE_MIN_HZ` (500 Hz,
+/// `wheelset_proto::plausible`). `Ki`'s shift ([`Pi::ki_shift`]) is chosen so that `Ki`
+/// at this period still fits, so that every schedule a device accepts fits the shift of
+/// its start-up controller.
+pub const KI_SHIFT_PERIOD_S: f64 = 1.0 / wheelset_proto::plausible::LOOP_RATE_MIN_HZ as f64;
 
 /// The continuous PI: `Kp (1 + 1/(Ti s))`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -110,7 +133,10 @@ pub struct PiPu {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Pi<T: Sample> {
     pub(crate) kp: T::Coeff,
+    /// `Ki 2^ki_shift`, quantised.
     pub(crate) ki: T::Coeff,
+    /// `Ki`'s shift `s` ([`Sample::acc_shift`]; 0 for floats).
+    pub(crate) ki_shift: u32,
     /// Lower output (and integrator) limit, pu.
     pub u_min: T,
     /// Upper output (and integrator) limit, pu.
@@ -146,11 +172,29 @@ pub struct PiFlags {
 }
 
 impl<T: Sample> Pi<T> {
-    /// Quantise the coefficients; limits in pu (`u_min < u_max`).
+    /// Quantise the coefficients; limits in pu (`u_min < u_max`). `Ki`'s shift is
+    /// chosen for `pu.ki` itself ([`Self::with_ki_max`]).
     pub fn new(pu: &PiPu, u_min: f64, u_max: f64) -> Result<Self, ConfigError> {
+        Self::with_ki_max(pu, pu.ki, u_min, u_max)
+    }
+
+    /// As [`Self::new`], with `Ki`'s shift chosen for `ki_max` (pu; the largest `Ki` the
+    /// shift must hold, e.g. at the slowest rate; at least `pu.ki`):
+    /// [`ConfigError::Coefficient`] if `Ki` is too large for the type's smallest shift
+    /// (fixed point: `Ki >= 0.5` pu per sample).
+    pub fn with_ki_max(
+        pu: &PiPu,
+        ki_max: f64,
+        u_min: f64,
+        u_max: f64,
+    ) -> Result<Self, ConfigError> {
         let q = |name: &'static str, v: f64| {
             T::quantise(v).ok_or(ConfigError::Coefficient { name, value: v })
         };
+        let ki_shift = T::acc_shift(ki_max.max(pu.ki)).ok_or(ConfigError::Coefficient {
+            name: "pi.ki (pu)",
+            value: pu.ki,
+        })?;
         if u_min.partial_cmp(&u_max) != Some(core::cmp::Ordering::Less) {
             return Err(ConfigError::Range {
                 field: "limits.voltage_min/max",
@@ -160,7 +204,8 @@ impl<T: Sample> Pi<T> {
         }
         Ok(Self {
             kp: q("pi.kp (pu)", pu.kp)?,
-            ki: q("pi.ki (pu)", pu.ki)?,
+            ki: q("pi.ki (pu)", pu.ki * pow2(ki_shift))?,
+            ki_shift,
             u_min: T::from_f64(u_min),
             u_max: T::from_f64(u_max),
         })
@@ -170,8 +215,13 @@ impl<T: Sample> Pi<T> {
     pub fn quantised(&self) -> PiPu {
         PiPu {
             kp: T::coeff_to_f64(self.kp),
-            ki: T::coeff_to_f64(self.ki),
+            ki: T::coeff_to_f64(self.ki) / pow2(self.ki_shift),
         }
+    }
+
+    /// `Ki`'s shift `s`: the coefficient is held as `Ki 2^s` (0 for floats).
+    pub fn ki_shift(&self) -> u32 {
+        self.ki_shift
     }
 
     /// One step on the error `e` (pu), reporting which limits engaged.
@@ -179,7 +229,7 @@ impl<T: Sample> Pi<T> {
     pub fn process_flags(&self, s: &mut PiState<T>, e: T) -> (T, PiFlags) {
         let (i, fi) = s
             .integ
-            .sat_add(e.mul_c_acc(self.ki, &mut s.residue))
+            .sat_add(e.mul_c_acc_shr(self.ki, self.ki_shift, &mut s.residue))
             .limit(self.u_min, self.u_max);
         s.integ = i;
         let (u, fo) = e.mul_c(self.kp).sat_add(i).limit(self.u_min, self.u_max);
@@ -202,4 +252,9 @@ impl<T: Sample> Pi<T> {
     pub fn preset(&self, s: &mut PiState<T>, u0: T) {
         *s = PiState::new(u0.sanitize().0.limit(self.u_min, self.u_max).0);
     }
+}
+
+/// `2^s` exactly (`s < 64`).
+pub(crate) fn pow2(s: u32) -> f64 {
+    (1u64 << s) as f64
 }

@@ -38,7 +38,8 @@ pub const COEF_FRAC: u32 = 31;
 pub trait Sample: Copy + Default + PartialEq + PartialOrd + core::fmt::Debug {
     /// Quantised coefficient (`Self` for floats, [`Coef`] Q1.31 for [`Fx`]).
     type Coeff: Copy + core::fmt::Debug + PartialEq;
-    /// An integrator's sub-LSB remainder (`()` for floats, `u32` for [`Fx`]).
+    /// An integrator's sub-LSB remainder (`()` for floats, `u64` for [`Fx`]: up to
+    /// `31 + s` bits, [`Sample::mul_c_acc_shr`]).
     type Residue: Copy + Default + core::fmt::Debug + PartialEq;
     /// Precomputed wire-code scale (`Self` for floats, [`FxScale`] for [`Fx`]).
     type Scale: Copy + core::fmt::Debug + PartialEq;
@@ -73,6 +74,34 @@ pub trait Sample: Copy + Default + PartialEq + PartialOrd + core::fmt::Debug {
     /// the running sum of increments is exact to one LSB (no dead band, no drift from a
     /// rounding bias); floats just multiply.
     fn mul_c_acc(self, c: Self::Coeff, r: &mut Self::Residue) -> Self;
+    /// The shift `s` that holds a small positive integrator coefficient `c` as `c 2^s`
+    /// (the PI's `Ki`): the largest `s` the type allows such that every coefficient up to
+    /// `c_max` (`c <= c_max`, e.g. `Ki` at the slowest rate it is used at) still
+    /// quantises as `c 2^s`, so a coefficient far below 1 keeps all the coefficient
+    /// format's significant bits instead of `31 + log2 c` of them. Chosen at
+    /// construction, never at tick time. `None` if `c_max` is not finite and positive or
+    /// too large for the type's smallest shift. Floats: 0 (their exponent is the shift);
+    /// fixed point `1..=`[`Sample::ACC_SHIFT_MAX`] (`c_max < 0.5`).
+    fn acc_shift(c_max: f64) -> Option<u32> {
+        (c_max.is_finite() && c_max > 0.0).then_some(0)
+    }
+    /// The largest shift [`Sample::acc_shift`] gives (0: the type has no shift).
+    const ACC_SHIFT_MAX: u32 = 0;
+    /// Whether `s` is a shift [`Sample::acc_shift`] can give (floats: only 0).
+    fn acc_shift_ok(s: u32) -> bool {
+        s == 0
+    }
+    /// `self * c 2^-s` for an integrator's increment, with the error feedback of
+    /// [`Sample::mul_c_acc`]: `c` is the coefficient held as `c 2^s`, `s` from
+    /// [`Sample::acc_shift`]. Fixed point floors `(x c + r) / 2^(31+s)` and carries the
+    /// remainder (`31 + s` bits) in `r`, so the running sum of increments is exact to one
+    /// LSB of the true product `x c 2^-s`. The default is [`Sample::mul_c_acc`], valid for
+    /// the types whose shift is always 0 (floats).
+    #[inline(always)]
+    fn mul_c_acc_shr(self, c: Self::Coeff, s: u32, r: &mut Self::Residue) -> Self {
+        let _ = s;
+        self.mul_c_acc(c, r)
+    }
     /// `clamp(self, lo, hi)` and whether it clamped (`lo <= hi` assumed).
     fn limit(self, lo: Self, hi: Self) -> (Self, bool);
     /// Replace NaN by zero (floats); reports whether it did. Identity for fixed point.

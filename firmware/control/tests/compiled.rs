@@ -140,6 +140,20 @@ fn invalid_bits_are_refused_by_name() {
             },
         ),
         (
+            "pi_ki_shift",
+            CompiledBits {
+                pi_ki_shift: 0, // fixed point shifts Ki by 1..=30
+                ..good
+            },
+        ),
+        (
+            "pi_ki_shift",
+            CompiledBits {
+                pi_ki_shift: 31,
+                ..good
+            },
+        ),
+        (
             "yaw_divisor",
             CompiledBits {
                 schedule: ScheduleBits {
@@ -209,5 +223,48 @@ fn invalid_bits_are_refused_by_name() {
             Compiled::<f32>::from_bits(&bits).map_err(|e| e.field),
             Err(field)
         );
+    }
+}
+
+/// `Ki` is held with its own shift, chosen for the slowest traction rate a device
+/// accepts (500 Hz): the same shift at every accepted rate, the most significant bits
+/// that allows at the default rate, and the exact value it stands for in `quantised`.
+#[test]
+fn ki_has_its_own_rate_independent_shift() {
+    let base = Compiled::<Fx>::try_new(&Config::default()).expect("valid");
+    let s = base.pi().ki_shift();
+    assert_eq!(u32::from(base.to_bits().pi_ki_shift), s);
+    let cfg = Config::default();
+    let ki =
+        cfg.pi.kp * cfg.traction_period() / cfg.pi.ti * cfg.scales.current / cfg.scales.voltage;
+    let held = base.to_bits().schedule.ki as f64; // Ki 2^(31+s), Q1.31 bits of Ki 2^s
+    assert!(held.log2() > 27.0, "{} significant bits", held.log2());
+    let q = base.pi().quantised().ki;
+    assert!(((q - ki) / ki).abs() < 2f64.powi(-27), "{q} vs {ki}");
+    assert_eq!(q, held / 2f64.powi(31 + s as i32));
+    // Ki at 500 Hz (the slowest traction rate accepted) fits the shift; one bit more
+    // would not.
+    let slow = Compiled::<Fx>::try_new(&at(1_000, 1, 2)).expect("valid");
+    assert_eq!(slow.pi().ki_shift(), s);
+    assert!(
+        slow.schedule().ki >= 1 << 30,
+        "normalised at the slowest rate"
+    );
+    for (hz, td) in [(20_000, 1), (1_000, 2), (10_000, 4)] {
+        let c = Compiled::<Fx>::try_new(&at(hz, 1, td)).expect("valid");
+        assert_eq!(c.pi().ki_shift(), s, "{hz}/{td}");
+        assert_eq!(base.with_schedule(&c.schedule()), Ok(c), "{hz}/{td}");
+    }
+    // Floats need no shift.
+    let f = Compiled::<f32>::try_new(&Config::default()).expect("valid");
+    assert_eq!((f.pi().ki_shift(), f.to_bits().pi_ki_shift), (0, 0));
+    // A Ki of 0.5 pu per sample or more has no shift: refused by name.
+    let mut big = Config::default();
+    big.pi.ti = big.traction_period() * 0.05;
+    match Compiled::<Fx>::try_new(&big) {
+        Err(wheelset_control::ConfigError::Coefficient { name, .. }) => {
+            assert_eq!(name, "pi.ki (pu)")
+        }
+        other => panic!("{other:?}"),
     }
 }

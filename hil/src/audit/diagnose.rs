@@ -34,8 +34,10 @@ pub struct PiAttribution {
     pub with_quantised_ki_and_ramps_lsb: f64,
     /// `(source, share in LSB)`, largest first.
     pub shares: Vec<(String, f64)>,
-    /// `Ki`'s significant bits in the coefficient format and its relative error.
+    /// `Ki`'s significant bits in the coefficient format (Q1.31 holding `Ki 2^s`).
     pub ki_significant_bits: f64,
+    /// `Ki`'s shift `s` (the coefficient is `Ki 2^s`; 0: none).
+    pub ki_shift: u32,
     /// Relative quantisation error of `Ki`.
     pub ki_rel_err: f64,
     /// The remedy for the largest share.
@@ -125,14 +127,15 @@ pub fn pi_attribution(cfg: &Config, sc: &Scenario) -> Result<PiAttribution, Conf
     shares.sort_by(|a, b| b.1.total_cmp(&a.1));
     let ki_ideal = cfg.pi.kp * tt / cfg.pi.ti * s.current / s.voltage;
     let rel = (k.ki - ki_ideal) / ki_ideal;
-    let sig_bits = (k.ki.abs() * 2f64.powi(31)).log2();
+    // Q1.31 holds Ki 2^s (Sample::mul_c_acc_shr shifts the product back by s).
+    let sig_bits = (k.ki.abs() * 2f64.powi(31 + k.ki_shift as i32)).log2();
     let remedy = match shares.first().map(|s| s.0.as_str()) {
         Some("quantisation of Ki") => format!(
-            "a finer representation of Ki: {:.1} significant bits in Q1.31 (relative error \
-             {rel:.2e}); a coefficient with its own shift (Ki 2^s in Q1.31, the product \
-             shifted back by s) gives it all 31 bits. Error feedback on the increment is \
-             already in place (Sample::mul_c_acc) and is not the cause.",
-            sig_bits
+            "a finer representation of Ki: {:.1} significant bits in Q1.31 with its shift \
+             s = {} (relative error {rel:.2e}); a larger shift (Ki 2^s in Q1.31, the product \
+             shifted back by s) gives it more of the 31 bits. Error feedback on the \
+             increment is already in place (Sample::mul_c_acc_shr) and is not the cause.",
+            sig_bits, k.ki_shift
         ),
         Some("quantised ramp steps") => {
             "finer ramp steps (the current-reference increment per step in more bits)".into()
@@ -146,6 +149,7 @@ pub fn pi_attribution(cfg: &Config, sc: &Scenario) -> Result<PiAttribution, Conf
         with_quantised_ki_and_ramps_lsb: no_ramps,
         shares,
         ki_significant_bits: sig_bits,
+        ki_shift: k.ki_shift,
         ki_rel_err: rel,
         remedy,
     })

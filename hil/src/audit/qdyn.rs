@@ -213,6 +213,36 @@ impl Sample for QDyn {
         let q = (p >> cf).clamp(i64::MIN as i128, i64::MAX as i128) as i64;
         QDyn(sat(q, &fm.signal))
     }
+    const ACC_SHIFT_MAX: u32 = 30;
+    /// Mirrors `Fx::acc_shift`: the largest `s` in `1..=30` with `c_max 2^s` still a
+    /// coefficient of the run-time format.
+    fn acc_shift(c_max: f64) -> Option<u32> {
+        if !(c_max.is_finite() && c_max > 0.0) {
+            return None;
+        }
+        let fits = |s: u32| Self::quantise(c_max * pow2(s as i32)).is_some();
+        if !fits(1) {
+            return None;
+        }
+        let mut s = 1;
+        while s < Self::ACC_SHIFT_MAX && fits(s + 1) {
+            s += 1;
+        }
+        Some(s)
+    }
+    fn acc_shift_ok(s: u32) -> bool {
+        (1..=Self::ACC_SHIFT_MAX).contains(&s)
+    }
+    /// Mirrors `Fx::mul_c_acc_shr`: `floor((x c + r) / 2^(Fc+s))` with the remainder
+    /// carried.
+    fn mul_c_acc_shr(self, c: QCoef, s: u32, r: &mut i64) -> Self {
+        let fm = formats();
+        let k = fm.coef.frac_bits + s;
+        let p = self.0 as i128 * c.0 as i128 + *r as i128;
+        *r = (p & ((1i128 << k) - 1)) as i64;
+        let q = (p >> k).clamp(i64::MIN as i128, i64::MAX as i128) as i64;
+        QDyn(sat(q, &fm.signal))
+    }
     fn limit(self, lo: Self, hi: Self) -> (Self, bool) {
         let y = if self < lo {
             lo

@@ -179,7 +179,7 @@ pub fn block(a: &Audit) -> String {
             let _ = writeln!(
                 w,
                 "- The `u_a` error in `{}` by experiment: {}; Ki has {:.1} significant bits \
-                 (relative error {:.2e}).",
+                 (Q1.31 holding Ki 2^{}; relative error {:.2e}).",
                 p.scenario,
                 p.shares
                     .iter()
@@ -187,6 +187,7 @@ pub fn block(a: &Audit) -> String {
                     .collect::<Vec<_>>()
                     .join(", "),
                 p.ki_significant_bits,
+                p.ki_shift,
                 p.ki_rel_err
             );
         }

@@ -17,7 +17,7 @@ pub(crate) fn proofs_and_findings(a: &Audit, w: &mut String) {
                 "PI steady error (`u_a` vs f64, scenario `{}`): {:.1} LSB; with the f64 \
                  reference holding the quantised `Ki` {:.1} LSB; also the quantised ramp \
                  steps {:.1} LSB. Shares: {}. `Ki` has {:.1} significant bits in Q1.31 \
-                 (relative error {:.2e}). Remedy: {}\n",
+                 (held as Ki 2^{}; relative error {:.2e}). Remedy: {}\n",
                 p.scenario,
                 p.baseline_lsb,
                 p.with_quantised_ki_lsb,
@@ -28,6 +28,7 @@ pub(crate) fn proofs_and_findings(a: &Audit, w: &mut String) {
                     .collect::<Vec<_>>()
                     .join(", "),
                 p.ki_significant_bits,
+                p.ki_shift,
                 p.ki_rel_err,
                 p.remedy
             );

@@ -141,7 +141,7 @@ pub fn smmulr(a: i32, b: i32) -> i32 {
 impl Sample for Fx {
     type Coeff = Coef;
     type Scale = FxScale;
-    type Residue = u32;
+    type Residue = u64;
     const ZERO: Self = Fx::ZERO;
     const NAME: &'static str = "Q4.28";
     fn from_f64(x: f64) -> Self {
@@ -182,13 +182,49 @@ impl Sample for Fx {
         Fx::from_bits(sat32((x * x + (1 << (FX_FRAC - 1))) >> FX_FRAC))
     }
     #[inline(always)]
-    fn mul_c_acc(self, c: Coef, r: &mut u32) -> Self {
+    fn mul_c_acc(self, c: Coef, r: &mut u64) -> Self {
         // p = x c + r (one SMLAL); floor to Q4.28 and keep the low 31 bits as the
         // remainder. No overflow: |x c| < 2^62 (|x| <= 2^31, |c| < 2^31) and
         // 0 <= r < 2^31, so p >> 31 lies in [-2^31, 2^31).
         let p = self.to_bits() as i64 * c.to_bits() as i64 + *r as i64;
-        *r = (p & ((1 << COEF_FRAC) - 1)) as u32;
+        *r = (p & ((1 << COEF_FRAC) - 1)) as u64;
         Fx::from_bits((p >> COEF_FRAC) as i32)
+    }
+    const ACC_SHIFT_MAX: u32 = 30;
+    fn acc_shift(c_max: f64) -> Option<u32> {
+        // The largest s in 1..=30 with c_max 2^s still a Q1.31 coefficient (below 1
+        // after rounding); s >= 1 keeps `mul_c_acc_shr` to the product's high word.
+        if !(c_max.is_finite() && c_max > 0.0) {
+            return None;
+        }
+        let fits = |s: u32| Self::quantise(c_max * (1u64 << s) as f64).is_some();
+        if !fits(1) {
+            return None;
+        }
+        let mut s = 1;
+        while s < Self::ACC_SHIFT_MAX && fits(s + 1) {
+            s += 1;
+        }
+        Some(s)
+    }
+    fn acc_shift_ok(s: u32) -> bool {
+        (1..=Self::ACC_SHIFT_MAX).contains(&s)
+    }
+    #[inline(always)]
+    fn mul_c_acc_shr(self, c: Coef, s: u32, r: &mut u64) -> Self {
+        // p = x c + r (one SMLAL into the remainder's two words); the increment is
+        // floor(p / 2^(31+s)) = (p >> 32) >> (s - 1) (1 <= s <= 30: one arithmetic shift
+        // of the high word), the remainder the low 31 + s bits: the low word and
+        // hi - (q << (s - 1)). No overflow: |x c| <= 2^62 - 2^31 and 0 <= r < 2^(31+s)
+        // <= 2^61, so |p| < 2^63; the remainder lies in [0, 2^(31+s)). The wrapping
+        // shifts only keep an invalid s (refused at construction) from panicking.
+        let p = self.to_bits() as i64 * c.to_bits() as i64 + *r as i64;
+        let hi = (p >> 32) as i32;
+        let sh = s.wrapping_sub(1);
+        let q = hi.wrapping_shr(sh);
+        let r_hi = hi.wrapping_sub(q.wrapping_shl(sh));
+        *r = (u64::from(r_hi as u32) << 32) | u64::from(p as u32);
+        Fx::from_bits(q)
     }
     #[inline(always)]
     fn limit(self, lo: Self, hi: Self) -> (Self, bool) {

@@ -115,7 +115,7 @@ fn float_sanitize_and_codes() {
 fn integrator_increment_has_no_dead_band() {
     let c = Coef::from_num(0.3 / 1000.0); // x = 1000 LSB -> 0.3 LSB per step
     let x = Fx::from_bits(1000);
-    let mut r = 0u32;
+    let mut r = 0u64;
     let mut acc = 0i64;
     for n in 1..=10_000i64 {
         acc += x.mul_c_acc(c, &mut r).to_bits() as i64;
@@ -128,7 +128,7 @@ fn integrator_increment_has_no_dead_band() {
         "the rounded product is a dead band"
     );
     // Negative increments and the extremes stay in range.
-    let mut r = 0u32;
+    let mut r = 0u64;
     for (x, c) in [
         (Fx::MIN, Coef::MAX),
         (Fx::MAX, Coef::MAX),
@@ -137,6 +137,56 @@ fn integrator_increment_has_no_dead_band() {
         let y = x.mul_c_acc(c, &mut r).to_f64();
         assert!((y - x.to_f64() * c.to_num::<f64>()).abs() < 1e-6, "{x} {c}");
     }
+}
+
+/// The shifted increment ([`Sample::mul_c_acc_shr`]): its running sum is the exact sum
+/// of `x c 2^-s` to one LSB, for every shift, both signs and the extreme operands; the
+/// remainder stays below `2^(31+s)`.
+#[test]
+fn shifted_increment_is_exact_to_one_lsb() {
+    for s in 1..=Fx::ACC_SHIFT_MAX {
+        for (x, c) in [
+            (1000, 0x5a5a_5a5a),
+            (-12_345_678, 0x4000_0001),
+            (i32::MAX, i32::MAX),
+            (i32::MIN, i32::MAX),
+            (i32::MIN, -i32::MAX),
+            (7, 1),
+        ] {
+            let (xf, cf) = (Fx::from_bits(x), Coef::from_bits(c));
+            let mut r = 0u64;
+            let mut acc = 0i128;
+            for n in 1..=200i128 {
+                acc += i128::from(xf.mul_c_acc_shr(cf, s, &mut r).to_bits());
+                assert!(r < 1u64 << (31 + s), "s {s}: remainder {r}");
+                // floor(n x c / 2^(31+s)): the sum is never above it, at most 1 below.
+                let exact = (i128::from(x) * i128::from(c) * n) >> (31 + s);
+                assert!(acc <= exact && exact - acc <= 1, "s {s} x {x} c {c} n {n}");
+            }
+        }
+    }
+}
+
+/// The shift holds a small coefficient with the format's significant bits: the largest
+/// `s` with `c_max 2^s` below 1, refused from 0.5 up (the smallest shift is 1).
+#[test]
+fn acc_shift_choice() {
+    assert_eq!(Fx::acc_shift(4.0e-4), Some(11)); // 4e-4 2^11 = 0.82
+    assert_eq!(Fx::acc_shift(0.3), Some(1));
+    assert_eq!(Fx::acc_shift(0.5), None);
+    assert_eq!(Fx::acc_shift(1e-12), Some(Fx::ACC_SHIFT_MAX));
+    for bad in [0.0, -1e-3, f64::NAN, f64::INFINITY] {
+        assert_eq!(Fx::acc_shift(bad), None, "{bad}");
+        assert_eq!(f32::acc_shift(bad), None, "{bad}");
+    }
+    assert_eq!(f32::acc_shift(4.0e-4), Some(0));
+    assert!(Fx::acc_shift_ok(1) && Fx::acc_shift_ok(30) && !Fx::acc_shift_ok(0));
+    assert!(f32::acc_shift_ok(0) && !f32::acc_shift_ok(1));
+    // The product at the chosen shift keeps ~28 significant bits of Ki = 4e-5.
+    let s = Fx::acc_shift(4.0e-4).expect("fits");
+    let c = Fx::quantise(4.0e-5 * (1u64 << s) as f64).expect("fits");
+    let bits = (c.to_bits() as f64).log2();
+    assert!(bits > 27.0, "{bits}");
 }
 
 #[test]

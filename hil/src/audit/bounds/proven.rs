@@ -18,6 +18,8 @@ pub struct Quantised {
     pub kp: f64,
     /// PI `Ki` per step.
     pub ki: f64,
+    /// `Ki`'s shift: held as `Ki 2^ki_shift` in the coefficient format (0 for floats).
+    pub ki_shift: u32,
     /// Voltage limits.
     pub u_min: f64,
     /// Voltage limits.
@@ -72,6 +74,7 @@ impl Quantised {
             gain: qc::<T>("gain", cfg.gain_k * s.y_dot / s.torque)?,
             kp: pi.kp,
             ki: pi.ki,
+            ki_shift: c.pi().ki_shift(),
             u_min: c.pi().u_min.to_f64(),
             u_max: c.pi().u_max.to_f64(),
             d2i: qc::<T>(
