@@ -222,19 +222,35 @@ fn too_few_fraction_bits_fail_on_accuracy() {
 }
 
 #[test]
-fn too_few_coefficient_bits_fail_on_the_coefficients() {
+fn too_few_coefficient_bits_warn_on_the_coefficients_and_fail_on_accuracy() {
     let mut a = args();
     a.coef_q = Some("1.15".into());
     let r = audit::build(&a).unwrap();
     assert_eq!(r.verdict, Status::Fail);
-    // Ki = 4e-5 pu is 1.3 LSB of Q1.15: its relative error is tens of percent.
+    // The coefficients' quantisation errors leave the warn level and the outputs' errors
+    // against f64 fail.
+    let warned = |name: &str| {
+        r.checks
+            .iter()
+            .find(|c| c.item.contains(&format!("coefficient {name} ")))
+            .unwrap_or_else(|| panic!("{name}"))
+            .status
+            != Status::Pass
+    };
+    assert!(warned("kappa") && warned("kp") && warned("ki"));
+    assert!(r.checks.iter().any(|c| c.status == Status::Fail
+        && c.controller == "traction_pi"
+        && c.item.starts_with("u_a max error vs f64")));
+    // Ki = 4e-5 pu would be 1.3 LSB of plain Q1.15 (a relative error of tens of
+    // percent); held with its own shift (2^11, issue 17) it keeps 12.4 significant bits
+    // even there: about 1e-4 relative, a warning, not a failure.
     let ki = r
         .checks
         .iter()
         .find(|c| c.item.contains("coefficient ki"))
         .unwrap();
-    assert_eq!(ki.status, Status::Fail, "{ki:?}");
-    assert!(ki.value.abs() > 0.1, "{ki:?}");
+    assert_eq!(ki.status, Status::Warn, "{ki:?}");
+    assert!(ki.value.abs() > 1e-5 && ki.value.abs() < 1e-3, "{ki:?}");
 }
 
 #[test]
