@@ -287,7 +287,12 @@ impl Qemu {
             cmd = Command::new(QEMU_BIN);
             cmd.args(without_icount(args));
         }
-        if let Some(core) = next_core() {
+        let core = if cfg.free_run {
+            pin::free_run_core()
+        } else {
+            next_core()
+        };
+        if let Some(core) = core {
             let mut pinned = Command::new("taskset");
             pinned
                 .arg("-c")
@@ -295,6 +300,14 @@ impl Qemu {
                 .arg(cmd.get_program())
                 .args(cmd.get_args());
             cmd = pinned;
+        }
+        if cfg.free_run && pin::free_run_rr() {
+            let mut rr = Command::new("chrt");
+            rr.arg("-r")
+                .arg(pin::FREE_RUN_RR.to_string())
+                .arg(cmd.get_program())
+                .args(cmd.get_args());
+            cmd = rr;
         }
         let child = cmd
             .stdin(Stdio::null())

@@ -1,9 +1,20 @@
 //! The real firmware free-running under QEMU (`hil run --target qemu-free`):
 //! `wheelset-qemu-free.elf` ticks on its own TIMER0 with QEMU's clock following the
 //! host's (no `-icount`), and the harness paces it in real time over UART0's TCP chardev,
-//! as it paces a board. Short (the 3 s scenario at 1 kHz) and tolerant of a loaded
-//! machine: the frame accounting (pre-run frames apart, sums adding up from the
-//! firmware's Status) and the numerics are asserted, the timing figures are printed.
+//! as it paces a board, at the build's 500 Hz (QEMU's UART carries 26-55 kB/s host ->
+//! device here, one byte per round trip between its threads: 1 kHz does not hold; README
+//! "QEMU free-running").
+//!
+//! The scenario is `short-nodrive` with passive control (`tests/data/short-nodrive.toml`):
+//! at 500 Hz the traction current loop is unstable by its sampling (`cargo sim rates`), so
+//! a run with the drive diverges whatever the pacing; without it the run measures the
+//! pacing, the frame accounting and the watchdog reset.
+//!
+//! Judged: the real-time bar (host and device each under 1 % of the periods missed, the
+//! latency's 99th percentile within two periods), the accounting, the numerics. The one
+//! condition under which the timing is reported and not judged is measured, not assumed:
+//! the host's own deadline loop (SCHED_FIFO, its own core) missing 1 % or more, which
+//! only an overloaded machine does; the test prints it with the load average.
 //! Skips when QEMU or the ELF is missing, unless `REQUIRE_QEMU=1`: then it fails.
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
@@ -23,50 +34,54 @@ fn available(test: &str) -> bool {
     common::can_run(test, &QemuConfig::free_running())
 }
 
+const SCENARIO: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/short-nodrive.toml");
+
+fn loadavg() -> String {
+    std::fs::read_to_string("/proc/loadavg")
+        .unwrap_or_default()
+        .trim()
+        .to_string()
+}
+
 #[test]
 fn the_free_running_firmware_under_qemu_holds_the_loop_in_real_time() {
     let _one = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     if !available("hil run --target qemu-free") {
         return;
     }
-    let out = match run(&RunOptions {
+    let out = run(&RunOptions {
         target: Target::QemuFree,
-        scenario: concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/short.toml").into(),
+        scenario: SCENARIO.into(),
+        control: hil::run::Law::Passive,
         ..RunOptions::default()
-    }) {
-        Ok(out) => out,
-        // On a loaded machine QEMU's clock (following the host's) can fall behind the
-        // 1 kHz ticker before the run starts: the harness then refuses the device with
-        // the period it measured. That refusal is the tested behaviour there; anything
-        // else is a failure.
-        Err(e) => {
-            let msg = e.to_string();
-            assert!(
-                msg.contains("the device ticks every") && msg.contains("cannot hold it"),
-                "the free-running QEMU run is made or refused for its period: {msg}"
-            );
-            let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
-            eprintln!("qemu-free: not judged (load {}): {msg}", load.trim());
-            return;
-        }
-    };
+    })
+    .unwrap_or_else(|e| panic!("the free-running QEMU run starts (load {}): {e}", loadavg()));
     let r = &out.report;
     let tr = r
         .transport
         .as_ref()
         .expect("the real-time transport's report");
+    let periods = r.timing.periods.max(1) as f64;
+    let host_missed = tr["host"]["missed_deadlines"].as_u64().unwrap();
+    let t = r.timing.period_ns as f64;
     eprintln!(
-        "qemu-free: periods {}, host missed {}, device missed {}, latency mean/p99/max \
-         {:.0}/{:.0}/{:.0} us, jitter {:.1} us, pre-run {}, sync {}",
+        "qemu-free: {} Hz, periods {}, host missed {host_missed}, device missed {}, latency \
+         mean/p99/max {:.0}/{:.0}/{:.0} us ({:.2}/{:.2}/{:.2} T), jitter {:.1} us, pre-run {}, \
+         sync {}, realtime {}, load {}",
+        1e9 / t,
         r.timing.periods,
-        tr["host"]["missed_deadlines"],
         r.timing.missed_ticks,
         r.timing.latency_ns.mean * 1e-3,
         r.timing.latency_ns.p99 * 1e-3,
         r.timing.latency_ns.max * 1e-3,
+        r.timing.latency_ns.mean / t,
+        r.timing.latency_ns.p99 / t,
+        r.timing.latency_ns.max / t,
         r.timing.jitter_max_ns.unwrap_or(0.0) * 1e-3,
         r.frames.pre_run,
-        tr["sync"]
+        tr["sync"],
+        tr["realtime"],
+        loadavg()
     );
     assert_eq!(r.target, "qemu-free");
     assert_eq!(tr["pace"], "realtime");
@@ -89,73 +104,63 @@ fn the_free_running_firmware_under_qemu_holds_the_loop_in_real_time() {
     );
     // Exec is SysTick counts of the emulated 25 MHz clock, not instructions.
     assert_eq!(r.timing.exec_unit, "cycles");
-    // The loop holds: the numerics pass against the continuous reference, judged when
-    // both clocks held (host and device under 1 % missed). On a loaded machine QEMU's
-    // UART falls behind the 1 kHz exchange (its backlog grows, every answer is late)
-    // and the run says so in its timing; that is the machine, not the harness.
-    let periods = r.timing.periods.max(1) as f64;
-    let host_frac = tr["host"]["missed_deadlines"].as_u64().unwrap() as f64 / periods;
-    let device_frac = r.timing.missed_ticks as f64 / periods;
-    if host_frac < 0.01 && device_frac < 0.01 {
-        assert_eq!(
-            r.numerics.verdict,
-            Verdict::Pass,
-            "{}",
-            serde_json::to_string_pretty(&r.numerics).unwrap()
-        );
-    } else {
+    // The loop holds: passive control on no drive outputs nothing that can diverge, so
+    // the numerics pass whenever every period was answered in time.
+    assert_eq!(
+        r.numerics.verdict,
+        Verdict::Pass,
+        "{}",
+        serde_json::to_string_pretty(&r.numerics).unwrap()
+    );
+    if host_missed as f64 >= 0.01 * periods {
         eprintln!(
-            "qemu-free: numerics not judged: host missed {:.1} %, device missed {:.1} % \
-             (a loaded machine; {})",
-            100.0 * host_frac,
-            100.0 * device_frac,
-            std::fs::read_to_string("/proc/loadavg")
-                .unwrap_or_default()
-                .trim()
+            "qemu-free: timing not judged: the host's own deadline loop missed {host_missed} \
+             of {} periods (an overloaded machine; load {})",
+            r.timing.periods,
+            loadavg()
         );
+        return;
     }
+    // The real-time bar of a board (issue 18): the device under 1 % missed, the latency
+    // within two periods at the 99th percentile.
+    assert!(
+        (r.timing.missed_ticks as f64) < 0.01 * periods,
+        "device missed {} of {} (load {})",
+        r.timing.missed_ticks,
+        r.timing.periods,
+        loadavg()
+    );
+    assert!(
+        r.timing.latency_ns.p99 < 2.0 * t,
+        "latency p99 {:.0} us of a {:.0} us period (load {})",
+        r.timing.latency_ns.p99 * 1e-3,
+        t * 1e-3,
+        loadavg()
+    );
 }
 
 /// `hil run --target qemu-free --device-fault stall:0.5`: the harness sends InjectStall
-/// at 0.5 s (the scenario lasts 3 s), the firmware's watchdog resets the device 2 s later, the host sees its tick
-/// counter go back and sends its Config again; the device's closing Status is the new
-/// boot's: boot 2, cause watchdog, fault latched.
+/// at 0.5 s (the scenario lasts 3 s), the firmware's watchdog resets the device 2 s later,
+/// the host sees its tick counter go back and sends its Config again; the device's
+/// closing Status is the new boot's: boot 2, cause watchdog, fault latched.
 #[test]
 fn a_stall_injected_by_the_harness_resets_the_device_and_the_host_reconfigures_it() {
     let _one = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     if !available("hil run --device-fault stall:0.5") {
         return;
     }
-    let out = match run(&RunOptions {
+    let out = run(&RunOptions {
         target: Target::QemuFree,
-        scenario: concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/short.toml").into(),
+        scenario: SCENARIO.into(),
         device_fault: "stall:0.5".parse().unwrap(),
         control: hil::run::Law::Passive,
         ..RunOptions::default()
-    }) {
-        Ok(out) => out,
-        Err(e) => {
-            // As above: a loaded machine's QEMU refused for its period before the run, or
-            // its Status answer to the start-up Config lost on the way (the free-running
-            // device drops frames its TX queue has no room for; seen here at load ~3).
-            let msg = e.to_string();
-            assert!(
-                (msg.contains("the device ticks every") && msg.contains("cannot hold it"))
-                    || msg.contains("no Status frame within"),
-                "the stalled run is made or refused at its start: {msg}"
-            );
-            eprintln!("qemu-free stall: not judged: {msg}");
-            return;
-        }
-    };
+    })
+    .unwrap_or_else(|e| panic!("the stalled run starts (load {}): {e}", loadavg()));
     let r = &out.report;
-    // A loaded machine's run can end before the reset (the loop diverging with every
-    // answer late stops it): not judged then, and said so.
+    // The run goes to its end: nothing diverges without the drive.
     let run_s = out.trajectory.records.last().map_or(0.0, |x| x.t_s);
-    if run_s < 2.9 {
-        eprintln!("qemu-free stall: not judged: the run lasted {run_s:.2} s of 3 s");
-        return;
-    }
+    assert!(run_s > 2.9, "the run lasted {run_s:.2} s of 3 s");
     eprintln!(
         "qemu-free stall: resets {}, first at {:?} s, status {:?}",
         r.device_resets, r.first_reset_s, r.device_status

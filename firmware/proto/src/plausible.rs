@@ -24,7 +24,7 @@
 //! |---|---|---|---|---|
 //! | `rates.numeric` | the device's | the device's | code | the coefficients' bit format |
 //! | `rates.fingerprint` | the device's | the device's | hash | computed against this core's gains, limits, scales |
-//! | `rates.base_rate_hz` | 1 000 | 20 000 | Hz | the rate analysis (`sim-host rates`) covers 1-10 kHz; 20 kHz leaves the ~3 000-cycle tick a sixth of the 180 MHz period |
+//! | `rates.base_rate_hz` | 500 | 20 000 | Hz | the slowest loop rate below (a base rate under it leaves no valid divisor); 20 kHz leaves the ~3 000-cycle tick a sixth of the 180 MHz period. The low end is about what a device can run, not stability: the rate analysis (`sim-host rates`) finds the current loop unstable below 2.5 kHz with one period of delay. 500 Hz is the free-running QEMU's rate (its UART's byte rate, README "QEMU free-running") |
 //! | period `1/base_rate_hz` | - | - | us | a whole number of microseconds: the board's ticker counts 1 us ([`TICKER_HZ`]) |
 //! | yaw loop rate `base_rate_hz/yaw_div` | 500 | - | Hz | the slowest yaw rate the rate analysis evaluates (the lead's `w2 T/2` = 0.27) |
 //! | traction loop rate `base_rate_hz/traction_div` | 500 | - | Hz | 5 samples per `L_a/R_a` = 10 ms armature time constant at least |
@@ -40,8 +40,9 @@
 /// (embassy-time with `tick-hz-1_000_000`: 1 us).
 pub const TICKER_HZ: u32 = 1_000_000;
 
-/// Lowest plausible base rate, Hz.
-pub const BASE_RATE_MIN_HZ: u32 = 1_000;
+/// Lowest plausible base rate, Hz: [`LOOP_RATE_MIN_HZ`], the slowest loop (both loops at
+/// divisor 1).
+pub const BASE_RATE_MIN_HZ: u32 = LOOP_RATE_MIN_HZ;
 /// Highest plausible base rate, Hz.
 pub const BASE_RATE_MAX_HZ: u32 = 20_000;
 /// Lowest plausible yaw and traction loop rate (`base_rate_hz / divisor`), Hz.
@@ -229,7 +230,7 @@ pub const PLAUSIBLE: [Plausible; 18] = [
         min: BASE_RATE_MIN_HZ as f64,
         max: BASE_RATE_MAX_HZ as f64,
         unit: "Hz",
-        why: "the rate analysis covers 1-10 kHz; 20 kHz leaves the tick a sixth of the period",
+        why: "the slowest loop rate (divisor 1); 20 kHz leaves the tick a sixth of the period",
     },
     Plausible {
         reason: RefuseReason::Period,

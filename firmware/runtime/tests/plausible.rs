@@ -190,9 +190,9 @@ fn every_case<T: SampleBits>() {
             R::Fingerprint,
         ),
         (
-            "base rate 500 Hz",
+            "base rate 400 Hz",
             with(Rates {
-                base_rate_hz: 500,
+                base_rate_hz: 400,
                 ..good
             }),
             R::BaseRate,

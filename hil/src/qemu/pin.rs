@@ -57,6 +57,39 @@ pub(super) fn next_core() -> Option<usize> {
     cores.get(k % cores.len()).copied()
 }
 
+/// The core of a free-running QEMU: the first this process may use (the real-time host
+/// loop takes the last, [`crate::rt_os::allowed_cpus`]), so that the emulated board and
+/// the harness's loop never share a core; `None` as for [`next_core`].
+pub(super) fn free_run_core() -> Option<usize> {
+    if std::env::var("WHEELSET_QEMU_PIN").is_ok_and(|v| v == "off") {
+        return None;
+    }
+    allowed_cores()?.first().copied()
+}
+
+/// The real-time priority a free-running QEMU runs at (`SCHED_RR`, below the host loop's
+/// `SCHED_FIFO` 50): round robin, so QEMU's own threads (the main loop that moves the
+/// UART's bytes, the vCPU) share its core even while the guest spins.
+pub const FREE_RUN_RR: u8 = 40;
+
+/// Whether `chrt -r` may be used here (it exists and this process may set real-time
+/// priorities; checked once on `true`); `WHEELSET_QEMU_RT=off` turns it off.
+pub(super) fn free_run_rr() -> bool {
+    use std::sync::OnceLock;
+    static OK: OnceLock<bool> = OnceLock::new();
+    if std::env::var("WHEELSET_QEMU_RT").is_ok_and(|v| v == "off") {
+        return false;
+    }
+    *OK.get_or_init(|| {
+        Command::new("chrt")
+            .args(["-r", &FREE_RUN_RR.to_string(), "true"])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .status()
+            .is_ok_and(|s| s.success())
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -39,7 +39,7 @@
 //! idles with a plain WFI, exactly as before: its traces stay bit-identical.
 //!
 //! **Timeout.** [`TIMEOUT_COUNTS`] = 50 000 000 WDOGCLK counts at 25 MHz = 2 s of wall
-//! time without a feed = 2 000 control periods at the free-running build's 1 kHz
+//! time without a feed = 1 000 control periods at the free-running build's 500 Hz
 //! maximum base rate (`LINK_MAX_RATE_HZ`). A healthy run feeds it every period (a
 //! tick and the host's frame for it); 2 s leaves room for a loaded 2-core host's pauses
 //! between frames, and a stalled control task resets the board 2 s after the stall,
@@ -67,7 +67,7 @@ const UNLOCK: u32 = 0x1ACC_E551;
 pub const ENABLED: bool = cfg!(feature = "free-run");
 
 /// The timeout: 50 000 000 WDOGCLK counts at 25 MHz = 2 s of wall time without a feed
-/// (2 000 periods at 1 kHz) to the NMI.
+/// (1 000 periods at 500 Hz) to the NMI.
 pub const TIMEOUT_COUNTS: u32 = 50_000_000;
 
 /// From the NMI (first expiry) to the reset (second expiry): 500 000 counts = 20 ms for
