@@ -19,12 +19,9 @@ pub fn enter_halt() -> bool {
 /// The HardFault handler: the safe outputs first (as the panic handler), then the
 /// cause FAULT in the boot record (`crate::boot`), then a system reset (SYSRESETREQ):
 /// the board boots into its safe outputs, reports `reset_cause` FAULT with
-/// `FAULT_LATCHED`, and rejoins the loop.
-///
-/// QEMU build only for now: on the Nucleo it takes the build over `cargo fw`'s enforced
-/// flash budget (25 656 B > 25 600 B with the stack painting); the Nucleo keeps
-/// cortex-m-rt's default handler (a loop) until there is room.
-#[cfg(feature = "board-qemu")]
+/// `FAULT_LATCHED`, and rejoins the loop. Every build, the Nucleo's included (it kept
+/// cortex-m-rt's default handler, a loop, while the build was at its old 25 KiB flash
+/// budget).
 #[cortex_m_rt::exception(trampoline = false)]
 unsafe fn HardFault() -> ! {
     cortex_m::interrupt::disable();

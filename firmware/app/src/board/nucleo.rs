@@ -168,7 +168,9 @@ pub fn send_safe_frame() {
     let usart = pac::USART2;
     usart.cr3().modify(|w| w.set_dmat(false));
     let mut buf = [0u8; wheelset_proto::MAX_FRAME];
-    for &b in crate::device::safe_frame(&mut buf) {
+    // A lone delimiter first: the handler may have cut a frame half sent (the DMA
+    // stopped above); it ends that one, so that the safe frame arrives whole.
+    for &b in core::iter::once(&0).chain(crate::device::safe_frame(&mut buf).iter()) {
         while !usart.sr().read().txe() {}
         usart.dr().write(|w| w.set_dr(u16::from(b)));
     }

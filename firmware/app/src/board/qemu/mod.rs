@@ -117,6 +117,11 @@ pub fn send_safe_frame() {
     if bulk::active() {
         bulk::write_all(frame);
     } else {
+        // A lone delimiter first: the handler that sends this (panic, HardFault, the
+        // watchdog's NMI) may have interrupted the TX task with a frame half on the wire;
+        // the delimiter ends that one (the host drops it as a bad frame), so that the safe
+        // frame arrives whole. (The bulk channel writes whole frames: nothing is half out.)
+        uart::write_blocking(&[0]);
         uart::write_blocking(frame);
     }
 }
@@ -124,18 +129,14 @@ pub fn send_safe_frame() {
 /// The watchdog's first expiry (its interrupt is the NMI; free-running build only): a
 /// stalled control task or receive path. Records the cause WATCHDOG in the boot record,
 /// sends the safe frame and waits for the second expiry, which resets the board
-/// ([`wdog::GRACE_COUNTS`]). The safe frame goes after a lone delimiter: the control
-/// task stalls at a higher priority than the TX task, which may have had a frame half on
-/// the wire; the delimiter ends that one (the host drops it as a bad frame) so that the
-/// safe frame arrives whole.
+/// ([`wdog::GRACE_COUNTS`]). The control task stalls at a higher priority than the TX
+/// task, which may have had a frame half on the wire: [`send_safe_frame`] ends it with a
+/// lone delimiter first.
 #[cortex_m_rt::exception]
 unsafe fn NonMaskableInt() {
     wdog::grace();
     crate::boot::record_cause(wheelset_proto::reset_cause::WATCHDOG);
     if !crate::panic::enter_halt() {
-        if !bulk::active() {
-            uart::write_blocking(&[0]);
-        }
         send_safe_frame();
     }
     loop {
