@@ -219,6 +219,7 @@ impl Default for QemuConfig {
 /// [`Qemu::connect`] is left running).
 #[derive(Debug)]
 pub struct Qemu {
+    launch: Launch,
     child: Option<Child>,
     link: Link,
     stderr_path: PathBuf,
@@ -292,6 +293,10 @@ impl Qemu {
         } else {
             next_core()
         };
+        let mut launch = Launch {
+            pinned_cpu: core,
+            sched_rr: None,
+        };
         if let Some(core) = core {
             let mut pinned = Command::new("taskset");
             pinned
@@ -302,6 +307,7 @@ impl Qemu {
             cmd = pinned;
         }
         if cfg.free_run && pin::free_run_rr() {
+            launch.sched_rr = Some(pin::FREE_RUN_RR);
             let mut rr = Command::new("chrt");
             rr.arg("-r")
                 .arg(pin::FREE_RUN_RR.to_string())
@@ -315,7 +321,7 @@ impl Qemu {
             .stderr(stderr)
             .spawn()
             .map_err(QemuError::QemuMissing)?;
-        Ok(Guard(Some(child)))
+        Ok(Guard(Some(child), launch))
     }
 
     /// The running QEMU of `guard` on `link`, no longer killed by the guard.
@@ -327,12 +333,19 @@ impl Qemu {
     ) -> Result<Self, QemuError> {
         let child = guard.0.take().ok_or(QemuError::Exited(String::new()))?;
         Ok(Self {
+            launch: guard.1,
             child: Some(child),
             link,
             stderr_path,
             rx: Vec::with_capacity(MAX_FRAME),
             timeout,
         })
+    }
+
+    /// How this QEMU was started (its core and real-time priority).
+    #[must_use]
+    pub fn launch(&self) -> Launch {
+        self.launch
     }
 
     /// Starts QEMU and connects to the firmware's UART0 (or its bulk channel,
@@ -404,6 +417,8 @@ impl Qemu {
             .set_read_timeout(Some(timeout))
             .map_err(QemuError::Io)?;
         Ok(Self {
+            // Started elsewhere: not known here.
+            launch: Launch::default(),
             child: None,
             link: Link::Tcp(stream),
             stderr_path: PathBuf::new(),
@@ -515,7 +530,17 @@ impl Drop for Qemu {
 }
 
 /// Kills a child on drop unless taken.
-struct Guard(Option<Child>);
+struct Guard(Option<Child>, Launch);
+
+/// How a QEMU was started: the core it is pinned to and its real-time priority, if any
+/// (reported by the free-running target: `transport.device_process`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+pub struct Launch {
+    /// The core of `taskset -c`, if pinned.
+    pub pinned_cpu: Option<usize>,
+    /// The `SCHED_RR` priority of `chrt -r`, if set.
+    pub sched_rr: Option<u8>,
+}
 
 impl Guard {
     /// The child has exited (QEMU gave up: its stderr says why).

@@ -576,6 +576,11 @@ impl Transport for RealTime {
             "realtime": self.obtained,
             "host": self.host_report(),
             "sync": self.sync,
+            // The free-running QEMU's own core and priority (`--target qemu-free`).
+            "device_process": match &self.port {
+                Port::Tcp(_, Some(q)) => serde_json::to_value(q.launch()).ok(),
+                _ => None,
+            },
         }))
     }
 }

@@ -83,6 +83,7 @@ fn the_free_running_firmware_under_qemu_holds_the_loop_in_real_time() {
         tr["realtime"],
         loadavg()
     );
+    eprintln!("qemu-free: QEMU launched {}", tr["device_process"]);
     assert_eq!(r.target, "qemu-free");
     assert_eq!(tr["pace"], "realtime");
     // The device ticked on its own clock at the rate configured over the wire.
