@@ -23,7 +23,7 @@ use sim_host::device::{runtime_config, DeviceOptions};
 use sim_host::link::LinkConfig;
 use sim_host::params::Params;
 use sim_host::scenario::Scenario;
-use sim_host::sim::{run_continuous, Trajectory};
+use sim_host::sim::Trajectory;
 use wheelset_proto::Status;
 use wheelset_runtime::RuntimeConfig;
 
@@ -31,7 +31,7 @@ use crate::budget::{Budgets, Verdict};
 use crate::closed_loop::{close_loop, LoopSetup};
 use crate::frames::FramesReport;
 use crate::inproc::DeviceFault;
-use crate::numerics::{compare, NumericsReport};
+use crate::numerics::{compare_fine, NumericsReport};
 use crate::realtime::RealTime;
 use crate::rt_os::Want;
 use crate::serial::Pace;
@@ -39,8 +39,11 @@ use crate::timing::{analyse, TimingContext, TimingReport};
 use crate::transport::{Transport, TransportError};
 
 mod open;
+mod reference;
+
 pub use open::{device_config, open_transport};
 use open::{open_qemu_free, open_realtime, run_rate};
+use reference::before;
 
 /// Default core clock of the device, Hz: the board's STM32F446RE at 180 MHz. A board's
 /// `exec` is in cycles of it; the QEMU target's `exec` is in instructions, converted at
@@ -434,17 +437,7 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
             sim_host::device::DeviceError::Refused(why, cfg).to_string(),
         )));
     }
-    // With `[[adhesion]]` sections the continuous controllers (no wheel-slip protection)
-    // are no yardstick: the reference is then the control core itself in f64 with the
-    // device's protection (as the run set it, `Config.wsp`), timing and wire quantisation
-    // (`sim_host::core_loop`).
-    let reference = if sc.adhesion.is_empty() {
-        run_continuous(&sc, opts.control.yaw())
-    } else {
-        sim_host::core_loop::run_core::<f64>(&sc, opts.control.yaw(), wsp)
-            .map_err(|e| RunError::Input(format!("scenario {}: {e}", sc.source)))?
-            .0
-    };
+    let (reference, fine) = reference::make(&sc, opts.control.yaw(), wsp, period_ns)?;
     let timing = analyse(
         &ctx,
         &cl.periods,
@@ -456,12 +449,18 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     // numerics judge the device against the reference up to the fault.
     let trajectory = cl.trajectory;
     let numerics = match sc.actuator_fault {
-        Some(f) => compare(
+        Some(f) => compare_fine(
             &before(&trajectory, f.t_on_s()),
             &before(&reference, f.t_on_s()),
+            fine.map(|r| before(&r, f.t_on_s())).as_ref(),
             &opts.budgets.numerics,
         ),
-        None => compare(&trajectory, &reference, &opts.budgets.numerics),
+        None => compare_fine(
+            &trajectory,
+            &reference,
+            fine.as_ref(),
+            &opts.budgets.numerics,
+        ),
     };
     let (host, mut status) = (cl.host, cl.status);
     let (device_resets, first_reset_s) =
@@ -576,16 +575,6 @@ pub fn remote_gains(p: &Params, target: &Target) -> Result<(), RunError> {
          run them with --target inproc",
         changed.join(", ")
     )))
-}
-
-/// The part of `tr` before `t_s` (a run that diverged later did not diverge there).
-fn before(tr: &Trajectory, t_s: f64) -> Trajectory {
-    let mut t = Trajectory {
-        records: tr.records.iter().filter(|r| r.t_s < t_s).cloned().collect(),
-        info: tr.info.clone(),
-    };
-    t.info.diverged_at_s = tr.info.diverged_at_s.filter(|d| *d < t_s);
-    t
 }
 
 fn law_name(l: Law) -> &'static str {

@@ -204,3 +204,36 @@ fn a_jittery_device_fails_the_jitter_check_and_fills_the_histogram() {
         .unwrap();
     assert_eq!(c.verdict, Verdict::Pass, "{c:?}");
 }
+
+#[test]
+fn low_adhesion_passes_its_numerics_against_the_core_with_protection() {
+    // Issue 11: the Q4.28 device with its wheel-slip protection against the f64 control
+    // core on the same plant. The two closed loops part by an LSB, so a protection cut can
+    // fall a tick apart; the tube at the control period (`hil::numerics`) judges it
+    // within the budgets' own `tau` (on the 1 ms records alone: `u_a` 29.9 V at 14.05 s).
+    let opts = RunOptions {
+        scenario: "low-adhesion".into(),
+        ..RunOptions::default()
+    };
+    let out = run(&opts).expect("the run is made");
+    let n = &out.report.numerics;
+    assert_eq!(n.verdict, Verdict::Pass, "{n:?}");
+    assert!(
+        n.reference.contains("control core f64 wsp on"),
+        "{}",
+        n.reference
+    );
+    assert!(n.reference.contains("tube at 0.2 ms"), "{}", n.reference);
+    assert_eq!(n.signals.len(), 5);
+    for s in &n.signals {
+        assert!(s.max_err <= s.allowed, "{s:?}");
+    }
+    // The protection acted on the device (the low and the wet section), and the
+    // reference given back is at the output interval, as the device's trajectory.
+    let st = out.report.device_status.expect("status frame");
+    assert!(st.wsp_events >= 2, "{st:?}");
+    assert_eq!(out.reference.records.len(), out.trajectory.records.len());
+    for (a, b) in out.reference.records.iter().zip(&out.trajectory.records) {
+        assert!((a.t_s - b.t_s).abs() < 1e-9);
+    }
+}
