@@ -289,3 +289,94 @@ fn the_core_with_protection_holds_the_wheel_and_without_it_runs_away() {
     assert!(!s_fx.runaway && fx.info.diverged_at_s.is_none());
     assert_eq!(c_fx.wsp_events, c_on.wsp_events);
 }
+
+/// Records the measurements a sampled controller receives (one per control period).
+struct Recorder<C> {
+    inner: C,
+    seen: Vec<sim_host::control::Measurements>,
+}
+
+impl<C: sim_host::control::SampledController> sim_host::control::SampledController for Recorder<C> {
+    fn period_ns(&self) -> u64 {
+        self.inner.period_ns()
+    }
+    fn step(
+        &mut self,
+        t_ns: u64,
+        m: &sim_host::control::Measurements,
+    ) -> sim_host::control::Actuation {
+        self.seen.push(*m);
+        self.inner.step(t_ns, m)
+    }
+}
+
+#[test]
+fn every_build_takes_the_same_decisions_on_the_same_codes() {
+    // The wire codes the f64 core received on `low-adhesion` with protection, replayed
+    // through the Q4.28, f32 and f64 cores (open loop: every build gets the same codes).
+    // Q4.28 and f64 act, probe and release on the same ticks, and their caps differ by
+    // rounding only (a decision a tick apart shows as a whole step, 0.3 A re-apply or
+    // 8 A cut). Before the exact rules (`firmware/control/src/wsp.rs`, "Exact
+    // decisions"): the slip landed on `slip_target` at 7.714 s and on `slip_hold` at
+    // 7.585 s, and the cap on the reference at 11.0 s, each decided by the rounding.
+    use sim_host::control::SampledController;
+    use sim_host::core_loop::CoreController;
+    use sim_host::sim::{run_sampled, ActuatorModel, SensorModel};
+    use wheelset_control::{Fx, Sample};
+    let sc = Scenario::load("low-adhesion", &Params::default()).unwrap();
+    let cfg = sim_host::device::control_config(&sc.params, YawLaw::Lead, sc.drive);
+    let inner = CoreController::<f64>::try_new(&cfg, true).unwrap();
+    let period = inner.period_ns();
+    let mut rec = Recorder {
+        inner,
+        seen: Vec::new(),
+    };
+    let mut act = ActuatorModel::ideal();
+    act.delay_ns = period;
+    let tr = run_sampled(
+        &sc,
+        &mut rec,
+        &mut SensorModel::ideal(),
+        &mut act,
+        YawLaw::Lead.has_spring(),
+        "record",
+    )
+    .unwrap();
+    assert!(tr.info.diverged_at_s.is_none());
+    let mut a = CoreController::<f64>::try_new(&cfg, true).unwrap();
+    let mut b = CoreController::<Fx>::try_new(&cfg, true).unwrap();
+    let mut c = CoreController::<f32>::try_new(&cfg, true).unwrap();
+    let (mut acting, mut worst) = (0u32, 0.0f64);
+    for (k, m) in rec.seen.iter().enumerate() {
+        let t = k as u64 * period;
+        a.step(t, m);
+        b.step(t, m);
+        c.step(t, m);
+        let (x, y) = (a.core().wsp_state(), b.core().wsp_state());
+        assert_eq!(
+            (x.active, x.probing),
+            (y.active, y.probing),
+            "Q4.28 against f64 at {:.4} s: caps {} / {}",
+            t as f64 * 1e-9,
+            y.cap.to_f64(),
+            x.cap
+        );
+        if x.active {
+            acting += 1;
+            worst = worst.max((x.cap - y.cap.to_f64()).abs());
+        }
+    }
+    assert!(acting > 40_000, "{acting} ticks acting");
+    // Rounding only: well under a third of a re-apply step (3e-4 pu).
+    assert!(worst < 1e-4, "the caps differ by {worst} pu");
+    let (ca, cb, cc) = (
+        a.core().counters(),
+        b.core().counters(),
+        c.core().counters(),
+    );
+    assert!(ca.wsp_events >= 2);
+    assert_eq!((cb.wsp_events, cb.wsp_ticks), (ca.wsp_events, ca.wsp_ticks));
+    // f32 (not guaranteed per tick: its slip rounds by as much as the margin) takes the
+    // same course.
+    assert_eq!(cc.wsp_events, ca.wsp_events);
+}

@@ -217,7 +217,7 @@ impl<T: Sample> Compiled<T> {
             codec: Codec::try_new(&config.wire, s)?,
             yaw_mode: config.yaw_mode,
             traction_enabled: config.traction_enabled,
-            wsp: Wsp::try_new(&config.wsp, &config.motor, s, l)?,
+            wsp: Wsp::try_new(&config.wsp, &config.motor, s, l, config.wire.speed)?,
         })
     }
 

@@ -30,9 +30,14 @@
 //!          calm (no slip > slip_hold) for probe_after  ->  probing
 //!            (timer += r_up T each calm step; probing once timer >= r_up probe_after - r_up T/2)
 //! probing: cap += r_up T whatever the slip; detect -> cap = cut cap, back to the band
-//! release: cap >= i_ref (the rail carries the demand again)
+//! release: 2 cap >= 2 i_ref - r_up T (the rail carries the demand again; half a
+//!          re-apply step below the reference, so the sum's rounding cannot move it)
 //! output:  min(i_ref, cap) while active, i_ref otherwise
 //! ```
+//!
+//! The slip thresholds are compiled half a motor-speed code above their values, and the
+//! two sums (probe timer, release) decide half a re-apply step below their levels
+//! ("Exact decisions" below).
 //!
 //! `r` is the reference slew limit (`limits.current_ref_rate`, per step `iref_step`),
 //! `r_up` the re-apply rate. Every per-step quantity is the schedule's `iref_step` times a
@@ -40,6 +45,42 @@
 //! re-apply steps up to `r_up probe_after`), so a new schedule
 //! ([`crate::Compiled::with_schedule`]) keeps the protection's rates in SI with no
 //! discretisation on the device.
+//!
+//! # Exact decisions
+//! Every decision compares a quantity built from the wire's integers with a level, and on
+//! the same Sensor codes the fixed-point, f32 and f64 builds must take it on the same
+//! tick (`hil run --scenario low-adhesion` judges the Q4.28 device against the f64 core).
+//! Where the exact quantity can land *on* the level, each build's rounding decides, so
+//! every level is moved off the lattice the quantity lives on:
+//!
+//! - The slip `w - w_ref` is `c_w a - c_v b`, `c_w` the motor-speed code (`a` = 1 mrad/s
+//!   in pu), `c_v` the reference-speed code (`b` = 1 mm/s at the rim = `100/9` mrad/s at
+//!   the motor with `n/r0 = 5/0.45`). So the slip is a multiple of `a/9`, and a threshold
+//!   in whole mm/s is a multiple of `b`: `c_w a = (c_v + 60) b` whenever 9 divides
+//!   `c_v + 60`, and the slip then *equals* `slip_hold`. On the codes of `low-adhesion`
+//!   that happened at 7.585 s (`slip_hold`: f32 cut, Q4.28 and f64 did not) and at
+//!   7.714 s (`slip_target`: f64 re-applied, Q4.28 did not). Half a code above, `theta +
+//!   a/2`, no slip equals a threshold (`18 c_w = 200 (c_v + N) + 9` has no integer
+//!   solution: even against odd), the nearest lies `a/18` = 5.6e-8 pu away: 7 times the
+//!   Q4.28 error of a slip (two code x scale products, each within 2^-28 of exact, 7.5e-9
+//!   pu together) and far beyond f64's. An f32 slip near 0.9 pu carries up to 6e-8 pu of
+//!   rounding, as much as the margin: the f32 build is not guaranteed to agree. Moving a
+//!   threshold by 0.045 mm/s at the rim changes nothing a rail notices.
+//! - The acceleration `dw` is a difference of speed codes, `k a` for an integer `k`,
+//!   against `a_on T n/r0` = 6.67 `a` at 5 kHz: a third of a code from the nearest `k`.
+//! - The probe timer and the cap sum whole re-apply steps; with the default parameters
+//!   their levels are whole numbers of steps (4 000 for the timer; the reference
+//!   579.6 A = 1 932 x 0.3 A on `low-adhesion`), so both decide half a step below.
+//!
+//! Exact decisions make the builds agree on the *same* codes
+//! (`sim-host/tests/adhesion.rs`, `every_build_takes_the_same_decisions_on_the_same_codes`).
+//! A device in a closed loop is another matter: its plant run and the reference's part
+//! by an LSB (on `low-adhesion` the first differing speed code is at 1.17 s), and a
+//! decision then falls a tick apart where the codes differ (the slip crossing `slip_on`
+//! at 14.0520 s in Q4.28 and 14.0522 s in f64, the speed codes 14 LSBs apart). The
+//! harness's numerics judge such a cut
+//! within their time tolerance on the reference recorded at the control period
+//! (`hil::numerics`, "The tube at the control period").
 //!
 //! # Why the working band is so low (0.03 .. 0.06 m/s)
 //!
@@ -209,12 +250,15 @@ fn check(
 }
 
 impl<T: Sample> Wsp<T> {
-    /// Validate `p` against the motor, scales and limits, and quantise.
+    /// Validate `p` against the motor, scales and limits, and quantise; `speed_lsb` is the
+    /// wire's motor-speed LSB, rad/s (`Config.wire.speed`): the slip thresholds sit half
+    /// of it above their values (module docs, "Exact decisions").
     pub fn try_new(
         p: &WspParams,
         motor: &Motor,
         s: &FullScales,
         l: &Limits,
+        speed_lsb: f64,
     ) -> Result<Self, ConfigError> {
         check(
             "wsp.r0_m",
@@ -280,11 +324,19 @@ impl<T: Sample> Wsp<T> {
             p.probe_after_s > 0.0 && probe <= 2.0,
             "must be positive with reapply_a_per_s * probe_after_s <= 2 scales.current",
         )?;
+        // Half a motor-speed code above each threshold (module docs, "Exact decisions").
+        let half = 0.5 * speed_lsb / s.speed;
+        check(
+            "wire.speed",
+            speed_lsb,
+            speed_lsb > 0.0 && 2.0 * half <= p.slip_target_mps * pu,
+            "must be positive and at most wsp.slip_target_mps at the motor",
+        )?;
         Ok(Self {
             enabled: p.enabled,
-            slip_on: T::from_f64(slip_on),
-            slip_hold: T::from_f64(p.slip_hold_mps * pu),
-            slip_target: T::from_f64(p.slip_target_mps * pu),
+            slip_on: T::from_f64(slip_on + half),
+            slip_hold: T::from_f64(p.slip_hold_mps * pu + half),
+            slip_target: T::from_f64(p.slip_target_mps * pu + half),
             accel_ratio: q(
                 "wsp accel_on n/r0 / current_ref_rate",
                 p.accel_on_mps2 * pu / slew,
@@ -347,7 +399,14 @@ impl<T: Sample> Wsp<T> {
             st.probing = st.timer.sat_add(st.timer)
                 >= self.probe_level.sat_add(self.probe_level).sat_sub(up);
         }
-        if st.cap >= iref {
+        // Release where the re-apply steps reach the reference, half a step below it:
+        // `2 cap >= 2 iref - up` (exact doublings, as the probe timer). The cap rises only
+        // by whole re-apply steps onto a cut value, and with the default parameters the
+        // reference is a whole number of them (579.6 A = 1 932 x 0.3 A on
+        // `low-adhesion`), so at `cap >= iref` the sum landed on the level and its
+        // rounding decided the tick (on the same inputs Q4.28 released a step after f64).
+        // The output steps to `iref` by at most 1.5 re-apply steps instead of one.
+        if st.cap.sat_add(st.cap) >= iref.sat_add(iref).sat_sub(up) {
             st.active = false;
             st.probing = false;
             return (iref, true, new);
