@@ -109,8 +109,8 @@ pub fn new_device() -> FwRuntime {
             rt.set_link_limit(crate::board::LINK_MAX_RATE_HZ);
             rt
         }
-        Err(_) => {
-            defmt::error!("runtime refused its default configuration");
+        Err(e) => {
+            defmt::error!("runtime refused its default configuration: {}", e);
             crate::board::panic_halt()
         }
     }
@@ -198,6 +198,32 @@ fn exchange(
     exec
 }
 
+/// Base ticks between two log records of rejected frames and refused requests (0.1 s at
+/// the default 5 kHz): a burst of bad frames logs its first, and the next record, at
+/// most this many ticks later, the first after it with the number in between; the
+/// Status counters count every one.
+pub const RX_LOG_QUIET_TICKS: u32 = 500;
+
+/// The receive log, once per tick after the frame went out (outside the measured
+/// execution time): while `quiet` counts down nothing is taken (the runtime keeps the
+/// first event and counts the rest); then the held event, if any, is logged with
+/// `defmt::warn!` and the countdown restarts.
+#[inline(always)]
+fn log_rx(device: &mut impl Device, quiet: &mut u32) {
+    if *quiet != 0 {
+        *quiet -= 1;
+    } else if let Some((e, more)) = device.take_rx_event() {
+        log_rx_event(e, more);
+        *quiet = RX_LOG_QUIET_TICKS;
+    }
+}
+
+#[cold]
+#[inline(never)]
+fn log_rx_event(e: wheelset_runtime::RxEvent, more: u32) {
+    defmt::warn!("rx {} (+{=u32} more since the last record)", e, more);
+}
+
 /// Every [`crate::stack::SCAN_TICKS`] ticks (counted in `ticks`), the stack's
 /// high-water mark into the device's Status ([`crate::stack`]).
 #[inline(always)]
@@ -240,6 +266,7 @@ pub async fn control_loop(mut device: impl Device, mut stopwatch: impl Stopwatch
     let mut last_exec = 0u32;
     let mut note = BoardNote::default();
     let mut stack_ticks = 0u32;
+    let mut rx_quiet = 0u32;
     loop {
         ticker.next().await;
         let t0 = stopwatch.start();
@@ -261,6 +288,7 @@ pub async fn control_loop(mut device: impl Device, mut stopwatch: impl Stopwatch
         }
         last_exec = exchange(&mut device, &mut stopwatch, t0, last_exec, &mut note);
         note_stack(&mut device, &mut stack_ticks);
+        log_rx(&mut device, &mut rx_quiet);
         crate::watchdog::tick_ran();
         #[cfg(feature = "board-qemu")]
         if let Some(c) = device.take_injected() {
@@ -279,10 +307,15 @@ pub async fn control_loop(mut device: impl Device, mut stopwatch: impl Stopwatch
                     monitor.rearm(period, first);
                     defmt::info!("base rate now {=u32} Hz", rate);
                 }
-                None => defmt::warn!(
-                    "base rate {=u32} Hz refused: not a whole number of us",
-                    now_rate
-                ),
+                None => {
+                    // Logged once (`rate` follows): the runtime refuses such a rate
+                    // (`RefuseReason::Period`), so this is a guard, not a path.
+                    defmt::warn!(
+                        "base rate {=u32} Hz refused: not a whole number of us",
+                        now_rate
+                    );
+                    rate = now_rate;
+                }
             }
         }
     }
@@ -305,11 +338,13 @@ pub async fn frame_loop(mut device: impl Device, mut stopwatch: impl Stopwatch) 
     let mut last_exec = 0u32;
     let mut note = BoardNote::default();
     let mut stack_ticks = 0u32;
+    let mut rx_quiet = 0u32;
     loop {
         edges::next().await;
         let t0 = stopwatch.start();
         last_exec = exchange(&mut device, &mut stopwatch, t0, last_exec, &mut note);
         note_stack(&mut device, &mut stack_ticks);
+        log_rx(&mut device, &mut rx_quiet);
         crate::watchdog::tick_ran();
         #[cfg(feature = "board-qemu")]
         if let Some(c) = device.take_injected() {

@@ -6,7 +6,7 @@
 
 use wheelset_control::{Compiled, Monitor, SampleBits};
 use wheelset_proto::{encode_actuation, Actuation, Flags, MAX_FRAME};
-use wheelset_runtime::{Runtime, RuntimeBits, RuntimeError};
+use wheelset_runtime::{Runtime, RuntimeBits, RuntimeError, RxEvent};
 
 /// The default runtime compiled at build time (`build.rs`): the generated constant.
 mod generated {
@@ -38,6 +38,9 @@ pub trait Device {
     fn set_stack_peak(&mut self, bytes: u32);
     /// A fault injection received (test builds with `fault-inject` only).
     fn take_injected(&mut self) -> Option<wheelset_proto::Command>;
+    /// The first rejected frame or refused request since the previous call and the
+    /// number after it ([`Runtime::take_rx_event`]), for the log.
+    fn take_rx_event(&mut self) -> Option<(RxEvent, u32)>;
 }
 
 impl<T: SampleBits> Device for Runtime<T> {
@@ -67,6 +70,10 @@ impl<T: SampleBits> Device for Runtime<T> {
 
     fn take_injected(&mut self) -> Option<wheelset_proto::Command> {
         Runtime::take_injected(self)
+    }
+
+    fn take_rx_event(&mut self) -> Option<(RxEvent, u32)> {
+        Runtime::take_rx_event(self)
     }
 }
 

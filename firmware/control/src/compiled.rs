@@ -146,6 +146,7 @@ pub struct CompiledBits {
 
 /// Why exact bits were refused: the field that is invalid.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct BitsError {
     /// The field ([`CompiledBits`] / [`ScheduleBits`] name).
     pub field: &'static str,

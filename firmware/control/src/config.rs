@@ -216,6 +216,7 @@ impl Default for Config {
 
 /// A configuration error: names the field and the reason.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ConfigError {
     /// A parameter is NaN or infinite.
     NotFinite {

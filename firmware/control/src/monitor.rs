@@ -238,6 +238,7 @@ pub struct Monitor<T: Sample> {
 
 /// What one tick of the monitor reports.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct MonitorEvents {
     /// The hunting alarm holds (`Flags::HUNTING`).
     pub hunting: bool,

@@ -36,6 +36,7 @@ pub const MIN_DECODED: usize = 1 + 1 + CRC_LEN;
 
 /// Why a frame was rejected.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum FrameError {
     /// The CRC does not match.
     Crc,
@@ -66,6 +67,7 @@ impl std::error::Error for FrameError {}
 
 /// Why a message could not be encoded.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum EncodeError {
     /// The output buffer is shorter than the frame (use [`MAX_FRAME`]).
     BufferTooSmall,

@@ -238,6 +238,7 @@ pub enum Command {
 /// `held_ticks` counts the ticks flagged [`Flags::HOLDING`], `safe_ticks` those flagged
 /// [`Flags::SAFE`], `yaw_sat` those flagged [`Flags::YAW_SAT`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Status {
     /// Base-rate ticks run.
     pub ticks: u32,

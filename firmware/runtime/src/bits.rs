@@ -65,6 +65,7 @@ pub fn protocol_wire_lsb() -> WireLsb {
 
 /// Why a runtime could not be built.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum RuntimeError {
     /// The control configuration is invalid.
     Control(ConfigError),

@@ -120,7 +120,7 @@ pub use bits::{
     protocol_wire_lsb, rates_for, RuntimeBits, RuntimeConfig, RuntimeError, DEFAULT_ACC_WASHOUT_S,
 };
 pub use hold::{HoldPolicy, HoldStep, SafeChange};
-pub use runtime::{Runtime, SafeOutputs};
+pub use runtime::{Runtime, RxEvent, SafeOutputs};
 pub use wheelset_proto::{Actuation, Command, Config, Flags, Message, Rates, Sensor, Status};
 
 /// The counters: the [`Status`] message is their only definition.

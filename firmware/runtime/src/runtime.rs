@@ -7,13 +7,25 @@ mod receive;
 use wheelset_control::{
     Compiled, Controller, InputCodes, Monitor, MonitorState, Sample, SampleBits,
 };
-use wheelset_proto::{encode_actuation, encode_status, Decoder, RefuseReason};
+use wheelset_proto::{encode_actuation, encode_status, Decoder, FrameError, RefuseReason};
 
 use crate::plausible;
 use crate::{
     AccBits, Actuation, Command, Flags, HoldPolicy, RuntimeBits, RuntimeConfig, RuntimeCounters,
     RuntimeError, SafeChange, TX_CAPACITY,
 };
+
+/// A receive event worth a log record ([`Runtime::take_rx_event`]): a frame the decoder
+/// rejected, or a valid Config or Command the device refused. Each is also counted in the
+/// Status (`rx_crc` ... `rx_postcard`; `cmd_refused` with `refuse_reason`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum RxEvent {
+    /// A frame rejected by the decoder: CRC, COBS, version, length or postcard.
+    Rejected(FrameError),
+    /// A Config or Command refused, with the reason (the Status `refuse_reason`).
+    Refused(RefuseReason),
+}
 
 /// The outputs the device drives when it has nothing valid to say.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -54,6 +66,10 @@ pub struct Runtime<T: Sample> {
     rx_error: bool,
     refused: bool,
     refuse_reason: RefuseReason,
+    /// The first receive event since [`Self::take_rx_event`] last took one, and how many
+    /// followed it (for the firmware's log: the first is logged, the rest counted).
+    rx_event: Option<RxEvent>,
+    rx_events_after: u32,
     /// The stability monitor and its state.
     #[cfg_attr(not(feature = "monitor"), allow(dead_code))]
     monitor: Monitor<T>,
@@ -138,6 +154,8 @@ impl<T: SampleBits> Runtime<T> {
             rx_error: false,
             refused: false,
             refuse_reason: RefuseReason::None,
+            rx_event: None,
+            rx_events_after: 0,
             monitor,
             mon: MonitorState::default(),
             monitor_safe: false,
@@ -413,6 +431,25 @@ impl<T: SampleBits> Runtime<T> {
     /// [`Command::InjectHardFault`]: crate::Command::InjectHardFault
     pub fn take_injected(&mut self) -> Option<Command> {
         self.injected.take()
+    }
+
+    /// The first receive event ([`RxEvent`]: a rejected frame, a refused Config or
+    /// Command) since the previous call, with the number of events after it; `None` if
+    /// there was none. Held until taken, so a caller that takes it at a bounded rate (the
+    /// firmware's log) records the first event of each interval and counts the others;
+    /// the Status counters count every one of them.
+    pub fn take_rx_event(&mut self) -> Option<(RxEvent, u32)> {
+        let e = self.rx_event.take()?;
+        Some((e, core::mem::take(&mut self.rx_events_after)))
+    }
+
+    /// Keep `e` for [`Self::take_rx_event`] if none is held, else count it.
+    pub(crate) fn note_rx_event(&mut self, e: RxEvent) {
+        if self.rx_event.is_none() {
+            self.rx_event = Some(e);
+        } else {
+            self.rx_events_after = self.rx_events_after.wrapping_add(1);
+        }
     }
 
     /// The stack's high-water mark in bytes, as the board measured it.

@@ -292,3 +292,55 @@ fn both_is_a_complementary_filter() {
     assert!(both < velocity / 20.0, "both {both} vs velocity {velocity}");
     assert!(consistent < 2e-5, "{consistent}");
 }
+
+/// The firmware's log source (issue 14): every rejected frame and refused request is an
+/// [`RxEvent`]; the first since the last take is held with its kind, the later ones are
+/// counted, and valid accepted frames add none.
+#[test]
+fn rejected_frames_and_refusals_are_events_for_the_log() {
+    let mut rt: Runtime<Fx> = Runtime::try_new(RuntimeConfig::default()).expect("valid");
+    rt.receive(&vel(1, 0));
+    send(&mut rt, Message::Config(config(YawMode::Lead, true)));
+    rt.tick(0);
+    assert_eq!(rt.take_rx_event(), None, "nothing rejected or refused");
+    // A CRC error, then a Config the device cannot honour (3 kHz: 333.3 us), then an
+    // unknown Command: the first is held, the two after it counted.
+    let mut bad = vel(2, 0);
+    bad[3] ^= if bad[3] == 1 { 2 } else { 1 };
+    rt.receive(&bad);
+    let mut cfg = RuntimeConfig::default();
+    cfg.control.base_rate_hz = 3_000;
+    let rates = rates_for::<Fx>(&cfg).expect("the host computes them");
+    send(
+        &mut rt,
+        Message::Config(Config {
+            rates: Some(rates),
+            ..config(YawMode::Lead, true)
+        }),
+    );
+    rt.receive(&raw_frame(3, &[5]));
+    rt.tick(0);
+    assert_eq!(
+        rt.take_rx_event(),
+        Some((RxEvent::Rejected(FrameError::Crc), 2))
+    );
+    assert_eq!(rt.take_rx_event(), None, "taken");
+    let c = *rt.counters();
+    assert_eq!(
+        (c.rx_crc, c.cmd_refused),
+        (1, 2),
+        "the counters count every one"
+    );
+    // A refusal alone is held with its reason.
+    send(
+        &mut rt,
+        Message::Config(Config {
+            rates: Some(rates),
+            ..config(YawMode::Lead, true)
+        }),
+    );
+    assert_eq!(
+        rt.take_rx_event(),
+        Some((RxEvent::Refused(RefuseReason::Period), 0))
+    );
+}

@@ -53,6 +53,7 @@ impl<T: Sample> Outputs<T> {
 
 /// How often one signal was invalid (NaN, floats only) or clamped.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct SignalCounts {
     /// NaN replaced by 0.
     pub invalid: u32,
@@ -70,6 +71,7 @@ impl SignalCounts {
 
 /// Saturation and invalid-input counters (wrapping `u32`), readable by the runtime.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Counters {
     /// Ticks run.
     pub ticks: u32,

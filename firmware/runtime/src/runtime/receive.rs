@@ -8,7 +8,7 @@ use wheelset_control::{Controller, InputCodes, SampleBits, ScheduleBits};
 use wheelset_proto::{FrameError, Lateral, RefuseReason, Request};
 
 use crate::plausible;
-use crate::{AccBits, Command, Config, Rates, Runtime, RuntimeCounters, Sensor};
+use crate::{AccBits, Command, Config, Rates, Runtime, RuntimeCounters, RxEvent, Sensor};
 
 impl<T: SampleBits> Runtime<T> {
     /// Takes received bytes in any chunking; decodes frames, applies commands, counts bad
@@ -40,6 +40,7 @@ impl<T: SampleBits> Runtime<T> {
                 };
                 *n = n.wrapping_add(1);
                 self.rx_error = true;
+                self.note_rx_event(RxEvent::Rejected(e));
                 return;
             }
         };
@@ -158,6 +159,7 @@ impl<T: SampleBits> Runtime<T> {
         self.counters.cmd_refused = self.counters.cmd_refused.wrapping_add(1);
         self.refuse_reason = why;
         self.counters.refuse_reason = why as u8;
+        self.note_rx_event(RxEvent::Refused(why));
     }
 
     /// Validates `r` against this core (sample type, fingerprint, the plausible ranges of
