@@ -82,6 +82,52 @@
 //! within their time tolerance on the reference recorded at the control period
 //! (`hil::numerics`, "The tube at the control period").
 //!
+//! # The slip bound on `low-adhesion`
+//! The worst disturbance of the scenario is its first: at 6.0 s the rail drops from dry
+//! to `low` under the full demand `T_d` = 12.4 kN m at the wheel (`mu_d` = 0.250). The
+//! wheel slip velocity (the plant's `slip_mps`, the mean wheel) stays below
+//!
+//! ```text
+//! s_peak <= s0 + r0 dT / (J_w w_g) + r0 dT t_total / J            = 0.479 m/s
+//!   s0       the dry rail's slip at mu_d (Polach, pure longitudinal)  0.165 m/s
+//!   dT       T_d (1 - mu_low(s0) / mu_d): the torque the low rail     9.6 kN m
+//!            no longer carries (its characteristic rises from s0 to
+//!            its peak at 0.60 m/s, so it carries at least mu_low(s0) = 0.056)
+//!   J_w, J   2 I_w = 70 and J_w + n^2 I_m = 345 kg m^2 at the wheel
+//!   w_g      sqrt(k_gear (1/J_w + 1/(n^2 I_m))) = 279 rad/s: wheelset against motor
+//!   t_total  t_detect + t_current = 2.9 + 4.4 ms: the protection's response
+//! ```
+//!
+//! Two inertias, the wheelset and the motor (through the gear spring), and the adhesion
+//! torque falling by `dT` at `t = 0` while the motor torque stays `<= T_d`: the wheel's
+//! speed rises by `dT/J [t + (n^2 I_m / (J_w w_g)) sin(w_g t)]`, the rigid part and the
+//! torsion of the gear. The motor's torque acts on the wheel through the impulse
+//! response `(1 - cos w_g t)/J >= 0`, so a smaller motor torque never raises the wheel's
+//! speed; once it is below the low rail's torque (from `t_total` on) it takes back at
+//! least `dT/J [(t - t_total) - sin(w_g (t - t_total))/w_g]`. Together the rise is at
+//! most `dT/J [t_total + 1/w_g + n^2 I_m/(J_w w_g)] = dT [t_total/J + 1/(J_w w_g)]`: the
+//! torsion term (0.221 m/s at the rim) and the rigid one over the response (0.092 m/s).
+//! The response, from the protection's thresholds and rates:
+//!
+//! - `t_detect` = 2.9 ms: the slip is above `slip_hold` already (`s0`), so the
+//!   acceleration test detects once the motor's rim acceleration `r0 dT/J (1 - cos w_g
+//!   t)` reaches `a_on` = 3 m/s^2 (2.5 ms), plus one traction step to measure it and one
+//!   period until the cut acts (0.2 ms each at 5 kHz);
+//! - `t_current` = 4.4 ms: the cut to `cut_fraction` x 580 A at once, then `2 r` =
+//!   40 kA/s down to the current whose torque the low rail carries (`mu_low(s0)/mu_d` x
+//!   580 A = 130 A), plus the current loop's lag `L_a / K_p` = 0.4 ms.
+//!
+//! Measured: 0.425 m/s at 6.007 s (`sim-host run --scenario low-adhesion --loop core
+//! --wsp on`; test `the_core_with_protection_holds_the_wheel_and_without_it_runs_away`
+//! in `sim-host/tests/adhesion.rs` computes the bound from the parameters and asserts
+//! the measured peak below it). `s0` omits the curve's lateral creepage, which takes a
+//! little of the adhesion (0.166 m/s measured before the drop), well inside the margin.
+//! The later disturbances take less torque away (dry to wet at 13 s: the wet rail is the same
+//! shape as `low` with `mu0` 0.30 instead of 0.08; the probes re-apply at 1 500 A/s from the band
+//! instead of a step), measured peaks 0.282 m/s on wet, 0.163-0.166 m/s on dry. The bound
+//! lies below every characteristic's peak slip (0.60 m/s on `low`, 0.9-1.2 on dry and
+//! wet), so a protected wheel never works on the falling side, where it would spin up.
+//!
 //! # Why the working band is so low (0.03 .. 0.06 m/s)
 //!
 //! Polach's characteristics at 83.3 m/s peak at 0.6 (low), 0.9 (dry), 1.2 m/s (wet) of
