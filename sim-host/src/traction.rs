@@ -267,3 +267,77 @@ pub fn write_figure(runs: &[(&str, &Trajectory)], dir: &Path) -> std::io::Result
         .save(&path)?;
     Ok(path)
 }
+
+/// The sections table of `sc` with (`on`) and without (`off`) the wheel-slip protection,
+/// as Markdown (the README's generated comparison, `sim-host run --loop core
+/// --sections-table`; `shown` is that command): per section its condition, the peak
+/// adhesion available (of the protected run, which covers every section), and for each
+/// run the mean adhesion used, the utilisation and the slip peak. A run stopped as
+/// diverged shows where: a section it ended in is marked "to T s", one it never reached
+/// "diverged at T s". `None` without `[[adhesion]]` sections.
+pub fn sections_table(
+    sc: &Scenario,
+    on: &Trajectory,
+    off: &Trajectory,
+    shown: &str,
+) -> Option<String> {
+    use std::fmt::Write;
+    let (a, b) = (summary(sc, on)?, summary(sc, off)?);
+    let mut t = String::new();
+    let _ = writeln!(
+        t,
+        "`{}`: the f64 control core on the plant, with and without the wheel-slip \
+         protection (`{shown}`, generated):\n",
+        sc.name
+    );
+    let _ = writeln!(
+        t,
+        "| section | condition | `mu_peak` | protection on: `mu_used_mean` | utilisation | \
+         slip peak | protection off: `mu_used_mean` | utilisation | slip peak |"
+    );
+    let _ = writeln!(t, "|---|---|---|---|---|---|---|---|---|");
+    let stopped = |tr: &Trajectory| tr.info.diverged_at_s;
+    let cells = |s: &SectionSummary, tr: &Trajectory| match stopped(tr) {
+        Some(d) if d <= s.t0 => format!("(diverged at {d:.1} s) | |"),
+        stop => format!(
+            "{:.3} | {:.2} | {:.3} m/s{}",
+            s.mu_used_mean,
+            s.utilisation,
+            s.slip_peak_mps,
+            match stop {
+                Some(d) if d < s.t1 => format!(" (to {d:.1} s)"),
+                _ => String::new(),
+            }
+        ),
+    };
+    for (x, y) in a.sections.iter().zip(&b.sections) {
+        let _ = writeln!(
+            t,
+            "| {:.1}-{:.1} s | {} | {:.3} | {} | {} |",
+            x.t0,
+            x.t1,
+            x.condition,
+            x.mu_peak,
+            cells(x, on),
+            cells(y, off)
+        );
+    }
+    let run = |s: &AdhesionSummary, tr: &Trajectory| {
+        format!(
+            "runaway {}, slip peak {:.3} m/s{}",
+            s.runaway,
+            s.slip_peak_mps,
+            match stopped(tr) {
+                Some(d) => format!(", the run diverged at {d:.3} s (|y| > 50 mm)"),
+                None => String::new(),
+            }
+        )
+    };
+    let _ = writeln!(
+        t,
+        "\nProtection on: {}. Protection off: {}.",
+        run(&a, on),
+        run(&b, off)
+    );
+    Some(t)
+}

@@ -479,3 +479,60 @@ fn the_slip_bound_follows_from_the_thresholds_and_the_wheel_dynamics() {
     assert!(near(b.t_current, 4.4e-3, 1e-4), "{b:?}");
     assert!(near(b.low_peak_slip, 0.60, 0.01), "{b:?}");
 }
+
+#[test]
+fn the_sections_table_compares_the_protected_and_the_unprotected_core() {
+    let out = Command::new(env!("CARGO_BIN_EXE_sim-host"))
+        .args([
+            "run",
+            "--scenario",
+            "low-adhesion",
+            "--control",
+            "lead",
+            "--loop",
+            "core",
+            "--sections-table",
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(0));
+    let text = String::from_utf8_lossy(&out.stdout);
+    let rows: Vec<&str> = text.lines().filter(|l| l.starts_with("| ")).collect();
+    assert_eq!(rows.len(), 6, "{text}");
+    assert!(rows[0].contains("protection on") && rows[0].contains("protection off"));
+    // The protected run's figures are its summary's, the unprotected one runs away in
+    // the low section and stops before the wet one.
+    let sc = Scenario::load("low-adhesion", &Params::default()).unwrap();
+    let (on, _) = sim_host::core_loop::run_core::<f64>(&sc, YawLaw::Lead, true).unwrap();
+    let s = sim_host::traction::summary(&sc, &on).unwrap();
+    for (row, sec) in rows[1..].iter().zip(&s.sections) {
+        let want = format!(
+            "| {} | {:.3} | {:.3} | {:.2} | {:.3} m/s |",
+            sec.condition, sec.mu_peak, sec.mu_used_mean, sec.utilisation, sec.slip_peak_mps
+        );
+        assert!(row.contains(&want), "{row} / {want}");
+    }
+    assert!(rows[2].starts_with("| 6.0-10.0 s | low |"), "{}", rows[2]);
+    assert!(rows[4].contains("(diverged at 10.4 s)"), "{}", rows[4]);
+    assert!(text.contains("Protection on: runaway false"), "{text}");
+    assert!(text.contains("Protection off: runaway true"), "{text}");
+    // Only on the core loop of a scenario with sections.
+    for args in [
+        &[
+            "run",
+            "--scenario",
+            "curve",
+            "--loop",
+            "core",
+            "--sections-table",
+        ][..],
+        &["run", "--scenario", "low-adhesion", "--sections-table"][..],
+    ] {
+        let bad = Command::new(env!("CARGO_BIN_EXE_sim-host"))
+            .args(args)
+            .output()
+            .unwrap();
+        assert_eq!(bad.status.code(), Some(2), "{args:?}");
+        assert!(String::from_utf8_lossy(&bad.stderr).contains("--sections-table"));
+    }
+}

@@ -38,6 +38,11 @@ pub(crate) struct RunArgs {
     /// (repeatable; the nearest output sample), and each run's peaks.
     #[arg(long = "at", value_name = "T_S", allow_negative_numbers = true)]
     pub(crate) at: Vec<f64>,
+    /// With `--loop core` on a scenario with `[[adhesion]]` sections: print only the
+    /// sections table with and without wheel-slip protection (both core runs), as
+    /// Markdown (the README's generated comparison table).
+    #[arg(long)]
+    pub(crate) sections_table: bool,
     #[command(flatten)]
     pub(crate) device: DeviceArgs,
 }
@@ -61,6 +66,14 @@ pub(crate) fn cmd_run(a: &RunArgs) -> Result<(), Failure> {
     }
     let base = load_params(&a.params)?;
     let sc = Scenario::load(&a.scenario, &base)?;
+    if a.sections_table && (a.device.loop_kind != LoopKind::Core || sc.adhesion.is_empty()) {
+        return Err(Failure {
+            code: 2,
+            msg: "--sections-table: only with --loop core on a scenario with [[adhesion]] \
+                  sections"
+                .into(),
+        });
+    }
     let end_s = sc.duration_ns as f64 * 1e-9;
     if let Some(t) =
         a.at.iter()
@@ -231,6 +244,23 @@ pub(crate) fn cmd_run_core(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
         code: 2,
         msg: e.to_string(),
     };
+    if a.sections_table {
+        let on = run_core::<f64>(sc, a.control.into(), true).map_err(fail)?;
+        let off = run_core::<f64>(sc, a.control.into(), false).map_err(fail)?;
+        let law = match a.control {
+            Control::Passive => "passive",
+            Control::Gain => "gain",
+            Control::Lead => "lead",
+        };
+        let shown = format!(
+            "cargo sim run --scenario {} --control {law} --loop core --sections-table",
+            a.scenario
+        );
+        let table =
+            sim_host::traction::sections_table(sc, &on.0, &off.0, &shown).unwrap_or_default();
+        outln!("{}", table.trim_end());
+        return Ok(());
+    }
     let wsp = a.device.wsp != Some(OnOff::Off);
     let (tr, c) = run_core::<f64>(sc, a.control.into(), wsp).map_err(fail)?;
     print_summary(sc, &tr);
