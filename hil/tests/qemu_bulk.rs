@@ -76,3 +76,39 @@ fn curve_20_s_over_the_bulk_channel() {
     );
     assert_same(&u, &b);
 }
+
+/// Issue 11 under QEMU: `hil run --target qemu --qemu-link bulk --scenario low-adhesion`,
+/// the firmware's wheel-slip protection in the loop for the 20 s (100 000 exchanges over
+/// the bulk channel, about 8 s of wall time in release), passes its numerics against the
+/// f64 core with protection, and its closed loop is the in-process one record for record.
+#[test]
+fn low_adhesion_under_qemu_passes_its_numerics_and_is_the_in_process_loop() {
+    use hil::budget::Verdict;
+    use hil::run::{run, RunOptions, Target};
+    let cfg = hil::qemu::QemuConfig {
+        channel: Channel::Bulk,
+        ..hil::qemu::QemuConfig::new()
+    };
+    if !common::can_run("low-adhesion over the bulk channel", &cfg) {
+        return;
+    }
+    let opts = RunOptions {
+        target: Target::Qemu,
+        qemu_link: Channel::Bulk,
+        scenario: "low-adhesion".into(),
+        ..RunOptions::default()
+    };
+    let qemu = run(&opts).expect("the QEMU run is made");
+    let n = &qemu.report.numerics;
+    assert_eq!(n.verdict, Verdict::Pass, "{n:?}");
+    assert!(n.reference.contains("wsp on") && n.reference.contains("tube at 0.2 ms"));
+    let st = qemu.report.device_status.expect("status frame");
+    assert!(st.wsp_events >= 2, "{st:?}");
+    let inproc = run(&RunOptions {
+        scenario: "low-adhesion".into(),
+        ..RunOptions::default()
+    })
+    .unwrap();
+    assert_eq!(qemu.trajectory.records, inproc.trajectory.records);
+    assert_eq!(qemu.report.numerics, inproc.report.numerics);
+}
