@@ -28,9 +28,11 @@
 //!    output instant `o_j - j T` over 32 ticks, `j` from the frames' tick counter) and
 //!    its period, and refuses a device that does not tick at the configured rate.
 //!
-//! The plant's clock then starts so that each Sensor frame reaches the device half a
-//! period before its tick (`lead_ns`): the Actuation echoing sample `k` arrives about
-//! `T/2 + exec + wire` after `t_k`, and a host up to `T/2` late is still in time. Every
+//! The plant's clock then starts so that each Sensor frame is written a *lead* before the
+//! device's tick (`lead_ns`, [`RealTimeOptions::lead_num`] eighths of the period: half
+//! by default): the Actuation echoing sample `k` arrives about `lead + exec + wire` after
+//! `t_k`, and a host up to `T - lead` late, or a frame up to `lead` on its way, is still
+//! in time. Every
 //! frame that arrives before the device first answers one of the run's Sensor frames
 //! (by echoing its `seq`: the first one, or a later one if the first was superseded
 //! within one device tick, [`echoes_this_run`]) is discarded and counted (`pre_run`),
@@ -152,6 +154,10 @@ pub struct RealTimeOptions {
     pub timeout: Duration,
     /// What to ask of the operating system.
     pub want: Want,
+    /// The lead of each Sensor frame before the device's tick, in eighths of the period
+    /// (4: half a period; the module docs). A link whose frames take longer than half a
+    /// period to cross (QEMU's UART, `--target qemu-free`) needs more.
+    pub lead_num: u64,
 }
 
 /// The byte stream to a free-running device: a serial port, or the TCP chardev of

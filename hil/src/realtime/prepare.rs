@@ -145,8 +145,9 @@ impl RealTime {
         let mut tick_at = phase - exec_ns;
         let k = ((now + 2.0 * tf - tick_at) / tf).ceil().max(0.0);
         tick_at += k * tf;
-        self.sync.lead_ns = t / 2;
-        let first = (tick_at - (t / 2) as f64).max(now) as u64;
+        let lead = t * self.o.lead_num.clamp(1, 7) / 8;
+        self.sync.lead_ns = lead;
+        let first = (tick_at - lead as f64).max(now) as u64;
         // The device's output phase on the run's clock (origin = `first`).
         self.phase_ref_ns = wrap(phase - first as f64, tf);
         self.origin += Duration::from_nanos(first);
