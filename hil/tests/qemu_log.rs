@@ -12,32 +12,13 @@ mod common;
 
 use std::path::Path;
 
-use common::{exchange, sensor};
+use common::{config_at, exchange, sensor};
 use defmt_decoder::{DecodeError, Table};
 use hil::qemu::QemuConfig;
-use wheelset_proto::{encode_vec, Config, Message, YawMode};
-use wheelset_runtime::{rates_for, RuntimeConfig, DEFAULT_HOLD_TICKS};
 
 /// The firmware's quiet interval between two receive-log records, base ticks
 /// (`wheelset_fw::app::RX_LOG_QUIET_TICKS`).
 const QUIET: u16 = 500;
-
-fn config_at(hz: u32) -> Vec<u8> {
-    let mut rt = RuntimeConfig::default();
-    rt.control.base_rate_hz = hz;
-    let rates = rates_for::<wheelset_control::Fx>(&rt).expect("the host computes them");
-    encode_vec(&Message::Config(Config {
-        mode: YawMode::Lead,
-        traction: true,
-        enable: true,
-        hold_ticks: DEFAULT_HOLD_TICKS,
-        rates: Some(rates),
-        monitor_safe: false,
-        wsp: false,
-    }))
-    .unwrap()
-    .to_vec()
-}
 
 /// A Sensor frame with one bit of its body flipped: its CRC no longer matches.
 fn corrupt(seq: u16) -> Vec<u8> {

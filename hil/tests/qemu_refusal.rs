@@ -7,33 +7,15 @@
 
 mod common;
 
-use common::{exchange, sensor};
+use common::{config_at, exchange, sensor};
 use hil::qemu::QemuConfig;
-use wheelset_proto::{encode_vec, Actuation, Command, Config, Flags, Message, YawMode};
-use wheelset_runtime::{rates_for, RuntimeConfig, DEFAULT_HOLD_TICKS};
+use wheelset_proto::{encode_vec, Actuation, Command, Flags, Message};
 
 fn actuation(m: &[Message]) -> Actuation {
     match m.first() {
         Some(Message::Actuation(a)) => *a,
         other => panic!("expected an actuation frame, got {other:?}"),
     }
-}
-
-fn config_at(hz: u32) -> Vec<u8> {
-    let mut rt = RuntimeConfig::default();
-    rt.control.base_rate_hz = hz;
-    let rates = rates_for::<wheelset_control::Fx>(&rt).expect("the host computes them");
-    encode_vec(&Message::Config(Config {
-        mode: YawMode::Lead,
-        traction: true,
-        enable: true,
-        hold_ticks: DEFAULT_HOLD_TICKS,
-        rates: Some(rates),
-        monitor_safe: false,
-        wsp: false,
-    }))
-    .unwrap()
-    .to_vec()
 }
 
 #[test]

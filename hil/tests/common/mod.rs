@@ -165,3 +165,23 @@ pub fn qemu_curve(q: Qemu, duration_s: f64) -> (Trajectory, Vec<Actuation>) {
     .unwrap();
     (traj, dev.actuations)
 }
+
+/// A Config frame for the fixed-point core at base rate `hz` (lead law, traction on,
+/// outputs enabled, the default hold), its rates as the host computes them.
+pub fn config_at(hz: u32) -> Vec<u8> {
+    let mut rt = wheelset_runtime::RuntimeConfig::default();
+    rt.control.base_rate_hz = hz;
+    let rates =
+        wheelset_runtime::rates_for::<wheelset_control::Fx>(&rt).expect("the host computes them");
+    encode_vec(&Message::Config(wheelset_proto::Config {
+        mode: wheelset_proto::YawMode::Lead,
+        traction: true,
+        enable: true,
+        hold_ticks: wheelset_runtime::DEFAULT_HOLD_TICKS,
+        rates: Some(rates),
+        monitor_safe: false,
+        wsp: false,
+    }))
+    .unwrap()
+    .to_vec()
+}
