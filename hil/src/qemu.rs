@@ -111,6 +111,13 @@ pub struct QemuConfig {
     /// QEMU without `-icount` (its clock follows the host's), for the free-running
     /// firmware `wheelset-qemu-free.elf` ([`QemuConfig::free_running`]).
     pub free_run: bool,
+    /// A free-running QEMU at `SCHED_RR` where permitted (`hil run --target qemu-free`
+    /// sets it). Not for a QEMU that ticks at the firmware's default 5 kHz: its vCPU
+    /// thread is then runnable most of the time, and at one real-time priority its
+    /// round-robin slices (100 ms) starve QEMU's I/O thread, which moves the UART's bytes
+    /// (measured: `qemu_board`'s watchdog test then lost its Status requests, 7 of 7
+    /// runs; 0 of 4 without).
+    pub realtime: bool,
 }
 
 /// The link between the harness and the emulated device.
@@ -172,6 +179,7 @@ impl QemuConfig {
             machine: Machine::default(),
             channel: Channel::Uart,
             free_run: false,
+            realtime: false,
         }
     }
 
@@ -187,6 +195,7 @@ impl QemuConfig {
         Self {
             elf,
             free_run: true,
+            realtime: false,
             ..Self::new()
         }
     }
@@ -306,7 +315,7 @@ impl Qemu {
                 .args(cmd.get_args());
             cmd = pinned;
         }
-        if cfg.free_run && pin::free_run_rr() {
+        if cfg.free_run && cfg.realtime && pin::free_run_rr() {
             launch.sched_rr = Some(pin::FREE_RUN_RR);
             let mut rr = Command::new("chrt");
             rr.arg("-r")

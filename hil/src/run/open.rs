@@ -111,6 +111,7 @@ pub(super) fn open_qemu_free(opts: &RunOptions, rt: &RuntimeConfig) -> Result<Re
     let cfg = device_config(rt, opts.wsp_on(), opts.monitor_safe)?;
     let qcfg = crate::qemu::QemuConfig {
         timeout: opts.timeout,
+        realtime: true,
         ..crate::qemu::QemuConfig::free_running()
     };
     let q = crate::qemu::Qemu::start(&qcfg)
