@@ -115,8 +115,8 @@ pub struct QemuConfig {
     /// sets it). Not for a QEMU that ticks at the firmware's default 5 kHz: its vCPU
     /// thread is then runnable most of the time, and at one real-time priority its
     /// round-robin slices (100 ms) starve QEMU's I/O thread, which moves the UART's bytes
-    /// (measured: `qemu_board`'s watchdog test then lost its Status requests, 7 of 7
-    /// runs; 0 of 4 without).
+    /// (measured: `qemu_board`'s watchdog test then lost its Status requests in 6 of 7
+    /// runs here and in one CI run; 0 of 4 without).
     pub realtime: bool,
 }
 
