@@ -22,6 +22,11 @@ pub mod ring;
 pub mod tick;
 #[cfg(target_os = "none")]
 pub mod watchdog;
+// The Nucleo time driver's arithmetic, tested on the host (on the board it is
+// `board::nucleo_time`).
+#[cfg(test)]
+#[path = "board/nucleo_time.rs"]
+mod nucleo_time;
 
 #[cfg(all(target_os = "none", feature = "board-nucleo", feature = "board-qemu"))]
 compile_error!("enable exactly one of the features `board-nucleo` and `board-qemu`");

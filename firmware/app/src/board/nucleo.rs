@@ -1,5 +1,5 @@
-//! Nucleo-F446RE board layer (STM32F446RE, Cortex-M4F): embassy-stm32 with its TIM2
-//! time driver, USART2 (PA2 TX / PA3 RX) with DMA, defmt over RTT, the DWT cycle counter
+//! Nucleo-F446RE board layer (STM32F446RE, Cortex-M4F): embassy-stm32, the board's own
+//! TIM2 time driver (`board::nucleo_tim2`), USART2 (PA2 TX / PA3 RX) with DMA, defmt over RTT, the DWT cycle counter
 //! as stopwatch.
 //!
 //! Two builds: the default one free-running on the ticker at the 5 kHz base rate with
@@ -14,7 +14,7 @@
 //!
 //! | context | priority | job |
 //! |---|---|---|
-//! | TIM2 (time driver) | embassy default P0-P15 set by the HAL | wakes the ticker |
+//! | TIM2 (time driver, `board::nucleo_tim2`) | P4 | wakes the ticker |
 //! | UART4 (unused peripheral, software-pended) | P6 | control executor: the control task |
 //! | USART2, DMA1 stream 5/6 | HAL default | UART driver |
 //! | UART5 (unused peripheral, software-pended) | P10 | communication executor: RX task, TX task |
@@ -235,6 +235,8 @@ pub fn run() -> ! {
         config.rcc.apb2_pre = APBPrescaler::DIV2;
     }
     let p = embassy_stm32::init(config);
+    // The time driver's TIM2, on the clocks just set (84 MHz timer clock).
+    super::nucleo_tim2::start();
 
     // The cycle counter: enable tracing, then the counter.
     if let Some(mut core) = cortex_m::Peripherals::take() {
@@ -351,6 +353,12 @@ mod iwdg {
     pub fn feed() {
         write(KR, 0xAAAA);
     }
+}
+
+#[allow(non_snake_case)]
+#[interrupt]
+unsafe fn TIM2() {
+    super::nucleo_tim2::on_interrupt()
 }
 
 #[allow(non_snake_case)]
