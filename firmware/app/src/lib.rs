@@ -27,6 +27,10 @@ pub mod watchdog;
 #[cfg(test)]
 #[path = "board/nucleo_time.rs"]
 mod nucleo_time;
+// The Nucleo USART2 + DMA driver's arithmetic, likewise (`board::nucleo_link`).
+#[cfg(test)]
+#[path = "board/nucleo_link.rs"]
+mod nucleo_link;
 
 #[cfg(all(target_os = "none", feature = "board-nucleo", feature = "board-qemu"))]
 compile_error!("enable exactly one of the features `board-nucleo` and `board-qemu`");

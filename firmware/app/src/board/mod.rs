@@ -3,9 +3,13 @@
 #[cfg(feature = "board-nucleo")]
 pub mod nucleo;
 #[cfg(feature = "board-nucleo")]
+pub mod nucleo_link;
+#[cfg(feature = "board-nucleo")]
 pub mod nucleo_tim2;
 #[cfg(feature = "board-nucleo")]
 pub mod nucleo_time;
+#[cfg(feature = "board-nucleo")]
+pub mod nucleo_usart;
 #[cfg(feature = "board-nucleo")]
 pub use nucleo::{panic_halt, run, send_safe_frame, set_period, LINK_MAX_RATE_HZ};
 

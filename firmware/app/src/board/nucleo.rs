@@ -1,5 +1,6 @@
-//! Nucleo-F446RE board layer (STM32F446RE, Cortex-M4F): embassy-stm32, the board's own
-//! TIM2 time driver (`board::nucleo_tim2`), USART2 (PA2 TX / PA3 RX) with DMA, defmt over RTT, the DWT cycle counter
+//! Nucleo-F446RE board layer (STM32F446RE, Cortex-M4F): embassy-stm32 for the clock
+//! tree and the interrupt table, the board's own TIM2 time driver
+//! (`board::nucleo_tim2`) and USART2 (PA2 TX / PA3 RX) with DMA (`board::nucleo_usart`), defmt over RTT, the DWT cycle counter
 //! as stopwatch.
 //!
 //! Two builds: the default one free-running on the ticker at the 5 kHz base rate with
@@ -16,7 +17,7 @@
 //! |---|---|---|
 //! | TIM2 (time driver, `board::nucleo_tim2`) | P4 | wakes the ticker |
 //! | UART4 (unused peripheral, software-pended) | P6 | control executor: the control task |
-//! | USART2, DMA1 stream 5/6 | HAL default | UART driver |
+//! | USART2, DMA1 stream 5/6 (`board::nucleo_usart`) | P8 | UART driver |
 //! | UART5 (unused peripheral, software-pended) | P10 | communication executor: RX task, TX task |
 //! | thread mode | lowest | WFI only |
 //!
@@ -24,24 +25,18 @@
 //! executor preempts: it cannot delay a tick. (Both executors run in interrupt mode, so
 //! the thread executor is not linked: 0.4 KiB less flash.)
 
-use core::ptr::addr_of_mut;
 use core::sync::atomic::Ordering;
 
 use cortex_m::peripheral::DWT;
 use defmt_rtt as _;
 use embassy_executor::InterruptExecutor;
 use embassy_stm32::interrupt::{InterruptExt, Priority};
-use embassy_stm32::usart::{self, RingBufferedUartRx, Uart, UartTx};
-use embassy_stm32::{bind_interrupts, dma, interrupt, pac, peripherals, Config};
+use embassy_stm32::{interrupt, pac, Config};
 
 use crate::app::{self, Stopwatch};
 use crate::exec::cyccnt_elapsed;
 
-bind_interrupts!(struct Irqs {
-    USART2 => usart::InterruptHandler<peripherals::USART2>;
-    DMA1_STREAM5 => dma::InterruptHandler<peripherals::DMA1_CH5>;
-    DMA1_STREAM6 => dma::InterruptHandler<peripherals::DMA1_CH6>;
-});
+use super::nucleo_usart::{self as usart, RxLost};
 
 /// Link baud rate of the free-running build: 5.25 Mbaud, USART2's highest (APB1 42 MHz,
 /// oversampling by 8, USARTDIV 1: exact). The 5 kHz base rate needs 4.69 Mbaud
@@ -117,7 +112,7 @@ async fn control_task() {
 }
 
 #[embassy_executor::task]
-async fn rx_task(mut rx: RingBufferedUartRx<'static>) {
+async fn rx_task(mut rx: usart::Rx) {
     let mut buf = [0u8; 32];
     loop {
         match rx.read(&mut buf).await {
@@ -139,23 +134,27 @@ async fn rx_task(mut rx: RingBufferedUartRx<'static>) {
                 }
             }
             // Overrun, framing or noise error: the bytes in flight are lost (counted as
-            // one in `rx_overrun`: the DMA ring does not say how many); the frame
-            // decoder resynchronises on the next delimiter. Reception restarts.
-            Err(_) => {
-                app::RX_OVERRUN.fetch_add(1, Ordering::Relaxed);
+            // one per error in `rx_overrun`: the USART does not say how many); the frame
+            // decoder resynchronises on the next delimiter. Reception goes on.
+            Err(RxLost::Errors(n)) => {
+                app::RX_OVERRUN.fetch_add(n, Ordering::Relaxed);
                 defmt::warn!("USART2 RX error")
+            }
+            // The DMA lapped the ring: every byte not read is lost, counted.
+            Err(RxLost::Lapped(n)) => {
+                app::RX_OVERRUN.fetch_add(n, Ordering::Relaxed);
+                defmt::warn!("RX ring lapped: {=u32} bytes dropped", n)
             }
         }
     }
 }
 
 #[embassy_executor::task]
-async fn tx_task(mut tx: UartTx<'static, embassy_stm32::mode::Async>) {
-    let mut buf = [0u8; 64];
+async fn tx_task(mut tx: usart::Tx) {
     loop {
-        let n = app::TX.read(&mut buf).await;
-        if let Err(e) = tx.write(buf.get(..n).unwrap_or(&[])).await {
-            defmt::warn!("USART2 TX error: {}", e);
+        let n = app::TX.read(tx.buf()).await;
+        if tx.send(n).await.is_err() {
+            defmt::warn!("USART2 TX error");
         }
     }
 }
@@ -163,10 +162,10 @@ async fn tx_task(mut tx: UartTx<'static, embassy_stm32::mode::Async>) {
 /// The hardware timer needs no period: the ticker schedules its own alarms.
 pub fn set_period(_ticks: u64) {}
 
-/// Sends the safe frame by polling USART2 (DMA off).
+/// Sends the safe frame by polling USART2 (the transmit DMA stopped).
 pub fn send_safe_frame() {
+    usart::stop_tx_dma();
     let usart = pac::USART2;
-    usart.cr3().modify(|w| w.set_dmat(false));
     let mut buf = [0u8; wheelset_proto::MAX_FRAME];
     // A lone delimiter first: the handler may have cut a frame half sent (the DMA
     // stopped above); it ends that one, so that the safe frame arrives whole.
@@ -234,7 +233,7 @@ pub fn run() -> ! {
         config.rcc.apb1_pre = APBPrescaler::DIV4;
         config.rcc.apb2_pre = APBPrescaler::DIV2;
     }
-    let p = embassy_stm32::init(config);
+    let _ = embassy_stm32::init(config);
     // The time driver's TIM2, on the clocks just set (84 MHz timer clock).
     super::nucleo_tim2::start();
 
@@ -244,28 +243,10 @@ pub fn run() -> ! {
         core.DWT.enable_cycle_counter();
     }
 
-    let mut uart_config = usart::Config::default();
-    uart_config.baudrate = BAUD;
-    let uart = match Uart::new(
-        p.USART2,
-        p.PA3,
-        p.PA2,
-        p.DMA1_CH6,
-        p.DMA1_CH5,
-        Irqs,
-        uart_config,
-    ) {
-        Ok(u) => u,
-        Err(_) => {
-            defmt::error!("USART2 configuration refused");
-            panic_halt()
-        }
+    let Some((tx, rx)) = usart::start() else {
+        defmt::error!("USART2 configuration refused");
+        panic_halt()
     };
-    let (tx, rx) = uart.split();
-    static mut RX_DMA: [u8; 256] = [0; 256];
-    // SAFETY: `run` executes once (it never returns), so this is the only reference to
-    // RX_DMA ever created; the DMA owns it from here on.
-    let rx = rx.into_ring_buffered(unsafe { &mut *addr_of_mut!(RX_DMA) });
 
     defmt::info!(
         "wheelset-nucleo: {} Hz base rate, {} build, USART2 at {} baud, {}",
@@ -353,6 +334,24 @@ mod iwdg {
     pub fn feed() {
         write(KR, 0xAAAA);
     }
+}
+
+#[allow(non_snake_case)]
+#[interrupt]
+unsafe fn USART2() {
+    usart::on_usart2()
+}
+
+#[allow(non_snake_case)]
+#[interrupt]
+unsafe fn DMA1_STREAM5() {
+    usart::on_rx_dma()
+}
+
+#[allow(non_snake_case)]
+#[interrupt]
+unsafe fn DMA1_STREAM6() {
+    usart::on_tx_dma()
 }
 
 #[allow(non_snake_case)]
