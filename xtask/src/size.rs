@@ -16,9 +16,10 @@ use crate::elf;
 /// target again. What is left of the Nucleo's flash is in the README, "Where the Nucleo's
 /// flash goes".
 pub const FLASH_BUDGET: u64 = 24 * 1024;
-/// Issue 13's flash target, bytes: printed (an overrun stated); [`FLASH_BUDGET`] enforces
-/// the same figure.
+/// Issue 13's flash target, bytes. [`FLASH_BUDGET`] enforces it (a budget above it would
+/// need the "above the target, within the budget" line back in [`check_sizes`]).
 pub const FLASH_TARGET: u64 = 24 * 1024;
+const _: () = assert!(FLASH_BUDGET <= FLASH_TARGET);
 /// Static RAM budget of each firmware binary (.data + .bss + .uninit; the stack is not a
 /// section: cortex-m-rt puts it at the top of RAM), bytes.
 /// Enforced.
@@ -47,12 +48,6 @@ pub fn check_sizes(elfs: &[PathBuf]) -> Result<Vec<(String, elf::Sizes)>, String
             size.ram as f64 / 1024.0
         );
         let enforced = !name.contains("-f32");
-        if size.flash > FLASH_TARGET && size.flash <= FLASH_BUDGET {
-            outln!(
-                "  {name:<26} above the {FLASH_TARGET} B target by {} B (within the enforced budget)",
-                size.flash - FLASH_TARGET
-            );
-        }
         if size.flash > FLASH_BUDGET {
             outln!(
                 "  {name:<26} OVER the flash budget by {} B{}",
