@@ -73,9 +73,10 @@ impl Tim2Driver {
             self.alarm.borrow(cs).set(u64::MAX);
             return false;
         }
-        // The compare value first (RM0390 18.4.15 TIMx_CCR1: CC1IF is set when the
-        // counter equals it), so that the compare, when enabled here or at a later
-        // period start, is already the right one.
+        // The compare value first (RM0390 18.4.13 TIMx_CCR1: CC1IF is set when the
+        // counter equals it; CCMR1 OC1PE is clear at reset, so the value takes effect at
+        // once), so that the compare, when enabled here or at a later period start, is
+        // already the right one.
         tim.ccr(CC_ALARM).write_value(at as u32);
         // CC1IE (RM0390 18.4.4 TIMx_DIER) only if the alarm is within the window in
         // which the compare's next match is the alarm itself.
@@ -160,7 +161,7 @@ embassy_time_driver::time_driver_impl!(static DRIVER: Tim2Driver = Tim2Driver {
 pub fn start() {
     let rcc = pac::RCC;
     // Clock TIM2 and reset it to its reset values (RM0390 6.3.13 RCC_APB1ENR TIM2EN,
-    // 6.3.7 RCC_APB1RSTR TIM2RST); the read back makes the enable take effect before
+    // 6.3.8 RCC_APB1RSTR TIM2RST); the read back makes the enable take effect before
     // the timer's registers are written (RM0390 6.3.13: two APB cycles).
     rcc.apb1enr().modify(|w| w.set_tim2en(true));
     let _ = rcc.apb1enr().read();

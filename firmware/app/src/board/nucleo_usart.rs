@@ -238,10 +238,10 @@ impl Tx {
         write(sxndtr(TX_STREAM), n as u32);
         // The buffer's writes before the DMA may read it.
         compiler_fence(Ordering::SeqCst);
-        write(
-            sxcr(TX_STREAM),
-            CR_CHSEL_4 | CR_PL_HIGH | CR_MINC | CR_DIR_M2P | CR_TCIE | CR_TEIE | CR_EN,
-        );
+        // The configuration with EN clear, then EN (9.3.17: enabling is the last step).
+        let cr = CR_CHSEL_4 | CR_PL_HIGH | CR_MINC | CR_DIR_M2P | CR_TCIE | CR_TEIE;
+        write(sxcr(TX_STREAM), cr);
+        write(sxcr(TX_STREAM), cr | CR_EN);
         poll_fn(|cx| {
             TX_WAKER.register(cx.waker());
             // EN is cleared by the hardware at the transfer's end or on its error.
@@ -292,17 +292,18 @@ pub fn start() -> Option<(Tx, Rx)> {
     write(USART_CR1, 0);
     write(USART_BRR, u32::from(BRR.0));
 
-    // Receive DMA first (RM0390 25.3.13, "Reception using DMA"): from DR to the ring,
+    // Receive DMA first (RM0390 25.4, "Continuous communication using DMA", reception;
+    // the stream per 9.3.17, "Stream configuration procedure"): from DR to the ring,
     // circular, byte transfers (PSIZE/MSIZE 0), memory increment, interrupts at half
     // and end of the ring and on a transfer error, channel 4, very high priority.
     write(DMA_HIFCR, RX_FLAGS);
     write(sxpar(RX_STREAM), USART_DR as u32);
     write(sxm0ar(RX_STREAM), addr_of!(RX_RING) as u32);
     write(sxndtr(RX_STREAM), RING as u32);
-    write(
-        sxcr(RX_STREAM),
-        CR_CHSEL_4 | CR_PL_VERY_HIGH | CR_MINC | CR_CIRC | CR_HTIE | CR_TCIE | CR_TEIE | CR_EN,
-    );
+    let rx_cr = CR_CHSEL_4 | CR_PL_VERY_HIGH | CR_MINC | CR_CIRC | CR_HTIE | CR_TCIE | CR_TEIE;
+    // The configuration with EN clear, then EN (9.3.17: enabling is the last step).
+    write(sxcr(RX_STREAM), rx_cr);
+    write(sxcr(RX_STREAM), rx_cr | CR_EN);
     // The transmit stream's fixed part: to DR (each transfer sets address and count).
     write(sxpar(TX_STREAM), USART_DR as u32);
 
