@@ -1,7 +1,7 @@
 //! Nucleo-F446RE board layer (STM32F446RE, Cortex-M4F): embassy-stm32 for the clock
-//! tree and the interrupt table, the board's own TIM2 time driver
-//! (`board::nucleo_tim2`) and USART2 (PA2 TX / PA3 RX) with DMA (`board::nucleo_usart`), defmt over RTT, the DWT cycle counter
-//! as stopwatch.
+//! tree and the interrupt table, the board's own TIM2 time driver (`board::nucleo_tim2`)
+//! and USART2 (PA2 TX / PA3 RX) with DMA (`board::nucleo_usart`), defmt over RTT, the
+//! DWT cycle counter as stopwatch.
 //!
 //! Two builds: the default one free-running on the ticker at the 5 kHz base rate with
 //! USART2 at 5.25 Mbaud on a direct link ([`BAUD`]; checked against the rate at compile

@@ -187,9 +187,10 @@ impl Rx {
                 *o = unsafe { read_volatile(ring.add(at)) };
             }
             // The DMA may have lapped the reader during the copy: those bytes are lost.
-            let (_, lost) = link::rx_take(self.read, rx_written());
+            let now = rx_written();
+            let (_, lost) = link::rx_take(self.read, now);
             if lost > 0 {
-                self.read = rx_written();
+                self.read = now;
                 return Poll::Ready(Err(RxLost::Lapped(lost)));
             }
             self.read = self.read.wrapping_add(n as u32);
