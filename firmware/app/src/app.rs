@@ -86,7 +86,8 @@ impl<const N: usize> Pipe<N> {
 }
 
 /// Bytes the board's receive path lost since the control task last looked (the RX pipe
-/// was full, or the UART reported an overrun: one per error event on the Nucleo), for
+/// was full; on the Nucleo, one per USART error event (overrun, framing, noise) plus
+/// every byte the receive DMA overwrote before it was read, `board::nucleo_usart`), for
 /// the Status `rx_overrun`.
 pub static RX_OVERRUN: AtomicU32 = AtomicU32::new(0);
 
