@@ -352,6 +352,14 @@ impl<T: Sample> Controller<T> {
         let raw = match self.mode {
             YawMode::Passive => T::ZERO,
             YawMode::Gain => x.mul_c(law.gain),
+            // While the protection holds the wheel at the limit, the scheduled lead
+            // (crate::wsp; the fast path does not run with the protection on).
+            YawMode::Lead if self.wsp.sched => law.lead.process_scheduled(
+                &mut self.lead_state,
+                x,
+                law.wsp.lead_k_hf,
+                law.wsp.lead_rho,
+            ),
             YawMode::Lead => law.lead.process(&mut self.lead_state, x),
         };
         // Bumpless law change: from the old output towards the new law's, at most
@@ -431,6 +439,7 @@ impl<T: Sample> Controller<T> {
             self.counters.wsp_events = self.counters.wsp_events.wrapping_add(new as u32);
         } else {
             self.wsp.active = false;
+            self.wsp.sched = false;
         }
         let (u, f) = law.pi.process_flags(&mut self.pi_state, iref.sat_sub(i));
         *ev |= ((f.integ as u32) << event::INTEGRATOR) | ((f.output as u32) << event::VOLTAGE);

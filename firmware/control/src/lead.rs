@@ -258,6 +258,18 @@ impl<T: Sample> Lead<T> {
         x.sat_sub(s.z).mul_c(self.k_hf)
     }
 
+    /// One step of the scheduled lead `K_hf' (x - z - rho z)` on the same state
+    /// (`crate::wsp`, "The scheduled lead"): the low-pass of `g' x = g (1 + rho) x` is
+    /// `(1 + rho) z`, so the state update is [`Self::process`]'s, only the output differs.
+    #[inline(always)]
+    pub fn process_scheduled(&self, s: &mut LeadState<T>, x: T, k_hf: T::Coeff, rho: T::Coeff) -> T {
+        let m = x.sat_add(s.x1);
+        let e = m.mul_c(self.g_half).sat_sub(s.z);
+        s.z = s.z.sat_add(e.mul_c(self.kappa));
+        s.x1 = x;
+        x.sat_sub(s.z).sat_sub(s.z.mul_c(rho)).mul_c(k_hf)
+    }
+
     /// The steady state for a constant input `x`: `x1 = x`, `z = (g/2)(2x)`; switching
     /// to the lead from this state is bumpless (output `K_hf (1 - g) x` at once).
     pub fn steady_state(&self, x: T) -> LeadState<T> {

@@ -61,6 +61,9 @@ pub trait Sample: Copy + Default + PartialEq + PartialOrd + core::fmt::Debug {
     fn sat_sub(self, rhs: Self) -> Self;
     /// `self * c`, rounded to nearest and saturating.
     fn mul_c(self, c: Self::Coeff) -> Self;
+    /// `self * rhs` (a product of two signals, pu^2), rounded to nearest and saturating:
+    /// the slip regulator's integral step ([`crate::wsp`]).
+    fn mul_s(self, rhs: Self) -> Self;
     /// `self^2` (a signal squared, pu^2), rounded to nearest and saturating: the
     /// stability monitor's mean square ([`crate::monitor`]). The default goes through
     /// `f64`; `f32`, `f64` and [`Fx`] (the exact 64-bit product) override it.
@@ -244,6 +247,10 @@ macro_rules! float_sample {
             #[inline(always)]
             fn mul_c(self, c: $t) -> Self {
                 self * c
+            }
+            #[inline(always)]
+            fn mul_s(self, rhs: Self) -> Self {
+                self * rhs
             }
             #[inline(always)]
             fn square(self) -> Self {

@@ -161,6 +161,7 @@
 
 use crate::compiled::ScaleBits;
 use crate::config::{ConfigError, FullScales, Limits, Motor};
+use crate::lead::LeadParams;
 use crate::sample::{Sample, SampleBits};
 
 /// Wheel-slip protection parameters (SI). Validated by [`Wsp::try_new`].
@@ -172,23 +173,29 @@ pub struct WspParams {
     pub enabled: bool,
     /// Slip velocity that detects a slip and starts the protection, m/s (0.25).
     pub slip_on_mps: f64,
-    /// While acting: slip velocity above which the cap is cut, m/s (0.06;
-    /// `slip_target < slip_hold < slip_on`).
-    pub slip_hold_mps: f64,
-    /// While acting: slip velocity below which the cap is re-applied, m/s (0.03).
-    pub slip_target_mps: f64,
+    /// Slip velocity above which the acceleration test detects, m/s (0.06;
+    /// `slip_accel < slip_on`).
+    pub slip_accel_mps: f64,
     /// Wheel acceleration (at the rim) that detects a slip once the slip is above
-    /// `slip_hold`, m/s^2 (3.0).
+    /// `slip_accel`, m/s^2 (3.0).
     pub accel_on_mps2: f64,
-    /// Fraction of the reference kept at the moment a slip is detected (0.5): the
-    /// first, instantaneous cut.
+    /// Fraction of the reference kept at the moment a slip is detected (0.3): the
+    /// first, instantaneous cut, where the slip regulator starts.
     pub cut_fraction: f64,
-    /// Re-apply rate of the current cap, A/s (1500; below `limits.current_ref_rate`).
-    pub reapply_a_per_s: f64,
-    /// While acting: time without the slip crossing `slip_hold` after which the
-    /// protection probes for the rail's recovery, s (0.8; `reapply * probe_after` must
-    /// be at most 2 pu of current, 2000 A s at the default scales).
-    pub probe_after_s: f64,
+    /// Slip set point at zero cap, m/s (0.1): `s_sp = slip_sp + slip_sp_per_a cap`
+    /// (`slip_sp < slip_on`).
+    pub slip_sp_mps: f64,
+    /// Slip set point per ampere of cap, m/s per A (8e-4: 0.56 m/s at 580 A).
+    pub slip_sp_per_a: f64,
+    /// Slip regulator's proportional gain, A per m/s (300).
+    pub kp_a_per_mps: f64,
+    /// Slip regulator's integral gain, A/s per m/s (3000).
+    pub ki_a_per_s_per_mps: f64,
+    /// Zero of the scheduled yaw lead, rad/s (15; below the lead's `w1`, the pole
+    /// kept): the lead while the wheel works at the limit (module docs).
+    pub lead_w1_rad_s: f64,
+    /// Gain of the scheduled yaw lead as a fraction of the lead's (0.3).
+    pub lead_gain: f64,
     /// Wheel radius `r0`, m (0.45): `w_ref = n v_ref / r0`.
     pub r0_m: f64,
     /// LSB of the reference speed code, m/s (1e-3, `wheelset_proto::units`).
@@ -200,12 +207,15 @@ impl Default for WspParams {
         Self {
             enabled: false,
             slip_on_mps: 0.25,
-            slip_hold_mps: 0.06,
-            slip_target_mps: 0.03,
+            slip_accel_mps: 0.06,
             accel_on_mps2: 3.0,
-            cut_fraction: 0.5,
-            reapply_a_per_s: 1500.0,
-            probe_after_s: 0.8,
+            cut_fraction: 0.3,
+            slip_sp_mps: 0.1,
+            slip_sp_per_a: 8e-4,
+            kp_a_per_mps: 300.0,
+            ki_a_per_s_per_mps: 3000.0,
+            lead_w1_rad_s: 15.0,
+            lead_gain: 0.3,
             r0_m: 0.45,
             v_ref_lsb_m_per_s: 1e-3,
         }
@@ -218,19 +228,26 @@ pub struct Wsp<T: Sample> {
     pub(crate) enabled: bool,
     /// `slip_on`, motor-speed pu.
     pub(crate) slip_on: T,
-    /// `slip_hold`, motor-speed pu.
-    pub(crate) slip_hold: T,
-    /// `slip_target`, motor-speed pu.
-    pub(crate) slip_target: T,
+    /// `slip_accel`, motor-speed pu.
+    pub(crate) slip_accel: T,
     /// Acceleration threshold per traction step over `iref_step`.
     pub(crate) accel_ratio: T::Coeff,
-    /// Re-apply step over `iref_step`.
-    pub(crate) reapply_ratio: T::Coeff,
     /// Fraction kept at detection.
     pub(crate) cut: T::Coeff,
-    /// Probe timer level: `reapply probe_after / scales.current`, pu (the timer sums the
-    /// re-apply steps, so it follows a new schedule).
-    pub(crate) probe_level: T,
+    /// Half the set point at zero cap, motor-speed pu.
+    pub(crate) sp_half: T,
+    /// Half the set point's slope, speed pu per current pu.
+    pub(crate) sp_half_slope: T::Coeff,
+    /// `kp' / 2^kp_shift`, current pu per speed pu.
+    pub(crate) kp: T::Coeff,
+    pub(crate) kp_shift: u8,
+    /// `ki' / 2^ki_shift`, current pu per speed pu and per unit of `iref_step`.
+    pub(crate) ki: T::Coeff,
+    pub(crate) ki_shift: u8,
+    /// The scheduled lead's `K_hf'` (pu).
+    pub(crate) lead_k_hf: T::Coeff,
+    /// The scheduled lead's `rho`.
+    pub(crate) lead_rho: T::Coeff,
     /// Reference-speed code -> motor-speed pu: `lsb n / (r0 scales.speed)`.
     pub(crate) v_ref: T::Scale,
 }
@@ -242,18 +259,28 @@ pub struct WspBits {
     pub enabled: bool,
     /// `slip_on`, pu signal in `(0, 2]`.
     pub slip_on: u64,
-    /// `slip_hold`, pu signal in `(slip_target, slip_on)`.
-    pub slip_hold: u64,
-    /// `slip_target`, pu signal in `(0, slip_on)`.
-    pub slip_target: u64,
+    /// `slip_accel`, pu signal in `(0, slip_on)`.
+    pub slip_accel: u64,
     /// Acceleration ratio, coefficient in `(0, 1)`.
     pub accel_ratio: u64,
-    /// Re-apply ratio, coefficient in `(0, 1)`.
-    pub reapply_ratio: u64,
     /// Fraction kept at detection, coefficient in `(0, 1)`.
     pub cut: u64,
-    /// Probe timer level, pu signal in `(0, 2]`.
-    pub probe_level: u64,
+    /// Half the set point at zero cap, pu signal in `(0, slip_on)`.
+    pub sp_half: u64,
+    /// Half the set point's slope, coefficient in `[0, 1)`.
+    pub sp_half_slope: u64,
+    /// Regulator's proportional coefficient, in `(0, 1)`.
+    pub kp: u64,
+    /// `kp`'s shift (`<= 16`).
+    pub kp_shift: u8,
+    /// Regulator's integral coefficient, in `(0, 1)`.
+    pub ki: u64,
+    /// `ki`'s shift (`<= 16`).
+    pub ki_shift: u8,
+    /// Scheduled lead `K_hf'`, coefficient in `(0, 1)`.
+    pub lead_k_hf: u64,
+    /// Scheduled lead `rho`, coefficient in `(0, 1)`.
+    pub lead_rho: u64,
     /// The reference-speed scale.
     pub v_ref: ScaleBits,
 }
@@ -269,10 +296,10 @@ pub struct WspState<T> {
     pub w_prev: T,
     /// Reference speed as motor speed, pu.
     pub w_ref: T,
-    /// Probe timer (sum of re-apply steps while calm in the band), pu.
-    pub timer: T,
-    /// Probing for the rail's recovery.
-    pub probing: bool,
+    /// Slip at the previous traction step, pu (the regulator's proportional term).
+    pub slip_prev: T,
+    /// The scheduled yaw lead runs: acting, and the slip above half its set point.
+    pub sched: bool,
 }
 
 fn check(
@@ -295,8 +322,23 @@ fn check(
     }
 }
 
+/// The largest shift of the regulator's gains (`2^16`).
+const MAX_SHIFT: u8 = 16;
+
+/// `x 2^s` by exact doublings, saturating.
+#[inline(always)]
+fn shl<T: Sample>(mut x: T, s: u8) -> T {
+    let mut i = 0;
+    while i < s {
+        x = x.sat_add(x);
+        i += 1;
+    }
+    x
+}
+
 impl<T: Sample> Wsp<T> {
-    /// Validate `p` against the motor, scales and limits, and quantise; `speed_lsb` is the
+    /// Validate `p` against the motor, scales, limits and the yaw lead `lead` (the
+    /// scheduled lead shares its pole and state), and quantise; `speed_lsb` is the
     /// wire's motor-speed LSB, rad/s (`Config.wire.speed`): the slip thresholds sit half
     /// of it above their values (module docs, "Exact decisions").
     pub fn try_new(
@@ -305,6 +347,7 @@ impl<T: Sample> Wsp<T> {
         s: &FullScales,
         l: &Limits,
         speed_lsb: f64,
+        lead: &LeadParams,
     ) -> Result<Self, ConfigError> {
         check(
             "wsp.r0_m",
@@ -319,16 +362,10 @@ impl<T: Sample> Wsp<T> {
             "must be in (0, 10] m/s",
         )?;
         check(
-            "wsp.slip_hold_mps",
-            p.slip_hold_mps,
-            p.slip_hold_mps > 0.0 && p.slip_hold_mps < p.slip_on_mps,
+            "wsp.slip_accel_mps",
+            p.slip_accel_mps,
+            p.slip_accel_mps > 0.0 && p.slip_accel_mps < p.slip_on_mps,
             "must be in (0, slip_on_mps)",
-        )?;
-        check(
-            "wsp.slip_target_mps",
-            p.slip_target_mps,
-            p.slip_target_mps > 0.0 && p.slip_target_mps < p.slip_hold_mps,
-            "must be in (0, slip_hold_mps)",
         )?;
         check(
             "wsp.accel_on_mps2",
@@ -337,10 +374,46 @@ impl<T: Sample> Wsp<T> {
             "must be in (0, 100] m/s^2",
         )?;
         check(
-            "wsp.reapply_a_per_s",
-            p.reapply_a_per_s,
-            p.reapply_a_per_s > 0.0 && p.reapply_a_per_s < l.current_ref_rate,
-            "must be in (0, limits.current_ref_rate)",
+            "wsp.cut_fraction",
+            p.cut_fraction,
+            p.cut_fraction > 0.0 && p.cut_fraction < 1.0,
+            "must be in (0, 1)",
+        )?;
+        check(
+            "wsp.slip_sp_mps",
+            p.slip_sp_mps,
+            p.slip_sp_mps > 0.0 && p.slip_sp_mps < p.slip_on_mps,
+            "must be in (0, slip_on_mps)",
+        )?;
+        check(
+            "wsp.slip_sp_per_a",
+            p.slip_sp_per_a,
+            p.slip_sp_per_a >= 0.0 && p.slip_sp_per_a * s.current <= 1.0,
+            "must be in [0, 1 m/s per scales.current]",
+        )?;
+        check(
+            "wsp.kp_a_per_mps",
+            p.kp_a_per_mps,
+            p.kp_a_per_mps > 0.0 && p.kp_a_per_mps <= 1e4,
+            "must be in (0, 1e4] A per m/s",
+        )?;
+        check(
+            "wsp.ki_a_per_s_per_mps",
+            p.ki_a_per_s_per_mps,
+            p.ki_a_per_s_per_mps > 0.0 && p.ki_a_per_s_per_mps <= 1e5,
+            "must be in (0, 1e5] A/s per m/s",
+        )?;
+        check(
+            "wsp.lead_w1_rad_s",
+            p.lead_w1_rad_s,
+            p.lead_w1_rad_s > 0.0 && p.lead_w1_rad_s < lead.w1 && lead.w1 < lead.w2,
+            "must be in (0, lead.w1): the scheduled lead moves the zero down",
+        )?;
+        check(
+            "wsp.lead_gain",
+            p.lead_gain,
+            p.lead_gain > 0.0 && p.lead_gain <= 1.0,
+            "must be in (0, 1]",
         )?;
         check(
             "wsp.v_ref_lsb_m_per_s",
@@ -362,37 +435,66 @@ impl<T: Sample> Wsp<T> {
                 .filter(|_| v > 0.0 && v < 1.0)
                 .ok_or(ConfigError::Coefficient { name, value: v })
         };
+        // A gain `g > 0` as `c 2^s`, `c` in [1/2, 1) (or `s = 0` and `c = g < 1`).
+        let split = |name: &'static str, g: f64| {
+            let mut sh = 0u8;
+            let mut c = g;
+            while c >= 1.0 && sh < MAX_SHIFT {
+                c *= 0.5;
+                sh += 1;
+            }
+            q(name, c).map(|c| (c, sh))
+        };
         let slew = l.current_ref_rate / s.current; // pu/s
-        let probe = p.reapply_a_per_s * p.probe_after_s / s.current;
-        check(
-            "wsp.probe_after_s",
-            p.probe_after_s,
-            p.probe_after_s > 0.0 && probe <= 2.0,
-            "must be positive with reapply_a_per_s * probe_after_s <= 2 scales.current",
-        )?;
         // Half a motor-speed code above each threshold (module docs, "Exact decisions").
         let half = 0.5 * speed_lsb / s.speed;
         check(
             "wire.speed",
             speed_lsb,
-            speed_lsb > 0.0 && 2.0 * half <= p.slip_target_mps * pu,
-            "must be positive and at most wsp.slip_target_mps at the motor",
+            speed_lsb > 0.0 && 2.0 * half <= p.slip_accel_mps * pu,
+            "must be positive and at most wsp.slip_accel_mps at the motor",
         )?;
+        // The regulator in pu (module docs, "Law"): kp' = kp / (pu scales.current),
+        // ki' = ki / (pu current_ref_rate), the integral per step `ki' iref_step e`.
+        let (kp, kp_shift) = split(
+            "wsp kp / (n/r0 scales.current)",
+            p.kp_a_per_mps / (pu * s.current),
+        )?;
+        let (ki, ki_shift) = split(
+            "wsp ki / (n/r0 current_ref_rate)",
+            p.ki_a_per_s_per_mps / (pu * l.current_ref_rate),
+        )?;
+        let slope = 0.5 * p.slip_sp_per_a * s.current * pu;
+        let sp_half_slope = if slope == 0.0 {
+            T::quantise(0.0)
+        } else {
+            T::quantise(slope).filter(|_| slope < 1.0)
+        }
+        .ok_or(ConfigError::Coefficient {
+            name: "wsp slip_sp_per_a scales.current n/r0 / 2",
+            value: slope,
+        })?;
+        // The scheduled lead `lead_gain K a (s + w1')/(s + w2)` on the lead's state: its
+        // low-pass gain `g' = (w2 - w1')/w2 = g (1 + rho)`, `rho = (w1 - w1')/(w2 - w1)`.
+        let k_hf = lead.k * lead.a * s.y_dot / s.torque;
+        let rho = (lead.w1 - p.lead_w1_rad_s) / (lead.w2 - lead.w1);
         Ok(Self {
             enabled: p.enabled,
             slip_on: T::from_f64(slip_on + half),
-            slip_hold: T::from_f64(p.slip_hold_mps * pu + half),
-            slip_target: T::from_f64(p.slip_target_mps * pu + half),
+            slip_accel: T::from_f64(p.slip_accel_mps * pu + half),
             accel_ratio: q(
                 "wsp accel_on n/r0 / current_ref_rate",
                 p.accel_on_mps2 * pu / slew,
             )?,
-            reapply_ratio: q(
-                "wsp reapply / current_ref_rate",
-                p.reapply_a_per_s / l.current_ref_rate,
-            )?,
             cut: q("wsp.cut_fraction", p.cut_fraction)?,
-            probe_level: T::from_f64(probe),
+            sp_half: T::from_f64(0.5 * p.slip_sp_mps * pu),
+            sp_half_slope,
+            kp,
+            kp_shift,
+            ki,
+            ki_shift,
+            lead_k_hf: q("wsp lead_gain lead.k a (pu)", p.lead_gain * k_hf)?,
+            lead_rho: q("wsp lead rho = (w1 - w1')/(w2 - w1)", rho)?,
             v_ref: T::scale_in(p.v_ref_lsb_m_per_s * pu).ok_or(ConfigError::Coefficient {
                 name: "wsp v_ref lsb n/(r0 scales.speed)",
                 value: p.v_ref_lsb_m_per_s * pu,
@@ -400,63 +502,53 @@ impl<T: Sample> Wsp<T> {
         })
     }
 
+    /// Half the slip set point at cap `cap`: `h = (slip_sp + slip_sp_per_a cap)/2`, pu.
+    #[inline(always)]
+    pub fn half_set_point(&self, cap: T) -> T {
+        self.sp_half.sat_add(cap.mul_c(self.sp_half_slope))
+    }
+
     /// One traction step: `w` the clamped motor speed, `iref` the ramped current
     /// reference, `step` the reference slew per step (pu). Returns the reference to use,
-    /// whether the protection acts on this step, and whether it started acting.
+    /// whether the protection acts on this step, and whether it started acting. Sets
+    /// `st.sched` (the scheduled yaw lead) for the next yaw steps.
     #[inline(always)]
     pub fn process(&self, st: &mut WspState<T>, w: T, iref: T, step: T) -> (T, bool, bool) {
         let slip = w.sat_sub(st.w_ref);
         let dw = w.sat_sub(st.w_prev);
         st.w_prev = w;
-        let over = slip > self.slip_hold;
-        let detect = slip > self.slip_on || (over && dw > step.mul_c(self.accel_ratio));
-        let up = step.mul_c(self.reapply_ratio);
-        let mut new = false;
-        if !st.active {
+        let d_slip = slip.sat_sub(st.slip_prev);
+        st.slip_prev = slip;
+        let new = !st.active;
+        if new {
+            let detect = slip > self.slip_on
+                || (slip > self.slip_accel && dw > step.mul_c(self.accel_ratio));
+            st.sched = false;
             if !(detect && iref > T::ZERO) {
                 return (iref, false, false);
             }
+            // Detected: the instantaneous cut, where the regulator starts.
             st.active = true;
-            new = true;
-        }
-        if new || (st.probing && detect) {
-            // Detected (again): the instantaneous cut, then the working band.
-            st.cap = if new { iref } else { st.cap }.mul_c(self.cut);
-            st.probing = false;
-            st.timer = T::ZERO;
-        } else if st.probing {
-            // Probing for the rail's recovery: re-apply whatever the slip (below slip_on).
-            st.cap = st.cap.sat_add(up);
-        } else if over {
-            st.cap = st.cap.sat_sub(step).sat_sub(step).limit(T::ZERO, iref).0;
-            st.timer = T::ZERO;
+            st.cap = iref.mul_c(self.cut);
         } else {
-            if slip < self.slip_target {
-                st.cap = st.cap.sat_add(up);
+            // The slip regulator, velocity form, on the cap:
+            // cap += -kp' (slip - slip_prev) + ki' step (2 h - slip).
+            let h = self.half_set_point(st.cap);
+            let p = shl(d_slip, self.kp_shift).mul_c(self.kp);
+            let e = h.sat_add(h).sat_sub(slip);
+            let i = shl(e, self.ki_shift).mul_s(step).mul_c(self.ki);
+            let raw = st.cap.sat_sub(p).sat_add(i);
+            // Release where the regulator asks for the whole reference (the rail carries
+            // the demand again).
+            if raw >= iref {
+                st.active = false;
+                st.sched = false;
+                return (iref, true, false);
             }
-            // Calm in the band: after `probe_after` start probing. The timer is a count of
-            // re-apply steps, `probe_level / up` of them (an integer with the default
-            // schedules), so the level sits half a step below: `2 timer >= 2 level - up`,
-            // exact doublings, no coefficient. A rounding of the sum smaller than half a
-            // step then cannot move the decision by a tick, and the fixed-point, f32 and
-            // f64 builds start probing on the same tick (at `level` itself they did not:
-            // Q4.28 rounds `up` up and reached it one step before f64 did).
-            st.timer = st.timer.sat_add(up);
-            st.probing = st.timer.sat_add(st.timer)
-                >= self.probe_level.sat_add(self.probe_level).sat_sub(up);
+            st.cap = raw.limit(T::ZERO, iref).0;
         }
-        // Release where the re-apply steps reach the reference, half a step below it:
-        // `2 cap >= 2 iref - up` (exact doublings, as the probe timer). The cap rises only
-        // by whole re-apply steps onto a cut value, and with the default parameters the
-        // reference is a whole number of them (579.6 A = 1 932 x 0.3 A on
-        // `low-adhesion`), so at `cap >= iref` the sum landed on the level and its
-        // rounding decided the tick (on the same inputs Q4.28 released a step after f64).
-        // The output steps to `iref` by at most 1.5 re-apply steps instead of one.
-        if st.cap.sat_add(st.cap) >= iref.sat_add(iref).sat_sub(up) {
-            st.active = false;
-            st.probing = false;
-            return (iref, true, new);
-        }
+        // The scheduled lead while the slip is above half its set point.
+        st.sched = slip > self.half_set_point(st.cap);
         (st.cap, true, new)
     }
 
@@ -474,18 +566,24 @@ impl<T: SampleBits> Wsp<T> {
         WspBits {
             enabled: self.enabled,
             slip_on: self.slip_on.to_bits64(),
-            slip_hold: self.slip_hold.to_bits64(),
-            slip_target: self.slip_target.to_bits64(),
+            slip_accel: self.slip_accel.to_bits64(),
             accel_ratio: T::coeff_to_bits64(self.accel_ratio),
-            reapply_ratio: T::coeff_to_bits64(self.reapply_ratio),
             cut: T::coeff_to_bits64(self.cut),
-            probe_level: self.probe_level.to_bits64(),
+            sp_half: self.sp_half.to_bits64(),
+            sp_half_slope: T::coeff_to_bits64(self.sp_half_slope),
+            kp: T::coeff_to_bits64(self.kp),
+            kp_shift: self.kp_shift,
+            ki: T::coeff_to_bits64(self.ki),
+            ki_shift: self.ki_shift,
+            lead_k_hf: T::coeff_to_bits64(self.lead_k_hf),
+            lead_rho: T::coeff_to_bits64(self.lead_rho),
             v_ref: ScaleBits { mul, shift },
         }
     }
 
-    /// From exact bits, validated: thresholds `0 < slip_target < slip_hold < slip_on <= 2` pu,
-    /// ratios in `(0, 1)`, a valid scale.
+    /// From exact bits, validated: thresholds `0 < slip_accel < slip_on <= 2` pu and
+    /// `0 < sp_half < slip_on`, coefficients in `(0, 1)` (the set point's slope in
+    /// `[0, 1)`), shifts at most 16, a valid scale.
     pub fn from_bits(b: &WspBits) -> Result<Self, crate::BitsError> {
         let e = |field| crate::BitsError { field };
         let sig = |field, v| {
@@ -493,29 +591,35 @@ impl<T: SampleBits> Wsp<T> {
                 .filter(|x| *x > T::ZERO && *x <= T::MAX_LIMIT)
                 .ok_or(e(field))
         };
-        let unit = |field, v| {
+        let unit = |field, v, zero_ok| {
             T::coeff_from_bits64(v)
-                .filter(|c| T::coeff_in_unit(*c, false))
+                .filter(|c| T::coeff_in_unit(*c, zero_ok))
                 .ok_or(e(field))
         };
+        let shift = |field, s: u8| if s <= MAX_SHIFT { Ok(s) } else { Err(e(field)) };
         let slip_on = sig("wsp.slip_on", b.slip_on)?;
-        let slip_hold = sig("wsp.slip_hold", b.slip_hold)?;
-        let slip_target = sig("wsp.slip_target", b.slip_target)?;
-        if slip_hold >= slip_on {
-            return Err(e("wsp.slip_hold"));
+        let slip_accel = sig("wsp.slip_accel", b.slip_accel)?;
+        let sp_half = sig("wsp.sp_half", b.sp_half)?;
+        if slip_accel >= slip_on {
+            return Err(e("wsp.slip_accel"));
         }
-        if slip_target >= slip_hold {
-            return Err(e("wsp.slip_target"));
+        if sp_half >= slip_on {
+            return Err(e("wsp.sp_half"));
         }
         Ok(Self {
             enabled: b.enabled,
             slip_on,
-            slip_hold,
-            slip_target,
-            accel_ratio: unit("wsp.accel_ratio", b.accel_ratio)?,
-            reapply_ratio: unit("wsp.reapply_ratio", b.reapply_ratio)?,
-            cut: unit("wsp.cut", b.cut)?,
-            probe_level: sig("wsp.probe_level", b.probe_level)?,
+            slip_accel,
+            accel_ratio: unit("wsp.accel_ratio", b.accel_ratio, false)?,
+            cut: unit("wsp.cut", b.cut, false)?,
+            sp_half,
+            sp_half_slope: unit("wsp.sp_half_slope", b.sp_half_slope, true)?,
+            kp: unit("wsp.kp", b.kp, false)?,
+            kp_shift: shift("wsp.kp_shift", b.kp_shift)?,
+            ki: unit("wsp.ki", b.ki, false)?,
+            ki_shift: shift("wsp.ki_shift", b.ki_shift)?,
+            lead_k_hf: unit("wsp.lead_k_hf", b.lead_k_hf, false)?,
+            lead_rho: unit("wsp.lead_rho", b.lead_rho, false)?,
             v_ref: T::scale_from_bits(b.v_ref.mul, b.v_ref.shift).ok_or(e("wsp.v_ref"))?,
         })
     }

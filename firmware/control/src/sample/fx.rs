@@ -176,6 +176,12 @@ impl Sample for Fx {
         Fx::from_bits(mul_q31(self.to_bits(), c.to_bits()))
     }
     #[inline(always)]
+    fn mul_s(self, rhs: Self) -> Self {
+        // Q4.28 x Q4.28 = Q8.56, rounded to Q4.28 and saturated.
+        let p = i64::from(self.to_bits()) * i64::from(rhs.to_bits());
+        Fx::from_bits(sat32((p + (1 << (FX_FRAC - 1))) >> FX_FRAC))
+    }
+    #[inline(always)]
     fn square(self) -> Self {
         // Q4.28 x Q4.28 = Q8.56, rounded to Q4.28 and saturated (|x| >= 2.83 pu).
         let x = i64::from(self.to_bits());
