@@ -262,7 +262,13 @@ impl<T: Sample> Lead<T> {
     /// (`crate::wsp`, "The scheduled lead"): the low-pass of `g' x = g (1 + rho) x` is
     /// `(1 + rho) z`, so the state update is [`Self::process`]'s, only the output differs.
     #[inline(always)]
-    pub fn process_scheduled(&self, s: &mut LeadState<T>, x: T, k_hf: T::Coeff, rho: T::Coeff) -> T {
+    pub fn process_scheduled(
+        &self,
+        s: &mut LeadState<T>,
+        x: T,
+        k_hf: T::Coeff,
+        rho: T::Coeff,
+    ) -> T {
         let m = x.sat_add(s.x1);
         let e = m.mul_c(self.g_half).sat_sub(s.z);
         s.z = s.z.sat_add(e.mul_c(self.kappa));

@@ -191,8 +191,9 @@ pub struct WspParams {
     pub kp_a_per_mps: f64,
     /// Slip regulator's integral gain, A/s per m/s (3000).
     pub ki_a_per_s_per_mps: f64,
-    /// Zero of the scheduled yaw lead, rad/s (15; below the lead's `w1`, the pole
-    /// kept): the lead while the wheel works at the limit (module docs).
+    /// Zero of the scheduled yaw lead, rad/s (15, below the lead's `w1` = 37; the pole
+    /// kept, `|w1 - w1'| < w2 - w1`): the lead while the wheel works at the limit
+    /// (module docs).
     pub lead_w1_rad_s: f64,
     /// Gain of the scheduled yaw lead as a fraction of the lead's (0.3).
     pub lead_gain: f64,
@@ -277,9 +278,9 @@ pub struct WspBits {
     pub ki: u64,
     /// `ki`'s shift (`<= 16`).
     pub ki_shift: u8,
-    /// Scheduled lead `K_hf'`, coefficient in `(0, 1)`.
+    /// Scheduled lead `K_hf'`, a coefficient (signed, as the lead's).
     pub lead_k_hf: u64,
-    /// Scheduled lead `rho`, coefficient in `(0, 1)`.
+    /// Scheduled lead `rho`, a coefficient (`|rho| < 1`).
     pub lead_rho: u64,
     /// The reference-speed scale.
     pub v_ref: ScaleBits,
@@ -406,8 +407,8 @@ impl<T: Sample> Wsp<T> {
         check(
             "wsp.lead_w1_rad_s",
             p.lead_w1_rad_s,
-            p.lead_w1_rad_s > 0.0 && p.lead_w1_rad_s < lead.w1 && lead.w1 < lead.w2,
-            "must be in (0, lead.w1): the scheduled lead moves the zero down",
+            p.lead_w1_rad_s > 0.0 && p.lead_w1_rad_s < lead.w2,
+            "must be in (0, lead.w2): a phase lead with the lead's pole",
         )?;
         check(
             "wsp.lead_gain",
@@ -446,7 +447,7 @@ impl<T: Sample> Wsp<T> {
             q(name, c).map(|c| (c, sh))
         };
         let slew = l.current_ref_rate / s.current; // pu/s
-        // Half a motor-speed code above each threshold (module docs, "Exact decisions").
+                                                   // Half a motor-speed code above each threshold (module docs, "Exact decisions").
         let half = 0.5 * speed_lsb / s.speed;
         check(
             "wire.speed",
@@ -493,8 +494,17 @@ impl<T: Sample> Wsp<T> {
             kp_shift,
             ki,
             ki_shift,
-            lead_k_hf: q("wsp lead_gain lead.k a (pu)", p.lead_gain * k_hf)?,
-            lead_rho: q("wsp lead rho = (w1 - w1')/(w2 - w1)", rho)?,
+            // Signed, as the lead's own K_hf (a negative K is a sign test's lead).
+            lead_k_hf: T::quantise(p.lead_gain * k_hf).ok_or(ConfigError::Coefficient {
+                name: "wsp lead_gain lead.k a (pu)",
+                value: p.lead_gain * k_hf,
+            })?,
+            lead_rho: T::quantise(rho).filter(|_| rho.abs() < 1.0).ok_or(
+                ConfigError::Coefficient {
+                    name: "wsp lead rho = (w1 - w1')/(w2 - w1)",
+                    value: rho,
+                },
+            )?,
             v_ref: T::scale_in(p.v_ref_lsb_m_per_s * pu).ok_or(ConfigError::Coefficient {
                 name: "wsp v_ref lsb n/(r0 scales.speed)",
                 value: p.v_ref_lsb_m_per_s * pu,
@@ -583,7 +593,7 @@ impl<T: SampleBits> Wsp<T> {
 
     /// From exact bits, validated: thresholds `0 < slip_accel < slip_on <= 2` pu and
     /// `0 < sp_half < slip_on`, coefficients in `(0, 1)` (the set point's slope in
-    /// `[0, 1)`), shifts at most 16, a valid scale.
+    /// `[0, 1)`, the scheduled lead's any), shifts at most 16, a valid scale.
     pub fn from_bits(b: &WspBits) -> Result<Self, crate::BitsError> {
         let e = |field| crate::BitsError { field };
         let sig = |field, v| {
@@ -618,8 +628,8 @@ impl<T: SampleBits> Wsp<T> {
             kp_shift: shift("wsp.kp_shift", b.kp_shift)?,
             ki: unit("wsp.ki", b.ki, false)?,
             ki_shift: shift("wsp.ki_shift", b.ki_shift)?,
-            lead_k_hf: unit("wsp.lead_k_hf", b.lead_k_hf, false)?,
-            lead_rho: unit("wsp.lead_rho", b.lead_rho, false)?,
+            lead_k_hf: T::coeff_from_bits64(b.lead_k_hf).ok_or(e("wsp.lead_k_hf"))?,
+            lead_rho: T::coeff_from_bits64(b.lead_rho).ok_or(e("wsp.lead_rho"))?,
             v_ref: T::scale_from_bits(b.v_ref.mul, b.v_ref.shift).ok_or(e("wsp.v_ref"))?,
         })
     }

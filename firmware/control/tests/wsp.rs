@@ -49,8 +49,10 @@ fn invalid_parameters_are_refused_with_the_field_named() {
         ("wsp.slip_sp_per_a", |p| p.slip_sp_per_a = -1e-4),
         ("wsp.cut_fraction", |p| p.cut_fraction = 1.0),
         ("wsp.kp_a_per_mps", |p| p.kp_a_per_mps = 0.0),
-        ("wsp.ki_a_per_s_per_mps", |p| p.ki_a_per_s_per_mps = f64::NAN),
-        ("wsp.lead_w1_rad_s", |p| p.lead_w1_rad_s = 37.0),
+        ("wsp.ki_a_per_s_per_mps", |p| {
+            p.ki_a_per_s_per_mps = f64::NAN
+        }),
+        ("wsp.lead_w1_rad_s", |p| p.lead_w1_rad_s = 274.0),
         ("wsp.lead_gain", |p| p.lead_gain = 0.0),
         ("wsp.accel_on_mps2", |p| p.accel_on_mps2 = f64::NAN),
         ("wsp.r0_m", |p| p.r0_m = 0.0),
@@ -83,7 +85,7 @@ fn bits_round_trip_and_invalid_bits_are_refused() {
         ("wsp.sp_half", |w| w.sp_half = w.slip_on),
         ("wsp.cut", |w| w.cut = 0),
         ("wsp.kp_shift", |w| w.kp_shift = 17),
-        ("wsp.lead_rho", |w| w.lead_rho = 0),
+        ("wsp.ki_shift", |w| w.ki_shift = 17),
     ];
     for (field, f) in cases {
         let mut bad = b;
@@ -126,7 +128,10 @@ fn a_rolling_wheel_is_left_alone_and_a_slip_is_cut_at_once() {
     assert!(k.wheel_slip());
     assert_eq!(k.counters().wsp_events, 1);
     let cap = iref_a(&k);
-    assert!((cap - c.wsp.cut_fraction * iref).abs() < 1e-6, "cap {cap} A after the cut");
+    assert!(
+        (cap - c.wsp.cut_fraction * iref).abs() < 1e-6,
+        "cap {cap} A after the cut"
+    );
     assert!(k.wsp_state().sched);
     // Held above the set point: the integral takes the cap down, at
     // ki (slip - s_sp) A/s, to zero in bounded time.
@@ -134,7 +139,10 @@ fn a_rolling_wheel_is_left_alone_and_a_slip_is_cut_at_once() {
     run(&mut k, &c, 0.4, 12_400.0, 100);
     let fall = cap - iref_a(&k);
     let want = c.wsp.ki_a_per_s_per_mps * (0.4 - sp) * 100.0 * c.traction_period();
-    assert!((fall - want).abs() < 0.05 * want, "fell {fall} A, {want} A expected");
+    assert!(
+        (fall - want).abs() < 0.05 * want,
+        "fell {fall} A, {want} A expected"
+    );
     run(&mut k, &c, 0.4, 12_400.0, 5000);
     assert!(iref_a(&k) < 1e-6);
     assert_eq!(k.counters().wsp_events, 1, "one event, however long");
@@ -154,7 +162,11 @@ fn the_proportional_term_answers_a_slip_step() {
     let drop = before - iref_a(&k);
     let p = c.wsp.kp_a_per_mps * 0.05;
     let i = c.wsp.ki_a_per_s_per_mps * (0.35 - sp) * c.traction_period();
-    assert!((drop - p - i).abs() < 1e-3 * p, "dropped {drop} A, {} A expected", p + i);
+    assert!(
+        (drop - p - i).abs() < 1e-3 * p,
+        "dropped {drop} A, {} A expected",
+        p + i
+    );
 }
 
 /// A toy rail for the regulator: the wheel's slip velocity `s` rises with the current
@@ -210,11 +222,18 @@ fn the_protection_releases_when_the_rail_carries_the_demand() {
     // From 0.3 of the reference, plus kp 0.3 m/s at the slip's fall to zero, at
     // ki (0.1 + 8e-4 cap) A/s: the time to release, as the solution of the linear ODE
     // cap' = ki (a + b cap).
-    let (ki, a, b) = (c.wsp.ki_a_per_s_per_mps, c.wsp.slip_sp_mps, c.wsp.slip_sp_per_a);
+    let (ki, a, b) = (
+        c.wsp.ki_a_per_s_per_mps,
+        c.wsp.slip_sp_mps,
+        c.wsp.slip_sp_per_a,
+    );
     let cut = c.wsp.cut_fraction * iref + c.wsp.kp_a_per_mps * 0.3;
     let t = ((a + b * iref) / (a + b * cut)).ln() / (ki * b);
     let got = ticks as f64 * c.traction_period();
-    assert!((got - t).abs() < 0.01 * t, "released after {got} s, {t} s expected");
+    assert!(
+        (got - t).abs() < 0.01 * t,
+        "released after {got} s, {t} s expected"
+    );
 }
 
 #[test]
@@ -345,10 +364,16 @@ fn the_scheduled_lead_has_its_dc_gain() {
     let l = c.lead;
     for (slip, want) in [
         (0.0, l.k * l.a * l.w1 / l.w2 * 0.01),
-        (0.4, c.wsp.lead_gain * l.k * l.a * c.wsp.lead_w1_rad_s / l.w2 * 0.01),
+        (
+            0.4,
+            c.wsp.lead_gain * l.k * l.a * c.wsp.lead_w1_rad_s / l.w2 * 0.01,
+        ),
     ] {
         for got in [yaw_dc::<f64>(&c, slip), yaw_dc::<Fx>(&c, slip)] {
-            assert!((got - want).abs() < 1e-3 * want, "slip {slip}: {got} N m, {want} N m");
+            assert!(
+                (got - want).abs() < 1e-3 * want,
+                "slip {slip}: {got} N m, {want} N m"
+            );
         }
     }
 }
