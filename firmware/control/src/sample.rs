@@ -61,9 +61,11 @@ pub trait Sample: Copy + Default + PartialEq + PartialOrd + core::fmt::Debug {
     fn sat_sub(self, rhs: Self) -> Self;
     /// `self * c`, rounded to nearest and saturating.
     fn mul_c(self, c: Self::Coeff) -> Self;
-    /// `self * rhs` (a product of two signals, pu^2), rounded to nearest and saturating:
-    /// the slip regulator's integral step ([`crate::wsp`]).
-    fn mul_s(self, rhs: Self) -> Self;
+    /// The signal as a coefficient, exactly where the coefficient format holds it and
+    /// saturated to its range otherwise (`Fx`: Q4.28 to Q1.31, `|x| < 1`, a shift; floats:
+    /// the value): the slip regulator multiplies by the reference's slew per step
+    /// ([`crate::wsp`]).
+    fn to_coeff_sat(self) -> Self::Coeff;
     /// `self^2` (a signal squared, pu^2), rounded to nearest and saturating: the
     /// stability monitor's mean square ([`crate::monitor`]). The default goes through
     /// `f64`; `f32`, `f64` and [`Fx`] (the exact 64-bit product) override it.
@@ -249,8 +251,8 @@ macro_rules! float_sample {
                 self * c
             }
             #[inline(always)]
-            fn mul_s(self, rhs: Self) -> Self {
-                self * rhs
+            fn to_coeff_sat(self) -> $t {
+                self
             }
             #[inline(always)]
             fn square(self) -> Self {

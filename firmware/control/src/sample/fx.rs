@@ -176,10 +176,11 @@ impl Sample for Fx {
         Fx::from_bits(mul_q31(self.to_bits(), c.to_bits()))
     }
     #[inline(always)]
-    fn mul_s(self, rhs: Self) -> Self {
-        // Q4.28 x Q4.28 = Q8.56, rounded to Q4.28 and saturated.
-        let p = i64::from(self.to_bits()) * i64::from(rhs.to_bits());
-        Fx::from_bits(sat32((p + (1 << (FX_FRAC - 1))) >> FX_FRAC))
+    fn to_coeff_sat(self) -> Coef {
+        // Q4.28 -> Q1.31: three bits up, saturated to (-1, 1) strictly (as `quantise`).
+        let b = i64::from(self.to_bits()) << (COEF_FRAC - FX_FRAC);
+        let m = i64::from(i32::MAX);
+        Coef::from_bits(b.clamp(-m, m) as i32)
     }
     #[inline(always)]
     fn square(self) -> Self {
