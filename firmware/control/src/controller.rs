@@ -354,13 +354,15 @@ impl<T: Sample> Controller<T> {
             YawMode::Gain => x.mul_c(law.gain),
             // While the protection holds the wheel at the limit, the scheduled lead
             // (crate::wsp; the fast path does not run with the protection on).
-            YawMode::Lead if self.wsp.sched => law.lead.process_scheduled(
-                &mut self.lead_state,
-                x,
-                law.wsp.lead_k_hf,
-                law.wsp.lead_rho,
-            ),
-            YawMode::Lead => law.lead.process(&mut self.lead_state, x),
+            YawMode::Lead => {
+                let d = law.lead.advance(&mut self.lead_state, x);
+                if self.wsp.sched {
+                    d.sat_sub(self.lead_state.z.mul_c(law.wsp.lead_rho))
+                        .mul_c(law.wsp.lead_k_hf)
+                } else {
+                    d.mul_c(law.lead.k_hf)
+                }
+            }
         };
         // Bumpless law change: from the old output towards the new law's, at most
         // `torque_step` per yaw step, until it has caught up.

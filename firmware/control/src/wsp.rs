@@ -301,9 +301,9 @@ pub struct WspState<T: Sample> {
     pub slip_prev: T,
     /// The scheduled yaw lead runs: acting, and the slip above half its set point.
     pub sched: bool,
-    /// The regulator's sub-LSB remainders (proportional, integral): the sums of its
-    /// increments are exact to an LSB ([`Sample::mul_c_acc`]).
-    pub residue: (T::Residue, T::Residue),
+    /// The integral's sub-LSB remainder: the sum of its increments is exact to an LSB
+    /// ([`Sample::mul_c_acc`]).
+    pub residue: T::Residue,
 }
 
 fn check(
@@ -546,17 +546,17 @@ impl<T: Sample> Wsp<T> {
         } else {
             // The slip regulator, velocity form, on the cap:
             // cap += -kp' (slip - slip_prev) + ki' step (2 h - slip).
-            // The products' rounding is fed back (`mul_c_acc`): the inputs repeat for
-            // many steps (the same codes), and a rounding to nearest then biases every
-            // step the same way (Q4.28 drifted 1e-5 pu from f64 in 1.6 s on
-            // `low-adhesion`). The integral's first product rounds by half an LSB of
-            // `ki' e`, which the slew per step (4e-3 pu) then scales down.
+            // The integral's rounding is fed back (`mul_c_acc`): its inputs repeat for
+            // many steps (the same codes), and a rounding to nearest would bias every
+            // step the same way. Its first product rounds by half an LSB of `ki' e`,
+            // which the slew per step (4e-3 pu) then scales down. The proportional
+            // increments are zero while the codes repeat and sum to `kp' (s - s0)`.
             let h = self.half_set_point(st.cap);
-            let p = shl(d_slip, self.kp_shift).mul_c_acc(self.kp, &mut st.residue.0);
+            let p = shl(d_slip, self.kp_shift).mul_c(self.kp);
             let e = h.sat_add(h).sat_sub(slip);
             let i = shl(e, self.ki_shift)
                 .mul_c(self.ki)
-                .mul_c_acc(step.to_coeff_sat(), &mut st.residue.1);
+                .mul_c_acc(step.to_coeff_sat(), &mut st.residue);
             let raw = st.cap.sat_sub(p).sat_add(i);
             // Release where the regulator asks for the whole reference (the rail carries
             // the demand again).
