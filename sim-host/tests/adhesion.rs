@@ -259,9 +259,10 @@ fn the_core_with_protection_holds_the_wheel_and_without_it_runs_away() {
     let (off, c_off) = run_core::<f64>(&sc, YawLaw::Lead, false).unwrap();
     let s_on = sim_host::traction::summary(&sc, &on).unwrap();
     let s_off = sim_host::traction::summary(&sc, &off).unwrap();
-    // Protected: no runaway, the slip bounded (README: 0.5 m/s), the yaw loop stable
-    // (the run ends, |y| stays at the curve's millimetre), the protection acted and
-    // released (the last dry section carries the full demand again).
+    // Protected: no runaway, the slip bounded, every low or wet section used at 0.8 of
+    // its peak or more, the yaw loop stable (the run ends, |y| stays at the curve's
+    // millimetres, the yaw torque below its limit), the protection acted and released
+    // (the last dry section carries the full demand again).
     assert!(!s_on.runaway, "{s_on:?}");
     assert!(on.info.diverged_at_s.is_none());
     let bound = slip_bound(&sc);
@@ -270,13 +271,28 @@ fn the_core_with_protection_holds_the_wheel_and_without_it_runs_away() {
         "slip peak {} m/s against the bound {bound:?}",
         s_on.slip_peak_mps
     );
-    // The bound means something: below the low rail's peak slip (0.60 m/s), so a
-    // protected wheel never works on the falling side; and not a loose one (the terms
-    // are each a worst case, the measured peak 0.425 m/s).
-    assert!(bound.total < bound.low_peak_slip, "{bound:?}");
-    assert!(s_on.slip_peak_mps > 0.8 * bound.total, "{bound:?}");
+    // The regulated slip means something: its set point at the full reference is below
+    // the low rail's peak slip (0.60 m/s), so a regulated wheel works on the rising side;
+    // the transient's terms are each a worst case (measured peak 0.454 m/s, in the wet
+    // section's regulation, 0.423 m/s in the first transient).
+    assert!(bound.set_point_max < bound.low_peak_slip, "{bound:?}");
+    assert!(s_on.slip_peak_mps > 0.6 * bound.total, "{bound:?}");
+    for s in &s_on.sections {
+        if matches!(s.condition, Condition::Low | Condition::Wet) {
+            assert!(s.utilisation >= 0.8, "{s:?}");
+        }
+    }
     let max_y = on.records.iter().map(|r| r.y_m.abs()).fold(0.0, f64::max);
-    assert!(max_y < 2e-3, "max |y| {max_y} m");
+    assert!(max_y < 2.5e-3, "max |y| {max_y} m");
+    let max_t = on
+        .records
+        .iter()
+        .map(|r| r.t_psi_nm.abs())
+        .fold(0.0, f64::max);
+    assert!(
+        max_t < 15e3,
+        "max |T_psi| {max_t} N m: below the 20 kN m limit"
+    );
     assert!(c_on.wsp_events >= 2 && c_on.wsp_ticks > 0, "{c_on:?}");
     let last = s_on.sections.last().unwrap();
     assert_eq!(last.condition, Condition::Dry);
@@ -324,11 +340,9 @@ impl<C: sim_host::control::SampledController> sim_host::control::SampledControll
 fn every_build_takes_the_same_decisions_on_the_same_codes() {
     // The wire codes the f64 core received on `low-adhesion` with protection, replayed
     // through the Q4.28, f32 and f64 cores (open loop: every build gets the same codes).
-    // Q4.28 and f64 act, probe and release on the same ticks, and their caps differ by
-    // rounding only (a decision a tick apart shows as a whole step, 0.3 A re-apply or
-    // 8 A cut). Before the exact rules (`firmware/control/src/wsp.rs`, "Exact
-    // decisions"): the slip landed on `slip_target` at 7.714 s and on `slip_hold` at
-    // 7.585 s, and the cap on the reference at 11.0 s, each decided by the rounding.
+    // Q4.28 and f64 detect on the same ticks, and switch the lead and release on the
+    // same ticks while their caps agree (`firmware/control/src/wsp.rs`, "Exact
+    // decisions").
     use sim_host::control::SampledController;
     use sim_host::core_loop::CoreController;
     use sim_host::sim::{run_sampled, ActuatorModel, SensorModel};
@@ -356,36 +370,60 @@ fn every_build_takes_the_same_decisions_on_the_same_codes() {
     let mut a = CoreController::<f64>::try_new(&cfg, true).unwrap();
     let mut b = CoreController::<Fx>::try_new(&cfg, true).unwrap();
     let mut c = CoreController::<f32>::try_new(&cfg, true).unwrap();
-    let (mut acting, mut worst) = (0u32, 0.0f64);
+    // Each build's detections (the ticks a protection starts) and, on the ticks where
+    // the two caps agree within `tie`, their lead switch and release decisions.
+    let tie = 1e-5;
+    let (mut starts_a, mut starts_b) = (Vec::new(), Vec::new());
+    let (mut compared, mut acting, mut first_apart) = (0u32, 0u32, None);
+    let (mut was_a, mut was_b) = (false, false);
     for (k, m) in rec.seen.iter().enumerate() {
         let t = k as u64 * period;
         a.step(t, m);
         b.step(t, m);
         c.step(t, m);
         let (x, y) = (a.core().wsp_state(), b.core().wsp_state());
-        assert_eq!(
-            (x.active, x.probing),
-            (y.active, y.probing),
-            "Q4.28 against f64 at {:.4} s: caps {} / {}",
-            t as f64 * 1e-9,
-            y.cap.to_f64(),
-            x.cap
-        );
-        if x.active {
-            acting += 1;
-            worst = worst.max((x.cap - y.cap.to_f64()).abs());
+        if x.active && !was_a {
+            starts_a.push(k);
+        }
+        if y.active && !was_b {
+            starts_b.push(k);
+        }
+        (was_a, was_b) = (x.active, y.active);
+        acting += u32::from(x.active);
+        // Both acting (or `x` released on this tick, its cap the last one held).
+        if (x.cap - y.cap.to_f64()).abs() < tie && (x.active || y.active) {
+            compared += 1;
+            assert_eq!(
+                (x.active, x.sched),
+                (y.active, y.sched),
+                "Q4.28 against f64 at {:.4} s: caps {} / {}",
+                t as f64 * 1e-9,
+                y.cap.to_f64(),
+                x.cap
+            );
+        } else if x.active && y.active && first_apart.is_none() {
+            first_apart = Some(t as f64 * 1e-9);
         }
     }
+    // Detection compares the slip with thresholds off its lattice: the same ticks.
+    assert!(starts_a.len() >= 2, "{starts_a:?}");
+    assert_eq!(starts_a, starts_b, "detections (ticks)");
+    // The caps part in open loop: the set point rises with the cap, so on replayed codes
+    // (no rail to answer) a difference grows as exp(ki slip_sp_per_a t) = exp(2.4 t/s),
+    // from the Q4.28 slip's bias (the reference-speed scale's rounding, 3e-9 pu); 1.4 s
+    // after the cut at 6.0 s they are `tie` apart. In closed loop the rail answers (the
+    // harness's numerics, `hil run --scenario low-adhesion`).
     assert!(acting > 40_000, "{acting} ticks acting");
-    // Rounding only: well under a third of a re-apply step (3e-4 pu).
-    assert!(worst < 1e-4, "the caps differ by {worst} pu");
+    assert!(
+        compared > 5_000,
+        "{compared} ticks compared, apart from {first_apart:?} s"
+    );
     let (ca, cb, cc) = (
         a.core().counters(),
         b.core().counters(),
         c.core().counters(),
     );
-    assert!(ca.wsp_events >= 2);
-    assert_eq!((cb.wsp_events, cb.wsp_ticks), (ca.wsp_events, ca.wsp_ticks));
+    assert_eq!(cb.wsp_events, ca.wsp_events);
     // f32 (not guaranteed per tick: its slip rounds by as much as the margin) takes the
     // same course.
     assert_eq!(cc.wsp_events, ca.wsp_events);
@@ -398,20 +436,24 @@ fn every_build_takes_the_same_decisions_on_the_same_codes() {
 struct SlipBound {
     s0: f64,
     torsion: f64,
+    torsion_cut: f64,
     t_detect: f64,
-    t_current: f64,
-    t_total: f64,
+    t_cut: f64,
     rigid: f64,
+    regulator: f64,
+    transient: f64,
+    set_point_max: f64,
     total: f64,
     low_peak_slip: f64,
 }
 
 /// The bound, from the scenario's parameters and the protection's defaults (not from a
-/// run): `s0 + r0 dT (t_total / J + 1 / (J_w w_g))`.
+/// run): the larger of the first transient
+/// `s0 + r0 dT t_cut / J + (cut i_d - i_low)/kp + r0 dT/(J_w w_g) + r0 (1 - cut) T_d/(J_m w_g)`
+/// and the regulator's set point at the full reference `slip_sp + slip_sp_per_a i_d`.
 fn slip_bound(sc: &Scenario) -> SlipBound {
     let p = &sc.params;
     let w = wheelset_control::WspParams::default();
-    let lim = wheelset_control::Config::default().limits;
     let (q, v, r0) = (p.q(), p.v, p.r0);
     let t_d = sc.traction.value;
     let mu_d = t_d / (2.0 * q * r0);
@@ -439,27 +481,39 @@ fn slip_bound(sc: &Scenario) -> SlipBound {
     let j_m = p.n_gear * p.n_gear * p.i_m;
     let j = j_w + j_m;
     let w_g = (p.k_gear() * (1.0 / j_w + 1.0 / j_m)).sqrt();
+    // The gear's twist: the wheel ahead of the motor by at most the amplitude of each
+    // torque step's torsion, the rail's drop on the wheel and the cut on the motor.
     let torsion = r0 * dt / (j_w * w_g);
+    let torsion_cut = r0 * (1.0 - w.cut_fraction) * t_d / (j_m * w_g);
     // Detection: the motor's rim acceleration r0 dT/J (1 - cos w_g t) reaches a_on, then
-    // one traction step to measure it and one period until the cut acts.
+    // one traction step to measure it and one period until the cut acts; the current
+    // follows the cut within the current loop's lag L_a / Kp.
     let period = 1.0 / 5000.0;
     let t_acc = (1.0 - w.accel_on_mps2 * j / (r0 * dt)).acos() / w_g;
     let t_detect = t_acc + 2.0 * period;
-    // The current: cut to `cut_fraction` i_d at once, then at twice the slew down to the
-    // current whose torque the low rail carries, plus the current loop's lag L_a / Kp.
+    let t_cut = t_detect + p.l_a / p.pi_kp;
+    let rigid = r0 * dt * t_cut / j;
+    // After the cut the motor's torque exceeds the low rail's by at most
+    // (cut - mu_low/mu_d) T_d; the regulator's proportional term takes kp per m/s of the
+    // slip's rise off the cap (its integral, the slip above the set point, takes more),
+    // so the motor's slip rises at most (cut i_d - i_low)/kp before the cap is below
+    // the current whose torque the low rail carries.
     let i_d = t_d / (p.n_gear * p.k_m);
     let i_low = mu_low / mu_d * i_d;
-    let t_current = (w.cut_fraction * i_d - i_low) / (2.0 * lim.current_ref_rate) + p.l_a / p.pi_kp;
-    let t_total = t_detect + t_current;
-    let rigid = r0 * dt * t_total / j;
+    let regulator = (w.cut_fraction * i_d - i_low).max(0.0) / w.kp_a_per_mps;
+    let transient = s0 + rigid + regulator + torsion + torsion_cut;
+    let set_point_max = w.slip_sp_mps + w.slip_sp_per_a * i_d;
     SlipBound {
         s0,
         torsion,
+        torsion_cut,
         t_detect,
-        t_current,
-        t_total,
+        t_cut,
         rigid,
-        total: s0 + torsion + rigid,
+        regulator,
+        transient,
+        set_point_max,
+        total: transient.max(set_point_max),
         low_peak_slip: low_pk * v,
     }
 }
@@ -468,15 +522,20 @@ fn slip_bound(sc: &Scenario) -> SlipBound {
 fn the_slip_bound_follows_from_the_thresholds_and_the_wheel_dynamics() {
     let sc = Scenario::load("low-adhesion", &Params::default()).unwrap();
     let b = slip_bound(&sc);
-    // The figures the docs state (wsp.rs): 0.165 + 0.221 + 0.092 = 0.479 m/s, the cut
-    // acting 2.9 ms after the rail drops and the current down 4.4 ms later.
+    // The figures the docs state (wsp.rs): 0.165 + 0.042 + 0.145 + 0.221 + 0.051 =
+    // 0.624 m/s for the first transient, the cut acting 2.9 ms after the rail drops;
+    // the set point at the full reference 0.564 m/s.
     let near = |x: f64, y: f64, tol: f64| (x - y).abs() < tol;
     assert!(near(b.s0, 0.165, 0.001), "{b:?}");
     assert!(near(b.torsion, 0.221, 0.001), "{b:?}");
-    assert!(near(b.rigid, 0.092, 0.001), "{b:?}");
-    assert!(near(b.total, 0.479, 0.001), "{b:?}");
+    assert!(near(b.torsion_cut, 0.051, 0.001), "{b:?}");
+    assert!(near(b.rigid, 0.042, 0.001), "{b:?}");
+    assert!(near(b.regulator, 0.145, 0.001), "{b:?}");
+    assert!(near(b.transient, 0.624, 0.001), "{b:?}");
+    assert!(near(b.set_point_max, 0.564, 0.001), "{b:?}");
+    assert!(near(b.total, 0.624, 0.001), "{b:?}");
     assert!(near(b.t_detect, 2.9e-3, 1e-4), "{b:?}");
-    assert!(near(b.t_current, 4.4e-3, 1e-4), "{b:?}");
+    assert!(near(b.t_cut, 3.3e-3, 1e-4), "{b:?}");
     assert!(near(b.low_peak_slip, 0.60, 0.01), "{b:?}");
 }
 

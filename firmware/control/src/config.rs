@@ -407,7 +407,7 @@ impl Config {
         }
         self.lead.discretise(self.yaw_period())?;
         self.pi.discretise(self.traction_period())?;
-        crate::wsp::Wsp::<f64>::try_new(&self.wsp, &self.motor, s, l, self.wire.speed)?;
+        crate::wsp::Wsp::<f64>::try_new(&self.wsp, &self.motor, s, l, self.wire.speed, &self.lead)?;
         Ok(())
     }
 }

@@ -352,7 +352,17 @@ impl<T: Sample> Controller<T> {
         let raw = match self.mode {
             YawMode::Passive => T::ZERO,
             YawMode::Gain => x.mul_c(law.gain),
-            YawMode::Lead => law.lead.process(&mut self.lead_state, x),
+            // While the protection holds the wheel at the limit, the scheduled lead
+            // (crate::wsp; the fast path does not run with the protection on).
+            YawMode::Lead => {
+                let d = law.lead.advance(&mut self.lead_state, x);
+                if self.wsp.sched {
+                    d.sat_sub(self.lead_state.z.mul_c(law.wsp.lead_rho))
+                        .mul_c(law.wsp.lead_k_hf)
+                } else {
+                    d.mul_c(law.lead.k_hf)
+                }
+            }
         };
         // Bumpless law change: from the old output towards the new law's, at most
         // `torque_step` per yaw step, until it has caught up.
@@ -431,6 +441,7 @@ impl<T: Sample> Controller<T> {
             self.counters.wsp_events = self.counters.wsp_events.wrapping_add(new as u32);
         } else {
             self.wsp.active = false;
+            self.wsp.sched = false;
         }
         let (u, f) = law.pi.process_flags(&mut self.pi_state, iref.sat_sub(i));
         *ev |= ((f.integ as u32) << event::INTEGRATOR) | ((f.output as u32) << event::VOLTAGE);

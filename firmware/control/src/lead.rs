@@ -251,11 +251,20 @@ impl<T: Sample> Lead<T> {
     /// One step: `z += kappa ((g/2)(x + x1) - z)`, `x1 = x`, `y = K_hf (x - z)` (pu).
     #[inline(always)]
     pub fn process(&self, s: &mut LeadState<T>, x: T) -> T {
+        self.advance(s, x).mul_c(self.k_hf)
+    }
+
+    /// The filter's state update alone, returning `x - z[n]` (pu): [`Self::process`] is
+    /// `K_hf` times it; the scheduled lead of the wheel-slip protection (`crate::wsp`)
+    /// is `K_hf' (x - z - rho z)` on the same state (the low-pass of `g' x = g (1 + rho) x`
+    /// is `(1 + rho) z`).
+    #[inline(always)]
+    pub fn advance(&self, s: &mut LeadState<T>, x: T) -> T {
         let m = x.sat_add(s.x1);
         let e = m.mul_c(self.g_half).sat_sub(s.z);
         s.z = s.z.sat_add(e.mul_c(self.kappa));
         s.x1 = x;
-        x.sat_sub(s.z).mul_c(self.k_hf)
+        x.sat_sub(s.z)
     }
 
     /// The steady state for a constant input `x`: `x1 = x`, `z = (g/2)(2x)`; switching

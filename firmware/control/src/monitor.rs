@@ -67,12 +67,12 @@
 //! from well below the hunting threshold.
 //!
 //! **The rule for the device's own traction steps.** The wheel-slip protection's cut
-//! (its first cut, and each re-cut after a probe: `wheelset_control::wsp`, the reference
-//! capped at once to `cut_fraction` of itself) is a step of the longitudinal creep
+//! (its cut at detection: `wheelset_control::wsp`, the reference capped at once to
+//! `cut_fraction` of itself) is a step of the longitudinal creep
 //! forces of both wheels, which reaches the yaw and lateral motion. Its lateral response
 //! rises over more than one block, so its energy onset straddles a block boundary: two
 //! growing blocks (measured on `low-adhesion`'s wet section with the
-//! protection on, amplitude growth 8.5 then 14.5 1/s, then decay at 8 1/s, the healthy
+//! protection's earlier cut/re-apply law, amplitude growth 8.5 then 14.5 1/s, then decay at 8 1/s, the healthy
 //! loop's damping: the false alarms at 14.2 s and 16.3 s of the check without this
 //! rule). The check therefore judges no growth at the end of the block holding such a
 //! step nor at the end of the next (`Q = 2` block ends, whatever the step's phase in
@@ -80,12 +80,12 @@
 //! standing alarm stays up through them). A failed actuator keeps
 //! growing after the quiet blocks, so it is still caught, at most `Q B` = 0.2 s later
 //! when a cut falls just before its alarm, provided the cuts are at least `(Q + n) B` =
-//! 0.4 s apart (the protection's probe cycle on `low-adhesion` is about 1 s; closer
+//! 0.4 s apart (the protection cuts once per event: twice on `low-adhesion`, in the low and the wet section; closer
 //! cuts leave the failed actuator to the hunting alarm); with no cut (dry rail, the
 //! protection idle) the check is the one above. The saturated creep of a wheel the protection does not
 //! hold (`hil run --wsp off` on `low-adhesion`: the wheel spins up to tens of m/s of slip
 //! and both alarms rise from 7 s) is outside the check's premise: there the loop itself
-//! is no longer damped (`wheelset_control::wsp`, why the working band is so low).
+//! is no longer damped (`wheelset_control::wsp`, "The scheduled lead").
 //!
 //! **Drift.** A failed actuator does not always make the wheelset oscillate: at a low
 //! conicity (0.05) on the `low` rail a reversed actuator pushes it to the flange at an

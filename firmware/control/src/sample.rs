@@ -61,6 +61,11 @@ pub trait Sample: Copy + Default + PartialEq + PartialOrd + core::fmt::Debug {
     fn sat_sub(self, rhs: Self) -> Self;
     /// `self * c`, rounded to nearest and saturating.
     fn mul_c(self, c: Self::Coeff) -> Self;
+    /// The signal as a coefficient, exactly where the coefficient format holds it and
+    /// saturated to its range otherwise (`Fx`: Q4.28 to Q1.31, `|x| < 1`, a shift; floats:
+    /// the value): the slip regulator multiplies by the reference's slew per step
+    /// ([`crate::wsp`]).
+    fn to_coeff_sat(self) -> Self::Coeff;
     /// `self^2` (a signal squared, pu^2), rounded to nearest and saturating: the
     /// stability monitor's mean square ([`crate::monitor`]). The default goes through
     /// `f64`; `f32`, `f64` and [`Fx`] (the exact 64-bit product) override it.
@@ -244,6 +249,10 @@ macro_rules! float_sample {
             #[inline(always)]
             fn mul_c(self, c: $t) -> Self {
                 self * c
+            }
+            #[inline(always)]
+            fn to_coeff_sat(self) -> $t {
+                self
             }
             #[inline(always)]
             fn square(self) -> Self {

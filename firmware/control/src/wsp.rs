@@ -22,127 +22,148 @@
 //! # Law (per traction step, after the reference ramp)
 //!
 //! ```text
-//! detect   = slip > slip_on  or  (slip > slip_hold and dw > a_on T n/r0)
+//! detect   = slip > slip_on  or  (slip > slip_accel and dw > a_on T n/r0)
 //! idle:    detect and i_ref > 0  ->  active, cap = cut i_ref (instantaneous), one event
-//! active (working band slip_target .. slip_hold):
-//!          slip > slip_hold      ->  cap -= 2 r T      (cut at twice the reference slew)
-//!          slip < slip_target    ->  cap += r_up T     (re-apply: re-adhesion)
-//!          calm (no slip > slip_hold) for probe_after  ->  probing
-//!            (timer += r_up T each calm step; probing once timer >= r_up probe_after - r_up T/2)
-//! probing: cap += r_up T whatever the slip; detect -> cap = cut cap, back to the band
-//! release: 2 cap >= 2 i_ref - r_up T (the rail carries the demand again; half a
-//!          re-apply step below the reference, so the sum's rounding cannot move it)
-//! output:  min(i_ref, cap) while active, i_ref otherwise
+//! active:  the slip regulator (a PI in velocity form on the cap):
+//!          s_sp  = slip_sp + slip_sp_per_a cap               (0.1 m/s + 8e-4 m/s per A)
+//!          raw   = cap - kp (slip[k] - slip[k-1]) + ki T (s_sp - slip[k])
+//!          raw >= i_ref  ->  release (the regulator asks for the whole reference)
+//!          cap   = clamp(raw, 0, i_ref)
+//! sched    = active and slip > s_sp / 2   (the scheduled yaw lead, below)
+//! output:  cap while active, i_ref otherwise
 //! ```
 //!
-//! The slip thresholds are compiled half a motor-speed code above their values, and the
-//! two sums (probe timer, release) decide half a re-apply step below their levels
-//! ("Exact decisions" below).
+//! `kp` = 300 A per m/s, `ki` = 3 000 A/s per m/s. The set point rises with the cap, to
+//! 0.56 m/s at the full 580 A of `low-adhesion`: below every characteristic's peak slip
+//! at 83.3 m/s (`low` 0.60, dry 0.91, wet 1.19 m/s), so the regulated wheel works on the
+//! rising side of the characteristic, as near its peak as the demand needs. In pu the
+//! gains are `kp' = kp / (n/r0 scales.current)` (27) and `ki' T = ki T / (n/r0
+//! scales.current)`, held as `c 2^s` (`c` in [1/2, 1), `s` exact doublings); the
+//! integral per step is `ki' / current_ref_rate` times the schedule's `iref_step` (the
+//! slew per step, `r T / scales.current`), so a new schedule
+//! ([`crate::Compiled::with_schedule`]) keeps the rates in SI with no discretisation on
+//! the device, as the acceleration test (`a_on n/r0 / r` times `iref_step`). The
+//! integral's rounding is fed back ([`Sample::mul_c_acc`]): on repeated codes a
+//! rounding to nearest biases every step the same way.
 //!
-//! `r` is the reference slew limit (`limits.current_ref_rate`, per step `iref_step`),
-//! `r_up` the re-apply rate. Every per-step quantity is the schedule's `iref_step` times a
-//! rate-independent coefficient (`a_on n/r0 / r`, `r_up / r`; the probe timer sums the
-//! re-apply steps up to `r_up probe_after`), so a new schedule
-//! ([`crate::Compiled::with_schedule`]) keeps the protection's rates in SI with no
-//! discretisation on the device.
+//! # The scheduled lead
+//!
+//! The paper's lead `K a (s + 37)/(s + 274)` (K = 1.05e5, a = 7.5) goes unstable when
+//! the wheel works near the adhesion peak: the longitudinal creep slope, which damps the
+//! yaw, falls there (modal analysis by central differences about a steady traction point:
+//! unstable from 0.7 of the peak on wet, 0.6 on `low`). Scaling its gain is not enough.
+//! `0.3 K a (s + 15)/(s + 274)` (zero moved, pole kept) is stable at 0.8-0.9 of the peak
+//! on `low` and wet (oscillatory modes at -6 to -8 rad/s) but unstable at a high creep
+//! slope (+7.7 rad/s at 0.05 of the peak), so it runs only while `sched`: the protection
+//! acts and the slip is above half its set point. It runs on the lead's own state
+//! ([`crate::lead`]: `y = K_hf (x - z)`, `z` the low-pass of `g x`, `g = (w2 - w1)/w2`):
+//! its low-pass of `g' x`, `g' = (w2 - w1')/w2`, is `z g'/g = z (1 + rho)`, so
+//!
+//! ```text
+//! y' = K_hf' (x - z - rho z),   K_hf' = lead_gain K_hf,   rho = (w1 - w1')/(w2 - w1) = 22/237
+//! ```
+//!
+//! The switch is abrupt (a slewed switch rate-limited the torque and diverged at
+//! 10.28 s). The fast path does not run with the protection on, so it is untouched.
 //!
 //! # Exact decisions
 //! Every decision compares a quantity built from the wire's integers with a level, and on
-//! the same Sensor codes the fixed-point, f32 and f64 builds must take it on the same
+//! the same Sensor codes the fixed-point, f32 and f64 builds should take it on the same
 //! tick (`hil run --scenario low-adhesion` judges the Q4.28 device against the f64 core).
 //! Where the exact quantity can land *on* the level, each build's rounding decides, so
-//! every level is moved off the lattice the quantity lives on:
+//! the detection's levels are moved off the lattice the slip lives on:
 //!
 //! - The slip `w - w_ref` is `c_w a - c_v b`, `c_w` the motor-speed code (`a` = 1 mrad/s
 //!   in pu), `c_v` the reference-speed code (`b` = 1 mm/s at the rim = `100/9` mrad/s at
 //!   the motor with `n/r0 = 5/0.45`). So the slip is a multiple of `a/9`, and a threshold
 //!   in whole mm/s is a multiple of `b`: `c_w a = (c_v + 60) b` whenever 9 divides
-//!   `c_v + 60`, and the slip then *equals* `slip_hold`. On the codes of `low-adhesion`
-//!   that happened at 7.585 s (`slip_hold`: f32 cut, Q4.28 and f64 did not) and at
-//!   7.714 s (`slip_target`: f64 re-applied, Q4.28 did not). Half a code above, `theta +
-//!   a/2`, no slip equals a threshold (`18 c_w = 200 (c_v + N) + 9` has no integer
-//!   solution: even against odd), the nearest lies `a/18` = 5.6e-8 pu away: 7 times the
-//!   Q4.28 error of a slip (two code x scale products, each within 2^-28 of exact, 7.5e-9
-//!   pu together) and far beyond f64's. An f32 slip near 0.9 pu carries up to 6e-8 pu of
-//!   rounding, as much as the margin: the f32 build is not guaranteed to agree. Moving a
-//!   threshold by 0.045 mm/s at the rim changes nothing a rail notices.
+//!   `c_v + 60`, and the slip then *equals* the threshold (on the codes of
+//!   `low-adhesion` that happened at 7.585 s with the earlier band law: f32 cut, Q4.28
+//!   and f64 did not). Half a code above, `theta + a/2`, no slip equals a threshold
+//!   (`18 c_w = 200 (c_v + N) + 9` has no integer solution: even against odd), the
+//!   nearest lies `a/18` = 5.6e-8 pu away: 7 times the Q4.28 error of a slip (two code x
+//!   scale products, each within 2^-28 of exact, 7.5e-9 pu together) and far beyond
+//!   f64's. An f32 slip near 0.9 pu carries up to 6e-8 pu of rounding, as much as the
+//!   margin: the f32 build is not guaranteed to agree. Moving a threshold by 0.045 mm/s
+//!   at the rim changes nothing a rail notices.
 //! - The acceleration `dw` is a difference of speed codes, `k a` for an integer `k`,
 //!   against `a_on T n/r0` = 6.67 `a` at 5 kHz: a third of a code from the nearest `k`.
-//! - The probe timer and the cap sum whole re-apply steps; with the default parameters
-//!   their levels are whole numbers of steps (4 000 for the timer; the reference
-//!   579.6 A = 1 932 x 0.3 A on `low-adhesion`), so both decide half a step below.
+//! - The lead switch (`slip > s_sp/2`) and the release (`raw >= i_ref`) compare with
+//!   levels that move with the cap, a sum of the regulator's products: not on a lattice,
+//!   so a tie is a matter of chance, not of the codes' arithmetic. But the caps of two
+//!   builds do not stay together on replayed codes: the set point rises with the cap, so
+//!   with no rail to answer (open loop) a difference grows as `exp(ki slip_sp_per_a t)` =
+//!   `exp(2.4 t/s)`; from the Q4.28 slip's bias (the reference-speed scale's rounding,
+//!   3e-9 pu) the caps are 1e-5 pu apart 1.4 s after a cut. While they agree the builds
+//!   switch and release on the same ticks.
 //!
-//! Exact decisions make the builds agree on the *same* codes
-//! (`sim-host/tests/adhesion.rs`, `every_build_takes_the_same_decisions_on_the_same_codes`).
-//! A device in a closed loop is another matter: its plant run and the reference's part
-//! by an LSB (on `low-adhesion` the first differing speed code is at 1.17 s), and a
-//! decision then falls a tick apart where the codes differ (the slip crossing `slip_on`
-//! at 14.0520 s in Q4.28 and 14.0522 s in f64, the speed codes 14 LSBs apart). The
-//! harness's numerics judge such a cut
-//! within their time tolerance on the reference recorded at the control period
-//! (`hil::numerics`, "The tube at the control period").
+//! `sim-host/tests/adhesion.rs`, `every_build_takes_the_same_decisions_on_the_same_codes`
+//! replays the f64 core's codes of `low-adhesion` through the three builds: the same
+//! detection ticks, the same switch and release while the caps agree within 1e-5 pu.
+//! A device in a closed loop is another matter: the rail answers the cap, and its plant
+//! run and the reference's part by an LSB (on `low-adhesion` the first differing speed
+//! code is at 1.17 s), so a decision can fall a tick apart where the codes differ. The
+//! harness's numerics judge such a cut within their time tolerance on the reference
+//! recorded at the control period (`hil::numerics`, "The tube at the control period").
 //!
 //! # The slip bound on `low-adhesion`
 //! The worst disturbance of the scenario is its first: at 6.0 s the rail drops from dry
-//! to `low` under the full demand `T_d` = 12.4 kN m at the wheel (`mu_d` = 0.250). The
-//! wheel slip velocity (the plant's `slip_mps`, the mean wheel) stays below
+//! to `low` under the full demand `T_d` = 12.4 kN m at the wheel (`mu_d` = 0.250, `i_d` =
+//! 580 A). The wheel slip velocity (the plant's `slip_mps`, the mean wheel) stays below
+//! the larger of the first transient and the regulator's set point at the full
+//! reference:
 //!
 //! ```text
-//! s_peak <= s0 + r0 dT / (J_w w_g) + r0 dT t_total / J            = 0.479 m/s
+//! s_peak <= max(s_tr, slip_sp + slip_sp_per_a i_d) = max(0.624, 0.564) = 0.624 m/s
+//! s_tr    = s0 + r0 dT t_cut / J + (cut i_d - i_low) / kp
+//!              + r0 dT / (J_w w_g) + r0 (1 - cut) T_d / (J_m w_g)
 //!   s0       the dry rail's slip at mu_d (Polach, pure longitudinal)  0.165 m/s
 //!   dT       T_d (1 - mu_low(s0) / mu_d): the torque the low rail     9.6 kN m
 //!            no longer carries (its characteristic rises from s0 to
 //!            its peak at 0.60 m/s, so it carries at least mu_low(s0) = 0.056)
-//!   J_w, J   2 I_w = 70 and J_w + n^2 I_m = 345 kg m^2 at the wheel
-//!   w_g      sqrt(k_gear (1/J_w + 1/(n^2 I_m))) = 279 rad/s: wheelset against motor
-//!   t_total  t_detect + t_current = 2.9 + 4.4 ms: the protection's response
+//!   i_low    mu_low(s0) / mu_d i_d: the current whose torque it       130 A
+//!            carries
+//!   J_w, J_m 2 I_w = 70 and n^2 I_m = 275 kg m^2 at the wheel; J = J_w + J_m
+//!   w_g      sqrt(k_gear (1/J_w + 1/J_m)) = 279 rad/s: wheelset against motor
+//!   t_cut    t_detect + L_a/K_p = 2.9 + 0.4 ms: the cut in the current
 //! ```
 //!
-//! Two inertias, the wheelset and the motor (through the gear spring), and the adhesion
-//! torque falling by `dT` at `t = 0` while the motor torque stays `<= T_d`: the wheel's
-//! speed rises by `dT/J [t + (n^2 I_m / (J_w w_g)) sin(w_g t)]`, the rigid part and the
-//! torsion of the gear. The motor's torque acts on the wheel through the impulse
-//! response `(1 - cos w_g t)/J >= 0`, so a smaller motor torque never raises the wheel's
-//! speed; once it is below the low rail's torque (from `t_total` on) it takes back at
-//! least `dT/J [(t - t_total) - sin(w_g (t - t_total))/w_g]`. Together the rise is at
-//! most `dT/J [t_total + 1/w_g + n^2 I_m/(J_w w_g)] = dT [t_total/J + 1/(J_w w_g)]`: the
-//! torsion term (0.221 m/s at the rim) and the rigid one over the response (0.092 m/s).
-//! The response, from the protection's thresholds and rates:
+//! The terms, each a worst case:
 //!
-//! - `t_detect` = 2.9 ms: the slip is above `slip_hold` already (`s0`), so the
-//!   acceleration test detects once the motor's rim acceleration `r0 dT/J (1 - cos w_g
-//!   t)` reaches `a_on` = 3 m/s^2 (2.5 ms), plus one traction step to measure it and one
-//!   period until the cut acts (0.2 ms each at 5 kHz);
-//! - `t_current` = 4.4 ms: the cut to `cut_fraction` x 580 A at once, then `2 r` =
-//!   40 kA/s down to the current whose torque the low rail carries (`mu_low(s0)/mu_d` x
-//!   580 A = 130 A), plus the current loop's lag `L_a / K_p` = 0.4 ms.
+//! - **Until the cut** (`r0 dT t_cut / J` = 0.042 m/s): the adhesion torque falls by
+//!   `dT` at `t = 0` while the motor torque stays `<= T_d`; the motor's speed rises by
+//!   `dT/J [t - sin(w_g t)/w_g] <= dT t/J`. `t_detect` = 2.9 ms: the slip is above
+//!   `slip_accel` already (`s0`), so the acceleration test detects once the motor's rim
+//!   acceleration `r0 dT/J (1 - cos w_g t)` reaches `a_on` = 3 m/s^2 (2.5 ms), plus one
+//!   traction step to measure it and one period until the cut acts (0.2 ms each at
+//!   5 kHz); the current follows within the current loop's lag `L_a / K_p` = 0.4 ms.
+//! - **The regulator** (`(cut i_d - i_low)/kp` = 0.145 m/s): after the cut to 0.3 x
+//!   580 A = 174 A the motor torque still exceeds the low rail's by at most `(cut -
+//!   mu_low(s0)/mu_d) T_d`. The proportional term takes `kp` = 300 A per m/s of the
+//!   measured (motor) slip's rise off the cap, and the integral takes more while the slip
+//!   is above its set point (0.24 m/s at 174 A, below the slip at the cut), so the motor's
+//!   slip rises at most 0.145 m/s past its value at the cut before the cap is below
+//!   `i_low`, where the rail's torque exceeds the motor's.
+//! - **The gear's twist** (0.221 + 0.051 m/s): the plant's slip is the wheel's, the
+//!   regulator sees the motor's. A torque step `dT` on one inertia of the two-mass gear
+//!   twists it by a relative speed of amplitude `dT/(J_i w_g)` (the wheel's speed rises by
+//!   `dT/J [t + (J_m/(J_w w_g)) sin(w_g t)]`, the motor's by `dT/J [t - sin(w_g t)/w_g]`):
+//!   the rail's drop on the wheel, `r0 dT/(J_w w_g)`, and the cut on the motor, `r0 (1 -
+//!   cut) T_d/(J_m w_g)`, both put the wheel ahead of the motor, 3 ms (0.9 rad of `w_g`)
+//!   apart; their amplitudes are added.
+//! - **The regulation** (0.564 m/s): at a steady state the regulator holds the slip on
+//!   its set point, at most `slip_sp + slip_sp_per_a i_d` since the cap is at most the
+//!   reference.
 //!
-//! Measured: 0.425 m/s at 6.007 s (`sim-host run --scenario low-adhesion --loop core
-//! --wsp on`; test `the_core_with_protection_holds_the_wheel_and_without_it_runs_away`
-//! in `sim-host/tests/adhesion.rs` computes the bound from the parameters and asserts
-//! the measured peak below it). `s0` omits the curve's lateral creepage, which takes a
-//! little of the adhesion (0.166 m/s measured before the drop), well inside the margin.
-//! The later disturbances take less torque away (dry to wet at 13 s: the wet rail is the same
-//! shape as `low` with `mu0` 0.30 instead of 0.08; the probes re-apply at 1 500 A/s from the band
-//! instead of a step), measured peaks 0.282 m/s on wet, 0.163-0.166 m/s on dry. The bound
-//! lies below every characteristic's peak slip (0.60 m/s on `low`, 0.9-1.2 on dry and
-//! wet), so a protected wheel never works on the falling side, where it would spin up.
-//!
-//! # Why the working band is so low (0.03 .. 0.06 m/s)
-//!
-//! Polach's characteristics at 83.3 m/s peak at 0.6 (low), 0.9 (dry), 1.2 m/s (wet) of
-//! slip (`sim-host adhesion`), but the paper's lead yaw damper does not stay stable that
-//! close to the peak: the longitudinal creep slope there (the tangent of the
-//! characteristic, which damps the yaw) falls far below the ~1.5 MN the lead loop needs
-//! (crate docs' rate analysis; the paper's Fig. 4), and the yaw actuator's 20 kN m then
-//! outweighs the adhesion-limited yaw moment `2 Lg mu Q` (5 kN m on the `low` rail).
-//! With the continuous reference controllers at a constant demand the yaw loop diverges
-//! above about 0.7 of the peak on wet rail and 0.8 on dry, and below 0.5 on `low`
-//! (`sim-host run` on the `low-adhesion` track with the demand set to that fraction). So
-//! the protection detects a slip early (`slip_on` = 0.25 m/s is above the 0.17 m/s a dry
-//! rail needs for the full demand, so dry running is not touched), cuts at once, and
-//! then works low on the characteristic where the creep slope still damps the yaw. The
-//! price is adhesion utilisation (README, `sim-host run --scenario low-adhesion`).
+//! Measured (`sim-host run --scenario low-adhesion --loop core --wsp on`): 0.423 m/s at
+//! 6.007 s in the first transient, and the run's peak 0.454 m/s in the wet section's
+//! regulation (14.0 s, the cap about 430 A, its set point 0.45 m/s); the test
+//! `the_core_with_protection_holds_the_wheel_and_without_it_runs_away` in
+//! `sim-host/tests/adhesion.rs` computes the bound from the parameters and asserts the
+//! measured peak below it. The set point at the full reference lies below the `low`
+//! rail's peak slip (0.60 m/s), so a regulated wheel works on the rising side; the
+//! transient's bound (0.624 m/s) does not exclude a brief excursion past the `low` peak,
+//! which the regulator then takes back (the measured transient stays at 0.42 m/s).
 //!
 //! ```
 //! use wheelset_control::{Config, F64Controller, Inputs};
@@ -161,6 +182,7 @@
 
 use crate::compiled::ScaleBits;
 use crate::config::{ConfigError, FullScales, Limits, Motor};
+use crate::lead::LeadParams;
 use crate::sample::{Sample, SampleBits};
 
 /// Wheel-slip protection parameters (SI). Validated by [`Wsp::try_new`].
@@ -172,23 +194,30 @@ pub struct WspParams {
     pub enabled: bool,
     /// Slip velocity that detects a slip and starts the protection, m/s (0.25).
     pub slip_on_mps: f64,
-    /// While acting: slip velocity above which the cap is cut, m/s (0.06;
-    /// `slip_target < slip_hold < slip_on`).
-    pub slip_hold_mps: f64,
-    /// While acting: slip velocity below which the cap is re-applied, m/s (0.03).
-    pub slip_target_mps: f64,
+    /// Slip velocity above which the acceleration test detects, m/s (0.06;
+    /// `slip_accel < slip_on`).
+    pub slip_accel_mps: f64,
     /// Wheel acceleration (at the rim) that detects a slip once the slip is above
-    /// `slip_hold`, m/s^2 (3.0).
+    /// `slip_accel`, m/s^2 (3.0).
     pub accel_on_mps2: f64,
-    /// Fraction of the reference kept at the moment a slip is detected (0.5): the
-    /// first, instantaneous cut.
+    /// Fraction of the reference kept at the moment a slip is detected (0.3): the
+    /// first, instantaneous cut, where the slip regulator starts.
     pub cut_fraction: f64,
-    /// Re-apply rate of the current cap, A/s (1500; below `limits.current_ref_rate`).
-    pub reapply_a_per_s: f64,
-    /// While acting: time without the slip crossing `slip_hold` after which the
-    /// protection probes for the rail's recovery, s (0.8; `reapply * probe_after` must
-    /// be at most 2 pu of current, 2000 A s at the default scales).
-    pub probe_after_s: f64,
+    /// Slip set point at zero cap, m/s (0.1): `s_sp = slip_sp + slip_sp_per_a cap`
+    /// (`slip_sp < slip_on`).
+    pub slip_sp_mps: f64,
+    /// Slip set point per ampere of cap, m/s per A (8e-4: 0.56 m/s at 580 A).
+    pub slip_sp_per_a: f64,
+    /// Slip regulator's proportional gain, A per m/s (300).
+    pub kp_a_per_mps: f64,
+    /// Slip regulator's integral gain, A/s per m/s (3000).
+    pub ki_a_per_s_per_mps: f64,
+    /// Zero of the scheduled yaw lead, rad/s (15, below the lead's `w1` = 37; the pole
+    /// kept, `|w1 - w1'| < w2 - w1`): the lead while the wheel works at the limit
+    /// (module docs).
+    pub lead_w1_rad_s: f64,
+    /// Gain of the scheduled yaw lead as a fraction of the lead's (0.3).
+    pub lead_gain: f64,
     /// Wheel radius `r0`, m (0.45): `w_ref = n v_ref / r0`.
     pub r0_m: f64,
     /// LSB of the reference speed code, m/s (1e-3, `wheelset_proto::units`).
@@ -200,12 +229,15 @@ impl Default for WspParams {
         Self {
             enabled: false,
             slip_on_mps: 0.25,
-            slip_hold_mps: 0.06,
-            slip_target_mps: 0.03,
+            slip_accel_mps: 0.06,
             accel_on_mps2: 3.0,
-            cut_fraction: 0.5,
-            reapply_a_per_s: 1500.0,
-            probe_after_s: 0.8,
+            cut_fraction: 0.3,
+            slip_sp_mps: 0.1,
+            slip_sp_per_a: 8e-4,
+            kp_a_per_mps: 300.0,
+            ki_a_per_s_per_mps: 3000.0,
+            lead_w1_rad_s: 15.0,
+            lead_gain: 0.3,
             r0_m: 0.45,
             v_ref_lsb_m_per_s: 1e-3,
         }
@@ -218,19 +250,26 @@ pub struct Wsp<T: Sample> {
     pub(crate) enabled: bool,
     /// `slip_on`, motor-speed pu.
     pub(crate) slip_on: T,
-    /// `slip_hold`, motor-speed pu.
-    pub(crate) slip_hold: T,
-    /// `slip_target`, motor-speed pu.
-    pub(crate) slip_target: T,
+    /// `slip_accel`, motor-speed pu.
+    pub(crate) slip_accel: T,
     /// Acceleration threshold per traction step over `iref_step`.
     pub(crate) accel_ratio: T::Coeff,
-    /// Re-apply step over `iref_step`.
-    pub(crate) reapply_ratio: T::Coeff,
     /// Fraction kept at detection.
     pub(crate) cut: T::Coeff,
-    /// Probe timer level: `reapply probe_after / scales.current`, pu (the timer sums the
-    /// re-apply steps, so it follows a new schedule).
-    pub(crate) probe_level: T,
+    /// Half the set point at zero cap, motor-speed pu.
+    pub(crate) sp_half: T,
+    /// Half the set point's slope, speed pu per current pu.
+    pub(crate) sp_half_slope: T::Coeff,
+    /// `kp' / 2^kp_shift`, current pu per speed pu.
+    pub(crate) kp: T::Coeff,
+    pub(crate) kp_shift: u8,
+    /// `ki' / 2^ki_shift`, current pu per speed pu and per unit of `iref_step`.
+    pub(crate) ki: T::Coeff,
+    pub(crate) ki_shift: u8,
+    /// The scheduled lead's `K_hf'` (pu).
+    pub(crate) lead_k_hf: T::Coeff,
+    /// The scheduled lead's `rho`.
+    pub(crate) lead_rho: T::Coeff,
     /// Reference-speed code -> motor-speed pu: `lsb n / (r0 scales.speed)`.
     pub(crate) v_ref: T::Scale,
 }
@@ -242,25 +281,35 @@ pub struct WspBits {
     pub enabled: bool,
     /// `slip_on`, pu signal in `(0, 2]`.
     pub slip_on: u64,
-    /// `slip_hold`, pu signal in `(slip_target, slip_on)`.
-    pub slip_hold: u64,
-    /// `slip_target`, pu signal in `(0, slip_on)`.
-    pub slip_target: u64,
+    /// `slip_accel`, pu signal in `(0, slip_on)`.
+    pub slip_accel: u64,
     /// Acceleration ratio, coefficient in `(0, 1)`.
     pub accel_ratio: u64,
-    /// Re-apply ratio, coefficient in `(0, 1)`.
-    pub reapply_ratio: u64,
     /// Fraction kept at detection, coefficient in `(0, 1)`.
     pub cut: u64,
-    /// Probe timer level, pu signal in `(0, 2]`.
-    pub probe_level: u64,
+    /// Half the set point at zero cap, pu signal in `(0, slip_on)`.
+    pub sp_half: u64,
+    /// Half the set point's slope, coefficient in `[0, 1)`.
+    pub sp_half_slope: u64,
+    /// Regulator's proportional coefficient, in `(0, 1)`.
+    pub kp: u64,
+    /// `kp`'s shift (`<= 16`).
+    pub kp_shift: u8,
+    /// Regulator's integral coefficient, in `(0, 1)`.
+    pub ki: u64,
+    /// `ki`'s shift (`<= 16`).
+    pub ki_shift: u8,
+    /// Scheduled lead `K_hf'`, a coefficient (signed, as the lead's).
+    pub lead_k_hf: u64,
+    /// Scheduled lead `rho`, a coefficient (`|rho| < 1`).
+    pub lead_rho: u64,
     /// The reference-speed scale.
     pub v_ref: ScaleBits,
 }
 
 /// The protection's state.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct WspState<T> {
+pub struct WspState<T: Sample> {
     /// Current-reference cap, pu (meaningful while active).
     pub cap: T,
     /// Acting.
@@ -269,10 +318,13 @@ pub struct WspState<T> {
     pub w_prev: T,
     /// Reference speed as motor speed, pu.
     pub w_ref: T,
-    /// Probe timer (sum of re-apply steps while calm in the band), pu.
-    pub timer: T,
-    /// Probing for the rail's recovery.
-    pub probing: bool,
+    /// Slip at the previous traction step, pu (the regulator's proportional term).
+    pub slip_prev: T,
+    /// The scheduled yaw lead runs: acting, and the slip above half its set point.
+    pub sched: bool,
+    /// The integral's sub-LSB remainder: the sum of its increments is exact to an LSB
+    /// ([`Sample::mul_c_acc`]).
+    pub residue: T::Residue,
 }
 
 fn check(
@@ -295,8 +347,23 @@ fn check(
     }
 }
 
+/// The largest shift of the regulator's gains (`2^16`).
+const MAX_SHIFT: u8 = 16;
+
+/// `x 2^s` by exact doublings, saturating.
+#[inline(always)]
+fn shl<T: Sample>(mut x: T, s: u8) -> T {
+    let mut i = 0;
+    while i < s {
+        x = x.sat_add(x);
+        i += 1;
+    }
+    x
+}
+
 impl<T: Sample> Wsp<T> {
-    /// Validate `p` against the motor, scales and limits, and quantise; `speed_lsb` is the
+    /// Validate `p` against the motor, scales, limits and the yaw lead `lead` (the
+    /// scheduled lead shares its pole and state), and quantise; `speed_lsb` is the
     /// wire's motor-speed LSB, rad/s (`Config.wire.speed`): the slip thresholds sit half
     /// of it above their values (module docs, "Exact decisions").
     pub fn try_new(
@@ -305,6 +372,7 @@ impl<T: Sample> Wsp<T> {
         s: &FullScales,
         l: &Limits,
         speed_lsb: f64,
+        lead: &LeadParams,
     ) -> Result<Self, ConfigError> {
         check(
             "wsp.r0_m",
@@ -319,16 +387,10 @@ impl<T: Sample> Wsp<T> {
             "must be in (0, 10] m/s",
         )?;
         check(
-            "wsp.slip_hold_mps",
-            p.slip_hold_mps,
-            p.slip_hold_mps > 0.0 && p.slip_hold_mps < p.slip_on_mps,
+            "wsp.slip_accel_mps",
+            p.slip_accel_mps,
+            p.slip_accel_mps > 0.0 && p.slip_accel_mps < p.slip_on_mps,
             "must be in (0, slip_on_mps)",
-        )?;
-        check(
-            "wsp.slip_target_mps",
-            p.slip_target_mps,
-            p.slip_target_mps > 0.0 && p.slip_target_mps < p.slip_hold_mps,
-            "must be in (0, slip_hold_mps)",
         )?;
         check(
             "wsp.accel_on_mps2",
@@ -337,10 +399,46 @@ impl<T: Sample> Wsp<T> {
             "must be in (0, 100] m/s^2",
         )?;
         check(
-            "wsp.reapply_a_per_s",
-            p.reapply_a_per_s,
-            p.reapply_a_per_s > 0.0 && p.reapply_a_per_s < l.current_ref_rate,
-            "must be in (0, limits.current_ref_rate)",
+            "wsp.cut_fraction",
+            p.cut_fraction,
+            p.cut_fraction > 0.0 && p.cut_fraction < 1.0,
+            "must be in (0, 1)",
+        )?;
+        check(
+            "wsp.slip_sp_mps",
+            p.slip_sp_mps,
+            p.slip_sp_mps > 0.0 && p.slip_sp_mps < p.slip_on_mps,
+            "must be in (0, slip_on_mps)",
+        )?;
+        check(
+            "wsp.slip_sp_per_a",
+            p.slip_sp_per_a,
+            p.slip_sp_per_a >= 0.0 && p.slip_sp_per_a * s.current <= 1.0,
+            "must be in [0, 1 m/s per scales.current]",
+        )?;
+        check(
+            "wsp.kp_a_per_mps",
+            p.kp_a_per_mps,
+            p.kp_a_per_mps > 0.0 && p.kp_a_per_mps <= 1e4,
+            "must be in (0, 1e4] A per m/s",
+        )?;
+        check(
+            "wsp.ki_a_per_s_per_mps",
+            p.ki_a_per_s_per_mps,
+            p.ki_a_per_s_per_mps > 0.0 && p.ki_a_per_s_per_mps <= 1e5,
+            "must be in (0, 1e5] A/s per m/s",
+        )?;
+        check(
+            "wsp.lead_w1_rad_s",
+            p.lead_w1_rad_s,
+            p.lead_w1_rad_s > 0.0 && p.lead_w1_rad_s < lead.w2,
+            "must be in (0, lead.w2): a phase lead with the lead's pole",
+        )?;
+        check(
+            "wsp.lead_gain",
+            p.lead_gain,
+            p.lead_gain > 0.0 && p.lead_gain <= 1.0,
+            "must be in (0, 1]",
         )?;
         check(
             "wsp.v_ref_lsb_m_per_s",
@@ -362,37 +460,75 @@ impl<T: Sample> Wsp<T> {
                 .filter(|_| v > 0.0 && v < 1.0)
                 .ok_or(ConfigError::Coefficient { name, value: v })
         };
+        // A gain `g > 0` as `c 2^s`, `c` in [1/2, 1) (or `s = 0` and `c = g < 1`).
+        let split = |name: &'static str, g: f64| {
+            let mut sh = 0u8;
+            let mut c = g;
+            while c >= 1.0 && sh < MAX_SHIFT {
+                c *= 0.5;
+                sh += 1;
+            }
+            q(name, c).map(|c| (c, sh))
+        };
         let slew = l.current_ref_rate / s.current; // pu/s
-        let probe = p.reapply_a_per_s * p.probe_after_s / s.current;
-        check(
-            "wsp.probe_after_s",
-            p.probe_after_s,
-            p.probe_after_s > 0.0 && probe <= 2.0,
-            "must be positive with reapply_a_per_s * probe_after_s <= 2 scales.current",
-        )?;
-        // Half a motor-speed code above each threshold (module docs, "Exact decisions").
+                                                   // Half a motor-speed code above each threshold (module docs, "Exact decisions").
         let half = 0.5 * speed_lsb / s.speed;
         check(
             "wire.speed",
             speed_lsb,
-            speed_lsb > 0.0 && 2.0 * half <= p.slip_target_mps * pu,
-            "must be positive and at most wsp.slip_target_mps at the motor",
+            speed_lsb > 0.0 && 2.0 * half <= p.slip_accel_mps * pu,
+            "must be positive and at most wsp.slip_accel_mps at the motor",
         )?;
+        // The regulator in pu (module docs, "Law"): kp' = kp / (pu scales.current),
+        // ki' = ki / (pu current_ref_rate), the integral per step `ki' iref_step e`.
+        let (kp, kp_shift) = split(
+            "wsp kp / (n/r0 scales.current)",
+            p.kp_a_per_mps / (pu * s.current),
+        )?;
+        let (ki, ki_shift) = split(
+            "wsp ki / (n/r0 current_ref_rate)",
+            p.ki_a_per_s_per_mps / (pu * l.current_ref_rate),
+        )?;
+        let slope = 0.5 * p.slip_sp_per_a * s.current * pu;
+        let sp_half_slope = if slope == 0.0 {
+            T::quantise(0.0)
+        } else {
+            T::quantise(slope).filter(|_| slope < 1.0)
+        }
+        .ok_or(ConfigError::Coefficient {
+            name: "wsp slip_sp_per_a scales.current n/r0 / 2",
+            value: slope,
+        })?;
+        // The scheduled lead `lead_gain K a (s + w1')/(s + w2)` on the lead's state: its
+        // low-pass gain `g' = (w2 - w1')/w2 = g (1 + rho)`, `rho = (w1 - w1')/(w2 - w1)`.
+        let k_hf = lead.k * lead.a * s.y_dot / s.torque;
+        let rho = (lead.w1 - p.lead_w1_rad_s) / (lead.w2 - lead.w1);
         Ok(Self {
             enabled: p.enabled,
             slip_on: T::from_f64(slip_on + half),
-            slip_hold: T::from_f64(p.slip_hold_mps * pu + half),
-            slip_target: T::from_f64(p.slip_target_mps * pu + half),
+            slip_accel: T::from_f64(p.slip_accel_mps * pu + half),
             accel_ratio: q(
                 "wsp accel_on n/r0 / current_ref_rate",
                 p.accel_on_mps2 * pu / slew,
             )?,
-            reapply_ratio: q(
-                "wsp reapply / current_ref_rate",
-                p.reapply_a_per_s / l.current_ref_rate,
-            )?,
             cut: q("wsp.cut_fraction", p.cut_fraction)?,
-            probe_level: T::from_f64(probe),
+            sp_half: T::from_f64(0.5 * p.slip_sp_mps * pu),
+            sp_half_slope,
+            kp,
+            kp_shift,
+            ki,
+            ki_shift,
+            // Signed, as the lead's own K_hf (a negative K is a sign test's lead).
+            lead_k_hf: T::quantise(p.lead_gain * k_hf).ok_or(ConfigError::Coefficient {
+                name: "wsp lead_gain lead.k a (pu)",
+                value: p.lead_gain * k_hf,
+            })?,
+            lead_rho: T::quantise(rho).filter(|_| rho.abs() < 1.0).ok_or(
+                ConfigError::Coefficient {
+                    name: "wsp lead rho = (w1 - w1')/(w2 - w1)",
+                    value: rho,
+                },
+            )?,
             v_ref: T::scale_in(p.v_ref_lsb_m_per_s * pu).ok_or(ConfigError::Coefficient {
                 name: "wsp v_ref lsb n/(r0 scales.speed)",
                 value: p.v_ref_lsb_m_per_s * pu,
@@ -400,63 +536,60 @@ impl<T: Sample> Wsp<T> {
         })
     }
 
+    /// Half the slip set point at cap `cap`: `h = (slip_sp + slip_sp_per_a cap)/2`, pu.
+    #[inline(always)]
+    pub fn half_set_point(&self, cap: T) -> T {
+        self.sp_half.sat_add(cap.mul_c(self.sp_half_slope))
+    }
+
     /// One traction step: `w` the clamped motor speed, `iref` the ramped current
     /// reference, `step` the reference slew per step (pu). Returns the reference to use,
-    /// whether the protection acts on this step, and whether it started acting.
+    /// whether the protection acts on this step, and whether it started acting. Sets
+    /// `st.sched` (the scheduled yaw lead) for the next yaw steps.
     #[inline(always)]
     pub fn process(&self, st: &mut WspState<T>, w: T, iref: T, step: T) -> (T, bool, bool) {
         let slip = w.sat_sub(st.w_ref);
         let dw = w.sat_sub(st.w_prev);
         st.w_prev = w;
-        let over = slip > self.slip_hold;
-        let detect = slip > self.slip_on || (over && dw > step.mul_c(self.accel_ratio));
-        let up = step.mul_c(self.reapply_ratio);
-        let mut new = false;
-        if !st.active {
+        let d_slip = slip.sat_sub(st.slip_prev);
+        st.slip_prev = slip;
+        let new = !st.active;
+        if new {
+            let detect = slip > self.slip_on
+                || (slip > self.slip_accel && dw > step.mul_c(self.accel_ratio));
+            st.sched = false;
             if !(detect && iref > T::ZERO) {
                 return (iref, false, false);
             }
+            // Detected: the instantaneous cut, where the regulator starts.
             st.active = true;
-            new = true;
-        }
-        if new || (st.probing && detect) {
-            // Detected (again): the instantaneous cut, then the working band.
-            st.cap = if new { iref } else { st.cap }.mul_c(self.cut);
-            st.probing = false;
-            st.timer = T::ZERO;
-        } else if st.probing {
-            // Probing for the rail's recovery: re-apply whatever the slip (below slip_on).
-            st.cap = st.cap.sat_add(up);
-        } else if over {
-            st.cap = st.cap.sat_sub(step).sat_sub(step).limit(T::ZERO, iref).0;
-            st.timer = T::ZERO;
+            st.cap = iref.mul_c(self.cut);
         } else {
-            if slip < self.slip_target {
-                st.cap = st.cap.sat_add(up);
+            // The slip regulator, velocity form, on the cap:
+            // cap += -kp' (slip - slip_prev) + ki' step (2 h - slip).
+            // The integral's rounding is fed back (`mul_c_acc`): its inputs repeat for
+            // many steps (the same codes), and a rounding to nearest would bias every
+            // step the same way. Its first product rounds by half an LSB of `ki' e`,
+            // which the slew per step (4e-3 pu) then scales down. The proportional
+            // increments are zero while the codes repeat and sum to `kp' (s - s0)`.
+            let h = self.half_set_point(st.cap);
+            let p = shl(d_slip, self.kp_shift).mul_c(self.kp);
+            let e = h.sat_add(h).sat_sub(slip);
+            let i = shl(e, self.ki_shift)
+                .mul_c(self.ki)
+                .mul_c_acc(step.to_coeff_sat(), &mut st.residue);
+            let raw = st.cap.sat_sub(p).sat_add(i);
+            // Release where the regulator asks for the whole reference (the rail carries
+            // the demand again).
+            if raw >= iref {
+                st.active = false;
+                st.sched = false;
+                return (iref, true, false);
             }
-            // Calm in the band: after `probe_after` start probing. The timer is a count of
-            // re-apply steps, `probe_level / up` of them (an integer with the default
-            // schedules), so the level sits half a step below: `2 timer >= 2 level - up`,
-            // exact doublings, no coefficient. A rounding of the sum smaller than half a
-            // step then cannot move the decision by a tick, and the fixed-point, f32 and
-            // f64 builds start probing on the same tick (at `level` itself they did not:
-            // Q4.28 rounds `up` up and reached it one step before f64 did).
-            st.timer = st.timer.sat_add(up);
-            st.probing = st.timer.sat_add(st.timer)
-                >= self.probe_level.sat_add(self.probe_level).sat_sub(up);
+            st.cap = raw.limit(T::ZERO, iref).0;
         }
-        // Release where the re-apply steps reach the reference, half a step below it:
-        // `2 cap >= 2 iref - up` (exact doublings, as the probe timer). The cap rises only
-        // by whole re-apply steps onto a cut value, and with the default parameters the
-        // reference is a whole number of them (579.6 A = 1 932 x 0.3 A on
-        // `low-adhesion`), so at `cap >= iref` the sum landed on the level and its
-        // rounding decided the tick (on the same inputs Q4.28 released a step after f64).
-        // The output steps to `iref` by at most 1.5 re-apply steps instead of one.
-        if st.cap.sat_add(st.cap) >= iref.sat_add(iref).sat_sub(up) {
-            st.active = false;
-            st.probing = false;
-            return (iref, true, new);
-        }
+        // The scheduled lead while the slip is above half its set point.
+        st.sched = slip > self.half_set_point(st.cap);
         (st.cap, true, new)
     }
 
@@ -474,18 +607,24 @@ impl<T: SampleBits> Wsp<T> {
         WspBits {
             enabled: self.enabled,
             slip_on: self.slip_on.to_bits64(),
-            slip_hold: self.slip_hold.to_bits64(),
-            slip_target: self.slip_target.to_bits64(),
+            slip_accel: self.slip_accel.to_bits64(),
             accel_ratio: T::coeff_to_bits64(self.accel_ratio),
-            reapply_ratio: T::coeff_to_bits64(self.reapply_ratio),
             cut: T::coeff_to_bits64(self.cut),
-            probe_level: self.probe_level.to_bits64(),
+            sp_half: self.sp_half.to_bits64(),
+            sp_half_slope: T::coeff_to_bits64(self.sp_half_slope),
+            kp: T::coeff_to_bits64(self.kp),
+            kp_shift: self.kp_shift,
+            ki: T::coeff_to_bits64(self.ki),
+            ki_shift: self.ki_shift,
+            lead_k_hf: T::coeff_to_bits64(self.lead_k_hf),
+            lead_rho: T::coeff_to_bits64(self.lead_rho),
             v_ref: ScaleBits { mul, shift },
         }
     }
 
-    /// From exact bits, validated: thresholds `0 < slip_target < slip_hold < slip_on <= 2` pu,
-    /// ratios in `(0, 1)`, a valid scale.
+    /// From exact bits, validated: thresholds `0 < slip_accel < slip_on <= 2` pu and
+    /// `0 < sp_half < slip_on`, coefficients in `(0, 1)` (the set point's slope in
+    /// `[0, 1)`, the scheduled lead's any), shifts at most 16, a valid scale.
     pub fn from_bits(b: &WspBits) -> Result<Self, crate::BitsError> {
         let e = |field| crate::BitsError { field };
         let sig = |field, v| {
@@ -493,29 +632,35 @@ impl<T: SampleBits> Wsp<T> {
                 .filter(|x| *x > T::ZERO && *x <= T::MAX_LIMIT)
                 .ok_or(e(field))
         };
-        let unit = |field, v| {
+        let unit = |field, v, zero_ok| {
             T::coeff_from_bits64(v)
-                .filter(|c| T::coeff_in_unit(*c, false))
+                .filter(|c| T::coeff_in_unit(*c, zero_ok))
                 .ok_or(e(field))
         };
+        let shift = |field, s: u8| if s <= MAX_SHIFT { Ok(s) } else { Err(e(field)) };
         let slip_on = sig("wsp.slip_on", b.slip_on)?;
-        let slip_hold = sig("wsp.slip_hold", b.slip_hold)?;
-        let slip_target = sig("wsp.slip_target", b.slip_target)?;
-        if slip_hold >= slip_on {
-            return Err(e("wsp.slip_hold"));
+        let slip_accel = sig("wsp.slip_accel", b.slip_accel)?;
+        let sp_half = sig("wsp.sp_half", b.sp_half)?;
+        if slip_accel >= slip_on {
+            return Err(e("wsp.slip_accel"));
         }
-        if slip_target >= slip_hold {
-            return Err(e("wsp.slip_target"));
+        if sp_half >= slip_on {
+            return Err(e("wsp.sp_half"));
         }
         Ok(Self {
             enabled: b.enabled,
             slip_on,
-            slip_hold,
-            slip_target,
-            accel_ratio: unit("wsp.accel_ratio", b.accel_ratio)?,
-            reapply_ratio: unit("wsp.reapply_ratio", b.reapply_ratio)?,
-            cut: unit("wsp.cut", b.cut)?,
-            probe_level: sig("wsp.probe_level", b.probe_level)?,
+            slip_accel,
+            accel_ratio: unit("wsp.accel_ratio", b.accel_ratio, false)?,
+            cut: unit("wsp.cut", b.cut, false)?,
+            sp_half,
+            sp_half_slope: unit("wsp.sp_half_slope", b.sp_half_slope, true)?,
+            kp: unit("wsp.kp", b.kp, false)?,
+            kp_shift: shift("wsp.kp_shift", b.kp_shift)?,
+            ki: unit("wsp.ki", b.ki, false)?,
+            ki_shift: shift("wsp.ki_shift", b.ki_shift)?,
+            lead_k_hf: T::coeff_from_bits64(b.lead_k_hf).ok_or(e("wsp.lead_k_hf"))?,
+            lead_rho: T::coeff_from_bits64(b.lead_rho).ok_or(e("wsp.lead_rho"))?,
             v_ref: T::scale_from_bits(b.v_ref.mul, b.v_ref.shift).ok_or(e("wsp.v_ref"))?,
         })
     }

@@ -1,12 +1,12 @@
 //! Wheel-slip protection: validation, exact bits, the law's phases (detect and cut,
-//! working band, probe, release), the switch and the flag, and the fixed-point and f32
-//! builds against the f64 reference on the same inputs.
+//! regulate the slip to its set point, the scheduled lead, release), the switch and the
+//! flag, and the fixed-point and f32 builds against the f64 reference on the same inputs.
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use wheelset_control::{
     Compiled, Config, ConfigError, Controller, F32Controller, F64Controller, FixedController, Fx,
-    Inputs, Sample, SampleBits, WspParams,
+    Inputs, Sample, SampleBits, WspBits, WspParams,
 };
 
 const N_R0: f64 = 5.0 / 0.45;
@@ -43,15 +43,21 @@ fn iref_a<T: Sample>(c: &Controller<T>) -> f64 {
 #[test]
 fn invalid_parameters_are_refused_with_the_field_named() {
     type Spoil = fn(&mut WspParams);
-    let cases: [(&str, Spoil); 6] = [
-        ("wsp.slip_hold_mps", |p| p.slip_hold_mps = p.slip_on_mps),
-        ("wsp.slip_target_mps", |p| {
-            p.slip_target_mps = p.slip_hold_mps
+    let cases: [(&str, Spoil); 12] = [
+        ("wsp.slip_accel_mps", |p| p.slip_accel_mps = p.slip_on_mps),
+        ("wsp.slip_sp_mps", |p| p.slip_sp_mps = p.slip_on_mps),
+        ("wsp.slip_sp_per_a", |p| p.slip_sp_per_a = -1e-4),
+        ("wsp.cut_fraction", |p| p.cut_fraction = 1.0),
+        ("wsp.kp_a_per_mps", |p| p.kp_a_per_mps = 0.0),
+        ("wsp.ki_a_per_s_per_mps", |p| {
+            p.ki_a_per_s_per_mps = f64::NAN
         }),
-        ("wsp.reapply_a_per_s", |p| p.reapply_a_per_s = 3e4),
+        ("wsp.lead_w1_rad_s", |p| p.lead_w1_rad_s = 274.0),
+        ("wsp.lead_gain", |p| p.lead_gain = 0.0),
         ("wsp.accel_on_mps2", |p| p.accel_on_mps2 = f64::NAN),
         ("wsp.r0_m", |p| p.r0_m = 0.0),
-        ("wsp.probe_after_s", |p| p.probe_after_s = 10.0),
+        ("wsp.slip_on_mps", |p| p.slip_on_mps = 11.0),
+        ("wsp.v_ref_lsb_m_per_s", |p| p.v_ref_lsb_m_per_s = 0.0),
     ];
     for (field, f) in cases {
         let mut c = cfg();
@@ -64,12 +70,6 @@ fn invalid_parameters_are_refused_with_the_field_named() {
         assert_eq!(named, field, "{e}");
         assert!(c.validate().is_err());
     }
-    let mut c = cfg();
-    c.wsp.cut_fraction = 1.0;
-    assert!(matches!(
-        F64Controller::try_new(&c),
-        Err(ConfigError::Coefficient { .. })
-    ));
 }
 
 #[test]
@@ -79,25 +79,37 @@ fn bits_round_trip_and_invalid_bits_are_refused() {
     let b = law.to_bits();
     assert_eq!(Compiled::<Fx>::from_bits(&b).unwrap(), law);
     assert_eq!(Compiled::<Fx>::from_valid_bits(&b), law);
-    let mut bad = b;
-    bad.wsp.slip_target = bad.wsp.slip_hold;
-    assert_eq!(
-        Compiled::<Fx>::from_bits(&bad).unwrap_err().field,
-        "wsp.slip_target"
-    );
-    let mut bad = b;
-    bad.wsp.cut = 0;
-    assert_eq!(
-        Compiled::<Fx>::from_bits(&bad).unwrap_err().field,
-        "wsp.cut"
-    );
+    type Spoil = fn(&mut WspBits);
+    let cases: [(&str, Spoil); 5] = [
+        ("wsp.slip_accel", |w| w.slip_accel = w.slip_on),
+        ("wsp.sp_half", |w| w.sp_half = w.slip_on),
+        ("wsp.cut", |w| w.cut = 0),
+        ("wsp.kp_shift", |w| w.kp_shift = 17),
+        ("wsp.ki_shift", |w| w.ki_shift = 17),
+    ];
+    for (field, f) in cases {
+        let mut bad = b;
+        f(&mut bad.wsp);
+        assert_eq!(Compiled::<Fx>::from_bits(&bad).unwrap_err().field, field);
+    }
     // The protection's parameters are part of the fingerprint.
-    let mut other = c;
-    other.wsp.slip_on_mps = 0.5;
-    let b2 = Compiled::<Fx>::try_new(&other).unwrap().to_bits();
-    assert_ne!(b.fingerprint(), b2.fingerprint());
+    for f in [
+        (|p: &mut WspParams| p.slip_on_mps = 0.5) as fn(&mut WspParams),
+        |p| p.ki_a_per_s_per_mps = 2000.0,
+        |p| p.lead_w1_rad_s = 20.0,
+    ] {
+        let mut other = c;
+        f(&mut other.wsp);
+        let b2 = Compiled::<Fx>::try_new(&other).unwrap().to_bits();
+        assert_ne!(b.fingerprint(), b2.fingerprint());
+    }
     let f = Compiled::<f32>::try_new(&c).unwrap();
     assert_eq!(Compiled::<f32>::from_bits(&f.to_bits()).unwrap(), f);
+}
+
+/// The set point `s_sp = slip_sp + slip_sp_per_a cap`, m/s, at the protection's cap.
+fn set_point<T: Sample>(c: &Config, k: &Controller<T>) -> f64 {
+    c.wsp.slip_sp_mps + c.wsp.slip_sp_per_a * iref_a(k)
 }
 
 #[test]
@@ -106,54 +118,122 @@ fn a_rolling_wheel_is_left_alone_and_a_slip_is_cut_at_once() {
     let mut k = F64Controller::try_new(&c).unwrap();
     // 0.1 m/s of slip (dry rail at full demand needs 0.17): nothing happens.
     run(&mut k, &c, 0.1, 12_400.0, 500);
-    assert!(!k.wheel_slip());
+    assert!(!k.wheel_slip() && !k.wsp_state().sched);
     assert_eq!(k.counters().wsp_events, 0);
     let iref = k.current_ref().to_f64() * 1000.0;
     assert!(iref > 500.0, "reference {iref} A");
-    // 0.4 m/s: detected on the first step, the cap is half the reference.
+    // 0.4 m/s: detected on the first step, the cap is `cut_fraction` of the reference,
+    // and the slip is above half the set point: the scheduled lead runs.
     run(&mut k, &c, 0.4, 12_400.0, 1);
     assert!(k.wheel_slip());
     assert_eq!(k.counters().wsp_events, 1);
     let cap = iref_a(&k);
-    assert!(cap < 0.5 * iref + 10.0, "cap {cap} A after the cut");
-    // Still above the band: cut at twice the slew, to zero in bounded time.
-    run(&mut k, &c, 0.4, 12_400.0, 200);
+    assert!(
+        (cap - c.wsp.cut_fraction * iref).abs() < 1e-6,
+        "cap {cap} A after the cut"
+    );
+    assert!(k.wsp_state().sched);
+    // Held above the set point: the integral takes the cap down, at
+    // ki (slip - s_sp) A/s, to zero in bounded time.
+    let sp = set_point(&c, &k);
+    run(&mut k, &c, 0.4, 12_400.0, 100);
+    let fall = cap - iref_a(&k);
+    let want = c.wsp.ki_a_per_s_per_mps * (0.4 - sp) * 100.0 * c.traction_period();
+    assert!(
+        (fall - want).abs() < 0.05 * want,
+        "fell {fall} A, {want} A expected"
+    );
+    run(&mut k, &c, 0.4, 12_400.0, 5000);
     assert!(iref_a(&k) < 1e-6);
     assert_eq!(k.counters().wsp_events, 1, "one event, however long");
-    assert_eq!(k.counters().wsp_ticks, 201);
+    assert_eq!(k.counters().wsp_ticks, 5101);
 }
 
 #[test]
-fn working_band_holds_reapplies_probes_and_releases() {
+fn the_proportional_term_answers_a_slip_step() {
     let c = cfg();
     let mut k = F64Controller::try_new(&c).unwrap();
     run(&mut k, &c, 0.0, 12_400.0, 500);
-    run(&mut k, &c, 0.4, 12_400.0, 1);
-    let cap0 = iref_a(&k);
-    // In the band (0.045 m/s): held, and after 0.8 s calm the probe starts.
-    run(&mut k, &c, 0.045, 12_400.0, 100);
-    assert!((iref_a(&k) - cap0).abs() < 1e-9, "held");
-    // Below the target: re-applied at 1500 A/s (0.3 A per 5 kHz tick).
-    run(&mut k, &c, 0.0, 12_400.0, 100);
-    let up = iref_a(&k) - cap0;
-    assert!((up - 30.0).abs() < 0.1, "re-applied {up} A in 100 ticks");
-    // Calm for 0.8 s (4000 ticks with the 200 above): probing re-applies even inside
-    // the band.
-    run(&mut k, &c, 0.045, 12_400.0, 3700);
-    assert!(!k.wsp_state().probing);
+    run(&mut k, &c, 0.3, 12_400.0, 1);
     let before = iref_a(&k);
-    run(&mut k, &c, 0.045, 12_400.0, 200);
-    assert!(k.wsp_state().probing);
-    assert!(iref_a(&k) > before + 20.0, "probing");
-    // A slip while probing: cut again, back to the band.
-    run(&mut k, &c, 0.4, 12_400.0, 1);
-    assert!(!k.wsp_state().probing && k.wsp_state().active);
-    assert_eq!(k.counters().wsp_events, 1);
-    // The rail carries the demand again: re-applied, released, the flag drops.
-    run(&mut k, &c, 0.0, 12_400.0, 20_000);
-    assert!(!k.wheel_slip());
+    let sp = set_point(&c, &k);
+    // A step of +0.05 m/s: the cap drops by kp 0.05 A at once (plus one integral step).
+    run(&mut k, &c, 0.35, 12_400.0, 1);
+    let drop = before - iref_a(&k);
+    let p = c.wsp.kp_a_per_mps * 0.05;
+    let i = c.wsp.ki_a_per_s_per_mps * (0.35 - sp) * c.traction_period();
+    assert!(
+        (drop - p - i).abs() < 1e-3 * p,
+        "dropped {drop} A, {} A expected",
+        p + i
+    );
+}
+
+/// A toy rail for the regulator: the wheel's slip velocity `s` rises with the current
+/// the rail does not carry, `s' = 0.05 (cap - i_rail(s))` m/s^2 (A), the rail
+/// carrying `i_rail(s) = 300 A s / (s + 0.1 m/s)` (a rising characteristic).
+fn regulate<T: Sample>(c: &Config, ticks: u32) -> (Controller<T>, f64) {
+    let mut k = Controller::<T>::try_new(c).unwrap();
+    run(&mut k, c, 0.0, 12_400.0, 500);
+    let mut s = 0.3;
+    let dt = c.traction_period();
+    for _ in 0..ticks {
+        run(&mut k, c, s, 12_400.0, 1);
+        let cap = if k.wheel_slip() {
+            iref_a(&k)
+        } else {
+            k.current_ref().to_f64() * 1000.0
+        };
+        s = (s + dt * 0.05 * (cap - 300.0 * s / (s + 0.1))).max(0.0);
+    }
+    (k, s)
+}
+
+#[test]
+fn the_regulator_holds_the_slip_at_its_set_point() {
+    let c = cfg();
+    let (k, s) = regulate::<f64>(&c, 20_000);
+    assert!(k.wheel_slip());
+    let sp = set_point(&c, &k);
+    // The equilibrium: the slip on its set point, the cap what the rail carries there.
+    assert!((s - sp).abs() < 2e-3, "slip {s} m/s, set point {sp} m/s");
+    let carried = 300.0 * s / (s + 0.1);
+    assert!((iref_a(&k) - carried).abs() < 2.0, "cap {} A", iref_a(&k));
+    assert!(k.wsp_state().sched, "at the set point, above half of it");
+}
+
+#[test]
+fn the_protection_releases_when_the_rail_carries_the_demand() {
+    let c = cfg();
+    let mut k = F64Controller::try_new(&c).unwrap();
+    run(&mut k, &c, 0.0, 12_400.0, 500);
+    run(&mut k, &c, 0.3, 12_400.0, 1);
+    let iref = k.current_ref().to_f64() * 1000.0;
+    // No slip: the integral raises the cap at ki s_sp, up to the reference, and releases.
+    let mut ticks = 0u32;
+    while k.wheel_slip() {
+        run(&mut k, &c, 0.0, 12_400.0, 1);
+        ticks += 1;
+        assert!(ticks < 50_000, "no release");
+        assert!(!k.wsp_state().sched, "below half the set point");
+    }
     assert!(!k.wsp_state().active);
     assert_eq!(k.counters().wsp_events, 1);
+    // From 0.3 of the reference, plus kp 0.3 m/s at the slip's fall to zero, at
+    // ki (0.1 + 8e-4 cap) A/s: the time to release, as the solution of the linear ODE
+    // cap' = ki (a + b cap).
+    let (ki, a, b) = (
+        c.wsp.ki_a_per_s_per_mps,
+        c.wsp.slip_sp_mps,
+        c.wsp.slip_sp_per_a,
+    );
+    let cut = c.wsp.cut_fraction * iref + c.wsp.kp_a_per_mps * 0.3;
+    let t = ((a + b * iref) / (a + b * cut)).ln() / (ki * b);
+    let got = ticks as f64 * c.traction_period();
+    assert!(
+        (got - t).abs() < 0.01 * t,
+        "released after {got} s, {t} s expected"
+    );
 }
 
 #[test]
@@ -186,7 +266,7 @@ fn agree<T: SampleBits>(tol_a: f64) {
     let mut b = Controller::<T>::try_new(&c).unwrap();
     let s = c.scales;
     let mut worst = 0.0f64;
-    let mut differ = 0u32;
+    let (mut differ, mut sched_differ, mut sched) = (0u32, 0u32, 0u32);
     for k in 0..20_000u32 {
         let t = k as f64 / 5000.0;
         // Slip ramps through the thresholds and back: 0 .. 0.5 .. 0 m/s.
@@ -198,13 +278,20 @@ fn agree<T: SampleBits>(tol_a: f64) {
         a.tick(&ia);
         b.tick(&ib);
         differ += u32::from(a.wheel_slip() != b.wheel_slip());
-        // Mean difference of the cap over the run (a crossing a tick apart makes one
-        // tick differ by the cut, 290 A; the mean shows any drift).
+        sched += u32::from(a.wsp_state().sched);
+        sched_differ += u32::from(a.wsp_state().sched != b.wsp_state().sched);
+        // Mean difference of the cap over the run (the mean shows any drift).
         worst += (iref_a(&a) - iref_a(&b)) * s.current / 1000.0 / 20_000.0;
     }
     assert!(
         differ <= 4,
         "{}: the flag differs on {differ} ticks",
+        T::NAME
+    );
+    assert!(sched > 1000, "{sched} ticks on the scheduled lead");
+    assert!(
+        sched_differ <= 4,
+        "{}: the lead switch differs on {sched_differ} ticks",
         T::NAME
     );
     assert!(a.counters().wsp_events >= 1);
@@ -218,8 +305,6 @@ fn agree<T: SampleBits>(tol_a: f64) {
 
 #[test]
 fn fixed_point_and_f32_take_the_f64_decisions() {
-    // A threshold crossing can land one tick apart (the quantised slip against the
-    // quantised threshold): one re-apply step is 0.3 A; allow a few.
     agree::<Fx>(1.0);
     agree::<f32>(1.0);
     // The FixedController alias is the production type.
@@ -227,92 +312,68 @@ fn fixed_point_and_f32_take_the_f64_decisions() {
     let _ = F32Controller::try_new(&cfg()).unwrap();
 }
 
-/// The tick (counted from the first calm one) on which the protection starts probing,
-/// after a detection at 0.3 m/s and then a calm slip in the band (0.045 m/s).
-fn probe_tick<T: Sample>(c: &Config) -> u32 {
+/// The tick (counted from the detection) on which the protection releases with no slip.
+fn release_tick<T: Sample>(c: &Config) -> u32 {
     let mut ctl = Controller::<T>::try_new(c).unwrap();
-    run(&mut ctl, c, 0.3, 12_400.0, 50);
-    assert!(ctl.wheel_slip() && !ctl.wsp_state().probing);
-    let (inp, w_ref) = at::<T>(c, 0.045, 12_400.0);
+    run(&mut ctl, c, 0.0, 12_400.0, 5_000);
+    run(&mut ctl, c, 0.3, 12_400.0, 1);
+    assert!(ctl.wheel_slip());
+    let (inp, w_ref) = at::<T>(c, 0.0, 12_400.0);
     ctl.set_v_ref(w_ref);
-    for k in 1..=20_000u32 {
-        ctl.tick(&inp);
-        if ctl.wsp_state().probing {
-            return k;
-        }
-    }
-    panic!("{}: no probing after 4 s of calm", T::NAME);
-}
-
-#[test]
-fn every_build_starts_probing_on_the_same_tick() {
-    // The probe timer sums `probe_after / T` re-apply steps: an integer count (4 000 at
-    // the 5 kHz traction rate), so the level `r_up probe_after` is where the sum lands
-    // and the rounding of the sum decided the tick (Q4.28 one step before f64). The level
-    // half a step below makes the count exact in every build.
-    let c = cfg();
-    let base = c.base_rate_hz as f64;
-    let steps = (c.wsp.probe_after_s / c.traction_period()).round() as u32;
-    assert!(steps > 100, "{steps}");
-    // Ticks are base ticks; the traction step runs every `traction_divisor` of them.
-    let per = (c.traction_period() * base).round() as u32;
-    let f64_tick = probe_tick::<f64>(&c);
-    assert_eq!(probe_tick::<Fx>(&c), f64_tick, "Q4.28 against f64");
-    assert_eq!(probe_tick::<f32>(&c), f64_tick, "f32 against f64");
-    // `probe_after` of calm: `steps` traction steps (within one step of the phase).
-    assert!(
-        f64_tick.abs_diff(steps * per) <= per,
-        "{f64_tick} vs {}",
-        steps * per
-    );
-}
-
-/// The tick (counted from the first tick without slip) on which the protection releases,
-/// after a detection at 0.3 m/s cut the cap to zero and the rail then carries the wheel
-/// again (no slip: re-applied at `r_up` up to the reference), at demand `demand` N m.
-fn release_tick<T: Sample>(c: &Config, demand: f64) -> u32 {
-    let mut ctl = Controller::<T>::try_new(c).unwrap();
-    run(&mut ctl, c, 0.0, demand, 5_000);
-    run(&mut ctl, c, 0.3, demand, 100);
-    assert!(ctl.wheel_slip() && ctl.wsp_state().cap.to_f64() == 0.0);
-    let (inp, w_ref) = at::<T>(c, 0.0, demand);
-    ctl.set_v_ref(w_ref);
-    for k in 1..=20_000u32 {
+    for k in 1..=50_000u32 {
         ctl.tick(&inp);
         if !ctl.wheel_slip() {
             return k;
         }
     }
-    panic!("{}: no release after 4 s of adhesion", T::NAME);
+    panic!("{}: no release after 10 s of adhesion", T::NAME);
 }
 
 #[test]
 fn every_build_releases_on_the_same_tick() {
-    // Re-applied from zero, the cap sums re-apply steps onto the reference. Where the
-    // reference is a whole number of steps (on `low-adhesion` 579.6 A = 1 932 x 0.3 A,
-    // released at 11.0 s) the sum lands on it, and the test `cap >= i_ref` was decided
-    // by the rounding of the sum: on the same inputs Q4.28 released a step after f64.
-    // The level half a step below makes the count exact in every build.
+    // The cap rises by the integral's products, not by whole steps onto a lattice, so
+    // `cap >= i_ref` falls between the builds' roundings only by chance; on these inputs
+    // they release on the same tick.
     let c = cfg();
-    let up = c.wsp.reapply_a_per_s * c.traction_period();
-    let mut k = F64Controller::try_new(&c).unwrap();
-    run(&mut k, &c, 0.0, 12_400.0, 5_000);
-    let iref = k.current_ref().to_f64() * c.scales.current;
-    let steps = (iref / up).round();
-    // The demand whose reference is `steps` re-apply steps.
-    let demand = 12_400.0 * steps * up / iref;
-    let f64_tick = release_tick::<f64>(&c, demand);
-    assert_eq!(
-        release_tick::<Fx>(&c, demand),
-        f64_tick,
-        "Q4.28 against f64"
-    );
-    assert_eq!(release_tick::<f32>(&c, demand), f64_tick, "f32 against f64");
-    // Released on the step that reaches the reference (within one step of the phase).
-    let per = (c.traction_period() * c.base_rate_hz as f64).round() as u32;
-    let n = steps as u32 * per;
-    assert!(
-        f64_tick.abs_diff(n) <= per,
-        "{f64_tick} vs {n} (i_ref {iref} A)"
-    );
+    let f64_tick = release_tick::<f64>(&c);
+    assert!(f64_tick > 1000, "{f64_tick}");
+    assert_eq!(release_tick::<Fx>(&c), f64_tick, "Q4.28 against f64");
+    assert_eq!(release_tick::<f32>(&c), f64_tick, "f32 against f64");
+}
+
+/// The yaw torque after 2 s of a constant `y' = 0.01` m/s, the wheel at `slip` m/s.
+fn yaw_dc<T: Sample>(c: &Config, slip: f64) -> f64 {
+    let mut k = Controller::<T>::try_new(c).unwrap();
+    let s = c.scales;
+    let (mut inp, w_ref) = at::<T>(c, slip, 12_400.0);
+    inp.y_dot = T::from_f64(0.01 / s.y_dot);
+    k.set_v_ref(w_ref);
+    for _ in 0..10_000 {
+        k.tick(&inp);
+    }
+    assert_eq!(k.wsp_state().sched, slip > 0.2);
+    k.outputs().yaw_torque.to_f64() * s.torque
+}
+
+#[test]
+fn the_scheduled_lead_has_its_dc_gain() {
+    // On the lead's state, `K_hf' (x - (1 + rho) z)` settles at
+    // `lead_gain K a w1'/w2 x`: the DC gain of `0.3 K a (s + 15)/(s + 274)`, against the
+    // lead's `K a 37/274 x` when the wheel does not slip.
+    let c = cfg();
+    let l = c.lead;
+    for (slip, want) in [
+        (0.0, l.k * l.a * l.w1 / l.w2 * 0.01),
+        (
+            0.4,
+            c.wsp.lead_gain * l.k * l.a * c.wsp.lead_w1_rad_s / l.w2 * 0.01,
+        ),
+    ] {
+        for got in [yaw_dc::<f64>(&c, slip), yaw_dc::<Fx>(&c, slip)] {
+            assert!(
+                (got - want).abs() < 1e-3 * want,
+                "slip {slip}: {got} N m, {want} N m"
+            );
+        }
+    }
 }

@@ -288,19 +288,15 @@ impl<T: SampleBits> Runtime<T> {
                     inp.current = T::ZERO;
                 }
                 #[cfg(all(feature = "monitor", feature = "wsp"))]
-                let wsp_was = {
-                    let w = self.core.wsp_state();
-                    (w.active, w.probing)
-                };
+                let wsp_was = self.core.wsp_state().active;
                 let out = self.core.tick(&inp);
                 #[cfg(all(feature = "monitor", feature = "wsp"))]
                 {
-                    // The protection cut the traction on this tick (its first cut, or a
-                    // re-cut ending a probe): a traction step the device made itself,
-                    // which the actuator check does not take for a failed actuator
-                    // (wheelset_control::monitor, the rule for such steps).
-                    let w = self.core.wsp_state();
-                    if w.active && (!wsp_was.0 || (wsp_was.1 && !w.probing)) {
+                    // The protection cut the traction on this tick (its cut at detection):
+                    // a traction step the device made itself, which the actuator check
+                    // does not take for a failed actuator (wheelset_control::monitor, the
+                    // rule for such steps).
+                    if self.core.wsp_state().active && !wsp_was {
                         self.monitor.traction_step(&mut self.mon);
                     }
                 }

@@ -203,6 +203,18 @@ impl Sample for QDyn {
         let half = if cf == 0 { 0 } else { 1i64 << (cf - 1) };
         QDyn(sat((self.0 * c.0 + half) >> cf, &fm.signal))
     }
+    /// Mirrors `Fx::to_coeff_sat`: the signal in the coefficient format, saturated to
+    /// its range strictly (as `quantise`).
+    fn to_coeff_sat(self) -> QCoef {
+        let fm = formats();
+        let (sf, cf) = (fm.signal.frac_bits, fm.coef.frac_bits);
+        let raw = if cf >= sf {
+            self.0.saturating_mul(1i64 << (cf - sf).min(62))
+        } else {
+            self.0 >> (sf - cf)
+        };
+        QCoef(raw.clamp(fm.coef.raw_min() + 1, fm.coef.raw_max()))
+    }
     /// Mirrors `Fx::mul_c_acc`: floor with the remainder carried (error feedback).
     fn mul_c_acc(self, c: QCoef, r: &mut i64) -> Self {
         let fm = formats();

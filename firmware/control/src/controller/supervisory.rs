@@ -113,6 +113,7 @@ impl<T: Sample> Controller<T> {
         self.wsp_on = on;
         if !on {
             self.wsp.active = false;
+            self.wsp.sched = false;
             self.wsp_acting = false;
         }
         self.refresh();

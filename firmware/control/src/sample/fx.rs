@@ -176,6 +176,13 @@ impl Sample for Fx {
         Fx::from_bits(mul_q31(self.to_bits(), c.to_bits()))
     }
     #[inline(always)]
+    fn to_coeff_sat(self) -> Coef {
+        // Q4.28 -> Q1.31: three bits up, saturated to (-1, 1) strictly (as `quantise`).
+        let b = i64::from(self.to_bits()) << (COEF_FRAC - FX_FRAC);
+        let m = i64::from(i32::MAX);
+        Coef::from_bits(b.clamp(-m, m) as i32)
+    }
+    #[inline(always)]
     fn square(self) -> Self {
         // Q4.28 x Q4.28 = Q8.56, rounded to Q4.28 and saturated (|x| >= 2.83 pu).
         let x = i64::from(self.to_bits());
