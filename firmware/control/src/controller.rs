@@ -14,7 +14,9 @@ mod supervisory;
 
 use signals::event;
 
-pub use signals::{Codec, Counters, InputCodes, Inputs, OutputCodes, Outputs, SignalCounts};
+pub use signals::{
+    Codec, Counters, InputCodes, Inputs, OutputCodes, Outputs, SignalCounts, TickEvents,
+};
 
 /// The controller: configuration, filter states, counters. See the crate docs.
 #[derive(Clone, Debug)]
@@ -40,6 +42,8 @@ pub struct Controller<T: Sample> {
     last_y_dot: T,
     out: Outputs<T>,
     counters: Counters,
+    /// What the latest tick counted ([`Self::tick_events`]).
+    events: TickEvents,
     /// Wheel-slip protection: on, state, acted on the last traction step.
     wsp_on: bool,
     wsp: WspState<T>,
@@ -105,6 +109,7 @@ impl<T: Sample> Controller<T> {
             last_y_dot: T::ZERO,
             out: Outputs::default(),
             counters: Counters::default(),
+            events: TickEvents::NONE,
             wsp_on: law.wsp.enabled,
             wsp: WspState::default(),
             wsp_acting: false,
@@ -169,7 +174,7 @@ impl<T: Sample> Controller<T> {
         k.yaw_steps = k.yaw_steps.wrapping_add(1);
         k.traction_steps = k.traction_steps.wrapping_add(1);
         let mut ev = 0u32;
-        if !self.fast_yaw(inp.y_dot) {
+        if !self.fast_yaw(inp.y_dot, &mut ev) {
             ev = self.yaw_general(inp.y_dot);
         }
         if !self.fast_traction(inp) {
@@ -178,7 +183,16 @@ impl<T: Sample> Controller<T> {
         if ev != 0 {
             self.counters.record(ev);
         }
+        self.events = TickEvents(ev);
         self.out
+    }
+
+    /// What the latest [`Self::tick`] counted, one bit per counter it moved
+    /// ([`TickEvents`]; [`TickEvents::NONE`] in normal running): the runtime's own
+    /// counters and flags follow it, updated only on ticks with events.
+    #[inline(always)]
+    pub fn tick_events(&self) -> TickEvents {
+        self.events
     }
 
     /// The yaw loop's fast path (`yaw_step` in normal running): `false`, with nothing
@@ -189,7 +203,7 @@ impl<T: Sample> Controller<T> {
     /// `|g/2| <= 0.5 - 2^-30` keep `(g/2)(x + x[n-1])`, hence `z` (a convex update of
     /// it, rounded), below 2 pu, so `|e| < 4` and `|x - z| < 4`).
     #[inline(always)]
-    fn fast_yaw(&mut self, y: T) -> bool {
+    fn fast_yaw(&mut self, y: T, ev: &mut u32) -> bool {
         let law = &self.law;
         if !y.abs_within(law.y_dot_max) {
             return false;
@@ -212,8 +226,8 @@ impl<T: Sample> Controller<T> {
         self.out.yaw_torque = if t.abs_within(tmax) {
             t
         } else {
-            let k = &mut self.counters.yaw_torque;
-            k.clamped = k.clamped.wrapping_add(1);
+            // Counted by `Counters::record` with the tick's other events.
+            *ev |= 1 << event::TORQUE;
             t.limit(T::ZERO.sat_sub(tmax), tmax).0
         };
         true
@@ -297,6 +311,7 @@ impl<T: Sample> Controller<T> {
         if ev != 0 {
             self.counters.record(ev);
         }
+        self.events = TickEvents(ev);
         self.refresh();
         self.out
     }
@@ -437,8 +452,8 @@ impl<T: Sample> Controller<T> {
             let (r, acting, new) = law.wsp.process(&mut self.wsp, w, iref, law.iref_step);
             iref = r;
             self.wsp_acting = acting;
-            self.counters.wsp_ticks = self.counters.wsp_ticks.wrapping_add(acting as u32);
-            self.counters.wsp_events = self.counters.wsp_events.wrapping_add(new as u32);
+            // Counted by `Counters::record` (`wsp_ticks`, `wsp_events`).
+            *ev |= ((acting as u32) << event::WSP_ACTING) | ((new as u32) << event::WSP_STARTED);
         } else {
             self.wsp.active = false;
             self.wsp.sched = false;

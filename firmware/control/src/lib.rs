@@ -220,7 +220,7 @@ pub use config::{
 };
 pub use controller::{
     Codec, Controller, Counters, F32Controller, F64Controller, FixedController, InputCodes, Inputs,
-    OutputCodes, Outputs, SignalCounts,
+    OutputCodes, Outputs, SignalCounts, TickEvents,
 };
 pub use lead::{Lead, LeadDiscrete, LeadParams, LeadPu, LeadState};
 pub use monitor::{Monitor, MonitorBits, MonitorEvents, MonitorParams, MonitorState, QUIET_BLOCKS};

@@ -5,7 +5,7 @@
 //! (safe state, law changes, traction off/on, presets) between ticks.
 
 use proptest::prelude::*;
-use wheelset_control::{Config, Controller, Fx, Inputs, Sample, YawMode};
+use wheelset_control::{Config, Controller, Counters, Fx, Inputs, Sample, YawMode};
 
 /// One step of a scenario.
 #[derive(Clone, Copy, Debug)]
@@ -57,15 +57,40 @@ fn value<T: Sample>(r: u32, lims: &[f64]) -> T {
 /// -0 from +0).
 fn snapshot<T: Sample>(c: &Controller<T>, out: &wheelset_control::Outputs<T>) -> String {
     format!(
-        "{:?} {:?} {:?} {:?} {:?} {:?} {}",
+        "{:?} {:?} {:?} {:?} {:?} {:?} {:?} {}",
         out,
         c.counters(),
+        c.tick_events(),
         c.lead_state(),
         c.pi_state(),
         c.current_ref(),
         c.outputs(),
         c.is_safe()
     )
+}
+
+/// The tick's event word is exactly what moved in the counters from `before` to `c`'s.
+fn check_events<T: Sample>(before: &Counters, c: &Controller<T>) {
+    let (a, ev) = (c.counters(), c.tick_events());
+    let inputs = |k: &Counters| {
+        [k.y_dot, k.current, k.speed, k.demand]
+            .iter()
+            .map(|s| u64::from(s.clamped) + u64::from(s.invalid))
+            .sum::<u64>()
+    };
+    assert_eq!(
+        ev.yaw_saturated(),
+        a.yaw_torque.clamped != before.yaw_torque.clamped
+    );
+    assert_eq!(
+        ev.traction_saturated(),
+        a.voltage.clamped != before.voltage.clamped
+    );
+    assert_eq!(u64::from(ev.inputs()), inputs(a) - inputs(before));
+    assert_eq!(ev.wsp_acting(), a.wsp_ticks != before.wsp_ticks);
+    assert_eq!(ev.wsp_started(), a.wsp_events != before.wsp_events);
+    let wsp_moved = a.wsp_ticks != before.wsp_ticks || a.wsp_events != before.wsp_events;
+    assert_eq!(ev.any(), a.total() != before.total() || wsp_moved);
 }
 
 fn run<T: Sample>(ops: &[Op]) -> usize {
@@ -78,7 +103,10 @@ fn run<T: Sample>(ops: &[Op]) -> usize {
     let mut armed = 0;
     let mut step = |a: &mut Controller<T>, b: &mut Controller<T>, i: &Inputs<T>| {
         armed += usize::from(a.fast_path_armed());
+        let (ka, kb) = (*a.counters(), *b.counters());
         let (oa, ob) = (a.tick(i), b.tick(i));
+        check_events(&ka, a);
+        check_events(&kb, b);
         assert_eq!(snapshot(a, &oa), snapshot(b, &ob), "inputs {i:?}");
     };
     for op in ops {

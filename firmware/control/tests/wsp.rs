@@ -32,7 +32,12 @@ fn run<T: Sample>(c: &mut Controller<T>, cfg: &Config, slip: f64, demand: f64, t
     let (inp, w_ref) = at::<T>(cfg, slip, demand);
     c.set_v_ref(w_ref);
     for _ in 0..ticks {
+        let k = *c.counters();
         c.tick(&inp);
+        // The tick's event word is what moved in the counters (the runtime counts by it).
+        let ev = c.tick_events();
+        assert_eq!(ev.wsp_acting(), c.counters().wsp_ticks != k.wsp_ticks);
+        assert_eq!(ev.wsp_started(), c.counters().wsp_events != k.wsp_events);
     }
 }
 

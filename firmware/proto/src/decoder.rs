@@ -1,9 +1,23 @@
 //! The streaming frame accumulator: bytes in any chunking, frames out.
 
 use crate::frame::{
-    crc_byte, crc_ready, message_from_raw, request_from_raw, FrameError, Request, MAX_FRAME,
+    crc_byte, crc_ready, message_from_raw, request_from_raw, sensor_or_request_from_raw,
+    FrameError, Request, MAX_FRAME,
 };
-use crate::message::Message;
+use crate::message::{Message, Sensor};
+
+/// What [`Decoder::next_sensor_or_request`] closed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum NextFrame {
+    /// No frame closed (no delimiter in the bytes, or an empty frame).
+    Nothing,
+    /// A valid Sensor frame, written into the caller's [`Sensor`]: what
+    /// [`Decoder::next_request`] reports as `Some(Ok(Request::Sensor(_)))`.
+    Sensor,
+    /// Any other frame: its result, as [`Decoder::next_request`] reports it, written
+    /// into the caller's `Result<Request, FrameError>`.
+    Frame,
+}
 
 /// Collects bytes up to each 0x00 delimiter in a fixed buffer and decodes the frame.
 ///
@@ -130,6 +144,43 @@ impl<const N: usize> Decoder<N> {
         bytes: &'b [u8],
     ) -> (Option<Result<Request, FrameError>>, &'b [u8]) {
         self.next_with(bytes, request_from_raw)
+    }
+
+    /// [`Self::next_request`] for the device's tick: a valid Sensor frame (the one frame
+    /// of every period) is written into `sensor` ([`NextFrame::Sensor`]), every other
+    /// frame's result into `frame` ([`NextFrame::Frame`]), as [`Self::next_request`]
+    /// reports it, with its decisions (tested on arbitrary byte strings). Nothing
+    /// Config-sized is returned: [`Self::next_request`]'s `Option<Result<Request, _>>`
+    /// (a Config's size, 64 B) was copied on its way to the caller (`memcpy`), and a
+    /// first form of this method returning it in an enum made that copy byte-wise (63 B:
+    /// +289 instructions per tick, measured). `cargo xtask fw-bench`, M4 fixed point,
+    /// the whole tick: see the README.
+    #[inline(never)]
+    pub fn next_sensor_or_request<'b>(
+        &mut self,
+        bytes: &'b [u8],
+        sensor: &mut Sensor,
+        frame: &mut Result<Request, FrameError>,
+    ) -> (NextFrame, &'b [u8]) {
+        let (r, rest) = self.next_with(bytes, |raw, reg| {
+            sensor_or_request_from_raw(raw, reg, sensor).map(|r| match r {
+                None => true,
+                Some(req) => {
+                    *frame = Ok(req);
+                    false
+                }
+            })
+        });
+        let next = match r {
+            None => NextFrame::Nothing,
+            Some(Ok(true)) => NextFrame::Sensor,
+            Some(Ok(false)) => NextFrame::Frame,
+            Some(Err(e)) => {
+                *frame = Err(e);
+                NextFrame::Frame
+            }
+        };
+        (next, rest)
     }
 
     /// One non-zero byte of the frame in progress: COBS-decoded on the spot. A code byte

@@ -312,16 +312,47 @@ pub(crate) fn message_from_raw(raw: &[u8], reg: Option<u32>) -> Result<Message, 
     crate::fast::decode_body(check_reg(raw, reg)?).map_err(FrameError::from)
 }
 
+/// [`request_from_raw`], a Sensor frame written into `sensor` (`Ok(None)`) instead of
+/// returned in a [`Request`]; the same decisions (one copy of the Sensor decoder and of
+/// the others: [`request_body`]).
+#[inline(always)]
+pub(crate) fn sensor_or_request_from_raw(
+    raw: &[u8],
+    reg: Option<u32>,
+    sensor: &mut Sensor,
+) -> Result<Option<Request>, FrameError> {
+    let msg = check_reg(raw, reg)?;
+    let (ty, body) = crate::fast::message_type(msg).ok_or(FrameError::Postcard)?;
+    if ty == crate::fast::SENSOR {
+        *sensor = crate::fast::finish(body, crate::fast::sensor)?;
+        return Ok(None);
+    }
+    request_body(ty, body).map(Some)
+}
+
 /// [`decode_nonzero_request`] of a frame already COBS-decoded: length, CRC, version,
 /// then the request.
 pub(crate) fn request_from_raw(raw: &[u8], reg: Option<u32>) -> Result<Request, FrameError> {
     let msg = check_reg(raw, reg)?;
+    let (ty, body) = crate::fast::message_type(msg).ok_or(FrameError::Postcard)?;
+    if ty == crate::fast::SENSOR {
+        return Ok(Request::Sensor(crate::fast::finish(
+            body,
+            crate::fast::sensor,
+        )?));
+    }
+    request_body(ty, body)
+}
+
+/// The request of a message of type `ty` other than Sensor, `body` the bytes after its
+/// type (a Sensor's variant index has no undefined values: it is never
+/// [`Request::Unknown`], so it is decoded before this).
+#[inline(always)]
+fn request_body(ty: u8, body: &[u8]) -> Result<Request, FrameError> {
     // postcard writes an enum as its variant index (a varint), then the variant.
     use crate::fast::{
-        finish, leading_index, message_type, ACTUATION, COMMAND, COMMANDS, CONFIG, SENSOR, STATUS,
-        YAW_MODES,
+        finish, leading_index, ACTUATION, COMMAND, COMMANDS, CONFIG, STATUS, YAW_MODES,
     };
-    let (ty, body) = message_type(msg).ok_or(FrameError::Postcard)?;
     let defined = match ty {
         COMMAND => COMMANDS,
         CONFIG => YAW_MODES,
@@ -331,7 +362,6 @@ pub(crate) fn request_from_raw(raw: &[u8], reg: Option<u32>) -> Result<Request, 
         return Ok(Request::Unknown);
     }
     Ok(match ty {
-        SENSOR => Request::Sensor(finish(body, crate::fast::sensor)?),
         CONFIG => Request::Config(finish(body, crate::fast::config)?),
         COMMAND => Request::Command(finish(body, crate::fast::command)?),
         ACTUATION | STATUS => Request::Unexpected,

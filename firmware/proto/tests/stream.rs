@@ -66,3 +66,70 @@ fn length_limits_are_the_whole_frame_decoders() {
         both(&vec![0xFFu8; n]);
     }
 }
+
+/// `next_sensor_or_request` reports every frame as `next_request` does, a valid Sensor
+/// written into the caller's `Sensor` instead.
+fn sensor_path(body: &[u8]) {
+    let mut wire = body.to_vec();
+    wire.push(0);
+    let mut a: Decoder = Decoder::new();
+    let mut b: Decoder = Decoder::new();
+    let (want, rest_a) = a.next_request(&wire);
+    let mut s = Sensor {
+        seq: 1,
+        t_us: 2,
+        lateral: Lateral::Acceleration(3),
+        i_a_ma: 4,
+        omega_m_mrad_s: 5,
+        demand_nm: 6,
+        v_ref_mm_s: 7,
+    };
+    let before = s;
+    // A value no decoding returns: it stays unless the decoder reports `Frame`.
+    let untouched = Ok(Request::Unexpected);
+    let mut frame = untouched;
+    let (got, rest_b) = b.next_sensor_or_request(&wire, &mut s, &mut frame);
+    assert_eq!(rest_a, rest_b);
+    match (want, got) {
+        (None, NextFrame::Nothing) => assert_eq!((s, frame), (before, untouched)),
+        (Some(Ok(Request::Sensor(w))), NextFrame::Sensor) => {
+            assert_eq!(s, w, "{body:02x?}");
+            assert_eq!(frame, untouched, "{body:02x?}");
+        }
+        (Some(w), NextFrame::Frame) => {
+            assert!(!matches!(w, Ok(Request::Sensor(_))), "{body:02x?}");
+            assert_eq!(frame, w, "{body:02x?}");
+            assert_eq!(s, before, "{body:02x?}");
+        }
+        (w, g) => panic!("{body:02x?}: next_request {w:?}, next_sensor_or_request {g:?}"),
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(4000))]
+
+    #[test]
+    fn sensor_path_arbitrary_frames(body in proptest::collection::vec(1u8..=255, 0..130)) {
+        sensor_path(&body);
+    }
+
+    #[test]
+    fn sensor_path_changed_valid_frames(
+        msg in message(),
+        edits in proptest::collection::vec((0usize..120, 1u8..=255, 0u8..3), 0..4),
+    ) {
+        let f = encode_vec(&msg).expect("fits");
+        let mut body = f[..f.len() - 1].to_vec();
+        for (at, b, kind) in edits {
+            let at = at % (body.len() + 1);
+            match kind {
+                0 if at < body.len() => body[at] = b,
+                1 if at < body.len() => {
+                    body.remove(at);
+                }
+                _ => body.insert(at, b),
+            }
+        }
+        sensor_path(&body);
+    }
+}

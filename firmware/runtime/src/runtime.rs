@@ -5,7 +5,7 @@
 mod receive;
 
 use wheelset_control::{
-    Compiled, Controller, InputCodes, Monitor, MonitorState, Sample, SampleBits,
+    Compiled, Controller, InputCodes, Monitor, MonitorState, Sample, SampleBits, TickEvents,
 };
 use wheelset_proto::{encode_actuation, encode_status, Decoder, FrameError, RefuseReason};
 
@@ -230,24 +230,6 @@ impl<T: SampleBits> Runtime<T> {
             c.safe_ticks = c.safe_ticks.wrapping_add(1);
             flags.set(Flags::SAFE, true);
         }
-        // The counters this tick can move (not a copy of all of them: a 68-byte memcpy).
-        let inputs = |k: &wheelset_control::Counters| {
-            [k.y_dot, k.current, k.speed, k.demand]
-                .iter()
-                .fold(0u32, |a, s| {
-                    a.wrapping_add(s.clamped).wrapping_add(s.invalid)
-                })
-        };
-        let before = {
-            let k = self.core.counters();
-            (
-                k.yaw_torque.clamped,
-                k.voltage.clamped,
-                inputs(k),
-                k.wsp_ticks,
-                k.wsp_events,
-            )
-        };
         if let (Some(a), Some(s)) = (self.acc, self.sample.as_mut()) {
             // Integrate on every tick with the latest y'' (held when frames are missing).
             let v = {
@@ -264,24 +246,26 @@ impl<T: SampleBits> Runtime<T> {
             };
             s.y_dot = v;
         }
+        // The sample in per-unit, decoded once for the monitor and the core.
+        let inp = self.sample.map(|s| self.core.codec().decode(&s));
         #[cfg(feature = "monitor")]
-        if let Some(s) = &self.sample {
+        if let Some(inp) = &inp {
             let commanding = self.enabled
                 && !self.hold.is_safe()
                 && self.core.mode() != wheelset_control::YawMode::Passive;
             // The stability monitor on the received (or integrated) `y'`, at its own
             // sub-rate inside `Monitor::tick`.
-            let y_dot = self.core.codec().decode(s).y_dot;
-            let ev = self.monitor.tick(&mut self.mon, y_dot, commanding);
+            let ev = self.monitor.tick(&mut self.mon, inp.y_dot, commanding);
             if ev.hunting_rose | ev.actuator_rose {
                 self.on_alarm(ev.hunting_rose, ev.actuator_rose);
             }
             flags.set(Flags::HUNTING, ev.hunting);
             flags.set(Flags::ACTUATOR_FAULT, ev.actuator);
         }
-        let (t_psi, u_a) = match (self.sample, self.enabled) {
-            (Some(s), true) => {
-                let mut inp = self.core.codec().decode(&s);
+        // What the core counted on this tick (nothing if it did not run).
+        let mut events = TickEvents::NONE;
+        let (t_psi, u_a) = match (inp, self.enabled) {
+            (Some(mut inp), true) => {
                 if self.hold.is_safe() {
                     // Stale current: do not integrate it (policy item 3).
                     self.core.preset_back_emf(inp.speed);
@@ -290,6 +274,7 @@ impl<T: SampleBits> Runtime<T> {
                 #[cfg(all(feature = "monitor", feature = "wsp"))]
                 let wsp_was = self.core.wsp_state().active;
                 let out = self.core.tick(&inp);
+                events = self.core.tick_events();
                 #[cfg(all(feature = "monitor", feature = "wsp"))]
                 {
                     // The protection cut the traction on this tick (its cut at detection):
@@ -303,10 +288,10 @@ impl<T: SampleBits> Runtime<T> {
                 let o = self.core.codec().encode(&out);
                 (o.yaw_torque, o.voltage)
             }
-            (Some(s), false) => {
+            (Some(inp), false) => {
                 // Outputs disabled: zero torque and zero current, i.e. the back-EMF of
                 // the latest speed (0 V would short the motor at speed).
-                let speed = self.core.codec().decode(&s).speed;
+                let speed = inp.speed;
                 let o = self.core.codec().encode(&wheelset_control::Outputs {
                     yaw_torque: T::ZERO,
                     voltage: self.core.back_emf(speed),
@@ -318,27 +303,13 @@ impl<T: SampleBits> Runtime<T> {
                 (s.t_psi_dnm, s.u_a_cv)
             }
         };
-        let after = self.core.counters();
-        let yaw_sat = after.yaw_torque.clamped != before.0;
-        let tr_sat = after.voltage.clamped != before.1;
-        let clamped = inputs(after).wrapping_sub(before.2);
-        #[cfg(feature = "wsp")]
-        let wsp = (
-            after.wsp_ticks.wrapping_sub(before.3),
-            after.wsp_events.wrapping_sub(before.4),
-        );
-        let c = &mut self.counters;
-        #[cfg(feature = "wsp")]
-        {
-            c.wsp_ticks = c.wsp_ticks.wrapping_add(wsp.0);
-            c.wsp_events = c.wsp_events.wrapping_add(wsp.1);
+        // The core's events: the counters move only on a tick that has some.
+        if events.any() {
+            self.count_events(events);
         }
-        c.yaw_sat = c.yaw_sat.wrapping_add(u32::from(yaw_sat));
-        c.traction_sat = c.traction_sat.wrapping_add(u32::from(tr_sat));
-        c.input_clamped = c.input_clamped.wrapping_add(clamped);
         flags.set(Flags::ENABLED, self.enabled);
-        flags.set(Flags::YAW_SAT, yaw_sat);
-        flags.set(Flags::TRACTION_SAT, tr_sat);
+        flags.set(Flags::YAW_SAT, events.yaw_saturated());
+        flags.set(Flags::TRACTION_SAT, events.traction_saturated());
         flags.set(Flags::NO_SAMPLE, self.sample.is_none());
         flags.set(
             Flags::RX_ERROR,
@@ -348,7 +319,7 @@ impl<T: SampleBits> Runtime<T> {
         #[cfg(feature = "wsp")]
         flags.set(Flags::WHEEL_SLIP, self.core.wheel_slip());
         flags.set(Flags::FAULT_LATCHED, self.fault_latched);
-        c.flags = flags;
+        self.counters.flags = flags;
         let act = Actuation {
             seq_echo: self.seq,
             tick: self.ticks as u16,
@@ -365,6 +336,25 @@ impl<T: SampleBits> Runtime<T> {
             }
         }
         self.tx.get(..n).unwrap_or(&[])
+    }
+
+    /// The core's events of one tick into the runtime's counters: `yaw_sat`,
+    /// `traction_sat`, `input_clamped` (invalid and clamped inputs) and, with `wsp`,
+    /// `wsp_ticks` and `wsp_events` (cold: normal running has no events).
+    #[cold]
+    #[inline(never)]
+    fn count_events(&mut self, ev: TickEvents) {
+        let c = &mut self.counters;
+        c.yaw_sat = c.yaw_sat.wrapping_add(u32::from(ev.yaw_saturated()));
+        c.traction_sat = c
+            .traction_sat
+            .wrapping_add(u32::from(ev.traction_saturated()));
+        c.input_clamped = c.input_clamped.wrapping_add(ev.inputs());
+        #[cfg(feature = "wsp")]
+        {
+            c.wsp_ticks = c.wsp_ticks.wrapping_add(u32::from(ev.wsp_acting()));
+            c.wsp_events = c.wsp_events.wrapping_add(u32::from(ev.wsp_started()));
+        }
     }
 
     /// A stability alarm rose: counted, the fault latched, and with `monitor_safe` the

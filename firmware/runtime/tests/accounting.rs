@@ -344,3 +344,41 @@ fn rejected_frames_and_refusals_are_events_for_the_log() {
         Some((RxEvent::Refused(RefuseReason::Period), 0))
     );
 }
+
+#[test]
+fn the_runtime_counts_what_the_core_counted_and_flags_it_on_that_tick() {
+    // The runtime's saturation and input counters follow the core's event word; here
+    // checked against the core's own counters over ticks that clamp y' (out of range),
+    // the current and the torque, and normal ticks between them.
+    let mut rt: Runtime<Fx> = Runtime::try_new(RuntimeConfig::default()).expect("valid");
+    let inputs = |k: &wheelset_control::Counters| {
+        [k.y_dot, k.current, k.speed, k.demand]
+            .iter()
+            .map(|s| s.clamped + s.invalid)
+            .sum::<u32>()
+    };
+    let (mut flagged_yaw, mut flagged_tr) = (0u32, 0u32);
+    for k in 1..=400u16 {
+        let y = match k % 50 {
+            0..=4 => 5_000_000,    // 5 m/s: y' clamped, torque at its limit
+            10..=12 => -3_000_000, // the other way
+            _ => 2_000,
+        };
+        let mut s = sample(k, Lateral::Velocity(y));
+        if k % 97 == 0 {
+            s.i_a_ma = 5_000_000; // current clamped
+            s.demand_nm = -1_000_000; // demand clamped
+        }
+        rt.receive(&sensor_frame(s));
+        let a = act(rt.tick(0));
+        flagged_yaw += u32::from(a.flags.has(Flags::YAW_SAT));
+        flagged_tr += u32::from(a.flags.has(Flags::TRACTION_SAT));
+        let (c, core) = (rt.counters(), rt.core().counters());
+        assert_eq!(c.yaw_sat, core.yaw_torque.clamped, "tick {k}");
+        assert_eq!(c.traction_sat, core.voltage.clamped, "tick {k}");
+        assert_eq!(c.input_clamped, inputs(core), "tick {k}");
+    }
+    let c = rt.counters();
+    assert!(c.yaw_sat > 0 && c.input_clamped > 0, "{c:?}");
+    assert_eq!((flagged_yaw, flagged_tr), (c.yaw_sat, c.traction_sat));
+}

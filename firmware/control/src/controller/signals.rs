@@ -110,6 +110,71 @@ pub(super) mod event {
     pub const TORQUE: u32 = 9;
     pub const VOLTAGE: u32 = 11;
     pub const INTEGRATOR: u32 = 13;
+    /// The wheel-slip protection acted on this tick's traction step (`wsp_ticks`).
+    pub const WSP_ACTING: u32 = 15;
+    /// The wheel-slip protection started acting on this tick (`wsp_events`).
+    pub const WSP_STARTED: u32 = 16;
+}
+
+/// What one [`Controller::tick`] counted, as one event word
+/// ([`Controller::tick_events`]): a caller that keeps counters of its own (the runtime)
+/// updates them only on ticks whose word is not [`Self::NONE`], instead of comparing
+/// the core's [`Counters`] before and after every tick.
+///
+/// The word holds one bit per counter a tick can move (each at most once per tick):
+/// for each input (`y'`, current, speed, demand) an invalid bit and a clamped bit, the
+/// yaw torque and the PI output (voltage) clamped, the integrator clamped, and the
+/// wheel-slip protection acting and starting to act. Each set bit is exactly one
+/// increment of the matching field of [`Counters`] on that tick.
+///
+/// [`Controller::tick`]: super::Controller::tick
+/// [`Controller::tick_events`]: super::Controller::tick_events
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TickEvents(pub(super) u32);
+
+impl TickEvents {
+    /// Nothing counted (a tick of normal running, or no tick).
+    pub const NONE: Self = Self(0);
+    /// The input bits (invalid and clamped of `y'`, current, speed, demand).
+    const INPUTS: u32 = 0xFF;
+
+    /// Something was counted on this tick.
+    #[inline(always)]
+    pub fn any(self) -> bool {
+        self.0 != 0
+    }
+    /// The raw word (bit positions as documented on the type; for tests and logs).
+    #[inline(always)]
+    pub fn bits(self) -> u32 {
+        self.0
+    }
+    /// The yaw torque was clamped by `limits.torque` (`Counters::yaw_torque.clamped`
+    /// moved by one).
+    #[inline(always)]
+    pub fn yaw_saturated(self) -> bool {
+        self.0 & (1 << event::TORQUE) != 0
+    }
+    /// The PI output (voltage) was clamped (`Counters::voltage.clamped` moved by one).
+    #[inline(always)]
+    pub fn traction_saturated(self) -> bool {
+        self.0 & (1 << event::VOLTAGE) != 0
+    }
+    /// Input events on this tick: invalid and clamped inputs, 0..=8 (the sum of the
+    /// four inputs' `invalid + clamped` moved by this much).
+    #[inline(always)]
+    pub fn inputs(self) -> u32 {
+        (self.0 & Self::INPUTS).count_ones()
+    }
+    /// The wheel-slip protection acted on this tick (`Counters::wsp_ticks` + 1).
+    #[inline(always)]
+    pub fn wsp_acting(self) -> bool {
+        self.0 & (1 << event::WSP_ACTING) != 0
+    }
+    /// The wheel-slip protection started acting on this tick (`Counters::wsp_events` + 1).
+    #[inline(always)]
+    pub fn wsp_started(self) -> bool {
+        self.0 & (1 << event::WSP_STARTED) != 0
+    }
 }
 
 impl Counters {
@@ -129,6 +194,8 @@ impl Counters {
         ] {
             c.count(bit(b), bit(b + 1));
         }
+        self.wsp_ticks = self.wsp_ticks.wrapping_add(bit(event::WSP_ACTING) as u32);
+        self.wsp_events = self.wsp_events.wrapping_add(bit(event::WSP_STARTED) as u32);
     }
 
     /// Sum of all clamps and invalid inputs.

@@ -5,7 +5,7 @@
 #[cfg(feature = "monitor")]
 use wheelset_control::MonitorState;
 use wheelset_control::{Controller, InputCodes, SampleBits, ScheduleBits};
-use wheelset_proto::{FrameError, Lateral, RefuseReason, Request};
+use wheelset_proto::{FrameError, Lateral, NextFrame, RefuseReason, Request};
 
 use crate::plausible;
 use crate::{AccBits, Command, Config, Rates, Runtime, RuntimeCounters, RxEvent, Sensor};
@@ -16,12 +16,33 @@ impl<T: SampleBits> Runtime<T> {
     pub fn receive(&mut self, bytes: &[u8]) {
         // Frame by frame (not a callback into `self` with the decoder moved out and back:
         // two copies of its buffer per call).
+        // A Sensor frame is decoded into `s` in place (not moved out in a Config-sized
+        // `Request`: `Decoder::next_sensor_or_request`).
+        let mut s = Sensor {
+            seq: 0,
+            t_us: 0,
+            lateral: Lateral::Velocity(0),
+            i_a_ma: 0,
+            omega_m_mrad_s: 0,
+            demand_nm: 0,
+            v_ref_mm_s: 0,
+        };
+        // Any other frame's result (written by the decoder before it says `Frame`).
+        let mut other = Err(FrameError::Length);
         let mut rest = bytes;
         while !rest.is_empty() {
-            let (r, more) = self.decoder.next_request(rest);
+            let (r, more) = self
+                .decoder
+                .next_sensor_or_request(rest, &mut s, &mut other);
             rest = more;
-            if let Some(r) = r {
-                self.on_frame(r);
+            match r {
+                NextFrame::Nothing => {}
+                NextFrame::Sensor => {
+                    // As `on_frame` counts a valid Sensor request.
+                    self.counters.rx_ok = self.counters.rx_ok.wrapping_add(1);
+                    self.on_sensor(&s);
+                }
+                NextFrame::Frame => self.on_frame(other),
             }
         }
     }
