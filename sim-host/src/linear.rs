@@ -9,6 +9,9 @@
 //!   `df/dx_j = Im f(x + i h e_j) / h` with `h = 1e-20`, exact to rounding because there
 //!   is no subtraction.
 //!
+//! - [`closed_loop_jacobian_central`]: central differences, for the plant with the
+//!   adhesion law on (where the complex step is wrong).
+//!
 //! A test cross-checks them at random states. Free rolling at any speed is an
 //! equilibrium, so every linear model here has one eigenvalue at exactly zero (the
 //! rolling/speed direction); [`crate::modes`] reports it separately and leaves it out of
@@ -243,6 +246,37 @@ pub fn closed_loop_jacobian_complex_step(
         let f = closed_loop_rhs(plant, ctrl, &xp, &ec);
         for i in 0..NX {
             a[(i, j)] = f[i].im / COMPLEX_STEP;
+        }
+    }
+    a
+}
+
+/// Relative step of [`closed_loop_jacobian_central`]: `h_j = CENTRAL_STEP max(|x_j|, 1e-2)`.
+pub const CENTRAL_STEP: f64 = 1e-6;
+
+/// Central-difference closed-loop Jacobian of [`closed_loop_rhs`] at any state:
+/// `A[:, j] = (f(x + h_j e_j) - f(x - h_j e_j)) / (2 h_j)`,
+/// `h_j = 1e-6 max(|x_j|, 1e-2)` in the SI unit of state `j` (truncation `O(h^2)`).
+///
+/// The one to use with the adhesion law on ([`Plant::adhesion`]): the complex step
+/// ([`closed_loop_jacobian_complex_step`]) is wrong there, `num_complex`'s `atan` is a
+/// difference of two logarithms and loses the imaginary part.
+pub fn closed_loop_jacobian_central(
+    plant: &Plant,
+    ctrl: &ContinuousController,
+    x: &State,
+    e: &Exogenous<f64>,
+) -> Jac {
+    let mut a = Jac::zeros();
+    for j in 0..NX {
+        let h = CENTRAL_STEP * x[j].abs().max(1e-2);
+        let (mut xp, mut xm) = (*x, *x);
+        xp[j] += h;
+        xm[j] -= h;
+        let fp = closed_loop_rhs(plant, ctrl, &xp, e);
+        let fm = closed_loop_rhs(plant, ctrl, &xm, e);
+        for i in 0..NX {
+            a[(i, j)] = (fp[i] - fm[i]) / (2.0 * h);
         }
     }
     a

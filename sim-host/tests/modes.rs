@@ -8,8 +8,8 @@ use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use sim_host::control::{ContinuousController, Exogenous, YawLaw};
 use sim_host::linear::{
-    closed_loop_a, closed_loop_jacobian, closed_loop_jacobian_complex_step, linear_plant,
-    plant_jacobian, plant_jacobian_complex_step,
+    closed_loop_a, closed_loop_jacobian, closed_loop_jacobian_central,
+    closed_loop_jacobian_complex_step, linear_plant, plant_jacobian, plant_jacobian_complex_step,
 };
 use sim_host::modes::{creep_grid, eigenvalues, sweep_case, Case};
 use sim_host::params::Params;
@@ -120,6 +120,52 @@ fn analytic_jacobians_match_complex_step_at_random_states() {
                         );
                     }
                 }
+            }
+        }
+    }
+}
+
+/// The central-difference Jacobian (the one `examples/adh_modes.rs` uses with adhesion)
+/// equals the analytic one on the linear creep law to 1e-6 relative (plus a rounding
+/// floor of 1e-7 of the largest entry), at random states.
+#[test]
+fn central_difference_jacobian_matches_analytic_on_the_linear_law() {
+    let p = Params::default();
+    let mut rng = Pcg64::seed_from_u64(11);
+    for cfg in configs() {
+        let plant = Plant::new(&p, cfg);
+        for _ in 0..5 {
+            let x = random_state(&mut rng, &p);
+            for law in [YawLaw::Passive, YawLaw::Gain, YawLaw::Lead] {
+                let ctrl = ContinuousController::new(&p, law);
+                let e = Exogenous {
+                    curvature: 1e-4,
+                    cant: 0.05,
+                    f_run: 3000.0,
+                    i_ref: 100.0,
+                    demand: 2000.0,
+                };
+                let a = closed_loop_jacobian(&plant, &p, &ctrl, &x, &e);
+                let ad = closed_loop_jacobian_central(&plant, &ctrl, &x, &e);
+                // Rounding floor: the creepage `-1 + w r0/v` is formed at unit scale, so
+                // each force carries ~f11 eps of rounding, divided by the step h_j >= 1e-8:
+                // ~1e-3 absolute in the wheel rows, below 1e-7 of the largest entry.
+                let floor = 1e-7 * a.amax();
+                let mut nonzero = 0;
+                for i in 0..NX {
+                    for j in 0..NX {
+                        let (u, w) = (a[(i, j)], ad[(i, j)]);
+                        if u != 0.0 {
+                            nonzero += 1;
+                        }
+                        assert!(
+                            (u - w).abs() <= 1e-6 * u.abs() + floor,
+                            "{cfg:?} {law:?} A[{i},{j}]: analytic {u} vs central {w} (max entry {})",
+                            a.amax()
+                        );
+                    }
+                }
+                assert!(nonzero > 10, "{cfg:?} {law:?}: only {nonzero} entries");
             }
         }
     }
