@@ -51,6 +51,9 @@ pub(super) const RULES: &[(&str, Class)] = &[
     ("cargo clippy", Class::Long),
     ("cargo fmt", Class::Long),
     (" audit", Class::Long),
+    // The modal example of issue 11: milliseconds a run, on the release library the
+    // `cargo sim` commands build.
+    ("--example adh_modes", Class::Short),
     ("cargo sim", Class::Short),
     ("cargo hil", Class::Short),
     ("cargo xtask fuzz", Class::Short),

@@ -120,6 +120,10 @@ fn boards_and_forms_are_skipped_qemu_is_long() {
     );
     assert_eq!(classify("cargo hil golden"), Class::Short);
     assert_eq!(classify("cargo sim rates"), Class::Short);
+    assert_eq!(
+        classify("FR=0.5,0.6 cargo run --release -p sim-host --example adh_modes -- low lead 1"),
+        Class::Short
+    );
 }
 
 #[test]
