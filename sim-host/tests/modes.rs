@@ -53,6 +53,18 @@ fn random_state(rng: &mut Pcg64, p: &Params) -> [f64; NX] {
     x
 }
 
+/// The exogenous inputs of the Jacobian checks: a curve with cant, running resistance,
+/// a current reference and a demand, so every input column is exercised.
+fn exogenous() -> Exogenous<f64> {
+    Exogenous {
+        curvature: 1e-4,
+        cant: 0.05,
+        f_run: 3000.0,
+        i_ref: 100.0,
+        demand: 2000.0,
+    }
+}
+
 fn assert_close(a: f64, b: f64, scale: f64, what: &str) {
     assert!(
         (a - b).abs() <= 1e-8 * scale.max(a.abs()).max(b.abs()),
@@ -100,13 +112,7 @@ fn analytic_jacobians_match_complex_step_at_random_states() {
             }
             for law in [YawLaw::Passive, YawLaw::Gain, YawLaw::Lead] {
                 let ctrl = ContinuousController::new(&p, law);
-                let e = Exogenous {
-                    curvature: 1e-4,
-                    cant: 0.05,
-                    f_run: 3000.0,
-                    i_ref: 100.0,
-                    demand: 2000.0,
-                };
+                let e = exogenous();
                 let a = closed_loop_jacobian(&plant, &p, &ctrl, &x, &e);
                 let ac = closed_loop_jacobian_complex_step(&plant, &ctrl, &x, &e);
                 let scale = a.amax();
@@ -138,13 +144,7 @@ fn central_difference_jacobian_matches_analytic_on_the_linear_law() {
             let x = random_state(&mut rng, &p);
             for law in [YawLaw::Passive, YawLaw::Gain, YawLaw::Lead] {
                 let ctrl = ContinuousController::new(&p, law);
-                let e = Exogenous {
-                    curvature: 1e-4,
-                    cant: 0.05,
-                    f_run: 3000.0,
-                    i_ref: 100.0,
-                    demand: 2000.0,
-                };
+                let e = exogenous();
                 let a = closed_loop_jacobian(&plant, &p, &ctrl, &x, &e);
                 let ad = closed_loop_jacobian_central(&plant, &ctrl, &x, &e);
                 // Rounding floor: the creepage `-1 + w r0/v` is formed at unit scale, so

@@ -248,6 +248,12 @@ pub(crate) fn fw_bench(json: Option<PathBuf>) -> Result<(), String> {
     outln!();
     out!("{}", bench_table(&results));
     if let Some(path) = json {
+        // The folder too, as `sim-host` and `hil` make theirs (`--json out/fwb.json` on a
+        // fresh clone has no `out/`).
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir)
+                .map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+        }
         std::fs::write(&path, bench_json(&results))
             .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
         outln!("wrote {}", path.display());

@@ -42,20 +42,26 @@ proptest! {
         msg in message(),
         edits in proptest::collection::vec((0usize..120, 1u8..=255, 0u8..3), 0..4),
     ) {
-        let f = encode_vec(&msg).expect("fits");
-        let mut body = f[..f.len() - 1].to_vec();
-        for (at, b, kind) in edits {
-            let at = at % (body.len() + 1);
-            match kind {
-                0 if at < body.len() => body[at] = b,
-                1 if at < body.len() => {
-                    body.remove(at);
-                }
-                _ => body.insert(at, b),
-            }
-        }
-        both(&body);
+        both(&edited(&msg, &edits));
     }
+}
+
+/// The body (no delimiter) of `msg`'s frame with `edits` applied: each `(at, byte,
+/// kind)` replaces (kind 0), drops (1) or inserts (2) a byte at `at` modulo the length.
+fn edited(msg: &Message, edits: &[(usize, u8, u8)]) -> Vec<u8> {
+    let f = encode_vec(msg).expect("fits");
+    let mut body = f[..f.len() - 1].to_vec();
+    for &(at, b, kind) in edits {
+        let at = at % (body.len() + 1);
+        match kind {
+            0 if at < body.len() => body[at] = b,
+            1 if at < body.len() => {
+                body.remove(at);
+            }
+            _ => body.insert(at, b),
+        }
+    }
+    body
 }
 
 #[test]
@@ -118,18 +124,6 @@ proptest! {
         msg in message(),
         edits in proptest::collection::vec((0usize..120, 1u8..=255, 0u8..3), 0..4),
     ) {
-        let f = encode_vec(&msg).expect("fits");
-        let mut body = f[..f.len() - 1].to_vec();
-        for (at, b, kind) in edits {
-            let at = at % (body.len() + 1);
-            match kind {
-                0 if at < body.len() => body[at] = b,
-                1 if at < body.len() => {
-                    body.remove(at);
-                }
-                _ => body.insert(at, b),
-            }
-        }
-        sensor_path(&body);
+        sensor_path(&edited(&msg, &edits));
     }
 }
