@@ -13,7 +13,7 @@ use core::task::Poll;
 
 use embassy_executor::{SpawnError, SpawnToken};
 use embassy_sync::waitqueue::AtomicWaker;
-use embassy_time::{Duration, Instant, Ticker};
+use embassy_time::Instant;
 
 use crate::config::{RX_PIPE, TX_PIPE};
 use crate::device::{new_runtime, Device, FwRuntime};
@@ -131,11 +131,49 @@ pub fn token<S>(t: Result<SpawnToken<S>, SpawnError>) -> SpawnToken<S> {
 
 /// A ticker whose first tick is one period from now.
 fn new_ticker(period: u64) -> (Ticker, u64) {
-    let start = Instant::now();
-    let mut t = Ticker::every(Duration::from_ticks(period));
+    let start = Instant::now().as_ticks();
+    let mut t = Ticker {
+        expires_at: 0,
+        period,
+    };
     // `reset_at(t)` makes `t` the last tick: the next one is due at `t + period`.
     t.reset_at(start);
-    (t, start.as_ticks().saturating_add(period))
+    (t, start.saturating_add(period))
+}
+
+/// The control task's periodic wake-up: `embassy_time::Ticker`'s behaviour (a tick
+/// already due is taken at once, then the deadline moves on by one period, so a late
+/// tick does not shift the schedule) on time-driver ticks with saturating additions.
+///
+/// Why not `embassy_time::Ticker`: its `Instant + Duration` is `checked_add(..)
+/// .expect("overflow ...")`, and the message's formatting links `core::fmt`'s `str`
+/// Display (`Formatter::pad`, 640 B of the Nucleo's flash; the overflow needs
+/// 584 000 years of 1 us ticks). `cargo fw`: see the README's flash rows.
+struct Ticker {
+    /// The next deadline, time-driver ticks.
+    expires_at: u64,
+    /// The period, time-driver ticks.
+    period: u64,
+}
+
+impl Ticker {
+    /// The next tick is due one period after `last` (a deadline in the past: at once).
+    fn reset_at(&mut self, last: u64) {
+        self.expires_at = last.saturating_add(self.period);
+    }
+
+    /// Waits for the next deadline; cancel safe (no tick is lost if dropped).
+    fn next(&mut self) -> impl core::future::Future<Output = ()> + '_ {
+        poll_fn(|cx| {
+            if self.expires_at <= Instant::now().as_ticks() {
+                self.expires_at = self.expires_at.saturating_add(self.period);
+                Poll::Ready(())
+            } else {
+                embassy_time_driver::schedule_wake(self.expires_at, cx.waker());
+                Poll::Pending
+            }
+        })
+    }
 }
 
 /// The board's counters not yet handed to the device: ticks late and deadlines skipped
@@ -281,7 +319,7 @@ pub async fn control_loop(mut device: impl Device, mut stopwatch: impl Stopwatch
                 missed,
                 next_deadline,
             } => {
-                ticker.reset_at(Instant::from_ticks(next_deadline.saturating_sub(period)));
+                ticker.reset_at(next_deadline.saturating_sub(period));
                 note.late = note.late.wrapping_add(1);
                 note.missed = note.missed.wrapping_add(missed);
                 defmt::warn!("stalled: skipped {=u32} ticks", missed);
