@@ -1,12 +1,12 @@
 //! The QEMU command line, defined once: the emulated board, the CPU, the `-icount`
 //! shift and the semihosting set-up of every QEMU run of the firmware. The harness's
-//! launcher ([`crate::qemu`]) starts the lock-step device with it; `cargo xtask
+//! launcher (`hil::qemu`) starts the lock-step device with it; `cargo xtask
 //! fw-bench` runs the benchmark firmware with it and `cargo xtask qemu-cmd` prints it
 //! (what `scripts/tick-profile.py --record` runs). This file has no dependencies, so
 //! xtask compiles it in directly (`#[path]`) and stays dependency-free.
 //!
 //! `-icount shift=N,sleep=off`: virtual time is `2^N` ns per executed instruction and
-//! never advances while the guest sleeps. With `N` = [`ICOUNT_SHIFT`] = 10, 1024 ns per
+//! never advances while the guest sleeps. With `N` = `ICOUNT_SHIFT` = 10, 1024 ns per
 //! instruction, the mps2-an386's 25 MHz SysTick counts 25.6 per instruction, so the
 //! firmware converts its SysTick counts to exact instruction counts (its
 //! `config::QEMU_ICOUNT_SHIFT` must equal this).

@@ -394,7 +394,7 @@ pub fn armature(l_a: f64, r_a: f64) -> LinearPlant {
 
 /// The reduced plant: the lateral/yaw dynamics of case (a) (rigid axle, straight
 /// track, speed constant, eqs. 4-5 linearised; no yaw spring, the active modes replace
-/// it; with the spring for [`YawMode::Passive`]) and the armature circuit at constant
+/// it; with the spring for [`YawLaw::Passive`]) and the armature circuit at constant
 /// motor speed (eq. 9). States `[y, y', psi, psi', i_a]`. For cross-checks and quick
 /// looks; the rate table uses the full linearisation by default.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -2,8 +2,8 @@
 //! quietly with exit code 0 when the reader closes the pipe, as Unix tools do
 //! (`println!` panics there: Rust ignores `SIGPIPE`, so the write fails with `EPIPE`).
 //!
-//! [`outln!`](crate::outln) and [`out!`](crate::out) are `println!` and `print!` through
-//! [`write`]: a closed pipe (`BrokenPipe`) exits with 0 at once, saying nothing; any other
+//! [`outln!`](crate::outln) and [`out!`](macro@crate::out) are `println!` and `print!` through
+//! [`write`](fn@write): a closed pipe (`BrokenPipe`) exits with 0 at once, saying nothing; any other
 //! write error exits with 1 and the reason on standard error.
 
 use std::io::Write as _;
@@ -27,7 +27,7 @@ pub fn failed(e: &std::io::Error) -> ! {
 }
 
 /// `print!` that ends the program quietly with success on a closed pipe
-/// ([`crate::out`]).
+/// ([`crate::out`](mod@crate::out)).
 #[macro_export]
 macro_rules! out {
     ($($t:tt)*) => {
@@ -36,7 +36,7 @@ macro_rules! out {
 }
 
 /// `println!` that ends the program quietly with success on a closed pipe
-/// ([`crate::out`]).
+/// ([`crate::out`](mod@crate::out)).
 #[macro_export]
 macro_rules! outln {
     () => {

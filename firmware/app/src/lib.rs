@@ -4,7 +4,7 @@
 //! - `wheelset-nucleo` (feature `board-nucleo`): Nucleo-F446RE, embassy-stm32, USART2 +
 //!   DMA, defmt over RTT, DWT cycle counter.
 //! - `wheelset-qemu` (feature `board-qemu`): QEMU `mps2-an386`, the crate's own board
-//!   layer ([`board`]), frame-clocked lock-step, SysTick instruction counts, defmt over
+//!   layer (`board`, built for the MCU only), frame-clocked lock-step, SysTick instruction counts, defmt over
 //!   semihosting.
 //!
 //! `cargo fw` builds both for `thumbv7em-none-eabihf`, one cargo invocation per board,

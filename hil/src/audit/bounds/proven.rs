@@ -135,7 +135,7 @@ pub fn lead_error_systems(l: &LeadPu) -> [Siso; 4] {
     ]
 }
 
-/// The proven quantities in pu (used by [`prove`] and the tests).
+/// The proven quantities in pu (used by [`prove`](super::prove) and the tests).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Proven {
     /// Lead input bound `X`.
