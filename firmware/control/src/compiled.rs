@@ -65,7 +65,7 @@ pub struct Compiled<T: Sample> {
     pub(crate) wsp: Wsp<T>,
 }
 
-/// The exact bits of one wire-code scale ([`Sample::scale_to_bits`]): fixed point
+/// The exact bits of one wire-code scale ([`SampleBits::scale_to_bits`]): fixed point
 /// `out = (in mul + 2^(shift-1)) >> shift`; floats `mul` = the IEEE bits, `shift` = 0.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct ScaleBits {
@@ -104,7 +104,7 @@ pub struct ScheduleBits {
 /// constants (so the device needs no float maths to start) and what the tests compare.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct CompiledBits {
-    /// The sample type ([`Sample::NUMERIC`]): 0 fixed point, 1 `f32`, 2 `f64`.
+    /// The sample type ([`SampleBits::NUMERIC`]): 0 fixed point, 1 `f32`, 2 `f64`.
     pub numeric: u8,
     /// Lead `K_hf` (pu), coefficient.
     pub lead_k_hf: u64,

@@ -206,7 +206,7 @@ pub trait SampleBits: Sample {
     fn coeff_in_unit(c: Self::Coeff, zero_ok: bool) -> bool;
     /// The exact bits of a wire-code scale: `(mul, shift)` (floats: the IEEE bits, 0).
     fn scale_to_bits(s: &Self::Scale) -> (u64, u8);
-    /// A wire-code scale from [`Sample::scale_to_bits`]'s bits; `None` if invalid (fixed
+    /// A wire-code scale from [`SampleBits::scale_to_bits`]'s bits; `None` if invalid (fixed
     /// point: `mul` in `[1024, 2^31)`, `shift <= 62`; floats: finite and positive).
     fn scale_from_bits(mul: u64, shift: u8) -> Option<Self::Scale>;
 }
