@@ -62,6 +62,11 @@ impl<const N: usize> Pipe<N> {
         self.ring.try_read(out)
     }
 
+    /// The held bytes in place, one contiguous run ([`ByteRing::read_in_place`]).
+    pub fn read_in_place(&self, f: impl FnOnce(&[u8])) -> Result<usize, Empty> {
+        self.ring.read_in_place(f)
+    }
+
     /// Room for this many more bytes.
     pub fn free_capacity(&self) -> usize {
         self.ring.free_capacity()
@@ -207,12 +212,11 @@ fn exchange(
         RX_OVERRUN.swap(0, Ordering::Relaxed),
         taken.tx_dropped,
     );
-    let mut chunk = [0u8; 32];
-    // Bounded: the pipe holds at most RX_PIPE bytes.
-    for _ in 0..RX_PIPE / chunk.len() + 1 {
-        match RX.try_read(&mut chunk) {
-            Ok(n) => device.receive(chunk.get(..n).unwrap_or(&[])),
-            Err(_) => break,
+    // The held bytes in place, in at most two runs (up to the ring's end, then from its
+    // start); bounded, as bytes may keep arriving from the receiver meanwhile.
+    for _ in 0..3 {
+        if RX.read_in_place(|held| device.receive(held)).is_err() {
+            break;
         }
     }
     let frame = device.tick(last_exec);

@@ -113,6 +113,34 @@ impl<const N: usize> ByteRing<N> {
         self.tail.store(tail.wrapping_add(n), Ordering::Release);
         Ok(n)
     }
+
+    /// Hands the held bytes from the read position up to the ring's end (or to the last
+    /// held byte) to `f` in place, then frees them; returns their count, or [`Empty`] if
+    /// none was held. Bytes that wrap round the end come in a second call. Only one
+    /// consumer may call it (as [`Self::try_read`]).
+    ///
+    /// No copy: the control task's drain was [`Self::try_read`] into a 32-byte chunk
+    /// (zeroed, then filled byte by byte with a `% N` each) before the device decoded the
+    /// chunk. `cargo hil run --target qemu --qemu-link bulk`, the firmware's tick
+    /// (`exec`, M4 fixed point): see the README's "tick in the firmware" row.
+    pub fn read_in_place(&self, f: impl FnOnce(&[u8])) -> Result<usize, Empty> {
+        let tail = self.tail.load(Ordering::Relaxed);
+        let head = self.head.load(Ordering::Acquire);
+        let at = tail % N;
+        let n = head.wrapping_sub(tail).min(N - at);
+        if n == 0 {
+            return Err(Empty);
+        }
+        // SAFETY: `at + n <= N`: the run is inside the array. Its bytes are held (inside
+        // `[tail, head)`, published by the producer's Release store of `head`), so the
+        // producer does not write them until the Release store of `tail` below, after
+        // `f` has returned and the shared slice is gone.
+        #[allow(unsafe_code)]
+        let held = unsafe { core::slice::from_raw_parts(self.buf.get().cast::<u8>().add(at), n) };
+        f(held);
+        self.tail.store(tail.wrapping_add(n), Ordering::Release);
+        Ok(n)
+    }
 }
 
 #[cfg(test)]
@@ -136,6 +164,25 @@ mod tests {
         assert_eq!(out, [5, 6, 7, 8, 9, 10, 11, 12]);
         assert!(r.is_empty());
         assert_eq!(r.try_write(&[]), Err(Empty));
+    }
+
+    #[test]
+    fn read_in_place_gives_the_held_bytes_in_order_in_at_most_two_runs() {
+        let r = ByteRing::<8>::new();
+        assert_eq!(r.read_in_place(|_| panic!("no bytes are held")), Err(Empty));
+        assert_eq!(r.try_write(&[1, 2, 3, 4, 5, 6]), Ok(6));
+        let mut got = Vec::new();
+        assert_eq!(r.read_in_place(|b| got.extend_from_slice(b)), Ok(6));
+        assert_eq!(got, [1, 2, 3, 4, 5, 6]);
+        // Wraps: 2 bytes up to the end, then 3 from the start.
+        assert_eq!(r.try_write(&[7, 8, 9, 10, 11]), Ok(5));
+        let mut runs = Vec::new();
+        while let Ok(n) = r.read_in_place(|b| runs.push(b.to_vec())) {
+            assert!(n > 0);
+        }
+        assert_eq!(runs, [vec![7, 8], vec![9, 10, 11]]);
+        assert!(r.is_empty());
+        assert_eq!(r.free_capacity(), 8);
     }
 
     #[test]
