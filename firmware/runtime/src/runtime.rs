@@ -7,7 +7,9 @@ mod receive;
 use wheelset_control::{
     Compiled, Controller, InputCodes, Monitor, MonitorState, Sample, SampleBits, TickEvents,
 };
-use wheelset_proto::{encode_actuation, encode_status, Decoder, FrameError, RefuseReason};
+use wheelset_proto::{
+    encode_actuation, encode_status, Decoder, FrameError, Lateral, RefuseReason, Sensor,
+};
 
 use crate::plausible;
 use crate::{
@@ -46,6 +48,9 @@ pub struct Runtime<T: Sample> {
     reference: plausible::Reference,
     hold_ticks: u16,
     decoder: Decoder,
+    /// The latest Sensor frame as the decoder wrote it (`receive`, in place): read only
+    /// by `on_sensor`, right after the decoder reported it complete and valid.
+    rx_sensor: Sensor,
     sample: Option<InputCodes>,
     /// The latest sample carried only `y''` (codes of 0.1 mm/s^2): integrate it.
     acc: Option<i32>,
@@ -141,6 +146,15 @@ impl<T: SampleBits> Runtime<T> {
             },
             hold_ticks,
             decoder: Decoder::new(),
+            rx_sensor: Sensor {
+                seq: 0,
+                t_us: 0,
+                lateral: Lateral::Velocity(0),
+                i_a_ma: 0,
+                omega_m_mrad_s: 0,
+                demand_nm: 0,
+                v_ref_mm_s: 0,
+            },
             sample: None,
             acc: None,
             vel_q32: 0,
