@@ -52,6 +52,11 @@ pub struct Runtime<T: Sample> {
     /// by `on_sensor`, right after the decoder reported it complete and valid.
     rx_sensor: Sensor,
     sample: Option<InputCodes>,
+    /// The latest Sensor frame's reference speed code while the wheel-slip protection
+    /// is off (not yet given to the core, whose only reader of it is the protection):
+    /// given by the Config that switches the protection on (`receive`).
+    #[cfg(feature = "wsp")]
+    v_ref_held: Option<i32>,
     /// The latest sample carried only `y''` (codes of 0.1 mm/s^2): integrate it.
     acc: Option<i32>,
     /// `y'` estimate from `y''`, um/s in Q32.
@@ -156,6 +161,8 @@ impl<T: SampleBits> Runtime<T> {
                 v_ref_mm_s: 0,
             },
             sample: None,
+            #[cfg(feature = "wsp")]
+            v_ref_held: None,
             acc: None,
             vel_q32: 0,
             acc_ref_q32: 0,
