@@ -7,7 +7,9 @@ mod receive;
 use wheelset_control::{
     Compiled, Controller, InputCodes, Monitor, MonitorState, Sample, SampleBits, TickEvents,
 };
-use wheelset_proto::{encode_actuation, encode_status, Decoder, FrameError, RefuseReason};
+use wheelset_proto::{
+    encode_actuation, encode_status, Decoder, FrameError, Lateral, RefuseReason, Sensor,
+};
 
 use crate::plausible;
 use crate::{
@@ -46,7 +48,15 @@ pub struct Runtime<T: Sample> {
     reference: plausible::Reference,
     hold_ticks: u16,
     decoder: Decoder,
+    /// The latest Sensor frame as the decoder wrote it (`receive`, in place): read only
+    /// by `on_sensor`, right after the decoder reported it complete and valid.
+    rx_sensor: Sensor,
     sample: Option<InputCodes>,
+    /// The latest Sensor frame's reference speed code while the wheel-slip protection
+    /// is off (not yet given to the core, whose only reader of it is the protection):
+    /// given by the Config that switches the protection on (`receive`).
+    #[cfg(feature = "wsp")]
+    v_ref_held: Option<i32>,
     /// The latest sample carried only `y''` (codes of 0.1 mm/s^2): integrate it.
     acc: Option<i32>,
     /// `y'` estimate from `y''`, um/s in Q32.
@@ -141,7 +151,18 @@ impl<T: SampleBits> Runtime<T> {
             },
             hold_ticks,
             decoder: Decoder::new(),
+            rx_sensor: Sensor {
+                seq: 0,
+                t_us: 0,
+                lateral: Lateral::Velocity(0),
+                i_a_ma: 0,
+                omega_m_mrad_s: 0,
+                demand_nm: 0,
+                v_ref_mm_s: 0,
+            },
             sample: None,
+            #[cfg(feature = "wsp")]
+            v_ref_held: None,
             acc: None,
             vel_q32: 0,
             acc_ref_q32: 0,

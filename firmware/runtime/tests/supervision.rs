@@ -222,3 +222,61 @@ fn fault_injection_is_refused_without_the_feature() {
         assert_eq!(s.refuse_reason, RefuseReason::Unsupported.code());
     }
 }
+
+/// The reference speed of the frames received while the protection is off (the device
+/// converts it only while it is on) reaches the core when a Config switches it on: the
+/// latest one, as the core would have held it; and a Config with new rates, which
+/// restarts the core, leaves the new core without one (0) until the next Sensor frame.
+#[test]
+fn the_reference_speed_received_while_the_protection_is_off_is_the_one_it_starts_on() {
+    let mut r = Runtime::<Fx>::try_new(RuntimeConfig::default()).expect("valid");
+    let mut last = 0;
+    for k in 1..=20u16 {
+        last = 70_000 + 300 * i32::from(k);
+        r.receive(&sensor(k, 0, 925_600, last));
+        r.tick(0);
+    }
+    // The core as it would be had it converted every frame's code (the last one holds).
+    let mut expected = r.core().clone();
+    expected.set_v_ref_code(last);
+    let want = expected.wsp_state().w_ref;
+    assert_ne!(want, Fx::ZERO, "a reference of 76 m/s is not 0");
+    r.receive(&config(YawMode::Lead, true, false, DEFAULT_HOLD_TICKS));
+    assert_eq!(r.core().wsp_state().w_ref, want);
+    // Off again, a new frame, on again: the new frame's reference.
+    r.receive(&config(YawMode::Lead, false, false, DEFAULT_HOLD_TICKS));
+    r.receive(&sensor(21, 0, 925_600, 60_000));
+    r.tick(0);
+    r.receive(&config(YawMode::Lead, true, false, DEFAULT_HOLD_TICKS));
+    expected.set_v_ref_code(60_000);
+    assert_eq!(r.core().wsp_state().w_ref, expected.wsp_state().w_ref);
+    assert_ne!(expected.wsp_state().w_ref, want);
+
+    // Off, a frame, then a Config with rates and the protection on: a fresh core.
+    let mut cfg = RuntimeConfig::default();
+    let mut q = Runtime::<Fx>::try_new(cfg).expect("valid");
+    q.receive(&sensor(1, 0, 925_600, 70_000));
+    q.tick(0);
+    cfg.control.base_rate_hz = 4_000;
+    let with_rates = encode_vec(&Message::Config(Config {
+        mode: YawMode::Lead,
+        traction: true,
+        enable: true,
+        hold_ticks: DEFAULT_HOLD_TICKS,
+        wsp: true,
+        monitor_safe: false,
+        rates: Some(rates_for::<Fx>(&cfg).expect("valid rates")),
+    }))
+    .expect("fits");
+    q.receive(&with_rates);
+    assert_eq!(q.refuse_reason(), RefuseReason::None, "the rates are taken");
+    assert_eq!(q.base_rate_hz(), 4_000);
+    assert!(q.core().wsp_enabled());
+    assert_eq!(q.core().wsp_state().w_ref, Fx::ZERO);
+    // The next frame's reference is converted at once (the protection is on).
+    q.receive(&sensor(2, 0, 925_600, 70_000));
+    let mut e = q.core().clone();
+    e.set_v_ref_code(70_000);
+    assert_eq!(q.core().wsp_state().w_ref, e.wsp_state().w_ref);
+    assert_ne!(q.core().wsp_state().w_ref, Fx::ZERO);
+}

@@ -8,7 +8,7 @@ use wheelset_control::{Controller, InputCodes, SampleBits, ScheduleBits};
 use wheelset_proto::{FrameError, Lateral, NextFrame, RefuseReason, Request};
 
 use crate::plausible;
-use crate::{AccBits, Command, Config, Rates, Runtime, RuntimeCounters, RxEvent, Sensor};
+use crate::{AccBits, Command, Config, Rates, Runtime, RuntimeCounters, RxEvent};
 
 impl<T: SampleBits> Runtime<T> {
     /// Takes received bytes in any chunking; decodes frames, applies commands, counts bad
@@ -16,37 +16,44 @@ impl<T: SampleBits> Runtime<T> {
     pub fn receive(&mut self, bytes: &[u8]) {
         // Frame by frame (not a callback into `self` with the decoder moved out and back:
         // two copies of its buffer per call).
-        // A Sensor frame is decoded into `s` in place (not moved out in a Config-sized
-        // `Request`: `Decoder::next_sensor_or_request`).
-        let mut s = Sensor {
-            seq: 0,
-            t_us: 0,
-            lateral: Lateral::Velocity(0),
-            i_a_ma: 0,
-            omega_m_mrad_s: 0,
-            demand_nm: 0,
-            v_ref_mm_s: 0,
-        };
-        // Any other frame's result (written by the decoder before it says `Frame`).
-        let mut other = Err(FrameError::Length);
+        // A Sensor frame is decoded in place into `self.rx_sensor` (not moved out in a
+        // Config-sized `Request`: `Decoder::next_sensor_or_request`), which `on_sensor`
+        // then reads: no zeroed local per call (its clearing was a `memset` call) and no
+        // copy (an earlier field version copied it out for `on_sensor`: +17). Measured
+        // with `cargo xtask fw-bench`, whole tick mean, M4 fixed 1 762 -> 1 714, f32
+        // 1 619 -> 1 573, M3 fixed 1 802 -> 1 754; static RAM +64 B, receive's frame
+        // -32 B (`cargo fw`).
+        // Any other frame's result (written by the decoder before it says `Frame`; the
+        // initial value is never read: `Ok(Unexpected)` is one store fewer to make than
+        // `Err(Length)`, -2 instructions per tick, `cargo xtask fw-bench` built with
+        // `N = 20`, M4 / M3 fixed and f32 alike).
+        let mut other = Ok(Request::Unexpected);
         let mut rest = bytes;
         while !rest.is_empty() {
-            let (r, more) = self
-                .decoder
-                .next_sensor_or_request(rest, &mut s, &mut other);
+            let (r, more) =
+                self.decoder
+                    .next_sensor_or_request(rest, &mut self.rx_sensor, &mut other);
             rest = more;
             match r {
                 NextFrame::Nothing => {}
                 NextFrame::Sensor => {
                     // As `on_frame` counts a valid Sensor request.
                     self.counters.rx_ok = self.counters.rx_ok.wrapping_add(1);
-                    self.on_sensor(&s);
+                    self.on_sensor();
                 }
                 NextFrame::Frame => self.on_frame(other),
             }
         }
     }
 
+    /// Any frame but a Sensor frame the decoder wrote in place (rare: Config, Command, a
+    /// rejected frame): counted and applied. Out of line so that `receive`'s loop, run
+    /// on every Sensor frame, keeps few registers and no set-up for these paths: -4
+    /// instructions per tick, stack -40 B (`cargo xtask fw-bench` built with `N = 20`,
+    /// M4 / M3 fixed and f32 alike), Nucleo flash -68 B (`cargo fw`). (Also measured and
+    /// not kept: `#[cold]` on it, the same count and +104 B of flash; `on_sensor`
+    /// inlined at a single call site in `receive`, -2 more and +196 B.)
+    #[inline(never)]
     fn on_frame(&mut self, r: Result<Request, FrameError>) {
         let c = &mut self.counters;
         let m = match r {
@@ -73,7 +80,10 @@ impl<T: SampleBits> Runtime<T> {
         }
         c.rx_ok = c.rx_ok.wrapping_add(1);
         match m {
-            Request::Sensor(s) => self.on_sensor(&s),
+            Request::Sensor(s) => {
+                self.rx_sensor = s;
+                self.on_sensor();
+            }
             Request::Config(cfg) => self.on_config(&cfg),
             Request::Command(Command::ResetCounters) => {
                 // The board's boot record and stack measurement are not counters.
@@ -100,7 +110,9 @@ impl<T: SampleBits> Runtime<T> {
         }
     }
 
-    fn on_sensor(&mut self, s: &Sensor) {
+    /// The Sensor frame in `self.rx_sensor` taken as the latest sample.
+    fn on_sensor(&mut self) {
+        let s = self.rx_sensor;
         let y_dot = match s.lateral {
             Lateral::Both {
                 vel_um_s: v,
@@ -131,8 +143,18 @@ impl<T: SampleBits> Runtime<T> {
             self.counters.seq_gaps = self.counters.seq_gaps.wrapping_add(1);
         }
         self.seq = s.seq;
+        // The reference speed's only reader is the protection's step: converted for the
+        // core (a scaling and a clamp) only while the protection is on, else held and
+        // given to the core by the Config that switches it on (`on_config`), so the core
+        // steps on the same `w_ref` either way. Measured with `cargo xtask fw-bench`
+        // (protection off, the default), whole tick mean: M4 fixed 1 714 -> 1 683, f32
+        // 1 573 -> 1 556, M3 fixed 1 754 -> 1 720 (Nucleo flash +52 B, `cargo fw`).
         #[cfg(feature = "wsp")]
-        self.core.set_v_ref_code(s.v_ref_mm_s);
+        if self.core.wsp_enabled() {
+            self.core.set_v_ref_code(s.v_ref_mm_s);
+        } else {
+            self.v_ref_held = Some(s.v_ref_mm_s);
+        }
         self.sample = Some(InputCodes {
             y_dot,
             current: s.i_a_ma,
@@ -166,7 +188,17 @@ impl<T: SampleBits> Runtime<T> {
         self.core.set_mode(c.mode);
         self.core.set_traction(c.traction);
         #[cfg(feature = "wsp")]
-        self.core.set_wsp(c.wsp);
+        {
+            self.core.set_wsp(c.wsp);
+            // The latest reference speed received while the protection was off (for
+            // this core: `apply_rates` drops it with the core it replaces), as
+            // `on_sensor` would have given it.
+            if c.wsp {
+                if let Some(code) = self.v_ref_held.take() {
+                    self.core.set_v_ref_code(code);
+                }
+            }
+        }
         self.monitor_safe = c.monitor_safe;
         self.enabled = c.enable;
         self.hold_ticks = c.hold_ticks;
@@ -229,6 +261,11 @@ impl<T: SampleBits> Runtime<T> {
         let t_psi = self.core.outputs().yaw_torque;
         let wsp = self.core.wsp_enabled();
         self.core = Controller::new(&law);
+        // The new core has no reference speed (0) until the next Sensor frame.
+        #[cfg(feature = "wsp")]
+        {
+            self.v_ref_held = None;
+        }
         self.core.continue_from(t_psi);
         if wsp {
             self.core.set_wsp(true);
