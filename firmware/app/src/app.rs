@@ -285,7 +285,14 @@ fn note_stack(device: &mut impl Device, ticks: &mut u32) {
 /// execution time, and queue the encoded frame for the transmitter. The execution time
 /// is measured from the wake-up to the encoded frame (drain + decode + control +
 /// encode). A host Config frame that changes the base rate re-arms the schedule.
-pub async fn control_loop(mut device: impl Device, mut stopwatch: impl Stopwatch) -> ! {
+pub async fn control_loop<D: Device>(
+    make_device: impl FnOnce() -> D,
+    mut stopwatch: impl Stopwatch,
+) -> ! {
+    // Made here, not passed in: an async fn's arguments are kept in its future beside
+    // the body's copy of them (rust-lang/rust#62958), so a device argument took the
+    // runtime's size twice in the task's static RAM (`cargo fw`: see the README).
+    let mut device = make_device();
     // The boot record the board read at start-up (crate::boot).
     let (count, cause) = crate::boot::this_boot();
     device.set_boot(count, cause);
@@ -370,7 +377,12 @@ pub async fn control_loop(mut device: impl Device, mut stopwatch: impl Stopwatch
 /// for each answer). No ticker and no missed-tick policy: the host's frames are the
 /// clock. The execution time is measured as in [`control_loop`] (DWT cycles).
 #[cfg(feature = "frame-clock")]
-pub async fn frame_loop(mut device: impl Device, mut stopwatch: impl Stopwatch) -> ! {
+pub async fn frame_loop<D: Device>(
+    make_device: impl FnOnce() -> D,
+    mut stopwatch: impl Stopwatch,
+) -> ! {
+    // Made here, as in [`control_loop`] (an argument is kept twice in the future).
+    let mut device = make_device();
     let (count, cause) = crate::boot::this_boot();
     device.set_boot(count, cause);
     defmt::info!(

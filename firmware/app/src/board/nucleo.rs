@@ -106,9 +106,9 @@ impl Stopwatch for DwtStopwatch {
 #[embassy_executor::task]
 async fn control_task() {
     #[cfg(not(feature = "frame-clock"))]
-    app::control_loop(app::new_device(), DwtStopwatch).await;
+    app::control_loop(app::new_device, DwtStopwatch).await;
     #[cfg(feature = "frame-clock")]
-    app::frame_loop(app::new_device(), DwtStopwatch).await
+    app::frame_loop(app::new_device, DwtStopwatch).await
 }
 
 #[embassy_executor::task]

@@ -77,7 +77,7 @@ impl Stopwatch for SysTickStopwatch {
 
 #[embassy_executor::task]
 async fn control_task(stopwatch: SysTickStopwatch) {
-    app::control_loop(app::new_device(), stopwatch).await
+    app::control_loop(app::new_device, stopwatch).await
 }
 
 #[embassy_executor::task]
