@@ -15,8 +15,9 @@ use super::{Coef, Fx, Sample, SampleBits, COEF_FRAC, FX_FRAC};
 /// `repr(C)`, in the order `apply` reads the words (`round`, `mul`: one `LDM`), the
 /// shift amounts as bytes. Measured (`cargo xtask fw-bench`, Cortex-M4 fixed point, whole
 /// tick mean): 1 762 with the run-time branch on `shift` and `apply` a call, 1 691 with
-/// this form inlined; with the shift amounts as words (one `LDM` for all five) 1 695 and
-/// 112 B more flash on the Nucleo build (`cargo fw`), so they stay bytes.
+/// this form inlined; with the shift amounts as words (one `LDM` for all five) 1 695,
+/// 244 B more flash and 112 B more static RAM on the Nucleo build (`cargo fw`), so they
+/// stay bytes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[repr(C)]
 pub struct FxScale {
