@@ -238,6 +238,11 @@ impl<T: Sample> Controller<T> {
     /// would engage. While the ramp has settled on an unchanged demand, `iref` is its
     /// target and the ramp is skipped. The demand's product is exact (`|demand| <= 2`),
     /// `Kp`'s by [`Self::new`]'s precondition.
+    ///
+    /// The settled case returns straight from the PI (one copy of it per case, inlined):
+    /// nothing of the ramp's state to write back. Measured (`cargo xtask fw-bench`, law
+    /// step, Cortex-M4 fixed point): 111 with one PI and the ramp's state written under
+    /// an `Option` test, 100 with the two cases (f32 105 -> 99, Cortex-M3 fixed 145 -> 138).
     #[inline(always)]
     fn fast_traction(&mut self, inp: &Inputs<T>) -> bool {
         let law = &self.law;
@@ -246,24 +251,33 @@ impl<T: Sample> Controller<T> {
             return false;
         }
         let dm = inp.demand;
-        // `Some(settled)`: the ramp ran (and has now settled or not).
-        let mut ramp = None;
-        let iref = if self.ramp_settled && dm == self.settled_demand {
-            self.iref
-        } else {
-            if !dm.abs_within(law.demand_max) {
-                return false;
-            }
-            let target = dm.mul_c_small(law.demand_to_iref);
-            let delta = target.sat_sub(self.iref);
-            if !delta.abs_within(law.iref_step) {
-                return false;
-            }
-            let iref = self.iref.sat_add(delta);
-            ramp = Some(iref == target);
-            iref
-        };
-        let e = iref.sat_sub(i);
+        if self.ramp_settled && dm == self.settled_demand {
+            // `iref` is the ramp's target: the ramp would leave it as it is.
+            return self.fast_pi(self.iref.sat_sub(i));
+        }
+        if !dm.abs_within(law.demand_max) {
+            return false;
+        }
+        let target = dm.mul_c_small(law.demand_to_iref);
+        let delta = target.sat_sub(self.iref);
+        if !delta.abs_within(law.iref_step) {
+            return false;
+        }
+        let iref = self.iref.sat_add(delta);
+        if !self.fast_pi(iref.sat_sub(i)) {
+            return false;
+        }
+        self.ramp_settled = iref == target;
+        self.settled_demand = dm;
+        self.iref = iref;
+        true
+    }
+
+    /// The PI of [`Self::fast_traction`] on the error `e`: `false`, with nothing
+    /// changed, if the integrator or the output clamp would engage.
+    #[inline(always)]
+    fn fast_pi(&mut self, e: T) -> bool {
+        let law = &self.law;
         let mut residue = self.pi_state.residue;
         let integ =
             self.pi_state
@@ -276,11 +290,6 @@ impl<T: Sample> Controller<T> {
         let u = e.mul_pre(self.kp_pre).sat_add(integ);
         if !u.within(u_min, u_max) {
             return false;
-        }
-        if let Some(settled) = ramp {
-            self.ramp_settled = settled;
-            self.settled_demand = dm;
-            self.iref = iref;
         }
         self.pi_state = PiState { integ, residue };
         self.out.voltage = u;

@@ -210,11 +210,15 @@ pub struct LeadPu {
 }
 
 /// The lead as it runs: quantised per-unit coefficients (configuration).
+///
+/// `repr(C)` in the order the controller's fast path reads the coefficients (`kappa`,
+/// `k_hf`: one `LDRD`; its `g/2` is a copy in another form).
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C)]
 pub struct Lead<T: Sample> {
+    pub(crate) kappa: T::Coeff,
     pub(crate) k_hf: T::Coeff,
     pub(crate) g_half: T::Coeff,
-    pub(crate) kappa: T::Coeff,
 }
 
 /// The lead's state: previous input `x[n-1]` and the low-pass output `z[n-1]` (pu).

@@ -131,9 +131,12 @@ pub struct PiPu {
 }
 
 /// The PI as it runs: quantised coefficients and output limits (configuration).
+///
+/// `repr(C)` in the order the controller's fast path reads the fields (`Ki` and its
+/// shift, the limits: one `LDRD` each; its `Kp` is a copy in another form).
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C)]
 pub struct Pi<T: Sample> {
-    pub(crate) kp: T::Coeff,
     /// `Ki 2^ki_shift`, quantised.
     pub(crate) ki: T::Coeff,
     /// `Ki`'s shift `s` ([`Sample::acc_shift`]; 0 for floats).
@@ -142,6 +145,7 @@ pub struct Pi<T: Sample> {
     pub u_min: T,
     /// Upper output (and integrator) limit, pu.
     pub u_max: T,
+    pub(crate) kp: T::Coeff,
 }
 
 /// The PI's state: the integrator `I[n-1]` (pu) and its sub-LSB remainder.

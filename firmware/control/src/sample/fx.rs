@@ -6,17 +6,88 @@ use super::{Coef, Fx, Sample, SampleBits, COEF_FRAC, FX_FRAC};
 
 /// A wire-code scale for the fixed-point type, precomputed at construction:
 /// `out = sat32((in * mul + round) >> shift)`, i.e. a multiplication by `mul / 2^shift`.
+///
+/// Besides `mul`, `shift` and `round`, construction resolves which of the two forms of
+/// [`Self::apply`] the shift takes (`wide`: `shift >= 32`, the output scales; otherwise
+/// the input scales) and the shift amounts that form needs (`sh`, `sh_up`), so that
+/// `apply` does no arithmetic on `shift` at tick time.
+///
+/// `repr(C)`, in the order `apply` reads the words (`round`, `mul`: one `LDM`), the
+/// shift amounts as bytes. Measured (`cargo xtask fw-bench`, Cortex-M4 fixed point, whole
+/// tick mean): 1 762 with the run-time branch on `shift` and `apply` a call, 1 691 with
+/// this form inlined; with the shift amounts as words (one `LDM` for all five) 1 695,
+/// 244 B more flash and 112 B more static RAM on the Nucleo build (`cargo fw`), so they
+/// stay bytes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(C)]
 pub struct FxScale {
+    /// `2^(shift-1)` (0 for `shift == 0`): rounds to nearest.
+    pub round: i64,
     /// Multiplier (positive, `< 2^31`).
     pub mul: i32,
     /// Right shift, `0..=62`.
     pub shift: u32,
-    /// `2^(shift-1)` (0 for `shift == 0`): rounds to nearest.
-    pub round: i64,
+    /// `wide`: `min(shift - 32, 31)`; otherwise `shift` (`0..=31`).
+    sh: Shift,
+    /// Not `wide`: `31 - shift`, the left shift of the high word (after a shift by one)
+    /// into the result's top bits; `wide`: 0 (unused).
+    sh_up: Shift,
+    /// `shift >= 32`: the result is the product's high word shifted right by `sh`.
+    wide: bool,
+}
+
+/// A shift amount `0..=31`. An enum, so that its loads carry the range and the
+/// compiler drops the `& 31` that a plain integer shift amount would need before each
+/// variable shift (Rust's `>>` masks the amount; checked in the bench's disassembly).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
+#[rustfmt::skip]
+enum Shift {
+    S0, S1, S2, S3, S4, S5, S6, S7, S8, S9, S10, S11, S12, S13, S14, S15,
+    S16, S17, S18, S19, S20, S21, S22, S23, S24, S25, S26, S27, S28, S29, S30, S31,
+}
+
+impl Shift {
+    const ALL: [Shift; 32] = {
+        use Shift::*;
+        [
+            S0, S1, S2, S3, S4, S5, S6, S7, S8, S9, S10, S11, S12, S13, S14, S15, S16, S17, S18,
+            S19, S20, S21, S22, S23, S24, S25, S26, S27, S28, S29, S30, S31,
+        ]
+    };
+    /// `n & 31` as a shift amount.
+    const fn of(n: u32) -> Self {
+        Self::ALL[(n & 31) as usize]
+    }
+    /// The amount, `0..=31`.
+    #[inline(always)]
+    fn get(self) -> u32 {
+        self as u32
+    }
 }
 
 impl FxScale {
+    /// The scale from `mul`, `shift` and `round` (as given: no validation), with the
+    /// form [`Self::apply`] takes resolved. `const`: the build's compiled-in
+    /// controllers ([`crate::CompiledBits`]) construct their scales at compile time.
+    pub(crate) const fn from_parts(mul: i32, shift: u32, round: i64) -> Self {
+        let wide = shift >= 32;
+        let (sh, sh_up) = if wide {
+            let s = shift - 32;
+            (if s > 31 { 31 } else { s }, 0)
+        } else {
+            (shift, 31 - shift)
+        };
+        Self {
+            mul,
+            shift,
+            round,
+            wide,
+            sh: Shift::of(sh),
+            sh_up: Shift::of(sh_up),
+        }
+    }
+
     /// The scale closest to `factor` with the most precision: the largest `shift` such
     /// that `round(factor 2^shift) < 2^31`. `None` if `factor` is not finite, not
     /// positive, `>= 2^31`, or smaller than `2^-40` (no useful precision left).
@@ -34,11 +105,11 @@ impl FxScale {
         if !(1.0..2_147_483_648.0).contains(&mul) || mul < 1024.0 {
             return None;
         }
-        Some(Self {
-            mul: mul as i32,
+        Some(Self::from_parts(
+            mul as i32,
             shift,
-            round: if shift == 0 { 0 } else { 1i64 << (shift - 1) },
-        })
+            if shift == 0 { 0 } else { 1i64 << (shift - 1) },
+        ))
     }
 
     /// The scale `mul / 2^shift` from its parts, as [`Self::new`] produces them: `None`
@@ -48,38 +119,39 @@ impl FxScale {
         if !(1024..(1u64 << 31)).contains(&mul) || shift > 62 {
             return None;
         }
-        Some(Self {
-            mul: mul as i32,
+        Some(Self::from_parts(
+            mul as i32,
             shift,
-            round: if shift == 0 { 0 } else { 1i64 << (shift - 1) },
-        })
+            if shift == 0 { 0 } else { 1i64 << (shift - 1) },
+        ))
     }
 
     /// `sat32((x * mul + round) >> shift)`.
     ///
     /// Without a 64-bit shift by a variable amount (on a 32-bit core a library call,
-    /// `__aeabi_lasr`, ~11 instructions): the product is one `SMLAL` into `(hi, lo)`;
-    /// `shift >= 32` (the output scales) is `hi >> (shift - 32)`, which always fits; a
-    /// shorter shift (the input scales) combines the words and saturates when the high
-    /// word is not the sign extension of the result.
-    #[inline]
+    /// `__aeabi_lasr`, ~11 instructions) and without arithmetic on `shift`: the product
+    /// is one `SMLAL` into `(hi, lo)`; a `wide` scale (`shift >= 32`, the output scales)
+    /// is `hi >> sh`, which always fits; a shorter shift (the input scales) combines the
+    /// words (`lo >> shift | (hi << 1) << (31 - shift)`) and saturates when the high
+    /// word is not the sign extension of the result. Inlined: as a call, the six
+    /// scalings of a tick (and the slip regulator's `v_ref`) were ~24 instructions each
+    /// (`FxScale::apply` 145 per whole tick in `scripts/tick-profile.py`'s profile);
+    /// inlined ~15 for an input scale, ~8 for an output scale.
+    #[inline(always)]
     pub fn apply(&self, x: i32) -> i32 {
         let p = x as i64 * self.mul as i64 + self.round;
         let (hi, lo) = ((p >> 32) as i32, p as u32);
-        let s = self.shift;
-        if s >= 32 {
-            // |p| < 2^62, so `p >> s` is within `i32` (no saturation can engage).
-            hi >> (s - 32).min(31)
-        } else if s == 0 {
-            sat32(p)
+        let sh = self.sh.get();
+        if self.wide {
+            // |p| < 2^63 and shift >= 32: `p >> shift` is within `i32` (no saturation).
+            hi >> sh
         } else {
-            let q = ((lo >> s) | ((hi as u32) << (32 - s))) as i32;
-            if hi >> s == q >> 31 {
+            let q = ((lo >> sh) | (((hi as u32) << 1) << self.sh_up.get())) as i32;
+            if hi >> sh == q >> 31 {
                 q
-            } else if hi < 0 {
-                i32::MIN
             } else {
-                i32::MAX
+                // i32::MIN for a negative product, i32::MAX otherwise.
+                (hi >> 31) ^ i32::MAX
             }
         }
     }
@@ -250,11 +322,11 @@ impl Sample for Fx {
         // Bits -> codes: factor (codes per pu) / 2^28 bits per pu.
         FxScale::new(factor / (1u64 << FX_FRAC) as f64)
     }
-    #[inline]
+    #[inline(always)]
     fn from_code(code: i32, scale: &FxScale) -> Self {
         Fx::from_bits(scale.apply(code))
     }
-    #[inline]
+    #[inline(always)]
     fn to_code(self, scale: &FxScale) -> i32 {
         scale.apply(self.to_bits())
     }

@@ -197,3 +197,115 @@ fn fixed_from_non_finite_f64_does_not_panic() {
     assert_eq!(Fx::from_f64(1e300), Fx::MAX);
     assert_eq!(Fx::from_f64(0.5).to_f64(), 0.5);
 }
+
+/// The `apply` of before the precomputed form (a run-time branch on `shift`), kept as
+/// the reference the precomputed form must equal bit for bit.
+fn apply_branching(f: &FxScale, x: i32) -> i32 {
+    let p = x as i64 * f.mul as i64 + f.round;
+    let (hi, lo) = ((p >> 32) as i32, p as u32);
+    let s = f.shift;
+    if s >= 32 {
+        hi >> (s - 32).min(31)
+    } else if s == 0 {
+        sat32(p)
+    } else {
+        let q = ((lo >> s) | ((hi as u32) << (32 - s))) as i32;
+        if hi >> s == q >> 31 {
+            q
+        } else if hi < 0 {
+            i32::MIN
+        } else {
+            i32::MAX
+        }
+    }
+}
+
+/// The precomputed, branch-on-`wide` `apply` equals the branching one and the plain
+/// formula for every shift `0..=62` with edge and random `mul` and `x` (saturation both
+/// ways, the saturation thresholds `x = ±2^31 2^shift / mul` and their neighbours), for
+/// the scales [`FxScale::new`] makes from random factors over its whole range, and for
+/// the out-of-range shifts the compiled-in constructor tolerates without panicking.
+#[test]
+fn fx_scale_precomputed_apply_equals_branching() {
+    let formula = |x: i32, f: &FxScale| {
+        if f.shift > 62 {
+            apply_branching(f, x)
+        } else {
+            sat32((x as i64 * f.mul as i64 + f.round) >> f.shift)
+        }
+    };
+    let check = |f: &FxScale, x: i32| {
+        let (a, b) = (f.apply(x), apply_branching(f, x));
+        assert_eq!(a, b, "{x} {f:?}");
+        assert_eq!(a, formula(x, f), "{x} {f:?}");
+    };
+    let mut seed = 0x2545_F491_4F6C_DD1Du64;
+    let mut next = || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        seed
+    };
+    let muls = [
+        1024u64,
+        1025,
+        65_537,
+        1 << 30,
+        (1 << 30) + 1,
+        (1 << 31) - 2,
+        (1 << 31) - 1,
+    ];
+    for shift in 0..=62u8 {
+        for i in 0..muls.len() + 64 {
+            let m = match muls.get(i) {
+                Some(&m) => m,
+                None => 1024 + next() % ((1 << 31) - 1024),
+            };
+            let f = FxScale::from_bits(m, shift).expect("valid");
+            // Where saturation starts: |x mul| 2^-shift near 2^31.
+            let t = ((1i128 << 31) << shift) / f.mul as i128;
+            for x in [i32::MIN, i32::MIN + 1, -1, 0, 1, i32::MAX - 1, i32::MAX] {
+                check(&f, x);
+            }
+            for d in -2i128..=2 {
+                for v in [t + d, -t + d] {
+                    if let Ok(x) = i32::try_from(v) {
+                        check(&f, x);
+                    }
+                }
+            }
+            for _ in 0..200 {
+                let r = next();
+                check(&f, r as i32 >> (r >> 59));
+            }
+        }
+    }
+    // The scales `new` produces, log-uniform over its range.
+    for _ in 0..20_000 {
+        let r = next();
+        // A mantissa in [1, 2) times 2^k, k in -40..=31.
+        let mut factor = 1.0 + (r >> 11) as f64 / (1u64 << 53) as f64;
+        let k = (r % 72) as i32 - 40;
+        for _ in 0..k.unsigned_abs() {
+            factor *= if k < 0 { 0.5 } else { 2.0 };
+        }
+        if let Some(f) = FxScale::new(factor) {
+            assert_eq!(FxScale::from_bits(f.mul as u64, f.shift as u8), Some(f));
+            for _ in 0..8 {
+                let r = next();
+                check(&f, r as i32 >> (r >> 59));
+            }
+            check(&f, i32::MIN);
+            check(&f, i32::MAX);
+        }
+    }
+    // Shifts above 62 (refused by `from_bits`; the compiled-in path builds them with a
+    // zero `round` above 63): no panic, the same result as the branching form.
+    for shift in 63..=255u32 {
+        let round = if shift > 63 { 0 } else { 1i64 << (shift - 1) };
+        let f = FxScale::from_parts(1 << 30, shift, round);
+        for x in [i32::MIN, -1, 0, 1, i32::MAX] {
+            assert_eq!(f.apply(x), apply_branching(&f, x), "{x} {f:?}");
+        }
+    }
+}
