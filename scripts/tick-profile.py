@@ -21,6 +21,7 @@ caller is attributed to the source file of the innermost inlined frame
 import collections
 import re
 import shlex
+import signal
 import subprocess
 import sys
 
@@ -38,7 +39,14 @@ def record(log: str) -> None:
 
 
 def main() -> None:
+    # `... | head` ends quietly, as the project's command lines do.
+    signal.signal(signal.SIGPIPE, signal.SIG_DFL)
     args = sys.argv[1:]
+    if args[:1] in (["--help"], ["-h"]):
+        print(__doc__)
+        return
+    if any(a.startswith("-") and a != "--record" for a in args) or len(args) > 3:
+        sys.exit(f"tick-profile: unknown arguments {args}\n{__doc__}")
     if args[:1] == ["--record"]:
         args = args[1:]
         if not args:
@@ -62,7 +70,11 @@ def main() -> None:
     pcs = collections.Counter()
     calls = 0
     inside = False
-    with open(log) as f:
+    try:
+        f = open(log)
+    except OSError as e:
+        sys.exit(f"tick-profile: cannot read the log {log}: {e.strerror} (record one with --record)")
+    with f:
         for line in f:
             m = re.search(r"\[[0-9a-f]+/([0-9a-f]+)/", line)
             if not m:
