@@ -15,7 +15,8 @@ function give ~1 GB; build the bench with a smaller `N` in
 firmware/app/src/bin/qemu_bench.rs for a quicker run: the averages per call are the
 same). Every instruction executed between the function's entry and the return to its
 caller is attributed to the source file of the innermost inlined frame
-(`arm-none-eabi-addr2line`); prints instructions per call by file. Needs Debian's
+(`arm-none-eabi-addr2line`) and to the function symbol it lies in (`arm-none-eabi-nm`);
+prints instructions per call by file and by function. Needs Debian's
 `binutils-arm-none-eabi`.
 """
 import collections
@@ -104,8 +105,25 @@ def main() -> None:
             key = path.rsplit("/src/", 1)[0].rsplit("/", 1)[-1] or path
         by_file[key] += pcs[a]
     print(f"{name}: {calls} calls, {sum(pcs.values()) / calls:.1f} instructions per call")
+    print("by source file of the innermost inlined frame:")
     for key, n in by_file.most_common():
         print(f"{n / calls:8.1f}  {key}")
+    # By the object's function symbols (what is out of line after LTO).
+    syms = []
+    nm = subprocess.run(["arm-none-eabi-nm", "-C", "-n", "-S", ELF],
+                        capture_output=True, text=True, check=True).stdout
+    for line in nm.splitlines():
+        parts = line.split(" ", 3)
+        if len(parts) == 4 and parts[2] in "tTwW":
+            syms.append((int(parts[0], 16), int(parts[1], 16), parts[3]))
+    by_sym = collections.Counter()
+    for a in addrs:
+        # Thumb symbols may carry bit 0; compare without it.
+        hit = next((n for (s0, sz, n) in syms if (s0 & ~1) <= a < (s0 & ~1) + sz), "?")
+        by_sym[hit] += pcs[a]
+    print("by function symbol:")
+    for key, n in by_sym.most_common():
+        print(f"{n / calls:8.1f}  {key[:150]}")
 
 
 if __name__ == "__main__":
