@@ -127,3 +127,53 @@ proptest! {
         sensor_path(&edited(&msg, &edits));
     }
 }
+
+/// The decoder's results do not depend on how the bytes are chunked: a whole frame in one
+/// chunk (the decoder's fast path, `Decoder::next_with`'s whole-frame walk), the same
+/// bytes cut in two at every point (the general byte loop for a frame that starts in one
+/// chunk and ends in the next) and byte by byte (`push`) give the same frames; `wire` is
+/// two frames back to back, so the second starts mid-chunk.
+fn chunking(first: &[u8], second: &[u8]) {
+    let mut wire = first.to_vec();
+    wire.push(0);
+    wire.extend_from_slice(second);
+    wire.push(0);
+    let mut whole = Vec::new();
+    Decoder::<MAX_FRAME>::new().feed(&wire, |r| whole.push(r));
+    let mut bytewise = Vec::new();
+    let mut d: Decoder = Decoder::new();
+    for &b in &wire {
+        if let Some(r) = d.push(b) {
+            bytewise.push(r);
+        }
+    }
+    assert_eq!(whole, bytewise, "{wire:02x?}");
+    for cut in 0..=wire.len() {
+        let mut split = Vec::new();
+        let mut d: Decoder = Decoder::new();
+        d.feed(&wire[..cut], |r| split.push(r));
+        d.feed(&wire[cut..], |r| split.push(r));
+        assert_eq!(whole, split, "{wire:02x?} cut at {cut}");
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(1000))]
+
+    #[test]
+    fn chunking_arbitrary_frames(
+        a in proptest::collection::vec(1u8..=255, 0..40),
+        b in proptest::collection::vec(1u8..=255, 0..40),
+    ) {
+        chunking(&a, &b);
+    }
+
+    #[test]
+    fn chunking_changed_valid_frames(
+        m1 in message(),
+        m2 in message(),
+        edits in proptest::collection::vec((0usize..120, 1u8..=255, 0u8..3), 0..3),
+    ) {
+        chunking(&edited(&m1, &edits), &edited(&m2, &[]));
+    }
+}
