@@ -272,7 +272,7 @@ fn encode_with(
 
 /// The frame around the raw bytes `out[1..=n]` (version and body): their CRC after
 /// them, the COBS code bytes, the delimiter; returns the frame's length. One copy for
-/// every message's encoder.
+/// every message's encoder (the device's Actuation frames take [`OnePass`] instead).
 #[inline(never)]
 fn finish_frame(out: &mut [u8], n: usize) -> Result<usize, EncodeError> {
     let too_small = EncodeError::BufferTooSmall;
