@@ -402,6 +402,20 @@ impl In<'_> {
         Some(v)
     }
 
+    /// [`Self::varint`] with its one-byte form (below 0x80, the encoder's form of a
+    /// variant index) read inline: the Sensor's `lateral` variant (`cargo xtask fw-bench`,
+    /// M4 fixed point, the whole tick 1 451 -> 1 443 mean; Nucleo flash +12 B).
+    #[inline(always)]
+    fn index(&mut self) -> Option<u32> {
+        if let Some((&b, rest)) = self.rest.split_first() {
+            if b < 0x80 {
+                self.rest = rest;
+                return Some(u32::from(b));
+            }
+        }
+        self.varint()
+    }
+
     /// postcard's `try_take_varint_u16`: up to 3 bytes, the third at most 0x03.
     fn varint16(&mut self) -> Option<u16> {
         let mut out = 0u16;
@@ -494,7 +508,7 @@ pub(crate) fn finish<M>(
 pub(crate) fn sensor(r: &mut In<'_>) -> Option<Sensor> {
     let seq = r.u16_le()?;
     let t_us = r.u16_le()?;
-    let lateral = match r.varint()? {
+    let lateral = match r.index()? {
         0 => Lateral::Velocity(r.i32()?),
         1 => Lateral::Acceleration(r.i32()?),
         2 => Lateral::Both {
