@@ -10,7 +10,7 @@ mod checksum;
 mod cobs;
 
 pub use checksum::{crc32c, CRC};
-pub(crate) use checksum::{crc_byte, crc_ready, CRC_RESIDUE};
+pub(crate) use checksum::{crc_byte, crc_byte_const, crc_ready, CRC_RESIDUE};
 pub(crate) use cobs::cobs_decode_nonzero;
 use cobs::cobs_decode_nonzero_to;
 pub use cobs::{cobs_decode_in_place, cobs_encode};
@@ -221,12 +221,15 @@ impl OnePass<'_> {
     #[inline(never)]
     fn actuation(a: &Actuation, buf: &mut [u8; ONE_PASS_CAP]) -> usize {
         const { assert!(VERSION != 0 && crate::fast::ACTUATION != 0) };
+        // The register after the version and type bytes, a constant (`cargo xtask
+        // fw-bench`, M4 fixed point, the whole tick 1 443 -> 1 434 mean).
+        const PREFIX: u32 = crc_byte_const(crc_byte_const(!0, VERSION), crate::fast::ACTUATION);
         crc_ready();
         let mut w = OnePass {
             buf,
             pos: 1,
             code_at: 0,
-            reg: !0,
+            reg: PREFIX,
         };
         let Actuation {
             seq_echo,
@@ -236,8 +239,8 @@ impl OnePass<'_> {
             t_psi_dnm,
             u_a_cv,
         } = *a;
-        w.nonzero(VERSION);
-        w.nonzero(crate::fast::ACTUATION);
+        w.put(VERSION);
+        w.put(crate::fast::ACTUATION);
         w.u16_le(seq_echo);
         w.u16_le(tick);
         w.varint(exec);
