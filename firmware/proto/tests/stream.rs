@@ -177,3 +177,58 @@ proptest! {
         chunking(&edited(&m1, &edits), &edited(&m2, &[]));
     }
 }
+
+/// The COBS body (no delimiter) of a CRC-valid frame `VERSION | ty | body | CRC`: one
+/// that reaches the message decoder.
+fn crc_valid(ty: u8, body: &[u8]) -> Vec<u8> {
+    let mut raw = vec![VERSION, ty];
+    raw.extend_from_slice(body);
+    raw.extend_from_slice(&CRC.checksum(&raw).to_le_bytes());
+    let mut framed = vec![0u8; raw.len() + 2];
+    let n = cobs_encode(&raw, &mut framed).expect("fits");
+    framed.truncate(n);
+    framed
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(4000))]
+
+    /// Sensor bodies of arbitrary bytes (every varint length, malformed varints, bytes
+    /// missing or left over) in CRC-valid frames: `next_sensor_or_request`'s Sensor
+    /// decoder decides as `next_request`'s, and as the whole-frame decoder.
+    #[test]
+    fn sensor_path_crc_valid_sensor_bodies(
+        body in proptest::collection::vec(
+            prop_oneof![any::<u8>(), 0x80u8..=0xFF, 0u8..=3, Just(0x0Fu8), Just(0x10u8)],
+            0..40,
+        ),
+    ) {
+        let wire = crc_valid(0, &body);
+        sensor_path(&wire);
+        both(&wire);
+    }
+}
+
+/// The CRC-valid Sensor bodies decode at all (the test above reaches the Sensor decoder's
+/// success and each of its failures).
+#[test]
+fn crc_valid_sensor_bodies_reach_each_outcome() {
+    let ok = [1, 0, 2, 0, 0, 4, 6, 8, 10, 12];
+    let mut outcomes = Vec::new();
+    for body in [
+        &ok[..],
+        &ok[..9],
+        &[&ok[..], &[1]].concat()[..],
+        &[1, 0, 2, 0, 7][..],
+    ] {
+        let mut dec: Decoder = Decoder::new();
+        outcomes.push(dec.next_request(&[crc_valid(0, body), vec![0]].concat()).0);
+    }
+    assert!(
+        matches!(outcomes[0], Some(Ok(Request::Sensor(_)))),
+        "{outcomes:?}"
+    );
+    assert_eq!(outcomes[1], Some(Err(FrameError::Postcard)));
+    assert_eq!(outcomes[2], Some(Err(FrameError::Length)));
+    assert_eq!(outcomes[3], Some(Err(FrameError::Postcard)));
+}
