@@ -467,7 +467,7 @@ pub(crate) fn sensor_or_request_from_raw(
     let msg = check_reg(raw, reg)?;
     let (ty, body) = crate::fast::message_type(msg).ok_or(FrameError::Postcard)?;
     if ty == crate::fast::SENSOR {
-        *sensor = crate::fast::finish(body, crate::fast::sensor)?;
+        *sensor = crate::fast::finish(body, crate::fast::sensor_inline)?;
         return Ok(None);
     }
     request_body(ty, body).map(Some)

@@ -209,6 +209,51 @@ proptest! {
     }
 }
 
+/// A varint-shaped token: `len - 1` continuation bytes (top bit set: 0x80, 0xFF or any)
+/// then a last byte (any below 0x80, the fifth-byte limits 0x0F and 0x10, or with the top
+/// bit set too, which runs into the next token).
+fn varint_token() -> impl Strategy<Value = Vec<u8>> {
+    (
+        proptest::collection::vec(prop_oneof![Just(0x80u8), Just(0xFFu8), 0x80u8..=0xFF], 0..6),
+        prop_oneof![
+            0u8..0x80,
+            Just(0u8),
+            Just(0x0Fu8),
+            Just(0x10u8),
+            Just(0x7Fu8),
+            Just(0x80u8)
+        ],
+    )
+        .prop_map(|(mut cont, last)| {
+            cont.push(last);
+            cont
+        })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(4000))]
+
+    /// Sensor bodies built of varint-shaped tokens (every length 1 to 6, the limits of
+    /// each byte), after a seq and t_us, in CRC-valid frames: the device's Sensor decoder
+    /// (its short varint forms inline) decides as `next_request`'s and as the whole-frame
+    /// decoder.
+    #[test]
+    fn sensor_path_varint_shaped_sensor_bodies(
+        head in proptest::collection::vec(any::<u8>(), 4),
+        lateral in prop_oneof![0u8..3, Just(3u8), Just(0x80u8)],
+        tokens in proptest::collection::vec(varint_token(), 0..8),
+    ) {
+        let mut body = head;
+        body.push(lateral);
+        for t in &tokens {
+            body.extend_from_slice(t);
+        }
+        let wire = crc_valid(0, &body);
+        sensor_path(&wire);
+        both(&wire);
+    }
+}
+
 /// The CRC-valid Sensor bodies decode at all (the test above reaches the Sensor decoder's
 /// success and each of its failures).
 #[test]
