@@ -329,6 +329,45 @@ fn status_counters(s: &Status) -> [u32; STATUS_COUNTERS] {
 /// The number of `u32` counters of a [`Status`] (its worst case is 5 bytes each).
 pub(crate) const STATUS_COUNTERS: usize = 28;
 
+/// [`In::varint`]'s decoding: the value and the bytes it takes from the start of `r`,
+/// `(_, 0)` where postcard fails. The slice in and the pair out travel in registers (the
+/// reader's state is not stored for the call, as it was with `&mut In`).
+#[inline(never)]
+fn varint_of(r: &[u8]) -> (u32, usize) {
+    let Some(&b) = r.first() else {
+        return (0, 0);
+    };
+    let mut v = u32::from(b & 0x7F);
+    if b < 0x80 {
+        return (v, 1);
+    }
+    let Some(&b) = r.get(1) else {
+        return (0, 0);
+    };
+    v |= u32::from(b & 0x7F) << 7;
+    if b < 0x80 {
+        return (v, 2);
+    }
+    let Some(&b) = r.get(2) else {
+        return (0, 0);
+    };
+    v |= u32::from(b & 0x7F) << 14;
+    if b < 0x80 {
+        return (v, 3);
+    }
+    let Some(&b) = r.get(3) else {
+        return (0, 0);
+    };
+    v |= u32::from(b & 0x7F) << 21;
+    if b < 0x80 {
+        return (v, 4);
+    }
+    match r.get(4) {
+        Some(&b) if b <= 0x0F => (v | u32::from(b) << 28, 5),
+        _ => (0, 0),
+    }
+}
+
 /// Why a body did not decode.
 pub(crate) enum BodyError {
     /// postcard would fail (end of input, bad varint, unknown variant).
@@ -357,18 +396,27 @@ impl In<'_> {
 
     /// postcard's `try_take_varint_u32`: up to 5 bytes, the fifth at most 0x0F.
     ///
-    /// One out-of-line function, unrolled byte by byte (no loop, no variable shift): the
-    /// Sensor frame's physical fields are 2- and 3-byte varints, and a shared call site
-    /// per field is smaller than an inlined one-byte fast path at each (the device's
-    /// decoder reads about twenty varints). `cargo xtask fw-bench`, M4 fixed point: the
-    /// whole tick 2 029 -> 1 906 instructions mean; `cargo fw`: Nucleo flash
-    /// 24 872 -> 24 540 B. Each byte tested as it is read, the value accumulated in one
-    /// register (rather than all five bytes matched at once: fewer registers to save):
-    /// the whole tick 1 454 -> 1 451, Nucleo flash 21 940 -> 21 888 B. (The device's
-    /// per-tick Sensor decoder reads the short forms inline: [`Self::varint_short`].)
-    #[inline(never)]
+    /// The decoding is one out-of-line function ([`varint_of`]), unrolled byte by byte
+    /// (no loop, no variable shift): the Sensor frame's physical fields are 2- and 3-byte
+    /// varints, and a shared call site per field is smaller than an inlined one-byte fast
+    /// path at each (the device's decoder reads about twenty varints). `cargo xtask
+    /// fw-bench`, M4 fixed point: the whole tick 2 029 -> 1 906 instructions mean; `cargo
+    /// fw`: Nucleo flash 24 872 -> 24 540 B. Each byte tested as it is read, the value
+    /// accumulated in one register (rather than all five bytes matched at once: fewer
+    /// registers to save): the whole tick 1 454 -> 1 451, Nucleo flash
+    /// 21 940 -> 21 888 B. The call takes the slice and returns the value and length in
+    /// registers, this wrapper inlined: with `&mut self` passed to it the reader lived in
+    /// memory across every field of a message (the whole tick 1 392 -> 1 342, Nucleo
+    /// flash 22 452 -> 22 528 B). (The device's per-tick Sensor decoder also reads the
+    /// short forms inline: [`Self::varint_short`].)
+    #[inline(always)]
     fn varint(&mut self) -> Option<u32> {
-        self.varint_body()
+        let (v, n) = varint_of(self.rest);
+        if n == 0 {
+            return None;
+        }
+        self.rest = self.rest.get(n..)?;
+        Some(v)
     }
 
     /// [`Self::varint`] with its one- to three-byte forms (the Sensor's physical fields
@@ -377,7 +425,9 @@ impl In<'_> {
     /// fw-bench`, M4 fixed point, whole tick mean; `cargo fw`, Nucleo flash): all of
     /// [`Self::varint`] inlined 1 378 and 22 748 B; this 1 392 and 22 452 B; the same
     /// three forms tested byte by byte (a bound per byte) 1 403 and 22 400 B; one- and
-    /// two-byte forms only 1 442 (slower than the call alone, 1 434, 21 872 B).
+    /// two-byte forms only 1 442 (slower than the call alone, 1 434, 21 872 B). (Measured
+    /// with the call taking `&mut In`; with [`varint_of`], this 1 342 and 22 528 B, the
+    /// call alone 1 428 and 22 016 B.)
     #[inline(always)]
     fn varint_short(&mut self) -> Option<u32> {
         let r = self.rest;
@@ -398,44 +448,6 @@ impl In<'_> {
             return Some(v);
         }
         self.varint()
-    }
-
-    /// [`Self::varint`]'s body.
-    #[inline(always)]
-    fn varint_body(&mut self) -> Option<u32> {
-        let r = self.rest;
-        let b = *r.first()?;
-        let mut v = u32::from(b & 0x7F);
-        let n = if b < 0x80 {
-            1
-        } else {
-            let b = *r.get(1)?;
-            v |= u32::from(b & 0x7F) << 7;
-            if b < 0x80 {
-                2
-            } else {
-                let b = *r.get(2)?;
-                v |= u32::from(b & 0x7F) << 14;
-                if b < 0x80 {
-                    3
-                } else {
-                    let b = *r.get(3)?;
-                    v |= u32::from(b & 0x7F) << 21;
-                    if b < 0x80 {
-                        4
-                    } else {
-                        let b = *r.get(4)?;
-                        if b > 0x0F {
-                            return None;
-                        }
-                        v |= u32::from(b) << 28;
-                        5
-                    }
-                }
-            }
-        };
-        self.rest = r.get(n..)?;
-        Some(v)
     }
 
     /// [`Self::varint`] with its one-byte form (below 0x80, the encoder's form of a
