@@ -329,6 +329,45 @@ fn status_counters(s: &Status) -> [u32; STATUS_COUNTERS] {
 /// The number of `u32` counters of a [`Status`] (its worst case is 5 bytes each).
 pub(crate) const STATUS_COUNTERS: usize = 28;
 
+/// [`In::varint`]'s decoding: the value and the bytes it takes from the start of `r`,
+/// `(_, 0)` where postcard fails. The slice in and the pair out travel in registers (the
+/// reader's state is not stored for the call, as it was with `&mut In`).
+#[inline(never)]
+fn varint_of(r: &[u8]) -> (u32, usize) {
+    let Some(&b) = r.first() else {
+        return (0, 0);
+    };
+    let mut v = u32::from(b & 0x7F);
+    if b < 0x80 {
+        return (v, 1);
+    }
+    let Some(&b) = r.get(1) else {
+        return (0, 0);
+    };
+    v |= u32::from(b & 0x7F) << 7;
+    if b < 0x80 {
+        return (v, 2);
+    }
+    let Some(&b) = r.get(2) else {
+        return (0, 0);
+    };
+    v |= u32::from(b & 0x7F) << 14;
+    if b < 0x80 {
+        return (v, 3);
+    }
+    let Some(&b) = r.get(3) else {
+        return (0, 0);
+    };
+    v |= u32::from(b & 0x7F) << 21;
+    if b < 0x80 {
+        return (v, 4);
+    }
+    match r.get(4) {
+        Some(&b) if b <= 0x0F => (v | u32::from(b) << 28, 5),
+        _ => (0, 0),
+    }
+}
+
 /// Why a body did not decode.
 pub(crate) enum BodyError {
     /// postcard would fail (end of input, bad varint, unknown variant).
@@ -357,41 +396,72 @@ impl In<'_> {
 
     /// postcard's `try_take_varint_u32`: up to 5 bytes, the fifth at most 0x0F.
     ///
-    /// One out-of-line function, unrolled byte by byte (no loop, no variable shift): the
-    /// Sensor frame's physical fields are 2- and 3-byte varints, and a shared call site
-    /// per field is smaller than an inlined one-byte fast path at each (the device's
-    /// decoder reads about twenty varints). `cargo xtask fw-bench`, M4 fixed point: the
-    /// whole tick 2 029 -> 1 906 instructions mean; `cargo fw`: Nucleo flash
-    /// 24 872 -> 24 540 B.
-    #[inline(never)]
+    /// The decoding is one out-of-line function ([`varint_of`]), unrolled byte by byte
+    /// (no loop, no variable shift): the Sensor frame's physical fields are 2- and 3-byte
+    /// varints, and a shared call site per field is smaller than an inlined one-byte fast
+    /// path at each (the device's decoder reads about twenty varints). `cargo xtask
+    /// fw-bench`, M4 fixed point: the whole tick 2 029 -> 1 906 instructions mean; `cargo
+    /// fw`: Nucleo flash 24 872 -> 24 540 B. Each byte tested as it is read, the value
+    /// accumulated in one register (rather than all five bytes matched at once: fewer
+    /// registers to save): the whole tick 1 454 -> 1 451, Nucleo flash
+    /// 21 940 -> 21 888 B. The call takes the slice and returns the value and length in
+    /// registers, this wrapper inlined: with `&mut self` passed to it the reader lived in
+    /// memory across every field of a message (the whole tick 1 392 -> 1 342, Nucleo
+    /// flash 22 452 -> 22 528 B). (The device's per-tick Sensor decoder also reads the
+    /// short forms inline: [`Self::varint_short`].)
+    #[inline(always)]
     fn varint(&mut self) -> Option<u32> {
-        let r = self.rest;
-        let (v, n) = match *r {
-            [b0, ..] if b0 < 0x80 => (u32::from(b0), 1),
-            [b0, b1, ..] if b1 < 0x80 => (u32::from(b0 & 0x7F) | u32::from(b1) << 7, 2),
-            [b0, b1, b2, ..] if b2 < 0x80 => (
-                u32::from(b0 & 0x7F) | u32::from(b1 & 0x7F) << 7 | u32::from(b2) << 14,
-                3,
-            ),
-            [b0, b1, b2, b3, ..] if b3 < 0x80 => (
-                u32::from(b0 & 0x7F)
-                    | u32::from(b1 & 0x7F) << 7
-                    | u32::from(b2 & 0x7F) << 14
-                    | u32::from(b3) << 21,
-                4,
-            ),
-            [b0, b1, b2, b3, b4, ..] if b4 <= 0x0F => (
-                u32::from(b0 & 0x7F)
-                    | u32::from(b1 & 0x7F) << 7
-                    | u32::from(b2 & 0x7F) << 14
-                    | u32::from(b3 & 0x7F) << 21
-                    | u32::from(b4) << 28,
-                5,
-            ),
-            _ => return None,
-        };
-        self.rest = r.get(n..)?;
+        let (v, n) = varint_of(self.rest);
+        if n == 0 {
+            return None;
+        }
+        self.rest = self.rest.get(n..)?;
         Some(v)
+    }
+
+    /// [`Self::varint`] with its one- to three-byte forms (the Sensor's physical fields
+    /// are mostly three bytes) read inline from a 3-byte window, the others (longer, or
+    /// fewer than three bytes left) by the call. Measured alternatives (`cargo xtask
+    /// fw-bench`, M4 fixed point, whole tick mean; `cargo fw`, Nucleo flash): all of
+    /// [`Self::varint`] inlined 1 378 and 22 748 B; this 1 392 and 22 452 B; the same
+    /// three forms tested byte by byte (a bound per byte) 1 403 and 22 400 B; one- and
+    /// two-byte forms only 1 442 (slower than the call alone, 1 434, 21 872 B). (Measured
+    /// with the call taking `&mut In`; with [`varint_of`], this 1 342 and 22 528 B, the
+    /// call alone 1 428 and 22 016 B.)
+    #[inline(always)]
+    fn varint_short(&mut self) -> Option<u32> {
+        let r = self.rest;
+        if let Some(&[b0, b1, b2]) = r.first_chunk::<3>() {
+            let (v, n) = if b0 < 0x80 {
+                (u32::from(b0), 1)
+            } else if b1 < 0x80 {
+                (u32::from(b0 & 0x7F) | u32::from(b1) << 7, 2)
+            } else if b2 < 0x80 {
+                (
+                    u32::from(b0 & 0x7F) | u32::from(b1 & 0x7F) << 7 | u32::from(b2) << 14,
+                    3,
+                )
+            } else {
+                return self.varint();
+            };
+            self.rest = r.get(n..)?;
+            return Some(v);
+        }
+        self.varint()
+    }
+
+    /// [`Self::varint`] with its one-byte form (below 0x80, the encoder's form of a
+    /// variant index) read inline: the Sensor's `lateral` variant (`cargo xtask fw-bench`,
+    /// M4 fixed point, the whole tick 1 451 -> 1 443 mean; Nucleo flash +12 B).
+    #[inline(always)]
+    fn index(&mut self) -> Option<u32> {
+        if let Some((&b, rest)) = self.rest.split_first() {
+            if b < 0x80 {
+                self.rest = rest;
+                return Some(u32::from(b));
+            }
+        }
+        self.varint()
     }
 
     /// postcard's `try_take_varint_u16`: up to 3 bytes, the third at most 0x03.
@@ -433,7 +503,18 @@ impl In<'_> {
 
     #[inline(always)]
     fn i32(&mut self) -> Option<i32> {
-        let n = self.varint()?;
+        self.i32_g::<false>()
+    }
+
+    /// [`Self::i32`], its varint's short forms inlined if `INLINE`
+    /// ([`Self::varint_short`]).
+    #[inline(always)]
+    fn i32_g<const INLINE: bool>(&mut self) -> Option<i32> {
+        let n = if INLINE {
+            self.varint_short()?
+        } else {
+            self.varint()?
+        };
         Some(((n >> 1) as i32) ^ (-((n & 1) as i32)))
     }
 }
@@ -484,14 +565,29 @@ pub(crate) fn finish<M>(
 
 #[inline(always)]
 pub(crate) fn sensor(r: &mut In<'_>) -> Option<Sensor> {
+    sensor_g::<false>(r)
+}
+
+/// [`sensor`] with its varints inlined: the device's per-tick decoder
+/// ([`crate::Decoder::next_sensor_or_request`]; the same decisions, one body for both,
+/// tested against each other through the decoders, `tests/stream.rs`). `cargo xtask
+/// fw-bench`, M4 fixed point, the whole tick 1 434 -> 1 392 mean; `cargo fw`: Nucleo
+/// flash 21 872 -> 22 452 B (see [`In::varint_short`]).
+#[inline(always)]
+pub(crate) fn sensor_inline(r: &mut In<'_>) -> Option<Sensor> {
+    sensor_g::<true>(r)
+}
+
+#[inline(always)]
+fn sensor_g<const INLINE: bool>(r: &mut In<'_>) -> Option<Sensor> {
     let seq = r.u16_le()?;
     let t_us = r.u16_le()?;
-    let lateral = match r.varint()? {
-        0 => Lateral::Velocity(r.i32()?),
-        1 => Lateral::Acceleration(r.i32()?),
+    let lateral = match r.index()? {
+        0 => Lateral::Velocity(r.i32_g::<INLINE>()?),
+        1 => Lateral::Acceleration(r.i32_g::<INLINE>()?),
         2 => Lateral::Both {
-            vel_um_s: r.i32()?,
-            acc_dmm_s2: r.i32()?,
+            vel_um_s: r.i32_g::<INLINE>()?,
+            acc_dmm_s2: r.i32_g::<INLINE>()?,
         },
         _ => return None,
     };
@@ -499,10 +595,10 @@ pub(crate) fn sensor(r: &mut In<'_>) -> Option<Sensor> {
         seq,
         t_us,
         lateral,
-        i_a_ma: r.i32()?,
-        omega_m_mrad_s: r.i32()?,
-        demand_nm: r.i32()?,
-        v_ref_mm_s: r.i32()?,
+        i_a_ma: r.i32_g::<INLINE>()?,
+        omega_m_mrad_s: r.i32_g::<INLINE>()?,
+        demand_nm: r.i32_g::<INLINE>()?,
+        v_ref_mm_s: r.i32_g::<INLINE>()?,
     })
 }
 

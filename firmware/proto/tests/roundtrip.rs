@@ -42,6 +42,24 @@ proptest! {
         prop_assert_eq!(encode_status(&st, &mut short), Err(EncodeError::BufferTooSmall));
     }
 
+    /// `encode_actuation` (one pass into a buffer that holds the longest Actuation frame,
+    /// the general path otherwise) writes `encode`'s frame into every buffer that holds
+    /// it, and refuses every shorter one, as `encode` does.
+    #[test]
+    fn actuation_encoder_at_every_buffer_length(a in actuation()) {
+        let want = encode_vec(&Message::Actuation(a)).expect("fits");
+        for len in 0..=MAX_FRAME {
+            let mut buf = vec![0xA5u8; len];
+            let mut reference = vec![0xA5u8; len];
+            let got = encode_actuation(&a, &mut buf);
+            prop_assert_eq!(got, encode(&Message::Actuation(a), &mut reference), "{}", len);
+            match got {
+                Ok(n) => prop_assert_eq!(&buf[..n], &want[..], "{}", len),
+                Err(_) => prop_assert!(len < want.len(), "{}", len),
+            }
+        }
+    }
+
     /// The device's decoder agrees with `decode_frame` on every message: the same message
     /// for the host -> device types, `Unexpected` for the others.
     #[test]

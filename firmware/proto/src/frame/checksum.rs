@@ -173,6 +173,22 @@ pub(crate) fn crc_byte(reg: u32, b: u8) -> u32 {
     }
 }
 
+/// [`crc_byte`] evaluated at compile time (bit by bit, no table): the register after
+/// bytes known in advance (a frame's version and type) is a constant.
+pub(crate) const fn crc_byte_const(reg: u32, b: u8) -> u32 {
+    let mut c = reg ^ b as u32;
+    let mut k = 0;
+    while k < 8 {
+        c = if c & 1 != 0 {
+            (c >> 1) ^ 0x82F6_3B78
+        } else {
+            c >> 1
+        };
+        k += 1;
+    }
+    c
+}
+
 /// Makes [`crc_byte`]'s table ready (the device's RAM table is filled on first use).
 #[inline(always)]
 pub(crate) fn crc_ready() {
@@ -207,5 +223,15 @@ mod tests {
             }
         }
         assert_eq!(slice16(b"123456789"), 0xE306_9283);
+    }
+
+    #[test]
+    fn the_const_step_is_the_table_step() {
+        crc_ready();
+        for reg in [0u32, !0, 0x1234_5678, 0xDEAD_BEEF] {
+            for b in 0..=255u8 {
+                assert_eq!(crc_byte_const(reg, b), crc_byte(reg, b), "{reg:08x} {b}");
+            }
+        }
     }
 }
