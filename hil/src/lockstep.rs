@@ -77,19 +77,14 @@ impl Expect {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use wheelset_proto::{encode_vec, Lateral, Sensor};
+    use wheelset_proto::{encode_vec, Sensor};
 
     #[test]
     fn a_frame_owes_one_a_status_request_two() {
         let mut e = Expect::new();
         let s = Sensor {
             seq: 1,
-            t_us: 0,
-            lateral: Lateral::Velocity(0),
-            i_a_ma: 0,
-            omega_m_mrad_s: 0,
-            demand_nm: 0,
-            v_ref_mm_s: 0,
+            ..Sensor::ZERO
         };
         e.sent(&encode_vec(&Message::Sensor(s)).unwrap_or_default());
         assert_eq!(e.owed(), 1);

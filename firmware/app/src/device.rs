@@ -215,12 +215,8 @@ mod tests {
         );
         let s = Sensor {
             seq: 41,
-            t_us: 0,
-            lateral: Lateral::Velocity(0),
-            i_a_ma: 0,
             omega_m_mrad_s: 925_600,
-            demand_nm: 0,
-            v_ref_mm_s: 0,
+            ..Sensor::ZERO
         };
         let frame = encode_vec(&Message::Sensor(s)).unwrap();
         // Any chunking.

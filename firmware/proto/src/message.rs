@@ -47,6 +47,20 @@ pub struct Sensor {
     pub v_ref_mm_s: i32,
 }
 
+impl Sensor {
+    /// Every field zero, the lateral channel a velocity: a receiver's buffer before the
+    /// first frame, and the base of a test's `Sensor { seq: 1, ..Sensor::ZERO }`.
+    pub const ZERO: Self = Self {
+        seq: 0,
+        t_us: 0,
+        lateral: Lateral::Velocity(0),
+        i_a_ma: 0,
+        omega_m_mrad_s: 0,
+        demand_nm: 0,
+        v_ref_mm_s: 0,
+    };
+}
+
 /// Status and fault flags carried in every [`Actuation`] and [`Status`] (bit set = true).
 /// 16 bits, a postcard varint on the wire (1 byte while only bits 0-6 are set, 2 up to
 /// bit 13, 3 above).

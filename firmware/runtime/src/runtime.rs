@@ -7,9 +7,7 @@ mod receive;
 use wheelset_control::{
     Compiled, Controller, InputCodes, Monitor, MonitorState, Sample, SampleBits, TickEvents,
 };
-use wheelset_proto::{
-    encode_actuation, encode_status, Decoder, FrameError, Lateral, RefuseReason, Sensor,
-};
+use wheelset_proto::{encode_actuation, encode_status, Decoder, FrameError, RefuseReason, Sensor};
 
 use crate::plausible;
 use crate::{
@@ -151,15 +149,7 @@ impl<T: SampleBits> Runtime<T> {
             },
             hold_ticks,
             decoder: Decoder::new(),
-            rx_sensor: Sensor {
-                seq: 0,
-                t_us: 0,
-                lateral: Lateral::Velocity(0),
-                i_a_ma: 0,
-                omega_m_mrad_s: 0,
-                demand_nm: 0,
-                v_ref_mm_s: 0,
-            },
+            rx_sensor: Sensor::ZERO,
             sample: None,
             #[cfg(feature = "wsp")]
             v_ref_held: None,
