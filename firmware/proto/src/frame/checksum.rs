@@ -58,17 +58,8 @@ const fn crc_tables() -> [[u32; 256]; 16] {
     let mut t = [[0u32; 256]; 16];
     let mut i = 0;
     while i < 256 {
-        let mut c = i as u32;
-        let mut k = 0;
-        while k < 8 {
-            c = if c & 1 != 0 {
-                (c >> 1) ^ 0x82F6_3B78
-            } else {
-                c >> 1
-            };
-            k += 1;
-        }
-        t[0][i] = c;
+        // The one-byte step from a zero register is the byte-wise table's entry.
+        t[0][i] = crc_byte_const(0, i as u8);
         i += 1;
     }
     let mut k = 1;
