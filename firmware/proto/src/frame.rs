@@ -106,13 +106,13 @@ pub fn encode(msg: &Message, out: &mut [u8]) -> Result<usize, EncodeError> {
 /// the same [`EncodeError::BufferTooSmall`] for every buffer shorter than the frame),
 /// without the encoders of the messages the device never sends.
 ///
-/// One pass ([`OnePass`]) when `out` holds the longest Actuation frame: each byte of
+/// One pass (`OnePass`) when `out` holds the longest Actuation frame: each byte of
 /// `VERSION | body | CRC` goes into the CRC register and into its COBS place as it is
-/// produced, no second pass over the frame ([`finish_frame`]). Shorter buffers take the
-/// general path ([`encode_with`]), whose length decisions are the reference.
+/// produced, no second pass over the frame (`finish_frame`). Shorter buffers take the
+/// general path (`encode_with`), whose length decisions are the reference.
 /// `cargo xtask fw-bench`, the whole tick, mean instructions: M4 fixed point
 /// 1 632 -> 1 454, f32 1 489 -> 1 311, M3 fixed 1 672 -> 1 494; `cargo fw`: Nucleo flash
-/// 21 468 -> 21 940 B (the Actuation's fields written inline; [`finish_frame`] stays, for
+/// 21 468 -> 21 940 B (the Actuation's fields written inline; `finish_frame` stays, for
 /// the Status).
 pub fn encode_actuation(a: &Actuation, out: &mut [u8]) -> Result<usize, EncodeError> {
     match out.first_chunk_mut::<{ OnePass::CAP }>() {
