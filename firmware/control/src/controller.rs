@@ -138,7 +138,7 @@ impl<T: Sample> Controller<T> {
             && self.mode == YawMode::Lead
             && self.traction
             && self.armed
-            && !self.wsp_on
+            && !(self.wsp_on && (self.wsp.active || self.wsp.sched))
             && self.torque_lim == self.law.torque_max;
     }
 
@@ -177,8 +177,18 @@ impl<T: Sample> Controller<T> {
         if !self.fast_yaw(inp.y_dot, &mut ev) {
             ev = self.yaw_general(inp.y_dot);
         }
-        if !self.fast_traction(inp) {
+        // One copy of the traction fast path for each setting of the protection: its
+        // test once per tick, not in each branch of the step.
+        let fast = if self.wsp_on {
+            self.fast_traction::<true>(inp)
+        } else {
+            self.fast_traction::<false>(inp)
+        };
+        if !fast {
             ev |= self.traction_general(inp);
+            // The protection may have started acting (its detection declines the fast
+            // step): the next tick's path follows from the states again.
+            self.refresh();
         }
         if ev != 0 {
             self.counters.record(ev);
@@ -244,7 +254,7 @@ impl<T: Sample> Controller<T> {
     /// step, Cortex-M4 fixed point): 111 with one PI and the ramp's state written under
     /// an `Option` test, 100 with the two cases (f32 105 -> 99, Cortex-M3 fixed 145 -> 138).
     #[inline(always)]
-    fn fast_traction(&mut self, inp: &Inputs<T>) -> bool {
+    fn fast_traction<const WSP: bool>(&mut self, inp: &Inputs<T>) -> bool {
         let law = &self.law;
         let i = inp.current;
         if !i.abs_within(law.current_max) {
@@ -253,7 +263,14 @@ impl<T: Sample> Controller<T> {
         let dm = inp.demand;
         if self.ramp_settled && dm == self.settled_demand {
             // `iref` is the ramp's target: the ramp would leave it as it is.
-            return self.fast_pi(self.iref.sat_sub(i));
+            let Some(w) = self.fast_wsp::<WSP>(inp.speed, self.iref) else {
+                return false;
+            };
+            if !self.fast_pi(self.iref.sat_sub(i)) {
+                return false;
+            }
+            self.fast_wsp_commit(w);
+            return true;
         }
         if !dm.abs_within(law.demand_max) {
             return false;
@@ -264,13 +281,53 @@ impl<T: Sample> Controller<T> {
             return false;
         }
         let iref = self.iref.sat_add(delta);
+        let Some(w) = self.fast_wsp::<WSP>(inp.speed, iref) else {
+            return false;
+        };
         if !self.fast_pi(iref.sat_sub(i)) {
             return false;
         }
+        self.fast_wsp_commit(w);
         self.ramp_settled = iref == target;
         self.settled_demand = dm;
         self.iref = iref;
         true
+    }
+
+    /// The wheel-slip protection's step on the fast path (`traction_step` with the
+    /// protection on, not acting: the fast path runs only then, see `refresh`): `None`
+    /// if the speed clamp would engage (or the speed is NaN) or the protection detects
+    /// slip on this step with the reference `iref` (the general step then cuts);
+    /// otherwise the speed and slip to commit ([`Self::fast_wsp_commit`]) once the PI
+    /// has taken the step, the reference passing unchanged. With the protection off
+    /// (`WSP` is `wsp_on`), `Some` of nothing to commit. `cargo xtask fw-bench`, the whole tick with the
+    /// protection on: see the README.
+    #[inline(always)]
+    fn fast_wsp<const WSP: bool>(&self, speed: T, iref: T) -> Option<Option<(T, T)>> {
+        if !WSP {
+            return Some(None);
+        }
+        let law = &self.law;
+        if !speed.abs_within(law.speed_max) {
+            return None;
+        }
+        let slip = speed.sat_sub(self.wsp.w_ref);
+        let dw = speed.sat_sub(self.wsp.w_prev);
+        if law.wsp.detects(slip, dw, iref, law.iref_step) {
+            return None;
+        }
+        Some(Some((speed, slip)))
+    }
+
+    /// Commits [`Self::fast_wsp`]'s step: what `Wsp::process` stores while it does not
+    /// act (the speed and slip for the next step's differences; not acting).
+    #[inline(always)]
+    fn fast_wsp_commit(&mut self, w: Option<(T, T)>) {
+        if let Some((speed, slip)) = w {
+            self.wsp.w_prev = speed;
+            self.wsp.slip_prev = slip;
+            self.wsp_acting = false;
+        }
     }
 
     /// The PI of [`Self::fast_traction`] on the error `e`: `false`, with nothing
@@ -377,7 +434,8 @@ impl<T: Sample> Controller<T> {
             YawMode::Passive => T::ZERO,
             YawMode::Gain => x.mul_c(law.gain),
             // While the protection holds the wheel at the limit, the scheduled lead
-            // (crate::wsp; the fast path does not run with the protection on).
+            // (crate::wsp; the fast path runs with the protection on only while it is
+            // neither acting nor scheduling the lead).
             YawMode::Lead => {
                 let d = law.lead.advance(&mut self.lead_state, x);
                 if self.wsp.sched {

@@ -542,6 +542,18 @@ impl<T: Sample> Wsp<T> {
         self.sp_half.sat_add(cap.mul_c(self.sp_half_slope))
     }
 
+    /// The protection, not acting, detects on this step (and cuts): the slip `slip`
+    /// above `slip_on`, or above `slip_accel` while the speed rose by `dw` more than
+    /// `accel_ratio` reference slews `step`, with a positive reference `iref`. One rule
+    /// for [`Self::process`] and the controller's fast path (which declines the step to
+    /// the general one when it detects).
+    #[inline(always)]
+    pub(crate) fn detects(&self, slip: T, dw: T, iref: T, step: T) -> bool {
+        let detect =
+            slip > self.slip_on || (slip > self.slip_accel && dw > step.mul_c(self.accel_ratio));
+        detect && iref > T::ZERO
+    }
+
     /// One traction step: `w` the clamped motor speed, `iref` the ramped current
     /// reference, `step` the reference slew per step (pu). Returns the reference to use,
     /// whether the protection acts on this step, and whether it started acting. Sets
@@ -555,10 +567,8 @@ impl<T: Sample> Wsp<T> {
         st.slip_prev = slip;
         let new = !st.active;
         if new {
-            let detect = slip > self.slip_on
-                || (slip > self.slip_accel && dw > step.mul_c(self.accel_ratio));
             st.sched = false;
-            if !(detect && iref > T::ZERO) {
+            if !self.detects(slip, dw, iref, step) {
                 return (iref, false, false);
             }
             // Detected: the instantaneous cut, where the regulator starts.

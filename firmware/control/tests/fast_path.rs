@@ -19,6 +19,10 @@ enum Op {
     Traction(bool),
     ContinueFrom(u32),
     Preset(u32),
+    /// The reference speed (`set_v_ref`): near the held speed, an edge or random value.
+    VRef(u32),
+    /// The wheel-slip protection on/off.
+    Wsp(bool),
 }
 
 fn op() -> impl Strategy<Value = Op> {
@@ -30,6 +34,8 @@ fn op() -> impl Strategy<Value = Op> {
         1 => any::<bool>().prop_map(Op::Traction),
         1 => any::<u32>().prop_map(Op::ContinueFrom),
         1 => any::<u32>().prop_map(Op::Preset),
+        1 => any::<u32>().prop_map(Op::VRef),
+        1 => any::<bool>().prop_map(Op::Wsp),
     ]
 }
 
@@ -57,7 +63,7 @@ fn value<T: Sample>(r: u32, lims: &[f64]) -> T {
 /// -0 from +0).
 fn snapshot<T: Sample>(c: &Controller<T>, out: &wheelset_control::Outputs<T>) -> String {
     format!(
-        "{:?} {:?} {:?} {:?} {:?} {:?} {:?} {}",
+        "{:?} {:?} {:?} {:?} {:?} {:?} {:?} {} {:?} {}",
         out,
         c.counters(),
         c.tick_events(),
@@ -65,7 +71,9 @@ fn snapshot<T: Sample>(c: &Controller<T>, out: &wheelset_control::Outputs<T>) ->
         c.pi_state(),
         c.current_ref(),
         c.outputs(),
-        c.is_safe()
+        c.is_safe(),
+        c.wsp_state(),
+        c.wheel_slip()
     )
 }
 
@@ -94,8 +102,12 @@ fn check_events<T: Sample>(before: &Counters, c: &Controller<T>) {
 }
 
 fn run<T: Sample>(ops: &[Op]) -> usize {
-    let cfg = Config::default();
-    let mut fast = Controller::<T>::try_new(&cfg).expect("default config");
+    run_with::<T>(&Config::default(), ops)
+}
+
+/// [`run`] from the configuration `cfg` (e.g. the wheel-slip protection on at start).
+fn run_with<T: Sample>(cfg: &Config, ops: &[Op]) -> usize {
+    let mut fast = Controller::<T>::try_new(cfg).expect("valid config");
     let mut general = fast.clone();
     general.set_fast_path(false);
     assert!(!general.fast_path_armed());
@@ -160,6 +172,21 @@ fn run<T: Sample>(ops: &[Op]) -> usize {
                 fast.preset_back_emf(w);
                 general.preset_back_emf(w);
             }
+            Op::VRef(r) => {
+                // Near the held speed (0.9 pu): quiet, slipping by less or more than
+                // the detection thresholds; else an edge or random value.
+                let v = match r % 4 {
+                    0 => T::from_f64(0.9),
+                    1 => T::from_f64(0.9 - f64::from(r >> 2) / f64::from(u32::MAX >> 2) * 0.05),
+                    _ => value::<T>(r >> 2, &lims),
+                };
+                fast.set_v_ref(v);
+                general.set_v_ref(v);
+            }
+            Op::Wsp(on) => {
+                fast.set_wsp(on);
+                general.set_wsp(on);
+            }
         }
     }
     armed
@@ -179,6 +206,25 @@ proptest! {
     fn f64_fast_path_is_the_general_path(ops in prop::collection::vec(op(), 1..60)) {
         run::<f64>(&ops);
     }
+    #[test]
+    fn with_the_wheel_slip_protection_fixed_point_fast_path_is_the_general_path(
+        ops in prop::collection::vec(op(), 1..60)
+    ) {
+        run_with::<Fx>(&wsp_config(), &ops);
+    }
+    #[test]
+    fn with_the_wheel_slip_protection_f32_fast_path_is_the_general_path(
+        ops in prop::collection::vec(op(), 1..60)
+    ) {
+        run_with::<f32>(&wsp_config(), &ops);
+    }
+}
+
+/// The default configuration with the wheel-slip protection on at start.
+fn wsp_config() -> Config {
+    let mut cfg = Config::default();
+    cfg.wsp.enabled = true;
+    cfg
 }
 
 /// Normal running takes the fast path (so the tests above compare something): after the
@@ -193,4 +239,34 @@ fn normal_running_arms_the_fast_path() {
     assert!(c.fast_path_armed());
     c.set_safe(true);
     assert!(!c.fast_path_armed(), "the safe state runs the general path");
+}
+
+/// With the wheel-slip protection on, a quiet run (reference speed at the wheel's) takes
+/// the fast path, and a slip detected on it sends the ticks to the general path while
+/// the protection acts (so the tests above compare both).
+#[test]
+fn with_the_protection_on_quiet_running_is_fast_and_a_slip_is_general() {
+    let quiet = [Op::VRef(0), Op::Hold(500, 7)];
+    assert_eq!(run_with::<Fx>(&wsp_config(), &quiet), 499);
+    assert_eq!(run_with::<f32>(&wsp_config(), &quiet), 499);
+    let mut c = Controller::<Fx>::try_new(&wsp_config()).expect("valid config");
+    c.set_v_ref(Fx::from_f64(0.9));
+    let i = |speed: f64| Inputs {
+        y_dot: Fx::ZERO,
+        current: Fx::ZERO,
+        speed: Fx::from_f64(speed),
+        demand: Fx::from_f64(0.5),
+    };
+    for _ in 0..50 {
+        c.tick(&i(0.9));
+    }
+    assert!(c.fast_path_armed());
+    assert!(!c.wheel_slip());
+    // The wheel runs away from the reference: detected, acting, general path.
+    c.tick(&i(1.2));
+    assert!(c.wheel_slip() && c.wsp_state().active);
+    assert!(
+        !c.fast_path_armed(),
+        "the acting protection runs the general path"
+    );
 }
