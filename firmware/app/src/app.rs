@@ -57,11 +57,6 @@ impl<const N: usize> Pipe<N> {
         r
     }
 
-    /// Reads what is held, up to `out.len()` ([`ByteRing::try_read`]).
-    pub fn try_read(&self, out: &mut [u8]) -> Result<usize, Empty> {
-        self.ring.try_read(out)
-    }
-
     /// The held bytes in place, one contiguous run ([`ByteRing::read_in_place`]).
     pub fn read_in_place(&self, f: impl FnOnce(&[u8])) -> Result<usize, Empty> {
         self.ring.read_in_place(f)

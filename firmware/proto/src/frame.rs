@@ -149,13 +149,6 @@ impl OnePass<'_> {
     const CAP: usize = ONE_PASS_CAP;
     const MASK: usize = Self::CAP - 1;
 
-    /// A raw byte known not to be 0x00 (version, type, a varint's continued byte).
-    #[inline(always)]
-    fn nonzero(&mut self, b: u8) {
-        self.reg = crc_byte(self.reg, b);
-        self.put(b);
-    }
-
     /// A raw byte outside the CRC (the CRC's own bytes): stored, or a 0x00 closing the
     /// open block.
     #[inline(always)]
@@ -190,7 +183,7 @@ impl OnePass<'_> {
     #[inline(always)]
     fn varint(&mut self, mut v: u32) {
         while v >= 0x80 {
-            self.nonzero((v as u8) | 0x80);
+            self.byte((v as u8) | 0x80);
             v >>= 7;
         }
         self.byte(v as u8);
