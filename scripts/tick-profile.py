@@ -5,6 +5,7 @@ Usage (from the repository root, after `cargo xtask fw-bench` built the ELF):
 
     python3 scripts/tick-profile.py --record exec.log [whole_tick|law_step]
     python3 scripts/tick-profile.py exec.log [whole_tick|law_step]   # profile a log again
+    python3 scripts/tick-profile.py exec.log whole_tick --calls 21-200  # those calls only
 
 `--record` runs QEMU with the project's one command line (`cargo xtask qemu-cmd ELF --
 -singlestep -d exec,nochain -D exec.log`, defined in hil/src/qemu_cmd.rs: the board,
@@ -46,6 +47,15 @@ def main() -> None:
     if args[:1] in (["--help"], ["-h"]):
         print(__doc__)
         return
+    # `--calls A-B`: only the A-th to B-th calls (1-based), e.g. past the start-up.
+    first, last = 1, None
+    if "--calls" in args:
+        k = args.index("--calls")
+        m = re.fullmatch(r"(\d+)-(\d+)", args[k + 1] if k + 1 < len(args) else "")
+        if not m or not 1 <= int(m.group(1)) <= int(m.group(2)):
+            sys.exit("tick-profile: --calls takes A-B, 1 <= A <= B (e.g. 21-200)")
+        first, last = int(m.group(1)), int(m.group(2))
+        del args[k:k + 2]
     if any(a.startswith("-") and a != "--record" for a in args) or len(args) > 3:
         sys.exit(f"tick-profile: unknown arguments {args}\n{__doc__}")
     if args[:1] == ["--record"]:
@@ -69,7 +79,7 @@ def main() -> None:
     if entry is None or ret is None:
         sys.exit(f"{name}: entry or call site not found in {ELF}")
     pcs = collections.Counter()
-    calls = 0
+    calls = seen = 0
     inside = False
     try:
         f = open(log)
@@ -82,13 +92,17 @@ def main() -> None:
                 continue
             pc = int(m.group(1), 16)
             if pc == entry and not inside:
-                inside, calls = True, calls + 1
+                seen += 1
+                if last is not None and seen > last:
+                    break
+                inside = True
+                calls += seen >= first
             elif inside and pc == ret:
                 inside = False
-            if inside:
+            if inside and seen >= first:
                 pcs[pc] += 1
     if calls == 0:
-        sys.exit(f"{name} never ran in {log}")
+        sys.exit(f"{name} never ran in {log} (in the calls asked for)")
     addrs = sorted(pcs)
     out = subprocess.run(["arm-none-eabi-addr2line", "-f", "-e", ELF] + [hex(a) for a in addrs],
                          capture_output=True, text=True, check=True).stdout.splitlines()
