@@ -10,9 +10,6 @@
 
 use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
-/// The reflected CRC-32C (Castagnoli) polynomial.
-const POLY_REFLECTED: u32 = 0x82F6_3B78;
-
 /// A CRC-32C whose byte-wise table lives in RAM (`.bss`), filled on first use.
 ///
 /// Atomics instead of `unsafe`: a relaxed `AtomicU32` load is a plain `LDR` on
@@ -71,15 +68,8 @@ impl RamCrc {
     #[inline(never)]
     fn fill(&self) {
         for (i, slot) in self.table.iter().enumerate() {
-            let mut c = i as u32;
-            for _ in 0..8 {
-                c = if c & 1 == 1 {
-                    (c >> 1) ^ POLY_REFLECTED
-                } else {
-                    c >> 1
-                };
-            }
-            slot.store(c, Ordering::Relaxed);
+            // The bit-wise step from a zero register is the table's entry (`i < 256`).
+            slot.store(crate::frame::crc_byte_const(0, i as u8), Ordering::Relaxed);
         }
         self.ready.store(true, Ordering::Release);
     }

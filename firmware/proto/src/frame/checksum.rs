@@ -164,8 +164,10 @@ pub(crate) fn crc_byte(reg: u32, b: u8) -> u32 {
     }
 }
 
-/// [`crc_byte`] evaluated at compile time (bit by bit, no table): the register after
-/// bytes known in advance (a frame's version and type) is a constant.
+/// [`crc_byte`] bit by bit, no table (reflected polynomial `0x82F6_3B78`): at compile
+/// time the register after bytes known in advance (a frame's version and type) and the
+/// slice-by-16 tables; at start-up the device's RAM table (`crc_ram`, from a zero
+/// register).
 pub(crate) const fn crc_byte_const(reg: u32, b: u8) -> u32 {
     let mut c = reg ^ b as u32;
     let mut k = 0;
