@@ -10,7 +10,7 @@
 //!   installed when missing, in `target/flip-link`) and copies them to `target/fw/`:
 //!   `wheelset-nucleo.elf`, `wheelset-qemu.elf` (and with `--f32` the f32 builds
 //!   `wheelset-nucleo-f32.elf`, `wheelset-qemu-f32.elf`). Prints flash and RAM of each
-//!   against the budget (flash 24 KiB, static RAM 8 KiB) and fails above either (the f32
+//!   against the budget (flash 64 KiB, static RAM 16 KiB) and fails above either (the f32
 //!   measurement builds: printed, not enforced).
 //! - `cargo xtask fw-bench [--json FILE]`: builds `wheelset-qemu-bench` (fixed point and
 //!   f32, for the Cortex-M4F on `mps2-an386` and the Cortex-M3 on `mps2-an385`) and runs
