@@ -262,10 +262,10 @@ impl Budgets {
         let mut last = "defaults".to_string();
         if let Some(path) = file {
             let src = path.display().to_string();
-            let text = sim_host::input::read_input(path).map_err(|e| BudgetError {
+            let text = wheelset_plant::input::read_input(path).map_err(|e| BudgetError {
                 source: src.clone(),
                 reason: match e {
-                    sim_host::error::ConfigError::Io { reason, .. } => {
+                    wheelset_plant::error::ConfigError::Io { reason, .. } => {
                         format!("cannot read: {reason}")
                     }
                     e => e.to_string(),
@@ -274,11 +274,11 @@ impl Budgets {
             // Typed once from the text itself, so an error names the key and the line
             // as written in the file.
             if let Err(e) = toml::from_str::<Budgets>(&text) {
-                let e = sim_host::error::from_toml(&src, &text, &e);
+                let e = wheelset_plant::error::from_toml(&src, &text, &e);
                 return Err(BudgetError {
                     source: src,
                     reason: match e {
-                        sim_host::error::ConfigError::Parse {
+                        wheelset_plant::error::ConfigError::Parse {
                             key, line, reason, ..
                         } => {
                             let mut r = String::new();

@@ -177,18 +177,18 @@ fn decode_actuations(bytes: &[u8], dec: &mut Decoder, out: &mut Vec<Out>) {
 
 /// The device's configuration for the golden vectors at parameters `p` (`--params`):
 /// the firmware's default (its law, traction on, its rates) with the gains and motor
-/// constants of `p` (`sim_host::device::control_config`, the rule of `hil run`). At the
+/// constants of `p` (`wheelset_loop::device_loop::control_config`, the rule of `hil run`). At the
 /// default parameters this is `RuntimeConfig::default()`.
 #[must_use]
-pub fn runtime_for(p: &sim_host::params::Params) -> RuntimeConfig {
+pub fn runtime_for(p: &wheelset_plant::params::Params) -> RuntimeConfig {
     let d = RuntimeConfig::default();
     let law = match d.control.yaw_mode {
-        wheelset_control::YawMode::Passive => sim_host::control::YawLaw::Passive,
-        wheelset_control::YawMode::Gain => sim_host::control::YawLaw::Gain,
-        wheelset_control::YawMode::Lead => sim_host::control::YawLaw::Lead,
+        wheelset_control::YawMode::Passive => wheelset_plant::control::YawLaw::Passive,
+        wheelset_control::YawMode::Gain => wheelset_plant::control::YawLaw::Gain,
+        wheelset_control::YawMode::Lead => wheelset_plant::control::YawLaw::Lead,
     };
     RuntimeConfig {
-        control: sim_host::device::control_config(p, law, d.control.traction_enabled),
+        control: wheelset_loop::device_loop::control_config(p, law, d.control.traction_enabled),
         ..d
     }
 }

@@ -63,7 +63,7 @@ mod tests {
         let e = check(921_600, 5_000, lat).err().unwrap_or_default();
         assert!(e.contains(&format!("highest rate is {r} Hz")), "{e}");
         assert!(e.contains(&format!("at least {b} baud")), "{e}");
-        assert!(check(sim_host::link::DEFAULT_BAUD, 5_000, lat).is_ok());
+        assert!(check(wheelset_loop::link::DEFAULT_BAUD, 5_000, lat).is_ok());
         assert!(check(b, 5_000, lat).is_ok());
         assert!(check(b - 1, 5_000, lat).is_err());
     }

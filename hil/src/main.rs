@@ -10,10 +10,10 @@ use clap::{Parser, Subcommand};
 use hil::budget::Verdict;
 
 /// `println!` that ends the program quietly with success on a closed stdout (`hil |
-/// head`), as Unix tools do, instead of panicking (`sim_host::out`).
+/// head`), as Unix tools do, instead of panicking (`wheelset_report::out`).
 macro_rules! say {
     ($($t:tt)*) => {
-        sim_host::outln!($($t)*)
+        wheelset_report::outln!($($t)*)
     };
 }
 

@@ -21,7 +21,7 @@
 //! divergence. With an `[actuator_fault]` from
 //! `t_f`: no alarm before `t_f`, and the first alarm by the **deadline**, stated from the
 //! growth rate `sigma` of the unstable mode of the passive-less wheelset
-//! (`sim_host::fault::failed_actuator_mode`, the scenario's parameters):
+//! (`wheelset_plant::fault::failed_actuator_mode`, the scenario's parameters):
 //!
 //! ```text
 //! t_alarm - t_f <= [ ln(thr / A_0) + ln(1 + 2 sigma tau)/2 ] / sigma + B
@@ -37,10 +37,10 @@
 //! mode stable (a fraction that still damps it) states no deadline and expects nothing.
 
 use serde::Serialize;
-use sim_host::fault::{failed_actuator_mode, FaultMode};
-use sim_host::scenario::Scenario;
-use sim_host::sim::Trajectory;
 use wheelset_control::{Compiled, Fx, InputCodes, Monitor, MonitorParams, MonitorState, YawMode};
+use wheelset_plant::fault::{failed_actuator_mode, FaultMode};
+use wheelset_plant::scenario::Scenario;
+use wheelset_plant::sim::Trajectory;
 use wheelset_runtime::RuntimeConfig;
 
 use crate::budget::Verdict;

@@ -1,5 +1,5 @@
 //! Closed-loop numerics: the trajectory through the device against the f64
-//! continuous-time reference (`sim_host::sim::run_continuous`, same scenario, same law).
+//! continuous-time reference (`wheelset_plant::sim::run_continuous`, same scenario, same law).
 //!
 //! For each signal `x` with reference `r`, both sampled at the scenario's output
 //! interval, the error at `t` is the distance from `x(t)` to the tube the reference spans
@@ -9,7 +9,7 @@
 //! it stays inside the reference's range over `t +- tau`). The signal passes if
 //! `max_t e(t) <= abs + rel * max_t |r(t)|`, warns up to `warn_factor` times that, and
 //! fails beyond (or if the run produced a non-finite value). A run or a reference that
-//! diverged (and was stopped by `sim_host::sim`) fails the numerics outright.
+//! diverged (and was stopped by `wheelset_plant::sim`) fails the numerics outright.
 //!
 //! # The tube at the control period ([`compare_fine`])
 //! The tube is a range over a continuous `s`. Taken on the reference's records at the
@@ -27,7 +27,7 @@
 //! 14.053 s against a 5 V budget (22 V at 7.346 s before the exact decisions), although
 //! the device's value lies inside the reference's own swing 0.2 ms away and the budget's
 //! `tau` is 8 ms. So where the reference can be recorded at
-//! the control period (the control core as reference, `sim_host::core_loop`: every run
+//! the control period (the control core as reference, `wheelset_loop::core`: every run
 //! with `[[adhesion]]`), the tube is taken over those records: the same `tau`, `abs`,
 //! `rel` and peak (the peak on the output records, so `allowed` does not change), only the
 //! range is the reference's range over `t +- tau` at the device's own resolution. It can
@@ -37,7 +37,7 @@
 use std::collections::BTreeMap;
 
 use serde::Serialize;
-use sim_host::sim::{Record, Trajectory};
+use wheelset_plant::sim::{Record, Trajectory};
 
 use crate::budget::{Tolerance, Verdict};
 
@@ -277,7 +277,7 @@ pub fn gcd(a: u64, b: u64) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use sim_host::sim::RunInfo;
+    use wheelset_plant::sim::RunInfo;
 
     /// 2 s of `u_a` at `dt` (s): 100 V, with a dip to `depth` V over fine ticks
     /// `from..from + 3` of 0.2 ms (`dt` a multiple of 0.2 ms).

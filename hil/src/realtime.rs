@@ -52,7 +52,7 @@ use std::time::{Duration, Instant};
 
 use serde::Serialize;
 use serialport::{SerialPort, TTYPort};
-use sim_host::link::wire_ns;
+use wheelset_loop::link::wire_ns;
 use wheelset_proto::{Command, Decoder, Message, Status};
 
 use crate::rt_os::{self, Obtained, Want};

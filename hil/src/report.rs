@@ -7,8 +7,8 @@ use std::fmt::Write as _;
 use std::io;
 use std::path::{Path, PathBuf};
 
-use sim_host::sim::{Record, Trajectory};
-use sim_host::svg::{Figure, Plot, Series, Style};
+use wheelset_plant::sim::{Record, Trajectory};
+use wheelset_report::svg::{Figure, Plot, Series, Style};
 
 use crate::run::{RunOutcome, RunReport};
 

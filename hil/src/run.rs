@@ -1,10 +1,10 @@
 //! `hil run`: one closed loop of the plant with the device on a target, checked.
 //!
-//! The plant is `sim_host::sim::run_sampled` (RK4 at the scenario's step) with the
+//! The plant is `wheelset_plant::sim::run_sampled` (RK4 at the scenario's step) with the
 //! device as its sampled controller ([`crate::closed_loop`]) and an actuator delay of
-//! one control period; the reference is `sim_host::sim::run_continuous` with the same
+//! one control period; the reference is `wheelset_plant::sim::run_continuous` with the same
 //! scenario and law (with `[[adhesion]]` sections: the f64 control core with the
-//! device's wheel-slip protection, `sim_host::core_loop`). The parameters are
+//! device's wheel-slip protection, `wheelset_loop::core`). The parameters are
 //! [`RunOptions::params`] (`--params FILE`) with the scenario's `[params]` on top, the
 //! rule of `sim-host --params`; the plant, the reference and the device's configuration
 //! follow them ([`runtime_config_for`], the same rule as `sim-host run --loop device`):
@@ -18,12 +18,12 @@ use std::time::Duration;
 
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::{Deserialize, Serialize};
-use sim_host::control::YawLaw;
-use sim_host::device::{runtime_config, DeviceOptions};
-use sim_host::link::LinkConfig;
-use sim_host::params::Params;
-use sim_host::scenario::Scenario;
-use sim_host::sim::Trajectory;
+use wheelset_loop::device_loop::{runtime_config, DeviceOptions};
+use wheelset_loop::link::LinkConfig;
+use wheelset_plant::control::YawLaw;
+use wheelset_plant::params::Params;
+use wheelset_plant::scenario::Scenario;
+use wheelset_plant::sim::Trajectory;
 use wheelset_proto::Status;
 use wheelset_runtime::RuntimeConfig;
 
@@ -282,7 +282,7 @@ pub struct RunReport {
     /// The device's counters (its Status frame), if it arrived.
     pub device_status: Option<Status>,
     /// Resets of the device the host saw during the run (its tick counter going back,
-    /// `sim_host::exchange::DeviceController::device_resets`); the Config went out again
+    /// `wheelset_loop::exchange::DeviceController::device_resets`); the Config went out again
     /// after each. The Status above is then the last boot's (`boot_count`,
     /// `reset_cause`).
     pub device_resets: u32,
@@ -318,7 +318,7 @@ pub struct RunOutcome {
 }
 
 /// The device's runtime configuration for a run of `sc`: the scenario's parameters, the
-/// law, the default hold ticks and rates (`sim_host::device::runtime_config`, the rule
+/// law, the default hold ticks and rates (`wheelset_loop::device_loop::runtime_config`, the rule
 /// `sim-host run --loop device` follows too).
 #[must_use]
 pub fn runtime_config_for(sc: &Scenario, law: Law) -> RuntimeConfig {
@@ -379,8 +379,8 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     // The in-process device was configured before the run (`InProc::configure`), a
     // free-running one by `RealTime::prepare`; a lock-step device gets the Config frame
     // (rates unchanged) as the first frame of the run.
-    let lockstep_config =
-        is_lockstep_remote.then(|| sim_host::device::run_config(&rt, wsp, opts.monitor_safe));
+    let lockstep_config = is_lockstep_remote
+        .then(|| wheelset_loop::device_loop::run_config(&rt, wsp, opts.monitor_safe));
     // `--device-fault stall:T`: the harness sends InjectStall at T to a device whose
     // watchdog resets it (the free-running QEMU build; the lock-step one has no watchdog,
     // firmware/app/src/board/qemu/wdog.rs) and sends the Config again after the reset.
@@ -396,7 +396,7 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     };
     let reset_config = stall_at_ns
         .is_some()
-        .then(|| sim_host::device::run_config(&rt, wsp, opts.monitor_safe));
+        .then(|| wheelset_loop::device_loop::run_config(&rt, wsp, opts.monitor_safe));
     let clear_faults_at_ns = match opts.clear_faults_at_s {
         Some(t) if t.is_finite() && t >= 0.0 => Some((t * 1e9).round() as u64),
         Some(t) => {
@@ -434,7 +434,7 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
             .and_then(|s| wheelset_proto::RefuseReason::from_code(s.refuse_reason))
             .unwrap_or(wheelset_proto::RefuseReason::None);
         return Err(RunError::Target(TransportError::Unavailable(
-            sim_host::device::DeviceError::Refused(why, cfg).to_string(),
+            wheelset_loop::device_loop::DeviceError::Refused(why, cfg).to_string(),
         )));
     }
     let (reference, fine) = reference::make(&sc, opts.control.yaw(), wsp, period_ns)?;
@@ -540,7 +540,7 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
 }
 
 /// The parameter keys that set the device's control gains and motor constants
-/// (`sim_host::device::control_config`): the lead, the pure gain, the traction PI and
+/// (`wheelset_loop::device_loop::control_config`): the lead, the pure gain, the traction PI and
 /// the motor.
 pub const DEVICE_KEYS: &[&str] = &[
     "k_active",

@@ -6,7 +6,7 @@
 //! radix of the axis lengths. An axis `KEY=FROM..TO:N` has the `N` values
 //! `v_j = FROM + (TO - FROM) j / (N - 1)`, `j = 0..N-1` (linear spacing, both ends
 //! included; `N = 1` needs `FROM = TO`), `KEY=VALUE` one value. `KEY` is any parameter
-//! key (`sim_host::params::Params`, SI units); `f11` sets `f22` too unless `f22` is an
+//! key (`wheelset_plant::params::Params`, SI units); `f11` sets `f22` too unless `f22` is an
 //! axis of its own (the paper varies the two creep coefficients together).
 //!
 //! Each point's parameters are the base (`--params FILE` or the paper's) with the
@@ -25,8 +25,8 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::mpsc;
 
 use serde::{Deserialize, Serialize};
-use sim_host::params::Params;
-use sim_host::scenario::Scenario;
+use wheelset_plant::params::Params;
+use wheelset_plant::scenario::Scenario;
 
 use crate::budget::Verdict;
 use crate::run::{run, RunError, RunOptions, RunReport};

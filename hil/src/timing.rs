@@ -20,7 +20,7 @@
 //! - **link utilisation**: mean bytes per period (both directions) x 10 bits / baud / T.
 
 use serde::Serialize;
-use sim_host::link::wire_ns;
+use wheelset_loop::link::wire_ns;
 
 use crate::budget::{Limit, TimingBudgets, Verdict};
 use crate::closed_loop::{Period, RxActuation};

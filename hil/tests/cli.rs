@@ -63,7 +63,7 @@ fn no_subcommand_is_run_and_writes_the_verdict_document() {
     // The CSV has sim-host's columns, one row per output sample.
     let text = std::fs::read_to_string(&csv).unwrap();
     let header = text.lines().next().unwrap();
-    assert_eq!(header, sim_host::sim::Record::COLUMNS.join(","));
+    assert_eq!(header, wheelset_plant::sim::Record::COLUMNS.join(","));
     assert_eq!(text.lines().count(), 1 + 3001);
     // The report is readable without the harness: Markdown and SVG.
     let md = std::fs::read_to_string(report.join("report.md")).unwrap();

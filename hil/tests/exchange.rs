@@ -6,10 +6,10 @@
 
 use hil::budget::Verdict;
 use hil::run::{run, Law, RunOptions};
-use sim_host::control::YawLaw;
-use sim_host::device::{run_device, DeviceOptions};
-use sim_host::params::Params;
-use sim_host::scenario::Scenario;
+use wheelset_loop::device_loop::{run_device, DeviceOptions};
+use wheelset_plant::control::YawLaw;
+use wheelset_plant::params::Params;
+use wheelset_plant::scenario::Scenario;
 
 fn short() -> String {
     concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/short.toml").to_string()

@@ -5,7 +5,7 @@
 
 use hil::golden::{compare, run_host, run_target, vectors};
 use hil::inproc::{DeviceFault, InProc};
-use sim_host::link::LinkConfig;
+use wheelset_loop::link::LinkConfig;
 use wheelset_runtime::RuntimeConfig;
 
 fn target(fault: DeviceFault) -> InProc {

@@ -49,7 +49,7 @@ fn the_failed_actuator_alarms_by_the_deadline() {
 
 /// A scenario file: the built-in `name` with conicity `lambda`.
 fn with_lambda(name: &str, lambda: f64, dir: &std::path::Path) -> PathBuf {
-    let (_, src) = sim_host::scenario::BUILTIN
+    let (_, src) = wheelset_plant::scenario::BUILTIN
         .iter()
         .find(|(n, _)| *n == name)
         .unwrap();

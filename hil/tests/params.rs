@@ -9,9 +9,9 @@ use std::process::{Command, Output};
 
 use hil::budget::Verdict;
 use hil::run::{run, Law, RunOptions, Target};
-use sim_host::params::Params;
-use sim_host::scenario::Scenario;
-use sim_host::sim::run_continuous;
+use wheelset_plant::params::Params;
+use wheelset_plant::scenario::Scenario;
+use wheelset_plant::sim::run_continuous;
 use wheelset_runtime::RuntimeConfig;
 
 fn hil(args: &[&str]) -> Output {
@@ -44,7 +44,7 @@ fn opts(params: &Params) -> RunOptions {
     }
 }
 
-fn peak_y(t: &sim_host::sim::Trajectory) -> f64 {
+fn peak_y(t: &wheelset_plant::sim::Trajectory) -> f64 {
     t.records.iter().map(|r| r.y_m.abs()).fold(0.0, f64::max)
 }
 
@@ -80,7 +80,7 @@ fn the_lead_passes_at_3_mn_and_at_conicity_0_4_with_plant_and_reference_followin
         );
         // The reference: the continuous loop of the scenario at these parameters.
         let sc = Scenario::load("curve", &p).unwrap();
-        let reference = run_continuous(&sc, sim_host::control::YawLaw::Lead);
+        let reference = run_continuous(&sc, wheelset_plant::control::YawLaw::Lead);
         assert_eq!(out.reference.records.len(), reference.records.len());
         assert!(
             out.reference
@@ -118,10 +118,10 @@ fn the_device_configuration_follows_the_gains_of_the_file() {
     let d = RuntimeConfig::default().control;
     assert_ne!((c.gain_k, c.lead.a, c.pi.kp), (d.gain_k, d.lead.a, d.pi.kp));
     let sc = Scenario::load(short, &p).unwrap();
-    let mut want = sim_host::device::runtime_config(
+    let mut want = wheelset_loop::device_loop::runtime_config(
         &sc,
-        sim_host::control::YawLaw::Lead,
-        &sim_host::device::DeviceOptions::default(),
+        wheelset_plant::control::YawLaw::Lead,
+        &wheelset_loop::device_loop::DeviceOptions::default(),
     );
     want.control.base_rate_hz = out.runtime.control.base_rate_hz;
     assert_eq!(out.runtime, want);

@@ -9,7 +9,7 @@ mod common;
 
 use common::{qemu_curve, start_or_skip};
 use hil::qemu::Channel;
-use sim_host::sim::Trajectory;
+use wheelset_plant::sim::Trajectory;
 use wheelset_proto::Actuation;
 
 /// Record for record, every field, exactly (`{:?}` of an `f64` is exact).

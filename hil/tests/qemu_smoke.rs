@@ -131,10 +131,10 @@ fn a_missing_elf_is_a_clear_error() {
 // ---------------------------------------------------------------------------------------
 // Closed loop with the plant: sim-host's wheelset drives the emulated device.
 
-use sim_host::control::YawLaw;
-use sim_host::device::{run_device, DeviceOptions};
-use sim_host::params::Params;
-use sim_host::scenario::Scenario;
+use wheelset_loop::device_loop::{run_device, DeviceOptions};
+use wheelset_plant::control::YawLaw;
+use wheelset_plant::params::Params;
+use wheelset_plant::scenario::Scenario;
 
 #[test]
 fn the_loop_closes_through_the_emulated_device_like_the_in_process_one() {

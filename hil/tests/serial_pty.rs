@@ -97,7 +97,8 @@ fn the_serial_transport_closes_the_loop_over_a_pty() {
         ..RunOptions::default()
     })
     .unwrap();
-    let ys = |t: &sim_host::sim::Trajectory| t.records.iter().map(|r| r.y_m).collect::<Vec<_>>();
+    let ys =
+        |t: &wheelset_plant::sim::Trajectory| t.records.iter().map(|r| r.y_m).collect::<Vec<_>>();
     assert_eq!(ys(&out.trajectory), ys(&inproc.trajectory));
 }
 
@@ -164,7 +165,7 @@ fn a_lock_step_transport_keeps_one_frame_in_flight() {
 #[test]
 fn two_frames_in_one_write_are_two_ticks_and_two_answers() {
     use common::sensor;
-    use sim_host::transport::Transport;
+    use wheelset_loop::transport::Transport;
     use wheelset_proto::{Decoder, Message};
     let device = PtyDevice::spawn(serve_in_bursts);
     let mut port = hil::serial::Serial::open(

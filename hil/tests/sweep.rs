@@ -9,7 +9,7 @@ use std::path::PathBuf;
 use std::process::{Command, Output};
 
 use hil::run::{run, Law, RunOptions};
-use sim_host::params::Params;
+use wheelset_plant::params::Params;
 
 fn hil(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_hil"))

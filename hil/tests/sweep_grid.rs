@@ -3,7 +3,7 @@
 #![allow(clippy::unwrap_used)]
 
 use hil::sweep::*;
-use sim_host::params::Params;
+use wheelset_plant::params::Params;
 
 #[test]
 fn an_axis_has_both_ends_and_linear_steps() {

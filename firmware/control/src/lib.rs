@@ -102,7 +102,7 @@
 //! # Rates (default: base 5 kHz, yaw and traction both every tick)
 //!
 //! Chosen from a sampled-data analysis of the loops as they run (`sim-host rates`,
-//! `sim-host/src/sampled.rs`): the plant linearised at pure rolling on straight track,
+//! `sim-host/plant/src/sampled.rs`): the plant linearised at pure rolling on straight track,
 //! discretised exactly with a zero-order hold (matrix exponential), **one base period
 //! of computation and transport delay** on the actuation (the Actuation frame computed
 //! from the Sensor frame of tick `k` is applied at tick `k+1`), these controllers with

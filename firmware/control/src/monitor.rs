@@ -63,7 +63,7 @@
 //! A damped loop after a short disturbance (a curve transition) grows the energy only
 //! while the disturbance lasts (one block), then it decays; a stopped, disconnected or
 //! reversed actuator grows it at the free wheelset's rate (5-25 1/s over conicity
-//! 0.05-0.4, `sim_host::fault::failed_actuator_mode`) for as long as the motion lasts,
+//! 0.05-0.4, `wheelset_plant::fault::failed_actuator_mode`) for as long as the motion lasts,
 //! from well below the hunting threshold.
 //!
 //! **The rule for the device's own traction steps.** The wheel-slip protection's cut
@@ -147,7 +147,7 @@ pub struct MonitorParams {
 
 impl Default for MonitorParams {
     /// Band 3-20 Hz around the kinematic mode (the failed wheelset's 4.9-11 Hz over
-    /// conicity 0.05-0.4 at 10 MN, `sim_host::fault::failed_actuator_mode`; the active
+    /// conicity 0.05-0.4 at 10 MN, `wheelset_plant::fault::failed_actuator_mode`; the active
     /// loop's 8-13 Hz, `cargo sim modes`), W = 1.2 s (100 m at 83.3 m/s, EN 14363),
     /// threshold RMS 30 mm/s with release at 0.7 of it; actuator check over 2 blocks of
     /// 0.1 s at an amplitude growth rate of at least 3 1/s from an RMS of 1 mm/s, or a

@@ -97,7 +97,7 @@
 //!   3e-9 pu) the caps are 1e-5 pu apart 1.4 s after a cut. While they agree the builds
 //!   switch and release on the same ticks.
 //!
-//! `sim-host/tests/adhesion.rs`, `every_build_takes_the_same_decisions_on_the_same_codes`
+//! `sim-host/cli/tests/adhesion.rs`, `every_build_takes_the_same_decisions_on_the_same_codes`
 //! replays the f64 core's codes of `low-adhesion` through the three builds: the same
 //! detection ticks, the same switch and release while the caps agree within 1e-5 pu.
 //! A device in a closed loop is another matter: the rail answers the cap, and its plant
@@ -159,7 +159,7 @@
 //! 6.007 s in the first transient, and the run's peak 0.454 m/s in the wet section's
 //! regulation (14.0 s, the cap about 430 A, its set point 0.45 m/s); the test
 //! `the_core_with_protection_holds_the_wheel_and_without_it_runs_away` in
-//! `sim-host/tests/adhesion.rs` computes the bound from the parameters and asserts the
+//! `sim-host/cli/tests/adhesion.rs` computes the bound from the parameters and asserts the
 //! measured peak below it. The set point at the full reference lies below the `low`
 //! rail's peak slip (0.60 m/s), so a regulated wheel works on the rising side; the
 //! transient's bound (0.624 m/s) does not exclude a brief excursion past the `low` peak,

@@ -94,12 +94,12 @@ pub struct ParamsFile {
     /// The file as given.
     pub path: PathBuf,
     /// Its parameters (validated against the plausible ranges).
-    pub params: sim_host::params::Params,
+    pub params: wheelset_plant::params::Params,
 }
 
 fn params_file(s: &str) -> Result<ParamsFile, String> {
     let path = PathBuf::from(s);
-    let params = sim_host::params::Params::from_file(&path).map_err(|e| e.to_string())?;
+    let params = wheelset_plant::params::Params::from_file(&path).map_err(|e| e.to_string())?;
     Ok(ParamsFile { path, params })
 }
 

@@ -2,10 +2,10 @@
 //! wire's resolutions, against the f64 continuous reference; the straight-track limit
 //! cycle measured and attributed by experiment.
 //!
-//! - **Device run**: `sim_host::device::run_device` (the firmware runtime `Runtime<Fx>`
-//!   behind the in-process link, `sim_host::inproc` through `sim_host::exchange`), the
+//! - **Device run**: `wheelset_loop::device_loop::run_device` (the firmware runtime `Runtime<Fx>`
+//!   behind the in-process link, `wheelset_loop::inproc` through `wheelset_loop::exchange`), the
 //!   lead law on `curve`, every period recorded (output interval = one control period).
-//! - **Reference**: `sim_host::sim::run_continuous` (the continuous lead, no delay, no
+//! - **Reference**: `wheelset_plant::sim::run_continuous` (the continuous lead, no delay, no
 //!   quantisation).
 //! - **Window**: the straight track after the curve, `17 s .. 20 s`. The limit cycle is
 //!   the device's torque there: peak to peak, RMS about its mean, the dominant frequency
@@ -27,12 +27,12 @@
 //! input is zero, so a torque moving by many wire LSBs is self-sustained.
 
 use serde::Serialize;
-use sim_host::control::{Actuation, Measurements, SampledController, YawLaw};
-use sim_host::device::{control_config, run_device, DeviceOptions};
-use sim_host::params::Params;
-use sim_host::scenario::Scenario as Track;
-use sim_host::sim::{run_continuous, run_sampled, ActuatorModel, SensorModel, Trajectory};
 use wheelset_control::{Config, Controller, InputCodes, Inputs, SampleBits, WireLsb};
+use wheelset_loop::device_loop::{control_config, run_device, DeviceOptions};
+use wheelset_plant::control::{Actuation, Measurements, SampledController, YawLaw};
+use wheelset_plant::params::Params;
+use wheelset_plant::scenario::Scenario as Track;
+use wheelset_plant::sim::{run_continuous, run_sampled, ActuatorModel, SensorModel, Trajectory};
 use wheelset_proto::units::{
     CURRENT_LSB_A, DEMAND_LSB_NM, LAT_VEL_LSB_M_PER_S, SPEED_LSB_RAD_PER_S,
 };

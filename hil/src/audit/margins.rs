@@ -1,7 +1,7 @@
 //! Stability margins of the two loops after quantisation: the plant linearised about
-//! straight track at pure rolling (`sim_host::sampled::Model::Full`, the rate table's
+//! straight track at pure rolling (`wheelset_plant::sampled::Model::Full`, the rate table's
 //! plant), discretised exactly with a zero-order hold at the base period
-//! (`sim_host::sampled::zoh`), one period of actuation delay, and the controller as the
+//! (`wheelset_plant::sampled::zoh`), one period of actuation delay, and the controller as the
 //! device holds it (quantised) or ideal (the f64 discretisation).
 //!
 //! Each loop is broken at its actuator with the other loop open (on straight track the
@@ -23,9 +23,9 @@
 //! verdict (the stability verdict is `sim-host rates`'s monodromy).
 
 use serde::Serialize;
-use sim_host::params::Params;
-use sim_host::sampled::{zoh, Model};
 use wheelset_control::Config;
+use wheelset_plant::params::Params;
+use wheelset_plant::sampled::{zoh, Model};
 
 use super::bounds::Quantised;
 use super::response::C64;

@@ -144,9 +144,9 @@ pub fn run(args: &AuditArgs) -> Result<u8, AuditError> {
         report::write_report(&audit, dir)?;
     }
     if args.readme_block {
-        sim_host::out!("{}", readme::block(&audit));
+        wheelset_report::out!("{}", readme::block(&audit));
     } else {
-        sim_host::out!("{}", report::summary(&audit, args.quiet));
+        wheelset_report::out!("{}", report::summary(&audit, args.quiet));
     }
     Ok(if audit.verdict == Status::Fail { 1 } else { 0 })
 }
@@ -175,7 +175,9 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
     let params = args
         .params
         .as_ref()
-        .map_or_else(sim_host::params::Params::default, |p| p.params.clone());
+        .map_or_else(wheelset_plant::params::Params::default, |p| {
+            p.params.clone()
+        });
     cfg.validate()?;
     let tol = Tolerances::default();
     let mut scenarios = ranges::synthetic(&cfg);

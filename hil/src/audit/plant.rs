@@ -9,11 +9,11 @@
 //! sees the resulting actuation (closed loop), so the recorded inputs include the
 //! wheelset's response to the safe state.
 
-use sim_host::control::{Actuation, Measurements, SampledController, YawLaw};
-use sim_host::params::Params;
-use sim_host::scenario::Scenario as Track;
-use sim_host::sim::{run_sampled, ActuatorModel, SensorModel};
 use wheelset_control::{Config, Controller, Inputs};
+use wheelset_plant::control::{Actuation, Measurements, SampledController, YawLaw};
+use wheelset_plant::params::Params;
+use wheelset_plant::scenario::Scenario as Track;
+use wheelset_plant::sim::{run_sampled, ActuatorModel, SensorModel};
 
 use super::ranges::{Event, Scenario, Tick};
 

@@ -1,11 +1,11 @@
-//! SVG plots for the report (drawn with `sim_host::svg`): per controller a Bode figure
+//! SVG plots for the report (drawn with `wheelset_report::svg`): per controller a Bode figure
 //! (magnitude of the three forms, then the gain and phase errors), the headroom of every
 //! signal, and the fixed-minus-f64 output error over time per scenario. Frequency axes
 //! are `log10(f / Hz)` (the plotting module has linear axes only).
 
 use std::path::Path;
 
-use sim_host::svg::{Figure, Plot, Series};
+use wheelset_report::svg::{Figure, Plot, Series};
 
 use super::{Audit, AuditError};
 

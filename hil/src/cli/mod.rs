@@ -15,8 +15,8 @@ pub(crate) use sweep::{cmd_sweep, SweepCmd};
 use clap::ValueEnum;
 use hil::machine::Machine;
 use hil::run::RunError;
-use sim_host::link::Faults;
-use sim_host::params::Params;
+use wheelset_loop::link::Faults;
+use wheelset_plant::params::Params;
 
 /// A failure with its exit code.
 pub(crate) struct Failure {

@@ -10,8 +10,8 @@ use hil::inproc::DeviceFault;
 use hil::machine::Machine;
 use hil::report;
 use hil::run::{run, Law, RunOptions, Target};
-use sim_host::link::{Faults, LinkConfig};
-use sim_host::params::Params;
+use wheelset_loop::link::{Faults, LinkConfig};
+use wheelset_plant::params::Params;
 
 use super::{input, load_params, parse_faults, parse_machine, run_error, Control, Failure};
 
@@ -75,7 +75,7 @@ pub(crate) struct RunArgs {
     #[arg(long, default_value = "none", value_parser = parse_device_fault)]
     device_fault: DeviceFault,
     /// Link baud (10 bits per byte).
-    #[arg(long, default_value_t = sim_host::link::DEFAULT_BAUD, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = wheelset_loop::link::DEFAULT_BAUD, allow_negative_numbers = true)]
     baud: u32,
     /// Seed of the simulated link's faults.
     #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
@@ -156,11 +156,11 @@ pub(crate) fn cmd_run(a: &RunArgs, command: &str) -> Result<Verdict, Failure> {
     }
     // A scenario meant for other laws (its `laws` key) warns before the run; a file
     // that does not load is reported by the run itself.
-    if let Ok(sc) = sim_host::scenario::Scenario::load(&a.scenario, &params) {
+    if let Ok(sc) = wheelset_plant::scenario::Scenario::load(&a.scenario, &params) {
         let law = match a.control {
-            Control::Passive => sim_host::control::YawLaw::Passive,
-            Control::Gain => sim_host::control::YawLaw::Gain,
-            Control::Lead => sim_host::control::YawLaw::Lead,
+            Control::Passive => wheelset_plant::control::YawLaw::Passive,
+            Control::Gain => wheelset_plant::control::YawLaw::Gain,
+            Control::Lead => wheelset_plant::control::YawLaw::Lead,
         };
         if let Some(w) = sc.law_warning(law) {
             eprintln!("hil: warning: {w}");

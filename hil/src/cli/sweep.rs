@@ -7,7 +7,7 @@ use clap::{Args, Subcommand};
 use hil::budget::{Budgets, Verdict};
 use hil::report;
 use hil::run::{Law, RunOptions, Target};
-use sim_host::link::{Faults, LinkConfig};
+use wheelset_loop::link::{Faults, LinkConfig};
 
 use super::{input, load_params, parse_faults, run_error, Control, Failure};
 
@@ -171,7 +171,7 @@ pub(crate) fn cmd_sweep(c: &SweepCmd, command: &str) -> Result<Verdict, Failure>
         let mut parts = Vec::new();
         for f in &m.files {
             let name = f.display().to_string();
-            let text = sim_host::input::read_input(f).map_err(|e| input(e.to_string()))?;
+            let text = wheelset_plant::input::read_input(f).map_err(|e| input(e.to_string()))?;
             parts.push((name.clone(), sweep::from_json(&text, &name).map_err(input)?));
         }
         let doc = sweep::merge(&parts).map_err(input)?;
@@ -205,11 +205,11 @@ pub(crate) fn cmd_sweep(c: &SweepCmd, command: &str) -> Result<Verdict, Failure>
         Control::Gain => Law::Gain,
         Control::Lead => Law::Lead,
     };
-    if let Ok(sc) = sim_host::scenario::Scenario::load(&a.scenario, &params) {
+    if let Ok(sc) = wheelset_plant::scenario::Scenario::load(&a.scenario, &params) {
         let yaw = match a.control {
-            Control::Passive => sim_host::control::YawLaw::Passive,
-            Control::Gain => sim_host::control::YawLaw::Gain,
-            Control::Lead => sim_host::control::YawLaw::Lead,
+            Control::Passive => wheelset_plant::control::YawLaw::Passive,
+            Control::Gain => wheelset_plant::control::YawLaw::Gain,
+            Control::Lead => wheelset_plant::control::YawLaw::Lead,
         };
         if let Some(w) = sc.law_warning(yaw) {
             eprintln!("hil: warning: {w}");

@@ -4,7 +4,7 @@
 
 use std::time::{Duration, Instant};
 
-use sim_host::link::wire_ns;
+use wheelset_loop::link::wire_ns;
 use wheelset_proto::{encode_vec, Command, Config, Flags, Message, Status};
 
 use crate::transport::TransportError;

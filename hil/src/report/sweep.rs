@@ -39,10 +39,10 @@ const VERDICT_COLOURS: [(crate::budget::Verdict, &str); 3] = [
 fn heat_maps(
     doc: &crate::sweep::SweepDoc,
     title: &str,
-    cell: &dyn Fn(&crate::sweep::Record) -> sim_host::svg::heatmap::Cell,
+    cell: &dyn Fn(&crate::sweep::Record) -> wheelset_report::svg::heatmap::Cell,
     legend: &[(String, String)],
-) -> Vec<sim_host::svg::heatmap::HeatMap> {
-    use sim_host::svg::heatmap::{Cell, HeatMap};
+) -> Vec<wheelset_report::svg::heatmap::HeatMap> {
+    use wheelset_report::svg::heatmap::{Cell, HeatMap};
     let axes = &doc.sweep.axes;
     let Some(x) = axes.first() else {
         return Vec::new();
@@ -101,7 +101,7 @@ pub fn write_sweep_report(
     dir: &Path,
     command: &str,
 ) -> io::Result<Vec<PathBuf>> {
-    use sim_host::svg::heatmap::{sequential, stack, Cell};
+    use wheelset_report::svg::heatmap::{sequential, stack, Cell};
     std::fs::create_dir_all(dir)?;
     let mut files = Vec::new();
     let h = &doc.sweep;

@@ -21,10 +21,10 @@ pub fn open_transport(
         Target::InProc => {
             let mut t = InProc::<Fx>::try_new(rt, &opts.link, opts.device_fault)
                 .map_err(|e| RunError::Input(e.to_string()))?;
-            let cfg = sim_host::device::run_config(&rt, opts.wsp_on(), opts.monitor_safe);
+            let cfg = wheelset_loop::device_loop::run_config(&rt, opts.wsp_on(), opts.monitor_safe);
             t.configure(&cfg).map_err(|why| {
                 RunError::Target(TransportError::Unavailable(
-                    sim_host::device::DeviceError::Refused(why, cfg).to_string(),
+                    wheelset_loop::device_loop::DeviceError::Refused(why, cfg).to_string(),
                 ))
             })?;
             Ok(Box::new(t))
@@ -59,7 +59,7 @@ pub fn open_transport(
 
 /// The Config frame that puts a free-running device elsewhere on `rt` (law, hold
 /// ticks, rates) with the protection `wsp` and the monitor's response `monitor_safe`
-/// (`sim_host::device::run_config` with the rates).
+/// (`wheelset_loop::device_loop::run_config` with the rates).
 pub fn device_config(
     rt: &RuntimeConfig,
     wsp: bool,
@@ -69,7 +69,7 @@ pub fn device_config(
         .map_err(|e| RunError::Input(format!("--rate-hz {}: {e}", rt.control.base_rate_hz)))?;
     Ok(wheelset_proto::Config {
         rates: Some(rates),
-        ..sim_host::device::run_config(rt, wsp, monitor_safe)
+        ..wheelset_loop::device_loop::run_config(rt, wsp, monitor_safe)
     })
 }
 
@@ -180,7 +180,7 @@ pub(super) fn run_rate(opts: &RunOptions, default_hz: u32) -> Result<u32, RunErr
             if opts.target == Target::InProc {
                 opts.link.latency_ns
             } else {
-                sim_host::link::DEFAULT_LATENCY_NS
+                wheelset_loop::link::DEFAULT_LATENCY_NS
             },
         )
         .map_err(RunError::Input)?;

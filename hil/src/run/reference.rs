@@ -1,9 +1,9 @@
 //! The yardstick of a run's numerics: the f64 continuous-time controllers on the plant,
 //! or, on a track with `[[adhesion]]` sections, the control core itself in f64.
 
-use sim_host::control::YawLaw;
-use sim_host::scenario::Scenario;
-use sim_host::sim::{run_continuous, Trajectory};
+use wheelset_plant::control::YawLaw;
+use wheelset_plant::scenario::Scenario;
+use wheelset_plant::sim::{run_continuous, Trajectory};
 
 use super::RunError;
 use crate::numerics::{every_nth, gcd};
@@ -15,7 +15,7 @@ use crate::numerics::{every_nth, gcd};
 /// With `[[adhesion]]` sections the continuous controllers (no wheel-slip protection)
 /// are no yardstick: the reference is then the control core in f64 with the device's
 /// protection (as the run set it, `Config.wsp`), timing and wire quantisation
-/// (`sim_host::core_loop`). It is recorded at the greatest common divisor of the output
+/// (`wheelset_loop::core`). It is recorded at the greatest common divisor of the output
 /// interval and the control period (a multiple of the integration step, since both are),
 /// and every `output / that`-th record is the output-interval reference: the same run, so
 /// the two agree on every record they share. The protection's cuts are shorter than the
@@ -31,7 +31,7 @@ pub(super) fn make(
     }
     let mut at_ticks = sc.clone();
     at_ticks.output_dt_ns = gcd(sc.output_dt_ns, period_ns);
-    let fine = sim_host::core_loop::run_core::<f64>(&at_ticks, law, wsp)
+    let fine = wheelset_loop::core::run_core::<f64>(&at_ticks, law, wsp)
         .map_err(|e| RunError::Input(format!("scenario {}: {e}", sc.source)))?
         .0;
     let every = sc.output_dt_ns / at_ticks.output_dt_ns.max(1);

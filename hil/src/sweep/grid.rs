@@ -6,7 +6,7 @@ use std::fmt;
 use std::str::FromStr;
 
 use serde::{Deserialize, Serialize};
-use sim_host::params::Params;
+use wheelset_plant::params::Params;
 
 /// Largest number of values on one axis.
 pub const MAX_AXIS_POINTS: usize = 10_000;

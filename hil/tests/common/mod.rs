@@ -4,10 +4,12 @@
 #![allow(dead_code, clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 use hil::qemu::{Channel, Qemu, QemuConfig};
-use sim_host::control::{Actuation as PlantActuation, Measurements, SampledController, YawLaw};
-use sim_host::params::Params;
-use sim_host::scenario::Scenario;
-use sim_host::sim::{run_sampled, ActuatorModel, SensorModel, Trajectory};
+use wheelset_plant::control::{
+    Actuation as PlantActuation, Measurements, SampledController, YawLaw,
+};
+use wheelset_plant::params::Params;
+use wheelset_plant::scenario::Scenario;
+use wheelset_plant::sim::{run_sampled, ActuatorModel, SensorModel, Trajectory};
 use wheelset_proto::units::{
     quantize, to_si, CURRENT_LSB_A, DEMAND_LSB_NM, LAT_VEL_LSB_M_PER_S, SPEED_LSB_RAD_PER_S,
     TORQUE_LSB_NM, VOLTAGE_LSB_V,

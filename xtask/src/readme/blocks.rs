@@ -145,7 +145,7 @@ pub const BLOCKS: &[Block] = &[
     sim("adhesion-low", "adhesion --condition low --json out/adh-low.json --plot out/adh"),
     sim("low-adhesion-on", "run --scenario low-adhesion --control lead --loop core --wsp on --json out/low-on.json --csv out/low-on.csv --plot out/low"),
     sim("low-adhesion-off", "run --scenario low-adhesion --control lead --loop core --wsp off --json out/low-off.json"),
-    // The sections with and without protection (Markdown: `sim_host::traction::sections_table`).
+    // The sections with and without protection (Markdown: `wheelset_plant::traction::sections_table`).
     sim("low-adhesion-table", "run --scenario low-adhesion --control lead --loop core --sections-table").keep(Keep::Markdown),
     hil("actuator-fault", "run --scenario actuator-fault --report out/af"),
     // The closed loop over the simulated link.

@@ -1,0 +1,226 @@
+//! `sim-host run --loop device`: the device loop's flags and the firmware runtime over
+//! the simulated serial link.
+
+use clap::ValueEnum;
+use wheelset_plant::scenario::Scenario;
+use wheelset_report::{out, outln};
+
+use super::run::{print_summary, write_run_summary, RunArgs};
+use super::{io_fail, simulate, warn, Failure};
+
+/// Which controllers close the loop.
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
+pub(crate) enum LoopKind {
+    /// The continuous-time reference controllers (extra ODE states).
+    Continuous,
+    /// The firmware runtime (fixed point) over the simulated serial link.
+    Device,
+    /// The control core in f64 on the plant, no link (one period of delay, wire
+    /// quantisation of the inputs): the reference of the device, protection included.
+    Core,
+}
+
+/// Wheel-slip protection switch.
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
+pub(crate) enum OnOff {
+    /// On.
+    On,
+    /// Off.
+    Off,
+}
+
+/// The device loop's options (`--loop device`). All but `--loop` apply to the device
+/// loop only: given without `--loop device` they are refused, naming the flag.
+#[derive(clap::Args)]
+pub(crate) struct DeviceArgs {
+    /// Loop kind.
+    #[arg(long = "loop", value_enum, default_value = "continuous")]
+    pub(crate) loop_kind: LoopKind,
+    /// Wheel-slip protection (default on): of the f64 control core (`--loop core`), or of
+    /// the device (`--loop device`: the host sets `Config.wsp` before the run).
+    #[arg(long, value_enum)]
+    pub(crate) wsp: Option<OnOff>,
+    /// Link faults, e.g. `ber=1e-3,drop=0.1,outage=8.0:0.05` (keys: ber, drop, byte_drop,
+    /// outage=START_S:LEN_S[:up|down], burst=RATE_HZ:LEN_BYTES, dir=both|up|down);
+    /// default none.
+    #[arg(long, allow_hyphen_values = true)]
+    pub(crate) faults: Option<String>,
+    /// Seed of the link's fault injection [default: 1].
+    #[arg(long, allow_negative_numbers = true)]
+    pub(crate) seed: Option<u64>,
+    /// Link baud rate (10 bits per byte) [default: 5000000].
+    #[arg(long, allow_negative_numbers = true)]
+    pub(crate) baud: Option<u32>,
+    /// One-way link latency, us, in [0, 1e6] [default: 2].
+    #[arg(long, allow_negative_numbers = true)]
+    pub(crate) latency_us: Option<f64>,
+    /// Device base rate, Hz (default: the control core's).
+    #[arg(long, allow_negative_numbers = true)]
+    pub(crate) rate_hz: Option<u32>,
+    /// Ticks the device bridges a missing sensor frame before its safe state
+    /// [default: the runtime's].
+    #[arg(long, allow_negative_numbers = true)]
+    pub(crate) hold_ticks: Option<u16>,
+    /// What the Sensor frames carry of the lateral motion: `velocity` (y') or
+    /// `acceleration` (y'', integrated on the device with a wash-out) [default: velocity].
+    #[arg(long, value_enum)]
+    pub(crate) lateral: Option<Lateral>,
+}
+
+impl DeviceArgs {
+    /// The device-loop flags that were given (for refusing them on the continuous loop).
+    pub(crate) fn given(&self) -> Vec<&'static str> {
+        [
+            ("--faults", self.faults.is_some()),
+            ("--seed", self.seed.is_some()),
+            ("--baud", self.baud.is_some()),
+            ("--latency-us", self.latency_us.is_some()),
+            ("--rate-hz", self.rate_hz.is_some()),
+            ("--hold-ticks", self.hold_ticks.is_some()),
+            ("--lateral", self.lateral.is_some()),
+        ]
+        .into_iter()
+        .filter(|(_, g)| *g)
+        .map(|(f, _)| f)
+        .collect()
+    }
+}
+
+/// Largest `--latency-us`: 1 s (a link slower than that cannot carry any control rate).
+pub(crate) const MAX_LATENCY_US: f64 = 1e6;
+
+/// Lateral sensing over the link.
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
+pub(crate) enum Lateral {
+    /// Lateral velocity `y'`.
+    Velocity,
+    /// Lateral acceleration `y''`.
+    Acceleration,
+}
+
+/// `--loop device`: the firmware runtime over the simulated link; prints the frame
+/// accounting and the deviation from the continuous reference.
+pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
+    use wheelset_loop::device_loop::{deviation, run_device, DeviceOptions, CURVE_WINDOWS};
+    let d = &a.device;
+    let wsp = d.wsp != Some(OnOff::Off);
+    let latency_us = d.latency_us.unwrap_or(2.0);
+    if !(latency_us.is_finite() && (0.0..=MAX_LATENCY_US).contains(&latency_us)) {
+        return Err(Failure {
+            code: 2,
+            msg: format!(
+                "--latency-us {latency_us:e}: must be a finite value in [0, {MAX_LATENCY_US:e}] us"
+            ),
+        });
+    }
+    let baud = d.baud.unwrap_or(wheelset_loop::link::DEFAULT_BAUD);
+    if baud == 0 {
+        return Err(Failure {
+            code: 2,
+            msg: "--baud 0: must be positive".into(),
+        });
+    }
+    if d.rate_hz == Some(0) {
+        return Err(Failure {
+            code: 2,
+            msg: "--rate-hz 0: must be positive".into(),
+        });
+    }
+    let faults_spec = d.faults.clone().unwrap_or_default();
+    let faults: wheelset_loop::link::Faults =
+        faults_spec
+            .parse()
+            .map_err(|e: wheelset_loop::link::FaultSpecError| Failure {
+                code: 2,
+                msg: e.to_string(),
+            })?;
+    let opt = DeviceOptions {
+        link: wheelset_loop::link::LinkConfig {
+            baud,
+            latency_ns: (latency_us * 1e3).round() as u64,
+            faults,
+            seed: d.seed.unwrap_or(1),
+        },
+        hold_ticks: d.hold_ticks.unwrap_or(wheelset_runtime::DEFAULT_HOLD_TICKS),
+        base_rate_hz: d.rate_hz,
+        lateral: match d.lateral.unwrap_or(Lateral::Velocity) {
+            Lateral::Velocity => wheelset_loop::device_loop::LateralSensing::Velocity,
+            Lateral::Acceleration => wheelset_loop::device_loop::LateralSensing::Acceleration,
+        },
+        wsp,
+        ..DeviceOptions::default()
+    };
+    let hz = d
+        .rate_hz
+        .unwrap_or(wheelset_control::Config::default().base_rate_hz);
+    let period_ns = 1_000_000_000 / u64::from(hz.max(1));
+    let kept = 2 + a.compare.iter().filter(|&&c| c != a.control).count() as u64;
+    wheelset_plant::memory::check_runs(sc.duration_ns, sc.output_dt_ns, Some(period_ns), kept)
+        .map_err(|msg| Failure {
+            code: 2,
+            msg: format!("{}: {msg}", sc.source),
+        })?;
+    if let Some(w) = wheelset_loop::rate_check::warning(sc, a.control.into(), hz) {
+        warn(&w);
+    }
+    let run = run_device(sc, a.control.into(), &opt).map_err(|e| Failure {
+        code: 2,
+        msg: e.to_string(),
+    })?;
+    print_summary(sc, &run.trajectory);
+    if let Some(s) = &run.report.device {
+        outln!(
+            "wheel-slip protection {} (Config.wsp): {} events, {} ticks acting (device status)",
+            if wsp { "on" } else { "off" },
+            s.wsp_events,
+            s.wsp_ticks
+        );
+    }
+    write_run_summary(&a.json, sc, &run.trajectory, Some(wsp))?;
+    outln!(
+        "link: {} baud, latency {} us, period {} us, faults `{}` (seed {})",
+        opt.link.baud,
+        latency_us,
+        run.period_ns as f64 / 1e3,
+        if faults_spec.is_empty() {
+            "none"
+        } else {
+            &faults_spec
+        },
+        opt.link.seed
+    );
+    out!("{}", run.report);
+    outln!();
+    let reference = simulate(sc, a.control);
+    outln!(
+        "vs continuous reference: {}",
+        deviation(&run.trajectory, &reference, CURVE_WINDOWS)
+    );
+    if let Some(path) = &a.csv {
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).map_err(|e| io_fail(dir, e))?;
+        }
+        let f = std::fs::File::create(path).map_err(|e| io_fail(path, e))?;
+        run.write_csv(std::io::BufWriter::new(f))
+            .map_err(|e| io_fail(path, e))?;
+        outln!(
+            "csv: {} ({} rows)",
+            path.display(),
+            run.trajectory.records.len()
+        );
+    }
+    if let Some(dir) = &a.plot {
+        let mut runs = vec![run.trajectory, reference];
+        for &c in &a.compare {
+            if c != a.control {
+                runs.push(simulate(sc, c));
+            }
+        }
+        let files =
+            crate::figures::write_time_histories(&runs, dir).map_err(|e| io_fail(dir, e))?;
+        for f in files {
+            outln!("plot: {}", f.display());
+        }
+    }
+    Ok(())
+}

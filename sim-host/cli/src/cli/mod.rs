@@ -1,0 +1,97 @@
+//! The subcommands of `sim-host`, one module each with its arguments beside it, and
+//! what they share: the failure type with its exit code, the `--control` law, the
+//! `--params` loader and the JSON writer.
+
+mod adhesion;
+mod device;
+mod modes;
+mod rates;
+mod run;
+
+pub(crate) use adhesion::{cmd_adhesion, AdhesionArgs};
+pub(crate) use modes::{cmd_modes, ModesArgs};
+pub(crate) use rates::{cmd_rates, RatesArgs};
+pub(crate) use run::{cmd_run, RunArgs};
+
+use clap::ValueEnum;
+use std::path::PathBuf;
+use wheelset_plant::control::YawLaw;
+use wheelset_plant::error::ConfigError;
+use wheelset_plant::params::Params;
+use wheelset_plant::scenario::Scenario;
+use wheelset_plant::sim::{run_continuous, Trajectory};
+use wheelset_report::outln;
+
+/// Yaw control mode.
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
+pub(crate) enum Control {
+    /// Mechanical yaw spring `k_yaw psi` (no actuator).
+    Passive,
+    /// Active yaw damping, pure gain `T = K y'` (spring replaced by the actuator).
+    Gain,
+    /// Active yaw damping with phase lead `K 7.5 (s+37)/(s+274)` on `y'`.
+    Lead,
+}
+
+impl From<Control> for YawLaw {
+    fn from(c: Control) -> Self {
+        match c {
+            Control::Passive => YawLaw::Passive,
+            Control::Gain => YawLaw::Gain,
+            Control::Lead => YawLaw::Lead,
+        }
+    }
+}
+
+/// A command failure with its exit code.
+pub(crate) struct Failure {
+    pub(crate) code: u8,
+    pub(crate) msg: String,
+}
+
+impl From<ConfigError> for Failure {
+    fn from(e: ConfigError) -> Self {
+        Failure {
+            code: 2,
+            msg: e.to_string(),
+        }
+    }
+}
+
+pub(crate) fn io_fail(what: &std::path::Path, e: std::io::Error) -> Failure {
+    Failure {
+        code: 1,
+        msg: format!("{}: cannot write: {e}", what.display()),
+    }
+}
+
+pub(crate) fn load_params(path: &Option<PathBuf>) -> Result<Params, ConfigError> {
+    match path {
+        Some(p) => Params::from_file(p),
+        None => Ok(Params::default()),
+    }
+}
+
+/// One simulation of the scenario. This is the place where further loop kinds (the
+/// device over the link) plug in: they produce the same [`Trajectory`].
+pub(crate) fn simulate(sc: &Scenario, control: Control) -> Trajectory {
+    run_continuous(sc, control.into())
+}
+
+pub(crate) fn warn(msg: &str) {
+    eprintln!("sim-host: warning: {msg}");
+}
+
+/// Writes `value` as pretty JSON to `path` (directories created).
+pub(crate) fn write_json(path: &std::path::Path, value: &serde_json::Value) -> Result<(), Failure> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| io_fail(dir, e))?;
+    }
+    let text = serde_json::to_string_pretty(value).map_err(|e| Failure {
+        code: 1,
+        msg: format!("{}: {e}", path.display()),
+    })?;
+    std::fs::write(path, text).map_err(|e| io_fail(path, e))?;
+    outln!("json: {}", path.display());
+    Ok(())
+}

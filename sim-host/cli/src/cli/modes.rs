@@ -1,0 +1,166 @@
+//! `sim-host modes`: the modal analysis along the creep sweep.
+
+use clap::ValueEnum;
+use std::path::PathBuf;
+use wheelset_plant::modes::{creep_grid, sweep_case, Case};
+use wheelset_report::outln;
+
+use super::{io_fail, load_params, warn, Failure};
+
+/// Analysis case of docs/model.md.
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
+pub(crate) enum CaseArg {
+    /// Passive yaw spring, rigid axle, no traction dynamics.
+    A,
+    /// Active pure gain, rigid axle.
+    B,
+    /// Active phase lead, rigid axle.
+    C,
+    /// Phase lead, flexible axle, gear spring, motor, armature, PI current loop.
+    D,
+}
+
+#[derive(clap::Args)]
+pub(crate) struct ModesArgs {
+    /// Analyse only this case (default: all four).
+    #[arg(long, value_enum)]
+    case: Option<CaseArg>,
+    /// Points of the sweep, evenly spaced over 1-10 MN (1, 2, 5 and 10 MN are always
+    /// included exactly).
+    #[arg(long, default_value_t = 1000, allow_negative_numbers = true,
+          value_parser = clap::value_parser!(u32).range(2..=1_000_000))]
+    points: u32,
+    /// Write the results as JSON here (directories created).
+    #[arg(long)]
+    json: PathBuf,
+    /// Write one root-locus SVG per case into this directory.
+    #[arg(long)]
+    plot: Option<PathBuf>,
+    /// Parameter file (TOML, any subset of the parameters).
+    #[arg(long)]
+    params: Option<PathBuf>,
+}
+
+pub(crate) fn progress(total: u64, msg: &str) -> indicatif::ProgressBar {
+    use std::io::IsTerminal;
+    if !std::io::stderr().is_terminal() {
+        return indicatif::ProgressBar::hidden();
+    }
+    let pb = indicatif::ProgressBar::new(total);
+    if let Ok(style) =
+        indicatif::ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} points ({eta})")
+    {
+        pb.set_style(style.progress_chars("=> "));
+    }
+    pb.set_message(msg.to_string());
+    pb
+}
+
+pub(crate) fn cmd_modes(a: &ModesArgs) -> Result<(), Failure> {
+    let p = load_params(&a.params)?;
+    let cases: Vec<Case> = match a.case {
+        None => Case::ALL.to_vec(),
+        Some(CaseArg::A) => vec![Case::A],
+        Some(CaseArg::B) => vec![Case::B],
+        Some(CaseArg::C) => vec![Case::C],
+        Some(CaseArg::D) => vec![Case::D],
+    };
+    wheelset_plant::memory::check_modes(u64::from(a.points), cases.len() as u64)
+        .map_err(|msg| Failure { code: 2, msg })?;
+    let grid = creep_grid(a.points as usize);
+    let pb = progress((grid.len() * cases.len()) as u64, "modal sweep");
+    let mut sweeps = Vec::new();
+    for &case in &cases {
+        let sw = sweep_case(&p, case, &grid, || pb.inc(1)).map_err(|e| Failure {
+            code: 1,
+            msg: e.to_string(),
+        })?;
+        sweeps.push(sw);
+    }
+    pb.finish_and_clear();
+    outln!(
+        "modal sweep: v = {} m/s, f11 = f22 over {} points in 1-10 MN; kinematic frequency v sqrt(lambda/(r0 Lg))/2pi = {:.3} Hz",
+        p.v,
+        grid.len(),
+        p.kinematic_hz()
+    );
+    outln!(
+        "the structural zero eigenvalue (free rolling at any speed) is excluded from every verdict"
+    );
+    for sw in &sweeps {
+        // Conditioning at the reported points: eig(A) against eig(A^T).
+        let worst = [1e6, 2e6, 5e6, 1e7]
+            .iter()
+            .filter_map(|&c| {
+                wheelset_plant::finite::eigen_disagreement(&sw.case.matrix(&p, c).0).map(|d| (d, c))
+            })
+            .fold((0.0f64, 0.0), |a, b| if b.0 > a.0 { b } else { a });
+        if worst.0 > wheelset_plant::finite::ILL_CONDITIONED {
+            warn(&format!(
+                "case ({}): the eigenvalue problem is ill-conditioned with these parameters: the \
+                 eigenvalues of A and A^T differ by {:.1e} (relative) at {} MN, so the modes below \
+                 carry only about {} correct digits",
+                sw.case.id(),
+                worst.0,
+                worst.1 * 1e-6,
+                (-worst.0.log10()).floor().max(0.0)
+            ));
+        }
+        outln!("case ({}): {}", sw.case.id(), sw.case.label());
+        for c in [1e6, 2e6, 5e6, 1e7] {
+            let Some(k) = sw.index_of(c) else { continue };
+            let modes: Vec<String> = sw
+                .modes_at(k)
+                .iter()
+                .map(|m| format!("{} {:.2} Hz zeta {:.3}", m.name, m.freq_hz, m.zeta))
+                .collect();
+            let z = sw.structural_zero(k).map_or(f64::NAN, |l| l.norm());
+            outln!(
+                "  {:>4.0} MN {}: {} | structural zero |lambda| = {z:.1e}",
+                c * 1e-6,
+                if sw.stable_at(k) {
+                    "stable  "
+                } else {
+                    "UNSTABLE"
+                },
+                modes.join("; ")
+            );
+        }
+        if sw.crossings.is_empty() {
+            outln!("  no crossing in 1-10 MN");
+        }
+        for c in &sw.crossings {
+            outln!(
+                "  crossing: {} at {:.4} MN, {:.2} Hz, unstable {}",
+                c.mode,
+                c.creep_n * 1e-6,
+                c.freq_hz,
+                if c.unstable_below { "below" } else { "above" }
+            );
+        }
+    }
+    let json = serde_json::json!({
+        "speed_mps": p.v,
+        "kinematic_hz": p.kinematic_hz(),
+        "note": "structural zero eigenvalue (free rolling at any speed) reported as structural_zero and excluded from stability verdicts",
+        "params": &p,
+        "derived": {"k_t": p.k_t(), "k_gear": p.k_gear(), "y0_at_2300m": p.pure_rolling_y(1.0 / 2300.0)},
+        "cases": sweeps.iter().map(|s| s.to_json()).collect::<Vec<_>>(),
+    });
+    if let Some(dir) = a.json.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| io_fail(dir, e))?;
+    }
+    let text = serde_json::to_string(&json).map_err(|e| Failure {
+        code: 1,
+        msg: e.to_string(),
+    })?;
+    std::fs::write(&a.json, text).map_err(|e| io_fail(&a.json, e))?;
+    outln!("json: {}", a.json.display());
+    if let Some(dir) = &a.plot {
+        for sw in &sweeps {
+            let f = crate::figures::write_root_locus(sw, dir).map_err(|e| io_fail(dir, e))?;
+            outln!("plot: {}", f.display());
+        }
+    }
+    Ok(())
+}

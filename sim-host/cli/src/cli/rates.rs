@@ -1,0 +1,94 @@
+//! `sim-host rates`: the sampled-data rate analysis of the firmware's loops.
+
+use clap::ValueEnum;
+use std::path::PathBuf;
+use wheelset_report::{out, outln};
+
+use super::{io_fail, load_params, Control, Failure};
+
+/// Plant of the rate analysis.
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
+pub(crate) enum RatesModel {
+    /// Case (d) linearisation: flexible axle, motor on its gear spring, armature.
+    Full,
+    /// Case (a) lateral/yaw plus the armature circuit alone.
+    Reduced,
+}
+
+#[derive(clap::Args)]
+pub(crate) struct RatesArgs {
+    /// Yaw control mode analysed.
+    #[arg(long, value_enum, default_value = "lead")]
+    control: Control,
+    /// Plant model.
+    #[arg(long, value_enum, default_value = "full")]
+    model: RatesModel,
+    /// Parameter file (TOML, any subset of the parameters).
+    #[arg(long)]
+    params: Option<PathBuf>,
+    /// Ticks of computation and transport delay on the actuation (the firmware: 1).
+    #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
+    delay: usize,
+    /// The fastest UART baud the link may assume (selection criterion).
+    #[arg(long, default_value_t = 6_000_000, allow_negative_numbers = true)]
+    max_baud: u32,
+    /// Write the table as JSON (directories created).
+    #[arg(long)]
+    json: Option<PathBuf>,
+}
+
+pub(crate) fn cmd_rates(a: &RatesArgs) -> Result<(), Failure> {
+    use wheelset_plant::sampled::{rates, Criteria, LinkBudget, Model};
+    if a.delay > 10 {
+        return Err(Failure {
+            code: 2,
+            msg: format!("--delay {}: at most 10 ticks", a.delay),
+        });
+    }
+    if a.max_baud == 0 {
+        return Err(Failure {
+            code: 2,
+            msg: "--max-baud 0: must be positive".into(),
+        });
+    }
+    let p = load_params(&a.params)?;
+    let mode = match a.control {
+        Control::Passive => wheelset_control::YawMode::Passive,
+        Control::Gain => wheelset_control::YawMode::Gain,
+        Control::Lead => wheelset_control::YawMode::Lead,
+    };
+    let model = match a.model {
+        RatesModel::Full => Model::Full,
+        RatesModel::Reduced => Model::Reduced,
+    };
+    let mut cfg = wheelset_control::Config {
+        yaw_mode: mode,
+        ..wheelset_control::Config::default()
+    };
+    cfg.motor.k_m = p.k_m;
+    cfg.motor.n = p.n_gear;
+    let criteria = Criteria {
+        max_baud: a.max_baud as f64,
+        ..Criteria::default()
+    };
+    let report =
+        rates(&p, model, &cfg, a.delay, &LinkBudget::default(), &criteria).map_err(|e| {
+            Failure {
+                code: 2,
+                msg: format!("rate analysis: {e}"),
+            }
+        })?;
+    out!("{}", report.render());
+    if let Some(path) = &a.json {
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).map_err(|e| io_fail(dir, e))?;
+        }
+        let text = serde_json::to_string_pretty(&report.to_json()).map_err(|e| Failure {
+            code: 1,
+            msg: format!("JSON: {e}"),
+        })?;
+        std::fs::write(path, text).map_err(|e| io_fail(path, e))?;
+        outln!("wrote {}", path.display());
+    }
+    Ok(())
+}

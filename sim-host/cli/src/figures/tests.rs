@@ -1,0 +1,60 @@
+//! The figures' titles: the root locus names where the stability changes (not the
+//! 10 MN end), and the time histories name the paper's figure of their scenario only.
+
+use super::{write_root_locus, write_time_histories};
+use wheelset_plant::control::YawLaw;
+use wheelset_plant::modes::{creep_grid, sweep_case, Case};
+use wheelset_plant::params::Params;
+use wheelset_plant::scenario::Scenario;
+use wheelset_plant::sim::run_continuous;
+
+fn tmp(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("sim-host-figures-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&d).expect("temp dir");
+    d
+}
+
+#[test]
+fn root_locus_subtitle_states_the_bisected_crossing() {
+    let p = Params::default();
+    let sw = sweep_case(&p, Case::B, &creep_grid(60), || {}).expect("sweep");
+    let c = sw.crossings.first().expect("case (b) crosses");
+    let dir = tmp("locus");
+    let f = write_root_locus(&sw, &dir).expect("written");
+    let svg = std::fs::read_to_string(f).expect("read");
+    let want = format!("kinematic crosses at {:.2} MN", c.creep_n * 1e-6);
+    assert!(svg.contains(&want), "no `{want}` in the subtitle");
+    assert!(!svg.contains("crosses: 10 MN"));
+    // Case (a) does not cross in 1-10 MN and says so.
+    let sa = sweep_case(&p, Case::A, &creep_grid(60), || {}).expect("sweep");
+    assert!(sa.crossings.is_empty());
+    let svg = std::fs::read_to_string(write_root_locus(&sa, &dir).expect("written")).expect("read");
+    assert!(svg.contains("no stability change in 1-10 MN"));
+}
+
+#[test]
+fn time_histories_name_the_figure_of_their_scenario() {
+    let p = Params::default();
+    for (scenario, law, lateral, not) in [
+        (
+            "beating",
+            YawLaw::Passive,
+            "Lateral displacement (Fig. 9)",
+            "(Fig. 6)",
+        ),
+        (
+            "curve",
+            YawLaw::Lead,
+            "Lateral displacement (Fig. 6)",
+            "(Fig. 9)",
+        ),
+    ] {
+        let sc = Scenario::load(scenario, &p).expect("built in");
+        let tr = run_continuous(&sc, law);
+        let dir = tmp(scenario);
+        write_time_histories(&[tr], &dir).expect("written");
+        let svg = std::fs::read_to_string(dir.join("lateral.svg")).expect("read");
+        assert!(svg.contains(lateral), "{scenario}: no `{lateral}`");
+        assert!(!svg.contains(not), "{scenario}: `{not}` in lateral.svg");
+    }
+}

@@ -1,0 +1,138 @@
+//! The control core itself (`wheelset_control::Controller<T>`, e.g. the f64 reference)
+//! closing the loop on the plant, without the link: the same laws the device runs,
+//! wheel-slip protection included, with the device's timing (the actuation computed
+//! from the sample of tick `k` acts from tick `k + 1`, one base period of delay) and its
+//! wire quantisation of the inputs (each measurement rounded to its wire LSB, as the
+//! Sensor frame carries it).
+//!
+//! This is the f64 reference of a run where the adhesion law and the protection matter
+//! (`hil run --scenario low-adhesion`): the continuous controllers have no protection,
+//! so they are no yardstick there.
+
+use crate::device_loop::control_config;
+use wheelset_control::{Controller, InputCodes, SampleBits};
+use wheelset_plant::control::{Actuation, Measurements, SampledController, YawLaw};
+use wheelset_plant::scenario::Scenario;
+use wheelset_plant::sim::{run_sampled, ActuatorModel, SensorModel, SimError, Trajectory};
+use wheelset_proto::units::{
+    CURRENT_LSB_A, DEMAND_LSB_NM, LAT_VEL_LSB_M_PER_S, SPEED_LSB_RAD_PER_S,
+};
+
+/// Reference speed LSB of the Sensor frame, m/s (`Sensor::v_ref_mm_s`: 1 mm/s).
+pub const V_REF_LSB_M_PER_S: f64 = 1e-3;
+
+/// The core as a sampled controller: quantise to wire codes, tick, decode.
+pub struct CoreController<T: SampleBits> {
+    core: Controller<T>,
+    period_ns: u64,
+}
+
+fn code(x: f64, lsb: f64) -> i32 {
+    let c = (x / lsb).round();
+    if c.is_nan() {
+        0
+    } else {
+        c.clamp(i32::MIN as f64, i32::MAX as f64) as i32
+    }
+}
+
+impl<T: SampleBits> CoreController<T> {
+    /// The core of `cfg` (validated), protection on or off.
+    pub fn try_new(
+        cfg: &wheelset_control::Config,
+        wsp: bool,
+    ) -> Result<Self, wheelset_control::ConfigError> {
+        let mut core = Controller::<T>::try_new(cfg)?;
+        core.set_wsp(wsp);
+        Ok(CoreController {
+            core,
+            period_ns: 1_000_000_000 / u64::from(cfg.base_rate_hz),
+        })
+    }
+
+    /// The core (counters, protection state).
+    pub fn core(&self) -> &Controller<T> {
+        &self.core
+    }
+}
+
+impl<T: SampleBits> SampledController for CoreController<T> {
+    fn period_ns(&self) -> u64 {
+        self.period_ns
+    }
+
+    fn step(&mut self, _t_ns: u64, m: &Measurements) -> Actuation {
+        self.core.set_v_ref_code(code(m.v_mps, V_REF_LSB_M_PER_S));
+        let out = self.core.tick_codes(&InputCodes {
+            y_dot: code(m.yd_mps, LAT_VEL_LSB_M_PER_S),
+            current: code(m.i_a, CURRENT_LSB_A),
+            speed: code(m.w_m, SPEED_LSB_RAD_PER_S),
+            demand: code(m.demand_nm, DEMAND_LSB_NM),
+        });
+        let lsb = wheelset_control::WireLsb::default();
+        Actuation {
+            t_psi: f64::from(out.yaw_torque) * lsb.torque,
+            u_a: f64::from(out.voltage) * lsb.voltage,
+        }
+    }
+}
+
+/// Why a core run could not start.
+#[derive(Debug, Clone, PartialEq)]
+pub enum CoreError {
+    /// The scenario's parameters do not compile into a control core.
+    Config(wheelset_control::ConfigError),
+    /// The sampled run refused its timing.
+    Sim(SimError),
+}
+
+impl std::fmt::Display for CoreError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            CoreError::Config(e) => write!(f, "control core: {e}"),
+            CoreError::Sim(e) => write!(f, "control core run: {e}"),
+        }
+    }
+}
+
+impl std::error::Error for CoreError {}
+
+/// What a core run did besides its trajectory.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CoreRun {
+    /// Traction steps the protection acted on.
+    pub wsp_ticks: u32,
+    /// Times it started acting.
+    pub wsp_events: u32,
+}
+
+/// Runs `sc` with the control core of sample type `T` (the scenario's parameters, yaw
+/// law `law`, protection `wsp`), one base period of actuation delay.
+pub fn run_core<T: SampleBits>(
+    sc: &Scenario,
+    law: YawLaw,
+    wsp: bool,
+) -> Result<(Trajectory, CoreRun), CoreError> {
+    let cfg = control_config(&sc.params, law, sc.drive);
+    let mut ctrl = CoreController::<T>::try_new(&cfg, wsp).map_err(CoreError::Config)?;
+    let mut act = ActuatorModel::ideal();
+    act.delay_ns = ctrl.period_ns;
+    let label = format!("core {} wsp {}", T::NAME, if wsp { "on" } else { "off" });
+    let tr = run_sampled(
+        sc,
+        &mut ctrl,
+        &mut SensorModel::ideal(),
+        &mut act,
+        law.has_spring(),
+        &label,
+    )
+    .map_err(CoreError::Sim)?;
+    let c = ctrl.core.counters();
+    Ok((
+        tr,
+        CoreRun {
+            wsp_ticks: c.wsp_ticks,
+            wsp_events: c.wsp_events,
+        },
+    ))
+}

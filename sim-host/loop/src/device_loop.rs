@@ -1,0 +1,528 @@
+//! The device in process, behind the simulated serial link: the firmware's own
+//! [`Runtime`](wheelset_runtime::Runtime) (control core + protocol + fault policy) as an
+//! [`InProc`] transport on simulated time, closed with the plant through the one
+//! closed-loop adapter [`crate::exchange`] (the same code `hil run` uses on every target).
+//!
+//! One exchange per control period `T` (the device's base rate), starting at the sample
+//! instant `t_k = k T`:
+//!
+//! ```text
+//! t_k            host quantises the measurements into a Sensor frame (seq k) -> up link
+//! t_k + d        device tick: Runtime::receive(bytes arrived by now); Runtime::tick()
+//!                -> Actuation frame -> down link      (d = worst-case Sensor frame time
+//!                                                      on the wire + latency)
+//! t_k + T        host applies the latest valid Actuation that arrived (ZOH until t_k+2T);
+//!                if none arrived, it holds the previous one
+//! ```
+//!
+//! So the plant sees the computation/transport delay of one period that the control
+//! core's rate analysis assumes. The link budget check refuses a configuration whose
+//! round trip does not fit ([`crate::link::check_budget`]).
+
+use std::fmt;
+
+use wheelset_control::Fx;
+use wheelset_proto::{Flags, Status};
+use wheelset_runtime::{RuntimeConfig, RuntimeError};
+
+pub use crate::exchange::{LinkSample, LINK_COLUMNS};
+pub use crate::inproc::{DeviceFault, InProc};
+pub use wheelset_proto::LateralSensing;
+
+use crate::exchange::{close_loop, HostCounts, LoopSetup};
+use crate::link::{Accounting, LinkBudgetError, LinkConfig};
+use wheelset_plant::control::YawLaw;
+use wheelset_plant::params::Params;
+use wheelset_plant::scenario::Scenario;
+use wheelset_plant::sim::{Record, SimError, Trajectory};
+
+// The plant's memory estimate of a device run counts one link record per period.
+const _: () = assert!(
+    std::mem::size_of::<LinkSample>() as u64 + 16
+        == wheelset_plant::memory::DEVICE_BYTES_PER_PERIOD
+);
+
+/// Worst-case Sensor frame (one lateral value) on the wire, bytes: the wire crate's
+/// [`wheelset_proto::SENSOR_ONE_LATERAL_MAX_FRAME`].
+pub const SENSOR_WORST_BYTES: usize = wheelset_proto::SENSOR_ONE_LATERAL_MAX_FRAME;
+/// Worst-case Actuation frame on the wire, bytes ([`wheelset_proto::ACTUATION_MAX_FRAME`]).
+pub const ACTUATION_WORST_BYTES: usize = wheelset_proto::ACTUATION_MAX_FRAME;
+
+/// Why the device loop cannot be built.
+#[derive(Debug, Clone, PartialEq)]
+pub enum DeviceError {
+    /// The runtime refused its configuration.
+    Runtime(RuntimeError),
+    /// The link cannot carry one exchange per period.
+    Budget(LinkBudgetError),
+    /// The base rate does not give a whole number of nanoseconds.
+    Rate(u32),
+    /// The plant run refused the period (not a multiple of the integration step).
+    Sim(SimError),
+    /// The device refused the run's Config frame ([`run_config`]).
+    Refused(wheelset_proto::RefuseReason, wheelset_proto::Config),
+}
+
+impl fmt::Display for DeviceError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Runtime(e) => write!(f, "{e}"),
+            Self::Budget(e) => write!(f, "{e}"),
+            Self::Rate(hz) => write!(
+                f,
+                "device base rate {hz} Hz: the period must be a whole number of nanoseconds"
+            ),
+            Self::Sim(e) => write!(f, "device loop: {e}"),
+            Self::Refused(why, c) => write!(
+                f,
+                "the device refused the run's Config (wsp {}, monitor_safe {}): {why}{}",
+                on_off(c.wsp),
+                on_off(c.monitor_safe),
+                if *why == wheelset_proto::RefuseReason::Unsupported {
+                    " (a build without the `wsp`/`monitor` runtime features cannot run \
+                     them: --wsp off, no --monitor-safe)"
+                } else {
+                    ""
+                }
+            ),
+        }
+    }
+}
+
+impl std::error::Error for DeviceError {}
+
+/// End-of-run report: every frame accounted for, and the device's own counters.
+#[derive(Debug, Clone)]
+pub struct LinkReport {
+    /// Host -> device.
+    pub up: Accounting,
+    /// Device -> host.
+    pub down: Accounting,
+    /// The device's counters as read back over the link in a Status frame, asked for
+    /// after the run (None if every try was lost).
+    pub device: Option<Status>,
+    /// Periods in which the safe flag was set in the applied actuation.
+    pub safe_periods: u64,
+    /// Transitions into / out of the safe state seen by the host (from the flags).
+    pub safe_entries_seen: u64,
+    /// See `safe_entries_seen`.
+    pub safe_exits_seen: u64,
+    /// Inputs clamped while quantising for the wire (host side).
+    pub host_clamped: u64,
+    /// Mean wire bytes per period, up (sent by the host) and down (received by it).
+    pub mean_bytes: (f64, f64),
+}
+
+impl LinkReport {
+    /// The report of a finished in-process run.
+    fn of(
+        log: &[LinkSample],
+        status: Option<Status>,
+        host: &HostCounts,
+        up: Accounting,
+        down: Accounting,
+    ) -> Self {
+        let mut safe_periods = 0;
+        let (mut entries, mut exits) = (0, 0);
+        let mut prev = false;
+        for s in log {
+            let safe = Flags(s.flags).has(Flags::SAFE);
+            safe_periods += u64::from(safe);
+            entries += u64::from(safe && !prev);
+            exits += u64::from(!safe && prev);
+            prev = safe;
+        }
+        let n = log.len().max(1) as f64;
+        LinkReport {
+            up,
+            down,
+            device: status,
+            safe_periods,
+            safe_entries_seen: entries,
+            safe_exits_seen: exits,
+            host_clamped: host.clamped,
+            mean_bytes: (host.bytes_sent as f64 / n, host.bytes_received as f64 / n),
+        }
+    }
+}
+
+impl fmt::Display for LinkReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(f, "host -> device: {}", self.up)?;
+        writeln!(f, "device -> host: {}", self.down)?;
+        writeln!(
+            f,
+            "safe state as the host saw it (the SAFE flag of the actuation in force each \
+             period): {} periods, entered {} x, left {} x (a safe state that ends before the \
+             link recovers, as in an outage of both directions, is not seen here: the device's \
+             own count is its status below); mean bytes per period: {:.1} up, {:.1} down; \
+             host-side clamps: {}",
+            self.safe_periods,
+            self.safe_entries_seen,
+            self.safe_exits_seen,
+            self.mean_bytes.0,
+            self.mean_bytes.1,
+            self.host_clamped
+        )?;
+        match &self.device {
+            Some(s) => write!(
+                f,
+                "device status: ticks {}, rx ok {}, rejected crc {} cobs {} version {} length {} \
+                 postcard {}, seq gaps {}, held ticks {}, safe ticks {}, safe entries {}, exits {}, \
+                 yaw sat {}, traction sat {}",
+                s.ticks,
+                s.rx_ok,
+                s.rx_crc,
+                s.rx_cobs,
+                s.rx_version,
+                s.rx_length,
+                s.rx_postcard,
+                s.seq_gaps,
+                s.held_ticks,
+                s.safe_ticks,
+                s.safe_entries,
+                s.safe_exits,
+                s.yaw_sat,
+                s.traction_sat
+            ),
+            None => write!(f, "device status: the status frame was lost"),
+        }
+    }
+}
+
+/// The control core's configuration for a scenario: the lead, gain, PI and motor
+/// constants from its parameters (so a scenario file that changes them changes the
+/// device too), the yaw mode from `law`, traction on when the drive is modelled.
+#[must_use]
+pub fn control_config(p: &Params, law: YawLaw, drive: bool) -> wheelset_control::Config {
+    let d = wheelset_control::Config::default();
+    wheelset_control::Config {
+        yaw_mode: match law {
+            YawLaw::Passive => wheelset_control::YawMode::Passive,
+            YawLaw::Gain => wheelset_control::YawMode::Gain,
+            YawLaw::Lead => wheelset_control::YawMode::Lead,
+        },
+        traction_enabled: drive,
+        gain_k: p.k_active,
+        lead: wheelset_control::LeadParams {
+            k: p.k_active,
+            a: p.lead_gain,
+            w1: p.lead_zero,
+            w2: p.lead_pole,
+            ..d.lead
+        },
+        pi: wheelset_control::PiParams {
+            kp: p.pi_kp,
+            ti: p.pi_ti,
+        },
+        motor: wheelset_control::Motor {
+            k_m: p.k_m,
+            n: p.n_gear,
+        },
+        ..d
+    }
+}
+
+fn on_off(b: bool) -> &'static str {
+    if b {
+        "on"
+    } else {
+        "off"
+    }
+}
+
+/// The Config frame of a run on `rt` (law, traction, enable, hold ticks) with the
+/// wheel-slip protection `wsp` and the monitor's response `monitor_safe`; the rates
+/// unchanged (`rates: None`). Every host path sends it before the first Sensor frame:
+/// the in-process device through [`InProc::configure`], a device elsewhere as the first
+/// frame of the run.
+#[must_use]
+pub fn run_config(rt: &RuntimeConfig, wsp: bool, monitor_safe: bool) -> wheelset_proto::Config {
+    use wheelset_proto::YawMode as W;
+    wheelset_proto::Config {
+        mode: match rt.control.yaw_mode {
+            wheelset_control::YawMode::Passive => W::Passive,
+            wheelset_control::YawMode::Gain => W::Gain,
+            wheelset_control::YawMode::Lead => W::Lead,
+        },
+        traction: rt.control.traction_enabled,
+        enable: rt.enable,
+        hold_ticks: rt.hold_ticks,
+        rates: None,
+        monitor_safe,
+        wsp,
+    }
+}
+
+/// Options of a device-in-the-loop run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DeviceOptions {
+    /// The link (baud, latency, faults, seed).
+    pub link: LinkConfig,
+    /// The runtime's hold ticks before the safe state.
+    pub hold_ticks: u16,
+    /// Base rate override, Hz (None: the control core's default).
+    pub base_rate_hz: Option<u32>,
+    /// `y'` or `y''` in the Sensor frames.
+    pub lateral: LateralSensing,
+    /// Wheel-slip protection (`Config.wsp`; default on).
+    pub wsp: bool,
+    /// A stability alarm holds the safe state until `ClearFaults` (`Config.monitor_safe`;
+    /// default off: report only).
+    pub monitor_safe: bool,
+    /// Send `Command::ClearFaults` at the first sample instant at or after this time, ns.
+    pub clear_faults_at_ns: Option<u64>,
+}
+
+impl Default for DeviceOptions {
+    fn default() -> Self {
+        Self {
+            link: LinkConfig::default(),
+            hold_ticks: wheelset_runtime::DEFAULT_HOLD_TICKS,
+            base_rate_hz: None,
+            lateral: LateralSensing::Velocity,
+            wsp: true,
+            monitor_safe: false,
+            clear_faults_at_ns: None,
+        }
+    }
+}
+
+/// A finished device-in-the-loop run.
+#[derive(Debug, Clone)]
+pub struct DeviceRun {
+    /// The plant's trajectory (same records as a continuous run).
+    pub trajectory: Trajectory,
+    /// One link record per control period.
+    pub link: Vec<LinkSample>,
+    /// Frame accounting and the device's counters.
+    pub report: LinkReport,
+    /// Control period, ns.
+    pub period_ns: u64,
+}
+
+impl DeviceRun {
+    /// The link record describing the actuation in force at `t_ns` (computed from the
+    /// sample of the previous period); None before the first.
+    #[must_use]
+    pub fn link_at(&self, t_ns: u64) -> Option<&LinkSample> {
+        let k = (t_ns / self.period_ns).checked_sub(1)?;
+        self.link.get(usize::try_from(k).ok()?)
+    }
+
+    /// Writes the CSV: the continuous run's columns, then [`LINK_COLUMNS`].
+    pub fn write_csv<W: std::io::Write>(&self, mut w: W) -> std::io::Result<()> {
+        use std::fmt::Write as _;
+        writeln!(
+            w,
+            "{},{}",
+            Record::COLUMNS.join(","),
+            LINK_COLUMNS.join(",")
+        )?;
+        let mut line = String::with_capacity(600);
+        for r in &self.trajectory.records {
+            line.clear();
+            for (i, v) in r.values().iter().enumerate() {
+                if i > 0 {
+                    line.push(',');
+                }
+                let _ = write!(line, "{v:.9e}");
+            }
+            let t_ns = (r.t_s * 1e9).round() as u64;
+            let l = self.link_at(t_ns).copied().unwrap_or_default();
+            let _ = write!(
+                line,
+                ",{},{},{},{},{}",
+                l.seq,
+                l.seq_echo,
+                l.age,
+                l.flags,
+                u8::from(l.fresh)
+            );
+            writeln!(w, "{line}")?;
+        }
+        Ok(())
+    }
+}
+
+/// The runtime configuration of a device running `sc` with `law`: the control core from
+/// the scenario's parameters ([`control_config`]), the hold ticks and base rate of `opt`,
+/// outputs enabled. The one rule every path follows (`sim-host --loop device`, `hil run`,
+/// `hil golden`): the device's configuration follows the scenario and the parameters.
+#[must_use]
+pub fn runtime_config(sc: &Scenario, law: YawLaw, opt: &DeviceOptions) -> RuntimeConfig {
+    let mut control = control_config(&sc.params, law, sc.drive);
+    if let Some(hz) = opt.base_rate_hz {
+        control.base_rate_hz = hz;
+    }
+    RuntimeConfig {
+        control,
+        hold_ticks: opt.hold_ticks,
+        enable: true,
+        ..RuntimeConfig::default()
+    }
+}
+
+/// Runs `sc` with the firmware runtime (fixed point, the production build) in the loop
+/// over the simulated link ([`InProc`] through [`close_loop`]). The actuation computed
+/// from the sample at `t_k` acts on the plant from `t_k + T` (ZOH).
+pub fn run_device(
+    sc: &Scenario,
+    law: YawLaw,
+    opt: &DeviceOptions,
+) -> Result<DeviceRun, DeviceError> {
+    let rt_cfg = runtime_config(sc, law, opt);
+    let mut dev = InProc::<Fx>::try_new(rt_cfg, &opt.link, DeviceFault::None)?;
+    let cfg = run_config(&rt_cfg, opt.wsp, opt.monitor_safe);
+    dev.configure(&cfg)
+        .map_err(|why| DeviceError::Refused(why, cfg))?;
+    let period_ns = dev.period_ns();
+    let label = format!(
+        "{} (device, {} Hz, {} baud)",
+        law.name(),
+        rt_cfg.control.base_rate_hz,
+        opt.link.baud
+    );
+    let run = close_loop(
+        sc,
+        &mut dev,
+        LoopSetup {
+            period_ns,
+            yaw_spring: law.has_spring(),
+            lateral: opt.lateral,
+            label: &label,
+            clear_faults_at_ns: opt.clear_faults_at_ns,
+            ..LoopSetup::default()
+        },
+    )
+    .map_err(DeviceError::Sim)?;
+    // (The simulated link always accounts exactly.)
+    let acc = dev.accounting();
+    let (up, down) = (acc.up, acc.down);
+    let report = LinkReport::of(&run.log, run.status, &run.host, up, down);
+    Ok(DeviceRun {
+        trajectory: run.trajectory,
+        link: run.log,
+        report,
+        period_ns,
+    })
+}
+
+/// How far a run is from a reference run of the same scenario (same output times).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Deviation {
+    /// Per window `[from_s, to_s)`: max relative deviation of `y` and of the creep forces.
+    pub windows: [WindowDeviation; 2],
+    /// Max `|y - y_ref|` over the whole run, m.
+    pub y_max_abs_m: f64,
+    /// The same relative to `max |y_ref|` over the run.
+    pub y_max_rel: f64,
+    /// Max creep-force deviation over the run, N (any of the three).
+    pub f_max_abs_n: f64,
+    /// The same relative to the largest reference creep force over the run.
+    pub f_max_rel: f64,
+    /// A value of either run was NaN or infinite (a diverged run): the figures above
+    /// are then meaningless (`f64::max` skips NaN).
+    pub diverged: bool,
+}
+
+/// Deviation in one time window.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct WindowDeviation {
+    /// Window start, s.
+    pub from_s: f64,
+    /// Window end, s.
+    pub to_s: f64,
+    /// Max `|y - y_ref| / |y_ref|`.
+    pub y_rel: f64,
+    /// Max over the window and over `Fx_R`, `Fx_L`, `Fy` of `|F - F_ref|`, relative to
+    /// the window's largest reference creep force (before the traction step the
+    /// longitudinal forces are ~0.1 N against a lateral 1.2 kN: a per-force ratio there
+    /// would measure noise, not the loop).
+    pub f_rel: f64,
+}
+
+/// The windows of the acceptance check on `curve`: the constant curve (4-12 s) before the
+/// traction step at 5 s (settled: 4.5-5 s) and after it (settled: 10-12 s).
+pub const CURVE_WINDOWS: [(f64, f64); 2] = [(4.5, 5.0), (10.0, 12.0)];
+
+/// Compares `run` with `reference` (records at the same times).
+#[must_use]
+pub fn deviation(run: &Trajectory, reference: &Trajectory, windows: [(f64, f64); 2]) -> Deviation {
+    let pairs = || {
+        run.records
+            .iter()
+            .zip(&reference.records)
+            .filter(|(a, b)| (a.t_s - b.t_s).abs() < 1e-9)
+    };
+    let forces = |r: &Record| [r.fx_r_n, r.fx_l_n, r.fy_n];
+    let rel = |a: f64, b: f64| (a - b).abs() / b.abs().max(1e-300);
+    let mut d = Deviation::default();
+    for (w, &(from_s, to_s)) in d.windows.iter_mut().zip(&windows) {
+        w.from_s = from_s;
+        w.to_s = to_s;
+        let (mut df, mut f_scale) = (0.0f64, 0.0f64);
+        for (a, b) in pairs().filter(|(_, b)| b.t_s >= from_s && b.t_s < to_s) {
+            w.y_rel = w.y_rel.max(rel(a.y_m, b.y_m));
+            for (fa, fb) in forces(a).into_iter().zip(forces(b)) {
+                df = df.max((fa - fb).abs());
+                f_scale = f_scale.max(fb.abs());
+            }
+        }
+        w.f_rel = df / f_scale.max(1e-300);
+    }
+    let (mut y_ref_max, mut f_ref_max) = (0.0f64, 0.0f64);
+    d.diverged = pairs().any(|(a, b)| {
+        !(a.y_m.is_finite() && b.y_m.is_finite())
+            || forces(a)
+                .into_iter()
+                .chain(forces(b))
+                .any(|f| !f.is_finite())
+    });
+    for (a, b) in pairs() {
+        d.y_max_abs_m = d.y_max_abs_m.max((a.y_m - b.y_m).abs());
+        y_ref_max = y_ref_max.max(b.y_m.abs());
+        for (fa, fb) in forces(a).into_iter().zip(forces(b)) {
+            d.f_max_abs_n = d.f_max_abs_n.max((fa - fb).abs());
+            f_ref_max = f_ref_max.max(fb.abs());
+        }
+    }
+    d.y_max_rel = d.y_max_abs_m / y_ref_max.max(1e-300);
+    d.f_max_rel = d.f_max_abs_n / f_ref_max.max(1e-300);
+    d
+}
+
+impl fmt::Display for Deviation {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.diverged {
+            return write!(f, "not comparable: a run diverged (NaN or infinite values)");
+        }
+        for w in &self.windows {
+            write!(
+                f,
+                "{:.1}-{:.1} s: y within {:.3} %, creep forces within {:.3} %; ",
+                w.from_s,
+                w.to_s,
+                w.y_rel * 100.0,
+                w.f_rel * 100.0
+            )?;
+        }
+        write!(
+            f,
+            "whole run: max |dy| {:.4} mm ({:.2} % of max |y|), max |dF| {:.1} N ({:.2} % of max |F|)",
+            self.y_max_abs_m * 1e3,
+            self.y_max_rel * 100.0,
+            self.f_max_abs_n,
+            self.f_max_rel * 100.0
+        )
+    }
+}
+
+impl From<LinkBudgetError> for DeviceError {
+    fn from(e: LinkBudgetError) -> Self {
+        Self::Budget(e)
+    }
+}
+
+#[cfg(test)]
+mod tests;

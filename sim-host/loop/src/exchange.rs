@@ -1,0 +1,554 @@
+//! The closed-loop adapter: a device behind any [`Transport`] as the plant's
+//! [`SampledController`]. The one exchange every closed loop uses (`sim-host run --loop
+//! device`, `hil run` on every target, `hil golden --record`).
+//!
+//! `run_sampled` calls [`DeviceController::step`] once per control period `T`; each call
+//! is one exchange with the device:
+//!
+//! ```text
+//! t_k              measurements (SI) -> Sensor::from_si (seq k, the wire LSBs) -> send
+//! t_k .. t_k + T   receive until the deadline t_k + T; every valid Actuation frame is
+//!                  recorded (arrival time, seq_echo, exec, flags, device tick)
+//! t_k + T          the latest valid actuation received is applied (Actuation::to_si;
+//!                  ZOH: `run_sampled` with an actuator delay of one period), or the
+//!                  previous one is held; before the first, zero torque and the back-EMF
+//!                  voltage `K_m theta_m'` (zero current)
+//! ```
+//!
+//! So the plant sees the one-period computation/transport delay the control core's rate
+//! analysis assumes, on every target alike. A [`Config`] frame given with
+//! [`DeviceController::with_config`] goes out before the first Sensor frame, and the
+//! device must not flag it refused ([`DeviceController::config_refused`]). At the end,
+//! [`DeviceController::finish`] fetches the device's counters (the one Status fetch: a
+//! `RequestStatus`, then three periods of receiving, repeated up to [`STATUS_TRIES`]
+//! times while the link eats the request or the reply).
+
+use indicatif::ProgressBar;
+use wheelset_control::InputCodes;
+use wheelset_proto::{
+    encode_vec, Actuation, Command, Config, Decoder, Flags, FrameError, Lateral, LateralSensing,
+    Message, Sensor, SensorSi, Status,
+};
+
+use crate::transport::{Transport, TransportError};
+use wheelset_plant::control::{Actuation as SiActuation, Measurements, SampledController};
+use wheelset_plant::scenario::Scenario;
+use wheelset_plant::sim::{run_sampled, ActuatorModel, SensorModel, SimError, Trajectory};
+
+/// Status requests [`DeviceController::finish`] makes before it gives up.
+pub const STATUS_TRIES: usize = 20;
+
+/// Periods of receiving after each status request.
+pub const STATUS_WAIT_PERIODS: u64 = 3;
+
+/// One Actuation frame as the host received it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RxActuation {
+    /// Arrival of its last byte on the transport's clock, ns.
+    pub at_ns: u64,
+    /// Its length on the wire, bytes (delimiter included).
+    pub wire_bytes: usize,
+    /// The sample index `k` it echoes (unwrapped `seq_echo - 1`), if any sample was used.
+    pub echo: Option<u64>,
+    /// The frame.
+    pub frame: Actuation,
+}
+
+/// One control period as the host saw it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Period {
+    /// Sample instant `t_k`, ns.
+    pub t_ns: u64,
+    /// Bytes of the Sensor frame sent.
+    pub sensor_bytes: usize,
+    /// Arrival of the actuation echoing this period's sample, if it came by the deadline.
+    pub echo_at_ns: Option<u64>,
+}
+
+/// One period's link record (the CSV's link columns).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct LinkSample {
+    /// Sample instant, ns.
+    pub t_ns: u64,
+    /// Sequence number of the Sensor frame sent at `t_ns`.
+    pub seq: u16,
+    /// `seq_echo` of the actuation in force from `t_ns + T`.
+    pub seq_echo: u16,
+    /// Age of that actuation's sample, periods: `seq - seq_echo` (0: computed from this
+    /// period's sample, the normal case; more when frames were lost and an older
+    /// actuation is held).
+    pub age: u16,
+    /// Its flags (the bits of [`Flags`]).
+    pub flags: u16,
+    /// A new valid Actuation frame arrived in this period.
+    pub fresh: bool,
+}
+
+/// The link columns appended to the standard CSV.
+pub const LINK_COLUMNS: [&str; 5] = ["seq", "seq_echo", "frame_age", "flags", "fresh"];
+
+/// Host-side frame counts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct HostCounts {
+    /// Frames the host sent (Config, Sensor, Command).
+    pub sent: u64,
+    /// Bytes the host sent.
+    pub bytes_sent: u64,
+    /// Valid frames the host decoded, up to and including the Status frame.
+    pub received: u64,
+    /// Frames the host's decoder rejected, up to the Status frame.
+    pub rejected: u64,
+    /// Bytes received.
+    pub bytes_received: u64,
+    /// Inputs clamped while quantising to wire counts.
+    pub clamped: u64,
+}
+
+/// The device as a sampled controller of the plant, through a transport.
+pub struct DeviceController<'a> {
+    tr: &'a mut dyn Transport,
+    period_ns: u64,
+    k_m: f64,
+    lateral: LateralSensing,
+    config: Option<Config>,
+    config_sent: bool,
+    decoder: Decoder,
+    seq: u16,
+    k: u64,
+    held: Option<(SiActuation, Actuation)>,
+    fresh: bool,
+    rx_buf: Vec<(u64, u8)>,
+    frame_bytes: usize,
+    /// Every Actuation frame received, in order.
+    pub actuations: Vec<RxActuation>,
+    /// Every period.
+    pub periods: Vec<Period>,
+    /// One link record per period.
+    pub log: Vec<LinkSample>,
+    /// The sensor samples sent, in wire codes, one per period (a recorded sensor stream;
+    /// velocity sensing only).
+    pub sent_codes: Vec<InputCodes>,
+    /// Host-side counts.
+    pub host: HostCounts,
+    /// The device's counters, if its Status frame arrived.
+    pub status: Option<Status>,
+    /// The first transport error; the loop holds the last actuation after it.
+    pub error: Option<TransportError>,
+    /// The first actuation after the Config frame carried `CMD_REFUSED`.
+    pub config_refused: bool,
+    config_echo_pending: bool,
+    progress: Option<ProgressBar>,
+    status_seen: bool,
+    /// Send `Command::ClearFaults` before the Sensor frame of the first sample instant at
+    /// or after this time, ns (once).
+    pub clear_faults_at_ns: Option<u64>,
+    /// When the ClearFaults command went out, ns.
+    pub clear_faults_sent_ns: Option<u64>,
+    /// Send `Command::InjectStall` (a device built with `fault-inject` stalls its control
+    /// task: its watchdog resets it) with the Sensor frame of the first sample instant at
+    /// or after this time, ns (once).
+    pub stall_at_ns: Option<u64>,
+    /// When the InjectStall command went out, ns.
+    pub stall_sent_ns: Option<u64>,
+    /// The Config frame sent again after the device is seen to reset (a free-running
+    /// device configured before the run: [`DeviceController::with_config`]'s frame is
+    /// sent again in any case).
+    pub reset_config: Option<Config>,
+    /// Resets of the device seen: an Actuation whose tick counter went back (by less
+    /// than half its 16-bit range, so not a wrap) or that raised `FAULT_LATCHED` with a
+    /// tick below the one before. The Config goes out again after each.
+    pub device_resets: u32,
+    /// When the first reset was seen, ns.
+    pub first_reset_ns: Option<u64>,
+    last_tick: u16,
+    last_latched: bool,
+}
+
+impl<'a> DeviceController<'a> {
+    /// A controller with period `period_ns` talking through `tr`; `k_m` (V s/rad) gives
+    /// the back-EMF voltage held before the first actuation frame arrives.
+    pub fn new(
+        tr: &'a mut dyn Transport,
+        period_ns: u64,
+        k_m: f64,
+        progress: Option<ProgressBar>,
+    ) -> Self {
+        Self {
+            tr,
+            period_ns,
+            k_m,
+            lateral: LateralSensing::Velocity,
+            config: None,
+            config_sent: false,
+            decoder: Decoder::new(),
+            seq: 0,
+            k: 0,
+            held: None,
+            fresh: false,
+            rx_buf: Vec::new(),
+            frame_bytes: 0,
+            actuations: Vec::new(),
+            periods: Vec::new(),
+            log: Vec::new(),
+            sent_codes: Vec::new(),
+            host: HostCounts::default(),
+            status: None,
+            error: None,
+            config_refused: false,
+            config_echo_pending: false,
+            progress,
+            status_seen: false,
+            clear_faults_at_ns: None,
+            clear_faults_sent_ns: None,
+            stall_at_ns: None,
+            stall_sent_ns: None,
+            reset_config: None,
+            device_resets: 0,
+            first_reset_ns: None,
+            last_tick: 0,
+            last_latched: false,
+        }
+    }
+
+    /// Sends `y''` (or both) instead of `y'`.
+    #[must_use]
+    pub fn with_lateral(mut self, lateral: LateralSensing) -> Self {
+        self.lateral = lateral;
+        self
+    }
+
+    /// Sends `cfg` before the first Sensor frame (a remote device that must be brought
+    /// to the run's configuration).
+    #[must_use]
+    pub fn with_config(mut self, cfg: Config) -> Self {
+        self.config = Some(cfg);
+        self
+    }
+
+    /// Reserves the per-period records for `periods` periods.
+    pub fn reserve(&mut self, periods: usize) {
+        self.periods.reserve(periods);
+        self.log.reserve(periods);
+        self.actuations.reserve(periods);
+        self.sent_codes.reserve(periods);
+    }
+
+    fn send(&mut self, t_ns: u64, m: &Message) {
+        let Ok(frame) = encode_vec(m) else { return };
+        self.host.sent += 1;
+        self.host.bytes_sent += frame.len() as u64;
+        if self.error.is_none() {
+            if let Err(e) = self.tr.send(t_ns, &frame) {
+                self.error = Some(e);
+            }
+        }
+    }
+
+    fn receive(&mut self, deadline_ns: u64) {
+        if self.error.is_some() {
+            return;
+        }
+        let mut bytes = std::mem::take(&mut self.rx_buf);
+        bytes.clear();
+        if let Err(e) = self.tr.recv(deadline_ns, &mut |at, run| {
+            bytes.extend(run.iter().map(|&b| (at, b)));
+        }) {
+            self.error = Some(e);
+        }
+        for &(at, b) in &bytes {
+            self.host.bytes_received += 1;
+            self.frame_bytes += 1;
+            let Some(r) = self.decoder.push(b) else {
+                continue;
+            };
+            let n = std::mem::take(&mut self.frame_bytes);
+            self.on_frame(at, n, r);
+        }
+        self.rx_buf = bytes;
+    }
+
+    fn on_frame(&mut self, at_ns: u64, wire_bytes: usize, r: Result<Message, FrameError>) {
+        // Frames after the Status are not counted: the Status's counters are the device's
+        // side of the identity, up to the Status.
+        if !self.status_seen {
+            match r {
+                Ok(_) => self.host.received += 1,
+                Err(_) => self.host.rejected += 1,
+            }
+        }
+        match r {
+            Ok(Message::Actuation(a)) => {
+                // Unwrap the 16-bit echo against the host's own sample count.
+                let echo = (a.seq_echo != 0 || self.k > 0xffff).then(|| {
+                    let diff = self.seq.wrapping_sub(a.seq_echo);
+                    self.k.saturating_sub(u64::from(diff))
+                });
+                let echo = echo.map(|e| e.saturating_sub(1));
+                self.actuations.push(RxActuation {
+                    at_ns,
+                    wire_bytes,
+                    echo,
+                    frame: a,
+                });
+                self.note_tick(at_ns, &a);
+                if std::mem::take(&mut self.config_echo_pending) {
+                    self.config_refused |= a.flags.has(Flags::CMD_REFUSED);
+                }
+                let si = a.to_si();
+                self.held = Some((
+                    SiActuation {
+                        t_psi: si.t_psi,
+                        u_a: si.u_a,
+                    },
+                    a,
+                ));
+                self.fresh = true;
+                if let (Some(e), Some(p)) = (echo, self.periods.last_mut()) {
+                    if e + 1 == self.k && p.echo_at_ns.is_none() {
+                        p.echo_at_ns = Some(at_ns);
+                    }
+                }
+            }
+            Ok(Message::Status(s)) => {
+                self.status = Some(s);
+                self.status_seen = true;
+            }
+            _ => {}
+        }
+    }
+
+    /// Watches the device's tick counter for a reset ([`Self::device_resets`]); after one
+    /// the Config goes out again with the next Sensor frame.
+    fn note_tick(&mut self, at_ns: u64, a: &wheelset_proto::Actuation) {
+        let latched = a.flags.has(Flags::FAULT_LATCHED);
+        // Tick 0 is the safe frame of a handler (no tick ran), not a new boot's.
+        if a.tick != 0 {
+            let back = self.last_tick.wrapping_sub(a.tick);
+            let went_back = a.tick < self.last_tick;
+            if went_back && (back < 0x8000 || (latched && !self.last_latched)) {
+                self.device_resets += 1;
+                self.first_reset_ns.get_or_insert(at_ns);
+                if self.config.is_some() || self.reset_config.is_some() {
+                    self.config_sent = false;
+                }
+            }
+            self.last_tick = a.tick;
+            self.last_latched = latched;
+        }
+    }
+
+    /// Ends the run at `t_ns` (the end of the last period): fetches the device's counters
+    /// (see the module docs), receiving everything in flight meanwhile.
+    pub fn finish(&mut self, t_ns: u64) {
+        let mut t = t_ns;
+        for _ in 0..STATUS_TRIES {
+            self.send(t, &Message::Command(Command::RequestStatus));
+            for _ in 0..STATUS_WAIT_PERIODS {
+                t += self.period_ns;
+                self.receive(t);
+            }
+            if self.status_seen || self.error.is_some() {
+                break;
+            }
+        }
+        if let Some(pb) = &self.progress {
+            pb.finish_and_clear();
+        }
+    }
+}
+
+impl SampledController for DeviceController<'_> {
+    fn period_ns(&self) -> u64 {
+        self.period_ns
+    }
+
+    fn step(&mut self, t_ns: u64, m: &Measurements) -> SiActuation {
+        if let (Some(cfg), false) = (self.config.or(self.reset_config), self.config_sent) {
+            self.config_sent = true;
+            self.config_echo_pending = true;
+            self.send(t_ns, &Message::Config(cfg));
+        }
+        self.seq = self.seq.wrapping_add(1);
+        self.k += 1;
+        let sample = SensorSi {
+            y_dot: m.yd_mps,
+            y_ddot: m.ydd_mps2,
+            i_a: m.i_a,
+            w_m: m.w_m,
+            demand_nm: m.demand_nm,
+            v_ref: m.v_mps,
+        };
+        let q = Sensor::from_si(self.seq, t_ns, &sample, self.lateral);
+        self.host.clamped += u64::from(q.clamped);
+        let sensor = q.msg;
+        if let Lateral::Velocity(v) = sensor.lateral {
+            self.sent_codes.push(InputCodes {
+                y_dot: v,
+                current: sensor.i_a_ma,
+                speed: sensor.omega_m_mrad_s,
+                demand: sensor.demand_nm,
+            });
+        }
+        let before = self.host.bytes_sent;
+        self.send(t_ns, &Message::Sensor(sensor));
+        self.periods.push(Period {
+            t_ns,
+            sensor_bytes: (self.host.bytes_sent - before) as usize,
+            echo_at_ns: None,
+        });
+        // After the Sensor frame, so this period's sample is on time: the device applies
+        // the command at its next tick.
+        if self
+            .clear_faults_at_ns
+            .is_some_and(|t| t_ns >= t && self.clear_faults_sent_ns.is_none())
+        {
+            self.clear_faults_sent_ns = Some(t_ns);
+            self.send(t_ns, &Message::Command(Command::ClearFaults));
+        }
+        if self
+            .stall_at_ns
+            .is_some_and(|t| t_ns >= t && self.stall_sent_ns.is_none())
+        {
+            self.stall_sent_ns = Some(t_ns);
+            self.send(t_ns, &Message::Command(Command::InjectStall));
+        }
+        self.fresh = false;
+        self.receive(t_ns + self.period_ns);
+        let (seq_echo, flags) = self
+            .held
+            .as_ref()
+            .map_or((0, 0), |(_, a)| (a.seq_echo, a.flags.0));
+        self.log.push(LinkSample {
+            t_ns,
+            seq: self.seq,
+            seq_echo,
+            age: self.seq.wrapping_sub(seq_echo),
+            flags,
+            fresh: self.fresh,
+        });
+        if let Some(pb) = &self.progress {
+            if self.k.is_multiple_of(1024) {
+                pb.set_position(t_ns / 1_000_000);
+            }
+        }
+        self.held.map_or(
+            SiActuation {
+                t_psi: 0.0,
+                u_a: self.k_m * m.w_m,
+            },
+            |(si, _)| si,
+        )
+    }
+}
+
+/// How [`close_loop`] runs.
+#[derive(Debug, Clone, Default)]
+pub struct LoopSetup<'l> {
+    /// The device's control period `T`, ns.
+    pub period_ns: u64,
+    /// The plant keeps its passive yaw spring (the passive law).
+    pub yaw_spring: bool,
+    /// What the Sensor frames carry of the lateral motion.
+    pub lateral: LateralSensing,
+    /// A Config frame to send before the first Sensor frame.
+    pub config: Option<Config>,
+    /// Send `Command::ClearFaults` (the latch and a held alarm safe state cleared) with
+    /// the Sensor frame of the first sample instant at or after this time, ns.
+    pub clear_faults_at_ns: Option<u64>,
+    /// Send `Command::InjectStall` with the Sensor frame of the first sample instant at
+    /// or after this time, ns ([`DeviceController::stall_at_ns`]).
+    pub stall_at_ns: Option<u64>,
+    /// The Config to send again after a device reset
+    /// ([`DeviceController::reset_config`]).
+    pub reset_config: Option<Config>,
+    /// A progress bar to advance (simulated ms).
+    pub progress: Option<ProgressBar>,
+    /// The trajectory's label.
+    pub label: &'l str,
+}
+
+/// A finished closed loop through a transport: the plant's trajectory and the records of
+/// [`DeviceController`].
+#[derive(Debug)]
+pub struct ClosedLoop {
+    /// The plant's trajectory.
+    pub trajectory: Trajectory,
+    /// Every period.
+    pub periods: Vec<Period>,
+    /// Every Actuation frame received, in order.
+    pub actuations: Vec<RxActuation>,
+    /// One link record per period.
+    pub log: Vec<LinkSample>,
+    /// The sensor samples sent (wire codes, velocity sensing).
+    pub sent_codes: Vec<InputCodes>,
+    /// Host-side counts.
+    pub host: HostCounts,
+    /// The device's counters, if its Status frame arrived.
+    pub status: Option<Status>,
+    /// The first transport error (the run held the last actuation after it).
+    pub error: Option<TransportError>,
+    /// The device flagged the Config frame refused.
+    pub config_refused: bool,
+    /// When `Command::ClearFaults` went out ([`LoopSetup::clear_faults_at_ns`]), ns.
+    pub clear_faults_sent_ns: Option<u64>,
+    /// When `Command::InjectStall` went out ([`LoopSetup::stall_at_ns`]), ns.
+    pub stall_sent_ns: Option<u64>,
+    /// Device resets the host saw ([`DeviceController::device_resets`]).
+    pub device_resets: u32,
+    /// When the first was seen, ns.
+    pub first_reset_ns: Option<u64>,
+}
+
+/// Runs `sc` with the device behind `tr` as the plant's sampled controller (actuator
+/// delay one period, ideal sensor), then fetches the device's counters.
+pub fn close_loop(
+    sc: &Scenario,
+    tr: &mut dyn Transport,
+    setup: LoopSetup<'_>,
+) -> Result<ClosedLoop, SimError> {
+    let period_ns = setup.period_ns;
+    let mut ctrl = DeviceController::new(tr, period_ns, sc.params.k_m, setup.progress)
+        .with_lateral(setup.lateral);
+    if let Some(cfg) = setup.config {
+        ctrl = ctrl.with_config(cfg);
+    }
+    ctrl.clear_faults_at_ns = setup.clear_faults_at_ns;
+    ctrl.stall_at_ns = setup.stall_at_ns;
+    ctrl.reset_config = setup.reset_config;
+    // One record per period, reserved once (doubling to 100 000 records re-copies and
+    // re-faults megabytes); capped: a very long scenario grows the rest as it goes.
+    let periods = (sc.duration_ns / period_ns.max(1)).min(1 << 22);
+    ctrl.reserve(usize::try_from(periods).unwrap_or(0).saturating_add(2));
+    let mut actuator = ActuatorModel {
+        delay_ns: period_ns,
+        ..ActuatorModel::ideal()
+    };
+    let trajectory = run_sampled(
+        sc,
+        &mut ctrl,
+        &mut SensorModel::ideal(),
+        &mut actuator,
+        setup.yaw_spring,
+        setup.label,
+    )?;
+    let t_end = ctrl.periods.last().map_or(0, |p| p.t_ns + period_ns);
+    ctrl.finish(t_end);
+    Ok(ClosedLoop {
+        trajectory,
+        periods: std::mem::take(&mut ctrl.periods),
+        actuations: std::mem::take(&mut ctrl.actuations),
+        log: std::mem::take(&mut ctrl.log),
+        sent_codes: std::mem::take(&mut ctrl.sent_codes),
+        host: ctrl.host,
+        status: ctrl.status,
+        error: ctrl.error.take(),
+        config_refused: ctrl.config_refused,
+        clear_faults_sent_ns: ctrl.clear_faults_sent_ns,
+        stall_sent_ns: ctrl.stall_sent_ns,
+        device_resets: ctrl.device_resets,
+        first_reset_ns: ctrl.first_reset_ns,
+    })
+}
+
+#[cfg(test)]
+mod reset_tests;

@@ -1,0 +1,427 @@
+//! The in-process device: the firmware's own [`Runtime`] (control core, protocol, fault
+//! policy) behind the simulated serial link of [`crate::link`], on simulated time, as a
+//! [`Transport`]. Needs nothing installed; deterministic for a seed. Every closed loop
+//! with an in-process device goes through it: `sim-host run --loop device`, `hil run`,
+//! `hil golden`.
+//!
+//! The device ticks on its own timer (the one tick-phase formula): tick `j` at
+//!
+//! ```text
+//! t_j = j T + phase,   phase = wire time of the worst-case Sensor frame + link latency
+//! ```
+//!
+//! so the frame the host sends at a sample instant `k T` has arrived when tick `k` runs,
+//! and its Actuation frame is back before `(k + 1) T` (the link budget check,
+//! [`crate::link::check_budget`], refuses a link where it is not). Tick `j` takes the
+//! bytes that arrived by `t_j`, runs [`Runtime::tick`] and hands each frame of its output
+//! to the down link at `t_j + exec`, where `exec` is a simulated execution time (0 by
+//! default; see [`DeviceFault::TooSlow`]), which is also what the next Actuation frame
+//! reports as `exec` (ns): the verdicts stay deterministic. The host's own wall-clock
+//! time per [`Runtime::tick`] call is measured too and reported as an informative figure
+//! ([`Transport::extra`]: `host_tick_ns`), never judged.
+//!
+//! Frame accounting (the one method): each end of the link has an [`RxPort`] that
+//! decodes the delivered bytes as a shadow of the receiver's own decoder (the device's
+//! runtime, the host's adapter), so every frame sent is attributed to its fate whatever
+//! the receiver's counters mean ([`Transport::link_accounting`]).
+//!
+//! Deliberately broken devices ([`DeviceFault`]) exist so the harness's checks can be
+//! shown to fail.
+
+use std::time::Instant;
+
+use wheelset_control::{Fx, SampleBits};
+use wheelset_proto::{encode_vec, Decoder, Message};
+use wheelset_runtime::{Runtime, RuntimeConfig};
+
+use crate::device_loop::{DeviceError, ACTUATION_WORST_BYTES, SENSOR_WORST_BYTES};
+use crate::link::{check_budget, wire_ns, Link, LinkConfig, RxPort};
+use crate::transport::{Clock, LinkAccounting, Transport, TransportError};
+
+/// A deliberately broken device, to prove the checks can fail.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum DeviceFault {
+    /// A correct device.
+    #[default]
+    None,
+    /// The yaw torque's sign is reversed (a wrong sign convention in the firmware).
+    WrongSign,
+    /// Every tick takes `exec_ns` of simulated time before its frame leaves (and reports
+    /// it as its execution time).
+    TooSlow {
+        /// Simulated execution time per tick, ns.
+        exec_ns: u64,
+    },
+    /// Each tick takes a pseudo-random simulated execution time, uniform in
+    /// `[0, max_ns]` (a deterministic sequence): its output instants jitter.
+    Jitter {
+        /// Largest execution time, ns.
+        max_ns: u64,
+    },
+    /// Every `every`-th outgoing frame has one bit flipped (a broken UART or buffer).
+    Corrupt {
+        /// Period of the corruption, frames (>= 1).
+        every: u32,
+    },
+    /// Not the in-process device's: the harness sends `Command::InjectStall` at `at_ns`
+    /// to a firmware built with `fault-inject` (`hil run --target qemu-free
+    /// --device-fault stall:T`), whose watchdog resets it. The in-process device has no
+    /// watchdog: `hil run` refuses it there, and it would tick on unharmed.
+    Stall {
+        /// When the command goes out, ns of the run.
+        at_ns: u64,
+    },
+}
+
+impl std::str::FromStr for DeviceFault {
+    type Err = String;
+
+    /// `none`, `wrong-sign`, `slow[:EXEC_US]` (default 300 us), `jitter[:MAX_US]`
+    /// (default 40 us), `corrupt[:EVERY]` (default every 10th frame), `stall:T` (T in s).
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let (kind, arg) = match s.split_once(':') {
+            Some((k, a)) => (k, Some(a)),
+            None => (s, None),
+        };
+        let num = |a: Option<&str>, default: u64| -> Result<u64, String> {
+            match a {
+                None => Ok(default),
+                Some(a) => a
+                    .parse::<u64>()
+                    .ok()
+                    .filter(|&v| v > 0)
+                    .ok_or_else(|| format!("`{a}` is not a positive whole number")),
+            }
+        };
+        match kind {
+            "none" => Ok(Self::None),
+            "wrong-sign" => Ok(Self::WrongSign),
+            "slow" => Ok(Self::TooSlow {
+                exec_ns: num(arg, 300)?.saturating_mul(1_000),
+            }),
+            "jitter" => Ok(Self::Jitter {
+                max_ns: num(arg, 40)?.saturating_mul(1_000),
+            }),
+            "corrupt" => Ok(Self::Corrupt {
+                every: u32::try_from(num(arg, 10)?).map_err(|e| e.to_string())?,
+            }),
+            "stall" => {
+                let t = arg.ok_or("stall:T needs the time T of the run, s")?;
+                match t.parse::<f64>() {
+                    Ok(v) if v.is_finite() && v >= 0.0 => Ok(Self::Stall {
+                        at_ns: (v * 1e9).round() as u64,
+                    }),
+                    _ => Err(format!("stall:{t}: T must be a time of the run, s (>= 0)")),
+                }
+            }
+            _ => Err(format!(
+                "unknown device fault `{s}` (known: none, wrong-sign, slow[:EXEC_US], jitter[:MAX_US], corrupt[:EVERY], stall:T)"
+            )),
+        }
+    }
+}
+
+/// The in-process device behind the simulated link (`T`: the runtime's sample type,
+/// fixed point by default as in the production build).
+pub struct InProc<T: SampleBits = Fx> {
+    link: Link,
+    latency_ns: u64,
+    baud: u32,
+    rt: Runtime<T>,
+    dev_rx: RxPort,
+    host_rx: RxPort,
+    fault: DeviceFault,
+    period_ns: u64,
+    phase_ns: u64,
+    next_tick: u64,
+    last_exec: u32,
+    frames_out: u64,
+    /// A tick's output as a broken device changes it.
+    scratch: Vec<u8>,
+    /// Arrival time of the last byte of each down-link frame (index: frame id).
+    arrival_ns: Vec<u64>,
+    host_tick_ns: Vec<f64>,
+}
+
+impl<T: SampleBits> InProc<T> {
+    /// The runtime with `rt_cfg` behind a link with `link_cfg`. Refused: a base rate
+    /// whose period is not a whole number of nanoseconds, a link that cannot carry one
+    /// exchange per period, a configuration the runtime refuses.
+    pub fn try_new(
+        rt_cfg: RuntimeConfig,
+        link_cfg: &LinkConfig,
+        fault: DeviceFault,
+    ) -> Result<Self, DeviceError> {
+        let hz = rt_cfg.control.base_rate_hz;
+        if hz == 0 || 1_000_000_000 % u64::from(hz) != 0 {
+            return Err(DeviceError::Rate(hz));
+        }
+        let period_ns = 1_000_000_000 / u64::from(hz);
+        check_budget(
+            SENSOR_WORST_BYTES,
+            ACTUATION_WORST_BYTES,
+            link_cfg.baud,
+            link_cfg.latency_ns,
+            period_ns,
+        )?;
+        let rt = Runtime::<T>::try_new(rt_cfg).map_err(DeviceError::Runtime)?;
+        Ok(Self {
+            link: Link::new(link_cfg),
+            latency_ns: link_cfg.latency_ns,
+            baud: link_cfg.baud,
+            rt,
+            dev_rx: RxPort::new(),
+            host_rx: RxPort::new(),
+            fault,
+            period_ns,
+            phase_ns: wire_ns(SENSOR_WORST_BYTES, link_cfg.baud) + link_cfg.latency_ns,
+            next_tick: 0,
+            last_exec: 0,
+            frames_out: 0,
+            scratch: Vec::new(),
+            arrival_ns: Vec::new(),
+            host_tick_ns: Vec::new(),
+        })
+    }
+
+    /// Reserves room for the per-tick records of `ticks` ticks (a long run otherwise
+    /// grows them by doubling).
+    pub fn reserve(&mut self, ticks: usize) {
+        self.arrival_ns.reserve(ticks);
+        self.host_tick_ns.reserve(ticks);
+    }
+
+    /// Brings the device to `cfg` before the run, the way a board is configured before
+    /// it is started: the Config frame's bytes through the runtime's own receive path
+    /// (decoded, validated, applied or refused exactly as over the link), then a
+    /// `ResetCounters` so the run's counters (and the link's frame accounting) start from
+    /// zero. Out of band: no byte of it is on the simulated link, so the first period's
+    /// timing is the run's own. Refused: the reason the runtime gave
+    /// (`RefuseReason::Unsupported` from a build without the `wsp` or `monitor` feature).
+    pub fn configure(
+        &mut self,
+        cfg: &wheelset_proto::Config,
+    ) -> Result<(), wheelset_proto::RefuseReason> {
+        use wheelset_proto::{Command, RefuseReason};
+        let frame = encode_vec(&Message::Config(*cfg)).map_err(|_| RefuseReason::Bits)?;
+        self.rt.receive(&frame);
+        let why = self.rt.refuse_reason();
+        if why != RefuseReason::None && self.rt.counters().cmd_refused > 0 {
+            return Err(why);
+        }
+        let reset = encode_vec(&Message::Command(Command::ResetCounters))
+            .map_err(|_| RefuseReason::Bits)?;
+        self.rt.receive(&reset);
+        Ok(())
+    }
+
+    /// The device's runtime (read only).
+    #[must_use]
+    pub fn runtime(&self) -> &Runtime<T> {
+        &self.rt
+    }
+
+    /// The control period `T`, ns.
+    #[must_use]
+    pub fn period_ns(&self) -> u64 {
+        self.period_ns
+    }
+
+    /// Every frame of both directions accounted for (see the module docs).
+    #[must_use]
+    pub fn accounting(&self) -> LinkAccounting {
+        LinkAccounting {
+            up: self.dev_rx.account(&self.link.up),
+            down: self.host_rx.account(&self.link.down),
+        }
+    }
+
+    /// The tick phase, ns: tick `j` runs at `j T + phase`.
+    #[must_use]
+    pub fn phase_ns(&self) -> u64 {
+        self.phase_ns
+    }
+
+    fn tick(&mut self, t_ns: u64) {
+        let (rt, port) = (&mut self.rt, &mut self.dev_rx);
+        self.link.up.deliver(t_ns, |run, id| {
+            rt.receive(run);
+            port.push(run, id, |_| {});
+        });
+        let start = Instant::now();
+        let out = self.rt.tick(self.last_exec);
+        let measured = u32::try_from(start.elapsed().as_nanos()).unwrap_or(u32::MAX);
+        let (out, exec_ns): (&[u8], u64) = match self.fault {
+            DeviceFault::None | DeviceFault::Stall { .. } => (out, 0),
+            DeviceFault::WrongSign => {
+                negate_torque(out, &mut self.scratch);
+                (&self.scratch, 0)
+            }
+            DeviceFault::TooSlow { exec_ns } => (out, exec_ns),
+            DeviceFault::Jitter { max_ns } => {
+                // xorshift64*: deterministic, no extra state beyond the tick count.
+                let mut x = self.frames_out.wrapping_add(0x9e37_79b9_7f4a_7c15);
+                x ^= x >> 12;
+                x ^= x << 25;
+                x ^= x >> 27;
+                let r = x.wrapping_mul(0x2545_f491_4f6c_dd1d);
+                (out, r % max_ns.saturating_add(1))
+            }
+            DeviceFault::Corrupt { every } => {
+                self.scratch.clear();
+                self.scratch.extend_from_slice(out);
+                if self.frames_out.is_multiple_of(u64::from(every.max(1))) && out.len() > 3 {
+                    if let Some(b) = self.scratch.get_mut(2) {
+                        *b ^= 0x10;
+                    }
+                }
+                (&self.scratch, 0)
+            }
+        };
+        self.last_exec = u32::try_from(exec_ns).unwrap_or(u32::MAX);
+        self.frames_out += 1;
+        self.host_tick_ns.push(f64::from(measured));
+        // Each frame (Actuation, then a Status if requested) is its own frame on the link,
+        // stamped with the arrival of its last byte.
+        for frame in out.split_inclusive(|&b| b == 0) {
+            let id = self.link.down.send(t_ns + exec_ns, frame) as usize;
+            if self.arrival_ns.len() <= id {
+                self.arrival_ns.resize(id + 1, 0);
+            }
+            if let Some(a) = self.arrival_ns.get_mut(id) {
+                *a = self.link.down.line_free_ns() + self.latency_ns;
+            }
+        }
+    }
+}
+
+/// Re-encodes every Actuation frame in `out` into `res` with the yaw torque negated.
+fn negate_torque(out: &[u8], res: &mut Vec<u8>) {
+    let mut dec: Decoder = Decoder::new();
+    res.clear();
+    dec.feed(out, |r| {
+        if let Ok(mut m) = r {
+            if let Message::Actuation(a) = &mut m {
+                a.t_psi_dnm = a.t_psi_dnm.saturating_neg();
+            }
+            if let Ok(f) = encode_vec(&m) {
+                res.extend_from_slice(&f);
+            }
+        }
+    });
+}
+
+/// Summary of the host's wall time per tick, ns: `{n, min, mean, p99, max}`
+/// (informative only).
+fn host_tick_summary(v: &[f64]) -> serde_json::Value {
+    if v.is_empty() {
+        return serde_json::json!({ "n": 0, "min": 0.0, "mean": 0.0, "p99": 0.0, "max": 0.0 });
+    }
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    let n = s.len();
+    let rank = ((0.99 * n as f64).ceil() as usize).clamp(1, n) - 1;
+    let at = |i: usize| s.get(i).copied().unwrap_or(0.0);
+    serde_json::json!({
+        "n": n,
+        "min": at(0),
+        "mean": s.iter().sum::<f64>() / n as f64,
+        "p99": at(rank),
+        "max": at(n - 1),
+    })
+}
+
+impl<T: SampleBits> Transport for InProc<T> {
+    fn name(&self) -> String {
+        "inproc".into()
+    }
+
+    fn clock(&self) -> Clock {
+        Clock::Simulated
+    }
+
+    fn baud(&self) -> u32 {
+        self.baud
+    }
+
+    fn exec_unit(&self) -> (&'static str, f64) {
+        ("ns", 1.0)
+    }
+
+    fn send(&mut self, t_ns: u64, bytes: &[u8]) -> Result<(), TransportError> {
+        self.link.up.send(t_ns, bytes);
+        Ok(())
+    }
+
+    fn recv(
+        &mut self,
+        deadline_ns: u64,
+        sink: &mut dyn FnMut(u64, &[u8]),
+    ) -> Result<(), TransportError> {
+        loop {
+            let t = self.next_tick * self.period_ns + self.phase_ns;
+            if t > deadline_ns {
+                break;
+            }
+            self.tick(t);
+            self.next_tick += 1;
+        }
+        let (port, arrival) = (&mut self.host_rx, &self.arrival_ns);
+        self.link.down.deliver(deadline_ns, |run, id| {
+            port.push(run, id, |_| {});
+            let at = arrival.get(id as usize).copied().unwrap_or(deadline_ns);
+            sink(at, run);
+        });
+        Ok(())
+    }
+
+    fn extra(&self) -> Option<serde_json::Value> {
+        Some(serde_json::json!({ "host_tick_ns": host_tick_summary(&self.host_tick_ns) }))
+    }
+
+    fn link_accounting(&self) -> Option<LinkAccounting> {
+        Some(self.accounting())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn device_fault_parses_and_refuses() {
+        assert_eq!("none".parse(), Ok(DeviceFault::None));
+        assert_eq!("wrong-sign".parse(), Ok(DeviceFault::WrongSign));
+        assert_eq!(
+            "slow".parse(),
+            Ok(DeviceFault::TooSlow { exec_ns: 300_000 })
+        );
+        assert_eq!(
+            "slow:50".parse(),
+            Ok(DeviceFault::TooSlow { exec_ns: 50_000 })
+        );
+        assert_eq!("corrupt:3".parse(), Ok(DeviceFault::Corrupt { every: 3 }));
+        assert_eq!(
+            "stall:1.5".parse(),
+            Ok(DeviceFault::Stall {
+                at_ns: 1_500_000_000
+            })
+        );
+        assert!("stall".parse::<DeviceFault>().is_err());
+        assert!("stall:-1".parse::<DeviceFault>().is_err());
+        assert!("stall:nan".parse::<DeviceFault>().is_err());
+        for bad in ["slow:0", "slow:x", "corrupt:-1", "sideways"] {
+            assert!(bad.parse::<DeviceFault>().is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn the_host_tick_summary_is_the_nearest_rank_p99() {
+        let v: Vec<f64> = (1..=200).map(f64::from).collect();
+        let s = host_tick_summary(&v);
+        assert_eq!(s["n"], 200);
+        assert_eq!(s["p99"], 198.0);
+        assert_eq!(s["max"], 200.0);
+        assert_eq!(host_tick_summary(&[])["n"], 0);
+    }
+}

@@ -1,0 +1,277 @@
+//! The fault specification: what `--faults SPEC` parses into ([`Faults`]: frame drop,
+//! outages, byte drop, bit errors, bursts, per direction) and prints back.
+
+use std::fmt;
+use std::str::FromStr;
+
+/// A link outage: every byte on the wire in `[start_ns, start_ns + len_ns)` is lost.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Outage {
+    /// Start, ns of simulated time.
+    pub start_ns: u64,
+    /// Length, ns.
+    pub len_ns: u64,
+    /// Directions cut (within those the `dir` key allows).
+    pub dir: FaultDir,
+}
+
+/// Error bursts: a Poisson process of `rate_hz` bursts per second; each burst garbles
+/// `len_bytes` consecutive bytes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Burst {
+    /// Mean bursts per second.
+    pub rate_hz: f64,
+    /// Bytes garbled per burst.
+    pub len_bytes: u32,
+}
+
+/// Which directions the faults apply to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum FaultDir {
+    /// Host -> device and device -> host (the default).
+    #[default]
+    Both,
+    /// Host -> device only.
+    Up,
+    /// Device -> host only.
+    Down,
+}
+
+/// The fault injection of one link, `--faults SPEC`:
+/// a comma-separated list of `key=value`:
+///
+/// | key | value | meaning |
+/// |---|---|---|
+/// | `ber` | `P` in [0, 1) | bit error rate per data bit |
+/// | `drop` | `P` in [0, 1] | probability a whole frame is lost |
+/// | `byte_drop` | `P` in [0, 1] | probability a byte is lost |
+/// | `outage` | `START_S:LEN_S[:up\|down]` | outage from `START_S` seconds for `LEN_S` seconds (each at most [`MAX_OUTAGE_S`]), both directions or one (repeatable) |
+/// | `burst` | `RATE_HZ:LEN_BYTES` | error bursts, mean rate per second (at most [`MAX_BURST_RATE_HZ`]), bytes per burst (a whole number up to 1e6) |
+/// | `dir` | `both`, `up`, `down` | directions the faults apply to (default both) |
+///
+/// ```
+/// use wheelset_loop::link::Faults;
+/// let f: Faults = "ber=1e-3,drop=0.1,outage=8.0:0.05".parse().unwrap();
+/// assert_eq!(f.outages[0].len_ns, 50_000_000);
+/// assert!("ber=2".parse::<Faults>().is_err());
+/// ```
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Faults {
+    /// Bit error rate per data bit.
+    pub ber: f64,
+    /// Whole-frame drop probability.
+    pub frame_drop: f64,
+    /// Byte drop probability.
+    pub byte_drop: f64,
+    /// Outages.
+    pub outages: Vec<Outage>,
+    /// Error bursts.
+    pub burst: Option<Burst>,
+    /// Directions affected.
+    pub dir: FaultDir,
+}
+
+/// A `--faults` string that does not parse: names the item and the reason.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct FaultSpecError {
+    /// The offending `key=value` item.
+    pub item: String,
+    /// Why it was refused.
+    pub reason: String,
+}
+
+impl fmt::Display for FaultSpecError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "--faults: `{}`: {}", self.item, self.reason)
+    }
+}
+
+impl std::error::Error for FaultSpecError {}
+
+fn prob(item: &str, v: &str, upper_open: bool) -> Result<f64, FaultSpecError> {
+    let err = |reason: String| FaultSpecError {
+        item: item.to_owned(),
+        reason,
+    };
+    let p: f64 = v
+        .parse()
+        .map_err(|_| err(format!("`{v}` is not a number")))?;
+    let ok = p >= 0.0 && if upper_open { p < 1.0 } else { p <= 1.0 };
+    if !ok {
+        let range = if upper_open { "[0, 1)" } else { "[0, 1]" };
+        return Err(err(format!("{p} is outside {range}")));
+    }
+    Ok(p)
+}
+
+fn pair(item: &str, v: &str, what: &str) -> Result<(f64, f64), FaultSpecError> {
+    let err = |reason: String| FaultSpecError {
+        item: item.to_owned(),
+        reason,
+    };
+    let (a, b) = v
+        .split_once(':')
+        .ok_or_else(|| err(format!("expected {what}")))?;
+    let a: f64 = a
+        .parse()
+        .map_err(|_| err(format!("`{a}` is not a number ({what})")))?;
+    let b: f64 = b
+        .parse()
+        .map_err(|_| err(format!("`{b}` is not a number ({what})")))?;
+    if !(a.is_finite() && b.is_finite() && a >= 0.0 && b > 0.0) {
+        return Err(err(format!(
+            "{what}: need finite values, first >= 0, second > 0"
+        )));
+    }
+    Ok((a, b))
+}
+
+/// Largest outage start and length, s (the longest scenario is 1e5 s).
+pub const MAX_OUTAGE_S: f64 = 1e5;
+/// Largest burst rate, bursts per second.
+pub const MAX_BURST_RATE_HZ: f64 = 1e5;
+
+fn secs_to_ns(s: f64) -> u64 {
+    (s * 1e9).round() as u64
+}
+
+impl FromStr for Faults {
+    type Err = FaultSpecError;
+
+    fn from_str(spec: &str) -> Result<Self, Self::Err> {
+        let mut f = Faults::default();
+        for item in spec.split(',').map(str::trim).filter(|s| !s.is_empty()) {
+            let err = |reason: &str| FaultSpecError {
+                item: item.to_owned(),
+                reason: reason.to_owned(),
+            };
+            let (k, v) = item
+                .split_once('=')
+                .ok_or_else(|| err("expected key=value"))?;
+            match k.trim() {
+                "ber" => f.ber = prob(item, v.trim(), true)?,
+                "drop" => f.frame_drop = prob(item, v.trim(), false)?,
+                "byte_drop" => f.byte_drop = prob(item, v.trim(), false)?,
+                "outage" => {
+                    let v = v.trim();
+                    let (v, dir) = match v.rsplit_once(':') {
+                        Some((head, "up")) => (head, FaultDir::Up),
+                        Some((head, "down")) => (head, FaultDir::Down),
+                        _ => (v, FaultDir::Both),
+                    };
+                    let (s, l) = pair(item, v, "START_S:LEN_S[:up|down]")?;
+                    if s > MAX_OUTAGE_S || l > MAX_OUTAGE_S {
+                        return Err(err(&format!(
+                            "START_S and LEN_S must be at most {MAX_OUTAGE_S} s (the longest scenario)"
+                        )));
+                    }
+                    f.outages.push(Outage {
+                        start_ns: secs_to_ns(s),
+                        len_ns: secs_to_ns(l),
+                        dir,
+                    });
+                }
+                "burst" => {
+                    let (r, n) = pair(item, v.trim(), "RATE_HZ:LEN_BYTES")?;
+                    if r > MAX_BURST_RATE_HZ {
+                        return Err(err(&format!(
+                            "RATE_HZ {r} is above the maximum {MAX_BURST_RATE_HZ} bursts per second \
+                             (a 1 Mbaud line carries 1e5 bytes per second: more bursts than bytes)"
+                        )));
+                    }
+                    if n.fract() != 0.0 || n > 1e6 {
+                        return Err(err("LEN_BYTES must be a whole number <= 1e6"));
+                    }
+                    f.burst = Some(Burst {
+                        rate_hz: r,
+                        len_bytes: n as u32,
+                    });
+                }
+                "dir" => {
+                    f.dir = match v.trim() {
+                        "both" => FaultDir::Both,
+                        "up" => FaultDir::Up,
+                        "down" => FaultDir::Down,
+                        _ => return Err(err("expected both, up or down")),
+                    }
+                }
+                _ => {
+                    return Err(err(
+                        "unknown key (known: ber, drop, byte_drop, outage, burst, dir)",
+                    ))
+                }
+            }
+        }
+        Ok(f)
+    }
+}
+
+/// The canonical spec of the faults, `key=value` items in a fixed order, only those
+/// that act (empty for none); it parses back to the same [`Faults`] (outages to the ns).
+///
+/// ```
+/// use wheelset_loop::link::Faults;
+/// let f: Faults = " drop=0.05 ,ber=1e-3,outage=8:0.05:up".parse().unwrap();
+/// assert_eq!(f.to_string(), "ber=0.001,drop=0.05,outage=8:0.05:up");
+/// assert_eq!(f.to_string().parse::<Faults>().unwrap(), f);
+/// assert_eq!(Faults::none().to_string(), "");
+/// ```
+impl fmt::Display for Faults {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let mut items: Vec<String> = Vec::new();
+        if self.ber > 0.0 {
+            items.push(format!("ber={}", self.ber));
+        }
+        if self.frame_drop > 0.0 {
+            items.push(format!("drop={}", self.frame_drop));
+        }
+        if self.byte_drop > 0.0 {
+            items.push(format!("byte_drop={}", self.byte_drop));
+        }
+        for o in &self.outages {
+            let dir = match o.dir {
+                FaultDir::Both => "",
+                FaultDir::Up => ":up",
+                FaultDir::Down => ":down",
+            };
+            items.push(format!(
+                "outage={}:{}{dir}",
+                o.start_ns as f64 / 1e9,
+                o.len_ns as f64 / 1e9
+            ));
+        }
+        if let Some(b) = self.burst {
+            items.push(format!("burst={}:{}", b.rate_hz, b.len_bytes));
+        }
+        match self.dir {
+            FaultDir::Both => {}
+            FaultDir::Up => items.push("dir=up".into()),
+            FaultDir::Down => items.push("dir=down".into()),
+        }
+        f.write_str(&items.join(","))
+    }
+}
+
+impl Faults {
+    /// No faults.
+    #[must_use]
+    pub fn none() -> Self {
+        Self::default()
+    }
+
+    pub(crate) fn applies(&self, up: bool) -> bool {
+        self.dir.includes(up)
+    }
+}
+
+impl FaultDir {
+    /// Whether this covers the host -> device (`up`) or device -> host direction.
+    #[must_use]
+    pub fn includes(self, up: bool) -> bool {
+        match self {
+            FaultDir::Both => true,
+            FaultDir::Up => up,
+            FaultDir::Down => !up,
+        }
+    }
+}

@@ -1,0 +1,305 @@
+//! Plant-side faults of the yaw actuator, as scenario data (not code paths).
+//!
+//! From the fault time on, the torque the actuator puts on the wheelset is
+//!
+//! ```text
+//! T_delivered = g T_commanded,   g = 0 (off), f (fraction), -1 (reversed)
+//! ```
+//!
+//! with `T_commanded` the controller's yaw torque (eq. 5 sign). Before it `g = 1`. The
+//! passive yaw spring (passive mode) is mechanical and not affected. The scenario TOML:
+//!
+//! ```toml
+//! [actuator_fault]
+//! t_s = 6.0            # the actuator fails at 6 s
+//! mode = "off"         # "off": output ignored; "reversed": sign reversed;
+//!                      # "fraction": acts at `fraction` of its command
+//! fraction = 0.3       # only with mode = "fraction", in [0, 1)
+//! ```
+//!
+//! The continuous reference ([`crate::sim::run_continuous`]) scales its yaw law by `g`
+//! (the law is linear in its gain, so this is the same torque); the sampled and device
+//! loops ([`crate::sim::run_sampled`]) scale the actuation they apply to the plant. The
+//! CSV's `T_ctrl_Nm` is the delivered torque.
+//!
+//! ```
+//! use wheelset_plant::fault::{ActuatorFault, FaultMode};
+//! let f = ActuatorFault { t_on_ns: 6_000_000_000, mode: FaultMode::Reversed };
+//! assert_eq!(f.gain(5_999_999_999), 1.0);
+//! assert_eq!(f.delivered(6_000_000_000, 250.0), -250.0);
+//! ```
+
+use serde::{Deserialize, Serialize};
+
+use crate::control::YawLaw;
+use crate::error::ConfigError;
+use crate::linear::closed_loop_a;
+use crate::modes::eigenvalues;
+use crate::params::Params;
+use crate::scenario::Axle;
+
+/// How the yaw actuator fails.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum FaultMode {
+    /// Stops acting: its output is ignored (a disconnected or dead actuator), `g = 0`.
+    Off,
+    /// Acts at a fraction `f` of its command, `0 <= f < 1`.
+    Fraction(f64),
+    /// Acts with its sign reversed, `g = -1`.
+    Reversed,
+}
+
+impl FaultMode {
+    /// The delivered/commanded torque ratio `g` once failed.
+    pub fn gain(self) -> f64 {
+        match self {
+            FaultMode::Off => 0.0,
+            FaultMode::Fraction(f) => f,
+            FaultMode::Reversed => -1.0,
+        }
+    }
+
+    /// Short name (`off`, `fraction`, `reversed`).
+    pub fn name(self) -> &'static str {
+        match self {
+            FaultMode::Off => "off",
+            FaultMode::Fraction(_) => "fraction",
+            FaultMode::Reversed => "reversed",
+        }
+    }
+}
+
+/// A yaw-actuator fault from `t_on_ns` on.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ActuatorFault {
+    /// Time of the failure, ns.
+    pub t_on_ns: u64,
+    /// How it fails.
+    pub mode: FaultMode,
+}
+
+impl ActuatorFault {
+    /// Delivered/commanded torque ratio at `t_ns`: 1 before the failure, then
+    /// [`FaultMode::gain`].
+    pub fn gain(&self, t_ns: u64) -> f64 {
+        if t_ns < self.t_on_ns {
+            1.0
+        } else {
+            self.mode.gain()
+        }
+    }
+
+    /// The torque the actuator delivers at `t_ns` for the command `t_cmd` (N m).
+    pub fn delivered(&self, t_ns: u64, t_cmd: f64) -> f64 {
+        let g = self.gain(t_ns);
+        if g == 1.0 {
+            t_cmd
+        } else {
+            g * t_cmd
+        }
+    }
+
+    /// Failure time, s.
+    pub fn t_on_s(&self) -> f64 {
+        self.t_on_ns as f64 * 1e-9
+    }
+}
+
+/// The least stable oscillatory mode of the wheelset once its yaw actuator has stopped
+/// acting: the passive-less plant (no yaw spring, no yaw torque), linearised at
+/// straight-track pure rolling (`linear::closed_loop_a` with the passive law and
+/// `k_yaw = 0`). Amplitudes grow as `e^{sigma t}`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct FailedMode {
+    /// Growth rate `sigma = Re(lambda)`, 1/s (> 0: unstable).
+    pub sigma_per_s: f64,
+    /// Frequency `Im(lambda)/(2 pi)`, Hz.
+    pub f_hz: f64,
+}
+
+impl FailedMode {
+    /// The time the mode takes to grow by `factor` (> 1), `ln(factor)/sigma`, s; `None`
+    /// if it does not grow.
+    pub fn time_to_grow(&self, factor: f64) -> Option<f64> {
+        (self.sigma_per_s > 0.0 && factor > 1.0).then(|| factor.ln() / self.sigma_per_s)
+    }
+}
+
+/// [`FailedMode`] for parameters `p` on the plant `axle`/`drive`; `None` if the matrix
+/// has no oscillatory eigenvalue (or a non-finite entry).
+pub fn failed_actuator_mode(p: &Params, axle: Axle, drive: bool) -> Option<FailedMode> {
+    let mut q = p.clone();
+    q.k_yaw = 0.0;
+    let (a, _) = closed_loop_a(&q, axle, drive, YawLaw::Passive);
+    eigenvalues(&a)?
+        .into_iter()
+        .filter(|l| l.im > 1e-6)
+        .max_by(|a, b| a.re.total_cmp(&b.re))
+        .map(|l| FailedMode {
+            sigma_per_s: l.re,
+            f_hz: l.im / (2.0 * std::f64::consts::PI),
+        })
+}
+
+/// `[actuator_fault]` as written in a scenario.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawActuatorFault {
+    t_s: f64,
+    mode: String,
+    fraction: Option<f64>,
+}
+
+impl RawActuatorFault {
+    /// Validates the table; errors name `file`, the key and why.
+    pub(crate) fn validate(&self, file: &str, t_max_s: f64) -> Result<ActuatorFault, ConfigError> {
+        let invalid = |key: &str, reason: String| ConfigError::Invalid {
+            file: file.to_string(),
+            key: format!("actuator_fault.{key}"),
+            reason,
+        };
+        if !self.t_s.is_finite() || self.t_s < 0.0 || self.t_s > t_max_s {
+            return Err(invalid(
+                "t_s",
+                format!("time {} s is outside [0, {t_max_s}] s", self.t_s),
+            ));
+        }
+        let mode = match (self.mode.as_str(), self.fraction) {
+            ("off", None) => FaultMode::Off,
+            ("reversed", None) => FaultMode::Reversed,
+            ("fraction", Some(f)) if f.is_finite() && (0.0..1.0).contains(&f) => {
+                FaultMode::Fraction(f)
+            }
+            ("fraction", Some(f)) => {
+                return Err(invalid(
+                    "fraction",
+                    format!(
+                        "{f} is outside [0, 1) (1 is no fault; use mode = \"reversed\" for -1)"
+                    ),
+                ))
+            }
+            ("fraction", None) => {
+                return Err(invalid(
+                    "fraction",
+                    "mode = \"fraction\" needs `fraction` in [0, 1)".into(),
+                ))
+            }
+            ("off" | "reversed", Some(_)) => {
+                return Err(invalid(
+                    "fraction",
+                    format!(
+                        "only mode = \"fraction\" takes a fraction (mode is \"{}\")",
+                        self.mode
+                    ),
+                ))
+            }
+            (m, _) => {
+                return Err(invalid(
+                    "mode",
+                    format!("unknown mode \"{m}\" (expected off, fraction or reversed)"),
+                ))
+            }
+        };
+        Ok(ActuatorFault {
+            t_on_ns: crate::scenario::s_to_ns(self.t_s),
+            mode,
+        })
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    fn raw(t_s: f64, mode: &str, fraction: Option<f64>) -> RawActuatorFault {
+        RawActuatorFault {
+            t_s,
+            mode: mode.into(),
+            fraction,
+        }
+    }
+
+    #[test]
+    fn modes_scale_the_command_from_the_fault_time() {
+        let t = 2_000_000_000;
+        for (mode, g) in [
+            (FaultMode::Off, 0.0),
+            (FaultMode::Fraction(0.25), 0.25),
+            (FaultMode::Reversed, -1.0),
+        ] {
+            let f = ActuatorFault { t_on_ns: t, mode };
+            assert_eq!(f.delivered(t - 1, 100.0), 100.0);
+            assert_eq!(f.delivered(t, 100.0), 100.0 * g);
+            assert_eq!(f.delivered(t + 10, -40.0), -40.0 * g);
+        }
+    }
+
+    /// With the actuator gone the wheelset hunts at every conicity of the envelope
+    /// (10 MN), at about the kinematic (Klingel) frequency `v/(2 pi) sqrt(lambda/(r0 Lg))`.
+    #[test]
+    fn the_passive_less_wheelset_is_unstable() {
+        for lambda in [0.05, 0.1, 0.2, 0.3, 0.4] {
+            let p = Params {
+                lambda,
+                ..Params::default()
+            };
+            let m = failed_actuator_mode(&p, Axle::Flexible, true).unwrap();
+            let klingel = p.v / (2.0 * std::f64::consts::PI) * (lambda / (p.r0 * p.l_g)).sqrt();
+            println!(
+                "lambda {lambda}: sigma {:.3} 1/s, {:.2} Hz (Klingel {klingel:.2} Hz), x10 in {:.2} s",
+                m.sigma_per_s,
+                m.f_hz,
+                m.time_to_grow(10.0).unwrap_or(f64::NAN)
+            );
+            assert!(m.sigma_per_s > 0.0, "{lambda}: {m:?}");
+            assert!(
+                (m.f_hz / klingel - 1.0).abs() < 0.3,
+                "{lambda}: {m:?} vs {klingel}"
+            );
+        }
+    }
+
+    #[test]
+    fn bad_tables_are_refused_with_the_key() {
+        let key = |r: RawActuatorFault| {
+            r.validate("x.toml", 20.0)
+                .unwrap_err()
+                .key()
+                .map(String::from)
+        };
+        assert_eq!(
+            key(raw(-1.0, "off", None)).as_deref(),
+            Some("actuator_fault.t_s")
+        );
+        assert_eq!(
+            key(raw(21.0, "off", None)).as_deref(),
+            Some("actuator_fault.t_s")
+        );
+        assert_eq!(
+            key(raw(1.0, "stuck", None)).as_deref(),
+            Some("actuator_fault.mode")
+        );
+        assert_eq!(
+            key(raw(1.0, "fraction", None)).as_deref(),
+            Some("actuator_fault.fraction")
+        );
+        assert_eq!(
+            key(raw(1.0, "fraction", Some(1.0))).as_deref(),
+            Some("actuator_fault.fraction")
+        );
+        assert_eq!(
+            key(raw(1.0, "fraction", Some(f64::NAN))).as_deref(),
+            Some("actuator_fault.fraction")
+        );
+        assert_eq!(
+            key(raw(1.0, "off", Some(0.5))).as_deref(),
+            Some("actuator_fault.fraction")
+        );
+        let ok = raw(1.5, "fraction", Some(0.5))
+            .validate("x.toml", 20.0)
+            .unwrap();
+        assert_eq!(ok.mode, FaultMode::Fraction(0.5));
+        assert_eq!(ok.t_on_ns, 1_500_000_000);
+    }
+}

@@ -1,0 +1,145 @@
+//! Guards of the linear algebra: no matrix reaches an eigenvalue or exponential solver
+//! unless every entry is finite (nalgebra's Schur iteration does not return on a NaN
+//! matrix), the parameter to blame for a non-finite matrix, and a conditioning check of
+//! computed eigenvalues.
+//!
+//! Conditioning: the eigenvalues of `A` and of `A^T` are the same numbers; computed,
+//! they differ by about `kappa(lambda) eps ||A||`, where `kappa` is the eigenvalue's
+//! condition number. [`eigen_disagreement`] returns the largest such difference
+//! relative to `|lambda|` (eigenvalues below `1e-9 ||A||`, like the structural zero of
+//! free rolling, are measured against `||A||` instead); above [`ILL_CONDITIONED`] the
+//! printed modes carry fewer than about six correct digits and the tools warn.
+//!
+//! ```
+//! use nalgebra::DMatrix;
+//! use wheelset_plant::finite::{check_finite, eigen_disagreement};
+//! let a = DMatrix::from_row_slice(2, 2, &[0.0, 1.0, -4.0, -0.1]);
+//! assert!(check_finite(&a, "A").is_ok());
+//! assert!(eigen_disagreement(&a).unwrap() < 1e-12);
+//! let bad = DMatrix::from_row_slice(1, 1, &[f64::NAN]);
+//! assert!(check_finite(&bad, "A").unwrap_err().contains("not finite"));
+//! ```
+
+use crate::params::{Params, RANGES};
+use nalgebra::{Complex, DMatrix};
+
+/// Relative eigenvalue disagreement above which results are called ill-conditioned.
+pub const ILL_CONDITIONED: f64 = 1e-6;
+
+/// `Ok` when every entry of `m` is finite; else names `what` and the first bad entry.
+pub fn check_finite(m: &DMatrix<f64>, what: &str) -> Result<(), String> {
+    for j in 0..m.ncols() {
+        for i in 0..m.nrows() {
+            let v = m[(i, j)];
+            if !v.is_finite() {
+                return Err(format!(
+                    "{what} is not finite (entry ({i}, {j}) = {v}): not passed to the eigenvalue solver"
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The eigenvalues of `m`, or an error when an entry is not finite.
+pub fn eigenvalues(m: &DMatrix<f64>, what: &str) -> Result<Vec<Complex<f64>>, String> {
+    check_finite(m, what)?;
+    Ok(m.complex_eigenvalues().iter().copied().collect())
+}
+
+/// The largest relative difference between the eigenvalues of `a` and of `a^T`
+/// (matched nearest first), a measure of how many digits the computed eigenvalues
+/// carry; `None` when `a` is not finite or empty.
+pub fn eigen_disagreement(a: &DMatrix<f64>) -> Option<f64> {
+    if a.is_empty() || check_finite(a, "A").is_err() {
+        return None;
+    }
+    let e1 = eigenvalues(a, "A").ok()?;
+    let mut e2 = eigenvalues(&a.transpose(), "A^T").ok()?;
+    let norm = a.norm();
+    let mut worst: f64 = 0.0;
+    for l in &e1 {
+        let (k, d) = e2
+            .iter()
+            .enumerate()
+            .map(|(k, m)| (k, (l - m).norm()))
+            .min_by(|x, y| x.1.total_cmp(&y.1))?;
+        e2.swap_remove(k);
+        let scale = if l.norm() < 1e-9 * norm {
+            norm
+        } else {
+            l.norm()
+        };
+        worst = worst.max(d / scale);
+    }
+    Some(worst)
+}
+
+/// When `build(p)` yields a non-finite matrix: the first parameter (in
+/// [`RANGES`] order) whose default value alone makes every matrix finite again.
+/// `None` when the matrices are finite, or no single parameter is to blame.
+pub fn blame_nonfinite(
+    p: &Params,
+    build: impl Fn(&Params) -> Vec<DMatrix<f64>>,
+) -> Option<&'static str> {
+    let finite = |q: &Params| build(q).iter().all(|m| check_finite(m, "").is_ok());
+    if finite(p) {
+        return None;
+    }
+    let defaults = Params::default();
+    RANGES.iter().map(|r| r.key).find(|&key| {
+        let mut q = p.clone();
+        reset(&mut q, &defaults, key);
+        finite(&q)
+    })
+}
+
+/// Sets `key` of `q` to its value in `defaults` (through the TOML names).
+fn reset(q: &mut Params, defaults: &Params, key: &str) {
+    let (Ok(mut t), Ok(d)) = (toml::Table::try_from(&*q), toml::Table::try_from(defaults)) else {
+        return;
+    };
+    match d.get(key) {
+        Some(v) => {
+            t.insert(key.to_string(), v.clone());
+        }
+        None => {
+            t.remove(key);
+        }
+    }
+    if let Ok(n) = t.try_into::<Params>() {
+        *q = n;
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn blame_names_the_parameter_that_breaks_the_matrix() {
+        let p = Params {
+            l_a: 1e-320, // subnormal: R_a / L_a overflows to inf
+            ..Params::default()
+        };
+        let build = |q: &Params| vec![DMatrix::from_row_slice(1, 1, &[-q.r_a / q.l_a])];
+        assert_eq!(blame_nonfinite(&p, build), Some("l_a"));
+        assert_eq!(blame_nonfinite(&Params::default(), build), None);
+        assert!(eigenvalues(&build(&p)[0], "armature").is_err());
+    }
+
+    #[test]
+    fn disagreement_is_small_for_a_well_posed_matrix_and_large_for_a_defective_one() {
+        // A Jordan-like block with a tiny perturbation: eigenvalues ill-conditioned.
+        let mut a = DMatrix::<f64>::zeros(6, 6);
+        for i in 0..5 {
+            a[(i, i + 1)] = 1e4;
+            a[(i, i)] = -1.0;
+        }
+        a[(5, 5)] = -1.0;
+        assert!(eigen_disagreement(&a).unwrap() > ILL_CONDITIONED);
+        let b = DMatrix::from_row_slice(2, 2, &[-1.0, 2.0, -3.0, -0.5]);
+        assert!(eigen_disagreement(&b).unwrap() < 1e-12);
+    }
+}

@@ -1,0 +1,179 @@
+//! Memory follows the output that was asked for: the estimate of what a run or a sweep
+//! keeps in memory, checked against [`MAX_BYTES`] before anything is allocated, so an
+//! accepted input never makes a tool abort on allocation. A refusal gives the estimate
+//! and how to lower it.
+//!
+//! - A run keeps one [`Record`] (one `f64` per CSV column) per output sample,
+//!   `duration_s / output_dt_s + 2` of them; on `--loop device` also one link record per
+//!   control period ([`DEVICE_BYTES_PER_PERIOD`]).
+//! - A modal sweep keeps, per creep point and case, the eigenvalues and their JSON
+//!   document ([`MODES_BYTES_PER_POINT`], measured).
+//!
+//! ```
+//! use wheelset_plant::memory::{run_bytes, MAX_BYTES, RECORD_BYTES};
+//! // 20 s at 1 ms: 20 002 records.
+//! assert_eq!(run_bytes(20_000_000_000, 1_000_000, None), 20_002 * RECORD_BYTES);
+//! // 1e5 s at 1 ms: 1e8 records, about 20 GiB: refused.
+//! assert!(run_bytes(100_000_000_000_000, 1_000_000, None) > MAX_BYTES);
+//! ```
+
+use crate::sim::Record;
+
+/// The most memory a run or a sweep may plan for: 2 GiB (the machines this project
+/// runs on have 24 GiB for up to eight builds and runs at once).
+pub const MAX_BYTES: u64 = 2 << 30;
+
+/// Bytes of one output record.
+pub const RECORD_BYTES: u64 = std::mem::size_of::<Record>() as u64;
+
+/// Bytes kept per control period by the device loop: its link record
+/// (`wheelset_loop::exchange::LinkSample`, 24 B) and the link's fate of each of the
+/// period's frames (2 x 8 B, rounded up). `wheelset-loop` asserts at compile time that
+/// this is the size of its record plus 16.
+pub const DEVICE_BYTES_PER_PERIOD: u64 = 24 + 16;
+
+/// Bytes per creep point and case of `sim-host modes`: the eigenvalues in the sweep and
+/// the JSON document of the point (each value a `serde_json::Value` in a map). Measured:
+/// `/usr/bin/time -v sim-host modes --points N` (all four cases) keeps 139 MB at
+/// N = 5 000 and 541 MB at N = 20 000 (maximum resident set), 6.9 kB per point and case;
+/// 8 kB with margin.
+pub const MODES_BYTES_PER_POINT: u64 = 8_000;
+
+/// Estimated bytes of a run of `duration_ns` sampled every `output_dt_ns`, plus one
+/// device period's record every `device_period_ns` when given.
+#[must_use]
+pub fn run_bytes(duration_ns: u64, output_dt_ns: u64, device_period_ns: Option<u64>) -> u64 {
+    let records = duration_ns / output_dt_ns.max(1) + 2;
+    let mut bytes = records.saturating_mul(RECORD_BYTES);
+    if let Some(p) = device_period_ns {
+        let periods = duration_ns / p.max(1) + 2;
+        bytes = bytes.saturating_add(periods.saturating_mul(DEVICE_BYTES_PER_PERIOD));
+    }
+    bytes
+}
+
+/// Estimated bytes of a modal sweep of `points` creep values over `cases` cases.
+#[must_use]
+pub fn modes_bytes(points: u64, cases: u64) -> u64 {
+    points
+        .saturating_mul(cases)
+        .saturating_mul(MODES_BYTES_PER_POINT)
+}
+
+/// `bytes` in MiB or GiB, for messages.
+#[must_use]
+pub fn human(bytes: u64) -> String {
+    let b = bytes as f64;
+    if b >= (1u64 << 30) as f64 {
+        format!("{:.1} GiB", b / (1u64 << 30) as f64)
+    } else {
+        format!("{:.1} MiB", b / (1u64 << 20) as f64)
+    }
+}
+
+/// Refuses a run whose estimate is above [`MAX_BYTES`]: the reason names the estimate,
+/// the limit, and the longest duration that fits at this output interval.
+pub fn check_run(
+    duration_ns: u64,
+    output_dt_ns: u64,
+    device_period_ns: Option<u64>,
+) -> Result<(), String> {
+    check_runs(duration_ns, output_dt_ns, device_period_ns, 1)
+}
+
+/// [`check_run`] for `runs` trajectories kept at once (`--compare`, the continuous
+/// reference of a device run); the device records count once.
+pub fn check_runs(
+    duration_ns: u64,
+    output_dt_ns: u64,
+    device_period_ns: Option<u64>,
+    runs: u64,
+) -> Result<(), String> {
+    let runs = runs.max(1);
+    let extra = run_bytes(duration_ns, output_dt_ns, None).saturating_mul(runs - 1);
+    let bytes = run_bytes(duration_ns, output_dt_ns, device_period_ns).saturating_add(extra);
+    if bytes <= MAX_BYTES {
+        return Ok(());
+    }
+    let per_s = run_bytes(1_000_000_000, output_dt_ns, device_period_ns)
+        .saturating_add(run_bytes(1_000_000_000, output_dt_ns, None).saturating_mul(runs - 1))
+        .max(1);
+    let fits_s = MAX_BYTES / per_s;
+    Err(format!(
+        "{} would keep about {} in memory ({} records of {RECORD_BYTES} B at sim.output_dt_s = {} s{}), \
+         above the limit of {}: lower duration_s to at most about {fits_s} s, or raise sim.output_dt_s",
+        if runs == 1 {
+            "the run".to_string()
+        } else {
+            format!("{runs} runs kept together (--compare, the reference)")
+        },
+        human(bytes),
+        duration_ns / output_dt_ns.max(1) + 2,
+        output_dt_ns as f64 * 1e-9,
+        match device_period_ns {
+            Some(p) => format!(
+                ", plus {} link records of {DEVICE_BYTES_PER_PERIOD} B, one per {} us period",
+                duration_ns / p.max(1) + 2,
+                p as f64 * 1e-3
+            ),
+            None => String::new(),
+        },
+        human(MAX_BYTES),
+    ))
+}
+
+/// Refuses a modal sweep whose estimate is above [`MAX_BYTES`], with the largest
+/// `--points` that fits.
+pub fn check_modes(points: u64, cases: u64) -> Result<(), String> {
+    let bytes = modes_bytes(points, cases);
+    if bytes <= MAX_BYTES {
+        return Ok(());
+    }
+    Err(format!(
+        "--points {points}: the sweep of {cases} case(s) would keep about {} in memory, above the \
+         limit of {}: use at most --points {}{}",
+        human(bytes),
+        human(MAX_BYTES),
+        MAX_BYTES / MODES_BYTES_PER_POINT / cases.max(1),
+        if cases > 1 {
+            format!(
+                ", or one case (--case) for up to {}",
+                MAX_BYTES / MODES_BYTES_PER_POINT
+            )
+        } else {
+            String::new()
+        }
+    ))
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn estimates_scale_with_the_output_and_refuse_above_the_limit() {
+        assert_eq!(RECORD_BYTES as usize, 8 * Record::COLUMNS.len());
+        assert!(check_run(20_000_000_000, 1_000_000, Some(200_000)).is_ok());
+        let e = check_run(100_000_000_000_000, 1_000_000, None).unwrap_err();
+        assert!(
+            e.contains(&format!(
+                "{:.1} GiB",
+                (100_000_002 * RECORD_BYTES) as f64 / (1u64 << 30) as f64
+            )) && e.contains("lower duration_s"),
+            "{e}"
+        );
+        // Raising the output interval is the way out that the message names.
+        assert!(check_run(100_000_000_000_000, 100_000_000, None).is_ok());
+        // Runs kept together count together.
+        assert!(check_runs(2_000_000_000_000, 1_000_000, None, 1).is_ok());
+        let e = check_runs(2_000_000_000_000, 1_000_000, None, 8).unwrap_err();
+        assert!(e.contains("8 runs"), "{e}");
+        assert!(check_modes(1000, 4).is_ok());
+        let e = check_modes(1_000_000, 4).unwrap_err();
+        assert!(
+            e.contains("--points 1000000") && e.contains("use at most"),
+            "{e}"
+        );
+    }
+}

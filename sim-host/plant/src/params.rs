@@ -1,0 +1,567 @@
+//! Physical and controller parameters of the wheelset, its traction drive and the
+//! continuous-time reference controllers, with the paper's defaults (`docs/model.md`).
+//!
+//! All values are SI. A TOML table may override any subset of the fields; unknown keys
+//! and out-of-range values are refused with a [`ConfigError`] naming the key.
+//!
+//! ```
+//! let p = wheelset_plant::params::Params::from_toml_str("f11 = 5e6\nf22 = 5e6\n", "x.toml").unwrap();
+//! assert_eq!(p.f11, 5e6);
+//! assert_eq!(p.m, 1250.0); // default kept
+//! ```
+
+use crate::error::{from_toml, ConfigError};
+use serde::{Deserialize, Serialize};
+use std::f64::consts::PI;
+
+/// The wheelset, drive and controller parameters. Field names are the TOML keys.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Params {
+    /// Wheelset mass `m`, kg.
+    pub m: f64,
+    /// Vehicle mass `m_v`, kg (eq. 8 carries `m_v / 2`).
+    pub m_v: f64,
+    /// Wheelset yaw inertia `J`, kg m^2.
+    pub j: f64,
+    /// Rotational inertia of one wheel `I_w`, kg m^2 (the rigid axle has `2 I_w`).
+    pub i_w: f64,
+    /// Motor rotor inertia `I_m`, kg m^2.
+    pub i_m: f64,
+    /// Longitudinal creep coefficient `f11`, N.
+    pub f11: f64,
+    /// Lateral creep coefficient `f22`, N (per wheel).
+    pub f22: f64,
+    /// Lateral damping per wheelset `c_lat`, N s/m.
+    pub c_lat: f64,
+    /// Lateral stiffness `k_lat`, N/m (not given by the paper; default 0).
+    pub k_lat: f64,
+    /// Passive yaw stiffness `k_yaw`, N m/rad: `T_psi = k_yaw psi` (passive mode only).
+    pub k_yaw: f64,
+    /// Axle torsion frequency, Hz, used when `k_t` is absent:
+    /// `k_t = I_w (2 pi f)^2 / 2` (the two wheels against each other).
+    pub torsion_hz: f64,
+    /// Axle torsional stiffness `k_t`, N m/rad; overrides `torsion_hz`.
+    pub k_t: Option<f64>,
+    /// Motor-on-gear frequency (wheel held), Hz, used when `k_gear` is absent:
+    /// `k_gear = n^2 I_m (2 pi f)^2`.
+    pub gear_hz: f64,
+    /// Gear (transmission) stiffness `k_gear`, N m/rad at the wheel; overrides `gear_hz`.
+    pub k_gear: Option<f64>,
+    /// Half gauge `Lg`, m.
+    pub l_g: f64,
+    /// Wheel rolling radius `r0`, m.
+    pub r0: f64,
+    /// Effective conicity `lambda`, dimensionless.
+    pub lambda: f64,
+    /// Gravity `g`, m/s^2.
+    pub g: f64,
+    /// Forward speed `v`, m/s: the initial speed of a run and the linearisation speed.
+    pub v: f64,
+    /// Gear ratio `n` (motor turns per wheel turn).
+    pub n_gear: f64,
+    /// Motor constant `K_m`, V s/rad = N m/A.
+    pub k_m: f64,
+    /// Armature inductance `L_a`, H.
+    pub l_a: f64,
+    /// Armature resistance `R_a`, ohm.
+    pub r_a: f64,
+    /// Active yaw damping gain `K`, N m s/m: `T_psi = K y'` (pure gain).
+    pub k_active: f64,
+    /// Phase-lead high-frequency factor `a` in `Ks(s) = K a (s + z)/(s + p)` (7.5).
+    pub lead_gain: f64,
+    /// Phase-lead zero `z`, rad/s (37).
+    pub lead_zero: f64,
+    /// Phase-lead pole `p`, rad/s (274).
+    pub lead_pole: f64,
+    /// Traction PI proportional gain `Kp`, V/A: `Kt(s) = Kp (1 + 1/(Ti s))`.
+    pub pi_kp: f64,
+    /// Traction PI integral time `Ti`, s (0.5 from `Kt = (0.5 s + 1)/(0.5 s)`; the
+    /// appendix lists 0.05).
+    pub pi_ti: f64,
+    /// Vertical wheel load `Q` per wheel, N, for the adhesion law ([`crate::adhesion`]);
+    /// absent: `(m + m_v/2) g / 2` (55.2 kN with the defaults).
+    pub q: Option<f64>,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Params {
+            m: 1250.0,
+            m_v: 20_000.0,
+            j: 600.0,
+            i_w: 35.0,
+            i_m: 11.0,
+            f11: 10e6,
+            f22: 10e6,
+            c_lat: 24e3,
+            k_lat: 0.0,
+            k_yaw: 4.7e6,
+            torsion_hz: 40.0,
+            k_t: None,
+            gear_hz: 20.0,
+            k_gear: None,
+            l_g: 0.7,
+            r0: 0.45,
+            lambda: 0.2,
+            g: 9.81,
+            v: 83.3,
+            n_gear: 5.0,
+            k_m: 4.28,
+            l_a: 4e-4,
+            r_a: 0.04,
+            k_active: 1.05e5,
+            lead_gain: 7.5,
+            lead_zero: 37.0,
+            lead_pole: 274.0,
+            pi_kp: 1.0,
+            pi_ti: 0.5,
+            q: None,
+        }
+    }
+}
+
+/// The plausible range of one parameter: values outside `[min, max]` are refused by
+/// [`Params::validate`] with `why`. The table [`RANGES`] is the one source of truth; the
+/// model document (`docs/model.md`, "Plausible ranges") prints the same rows, and a test
+/// compares the two.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Range {
+    /// The TOML key.
+    pub key: &'static str,
+    /// SI unit of the value (`1` for a pure number).
+    pub unit: &'static str,
+    /// Smallest accepted value (inclusive).
+    pub min: f64,
+    /// Largest accepted value (inclusive).
+    pub max: f64,
+    /// Why these bounds: what is physically plausible, and what breaks outside.
+    pub why: &'static str,
+}
+
+const fn r(key: &'static str, unit: &'static str, min: f64, max: f64, why: &'static str) -> Range {
+    Range {
+        key,
+        unit,
+        min,
+        max,
+        why,
+    }
+}
+
+/// Plausible range of every parameter (SI), in [`Params::entries`] order. Every bound is
+/// a physical limit with a generous margin (light rail to heavy freight, 0.1 m/s to the
+/// speed record), so a study anywhere in the paper's envelope is accepted; what lies
+/// outside is a typing error or a value no wheelset has, and makes the linear algebra
+/// meaningless (e.g. `l_a = 1e-61` H puts `R_a / L_a = 4e59` 1/s in the plant matrix).
+pub const RANGES: &[Range] = &[
+    r(
+        "m",
+        "kg",
+        100.0,
+        1e4,
+        "a wheelset: light rail ~500 kg, heavy freight ~2.5 t",
+    ),
+    r(
+        "m_v",
+        "kg",
+        0.0,
+        2e6,
+        "vehicle (or hauled train) mass per driven wheelset; 0 = none; a heavy train ~2000 t on 4 driven axles is 5e5",
+    ),
+    r(
+        "j",
+        "kg m^2",
+        10.0,
+        1e4,
+        "wheelset yaw inertia ~ m Lg^2 (600 at 1.25 t)",
+    ),
+    r(
+        "i_w",
+        "kg m^2",
+        1.0,
+        1e3,
+        "one wheel (with its half axle): 20-100 kg m^2",
+    ),
+    r(
+        "i_m",
+        "kg m^2",
+        0.01,
+        1e3,
+        "motor rotor: 1-50 kg m^2 for traction motors",
+    ),
+    r(
+        "f11",
+        "N",
+        1e5,
+        1e8,
+        "Kalker coefficient: 1-10 MN for 5-20 t wheel loads; 0.1 MN = severely reduced adhesion",
+    ),
+    r("f22", "N", 1e5, 1e8, "as f11"),
+    r(
+        "c_lat",
+        "N s/m",
+        0.0,
+        1e7,
+        "lateral (primary) damping: 0-100 kN s/m typical",
+    ),
+    r(
+        "k_lat",
+        "N/m",
+        0.0,
+        1e9,
+        "lateral (primary) stiffness: 0-10 MN/m typical",
+    ),
+    r(
+        "k_yaw",
+        "N m/rad",
+        0.0,
+        1e9,
+        "passive yaw stiffness: 1-20 MN m/rad typical",
+    ),
+    r(
+        "torsion_hz",
+        "Hz",
+        1.0,
+        1e3,
+        "axle torsion mode: 30-100 Hz for solid axles",
+    ),
+    r(
+        "k_t",
+        "N m/rad",
+        1e3,
+        1e10,
+        "axle torsional stiffness: ~1e6-1e8 N m/rad",
+    ),
+    r(
+        "gear_hz",
+        "Hz",
+        1.0,
+        1e3,
+        "motor-on-gear mode (wheel held): 5-100 Hz",
+    ),
+    r(
+        "k_gear",
+        "N m/rad",
+        1e3,
+        1e10,
+        "gear stiffness at the wheel: ~1e5-1e8 N m/rad",
+    ),
+    r(
+        "l_g",
+        "m",
+        0.3,
+        1.0,
+        "half gauge: 600 mm narrow gauge to 1676 mm broad gauge, contact points",
+    ),
+    r(
+        "r0",
+        "m",
+        0.2,
+        0.8,
+        "wheel rolling radius: tram 0.3 m to locomotive 0.63 m",
+    ),
+    r(
+        "lambda",
+        "1",
+        0.01,
+        1.0,
+        "effective conicity: new profiles 0.05-0.4, worn up to ~0.8",
+    ),
+    r(
+        "g",
+        "m/s^2",
+        1.0,
+        20.0,
+        "gravity: 9.78-9.83 on Earth; other values only to study the gravitational stiffness",
+    ),
+    r(
+        "v",
+        "m/s",
+        0.1,
+        160.0,
+        "forward speed: standstill excluded (the model divides by v) to the 160 m/s record",
+    ),
+    r("n_gear", "1", 1.0, 20.0, "traction gear ratio: 2-8 typical"),
+    r(
+        "k_m",
+        "N m/A",
+        0.1,
+        100.0,
+        "motor constant (= V s/rad): 1-10 typical",
+    ),
+    r(
+        "l_a",
+        "H",
+        1e-5,
+        1.0,
+        "armature inductance: 0.1-10 mH; below 10 uH the armature pole is past any sampling rate",
+    ),
+    r(
+        "r_a",
+        "ohm",
+        0.0,
+        10.0,
+        "armature resistance: 10-100 mOhm typical; 0 = ideal",
+    ),
+    r(
+        "k_active",
+        "N m s/m",
+        0.0,
+        1e7,
+        "active yaw damping gain: the paper's 1.05e5 with two decades of margin",
+    ),
+    r(
+        "lead_gain",
+        "1",
+        1.0,
+        100.0,
+        "phase-lead high-frequency factor a >= 1 (the paper: 7.5)",
+    ),
+    r(
+        "lead_zero",
+        "rad/s",
+        0.1,
+        1e4,
+        "phase-lead zero (the paper: 37 rad/s)",
+    ),
+    r(
+        "lead_pole",
+        "rad/s",
+        0.1,
+        1e5,
+        "phase-lead pole (the paper: 274 rad/s)",
+    ),
+    r(
+        "pi_kp",
+        "V/A",
+        1e-3,
+        1e3,
+        "traction PI proportional gain (the paper: 1 V/A)",
+    ),
+    r(
+        "pi_ti",
+        "s",
+        1e-4,
+        100.0,
+        "traction PI integral time (the paper: 0.5 s)",
+    ),
+    r(
+        "q",
+        "N",
+        1e3,
+        5e5,
+        "vertical wheel load: a light tram ~20 kN to a 35 t freight axle ~170 kN per wheel",
+    ),
+];
+
+/// `v` for messages: plain between 1e-3 and 1e6, else in exponent form (`1e-61`).
+fn num(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() || (1e-3..1e6).contains(&v.abs()) {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
+}
+
+impl Params {
+    /// Axle torsional stiffness `k_t`, N m/rad (explicit, or from `torsion_hz`).
+    pub fn k_t(&self) -> f64 {
+        self.k_t
+            .unwrap_or_else(|| self.i_w * (2.0 * PI * self.torsion_hz).powi(2) / 2.0)
+    }
+
+    /// Gear stiffness `k_gear`, N m/rad (explicit, or from `gear_hz`):
+    /// default `n^2 I_m (2 pi 20)^2` = 4.34e6.
+    pub fn k_gear(&self) -> f64 {
+        self.k_gear.unwrap_or_else(|| {
+            self.n_gear * self.n_gear * self.i_m * (2.0 * PI * self.gear_hz).powi(2)
+        })
+    }
+
+    /// Pure rolling line `y0 = r0 Lg / (lambda R)` for curvature `1/R`, m.
+    pub fn pure_rolling_y(&self, curvature: f64) -> f64 {
+        self.r0 * self.l_g * curvature / self.lambda
+    }
+
+    /// Kinematic (Klingel) frequency of the free rigid wheelset,
+    /// `v sqrt(lambda / (r0 Lg)) / 2 pi`, Hz.
+    pub fn kinematic_hz(&self) -> f64 {
+        self.v * (self.lambda / (self.r0 * self.l_g)).sqrt() / (2.0 * PI)
+    }
+
+    /// Wheel load `Q`, N (explicit, or `(m + m_v/2) g / 2`).
+    pub fn q(&self) -> f64 {
+        self.q
+            .unwrap_or_else(|| (self.m + self.m_v / 2.0) * self.g / 2.0)
+    }
+
+    /// Motor speed at pure rolling, `n v / r0`, rad/s.
+    pub fn rolling_motor_speed(&self) -> f64 {
+        self.n_gear * self.v / self.r0
+    }
+
+    /// The list of values with their keys (for reports and validation).
+    pub fn entries(&self) -> Vec<(&'static str, f64)> {
+        vec![
+            ("m", self.m),
+            ("m_v", self.m_v),
+            ("j", self.j),
+            ("i_w", self.i_w),
+            ("i_m", self.i_m),
+            ("f11", self.f11),
+            ("f22", self.f22),
+            ("c_lat", self.c_lat),
+            ("k_lat", self.k_lat),
+            ("k_yaw", self.k_yaw),
+            ("torsion_hz", self.torsion_hz),
+            ("k_t", self.k_t()),
+            ("gear_hz", self.gear_hz),
+            ("k_gear", self.k_gear()),
+            ("l_g", self.l_g),
+            ("r0", self.r0),
+            ("lambda", self.lambda),
+            ("g", self.g),
+            ("v", self.v),
+            ("n_gear", self.n_gear),
+            ("k_m", self.k_m),
+            ("l_a", self.l_a),
+            ("r_a", self.r_a),
+            ("k_active", self.k_active),
+            ("lead_gain", self.lead_gain),
+            ("lead_zero", self.lead_zero),
+            ("lead_pole", self.lead_pole),
+            ("pi_kp", self.pi_kp),
+            ("pi_ti", self.pi_ti),
+            ("q", self.q()),
+        ]
+    }
+
+    /// Checks every value against its plausible range ([`RANGES`]). The error names the
+    /// key, the value, the range with its unit, and why.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        // The values as given first, then the stiffnesses derived from them, so a bad
+        // `n_gear` is named as such rather than through `k_gear`.
+        let derived = |key: &str| {
+            (key == "k_t" && self.k_t.is_none())
+                || (key == "k_gear" && self.k_gear.is_none())
+                || (key == "q" && self.q.is_none())
+        };
+        let entries = self.entries();
+        let ordered = entries
+            .iter()
+            .filter(|(k, _)| !derived(k))
+            .chain(entries.iter().filter(|(k, _)| derived(k)));
+        for &(key, value) in ordered {
+            let Some(r) = RANGES.iter().find(|r| r.key == key) else {
+                continue;
+            };
+            if !value.is_finite() || value < r.min || value > r.max {
+                // A derived stiffness out of range names the key it came from.
+                let from = match (key, self.k_t, self.k_gear, self.q) {
+                    ("k_t", None, _, _) => " (derived from i_w and torsion_hz)",
+                    ("k_gear", _, None, _) => " (derived from n_gear, i_m and gear_hz)",
+                    ("q", _, _, None) => " (derived from m, m_v and g)",
+                    _ => "",
+                };
+                return Err(ConfigError::Invalid {
+                    file: String::new(),
+                    key: key.to_string(),
+                    reason: format!(
+                        "value {}{from} is outside the plausible range [{}, {}] {}: {}",
+                        num(value),
+                        num(r.min),
+                        num(r.max),
+                        r.unit,
+                        r.why
+                    ),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Parses a parameter table (every key optional) and validates it.
+    /// `file` is used in error messages.
+    pub fn from_toml_str(src: &str, file: &str) -> Result<Params, ConfigError> {
+        let p: Params = toml::from_str(src).map_err(|e| from_toml(file, src, &e))?;
+        p.validate().map_err(|e| e.with_file(file))?;
+        Ok(p)
+    }
+
+    /// Reads and validates a parameter file.
+    pub fn from_file(path: &std::path::Path) -> Result<Params, ConfigError> {
+        let file = path.display().to_string();
+        let src = crate::input::read_input(path)?;
+        Self::from_toml_str(&src, &file)
+    }
+
+    /// Applies a TOML table of overrides on top of `self` (unknown keys refused),
+    /// validates, and returns the result.
+    pub fn with_overrides(&self, table: &toml::Table, file: &str) -> Result<Params, ConfigError> {
+        let mut base = toml::Table::try_from(self).map_err(|e| ConfigError::Parse {
+            file: file.to_string(),
+            key: None,
+            line: None,
+            reason: e.to_string(),
+        })?;
+        for (k, v) in table {
+            base.insert(k.clone(), v.clone());
+        }
+        let src = toml::to_string(table).unwrap_or_default();
+        // Check the override table alone first, so an unknown key is reported as such.
+        let _: Params = toml::from_str(&src).map_err(|e| {
+            let mut err = from_toml(file, &src, &e);
+            if let ConfigError::Parse { line, .. } = &mut err {
+                *line = None; // lines refer to the re-serialised table, not the file
+            }
+            err
+        })?;
+        let p: Params = base
+            .try_into()
+            .map_err(|e: toml::de::Error| ConfigError::Parse {
+                file: file.to_string(),
+                key: None,
+                line: None,
+                reason: e.message().to_string(),
+            })?;
+        p.validate().map_err(|e| e.with_file(file))?;
+        Ok(p)
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_valid_and_derived_values_match_spec() {
+        let p = Params::default();
+        assert!(p.validate().is_ok());
+        // k_gear = n^2 I_m (2 pi 20)^2 = 4.34e6 (spec table).
+        assert!(
+            (p.k_gear() - 4.34e6).abs() / 4.34e6 < 2e-3,
+            "{}",
+            p.k_gear()
+        );
+        // y0 = 0.685 mm at R = 2300 m.
+        let y0 = p.pure_rolling_y(1.0 / 2300.0);
+        assert!((y0 - 0.685e-3).abs() < 0.001e-3, "{y0}");
+        // back-EMF at 83.3 m/s: about 3961 V.
+        assert!((p.k_m * p.rolling_motor_speed() - 3961.0).abs() < 2.0);
+    }
+
+    #[test]
+    fn unknown_key_and_bad_range_are_named() {
+        let e = Params::from_toml_str("f11 = 1e7\nfoo = 3\n", "p.toml").unwrap_err();
+        assert_eq!(e.key(), Some("foo"), "{e}");
+        assert_eq!(e.file(), "p.toml");
+        let e = Params::from_toml_str("lambda = -0.2\n", "p.toml").unwrap_err();
+        assert_eq!(e.key(), Some("lambda"), "{e}");
+        let e = Params::from_toml_str("r0 = \"big\"\n", "p.toml").unwrap_err();
+        assert!(matches!(e, ConfigError::Parse { .. }), "{e}");
+        let e = Params::from_toml_str("v = nan\n", "p.toml").unwrap_err();
+        assert_eq!(e.key(), Some("v"), "{e}");
+    }
+}

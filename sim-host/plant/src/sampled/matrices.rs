@@ -1,0 +1,437 @@
+//! The loop matrices: the plant discretised with a zero-order hold, the tick matrices of
+//! the controllers at their divisors, the monodromy over the hyper-period and its modes;
+//! the continuous closed loop for comparison.
+
+use super::*;
+use nalgebra::{Complex, DMatrix};
+use wheelset_control::{Config, YawMode};
+
+/// Exact zero-order-hold discretisation: `(Ad, Bd)` from `exp([[A, B], [0, 0]] t)`.
+pub fn zoh(a: &DMatrix<f64>, b: &DMatrix<f64>, t: f64) -> (DMatrix<f64>, DMatrix<f64>) {
+    let n = a.nrows();
+    let m = b.ncols();
+    let mut aug = DMatrix::<f64>::zeros(n + m, n + m);
+    aug.view_mut((0, 0), (n, n)).copy_from(&(a * t));
+    aug.view_mut((0, n), (n, m)).copy_from(&(b * t));
+    let e = aug.exp();
+    (
+        e.view((0, 0), (n, n)).into_owned(),
+        e.view((0, n), (n, m)).into_owned(),
+    )
+}
+
+/// One closed-loop mode.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Mode {
+    /// Eigenvalue of the monodromy matrix (one hyper-period).
+    pub mu: Complex<f64>,
+    /// Equivalent continuous eigenvalue `ln(mu)/(L T0)`, 1/s.
+    pub s: Complex<f64>,
+    /// `|Im s|/(2 pi)`, Hz.
+    pub freq_hz: f64,
+    /// `-Re s/|s|` (1 for a real stable pole, negative when unstable).
+    pub zeta: f64,
+    /// `|mu|^(1/L)`: contraction per base tick.
+    pub radius: f64,
+}
+
+/// The closed loop's modes and verdict.
+#[derive(Debug, Clone)]
+pub struct ClosedLoop {
+    /// All modes, excluded ones removed, sorted by decreasing radius.
+    pub modes: Vec<Mode>,
+    /// The free-rolling modes left out (nearest `mu = 1`).
+    pub excluded: Vec<Mode>,
+    /// Largest radius per base tick among `modes` (< 1: stable).
+    pub spectral_radius: f64,
+    /// The least damped oscillatory mode (or the slowest real one).
+    pub worst: Mode,
+}
+
+impl ClosedLoop {
+    /// Stable: spectral radius below 1.
+    pub fn stable(&self) -> bool {
+        self.spectral_radius < 1.0
+    }
+}
+
+/// Largest hyper-period (ticks) and delay the analysis accepts.
+pub const MAX_HYPER_PERIOD: usize = 1000;
+
+/// Loop timing: the base rate, the divisors and the actuation delay.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Timing {
+    /// Base rate, Hz.
+    pub base_hz: f64,
+    /// Yaw loop every `yaw_divisor` ticks.
+    pub yaw_divisor: usize,
+    /// Traction loop every `traction_divisor` ticks.
+    pub traction_divisor: usize,
+    /// Ticks between sampling and applying (1 for the firmware).
+    pub delay_ticks: usize,
+}
+
+impl Timing {
+    /// The timing of a controller configuration with `delay_ticks` of delay.
+    pub fn of(cfg: &Config, delay_ticks: usize) -> Self {
+        Self {
+            base_hz: cfg.base_rate_hz as f64,
+            yaw_divisor: cfg.yaw_divisor as usize,
+            traction_divisor: cfg.traction_divisor as usize,
+            delay_ticks,
+        }
+    }
+}
+
+fn gcd(a: usize, b: usize) -> usize {
+    if b == 0 {
+        a
+    } else {
+        gcd(b, a % b)
+    }
+}
+
+/// The per-tick loop matrices `M_0 .. M_{L-1}` over one hyper-period (see the module
+/// docs for the layout of `X`). Traction is left out when `cfg.traction_enabled` is off
+/// or the plant has no current output (no drive).
+///
+/// Errors: the configuration is invalid (`Config::validate`), or `plant` has the wrong
+/// shape.
+pub fn tick_matrices(
+    plant: &LinearPlant,
+    cfg: &Config,
+    delay_ticks: usize,
+) -> Result<Vec<DMatrix<f64>>, String> {
+    cfg.validate().map_err(|e| e.to_string())?;
+    let n = plant.a.nrows();
+    if plant.a.ncols() != n || plant.b.shape() != (n, 2) || plant.c.shape() != (3, n) {
+        return Err(format!(
+            "plant shapes: A {:?}, B {:?}, C {:?}; want n x n, n x 2, 3 x n",
+            plant.a.shape(),
+            plant.b.shape(),
+            plant.c.shape()
+        ));
+    }
+    let traction = cfg.traction_enabled && plant.c.row(1).iter().any(|v| *v != 0.0);
+    let tm = Timing::of(cfg, delay_ticks);
+    let t0 = 1.0 / tm.base_hz;
+    crate::finite::check_finite(&plant.a, "the plant matrix A")?;
+    crate::finite::check_finite(&plant.b, "the plant matrix B")?;
+    let (ad, bd) = zoh(&plant.a, &plant.b, t0);
+    crate::finite::check_finite(&ad, "the discretised plant matrix Ad")?;
+    crate::finite::check_finite(&bd, "the discretised plant matrix Bd")?;
+    let lead = cfg
+        .lead
+        .discretise(cfg.yaw_period())
+        .map_err(|e| e.to_string())?;
+    let pi = cfg
+        .pi
+        .discretise(cfg.traction_period())
+        .map_err(|e| e.to_string())?;
+    // Layout of X.
+    let d = tm.delay_ticks;
+    let nreg = d.max(1); // output registers o[k-1] .. o[k-nreg], 2 each
+    let ir = n; // registers start
+    let il = ir + 2 * nreg; // lead x1, z
+    let ii = il + 2; // PI integrator
+    let ip = ii + 1; // the predictor's y'[n-1]
+    let nx = ip + 1;
+    // Delay compensation: x = (1 + alpha) y' - alpha y'[n-1] feeds the yaw law.
+    let alpha = cfg.yaw_predict_ticks / cfg.yaw_divisor as f64;
+    let cy = plant.c.row(0);
+    let ci = plant.c.row(1);
+
+    // New outputs as rows over X: T (row 0) and u (row 1), plus the lead's update.
+    let mut t_row = DMatrix::<f64>::zeros(1, nx);
+    let mut lead_upd = DMatrix::<f64>::zeros(2, nx); // x1', z'
+    match cfg.yaw_mode {
+        YawMode::Passive => {}
+        YawMode::Gain => {
+            for j in 0..n {
+                t_row[(0, j)] = cfg.gain_k * (1.0 + alpha) * cy[j];
+            }
+            t_row[(0, ip)] = -cfg.gain_k * alpha;
+        }
+        YawMode::Lead => {
+            let h = lead.kappa * lead.g / 2.0;
+            for j in 0..n {
+                t_row[(0, j)] = lead.k_hf * (1.0 - h) * (1.0 + alpha) * cy[j];
+                lead_upd[(0, j)] = (1.0 + alpha) * cy[j];
+                lead_upd[(1, j)] = h * (1.0 + alpha) * cy[j];
+            }
+            t_row[(0, ip)] = -lead.k_hf * (1.0 - h) * alpha;
+            lead_upd[(0, ip)] = -alpha;
+            lead_upd[(1, ip)] = -h * alpha;
+            t_row[(0, il)] = -lead.k_hf * h;
+            t_row[(0, il + 1)] = -lead.k_hf * (1.0 - lead.kappa);
+            lead_upd[(1, il)] = h;
+            lead_upd[(1, il + 1)] = 1.0 - lead.kappa;
+        }
+    }
+    let mut u_row = DMatrix::<f64>::zeros(1, nx);
+    let mut i_upd = DMatrix::<f64>::zeros(1, nx);
+    if traction {
+        for j in 0..n {
+            u_row[(0, j)] = -(pi.kp + pi.ki) * ci[j];
+            i_upd[(0, j)] = -pi.ki * ci[j];
+        }
+        u_row[(0, ii)] = 1.0;
+        i_upd[(0, ii)] = 1.0;
+    }
+
+    let l = tm.yaw_divisor / gcd(tm.yaw_divisor, tm.traction_divisor) * tm.traction_divisor;
+    if l > MAX_HYPER_PERIOD {
+        return Err(format!(
+            "hyper-period lcm(yaw_divisor {}, traction_divisor {}) = {l} ticks: at most {MAX_HYPER_PERIOD}",
+            tm.yaw_divisor, tm.traction_divisor
+        ));
+    }
+    if delay_ticks > MAX_HYPER_PERIOD {
+        return Err(format!(
+            "delay {delay_ticks} ticks: at most {MAX_HYPER_PERIOD}"
+        ));
+    }
+    let mut mats = Vec::with_capacity(l);
+    for k in 0..l {
+        let yaw = k % tm.yaw_divisor == 0;
+        let tr = k % tm.traction_divisor == 0;
+        // o[k] as rows over X (new or held register 0).
+        let mut o = DMatrix::<f64>::zeros(2, nx);
+        if yaw {
+            o.row_mut(0).copy_from(&t_row.row(0));
+        } else {
+            o[(0, ir)] = 1.0;
+        }
+        if tr {
+            o.row_mut(1).copy_from(&u_row.row(0));
+        } else {
+            o[(1, ir + 1)] = 1.0;
+        }
+        // Applied input during this tick.
+        let applied = if d == 0 {
+            o.clone()
+        } else {
+            let mut a = DMatrix::<f64>::zeros(2, nx);
+            a[(0, ir + 2 * (d - 1))] = 1.0;
+            a[(1, ir + 2 * (d - 1) + 1)] = 1.0;
+            a
+        };
+        let mut m = DMatrix::<f64>::zeros(nx, nx);
+        // x' = Ad x + Bd applied
+        m.view_mut((0, 0), (n, n)).copy_from(&ad);
+        let bx = &bd * &applied;
+        let mut top = m.view_mut((0, 0), (n, nx));
+        top += &bx;
+        // registers: r0' = o[k], r_j' = r_{j-1}
+        m.view_mut((ir, 0), (2, nx)).copy_from(&o);
+        for j in 1..nreg {
+            m[(ir + 2 * j, ir + 2 * (j - 1))] = 1.0;
+            m[(ir + 2 * j + 1, ir + 2 * (j - 1) + 1)] = 1.0;
+        }
+        // lead (an unused lead or PI state is zeroed, not held: it affects no output, and
+        // held it would add a spurious mu = 1)
+        if cfg.yaw_mode == YawMode::Lead {
+            if yaw {
+                m.view_mut((il, 0), (2, nx)).copy_from(&lead_upd);
+            } else {
+                m[(il, il)] = 1.0;
+                m[(il + 1, il + 1)] = 1.0;
+            }
+        }
+        // predictor state: y'[n-1] <- y' on yaw ticks (zeroed in passive mode)
+        if cfg.yaw_mode != YawMode::Passive {
+            if yaw {
+                for j in 0..n {
+                    m[(ip, j)] = cy[j];
+                }
+            } else {
+                m[(ip, ip)] = 1.0;
+            }
+        }
+        // PI
+        if traction {
+            if tr {
+                m.view_mut((ii, 0), (1, nx)).copy_from(&i_upd);
+            } else {
+                m[(ii, ii)] = 1.0;
+            }
+        }
+        mats.push(m);
+    }
+    Ok(mats)
+}
+
+/// Close the loop of `plant` with the controllers of `cfg` (its yaw mode, lead, gain, PI,
+/// traction on/off, rates) and `delay_ticks` of delay; monodromy eigenvalues.
+///
+/// Errors: as [`tick_matrices`].
+pub fn closed_loop(
+    plant: &LinearPlant,
+    cfg: &Config,
+    delay_ticks: usize,
+) -> Result<ClosedLoop, String> {
+    let mats = tick_matrices(plant, cfg, delay_ticks)?;
+    let l = mats.len();
+    let t0 = 1.0 / cfg.base_rate_hz as f64;
+    let nx = mats[0].nrows();
+    let phi = mats
+        .iter()
+        .fold(DMatrix::<f64>::identity(nx, nx), |acc, m| m * acc);
+    let th = l as f64 * t0;
+    let mut modes: Vec<Mode> = crate::finite::eigenvalues(&phi, "the monodromy matrix")?
+        .iter()
+        .map(|&mu| {
+            let s = if mu.norm() > 0.0 {
+                mu.ln() / th
+            } else {
+                Complex::new(f64::NEG_INFINITY, 0.0)
+            };
+            let zeta = if s.norm().is_finite() && s.norm() > 0.0 {
+                -s.re / s.norm()
+            } else {
+                1.0
+            };
+            Mode {
+                mu,
+                s,
+                freq_hz: s.im.abs() / (2.0 * std::f64::consts::PI),
+                zeta,
+                radius: mu.norm().powf(1.0 / l as f64),
+            }
+        })
+        .collect();
+    // Leave out the free-rolling modes: as many as the continuous loop has zero
+    // eigenvalues, nearest mu = 1.
+    let nz = free_rolling_modes(plant, cfg);
+    modes.sort_by(|a, b| {
+        (a.mu - 1.0)
+            .norm()
+            .partial_cmp(&(b.mu - 1.0).norm())
+            .unwrap_or(std::cmp::Ordering::Equal)
+    });
+    let excluded: Vec<Mode> = modes.drain(..nz.min(modes.len())).collect();
+    // Drop the structurally zero eigenvalues of unused controller states (mu = 0 exactly
+    // is fine to keep: radius 0).
+    modes.sort_by(|a, b| {
+        b.radius
+            .partial_cmp(&a.radius)
+            .unwrap_or(std::cmp::Ordering::Equal)
+    });
+    let spectral_radius = modes.first().map_or(0.0, |m| m.radius);
+    let worst = modes
+        .iter()
+        .filter(|m| m.freq_hz > 1e-6 && m.radius > 1e-6)
+        .min_by(|a, b| {
+            a.zeta
+                .partial_cmp(&b.zeta)
+                .unwrap_or(std::cmp::Ordering::Equal)
+        })
+        .or(modes.first())
+        .copied()
+        .unwrap_or(Mode {
+            mu: Complex::new(0.0, 0.0),
+            s: Complex::new(f64::NEG_INFINITY, 0.0),
+            freq_hz: 0.0,
+            zeta: 1.0,
+            radius: 0.0,
+        });
+    Ok(ClosedLoop {
+        modes,
+        excluded,
+        spectral_radius,
+        worst,
+    })
+}
+
+/// The continuous closed loop (no sampling): plant + continuous lead/gain + continuous
+/// PI, for comparison. Returns the eigenvalues (free-rolling ones removed).
+///
+/// A matrix with a non-finite entry is not passed to the solver: the result is then one
+/// NaN eigenvalue (neither stable nor unstable; [`rates`] refuses such a plant first).
+pub fn continuous_closed_loop(plant: &LinearPlant, cfg: &Config) -> Vec<Complex<f64>> {
+    let mut ev: Vec<Complex<f64>> = continuous_closed_loop_all(plant, cfg);
+    let nz = count_zeros(&ev);
+    ev.sort_by(|x, y| {
+        x.norm()
+            .partial_cmp(&y.norm())
+            .unwrap_or(std::cmp::Ordering::Equal)
+    });
+    ev.drain(..nz.min(ev.len()));
+    ev
+}
+
+/// The continuous closed-loop state matrix: plant, lead state (if used), PI state (if
+/// used and the plant has a current output).
+pub fn continuous_matrix(plant: &LinearPlant, cfg: &Config) -> DMatrix<f64> {
+    let n = plant.a.nrows();
+    let lead = cfg.yaw_mode == YawMode::Lead;
+    let pi = cfg.traction_enabled && plant.c.row(1).iter().any(|v| *v != 0.0);
+    // States: x, lead state w if used (Ks = K_hf (1 - g w2/(s + w2)):
+    // w' = -w2 w + g w2 y', T = K_hf (y' - w)), PI state q if used (u = -Kp i + q,
+    // q' = -(Kp/Ti) i).
+    let iw = n;
+    let iq = n + lead as usize;
+    let nx = iq + pi as usize;
+    let mut a = DMatrix::<f64>::zeros(nx, nx);
+    a.view_mut((0, 0), (n, n)).copy_from(&plant.a);
+    let cy = plant.c.row(0).into_owned();
+    let ci = plant.c.row(1).into_owned();
+    let bt = plant.b.column(0).into_owned();
+    let bu = plant.b.column(1).into_owned();
+    let p = &cfg.lead;
+    let (k_hf, g, w2) = (p.k * p.a, (p.w2 - p.w1) / p.w2, p.w2);
+    let mut t_row = DMatrix::<f64>::zeros(1, nx);
+    match cfg.yaw_mode {
+        YawMode::Passive => {}
+        YawMode::Gain => t_row
+            .view_mut((0, 0), (1, n))
+            .copy_from(&(&cy * cfg.gain_k)),
+        YawMode::Lead => {
+            t_row.view_mut((0, 0), (1, n)).copy_from(&(&cy * k_hf));
+            t_row[(0, iw)] = -k_hf;
+            a.view_mut((iw, 0), (1, n)).copy_from(&(&cy * (g * w2)));
+            a[(iw, iw)] = -w2;
+        }
+    }
+    let mut u_row = DMatrix::<f64>::zeros(1, nx);
+    if pi {
+        u_row
+            .view_mut((0, 0), (1, n))
+            .copy_from(&(&ci * -cfg.pi.kp));
+        u_row[(0, iq)] = 1.0;
+        a.view_mut((iq, 0), (1, n))
+            .copy_from(&(&ci * (-cfg.pi.kp / cfg.pi.ti)));
+    }
+    let fb = &bt * &t_row + &bu * &u_row;
+    let mut top = a.view_mut((0, 0), (n, nx));
+    top += &fb;
+    a
+}
+
+/// How many of `ev` are zero to working precision (`|s| < 1e-9 max |s|`).
+fn count_zeros(ev: &[Complex<f64>]) -> usize {
+    let scale = ev.iter().map(|e| e.norm()).fold(1.0, f64::max);
+    ev.iter().filter(|e| e.norm() < 1e-9 * scale).count()
+}
+
+/// The number of free-rolling modes of the loop: zero eigenvalues of the continuous
+/// closed loop (with the current held by the PI, free rolling at any speed is an
+/// equilibrium; open loop the back-EMF brakes it, so `A` alone may have none).
+pub fn free_rolling_modes(plant: &LinearPlant, cfg: &Config) -> usize {
+    let ev = continuous_closed_loop_all(plant, cfg);
+    count_zeros(&ev)
+}
+
+fn continuous_closed_loop_all(plant: &LinearPlant, cfg: &Config) -> Vec<Complex<f64>> {
+    crate::finite::eigenvalues(&continuous_matrix(plant, cfg), "the continuous loop")
+        .unwrap_or_else(|_| vec![Complex::new(f64::NAN, 0.0)])
+}
+
+/// Damping ratio of a continuous eigenvalue (`1` for a real stable one).
+pub fn zeta_of(s: Complex<f64>) -> f64 {
+    if s.norm() > 0.0 {
+        -s.re / s.norm()
+    } else {
+        0.0
+    }
+}

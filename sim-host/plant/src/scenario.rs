@@ -1,0 +1,563 @@
+//! Track scenarios as data: piecewise-linear curvature and cant in time, the traction
+//! demand and running-resistance steps, parameter overrides and integration settings.
+//!
+//! Four scenarios ship in `sim-host/scenarios/` and are embedded in the binary, so
+//! `--scenario curve` works from any directory; any other argument is read as a file.
+//!
+//! ```toml
+//! name = "my-track"
+//! duration_s = 10.0
+//! [[track]]
+//! t_s = 0.0
+//! [[track]]
+//! t_s = 3.0
+//! radius_m = 2300.0    # or curvature_per_m = 4.348e-4; absent = straight
+//! cant_deg = 6.0
+//! [traction]
+//! demand_nm = 2460.0   # at the wheel, n K_m i_a
+//! t_on_s = 5.0
+//! [resistance]
+//! f_run_n = 5470.0
+//! t_on_s = 5.0
+//! [params]             # any key of `Params`
+//! k_gear = 1.0e6
+//! [[adhesion]]         # optional: Polach's adhesion law (crate::adhesion) on sections
+//! start_s = 6.0
+//! end_s = 10.0
+//! condition = "low"    # dry | wet | low
+//! [actuator_fault]     # optional: the yaw actuator fails (see `fault`)
+//! t_s = 6.0
+//! mode = "off"         # off | fraction (with fraction = F) | reversed
+//! ```
+//!
+//! An optional top-level `laws = ["passive"]` lists the yaw laws the scenario is meant
+//! for; the tools warn before running it with another ([`Scenario::law_warning`]). The
+//! plausible ranges of every key are in `docs/model.md`; a scenario whose output would
+//! not fit in memory ([`crate::memory`]) is refused with the estimate.
+//!
+//! Adhesion: without any `[[adhesion]]` section the plant uses the paper's linear creep
+//! law. With at least one, the adhesion law is on for the whole run: each section's
+//! condition holds on `[start_s, end_s)` (sorted, not overlapping), and the rail is
+//! `dry` outside every section. The condition is sampled at each integration step's
+//! start, like the traction and resistance steps.
+
+use crate::adhesion::{Adhesion, Condition};
+use crate::control::YawLaw;
+use crate::error::{from_toml, ConfigError};
+use crate::fault::{ActuatorFault, RawActuatorFault};
+use crate::params::Params;
+use serde::Deserialize;
+use std::path::Path;
+
+// The track's knots and lookups: `scenario/track.rs`.
+mod track;
+pub use track::{track_at, Knot, TrackCursor};
+
+/// The built-in scenarios: `(name, TOML source)`.
+pub const BUILTIN: &[(&str, &str)] = &[
+    ("curve", include_str!("../../scenarios/curve.toml")),
+    ("beating", include_str!("../../scenarios/beating.toml")),
+    (
+        "low-adhesion",
+        include_str!("../../scenarios/low-adhesion.toml"),
+    ),
+    (
+        "actuator-fault",
+        include_str!("../../scenarios/actuator-fault.toml"),
+    ),
+];
+
+/// Nanoseconds per second.
+pub const NS_PER_S: f64 = 1e9;
+
+/// Converts seconds to integer nanoseconds (rounded to nearest).
+pub fn s_to_ns(t: f64) -> u64 {
+    (t * NS_PER_S).round() as u64
+}
+
+/// A step (or ramp) of a scalar input switched on at `t_on_ns`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StepInput {
+    /// Final value (SI).
+    pub value: f64,
+    /// Switch-on time, ns. Sampled at integrator step starts.
+    pub t_on_ns: u64,
+    /// Ramp duration, ns (0 = a step).
+    pub ramp_ns: u64,
+}
+
+impl StepInput {
+    /// No input at all.
+    pub const NONE: StepInput = StepInput {
+        value: 0.0,
+        t_on_ns: 0,
+        ramp_ns: 0,
+    };
+
+    /// Value at time `t_ns`: 0 before `t_on`, then a linear ramp to `value`.
+    pub fn at(&self, t_ns: u64) -> f64 {
+        if t_ns < self.t_on_ns {
+            0.0
+        } else if self.ramp_ns == 0 || t_ns >= self.t_on_ns + self.ramp_ns {
+            self.value
+        } else {
+            self.value * (t_ns - self.t_on_ns) as f64 / self.ramp_ns as f64
+        }
+    }
+}
+
+/// Which mechanical model the run uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Axle {
+    /// The two wheels are one body (`2 I_w`), no torsion.
+    Rigid,
+    /// Flexible axle: the wheels twist against each other through `k_t`.
+    Flexible,
+}
+
+/// A validated scenario.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Scenario {
+    /// Name (file stem or built-in name).
+    pub name: String,
+    /// Where it came from (`<builtin:curve>` or the path).
+    pub source: String,
+    /// Free text.
+    pub description: String,
+    /// Run length, ns.
+    pub duration_ns: u64,
+    /// Integration step, ns.
+    pub dt_ns: u64,
+    /// Output sampling interval, ns (a multiple of `dt_ns`).
+    pub output_dt_ns: u64,
+    /// Track knots, strictly increasing in time.
+    pub track: Vec<Knot>,
+    /// Traction demand at the wheel, N m (`n K_m i_ref`).
+    pub traction: StepInput,
+    /// Running resistance `F_run`, N.
+    pub resistance: StepInput,
+    /// Axle model.
+    pub axle: Axle,
+    /// Whether the traction drive (gear spring, motor, armature, PI) is modelled; without
+    /// it the demand acts directly as a torque on the left wheel.
+    pub drive: bool,
+    /// Parameters after the scenario's overrides.
+    pub params: Params,
+    /// Rail-condition sections (sorted, disjoint); empty = the linear creep law.
+    pub adhesion: Vec<AdhesionSection>,
+    /// A yaw-actuator fault of the plant (`[actuator_fault]`), if any.
+    pub actuator_fault: Option<ActuatorFault>,
+    /// The yaw laws the scenario is meant for (its `laws` key); empty = every law.
+    pub laws: Vec<YawLaw>,
+}
+
+/// One `[[adhesion]]` section: a rail condition on `[t0_ns, t1_ns)`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AdhesionSection {
+    /// Start, ns.
+    pub t0_ns: u64,
+    /// End (exclusive), ns.
+    pub t1_ns: u64,
+    /// Rail condition.
+    pub condition: Condition,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawAdhesion {
+    start_s: f64,
+    end_s: f64,
+    condition: String,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawKnot {
+    t_s: f64,
+    radius_m: Option<f64>,
+    curvature_per_m: Option<f64>,
+    #[serde(default)]
+    cant_deg: f64,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawTraction {
+    demand_nm: f64,
+    t_on_s: f64,
+    #[serde(default)]
+    ramp_s: f64,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawResistance {
+    f_run_n: f64,
+    t_on_s: f64,
+    #[serde(default)]
+    ramp_s: f64,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawSim {
+    #[serde(default = "default_dt")]
+    dt_s: f64,
+    #[serde(default = "default_out_dt")]
+    output_dt_s: f64,
+}
+fn default_dt() -> f64 {
+    1e-4
+}
+fn default_out_dt() -> f64 {
+    1e-3
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawPlant {
+    #[serde(default = "default_axle")]
+    axle: Axle,
+    #[serde(default = "default_true")]
+    drive: bool,
+}
+fn default_axle() -> Axle {
+    Axle::Flexible
+}
+fn default_true() -> bool {
+    true
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawScenario {
+    name: Option<String>,
+    #[serde(default)]
+    description: String,
+    duration_s: f64,
+    sim: Option<RawSim>,
+    plant: Option<RawPlant>,
+    #[serde(default)]
+    track: Vec<RawKnot>,
+    traction: Option<RawTraction>,
+    resistance: Option<RawResistance>,
+    params: Option<toml::Table>,
+    #[serde(default)]
+    adhesion: Vec<RawAdhesion>,
+    actuator_fault: Option<RawActuatorFault>,
+    laws: Option<Vec<String>>,
+}
+
+/// The `laws` list: each `passive`, `gain` or `lead`, at least one, no repeats.
+fn parse_laws(file: &str, laws: &Option<Vec<String>>) -> Result<Vec<YawLaw>, ConfigError> {
+    let Some(names) = laws else {
+        return Ok(Vec::new());
+    };
+    if names.is_empty() {
+        return Err(invalid(
+            file,
+            "laws",
+            "an empty list: omit `laws` for a scenario meant for every law",
+        ));
+    }
+    let mut out = Vec::with_capacity(names.len());
+    for (i, n) in names.iter().enumerate() {
+        let law = match n.as_str() {
+            "passive" => YawLaw::Passive,
+            "gain" => YawLaw::Gain,
+            "lead" => YawLaw::Lead,
+            _ => {
+                return Err(invalid(
+                    file,
+                    format!("laws[{i}]"),
+                    format!("`{n}` is not a yaw law (passive, gain, lead)"),
+                ))
+            }
+        };
+        if out.contains(&law) {
+            return Err(invalid(
+                file,
+                format!("laws[{i}]"),
+                format!("`{n}` is listed twice"),
+            ));
+        }
+        out.push(law);
+    }
+    Ok(out)
+}
+
+fn invalid(file: &str, key: impl Into<String>, reason: impl Into<String>) -> ConfigError {
+    ConfigError::Invalid {
+        file: file.to_string(),
+        key: key.into(),
+        reason: reason.into(),
+    }
+}
+
+fn time(file: &str, key: &str, t: f64, max: f64) -> Result<u64, ConfigError> {
+    if !t.is_finite() || t < 0.0 || t > max {
+        return Err(invalid(
+            file,
+            key,
+            format!("time {t} s is outside [0, {max}] s"),
+        ));
+    }
+    Ok(s_to_ns(t))
+}
+
+impl Scenario {
+    /// Parses and validates a scenario from TOML text. `file` names it in errors;
+    /// `base` are the parameters the scenario's `[params]` table overrides.
+    pub fn from_toml_str(src: &str, file: &str, base: &Params) -> Result<Scenario, ConfigError> {
+        let raw: RawScenario = toml::from_str(src).map_err(|e| from_toml(file, src, &e))?;
+        let duration_ns = time(file, "duration_s", raw.duration_s, 1e5)?;
+        if duration_ns == 0 {
+            return Err(invalid(file, "duration_s", "must be positive"));
+        }
+        let sim = raw.sim.unwrap_or(RawSim {
+            dt_s: default_dt(),
+            output_dt_s: default_out_dt(),
+        });
+        if !(sim.dt_s.is_finite() && sim.dt_s >= 1e-7 && sim.dt_s <= 1e-2) {
+            return Err(invalid(
+                file,
+                "sim.dt_s",
+                format!("{} s is outside [1e-7, 1e-2] s", sim.dt_s),
+            ));
+        }
+        let dt_ns = s_to_ns(sim.dt_s);
+        let out_ns = time(file, "sim.output_dt_s", sim.output_dt_s, 1.0)?;
+        if out_ns == 0 || !out_ns.is_multiple_of(dt_ns) {
+            return Err(invalid(
+                file,
+                "sim.output_dt_s",
+                format!(
+                    "{} s must be a positive multiple of sim.dt_s = {} s",
+                    sim.output_dt_s, sim.dt_s
+                ),
+            ));
+        }
+        crate::memory::check_run(duration_ns, out_ns, None)
+            .map_err(|r| invalid(file, "duration_s", r))?;
+        let laws = parse_laws(file, &raw.laws)?;
+        let plant = raw.plant.unwrap_or(RawPlant {
+            axle: Axle::Flexible,
+            drive: true,
+        });
+        let mut track = Vec::with_capacity(raw.track.len());
+        for (i, k) in raw.track.iter().enumerate() {
+            let t_ns = time(file, &format!("track[{i}].t_s"), k.t_s, 1e5)?;
+            if let Some(prev) = track.last() {
+                let prev: &Knot = prev;
+                if t_ns <= prev.t_ns {
+                    return Err(invalid(
+                        file,
+                        format!("track[{i}].t_s"),
+                        "knot times must be strictly increasing",
+                    ));
+                }
+            }
+            let curvature = match (k.radius_m, k.curvature_per_m) {
+                (Some(_), Some(_)) => {
+                    return Err(invalid(
+                        file,
+                        format!("track[{i}].radius_m"),
+                        "give either radius_m or curvature_per_m, not both",
+                    ))
+                }
+                (Some(r), None) => {
+                    if !r.is_finite() || r.abs() < 50.0 {
+                        return Err(invalid(
+                            file,
+                            format!("track[{i}].radius_m"),
+                            format!(
+                                "{r} m: |R| must be at least 50 m (omit it for straight track)"
+                            ),
+                        ));
+                    }
+                    1.0 / r
+                }
+                (None, Some(c)) => {
+                    if !c.is_finite() || c.abs() > 0.02 {
+                        return Err(invalid(
+                            file,
+                            format!("track[{i}].curvature_per_m"),
+                            format!("{c} 1/m is outside [-0.02, 0.02] 1/m"),
+                        ));
+                    }
+                    c
+                }
+                (None, None) => 0.0,
+            };
+            if !k.cant_deg.is_finite() || k.cant_deg.abs() > 15.0 {
+                return Err(invalid(
+                    file,
+                    format!("track[{i}].cant_deg"),
+                    format!("{} deg is outside [-15, 15] deg", k.cant_deg),
+                ));
+            }
+            track.push(Knot {
+                t_ns,
+                curvature,
+                cant: k.cant_deg.to_radians(),
+            });
+        }
+        let step = |key: &str, value: f64, t_on: f64, ramp: f64, max: f64| {
+            if !value.is_finite() || value.abs() > max {
+                return Err(invalid(
+                    file,
+                    key.to_string(),
+                    format!("{value} is outside [-{max}, {max}]"),
+                ));
+            }
+            let table = key.split('.').next().unwrap_or(key);
+            Ok(StepInput {
+                value,
+                t_on_ns: time(file, &format!("{table}.t_on_s"), t_on, 1e5)?,
+                ramp_ns: time(file, &format!("{table}.ramp_s"), ramp, 1e5)?,
+            })
+        };
+        let traction = match raw.traction {
+            Some(t) => step("traction.demand_nm", t.demand_nm, t.t_on_s, t.ramp_s, 1e5)?,
+            None => StepInput::NONE,
+        };
+        let resistance = match raw.resistance {
+            Some(r) => step("resistance.f_run_n", r.f_run_n, r.t_on_s, r.ramp_s, 1e6)?,
+            None => StepInput::NONE,
+        };
+        let params = match &raw.params {
+            Some(t) => base
+                .with_overrides(t, file)
+                .map_err(|e| e.under("params"))?,
+            None => base.clone(),
+        };
+        let mut adhesion: Vec<AdhesionSection> = Vec::with_capacity(raw.adhesion.len());
+        for (i, a) in raw.adhesion.iter().enumerate() {
+            let t0_ns = time(file, &format!("adhesion[{i}].start_s"), a.start_s, 1e5)?;
+            let t1_ns = time(file, &format!("adhesion[{i}].end_s"), a.end_s, 1e5)?;
+            if t1_ns <= t0_ns {
+                return Err(invalid(
+                    file,
+                    format!("adhesion[{i}].end_s"),
+                    format!("{} s must be after start_s = {} s", a.end_s, a.start_s),
+                ));
+            }
+            if let Some(prev) = adhesion.last() {
+                if t0_ns < prev.t1_ns {
+                    return Err(invalid(
+                        file,
+                        format!("adhesion[{i}].start_s"),
+                        "sections must be sorted and must not overlap",
+                    ));
+                }
+            }
+            let Some(condition) = Condition::from_name(&a.condition) else {
+                return Err(invalid(
+                    file,
+                    format!("adhesion[{i}].condition"),
+                    format!("`{}` is not a rail condition (dry, wet, low)", a.condition),
+                ));
+            };
+            adhesion.push(AdhesionSection {
+                t0_ns,
+                t1_ns,
+                condition,
+            });
+        }
+        let actuator_fault = match &raw.actuator_fault {
+            Some(f) => Some(f.validate(file, raw.duration_s)?),
+            None => None,
+        };
+        let name = raw.name.unwrap_or_else(|| {
+            Path::new(file)
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_else(|| file.to_string())
+        });
+        Ok(Scenario {
+            name,
+            source: file.to_string(),
+            description: raw.description,
+            duration_ns,
+            dt_ns,
+            output_dt_ns: out_ns,
+            track,
+            traction,
+            resistance,
+            axle: plant.axle,
+            drive: plant.drive,
+            params,
+            adhesion,
+            actuator_fault,
+            laws,
+        })
+    }
+
+    /// Loads `name_or_path`: a built-in name (`curve`, `beating`, `low-adhesion`,
+    /// `actuator-fault`) or a TOML file.
+    pub fn load(name_or_path: &str, base: &Params) -> Result<Scenario, ConfigError> {
+        if let Some((name, src)) = BUILTIN.iter().find(|(n, _)| *n == name_or_path) {
+            return Self::from_toml_str(src, &format!("<builtin:{name}>"), base);
+        }
+        let path = Path::new(name_or_path);
+        if !path.exists() {
+            return Err(ConfigError::UnknownScenario {
+                name: name_or_path.to_string(),
+                builtin: BUILTIN.iter().map(|(n, _)| *n).collect(),
+            });
+        }
+        let src = crate::input::read_input(path)?;
+        Self::from_toml_str(&src, name_or_path, base)
+    }
+
+    /// The rail condition at `t_ns`: `None` without `[[adhesion]]` sections (the linear
+    /// law), else the section's condition, `dry` outside every section.
+    pub fn condition_at(&self, t_ns: u64) -> Option<Condition> {
+        if self.adhesion.is_empty() {
+            return None;
+        }
+        Some(
+            self.adhesion
+                .iter()
+                .find(|s| t_ns >= s.t0_ns && t_ns < s.t1_ns)
+                .map_or(Condition::Dry, |s| s.condition),
+        )
+    }
+
+    /// The adhesion law at `t_ns` ([`Self::condition_at`] with the wheel load `Q`).
+    pub fn adhesion_at(&self, t_ns: u64) -> Option<Adhesion> {
+        self.condition_at(t_ns)
+            .map(|c| Adhesion::new(c, self.params.q()))
+    }
+
+    /// The warning to print before running this scenario with `law` when its `laws`
+    /// key does not list it (e.g. `beating` with the phase lead, which destabilises the
+    /// high-frequency mode at that gear stiffness); `None` when the law is meant.
+    pub fn law_warning(&self, law: YawLaw) -> Option<String> {
+        if self.laws.is_empty() || self.laws.contains(&law) {
+            return None;
+        }
+        let name = |l: &YawLaw| match l {
+            YawLaw::Passive => "passive",
+            YawLaw::Gain => "gain",
+            YawLaw::Lead => "lead",
+        };
+        Some(format!(
+            "scenario {} is meant for --control {} (its `laws`), not {}: expect a result outside what it was made to show{}",
+            self.name,
+            self.laws.iter().map(name).collect::<Vec<_>>().join(" or "),
+            name(&law),
+            if self.description.is_empty() {
+                String::new()
+            } else {
+                format!(" ({})", self.description)
+            }
+        ))
+    }
+
+    /// Track curvature and cant at `t_ns` (linear between knots, held outside).
+    pub fn track_at(&self, t_ns: u64) -> (f64, f64) {
+        track_at(&self.track, t_ns, &mut 0)
+    }
+}

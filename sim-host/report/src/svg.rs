@@ -1,0 +1,234 @@
+//! A small, dependency-free SVG plotting module: line plots with several series,
+//! scatter plots (root loci), bar histograms, vertical stacks of panels, and heat maps
+//! of a parameter grid ([`heatmap`]).
+//!
+//! ```
+//! use wheelset_report::svg::{Plot, Series};
+//! let s = Series::line("sin", (0..100).map(|i| (i as f64 * 0.1, (i as f64 * 0.1).sin())).collect());
+//! let svg = Plot::new("A sine").x_label("t (s)").y_label("y").series(s).to_svg();
+//! assert!(svg.starts_with("<svg"));
+//! ```
+//!
+//! Output is plain SVG 1.1 text; write it with [`Plot::save`] or [`Figure::save`].
+//!
+//! # Why SVG by hand rather than `plotters` (measured 2026-12-02)
+//!
+//! Cost is not the reason: `plotters` 0.3.7 with only its `svg_backend` (plus
+//! `line_series`, `point_series`, `histogram`; `default-features = false`) is 5 crates
+//! (`plotters`, `plotters-backend`, `plotters-svg`, `num-traits`, `autocfg`) and builds
+//! in release in 3.9 s of CPU (10 s wall at load average 8 on the 2-core machine), and
+//! its SVG backend writes `<text>` without system fonts (a probe crate drawing a line
+//! chart with a caption and axis labels: 25 `<text>` elements). The reasons to keep this
+//! module:
+//! - `plotters`' backends take integer pixel coordinates (`BackendCoord = (i32, i32)`):
+//!   the probe's polylines are whole pixels (`points="39,20 39,329"`); this module writes
+//!   0.1 px, which keeps sub-pixel traces (`y - y0` around the traction step, the
+//!   monitor's mean square far below its threshold) as they are instead of stair steps.
+//! - Without a font feature `plotters` sizes text from estimates (the probe's 13 px
+//!   caption came out at `font-size="10.48"`); this module lays out labels itself.
+//! - 43 call sites in `sim-host` and `hil` use what this module has and `plotters` would
+//!   need code for at each site: the legend in a column right of the plotting area (it
+//!   never hides data), one legend width across stacked panels so their axes line up,
+//!   reference lines, notes ("not measured"), category axes and heat maps.
+
+use std::path::Path;
+
+mod figure;
+pub mod heatmap;
+mod render;
+mod ticks;
+
+pub use figure::Figure;
+use ticks::{decimate, fmt_tick};
+pub use ticks::{esc, nice_ticks};
+
+/// Default colour cycle (colour-blind friendly).
+pub const PALETTE: [&str; 8] = [
+    "#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#000000", "#F0E442",
+];
+
+/// How a series is drawn.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Style {
+    /// A polyline.
+    Line,
+    /// A dashed polyline.
+    Dashed,
+    /// Markers only (scatter).
+    Markers,
+    /// Crosses only (scatter; e.g. poles).
+    Crosses,
+}
+
+/// One data series.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Series {
+    /// Legend label (empty = not in the legend).
+    pub label: String,
+    /// Points `(x, y)`; non-finite points are skipped (and break a line).
+    pub points: Vec<(f64, f64)>,
+    /// Drawing style.
+    pub style: Style,
+    /// Colour (`None` = next palette colour).
+    pub color: Option<String>,
+}
+
+impl Series {
+    /// A solid line.
+    pub fn line(label: &str, points: Vec<(f64, f64)>) -> Self {
+        Series {
+            label: label.to_string(),
+            points,
+            style: Style::Line,
+            color: None,
+        }
+    }
+    /// A scatter of dots.
+    pub fn scatter(label: &str, points: Vec<(f64, f64)>) -> Self {
+        Series {
+            style: Style::Markers,
+            ..Self::line(label, points)
+        }
+    }
+    /// Sets the style.
+    pub fn style(mut self, style: Style) -> Self {
+        self.style = style;
+        self
+    }
+    /// Sets the colour (any SVG colour).
+    pub fn color(mut self, c: &str) -> Self {
+        self.color = Some(c.to_string());
+        self
+    }
+}
+
+/// A single plot panel with axes, ticks, labels, grid and legend.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Plot {
+    /// Title above the panel.
+    pub title: String,
+    /// X axis label.
+    pub x_label: String,
+    /// Y axis label.
+    pub y_label: String,
+    /// Series drawn in order.
+    pub series: Vec<Series>,
+    /// Fixed x range (`None` = from the data).
+    pub x_range: Option<(f64, f64)>,
+    /// Fixed y range (`None` = from the data).
+    pub y_range: Option<(f64, f64)>,
+    /// Bars `(x_lo, x_hi, height)` drawn before the series (histograms).
+    pub bars: Vec<(f64, f64, f64)>,
+    /// Width, px.
+    pub width: f64,
+    /// Height, px.
+    pub height: f64,
+    /// Vertical reference lines at these x.
+    pub vlines: Vec<f64>,
+    /// Horizontal reference lines at these y.
+    pub hlines: Vec<f64>,
+    /// A note written across the middle of the plotting area (e.g. "not measured" for
+    /// a panel without data to show; empty = none).
+    pub note: String,
+    /// Category names of the x axis: when given, category `i` spans `[i, i + 1)` and
+    /// its name is written under `i + 0.5`, slanted, instead of numeric x ticks (a bar
+    /// or scatter per named item; the bottom margin grows to fit the longest name).
+    pub x_categories: Vec<String>,
+}
+
+impl Plot {
+    /// An empty 860 x 360 panel.
+    pub fn new(title: &str) -> Self {
+        Plot {
+            title: title.to_string(),
+            x_label: String::new(),
+            y_label: String::new(),
+            series: Vec::new(),
+            x_range: None,
+            y_range: None,
+            bars: Vec::new(),
+            width: 860.0,
+            height: 360.0,
+            vlines: Vec::new(),
+            hlines: Vec::new(),
+            note: String::new(),
+            x_categories: Vec::new(),
+        }
+    }
+    /// Names the x axis's categories (see [`Plot::x_categories`]); the x range becomes
+    /// `[0, names.len()]`.
+    pub fn x_categories(mut self, names: &[String]) -> Self {
+        self.x_range = Some((0.0, names.len().max(1) as f64));
+        self.x_categories = names.to_vec();
+        self
+    }
+    /// Sets the note written across the plotting area.
+    pub fn note(mut self, s: &str) -> Self {
+        self.note = s.to_string();
+        self
+    }
+    /// Sets the x label.
+    pub fn x_label(mut self, s: &str) -> Self {
+        self.x_label = s.to_string();
+        self
+    }
+    /// Sets the y label.
+    pub fn y_label(mut self, s: &str) -> Self {
+        self.y_label = s.to_string();
+        self
+    }
+    /// Adds a series.
+    pub fn series(mut self, s: Series) -> Self {
+        self.series.push(s);
+        self
+    }
+    /// Fixes the x range.
+    pub fn x_range(mut self, lo: f64, hi: f64) -> Self {
+        self.x_range = Some((lo, hi));
+        self
+    }
+    /// Fixes the y range.
+    pub fn y_range(mut self, lo: f64, hi: f64) -> Self {
+        self.y_range = Some((lo, hi));
+        self
+    }
+    /// Sets the size in px.
+    pub fn size(mut self, w: f64, h: f64) -> Self {
+        self.width = w;
+        self.height = h;
+        self
+    }
+    /// Adds a vertical reference line.
+    pub fn vline(mut self, x: f64) -> Self {
+        self.vlines.push(x);
+        self
+    }
+    /// Adds a horizontal reference line.
+    pub fn hline(mut self, y: f64) -> Self {
+        self.hlines.push(y);
+        self
+    }
+    /// A histogram: `edges` has one more entry than `counts`.
+    pub fn histogram(title: &str, edges: &[f64], counts: &[f64]) -> Self {
+        let mut p = Plot::new(title);
+        p.bars = edges
+            .windows(2)
+            .zip(counts)
+            .map(|(e, &c)| (e[0], e[1], c))
+            .collect();
+        p
+    }
+}
+
+fn write_file(path: &Path, text: &str) -> std::io::Result<()> {
+    if let Some(dir) = path.parent() {
+        if !dir.as_os_str().is_empty() {
+            std::fs::create_dir_all(dir)?;
+        }
+    }
+    std::fs::write(path, text)
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests;
