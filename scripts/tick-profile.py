@@ -8,7 +8,7 @@ Usage (from the repository root, after `cargo xtask fw-bench` built the ELF):
     python3 scripts/tick-profile.py exec.log whole_tick --calls 21-200  # those calls only
 
 `--record` runs QEMU with the project's one command line (`cargo xtask qemu-cmd ELF --
--singlestep -d exec,nochain -D exec.log`, defined in hil/src/qemu_cmd.rs: the board,
+-singlestep -d exec,nochain -D exec.log`, defined in hil/targets/src/qemu/cmd.rs: the board,
 the CPU and the `-icount` shift of every run), then profiles the log.
 
 The log holds one line per executed instruction (the bench's 2 000 calls of each

@@ -24,7 +24,7 @@
 //!   ([`fuzz`]; a short seeded run is a unit test of this crate, so `cargo xtest` runs it).
 //! - `cargo xtask qemu-cmd [ELF] [--machine M --cpu C] [--tcp PORT] [-- QEMU ARGS]`:
 //!   prints the QEMU command line of every project run (the harness's,
-//!   `hil/src/qemu_cmd.rs`) for `ELF`, UART0 to null or to a TCP server, with the extra
+//!   `hil/targets/src/qemu/cmd.rs`) for `ELF`, UART0 to null or to a TCP server, with the extra
 //!   arguments appended (`scripts/tick-profile.py --record` runs it).
 //! - `cargo xtask readme [--check] [--dev]`: reruns the commands of the README's
 //!   generated blocks and rewrites them; `--check` fails naming the drifted ones;
@@ -57,10 +57,10 @@ mod fuzz;
 mod readme;
 mod size;
 
-/// The QEMU command line, defined once in the harness (`hil/src/qemu_cmd.rs`, no
+/// The QEMU command line, defined once in the harness (`hil/targets/src/qemu/cmd.rs`, no
 /// dependencies): compiled in here so xtask needs no crate of the workspace.
 #[allow(dead_code)]
-#[path = "../../hil/src/qemu_cmd.rs"]
+#[path = "../../hil/targets/src/qemu/cmd.rs"]
 mod qemu_cmd;
 
 use std::path::{Path, PathBuf};

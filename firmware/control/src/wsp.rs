@@ -104,7 +104,7 @@
 //! run and the reference's part by an LSB (on `low-adhesion` the first differing speed
 //! code is at 1.17 s), so a decision can fall a tick apart where the codes differ. The
 //! harness's numerics judge such a cut within their time tolerance on the reference
-//! recorded at the control period (`hil::numerics`, "The tube at the control period").
+//! recorded at the control period (`hil::check::numerics`, "The tube at the control period").
 //!
 //! # The slip bound on `low-adhesion`
 //! The worst disturbance of the scenario is its first: at 6.0 s the rail drops from dry

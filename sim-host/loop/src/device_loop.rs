@@ -223,6 +223,24 @@ pub fn control_config(p: &Params, law: YawLaw, drive: bool) -> wheelset_control:
     }
 }
 
+/// The device's configuration at parameters `p` (`hil golden --params`, `hil audit
+/// --params`): the firmware's default (its law, traction on, its rates) with the gains
+/// and motor constants of `p` ([`control_config`], the rule of `hil run`). At the
+/// default parameters this is `RuntimeConfig::default()`.
+#[must_use]
+pub fn runtime_for(p: &Params) -> RuntimeConfig {
+    let d = RuntimeConfig::default();
+    let law = match d.control.yaw_mode {
+        wheelset_control::YawMode::Passive => YawLaw::Passive,
+        wheelset_control::YawMode::Gain => YawLaw::Gain,
+        wheelset_control::YawMode::Lead => YawLaw::Lead,
+    };
+    RuntimeConfig {
+        control: control_config(p, law, d.control.traction_enabled),
+        ..d
+    }
+}
+
 fn on_off(b: bool) -> &'static str {
     if b {
         "on"

@@ -154,7 +154,7 @@ pub const BLOCKS: &[Block] = &[
     sim("device-acceleration", "run --scenario curve --control lead --loop device --lateral acceleration").keep(Keep::Starting(&["vs continuous reference"])),
     sim("device-baud-refused", "run --scenario curve --control lead --loop device --baud 115200").exit(2).stderr(),
     sim("rates", "rates"),
-    // The fixed-point audit (Markdown: `hil::audit::readme`).
+    // The fixed-point audit (Markdown: `wheelset_audit::readme`).
     hil("audit", "audit --no-target --readme-block").keep(Keep::Markdown),
     // The harness, in process.
     hil("hil", ""),
@@ -165,7 +165,7 @@ pub const BLOCKS: &[Block] = &[
     hil("hil-corrupt", "run --device-fault corrupt:10").exit(1),
     hil("hil-gain", "run --control gain"),
     hil("hil-beating", "run --scenario beating").exit(1),
-    hil("hil-short", "run --scenario hil/tests/data/short.toml"),
+    hil("hil-short", "run --scenario hil/harness/tests/data/short.toml"),
     hil("golden", "golden"),
     // Any operating point and campaigns over the envelope (issue 15).
     hil("hil-params-3mn", "run --params sim-host/params/creep-3mn.toml"),

@@ -40,7 +40,9 @@ pub(super) const RULES: &[(&str, Class)] = &[
     ),
     (
         "--target qemu:",
-        Class::Skip("needs a QEMU started by hand (hil/tests/qemu_by_hand.rs runs the pair)"),
+        Class::Skip(
+            "needs a QEMU started by hand (hil/harness/tests/qemu_by_hand.rs runs the pair)",
+        ),
     ),
     ("--target qemu", Class::Long),
     ("cargo fw", Class::Long),

@@ -14,7 +14,7 @@
 //! task runs the same tick and the TX task writes its frames here instead of to the
 //! UART. Since the tick sees the same bytes in the same RX pipe, its instructions (the
 //! `exec` field) are the same as well: the two channels give the same Actuation frames
-//! bit for bit (`hil/tests/qemu_bulk.rs`). A semihosting read blocks the whole vCPU
+//! bit for bit (`hil/harness/tests/qemu_bulk.rs`). A semihosting read blocks the whole vCPU
 //! until the host writes, so nothing counts time while the guest waits.
 
 use core::sync::atomic::{AtomicI32, Ordering};

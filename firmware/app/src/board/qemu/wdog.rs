@@ -24,7 +24,7 @@
 //! left of the count, load a short park count and mark the board idle; an expiry while
 //! idle (the clock jump) raises the NMI, whose handler clears it (WDOGINTCLR) and
 //! returns; after WFI load the budget back. The board-counters test
-//! (`hil/tests/qemu_board.rs`) then saw spurious resets: 54 boots in one run (`-d int`:
+//! (`hil/harness/tests/qemu_board.rs`) then saw spurious resets: 54 boots in one run (`-d int`:
 //! the first reset during the 600-byte burst, one RX interrupt per byte and one clock
 //! jump per idle between them, with no NMI taken before it, so the second expiry came
 //! before the first was handled; cause UNKNOWN), and every later boot reset as soon as

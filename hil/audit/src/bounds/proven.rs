@@ -1,0 +1,474 @@
+//! The proofs themselves: the quantised constants as the device holds them, the lead's
+//! signal and rounding-error systems, and every proven bound (the equations are in the
+//! parent module's docs).
+
+use wheelset_control::{Config, ConfigError, Controller, LeadPu, Sample};
+
+use super::LinearPart;
+use crate::wcpg::{wcpg, Siso};
+
+/// The quantised constants of the core, pu (exact values of what `T` holds).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Quantised {
+    /// Lead coefficients.
+    pub lead: LeadPu,
+    /// Gain law coefficient.
+    pub gain: f64,
+    /// PI `Kp`, `Ki`.
+    pub kp: f64,
+    /// PI `Ki` per step.
+    pub ki: f64,
+    /// `Ki`'s shift: held as `Ki 2^ki_shift` in the coefficient format (0 for floats).
+    pub ki_shift: u32,
+    /// Voltage limits.
+    pub u_min: f64,
+    /// Voltage limits.
+    pub u_max: f64,
+    /// demand -> current reference.
+    pub d2i: f64,
+    /// back-EMF constant.
+    pub bemf: f64,
+    /// Predictor half factor.
+    pub ph: f64,
+    /// Input clamps `y'`, current, speed, demand; torque limit; predictor clamp.
+    pub y_max: f64,
+    /// Current clamp.
+    pub i_max: f64,
+    /// Speed clamp.
+    pub s_max: f64,
+    /// Demand clamp.
+    pub d_max: f64,
+    /// Torque limit.
+    pub t_max: f64,
+    /// Predicted y' clamp.
+    pub p_max: f64,
+    /// Torque ramp step.
+    pub t_step: f64,
+    /// Current reference steps (normal, safe).
+    pub i_step: f64,
+    /// Safe-state current reference step.
+    pub i_safe_step: f64,
+}
+
+fn qc<T: Sample>(name: &'static str, v: f64) -> Result<f64, ConfigError> {
+    T::quantise(v)
+        .map(T::coeff_to_f64)
+        .ok_or(ConfigError::Coefficient { name, value: v })
+}
+
+fn qs<T: Sample>(v: f64) -> f64 {
+    T::from_f64(v).to_f64()
+}
+
+impl Quantised {
+    /// What `T` holds for `cfg` (the same expressions as the control core's compile
+    /// step, read back exactly).
+    pub fn of<T: Sample>(cfg: &Config) -> Result<Self, ConfigError> {
+        let c = Controller::<T>::try_new(cfg)?;
+        let s = &cfg.scales;
+        let l = &cfg.limits;
+        let pi = c.pi().quantised();
+        let iref_max = l.demand / (cfg.motor.n * cfg.motor.k_m) / s.current;
+        Ok(Self {
+            lead: c.lead().quantised(),
+            gain: qc::<T>("gain", cfg.gain_k * s.y_dot / s.torque)?,
+            kp: pi.kp,
+            ki: pi.ki,
+            ki_shift: c.pi().ki_shift(),
+            u_min: c.pi().u_min.to_f64(),
+            u_max: c.pi().u_max.to_f64(),
+            d2i: qc::<T>(
+                "demand_to_iref",
+                s.demand / (cfg.motor.n * cfg.motor.k_m * s.current),
+            )?,
+            bemf: qc::<T>("back_emf", cfg.motor.k_m * s.speed / s.voltage)?,
+            ph: qc::<T>(
+                "predict_half",
+                cfg.yaw_predict_ticks / (2.0 * cfg.yaw_divisor as f64),
+            )?,
+            y_max: qs::<T>(l.y_dot / s.y_dot),
+            i_max: qs::<T>(l.current / s.current),
+            s_max: qs::<T>(l.speed / s.speed),
+            d_max: qs::<T>(l.demand / s.demand),
+            t_max: qs::<T>(l.torque / s.torque),
+            p_max: qs::<T>(wheelset_control::config::MAX_LIMIT_PU),
+            t_step: qs::<T>(l.torque / s.torque * cfg.yaw_period() / cfg.safe.yaw_s),
+            i_step: qs::<T>(l.current_ref_rate * cfg.traction_period() / s.current),
+            i_safe_step: qs::<T>(iref_max * cfg.traction_period() / cfg.safe.traction_s),
+        })
+    }
+}
+
+/// The lead's signal systems (input `x`), in the order m, e, z, x1, x - z.
+pub fn lead_systems(l: &LeadPu) -> [(&'static str, Siso); 5] {
+    let a = 1.0 - l.kappa;
+    let h = l.kappa * l.g_half;
+    let sys = |c: [f64; 2], d: f64| Siso {
+        a: vec![vec![a, h], vec![0.0, 0.0]],
+        b: vec![h, 1.0],
+        c: c.to_vec(),
+        d,
+    };
+    [
+        ("lead x + x1", sys([0.0, 1.0], 1.0)),
+        ("lead (g/2)(x + x1) - z", sys([-1.0, l.g_half], l.g_half)),
+        ("lead z (state)", sys([a, h], h)),
+        ("lead x1 (state)", sys([0.0, 0.0], 1.0)),
+        ("lead x - z", sys([-a, -h], 1.0 - h)),
+    ]
+}
+
+/// The lead's rounding-error filters: `(r1 -> dz[n], r2 -> dz[n], r1 -> de, r2 -> de)`.
+pub fn lead_error_systems(l: &LeadPu) -> [Siso; 4] {
+    let a = 1.0 - l.kappa;
+    let one = |b: f64, c: f64, d: f64| Siso {
+        a: vec![vec![a]],
+        b: vec![b],
+        c: vec![c],
+        d,
+    };
+    [
+        one(l.kappa, a, l.kappa),
+        one(1.0, a, 1.0),
+        one(l.kappa, -1.0, 1.0),
+        one(1.0, -1.0, 0.0),
+    ]
+}
+
+/// The proven quantities in pu (used by [`prove`](super::prove) and the tests).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Proven {
+    /// Lead input bound `X`.
+    pub x: f64,
+    /// `(signal, controller, SI unit, full scale, proven pu, proof)`.
+    pub signals: Vec<(String, String, String, f64, f64, String)>,
+    /// Lead output error bound (pu of torque), with the predictor.
+    pub lead_err: f64,
+    /// Per rounding point, pu of torque.
+    pub lead_err_points: Vec<(String, f64)>,
+    /// Gain output error bound, pu.
+    pub gain_err: f64,
+    /// PI output error given `e`, pu.
+    pub pi_err: f64,
+    /// Reference error, pu of current.
+    pub iref_err: f64,
+    /// Linear parts.
+    pub parts: Vec<LinearPart>,
+}
+
+fn w(s: &Siso) -> f64 {
+    wcpg(s).map(|w| w.value).unwrap_or(f64::INFINITY)
+}
+
+/// Derive every bound for the quantised constants `k` at signal LSB `q` (pu).
+pub fn proven(k: &Quantised, cfg: &Config, q: f64) -> Proven {
+    let s = &cfg.scales;
+    let h = q / 2.0;
+    let y = k.y_max;
+    let pred_on = k.ph != 0.0;
+    let pred_raw = y * (1.0 + 4.0 * k.ph.abs()) + if pred_on { q } else { 0.0 };
+    let x = k.p_max.min(pred_raw);
+    let l = &k.lead;
+    let sys = lead_systems(l);
+    let ws: Vec<f64> = sys.iter().map(|(_, s)| w(s)).collect();
+    let es = lead_error_systems(l);
+    let we: Vec<f64> = es.iter().map(w).collect();
+    // dz: r1, r2 at q/2 each, and the bumpless start's q/2.
+    let dz = we[0] * h + we[1] * h + h;
+    let de = we[2] * h + we[3] * h + h;
+    let err = [0.0, de, dz, 0.0, dz];
+    let k_hf = l.k_hf.abs();
+    let w_y = k_hf * ws[4];
+    let lead_points = vec![
+        ("r1: (g/2)(x + x1)".to_string(), k_hf * we[0] * h),
+        ("r2: kappa e".to_string(), k_hf * we[1] * h),
+        ("bumpless start: z0".to_string(), k_hf * h),
+        ("r3: K_hf (x - z)".to_string(), h),
+        (
+            "predictor: (y' - y'[n-1]) p, twice".to_string(),
+            if pred_on { w_y * q } else { 0.0 },
+        ),
+    ];
+    let lead_err: f64 = lead_points.iter().map(|p| p.1).sum();
+    let gain_err = k.gain.abs() * if pred_on { q } else { 0.0 } + h;
+    let y_lead = w_y * x + k_hf * dz + h;
+    let y_gain = k.gain.abs() * x + h;
+    let raw = y_lead.max(y_gain).max(k.t_max);
+    let fsy = s.y_dot;
+    let fst = s.torque;
+    let fsi = s.current;
+    let fsv = s.voltage;
+    let fsd = s.demand;
+    let mut sig: Vec<(String, String, String, f64, f64, String)> = Vec::new();
+    let mut put = |n: &str, c: &str, u: &str, fs: f64, v: f64, p: String| {
+        sig.push((n.into(), c.into(), u.into(), fs, v, p));
+    };
+    put(
+        "y_dot (clamped input)",
+        "yaw",
+        "m/s",
+        fsy,
+        y,
+        "input clamp limits.y_dot".into(),
+    );
+    put(
+        "predictor y' - y'[n-1]",
+        "yaw",
+        "m/s",
+        fsy,
+        2.0 * y,
+        "interval: difference of two clamped inputs".into(),
+    );
+    put(
+        "predictor y' + 2d (before clamp)",
+        "yaw",
+        "m/s",
+        fsy,
+        pred_raw,
+        format!("interval: Y (1 + 4 |p|) + q, p = {:.6e}", k.ph),
+    );
+    for (i, (n, _)) in sys.iter().enumerate() {
+        let v = ws[i] * x + err[i];
+        put(
+            n,
+            "yaw_lead",
+            "m/s",
+            fsy,
+            v,
+            format!(
+                "WCPG {:.6} x X = {:.6} pu (lead input bound) + rounding error {:.2e} pu",
+                ws[i], x, err[i]
+            ),
+        );
+    }
+    put(
+        "T_psi before limit",
+        "yaw",
+        "N m",
+        fst,
+        raw,
+        format!(
+            "max(lead K_hf WCPG(x - z) X + error = {y_lead:.6}, gain |k| X + q/2 = \
+             {y_gain:.6}, slewing within the torque limit {:.6}) pu",
+            k.t_max
+        ),
+    );
+    put(
+        "T_psi - previous output (slew)",
+        "yaw",
+        "N m",
+        fst,
+        raw + k.t_max,
+        "interval: raw + torque limit".into(),
+    );
+    put(
+        "torque limit +- step (before clamp)",
+        "yaw",
+        "N m",
+        fst,
+        k.t_max + k.t_step,
+        "interval: limit in [0, T_max] plus one ramp step".into(),
+    );
+    put(
+        "T_psi (output)",
+        "yaw",
+        "N m",
+        fst,
+        k.t_max,
+        "output limit limits.torque".into(),
+    );
+    put(
+        "i_a (clamped input)",
+        "traction_pi",
+        "A",
+        fsi,
+        k.i_max,
+        "input clamp limits.current".into(),
+    );
+    put(
+        "demand (clamped input)",
+        "traction_pi",
+        "N m",
+        fsd,
+        k.d_max,
+        "input clamp limits.demand".into(),
+    );
+    let target = k.d_max * k.d2i.abs() + h;
+    put(
+        "i_ref target",
+        "traction_pi",
+        "A",
+        fsi,
+        target,
+        "interval: Dm |d2i| + q/2".into(),
+    );
+    put(
+        "i_ref target - i_ref (ramp)",
+        "traction_pi",
+        "A",
+        fsi,
+        2.0 * target,
+        "interval: two values in the target hull".into(),
+    );
+    let iref = target;
+    put(
+        "i_ref (ramped, state)",
+        "traction_pi",
+        "A",
+        fsi,
+        iref,
+        "interval: the ramp stays in the hull of 0 and the targets; wheel-slip cap in \
+         [0, i_ref]"
+            .into(),
+    );
+    let e = iref + k.i_max;
+    put(
+        "e = i_ref - i_a",
+        "traction_pi",
+        "A",
+        fsi,
+        e,
+        "interval: Iref + I".into(),
+    );
+    let prop = k.kp.abs() * e + h;
+    put(
+        "PI Kp e",
+        "traction_pi",
+        "V",
+        fsv,
+        prop,
+        "|Kp| E + q/2".into(),
+    );
+    let u = k.u_min.abs().max(k.u_max.abs());
+    put(
+        "PI I + Ki e (before clamp)",
+        "traction_pi",
+        "V",
+        fsv,
+        u + k.ki.abs() * e + q,
+        "anti-windup clamp U + |Ki| E + q (floored increment)".into(),
+    );
+    put(
+        "PI I (state)",
+        "traction_pi",
+        "V",
+        fsv,
+        u,
+        "anti-windup clamp to the voltage limits".into(),
+    );
+    put(
+        "PI Kp e + I (before limit)",
+        "traction_pi",
+        "V",
+        fsv,
+        prop + u,
+        "interval: |Kp e| + U".into(),
+    );
+    put(
+        "u_a (output)",
+        "traction_pi",
+        "V",
+        fsv,
+        u,
+        "output limit to the voltage limits".into(),
+    );
+    put(
+        "back-EMF preset K_m omega",
+        "traction_pi",
+        "V",
+        fsv,
+        k.s_max * k.bemf.abs() + h,
+        "interval: S |K_m| + q/2".into(),
+    );
+    let _ = (k.i_step, k.i_safe_step);
+    // The linear parts.
+    let mut parts: Vec<LinearPart> = sys
+        .iter()
+        .map(|(n, s)| LinearPart {
+            part: "lead".into(),
+            path: format!("x -> {n}"),
+            wcpg: wcpg(s),
+            note: "per pu of lead input".into(),
+        })
+        .collect();
+    parts.push(LinearPart {
+        part: "lead".into(),
+        path: "x -> T_psi".into(),
+        wcpg: wcpg(&sys[4].1.scaled(l.k_hf)),
+        note: "pu of torque per pu of y'".into(),
+    });
+    for (i, n) in [
+        "r1 -> dz (rounding of (g/2)(x + x1))",
+        "r2 -> dz (rounding of kappa e)",
+        "r1 -> de",
+        "r2 -> de",
+    ]
+    .iter()
+    .enumerate()
+    {
+        parts.push(LinearPart {
+            part: "lead rounding-error filter".into(),
+            path: n.to_string(),
+            wcpg: wcpg(&es[i]),
+            note: "per unit of rounding error".into(),
+        });
+    }
+    parts.push(LinearPart {
+        part: "PI".into(),
+        path: "e -> Kp e".into(),
+        wcpg: wcpg(&Siso::gain(k.kp)),
+        note: "pu of voltage per pu of current".into(),
+    });
+    parts.push(LinearPart {
+        part: "PI".into(),
+        path: "e -> integrator".into(),
+        wcpg: wcpg(&Siso {
+            a: vec![vec![1.0]],
+            b: vec![k.ki],
+            c: vec![1.0],
+            d: k.ki,
+        }),
+        note: "infinite (pole z = 1): bounded by the anti-windup clamp only".into(),
+    });
+    // The runtime's y'' integrator: v[n] = (1 - T/tau) v[n-1] + 100 T a[n] um/s per
+    // code (0.1 mm/s^2), clamped to the i32 range of um/s.
+    let t = cfg.base_period();
+    let tau = wheelset_runtime::DEFAULT_ACC_WASHOUT_S;
+    let leak = t / tau;
+    parts.push(LinearPart {
+        part: "y'' integrator (runtime)".into(),
+        path: "y'' code -> v (um/s)".into(),
+        wcpg: wcpg(&Siso {
+            a: vec![vec![1.0 - leak]],
+            b: vec![100.0 * t],
+            c: vec![1.0 - leak],
+            d: 100.0 * t,
+        }),
+        note: format!(
+            "wash-out tau = {tau} s at {:.0} Hz: 100 tau um/s per code; the state is clamped \
+             to +-(2^31 - 1) um/s and the result to the y' clamp",
+            1.0 / t
+        ),
+    });
+    parts.push(LinearPart {
+        part: "y'' integrator (runtime)".into(),
+        path: "y' -> v (wash-out reference)".into(),
+        wcpg: wcpg(&Siso {
+            a: vec![vec![1.0 - leak]],
+            b: vec![leak],
+            c: vec![1.0 - leak],
+            d: leak,
+        }),
+        note: "the complementary filter's low-frequency path".into(),
+    });
+    Proven {
+        x,
+        signals: sig,
+        lead_err,
+        lead_err_points: lead_points,
+        gain_err,
+        pi_err: h + q,
+        iref_err: h,
+        parts,
+    }
+}

@@ -1,0 +1,378 @@
+//! `hil audit`: the fixed-point accuracy audit of the control core, per controller (yaw
+//! lead, yaw pure gain, PI traction), at the configured rates and Q formats.
+//!
+//! What it computes, and how:
+//!
+//! - **Coefficients**: the f64 discretisation ([`wheelset_control::LeadParams::discretise`],
+//!   [`wheelset_control::PiParams::discretise`]) against the quantised values the
+//!   controller really multiplies by (read back from [`wheelset_control::Lead::quantised`]
+//!   and [`wheelset_control::Pi::quantised`]); absolute and relative errors.
+//! - **Poles, zeros, DC gain**: continuous (docs/model.md), discrete f64 and discrete
+//!   quantised (from the direct form of each), the discrete roots also mapped back to
+//!   rad/s by the inverse bilinear map; shifts between them. The fixed-point DC gain is
+//!   *measured* with a constant input.
+//! - **Frequency response**: continuous, discrete f64 (analytic), discrete quantised
+//!   (analytic) and fixed point *measured* by driving the running controller with
+//!   sinusoids and least-squares fitting; at 1, 10, 16, 50, 100 Hz and a log grid
+//!   0.1 Hz .. 0.45 fs; worst errors below [`Tolerances::frac_fs`] of the rate.
+//! - **Ranges and noise** ([`ranges`]): every signal and state over the scenarios, with
+//!   headroom in bits and overflow counts; fixed minus f64 on the same inputs.
+//! - **Limit cycles** ([`limits`]).
+//! - **Recommended formats**: integer bits from the observed peaks plus a margin; the
+//!   fraction bits from a bisection over the signal format (the smallest that passes
+//!   every accuracy check, plus a margin).
+//!
+//! Every number is judged against [`Tolerances`] (stated in the report): pass, warn or
+//! fail; the exit code is 1 on any fail.
+//!
+//! The modules: [`args`] (the command line), [`verdict`] (tolerances, the pass/warn/fail
+//! status shared with the run budgets, the judged figure), [`model`] (the JSON result
+//! model), [`controller`] (the per-controller audit), [`checks`] (every figure judged),
+//! [`bounds`] and [`wcpg`] (the proofs), [`formats`] (format proposals and the
+//! word-length sweep), [`ranges`], [`limits`], [`plant`], [`response`], [`qdyn`],
+//! [`target`], [`report`], [`plots`].
+//!
+//! A library: `hil audit` (the harness's subcommand) parses [`AuditArgs`] and calls
+//! [`run`]; the options are a `clap::Args` here so that the command line and the
+//! library's options are one type.
+#![deny(missing_docs)]
+
+pub mod args;
+pub mod bounds;
+pub mod checks;
+pub mod closed;
+pub mod controller;
+pub mod diagnose;
+pub mod formats;
+pub mod limits;
+pub mod margins;
+pub mod model;
+pub mod plant;
+pub mod plots;
+pub mod qdyn;
+pub mod ranges;
+pub mod readme;
+pub mod report;
+pub mod report_sections;
+pub mod response;
+pub mod scenarios;
+pub mod target;
+pub mod verdict;
+pub mod wcpg;
+
+use wheelset_control::{Config, ConfigError, Fx, Sample};
+
+pub use args::{config_of, AuditArgs, AuditError};
+pub use checks::{all_checks, controller_checks, observed_checks};
+pub use controller::{audit_controller, grid, NAMED_HZ};
+pub use formats::bit_identical_to_fx;
+pub use model::{
+    Audit, CoefRow, ControllerAudit, DcGain, FreqPoint, GainPhase, PoleZero, Recommendation, Roots,
+    Sweep, Worst,
+};
+pub use verdict::{Check, Status, Tolerances};
+
+use args::{command_line, formats_of};
+use qdyn::{Formats, QDyn};
+use ranges::{Observed, Scenario};
+use response::Kind;
+use verdict::judge;
+
+/// Every accuracy figure of sample type `T` (no recommendation, no sweep).
+pub struct Core {
+    /// Per controller.
+    pub controllers: Vec<ControllerAudit>,
+    /// Ranges and noise.
+    pub observed: Observed,
+}
+
+/// Run the per-controller audits and the scenario observation with `T`.
+pub fn core<T: Sample>(
+    cfg: &Config,
+    tol: &Tolerances,
+    fmt: &Formats,
+    scenarios: &[Scenario],
+    freqs_of: &dyn Fn(f64) -> Vec<(f64, bool)>,
+) -> Result<Core, ConfigError> {
+    let lsb = fmt.signal.lsb();
+    let controllers = Kind::active(cfg)
+        .iter()
+        .map(|&k| audit_controller::<T>(k, cfg, tol, lsb, &freqs_of(k.rate_hz(cfg))))
+        .collect::<Result<Vec<_>, _>>()?;
+    let observed = ranges::observe::<T>(cfg, scenarios, fmt.signal)?;
+    Ok(Core {
+        controllers,
+        observed,
+    })
+}
+
+/// Run the core with the instrumented type at `fmt` (counting arithmetic saturations).
+pub(crate) fn core_dyn(
+    cfg: &Config,
+    tol: &Tolerances,
+    fmt: Formats,
+    scenarios: &[Scenario],
+    freqs_of: &dyn Fn(f64) -> Vec<(f64, bool)>,
+) -> Result<Core, ConfigError> {
+    qdyn::with_formats(fmt, || {
+        qdyn::take_saturations();
+        let mut c = core::<QDyn>(cfg, tol, &fmt, scenarios, freqs_of)?;
+        c.observed.arithmetic_saturations = Some(qdyn::take_saturations());
+        Ok(c)
+    })
+}
+
+/// The proofs ([`bounds`]) for sample type `T` (inside [`qdyn::with_formats`] for the
+/// instrumented type), with the observed ranges and the observed rounding errors.
+fn proofs_for<T: Sample>(
+    cfg: &Config,
+    fmt: Formats,
+    observed: &Observed,
+    scenarios: &[Scenario],
+) -> Result<bounds::Proofs, ConfigError> {
+    let k = bounds::Quantised::of::<T>(cfg)?;
+    let err = bounds::observed_errors::<T>(cfg, &k, scenarios)?;
+    Ok(bounds::prove(cfg, &k, fmt.signal, observed, err))
+}
+
+/// Run the audit as `hil audit` does; returns the exit code (0 pass/warn, 1 fail).
+pub fn run(args: &AuditArgs) -> Result<u8, AuditError> {
+    let audit = build(args)?;
+    if let Some(p) = &args.json {
+        let s = serde_json::to_string_pretty(&audit).map_err(|e| AuditError::Io {
+            path: p.clone(),
+            source: std::io::Error::other(e),
+        })?;
+        write(p, &s)?;
+    }
+    if let Some(dir) = &args.report {
+        report::write_report(&audit, dir)?;
+    }
+    if args.readme_block {
+        wheelset_report::out!("{}", readme::block(&audit));
+    } else {
+        wheelset_report::out!("{}", report::summary(&audit, args.quiet));
+    }
+    Ok(if audit.verdict == Status::Fail { 1 } else { 0 })
+}
+
+/// Write `s` to `p`, creating the parent directory.
+pub(crate) fn write(p: &std::path::Path, s: &str) -> Result<(), AuditError> {
+    if let Some(d) = p.parent() {
+        if !d.as_os_str().is_empty() {
+            std::fs::create_dir_all(d).map_err(|e| AuditError::Io {
+                path: d.to_path_buf(),
+                source: e,
+            })?;
+        }
+    }
+    std::fs::write(p, s).map_err(|e| AuditError::Io {
+        path: p.to_path_buf(),
+        source: e,
+    })
+}
+
+/// Compute the whole audit (no output written).
+pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
+    let fmt = formats_of(args)?;
+    let cfg = config_of(args);
+    // The operating point of the plant runs (`--params`, else the paper's).
+    let params = args
+        .params
+        .as_ref()
+        .map_or_else(wheelset_plant::params::Params::default, |p| {
+            p.params.clone()
+        });
+    cfg.validate()?;
+    let tol = Tolerances::default();
+    let mut scenarios = ranges::synthetic(&cfg);
+    let mut scenario_notes = Vec::new();
+    if args.no_plant {
+        scenario_notes.push("closed-loop plant scenarios skipped (--no-plant)".to_string());
+    } else {
+        let (s, n) = plant::scenarios(&cfg, &params);
+        scenarios.extend(s);
+        scenario_notes.extend(n);
+    }
+    let production = fmt == Formats::PRODUCTION;
+    let c = if production {
+        let mut c = core::<Fx>(&cfg, &tol, &fmt, &scenarios, &|fs| grid(fs))?;
+        // The instrumented type is bit-identical at the production formats; run it over
+        // the scenarios too to count the arithmetic saturations Fx performs silently.
+        let o = qdyn::with_formats(fmt, || {
+            qdyn::take_saturations();
+            ranges::observe::<QDyn>(&cfg, &scenarios, fmt.signal).map(|_| qdyn::take_saturations())
+        })?;
+        c.observed.arithmetic_saturations = Some(o);
+        c
+    } else {
+        core_dyn(&cfg, &tol, fmt, &scenarios, &|fs| grid(fs))?
+    };
+    let mut checks = all_checks(&c, &tol, &cfg);
+    if let Some(n) = c.observed.arithmetic_saturations {
+        checks.push(judge(
+            "all",
+            "saturations inside the fixed-point arithmetic (instrumented run)",
+            n as f64,
+            (0.0, 0.0),
+            "operations",
+            "saturating operations",
+        ));
+    }
+    let coefs: Vec<CoefRow> = c
+        .controllers
+        .iter()
+        .flat_map(|a| a.coefficients.clone())
+        .collect();
+    let sweep =
+        (!args.no_sweep && !args.readme_block).then(|| formats::sweep(&cfg, &tol, &fmt, &coefs));
+    let proofs = if production {
+        proofs_for::<Fx>(&cfg, fmt, &c.observed, &scenarios)?
+    } else {
+        qdyn::with_formats(fmt, || {
+            proofs_for::<QDyn>(&cfg, fmt, &c.observed, &scenarios)
+        })?
+    };
+    checks.extend(checks::proof_checks(&proofs, &tol));
+    let closed_loop = if args.no_plant || args.no_closed_loop {
+        scenario_notes
+            .push("closed-loop audit skipped (--no-plant or --no-closed-loop)".to_string());
+        None
+    } else {
+        let lead_err = proofs.error_bounds.first().map(|e| e.proven).unwrap_or(0.0);
+        let k = bounds::Quantised::of::<Fx>(&cfg)?;
+        match (
+            closed::limit_cycle(lead_err, &params),
+            margins::margins(&cfg, &k, &params),
+        ) {
+            (Ok(lc), Ok(m)) => {
+                checks.extend(checks::closed_loop_checks(&lc, &m, &cfg));
+                Some(closed::ClosedLoopAudit {
+                    limit_cycle: lc,
+                    margins: m,
+                    note: "the fixed-point runtime in the loop with the plant through the \
+                           wire (curve, lead), against the continuous f64 reference"
+                        .into(),
+                })
+            }
+            (Err(e), _) | (_, Err(e)) => {
+                scenario_notes.push(format!("closed-loop audit not run: {e}"));
+                None
+            }
+        }
+    };
+    let recommendations = formats::recommend(&c.observed, &proofs);
+    let diagnosis = if production {
+        let pi = match scenarios.iter().find(|s| s.name == "full_scale_steps") {
+            Some(sc) => Some(diagnose::pi_attribution(&cfg, sc)?),
+            None => None,
+        };
+        Some(diagnose::Diagnosis {
+            pi,
+            lead_amplitude: diagnose::lead_amplitude(&cfg, &tol)?,
+        })
+    } else {
+        None
+    };
+    if let Some(p) = diagnosis.as_ref().and_then(|d| d.pi.as_ref()) {
+        let item = format!("u_a max error vs f64, scenario {}", p.scenario);
+        for c in checks.iter_mut().filter(|c| c.item == item) {
+            c.reason += &format!(
+                "; by experiment: {} (of {:.1} LSB); remedy: {}",
+                p.shares
+                    .iter()
+                    .map(|(n, v)| format!("{n} {v:.1} LSB"))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                p.baseline_lsb,
+                p.remedy
+            );
+        }
+    }
+    let target = if args.no_target {
+        target::TargetReport {
+            available: false,
+            note: "target: not run (--no-target)".into(),
+            runs: Vec::new(),
+        }
+    } else if !production {
+        target::TargetReport {
+            available: false,
+            note: "target: not applicable (the firmware runs the production formats)".into(),
+            runs: Vec::new(),
+        }
+    } else {
+        let pick = |n: &str| scenarios.iter().find(|s| s.name == n);
+        let mut w: Vec<(&Scenario, f64)> = Vec::new();
+        for (n, from) in [("full_scale_steps", 0.0), ("chirp", 0.0), ("curve", 4.8)] {
+            if let Some(s) = pick(n) {
+                w.push((s, from));
+            }
+        }
+        target::compare(&w, args.target_ticks, &cfg)
+    };
+    for r in &target.runs {
+        let mut c = judge(
+            "all",
+            &format!(
+                "target vs host Actuation frames, scenario {} ({} ticks)",
+                r.scenario, r.ticks
+            ),
+            r.mismatches as f64,
+            (0.0, 0.0),
+            "frames",
+            "frames differing",
+        );
+        c.reason = format!(
+            "{} of {} frames differ between QEMU and the host (max code difference T_psi {} \
+             dNm, u_a {} cV); target vs f64 max {:.1}/{:.1} wire LSB, host vs f64 {:.1}/{:.1}",
+            r.mismatches,
+            r.ticks,
+            r.max_code_diff.0,
+            r.max_code_diff.1,
+            r.target_vs_f64_wire_lsb.0,
+            r.target_vs_f64_wire_lsb.1,
+            r.host_vs_f64_wire_lsb.0,
+            r.host_vs_f64_wire_lsb.1
+        );
+        checks.push(c);
+    }
+    let verdict = checks
+        .iter()
+        .map(|c| c.status)
+        .max()
+        .unwrap_or(Status::Pass);
+    Ok(Audit {
+        command: command_line(args),
+        base_rate_hz: cfg.base_rate_hz,
+        formats: fmt,
+        sample_type: if production {
+            "wheelset_control::Fx (Q4.28) with Coef (Q1.31): the production type".into()
+        } else {
+            format!(
+                "instrumented fixed point, signals {} coefficients {}",
+                fmt.signal, fmt.coef
+            )
+        },
+        tolerances: tol,
+        controllers: c.controllers,
+        observed: c.observed,
+        scenarios: scenarios
+            .iter()
+            .map(|s| (s.name.clone(), s.source.clone(), s.ticks.len()))
+            .collect(),
+        scenario_notes,
+        bounds: proofs.bounds,
+        error_bounds: proofs.error_bounds,
+        linear_parts: proofs.linear_parts,
+        proof_statement: proofs.statement,
+        overflow_free: proofs.overflow_free,
+        recommendations,
+        closed_loop,
+        diagnosis,
+        sweep,
+        target,
+        checks,
+        verdict,
+    })
+}

@@ -1,0 +1,253 @@
+//! The README's generated audit block: the audit's headline figures as Markdown, the
+//! body between [`BEGIN`] and [`END`], printed by `hil audit --no-target --readme-block` and checked
+//! against `README.md` by `hil/harness/tests/audit_readme.rs`, so a change that moves a figure
+//! fails until the README follows. `cargo xtask readme` rewrites it like its other
+//! blocks (a Markdown block: the output verbatim); [`generate`] is the same in process.
+
+use std::fmt::Write as _;
+
+use super::ranges::Phase;
+use super::report_sections::{bounds_table, error_bounds_table, Detail};
+use super::{build, Audit, AuditArgs, AuditError, Status};
+use wheelset_report::table::Table;
+
+/// The block's first line.
+pub const BEGIN: &str = "<!-- generated:audit -->";
+/// The block's last line.
+pub const END: &str = "<!-- /generated:audit -->";
+
+/// The command the block comes from.
+pub const COMMAND: &str = "cargo run --release -q -p hil -- audit --no-target --readme-block";
+
+/// The arguments [`generate`] runs the audit with (`--no-target --readme-block`).
+pub fn args() -> AuditArgs {
+    AuditArgs {
+        no_target: true,
+        readme_block: true,
+        quiet: true,
+        ..AuditArgs::default()
+    }
+}
+
+/// Run the audit as [`COMMAND`] does and return the block ([`block`]).
+pub fn generate() -> Result<String, AuditError> {
+    Ok(block(&build(&args())?))
+}
+
+/// The body of the block in `text`: the lines between the [`BEGIN`] line and the
+/// [`END`] line (markers excluded), if present.
+pub fn extract(text: &str) -> Option<&str> {
+    let a = text.find(&format!("{BEGIN}\n"))? + BEGIN.len() + 1;
+    let b = text[a..].find(&format!("\n{END}"))? + a + 1;
+    Some(&text[a..b])
+}
+
+fn worst_coef(a: &Audit, name: &str) -> String {
+    a.controllers
+        .iter()
+        .find(|c| c.name == name)
+        .and_then(|c| {
+            c.coefficients
+                .iter()
+                .max_by(|x, y| x.rel_err.abs().total_cmp(&y.rel_err.abs()))
+        })
+        .map(|r| format!("{:.1e} (`{}`)", r.rel_err.abs(), r.name))
+        .unwrap_or_else(|| "-".into())
+}
+
+/// The block's body for `a`, what goes between [`BEGIN`] and [`END`] (every line ends
+/// in `\n`).
+pub fn block(a: &Audit) -> String {
+    let mut s = String::new();
+    let w = &mut s;
+    let _ = writeln!(
+        w,
+        "Figures of `{COMMAND}` at {} Hz, signals {}, coefficients {} (generated; a test \
+         compares this block with the tool's output).\n",
+        a.base_rate_hz, a.formats.signal, a.formats.coef
+    );
+    let ctrl = |n: &str| a.controllers.iter().find(|c| c.name == n);
+    let names = ["yaw_lead", "yaw_gain", "traction_pi"];
+    let mut t = Table::new(["figure", "yaw lead", "yaw gain", "PI"]);
+    t.row(
+        std::iter::once("largest coefficient relative error".to_string())
+            .chain(names.iter().map(|n| worst_coef(a, n))),
+    );
+    t.row(
+        std::iter::once("largest pole/zero relative shift (quantised vs f64)".to_string()).chain(
+            names.iter().map(|n| {
+                ctrl(n)
+                    .map(|c| &c.poles_zeros.shift_quantisation_rel)
+                    .filter(|v| !v.is_empty())
+                    .map(|v| format!("{:.1e}", v.iter().fold(0.0f64, |m, x| m.max(x.abs()))))
+                    .unwrap_or_else(|| "-".into())
+            }),
+        ),
+    );
+    t.row(
+        std::iter::once("DC gain continuous / fixed (measured), relative error".to_string()).chain(
+            names.iter().map(|n| {
+                ctrl(n)
+                    .and_then(|c| {
+                        let d = &c.dc_gain;
+                        Some(format!(
+                            "{:.6e} / {:.6e} ({:.1e})",
+                            d.continuous?, d.fixed?, d.fixed_vs_continuous_rel?
+                        ))
+                    })
+                    .unwrap_or_else(|| "integrator".into())
+            }),
+        ),
+    );
+    t.row(
+        std::iter::once(format!(
+            "worst gain / phase error fixed vs f64, f <= {:.0} Hz",
+            a.tolerances.frac_fs * a.base_rate_hz as f64
+        ))
+        .chain(names.iter().map(|n| {
+            ctrl(n)
+                .map(|c| {
+                    format!(
+                        "{:.1e} dB / {:.1e} deg",
+                        c.worst.fixed_gain_db.0.abs(),
+                        c.worst.fixed_phase_deg.0.abs()
+                    )
+                })
+                .unwrap_or_default()
+        })),
+    );
+    t.row(
+        std::iter::once("worst error discrete f64 vs continuous".to_string()).chain(
+            names.iter().map(|n| {
+                ctrl(n)
+                    .map(|c| {
+                        format!(
+                            "{:.1e} dB / {:.1e} deg",
+                            c.worst.discrete_gain_db.0.abs(),
+                            c.worst.discrete_phase_deg.0.abs()
+                        )
+                    })
+                    .unwrap_or_default()
+            }),
+        ),
+    );
+    t.row(
+        std::iter::once("largest dead-band offset after a hold (wire LSB)".to_string()).chain(
+            names.iter().map(|n| {
+                let l = wheelset_control::WireLsb::default();
+                let wire = if *n == "traction_pi" {
+                    l.voltage
+                } else {
+                    l.torque
+                };
+                ctrl(n)
+                    .map(|c| {
+                        format!(
+                            "{:.4}",
+                            c.limit_cycles
+                                .iter()
+                                .fold(0.0f64, |m, l| m.max(l.offset_si.abs() / wire))
+                        )
+                    })
+                    .unwrap_or_default()
+            }),
+        ),
+    );
+    let _ = writeln!(w, "{t}");
+    let _ = writeln!(w, "{}\n", a.proof_statement);
+    let _ = writeln!(w, "{}", bounds_table(a, Detail::Readme));
+    let _ = writeln!(w, "{}", error_bounds_table(a, Detail::Readme));
+    // Noise against f64 (coefficients unquantised), normal running.
+    for out in ["T_psi", "u_a"] {
+        if let Some(n) = a
+            .observed
+            .noise
+            .iter()
+            .filter(|n| n.output == out && n.phase == Phase::Normal)
+            .max_by(|x, y| x.max_lsb.total_cmp(&y.max_lsb))
+        {
+            let _ = writeln!(
+                w,
+                "- Largest `{out}` error vs the f64 core on the same inputs: {:.2} LSB = \
+                 {:.3e} {} ({:.4} wire LSB), scenario `{}` ({}).",
+                n.max_lsb, n.max_si, n.unit, n.max_wire_lsb, n.scenario, n.yaw_mode
+            );
+        }
+    }
+    if let Some(d) = &a.diagnosis {
+        if let Some(p) = &d.pi {
+            let _ = writeln!(
+                w,
+                "- The `u_a` error in `{}` by experiment: {}; Ki has {:.1} significant bits \
+                 (Q1.31 holding Ki 2^{}; relative error {:.2e}).",
+                p.scenario,
+                p.shares
+                    .iter()
+                    .map(|(n, v)| format!("{n} {v:.1} LSB"))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                p.ki_significant_bits,
+                p.ki_shift,
+                p.ki_rel_err
+            );
+        }
+        let _ = writeln!(
+            w,
+            "- The lead over the stimulus amplitude: {}.",
+            d.lead_amplitude.statement
+        );
+    }
+    if let Some(cl) = &a.closed_loop {
+        let lc = &cl.limit_cycle;
+        let _ = writeln!(
+            w,
+            "- Closed loop (device in the loop, `curve` {:.0}-{:.0} s): {}. Torque RMS {:.3} \
+             N m, `y` {:.1} nm peak to peak. Peak to peak with one source removed: {}.",
+            lc.window_s.0,
+            lc.window_s.1,
+            lc.classification,
+            lc.device.torque_rms_nm,
+            lc.device.y_p2p_m * 1e9,
+            lc.attribution
+                .iter()
+                .map(|(k, v)| format!("{k} {v:.2} N m"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+        for m in &cl.margins {
+            let o = |v: Option<f64>| v.map(|x| format!("{x:.3}")).unwrap_or_else(|| "-".into());
+            let _ = writeln!(
+                w,
+                "- Margins, {}: gain {} dB ideal / {} dB quantised, phase {} deg / {} deg.",
+                m.loop_name,
+                o(m.gain_db_ideal),
+                o(m.gain_db_quantised),
+                o(m.phase_deg_ideal),
+                o(m.phase_deg_quantised)
+            );
+        }
+    }
+    for n in &a.scenario_notes {
+        let _ = writeln!(w, "- Note: {n}.");
+    }
+    let count = |st: Status| a.checks.iter().filter(|c| c.status == st).count();
+    let _ = writeln!(
+        w,
+        "\nVerdict: **{}** ({} pass, {} warn, {} fail; `--no-target`).",
+        a.verdict.as_str().to_uppercase(),
+        count(Status::Pass),
+        count(Status::Warn),
+        count(Status::Fail)
+    );
+    for c in a.checks.iter().filter(|c| c.status != Status::Pass) {
+        let _ = writeln!(
+            w,
+            "- {} `{}` {}: {}",
+            c.status.as_str(),
+            c.controller,
+            c.item,
+            c.reason
+        );
+    }
+    s
+}

@@ -1,0 +1,546 @@
+//! The audit's human outputs: the terminal summary and the Markdown report (with SVG
+//! plots when a report directory is given).
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use super::{Audit, AuditError, Status};
+use wheelset_report::table::Table;
+
+fn fmt_opt(v: Option<f64>) -> String {
+    match v {
+        Some(x) => format!("{x:.9e}"),
+        None => "inf (integrator)".into(),
+    }
+}
+
+/// The terminal summary: one line per controller with the headline figures, then every
+/// warn/fail check (and all checks unless `quiet`), then the verdict.
+pub fn summary(a: &Audit, quiet: bool) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "hil audit: base rate {} Hz, signals {}, coefficients {} ({})",
+        a.base_rate_hz, a.formats.signal, a.formats.coef, a.sample_type
+    );
+    for c in &a.controllers {
+        let _ = writeln!(
+            s,
+            "  {:<12} {:>7.0} Hz  DC gain cont {} fixed {}  worst below {:.0} Hz: fixed-f64 {:.2e} dB {:.2e} deg, f64-cont {:.2e} dB {:.2e} deg",
+            c.name,
+            c.rate_hz,
+            fmt_opt(c.dc_gain.continuous),
+            fmt_opt(c.dc_gain.fixed),
+            c.worst.below_hz,
+            c.worst.fixed_gain_db.0,
+            c.worst.fixed_phase_deg.0,
+            c.worst.discrete_gain_db.0,
+            c.worst.discrete_phase_deg.0,
+        );
+    }
+    for n in &a.observed.noise {
+        if !quiet {
+            let _ = writeln!(
+                s,
+                "  noise {:<6} {:<18} ({}, {:?}): max {:.2} LSB = {:.3e} {} ({:.3} wire LSB), rms {:.2} LSB",
+                n.output, n.scenario, n.yaw_mode, n.phase, n.max_lsb, n.max_si, n.unit, n.max_wire_lsb, n.rms_lsb
+            );
+        }
+    }
+    let _ = writeln!(s, "  proofs: {}", a.proof_statement);
+    if let Some(cl) = &a.closed_loop {
+        let _ = writeln!(s, "  closed loop: {}", cl.limit_cycle.classification);
+    }
+    let _ = writeln!(s, "  {}", a.target.note);
+    for c in &a.checks {
+        if !quiet || c.status != Status::Pass {
+            let _ = writeln!(
+                s,
+                "  {:<4} {:<12} {}: {}",
+                c.status.as_str(),
+                c.controller,
+                c.item,
+                c.reason
+            );
+        }
+    }
+    let counts = |st: Status| a.checks.iter().filter(|c| c.status == st).count();
+    let _ = writeln!(
+        s,
+        "verdict: {} ({} pass, {} warn, {} fail)",
+        a.verdict.as_str().to_uppercase(),
+        counts(Status::Pass),
+        counts(Status::Warn),
+        counts(Status::Fail)
+    );
+    s
+}
+
+/// Write `audit.md` (and the plots) into `dir`.
+pub fn write_report(a: &Audit, dir: &Path) -> Result<(), AuditError> {
+    std::fs::create_dir_all(dir).map_err(|e| AuditError::Io {
+        path: dir.to_path_buf(),
+        source: e,
+    })?;
+    let plots = super::plots::write_plots(a, dir)?;
+    let md = markdown(a, &plots);
+    super::write(&dir.join("audit.md"), &md)
+}
+
+/// The Markdown report; `plots` = `(caption, file name)` of the SVGs written beside it.
+pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
+    let mut s = String::new();
+    let w = &mut s;
+    let _ = writeln!(w, "# Fixed-point audit of the control core\n");
+    let _ = writeln!(w, "Command: `{}`\n", a.command);
+    let _ = writeln!(
+        w,
+        "Verdict: **{}**. Base rate {} Hz; signals {} (LSB {:.3e} pu), coefficients {} \
+         (LSB {:.3e}); sample type: {}.\n",
+        a.verdict.as_str().to_uppercase(),
+        a.base_rate_hz,
+        a.formats.signal,
+        a.formats.signal.lsb(),
+        a.formats.coef,
+        a.formats.coef.lsb(),
+        a.sample_type
+    );
+    let bad: Vec<_> = a
+        .checks
+        .iter()
+        .filter(|c| c.status != Status::Pass)
+        .collect();
+    if !bad.is_empty() {
+        let _ = writeln!(w, "Checks not passed:\n");
+        for c in bad {
+            let _ = writeln!(
+                w,
+                "- **{}** `{}` {}: {}",
+                c.status.as_str(),
+                c.controller,
+                c.item,
+                c.reason
+            );
+        }
+        let _ = writeln!(w);
+    }
+    let tol = &a.tolerances;
+    let _ = writeln!(w, "## Tolerances (warn / fail)\n");
+    let mut t = Table::new(["figure", "warn", "fail"]);
+    let rows: [(&str, (f64, f64)); 11] = [
+        (
+            "fixed (measured) vs discrete f64 gain, dB",
+            tol.fixed_gain_db,
+        ),
+        ("fixed vs discrete f64 phase, deg", tol.fixed_phase_deg),
+        ("discrete f64 vs continuous gain, dB", tol.discrete_gain_db),
+        (
+            "discrete f64 vs continuous phase, deg",
+            tol.discrete_phase_deg,
+        ),
+        ("coefficient relative error", tol.coef_rel),
+        ("pole/zero relative shift (quantised vs f64)", tol.root_rel),
+        ("DC gain relative error, fixed vs continuous", tol.dc_rel),
+        ("headroom, bits (below)", tol.headroom_bits),
+        ("max output error vs f64, wire LSBs", tol.noise_wire_lsb),
+        (
+            "limit-cycle amplitude / dead band, wire LSBs",
+            tol.limit_cycle_wire_lsb,
+        ),
+        (
+            "max output error during the safe-state ramps, fraction of the limit",
+            tol.ramp_of_limit,
+        ),
+    ];
+    for (n, (a_, b)) in rows {
+        t.row([n.to_string(), format!("{a_:.1e}"), format!("{b:.1e}")]);
+    }
+    let _ = write!(w, "{t}");
+    let _ = writeln!(
+        w,
+        "\nFrequency-response errors are judged for f <= {} x the controller's rate.\n",
+        tol.frac_fs
+    );
+    for c in &a.controllers {
+        let _ = writeln!(w, "## Controller `{}` ({:.0} Hz)\n", c.name, c.rate_hz);
+        let _ = writeln!(w, "Law: {}. Gain unit: {}.\n", c.law, c.unit);
+        let _ = writeln!(w, "### Coefficients\n");
+        let mut t = Table::new([
+            "name",
+            "unit",
+            "ideal (f64)",
+            "quantised",
+            "abs error",
+            "rel error",
+        ]);
+        for r in &c.coefficients {
+            t.row([
+                r.name.to_string(),
+                r.unit.to_string(),
+                format!("{:.12e}", r.ideal),
+                format!("{:.12e}", r.quantised),
+                format!("{:.3e}", r.abs_err),
+                format!("{:.3e}", r.rel_err),
+            ]);
+        }
+        let _ = write!(w, "{t}");
+        let pz = &c.poles_zeros;
+        let _ = writeln!(w, "\n### Poles, zeros, DC gain\n");
+        let mut t = Table::new([
+            "form",
+            "poles (z)",
+            "zeros (z)",
+            "poles (rad/s)",
+            "zeros (rad/s)",
+        ]);
+        for (n, r) in [
+            ("continuous", &pz.continuous),
+            ("discrete f64", &pz.discrete_f64),
+            ("discrete quantised", &pz.discrete_quantised),
+        ] {
+            t.row([
+                n.to_string(),
+                list(&r.poles_z).to_string(),
+                list(&r.zeros_z).to_string(),
+                list(&r.poles_s).to_string(),
+                list(&r.zeros_s).to_string(),
+            ]);
+        }
+        let _ = write!(w, "{t}");
+        let _ = writeln!(
+            w,
+            "\nShifts: quantisation (z-plane) {}; quantisation (relative, rad/s) {}; \
+             discretisation (rad/s, Tustin-mapped minus continuous) {}.\n",
+            list(&pz.shift_quantisation_z),
+            list(&pz.shift_quantisation_rel),
+            list(&pz.shift_discretisation_s)
+        );
+        let d = &c.dc_gain;
+        let _ = writeln!(
+            w,
+            "DC gain ({}): continuous {}, discrete f64 {}, discrete quantised {}, fixed \
+             (measured) {}; fixed vs continuous {}.\n",
+            c.unit,
+            fmt_opt(d.continuous),
+            fmt_opt(d.discrete_f64),
+            fmt_opt(d.discrete_quantised),
+            fmt_opt(d.fixed),
+            d.fixed_vs_continuous_rel
+                .map(|r| format!("{r:.3e} relative"))
+                .unwrap_or_else(|| "n/a".into())
+        );
+        let _ = writeln!(w, "### Frequency response\n");
+        let _ = writeln!(
+            w,
+            "Fixed point measured on the running controller: input {} ({}), fitted sine + \
+             cosine + constant over whole periods. The named frequencies:\n",
+            c.measure_amplitude,
+            if c.name == "traction_pi" {
+                "A of current error"
+            } else {
+                "m/s of y'"
+            }
+        );
+        let mut t = Table::new([
+            "f (Hz)",
+            "continuous",
+            "discrete f64",
+            "fixed (measured)",
+            "fixed-f64 dB",
+            "fixed-f64 deg",
+            "f64-cont dB",
+            "f64-cont deg",
+        ]);
+        for p in c.freq_response.iter().filter(|p| p.named) {
+            t.row([
+                p.f_hz.to_string(),
+                format!(
+                    "{:.6e} / {:.3} deg",
+                    p.continuous.gain, p.continuous.phase_deg
+                ),
+                format!(
+                    "{:.6e} / {:.3} deg",
+                    p.discrete_f64.gain, p.discrete_f64.phase_deg
+                ),
+                format!("{:.6e} / {:.3} deg", p.fixed.gain, p.fixed.phase_deg),
+                format!("{:.2e}", p.fixed_vs_f64_db),
+                format!("{:.2e}", p.fixed_vs_f64_deg),
+                format!("{:.2e}", p.f64_vs_continuous_db),
+                format!("{:.2e}", p.f64_vs_continuous_deg),
+            ]);
+        }
+        let _ = write!(w, "{t}");
+        let wo = &c.worst;
+        let _ = writeln!(
+            w,
+            "\nWorst on the dense grid ({} points) below {:.0} Hz: fixed vs f64 {:.3e} dB (at \
+             {:.3} Hz), {:.3e} deg (at {:.3} Hz); discrete f64 vs continuous {:.3e} dB (at \
+             {:.3} Hz), {:.3e} deg (at {:.3} Hz). The measurement's own error (f64 measured \
+             vs analytic) is at most {:.1e} dB.\n",
+            c.freq_response.len(),
+            wo.below_hz,
+            wo.fixed_gain_db.0,
+            wo.fixed_gain_db.1,
+            wo.fixed_phase_deg.0,
+            wo.fixed_phase_deg.1,
+            wo.discrete_gain_db.0,
+            wo.discrete_gain_db.1,
+            wo.discrete_phase_deg.0,
+            wo.discrete_phase_deg.1,
+            wo.measurement_gain_db
+        );
+        let _ = writeln!(w, "### Limit cycles and dead bands\n");
+        let _ = writeln!(
+            w,
+            "After 0.2 s of random input, the input is held for 2 s; last second observed.\n"
+        );
+        let mut t = Table::new([
+            "hold input",
+            "value (SI)",
+            "moves (definition: wheelset_audit::closed)",
+            "p2p (LSB)",
+            "amplitude",
+            "period (samples)",
+            "offset vs f64",
+            "offset (LSB)",
+        ]);
+        for l in &c.limit_cycles {
+            t.row([
+                l.hold.to_string(),
+                format!("{:.3e}", l.hold_input_si),
+                l.classification.clone(),
+                format!("{:.2}", l.p2p_lsb),
+                format!("{:.3e} {}", l.amplitude_si, l.unit),
+                l.period_samples
+                    .map(|p| format!("{p:.1}"))
+                    .unwrap_or_else(|| "-".into())
+                    .to_string(),
+                format!("{:.3e} {}", l.offset_si, l.unit),
+                format!("{:.2}", l.offset_lsb),
+            ]);
+        }
+        let _ = write!(w, "{t}");
+        let _ = writeln!(w);
+    }
+    let o = &a.observed;
+    let _ = writeln!(w, "## Scenarios\n");
+    let mut t = Table::new(["name", "ticks", "source"]);
+    for (n, src, k) in &a.scenarios {
+        t.row([n.to_string(), k.to_string(), src.to_string()]);
+    }
+    let _ = write!(w, "{t}");
+    for n in &a.scenario_notes {
+        let _ = writeln!(w, "\nNote: {n}.");
+    }
+    let _ = writeln!(
+        w,
+        "\nEach scenario runs twice (yaw lead, yaw gain; traction on), fixed point and f64 \
+         in lock-step on the same quantised inputs.\n"
+    );
+    let _ = writeln!(w, "## Ranges and headroom\n");
+    let mut t = Table::new([
+        "#",
+        "signal",
+        "controller",
+        "state",
+        "min (SI)",
+        "max (SI)",
+        "unit",
+        "peak (pu)",
+        "headroom (bits)",
+        "overflows",
+        "worst scenario",
+    ]);
+    for (i, r) in o.signals.iter().filter(|r| r.samples > 0).enumerate() {
+        t.row([
+            i.to_string(),
+            r.name.to_string(),
+            r.controller.to_string(),
+            if r.state { "yes" } else { "" }.to_string(),
+            format!("{:.4e}", r.min_si),
+            format!("{:.4e}", r.max_si),
+            r.unit.to_string(),
+            format!("{:.4}", r.min_pu.abs().max(r.max_pu.abs())),
+            format!("{:.2}", r.headroom_bits),
+            r.overflows.to_string(),
+            r.worst_scenario.to_string(),
+        ]);
+    }
+    let _ = write!(w, "{t}");
+    let c = &o.clamps;
+    let _ = writeln!(
+        w,
+        "\nDesigned clamps counted by the controller (not overflows): y' {}, current {}, \
+         speed {}, demand {}, torque limit {}, voltage limit {}, integrator (anti-windup) {}. \
+         Saturating operations inside the arithmetic (instrumented run): {}.\n",
+        c.y_dot,
+        c.current,
+        c.speed,
+        c.demand,
+        c.yaw_torque,
+        c.voltage,
+        c.integrator,
+        o.arithmetic_saturations
+            .map(|n| n.to_string())
+            .unwrap_or_else(|| "not counted".into())
+    );
+    let _ = writeln!(w, "## Quantisation noise (fixed minus f64, same inputs)\n");
+    let mut t = Table::new([
+        "output",
+        "scenario",
+        "yaw mode",
+        "ticks",
+        "max (LSB)",
+        "rms (LSB)",
+        "max (SI)",
+        "rms (SI)",
+        "max (wire LSB)",
+        "bits lost",
+    ]);
+    for n in &o.noise {
+        t.row([
+            n.output.to_string(),
+            n.scenario.to_string(),
+            n.yaw_mode.to_string(),
+            match n.phase {
+                super::ranges::Phase::Normal => "normal",
+                super::ranges::Phase::SafeRamp => "safe-state ramps",
+            }
+            .to_string(),
+            format!("{:.2}", n.max_lsb),
+            format!("{:.2}", n.rms_lsb),
+            format!("{:.3e} {}", n.max_si, n.unit),
+            format!("{:.3e} {}", n.rms_si, n.unit),
+            format!("{:.3}", n.max_wire_lsb),
+            format!("{:.2}", n.bits_lost),
+        ]);
+    }
+    let _ = write!(w, "{t}");
+    super::report_sections::proofs_and_findings(a, w);
+    let _ = writeln!(w, "\n## Recommended formats\n");
+    let _ = writeln!(
+        w,
+        "From the proven bounds: integer bits hold the proven maximum (no overflow for any \
+         input within the clamps); fraction bits keep the proven rounding error of the \
+         chain's output (T_psi, u_a) within half a wire LSB.\n"
+    );
+    if let Some(sw) = &a.sweep {
+        let _ = writeln!(
+            w,
+            "A weaker, empirical statement: bisection over the signal fraction bits at {} integer bits (synthetic \
+             scenarios, named frequencies): smallest format with no failing check: {} (no overflow or error bound is implied). Tried: {}.\n\nCoefficients: \
+             {} fraction bits are needed for every coefficient's relative error to stay \
+             within {:.0e} (the audited format has {}).\n",
+            a.formats.signal.int_bits,
+            sw.min_signal_frac_bits
+                .map(|f| format!("Q{}.{}", a.formats.signal.int_bits, f))
+                .unwrap_or_else(|| "none up to 32 bits".into()),
+            sw.tried
+                .iter()
+                .map(|(f, ok, why)| {
+                    if *ok {
+                        format!("F={f} pass")
+                    } else {
+                        format!("F={f} fail ({why})")
+                    }
+                })
+                .collect::<Vec<_>>()
+                .join("; "),
+            sw.min_coef_frac_bits,
+            a.tolerances.coef_rel.0,
+            a.formats.coef.frac_bits
+        );
+    }
+    let mut t = Table::new([
+        "signal",
+        "controller",
+        "observed peak (pu)",
+        "proven max (pu)",
+        "recommended",
+        "word",
+        "guarantee",
+    ]);
+    for r in &a.recommendations {
+        t.row([
+            r.signal.clone(),
+            r.controller.clone(),
+            if r.observed {
+                format!("{:.4}", r.peak_pu)
+            } else {
+                "-".into()
+            },
+            format!("{:.4}", r.proven_max_pu),
+            r.format.clone(),
+            r.word.to_string(),
+            r.guarantee.clone(),
+        ]);
+    }
+    let _ = write!(w, "{t}");
+    let _ = writeln!(w, "\n## Target (QEMU)\n\n{}.\n", a.target.note);
+    if !a.target.runs.is_empty() {
+        let mut t = Table::new([
+            "scenario",
+            "from tick",
+            "ticks",
+            "frames differing",
+            "max code diff (T_psi dNm, u_a cV)",
+            "target vs f64 (wire LSB)",
+            "host vs f64 (wire LSB)",
+            "mean instructions/tick",
+        ]);
+        for r in &a.target.runs {
+            t.row([
+                r.scenario.to_string(),
+                r.from_tick.to_string(),
+                r.ticks.to_string(),
+                r.mismatches.to_string(),
+                format!("{}, {}", r.max_code_diff.0, r.max_code_diff.1),
+                format!(
+                    "{:.1}, {:.1}",
+                    r.target_vs_f64_wire_lsb.0, r.target_vs_f64_wire_lsb.1
+                ),
+                format!(
+                    "{:.1}, {:.1}",
+                    r.host_vs_f64_wire_lsb.0, r.host_vs_f64_wire_lsb.1
+                ),
+                format!("{:.0}", r.mean_exec),
+            ]);
+        }
+        let _ = write!(w, "{t}");
+        let _ = writeln!(
+            w,
+            "\nThe target's outputs are visible only as wire codes (0.1 N m, 10 mV), so its \
+             error against f64 is stated in wire LSBs; the host's internal-resolution figures \
+             are in the noise table above.\n"
+        );
+    }
+    if !plots.is_empty() {
+        let _ = writeln!(w, "## Plots\n");
+        for (cap, f) in plots {
+            let _ = writeln!(w, "![{cap}]({f})\n");
+        }
+    }
+    let _ = writeln!(w, "## Checks\n");
+    let mut t = Table::new(["status", "controller", "item", "reason"]);
+    for c in &a.checks {
+        t.row([
+            c.status.as_str().to_string(),
+            c.controller.to_string(),
+            c.item.to_string(),
+            c.reason.to_string(),
+        ]);
+    }
+    let _ = write!(w, "{t}");
+    s
+}
+
+fn list(v: &[f64]) -> String {
+    if v.is_empty() {
+        "-".into()
+    } else {
+        v.iter()
+            .map(|x| format!("{x:.9e}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+}

@@ -1,0 +1,251 @@
+//! The Markdown report's sections on the proofs, the closed loop and the findings
+//! attributed by experiment ([`super::report::markdown`] calls them in place).
+
+use std::fmt::Write as _;
+
+use super::Audit;
+use wheelset_report::table::Table;
+
+/// Write the findings, proven bounds, rounding-error bounds, WCPGs and the closed-loop
+/// section of `a` to `w`.
+pub(crate) fn proofs_and_findings(a: &Audit, w: &mut String) {
+    if let Some(d) = &a.diagnosis {
+        let _ = writeln!(w, "\n## Findings attributed by experiment\n");
+        if let Some(p) = &d.pi {
+            let _ = writeln!(
+                w,
+                "PI steady error (`u_a` vs f64, scenario `{}`): {:.1} LSB; with the f64 \
+                 reference holding the quantised `Ki` {:.1} LSB; also the quantised ramp \
+                 steps {:.1} LSB. Shares: {}. `Ki` has {:.1} significant bits in Q1.31 \
+                 (held as Ki 2^{}; relative error {:.2e}). Remedy: {}\n",
+                p.scenario,
+                p.baseline_lsb,
+                p.with_quantised_ki_lsb,
+                p.with_quantised_ki_and_ramps_lsb,
+                p.shares
+                    .iter()
+                    .map(|(n, v)| format!("{n} {v:.1} LSB"))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                p.ki_significant_bits,
+                p.ki_shift,
+                p.ki_rel_err,
+                p.remedy
+            );
+        }
+        let la = &d.lead_amplitude;
+        let _ = writeln!(
+            w,
+            "Lead response over the stimulus amplitude (fixed measured vs discrete f64, \
+             worst over {:?} Hz): {}.\n",
+            la.freqs_hz, la.statement
+        );
+        let mut t = Table::new([
+            "y' amplitude (m/s)",
+            "worst gain error (dB)",
+            "worst phase error (deg)",
+        ]);
+        for p in &la.points {
+            t.row([
+                format!("{:.0e}", p.amplitude_mps),
+                format!("{:.2e}", p.gain_db),
+                format!("{:.2e}", p.phase_deg),
+            ]);
+        }
+        let _ = write!(w, "{t}");
+    }
+    let _ = writeln!(w, "\n## Proven bounds\n");
+    let _ = writeln!(
+        w,
+        "{}\n\nRanges: the worst-case peak gain (WCPG) of each linear part from the \
+         quantised coefficients, times the input clamps, plus the rounding-error bound; \
+         interval arithmetic through the clamps, ramps, predictor and anti-windup \
+         (`wheelset_audit::bounds` states each step). Observed = the largest magnitude over \
+         the scenarios.\n",
+        a.proof_statement
+    );
+    let _ = write!(w, "{}", bounds_table(a, Detail::Report));
+    let _ = writeln!(
+        w,
+        "\nRounding error of the fixed-point core against exact arithmetic on the same \
+         quantised coefficients and inputs (each rounding point's error filter's peak gain \
+         x its rounding step):\n"
+    );
+    let _ = write!(w, "{}", error_bounds_table(a, Detail::Report));
+    let _ = writeln!(w, "\nWCPG per linear part (tail bound and terms summed):\n");
+    let mut t = Table::new(["part", "path", "WCPG", "terms", "tail bound", "note"]);
+    for l in &a.linear_parts {
+        let (v, k, tb) = match &l.wcpg {
+            Some(g) => (
+                format!("{:.9}", g.value),
+                g.terms.to_string(),
+                format!("{:.1e}", g.tail_bound),
+            ),
+            None => ("infinite".into(), "-".into(), "-".into()),
+        };
+        t.row([l.part.clone(), l.path.clone(), v, k, tb, l.note.clone()]);
+    }
+    let _ = write!(w, "{t}");
+    if let Some(cl) = &a.closed_loop {
+        let lc = &cl.limit_cycle;
+        let _ = writeln!(w, "\n## Closed loop (device in the loop)\n");
+        let _ = writeln!(
+            w,
+            "{}: {}.\n\nStraight track `curve` {:.0}-{:.0} s: torque {:.3} N m peak to peak \
+             (RMS {:.3} N m) at {:.2} Hz, `y` {:.1} nm peak to peak. Attribution: the core \
+             in the loop with every source reproduces the device ({:.3} N m p2p), then one \
+             source removed at a time:\n",
+            cl.note,
+            lc.classification,
+            lc.window_s.0,
+            lc.window_s.1,
+            lc.device.torque_p2p_nm,
+            lc.device.torque_rms_nm,
+            lc.device.freq_hz,
+            lc.device.y_p2p_m * 1e9,
+            lc.core_all_sources.torque_p2p_nm
+        );
+        let mut t = Table::new([
+            "run",
+            "torque p2p (N m)",
+            "torque RMS (N m)",
+            "frequency (Hz)",
+            "y p2p (nm)",
+        ]);
+        let mut rows = vec![
+            (
+                "device (Runtime<Fx>, in-process link)".to_string(),
+                &lc.device,
+            ),
+            ("continuous f64 reference".to_string(), &lc.reference),
+            (
+                "core in the loop, every source".to_string(),
+                &lc.core_all_sources,
+            ),
+        ];
+        for (n, c) in &lc.removed {
+            rows.push((format!("without {n}"), c));
+        }
+        for (n, c) in rows {
+            t.row([
+                n,
+                format!("{:.4}", c.torque_p2p_nm),
+                format!("{:.4}", c.torque_rms_nm),
+                format!("{:.2}", c.freq_hz),
+                format!("{:.2}", c.y_p2p_m * 1e9),
+            ]);
+        }
+        let _ = write!(w, "{t}");
+        let _ = writeln!(
+            w,
+            "\nMargins (plant linearised on straight track, one period of delay; see \
+             `wheelset_audit::margins`):\n"
+        );
+        let mut t = Table::new([
+            "loop",
+            "gain margin ideal (dB)",
+            "gain margin quantised (dB)",
+            "phase margin ideal (deg)",
+            "phase margin quantised (deg)",
+            "phase / gain crossover (Hz)",
+        ]);
+        let o = |v: Option<f64>| v.map(|x| format!("{x:.6}")).unwrap_or_else(|| "-".into());
+        for m in &cl.margins {
+            t.row([
+                m.loop_name.clone(),
+                o(m.gain_db_ideal),
+                o(m.gain_db_quantised),
+                o(m.phase_deg_ideal),
+                o(m.phase_deg_quantised),
+                format!("{} / {}", o(m.phase_crossover_hz), o(m.gain_crossover_hz)),
+            ]);
+        }
+        let _ = write!(w, "{t}");
+    }
+}
+
+/// How much a proof table says: the README's short form or the report's full one.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Detail {
+    /// The README's block: the figures with four (bounds) or three (errors) digits.
+    Readme,
+    /// The report: two more digits plus each bound's format and proof, each error
+    /// bound's rounding points.
+    Report,
+}
+
+/// The proven bounds per signal against the observed ones (one table for the README's
+/// block and the report).
+pub(crate) fn bounds_table(a: &Audit, d: Detail) -> Table {
+    let full = d == Detail::Report;
+    let p = if full { 6 } else { 4 };
+    let mut head = vec!["signal", "unit", "observed max", "proven max"];
+    if full {
+        head.push("format");
+    }
+    head.push("margin (bits)");
+    if full {
+        head.push("proof");
+    }
+    let mut t = Table::new(head);
+    for b in &a.bounds {
+        let mut r = vec![
+            if full {
+                b.signal.clone()
+            } else {
+                format!("`{}`", b.signal)
+            },
+            b.unit.clone(),
+            b.observed_max
+                .map(|v| format!("{v:.p$e}"))
+                .unwrap_or_else(|| "-".into()),
+            format!("{:.p$e}", b.proven_max),
+        ];
+        if full {
+            r.push(b.format.clone());
+        }
+        r.push(format!("{:.2}", b.margin_bits));
+        if full {
+            r.push(b.proof.clone());
+        }
+        t.row(r);
+    }
+    t
+}
+
+/// The rounding-error bounds per output against the observed errors (one table for the
+/// README's block and the report).
+pub(crate) fn error_bounds_table(a: &Audit, d: Detail) -> Table {
+    let full = d == Detail::Report;
+    let p = if full { 4 } else { 3 };
+    let first = if full {
+        "output"
+    } else {
+        "rounding error vs exact arithmetic"
+    };
+    let mut head = vec![first, "observed", "proven", "unit", "proven (wire LSB)"];
+    if full {
+        head.push("per rounding point");
+    }
+    let mut t = Table::new(head);
+    for e in &a.error_bounds {
+        let mut r = vec![
+            e.output.clone(),
+            format!("{:.p$e}", e.observed),
+            format!("{:.p$e}", e.proven),
+            e.unit.clone(),
+            format!("{:.p$}", e.proven_wire_lsb),
+        ];
+        if full {
+            r.push(
+                e.rounding_points
+                    .iter()
+                    .map(|(n, v)| format!("{n} {v:.2e}"))
+                    .collect::<Vec<_>>()
+                    .join("; "),
+            );
+        }
+        t.row(r);
+    }
+    t
+}

@@ -1,0 +1,219 @@
+//! The same numbers from the target: the `wheelset-qemu` firmware (the real runtime and
+//! control core compiled for Cortex-M4, `thumbv7em-none-eabihf`) under QEMU, driven in
+//! lock-step over its UART ([`wheelset_targets::qemu`]) with Sensor frames carrying an audit
+//! scenario's inputs as wire codes.
+//!
+//! The host runs [`wheelset_runtime::Runtime`] on `Fx` with the firmware's configuration
+//! (`RuntimeConfig::default()`) on the *same bytes*; the f64 control core runs on the
+//! same codes. Reported: ticks compared, Actuation codes that differ between target and
+//! host (the fixed-point core must be bit-identical), and the max error of the target's
+//! and the host's outputs against f64, in wire LSBs (the target's outputs are only
+//! visible as wire codes: 0.1 N m and 10 mV).
+
+use serde::Serialize;
+use wheelset_control::{Config, Controller, Fx, InputCodes};
+use wheelset_proto::{encode_vec, Actuation, Decoder, Lateral, Message, Sensor};
+use wheelset_runtime::{protocol_wire_lsb, Runtime, RuntimeConfig};
+
+use super::ranges::Scenario;
+use wheelset_targets::qemu::{Qemu, QemuConfig};
+
+/// One scenario run on the target.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct TargetRun {
+    /// Scenario.
+    pub scenario: String,
+    /// First tick of the window.
+    pub from_tick: usize,
+    /// Ticks exchanged.
+    pub ticks: usize,
+    /// Ticks whose Actuation differs between target and host in `t_psi` or `u_a`.
+    pub mismatches: usize,
+    /// Largest |target - host| code difference, `(T_psi dNm, u_a cV)`.
+    pub max_code_diff: (i64, i64),
+    /// Max |target - f64| (`T_psi`, `u_a`), wire LSBs.
+    pub target_vs_f64_wire_lsb: (f64, f64),
+    /// Max |host - f64|, wire LSBs.
+    pub host_vs_f64_wire_lsb: (f64, f64),
+    /// Mean instructions per tick on the target (QEMU icount; the whole tick).
+    pub mean_exec: f64,
+}
+
+/// The target comparison, or why it is not available.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct TargetReport {
+    /// Whether target numbers are included.
+    pub available: bool,
+    /// Why not, or what was compared.
+    pub note: String,
+    /// Per scenario.
+    pub runs: Vec<TargetRun>,
+}
+
+fn codes(t: &super::ranges::Tick) -> InputCodes {
+    let w = protocol_wire_lsb();
+    let c = |v: f64, lsb: f64| {
+        let x = (v / lsb).round();
+        if x.is_finite() {
+            x.clamp(i32::MIN as f64, i32::MAX as f64) as i32
+        } else {
+            0
+        }
+    };
+    InputCodes {
+        y_dot: c(t.si[0], w.y_dot),
+        current: c(t.si[1], w.current),
+        speed: c(t.si[2], w.speed),
+        demand: c(t.si[3], w.demand),
+    }
+}
+
+fn frame(seq: u16, c: &InputCodes) -> Result<Vec<u8>, String> {
+    let s = Sensor {
+        seq,
+        t_us: seq.wrapping_mul(200),
+        lateral: Lateral::Velocity(c.y_dot),
+        i_a_ma: c.current,
+        omega_m_mrad_s: c.speed,
+        demand_nm: c.demand,
+        v_ref_mm_s: 0,
+    };
+    encode_vec(&Message::Sensor(s))
+        .map(|v| v.to_vec())
+        .map_err(|e| format!("{e:?}"))
+}
+
+fn decode(bytes: &[u8], dec: &mut Decoder) -> Option<Actuation> {
+    let mut out = None;
+    dec.feed(bytes, |r| {
+        if let Ok(Message::Actuation(a)) = r {
+            if out.is_none() {
+                out = Some(a);
+            }
+        }
+    });
+    out
+}
+
+/// Run `window` ticks of each scenario (from `from` seconds) on the target and the host.
+/// The firmware runs the runtime's default configuration: `cfg` must equal it (wire
+/// LSBs aside, which the runtime takes from the protocol).
+pub fn compare(scenarios: &[(&Scenario, f64)], window: usize, cfg: &Config) -> TargetReport {
+    let na = |note: String| TargetReport {
+        available: false,
+        note: format!("target: not available: {note}"),
+        runs: Vec::new(),
+    };
+    let rc = RuntimeConfig::default();
+    let mut mine = *cfg;
+    mine.wire = rc.control.wire;
+    if mine != rc.control {
+        return na(
+            "the firmware runs the default configuration; this audit's rate, divisors or \
+             predictor differ"
+                .into(),
+        );
+    }
+    let base_rate_hz = cfg.base_rate_hz;
+    let qc = QemuConfig::new();
+    if let Err(e) = qc.check() {
+        return na(e.to_string());
+    }
+    let mut runs = Vec::new();
+    for (sc, from_s) in scenarios {
+        let from = (from_s * base_rate_hz as f64) as usize;
+        let ticks: Vec<_> = sc.ticks.iter().skip(from).take(window).collect();
+        if ticks.is_empty() {
+            continue;
+        }
+        let mut q = match Qemu::start(&qc) {
+            Ok(q) => q,
+            Err(e) => return na(e.to_string()),
+        };
+        let mut host = match Runtime::<Fx>::try_new(rc) {
+            Ok(h) => h,
+            Err(e) => return na(format!("host runtime: {e:?}")),
+        };
+        let mut fcfg = rc.control;
+        fcfg.wire = protocol_wire_lsb();
+        let mut fl = match Controller::<f64>::try_new(&fcfg) {
+            Ok(c) => c,
+            Err(e) => return na(format!("f64 core: {e}")),
+        };
+        let (mut dt, mut dh) = (Decoder::new(), Decoder::new());
+        let mut run = TargetRun {
+            scenario: sc.name.clone(),
+            from_tick: from,
+            ticks: 0,
+            mismatches: 0,
+            max_code_diff: (0, 0),
+            target_vs_f64_wire_lsb: (0.0, 0.0),
+            host_vs_f64_wire_lsb: (0.0, 0.0),
+            mean_exec: 0.0,
+        };
+        let mut exec_sum = 0.0;
+        for (k, t) in ticks.iter().enumerate() {
+            let c = codes(t);
+            let seq = (k as u16).wrapping_add(1);
+            let bytes = match frame(seq, &c) {
+                Ok(b) => b,
+                Err(e) => return na(format!("encode: {e}")),
+            };
+            if let Err(e) = q.send(&bytes) {
+                return na(format!("after {k} ticks: {e}"));
+            }
+            let mut tf = match q.recv_frame() {
+                Ok(f) => f,
+                Err(e) => return na(format!("after {k} ticks: {e}")),
+            };
+            tf.push(0);
+            host.receive(&bytes);
+            let hb = host.tick(0).to_vec();
+            let (Some(at), Some(ah)) = (decode(&tf, &mut dt), decode(&hb, &mut dh)) else {
+                return na(format!("tick {k}: no Actuation frame"));
+            };
+            let of = fl.tick_codes(&c);
+            let d = (
+                (at.t_psi_dnm as i64 - ah.t_psi_dnm as i64).abs(),
+                (at.u_a_cv as i64 - ah.u_a_cv as i64).abs(),
+            );
+            if d != (0, 0) {
+                run.mismatches += 1;
+            }
+            run.max_code_diff = (run.max_code_diff.0.max(d.0), run.max_code_diff.1.max(d.1));
+            let e = |a: &Actuation| {
+                (
+                    (a.t_psi_dnm as f64 - of.yaw_torque as f64).abs(),
+                    (a.u_a_cv as f64 - of.voltage as f64).abs(),
+                )
+            };
+            let (et, eh) = (e(&at), e(&ah));
+            run.target_vs_f64_wire_lsb = (
+                run.target_vs_f64_wire_lsb.0.max(et.0),
+                run.target_vs_f64_wire_lsb.1.max(et.1),
+            );
+            run.host_vs_f64_wire_lsb = (
+                run.host_vs_f64_wire_lsb.0.max(eh.0),
+                run.host_vs_f64_wire_lsb.1.max(eh.1),
+            );
+            if k > 0 {
+                exec_sum += at.exec as f64;
+            }
+            run.ticks += 1;
+        }
+        run.mean_exec = exec_sum / (run.ticks.max(2) - 1) as f64;
+        runs.push(run);
+    }
+    let total: usize = runs.iter().map(|r| r.ticks).sum();
+    let mism: usize = runs.iter().map(|r| r.mismatches).sum();
+    TargetReport {
+        available: true,
+        note: format!(
+            "target: QEMU mps2-an386 (Cortex-M4) running the firmware's runtime on Fx: \
+             {total} ticks over {} scenario windows, {mism} Actuation frames differ from \
+             the host's Runtime<Fx> on the same bytes",
+            runs.len()
+        ),
+        runs,
+    }
+}

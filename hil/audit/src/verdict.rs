@@ -1,0 +1,112 @@
+//! The verdict: the tolerances every figure is judged against, the pass/warn/fail
+//! status (one type with the run budgets, [`wheelset_report::Verdict`]) and the judged
+//! figure ([`Check`]).
+
+use serde::Serialize;
+
+/// Pass, warn or fail: the same type as the run budgets' verdict, ordered best to worst
+/// (the overall verdict is the maximum).
+pub use wheelset_report::Verdict as Status;
+
+/// The tolerances every figure is judged against. `warn` and `fail` are thresholds on
+/// the magnitude of the stated quantity.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Tolerances {
+    /// Accuracy is judged for `f <= frac_fs * rate` (0.1: 500 Hz at 5 kHz).
+    pub frac_fs: f64,
+    /// Fixed (measured) vs discrete f64 gain, dB: warn, fail.
+    pub fixed_gain_db: (f64, f64),
+    /// Fixed vs discrete f64 phase, degrees: warn, fail.
+    pub fixed_phase_deg: (f64, f64),
+    /// Discrete f64 vs continuous gain, dB (the discretisation itself).
+    pub discrete_gain_db: (f64, f64),
+    /// Discrete f64 vs continuous phase, degrees.
+    pub discrete_phase_deg: (f64, f64),
+    /// Coefficient relative quantisation error.
+    pub coef_rel: (f64, f64),
+    /// Relative shift of a pole or zero (equivalent rad/s), quantised vs f64.
+    pub root_rel: (f64, f64),
+    /// DC gain relative error, fixed (measured) vs continuous.
+    pub dc_rel: (f64, f64),
+    /// Headroom below which to warn / fail, bits.
+    pub headroom_bits: (f64, f64),
+    /// Max output error vs f64 over the scenarios, in wire LSBs of that output.
+    pub noise_wire_lsb: (f64, f64),
+    /// Limit-cycle amplitude / dead-band offset, wire LSBs of the output.
+    pub limit_cycle_wire_lsb: (f64, f64),
+    /// Max output error vs f64 during the safe-state ramps, fraction of the output limit.
+    pub ramp_of_limit: (f64, f64),
+}
+
+impl Default for Tolerances {
+    fn default() -> Self {
+        Self {
+            frac_fs: 0.1,
+            fixed_gain_db: (1e-3, 1e-2),
+            fixed_phase_deg: (1e-2, 1e-1),
+            discrete_gain_db: (0.25, 1.0),
+            discrete_phase_deg: (2.5, 10.0),
+            coef_rel: (1e-5, 1e-3),
+            root_rel: (1e-5, 1e-3),
+            dc_rel: (1e-5, 1e-3),
+            headroom_bits: (1.0, 0.0),
+            noise_wire_lsb: (0.5, 2.0),
+            limit_cycle_wire_lsb: (0.5, 2.0),
+            ramp_of_limit: (1e-4, 1e-3),
+        }
+    }
+}
+
+/// One judged figure.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Check {
+    /// Controller (or `all`).
+    pub controller: String,
+    /// What is judged.
+    pub item: String,
+    /// The figure.
+    pub value: f64,
+    /// Warn threshold.
+    pub warn: f64,
+    /// Fail threshold.
+    pub fail: f64,
+    /// Unit of the figure.
+    pub unit: String,
+    /// Verdict.
+    pub status: Status,
+    /// Why, in words.
+    pub reason: String,
+}
+
+pub(crate) fn judge(
+    controller: &str,
+    item: &str,
+    value: f64,
+    (warn, fail): (f64, f64),
+    unit: &str,
+    what: &str,
+) -> Check {
+    let v = value.abs();
+    let status = if !v.is_finite() || v > fail {
+        Status::Fail
+    } else if v > warn {
+        Status::Warn
+    } else {
+        Status::Pass
+    };
+    let reason = match status {
+        Status::Pass => format!("{what} {value:.3e} {unit} within {warn:.1e}"),
+        Status::Warn => format!("{what} {value:.3e} {unit} above the warn level {warn:.1e}"),
+        Status::Fail => format!("{what} {value:.3e} {unit} exceeds the tolerance {fail:.1e}"),
+    };
+    Check {
+        controller: controller.to_string(),
+        item: item.to_string(),
+        value,
+        warn,
+        fail,
+        unit: unit.to_string(),
+        status,
+        reason,
+    }
+}

@@ -1,0 +1,274 @@
+//! The `monitor` section of `hil run`: the stability-monitor and actuator-check alarms of
+//! the run, and the check of them against the scenario.
+//!
+//! **Source** (`source = "device-flags"`). The alarms are the rising edges of the
+//! device's own flags, `Flags::HUNTING` and `Flags::ACTUATOR_FAULT`, in the Actuation
+//! frames the host received (each alarm's `t_s`: the arrival of the first frame carrying
+//! it), on every target alike; the device's Status adds its `first_alarm_tick`
+//! (`device_first_alarm_tick`, and that tick's sample instant `device_first_alarm_s`).
+//! The monitor's mean square for the figure (`RunOutcome::monitor_ms`) is the device's
+//! monitor code ([`wheelset_control::Monitor`] in Q4.28, [`MonitorParams::default`])
+//! replayed on the `y'` codes the device received ([`replay`]): the wire does not carry it.
+//!
+//! ```json
+//! "monitor": {"alarms": [{"kind": "actuator", "t_s": 6.2}, {"kind": "hunting", "t_s": 6.28}],
+//!             "first_alarm_s": 6.2, "expect": "alarm", "deadline_s": 6.39, ...}
+//! ```
+//!
+//! **Expected.** A scenario without a plant fault must raise no alarm at all (the
+//! healthy loop is damped), unless the plant hunts on its own (e.g. passive control
+//! above its critical conicity: the run diverges), where an alarm is due before the
+//! divergence. With an `[actuator_fault]` from
+//! `t_f`: no alarm before `t_f`, and the first alarm by the **deadline**, stated from the
+//! growth rate `sigma` of the unstable mode of the passive-less wheelset
+//! (`wheelset_plant::fault::failed_actuator_mode`, the scenario's parameters):
+//!
+//! ```text
+//! t_alarm - t_f <= [ ln(thr / A_0) + ln(1 + 2 sigma tau)/2 ] / sigma + B
+//! ```
+//!
+//! the time for the mode to grow from the band-passed RMS `A_0` present at the fault
+//! (measured on the plant's `y'` over the block before `t_f` with the device's own
+//! filter, [`wheelset_control::Monitor`] in f64; at least the wire LSB of `y'`, 1 um/s)
+//! to the hunting threshold `thr`, plus the exponential mean square's lag for a mode
+//! growing at `sigma` (`ms = p/(1 + 2 sigma tau)`, module docs of
+//! `wheelset_control::monitor`), plus one actuator-check block `B` of slack. This is the
+//! hunting alarm's bound; the actuator check usually comes first. A fault that leaves the
+//! mode stable (a fraction that still damps it) states no deadline and expects nothing.
+
+use serde::Serialize;
+use wheelset_control::{Compiled, Fx, InputCodes, Monitor, MonitorParams, MonitorState, YawMode};
+use wheelset_plant::fault::{failed_actuator_mode, FaultMode};
+use wheelset_plant::scenario::Scenario;
+use wheelset_plant::sim::Trajectory;
+use wheelset_runtime::RuntimeConfig;
+
+use wheelset_report::Verdict;
+
+/// One alarm: a rising edge of a monitor flag.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Alarm {
+    /// `hunting` (stability monitor) or `actuator` (actuator check).
+    pub kind: &'static str,
+    /// Arrival time of the first Actuation frame carrying it, s.
+    pub t_s: f64,
+}
+
+/// The `monitor` section of the run report.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct MonitorReport {
+    /// Where the alarms come from (`device-flags`, see the module docs).
+    pub source: &'static str,
+    /// Every alarm, in time order.
+    pub alarms: Vec<Alarm>,
+    /// The first alarm's time, s (`null`: none).
+    pub first_alarm_s: Option<f64>,
+    /// `none` (no alarm allowed) or `alarm` (an alarm by `deadline_s`, none before
+    /// `fault_s`).
+    pub expect: &'static str,
+    /// The plant's actuator fault time, s.
+    pub fault_s: Option<f64>,
+    /// Growth rate of the passive-less wheelset's unstable mode, 1/s.
+    pub sigma_per_s: Option<f64>,
+    /// Band-passed RMS of `y'` at the fault, m/s (`A_0`).
+    pub rms_at_fault_m_s: Option<f64>,
+    /// The stated deadline of the first alarm, s (absolute).
+    pub deadline_s: Option<f64>,
+    /// Pass, or fail with `reason`.
+    pub verdict: Verdict,
+    /// Why it failed (empty on pass).
+    pub reason: String,
+    /// The device's Status `first_alarm_tick` (`null`: no alarm, or no Status).
+    pub device_first_alarm_tick: Option<u32>,
+    /// The sample instant of that tick, s.
+    pub device_first_alarm_s: Option<f64>,
+}
+
+/// Rising edges of `(t_ns, hunting, actuator)` flag samples, in order.
+#[must_use]
+pub fn alarms(samples: impl IntoIterator<Item = (u64, bool, bool)>) -> Vec<Alarm> {
+    let mut out = Vec::new();
+    let (mut h0, mut a0) = (false, false);
+    for (t_ns, h, a) in samples {
+        let t_s = t_ns as f64 * 1e-9;
+        if a && !a0 {
+            out.push(Alarm {
+                kind: "actuator",
+                t_s,
+            });
+        }
+        if h && !h0 {
+            out.push(Alarm {
+                kind: "hunting",
+                t_s,
+            });
+        }
+        (h0, a0) = (h, a);
+    }
+    out
+}
+
+/// One period's monitor flags: `(t_ns, hunting, actuator)`.
+pub type FlagSample = (u64, bool, bool);
+/// A replay: the flags per period and the mean square `(t_s, (m/s)^2)` per monitor step.
+pub type Replay = (Vec<FlagSample>, Vec<(f64, f64)>);
+
+/// The device's monitor replayed on the samples it received (one per period from
+/// `t = 0`, wire codes), for the runtime configuration `rt` (its yaw mode decides whether
+/// the law commands) and the monitor configuration `p`. Returns the flag samples `(t_ns, hunting, actuator)` per period
+/// and the mean square `(t_s, ms in (m/s)^2)` at each monitor step; `None` if the
+/// configuration does not compile.
+#[must_use]
+pub fn replay(
+    codes: &[InputCodes],
+    period_ns: u64,
+    rt: &RuntimeConfig,
+    p: &MonitorParams,
+) -> Option<Replay> {
+    let mut control = rt.control;
+    control.wire = wheelset_runtime::protocol_wire_lsb();
+    let codec = *Compiled::<Fx>::try_new(&control).ok()?.codec();
+    let m = Monitor::<Fx>::try_new(p, control.base_rate_hz).ok()?;
+    let commanding = rt.enable && control.yaw_mode != YawMode::Passive;
+    let mut s = MonitorState::<Fx>::default();
+    let mut flags = Vec::with_capacity(codes.len());
+    let mut ms = Vec::with_capacity(codes.len() / usize::from(m.divisor().max(1)) + 1);
+    for (k, c) in codes.iter().enumerate() {
+        let t_ns = k as u64 * period_ns;
+        let ev = m.tick(&mut s, codec.decode(c).y_dot, commanding);
+        // The actuation computed from sample k arrives one period later.
+        flags.push((t_ns + period_ns, ev.hunting, ev.actuator));
+        if s.phase == m.divisor() {
+            // 1 pu of y' = 1 m/s: the mean square is in (m/s)^2.
+            ms.push((t_ns as f64 * 1e-9, s.ms.to_num::<f64>()));
+        }
+    }
+    Some((flags, ms))
+}
+
+/// Band-passed RMS of the plant's `y'` over the block before `t_s`, with the device's
+/// filter in f64 on the trajectory's records (their own rate).
+fn band_rms_before(p: &MonitorParams, tr: &Trajectory, t_s: f64) -> Option<f64> {
+    let dt = tr.records.get(1)?.t_s - tr.records.first()?.t_s;
+    if dt.is_nan() || dt <= 0.0 {
+        return None;
+    }
+    let rate = (1.0 / dt).round() as u32;
+    let m = Monitor::<f64>::try_new(p, rate).ok()?;
+    let mut s = MonitorState::<f64>::default();
+    let (mut sum, mut n) = (0.0, 0u32);
+    for r in tr.records.iter().take_while(|r| r.t_s < t_s) {
+        m.tick(&mut s, r.yd_mps, true);
+        // (`phase` is reset to the divisor on the ticks that run a monitor step.)
+        if r.t_s >= t_s - p.act_block_s && s.phase == m.divisor() {
+            sum += s.band * s.band;
+            n += 1;
+        }
+    }
+    (n > 0).then(|| (sum / f64::from(n)).sqrt())
+}
+
+/// Checks `alarms` of a run of `sc` (trajectory `tr`) against the expectation above.
+#[must_use]
+pub fn judge(
+    sc: &Scenario,
+    tr: &Trajectory,
+    p: &MonitorParams,
+    alarms: Vec<Alarm>,
+) -> MonitorReport {
+    let first = alarms.first().map(|a| a.t_s);
+    let mut r = MonitorReport {
+        source: "device-flags",
+        alarms,
+        first_alarm_s: first,
+        expect: "none",
+        fault_s: None,
+        sigma_per_s: None,
+        rms_at_fault_m_s: None,
+        deadline_s: None,
+        verdict: Verdict::Pass,
+        reason: String::new(),
+        device_first_alarm_tick: None,
+        device_first_alarm_s: None,
+    };
+    let fault = sc.actuator_fault.filter(|f| f.mode.gain() < 1.0);
+    let Some(f) = fault else {
+        // A plant that hunts on its own (passive control above its critical conicity):
+        // an alarm is due before the run diverges, and none is false.
+        if let Some(d) = tr.info.diverged_at_s {
+            r.expect = "alarm";
+            r.deadline_s = Some(d);
+            if !first.is_some_and(|t| t <= d) {
+                r.verdict = Verdict::Fail;
+                r.reason = format!("the plant hunted (diverged at {d:.3} s) with no alarm before");
+            }
+        } else if let Some(t) = first {
+            r.verdict = Verdict::Fail;
+            r.reason = format!("an alarm at {t:.3} s on a scenario without a fault");
+        }
+        return r;
+    };
+    let t_f = f.t_on_s();
+    r.fault_s = Some(t_f);
+    let mode = failed_actuator_mode(&sc.params, sc.axle, sc.drive);
+    r.sigma_per_s = mode.map(|m| m.sigma_per_s);
+    let a0 = band_rms_before(p, tr, t_f).map(|a| a.max(1e-6));
+    r.rms_at_fault_m_s = a0;
+    // A fraction that still damps the mode, or a mode that does not grow: nothing due.
+    let unstable = matches!(f.mode, FaultMode::Off | FaultMode::Reversed);
+    if let (Some(m), Some(a0), true) = (mode, a0, unstable) {
+        let sigma = m.sigma_per_s;
+        if sigma > 0.0 {
+            let tau = p.window_s / 2.0;
+            let grow = ((p.threshold_m_s / a0).ln().max(0.0)
+                + 0.5 * (1.0 + 2.0 * sigma * tau).ln())
+                / sigma;
+            r.expect = "alarm";
+            r.deadline_s = Some(t_f + grow + p.act_block_s);
+        }
+    }
+    if let Some(early) = r.alarms.iter().find(|a| a.t_s < t_f) {
+        r.verdict = Verdict::Fail;
+        r.reason = format!(
+            "a {} alarm at {:.3} s, before the fault at {t_f:.3} s",
+            early.kind, early.t_s
+        );
+        return r;
+    }
+    if let Some(d) = r.deadline_s {
+        match first {
+            Some(t) if t <= d => {}
+            Some(t) => {
+                r.verdict = Verdict::Fail;
+                r.reason = format!("the first alarm at {t:.3} s is after the deadline {d:.3} s");
+            }
+            None => {
+                r.verdict = Verdict::Fail;
+                r.reason = format!("no alarm by the deadline {d:.3} s (fault at {t_f:.3} s)");
+            }
+        }
+    }
+    r
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rising_edges_become_alarms() {
+        let s = [
+            (0, false, false),
+            (1_000_000_000, false, true),
+            (1_100_000_000, true, true),
+            (1_200_000_000, false, true),
+            (1_300_000_000, true, false),
+        ];
+        let a = alarms(s);
+        let kinds: Vec<_> = a.iter().map(|a| (a.kind, a.t_s)).collect();
+        assert_eq!(
+            kinds,
+            [("actuator", 1.0), ("hunting", 1.1), ("hunting", 1.3)]
+        );
+    }
+}

@@ -1,0 +1,376 @@
+//! Closed-loop numerics: the trajectory through the device against the f64
+//! continuous-time reference (`wheelset_plant::sim::run_continuous`, same scenario, same law).
+//!
+//! For each signal `x` with reference `r`, both sampled at the scenario's output
+//! interval, the error at `t` is the distance from `x(t)` to the tube the reference spans
+//! within the time tolerance `tau`:
+//! `e(t) = max(0, x(t) - max_{|s| <= tau} r(t + s), min_{|s| <= tau} r(t + s) - x(t))`
+//! (so a step the device follows a little later, or ramps through, is not an error while
+//! it stays inside the reference's range over `t +- tau`). The signal passes if
+//! `max_t e(t) <= abs + rel * max_t |r(t)|`, warns up to `warn_factor` times that, and
+//! fails beyond (or if the run produced a non-finite value). A run or a reference that
+//! diverged (and was stopped by `wheelset_plant::sim`) fails the numerics outright.
+//!
+//! # The tube at the control period ([`compare_fine`])
+//! The tube is a range over a continuous `s`. Taken on the reference's records at the
+//! output interval (1 ms), it misses whatever the reference does between two records, and
+//! a transient shorter than the interval that the device makes a tick or two away from the
+//! reference is then judged against the reference at another phase of it. The wheel-slip
+//! protection's cuts are such transients: a cut steps the current reference within one
+//! control period (`u_a` moves 240 V in 0.2 ms and swings back within 2 ms on
+//! `low-adhesion`), and the device's and the reference's closed loops are two plant runs
+//! whose measurements part by an LSB after about a second (the first differing speed code
+//! at 1.17 s). The protection decides exactly on the codes it gets (`wheelset_control`'s
+//! `wsp`, "Exact decisions"), but on codes that differ a threshold crossing can fall a
+//! tick apart: the slip crossing `slip_on` at 14.0520 s in the Q4.28 device and 14.0522 s
+//! in the f64 reference. On the records alone that cut is a 29.9 V `u_a` error at
+//! 14.053 s against a 5 V budget (22 V at 7.346 s before the exact decisions), although
+//! the device's value lies inside the reference's own swing 0.2 ms away and the budget's
+//! `tau` is 8 ms. So where the reference can be recorded at
+//! the control period (the control core as reference, `wheelset_loop::core`: every run
+//! with `[[adhesion]]`), the tube is taken over those records: the same `tau`, `abs`,
+//! `rel` and peak (the peak on the output records, so `allowed` does not change), only the
+//! range is the reference's range over `t +- tau` at the device's own resolution. It can
+//! only add the reference's values between records: an amplitude error, a wrong sign or a
+//! shift beyond `tau` fails as before.
+
+use std::collections::BTreeMap;
+
+use serde::Serialize;
+use wheelset_plant::sim::{Record, Trajectory};
+
+use crate::budget::Tolerance;
+use wheelset_report::Verdict;
+
+/// One signal's comparison.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SignalCheck {
+    /// CSV column name.
+    pub name: String,
+    /// Largest error (after the time tolerance), signal unit.
+    pub max_err: f64,
+    /// When it occurred, s.
+    pub max_err_t_s: f64,
+    /// RMS error (after the time tolerance).
+    pub rms_err: f64,
+    /// The reference's peak |value|.
+    pub ref_peak: f64,
+    /// `abs + rel * ref_peak`.
+    pub allowed: f64,
+    /// `max_err / allowed`.
+    pub ratio: f64,
+    /// The tolerance applied.
+    pub tolerance: Tolerance,
+    /// Verdict.
+    pub verdict: Verdict,
+}
+
+/// The numerics section of a run's report.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct NumericsReport {
+    /// Worst verdict.
+    pub verdict: Verdict,
+    /// What the run was compared with.
+    pub reference: String,
+    /// When the closed-loop run diverged and stopped (|y| > 5 cm or not finite), s: a
+    /// failure whatever the signals' errors up to then.
+    pub run_diverged_at_s: Option<f64>,
+    /// When the reference diverged and stopped, s (it is then no yardstick: failure).
+    pub reference_diverged_at_s: Option<f64>,
+    /// Per signal.
+    pub signals: Vec<SignalCheck>,
+}
+
+/// The value of column `name` of a record (None: unknown column).
+#[must_use]
+pub fn column(r: &Record, name: &str) -> Option<f64> {
+    Record::COLUMNS
+        .iter()
+        .position(|c| *c == name)
+        .map(|i| r.values()[i])
+}
+
+/// The output interval of `t`'s records, s (1 s if it has fewer than two).
+fn interval(t: &Trajectory) -> f64 {
+    match (t.records.first(), t.records.get(1)) {
+        (Some(a), Some(b)) => (b.t_s - a.t_s).max(1e-12),
+        _ => 1.0,
+    }
+}
+
+/// How many records of `fine` fall on one of `run`'s output intervals, if `fine`'s
+/// records are a whole number `m >= 1` of them per interval and land on `run`'s record
+/// instants (checked at the first and the last of the `n` compared): `fine.records[i m]`
+/// is at `run.records[i]`'s time.
+fn per_interval(run: &Trajectory, fine: &Trajectory, n: usize) -> Option<usize> {
+    let m = (interval(run) / interval(fine)).round();
+    if !(1.0..=1e6).contains(&m) || n == 0 {
+        return None;
+    }
+    let m = m as usize;
+    let same = |i: usize| {
+        let f = fine.records.get(i * m)?;
+        ((f.t_s - run.records[i].t_s).abs() < 1e-9).then_some(())
+    };
+    same(0)?;
+    same(n - 1)?;
+    Some(m)
+}
+
+/// Compares `run` with `reference` for every signal in `tolerances`.
+#[must_use]
+pub fn compare(
+    run: &Trajectory,
+    reference: &Trajectory,
+    tolerances: &BTreeMap<String, Tolerance>,
+) -> NumericsReport {
+    compare_fine(run, reference, None, tolerances)
+}
+
+/// [`compare`], with the tube taken over `fine` (the same reference run recorded at the
+/// control period: module docs) where given and aligned with `run`'s records; `reference`
+/// gives the peak, the length and the divergence as in [`compare`]. A `fine` whose records
+/// do not fall on `run`'s (not a whole number per output interval, or shorter) is not
+/// used: the tube is then `reference`'s.
+#[must_use]
+pub fn compare_fine(
+    run: &Trajectory,
+    reference: &Trajectory,
+    fine: Option<&Trajectory>,
+    tolerances: &BTreeMap<String, Tolerance>,
+) -> NumericsReport {
+    let dt = interval(run);
+    let n = run.records.len().min(reference.records.len());
+    // The tube's records: `tube[i m]` at `run.records[i]`'s time, `dt_tube` apart.
+    let (tube, m) = match fine.and_then(|f| Some((f, per_interval(run, f, n)?))) {
+        Some((f, m)) => (f, m),
+        None => (reference, 1),
+    };
+    let dt_tube = dt / m as f64;
+    let mut signals = Vec::new();
+    for (name, tol) in tolerances {
+        let x: Vec<f64> = run.records[..n]
+            .iter()
+            .map(|r| column(r, name).unwrap_or(f64::NAN))
+            .collect();
+        let r: Vec<f64> = reference.records[..n]
+            .iter()
+            .map(|r| column(r, name).unwrap_or(f64::NAN))
+            .collect();
+        let nt = ((n.saturating_sub(1)) * m + 1).min(tube.records.len());
+        let rt: Vec<f64> = tube.records[..nt]
+            .iter()
+            .map(|r| column(r, name).unwrap_or(f64::NAN))
+            .collect();
+        let w = (tol.time_s / dt_tube).round() as usize;
+        let mut max_err = 0.0f64;
+        let mut max_t = 0.0;
+        let mut sq = 0.0;
+        let mut finite = true;
+        for (i, &xi) in x.iter().enumerate() {
+            let lo = (i * m).saturating_sub(w);
+            let hi = (i * m + w).min(nt.saturating_sub(1));
+            let (rmin, rmax) = rt[lo..=hi]
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+                    (a.min(v), b.max(v))
+                });
+            // A non-finite value on either side (a diverged run or reference) is an
+            // infinite error, never hidden by the NaN-ignoring min/max.
+            let e = if xi.is_finite() && rmin.is_finite() && rmax.is_finite() {
+                (xi - rmax).max(rmin - xi).max(0.0)
+            } else {
+                f64::INFINITY
+            };
+            if !e.is_finite() {
+                finite = false;
+            }
+            if e > max_err || !e.is_finite() {
+                max_err = e;
+                max_t = run.records[i].t_s;
+            }
+            sq += e * e;
+        }
+        let ref_peak = r.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let allowed = tol.abs + tol.rel * ref_peak;
+        let ratio = if allowed > 0.0 {
+            max_err / allowed
+        } else if max_err == 0.0 {
+            0.0
+        } else {
+            f64::INFINITY
+        };
+        let verdict = if !finite || n == 0 || ratio.is_nan() || ratio > tol.warn_factor {
+            Verdict::Fail
+        } else if ratio > 1.0 {
+            Verdict::Warn
+        } else {
+            Verdict::Pass
+        };
+        signals.push(SignalCheck {
+            name: name.clone(),
+            max_err,
+            max_err_t_s: max_t,
+            rms_err: (sq / n.max(1) as f64).sqrt(),
+            ref_peak,
+            allowed,
+            ratio,
+            tolerance: *tol,
+            verdict,
+        });
+    }
+    let (run_div, ref_div) = (run.info.diverged_at_s, reference.info.diverged_at_s);
+    let stopped_short = run.records.len() != reference.records.len();
+    let verdict = if run_div.is_some() || ref_div.is_some() || stopped_short {
+        Verdict::Fail
+    } else {
+        signals
+            .iter()
+            .map(|s| s.verdict)
+            .max()
+            .unwrap_or(Verdict::Pass)
+    };
+    NumericsReport {
+        verdict,
+        run_diverged_at_s: run_div,
+        reference_diverged_at_s: ref_div,
+        reference: format!(
+            "f64 continuous-time reference, control {}{}",
+            reference.info.control,
+            if m > 1 {
+                format!(", tube at {:.1} ms", dt_tube * 1e3)
+            } else {
+                String::new()
+            }
+        ),
+        signals,
+    }
+}
+
+/// Every `m`-th record of `t` from the first (and the last), the rest as `t`: a run
+/// recorded at a finer interval, at the coarser one (`m = 0` is taken as 1).
+#[must_use]
+pub fn every_nth(t: &Trajectory, m: usize) -> Trajectory {
+    let m = m.max(1);
+    let last = t.records.len().saturating_sub(1);
+    Trajectory {
+        records: t
+            .records
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| i % m == 0 || *i == last)
+            .map(|(_, r)| *r)
+            .collect(),
+        info: t.info.clone(),
+    }
+}
+
+/// The greatest common divisor (`gcd(a, 0) = a`).
+#[must_use]
+pub fn gcd(a: u64, b: u64) -> u64 {
+    if b == 0 {
+        a
+    } else {
+        gcd(b, a % b)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use wheelset_plant::sim::RunInfo;
+
+    /// 2 s of `u_a` at `dt` (s): 100 V, with a dip to `depth` V over fine ticks
+    /// `from..from + 3` of 0.2 ms (`dt` a multiple of 0.2 ms).
+    fn u_a(dt: f64, from: usize, depth: f64) -> Trajectory {
+        let m = (dt / 2e-4).round() as usize;
+        let records = (0..=2 * 5000 / m)
+            .map(|i| Record {
+                t_s: i as f64 * dt,
+                u_a_v: if (from..from + 3).contains(&(i * m)) {
+                    depth
+                } else {
+                    100.0
+                },
+                ..Record::default()
+            })
+            .collect();
+        let info = RunInfo {
+            scenario: "dip".into(),
+            source: "test".into(),
+            control: "test".into(),
+            dt_s: 1e-4,
+            steps: 20_000,
+            controller_calls: 10_000,
+            actuator_clamps: 0,
+            diverged_at_s: None,
+        };
+        Trajectory { records, info }
+    }
+
+    fn u_a_tolerance() -> BTreeMap<String, Tolerance> {
+        let mut t = crate::budget::default_tolerances();
+        t.retain(|k, _| k == "u_a_V");
+        t
+    }
+
+    #[test]
+    fn a_transient_between_records_a_tick_away_is_inside_the_tube_at_the_control_period() {
+        let tol = u_a_tolerance();
+        // The reference dips over ticks 5001-5003 (between its 1 ms records 5000 and
+        // 5005); the device a tick later, over 5002-5004, then 5005-5007: its record at
+        // 1.001 s is in the dip.
+        let fine = u_a(2e-4, 5001, 40.0);
+        let reference = every_nth(&fine, 5);
+        assert!(reference.records.iter().all(|r| r.u_a_v == 100.0));
+        assert_eq!(reference.records.len(), 2001);
+        let run = u_a(1e-3, 5004, 40.0);
+        let coarse = compare(&run, &reference, &tol);
+        assert_eq!(coarse.verdict, Verdict::Fail, "{coarse:?}");
+        assert!((coarse.signals[0].max_err - 60.0).abs() < 1e-9);
+        let at_ticks = compare_fine(&run, &reference, Some(&fine), &tol);
+        assert_eq!(at_ticks.verdict, Verdict::Pass, "{at_ticks:?}");
+        assert_eq!(at_ticks.signals[0].max_err, 0.0);
+        // The allowance is the reference's, from its output records: unchanged.
+        assert_eq!(at_ticks.signals[0].allowed, coarse.signals[0].allowed);
+        assert!(at_ticks.reference.contains("tube at 0.2 ms"));
+    }
+
+    #[test]
+    fn the_tube_at_the_control_period_still_fails_amplitude_and_timing_errors() {
+        let tol = u_a_tolerance();
+        let fine = u_a(2e-4, 5001, 40.0);
+        let reference = every_nth(&fine, 5);
+        // Deeper than the reference ever goes: 20 V below its range.
+        let deeper = compare_fine(&run_dip(5004, 20.0), &reference, Some(&fine), &tol);
+        assert_eq!(deeper.verdict, Verdict::Fail);
+        assert!((deeper.signals[0].max_err - 20.0).abs() < 1e-9);
+        // The same dip 10 ms late: beyond `tau` (8 ms), an error as before.
+        let late = compare_fine(&run_dip(5054, 40.0), &reference, Some(&fine), &tol);
+        assert_eq!(late.verdict, Verdict::Fail);
+        // A fine run that does not land on the records is not used.
+        let odd = u_a(6e-4, 5001, 40.0);
+        let r = compare_fine(&run_dip(5004, 40.0), &reference, Some(&odd), &tol);
+        assert_eq!(r.verdict, Verdict::Fail);
+        assert!(!r.reference.contains("tube"));
+    }
+
+    fn run_dip(from: usize, depth: f64) -> Trajectory {
+        u_a(1e-3, from, depth)
+    }
+
+    #[test]
+    fn every_nth_keeps_the_first_and_the_last_and_gcd_is_the_interval() {
+        let fine = u_a(2e-4, 0, 0.0);
+        let c = every_nth(&fine, 5);
+        assert_eq!(c.records.len(), 2001);
+        assert!((c.records[1].t_s - 1e-3).abs() < 1e-12);
+        assert_eq!(
+            c.records.last().map(|r| r.t_s),
+            fine.records.last().map(|r| r.t_s)
+        );
+        assert_eq!(gcd(1_000_000, 200_000), 200_000);
+        assert_eq!(gcd(500_000, 200_000), 100_000);
+        assert_eq!(gcd(7, 0), 7);
+    }
+}

@@ -1,0 +1,144 @@
+//! `hil golden`: open-loop golden vectors on the host and on a target, compared bit for
+//! bit.
+
+use std::path::PathBuf;
+
+use clap::Args;
+use hil::run::{run, RunOptions, Target};
+use wheelset_report::Verdict;
+use wheelset_targets::qemu::machine::Machine;
+
+use super::{input, load_params, parse_machine, run_error, Failure};
+
+#[derive(Args, Clone)]
+pub(crate) struct GoldenArgs {
+    /// Where the target side runs: inproc or qemu.
+    #[arg(long, default_value = "inproc", value_parser = parse_golden_target)]
+    target: Target,
+    /// The QEMU target's emulated board: mps2-an386 (Cortex-M4F) or mps2-an385
+    /// (Cortex-M3, no FPU; `target/fw/wheelset-qemu-m3.elf`).
+    #[arg(long, default_value = "mps2-an386", value_parser = parse_machine)]
+    machine: Machine,
+    /// Parameter file (TOML, as `sim-host --params`): the device's gains and motor
+    /// constants on both sides follow it (a target other than inproc has its gains
+    /// compiled in and refuses a file that changes them); `--record` runs the closed loop
+    /// of `curve` at these parameters.
+    #[arg(long, value_name = "FILE")]
+    params: Option<PathBuf>,
+    /// Write the comparison (JSON).
+    #[arg(long)]
+    json: Option<PathBuf>,
+    /// Instead of comparing: re-record the sensor stream of the `recorded_curve` vector
+    /// from the in-process closed loop of `curve` (4.9-5.3 s) into this CSV file.
+    #[arg(long)]
+    record: Option<PathBuf>,
+}
+
+pub(crate) fn parse_golden_target(s: &str) -> Result<Target, String> {
+    match s.parse::<Target>()? {
+        t @ (Target::InProc | Target::Qemu) => Ok(t),
+        Target::QemuAt(_) => Err(
+            "golden vectors start a fresh QEMU per vector (--target qemu), not one started by hand"
+                .into(),
+        ),
+        Target::Serial(_) | Target::QemuFree => Err("golden vectors run on inproc or qemu".into()),
+    }
+}
+
+pub(crate) fn cmd_golden(g: &GoldenArgs) -> Result<Verdict, Failure> {
+    use hil::golden;
+    let params = load_params(g.params.as_deref())?;
+    if let Some(path) = &g.record {
+        let out = run(&RunOptions {
+            progress: false,
+            params,
+            ..RunOptions::default()
+        })
+        .map_err(|e| input(e.to_string()))?;
+        let (from, to) = (4_900_000_000 / out.period_ns, 5_300_000_000 / out.period_ns);
+        let mut text = String::from("y_dot_um_s,i_a_ma,omega_mrad_s,demand_nm\n");
+        for c in out
+            .sensor_codes
+            .iter()
+            .take(to as usize)
+            .skip(from as usize)
+        {
+            text.push_str(&format!(
+                "{},{},{},{}\n",
+                c.y_dot, c.current, c.speed, c.demand
+            ));
+        }
+        std::fs::write(path, text)
+            .map_err(|e| input(format!("{}: cannot write: {e}", path.display())))?;
+        say!(
+            "golden: recorded {} samples into {}",
+            to - from,
+            path.display()
+        );
+        return Ok(Verdict::Pass);
+    }
+    let vectors = golden::vectors().map_err(|e| input(format!("golden vectors: {e}")))?;
+    let opts = RunOptions {
+        target: g.target.clone(),
+        machine: g.machine,
+        // The host side runs the runtime at its own configuration, which has the
+        // wheel-slip protection off until a Config turns it on; the in-process target
+        // is configured by `open_transport`, so it is told the same (`hil run` turns it
+        // on by default).
+        wsp: Some(false),
+        ..RunOptions::default()
+    };
+    if g.target != Target::InProc {
+        hil::run::remote_gains(&params, &g.target).map_err(|e| input(format!("--params: {e}")))?;
+    }
+    let rt = wheelset_loop::device_loop::runtime_for(&params);
+    let period_ns = 1_000_000_000 / u64::from(rt.control.base_rate_hz);
+    let mut results = Vec::new();
+    for v in &vectors {
+        let host = golden::run_host_with(v, rt).map_err(|e| input(e.to_string()))?;
+        // A fresh device per vector: every vector starts from reset.
+        let mut tr = hil::run::open_transport(&opts, rt).map_err(run_error)?;
+        let target = golden::run_target(v, tr.as_mut(), period_ns).map_err(|e| Failure {
+            code: 3,
+            msg: e.to_string(),
+        })?;
+        let c = golden::compare(v, &host, &target);
+        say!(
+            "{:<15} {:>5} ticks  host vs {}: {}  (peak |T_psi| {} x 0.1 N m, |u_a| {} x 10 mV)  {}",
+            c.name,
+            c.ticks,
+            g.target,
+            if c.identical {
+                "identical bit for bit".to_string()
+            } else {
+                format!(
+                    "{} ticks DIFFER, first at tick {:?}",
+                    c.mismatches, c.first_mismatch
+                )
+            },
+            c.host_peak.0,
+            c.host_peak.1,
+            c.about
+        );
+        results.push(c);
+    }
+    let all = results.iter().all(|c| c.identical);
+    say!(
+        "golden: host and {} {} on {} of {} vectors",
+        g.target,
+        if all { "agree bit for bit" } else { "DISAGREE" },
+        results.iter().filter(|c| c.identical).count(),
+        results.len()
+    );
+    if let Some(p) = &g.json {
+        let doc = serde_json::json!({
+            "verdict": if all { "pass" } else { "fail" },
+            "target": g.target.to_string(),
+            "vectors": results,
+        });
+        let text = serde_json::to_string_pretty(&doc).unwrap_or_default();
+        std::fs::write(p, text + "\n")
+            .map_err(|e| input(format!("{}: cannot write: {e}", p.display())))?;
+    }
+    Ok(if all { Verdict::Pass } else { Verdict::Fail })
+}

@@ -1,0 +1,69 @@
+//! The subcommands of `hil`, one module each with its arguments beside it (`hil audit`'s
+//! are in `wheelset_audit`), and what they share: the failure type with its exit code, the
+//! `--params` loader and the common argument parsers.
+
+mod golden;
+mod run;
+mod serve;
+mod sweep;
+
+pub(crate) use golden::{cmd_golden, GoldenArgs};
+pub(crate) use run::{cmd_run, RunArgs};
+pub(crate) use serve::{cmd_serve, ServeArgs};
+pub(crate) use sweep::{cmd_sweep, SweepCmd};
+
+use clap::ValueEnum;
+use hil::run::RunError;
+use wheelset_loop::link::Faults;
+use wheelset_plant::params::Params;
+use wheelset_targets::qemu::machine::Machine;
+
+/// A failure with its exit code.
+pub(crate) struct Failure {
+    pub(crate) code: u8,
+    pub(crate) msg: String,
+}
+
+pub(crate) fn input(msg: impl Into<String>) -> Failure {
+    Failure {
+        code: 2,
+        msg: msg.into(),
+    }
+}
+
+/// The parameters of `--params FILE` (the paper's without it); a bad file names the
+/// flag, the file and the key.
+pub(crate) fn load_params(path: Option<&std::path::Path>) -> Result<Params, Failure> {
+    match path {
+        Some(p) => Params::from_file(p).map_err(|e| input(format!("--params: {e}"))),
+        None => Ok(Params::default()),
+    }
+}
+
+pub(crate) fn run_error(e: RunError) -> Failure {
+    match e {
+        RunError::Input(m) => input(m),
+        RunError::Target(e) => Failure {
+            code: 3,
+            msg: e.to_string(),
+        },
+    }
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+pub(crate) enum Control {
+    /// Passive: the mechanical yaw spring in the plant, no yaw torque from the device.
+    Passive,
+    /// Pure gain `T = K y'`.
+    Gain,
+    /// Phase lead `K 7.5 (s+37)/(s+274)` on `y'`.
+    Lead,
+}
+
+pub(crate) fn parse_machine(s: &str) -> Result<Machine, String> {
+    s.parse()
+}
+
+pub(crate) fn parse_faults(s: &str) -> Result<Faults, String> {
+    s.parse::<Faults>().map_err(|e| e.to_string())
+}

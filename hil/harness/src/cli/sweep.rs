@@ -1,0 +1,271 @@
+//! `hil sweep` and `hil sweep merge`: the closed loop over a parameter grid.
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+
+use clap::{Args, Subcommand};
+use hil::budget::Budgets;
+use hil::run::{Law, RunOptions, Target};
+use wheelset_loop::link::{Faults, LinkConfig};
+use wheelset_report::Verdict;
+
+use super::{input, load_params, parse_faults, run_error, Control, Failure};
+
+#[derive(Args)]
+#[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
+pub(crate) struct SweepCmd {
+    #[command(subcommand)]
+    sub: Option<SweepSub>,
+    #[command(flatten)]
+    args: SweepArgs,
+}
+
+#[derive(Subcommand)]
+pub(crate) enum SweepSub {
+    /// Joins the documents of `hil sweep --shard I/N` runs into the document a single
+    /// run of the whole grid writes.
+    Merge(MergeArgs),
+}
+
+#[derive(Args)]
+pub(crate) struct MergeArgs {
+    /// The shards' JSON documents (any order).
+    #[arg(required = true, value_name = "FILE")]
+    files: Vec<PathBuf>,
+    /// Write the merged document here.
+    #[arg(long, required = true, value_name = "OUT")]
+    json: Option<PathBuf>,
+    /// Also write the campaign's report (table and heat maps) into this directory.
+    #[arg(long, value_name = "DIR")]
+    report: Option<PathBuf>,
+}
+
+#[derive(Args)]
+pub(crate) struct SweepArgs {
+    /// One axis of the grid: `KEY=FROM..TO:N` (N linearly spaced values, both ends
+    /// included) or `KEY=VALUE`; KEY is any parameter key (SI units). `f11` sets `f22`
+    /// too unless `f22` is an axis. Repeatable; the last axis varies fastest.
+    #[arg(long = "param", value_name = "KEY=FROM..TO:N", required = true, value_parser = parse_axis)]
+    axes: Vec<hil::sweep::Axis>,
+    /// Built-in scenario or a scenario TOML file.
+    #[arg(long, default_value = "curve")]
+    scenario: String,
+    /// Base parameter file (TOML, as `hil run --params`); each point's values apply on
+    /// top, the scenario's [params] on top of those.
+    #[arg(long, value_name = "FILE")]
+    params: Option<PathBuf>,
+    /// Yaw control law of the device (and of the reference).
+    #[arg(long, value_enum, default_value = "lead")]
+    control: Control,
+    /// Where the device runs: inproc or qemu (one QEMU per thread).
+    #[arg(long, default_value = "inproc", value_parser = parse_sweep_target)]
+    target: Target,
+    /// Link faults at every point, e.g. `ber=1e-4,drop=0.01` (in-process link only).
+    #[arg(long, default_value = "", value_parser = parse_faults)]
+    faults: Faults,
+    /// Seed of the link's faults, the same at every point.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Budget file (TOML; see `hil::budget`).
+    #[arg(long)]
+    budget: Option<PathBuf>,
+    /// Override one budget (repeatable), as `hil run --set`.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    sets: Vec<String>,
+    /// Run only shard I of N (the points i with i mod N = I, from 0); join the parts
+    /// with `hil sweep merge`.
+    #[arg(long, value_name = "I/N", value_parser = parse_shard)]
+    shard: Option<hil::sweep::Shard>,
+    /// Threads (default: every core allowed).
+    #[arg(long, value_name = "N")]
+    jobs: Option<usize>,
+    /// Write the campaign's document (JSON): one record per point.
+    #[arg(long, required = true, value_name = "FILE")]
+    json: Option<PathBuf>,
+    /// Write the report (Markdown table, heat maps of the verdicts and of peak |y|) into
+    /// this directory.
+    #[arg(long, value_name = "DIR")]
+    report: Option<PathBuf>,
+    /// Never show the progress bar.
+    #[arg(long)]
+    quiet: bool,
+}
+
+pub(crate) fn parse_axis(s: &str) -> Result<hil::sweep::Axis, String> {
+    s.parse()
+}
+
+pub(crate) fn parse_shard(s: &str) -> Result<hil::sweep::Shard, String> {
+    s.parse()
+}
+
+pub(crate) fn parse_sweep_target(s: &str) -> Result<Target, String> {
+    match s.parse::<Target>()? {
+        t @ (Target::InProc | Target::Qemu) => Ok(t),
+        Target::QemuAt(_) => {
+            Err("a sweep starts its own QEMUs (--target qemu), not one started by hand".into())
+        }
+        Target::Serial(_) | Target::QemuFree => {
+            Err("a sweep runs on inproc or qemu (one board cannot run a grid in parallel)".into())
+        }
+    }
+}
+
+pub(crate) fn cmd_sweep(c: &SweepCmd, command: &str) -> Result<Verdict, Failure> {
+    use hil::sweep;
+    let write =
+        |doc: &sweep::SweepDoc, json: &std::path::Path, report_dir: Option<&std::path::Path>| {
+            if let Some(d) = json.parent().filter(|d| !d.as_os_str().is_empty()) {
+                std::fs::create_dir_all(d)
+                    .map_err(|e| input(format!("{}: cannot create: {e}", d.display())))?;
+            }
+            std::fs::write(json, sweep::to_json(doc))
+                .map_err(|e| input(format!("{}: cannot write: {e}", json.display())))?;
+            say!("json: {}", json.display());
+            if let Some(d) = report_dir {
+                let files = hil::sweep::document::write_sweep_report(doc, d, command)
+                    .map_err(|e| input(format!("{}: cannot write: {e}", d.display())))?;
+                for f in files {
+                    say!("report: {}", f.display());
+                }
+            }
+            for r in &doc.records {
+                let checks: Vec<&str> = r.failing.iter().map(|c| c.check.as_str()).collect();
+                say!(
+                    "  {:>4}  {}: {}, peak |y| {:.3} mm{}{}",
+                    r.index,
+                    r.params
+                        .iter()
+                        .map(|(k, v)| format!("{k} = {}", hil::sweep::document::value_label(*v)))
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                    r.verdict,
+                    r.peak_abs_y_m * 1e3,
+                    r.diverged_at_s
+                        .map_or(String::new(), |t| format!(", diverged at {t:.3} s")),
+                    if checks.is_empty() {
+                        String::new()
+                    } else {
+                        format!("; not passed: {}", checks.join(", "))
+                    }
+                );
+            }
+            let s = &doc.summary;
+            say!(
+                "hil sweep: {} of {} points{}: {} pass, {} warn, {} fail",
+                doc.records.len(),
+                doc.sweep.points,
+                doc.shard
+                    .map_or(String::new(), |sh| format!(" (shard {sh})")),
+                s.pass,
+                s.warn,
+                s.fail
+            );
+            Ok(if s.fail > 0 {
+                Verdict::Fail
+            } else {
+                Verdict::Pass
+            })
+        };
+    if let Some(SweepSub::Merge(m)) = &c.sub {
+        let mut parts = Vec::new();
+        for f in &m.files {
+            let name = f.display().to_string();
+            let text = wheelset_plant::input::read_input(f).map_err(|e| input(e.to_string()))?;
+            parts.push((name.clone(), sweep::from_json(&text, &name).map_err(input)?));
+        }
+        let doc = sweep::merge(&parts).map_err(input)?;
+        let json = m
+            .json
+            .as_deref()
+            .ok_or_else(|| input("--json OUT: needed"))?;
+        return write(&doc, json, m.report.as_deref());
+    }
+    let a = &c.args;
+    let json = a
+        .json
+        .as_deref()
+        .ok_or_else(|| input("--json FILE: needed"))?;
+    let points = sweep::check_axes(&a.axes).map_err(input)?;
+    let jobs = match a.jobs {
+        Some(0) => return Err(input("--jobs 0: at least one thread")),
+        Some(n) => n,
+        None => std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get),
+    };
+    if a.target != Target::InProc && a.faults != Faults::none() {
+        return Err(input(format!(
+            "--faults: the fault injection is part of the simulated link; target {} has a real one",
+            a.target
+        )));
+    }
+    let budgets = Budgets::load(a.budget.as_deref(), &a.sets).map_err(|e| input(e.to_string()))?;
+    let params = load_params(a.params.as_deref())?;
+    let law = match a.control {
+        Control::Passive => Law::Passive,
+        Control::Gain => Law::Gain,
+        Control::Lead => Law::Lead,
+    };
+    if let Ok(sc) = wheelset_plant::scenario::Scenario::load(&a.scenario, &params) {
+        let yaw = match a.control {
+            Control::Passive => wheelset_plant::control::YawLaw::Passive,
+            Control::Gain => wheelset_plant::control::YawLaw::Gain,
+            Control::Lead => wheelset_plant::control::YawLaw::Lead,
+        };
+        if let Some(w) = sc.law_warning(yaw) {
+            eprintln!("hil: warning: {w}");
+        }
+    }
+    let campaign = sweep::Campaign {
+        base: RunOptions {
+            target: a.target.clone(),
+            scenario: a.scenario.clone(),
+            control: law,
+            faults_spec: a.faults.to_string(),
+            budgets,
+            link: LinkConfig {
+                faults: a.faults.clone(),
+                seed: a.seed,
+                ..LinkConfig::default()
+            },
+            progress: false,
+            realtime: wheelset_targets::realtime::os::Want::none(),
+            params,
+            ..RunOptions::default()
+        },
+        header: sweep::Header {
+            scenario: a.scenario.clone(),
+            control: law,
+            target: a.target.to_string(),
+            faults: a.faults.to_string(),
+            seed: a.seed,
+            params_file: a.params.as_ref().map(|p| p.display().to_string()),
+            budget_file: a.budget.as_ref().map(|p| p.display().to_string()),
+            sets: a.sets.clone(),
+            axes: a.axes.clone(),
+            follows: sweep::followers(&a.axes),
+            points,
+        },
+    };
+    let bar = (!a.quiet && std::io::stderr().is_terminal()).then(|| {
+        let pb = indicatif::ProgressBar::new(0);
+        pb.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{msg} [{bar:40}] {pos}/{len} points ({elapsed}, eta {eta})",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        pb.set_message(format!("hil sweep {} on {jobs} threads", a.scenario));
+        pb
+    });
+    let mut tick = |done: usize, total: usize| {
+        if let Some(pb) = &bar {
+            pb.set_length(total as u64);
+            pb.set_position(done as u64);
+        }
+    };
+    let doc = sweep::run_campaign(&campaign, a.shard, jobs, &mut tick).map_err(run_error)?;
+    if let Some(pb) = &bar {
+        pb.finish_and_clear();
+    }
+    write(&doc, json, a.report.as_deref())
+}

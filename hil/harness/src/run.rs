@@ -1,0 +1,595 @@
+//! `hil run`: one closed loop of the plant with the device on a target, checked.
+//!
+//! The plant is `wheelset_plant::sim::run_sampled` (RK4 at the scenario's step) with the
+//! device as its sampled controller ([`wheelset_loop::exchange`]) and an actuator delay of
+//! one control period; the reference is `wheelset_plant::sim::run_continuous` with the same
+//! scenario and law (with `[[adhesion]]` sections: the f64 control core with the
+//! device's wheel-slip protection, `wheelset_loop::core`). The parameters are
+//! [`RunOptions::params`] (`--params FILE`) with the scenario's `[params]` on top, the
+//! rule of `sim-host --params`; the plant, the reference and the device's configuration
+//! follow them ([`runtime_config_for`], the same rule as `sim-host run --loop device`):
+//! the yaw law of `--control`, traction when the drive is modelled, the lead, gain, PI
+//! and motor constants from the parameters, the default rates (5 kHz, Q4.28 fixed
+//! point). A device on another target has its gains compiled in: parameters that change
+//! them are refused there ([`remote_gains`]).
+
+use std::fmt;
+use std::time::Duration;
+
+use indicatif::{ProgressBar, ProgressStyle};
+use serde::{Deserialize, Serialize};
+use wheelset_loop::device_loop::{runtime_config, DeviceOptions};
+use wheelset_loop::link::LinkConfig;
+use wheelset_plant::control::YawLaw;
+use wheelset_plant::params::Params;
+use wheelset_plant::scenario::Scenario;
+use wheelset_plant::sim::Trajectory;
+use wheelset_proto::Status;
+use wheelset_runtime::RuntimeConfig;
+
+use crate::budget::Budgets;
+use crate::check::frames::FramesReport;
+use crate::check::numerics::{compare_fine, NumericsReport};
+use crate::check::timing::{analyse, TimingContext, TimingReport};
+use wheelset_loop::exchange::{close_loop, LoopSetup};
+use wheelset_loop::inproc::DeviceFault;
+use wheelset_loop::transport::{Transport, TransportError};
+use wheelset_report::Verdict;
+use wheelset_targets::realtime::os::Want;
+use wheelset_targets::realtime::RealTime;
+use wheelset_targets::serial::Pace;
+
+mod open;
+mod reference;
+
+pub use open::{device_config, open_transport};
+use open::{open_qemu_free, open_realtime, run_rate};
+use reference::before;
+
+/// Default core clock of the device, Hz: the board's STM32F446RE at 180 MHz. A board's
+/// `exec` is in cycles of it; the QEMU target's `exec` is in instructions, converted at
+/// one instruction per cycle of it (an estimate: flash wait states and multi-cycle
+/// instructions make the real board slower).
+pub const DEFAULT_CPU_HZ: f64 = 180e6;
+
+/// Where the device runs.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Target {
+    /// In process, over the simulated link.
+    InProc,
+    /// The firmware under QEMU (mps2-an386), lock-step.
+    Qemu,
+    /// The firmware under a QEMU started by hand, its UART0 a TCP server on
+    /// `127.0.0.1:PORT` (`qemu:PORT`; `cargo xtask qemu-cmd ELF --tcp PORT` prints the
+    /// command line), lock-step. The harness connects and leaves QEMU running.
+    QemuAt(u16),
+    /// The free-running firmware under QEMU (`qemu-free`): `wheelset-qemu-free.elf`,
+    /// ticking on its own TIMER0 with QEMU's clock following the host's (no
+    /// `-icount`), paced in real time over UART0's TCP chardev as a board on a serial
+    /// port is ([`wheelset_targets::realtime`]). Default rate [`QEMU_FREE_RATE_HZ`].
+    QemuFree,
+    /// A board on a serial port.
+    Serial(String),
+}
+
+/// The default (and highest) base rate of `--target qemu-free`: what QEMU's CMSDK UART
+/// over a TCP chardev carries in real time (the firmware's `LINK_MAX_RATE_HZ` of the
+/// `free-run` build; measured in the README, "QEMU free-running": 1 kHz does not hold).
+pub const QEMU_FREE_RATE_HZ: u32 = 500;
+
+/// The line rate the link check and the timing model assume for `--target qemu-free`:
+/// QEMU does not time the UART's bytes; this is about the byte rate its slow direction
+/// (host -> device, one byte per round trip between QEMU's I/O and vCPU threads)
+/// sustains, times 10 bits: 26-55 kB/s measured on this 2-core machine (README, "QEMU
+/// free-running"). The link check then carries 500 Hz and refuses 1 kHz.
+pub const QEMU_FREE_BAUD: u32 = 460_800;
+
+impl std::str::FromStr for Target {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "inproc" => Ok(Self::InProc),
+            "qemu" => Ok(Self::Qemu),
+            "qemu-free" => Ok(Self::QemuFree),
+            _ => {
+                if let Some(port) = s.strip_prefix("qemu:") {
+                    return port
+                        .parse::<u16>()
+                        .ok()
+                        .filter(|&p| p > 0)
+                        .map(Self::QemuAt)
+                        .ok_or_else(|| {
+                            format!("target `{s}`: `{port}` is not a TCP port (1-65535)")
+                        });
+                }
+                match s.strip_prefix("serial:") {
+                    Some(p) if !p.is_empty() => Ok(Self::Serial(p.to_string())),
+                    _ => Err(format!(
+                        "unknown target `{s}` (expected inproc, qemu, qemu:PORT, qemu-free or serial:PATH)"
+                    )),
+                }
+            }
+        }
+    }
+}
+
+impl fmt::Display for Target {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::InProc => f.write_str("inproc"),
+            Self::Qemu => f.write_str("qemu"),
+            Self::QemuAt(port) => write!(f, "qemu:{port}"),
+            Self::QemuFree => f.write_str("qemu-free"),
+            Self::Serial(p) => write!(f, "serial:{p}"),
+        }
+    }
+}
+
+/// The yaw law of the device (and of the reference).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Law {
+    /// The passive yaw spring in the plant; the device commands no yaw torque.
+    Passive,
+    /// `T_psi = K y'`.
+    Gain,
+    /// `T_psi = Ks(s) y'`.
+    Lead,
+}
+
+impl Law {
+    fn yaw(self) -> YawLaw {
+        match self {
+            Self::Passive => YawLaw::Passive,
+            Self::Gain => YawLaw::Gain,
+            Self::Lead => YawLaw::Lead,
+        }
+    }
+}
+
+/// Everything a run needs.
+#[derive(Debug, Clone)]
+pub struct RunOptions {
+    /// Target.
+    pub target: Target,
+    /// Built-in scenario name or a scenario file.
+    pub scenario: String,
+    /// Yaw law.
+    pub control: Law,
+    /// The text of `--faults`, for the report.
+    pub faults_spec: String,
+    /// A deliberately broken device (in process only).
+    pub device_fault: DeviceFault,
+    /// Budgets.
+    pub budgets: Budgets,
+    /// Link: baud, latency, faults and seed (faults only on the simulated link; the
+    /// baud also for the other targets' link utilisation).
+    pub link: LinkConfig,
+    /// Pacing of the serial target.
+    pub pace: Pace,
+    /// Core clock of a board, Hz: converts its `exec` cycles to ns (serial target).
+    pub cpu_hz: f64,
+    /// Longest wait for a lock-step answer.
+    pub timeout: Duration,
+    /// The emulated board of the QEMU target (`--machine`).
+    pub machine: wheelset_targets::qemu::machine::Machine,
+    /// The QEMU target's link (`--qemu-link`).
+    pub qemu_link: wheelset_targets::qemu::Channel,
+    /// Show a progress bar.
+    pub progress: bool,
+    /// Base rate of the device, Hz (None: the control core's default). The in-process
+    /// device is built at it; a device elsewhere is configured over the wire with the
+    /// rates and coefficients of `wheelset_runtime::rates_for`.
+    pub rate_hz: Option<u32>,
+    /// What the real-time loop asks of the operating system (real-time pacing).
+    pub realtime: Want,
+    /// The base parameters (`--params FILE`; default: the paper's). The scenario's
+    /// `[params]` apply on top of them (the rule of `sim-host --params`); the plant, the
+    /// reference and the device's configuration ([`runtime_config_for`]) all follow the
+    /// result.
+    pub params: Params,
+    /// Wheel-slip protection of the device (`--wsp on|off`, sent as `Config.wsp`); `None`:
+    /// on (every firmware build has the `wsp` feature; one without it refuses the Config
+    /// with `Unsupported`, reported as such).
+    pub wsp: Option<bool>,
+    /// A stability alarm holds the device's safe state until `ClearFaults`
+    /// (`--monitor-safe`, sent as `Config.monitor_safe`).
+    pub monitor_safe: bool,
+    /// Send `Command::ClearFaults` at this time, s (`--clear-faults-at T`).
+    pub clear_faults_at_s: Option<f64>,
+}
+
+impl RunOptions {
+    /// The wheel-slip protection this run asks of the device (see [`Self::wsp`]).
+    #[must_use]
+    pub fn wsp_on(&self) -> bool {
+        self.wsp.unwrap_or(true)
+    }
+}
+
+impl Default for RunOptions {
+    fn default() -> Self {
+        Self {
+            target: Target::InProc,
+            scenario: "curve".into(),
+            control: Law::Lead,
+            faults_spec: String::new(),
+            device_fault: DeviceFault::None,
+            budgets: Budgets::default(),
+            link: LinkConfig::default(),
+            pace: Pace::RealTime,
+            cpu_hz: DEFAULT_CPU_HZ,
+            timeout: Duration::from_secs(5),
+            machine: wheelset_targets::qemu::machine::Machine::default(),
+            qemu_link: wheelset_targets::qemu::Channel::Uart,
+            progress: false,
+            rate_hz: None,
+            realtime: Want::all(
+                wheelset_targets::realtime::os::allowed_cpus()
+                    .last()
+                    .copied(),
+            ),
+            params: Params::default(),
+            wsp: None,
+            monitor_safe: false,
+            clear_faults_at_s: None,
+        }
+    }
+}
+
+/// Why a run could not be made (as opposed to a run that fails its checks).
+#[derive(Debug)]
+pub enum RunError {
+    /// Bad input: scenario file, configuration, budget (exit code 2).
+    Input(String),
+    /// The target could not be used (exit code 3).
+    Target(TransportError),
+}
+
+impl fmt::Display for RunError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Input(m) => f.write_str(m),
+            Self::Target(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl std::error::Error for RunError {}
+
+/// The verdict document (`--json`).
+#[derive(Debug, Clone, Serialize)]
+pub struct RunReport {
+    /// Worst of timing, numerics and frames.
+    pub verdict: Verdict,
+    /// Target.
+    pub target: String,
+    /// Scenario name.
+    pub scenario: String,
+    /// Scenario source.
+    pub scenario_source: String,
+    /// Yaw law.
+    pub control: Law,
+    /// `--faults` as given.
+    pub faults: String,
+    /// The deliberately broken device, if any.
+    pub device_fault: String,
+    /// Timing.
+    pub timing: TimingReport,
+    /// Numerics.
+    pub numerics: NumericsReport,
+    /// Frame accounting.
+    pub frames: FramesReport,
+    /// Verdict of the frame accounting (fail if it does not add up; else the rejected and
+    /// dropped fractions against `frames.*` budgets).
+    pub frames_verdict: Verdict,
+    /// The device's counters (its Status frame), if it arrived.
+    pub device_status: Option<Status>,
+    /// Resets of the device the host saw during the run (its tick counter going back,
+    /// `wheelset_loop::exchange::DeviceController::device_resets`); the Config went out again
+    /// after each. The Status above is then the last boot's (`boot_count`,
+    /// `reset_cause`).
+    pub device_resets: u32,
+    /// When the first reset was seen, s of the run.
+    pub first_reset_s: Option<f64>,
+    /// Host-side values clamped while quantising to the wire.
+    pub host_clamped: u64,
+    /// Transport-specific figures (informative; e.g. the host's time per tick in process).
+    pub transport: Option<serde_json::Value>,
+    /// The stability monitor's and actuator check's alarms, checked ([`crate::check::alarms`]).
+    pub monitor: crate::check::alarms::MonitorReport,
+    /// The parameters the run applied (`--params` with the scenario's `[params]` on
+    /// top): the plant's, the reference's and the device's.
+    pub params: Params,
+}
+
+/// A finished run: the report and both trajectories.
+pub struct RunOutcome {
+    /// The checks.
+    pub report: RunReport,
+    /// The closed loop through the device.
+    pub trajectory: Trajectory,
+    /// The f64 continuous reference.
+    pub reference: Trajectory,
+    /// The sensor samples the device received (wire codes), one per period from t = 0.
+    pub sensor_codes: Vec<wheelset_control::InputCodes>,
+    /// The control period, ns.
+    pub period_ns: u64,
+    /// The monitor's mean square `(t_s, (m/s)^2)` at each of its steps.
+    pub monitor_ms: Vec<(f64, f64)>,
+    /// The device's configuration as applied (from the parameters, the law and the rate).
+    pub runtime: RuntimeConfig,
+}
+
+/// The device's runtime configuration for a run of `sc`: the scenario's parameters, the
+/// law, the default hold ticks and rates (`wheelset_loop::device_loop::runtime_config`, the rule
+/// `sim-host run --loop device` follows too).
+#[must_use]
+pub fn runtime_config_for(sc: &Scenario, law: Law) -> RuntimeConfig {
+    runtime_config(sc, law.yaw(), &DeviceOptions::default())
+}
+
+/// Runs the closed loop and the checks.
+pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
+    let sc =
+        Scenario::load(&opts.scenario, &opts.params).map_err(|e| RunError::Input(e.to_string()))?;
+    if opts.target != Target::InProc {
+        remote_gains(&sc.params, &opts.target)?;
+    }
+    let mut rt = runtime_config_for(&sc, opts.control);
+    rt.control.base_rate_hz = run_rate(opts, rt.control.base_rate_hz)?;
+    let period_ns = 1_000_000_000 / u64::from(rt.control.base_rate_hz.max(1));
+    // A free-running device is held concretely: its start-up baseline is needed after.
+    let mut realtime = match &opts.target {
+        Target::Serial(p) if opts.pace == Pace::RealTime => Some(open_realtime(p, opts, &rt)?),
+        Target::QemuFree => Some(open_qemu_free(opts, &rt)?),
+        _ => None,
+    };
+    let is_lockstep_remote = realtime.is_none() && opts.target != Target::InProc;
+    let mut other = match realtime {
+        Some(_) => None,
+        None => Some(open_transport(opts, rt)?),
+    };
+    let tr: &mut dyn Transport = match (realtime.as_mut(), other.as_mut()) {
+        (Some(r), _) => r,
+        (None, Some(b)) => b.as_mut(),
+        (None, None) => return Err(RunError::Input("no transport".into())),
+    };
+    let progress = opts.progress.then(|| {
+        let pb = ProgressBar::new(sc.duration_ns / 1_000_000);
+        pb.set_style(
+            ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} ms simulated")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        pb.set_message(format!("hil run {} {}", tr.name(), sc.name));
+        pb
+    });
+    let ctx = TimingContext {
+        clock: tr.clock(),
+        period_ns,
+        baud: tr.baud(),
+        latency_ns: if opts.target == Target::InProc {
+            opts.link.latency_ns
+        } else {
+            0
+        },
+        exec_unit: tr.exec_unit().0,
+        exec_ns_per_unit: tr.exec_unit().1,
+        exec_measured: opts.target != Target::InProc,
+    };
+    let target_name = tr.name();
+    let label = format!("{} on {}", law_name(opts.control), target_name);
+    let wsp = opts.wsp_on();
+    // The in-process device was configured before the run (`InProc::configure`), a
+    // free-running one by `RealTime::prepare`; a lock-step device gets the Config frame
+    // (rates unchanged) as the first frame of the run.
+    let lockstep_config = is_lockstep_remote
+        .then(|| wheelset_loop::device_loop::run_config(&rt, wsp, opts.monitor_safe));
+    // `--device-fault stall:T`: the harness sends InjectStall at T to a device whose
+    // watchdog resets it (the free-running QEMU build; the lock-step one has no watchdog,
+    // firmware/app/src/board/qemu/wdog.rs) and sends the Config again after the reset.
+    let stall_at_ns = match (opts.device_fault, &opts.target) {
+        (DeviceFault::Stall { at_ns }, Target::QemuFree) => Some(at_ns),
+        (DeviceFault::Stall { .. }, t) => {
+            return Err(RunError::Input(format!(
+                "--device-fault stall:T needs a device with a running watchdog: --target \
+                 qemu-free (the free-running QEMU build), not {t}"
+            )))
+        }
+        _ => None,
+    };
+    let reset_config = stall_at_ns
+        .is_some()
+        .then(|| wheelset_loop::device_loop::run_config(&rt, wsp, opts.monitor_safe));
+    let clear_faults_at_ns = match opts.clear_faults_at_s {
+        Some(t) if t.is_finite() && t >= 0.0 => Some((t * 1e9).round() as u64),
+        Some(t) => {
+            return Err(RunError::Input(format!(
+                "--clear-faults-at {t}: must be a time of the run, s (>= 0)"
+            )))
+        }
+        None => None,
+    };
+    let mut cl = close_loop(
+        &sc,
+        tr,
+        LoopSetup {
+            period_ns,
+            yaw_spring: opts.control.yaw().has_spring(),
+            progress,
+            label: &label,
+            config: lockstep_config,
+            clear_faults_at_ns,
+            stall_at_ns,
+            reset_config,
+            ..LoopSetup::default()
+        },
+    )
+    .map_err(|e| RunError::Input(format!("scenario {}: {e}", sc.source)))?;
+    // The loop is over: back to the normal scheduler for the analysis.
+    wheelset_targets::realtime::os::release();
+    if let Some(e) = cl.error.take() {
+        return Err(RunError::Target(e));
+    }
+    if let (true, Some(cfg)) = (cl.config_refused, lockstep_config) {
+        let why = cl
+            .status
+            .as_ref()
+            .and_then(|s| wheelset_proto::RefuseReason::from_code(s.refuse_reason))
+            .unwrap_or(wheelset_proto::RefuseReason::None);
+        return Err(RunError::Target(TransportError::Unavailable(
+            wheelset_loop::device_loop::DeviceError::Refused(why, cfg).to_string(),
+        )));
+    }
+    let (reference, fine) = reference::make(&sc, opts.control.yaw(), wsp, period_ns)?;
+    let timing = analyse(
+        &ctx,
+        &cl.periods,
+        &cl.actuations,
+        (cl.host.bytes_sent, cl.host.bytes_received),
+        &opts.budgets.timing,
+    );
+    // A plant fault (scenario data) makes the wheelset hunt by design after it: the
+    // numerics judge the device against the reference up to the fault.
+    let trajectory = cl.trajectory;
+    let numerics = match sc.actuator_fault {
+        Some(f) => compare_fine(
+            &before(&trajectory, f.t_on_s()),
+            &before(&reference, f.t_on_s()),
+            fine.map(|r| before(&r, f.t_on_s())).as_ref(),
+            &opts.budgets.numerics,
+        ),
+        None => compare_fine(
+            &trajectory,
+            &reference,
+            fine.as_ref(),
+            &opts.budgets.numerics,
+        ),
+    };
+    let (host, mut status) = (cl.host, cl.status);
+    let (device_resets, first_reset_s) =
+        (cl.device_resets, cl.first_reset_ns.map(|t| t as f64 * 1e-9));
+    let sensor_codes = std::mem::take(&mut cl.sent_codes);
+    let transport = tr.extra();
+    let link = tr.link_accounting();
+    // A free-running device's counters count from its start, not the run's.
+    let start = realtime.as_ref().and_then(RealTime::run_start);
+    if let (Some(st), Some(s)) = (&start, status.as_mut()) {
+        *s = st.relative(s);
+    }
+    let mut frames = match link {
+        Some(l) => FramesReport::from_link(&l),
+        None => FramesReport::from_status(status.as_ref(), &host),
+    };
+    frames.pre_run = start.map_or(0, |s| s.pre_run);
+    let frames_verdict = crate::check::frames::judge(&frames, &opts.budgets.frames);
+    let mon_params = wheelset_control::MonitorParams::default();
+    // The mean square for the figure: the device's monitor code replayed on the samples
+    // it received. The alarms: the device's own flags, as its Actuation frames carried them.
+    let (_, monitor_ms) = crate::check::alarms::replay(&sensor_codes, period_ns, &rt, &mon_params)
+        .unwrap_or_default();
+    let flags = cl.actuations.iter().map(|a| {
+        (
+            a.at_ns,
+            a.frame.flags.has(wheelset_proto::Flags::HUNTING),
+            a.frame.flags.has(wheelset_proto::Flags::ACTUATOR_FAULT),
+        )
+    });
+    let mut monitor = crate::check::alarms::judge(
+        &sc,
+        &trajectory,
+        &mon_params,
+        crate::check::alarms::alarms(flags),
+    );
+    // The Status's first alarm: its tick, and that tick's sample instant (ticks count from
+    // the run's start; a lock-step device's Config frame was one tick before the first
+    // sample).
+    let pre = u32::from(lockstep_config.is_some());
+    monitor.device_first_alarm_tick = status
+        .as_ref()
+        .map(|s| s.first_alarm_tick)
+        .filter(|&n| n > 0);
+    monitor.device_first_alarm_s = monitor
+        .device_first_alarm_tick
+        .map(|n| f64::from(n.saturating_sub(1 + pre)) * period_ns as f64 * 1e-9);
+    let verdict = timing
+        .verdict
+        .max(numerics.verdict)
+        .max(frames_verdict)
+        .max(monitor.verdict);
+    Ok(RunOutcome {
+        report: RunReport {
+            verdict,
+            target: target_name,
+            scenario: sc.name.clone(),
+            scenario_source: sc.source.clone(),
+            control: opts.control,
+            faults: opts.faults_spec.clone(),
+            device_fault: format!("{:?}", opts.device_fault),
+            timing,
+            numerics,
+            frames,
+            frames_verdict,
+            device_status: status,
+            device_resets,
+            first_reset_s,
+            host_clamped: host.clamped,
+            transport,
+            monitor,
+            params: sc.params.clone(),
+        },
+        trajectory,
+        reference,
+        sensor_codes,
+        period_ns,
+        monitor_ms,
+        runtime: rt,
+    })
+}
+
+/// The parameter keys that set the device's control gains and motor constants
+/// (`wheelset_loop::device_loop::control_config`): the lead, the pure gain, the traction PI and
+/// the motor.
+pub const DEVICE_KEYS: &[&str] = &[
+    "k_active",
+    "lead_gain",
+    "lead_zero",
+    "lead_pole",
+    "pi_kp",
+    "pi_ti",
+    "k_m",
+    "n_gear",
+];
+
+/// A device outside this process has its gains compiled in: a Config frame carries the
+/// rates (with their coefficients), the law and the limits, not the gains. Parameters
+/// that change the gains ([`DEVICE_KEYS`]) are refused there, naming them, instead of
+/// running a device that does not follow them.
+pub fn remote_gains(p: &Params, target: &Target) -> Result<(), RunError> {
+    let d = Params::default();
+    let (given, default) = (p.entries(), d.entries());
+    let changed: Vec<String> = given
+        .iter()
+        .zip(&default)
+        .filter(|((k, a), (_, b))| DEVICE_KEYS.contains(k) && a != b)
+        .map(|((k, a), _)| format!("{k} = {a}"))
+        .collect();
+    if changed.is_empty() {
+        return Ok(());
+    }
+    Err(RunError::Input(format!(
+        "parameters {}: they set the device's gains, which a device on {target} has compiled \
+         in (its Config frame carries the rates, the law and the limits, not the gains); \
+         run them with --target inproc",
+        changed.join(", ")
+    )))
+}
+
+fn law_name(l: Law) -> &'static str {
+    match l {
+        Law::Passive => "passive",
+        Law::Gain => "gain",
+        Law::Lead => "lead",
+    }
+}

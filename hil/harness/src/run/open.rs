@@ -1,0 +1,194 @@
+//! Opening the device of a run: the transport of each target (in process, QEMU lock-step
+//! or free-running, a serial board in lock-step or real time), the run's Config frame,
+//! and the rate the run asks of it (the link check before a run).
+
+use wheelset_control::Fx;
+use wheelset_runtime::RuntimeConfig;
+
+use super::{RunError, RunOptions, Target, QEMU_FREE_BAUD, QEMU_FREE_RATE_HZ};
+use wheelset_loop::inproc::InProc;
+use wheelset_loop::transport::{Transport, TransportError};
+use wheelset_targets::qemu::target::QemuTarget;
+use wheelset_targets::realtime::{Port, RealTime, RealTimeOptions};
+use wheelset_targets::serial::{Pace, Serial};
+
+/// Opens the transport for `opts.target`; an in-process device is built from `rt`.
+pub fn open_transport(
+    opts: &RunOptions,
+    rt: RuntimeConfig,
+) -> Result<Box<dyn Transport>, RunError> {
+    match &opts.target {
+        Target::InProc => {
+            let mut t = InProc::<Fx>::try_new(rt, &opts.link, opts.device_fault)
+                .map_err(|e| RunError::Input(e.to_string()))?;
+            let cfg = wheelset_loop::device_loop::run_config(&rt, opts.wsp_on(), opts.monitor_safe);
+            t.configure(&cfg).map_err(|why| {
+                RunError::Target(TransportError::Unavailable(
+                    wheelset_loop::device_loop::DeviceError::Refused(why, cfg).to_string(),
+                ))
+            })?;
+            Ok(Box::new(t))
+        }
+        Target::Qemu => {
+            let t = QemuTarget::start_with(
+                opts.machine,
+                opts.qemu_link,
+                opts.link.baud,
+                opts.cpu_hz,
+                opts.timeout,
+            )
+            .map_err(RunError::Target)?;
+            Ok(Box::new(t))
+        }
+        Target::QemuAt(port) => {
+            let t = QemuTarget::connect(*port, opts.link.baud, opts.cpu_hz, opts.timeout)
+                .map_err(RunError::Target)?;
+            Ok(Box::new(t))
+        }
+        Target::Serial(p) if opts.pace == Pace::RealTime => {
+            Ok(Box::new(open_realtime(p, opts, &rt)?))
+        }
+        Target::QemuFree => Ok(Box::new(open_qemu_free(opts, &rt)?)),
+        Target::Serial(p) => {
+            let t = Serial::open(p, opts.link.baud, opts.cpu_hz, opts.timeout)
+                .map_err(RunError::Target)?;
+            Ok(Box::new(t))
+        }
+    }
+}
+
+/// The Config frame that puts a free-running device elsewhere on `rt` (law, hold
+/// ticks, rates) with the protection `wsp` and the monitor's response `monitor_safe`
+/// (`wheelset_loop::device_loop::run_config` with the rates).
+pub fn device_config(
+    rt: &RuntimeConfig,
+    wsp: bool,
+    monitor_safe: bool,
+) -> Result<wheelset_proto::Config, RunError> {
+    let rates = wheelset_runtime::rates_for::<wheelset_control::Fx>(rt)
+        .map_err(|e| RunError::Input(format!("--rate-hz {}: {e}", rt.control.base_rate_hz)))?;
+    Ok(wheelset_proto::Config {
+        rates: Some(rates),
+        ..wheelset_loop::device_loop::run_config(rt, wsp, monitor_safe)
+    })
+}
+
+/// Opens a free-running device on `path`, configures it and locks onto its tick.
+pub(super) fn open_realtime(
+    path: &str,
+    opts: &RunOptions,
+    rt: &RuntimeConfig,
+) -> Result<RealTime, RunError> {
+    let cfg = device_config(rt, opts.wsp_on(), opts.monitor_safe)?;
+    let mut t = RealTime::open(
+        path,
+        realtime_options(opts, rt, opts.link.baud, opts.cpu_hz),
+    )
+    .map_err(RunError::Target)?;
+    t.prepare(&cfg).map_err(RunError::Target)?;
+    Ok(t)
+}
+
+fn realtime_options(
+    opts: &RunOptions,
+    rt: &RuntimeConfig,
+    baud: u32,
+    cpu_hz: f64,
+) -> RealTimeOptions {
+    RealTimeOptions {
+        period_ns: 1_000_000_000 / u64::from(rt.control.base_rate_hz.max(1)),
+        baud,
+        cpu_hz,
+        timeout: opts.timeout,
+        want: opts.realtime,
+        lead_num: 5,
+    }
+}
+
+/// Starts the free-running firmware under QEMU (no `-icount`), configures it and locks
+/// onto its tick. Its `exec` is SysTick counts of the 25 MHz clock.
+pub(super) fn open_qemu_free(opts: &RunOptions, rt: &RuntimeConfig) -> Result<RealTime, RunError> {
+    let cfg = device_config(rt, opts.wsp_on(), opts.monitor_safe)?;
+    let qcfg = wheelset_targets::qemu::QemuConfig {
+        timeout: opts.timeout,
+        realtime: true,
+        ..wheelset_targets::qemu::QemuConfig::free_running()
+    };
+    let q = wheelset_targets::qemu::Qemu::start(&qcfg)
+        .map_err(|e| RunError::Target(TransportError::Unavailable(e.to_string())))?;
+    let stream = q
+        .tcp_stream()
+        .map_err(|e| RunError::Target(TransportError::Unavailable(e.to_string())))?;
+    let o = RealTimeOptions {
+        // 5/8 of the period: QEMU's UART is slow both ways (26-55 kB/s), so a Sensor
+        // frame needs most of half the 2 ms period to reach the tick, and the answer
+        // ~0.45 ms more to come back. Measured on a quiet machine, device misses per
+        // 1 500 periods: lead 3/8: 158-545; 4/8: 15-20; 5/8: 12-14 (README, "QEMU
+        // free-running").
+        lead_num: 5,
+        ..realtime_options(
+            opts,
+            rt,
+            QEMU_FREE_BAUD,
+            wheelset_targets::qemu::target::MPS2_CPU_HZ,
+        )
+    };
+    let mut t = RealTime::on("qemu-free", Port::Tcp(stream, Some(q)), o);
+    t.prepare(&cfg).map_err(RunError::Target)?;
+    Ok(t)
+}
+
+/// The base rate of a run: `opts.rate_hz` or the control core's default, checked for the
+/// target (a whole number of ns per period in process; of us elsewhere, as the
+/// firmware's ticker needs), then the link against it ([`crate::link_check`]; not under
+/// lock-step, where the frames are the device's clock).
+pub(super) fn run_rate(opts: &RunOptions, default_hz: u32) -> Result<u32, RunError> {
+    let hz = opts.rate_hz.unwrap_or(if opts.target == Target::QemuFree {
+        QEMU_FREE_RATE_HZ
+    } else {
+        default_hz
+    });
+    let unit = if opts.target == Target::InProc {
+        1_000_000_000
+    } else {
+        1_000_000
+    };
+    if hz == 0 || unit % u64::from(hz) != 0 {
+        return Err(RunError::Input(format!(
+            "--rate-hz {hz}: the period must be a whole number of {} (a divisor of {unit} Hz)",
+            if unit == 1_000_000 {
+                "microseconds on a device's ticker"
+            } else {
+                "nanoseconds"
+            }
+        )));
+    }
+    let lockstep = matches!(opts.target, Target::Qemu | Target::QemuAt(_))
+        || (matches!(opts.target, Target::Serial(_)) && opts.pace == Pace::LockStep);
+    if lockstep && hz != default_hz {
+        return Err(RunError::Input(format!(
+            "--rate-hz {hz}: lock-step targets run the firmware's default rate ({default_hz} Hz); \
+             another rate is configured over the wire on the in-process and real-time serial \
+             targets"
+        )));
+    }
+    // Lock-step: the host's frames are the device's clock, so the link need not carry
+    // an exchange per period of wall time (the run just takes longer).
+    if !lockstep {
+        crate::link_check::check(
+            if opts.target == Target::QemuFree {
+                QEMU_FREE_BAUD
+            } else {
+                opts.link.baud
+            },
+            hz,
+            if opts.target == Target::InProc {
+                opts.link.latency_ns
+            } else {
+                wheelset_loop::link::DEFAULT_LATENCY_NS
+            },
+        )
+        .map_err(RunError::Input)?;
+    }
+    Ok(hz)
+}

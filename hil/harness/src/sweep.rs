@@ -1,0 +1,456 @@
+//! `hil sweep`: the closed loop of `hil run` at every point of a parameter grid (a
+//! campaign over the operating envelope), on all cores, and the merge of shards.
+//!
+//! The grid is the Cartesian product of the `--param` axes, in the order given, the
+//! last axis varying fastest: point `i` has the axis indices of `i` written in the mixed
+//! radix of the axis lengths. An axis `KEY=FROM..TO:N` has the `N` values
+//! `v_j = FROM + (TO - FROM) j / (N - 1)`, `j = 0..N-1` (linear spacing, both ends
+//! included; `N = 1` needs `FROM = TO`), `KEY=VALUE` one value. `KEY` is any parameter
+//! key (`wheelset_plant::params::Params`, SI units); `f11` sets `f22` too unless `f22` is an
+//! axis of its own (the paper varies the two creep coefficients together).
+//!
+//! Each point's parameters are the base (`--params FILE` or the paper's) with the
+//! point's values on top, then the scenario's `[params]` on top of those (the rule of
+//! `hil run --params`); a scenario whose `[params]` would override a swept key is
+//! refused, since the records would then name values the plant never saw. Every point
+//! runs the same seed of the link's faults: the grid and the seeds fix the result, and
+//! the records do not depend on the number of threads, shards or machines.
+//!
+//! `--shard I/N` runs the points `i` with `i mod N = I`; [`merge`] joins the shards'
+//! documents into the one document a single run writes (same header, the records of
+//! every point once, in index order, the summary recomputed).
+
+use std::collections::BTreeSet;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::mpsc;
+
+use serde::{Deserialize, Serialize};
+use wheelset_plant::params::Params;
+use wheelset_plant::scenario::Scenario;
+
+use crate::run::{run, RunError, RunOptions, RunReport};
+use wheelset_report::Verdict;
+
+pub mod document;
+mod grid;
+pub use grid::*;
+
+/// What fixes a campaign's result: the first part of its document, equal in every shard.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Header {
+    /// `--scenario` as given.
+    pub scenario: String,
+    /// The yaw law.
+    pub control: crate::run::Law,
+    /// The target.
+    pub target: String,
+    /// The link faults applied (canonical spec; empty: none).
+    pub faults: String,
+    /// The seed of the link's faults, the same at every point.
+    pub seed: u64,
+    /// `--params FILE` as given (None: the paper's parameters).
+    pub params_file: Option<String>,
+    /// `--budget FILE` as given.
+    pub budget_file: Option<String>,
+    /// `--set` overrides as given.
+    pub sets: Vec<String>,
+    /// The axes, in grid order (the last varies fastest).
+    pub axes: Vec<Axis>,
+    /// Keys set with another axis: `f22` follows `f11` unless it is an axis.
+    pub follows: Vec<(String, String)>,
+    /// Grid points in all.
+    pub points: usize,
+}
+
+/// One failing (or warning) check of a point.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Failing {
+    /// The check: `timing.NAME`, `numerics.SIGNAL`, `numerics.diverged`, `frames`,
+    /// `monitor`.
+    pub check: String,
+    /// Warn or fail.
+    pub verdict: Verdict,
+    /// Why, with the figures.
+    pub reason: String,
+}
+
+/// One grid point's result.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Record {
+    /// Index in the grid.
+    pub index: usize,
+    /// The point's parameters: every axis key, and the keys that follow one (a JSON
+    /// object in axis order).
+    #[serde(with = "ordered")]
+    pub params: Vec<(String, f64)>,
+    /// The run's verdict (worst of timing, numerics, frames, monitor).
+    pub verdict: Verdict,
+    /// Peak `|y|` of the closed loop through the device, m.
+    pub peak_abs_y_m: f64,
+    /// Time the closed loop diverged and was stopped, s.
+    pub diverged_at_s: Option<f64>,
+    /// The checks that did not pass, with their reasons.
+    pub failing: Vec<Failing>,
+}
+
+/// Verdict counts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct Summary {
+    /// Points that passed.
+    pub pass: usize,
+    /// Points that warned.
+    pub warn: usize,
+    /// Points that failed.
+    pub fail: usize,
+}
+
+impl Summary {
+    /// The counts of `records`.
+    #[must_use]
+    pub fn of(records: &[Record]) -> Self {
+        let mut s = Summary::default();
+        for r in records {
+            match r.verdict {
+                Verdict::Pass => s.pass += 1,
+                Verdict::Warn => s.warn += 1,
+                Verdict::Fail => s.fail += 1,
+            }
+        }
+        s
+    }
+}
+
+/// The document of `hil sweep --json` (and of `hil sweep merge`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SweepDoc {
+    /// What fixes the result.
+    pub sweep: Header,
+    /// The shard this document holds (absent: every point).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shard: Option<Shard>,
+    /// Verdict counts over `records`.
+    pub summary: Summary,
+    /// One record per point run, in index order.
+    pub records: Vec<Record>,
+}
+
+/// A campaign's definition.
+#[derive(Debug, Clone)]
+pub struct Campaign {
+    /// What each point's run shares (scenario, law, target, faults, budgets, link,
+    /// base parameters); `params` is the base.
+    pub base: RunOptions,
+    /// The header written into the document (the caller fills the file names).
+    pub header: Header,
+}
+
+fn fmt_point(p: &[(String, f64)]) -> String {
+    p.iter()
+        .map(|(k, v)| format!("{k} = {v}"))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// The parameters of one point: `base` with the point's values on top, validated. The
+/// error names the flag and the point.
+pub fn point_params(base: &Params, point: &[(String, f64)]) -> Result<Params, String> {
+    let mut t = toml::Table::new();
+    for (k, v) in point {
+        t.insert(k.clone(), toml::Value::Float(*v));
+    }
+    base.with_overrides(&t, "--param")
+        .map_err(|e| format!("--param: at {}: {e}", fmt_point(point)))
+}
+
+/// Checks every point before any runs: its parameters are plausible, and the scenario's
+/// `[params]` do not override a swept key. Returns each point's parameters.
+pub fn prepare(c: &Campaign) -> Result<Vec<(Point, Params)>, String> {
+    let pts = points(&c.header.axes, &c.header.follows);
+    let mut out = Vec::with_capacity(pts.len());
+    for p in pts {
+        let params = point_params(&c.base.params, &p)?;
+        let sc = Scenario::load(&c.base.scenario, &params).map_err(|e| e.to_string())?;
+        let applied = sc.params.entries();
+        for (k, v) in &p {
+            if let Some(&(_, a)) = applied.iter().find(|(key, _)| key == k) {
+                if a != *v {
+                    return Err(format!(
+                        "--param {k}: scenario {} sets {k} = {a} in its [params], which applies \
+                         on top of the sweep's {v}; sweep a copy of the scenario without that key",
+                        sc.source
+                    ));
+                }
+            }
+        }
+        out.push((p, params));
+    }
+    Ok(out)
+}
+
+/// The checks of `r` that did not pass, with their reasons.
+#[must_use]
+pub fn failing(r: &RunReport) -> Vec<Failing> {
+    let mut out = Vec::new();
+    for c in r
+        .timing
+        .checks
+        .iter()
+        .filter(|c| c.verdict != Verdict::Pass)
+    {
+        out.push(Failing {
+            check: format!("timing.{}", c.name),
+            verdict: c.verdict,
+            reason: format!(
+                "{:.4} above the {} limit {} (warn {}, fail {})",
+                c.value,
+                c.verdict,
+                if c.verdict == Verdict::Fail {
+                    c.limit.fail
+                } else {
+                    c.limit.warn
+                },
+                c.limit.warn,
+                c.limit.fail
+            ),
+        });
+    }
+    let n = &r.numerics;
+    if let Some(t) = n.run_diverged_at_s {
+        out.push(Failing {
+            check: "numerics.diverged".into(),
+            verdict: n.verdict.max(Verdict::Warn),
+            reason: format!("the closed loop diverged at {t:.3} s (run stopped)"),
+        });
+    }
+    if let Some(t) = n.reference_diverged_at_s {
+        out.push(Failing {
+            check: "numerics.reference_diverged".into(),
+            verdict: n.verdict.max(Verdict::Warn),
+            reason: format!("the f64 reference ({}) diverged at {t:.3} s", n.reference),
+        });
+    }
+    for s in n.signals.iter().filter(|s| s.verdict != Verdict::Pass) {
+        out.push(Failing {
+            check: format!("numerics.{}", s.name),
+            verdict: s.verdict,
+            reason: format!(
+                "max error {:.3e} at {:.3} s against {} (allowed {:.3e})",
+                s.max_err, s.max_err_t_s, n.reference, s.allowed
+            ),
+        });
+    }
+    if r.frames_verdict != Verdict::Pass {
+        let f = &r.frames;
+        out.push(Failing {
+            check: "frames".into(),
+            verdict: r.frames_verdict,
+            reason: format!(
+                "sent {} = received {} + rejected {} + dropped {} + in flight {}{}",
+                f.sent,
+                f.received,
+                f.rejected,
+                f.dropped,
+                f.in_flight,
+                if f.adds_up { "" } else { " does not add up" }
+            ),
+        });
+    }
+    if r.monitor.verdict != Verdict::Pass {
+        out.push(Failing {
+            check: "monitor".into(),
+            verdict: r.monitor.verdict,
+            reason: r.monitor.reason.clone(),
+        });
+    }
+    out
+}
+
+/// Runs one point.
+fn run_point(
+    c: &Campaign,
+    index: usize,
+    point: &[(String, f64)],
+    params: &Params,
+) -> Result<Record, RunError> {
+    let out = run(&RunOptions {
+        params: params.clone(),
+        progress: false,
+        ..c.base.clone()
+    })?;
+    let peak = out
+        .trajectory
+        .records
+        .iter()
+        .map(|r| r.y_m.abs())
+        .fold(0.0, f64::max);
+    Ok(Record {
+        index,
+        params: point.to_vec(),
+        verdict: out.report.verdict,
+        peak_abs_y_m: peak,
+        diverged_at_s: out.trajectory.info.diverged_at_s,
+        failing: failing(&out.report),
+    })
+}
+
+/// Runs the points of `shard` (every point without one) on `jobs` threads, calling
+/// `progress(done, total)` after each point. The records come back in index order,
+/// whatever the threads' order.
+pub fn run_campaign(
+    c: &Campaign,
+    shard: Option<Shard>,
+    jobs: usize,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<SweepDoc, RunError> {
+    let all = prepare(c).map_err(RunError::Input)?;
+    let mine: Vec<(usize, &(Point, Params))> = all
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| shard.is_none_or(|s| i % s.count == s.index))
+        .collect();
+    let total = mine.len();
+    let next = AtomicUsize::new(0);
+    let stop = AtomicBool::new(false);
+    let (tx, rx) = mpsc::channel::<Result<Record, RunError>>();
+    let mut records = Vec::with_capacity(total);
+    let mut first_err = None;
+    std::thread::scope(|s| {
+        for _ in 0..jobs.clamp(1, total.max(1)) {
+            let tx = tx.clone();
+            let (next, stop, mine) = (&next, &stop, &mine);
+            s.spawn(move || loop {
+                if stop.load(Ordering::Relaxed) {
+                    break;
+                }
+                let k = next.fetch_add(1, Ordering::Relaxed);
+                let Some((i, (p, params))) = mine.get(k) else {
+                    break;
+                };
+                let r = run_point(c, *i, p, params);
+                if tx.send(r).is_err() {
+                    break;
+                }
+            });
+        }
+        drop(tx);
+        for r in rx {
+            match r {
+                Ok(rec) => {
+                    records.push(rec);
+                    progress(records.len(), total);
+                }
+                Err(e) => {
+                    stop.store(true, Ordering::Relaxed);
+                    first_err.get_or_insert(e);
+                }
+            }
+        }
+    });
+    if let Some(e) = first_err {
+        return Err(e);
+    }
+    records.sort_by_key(|r| r.index);
+    Ok(SweepDoc {
+        sweep: c.header.clone(),
+        shard: shard.filter(|s| s.count > 1),
+        summary: Summary::of(&records),
+        records,
+    })
+}
+
+/// Joins shard documents into the document of a single run: the same header in every
+/// part, every point exactly once. The error says which file breaks which rule.
+pub fn merge(parts: &[(String, SweepDoc)]) -> Result<SweepDoc, String> {
+    let Some((first_name, first)) = parts.first() else {
+        return Err("merge: no documents given".into());
+    };
+    let mut records = Vec::new();
+    for (name, d) in parts {
+        if d.sweep != first.sweep {
+            return Err(format!(
+                "merge: {name} is of another campaign than {first_name} (their `sweep` headers differ)"
+            ));
+        }
+        records.extend(d.records.iter().cloned());
+    }
+    records.sort_by_key(|r| r.index);
+    let n = first.sweep.points;
+    for w in records.windows(2) {
+        if w[0].index == w[1].index {
+            return Err(format!(
+                "merge: point {} is in more than one document",
+                w[0].index
+            ));
+        }
+    }
+    if let Some(r) = records.iter().find(|r| r.index >= n) {
+        return Err(format!(
+            "merge: point {} is outside the grid of {n}",
+            r.index
+        ));
+    }
+    if records.len() != n {
+        let have: BTreeSet<usize> = records.iter().map(|r| r.index).collect();
+        let missing: Vec<String> = (0..n)
+            .filter(|i| !have.contains(i))
+            .take(8)
+            .map(|i| i.to_string())
+            .collect();
+        return Err(format!(
+            "merge: {} of {n} points are missing (first: {}); is a shard left out?",
+            n - records.len(),
+            missing.join(", ")
+        ));
+    }
+    Ok(SweepDoc {
+        sweep: first.sweep.clone(),
+        shard: None,
+        summary: Summary::of(&records),
+        records,
+    })
+}
+
+/// The document as written (`--json`): pretty JSON with a final newline.
+#[must_use]
+pub fn to_json(d: &SweepDoc) -> String {
+    serde_json::to_string_pretty(d).unwrap_or_default() + "\n"
+}
+
+/// Reads a document written by [`to_json`].
+pub fn from_json(text: &str, name: &str) -> Result<SweepDoc, String> {
+    serde_json::from_str(text).map_err(|e| format!("{name}: not a sweep document: {e}"))
+}
+
+/// `Vec<(String, f64)>` as a JSON object, in its order.
+mod ordered {
+    use serde::de::{MapAccess, Visitor};
+    use serde::ser::SerializeMap;
+    use serde::{Deserializer, Serializer};
+    use std::fmt;
+
+    pub fn serialize<S: Serializer>(v: &[(String, f64)], s: S) -> Result<S::Ok, S::Error> {
+        let mut m = s.serialize_map(Some(v.len()))?;
+        for (k, x) in v {
+            m.serialize_entry(k, x)?;
+        }
+        m.end()
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<(String, f64)>, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = Vec<(String, f64)>;
+            fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                f.write_str("an object of parameter values")
+            }
+            fn visit_map<A: MapAccess<'de>>(self, mut a: A) -> Result<Self::Value, A::Error> {
+                let mut v = Vec::new();
+                while let Some(e) = a.next_entry::<String, f64>()? {
+                    v.push(e);
+                }
+                Ok(v)
+            }
+        }
+        d.deserialize_map(V)
+    }
+}

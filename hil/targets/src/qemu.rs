@@ -1,0 +1,577 @@
+//! The QEMU launcher: runs the `wheelset-qemu` firmware on `qemu-system-arm -machine
+//! mps2-an386` and connects its UART0 over TCP, for lock-step processor-in-the-loop runs.
+//!
+//! The command line is [`crate::qemu::cmd`]'s (defined once). QEMU runs with
+//! `-icount shift=N,sleep=off`: virtual time is `2^N` ns per executed
+//! instruction and never advances while the guest sleeps, and the firmware's clock is
+//! the host's frames (each 0x00 frame delimiter is one control period), so a run depends
+//! only on the bytes exchanged: the same run twice gives the same per-tick trace.
+//! QEMU is killed when the [`Qemu`] is dropped, on every exit path (including a panic
+//! unwinding through the owner).
+//!
+//! Each QEMU is pinned to one core (`taskset -c N`, round robin over the cores this
+//! process may use; `WHEELSET_QEMU_PIN=off` turns it off). The CMSDK UART has a one-byte
+//! holding register, so QEMU's I/O thread and its vCPU thread hand every byte to each
+//! other (read one byte, raise the interrupt, wait for the guest to read it, poll again);
+//! on one core those hand-offs need no cross-core wake-up. Measured with the 20 s `curve`
+//! run (`cargo hil run --target qemu`, 100 000 exchanges, quiet machine): 76 s pinned,
+//! 140 s with `WHEELSET_QEMU_PIN=off`.
+
+use std::fmt;
+use std::fs::File;
+use std::io::{self, Read, Write};
+use std::net::{Ipv4Addr, TcpListener, TcpStream};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+pub use crate::qemu::machine::Machine;
+
+use crate::qemu::cmd::{qemu_args, without_icount, SerialTo};
+
+mod bulk;
+pub mod cmd;
+pub mod machine;
+mod pin;
+pub mod target;
+
+/// The command line's constants, defined once in [`crate::qemu::cmd`].
+pub use crate::qemu::cmd::{ICOUNT_SHIFT, QEMU_BIN};
+use bulk::poll_readable;
+use pin::next_core;
+
+/// Largest frame [`Qemu::recv_frame`] accepts, delimiter excluded.
+pub const MAX_FRAME: usize = 256;
+
+/// Why the emulated device could not be started or talked to.
+#[derive(Debug)]
+pub enum QemuError {
+    /// `qemu-system-arm` is not installed (or not runnable).
+    QemuMissing(io::Error),
+    /// The firmware ELF does not exist.
+    ElfMissing(PathBuf),
+    /// The firmware file is not an ELF for the target ([`crate::elf`]).
+    NotElf(PathBuf, String),
+    /// QEMU started but could not be connected to.
+    Connect {
+        /// The TCP port of the serial chardev.
+        port: u16,
+        /// QEMU's stderr, if it exited.
+        stderr: String,
+    },
+    /// QEMU exited while the link was in use.
+    Exited(String),
+    /// Reading or writing the serial link failed (a timeout included).
+    Link(io::Error),
+    /// A frame longer than [`MAX_FRAME`] arrived.
+    FrameTooLong,
+    /// A file or process could not be set up.
+    Io(io::Error),
+}
+
+impl fmt::Display for QemuError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            QemuError::QemuMissing(e) => write!(
+                f,
+                "{QEMU_BIN} not found ({e}): install it with `apt-get install qemu-system-arm`"
+            ),
+            QemuError::ElfMissing(p) => write!(
+                f,
+                "firmware ELF {} not found: build it with `cargo fw`",
+                p.display()
+            ),
+            QemuError::NotElf(p, why) => write!(f, "firmware image {}: {why}", p.display()),
+            QemuError::Connect { port, stderr } => write!(
+                f,
+                "cannot connect to QEMU's serial port 127.0.0.1:{port}: {stderr}"
+            ),
+            QemuError::Exited(stderr) => write!(f, "QEMU exited: {stderr}"),
+            QemuError::Link(e) => write!(f, "serial link to QEMU: {e}"),
+            QemuError::FrameTooLong => write!(f, "frame longer than {MAX_FRAME} bytes"),
+            QemuError::Io(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl std::error::Error for QemuError {}
+
+/// How to start the emulated device.
+#[derive(Debug, Clone)]
+pub struct QemuConfig {
+    /// The firmware (`target/fw/wheelset-qemu.elf`, built by `cargo fw`).
+    pub elf: PathBuf,
+    /// Where QEMU's stdout (the defmt log over semihosting) goes; `None` discards it.
+    /// Decode with `defmt-print -e ELF < FILE`.
+    pub log: Option<PathBuf>,
+    /// Read timeout of the serial link (a guest that stops answering).
+    pub timeout: Duration,
+    /// The emulated board (`-machine`, `-cpu`): mps2-an386 (Cortex-M4F) by default.
+    pub machine: Machine,
+    /// How the frames travel: UART0 over TCP (the default, the faithful path) or the
+    /// semihosting bulk channel.
+    pub channel: Channel,
+    /// QEMU without `-icount` (its clock follows the host's), for the free-running
+    /// firmware `wheelset-qemu-free.elf` ([`QemuConfig::free_running`]).
+    pub free_run: bool,
+    /// A free-running QEMU at `SCHED_RR` where permitted (`hil run --target qemu-free`
+    /// sets it). Not for a QEMU that ticks at the firmware's default 5 kHz: its vCPU
+    /// thread is then runnable most of the time, and at one real-time priority its
+    /// round-robin slices (100 ms) starve QEMU's I/O thread, which moves the UART's bytes
+    /// (measured: `qemu_board`'s watchdog test then lost its Status requests in 6 of 7
+    /// runs here and in one CI run; 0 of 4 without).
+    pub realtime: bool,
+}
+
+/// The link between the harness and the emulated device.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum Channel {
+    /// UART0 over a TCP chardev: byte by byte through the emulated CMSDK UART and its
+    /// interrupts, as on a board.
+    #[default]
+    Uart,
+    /// Semihosting file I/O on two FIFOs (firmware/app/src/board/qemu/bulk.rs): one
+    /// trap per frame instead of one interrupt per byte, the same frames bit for bit.
+    Bulk,
+}
+
+impl QemuConfig {
+    /// The default ELF: `$WHEELSET_QEMU_ELF`, else `target/fw/wheelset-qemu.elf` in the
+    /// workspace (honouring `$CARGO_TARGET_DIR`).
+    pub fn default_elf() -> PathBuf {
+        if let Some(p) = std::env::var_os("WHEELSET_QEMU_ELF") {
+            return PathBuf::from(p);
+        }
+        Self::built_elf(Machine::An386)
+    }
+
+    /// The ELF `cargo fw` builds for `machine`'s core: `target/fw/wheelset-qemu.elf`
+    /// (Cortex-M4F) or `target/fw/wheelset-qemu-m3.elf` (Cortex-M3), honouring
+    /// `$CARGO_TARGET_DIR`.
+    pub fn built_elf(machine: Machine) -> PathBuf {
+        let target = std::env::var_os("CARGO_TARGET_DIR")
+            .map(PathBuf::from)
+            .unwrap_or_else(|| {
+                Path::new(env!("CARGO_MANIFEST_DIR"))
+                    .join("../..")
+                    .join("target")
+            });
+        target.join("fw").join(machine.elf_name())
+    }
+
+    /// The default configuration on `machine`: its ELF (`$WHEELSET_QEMU_ELF` for the
+    /// default machine only), no log, a 10 s timeout.
+    pub fn on(machine: Machine) -> Self {
+        Self {
+            elf: if machine == Machine::default() {
+                Self::default_elf()
+            } else {
+                Self::built_elf(machine)
+            },
+            machine,
+            ..Self::new()
+        }
+    }
+
+    /// The default ELF, no log, a 10 s timeout.
+    pub fn new() -> Self {
+        Self {
+            elf: Self::default_elf(),
+            log: None,
+            timeout: Duration::from_secs(10),
+            machine: Machine::default(),
+            channel: Channel::Uart,
+            free_run: false,
+            realtime: false,
+        }
+    }
+
+    /// The free-running firmware (`target/fw/wheelset-qemu-free.elf`, or
+    /// `$WHEELSET_QEMU_FREE_ELF`) on mps2-an386 without `-icount`: its tick comes from
+    /// TIMER0 on QEMU's clock, which follows the host's.
+    pub fn free_running() -> Self {
+        let elf = std::env::var_os("WHEELSET_QEMU_FREE_ELF")
+            .map(PathBuf::from)
+            .unwrap_or_else(|| {
+                Self::built_elf(Machine::An386).with_file_name("wheelset-qemu-free.elf")
+            });
+        Self {
+            elf,
+            free_run: true,
+            realtime: false,
+            ..Self::new()
+        }
+    }
+
+    /// Checks that QEMU and the ELF are there, with a message saying how to get them.
+    pub fn check(&self) -> Result<(), QemuError> {
+        Command::new(QEMU_BIN)
+            .arg("--version")
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .status()
+            .map_err(QemuError::QemuMissing)?;
+        if !self.elf.is_file() {
+            return Err(QemuError::ElfMissing(self.elf.clone()));
+        }
+        crate::elf::check_target_elf(&self.elf)
+            .map_err(|why| QemuError::NotElf(self.elf.clone(), why))?;
+        Ok(())
+    }
+}
+
+impl Default for QemuConfig {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// A running emulated device with its UART0 connected. Dropping it kills QEMU (when
+/// this process started it: [`Qemu::start`]; one started by hand and reached with
+/// [`Qemu::connect`] is left running).
+#[derive(Debug)]
+pub struct Qemu {
+    launch: Launch,
+    child: Option<Child>,
+    link: Link,
+    stderr_path: PathBuf,
+    rx: Vec<u8>,
+    timeout: Duration,
+}
+
+/// The open link ([`Channel`]).
+#[derive(Debug)]
+enum Link {
+    Tcp(TcpStream),
+    Bulk {
+        /// Host -> device (`DIR/rx`, written).
+        tx: File,
+        /// Device -> host (`DIR/tx`, read, non-blocking: waited for with `poll`).
+        rx: File,
+        /// The directory of the two FIFOs (removed on drop).
+        dir: PathBuf,
+    },
+}
+
+/// A free loopback TCP port (bound and released; QEMU binds it right after).
+fn free_port() -> io::Result<u16> {
+    let l = TcpListener::bind((Ipv4Addr::LOCALHOST, 0))?;
+    Ok(l.local_addr()?.port())
+}
+
+impl Qemu {
+    /// The full QEMU command line for `elf` with the serial chardev on `port`.
+    pub fn command(elf: &Path, port: u16) -> Command {
+        Self::command_on(Machine::default(), elf, port)
+    }
+
+    /// [`Self::command`] on `machine`.
+    pub fn command_on(machine: Machine, elf: &Path, port: u16) -> Command {
+        Self::command_to(machine, elf, SerialTo::Tcp(port))
+    }
+
+    /// The QEMU command line for `elf` on `machine` with the frames on `to`.
+    fn command_to(machine: Machine, elf: &Path, to: SerialTo) -> Command {
+        let mut cmd = Command::new(QEMU_BIN);
+        cmd.args(qemu_args(
+            machine.name(),
+            machine.cpu(),
+            &elf.to_string_lossy(),
+            to,
+        ));
+        cmd
+    }
+
+    /// Launches QEMU as `cfg` says with the frames on `to` (the launch both channels
+    /// share): pinned to the next core ([`next_core`]), standard output to `cfg.log`,
+    /// standard error to `stderr_path`. The [`Guard`] kills it on every early return.
+    fn spawn(cfg: &QemuConfig, to: SerialTo, stderr_path: &Path) -> Result<Guard, QemuError> {
+        let stderr = File::create(stderr_path).map_err(QemuError::Io)?;
+        let stdout = match &cfg.log {
+            Some(p) => Stdio::from(File::create(p).map_err(QemuError::Io)?),
+            None => Stdio::null(),
+        };
+        let mut cmd = Self::command_to(cfg.machine, &cfg.elf, to);
+        if cfg.free_run {
+            let args: Vec<String> = cmd
+                .get_args()
+                .map(|a| a.to_string_lossy().into_owned())
+                .collect();
+            cmd = Command::new(QEMU_BIN);
+            cmd.args(without_icount(args));
+        }
+        let core = if cfg.free_run {
+            pin::free_run_core()
+        } else {
+            next_core()
+        };
+        let mut launch = Launch {
+            pinned_cpu: core,
+            sched_rr: None,
+        };
+        if let Some(core) = core {
+            let mut pinned = Command::new("taskset");
+            pinned
+                .arg("-c")
+                .arg(core.to_string())
+                .arg(cmd.get_program())
+                .args(cmd.get_args());
+            cmd = pinned;
+        }
+        if cfg.free_run && cfg.realtime && pin::free_run_rr() {
+            launch.sched_rr = Some(pin::FREE_RUN_RR);
+            let mut rr = Command::new("chrt");
+            rr.arg("-r")
+                .arg(pin::FREE_RUN_RR.to_string())
+                .arg(cmd.get_program())
+                .args(cmd.get_args());
+            cmd = rr;
+        }
+        let child = cmd
+            .stdin(Stdio::null())
+            .stdout(stdout)
+            .stderr(stderr)
+            .spawn()
+            .map_err(QemuError::QemuMissing)?;
+        Ok(Guard(Some(child), launch))
+    }
+
+    /// The running QEMU of `guard` on `link`, no longer killed by the guard.
+    fn started(
+        mut guard: Guard,
+        link: Link,
+        stderr_path: PathBuf,
+        timeout: Duration,
+    ) -> Result<Self, QemuError> {
+        let child = guard.0.take().ok_or(QemuError::Exited(String::new()))?;
+        Ok(Self {
+            launch: guard.1,
+            child: Some(child),
+            link,
+            stderr_path,
+            rx: Vec::with_capacity(MAX_FRAME),
+            timeout,
+        })
+    }
+
+    /// How this QEMU was started (its core and real-time priority).
+    #[must_use]
+    pub fn launch(&self) -> Launch {
+        self.launch
+    }
+
+    /// Starts QEMU and connects to the firmware's UART0 (or its bulk channel,
+    /// [`QemuConfig::channel`]).
+    pub fn start(cfg: &QemuConfig) -> Result<Self, QemuError> {
+        cfg.check()?;
+        if cfg.channel == Channel::Bulk {
+            return Self::start_bulk(cfg);
+        }
+        let port = free_port().map_err(QemuError::Io)?;
+        let stderr_path =
+            std::env::temp_dir().join(format!("wheelset-qemu-{}-{port}.err", std::process::id()));
+        // From here on, `guard` kills QEMU on every early return.
+        let mut guard = Self::spawn(cfg, SerialTo::Tcp(port), &stderr_path)?;
+        let deadline = Instant::now() + Duration::from_secs(10);
+        let stream = loop {
+            match TcpStream::connect((Ipv4Addr::LOCALHOST, port)) {
+                Ok(s) => break s,
+                Err(_) if Instant::now() < deadline => {
+                    if guard.exited() {
+                        return Err(QemuError::Connect {
+                            port,
+                            stderr: read_to_string(&stderr_path),
+                        });
+                    }
+                    std::thread::sleep(Duration::from_millis(10));
+                }
+                Err(e) => {
+                    return Err(QemuError::Connect {
+                        port,
+                        stderr: format!("{e}; {}", read_to_string(&stderr_path)),
+                    })
+                }
+            }
+        };
+        stream.set_nodelay(true).map_err(QemuError::Io)?;
+        stream
+            .set_read_timeout(Some(cfg.timeout))
+            .map_err(QemuError::Io)?;
+        Self::started(guard, Link::Tcp(stream), stderr_path, cfg.timeout)
+    }
+
+    /// Connects to a QEMU started by hand with its UART0 on a TCP server at
+    /// `127.0.0.1:port` (`cargo xtask qemu-cmd ELF --tcp PORT` prints that command line):
+    /// the client the README's by-hand run waits for (`hil run --target qemu:PORT`).
+    /// Tries for `timeout` to connect; `timeout` also bounds each read.
+    pub fn connect(port: u16, timeout: Duration) -> Result<Self, QemuError> {
+        let deadline = Instant::now() + timeout;
+        let stream = loop {
+            match TcpStream::connect((Ipv4Addr::LOCALHOST, port)) {
+                Ok(s) => break s,
+                Err(_) if Instant::now() < deadline => {
+                    std::thread::sleep(Duration::from_millis(50));
+                }
+                Err(e) => {
+                    return Err(QemuError::Connect {
+                        port,
+                        stderr: format!(
+                            "{e} (is QEMU running with -serial tcp:127.0.0.1:{port},server=on? \
+                             `cargo xtask qemu-cmd target/fw/wheelset-qemu.elf --tcp {port}` \
+                             prints its command line)"
+                        ),
+                    })
+                }
+            }
+        };
+        stream.set_nodelay(true).map_err(QemuError::Io)?;
+        stream
+            .set_read_timeout(Some(timeout))
+            .map_err(QemuError::Io)?;
+        Ok(Self {
+            // Started elsewhere: not known here.
+            launch: Launch::default(),
+            child: None,
+            link: Link::Tcp(stream),
+            stderr_path: PathBuf::new(),
+            rx: Vec::with_capacity(MAX_FRAME),
+            timeout,
+        })
+    }
+
+    /// A second handle on the TCP link to UART0 (the real-time transport reads and
+    /// writes it directly); an error on the bulk channel.
+    pub fn tcp_stream(&self) -> Result<TcpStream, QemuError> {
+        match &self.link {
+            Link::Tcp(s) => s.try_clone().map_err(QemuError::Io),
+            Link::Bulk { .. } => Err(QemuError::Io(io::Error::other(
+                "the bulk channel has no TCP stream",
+            ))),
+        }
+    }
+
+    /// Sends raw bytes to the firmware's UART0.
+    pub fn send(&mut self, bytes: &[u8]) -> Result<(), QemuError> {
+        let r = match &mut self.link {
+            Link::Tcp(s) => s.write_all(bytes),
+            Link::Bulk { tx, .. } => tx.write_all(bytes),
+        };
+        r.map_err(|e| self.link_error(e))
+    }
+
+    /// Reads what the device sent: at least one byte, or an error (end of stream, or
+    /// nothing within the timeout).
+    fn read_some(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        match &mut self.link {
+            Link::Tcp(s) => s.read(buf),
+            Link::Bulk { rx, .. } => {
+                let deadline = Instant::now() + self.timeout;
+                loop {
+                    let left = deadline.saturating_duration_since(Instant::now());
+                    if left.is_zero() || !poll_readable(rx, left)? {
+                        return Err(io::Error::new(
+                            io::ErrorKind::TimedOut,
+                            "no answer from the device within the timeout",
+                        ));
+                    }
+                    match rx.read(buf) {
+                        Ok(0)
+                            if self
+                                .child
+                                .as_mut()
+                                .is_some_and(|c| c.try_wait().ok().flatten().is_none()) =>
+                        {
+                            // No writer yet (the firmware opens `tx` after `rx`).
+                            std::thread::sleep(Duration::from_millis(1));
+                        }
+                        Err(e) if e.kind() == io::ErrorKind::WouldBlock => {}
+                        r => return r,
+                    }
+                }
+            }
+        }
+    }
+
+    /// Receives bytes up to and including the next 0x00 delimiter; returns the frame
+    /// without its delimiter (COBS-encoded, as sent).
+    pub fn recv_frame(&mut self) -> Result<Vec<u8>, QemuError> {
+        let mut buf = [0u8; 512];
+        loop {
+            if let Some(end) = self.rx.iter().position(|&b| b == 0) {
+                let frame: Vec<u8> = self.rx.drain(..=end).take(end).collect();
+                return Ok(frame);
+            }
+            if self.rx.len() > MAX_FRAME {
+                return Err(QemuError::FrameTooLong);
+            }
+            let n = match self.read_some(&mut buf) {
+                Ok(0) => {
+                    let e = io::Error::new(io::ErrorKind::UnexpectedEof, "QEMU closed the link");
+                    return Err(self.link_error(e));
+                }
+                Ok(n) => n,
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+                Err(e) => return Err(self.link_error(e)),
+            };
+            self.rx.extend_from_slice(buf.get(..n).unwrap_or(&[]));
+        }
+    }
+
+    /// A link error, or QEMU's exit with its stderr if it is gone.
+    fn link_error(&mut self, e: io::Error) -> QemuError {
+        match self.child.as_mut().map(Child::try_wait) {
+            Some(Ok(Some(status))) => {
+                QemuError::Exited(format!("{status}; {}", read_to_string(&self.stderr_path)))
+            }
+            _ => QemuError::Link(e),
+        }
+    }
+}
+
+impl Drop for Qemu {
+    fn drop(&mut self) {
+        if let Some(c) = self.child.as_mut() {
+            let _ = c.kill();
+            let _ = c.wait();
+            let _ = std::fs::remove_file(&self.stderr_path);
+        }
+        if let Link::Bulk { dir, .. } = &self.link {
+            let _ = std::fs::remove_dir_all(dir);
+        }
+    }
+}
+
+/// Kills a child on drop unless taken.
+struct Guard(Option<Child>, Launch);
+
+/// How a QEMU was started: the core it is pinned to and its real-time priority, if any
+/// (reported by the free-running target: `transport.device_process`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+pub struct Launch {
+    /// The core of `taskset -c`, if pinned.
+    pub pinned_cpu: Option<usize>,
+    /// The `SCHED_RR` priority of `chrt -r`, if set.
+    pub sched_rr: Option<u8>,
+}
+
+impl Guard {
+    /// The child has exited (QEMU gave up: its stderr says why).
+    fn exited(&mut self) -> bool {
+        matches!(self.0.as_mut().map(Child::try_wait), Some(Ok(Some(_))))
+    }
+}
+
+impl Drop for Guard {
+    fn drop(&mut self) {
+        if let Some(c) = self.0.as_mut() {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+    }
+}
+
+fn read_to_string(p: &Path) -> String {
+    std::fs::read_to_string(p)
+        .map(|s| s.trim().to_string())
+        .unwrap_or_default()
+}

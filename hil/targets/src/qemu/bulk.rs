@@ -1,0 +1,104 @@
+//! The bulk channel's start: two FIFOs in a fresh directory, QEMU told where, the
+//! host's ends opened once the firmware has opened its own; and waiting for a FIFO to
+//! become readable.
+
+use std::fs::File;
+use std::io;
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+use super::{read_to_string, Link, Qemu, QemuConfig, QemuError};
+use crate::qemu::cmd::SerialTo;
+
+/// `O_NONBLOCK` (Linux).
+const O_NONBLOCK: i32 = libc::O_NONBLOCK;
+
+/// Waits until `f` is readable (or hung up) for at most `timeout`; `false` on timeout.
+#[allow(unsafe_code)]
+pub(super) fn poll_readable(f: &File, timeout: Duration) -> io::Result<bool> {
+    use std::os::fd::AsRawFd;
+    let mut p = libc::pollfd {
+        fd: f.as_raw_fd(),
+        events: libc::POLLIN,
+        revents: 0,
+    };
+    let ms = i32::try_from(timeout.as_millis()).unwrap_or(i32::MAX);
+    // SAFETY: one valid `pollfd` for the call, an fd owned by `f` and open throughout.
+    let r = unsafe { libc::poll(&mut p, 1, ms) };
+    if r < 0 {
+        let e = io::Error::last_os_error();
+        return if e.kind() == io::ErrorKind::Interrupted {
+            Ok(true)
+        } else {
+            Err(e)
+        };
+    }
+    Ok(r > 0)
+}
+
+impl Qemu {
+    /// [`Self::start`] with the bulk channel: two FIFOs in a fresh directory, QEMU told
+    /// where (`arg=bulk:DIR`), the host's ends opened once the firmware has opened its
+    /// own (a non-blocking open of a FIFO's write end fails until it has a reader).
+    pub(super) fn start_bulk(cfg: &QemuConfig) -> Result<Self, QemuError> {
+        use std::os::unix::fs::OpenOptionsExt;
+        static SEQ: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
+        let k = SEQ.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let dir = std::env::temp_dir().join(format!("wheelset-bulk-{}-{k}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).map_err(QemuError::Io)?;
+        let (rx_path, tx_path) = (dir.join("rx"), dir.join("tx"));
+        let made = Command::new("mkfifo")
+            .arg(&rx_path)
+            .arg(&tx_path)
+            .status()
+            .map_err(QemuError::Io)?;
+        if !made.success() {
+            return Err(QemuError::Io(io::Error::other(format!(
+                "mkfifo {} {} failed",
+                rx_path.display(),
+                tx_path.display()
+            ))));
+        }
+        let stderr_path = dir.join("qemu.err");
+        let to = SerialTo::Bulk(dir.to_string_lossy().into_owned());
+        let mut guard = Self::spawn(cfg, to, &stderr_path)?;
+        // Our reading end first (a non-blocking open for reading never waits), so the
+        // firmware's open of `tx` for writing finds a reader.
+        let rx = std::fs::OpenOptions::new()
+            .read(true)
+            .custom_flags(O_NONBLOCK)
+            .open(&tx_path)
+            .map_err(QemuError::Io)?;
+        let deadline = Instant::now() + Duration::from_secs(10);
+        let tx = loop {
+            match std::fs::OpenOptions::new()
+                .write(true)
+                .custom_flags(O_NONBLOCK)
+                .open(&rx_path)
+            {
+                // The firmware has it open for reading: open it again, blocking writes.
+                Ok(_probe) => {
+                    break std::fs::OpenOptions::new()
+                        .write(true)
+                        .open(&rx_path)
+                        .map_err(QemuError::Io)?
+                }
+                Err(e) if Instant::now() < deadline => {
+                    if guard.exited() {
+                        return Err(QemuError::Exited(read_to_string(&stderr_path)));
+                    }
+                    let _ = e;
+                    std::thread::sleep(Duration::from_millis(5));
+                }
+                Err(e) => {
+                    return Err(QemuError::Exited(format!(
+                        "the firmware did not open its bulk channel ({e}); {}",
+                        read_to_string(&stderr_path)
+                    )))
+                }
+            }
+        };
+        Self::started(guard, Link::Bulk { tx, rx, dir }, stderr_path, cfg.timeout)
+    }
+}

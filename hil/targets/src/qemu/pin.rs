@@ -1,0 +1,106 @@
+//! Pinning each QEMU to one core: round robin over the cores this process may use
+//! (`/proc/self/status` `Cpus_allowed_list`), `WHEELSET_QEMU_PIN=off` to turn it off.
+
+use std::process::{Command, Stdio};
+
+/// The cores this process may run on, from `Cpus_allowed_list` in `/proc/self/status`
+/// (e.g. `0-1,4`); `None` where that is not available.
+fn allowed_cores() -> Option<Vec<usize>> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    parse_cpu_list(
+        status
+            .lines()
+            .find_map(|l| l.strip_prefix("Cpus_allowed_list:"))?,
+    )
+}
+
+/// A Linux CPU list (`0-3,6`) as core numbers; `None` if malformed or empty.
+fn parse_cpu_list(list: &str) -> Option<Vec<usize>> {
+    let list = list.trim();
+    let mut cores = Vec::new();
+    for part in list.split(',') {
+        match part.split_once('-') {
+            Some((a, b)) => cores.extend(a.trim().parse::<usize>().ok()?..=b.trim().parse().ok()?),
+            None => cores.push(part.trim().parse().ok()?),
+        }
+    }
+    (!cores.is_empty()).then_some(cores)
+}
+
+/// The core the next QEMU is pinned to: round robin over [`allowed_cores`], so that
+/// QEMUs started side by side (parallel tests) spread over the cores. `None` (no
+/// pinning) with `WHEELSET_QEMU_PIN=off`, without `taskset`, or without the core list.
+pub(super) fn next_core() -> Option<usize> {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    use std::sync::OnceLock;
+    static CORES: OnceLock<Option<Vec<usize>>> = OnceLock::new();
+    static NEXT: AtomicUsize = AtomicUsize::new(0);
+    if std::env::var("WHEELSET_QEMU_PIN").is_ok_and(|v| v == "off") {
+        return None;
+    }
+    let cores = CORES
+        .get_or_init(|| {
+            let taskset = Command::new("taskset")
+                .arg("-V")
+                .stdout(Stdio::null())
+                .stderr(Stdio::null())
+                .status()
+                .is_ok_and(|s| s.success());
+            if taskset {
+                allowed_cores()
+            } else {
+                None
+            }
+        })
+        .as_ref()?;
+    let k = NEXT.fetch_add(1, Ordering::Relaxed);
+    cores.get(k % cores.len()).copied()
+}
+
+/// The core of a free-running QEMU: the first this process may use (the real-time host
+/// loop takes the last, [`crate::realtime::os::allowed_cpus`]), so that the emulated board and
+/// the harness's loop never share a core; `None` as for [`next_core`].
+pub(super) fn free_run_core() -> Option<usize> {
+    if std::env::var("WHEELSET_QEMU_PIN").is_ok_and(|v| v == "off") {
+        return None;
+    }
+    allowed_cores()?.first().copied()
+}
+
+/// The real-time priority a free-running QEMU runs at (`SCHED_RR`, below the host loop's
+/// `SCHED_FIFO` 50): round robin, so QEMU's own threads (the main loop that moves the
+/// UART's bytes, the vCPU) share its core even while the guest spins.
+pub const FREE_RUN_RR: u8 = 40;
+
+/// Whether `chrt -r` may be used here (it exists and this process may set real-time
+/// priorities; checked once on `true`); `WHEELSET_QEMU_RT=off` turns it off.
+pub(super) fn free_run_rr() -> bool {
+    use std::sync::OnceLock;
+    static OK: OnceLock<bool> = OnceLock::new();
+    if std::env::var("WHEELSET_QEMU_RT").is_ok_and(|v| v == "off") {
+        return false;
+    }
+    *OK.get_or_init(|| {
+        Command::new("chrt")
+            .args(["-r", &FREE_RUN_RR.to_string(), "true"])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .status()
+            .is_ok_and(|s| s.success())
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cpu_lists_parse_and_malformed_ones_do_not() {
+        assert_eq!(parse_cpu_list("\t0-1\n"), Some(vec![0, 1]));
+        assert_eq!(parse_cpu_list("0-2,5,7-8"), Some(vec![0, 1, 2, 5, 7, 8]));
+        assert_eq!(parse_cpu_list("3"), Some(vec![3]));
+        assert_eq!(parse_cpu_list(""), None);
+        assert_eq!(parse_cpu_list("0-x"), None);
+        assert_eq!(parse_cpu_list("2-1"), None);
+    }
+}

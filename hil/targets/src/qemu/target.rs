@@ -1,0 +1,151 @@
+//! The QEMU target: the `wheelset-qemu` firmware (the real runtime and control core,
+//! compiled for the Cortex-M4F) on `qemu-system-arm -machine mps2-an386`, started and
+//! stopped by the launcher [`crate::qemu`], lock-step: each frame delimiter the host
+//! sends is one device tick, and virtual time is `2^ICOUNT_SHIFT` ns per instruction,
+//! so a run depends only on the bytes exchanged.
+//!
+//! The `exec` field is in instructions (the firmware's SysTick stopwatch converted with
+//! the icount shift), deterministic run to run. Its time scale for the timing checks is
+//! `--cpu-hz` at one instruction per cycle (default the board's 180 MHz, an estimate; the
+//! emulated mps2-an386 itself is nominally 25 MHz, [`MPS2_CPU_HZ`]).
+
+use std::time::Duration;
+
+use crate::lockstep::Expect;
+use crate::qemu::{Channel, Machine, Qemu, QemuConfig};
+use wheelset_loop::transport::{Clock, Transport, TransportError};
+
+/// The emulated board's core clock, Hz (mps2-an386: 25 MHz).
+pub const MPS2_CPU_HZ: f64 = 25e6;
+
+/// The firmware under QEMU.
+pub struct QemuTarget {
+    q: Qemu,
+    baud: u32,
+    cpu_hz: f64,
+    expect: Expect,
+}
+
+impl QemuTarget {
+    /// Starts QEMU with the default ELF (`cargo fw`); a clear error if QEMU or the ELF is
+    /// missing. `baud` is the line rate the timing model assumes; `timeout` bounds each
+    /// wait for an answer.
+    pub fn start(baud: u32, cpu_hz: f64, timeout: Duration) -> Result<Self, TransportError> {
+        Self::start_on(Machine::default(), baud, cpu_hz, timeout)
+    }
+
+    /// [`Self::start`] on `machine` (mps2-an385: the Cortex-M3 build of the firmware,
+    /// `target/fw/wheelset-qemu-m3.elf`).
+    pub fn start_on(
+        machine: Machine,
+        baud: u32,
+        cpu_hz: f64,
+        timeout: Duration,
+    ) -> Result<Self, TransportError> {
+        Self::start_with(machine, Channel::Uart, baud, cpu_hz, timeout)
+    }
+
+    /// [`Self::start_on`] over `channel` (the UART, or the semihosting bulk channel:
+    /// the same frames, faster).
+    pub fn start_with(
+        machine: Machine,
+        channel: Channel,
+        baud: u32,
+        cpu_hz: f64,
+        timeout: Duration,
+    ) -> Result<Self, TransportError> {
+        let cfg = QemuConfig {
+            timeout,
+            channel,
+            ..QemuConfig::on(machine)
+        };
+        let q = Qemu::start(&cfg).map_err(|e| TransportError::Unavailable(e.to_string()))?;
+        Ok(Self {
+            q,
+            baud,
+            cpu_hz,
+            expect: Expect::new(),
+        })
+    }
+}
+
+impl QemuTarget {
+    /// The firmware under a QEMU started by hand, its UART0 a TCP server on
+    /// `127.0.0.1:port` ([`Qemu::connect`]); QEMU is left running at the end.
+    pub fn connect(
+        port: u16,
+        baud: u32,
+        cpu_hz: f64,
+        timeout: Duration,
+    ) -> Result<Self, TransportError> {
+        let q =
+            Qemu::connect(port, timeout).map_err(|e| TransportError::Unavailable(e.to_string()))?;
+        Ok(Self {
+            q,
+            baud,
+            cpu_hz,
+            expect: Expect::new(),
+        })
+    }
+}
+
+impl Transport for QemuTarget {
+    fn name(&self) -> String {
+        "qemu".into()
+    }
+
+    fn clock(&self) -> Clock {
+        Clock::LockStep
+    }
+
+    fn baud(&self) -> u32 {
+        self.baud
+    }
+
+    fn exec_unit(&self) -> (&'static str, f64) {
+        ("instructions", 1e9 / self.cpu_hz)
+    }
+
+    fn send(&mut self, _t_ns: u64, bytes: &[u8]) -> Result<(), TransportError> {
+        // One frame in flight (`crate::lockstep`): each frame of the write after the
+        // answers still owed.
+        for part in crate::lockstep::frames(bytes) {
+            let mut early = Vec::new();
+            self.wait_owed(&mut |b| early.extend_from_slice(b))?;
+            self.expect.stash(&early);
+            self.expect.sent(part);
+            self.q
+                .send(part)
+                .map_err(|e| TransportError::Io(e.to_string()))?;
+        }
+        Ok(())
+    }
+
+    fn recv(
+        &mut self,
+        deadline_ns: u64,
+        sink: &mut dyn FnMut(u64, &[u8]),
+    ) -> Result<(), TransportError> {
+        let early = self.expect.take_early();
+        if !early.is_empty() {
+            sink(deadline_ns, &early);
+        }
+        self.wait_owed(&mut |b| sink(deadline_ns, b))
+    }
+}
+
+impl QemuTarget {
+    /// Receives every frame owed, each to `sink` (its delimiter included).
+    fn wait_owed(&mut self, sink: &mut dyn FnMut(&[u8])) -> Result<(), TransportError> {
+        while self.expect.owed() > 0 {
+            let mut frame = self
+                .q
+                .recv_frame()
+                .map_err(|e| TransportError::Io(e.to_string()))?;
+            frame.push(0);
+            self.expect.received(&frame);
+            sink(&frame);
+        }
+        Ok(())
+    }
+}

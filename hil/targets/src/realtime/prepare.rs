@@ -1,0 +1,189 @@
+//! [`RealTime::prepare`]: the start of a run against a free-running device (listen,
+//! configure, take the baseline, measure the tick phase and period; the module docs of
+//! [`super`]).
+
+use std::time::{Duration, Instant};
+
+use wheelset_loop::link::wire_ns;
+use wheelset_proto::{encode_vec, Command, Config, Flags, Message, Status};
+
+use wheelset_loop::transport::TransportError;
+
+use super::{lower_decile, wrap, RealTime, PHASE_FRAMES};
+
+impl RealTime {
+    /// Reads until a Status frame arrives after this call (at most `timeout`).
+    fn await_status(&mut self, what: &str) -> Result<Status, TransportError> {
+        self.last_status = None;
+        let give_up = Instant::now() + self.o.timeout;
+        while Instant::now() < give_up {
+            let d = Instant::now() + self.period();
+            self.wait_until(d)?;
+            if let Some(s) = self.last_status.take() {
+                return Ok(s);
+            }
+        }
+        Err(TransportError::Timeout(format!(
+            "{}: no Status frame within {:?} after {what}",
+            self.path, self.o.timeout
+        )))
+    }
+
+    /// The start-up sequence (see the module docs): configures the device with `cfg`,
+    /// takes the baseline counters and locks the schedule to the device's tick phase.
+    pub fn prepare(&mut self, cfg: &Config) -> Result<(), TransportError> {
+        let t = self.o.period_ns;
+        // 1. Is anybody there, ticking on its own?
+        let listen = Instant::now() + Duration::from_nanos((4 * t).max(20_000_000));
+        self.wait_until(listen)?;
+        if self.sync.pre_run == 0 {
+            let give_up = Instant::now() + self.o.timeout;
+            while self.sync.pre_run == 0 && Instant::now() < give_up {
+                let d = Instant::now() + self.period();
+                self.wait_until(d)?;
+            }
+            if self.sync.pre_run == 0 {
+                return Err(TransportError::Timeout(format!(
+                    "{}: the device sent nothing in {:?}: a free-running device \
+                     answers every tick (a frame-clocked one needs --pace lockstep)",
+                    self.path, self.o.timeout
+                )));
+            }
+        }
+        // 2. The run's configuration, checked.
+        let mut out = Vec::new();
+        for m in [
+            Message::Config(*cfg),
+            Message::Command(Command::RequestStatus),
+        ] {
+            let f = encode_vec(&m).map_err(|e| {
+                TransportError::Io(format!("cannot encode the start-up frames: {e:?}"))
+            })?;
+            out.extend_from_slice(&f);
+        }
+        self.write(&out)?;
+        let s = self.await_status("the Config frame")?;
+        if s.flags.has(Flags::CMD_REFUSED) {
+            let why = wheelset_proto::RefuseReason::from_code(s.refuse_reason);
+            if why == Some(wheelset_proto::RefuseReason::Unsupported) {
+                return Err(TransportError::Unavailable(format!(
+                    "{}: the device refused the run's Config (wsp {}, monitor_safe {}) \
+                     as Unsupported: its build lacks the `wsp`/`monitor` runtime features; run \
+                     with --wsp off and without --monitor-safe",
+                    self.path,
+                    if cfg.wsp { "on" } else { "off" },
+                    if cfg.monitor_safe { "on" } else { "off" }
+                )));
+            }
+            return Err(TransportError::Unavailable(format!(
+                "{}: the device refused the run's configuration (Status cmd_refused \
+                 {}, reason {}): another sample type or control core than this harness's \
+                 fixed-point default, or a rate its link cannot carry",
+                self.path,
+                s.cmd_refused,
+                why.map_or_else(|| format!("code {}", s.refuse_reason), |w| w.to_string())
+            )));
+        }
+        // Let a re-armed ticker settle, then 3. the baseline.
+        let settle = Instant::now() + Duration::from_nanos(3 * t);
+        self.wait_until(settle)?;
+        let f = encode_vec(&Message::Command(Command::RequestStatus))
+            .map_err(|e| TransportError::Io(format!("cannot encode a status request: {e:?}")))?;
+        self.write(&f)?;
+        let b = self.await_status("the baseline status request")?;
+        self.baseline = Some(b);
+        // 4. The device's phase and period.
+        self.seen.clear();
+        let give_up = Instant::now() + self.o.timeout;
+        while self.seen.len() < PHASE_FRAMES && Instant::now() < give_up {
+            let d = Instant::now() + self.period();
+            self.wait_until(d)?;
+        }
+        let seen = std::mem::take(&mut self.seen);
+        if seen.len() < PHASE_FRAMES {
+            return Err(TransportError::Timeout(format!(
+                "{}: {} of {PHASE_FRAMES} Actuation frames within {:?} after the \
+                 baseline: the device does not answer every tick",
+                self.path,
+                seen.len(),
+                self.o.timeout
+            )));
+        }
+        let tf = t as f64;
+        let outs: Vec<f64> = seen
+            .iter()
+            .map(|&(at, n, _, _)| at as f64 - wire_ns(n, self.o.baud) as f64)
+            .collect();
+        // The period: the slope of the lower envelope of the output instants against the
+        // device's tick counter (robust to a skipped tick, and to frames read in bursts,
+        // which all carry the stamp of the read: only the earliest of each half counts).
+        let measured = envelope_period(&seen.iter().map(|s| s.2).collect::<Vec<_>>(), &outs, tf);
+        self.sync.device_period_ns = measured;
+        if (measured - tf).abs() > 0.1 * tf {
+            return Err(TransportError::Unavailable(format!(
+                "{}: the device ticks every {:.1} us, not every {:.1} us of the run's \
+                 rate: it did not take the rate (--rate-hz) or cannot hold it",
+                self.path,
+                measured * 1e-3,
+                tf * 1e-3
+            )));
+        }
+        // The phase of its output instants: the lower decile of the residuals modulo T.
+        let first = outs.first().copied().unwrap_or(0.0);
+        let mut res: Vec<f64> = outs.iter().map(|&o| wrap(o - first, tf)).collect();
+        let phase = first + lower_decile(&mut res);
+        // Its tick: the output instant less the median reported execution time.
+        let mut execs: Vec<f64> = seen
+            .iter()
+            .map(|s| f64::from(s.3) * 1e9 / self.o.cpu_hz)
+            .collect();
+        execs.sort_by(f64::total_cmp);
+        let exec_ns = execs.get(execs.len() / 2).copied().unwrap_or(0.0);
+        // The next device tick at least two periods from now, and the first send half
+        // a period before it.
+        let now = self.at_ns(Instant::now()) as f64;
+        let mut tick_at = phase - exec_ns;
+        let k = ((now + 2.0 * tf - tick_at) / tf).ceil().max(0.0);
+        tick_at += k * tf;
+        let lead = t * self.o.lead_num.clamp(1, 7) / 8;
+        self.sync.lead_ns = lead;
+        let first = (tick_at - lead as f64).max(now) as u64;
+        // The device's output phase on the run's clock (origin = `first`).
+        self.phase_ref_ns = wrap(phase - first as f64, tf);
+        self.origin += Duration::from_nanos(first);
+        // Everything read so far was re-stamped against the old origin: it is pre-run
+        // and nothing of it is pending.
+        self.pending.clear();
+        Ok(())
+    }
+}
+
+/// The device's period, ns, from its output instants `outs` (ns) and tick counters
+/// `ticks` (16-bit, wrapping): the nominal period `t` corrected by the slope of the lower
+/// envelope of the residuals `r_i = o_i - j_i t` (`j_i` ticks since the first frame)
+/// between the first and the second half of the frames,
+/// `T = t + (r_b - r_a) / (j_b - j_a)`, `a` and `b` the frames of least residual in each
+/// half. A frame delayed on its way through the host (frames read in a burst all carry
+/// the stamp of the read) only raises its residual, so the earliest frames set the
+/// estimate. 0 if fewer than 4 frames or the two frames are the same tick.
+#[must_use]
+pub fn envelope_period(ticks: &[u16], outs: &[f64], t: f64) -> f64 {
+    let n = ticks.len().min(outs.len());
+    let (Some(&j0), true) = (ticks.first(), n >= 4) else {
+        return 0.0;
+    };
+    let least = |r: std::ops::Range<usize>| {
+        r.map(|i| {
+            let j = f64::from(ticks.get(i).copied().unwrap_or(j0).wrapping_sub(j0));
+            (outs.get(i).copied().unwrap_or(0.0) - j * t, j)
+        })
+        .min_by(|x, y| x.0.total_cmp(&y.0))
+        .unwrap_or((0.0, 0.0))
+    };
+    let (ra, ja) = least(0..n / 2);
+    let (rb, jb) = least(n / 2..n);
+    if jb <= ja {
+        return 0.0;
+    }
+    t + (rb - ra) / (jb - ja)
+}

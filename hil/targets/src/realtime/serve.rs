@@ -1,0 +1,209 @@
+//! `hil serve --pty`: a free-running stand-in for a board. The firmware's runtime
+//! (`wheelset_runtime::Runtime<Fx>`, the production fixed-point build) ticks on its own
+//! clock at its base rate behind a pseudo-terminal, whether or not frames arrive, and
+//! answers every tick, as the board's control task does:
+//!
+//! ```text
+//! every T (deadline on the monotonic clock: sleep to shortly before, then spin)
+//!   drain what the pty holds -> Runtime::receive; Runtime::tick(last exec) -> TX queue
+//! ```
+//!
+//! The board's tick policy (`firmware/app/src/tick.rs`): a wake-up more than a quarter
+//! period late is *late*; one a period or more late *skips* the missed ticks (counted)
+//! and stays on the original phase grid. The TX queue holds 256 bytes, as the
+//! firmware's TX pipe: a frame that does not fit whole is dropped (counted). A Config
+//! frame from the host that changes the base rate re-arms the clock, as on the board.
+//! The execution time (drain + decode + control + encode, host ns) is reported in the
+//! Actuation frame's `exec` field as cycles of a `cpu_hz` core, the unit `hil run
+//! --cpu-hz` reads.
+
+use std::collections::VecDeque;
+use std::io::{self, Read};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use serde::Serialize;
+use serialport::{SerialPort, TTYPort};
+use wheelset_control::Fx;
+use wheelset_runtime::{Runtime, RuntimeConfig};
+
+use crate::realtime::os::{self as rt_os, Obtained, Want};
+use crate::realtime::{flush_queue, queue_frame};
+
+/// Bytes the stand-in queues for transmission (the firmware's TX pipe).
+pub const TX_QUEUE: usize = 256;
+
+/// Options of the stand-in.
+#[derive(Debug, Clone, Copy)]
+pub struct ServeOptions {
+    /// Base rate at start, Hz (a host Config frame may change it).
+    pub rate_hz: u32,
+    /// Stop after this long (None: until stopped).
+    pub duration: Option<Duration>,
+    /// Core clock the `exec` field is expressed in, Hz.
+    pub cpu_hz: f64,
+    /// What to ask of the operating system.
+    pub want: Want,
+}
+
+/// What the stand-in did.
+#[derive(Debug, Clone, Serialize, Default)]
+pub struct ServeReport {
+    /// Ticks run.
+    pub ticks: u64,
+    /// Wake-ups more than a quarter period late (and less than one period).
+    pub late: u64,
+    /// Ticks skipped after a wake-up a period or more late.
+    pub skipped: u64,
+    /// Largest lateness of a wake-up, ns.
+    pub max_lateness_ns: u64,
+    /// Bytes received.
+    pub rx_bytes: u64,
+    /// Bytes sent.
+    pub tx_bytes: u64,
+    /// Frames not queued (the TX queue full: nobody reading).
+    pub tx_dropped: u64,
+    /// Base rate at the end, Hz.
+    pub rate_hz: u32,
+    /// What the operating system granted.
+    pub realtime: Obtained,
+}
+
+fn period_ns(rate_hz: u32) -> Option<u64> {
+    (rate_hz > 0 && 1_000_000_000 % u64::from(rate_hz) == 0)
+        .then(|| 1_000_000_000 / u64::from(rate_hz))
+}
+
+fn quiet(e: &io::Error) -> bool {
+    matches!(
+        e.kind(),
+        io::ErrorKind::TimedOut | io::ErrorKind::WouldBlock | io::ErrorKind::Interrupted
+    )
+}
+
+/// The runtime for `rate_hz`, or why not.
+pub fn runtime_at(rate_hz: u32) -> Result<Runtime<Fx>, String> {
+    if period_ns(rate_hz).is_none() {
+        return Err(format!(
+            "--rate-hz {rate_hz}: the period must be a whole number of nanoseconds"
+        ));
+    }
+    let mut cfg = RuntimeConfig::default();
+    cfg.control.base_rate_hz = rate_hz;
+    Runtime::try_new(cfg).map_err(|e| format!("--rate-hz {rate_hz}: {e}"))
+}
+
+/// Runs `rt` free-running on `port` (the pty's master side) until `stop` is set, the
+/// duration is over or the port fails. The operating-system requests are made on the
+/// calling thread.
+pub fn serve(
+    port: &mut TTYPort,
+    mut rt: Runtime<Fx>,
+    o: &ServeOptions,
+    stop: &AtomicBool,
+) -> io::Result<ServeReport> {
+    let mut rep = ServeReport {
+        realtime: rt_os::obtain(o.want),
+        ..ServeReport::default()
+    };
+    let mut rate = rt.base_rate_hz();
+    let mut period = period_ns(rate).unwrap_or(1_000_000);
+    let start = Instant::now();
+    let end = o.duration.map(|d| start + d);
+    let mut next = start + Duration::from_nanos(period);
+    let mut queue = VecDeque::with_capacity(TX_QUEUE);
+    let mut buf = [0u8; 512];
+    let mut last_exec = 0u32;
+    let ns_to_cycles = o.cpu_hz / 1e9;
+    while !stop.load(Ordering::Relaxed) && end.is_none_or(|e| Instant::now() < e) {
+        // Sleep to shortly before the deadline, then spin.
+        let spin = Duration::from_nanos((period / 5).min(80_000));
+        loop {
+            let now = Instant::now();
+            if now >= next {
+                break;
+            }
+            let left = next - now;
+            if left > spin {
+                std::thread::sleep((left - spin).min(Duration::from_millis(5)));
+            } else {
+                std::hint::spin_loop();
+            }
+        }
+        let woke = Instant::now();
+        let lateness = u64::try_from(woke.duration_since(next).as_nanos()).unwrap_or(u64::MAX);
+        rep.max_lateness_ns = rep.max_lateness_ns.max(lateness);
+        if lateness >= period {
+            let missed = lateness / period;
+            rep.skipped += missed;
+            next += Duration::from_nanos(missed * period);
+        } else if lateness > period / 4 {
+            rep.late += 1;
+        }
+        // The tick: drain, receive, tick, queue.
+        let _ = port.set_timeout(Duration::ZERO);
+        loop {
+            match port.read(&mut buf) {
+                Ok(0) => break,
+                Ok(n) => {
+                    rep.rx_bytes += n as u64;
+                    rt.receive(buf.get(..n).unwrap_or(&[]));
+                    if n < buf.len() {
+                        break;
+                    }
+                }
+                Err(e) if quiet(&e) => break,
+                Err(e) => return Err(e),
+            }
+        }
+        let out = rt.tick(last_exec);
+        let len = out.len() as u64;
+        if queue_frame(&mut queue, TX_QUEUE, out) {
+            rep.tx_bytes += len;
+        } else {
+            rep.tx_dropped += 1;
+        }
+        let exec_ns = woke.elapsed().as_nanos() as f64;
+        last_exec = (exec_ns * ns_to_cycles).min(f64::from(u32::MAX)) as u32;
+        flush_queue(port, &mut queue)?;
+        rep.ticks += 1;
+        next += Duration::from_nanos(period);
+        // A Config frame may have changed the base rate: re-arm from now.
+        let now_rate = rt.base_rate_hz();
+        if now_rate != rate {
+            if let Some(p) = period_ns(now_rate) {
+                rate = now_rate;
+                period = p;
+                next = Instant::now() + Duration::from_nanos(period);
+            }
+        }
+    }
+    rep.rate_hz = rate;
+    Ok(rep)
+}
+
+/// Creates a pseudo-terminal pair and returns (master, slave, slave path). The caller
+/// keeps the slave open so the master never sees the other side closed while no host is
+/// connected.
+pub fn open_pty() -> io::Result<(TTYPort, TTYPort, String)> {
+    let (master, slave) = TTYPort::pair().map_err(io::Error::other)?;
+    let path = slave
+        .name()
+        .ok_or_else(|| io::Error::other("the pseudo-terminal has no path"))?;
+    Ok((master, slave, path))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rates_whose_period_is_not_whole_nanoseconds_are_refused() {
+        assert!(runtime_at(0).is_err());
+        assert!(runtime_at(3_000)
+            .err()
+            .unwrap_or_default()
+            .contains("--rate-hz 3000"));
+        assert!(runtime_at(5_000).is_ok());
+    }
+}
