@@ -23,8 +23,8 @@
 //!   checks: no panic, every output within the actuator limits, every frame accounted
 //!   ([`fuzz`]; a short seeded run is a unit test of this crate, so `cargo xtest` runs it).
 //! - `cargo xtask qemu-cmd [ELF] [--machine M --cpu C] [--tcp PORT] [-- QEMU ARGS]`:
-//!   prints the QEMU command line of every project run (the harness's,
-//!   `hil/targets/src/qemu/cmd.rs`) for `ELF`, UART0 to null or to a TCP server, with the extra
+//!   prints the QEMU command line of every project run (`wheelset_targets::qemu::cmd`,
+//!   the harness's launcher's) for `ELF`, UART0 to null or to a TCP server, with the extra
 //!   arguments appended (`scripts/tick-profile.py --record` runs it).
 //! - `cargo xtask readme [--check] [--dev]`: reruns the commands of the README's
 //!   generated blocks and rewrites them; `--check` fails naming the drifted ones;
@@ -52,19 +52,15 @@ macro_rules! outln {
 }
 
 mod bench;
-mod elf;
 mod fuzz;
 mod readme;
 mod size;
 
-/// The QEMU command line, defined once in the harness (`hil/targets/src/qemu/cmd.rs`, no
-/// dependencies): compiled in here so xtask needs no crate of the workspace.
-#[allow(dead_code)]
-#[path = "../../hil/targets/src/qemu/cmd.rs"]
-mod qemu_cmd;
-
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
+
+// The QEMU command line, defined once (the harness's launcher uses it too).
+use wheelset_targets::qemu::cmd as qemu_cmd;
 
 /// The `no_std` crates that must build for every MCU target.
 const NO_STD_CRATES: &[&str] = &["wheelset-control", "wheelset-proto", "wheelset-runtime"];

@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::elf;
+use wheelset_targets::elf;
 
 /// Flash budget of each firmware binary, bytes (.vector_table + .text + .rodata + .data).
 /// Generous on purpose: the STM32F446RE has 512 KiB, and 64 KiB fits the smallest parts

@@ -1,10 +1,17 @@
-//! The firmware image is checked before QEMU is launched: an ELF header for the target
-//! (32-bit, little-endian, ARM, an executable), so a garbage or a host image is refused
-//! with "not an ELF for the target" instead of a QEMU that never answers ("connection
-//! reset"). Only the 52-byte ELF32 header is read.
+//! The firmware's ELF images, read without binutils:
+//!
+//! - [`check_target_elf`]: the image is checked before QEMU is launched: an ELF header
+//!   for the target (32-bit, little-endian, ARM, an executable), so a garbage or a host
+//!   image is refused with "not an ELF for the target" instead of a QEMU that never
+//!   answers ("connection reset"). Only the 52-byte ELF32 header is read.
+//! - [`sizes`]: flash and static RAM from the section headers (`cargo fw`'s budget).
 
 use std::io::Read;
 use std::path::Path;
+
+mod sizes;
+
+pub use sizes::{sizes, Sizes};
 
 /// `e_machine` of ARM (32-bit).
 const EM_ARM: u16 = 40;

@@ -2,8 +2,7 @@
 //! shift and the semihosting set-up of every QEMU run of the firmware. The harness's
 //! launcher (`wheelset_targets::qemu`) starts the lock-step device with it; `cargo xtask
 //! fw-bench` runs the benchmark firmware with it and `cargo xtask qemu-cmd` prints it
-//! (what `scripts/tick-profile.py --record` runs). This file has no dependencies, so
-//! xtask compiles it in directly (`#[path]`) and stays dependency-free.
+//! (what `scripts/tick-profile.py --record` runs), both through this crate.
 //!
 //! `-icount shift=N,sleep=off`: virtual time is `2^N` ns per executed instruction and
 //! never advances while the guest sleeps. With `N` = `ICOUNT_SHIFT` = 10, 1024 ns per
