@@ -111,8 +111,8 @@ use wheelset_proto::MAX_FRAME;
 mod acc;
 mod bits;
 mod hold;
-mod plausible;
 mod runtime;
+mod validate;
 
 pub(crate) use acc::acc_factors;
 pub use acc::AccBits;

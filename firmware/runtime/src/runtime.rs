@@ -9,7 +9,7 @@ use wheelset_control::{
 };
 use wheelset_proto::{encode_actuation, encode_status, Decoder, FrameError, RefuseReason, Sensor};
 
-use crate::plausible;
+use crate::validate;
 use crate::{
     AccBits, Actuation, Command, Flags, HoldPolicy, RuntimeBits, RuntimeConfig, RuntimeCounters,
     RuntimeError, SafeChange, TX_CAPACITY,
@@ -43,7 +43,7 @@ pub struct Runtime<T: Sample> {
     /// [`CompiledBits::fingerprint`] of the core's rate-independent part.
     fingerprint: u32,
     /// The start-up core's rates: what a received [`Rates`] is checked against.
-    reference: plausible::Reference,
+    reference: validate::Reference,
     hold_ticks: u16,
     decoder: Decoder,
     /// The latest Sensor frame as the decoder wrote it (`receive`, in place): read only
@@ -143,7 +143,7 @@ impl<T: SampleBits> Runtime<T> {
         Ok(Self {
             core,
             fingerprint,
-            reference: plausible::Reference {
+            reference: validate::Reference {
                 schedule: law.schedule(),
                 acc,
             },

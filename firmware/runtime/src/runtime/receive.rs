@@ -7,7 +7,7 @@ use wheelset_control::MonitorState;
 use wheelset_control::{Controller, InputCodes, SampleBits, ScheduleBits};
 use wheelset_proto::{FrameError, Lateral, NextFrame, RefuseReason, Request};
 
-use crate::plausible;
+use crate::validate;
 use crate::{AccBits, Command, Config, Rates, Runtime, RuntimeCounters, RxEvent};
 
 impl<T: SampleBits> Runtime<T> {
@@ -173,7 +173,7 @@ impl<T: SampleBits> Runtime<T> {
         } else {
             match &c.rates {
                 Some(r) => self.apply_rates(r, c.hold_ticks),
-                None => plausible::check_hold(c.hold_ticks, self.base_rate_hz()),
+                None => validate::check_hold(c.hold_ticks, self.base_rate_hz()),
             }
         };
         if let Err(why) = checked {
@@ -232,8 +232,8 @@ impl<T: SampleBits> Runtime<T> {
         if r.base_rate_hz > self.max_rate_hz {
             return Err(RefuseReason::BaseRate);
         }
-        plausible::check_rates::<T>(r, &self.reference)?;
-        plausible::check_hold(hold_ticks, r.base_rate_hz)?;
+        validate::check_rates::<T>(r, &self.reference)?;
+        validate::check_hold(hold_ticks, r.base_rate_hz)?;
         let bits = RefuseReason::Bits;
         let (g, l) = AccBits {
             gain_q32: r.acc_gain_q32,
