@@ -133,8 +133,8 @@ pub struct ArrayShard {
     pub index: usize,
     /// The number of shards, if the environment says (Slurm does, Kubernetes does not).
     pub count: Option<usize>,
-    /// The variables it came from, for messages: `SLURM_ARRAY_TASK_ID=5 (array 1-7:2,
-    /// SLURM_ARRAY_TASK_COUNT=4)` or `JOB_COMPLETION_INDEX=3`.
+    /// The variables it came from, for messages: `SLURM_ARRAY_TASK_ID=5 of the array
+    /// 1-7:2 (SLURM_ARRAY_TASK_COUNT=4)` or `JOB_COMPLETION_INDEX=3`.
     pub source: String,
 }
 
@@ -197,8 +197,7 @@ fn slurm(env: &dyn Fn(&str) -> Option<String>) -> Result<Option<ArrayShard>, Str
                 "the Slurm array (SLURM_ARRAY_TASK_MIN={min}, SLURM_ARRAY_TASK_MAX={max}, \
                  SLURM_ARRAY_TASK_STEP={step}, SLURM_ARRAY_TASK_COUNT={count}) is not one range \
                  with one step, so its tasks cannot be numbered as shards 0..{}: submit \
-                 --array=0-{} (or FIRST-LAST:STEP with {count} tasks), or give each task \
-                 --shard I/N",
+                 --array=0-{} (or FIRST-LAST:STEP with {count} tasks)",
                 count - 1,
                 count - 1
             ));
@@ -214,7 +213,9 @@ fn slurm(env: &dyn Fn(&str) -> Option<String>) -> Result<Option<ArrayShard>, Str
     Ok(Some(ArrayShard {
         index: (id - min) / step,
         count: Some(count),
-        source: format!("SLURM_ARRAY_TASK_ID={id} (array {shape}, SLURM_ARRAY_TASK_COUNT={count})"),
+        source: format!(
+            "SLURM_ARRAY_TASK_ID={id} of the array {shape} (SLURM_ARRAY_TASK_COUNT={count})"
+        ),
     }))
 }
 
@@ -298,8 +299,8 @@ pub fn resolve(
                 Ok(Some(s))
             } else {
                 Err(format!(
-                    "--shard {s} conflicts with {} (shard {}{}): give one of them, or \
-                     --shard all for the whole grid",
+                    "--shard {s} conflicts with {}, which is shard {}{}: give one of \
+                     them, or --shard all for the whole grid",
                     a.source,
                     a.index,
                     a.count.map_or(String::new(), |c| format!("/{c}"))
