@@ -68,6 +68,7 @@ if [ -z "$hil" ]; then
     hil=$(command -v hil || true)
     [ -n "$hil" ] || hil=$here/../../target/release/hil
 fi
+case $hil in */*) ;; *) hil=$(command -v "$hil" || echo "$hil") ;; esac
 [ -x "$hil" ] || die "--hil $hil: not an executable (cargo build --release -p hil)"
 hil=$(readlink -f "$hil")
 exports="ALL,HIL=$hil"
@@ -85,7 +86,9 @@ out=$(readlink -f "$out")
 shopt -s nullglob
 if [ -z "$rerun" ]; then
     for f in "$out"/shards/shard-*.json "$out/sweep.json"; do
-        [ -e "$f" ] && die "$f: $out holds an earlier campaign's documents; remove them or choose another -o (or --rerun I to redo shards)"
+        if [ -e "$f" ]; then
+            die "$f: $out holds an earlier campaign's documents; remove them, choose another -o, or --rerun I to redo shards"
+        fi
     done
     array=$(sbatch --parsable --array="0-$((n - 1))" --cpus-per-task="$cpus" \
         --export="$exports" --output="$out/logs/shard-%a.log" \

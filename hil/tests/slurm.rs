@@ -10,7 +10,10 @@
 //!    runs (held by the `HIL_SWEEP_TEST_HOLD` hook between its temporary file and the
 //!    rename), requeues it with `scontrol requeue`, checks the killed attempt left no
 //!    document and the merge still waits, lets the task run again, and checks the
-//!    merged document is still the single run's, byte for byte.
+//!    merged document is still the single run's, byte for byte;
+//! 3. submits it once more with task 2's `hil` exiting 3 (failed for good), sees the
+//!    merge's dependency fail, and recovers as `submit.sh` says: `scancel` the merge,
+//!    `submit.sh --rerun 2`, and the new merge is the single run's, byte for byte.
 //!
 //! Ignored by default (it needs root and the two packages): `REQUIRE_SLURM=1 cargo test
 //! -p hil --test slurm -- --ignored` runs it and fails if the cluster does not start;
@@ -21,6 +24,7 @@
 
 use std::cell::RefCell;
 use std::fmt::Write as _;
+use std::os::unix::fs::PermissionsExt as _;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
@@ -329,7 +333,7 @@ PartitionName=main Nodes=ALL Default=YES MaxTime=INFINITE State=UP
         let mut files: Vec<PathBuf> = std::fs::read_dir(&logs)
             .map(|r| r.filter_map(|e| e.ok().map(|e| e.path())).collect())
             .unwrap_or_default();
-        for sub in ["stepped/logs", "held/logs"] {
+        for sub in ["stepped/logs", "held/logs", "failed/logs"] {
             if let Ok(r) = std::fs::read_dir(self.dir.join(sub)) {
                 files.extend(r.filter_map(|e| e.ok().map(|e| e.path())));
             }
@@ -398,9 +402,44 @@ fn read(p: &Path) -> String {
     std::fs::read_to_string(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
 }
 
+/// `hil/slurm/submit.sh OPTIONS -- FLAGS` with `HIL_SWEEP_TEST_HOLD=hold`: what it
+/// printed.
+impl Cluster {
+    fn submit(&self, options: &[&str], hold: &Path) -> Result<String, String> {
+        let o = self
+            .command("bash")
+            .arg(format!("{SCRIPTS}/submit.sh"))
+            .args(options)
+            .arg("--")
+            .args(FLAGS)
+            .env("HIL_SWEEP_TEST_HOLD", hold)
+            .output()
+            .map_err(|e| format!("submit.sh: {e}"))?;
+        let said = String::from_utf8_lossy(&o.stdout).into_owned();
+        if o.status.success() {
+            Ok(said)
+        } else {
+            Err(format!(
+                "submit.sh {}: {said}{}",
+                options.join(" "),
+                String::from_utf8_lossy(&o.stderr)
+            ))
+        }
+    }
+}
+
+/// The job ID after `label` in submit.sh's output (`array job: 12 (...)`).
+fn id_after(said: &str, label: &str) -> String {
+    said.lines()
+        .find_map(|l| l.strip_prefix(label))
+        .and_then(|r| r.split_whitespace().next())
+        .map(str::to_string)
+        .unwrap_or_else(|| panic!("no `{label}` in {said}"))
+}
+
 #[test]
 #[ignore = "starts a one-node Slurm (root, slurm-wlm, munge): REQUIRE_SLURM=1 cargo test -p hil --test slurm -- --ignored"]
-fn a_sweep_on_a_one_node_slurm_merges_into_the_single_run_even_with_a_task_requeued() {
+fn a_sweep_on_a_one_node_slurm_merges_into_the_single_run_through_a_requeue_and_a_rerun() {
     let required = std::env::var("REQUIRE_SLURM").is_ok_and(|v| v == "1");
     let t0 = Instant::now();
     let c = match Cluster::start() {
@@ -481,30 +520,17 @@ fn a_sweep_on_a_one_node_slurm_merges_into_the_single_run_even_with_a_task_reque
     let out = c.dir.join("held");
     let hold = c.dir.join("hold");
     std::fs::write(&hold, "").unwrap();
-    let sub = c
-        .command("bash")
-        .arg(format!("{SCRIPTS}/submit.sh"))
-        .args(["-n", "4", "-o"])
-        .arg(&out)
-        .args(["--hil", HIL, "--"])
-        .args(FLAGS)
-        .env("HIL_SWEEP_TEST_HOLD", &hold)
-        .output()
-        .unwrap();
-    let said = String::from_utf8_lossy(&sub.stdout).into_owned();
-    assert!(
-        sub.status.success(),
-        "submit.sh: {said}{}",
-        String::from_utf8_lossy(&sub.stderr)
+    let said = check!(
+        c,
+        c.submit(
+            &["-n", "4", "-o", &out.display().to_string(), "--hil", HIL],
+            &hold
+        )
     );
-    let id_after = |label: &str| {
-        said.lines()
-            .find_map(|l| l.strip_prefix(label))
-            .and_then(|r| r.split_whitespace().next())
-            .map(str::to_string)
-            .unwrap_or_else(|| panic!("no `{label}` in {said}"))
-    };
-    let (array, merge) = (id_after("array job: "), id_after("merge job: "));
+    let (array, merge) = (
+        id_after(&said, "array job: "),
+        id_after(&said, "merge job: "),
+    );
     // A task held between its temporary file and the rename: running, document unwritten.
     let shards = out.join("shards");
     let mut held = None;
@@ -558,6 +584,58 @@ fn a_sweep_on_a_one_node_slurm_merges_into_the_single_run_even_with_a_task_reque
     eprintln!(
         "slurm: submit.sh with {task} requeued while running: merged byte for byte at {:.1} s\n\
          slurm: the log of {task}:\n{log}",
+        t0.elapsed().as_secs_f64()
+    );
+
+    // 3. A task that fails for good (its hil exits 3, as with a missing QEMU): the merge
+    // can never run; the recovery of submit.sh: cancel it, rerun the shard, merge again.
+    let out = c.dir.join("failed");
+    let wrapper = c.dir.join("hil-failing-task-2");
+    std::fs::write(
+        &wrapper,
+        format!(
+            "#!/bin/bash\n[ \"${{SLURM_ARRAY_TASK_ID:-}}\" = 2 ] && exit 3\nexec {HIL} \"$@\"\n"
+        ),
+    )
+    .unwrap();
+    std::fs::set_permissions(&wrapper, std::fs::Permissions::from_mode(0o755)).unwrap();
+    let o = out.display().to_string();
+    let w = wrapper.display().to_string();
+    let said = check!(c, c.submit(&["-n", "4", "-o", &o, "--hil", &w], &hold));
+    let (array, merge) = (
+        id_after(&said, "array job: "),
+        id_after(&said, "merge job: "),
+    );
+    let failed = format!("{array}_2");
+    check!(
+        c,
+        c.wait_until(&format!("{failed} to fail"), || Ok(c
+            .job_field(&failed, "JobState")?
+            == "FAILED"))
+    );
+    check!(
+        c,
+        c.wait_until("the merge's dependency to fail", || Ok(c
+            .job_field(&merge, "Reason")?
+            == "DependencyNeverSatisfied"))
+    );
+    check!(c, c.run("scancel", &[&merge]));
+    let said = check!(
+        c,
+        c.submit(&["--rerun", "2", "-n", "4", "-o", &o, "--hil", HIL], &hold)
+    );
+    let rerun = id_after(&said, "rerun job: ");
+    let merge = id_after(&said, "merge job: ");
+    check!(c, c.wait_completed(&merge));
+    assert_eq!(check!(c, c.job_field(&rerun, "JobState")), "COMPLETED");
+    assert_eq!(
+        read(&out.join("sweep.json")),
+        whole,
+        "the merged document after the rerun of shard 2 is not the single run's"
+    );
+    eprintln!(
+        "slurm: task {failed} failed for good, shard 2 rerun by submit.sh --rerun, merged byte \
+         for byte at {:.1} s",
         t0.elapsed().as_secs_f64()
     );
 }
