@@ -9,7 +9,8 @@
 //! **On silicon**: nothing of this build has run on a board here. It compiles, links
 //! and fits its flash and RAM budget (`cargo fw`); its pure arithmetic (the clock checks
 //! of `board::nucleo_clock`, the bounded waits of `crate::bounded`) is tested on the
-//! host; the task structure it shares with the QEMU build runs under QEMU.
+//! host; the board-independent tasks it shares with the QEMU build (`crate::app`) run
+//! under QEMU. Its drivers, clock set-up, priorities and fault path have not run.
 //!
 //! Two builds: the default one free-running on the ticker at the 5 kHz base rate with
 //! USART2 at 5.25 Mbaud on Arduino D1/D0 for a direct serial link ([`BAUD`]; checked
@@ -22,7 +23,7 @@
 //! embassy-stm32 sets voltage scale 1 and switches the over-drive on for any PLL
 //! clock on this part (`rcc/f247.rs`; 168 MHz would not need it), and 5 flash wait
 //! states; the board then switches the flash accelerator on (prefetch, instruction and
-//! data caches: [`flash_accelerator_on`]). Every clock figure the firmware uses is read
+//! data caches: `flash_accelerator_on`). Every clock figure the firmware uses is read
 //! from the configured tree at start-up (`embassy_stm32::rcc::clocks`), not assumed:
 //! the USART2 baud (checked against [`BAUD`], which the link budget needs at compile
 //! time), the time driver's tick (exact only on a whole multiple of 1 MHz) and the core
@@ -138,7 +139,7 @@ const UART_PRIORITY: Priority = Priority::P8;
 /// The communication executor's.
 const COMMS_PRIORITY: Priority = Priority::P10;
 
-/// The receive DMA ring, bytes: 256 B is 49 us of line at 5.25 Mbaud, more than five
+/// The receive DMA ring, bytes: 256 B is 488 us of line at 5.25 Mbaud, more than five
 /// worst-case Sensor frames; the RX task empties it at each IDLE line or half ring.
 const RX_RING: usize = 256;
 /// The most bytes of one transmit transfer (the TX pipe is a byte stream: a longer
@@ -158,7 +159,7 @@ const TX_STREAM: usize = 6;
 /// outputs back to the reset state within half a second. Once started it runs until the
 /// next reset (a debugger halting the core does not stop it: DBGMCU is left as it is);
 /// its reset sets RCC CSR IWDGRSTF, which the boot record reports as `reset_cause`
-/// WATCHDOG ([`reset_flags`]).
+/// WATCHDOG (`reset_flags`).
 pub const IWDG_TIMEOUT_US: u32 = 250_000;
 
 /// The core clock, Hz: the HSI's 16 MHz from reset (RM0390 6.2.2), SYSCLK from the
@@ -266,8 +267,8 @@ pub fn set_period(_ticks: u64) {}
 /// 0 once the current transfer ended, RM0390 9.3.17) and USART2's DMA requests off; a
 /// lone delimiter (it ends a frame the DMA left half sent, so that the safe frame
 /// arrives whole), the frame, each byte after TXE (RM0390 25.6.1) within
-/// [`FAULT_POLLS`] polls; then TC (the last byte off the shift register, so a reset
-/// next does not cut it) within two characters' polls. A byte that does not go out
+/// `FAULT_POLLS` polls; then TC (the last byte off the shift register, so a reset
+/// next does not cut it) within twice that bound. A byte that does not go out
 /// within its bound ends the frame. Nothing is sent before USART2 is configured.
 pub fn send_safe_frame() {
     let polls = FAULT_POLLS.load(Ordering::Relaxed);
