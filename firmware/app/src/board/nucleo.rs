@@ -20,9 +20,9 @@
 //!
 //! **Clocks** (`run`): HSI 16 MHz -> PLL (M 16, N 336, P 2, Q 7) -> SYSCLK 168 MHz,
 //! AHB 168 MHz, APB1 42 MHz (its timers 84 MHz), APB2 84 MHz, 48 MHz on PLL Q.
-//! embassy-stm32 sets voltage scale 1 and switches the over-drive on for any PLL
-//! clock on this part (`rcc/f247.rs`; 168 MHz would not need it), and 5 flash wait
-//! states; the board then switches the flash accelerator on (prefetch, instruction and
+//! embassy-stm32 sets voltage scale 1 (a PLL is used), switches the over-drive on
+//! whatever the clock (`rcc/f247.rs`, on this part always; 168 MHz would not need it)
+//! and sets 5 flash wait states; the board then switches the flash accelerator on (prefetch, instruction and
 //! data caches: `flash_accelerator_on`). Every clock figure the firmware uses is read
 //! from the configured tree at start-up (`embassy_stm32::rcc::clocks`), not assumed:
 //! the USART2 baud (checked against [`BAUD`], which the link budget needs at compile
