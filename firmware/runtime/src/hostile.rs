@@ -387,7 +387,7 @@ pub fn rows<T: SampleBits>(mut each: impl FnMut(Row)) -> Result<(), RuntimeError
         });
     };
     // The core's identity.
-    let wr = |r: Rates| with_rates(r);
+    let wr = with_rates;
     for (change, numeric) in [("the other sample type", n ^ 1), ("2", 2), ("255", 255)] {
         row(
             field(R::Numeric),
