@@ -1,10 +1,13 @@
 //! Project automation, run through cargo aliases (`.cargo/config.toml`):
 //!
-//! - `cargo xtest`: the test command. Does the set-up a fresh machine lacks (the MCU
-//!   targets, QEMU), checks that the `no_std` crates build for both Cortex-M targets,
-//!   builds the firmware and enforces its size budget, then runs
+//! - `cargo xtest`: the test command. Checks that every board build has the device
+//!   crates' features of the tested builds ([`features`]), does the set-up a fresh
+//!   machine lacks (the MCU targets, QEMU), checks that the `no_std` crates build for
+//!   both Cortex-M targets, builds the firmware and enforces its size budget, then runs
 //!   `cargo test --workspace` (with `REQUIRE_QEMU=1` when QEMU is there, so the
-//!   processor-in-the-loop smoke test cannot silently skip).
+//!   processor-in-the-loop smoke test cannot silently skip) and the device-feature run:
+//!   the wire crate's and the runtime's tests once more with the firmware's features
+//!   (the wire crate without `std`: its frames checked by the device's own CRC path).
 //! - `cargo fw [--f32]`: builds the board binaries for `thumbv7em-none-eabihf` with the
 //!   `fw` profile (release, LTO, size-optimised; the Nucleo build linked with flip-link,
 //!   installed when missing, in `target/flip-link`) and copies them to `target/fw/`:
@@ -52,6 +55,7 @@ macro_rules! outln {
 }
 
 mod bench;
+mod features;
 mod fuzz;
 mod readme;
 mod size;
@@ -366,6 +370,9 @@ fn fw(args: &[String]) -> Result<Vec<PathBuf>, String> {
 }
 
 fn test(extra: &[String]) -> Result<(), String> {
+    // Fast (cargo's resolution only): before anything is built.
+    let boards: Vec<&Firmware> = FIRMWARE.iter().chain(FIRMWARE_F32).collect();
+    features::check(&boards)?;
     ensure_targets()?;
     check_no_std()?;
     let elfs = build_firmware(FIRMWARE)?;
@@ -382,6 +389,14 @@ fn test(extra: &[String]) -> Result<(), String> {
         cmd.env("WHEELSET_QEMU_ELF", qemu_elf);
     }
     run(&mut cmd)?;
+    // The device's crates with the firmware's features (no `std` in the wire crate: the
+    // device's CRC path, the `RamCrc` table, under every framing test).
+    let mut device = cargo();
+    device.args(["test", "--no-fail-fast"]);
+    for p in features::DEVICE_TEST_PACKAGES {
+        device.args(["-p", p]);
+    }
+    run(device.args(extra))?;
     // The README: its generated figures against their commands, then its short
     // board-free commands against their stated exit codes (`cargo xtask readme`).
     if !readme::run(true, false)? {

@@ -86,9 +86,9 @@ impl<const N: usize> Pipe<N> {
 }
 
 /// Bytes the board's receive path lost since the control task last looked (the RX pipe
-/// was full; on the Nucleo, one per USART error event (overrun, framing, noise) plus
-/// every byte the receive DMA overwrote before it was read, `board::nucleo_usart`), for
-/// the Status `rx_overrun`.
+/// was full; on the Nucleo also one per receive error its UART driver reports, which
+/// cannot say how many bytes it lost: `board::nucleo`'s RX task), for the Status
+/// `rx_overrun`.
 pub static RX_OVERRUN: AtomicU32 = AtomicU32::new(0);
 
 /// The execution-time counter of a board.

@@ -1,8 +1,10 @@
 //! The wheelset controller firmware: the embassy task structure shared by the boards
 //! and the two board layers.
 //!
-//! - `wheelset-nucleo` (feature `board-nucleo`): Nucleo-F446RE, embassy-stm32, USART2 +
-//!   DMA, defmt over RTT, DWT cycle counter.
+//! - `wheelset-nucleo` (feature `board-nucleo`): Nucleo-F446RE on embassy-stm32's drivers
+//!   (clock tree, TIM2 time driver, USART2 with a DMA receive ring and DMA transmission,
+//!   independent watchdog), defmt over RTT, DWT cycle counter. **Not run on silicon
+//!   here**: it compiles, links and fits its budget (`cargo fw`); see `board::nucleo`.
 //! - `wheelset-qemu` (feature `board-qemu`): QEMU `mps2-an386`, the crate's own board
 //!   layer (`board`, built for the MCU only), frame-clocked lock-step, SysTick instruction counts, defmt over
 //!   semihosting.
@@ -14,6 +16,7 @@
 #![deny(missing_docs)]
 #![cfg_attr(test, allow(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
+pub mod bounded;
 pub mod config;
 pub mod device;
 pub mod exec;
@@ -22,15 +25,11 @@ pub mod ring;
 pub mod tick;
 #[cfg(target_os = "none")]
 pub mod watchdog;
-// The Nucleo time driver's arithmetic, tested on the host (on the board it is
-// `board::nucleo_time`).
+// The Nucleo's clock-tree checks, tested on the host (on the board they are
+// `board::nucleo_clock`).
 #[cfg(test)]
-#[path = "board/nucleo_time.rs"]
-mod nucleo_time;
-// The Nucleo USART2 + DMA driver's arithmetic, likewise (`board::nucleo_link`).
-#[cfg(test)]
-#[path = "board/nucleo_link.rs"]
-mod nucleo_link;
+#[path = "board/nucleo_clock.rs"]
+mod nucleo_clock;
 
 #[cfg(all(target_os = "none", feature = "board-nucleo", feature = "board-qemu"))]
 compile_error!("enable exactly one of the features `board-nucleo` and `board-qemu`");

@@ -2,7 +2,7 @@
 //! dozen bytes of Thumb-2 instead of `compiler_builtins`' unrolled versions.
 //!
 //! Why: `compiler_builtins`' `memcpy` with its `__aeabi_memcpy4/8` and
-//! `__aeabi_memclr4/8` variants took 1 390 B of the Nucleo build's 24 KiB flash
+//! `__aeabi_memclr4/8` variants took 1 390 B of the Nucleo build's flash
 //! (`arm-none-eabi-nm -S --size-sort target/fw/wheelset-nucleo.elf`); these take
 //! ~110 B. The frames the firmware copies and clears are at most `MAX_FRAME` bytes, so
 //! the unrolling bought little: the loops here move a word per 4 instructions when both

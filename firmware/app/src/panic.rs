@@ -1,9 +1,14 @@
-//! The panic handler: outputs to the safe state first, then halt.
+//! The panic and HardFault handlers: outputs to the safe state first, then the board's
+//! end of the path.
 //!
 //! No panic is reachable from input (frames are decoded without `unwrap`, indexing is
 //! checked); this is the last line of defence against a bug. With interrupts off it
-//! sends the safe actuation frame by polling the UART (the plant's actuators go to zero
-//! torque and zero traction demand), logs, and halts (QEMU: exits with a failure code).
+//! logs, sends the safe actuation frame by polling the UART (the plant's actuators go to
+//! zero torque and zero traction demand) and ends as the board's `panic_halt` says: the
+//! Nucleo records the cause FAULT and resets (SCB), whether or not its watchdog has
+//! started; QEMU exits with a failure code. On the Nucleo every wait of the path is
+//! bounded (`crate::bounded`): a UART that is not clocked or is wedged cannot keep it
+//! from the reset.
 
 use core::panic::PanicInfo;
 use core::sync::atomic::{AtomicBool, Ordering};
@@ -16,12 +21,10 @@ pub fn enter_halt() -> bool {
     HALTING.swap(true, Ordering::Relaxed)
 }
 
-/// The HardFault handler: the safe outputs first (as the panic handler), then the
-/// cause FAULT in the boot record (`crate::boot`), then a system reset (SYSRESETREQ):
-/// the board boots into its safe outputs, reports `reset_cause` FAULT with
-/// `FAULT_LATCHED`, and rejoins the loop. Every build, the Nucleo's included (it kept
-/// cortex-m-rt's default handler, a loop, while the build was at its old 25 KiB flash
-/// budget).
+/// The HardFault handler, every build: the safe outputs first (as the panic handler;
+/// bounded on the Nucleo), then the cause FAULT in the boot record (`crate::boot`), then
+/// a system reset (SYSRESETREQ), which ends the path: the board boots into its safe
+/// outputs, reports `reset_cause` FAULT with `FAULT_LATCHED`, and rejoins the loop.
 #[cortex_m_rt::exception(trampoline = false)]
 unsafe fn HardFault() -> ! {
     cortex_m::interrupt::disable();

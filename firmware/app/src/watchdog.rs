@@ -7,7 +7,7 @@
 //! [`take_both`] says both happened. So a stalled control task, a wedged receiver, or an
 //! interrupt storm that starves thread mode all stop the feeding, and the watchdog
 //! resets the board (timeouts: the board modules, `board::qemu::wdog` and
-//! `board::nucleo::iwdg`). The boards start their watchdog at the first time
+//! `board::nucleo::IWDG_TIMEOUT_US`). The boards start their watchdog at the first time
 //! [`take_both`] says yes (the host's first bytes and a tick after them), so a board
 //! waiting for its host is not reset; the QEMU lock-step build does not start it.
 

@@ -157,8 +157,8 @@
 //! computation, 70 % utilisation needs `610 bits / (0.7 T - 10 us)`: 4.7 Mbaud at 5 kHz,
 //! 10.2 Mbaud at 10 kHz. At the 2 Mbaud of a typical USB-serial bridge the largest rate
 //! that fits is 2.26 kHz, where the current loop is unstable: **the default needs a
-//! link of at least 5 Mbaud** (the STM32F446's USART1/6 on the 90 MHz APB2 reach
-//! 11.25 Mbaud with 8x oversampling; e.g. 6 Mbaud = 90 MHz / 15) or, at 2 Mbaud, a
+//! link of at least 5 Mbaud** (the Nucleo build's USART2, on APB1 at 42 MHz, makes
+//! 5.25 Mbaud with 8x oversampling and USARTDIV 1, its highest) or, at 2 Mbaud, a
 //! lower current-loop gain than the paper's. The one link budget,
 //! `wheelset_proto::link::link_fits` (integer, `const fn`: the rate table at 70 %, the
 //! device loop and hil at 85 % of the period), refuses a configuration that does not

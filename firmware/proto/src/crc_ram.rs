@@ -1,8 +1,7 @@
 //! CRC-32C with its byte-wise table in RAM, built on first use: the device's CRC.
 //!
-//! The `crc` crate's byte-wise table is a 1 KiB constant, i.e. 1 KiB of flash (4 % of
-//! the firmware's 24 KiB budget); RAM has room (the firmware uses about half of its
-//! 8 KiB). Same algorithm as `crc::CRC_32_ISCSI` (reflected polynomial `0x82F63B78`,
+//! The `crc` crate's byte-wise table is a 1 KiB constant, i.e. 1 KiB of flash; here it
+//! is 1 KiB of `.bss` instead. Same algorithm as `crc::CRC_32_ISCSI` (reflected polynomial `0x82F63B78`,
 //! initial value and final XOR `0xFFFFFFFF`), same per-byte work (one table load, a
 //! shift and two XORs); the table is filled in zero-initialised RAM by the first
 //! checksum (about 10 000 instructions on the Cortex-M4: `wheelset-runtime` makes that

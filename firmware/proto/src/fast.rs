@@ -6,7 +6,7 @@
 //! Why: in the host's closed loop (one Sensor and one Actuation frame each way per
 //! 200 us tick) postcard's serialize took ~240 and its deserialize ~200 instructions per
 //! frame (callgrind), more than the CRC and COBS together; on the device, postcard and
-//! serde's code for [`Config`] and [`Command`] cost ~1.2 KiB of the 24 KiB flash budget.
+//! serde's code for [`Config`] and [`Command`] cost ~1.2 KiB of flash.
 //! Each message has its own function, so the device links only the ones it uses.
 //!
 //! One file of ~600 lines on purpose: the writer ([`Out`]) and the reader ([`In`]) of each

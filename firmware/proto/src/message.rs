@@ -295,7 +295,9 @@ pub struct Status {
     pub ticks_late: u32,
     /// Board: deadlines that passed without a tick (the ticker skipped them).
     pub ticks_missed: u32,
-    /// Board: bytes lost to a UART receive overrun (or a full receive buffer).
+    /// Board: bytes lost on receive: each byte a full receive buffer had no room for,
+    /// and one per UART receive error (overrun, framing, noise, parity) whose lost bytes
+    /// the board's driver cannot count (the Nucleo's).
     pub rx_overrun: u32,
     /// Board: transmit frames dropped because the previous one was still being sent.
     pub tx_dropped: u32,

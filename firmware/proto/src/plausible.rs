@@ -102,8 +102,9 @@ pub enum RefuseReason {
     /// A value's bit pattern is not valid for the sample type (the control core's format
     /// check, after every range above passed).
     Bits = 17,
-    /// A switch this build of the device does not have: `wsp` or `monitor_safe` on a
-    /// firmware built without the wheel-slip protection or the stability monitor.
+    /// A request this build of the device does not honour: a test-only fault injection
+    /// ([`crate::Command::InjectStall`], [`crate::Command::InjectHardFault`]) on a build
+    /// without it. (Every build takes every Config switch: `wsp`, `monitor_safe`.)
     Unsupported = 18,
 }
 
@@ -165,7 +166,7 @@ impl RefuseReason {
             Self::AccGain => "rates.acc_gain_q32",
             Self::AccLeak => "rates.acc_leak_q32",
             Self::Bits => "rates (bit pattern)",
-            Self::Unsupported => "wsp / monitor_safe (not in this build)",
+            Self::Unsupported => "request (not honoured by this build)",
         }
     }
 }
@@ -328,7 +329,7 @@ pub const PLAUSIBLE: [Plausible; 18] = [
         min: f64::NAN,
         max: f64::NAN,
         unit: "-",
-        why: "wsp or monitor_safe on a firmware built without the protection or the monitor (the Nucleo build, for flash)",
+        why: "a test-only fault injection on a build that does not honour it",
     },
 ];
 

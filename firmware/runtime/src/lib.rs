@@ -98,6 +98,10 @@
 //! `torque_step` per yaw step, 40 N m per tick by default, until the new law's output is
 //! reached: bumpless).
 //!
+//! [`hostile`] is the table of Configs a device must refuse (each with its reason) and
+//! apply, with the procedure and judgement that tries them on the host runtime and on
+//! the firmware alike.
+//!
 //! Counters ([`RuntimeCounters`] = the [`Status`] message) go out in a Status frame after
 //! the next actuation frame when a [`Command::RequestStatus`] arrives;
 //! [`Command::ResetCounters`] zeroes them.
@@ -111,6 +115,7 @@ use wheelset_proto::MAX_FRAME;
 mod acc;
 mod bits;
 mod hold;
+pub mod hostile;
 mod runtime;
 mod validate;
 

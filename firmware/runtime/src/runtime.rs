@@ -53,7 +53,6 @@ pub struct Runtime<T: Sample> {
     /// The latest Sensor frame's reference speed code while the wheel-slip protection
     /// is off (not yet given to the core, whose only reader of it is the protection):
     /// given by the Config that switches the protection on (`receive`).
-    #[cfg(feature = "wsp")]
     v_ref_held: Option<i32>,
     /// The latest sample carried only `y''` (codes of 0.1 mm/s^2): integrate it.
     acc: Option<i32>,
@@ -79,7 +78,6 @@ pub struct Runtime<T: Sample> {
     rx_event: Option<RxEvent>,
     rx_events_after: u32,
     /// The stability monitor and its state.
-    #[cfg_attr(not(feature = "monitor"), allow(dead_code))]
     monitor: Monitor<T>,
     mon: MonitorState<T>,
     /// A stability alarm holds the safe state (`Config.monitor_safe`) until
@@ -151,7 +149,6 @@ impl<T: SampleBits> Runtime<T> {
             decoder: Decoder::new(),
             rx_sensor: Sensor::ZERO,
             sample: None,
-            #[cfg(feature = "wsp")]
             v_ref_held: None,
             acc: None,
             vel_q32: 0,
@@ -259,7 +256,6 @@ impl<T: SampleBits> Runtime<T> {
         }
         // The sample in per-unit, decoded once for the monitor and the core.
         let inp = self.sample.map(|s| self.core.codec().decode(&s));
-        #[cfg(feature = "monitor")]
         if let Some(inp) = &inp {
             let commanding = self.enabled
                 && !self.hold.is_safe()
@@ -282,19 +278,15 @@ impl<T: SampleBits> Runtime<T> {
                     self.core.preset_back_emf(inp.speed);
                     inp.current = T::ZERO;
                 }
-                #[cfg(all(feature = "monitor", feature = "wsp"))]
                 let wsp_was = self.core.wsp_state().active;
                 let out = self.core.tick(&inp);
                 events = self.core.tick_events();
-                #[cfg(all(feature = "monitor", feature = "wsp"))]
-                {
-                    // The protection cut the traction on this tick (its cut at detection):
-                    // a traction step the device made itself, which the actuator check
-                    // does not take for a failed actuator (wheelset_control::monitor, the
-                    // rule for such steps).
-                    if self.core.wsp_state().active && !wsp_was {
-                        self.monitor.traction_step(&mut self.mon);
-                    }
+                // The protection cut the traction on this tick (its cut at detection): a
+                // traction step the device made itself, which the actuator check does not
+                // take for a failed actuator (wheelset_control::monitor, the rule for such
+                // steps).
+                if self.core.wsp_state().active && !wsp_was {
+                    self.monitor.traction_step(&mut self.mon);
                 }
                 let o = self.core.codec().encode(&out);
                 (o.yaw_torque, o.voltage)
@@ -327,7 +319,6 @@ impl<T: SampleBits> Runtime<T> {
             core::mem::replace(&mut self.rx_error, false),
         );
         flags.set(Flags::CMD_REFUSED, self.refused);
-        #[cfg(feature = "wsp")]
         flags.set(Flags::WHEEL_SLIP, self.core.wheel_slip());
         flags.set(Flags::FAULT_LATCHED, self.fault_latched);
         self.counters.flags = flags;
@@ -350,8 +341,8 @@ impl<T: SampleBits> Runtime<T> {
     }
 
     /// The core's events of one tick into the runtime's counters: `yaw_sat`,
-    /// `traction_sat`, `input_clamped` (invalid and clamped inputs) and, with `wsp`,
-    /// `wsp_ticks` and `wsp_events` (cold: normal running has no events).
+    /// `traction_sat`, `input_clamped` (invalid and clamped inputs), `wsp_ticks` and
+    /// `wsp_events` (cold: normal running has no events).
     #[cold]
     #[inline(never)]
     fn count_events(&mut self, ev: TickEvents) {
@@ -361,16 +352,12 @@ impl<T: SampleBits> Runtime<T> {
             .traction_sat
             .wrapping_add(u32::from(ev.traction_saturated()));
         c.input_clamped = c.input_clamped.wrapping_add(ev.inputs());
-        #[cfg(feature = "wsp")]
-        {
-            c.wsp_ticks = c.wsp_ticks.wrapping_add(u32::from(ev.wsp_acting()));
-            c.wsp_events = c.wsp_events.wrapping_add(u32::from(ev.wsp_started()));
-        }
+        c.wsp_ticks = c.wsp_ticks.wrapping_add(u32::from(ev.wsp_acting()));
+        c.wsp_events = c.wsp_events.wrapping_add(u32::from(ev.wsp_started()));
     }
 
     /// A stability alarm rose: counted, the fault latched, and with `monitor_safe` the
     /// safe state held from the next tick until [`Command::ClearFaults`].
-    #[cfg(feature = "monitor")]
     #[inline(never)]
     fn on_alarm(&mut self, hunting: bool, actuator: bool) {
         let c = &mut self.counters;

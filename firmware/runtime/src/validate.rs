@@ -125,15 +125,10 @@ pub(crate) fn check_rates<T: SampleBits>(r: &Rates, r0: &Reference) -> Result<()
             return Err(R::PredictHalf);
         }
     }
-    if cfg!(feature = "coefficient-check") {
-        check_coefficients::<T>(r, r0)
-    } else {
-        Ok(())
-    }
+    check_coefficients::<T>(r, r0)
 }
 
-/// The rate-dependent coefficients against the start-up core's at the requested rates
-/// (feature `coefficient-check`: see the crate's `Cargo.toml`).
+/// The rate-dependent coefficients against the start-up core's at the requested rates.
 fn check_coefficients<T: SampleBits>(r: &Rates, r0: &Reference) -> Result<(), RefuseReason> {
     use RefuseReason as R;
     let hz = r.base_rate_hz;

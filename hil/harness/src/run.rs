@@ -190,8 +190,7 @@ pub struct RunOptions {
     /// result.
     pub params: Params,
     /// Wheel-slip protection of the device (`--wsp on|off`, sent as `Config.wsp`); `None`:
-    /// on (every firmware build has the `wsp` feature; one without it refuses the Config
-    /// with `Unsupported`, reported as such).
+    /// on (every firmware build has the protection).
     pub wsp: Option<bool>,
     /// A stability alarm holds the device's safe state until `ClearFaults`
     /// (`--monitor-safe`, sent as `Config.monitor_safe`).

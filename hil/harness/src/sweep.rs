@@ -16,11 +16,24 @@
 //! runs the same seed of the link's faults: the grid and the seeds fix the result, and
 //! the records do not depend on the number of threads, shards or machines.
 //!
+//! # Shards, job arrays and the merge
+//!
 //! `--shard I/N` runs the points `i` with `i mod N = I`; [`merge`] joins the shards'
-//! documents into the one document a single run writes (same header, the records of
-//! every point once, in index order, the summary recomputed).
+//! documents into the one document a single run writes, byte for byte (same header, the
+//! records of every point once, in index order, the summary recomputed). On a cluster
+//! each shard is one task of a job array ([`shard`] module: `--shard auto` reads Slurm's
+//! `SLURM_ARRAY_TASK_*` variables, `--shard auto/N` Kubernetes' `JOB_COMPLETION_INDEX`),
+//! and the merge is a job that depends on the array; `hil/slurm/` holds the job scripts.
+//!
+//! A scheduler may kill a task and run it again (node failure, preemption, `scontrol
+//! requeue`), so a shard's document is written atomically ([`atomic`]): the merge sees
+//! it whole or not at all. Each header carries the campaign's [`Identity`]: the digests
+//! of the `hil` binary, of the firmware ELF under QEMU and of the scenario, parameter
+//! and budget files, so the merge refuses a shard of another build or of edited inputs,
+//! naming the file and the field. The documents hold no timing (no wall time, no
+//! throughput): what the grid and the seed fix is all they hold, which is what makes the
+//! merged document equal the single run's.
 
-use std::collections::BTreeSet;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::mpsc;
 
@@ -31,9 +44,16 @@ use wheelset_plant::scenario::Scenario;
 use crate::run::{run, RunError, RunOptions, RunReport};
 use wheelset_report::Verdict;
 
+pub mod atomic;
 pub mod document;
 mod grid;
+mod identity;
+mod merge;
+pub mod shard;
 pub use grid::*;
+pub use identity::*;
+pub use merge::merge;
+pub use shard::{resolve, Shard, ShardSpec};
 
 /// What fixes a campaign's result: the first part of its document, equal in every shard.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -48,9 +68,10 @@ pub struct Header {
     pub faults: String,
     /// The seed of the link's faults, the same at every point.
     pub seed: u64,
-    /// `--params FILE` as given (None: the paper's parameters).
+    /// `--params FILE` as given (None: the paper's parameters; its content is
+    /// `identity.params_sha256`).
     pub params_file: Option<String>,
-    /// `--budget FILE` as given.
+    /// `--budget FILE` as given (its content is `identity.budget_sha256`).
     pub budget_file: Option<String>,
     /// `--set` overrides as given.
     pub sets: Vec<String>,
@@ -60,6 +81,8 @@ pub struct Header {
     pub follows: Vec<(String, String)>,
     /// Grid points in all.
     pub points: usize,
+    /// The build and the input files by content.
+    pub identity: Identity,
 }
 
 /// One failing (or warning) check of a point.
@@ -306,7 +329,7 @@ pub fn run_campaign(
     let mine: Vec<(usize, &(Point, Params))> = all
         .iter()
         .enumerate()
-        .filter(|(i, _)| shard.is_none_or(|s| i % s.count == s.index))
+        .filter(|(i, _)| shard.is_none_or(|s| s.holds(*i)))
         .collect();
     let total = mine.len();
     let next = AtomicUsize::new(0);
@@ -353,58 +376,6 @@ pub fn run_campaign(
     Ok(SweepDoc {
         sweep: c.header.clone(),
         shard: shard.filter(|s| s.count > 1),
-        summary: Summary::of(&records),
-        records,
-    })
-}
-
-/// Joins shard documents into the document of a single run: the same header in every
-/// part, every point exactly once. The error says which file breaks which rule.
-pub fn merge(parts: &[(String, SweepDoc)]) -> Result<SweepDoc, String> {
-    let Some((first_name, first)) = parts.first() else {
-        return Err("merge: no documents given".into());
-    };
-    let mut records = Vec::new();
-    for (name, d) in parts {
-        if d.sweep != first.sweep {
-            return Err(format!(
-                "merge: {name} is of another campaign than {first_name} (their `sweep` headers differ)"
-            ));
-        }
-        records.extend(d.records.iter().cloned());
-    }
-    records.sort_by_key(|r| r.index);
-    let n = first.sweep.points;
-    for w in records.windows(2) {
-        if w[0].index == w[1].index {
-            return Err(format!(
-                "merge: point {} is in more than one document",
-                w[0].index
-            ));
-        }
-    }
-    if let Some(r) = records.iter().find(|r| r.index >= n) {
-        return Err(format!(
-            "merge: point {} is outside the grid of {n}",
-            r.index
-        ));
-    }
-    if records.len() != n {
-        let have: BTreeSet<usize> = records.iter().map(|r| r.index).collect();
-        let missing: Vec<String> = (0..n)
-            .filter(|i| !have.contains(i))
-            .take(8)
-            .map(|i| i.to_string())
-            .collect();
-        return Err(format!(
-            "merge: {} of {n} points are missing (first: {}); is a shard left out?",
-            n - records.len(),
-            missing.join(", ")
-        ));
-    }
-    Ok(SweepDoc {
-        sweep: first.sweep.clone(),
-        shard: None,
         summary: Summary::of(&records),
         records,
     })

@@ -75,15 +75,9 @@ impl fmt::Display for DeviceError {
             Self::Sim(e) => write!(f, "device loop: {e}"),
             Self::Refused(why, c) => write!(
                 f,
-                "the device refused the run's Config (wsp {}, monitor_safe {}): {why}{}",
+                "the device refused the run's Config (wsp {}, monitor_safe {}): {why}",
                 on_off(c.wsp),
                 on_off(c.monitor_safe),
-                if *why == wheelset_proto::RefuseReason::Unsupported {
-                    " (a build without the `wsp`/`monitor` runtime features cannot run \
-                     them: --wsp off, no --monitor-safe)"
-                } else {
-                    ""
-                }
             ),
         }
     }

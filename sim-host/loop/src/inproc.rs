@@ -196,8 +196,7 @@ impl<T: SampleBits> InProc<T> {
     /// (decoded, validated, applied or refused exactly as over the link), then a
     /// `ResetCounters` so the run's counters (and the link's frame accounting) start from
     /// zero. Out of band: no byte of it is on the simulated link, so the first period's
-    /// timing is the run's own. Refused: the reason the runtime gave
-    /// (`RefuseReason::Unsupported` from a build without the `wsp` or `monitor` feature).
+    /// timing is the run's own. Refused: the reason the runtime gave.
     pub fn configure(
         &mut self,
         cfg: &wheelset_proto::Config,

@@ -247,7 +247,7 @@ fn low_adhesion_protection_is_switched_by_the_config() {
 #[test]
 fn a_refused_config_is_an_error_naming_it() {
     let e = DeviceError::Refused(
-        wheelset_proto::RefuseReason::Unsupported,
+        wheelset_proto::RefuseReason::HoldTicks,
         wheelset_proto::Config {
             mode: wheelset_proto::YawMode::Lead,
             traction: true,
@@ -259,7 +259,10 @@ fn a_refused_config_is_an_error_naming_it() {
         },
     )
     .to_string();
-    assert!(e.contains("wsp on") && e.contains("--wsp off"), "{e}");
+    assert!(
+        e.contains("wsp on") && e.contains(wheelset_proto::RefuseReason::HoldTicks.field()),
+        "{e}"
+    );
 }
 
 /// `Config.monitor_safe` and `Command::ClearFaults` from the host (issue 12): on

@@ -12,9 +12,14 @@ fn main() -> ! {
 fn main() {
     use wheelset_fw::config;
     println!(
-        "wheelset-nucleo: Nucleo-F446RE firmware; base rate {} Hz, {} build, USART2 (ST-LINK VCP)",
+        "wheelset-nucleo: Nucleo-F446RE firmware; base rate {} Hz, {} build, USART2 ({})",
         config::BASE_RATE_HZ,
-        config::NUMERIC
+        config::NUMERIC,
+        if cfg!(feature = "frame-clock") {
+            "ST-LINK VCP at 921600 baud, frame-clocked"
+        } else {
+            "Arduino D1/D0 at 5.25 Mbaud, free-running"
+        }
     );
     println!(
         "build it with `cargo fw` (target/fw/wheelset-nucleo.elf), flash with `cargo flash-board`"

@@ -3,13 +3,7 @@
 #[cfg(feature = "board-nucleo")]
 pub mod nucleo;
 #[cfg(feature = "board-nucleo")]
-pub mod nucleo_link;
-#[cfg(feature = "board-nucleo")]
-pub mod nucleo_tim2;
-#[cfg(feature = "board-nucleo")]
-pub mod nucleo_time;
-#[cfg(feature = "board-nucleo")]
-pub mod nucleo_usart;
+pub mod nucleo_clock;
 #[cfg(feature = "board-nucleo")]
 pub use nucleo::{panic_halt, run, send_safe_frame, set_period, LINK_MAX_RATE_HZ};
 

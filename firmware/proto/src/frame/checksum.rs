@@ -218,6 +218,38 @@ mod tests {
         assert_eq!(slice16(b"123456789"), 0xE306_9283);
     }
 
+    /// This build's frame CRC, as the encoder and the streaming decoder use it, against
+    /// the `crc` crate: with `std` the host's slice-by-16, without it the device's RAM
+    /// table (`cargo xtest` runs this crate's tests without `std` too, so both are
+    /// tested on the host).
+    #[test]
+    fn the_frame_crc_of_this_build_is_the_crc_crates() {
+        #[cfg(not(feature = "std"))]
+        let _: &crate::RamCrc = &CRC;
+        let reference = crc::Crc::<u32, crc::NoTable>::new(&crc::CRC_32_ISCSI);
+        let mut x = 0x9E37_79B9u32;
+        let mut data = [0u8; crate::MAX_RAW];
+        for d in &mut data {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            *d = x as u8;
+        }
+        crc_ready();
+        for len in 0..=data.len() {
+            let d = &data[..len];
+            let want = reference.checksum(d);
+            assert_eq!(crc32c(d), want, "{len} bytes");
+            assert_eq!(CRC.checksum(d), want, "{len} bytes");
+            // The decoder's register over the bytes and their CRC ends at the residue.
+            let reg = d
+                .iter()
+                .chain(&want.to_le_bytes())
+                .fold(!0u32, |r, &b| crc_byte(r, b));
+            assert_eq!(reg, CRC_RESIDUE, "{len} bytes");
+        }
+    }
+
     #[test]
     fn the_const_step_is_the_table_step() {
         crc_ready();

@@ -2,9 +2,7 @@
 //! counted by kind, Sensor frames taken as the latest sample, Config (with its
 //! [`Rates`]) and Command frames validated and applied or refused.
 
-#[cfg(feature = "monitor")]
-use wheelset_control::MonitorState;
-use wheelset_control::{Controller, InputCodes, SampleBits, ScheduleBits};
+use wheelset_control::{Controller, InputCodes, MonitorState, SampleBits, ScheduleBits};
 use wheelset_proto::{FrameError, Lateral, NextFrame, RefuseReason, Request};
 
 use crate::validate;
@@ -146,10 +144,8 @@ impl<T: SampleBits> Runtime<T> {
         // The reference speed's only reader is the protection's step: converted for the
         // core (a scaling and a clamp) only while the protection is on, else held and
         // given to the core by the Config that switches it on (`on_config`), so the core
-        // steps on the same `w_ref` either way. Measured with `cargo xtask fw-bench`
-        // (protection off, the default), whole tick mean: M4 fixed 1 714 -> 1 683, f32
-        // 1 573 -> 1 556, M3 fixed 1 754 -> 1 720 (Nucleo flash +52 B, `cargo fw`).
-        #[cfg(feature = "wsp")]
+        // steps on the same `w_ref` either way, and a tick with the protection off does
+        // no conversion (`cargo xtask fw-bench` measures the tick).
         if self.core.wsp_enabled() {
             self.core.set_v_ref_code(s.v_ref_mm_s);
         } else {
@@ -166,15 +162,9 @@ impl<T: SampleBits> Runtime<T> {
 
     #[inline(never)]
     fn on_config(&mut self, c: &Config) {
-        let unsupported =
-            (c.wsp && !cfg!(feature = "wsp")) || (c.monitor_safe && !cfg!(feature = "monitor"));
-        let checked = if unsupported {
-            Err(RefuseReason::Unsupported)
-        } else {
-            match &c.rates {
-                Some(r) => self.apply_rates(r, c.hold_ticks),
-                None => validate::check_hold(c.hold_ticks, self.base_rate_hz()),
-            }
+        let checked = match &c.rates {
+            Some(r) => self.apply_rates(r, c.hold_ticks),
+            None => validate::check_hold(c.hold_ticks, self.base_rate_hz()),
         };
         if let Err(why) = checked {
             self.refuse(why);
@@ -187,16 +177,13 @@ impl<T: SampleBits> Runtime<T> {
         }
         self.core.set_mode(c.mode);
         self.core.set_traction(c.traction);
-        #[cfg(feature = "wsp")]
-        {
-            self.core.set_wsp(c.wsp);
-            // The latest reference speed received while the protection was off (for
-            // this core: `apply_rates` drops it with the core it replaces), as
-            // `on_sensor` would have given it.
-            if c.wsp {
-                if let Some(code) = self.v_ref_held.take() {
-                    self.core.set_v_ref_code(code);
-                }
+        self.core.set_wsp(c.wsp);
+        // The latest reference speed received while the protection was off (for this
+        // core: `apply_rates` drops it with the core it replaces), as `on_sensor` would
+        // have given it.
+        if c.wsp {
+            if let Some(code) = self.v_ref_held.take() {
+                self.core.set_v_ref_code(code);
             }
         }
         self.monitor_safe = c.monitor_safe;
@@ -262,19 +249,13 @@ impl<T: SampleBits> Runtime<T> {
         let wsp = self.core.wsp_enabled();
         self.core = Controller::new(&law);
         // The new core has no reference speed (0) until the next Sensor frame.
-        #[cfg(feature = "wsp")]
-        {
-            self.v_ref_held = None;
-        }
+        self.v_ref_held = None;
         self.core.continue_from(t_psi);
         if wsp {
             self.core.set_wsp(true);
         }
-        #[cfg(feature = "monitor")]
-        {
-            self.monitor.retime(r.base_rate_hz);
-            self.mon = MonitorState::default();
-        }
+        self.monitor.retime(r.base_rate_hz);
+        self.mon = MonitorState::default();
         self.acc_gain_q32 = g;
         self.leak_q32 = l;
         if self.hold.is_safe() {

@@ -105,7 +105,7 @@ pub(crate) struct RunArgs {
     #[arg(long)]
     quiet: bool,
     /// Wheel-slip protection of the device, sent as `Config.wsp` before the run
-    /// [default: on; a firmware build without it refuses with Unsupported, reported].
+    /// [default: on].
     #[arg(long, value_enum)]
     wsp: Option<OnOffArg>,
     /// A stability alarm holds the device's safe state until `ClearFaults`

@@ -73,9 +73,12 @@ pub(crate) struct SweepArgs {
     #[arg(long = "set", value_name = "KEY=VALUE")]
     sets: Vec<String>,
     /// Run only shard I of N (the points i with i mod N = I, from 0); join the parts
-    /// with `hil sweep merge`.
-    #[arg(long, value_name = "I/N", value_parser = parse_shard)]
-    shard: Option<hil::sweep::Shard>,
+    /// with `hil sweep merge`. `auto`: I and N from a Slurm array task
+    /// (SLURM_ARRAY_TASK_ID, _MIN, _STEP, _COUNT; the default inside one); `auto/N`: I
+    /// from Kubernetes' JOB_COMPLETION_INDEX (or Slurm's); `all`: every point, whatever
+    /// the environment.
+    #[arg(long, value_name = "I/N|auto|auto/N|all", value_parser = parse_shard)]
+    shard: Option<hil::sweep::ShardSpec>,
     /// Threads (default: every core allowed).
     #[arg(long, value_name = "N")]
     jobs: Option<usize>,
@@ -95,8 +98,18 @@ pub(crate) fn parse_axis(s: &str) -> Result<hil::sweep::Axis, String> {
     s.parse()
 }
 
-pub(crate) fn parse_shard(s: &str) -> Result<hil::sweep::Shard, String> {
+pub(crate) fn parse_shard(s: &str) -> Result<hil::sweep::ShardSpec, String> {
     s.parse()
+}
+
+/// The test hook of `hil::sweep::atomic::write_atomic`: while the file named by this
+/// variable exists, a document waits between its temporary file and the rename.
+const HOLD_VAR: &str = "HIL_SWEEP_TEST_HOLD";
+
+/// An environment variable as text (a non-UTF-8 value is kept lossily, so that its
+/// parse fails naming it rather than reading as unset).
+fn env_var(name: &str) -> Option<String> {
+    std::env::var_os(name).map(|v| v.to_string_lossy().into_owned())
 }
 
 pub(crate) fn parse_sweep_target(s: &str) -> Result<Target, String> {
@@ -115,12 +128,9 @@ pub(crate) fn cmd_sweep(c: &SweepCmd, command: &str) -> Result<Verdict, Failure>
     use hil::sweep;
     let write =
         |doc: &sweep::SweepDoc, json: &std::path::Path, report_dir: Option<&std::path::Path>| {
-            if let Some(d) = json.parent().filter(|d| !d.as_os_str().is_empty()) {
-                std::fs::create_dir_all(d)
-                    .map_err(|e| input(format!("{}: cannot create: {e}", d.display())))?;
-            }
-            std::fs::write(json, sweep::to_json(doc))
-                .map_err(|e| input(format!("{}: cannot write: {e}", json.display())))?;
+            let hold = std::env::var_os(HOLD_VAR).map(std::path::PathBuf::from);
+            sweep::atomic::write_atomic(json, sweep::to_json(doc).as_bytes(), hold.as_deref())
+                .map_err(input)?;
             say!("json: {}", json.display());
             if let Some(d) = report_dir {
                 let files = hil::sweep::document::write_sweep_report(doc, d, command)
@@ -187,6 +197,7 @@ pub(crate) fn cmd_sweep(c: &SweepCmd, command: &str) -> Result<Verdict, Failure>
         .as_deref()
         .ok_or_else(|| input("--json FILE: needed"))?;
     let points = sweep::check_axes(&a.axes).map_err(input)?;
+    let shard = sweep::resolve(a.shard, &env_var).map_err(input)?;
     let jobs = match a.jobs {
         Some(0) => return Err(input("--jobs 0: at least one thread")),
         Some(n) => n,
@@ -200,6 +211,7 @@ pub(crate) fn cmd_sweep(c: &SweepCmd, command: &str) -> Result<Verdict, Failure>
     }
     let budgets = Budgets::load(a.budget.as_deref(), &a.sets).map_err(|e| input(e.to_string()))?;
     let params = load_params(a.params.as_deref())?;
+    let identity = identity(a)?;
     let law = match a.control {
         Control::Passive => Law::Passive,
         Control::Gain => Law::Gain,
@@ -244,6 +256,7 @@ pub(crate) fn cmd_sweep(c: &SweepCmd, command: &str) -> Result<Verdict, Failure>
             axes: a.axes.clone(),
             follows: sweep::followers(&a.axes),
             points,
+            identity,
         },
     };
     let bar = (!a.quiet && std::io::stderr().is_terminal()).then(|| {
@@ -263,9 +276,51 @@ pub(crate) fn cmd_sweep(c: &SweepCmd, command: &str) -> Result<Verdict, Failure>
             pb.set_position(done as u64);
         }
     };
-    let doc = sweep::run_campaign(&campaign, a.shard, jobs, &mut tick).map_err(run_error)?;
+    if let Some(sh) = shard.filter(|_| !matches!(a.shard, Some(sweep::ShardSpec::Fixed(_)))) {
+        say!("shard: {sh} (from the job array's environment)");
+    }
+    let doc = sweep::run_campaign(&campaign, shard, jobs, &mut tick).map_err(run_error)?;
     if let Some(pb) = &bar {
         pb.finish_and_clear();
     }
     write(&doc, json, a.report.as_deref())
+}
+
+/// The campaign's identity: the digests of this binary, of the ELF under QEMU and of the
+/// scenario, parameter and budget files. An unreadable input file is a bad flag (exit
+/// 2); an unreadable ELF or binary, a target that cannot be used (exit 3).
+fn identity(a: &SweepArgs) -> Result<hil::sweep::Identity, Failure> {
+    use hil::sweep::{exe_sha256, file_sha256};
+    let target = |msg: String| Failure { code: 3, msg };
+    let file = |flag: &str, p: &Option<PathBuf>| {
+        p.as_deref()
+            .map(file_sha256)
+            .transpose()
+            .map_err(|e| input(format!("{flag}: {e}")))
+    };
+    let scenario = std::path::Path::new(&a.scenario);
+    Ok(hil::sweep::Identity {
+        hil_version: env!("CARGO_PKG_VERSION").to_string(),
+        hil_sha256: exe_sha256().map_err(target)?,
+        elf_sha256: match a.target {
+            Target::Qemu => Some(
+                file_sha256(&wheelset_targets::qemu::QemuConfig::default_elf())
+                    .map_err(|e| target(format!("the firmware ELF: {e}")))?,
+            ),
+            _ => None,
+        },
+        // A built-in scenario is part of the binary; a name that is neither is refused
+        // by the run with the list of built-ins.
+        scenario_sha256: if wheelset_plant::scenario::BUILTIN
+            .iter()
+            .any(|(n, _)| *n == a.scenario)
+            || !scenario.exists()
+        {
+            None
+        } else {
+            Some(file_sha256(scenario).map_err(|e| input(format!("--scenario: {e}")))?)
+        },
+        params_sha256: file("--params", &a.params)?,
+        budget_sha256: file("--budget", &a.budget)?,
+    })
 }

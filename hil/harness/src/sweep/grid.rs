@@ -1,8 +1,7 @@
-//! The grid of a campaign: the `--param` axes, the `--shard` parts, the points in index
-//! order and the keys that follow an axis (see the module docs of [`crate::sweep`]).
+//! The grid of a campaign: the `--param` axes, the points in index order and the keys
+//! that follow an axis (see the module docs of [`crate::sweep`]).
 
 use std::collections::BTreeSet;
-use std::fmt;
 use std::str::FromStr;
 
 use serde::{Deserialize, Serialize};
@@ -110,49 +109,6 @@ impl FromStr for Axis {
             key: key.to_string(),
             values,
         })
-    }
-}
-
-/// `--shard I/N`: the points `i` with `i mod N = I`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub struct Shard {
-    /// `I`, from 0.
-    pub index: usize,
-    /// `N`, at least 1.
-    pub count: usize,
-}
-
-impl FromStr for Shard {
-    type Err = String;
-
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        let parse = |x: &str, what: &str| {
-            x.trim().parse::<usize>().map_err(|_| {
-                format!("`{s}`: {what} `{x}` is not a whole number (expected I/N, e.g. 0/4)")
-            })
-        };
-        let Some((i, n)) = s.split_once('/') else {
-            return Err(format!(
-                "`{s}`: expected I/N (shard I of N, from 0), e.g. 0/4"
-            ));
-        };
-        let (index, count) = (parse(i, "I")?, parse(n, "N")?);
-        if count == 0 {
-            return Err(format!("`{s}`: N must be at least 1"));
-        }
-        if index >= count {
-            return Err(format!(
-                "`{s}`: I must be below N (the shards of {count} are 0..{})",
-                count - 1
-            ));
-        }
-        Ok(Shard { index, count })
-    }
-}
-
-impl fmt::Display for Shard {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}/{}", self.index, self.count)
     }
 }
 

@@ -65,16 +65,6 @@ impl RealTime {
         let s = self.await_status("the Config frame")?;
         if s.flags.has(Flags::CMD_REFUSED) {
             let why = wheelset_proto::RefuseReason::from_code(s.refuse_reason);
-            if why == Some(wheelset_proto::RefuseReason::Unsupported) {
-                return Err(TransportError::Unavailable(format!(
-                    "{}: the device refused the run's Config (wsp {}, monitor_safe {}) \
-                     as Unsupported: its build lacks the `wsp`/`monitor` runtime features; run \
-                     with --wsp off and without --monitor-safe",
-                    self.path,
-                    if cfg.wsp { "on" } else { "off" },
-                    if cfg.monitor_safe { "on" } else { "off" }
-                )));
-            }
             return Err(TransportError::Unavailable(format!(
                 "{}: the device refused the run's configuration (Status cmd_refused \
                  {}, reason {}): another sample type or control core than this harness's \

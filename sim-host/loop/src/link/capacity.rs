@@ -18,8 +18,8 @@ pub struct LinkConfig {
     pub seed: u64,
 }
 
-/// Default baud: 5 Mbaud. The STM32F446's USART1/6 on the 90 MHz APB2 reach it exactly
-/// (OVER8 = 1, USARTDIV = 90 MHz / (8 x 5 Mbaud) = 2.25); it carries the default 5 kHz
+/// Default baud: 5 Mbaud, a round figure just below the Nucleo build's 5.25 Mbaud (USART2
+/// on APB1 at 42 MHz, OVER8 = 1, USARTDIV 1: its highest); it carries the default 5 kHz
 /// round trip of the worst-case frames (43 + 30 bytes, 146 us + 2 x 2 us of latency) within
 /// the 85 % share (170 us; see [`check_budget`]). 4 Mbaud (183 us) no longer does since
 /// wire version 2 (the reference speed and 16-bit flags).
