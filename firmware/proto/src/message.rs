@@ -43,7 +43,17 @@ pub struct Sensor {
     /// Vehicle reference speed `v` in mm/s ([`crate::units::V_REF_LSB_M_PER_S`]),
     /// positive forwards, from a source independent of this wheelset's drive (the
     /// train's speed estimate): what the wheel-slip protection compares the wheel's
-    /// circumferential speed with. 0: unknown (the protection then does not act).
+    /// circumferential speed with.
+    ///
+    /// **0 means unknown** (a speed estimate that dropped out). While it is unknown the
+    /// protection neither detects nor regulates: no [`Flags::WHEEL_SLIP`], no cut,
+    /// whatever the wheel's speed; a cut in force when the reference drops out is handed
+    /// back at the current reference's normal slew (no step), flagged until it is.
+    /// Detecting by the wheel's acceleration alone is not done: the drive's own gear
+    /// transients exceed its threshold on a wheel that does not slip
+    /// (`wheelset_control::wsp`, "An unknown reference"). So a vehicle *known* to stand
+    /// is sent as 1 mm/s (the protection then acts as at any known speed: 1 mm/s is far
+    /// below its thresholds of 0.06 and 0.25 m/s), and 0 only when the speed is not known.
     pub v_ref_mm_s: i32,
 }
 
@@ -93,9 +103,10 @@ impl Flags {
     /// Bit 7. The latest [`Config`] or [`Command`] was refused (the reason in
     /// [`Status::refuse_reason`]).
     pub const CMD_REFUSED: u16 = 1 << 7;
-    /// Bit 8. The wheel-slip protection acts this tick: the wheel's slip velocity
-    /// against the Sensor's `v_ref_mm_s` is above its threshold and the traction torque
-    /// is reduced (`Config.wsp` on).
+    /// Bit 8. The wheel-slip protection acts this tick (`Config.wsp` on): it holds the
+    /// traction current reference below the demand's, from a slip detected against the
+    /// Sensor's `v_ref_mm_s` until its release (or, once the reference became unknown,
+    /// until the reference is handed back: [`Sensor::v_ref_mm_s`]).
     pub const WHEEL_SLIP: u16 = 1 << 8;
     /// Bit 9. The stability monitor's hunting alarm is raised (band-passed `y'` RMS above
     /// its threshold).

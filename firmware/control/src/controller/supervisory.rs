@@ -127,12 +127,15 @@ impl<T: Sample> Controller<T> {
         self.wsp_acting
     }
     /// The vehicle reference speed as motor speed `n v_ref / r0`, pu of `scales.speed`
-    /// (held until the next call; sanitised and clamped to the speed limit).
+    /// (held until the next call; sanitised and clamped to the speed limit). Zero (a NaN
+    /// too, sanitised to zero) means unknown: the protection neither detects nor
+    /// regulates ([`crate::wsp`], "An unknown reference").
     pub fn set_v_ref(&mut self, w_ref: T) {
         let m = self.law.speed_max;
         self.wsp.w_ref = w_ref.sanitize().0.limit(T::ZERO.sat_sub(m), m).0;
     }
-    /// [`Self::set_v_ref`] from the Sensor frame's code (`v_ref` LSBs, 1 mm/s).
+    /// [`Self::set_v_ref`] from the Sensor frame's code (`v_ref` LSBs, 1 mm/s; 0:
+    /// unknown).
     pub fn set_v_ref_code(&mut self, code: i32) {
         self.set_v_ref(self.law.wsp.w_ref(code));
     }
