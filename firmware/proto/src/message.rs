@@ -100,8 +100,11 @@ impl Flags {
     /// Bit 6. No valid sensor frame since start or the last reset: outputs are the safe
     /// outputs.
     pub const NO_SAMPLE: u16 = 1 << 6;
-    /// Bit 7. The latest [`Config`] or [`Command`] was refused (the reason in
-    /// [`Status::refuse_reason`]).
+    /// Bit 7. The latest [`Config`] or [`Command`] the device took before this tick was
+    /// refused (the reason in [`Status::refuse_reason`]); an accepted one clears it.
+    /// [`Command::RequestStatus`] leaves it as it is (a read does not change what it
+    /// reads: a Config and a request for the Status in one tick show the Config's
+    /// verdict in both frames).
     pub const CMD_REFUSED: u16 = 1 << 7;
     /// Bit 8. The wheel-slip protection acts this tick (`Config.wsp` on): it holds the
     /// traction current reference below the demand's, from a slip detected against the
@@ -115,7 +118,9 @@ impl Flags {
     /// has no effect on the measured motion, or the actuator reports a fault).
     pub const ACTUATOR_FAULT: u16 = 1 << 10;
     /// Bit 11. Sticky: an alarm (bits 9-10) or a watchdog / fault reset happened since
-    /// start-up or the last [`Command::ClearFaults`].
+    /// start-up or the last [`Command::ClearFaults`]. After such a reset the device also
+    /// holds the safe state ([`Flags::SAFE`], zero torque from the first tick) until
+    /// `ClearFaults`.
     pub const FAULT_LATCHED: u16 = 1 << 11;
 
     /// Whether every bit of `mask` is set.
@@ -241,15 +246,20 @@ pub enum Command {
     /// Send a [`Status`] frame (after the next actuation frame).
     RequestStatus,
     /// Clear [`Flags::FAULT_LATCHED`] and leave a safe state held by a stability alarm
-    /// (`Config.monitor_safe`): the host's acknowledgement after it has acted.
+    /// (`Config.monitor_safe`) or by the boot after a watchdog or fault reset: the host's
+    /// acknowledgement after it has acted.
     ClearFaults,
     /// Test only (index 3): stall the control task (it loops without letting the
     /// watchdog be fed) so the watchdog resets the board. Honoured only by a firmware
-    /// built with the `fault-inject` feature (the QEMU build); refused elsewhere with
-    /// `RefuseReason::Unsupported`. A new index and no new field: `VERSION` stays 2, and
-    /// a device without it refuses it as an unknown request.
+    /// built with the `fault-inject` feature whose board runs a watchdog (the
+    /// free-running QEMU build, `wheelset-qemu-free.elf`); refused elsewhere with
+    /// `RefuseReason::Unsupported`, the lock-step QEMU build included (no watchdog
+    /// there: the stall would never end). A new index and no new field: `VERSION` stays
+    /// 2, and a device without it refuses it as an unknown request.
     InjectStall,
-    /// Test only (index 4): trigger a HardFault (as [`Command::InjectStall`]).
+    /// Test only (index 4): trigger a HardFault, whose handler drives the safe outputs
+    /// and resets the board. Honoured by a `fault-inject` firmware (both QEMU builds: no
+    /// watchdog needed), refused elsewhere as [`Command::InjectStall`].
     InjectHardFault,
 }
 
@@ -324,10 +334,16 @@ pub struct Status {
     /// Board: boots since power-on, kept in RAM outside the zeroed sections (survives a
     /// watchdog reset; not zeroed by [`Command::ResetCounters`]).
     pub boot_count: u32,
-    /// Board: the stack's high-water mark in bytes (painted at start-up, measured on
-    /// request; 0 where not measured). Not zeroed by [`Command::ResetCounters`].
+    /// Board: the stack's high-water mark in bytes, as the board last measured it: the
+    /// stack is painted at start-up and scanned every 1 024 ticks (0.2 s at 5 kHz; a
+    /// scan reads up to 16 KiB, too long for the tick that answers a request), so the
+    /// figure is at most 1 024 ticks old, and 0 before the first scan or where not
+    /// measured (the in-process device). Not zeroed by [`Command::ResetCounters`].
     pub stack_peak: u32,
-    /// Why the latest Config or Command was refused ([`crate::RefuseReason`] code; 0 none).
+    /// Why the latest refused Config or Command was refused ([`crate::RefuseReason`]
+    /// code; 0: none since start-up or [`Command::ResetCounters`]). Kept while later
+    /// requests are accepted; [`Flags::CMD_REFUSED`] says whether the latest one was
+    /// refused, `cmd_refused` how many were.
     pub refuse_reason: u8,
     /// Why the board last started ([`crate::reset_cause`] code). Not zeroed by
     /// [`Command::ResetCounters`].

@@ -49,6 +49,22 @@ impl<T: Sample> Controller<T> {
     pub fn is_safe(&self) -> bool {
         self.safe
     }
+    /// The present yaw torque limit, pu: `torque_max` in normal running, ramping to 0 in
+    /// the safe state and back up after it.
+    pub fn torque_limit(&self) -> T {
+        self.torque_lim
+    }
+    /// Enter (`true`) or leave the safe state with the yaw torque limit at `torque_limit`
+    /// (pu, clamped to `[0, torque_max]`) instead of where it stands; it then ramps as
+    /// [`Self::set_safe`] says. For a core that continues another core's state (new
+    /// rates: its safe state and limit, so a safe state goes on ramping down where it
+    /// was) or that starts where no torque may be driven (the safe state at a boot
+    /// after a fault, limit 0: zero torque from the first tick).
+    pub fn set_safe_at(&mut self, safe: bool, torque_limit: T) {
+        let max = self.law.torque_max;
+        self.torque_lim = torque_limit.sanitize().0.limit(T::ZERO, max).0;
+        self.set_safe(safe);
+    }
 
     /// Change the yaw mode, bumpless: switching into [`YawMode::Lead`] starts the lead
     /// from its steady state for the last `y'`, and any change of the law slews the
