@@ -656,7 +656,10 @@ fn the_acceleration_test_alone_would_cut_a_wheel_that_does_not_slip() {
          {} m/s (threshold {threshold:.2}); the wheel's slip peaked at {slip_max:.3} m/s",
         w.slip_accel_mps
     );
-    assert!(worst > 2.0 * threshold, "{worst} codes, threshold {threshold}");
+    assert!(
+        worst > 2.0 * threshold,
+        "{worst} codes, threshold {threshold}"
+    );
     // The wheel never slipped: its slip stayed below the protection's own threshold.
     assert!(slip_max < w.slip_on_mps, "slip {slip_max} m/s");
 }

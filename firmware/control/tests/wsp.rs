@@ -452,7 +452,11 @@ fn hand_back<T: Sample>(c: &Config) -> u32 {
         assert!(!k.wsp_state().sched, "no scheduled lead without a slip");
         if !k.wsp_state().active {
             // Released where the next step would reach the reference.
-            assert!(cap + slew >= iref - 1e-3, "{}: released at {cap} A", T::NAME);
+            assert!(
+                cap + slew >= iref - 1e-3,
+                "{}: released at {cap} A",
+                T::NAME
+            );
             assert!(k.wheel_slip(), "the releasing step still reports");
             return n;
         }
@@ -463,7 +467,11 @@ fn hand_back<T: Sample>(c: &Config) -> u32 {
             T::NAME,
             now - cap
         );
-        assert!(k.wheel_slip(), "{}: the cap still holds the reference", T::NAME);
+        assert!(
+            k.wheel_slip(),
+            "{}: the cap still holds the reference",
+            T::NAME
+        );
         cap = now;
     }
     panic!("{}: not handed back", T::NAME)
@@ -499,7 +507,10 @@ fn the_regulator_resumes_from_the_cap_when_the_reference_returns() {
     assert!(k.wsp_state().active && k.wheel_slip());
     let step = c.wsp.ki_a_per_s_per_mps * 0.4 * c.traction_period();
     let moved = (iref_a(&k) - cap).abs();
-    assert!(moved <= step, "the cap moved {moved} A, the integral's step {step} A");
+    assert!(
+        moved <= step,
+        "the cap moved {moved} A, the integral's step {step} A"
+    );
     assert!(k.wsp_state().sched);
     assert_eq!(k.counters().wsp_events, 1);
 }

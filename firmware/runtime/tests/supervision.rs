@@ -317,7 +317,10 @@ fn an_unknown_reference_speed_leaves_the_protection_idle() {
     }
     let mut on = Runtime::<Fx>::try_new(RuntimeConfig::default()).expect("valid");
     on.receive(&driving(1, 5_000, 1));
-    assert!(act(on.tick(0)).flags.has(Flags::WHEEL_SLIP), "known, 1 mm/s");
+    assert!(
+        act(on.tick(0)).flags.has(Flags::WHEEL_SLIP),
+        "known, 1 mm/s"
+    );
 }
 
 #[test]
@@ -327,16 +330,18 @@ fn a_boot_after_a_fault_drives_the_safe_outputs_until_clear_faults() {
         r.set_boot(2, cause);
         // A device with its outputs disabled: zero torque, the back-EMF of the speed.
         let mut disabled = Runtime::<Fx>::try_new(RuntimeConfig::default()).expect("valid");
-        disabled.receive(&encode_vec(&Message::Config(Config {
-            mode: YawMode::Lead,
-            traction: true,
-            enable: false,
-            hold_ticks: DEFAULT_HOLD_TICKS,
-            wsp: true,
-            monitor_safe: false,
-            rates: None,
-        }))
-        .expect("fits"));
+        disabled.receive(
+            &encode_vec(&Message::Config(Config {
+                mode: YawMode::Lead,
+                traction: true,
+                enable: false,
+                hold_ticks: DEFAULT_HOLD_TICKS,
+                wsp: true,
+                monitor_safe: false,
+                rates: None,
+            }))
+            .expect("fits"),
+        );
         // A freshly powered device gets the full lead torque on the same frame.
         let mut fresh = Runtime::<Fx>::try_new(RuntimeConfig::default()).expect("valid");
         fresh.set_boot(1, reset_cause::POWER_ON);
@@ -348,21 +353,26 @@ fn a_boot_after_a_fault_drives_the_safe_outputs_until_clear_faults() {
             (act(r.tick(0)), act(disabled.tick(0)), act(fresh.tick(0)))
         };
         assert!(p.t_psi_dnm.abs() > 1_000, "the lead's first torque {p:?}");
-        assert!(a.flags.has(Flags::SAFE) && a.flags.has(Flags::FAULT_LATCHED), "{a:?}");
+        assert!(
+            a.flags.has(Flags::SAFE) && a.flags.has(Flags::FAULT_LATCHED),
+            "{a:?}"
+        );
         assert_eq!((a.t_psi_dnm, a.u_a_cv), (0, d.u_a_cv), "cause {cause}");
         // The host's Config after the reset (new rates too) does not end it.
         let mut cfg = RuntimeConfig::default();
         cfg.control.base_rate_hz = 4_000;
-        r.receive(&encode_vec(&Message::Config(Config {
-            mode: YawMode::Lead,
-            traction: true,
-            enable: true,
-            hold_ticks: DEFAULT_HOLD_TICKS,
-            wsp: true,
-            monitor_safe: false,
-            rates: Some(rates_for::<Fx>(&cfg).expect("valid")),
-        }))
-        .expect("fits"));
+        r.receive(
+            &encode_vec(&Message::Config(Config {
+                mode: YawMode::Lead,
+                traction: true,
+                enable: true,
+                hold_ticks: DEFAULT_HOLD_TICKS,
+                wsp: true,
+                monitor_safe: false,
+                rates: Some(rates_for::<Fx>(&cfg).expect("valid")),
+            }))
+            .expect("fits"),
+        );
         assert_eq!(r.base_rate_hz(), 4_000, "the Config is applied");
         for k in 2..=200u16 {
             r.receive(&driving(k, 5_000, 83_333));
@@ -414,7 +424,10 @@ fn cmd_refused_marks_the_latest_config_or_command() {
     assert!(flag(&mut r, &refused));
     // A Command taken clears it; the reason of the refusal stays in the Status.
     assert!(!flag(&mut r, &command(Command::ClearFaults)));
-    assert_eq!(status(&mut r, 100).refuse_reason, RefuseReason::HoldTicks.code());
+    assert_eq!(
+        status(&mut r, 100).refuse_reason,
+        RefuseReason::HoldTicks.code()
+    );
     assert!(flag(&mut r, &refused));
     // RequestStatus, a read, leaves it: the Status shows the Config's verdict.
     assert!(flag(&mut r, &command(Command::RequestStatus)));
@@ -427,7 +440,11 @@ fn cmd_refused_marks_the_latest_config_or_command() {
     assert_eq!(r.refuse_reason(), RefuseReason::UnknownRequest);
     assert!(!flag(&mut r, &accepted));
     let s = status(&mut r, 102);
-    assert_eq!((s.cmd_refused, s.rx_postcard), (1, 0), "one refusal since the reset");
+    assert_eq!(
+        (s.cmd_refused, s.rx_postcard),
+        (1, 0),
+        "one refusal since the reset"
+    );
 }
 
 /// With `fault-inject` (the QEMU firmware's runtime): a HardFault is honoured on any
