@@ -227,10 +227,10 @@ use crate::sample::{Sample, SampleBits};
 /// Wheel-slip protection parameters (SI). Validated by [`Wsp::try_new`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WspParams {
-    /// On at start (default **off** in the control core's own configuration, whose
-    /// users switch it with [`crate::Controller::set_wsp`]; the device's runtime starts
-    /// with it on, `wheelset_runtime::RuntimeConfig::default`, and a `Config` switches
-    /// it).
+    /// On at start (default **on**: the device boots with it, before any `Config`,
+    /// which switches it; [`crate::Controller::set_wsp`]). Idle while the reference
+    /// speed is unknown (module docs, "An unknown reference"), so a host that sends no
+    /// `v_ref` sees no cut from it.
     pub enabled: bool,
     /// Slip velocity that detects a slip and starts the protection, m/s (0.25).
     pub slip_on_mps: f64,
@@ -267,7 +267,7 @@ pub struct WspParams {
 impl Default for WspParams {
     fn default() -> Self {
         Self {
-            enabled: false,
+            enabled: true,
             slip_on_mps: 0.25,
             slip_accel_mps: 0.06,
             accel_on_mps2: 3.0,

@@ -252,9 +252,9 @@ fn the_switch_turns_it_off_and_braking_is_not_touched() {
     k.set_wsp(true);
     run(&mut k, &c, 2.0, 12_400.0, 1);
     assert!(k.wheel_slip());
-    // Default configuration: off.
+    // Default configuration: on (the device's boot default).
     c.wsp = WspParams::default();
-    assert!(!F64Controller::try_new(&c).unwrap().wsp_enabled());
+    assert!(F64Controller::try_new(&c).unwrap().wsp_enabled());
     // Braking demand: no protection (slide protection is not part of it).
     let c = cfg();
     let mut k = F64Controller::try_new(&c).unwrap();

@@ -20,18 +20,20 @@ use crate::{acc_factors, AccBits, Rates, DEFAULT_HOLD_TICKS};
 ///
 /// [`RuntimeConfig::default`] is what a board runs from power-on until a host's Config
 /// (the firmware's build script compiles it into the binary): the control core's
-/// defaults (lead, traction on, 5 kHz) with
+/// defaults (lead, traction on, 5 kHz, `wheelset_control::Config::default`) with
 ///
-/// - **the wheel-slip protection on**: a drive without it runs a slipping wheel away
+/// - **the wheel-slip protection on** (`WspParams::enabled`): a drive without it runs a
+///   slipping wheel away
 ///   (`sim-host/tests/adhesion.rs`); it needs the Sensor's `v_ref_mm_s`, and while that
 ///   is 0 (unknown: a host that sends no reference) it stays idle rather than reading a
 ///   rolling wheel as a slip (`wheelset_control::wsp`, "An unknown reference");
 /// - **the stability monitor on** ([`Self::monitor`]), its alarms reported
 ///   (`HUNTING`, `ACTUATOR_FAULT`, `FAULT_LATCHED`);
-/// - **its safe action off** (`Config.monitor_safe = false`): the safe state zeroes the
-///   yaw torque, and in the lead and gain modes the actuator replaces the yaw spring, so
-///   zero torque leaves the wheelset with neither (the passive-less wheelset is unstable
-///   at speed: `sim-host` `fault::tests::the_passive_less_wheelset_is_unstable`). A
+/// - **its safe action off** (`Config.monitor_safe = false`, the runtime's start): the
+///   safe state zeroes the yaw torque, and in the lead and gain modes the actuator
+///   replaces the yaw spring, so zero torque leaves the wheelset with neither (without
+///   the actuator it hunts at every conicity of the envelope: `sim_host::fault`, test
+///   `the_passive_less_wheelset_is_unstable`). A
 ///   hunting alarm is then not cured by the device's zero torque; it asks the vehicle
 ///   to slow down, which the host decides. A host that knows zero torque is the safer
 ///   failure (an actuator that may act reversed) sets `monitor_safe`;
@@ -63,10 +65,8 @@ pub const DEFAULT_ACC_WASHOUT_S: f64 = 2.0;
 impl Default for RuntimeConfig {
     /// The device's boot defaults (the type's docs).
     fn default() -> Self {
-        let mut control = ControlConfig::default();
-        control.wsp.enabled = true;
         Self {
-            control,
+            control: ControlConfig::default(),
             hold_ticks: DEFAULT_HOLD_TICKS,
             enable: true,
             acc_washout_s: DEFAULT_ACC_WASHOUT_S,

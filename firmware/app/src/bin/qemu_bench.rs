@@ -274,6 +274,9 @@ mod bench {
             hprintln!("controller refused the default configuration");
             exit(debug::EXIT_FAILURE)
         };
+        // The laws alone: the wheel-slip protection (on by default) off, as in the whole
+        // tick's first row below; its cost is the third row's.
+        c.set_wsp(false);
         let mut law = Stats::new();
         let mut stim = Stimulus::new();
         for _ in 0..N {
