@@ -185,10 +185,14 @@ pub struct Config {
     /// Ticks a missing sensor frame is bridged by the held sample before the safe state.
     pub hold_ticks: u16,
     /// Wheel-slip protection on: the traction torque is reduced while the wheel slips
-    /// against the Sensor's `v_ref_mm_s` ([`Flags::WHEEL_SLIP`]).
+    /// against the Sensor's `v_ref_mm_s` ([`Flags::WHEEL_SLIP`]; idle while that is 0,
+    /// unknown). A device boots with it on.
     pub wsp: bool,
     /// A stability alarm ([`Flags::HUNTING`], [`Flags::ACTUATOR_FAULT`]) enters the safe
     /// state and keeps it until [`Command::ClearFaults`]; off: the alarm is only reported.
+    /// A device boots with it off: the safe state's zero yaw torque leaves a wheelset
+    /// whose yaw spring the actuator replaces with neither (`wheelset_runtime`'s
+    /// `RuntimeConfig`, "The device's boot defaults").
     pub monitor_safe: bool,
     /// New rates with their coefficients (the control core restarts on them); `None`
     /// keeps the rates.
