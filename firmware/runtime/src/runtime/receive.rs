@@ -155,7 +155,7 @@ impl<T: SampleBits> Runtime<T> {
         // core (a scaling and a clamp) only while the protection is on, else held and
         // given to the core by the Config that switches it on (`on_config`), so the core
         // steps on the same `w_ref` either way. Measured with `cargo xtask fw-bench`
-        // (protection off), whole tick mean: M4 fixed 1 714 -> 1 683, f32
+        // (protection off, the default), whole tick mean: M4 fixed 1 714 -> 1 683, f32
         // 1 573 -> 1 556, M3 fixed 1 754 -> 1 720 (Nucleo flash +52 B, `cargo fw`).
         #[cfg(feature = "wsp")]
         if self.core.wsp_enabled() {
