@@ -108,6 +108,10 @@ pub fn new_device() -> FwRuntime {
         Ok(mut rt) => {
             // A Config may not set a rate the board's link cannot carry.
             rt.set_link_limit(crate::board::LINK_MAX_RATE_HZ);
+            // An injected stall only where a watchdog ends it: QEMU's free-running build
+            // (the lock-step build has none, and the Nucleo builds honour no injection).
+            #[cfg(feature = "board-qemu")]
+            rt.set_watchdog(crate::board::qemu::wdog::ENABLED);
             rt
         }
         Err(e) => {

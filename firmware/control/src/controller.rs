@@ -311,21 +311,24 @@ impl<T: Sample> Controller<T> {
         if !speed.abs_within(law.speed_max) {
             return None;
         }
-        let slip = speed.sat_sub(self.wsp.w_ref);
+        let w_ref = self.wsp.w_ref;
+        let slip = speed.sat_sub(w_ref);
         let dw = speed.sat_sub(self.wsp.w_prev);
-        if law.wsp.detects(slip, dw, iref, law.iref_step) {
+        if law.wsp.detects(w_ref, slip, dw, iref, law.iref_step) {
             return None;
         }
         Some(Some((speed, slip)))
     }
 
     /// Commits [`Self::fast_wsp`]'s step: what `Wsp::process` stores while it does not
-    /// act (the speed and slip for the next step's differences; not acting).
+    /// act (the speed and slip for the next step's differences, whether the reference
+    /// was known; not acting).
     #[inline(always)]
     fn fast_wsp_commit(&mut self, w: Option<(T, T)>) {
         if let Some((speed, slip)) = w {
             self.wsp.w_prev = speed;
             self.wsp.slip_prev = slip;
+            self.wsp.known = self.wsp.w_ref != T::ZERO;
             self.wsp_acting = false;
         }
     }

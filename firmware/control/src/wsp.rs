@@ -17,7 +17,8 @@
 //! `v_ref` is the vehicle speed from unpowered axles or radar (the Sensor frame's
 //! `v_ref_mm_s`; the simulation sends the plant's `v`). Positive slip = the wheel turns
 //! faster than the vehicle runs (motoring). The protection acts in traction only
-//! (`i_ref > 0`); slide protection in braking is not part of it.
+//! (`i_ref > 0`); slide protection in braking is not part of it. `w_ref = 0` exactly
+//! means the reference is unknown (below, "An unknown reference").
 //!
 //! # Law (per traction step, after the reference ramp)
 //!
@@ -33,6 +34,10 @@
 //! output:  cap while active, i_ref otherwise
 //! ```
 //!
+//! While the reference is unknown (`w_ref = 0`) neither test detects and the regulator
+//! does not run: a cap in force rises by `iref_step` per step (the reference's own slew)
+//! until it reaches `i_ref`, where the protection releases (below).
+//!
 //! `kp` = 300 A per m/s, `ki` = 3 000 A/s per m/s. The set point rises with the cap, to
 //! 0.56 m/s at the full 580 A of `low-adhesion`: below every characteristic's peak slip
 //! at 83.3 m/s (`low` 0.60, dry 0.91, wet 1.19 m/s), so the regulated wheel works on the
@@ -45,6 +50,40 @@
 //! the device, as the acceleration test (`a_on n/r0 / r` times `iref_step`). The
 //! integral's rounding is fed back ([`Sample::mul_c_acc`]): on repeated codes a
 //! rounding to nearest biases every step the same way.
+//!
+//! # An unknown reference
+//!
+//! The Sensor frame's `v_ref_mm_s = 0` says the vehicle's speed is not known (a speed
+//! estimate that dropped out, a source that cannot resolve a crawl); the core gets
+//! `w_ref = 0` exactly, in every build (`0 x scale = 0`), so the builds take the
+//! same decisions. While it is unknown:
+//!
+//! - **no detection.** `slip = w - 0` would read a wheel rolling at line speed as
+//!   slipping at 83 m/s and cut the traction for nothing. The acceleration test is idle
+//!   too: its gate `slip > slip_accel` is what keeps it off the drive's own transients,
+//!   and without a reference there is no gate. The motor's speed is not the wheel's:
+//!   the gear (`w_g` = 279 rad/s) twists at every change of torque, and a demand step to
+//!   the full 12.4 kN m on dry rail (the reference ramped at its 20 kA/s) makes the
+//!   motor's speed code rise by up to 15 mrad/s in one 5 kHz step while the slip stays
+//!   below `slip_accel`, against a threshold of 6.67: twice over it, with no slip at all
+//!   (`sim-host/tests/adhesion.rs`,
+//!   `the_acceleration_test_alone_would_cut_a_wheel_that_does_not_slip`). A test on the
+//!   acceleration alone would need a threshold above the gear's transients and would
+//!   then miss the slips this one catches, so the protection does not guess.
+//! - **no regulation.** The regulator's error is a slip. A cap in force when the
+//!   reference drops out is handed back: it rises by `iref_step` per traction step, the
+//!   rate at which the reference follows a step of the demand, and the protection
+//!   releases when it reaches `i_ref` (`WHEEL_SLIP` stays set while the cap holds the
+//!   reference below the demand's). No step in the reference, so no step in the torque
+//!   on a wheel that was slipping a moment ago.
+//! - **the reference comes back**: the tests run again from that step on. The
+//!   regulator, if a cap is in force, resumes from it; its proportional term starts
+//!   from the first known slip (no difference against a slip of the unknown steps).
+//!
+//! So a start from standstill sent as `v_ref = 0` is not protected by this device: a
+//! host whose source knows the vehicle is standing (rather than not knowing its speed)
+//! sends 1 mm/s, which the slip tests treat as any known speed (1 mm/s is 250 times
+//! below `slip_on`). The wire's convention is in `wheelset_proto::Sensor::v_ref_mm_s`.
 //!
 //! # The scheduled lead
 //!
@@ -188,9 +227,10 @@ use crate::sample::{Sample, SampleBits};
 /// Wheel-slip protection parameters (SI). Validated by [`Wsp::try_new`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WspParams {
-    /// On at start (default **off**: the device enables it with a `Config`, which the
-    /// host sends with `wsp = true` unless `--wsp off`; a Sensor frame without a valid
-    /// `v_ref` would otherwise read as a slipping wheel).
+    /// On at start (default **on**: the device boots with it, before any `Config`,
+    /// which switches it; [`crate::Controller::set_wsp`]). Idle while the reference
+    /// speed is unknown (module docs, "An unknown reference"), so a host that sends no
+    /// `v_ref` sees no cut from it.
     pub enabled: bool,
     /// Slip velocity that detects a slip and starts the protection, m/s (0.25).
     pub slip_on_mps: f64,
@@ -227,7 +267,7 @@ pub struct WspParams {
 impl Default for WspParams {
     fn default() -> Self {
         Self {
-            enabled: false,
+            enabled: true,
             slip_on_mps: 0.25,
             slip_accel_mps: 0.06,
             accel_on_mps2: 3.0,
@@ -322,6 +362,9 @@ pub struct WspState<T: Sample> {
     pub slip_prev: T,
     /// The scheduled yaw lead runs: acting, and the slip above half its set point.
     pub sched: bool,
+    /// The reference speed was known (`w_ref != 0`) on the previous traction step: the
+    /// regulator's proportional term takes the difference of two known slips only.
+    pub known: bool,
     /// The integral's sub-LSB remainder: the sum of its increments is exact to an LSB
     /// ([`Sample::mul_c_acc`]).
     pub residue: T::Residue,
@@ -542,16 +585,16 @@ impl<T: Sample> Wsp<T> {
         self.sp_half.sat_add(cap.mul_c(self.sp_half_slope))
     }
 
-    /// The protection, not acting, detects on this step (and cuts): the slip `slip`
-    /// above `slip_on`, or above `slip_accel` while the speed rose by `dw` more than
-    /// `accel_ratio` reference slews `step`, with a positive reference `iref`. One rule
-    /// for [`Self::process`] and the controller's fast path (which declines the step to
-    /// the general one when it detects).
+    /// The protection, not acting, detects on this step (and cuts): the reference speed
+    /// `w_ref` known (not 0), the slip `slip` above `slip_on`, or above `slip_accel`
+    /// while the speed rose by `dw` more than `accel_ratio` reference slews `step`, with
+    /// a positive reference `iref`. One rule for [`Self::process`] and the controller's
+    /// fast path (which declines the step to the general one when it detects).
     #[inline(always)]
-    pub(crate) fn detects(&self, slip: T, dw: T, iref: T, step: T) -> bool {
+    pub(crate) fn detects(&self, w_ref: T, slip: T, dw: T, iref: T, step: T) -> bool {
         let detect =
             slip > self.slip_on || (slip > self.slip_accel && dw > step.mul_c(self.accel_ratio));
-        detect && iref > T::ZERO
+        detect && iref > T::ZERO && w_ref != T::ZERO
     }
 
     /// One traction step: `w` the clamped motor speed, `iref` the ramped current
@@ -563,12 +606,23 @@ impl<T: Sample> Wsp<T> {
         let slip = w.sat_sub(st.w_ref);
         let dw = w.sat_sub(st.w_prev);
         st.w_prev = w;
-        let d_slip = slip.sat_sub(st.slip_prev);
+        let known = st.w_ref != T::ZERO;
+        // The proportional term's difference, of two known slips only (module docs, "An
+        // unknown reference").
+        let d_slip = if st.known {
+            slip.sat_sub(st.slip_prev)
+        } else {
+            T::ZERO
+        };
         st.slip_prev = slip;
+        st.known = known;
+        if !known && st.active {
+            return Self::hand_back(st, iref, step);
+        }
         let new = !st.active;
         if new {
             st.sched = false;
-            if !self.detects(slip, dw, iref, step) {
+            if !self.detects(st.w_ref, slip, dw, iref, step) {
                 return (iref, false, false);
             }
             // Detected: the instantaneous cut, where the regulator starts.
@@ -603,7 +657,24 @@ impl<T: Sample> Wsp<T> {
         (st.cap, true, new)
     }
 
-    /// The reference speed code (`v_ref` LSBs) as motor-speed pu.
+    /// The reference speed unknown while a cap is in force: the cap rises by `step` (the
+    /// reference's slew per step) and the protection releases once it would reach
+    /// `iref`; no regulation, no scheduled lead (module docs, "An unknown reference").
+    #[cold]
+    #[inline(never)]
+    fn hand_back(st: &mut WspState<T>, iref: T, step: T) -> (T, bool, bool) {
+        st.sched = false;
+        let cap = st.cap.sat_add(step);
+        if cap >= iref {
+            st.active = false;
+            return (iref, true, false);
+        }
+        st.cap = cap;
+        (cap, true, false)
+    }
+
+    /// The reference speed code (`v_ref` LSBs) as motor-speed pu; code 0 (unknown) is
+    /// exactly zero.
     #[inline(always)]
     pub fn w_ref(&self, code: i32) -> T {
         T::from_code(code, &self.v_ref)

@@ -1,6 +1,7 @@
 //! Wheel-slip protection: validation, exact bits, the law's phases (detect and cut,
 //! regulate the slip to its set point, the scheduled lead, release), the switch and the
-//! flag, and the fixed-point and f32 builds against the f64 reference on the same inputs.
+//! flag, an unknown reference (`v_ref = 0`: idle, a cap handed back), and the
+//! fixed-point and f32 builds against the f64 reference on the same inputs.
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
@@ -251,9 +252,9 @@ fn the_switch_turns_it_off_and_braking_is_not_touched() {
     k.set_wsp(true);
     run(&mut k, &c, 2.0, 12_400.0, 1);
     assert!(k.wheel_slip());
-    // Default configuration: off.
+    // Default configuration: on (the device's boot default).
     c.wsp = WspParams::default();
-    assert!(!F64Controller::try_new(&c).unwrap().wsp_enabled());
+    assert!(F64Controller::try_new(&c).unwrap().wsp_enabled());
     // Braking demand: no protection (slide protection is not part of it).
     let c = cfg();
     let mut k = F64Controller::try_new(&c).unwrap();
@@ -381,4 +382,135 @@ fn the_scheduled_lead_has_its_dc_gain() {
             );
         }
     }
+}
+
+/// 925.6 rad/s at the motor (83.3 m/s at the rim), `demand` N m, the reference speed
+/// `w_ref` (pu) for `ticks` ticks; whether the protection acted on any of them.
+fn steady<T: Sample>(k: &mut Controller<T>, c: &Config, w_ref: T, demand: f64, ticks: u32) -> bool {
+    let inp = Inputs::from_si(&c.scales, 0.0, 0.0, 925.6, demand);
+    k.set_v_ref(w_ref);
+    let mut acted = false;
+    for _ in 0..ticks {
+        k.tick(&inp);
+        acted |= k.wheel_slip();
+    }
+    acted
+}
+
+/// An unknown reference (`v_ref = 0`) in build `T`: nothing detected, nothing cut (the
+/// outputs those of the protection off); a known one at the vehicle's speed likewise,
+/// and the same wheel against a vehicle known to stand detected at once.
+fn unknown_is_idle<T: SampleBits>() {
+    let c = cfg();
+    let mut off = Controller::<T>::try_new(&c).unwrap();
+    off.set_wsp(false);
+    let w = |mps: f64| T::from_f64(mps * N_R0 / c.scales.speed);
+    for (w_ref, what) in [(T::ZERO, "unknown"), (w(83.333), "83.333 m/s")] {
+        let mut on = Controller::<T>::try_new(&c).unwrap();
+        assert!(on.wsp_enabled());
+        for _ in 0..10 {
+            let acted = steady(&mut on, &c, w_ref, 5_000.0, 100);
+            steady(&mut off, &c, w_ref, 5_000.0, 100);
+            assert!(!acted, "{} {what}: WHEEL_SLIP", T::NAME);
+            assert_eq!(on.outputs(), off.outputs(), "{} {what}", T::NAME);
+        }
+        assert_eq!(on.counters().wsp_events, 0, "{} {what}", T::NAME);
+        assert_eq!(on.current_ref(), off.current_ref());
+        off = Controller::<T>::try_new(&c).unwrap();
+        off.set_wsp(false);
+    }
+    // Known, 1 mm/s (a vehicle known to stand): the wheel at 83.3 m/s slips.
+    let mut on = Controller::<T>::try_new(&c).unwrap();
+    steady(&mut on, &c, T::ZERO, 5_000.0, 100);
+    assert!(steady(&mut on, &c, w(1e-3), 5_000.0, 1), "{}", T::NAME);
+    assert_eq!(on.counters().wsp_events, 1);
+}
+
+#[test]
+fn an_unknown_reference_leaves_the_protection_idle_in_every_build() {
+    unknown_is_idle::<f64>();
+    unknown_is_idle::<Fx>();
+    unknown_is_idle::<f32>();
+}
+
+/// A cap in force when the reference drops out: handed back at the reference's slew.
+/// Returns the traction steps from the drop-out to the release.
+fn hand_back<T: Sample>(c: &Config) -> u32 {
+    let mut k = Controller::<T>::try_new(c).unwrap();
+    run(&mut k, c, 0.0, 12_400.0, 1_000);
+    run(&mut k, c, 0.4, 12_400.0, 200);
+    assert!(k.wheel_slip() && k.wsp_state().sched);
+    let iref = k.current_ref().to_f64() * 1000.0;
+    let slew = c.limits.current_ref_rate * c.traction_period();
+    let (inp, _) = at::<T>(c, 0.4, 12_400.0);
+    k.set_v_ref(T::ZERO);
+    let mut cap = iref_a(&k);
+    assert!(cap < 0.5 * iref, "cap {cap} A of {iref} A");
+    for n in 1..=10_000u32 {
+        k.tick(&inp);
+        assert_eq!(k.counters().wsp_events, 1, "{}: no new event", T::NAME);
+        assert!(!k.wsp_state().sched, "no scheduled lead without a slip");
+        if !k.wsp_state().active {
+            // Released where the next step would reach the reference.
+            assert!(
+                cap + slew >= iref - 1e-3,
+                "{}: released at {cap} A",
+                T::NAME
+            );
+            assert!(k.wheel_slip(), "the releasing step still reports");
+            return n;
+        }
+        let now = iref_a(&k);
+        assert!(
+            (now - cap - slew).abs() < 1e-3,
+            "{}: the cap rose {} A, the slew is {slew} A",
+            T::NAME,
+            now - cap
+        );
+        assert!(
+            k.wheel_slip(),
+            "{}: the cap still holds the reference",
+            T::NAME
+        );
+        cap = now;
+    }
+    panic!("{}: not handed back", T::NAME)
+}
+
+#[test]
+fn a_cap_in_force_is_handed_back_at_the_reference_slew_when_the_reference_drops_out() {
+    let c = cfg();
+    let n = hand_back::<f64>(&c);
+    // From about 0.3 of 580 A to 580 A at 4 A per step: about 100 steps.
+    assert!((50..200).contains(&n), "{n} steps");
+    assert_eq!(hand_back::<Fx>(&c), n, "Q4.28 against f64");
+    assert_eq!(hand_back::<f32>(&c), n, "f32 against f64");
+}
+
+#[test]
+fn the_regulator_resumes_from_the_cap_when_the_reference_returns() {
+    let c = cfg();
+    let mut k = F64Controller::try_new(&c).unwrap();
+    run(&mut k, &c, 0.0, 12_400.0, 1_000);
+    run(&mut k, &c, 0.4, 12_400.0, 200);
+    let (inp, w_ref) = at::<f64>(&c, 0.4, 12_400.0);
+    k.set_v_ref(0.0);
+    for _ in 0..10 {
+        k.tick(&inp);
+    }
+    let cap = iref_a(&k);
+    // Known again, the wheel still 0.4 m/s ahead: the regulator takes the cap from where
+    // the hand-back left it, by its integral alone on this step (a proportional step
+    // from the unknown steps' `w - 0` would be 300 A per m/s of 83 m/s).
+    k.set_v_ref(w_ref);
+    k.tick(&inp);
+    assert!(k.wsp_state().active && k.wheel_slip());
+    let step = c.wsp.ki_a_per_s_per_mps * 0.4 * c.traction_period();
+    let moved = (iref_a(&k) - cap).abs();
+    assert!(
+        moved <= step,
+        "the cap moved {moved} A, the integral's step {step} A"
+    );
+    assert!(k.wsp_state().sched);
+    assert_eq!(k.counters().wsp_events, 1);
 }

@@ -35,11 +35,14 @@ pub(crate) const COMMANDS: u32 = 5;
 /// [`YawMode`] variants (the first field of a [`Config`]), indices `0..YAW_MODES`.
 pub(crate) const YAW_MODES: u32 = 3;
 
-/// The variant index a body starts with (a Command's variant, a Config's mode) if it is
-/// one byte (below 0x80, the encoder's form); `None` otherwise (longer forms are decoded,
-/// or refused as malformed, by the message's decoder).
+/// The variant index a body starts with (a Command's variant, a Config's mode): its
+/// varint as [`In::varint`] reads it, any of its forms (a longer one than the encoder's
+/// too); `None` if it is malformed (the message's decoder then refuses it).
 pub(crate) fn leading_index(body: &[u8]) -> Option<u32> {
-    body.first().filter(|b| **b < 0x80).map(|b| u32::from(*b))
+    match varint_of(body) {
+        (_, 0) => None,
+        (v, _) => Some(v),
+    }
 }
 
 /// A bounded writer; `None` once the buffer is full.

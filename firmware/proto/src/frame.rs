@@ -411,9 +411,9 @@ pub enum Request {
     /// takes (Actuation, Status); its body is not checked.
     Unexpected,
     /// A Command whose variant index, or a Config whose `mode` index, this version does
-    /// not define (the leading byte of the body, below 0x80; the rest is not checked; a
-    /// multi-byte index is a decoding error like any other malformed varint): the device
-    /// refuses it as an unknown request (`CMD_REFUSED`,
+    /// not define (the body's leading varint, in any of its forms, at or above the
+    /// defined count; the rest is not checked; a malformed varint is a decoding error):
+    /// the device refuses it as an unknown request (`CMD_REFUSED`,
     /// [`crate::RefuseReason::UnknownRequest`]), not as a decoding error.
     Unknown,
 }
@@ -490,11 +490,11 @@ fn request_body(ty: u8, body: &[u8]) -> Result<Request, FrameError> {
         finish, leading_index, ACTUATION, COMMAND, COMMANDS, CONFIG, STATUS, YAW_MODES,
     };
     let defined = match ty {
-        COMMAND => COMMANDS,
-        CONFIG => YAW_MODES,
-        _ => u32::MAX,
+        COMMAND => Some(COMMANDS),
+        CONFIG => Some(YAW_MODES),
+        _ => None,
     };
-    if leading_index(body).is_some_and(|i| i >= defined) {
+    if defined.is_some_and(|d| leading_index(body).is_some_and(|i| i >= d)) {
         return Ok(Request::Unknown);
     }
     Ok(match ty {

@@ -16,7 +16,7 @@
 //! |---|---|---|---|---|---|
 //! | 0 | [`Sensor`] | host -> device | | [`Lateral`] | 0 `Velocity`, 1 `Acceleration`, 2 `Both` |
 //! | 1 | [`Actuation`] | device -> host | | [`YawMode`] | 0 `Passive`, 1 `Gain`, 2 `Lead` |
-//! | 2 | [`Config`] | host -> device | | [`Command`] | 0 `ResetCounters`, 1 `RequestStatus`, 2 `ClearFaults` |
+//! | 2 | [`Config`] | host -> device | | [`Command`] | 0 `ResetCounters`, 1 `RequestStatus`, 2 `ClearFaults` (3 `InjectStall`, 4 `InjectHardFault`: test builds) |
 //! | 3 | [`Command`] | host -> device | | [`RefuseReason`] | [`plausible`] |
 //! | 4 | [`Status`] | device -> host | | `reset_cause` | [`reset_cause`] |
 //!
@@ -27,8 +27,9 @@
 //! version-1 frame is refused as `rx_version`.
 //!
 //! [`Actuation`] `tick` counts the device's ticks from 1 (the first tick after start-up
-//! sends 1; modulo 2^16). An undefined Command or YawMode index is refused by the device
-//! as an unknown request, not counted as a decoding error.
+//! sends 1; modulo 2^16). An undefined Command or YawMode index (any well-formed varint
+//! above the defined ones) is refused by the device as an unknown request, not counted
+//! as a decoding error; a malformed varint there is a decoding error (`rx_postcard`).
 //!
 //! - [`Message`]: [`Sensor`] (host -> device, every tick), [`Actuation`] (device -> host,
 //!   every tick), [`Config`] and [`Command`] (host -> device), [`Status`] (device -> host,

@@ -43,7 +43,17 @@ pub struct Sensor {
     /// Vehicle reference speed `v` in mm/s ([`crate::units::V_REF_LSB_M_PER_S`]),
     /// positive forwards, from a source independent of this wheelset's drive (the
     /// train's speed estimate): what the wheel-slip protection compares the wheel's
-    /// circumferential speed with. 0: unknown (the protection then does not act).
+    /// circumferential speed with.
+    ///
+    /// **0 means unknown** (a speed estimate that dropped out). While it is unknown the
+    /// protection neither detects nor regulates: no [`Flags::WHEEL_SLIP`], no cut,
+    /// whatever the wheel's speed; a cut in force when the reference drops out is handed
+    /// back at the current reference's normal slew (no step), flagged until it is.
+    /// Detecting by the wheel's acceleration alone is not done: the drive's own gear
+    /// transients exceed its threshold on a wheel that does not slip
+    /// (`wheelset_control::wsp`, "An unknown reference"). So a vehicle *known* to stand
+    /// is sent as 1 mm/s (the protection then acts as at any known speed: 1 mm/s is far
+    /// below its thresholds of 0.06 and 0.25 m/s), and 0 only when the speed is not known.
     pub v_ref_mm_s: i32,
 }
 
@@ -90,12 +100,16 @@ impl Flags {
     /// Bit 6. No valid sensor frame since start or the last reset: outputs are the safe
     /// outputs.
     pub const NO_SAMPLE: u16 = 1 << 6;
-    /// Bit 7. The latest [`Config`] or [`Command`] was refused (the reason in
-    /// [`Status::refuse_reason`]).
+    /// Bit 7. The latest [`Config`] or [`Command`] the device took before this tick was
+    /// refused (the reason in [`Status::refuse_reason`]); an accepted one clears it.
+    /// [`Command::RequestStatus`] leaves it as it is (a read does not change what it
+    /// reads: a Config and a request for the Status in one tick show the Config's
+    /// verdict in both frames).
     pub const CMD_REFUSED: u16 = 1 << 7;
-    /// Bit 8. The wheel-slip protection acts this tick: the wheel's slip velocity
-    /// against the Sensor's `v_ref_mm_s` is above its threshold and the traction torque
-    /// is reduced (`Config.wsp` on).
+    /// Bit 8. The wheel-slip protection acts this tick (`Config.wsp` on): it holds the
+    /// traction current reference below the demand's, from a slip detected against the
+    /// Sensor's `v_ref_mm_s` until its release (or, once the reference became unknown,
+    /// until the reference is handed back: [`Sensor::v_ref_mm_s`]).
     pub const WHEEL_SLIP: u16 = 1 << 8;
     /// Bit 9. The stability monitor's hunting alarm is raised (band-passed `y'` RMS above
     /// its threshold).
@@ -104,7 +118,9 @@ impl Flags {
     /// has no effect on the measured motion, or the actuator reports a fault).
     pub const ACTUATOR_FAULT: u16 = 1 << 10;
     /// Bit 11. Sticky: an alarm (bits 9-10) or a watchdog / fault reset happened since
-    /// start-up or the last [`Command::ClearFaults`].
+    /// start-up or the last [`Command::ClearFaults`]. After such a reset the device also
+    /// holds the safe state ([`Flags::SAFE`], zero torque from the first tick) until
+    /// `ClearFaults`.
     pub const FAULT_LATCHED: u16 = 1 << 11;
 
     /// Whether every bit of `mask` is set.
@@ -169,10 +185,14 @@ pub struct Config {
     /// Ticks a missing sensor frame is bridged by the held sample before the safe state.
     pub hold_ticks: u16,
     /// Wheel-slip protection on: the traction torque is reduced while the wheel slips
-    /// against the Sensor's `v_ref_mm_s` ([`Flags::WHEEL_SLIP`]).
+    /// against the Sensor's `v_ref_mm_s` ([`Flags::WHEEL_SLIP`]; idle while that is 0,
+    /// unknown). A device boots with it on.
     pub wsp: bool,
     /// A stability alarm ([`Flags::HUNTING`], [`Flags::ACTUATOR_FAULT`]) enters the safe
     /// state and keeps it until [`Command::ClearFaults`]; off: the alarm is only reported.
+    /// A device boots with it off: the safe state's zero yaw torque leaves a wheelset
+    /// whose yaw spring the actuator replaces with neither (`wheelset_runtime`'s
+    /// `RuntimeConfig`, "The device's boot defaults").
     pub monitor_safe: bool,
     /// New rates with their coefficients (the control core restarts on them); `None`
     /// keeps the rates.
@@ -230,15 +250,20 @@ pub enum Command {
     /// Send a [`Status`] frame (after the next actuation frame).
     RequestStatus,
     /// Clear [`Flags::FAULT_LATCHED`] and leave a safe state held by a stability alarm
-    /// (`Config.monitor_safe`): the host's acknowledgement after it has acted.
+    /// (`Config.monitor_safe`) or by the boot after a watchdog or fault reset: the host's
+    /// acknowledgement after it has acted.
     ClearFaults,
     /// Test only (index 3): stall the control task (it loops without letting the
     /// watchdog be fed) so the watchdog resets the board. Honoured only by a firmware
-    /// built with the `fault-inject` feature (the QEMU build); refused elsewhere with
-    /// `RefuseReason::Unsupported`. A new index and no new field: `VERSION` stays 2, and
-    /// a device without it refuses it as an unknown request.
+    /// built with the `fault-inject` feature whose board runs a watchdog (the
+    /// free-running QEMU build, `wheelset-qemu-free.elf`); refused elsewhere with
+    /// `RefuseReason::Unsupported`, the lock-step QEMU build included (no watchdog
+    /// there: the stall would never end). A new index and no new field: `VERSION` stays
+    /// 2, and a device without it refuses it as an unknown request.
     InjectStall,
-    /// Test only (index 4): trigger a HardFault (as [`Command::InjectStall`]).
+    /// Test only (index 4): trigger a HardFault, whose handler drives the safe outputs
+    /// and resets the board. Honoured by a `fault-inject` firmware (both QEMU builds: no
+    /// watchdog needed), refused elsewhere as [`Command::InjectStall`].
     InjectHardFault,
 }
 
@@ -315,10 +340,16 @@ pub struct Status {
     /// Board: boots since power-on, kept in RAM outside the zeroed sections (survives a
     /// watchdog reset; not zeroed by [`Command::ResetCounters`]).
     pub boot_count: u32,
-    /// Board: the stack's high-water mark in bytes (painted at start-up, measured on
-    /// request; 0 where not measured). Not zeroed by [`Command::ResetCounters`].
+    /// Board: the stack's high-water mark in bytes, as the board last measured it: the
+    /// stack is painted at start-up and scanned every 1 024 ticks (0.2 s at 5 kHz; a
+    /// scan reads up to 16 KiB, too long for the tick that answers a request), so the
+    /// figure is at most 1 024 ticks old, and 0 before the first scan or where not
+    /// measured (the in-process device). Not zeroed by [`Command::ResetCounters`].
     pub stack_peak: u32,
-    /// Why the latest Config or Command was refused ([`crate::RefuseReason`] code; 0 none).
+    /// Why the latest refused Config or Command was refused ([`crate::RefuseReason`]
+    /// code; 0: none since start-up or [`Command::ResetCounters`]). Kept while later
+    /// requests are accepted; [`Flags::CMD_REFUSED`] says whether the latest one was
+    /// refused, `cmd_refused` how many were.
     pub refuse_reason: u8,
     /// Why the board last started ([`crate::reset_cause`] code). Not zeroed by
     /// [`Command::ResetCounters`].

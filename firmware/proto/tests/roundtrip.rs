@@ -103,9 +103,8 @@ proptest! {
                 // An undefined Command variant or Config mode: an unknown request.
                 (Err(FrameError::Postcard), Ok(Request::Unknown)) => {
                     prop_assert!(ty == 2 || ty == 3);
-                    let lead = body.first().copied().unwrap_or(0);
-                    let defined = if ty == 3 { 2 } else { 3 };
-                    prop_assert!(lead < 0x80 && lead >= defined);
+                    let defined = if ty == 3 { 5 } else { 3 };
+                    prop_assert!(leading_varint(&body).is_some_and(|v| v >= defined));
                 }
                 (Err(e), Err(f)) => prop_assert_eq!(e, f),
                 (x, y) => prop_assert!(false, "{:?} vs {:?}", x, y),
@@ -488,4 +487,55 @@ fn next_request_stops_after_each_frame() {
     let (r, rest) = dec.next_request(&b[3..]);
     assert_eq!(r, Some(Ok(Request::Command(Command::ResetCounters))));
     assert!(rest.is_empty());
+}
+
+/// A body's leading varint as postcard reads a `u32` (at most 5 bytes, the fifth at most
+/// 0x0F); `None` if malformed.
+fn leading_varint(body: &[u8]) -> Option<u32> {
+    let mut v = 0u32;
+    for (i, &b) in body.iter().take(5).enumerate() {
+        if i == 4 && b > 0x0F {
+            return None;
+        }
+        v |= u32::from(b & 0x7F) << (7 * i);
+        if b < 0x80 {
+            return Some(v);
+        }
+    }
+    None
+}
+
+/// An undefined Command or YawMode index is an unknown request whatever the form of its
+/// varint; a defined index in a longer form is that request; a malformed varint is a
+/// decoding error (as `decode_frame` says, which decodes every message).
+#[test]
+fn an_undefined_index_is_unknown_in_any_varint_form() {
+    let decide = |ty: u8, body: &[u8]| {
+        let mut raw = vec![ty];
+        raw.extend_from_slice(body);
+        let mut f = reference_wire(&raw);
+        let full = decode_frame(&mut f.clone());
+        (full, decode_request(&mut f))
+    };
+    for (ty, body) in [
+        (3u8, vec![5u8]),
+        (3, vec![0xC8, 0x01]),
+        (3, vec![0x85, 0x00]),
+        (3, vec![0xFF, 0xFF, 0xFF, 0xFF, 0x0F]),
+        (2, vec![0x83, 0x80, 0x00, 1, 1, 10, 0]),
+    ] {
+        let (full, dev) = decide(ty, &body);
+        assert_eq!(full, Err(FrameError::Postcard), "{ty} {body:x?}");
+        assert_eq!(dev, Ok(Request::Unknown), "{ty} {body:x?}");
+    }
+    // A defined index in a padded form: the request itself, for both decoders.
+    let (full, dev) = decide(3, &[0x81, 0x00]);
+    assert_eq!(full, Ok(Message::Command(Command::RequestStatus)));
+    assert_eq!(dev, Ok(Request::Command(Command::RequestStatus)));
+    // Malformed: cut short, or a fifth byte over 0x0F.
+    for body in [vec![0x85], vec![0xFF, 0xFF, 0xFF, 0xFF, 0x10]] {
+        let (full, dev) = decide(3, &body);
+        assert_eq!(full, Err(FrameError::Postcard), "{body:x?}");
+        assert_eq!(dev, Err(FrameError::Postcard), "{body:x?}");
+    }
 }

@@ -15,6 +15,30 @@ use wheelset_proto::units::{
 use crate::{acc_factors, AccBits, Rates, DEFAULT_HOLD_TICKS};
 
 /// The runtime configuration: the control core's configuration and the fault policy.
+///
+/// # The device's boot defaults
+///
+/// [`RuntimeConfig::default`] is what a board runs from power-on until a host's Config
+/// (the firmware's build script compiles it into the binary): the control core's
+/// defaults (lead, traction on, 5 kHz, `wheelset_control::Config::default`) with
+///
+/// - **the wheel-slip protection on** (`WspParams::enabled`): a drive without it runs a
+///   slipping wheel away
+///   (`sim-host/tests/adhesion.rs`); it needs the Sensor's `v_ref_mm_s`, and while that
+///   is 0 (unknown: a host that sends no reference) it stays idle rather than reading a
+///   rolling wheel as a slip (`wheelset_control::wsp`, "An unknown reference");
+/// - **the stability monitor on** ([`Self::monitor`]), its alarms reported
+///   (`HUNTING`, `ACTUATOR_FAULT`, `FAULT_LATCHED`);
+/// - **its safe action off** (`Config.monitor_safe = false`, the runtime's start): the
+///   safe state zeroes the yaw torque, and in the lead and gain modes the actuator
+///   replaces the yaw spring, so zero torque leaves the wheelset with neither (without
+///   the actuator it hunts at every conicity of the envelope: `wheelset_plant::fault`, test
+///   `the_passive_less_wheelset_is_unstable`). A
+///   hunting alarm is then not cured by the device's zero torque; it asks the vehicle
+///   to slow down, which the host decides. A host that knows zero torque is the safer
+///   failure (an actuator that may act reversed) sets `monitor_safe`;
+/// - outputs enabled, `hold_ticks` [`crate::DEFAULT_HOLD_TICKS`], the `y''` wash-out
+///   [`DEFAULT_ACC_WASHOUT_S`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RuntimeConfig {
     /// The control core's configuration. Its `wire` LSBs are overwritten with the
@@ -39,6 +63,7 @@ pub struct RuntimeConfig {
 pub const DEFAULT_ACC_WASHOUT_S: f64 = 2.0;
 
 impl Default for RuntimeConfig {
+    /// The device's boot defaults (the type's docs).
     fn default() -> Self {
         Self {
             control: ControlConfig::default(),

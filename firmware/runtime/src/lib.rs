@@ -44,7 +44,13 @@
 //!    Sensor frames with `y'` use it; frames with only `y''` feed an integrator with
 //!    wash-out ([`RuntimeConfig::acc_washout_s`]) that runs every tick (re-seeded by the
 //!    next frame that carries only `y'`); frames with both feed the complementary filter
-//!    below. A Sensor `seq` that is not the previous + 1 counts a `seq_gap`.
+//!    below. The integrator holds `y'` in Q32 um/s and hands the control core the whole
+//!    um/s below it (an arithmetic shift: `floor`, not a rounding), as a Sensor's `y'`
+//!    code: on average half an LSB low, -0.5 um/s, which the lead turns into 0.05 N m
+//!    at DC (`K a w1/w2` = 1.06e5 N m per m/s), half the torque's wire LSB; a `y''` of
+//!    -1 code (-0.1 mm/s^2) gives `y'` = -1 um/s on its first tick, +1 code 0 until
+//!    the sum reaches 1 um/s (about 50 ticks at 5 kHz). A Sensor `seq` that is not the
+//!    previous + 1 counts a `seq_gap`.
 //! 2. **A missing sensor frame** (no new valid Sensor since the last tick): the tick runs
 //!    on the held last sample, flag [`Flags::HOLDING`], `held_ticks` counted (every such
 //!    tick, in the safe state too: the flag and the counter are the same event), for at
@@ -68,6 +74,11 @@
 //!    ([`Flags::NO_SAMPLE`]) no speed is known: the outputs are
 //!    [`Runtime::safe_outputs`] (zero torque, zero voltage), also what a panic handler
 //!    drives; a host must read `NO_SAMPLE` as "not driving".
+//! 6. **After a watchdog or fault reset** (the board's boot record,
+//!    [`Runtime::set_boot`]): [`Flags::FAULT_LATCHED`] and the safe state from the first
+//!    tick, its torque limit at zero (zero yaw torque at once, not a ramp from the full
+//!    limit), until [`Command::ClearFaults`]; a Config does not end it. The device that
+//!    has just crashed drives nothing until the host has acknowledged the crash.
 //!
 //! **`Lateral::Both`**: a complementary filter of `y'` and `y''` (the wash-out's time
 //! constant `tau` is the crossover, `1/(2 pi tau)` = 0.08 Hz by default), run every tick:
@@ -85,7 +96,9 @@
 //! A [`Config`] applies mode, traction, enable and `hold_ticks` at once, or nothing: the
 //! device refuses anything outside the plausible ranges of `wheelset_proto::plausible`
 //! (counted in `cmd_refused`, flagged [`Flags::CMD_REFUSED`] until the next accepted
-//! Config, the field in [`Runtime::refuse_reason`]), the old configuration kept. New
+//! Config or Command other than `RequestStatus`, the reason in
+//! [`Runtime::refuse_reason`] and the Status until the next refusal), the old
+//! configuration kept. New
 //! rates come with their coefficients ([`Rates`], computed by the host with this same
 //! code: [`rates_for`]); the device does no discretisation (no float maths at all: it
 //! starts from [`RuntimeBits`] constants, [`Runtime::from_bits`]), it validates them
@@ -94,7 +107,8 @@
 //! coefficient against what its own start-up core yields at the requested rates within
 //! `2^-10`) and restarts the control core on them. A restarted core restarts its filter
 //! states; the traction loop restarts bumpless from the back-EMF, the yaw torque slews
-//! from the old core's output. A change of the yaw law slews likewise (at most
+//! from the old core's output, under the old core's torque limit and safe state (a
+//! safe state goes on). A change of the yaw law slews likewise (at most
 //! `torque_step` per yaw step, 40 N m per tick by default, until the new law's output is
 //! reached: bumpless).
 //!

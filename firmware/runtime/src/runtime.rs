@@ -83,12 +83,16 @@ pub struct Runtime<T: Sample> {
     /// A stability alarm holds the safe state (`Config.monitor_safe`) until
     /// `Command::ClearFaults`.
     monitor_safe: bool,
+    /// The safe state is held until `Command::ClearFaults`: by a stability alarm (with
+    /// `monitor_safe`) or by a boot after a watchdog or fault reset ([`Self::set_boot`]).
     alarm_safe: bool,
     /// Sticky [`Flags::FAULT_LATCHED`].
     fault_latched: bool,
     status_requested: bool,
     /// A fault injection the board is to carry out (feature `fault-inject`).
     injected: Option<Command>,
+    /// The board runs a watchdog that ends a stalled tick ([`Self::set_watchdog`]).
+    watchdog: bool,
     ticks: u32,
     /// The board's link limit: the highest base rate a Config may set, Hz.
     max_rate_hz: u32,
@@ -171,6 +175,7 @@ impl<T: SampleBits> Runtime<T> {
             fault_latched: false,
             status_requested: false,
             injected: None,
+            watchdog: false,
             ticks: 0,
             max_rate_hz: u32::MAX,
             counters: RuntimeCounters::default(),
@@ -185,6 +190,17 @@ impl<T: SampleBits> Runtime<T> {
     /// `u32::MAX` (the default) is no limit (a frame-clocked device in lock-step).
     pub fn set_link_limit(&mut self, max_rate_hz: u32) {
         self.max_rate_hz = max_rate_hz;
+    }
+
+    /// The board runs a hardware watchdog that resets it when a tick stalls (`false` by
+    /// default: a frame-clocked board and the in-process device have none). Only then is
+    /// [`Command::InjectStall`] honoured (with the `fault-inject` feature): on a board
+    /// without one a stalled control task would never be ended, so the command is
+    /// refused as [`RefuseReason::Unsupported`] (as every injection is without
+    /// `fault-inject`). [`Command::InjectHardFault`] needs no watchdog: the HardFault
+    /// handler resets the board itself.
+    pub fn set_watchdog(&mut self, running: bool) {
+        self.watchdog = running;
     }
 
     /// What a panic handler drives: zero torque, zero voltage.
@@ -391,8 +407,17 @@ impl<T: SampleBits> Runtime<T> {
     }
 
     /// The board's boot record: boots since power-on and the reset cause
-    /// (`wheelset_proto::reset_cause`). A reset by the watchdog or after a fault latches
-    /// [`Flags::FAULT_LATCHED`] (until [`Command::ClearFaults`]).
+    /// (`wheelset_proto::reset_cause`), given once, before the first tick. A reset by
+    /// the watchdog or after a fault latches [`Flags::FAULT_LATCHED`] and holds the safe
+    /// state, both until [`Command::ClearFaults`]: a device that has just crashed drives
+    /// nothing until its host has seen that and acknowledged it. From the first tick:
+    /// [`Flags::SAFE`], zero yaw torque (the torque limit starts at zero, not ramping
+    /// down from the full limit: the fault handler drove zero before the reset), zero
+    /// traction current (the back-EMF of the received speed; before any sample the
+    /// [`Self::safe_outputs`]); a Config does not end it (a host that reconfigures a
+    /// device after its reset has not thereby acknowledged the fault). `ClearFaults`
+    /// leaves it as the end of any safe state does: the torque limit ramps back up, the
+    /// traction reference from zero (crate docs, fault policy item 4).
     ///
     /// [`Command::ClearFaults`]: crate::Command::ClearFaults
     pub fn set_boot(&mut self, boot_count: u32, reset_cause: u8) {
@@ -403,6 +428,8 @@ impl<T: SampleBits> Runtime<T> {
             wheelset_proto::reset_cause::WATCHDOG | wheelset_proto::reset_cause::FAULT
         ) {
             self.fault_latched = true;
+            self.alarm_safe = true;
+            self.core.set_safe_at(true, T::ZERO);
         }
     }
 

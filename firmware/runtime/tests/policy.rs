@@ -352,6 +352,35 @@ fn acceleration_frames_are_integrated_with_washout() {
     ));
 }
 
+/// The `y''`-only estimate reaches the control core floored to whole um/s (crate docs,
+/// fault policy item 1): `y''` = -1 code (-0.1 mm/s^2) integrates to -0.02 um/s per tick
+/// at 5 kHz, so the core sees -1 um/s from the first tick (a rounding would give 0 for
+/// 25 ticks, a truncation towards zero for 50): the outputs of a device sent `y'` = -1
+/// um/s, tick for tick; +1 code stays at 0 (the outputs of `y'` = 0).
+#[test]
+fn the_integrated_velocity_reaches_the_core_floored_to_whole_um_s() {
+    for (a, y) in [(-1, -1), (1, 0)] {
+        let (mut acc, mut v) = (rt(), rt());
+        // The same seed for both: `y'` = 0, then the integrator starts from 0.
+        for k in 1..=10u16 {
+            acc.receive(&vel(k, 0));
+            v.receive(&vel(k, 0));
+            assert_eq!(act(acc.tick(0)), act(v.tick(0)));
+        }
+        for k in 11..=30u16 {
+            acc.receive(&accel(k, a));
+            v.receive(&vel(k, y));
+            let (p, q) = (act(acc.tick(0)), act(v.tick(0)));
+            assert_eq!(p.t_psi_dnm, q.t_psi_dnm, "y'' {a}, tick {k}");
+        }
+    }
+    // And the two cases differ: one um/s moves the lead's torque.
+    let (mut a, mut b) = (rt(), rt());
+    a.receive(&vel(1, 0));
+    b.receive(&vel(1, -1));
+    assert_ne!(act(a.tick(0)).t_psi_dnm, act(b.tick(0)).t_psi_dnm);
+}
+
 /// The Config of a rate change: the coefficients computed on the host for `cfg`.
 fn rate_change<T: wheelset_control::SampleBits>(cfg: &RuntimeConfig) -> Config {
     Config {

@@ -152,11 +152,13 @@ fn slipping(r: &mut Runtime<Fx>, ticks: u32) -> u32 {
 #[test]
 fn the_wheel_slip_protection_is_switched_by_the_config_and_reported() {
     let mut off = Runtime::<Fx>::try_new(RuntimeConfig::default()).expect("valid");
-    assert_eq!(slipping(&mut off, 2_000), 0, "off by default");
+    off.receive(&config(YawMode::Lead, false, false, DEFAULT_HOLD_TICKS));
+    assert_eq!(slipping(&mut off, 2_000), 0, "switched off by the Config");
     assert_eq!(status(&mut off, 2_001).wsp_ticks, 0);
 
+    // On at boot (the device's default), before any Config.
     let mut on = Runtime::<Fx>::try_new(RuntimeConfig::default()).expect("valid");
-    on.receive(&config(YawMode::Lead, true, false, DEFAULT_HOLD_TICKS));
+    assert!(on.core().wsp_enabled(), "on by default");
     let flagged = slipping(&mut on, 2_000);
     assert!(flagged > 0, "a 13 m/s slip is flagged");
     let (a, s) = status_on(&mut on, &sensor(2_001, 0, 925_600, 70_000));
@@ -230,6 +232,7 @@ fn fault_injection_is_refused_without_the_feature() {
 #[test]
 fn the_reference_speed_received_while_the_protection_is_off_is_the_one_it_starts_on() {
     let mut r = Runtime::<Fx>::try_new(RuntimeConfig::default()).expect("valid");
+    r.receive(&config(YawMode::Lead, false, false, DEFAULT_HOLD_TICKS));
     let mut last = 0;
     for k in 1..=20u16 {
         last = 70_000 + 300 * i32::from(k);
@@ -255,6 +258,7 @@ fn the_reference_speed_received_while_the_protection_is_off_is_the_one_it_starts
     // Off, a frame, then a Config with rates and the protection on: a fresh core.
     let mut cfg = RuntimeConfig::default();
     let mut q = Runtime::<Fx>::try_new(cfg).expect("valid");
+    q.receive(&config(YawMode::Lead, false, false, DEFAULT_HOLD_TICKS));
     q.receive(&sensor(1, 0, 925_600, 70_000));
     q.tick(0);
     cfg.control.base_rate_hz = 4_000;
@@ -279,4 +283,187 @@ fn the_reference_speed_received_while_the_protection_is_off_is_the_one_it_starts
     e.set_v_ref_code(70_000);
     assert_eq!(q.core().wsp_state().w_ref, e.wsp_state().w_ref);
     assert_ne!(q.core().wsp_state().w_ref, Fx::ZERO);
+}
+
+/// A Sensor frame: `y'` 1 mm/s, the motor at 925.6 rad/s (83.3 m/s at the rim), a
+/// demand of `demand_nm` and the reference speed `v_ref_mm_s`.
+fn driving(seq: u16, demand_nm: i32, v_ref_mm_s: i32) -> Vec<u8> {
+    sensor_frame(Sensor {
+        omega_m_mrad_s: 925_600,
+        demand_nm,
+        v_ref_mm_s,
+        ..sample(seq, Lateral::Velocity(1_000))
+    })
+}
+
+#[test]
+fn an_unknown_reference_speed_leaves_the_protection_idle() {
+    // 925.6 rad/s, 5 000 N m, v_ref 0 (unknown): no WHEEL_SLIP, no cut: the outputs of
+    // a device with the protection off, tick for tick. At 83 333 mm/s (the wheel
+    // rolls) likewise; at 1 mm/s (a vehicle known to stand) the wheel slips.
+    for v_ref in [0, 83_333] {
+        let mut on = Runtime::<Fx>::try_new(RuntimeConfig::default()).expect("valid");
+        let mut off = Runtime::<Fx>::try_new(RuntimeConfig::default()).expect("valid");
+        off.receive(&config(YawMode::Lead, false, false, DEFAULT_HOLD_TICKS));
+        for k in 1..=500u16 {
+            on.receive(&driving(k, 5_000, v_ref));
+            off.receive(&driving(k, 5_000, v_ref));
+            let (a, b) = (act(on.tick(0)), act(off.tick(0)));
+            assert!(!a.flags.has(Flags::WHEEL_SLIP), "v_ref {v_ref}, tick {k}");
+            assert_eq!((a.t_psi_dnm, a.u_a_cv), (b.t_psi_dnm, b.u_a_cv), "tick {k}");
+        }
+        let s = status_on(&mut on, &driving(501, 5_000, v_ref)).1;
+        assert_eq!((s.wsp_ticks, s.wsp_events), (0, 0), "v_ref {v_ref}");
+    }
+    let mut on = Runtime::<Fx>::try_new(RuntimeConfig::default()).expect("valid");
+    on.receive(&driving(1, 5_000, 1));
+    assert!(
+        act(on.tick(0)).flags.has(Flags::WHEEL_SLIP),
+        "known, 1 mm/s"
+    );
+}
+
+#[test]
+fn a_boot_after_a_fault_drives_the_safe_outputs_until_clear_faults() {
+    for cause in [reset_cause::FAULT, reset_cause::WATCHDOG] {
+        let mut r = Runtime::<Fx>::try_new(RuntimeConfig::default()).expect("valid");
+        r.set_boot(2, cause);
+        // A device with its outputs disabled: zero torque, the back-EMF of the speed.
+        let mut disabled = Runtime::<Fx>::try_new(RuntimeConfig::default()).expect("valid");
+        disabled.receive(
+            &encode_vec(&Message::Config(Config {
+                mode: YawMode::Lead,
+                traction: true,
+                enable: false,
+                hold_ticks: DEFAULT_HOLD_TICKS,
+                wsp: true,
+                monitor_safe: false,
+                rates: None,
+            }))
+            .expect("fits"),
+        );
+        // A freshly powered device gets the full lead torque on the same frame.
+        let mut fresh = Runtime::<Fx>::try_new(RuntimeConfig::default()).expect("valid");
+        fresh.set_boot(1, reset_cause::POWER_ON);
+        let f = driving(1, 5_000, 83_333);
+        let (a, d, p) = {
+            r.receive(&f);
+            disabled.receive(&f);
+            fresh.receive(&f);
+            (act(r.tick(0)), act(disabled.tick(0)), act(fresh.tick(0)))
+        };
+        assert!(p.t_psi_dnm.abs() > 1_000, "the lead's first torque {p:?}");
+        assert!(
+            a.flags.has(Flags::SAFE) && a.flags.has(Flags::FAULT_LATCHED),
+            "{a:?}"
+        );
+        assert_eq!((a.t_psi_dnm, a.u_a_cv), (0, d.u_a_cv), "cause {cause}");
+        // The host's Config after the reset (new rates too) does not end it.
+        let mut cfg = RuntimeConfig::default();
+        cfg.control.base_rate_hz = 4_000;
+        r.receive(
+            &encode_vec(&Message::Config(Config {
+                mode: YawMode::Lead,
+                traction: true,
+                enable: true,
+                hold_ticks: DEFAULT_HOLD_TICKS,
+                wsp: true,
+                monitor_safe: false,
+                rates: Some(rates_for::<Fx>(&cfg).expect("valid")),
+            }))
+            .expect("fits"),
+        );
+        assert_eq!(r.base_rate_hz(), 4_000, "the Config is applied");
+        for k in 2..=200u16 {
+            r.receive(&driving(k, 5_000, 83_333));
+            let a = act(r.tick(0));
+            assert!(a.flags.has(Flags::SAFE), "tick {k}");
+            assert_eq!(a.t_psi_dnm, 0, "tick {k}");
+        }
+        // Acknowledged: the safe state ends, the torque limit ramps up from zero (at
+        // the safe ramp's 2e5 N m/s: 50 N m per 250 us tick at 4 kHz), the latch clears.
+        r.receive(&command(Command::ClearFaults));
+        let mut last = 0;
+        for k in 201..=260u16 {
+            r.receive(&driving(k, 5_000, 83_333));
+            let a = act(r.tick(0));
+            assert!(!a.flags.has(Flags::SAFE) && !a.flags.has(Flags::FAULT_LATCHED));
+            assert!((a.t_psi_dnm - last).abs() <= 500, "tick {k}: {a:?}");
+            last = a.t_psi_dnm;
+        }
+        assert!(last.abs() > 1_000, "the torque came back: {last}");
+        let s = status(&mut r, 261);
+        assert_eq!((s.safe_entries, s.safe_exits), (1, 1));
+    }
+}
+
+/// A Command frame whose variant index is the varint `index` (bytes as sent).
+fn command_index(index: &[u8]) -> Vec<u8> {
+    let mut raw = vec![VERSION, 3];
+    raw.extend_from_slice(index);
+    raw.extend_from_slice(&crc32c(&raw).to_le_bytes());
+    let mut out = vec![0u8; raw.len() + 2];
+    let n = cobs_encode(&raw, &mut out).expect("fits");
+    out.truncate(n);
+    out.push(0);
+    out
+}
+
+#[test]
+fn cmd_refused_marks_the_latest_config_or_command() {
+    let mut r = Runtime::<Fx>::try_new(RuntimeConfig::default()).expect("valid");
+    let refused = config(YawMode::Lead, true, false, u16::MAX);
+    let accepted = config(YawMode::Lead, true, false, DEFAULT_HOLD_TICKS);
+    let mut seq = 0u16;
+    let mut flag = |r: &mut Runtime<Fx>, frame: &[u8]| {
+        r.receive(frame);
+        seq += 1;
+        r.receive(&sensor(seq, 0, 925_600, 0));
+        act(r.tick(0)).flags.has(Flags::CMD_REFUSED)
+    };
+    assert!(flag(&mut r, &refused));
+    // A Command taken clears it; the reason of the refusal stays in the Status.
+    assert!(!flag(&mut r, &command(Command::ClearFaults)));
+    assert_eq!(
+        status(&mut r, 100).refuse_reason,
+        RefuseReason::HoldTicks.code()
+    );
+    assert!(flag(&mut r, &refused));
+    // RequestStatus, a read, leaves it: the Status shows the Config's verdict.
+    assert!(flag(&mut r, &command(Command::RequestStatus)));
+    let (a, s) = status_on(&mut r, &sensor(101, 0, 925_600, 0));
+    assert!(a.flags.has(Flags::CMD_REFUSED) && s.flags.has(Flags::CMD_REFUSED));
+    // An unknown request (index 200, a two-byte varint) is refused, not a decoding
+    // error; a Config taken clears the flag.
+    assert!(!flag(&mut r, &command(Command::ResetCounters)));
+    assert!(flag(&mut r, &command_index(&[0xC8, 0x01])));
+    assert_eq!(r.refuse_reason(), RefuseReason::UnknownRequest);
+    assert!(!flag(&mut r, &accepted));
+    let s = status(&mut r, 102);
+    assert_eq!(
+        (s.cmd_refused, s.rx_postcard),
+        (1, 0),
+        "one refusal since the reset"
+    );
+}
+
+/// With `fault-inject` (the QEMU firmware's runtime): a HardFault is honoured on any
+/// board, a stall only where a watchdog ends it (`Runtime::set_watchdog`); elsewhere it
+/// is refused as Unsupported.
+#[cfg(feature = "fault-inject")]
+#[test]
+fn a_stall_is_honoured_only_where_a_watchdog_ends_it() {
+    let mut r = Runtime::<Fx>::try_new(RuntimeConfig::default()).expect("valid");
+    r.receive(&command(Command::InjectStall));
+    let a = act(r.tick(0));
+    assert!(a.flags.has(Flags::CMD_REFUSED));
+    assert_eq!(r.refuse_reason(), RefuseReason::Unsupported);
+    assert_eq!(r.take_injected(), None);
+    r.receive(&command(Command::InjectHardFault));
+    assert!(!act(r.tick(0)).flags.has(Flags::CMD_REFUSED));
+    assert_eq!(r.take_injected(), Some(Command::InjectHardFault));
+    r.set_watchdog(true);
+    r.receive(&command(Command::InjectStall));
+    assert!(!act(r.tick(0)).flags.has(Flags::CMD_REFUSED));
+    assert_eq!(r.take_injected(), Some(Command::InjectStall));
 }

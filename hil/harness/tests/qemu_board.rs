@@ -2,10 +2,11 @@
 //! `wheelset-qemu` firmware reports its late and skipped ticks, the bytes its receive
 //! path lost and the frames its transmit path dropped, and its boot record (boot 1,
 //! power-on, no latched fault after a fresh start) in the Status; a HardFault resets
-//! it (lock-step build); a stalled control task trips the CMSDK watchdog, which resets
-//! it (the free-running build `wheelset-qemu-free.elf`, where alone the watchdog runs:
-//! `firmware/app/src/board/qemu/wdog.rs`). Skips when QEMU or the ELF is missing,
-//! unless `REQUIRE_QEMU=1`.
+//! it (lock-step build) and the new boot drives the safe outputs until `ClearFaults`; a
+//! stalled control task trips the CMSDK watchdog, which resets it (the free-running
+//! build `wheelset-qemu-free.elf`, where alone the watchdog runs:
+//! `firmware/app/src/board/qemu/wdog.rs`), and the lock-step build, with no watchdog,
+//! refuses the stall. Skips when QEMU or the ELF is missing, unless `REQUIRE_QEMU=1`.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 mod common;
@@ -274,4 +275,92 @@ fn a_hardfault_drives_the_safe_outputs_and_resets() {
     assert_eq!(first.tick, 1, "{first:?}");
     assert_eq!((s.boot_count, s.reset_cause), (2, reset_cause::FAULT));
     assert!(s.flags.has(Flags::FAULT_LATCHED));
+}
+
+/// A Sensor frame of a driven wheelset: `y'` 1 mm/s, the motor at 925.6 rad/s, a
+/// demand of 5 000 N m, the vehicle at 83.3 m/s.
+fn driving(seq: u16) -> Vec<u8> {
+    encode_vec(&Message::Sensor(wheelset_proto::Sensor {
+        seq,
+        t_us: seq.wrapping_mul(200),
+        lateral: wheelset_proto::Lateral::Velocity(1_000),
+        i_a_ma: 0,
+        omega_m_mrad_s: 925_600,
+        demand_nm: 5_000,
+        v_ref_mm_s: 83_304,
+    }))
+    .unwrap()
+    .to_vec()
+}
+
+/// The Actuation of one lock-step exchange.
+fn actuation(q: &mut Qemu, bytes: &[u8]) -> Actuation {
+    match exchange(q, bytes, 1).first() {
+        Some(Message::Actuation(a)) => *a,
+        other => panic!("{other:?}"),
+    }
+}
+
+#[test]
+fn a_device_that_has_just_crashed_drives_the_safe_outputs_until_clear_faults() {
+    let Some(mut q) = common::start_cfg_or_skip("safe after a fault", &QemuConfig::new()) else {
+        return;
+    };
+    // Before the fault the same frame gets the lead's torque.
+    let live = actuation(&mut q, &driving(1));
+    assert!(live.t_psi_dnm.abs() > 1_000, "{live:?}");
+    let (first, s) = fault_and_rejoin(&mut q, Command::InjectHardFault);
+    assert_eq!((s.boot_count, s.reset_cause), (2, reset_cause::FAULT));
+    // The new boot: the safe state from its first tick, zero torque, zero current (the
+    // back-EMF K_m omega = 3 961.57 V of the received speed), the fault latched.
+    assert!(first.flags.has(Flags::SAFE) && first.flags.has(Flags::FAULT_LATCHED));
+    assert_eq!(first.t_psi_dnm, 0, "{first:?}");
+    assert!((first.u_a_cv - 396_157).abs() <= 1, "{first:?}");
+    // The host's Config (new rates too, as `hil run` sends after a reset) does not end it.
+    let a = actuation(&mut q, &common::config_at(5_000));
+    assert!(!a.flags.has(Flags::CMD_REFUSED), "{a:?}");
+    for k in 101..=300u16 {
+        let a = actuation(&mut q, &driving(k));
+        assert!(a.flags.has(Flags::SAFE), "tick {k}: {a:?}");
+        assert_eq!(a.t_psi_dnm, 0, "tick {k}: {a:?}");
+        assert!((a.u_a_cv - 396_157).abs() <= 1, "tick {k}: {a:?}");
+    }
+    // Acknowledged: the latch and the safe state end; the torque limit ramps up from
+    // zero at the safe ramp's 40 N m per tick, to the lead's torque.
+    let a = actuation(
+        &mut q,
+        &encode_vec(&Message::Command(Command::ClearFaults)).unwrap(),
+    );
+    let mut last = a.t_psi_dnm;
+    assert!(last.abs() <= 400, "{a:?}");
+    for k in 301..=400u16 {
+        let a = actuation(&mut q, &driving(k));
+        assert!(!a.flags.has(Flags::SAFE) && !a.flags.has(Flags::FAULT_LATCHED));
+        assert!((a.t_psi_dnm - last).abs() <= 400, "tick {k}: {a:?}");
+        last = a.t_psi_dnm;
+    }
+    assert!(last.abs() > 1_000, "the torque is back: {last}");
+    let s = status(&mut q);
+    assert_eq!((s.safe_entries, s.safe_exits), (1, 1));
+}
+
+#[test]
+fn the_lock_step_build_refuses_a_stall_it_could_not_end() {
+    let Some(mut q) = common::start_cfg_or_skip("stall refused", &QemuConfig::new()) else {
+        return;
+    };
+    for k in 1..=5 {
+        exchange(&mut q, &sensor(k), 1);
+    }
+    // No watchdog in this build: InjectStall is refused, and the device goes on.
+    let a = actuation(&mut q, &command(Command::InjectStall));
+    assert!(a.flags.has(Flags::CMD_REFUSED), "{a:?}");
+    let a = actuation(&mut q, &sensor(6));
+    assert_eq!(a.seq_echo, 6);
+    let s = status(&mut q);
+    assert_eq!(
+        s.refuse_reason,
+        wheelset_proto::RefuseReason::Unsupported.code()
+    );
+    assert_eq!((s.cmd_refused, s.boot_count), (1, 1));
 }

@@ -597,3 +597,71 @@ fn the_sections_table_compares_the_protected_and_the_unprotected_core() {
         assert!(String::from_utf8_lossy(&bad.stderr).contains("--sections-table"));
     }
 }
+
+#[test]
+fn the_acceleration_test_alone_would_cut_a_wheel_that_does_not_slip() {
+    // `firmware/control/src/wsp.rs`, "An unknown reference": why the protection does not
+    // detect by the wheel's acceleration alone while `v_ref` is unknown. A step of the
+    // demand to the full 12.4 kN m on dry rail (the device ramps the reference at its
+    // 20 kA/s), the drive alone (protection off): the gear's twist makes the motor's
+    // speed code rise by more than the acceleration threshold per traction step while
+    // the wheel's slip stays below `slip_accel`, where the reference's gate holds the
+    // test off.
+    use wheelset_loop::core::CoreController;
+    use wheelset_plant::control::SampledController;
+    use wheelset_plant::sim::{run_sampled, ActuatorModel, SensorModel};
+    let src = include_str!("../../scenarios/low-adhesion.toml")
+        .replace("duration_s = 20.0", "duration_s = 3.0")
+        .replace("ramp_s = 3.0", "ramp_s = 0.0")
+        .replace("condition = \"low\"", "condition = \"dry\"")
+        .replace("condition = \"wet\"", "condition = \"dry\"");
+    let sc = Scenario::from_toml_str(&src, "dry-step", &Params::default()).unwrap();
+    let cfg = wheelset_loop::device_loop::control_config(&sc.params, YawLaw::Lead, sc.drive);
+    let inner = CoreController::<f64>::try_new(&cfg, false).unwrap();
+    let period = inner.period_ns();
+    let mut rec = Recorder {
+        inner,
+        seen: Vec::new(),
+    };
+    let mut act = ActuatorModel::ideal();
+    act.delay_ns = period;
+    let tr = run_sampled(
+        &sc,
+        &mut rec,
+        &mut SensorModel::ideal(),
+        &mut act,
+        YawLaw::Lead.has_spring(),
+        "dry step",
+    )
+    .unwrap();
+    assert!(tr.info.diverged_at_s.is_none());
+    let w = cfg.wsp;
+    let n_r0 = sc.params.n_gear / w.r0_m;
+    let t = period as f64 * 1e-9;
+    // The threshold in motor-speed codes (1 mrad/s) per traction step.
+    let threshold = w.accel_on_mps2 * n_r0 * t / wheelset_proto::units::SPEED_LSB_RAD_PER_S;
+    let code = |m: &wheelset_plant::control::Measurements| {
+        (m.w_m / wheelset_proto::units::SPEED_LSB_RAD_PER_S).round()
+    };
+    let (mut worst, mut slip_max) = (0.0f64, 0.0f64);
+    for p in rec.seen.windows(2) {
+        // The slip the device's gate sees (the motor's speed at the rim) and the
+        // wheel's own.
+        let gate = p[1].w_m / n_r0 - p[1].v_mps;
+        slip_max = slip_max.max(p[1].w_wheel * w.r0_m - p[1].v_mps);
+        if gate < w.slip_accel_mps {
+            worst = worst.max(code(&p[1]) - code(&p[0]));
+        }
+    }
+    eprintln!(
+        "dry step: the motor's speed code rose by up to {worst} per step at a slip below \
+         {} m/s (threshold {threshold:.2}); the wheel's slip peaked at {slip_max:.3} m/s",
+        w.slip_accel_mps
+    );
+    assert!(
+        worst > 2.0 * threshold,
+        "{worst} codes, threshold {threshold}"
+    );
+    // The wheel never slipped: its slip stayed below the protection's own threshold.
+    assert!(slip_max < w.slip_on_mps, "slip {slip_max} m/s");
+}

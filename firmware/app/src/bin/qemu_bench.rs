@@ -220,16 +220,14 @@ mod bench {
         }
     }
 
-    /// `N` whole ticks of a fresh default runtime (optionally sent `config` first) on
-    /// the stimulus; `None` if the runtime or the Config is refused.
-    fn whole_ticks(sw: &mut SysTickStopwatch, config: Option<WheelsetConfig>) -> Option<Stats> {
+    /// `N` whole ticks of a fresh default runtime, sent `config` first, on the stimulus;
+    /// `None` if the runtime or the Config is refused.
+    fn whole_ticks(sw: &mut SysTickStopwatch, config: WheelsetConfig) -> Option<Stats> {
         let mut rt = new_runtime().ok()?;
-        if let Some(c) = config {
-            let frame = encode_vec(&Message::Config(c)).ok()?;
-            rt.receive(&frame);
-            if rt.refuse_reason() != RefuseReason::None {
-                return None;
-            }
+        let frame = encode_vec(&Message::Config(config)).ok()?;
+        rt.receive(&frame);
+        if rt.refuse_reason() != RefuseReason::None {
+            return None;
         }
         let mut whole = Stats::new();
         let mut exec = 0;
@@ -276,6 +274,9 @@ mod bench {
             hprintln!("controller refused the default configuration");
             exit(debug::EXIT_FAILURE)
         };
+        // The laws alone: the wheel-slip protection (on by default) off, as in the whole
+        // tick's first row below; its cost is the third row's.
+        c.set_wsp(false);
         let mut law = Stats::new();
         let mut stim = Stimulus::new();
         for _ in 0..N {
@@ -315,7 +316,19 @@ mod bench {
         );
         mon_step.print("monitor, the ticks that run its step", overhead);
 
-        let Some(whole) = whole_ticks(&mut sw, None) else {
+        // The default runtime with the wheel-slip protection switched by a Config frame:
+        // off (the boot default has it on), then on (no slip in the stimulus: the cost of
+        // the check itself, every tick), so the two rows differ by the protection alone.
+        let wsp = |on: bool| WheelsetConfig {
+            mode: YawMode::Lead,
+            traction: true,
+            enable: true,
+            hold_ticks: DEFAULT_RUNTIME.hold_ticks,
+            wsp: on,
+            monitor_safe: false,
+            rates: None,
+        };
+        let Some(whole) = whole_ticks(&mut sw, wsp(false)) else {
             hprintln!("runtime refused the default configuration");
             exit(debug::EXIT_FAILURE)
         };
@@ -323,18 +336,7 @@ mod bench {
             "whole tick (decode sensor frame + control + encode actuation frame)",
             overhead,
         );
-        // The same ticks with the wheel-slip protection switched on by a Config frame
-        // (no slip in the stimulus: the cost of the check itself, every tick).
-        let wsp_on = WheelsetConfig {
-            mode: YawMode::Lead,
-            traction: true,
-            enable: true,
-            hold_ticks: DEFAULT_RUNTIME.hold_ticks,
-            wsp: true,
-            monitor_safe: false,
-            rates: None,
-        };
-        let Some(whole_wsp) = whole_ticks(&mut sw, Some(wsp_on)) else {
+        let Some(whole_wsp) = whole_ticks(&mut sw, wsp(true)) else {
             hprintln!("runtime refused the default configuration with WSP");
             exit(debug::EXIT_FAILURE)
         };

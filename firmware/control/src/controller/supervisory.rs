@@ -49,6 +49,22 @@ impl<T: Sample> Controller<T> {
     pub fn is_safe(&self) -> bool {
         self.safe
     }
+    /// The present yaw torque limit, pu: `torque_max` in normal running, ramping to 0 in
+    /// the safe state and back up after it.
+    pub fn torque_limit(&self) -> T {
+        self.torque_lim
+    }
+    /// Enter (`true`) or leave the safe state with the yaw torque limit at `torque_limit`
+    /// (pu, clamped to `[0, torque_max]`) instead of where it stands; it then ramps as
+    /// [`Self::set_safe`] says. For a core that continues another core's state (new
+    /// rates: its safe state and limit, so a safe state goes on ramping down where it
+    /// was) or that starts where no torque may be driven (the safe state at a boot
+    /// after a fault, limit 0: zero torque from the first tick).
+    pub fn set_safe_at(&mut self, safe: bool, torque_limit: T) {
+        let max = self.law.torque_max;
+        self.torque_lim = torque_limit.sanitize().0.limit(T::ZERO, max).0;
+        self.set_safe(safe);
+    }
 
     /// Change the yaw mode, bumpless: switching into [`YawMode::Lead`] starts the lead
     /// from its steady state for the last `y'`, and any change of the law slews the
@@ -127,12 +143,15 @@ impl<T: Sample> Controller<T> {
         self.wsp_acting
     }
     /// The vehicle reference speed as motor speed `n v_ref / r0`, pu of `scales.speed`
-    /// (held until the next call; sanitised and clamped to the speed limit).
+    /// (held until the next call; sanitised and clamped to the speed limit). Zero (a NaN
+    /// too, sanitised to zero) means unknown: the protection neither detects nor
+    /// regulates ([`crate::wsp`], "An unknown reference").
     pub fn set_v_ref(&mut self, w_ref: T) {
         let m = self.law.speed_max;
         self.wsp.w_ref = w_ref.sanitize().0.limit(T::ZERO.sat_sub(m), m).0;
     }
-    /// [`Self::set_v_ref`] from the Sensor frame's code (`v_ref` LSBs, 1 mm/s).
+    /// [`Self::set_v_ref`] from the Sensor frame's code (`v_ref` LSBs, 1 mm/s; 0:
+    /// unknown).
     pub fn set_v_ref_code(&mut self, code: i32) {
         self.set_v_ref(self.law.wsp.w_ref(code));
     }

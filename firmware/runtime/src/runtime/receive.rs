@@ -77,6 +77,12 @@ impl<T: SampleBits> Runtime<T> {
             return;
         }
         c.rx_ok = c.rx_ok.wrapping_add(1);
+        // `CMD_REFUSED` marks the latest Config or Command: an accepted Command clears
+        // it (a refused one sets it again in `refuse`; a Config in `on_config`), but
+        // `RequestStatus`, a read, does not change what it reads.
+        if matches!(m, Request::Command(c) if c != Command::RequestStatus) {
+            self.refused = false;
+        }
         match m {
             Request::Sensor(s) => {
                 self.rx_sensor = s;
@@ -89,7 +95,7 @@ impl<T: SampleBits> Runtime<T> {
                 *c = RuntimeCounters::default();
                 (c.boot_count, c.reset_cause, c.stack_peak) = keep;
                 self.core.reset_counters();
-                self.refused = false;
+                self.refuse_reason = RefuseReason::None;
             }
             Request::Command(Command::RequestStatus) => self.status_requested = true,
             Request::Command(Command::ClearFaults) => {
@@ -97,7 +103,9 @@ impl<T: SampleBits> Runtime<T> {
                 self.alarm_safe = false;
             }
             Request::Command(c @ (Command::InjectStall | Command::InjectHardFault)) => {
-                if cfg!(feature = "fault-inject") {
+                // A stall is honoured only where a watchdog ends it (`set_watchdog`).
+                let ends = self.watchdog || c == Command::InjectHardFault;
+                if cfg!(feature = "fault-inject") && ends {
                     self.injected = Some(c);
                 } else {
                     self.refuse(RefuseReason::Unsupported);
@@ -193,7 +201,8 @@ impl<T: SampleBits> Runtime<T> {
     }
 
     /// A refused Config or Command: counted, flagged until the next accepted one, the
-    /// reason kept for the Status; nothing else changes.
+    /// reason kept for the Status (until the next refusal or `ResetCounters`); nothing
+    /// else changes.
     fn refuse(&mut self, why: RefuseReason) {
         self.refused = true;
         self.counters.cmd_refused = self.counters.cmd_refused.wrapping_add(1);
@@ -246,6 +255,9 @@ impl<T: SampleBits> Runtime<T> {
         // A fresh core (filter states zero, integrator to be preset from the back-EMF);
         // the Config sets its mode and traction right after.
         let t_psi = self.core.outputs().yaw_torque;
+        // The safe state and its torque limit go on where they were (a safe state held
+        // from boot, with the limit at zero, stays at zero torque).
+        let (safe, limit) = (self.core.is_safe(), self.core.torque_limit());
         let wsp = self.core.wsp_enabled();
         self.core = Controller::new(&law);
         // The new core has no reference speed (0) until the next Sensor frame.
@@ -258,9 +270,7 @@ impl<T: SampleBits> Runtime<T> {
         self.mon = MonitorState::default();
         self.acc_gain_q32 = g;
         self.leak_q32 = l;
-        if self.hold.is_safe() {
-            self.core.set_safe(true);
-        }
+        self.core.set_safe_at(safe, limit);
         Ok(())
     }
 }

@@ -72,7 +72,8 @@ pub(crate) struct RunArgs {
     /// A deliberately broken in-process device: wrong-sign, slow[:EXEC_US], jitter[:MAX_US],
     /// corrupt[:EVERY]; or stall:T (s) for --target qemu-free: the harness sends
     /// InjectStall at T, the firmware's watchdog resets the device, the host sends its
-    /// Config again.
+    /// Config again (the new boot drives the safe outputs until a ClearFaults, which
+    /// `--clear-faults-at` sends).
     #[arg(long, default_value = "none", value_parser = parse_device_fault)]
     device_fault: DeviceFault,
     /// Link baud (10 bits per byte).
