@@ -491,8 +491,13 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
             a.frame.flags.has(wheelset_proto::Flags::ACTUATOR_FAULT),
         )
     });
-    let mut monitor =
-        crate::monitor::judge(&sc, &trajectory, &mon_params, crate::monitor::alarms(flags));
+    let mut monitor = crate::monitor::judge(
+        &sc,
+        opts.control.yaw(),
+        &trajectory,
+        &mon_params,
+        crate::monitor::alarms(flags),
+    );
     // The Status's first alarm: its tick, and that tick's sample instant (ticks count from
     // the run's start; a lock-step device's Config frame was one tick before the first
     // sample).
