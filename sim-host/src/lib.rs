@@ -20,6 +20,7 @@
 //! - [`rate_check`]: the warning before a device run at a rate the analysis finds unstable.
 //! - [`memory`]: the memory estimate of a run or a sweep, refused above 2 GiB.
 //! - [`input`]: the one reader of input files (regular files up to 1 MiB).
+//! - [`output`]: output paths checked before any work.
 //! - [`core_loop`]: the control core (e.g. f64) on the plant without the link.
 //! - [`link`], [`device`]: the simulated serial link and the device runtime behind it;
 //!   [`transport`]: the one transport trait (bytes out, bytes in with a deadline);
@@ -44,6 +45,7 @@ pub mod modes;
 pub mod numeric;
 pub mod out;
 pub mod outcome;
+pub mod output;
 pub mod params;
 pub mod plant;
 pub mod rate_check;

@@ -132,6 +132,13 @@ fn proofs_for<T: Sample>(
 
 /// Run the audit as `hil audit` does; returns the exit code (0 pass/warn, 1 fail).
 pub fn run(args: &AuditArgs) -> Result<u8, AuditError> {
+    // The outputs are checked before the audit's minutes of work, not after.
+    if let Some(p) = &args.json {
+        sim_host::output::check_file_flag("--json", p).map_err(AuditError::Usage)?;
+    }
+    if let Some(d) = &args.report {
+        sim_host::output::check_dir_flag("--report", d).map_err(AuditError::Usage)?;
+    }
     let audit = build(args)?;
     if let Some(p) = &args.json {
         let s = serde_json::to_string_pretty(&audit).map_err(|e| AuditError::Io {

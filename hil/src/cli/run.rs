@@ -196,6 +196,15 @@ pub(crate) fn cmd_run(a: &RunArgs, command: &str) -> Result<Verdict, Failure> {
             )));
         }
     }
+    // The outputs are checked before the run, not found unwritable after it.
+    for (flag, p) in [("--json", &a.json), ("--csv", &a.csv)] {
+        if let Some(p) = p {
+            sim_host::output::check_file_flag(flag, p).map_err(input)?;
+        }
+    }
+    if let Some(d) = &a.report {
+        sim_host::output::check_dir_flag("--report", d).map_err(input)?;
+    }
     // The faults as applied (canonical spec), whichever form the flag took
     // (`--faults SPEC` or `--faults=SPEC`).
     let faults_spec = a.faults.to_string();

@@ -7,7 +7,7 @@ use sim_host::sim::Trajectory;
 use std::path::PathBuf;
 
 use super::device::{cmd_run_device, DeviceArgs, LoopKind, OnOff};
-use super::{io_fail, load_params, simulate, warn, write_json, Control, Failure};
+use super::{check_outputs, io_fail, load_params, simulate, warn, write_json, Control, Failure};
 
 #[derive(clap::Args)]
 pub(crate) struct RunArgs {
@@ -66,6 +66,10 @@ pub(crate) fn cmd_run(a: &RunArgs) -> Result<(), Failure> {
     }
     let base = load_params(&a.params)?;
     let sc = Scenario::load(&a.scenario, &base)?;
+    check_outputs(
+        &[("--csv", a.csv.as_deref()), ("--json", a.json.as_deref())],
+        &[("--plot", a.plot.as_deref())],
+    )?;
     if a.sections_table && (a.device.loop_kind != LoopKind::Core || sc.adhesion.is_empty()) {
         return Err(Failure {
             code: 2,
