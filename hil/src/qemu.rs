@@ -149,8 +149,10 @@ impl QemuConfig {
         let target = std::env::var_os("CARGO_TARGET_DIR")
             .map(PathBuf::from)
             .unwrap_or_else(|| {
+                // The workspace's target directory, spelled without `..`.
                 Path::new(env!("CARGO_MANIFEST_DIR"))
-                    .join("..")
+                    .parent()
+                    .unwrap_or(Path::new(".."))
                     .join("target")
             });
         target.join("fw").join(machine.elf_name())

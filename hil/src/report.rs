@@ -168,13 +168,13 @@ pub fn markdown(out: &RunOutcome, command: &str) -> String {
     tb.row(["verdict".to_string(), format!("**{}**", r.verdict)])
         .row([
             "target".to_string(),
-            format!("{} ({:?} clock)", r.target, t.clock),
+            format!("{} ({} clock)", r.target, t.clock),
         ])
         .row([
             "scenario".to_string(),
             format!("{} ({})", r.scenario, r.scenario_source),
         ])
-        .row(["control".to_string(), format!("{:?}", r.control)])
+        .row(["control".to_string(), r.control.words().to_string()])
         .row([
             "link faults".to_string(),
             if r.faults.is_empty() {

@@ -138,6 +138,16 @@ pub enum Law {
 }
 
 impl Law {
+    /// The law in an engineer's words: `phase lead`, `pure gain`, `passive yaw spring`.
+    #[must_use]
+    pub fn words(self) -> &'static str {
+        match self {
+            Self::Passive => "passive yaw spring",
+            Self::Gain => "pure gain",
+            Self::Lead => "phase lead",
+        }
+    }
+
     fn yaw(self) -> YawLaw {
         match self {
             Self::Passive => YawLaw::Passive,
@@ -268,7 +278,7 @@ pub struct RunReport {
     pub control: Law,
     /// `--faults` as given.
     pub faults: String,
-    /// The deliberately broken device, if any.
+    /// The deliberately broken device, in its `--device-fault` form (`none`, `slow:300`).
     pub device_fault: String,
     /// Timing.
     pub timing: TimingReport,
@@ -334,6 +344,12 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     }
     let mut rt = runtime_config_for(&sc, opts.control);
     rt.control.base_rate_hz = run_rate(opts, rt.control.base_rate_hz)?;
+    if let Some(why) = sim_host::device::base_rate_refusal(&rt) {
+        return Err(RunError::Input(format!(
+            "--rate-hz {}: {why}",
+            rt.control.base_rate_hz
+        )));
+    }
     let period_ns = 1_000_000_000 / u64::from(rt.control.base_rate_hz.max(1));
     // A free-running device is held concretely: its start-up baseline is needed after.
     let mut realtime = match &opts.target {
@@ -522,7 +538,7 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
             scenario_source: sc.source.clone(),
             control: opts.control,
             faults: opts.faults_spec.clone(),
-            device_fault: format!("{:?}", opts.device_fault),
+            device_fault: opts.device_fault.to_string(),
             timing,
             numerics,
             frames,

@@ -137,6 +137,8 @@ const ROWS: &[Row] = &[
         want: &["--report", "not a directory"],
     },
     Row { args: "audit --no-target --json {F}", code: 2, want: &["--json", "is a directory"] },
+    // A base rate the device refuses is refused in words about the rate asked for.
+    Row { args: "run --scenario {F}/short.toml --rate-hz 50", code: 2, want: &["--rate-hz 50: ", "at least 500 Hz"] },
     // A repeated fault key is refused, naming it (only outages repeat).
     Row { args: "run --faults ber=1e-3,ber=1e-2", code: 2, want: &["ber=1e-2", "`ber` is given twice"] },
     Row { args: "run --faults drop=0.1,ber=1e-4,drop=0.2", code: 2, want: &["`drop` is given twice"] },

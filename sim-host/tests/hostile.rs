@@ -235,6 +235,13 @@ const ROWS: &[Row] = &[
         &["--baud 0"],
     ),
     row("rates --max-baud 0", 2, &["--max-baud 0"]),
+    // A base rate the device refuses is refused in words about the rate asked for.
+    Row {
+        args: "run --scenario {F}/short.toml --loop device --rate-hz 50",
+        code: 2,
+        want: &["--rate-hz 50", "at least 500 Hz"],
+        not: &["monitor.rate_hz"],
+    },
     // A rate the sampled-data analysis finds unstable warns before the run.
     row(
         "run --scenario {F}/short.toml --loop device --rate-hz 2000",

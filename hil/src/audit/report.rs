@@ -42,8 +42,8 @@ pub fn summary(a: &Audit, quiet: bool) -> String {
         if !quiet {
             let _ = writeln!(
                 s,
-                "  noise {:<6} {:<18} ({}, {:?}): max {:.2} LSB = {:.3e} {} ({:.3} wire LSB), rms {:.2} LSB",
-                n.output, n.scenario, n.yaw_mode, n.phase, n.max_lsb, n.max_si, n.unit, n.max_wire_lsb, n.rms_lsb
+                "  noise {:<6} {:<18} ({}, {}): max {:.2} LSB = {:.3e} {} ({:.3} wire LSB), rms {:.2} LSB",
+                n.output, n.scenario, n.yaw_mode, n.phase.words(), n.max_lsb, n.max_si, n.unit, n.max_wire_lsb, n.rms_lsb
             );
         }
     }

@@ -163,7 +163,7 @@ pub fn compare(scenarios: &[(&Scenario, f64)], window: usize, cfg: &Config) -> T
         };
         let mut host = match Runtime::<Fx>::try_new(rc) {
             Ok(h) => h,
-            Err(e) => return na(format!("host runtime: {e:?}")),
+            Err(e) => return na(format!("host runtime: {e}")),
         };
         let mut fcfg = rc.control;
         fcfg.wire = protocol_wire_lsb();

@@ -286,11 +286,11 @@ pub(crate) fn check_unit(name: &str) -> &'static str {
 pub(crate) fn print_summary(r: &hil::run::RunReport) {
     let t = &r.timing;
     say!(
-        "hil run: target {}, scenario {} ({}), control {:?}, {} periods of {} ns",
+        "hil run: target {}, scenario {} ({}), control: {}, {} periods of {} ns",
         r.target,
         r.scenario,
         r.scenario_source,
-        r.control,
+        r.control.words(),
         t.periods,
         t.period_ns
     );
@@ -395,7 +395,8 @@ pub(crate) fn print_summary(r: &hil::run::RunReport) {
             r.transport
                 .as_ref()
                 .and_then(|t| t.get("realtime"))
-                .map_or(String::new(), ToString::to_string)
+                .and_then(|v| serde_json::from_value::<hil::rt_os::Obtained>(v.clone()).ok())
+                .map_or_else(|| "nothing reported".to_string(), |o| o.to_string())
         );
     }
     let default = Params::default().entries();

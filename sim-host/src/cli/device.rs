@@ -161,6 +161,13 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
             msg: format!("{}: {msg}", sc.source),
         },
     )?;
+    let rt = sim_host::device::runtime_config(sc, a.control.into(), &opt);
+    if let Some(why) = sim_host::device::base_rate_refusal(&rt) {
+        return Err(Failure {
+            code: 2,
+            msg: format!("--rate-hz {hz}: {why}"),
+        });
+    }
     if let Some(w) = sim_host::rate_check::warning(sc, a.control.into(), hz) {
         warn(&w);
     }

@@ -366,7 +366,7 @@ pub(crate) fn print_summary(sc: &Scenario, tr: &Trajectory) {
         tr.info.steps
     );
     outln!(
-        "plant: axle {:?}, drive {}, yaw spring {}; project defaults used: k_lat {} N/m, k_t {:.4e} N m/rad, k_gear {:.4e} N m/rad, PI Ti {} s",
+        "plant: axle {}, drive {}, yaw spring {}; project defaults used: k_lat {} N/m, k_t {:.4e} N m/rad, k_gear {:.4e} N m/rad, PI Ti {} s",
         sc.axle,
         sc.drive,
         tr.info.control == "passive",
