@@ -112,6 +112,59 @@ pub struct MonitorReport {
     pub device_first_alarm_s: Option<f64>,
 }
 
+impl MonitorReport {
+    /// The expectation in words: what is due, by when, and from what (the `hil run`
+    /// summary and the report).
+    #[must_use]
+    pub fn expectation(&self) -> String {
+        let m = self;
+        let due = match (m.expect, m.deadline_s) {
+            ("alarm", Some(d)) => format!("an alarm by {d:.3} s"),
+            ("optional", _) => "no alarm due (one after the fault allowed)".to_string(),
+            _ => "no alarm".to_string(),
+        };
+        let (Some(f), Some(g)) = (m.fault_s, m.fault_gain) else {
+            return match m.deadline_s {
+                Some(_) if m.expect == "alarm" => {
+                    format!("{due} (the plant diverged there on its own)")
+                }
+                _ => due,
+            };
+        };
+        let mode = match (m.sigma_per_s, m.mode_hz) {
+            (Some(s), Some(hz)) if hz > 0.0 => format!("{s:.1} 1/s at {hz:.1} Hz"),
+            (Some(s), _) => format!("{s:.1} 1/s, a drift"),
+            _ => "unknown".to_string(),
+        };
+        let why = match (m.sigma_per_s, m.deadline_s, m.deadline_sigma_per_s) {
+            (Some(s), _, _) if s <= 0.0 => "; the loop with it still damps".to_string(),
+            (_, Some(d), Some(sd)) if m.expect == "optional" => {
+                format!("; deadline {d:.3} s (growth {sd:.1} 1/s) after the run's end")
+            }
+            (_, _, Some(sd)) => format!("; deadline from growth {sd:.1} 1/s"),
+            _ => String::new(),
+        };
+        format!(
+            "{due} (actuator fault at {f:.3} s, {}: the loop's least stable mode {mode}{why}{})",
+            delivering(g),
+            m.diverged_s.map_or(String::new(), |d| format!(
+                "; the wheelset diverged at {d:.3} s"
+            ))
+        )
+    }
+}
+
+/// What an actuator at the delivered/commanded ratio `g` does, in words.
+fn delivering(g: f64) -> String {
+    if g == 0.0 {
+        "delivering nothing".to_string()
+    } else if g == -1.0 {
+        "delivering its command reversed".to_string()
+    } else {
+        format!("delivering {g} of its command")
+    }
+}
+
 /// Rising edges of `(t_ns, hunting, actuator)` flag samples, in order.
 #[must_use]
 pub fn alarms(samples: impl IntoIterator<Item = (u64, bool, bool)>) -> Vec<Alarm> {

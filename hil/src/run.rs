@@ -31,7 +31,7 @@ use crate::budget::{Budgets, Verdict};
 use crate::closed_loop::{close_loop, LoopSetup};
 use crate::frames::FramesReport;
 use crate::inproc::DeviceFault;
-use crate::numerics::{compare_fine, NumericsReport};
+use crate::numerics::{compare_fine, judged_errors, NumericsReport};
 use crate::realtime::RealTime;
 use crate::rt_os::Want;
 use crate::serial::Pace;
@@ -323,6 +323,10 @@ pub struct RunOutcome {
     pub period_ns: u64,
     /// The monitor's mean square `(t_s, (m/s)^2)` at each of its steps.
     pub monitor_ms: Vec<(f64, f64)>,
+    /// The errors the numerics judged, per signal (CSV column): `(t_s, signed error)`
+    /// outside the reference's time tube (`crate::numerics::judged_errors`; up to the
+    /// plant fault when the scenario has one).
+    pub numerics_errors: Vec<(String, Vec<(f64, f64)>)>,
     /// The device's configuration as applied (from the parameters, the law and the rate).
     pub runtime: RuntimeConfig,
 }
@@ -464,19 +468,26 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     // A plant fault (scenario data) makes the wheelset hunt by design after it: the
     // numerics judge the device against the reference up to the fault.
     let trajectory = cl.trajectory;
-    let numerics = match sc.actuator_fault {
-        Some(f) => compare_fine(
-            &before(&trajectory, f.t_on_s()),
-            &before(&reference, f.t_on_s()),
-            fine.map(|r| before(&r, f.t_on_s())).as_ref(),
-            &opts.budgets.numerics,
-        ),
-        None => compare_fine(
-            &trajectory,
-            &reference,
-            fine.as_ref(),
-            &opts.budgets.numerics,
-        ),
+    let (numerics, numerics_errors) = match sc.actuator_fault {
+        Some(f) => {
+            let (run, reference) = (
+                before(&trajectory, f.t_on_s()),
+                before(&reference, f.t_on_s()),
+            );
+            let fine = fine.map(|r| before(&r, f.t_on_s()));
+            let tol = &opts.budgets.numerics;
+            (
+                compare_fine(&run, &reference, fine.as_ref(), tol),
+                judged_errors(&run, &reference, fine.as_ref(), tol),
+            )
+        }
+        None => {
+            let tol = &opts.budgets.numerics;
+            (
+                compare_fine(&trajectory, &reference, fine.as_ref(), tol),
+                judged_errors(&trajectory, &reference, fine.as_ref(), tol),
+            )
+        }
     };
     let (host, mut status) = (cl.host, cl.status);
     let (device_resets, first_reset_s) =
@@ -556,6 +567,7 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
         sensor_codes,
         period_ns,
         monitor_ms,
+        numerics_errors,
         runtime: rt,
     })
 }

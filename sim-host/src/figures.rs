@@ -107,26 +107,34 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
     }
     save("torque.svg", Figure::new(&title).panel(p))?;
 
-    // Fig. 8
-    let mut fx = Plot::new(&format!("Longitudinal creep forces{}", fig("8", "")))
-        .x_label("t (s)")
-        .y_label("F_x (kN)");
-    let mut fy = Plot::new("Lateral creep force per wheel")
-        .x_label("t (s)")
-        .y_label("F_y (kN)");
-    for tr in runs {
-        fx = fx
-            .series(series(tr, &format!("F_xR, {}", label(tr)), |r| {
-                r.fx_r_n * 1e-3
-            }))
-            .series(series(tr, &format!("F_xL, {}", label(tr)), |r| {
-                r.fx_l_n * 1e-3
-            }));
-        fy = fy.series(series(tr, &format!("F_y, {}", label(tr)), |r| {
-            r.fy_n * 1e-3
-        }));
-    }
-    save("creep.svg", Figure::new(&title).panel(fx).panel(fy))?;
+    // Fig. 8: one panel per force, one colour per run throughout (the main run solid,
+    // the compared ones dashed and drawn over it, so that where they coincide both
+    // show).
+    let per_run = |title: &str, y_label: &str, f: &dyn Fn(&Record) -> f64| {
+        let mut p = Plot::new(title).x_label("t (s)").y_label(y_label);
+        for (k, tr) in runs.iter().enumerate() {
+            let s = series(tr, &label(tr), f).color(PALETTE[k % PALETTE.len()]);
+            p = p.series(if k == 0 { s } else { s.style(Style::Dashed) });
+        }
+        p
+    };
+    let fxr = per_run(
+        &format!("Longitudinal creep force, right wheel F_xR{}", fig("8", "")),
+        "F_xR (kN)",
+        &|r| r.fx_r_n * 1e-3,
+    );
+    let fxl = per_run(
+        "Longitudinal creep force, left wheel F_xL",
+        "F_xL (kN)",
+        &|r| r.fx_l_n * 1e-3,
+    );
+    let fy = per_run("Lateral creep force per wheel F_y", "F_y (kN)", &|r| {
+        r.fy_n * 1e-3
+    });
+    save(
+        "creep.svg",
+        Figure::new(&title).panel(fxr).panel(fxl).panel(fy),
+    )?;
 
     // Traction and Fig. 9 view.
     let ia = Plot::new("Armature current")

@@ -295,17 +295,34 @@ pub(crate) fn cmd_run_core(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
             outln!("plot: {}", f.display());
         }
         if !sc.adhesion.is_empty() {
-            let (other, _) = run_core::<f64>(sc, a.control.into(), !wsp).map_err(fail)?;
-            let (on, off) = if wsp {
-                (&runs[0], &other)
-            } else {
-                (&other, &runs[0])
-            };
-            let f = sim_host::traction::write_figure(
-                &[("protection on", on), ("protection off", off)],
-                dir,
-            )
-            .map_err(|e| io_fail(dir, e))?;
+            use sim_host::traction::FigureRun;
+            let (other, oc) = run_core::<f64>(sc, a.control.into(), !wsp).map_err(fail)?;
+            let (main, other) = (
+                FigureRun {
+                    label: if wsp {
+                        "protection on"
+                    } else {
+                        "protection off"
+                    },
+                    tr: &runs[0],
+                    set_point: &c.set_point,
+                },
+                FigureRun {
+                    label: if wsp {
+                        "protection off"
+                    } else {
+                        "protection on"
+                    },
+                    tr: &other,
+                    set_point: &oc.set_point,
+                },
+            );
+            let (on, off) = if wsp { (main, other) } else { (other, main) };
+            let slip_on = sim_host::device::control_config(&sc.params, a.control.into(), sc.drive)
+                .wsp
+                .slip_on_mps;
+            let f = sim_host::traction::write_figure(&[on, off], slip_on, dir)
+                .map_err(|e| io_fail(dir, e))?;
             outln!("plot: {}", f.display());
         }
     }
