@@ -100,7 +100,8 @@ pub struct MonitorReport {
     pub diverged_s: Option<f64>,
     /// Band-passed RMS of `y'` at the fault, m/s (`A_0`).
     pub rms_at_fault_m_s: Option<f64>,
-    /// The stated deadline of the first alarm, s (absolute).
+    /// The stated deadline of the first alarm, s (absolute): the growth deadline (module
+    /// docs), or the divergence if that comes first.
     pub deadline_s: Option<f64>,
     /// Pass, or fail with `reason`.
     pub verdict: Verdict,
