@@ -154,15 +154,34 @@ fn target_dir() -> PathBuf {
 }
 
 /// Runs a command, echoing it; an error names the command.
+/// A command as a user would type it: the program's name and its arguments, without the
+/// environment the task sets (`Command`'s `Debug` prints that too, e.g. the whole
+/// `CARGO_ENCODED_RUSTFLAGS`).
+fn shown(cmd: &Command) -> String {
+    let program = Path::new(cmd.get_program());
+    std::iter::once(program.file_name().unwrap_or(program.as_os_str()))
+        .chain(cmd.get_args())
+        .map(|s| s.to_string_lossy().into_owned())
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// Runs `cmd`, saying first what it is (`xtask: cargo build ...`); its own output (cargo's
+/// progress) goes straight to the terminal.
 fn run(cmd: &mut Command) -> Result<(), String> {
-    eprintln!("xtask: {cmd:?}");
+    run_as(&shown(cmd), cmd)
+}
+
+/// Runs `cmd` after one line that says `what` it does, in words.
+fn run_as(what: &str, cmd: &mut Command) -> Result<(), String> {
+    eprintln!("xtask: {what}");
     let status = cmd
         .status()
-        .map_err(|e| format!("cannot start {cmd:?}: {e}"))?;
+        .map_err(|e| format!("cannot start `{}`: {e}", shown(cmd)))?;
     if status.success() {
         Ok(())
     } else {
-        Err(format!("{cmd:?} failed with {status}"))
+        Err(format!("`{}` failed with {status}", shown(cmd)))
     }
 }
 
@@ -296,7 +315,16 @@ fn build_firmware(list: &[Firmware]) -> Result<Vec<PathBuf>, String> {
         if flip {
             cmd.args(["--config", FLIP_LINK_CONFIG]);
         }
-        run(&mut cmd)?;
+        run_as(
+            &format!(
+                "building {} ({}, {}{})...",
+                fw.elf,
+                fw.features,
+                fw.target,
+                if flip { ", linked with flip-link" } else { "" }
+            ),
+            &mut cmd,
+        )?;
         let built = dir.join(fw.target).join("fw").join(fw.bin);
         let dest = out_dir.join(fw.elf);
         std::fs::copy(&built, &dest)

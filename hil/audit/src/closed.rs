@@ -246,7 +246,7 @@ fn core_run<T: SampleBits>(sc: &Track, cfg: &Config, src: Sources) -> Result<Cyc
         false,
         "audit core loop",
     )
-    .map_err(|e| format!("{e:?}"))?;
+    .map_err(|e| e.to_string())?;
     let y: Vec<(f64, f64)> = tr.records.iter().map(|r| (r.t_s, r.y_m)).collect();
     let fs = 1e9 / ctrl.period_ns as f64;
     Ok(stats(&ctrl.torque, &y, fs))
@@ -263,7 +263,7 @@ pub fn limit_cycle(lead_err_nm: f64, params: &Params) -> Result<LimitCycleReport
     if period_ns.is_multiple_of(sc.dt_ns) {
         sc.output_dt_ns = period_ns;
     }
-    let dev = run_device(&sc, law, &DeviceOptions::default()).map_err(|e| format!("{e:?}"))?;
+    let dev = run_device(&sc, law, &DeviceOptions::default()).map_err(|e| e.to_string())?;
     let device = of_trajectory(&dev.trajectory);
     let reference = of_trajectory(&run_continuous(&sc, law));
     let all = Sources {

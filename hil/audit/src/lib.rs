@@ -70,7 +70,7 @@ pub use model::{
     Audit, CoefRow, ControllerAudit, DcGain, FreqPoint, GainPhase, PoleZero, Recommendation, Roots,
     Sweep, Worst,
 };
-pub use verdict::{Check, Status, Tolerances};
+pub use verdict::{counts, counts_words, Check, Status, Tolerances};
 
 use args::{command_line, formats_of};
 use qdyn::{Formats, QDyn};
@@ -137,6 +137,13 @@ fn proofs_for<T: Sample>(
 
 /// Run the audit as `hil audit` does; returns the exit code (0 pass/warn, 1 fail).
 pub fn run(args: &AuditArgs) -> Result<u8, AuditError> {
+    // The outputs are checked before the audit's minutes of work, not after.
+    if let Some(p) = &args.json {
+        wheelset_report::output::check_file_flag("--json", p).map_err(AuditError::Usage)?;
+    }
+    if let Some(d) = &args.report {
+        wheelset_report::output::check_dir_flag("--report", d).map_err(AuditError::Usage)?;
+    }
     let audit = build(args)?;
     if let Some(p) = &args.json {
         let s = serde_json::to_string_pretty(&audit).map_err(|e| AuditError::Io {
@@ -210,14 +217,21 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
     };
     let mut checks = all_checks(&c, &tol, &cfg);
     if let Some(n) = c.observed.arithmetic_saturations {
-        checks.push(judge(
-            "all",
-            "saturations inside the fixed-point arithmetic (instrumented run)",
-            n as f64,
-            (0.0, 0.0),
-            "operations",
-            "saturating operations",
-        ));
+        checks.push(
+            judge(
+                "all",
+                "saturations inside the fixed-point arithmetic (instrumented run)",
+                n as f64,
+                (0.0, 0.0),
+                "operations",
+                "saturating operations",
+            )
+            .with_remedy(
+                "an operation saturated inside the arithmetic although its operands fit: more \
+             integer bits (audit a candidate with --signal-q I.F, a larger I); the report's \
+             ranges table shows which signal is nearest its limit",
+            ),
+        );
     }
     let coefs: Vec<CoefRow> = c
         .controllers
@@ -246,7 +260,7 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
             margins::margins(&cfg, &k, &params),
         ) {
             (Ok(lc), Ok(m)) => {
-                checks.extend(checks::closed_loop_checks(&lc, &m, &cfg));
+                checks.extend(checks::closed_loop_checks(&lc, &m, &cfg, &params));
                 Some(closed::ClosedLoopAudit {
                     limit_cycle: lc,
                     margins: m,
@@ -257,6 +271,14 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
             }
             (Err(e), _) | (_, Err(e)) => {
                 scenario_notes.push(format!("closed-loop audit not run: {e}"));
+                checks.push(Check::not_run(
+                    "yaw_lead",
+                    "closed-loop audit (limit cycle, margins)",
+                    &e,
+                    "the device run or the margins' plant failed at this operating point \
+                     (--params): run `hil run --params FILE` to see the loop, or pass \
+                     --no-closed-loop to audit without it",
+                ));
                 None
             }
         }
@@ -278,26 +300,28 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
         let item = format!("u_a max error vs f64, scenario {}", p.scenario);
         for c in checks.iter_mut().filter(|c| c.item == item) {
             c.reason += &format!(
-                "; by experiment: {} (of {:.1} LSB); remedy: {}",
+                "; by experiment: {} (of {:.1} LSB)",
                 p.shares
                     .iter()
                     .map(|(n, v)| format!("{n} {v:.1} LSB"))
                     .collect::<Vec<_>>()
                     .join(", "),
                 p.baseline_lsb,
-                p.remedy
             );
+            c.remedy.clone_from(&p.remedy);
         }
     }
     let target = if args.no_target {
         target::TargetReport {
             available: false,
+            outcome: target::TargetOutcome::Skipped,
             note: "target: not run (--no-target)".into(),
             runs: Vec::new(),
         }
     } else if !production {
         target::TargetReport {
             available: false,
+            outcome: target::TargetOutcome::NotApplicable,
             note: "target: not applicable (the firmware runs the production formats)".into(),
             runs: Vec::new(),
         }
@@ -335,7 +359,37 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
             r.host_vs_f64_wire_lsb.0,
             r.host_vs_f64_wire_lsb.1
         );
-        checks.push(c);
+        checks.push(c.with_remedy(
+            "a frame that differs is the firmware computing otherwise than the host's \
+             runtime on the same bytes: rebuild the firmware from this tree (`cargo fw`), \
+             then find the first differing tick with `hil run --target qemu` and the QEMU \
+             tests of `cargo xtest`",
+        ));
+    }
+    const TARGET_ITEM: &str = "target (QEMU) vs host Actuation frames";
+    match target.outcome {
+        target::TargetOutcome::NotRun => checks.push(Check::not_run(
+            "all",
+            TARGET_ITEM,
+            target.note.trim_start_matches("target: not run: "),
+            "build the firmware (`cargo fw` writes target/fw/wheelset-qemu.elf, or set \
+             WHEELSET_QEMU_ELF) and install qemu-system-arm, then run the audit again; or \
+             say --no-target to audit the host alone",
+        )),
+        target::TargetOutcome::Failed => {
+            let mut c = Check::not_run(
+                "all",
+                TARGET_ITEM,
+                "",
+                "the firmware under QEMU stopped answering the audit's Sensor frames: run \
+                 `hil run --target qemu` to see where, and the QEMU tests of `cargo xtest`",
+            );
+            c.status = Status::Fail;
+            c.not_run = false;
+            c.reason = target.note.clone();
+            checks.push(c);
+        }
+        _ => {}
     }
     let verdict = checks
         .iter()

@@ -168,7 +168,7 @@ fn record(
         false,
         "f64 reference",
     )
-    .map_err(|e| format!("{e:?}"))?;
+    .map_err(|e| e.to_string())?;
     if let Some(k) = rec
         .ticks
         .iter()

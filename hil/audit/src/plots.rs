@@ -1,13 +1,19 @@
 //! SVG plots for the report (drawn with `wheelset_report::svg`): per controller a Bode figure
-//! (magnitude of the three forms, then the gain and phase errors), the headroom of every
-//! signal, and the fixed-minus-f64 output error over time per scenario. Frequency axes
-//! are `log10(f / Hz)` (the plotting module has linear axes only).
+//! (gain and phase of the three forms, then the discretisation's and the fixed point's
+//! gain and phase errors, each against its tolerance), the headroom of every signal, and
+//! the fixed-minus-f64 output error over time per scenario against the noise tolerance.
+//! Frequency axes are logarithmic, in Hz.
 
 use std::path::Path;
 
 use wheelset_report::svg::{Figure, Plot, Series};
 
 use super::{Audit, AuditError};
+
+/// Colours of the marks: the warn level, the fail level, the judged band's edge.
+const WARN_COLOUR: &str = "#E69F00";
+const FAIL_COLOUR: &str = "#D55E00";
+const EDGE_COLOUR: &str = "#555555";
 
 fn save(fig: &Figure, dir: &Path, file: &str) -> Result<String, AuditError> {
     let p = dir.join(file);
@@ -19,63 +25,71 @@ fn save(fig: &Figure, dir: &Path, file: &str) -> Result<String, AuditError> {
 /// Write the plots into `dir`; returns `(caption, file name)` of each.
 pub fn write_plots(a: &Audit, dir: &Path) -> Result<Vec<(String, String)>, AuditError> {
     let mut out = Vec::new();
+    let tol = &a.tolerances;
     for c in &a.controllers {
-        let lf = |f: f64| f.log10();
         let pts = |g: &dyn Fn(&super::FreqPoint) -> f64| -> Vec<(f64, f64)> {
-            c.freq_response.iter().map(|p| (lf(p.f_hz), g(p))).collect()
+            c.freq_response.iter().map(|p| (p.f_hz, g(p))).collect()
         };
         let db = |x: f64| 20.0 * x.log10();
-        let limit = lf(c.worst.below_hz);
-        let mag = Plot::new(&format!("{}: |H| ({})", c.name, c.unit))
-            .x_label("log10 f (Hz)")
-            .y_label("gain (dB)")
-            .series(Series::line("continuous", pts(&|p| db(p.continuous.gain))))
-            .series(Series::line(
-                "discrete f64",
-                pts(&|p| db(p.discrete_f64.gain)),
-            ))
-            .series(Series::line("fixed (measured)", pts(&|p| db(p.fixed.gain))))
-            .vline(limit);
-        let gerr = Plot::new("gain error (dB); vertical line: the judged limit")
-            .x_label("log10 f (Hz)")
-            .y_label("dB")
-            .series(Series::line(
-                "fixed - discrete f64",
-                pts(&|p| p.fixed_vs_f64_db),
-            ))
-            .series(Series::line(
-                "discrete f64 - continuous",
-                pts(&|p| p.f64_vs_continuous_db),
-            ))
-            .vline(limit);
-        let perr = Plot::new("phase error (deg)")
-            .x_label("log10 f (Hz)")
-            .y_label("deg")
-            .series(Series::line(
-                "fixed - discrete f64",
-                pts(&|p| p.fixed_vs_f64_deg),
-            ))
-            .series(Series::line(
-                "discrete f64 - continuous",
-                pts(&|p| p.f64_vs_continuous_deg),
-            ))
-            .vline(limit);
-        let fixed_only = Plot::new("fixed - discrete f64 alone (gain dB, phase deg)")
-            .x_label("log10 f (Hz)")
-            .y_label("error")
-            .series(Series::line("gain (dB)", pts(&|p| p.fixed_vs_f64_db)))
-            .series(Series::line("phase (deg)", pts(&|p| p.fixed_vs_f64_deg)))
-            .vline(limit);
+        let limit = c.worst.below_hz;
+        let judged = format!("judged below {limit:.0} Hz");
+        let bode = |title: &str, unit: &str| {
+            Plot::new(title)
+                .x_label("f (Hz)")
+                .y_label(unit)
+                .log_x()
+                .size(860.0, 280.0)
+                .vmark(limit, &judged, EDGE_COLOUR)
+        };
+        let forms = |p: Plot, g: &dyn Fn(&super::GainPhase) -> f64| {
+            p.series(Series::line("continuous", pts(&|x| g(&x.continuous))))
+                .series(Series::line("discrete f64", pts(&|x| g(&x.discrete_f64))))
+                .series(Series::line("fixed (measured)", pts(&|x| g(&x.fixed))))
+        };
+        // An error panel against its tolerance: warn at +-w, fail at +-f.
+        let error = |title: &str, unit: &str, (w, f): (f64, f64), s: Series| {
+            bode(title, unit)
+                .series(s)
+                .hmark(w, &format!("warn above ±{w} {unit}"), WARN_COLOUR)
+                .hmark(-w, "", WARN_COLOUR)
+                .hmark(f, &format!("fail above ±{f} {unit}"), FAIL_COLOUR)
+                .hmark(-f, "", FAIL_COLOUR)
+        };
         let fig = Figure::new(&format!(
-            "{} at {:.0} Hz: Bode and errors",
-            c.name, c.rate_hz
+            "{} at {:.0} Hz: Bode ({}) and errors",
+            c.name, c.rate_hz, c.unit
         ))
-        .panel(mag)
-        .panel(gerr)
-        .panel(perr)
-        .panel(fixed_only);
+        .panel(forms(bode("gain |H|", "dB"), &|g| db(g.gain)))
+        .panel(forms(bode("phase arg H", "deg"), &|g| g.phase_deg))
+        .panel(error(
+            "discretisation: discrete f64 - continuous, gain",
+            "dB",
+            tol.discrete_gain_db,
+            Series::line("gain error", pts(&|p| p.f64_vs_continuous_db)),
+        ))
+        .panel(error(
+            "discretisation: discrete f64 - continuous, phase",
+            "deg",
+            tol.discrete_phase_deg,
+            Series::line("phase error", pts(&|p| p.f64_vs_continuous_deg)),
+        ))
+        .panel(error(
+            "fixed point: fixed (measured) - discrete f64, gain",
+            "dB",
+            tol.fixed_gain_db,
+            Series::line("gain error", pts(&|p| p.fixed_vs_f64_db)),
+        ))
+        .panel(error(
+            "fixed point: fixed (measured) - discrete f64, phase",
+            "deg",
+            tol.fixed_phase_deg,
+            Series::line("phase error", pts(&|p| p.fixed_vs_f64_deg)),
+        ));
         let f = save(&fig, dir, &format!("bode_{}.svg", c.name))?;
-        out.push((format!("{}: Bode magnitude and errors", c.name), f));
+        out.push((
+            format!("{}: Bode gain and phase, and their errors", c.name),
+            f,
+        ));
     }
     let sigs: Vec<_> = a
         .observed
@@ -117,50 +131,70 @@ pub fn write_plots(a: &Audit, dir: &Path) -> Result<Vec<(String, String)>, Audit
         .fold((range, range), |(lo, hi), y| (lo.min(y), hi.max(y)));
     let fig = Figure::new(&format!("Ranges against {}", a.formats.signal))
         .panel(
-            Plot::histogram("headroom (bits); line: 1 bit", &edges, &head)
+            Plot::histogram("headroom (bits)", &edges, &head)
                 .x_label("signal")
                 .y_label("bits")
                 .x_categories(&names)
                 .size(1100.0, 560.0)
-                .hline(1.0),
+                .hmark(
+                    tol.headroom_bits.0,
+                    &format!("warn below {} bit", tol.headroom_bits.0),
+                    WARN_COLOUR,
+                ),
         )
         .panel(
-            Plot::new(&format!(
-                "log2 peak |value| (pu); line: the format's range, {range:.0}"
-            ))
-            .x_label("signal")
-            .y_label("log2 pu")
-            .x_categories(&names)
-            .size(1100.0, 560.0)
-            .y_range(lo - 1.0, hi + 1.0)
-            .series(Series::scatter("peak", peaks))
-            .hline(range),
+            Plot::new("log2 peak |value| (pu)")
+                .x_label("signal")
+                .y_label("log2 pu")
+                .x_categories(&names)
+                .size(1100.0, 560.0)
+                .y_range(lo - 1.0, hi + 1.0)
+                .series(Series::scatter("peak", peaks))
+                .hmark(
+                    range,
+                    &format!("the format's range: 2^{range:.0} pu"),
+                    FAIL_COLOUR,
+                ),
         );
     let f = save(&fig, dir, "ranges.svg")?;
     out.push(("Ranges and headroom per signal".to_string(), f));
+    // The noise traces against the noise tolerance (`noise_wire_lsb`, in wire LSBs of
+    // each output).
+    let wire = wheelset_control::WireLsb::default();
+    let (warn_lsb, fail_lsb) = tol.noise_wire_lsb;
     for (name, tr) in &a.observed.traces {
         if tr.is_empty() {
             continue;
         }
+        let panel = |title: &str, unit: &str, lsb: f64, pts: Vec<(f64, f64)>| {
+            let w = warn_lsb * lsb;
+            Plot::new(title)
+                .x_label("t (s)")
+                .y_label(unit)
+                .series(Series::line(title.split(' ').next().unwrap_or(""), pts))
+                .hmark(
+                    w,
+                    &format!(
+                        "tolerance ±{warn_lsb} wire LSB = ±{w} {unit} (warn above; fail \
+                         above {fail_lsb} LSB)"
+                    ),
+                    WARN_COLOUR,
+                )
+                .hmark(-w, "", WARN_COLOUR)
+        };
         let fig = Figure::new(&format!("{name}: fixed minus f64, same inputs (yaw lead)"))
-            .panel(
-                Plot::new("T_psi error (N m)")
-                    .x_label("t (s)")
-                    .y_label("N m")
-                    .series(Series::line(
-                        "T_psi",
-                        tr.iter().map(|(t, y, _)| (*t, *y)).collect(),
-                    )),
-            )
-            .panel(
-                Plot::new("u_a error (V)")
-                    .x_label("t (s)")
-                    .y_label("V")
-                    .series(Series::line(
-                        "u_a",
-                        tr.iter().map(|(t, _, u)| (*t, *u)).collect(),
-                    )),
-            );
+            .panel(panel(
+                "T_psi error (N m)",
+                "N m",
+                wire.torque,
+                tr.iter().map(|(t, y, _)| (*t, *y)).collect(),
+            ))
+            .panel(panel(
+                "u_a error (V)",
+                "V",
+                wire.voltage,
+                tr.iter().map(|(t, _, u)| (*t, *u)).collect(),
+            ));
         let f = save(&fig, dir, &format!("noise_{name}.svg"))?;
         out.push((format!("{name}: output error over time"), f));
     }

@@ -242,6 +242,17 @@ pub enum Phase {
     SafeRamp,
 }
 
+impl Phase {
+    /// The phase in words: `normal running` or `safe-state ramps`.
+    #[must_use]
+    pub fn words(self) -> &'static str {
+        match self {
+            Phase::Normal => "normal running",
+            Phase::SafeRamp => "safe-state ramps",
+        }
+    }
+}
+
 /// Designed clamps counted by the controller (not overflows).
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct Clamps {

@@ -199,54 +199,64 @@ pub fn block(a: &Audit) -> String {
     }
     if let Some(cl) = &a.closed_loop {
         let lc = &cl.limit_cycle;
+        let (words, main) = super::checks::attribution_words(lc);
         let _ = writeln!(
             w,
             "- Closed loop (device in the loop, `curve` {:.0}-{:.0} s): {}. Torque RMS {:.3} \
-             N m, `y` {:.1} nm peak to peak. Peak to peak with one source removed: {}.",
+             N m, `y` {:.1} nm peak to peak. The oscillation left with one source removed \
+             (peak to peak): {}{}.",
             lc.window_s.0,
             lc.window_s.1,
             lc.classification,
             lc.device.torque_rms_nm,
             lc.device.y_p2p_m * 1e9,
-            lc.attribution
-                .iter()
-                .map(|(k, v)| format!("{k} {v:.2} N m"))
-                .collect::<Vec<_>>()
-                .join(", ")
+            words,
+            main.map_or(String::new(), |n| format!("; the {n} sustains it"))
         );
+        let (gm, pm) = super::checks::USUAL_MARGINS;
         for m in &cl.margins {
             let o = |v: Option<f64>| v.map(|x| format!("{x:.3}")).unwrap_or_else(|| "-".into());
+            let low = m.gain_db_quantised.is_some_and(|g| g < gm)
+                || m.phase_deg_quantised.is_some_and(|p| p < pm);
             let _ = writeln!(
                 w,
-                "- Margins, {}: gain {} dB ideal / {} dB quantised, phase {} deg / {} deg.",
+                "- Margins, {}: gain {} dB ideal / {} dB quantised, phase {} deg / {} deg; \
+                 {} the usual {gm} dB / {pm} deg{}.",
                 m.loop_name,
                 o(m.gain_db_ideal),
                 o(m.gain_db_quantised),
                 o(m.phase_deg_ideal),
-                o(m.phase_deg_quantised)
+                o(m.phase_deg_quantised),
+                if low { "below" } else { "at or above" },
+                if low {
+                    " (the margin checks below say why)"
+                } else {
+                    ""
+                }
             );
         }
     }
     for n in &a.scenario_notes {
         let _ = writeln!(w, "- Note: {n}.");
     }
-    let count = |st: Status| a.checks.iter().filter(|c| c.status == st).count();
     let _ = writeln!(
         w,
-        "\nVerdict: **{}** ({} pass, {} warn, {} fail; `--no-target`).",
+        "\nVerdict: **{}** ({}; `--no-target`).",
         a.verdict.as_str().to_uppercase(),
-        count(Status::Pass),
-        count(Status::Warn),
-        count(Status::Fail)
+        super::counts_words(&a.checks)
     );
     for c in a.checks.iter().filter(|c| c.status != Status::Pass) {
         let _ = writeln!(
             w,
             "- {} `{}` {}: {}",
-            c.status.as_str(),
+            if c.not_run {
+                "not run"
+            } else {
+                c.status.as_str()
+            },
             c.controller,
             c.item,
-            c.reason
+            c.reason_and_remedy()
         );
     }
     s

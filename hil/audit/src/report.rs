@@ -42,8 +42,8 @@ pub fn summary(a: &Audit, quiet: bool) -> String {
         if !quiet {
             let _ = writeln!(
                 s,
-                "  noise {:<6} {:<18} ({}, {:?}): max {:.2} LSB = {:.3e} {} ({:.3} wire LSB), rms {:.2} LSB",
-                n.output, n.scenario, n.yaw_mode, n.phase, n.max_lsb, n.max_si, n.unit, n.max_wire_lsb, n.rms_lsb
+                "  noise {:<6} {:<18} ({}, {}): max {:.2} LSB = {:.3e} {} ({:.3} wire LSB), rms {:.2} LSB",
+                n.output, n.scenario, n.yaw_mode, n.phase.words(), n.max_lsb, n.max_si, n.unit, n.max_wire_lsb, n.rms_lsb
             );
         }
     }
@@ -60,18 +60,15 @@ pub fn summary(a: &Audit, quiet: bool) -> String {
                 c.status.as_str(),
                 c.controller,
                 c.item,
-                c.reason
+                c.reason_and_remedy()
             );
         }
     }
-    let counts = |st: Status| a.checks.iter().filter(|c| c.status == st).count();
     let _ = writeln!(
         s,
-        "verdict: {} ({} pass, {} warn, {} fail)",
+        "verdict: {} ({})",
         a.verdict.as_str().to_uppercase(),
-        counts(Status::Pass),
-        counts(Status::Warn),
-        counts(Status::Fail)
+        super::counts_words(&a.checks)
     );
     s
 }
@@ -95,9 +92,10 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
     let _ = writeln!(w, "Command: `{}`\n", a.command);
     let _ = writeln!(
         w,
-        "Verdict: **{}**. Base rate {} Hz; signals {} (LSB {:.3e} pu), coefficients {} \
-         (LSB {:.3e}); sample type: {}.\n",
+        "Verdict: **{}** ({}). Base rate {} Hz; signals {} (LSB {:.3e} pu), coefficients \
+         {} (LSB {:.3e}); sample type: {}.\n",
         a.verdict.as_str().to_uppercase(),
+        super::counts_words(&a.checks),
         a.base_rate_hz,
         a.formats.signal,
         a.formats.signal.lsb(),
@@ -116,10 +114,14 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
             let _ = writeln!(
                 w,
                 "- **{}** `{}` {}: {}",
-                c.status.as_str(),
+                if c.not_run {
+                    "not run"
+                } else {
+                    c.status.as_str()
+                },
                 c.controller,
                 c.item,
-                c.reason
+                c.reason_and_remedy()
             );
         }
         let _ = writeln!(w);

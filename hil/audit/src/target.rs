@@ -39,11 +39,32 @@ pub struct TargetRun {
     pub mean_exec: f64,
 }
 
+/// What became of the target comparison.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum TargetOutcome {
+    /// Compared: the runs are in [`TargetReport::runs`].
+    Compared,
+    /// Not asked for (`--no-target`).
+    Skipped,
+    /// Not applicable: the firmware runs the production formats and the default
+    /// configuration, which this audit does not.
+    NotApplicable,
+    /// Could not run here: no QEMU, no firmware image, QEMU did not start. A check not
+    /// run (the verdict does not claim it).
+    NotRun,
+    /// Started and broke off: the firmware stopped answering or answered with something
+    /// other than an Actuation frame. A failed check.
+    Failed,
+}
+
 /// The target comparison, or why it is not available.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct TargetReport {
     /// Whether target numbers are included.
     pub available: bool,
+    /// What became of the comparison.
+    pub outcome: TargetOutcome,
     /// Why not, or what was compared.
     pub note: String,
     /// Per scenario.
@@ -101,18 +122,28 @@ fn decode(bytes: &[u8], dec: &mut Decoder) -> Option<Actuation> {
 pub fn compare(scenarios: &[(&Scenario, f64)], window: usize, cfg: &Config) -> TargetReport {
     let na = |note: String| TargetReport {
         available: false,
-        note: format!("target: not available: {note}"),
+        outcome: TargetOutcome::NotRun,
+        note: format!("target: not run: {note}"),
+        runs: Vec::new(),
+    };
+    let broke = |note: String| TargetReport {
+        available: false,
+        outcome: TargetOutcome::Failed,
+        note: format!("target: failed: {note}"),
         runs: Vec::new(),
     };
     let rc = RuntimeConfig::default();
     let mut mine = *cfg;
     mine.wire = rc.control.wire;
     if mine != rc.control {
-        return na(
-            "the firmware runs the default configuration; this audit's rate, divisors or \
-             predictor differ"
+        return TargetReport {
+            available: false,
+            outcome: TargetOutcome::NotApplicable,
+            note: "target: not applicable: the firmware runs the default configuration; \
+                   this audit's rate, divisors or predictor differ"
                 .into(),
-        );
+            runs: Vec::new(),
+        };
     }
     let base_rate_hz = cfg.base_rate_hz;
     let qc = QemuConfig::new();
@@ -132,7 +163,7 @@ pub fn compare(scenarios: &[(&Scenario, f64)], window: usize, cfg: &Config) -> T
         };
         let mut host = match Runtime::<Fx>::try_new(rc) {
             Ok(h) => h,
-            Err(e) => return na(format!("host runtime: {e:?}")),
+            Err(e) => return na(format!("host runtime: {e}")),
         };
         let mut fcfg = rc.control;
         fcfg.wire = protocol_wire_lsb();
@@ -160,17 +191,17 @@ pub fn compare(scenarios: &[(&Scenario, f64)], window: usize, cfg: &Config) -> T
                 Err(e) => return na(format!("encode: {e}")),
             };
             if let Err(e) = q.send(&bytes) {
-                return na(format!("after {k} ticks: {e}"));
+                return broke(format!("scenario {} after {k} ticks: {e}", sc.name));
             }
             let mut tf = match q.recv_frame() {
                 Ok(f) => f,
-                Err(e) => return na(format!("after {k} ticks: {e}")),
+                Err(e) => return broke(format!("scenario {} after {k} ticks: {e}", sc.name)),
             };
             tf.push(0);
             host.receive(&bytes);
             let hb = host.tick(0).to_vec();
             let (Some(at), Some(ah)) = (decode(&tf, &mut dt), decode(&hb, &mut dh)) else {
-                return na(format!("tick {k}: no Actuation frame"));
+                return broke(format!("scenario {} tick {k}: no Actuation frame", sc.name));
             };
             let of = fl.tick_codes(&c);
             let d = (
@@ -208,6 +239,7 @@ pub fn compare(scenarios: &[(&Scenario, f64)], window: usize, cfg: &Config) -> T
     let mism: usize = runs.iter().map(|r| r.mismatches).sum();
     TargetReport {
         available: true,
+        outcome: TargetOutcome::Compared,
         note: format!(
             "target: QEMU mps2-an386 (Cortex-M4) running the firmware's runtime on Fx: \
              {total} ticks over {} scenario windows, {mism} Actuation frames differ from \

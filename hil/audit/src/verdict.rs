@@ -76,6 +76,74 @@ pub struct Check {
     pub status: Status,
     /// Why, in words.
     pub reason: String,
+    /// What to do when it does not pass (every check states one; the outputs show it
+    /// after the reason of a check that warns or fails).
+    pub remedy: String,
+    /// The check could not run (e.g. the target comparison without QEMU or the
+    /// firmware): its status is `warn`, so the verdict does not claim it, and the
+    /// summary counts it as not run.
+    pub not_run: bool,
+}
+
+impl Check {
+    /// The check with its remedy.
+    #[must_use]
+    pub fn with_remedy(mut self, remedy: impl Into<String>) -> Self {
+        self.remedy = remedy.into();
+        self
+    }
+
+    /// A check that could not run: `item` and why, with the way to run it.
+    #[must_use]
+    pub fn not_run(controller: &str, item: &str, why: &str, remedy: &str) -> Self {
+        Self {
+            controller: controller.to_string(),
+            item: item.to_string(),
+            value: f64::NAN,
+            warn: f64::NAN,
+            fail: f64::NAN,
+            unit: String::new(),
+            status: Status::Warn,
+            reason: format!("not run: {why}"),
+            remedy: remedy.to_string(),
+            not_run: true,
+        }
+    }
+
+    /// `reason`, then `; remedy: ...` for a check that did not pass.
+    #[must_use]
+    pub fn reason_and_remedy(&self) -> String {
+        if self.status == Status::Pass || self.remedy.is_empty() {
+            self.reason.clone()
+        } else {
+            format!("{}; remedy: {}", self.reason, self.remedy)
+        }
+    }
+}
+
+/// The counts of a verdict line: `(pass, warn, fail, not run)`; a check not run counts
+/// only as not run.
+#[must_use]
+pub fn counts(checks: &[Check]) -> (usize, usize, usize, usize) {
+    let n = |st: Status| {
+        checks
+            .iter()
+            .filter(|c| c.status == st && !c.not_run)
+            .count()
+    };
+    let not_run = checks.iter().filter(|c| c.not_run).count();
+    (n(Status::Pass), n(Status::Warn), n(Status::Fail), not_run)
+}
+
+/// The counts in words: `136 pass, 1 warn, 0 fail` and `, 1 not run` when any did not run.
+#[must_use]
+pub fn counts_words(checks: &[Check]) -> String {
+    let (p, w, f, n) = counts(checks);
+    let mut s = format!("{p} pass, {w} warn, {f} fail");
+    if n > 0 {
+        s += &format!(", {n} not run");
+    }
+    s
 }
 
 pub(crate) fn judge(
@@ -108,5 +176,7 @@ pub(crate) fn judge(
         unit: unit.to_string(),
         status,
         reason,
+        remedy: String::new(),
+        not_run: false,
     }
 }

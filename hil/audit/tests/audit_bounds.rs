@@ -176,6 +176,65 @@ fn the_closed_loop_section_measures_and_attributes_the_straight_track_cycle() {
     for k in ["amplitude", "unit", "freq_hz", "attribution"] {
         assert!(j["limit_cycle"].get(k).is_some(), "limit_cycle.{k}");
     }
+    // The finding reads as what it is: the oscillation left with each source removed,
+    // least first, and the source whose removal takes the most away named as its cause.
+    let c = a
+        .checks
+        .iter()
+        .find(|c| c.item.starts_with("closed-loop limit cycle"))
+        .unwrap();
+    let least = lc
+        .removed
+        .iter()
+        .min_by(|x, y| x.1.torque_p2p_nm.total_cmp(&y.1.torque_p2p_nm))
+        .unwrap();
+    assert!(
+        c.reason.contains(&format!(
+            "without the {} {:.2} N m",
+            least.0, least.1.torque_p2p_nm
+        )),
+        "{}",
+        c.reason
+    );
+    if least.1.torque_p2p_nm < 0.5 * lc.core_all_sources.torque_p2p_nm {
+        assert!(
+            c.reason.contains(&format!("the {} sustains it", least.0)),
+            "{}",
+            c.reason
+        );
+    }
+    assert!(c.remedy.contains("To remove it: ") && c.remedy.contains("To accept it: "));
+    // The margins against the usual 6 dB / 30 deg: a warning exactly when below, and
+    // the remedy of the yaw loop names the axle's torsion mode it crosses beside.
+    for m in &cl.margins {
+        for (item, value, usual) in [
+            (
+                "gain margin against the usual 6 dB",
+                m.gain_db_quantised,
+                6.0,
+            ),
+            (
+                "phase margin against the usual 30 deg",
+                m.phase_deg_quantised,
+                30.0,
+            ),
+        ] {
+            let c = a
+                .checks
+                .iter()
+                .find(|c| c.controller == m.loop_name && c.item == item)
+                .unwrap_or_else(|| panic!("{} {item}", m.loop_name));
+            let below = value.unwrap() < usual;
+            assert_eq!(c.status == audit::Status::Warn, below, "{c:?}");
+            if m.loop_name.starts_with("yaw") {
+                assert!(c.remedy.contains("torsion mode (40 Hz)"), "{}", c.remedy);
+            }
+        }
+    }
+    // Every check states what to do should it not pass.
+    for c in &a.checks {
+        assert!(!c.remedy.is_empty(), "no remedy: {c:?}");
+    }
     assert_eq!(j["margins"].as_array().unwrap().len(), 2);
     for k in [
         "loop",

@@ -1,7 +1,7 @@
 //! Outputs of a run: the verdict JSON (`--json`), the trajectory CSV (`--csv`, the
 //! columns of `sim-host`'s run CSV), and a Markdown report with SVG plots (`--report
-//! DIR`: `report.md`, `trajectories.svg`, `exec_histogram.svg`). The campaign report of
-//! `hil sweep` is [`crate::sweep::document`].
+//! DIR`: `report.md`, `trajectories.svg`, `monitor.svg`, `exec_histogram.svg`). The
+//! campaign report of `hil sweep` is [`crate::sweep::document`].
 
 use std::fmt::Write as _;
 use std::io;
@@ -11,6 +11,7 @@ use wheelset_plant::sim::{Record, Trajectory};
 use wheelset_report::svg::{Figure, Plot, Series, Style};
 
 use crate::run::{RunOutcome, RunReport};
+use crate::sweep::document::value_label;
 
 use wheelset_report::table::Table;
 
@@ -39,100 +40,299 @@ fn series(tr: &Trajectory, label: &str, f: impl Fn(&Record) -> f64) -> Series {
     Series::line(label, tr.records.iter().map(|r| (r.t_s, f(r))).collect())
 }
 
-/// The plotted signals: (title, unit label, scale, accessor).
-type Signal = (&'static str, &'static str, f64, fn(&Record) -> f64);
+/// The plotted signals: (title, unit label, scale, CSV column judged by the numerics,
+/// accessor).
+type Signal = (
+    &'static str,
+    &'static str,
+    f64,
+    &'static str,
+    fn(&Record) -> f64,
+);
 
 const SIGNALS: [Signal; 5] = [
-    ("Lateral displacement y", "y (mm)", 1e3, |r| r.y_m),
-    ("Yaw angle psi", "psi (mrad)", 1e3, |r| r.psi_rad),
-    ("Control yaw torque T_ctrl", "T_ctrl (kN m)", 1e-3, |r| {
-        r.t_ctrl_nm
-    }),
-    ("Armature current i_a", "i_a (A)", 1.0, |r| r.i_a_a),
-    ("Armature voltage u_a", "u_a (V)", 1.0, |r| r.u_a_v),
+    ("Lateral displacement y", "y (mm)", 1e3, "y_m", |r| r.y_m),
+    ("Yaw angle psi", "psi (mrad)", 1e3, "psi_rad", |r| r.psi_rad),
+    (
+        "Control yaw torque T_ctrl",
+        "T_ctrl (kN m)",
+        1e-3,
+        "T_ctrl_Nm",
+        |r| r.t_ctrl_nm,
+    ),
+    ("Armature current i_a", "i_a (A)", 1.0, "i_a_A", |r| r.i_a_a),
+    ("Armature voltage u_a", "u_a (V)", 1.0, "u_a_V", |r| r.u_a_v),
 ];
 
-/// Writes `report.md` and its SVG plots into `dir`; returns the files written.
-pub fn write_report(out: &RunOutcome, dir: &Path, command: &str) -> io::Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(dir)?;
+/// Colours of the marks: limits that pass, limits that fail, events.
+const PASS_COLOUR: &str = "#009E73";
+const FAIL_COLOUR: &str = "#D55E00";
+const EVENT_COLOUR: &str = "#000000";
+
+/// `trajectories.svg`: each signal, device against reference, and below it the error
+/// the numerics judge (outside the reference's time tube) against the allowed error and
+/// the fail level.
+fn trajectories(out: &RunOutcome) -> Figure {
     let r = &out.report;
-    let mut files = Vec::new();
+    let fault = r.monitor.fault_s;
+    let end = out.trajectory.records.last().map_or(1.0, |x| x.t_s);
     let mut fig = Figure::new(&format!(
-        "{} on {}: device (solid) vs f64 continuous reference (dashed)",
+        "{} on {}: device vs f64 reference, each with the error judged",
         r.scenario, r.target
     ));
-    for (title, unit, k, f) in SIGNALS {
-        fig = fig.panel(
-            Plot::new(title)
-                .x_label("t (s)")
-                .y_label(unit)
-                .series(series(&out.trajectory, "device", |x| f(x) * k))
-                .series(series(&out.reference, "reference", |x| f(x) * k).style(Style::Dashed)),
-        );
+    for (title, unit, k, column, f) in SIGNALS {
+        let mut p = Plot::new(title)
+            .x_label("t (s)")
+            .y_label(unit)
+            .size(860.0, 260.0)
+            .x_range(0.0, end)
+            .series(series(&out.trajectory, "device", |x| f(x) * k))
+            .series(series(&out.reference, "reference", |x| f(x) * k).style(Style::Dashed));
+        if let Some(t) = fault {
+            p = p.vmark(t, "plant fault", EVENT_COLOUR);
+        }
+        fig = fig.panel(p);
+        let check = r.numerics.signals.iter().find(|c| c.name == column);
+        let errors = out.numerics_errors.iter().find(|(n, _)| n == column);
+        let (Some(c), Some((_, e))) = (check, errors) else {
+            continue;
+        };
+        let unit_only = unit
+            .split_once('(')
+            .map_or("", |(_, u)| u.trim_end_matches(')'));
+        let allowed = c.allowed * k;
+        let fail = allowed * c.tolerance.warn_factor;
+        let pts = e.iter().map(|&(t, v)| (t, v * k)).collect();
+        let mut p = Plot::new(&format!(
+            "{title}: device - reference outside the ±{:.0} ms tube (max {} at {:.3} s: {})",
+            c.tolerance.time_s * 1e3,
+            value_label(c.max_err * k),
+            c.max_err_t_s,
+            c.verdict
+        ))
+        .x_label("t (s)")
+        .y_label(&format!("error ({unit_only})"))
+        .size(860.0, 190.0)
+        .x_range(0.0, end)
+        .series(Series::line("judged error", pts).color("#0072B2"))
+        .hmark(
+            allowed,
+            &format!("allowed ±{}", value_label(allowed)),
+            PASS_COLOUR,
+        )
+        .hmark(-allowed, "", PASS_COLOUR)
+        .hmark(
+            fail,
+            &format!("fail above ±{}", value_label(fail)),
+            FAIL_COLOUR,
+        )
+        .hmark(-fail, "", FAIL_COLOUR);
+        if let Some(t) = fault {
+            p = p.vmark(t, "judged up to the fault", EVENT_COLOUR);
+        }
+        fig = fig.panel(p);
     }
-    let p = dir.join("trajectories.svg");
-    fig.save(&p)?;
-    files.push(p);
+    fig
+}
 
-    // The monitor: lateral displacement, and the mean square against its threshold.
+/// `monitor.svg`: `y` and the monitor's mean square (log axis) against the alarm
+/// threshold and its release level over the run, then a zoom on the events (the fault,
+/// the alarms, the deadline), each marked and labelled.
+fn monitor(out: &RunOutcome) -> Figure {
+    let r = &out.report;
     let m = &r.monitor;
-    let thr2 = {
-        let p = wheelset_control::MonitorParams::default();
-        p.threshold_m_s * p.threshold_m_s * 1e6
-    };
+    let mp = wheelset_control::MonitorParams::default();
+    let thr = mp.threshold_m_s * 1e3;
+    let rel = thr * mp.release;
     let ms: Vec<(f64, f64)> = out.monitor_ms.iter().map(|&(t, v)| (t, v * 1e6)).collect();
-    let p = dir.join("monitor.svg");
-    Figure::new(&format!(
-        "{} on {}: stability monitor ({} alarm(s), first {})",
+    let mut events: Vec<(f64, String, &str)> = Vec::new();
+    if let Some(t) = m.fault_s {
+        events.push((t, format!("plant fault {t:.3} s"), EVENT_COLOUR));
+    }
+    for a in &m.alarms {
+        events.push((
+            a.t_s,
+            format!("{} alarm {:.3} s", a.kind, a.t_s),
+            FAIL_COLOUR,
+        ));
+    }
+    if let (Some(d), "alarm") = (m.deadline_s, m.expect) {
+        events.push((d, format!("deadline {d:.3} s"), "#777777"));
+    }
+    let end = out.trajectory.records.last().map_or(1.0, |x| x.t_s);
+    let peak = ms.iter().map(|p| p.1).fold(thr * thr, f64::max);
+    let floor = ms
+        .iter()
+        .map(|p| p.1)
+        .filter(|v| *v > 0.0)
+        .fold(f64::INFINITY, f64::min)
+        .max(thr * thr * 1e-8);
+    let ms_plot = |title: &str, pts: Vec<(f64, f64)>| {
+        Plot::new(title)
+            .x_label("t (s)")
+            .y_label("mean square ((mm/s)^2)")
+            .log_y()
+            .y_range(floor, peak * 3.0)
+            .series(Series::line("mean square", pts))
+            .hmark(
+                thr * thr,
+                &format!("alarm threshold: RMS {thr:.0} mm/s"),
+                FAIL_COLOUR,
+            )
+            .hmark(
+                rel * rel,
+                &format!("release: RMS {rel:.0} mm/s"),
+                PASS_COLOUR,
+            )
+    };
+    // Over the whole run the events are marked; their labels are in the zoom.
+    let mark = |mut p: Plot, labelled: bool| {
+        for (t, label, c) in &events {
+            p = p.vmark(*t, if labelled { label } else { "" }, c);
+        }
+        p
+    };
+    let mut fig = Figure::new(&format!(
+        "{} on {}: stability monitor ({} alarm(s), first {}; {})",
         r.scenario,
         r.target,
         m.alarms.len(),
         m.first_alarm_s
-            .map_or("none".to_string(), |t| format!("at {t:.3} s"))
+            .map_or("none".to_string(), |t| format!("at {t:.3} s")),
+        m.verdict
     ))
-    .panel(
+    .panel(mark(
         Plot::new("Lateral displacement y")
             .x_label("t (s)")
             .y_label("y (mm)")
+            .x_range(0.0, end)
             .series(series(&out.trajectory, "device", |x| x.y_m * 1e3)),
-    )
-    .panel(
-        Plot::new("Band-passed mean square of y' against the alarm threshold")
-            .x_label("t (s)")
-            .y_label("mean square ((mm/s)^2)")
-            .series(Series::line("mean square", ms))
-            .hline(thr2),
-    )
-    .save(&p)?;
-    files.push(p);
+        false,
+    ))
+    .panel(mark(
+        ms_plot(
+            "Band-passed mean square of y' against the hunting alarm's threshold",
+            ms.clone(),
+        )
+        .x_range(0.0, end),
+        false,
+    ));
+    let first = events.iter().map(|e| e.0).fold(f64::INFINITY, f64::min);
+    let last = events.iter().map(|e| e.0).fold(f64::NEG_INFINITY, f64::max);
+    if first.is_finite() {
+        let (t0, t1) = (
+            (first - 0.3).max(0.0),
+            (last + 0.2).min(end).max(first + 0.1),
+        );
+        let zoom = ms
+            .iter()
+            .copied()
+            .filter(|p| p.0 >= t0 && p.0 <= t1)
+            .collect();
+        fig = fig.panel(mark(
+            ms_plot(&format!("The events, {t0:.2}-{t1:.2} s"), zoom).x_range(t0, t1),
+            true,
+        ));
+    }
+    fig
+}
 
-    let h = &r.timing.exec_histogram;
+/// `exec_histogram.svg`: the execution time per tick, its distribution on a log count
+/// axis (the worst case is one tick), then against the period and the CPU budgets; a
+/// device that measures none gets a note, not an empty axis.
+fn exec_histogram(r: &RunReport) -> Figure {
+    let t = &r.timing;
+    // In process the device reports 0 ns unless a device fault simulates its time.
+    if t.exec_ns.max <= 0.0 {
+        return Figure::new(&format!("Execution time per tick ({})", r.target)).panel(
+            Plot::new("Execution time").size(860.0, 160.0).note(
+                "not measured in process: real figures from --target qemu, cargo xtask \
+                 fw-bench or a board",
+            ),
+        );
+    }
+    let h = &t.exec_histogram;
     let edges_us: Vec<f64> = h.edges_ns.iter().map(|e| e * 1e-3).collect();
     let counts: Vec<f64> = h.counts.iter().map(|&c| c as f64).collect();
-    let p = dir.join("exec_histogram.svg");
-    Figure::new(&format!(
-        "Execution time per tick ({}; {} ns per {})",
-        r.target, r.timing.exec_ns_per_unit, r.timing.exec_unit
-    ))
-    .panel(if r.timing.exec_ns.max > 0.0 {
-        Plot::histogram("Execution time", &edges_us, &counts)
-            .x_label("exec (us)")
-            .y_label("ticks")
+    let period_us = t.period_ns as f64 * 1e-3;
+    let worst_us = t.exec_ns.max * 1e-3;
+    let cpu = t.checks.iter().find(|c| c.name == "cpu_max");
+    let worst = format!(
+        "worst {} us ({:.1} % of T)",
+        value_label(worst_us),
+        100.0 * worst_us / period_us
+    );
+    let top = counts.iter().fold(1.0f64, |a, &b| a.max(b)) * 2.0;
+    let lo_us = edges_us.first().copied().unwrap_or(worst_us);
+    let dist = Plot::histogram(
+        "Distribution (log count: the worst tick shows)",
+        &edges_us,
+        &counts,
+    )
+    .x_label("execution time (us)")
+    .y_label("ticks")
+    .log_y()
+    .y_range(0.5, top)
+    .vmark(worst_us, &worst, FAIL_COLOUR);
+    let mut budget = Plot::histogram(
+        "Against the period T and the CPU budget",
+        &edges_us,
+        &counts,
+    )
+    .x_label("execution time (us, log axis)")
+    .y_label("ticks")
+    .log_x()
+    .log_y()
+    .x_range(lo_us * 0.8, period_us * 1.25)
+    .y_range(0.5, top)
+    .vmark(
+        period_us,
+        &format!("period T = {} us", value_label(period_us)),
+        EVENT_COLOUR,
+    );
+    if let Some(c) = cpu {
+        budget = budget
+            .vmark(
+                c.limit.warn * period_us,
+                &format!("CPU warn {:.0} % of T", c.limit.warn * 100.0),
+                "#E69F00",
+            )
+            .vmark(
+                c.limit.fail * period_us,
+                &format!("CPU fail {:.0} % of T", c.limit.fail * 100.0),
+                FAIL_COLOUR,
+            );
+    }
+    Figure::new(&if t.exec_measured {
+        format!(
+            "Execution time per tick ({}: {} at {} ns each)",
+            r.target,
+            t.exec_unit,
+            value_label(t.exec_ns_per_unit)
+        )
     } else {
-        // The in-process device's execution time is simulated as 0 ns (the host's own
-        // time per tick is `transport.host_tick_ns`): one bar at 0 would read as a
-        // measurement.
-        Plot::new("Execution time")
-            .x_label("exec (us)")
-            .y_label("ticks")
-            .note(&format!(
-                "not measured: the {} device reports no execution time (every tick 0 ns)",
-                r.target
-            ))
+        format!(
+            "Execution time per tick ({}: simulated by the device fault {})",
+            r.target, r.device_fault
+        )
     })
-    .save(&p)?;
-    files.push(p);
+    .panel(dist)
+    .panel(budget)
+}
 
+/// Writes `report.md` and its SVG plots into `dir`; returns the files written.
+pub fn write_report(out: &RunOutcome, dir: &Path, command: &str) -> io::Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(dir)?;
+    let mut files = Vec::new();
+    for (name, fig) in [
+        ("trajectories.svg", trajectories(out)),
+        ("monitor.svg", monitor(out)),
+        ("exec_histogram.svg", exec_histogram(&out.report)),
+    ] {
+        let p = dir.join(name);
+        fig.save(&p)?;
+        files.push(p);
+    }
     let md = markdown(out, command);
     let p = dir.join("report.md");
     std::fs::write(&p, md)?;
@@ -166,13 +366,13 @@ pub fn markdown(out: &RunOutcome, command: &str) -> String {
     tb.row(["verdict".to_string(), format!("**{}**", r.verdict)])
         .row([
             "target".to_string(),
-            format!("{} ({:?} clock)", r.target, t.clock),
+            format!("{} ({} clock)", r.target, t.clock),
         ])
         .row([
             "scenario".to_string(),
             format!("{} ({})", r.scenario, r.scenario_source),
         ])
-        .row(["control".to_string(), format!("{:?}", r.control)])
+        .row(["control".to_string(), r.control.words().to_string()])
         .row([
             "link faults".to_string(),
             if r.faults.is_empty() {
@@ -286,6 +486,29 @@ pub fn markdown(out: &RunOutcome, command: &str) -> String {
     }
     let _ = write!(s, "{tb}");
     let _ = writeln!(s, "\n![trajectories](trajectories.svg)\n");
+    let m = &r.monitor;
+    let _ = writeln!(s, "## Stability monitor ({})\n", m.verdict);
+    let _ = writeln!(
+        s,
+        "Alarms ({}): {}. Expected: {}.{}\n",
+        m.source,
+        if m.alarms.is_empty() {
+            "none".to_string()
+        } else {
+            m.alarms
+                .iter()
+                .map(|a| format!("{} at {:.3} s", a.kind, a.t_s))
+                .collect::<Vec<_>>()
+                .join(", ")
+        },
+        m.expectation(),
+        if m.reason.is_empty() {
+            String::new()
+        } else {
+            format!(" **{}**.", m.reason)
+        }
+    );
+    let _ = writeln!(s, "![stability monitor](monitor.svg)\n");
     let fr = &r.frames;
     let _ = writeln!(
         s,

@@ -29,7 +29,7 @@ use wheelset_runtime::RuntimeConfig;
 
 use crate::budget::Budgets;
 use crate::check::frames::FramesReport;
-use crate::check::numerics::{compare_fine, NumericsReport};
+use crate::check::numerics::{compare_fine, judged_errors, NumericsReport};
 use crate::check::timing::{analyse, TimingContext, TimingReport};
 use wheelset_loop::exchange::{close_loop, LoopSetup};
 use wheelset_loop::inproc::DeviceFault;
@@ -139,6 +139,16 @@ pub enum Law {
 }
 
 impl Law {
+    /// The law in an engineer's words: `phase lead`, `pure gain`, `passive yaw spring`.
+    #[must_use]
+    pub fn words(self) -> &'static str {
+        match self {
+            Self::Passive => "passive yaw spring",
+            Self::Gain => "pure gain",
+            Self::Lead => "phase lead",
+        }
+    }
+
     fn yaw(self) -> YawLaw {
         match self {
             Self::Passive => YawLaw::Passive,
@@ -272,7 +282,7 @@ pub struct RunReport {
     pub control: Law,
     /// `--faults` as given.
     pub faults: String,
-    /// The deliberately broken device, if any.
+    /// The deliberately broken device, in its `--device-fault` form (`none`, `slow:300`).
     pub device_fault: String,
     /// Timing.
     pub timing: TimingReport,
@@ -317,6 +327,10 @@ pub struct RunOutcome {
     pub period_ns: u64,
     /// The monitor's mean square `(t_s, (m/s)^2)` at each of its steps.
     pub monitor_ms: Vec<(f64, f64)>,
+    /// The errors the numerics judged, per signal (CSV column): `(t_s, signed error)`
+    /// outside the reference's time tube (`crate::numerics::judged_errors`; up to the
+    /// plant fault when the scenario has one).
+    pub numerics_errors: Vec<(String, Vec<(f64, f64)>)>,
     /// The device's configuration as applied (from the parameters, the law and the rate).
     pub runtime: RuntimeConfig,
 }
@@ -338,6 +352,12 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     }
     let mut rt = runtime_config_for(&sc, opts.control);
     rt.control.base_rate_hz = run_rate(opts, rt.control.base_rate_hz)?;
+    if let Some(why) = wheelset_loop::device_loop::base_rate_refusal(&rt) {
+        return Err(RunError::Input(format!(
+            "--rate-hz {}: {why}",
+            rt.control.base_rate_hz
+        )));
+    }
     let period_ns = 1_000_000_000 / u64::from(rt.control.base_rate_hz.max(1));
     // A free-running device is held concretely: its start-up baseline is needed after.
     let mut realtime = match &opts.target {
@@ -452,19 +472,26 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     // A plant fault (scenario data) makes the wheelset hunt by design after it: the
     // numerics judge the device against the reference up to the fault.
     let trajectory = cl.trajectory;
-    let numerics = match sc.actuator_fault {
-        Some(f) => compare_fine(
-            &before(&trajectory, f.t_on_s()),
-            &before(&reference, f.t_on_s()),
-            fine.map(|r| before(&r, f.t_on_s())).as_ref(),
-            &opts.budgets.numerics,
-        ),
-        None => compare_fine(
-            &trajectory,
-            &reference,
-            fine.as_ref(),
-            &opts.budgets.numerics,
-        ),
+    let (numerics, numerics_errors) = match sc.actuator_fault {
+        Some(f) => {
+            let (run, reference) = (
+                before(&trajectory, f.t_on_s()),
+                before(&reference, f.t_on_s()),
+            );
+            let fine = fine.map(|r| before(&r, f.t_on_s()));
+            let tol = &opts.budgets.numerics;
+            (
+                compare_fine(&run, &reference, fine.as_ref(), tol),
+                judged_errors(&run, &reference, fine.as_ref(), tol),
+            )
+        }
+        None => {
+            let tol = &opts.budgets.numerics;
+            (
+                compare_fine(&trajectory, &reference, fine.as_ref(), tol),
+                judged_errors(&trajectory, &reference, fine.as_ref(), tol),
+            )
+        }
     };
     let (host, mut status) = (cl.host, cl.status);
     let (device_resets, first_reset_s) =
@@ -497,6 +524,7 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     });
     let mut monitor = crate::check::alarms::judge(
         &sc,
+        opts.control.yaw(),
         &trajectory,
         &mon_params,
         crate::check::alarms::alarms(flags),
@@ -525,7 +553,7 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
             scenario_source: sc.source.clone(),
             control: opts.control,
             faults: opts.faults_spec.clone(),
-            device_fault: format!("{:?}", opts.device_fault),
+            device_fault: opts.device_fault.to_string(),
             timing,
             numerics,
             frames,
@@ -543,6 +571,7 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
         sensor_codes,
         period_ns,
         monitor_ms,
+        numerics_errors,
         runtime: rt,
     })
 }

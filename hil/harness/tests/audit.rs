@@ -219,6 +219,13 @@ fn too_few_fraction_bits_fail_on_accuracy() {
         !fails.iter().any(|c| c.item.contains("overflows")),
         "{fails:#?}"
     );
+    // Every finding ends with what to do.
+    for c in r.checks.iter().filter(|c| c.status != Status::Pass) {
+        assert!(
+            c.reason_and_remedy().contains("; remedy: ") && !c.remedy.is_empty(),
+            "{c:?}"
+        );
+    }
 }
 
 #[test]

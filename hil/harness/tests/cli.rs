@@ -68,15 +68,27 @@ fn no_subcommand_is_run_and_writes_the_verdict_document() {
     // The report is readable without the harness: Markdown and SVG.
     let md = std::fs::read_to_string(report.join("report.md")).unwrap();
     assert!(md.contains("## Timing") && md.contains("trajectories.svg"));
-    for svg in ["trajectories.svg", "exec_histogram.svg"] {
+    assert!(md.contains("## Stability monitor") && md.contains("(monitor.svg)"));
+    for svg in ["trajectories.svg", "exec_histogram.svg", "monitor.svg"] {
         let s = std::fs::read_to_string(report.join(svg)).unwrap();
         assert!(s.starts_with("<svg"), "{svg}");
     }
     // In process the device's exec is a simulated 0 ns: the histogram says so instead
-    // of drawing one bar at 0.
+    // of drawing one bar at 0, or an empty axis.
     let h = std::fs::read_to_string(report.join("exec_histogram.svg")).unwrap();
-    assert!(h.contains("not measured"), "{h}");
+    assert!(h.contains("not measured in process"), "{h}");
     assert!(!h.contains("fill=\"#56B4E9\""), "a bar was drawn");
+    assert!(
+        !h.contains("execution time (us)"),
+        "an empty axis was drawn"
+    );
+    // The plots draw what they judge against: the monitor's threshold, and beside each
+    // signal the allowed error and the fail level of the numerics.
+    let m = std::fs::read_to_string(report.join("monitor.svg")).unwrap();
+    assert!(m.contains(">alarm threshold: RMS 30 mm/s</text>"), "{m}");
+    let t = std::fs::read_to_string(report.join("trajectories.svg")).unwrap();
+    assert_eq!(t.matches(">allowed ±").count(), 5, "{t}");
+    assert_eq!(t.matches(">fail above ±").count(), 5, "{t}");
     // `hil run` with the same flags gives the same verdict document.
     let json2 = tmp("run.json");
     let out = hil(&[
@@ -197,7 +209,7 @@ fn bad_flags_and_files_exit_2_with_a_clear_message() {
                 "--json",
                 "/proc/no/such/dir/x.json",
             ],
-            "cannot write",
+            "--json /proc/no/such/dir/x.json: cannot create",
         ),
     ];
     for (args, needle) in cases {

@@ -124,7 +124,28 @@ const ROWS: &[Row] = &[
         code: 0,
         want: &["warning: scenario meant is meant for --control passive", "verdict"],
     },
+    // Outputs that cannot be written are refused before the run (no summary printed).
+    Row {
+        args: "run --scenario {F}/short.toml --csv {F}/short.toml/run.csv",
+        code: 2,
+        want: &["--csv", "short.toml/run.csv", "cannot create its directory"],
+    },
+    Row { args: "run --scenario {F}/short.toml --json {F}", code: 2, want: &["--json", "is a directory"] },
+    Row {
+        args: "run --scenario {F}/short.toml --report {F}/short.toml",
+        code: 2,
+        want: &["--report", "not a directory"],
+    },
+    Row { args: "audit --no-target --json {F}", code: 2, want: &["--json", "is a directory"] },
+    // A base rate the device refuses is refused in words about the rate asked for.
+    Row { args: "run --scenario {F}/short.toml --rate-hz 50", code: 2, want: &["--rate-hz 50: ", "at least 500 Hz"] },
+    // A repeated fault key is refused, naming it (only outages repeat).
+    Row { args: "run --faults ber=1e-3,ber=1e-2", code: 2, want: &["ber=1e-2", "`ber` is given twice"] },
+    Row { args: "run --faults drop=0.1,ber=1e-4,drop=0.2", code: 2, want: &["`drop` is given twice"] },
 ];
+
+/// The line `hil run` prints once its run is over: a refused input never shows it.
+const SUMMARY: &str = "hil run: target";
 
 #[test]
 fn every_hostile_input_gets_its_exit_code_and_message() {
@@ -148,6 +169,9 @@ fn every_hostile_input_gets_its_exit_code_and_message() {
                     if !text.contains(w) {
                         failures.push(format!("`hil {line}`: no `{w}` in\n{text}"));
                     }
+                }
+                if r.code == 2 && text.contains(SUMMARY) {
+                    failures.push(format!("`hil {line}`: refused after the run\n{text}"));
                 }
             }
         }

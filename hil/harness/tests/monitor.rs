@@ -157,11 +157,13 @@ fn no_false_alarm_over_the_conicity_range() {
 /// rail from 13 s) with a plant fault of the yaw actuator at 14.0 s, just before the
 /// protection's cut at about 14.05 s: the failed actuator is still caught. Stopped or
 /// reversed: the first alarm by the deadline at conicity 0.05 and 0.3; at a fraction of
-/// 0.3 (the loop unstable at conicity 0.3: the check's own alarm), an actuator alarm.
+/// 0.3 (the loop with it unstable at conicity 0.3, 7.9 1/s): an alarm by the deadline too,
+/// an actuator alarm.
 #[test]
 fn a_failed_actuator_is_caught_on_low_adhesion_with_the_protection_cutting() {
     let dir = std::env::temp_dir().join(format!("hil-monitor-la-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
+    let mut sigma_at_03 = Vec::new();
     for (lambda, mode) in [
         (0.05, "mode = \"off\""),
         (0.3, "mode = \"off\""),
@@ -181,15 +183,17 @@ fn a_failed_actuator_is_caught_on_low_adhesion_with_the_protection_cutting() {
             m.reason
         );
         assert!(m.alarms.iter().all(|a| a.t_s > 14.0), "{:?}", m.alarms);
+        assert_eq!(m.expect, "alarm");
+        assert!(m.first_alarm_s.unwrap() <= m.deadline_s.unwrap());
+        if lambda == 0.3 {
+            sigma_at_03.push((mode, m.sigma_per_s.unwrap(), m.mode_hz.unwrap()));
+        }
         if mode.contains("fraction") {
             assert!(
                 m.alarms.iter().any(|a| a.kind == "actuator"),
                 "{:?}",
                 m.alarms
             );
-        } else {
-            assert_eq!(m.expect, "alarm");
-            assert!(m.first_alarm_s.unwrap() <= m.deadline_s.unwrap());
         }
         if mode.contains("off") {
             assert!(
@@ -199,6 +203,16 @@ fn a_failed_actuator_is_caught_on_low_adhesion_with_the_protection_cutting() {
             );
         }
     }
+    // The faulty loops at 0.3, least stable first: reversed (a drift, real), off, then the
+    // fraction (both oscillating).
+    let [(_, fraction, f_hz), (_, off, off_hz), (_, reversed, rev_hz)] =
+        [2, 0, 1].map(|i| sigma_at_03[i]);
+    assert!(
+        reversed > off && off > fraction && fraction > 0.0,
+        "{sigma_at_03:?}"
+    );
+    assert_eq!(rev_hz, 0.0);
+    assert!(off_hz > 5.0 && f_hz > 5.0, "{sigma_at_03:?}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -232,5 +246,78 @@ fn a_reversed_actuator_drifting_to_the_flange_is_caught() {
     assert!(first <= m.deadline_s.unwrap());
     let end = out.trajectory.records.last().unwrap().t_s;
     assert!(first < end, "alarm at {first} s, the run ends at {end} s");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The monitor's report of `out` judged again with no alarm at all (a silent monitor).
+fn silent(
+    out: &hil::run::RunOutcome,
+    scenario: &std::path::Path,
+) -> hil::check::alarms::MonitorReport {
+    let sc = wheelset_plant::scenario::Scenario::load(
+        scenario.to_str().unwrap(),
+        &wheelset_plant::params::Params::default(),
+    )
+    .unwrap();
+    hil::check::alarms::judge(
+        &sc,
+        wheelset_plant::control::YawLaw::Lead,
+        &out.trajectory,
+        &wheelset_control::MonitorParams::default(),
+        Vec::new(),
+    )
+}
+
+/// `curve` at conicity 0.4 with the actuator delivering a fifth of its command from 9 s:
+/// a fraction, but the loop with it is unstable (its least stable mode grows at about
+/// 17 1/s) and the wheelset diverges within a second. An alarm is due by the deadline,
+/// the device raises it, and a silent monitor would fail.
+#[test]
+fn a_fraction_that_no_longer_damps_is_due_an_alarm() {
+    let dir = std::env::temp_dir().join(format!("hil-monitor-frac-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mode = "mode = \"fraction\"\nfraction = 0.2";
+    let out = run_with_fault("curve", 0.4, 9.0, mode, &dir);
+    let m = &out.report.monitor;
+    println!("{}", serde_json::to_string(m).unwrap());
+    assert_eq!(m.fault_gain, Some(0.2));
+    assert!(m.sigma_per_s.unwrap() > 5.0, "{:?}", m.sigma_per_s);
+    assert!(m.mode_hz.unwrap() > 5.0, "{:?}", m.mode_hz);
+    assert_eq!(m.expect, "alarm");
+    assert_eq!(m.verdict, wheelset_report::Verdict::Pass, "{}", m.reason);
+    let (t, d) = (m.first_alarm_s.unwrap(), m.deadline_s.unwrap());
+    assert!(t > 9.0 && t <= d, "alarm {t} s, deadline {d} s");
+    assert!(out.trajectory.info.diverged_at_s.is_some());
+    let quiet = silent(&out, &dir.join("curve-0.4.toml"));
+    assert_eq!(quiet.verdict, wheelset_report::Verdict::Fail);
+    assert!(quiet.reason.contains("no alarm"), "{}", quiet.reason);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `curve` at conicity 0.3 with the actuator delivering 0.8 of its command from 9 s: the
+/// loop with it still damps the wheelset (about -2 1/s), nothing in `y'` tells it from a
+/// healthy one. No alarm is due; the device raises none, the wheelset does not diverge,
+/// and a silent monitor passes too.
+#[test]
+fn a_fraction_that_still_damps_is_due_no_alarm() {
+    let dir = std::env::temp_dir().join(format!("hil-monitor-damps-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mode = "mode = \"fraction\"\nfraction = 0.8";
+    let out = run_with_fault("curve", 0.3, 9.0, mode, &dir);
+    let m = &out.report.monitor;
+    println!("{}", serde_json::to_string(m).unwrap());
+    assert!(m.sigma_per_s.unwrap() < -1.0, "{:?}", m.sigma_per_s);
+    assert_eq!(m.expect, "optional");
+    assert_eq!(m.deadline_s, None);
+    assert_eq!(m.verdict, wheelset_report::Verdict::Pass, "{}", m.reason);
+    assert!(m.alarms.is_empty(), "{:?}", m.alarms);
+    assert_eq!(out.trajectory.info.diverged_at_s, None);
+    let quiet = silent(&out, &dir.join("curve-0.3.toml"));
+    assert_eq!(
+        quiet.verdict,
+        wheelset_report::Verdict::Pass,
+        "{}",
+        quiet.reason
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -152,6 +152,7 @@ impl QemuConfig {
         let target = std::env::var_os("CARGO_TARGET_DIR")
             .map(PathBuf::from)
             .unwrap_or_else(|| {
+                // The workspace's target directory, spelled without `..`.
                 Path::new(env!("CARGO_MANIFEST_DIR"))
                     .join("../..")
                     .join("target")

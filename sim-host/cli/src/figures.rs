@@ -6,7 +6,7 @@
 use std::path::{Path, PathBuf};
 use wheelset_plant::modes::{CaseSweep, STRUCTURAL_ZERO};
 use wheelset_plant::sim::{Record, Trajectory};
-use wheelset_plant::traction::Characteristic;
+use wheelset_plant::traction::{Characteristic, RUNAWAY_HOLD_S, RUNAWAY_SLIP_MPS};
 use wheelset_report::svg::{Figure, Plot, Series, Style, PALETTE};
 
 fn series(tr: &Trajectory, label: &str, f: impl Fn(&Record) -> f64) -> Series {
@@ -110,26 +110,34 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
     }
     save("torque.svg", Figure::new(&title).panel(p))?;
 
-    // Fig. 8
-    let mut fx = Plot::new(&format!("Longitudinal creep forces{}", fig("8", "")))
-        .x_label("t (s)")
-        .y_label("F_x (kN)");
-    let mut fy = Plot::new("Lateral creep force per wheel")
-        .x_label("t (s)")
-        .y_label("F_y (kN)");
-    for tr in runs {
-        fx = fx
-            .series(series(tr, &format!("F_xR, {}", label(tr)), |r| {
-                r.fx_r_n * 1e-3
-            }))
-            .series(series(tr, &format!("F_xL, {}", label(tr)), |r| {
-                r.fx_l_n * 1e-3
-            }));
-        fy = fy.series(series(tr, &format!("F_y, {}", label(tr)), |r| {
-            r.fy_n * 1e-3
-        }));
-    }
-    save("creep.svg", Figure::new(&title).panel(fx).panel(fy))?;
+    // Fig. 8: one panel per force, one colour per run throughout (the main run solid,
+    // the compared ones dashed and drawn over it, so that where they coincide both
+    // show).
+    let per_run = |title: &str, y_label: &str, f: &dyn Fn(&Record) -> f64| {
+        let mut p = Plot::new(title).x_label("t (s)").y_label(y_label);
+        for (k, tr) in runs.iter().enumerate() {
+            let s = series(tr, &label(tr), f).color(PALETTE[k % PALETTE.len()]);
+            p = p.series(if k == 0 { s } else { s.style(Style::Dashed) });
+        }
+        p
+    };
+    let fxr = per_run(
+        &format!("Longitudinal creep force, right wheel F_xR{}", fig("8", "")),
+        "F_xR (kN)",
+        &|r| r.fx_r_n * 1e-3,
+    );
+    let fxl = per_run(
+        "Longitudinal creep force, left wheel F_xL",
+        "F_xL (kN)",
+        &|r| r.fx_l_n * 1e-3,
+    );
+    let fy = per_run("Lateral creep force per wheel F_y", "F_y (kN)", &|r| {
+        r.fy_n * 1e-3
+    });
+    save(
+        "creep.svg",
+        Figure::new(&title).panel(fxr).panel(fxl).panel(fy),
+    )?;
 
     // Traction and Fig. 9 view.
     let ia = Plot::new("Armature current")
@@ -268,41 +276,104 @@ pub fn write_root_locus(sw: &CaseSweep, dir: &Path) -> std::io::Result<std::path
     Ok(path)
 }
 
+/// One run of [`write_figure`].
+#[derive(Debug, Clone, Copy)]
+pub struct FigureRun<'a> {
+    /// Legend label (e.g. `protection on`).
+    pub label: &'a str,
+    /// The run.
+    pub tr: &'a Trajectory,
+    /// The slip regulator's set point while the protection acted, `(t_s, m/s)`
+    /// ([`wheelset_loop::core::CoreRun::set_point`]); empty for a run without protection.
+    pub set_point: &'a [(f64, f64)],
+}
+
 /// The traction engineer's figure (`adhesion.svg` in `dir`): traction force delivered,
-/// slip velocity and adhesion available against time, for every run in `runs`
-/// (e.g. with and without protection), on one figure of three panels.
-pub fn write_adhesion(runs: &[(&str, &Trajectory)], dir: &Path) -> std::io::Result<PathBuf> {
+/// then the slip velocity of each run in its own panel and scale (a protected wheel's
+/// tenths of m/s against its regulator's set point and the detection threshold
+/// `slip_on_mps`; an unprotected one's runaway against the runaway threshold), then the
+/// adhesion available and used. Each run keeps its colour across the panels.
+pub fn write_figure(
+    runs: &[FigureRun<'_>],
+    slip_on_mps: f64,
+    dir: &Path,
+) -> std::io::Result<PathBuf> {
     std::fs::create_dir_all(dir)?;
-    let mut force = Plot::new("Traction force delivered F_xR + F_xL")
-        .x_label("t (s)")
-        .y_label("F (kN)");
-    let mut slip = Plot::new("Slip velocity (mean of the two wheels)")
-        .x_label("t (s)")
-        .y_label("slip (m/s)");
-    let mut mu = Plot::new("Adhesion available (peak) and used")
-        .x_label("t (s)")
-        .y_label("F / Q (1)");
-    for (i, (label, tr)) in runs.iter().enumerate() {
+    let colour = |k: usize| PALETTE[k % PALETTE.len()];
+    // One time axis for every panel: a run stopped as diverged ends early.
+    let end = runs
+        .iter()
+        .filter_map(|r| r.tr.records.last().map(|x| x.t_s))
+        .fold(0.0f64, f64::max);
+    let panel = |title: &str, y_label: &str| {
+        let p = Plot::new(title).x_label("t (s)").y_label(y_label);
+        if end > 0.0 {
+            p.x_range(0.0, end)
+        } else {
+            p
+        }
+    };
+    let mut force = panel("Traction force delivered F_xR + F_xL", "F (kN)");
+    let mut mu = panel("Adhesion available (peak) and used", "F / Q (1)");
+    let mut slips = Vec::new();
+    for (k, run) in runs.iter().enumerate() {
         let pts = |f: &dyn Fn(&Record) -> f64| -> Vec<(f64, f64)> {
-            tr.records.iter().map(|r| (r.t_s, f(r))).collect()
+            run.tr.records.iter().map(|r| (r.t_s, f(r))).collect()
         };
-        force = force.series(Series::line(label, pts(&|r| (r.fx_r_n + r.fx_l_n) * 1e-3)));
-        slip = slip.series(Series::line(label, pts(&|r| r.slip_mps)));
-        mu = mu.series(Series::line(&format!("used, {label}"), pts(&|r| r.mu_used)));
-        if i == 0 {
+        force = force.series(
+            Series::line(run.label, pts(&|r| (r.fx_r_n + r.fx_l_n) * 1e-3)).color(colour(k)),
+        );
+        mu = mu.series(
+            Series::line(&format!("used, {}", run.label), pts(&|r| r.mu_used)).color(colour(k)),
+        );
+        if k == 0 {
             mu = mu.series(
                 Series::line("available", pts(&|r| r.mu_avail))
                     .style(Style::Dashed)
                     .color("#000"),
             );
         }
+        let slip = panel(&format!("Slip velocity, {}", run.label), "slip (m/s)")
+            .series(Series::line(run.label, pts(&|r| r.slip_mps)).color(colour(k)));
+        slips.push(if run.set_point.is_empty() {
+            slip.hmark(
+                RUNAWAY_SLIP_MPS,
+                &format!("runaway: above {RUNAWAY_SLIP_MPS} m/s for {RUNAWAY_HOLD_S} s"),
+                "#D55E00",
+            )
+        } else {
+            // The set point, broken where the protection did not act.
+            let mut sp = Vec::with_capacity(run.set_point.len());
+            let dt = run
+                .set_point
+                .windows(2)
+                .map(|w| w[1].0 - w[0].0)
+                .fold(f64::INFINITY, f64::min);
+            for w in run.set_point.windows(2) {
+                sp.push(w[0]);
+                if w[1].0 - w[0].0 > 1.5 * dt {
+                    sp.push((f64::NAN, f64::NAN));
+                }
+            }
+            sp.extend(run.set_point.last());
+            slip.series(
+                Series::line("regulator's set point", sp)
+                    .style(Style::Dashed)
+                    .color("#000"),
+            )
+            .hmark(
+                slip_on_mps,
+                &format!("detection: slip above {slip_on_mps} m/s"),
+                "#D55E00",
+            )
+        });
     }
     let path = dir.join("adhesion.svg");
-    Figure::new("low adhesion: traction, slip, adhesion")
-        .panel(force)
-        .panel(slip)
-        .panel(mu)
-        .save(&path)?;
+    let mut fig = Figure::new("low adhesion: traction, slip, adhesion").panel(force);
+    for p in slips {
+        fig = fig.panel(p);
+    }
+    fig.panel(mu).save(&path)?;
     Ok(path)
 }
 

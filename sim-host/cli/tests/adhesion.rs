@@ -309,6 +309,53 @@ fn the_core_with_protection_holds_the_wheel_and_without_it_runs_away() {
     assert!(s_off.runaway, "{s_off:?}");
     assert_eq!(c_off.wsp_events, 0);
     assert!(s_off.slip_peak_mps > 10.0 * s_on.slip_peak_mps);
+    // The regulator's set point is recorded while the protection acts, and the regulated
+    // slip holds it (the low section's regulation, 7-10 s, within 5 %).
+    assert!(c_off.set_point.is_empty());
+    let held: Vec<(f64, f64)> = c_on
+        .set_point
+        .iter()
+        .filter(|p| (7.0..10.0).contains(&p.0))
+        .map(|&(t, sp)| {
+            let r = on
+                .records
+                .iter()
+                .min_by(|a, b| (a.t_s - t).abs().total_cmp(&(b.t_s - t).abs()))
+                .unwrap();
+            (sp, r.slip_mps)
+        })
+        .collect();
+    assert!(held.len() > 1000, "{}", held.len());
+    for (sp, slip) in &held {
+        assert!((slip / sp - 1.0).abs() < 0.05, "slip {slip} set point {sp}");
+    }
+    // The figure gives each run's slip its own panel and scale: the protected one with
+    // its set point and the detection threshold, the runaway with its threshold.
+    // (Drawn by the command, which runs both cores again and writes `adhesion.svg`.)
+    let dir = std::env::temp_dir().join(format!("sim-host-adh-fig-{}", std::process::id()));
+    let st = Command::new(env!("CARGO_BIN_EXE_sim-host"))
+        .args(["run", "--scenario", "low-adhesion", "--control", "lead"])
+        .args(["--loop", "core", "--wsp", "on", "--plot"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(
+        st.status.success(),
+        "{}",
+        String::from_utf8_lossy(&st.stderr)
+    );
+    let fig = dir.join("adhesion.svg");
+    let svg = std::fs::read_to_string(&fig).unwrap();
+    for want in [
+        ">Slip velocity, protection on</text>",
+        ">Slip velocity, protection off</text>",
+        ">regulator's set point</text>",
+        ">detection: slip above 0.25 m/s</text>",
+        ">runaway: above 3 m/s for 1 s</text>",
+    ] {
+        assert!(svg.contains(want), "{want}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
     // The production type takes the same course.
     let (fx, c_fx) = run_core::<wheelset_control::Fx>(&sc, YawLaw::Lead, true).unwrap();
     let s_fx = wheelset_plant::traction::summary(&sc, &fx).unwrap();

@@ -235,6 +235,13 @@ const ROWS: &[Row] = &[
         &["--baud 0"],
     ),
     row("rates --max-baud 0", 2, &["--max-baud 0"]),
+    // A base rate the device refuses is refused in words about the rate asked for.
+    Row {
+        args: "run --scenario {F}/short.toml --loop device --rate-hz 50",
+        code: 2,
+        want: &["--rate-hz 50", "at least 500 Hz"],
+        not: &["monitor.rate_hz"],
+    },
     // A rate the sampled-data analysis finds unstable warns before the run.
     row(
         "run --scenario {F}/short.toml --loop device --rate-hz 2000",
@@ -282,6 +289,54 @@ const ROWS: &[Row] = &[
     ),
     // TOML errors name the key as written.
     row("run --scenario {F}/badkey.toml", 2, &["params.l_a"]),
+    // Outputs that cannot be written are refused before the run (no summary printed).
+    Row {
+        args: "run --scenario {F}/short.toml --csv {F}/short.toml/run.csv",
+        code: 2,
+        want: &["--csv", "short.toml/run.csv", "cannot create its directory"],
+        not: &["scenario short"],
+    },
+    Row {
+        args: "run --scenario {F}/short.toml --json {F}",
+        code: 2,
+        want: &["--json", "is a directory"],
+        not: &["scenario short"],
+    },
+    Row {
+        args: "run --scenario {F}/short.toml --plot {F}/short.toml",
+        code: 2,
+        want: &["--plot", "not a directory"],
+        not: &["scenario short"],
+    },
+    Row {
+        args: "run --scenario {F}/short.toml --loop device --csv {F}/short.toml/run.csv",
+        code: 2,
+        want: &["--csv", "cannot create its directory"],
+        not: &["scenario short"],
+    },
+    Row {
+        args: "modes --json {F}/short.toml/m.json",
+        code: 2,
+        want: &["--json", "cannot create its directory"],
+        not: &["case (a)"],
+    },
+    row("rates --json {F}", 2, &["--json", "is a directory"]),
+    row(
+        "adhesion --condition wet --json {F}/a.json --plot {F}/short.toml",
+        2,
+        &["--plot", "not a directory"],
+    ),
+    // A repeated fault key is refused, naming it; outages repeat.
+    row(
+        "run --scenario {F}/short.toml --loop device --faults ber=1e-3,ber=1e-2",
+        2,
+        &["ber=1e-2", "`ber` is given twice"],
+    ),
+    row(
+        "run --scenario {F}/short.toml --loop device --faults outage=0.05:0.01,outage=0.1:0.01",
+        0,
+        &["scenario short"],
+    ),
     // Ill-conditioned eigenproblems warn.
     row(
         "modes --case d --points 20 --params {F}/illcond.toml --json {F}/m.json",

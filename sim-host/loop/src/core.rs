@@ -25,6 +25,11 @@ pub const V_REF_LSB_M_PER_S: f64 = 1e-3;
 pub struct CoreController<T: SampleBits> {
     core: Controller<T>,
     period_ns: u64,
+    /// `slip_sp_mps`, `slip_sp_per_a` of the protection and the current's full scale:
+    /// the set point `slip_sp + slip_sp_per_a cap` in SI.
+    set_point_law: (f64, f64, f64),
+    /// `(t_s, m/s)`: the slip regulator's set point on each tick the protection acts.
+    set_point: Vec<(f64, f64)>,
 }
 
 fn code(x: f64, lsb: f64) -> i32 {
@@ -47,6 +52,12 @@ impl<T: SampleBits> CoreController<T> {
         Ok(CoreController {
             core,
             period_ns: 1_000_000_000 / u64::from(cfg.base_rate_hz),
+            set_point_law: (
+                cfg.wsp.slip_sp_mps,
+                cfg.wsp.slip_sp_per_a,
+                cfg.scales.current,
+            ),
+            set_point: Vec::new(),
         })
     }
 
@@ -61,7 +72,7 @@ impl<T: SampleBits> SampledController for CoreController<T> {
         self.period_ns
     }
 
-    fn step(&mut self, _t_ns: u64, m: &Measurements) -> Actuation {
+    fn step(&mut self, t_ns: u64, m: &Measurements) -> Actuation {
         self.core.set_v_ref_code(code(m.v_mps, V_REF_LSB_M_PER_S));
         let out = self.core.tick_codes(&InputCodes {
             y_dot: code(m.yd_mps, LAT_VEL_LSB_M_PER_S),
@@ -69,6 +80,12 @@ impl<T: SampleBits> SampledController for CoreController<T> {
             speed: code(m.w_m, SPEED_LSB_RAD_PER_S),
             demand: code(m.demand_nm, DEMAND_LSB_NM),
         });
+        if self.core.tick_events().wsp_acting() {
+            let (sp, per_a, amps) = self.set_point_law;
+            let cap_a = self.core.wsp_state().cap.to_f64() * amps;
+            self.set_point
+                .push((t_ns as f64 * 1e-9, sp + per_a * cap_a.max(0.0)));
+        }
         let lsb = wheelset_control::WireLsb::default();
         Actuation {
             t_psi: f64::from(out.yaw_torque) * lsb.torque,
@@ -98,12 +115,16 @@ impl std::fmt::Display for CoreError {
 impl std::error::Error for CoreError {}
 
 /// What a core run did besides its trajectory.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct CoreRun {
     /// Traction steps the protection acted on.
     pub wsp_ticks: u32,
     /// Times it started acting.
     pub wsp_events: u32,
+    /// The slip regulator's set point `slip_sp + slip_sp_per_a cap` (`wheelset_control`'s
+    /// `wsp`), `(t_s, m/s)` on each control tick the protection acted on (empty with
+    /// the protection off): what the regulated slip is held to.
+    pub set_point: Vec<(f64, f64)>,
 }
 
 /// Runs `sc` with the control core of sample type `T` (the scenario's parameters, yaw
@@ -133,6 +154,7 @@ pub fn run_core<T: SampleBits>(
         CoreRun {
             wsp_ticks: c.wsp_ticks,
             wsp_events: c.wsp_events,
+            set_point: ctrl.set_point,
         },
     ))
 }

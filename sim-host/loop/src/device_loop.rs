@@ -85,6 +85,40 @@ impl fmt::Display for DeviceError {
 
 impl std::error::Error for DeviceError {}
 
+/// Why a device cannot run at the base rate of `rt`, in words about that rate (the
+/// runtime's own error names the field that refuses it, e.g. the stability monitor's
+/// 500 Hz step, which a user who asked for a base rate never typed); `None` when it can.
+///
+/// ```
+/// use wheelset_loop::device_loop::base_rate_refusal;
+/// let mut rt = wheelset_runtime::RuntimeConfig::default();
+/// assert_eq!(base_rate_refusal(&rt), None);
+/// rt.control.base_rate_hz = 50;
+/// let why = base_rate_refusal(&rt).unwrap();
+/// assert!(why.contains("at least 500 Hz"), "{why}");
+/// ```
+#[must_use]
+pub fn base_rate_refusal(rt: &RuntimeConfig) -> Option<String> {
+    use wheelset_control::ConfigError;
+    let e = wheelset_runtime::RuntimeBits::try_new::<Fx>(rt).err()?;
+    Some(match (e, rt.monitor) {
+        (
+            RuntimeError::Control(ConfigError::Range {
+                field: "monitor.rate_hz",
+                ..
+            }),
+            Some(m),
+        ) => {
+            format!(
+                "the device's stability monitor steps at {} Hz, so the base rate must be at \
+                 least {} Hz",
+                m.rate_hz, m.rate_hz
+            )
+        }
+        (e, _) => format!("the device cannot run at it: {e}"),
+    })
+}
+
 /// End-of-run report: every frame accounted for, and the device's own counters.
 #[derive(Debug, Clone)]
 pub struct LinkReport {

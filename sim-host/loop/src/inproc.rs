@@ -73,6 +73,29 @@ pub enum DeviceFault {
     },
 }
 
+impl std::fmt::Display for DeviceFault {
+    /// The `--device-fault` form that parses back to it: `none`, `wrong-sign`,
+    /// `slow:300`, `jitter:40`, `corrupt:10`, `stall:6.5` (times in us, the stall's in s).
+    ///
+    /// ```
+    /// use wheelset_loop::inproc::DeviceFault;
+    /// for s in ["none", "wrong-sign", "slow:300", "jitter:40", "corrupt:10", "stall:6.5"] {
+    ///     assert_eq!(s.parse::<DeviceFault>().unwrap().to_string(), s);
+    /// }
+    /// ```
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let us = |ns: u64| ns as f64 * 1e-3;
+        match *self {
+            Self::None => f.write_str("none"),
+            Self::WrongSign => f.write_str("wrong-sign"),
+            Self::TooSlow { exec_ns } => write!(f, "slow:{}", us(exec_ns)),
+            Self::Jitter { max_ns } => write!(f, "jitter:{}", us(max_ns)),
+            Self::Corrupt { every } => write!(f, "corrupt:{every}"),
+            Self::Stall { at_ns } => write!(f, "stall:{}", at_ns as f64 * 1e-9),
+        }
+    }
+}
+
 impl std::str::FromStr for DeviceFault {
     type Err = String;
 

@@ -31,6 +31,17 @@ pub enum Clock {
     RealTime,
 }
 
+impl std::fmt::Display for Clock {
+    /// `simulated`, `lock-step` or `real-time`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Clock::Simulated => "simulated",
+            Clock::LockStep => "lock-step",
+            Clock::RealTime => "real-time",
+        })
+    }
+}
+
 /// What a transport can fail with (all carry a human-readable reason).
 #[derive(Debug)]
 pub enum TransportError {

@@ -31,9 +31,9 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::control::YawLaw;
+use crate::control::{ContinuousController, YawLaw};
 use crate::error::ConfigError;
-use crate::linear::closed_loop_a;
+use crate::linear::closed_loop_a_with;
 use crate::modes::eigenvalues;
 use crate::params::Params;
 use crate::scenario::Axle;
@@ -105,15 +105,14 @@ impl ActuatorFault {
     }
 }
 
-/// The least stable oscillatory mode of the wheelset once its yaw actuator has stopped
-/// acting: the passive-less plant (no yaw spring, no yaw torque), linearised at
-/// straight-track pure rolling (`linear::closed_loop_a` with the passive law and
-/// `k_yaw = 0`). Amplitudes grow as `e^{sigma t}`.
+/// A mode of a linearised loop: its eigenvalue `lambda = sigma + j 2 pi f`. Amplitudes
+/// grow as `e^{sigma t}`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct FailedMode {
     /// Growth rate `sigma = Re(lambda)`, 1/s (> 0: unstable).
     pub sigma_per_s: f64,
-    /// Frequency `Im(lambda)/(2 pi)`, Hz.
+    /// Frequency `Im(lambda)/(2 pi)`, Hz (0: a real mode, a drift rather than an
+    /// oscillation).
     pub f_hz: f64,
 }
 
@@ -125,20 +124,60 @@ impl FailedMode {
     }
 }
 
-/// [`FailedMode`] for parameters `p` on the plant `axle`/`drive`; `None` if the matrix
-/// has no oscillatory eigenvalue (or a non-finite entry).
-pub fn failed_actuator_mode(p: &Params, axle: Axle, drive: bool) -> Option<FailedMode> {
-    let mut q = p.clone();
-    q.k_yaw = 0.0;
-    let (a, _) = closed_loop_a(&q, axle, drive, YawLaw::Passive);
-    eigenvalues(&a)?
-        .into_iter()
-        .filter(|l| l.im > 1e-6)
+/// The least stable mode of the loop whose yaw actuator delivers `gain` times the
+/// command of `law` ([`FaultMode::gain`]: 0 off, `f` fraction, -1 reversed; 1 healthy),
+/// linearised at straight-track pure rolling: `linear::closed_loop_a_with` with the
+/// law's yaw gain `K` scaled by `gain` (the delivered torque `g Ks(s) y'` is the law with
+/// gain `g K`). Real and oscillatory modes alike, the structural zero (free rolling)
+/// left out: a reversed actuator's least stable mode is real (the wheelset is pushed
+/// off the centre line, about 100 1/s at 10 MN), a stopped one's is the kinematic
+/// oscillation of the free wheelset. Under [`YawLaw::Passive`] the law commands no
+/// torque and the yaw spring is mechanical: `gain` changes nothing. `None` if the
+/// matrix has a non-finite entry.
+///
+/// ```
+/// use wheelset_plant::{control::YawLaw, fault::faulty_loop_mode, params::Params, scenario::Axle};
+/// let p = Params { lambda: 0.4, ..Params::default() };
+/// let mode = |g| faulty_loop_mode(&p, Axle::Flexible, true, YawLaw::Lead, g).unwrap();
+/// assert!(mode(1.0).sigma_per_s < 0.0); // the healthy lead damps the wheelset
+/// assert!(mode(0.2).sigma_per_s > 0.0); // a fifth of it does not
+/// ```
+pub fn faulty_loop_mode(
+    p: &Params,
+    axle: Axle,
+    drive: bool,
+    law: YawLaw,
+    gain: f64,
+) -> Option<FailedMode> {
+    let mut ctrl = ContinuousController::new(p, law);
+    ctrl.k *= gain;
+    let (a, _) = closed_loop_a_with(p, axle, drive, &ctrl);
+    let mut eig = eigenvalues(&a)?;
+    // The structural zero: the eigenvalue of least magnitude, numerically zero.
+    let scale = a.amax().max(1.0);
+    if let Some((iz, _)) = eig
+        .iter()
+        .enumerate()
+        .min_by(|x, y| x.1.norm().total_cmp(&y.1.norm()))
+        .filter(|(_, l)| l.norm() < 1e-9 * scale)
+    {
+        eig.swap_remove(iz);
+    }
+    eig.into_iter()
+        .filter(|l| l.im >= 0.0)
         .max_by(|a, b| a.re.total_cmp(&b.re))
         .map(|l| FailedMode {
             sigma_per_s: l.re,
             f_hz: l.im / (2.0 * std::f64::consts::PI),
         })
+}
+
+/// The least stable mode of the wheelset once its yaw actuator has stopped acting (no
+/// yaw spring, no yaw torque): [`faulty_loop_mode`] with `gain` 0. Over the envelope
+/// (conicity 0.05-0.4 at 10 MN) it is the kinematic oscillation of the free wheelset,
+/// unstable.
+pub fn failed_actuator_mode(p: &Params, axle: Axle, drive: bool) -> Option<FailedMode> {
+    faulty_loop_mode(p, axle, drive, YawLaw::Gain, 0.0)
 }
 
 /// `[actuator_fault]` as written in a scenario.
@@ -258,6 +297,57 @@ mod tests {
                 "{lambda}: {m:?} vs {klingel}"
             );
         }
+    }
+
+    /// The loop with the delivered gain: the healthy lead damps every conicity of the
+    /// envelope, less of it damps less (the growth rate does not rise with the gain over
+    /// `[0, 1]`: a mode the actuator does not reach, -2.08 1/s, bounds it from below at
+    /// the low conicities), and a reversed actuator is less stable than a stopped one, its least
+    /// stable mode a real one (the wheelset pushed off the centre line).
+    #[test]
+    fn the_delivered_gain_sets_the_least_stable_mode() {
+        for lambda in [0.05, 0.1, 0.2, 0.3, 0.4] {
+            let p = Params {
+                lambda,
+                ..Params::default()
+            };
+            let mode = |g| faulty_loop_mode(&p, Axle::Flexible, true, YawLaw::Lead, g).unwrap();
+            let sigma: Vec<f64> = [1.0, 0.8, 0.5, 0.2, 0.0]
+                .iter()
+                .map(|&g| mode(g).sigma_per_s)
+                .collect();
+            let (off, rev) = (mode(0.0), mode(-1.0));
+            println!(
+                "lambda {lambda}: sigma at g = 1, 0.8, 0.5, 0.2, 0: {sigma:.2?}; reversed {rev:?}"
+            );
+            assert!(sigma[0] < 0.0, "{lambda}: {sigma:?}");
+            assert!(
+                sigma.windows(2).all(|w| w[0] <= w[1] + 1e-6),
+                "{lambda}: {sigma:?}"
+            );
+            assert!(sigma[4] > 0.0, "{lambda}: {sigma:?}");
+            assert_eq!(Some(off), failed_actuator_mode(&p, Axle::Flexible, true));
+            assert!(off.f_hz > 1.0, "{off:?}");
+            assert!(rev.sigma_per_s > off.sigma_per_s, "{rev:?} vs {off:?}");
+            if lambda < 0.4 {
+                assert_eq!(rev.f_hz, 0.0, "{lambda}: {rev:?}");
+            }
+        }
+        // Conicity 0.4: a fifth of the lead leaves the wheelset hunting; 0.3 with 0.8 of
+        // it still damps.
+        let at = |lambda, g| {
+            let p = Params {
+                lambda,
+                ..Params::default()
+            };
+            faulty_loop_mode(&p, Axle::Flexible, true, YawLaw::Lead, g).unwrap()
+        };
+        assert!(at(0.4, 0.2).sigma_per_s > 5.0);
+        assert!(at(0.3, 0.8).sigma_per_s < -1.0);
+        // Passive: the spring is mechanical, the actuator's gain changes nothing.
+        let p = Params::default();
+        let passive = |g| faulty_loop_mode(&p, Axle::Flexible, true, YawLaw::Passive, g);
+        assert_eq!(passive(1.0), passive(-1.0));
     }
 
     #[test]

@@ -308,13 +308,26 @@ pub fn closed_loop_a(
     drive: bool,
     law: YawLaw,
 ) -> (DMatrix<f64>, Vec<usize>) {
+    closed_loop_a_with(p, axle, drive, &ContinuousController::new(p, law))
+}
+
+/// [`closed_loop_a`] for the controller `ctrl` (e.g. its yaw gain `k` scaled by what a
+/// faulty actuator delivers, `crate::fault::faulty_loop_mode`); the yaw spring is set
+/// from `ctrl.law`.
+pub fn closed_loop_a_with(
+    p: &Params,
+    axle: Axle,
+    drive: bool,
+    ctrl: &ContinuousController,
+) -> (DMatrix<f64>, Vec<usize>) {
+    let law = ctrl.law;
     let cfg = PlantConfig {
         axle,
         drive,
         yaw_spring: law.has_spring(),
     };
     let plant = Plant::new(p, cfg);
-    let ctrl = ContinuousController::new(p, law);
+    let ctrl = *ctrl;
     let x = operating_point(&plant, p);
     let a = closed_loop_jacobian(&plant, p, &ctrl, &x, &Exogenous::zero());
     let states = closed_loop_states(&cfg, law);

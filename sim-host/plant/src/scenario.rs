@@ -116,6 +116,16 @@ pub enum Axle {
     Flexible,
 }
 
+impl std::fmt::Display for Axle {
+    /// `rigid` or `flexible`, as the scenario's `[plant] axle` key spells it.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Axle::Rigid => "rigid",
+            Axle::Flexible => "flexible",
+        })
+    }
+}
+
 /// A validated scenario.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Scenario {

@@ -6,9 +6,11 @@
 //! - [`stats`]: the summary [`Stats`] of a sample (min, mean, p99, max).
 //! - [`out`](mod@out): the command lines' standard output ([`outln!`], [`out!`]), quiet
 //!   on a closed pipe.
+//! - [`output`]: output paths checked before any work (exit 2 naming the flag).
 #![deny(missing_docs)]
 
 pub mod out;
+pub mod output;
 pub mod stats;
 pub mod svg;
 pub mod table;

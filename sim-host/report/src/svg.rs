@@ -1,6 +1,7 @@
 //! A small, dependency-free SVG plotting module: line plots with several series,
 //! scatter plots (root loci), bar histograms, vertical stacks of panels, and heat maps
-//! of a parameter grid ([`heatmap`]).
+//! of a parameter grid ([`heatmap`]); linear or logarithmic axes, and labelled marks
+//! (thresholds, budgets, events) that a plot's range always includes.
 //!
 //! ```
 //! use wheelset_report::svg::{Plot, Series};
@@ -58,6 +59,21 @@ pub enum Style {
     Markers,
     /// Crosses only (scatter; e.g. poles).
     Crosses,
+}
+
+/// A labelled reference line: a threshold, a budget, a tolerance or an event, drawn
+/// dashed in its colour across the plotting area with its label beside it. A plot's
+/// range always includes its marks, so a mark is never off the axis.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Mark {
+    /// A vertical line at `x = at` (else a horizontal one at `y = at`).
+    pub vertical: bool,
+    /// Where, in data units.
+    pub at: f64,
+    /// Label written beside the line (empty = none).
+    pub label: String,
+    /// Colour (any SVG colour).
+    pub color: String,
 }
 
 /// One data series.
@@ -130,6 +146,13 @@ pub struct Plot {
     /// A note written across the middle of the plotting area (e.g. "not measured" for
     /// a panel without data to show; empty = none).
     pub note: String,
+    /// Labelled reference lines ([`Mark`]).
+    pub marks: Vec<Mark>,
+    /// Logarithmic x axis (decade ticks labelled with the values; points with `x <= 0`
+    /// are skipped).
+    pub x_log: bool,
+    /// Logarithmic y axis (points with `y <= 0` are skipped; bars rise from the axis).
+    pub y_log: bool,
     /// Category names of the x axis: when given, category `i` spans `[i, i + 1)` and
     /// its name is written under `i + 0.5`, slanted, instead of numeric x ticks (a bar
     /// or scatter per named item; the bottom margin grows to fit the longest name).
@@ -152,8 +175,41 @@ impl Plot {
             vlines: Vec::new(),
             hlines: Vec::new(),
             note: String::new(),
+            marks: Vec::new(),
+            x_log: false,
+            y_log: false,
             x_categories: Vec::new(),
         }
+    }
+    /// A labelled horizontal reference line at `y` ([`Mark`]).
+    pub fn hmark(mut self, y: f64, label: &str, color: &str) -> Self {
+        self.marks.push(Mark {
+            vertical: false,
+            at: y,
+            label: label.to_string(),
+            color: color.to_string(),
+        });
+        self
+    }
+    /// A labelled vertical reference line at `x` ([`Mark`]).
+    pub fn vmark(mut self, x: f64, label: &str, color: &str) -> Self {
+        self.marks.push(Mark {
+            vertical: true,
+            at: x,
+            label: label.to_string(),
+            color: color.to_string(),
+        });
+        self
+    }
+    /// A logarithmic x axis.
+    pub fn log_x(mut self) -> Self {
+        self.x_log = true;
+        self
+    }
+    /// A logarithmic y axis.
+    pub fn log_y(mut self) -> Self {
+        self.y_log = true;
+        self
     }
     /// Names the x axis's categories (see [`Plot::x_categories`]); the x range becomes
     /// `[0, names.len()]`.

@@ -18,27 +18,45 @@
 //! **Expected.** A scenario without a plant fault must raise no alarm at all (the
 //! healthy loop is damped), unless the plant hunts on its own (e.g. passive control
 //! above its critical conicity: the run diverges), where an alarm is due before the
-//! divergence. With an `[actuator_fault]` from
-//! `t_f`: no alarm before `t_f`, and the first alarm by the **deadline**, stated from the
-//! growth rate `sigma` of the unstable mode of the passive-less wheelset
-//! (`wheelset_plant::fault::failed_actuator_mode`, the scenario's parameters):
+//! divergence. With an `[actuator_fault]` from `t_f` (under an active law: the passive
+//! law commands no torque, so the fault changes nothing and the scenario is judged as
+//! one without), no alarm before `t_f`, and after it what the **faulty loop** decides:
+//! the loop linearised with the actuator delivering its faulty gain `g` (0 off, `f`
+//! fraction, -1 reversed), `wheelset_plant::fault::faulty_loop_mode`, whose least stable mode
+//! grows at `sigma_g`:
 //!
-//! ```text
-//! t_alarm - t_f <= [ ln(thr / A_0) + ln(1 + 2 sigma tau)/2 ] / sigma + B
-//! ```
+//! - `sigma_g > 0`: the wheelset hunts or drifts, and the first alarm is due by the
+//!   **deadline**
 //!
-//! the time for the mode to grow from the band-passed RMS `A_0` present at the fault
-//! (measured on the plant's `y'` over the block before `t_f` with the device's own
-//! filter, [`wheelset_control::Monitor`] in f64; at least the wire LSB of `y'`, 1 um/s)
-//! to the hunting threshold `thr`, plus the exponential mean square's lag for a mode
-//! growing at `sigma` (`ms = p/(1 + 2 sigma tau)`, module docs of
-//! `wheelset_control::monitor`), plus one actuator-check block `B` of slack. This is the
-//! hunting alarm's bound; the actuator check usually comes first. A fault that leaves the
-//! mode stable (a fraction that still damps it) states no deadline and expects nothing.
+//!   ```text
+//!   t_alarm - t_f <= [ ln(thr / A_0) + ln(1 + 2 sigma tau)/2 ] / sigma + B,
+//!   sigma = min(sigma_g, sigma_0)
+//!   ```
+//!
+//!   the time for the mode to grow from the band-passed RMS `A_0` present at the fault
+//!   (measured on the plant's `y'` over the block before `t_f` with the device's own
+//!   filter, [`wheelset_control::Monitor`] in f64; at least the wire LSB of `y'`,
+//!   1 um/s) to the hunting threshold `thr`, plus the exponential mean square's lag for
+//!   a mode growing at `sigma` (`ms = p/(1 + 2 sigma tau)`, module docs of
+//!   `wheelset_control::monitor`), plus one actuator-check block `B` of slack. `sigma_0`
+//!   is the stopped actuator's (`g = 0`, the free wheelset's kinematic mode): a reversed
+//!   actuator's faster mode (`sigma_g` about 100 1/s, real) lasts only until its torque
+//!   saturates (the device's limit, or the adhesion on a low rail), after which the
+//!   wheelset is the free one under a constant torque, growing at `sigma_0`; a fraction
+//!   (`0 < g < 1`) grows slower than a stopped actuator, `sigma_g < sigma_0`. This is the
+//!   hunting alarm's bound; the actuator check usually comes first. A deadline after the
+//!   run's end is stated but not judged (`expect` is then `optional`).
+//! - `sigma_g <= 0` (a fraction that still damps the wheelset): nothing in `y'` tells the
+//!   loop from a healthy one, no alarm is due (`expect: "optional"`); one after the fault
+//!   is not false either (the actuator did fail).
+//!
+//! Whatever the linearisation says, a run that diverges (|y| > 50 mm) after the fault with
+//! no alarm before fails.
 
 use serde::Serialize;
 use wheelset_control::{Compiled, Fx, InputCodes, Monitor, MonitorParams, MonitorState, YawMode};
-use wheelset_plant::fault::{failed_actuator_mode, FaultMode};
+use wheelset_plant::control::YawLaw;
+use wheelset_plant::fault::faulty_loop_mode;
 use wheelset_plant::scenario::Scenario;
 use wheelset_plant::sim::Trajectory;
 use wheelset_runtime::RuntimeConfig;
@@ -63,16 +81,27 @@ pub struct MonitorReport {
     pub alarms: Vec<Alarm>,
     /// The first alarm's time, s (`null`: none).
     pub first_alarm_s: Option<f64>,
-    /// `none` (no alarm allowed) or `alarm` (an alarm by `deadline_s`, none before
-    /// `fault_s`).
+    /// `none` (no alarm allowed), `alarm` (an alarm by `deadline_s`, none before
+    /// `fault_s`) or `optional` (after an actuator fault the faulty loop still damps, or
+    /// whose deadline falls after the run's end: none before `fault_s`, none due after).
     pub expect: &'static str,
     /// The plant's actuator fault time, s.
     pub fault_s: Option<f64>,
-    /// Growth rate of the passive-less wheelset's unstable mode, 1/s.
+    /// The actuator's delivered/commanded torque ratio once failed (`g`).
+    pub fault_gain: Option<f64>,
+    /// Growth rate of the faulty loop's least stable mode, 1/s (`sigma_g`; > 0: unstable).
     pub sigma_per_s: Option<f64>,
+    /// Frequency of that mode, Hz (0: a real mode, a drift).
+    pub mode_hz: Option<f64>,
+    /// The growth rate the deadline is stated from, 1/s (`min(sigma_g, sigma_0)`, module
+    /// docs).
+    pub deadline_sigma_per_s: Option<f64>,
+    /// When the wheelset diverged (|y| > 50 mm; the run stops there), s.
+    pub diverged_s: Option<f64>,
     /// Band-passed RMS of `y'` at the fault, m/s (`A_0`).
     pub rms_at_fault_m_s: Option<f64>,
-    /// The stated deadline of the first alarm, s (absolute).
+    /// The stated deadline of the first alarm, s (absolute): the growth deadline (module
+    /// docs), or the divergence if that comes first.
     pub deadline_s: Option<f64>,
     /// Pass, or fail with `reason`.
     pub verdict: Verdict,
@@ -82,6 +111,59 @@ pub struct MonitorReport {
     pub device_first_alarm_tick: Option<u32>,
     /// The sample instant of that tick, s.
     pub device_first_alarm_s: Option<f64>,
+}
+
+impl MonitorReport {
+    /// The expectation in words: what is due, by when, and from what (the `hil run`
+    /// summary and the report).
+    #[must_use]
+    pub fn expectation(&self) -> String {
+        let m = self;
+        let due = match (m.expect, m.deadline_s) {
+            ("alarm", Some(d)) => format!("an alarm by {d:.3} s"),
+            ("optional", _) => "no alarm due (one after the fault allowed)".to_string(),
+            _ => "no alarm".to_string(),
+        };
+        let (Some(f), Some(g)) = (m.fault_s, m.fault_gain) else {
+            return match m.deadline_s {
+                Some(_) if m.expect == "alarm" => {
+                    format!("{due} (the plant diverged there on its own)")
+                }
+                _ => due,
+            };
+        };
+        let mode = match (m.sigma_per_s, m.mode_hz) {
+            (Some(s), Some(hz)) if hz > 0.0 => format!("{s:.1} 1/s at {hz:.1} Hz"),
+            (Some(s), _) => format!("{s:.1} 1/s, a drift"),
+            _ => "unknown".to_string(),
+        };
+        let why = match (m.sigma_per_s, m.deadline_s, m.deadline_sigma_per_s) {
+            (Some(s), _, _) if s <= 0.0 => "; the loop with it still damps".to_string(),
+            (_, Some(d), Some(sd)) if m.expect == "optional" => {
+                format!("; deadline {d:.3} s (growth {sd:.1} 1/s) after the run's end")
+            }
+            (_, _, Some(sd)) => format!("; deadline from growth {sd:.1} 1/s"),
+            _ => String::new(),
+        };
+        format!(
+            "{due} (actuator fault at {f:.3} s, {}: the loop's least stable mode {mode}{why}{})",
+            delivering(g),
+            m.diverged_s.map_or(String::new(), |d| format!(
+                "; the wheelset diverged at {d:.3} s"
+            ))
+        )
+    }
+}
+
+/// What an actuator at the delivered/commanded ratio `g` does, in words.
+fn delivering(g: f64) -> String {
+    if g == 0.0 {
+        "delivering nothing".to_string()
+    } else if g == -1.0 {
+        "delivering its command reversed".to_string()
+    } else {
+        format!("delivering {g} of its command")
+    }
 }
 
 /// Rising edges of `(t_ns, hunting, actuator)` flag samples, in order.
@@ -168,10 +250,12 @@ fn band_rms_before(p: &MonitorParams, tr: &Trajectory, t_s: f64) -> Option<f64> 
     (n > 0).then(|| (sum / f64::from(n)).sqrt())
 }
 
-/// Checks `alarms` of a run of `sc` (trajectory `tr`) against the expectation above.
+/// Checks `alarms` of a run of `sc` under the yaw law `law` (trajectory `tr`) against
+/// the expectation above.
 #[must_use]
 pub fn judge(
     sc: &Scenario,
+    law: YawLaw,
     tr: &Trajectory,
     p: &MonitorParams,
     alarms: Vec<Alarm>,
@@ -183,7 +267,11 @@ pub fn judge(
         first_alarm_s: first,
         expect: "none",
         fault_s: None,
+        fault_gain: None,
         sigma_per_s: None,
+        mode_hz: None,
+        deadline_sigma_per_s: None,
+        diverged_s: tr.info.diverged_at_s,
         rms_at_fault_m_s: None,
         deadline_s: None,
         verdict: Verdict::Pass,
@@ -191,11 +279,13 @@ pub fn judge(
         device_first_alarm_tick: None,
         device_first_alarm_s: None,
     };
-    let fault = sc.actuator_fault.filter(|f| f.mode.gain() < 1.0);
+    let diverged = tr.info.diverged_at_s;
+    // The passive law commands no torque: its actuator's fault changes nothing.
+    let fault = sc.actuator_fault.filter(|_| law != YawLaw::Passive);
     let Some(f) = fault else {
         // A plant that hunts on its own (passive control above its critical conicity):
         // an alarm is due before the run diverges, and none is false.
-        if let Some(d) = tr.info.diverged_at_s {
+        if let Some(d) = diverged {
             r.expect = "alarm";
             r.deadline_s = Some(d);
             if !first.is_some_and(|t| t <= d) {
@@ -209,23 +299,40 @@ pub fn judge(
         return r;
     };
     let t_f = f.t_on_s();
+    let g = f.mode.gain();
     r.fault_s = Some(t_f);
-    let mode = failed_actuator_mode(&sc.params, sc.axle, sc.drive);
+    r.fault_gain = Some(g);
+    r.expect = "optional";
+    let mode = faulty_loop_mode(&sc.params, sc.axle, sc.drive, law, g);
+    let stopped = faulty_loop_mode(&sc.params, sc.axle, sc.drive, law, 0.0);
     r.sigma_per_s = mode.map(|m| m.sigma_per_s);
+    r.mode_hz = mode.map(|m| m.f_hz);
     let a0 = band_rms_before(p, tr, t_f).map(|a| a.max(1e-6));
     r.rms_at_fault_m_s = a0;
-    // A fraction that still damps the mode, or a mode that does not grow: nothing due.
-    let unstable = matches!(f.mode, FaultMode::Off | FaultMode::Reversed);
-    if let (Some(m), Some(a0), true) = (mode, a0, unstable) {
-        let sigma = m.sigma_per_s;
-        if sigma > 0.0 {
+    if let (Some(m), Some(a0)) = (mode, a0) {
+        let sigma_g = m.sigma_per_s;
+        if sigma_g > 0.0 {
+            let sigma = match stopped.map(|s| s.sigma_per_s) {
+                Some(s0) if s0 > 0.0 => sigma_g.min(s0),
+                _ => sigma_g,
+            };
             let tau = p.window_s / 2.0;
             let grow = ((p.threshold_m_s / a0).ln().max(0.0)
                 + 0.5 * (1.0 + 2.0 * sigma * tau).ln())
                 / sigma;
-            r.expect = "alarm";
-            r.deadline_s = Some(t_f + grow + p.act_block_s);
+            let deadline = t_f + grow + p.act_block_s;
+            r.deadline_sigma_per_s = Some(sigma);
+            r.deadline_s = Some(deadline);
+            let end = tr.records.last().map_or(t_f, |x| x.t_s);
+            if deadline <= end {
+                r.expect = "alarm";
+            }
         }
+    }
+    // A run that diverged is due an alarm before, whatever the linearisation said.
+    if let Some(d) = diverged {
+        r.expect = "alarm";
+        r.deadline_s = Some(r.deadline_s.map_or(d, |x| x.min(d)));
     }
     if let Some(early) = r.alarms.iter().find(|a| a.t_s < t_f) {
         r.verdict = Verdict::Fail;
@@ -235,7 +342,13 @@ pub fn judge(
         );
         return r;
     }
-    if let Some(d) = r.deadline_s {
+    if let Some(d) = diverged.filter(|&d| !first.is_some_and(|t| t <= d)) {
+        r.verdict = Verdict::Fail;
+        r.reason =
+            format!("the wheelset diverged at {d:.3} s with no alarm before (fault at {t_f:.3} s)");
+        return r;
+    }
+    if let (Some(d), "alarm") = (r.deadline_s, r.expect) {
         match first {
             Some(t) if t <= d => {}
             Some(t) => {

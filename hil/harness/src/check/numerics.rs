@@ -127,6 +127,95 @@ pub fn compare(
     compare_fine(run, reference, None, tolerances)
 }
 
+/// The tube a run is judged against: `tube`'s records, `m` of them per output interval
+/// of the run, over the first `n` records of the run.
+struct Tube<'a> {
+    tube: &'a Trajectory,
+    m: usize,
+    n: usize,
+    dt_tube: f64,
+}
+
+impl<'a> Tube<'a> {
+    /// The tube of `run` against `reference`, taken over `fine` where it aligns (module
+    /// docs).
+    fn of(run: &Trajectory, reference: &'a Trajectory, fine: Option<&'a Trajectory>) -> Self {
+        let dt = interval(run);
+        let n = run.records.len().min(reference.records.len());
+        // The tube's records: `tube[i m]` at `run.records[i]`'s time, `dt_tube` apart.
+        let (tube, m) = match fine.and_then(|f| Some((f, per_interval(run, f, n)?))) {
+            Some((f, m)) => (f, m),
+            None => (reference, 1),
+        };
+        Tube {
+            tube,
+            m,
+            n,
+            dt_tube: dt / m as f64,
+        }
+    }
+
+    /// The signed error of each of the first `n` records of `run` in signal `name`: how
+    /// far above the tube's top (> 0) or below its bottom (< 0) within `tol.time_s`, 0
+    /// inside it, infinite where either side is not finite (a diverged run or reference:
+    /// never hidden by the NaN-ignoring min/max).
+    fn errors(&self, run: &Trajectory, name: &str, tol: &Tolerance) -> Vec<f64> {
+        let m = self.m;
+        let nt = ((self.n.saturating_sub(1)) * m + 1).min(self.tube.records.len());
+        let rt: Vec<f64> = self.tube.records[..nt]
+            .iter()
+            .map(|r| column(r, name).unwrap_or(f64::NAN))
+            .collect();
+        let w = (tol.time_s / self.dt_tube).round() as usize;
+        run.records[..self.n]
+            .iter()
+            .enumerate()
+            .map(|(i, rec)| {
+                let xi = column(rec, name).unwrap_or(f64::NAN);
+                let lo = (i * m).saturating_sub(w);
+                let hi = (i * m + w).min(nt.saturating_sub(1));
+                let (rmin, rmax) = rt
+                    .get(lo..=hi)
+                    .unwrap_or(&[])
+                    .iter()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+                        (a.min(v), b.max(v))
+                    });
+                if !(xi.is_finite() && rmin.is_finite() && rmax.is_finite()) {
+                    f64::INFINITY
+                } else if xi > rmax {
+                    xi - rmax
+                } else if xi < rmin {
+                    xi - rmin
+                } else {
+                    0.0
+                }
+            })
+            .collect()
+    }
+}
+
+/// The error series the numerics judge, per signal of `tolerances`: `(t_s, signed
+/// error)` for each record compared (see [`compare_fine`]; `|error| <= allowed`
+/// passes), for plotting beside the signals.
+#[must_use]
+pub fn judged_errors(
+    run: &Trajectory,
+    reference: &Trajectory,
+    fine: Option<&Trajectory>,
+    tolerances: &BTreeMap<String, Tolerance>,
+) -> Vec<(String, Vec<(f64, f64)>)> {
+    let tube = Tube::of(run, reference, fine);
+    tolerances
+        .iter()
+        .map(|(name, tol)| {
+            let e = tube.errors(run, name, tol);
+            let pts = run.records.iter().zip(e).map(|(r, e)| (r.t_s, e)).collect();
+            (name.clone(), pts)
+        })
+        .collect()
+}
+
 /// [`compare`], with the tube taken over `fine` (the same reference run recorded at the
 /// control period: module docs) where given and aligned with `run`'s records; `reference`
 /// gives the peak, the length and the divergence as in [`compare`]. A `fine` whose records
@@ -139,49 +228,16 @@ pub fn compare_fine(
     fine: Option<&Trajectory>,
     tolerances: &BTreeMap<String, Tolerance>,
 ) -> NumericsReport {
-    let dt = interval(run);
-    let n = run.records.len().min(reference.records.len());
-    // The tube's records: `tube[i m]` at `run.records[i]`'s time, `dt_tube` apart.
-    let (tube, m) = match fine.and_then(|f| Some((f, per_interval(run, f, n)?))) {
-        Some((f, m)) => (f, m),
-        None => (reference, 1),
-    };
-    let dt_tube = dt / m as f64;
+    let tube = Tube::of(run, reference, fine);
+    let n = tube.n;
     let mut signals = Vec::new();
     for (name, tol) in tolerances {
-        let x: Vec<f64> = run.records[..n]
-            .iter()
-            .map(|r| column(r, name).unwrap_or(f64::NAN))
-            .collect();
-        let r: Vec<f64> = reference.records[..n]
-            .iter()
-            .map(|r| column(r, name).unwrap_or(f64::NAN))
-            .collect();
-        let nt = ((n.saturating_sub(1)) * m + 1).min(tube.records.len());
-        let rt: Vec<f64> = tube.records[..nt]
-            .iter()
-            .map(|r| column(r, name).unwrap_or(f64::NAN))
-            .collect();
-        let w = (tol.time_s / dt_tube).round() as usize;
         let mut max_err = 0.0f64;
         let mut max_t = 0.0;
         let mut sq = 0.0;
         let mut finite = true;
-        for (i, &xi) in x.iter().enumerate() {
-            let lo = (i * m).saturating_sub(w);
-            let hi = (i * m + w).min(nt.saturating_sub(1));
-            let (rmin, rmax) = rt[lo..=hi]
-                .iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
-                    (a.min(v), b.max(v))
-                });
-            // A non-finite value on either side (a diverged run or reference) is an
-            // infinite error, never hidden by the NaN-ignoring min/max.
-            let e = if xi.is_finite() && rmin.is_finite() && rmax.is_finite() {
-                (xi - rmax).max(rmin - xi).max(0.0)
-            } else {
-                f64::INFINITY
-            };
+        for (i, e) in tube.errors(run, name, tol).into_iter().enumerate() {
+            let e = e.abs();
             if !e.is_finite() {
                 finite = false;
             }
@@ -191,7 +247,10 @@ pub fn compare_fine(
             }
             sq += e * e;
         }
-        let ref_peak = r.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let ref_peak = reference.records[..n]
+            .iter()
+            .map(|r| column(r, name).unwrap_or(f64::NAN))
+            .fold(0.0f64, |m, v| m.max(v.abs()));
         let allowed = tol.abs + tol.rel * ref_peak;
         let ratio = if allowed > 0.0 {
             max_err / allowed
@@ -237,8 +296,8 @@ pub fn compare_fine(
         reference: format!(
             "f64 continuous-time reference, control {}{}",
             reference.info.control,
-            if m > 1 {
-                format!(", tube at {:.1} ms", dt_tube * 1e3)
+            if tube.m > 1 {
+                format!(", tube at {:.1} ms", tube.dt_tube * 1e3)
             } else {
                 String::new()
             }

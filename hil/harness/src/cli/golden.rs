@@ -112,8 +112,21 @@ pub(crate) fn cmd_golden(g: &GoldenArgs) -> Result<Verdict, Failure> {
                 "identical bit for bit".to_string()
             } else {
                 format!(
-                    "{} ticks DIFFER, first at tick {:?}",
-                    c.mismatches, c.first_mismatch
+                    "{} ticks DIFFER, first at tick {}",
+                    c.mismatches,
+                    c.first_mismatch.map_or_else(
+                        || "-".to_string(),
+                        |(t, host, target)| {
+                            let out = |o: &hil::golden::Out| {
+                                format!("T_psi {} dNm, u_a {} cV", o.t_psi_dnm, o.u_a_cv)
+                            };
+                            format!(
+                                "{t} (host {}, target {})",
+                                out(&host),
+                                target.as_ref().map_or_else(|| "missing".to_string(), out)
+                            )
+                        }
+                    )
                 )
             },
             c.host_peak.0,

@@ -198,6 +198,15 @@ pub(crate) fn cmd_run(a: &RunArgs, command: &str) -> Result<Verdict, Failure> {
             )));
         }
     }
+    // The outputs are checked before the run, not found unwritable after it.
+    for (flag, p) in [("--json", &a.json), ("--csv", &a.csv)] {
+        if let Some(p) = p {
+            wheelset_report::output::check_file_flag(flag, p).map_err(input)?;
+        }
+    }
+    if let Some(d) = &a.report {
+        wheelset_report::output::check_dir_flag("--report", d).map_err(input)?;
+    }
     // The faults as applied (canonical spec), whichever form the flag took
     // (`--faults SPEC` or `--faults=SPEC`).
     let faults_spec = a.faults.to_string();
@@ -280,11 +289,11 @@ pub(crate) fn check_unit(name: &str) -> &'static str {
 pub(crate) fn print_summary(r: &hil::run::RunReport) {
     let t = &r.timing;
     say!(
-        "hil run: target {}, scenario {} ({}), control {:?}, {} periods of {} ns",
+        "hil run: target {}, scenario {} ({}), control: {}, {} periods of {} ns",
         r.target,
         r.scenario,
         r.scenario_source,
-        r.control,
+        r.control.words(),
         t.periods,
         t.period_ns
     );
@@ -389,7 +398,13 @@ pub(crate) fn print_summary(r: &hil::run::RunReport) {
             r.transport
                 .as_ref()
                 .and_then(|t| t.get("realtime"))
-                .map_or(String::new(), ToString::to_string)
+                .and_then(
+                    |v| serde_json::from_value::<wheelset_targets::realtime::os::Obtained>(
+                        v.clone()
+                    )
+                    .ok()
+                )
+                .map_or_else(|| "nothing reported".to_string(), |o| o.to_string())
         );
     }
     let default = Params::default().entries();
@@ -407,20 +422,12 @@ pub(crate) fn print_summary(r: &hil::run::RunReport) {
     say!("verdict: {}", r.verdict);
     let m = &r.monitor;
     say!(
-        "  monitor ({}): {} alarm(s){}; expected {}{}: {}{}",
+        "  monitor ({}): {} alarm(s){}; expected {}: {}{}",
         m.source,
         m.alarms.len(),
         m.first_alarm_s
             .map_or(String::new(), |t| format!(", first at {t:.3} s")),
-        m.expect,
-        match (m.deadline_s, m.fault_s) {
-            (Some(d), Some(f)) => format!(
-                " by {d:.3} s (fault at {f:.3} s, sigma {:.1} 1/s)",
-                m.sigma_per_s.unwrap_or(0.0)
-            ),
-            (Some(d), None) => format!(" by {d:.3} s (the plant diverged there on its own)"),
-            _ => String::new(),
-        },
+        m.expectation(),
         m.verdict,
         if m.reason.is_empty() {
             String::new()

@@ -81,7 +81,7 @@ pub(crate) fn cmd_serve(a: &ServeArgs) -> Result<Verdict, Failure> {
     drop(slave);
     eprintln!(
         "hil serve: {} ticks, {} late, {} skipped (max lateness {:.1} us), rx {} B, tx {} B, \
-         {} frames dropped, {} Hz at the end; realtime {:?}",
+         {} frames dropped, {} Hz at the end; real-time scheduling obtained: {}",
         rep.ticks,
         rep.late,
         rep.skipped,

@@ -11,7 +11,7 @@
 //! its arguments built here.
 #![allow(unsafe_code)]
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// What a real-time loop asks for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -51,7 +51,7 @@ impl Want {
 }
 
 /// What was obtained (the `realtime` section of a run's JSON).
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Default)]
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, Default)]
 pub struct Obtained {
     /// `SCHED_FIFO` priority obtained, if any.
     pub sched_fifo: Option<i32>,
@@ -63,6 +63,35 @@ pub struct Obtained {
     pub timer_slack_ns: Option<u64>,
     /// Why something asked for was not obtained.
     pub refused: Vec<String>,
+}
+
+impl std::fmt::Display for Obtained {
+    /// `SCHED_FIFO 80, memory locked, pinned to CPU 1, timer slack 1 ns` (what was
+    /// obtained, `nothing` if none), then `; refused: ...`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let mut got = Vec::new();
+        if let Some(p) = self.sched_fifo {
+            got.push(format!("SCHED_FIFO {p}"));
+        }
+        if self.mlockall {
+            got.push("memory locked".to_string());
+        }
+        if let Some(c) = self.pinned_cpu {
+            got.push(format!("pinned to CPU {c}"));
+        }
+        if let Some(s) = self.timer_slack_ns {
+            got.push(format!("timer slack {s} ns"));
+        }
+        if got.is_empty() {
+            f.write_str("nothing")?;
+        } else {
+            f.write_str(&got.join(", "))?;
+        }
+        if !self.refused.is_empty() {
+            write!(f, "; refused: {}", self.refused.join("; "))?;
+        }
+        Ok(())
+    }
 }
 
 /// The CPUs this process may run on (empty if unknown).

@@ -59,6 +59,10 @@ pub(crate) fn cmd_adhesion(a: &AdhesionArgs) -> Result<(), Failure> {
             msg: format!("--v-mps {v}: must be within [0.1, 200] m/s"),
         });
     }
+    super::check_outputs(
+        &[("--json", Some(a.json.as_path()))],
+        &[("--plot", a.plot.as_deref())],
+    )?;
     let ch = wheelset_plant::traction::characteristic(a.condition.into(), v, &p, a.points as usize);
     outln!(
         "adhesion {}: v {} m/s, Q {:.1} N, f11 {:.3e} N, mu0 {} A {} B {} s/m kA {} kS {}; peak F/Q {:.4} at creepage {:.5} (slip {:.3} m/s)",

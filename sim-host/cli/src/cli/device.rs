@@ -160,6 +160,13 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
             code: 2,
             msg: format!("{}: {msg}", sc.source),
         })?;
+    let rt = wheelset_loop::device_loop::runtime_config(sc, a.control.into(), &opt);
+    if let Some(why) = wheelset_loop::device_loop::base_rate_refusal(&rt) {
+        return Err(Failure {
+            code: 2,
+            msg: format!("--rate-hz {hz}: {why}"),
+        });
+    }
     if let Some(w) = wheelset_loop::rate_check::warning(sc, a.control.into(), hz) {
         warn(&w);
     }

@@ -65,6 +65,26 @@ pub(crate) fn io_fail(what: &std::path::Path, e: std::io::Error) -> Failure {
     }
 }
 
+/// Checks the output paths before any work (`wheelset_report::output`): `files` and `dirs` as
+/// `(flag, path)`; a path that cannot be written is bad input (exit code 2).
+pub(crate) fn check_outputs(
+    files: &[(&str, Option<&std::path::Path>)],
+    dirs: &[(&str, Option<&std::path::Path>)],
+) -> Result<(), Failure> {
+    let bad = |msg: String| Failure { code: 2, msg };
+    for (flag, p) in files {
+        if let Some(p) = p {
+            wheelset_report::output::check_file_flag(flag, p).map_err(bad)?;
+        }
+    }
+    for (flag, d) in dirs {
+        if let Some(d) = d {
+            wheelset_report::output::check_dir_flag(flag, d).map_err(bad)?;
+        }
+    }
+    Ok(())
+}
+
 pub(crate) fn load_params(path: &Option<PathBuf>) -> Result<Params, ConfigError> {
     match path {
         Some(p) => Params::from_file(p),

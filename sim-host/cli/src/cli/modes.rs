@@ -67,6 +67,10 @@ pub(crate) fn cmd_modes(a: &ModesArgs) -> Result<(), Failure> {
     };
     wheelset_plant::memory::check_modes(u64::from(a.points), cases.len() as u64)
         .map_err(|msg| Failure { code: 2, msg })?;
+    super::check_outputs(
+        &[("--json", Some(a.json.as_path()))],
+        &[("--plot", a.plot.as_deref())],
+    )?;
     let grid = creep_grid(a.points as usize);
     let pb = progress((grid.len() * cases.len()) as u64, "modal sweep");
     let mut sweeps = Vec::new();

@@ -52,6 +52,7 @@ pub(crate) fn cmd_rates(a: &RatesArgs) -> Result<(), Failure> {
         });
     }
     let p = load_params(&a.params)?;
+    super::check_outputs(&[("--json", a.json.as_deref())], &[])?;
     let mode = match a.control {
         Control::Passive => wheelset_control::YawMode::Passive,
         Control::Gain => wheelset_control::YawMode::Gain,

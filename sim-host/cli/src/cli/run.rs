@@ -7,7 +7,7 @@ use wheelset_plant::sim::Trajectory;
 use wheelset_report::outln;
 
 use super::device::{cmd_run_device, DeviceArgs, LoopKind, OnOff};
-use super::{io_fail, load_params, simulate, warn, write_json, Control, Failure};
+use super::{check_outputs, io_fail, load_params, simulate, warn, write_json, Control, Failure};
 
 #[derive(clap::Args)]
 pub(crate) struct RunArgs {
@@ -66,6 +66,10 @@ pub(crate) fn cmd_run(a: &RunArgs) -> Result<(), Failure> {
     }
     let base = load_params(&a.params)?;
     let sc = Scenario::load(&a.scenario, &base)?;
+    check_outputs(
+        &[("--csv", a.csv.as_deref()), ("--json", a.json.as_deref())],
+        &[("--plot", a.plot.as_deref())],
+    )?;
     if a.sections_table && (a.device.loop_kind != LoopKind::Core || sc.adhesion.is_empty()) {
         return Err(Failure {
             code: 2,
@@ -292,17 +296,35 @@ pub(crate) fn cmd_run_core(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
             outln!("plot: {}", f.display());
         }
         if !sc.adhesion.is_empty() {
-            let (other, _) = run_core::<f64>(sc, a.control.into(), !wsp).map_err(fail)?;
-            let (on, off) = if wsp {
-                (&runs[0], &other)
-            } else {
-                (&other, &runs[0])
-            };
-            let f = crate::figures::write_adhesion(
-                &[("protection on", on), ("protection off", off)],
-                dir,
-            )
-            .map_err(|e| io_fail(dir, e))?;
+            use crate::figures::FigureRun;
+            let (other, oc) = run_core::<f64>(sc, a.control.into(), !wsp).map_err(fail)?;
+            let (main, other) = (
+                FigureRun {
+                    label: if wsp {
+                        "protection on"
+                    } else {
+                        "protection off"
+                    },
+                    tr: &runs[0],
+                    set_point: &c.set_point,
+                },
+                FigureRun {
+                    label: if wsp {
+                        "protection off"
+                    } else {
+                        "protection on"
+                    },
+                    tr: &other,
+                    set_point: &oc.set_point,
+                },
+            );
+            let (on, off) = if wsp { (main, other) } else { (other, main) };
+            let slip_on =
+                wheelset_loop::device_loop::control_config(&sc.params, a.control.into(), sc.drive)
+                    .wsp
+                    .slip_on_mps;
+            let f = crate::figures::write_figure(&[on, off], slip_on, dir)
+                .map_err(|e| io_fail(dir, e))?;
             outln!("plot: {}", f.display());
         }
     }
@@ -363,7 +385,7 @@ pub(crate) fn print_summary(sc: &Scenario, tr: &Trajectory) {
         tr.info.steps
     );
     outln!(
-        "plant: axle {:?}, drive {}, yaw spring {}; project defaults used: k_lat {} N/m, k_t {:.4e} N m/rad, k_gear {:.4e} N m/rad, PI Ti {} s",
+        "plant: axle {}, drive {}, yaw spring {}; project defaults used: k_lat {} N/m, k_t {:.4e} N m/rad, k_gear {:.4e} N m/rad, PI Ti {} s",
         sc.axle,
         sc.drive,
         tr.info.control == "passive",

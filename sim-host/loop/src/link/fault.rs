@@ -140,6 +140,9 @@ impl FromStr for Faults {
 
     fn from_str(spec: &str) -> Result<Self, Self::Err> {
         let mut f = Faults::default();
+        // Every key but `outage` (one item per outage) sets one value: a second item of
+        // the same key is refused rather than silently overriding the first.
+        let mut seen: Vec<&str> = Vec::new();
         for item in spec.split(',').map(str::trim).filter(|s| !s.is_empty()) {
             let err = |reason: &str| FaultSpecError {
                 item: item.to_owned(),
@@ -148,7 +151,16 @@ impl FromStr for Faults {
             let (k, v) = item
                 .split_once('=')
                 .ok_or_else(|| err("expected key=value"))?;
-            match k.trim() {
+            let k = k.trim();
+            if k != "outage" {
+                if seen.contains(&k) {
+                    return Err(err(&format!(
+                        "`{k}` is given twice (each key once; only outage may repeat)"
+                    )));
+                }
+                seen.push(k);
+            }
+            match k {
                 "ber" => f.ber = prob(item, v.trim(), true)?,
                 "drop" => f.frame_drop = prob(item, v.trim(), false)?,
                 "byte_drop" => f.byte_drop = prob(item, v.trim(), false)?,

@@ -1,31 +1,82 @@
-//! Drawing a [`Plot`]: its data range, the axes with their ticks, the series, the
-//! reference lines and notes, and the legend in a column right of the plotting area.
+//! Drawing a [`Plot`]: its data range, the axes with their ticks (linear or
+//! logarithmic), the series, the reference lines, marks and notes, and the legend in a
+//! column right of the plotting area.
 
 use std::fmt::Write as _;
 use std::path::Path;
 
+use super::ticks::{fmt_log, log_ticks};
 use super::{
     decimate, esc, fmt_tick, nice_ticks, write_file, Figure, Plot, Series, Style, PALETTE,
 };
 
+/// A value on an axis: itself, or its `log10` on a logarithmic axis (NaN for `v <= 0`,
+/// which every drawing step skips as non-finite).
+fn axis(log: bool, v: f64) -> f64 {
+    if !log {
+        v
+    } else if v > 0.0 {
+        v.log10()
+    } else {
+        f64::NAN
+    }
+}
+
 impl Plot {
-    fn data_range(&self) -> ((f64, f64), (f64, f64)) {
+    /// The x value as drawn (see [`axis`]).
+    fn tx(&self, x: f64) -> f64 {
+        axis(self.x_log, x)
+    }
+
+    /// The y value as drawn.
+    fn ty(&self, y: f64) -> f64 {
+        axis(self.y_log, y)
+    }
+
+    /// A panel that carries only a note: no data, so no axes to read.
+    fn note_only(&self) -> bool {
+        !self.note.is_empty()
+            && self.bars.is_empty()
+            && self.series.iter().all(|s| s.points.is_empty())
+    }
+
+    /// The ranges drawn, in axis units (`log10` on a logarithmic axis): the data, the
+    /// bars and the marks, or the ranges given.
+    pub(super) fn data_range(&self) -> ((f64, f64), (f64, f64)) {
+        let (xl, yl) = (self.x_log, self.y_log);
         let mut xs = (f64::INFINITY, f64::NEG_INFINITY);
         let mut ys = xs;
-        let mut add = |x: f64, y: f64| {
-            if x.is_finite() && y.is_finite() {
-                xs = (xs.0.min(x), xs.1.max(x));
-                ys = (ys.0.min(y), ys.1.max(y));
+        let grow = |r: &mut (f64, f64), v: f64| {
+            if v.is_finite() {
+                *r = (r.0.min(v), r.1.max(v));
             }
         };
         for s in &self.series {
             for &(x, y) in &s.points {
-                add(x, y);
+                let (x, y) = (axis(xl, x), axis(yl, y));
+                if x.is_finite() && y.is_finite() {
+                    grow(&mut xs, x);
+                    grow(&mut ys, y);
+                }
             }
         }
         for &(a, b, h) in &self.bars {
-            add(a, 0.0);
-            add(b, h);
+            if yl && h <= 0.0 {
+                continue;
+            }
+            grow(&mut xs, axis(xl, a));
+            grow(&mut xs, axis(xl, b));
+            grow(&mut ys, axis(yl, h));
+            if !yl {
+                grow(&mut ys, 0.0);
+            }
+        }
+        for m in &self.marks {
+            if m.vertical {
+                grow(&mut xs, axis(xl, m.at));
+            } else {
+                grow(&mut ys, axis(yl, m.at));
+            }
         }
         let fix = |r: (f64, f64)| {
             if !r.0.is_finite() {
@@ -37,14 +88,31 @@ impl Plot {
                 r
             }
         };
+        let given = |r: Option<(f64, f64)>, log: bool| {
+            r.map(|(a, b)| (axis(log, a), axis(log, b)))
+                .filter(|(a, b)| a.is_finite() && b.is_finite() && b > a)
+        };
         (
-            self.x_range.unwrap_or_else(|| fix(xs)),
-            self.y_range.unwrap_or_else(|| {
+            given(self.x_range, xl).unwrap_or_else(|| fix(xs)),
+            given(self.y_range, yl).unwrap_or_else(|| {
                 let r = fix(ys);
                 let pad = 0.05 * (r.1 - r.0);
                 (r.0 - pad, r.1 + pad)
             }),
         )
+    }
+
+    /// Ticks of one axis (axis units) with their labels (the values, on a log axis too).
+    fn ticks(log: bool, lo: f64, hi: f64, n: usize) -> Vec<(f64, String)> {
+        if log {
+            log_ticks(lo, hi)
+                .into_iter()
+                .map(|t| (t, fmt_log(10f64.powf(t))))
+                .collect()
+        } else {
+            let t = nice_ticks(lo, hi, n);
+            t.iter().map(|&v| (v, fmt_tick(v, &t))).collect()
+        }
     }
 
     /// Width of the legend column, px (0 without labelled series).
@@ -80,13 +148,33 @@ impl Plot {
         } else {
             longest as f64 * 6.0 * 0.643 + 8.0
         };
-        let (ml, mr, mt, mb) = (78.0, 16.0 + legend_w, 30.0, 46.0 + cat_h);
+        let (mr, mt, mb) = (16.0 + legend_w, 30.0, 46.0 + cat_h);
+        // The first category's slanted name reaches left of its centre by its length
+        // times cos(40): the left margin grows so that the edge does not cut it off.
+        let first = self
+            .x_categories
+            .first()
+            .map_or(0.0, |c| c.chars().count() as f64 * 6.0 * 0.766 + 6.0);
+        let half = 0.5 / self.x_categories.len().max(1) as f64;
+        let ml = f64::max(78.0, (first - (self.width - mr) * half) / (1.0 - half));
         let (pw, ph) = (self.width - ml - mr, self.height - mt - mb);
         let ((x0, x1), (y0, y1)) = self.data_range();
-        let xt = nice_ticks(x0, x1, 7);
-        let yt = nice_ticks(y0, y1, 6);
+        let blank = self.note_only();
+        let xt = if blank || !self.x_categories.is_empty() {
+            Vec::new()
+        } else {
+            Self::ticks(self.x_log, x0, x1, 7)
+        };
+        let yt = if blank {
+            Vec::new()
+        } else {
+            Self::ticks(self.y_log, y0, y1, 6)
+        };
+        // Axis units to px (`sx`, `sy`); data units to px (`px`, `py`).
         let sx = |x: f64| ml + (x - x0) / (x1 - x0) * pw;
         let sy = |y: f64| mt + ph - (y - y0) / (y1 - y0) * ph;
+        let px = |x: f64| sx(self.tx(x));
+        let py = |y: f64| sy(self.ty(y));
         let mut o = String::new();
         let _ = writeln!(
             o,
@@ -94,7 +182,7 @@ impl Plot {
         );
         let _ = writeln!(
             o,
-            r##"<rect x="{ml}" y="{mt}" width="{pw:.1}" height="{ph:.1}" fill="#fff" stroke="#333"/>"##
+            r##"<rect x="{ml:.1}" y="{mt}" width="{pw:.1}" height="{ph:.1}" fill="#fff" stroke="#333"/>"##
         );
         let _ = writeln!(
             o,
@@ -103,7 +191,7 @@ impl Plot {
             esc(&self.title)
         );
         for (i, c) in self.x_categories.iter().enumerate() {
-            let x = sx(i as f64 + 0.5);
+            let x = px(i as f64 + 0.5);
             let y = mt + ph + 12.0;
             let _ = writeln!(
                 o,
@@ -111,8 +199,8 @@ impl Plot {
                 esc(c)
             );
         }
-        for &t in xt.iter().filter(|_| self.x_categories.is_empty()) {
-            let x = sx(t);
+        for (t, label) in &xt {
+            let x = sx(*t);
             let _ = writeln!(
                 o,
                 r##"<line x1="{x:.1}" y1="{mt}" x2="{x:.1}" y2="{:.1}" stroke="#ddd"/>"##,
@@ -120,48 +208,52 @@ impl Plot {
             );
             let _ = writeln!(
                 o,
-                r#"<text x="{x:.1}" y="{:.1}" text-anchor="middle">{}</text>"#,
-                mt + ph + 15.0,
-                fmt_tick(t, &xt)
+                r#"<text x="{x:.1}" y="{:.1}" text-anchor="middle">{label}</text>"#,
+                mt + ph + 15.0
             );
         }
-        for &t in &yt {
-            let y = sy(t);
+        for (t, label) in &yt {
+            let y = sy(*t);
             let _ = writeln!(
                 o,
-                r##"<line x1="{ml}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}" stroke="#ddd"/>"##,
+                r##"<line x1="{ml:.1}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}" stroke="#ddd"/>"##,
                 ml + pw
             );
             let _ = writeln!(
                 o,
-                r#"<text x="{:.1}" y="{:.1}" text-anchor="end">{}</text>"#,
+                r#"<text x="{:.1}" y="{:.1}" text-anchor="end">{label}</text>"#,
                 ml - 5.0,
-                y + 4.0,
-                fmt_tick(t, &yt)
+                y + 4.0
             );
         }
+        if !blank {
+            let _ = writeln!(
+                o,
+                r#"<text x="{:.1}" y="{:.1}" text-anchor="middle">{}</text>"#,
+                ml + pw / 2.0,
+                self.height - 8.0,
+                esc(&self.x_label)
+            );
+            let _ = writeln!(
+                o,
+                r#"<text transform="translate(14,{:.1}) rotate(-90)" text-anchor="middle">{}</text>"#,
+                mt + ph / 2.0,
+                esc(&self.y_label)
+            );
+        }
+        let clip = (ox + 10000.0 * oy) as i64;
         let _ = writeln!(
             o,
-            r#"<text x="{:.1}" y="{:.1}" text-anchor="middle">{}</text>"#,
-            ml + pw / 2.0,
-            self.height - 8.0,
-            esc(&self.x_label)
-        );
-        let _ = writeln!(
-            o,
-            r#"<text transform="translate(14,{:.1}) rotate(-90)" text-anchor="middle">{}</text>"#,
-            mt + ph / 2.0,
-            esc(&self.y_label)
-        );
-        let _ = writeln!(
-            o,
-            r#"<clipPath id="c{}"><rect x="{ml}" y="{mt}" width="{pw:.1}" height="{ph:.1}"/></clipPath><g clip-path="url(#c{})">"#,
-            (ox + 10000.0 * oy) as i64,
-            (ox + 10000.0 * oy) as i64
+            r#"<clipPath id="c{clip}"><rect x="{ml:.1}" y="{mt}" width="{pw:.1}" height="{ph:.1}"/></clipPath><g clip-path="url(#c{clip})">"#
         );
         for &(a, b, h) in &self.bars {
-            let (xa, xb) = (sx(a), sx(b));
-            let (ya, yb) = (sy(h.max(y0)), sy(0f64.max(y0)));
+            if self.y_log && h <= 0.0 {
+                continue;
+            }
+            let (xa, xb) = (px(a), px(b));
+            let top = self.ty(h).max(y0);
+            let bottom = if self.y_log { y0 } else { 0f64.max(y0) };
+            let (ya, yb) = (sy(top), sy(bottom));
             let _ = writeln!(
                 o,
                 r##"<rect x="{xa:.1}" y="{:.1}" width="{:.1}" height="{:.1}" fill="#56B4E9" stroke="#0072B2"/>"##,
@@ -174,15 +266,15 @@ impl Plot {
             let _ = writeln!(
                 o,
                 r##"<line x1="{0:.1}" y1="{mt}" x2="{0:.1}" y2="{1:.1}" stroke="#888" stroke-dasharray="3,3"/>"##,
-                sx(v),
+                px(v),
                 mt + ph
             );
         }
         for &h in &self.hlines {
             let _ = writeln!(
                 o,
-                r##"<line x1="{ml}" y1="{0:.1}" x2="{1:.1}" y2="{0:.1}" stroke="#888" stroke-dasharray="3,3"/>"##,
-                sy(h),
+                r##"<line x1="{ml:.1}" y1="{0:.1}" x2="{1:.1}" y2="{0:.1}" stroke="#888" stroke-dasharray="3,3"/>"##,
+                py(h),
                 ml + pw
             );
         }
@@ -191,6 +283,12 @@ impl Plot {
                 .color
                 .clone()
                 .unwrap_or_else(|| PALETTE[k % PALETTE.len()].to_string());
+            let drawn: Vec<(f64, f64)> = s
+                .points
+                .iter()
+                .map(|&(x, y)| (self.tx(x), self.ty(y)))
+                .collect();
+            let finite = |p: &&(f64, f64)| p.0.is_finite() && p.1.is_finite();
             match s.style {
                 Style::Line | Style::Dashed => {
                     let dash = if s.style == Style::Dashed {
@@ -198,7 +296,7 @@ impl Plot {
                     } else {
                         ""
                     };
-                    for run in s.points.split(|p| !(p.0.is_finite() && p.1.is_finite())) {
+                    for run in drawn.split(|p| !(p.0.is_finite() && p.1.is_finite())) {
                         if run.is_empty() {
                             continue;
                         }
@@ -219,11 +317,7 @@ impl Plot {
                     }
                 }
                 Style::Markers => {
-                    for &(x, y) in s
-                        .points
-                        .iter()
-                        .filter(|p| p.0.is_finite() && p.1.is_finite())
-                    {
+                    for &(x, y) in drawn.iter().filter(finite) {
                         let _ = writeln!(
                             o,
                             r#"<circle cx="{:.1}" cy="{:.1}" r="2" fill="{col}"/>"#,
@@ -233,11 +327,7 @@ impl Plot {
                     }
                 }
                 Style::Crosses => {
-                    for &(x, y) in s
-                        .points
-                        .iter()
-                        .filter(|p| p.0.is_finite() && p.1.is_finite())
-                    {
+                    for &(x, y) in drawn.iter().filter(finite) {
                         let (cx, cy) = (sx(x), sy(y));
                         let _ = writeln!(
                             o,
@@ -253,6 +343,59 @@ impl Plot {
                         );
                     }
                 }
+            }
+        }
+        // The marks on top of the data, each label beside its line (vertical ones
+        // staggered down the top of the area so that neighbours do not overprint).
+        let mut h_labels: Vec<f64> = Vec::new();
+        for (k, m) in self.marks.iter().enumerate() {
+            let label = esc(&m.label);
+            let c = &m.color;
+            if m.vertical {
+                let x = px(m.at);
+                if !x.is_finite() {
+                    continue;
+                }
+                let _ = writeln!(
+                    o,
+                    r#"<line x1="{x:.1}" y1="{mt}" x2="{x:.1}" y2="{:.1}" stroke="{c}" stroke-width="1.2" stroke-dasharray="5,3"/>"#,
+                    mt + ph
+                );
+                let right = x < ml + 0.7 * pw;
+                let _ = writeln!(
+                    o,
+                    r##"<text x="{:.1}" y="{:.1}" text-anchor="{}" fill="{c}" stroke="#fff" stroke-width="3" paint-order="stroke">{label}</text>"##,
+                    if right { x + 3.0 } else { x - 3.0 },
+                    mt + 12.0 + 12.0 * (k % 4) as f64,
+                    if right { "start" } else { "end" }
+                );
+            } else {
+                let y = py(m.at);
+                if !y.is_finite() {
+                    continue;
+                }
+                let _ = writeln!(
+                    o,
+                    r#"<line x1="{ml:.1}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}" stroke="{c}" stroke-width="1.2" stroke-dasharray="5,3"/>"#,
+                    ml + pw
+                );
+                // At the left end (the events' labels are at the top right), above the
+                // line, or below it where the top edge or another label is in the way.
+                if label.is_empty() {
+                    continue;
+                }
+                let clash = |at: f64| h_labels.iter().any(|&u: &f64| (u - at).abs() < 11.0);
+                let at = if y - 3.0 < mt + 11.0 || clash(y - 3.0) {
+                    y + 12.0
+                } else {
+                    y - 3.0
+                };
+                h_labels.push(at);
+                let _ = writeln!(
+                    o,
+                    r##"<text x="{:.1}" y="{at:.1}" fill="{c}" stroke="#fff" stroke-width="3" paint-order="stroke">{label}</text>"##,
+                    ml + 4.0
+                );
             }
         }
         o.push_str("</g>\n");

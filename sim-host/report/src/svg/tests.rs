@@ -1,5 +1,6 @@
 //! The plots' ticks, labels, legend, escaping and histograms.
 
+use super::ticks::{fmt_log, log_ticks};
 use super::*;
 
 #[test]
@@ -61,4 +62,77 @@ fn categories_replace_the_numeric_x_ticks_and_a_note_is_written() {
         .count();
     assert_eq!(numeric_x, 0, "{s}");
     assert!(s.contains(">not measured</text>"), "{s}");
+}
+
+#[test]
+fn log_axes_have_value_labels_and_skip_non_positive_points() {
+    // Four decades: the decades, labelled with the values.
+    let p = Plot::new("log").log_x().log_y().series(Series::line(
+        "s",
+        vec![(0.1, 1.0), (1.0, 10.0), (0.0, 5.0), (1000.0, 100.0)],
+    ));
+    let s = p.to_svg();
+    for l in [">0.1<", ">1<", ">10<", ">100<", ">1000<"] {
+        assert!(s.contains(l), "{l}: {s}");
+    }
+    assert!(!s.contains(">-1<") && !s.contains("NaN"), "{s}");
+    // Under three decades: 1, 2, 5 times them.
+    let t = log_ticks(0.0, 1.0);
+    let v: Vec<f64> = t
+        .iter()
+        .map(|t| (10f64.powf(*t) * 1e6).round() / 1e6)
+        .collect();
+    assert_eq!(v, [1.0, 2.0, 5.0, 10.0]);
+    assert_eq!(fmt_log(2e6), "2e6");
+    assert_eq!(fmt_log(0.05), "0.05");
+}
+
+#[test]
+fn marks_are_drawn_labelled_and_inside_the_range() {
+    // A threshold far above the data is still on the axis, with its label.
+    let p = Plot::new("m")
+        .series(Series::line("s", vec![(0.0, 0.0), (1.0, 1.0)]))
+        .hmark(50.0, "threshold 50", "#D55E00")
+        .vmark(3.0, "event", "#000");
+    let s = p.to_svg();
+    assert!(s.contains(">threshold 50</text>"), "{s}");
+    assert!(s.contains(">event</text>"), "{s}");
+    let ((x0, x1), (y0, y1)) = p.data_range();
+    assert!(x0 <= 0.0 && x1 >= 3.0 && y0 <= 0.0 && y1 >= 50.0);
+}
+
+#[test]
+fn a_panel_with_only_a_note_has_no_axes() {
+    let s = Plot::new("Execution time")
+        .x_label("exec (us)")
+        .note("not measured in process")
+        .to_svg();
+    assert!(s.contains(">not measured in process</text>"));
+    assert!(!s.contains(">exec (us)</text>"), "{s}");
+    assert!(
+        !s.contains(">0.2</text>") && !s.contains(">0</text>"),
+        "{s}"
+    );
+}
+
+#[test]
+fn a_long_first_category_name_is_not_cut_off() {
+    let names = [
+        "a rather long first category name".to_string(),
+        "b".to_string(),
+    ];
+    let s = Plot::histogram("h", &[0.0, 1.0, 2.0], &[1.0, 2.0])
+        .x_categories(&names)
+        .to_svg();
+    // The name's left end: its anchor x minus its length at 6 px x cos(40).
+    let anchor: f64 = s
+        .split("<text transform=\"translate(")
+        .nth(1)
+        .and_then(|t| t.split(',').next())
+        .and_then(|x| x.parse().ok())
+        .unwrap();
+    assert!(
+        anchor - names[0].len() as f64 * 6.0 * 0.766 >= 0.0,
+        "{anchor}"
+    );
 }

@@ -27,6 +27,42 @@ pub fn nice_ticks(lo: f64, hi: f64, n: usize) -> Vec<f64> {
     (start..=end).map(|k| k as f64 * step).collect()
 }
 
+/// Ticks of a logarithmic axis spanning `[lo, hi]` in `log10` units: the decades inside
+/// it (every second one beyond 8), and 2 and 5 times them when fewer than three decades
+/// fall inside (so a short log axis still has labels).
+pub(crate) fn log_ticks(lo: f64, hi: f64) -> Vec<f64> {
+    if !(lo.is_finite() && hi.is_finite()) || hi <= lo {
+        return vec![];
+    }
+    let (a, b) = (lo.floor() as i32, hi.ceil() as i32);
+    let inside = |t: &f64| *t >= lo - 1e-9 && *t <= hi + 1e-9;
+    let decades: Vec<f64> = (a..=b).map(f64::from).filter(inside).collect();
+    if decades.len() >= 3 {
+        let step = if decades.len() > 8 { 2 } else { 1 };
+        return decades.into_iter().step_by(step).collect();
+    }
+    (a..=b)
+        .flat_map(|d| [1.0, 2.0, 5.0].map(|m: f64| f64::from(d) + m.log10()))
+        .filter(inside)
+        .collect()
+}
+
+/// A value on a logarithmic axis as an engineer writes it: `0.02`, `5`, `300`, `1e6`.
+pub(crate) fn fmt_log(v: f64) -> String {
+    if (1e-3..1e5).contains(&v.abs()) {
+        let s = format!("{v:.4}");
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        let e = v.abs().log10().floor() as i32;
+        let m = v / 10f64.powi(e);
+        if (m.round() - m).abs() < 1e-6 && m.round() == 1.0 {
+            format!("1e{e}")
+        } else {
+            format!("{}e{e}", (m * 10.0).round() / 10.0)
+        }
+    }
+}
+
 /// Decimal places needed to write multiples of `step` exactly (at most 12).
 pub(crate) fn decimals(step: f64) -> usize {
     (0..12)
