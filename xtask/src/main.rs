@@ -29,11 +29,12 @@
 //!   prints the QEMU command line of every project run (`wheelset_targets::qemu::cmd`,
 //!   the harness's launcher's) for `ELF`, UART0 to null or to a TCP server, with the extra
 //!   arguments appended (`scripts/tick-profile.py --record` runs it).
-//! - `cargo xtask readme [--check] [--dev]`: reruns the commands of the README's
-//!   generated blocks and rewrites them; `--check` fails naming the drifted ones;
-//!   `cargo xtask readme --commands [--long]` runs the README's board-free commands
-//!   against their stated exit codes ([`readme`]; `cargo xtest` runs the check and the
-//!   short commands after the tests).
+//! - `cargo xtask readme [--check] [--dev]`: reruns the commands of the generated blocks
+//!   of the README and the book (`docs/`) and rewrites them and the figures they draw;
+//!   `--check` fails naming the drifted ones and every broken relative link or image
+//!   (`--links`: only that check); `cargo xtask readme --commands [--long]` runs the
+//!   pages' board-free commands against their stated exit codes ([`readme`]; `cargo
+//!   xtest` runs the check and the short commands after the tests).
 
 /// `print!` for the tasks' output: a closed standard output (`cargo xtask ... | head`)
 /// ends the task quietly with exit code 0, as Unix tools do, instead of panicking; another
@@ -425,11 +426,14 @@ fn test(extra: &[String]) -> Result<(), String> {
         device.args(["-p", p]);
     }
     run(device.args(extra))?;
-    // The README: its generated figures against their commands, then its short
-    // board-free commands against their stated exit codes (`cargo xtask readme`).
+    // The README and the book: their generated blocks and figures against their
+    // commands and their links, then their short board-free commands against their
+    // stated exit codes (`cargo xtask readme`).
     if !readme::run(true, false)? {
         return Err(
-            "README.md: generated blocks drifted (`cargo xtask readme` rewrites them)".into(),
+            "the README or the book: generated blocks or figures drifted, or a link is broken \
+             (`cargo xtask readme` rewrites the blocks and figures)"
+                .into(),
         );
     }
     let failed = readme::run_commands(false, false)?;
@@ -437,7 +441,7 @@ fn test(extra: &[String]) -> Result<(), String> {
         Ok(())
     } else {
         Err(format!(
-            "README.md: {} command(s) failed:\n{}",
+            "the README or the book: {} command(s) failed:\n{}",
             failed.len(),
             failed.join("\n")
         ))
@@ -515,7 +519,7 @@ fn main() -> ExitCode {
             eprintln!(
                 "usage: cargo xtask <test [cargo test args]|fw [--f32]|fw-bench [--json FILE]|\
                  fuzz --frames N [--seed S]|qemu-cmd [ELF] [--machine M --cpu C] [--tcp PORT] \
-                 [-- QEMU ARGS]|readme [--check] [--dev] | --commands [--long]>"
+                 [-- QEMU ARGS]|readme [--check] [--dev] | --links | --commands [--long]>"
             );
             return ExitCode::from(2);
         }

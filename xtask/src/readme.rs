@@ -1,7 +1,10 @@
-//! `cargo xtask readme [--check] [--dev]`: the README's generated blocks.
+//! `cargo xtask readme [--check] [--dev]`: the generated blocks, figures and links of
+//! the README and the book.
 //!
-//! Every deterministic figure of `README.md` (fixed-seed fault runs, modes, golden
-//! vectors, frame counts, the rate analysis's grid counts, ...) sits between
+//! The pages are `README.md` and every Markdown file under `docs/` (the mdBook, its
+//! build output `docs/book/` excepted: [`pages`]). Every deterministic figure of a page
+//! (fixed-seed fault runs, modes, golden vectors, frame counts, the rate analysis's grid
+//! counts, ...) sits between
 //!
 //! ```text
 //! <!-- generated:NAME -->
@@ -13,18 +16,22 @@
 //! one table of them: the command as a user types it (`$ cargo sim ...`, `$ cargo hil
 //! ...`) followed by the lines of its standard output (of its standard error for a
 //! refusal's message) the block keeps, in a `text`
-//! code block. `cargo xtask readme` reruns every command and rewrites the blocks;
-//! `--check` rewrites nothing and exits 1 naming each block that drifted, with a line
-//! diff (`-` the README, `+` the command). A marker without a table entry, an entry
-//! without its markers, a command that does not start or that exits with another code
-//! than its entry states are errors too. `cargo xtest` runs the check after the tests.
+//! code block. A block lives in exactly one page; moving it to another page moves its
+//! check with it. `cargo xtask readme` reruns every command and rewrites the blocks and
+//! the committed figures ([`figures`]); `--check` rewrites nothing and exits 1 naming
+//! each block that drifted, with a line diff (`-` the page, `+` the command), and each
+//! figure that differs from what its command draws. A marker without a table entry, an
+//! entry without its markers, a command that does not start or that exits with another
+//! code than its entry states are errors too, and so is a relative link or image path
+//! that does not resolve, or an image no listed command draws ([`links`]; `--links`
+//! checks only these, without building). `cargo xtest` runs the check after the tests.
 //!
 //! The commands run the binaries that the cargo aliases run (`cargo sim` = `sim-host`,
 //! `cargo hil` = `hil`), built first with `cargo build --release -p sim-host -p hil`
 //! (`--dev`: the dev profile, which `cargo test` has built already; the figures are the
 //! same: no fast-math in Rust, so every profile computes the same floating-point
 //! results), from the workspace root, so the paths they write (`out/...`) are the
-//! README's.
+//! pages'.
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -32,13 +39,59 @@ use std::process::{Command, ExitCode};
 
 mod blocks;
 mod commands;
+mod figures;
+mod links;
 mod markers;
 #[cfg(test)]
 mod tests;
 
 pub use blocks::{Block, Keep, BLOCKS};
 pub use commands::run_commands;
+pub use figures::FIGURES;
 pub use markers::update;
+
+/// The pages: `README.md`, then every `.md` file under `docs/` (sorted, recursively; the
+/// mdBook's build output `docs/book/` left out), as `(path from the root with `/`, text)`.
+pub fn pages(root: &Path) -> Result<Vec<(String, String)>, String> {
+    fn walk(dir: &Path, rel: &str, out: &mut Vec<String>) -> Result<(), String> {
+        let mut entries: Vec<_> = std::fs::read_dir(dir)
+            .map_err(|e| format!("cannot read {}: {e}", dir.display()))?
+            .filter_map(Result::ok)
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .collect();
+        entries.sort();
+        for name in entries {
+            let path = dir.join(&name);
+            let r = format!("{rel}/{name}");
+            if path.is_dir() {
+                if r != "docs/book" {
+                    walk(&path, &r, out)?;
+                }
+            } else if name.ends_with(".md") {
+                out.push(r);
+            }
+        }
+        Ok(())
+    }
+    let mut names = vec!["README.md".to_string()];
+    walk(&root.join("docs"), "docs", &mut names)?;
+    names
+        .into_iter()
+        .map(|n| {
+            let p = root.join(&n);
+            std::fs::read_to_string(&p)
+                .map(|t| (n, t))
+                .map_err(|e| format!("cannot read {}: {e}", p.display()))
+        })
+        .collect()
+}
+
+/// The link check of every page ([`links::check`]): one message per broken link.
+pub fn check_links(root: &Path) -> Result<Vec<String>, String> {
+    let pages = pages(root)?;
+    let figures: Vec<&str> = FIGURES.iter().map(|f| f.path).collect();
+    Ok(links::check(root, &pages, &figures))
+}
 
 /// A run of every block's command: the block's new text, or why it could not be made.
 fn generate(root: &Path, bin_dir: &Path, b: &Block) -> Result<String, String> {
@@ -75,14 +128,15 @@ fn generate(root: &Path, bin_dir: &Path, b: &Block) -> Result<String, String> {
     Ok(text)
 }
 
-/// `cargo xtask readme [--check] [--dev] [--commands [--long] [--list]]` (the arguments
-/// after `readme`; `--list` prints each command's class without running any).
+/// `cargo xtask readme [--check] [--dev] | --links | --commands [--long] [--list]` (the
+/// arguments after `readme`; `--list` prints each command's class without running any).
 pub fn main(args: &[String]) -> ExitCode {
     let mut check = false;
     let mut dev = false;
     let mut cmds = false;
     let mut long = false;
     let mut list = false;
+    let mut links_only = false;
     for a in args {
         match a.as_str() {
             "--check" => check = true,
@@ -90,14 +144,34 @@ pub fn main(args: &[String]) -> ExitCode {
             "--commands" => cmds = true,
             "--long" => long = true,
             "--list" => list = true,
+            "--links" => links_only = true,
             other => {
                 eprintln!(
                     "xtask readme: unknown argument `{other}` (usage: cargo xtask readme \
-                     [--check] [--dev] | --commands [--long] [--list])"
+                     [--check] [--dev] | --links | --commands [--long] [--list])"
                 );
                 return ExitCode::from(2);
             }
         }
+    }
+    if links_only {
+        return match check_links(&crate::workspace_root()) {
+            Ok(bad) if bad.is_empty() => {
+                eprintln!("xtask readme: every link and image of the pages resolves");
+                ExitCode::SUCCESS
+            }
+            Ok(bad) => {
+                for b in &bad {
+                    eprintln!("xtask readme: {b}");
+                }
+                eprintln!("xtask readme: {} broken link(s)", bad.len());
+                ExitCode::FAILURE
+            }
+            Err(e) => {
+                eprintln!("xtask readme: {e}");
+                ExitCode::FAILURE
+            }
+        };
     }
     if cmds {
         return match run_commands(long, list) {
@@ -106,7 +180,7 @@ pub fn main(args: &[String]) -> ExitCode {
                 for e in &f {
                     eprintln!("xtask readme: {e}");
                 }
-                eprintln!("xtask readme: {} README command(s) failed", f.len());
+                eprintln!("xtask readme: {} command(s) of the pages failed", f.len());
                 ExitCode::FAILURE
             }
             Err(e) => {
@@ -125,10 +199,15 @@ pub fn main(args: &[String]) -> ExitCode {
     }
 }
 
-/// Builds the binaries, runs every block's command and rewrites or checks the README.
-/// `Ok(false)`: `check` found drifted blocks (named on stderr with their diffs).
+/// Checks the pages' links, builds the binaries, runs every block's command and rewrites
+/// or checks the blocks of every page and the committed figures. `Ok(false)`: `check`
+/// found drifted blocks or figures, or (either way) broken links, named on stderr.
 pub fn run(check: bool, dev: bool) -> Result<bool, String> {
     let root = crate::workspace_root();
+    let broken = check_links(&root)?;
+    for b in &broken {
+        eprintln!("xtask readme: {b}");
+    }
     let mut build = crate::cargo();
     build.args(["build", "-p", "sim-host", "-p", "hil", "--bins"]);
     if !dev {
@@ -136,54 +215,76 @@ pub fn run(check: bool, dev: bool) -> Result<bool, String> {
     }
     crate::run(&mut build)?;
     let bin_dir = crate::target_dir().join(if dev { "debug" } else { "release" });
-    let path = root.join("README.md");
-    let readme = std::fs::read_to_string(&path)
-        .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let pages = pages(&root)?;
     let mut fresh = Vec::new();
     for b in BLOCKS {
         eprintln!("xtask readme: {}", b.shown());
         fresh.push((b.name, generate(&root, &bin_dir, b)?));
     }
-    let (new, drifted) = update(&readme, &fresh)?;
+    let (new, drifted) = update(&pages, &fresh)?;
+    let figs = figures::sync(&root, check)?;
+    let names = |v: &[(String, String)]| {
+        v.iter()
+            .map(|(n, _)| n.as_str())
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
     if check {
         for (name, d) in &drifted {
             eprintln!("xtask readme: block `{name}` drifted from its command:\n{d}");
         }
-        if drifted.is_empty() {
-            eprintln!("xtask readme: {} blocks match their commands", BLOCKS.len());
+        for f in &figs {
+            eprintln!("xtask readme: figure {f} differs from what its command draws");
+        }
+        if drifted.is_empty() && figs.is_empty() && broken.is_empty() {
+            eprintln!(
+                "xtask readme: {} blocks and {} figures in {} pages match their commands; \
+                 every link resolves",
+                BLOCKS.len(),
+                FIGURES.len(),
+                pages.len()
+            );
             return Ok(true);
         }
-        eprintln!(
-            "xtask readme: {} of {} blocks drifted ({}); `cargo xtask readme` rewrites them",
-            drifted.len(),
-            BLOCKS.len(),
-            drifted
-                .iter()
-                .map(|(n, _)| n.as_str())
-                .collect::<Vec<_>>()
-                .join(", ")
-        );
+        if !drifted.is_empty() || !figs.is_empty() {
+            eprintln!(
+                "xtask readme: {} of {} blocks drifted ({}), {} of {} figures differ ({}); \
+                 `cargo xtask readme` rewrites them",
+                drifted.len(),
+                BLOCKS.len(),
+                names(&drifted),
+                figs.len(),
+                FIGURES.len(),
+                figs.join(", ")
+            );
+        }
+        if !broken.is_empty() {
+            eprintln!("xtask readme: {} broken link(s)", broken.len());
+        }
         return Ok(false);
     }
-    if new != readme {
-        std::fs::write(&path, new).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    for ((path, old), new) in pages.iter().zip(&new) {
+        if old != new {
+            let p = root.join(path);
+            std::fs::write(&p, new).map_err(|e| format!("cannot write {}: {e}", p.display()))?;
+        }
     }
     eprintln!(
-        "xtask readme: {} blocks written, {} changed{}",
+        "xtask readme: {} blocks written, {} changed{}; {} figures, {} changed{}",
         BLOCKS.len(),
         drifted.len(),
         if drifted.is_empty() {
             String::new()
         } else {
-            format!(
-                " ({})",
-                drifted
-                    .iter()
-                    .map(|(n, _)| n.as_str())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            )
+            format!(" ({})", names(&drifted))
+        },
+        FIGURES.len(),
+        figs.len(),
+        if figs.is_empty() {
+            String::new()
+        } else {
+            format!(" ({})", figs.join(", "))
         }
     );
-    Ok(true)
+    Ok(broken.is_empty())
 }

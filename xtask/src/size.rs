@@ -1,6 +1,7 @@
 //! The firmware's size budget: flash and static RAM of each built ELF against the
 //! enforced budget and the target ([`check_sizes`], printed by `cargo fw` and `cargo
-//! xtest`), and the README's size rows against the build ([`readme_sizes`]).
+//! xtest`), and the size rows of the README and the book against the build
+//! ([`readme_sizes`]).
 
 use std::path::{Path, PathBuf};
 
@@ -68,8 +69,9 @@ pub fn check_sizes(elfs: &[PathBuf]) -> Result<Vec<(String, elf::Sizes)>, String
     }
 }
 
-/// The README rows that state each enforced build's flash / static RAM: the figures
-/// must be what the build gives (`cargo fw` prints them), so they cannot drift.
+/// The table rows (in the README or any chapter of the book: the performance chapter
+/// holds them) that state each enforced build's flash / static RAM: the figures must be
+/// what the build gives (`cargo fw` prints them), so they cannot drift.
 const README_SIZE_ROWS: &[(&str, &str)] = &[
     ("wheelset-nucleo.elf", "| flash / static RAM, Nucleo |"),
     (
@@ -81,7 +83,7 @@ const README_SIZE_ROWS: &[(&str, &str)] = &[
     ("wheelset-qemu-free.elf", "| flash / static RAM, QEMU |"),
 ];
 
-/// `25464` as the README writes it: `25 464`.
+/// `25464` as the pages write it: `25 464`.
 fn grouped(n: u64) -> String {
     let digits = n.to_string();
     let mut out = String::new();
@@ -94,29 +96,44 @@ fn grouped(n: u64) -> String {
     out
 }
 
-/// Checks that the README's size rows hold `flash B / ram B` of every build they name.
+/// Checks that the pages' size rows hold `flash B / ram B` of every build they name.
 pub fn readme_sizes(sizes: &[(String, elf::Sizes)]) -> Result<(), String> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../README.md");
-    let readme = std::fs::read_to_string(&path)
-        .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    sizes_in_pages(&crate::readme::pages(&root)?, sizes)
+}
+
+/// [`readme_sizes`] on `pages` (`(path, text)`).
+fn sizes_in_pages(
+    pages: &[(String, String)],
+    sizes: &[(String, elf::Sizes)],
+) -> Result<(), String> {
     let mut wrong = Vec::new();
     for (name, size) in sizes {
         let Some((_, row)) = README_SIZE_ROWS.iter().find(|(n, _)| n == name) else {
             continue;
         };
         let want = format!("{} B / {} B", grouped(size.flash), grouped(size.ram));
-        let ok = readme
-            .lines()
-            .any(|l| l.starts_with(row) && l.contains(&want));
-        if !ok {
-            wrong.push(format!("{name}: the row `{row}` must say {want}"));
+        // Every row of that name, in whichever page, states the build's figure.
+        let rows: Vec<(&str, &str)> = pages
+            .iter()
+            .flat_map(|(page, text)| {
+                text.lines()
+                    .filter(|l| l.starts_with(row))
+                    .map(move |l| (page.as_str(), l))
+            })
+            .collect();
+        if rows.is_empty() {
+            wrong.push(format!("{name}: no page has the row `{row}` saying {want}"));
+        }
+        for (page, _) in rows.iter().filter(|(_, l)| !l.contains(&want)) {
+            wrong.push(format!("{name}: the row `{row}` of {page} must say {want}"));
         }
     }
     if wrong.is_empty() {
         Ok(())
     } else {
         Err(format!(
-            "README.md: firmware sizes drifted from the build (`cargo fw` prints them): {}",
+            "the pages' firmware sizes drifted from the build (`cargo fw` prints them): {}",
             wrong.join("; ")
         ))
     }
@@ -149,6 +166,20 @@ mod tests {
             e.contains("flash / static RAM, Nucleo") && e.contains("3 B / 1 B"),
             "{e}"
         );
+        // A row that moved to a chapter is checked there; a stale copy in a second page is
+        // caught too, naming the page.
+        let page = |p: &str, t: &str| (p.to_string(), t.to_string());
+        let row = "| flash / static RAM, Nucleo | 3 B / 1 B |";
+        let sizes = nucleo(3);
+        assert!(sizes_in_pages(&[page("docs/perf.md", row)], &sizes).is_ok());
+        let stale = [
+            page("docs/perf.md", row),
+            page("README.md", "| flash / static RAM, Nucleo | 4 B / 1 B |"),
+        ];
+        let e = sizes_in_pages(&stale, &sizes).expect_err("README's row is stale");
+        assert!(e.contains("of README.md must say 3 B / 1 B"), "{e}");
+        let e = sizes_in_pages(&[page("README.md", "no rows")], &sizes).expect_err("no row");
+        assert!(e.contains("no page has the row"), "{e}");
         // A build without a row is not checked.
         let other = vec![("x.elf".to_string(), elf::Sizes { flash: 3, ram: 1 })];
         assert!(readme_sizes(&other).is_ok());

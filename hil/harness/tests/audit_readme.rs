@@ -1,6 +1,6 @@
-//! The README's generated audit block is exactly what `hil audit --no-target
-//! --readme-block` prints: a change that moves an audit figure fails here until the
-//! README follows (regenerate the block with that command).
+//! The book's generated audit block (`docs/audit.md`) is exactly what `hil audit
+//! --no-target --readme-block` prints: a change that moves an audit figure fails here
+//! until the chapter follows (regenerate the block with `cargo xtask readme`).
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
@@ -16,12 +16,12 @@ fn the_readme_audit_block_is_the_tools_output() {
         .unwrap();
     let printed = String::from_utf8(out.stdout).unwrap();
     assert!(printed.contains("Verdict: **"), "{printed}");
-    let md =
-        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../README.md")).unwrap();
-    let block = readme::extract(&md).expect("README has the generated audit block");
+    let md = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../docs/audit.md"))
+        .unwrap();
+    let block = readme::extract(&md).expect("docs/audit.md has the generated audit block");
     assert!(
         block == printed,
-        "README's audit block differs from `{}`; regenerate it.\n--- tool ---\n{printed}",
+        "docs/audit.md's audit block differs from `{}`; regenerate it.\n--- tool ---\n{printed}",
         readme::COMMAND
     );
 }

@@ -1,4 +1,4 @@
-//! The table of the README's generated blocks ([`BLOCKS`]): each block's name, the
+//! The table of the generated blocks of the README and the book ([`BLOCKS`]): each block's name, the
 //! command that makes it and which lines of its output it keeps.
 
 /// The binaries the README's aliases run.
@@ -132,8 +132,10 @@ pub(super) const fn hil(name: &'static str, args: &'static str) -> Block {
 /// Lines whose figures depend on the machine or its load.
 pub(super) const MACHINE_DEPENDENT: &[&str] = &["wall", "host_tick", "host time", "exchanges/s"];
 
-/// Every generated block of the README.
+/// Every generated block of the README and the book (each in one page).
 pub const BLOCKS: &[Block] = &[
+    // The README: the main job as a newcomer types it.
+    hil("main-job", "--json out/hil.json --report out/report"),
     // Plant simulator: Figs. 2-5, 6-8, 9.
     sim("modes", "modes --json out/modes.json --plot out/modes"),
     sim("fig6-8", "run --scenario curve --control lead --compare passive --csv out/curve.csv --plot out/fig6-8 --at 4.9 --at 11.9"),
@@ -167,7 +169,7 @@ pub const BLOCKS: &[Block] = &[
     hil("hil-beating", "run --scenario beating").exit(1),
     hil("hil-short", "run --scenario hil/harness/tests/data/short.toml"),
     hil("golden", "golden"),
-    // Any operating point and campaigns over the envelope (issue 15).
+    // Any operating point and campaigns over the envelope.
     hil("hil-params-3mn", "run --params sim-host/params/creep-3mn.toml"),
     hil("hil-params-conicity", "run --params sim-host/params/conicity-0.4.toml"),
     hil("hil-sweep", "sweep --param f11=1e6..1e7:5 --param lambda=0.05..0.4:4 --json out/sweep.json --report out/sweep").exit(1).keep(Keep::All),

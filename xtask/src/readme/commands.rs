@@ -1,9 +1,9 @@
-//! Every other command the README shows: classified (runs here, needs a board, long),
-//! run with its stated exit code checked (`cargo xtest`, `--long`).
+//! Every other command the README and the book show: classified (runs here, needs a
+//! board, long), run with its stated exit code checked (`cargo xtest`, `--long`).
 
 use std::process::Command;
 
-/// How the README's commands are run by [`run_commands`].
+/// How the pages' commands are run by [`run_commands`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Class {
     /// Run in every `cargo xtest` (seconds each).
@@ -53,15 +53,15 @@ pub(super) const RULES: &[(&str, Class)] = &[
     ("cargo clippy", Class::Long),
     ("cargo fmt", Class::Long),
     (" audit", Class::Long),
-    // The modal example of issue 11: milliseconds a run, on the release library the
-    // `cargo sim` commands build.
+    // The adhesion chapter's modal example: milliseconds a run, on the release library
+    // the `cargo sim` commands build.
     ("--example adh_modes", Class::Short),
     ("cargo sim", Class::Short),
     ("cargo hil", Class::Short),
     ("cargo xtask fuzz", Class::Short),
 ];
 
-/// The class of a README command ([`RULES`]; anything else is skipped as unknown).
+/// The class of a page's command ([`RULES`]; anything else is skipped as unknown).
 pub fn classify(cmd: &str) -> Class {
     RULES
         .iter()
@@ -69,7 +69,7 @@ pub fn classify(cmd: &str) -> Class {
         .map_or(Class::Skip("not a project command"), |&(_, c)| c)
 }
 
-/// One command of the README: the text, the exit code the README states for it (`exit N`
+/// One command of a page: the text, the exit code the page states for it (`exit N`
 /// after it on its line; 0 otherwise) and its line number.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct ReadmeCommand {
@@ -77,7 +77,7 @@ pub struct ReadmeCommand {
     pub text: String,
     /// The exit code stated, 0 if none.
     pub exit: i32,
-    /// 1-based line in README.md.
+    /// 1-based line in its page.
     pub line: usize,
 }
 
@@ -146,71 +146,68 @@ pub fn commands(readme: &str) -> Vec<ReadmeCommand> {
     out
 }
 
-/// Runs the README's commands (`long`: also the long ones) from the workspace root with
-/// `sh -c`, each checked against its stated exit code (`list`: none run, each printed with
-/// its class). Prints one line per command; returns the failures.
+/// Runs the commands of the README and the book's pages ([`super::pages`]; `long`: also
+/// the long ones) from the workspace root with `sh -c`, each checked against its stated
+/// exit code (`list`: none run, each printed with its class); a command shown on several
+/// pages runs once. Prints one line per command; returns the failures.
 pub fn run_commands(long: bool, list: bool) -> Result<Vec<String>, String> {
     let root = crate::workspace_root();
-    let path = root.join("README.md");
-    let readme = std::fs::read_to_string(&path)
-        .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
     let mut failures = Vec::new();
-    for c in commands(&readme) {
-        let class = classify(&c.text);
-        match class {
-            Class::Skip(why) => {
+    let mut seen: Vec<String> = Vec::new();
+    for (page, text) in super::pages(&root)? {
+        for c in commands(&text) {
+            if seen.contains(&c.text) {
+                continue;
+            }
+            seen.push(c.text.clone());
+            let at = format!("{page}:{}", c.line);
+            let class = classify(&c.text);
+            match class {
+                Class::Skip(why) => {
+                    eprintln!("xtask readme: skip  {at} `{}` ({why})", c.text);
+                    continue;
+                }
+                Class::Long if !long => {
+                    eprintln!("xtask readme: long  {at} `{}` (with --long)", c.text);
+                    continue;
+                }
+                _ => {}
+            }
+            if list {
                 eprintln!(
-                    "xtask readme: skip  README.md:{} `{}` ({why})",
-                    c.line, c.text
+                    "xtask readme: {}  {at} `{}` (exit {})",
+                    if class == Class::Long { "long" } else { "run " },
+                    c.text,
+                    c.exit
                 );
                 continue;
             }
-            Class::Long if !long => {
-                eprintln!(
-                    "xtask readme: long  README.md:{} `{}` (with --long)",
-                    c.line, c.text
-                );
-                continue;
-            }
-            _ => {}
-        }
-        if list {
+            let t0 = std::time::Instant::now();
+            let out = Command::new("sh")
+                .arg("-c")
+                .arg(&c.text)
+                .current_dir(&root)
+                .output()
+                .map_err(|e| format!("cannot start sh: {e}"))?;
+            let code = out.status.code().unwrap_or(-1);
+            let ok = code == c.exit;
             eprintln!(
-                "xtask readme: {}  README.md:{} `{}` (exit {})",
-                if class == Class::Long { "long" } else { "run " },
-                c.line,
-                c.text,
-                c.exit
-            );
-            continue;
-        }
-        let t0 = std::time::Instant::now();
-        let out = Command::new("sh")
-            .arg("-c")
-            .arg(&c.text)
-            .current_dir(&root)
-            .output()
-            .map_err(|e| format!("cannot start sh: {e}"))?;
-        let code = out.status.code().unwrap_or(-1);
-        let ok = code == c.exit;
-        eprintln!(
-            "xtask readme: {}  README.md:{} `{}` exit {code} (README: {}), {:.1} s",
-            if ok { "ok  " } else { "FAIL" },
-            c.line,
-            c.text,
-            c.exit,
-            t0.elapsed().as_secs_f64()
-        );
-        if !ok {
-            let err = String::from_utf8_lossy(&out.stderr);
-            let tail: Vec<&str> = err.lines().rev().take(15).collect();
-            failures.push(format!(
-                "README.md:{} `{}`: exit {code}, the README states {}; stderr ends:\n{}",
-                c.line,
+                "xtask readme: {}  {at} `{}` exit {code} (the page: {}), {:.1} s",
+                if ok { "ok  " } else { "FAIL" },
                 c.text,
                 c.exit,
-                tail.into_iter().rev().collect::<Vec<_>>().join("\n")
-            ));
+                t0.elapsed().as_secs_f64()
+            );
+            if !ok {
+                let err = String::from_utf8_lossy(&out.stderr);
+                let tail: Vec<&str> = err.lines().rev().take(15).collect();
+                failures.push(format!(
+                    "{at} `{}`: exit {code}, the page states {}; stderr ends:\n{}",
+                    c.text,
+                    c.exit,
+                    tail.into_iter().rev().collect::<Vec<_>>().join("\n")
+                ));
+            }
         }
     }
     Ok(failures)

@@ -1,5 +1,5 @@
-//! The blocks' markers in the README: finding them, rewriting the text between them and
-//! the line diff of a drifted block.
+//! The blocks' markers in the pages (the README and the book's chapters): finding them,
+//! rewriting the text between them and the line diff of a drifted block.
 
 use std::fmt::Write as _;
 
@@ -11,10 +11,14 @@ pub(super) fn close(name: &str) -> String {
     format!("<!-- /generated:{name} -->")
 }
 
-/// The blocks of `readme`: `(name, byte range of the text between the markers)`, in
-/// order. A marker is a line of its own (a marker quoted inside a line of text is not
-/// one); an error for a marker without its close, a nested or a repeated block.
-pub fn find_blocks(readme: &str) -> Result<Vec<(String, std::ops::Range<usize>)>, String> {
+/// The blocks of `readme` (the text of the page `page`, named in errors): `(name, byte
+/// range of the text between the markers)`, in order. A marker is a line of its own (a
+/// marker quoted inside a line of text is not one); an error for a marker without its
+/// close, a nested or a repeated block.
+pub fn find_blocks(
+    page: &str,
+    readme: &str,
+) -> Result<Vec<(String, std::ops::Range<usize>)>, String> {
     let mut found: Vec<(String, std::ops::Range<usize>)> = Vec::new();
     // (name, body start, line number) of the open block.
     let mut open_block: Option<(String, usize, usize)> = None;
@@ -31,15 +35,15 @@ pub fn find_blocks(readme: &str) -> Result<Vec<(String, std::ops::Range<usize>)>
         if let Some(name) = marker("<!-- generated:") {
             if let Some((outer, _, l)) = &open_block {
                 return Err(format!(
-                    "README.md:{}: block `{name}` inside block `{outer}` (opened at line {l})",
+                    "{page}:{}: block `{name}` inside block `{outer}` (opened at line {l})",
                     i + 1
                 ));
             }
             if name.is_empty() || name.contains(char::is_whitespace) {
-                return Err(format!("README.md:{}: a bad block name `{name}`", i + 1));
+                return Err(format!("{page}:{}: a bad block name `{name}`", i + 1));
             }
             if found.iter().any(|(n, _)| *n == name) {
-                return Err(format!("README.md:{}: block `{name}` appears twice", i + 1));
+                return Err(format!("{page}:{}: block `{name}` appears twice", i + 1));
             }
             open_block = Some((name, at, i + 1));
         } else if let Some(name) = marker("<!-- /generated:") {
@@ -47,14 +51,14 @@ pub fn find_blocks(readme: &str) -> Result<Vec<(String, std::ops::Range<usize>)>
                 Some((n, body, _)) if n == name => found.push((n, body..start)),
                 Some((n, _, l)) => {
                     return Err(format!(
-                        "README.md:{}: `{}` closes block `{n}` (opened at line {l})",
+                        "{page}:{}: `{}` closes block `{n}` (opened at line {l})",
                         i + 1,
                         close(&name)
                     ))
                 }
                 None => {
                     return Err(format!(
-                        "README.md:{}: `{}` without its opening marker",
+                        "{page}:{}: `{}` without its opening marker",
                         i + 1,
                         close(&name)
                     ))
@@ -64,7 +68,7 @@ pub fn find_blocks(readme: &str) -> Result<Vec<(String, std::ops::Range<usize>)>
     }
     if let Some((name, _, l)) = open_block {
         return Err(format!(
-            "README.md:{l}: block `{name}` has no `{}`",
+            "{page}:{l}: block `{name}` has no `{}`",
             close(&name)
         ));
     }
@@ -106,47 +110,62 @@ pub fn diff(old: &str, new: &str) -> String {
     s
 }
 
-/// Rewrites (or with `check`, compares) the blocks of `readme` with `fresh`, the new
-/// text per block name. Returns the new README and the names of the blocks that
-/// differ, with their diffs.
+/// Rewrites (or with `check`, compares) the blocks of `pages` (`(path, text)`: the README
+/// and the book's chapters) with `fresh`, the new text per block name. Every block of the
+/// table must be in exactly one page, and every block of a page in the table. Returns
+/// each page's new text (in the order of `pages`) and the names of the blocks that differ,
+/// with their diffs.
 pub fn update(
-    readme: &str,
+    pages: &[(String, String)],
     fresh: &[(&str, String)],
-) -> Result<(String, Vec<(String, String)>), String> {
-    let found = find_blocks(readme)?;
-    for (name, _) in &found {
-        if !fresh.iter().any(|(n, _)| n == name) {
-            return Err(format!(
-                "README.md: block `{name}` has no command in the table of xtask/src/readme/blocks.rs"
-            ));
+) -> Result<(Vec<String>, Vec<(String, String)>), String> {
+    let mut found: Vec<(&str, String, std::ops::Range<usize>)> = Vec::new();
+    for (page, text) in pages {
+        for (name, range) in find_blocks(page, text)? {
+            if let Some((other, _, _)) = found.iter().find(|f| f.1 == name) {
+                return Err(format!(
+                    "block `{name}` appears in {other} and in {page}: a block has one home"
+                ));
+            }
+            if !fresh.iter().any(|(n, _)| *n == name) {
+                return Err(format!(
+                    "{page}: block `{name}` has no command in the table of xtask/src/readme/blocks.rs"
+                ));
+            }
+            found.push((page.as_str(), name, range));
         }
     }
     for (name, _) in fresh {
-        if !found.iter().any(|(n, _)| n == name) {
+        if !found.iter().any(|(_, n, _)| n == name) {
             return Err(format!(
-                "README.md: no block `{name}` (xtask/src/readme/blocks.rs lists it): add `{}` and `{}`",
+                "no page holds block `{name}` (xtask/src/readme/blocks.rs lists it): add `{}` and `{}` \
+                 to README.md or a chapter of docs/",
                 open(name),
                 close(name)
             ));
         }
     }
-    let mut out = String::with_capacity(readme.len());
+    let mut out = Vec::with_capacity(pages.len());
     let mut drifted = Vec::new();
-    let mut at = 0;
-    for (name, range) in &found {
-        let new = &fresh
-            .iter()
-            .find(|(n, _)| n == name)
-            .map(|(_, t)| t.as_str())
-            .unwrap_or_default();
-        let old = &readme[range.clone()];
-        if old != *new {
-            drifted.push((name.clone(), diff(old, new)));
+    for (page, text) in pages {
+        let mut new_text = String::with_capacity(text.len());
+        let mut at = 0;
+        for (_, name, range) in found.iter().filter(|(p, _, _)| *p == page.as_str()) {
+            let new = fresh
+                .iter()
+                .find(|(n, _)| n == name)
+                .map(|(_, t)| t.as_str())
+                .unwrap_or_default();
+            let old = &text[range.clone()];
+            if old != new {
+                drifted.push((name.clone(), diff(old, new)));
+            }
+            new_text.push_str(&text[at..range.start]);
+            new_text.push_str(new);
+            at = range.end;
         }
-        out.push_str(&readme[at..range.start]);
-        out.push_str(new);
-        at = range.end;
+        new_text.push_str(&text[at..]);
+        out.push(new_text);
     }
-    out.push_str(&readme[at..]);
     Ok((out, drifted))
 }

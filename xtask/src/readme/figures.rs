@@ -1,0 +1,80 @@
+//! The pictures of the README and the book: every image a page shows is a file under
+//! `docs/figures/` that one generated block's command draws ([`FIGURES`]), so a figure
+//! cannot go stale any more than a block's text can.
+//!
+//! `cargo xtask readme` copies each drawn file over its committed copy after the blocks'
+//! commands have run; `--check` compares them byte for byte (the plots are deterministic:
+//! fixed seeds, integer-nanosecond time, no timestamps) and names each that differs. The
+//! link check ([`super::links`]) refuses an image that is not in the table.
+
+use std::path::Path;
+
+/// One committed figure: where the pages find it, the block whose command draws it and
+/// the file that command writes (paths from the workspace root).
+#[derive(Debug, Clone, Copy)]
+pub struct Figure {
+    /// The committed copy the pages reference, e.g. `docs/figures/low-adhesion.svg`.
+    pub path: &'static str,
+    /// The generated block (in [`super::BLOCKS`]) whose command draws it.
+    pub block: &'static str,
+    /// The file that command writes.
+    pub made: &'static str,
+}
+
+/// Every figure the README and the book show.
+pub const FIGURES: &[Figure] = &[
+    Figure {
+        path: "docs/figures/curve-lateral.svg",
+        block: "fig6-8",
+        made: "out/fig6-8/lateral.svg",
+    },
+    Figure {
+        path: "docs/figures/curve-creep.svg",
+        block: "fig6-8",
+        made: "out/fig6-8/creep.svg",
+    },
+    Figure {
+        path: "docs/figures/modes-case-c.svg",
+        block: "modes",
+        made: "out/modes/modes_case_c.svg",
+    },
+    Figure {
+        path: "docs/figures/low-adhesion.svg",
+        block: "low-adhesion-on",
+        made: "out/low/adhesion.svg",
+    },
+    Figure {
+        path: "docs/figures/actuator-fault-monitor.svg",
+        block: "actuator-fault",
+        made: "out/af/monitor.svg",
+    },
+];
+
+/// After the blocks' commands ran from `root`: copies every drawn figure over its
+/// committed copy, or with `check` compares them. Returns the paths that differed
+/// (written, or drifted under `check`).
+pub fn sync(root: &Path, check: bool) -> Result<Vec<&'static str>, String> {
+    let mut changed = Vec::new();
+    for f in FIGURES {
+        let made = root.join(f.made);
+        let new = std::fs::read(&made).map_err(|e| {
+            format!(
+                "figure {}: block `{}` should have drawn {}: {e}",
+                f.path,
+                f.block,
+                made.display()
+            )
+        })?;
+        let path = root.join(f.path);
+        let old = std::fs::read(&path).ok();
+        if old.as_deref() == Some(new.as_slice()) {
+            continue;
+        }
+        changed.push(f.path);
+        if !check {
+            std::fs::write(&path, &new)
+                .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        }
+    }
+    Ok(changed)
+}
