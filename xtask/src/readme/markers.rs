@@ -110,15 +110,16 @@ pub fn diff(old: &str, new: &str) -> String {
     s
 }
 
+/// What [`update`] gives: each page's new text, and the blocks that drifted with their
+/// diffs.
+pub type Updated = (Vec<String>, Vec<(String, String)>);
+
 /// Rewrites (or with `check`, compares) the blocks of `pages` (`(path, text)`: the README
 /// and the book's chapters) with `fresh`, the new text per block name. Every block of the
 /// table must be in exactly one page, and every block of a page in the table. Returns
 /// each page's new text (in the order of `pages`) and the names of the blocks that differ,
 /// with their diffs.
-pub fn update(
-    pages: &[(String, String)],
-    fresh: &[(&str, String)],
-) -> Result<(Vec<String>, Vec<(String, String)>), String> {
+pub fn update(pages: &[(String, String)], fresh: &[(&str, String)]) -> Result<Updated, String> {
     let mut found: Vec<(&str, String, std::ops::Range<usize>)> = Vec::new();
     for (page, text) in pages {
         for (name, range) in find_blocks(page, text)? {
