@@ -3,7 +3,9 @@
 //! checked: there is no renderer here to say which anchors a page has), and every image
 //! is a figure of [`super::figures::FIGURES`], drawn by a listed command. Links with a
 //! scheme (`https:`, `mailto:`) are left alone: there is no network to check them
-//! against. Code blocks and inline code are not links.
+//! against. Code blocks and inline code are not links. A chapter of the book (a page
+//! under `docs/`) links only inside `docs/`: mdBook renders that folder alone, so a link
+//! out of it would be dead in the book (name such a file in code instead).
 
 use std::path::{Component, Path, PathBuf};
 
@@ -125,6 +127,14 @@ pub fn check(root: &Path, pages: &[(String, String)], figures: &[&str]) -> Vec<S
                     "{page}:{}: `{t}` does not exist ({})",
                     l.line,
                     rel.display()
+                ));
+                continue;
+            }
+            if page.starts_with("docs/") && !rel.starts_with("docs") {
+                bad.push(format!(
+                    "{page}:{}: `{t}` leaves the book (mdBook renders docs/ alone): name \
+                     the file in code instead",
+                    l.line
                 ));
                 continue;
             }

@@ -153,16 +153,23 @@ fn a_broken_link_and_an_unlisted_image_are_found() {
             .to_string(),
     )];
     let bad = check(&root, &pages, &["docs/figures/low-adhesion.svg"]);
-    assert_eq!(bad.len(), 3, "{bad:?}");
+    assert_eq!(bad.len(), 4, "{bad:?}");
     assert!(
-        bad[0].contains("docs/x.md:1: `missing.md` does not exist"),
+        bad[0].contains("docs/x.md:1: `../README.md` leaves the book"),
         "{bad:?}"
     );
     assert!(
-        bad[1].contains("docs/x.md:2: image `figures/actuator-fault-monitor.svg` is not drawn"),
+        bad[1].contains("docs/x.md:1: `missing.md` does not exist"),
         "{bad:?}"
     );
-    assert!(bad[2].contains("leads out of the repository"), "{bad:?}");
+    assert!(
+        bad[2].contains("docs/x.md:2: image `figures/actuator-fault-monitor.svg` is not drawn"),
+        "{bad:?}"
+    );
+    assert!(bad[3].contains("leads out of the repository"), "{bad:?}");
+    // The README may link anywhere in the repository.
+    let readme = vec![("README.md".to_string(), "[slurm](hil/slurm/)\n".to_string())];
+    assert!(check(&root, &readme, &[]).is_empty());
 }
 
 #[test]
