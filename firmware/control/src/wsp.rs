@@ -260,7 +260,8 @@ pub struct WspParams {
     pub lead_gain: f64,
     /// Wheel radius `r0`, m (0.45): `w_ref = n v_ref / r0`.
     pub r0_m: f64,
-    /// LSB of the reference speed code, m/s (1e-3, `wheelset_proto::units`).
+    /// LSB of the reference speed code, m/s
+    /// ([`wheelset_proto::units::V_REF_LSB_M_PER_S`]).
     pub v_ref_lsb_m_per_s: f64,
 }
 
@@ -279,7 +280,7 @@ impl Default for WspParams {
             lead_w1_rad_s: 15.0,
             lead_gain: 0.3,
             r0_m: 0.45,
-            v_ref_lsb_m_per_s: 1e-3,
+            v_ref_lsb_m_per_s: wheelset_proto::units::V_REF_LSB_M_PER_S,
         }
     }
 }
