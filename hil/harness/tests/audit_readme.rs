@@ -6,7 +6,7 @@
 
 use std::process::Command;
 
-use wheelset_audit::readme;
+use wheelset_audit::readme_block;
 
 #[test]
 fn the_readme_audit_block_is_the_tools_output() {
@@ -18,10 +18,10 @@ fn the_readme_audit_block_is_the_tools_output() {
     assert!(printed.contains("Verdict: **"), "{printed}");
     let md =
         std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../README.md")).unwrap();
-    let block = readme::extract(&md).expect("README has the generated audit block");
+    let block = readme_block::extract(&md).expect("README has the generated audit block");
     assert!(
         block == printed,
         "README's audit block differs from `{}`; regenerate it.\n--- tool ---\n{printed}",
-        readme::COMMAND
+        readme_block::COMMAND
     );
 }

@@ -7,7 +7,7 @@
 use std::fmt::Write as _;
 
 use super::ranges::Phase;
-use super::report_sections::{bounds_table, error_bounds_table, Detail};
+use super::writeup_sections::{bounds_table, error_bounds_table, Detail};
 use super::{build, Audit, AuditArgs, AuditError, Status};
 use wheelset_report::table::Table;
 
