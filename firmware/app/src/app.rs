@@ -15,9 +15,9 @@ use embassy_executor::{SpawnError, SpawnToken};
 use embassy_sync::waitqueue::AtomicWaker;
 use embassy_time::Instant;
 
-use crate::config::{RX_PIPE, TX_PIPE};
 use crate::device::{new_runtime, Device, FwRuntime};
 use crate::ring::{ByteRing, Empty};
+use crate::settings::{RX_PIPE, TX_PIPE};
 use crate::tick::{period_ticks, TickMonitor, TickWake};
 
 /// Bytes from the UART receiver to the control task.

@@ -19,7 +19,7 @@ use std::time::Duration;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::{Deserialize, Serialize};
 use wheelset_loop::device_loop::{runtime_config, DeviceOptions};
-use wheelset_loop::link::LinkConfig;
+use wheelset_loop::sim_link::LinkConfig;
 use wheelset_plant::control::YawLaw;
 use wheelset_plant::params::Params;
 use wheelset_plant::scenario::Scenario;

@@ -159,7 +159,7 @@ fn a_device_corrupting_frames_fails_the_frame_accounting() {
 fn link_faults_are_accounted_and_reported() {
     let opts = RunOptions {
         scenario: short(),
-        link: wheelset_loop::link::LinkConfig {
+        link: wheelset_loop::sim_link::LinkConfig {
             faults: "ber=1e-4,drop=0.01".parse().unwrap(),
             seed: 5,
             ..Default::default()

@@ -52,7 +52,7 @@ use std::time::{Duration, Instant};
 
 use serde::Serialize;
 use serialport::{SerialPort, TTYPort};
-use wheelset_loop::link::wire_ns;
+use wheelset_loop::sim_link::wire_ns;
 use wheelset_proto::{Command, Decoder, Message, Status};
 
 use crate::realtime::os::{self as rt_os, Obtained, Want};

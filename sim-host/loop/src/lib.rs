@@ -16,6 +16,6 @@ pub mod core;
 pub mod device_loop;
 pub mod exchange;
 pub mod inproc;
-pub mod link;
 pub mod rate_check;
+pub mod sim_link;
 pub mod transport;

@@ -4,7 +4,7 @@
 use wheelset_loop::device_loop::{
     deviation, run_device, DeviceError, DeviceOptions, DeviceRun, CURVE_WINDOWS,
 };
-use wheelset_loop::link::LinkConfig;
+use wheelset_loop::sim_link::LinkConfig;
 use wheelset_plant::control::YawLaw;
 use wheelset_plant::params::Params;
 use wheelset_plant::scenario::Scenario;

@@ -43,11 +43,11 @@
 //! - the plant variants ([`LinearPlant`], [`Model`], [`Reduced`], [`armature`]) live
 //!   with the linearisation in [`crate::linear`].
 
-mod grid;
 mod matrices;
+mod rate_grid;
 mod summary;
 
 pub use crate::linear::{armature, LinearPlant, Model, Reduced};
-pub use grid::*;
 pub use matrices::*;
+pub use rate_grid::*;
 pub use summary::*;

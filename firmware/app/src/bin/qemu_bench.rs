@@ -132,7 +132,7 @@ mod bench {
             hprintln!(
                 "{} [{}]: min {} mean {} max {} instructions (n = {}, stopwatch overhead {} removed)",
                 what,
-                wheelset_fw::config::NUMERIC,
+                wheelset_fw::settings::NUMERIC,
                 self.min.saturating_sub(overhead),
                 (self.sum / n).saturating_sub(u64::from(overhead)),
                 self.max.saturating_sub(overhead),
@@ -344,7 +344,7 @@ mod bench {
         let peak = stack_peak(stack_bottom);
         hprintln!(
             "stack high-water mark [{}]: {} bytes (painted window {} bytes)",
-            wheelset_fw::config::NUMERIC,
+            wheelset_fw::settings::NUMERIC,
             peak,
             STACK_WINDOW
         );

@@ -92,6 +92,21 @@ impl fmt::Display for LinkBudgetError {
 
 impl std::error::Error for LinkBudgetError {}
 
+impl LinkBudgetError {
+    /// The highest rate at which this link carries the same exchange, Hz (0: none), from
+    /// the same budget ([`wheelset_proto::link::max_rate_hz`]).
+    #[must_use]
+    pub fn max_rate_hz(&self) -> u32 {
+        wheelset_proto::link::max_rate_hz(
+            self.baud,
+            u32::try_from(self.up_bytes).unwrap_or(u32::MAX),
+            u32::try_from(self.down_bytes).unwrap_or(u32::MAX),
+            self.latency_ns,
+            wheelset_proto::link::LINK_SHARE_MAX_PERMILLE,
+        )
+    }
+}
+
 /// Time on the line for `n` bytes at `baud`, ns (rounded up):
 /// [`wheelset_proto::link::wire_ns`].
 #[must_use]
