@@ -46,11 +46,13 @@ pub use open::{device_config, open_transport};
 use open::{open_qemu_free, open_realtime, run_rate};
 use reference::before;
 
-/// Default core clock of the device, Hz: the board's STM32F446RE at 180 MHz. A board's
+/// Default core clock of the device, Hz: the Nucleo-F446RE build's SYSCLK, 168 MHz
+/// (`wheelset_fw`'s `board::nucleo`: the clock that gives USART2 its 42 MHz APB1; the
+/// part's 180 MHz maximum is not what the board runs). A board's
 /// `exec` is in cycles of it; the QEMU target's `exec` is in instructions, converted at
 /// one instruction per cycle of it (an estimate: flash wait states and multi-cycle
 /// instructions make the real board slower).
-pub const DEFAULT_CPU_HZ: f64 = 180e6;
+pub const DEFAULT_CPU_HZ: f64 = 168e6;
 
 /// Where the device runs.
 #[derive(Debug, Clone, PartialEq, Eq)]
