@@ -126,7 +126,7 @@ fn parse_bench(output: &str) -> Result<BenchResult, String> {
     })
 }
 
-/// The JSON: `{"cortex-m4":{"fixed":{..},"f32":{..}},"cortex-m3":{..}}`, each
+/// The JSON: `{"cortex-m4":{"fixed":{..},"f32":{..}},"cortex-m3":{..}}`, each
 /// with `law` and `tick` (`min`, `mean`, `max` instructions) and `stack_peak_bytes`, plus
 /// the QEMU `machine` and the Rust `target` (extra fields).
 fn bench_json(results: &[(&BenchConfig, BenchResult)]) -> String {

@@ -32,10 +32,9 @@ use crate::wsp::{Wsp, WspBits};
 /// from exact bits with [`Compiled::from_bits`] (integer work; the device).
 #[derive(Clone, Copy, Debug, PartialEq)]
 // `repr(C)`, the fast path's constants first, in the order it reads them
-// (`Controller::tick`), so that neighbours load as one `LDRD`. Measured (`cargo xtask
-// fw-bench`, fixed point): law step 112 -> 111 (M4), 146 -> 145 (M3); the same
-// constants copied into a `repr(C)` struct of the controller's own gave 108 on the M4
-// but a whole tick 2 worse (1 693) and 64 B more RAM per controller, so not kept.
+// (`Controller::tick`), so that neighbours load as one `LDRD` (`cargo xtask fw-bench`
+// measures the law step and the whole tick). The constants stay here, not copied into
+// the controller: a copy costs RAM per controller and did not shorten the whole tick.
 #[repr(C)]
 pub struct Compiled<T: Sample> {
     /// Input clamp of `y'`, pu.

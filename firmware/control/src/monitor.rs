@@ -410,9 +410,8 @@ impl<T: Sample> Monitor<T> {
     /// the alarm states and their rising edges. Never fails, never panics.
     ///
     /// The phase count is inlined into the caller and the step is a call, made only on
-    /// the ticks that run it: measured (`cargo xtask fw-bench`, Cortex-M4 fixed point,
-    /// whole tick mean) 1 648 -> 1 644 (f32 1 587 -> 1 583, Cortex-M3 1 692 -> 1 688), for
-    /// 32 B more flash on the Nucleo build (`cargo fw`).
+    /// the ticks that run it: the ticks without a step pay only the count (`cargo xtask
+    /// fw-bench`, whole tick).
     #[inline(always)]
     pub fn tick(&self, s: &mut MonitorState<T>, y_dot: T, commanding: bool) -> MonitorEvents {
         s.ev.hunting_rose = false;

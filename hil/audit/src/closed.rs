@@ -52,7 +52,7 @@ pub struct Cycle {
     pub y_p2p_m: f64,
 }
 
-/// The issue's `limit_cycle` record, extended.
+/// The limit-cycle record of the closed-loop audit.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct LimitCycleReport {
     /// Amplitude: torque peak to peak of the device run.

@@ -167,7 +167,7 @@ pub const BLOCKS: &[Block] = &[
     hil("hil-beating", "run --scenario beating").exit(1),
     hil("hil-short", "run --scenario hil/harness/tests/data/short.toml"),
     hil("golden", "golden"),
-    // Any operating point and campaigns over the envelope (issue 15).
+    // Any operating point and campaigns over the envelope.
     hil("hil-params-3mn", "run --params sim-host/params/creep-3mn.toml"),
     hil("hil-params-conicity", "run --params sim-host/params/conicity-0.4.toml"),
     hil("hil-sweep", "sweep --param f11=1e6..1e7:5 --param lambda=0.05..0.4:4 --json out/sweep.json --report out/sweep").exit(1).keep(Keep::All),

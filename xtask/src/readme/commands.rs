@@ -53,7 +53,7 @@ pub(super) const RULES: &[(&str, Class)] = &[
     ("cargo clippy", Class::Long),
     ("cargo fmt", Class::Long),
     (" audit", Class::Long),
-    // The modal example of issue 11: milliseconds a run, on the release library the
+    // The modal example of adhesion-limited traction: milliseconds a run, on the release library the
     // `cargo sim` commands build.
     ("--example adh_modes", Class::Short),
     ("cargo sim", Class::Short),
