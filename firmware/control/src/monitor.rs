@@ -61,10 +61,12 @@
 //! ```
 //!
 //! A damped loop after a short disturbance (a curve transition) grows the energy only
-//! while the disturbance lasts (one block), then it decays; a stopped, disconnected or
-//! reversed actuator grows it at the free wheelset's rate (5-25 1/s over conicity
-//! 0.05-0.4, `wheelset_plant::fault::failed_actuator_mode`) for as long as the motion lasts,
-//! from well below the hunting threshold.
+//! while the disturbance lasts (one block), then it decays; a stopped or disconnected
+//! actuator grows it at the free wheelset's rate (5-25 1/s over conicity 0.05-0.4,
+//! `wheelset_plant::fault::failed_actuator_mode`) for as long as the motion lasts, from
+//! well below the hunting threshold, and a reversed one several times faster, the law's
+//! own gain pushing the mode (about 100 1/s with the lead at conicity 0.3: the plant's
+//! test `a_reversed_actuator_grows_faster_than_the_free_wheelset`).
 //!
 //! **The rule for the device's own traction steps.** The wheel-slip protection's cut
 //! (its cut at detection: `wheelset_control::wsp`, the reference capped at once to
