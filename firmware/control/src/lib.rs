@@ -64,6 +64,21 @@
 //! **Reference ramp** `i_ref[n] = i_ref[n-1] + clamp(target - i_ref[n-1], ±r T)`.
 //! **Pure gain** `T_psi = K x`. **Passive** `T_psi = 0`.
 //!
+//! # No float functions on the device
+//!
+//! The tick is additions, multiplications, shifts and comparisons in every sample type:
+//! no `sqrt`, `exp`, `tan` or other `libm` function runs on the device, in the fixed-point
+//! build or the `f32` one (neither ELF links one). The transcendental functions of the
+//! discretisation (`e^{-pT}`, the bilinear map's `tan`, the monitor's decay) run once, in
+//! f64, where a configuration is compiled: on the host and in the firmware's build script,
+//! which hand the device exact bits ([`Compiled::from_bits`]; a rate switch's
+//! coefficients are computed on the host too). They are series in this crate
+//! ([`lead`]'s `tan`, [`monitor`]'s `exp`) rather than `libm` so that the compiled
+//! coefficients are the same bits on every host and in the build script. `micromath`'s
+//! `f32` approximations therefore have no call site: the device needs no float function,
+//! and the one place that does needs f64 and reproducible bits, which an `f32`
+//! approximation is not.
+//!
 //! # Q formats (fixed point, [`FixedController`])
 //!
 //! Every signal and state is Q4.28 per unit (`i32`, range `[-8, 8)`, LSB `2^-28`), every
