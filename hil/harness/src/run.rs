@@ -42,7 +42,7 @@ use wheelset_targets::serial::Pace;
 mod open;
 mod reference;
 
-pub use open::{device_config, open_transport};
+pub use open::{device_config, open_transport, remote_gains, DEVICE_KEYS};
 use open::{open_qemu_free, open_realtime, run_rate};
 use reference::before;
 
@@ -576,44 +576,6 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
         numerics_errors,
         runtime: rt,
     })
-}
-
-/// The parameter keys that set the device's control gains and motor constants
-/// (`wheelset_loop::device_loop::control_config`): the lead, the pure gain, the traction PI and
-/// the motor.
-pub const DEVICE_KEYS: &[&str] = &[
-    "k_active",
-    "lead_gain",
-    "lead_zero",
-    "lead_pole",
-    "pi_kp",
-    "pi_ti",
-    "k_m",
-    "n_gear",
-];
-
-/// A device outside this process has its gains compiled in: a Config frame carries the
-/// rates (with their coefficients), the law and the limits, not the gains. Parameters
-/// that change the gains ([`DEVICE_KEYS`]) are refused there, naming them, instead of
-/// running a device that does not follow them.
-pub fn remote_gains(p: &Params, target: &Target) -> Result<(), RunError> {
-    let d = Params::default();
-    let (given, default) = (p.entries(), d.entries());
-    let changed: Vec<String> = given
-        .iter()
-        .zip(&default)
-        .filter(|((k, a), (_, b))| DEVICE_KEYS.contains(k) && a != b)
-        .map(|((k, a), _)| format!("{k} = {a}"))
-        .collect();
-    if changed.is_empty() {
-        return Ok(());
-    }
-    Err(RunError::Input(format!(
-        "parameters {}: they set the device's gains, which a device on {target} has compiled \
-         in (its Config frame carries the rates, the law and the limits, not the gains); \
-         run them with --target inproc",
-        changed.join(", ")
-    )))
 }
 
 fn law_name(l: Law) -> &'static str {
