@@ -118,7 +118,7 @@
 use crate::config::ConfigError;
 use crate::sample::Sample;
 
-mod bits;
+mod exact;
 
 /// The monitor's configuration in SI units (host and build script; the device starts
 /// from [`MonitorBits`]).

@@ -57,13 +57,13 @@ use wheelset_proto::{Command, Decoder, Message, Status};
 
 use crate::realtime::os::{self as rt_os, Obtained, Want};
 
+mod as_transport;
 pub mod os;
 mod prepare;
 mod queue;
 pub mod serve;
 #[cfg(test)]
 mod tests;
-mod transport;
 
 pub use prepare::envelope_period;
 pub use queue::{flush_queue, queue_frame};
