@@ -30,7 +30,7 @@ use nalgebra::{Complex, DMatrix};
 use serde::Serialize;
 use std::f64::consts::PI;
 
-// Files: `modes/naming.rs` (tracking and naming the modes), `modes/sweep.rs` (the sweep
+// Files: `modes/naming.rs` (tracking and naming the modes), `modes/creep_sweep.rs` (the sweep
 // and its crossings), `modes/json.rs` (the JSON form).
 mod creep_sweep;
 mod json;

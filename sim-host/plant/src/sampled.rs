@@ -37,7 +37,7 @@
 //!
 //! - `sampled/matrices.rs`: the loop matrices (ZOH, tick matrices, monodromy, modes, the
 //!   continuous closed loop);
-//! - `sampled/grid.rs`: the rate grid over creep and conicity, the link budget, and the
+//! - `sampled/rate_grid.rs`: the rate grid over creep and conicity, the link budget, and the
 //!   choice of the rates;
 //! - `sampled/summary.rs`: the rate table as JSON and text;
 //! - the plant variants ([`LinearPlant`], [`Model`], [`Reduced`], [`armature`]) live
