@@ -76,7 +76,8 @@ fn main() {
     println!("cargo:rustc-link-search={}", out.display());
     println!("cargo:rustc-link-arg-bins=--nmagic");
     // Identical code folding (rust-lld): the generic runtime is instantiated per message
-    // and sample type; folding the identical copies saved 356 B of flash (`cargo fw`).
+    // and sample type, and many copies are identical; folding them saves flash
+    // (`cargo fw` prints the sizes).
     println!("cargo:rustc-link-arg-bins=--icf=all");
     println!("cargo:rustc-link-arg-bins=-T{script}");
     println!("cargo:rustc-link-arg-bins=-Tdefmt.x");

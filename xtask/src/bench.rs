@@ -1,12 +1,14 @@
 //! `cargo xtask fw-bench [--json FILE]`: the QEMU benchmark firmware
 //! (`wheelset-qemu-bench`) built for the Cortex-M4F (`mps2-an386`) and the Cortex-M3
 //! (`mps2-an385`), fixed point and f32, run under QEMU; its `FWBENCH` lines become a
-//! table and the JSON.
+//! table and the JSON; fails when the whole tick's mean on the Cortex-M4 fixed-point
+//! build exceeds its budget ([`TICK_MEAN_BUDGET_INSTRUCTIONS`]).
 
 use std::path::PathBuf;
 use std::process::Command;
 
 use crate::{build_firmware, ensure_targets, have_qemu, Firmware, FW_TARGET, M3_TARGET};
+use wheelset_targets::qemu::TICK_MEAN_BUDGET_INSTRUCTIONS;
 
 /// One `fw-bench` configuration: core, numeric build, target, QEMU machine and CPU.
 struct BenchConfig {
@@ -124,7 +126,7 @@ fn parse_bench(output: &str) -> Result<BenchResult, String> {
     })
 }
 
-/// The JSON: `{"cortex-m4":{"fixed":{..},"f32":{..}},"cortex-m3":{..}}`, each
+/// The JSON: `{"cortex-m4":{"fixed":{..},"f32":{..}},"cortex-m3":{..}}`, each
 /// with `law` and `tick` (`min`, `mean`, `max` instructions) and `stack_peak_bytes`, plus
 /// the QEMU `machine` and the Rust `target` (extra fields).
 fn bench_json(results: &[(&BenchConfig, BenchResult)]) -> String {
@@ -247,6 +249,7 @@ pub(crate) fn fw_bench(json: Option<PathBuf>) -> Result<(), String> {
     }
     outln!();
     out!("{}", bench_table(&results));
+    let over = over_budget(&results);
     if let Some(path) = json {
         // The folder too, as `sim-host` and `hil` make theirs (`--json out/fwb.json` on a
         // fresh clone has no `out/`).
@@ -258,7 +261,29 @@ pub(crate) fn fw_bench(json: Option<PathBuf>) -> Result<(), String> {
             .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
         outln!("wrote {}", path.display());
     }
-    Ok(())
+    match over {
+        None => Ok(()),
+        Some(e) => Err(e),
+    }
+}
+
+/// The tick's budget: the whole tick's mean instructions of the build the boards flash
+/// (Cortex-M4, fixed point) at most [`TICK_MEAN_BUDGET_INSTRUCTIONS`]; `Some` names the
+/// excess.
+fn over_budget(results: &[(&BenchConfig, BenchResult)]) -> Option<String> {
+    results
+        .iter()
+        .find(|(c, r)| {
+            c.core == "cortex-m4"
+                && c.numeric == "fixed"
+                && r.tick.mean > TICK_MEAN_BUDGET_INSTRUCTIONS
+        })
+        .map(|(c, r)| {
+            format!(
+                "fw-bench: {} {} whole tick mean {} instructions, over the budget of {}",
+                c.core, c.numeric, r.tick.mean, TICK_MEAN_BUDGET_INSTRUCTIONS
+            )
+        })
 }
 
 #[cfg(test)]
@@ -293,6 +318,42 @@ mod tests {
         assert!(parse_bench("FWBENCH law 1 2 3 tock 1 2 3 stack 4")
             .unwrap_err()
             .contains("`tick`"));
+    }
+
+    #[test]
+    fn the_tick_mean_of_the_flashed_build_is_held_to_its_budget() {
+        let configs = bench_configs();
+        let at = |mean: u64| BenchResult {
+            law: MinMeanMax {
+                min: 1,
+                mean: 1,
+                max: 1,
+            },
+            tick: MinMeanMax {
+                min: mean,
+                mean,
+                max: mean,
+            },
+            stack_peak_bytes: 1,
+        };
+        let b = TICK_MEAN_BUDGET_INSTRUCTIONS;
+        // Only the Cortex-M4 fixed-point build (the first) is held to it.
+        let ok: Vec<_> = configs
+            .iter()
+            .zip([b, b + 1, b + 1, b + 1])
+            .map(|(c, m)| (c, at(m)))
+            .collect();
+        assert_eq!(over_budget(&ok), None);
+        let over: Vec<_> = configs
+            .iter()
+            .zip([b + 1, b, b, b])
+            .map(|(c, m)| (c, at(m)))
+            .collect();
+        let e = over_budget(&over).unwrap();
+        assert!(
+            e.contains("cortex-m4 fixed") && e.contains(&format!("{}", b + 1)),
+            "{e}"
+        );
     }
 
     #[test]

@@ -7,7 +7,9 @@
 //!   `cargo test --workspace` (with `REQUIRE_QEMU=1` when QEMU is there, so the
 //!   processor-in-the-loop smoke test cannot silently skip) and the device-feature run:
 //!   the wire crate's and the runtime's tests once more with the firmware's features
-//!   (the wire crate without `std`: its frames checked by the device's own CRC path).
+//!   (the wire crate without `std`: its frames checked by the device's own CRC path),
+//!   and the runtime's tests with `fault-inject` (the QEMU firmware's runtime: the
+//!   tests of the honoured fault injections compile only there).
 //! - `cargo fw [--f32]`: builds the board binaries for `thumbv7em-none-eabihf` with the
 //!   `fw` profile (release, LTO, size-optimised; the Nucleo build linked with flip-link,
 //!   installed when missing, in `target/flip-link`) and copies them to `target/fw/`:
@@ -426,6 +428,18 @@ fn test(extra: &[String]) -> Result<(), String> {
         device.args(["-p", p]);
     }
     run(device.args(extra))?;
+    // The runtime as the QEMU firmware builds it (`fault-inject`): the tests that only
+    // this feature compiles (the fault injections honoured).
+    let mut inject = cargo();
+    inject.args([
+        "test",
+        "--no-fail-fast",
+        "-p",
+        "wheelset-runtime",
+        "--features",
+        "fault-inject",
+    ]);
+    run(inject.args(extra))?;
     // The README and the book: their generated blocks and figures against their
     // commands and their links, then their short board-free commands against their
     // stated exit codes (`cargo xtask readme`).

@@ -15,9 +15,9 @@ use embassy_executor::{SpawnError, SpawnToken};
 use embassy_sync::waitqueue::AtomicWaker;
 use embassy_time::Instant;
 
-use crate::config::{RX_PIPE, TX_PIPE};
 use crate::device::{new_runtime, Device, FwRuntime};
 use crate::ring::{ByteRing, Empty};
+use crate::settings::{RX_PIPE, TX_PIPE};
 use crate::tick::{period_ticks, TickMonitor, TickWake};
 
 /// Bytes from the UART receiver to the control task.
@@ -151,8 +151,9 @@ fn new_ticker(period: u64) -> (Ticker, u64) {
 ///
 /// Why not `embassy_time::Ticker`: its `Instant + Duration` is `checked_add(..)
 /// .expect("overflow ...")`, and the message's formatting links `core::fmt`'s `str`
-/// Display (`Formatter::pad`, 640 B of the Nucleo's flash; the overflow needs
-/// 584 000 years of 1 us ticks). `cargo fw`: see the README's flash rows.
+/// Display (`Formatter::pad`, hundreds of bytes of the Nucleo's flash, `arm-none-eabi-nm
+/// --size-sort`), for an overflow that needs `2^64` 1 us ticks (hundreds of thousands of
+/// years).
 struct Ticker {
     /// The next deadline, time-driver ticks.
     expires_at: u64,

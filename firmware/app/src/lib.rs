@@ -17,11 +17,11 @@
 #![cfg_attr(test, allow(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
 pub mod bounded;
-pub mod config;
 pub mod device;
 pub mod exec;
 #[allow(unsafe_code)]
 pub mod ring;
+pub mod settings;
 pub mod tick;
 #[cfg(target_os = "none")]
 pub mod watchdog;

@@ -3,7 +3,7 @@
 //! It replaces `embassy_sync::pipe::Pipe` between the UART and the control task: the
 //! pipe's `RefCell`, slice indexing and `copy_from_slice` carry panic paths whose
 //! messages format a `usize` (`core::fmt`), and its two copy loops plus the checks cost
-//! about 570 B of Nucleo flash (`arm-none-eabi-nm --size-sort`); this ring is two
+//! hundreds of bytes of Nucleo flash (`arm-none-eabi-nm --size-sort`); this ring is two
 //! counters and a byte loop, and it has no panic path at all.
 //!
 //! `head` counts the bytes ever written, `tail` the bytes ever read (both wrap at

@@ -1,4 +1,4 @@
-//! The stack's high-water mark on the board (issue 13, issue 20): painted once at the
+//! The stack's high-water mark on the board: painted once at the
 //! control task's start, read back every [`SCAN_TICKS`] ticks into the runtime's
 //! `set_stack_peak`, so it reaches `Status.stack_peak` (bytes).
 //!

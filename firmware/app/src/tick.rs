@@ -148,7 +148,7 @@ impl TickMonitor {
 /// The tick period in embassy-time ticks (1 us) of a base rate in Hz, if it is a whole
 /// number of ticks: `1e6 / hz`.
 pub fn period_ticks(hz: u32) -> Option<u64> {
-    let timer = crate::config::TIMER_HZ;
+    let timer = crate::settings::TIMER_HZ;
     if hz == 0 || hz > timer || !timer.is_multiple_of(hz) {
         None
     } else {

@@ -4,6 +4,7 @@
 use crate::lead::LeadParams;
 use crate::pi::PiParams;
 use crate::wsp::WspParams;
+use wheelset_proto::units;
 
 /// Yaw control mode: the wire's enum ([`wheelset_proto::YawMode`]; the device applies a
 /// Config's mode as it is). `Passive`: `T_psi = 0` from the controller (the yaw spring is
@@ -95,33 +96,34 @@ impl Default for Motor {
     }
 }
 
-/// Wire LSBs (SI value of one integer code), fixed by the protocol; precomputed into
-/// [`crate::Codec`] scale factors at construction.
+/// Wire LSBs (SI value of one integer code), precomputed into [`crate::Codec`] scale
+/// factors at construction. The default is the protocol's, `wheelset_proto::units` (the
+/// one definition of every wire unit); a test configuration may change them.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WireLsb {
-    /// y', m/s per code (1e-6: 1 um/s).
+    /// y', m/s per code ([`units::LAT_VEL_LSB_M_PER_S`]).
     pub y_dot: f64,
-    /// Current, A per code (1e-3).
+    /// Current, A per code ([`units::CURRENT_LSB_A`]).
     pub current: f64,
-    /// Motor speed, rad/s per code (1e-3).
+    /// Motor speed, rad/s per code ([`units::SPEED_LSB_RAD_PER_S`]).
     pub speed: f64,
-    /// Demand, N m per code (1, as `wheelset_proto::units`).
+    /// Demand, N m per code ([`units::DEMAND_LSB_NM`]).
     pub demand: f64,
-    /// Yaw torque, N m per code (0.1).
+    /// Yaw torque, N m per code ([`units::TORQUE_LSB_NM`]).
     pub torque: f64,
-    /// Voltage, V per code (1e-2, as `wheelset_proto::units`).
+    /// Voltage, V per code ([`units::VOLTAGE_LSB_V`]).
     pub voltage: f64,
 }
 
 impl Default for WireLsb {
     fn default() -> Self {
         Self {
-            y_dot: 1e-6,
-            current: 1e-3,
-            speed: 1e-3,
-            demand: 1.0,
-            torque: 0.1,
-            voltage: 1e-2,
+            y_dot: units::LAT_VEL_LSB_M_PER_S,
+            current: units::CURRENT_LSB_A,
+            speed: units::SPEED_LSB_RAD_PER_S,
+            demand: units::DEMAND_LSB_NM,
+            torque: units::TORQUE_LSB_NM,
+            voltage: units::VOLTAGE_LSB_V,
         }
     }
 }

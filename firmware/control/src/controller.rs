@@ -250,9 +250,9 @@ impl<T: Sample> Controller<T> {
     /// `Kp`'s by [`Self::new`]'s precondition.
     ///
     /// The settled case returns straight from the PI (one copy of it per case, inlined):
-    /// nothing of the ramp's state to write back. Measured (`cargo xtask fw-bench`, law
-    /// step, Cortex-M4 fixed point): 111 with one PI and the ramp's state written under
-    /// an `Option` test, 100 with the two cases (f32 105 -> 99, Cortex-M3 fixed 145 -> 138).
+    /// nothing of the ramp's state to write back, so the common tick neither tests nor
+    /// stores it (shorter than one PI with the ramp's write-back under an `Option` test;
+    /// `cargo xtask fw-bench`, law step).
     #[inline(always)]
     fn fast_traction<const WSP: bool>(&mut self, inp: &Inputs<T>) -> bool {
         let law = &self.law;

@@ -64,6 +64,21 @@
 //! **Reference ramp** `i_ref[n] = i_ref[n-1] + clamp(target - i_ref[n-1], ±r T)`.
 //! **Pure gain** `T_psi = K x`. **Passive** `T_psi = 0`.
 //!
+//! # No float functions on the device
+//!
+//! The tick is additions, multiplications, shifts and comparisons in every sample type:
+//! no `sqrt`, `exp`, `tan` or other `libm` function runs on the device, in the fixed-point
+//! build or the `f32` one (neither ELF links one). The transcendental functions of the
+//! discretisation (`e^{-pT}`, the bilinear map's `tan`, the monitor's decay) run once, in
+//! f64, where a configuration is compiled: on the host and in the firmware's build script,
+//! which hand the device exact bits ([`Compiled::from_bits`]; a rate switch's
+//! coefficients are computed on the host too). They are series in this crate
+//! ([`lead`]'s `tan`, [`monitor`]'s `exp`) rather than `libm` so that the compiled
+//! coefficients are the same bits on every host and in the build script. `micromath`'s
+//! `f32` approximations therefore have no call site: the device needs no float function,
+//! and the one place that does needs f64 and reproducible bits, which an `f32`
+//! approximation is not.
+//!
 //! # Q formats (fixed point, [`FixedController`])
 //!
 //! Every signal and state is Q4.28 per unit (`i32`, range `[-8, 8)`, LSB `2^-28`), every
@@ -152,18 +167,20 @@
 //! `yaw_predict_ticks = 0` gives the paper's law unmodified.
 //!
 //! **Link budget.** One period must carry the Sensor frame in, the computation and the
-//! Actuation frame out (sequential: the reply must be back before the next tick). With
-//! the wire format's worst-case frames (33 + 28 bytes, 10 bits per byte) and 10 us of
-//! computation, 70 % utilisation needs `610 bits / (0.7 T - 10 us)`: 4.7 Mbaud at 5 kHz,
-//! 10.2 Mbaud at 10 kHz. At the 2 Mbaud of a typical USB-serial bridge the largest rate
-//! that fits is 2.26 kHz, where the current loop is unstable: **the default needs a
-//! link of at least 5 Mbaud** (the Nucleo build's USART2, on APB1 at 42 MHz, makes
-//! 5.25 Mbaud with 8x oversampling and USARTDIV 1, its highest) or, at 2 Mbaud, a
-//! lower current-loop gain than the paper's. The one link budget,
+//! Actuation frame out (sequential: the reply must be back before the next tick):
+//! `(up + down) bytes x 10 bits / baud + 2 latency` within a share of the period, with
+//! the wire format's worst-case frames (`wheelset_proto::sizes`). The one link budget,
 //! `wheelset_proto::link::link_fits` (integer, `const fn`: the rate table at 70 %, the
 //! device loop and hil at 85 % of the period), refuses a configuration that does not
-//! fit. 10 kHz does not fit a realistic UART with these frames. Selection rule of `sim-host rates`: the lowest base rate whose current loop
-//! has radius <= 0.75 per tick, with no grid point destabilised by sampling and a link
+//! fit; `sim-host rates` prints the baud each candidate rate needs. The default 5 kHz
+//! needs more than 4 Mbaud (`wheelset-loop`'s `tests/sim_link.rs`): more than a typical
+//! USB-serial bridge carries, within what the Nucleo build's USART2 makes (on APB1 at
+//! 42 MHz with 8x oversampling and USARTDIV 1, `wheelset-fw`'s `board::nucleo_clock`).
+//! On a slower link the rate that fits is one where the current loop at the paper's
+//! gain is unstable: a lower gain, not a lower rate.
+//!
+//! Selection rule of `sim-host rates`: the lowest base rate whose current loop has
+//! radius <= 0.75 per tick, with no grid point destabilised by sampling and a link
 //! within 6 Mbaud, ties broken by the smaller damping loss: 5 kHz / 1 / 1 (with the
 //! compensation; without it no candidate up to 10 kHz qualifies, and 5 kHz is the
 //! fastest that the link allows).
@@ -185,22 +202,18 @@
 //! LSB of voltage after `N` traction steps, over random, step, chirp and full-scale
 //! property tests.
 //!
-//! One tick, host (x86-64, shared CI-class machine, `cargo bench -p wheelset-control`):
-//! Q4.28 about 40-60 ns, f32 30-50 ns. On the Cortex-M4 (QEMU `mps2-an386`, instructions
-//! executed, `cargo xtask fw-bench`, profile `fw`): a whole controller tick (both
-//! loops, the y' predictor, input clamps, reference ramp, safe-state logic, counters)
-//! 101 instructions on average for Q4.28 and 108 for f32 (min 100 / 106), down from 214
-//! / 276 before the fast path of [`Controller::tick`]: in normal running each loop runs
-//! straight through, each clamp a single unsigned compare that it would not engage (the
-//! torque limit applied inline), the reference ramp skipped while settled, products in
-//! one `SMMULR` where the ranges allow it ([`Sample::mul_pre`], [`Sample::mul_c_small`]);
-//! anything else (a clamp, NaN, the safe state, a law change, traction off) takes the
-//! general path, which the fast path equals bit for bit (`tests/fast_path.rs`). What
-//! the 101 are: 6 products (2 instructions each but the integrator's `SMLAL` with its
-//! carry, 5), 11 saturating adds, ~20 loads of coefficients and states and ~10 stores,
-//! 6 range checks (3 each), 3 counters, and the call, the mode check and the
-//! prologue/epilogue (~15). The 60 (aim 45) is not reached: the loads, stores and
-//! checks alone are ~60.
+//! One tick, host: `cargo bench -p wheelset-control`. On the Cortex-M4 (QEMU `mps2-an386`, instructions
+//! executed, `cargo xtask fw-bench`, profile `fw`, which prints the figures): a whole
+//! controller tick (both loops, the y' predictor, input clamps, reference ramp,
+//! safe-state logic, counters) runs the fast path of [`Controller::tick`] in normal
+//! running: each loop straight through, each clamp a single unsigned compare that it
+//! would not engage (the torque limit applied inline), the reference ramp skipped while
+//! settled, products in one `SMMULR` where the ranges allow it ([`Sample::mul_pre`],
+//! [`Sample::mul_c_small`]); anything else (a clamp, NaN, the safe state, a law change,
+//! traction off) takes the general path, which the fast path equals bit for bit
+//! (`tests/fast_path.rs`). What remains is the arithmetic itself: the products and
+//! saturating adds of the two laws, the loads of coefficients and states and the stores
+//! of the states, the range checks, the counters, the call and the mode check.
 #![no_std]
 #![deny(missing_docs)]
 

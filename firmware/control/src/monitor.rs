@@ -61,10 +61,12 @@
 //! ```
 //!
 //! A damped loop after a short disturbance (a curve transition) grows the energy only
-//! while the disturbance lasts (one block), then it decays; a stopped, disconnected or
-//! reversed actuator grows it at the free wheelset's rate (5-25 1/s over conicity
-//! 0.05-0.4, `wheelset_plant::fault::failed_actuator_mode`) for as long as the motion lasts,
-//! from well below the hunting threshold.
+//! while the disturbance lasts (one block), then it decays; a stopped or disconnected
+//! actuator grows it at the free wheelset's rate (5-25 1/s over conicity 0.05-0.4,
+//! `wheelset_plant::fault::failed_actuator_mode`) for as long as the motion lasts, from
+//! well below the hunting threshold, and a reversed one several times faster, the law's
+//! own gain pushing the mode (about 100 1/s with the lead at conicity 0.3: the plant's
+//! test `a_reversed_actuator_grows_faster_than_the_free_wheelset`).
 //!
 //! **The rule for the device's own traction steps.** The wheel-slip protection's cut
 //! (its cut at detection: `wheelset_control::wsp`, the reference capped at once to
@@ -114,7 +116,9 @@
 //! saturates (at 8 pu^2, an RMS of 0.4 m/s over a block), long after the hunting alarm.
 
 use crate::config::ConfigError;
-use crate::sample::{Coef, Fx, Sample, SampleBits};
+use crate::sample::Sample;
+
+mod exact;
 
 /// The monitor's configuration in SI units (host and build script; the device starts
 /// from [`MonitorBits`]).
@@ -410,9 +414,8 @@ impl<T: Sample> Monitor<T> {
     /// the alarm states and their rising edges. Never fails, never panics.
     ///
     /// The phase count is inlined into the caller and the step is a call, made only on
-    /// the ticks that run it: measured (`cargo xtask fw-bench`, Cortex-M4 fixed point,
-    /// whole tick mean) 1 648 -> 1 644 (f32 1 587 -> 1 583, Cortex-M3 1 692 -> 1 688), for
-    /// 32 B more flash on the Nucleo build (`cargo fw`).
+    /// the ticks that run it: the ticks without a step pay only the count (`cargo xtask
+    /// fw-bench`, whole tick).
     #[inline(always)]
     pub fn tick(&self, s: &mut MonitorState<T>, y_dot: T, commanding: bool) -> MonitorEvents {
         s.ev.hunting_rose = false;
@@ -490,92 +493,6 @@ impl<T: Sample> Monitor<T> {
     }
 }
 
-impl<T: SampleBits> Monitor<T> {
-    /// A monitor that never runs (rate 0): no alarms.
-    pub fn off() -> Self {
-        let z = T::COEFF_ZERO;
-        Self {
-            rate_hz: 0,
-            div: 0,
-            k_lo: z,
-            k_hi: z,
-            k_ms: z,
-            on: T::ZERO,
-            off: T::ZERO,
-            floor: T::ZERO,
-            shrink: z,
-            block: 0,
-            blocks: 0,
-            drift: T::ZERO,
-        }
-    }
-
-    /// The exact bits.
-    pub fn to_bits(&self) -> MonitorBits {
-        let c = |v: T::Coeff| T::coeff_to_bits64(v);
-        MonitorBits {
-            rate_hz: self.rate_hz,
-            k_lo: c(self.k_lo),
-            k_hi: c(self.k_hi),
-            k_ms: c(self.k_ms),
-            levels: [
-                self.on.to_bits64(),
-                self.off.to_bits64(),
-                self.floor.to_bits64(),
-            ],
-            shrink: c(self.shrink),
-            block: self.block,
-            blocks: self.blocks,
-            drift: self.drift.to_bits64(),
-        }
-    }
-
-    /// From exact bits, validated (coefficients in `(0, 1)`, levels `0 < off < on`,
-    /// `floor > 0`, `drift > 0`, a block and a count of at least 1), for `base_rate_hz`; rate 0 gives
-    /// [`Self::off`]-like behaviour (never runs). Integer work only.
-    pub fn from_bits(b: &MonitorBits, base_rate_hz: u32) -> Result<Self, crate::BitsError> {
-        let err = |field| crate::BitsError { field };
-        let coef = |field, v: u64| {
-            T::coeff_from_bits64(v)
-                .filter(|c| T::coeff_in_unit(*c, false))
-                .ok_or(err(field))
-        };
-        let sig = |field, v: u64| T::from_bits64(v).ok_or(err(field));
-        let [on, off, floor] = b.levels;
-        let (on, off, floor) = (
-            sig("monitor.levels", on)?,
-            sig("monitor.levels", off)?,
-            sig("monitor.levels", floor)?,
-        );
-        if !(T::ZERO < off && off < on && T::ZERO < floor) {
-            return Err(err("monitor.levels"));
-        }
-        if b.block == 0 || b.blocks == 0 {
-            return Err(err("monitor.block"));
-        }
-        let drift = sig("monitor.drift", b.drift)?;
-        if drift <= T::ZERO {
-            return Err(err("monitor.drift"));
-        }
-        let mut m = Self {
-            rate_hz: b.rate_hz,
-            div: 1,
-            k_lo: coef("monitor.k_lo", b.k_lo)?,
-            k_hi: coef("monitor.k_hi", b.k_hi)?,
-            k_ms: coef("monitor.k_ms", b.k_ms)?,
-            on,
-            off,
-            floor,
-            shrink: coef("monitor.shrink", b.shrink)?,
-            block: b.block,
-            blocks: b.blocks,
-            drift,
-        };
-        m.retime(base_rate_hz);
-        Ok(m)
-    }
-}
-
 /// `round(base/rate)`, at least 1, at most `u16::MAX`; 0 for a monitor that is off.
 const fn divisor_for(rate_hz: u32, base_rate_hz: u32) -> u16 {
     if rate_hz == 0 {
@@ -590,47 +507,6 @@ const fn divisor_for(rate_hz: u32, base_rate_hz: u32) -> u16 {
         d as u16
     }
 }
-
-const fn fx_signal(v: u64) -> Fx {
-    Fx::from_bits(v as u32 as i32)
-}
-const fn fx_coeff(v: u64) -> Coef {
-    Coef::from_bits(v as u32 as i32)
-}
-const fn f32_value(v: u64) -> f32 {
-    f32::from_bits(v as u32)
-}
-
-macro_rules! from_valid_bits {
-    ($t:ty, $signal:expr, $coeff:expr) => {
-        impl Monitor<$t> {
-            /// [`Monitor::from_bits`] without validation, in a `const` context, for bits
-            /// known valid ([`Monitor::to_bits`] output: the firmware's build-time
-            /// constant, checked by a host test), with `div` for `base_rate_hz` as
-            /// [`Monitor::retime`].
-            pub const fn from_valid_bits(b: &MonitorBits, base_rate_hz: u32) -> Self {
-                let (s, c) = ($signal, $coeff);
-                Self {
-                    rate_hz: b.rate_hz,
-                    div: divisor_for(b.rate_hz, base_rate_hz),
-                    k_lo: c(b.k_lo),
-                    k_hi: c(b.k_hi),
-                    k_ms: c(b.k_ms),
-                    on: s(b.levels[0]),
-                    off: s(b.levels[1]),
-                    floor: s(b.levels[2]),
-                    shrink: c(b.shrink),
-                    block: b.block,
-                    blocks: b.blocks,
-                    drift: s(b.drift),
-                }
-            }
-        }
-    };
-}
-
-from_valid_bits!(Fx, fx_signal, fx_coeff);
-from_valid_bits!(f32, f32_value, f32_value);
 
 #[cfg(test)]
 mod tests {

@@ -14,8 +14,8 @@
 //! to be 138 of the 149 LSB of the `u_a` error against f64). The fixed-point build holds
 //! it with its own shift `s` ([`Sample::acc_shift`]): the Q1.31 coefficient is
 //! `Ki 2^s` and the product is shifted back by `s` ([`Sample::mul_c_acc_shr`]: one
-//! arithmetic shift of the product's high word; the control-law step costs 107 instead of
-//! 101 instructions on the Cortex-M4, `cargo xtask fw-bench`). `s` is chosen once, at construction, for the
+//! arithmetic shift of the product's high word, a few instructions on the control-law
+//! step, `cargo xtask fw-bench`). `s` is chosen once, at construction, for the
 //! largest `Ki` the controller may be rescheduled to: `Ki` at the slowest traction
 //! period a device accepts, [`KI_SHIFT_PERIOD_S`] (or the configured period if that is
 //! slower), so `s` does not depend on the rates (it is part of the rate-independent

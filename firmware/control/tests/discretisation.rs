@@ -35,7 +35,7 @@ fn lead_direct_form_equals_textbook_tustin() {
             "{fs}: b1 {b1} vs {tb1}"
         );
         assert!((a1 - ta1).abs() <= 1e-12, "{fs}: a1 {a1} vs {ta1}");
-        // The point: b0 and -b1 differ by only a few percent.
+        // The point: b0 and -b1 differ by only a few percent.
         assert!((b0 + b1).abs() / b0 < 0.25);
     }
 }

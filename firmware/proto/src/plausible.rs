@@ -24,7 +24,7 @@
 //! |---|---|---|---|---|
 //! | `rates.numeric` | the device's | the device's | code | the coefficients' bit format |
 //! | `rates.fingerprint` | the device's | the device's | hash | computed against this core's gains, limits, scales |
-//! | `rates.base_rate_hz` | 500 | 20 000 | Hz | the slowest loop rate below (a base rate under it leaves no valid divisor); 20 kHz leaves the ~3 000-cycle tick a sixth of the 180 MHz period. The low end is about what a device can run, not stability: the rate analysis (`sim-host rates`) finds the current loop unstable below 2.5 kHz with one period of delay. 500 Hz is the free-running QEMU's rate (its UART's byte rate, README "QEMU free-running") |
+//! | `rates.base_rate_hz` | 500 | 20 000 | Hz | the slowest loop rate below (a base rate under it leaves no valid divisor); at 20 kHz the tick's budget (`cargo xtask fw-bench`: 1 500 instructions mean, 3 000 at most) is under 40 % of the 8 400-cycle period of the board's 168 MHz core. The low end is about what a device can run, not stability: the rate analysis (`sim-host rates`) finds the current loop unstable below 2.5 kHz with one period of delay. 500 Hz is the free-running QEMU's rate (its UART's byte rate, README "QEMU free-running") |
 //! | period `1/base_rate_hz` | - | - | us | a whole number of microseconds: the board's ticker counts 1 us ([`TICKER_HZ`]) |
 //! | yaw loop rate `base_rate_hz/yaw_div` | 500 | - | Hz | the slowest yaw rate the rate analysis evaluates (the lead's `w2 T/2` = 0.27) |
 //! | traction loop rate `base_rate_hz/traction_div` | 500 | - | Hz | 5 samples per `L_a/R_a` = 10 ms armature time constant at least |

@@ -7,10 +7,6 @@ use wheelset_control::{
     BitsError, Compiled, CompiledBits, Config as ControlConfig, ConfigError, Monitor, MonitorBits,
     MonitorParams, SampleBits, WireLsb,
 };
-use wheelset_proto::units::{
-    CURRENT_LSB_A, DEMAND_LSB_NM, LAT_VEL_LSB_M_PER_S, SPEED_LSB_RAD_PER_S, TORQUE_LSB_NM,
-    VOLTAGE_LSB_V,
-};
 
 use crate::{acc_factors, AccBits, Rates, DEFAULT_HOLD_TICKS};
 
@@ -42,7 +38,8 @@ use crate::{acc_factors, AccBits, Rates, DEFAULT_HOLD_TICKS};
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RuntimeConfig {
     /// The control core's configuration. Its `wire` LSBs are overwritten with the
-    /// protocol's ([`protocol_wire_lsb`]): the format has one definition.
+    /// protocol's (`WireLsb::default()`, `wheelset_proto::units`): the format has one
+    /// definition.
     pub control: ControlConfig,
     /// Consecutive ticks without a new sensor frame that run on the held sample before
     /// the safe state (0: the first missing frame enters it).
@@ -72,19 +69,6 @@ impl Default for RuntimeConfig {
             acc_washout_s: DEFAULT_ACC_WASHOUT_S,
             monitor: Some(MonitorParams::default()),
         }
-    }
-}
-
-/// The wire LSBs of `wheelset-proto` in the control core's terms.
-#[must_use]
-pub fn protocol_wire_lsb() -> WireLsb {
-    WireLsb {
-        y_dot: LAT_VEL_LSB_M_PER_S,
-        current: CURRENT_LSB_A,
-        speed: SPEED_LSB_RAD_PER_S,
-        demand: DEMAND_LSB_NM,
-        torque: TORQUE_LSB_NM,
-        voltage: VOLTAGE_LSB_V,
     }
 }
 
@@ -150,7 +134,7 @@ impl RuntimeBits {
     /// protocol's wire LSBs replace `cfg.control.wire`). Host and build-script use.
     pub fn try_new<T: SampleBits>(cfg: &RuntimeConfig) -> Result<Self, RuntimeError> {
         let mut control = cfg.control;
-        control.wire = protocol_wire_lsb();
+        control.wire = WireLsb::default();
         let monitor = match &cfg.monitor {
             Some(p) => Monitor::<T>::try_new(p, control.base_rate_hz)?.to_bits(),
             None => Monitor::<T>::off().to_bits(),

@@ -135,9 +135,7 @@ mod validate;
 
 pub(crate) use acc::acc_factors;
 pub use acc::AccBits;
-pub use bits::{
-    protocol_wire_lsb, rates_for, RuntimeBits, RuntimeConfig, RuntimeError, DEFAULT_ACC_WASHOUT_S,
-};
+pub use bits::{rates_for, RuntimeBits, RuntimeConfig, RuntimeError, DEFAULT_ACC_WASHOUT_S};
 pub use hold::{HoldPolicy, HoldStep, SafeChange};
 pub use runtime::{Runtime, RxEvent, SafeOutputs};
 pub use wheelset_proto::{Actuation, Command, Config, Flags, Message, Rates, Sensor, Status};

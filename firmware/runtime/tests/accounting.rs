@@ -1,4 +1,4 @@
-//! The counters and flags say what the docs say (issue 14): the accounting identity,
+//! The counters and flags say what the docs say: the accounting identity,
 //! unknown requests, HOLDING vs `held_ticks`, YAW_SAT under the safe ramp; and the
 //! behaviour behind them: bumpless law changes, zero current in every 0 V state, the
 //! complementary filter of `Lateral::Both`.
@@ -158,7 +158,7 @@ fn yaw_sat_reports_the_safe_ramp_limiting_the_torque() {
     assert_eq!(rt.counters().yaw_sat - before, sat);
 }
 
-/// Issue 20: lead -> gain on a 2 Hz, 20 mm/s lateral velocity stepped the torque by
+/// Lead -> gain on a 2 Hz, 20 mm/s lateral velocity stepped the torque by
 /// 467 N m in one tick. The new law starts from the old output; the step is bounded by
 /// the torque slew (40 N m per 200 us tick) plus the signal's own change.
 #[test]
@@ -293,7 +293,7 @@ fn both_is_a_complementary_filter() {
     assert!(consistent < 2e-5, "{consistent}");
 }
 
-/// The firmware's log source (issue 14): every rejected frame and refused request is an
+/// The firmware's log source: every rejected frame and refused request is an
 /// [`RxEvent`]; the first since the last take is held with its kind, the later ones are
 /// counted, and valid accepted frames add none.
 #[test]

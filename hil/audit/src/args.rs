@@ -56,7 +56,7 @@ pub struct AuditArgs {
     /// Skip the closed-loop audit (device in the loop, limit cycle, margins).
     #[arg(long)]
     pub no_closed_loop: bool,
-    /// Print only the README's generated audit block (`wheelset_audit::readme`); skips the
+    /// Print only the book's generated audit block (`wheelset_audit::readme_block`); skips the
     /// word-length sweep (its figure is not in the block).
     #[arg(long)]
     pub readme_block: bool,

@@ -8,7 +8,7 @@ use super::closed::LimitCycleReport;
 use super::margins::Margin;
 use super::model::ControllerAudit;
 use super::ranges::{self, Observed};
-use super::verdict::{judge, Check, Status, Tolerances};
+use super::tolerances::{judge, Check, Status, Tolerances};
 use super::Core;
 
 /// Remedy of a coefficient's quantisation (its error, the roots and DC gain it moves).

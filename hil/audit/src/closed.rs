@@ -11,7 +11,7 @@
 //!   the device's torque there: peak to peak, RMS about its mean, the dominant frequency
 //!   (the largest DFT magnitude on a 0.25 Hz grid up to Nyquist, mean removed), and the
 //!   lateral displacement `y` peak to peak.
-//! - **Attribution**: the control core itself in the loop ([`CoreLoop`], one period of
+//! - **Attribution**: the control core itself in the loop ([`CoreController`], one period of
 //!   actuation delay as the device), first with every source (it must reproduce the
 //!   device), then with one source removed at a time: the wire LSB of `y'` (`y'` passed
 //!   unquantised), the internal rounding (the core in f64: no rounding, no coefficient
@@ -27,15 +27,14 @@
 //! input is zero, so a torque moving by many wire LSBs is self-sustained.
 
 use serde::Serialize;
-use wheelset_control::{Config, Controller, InputCodes, Inputs, SampleBits, WireLsb};
+use wheelset_control::{Config, SampleBits};
+use wheelset_loop::core::{CoreController, Sources};
 use wheelset_loop::device_loop::{control_config, run_device, DeviceOptions};
-use wheelset_plant::control::{Actuation, Measurements, SampledController, YawLaw};
+use wheelset_plant::control::{SampledController, YawLaw};
 use wheelset_plant::params::Params;
 use wheelset_plant::scenario::Scenario as Track;
 use wheelset_plant::sim::{run_continuous, run_sampled, ActuatorModel, SensorModel, Trajectory};
-use wheelset_proto::units::{
-    CURRENT_LSB_A, DEMAND_LSB_NM, LAT_VEL_LSB_M_PER_S, SPEED_LSB_RAD_PER_S,
-};
+use wheelset_proto::units::TORQUE_LSB_NM;
 
 /// The straight-track window of `curve`, s.
 pub const WINDOW_S: (f64, f64) = (17.0, 20.0);
@@ -53,7 +52,7 @@ pub struct Cycle {
     pub y_p2p_m: f64,
 }
 
-/// The issue's `limit_cycle` record, extended.
+/// The limit-cycle record of the closed-loop audit.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct LimitCycleReport {
     /// Amplitude: torque peak to peak of the device run.
@@ -90,83 +89,6 @@ pub struct ClosedLoopAudit {
     pub margins: Vec<super::margins::Margin>,
     /// What the section is, in words.
     pub note: String,
-}
-
-fn code(x: f64, lsb: f64) -> i32 {
-    let c = (x / lsb).round();
-    if c.is_nan() {
-        0
-    } else {
-        c.clamp(i32::MIN as f64, i32::MAX as f64) as i32
-    }
-}
-
-/// Which sources a [`CoreLoop`] keeps.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Sources {
-    /// `y'` quantised to its wire LSB.
-    pub y_wire: bool,
-    /// Outputs quantised to their wire LSBs.
-    pub out_wire: bool,
-}
-
-/// The control core of sample type `T` as the plant's sampled controller: inputs as the
-/// Sensor frame carries them (wire LSBs; `y'` optionally exact), outputs as the Actuation
-/// frame (optionally exact), every torque recorded.
-pub struct CoreLoop<T: SampleBits> {
-    core: Controller<T>,
-    cfg: Config,
-    period_ns: u64,
-    src: Sources,
-    /// `(t_s, T_psi N m)` per period.
-    pub torque: Vec<(f64, f64)>,
-}
-
-impl<T: SampleBits> CoreLoop<T> {
-    /// The core of `cfg`.
-    pub fn try_new(cfg: &Config, src: Sources) -> Result<Self, wheelset_control::ConfigError> {
-        Ok(Self {
-            core: Controller::<T>::try_new(cfg)?,
-            cfg: *cfg,
-            period_ns: 1_000_000_000 / u64::from(cfg.base_rate_hz.max(1)),
-            src,
-            torque: Vec::new(),
-        })
-    }
-}
-
-impl<T: SampleBits> SampledController for CoreLoop<T> {
-    fn period_ns(&self) -> u64 {
-        self.period_ns
-    }
-
-    fn step(&mut self, t_ns: u64, m: &Measurements) -> Actuation {
-        self.core.set_v_ref_code(code(m.v_mps, 1e-3));
-        let codes = InputCodes {
-            y_dot: code(m.yd_mps, LAT_VEL_LSB_M_PER_S),
-            current: code(m.i_a, CURRENT_LSB_A),
-            speed: code(m.w_m, SPEED_LSB_RAD_PER_S),
-            demand: code(m.demand_nm, DEMAND_LSB_NM),
-        };
-        let mut inp: Inputs<T> = self.core.codec().decode(&codes);
-        if !self.src.y_wire {
-            inp.y_dot = T::from_f64(m.yd_mps / self.cfg.scales.y_dot);
-        }
-        let out = self.core.tick(&inp);
-        let a = if self.src.out_wire {
-            let c = self.core.codec().encode(&out);
-            let lsb = WireLsb::default();
-            Actuation {
-                t_psi: f64::from(c.yaw_torque) * lsb.torque,
-                u_a: f64::from(c.voltage) * lsb.voltage,
-            }
-        } else {
-            let (t_psi, u_a) = out.to_si(&self.cfg.scales);
-            Actuation { t_psi, u_a }
-        };
-        self.torque.push((t_ns as f64 * 1e-9, a.t_psi));
-        a
-    }
 }
 
 /// Dominant frequency of `x` sampled at `fs` (mean removed; DFT magnitude maximum on a
@@ -235,9 +157,11 @@ fn of_trajectory(tr: &Trajectory) -> Cycle {
 }
 
 fn core_run<T: SampleBits>(sc: &Track, cfg: &Config, src: Sources) -> Result<Cycle, String> {
-    let mut ctrl = CoreLoop::<T>::try_new(cfg, src).map_err(|e| e.to_string())?;
+    let mut ctrl = CoreController::<T>::try_new(cfg, cfg.wsp.enabled)
+        .map_err(|e| e.to_string())?
+        .with_sources(src);
     let mut act = ActuatorModel::ideal();
-    act.delay_ns = ctrl.period_ns;
+    act.delay_ns = ctrl.period_ns();
     let tr = run_sampled(
         sc,
         &mut ctrl,
@@ -248,8 +172,8 @@ fn core_run<T: SampleBits>(sc: &Track, cfg: &Config, src: Sources) -> Result<Cyc
     )
     .map_err(|e| e.to_string())?;
     let y: Vec<(f64, f64)> = tr.records.iter().map(|r| (r.t_s, r.y_m)).collect();
-    let fs = 1e9 / ctrl.period_ns as f64;
-    Ok(stats(&ctrl.torque, &y, fs))
+    let fs = 1e9 / ctrl.period_ns() as f64;
+    Ok(stats(ctrl.torque(), &y, fs))
 }
 
 /// The straight-track limit cycle of the lead on `curve`, measured on the device and
@@ -266,10 +190,7 @@ pub fn limit_cycle(lead_err_nm: f64, params: &Params) -> Result<LimitCycleReport
     let dev = run_device(&sc, law, &DeviceOptions::default()).map_err(|e| e.to_string())?;
     let device = of_trajectory(&dev.trajectory);
     let reference = of_trajectory(&run_continuous(&sc, law));
-    let all = Sources {
-        y_wire: true,
-        out_wire: true,
-    };
+    let all = Sources::WIRE;
     let core_all = core_run::<wheelset_control::Fx>(&sc, &cfg, all)?;
     let mut removed = Vec::new();
     removed.push((
@@ -308,7 +229,7 @@ pub fn limit_cycle(lead_err_nm: f64, params: &Params) -> Result<LimitCycleReport
         .iter()
         .map(|(n, c)| (n.clone(), c.torque_p2p_nm))
         .collect();
-    let lsb = WireLsb::default().torque;
+    let lsb = TORQUE_LSB_NM;
     let classification = if device.torque_p2p_nm <= 0.0 {
         "none: the torque is constant in the window".to_string()
     } else if device.torque_p2p_nm <= 2.0 * lead_err_nm.max(lsb) {

@@ -18,7 +18,7 @@ use super::bounds::Quantised;
 use super::qdyn::QFormat;
 use super::ranges::{self, Phase, Scenario};
 use super::response::{self, Kind};
-use super::verdict::Tolerances;
+use super::tolerances::Tolerances;
 use super::NAMED_HZ;
 
 /// The PI's steady error attributed to its sources.

@@ -5,12 +5,12 @@ use wheelset_control::{Config, Fx, Sample};
 
 use super::bounds::Proofs;
 use super::checks::all_checks;
-use super::controller::NAMED_HZ;
 use super::core_dyn;
 use super::model::{CoefRow, Recommendation, Sweep};
+use super::per_controller::NAMED_HZ;
 use super::qdyn::{self, Formats, QDyn, QFormat};
 use super::ranges::{self, Observed};
-use super::verdict::{Status, Tolerances};
+use super::tolerances::{Status, Tolerances};
 
 /// Bisection over the signal fraction bits (integer bits as audited) for the smallest
 /// format passing every accuracy check on the synthetic scenarios and the named

@@ -25,12 +25,12 @@
 //! Every number is judged against [`Tolerances`] (stated in the report): pass, warn or
 //! fail; the exit code is 1 on any fail.
 //!
-//! The modules: [`args`] (the command line), [`verdict`] (tolerances, the pass/warn/fail
+//! The modules: [`args`] (the command line), [`tolerances`] (tolerances, the pass/warn/fail
 //! status shared with the run budgets, the judged figure), [`model`] (the JSON result
-//! model), [`controller`] (the per-controller audit), [`checks`] (every figure judged),
+//! model), [`per_controller`] (the per-controller audit), [`checks`] (every figure judged),
 //! [`bounds`] and [`wcpg`] (the proofs), [`formats`] (format proposals and the
-//! word-length sweep), [`ranges`], [`limits`], [`plant`], [`response`], [`qdyn`],
-//! [`target`], [`report`], [`plots`].
+//! word-length sweep), [`ranges`], [`limits`], [`recordings`], [`response`], [`qdyn`],
+//! [`on_target`], [`writeup`], [`plots`].
 //!
 //! A library: `hil audit` (the harness's subcommand) parses [`AuditArgs`] and calls
 //! [`run`]; the options are a `clap::Args` here so that the command line and the
@@ -41,42 +41,42 @@ pub mod args;
 pub mod bounds;
 pub mod checks;
 pub mod closed;
-pub mod controller;
 pub mod diagnose;
 pub mod formats;
 pub mod limits;
 pub mod margins;
 pub mod model;
-pub mod plant;
+pub mod on_target;
+pub mod per_controller;
 pub mod plots;
 pub mod qdyn;
 pub mod ranges;
-pub mod readme;
-pub mod report;
-pub mod report_sections;
+pub mod readme_block;
+pub mod recordings;
 pub mod response;
 pub mod scenarios;
-pub mod target;
-pub mod verdict;
+pub mod tolerances;
 pub mod wcpg;
+pub mod writeup;
+pub mod writeup_sections;
 
 use wheelset_control::{Config, ConfigError, Fx, Sample};
 
 pub use args::{config_of, AuditArgs, AuditError};
 pub use checks::{all_checks, controller_checks, observed_checks};
-pub use controller::{audit_controller, grid, NAMED_HZ};
 pub use formats::bit_identical_to_fx;
 pub use model::{
     Audit, CoefRow, ControllerAudit, DcGain, FreqPoint, GainPhase, PoleZero, Recommendation, Roots,
     Sweep, Worst,
 };
-pub use verdict::{counts, counts_words, Check, Status, Tolerances};
+pub use per_controller::{audit_controller, grid, NAMED_HZ};
+pub use tolerances::{counts, counts_words, Check, Status, Tolerances};
 
 use args::{command_line, formats_of};
 use qdyn::{Formats, QDyn};
 use ranges::{Observed, Scenario};
 use response::Kind;
-use verdict::judge;
+use tolerances::judge;
 
 /// Every accuracy figure of sample type `T` (no recommendation, no sweep).
 pub struct Core {
@@ -153,12 +153,12 @@ pub fn run(args: &AuditArgs) -> Result<u8, AuditError> {
         write(p, &s)?;
     }
     if let Some(dir) = &args.report {
-        report::write_report(&audit, dir)?;
+        writeup::write_report(&audit, dir)?;
     }
     if args.readme_block {
-        wheelset_report::out!("{}", readme::block(&audit));
+        wheelset_report::out!("{}", readme_block::block(&audit));
     } else {
-        wheelset_report::out!("{}", report::summary(&audit, args.quiet));
+        wheelset_report::out!("{}", writeup::summary(&audit, args.quiet));
     }
     Ok(if audit.verdict == Status::Fail { 1 } else { 0 })
 }
@@ -197,7 +197,7 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
     if args.no_plant {
         scenario_notes.push("closed-loop plant scenarios skipped (--no-plant)".to_string());
     } else {
-        let (s, n) = plant::scenarios(&cfg, &params);
+        let (s, n) = recordings::scenarios(&cfg, &params);
         scenarios.extend(s);
         scenario_notes.extend(n);
     }
@@ -312,16 +312,16 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
         }
     }
     let target = if args.no_target {
-        target::TargetReport {
+        on_target::TargetReport {
             available: false,
-            outcome: target::TargetOutcome::Skipped,
+            outcome: on_target::TargetOutcome::Skipped,
             note: "target: not run (--no-target)".into(),
             runs: Vec::new(),
         }
     } else if !production {
-        target::TargetReport {
+        on_target::TargetReport {
             available: false,
-            outcome: target::TargetOutcome::NotApplicable,
+            outcome: on_target::TargetOutcome::NotApplicable,
             note: "target: not applicable (the firmware runs the production formats)".into(),
             runs: Vec::new(),
         }
@@ -333,7 +333,7 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
                 w.push((s, from));
             }
         }
-        target::compare(&w, args.target_ticks, &cfg)
+        on_target::compare(&w, args.target_ticks, &cfg)
     };
     for r in &target.runs {
         let mut c = judge(
@@ -368,7 +368,7 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
     }
     const TARGET_ITEM: &str = "target (QEMU) vs host Actuation frames";
     match target.outcome {
-        target::TargetOutcome::NotRun => checks.push(Check::not_run(
+        on_target::TargetOutcome::NotRun => checks.push(Check::not_run(
             "all",
             TARGET_ITEM,
             target.note.trim_start_matches("target: not run: "),
@@ -376,7 +376,7 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
              WHEELSET_QEMU_ELF) and install qemu-system-arm, then run the audit again; or \
              say --no-target to audit the host alone",
         )),
-        target::TargetOutcome::Failed => {
+        on_target::TargetOutcome::Failed => {
             let mut c = Check::not_run(
                 "all",
                 TARGET_ITEM,

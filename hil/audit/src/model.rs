@@ -5,11 +5,11 @@ use serde::Serialize;
 
 use super::bounds;
 use super::limits::LimitCycle;
+use super::on_target;
 use super::qdyn::Formats;
 use super::ranges::Observed;
 use super::response::C64;
-use super::target;
-use super::verdict::{Check, Status, Tolerances};
+use super::tolerances::{Check, Status, Tolerances};
 
 /// Gain and phase.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -232,7 +232,7 @@ pub struct Audit {
     /// coefficient fraction bits needed, if the sweep ran.
     pub sweep: Option<Sweep>,
     /// Target comparison.
-    pub target: target::TargetReport,
+    pub target: on_target::TargetReport,
     /// Every judged figure.
     pub checks: Vec<Check>,
     /// Worst status.

@@ -16,6 +16,9 @@ use super::qdyn::QFormat;
 
 pub use super::scenarios::synthetic;
 
+mod accumulate;
+use accumulate::Acc;
+
 /// A scenario event applied before a tick.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Event {
@@ -560,49 +563,4 @@ pub fn observe_against<T: Sample>(
         arithmetic_saturations: None,
         traces,
     })
-}
-
-#[derive(Default)]
-struct Acc {
-    max: f64,
-    sq: f64,
-    n: u64,
-}
-
-impl Acc {
-    fn add(&mut self, e: f64) {
-        self.max = self.max.max(e.abs());
-        self.sq += e * e;
-        self.n += 1;
-    }
-    #[allow(clippy::too_many_arguments)]
-    fn noise(
-        &self,
-        out: &str,
-        sc: &str,
-        mode: &str,
-        phase: Phase,
-        lsb: f64,
-        fs: f64,
-        wire: f64,
-        limit: f64,
-        unit: &str,
-    ) -> Noise {
-        let rms = (self.sq / self.n.max(1) as f64).sqrt();
-        Noise {
-            output: out.to_string(),
-            scenario: sc.to_string(),
-            yaw_mode: mode.to_string(),
-            phase,
-            max_of_limit: self.max * fs / limit,
-            max_lsb: self.max / lsb,
-            rms_lsb: rms / lsb,
-            max_si: self.max * fs,
-            rms_si: rms * fs,
-            max_wire_lsb: self.max * fs / wire,
-            bits_lost: (self.max / lsb).max(1.0).log2(),
-            unit: unit.to_string(),
-            samples: self.n,
-        }
-    }
 }

@@ -1,5 +1,5 @@
 //! The synthetic input scenarios of the audit (full-scale steps, a chirp, random
-//! full-scale inputs); the closed-loop ones come from [`super::plant`].
+//! full-scale inputs); the closed-loop ones come from [`super::recordings`].
 
 use wheelset_control::Config;
 

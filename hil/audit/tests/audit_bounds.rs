@@ -66,7 +66,7 @@ fn no_observed_value_exceeds_its_proven_bound() {
         assert!(2f64.powi(r.int_bits as i32 - 1) > r.proven_max_pu, "{r:?}");
         assert!(r.guarantee.contains("cannot overflow"));
     }
-    // JSON field names of the issue.
+    // The report's JSON field names.
     let v = serde_json::to_value(&a).unwrap();
     for k in [
         "signal",
@@ -170,7 +170,7 @@ fn the_closed_loop_section_measures_and_attributes_the_straight_track_cycle() {
         assert!(lc.freq_hz > 0.0);
         assert!(lc.reference.torque_p2p_nm < lc.amplitude);
     }
-    // JSON spelled as the issue.
+    // The JSON as the report spells it.
     let v = serde_json::to_value(&a).unwrap();
     let j = &v["closed_loop"];
     for k in ["amplitude", "unit", "freq_hz", "attribution"] {
@@ -273,7 +273,7 @@ fn findings_are_attributed_by_experiment() {
     if p.shares[0].0 == "quantisation of Ki" {
         assert!(p.remedy.starts_with("a finer representation of Ki"));
     }
-    // Issue 17's remedy is in place: Ki is held with its own shift, keeps more than 27
+    // The remedy is in place: Ki is held with its own shift, keeps more than 27
     // significant bits, and its quantisation is no longer a visible share (it was
     // 138.4 of 149.4 LSB with Ki in plain Q1.31, 16.4 significant bits).
     assert!(p.ki_shift >= 1, "{p:?}");

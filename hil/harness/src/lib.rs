@@ -7,7 +7,7 @@
 //! (in process); the closed loop is `wheelset_loop::exchange`; the fixed-point audit is
 //! `wheelset-audit`. This crate is the harness's own:
 //!
-//! - [`run`]: `hil run`; [`link_check`]: the link against the rate before a run.
+//! - [`run`]: `hil run` (the link checked against the rate before a run).
 //! - [`check`]: the checks ([`check::timing`], [`check::numerics`], [`check::frames`],
 //!   [`check::alarms`]); [`budget`]: their limits.
 //! - [`report`]: JSON, CSV and the Markdown report of a run.
@@ -19,7 +19,6 @@
 pub mod budget;
 pub mod check;
 pub mod golden;
-pub mod link_check;
 pub mod report;
 pub mod run;
 pub mod sweep;

@@ -19,7 +19,7 @@ use std::time::Duration;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::{Deserialize, Serialize};
 use wheelset_loop::device_loop::{runtime_config, DeviceOptions};
-use wheelset_loop::link::LinkConfig;
+use wheelset_loop::sim_link::LinkConfig;
 use wheelset_plant::control::YawLaw;
 use wheelset_plant::params::Params;
 use wheelset_plant::scenario::Scenario;
@@ -42,15 +42,17 @@ use wheelset_targets::serial::Pace;
 mod open;
 mod reference;
 
-pub use open::{device_config, open_transport};
+pub use open::{device_config, open_transport, remote_gains, DEVICE_KEYS};
 use open::{open_qemu_free, open_realtime, run_rate};
 use reference::before;
 
-/// Default core clock of the device, Hz: the board's STM32F446RE at 180 MHz. A board's
+/// Default core clock of the device, Hz: the Nucleo-F446RE build's SYSCLK, 168 MHz
+/// (`wheelset_fw`'s `board::nucleo`: the clock that gives USART2 its 42 MHz APB1; the
+/// part's 180 MHz maximum is not what the board runs). A board's
 /// `exec` is in cycles of it; the QEMU target's `exec` is in instructions, converted at
 /// one instruction per cycle of it (an estimate: flash wait states and multi-cycle
 /// instructions make the real board slower).
-pub const DEFAULT_CPU_HZ: f64 = 180e6;
+pub const DEFAULT_CPU_HZ: f64 = 168e6;
 
 /// Where the device runs.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -574,44 +576,6 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
         numerics_errors,
         runtime: rt,
     })
-}
-
-/// The parameter keys that set the device's control gains and motor constants
-/// (`wheelset_loop::device_loop::control_config`): the lead, the pure gain, the traction PI and
-/// the motor.
-pub const DEVICE_KEYS: &[&str] = &[
-    "k_active",
-    "lead_gain",
-    "lead_zero",
-    "lead_pole",
-    "pi_kp",
-    "pi_ti",
-    "k_m",
-    "n_gear",
-];
-
-/// A device outside this process has its gains compiled in: a Config frame carries the
-/// rates (with their coefficients), the law and the limits, not the gains. Parameters
-/// that change the gains ([`DEVICE_KEYS`]) are refused there, naming them, instead of
-/// running a device that does not follow them.
-pub fn remote_gains(p: &Params, target: &Target) -> Result<(), RunError> {
-    let d = Params::default();
-    let (given, default) = (p.entries(), d.entries());
-    let changed: Vec<String> = given
-        .iter()
-        .zip(&default)
-        .filter(|((k, a), (_, b))| DEVICE_KEYS.contains(k) && a != b)
-        .map(|((k, a), _)| format!("{k} = {a}"))
-        .collect();
-    if changed.is_empty() {
-        return Ok(());
-    }
-    Err(RunError::Input(format!(
-        "parameters {}: they set the device's gains, which a device on {target} has compiled \
-         in (its Config frame carries the rates, the law and the limits, not the gains); \
-         run them with --target inproc",
-        changed.join(", ")
-    )))
 }
 
 fn law_name(l: Law) -> &'static str {

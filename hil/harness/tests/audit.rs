@@ -1,7 +1,7 @@
 //! `hil audit`: the continuous responses are docs/model.md's controllers (computed here
 //! independently), the measured fixed-point responses track the discrete f64 ones within
 //! the stated tolerances, too-narrow Q formats fail with the right reason, the JSON keeps
-//! the issue's field names, and the binary's exit codes follow the verdict.
+//! the report's field names, and the binary's exit codes follow the verdict.
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
@@ -249,7 +249,7 @@ fn too_few_coefficient_bits_warn_on_the_coefficients_and_fail_on_accuracy() {
         && c.controller == "traction_pi"
         && c.item.starts_with("u_a max error vs f64")));
     // Ki = 4e-5 pu would be 1.3 LSB of plain Q1.15 (a relative error of tens of
-    // percent); held with its own shift (2^11, issue 17) it keeps 12.4 significant bits
+    // percent); held with its own shift (2^11) it keeps 12.4 significant bits
     // even there: about 1e-4 relative, a warning, not a failure.
     let ki = r
         .checks

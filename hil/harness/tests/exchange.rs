@@ -52,7 +52,7 @@ fn sim_host_device_loop_and_hil_run_give_the_same_curve_record_for_record() {
 
 #[test]
 fn the_device_follows_a_scenario_gain_on_both_paths() {
-    // Issue 20: with `k_active = 5.0e4` in a scenario the in-process device kept its
+    // With `k_active = 5.0e4` in a scenario the in-process device kept its
     // default gain under `hil run` (torque error 1.2 kN m against the reference).
     let text = std::fs::read_to_string(short()).unwrap() + "\n[params]\nk_active = 5.0e4\n";
     let dir = std::env::temp_dir().join(format!("hil-exchange-{}", std::process::id()));

@@ -5,7 +5,7 @@
 
 use hil::golden::{compare, run_host, run_target, vectors};
 use wheelset_loop::inproc::{DeviceFault, InProc};
-use wheelset_loop::link::LinkConfig;
+use wheelset_loop::sim_link::LinkConfig;
 use wheelset_runtime::RuntimeConfig;
 
 fn target(fault: DeviceFault) -> InProc {

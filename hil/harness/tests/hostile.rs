@@ -1,4 +1,4 @@
-//! The hostile-input suite of `hil` (issue 20): a table of command lines, the exit code
+//! The hostile-input suite of `hil`: a table of command lines, the exit code
 //! each must give, and words its output must carry. Every command runs under a timeout,
 //! so a regression to a hang fails the row instead of hanging the suite.
 

@@ -159,7 +159,7 @@ fn a_device_corrupting_frames_fails_the_frame_accounting() {
 fn link_faults_are_accounted_and_reported() {
     let opts = RunOptions {
         scenario: short(),
-        link: wheelset_loop::link::LinkConfig {
+        link: wheelset_loop::sim_link::LinkConfig {
             faults: "ber=1e-4,drop=0.01".parse().unwrap(),
             seed: 5,
             ..Default::default()
@@ -207,7 +207,7 @@ fn a_jittery_device_fails_the_jitter_check_and_fills_the_histogram() {
 
 #[test]
 fn low_adhesion_passes_its_numerics_against_the_core_with_protection() {
-    // Issue 11: the Q4.28 device with its wheel-slip protection against the f64 control
+    // The Q4.28 device with its wheel-slip protection against the f64 control
     // core on the same plant. The two closed loops part by an LSB, so a protection cut can
     // fall a tick apart; the tube at the control period (`hil::check::numerics`) judges it
     // within the budgets' own `tau` (on the 1 ms records alone: `u_a` 29.9 V at 14.05 s).

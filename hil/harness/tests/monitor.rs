@@ -1,4 +1,4 @@
-//! The stability monitor and actuator check in the closed loop (issue 12), in process:
+//! The stability monitor and actuator check in the closed loop, in process:
 //! an alarm within the stated deadline after the yaw actuator fails, and no false alarm
 //! on the healthy scenarios over the conicity range 0.05-0.4 at 10 MN.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
@@ -40,7 +40,7 @@ fn the_failed_actuator_alarms_by_the_deadline() {
         "{:?}",
         out.report.numerics
     );
-    // The JSON interface of the issue.
+    // The JSON interface of the report.
     let j = serde_json::to_value(&out.report).unwrap();
     assert!(j["monitor"]["alarms"][0]["kind"].is_string());
     assert!(j["monitor"]["alarms"][0]["t_s"].is_number());

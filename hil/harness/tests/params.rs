@@ -1,4 +1,4 @@
-//! `--params FILE` on the harness (issue 15): the plant, the reference and the device's
+//! `--params FILE` on the harness: the plant, the reference and the device's
 //! configuration all follow the parameters, at 3 MN creep and at conicity 0.4 with the
 //! lead, through `hil run`, `hil golden` and the binary.
 
@@ -95,7 +95,7 @@ fn the_lead_passes_at_3_mn_and_at_conicity_0_4_with_plant_and_reference_followin
     }
 }
 
-/// Gains in the file reach the in-process device (issue 20's `k_active = 5.0e4`): its
+/// Gains in the file reach the in-process device (a scenario's `k_active = 5.0e4`): its
 /// configuration holds them, differs from the default, is the rule of `sim-host --loop
 /// device`, and the torque follows the reference.
 #[test]

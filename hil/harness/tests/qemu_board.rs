@@ -18,7 +18,7 @@ use wheelset_proto::{
 use wheelset_targets::qemu::{Qemu, QemuConfig};
 
 /// The firmware's RX pipe between the UART interrupt and the control task, bytes
-/// (`firmware/app/src/config.rs`, `RX_PIPE`).
+/// (`firmware/app/src/settings.rs`, `RX_PIPE`).
 const RX_PIPE: usize = 256;
 
 #[test]

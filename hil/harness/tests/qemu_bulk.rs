@@ -77,7 +77,7 @@ fn curve_20_s_over_the_bulk_channel() {
     assert_same(&u, &b);
 }
 
-/// Issue 11 under QEMU: `hil run --target qemu --qemu-link bulk --scenario low-adhesion`,
+/// Adhesion-limited traction under QEMU: `hil run --target qemu --qemu-link bulk --scenario low-adhesion`,
 /// the firmware's wheel-slip protection in the loop for the 20 s (100 000 exchanges over
 /// the bulk channel, about 8 s of wall time in release), passes its numerics against the
 /// f64 core with protection, and its closed loop is the in-process one record for record.

@@ -1,7 +1,8 @@
 //! The README's main job through the real firmware: the whole 20 s `curve` (lead) closed
 //! through the QEMU device (`hil run --target qemu --qemu-link bulk`: the semihosting
 //! bulk channel, the same frames as UART0 and ~8x faster, `hil/harness/tests/qemu_bulk.rs`) gives
-//! the in-process run's trajectory record for record and passes every check. Skips when
+//! the in-process run's trajectory record for record, passes every check and keeps the
+//! firmware tick's maximum within its budget (`wheelset_targets::qemu::TICK_MAX_BUDGET_INSTRUCTIONS`). Skips when
 //! QEMU or the firmware ELF is missing, unless `REQUIRE_QEMU=1` (`cargo xtest`).
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
@@ -10,7 +11,7 @@ mod common;
 
 use hil::run::{run, RunOptions, Target};
 use wheelset_report::Verdict;
-use wheelset_targets::qemu::{Channel, QemuConfig};
+use wheelset_targets::qemu::{Channel, QemuConfig, TICK_MAX_BUDGET_INSTRUCTIONS};
 
 #[test]
 fn the_20_s_curve_through_the_qemu_firmware_is_the_in_process_run() {
@@ -38,6 +39,13 @@ fn the_20_s_curve_through_the_qemu_firmware_is_the_in_process_run() {
         inproc.trajectory.records.len()
     );
     assert!(qemu.trajectory.records.len() > 19_000);
+    // The tick's budget: its maximum over the curve in the instructions QEMU counts.
+    assert_eq!(r.timing.exec_unit, "instructions");
+    assert!(
+        r.timing.exec_units.max <= TICK_MAX_BUDGET_INSTRUCTIONS as f64,
+        "firmware tick max {} instructions over the curve, budget {TICK_MAX_BUDGET_INSTRUCTIONS}",
+        r.timing.exec_units.max
+    );
     assert!(r.frames.adds_up, "{:?}", r.frames);
     assert_eq!(r.frames.up.dropped + r.frames.down.dropped, 0);
     assert_eq!(r.timing.missed_ticks, 0);

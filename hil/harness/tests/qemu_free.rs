@@ -11,7 +11,7 @@
 //! pacing, the frame accounting and the watchdog reset.
 //!
 //! Judged: the accounting, the numerics, and the timing: the latency's 99th percentile
-//! within two periods (issue 18's bar for a board) and the device's misses under 5 %
+//! within two periods (the bar for a board) and the device's misses under 5 %
 //! (measured 0.8-1.3 % on a quiet machine: QEMU's UART is slow both ways, and the
 //! exchange takes about half the period; a board's bar of 1 % is for the stand-in and a
 //! board, `realtime_pty.rs`). The one condition under which the timing is reported and
@@ -172,7 +172,7 @@ fn the_free_running_firmware_under_qemu_holds_the_loop_in_real_time() {
         );
         return;
     }
-    // The latency within two periods at the 99th percentile (issue 18's bar), the device
+    // The latency within two periods at the 99th percentile (the bar for a board), the device
     // under 5 % missed (the module docs).
     assert!(
         (r.timing.missed_ticks as f64) < 0.05 * periods,

@@ -1,4 +1,4 @@
-//! The firmware logs what it refuses (issue 14): under QEMU the defmt log goes to a file
+//! The firmware logs what it refuses: under QEMU the defmt log goes to a file
 //! (semihosting stdout, `QemuConfig::log`), decoded here with `defmt-decoder` against the
 //! ELF's table, as `defmt-print -e ELF` does. A corrupt frame (CRC) is logged with its
 //! kind at once; a burst of corrupt frames and a refused Config (3 kHz: not a whole number

@@ -1,4 +1,4 @@
-//! The stability monitor end to end under QEMU (issue 12): `hil run --target qemu
+//! The stability monitor end to end under QEMU: `hil run --target qemu
 //! --scenario actuator-fault` over the semihosting bulk channel (the same frames as the
 //! UART, bit for bit, `qemu_bulk.rs`; about ten times faster). The alarm comes from the
 //! firmware's own `HUNTING` / `ACTUATOR_FAULT` flags and its Status (`first_alarm_tick`,

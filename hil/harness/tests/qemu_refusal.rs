@@ -1,4 +1,4 @@
-//! The rate bug under QEMU (issue 14): the `wheelset-qemu` firmware refuses a Config
+//! The rate bug under QEMU: the `wheelset-qemu` firmware refuses a Config
 //! whose base period is not a whole number of microseconds (3 kHz: 333.3 us), flags it
 //! (`CMD_REFUSED`), counts it (Status `cmd_refused`) and keeps ticking at its 5 kHz;
 //! a plausible 4 kHz Config is then accepted. Skips when QEMU or the ELF is missing,

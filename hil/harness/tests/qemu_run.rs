@@ -76,7 +76,7 @@ fn golden_vectors_agree_bit_for_bit_between_host_and_qemu() {
     for v in vectors().unwrap() {
         let host = run_host(&v).unwrap();
         let mut q = QemuTarget::start(
-            wheelset_loop::link::DEFAULT_BAUD,
+            wheelset_loop::sim_link::DEFAULT_BAUD,
             DEFAULT_CPU_HZ,
             std::time::Duration::from_secs(10),
         )

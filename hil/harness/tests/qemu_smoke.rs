@@ -15,7 +15,8 @@ fn start_or_skip(test: &str) -> Option<Qemu> {
     common::start_or_skip(test, Channel::Uart)
 }
 
-/// Motor speed at 25 m/s (rad/s, the wire's 1e-3 rad/s LSB): 925.6 rad/s.
+/// Motor speed at 83.3 m/s (`n v / r0` = 5 x 83.3 / 0.45 rad/s) in wire codes
+/// ([`wheelset_proto::units::SPEED_LSB_RAD_PER_S`]): 925.6 rad/s.
 const OMEGA_MRAD_S: i32 = 925_600;
 
 fn sensor(seq: u16, y_dot_um_s: i32) -> Vec<u8> {

@@ -1,4 +1,4 @@
-//! The board's stack high-water mark under QEMU (issue 13): the `wheelset-qemu` firmware
+//! The board's stack high-water mark under QEMU: the `wheelset-qemu` firmware
 //! paints its stack at the control task's start and reads the mark every
 //! `SCAN_TICKS` ticks into `Status.stack_peak` (`firmware/app/src/stack.rs`). Skips
 //! when QEMU or the ELF is missing, unless `REQUIRE_QEMU=1`.

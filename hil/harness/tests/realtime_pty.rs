@@ -143,7 +143,7 @@ fn realtime_pacing_holds_against_a_free_running_stand_in_started_first() {
         .count();
     let ticks = served["ticks"].as_u64().unwrap();
     let device_slips = served["late"].as_u64().unwrap() + served["skipped"].as_u64().unwrap();
-    // Judged on a quiet machine (the condition), and only if the stand-in itself
+    // Judged on a quiet machine (the condition the figure is stated for), and only if the stand-in itself
     // held its clock: a pseudo-terminal's bytes go through a kernel worker at normal
     // priority (`flush_to_ldisc`), which both real-time loops wait on, so under a full
     // build beside them neither side's timing says anything about the harness.

@@ -171,7 +171,7 @@ fn two_frames_in_one_write_are_two_ticks_and_two_answers() {
     let mut port = wheelset_targets::serial::Serial::open(
         &device.path,
         921_600,
-        180e6,
+        hil::run::DEFAULT_CPU_HZ,
         std::time::Duration::from_secs(2),
     )
     .unwrap();

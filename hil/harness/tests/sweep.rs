@@ -1,4 +1,4 @@
-//! `hil sweep` (issue 15): every grid point in the closed loop; the records are the runs
+//! `hil sweep`: every grid point in the closed loop; the records are the runs
 //! of `hil run` at the points' parameters; `--shard I/N` parts merged by `hil sweep
 //! merge` are the document of a single run, byte for byte; bad specs are refused naming
 //! the flag.

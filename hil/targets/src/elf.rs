@@ -9,9 +9,9 @@
 use std::io::Read;
 use std::path::Path;
 
-mod sizes;
+mod section_sizes;
 
-pub use sizes::{sizes, Sizes};
+pub use section_sizes::{sizes, Sizes};
 
 /// `e_machine` of ARM (32-bit).
 const EM_ARM: u16 = 40;

@@ -1,6 +1,6 @@
 //! The 20 s `curve` scenario with the phase lead, closed over the simulated serial link:
 //! the fixed-point firmware runtime at its default rate, default link, no faults.
-//! Target (issue 4): at most 50 ms. Run: `cargo bench -p sim-host --bench closed_loop`.
+//! Target: at most 50 ms. Run: `cargo bench -p sim-host --bench closed_loop`.
 
 mod common;
 

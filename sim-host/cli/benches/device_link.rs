@@ -9,7 +9,7 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use wheelset_control::Fx;
 use wheelset_loop::device_loop::{DeviceFault, InProc};
 use wheelset_loop::exchange::DeviceController;
-use wheelset_loop::link::LinkConfig;
+use wheelset_loop::sim_link::LinkConfig;
 use wheelset_plant::control::{Measurements, SampledController};
 use wheelset_runtime::RuntimeConfig;
 

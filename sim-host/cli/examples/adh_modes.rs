@@ -1,4 +1,4 @@
-//! Modes of the closed loop working near the adhesion peak (issue 11, README "Why the
+//! Modes of the closed loop working near the adhesion peak (README "Why the
 //! scheduled lead").
 //!
 //! ```text

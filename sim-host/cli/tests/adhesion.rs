@@ -1,4 +1,4 @@
-//! Issue 11, plant side: Polach's law reduces to the linear law (no `[[adhesion]]`:
+//! Adhesion-limited traction, plant side: Polach's law reduces to the linear law (no `[[adhesion]]`:
 //! bit-identical; huge `mu0`: within a tight tolerance), the scenario sections, the
 //! `low-adhesion` scenario (an unprotected wheel runs away), and `sim-host adhesion`.
 

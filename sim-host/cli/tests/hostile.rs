@@ -1,4 +1,4 @@
-//! The hostile-input suite of `sim-host` (issue 20): a table of command lines, the exit
+//! The hostile-input suite of `sim-host`: a table of command lines, the exit
 //! code each must give, and words its message must carry. Every command runs under a
 //! timeout, so a regression to a hang fails the row instead of hanging the suite; a row
 //! fails when the exit code or any expected word differs.

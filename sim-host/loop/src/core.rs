@@ -10,28 +10,54 @@
 //! so they are no yardstick there.
 
 use crate::device_loop::control_config;
-use wheelset_control::{Controller, InputCodes, SampleBits};
+use wheelset_control::{Controller, InputCodes, Inputs, SampleBits};
 use wheelset_plant::control::{Actuation, Measurements, SampledController, YawLaw};
 use wheelset_plant::scenario::Scenario;
 use wheelset_plant::sim::{run_sampled, ActuatorModel, SensorModel, SimError, Trajectory};
 use wheelset_proto::units::{
-    CURRENT_LSB_A, DEMAND_LSB_NM, LAT_VEL_LSB_M_PER_S, SPEED_LSB_RAD_PER_S,
+    CURRENT_LSB_A, DEMAND_LSB_NM, LAT_VEL_LSB_M_PER_S, SPEED_LSB_RAD_PER_S, TORQUE_LSB_NM,
+    VOLTAGE_LSB_V, V_REF_LSB_M_PER_S,
 };
 
-/// Reference speed LSB of the Sensor frame, m/s (`Sensor::v_ref_mm_s`: 1 mm/s).
-pub const V_REF_LSB_M_PER_S: f64 = 1e-3;
+/// Which wire quantisations a [`CoreController`] applies. The device applies both
+/// ([`Sources::WIRE`], the default); the fixed-point audit removes one at a time to
+/// attribute a limit cycle to its sources.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Sources {
+    /// `y'` quantised to its wire LSB (else passed to the core exact, in per unit).
+    pub y_wire: bool,
+    /// The outputs quantised to their wire LSBs (else converted to SI exact).
+    pub out_wire: bool,
+}
+
+impl Sources {
+    /// Every input and output through its wire LSB, as the Sensor and Actuation frames.
+    pub const WIRE: Sources = Sources {
+        y_wire: true,
+        out_wire: true,
+    };
+}
+
+impl Default for Sources {
+    fn default() -> Self {
+        Self::WIRE
+    }
+}
 
 /// The core as a sampled controller: quantise to wire codes, tick, decode.
 pub struct CoreController<T: SampleBits> {
     core: Controller<T>,
+    cfg: wheelset_control::Config,
     period_ns: u64,
-    /// `slip_sp_mps`, `slip_sp_per_a` of the protection and the current's full scale:
-    /// the set point `slip_sp + slip_sp_per_a cap` in SI.
-    set_point_law: (f64, f64, f64),
+    src: Sources,
     /// `(t_s, m/s)`: the slip regulator's set point on each tick the protection acts.
     set_point: Vec<(f64, f64)>,
+    /// `(t_s, T_psi N m)`: the commanded yaw torque on every tick.
+    torque: Vec<(f64, f64)>,
 }
 
+/// `round(x / lsb)` (half away from zero) saturated to the `i32` range, NaN to 0: an SI
+/// value as the wire code the host's Sensor frame carries.
 fn code(x: f64, lsb: f64) -> i32 {
     let c = (x / lsb).round();
     if c.is_nan() {
@@ -42,7 +68,8 @@ fn code(x: f64, lsb: f64) -> i32 {
 }
 
 impl<T: SampleBits> CoreController<T> {
-    /// The core of `cfg` (validated), protection on or off.
+    /// The core of `cfg` (validated), protection on or off, every wire quantisation
+    /// applied.
     pub fn try_new(
         cfg: &wheelset_control::Config,
         wsp: bool,
@@ -51,19 +78,30 @@ impl<T: SampleBits> CoreController<T> {
         core.set_wsp(wsp);
         Ok(CoreController {
             core,
+            cfg: *cfg,
             period_ns: 1_000_000_000 / u64::from(cfg.base_rate_hz),
-            set_point_law: (
-                cfg.wsp.slip_sp_mps,
-                cfg.wsp.slip_sp_per_a,
-                cfg.scales.current,
-            ),
+            src: Sources::WIRE,
             set_point: Vec::new(),
+            torque: Vec::new(),
         })
+    }
+
+    /// The same core with the wire quantisations `src` (the audit's attribution).
+    #[must_use]
+    pub fn with_sources(mut self, src: Sources) -> Self {
+        self.src = src;
+        self
     }
 
     /// The core (counters, protection state).
     pub fn core(&self) -> &Controller<T> {
         &self.core
+    }
+
+    /// `(t_s, T_psi N m)`: the yaw torque the core commanded on every tick so far (at
+    /// the control period, before the actuator's delay).
+    pub fn torque(&self) -> &[(f64, f64)] {
+        &self.torque
     }
 }
 
@@ -74,23 +112,43 @@ impl<T: SampleBits> SampledController for CoreController<T> {
 
     fn step(&mut self, t_ns: u64, m: &Measurements) -> Actuation {
         self.core.set_v_ref_code(code(m.v_mps, V_REF_LSB_M_PER_S));
-        let out = self.core.tick_codes(&InputCodes {
+        let codes = InputCodes {
             y_dot: code(m.yd_mps, LAT_VEL_LSB_M_PER_S),
             current: code(m.i_a, CURRENT_LSB_A),
             speed: code(m.w_m, SPEED_LSB_RAD_PER_S),
             demand: code(m.demand_nm, DEMAND_LSB_NM),
-        });
+        };
+        let a = if self.src == Sources::WIRE {
+            let out = self.core.tick_codes(&codes);
+            Actuation {
+                t_psi: f64::from(out.yaw_torque) * TORQUE_LSB_NM,
+                u_a: f64::from(out.voltage) * VOLTAGE_LSB_V,
+            }
+        } else {
+            let mut inp: Inputs<T> = self.core.codec().decode(&codes);
+            if !self.src.y_wire {
+                inp.y_dot = T::from_f64(m.yd_mps / self.cfg.scales.y_dot);
+            }
+            let out = self.core.tick(&inp);
+            if self.src.out_wire {
+                let c = self.core.codec().encode(&out);
+                Actuation {
+                    t_psi: f64::from(c.yaw_torque) * TORQUE_LSB_NM,
+                    u_a: f64::from(c.voltage) * VOLTAGE_LSB_V,
+                }
+            } else {
+                let (t_psi, u_a) = out.to_si(&self.cfg.scales);
+                Actuation { t_psi, u_a }
+            }
+        };
+        let t_s = t_ns as f64 * 1e-9;
         if self.core.tick_events().wsp_acting() {
-            let (sp, per_a, amps) = self.set_point_law;
-            let cap_a = self.core.wsp_state().cap.to_f64() * amps;
-            self.set_point
-                .push((t_ns as f64 * 1e-9, sp + per_a * cap_a.max(0.0)));
+            let (sp, per_a) = (self.cfg.wsp.slip_sp_mps, self.cfg.wsp.slip_sp_per_a);
+            let cap_a = self.core.wsp_state().cap.to_f64() * self.cfg.scales.current;
+            self.set_point.push((t_s, sp + per_a * cap_a.max(0.0)));
         }
-        let lsb = wheelset_control::WireLsb::default();
-        Actuation {
-            t_psi: f64::from(out.yaw_torque) * lsb.torque,
-            u_a: f64::from(out.voltage) * lsb.voltage,
-        }
+        self.torque.push((t_s, a.t_psi));
+        a
     }
 }
 

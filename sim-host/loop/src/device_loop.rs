@@ -17,7 +17,7 @@
 //!
 //! So the plant sees the computation/transport delay of one period that the control
 //! core's rate analysis assumes. The link budget check refuses a configuration whose
-//! round trip does not fit ([`crate::link::check_budget`]).
+//! round trip does not fit ([`crate::sim_link::check_budget`]).
 
 use std::fmt;
 
@@ -30,7 +30,7 @@ pub use crate::inproc::{DeviceFault, InProc};
 pub use wheelset_proto::LateralSensing;
 
 use crate::exchange::{close_loop, HostCounts, LoopSetup};
-use crate::link::{Accounting, LinkBudgetError, LinkConfig};
+use crate::sim_link::{Accounting, LinkBudgetError, LinkConfig};
 use wheelset_plant::control::YawLaw;
 use wheelset_plant::params::Params;
 use wheelset_plant::scenario::Scenario;

@@ -1,5 +1,5 @@
 //! The in-process device: the firmware's own [`Runtime`] (control core, protocol, fault
-//! policy) behind the simulated serial link of [`crate::link`], on simulated time, as a
+//! policy) behind the simulated serial link of [`crate::sim_link`], on simulated time, as a
 //! [`Transport`]. Needs nothing installed; deterministic for a seed. Every closed loop
 //! with an in-process device goes through it: `sim-host run --loop device`, `hil run`,
 //! `hil golden`.
@@ -12,7 +12,7 @@
 //!
 //! so the frame the host sends at a sample instant `k T` has arrived when tick `k` runs,
 //! and its Actuation frame is back before `(k + 1) T` (the link budget check,
-//! [`crate::link::check_budget`], refuses a link where it is not). Tick `j` takes the
+//! [`crate::sim_link::check_budget`], refuses a link where it is not). Tick `j` takes the
 //! bytes that arrived by `t_j`, runs [`Runtime::tick`] and hands each frame of its output
 //! to the down link at `t_j + exec`, where `exec` is a simulated execution time (0 by
 //! default; see [`DeviceFault::TooSlow`]), which is also what the next Actuation frame
@@ -35,7 +35,7 @@ use wheelset_proto::{encode_vec, Decoder, Message};
 use wheelset_runtime::{Runtime, RuntimeConfig};
 
 use crate::device_loop::{DeviceError, ACTUATION_WORST_BYTES, SENSOR_WORST_BYTES};
-use crate::link::{check_budget, wire_ns, Link, LinkConfig, RxPort};
+use crate::sim_link::{check_budget, wire_ns, Link, LinkConfig, RxPort};
 use crate::transport::{Clock, LinkAccounting, Transport, TransportError};
 
 /// A deliberately broken device, to prove the checks can fail.

@@ -2,7 +2,7 @@
 //! the firmware's runtime, wherever the device runs, through one [`transport::Transport`].
 //!
 //! - [`transport`]: the one transport trait (bytes out, bytes in with a deadline).
-//! - [`link`]: the simulated serial link (baud, latency, faults, frame accounting).
+//! - [`sim_link`]: the simulated serial link (baud, latency, faults, frame accounting).
 //! - [`inproc`]: the in-process device (the flashed `Runtime`) as a transport.
 //! - [`exchange`]: the closed-loop adapter every device loop uses (one exchange per
 //!   control period).
@@ -16,6 +16,6 @@ pub mod core;
 pub mod device_loop;
 pub mod exchange;
 pub mod inproc;
-pub mod link;
 pub mod rate_check;
+pub mod sim_link;
 pub mod transport;

@@ -68,7 +68,7 @@ impl std::error::Error for TransportError {}
 
 /// Frame accounting of one direction as the link itself saw it (only the simulated link
 /// knows this exactly; other transports derive it from the device's counters).
-pub use crate::link::Accounting;
+pub use crate::sim_link::Accounting;
 
 /// Exact per-direction accounting a transport may provide at the end of a run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -4,7 +4,7 @@
 use wheelset_loop::device_loop::{
     deviation, run_device, DeviceError, DeviceOptions, DeviceRun, CURVE_WINDOWS,
 };
-use wheelset_loop::link::LinkConfig;
+use wheelset_loop::sim_link::LinkConfig;
 use wheelset_plant::control::YawLaw;
 use wheelset_plant::params::Params;
 use wheelset_plant::scenario::Scenario;
@@ -195,7 +195,7 @@ fn acceleration_sensing_integrated_on_the_device_also_reproduces_the_reference()
     assert_eq!(run.report.device.map(|s| s.rx_unexpected), Some(0));
 }
 
-/// `--wsp on|off` on the device loop (issue 11): the host sets `Config.wsp`; with it the
+/// `--wsp on|off` on the device loop: the host sets `Config.wsp`; with it the
 /// device's protection acts (its Status counts it, the `WHEEL_SLIP` flag reaches the
 /// host) and no wheel runs away; without it the runaway shows. The device's section
 /// table follows the f64 control core's (`--loop core`, the same laws) to 0.02 in
@@ -265,7 +265,7 @@ fn a_refused_config_is_an_error_naming_it() {
     );
 }
 
-/// `Config.monitor_safe` and `Command::ClearFaults` from the host (issue 12): on
+/// `Config.monitor_safe` and `Command::ClearFaults` from the host: on
 /// `actuator-fault` the alarm latches `FAULT_LATCHED` and holds the safe state; the
 /// ClearFaults the host sends 30 ms after the first alarm clears both (the alarm state
 /// stays high, so no new rising edge re-latches it).

@@ -37,7 +37,7 @@
 //! |---|---|---|---|---|---|---|
 //! | `dry` | 0.55 | 0.40 | 0.60 | 0.54 | 0.18 | Polach 2005 (its validation parameter sets): the dry-rail set fitted to the SBB Re 460 locomotive measurements |
 //! | `wet` | 0.30 | 0.40 | 0.29 | 0.30 | 0.075 | Polach 2005 (its validation parameter sets): the wet-rail set fitted to the measurements of the 12X locomotive |
-//! | `low` | 0.08 | 0.40 | 0.29 | 0.30 | 0.075 | **project choice**: Polach gives no set for leaves or oil; the `wet` shape with `mu0` scaled so the peak at 83.3 m/s is ~0.06, inside the 0.03-0.08 range of contaminated rail in issue 11 / `docs/model.md` |
+//! | `low` | 0.08 | 0.40 | 0.29 | 0.30 | 0.075 | **project choice**: Polach gives no set for leaves or oil; the `wet` shape with `mu0` scaled so the peak at 83.3 m/s is ~0.06, inside the 0.03-0.08 range of contaminated rail (`docs/model.md`) |
 //!
 //! `sim-host adhesion --condition C --v-mps V --json F` prints the characteristic and its
 //! peak for any condition and speed.
@@ -206,7 +206,7 @@ impl Condition {
                 "Polach, Wear 258 (2005) 992-1000, validation set: wet rail, 12X locomotive"
             }
             Condition::Low => {
-                "project choice: Polach 2005 wet shape with mu0 = 0.08 (contaminated rail 0.03-0.08, issue 11)"
+                "project choice: Polach 2005 wet shape with mu0 = 0.08 (contaminated rail 0.03-0.08, docs/model.md)"
             }
         }
     }

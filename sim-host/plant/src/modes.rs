@@ -30,15 +30,15 @@ use nalgebra::{Complex, DMatrix};
 use serde::Serialize;
 use std::f64::consts::PI;
 
-// Files: `modes/naming.rs` (tracking and naming the modes), `modes/sweep.rs` (the sweep
+// Files: `modes/naming.rs` (tracking and naming the modes), `modes/creep_sweep.rs` (the sweep
 // and its crossings), `modes/json.rs` (the JSON form).
+mod creep_sweep;
 mod json;
 mod naming;
-mod sweep;
 
+pub use creep_sweep::*;
 pub use json::*;
 pub use naming::*;
-pub use sweep::*;
 
 /// Name given to the structural zero eigenvalue.
 pub const STRUCTURAL_ZERO: &str = "rolling (structural zero)";

@@ -37,17 +37,17 @@
 //!
 //! - `sampled/matrices.rs`: the loop matrices (ZOH, tick matrices, monodromy, modes, the
 //!   continuous closed loop);
-//! - `sampled/grid.rs`: the rate grid over creep and conicity, the link budget, and the
+//! - `sampled/rate_grid.rs`: the rate grid over creep and conicity, the link budget, and the
 //!   choice of the rates;
 //! - `sampled/summary.rs`: the rate table as JSON and text;
 //! - the plant variants ([`LinearPlant`], [`Model`], [`Reduced`], [`armature`]) live
 //!   with the linearisation in [`crate::linear`].
 
-mod grid;
 mod matrices;
+mod rate_grid;
 mod summary;
 
 pub use crate::linear::{armature, LinearPlant, Model, Reduced};
-pub use grid::*;
 pub use matrices::*;
+pub use rate_grid::*;
 pub use summary::*;

@@ -132,3 +132,32 @@ fn scenario_files_refuse_bad_faults() {
         .unwrap_err();
     assert!(e.to_string().contains("gain"), "{e}");
 }
+
+/// A reversed actuator pushes the mode with the law's own gain: on `actuator-fault`
+/// (conicity 0.3, the lead) `y'` grows several times faster than with the actuator
+/// stopped (the free wheelset's rate), about 100 1/s, and the run diverges within
+/// 0.2 s of the fault (`wheelset_control::monitor`'s docs cite this).
+#[test]
+fn a_reversed_actuator_grows_faster_than_the_free_wheelset() {
+    let base = load("actuator-fault");
+    let run = |mode| {
+        let sc = Scenario {
+            actuator_fault: Some(ActuatorFault {
+                mode,
+                ..base.actuator_fault.expect("the scenario has a fault")
+            }),
+            ..base.clone()
+        };
+        run_continuous(&sc, YawLaw::Lead)
+    };
+    let growth = |tr: &Trajectory| (peak(tr, 6.07, 6.09) / peak(tr, 6.02, 6.04)).ln() / 0.05;
+    let (off, rev) = (run(FaultMode::Off), run(FaultMode::Reversed));
+    let (g_off, g_rev) = (growth(&off), growth(&rev));
+    println!("growth after the fault: stopped {g_off:.1} 1/s, reversed {g_rev:.1} 1/s");
+    assert!(
+        g_rev > 3.0 * g_off && g_rev > 70.0 && g_rev < 150.0,
+        "{g_rev} vs {g_off}"
+    );
+    let t_div = rev.info.diverged_at_s.expect("the reversed loop diverges");
+    assert!(t_div > 6.0 && t_div < 6.2, "{t_div}");
+}

@@ -92,7 +92,7 @@ fn each_bound_is_enforced_and_named() {
 }
 
 /// Every citation of the model document in the repository points at `docs/model.md`
-/// (the spec's own path is not in the repository; issue 15).
+/// (the spec's own path is not in the repository).
 #[test]
 fn every_citation_points_at_docs_model_md() {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");

@@ -156,7 +156,7 @@ pub const BLOCKS: &[Block] = &[
     sim("device-acceleration", "run --scenario curve --control lead --loop device --lateral acceleration").keep(Keep::Starting(&["vs continuous reference"])),
     sim("device-baud-refused", "run --scenario curve --control lead --loop device --baud 115200").exit(2).stderr(),
     sim("rates", "rates"),
-    // The fixed-point audit (Markdown: `wheelset_audit::readme`).
+    // The fixed-point audit (Markdown: `wheelset_audit::readme_block`).
     hil("audit", "audit --no-target --readme-block").keep(Keep::Markdown),
     // The harness, in process.
     hil("hil", ""),

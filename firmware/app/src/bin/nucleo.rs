@@ -10,11 +10,11 @@ fn main() -> ! {
 
 #[cfg(not(target_os = "none"))]
 fn main() {
-    use wheelset_fw::config;
+    use wheelset_fw::settings;
     println!(
         "wheelset-nucleo: Nucleo-F446RE firmware; base rate {} Hz, {} build, USART2 ({})",
-        config::BASE_RATE_HZ,
-        config::NUMERIC,
+        settings::BASE_RATE_HZ,
+        settings::NUMERIC,
         if cfg!(feature = "frame-clock") {
             "ST-LINK VCP at 921600 baud, frame-clocked"
         } else {

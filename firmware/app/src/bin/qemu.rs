@@ -10,12 +10,12 @@ fn main() -> ! {
 
 #[cfg(not(target_os = "none"))]
 fn main() {
-    use wheelset_fw::config;
+    use wheelset_fw::settings;
     println!(
         "wheelset-qemu: QEMU mps2-an386 firmware; base rate {} Hz, {} build, icount shift {}",
-        config::BASE_RATE_HZ,
-        config::NUMERIC,
-        config::QEMU_ICOUNT_SHIFT
+        settings::BASE_RATE_HZ,
+        settings::NUMERIC,
+        settings::QEMU_ICOUNT_SHIFT
     );
     println!("build it for the MCU with `cargo fw` (target/fw/wheelset-qemu.elf)");
 }

@@ -132,7 +132,7 @@ mod bench {
             hprintln!(
                 "{} [{}]: min {} mean {} max {} instructions (n = {}, stopwatch overhead {} removed)",
                 what,
-                wheelset_fw::config::NUMERIC,
+                wheelset_fw::settings::NUMERIC,
                 self.min.saturating_sub(overhead),
                 (self.sum / n).saturating_sub(u64::from(overhead)),
                 self.max.saturating_sub(overhead),
@@ -182,7 +182,7 @@ mod bench {
         e
     }
 
-    /// The stimulus (issue 14): y' rings like a damped yaw mode, a decaying sine
+    /// The stimulus: y' rings like a damped yaw mode, a decaying sine
     /// `y'(t) = A exp(-t / tau) sin(2 pi f t)` (A = 20 mm/s, f = 50 Hz, tau = 0.2 s),
     /// generated per tick by rotating the phasor `(c, s)` by `2 pi f / rate` and scaling
     /// it by `exp(-1 / (tau rate))`; the current follows at 100 A per m/s, the wheel
@@ -344,7 +344,7 @@ mod bench {
         let peak = stack_peak(stack_bottom);
         hprintln!(
             "stack high-water mark [{}]: {} bytes (painted window {} bytes)",
-            wheelset_fw::config::NUMERIC,
+            wheelset_fw::settings::NUMERIC,
             peak,
             STACK_WINDOW
         );

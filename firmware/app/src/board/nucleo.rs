@@ -115,7 +115,7 @@ pub const LINK_MAX_RATE_HZ: u32 = u32::MAX;
 #[cfg(not(feature = "frame-clock"))]
 const _: () = assert!(
     wheelset_proto::link::link_fits(
-        crate::config::BASE_RATE_HZ,
+        crate::settings::BASE_RATE_HZ,
         BAUD,
         wheelset_proto::SENSOR_MAX_FRAME as u32,
         wheelset_proto::ACTUATION_MAX_FRAME as u32,
@@ -440,8 +440,8 @@ pub fn run() -> ! {
 
     defmt::info!(
         "wheelset-nucleo: {} Hz base rate, {} build, USART2 at {} baud, {}; SYSCLK {} Hz, PCLK1 {} Hz, TIM2 {} Hz",
-        crate::config::BASE_RATE_HZ,
-        crate::config::NUMERIC,
+        crate::settings::BASE_RATE_HZ,
+        crate::settings::NUMERIC,
         BAUD,
         if cfg!(feature = "frame-clock") {
             "frame-clocked lock-step"

@@ -272,9 +272,9 @@ impl<T: Sample> Codec<T> {
 
     /// Codes -> per-unit inputs.
     ///
-    /// Always inlined, as [`Self::encode`]: measured (`cargo xtask fw-bench`, whole tick
-    /// mean) 1 679 -> 1 648 on the Cortex-M4 fixed point (f32 1 613 -> 1 587, Cortex-M3
-    /// 1 723 -> 1 692), for 156 B more flash on the Nucleo build (`cargo fw`).
+    /// Always inlined, as [`Self::encode`]: the scaling then folds into the tick's own
+    /// arithmetic instead of a call per frame, for a little more flash (`cargo xtask
+    /// fw-bench`, whole tick; `cargo fw`).
     #[inline(always)]
     pub fn decode(&self, c: &InputCodes) -> Inputs<T> {
         Inputs {

@@ -13,11 +13,9 @@ use super::{Coef, Fx, Sample, SampleBits, COEF_FRAC, FX_FRAC};
 /// `apply` does no arithmetic on `shift` at tick time.
 ///
 /// `repr(C)`, in the order `apply` reads the words (`round`, `mul`: one `LDM`), the
-/// shift amounts as bytes. Measured (`cargo xtask fw-bench`, Cortex-M4 fixed point, whole
-/// tick mean): 1 762 with the run-time branch on `shift` and `apply` a call, 1 691 with
-/// this form inlined; with the shift amounts as words (one `LDM` for all five) 1 695,
-/// 244 B more flash and 112 B more static RAM on the Nucleo build (`cargo fw`), so they
-/// stay bytes.
+/// shift amounts as bytes: `apply` inlined without a run-time branch on `shift` is the
+/// short form (`cargo xtask fw-bench`, whole tick); shift amounts as words would load
+/// in one `LDM` too but cost flash and static RAM for no shorter tick.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[repr(C)]
 pub struct FxScale {
@@ -129,14 +127,13 @@ impl FxScale {
     /// `sat32((x * mul + round) >> shift)`.
     ///
     /// Without a 64-bit shift by a variable amount (on a 32-bit core a library call,
-    /// `__aeabi_lasr`, ~11 instructions) and without arithmetic on `shift`: the product
+    /// `__aeabi_lasr`) and without arithmetic on `shift`: the product
     /// is one `SMLAL` into `(hi, lo)`; a `wide` scale (`shift >= 32`, the output scales)
     /// is `hi >> sh`, which always fits; a shorter shift (the input scales) combines the
     /// words (`lo >> shift | (hi << 1) << (31 - shift)`) and saturates when the high
-    /// word is not the sign extension of the result. Inlined: as a call, the six
-    /// scalings of a tick (and the slip regulator's `v_ref`) were ~24 instructions each
-    /// (`FxScale::apply` 145 per whole tick in `scripts/tick-profile.py`'s profile);
-    /// inlined ~15 for an input scale, ~8 for an output scale.
+    /// word is not the sign extension of the result. Inlined: the six scalings of a tick
+    /// (and the slip regulator's `v_ref`) then skip a call's overhead each
+    /// (`scripts/tick-profile.py` profiles the tick per function).
     #[inline(always)]
     pub fn apply(&self, x: i32) -> i32 {
         let p = x as i64 * self.mul as i64 + self.round;

@@ -1,5 +1,5 @@
 //! What the runtime's tests share: Sensor frames at the `curve` operating point
-//! (115 A, 925.6 rad/s = 25 m/s, 2.46 kN m demand) and the decoding of what a tick
+//! (115 A, 925.6 rad/s = 83.3 m/s, 2.46 kN m demand) and the decoding of what a tick
 //! returned.
 #![allow(dead_code)]
 

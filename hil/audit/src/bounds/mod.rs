@@ -69,7 +69,7 @@ use super::qdyn::QFormat;
 use super::ranges::Observed;
 use super::wcpg::Wcpg;
 
-/// One signal's observed and proven magnitude (the record, extended).
+/// One signal's observed and proven magnitude (the audit's bound record).
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Bound {
     /// Signal name (as in the ranges table; predictor and intermediates added).

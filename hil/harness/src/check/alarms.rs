@@ -208,7 +208,7 @@ pub fn replay(
     p: &MonitorParams,
 ) -> Option<Replay> {
     let mut control = rt.control;
-    control.wire = wheelset_runtime::protocol_wire_lsb();
+    control.wire = wheelset_control::WireLsb::default();
     let codec = *Compiled::<Fx>::try_new(&control).ok()?.codec();
     let m = Monitor::<Fx>::try_new(p, control.base_rate_hz).ok()?;
     let commanding = rt.enable && control.yaw_mode != YawMode::Passive;

@@ -4,7 +4,7 @@
 //! `sent = received + rejected + dropped + in_flight`, per direction and in total.
 //!
 //! Two sources:
-//! - `link`: the simulated link attributes every frame exactly (`wheelset_loop::link`);
+//! - `link`: the simulated link attributes every frame exactly (`wheelset_loop::sim_link`);
 //! - `device-status`: the device's own counters (its Status frame, requested at the end)
 //!   for host -> device, the host's decoder for device -> host; `dropped` is what remains
 //!   (`sent - received - rejected`), and a negative remainder is reported as not adding up.
@@ -84,7 +84,7 @@ impl FramesReport {
     /// From the simulated link's exact accounting.
     #[must_use]
     pub fn from_link(l: &LinkAccounting) -> Self {
-        let d = |a: &wheelset_loop::link::Accounting| Direction {
+        let d = |a: &wheelset_loop::sim_link::Accounting| Direction {
             sent: a.sent,
             received: a.received,
             rejected: a.rejected,

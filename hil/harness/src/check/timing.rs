@@ -20,7 +20,7 @@
 //! - **link utilisation**: mean bytes per period (both directions) x 10 bits / baud / T.
 
 use serde::Serialize;
-use wheelset_loop::link::wire_ns;
+use wheelset_loop::sim_link::wire_ns;
 
 use crate::budget::{Limit, TimingBudgets};
 use wheelset_loop::exchange::{Period, RxActuation};

@@ -14,7 +14,7 @@ pub(crate) use sweep::{cmd_sweep, SweepCmd};
 
 use clap::ValueEnum;
 use hil::run::RunError;
-use wheelset_loop::link::Faults;
+use wheelset_loop::sim_link::Faults;
 use wheelset_plant::params::Params;
 use wheelset_targets::qemu::machine::Machine;
 

@@ -9,7 +9,7 @@ use hil::budget::Budgets;
 use hil::report;
 use hil::run::{run, Law, RunOptions, Target};
 use wheelset_loop::inproc::DeviceFault;
-use wheelset_loop::link::{Faults, LinkConfig};
+use wheelset_loop::sim_link::{Faults, LinkConfig};
 use wheelset_plant::params::Params;
 use wheelset_report::Verdict;
 use wheelset_targets::qemu::machine::Machine;
@@ -77,7 +77,7 @@ pub(crate) struct RunArgs {
     #[arg(long, default_value = "none", value_parser = parse_device_fault)]
     device_fault: DeviceFault,
     /// Link baud (10 bits per byte).
-    #[arg(long, default_value_t = wheelset_loop::link::DEFAULT_BAUD, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = wheelset_loop::sim_link::DEFAULT_BAUD, allow_negative_numbers = true)]
     baud: u32,
     /// Seed of the simulated link's faults.
     #[arg(long, default_value_t = 1, allow_negative_numbers = true)]

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use clap::{Args, Subcommand};
 use hil::budget::Budgets;
 use hil::run::{Law, RunOptions, Target};
-use wheelset_loop::link::{Faults, LinkConfig};
+use wheelset_loop::sim_link::{Faults, LinkConfig};
 use wheelset_report::Verdict;
 
 use super::{input, load_params, parse_faults, run_error, Control, Failure};

@@ -3,6 +3,7 @@
 //! and the rate the run asks of it (the link check before a run).
 
 use wheelset_control::Fx;
+use wheelset_plant::params::Params;
 use wheelset_runtime::RuntimeConfig;
 
 use super::{RunError, RunOptions, Target, QEMU_FREE_BAUD, QEMU_FREE_RATE_HZ};
@@ -140,7 +141,7 @@ pub(super) fn open_qemu_free(opts: &RunOptions, rt: &RuntimeConfig) -> Result<Re
 
 /// The base rate of a run: `opts.rate_hz` or the control core's default, checked for the
 /// target (a whole number of ns per period in process; of us elsewhere, as the
-/// firmware's ticker needs), then the link against it ([`crate::link_check`]; not under
+/// firmware's ticker needs), then the link against it ([`link_fits`]; not under
 /// lock-step, where the frames are the device's clock).
 pub(super) fn run_rate(opts: &RunOptions, default_hz: u32) -> Result<u32, RunError> {
     let hz = opts.rate_hz.unwrap_or(if opts.target == Target::QemuFree {
@@ -175,20 +176,105 @@ pub(super) fn run_rate(opts: &RunOptions, default_hz: u32) -> Result<u32, RunErr
     // Lock-step: the host's frames are the device's clock, so the link need not carry
     // an exchange per period of wall time (the run just takes longer).
     if !lockstep {
-        crate::link_check::check(
-            if opts.target == Target::QemuFree {
-                QEMU_FREE_BAUD
-            } else {
-                opts.link.baud
-            },
-            hz,
-            if opts.target == Target::InProc {
-                opts.link.latency_ns
-            } else {
-                wheelset_loop::link::DEFAULT_LATENCY_NS
-            },
-        )
-        .map_err(RunError::Input)?;
+        let baud = if opts.target == Target::QemuFree {
+            QEMU_FREE_BAUD
+        } else {
+            opts.link.baud
+        };
+        let latency_ns = if opts.target == Target::InProc {
+            opts.link.latency_ns
+        } else {
+            wheelset_loop::sim_link::DEFAULT_LATENCY_NS
+        };
+        link_fits(baud, hz, latency_ns).map_err(RunError::Input)?;
     }
     Ok(hz)
+}
+
+/// The link against the rate, before a run: the harness's worst-case exchange (the
+/// Sensor frame with one lateral value up, the Actuation frame down) must fit the one
+/// link budget ([`wheelset_loop::sim_link::check_budget`]). The refusal names the
+/// budget's numbers, the lowest baud this rate needs and the highest rate this baud
+/// carries.
+fn link_fits(baud: u32, rate_hz: u32, latency_ns: u64) -> Result<(), String> {
+    let period_ns = 1_000_000_000 / u64::from(rate_hz.max(1));
+    wheelset_loop::sim_link::check_budget(
+        wheelset_proto::SENSOR_ONE_LATERAL_MAX_FRAME,
+        wheelset_proto::ACTUATION_MAX_FRAME,
+        baud,
+        latency_ns,
+        period_ns,
+    )
+    .map(|_| ())
+    .map_err(|e| {
+        format!(
+            "--baud {baud} cannot carry --rate-hz {rate_hz}: {e}; at {baud} baud the highest \
+             rate is {} Hz",
+            e.max_rate_hz()
+        )
+    })
+}
+
+/// The parameter keys that set the device's control gains and motor constants
+/// (`wheelset_loop::device_loop::control_config`): the lead, the pure gain, the traction PI and
+/// the motor.
+pub const DEVICE_KEYS: &[&str] = &[
+    "k_active",
+    "lead_gain",
+    "lead_zero",
+    "lead_pole",
+    "pi_kp",
+    "pi_ti",
+    "k_m",
+    "n_gear",
+];
+
+/// A device outside this process has its gains compiled in: a Config frame carries the
+/// rates (with their coefficients), the law and the limits, not the gains. Parameters
+/// that change the gains ([`DEVICE_KEYS`]) are refused there, naming them, instead of
+/// running a device that does not follow them.
+pub fn remote_gains(p: &Params, target: &Target) -> Result<(), RunError> {
+    let d = Params::default();
+    let (given, default) = (p.entries(), d.entries());
+    let changed: Vec<String> = given
+        .iter()
+        .zip(&default)
+        .filter(|((k, a), (_, b))| DEVICE_KEYS.contains(k) && a != b)
+        .map(|((k, a), _)| format!("{k} = {a}"))
+        .collect();
+    if changed.is_empty() {
+        return Ok(());
+    }
+    Err(RunError::Input(format!(
+        "parameters {}: they set the device's gains, which a device on {target} has compiled \
+         in (its Config frame carries the rates, the law and the limits, not the gains); \
+         run them with --target inproc",
+        changed.join(", ")
+    )))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::link_fits;
+    use wheelset_proto::link::{max_rate_hz, min_baud, LINK_SHARE_MAX_PERMILLE};
+    use wheelset_proto::{ACTUATION_MAX_FRAME, SENSOR_ONE_LATERAL_MAX_FRAME};
+
+    #[test]
+    fn the_refusal_names_the_budget_s_edges() {
+        let (up, down) = (
+            SENSOR_ONE_LATERAL_MAX_FRAME as u32,
+            ACTUATION_MAX_FRAME as u32,
+        );
+        let (lat, s) = (2_000, LINK_SHARE_MAX_PERMILLE);
+        let r = max_rate_hz(921_600, up, down, lat, s);
+        let b = min_baud(5_000, up, down, lat, s).unwrap_or(0);
+        let e = link_fits(921_600, 5_000, lat).err().unwrap_or_default();
+        assert!(e.contains("link budget exceeded"), "{e}");
+        assert!(e.contains(&format!("highest rate is {r} Hz")), "{e}");
+        assert!(e.contains(&format!("at least {b} or")), "{e}");
+        assert!(link_fits(wheelset_loop::sim_link::DEFAULT_BAUD, 5_000, lat).is_ok());
+        assert!(link_fits(b, 5_000, lat).is_ok());
+        assert!(link_fits(b - 1, 5_000, lat).is_err());
+        assert!(link_fits(921_600, r, lat).is_ok());
+    }
 }

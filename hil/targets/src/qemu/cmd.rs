@@ -8,7 +8,7 @@
 //! never advances while the guest sleeps. With `N` = `ICOUNT_SHIFT` = 10, 1024 ns per
 //! instruction, the mps2-an386's 25 MHz SysTick counts 25.6 per instruction, so the
 //! firmware converts its SysTick counts to exact instruction counts (its
-//! `config::QEMU_ICOUNT_SHIFT` must equal this).
+//! `settings::QEMU_ICOUNT_SHIFT` must equal this).
 
 /// The QEMU executable.
 pub const QEMU_BIN: &str = "qemu-system-arm";

@@ -6,7 +6,7 @@
 //!
 //! The `exec` field is in instructions (the firmware's SysTick stopwatch converted with
 //! the icount shift), deterministic run to run. Its time scale for the timing checks is
-//! `--cpu-hz` at one instruction per cycle (default the board's 180 MHz, an estimate; the
+//! `--cpu-hz` at one instruction per cycle (default the board's 168 MHz, an estimate; the
 //! emulated mps2-an386 itself is nominally 25 MHz, [`MPS2_CPU_HZ`]).
 
 use std::time::Duration;

@@ -4,7 +4,7 @@
 
 use std::time::{Duration, Instant};
 
-use wheelset_loop::link::wire_ns;
+use wheelset_loop::sim_link::wire_ns;
 use wheelset_proto::{encode_vec, Command, Config, Flags, Message, Status};
 
 use wheelset_loop::transport::TransportError;

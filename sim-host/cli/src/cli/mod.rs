@@ -3,7 +3,7 @@
 //! `--params` loader and the JSON writer.
 
 mod adhesion;
-mod device;
+mod loop_device;
 mod modes;
 mod rates;
 mod run;

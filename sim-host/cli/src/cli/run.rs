@@ -6,7 +6,7 @@ use wheelset_plant::scenario::Scenario;
 use wheelset_plant::sim::Trajectory;
 use wheelset_report::outln;
 
-use super::device::{cmd_run_device, DeviceArgs, LoopKind, OnOff};
+use super::loop_device::{cmd_run_device, DeviceArgs, LoopKind, OnOff};
 use super::{check_outputs, io_fail, load_params, simulate, warn, write_json, Control, Failure};
 
 #[derive(clap::Args)]

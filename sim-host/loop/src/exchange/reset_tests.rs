@@ -1,5 +1,5 @@
 //! The reset detection of [`super::DeviceController`]: a device whose tick counter goes
-//! back is counted as reset and sent its Config again (issue 20).
+//! back is counted as reset and sent its Config again.
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 

@@ -70,7 +70,7 @@ impl Stopwatch for SysTickStopwatch {
         }
         systick_to_instructions(
             systick_elapsed(start, end),
-            crate::config::QEMU_ICOUNT_SHIFT,
+            crate::settings::QEMU_ICOUNT_SHIFT,
         )
     }
 }
@@ -171,8 +171,8 @@ pub fn run() -> ! {
     uart::init();
     defmt::info!(
         "wheelset-qemu: {} Hz base rate, {} build, {}",
-        crate::config::BASE_RATE_HZ,
-        crate::config::NUMERIC,
+        crate::settings::BASE_RATE_HZ,
+        crate::settings::NUMERIC,
         if cfg!(feature = "free-run") {
             "free-running on TIMER0"
         } else {

@@ -27,7 +27,7 @@ pub const NS_PER_S: u64 = 1_000_000_000;
 mod accounting;
 mod capacity;
 mod channel;
-mod fault;
+mod line_faults;
 
 pub use accounting::{Accounting, RxPort};
 pub use capacity::{
@@ -35,4 +35,6 @@ pub use capacity::{
     DEFAULT_LATENCY_NS,
 };
 pub use channel::{Channel, ChannelCounters, FrameId, Link};
-pub use fault::{Burst, FaultDir, FaultSpecError, Faults, Outage, MAX_BURST_RATE_HZ, MAX_OUTAGE_S};
+pub use line_faults::{
+    Burst, FaultDir, FaultSpecError, Faults, Outage, MAX_BURST_RATE_HZ, MAX_OUTAGE_S,
+};

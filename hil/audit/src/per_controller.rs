@@ -6,9 +6,9 @@ use wheelset_control::{Config, ConfigError, Sample};
 use super::limits;
 use super::model::{CoefRow, ControllerAudit, DcGain, FreqPoint, PoleZero, Roots, Worst};
 use super::response::{self, Coeffs, Kind};
-use super::verdict::Tolerances;
+use super::tolerances::Tolerances;
 
-/// The named frequencies of issue 7, Hz.
+/// The named frequencies of the audit's responses, Hz.
 pub const NAMED_HZ: [f64; 5] = [1.0, 10.0, 16.0, 50.0, 100.0];
 
 /// The frequency grid: the named points plus 40 log-spaced points 0.1 Hz .. 0.45 fs.

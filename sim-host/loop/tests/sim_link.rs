@@ -1,7 +1,7 @@
-//! The simulated serial link (`wheelset_loop::link`) through its public API: the fault
+//! The simulated serial link (`wheelset_loop::sim_link`) through its public API: the fault
 //! spec, the timing of the line, fault injection and the frame accounting.
 
-use wheelset_loop::link::*;
+use wheelset_loop::sim_link::*;
 use wheelset_proto::Message;
 use wheelset_proto::{encode_vec, Command, Sensor};
 

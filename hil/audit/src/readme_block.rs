@@ -1,46 +1,18 @@
-//! The README's generated audit block: the audit's headline figures as Markdown, the
-//! body between [`BEGIN`] and [`END`], printed by `hil audit --no-target --readme-block` and checked
-//! against `README.md` by `hil/harness/tests/audit_readme.rs`, so a change that moves a figure
-//! fails until the README follows. `cargo xtask readme` rewrites it like its other
-//! blocks (a Markdown block: the output verbatim); [`generate`] is the same in process.
+//! The book's generated audit block: the audit's headline figures as Markdown, printed by
+//! `hil audit --no-target --readme-block`. The block `audit` of `docs/audit.md` is checked
+//! against that output by `cargo xtask readme --check` like every other generated block
+//! (a Markdown block: the output verbatim), so a change that moves a figure fails until
+//! the chapter follows.
 
 use std::fmt::Write as _;
 
 use super::ranges::Phase;
-use super::report_sections::{bounds_table, error_bounds_table, Detail};
-use super::{build, Audit, AuditArgs, AuditError, Status};
+use super::writeup_sections::{bounds_table, error_bounds_table, Detail};
+use super::{Audit, Status};
 use wheelset_report::table::Table;
-
-/// The block's first line.
-pub const BEGIN: &str = "<!-- generated:audit -->";
-/// The block's last line.
-pub const END: &str = "<!-- /generated:audit -->";
 
 /// The command the block comes from.
 pub const COMMAND: &str = "cargo run --release -q -p hil -- audit --no-target --readme-block";
-
-/// The arguments [`generate`] runs the audit with (`--no-target --readme-block`).
-pub fn args() -> AuditArgs {
-    AuditArgs {
-        no_target: true,
-        readme_block: true,
-        quiet: true,
-        ..AuditArgs::default()
-    }
-}
-
-/// Run the audit as [`COMMAND`] does and return the block ([`block`]).
-pub fn generate() -> Result<String, AuditError> {
-    Ok(block(&build(&args())?))
-}
-
-/// The body of the block in `text`: the lines between the [`BEGIN`] line and the
-/// [`END`] line (markers excluded), if present.
-pub fn extract(text: &str) -> Option<&str> {
-    let a = text.find(&format!("{BEGIN}\n"))? + BEGIN.len() + 1;
-    let b = text[a..].find(&format!("\n{END}"))? + a + 1;
-    Some(&text[a..b])
-}
 
 fn worst_coef(a: &Audit, name: &str) -> String {
     a.controllers
@@ -55,7 +27,7 @@ fn worst_coef(a: &Audit, name: &str) -> String {
         .unwrap_or_else(|| "-".into())
 }
 
-/// The block's body for `a`, what goes between [`BEGIN`] and [`END`] (every line ends
+/// The block's body for `a`, what goes between the `<!-- generated:audit -->` markers (every line ends
 /// in `\n`).
 pub fn block(a: &Audit) -> String {
     let mut s = String::new();

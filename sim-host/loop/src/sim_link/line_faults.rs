@@ -50,7 +50,7 @@ pub enum FaultDir {
 /// | `dir` | `both`, `up`, `down` | directions the faults apply to (default both) |
 ///
 /// ```
-/// use wheelset_loop::link::Faults;
+/// use wheelset_loop::sim_link::Faults;
 /// let f: Faults = "ber=1e-3,drop=0.1,outage=8.0:0.05".parse().unwrap();
 /// assert_eq!(f.outages[0].len_ns, 50_000_000);
 /// assert!("ber=2".parse::<Faults>().is_err());
@@ -222,7 +222,7 @@ impl FromStr for Faults {
 /// that act (empty for none); it parses back to the same [`Faults`] (outages to the ns).
 ///
 /// ```
-/// use wheelset_loop::link::Faults;
+/// use wheelset_loop::sim_link::Faults;
 /// let f: Faults = " drop=0.05 ,ber=1e-3,outage=8:0.05:up".parse().unwrap();
 /// assert_eq!(f.to_string(), "ber=0.001,drop=0.05,outage=8:0.05:up");
 /// assert_eq!(f.to_string().parse::<Faults>().unwrap(), f);

@@ -11,9 +11,10 @@
 //! visible as wire codes: 0.1 N m and 10 mV).
 
 use serde::Serialize;
+use wheelset_control::WireLsb;
 use wheelset_control::{Config, Controller, Fx, InputCodes};
 use wheelset_proto::{encode_vec, Actuation, Decoder, Lateral, Message, Sensor};
-use wheelset_runtime::{protocol_wire_lsb, Runtime, RuntimeConfig};
+use wheelset_runtime::{Runtime, RuntimeConfig};
 
 use super::ranges::Scenario;
 use wheelset_targets::qemu::{Qemu, QemuConfig};
@@ -72,7 +73,7 @@ pub struct TargetReport {
 }
 
 fn codes(t: &super::ranges::Tick) -> InputCodes {
-    let w = protocol_wire_lsb();
+    let w = WireLsb::default();
     let c = |v: f64, lsb: f64| {
         let x = (v / lsb).round();
         if x.is_finite() {
@@ -166,7 +167,7 @@ pub fn compare(scenarios: &[(&Scenario, f64)], window: usize, cfg: &Config) -> T
             Err(e) => return na(format!("host runtime: {e}")),
         };
         let mut fcfg = rc.control;
-        fcfg.wire = protocol_wire_lsb();
+        fcfg.wire = WireLsb::default();
         let mut fl = match Controller::<f64>::try_new(&fcfg) {
             Ok(c) => c,
             Err(e) => return na(format!("f64 core: {e}")),

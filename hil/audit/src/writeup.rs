@@ -418,7 +418,7 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
         ]);
     }
     let _ = write!(w, "{t}");
-    super::report_sections::proofs_and_findings(a, w);
+    super::writeup_sections::proofs_and_findings(a, w);
     let _ = writeln!(w, "\n## Recommended formats\n");
     let _ = writeln!(
         w,

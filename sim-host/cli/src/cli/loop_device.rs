@@ -113,7 +113,7 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
             ),
         });
     }
-    let baud = d.baud.unwrap_or(wheelset_loop::link::DEFAULT_BAUD);
+    let baud = d.baud.unwrap_or(wheelset_loop::sim_link::DEFAULT_BAUD);
     if baud == 0 {
         return Err(Failure {
             code: 2,
@@ -127,15 +127,15 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
         });
     }
     let faults_spec = d.faults.clone().unwrap_or_default();
-    let faults: wheelset_loop::link::Faults =
+    let faults: wheelset_loop::sim_link::Faults =
         faults_spec
             .parse()
-            .map_err(|e: wheelset_loop::link::FaultSpecError| Failure {
+            .map_err(|e: wheelset_loop::sim_link::FaultSpecError| Failure {
                 code: 2,
                 msg: e.to_string(),
             })?;
     let opt = DeviceOptions {
-        link: wheelset_loop::link::LinkConfig {
+        link: wheelset_loop::sim_link::LinkConfig {
             baud,
             latency_ns: (latency_us * 1e3).round() as u64,
             faults,

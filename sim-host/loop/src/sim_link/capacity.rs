@@ -21,8 +21,8 @@ pub struct LinkConfig {
 /// Default baud: 5 Mbaud, a round figure just below the Nucleo build's 5.25 Mbaud (USART2
 /// on APB1 at 42 MHz, OVER8 = 1, USARTDIV 1: its highest); it carries the default 5 kHz
 /// round trip of the worst-case frames (43 + 30 bytes, 146 us + 2 x 2 us of latency) within
-/// the 85 % share (170 us; see [`check_budget`]). 4 Mbaud (183 us) no longer does since
-/// wire version 2 (the reference speed and 16-bit flags).
+/// the 85 % share (170 us; see [`check_budget`]); 4 Mbaud (183 us) does not (both
+/// checked by `tests/sim_link.rs`, the frame sizes by `wheelset-proto`'s `tests/sizes.rs`).
 pub const DEFAULT_BAUD: u32 = 5_000_000;
 /// Default one-way latency: 2 us (UART FIFO + DMA hand-off).
 pub const DEFAULT_LATENCY_NS: u64 = 2_000;
@@ -91,6 +91,21 @@ impl fmt::Display for LinkBudgetError {
 }
 
 impl std::error::Error for LinkBudgetError {}
+
+impl LinkBudgetError {
+    /// The highest rate at which this link carries the same exchange, Hz (0: none), from
+    /// the same budget ([`wheelset_proto::link::max_rate_hz`]).
+    #[must_use]
+    pub fn max_rate_hz(&self) -> u32 {
+        wheelset_proto::link::max_rate_hz(
+            self.baud,
+            u32::try_from(self.up_bytes).unwrap_or(u32::MAX),
+            u32::try_from(self.down_bytes).unwrap_or(u32::MAX),
+            self.latency_ns,
+            wheelset_proto::link::LINK_SHARE_MAX_PERMILLE,
+        )
+    }
+}
 
 /// Time on the line for `n` bytes at `baud`, ns (rounded up):
 /// [`wheelset_proto::link::wire_ns`].

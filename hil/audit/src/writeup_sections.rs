@@ -1,5 +1,5 @@
 //! The Markdown report's sections on the proofs, the closed loop and the findings
-//! attributed by experiment ([`super::report::markdown`] calls them in place).
+//! attributed by experiment ([`super::writeup::markdown`] calls them in place).
 
 use std::fmt::Write as _;
 

@@ -1,0 +1,132 @@
+//! The monitor as exact bits: the monitor that never runs, [`MonitorBits`] to and from a
+//! [`Monitor`], and the `const` constructor the firmware builds its boot monitor with.
+
+use super::{divisor_for, Monitor, MonitorBits};
+use crate::sample::{Coef, Fx, SampleBits};
+
+impl<T: SampleBits> Monitor<T> {
+    /// A monitor that never runs (rate 0): no alarms.
+    pub fn off() -> Self {
+        let z = T::COEFF_ZERO;
+        Self {
+            rate_hz: 0,
+            div: 0,
+            k_lo: z,
+            k_hi: z,
+            k_ms: z,
+            on: T::ZERO,
+            off: T::ZERO,
+            floor: T::ZERO,
+            shrink: z,
+            block: 0,
+            blocks: 0,
+            drift: T::ZERO,
+        }
+    }
+
+    /// The exact bits.
+    pub fn to_bits(&self) -> MonitorBits {
+        let c = |v: T::Coeff| T::coeff_to_bits64(v);
+        MonitorBits {
+            rate_hz: self.rate_hz,
+            k_lo: c(self.k_lo),
+            k_hi: c(self.k_hi),
+            k_ms: c(self.k_ms),
+            levels: [
+                self.on.to_bits64(),
+                self.off.to_bits64(),
+                self.floor.to_bits64(),
+            ],
+            shrink: c(self.shrink),
+            block: self.block,
+            blocks: self.blocks,
+            drift: self.drift.to_bits64(),
+        }
+    }
+
+    /// From exact bits, validated (coefficients in `(0, 1)`, levels `0 < off < on`,
+    /// `floor > 0`, `drift > 0`, a block and a count of at least 1), for `base_rate_hz`; rate 0 gives
+    /// [`Self::off`]-like behaviour (never runs). Integer work only.
+    pub fn from_bits(b: &MonitorBits, base_rate_hz: u32) -> Result<Self, crate::BitsError> {
+        let err = |field| crate::BitsError { field };
+        let coef = |field, v: u64| {
+            T::coeff_from_bits64(v)
+                .filter(|c| T::coeff_in_unit(*c, false))
+                .ok_or(err(field))
+        };
+        let sig = |field, v: u64| T::from_bits64(v).ok_or(err(field));
+        let [on, off, floor] = b.levels;
+        let (on, off, floor) = (
+            sig("monitor.levels", on)?,
+            sig("monitor.levels", off)?,
+            sig("monitor.levels", floor)?,
+        );
+        if !(T::ZERO < off && off < on && T::ZERO < floor) {
+            return Err(err("monitor.levels"));
+        }
+        if b.block == 0 || b.blocks == 0 {
+            return Err(err("monitor.block"));
+        }
+        let drift = sig("monitor.drift", b.drift)?;
+        if drift <= T::ZERO {
+            return Err(err("monitor.drift"));
+        }
+        let mut m = Self {
+            rate_hz: b.rate_hz,
+            div: 1,
+            k_lo: coef("monitor.k_lo", b.k_lo)?,
+            k_hi: coef("monitor.k_hi", b.k_hi)?,
+            k_ms: coef("monitor.k_ms", b.k_ms)?,
+            on,
+            off,
+            floor,
+            shrink: coef("monitor.shrink", b.shrink)?,
+            block: b.block,
+            blocks: b.blocks,
+            drift,
+        };
+        m.retime(base_rate_hz);
+        Ok(m)
+    }
+}
+
+const fn fx_signal(v: u64) -> Fx {
+    Fx::from_bits(v as u32 as i32)
+}
+const fn fx_coeff(v: u64) -> Coef {
+    Coef::from_bits(v as u32 as i32)
+}
+const fn f32_value(v: u64) -> f32 {
+    f32::from_bits(v as u32)
+}
+
+macro_rules! from_valid_bits {
+    ($t:ty, $signal:expr, $coeff:expr) => {
+        impl Monitor<$t> {
+            /// [`Monitor::from_bits`] without validation, in a `const` context, for bits
+            /// known valid ([`Monitor::to_bits`] output: the firmware's build-time
+            /// constant, checked by a host test), with `div` for `base_rate_hz` as
+            /// [`Monitor::retime`].
+            pub const fn from_valid_bits(b: &MonitorBits, base_rate_hz: u32) -> Self {
+                let (s, c) = ($signal, $coeff);
+                Self {
+                    rate_hz: b.rate_hz,
+                    div: divisor_for(b.rate_hz, base_rate_hz),
+                    k_lo: c(b.k_lo),
+                    k_hi: c(b.k_hi),
+                    k_ms: c(b.k_ms),
+                    on: s(b.levels[0]),
+                    off: s(b.levels[1]),
+                    floor: s(b.levels[2]),
+                    shrink: c(b.shrink),
+                    block: b.block,
+                    blocks: b.blocks,
+                    drift: s(b.drift),
+                }
+            }
+        }
+    };
+}
+
+from_valid_bits!(Fx, fx_signal, fx_coeff);
+from_valid_bits!(f32, f32_value, f32_value);
