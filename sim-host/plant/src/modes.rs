@@ -220,17 +220,18 @@ pub struct Crossing {
     pub unstable_below: bool,
 }
 
-/// A mode's value at one point.
+/// A mode's value at one point (fields in alphabetical order: the JSON's keys sorted,
+/// see `modes/json.rs`).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ModeValue {
+    /// Damped frequency `im / 2 pi`, Hz.
+    pub freq_hz: f64,
+    /// Imaginary part (non-negative), rad/s.
+    pub im: f64,
     /// Mode name (`kinematic`, `high-frequency`, `torsional`, ...).
     pub name: String,
     /// Real part, 1/s.
     pub re: f64,
-    /// Imaginary part (non-negative), rad/s.
-    pub im: f64,
-    /// Damped frequency `im / 2 pi`, Hz.
-    pub freq_hz: f64,
     /// Damping ratio `-re / |lambda|` (1 for a stable real eigenvalue).
     pub zeta: f64,
 }
