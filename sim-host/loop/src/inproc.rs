@@ -21,9 +21,10 @@
 //! ([`Transport::extra`]: `host_tick_ns`), never judged.
 //!
 //! Frame accounting (the one method): each end of the link has an [`RxPort`] that
-//! decodes the delivered bytes as a shadow of the receiver's own decoder (the device's
-//! runtime, the host's adapter), so every frame sent is attributed to its fate whatever
-//! the receiver's counters mean ([`Transport::link_accounting`]).
+//! attributes every frame sent to its fate ([`Transport::link_accounting`]). The device's
+//! port takes the outcome of each frame from the runtime's own decoder (its rejection
+//! counters, see [`outcome`]); the host's port decodes the delivered bytes as a shadow of
+//! the host adapter's decoder.
 //!
 //! Deliberately broken devices ([`DeviceFault`]) exist so the harness's checks can be
 //! shown to fail.
@@ -152,6 +153,8 @@ pub struct InProc<T: SampleBits = Fx> {
     baud: u32,
     rt: Runtime<T>,
     dev_rx: RxPort,
+    /// The device's decoder holds bytes of an unfinished frame (see [`outcome`]).
+    dev_frame_open: bool,
     host_rx: RxPort,
     fault: DeviceFault,
     period_ns: u64,
@@ -194,6 +197,7 @@ impl<T: SampleBits> InProc<T> {
             baud: link_cfg.baud,
             rt,
             dev_rx: RxPort::new(),
+            dev_frame_open: false,
             host_rx: RxPort::new(),
             fault,
             period_ns,
@@ -265,10 +269,13 @@ impl<T: SampleBits> InProc<T> {
     }
 
     fn tick(&mut self, t_ns: u64) {
-        let (rt, port) = (&mut self.rt, &mut self.dev_rx);
+        let (rt, port, open) = (&mut self.rt, &mut self.dev_rx, &mut self.dev_frame_open);
         self.link.up.deliver(t_ns, |run, id| {
-            rt.receive(run);
-            port.push(run, id, |_| {});
+            port.push_with(run, id, |piece| {
+                let before = *rt.counters();
+                rt.receive(piece);
+                outcome(piece, open, &before, rt.counters())
+            });
         });
         let start = Instant::now();
         let out = self.rt.tick(self.last_exec);
@@ -315,6 +322,41 @@ impl<T: SampleBits> InProc<T> {
             }
         }
     }
+}
+
+/// The outcome of the frame that one [`Runtime::receive`] call on `piece` (bytes up to
+/// and including a 0x00, or a run's tail) closed, read from the runtime's own counters:
+/// the up link's frame accounting attributes what the device's decoder decided, with no
+/// second decoder over the same bytes.
+///
+/// `open` tracks whether the runtime's decoder holds bytes of an unfinished frame (a
+/// non-zero byte since the last 0x00: its decoder skips empty frames and decodes every
+/// other one). A closed non-empty frame is either rejected, and exactly one of the
+/// rejection counters went up by one, or valid (a `ResetCounters` then zeroed them all).
+fn outcome(
+    piece: &[u8],
+    open: &mut bool,
+    before: &wheelset_proto::Status,
+    after: &wheelset_proto::Status,
+) -> Option<Result<(), wheelset_proto::FrameError>> {
+    use wheelset_proto::FrameError;
+    let closes = piece.last() == Some(&0);
+    let nonempty = *open || piece.len() > usize::from(closes);
+    *open = !closes && nonempty;
+    if !(closes && nonempty) {
+        return None;
+    }
+    let up = |b: u32, a: u32| a == b.wrapping_add(1);
+    let kind = [
+        (up(before.rx_crc, after.rx_crc), FrameError::Crc),
+        (up(before.rx_cobs, after.rx_cobs), FrameError::Cobs),
+        (up(before.rx_version, after.rx_version), FrameError::Version),
+        (up(before.rx_length, after.rx_length), FrameError::Length),
+        (up(before.rx_postcard, after.rx_postcard), FrameError::Postcard),
+    ]
+    .into_iter()
+    .find_map(|(hit, e)| hit.then_some(e));
+    Some(kind.map_or(Ok(()), Err))
 }
 
 /// Re-encodes every Actuation frame in `out` into `res` with the yaw torque negated.
