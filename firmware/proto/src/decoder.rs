@@ -121,6 +121,17 @@ impl<const N: usize> Decoder<N> {
         }
     }
 
+    /// Takes `bytes` up to and including the first delimiter: returns the frame's result
+    /// if that closed one (as [`Self::push`] byte by byte would report it) and the bytes
+    /// not yet taken. The host's decoder: a caller loops until the rest is empty, and may
+    /// use its own state between frames (the bytes each frame took on the wire, say).
+    pub fn next_message<'b>(
+        &mut self,
+        bytes: &'b [u8],
+    ) -> (Option<Result<Message, FrameError>>, &'b [u8]) {
+        self.next_with(bytes, message_from_raw)
+    }
+
     /// [`Self::feed`] for the device: frames decoded as by [`crate::decode_request`] (the
     /// messages the device takes; the others recognised by their type only).
     pub fn feed_requests(&mut self, bytes: &[u8], mut f: impl FnMut(Result<Request, FrameError>)) {

@@ -26,8 +26,8 @@
 use indicatif::ProgressBar;
 use wheelset_control::InputCodes;
 use wheelset_proto::{
-    encode_vec, Actuation, Command, Config, Decoder, Flags, FrameError, Lateral, LateralSensing,
-    Message, Sensor, SensorSi, Status,
+    encode, Actuation, Command, Config, Decoder, Flags, FrameError, Lateral, LateralSensing,
+    Message, Sensor, SensorSi, Status, MAX_FRAME,
 };
 
 use crate::transport::{Transport, TransportError};
@@ -117,7 +117,8 @@ pub struct DeviceController<'a> {
     k: u64,
     held: Option<(SiActuation, Actuation)>,
     fresh: bool,
-    rx_buf: Vec<(u64, u8)>,
+    /// The frames of one [`Self::receive`]: arrival, bytes on the wire, result.
+    rx_frames: Vec<(u64, usize, Result<Message, FrameError>)>,
     frame_bytes: usize,
     /// Every Actuation frame received, in order.
     pub actuations: Vec<RxActuation>,
@@ -185,7 +186,7 @@ impl<'a> DeviceController<'a> {
             k: 0,
             held: None,
             fresh: false,
-            rx_buf: Vec::new(),
+            rx_frames: Vec::new(),
             frame_bytes: 0,
             actuations: Vec::new(),
             periods: Vec::new(),
@@ -234,37 +235,50 @@ impl<'a> DeviceController<'a> {
     }
 
     fn send(&mut self, t_ns: u64, m: &Message) {
-        let Ok(frame) = encode_vec(m) else { return };
+        let mut buf = [0u8; MAX_FRAME];
+        let Ok(n) = encode(m, &mut buf) else { return };
+        let frame = buf.get(..n).unwrap_or(&[]);
         self.host.sent += 1;
-        self.host.bytes_sent += frame.len() as u64;
+        self.host.bytes_sent += n as u64;
         if self.error.is_none() {
-            if let Err(e) = self.tr.send(t_ns, &frame) {
+            if let Err(e) = self.tr.send(t_ns, frame) {
                 self.error = Some(e);
             }
         }
     }
 
+    /// Receives until `deadline_ns`: each delivered run of bytes is decoded as it comes
+    /// (the frames closed in it collected with the arrival of their run and their bytes
+    /// on the wire, delimiter included), then each frame is taken in order.
     fn receive(&mut self, deadline_ns: u64) {
         if self.error.is_some() {
             return;
         }
-        let mut bytes = std::mem::take(&mut self.rx_buf);
-        bytes.clear();
+        let mut frames = std::mem::take(&mut self.rx_frames);
+        frames.clear();
+        let (dec, frame_bytes, received) = (
+            &mut self.decoder,
+            &mut self.frame_bytes,
+            &mut self.host.bytes_received,
+        );
         if let Err(e) = self.tr.recv(deadline_ns, &mut |at, run| {
-            bytes.extend(run.iter().map(|&b| (at, b)));
+            *received += run.len() as u64;
+            let mut rest = run;
+            while !rest.is_empty() {
+                let (r, more) = dec.next_message(rest);
+                *frame_bytes += rest.len() - more.len();
+                rest = more;
+                if let Some(r) = r {
+                    frames.push((at, std::mem::take(frame_bytes), r));
+                }
+            }
         }) {
             self.error = Some(e);
         }
-        for &(at, b) in &bytes {
-            self.host.bytes_received += 1;
-            self.frame_bytes += 1;
-            let Some(r) = self.decoder.push(b) else {
-                continue;
-            };
-            let n = std::mem::take(&mut self.frame_bytes);
+        for &(at, n, r) in &frames {
             self.on_frame(at, n, r);
         }
-        self.rx_buf = bytes;
+        self.rx_frames = frames;
     }
 
     fn on_frame(&mut self, at_ns: u64, wire_bytes: usize, r: Result<Message, FrameError>) {
