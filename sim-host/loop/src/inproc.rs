@@ -352,7 +352,10 @@ fn outcome(
         (up(before.rx_cobs, after.rx_cobs), FrameError::Cobs),
         (up(before.rx_version, after.rx_version), FrameError::Version),
         (up(before.rx_length, after.rx_length), FrameError::Length),
-        (up(before.rx_postcard, after.rx_postcard), FrameError::Postcard),
+        (
+            up(before.rx_postcard, after.rx_postcard),
+            FrameError::Postcard,
+        ),
     ]
     .into_iter()
     .find_map(|(hit, e)| hit.then_some(e));

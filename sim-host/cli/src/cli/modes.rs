@@ -1,8 +1,8 @@
 //! `sim-host modes`: the modal analysis along the creep sweep.
 
 use clap::ValueEnum;
-use std::path::PathBuf;
 use std::io::Write;
+use std::path::PathBuf;
 use wheelset_plant::modes::{creep_grid, sweep_case, Case, CaseSweep};
 use wheelset_report::outln;
 
