@@ -7,7 +7,9 @@
 //!   `cargo test --workspace` (with `REQUIRE_QEMU=1` when QEMU is there, so the
 //!   processor-in-the-loop smoke test cannot silently skip) and the device-feature run:
 //!   the wire crate's and the runtime's tests once more with the firmware's features
-//!   (the wire crate without `std`: its frames checked by the device's own CRC path).
+//!   (the wire crate without `std`: its frames checked by the device's own CRC path),
+//!   then builds every criterion benchmark (`cargo test --workspace --benches
+//!   --no-run`: they compile; they are not run).
 //! - `cargo fw [--f32]`: builds the board binaries for `thumbv7em-none-eabihf` with the
 //!   `fw` profile (release, LTO, size-optimised; the Nucleo build linked with flip-link,
 //!   installed when missing, in `target/flip-link`) and copies them to `target/fw/`:
@@ -425,6 +427,11 @@ fn test(extra: &[String]) -> Result<(), String> {
         device.args(["-p", p]);
     }
     run(device.args(extra))?;
+    // The benchmarks compile (criterion's; not run: timings are no tests). Built in the
+    // test profile, beside the test binaries above.
+    let mut benches = cargo();
+    benches.args(["test", "--workspace", "--benches", "--no-run"]);
+    run(&mut benches)?;
     // The README: its generated figures against their commands, then its short
     // board-free commands against their stated exit codes (`cargo xtask readme`).
     if !readme::run(true, false)? {
