@@ -163,6 +163,8 @@ pub struct DeviceController<'a> {
     pub first_reset_ns: Option<u64>,
     last_tick: u16,
     last_latched: bool,
+    /// Which records are kept ([`Records::All`] unless set).
+    pub records: Records,
 }
 
 impl<'a> DeviceController<'a> {
@@ -208,6 +210,7 @@ impl<'a> DeviceController<'a> {
             first_reset_ns: None,
             last_tick: 0,
             last_latched: false,
+            records: Records::All,
         }
     }
 
@@ -228,10 +231,12 @@ impl<'a> DeviceController<'a> {
 
     /// Reserves the per-period records for `periods` periods.
     pub fn reserve(&mut self, periods: usize) {
-        self.periods.reserve(periods);
         self.log.reserve(periods);
-        self.actuations.reserve(periods);
-        self.sent_codes.reserve(periods);
+        if self.records == Records::All {
+            self.periods.reserve(periods);
+            self.actuations.reserve(periods);
+            self.sent_codes.reserve(periods);
+        }
     }
 
     fn send(&mut self, t_ns: u64, m: &Message) {
@@ -298,12 +303,14 @@ impl<'a> DeviceController<'a> {
                     self.k.saturating_sub(u64::from(diff))
                 });
                 let echo = echo.map(|e| e.saturating_sub(1));
-                self.actuations.push(RxActuation {
-                    at_ns,
-                    wire_bytes,
-                    echo,
-                    frame: a,
-                });
+                if self.records == Records::All {
+                    self.actuations.push(RxActuation {
+                        at_ns,
+                        wire_bytes,
+                        echo,
+                        frame: a,
+                    });
+                }
                 self.note_tick(at_ns, &a);
                 if std::mem::take(&mut self.config_echo_pending) {
                     self.config_refused |= a.flags.has(Flags::CMD_REFUSED);
@@ -395,7 +402,8 @@ impl SampledController for DeviceController<'_> {
         let q = Sensor::from_si(self.seq, t_ns, &sample, self.lateral);
         self.host.clamped += u64::from(q.clamped);
         let sensor = q.msg;
-        if let Lateral::Velocity(v) = sensor.lateral {
+        let all = self.records == Records::All;
+        if let (Lateral::Velocity(v), true) = (sensor.lateral, all) {
             self.sent_codes.push(InputCodes {
                 y_dot: v,
                 current: sensor.i_a_ma,
@@ -405,11 +413,13 @@ impl SampledController for DeviceController<'_> {
         }
         let before = self.host.bytes_sent;
         self.send(t_ns, &Message::Sensor(sensor));
-        self.periods.push(Period {
-            t_ns,
-            sensor_bytes: (self.host.bytes_sent - before) as usize,
-            echo_at_ns: None,
-        });
+        if all {
+            self.periods.push(Period {
+                t_ns,
+                sensor_bytes: (self.host.bytes_sent - before) as usize,
+                echo_at_ns: None,
+            });
+        }
         // After the Sensor frame, so this period's sample is on time: the device applies
         // the command at its next tick.
         if self
@@ -455,6 +465,19 @@ impl SampledController for DeviceController<'_> {
     }
 }
 
+/// Which per-period records [`close_loop`] keeps.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Records {
+    /// Every record: the periods, the actuations received, the sensor codes sent and
+    /// the link log (what `hil run`'s checks read).
+    #[default]
+    All,
+    /// The link log only ([`ClosedLoop::log`]): `periods`, `actuations` and
+    /// `sent_codes` stay empty (a run that reports the trajectory and the link, as
+    /// `sim-host run --loop device` does, without the memory of the rest).
+    LinkLog,
+}
+
 /// How [`close_loop`] runs.
 #[derive(Debug, Clone, Default)]
 pub struct LoopSetup<'l> {
@@ -477,6 +500,8 @@ pub struct LoopSetup<'l> {
     pub reset_config: Option<Config>,
     /// A progress bar to advance (simulated ms).
     pub progress: Option<ProgressBar>,
+    /// Which records to keep.
+    pub records: Records,
     /// The trajectory's label.
     pub label: &'l str,
 }
@@ -529,6 +554,7 @@ pub fn close_loop(
     ctrl.clear_faults_at_ns = setup.clear_faults_at_ns;
     ctrl.stall_at_ns = setup.stall_at_ns;
     ctrl.reset_config = setup.reset_config;
+    ctrl.records = setup.records;
     // One record per period, reserved once (doubling to 100 000 records re-copies and
     // re-faults megabytes); capped: a very long scenario grows the rest as it goes.
     let periods = (sc.duration_ns / period_ns.max(1)).min(1 << 22);
@@ -545,7 +571,7 @@ pub fn close_loop(
         setup.yaw_spring,
         setup.label,
     )?;
-    let t_end = ctrl.periods.last().map_or(0, |p| p.t_ns + period_ns);
+    let t_end = ctrl.log.last().map_or(0, |p| p.t_ns + period_ns);
     ctrl.finish(t_end);
     Ok(ClosedLoop {
         trajectory,

@@ -166,6 +166,8 @@ pub struct InProc<T: SampleBits = Fx> {
     scratch: Vec<u8>,
     /// Arrival time of the last byte of each down-link frame (index: frame id).
     arrival_ns: Vec<u64>,
+    /// Whether the host's wall time per tick is measured ([`Self::time_ticks`]).
+    timed: bool,
     host_tick_ns: Vec<f64>,
 }
 
@@ -207,6 +209,7 @@ impl<T: SampleBits> InProc<T> {
             frames_out: 0,
             scratch: Vec::new(),
             arrival_ns: Vec::new(),
+            timed: true,
             host_tick_ns: Vec::new(),
         })
     }
@@ -215,7 +218,17 @@ impl<T: SampleBits> InProc<T> {
     /// grows them by doubling).
     pub fn reserve(&mut self, ticks: usize) {
         self.arrival_ns.reserve(ticks);
-        self.host_tick_ns.reserve(ticks);
+        if self.timed {
+            self.host_tick_ns.reserve(ticks);
+        }
+    }
+
+    /// Whether the host's own wall time per [`Runtime::tick`] call is measured (on by
+    /// default; two clock reads per tick) for [`Transport::extra`]'s `host_tick_ns`. A
+    /// run that reports no `extra` (`sim-host run --loop device`) turns it off; nothing
+    /// the device does depends on it.
+    pub fn time_ticks(&mut self, on: bool) {
+        self.timed = on;
     }
 
     /// Brings the device to `cfg` before the run, the way a board is configured before
@@ -277,9 +290,12 @@ impl<T: SampleBits> InProc<T> {
                 outcome(piece, open, &before, rt.counters())
             });
         });
-        let start = Instant::now();
+        let start = self.timed.then(Instant::now);
         let out = self.rt.tick(self.last_exec);
-        let measured = u32::try_from(start.elapsed().as_nanos()).unwrap_or(u32::MAX);
+        if let Some(start) = start {
+            let measured = u32::try_from(start.elapsed().as_nanos()).unwrap_or(u32::MAX);
+            self.host_tick_ns.push(f64::from(measured));
+        }
         let (out, exec_ns): (&[u8], u64) = match self.fault {
             DeviceFault::None | DeviceFault::Stall { .. } => (out, 0),
             DeviceFault::WrongSign => {
@@ -309,7 +325,6 @@ impl<T: SampleBits> InProc<T> {
         };
         self.last_exec = u32::try_from(exec_ns).unwrap_or(u32::MAX);
         self.frames_out += 1;
-        self.host_tick_ns.push(f64::from(measured));
         // Each frame (Actuation, then a Status if requested) is its own frame on the link,
         // stamped with the arrival of its last byte.
         for frame in out.split_inclusive(|&b| b == 0) {
