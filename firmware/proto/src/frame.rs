@@ -109,11 +109,9 @@ pub fn encode(msg: &Message, out: &mut [u8]) -> Result<usize, EncodeError> {
 /// One pass (`OnePass`) when `out` holds the longest Actuation frame: each byte of
 /// `VERSION | body | CRC` goes into the CRC register and into its COBS place as it is
 /// produced, no second pass over the frame (`finish_frame`). Shorter buffers take the
-/// general path (`encode_with`), whose length decisions are the reference.
-/// `cargo xtask fw-bench`, the whole tick, mean instructions: M4 fixed point
-/// 1 632 -> 1 454, f32 1 489 -> 1 311, M3 fixed 1 672 -> 1 494; `cargo fw`: Nucleo flash
-/// 21 468 -> 21 940 B (the Actuation's fields written inline; `finish_frame` stays, for
-/// the Status).
+/// general path (`encode_with`), whose length decisions are the reference. It trades
+/// flash (the Actuation's fields written inline; `finish_frame` stays, for the Status)
+/// for the device's per-tick instructions (`cargo xtask fw-bench`, `cargo fw`).
 pub fn encode_actuation(a: &Actuation, out: &mut [u8]) -> Result<usize, EncodeError> {
     match out.first_chunk_mut::<{ OnePass::CAP }>() {
         Some(buf) => Ok(OnePass::actuation(a, buf)),
@@ -198,8 +196,7 @@ impl OnePass<'_> {
     #[inline(always)]
     fn finish(mut self) -> usize {
         // Unrolled: at opt-level `z` a `for` over the array stays two calls per byte
-        // (`array::IntoIter::next`: ~90 instructions for the four in a QEMU trace of the
-        // bench; unrolled, the whole tick 1 568 -> 1 454 mean, `cargo xtask fw-bench`).
+        // (`array::IntoIter::next`).
         let [c0, c1, c2, c3] = (!self.reg).to_le_bytes();
         self.put(c0);
         self.put(c1);
@@ -214,8 +211,7 @@ impl OnePass<'_> {
     #[inline(never)]
     fn actuation(a: &Actuation, buf: &mut [u8; ONE_PASS_CAP]) -> usize {
         const { assert!(VERSION != 0 && crate::fast::ACTUATION != 0) };
-        // The register after the version and type bytes, a constant (`cargo xtask
-        // fw-bench`, M4 fixed point, the whole tick 1 443 -> 1 434 mean).
+        // The register after the version and type bytes, a constant.
         const PREFIX: u32 = crc_byte_const(crc_byte_const(!0, VERSION), crate::fast::ACTUATION);
         crc_ready();
         let mut w = OnePass {
