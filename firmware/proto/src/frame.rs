@@ -9,6 +9,8 @@ use crate::message::{Actuation, Command, Config, Message, Sensor, Status};
 mod checksum;
 mod cobs;
 
+#[cfg(feature = "std")]
+pub use checksum::HostCrc;
 pub use checksum::{crc32c, CRC};
 pub(crate) use checksum::{crc_byte, crc_byte_const, crc_ready, CRC_RESIDUE};
 pub(crate) use cobs::cobs_decode_nonzero;
