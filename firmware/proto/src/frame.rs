@@ -265,38 +265,25 @@ fn encode_with(
 }
 
 /// The frame around the raw bytes `out[1..=n]` (version and body): their CRC after
-/// them, the COBS code bytes, the delimiter; returns the frame's length. One copy for
-/// every message's encoder (the device's Actuation frames take [`OnePass`] instead).
+/// them ([`crc32c`], the target's CRC), the COBS code bytes, the delimiter; returns the
+/// frame's length. One copy for every message's encoder (the device's Actuation frames
+/// take [`OnePass`] instead).
 #[inline(never)]
 fn finish_frame(out: &mut [u8], n: usize) -> Result<usize, EncodeError> {
     let too_small = EncodeError::BufferTooSmall;
     let with_crc = n + CRC_LEN;
     // The frame: code byte, raw bytes out[1..=n], CRC, delimiter.
     let frame = out.get_mut(..with_crc + 2).ok_or(too_small)?;
-    // One pass over the raw bytes: the CRC register and the COBS code bytes together
-    // (with_crc <= MAX_RAW + CRC_LEN < 254: no 0xFF blocks, no overflow of `code`).
-    // (Plain `while` loops: at opt-level z the range and array iterators stay calls.)
-    crc_ready();
-    let (mut reg, mut code_idx, mut code) = (!0u32, 0usize, 1u8);
-    let mut i = 1;
-    while let Some(&b) = frame.get(i).filter(|_| i <= n) {
-        reg = crc_byte(reg, b);
-        if b == 0 {
-            if let Some(c) = frame.get_mut(code_idx) {
-                *c = code;
-            }
-            code_idx = i;
-            code = 1;
-        } else {
-            code += 1;
-        }
-        i += 1;
-    }
-    // The CRC, little-endian, then its COBS codes.
+    let crc = crc32c(frame.get(1..=n).ok_or(too_small)?);
     frame
         .get_mut(n + 1..=with_crc)
         .ok_or(too_small)?
-        .copy_from_slice(&(!reg).to_le_bytes());
+        .copy_from_slice(&crc.to_le_bytes());
+    // The COBS code bytes over raw bytes and CRC (with_crc <= MAX_RAW + CRC_LEN < 254:
+    // no 0xFF blocks, no overflow of `code`). (A plain `while` loop: at opt-level z the
+    // range and array iterators stay calls.)
+    let (mut code_idx, mut code) = (0usize, 1u8);
+    let mut i = 1;
     while let Some(&b) = frame.get(i).filter(|_| i <= with_crc) {
         if b == 0 {
             if let Some(c) = frame.get_mut(code_idx) {
