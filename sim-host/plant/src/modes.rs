@@ -304,7 +304,13 @@ impl CaseSweep {
 
     /// Every mode's value at point `k` (structural zero excluded).
     pub fn modes_at(&self, k: usize) -> Vec<ModeValue> {
-        self.mode_names()
+        self.modes_named(&self.mode_names(), k)
+    }
+
+    /// [`Self::modes_at`] with the case's [`Self::mode_names`] given (made once for a
+    /// pass over every point).
+    fn modes_named(&self, names: &[String], k: usize) -> Vec<ModeValue> {
+        names
             .iter()
             .filter_map(|n| self.mode_eig(n, k).map(|(_, l)| ModeValue::new(n, l)))
             .collect()

@@ -44,13 +44,19 @@ pub struct CaseJson {
 impl CaseSweep {
     /// The JSON form.
     pub fn to_json(&self) -> CaseJson {
+        // The names once for the case, each point's modes once (`stable_at` and
+        // `modes_at` per point would name the modes twice).
+        let names = self.mode_names();
         let points: Vec<PointJson> = (0..self.creep.len())
-            .map(|k| PointJson {
-                creep_n: self.creep[k],
-                eigenvalues: self.eig[k].iter().map(|l| [l.re, l.im]).collect(),
-                modes: self.modes_at(k),
-                structural_zero: self.structural_zero(k).map(|l| [l.re, l.im]),
-                stable: self.stable_at(k),
+            .map(|k| {
+                let modes = self.modes_named(&names, k);
+                PointJson {
+                    creep_n: self.creep[k],
+                    eigenvalues: self.eig[k].iter().map(|l| [l.re, l.im]).collect(),
+                    stable: modes.iter().all(|m| m.re < 0.0),
+                    modes,
+                    structural_zero: self.structural_zero(k).map(|l| [l.re, l.im]),
+                }
             })
             .collect();
         CaseJson {
