@@ -283,8 +283,9 @@ pub(crate) fn cmd_sweep(c: &SweepCmd, command: &str) -> Result<Verdict, Failure>
     if let Some(pb) = &bar {
         pb.finish_and_clear();
     }
-    // On the console only: the document's shards merge byte for byte.
-    say!("throughput: {cost} ({jobs} threads)");
+    // On the console only (standard error: a figure of the machine and its load, beside
+    // the progress bar): the document's shards merge byte for byte.
+    eprintln!("hil sweep: throughput: {cost} ({jobs} threads)");
     write(&doc, json, a.report.as_deref())
 }
 
