@@ -252,9 +252,10 @@ impl<'a> DeviceController<'a> {
         }
     }
 
-    /// Receives until `deadline_ns`: each delivered run of bytes is decoded as it comes
-    /// (the frames closed in it collected with the arrival of their run and their bytes
-    /// on the wire, delimiter included), then each frame is taken in order.
+    /// Receives until `deadline_ns`: the transport decodes each delivered run with the
+    /// host's decoder as it comes ([`Transport::recv_frames`]; the frames closed in it
+    /// collected with the arrival of their run and their bytes on the wire, delimiter
+    /// included), then each frame is taken in order.
     fn receive(&mut self, deadline_ns: u64) {
         if self.error.is_some() {
             return;
@@ -266,16 +267,11 @@ impl<'a> DeviceController<'a> {
             &mut self.frame_bytes,
             &mut self.host.bytes_received,
         );
-        if let Err(e) = self.tr.recv(deadline_ns, &mut |at, run| {
-            *received += run.len() as u64;
-            let mut rest = run;
-            while !rest.is_empty() {
-                let (r, more) = dec.next_message(rest);
-                *frame_bytes += rest.len() - more.len();
-                rest = more;
-                if let Some(r) = r {
-                    frames.push((at, std::mem::take(frame_bytes), r));
-                }
+        if let Err(e) = self.tr.recv_frames(deadline_ns, dec, &mut |at, taken, r| {
+            *received += taken as u64;
+            *frame_bytes += taken;
+            if let Some(r) = r {
+                frames.push((at, std::mem::take(frame_bytes), r));
             }
         }) {
             self.error = Some(e);

@@ -37,7 +37,7 @@ use wheelset_runtime::{Runtime, RuntimeConfig};
 
 use crate::device_loop::{DeviceError, ACTUATION_WORST_BYTES, SENSOR_WORST_BYTES};
 use crate::link::{check_budget, wire_ns, Link, LinkConfig, RxPort};
-use crate::transport::{Clock, LinkAccounting, Transport, TransportError};
+use crate::transport::{Clock, FrameSink, LinkAccounting, Transport, TransportError};
 
 /// A deliberately broken device, to prove the checks can fail.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -413,6 +413,20 @@ fn host_tick_summary(v: &[f64]) -> serde_json::Value {
     })
 }
 
+impl<T: SampleBits> InProc<T> {
+    /// Runs every tick due by `deadline_ns`.
+    fn ticks_until(&mut self, deadline_ns: u64) {
+        loop {
+            let t = self.next_tick * self.period_ns + self.phase_ns;
+            if t > deadline_ns {
+                break;
+            }
+            self.tick(t);
+            self.next_tick += 1;
+        }
+    }
+}
+
 impl<T: SampleBits> Transport for InProc<T> {
     fn name(&self) -> String {
         "inproc".into()
@@ -440,19 +454,36 @@ impl<T: SampleBits> Transport for InProc<T> {
         deadline_ns: u64,
         sink: &mut dyn FnMut(u64, &[u8]),
     ) -> Result<(), TransportError> {
-        loop {
-            let t = self.next_tick * self.period_ns + self.phase_ns;
-            if t > deadline_ns {
-                break;
-            }
-            self.tick(t);
-            self.next_tick += 1;
-        }
+        self.ticks_until(deadline_ns);
         let (port, arrival) = (&mut self.host_rx, &self.arrival_ns);
         self.link.down.deliver(deadline_ns, |run, id| {
             port.push(run, id, |_| {});
             let at = arrival.get(id as usize).copied().unwrap_or(deadline_ns);
             sink(at, run);
+        });
+        Ok(())
+    }
+
+    /// The host's decoder decides each frame; the down link's port attributes its
+    /// result ([`RxPort::push_with`]), as the up link's port attributes the runtime's.
+    fn recv_frames(
+        &mut self,
+        deadline_ns: u64,
+        dec: &mut Decoder,
+        sink: &mut FrameSink<'_>,
+    ) -> Result<(), TransportError> {
+        self.ticks_until(deadline_ns);
+        let (port, arrival) = (&mut self.host_rx, &self.arrival_ns);
+        self.link.down.deliver(deadline_ns, |run, id| {
+            let at = arrival.get(id as usize).copied().unwrap_or(deadline_ns);
+            port.push_with(run, id, |piece| {
+                // A piece holds at most one delimiter, at its end: the decoder takes it
+                // whole.
+                let (r, _) = dec.next_message(piece);
+                let outcome = r.as_ref().map(|r| r.as_ref().map(|_| ()).map_err(|e| *e));
+                sink(at, piece.len(), r);
+                outcome
+            });
         });
         Ok(())
     }
