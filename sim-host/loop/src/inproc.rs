@@ -21,10 +21,11 @@
 //! ([`Transport::extra`]: `host_tick_ns`), never judged.
 //!
 //! Frame accounting (the one method): each end of the link has an [`RxPort`] that
-//! attributes every frame sent to its fate ([`Transport::link_accounting`]). The device's
-//! port takes the outcome of each frame from the runtime's own decoder (its rejection
-//! counters, see [`outcome`]); the host's port decodes the delivered bytes as a shadow of
-//! the host adapter's decoder.
+//! attributes every frame sent to its fate ([`Transport::link_accounting`]), each from
+//! the receiver's own decoder: the device's port from the runtime's (its rejection
+//! counters, see [`outcome`]), the host's from the host adapter's
+//! ([`Transport::recv_frames`]). A caller of plain [`Transport::recv`] gets the bytes,
+//! and the host's port then decodes them itself.
 //!
 //! Deliberately broken devices ([`DeviceFault`]) exist so the harness's checks can be
 //! shown to fail.
