@@ -9,7 +9,9 @@
 //!   the wire crate's and the runtime's tests once more with the firmware's features
 //!   (the wire crate without `std`: its frames checked by the device's own CRC path),
 //!   and the runtime's tests with `fault-inject` (the QEMU firmware's runtime: the
-//!   tests of the honoured fault injections compile only there).
+//!   tests of the honoured fault injections compile only there);
+//!   then it builds every criterion benchmark (`cargo test --workspace --benches
+//!   --no-run`: they compile; they are not run).
 //! - `cargo fw [--f32]`: builds the board binaries for `thumbv7em-none-eabihf` with the
 //!   `fw` profile (release, LTO, size-optimised; the Nucleo build linked with flip-link,
 //!   installed when missing, in `target/flip-link`) and copies them to `target/fw/`:
@@ -440,6 +442,11 @@ fn test(extra: &[String]) -> Result<(), String> {
         "fault-inject",
     ]);
     run(inject.args(extra))?;
+    // The benchmarks compile (criterion's; not run: timings are no tests). Built in the
+    // test profile, beside the test binaries above.
+    let mut benches = cargo();
+    benches.args(["test", "--workspace", "--benches", "--no-run"]);
+    run(&mut benches)?;
     // The README and the book: their generated blocks and figures against their
     // commands and their links, then their short board-free commands against their
     // stated exit codes (`cargo xtask readme`).

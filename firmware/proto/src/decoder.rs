@@ -121,6 +121,17 @@ impl<const N: usize> Decoder<N> {
         }
     }
 
+    /// Takes `bytes` up to and including the first delimiter: returns the frame's result
+    /// if that closed one (as [`Self::push`] byte by byte would report it) and the bytes
+    /// not yet taken. The host's decoder: a caller loops until the rest is empty, and may
+    /// use its own state between frames (the bytes each frame took on the wire, say).
+    pub fn next_message<'b>(
+        &mut self,
+        bytes: &'b [u8],
+    ) -> (Option<Result<Message, FrameError>>, &'b [u8]) {
+        self.next_with(bytes, message_from_raw)
+    }
+
     /// [`Self::feed`] for the device: frames decoded as by [`crate::decode_request`] (the
     /// messages the device takes; the others recognised by their type only).
     pub fn feed_requests(&mut self, bytes: &[u8], mut f: impl FnMut(Result<Request, FrameError>)) {
@@ -150,11 +161,9 @@ impl<const N: usize> Decoder<N> {
     /// of every period) is written into `sensor` ([`NextFrame::Sensor`]), every other
     /// frame's result into `frame` ([`NextFrame::Frame`]), as [`Self::next_request`]
     /// reports it, with its decisions (tested on arbitrary byte strings). Nothing
-    /// Config-sized is returned: [`Self::next_request`]'s `Option<Result<Request, _>>`
-    /// (a Config's size, 64 B) was copied on its way to the caller (`memcpy`), and a
-    /// first form of this method returning it in an enum made that copy byte-wise (63 B:
-    /// +289 instructions per tick, measured). `cargo xtask fw-bench`, M4 fixed point,
-    /// the whole tick: see the README.
+    /// Config-sized is returned: a `Result<Request, _>` (a Config's size) returned by
+    /// value is copied on its way to the caller, on every tick; written in place, the
+    /// per-tick Sensor frame costs no copy.
     #[inline(never)]
     pub fn next_sensor_or_request<'b>(
         &mut self,
@@ -242,11 +251,8 @@ impl<const N: usize> Decoder<N> {
     /// anything else (no delimiter in reach, a block cut short by a 0x00): the general
     /// loop then takes the same bytes from the same state (nothing in `self` but `raw`'s
     /// unused bytes has changed), so every decision stays its (tested: `tests/stream.rs`,
-    /// chunkings). `cargo xtask fw-bench`, the whole tick, mean instructions: M4 fixed
-    /// point 1 762 -> 1 632, f32 1 619 -> 1 489, M3 fixed 1 802 -> 1 672. (The same walk
-    /// with the first code byte taken before the loop and the implied 0x00 written
-    /// unconditionally measured 1 664, and with an index loop over the block 1 745: the
-    /// compiler then reloaded the CRC table's address and spilled the counts.)
+    /// chunkings). Slice iteration over each block, not indices: the compiler then keeps
+    /// the CRC table's address and the counts in registers across the blocks.
     #[inline(always)]
     fn whole_frame(&mut self, bytes: &[u8]) -> Option<(usize, u32, usize)> {
         let w = bytes.get(..bytes.len().min(Self::LIMIT + 1))?;
@@ -311,9 +317,8 @@ impl<const N: usize> Decoder<N> {
 
     /// [`Self::next_with`]'s general loop: takes the bytes up to and including the next
     /// delimiter (or all of them); returns whether a delimiter closed the frame and the
-    /// bytes after it. (One call of [`Self::close`] for both paths: the message decoder
-    /// is then inlined once, `cargo xtask fw-bench`, M4 fixed point, the whole tick
-    /// 1 342 -> 1 328 mean, Nucleo flash 22 528 -> 22 488 B.)
+    /// bytes after it. ([`Self::next_with`] calls [`Self::close`] once for both paths, so
+    /// the message decoder is inlined once.)
     #[inline(always)]
     fn general<'b>(&mut self, bytes: &'b [u8]) -> (bool, &'b [u8]) {
         let (mut n, mut left, mut zero, mut crc) = (self.n, self.left, self.zero, self.crc);

@@ -9,6 +9,8 @@ use crate::message::{Actuation, Command, Config, Message, Sensor, Status};
 mod checksum;
 mod cobs;
 
+#[cfg(feature = "std")]
+pub use checksum::HostCrc;
 pub use checksum::{crc32c, CRC};
 pub(crate) use checksum::{crc_byte, crc_byte_const, crc_ready, CRC_RESIDUE};
 pub(crate) use cobs::cobs_decode_nonzero;
@@ -109,11 +111,9 @@ pub fn encode(msg: &Message, out: &mut [u8]) -> Result<usize, EncodeError> {
 /// One pass (`OnePass`) when `out` holds the longest Actuation frame: each byte of
 /// `VERSION | body | CRC` goes into the CRC register and into its COBS place as it is
 /// produced, no second pass over the frame (`finish_frame`). Shorter buffers take the
-/// general path (`encode_with`), whose length decisions are the reference.
-/// `cargo xtask fw-bench`, the whole tick, mean instructions: M4 fixed point
-/// 1 632 -> 1 454, f32 1 489 -> 1 311, M3 fixed 1 672 -> 1 494; `cargo fw`: Nucleo flash
-/// 21 468 -> 21 940 B (the Actuation's fields written inline; `finish_frame` stays, for
-/// the Status).
+/// general path (`encode_with`), whose length decisions are the reference. It trades
+/// flash (the Actuation's fields written inline; `finish_frame` stays, for the Status)
+/// for the device's per-tick instructions (`cargo xtask fw-bench`, `cargo fw`).
 pub fn encode_actuation(a: &Actuation, out: &mut [u8]) -> Result<usize, EncodeError> {
     match out.first_chunk_mut::<{ OnePass::CAP }>() {
         Some(buf) => Ok(OnePass::actuation(a, buf)),
@@ -198,8 +198,7 @@ impl OnePass<'_> {
     #[inline(always)]
     fn finish(mut self) -> usize {
         // Unrolled: at opt-level `z` a `for` over the array stays two calls per byte
-        // (`array::IntoIter::next`: ~90 instructions for the four in a QEMU trace of the
-        // bench; unrolled, the whole tick 1 568 -> 1 454 mean, `cargo xtask fw-bench`).
+        // (`array::IntoIter::next`).
         let [c0, c1, c2, c3] = (!self.reg).to_le_bytes();
         self.put(c0);
         self.put(c1);
@@ -214,8 +213,7 @@ impl OnePass<'_> {
     #[inline(never)]
     fn actuation(a: &Actuation, buf: &mut [u8; ONE_PASS_CAP]) -> usize {
         const { assert!(VERSION != 0 && crate::fast::ACTUATION != 0) };
-        // The register after the version and type bytes, a constant (`cargo xtask
-        // fw-bench`, M4 fixed point, the whole tick 1 443 -> 1 434 mean).
+        // The register after the version and type bytes, a constant.
         const PREFIX: u32 = crc_byte_const(crc_byte_const(!0, VERSION), crate::fast::ACTUATION);
         crc_ready();
         let mut w = OnePass {
@@ -267,38 +265,25 @@ fn encode_with(
 }
 
 /// The frame around the raw bytes `out[1..=n]` (version and body): their CRC after
-/// them, the COBS code bytes, the delimiter; returns the frame's length. One copy for
-/// every message's encoder (the device's Actuation frames take [`OnePass`] instead).
+/// them ([`crc32c`], the target's CRC), the COBS code bytes, the delimiter; returns the
+/// frame's length. One copy for every message's encoder (the device's Actuation frames
+/// take [`OnePass`] instead).
 #[inline(never)]
 fn finish_frame(out: &mut [u8], n: usize) -> Result<usize, EncodeError> {
     let too_small = EncodeError::BufferTooSmall;
     let with_crc = n + CRC_LEN;
     // The frame: code byte, raw bytes out[1..=n], CRC, delimiter.
     let frame = out.get_mut(..with_crc + 2).ok_or(too_small)?;
-    // One pass over the raw bytes: the CRC register and the COBS code bytes together
-    // (with_crc <= MAX_RAW + CRC_LEN < 254: no 0xFF blocks, no overflow of `code`).
-    // (Plain `while` loops: at opt-level z the range and array iterators stay calls.)
-    crc_ready();
-    let (mut reg, mut code_idx, mut code) = (!0u32, 0usize, 1u8);
-    let mut i = 1;
-    while let Some(&b) = frame.get(i).filter(|_| i <= n) {
-        reg = crc_byte(reg, b);
-        if b == 0 {
-            if let Some(c) = frame.get_mut(code_idx) {
-                *c = code;
-            }
-            code_idx = i;
-            code = 1;
-        } else {
-            code += 1;
-        }
-        i += 1;
-    }
-    // The CRC, little-endian, then its COBS codes.
+    let crc = crc32c(frame.get(1..=n).ok_or(too_small)?);
     frame
         .get_mut(n + 1..=with_crc)
         .ok_or(too_small)?
-        .copy_from_slice(&(!reg).to_le_bytes());
+        .copy_from_slice(&crc.to_le_bytes());
+    // The COBS code bytes over raw bytes and CRC (with_crc <= MAX_RAW + CRC_LEN < 254:
+    // no 0xFF blocks, no overflow of `code`). (A plain `while` loop: at opt-level z the
+    // range and array iterators stay calls.)
+    let (mut code_idx, mut code) = (0usize, 1u8);
+    let mut i = 1;
     while let Some(&b) = frame.get(i).filter(|_| i <= with_crc) {
         if b == 0 {
             if let Some(c) = frame.get_mut(code_idx) {

@@ -102,6 +102,8 @@ pub mod reset_cause {
 
 pub use crc_ram::RamCrc;
 pub use decoder::{Decoder, NextFrame};
+#[cfg(feature = "std")]
+pub use frame::HostCrc;
 pub use frame::{
     cobs_decode_in_place, cobs_encode, crc32c, decode_frame, decode_request, encode,
     encode_actuation, encode_status, encode_vec, EncodeError, FrameError, Request, CRC, CRC_LEN,

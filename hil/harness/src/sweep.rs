@@ -34,7 +34,7 @@
 //! throughput): what the grid and the seed fix is all they hold, which is what makes the
 //! merged document equal the single run's.
 
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::mpsc;
 
 use serde::{Deserialize, Serialize};
@@ -50,6 +50,7 @@ mod grid;
 mod identity;
 mod merge;
 pub mod shard;
+pub mod throughput;
 pub use grid::*;
 pub use identity::*;
 pub use merge::merge;
@@ -318,13 +319,17 @@ fn run_point(
 
 /// Runs the points of `shard` (every point without one) on `jobs` threads, calling
 /// `progress(done, total)` after each point. The records come back in index order,
-/// whatever the threads' order.
+/// whatever the threads' order. Also returns what the campaign cost
+/// ([`throughput::Throughput`]: CPU time of its threads, wall time), which is not part of
+/// the document.
 pub fn run_campaign(
     c: &Campaign,
     shard: Option<Shard>,
     jobs: usize,
     progress: &mut dyn FnMut(usize, usize),
-) -> Result<SweepDoc, RunError> {
+) -> Result<(SweepDoc, throughput::Throughput), RunError> {
+    let wall = std::time::Instant::now();
+    let main_cpu = throughput::thread_cpu();
     let all = prepare(c).map_err(RunError::Input)?;
     let mine: Vec<(usize, &(Point, Params))> = all
         .iter()
@@ -334,6 +339,9 @@ pub fn run_campaign(
     let total = mine.len();
     let next = AtomicUsize::new(0);
     let stop = AtomicBool::new(false);
+    // CPU time of the worker threads, ns, and whether every one could read its own.
+    let cpu_ns = AtomicU64::new(0);
+    let cpu_known = AtomicBool::new(true);
     let (tx, rx) = mpsc::channel::<Result<Record, RunError>>();
     let mut records = Vec::with_capacity(total);
     let mut first_err = None;
@@ -341,17 +349,27 @@ pub fn run_campaign(
         for _ in 0..jobs.clamp(1, total.max(1)) {
             let tx = tx.clone();
             let (next, stop, mine) = (&next, &stop, &mine);
-            s.spawn(move || loop {
-                if stop.load(Ordering::Relaxed) {
-                    break;
+            let (cpu_ns, cpu_known) = (&cpu_ns, &cpu_known);
+            s.spawn(move || {
+                loop {
+                    if stop.load(Ordering::Relaxed) {
+                        break;
+                    }
+                    let k = next.fetch_add(1, Ordering::Relaxed);
+                    let Some((i, (p, params))) = mine.get(k) else {
+                        break;
+                    };
+                    let r = run_point(c, *i, p, params);
+                    if tx.send(r).is_err() {
+                        break;
+                    }
                 }
-                let k = next.fetch_add(1, Ordering::Relaxed);
-                let Some((i, (p, params))) = mine.get(k) else {
-                    break;
-                };
-                let r = run_point(c, *i, p, params);
-                if tx.send(r).is_err() {
-                    break;
+                match throughput::thread_cpu() {
+                    Some(t) => {
+                        let ns = u64::try_from(t.as_nanos()).unwrap_or(u64::MAX);
+                        cpu_ns.fetch_add(ns, Ordering::Relaxed);
+                    }
+                    None => cpu_known.store(false, Ordering::Relaxed),
                 }
             });
         }
@@ -373,12 +391,23 @@ pub fn run_campaign(
         return Err(e);
     }
     records.sort_by_key(|r| r.index);
-    Ok(SweepDoc {
+    let main = main_cpu
+        .zip(throughput::thread_cpu())
+        .map(|(a, b)| b.saturating_sub(a));
+    let cost = throughput::Throughput {
+        points: records.len(),
+        cpu: main
+            .filter(|_| cpu_known.load(Ordering::Relaxed))
+            .map(|m| m + std::time::Duration::from_nanos(cpu_ns.load(Ordering::Relaxed))),
+        wall: wall.elapsed(),
+    };
+    let doc = SweepDoc {
         sweep: c.header.clone(),
         shard: shard.filter(|s| s.count > 1),
         summary: Summary::of(&records),
         records,
-    })
+    };
+    Ok((doc, cost))
 }
 
 /// The document as written (`--json`): pretty JSON with a final newline.

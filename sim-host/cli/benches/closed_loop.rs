@@ -1,6 +1,8 @@
 //! The 20 s `curve` scenario with the phase lead, closed over the simulated serial link:
-//! the fixed-point firmware runtime at its default rate, default link, no faults.
-//! Target: at most 50 ms. Run: `cargo bench -p sim-host --bench closed_loop`.
+//! the fixed-point firmware runtime at its default rate, default link, no faults (the
+//! device loop of `sim-host run --scenario curve --control lead --loop device`, without
+//! its continuous reference). Run: `cargo bench -p sim-host --bench closed_loop`; the
+//! whole process side by side with another build: `scripts/loop-bench.sh`.
 
 mod common;
 

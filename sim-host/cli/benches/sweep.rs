@@ -1,6 +1,6 @@
 //! The modal sweep: 1000 creep points for each of the four cases (a)-(d), with mode
-//! tracking and crossing bisection. Target: at most 20 ms.
-//! Run: `cargo bench -p sim-host --bench sweep`.
+//! tracking and crossing bisection (the computation of `sim-host modes`, without its
+//! JSON). Run: `cargo bench -p sim-host --bench sweep`.
 
 mod common;
 

@@ -29,7 +29,7 @@ pub use crate::exchange::{LinkSample, LINK_COLUMNS};
 pub use crate::inproc::{DeviceFault, InProc};
 pub use wheelset_proto::LateralSensing;
 
-use crate::exchange::{close_loop, HostCounts, LoopSetup};
+use crate::exchange::{close_loop, HostCounts, LoopSetup, Records};
 use crate::sim_link::{Accounting, LinkBudgetError, LinkConfig};
 use wheelset_plant::control::YawLaw;
 use wheelset_plant::params::Params;
@@ -419,6 +419,9 @@ pub fn run_device(
 ) -> Result<DeviceRun, DeviceError> {
     let rt_cfg = runtime_config(sc, law, opt);
     let mut dev = InProc::<Fx>::try_new(rt_cfg, &opt.link, DeviceFault::None)?;
+    // What a DeviceRun reports: the trajectory, the link log and the accounting; not the
+    // host's time per tick nor the per-period timing records `hil run` checks.
+    dev.time_ticks(false);
     let cfg = run_config(&rt_cfg, opt.wsp, opt.monitor_safe);
     dev.configure(&cfg)
         .map_err(|why| DeviceError::Refused(why, cfg))?;
@@ -438,6 +441,7 @@ pub fn run_device(
             lateral: opt.lateral,
             label: &label,
             clear_faults_at_ns: opt.clear_faults_at_ns,
+            records: Records::LinkLog,
             ..LoopSetup::default()
         },
     )

@@ -26,8 +26,8 @@
 use indicatif::ProgressBar;
 use wheelset_control::InputCodes;
 use wheelset_proto::{
-    encode_vec, Actuation, Command, Config, Decoder, Flags, FrameError, Lateral, LateralSensing,
-    Message, Sensor, SensorSi, Status,
+    encode, Actuation, Command, Config, Decoder, Flags, FrameError, Lateral, LateralSensing,
+    Message, Sensor, SensorSi, Status, MAX_FRAME,
 };
 
 use crate::transport::{Transport, TransportError};
@@ -117,7 +117,8 @@ pub struct DeviceController<'a> {
     k: u64,
     held: Option<(SiActuation, Actuation)>,
     fresh: bool,
-    rx_buf: Vec<(u64, u8)>,
+    /// The frames of one [`Self::receive`]: arrival, bytes on the wire, result.
+    rx_frames: Vec<(u64, usize, Result<Message, FrameError>)>,
     frame_bytes: usize,
     /// Every Actuation frame received, in order.
     pub actuations: Vec<RxActuation>,
@@ -162,6 +163,8 @@ pub struct DeviceController<'a> {
     pub first_reset_ns: Option<u64>,
     last_tick: u16,
     last_latched: bool,
+    /// Which records are kept ([`Records::All`] unless set).
+    pub records: Records,
 }
 
 impl<'a> DeviceController<'a> {
@@ -185,7 +188,7 @@ impl<'a> DeviceController<'a> {
             k: 0,
             held: None,
             fresh: false,
-            rx_buf: Vec::new(),
+            rx_frames: Vec::new(),
             frame_bytes: 0,
             actuations: Vec::new(),
             periods: Vec::new(),
@@ -207,6 +210,7 @@ impl<'a> DeviceController<'a> {
             first_reset_ns: None,
             last_tick: 0,
             last_latched: false,
+            records: Records::All,
         }
     }
 
@@ -227,44 +231,55 @@ impl<'a> DeviceController<'a> {
 
     /// Reserves the per-period records for `periods` periods.
     pub fn reserve(&mut self, periods: usize) {
-        self.periods.reserve(periods);
         self.log.reserve(periods);
-        self.actuations.reserve(periods);
-        self.sent_codes.reserve(periods);
+        if self.records == Records::All {
+            self.periods.reserve(periods);
+            self.actuations.reserve(periods);
+            self.sent_codes.reserve(periods);
+        }
     }
 
     fn send(&mut self, t_ns: u64, m: &Message) {
-        let Ok(frame) = encode_vec(m) else { return };
+        let mut buf = [0u8; MAX_FRAME];
+        let Ok(n) = encode(m, &mut buf) else { return };
+        let frame = buf.get(..n).unwrap_or(&[]);
         self.host.sent += 1;
-        self.host.bytes_sent += frame.len() as u64;
+        self.host.bytes_sent += n as u64;
         if self.error.is_none() {
-            if let Err(e) = self.tr.send(t_ns, &frame) {
+            if let Err(e) = self.tr.send(t_ns, frame) {
                 self.error = Some(e);
             }
         }
     }
 
+    /// Receives until `deadline_ns`: the transport decodes each delivered run with the
+    /// host's decoder as it comes ([`Transport::recv_frames`]; the frames closed in it
+    /// collected with the arrival of their run and their bytes on the wire, delimiter
+    /// included), then each frame is taken in order.
     fn receive(&mut self, deadline_ns: u64) {
         if self.error.is_some() {
             return;
         }
-        let mut bytes = std::mem::take(&mut self.rx_buf);
-        bytes.clear();
-        if let Err(e) = self.tr.recv(deadline_ns, &mut |at, run| {
-            bytes.extend(run.iter().map(|&b| (at, b)));
+        let mut frames = std::mem::take(&mut self.rx_frames);
+        frames.clear();
+        let (dec, frame_bytes, received) = (
+            &mut self.decoder,
+            &mut self.frame_bytes,
+            &mut self.host.bytes_received,
+        );
+        if let Err(e) = self.tr.recv_frames(deadline_ns, dec, &mut |at, taken, r| {
+            *received += taken as u64;
+            *frame_bytes += taken;
+            if let Some(r) = r {
+                frames.push((at, std::mem::take(frame_bytes), r));
+            }
         }) {
             self.error = Some(e);
         }
-        for &(at, b) in &bytes {
-            self.host.bytes_received += 1;
-            self.frame_bytes += 1;
-            let Some(r) = self.decoder.push(b) else {
-                continue;
-            };
-            let n = std::mem::take(&mut self.frame_bytes);
+        for &(at, n, r) in &frames {
             self.on_frame(at, n, r);
         }
-        self.rx_buf = bytes;
+        self.rx_frames = frames;
     }
 
     fn on_frame(&mut self, at_ns: u64, wire_bytes: usize, r: Result<Message, FrameError>) {
@@ -284,12 +299,14 @@ impl<'a> DeviceController<'a> {
                     self.k.saturating_sub(u64::from(diff))
                 });
                 let echo = echo.map(|e| e.saturating_sub(1));
-                self.actuations.push(RxActuation {
-                    at_ns,
-                    wire_bytes,
-                    echo,
-                    frame: a,
-                });
+                if self.records == Records::All {
+                    self.actuations.push(RxActuation {
+                        at_ns,
+                        wire_bytes,
+                        echo,
+                        frame: a,
+                    });
+                }
                 self.note_tick(at_ns, &a);
                 if std::mem::take(&mut self.config_echo_pending) {
                     self.config_refused |= a.flags.has(Flags::CMD_REFUSED);
@@ -381,7 +398,8 @@ impl SampledController for DeviceController<'_> {
         let q = Sensor::from_si(self.seq, t_ns, &sample, self.lateral);
         self.host.clamped += u64::from(q.clamped);
         let sensor = q.msg;
-        if let Lateral::Velocity(v) = sensor.lateral {
+        let all = self.records == Records::All;
+        if let (Lateral::Velocity(v), true) = (sensor.lateral, all) {
             self.sent_codes.push(InputCodes {
                 y_dot: v,
                 current: sensor.i_a_ma,
@@ -391,11 +409,13 @@ impl SampledController for DeviceController<'_> {
         }
         let before = self.host.bytes_sent;
         self.send(t_ns, &Message::Sensor(sensor));
-        self.periods.push(Period {
-            t_ns,
-            sensor_bytes: (self.host.bytes_sent - before) as usize,
-            echo_at_ns: None,
-        });
+        if all {
+            self.periods.push(Period {
+                t_ns,
+                sensor_bytes: (self.host.bytes_sent - before) as usize,
+                echo_at_ns: None,
+            });
+        }
         // After the Sensor frame, so this period's sample is on time: the device applies
         // the command at its next tick.
         if self
@@ -441,6 +461,19 @@ impl SampledController for DeviceController<'_> {
     }
 }
 
+/// Which per-period records [`close_loop`] keeps.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Records {
+    /// Every record: the periods, the actuations received, the sensor codes sent and
+    /// the link log (what `hil run`'s checks read).
+    #[default]
+    All,
+    /// The link log only ([`ClosedLoop::log`]): `periods`, `actuations` and
+    /// `sent_codes` stay empty (a run that reports the trajectory and the link, as
+    /// `sim-host run --loop device` does, without the memory of the rest).
+    LinkLog,
+}
+
 /// How [`close_loop`] runs.
 #[derive(Debug, Clone, Default)]
 pub struct LoopSetup<'l> {
@@ -463,6 +496,8 @@ pub struct LoopSetup<'l> {
     pub reset_config: Option<Config>,
     /// A progress bar to advance (simulated ms).
     pub progress: Option<ProgressBar>,
+    /// Which records to keep.
+    pub records: Records,
     /// The trajectory's label.
     pub label: &'l str,
 }
@@ -515,6 +550,7 @@ pub fn close_loop(
     ctrl.clear_faults_at_ns = setup.clear_faults_at_ns;
     ctrl.stall_at_ns = setup.stall_at_ns;
     ctrl.reset_config = setup.reset_config;
+    ctrl.records = setup.records;
     // One record per period, reserved once (doubling to 100 000 records re-copies and
     // re-faults megabytes); capped: a very long scenario grows the rest as it goes.
     let periods = (sc.duration_ns / period_ns.max(1)).min(1 << 22);
@@ -531,7 +567,7 @@ pub fn close_loop(
         setup.yaw_spring,
         setup.label,
     )?;
-    let t_end = ctrl.periods.last().map_or(0, |p| p.t_ns + period_ns);
+    let t_end = ctrl.log.last().map_or(0, |p| p.t_ns + period_ns);
     ctrl.finish(t_end);
     Ok(ClosedLoop {
         trajectory,

@@ -21,9 +21,11 @@
 //! ([`Transport::extra`]: `host_tick_ns`), never judged.
 //!
 //! Frame accounting (the one method): each end of the link has an [`RxPort`] that
-//! decodes the delivered bytes as a shadow of the receiver's own decoder (the device's
-//! runtime, the host's adapter), so every frame sent is attributed to its fate whatever
-//! the receiver's counters mean ([`Transport::link_accounting`]).
+//! attributes every frame sent to its fate ([`Transport::link_accounting`]), each from
+//! the receiver's own decoder: the device's port from the runtime's (its rejection
+//! counters, see [`outcome`]), the host's from the host adapter's
+//! ([`Transport::recv_frames`]). A caller of plain [`Transport::recv`] gets the bytes,
+//! and the host's port then decodes them itself.
 //!
 //! Deliberately broken devices ([`DeviceFault`]) exist so the harness's checks can be
 //! shown to fail.
@@ -36,7 +38,7 @@ use wheelset_runtime::{Runtime, RuntimeConfig};
 
 use crate::device_loop::{DeviceError, ACTUATION_WORST_BYTES, SENSOR_WORST_BYTES};
 use crate::sim_link::{check_budget, wire_ns, Link, LinkConfig, RxPort};
-use crate::transport::{Clock, LinkAccounting, Transport, TransportError};
+use crate::transport::{Clock, FrameSink, LinkAccounting, Transport, TransportError};
 
 /// A deliberately broken device, to prove the checks can fail.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -152,6 +154,8 @@ pub struct InProc<T: SampleBits = Fx> {
     baud: u32,
     rt: Runtime<T>,
     dev_rx: RxPort,
+    /// The device's decoder holds bytes of an unfinished frame (see [`outcome`]).
+    dev_frame_open: bool,
     host_rx: RxPort,
     fault: DeviceFault,
     period_ns: u64,
@@ -163,6 +167,8 @@ pub struct InProc<T: SampleBits = Fx> {
     scratch: Vec<u8>,
     /// Arrival time of the last byte of each down-link frame (index: frame id).
     arrival_ns: Vec<u64>,
+    /// Whether the host's wall time per tick is measured ([`Self::time_ticks`]).
+    timed: bool,
     host_tick_ns: Vec<f64>,
 }
 
@@ -194,6 +200,7 @@ impl<T: SampleBits> InProc<T> {
             baud: link_cfg.baud,
             rt,
             dev_rx: RxPort::new(),
+            dev_frame_open: false,
             host_rx: RxPort::new(),
             fault,
             period_ns,
@@ -203,6 +210,7 @@ impl<T: SampleBits> InProc<T> {
             frames_out: 0,
             scratch: Vec::new(),
             arrival_ns: Vec::new(),
+            timed: true,
             host_tick_ns: Vec::new(),
         })
     }
@@ -211,7 +219,17 @@ impl<T: SampleBits> InProc<T> {
     /// grows them by doubling).
     pub fn reserve(&mut self, ticks: usize) {
         self.arrival_ns.reserve(ticks);
-        self.host_tick_ns.reserve(ticks);
+        if self.timed {
+            self.host_tick_ns.reserve(ticks);
+        }
+    }
+
+    /// Whether the host's own wall time per [`Runtime::tick`] call is measured (on by
+    /// default; two clock reads per tick) for [`Transport::extra`]'s `host_tick_ns`. A
+    /// run that reports no `extra` (`sim-host run --loop device`) turns it off; nothing
+    /// the device does depends on it.
+    pub fn time_ticks(&mut self, on: bool) {
+        self.timed = on;
     }
 
     /// Brings the device to `cfg` before the run, the way a board is configured before
@@ -265,14 +283,20 @@ impl<T: SampleBits> InProc<T> {
     }
 
     fn tick(&mut self, t_ns: u64) {
-        let (rt, port) = (&mut self.rt, &mut self.dev_rx);
+        let (rt, port, open) = (&mut self.rt, &mut self.dev_rx, &mut self.dev_frame_open);
         self.link.up.deliver(t_ns, |run, id| {
-            rt.receive(run);
-            port.push(run, id, |_| {});
+            port.push_with(run, id, |piece| {
+                let before = *rt.counters();
+                rt.receive(piece);
+                outcome(piece, open, &before, rt.counters())
+            });
         });
-        let start = Instant::now();
+        let start = self.timed.then(Instant::now);
         let out = self.rt.tick(self.last_exec);
-        let measured = u32::try_from(start.elapsed().as_nanos()).unwrap_or(u32::MAX);
+        if let Some(start) = start {
+            let measured = u32::try_from(start.elapsed().as_nanos()).unwrap_or(u32::MAX);
+            self.host_tick_ns.push(f64::from(measured));
+        }
         let (out, exec_ns): (&[u8], u64) = match self.fault {
             DeviceFault::None | DeviceFault::Stall { .. } => (out, 0),
             DeviceFault::WrongSign => {
@@ -302,7 +326,6 @@ impl<T: SampleBits> InProc<T> {
         };
         self.last_exec = u32::try_from(exec_ns).unwrap_or(u32::MAX);
         self.frames_out += 1;
-        self.host_tick_ns.push(f64::from(measured));
         // Each frame (Actuation, then a Status if requested) is its own frame on the link,
         // stamped with the arrival of its last byte.
         for frame in out.split_inclusive(|&b| b == 0) {
@@ -315,6 +338,44 @@ impl<T: SampleBits> InProc<T> {
             }
         }
     }
+}
+
+/// The outcome of the frame that one [`Runtime::receive`] call on `piece` (bytes up to
+/// and including a 0x00, or a run's tail) closed, read from the runtime's own counters:
+/// the up link's frame accounting attributes what the device's decoder decided, with no
+/// second decoder over the same bytes.
+///
+/// `open` tracks whether the runtime's decoder holds bytes of an unfinished frame (a
+/// non-zero byte since the last 0x00: its decoder skips empty frames and decodes every
+/// other one). A closed non-empty frame is either rejected, and exactly one of the
+/// rejection counters went up by one, or valid (a `ResetCounters` then zeroed them all).
+fn outcome(
+    piece: &[u8],
+    open: &mut bool,
+    before: &wheelset_proto::Status,
+    after: &wheelset_proto::Status,
+) -> Option<Result<(), wheelset_proto::FrameError>> {
+    use wheelset_proto::FrameError;
+    let closes = piece.last() == Some(&0);
+    let nonempty = *open || piece.len() > usize::from(closes);
+    *open = !closes && nonempty;
+    if !(closes && nonempty) {
+        return None;
+    }
+    let up = |b: u32, a: u32| a == b.wrapping_add(1);
+    let kind = [
+        (up(before.rx_crc, after.rx_crc), FrameError::Crc),
+        (up(before.rx_cobs, after.rx_cobs), FrameError::Cobs),
+        (up(before.rx_version, after.rx_version), FrameError::Version),
+        (up(before.rx_length, after.rx_length), FrameError::Length),
+        (
+            up(before.rx_postcard, after.rx_postcard),
+            FrameError::Postcard,
+        ),
+    ]
+    .into_iter()
+    .find_map(|(hit, e)| hit.then_some(e));
+    Some(kind.map_or(Ok(()), Err))
 }
 
 /// Re-encodes every Actuation frame in `out` into `res` with the yaw torque negated.
@@ -353,6 +414,20 @@ fn host_tick_summary(v: &[f64]) -> serde_json::Value {
     })
 }
 
+impl<T: SampleBits> InProc<T> {
+    /// Runs every tick due by `deadline_ns`.
+    fn ticks_until(&mut self, deadline_ns: u64) {
+        loop {
+            let t = self.next_tick * self.period_ns + self.phase_ns;
+            if t > deadline_ns {
+                break;
+            }
+            self.tick(t);
+            self.next_tick += 1;
+        }
+    }
+}
+
 impl<T: SampleBits> Transport for InProc<T> {
     fn name(&self) -> String {
         "inproc".into()
@@ -380,19 +455,36 @@ impl<T: SampleBits> Transport for InProc<T> {
         deadline_ns: u64,
         sink: &mut dyn FnMut(u64, &[u8]),
     ) -> Result<(), TransportError> {
-        loop {
-            let t = self.next_tick * self.period_ns + self.phase_ns;
-            if t > deadline_ns {
-                break;
-            }
-            self.tick(t);
-            self.next_tick += 1;
-        }
+        self.ticks_until(deadline_ns);
         let (port, arrival) = (&mut self.host_rx, &self.arrival_ns);
         self.link.down.deliver(deadline_ns, |run, id| {
             port.push(run, id, |_| {});
             let at = arrival.get(id as usize).copied().unwrap_or(deadline_ns);
             sink(at, run);
+        });
+        Ok(())
+    }
+
+    /// The host's decoder decides each frame; the down link's port attributes its
+    /// result ([`RxPort::push_with`]), as the up link's port attributes the runtime's.
+    fn recv_frames(
+        &mut self,
+        deadline_ns: u64,
+        dec: &mut Decoder,
+        sink: &mut FrameSink<'_>,
+    ) -> Result<(), TransportError> {
+        self.ticks_until(deadline_ns);
+        let (port, arrival) = (&mut self.host_rx, &self.arrival_ns);
+        self.link.down.deliver(deadline_ns, |run, id| {
+            let at = arrival.get(id as usize).copied().unwrap_or(deadline_ns);
+            port.push_with(run, id, |piece| {
+                // A piece holds at most one delimiter, at its end: the decoder takes it
+                // whole.
+                let (r, _) = dec.next_message(piece);
+                let outcome = r.as_ref().map(|r| r.as_ref().map(|_| ()).map_err(|e| *e));
+                sink(at, piece.len(), r);
+                outcome
+            });
         });
         Ok(())
     }

@@ -19,6 +19,12 @@
 
 use std::fmt;
 
+use wheelset_proto::{Decoder, FrameError, Message};
+
+/// What [`Transport::recv_frames`] hands over for each piece it decoded: its arrival
+/// (ns), the bytes it took, and the result of the frame it closed (None: none closed).
+pub type FrameSink<'s> = dyn FnMut(u64, usize, Option<Result<Message, FrameError>>) + 's;
+
 /// The time base a transport runs on (see the module docs).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
@@ -100,6 +106,27 @@ pub trait Transport {
         deadline_ns: u64,
         sink: &mut dyn FnMut(u64, &[u8]),
     ) -> Result<(), TransportError>;
+    /// [`Self::recv`] decoded with the host's decoder `dec` (its state carried from call
+    /// to call): every delivered chunk is taken up to each delimiter
+    /// ([`Decoder::next_message`]) and each piece goes to `sink(arrival_ns, bytes,
+    /// frame)`, in order. A transport that accounts for frames itself (the in-process
+    /// link) overrides it to attribute the decoder's own results, with no second decoder
+    /// over the same bytes.
+    fn recv_frames(
+        &mut self,
+        deadline_ns: u64,
+        dec: &mut Decoder,
+        sink: &mut FrameSink<'_>,
+    ) -> Result<(), TransportError> {
+        self.recv(deadline_ns, &mut |at, run| {
+            let mut rest = run;
+            while !rest.is_empty() {
+                let (r, more) = dec.next_message(rest);
+                sink(at, rest.len() - more.len(), r);
+                rest = more;
+            }
+        })
+    }
     /// Exact link accounting after the run has drained, if the transport knows it.
     fn link_accounting(&self) -> Option<LinkAccounting> {
         None

@@ -220,17 +220,18 @@ pub struct Crossing {
     pub unstable_below: bool,
 }
 
-/// A mode's value at one point.
+/// A mode's value at one point (fields in alphabetical order: the JSON's keys sorted,
+/// see `modes/json.rs`).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ModeValue {
+    /// Damped frequency `im / 2 pi`, Hz.
+    pub freq_hz: f64,
+    /// Imaginary part (non-negative), rad/s.
+    pub im: f64,
     /// Mode name (`kinematic`, `high-frequency`, `torsional`, ...).
     pub name: String,
     /// Real part, 1/s.
     pub re: f64,
-    /// Imaginary part (non-negative), rad/s.
-    pub im: f64,
-    /// Damped frequency `im / 2 pi`, Hz.
-    pub freq_hz: f64,
     /// Damping ratio `-re / |lambda|` (1 for a stable real eigenvalue).
     pub zeta: f64,
 }
@@ -303,7 +304,13 @@ impl CaseSweep {
 
     /// Every mode's value at point `k` (structural zero excluded).
     pub fn modes_at(&self, k: usize) -> Vec<ModeValue> {
-        self.mode_names()
+        self.modes_named(&self.mode_names(), k)
+    }
+
+    /// [`Self::modes_at`] with the case's [`Self::mode_names`] given (made once for a
+    /// pass over every point).
+    fn modes_named(&self, names: &[String], k: usize) -> Vec<ModeValue> {
+        names
             .iter()
             .filter_map(|n| self.mode_eig(n, k).map(|(_, l)| ModeValue::new(n, l)))
             .collect()

@@ -12,19 +12,13 @@ impl<T: SampleBits> Runtime<T> {
     /// Takes received bytes in any chunking; decodes frames, applies commands, counts bad
     /// frames. Never panics.
     pub fn receive(&mut self, bytes: &[u8]) {
-        // Frame by frame (not a callback into `self` with the decoder moved out and back:
-        // two copies of its buffer per call).
-        // A Sensor frame is decoded in place into `self.rx_sensor` (not moved out in a
-        // Config-sized `Request`: `Decoder::next_sensor_or_request`), which `on_sensor`
-        // then reads: no zeroed local per call (its clearing was a `memset` call) and no
-        // copy (an earlier field version copied it out for `on_sensor`: +17). Measured
-        // with `cargo xtask fw-bench`, whole tick mean, M4 fixed 1 762 -> 1 714, f32
-        // 1 619 -> 1 573, M3 fixed 1 802 -> 1 754; static RAM +64 B, receive's frame
-        // -32 B (`cargo fw`).
-        // Any other frame's result (written by the decoder before it says `Frame`; the
-        // initial value is never read: `Ok(Unexpected)` is one store fewer to make than
-        // `Err(Length)`, -2 instructions per tick, `cargo xtask fw-bench` built with
-        // `N = 20`, M4 / M3 fixed and f32 alike).
+        // Frame by frame, the decoder a field of `self` (a callback into `self` would need
+        // the decoder moved out and back: two copies of its buffer per call). A Sensor
+        // frame is decoded in place into `self.rx_sensor`, which `on_sensor` then reads:
+        // no Config-sized `Request` moved out, no zeroed local, no copy per tick.
+        // `other` receives any other frame's result (the decoder writes it before it
+        // says `Frame`; the initial value is never read, and `Ok(Unexpected)` is the
+        // cheapest one to store).
         let mut other = Ok(Request::Unexpected);
         let mut rest = bytes;
         while !rest.is_empty() {
@@ -46,11 +40,8 @@ impl<T: SampleBits> Runtime<T> {
 
     /// Any frame but a Sensor frame the decoder wrote in place (rare: Config, Command, a
     /// rejected frame): counted and applied. Out of line so that `receive`'s loop, run
-    /// on every Sensor frame, keeps few registers and no set-up for these paths: -4
-    /// instructions per tick, stack -40 B (`cargo xtask fw-bench` built with `N = 20`,
-    /// M4 / M3 fixed and f32 alike), Nucleo flash -68 B (`cargo fw`). (Also measured and
-    /// not kept: `#[cold]` on it, the same count and +104 B of flash; `on_sensor`
-    /// inlined at a single call site in `receive`, -2 more and +196 B.)
+    /// on every Sensor frame, keeps few registers and no set-up for these paths (and
+    /// less stack and flash than inlined).
     #[inline(never)]
     fn on_frame(&mut self, r: Result<Request, FrameError>) {
         let c = &mut self.counters;

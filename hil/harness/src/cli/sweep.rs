@@ -279,10 +279,13 @@ pub(crate) fn cmd_sweep(c: &SweepCmd, command: &str) -> Result<Verdict, Failure>
     if let Some(sh) = shard.filter(|_| !matches!(a.shard, Some(sweep::ShardSpec::Fixed(_)))) {
         say!("shard: {sh} (from the job array's environment)");
     }
-    let doc = sweep::run_campaign(&campaign, shard, jobs, &mut tick).map_err(run_error)?;
+    let (doc, cost) = sweep::run_campaign(&campaign, shard, jobs, &mut tick).map_err(run_error)?;
     if let Some(pb) = &bar {
         pb.finish_and_clear();
     }
+    // On the console only (standard error: a figure of the machine and its load, beside
+    // the progress bar): the document's shards merge byte for byte.
+    eprintln!("hil sweep: throughput: {cost} ({jobs} threads)");
     write(&doc, json, a.report.as_deref())
 }
 

@@ -170,7 +170,7 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
     if let Some(w) = wheelset_loop::rate_check::warning(sc, a.control.into(), hz) {
         warn(&w);
     }
-    let run = run_device(sc, a.control.into(), &opt).map_err(|e| Failure {
+    let mut run = run_device(sc, a.control.into(), &opt).map_err(|e| Failure {
         code: 2,
         msg: e.to_string(),
     })?;
@@ -198,6 +198,11 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
     );
     out!("{}", run.report);
     outln!();
+    // The link log (one record per period) is the CSV's link columns, its report
+    // printed: without a CSV it is freed before the reference trajectory is made.
+    if a.csv.is_none() {
+        run.link = Vec::new();
+    }
     let reference = simulate(sc, a.control);
     outln!(
         "vs continuous reference: {}",

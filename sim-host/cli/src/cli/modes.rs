@@ -1,8 +1,9 @@
 //! `sim-host modes`: the modal analysis along the creep sweep.
 
 use clap::ValueEnum;
+use std::io::Write;
 use std::path::PathBuf;
-use wheelset_plant::modes::{creep_grid, sweep_case, Case};
+use wheelset_plant::modes::{creep_grid, sweep_case, Case, CaseSweep};
 use wheelset_report::outln;
 
 use super::{io_fail, load_params, warn, Failure};
@@ -54,6 +55,29 @@ pub(crate) fn progress(total: u64, msg: &str) -> indicatif::ProgressBar {
     }
     pb.set_message(msg.to_string());
     pb
+}
+
+/// The modes file: written straight to the file as it is serialized (no `Value` tree of
+/// the 4 000 points). Keys in alphabetical order, as in every struct it holds (see
+/// `wheelset_plant::modes::CaseJson`); `params` and `derived` are small `Value` maps,
+/// sorted the same way.
+#[derive(serde::Serialize)]
+struct ModesFile<'a> {
+    cases: Cases<'a>,
+    derived: serde_json::Value,
+    kinematic_hz: f64,
+    note: &'static str,
+    params: serde_json::Value,
+    speed_mps: f64,
+}
+
+/// The cases' JSON forms, each made as it is written.
+struct Cases<'a>(&'a [CaseSweep]);
+
+impl serde::Serialize for Cases<'_> {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_seq(self.0.iter().map(CaseSweep::to_json))
+    }
 }
 
 pub(crate) fn cmd_modes(a: &ModesArgs) -> Result<(), Failure> {
@@ -143,22 +167,29 @@ pub(crate) fn cmd_modes(a: &ModesArgs) -> Result<(), Failure> {
             );
         }
     }
-    let json = serde_json::json!({
-        "speed_mps": p.v,
-        "kinematic_hz": p.kinematic_hz(),
-        "note": "structural zero eigenvalue (free rolling at any speed) reported as structural_zero and excluded from stability verdicts",
-        "params": &p,
-        "derived": {"k_t": p.k_t(), "k_gear": p.k_gear(), "y0_at_2300m": p.pure_rolling_y(1.0 / 2300.0)},
-        "cases": sweeps.iter().map(|s| s.to_json()).collect::<Vec<_>>(),
+    let derived = serde_json::json!({
+        "k_t": p.k_t(), "k_gear": p.k_gear(), "y0_at_2300m": p.pure_rolling_y(1.0 / 2300.0)
     });
+    let file = ModesFile {
+        cases: Cases(&sweeps),
+        derived,
+        kinematic_hz: p.kinematic_hz(),
+        note: "structural zero eigenvalue (free rolling at any speed) reported as structural_zero and excluded from stability verdicts",
+        params: serde_json::to_value(&p).map_err(|e| Failure {
+            code: 1,
+            msg: e.to_string(),
+        })?,
+        speed_mps: p.v,
+    };
     if let Some(dir) = a.json.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(|e| io_fail(dir, e))?;
     }
-    let text = serde_json::to_string(&json).map_err(|e| Failure {
-        code: 1,
-        msg: e.to_string(),
-    })?;
-    std::fs::write(&a.json, text).map_err(|e| io_fail(&a.json, e))?;
+    let out = std::fs::File::create(&a.json).map_err(|e| io_fail(&a.json, e))?;
+    let mut out = std::io::BufWriter::new(out);
+    serde_json::to_writer(&mut out, &file)
+        .map_err(std::io::Error::from)
+        .and_then(|()| out.flush())
+        .map_err(|e| io_fail(&a.json, e))?;
     outln!("json: {}", a.json.display());
     if let Some(dir) = &a.plot {
         for sw in &sweeps {

@@ -15,9 +15,9 @@ enum Fate {
     Rejected,
 }
 
-/// The receiving end of a channel: a frame decoder that also attributes every sent frame
-/// to its fate. (The device side runs its own decoder inside the runtime; this port then
-/// decodes the same bytes as a shadow, which sees exactly the same frames.)
+/// The receiving end of a channel: attributes every sent frame to its fate, with the
+/// receiver's own decoding ([`Self::push_with`]: the in-process device's runtime, the
+/// host adapter's decoder) or its own decoder ([`Self::push`]).
 #[derive(Debug, Clone, Default)]
 pub struct RxPort {
     decoder: Decoder,

@@ -1,4 +1,8 @@
 //! The JSON form of a case's sweep.
+//!
+//! The fields of every struct here (and of [`ModeValue`] and [`Crossing`]) are declared in
+//! alphabetical order: serialized directly (streamed to the file, no `serde_json::Value`
+//! tree), the keys come out sorted, as a `Value` map writes them.
 
 use super::*;
 use serde::Serialize;
@@ -12,41 +16,47 @@ pub struct PointJson {
     pub eigenvalues: Vec<[f64; 2]>,
     /// Named modes (structural zero excluded).
     pub modes: Vec<ModeValue>,
-    /// The structural zero eigenvalue `[re, im]` (excluded from verdicts).
-    pub structural_zero: Option<[f64; 2]>,
     /// Whether all modes are stable here (structural zero excluded).
     pub stable: bool,
+    /// The structural zero eigenvalue `[re, im]` (excluded from verdicts).
+    pub structural_zero: Option<[f64; 2]>,
 }
 
 /// JSON form of one case.
 #[derive(Debug, Serialize)]
 pub struct CaseJson {
+    /// Instability crossings.
+    pub crossings: Vec<Crossing>,
+    /// Creep values where the eigenvalue solver failed.
+    pub failed_points: Vec<f64>,
     /// `a`..`d`.
     pub id: &'static str,
     /// Description.
     pub label: &'static str,
-    /// Closed-loop states.
-    pub states: Vec<&'static str>,
     /// Points, ascending creep.
     pub points: Vec<PointJson>,
-    /// Instability crossings.
-    pub crossings: Vec<Crossing>,
     /// Stable at every point of the sweep (structural zero excluded).
     pub stable_everywhere: bool,
-    /// Creep values where the eigenvalue solver failed.
-    pub failed_points: Vec<f64>,
+    /// Closed-loop states.
+    pub states: Vec<&'static str>,
 }
 
 impl CaseSweep {
     /// The JSON form.
     pub fn to_json(&self) -> CaseJson {
+        // The names once for the case, each point's modes once (`stable_at` and
+        // `modes_at` per point would name the modes twice).
+        let names = self.mode_names();
         let points: Vec<PointJson> = (0..self.creep.len())
-            .map(|k| PointJson {
-                creep_n: self.creep[k],
-                eigenvalues: self.eig[k].iter().map(|l| [l.re, l.im]).collect(),
-                modes: self.modes_at(k),
-                structural_zero: self.structural_zero(k).map(|l| [l.re, l.im]),
-                stable: self.stable_at(k),
+            .map(|k| {
+                let modes = self.modes_named(&names, k);
+                PointJson {
+                    creep_n: self.creep[k],
+                    eigenvalues: self.eig[k].iter().map(|l| [l.re, l.im]).collect(),
+                    stable: modes.iter().all(|m| m.re < 0.0),
+                    modes,
+                    structural_zero: self.structural_zero(k).map(|l| [l.re, l.im]),
+                }
             })
             .collect();
         CaseJson {

@@ -1,0 +1,84 @@
+//! The campaign's throughput: points per core-second, the CPU time of the threads that
+//! ran the points (and of the thread that collected them). Printed on the console by
+//! `hil sweep`, never written into the campaign's document (whose shards merge byte for
+//! byte).
+//!
+//! A thread's CPU time is its on-CPU time in `/proc/thread-self/schedstat` (Linux, ns).
+//! Where that file does not exist the throughput is unknown (`None`), not guessed.
+
+use std::time::Duration;
+
+/// What a campaign cost.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Throughput {
+    /// Points run.
+    pub points: usize,
+    /// CPU time of every thread of the campaign, if the OS reports it.
+    pub cpu: Option<Duration>,
+    /// Wall-clock time of the campaign.
+    pub wall: Duration,
+}
+
+impl Throughput {
+    /// Points per core-second (`points / cpu`), if the CPU time is known and not zero.
+    #[must_use]
+    pub fn points_per_core_s(&self) -> Option<f64> {
+        self.cpu
+            .map(|c| c.as_secs_f64())
+            .filter(|&s| s > 0.0)
+            .map(|s| self.points as f64 / s)
+    }
+}
+
+impl std::fmt::Display for Throughput {
+    /// `100 points in 6.12 s wall, 11.9 core-s of CPU: 8.40 points per core-second`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} points in {:.2} s wall",
+            self.points,
+            self.wall.as_secs_f64()
+        )?;
+        match (self.cpu, self.points_per_core_s()) {
+            (Some(c), Some(r)) => write!(
+                f,
+                ", {:.2} core-s of CPU: {r:.2} points per core-second",
+                c.as_secs_f64()
+            ),
+            _ => f.write_str(" (CPU time not reported by this OS)"),
+        }
+    }
+}
+
+/// The calling thread's CPU time so far, if the OS reports it.
+#[must_use]
+pub fn thread_cpu() -> Option<Duration> {
+    let s = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    let ns = s.split_whitespace().next()?.parse::<u64>().ok()?;
+    Some(Duration::from_nanos(ns))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn points_per_core_second() {
+        let t = Throughput {
+            points: 100,
+            cpu: Some(Duration::from_secs(4)),
+            wall: Duration::from_secs(2),
+        };
+        assert_eq!(t.points_per_core_s(), Some(25.0));
+        assert!(t.to_string().ends_with("25.00 points per core-second"));
+        let unknown = Throughput { cpu: None, ..t };
+        assert_eq!(unknown.points_per_core_s(), None);
+    }
+
+    #[test]
+    fn a_thread_reads_its_cpu_time_where_linux_reports_it() {
+        if std::path::Path::new("/proc/thread-self/schedstat").exists() {
+            assert!(thread_cpu().is_some());
+        }
+    }
+}

@@ -1,0 +1,78 @@
+#!/usr/bin/env bash
+# Side-by-side CPU time and peak memory of the host closed loop and the modal sweep.
+#
+# Usage (from the repository root, after `cargo build --release -p sim-host`):
+#
+#     scripts/loop-bench.sh --against OTHER_SIM_HOST [--pairs N] [--this SIM_HOST]
+#
+# Runs, alternating between OTHER_SIM_HOST (e.g. a build of an earlier commit) and this
+# build (default target/release/sim-host), N pairs (default 7) of each workload:
+#
+#   loop:  sim-host run --scenario curve --control lead --loop device   (output discarded)
+#   modes: sim-host modes --json DIR/modes.json                         (4 cases x 1 000 points)
+#
+# and prints, for each binary and workload, the medians of the whole process's CPU time
+# (user + system, ms) and its peak resident memory (MiB), as the kernel reports them to
+# the parent (`wait4`'s rusage, microsecond resolution; `/usr/bin/time` rounds to 10 ms).
+# Alternating runs share the machine's state, so the comparison holds on a noisy machine.
+set -euo pipefail
+
+this=target/release/sim-host
+against=""
+pairs=7
+while [ $# -gt 0 ]; do
+    case "$1" in
+        --against) against="$2"; shift 2 ;;
+        --this) this="$2"; shift 2 ;;
+        --pairs) pairs="$2"; shift 2 ;;
+        -h|--help) sed -n '2,16p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+        *) echo "loop-bench: unknown argument $1 (see --help)" >&2; exit 2 ;;
+    esac
+done
+[ -n "$against" ] || { echo "loop-bench: --against BINARY is required" >&2; exit 2; }
+for b in "$this" "$against"; do
+    [ -x "$b" ] || { echo "loop-bench: $b is not an executable" >&2; exit 2; }
+done
+command -v python3 >/dev/null || { echo "loop-bench: needs python3 (for wait4)" >&2; exit 2; }
+
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+
+# One run: appends "cpu_ms rss_kib" to the file $1; the rest is the command.
+measure() {
+    local out="$1"; shift
+    python3 -c '
+import os, sys
+pid = os.fork()
+if pid == 0:
+    null = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(null, 1)
+    os.execv(sys.argv[1], sys.argv[1:])
+_, status, ru = os.wait4(pid, 0)
+if os.waitstatus_to_exitcode(status) != 0:
+    sys.exit(1)
+print("%.1f %d" % ((ru.ru_utime + ru.ru_stime) * 1000, ru.ru_maxrss))
+' "$@" >>"$out" 2>"$tmp/err" </dev/null \
+        || { echo "loop-bench: failed: $*" >&2; cat "$tmp/err" >&2; exit 1; }
+}
+
+for i in $(seq "$pairs"); do
+    for side in against this; do
+        bin=${!side}
+        measure "$tmp/$side.loop" "$bin" run --scenario curve --control lead --loop device
+        measure "$tmp/$side.modes" "$bin" modes --json "$tmp/modes-$side.json"
+    done
+done
+
+median() { sort -n | awk '{ v[NR] = $1 } END { print (NR % 2) ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2 }'; }
+
+printf '%-8s %-6s %12s %14s   (%s pairs, median)\n' binary job "cpu ms" "peak RSS MiB" "$pairs"
+for side in against this; do
+    for job in loop modes; do
+        cpu=$(cut -d' ' -f1 "$tmp/$side.$job" | median)
+        rss=$(cut -d' ' -f2 "$tmp/$side.$job" | median)
+        printf '%-8s %-6s %12s %14.1f\n' "$side" "$job" "$cpu" "$(echo "$rss / 1024" | bc -l)"
+    done
+done
+echo "this:    $this"
+echo "against: $against"
