@@ -23,7 +23,7 @@
 //! Frame accounting (the one method): each end of the link has an [`RxPort`] that
 //! attributes every frame sent to its fate ([`Transport::link_accounting`]), each from
 //! the receiver's own decoder: the device's port from the runtime's (its rejection
-//! counters, see [`outcome`]), the host's from the host adapter's
+//! counters, see `outcome`), the host's from the host adapter's
 //! ([`Transport::recv_frames`]). A caller of plain [`Transport::recv`] gets the bytes,
 //! and the host's port then decodes them itself.
 //!
