@@ -2,7 +2,7 @@
 //! shared with the sampled run.
 
 use super::*;
-use crate::control::{closed_loop_rhs, ContinuousController, Exogenous, YawLaw};
+use crate::control::{ContinuousController, Exogenous, YawLaw};
 use crate::plant::{ix, Plant, PlantConfig, State};
 use crate::scenario::{Scenario, TrackCursor};
 
@@ -15,6 +15,7 @@ pub(super) struct Exo {
     pub(super) cant: [f64; 3],
 }
 
+#[inline(always)]
 pub(super) fn stage_slot(stage: usize) -> usize {
     match stage {
         0 => 0,
@@ -195,17 +196,19 @@ pub fn run_continuous_with(sc: &Scenario, ctrl: ContinuousController) -> Traject
                 break;
             }
         }
-        x = rk4_step(&x, h, |stage, xs| {
-            let j = stage_slot(stage);
-            let ex = Exogenous {
-                curvature: e.curv[j],
-                cant: e.cant[j],
-                f_run: e.f_run,
-                i_ref: e.i_ref,
-                demand: e.demand,
-            };
-            closed_loop_rhs(&plant, &ctrl, xs, &ex)
-        });
+        let ex = |j: usize| Exogenous {
+            curvature: e.curv[j],
+            cant: e.cant[j],
+            f_run: e.f_run,
+            i_ref: e.i_ref,
+            demand: e.demand,
+        };
+        let stages = ClosedLoopStages {
+            plant: &plant,
+            ctrl: &ctrl,
+            e: [ex(0), ex(1), ex(2)],
+        };
+        x = rk4_step_with(&x, h, stages);
     }
     if diverged_at.is_none() {
         let t_end = n_steps * sc.dt_ns;

@@ -1,6 +1,7 @@
 //! Fixed-step RK4 on integer-nanosecond time, with the stage hook the runs use.
 
 use super::*;
+use crate::control::{closed_loop_rhs, ContinuousController, Exogenous};
 use crate::plant::{Inputs, Plant, State, NX};
 
 /// One classical RK4 step of length `h` seconds. `f(stage, x)` returns `dx/dt`; stage 0
@@ -37,6 +38,24 @@ impl Rhs for PlantStages<'_> {
     fn eval(&mut self, stage: usize, x: &State) -> State {
         let u = &self.u[stage_slot(stage)];
         self.plant.rhs(x, u).0
+    }
+}
+
+/// The plant closed by the continuous-time controllers, with the exogenous inputs per
+/// stage slot (start, midpoint, end) built once per step: [`closed_loop_rhs`] inlined
+/// into each RK4 stage instead of an out-of-line closure call. Same arithmetic as the
+/// closure, bit-identical states.
+pub(super) struct ClosedLoopStages<'a> {
+    pub(super) plant: &'a Plant,
+    pub(super) ctrl: &'a ContinuousController,
+    pub(super) e: [Exogenous<f64>; 3],
+}
+
+impl Rhs for ClosedLoopStages<'_> {
+    #[inline(always)]
+    fn eval(&mut self, stage: usize, x: &State) -> State {
+        let e = &self.e[stage_slot(stage)];
+        closed_loop_rhs(self.plant, self.ctrl, x, e)
     }
 }
 
