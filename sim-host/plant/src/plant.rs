@@ -264,6 +264,20 @@ pub struct Plant {
     l_a: f64,
     r_a: f64,
     inv: Inverses,
+    /// Products of parameters the RHS uses, formed once with the same operations.
+    pre: Products,
+}
+
+/// Parameter products the RHS would otherwise form per call: each is the same
+/// floating-point operation on the same operands, so the RHS is bit-identical.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Products {
+    /// `m g`.
+    m_g: f64,
+    /// `0.5 / I_w` as `0.5 * (1 / I_w)`.
+    half_inv_i_w: f64,
+    /// `k_gear / n` as `k_gear * (1 / n)`.
+    k_gear_inv_n: f64,
 }
 
 /// Reciprocals of the divisors, so the RHS multiplies instead of dividing.
@@ -316,6 +330,11 @@ impl Plant {
                 l_a: 1.0 / p.l_a,
                 f11: 1.0 / p.f11,
                 f22: 1.0 / p.f22,
+            },
+            pre: Products {
+                m_g: p.m * p.g,
+                half_inv_i_w: 0.5 * (1.0 / p.i_w),
+                k_gear_inv_n: p.k_gear() * (1.0 / p.n_gear),
             },
         }
     }
@@ -404,7 +423,7 @@ impl Plant {
         dx[ix::Y] = x[ix::YD];
         dx[ix::YD] = (c(2.0) * cr.fy - c(self.c_lat) * x[ix::YD] - c(self.k_lat) * x[ix::Y]
             + c(self.m) * v * v * u.curvature
-            - c(self.m * self.g) * u.cant)
+            - c(self.pre.m_g) * u.cant)
             * c(self.inv.m);
         // (5) yaw
         dx[ix::PSI] = x[ix::PSID];
@@ -425,7 +444,7 @@ impl Plant {
                 dx[ix::TWIST] = x[ix::WR] - x[ix::WL];
             }
             Axle::Rigid => {
-                let a = (-c(self.r0) * (cr.fx_r + cr.fx_l) + t_gear) * c(0.5 * self.inv.i_w);
+                let a = (-c(self.r0) * (cr.fx_r + cr.fx_l) + t_gear) * c(self.pre.half_inv_i_w);
                 dx[ix::WR] = a;
                 dx[ix::WL] = a;
             }
@@ -433,7 +452,7 @@ impl Plant {
         if self.cfg.drive {
             let w_l = self.w_l(x);
             dx[ix::WIND] = w_l - x[ix::WM] * c(self.inv.n);
-            dx[ix::WM] = (c(self.k_m) * x[ix::IA] + c(self.k_gear * self.inv.n) * x[ix::WIND])
+            dx[ix::WM] = (c(self.k_m) * x[ix::IA] + c(self.pre.k_gear_inv_n) * x[ix::WIND])
                 * c(self.inv.i_m);
             dx[ix::IA] =
                 (u.u_a - c(self.r_a) * x[ix::IA] - c(self.k_m) * x[ix::WM]) * c(self.inv.l_a);

@@ -32,6 +32,9 @@ pub(super) struct Setup<'a> {
     /// `(condition, v, peak)` of the last [`Setup::mu_avail`], recomputed when the
     /// condition changes or the speed moves by more than 1 mm/s.
     pub(super) peak_cache: Option<(crate::adhesion::Condition, f64, f64)>,
+    /// `(t_ns, curvature, cant)` of the last step's end: the next step's start (the
+    /// track is a function of time alone, so reading it again gives the same bits).
+    pub(super) track_end: Option<(u64, f64, f64)>,
 }
 
 impl<'a> Setup<'a> {
@@ -46,6 +49,7 @@ impl<'a> Setup<'a> {
             plant: Plant::new(&sc.params, cfg),
             track: TrackCursor::new(),
             peak_cache: None,
+            track_end: None,
         }
     }
 
@@ -78,10 +82,14 @@ impl<'a> Setup<'a> {
         let mut curv = [0.0; 3];
         let mut cant = [0.0; 3];
         for (j, t) in [t_ns, t_ns + h / 2, t_ns + h].into_iter().enumerate() {
-            let (c, th) = self.track.at(&sc.track, t);
+            let (c, th) = match self.track_end {
+                Some((te, c, th)) if j == 0 && te == t => (c, th),
+                _ => self.track.at(&sc.track, t),
+            };
             curv[j] = c;
             cant[j] = th;
         }
+        self.track_end = Some((t_ns + h, curv[2], cant[2]));
         let demand = sc.traction.at(t_ns);
         Exo {
             demand,
