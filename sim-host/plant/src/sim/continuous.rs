@@ -211,12 +211,16 @@ pub fn run_continuous_with(sc: &Scenario, ctrl: ContinuousController) -> Traject
             i_ref: e.i_ref,
             demand: e.demand,
         };
-        let stages = ClosedLoopStages {
-            plant: &plant,
-            ctrl: &ctrl,
-            e: [ex(0), ex(1), ex(2)],
-        };
-        x = rk4_step_with(&x, h, stages);
+        let e3 = [ex(0), ex(1), ex(2)];
+        x = crate::with_flags!(plant.cfg, flags => {
+            let stages = ClosedLoopStages {
+                plant: &plant,
+                flags,
+                ctrl: &ctrl,
+                e: e3,
+            };
+            rk4_step_with(&x, h, stages)
+        });
     }
     if diverged_at.is_none() {
         let t_end = n_steps * sc.dt_ns;
