@@ -11,7 +11,7 @@
 //! is yawed nose-left.
 
 use crate::params::Params;
-use crate::plant::{ix, Inputs, Plant, Scalar, NX};
+use crate::plant::{ix, Flags, Inputs, Plant, Scalar, NX};
 use serde::Serialize;
 
 /// The yaw stabilisation law.
@@ -151,7 +151,19 @@ pub fn closed_loop_rhs<S: Scalar>(
     x: &[S; NX],
     e: &Exogenous<S>,
 ) -> [S; NX] {
-    let drive = plant.cfg.drive;
+    closed_loop_rhs_with(plant, plant.cfg, ctrl, x, e)
+}
+
+/// [`closed_loop_rhs`] with the plant's configuration as [`Flags`] (the same arithmetic).
+#[inline(always)]
+pub fn closed_loop_rhs_with<S: Scalar, F: Flags>(
+    plant: &Plant,
+    f: F,
+    ctrl: &ContinuousController,
+    x: &[S; NX],
+    e: &Exogenous<S>,
+) -> [S; NX] {
+    let drive = f.drive();
     let u = Inputs {
         t_psi: ctrl.yaw_torque(x),
         u_a: if drive {
@@ -164,7 +176,7 @@ pub fn closed_loop_rhs<S: Scalar>(
         f_run: e.f_run,
         t_drive: if drive { S::c(0.0) } else { e.demand },
     };
-    let (mut dx, _) = plant.rhs(x, &u);
+    let (mut dx, _) = plant.rhs_with(f, x, &u);
     ctrl.derivs(x, e.i_ref, drive, &mut dx);
     dx
 }

@@ -192,6 +192,104 @@ impl PlantConfig {
     }
 }
 
+/// The configuration switches the right-hand side branches on, as a type: a
+/// [`PlantConfig`] (read at run time) or a [`Fixed`] (compile-time constants, so a run's
+/// RK4 step is compiled once per configuration, without the branches). Both give the
+/// same floating-point operations in the same order.
+pub trait Flags: Copy {
+    /// Flexible axle (`WL`, `TWIST` are states).
+    fn flexible(&self) -> bool;
+    /// Traction drive present.
+    fn drive(&self) -> bool;
+    /// Passive yaw spring present.
+    fn yaw_spring(&self) -> bool;
+}
+
+impl Flags for PlantConfig {
+    #[inline(always)]
+    fn flexible(&self) -> bool {
+        self.axle == Axle::Flexible
+    }
+    #[inline(always)]
+    fn drive(&self) -> bool {
+        self.drive
+    }
+    #[inline(always)]
+    fn yaw_spring(&self) -> bool {
+        self.yaw_spring
+    }
+}
+
+/// A [`PlantConfig`] as constants (see [`Flags`]); [`with_flags!`](crate::with_flags)
+/// picks the one that matches a configuration.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Fixed<const FLEXIBLE: bool, const DRIVE: bool, const YAW_SPRING: bool>;
+
+impl<const FLEXIBLE: bool, const DRIVE: bool, const YAW_SPRING: bool> Flags
+    for Fixed<FLEXIBLE, DRIVE, YAW_SPRING>
+{
+    #[inline(always)]
+    fn flexible(&self) -> bool {
+        FLEXIBLE
+    }
+    #[inline(always)]
+    fn drive(&self) -> bool {
+        DRIVE
+    }
+    #[inline(always)]
+    fn yaw_spring(&self) -> bool {
+        YAW_SPRING
+    }
+}
+
+/// Evaluates `$body` with `$f` bound to the [`Fixed`] flags of the [`PlantConfig`]
+/// `$cfg` (one copy of `$body` per configuration).
+#[macro_export]
+macro_rules! with_flags {
+    ($cfg:expr, $f:ident => $body:expr) => {{
+        use $crate::plant::Fixed;
+        let cfg: $crate::plant::PlantConfig = $cfg;
+        match (
+            cfg.axle == $crate::scenario::Axle::Flexible,
+            cfg.drive,
+            cfg.yaw_spring,
+        ) {
+            (false, false, false) => {
+                let $f = Fixed::<false, false, false>;
+                $body
+            }
+            (false, false, true) => {
+                let $f = Fixed::<false, false, true>;
+                $body
+            }
+            (false, true, false) => {
+                let $f = Fixed::<false, true, false>;
+                $body
+            }
+            (false, true, true) => {
+                let $f = Fixed::<false, true, true>;
+                $body
+            }
+            (true, false, false) => {
+                let $f = Fixed::<true, false, false>;
+                $body
+            }
+            (true, false, true) => {
+                let $f = Fixed::<true, false, true>;
+                $body
+            }
+            (true, true, false) => {
+                let $f = Fixed::<true, true, false>;
+                $body
+            }
+            (true, true, true) => {
+                let $f = Fixed::<true, true, true>;
+                $body
+            }
+        }
+    }};
+}
+
 /// Plant inputs (SI).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Inputs<S> {
@@ -264,6 +362,20 @@ pub struct Plant {
     l_a: f64,
     r_a: f64,
     inv: Inverses,
+    /// Products of parameters the RHS uses, formed once with the same operations.
+    pre: Products,
+}
+
+/// Parameter products the RHS would otherwise form per call: each is the same
+/// floating-point operation on the same operands, so the RHS is bit-identical.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Products {
+    /// `m g`.
+    m_g: f64,
+    /// `0.5 / I_w` as `0.5 * (1 / I_w)`.
+    half_inv_i_w: f64,
+    /// `k_gear / n` as `k_gear * (1 / n)`.
+    k_gear_inv_n: f64,
 }
 
 /// Reciprocals of the divisors, so the RHS multiplies instead of dividing.
@@ -317,15 +429,21 @@ impl Plant {
                 f11: 1.0 / p.f11,
                 f22: 1.0 / p.f22,
             },
+            pre: Products {
+                m_g: p.m * p.g,
+                half_inv_i_w: 0.5 * (1.0 / p.i_w),
+                k_gear_inv_n: p.k_gear() * (1.0 / p.n_gear),
+            },
         }
     }
 
     /// Left wheel speed as the model sees it (the right one on a rigid axle).
     #[inline(always)]
-    fn w_l<S: Scalar>(&self, x: &[S; NX]) -> S {
-        match self.cfg.axle {
-            Axle::Rigid => x[ix::WR],
-            Axle::Flexible => x[ix::WL],
+    fn w_l<S: Scalar, F: Flags>(&self, f: F, x: &[S; NX]) -> S {
+        if f.flexible() {
+            x[ix::WL]
+        } else {
+            x[ix::WR]
         }
     }
 
@@ -336,6 +454,12 @@ impl Plant {
     /// `F_y  = -f22 (y' - v psi)/v` per wheel.
     #[inline(always)]
     pub fn creep<S: Scalar>(&self, x: &[S; NX], curvature: S) -> Creep<S> {
+        self.creep_with(self.cfg, x, curvature)
+    }
+
+    /// [`Plant::creep`] with the configuration as [`Flags`].
+    #[inline(always)]
+    pub fn creep_with<S: Scalar, F: Flags>(&self, f: F, x: &[S; NX], curvature: S) -> Creep<S> {
         let c = S::c;
         let v = x[ix::V];
         let y = x[ix::Y];
@@ -346,7 +470,7 @@ impl Plant {
         let fx_r =
             c(self.f11) * (c(-1.0) + lg_psid_v + x[ix::WR] * (c(self.r0) + ly) * inv_v - lg_k);
         let fx_l =
-            -c(self.f11) * (c(1.0) + lg_psid_v - self.w_l(x) * (c(self.r0) - ly) * inv_v - lg_k);
+            -c(self.f11) * (c(1.0) + lg_psid_v - self.w_l(f, x) * (c(self.r0) - ly) * inv_v - lg_k);
         let fy = -c(self.f22) * (x[ix::YD] * inv_v - x[ix::PSI]);
         match &self.adhesion {
             None => Creep { fx_r, fx_l, fy },
@@ -373,7 +497,13 @@ impl Plant {
     /// Passive spring torque `k_yaw psi` (zero when the spring is absent), N m.
     #[inline(always)]
     pub fn spring_torque<S: Scalar>(&self, x: &[S; NX]) -> S {
-        if self.cfg.yaw_spring {
+        self.spring_torque_with(self.cfg, x)
+    }
+
+    /// [`Plant::spring_torque`] with the configuration as [`Flags`].
+    #[inline(always)]
+    pub fn spring_torque_with<S: Scalar, F: Flags>(&self, f: F, x: &[S; NX]) -> S {
+        if f.yaw_spring() {
             S::c(self.k_yaw) * x[ix::PSI]
         } else {
             S::c(0.0)
@@ -394,46 +524,56 @@ impl Plant {
     /// Rigid axle: `2 I_w phi'' = -r0 (F_xR + F_xL) + gear torque`.
     #[inline(always)]
     pub fn rhs<S: Scalar>(&self, x: &[S; NX], u: &Inputs<S>) -> ([S; NX], Creep<S>) {
+        self.rhs_with(self.cfg, x, u)
+    }
+
+    /// [`Plant::rhs`] with the configuration as [`Flags`] (a [`Fixed`] one compiles the
+    /// branches away; the arithmetic is the same).
+    #[inline(always)]
+    pub fn rhs_with<S: Scalar, F: Flags>(
+        &self,
+        f: F,
+        x: &[S; NX],
+        u: &Inputs<S>,
+    ) -> ([S; NX], Creep<S>) {
         let c = S::c;
         let zero = c(0.0);
         let mut dx = [zero; NX];
-        let cr = self.creep(x, u.curvature);
+        let cr = self.creep_with(f, x, u.curvature);
         let v = x[ix::V];
 
         // (4) lateral
         dx[ix::Y] = x[ix::YD];
         dx[ix::YD] = (c(2.0) * cr.fy - c(self.c_lat) * x[ix::YD] - c(self.k_lat) * x[ix::Y]
             + c(self.m) * v * v * u.curvature
-            - c(self.m * self.g) * u.cant)
+            - c(self.pre.m_g) * u.cant)
             * c(self.inv.m);
         // (5) yaw
         dx[ix::PSI] = x[ix::PSID];
         dx[ix::PSID] =
-            (-c(self.l_g) * (cr.fx_r - cr.fx_l) - self.spring_torque(x) - u.t_psi) * c(self.inv.j);
+            (-c(self.l_g) * (cr.fx_r - cr.fx_l) - self.spring_torque_with(f, x) - u.t_psi)
+                * c(self.inv.j);
 
         // Torque on the left wheel from the transmission.
-        let t_gear = if self.cfg.drive {
+        let t_gear = if f.drive() {
             -c(self.k_gear) * x[ix::WIND]
         } else {
             u.t_drive
         };
-        match self.cfg.axle {
-            Axle::Flexible => {
-                let t_tors = c(self.k_t) * x[ix::TWIST];
-                dx[ix::WR] = (-c(self.r0) * cr.fx_r - t_tors) * c(self.inv.i_w);
-                dx[ix::WL] = (-c(self.r0) * cr.fx_l + t_tors + t_gear) * c(self.inv.i_w);
-                dx[ix::TWIST] = x[ix::WR] - x[ix::WL];
-            }
-            Axle::Rigid => {
-                let a = (-c(self.r0) * (cr.fx_r + cr.fx_l) + t_gear) * c(0.5 * self.inv.i_w);
-                dx[ix::WR] = a;
-                dx[ix::WL] = a;
-            }
+        if f.flexible() {
+            let t_tors = c(self.k_t) * x[ix::TWIST];
+            dx[ix::WR] = (-c(self.r0) * cr.fx_r - t_tors) * c(self.inv.i_w);
+            dx[ix::WL] = (-c(self.r0) * cr.fx_l + t_tors + t_gear) * c(self.inv.i_w);
+            dx[ix::TWIST] = x[ix::WR] - x[ix::WL];
+        } else {
+            let a = (-c(self.r0) * (cr.fx_r + cr.fx_l) + t_gear) * c(self.pre.half_inv_i_w);
+            dx[ix::WR] = a;
+            dx[ix::WL] = a;
         }
-        if self.cfg.drive {
-            let w_l = self.w_l(x);
+        if f.drive() {
+            let w_l = self.w_l(f, x);
             dx[ix::WIND] = w_l - x[ix::WM] * c(self.inv.n);
-            dx[ix::WM] = (c(self.k_m) * x[ix::IA] + c(self.k_gear * self.inv.n) * x[ix::WIND])
+            dx[ix::WM] = (c(self.k_m) * x[ix::IA] + c(self.pre.k_gear_inv_n) * x[ix::WIND])
                 * c(self.inv.i_m);
             dx[ix::IA] =
                 (u.u_a - c(self.r_a) * x[ix::IA] - c(self.k_m) * x[ix::WM]) * c(self.inv.l_a);

@@ -2,7 +2,7 @@
 //! shared with the sampled run.
 
 use super::*;
-use crate::control::{closed_loop_rhs, ContinuousController, Exogenous, YawLaw};
+use crate::control::{ContinuousController, Exogenous, YawLaw};
 use crate::plant::{ix, Plant, PlantConfig, State};
 use crate::scenario::{Scenario, TrackCursor};
 
@@ -15,6 +15,7 @@ pub(super) struct Exo {
     pub(super) cant: [f64; 3],
 }
 
+#[inline(always)]
 pub(super) fn stage_slot(stage: usize) -> usize {
     match stage {
         0 => 0,
@@ -31,6 +32,9 @@ pub(super) struct Setup<'a> {
     /// `(condition, v, peak)` of the last [`Setup::mu_avail`], recomputed when the
     /// condition changes or the speed moves by more than 1 mm/s.
     pub(super) peak_cache: Option<(crate::adhesion::Condition, f64, f64)>,
+    /// `(t_ns, curvature, cant)` of the last step's end: the next step's start (the
+    /// track is a function of time alone, so reading it again gives the same bits).
+    pub(super) track_end: Option<(u64, f64, f64)>,
 }
 
 impl<'a> Setup<'a> {
@@ -45,6 +49,7 @@ impl<'a> Setup<'a> {
             plant: Plant::new(&sc.params, cfg),
             track: TrackCursor::new(),
             peak_cache: None,
+            track_end: None,
         }
     }
 
@@ -77,10 +82,14 @@ impl<'a> Setup<'a> {
         let mut curv = [0.0; 3];
         let mut cant = [0.0; 3];
         for (j, t) in [t_ns, t_ns + h / 2, t_ns + h].into_iter().enumerate() {
-            let (c, th) = self.track.at(&sc.track, t);
+            let (c, th) = match self.track_end {
+                Some((te, c, th)) if j == 0 && te == t => (c, th),
+                _ => self.track.at(&sc.track, t),
+            };
             curv[j] = c;
             cant[j] = th;
         }
+        self.track_end = Some((t_ns + h, curv[2], cant[2]));
         let demand = sc.traction.at(t_ns);
         Exo {
             demand,
@@ -195,16 +204,22 @@ pub fn run_continuous_with(sc: &Scenario, ctrl: ContinuousController) -> Traject
                 break;
             }
         }
-        x = rk4_step(&x, h, |stage, xs| {
-            let j = stage_slot(stage);
-            let ex = Exogenous {
-                curvature: e.curv[j],
-                cant: e.cant[j],
-                f_run: e.f_run,
-                i_ref: e.i_ref,
-                demand: e.demand,
+        let ex = |j: usize| Exogenous {
+            curvature: e.curv[j],
+            cant: e.cant[j],
+            f_run: e.f_run,
+            i_ref: e.i_ref,
+            demand: e.demand,
+        };
+        let e3 = [ex(0), ex(1), ex(2)];
+        x = crate::with_flags!(plant.cfg, flags => {
+            let stages = ClosedLoopStages {
+                plant: &plant,
+                flags,
+                ctrl: &ctrl,
+                e: e3,
             };
-            closed_loop_rhs(&plant, &ctrl, xs, &ex)
+            rk4_step_with(&x, h, stages)
         });
     }
     if diverged_at.is_none() {

@@ -1,7 +1,8 @@
 //! Fixed-step RK4 on integer-nanosecond time, with the stage hook the runs use.
 
 use super::*;
-use crate::plant::{Inputs, Plant, State, NX};
+use crate::control::{closed_loop_rhs_with, ContinuousController, Exogenous};
+use crate::plant::{Flags, Inputs, Plant, State, NX};
 
 /// One classical RK4 step of length `h` seconds. `f(stage, x)` returns `dx/dt`; stage 0
 /// is at the step start, 1 and 2 at the midpoint, 3 at the end.
@@ -27,16 +28,36 @@ impl<F: FnMut(usize, &State) -> State> Rhs for F {
 /// per step. Its right-hand side is inlined into each RK4 stage; as a closure it was an
 /// out-of-line call per stage (closed loop over the link: 684 M -> 623 M instructions,
 /// callgrind). Same arithmetic, bit-identical states.
-pub(super) struct PlantStages<'a> {
+pub(super) struct PlantStages<'a, F: Flags> {
     pub(super) plant: &'a Plant,
+    pub(super) flags: F,
     pub(super) u: [Inputs<f64>; 3],
 }
 
-impl Rhs for PlantStages<'_> {
+impl<F: Flags> Rhs for PlantStages<'_, F> {
     #[inline(always)]
     fn eval(&mut self, stage: usize, x: &State) -> State {
         let u = &self.u[stage_slot(stage)];
-        self.plant.rhs(x, u).0
+        self.plant.rhs_with(self.flags, x, u).0
+    }
+}
+
+/// The plant closed by the continuous-time controllers, with the exogenous inputs per
+/// stage slot (start, midpoint, end) built once per step: [`closed_loop_rhs`] inlined
+/// into each RK4 stage instead of an out-of-line closure call. Same arithmetic as the
+/// closure, bit-identical states.
+pub(super) struct ClosedLoopStages<'a, F: Flags> {
+    pub(super) plant: &'a Plant,
+    pub(super) flags: F,
+    pub(super) ctrl: &'a ContinuousController,
+    pub(super) e: [Exogenous<f64>; 3],
+}
+
+impl<F: Flags> Rhs for ClosedLoopStages<'_, F> {
+    #[inline(always)]
+    fn eval(&mut self, stage: usize, x: &State) -> State {
+        let e = &self.e[stage_slot(stage)];
+        closed_loop_rhs_with(self.plant, self.flags, self.ctrl, x, e)
     }
 }
 

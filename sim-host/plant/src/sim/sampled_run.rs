@@ -251,7 +251,9 @@ pub fn run_sampled(
         }
         let a = fault(t_ns, &held);
         let u = [inputs(&e, 0, &a), inputs(&e, 1, &a), inputs(&e, 2, &a)];
-        x = rk4_step_with(&x, h, PlantStages { plant: &plant, u });
+        x = crate::with_flags!(plant.cfg, flags => {
+            rk4_step_with(&x, h, PlantStages { plant: &plant, flags, u })
+        });
     }
     Ok(Trajectory {
         records,
