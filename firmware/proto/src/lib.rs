@@ -34,10 +34,24 @@
 //! - [`Message`]: [`Sensor`] (host -> device, every tick), [`Actuation`] (device -> host,
 //!   every tick), [`Config`] and [`Command`] (host -> device), [`Status`] (device -> host,
 //!   the counters). Physical quantities are integers with the LSBs of [`units`].
-//! - [`encode`] writes one frame (delimiter included) into the caller's buffer;
-//!   [`Decoder`] takes bytes in any chunking, resynchronises on 0x00 and returns typed
-//!   [`FrameError`]s (Crc, Cobs, Version, Length, Postcard). Nothing here panics on input.
-//! - Bounded: a frame is at most [`MAX_FRAME`] = 156 bytes on the wire.
+//! - Bounded: a frame is at most [`MAX_FRAME`] = 156 bytes on the wire. Nothing here
+//!   panics on input; a rejected frame is a typed [`FrameError`] (Crc, Cobs, Version,
+//!   Length, Postcard).
+//!
+//! # The two codecs
+//!
+//! One encoder and one decoder for each side, all on the same hand-written postcard
+//! codec, CRC and COBS (the tests prove the bytes and decisions
+//! equal to `postcard`'s):
+//!
+//! | side | encodes | decodes |
+//! |---|---|---|
+//! | device | [`encode_reply`]: a [`Reply`] (Actuation, Status) into the caller's buffer | [`Decoder::next_sensor_or_request`]: the Sensor in place, any other frame as a [`Request`] |
+//! | host | [`encode_vec`]: any [`Message`] into a fixed-capacity vector | [`Decoder::next_message`]: any [`Message`] |
+//!
+//! Both decoders take bytes in any chunking, resynchronise on 0x00 and return the bytes
+//! after the frame they closed. The device's pair links only the messages the device
+//! sends and takes.
 //!
 //! # Sizes on the wire (delimiter included; measured by the `sizes` test)
 //!
@@ -105,9 +119,8 @@ pub use decoder::{Decoder, NextFrame};
 #[cfg(feature = "std")]
 pub use frame::HostCrc;
 pub use frame::{
-    cobs_decode_in_place, cobs_encode, crc32c, decode_frame, decode_request, encode,
-    encode_actuation, encode_status, encode_vec, EncodeError, FrameError, Request, CRC, CRC_LEN,
-    MAX_FRAME, MAX_RAW, MIN_DECODED, VERSION,
+    cobs_decode_in_place, cobs_encode, crc32c, encode_reply, encode_vec, EncodeError, FrameError,
+    Reply, Request, CRC, CRC_LEN, MAX_FRAME, MAX_RAW, MIN_DECODED, VERSION,
 };
 pub use message::{
     Actuation, Command, Config, Flags, Lateral, Message, Rates, Sensor, Status, YawMode,
@@ -115,6 +128,14 @@ pub use message::{
 pub use plausible::RefuseReason;
 #[cfg(feature = "std")]
 pub use si::{t_us_of, ActuationSi, LateralSensing, Quantized, SensorSi};
+/// The general entry points the two pairs are tested against (any message into any
+/// buffer, one frame from its COBS bytes): for this crate's tests and fuzzing only
+/// (feature `test-support`, which the crate's dev-dependency on itself turns on).
+#[cfg(feature = "test-support")]
+#[doc(hidden)]
+pub mod oracle {
+    pub use crate::frame::{decode_frame, decode_request, encode};
+}
 pub use sizes::{
     frame_len, ACTUATION_MAX_FRAME, COMMAND_MAX_FRAME, CONFIG_MAX_FRAME, SENSOR_MAX_FRAME,
     SENSOR_ONE_LATERAL_MAX_FRAME, STATUS_MAX_FRAME,

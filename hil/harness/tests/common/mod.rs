@@ -97,9 +97,7 @@ pub fn tick(q: &mut Qemu, dec: &mut Decoder, bytes: &[u8]) -> Actuation {
     q.send(bytes).unwrap();
     let mut frame = q.recv_frame().unwrap();
     frame.push(0);
-    let mut out = None;
-    dec.feed(&frame, |r| out = Some(r));
-    match out {
+    match dec.next_message(&frame).0 {
         Some(Ok(Message::Actuation(a))) => a,
         other => panic!("expected an actuation frame, got {other:?}"),
     }
