@@ -311,7 +311,12 @@ fn check_output<T: SampleBits>(
 ) -> Result<(), String> {
     let mut dec: Decoder = Decoder::new();
     let mut msgs = Vec::new();
-    dec.feed(out, |r| msgs.push(r));
+    let mut rest = out;
+    while !rest.is_empty() {
+        let (r, more) = dec.next_message(rest);
+        rest = more;
+        msgs.extend(r);
+    }
     let mut actuations = 0;
     for m in msgs {
         match m {

@@ -88,14 +88,6 @@ impl std::error::Error for EncodeError {}
 
 /// Encodes `msg` as one wire frame, delimiter included, into `out`; returns its length.
 ///
-/// ```
-/// use wheelset_proto::{encode, Command, Message, MAX_FRAME};
-/// let mut buf = [0u8; MAX_FRAME];
-/// let n = encode(&Message::Command(Command::RequestStatus), &mut buf).unwrap();
-/// assert_eq!(buf[n - 1], 0);
-/// assert!(!buf[..n - 1].contains(&0));
-/// ```
-///
 /// Built in place: `VERSION | body | CRC` is written at `out[1..]`, one byte to the right
 /// of its COBS encoding, so the encoding only writes the code bytes (at `out[0]` and at
 /// each 0x00 of the raw frame): non-zero bytes are already where COBS puts them. The
@@ -325,7 +317,15 @@ fn finish_frame(out: &mut [u8], n: usize) -> Result<usize, EncodeError> {
     Ok(with_crc + 2)
 }
 
-/// Encodes into a fixed-capacity vector (convenience for callers that keep frames).
+/// The host's encoder: `msg` as one wire frame, delimiter included, in a fixed-capacity
+/// vector (no allocation; every message fits [`MAX_FRAME`], tested).
+///
+/// ```
+/// use wheelset_proto::{encode_vec, Command, Message};
+/// let frame = encode_vec(&Message::Command(Command::RequestStatus)).unwrap();
+/// assert_eq!(frame.last(), Some(&0));
+/// assert!(!frame[..frame.len() - 1].contains(&0));
+/// ```
 pub fn encode_vec(msg: &Message) -> Result<heapless::Vec<u8, MAX_FRAME>, EncodeError> {
     let mut buf = [0u8; MAX_FRAME];
     let n = encode(msg, &mut buf)?;

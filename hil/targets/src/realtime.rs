@@ -380,9 +380,13 @@ impl RealTime {
     /// Splits the device's bytes into frames; before the run's first echo every frame is
     /// examined and discarded (counted), from it on every byte is passed on.
     fn ingest(&mut self, at: u64, bytes: &[u8]) {
-        for &b in bytes {
-            self.frame.push(b);
-            let Some(r) = self.decoder.push(b) else {
+        let mut rest = bytes;
+        while !rest.is_empty() {
+            let (r, more) = self.decoder.next_message(rest);
+            self.frame
+                .extend_from_slice(rest.get(..rest.len() - more.len()).unwrap_or(&[]));
+            rest = more;
+            let Some(r) = r else {
                 continue;
             };
             let frame = std::mem::take(&mut self.frame);

@@ -73,7 +73,9 @@ pub fn exchange(q: &mut Qemu, bytes: &[u8], frames: usize) -> Vec<Message> {
     for _ in 0..frames {
         let mut f = q.recv_frame().unwrap();
         f.push(0);
-        dec.feed(&f, |r| out.push(r.expect("a valid frame from the device")));
+        if let Some(r) = dec.next_message(&f).0 {
+            out.push(r.expect("a valid frame from the device"));
+        }
     }
     out
 }
