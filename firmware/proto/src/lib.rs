@@ -41,8 +41,9 @@
 //! # The two codecs
 //!
 //! One encoder and one decoder for each side, all on the same hand-written postcard
-//! codec, CRC and COBS (the tests prove the bytes and decisions
-//! equal to `postcard`'s):
+//! codec, CRC and COBS. `postcard` is no dependency: the tests use it as the oracle that
+//! the codec writes its bytes and makes its decisions (through the serde derives of the
+//! `serde` feature, which the host's reports use too).
 //!
 //! | side | encodes | decodes |
 //! |---|---|---|
@@ -136,6 +137,49 @@ pub use si::{t_us_of, ActuationSi, LateralSensing, Quantized, SensorSi};
 pub mod oracle {
     pub use crate::frame::{decode_frame, decode_request, encode};
 }
+/// postcard's `fixint::le` for the serde derives (feature `serde`): an integer as its
+/// little-endian bytes (a tuple of `u8`, which postcard writes raw), the fixed-width
+/// fields' wire form. The tests' postcard oracle reads and writes the messages with it.
+#[cfg(feature = "serde")]
+mod fixint_le {
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    /// An integer with a fixed-width little-endian form.
+    pub trait Le: Sized {
+        /// The bytes.
+        type Bytes: Serialize + for<'de> Deserialize<'de>;
+        /// `self` as little-endian bytes.
+        fn to_le(&self) -> Self::Bytes;
+        /// The integer of little-endian bytes.
+        fn from_le(b: Self::Bytes) -> Self;
+    }
+
+    macro_rules! le {
+        ($($t:ty),*) => {$(
+            impl Le for $t {
+                type Bytes = [u8; core::mem::size_of::<$t>()];
+                fn to_le(&self) -> Self::Bytes {
+                    self.to_le_bytes()
+                }
+                fn from_le(b: Self::Bytes) -> Self {
+                    <$t>::from_le_bytes(b)
+                }
+            }
+        )*};
+    }
+    le!(u16, u32, u64);
+
+    /// serde's `serialize_with`.
+    pub fn serialize<T: Le, S: Serializer>(v: &T, s: S) -> Result<S::Ok, S::Error> {
+        v.to_le().serialize(s)
+    }
+
+    /// serde's `deserialize_with`.
+    pub fn deserialize<'de, T: Le, D: Deserializer<'de>>(d: D) -> Result<T, D::Error> {
+        T::Bytes::deserialize(d).map(T::from_le)
+    }
+}
+
 pub use sizes::{
     frame_len, ACTUATION_MAX_FRAME, COMMAND_MAX_FRAME, CONFIG_MAX_FRAME, SENSOR_MAX_FRAME,
     SENSOR_ONE_LATERAL_MAX_FRAME, STATUS_MAX_FRAME,

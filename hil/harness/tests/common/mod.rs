@@ -71,8 +71,7 @@ pub fn exchange(q: &mut Qemu, bytes: &[u8], frames: usize) -> Vec<Message> {
     let mut dec: Decoder = Decoder::new();
     let mut out = Vec::new();
     for _ in 0..frames {
-        let mut f = q.recv_frame().unwrap();
-        f.push(0);
+        let f = [q.recv_frame().unwrap(), vec![0]].concat();
         if let Some(r) = dec.next_message(&f).0 {
             out.push(r.expect("a valid frame from the device"));
         }
