@@ -63,16 +63,16 @@
 //! | both, one tick | 46 | 73 |
 //! | Status (counters) | - | 153 |
 //!
-//! Typical: `y'` 2 mm/s, 115 A, 925.6 rad/s, 2460 N m demand, 83.3 m/s reference speed; 200 N m, 3965 V, 600 cycles.
+//! Typical: `y'` 2 mm/s, 115 A, 925.6 rad/s, 2460 N m demand, 83.3 m/s reference speed;
+//! 200 N m, 3965 V, 600 cycles.
 //! Fixed overhead per frame: COBS 1 + delimiter 1 + version 1 + type 1 + CRC 4 = 8 bytes;
 //! fixed-width fields: the three 16-bit counters (seq, time, tick) 2 bytes each, because
 //! they use their full range and a varint would take 3.
 //!
-//! The issue aims at 40 bytes for both frames: this format takes 46 at the typical values (43 in version 1; version 2 added the reference speed).
-//! The 4-byte CRC-32C is the reason (with CRC-16 it would be 39); see [`CRC`] for the
-//! measured reason 16 bits are not enough after COBS. On the full-duplex UART each
-//! direction carries one frame per tick, so the budget that matters is per direction:
-//! <= 43 bytes (430 bits) per tick, checked against the baud by the link-budget check.
+//! The 4-byte CRC-32C is the largest fixed cost; [`CRC`] gives the measured reason 16
+//! bits are not enough after COBS. On the full-duplex UART each direction carries one
+//! frame per tick, so the budget that matters is per direction: the link-budget check
+//! ([`link`]) holds each direction's worst case against the baud.
 //!
 //! # Error detection
 //!
