@@ -34,6 +34,17 @@ pub const ON_PURPOSE: &[(&str, &str)] = &[
          (checked: no other board build has it)",
     ),
     (
+        "serde",
+        "serde derives on the wire crate's messages for the host's reports: no device code \
+         path uses them",
+    ),
+    (
+        "test-support",
+        "the wire crate's general encoder and decoders that its own tests check the device's \
+         and the host's codec against (turned on by its dev-dependency on itself): it adds \
+         functions and changes none the device calls",
+    ),
+    (
         "std",
         "the wire crate's host conveniences and its host CRC table; the device's CRC path \
          is tested by the device-feature run",

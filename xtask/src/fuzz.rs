@@ -160,7 +160,14 @@ enum Expect {
 fn host_expect(frame: &[u8]) -> Expect {
     let mut dec: Decoder = Decoder::new();
     let mut out = None;
-    dec.feed(frame, |r| out = Some(r));
+    let mut rest = frame;
+    while !rest.is_empty() {
+        let (r, more) = dec.next_message(rest);
+        rest = more;
+        if r.is_some() {
+            out = r;
+        }
+    }
     match out {
         Some(Ok(Message::Command(Command::ResetCounters))) => Expect::Ok { reset: true },
         Some(Ok(Message::Actuation(_) | Message::Status(_))) => Expect::Unexpected,
@@ -304,7 +311,12 @@ fn check_output<T: SampleBits>(
 ) -> Result<(), String> {
     let mut dec: Decoder = Decoder::new();
     let mut msgs = Vec::new();
-    dec.feed(out, |r| msgs.push(r));
+    let mut rest = out;
+    while !rest.is_empty() {
+        let (r, more) = dec.next_message(rest);
+        rest = more;
+        msgs.extend(r);
+    }
     let mut actuations = 0;
     for m in msgs {
         match m {

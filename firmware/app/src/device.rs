@@ -5,7 +5,7 @@
 //! core, frame encoding), the same code the host's in-process device runs.
 
 use wheelset_control::{Compiled, Monitor, SampleBits};
-use wheelset_proto::{encode_actuation, Actuation, Flags, MAX_FRAME};
+use wheelset_proto::{encode_reply, Actuation, Flags, Reply, MAX_FRAME};
 use wheelset_runtime::{Runtime, RuntimeBits, RuntimeError, RxEvent};
 
 /// The default runtime compiled at build time (`build.rs`): the generated constant.
@@ -136,7 +136,7 @@ pub fn safe_frame(out: &mut [u8; MAX_FRAME]) -> &[u8] {
         t_psi_dnm: safe.t_psi_dnm,
         u_a_cv: safe.u_a_cv,
     };
-    match encode_actuation(&msg, out) {
+    match encode_reply(Reply::Actuation(&msg), out) {
         Ok(n) => out.get(..n).unwrap_or(&[]),
         Err(_) => &[],
     }
@@ -150,7 +150,14 @@ mod tests {
     fn decode_all(bytes: &[u8]) -> Vec<Message> {
         let mut dec: Decoder = Decoder::new();
         let mut out = Vec::new();
-        dec.feed(bytes, |r| out.push(r.unwrap()));
+        let mut rest = bytes;
+        while !rest.is_empty() {
+            let (r, more) = dec.next_message(rest);
+            rest = more;
+            if let Some(r) = r {
+                out.push(r.unwrap());
+            }
+        }
         out
     }
 

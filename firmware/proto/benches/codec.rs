@@ -2,6 +2,7 @@
 #![allow(missing_docs)]
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
+use wheelset_proto::oracle::*;
 use wheelset_proto::*;
 
 fn bench(c: &mut Criterion) {

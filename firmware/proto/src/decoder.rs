@@ -1,8 +1,10 @@
 //! The streaming frame accumulator: bytes in any chunking, frames out.
 
+#[cfg(any(test, feature = "test-support"))]
+use crate::frame::request_from_raw;
 use crate::frame::{
-    crc_byte, crc_ready, message_from_raw, request_from_raw, sensor_or_request_from_raw,
-    FrameError, Request, MAX_FRAME,
+    crc_byte, crc_ready, message_from_raw, sensor_or_request_from_raw, FrameError, Request,
+    MAX_FRAME,
 };
 use crate::message::{Message, Sensor};
 
@@ -11,11 +13,10 @@ use crate::message::{Message, Sensor};
 pub enum NextFrame {
     /// No frame closed (no delimiter in the bytes, or an empty frame).
     Nothing,
-    /// A valid Sensor frame, written into the caller's [`Sensor`]: what
-    /// [`Decoder::next_request`] reports as `Some(Ok(Request::Sensor(_)))`.
+    /// A valid Sensor frame, written into the caller's [`Sensor`].
     Sensor,
-    /// Any other frame: its result, as [`Decoder::next_request`] reports it, written
-    /// into the caller's `Result<Request, FrameError>`.
+    /// Any other frame: its result written into the caller's
+    /// `Result<Request, FrameError>`.
     Frame,
 }
 
@@ -27,17 +28,19 @@ pub enum NextFrame {
 ///   reported once as [`FrameError::Length`]: the decoder resynchronises on 0x00.
 /// - Never panics, never allocates; `N` bounds the memory (default [`MAX_FRAME`]).
 ///
+/// The device takes its requests with [`Self::next_sensor_or_request`], the host its
+/// replies with [`Self::next_message`]; both take any chunk of bytes and return the bytes
+/// after the frame they closed.
+///
 /// ```
 /// use wheelset_proto::{encode_vec, Command, Decoder, Message};
 /// let frame = encode_vec(&Message::Command(Command::ResetCounters)).unwrap();
 /// let mut dec: Decoder = Decoder::new();
-/// let mut got = None;
-/// for &b in &frame {
-///     if let Some(r) = dec.push(b) {
-///         got = Some(r);
-///     }
-/// }
+/// let (first, rest) = dec.next_message(&frame[..5]);
+/// assert_eq!((first, rest.len()), (None, 0));
+/// let (got, rest) = dec.next_message(&frame[5..]);
 /// assert_eq!(got, Some(Ok(Message::Command(Command::ResetCounters))));
+/// assert!(rest.is_empty());
 /// ```
 #[derive(Debug, Clone)]
 pub struct Decoder<const N: usize = MAX_FRAME> {
@@ -98,6 +101,7 @@ impl<const N: usize> Decoder<N> {
         self.enc.min(N)
     }
 
+    #[cfg(any(test, feature = "test-support"))]
     /// Takes one byte; returns a result when the byte closed a non-empty frame.
     pub fn push(&mut self, byte: u8) -> Option<Result<Message, FrameError>> {
         if byte == 0 {
@@ -108,6 +112,7 @@ impl<const N: usize> Decoder<N> {
         }
     }
 
+    #[cfg(any(test, feature = "test-support"))]
     /// Takes a chunk of bytes, calling `f` for every frame closed in it. Same results as
     /// [`Self::push`] byte by byte.
     pub fn feed(&mut self, bytes: &[u8], mut f: impl FnMut(Result<Message, FrameError>)) {
@@ -121,10 +126,11 @@ impl<const N: usize> Decoder<N> {
         }
     }
 
-    /// Takes `bytes` up to and including the first delimiter: returns the frame's result
-    /// if that closed one (as [`Self::push`] byte by byte would report it) and the bytes
-    /// not yet taken. The host's decoder: a caller loops until the rest is empty, and may
-    /// use its own state between frames (the bytes each frame took on the wire, say).
+    /// The host's decoder. Takes `bytes` up to and including the first delimiter: returns
+    /// the frame's result if that closed one and the bytes not yet taken. A caller loops
+    /// until the rest is empty, and may use its own state between frames (the bytes each
+    /// frame took on the wire, say). The result does not depend on how the bytes were cut
+    /// into chunks (tested: `tests/stream.rs`).
     pub fn next_message<'b>(
         &mut self,
         bytes: &'b [u8],
@@ -132,6 +138,7 @@ impl<const N: usize> Decoder<N> {
         self.next_with(bytes, message_from_raw)
     }
 
+    #[cfg(any(test, feature = "test-support"))]
     /// [`Self::feed`] for the device: frames decoded as by [`crate::decode_request`] (the
     /// messages the device takes; the others recognised by their type only).
     pub fn feed_requests(&mut self, bytes: &[u8], mut f: impl FnMut(Result<Request, FrameError>)) {
@@ -145,6 +152,7 @@ impl<const N: usize> Decoder<N> {
         }
     }
 
+    #[cfg(any(test, feature = "test-support"))]
     /// Takes `bytes` up to and including the first delimiter: returns the frame's result
     /// if that closed one (as [`Self::feed_requests`] would report it) and the bytes not
     /// yet taken. A caller loops until the rest is empty; unlike the callback form, it
@@ -157,13 +165,16 @@ impl<const N: usize> Decoder<N> {
         self.next_with(bytes, request_from_raw)
     }
 
-    /// [`Self::next_request`] for the device's tick: a valid Sensor frame (the one frame
-    /// of every period) is written into `sensor` ([`NextFrame::Sensor`]), every other
-    /// frame's result into `frame` ([`NextFrame::Frame`]), as [`Self::next_request`]
-    /// reports it, with its decisions (tested on arbitrary byte strings). Nothing
-    /// Config-sized is returned: a `Result<Request, _>` (a Config's size) returned by
-    /// value is copied on its way to the caller, on every tick; written in place, the
-    /// per-tick Sensor frame costs no copy.
+    /// The device's decoder. Takes `bytes` up to and including the first delimiter, as
+    /// [`Self::next_message`] does, and decodes only the messages the device takes: a
+    /// valid Sensor frame (the one frame of every period) is written into `sensor`
+    /// ([`NextFrame::Sensor`]), every other frame's result into `frame`
+    /// ([`NextFrame::Frame`]: a [`Request`], the device -> host types recognised by their
+    /// type byte only). The same accept/reject decisions as [`Self::next_message`]
+    /// (tested on arbitrary byte strings). Nothing Config-sized is returned: a
+    /// `Result<Request, _>` (a Config's size) returned by value is copied on its way to
+    /// the caller, on every tick; written in place, the per-tick Sensor frame costs no
+    /// copy.
     #[inline(never)]
     pub fn next_sensor_or_request<'b>(
         &mut self,
@@ -192,6 +203,7 @@ impl<const N: usize> Decoder<N> {
         (next, rest)
     }
 
+    #[cfg(any(test, feature = "test-support"))]
     /// One non-zero byte of the frame in progress: COBS-decoded on the spot. A code byte
     /// writes the previous block's implied 0x00 (unless that block's code was 0xFF) and
     /// opens a block of `code - 1` data bytes; a data byte is stored. (Decoded bytes never

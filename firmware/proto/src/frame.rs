@@ -13,7 +13,9 @@ mod cobs;
 pub use checksum::HostCrc;
 pub use checksum::{crc32c, CRC};
 pub(crate) use checksum::{crc_byte, crc_byte_const, crc_ready, CRC_RESIDUE};
+#[cfg(any(test, feature = "test-support"))]
 pub(crate) use cobs::cobs_decode_nonzero;
+#[cfg(any(test, feature = "test-support"))]
 use cobs::cobs_decode_nonzero_to;
 pub use cobs::{cobs_decode_in_place, cobs_encode};
 
@@ -86,14 +88,6 @@ impl std::error::Error for EncodeError {}
 
 /// Encodes `msg` as one wire frame, delimiter included, into `out`; returns its length.
 ///
-/// ```
-/// use wheelset_proto::{encode, Command, Message, MAX_FRAME};
-/// let mut buf = [0u8; MAX_FRAME];
-/// let n = encode(&Message::Command(Command::RequestStatus), &mut buf).unwrap();
-/// assert_eq!(buf[n - 1], 0);
-/// assert!(!buf[..n - 1].contains(&0));
-/// ```
-///
 /// Built in place: `VERSION | body | CRC` is written at `out[1..]`, one byte to the right
 /// of its COBS encoding, so the encoding only writes the code bytes (at `out[0]` and at
 /// each 0x00 of the raw frame): non-zero bytes are already where COBS puts them. The
@@ -102,6 +96,28 @@ impl std::error::Error for EncodeError {}
 pub fn encode(msg: &Message, out: &mut [u8]) -> Result<usize, EncodeError> {
     // postcard's bytes without serde (same bytes, see `fast`).
     encode_with(out, |body_area| crate::fast::encode_body(msg, body_area))
+}
+
+/// A message the device sends: what [`encode_reply`] takes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Reply<'a> {
+    /// [`Message::Actuation`], every tick.
+    Actuation(&'a Actuation),
+    /// [`Message::Status`], on request.
+    Status(&'a Status),
+}
+
+/// The device's encoder: one frame of `reply`, delimiter included, into `out`; returns
+/// its length. The same bytes as [`encode_vec`] of the message (tested), and
+/// [`EncodeError::BufferTooSmall`] for every buffer shorter than the frame. Inlined, so
+/// a call with a known variant links only that message's encoder (the device never
+/// links the encoders of the messages it takes).
+#[inline(always)]
+pub fn encode_reply(reply: Reply<'_>, out: &mut [u8]) -> Result<usize, EncodeError> {
+    match reply {
+        Reply::Actuation(a) => encode_actuation(a, out),
+        Reply::Status(s) => encode_status(s, out),
+    }
 }
 
 /// The device's encoder for [`Message::Actuation`]: the frame of [`encode`] (tested, and
@@ -114,7 +130,7 @@ pub fn encode(msg: &Message, out: &mut [u8]) -> Result<usize, EncodeError> {
 /// general path (`encode_with`), whose length decisions are the reference. It trades
 /// flash (the Actuation's fields written inline; `finish_frame` stays, for the Status)
 /// for the device's per-tick instructions (`cargo xtask fw-bench`, `cargo fw`).
-pub fn encode_actuation(a: &Actuation, out: &mut [u8]) -> Result<usize, EncodeError> {
+pub(crate) fn encode_actuation(a: &Actuation, out: &mut [u8]) -> Result<usize, EncodeError> {
     match out.first_chunk_mut::<{ OnePass::CAP }>() {
         Some(buf) => Ok(OnePass::actuation(a, buf)),
         None => encode_with(out, |body_area| crate::fast::encode_actuation(a, body_area)),
@@ -244,7 +260,7 @@ impl OnePass<'_> {
 
 /// The device's encoder for [`Message::Status`]: the frame of [`encode`] (tested),
 /// without the serialisers of the other messages.
-pub fn encode_status(s: &Status, out: &mut [u8]) -> Result<usize, EncodeError> {
+pub(crate) fn encode_status(s: &Status, out: &mut [u8]) -> Result<usize, EncodeError> {
     encode_with(out, |body_area| crate::fast::encode_status(s, body_area))
 }
 
@@ -301,7 +317,15 @@ fn finish_frame(out: &mut [u8], n: usize) -> Result<usize, EncodeError> {
     Ok(with_crc + 2)
 }
 
-/// Encodes into a fixed-capacity vector (convenience for callers that keep frames).
+/// The host's encoder: `msg` as one wire frame, delimiter included, in a fixed-capacity
+/// vector (no allocation; every message fits [`MAX_FRAME`], tested).
+///
+/// ```
+/// use wheelset_proto::{encode_vec, Command, Message};
+/// let frame = encode_vec(&Message::Command(Command::RequestStatus)).unwrap();
+/// assert_eq!(frame.last(), Some(&0));
+/// assert!(!frame[..frame.len() - 1].contains(&0));
+/// ```
 pub fn encode_vec(msg: &Message) -> Result<heapless::Vec<u8, MAX_FRAME>, EncodeError> {
     let mut buf = [0u8; MAX_FRAME];
     let n = encode(msg, &mut buf)?;
@@ -309,6 +333,7 @@ pub fn encode_vec(msg: &Message) -> Result<heapless::Vec<u8, MAX_FRAME>, EncodeE
         .map_err(|_| EncodeError::BufferTooSmall)
 }
 
+#[cfg(any(test, feature = "test-support"))]
 /// Decodes one frame: the COBS bytes between two delimiters (no 0x00), decoded in place.
 /// Never panics, whatever the bytes.
 pub fn decode_frame(encoded: &mut [u8]) -> Result<Message, FrameError> {
@@ -321,13 +346,15 @@ pub fn decode_frame(encoded: &mut [u8]) -> Result<Message, FrameError> {
     decode_nonzero_frame(encoded)
 }
 
+#[cfg(any(test, feature = "test-support"))]
 /// [`decode_frame`] of bytes known to hold no 0x00 (the [`crate::Decoder`]'s buffer).
-pub(crate) fn decode_nonzero_frame(encoded: &mut [u8]) -> Result<Message, FrameError> {
+pub fn decode_nonzero_frame(encoded: &mut [u8]) -> Result<Message, FrameError> {
     let msg = open_nonzero(encoded)?;
     // postcard's decisions without serde (see `fast`).
     crate::fast::decode_body(msg).map_err(FrameError::from)
 }
 
+#[cfg(any(test, feature = "test-support"))]
 /// COBS-decodes in place (bytes known to hold no 0x00) and checks length, CRC and
 /// version; returns the message bytes (type byte first).
 #[inline(always)]
@@ -339,6 +366,7 @@ fn open_nonzero(encoded: &mut [u8]) -> Result<&[u8], FrameError> {
     check(encoded.get(..n).ok_or(FrameError::Cobs)?)
 }
 
+#[cfg(any(test, feature = "test-support"))]
 /// Checks a COBS-decoded frame's length, CRC and version; returns the message bytes.
 #[inline(always)]
 fn check(frame: &[u8]) -> Result<&[u8], FrameError> {
@@ -403,6 +431,7 @@ pub enum Request {
     Unknown,
 }
 
+#[cfg(any(test, feature = "test-support"))]
 /// The device's decoder: [`decode_frame`] for the messages the device takes (the same
 /// result, tested), [`Request::Unexpected`] for the others, without the decoders of the
 /// messages the device never takes. Never panics, whatever the bytes.
@@ -416,9 +445,10 @@ pub fn decode_request(encoded: &mut [u8]) -> Result<Request, FrameError> {
     decode_nonzero_request(encoded)
 }
 
+#[cfg(any(test, feature = "test-support"))]
 /// [`decode_request`] of bytes known to hold no 0x00 (the [`crate::Decoder`]'s buffer).
 /// (`encoded` is left as it was: the frame is decoded into a buffer of its own.)
-pub(crate) fn decode_nonzero_request(encoded: &mut [u8]) -> Result<Request, FrameError> {
+pub fn decode_nonzero_request(encoded: &mut [u8]) -> Result<Request, FrameError> {
     if encoded.len() + 1 > MAX_FRAME {
         return Err(FrameError::Length);
     }
@@ -451,6 +481,7 @@ pub(crate) fn sensor_or_request_from_raw(
     request_body(ty, body).map(Some)
 }
 
+#[cfg(any(test, feature = "test-support"))]
 /// [`decode_nonzero_request`] of a frame already COBS-decoded: length, CRC, version,
 /// then the request.
 pub(crate) fn request_from_raw(raw: &[u8], reg: Option<u32>) -> Result<Request, FrameError> {

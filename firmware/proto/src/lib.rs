@@ -34,10 +34,25 @@
 //! - [`Message`]: [`Sensor`] (host -> device, every tick), [`Actuation`] (device -> host,
 //!   every tick), [`Config`] and [`Command`] (host -> device), [`Status`] (device -> host,
 //!   the counters). Physical quantities are integers with the LSBs of [`units`].
-//! - [`encode`] writes one frame (delimiter included) into the caller's buffer;
-//!   [`Decoder`] takes bytes in any chunking, resynchronises on 0x00 and returns typed
-//!   [`FrameError`]s (Crc, Cobs, Version, Length, Postcard). Nothing here panics on input.
-//! - Bounded: a frame is at most [`MAX_FRAME`] = 156 bytes on the wire.
+//! - Bounded: a frame is at most [`MAX_FRAME`] = 156 bytes on the wire. Nothing here
+//!   panics on input; a rejected frame is a typed [`FrameError`] (Crc, Cobs, Version,
+//!   Length, Postcard).
+//!
+//! # The two codecs
+//!
+//! One encoder and one decoder for each side, all on the same hand-written postcard
+//! codec, CRC and COBS. `postcard` is no dependency: the tests use it as the oracle that
+//! the codec writes its bytes and makes its decisions (through the serde derives of the
+//! `serde` feature, which the host's reports use too).
+//!
+//! | side | encodes | decodes |
+//! |---|---|---|
+//! | device | [`encode_reply`]: a [`Reply`] (Actuation, Status) into the caller's buffer | [`Decoder::next_sensor_or_request`]: the Sensor in place, any other frame as a [`Request`] |
+//! | host | [`encode_vec`]: any [`Message`] into a fixed-capacity vector | [`Decoder::next_message`]: any [`Message`] |
+//!
+//! Both decoders take bytes in any chunking, resynchronise on 0x00 and return the bytes
+//! after the frame they closed. The device's pair links only the messages the device
+//! sends and takes.
 //!
 //! # Sizes on the wire (delimiter included; measured by the `sizes` test)
 //!
@@ -48,16 +63,16 @@
 //! | both, one tick | 46 | 73 |
 //! | Status (counters) | - | 153 |
 //!
-//! Typical: `y'` 2 mm/s, 115 A, 925.6 rad/s, 2460 N m demand, 83.3 m/s reference speed; 200 N m, 3965 V, 600 cycles.
+//! Typical: `y'` 2 mm/s, 115 A, 925.6 rad/s, 2460 N m demand, 83.3 m/s reference speed;
+//! 200 N m, 3965 V, 600 cycles.
 //! Fixed overhead per frame: COBS 1 + delimiter 1 + version 1 + type 1 + CRC 4 = 8 bytes;
 //! fixed-width fields: the three 16-bit counters (seq, time, tick) 2 bytes each, because
 //! they use their full range and a varint would take 3.
 //!
-//! The issue aims at 40 bytes for both frames: this format takes 46 at the typical values (43 in version 1; version 2 added the reference speed).
-//! The 4-byte CRC-32C is the reason (with CRC-16 it would be 39); see [`CRC`] for the
-//! measured reason 16 bits are not enough after COBS. On the full-duplex UART each
-//! direction carries one frame per tick, so the budget that matters is per direction:
-//! <= 43 bytes (430 bits) per tick, checked against the baud by the link-budget check.
+//! The 4-byte CRC-32C is the largest fixed cost; [`CRC`] gives the measured reason 16
+//! bits are not enough after COBS. On the full-duplex UART each direction carries one
+//! frame per tick, so the budget that matters is per direction: the link-budget check
+//! ([`link`]) holds each direction's worst case against the baud.
 //!
 //! # Error detection
 //!
@@ -105,9 +120,8 @@ pub use decoder::{Decoder, NextFrame};
 #[cfg(feature = "std")]
 pub use frame::HostCrc;
 pub use frame::{
-    cobs_decode_in_place, cobs_encode, crc32c, decode_frame, decode_request, encode,
-    encode_actuation, encode_status, encode_vec, EncodeError, FrameError, Request, CRC, CRC_LEN,
-    MAX_FRAME, MAX_RAW, MIN_DECODED, VERSION,
+    cobs_decode_in_place, cobs_encode, crc32c, encode_reply, encode_vec, EncodeError, FrameError,
+    Reply, Request, CRC, CRC_LEN, MAX_FRAME, MAX_RAW, MIN_DECODED, VERSION,
 };
 pub use message::{
     Actuation, Command, Config, Flags, Lateral, Message, Rates, Sensor, Status, YawMode,
@@ -115,6 +129,57 @@ pub use message::{
 pub use plausible::RefuseReason;
 #[cfg(feature = "std")]
 pub use si::{t_us_of, ActuationSi, LateralSensing, Quantized, SensorSi};
+/// The general entry points the two pairs are tested against (any message into any
+/// buffer, one frame from its COBS bytes): for this crate's tests and fuzzing only
+/// (feature `test-support`, which the crate's dev-dependency on itself turns on).
+#[cfg(feature = "test-support")]
+#[doc(hidden)]
+pub mod oracle {
+    pub use crate::frame::{decode_frame, decode_request, encode};
+}
+/// postcard's `fixint::le` for the serde derives (feature `serde`): an integer as its
+/// little-endian bytes (a tuple of `u8`, which postcard writes raw), the fixed-width
+/// fields' wire form. The tests' postcard oracle reads and writes the messages with it.
+#[cfg(feature = "serde")]
+mod fixint_le {
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    /// An integer with a fixed-width little-endian form.
+    pub trait Le: Sized {
+        /// The bytes.
+        type Bytes: Serialize + for<'de> Deserialize<'de>;
+        /// `self` as little-endian bytes.
+        fn to_le(&self) -> Self::Bytes;
+        /// The integer of little-endian bytes.
+        fn from_le(b: Self::Bytes) -> Self;
+    }
+
+    macro_rules! le {
+        ($($t:ty),*) => {$(
+            impl Le for $t {
+                type Bytes = [u8; core::mem::size_of::<$t>()];
+                fn to_le(&self) -> Self::Bytes {
+                    self.to_le_bytes()
+                }
+                fn from_le(b: Self::Bytes) -> Self {
+                    <$t>::from_le_bytes(b)
+                }
+            }
+        )*};
+    }
+    le!(u16, u32, u64);
+
+    /// serde's `serialize_with`.
+    pub fn serialize<T: Le, S: Serializer>(v: &T, s: S) -> Result<S::Ok, S::Error> {
+        v.to_le().serialize(s)
+    }
+
+    /// serde's `deserialize_with`.
+    pub fn deserialize<'de, T: Le, D: Deserializer<'de>>(d: D) -> Result<T, D::Error> {
+        T::Bytes::deserialize(d).map(T::from_le)
+    }
+}
+
 pub use sizes::{
     frame_len, ACTUATION_MAX_FRAME, COMMAND_MAX_FRAME, CONFIG_MAX_FRAME, SENSOR_MAX_FRAME,
     SENSOR_ONE_LATERAL_MAX_FRAME, STATUS_MAX_FRAME,

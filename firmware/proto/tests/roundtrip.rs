@@ -5,6 +5,7 @@ mod common;
 
 use common::*;
 use proptest::prelude::*;
+use wheelset_proto::oracle::*;
 use wheelset_proto::*;
 
 proptest! {
@@ -34,12 +35,12 @@ proptest! {
     #[test]
     fn device_encoders_are_encode(a in actuation(), st in status()) {
         let mut buf = [0u8; MAX_FRAME];
-        let n = encode_actuation(&a, &mut buf).expect("fits");
+        let n = encode_reply(Reply::Actuation(&a), &mut buf).expect("fits");
         prop_assert_eq!(&buf[..n], &encode_vec(&Message::Actuation(a)).expect("fits")[..]);
-        let n = encode_status(&st, &mut buf).expect("fits");
+        let n = encode_reply(Reply::Status(&st), &mut buf).expect("fits");
         prop_assert_eq!(&buf[..n], &encode_vec(&Message::Status(st)).expect("fits")[..]);
         let mut short = [0u8; 8];
-        prop_assert_eq!(encode_status(&st, &mut short), Err(EncodeError::BufferTooSmall));
+        prop_assert_eq!(encode_reply(Reply::Status(&st), &mut short), Err(EncodeError::BufferTooSmall));
     }
 
     /// `encode_actuation` (one pass into a buffer that holds the longest Actuation frame,
@@ -51,7 +52,7 @@ proptest! {
         for len in 0..=MAX_FRAME {
             let mut buf = vec![0xA5u8; len];
             let mut reference = vec![0xA5u8; len];
-            let got = encode_actuation(&a, &mut buf);
+            let got = encode_reply(Reply::Actuation(&a), &mut buf);
             prop_assert_eq!(got, encode(&Message::Actuation(a), &mut reference), "{}", len);
             match got {
                 Ok(n) => prop_assert_eq!(&buf[..n], &want[..], "{}", len),

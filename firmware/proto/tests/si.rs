@@ -9,7 +9,8 @@ use wheelset_proto::units::{
     SPEED_LSB_RAD_PER_S, TORQUE_LSB_NM, VOLTAGE_LSB_V, V_REF_LSB_M_PER_S,
 };
 use wheelset_proto::{
-    decode_frame, encode_vec, Actuation, Flags, Lateral, LateralSensing, Message, Sensor, SensorSi,
+    encode_vec, oracle::decode_frame, Actuation, Flags, Lateral, LateralSensing, Message, Sensor,
+    SensorSi,
 };
 
 /// Within half an LSB (plus the rounding of `x / lsb` itself, a few ulp of `x`).

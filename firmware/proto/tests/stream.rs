@@ -7,6 +7,7 @@ mod common;
 
 use common::*;
 use proptest::prelude::*;
+use wheelset_proto::oracle::*;
 use wheelset_proto::*;
 
 /// The decoders' results for one frame body (no 0x00) followed by a delimiter.

@@ -14,9 +14,8 @@
 //! rt.receive(&encode_vec(&Message::Sensor(s)).unwrap());
 //! let frame = rt.tick(0).to_vec();              // COBS frame incl. the 0x00 delimiter
 //! let mut dec: Decoder = Decoder::new();
-//! let mut out = None;
-//! dec.feed(&frame, |r| out = r.ok());
-//! let Some(Message::Actuation(a)) = out else { panic!() };
+//! let (out, _) = dec.next_message(&frame);
+//! let Some(Ok(Message::Actuation(a))) = out else { panic!() };
 //! assert_eq!(a.seq_echo, 7);
 //! assert!(a.flags.has(Flags::ENABLED) && !a.flags.has(Flags::HOLDING));
 //! assert!((a.u_a_cv - 396_157).abs() <= 1);   // bumpless: u_a = K_m omega = 3961.57 V

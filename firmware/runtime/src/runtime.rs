@@ -7,7 +7,7 @@ mod receive;
 use wheelset_control::{
     Compiled, Controller, InputCodes, Monitor, MonitorState, Sample, SampleBits, TickEvents,
 };
-use wheelset_proto::{encode_actuation, encode_status, Decoder, FrameError, RefuseReason, Sensor};
+use wheelset_proto::{encode_reply, Decoder, FrameError, RefuseReason, Reply, Sensor};
 
 use crate::validate;
 use crate::{
@@ -347,10 +347,10 @@ impl<T: SampleBits> Runtime<T> {
             u_a_cv: u_a,
         };
         // MAX_FRAME always fits (the proto tests prove every message encodes within it).
-        let mut n = encode_actuation(&act, &mut self.tx).unwrap_or(0);
+        let mut n = encode_reply(Reply::Actuation(&act), &mut self.tx).unwrap_or(0);
         if core::mem::replace(&mut self.status_requested, false) {
             if let Some(rest) = self.tx.get_mut(n..) {
-                n += encode_status(&self.counters, rest).unwrap_or(0);
+                n += encode_reply(Reply::Status(&self.counters), rest).unwrap_or(0);
             }
         }
         self.tx.get(..n).unwrap_or(&[])

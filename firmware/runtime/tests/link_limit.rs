@@ -25,12 +25,10 @@ fn config_at(rate_hz: u32) -> Vec<u8> {
 fn refused(rt: &mut Runtime<Fx>) -> bool {
     let out = rt.tick(0).to_vec();
     let mut d: wheelset_proto::Decoder = wheelset_proto::Decoder::new();
-    out.iter()
-        .find_map(|&b| match d.push(b) {
-            Some(Ok(Message::Actuation(a))) => Some(a.flags.has(Flags::CMD_REFUSED)),
-            _ => None,
-        })
-        .unwrap()
+    match d.next_message(&out).0 {
+        Some(Ok(Message::Actuation(a))) => a.flags.has(Flags::CMD_REFUSED),
+        other => panic!("expected an actuation frame first, got {other:?}"),
+    }
 }
 
 #[test]

@@ -107,13 +107,14 @@ fn frame(seq: u16, c: &InputCodes) -> Result<Vec<u8>, String> {
 
 fn decode(bytes: &[u8], dec: &mut Decoder) -> Option<Actuation> {
     let mut out = None;
-    dec.feed(bytes, |r| {
-        if let Ok(Message::Actuation(a)) = r {
-            if out.is_none() {
-                out = Some(a);
-            }
+    let mut rest = bytes;
+    while !rest.is_empty() {
+        let (r, more) = dec.next_message(rest);
+        rest = more;
+        if let (Some(Ok(Message::Actuation(a))), None) = (r, out) {
+            out = Some(a);
         }
-    });
+    }
     out
 }
 

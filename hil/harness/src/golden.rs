@@ -163,8 +163,11 @@ fn sensor_frame(k: usize, s: &InputCodes) -> Vec<u8> {
 }
 
 fn decode_actuations(bytes: &[u8], dec: &mut Decoder, out: &mut Vec<Out>) {
-    dec.feed(bytes, |r| {
-        if let Ok(Message::Actuation(a)) = r {
+    let mut rest = bytes;
+    while !rest.is_empty() {
+        let (r, more) = dec.next_message(rest);
+        rest = more;
+        if let Some(Ok(Message::Actuation(a))) = r {
             out.push(Out {
                 t_psi_dnm: a.t_psi_dnm,
                 u_a_cv: a.u_a_cv,
@@ -172,7 +175,7 @@ fn decode_actuations(bytes: &[u8], dec: &mut Decoder, out: &mut Vec<Out>) {
                 seq_echo: a.seq_echo,
             });
         }
-    });
+    }
 }
 
 /// The host result: the firmware's runtime in this process at its default

@@ -47,11 +47,14 @@ impl Pair {
     fn host_tick(&mut self) -> Actuation {
         let mut h = None;
         let mut dec: Decoder = Decoder::new();
-        dec.feed(self.host.tick(0), |r| {
-            if let Ok(Message::Actuation(a)) = r {
+        let mut rest = self.host.tick(0);
+        while !rest.is_empty() {
+            let (r, more) = dec.next_message(rest);
+            rest = more;
+            if let Some(Ok(Message::Actuation(a))) = r {
                 h.get_or_insert(a);
             }
-        });
+        }
         h.expect("the host's Actuation")
     }
 

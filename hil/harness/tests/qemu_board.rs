@@ -79,9 +79,7 @@ fn fault_and_rejoin(q: &mut Qemu, fault: Command) -> (Actuation, Status) {
         let empty = f.is_empty();
         f.push(0);
         let mut dec: Decoder = Decoder::new();
-        let mut m = None;
-        dec.feed(&f, |r| m = r.ok());
-        match m {
+        match dec.next_message(&f).0.and_then(Result::ok) {
             Some(Message::Actuation(a)) if a.flags.has(Flags::SAFE) => break a,
             _ => before_safe.push(empty),
         }
@@ -112,9 +110,7 @@ fn next_message(q: &mut Qemu) -> Option<Message> {
     let mut f = q.recv_frame().unwrap();
     f.push(0);
     let mut dec: Decoder = Decoder::new();
-    let mut out = None;
-    dec.feed(&f, |r| out = r.ok());
-    out
+    dec.next_message(&f).0.and_then(Result::ok)
 }
 
 /// Sends `bytes`, then reads up to `within` frames for the first message that `want`

@@ -27,9 +27,7 @@ impl Device for OnQemu {
         let mut next = |q: &mut Qemu| -> Result<Message, String> {
             let mut f = q.recv_frame().map_err(|e| e.to_string())?;
             f.push(0);
-            let mut out = None;
-            dec.feed(&f, |r| out = Some(r));
-            match out {
+            match dec.next_message(&f).0 {
                 Some(Ok(m)) => Ok(m),
                 other => Err(format!("not a valid frame from the device: {other:?}")),
             }

@@ -184,11 +184,14 @@ fn two_frames_in_one_write_are_two_ticks_and_two_answers() {
     let (ticks, most) = device.finish();
     let mut dec: Decoder = Decoder::new();
     let mut echoes = Vec::new();
-    dec.feed(&got, |m| {
-        if let Ok(Message::Actuation(a)) = m {
+    let mut rest = &got[..];
+    while !rest.is_empty() {
+        let (m, more) = dec.next_message(rest);
+        rest = more;
+        if let Some(Ok(Message::Actuation(a))) = m {
             echoes.push(a.seq_echo);
         }
-    });
+    }
     assert_eq!(most, 1, "a burst held {most} frames");
     assert_eq!(ticks, 2);
     assert_eq!(echoes, vec![1, 2]);

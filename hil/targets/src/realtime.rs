@@ -380,9 +380,13 @@ impl RealTime {
     /// Splits the device's bytes into frames; before the run's first echo every frame is
     /// examined and discarded (counted), from it on every byte is passed on.
     fn ingest(&mut self, at: u64, bytes: &[u8]) {
-        for &b in bytes {
-            self.frame.push(b);
-            let Some(r) = self.decoder.push(b) else {
+        let mut rest = bytes;
+        while !rest.is_empty() {
+            let (r, more) = self.decoder.next_message(rest);
+            self.frame
+                .extend_from_slice(rest.get(..rest.len() - more.len()).unwrap_or(&[]));
+            rest = more;
+            let Some(r) = r else {
                 continue;
             };
             let frame = std::mem::take(&mut self.frame);
@@ -534,9 +538,15 @@ fn poll_readable(s: &TcpStream, wait: Duration) -> io::Result<()> {
 /// Whether the frames in `bytes` hold a Status frame.
 fn is_status(bytes: &[u8]) -> bool {
     let mut d: Decoder = Decoder::new();
-    bytes
-        .iter()
-        .any(|&b| matches!(d.push(b), Some(Ok(Message::Status(_)))))
+    let mut rest = bytes;
+    while !rest.is_empty() {
+        let (r, more) = d.next_message(rest);
+        if matches!(r, Some(Ok(Message::Status(_)))) {
+            return true;
+        }
+        rest = more;
+    }
+    false
 }
 
 /// `x` wrapped into `[-t/2, t/2)`.

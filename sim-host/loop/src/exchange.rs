@@ -26,8 +26,8 @@
 use indicatif::ProgressBar;
 use wheelset_control::InputCodes;
 use wheelset_proto::{
-    encode, Actuation, Command, Config, Decoder, Flags, FrameError, Lateral, LateralSensing,
-    Message, Sensor, SensorSi, Status, MAX_FRAME,
+    encode_vec, Actuation, Command, Config, Decoder, Flags, FrameError, Lateral, LateralSensing,
+    Message, Sensor, SensorSi, Status,
 };
 
 use crate::transport::{Transport, TransportError};
@@ -240,9 +240,8 @@ impl<'a> DeviceController<'a> {
     }
 
     fn send(&mut self, t_ns: u64, m: &Message) {
-        let mut buf = [0u8; MAX_FRAME];
-        let Ok(n) = encode(m, &mut buf) else { return };
-        let frame = buf.get(..n).unwrap_or(&[]);
+        let Ok(frame) = encode_vec(m) else { return };
+        let (frame, n) = (&frame[..], frame.len());
         self.host.sent += 1;
         self.host.bytes_sent += n as u64;
         if self.error.is_none() {

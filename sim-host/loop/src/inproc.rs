@@ -382,8 +382,11 @@ fn outcome(
 fn negate_torque(out: &[u8], res: &mut Vec<u8>) {
     let mut dec: Decoder = Decoder::new();
     res.clear();
-    dec.feed(out, |r| {
-        if let Ok(mut m) = r {
+    let mut rest = out;
+    while !rest.is_empty() {
+        let (r, more) = dec.next_message(rest);
+        rest = more;
+        if let Some(Ok(mut m)) = r {
             if let Message::Actuation(a) = &mut m {
                 a.t_psi_dnm = a.t_psi_dnm.saturating_neg();
             }
@@ -391,7 +394,7 @@ fn negate_torque(out: &[u8], res: &mut Vec<u8>) {
                 res.extend_from_slice(&f);
             }
         }
-    });
+    }
 }
 
 /// Summary of the host's wall time per tick, ns: `{n, min, mean, p99, max}`

@@ -109,6 +109,7 @@ pub(crate) fn cobs_decode_nonzero(buf: &mut [u8]) -> Option<usize> {
     Some(dst)
 }
 
+#[cfg(any(test, feature = "test-support"))]
 /// [`cobs_decode_nonzero`] from `src` into another buffer `dst` (at least as long):
 /// the same accept/reject decisions and output (tested through [`decode_request`]),
 /// with block copies between distinct buffers (`memcpy`) instead of moves within one

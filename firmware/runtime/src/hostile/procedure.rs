@@ -43,11 +43,16 @@ impl<T: SampleBits> Device for Runtime<T> {
         self.receive(frame);
         let mut dec: Decoder = Decoder::new();
         let (mut actuation, mut got) = (None, None);
-        dec.feed(self.tick(0), |m| match m {
-            Ok(Message::Actuation(a)) if actuation.is_none() => actuation = Some(a),
-            Ok(Message::Status(s)) => got = Some(s),
-            _ => {}
-        });
+        let mut rest = self.tick(0);
+        while !rest.is_empty() {
+            let (m, more) = dec.next_message(rest);
+            rest = more;
+            match m {
+                Some(Ok(Message::Actuation(a))) if actuation.is_none() => actuation = Some(a),
+                Some(Ok(Message::Status(s))) => got = Some(s),
+                _ => {}
+            }
+        }
         match (actuation, status, got) {
             (Some(actuation), false, _) => Ok(Reply {
                 actuation,

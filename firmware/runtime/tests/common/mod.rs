@@ -38,9 +38,14 @@ pub fn vel(seq: u16, y_um_s: i32) -> Vec<u8> {
 pub fn frames(bytes: &[u8]) -> Vec<Message> {
     let mut dec: Decoder = Decoder::new();
     let mut out = Vec::new();
-    dec.feed(bytes, |r| {
-        out.push(r.expect("the runtime only sends valid frames"))
-    });
+    let mut rest = bytes;
+    while !rest.is_empty() {
+        let (r, more) = dec.next_message(rest);
+        rest = more;
+        if let Some(r) = r {
+            out.push(r.expect("the runtime only sends valid frames"));
+        }
+    }
     out
 }
 

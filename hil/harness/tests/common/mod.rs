@@ -71,9 +71,10 @@ pub fn exchange(q: &mut Qemu, bytes: &[u8], frames: usize) -> Vec<Message> {
     let mut dec: Decoder = Decoder::new();
     let mut out = Vec::new();
     for _ in 0..frames {
-        let mut f = q.recv_frame().unwrap();
-        f.push(0);
-        dec.feed(&f, |r| out.push(r.expect("a valid frame from the device")));
+        let f = [q.recv_frame().unwrap(), vec![0]].concat();
+        if let Some(r) = dec.next_message(&f).0 {
+            out.push(r.expect("a valid frame from the device"));
+        }
     }
     out
 }
@@ -97,9 +98,7 @@ pub fn tick(q: &mut Qemu, dec: &mut Decoder, bytes: &[u8]) -> Actuation {
     q.send(bytes).unwrap();
     let mut frame = q.recv_frame().unwrap();
     frame.push(0);
-    let mut out = None;
-    dec.feed(&frame, |r| out = Some(r));
-    match out {
+    match dec.next_message(&frame).0 {
         Some(Ok(Message::Actuation(a))) => a,
         other => panic!("expected an actuation frame, got {other:?}"),
     }

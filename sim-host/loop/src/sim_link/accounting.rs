@@ -47,9 +47,8 @@ impl RxPort {
     pub fn push(&mut self, run: &[u8], id: FrameId, mut on_msg: impl FnMut(Message)) {
         let (dec, mut book) = self.split();
         book.attribute(run, id, |piece| {
-            let mut out = None;
-            dec.feed(piece, |r| out = Some(r.map(&mut on_msg)));
-            out
+            // A piece holds at most one delimiter, its last byte.
+            dec.next_message(piece).0.map(|r| r.map(&mut on_msg))
         });
     }
 
