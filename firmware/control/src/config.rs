@@ -263,7 +263,9 @@ impl core::fmt::Display for ConfigError {
 
 impl core::error::Error for ConfigError {}
 
-fn range(
+/// `Ok` when `ok` holds for a finite `value`; otherwise the Config error naming `field`
+/// (`NotFinite` for a NaN or an infinity, else `Range` with `reason`).
+pub(crate) fn range(
     field: &'static str,
     value: f64,
     ok: bool,

@@ -4,29 +4,9 @@
 
 use super::{Wsp, WspBits, WspParams, MAX_SHIFT};
 use crate::compiled::ScaleBits;
-use crate::config::{ConfigError, FullScales, Limits, Motor};
+use crate::config::{range, ConfigError, FullScales, Limits, Motor};
 use crate::lead::LeadParams;
 use crate::sample::{Sample, SampleBits};
-
-fn check(
-    field: &'static str,
-    value: f64,
-    ok: bool,
-    reason: &'static str,
-) -> Result<(), ConfigError> {
-    if !value.is_finite() {
-        return Err(ConfigError::NotFinite { field });
-    }
-    if ok {
-        Ok(())
-    } else {
-        Err(ConfigError::Range {
-            field,
-            value,
-            reason,
-        })
-    }
-}
 
 impl<T: Sample> Wsp<T> {
     /// Validate `p` against the motor, scales, limits and the yaw lead `lead` (the
@@ -41,73 +21,73 @@ impl<T: Sample> Wsp<T> {
         speed_lsb: f64,
         lead: &LeadParams,
     ) -> Result<Self, ConfigError> {
-        check(
+        range(
             "wsp.r0_m",
             p.r0_m,
             p.r0_m > 0.1 && p.r0_m <= 2.0,
             "must be in (0.1, 2] m",
         )?;
-        check(
+        range(
             "wsp.slip_on_mps",
             p.slip_on_mps,
             p.slip_on_mps > 0.0 && p.slip_on_mps <= 10.0,
             "must be in (0, 10] m/s",
         )?;
-        check(
+        range(
             "wsp.slip_accel_mps",
             p.slip_accel_mps,
             p.slip_accel_mps > 0.0 && p.slip_accel_mps < p.slip_on_mps,
             "must be in (0, slip_on_mps)",
         )?;
-        check(
+        range(
             "wsp.accel_on_mps2",
             p.accel_on_mps2,
             p.accel_on_mps2 > 0.0 && p.accel_on_mps2 <= 100.0,
             "must be in (0, 100] m/s^2",
         )?;
-        check(
+        range(
             "wsp.cut_fraction",
             p.cut_fraction,
             p.cut_fraction > 0.0 && p.cut_fraction < 1.0,
             "must be in (0, 1)",
         )?;
-        check(
+        range(
             "wsp.slip_sp_mps",
             p.slip_sp_mps,
             p.slip_sp_mps > 0.0 && p.slip_sp_mps < p.slip_on_mps,
             "must be in (0, slip_on_mps)",
         )?;
-        check(
+        range(
             "wsp.slip_sp_per_a",
             p.slip_sp_per_a,
             p.slip_sp_per_a >= 0.0 && p.slip_sp_per_a * s.current <= 1.0,
             "must be in [0, 1 m/s per scales.current]",
         )?;
-        check(
+        range(
             "wsp.kp_a_per_mps",
             p.kp_a_per_mps,
             p.kp_a_per_mps > 0.0 && p.kp_a_per_mps <= 1e4,
             "must be in (0, 1e4] A per m/s",
         )?;
-        check(
+        range(
             "wsp.ki_a_per_s_per_mps",
             p.ki_a_per_s_per_mps,
             p.ki_a_per_s_per_mps > 0.0 && p.ki_a_per_s_per_mps <= 1e5,
             "must be in (0, 1e5] A/s per m/s",
         )?;
-        check(
+        range(
             "wsp.lead_w1_rad_s",
             p.lead_w1_rad_s,
             p.lead_w1_rad_s > 0.0 && p.lead_w1_rad_s < lead.w2,
             "must be in (0, lead.w2): a phase lead with the lead's pole",
         )?;
-        check(
+        range(
             "wsp.lead_gain",
             p.lead_gain,
             p.lead_gain > 0.0 && p.lead_gain <= 1.0,
             "must be in (0, 1]",
         )?;
-        check(
+        range(
             "wsp.v_ref_lsb_m_per_s",
             p.v_ref_lsb_m_per_s,
             p.v_ref_lsb_m_per_s > 0.0 && p.v_ref_lsb_m_per_s <= 1.0,
@@ -116,7 +96,7 @@ impl<T: Sample> Wsp<T> {
         // m/s at the rim -> motor-speed pu.
         let pu = motor.n / (p.r0_m * s.speed);
         let slip_on = p.slip_on_mps * pu;
-        check(
+        range(
             "wsp.slip_on_mps",
             p.slip_on_mps,
             slip_on <= 0.5,
@@ -140,7 +120,7 @@ impl<T: Sample> Wsp<T> {
         let slew = l.current_ref_rate / s.current; // pu/s
                                                    // Half a motor-speed code above each threshold (module docs, "Exact decisions").
         let half = 0.5 * speed_lsb / s.speed;
-        check(
+        range(
             "wire.speed",
             speed_lsb,
             speed_lsb > 0.0 && 2.0 * half <= p.slip_accel_mps * pu,
