@@ -3,34 +3,41 @@
 #
 # Usage (from the repository root, after `cargo build --release -p sim-host`):
 #
-#     scripts/loop-bench.sh --against OTHER_SIM_HOST [--pairs N] [--this SIM_HOST]
+#     scripts/loop-bench.sh --against OTHER_SIM_HOST [--against ...] [--pairs N] [--this SIM_HOST]
+#                           [--instructions]
 #
-# Runs, alternating between OTHER_SIM_HOST (e.g. a build of an earlier commit) and this
-# build (default target/release/sim-host), N pairs (default 7) of each workload:
+# Runs, alternating between each OTHER_SIM_HOST (e.g. builds of earlier commits; repeat
+# --against for several) and this build (default target/release/sim-host), N rounds
+# (default 7) of each workload on every binary:
 #
 #   loop:  sim-host run --scenario curve --control lead --loop device   (output discarded)
 #   modes: sim-host modes --json DIR/modes.json                         (4 cases x 1 000 points)
 #
-# and prints, for each binary and workload, the medians of the whole process's CPU time
-# (user + system, ms) and its peak resident memory (MiB), as the kernel reports them to
+# and prints, for each binary (by its path) and workload, the medians of the whole
+# process's CPU time (user + system, ms) and its peak resident memory (MiB), as the kernel reports them to
 # the parent (`wait4`'s rusage, microsecond resolution; `/usr/bin/time` rounds to 10 ms).
 # Alternating runs share the machine's state, so the comparison holds on a noisy machine.
+# With --instructions, each binary also runs each workload once under valgrind's
+# callgrind, whose instruction counts do not depend on the machine's load.
 set -euo pipefail
 
 this=target/release/sim-host
-against=""
+against=()
 pairs=7
+instructions=0
 while [ $# -gt 0 ]; do
     case "$1" in
-        --against) against="$2"; shift 2 ;;
+        --against) against+=("$2"); shift 2 ;;
         --this) this="$2"; shift 2 ;;
         --pairs) pairs="$2"; shift 2 ;;
-        -h|--help) sed -n '2,16p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+        --instructions) instructions=1; shift ;;
+        -h|--help) sed -n '2,/^set -e/p' "$0" | grep '^#' | sed 's/^# \{0,1\}//'; exit 0 ;;
         *) echo "loop-bench: unknown argument $1 (see --help)" >&2; exit 2 ;;
     esac
 done
-[ -n "$against" ] || { echo "loop-bench: --against BINARY is required" >&2; exit 2; }
-for b in "$this" "$against"; do
+[ ${#against[@]} -gt 0 ] || { echo "loop-bench: --against BINARY is required" >&2; exit 2; }
+bins=("${against[@]}" "$this")
+for b in "${bins[@]}"; do
     [ -x "$b" ] || { echo "loop-bench: $b is not an executable" >&2; exit 2; }
 done
 command -v python3 >/dev/null || { echo "loop-bench: needs python3 (for wait4)" >&2; exit 2; }
@@ -57,8 +64,8 @@ print("%.1f %d" % ((ru.ru_utime + ru.ru_stime) * 1000, ru.ru_maxrss))
 }
 
 for i in $(seq "$pairs"); do
-    for side in against this; do
-        bin=${!side}
+    for side in "${!bins[@]}"; do
+        bin=${bins[$side]}
         measure "$tmp/$side.loop" "$bin" run --scenario curve --control lead --loop device
         measure "$tmp/$side.modes" "$bin" modes --json "$tmp/modes-$side.json"
     done
@@ -66,13 +73,31 @@ done
 
 median() { sort -n | awk '{ v[NR] = $1 } END { print (NR % 2) ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2 }'; }
 
-printf '%-8s %-6s %12s %14s   (%s pairs, median)\n' binary job "cpu ms" "peak RSS MiB" "$pairs"
-for side in against this; do
+w=6
+for b in "${bins[@]}"; do [ ${#b} -gt $w ] && w=${#b}; done
+printf "%-${w}s %-6s %12s %14s   (%s rounds, median)\n" binary job "cpu ms" "peak RSS MiB" "$pairs"
+for side in "${!bins[@]}"; do
     for job in loop modes; do
         cpu=$(cut -d' ' -f1 "$tmp/$side.$job" | median)
         rss=$(cut -d' ' -f2 "$tmp/$side.$job" | median)
-        printf '%-8s %-6s %12s %14.1f\n' "$side" "$job" "$cpu" "$(echo "$rss / 1024" | bc -l)"
+        printf "%-${w}s %-6s %12s %14.1f\n" "${bins[$side]}" "$job" "$cpu" "$(echo "$rss / 1024" | bc -l)"
     done
 done
-echo "this:    $this"
-echo "against: $against"
+if [ "$instructions" = 1 ]; then
+    command -v valgrind >/dev/null || { echo "loop-bench: --instructions needs valgrind" >&2; exit 2; }
+    printf "%-${w}s %-6s %12s\n" binary job "instructions (M, callgrind)"
+    for side in "${!bins[@]}"; do
+        bin=${bins[$side]}
+        for job in loop modes; do
+            if [ "$job" = loop ]; then
+                args=(run --scenario curve --control lead --loop device)
+            else
+                args=(modes --json "$tmp/modes-cg.json")
+            fi
+            valgrind --tool=callgrind --callgrind-out-file="$tmp/cg" "$bin" "${args[@]}" >/dev/null 2>"$tmp/err" \
+                || { echo "loop-bench: callgrind failed: $bin" >&2; cat "$tmp/err" >&2; exit 1; }
+            ir=$(sed -n 's/^summary: \([0-9]*\).*/\1/p' "$tmp/cg")
+            printf "%-${w}s %-6s %12.1f\n" "$bin" "$job" "$(echo "$ir / 1000000" | bc -l)"
+        done
+    done
+fi
