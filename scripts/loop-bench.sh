@@ -14,8 +14,9 @@
 #   modes: sim-host modes --json DIR/modes.json                         (4 cases x 1 000 points)
 #
 # and prints, for each binary (by its path) and workload, the medians of the whole
-# process's CPU time (user + system, ms) and its peak resident memory (MiB), as the kernel reports them to
-# the parent (`wait4`'s rusage, microsecond resolution; `/usr/bin/time` rounds to 10 ms).
+# process's CPU time (user + system, ms; `wait4`'s rusage, microsecond resolution) and
+# its peak resident memory (MiB, GNU time's report, which rounds CPU times to 10 ms and
+# so gives the memory only).
 # Alternating runs share the machine's state, so the comparison holds on a noisy machine.
 # With --instructions, each binary also runs each workload once under valgrind's
 # callgrind, whose instruction counts do not depend on the machine's load.
@@ -41,25 +42,31 @@ for b in "${bins[@]}"; do
     [ -x "$b" ] || { echo "loop-bench: $b is not an executable" >&2; exit 2; }
 done
 command -v python3 >/dev/null || { echo "loop-bench: needs python3 (for wait4)" >&2; exit 2; }
+[ -x /usr/bin/time ] || { echo "loop-bench: needs GNU time at /usr/bin/time (Debian package \`time\`)" >&2; exit 2; }
 
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 
-# One run: appends "cpu_ms rss_kib" to the file $1; the rest is the command.
+# One run: appends "cpu_ms rss_kib" to the file $1; the rest is the command. The CPU time
+# is wait4's for the child (GNU time and the binary it reaps; GNU time's own share is a
+# fraction of a millisecond, the same for every binary). The peak memory is GNU time's
+# report of the binary alone: a process started by exec from Python's fork would carry
+# Python's resident set in its maximum.
 measure() {
     local out="$1"; shift
     python3 -c '
 import os, sys
+rss = sys.argv[1]
 pid = os.fork()
 if pid == 0:
     null = os.open(os.devnull, os.O_WRONLY)
     os.dup2(null, 1)
-    os.execv(sys.argv[1], sys.argv[1:])
+    os.execv("/usr/bin/time", ["/usr/bin/time", "-f", "%M", "-o", rss] + sys.argv[2:])
 _, status, ru = os.wait4(pid, 0)
 if os.waitstatus_to_exitcode(status) != 0:
     sys.exit(1)
-print("%.1f %d" % ((ru.ru_utime + ru.ru_stime) * 1000, ru.ru_maxrss))
-' "$@" >>"$out" 2>"$tmp/err" </dev/null \
+print("%.1f %s" % ((ru.ru_utime + ru.ru_stime) * 1000, open(rss).read().split()[-1]))
+' "$tmp/rss" "$@" >>"$out" 2>"$tmp/err" </dev/null \
         || { echo "loop-bench: failed: $*" >&2; cat "$tmp/err" >&2; exit 1; }
 }
 
