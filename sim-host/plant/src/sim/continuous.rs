@@ -3,7 +3,7 @@
 
 use super::*;
 use crate::control::{ContinuousController, Exogenous, YawLaw};
-use crate::plant::{ix, Plant, PlantConfig, State};
+use crate::plant::{ix, Linear, Plant, PlantConfig, State};
 use crate::scenario::{Scenario, TrackCursor};
 
 /// Per-step exogenous inputs shared by both run kinds.
@@ -213,13 +213,12 @@ pub fn run_continuous_with(sc: &Scenario, ctrl: ContinuousController) -> Traject
         };
         let e3 = [ex(0), ex(1), ex(2)];
         x = crate::with_flags!(plant.cfg, flags => {
-            let stages = ClosedLoopStages {
-                plant: &plant,
-                flags,
-                ctrl: &ctrl,
-                e: e3,
-            };
-            rk4_step_with(&x, h, stages)
+            if plant.adhesion.is_none() {
+                let flags = Linear(flags);
+                rk4_step_with(&x, h, ClosedLoopStages { plant: &plant, flags, ctrl: &ctrl, e: e3 })
+            } else {
+                rk4_step_with(&x, h, ClosedLoopStages { plant: &plant, flags, ctrl: &ctrl, e: e3 })
+            }
         });
     }
     if diverged_at.is_none() {

@@ -25,9 +25,8 @@ impl<F: FnMut(usize, &State) -> State> Rhs for F {
 }
 
 /// The plant alone with fixed inputs per stage slot (start, midpoint, end), built once
-/// per step. Its right-hand side is inlined into each RK4 stage; as a closure it was an
-/// out-of-line call per stage (closed loop over the link: 684 M -> 623 M instructions,
-/// callgrind). Same arithmetic, bit-identical states.
+/// per step. Its right-hand side is inlined into each RK4 stage (a closure would be an
+/// out-of-line call per stage). Same arithmetic, bit-identical states.
 pub(super) struct PlantStages<'a, F: Flags> {
     pub(super) plant: &'a Plant,
     pub(super) flags: F,

@@ -3,7 +3,7 @@
 
 use super::*;
 use crate::control::{Actuation, Measurements, SampledController};
-use crate::plant::{ix, Inputs, Plant, State};
+use crate::plant::{ix, Inputs, Linear, Plant, State};
 use crate::scenario::Scenario;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -252,7 +252,11 @@ pub fn run_sampled(
         let a = fault(t_ns, &held);
         let u = [inputs(&e, 0, &a), inputs(&e, 1, &a), inputs(&e, 2, &a)];
         x = crate::with_flags!(plant.cfg, flags => {
-            rk4_step_with(&x, h, PlantStages { plant: &plant, flags, u })
+            if plant.adhesion.is_none() {
+                rk4_step_with(&x, h, PlantStages { plant: &plant, flags: Linear(flags), u })
+            } else {
+                rk4_step_with(&x, h, PlantStages { plant: &plant, flags, u })
+            }
         });
     }
     Ok(Trajectory {
