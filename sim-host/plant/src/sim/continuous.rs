@@ -76,27 +76,24 @@ impl<'a> Setup<'a> {
         peak
     }
 
+    #[inline(always)]
     pub(super) fn exo(&mut self, t_ns: u64) -> Exo {
         let sc = self.sc;
         let h = sc.dt_ns;
-        let mut curv = [0.0; 3];
-        let mut cant = [0.0; 3];
-        for (j, t) in [t_ns, t_ns + h / 2, t_ns + h].into_iter().enumerate() {
-            let (c, th) = match self.track_end {
-                Some((te, c, th)) if j == 0 && te == t => (c, th),
-                _ => self.track.at(&sc.track, t),
-            };
-            curv[j] = c;
-            cant[j] = th;
-        }
-        self.track_end = Some((t_ns + h, curv[2], cant[2]));
+        let (c0, th0) = match self.track_end {
+            Some((te, c, th)) if te == t_ns => (c, th),
+            _ => self.track.at(&sc.track, t_ns),
+        };
+        let (c1, th1) = self.track.at(&sc.track, t_ns + h / 2);
+        let (c2, th2) = self.track.at(&sc.track, t_ns + h);
+        self.track_end = Some((t_ns + h, c2, th2));
         let demand = sc.traction.at(t_ns);
         Exo {
             demand,
             f_run: sc.resistance.at(t_ns),
             i_ref: demand / (sc.params.n_gear * sc.params.k_m),
-            curv,
-            cant,
+            curv: [c0, c1, c2],
+            cant: [th0, th1, th2],
         }
     }
 

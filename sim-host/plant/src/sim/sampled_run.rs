@@ -45,6 +45,11 @@ impl SensorModel {
 
     /// Applies noise then quantisation.
     pub fn apply(&mut self, m: &Measurements) -> Measurements {
+        // No noise and no quantisation on any channel: the loop below would copy every
+        // value unchanged and draw no random number.
+        if self.noise_std == [0.0; 5] && self.lsb == [0.0; 5] {
+            return *m;
+        }
         let mut ch = [m.yd_mps, m.ydd_mps2, m.i_a, m.w_m, m.w_wheel];
         for (i, v) in ch.iter_mut().enumerate() {
             if self.noise_std[i] > 0.0 {
@@ -185,6 +190,9 @@ pub fn run_sampled(
     let h = sc.dt_ns as f64 * 1e-9;
     let mut records = Vec::with_capacity((n_steps / every + 2) as usize);
     let mut pending: VecDeque<(u64, Actuation)> = VecDeque::new();
+    // When the front of `pending` is due (the commands are queued in time order), ns;
+    // `u64::MAX` while none is pending.
+    let mut next_due = u64::MAX;
     let mut calls = 0u64;
     let inputs = |e: &Exo, j: usize, a: &Actuation| Inputs {
         t_psi: a.t_psi,
@@ -225,14 +233,17 @@ pub fn run_sampled(
             let m = sensor.apply(&m);
             let a = actuator.limit(ctrl.step(t_ns, &m));
             calls += 1;
-            pending.push_back((t_ns + actuator.delay_ns, a));
-        }
-        while let Some(&(due, a)) = pending.front() {
-            if due > t_ns {
-                break;
+            let due = t_ns + actuator.delay_ns;
+            if pending.is_empty() {
+                next_due = due;
             }
-            held = a;
-            pending.pop_front();
+            pending.push_back((due, a));
+        }
+        while next_due <= t_ns {
+            if let Some((_, a)) = pending.pop_front() {
+                held = a;
+            }
+            next_due = pending.front().map_or(u64::MAX, |&(due, _)| due);
         }
         if k % every == 0 || k == n_steps {
             let t_psi = fault(t_ns, &held).t_psi;
