@@ -35,6 +35,9 @@ pub(super) struct Setup<'a> {
     /// `(t_ns, curvature, cant)` of the last step's end: the next step's start (the
     /// track is a function of time alone, so reading it again gives the same bits).
     pub(super) track_end: Option<(u64, f64, f64)>,
+    /// The rail condition of the last [`Setup::adhesion`] (`Some(None)`: no law), `None`
+    /// before the first.
+    pub(super) condition: Option<Option<crate::adhesion::Condition>>,
 }
 
 impl<'a> Setup<'a> {
@@ -50,6 +53,7 @@ impl<'a> Setup<'a> {
             track: TrackCursor::new(),
             peak_cache: None,
             track_end: None,
+            condition: None,
         }
     }
 
@@ -58,7 +62,22 @@ impl<'a> Setup<'a> {
     pub(super) fn adhesion(&mut self, t_ns: u64) -> Option<crate::adhesion::Adhesion> {
         let a = self.sc.adhesion_at(t_ns);
         self.plant.adhesion = a;
+        self.condition = Some(a.map(|a| a.condition));
         a
+    }
+
+    /// [`Setup::adhesion`] when the rail condition of `t_ns` is not the last call's
+    /// (the law is a function of the condition alone), else `None`: the law in force
+    /// holds.
+    #[inline(always)]
+    pub(super) fn adhesion_change(
+        &mut self,
+        t_ns: u64,
+    ) -> Option<Option<crate::adhesion::Adhesion>> {
+        if self.condition == Some(self.sc.condition_at(t_ns)) {
+            return None;
+        }
+        Some(self.adhesion(t_ns))
     }
 
     /// The peak adhesion of the present condition at speed `v` (`inf` without a law).
@@ -177,10 +196,14 @@ pub fn run_continuous_with(sc: &Scenario, ctrl: ContinuousController) -> Traject
     let h = sc.dt_ns as f64 * 1e-9;
     let mut records = Vec::with_capacity((n_steps / every + 2) as usize);
     let mut diverged_at = None;
+    // The next step that records (every `every`-th from step 0).
+    let mut next_record = 0;
     for k in 0..n_steps {
         let t_ns = k * sc.dt_ns;
         let e = s.exo(t_ns);
-        plant.adhesion = s.adhesion(t_ns);
+        if let Some(a) = s.adhesion_change(t_ns) {
+            plant.adhesion = a;
+        }
         // A scenario's actuator fault scales the (linear) yaw law: the delivered torque.
         let ctrl = match &sc.actuator_fault {
             Some(f) => ContinuousController {
@@ -189,7 +212,8 @@ pub fn run_continuous_with(sc: &Scenario, ctrl: ContinuousController) -> Traject
             },
             None => ctrl,
         };
-        if k % every == 0 {
+        if k == next_record {
+            next_record += every;
             let u_a = if drive {
                 ctrl.voltage(&x, e.i_ref)
             } else {

@@ -223,11 +223,17 @@ pub fn run_sampled(
     );
     let mut held = ctrl.initial(&m0, plant.k_m());
     let mut diverged_at = None;
+    // The next controller call, ns (every `period` from 0), and the next step that
+    // records (every `every`-th from step 0).
+    let (mut next_call, mut next_record) = (0, 0);
     for k in 0..=n_steps {
         let t_ns = k * sc.dt_ns;
         let e = s.exo(t_ns);
-        plant.adhesion = s.adhesion(t_ns);
-        if k < n_steps && t_ns.is_multiple_of(period) {
+        if let Some(a) = s.adhesion_change(t_ns) {
+            plant.adhesion = a;
+        }
+        if k < n_steps && t_ns == next_call {
+            next_call += period;
             let on = fault(t_ns, &held);
             let m = measure(&plant, &x, &on, &inputs(&e, 0, &on), e.demand, e.i_ref);
             let m = sensor.apply(&m);
@@ -245,7 +251,11 @@ pub fn run_sampled(
             }
             next_due = pending.front().map_or(u64::MAX, |&(due, _)| due);
         }
-        if k % every == 0 || k == n_steps {
+        let record = k == next_record;
+        if record {
+            next_record += every;
+        }
+        if record || k == n_steps {
             let t_psi = fault(t_ns, &held).t_psi;
             let mut r = s.record(t_ns, &x, &e, t_psi, if drive { held.u_a } else { 0.0 });
             if !drive {
