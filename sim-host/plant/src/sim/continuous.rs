@@ -128,9 +128,14 @@ impl<'a> Setup<'a> {
         let mu_avail = self.mu_avail(x[ix::V]);
         let p = &self.sc.params;
         let cr = self.plant.creep(x, e.curv[0]);
-        let mut linear = self.plant;
-        linear.adhesion = None;
-        let lin = linear.creep(x, e.curv[0]);
+        // The linear law's forces (those of the plant without its adhesion law).
+        let lin = if self.plant.adhesion.is_none() {
+            cr
+        } else {
+            let mut linear = self.plant;
+            linear.adhesion = None;
+            linear.creep(x, e.curv[0])
+        };
         let slip = 0.5 * (lin.fx_r + lin.fx_l) / p.f11 * x[ix::V];
         let t_spring = self.plant.spring_torque(x);
         Record {

@@ -44,12 +44,19 @@ impl SensorModel {
     }
 
     /// Applies noise then quantisation.
+    #[inline]
     pub fn apply(&mut self, m: &Measurements) -> Measurements {
-        // No noise and no quantisation on any channel: the loop below would copy every
+        // No noise and no quantisation on any channel: `apply_any` would copy every
         // value unchanged and draw no random number.
         if self.noise_std == [0.0; 5] && self.lsb == [0.0; 5] {
             return *m;
         }
+        self.apply_any(m)
+    }
+
+    /// [`SensorModel::apply`] for any channel settings.
+    #[inline(never)]
+    fn apply_any(&mut self, m: &Measurements) -> Measurements {
         let mut ch = [m.yd_mps, m.ydd_mps2, m.i_a, m.w_m, m.w_wheel];
         for (i, v) in ch.iter_mut().enumerate() {
             if self.noise_std[i] > 0.0 {
