@@ -3,7 +3,7 @@
 
 use super::*;
 use crate::control::{ContinuousController, Exogenous, YawLaw};
-use crate::plant::{ix, Linear, Plant, PlantConfig, State};
+use crate::plant::{ix, Flags, Linear, Plant, PlantConfig, State};
 use crate::scenario::{Scenario, TrackCursor};
 
 /// Per-step exogenous inputs shared by both run kinds.
@@ -190,7 +190,14 @@ pub fn run_continuous(sc: &Scenario, law: YawLaw) -> Trajectory {
 
 /// As [`run_continuous`] with an explicit controller (e.g. a reversed sign in tests).
 pub fn run_continuous_with(sc: &Scenario, ctrl: ContinuousController) -> Trajectory {
-    let mut s = Setup::new(sc, ctrl.law.has_spring());
+    let s = Setup::new(sc, ctrl.law.has_spring());
+    crate::with_flags!(s.plant.cfg, flags => continuous(s, ctrl, flags))
+}
+
+/// [`run_continuous_with`] on the set-up `s`, its plant's configuration as `flags` (one
+/// copy of the loop per configuration).
+fn continuous<F: Flags>(mut s: Setup<'_>, ctrl: ContinuousController, flags: F) -> Trajectory {
+    let sc = s.sc;
     let mut plant = s.plant;
     let drive = sc.drive;
     let mut x = plant.rolling_state(sc.params.v);
@@ -238,14 +245,30 @@ pub fn run_continuous_with(sc: &Scenario, ctrl: ContinuousController) -> Traject
             demand: e.demand,
         };
         let e3 = [ex(0), ex(1), ex(2)];
-        x = crate::with_flags!(plant.cfg, flags => {
-            if plant.adhesion.is_none() {
-                let flags = Linear(flags);
-                rk4_step_with(&x, h, ClosedLoopStages { plant: &plant, flags, ctrl: &ctrl, e: e3 })
-            } else {
-                rk4_step_with(&x, h, ClosedLoopStages { plant: &plant, flags, ctrl: &ctrl, e: e3 })
-            }
-        });
+        x = if plant.adhesion.is_none() {
+            let flags = Linear(flags);
+            rk4_step_with(
+                &x,
+                h,
+                ClosedLoopStages {
+                    plant: &plant,
+                    flags,
+                    ctrl: &ctrl,
+                    e: e3,
+                },
+            )
+        } else {
+            rk4_step_with(
+                &x,
+                h,
+                ClosedLoopStages {
+                    plant: &plant,
+                    flags,
+                    ctrl: &ctrl,
+                    e: e3,
+                },
+            )
+        };
     }
     if diverged_at.is_none() {
         let t_end = n_steps * sc.dt_ns;

@@ -3,7 +3,7 @@
 
 use super::*;
 use crate::control::{Actuation, Measurements, SampledController};
-use crate::plant::{ix, Inputs, Linear, Plant, State};
+use crate::plant::{ix, Flags, Inputs, Linear, Plant, State};
 use crate::scenario::Scenario;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -189,7 +189,24 @@ pub fn run_sampled(
             dt_ns: sc.dt_ns,
         });
     }
-    let mut s = Setup::new(sc, yaw_spring);
+    let s = Setup::new(sc, yaw_spring);
+    crate::with_flags!(s.plant.cfg, flags => {
+        Ok(sampled(s, ctrl, sensor, actuator, period, label, flags))
+    })
+}
+
+/// [`run_sampled`] on the set-up `s` (the checks passed), its plant's configuration as
+/// `flags` (one copy of the loop per configuration).
+fn sampled<F: Flags>(
+    mut s: Setup<'_>,
+    ctrl: &mut dyn SampledController,
+    sensor: &mut SensorModel,
+    actuator: &mut ActuatorModel,
+    period: u64,
+    label: &str,
+    flags: F,
+) -> Trajectory {
+    let sc = s.sc;
     let mut plant = s.plant;
     let drive = sc.drive;
     let mut x = plant.rolling_state(sc.params.v);
@@ -279,15 +296,29 @@ pub fn run_sampled(
         }
         let a = fault(t_ns, &held);
         let u = [inputs(&e, 0, &a), inputs(&e, 1, &a), inputs(&e, 2, &a)];
-        x = crate::with_flags!(plant.cfg, flags => {
-            if plant.adhesion.is_none() {
-                rk4_step_with(&x, h, PlantStages { plant: &plant, flags: Linear(flags), u })
-            } else {
-                rk4_step_with(&x, h, PlantStages { plant: &plant, flags, u })
-            }
-        });
+        x = if plant.adhesion.is_none() {
+            rk4_step_with(
+                &x,
+                h,
+                PlantStages {
+                    plant: &plant,
+                    flags: Linear(flags),
+                    u,
+                },
+            )
+        } else {
+            rk4_step_with(
+                &x,
+                h,
+                PlantStages {
+                    plant: &plant,
+                    flags,
+                    u,
+                },
+            )
+        };
     }
-    Ok(Trajectory {
+    Trajectory {
         records,
         info: RunInfo {
             scenario: sc.name.clone(),
@@ -299,5 +330,5 @@ pub fn run_sampled(
             actuator_clamps: actuator.clamps,
             diverged_at_s: diverged_at,
         },
-    })
+    }
 }
