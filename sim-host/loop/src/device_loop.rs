@@ -496,46 +496,47 @@ pub struct WindowDeviation {
 /// traction step at 5 s (settled: 4.5-5 s) and after it (settled: 10-12 s).
 pub const CURVE_WINDOWS: [(f64, f64); 2] = [(4.5, 5.0), (10.0, 12.0)];
 
-/// Compares `run` with `reference` (records at the same times).
+/// Compares `run` with `reference` (records at the same times), in one pass over the
+/// pairs of records.
 #[must_use]
 pub fn deviation(run: &Trajectory, reference: &Trajectory, windows: [(f64, f64); 2]) -> Deviation {
-    let pairs = || {
-        run.records
-            .iter()
-            .zip(&reference.records)
-            .filter(|(a, b)| (a.t_s - b.t_s).abs() < 1e-9)
-    };
     let forces = |r: &Record| [r.fx_r_n, r.fx_l_n, r.fy_n];
     let rel = |a: f64, b: f64| (a - b).abs() / b.abs().max(1e-300);
     let mut d = Deviation::default();
     for (w, &(from_s, to_s)) in d.windows.iter_mut().zip(&windows) {
         w.from_s = from_s;
         w.to_s = to_s;
-        let (mut df, mut f_scale) = (0.0f64, 0.0f64);
-        for (a, b) in pairs().filter(|(_, b)| b.t_s >= from_s && b.t_s < to_s) {
-            w.y_rel = w.y_rel.max(rel(a.y_m, b.y_m));
-            for (fa, fb) in forces(a).into_iter().zip(forces(b)) {
-                df = df.max((fa - fb).abs());
-                f_scale = f_scale.max(fb.abs());
+    }
+    // Per window: the largest force deviation and the largest reference force.
+    let mut window_f = [(0.0f64, 0.0f64); 2];
+    let (mut y_ref_max, mut f_ref_max) = (0.0f64, 0.0f64);
+    let pairs = run
+        .records
+        .iter()
+        .zip(&reference.records)
+        .filter(|(a, b)| (a.t_s - b.t_s).abs() < 1e-9);
+    for (a, b) in pairs {
+        let (fa, fb) = (forces(a), forces(b));
+        for (w, (df, f_scale)) in d.windows.iter_mut().zip(&mut window_f) {
+            if b.t_s >= w.from_s && b.t_s < w.to_s {
+                w.y_rel = w.y_rel.max(rel(a.y_m, b.y_m));
+                for (&fa, &fb) in fa.iter().zip(&fb) {
+                    *df = df.max((fa - fb).abs());
+                    *f_scale = f_scale.max(fb.abs());
+                }
             }
         }
-        w.f_rel = df / f_scale.max(1e-300);
-    }
-    let (mut y_ref_max, mut f_ref_max) = (0.0f64, 0.0f64);
-    d.diverged = pairs().any(|(a, b)| {
-        !(a.y_m.is_finite() && b.y_m.is_finite())
-            || forces(a)
-                .into_iter()
-                .chain(forces(b))
-                .any(|f| !f.is_finite())
-    });
-    for (a, b) in pairs() {
+        d.diverged |= !(a.y_m.is_finite() && b.y_m.is_finite())
+            || fa.iter().chain(&fb).any(|f| !f.is_finite());
         d.y_max_abs_m = d.y_max_abs_m.max((a.y_m - b.y_m).abs());
         y_ref_max = y_ref_max.max(b.y_m.abs());
-        for (fa, fb) in forces(a).into_iter().zip(forces(b)) {
+        for (&fa, &fb) in fa.iter().zip(&fb) {
             d.f_max_abs_n = d.f_max_abs_n.max((fa - fb).abs());
             f_ref_max = f_ref_max.max(fb.abs());
         }
+    }
+    for (w, (df, f_scale)) in d.windows.iter_mut().zip(window_f) {
+        w.f_rel = df / f_scale.max(1e-300);
     }
     d.y_max_rel = d.y_max_abs_m / y_ref_max.max(1e-300);
     d.f_max_rel = d.f_max_abs_n / f_ref_max.max(1e-300);

@@ -203,6 +203,12 @@ pub trait Flags: Copy {
     fn drive(&self) -> bool;
     /// Passive yaw spring present.
     fn yaw_spring(&self) -> bool;
+    /// The plant's adhesion law is known to be `None` (the linear creep law), so
+    /// [`Plant::creep_with`] need not look at it. Default: not known (it looks).
+    #[inline(always)]
+    fn linear_creep(&self) -> bool {
+        false
+    }
 }
 
 impl Flags for PlantConfig {
@@ -239,6 +245,32 @@ impl<const FLEXIBLE: bool, const DRIVE: bool, const YAW_SPRING: bool> Flags
     #[inline(always)]
     fn yaw_spring(&self) -> bool {
         YAW_SPRING
+    }
+}
+
+/// Flags `F` on a plant whose adhesion law is `None`: [`Flags::linear_creep`] is true,
+/// so the creep forces skip the test of the law (the same arithmetic as with `F`).
+/// Only for a plant with `adhesion == None`; with a law the forces would be the linear
+/// ones, not the law's.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Linear<F>(pub F);
+
+impl<F: Flags> Flags for Linear<F> {
+    #[inline(always)]
+    fn flexible(&self) -> bool {
+        self.0.flexible()
+    }
+    #[inline(always)]
+    fn drive(&self) -> bool {
+        self.0.drive()
+    }
+    #[inline(always)]
+    fn yaw_spring(&self) -> bool {
+        self.0.yaw_spring()
+    }
+    #[inline(always)]
+    fn linear_creep(&self) -> bool {
+        true
     }
 }
 
@@ -472,6 +504,10 @@ impl Plant {
         let fx_l =
             -c(self.f11) * (c(1.0) + lg_psid_v - self.w_l(f, x) * (c(self.r0) - ly) * inv_v - lg_k);
         let fy = -c(self.f22) * (x[ix::YD] * inv_v - x[ix::PSI]);
+        if f.linear_creep() {
+            debug_assert!(self.adhesion.is_none());
+            return Creep { fx_r, fx_l, fy };
+        }
         match &self.adhesion {
             None => Creep { fx_r, fx_l, fy },
             Some(a) => self.limit(a, Creep { fx_r, fx_l, fy }, v),

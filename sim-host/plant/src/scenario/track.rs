@@ -34,25 +34,44 @@ pub fn track_at(track: &[Knot], t_ns: u64, hint: &mut usize) -> (f64, f64) {
         i += 1;
     }
     *hint = i;
-    let (a, b) = (track[i], track[i + 1]);
-    let s = (t_ns - a.t_ns) as f64 / (b.t_ns - a.t_ns) as f64;
+    lerp(&track[i], &track[i + 1], t_ns)
+}
+
+/// Curvature and cant at `t_ns` on the segment from knot `a` to knot `b`
+/// (`a.t_ns <= t_ns <= b.t_ns`, `a.t_ns < b.t_ns`): `a + s (b - a)`, `s` the fraction of
+/// the segment's time.
+#[inline(always)]
+fn lerp(a: &Knot, b: &Knot, t_ns: u64) -> (f64, f64) {
+    lerp_over(a, b, (b.t_ns - a.t_ns) as f64, t_ns)
+}
+
+/// [`lerp`] with the segment's duration `span_ns = (b.t_ns - a.t_ns) as f64` given.
+#[inline(always)]
+fn lerp_over(a: &Knot, b: &Knot, span_ns: f64, t_ns: u64) -> (f64, f64) {
+    let s = (t_ns - a.t_ns) as f64 / span_ns;
     (
         a.curvature + s * (b.curvature - a.curvature),
         a.cant + s * (b.cant - a.cant),
     )
 }
 
-/// [`track_at`] for monotone (or any) times, remembering the span of time over which
-/// the last value holds exactly: before the first knot, after the last, and on a level
-/// segment (equal curvature and cant at both knots, where `a + s (b - a)` is `a + 0.0`
-/// for every `s`). Inside the span a look-up is one comparison; the values are
-/// bit-identical to [`track_at`]'s.
+/// [`track_at`] for monotone (or any) times, remembering the span of time of the last
+/// look-up: before the first knot, after the last, and on a level segment (equal
+/// curvature and cant at both knots, where `a + s (b - a)` is `a + 0.0` for every `s`)
+/// the value holds over the span; on a sloped segment the span is the segment's and a
+/// look-up inside it interpolates between its knots as [`track_at`] does (the knots
+/// are strictly increasing in time, so every time inside the segment is
+/// [`track_at`]'s segment). Inside the span a look-up is one comparison (and the
+/// interpolation); the values are bit-identical to [`track_at`]'s.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct TrackCursor {
     hint: usize,
-    /// `[from, to)` ns over which `value` holds.
+    /// `[from, to)` ns over which `value` holds, or `seg` interpolates.
     span: (u64, u64),
     value: (f64, f64),
+    /// The knots of the sloped segment `span` lies on and its duration as `f64`, ns;
+    /// `None`: `value` holds.
+    seg: Option<(Knot, Knot, f64)>,
 }
 
 impl TrackCursor {
@@ -63,13 +82,24 @@ impl TrackCursor {
     }
 
     /// Curvature `1/R` (1/m) and cant (rad) at `t_ns`, as [`track_at`].
+    #[inline]
     pub fn at(&mut self, track: &[Knot], t_ns: u64) -> (f64, f64) {
         if t_ns >= self.span.0 && t_ns < self.span.1 {
-            return self.value;
+            return match &self.seg {
+                None => self.value,
+                Some((a, b, span_ns)) => lerp_over(a, b, *span_ns, t_ns),
+            };
         }
+        self.seek(track, t_ns)
+    }
+
+    /// [`TrackCursor::at`] outside the span: [`track_at`], then the span of `t_ns`.
+    #[inline(never)]
+    fn seek(&mut self, track: &[Knot], t_ns: u64) -> (f64, f64) {
         let v = track_at(track, t_ns, &mut self.hint);
         self.value = v;
         self.span = (0, 0);
+        self.seg = None;
         if let (Some(first), Some(last)) = (track.first(), track.last()) {
             if t_ns <= first.t_ns {
                 // `track_at` returns the first knot for every t <= first.
@@ -78,8 +108,11 @@ impl TrackCursor {
                 self.span = (last.t_ns, u64::MAX);
             } else if let (Some(a), Some(b)) = (track.get(self.hint), track.get(self.hint + 1)) {
                 // Interior: `hint` is the segment `[a, b)` that holds `t_ns`.
-                if a.curvature == b.curvature && a.cant == b.cant {
-                    self.span = (a.t_ns.max(first.t_ns + 1), b.t_ns);
+                // (At the first knot itself `track_at` returns the knot, not
+                // `a + 0 (b - a)`: the span starts after it.)
+                self.span = (a.t_ns.max(first.t_ns + 1), b.t_ns);
+                if a.curvature != b.curvature || a.cant != b.cant {
+                    self.seg = Some((*a, *b, (b.t_ns - a.t_ns) as f64));
                 }
             }
         }

@@ -3,7 +3,7 @@
 
 use super::*;
 use crate::control::{ContinuousController, Exogenous, YawLaw};
-use crate::plant::{ix, Plant, PlantConfig, State};
+use crate::plant::{ix, Flags, Linear, Plant, PlantConfig, State};
 use crate::scenario::{Scenario, TrackCursor};
 
 /// Per-step exogenous inputs shared by both run kinds.
@@ -35,6 +35,9 @@ pub(super) struct Setup<'a> {
     /// `(t_ns, curvature, cant)` of the last step's end: the next step's start (the
     /// track is a function of time alone, so reading it again gives the same bits).
     pub(super) track_end: Option<(u64, f64, f64)>,
+    /// The rail condition of the last [`Setup::adhesion`] (`Some(None)`: no law), `None`
+    /// before the first.
+    pub(super) condition: Option<Option<crate::adhesion::Condition>>,
 }
 
 impl<'a> Setup<'a> {
@@ -50,6 +53,7 @@ impl<'a> Setup<'a> {
             track: TrackCursor::new(),
             peak_cache: None,
             track_end: None,
+            condition: None,
         }
     }
 
@@ -58,7 +62,22 @@ impl<'a> Setup<'a> {
     pub(super) fn adhesion(&mut self, t_ns: u64) -> Option<crate::adhesion::Adhesion> {
         let a = self.sc.adhesion_at(t_ns);
         self.plant.adhesion = a;
+        self.condition = Some(a.map(|a| a.condition));
         a
+    }
+
+    /// [`Setup::adhesion`] when the rail condition of `t_ns` is not the last call's
+    /// (the law is a function of the condition alone), else `None`: the law in force
+    /// holds.
+    #[inline(always)]
+    pub(super) fn adhesion_change(
+        &mut self,
+        t_ns: u64,
+    ) -> Option<Option<crate::adhesion::Adhesion>> {
+        if self.condition == Some(self.sc.condition_at(t_ns)) {
+            return None;
+        }
+        Some(self.adhesion(t_ns))
     }
 
     /// The peak adhesion of the present condition at speed `v` (`inf` without a law).
@@ -76,27 +95,24 @@ impl<'a> Setup<'a> {
         peak
     }
 
+    #[inline(always)]
     pub(super) fn exo(&mut self, t_ns: u64) -> Exo {
         let sc = self.sc;
         let h = sc.dt_ns;
-        let mut curv = [0.0; 3];
-        let mut cant = [0.0; 3];
-        for (j, t) in [t_ns, t_ns + h / 2, t_ns + h].into_iter().enumerate() {
-            let (c, th) = match self.track_end {
-                Some((te, c, th)) if j == 0 && te == t => (c, th),
-                _ => self.track.at(&sc.track, t),
-            };
-            curv[j] = c;
-            cant[j] = th;
-        }
-        self.track_end = Some((t_ns + h, curv[2], cant[2]));
+        let (c0, th0) = match self.track_end {
+            Some((te, c, th)) if te == t_ns => (c, th),
+            _ => self.track.at(&sc.track, t_ns),
+        };
+        let (c1, th1) = self.track.at(&sc.track, t_ns + h / 2);
+        let (c2, th2) = self.track.at(&sc.track, t_ns + h);
+        self.track_end = Some((t_ns + h, c2, th2));
         let demand = sc.traction.at(t_ns);
         Exo {
             demand,
             f_run: sc.resistance.at(t_ns),
             i_ref: demand / (sc.params.n_gear * sc.params.k_m),
-            curv,
-            cant,
+            curv: [c0, c1, c2],
+            cant: [th0, th1, th2],
         }
     }
 
@@ -112,9 +128,14 @@ impl<'a> Setup<'a> {
         let mu_avail = self.mu_avail(x[ix::V]);
         let p = &self.sc.params;
         let cr = self.plant.creep(x, e.curv[0]);
-        let mut linear = self.plant;
-        linear.adhesion = None;
-        let lin = linear.creep(x, e.curv[0]);
+        // The linear law's forces (those of the plant without its adhesion law).
+        let lin = if self.plant.adhesion.is_none() {
+            cr
+        } else {
+            let mut linear = self.plant;
+            linear.adhesion = None;
+            linear.creep(x, e.curv[0])
+        };
         let slip = 0.5 * (lin.fx_r + lin.fx_l) / p.f11 * x[ix::V];
         let t_spring = self.plant.spring_torque(x);
         Record {
@@ -169,7 +190,14 @@ pub fn run_continuous(sc: &Scenario, law: YawLaw) -> Trajectory {
 
 /// As [`run_continuous`] with an explicit controller (e.g. a reversed sign in tests).
 pub fn run_continuous_with(sc: &Scenario, ctrl: ContinuousController) -> Trajectory {
-    let mut s = Setup::new(sc, ctrl.law.has_spring());
+    let s = Setup::new(sc, ctrl.law.has_spring());
+    crate::with_flags!(s.plant.cfg, flags => continuous(s, ctrl, flags))
+}
+
+/// [`run_continuous_with`] on the set-up `s`, its plant's configuration as `flags` (one
+/// copy of the loop per configuration).
+fn continuous<F: Flags>(mut s: Setup<'_>, ctrl: ContinuousController, flags: F) -> Trajectory {
+    let sc = s.sc;
     let mut plant = s.plant;
     let drive = sc.drive;
     let mut x = plant.rolling_state(sc.params.v);
@@ -180,10 +208,14 @@ pub fn run_continuous_with(sc: &Scenario, ctrl: ContinuousController) -> Traject
     let h = sc.dt_ns as f64 * 1e-9;
     let mut records = Vec::with_capacity((n_steps / every + 2) as usize);
     let mut diverged_at = None;
+    // The next step that records (every `every`-th from step 0).
+    let mut next_record = 0;
     for k in 0..n_steps {
         let t_ns = k * sc.dt_ns;
         let e = s.exo(t_ns);
-        plant.adhesion = s.adhesion(t_ns);
+        if let Some(a) = s.adhesion_change(t_ns) {
+            plant.adhesion = a;
+        }
         // A scenario's actuator fault scales the (linear) yaw law: the delivered torque.
         let ctrl = match &sc.actuator_fault {
             Some(f) => ContinuousController {
@@ -192,7 +224,8 @@ pub fn run_continuous_with(sc: &Scenario, ctrl: ContinuousController) -> Traject
             },
             None => ctrl,
         };
-        if k % every == 0 {
+        if k == next_record {
+            next_record += every;
             let u_a = if drive {
                 ctrl.voltage(&x, e.i_ref)
             } else {
@@ -212,15 +245,30 @@ pub fn run_continuous_with(sc: &Scenario, ctrl: ContinuousController) -> Traject
             demand: e.demand,
         };
         let e3 = [ex(0), ex(1), ex(2)];
-        x = crate::with_flags!(plant.cfg, flags => {
-            let stages = ClosedLoopStages {
-                plant: &plant,
-                flags,
-                ctrl: &ctrl,
-                e: e3,
-            };
-            rk4_step_with(&x, h, stages)
-        });
+        x = if plant.adhesion.is_none() {
+            let flags = Linear(flags);
+            rk4_step_with(
+                &x,
+                h,
+                ClosedLoopStages {
+                    plant: &plant,
+                    flags,
+                    ctrl: &ctrl,
+                    e: e3,
+                },
+            )
+        } else {
+            rk4_step_with(
+                &x,
+                h,
+                ClosedLoopStages {
+                    plant: &plant,
+                    flags,
+                    ctrl: &ctrl,
+                    e: e3,
+                },
+            )
+        };
     }
     if diverged_at.is_none() {
         let t_end = n_steps * sc.dt_ns;

@@ -2,7 +2,7 @@
 
 use super::*;
 use crate::control::{closed_loop_rhs_with, ContinuousController, Exogenous};
-use crate::plant::{Flags, Inputs, Plant, State, NX};
+use crate::plant::{ix, Flags, Inputs, Plant, State, NX};
 
 /// One classical RK4 step of length `h` seconds. `f(stage, x)` returns `dx/dt`; stage 0
 /// is at the step start, 1 and 2 at the midpoint, 3 at the end.
@@ -15,6 +15,16 @@ pub fn rk4_step<F: FnMut(usize, &State) -> State>(x: &State, h: f64, f: F) -> St
 pub trait Rhs {
     /// `dx/dt` at RK4 stage `stage` (0: step start, 1 and 2: midpoint, 3: end).
     fn eval(&mut self, stage: usize, x: &State) -> State;
+
+    /// Whether state `i` can move. [`rk4_step_with`] copies a state that cannot instead
+    /// of adding `h`-weighted zeros to it: exact when its `dx/dt` is `+0.0` at every
+    /// stage and its value is not `-0.0` (`x + 0.0` is `x` bit for bit for every other
+    /// `x`). Default: every state moves.
+    #[inline(always)]
+    fn moves(&self, i: usize) -> bool {
+        let _ = i;
+        true
+    }
 }
 
 impl<F: FnMut(usize, &State) -> State> Rhs for F {
@@ -25,9 +35,8 @@ impl<F: FnMut(usize, &State) -> State> Rhs for F {
 }
 
 /// The plant alone with fixed inputs per stage slot (start, midpoint, end), built once
-/// per step. Its right-hand side is inlined into each RK4 stage; as a closure it was an
-/// out-of-line call per stage (closed loop over the link: 684 M -> 623 M instructions,
-/// callgrind). Same arithmetic, bit-identical states.
+/// per step. Its right-hand side is inlined into each RK4 stage (a closure would be an
+/// out-of-line call per stage). Same arithmetic, bit-identical states.
 pub(super) struct PlantStages<'a, F: Flags> {
     pub(super) plant: &'a Plant,
     pub(super) flags: F,
@@ -39,6 +48,27 @@ impl<F: Flags> Rhs for PlantStages<'_, F> {
     fn eval(&mut self, stage: usize, x: &State) -> State {
         let u = &self.u[stage_slot(stage)];
         self.plant.rhs_with(self.flags, x, u).0
+    }
+
+    /// The controller states and the states of absent parts (the twist of a rigid
+    /// axle; wind-up, motor speed and current without the drive) have `dx/dt = +0.0`;
+    /// the sampled run starts them at `+0.0` ([`Plant::rolling_state`]).
+    #[inline(always)]
+    fn moves(&self, i: usize) -> bool {
+        plant_state_moves(self.flags, i)
+    }
+}
+
+/// Whether the plant's right-hand side can move state `i` under flags `f` (see
+/// [`Rhs::moves`]): not the controller states, not the twist of a rigid axle, not the
+/// drive's states without the drive.
+#[inline(always)]
+fn plant_state_moves<F: Flags>(f: F, i: usize) -> bool {
+    match i {
+        ix::LEAD | ix::PI => false,
+        ix::TWIST => f.flexible(),
+        ix::WIND | ix::WM | ix::IA => f.drive(),
+        _ => true,
     }
 }
 
@@ -59,29 +89,50 @@ impl<F: Flags> Rhs for ClosedLoopStages<'_, F> {
         let e = &self.e[stage_slot(stage)];
         closed_loop_rhs_with(self.plant, self.flags, self.ctrl, x, e)
     }
+
+    /// The plant's states that cannot move ([`PlantStages`]'s), without the controller
+    /// states (the lead's moves under its law, the PI's with the drive, where the run
+    /// presets it to the back-EMF); the continuous run starts the others at `+0.0`.
+    #[inline(always)]
+    fn moves(&self, i: usize) -> bool {
+        match i {
+            ix::LEAD => true,
+            ix::PI => self.flags.drive(),
+            _ => plant_state_moves(self.flags, i),
+        }
+    }
 }
 
 /// [`rk4_step`] for any [`Rhs`]: the same arithmetic.
 #[inline(always)]
 pub fn rk4_step_with<R: Rhs>(x: &State, h: f64, mut f: R) -> State {
+    let moves: [bool; NX] = std::array::from_fn(|i| f.moves(i));
     let mut f = |stage: usize, x: &State| f.eval(stage, x);
     let k1 = f(0, x);
-    let mut xt = [0.0; NX];
+    let mut xt = *x;
     for i in 0..NX {
-        xt[i] = x[i] + 0.5 * h * k1[i];
+        if moves[i] {
+            xt[i] = x[i] + 0.5 * h * k1[i];
+        }
     }
     let k2 = f(1, &xt);
     for i in 0..NX {
-        xt[i] = x[i] + 0.5 * h * k2[i];
+        if moves[i] {
+            xt[i] = x[i] + 0.5 * h * k2[i];
+        }
     }
     let k3 = f(2, &xt);
     for i in 0..NX {
-        xt[i] = x[i] + h * k3[i];
+        if moves[i] {
+            xt[i] = x[i] + h * k3[i];
+        }
     }
     let k4 = f(3, &xt);
-    let mut out = [0.0; NX];
+    let mut out = *x;
     for i in 0..NX {
-        out[i] = x[i] + h / 6.0 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i]);
+        if moves[i] {
+            out[i] = x[i] + h / 6.0 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i]);
+        }
     }
     out
 }

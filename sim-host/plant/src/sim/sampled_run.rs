@@ -3,7 +3,7 @@
 
 use super::*;
 use crate::control::{Actuation, Measurements, SampledController};
-use crate::plant::{ix, Inputs, Plant, State};
+use crate::plant::{ix, Flags, Inputs, Linear, Plant, State};
 use crate::scenario::Scenario;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -44,7 +44,19 @@ impl SensorModel {
     }
 
     /// Applies noise then quantisation.
+    #[inline]
     pub fn apply(&mut self, m: &Measurements) -> Measurements {
+        // No noise and no quantisation on any channel: `apply_any` would copy every
+        // value unchanged and draw no random number.
+        if self.noise_std == [0.0; 5] && self.lsb == [0.0; 5] {
+            return *m;
+        }
+        self.apply_any(m)
+    }
+
+    /// [`SensorModel::apply`] for any channel settings.
+    #[inline(never)]
+    fn apply_any(&mut self, m: &Measurements) -> Measurements {
         let mut ch = [m.yd_mps, m.ydd_mps2, m.i_a, m.w_m, m.w_wheel];
         for (i, v) in ch.iter_mut().enumerate() {
             if self.noise_std[i] > 0.0 {
@@ -177,7 +189,24 @@ pub fn run_sampled(
             dt_ns: sc.dt_ns,
         });
     }
-    let mut s = Setup::new(sc, yaw_spring);
+    let s = Setup::new(sc, yaw_spring);
+    crate::with_flags!(s.plant.cfg, flags => {
+        Ok(sampled(s, ctrl, sensor, actuator, period, label, flags))
+    })
+}
+
+/// [`run_sampled`] on the set-up `s` (the checks passed), its plant's configuration as
+/// `flags` (one copy of the loop per configuration).
+fn sampled<F: Flags>(
+    mut s: Setup<'_>,
+    ctrl: &mut dyn SampledController,
+    sensor: &mut SensorModel,
+    actuator: &mut ActuatorModel,
+    period: u64,
+    label: &str,
+    flags: F,
+) -> Trajectory {
+    let sc = s.sc;
     let mut plant = s.plant;
     let drive = sc.drive;
     let mut x = plant.rolling_state(sc.params.v);
@@ -185,6 +214,9 @@ pub fn run_sampled(
     let h = sc.dt_ns as f64 * 1e-9;
     let mut records = Vec::with_capacity((n_steps / every + 2) as usize);
     let mut pending: VecDeque<(u64, Actuation)> = VecDeque::new();
+    // When the front of `pending` is due (the commands are queued in time order), ns;
+    // `u64::MAX` while none is pending.
+    let mut next_due = u64::MAX;
     let mut calls = 0u64;
     let inputs = |e: &Exo, j: usize, a: &Actuation| Inputs {
         t_psi: a.t_psi,
@@ -215,26 +247,39 @@ pub fn run_sampled(
     );
     let mut held = ctrl.initial(&m0, plant.k_m());
     let mut diverged_at = None;
+    // The next controller call, ns (every `period` from 0), and the next step that
+    // records (every `every`-th from step 0).
+    let (mut next_call, mut next_record) = (0, 0);
     for k in 0..=n_steps {
         let t_ns = k * sc.dt_ns;
         let e = s.exo(t_ns);
-        plant.adhesion = s.adhesion(t_ns);
-        if k < n_steps && t_ns.is_multiple_of(period) {
+        if let Some(a) = s.adhesion_change(t_ns) {
+            plant.adhesion = a;
+        }
+        if k < n_steps && t_ns == next_call {
+            next_call += period;
             let on = fault(t_ns, &held);
             let m = measure(&plant, &x, &on, &inputs(&e, 0, &on), e.demand, e.i_ref);
             let m = sensor.apply(&m);
             let a = actuator.limit(ctrl.step(t_ns, &m));
             calls += 1;
-            pending.push_back((t_ns + actuator.delay_ns, a));
-        }
-        while let Some(&(due, a)) = pending.front() {
-            if due > t_ns {
-                break;
+            let due = t_ns + actuator.delay_ns;
+            if pending.is_empty() {
+                next_due = due;
             }
-            held = a;
-            pending.pop_front();
+            pending.push_back((due, a));
         }
-        if k % every == 0 || k == n_steps {
+        while next_due <= t_ns {
+            if let Some((_, a)) = pending.pop_front() {
+                held = a;
+            }
+            next_due = pending.front().map_or(u64::MAX, |&(due, _)| due);
+        }
+        let record = k == next_record;
+        if record {
+            next_record += every;
+        }
+        if record || k == n_steps {
             let t_psi = fault(t_ns, &held).t_psi;
             let mut r = s.record(t_ns, &x, &e, t_psi, if drive { held.u_a } else { 0.0 });
             if !drive {
@@ -251,11 +296,29 @@ pub fn run_sampled(
         }
         let a = fault(t_ns, &held);
         let u = [inputs(&e, 0, &a), inputs(&e, 1, &a), inputs(&e, 2, &a)];
-        x = crate::with_flags!(plant.cfg, flags => {
-            rk4_step_with(&x, h, PlantStages { plant: &plant, flags, u })
-        });
+        x = if plant.adhesion.is_none() {
+            rk4_step_with(
+                &x,
+                h,
+                PlantStages {
+                    plant: &plant,
+                    flags: Linear(flags),
+                    u,
+                },
+            )
+        } else {
+            rk4_step_with(
+                &x,
+                h,
+                PlantStages {
+                    plant: &plant,
+                    flags,
+                    u,
+                },
+            )
+        };
     }
-    Ok(Trajectory {
+    Trajectory {
         records,
         info: RunInfo {
             scenario: sc.name.clone(),
@@ -267,5 +330,5 @@ pub fn run_sampled(
             actuator_clamps: actuator.clamps,
             diverged_at_s: diverged_at,
         },
-    })
+    }
 }
