@@ -120,8 +120,9 @@ pub use decoder::{Decoder, NextFrame};
 #[cfg(feature = "std")]
 pub use frame::HostCrc;
 pub use frame::{
-    cobs_decode_in_place, cobs_encode, crc32c, encode_reply, encode_vec, EncodeError, FrameError,
-    Reply, Request, CRC, CRC_LEN, MAX_FRAME, MAX_RAW, MIN_DECODED, VERSION,
+    cobs_decode_in_place, cobs_encode, crc32c, encode_reply, encode_sensor, encode_vec,
+    EncodeError, FrameError, Reply, Request, CRC, CRC_LEN, MAX_FRAME, MAX_RAW, MIN_DECODED,
+    SENSOR_FRAME_CAP, VERSION,
 };
 pub use message::{
     Actuation, Command, Config, Flags, Lateral, Message, Rates, Sensor, Status, YawMode,

@@ -286,9 +286,9 @@ impl<T: SampleBits> InProc<T> {
         let (rt, port, open) = (&mut self.rt, &mut self.dev_rx, &mut self.dev_frame_open);
         self.link.up.deliver(t_ns, |run, id| {
             port.push_with(run, id, |piece| {
-                let before = *rt.counters();
+                let before = rejections(rt.counters());
                 rt.receive(piece);
-                outcome(piece, open, &before, rt.counters())
+                outcome(piece, open, before, rejections(rt.counters()))
             });
         });
         let start = self.timed.then(Instant::now);
@@ -340,6 +340,20 @@ impl<T: SampleBits> InProc<T> {
     }
 }
 
+/// The runtime's rejection counters, in the order of [`outcome`]'s kinds: CRC, COBS,
+/// version, length, postcard (read before and after each receive call, rather than a
+/// copy of the whole `Status`).
+#[inline(always)]
+fn rejections(s: &wheelset_proto::Status) -> [u32; 5] {
+    [
+        s.rx_crc,
+        s.rx_cobs,
+        s.rx_version,
+        s.rx_length,
+        s.rx_postcard,
+    ]
+}
+
 /// The outcome of the frame that one [`Runtime::receive`] call on `piece` (bytes up to
 /// and including a 0x00, or a run's tail) closed, read from the runtime's own counters:
 /// the up link's frame accounting attributes what the device's decoder decided, with no
@@ -352,8 +366,8 @@ impl<T: SampleBits> InProc<T> {
 fn outcome(
     piece: &[u8],
     open: &mut bool,
-    before: &wheelset_proto::Status,
-    after: &wheelset_proto::Status,
+    before: [u32; 5],
+    after: [u32; 5],
 ) -> Option<Result<(), wheelset_proto::FrameError>> {
     use wheelset_proto::FrameError;
     let closes = piece.last() == Some(&0);
@@ -362,19 +376,18 @@ fn outcome(
     if !(closes && nonempty) {
         return None;
     }
-    let up = |b: u32, a: u32| a == b.wrapping_add(1);
-    let kind = [
-        (up(before.rx_crc, after.rx_crc), FrameError::Crc),
-        (up(before.rx_cobs, after.rx_cobs), FrameError::Cobs),
-        (up(before.rx_version, after.rx_version), FrameError::Version),
-        (up(before.rx_length, after.rx_length), FrameError::Length),
-        (
-            up(before.rx_postcard, after.rx_postcard),
-            FrameError::Postcard,
-        ),
-    ]
-    .into_iter()
-    .find_map(|(hit, e)| hit.then_some(e));
+    const KINDS: [FrameError; 5] = [
+        FrameError::Crc,
+        FrameError::Cobs,
+        FrameError::Version,
+        FrameError::Length,
+        FrameError::Postcard,
+    ];
+    let kind = before
+        .into_iter()
+        .zip(after)
+        .zip(KINDS)
+        .find_map(|((b, a), e)| (a == b.wrapping_add(1)).then_some(e));
     Some(kind.map_or(Ok(()), Err))
 }
 
