@@ -224,7 +224,7 @@ impl Book<'_> {
 /// `(x - 0x01..01) & !x & 0x80..80` is non-zero), the last word overlapping the one
 /// before it rather than a byte-wise tail (a frame's bytes: no call into `memchr`).
 #[inline(always)]
-fn has_zero(b: &[u8]) -> bool {
+pub(crate) fn has_zero(b: &[u8]) -> bool {
     const LO: u64 = u64::from_ne_bytes([0x01; 8]);
     const HI: u64 = u64::from_ne_bytes([0x80; 8]);
     let zero_in = |w: &[u8; 8]| {
