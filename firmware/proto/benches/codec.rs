@@ -1,4 +1,6 @@
-//! Encode + decode of one tick's Sensor and Actuation frames.
+//! Encode + decode of one tick's Sensor and Actuation frames: through the general
+//! encoder and decoder, and each of the codec pairs' per-tick calls on its own (the host's
+//! Sensor encoder and Actuation decoder, the device's Actuation encoder and Sensor decoder).
 #![allow(missing_docs)]
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
@@ -34,6 +36,34 @@ fn bench(c: &mut Criterion) {
             }
             got
         });
+    });
+    let (Message::Sensor(sensor), Message::Actuation(act)) = (sensor, act) else {
+        return;
+    };
+    c.bench_function("host: encode_sensor", |b| {
+        let mut buf = [0u8; SENSOR_FRAME_CAP];
+        b.iter(|| encode_sensor(black_box(&sensor), &mut buf));
+    });
+    c.bench_function("device: encode_reply(actuation)", |b| {
+        let mut buf = [0u8; MAX_FRAME];
+        b.iter(|| encode_reply(Reply::Actuation(black_box(&act)), &mut buf));
+    });
+    let mut sf = [0u8; SENSOR_FRAME_CAP];
+    let sn = encode_sensor(&sensor, &mut sf);
+    let mut af = [0u8; MAX_FRAME];
+    let an = encode_reply(Reply::Actuation(&act), &mut af).unwrap_or(0);
+    c.bench_function("device: next_sensor_or_request", |b| {
+        let mut dec: Decoder = Decoder::new();
+        let mut s = Sensor::ZERO;
+        let mut f: Result<Request, FrameError> = Err(FrameError::Crc);
+        b.iter(|| {
+            dec.next_sensor_or_request(black_box(&sf[..sn]), &mut s, &mut f)
+                .0
+        });
+    });
+    c.bench_function("host: next_message(actuation)", |b| {
+        let mut dec: Decoder = Decoder::new();
+        b.iter(|| dec.next_message(black_box(&af[..an])).0);
     });
 }
 

@@ -527,7 +527,11 @@ pub fn decode_nonzero_request(encoded: &mut [u8]) -> Result<Request, FrameError>
 }
 
 /// [`decode_nonzero_frame`] of a frame already COBS-decoded (the [`crate::Decoder`]
-/// decodes COBS as the bytes arrive): length, CRC, version, then the message.
+/// decodes COBS as the bytes arrive): length, CRC, version, then the message. Inlined
+/// into the host's decoder ([`crate::Decoder::next_message`], `std`), the message
+/// decoder with it: the message is built where the caller's result lives, not returned
+/// through two calls and their copies.
+#[cfg_attr(feature = "std", inline(always))]
 pub(crate) fn message_from_raw(raw: &[u8], reg: Option<u32>) -> Result<Message, FrameError> {
     crate::fast::decode_body(check_reg(raw, reg)?).map_err(FrameError::from)
 }

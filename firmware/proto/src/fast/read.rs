@@ -196,6 +196,7 @@ impl In<'_> {
 
 /// Decodes a message body (type first: postcard's enum variant index, a varint; the
 /// bytes after the version byte).
+#[cfg_attr(feature = "std", inline(always))]
 pub(crate) fn decode_body(body: &[u8]) -> Result<Message, BodyError> {
     let (ty, rest) = message_type(body).ok_or(BodyError::Postcard)?;
     match ty {

@@ -232,7 +232,7 @@ pub(crate) fn has_zero(b: &[u8]) -> bool {
         x.wrapping_sub(LO) & !x & HI
     };
     let Some(last) = b.last_chunk::<8>() else {
-        return b.iter().any(|&x| x == 0);
+        return b.contains(&0);
     };
     let mut acc = zero_in(last);
     for c in b.chunks_exact(8) {

@@ -59,7 +59,7 @@ struct Ring {
 
 impl Ring {
     /// The free slot behind the last queued segment (queued by [`Self::commit`]).
-    #[inline]
+    #[inline(always)]
     fn tail_slot(&mut self) -> &mut Segment {
         if self.len == self.segs.len() {
             self.segs.rotate_left(self.head);
