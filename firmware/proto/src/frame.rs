@@ -144,9 +144,10 @@ pub(crate) fn encode_actuation(a: &Actuation, out: &mut [u8]) -> Result<usize, E
 /// 2 + 5 + 3 + 5 + 5 bytes, CRC, delimiter = 30 B), so the mask never changes an index.
 const ONE_PASS_CAP: usize = 32;
 
-/// The buffer of the host's one-pass Sensor writer ([`encode_sensor`]), as
-/// [`ONE_PASS_CAP`]: at least the longest Sensor frame (code byte, version, body of 1 +
-/// 2 + 2 + 1 + 2 x 5 + 4 x 5 bytes, CRC, delimiter = 43 B).
+/// The buffer of the host's one-pass Sensor writer ([`encode_sensor`]): a power of two
+/// (indices masked, as in the device's Actuation writer), at least the longest Sensor
+/// frame (code byte, version, body of 1 + 2 + 2 + 1 + 2 x 5 + 4 x 5 bytes, CRC,
+/// delimiter = 43 B).
 pub const SENSOR_FRAME_CAP: usize = 64;
 
 /// The host's encoder for the Sensor frame it sends every period: the bytes of
