@@ -265,6 +265,7 @@ impl<const N: usize> Decoder<N> {
     /// unused bytes has changed), so every decision stays its (tested: `tests/stream.rs`,
     /// chunkings). Slice iteration over each block, not indices: the compiler then keeps
     /// the CRC table's address and the counts in registers across the blocks.
+    #[cfg(not(feature = "std"))]
     #[inline(always)]
     fn whole_frame(&mut self, bytes: &[u8]) -> Option<(usize, u32, usize)> {
         let w = bytes.get(..bytes.len().min(Self::LIMIT + 1))?;
@@ -292,6 +293,46 @@ impl<const N: usize> Decoder<N> {
             p += usize::from(c);
             zero = c != 0xFF;
         }
+    }
+
+    /// The host's [`Self::whole_frame`] (the `std` build): the same frames taken, the
+    /// same results, in bulk rather than byte by byte. The code bytes lead from the first
+    /// byte to the delimiter (a 0x00 reached by them, with no 0x00 before it: one
+    /// word-wise scan); then the decoded bytes are the encoded ones after the first code
+    /// byte, each later code byte standing for its block's implied 0x00 (no block of a
+    /// frame within [`Self::LIMIT`] is a 0xFF block, whose code byte stands for
+    /// nothing: one takes the general loop), copied at once; the CRC register is run over
+    /// them by the host's slice-by-16 CRC rather than a chain of byte-wise look-ups.
+    #[cfg(feature = "std")]
+    #[inline(always)]
+    fn whole_frame(&mut self, bytes: &[u8]) -> Option<(usize, u32, usize)> {
+        let w = bytes.get(..bytes.len().min(Self::LIMIT + 1))?;
+        let mut z = 0usize;
+        loop {
+            match *w.get(z)? {
+                0 => break,
+                0xFF => return None,
+                c => z += usize::from(c),
+            }
+        }
+        let Some((&first, data)) = w.get(..z)?.split_first() else {
+            // An empty frame (a lone delimiter).
+            return Some((0, !0, 0));
+        };
+        if has_zero(data) {
+            return None;
+        }
+        let n = data.len();
+        let raw = self.raw.get_mut(..n)?;
+        raw.copy_from_slice(data);
+        // Encoded index q is decoded index q - 1: each later code byte is a 0x00.
+        let mut q = usize::from(first);
+        while q < z {
+            let slot = raw.get_mut(q - 1)?;
+            q += usize::from(*slot);
+            *slot = 0;
+        }
+        Some((n, !crate::frame::crc32c(raw), z))
     }
 
     /// The bytes up to and including the next delimiter (or all of them): a whole frame
@@ -365,4 +406,29 @@ impl<const N: usize> Decoder<N> {
         (self.n, self.left, self.zero, self.crc) = (n, left, zero, crc);
         (closed, rest)
     }
+}
+
+/// Whether `b` holds a 0x00: eight bytes at a time (a word has a zero byte iff
+/// `(x - 0x01..01) & !x & 0x80..80` is non-zero), the last word overlapping the one
+/// before it rather than a byte-wise tail.
+#[cfg(feature = "std")]
+#[inline(always)]
+fn has_zero(b: &[u8]) -> bool {
+    const LO: u64 = u64::from_ne_bytes([0x01; 8]);
+    const HI: u64 = u64::from_ne_bytes([0x80; 8]);
+    let zero_in = |w: &[u8; 8]| {
+        let x = u64::from_ne_bytes(*w);
+        x.wrapping_sub(LO) & !x & HI
+    };
+    let Some(last) = b.last_chunk::<8>() else {
+        return b.contains(&0);
+    };
+    let mut acc = zero_in(last);
+    let mut chunks = b.chunks_exact(8);
+    for c in &mut chunks {
+        if let Some(w) = c.first_chunk::<8>() {
+            acc |= zero_in(w);
+        }
+    }
+    acc != 0
 }

@@ -4,7 +4,7 @@
 //! COBS structure, length, CRC, version, postcard, no trailing bytes; the first failure is
 //! the [`FrameError`].
 
-use crate::message::{Actuation, Command, Config, Message, Sensor, Status};
+use crate::message::{Actuation, Command, Config, Lateral, Message, Sensor, Status};
 
 mod checksum;
 mod cobs;
@@ -131,23 +131,40 @@ pub fn encode_reply(reply: Reply<'_>, out: &mut [u8]) -> Result<usize, EncodeErr
 /// flash (the Actuation's fields written inline; `finish_frame` stays, for the Status)
 /// for the device's per-tick instructions (`cargo xtask fw-bench`, `cargo fw`).
 pub(crate) fn encode_actuation(a: &Actuation, out: &mut [u8]) -> Result<usize, EncodeError> {
-    match out.first_chunk_mut::<{ OnePass::CAP }>() {
-        Some(buf) => Ok(OnePass::actuation(a, buf)),
+    match out.first_chunk_mut::<ONE_PASS_CAP>() {
+        Some(buf) => Ok(OnePass::<ONE_PASS_CAP>::actuation(a, buf)),
         None => encode_with(out, |body_area| crate::fast::encode_actuation(a, body_area)),
     }
 }
 
-/// [`OnePass::CAP`] (a `const` outside the `impl`: array lengths in its signatures cannot
-/// name `Self`).
+/// The buffer of the device's one-pass Actuation writer (a `const` outside the `impl`:
+/// array lengths in its signatures cannot name `Self`): a power of two, so that an index
+/// is kept in bounds by a mask (one instruction) rather than a compare and branch per
+/// byte. It is at least the longest Actuation frame (code byte, version, body of 1 + 2 +
+/// 2 + 5 + 3 + 5 + 5 bytes, CRC, delimiter = 30 B), so the mask never changes an index.
 const ONE_PASS_CAP: usize = 32;
+
+/// The buffer of the host's one-pass Sensor writer ([`encode_sensor`]): a power of two
+/// (indices masked, as in the device's Actuation writer), at least the longest Sensor
+/// frame (code byte, version, body of 1 + 2 + 2 + 1 + 2 x 5 + 4 x 5 bytes, CRC,
+/// delimiter = 43 B).
+pub const SENSOR_FRAME_CAP: usize = 64;
+
+/// The host's encoder for the Sensor frame it sends every period: the bytes of
+/// [`encode_vec`]`(&Message::Sensor(*s))` (tested) written into `out` in one pass
+/// (COBS and the CRC applied to each byte as it is produced, as the device's Actuation
+/// encoder does); returns the frame's length. Every Sensor frame fits `out`.
+pub fn encode_sensor(s: &Sensor, out: &mut [u8; SENSOR_FRAME_CAP]) -> usize {
+    OnePass::<SENSOR_FRAME_CAP>::sensor(s, out)
+}
 
 /// A frame written in one pass: COBS and the CRC-32C applied to each raw byte as it is
 /// produced. Raw byte `k` of `VERSION | body | CRC` lands at `buf[k + 1]` (COBS moves
 /// nothing but writes a code byte for each 0x00): a 0x00 becomes a code-byte slot whose
 /// value is written when the next 0x00 (or the frame's end) is reached, the distance
 /// between the two (no per-block counter).
-struct OnePass<'a> {
-    buf: &'a mut [u8; ONE_PASS_CAP],
+struct OnePass<'a, const CAP: usize> {
+    buf: &'a mut [u8; CAP],
     /// Where the next raw byte goes.
     pos: usize,
     /// The slot of the open block's code byte.
@@ -156,14 +173,12 @@ struct OnePass<'a> {
     reg: u32,
 }
 
-impl OnePass<'_> {
-    /// The buffer the one-pass writers need: a power of two, so that an index is kept in
-    /// bounds by a mask (one instruction) rather than a compare and branch per byte. It
-    /// is at least the longest frame written (the Actuation's: code byte, version, body
-    /// of 1 + 2 + 2 + 5 + 3 + 5 + 5 bytes, CRC, delimiter = 30 B), so the mask never
-    /// changes an index.
-    const CAP: usize = ONE_PASS_CAP;
-    const MASK: usize = Self::CAP - 1;
+impl<const CAP: usize> OnePass<'_, CAP> {
+    /// The index mask; `CAP` is a power of two ([`ONE_PASS_CAP`]).
+    const MASK: usize = {
+        assert!(CAP.is_power_of_two());
+        CAP - 1
+    };
 
     /// A raw byte outside the CRC (the CRC's own bytes): stored, or a 0x00 closing the
     /// open block.
@@ -224,7 +239,9 @@ impl OnePass<'_> {
         self.buf[self.pos & Self::MASK] = 0;
         self.pos + 1
     }
+}
 
+impl OnePass<'_, ONE_PASS_CAP> {
     /// The frame of `encode(&Message::Actuation(*a), _)` in `buf`; its length.
     #[inline(never)]
     fn actuation(a: &Actuation, buf: &mut [u8; ONE_PASS_CAP]) -> usize {
@@ -254,6 +271,59 @@ impl OnePass<'_> {
         w.varint(u32::from(flags.0));
         w.i32(t_psi_dnm);
         w.i32(u_a_cv);
+        w.finish()
+    }
+}
+
+impl OnePass<'_, SENSOR_FRAME_CAP> {
+    /// The frame of `encode(&Message::Sensor(*s), _)` in `buf`; its length.
+    #[inline(always)]
+    fn sensor(s: &Sensor, buf: &mut [u8; SENSOR_FRAME_CAP]) -> usize {
+        const { assert!(VERSION != 0) };
+        // The register after the version byte (the type byte, 0, closes a COBS block).
+        const PREFIX: u32 = crc_byte_const(!0, VERSION);
+        crc_ready();
+        let mut w = OnePass {
+            buf,
+            pos: 1,
+            code_at: 0,
+            reg: PREFIX,
+        };
+        let Sensor {
+            seq,
+            t_us,
+            lateral,
+            i_a_ma,
+            omega_m_mrad_s,
+            demand_nm,
+            v_ref_mm_s,
+        } = *s;
+        w.put(VERSION);
+        w.byte(crate::fast::SENSOR);
+        w.u16_le(seq);
+        w.u16_le(t_us);
+        match lateral {
+            Lateral::Velocity(v) => {
+                w.byte(0);
+                w.i32(v);
+            }
+            Lateral::Acceleration(a) => {
+                w.byte(1);
+                w.i32(a);
+            }
+            Lateral::Both {
+                vel_um_s,
+                acc_dmm_s2,
+            } => {
+                w.byte(2);
+                w.i32(vel_um_s);
+                w.i32(acc_dmm_s2);
+            }
+        }
+        w.i32(i_a_ma);
+        w.i32(omega_m_mrad_s);
+        w.i32(demand_nm);
+        w.i32(v_ref_mm_s);
         w.finish()
     }
 }
@@ -458,7 +528,11 @@ pub fn decode_nonzero_request(encoded: &mut [u8]) -> Result<Request, FrameError>
 }
 
 /// [`decode_nonzero_frame`] of a frame already COBS-decoded (the [`crate::Decoder`]
-/// decodes COBS as the bytes arrive): length, CRC, version, then the message.
+/// decodes COBS as the bytes arrive): length, CRC, version, then the message. Inlined
+/// into the host's decoder ([`crate::Decoder::next_message`], `std`), the message
+/// decoder with it: the message is built where the caller's result lives, not returned
+/// through two calls and their copies.
+#[cfg_attr(feature = "std", inline(always))]
 pub(crate) fn message_from_raw(raw: &[u8], reg: Option<u32>) -> Result<Message, FrameError> {
     crate::fast::decode_body(check_reg(raw, reg)?).map_err(FrameError::from)
 }

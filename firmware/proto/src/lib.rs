@@ -48,11 +48,13 @@
 //! | side | encodes | decodes |
 //! |---|---|---|
 //! | device | [`encode_reply`]: a [`Reply`] (Actuation, Status) into the caller's buffer | [`Decoder::next_sensor_or_request`]: the Sensor in place, any other frame as a [`Request`] |
-//! | host | [`encode_vec`]: any [`Message`] into a fixed-capacity vector | [`Decoder::next_message`]: any [`Message`] |
+//! | host | [`encode_vec`]: any [`Message`] into a fixed-capacity vector; [`encode_sensor`]: the per-period Sensor frame in one pass into the caller's buffer (the same bytes) | [`Decoder::next_message`]: any [`Message`] |
 //!
 //! Both decoders take bytes in any chunking, resynchronise on 0x00 and return the bytes
 //! after the frame they closed. The device's pair links only the messages the device
-//! sends and takes.
+//! sends and takes. With `std` (the host's build, the in-process device's decoder too) a
+//! whole frame at the start of the bytes is decoded in bulk (its COBS blocks copied at
+//! once, the CRC by slice-by-16) rather than byte by byte: the same decisions.
 //!
 //! # Sizes on the wire (delimiter included; measured by the `sizes` test)
 //!
@@ -120,8 +122,9 @@ pub use decoder::{Decoder, NextFrame};
 #[cfg(feature = "std")]
 pub use frame::HostCrc;
 pub use frame::{
-    cobs_decode_in_place, cobs_encode, crc32c, encode_reply, encode_vec, EncodeError, FrameError,
-    Reply, Request, CRC, CRC_LEN, MAX_FRAME, MAX_RAW, MIN_DECODED, VERSION,
+    cobs_decode_in_place, cobs_encode, crc32c, encode_reply, encode_sensor, encode_vec,
+    EncodeError, FrameError, Reply, Request, CRC, CRC_LEN, MAX_FRAME, MAX_RAW, MIN_DECODED,
+    SENSOR_FRAME_CAP, VERSION,
 };
 pub use message::{
     Actuation, Command, Config, Flags, Lateral, Message, Rates, Sensor, Status, YawMode,

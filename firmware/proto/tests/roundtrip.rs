@@ -43,6 +43,14 @@ proptest! {
         prop_assert_eq!(encode_reply(Reply::Status(&st), &mut short), Err(EncodeError::BufferTooSmall));
     }
 
+    /// The host's one-pass Sensor encoder writes exactly the frame of `encode`.
+    #[test]
+    fn sensor_encoder_is_encode(s in sensor()) {
+        let mut buf = [0xA5u8; SENSOR_FRAME_CAP];
+        let n = encode_sensor(&s, &mut buf);
+        prop_assert_eq!(&buf[..n], &encode_vec(&Message::Sensor(s)).expect("fits")[..]);
+    }
+
     /// `encode_actuation` (one pass into a buffer that holds the longest Actuation frame,
     /// the general path otherwise) writes `encode`'s frame into every buffer that holds
     /// it, and refuses every shorter one, as `encode` does.

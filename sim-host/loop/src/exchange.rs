@@ -26,8 +26,8 @@
 use indicatif::ProgressBar;
 use wheelset_control::InputCodes;
 use wheelset_proto::{
-    encode_vec, Actuation, Command, Config, Decoder, Flags, FrameError, Lateral, LateralSensing,
-    Message, Sensor, SensorSi, Status,
+    encode_sensor, encode_vec, Actuation, Command, Config, Decoder, Flags, FrameError, Lateral,
+    LateralSensing, Message, Sensor, SensorSi, Status, SENSOR_FRAME_CAP,
 };
 
 use crate::transport::{Transport, TransportError};
@@ -241,7 +241,12 @@ impl<'a> DeviceController<'a> {
 
     fn send(&mut self, t_ns: u64, m: &Message) {
         let Ok(frame) = encode_vec(m) else { return };
-        let (frame, n) = (&frame[..], frame.len());
+        self.send_frame(t_ns, &frame);
+    }
+
+    /// Sends one encoded frame (delimiter included) and counts it.
+    fn send_frame(&mut self, t_ns: u64, frame: &[u8]) {
+        let n = frame.len();
         self.host.sent += 1;
         self.host.bytes_sent += n as u64;
         if self.error.is_none() {
@@ -406,12 +411,14 @@ impl SampledController for DeviceController<'_> {
                 demand: sensor.demand_nm,
             });
         }
-        let before = self.host.bytes_sent;
-        self.send(t_ns, &Message::Sensor(sensor));
+        // The period's frame by the one-pass Sensor encoder: `encode_vec`'s bytes.
+        let mut frame = [0u8; SENSOR_FRAME_CAP];
+        let n = encode_sensor(&sensor, &mut frame);
+        self.send_frame(t_ns, frame.get(..n).unwrap_or(&[]));
         if all {
             self.periods.push(Period {
                 t_ns,
-                sensor_bytes: (self.host.bytes_sent - before) as usize,
+                sensor_bytes: n,
                 echo_at_ns: None,
             });
         }

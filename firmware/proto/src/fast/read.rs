@@ -132,6 +132,18 @@ impl In<'_> {
         self.varint()
     }
 
+    /// [`Self::varint16`] with its one-byte form read inline.
+    #[inline(always)]
+    fn varint16_short(&mut self) -> Option<u16> {
+        if let Some((&b, rest)) = self.rest.split_first() {
+            if b < 0x80 {
+                self.rest = rest;
+                return Some(u16::from(b));
+            }
+        }
+        self.varint16()
+    }
+
     /// postcard's `try_take_varint_u16`: up to 3 bytes, the third at most 0x03.
     fn varint16(&mut self) -> Option<u16> {
         let mut out = 0u16;
@@ -169,12 +181,7 @@ impl In<'_> {
         }
     }
 
-    #[inline(always)]
-    fn i32(&mut self) -> Option<i32> {
-        self.i32_g::<false>()
-    }
-
-    /// [`Self::i32`], its varint's short forms inlined if `INLINE`
+    /// postcard's `i32` (zig-zag, then the varint), its varint's short forms inlined if `INLINE`
     /// ([`Self::varint_short`]).
     #[inline(always)]
     fn i32_g<const INLINE: bool>(&mut self) -> Option<i32> {
@@ -189,6 +196,7 @@ impl In<'_> {
 
 /// Decodes a message body (type first: postcard's enum variant index, a varint; the
 /// bytes after the version byte).
+#[cfg_attr(feature = "std", inline(always))]
 pub(crate) fn decode_body(body: &[u8]) -> Result<Message, BodyError> {
     let (ty, rest) = message_type(body).ok_or(BodyError::Postcard)?;
     match ty {
@@ -269,15 +277,18 @@ fn sensor_g<const INLINE: bool>(r: &mut In<'_>) -> Option<Sensor> {
     })
 }
 
+/// The host's decoder of the device's per-tick frame: the short forms of its varints
+/// read inline ([`In::varint_short`], [`In::varint16_short`]), as the device's Sensor
+/// decoder reads them (the device never decodes an Actuation: no flash).
 #[inline(always)]
 pub(crate) fn actuation(r: &mut In<'_>) -> Option<Actuation> {
     Some(Actuation {
         seq_echo: r.u16_le()?,
         tick: r.u16_le()?,
-        exec: r.varint()?,
-        flags: Flags(r.varint16()?),
-        t_psi_dnm: r.i32()?,
-        u_a_cv: r.i32()?,
+        exec: r.varint_short()?,
+        flags: Flags(r.varint16_short()?),
+        t_psi_dnm: r.i32_g::<true>()?,
+        u_a_cv: r.i32_g::<true>()?,
     })
 }
 

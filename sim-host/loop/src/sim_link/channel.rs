@@ -59,6 +59,7 @@ struct Ring {
 
 impl Ring {
     /// The free slot behind the last queued segment (queued by [`Self::commit`]).
+    #[inline(always)]
     fn tail_slot(&mut self) -> &mut Segment {
         if self.len == self.segs.len() {
             self.segs.rotate_left(self.head);
@@ -272,13 +273,15 @@ impl Channel {
     pub fn deliver(&mut self, t_ns: u64, mut f: impl FnMut(&[u8], FrameId)) {
         while let Some(seg) = self.queue.front_mut() {
             let n = if seg.at_ns.is_empty() {
-                // Byte k arrived iff first + byte_ns[k + 1] <= t.
+                // Byte k arrived iff first + byte_ns[k + 1] <= t (the table rises: all
+                // of them once the last one has, the usual case).
+                let due = self
+                    .byte_ns
+                    .get(seg.pos + 1..=seg.bytes.len())
+                    .unwrap_or(&[]);
                 match t_ns.checked_sub(seg.first_ns) {
-                    Some(dt) => self
-                        .byte_ns
-                        .get(seg.pos + 1..=seg.bytes.len())
-                        .unwrap_or(&[])
-                        .partition_point(|&ns| ns <= dt),
+                    Some(dt) if due.last().is_some_and(|&ns| ns <= dt) => due.len(),
+                    Some(dt) => due.partition_point(|&ns| ns <= dt),
                     None => 0,
                 }
             } else {
