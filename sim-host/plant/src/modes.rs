@@ -134,19 +134,21 @@ impl Eigen {
     /// empty) if `a` has a non-finite entry.
     pub(crate) fn solve(&mut self, a: &DMatrix<f64>, out: &mut Vec<Complex<f64>>) -> bool {
         out.clear();
-        if !a.iter().all(|v| v.is_finite()) {
+        let entries = a.as_slice();
+        if !entries.iter().all(|v| v.is_finite()) {
             return false;
         }
         let n = a.nrows();
-        if n != self.n
-            || self.pattern.len() != a.len()
-            || a.iter()
+        let same = n == self.n
+            && self.pattern.len() == entries.len()
+            && entries
+                .iter()
                 .zip(&self.pattern)
-                .any(|(v, &nz)| (*v != 0.0) != nz)
-        {
+                .fold(true, |eq, (v, &nz)| eq & ((*v != 0.0) == nz));
+        if !same {
             self.n = n;
             self.pattern.clear();
-            self.pattern.extend(a.iter().map(|v| *v != 0.0));
+            self.pattern.extend(entries.iter().map(|v| *v != 0.0));
             self.blocks = components(a);
         }
         for block in &self.blocks {
