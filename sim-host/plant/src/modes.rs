@@ -26,7 +26,7 @@ use crate::control::YawLaw;
 use crate::linear::closed_loop_a;
 use crate::params::Params;
 use crate::scenario::Axle;
-use nalgebra::{Complex, DMatrix};
+use nalgebra::{Complex, DMatrix, SMatrix};
 use serde::Serialize;
 use std::f64::consts::PI;
 
@@ -112,19 +112,74 @@ impl Case {
 /// block goes to nalgebra's real Schur form (implicit double-shift QR, no `Q`).
 /// `None` if `a` has a non-finite entry.
 pub fn eigenvalues(a: &DMatrix<f64>) -> Option<Vec<Complex<f64>>> {
-    if !a.iter().all(|v| v.is_finite()) {
-        return None;
-    }
     let mut out = Vec::with_capacity(a.nrows());
-    for block in components(a) {
-        if let [i] = block[..] {
-            out.push(Complex::new(a[(i, i)], 0.0));
-            continue;
+    Eigen::default().solve(a, &mut out).then_some(out)
+}
+
+/// Workspace of [`eigenvalues`] for many matrices in a row (a sweep): the components of
+/// the last sparsity pattern are kept and found again only when the pattern changes.
+/// The eigenvalues are those of [`eigenvalues`], bit for bit.
+#[derive(Debug, Default)]
+pub(crate) struct Eigen {
+    /// Order of the last pattern.
+    n: usize,
+    /// `a[(i, j)] != 0` of the last matrix, column-major.
+    pattern: Vec<bool>,
+    /// Its strongly connected components.
+    blocks: Vec<Vec<usize>>,
+}
+
+impl Eigen {
+    /// Replaces `out` by the eigenvalues of `a` (see [`eigenvalues`]); false (and `out`
+    /// empty) if `a` has a non-finite entry.
+    pub(crate) fn solve(&mut self, a: &DMatrix<f64>, out: &mut Vec<Complex<f64>>) -> bool {
+        out.clear();
+        let entries = a.as_slice();
+        if !entries.iter().all(|v| v.is_finite()) {
+            return false;
         }
-        let m = DMatrix::from_fn(block.len(), block.len(), |i, j| a[(block[i], block[j])]);
-        out.extend(m.complex_eigenvalues().iter().copied());
+        let n = a.nrows();
+        let same = n == self.n
+            && self.pattern.len() == entries.len()
+            && entries
+                .iter()
+                .zip(&self.pattern)
+                .fold(true, |eq, (v, &nz)| eq & ((*v != 0.0) == nz));
+        if !same {
+            self.n = n;
+            self.pattern.clear();
+            self.pattern.extend(entries.iter().map(|v| *v != 0.0));
+            self.blocks = components(a);
+        }
+        for block in &self.blocks {
+            block_eigenvalues(a, block, out);
+        }
+        true
     }
-    Some(out)
+}
+
+/// Appends the eigenvalues of the diagonal block `a[block, block]` to `out`. Blocks of
+/// up to 13 states (every closed loop here) are copied into a statically sized matrix
+/// (no heap), larger ones into a dynamic one: the Schur iteration is the same code and
+/// the same arithmetic either way.
+fn block_eigenvalues(a: &DMatrix<f64>, block: &[usize], out: &mut Vec<Complex<f64>>) {
+    macro_rules! fixed {
+        ($($n:literal)*) => {
+            match block.len() {
+                0 => {}
+                1 => out.push(Complex::new(a[(block[0], block[0])], 0.0)),
+                $($n => {
+                    let m = SMatrix::<f64, $n, $n>::from_fn(|i, j| a[(block[i], block[j])]);
+                    out.extend(m.complex_eigenvalues().iter().copied());
+                })*
+                k => {
+                    let m = DMatrix::from_fn(k, k, |i, j| a[(block[i], block[j])]);
+                    out.extend(m.complex_eigenvalues().iter().copied());
+                }
+            }
+        };
+    }
+    fixed!(2 3 4 5 6 7 8 9 10 11 12 13);
 }
 
 /// Strongly connected components of the graph `i -> j` for `a[(i, j)] != 0`
@@ -238,9 +293,29 @@ pub struct ModeValue {
 
 impl ModeValue {
     fn new(name: &str, l: Complex<f64>) -> Self {
-        let mag = l.norm();
+        let m = ModeNumbers::new(l);
         ModeValue {
             name: name.to_string(),
+            re: m.re,
+            im: m.im,
+            freq_hz: m.freq_hz,
+            zeta: m.zeta,
+        }
+    }
+}
+
+/// The numbers of a [`ModeValue`] (for writers that need no name string).
+struct ModeNumbers {
+    freq_hz: f64,
+    im: f64,
+    re: f64,
+    zeta: f64,
+}
+
+impl ModeNumbers {
+    fn new(l: Complex<f64>) -> Self {
+        let mag = l.norm();
+        ModeNumbers {
             re: l.re,
             im: l.im.abs(),
             freq_hz: l.im.abs() / (2.0 * PI),

@@ -3,7 +3,9 @@
 use clap::ValueEnum;
 use std::io::Write;
 use std::path::PathBuf;
-use wheelset_plant::modes::{creep_grid, sweep_case, Case, CaseSweep};
+use wheelset_plant::modes::{
+    creep_grid, sweep_case, write_json_number, write_json_string, Case, CaseSweep,
+};
 use wheelset_report::outln;
 
 use super::{io_fail, load_params, warn, Failure};
@@ -55,29 +57,6 @@ pub(crate) fn progress(total: u64, msg: &str) -> indicatif::ProgressBar {
     }
     pb.set_message(msg.to_string());
     pb
-}
-
-/// The modes file: written straight to the file as it is serialized (no `Value` tree of
-/// the 4 000 points). Keys in alphabetical order, as in every struct it holds (see
-/// `wheelset_plant::modes::CaseJson`); `params` and `derived` are small `Value` maps,
-/// sorted the same way.
-#[derive(serde::Serialize)]
-struct ModesFile<'a> {
-    cases: Cases<'a>,
-    derived: serde_json::Value,
-    kinematic_hz: f64,
-    note: &'static str,
-    params: serde_json::Value,
-    speed_mps: f64,
-}
-
-/// The cases' JSON forms, each made as it is written.
-struct Cases<'a>(&'a [CaseSweep]);
-
-impl serde::Serialize for Cases<'_> {
-    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        s.collect_seq(self.0.iter().map(CaseSweep::to_json))
-    }
 }
 
 pub(crate) fn cmd_modes(a: &ModesArgs) -> Result<(), Failure> {
@@ -170,24 +149,16 @@ pub(crate) fn cmd_modes(a: &ModesArgs) -> Result<(), Failure> {
     let derived = serde_json::json!({
         "k_t": p.k_t(), "k_gear": p.k_gear(), "y0_at_2300m": p.pure_rolling_y(1.0 / 2300.0)
     });
-    let file = ModesFile {
-        cases: Cases(&sweeps),
-        derived,
-        kinematic_hz: p.kinematic_hz(),
-        note: "structural zero eigenvalue (free rolling at any speed) reported as structural_zero and excluded from stability verdicts",
-        params: serde_json::to_value(&p).map_err(|e| Failure {
-            code: 1,
-            msg: e.to_string(),
-        })?,
-        speed_mps: p.v,
-    };
+    let params = serde_json::to_value(&p).map_err(|e| Failure {
+        code: 1,
+        msg: e.to_string(),
+    })?;
     if let Some(dir) = a.json.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(|e| io_fail(dir, e))?;
     }
     let out = std::fs::File::create(&a.json).map_err(|e| io_fail(&a.json, e))?;
-    let mut out = std::io::BufWriter::new(out);
-    serde_json::to_writer(&mut out, &file)
-        .map_err(std::io::Error::from)
+    let mut out = std::io::BufWriter::with_capacity(1 << 16, out);
+    write_modes_file(&mut out, &sweeps, &derived, &p, &params)
         .and_then(|()| out.flush())
         .map_err(|e| io_fail(&a.json, e))?;
     outln!("json: {}", a.json.display());
@@ -198,4 +169,38 @@ pub(crate) fn cmd_modes(a: &ModesArgs) -> Result<(), Failure> {
         }
     }
     Ok(())
+}
+
+/// The modes file, streamed as it is made (no tree of the 4 000 points): the object
+/// `{cases, derived, kinematic_hz, note, params, speed_mps}`, keys in alphabetical order
+/// as serde_json writes a `Value` map; each case as [`CaseSweep::write_json`] writes it,
+/// `derived` and `params` (small `Value` maps) by serde_json.
+fn write_modes_file(
+    w: &mut impl Write,
+    sweeps: &[CaseSweep],
+    derived: &serde_json::Value,
+    p: &wheelset_plant::params::Params,
+    params: &serde_json::Value,
+) -> std::io::Result<()> {
+    w.write_all(b"{\"cases\":[")?;
+    for (i, sw) in sweeps.iter().enumerate() {
+        if i > 0 {
+            w.write_all(b",")?;
+        }
+        sw.write_json(w)?;
+    }
+    w.write_all(b"],\"derived\":")?;
+    serde_json::to_writer(&mut *w, derived)?;
+    w.write_all(b",\"kinematic_hz\":")?;
+    write_json_number(w, p.kinematic_hz())?;
+    w.write_all(b",\"note\":")?;
+    write_json_string(
+        w,
+        "structural zero eigenvalue (free rolling at any speed) reported as structural_zero and excluded from stability verdicts",
+    )?;
+    w.write_all(b",\"params\":")?;
+    serde_json::to_writer(&mut *w, params)?;
+    w.write_all(b",\"speed_mps\":")?;
+    write_json_number(w, p.v)?;
+    w.write_all(b"}")
 }

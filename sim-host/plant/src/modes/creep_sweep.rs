@@ -77,23 +77,31 @@ fn eigen_sweep(
     grid: &[f64],
     tick: &(impl Fn() + Sync),
 ) -> Vec<Option<Vec<Complex<f64>>>> {
-    let solve = |c: f64| {
-        let r = eigenvalues(&case.matrix(p, c).0);
+    // One workspace per thread (the components are found once per sparsity pattern).
+    let solve = |eig: &mut Eigen, c: f64| {
+        let mut out = Vec::new();
+        let ok = eig.solve(&case.matrix(p, c).0, &mut out);
         tick();
-        r
+        ok.then_some(out)
     };
     let threads = std::thread::available_parallelism()
         .map_or(1, |n| n.get())
         .min(grid.len() / 64)
         .max(1);
     if threads == 1 {
-        return grid.iter().map(|&c| solve(c)).collect();
+        let mut eig = Eigen::default();
+        return grid.iter().map(|&c| solve(&mut eig, c)).collect();
     }
     let chunk = grid.len().div_ceil(threads);
     std::thread::scope(|scope| {
         let handles: Vec<_> = grid
             .chunks(chunk)
-            .map(|part| scope.spawn(move || part.iter().map(|&c| solve(c)).collect::<Vec<_>>()))
+            .map(|part| {
+                scope.spawn(move || {
+                    let mut eig = Eigen::default();
+                    part.iter().map(|&c| solve(&mut eig, c)).collect::<Vec<_>>()
+                })
+            })
             .collect();
         handles
             .into_iter()
@@ -109,6 +117,8 @@ fn eigen_sweep(
 /// Locates sign changes of each mode's real part between adjacent points by bisection.
 fn find_crossings(p: &Params, sw: &CaseSweep) -> Vec<Crossing> {
     let mut out = Vec::new();
+    let mut eig = Eigen::default();
+    let mut e = Vec::new();
     let least_stable = |branches: &[usize], k: usize| {
         branches
             .iter()
@@ -140,7 +150,9 @@ fn find_crossings(p: &Params, sw: &CaseSweep) -> Vec<Crossing> {
                 let mid = 0.5 * (lo + hi);
                 let guess = vlo + (vhi - vlo) * 0.5;
                 let (a, _) = sw.case.matrix(p, mid);
-                let Some(e) = eigenvalues(&a) else { break };
+                if !eig.solve(&a, &mut e) {
+                    break;
+                }
                 let Some(&vm) = e
                     .iter()
                     .filter(|l| l.im.signum() == guess.im.signum() || l.im == 0.0)

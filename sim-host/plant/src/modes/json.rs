@@ -6,6 +6,8 @@
 
 use super::*;
 use serde::Serialize;
+use serde_json::ser::{CompactFormatter, Formatter};
+use std::io::{self, Write};
 
 /// JSON form of one point.
 #[derive(Debug, Serialize)]
@@ -68,5 +70,195 @@ impl CaseSweep {
             crossings: self.crossings.clone(),
             failed_points: self.failed_points.clone(),
         }
+    }
+}
+
+impl CaseSweep {
+    /// Writes [`Self::to_json`] as compact JSON to `w`: byte for byte what
+    /// `serde_json::to_writer` writes for it, without building the points (no per-point
+    /// vectors or name strings). Numbers go through serde_json's own formatter
+    /// (non-finite ones as `null`), strings are escaped as serde_json escapes them.
+    pub fn write_json<W: Write + ?Sized>(&self, w: &mut W) -> io::Result<()> {
+        w.write_all(b"{\"crossings\":[")?;
+        for (i, c) in self.crossings.iter().enumerate() {
+            if i > 0 {
+                w.write_all(b",")?;
+            }
+            w.write_all(b"{\"creep_n\":")?;
+            write_json_number(w, c.creep_n)?;
+            w.write_all(b",\"freq_hz\":")?;
+            write_json_number(w, c.freq_hz)?;
+            w.write_all(b",\"mode\":")?;
+            write_json_string(w, &c.mode)?;
+            w.write_all(if c.unstable_below {
+                b",\"unstable_below\":true}"
+            } else {
+                b",\"unstable_below\":false}"
+            })?;
+        }
+        w.write_all(b"],\"failed_points\":[")?;
+        for (i, &c) in self.failed_points.iter().enumerate() {
+            if i > 0 {
+                w.write_all(b",")?;
+            }
+            write_json_number(w, c)?;
+        }
+        w.write_all(b"],\"id\":")?;
+        write_json_string(w, self.case.id())?;
+        w.write_all(b",\"label\":")?;
+        write_json_string(w, self.case.label())?;
+        w.write_all(b",\"points\":[")?;
+        // Each mode's branches, once for the case (what `mode_eig` filters per point).
+        let modes: Vec<(String, Vec<usize>)> = self
+            .mode_names()
+            .into_iter()
+            .map(|n| {
+                let b = (0..self.branch_names.len())
+                    .filter(|&b| self.branch_names[b] == n)
+                    .collect();
+                (n, b)
+            })
+            .collect();
+        let zero = self.branch_names.iter().position(|n| n == STRUCTURAL_ZERO);
+        let mut stable_everywhere = true;
+        for (k, eig) in self.eig.iter().enumerate() {
+            if k > 0 {
+                w.write_all(b",")?;
+            }
+            w.write_all(b"{\"creep_n\":")?;
+            write_json_number(w, self.creep[k])?;
+            w.write_all(b",\"eigenvalues\":[")?;
+            for (i, l) in eig.iter().enumerate() {
+                if i > 0 {
+                    w.write_all(b",")?;
+                }
+                pair(w, *l)?;
+            }
+            w.write_all(b"],\"modes\":[")?;
+            let mut stable = true;
+            let mut first = true;
+            for (name, branches) in &modes {
+                // The least stable branch, as `mode_eig` picks it.
+                let Some(l) = branches
+                    .iter()
+                    .map(|&b| eig[b])
+                    .max_by(|x, y| x.re.total_cmp(&y.re).then(x.im.total_cmp(&y.im)))
+                else {
+                    continue;
+                };
+                if !first {
+                    w.write_all(b",")?;
+                }
+                first = false;
+                let m = ModeNumbers::new(l);
+                stable &= m.re < 0.0;
+                w.write_all(b"{\"freq_hz\":")?;
+                write_json_number(w, m.freq_hz)?;
+                w.write_all(b",\"im\":")?;
+                write_json_number(w, m.im)?;
+                w.write_all(b",\"name\":")?;
+                write_json_string(w, name)?;
+                w.write_all(b",\"re\":")?;
+                write_json_number(w, m.re)?;
+                w.write_all(b",\"zeta\":")?;
+                write_json_number(w, m.zeta)?;
+                w.write_all(b"}")?;
+            }
+            stable_everywhere &= stable;
+            w.write_all(if stable {
+                b"],\"stable\":true,\"structural_zero\":"
+            } else {
+                b"],\"stable\":false,\"structural_zero\":"
+            })?;
+            match zero {
+                Some(b) => pair(w, eig[b])?,
+                None => w.write_all(b"null")?,
+            }
+            w.write_all(b"}")?;
+        }
+        w.write_all(if stable_everywhere {
+            b"],\"stable_everywhere\":true,\"states\":["
+        } else {
+            b"],\"stable_everywhere\":false,\"states\":["
+        })?;
+        for (i, s) in self.states.iter().enumerate() {
+            if i > 0 {
+                w.write_all(b",")?;
+            }
+            write_json_string(w, s)?;
+        }
+        w.write_all(b"]}")
+    }
+}
+
+/// A number as serde_json writes an `f64`: `null` unless finite.
+pub fn write_json_number<W: Write + ?Sized>(w: &mut W, v: f64) -> io::Result<()> {
+    if v.is_finite() {
+        CompactFormatter.write_f64(w, v)
+    } else {
+        w.write_all(b"null")
+    }
+}
+
+/// `[re, im]`.
+fn pair<W: Write + ?Sized>(w: &mut W, l: Complex<f64>) -> io::Result<()> {
+    w.write_all(b"[")?;
+    write_json_number(w, l.re)?;
+    w.write_all(b",")?;
+    write_json_number(w, l.im)?;
+    w.write_all(b"]")
+}
+
+/// A JSON string as serde_json writes it: quoted as is when nothing needs escaping
+/// (no `"`, `\` or control character below 0x20), else through serde_json.
+pub fn write_json_string<W: Write + ?Sized>(w: &mut W, s: &str) -> io::Result<()> {
+    if s.bytes().all(|b| b >= 0x20 && b != b'"' && b != b'\\') {
+        w.write_all(b"\"")?;
+        w.write_all(s.as_bytes())?;
+        w.write_all(b"\"")
+    } else {
+        serde_json::to_writer(w, s).map_err(io::Error::from)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn serde_bytes(sw: &CaseSweep) -> Vec<u8> {
+        serde_json::to_vec(&sw.to_json()).expect("serializable")
+    }
+
+    fn written(sw: &CaseSweep) -> Vec<u8> {
+        let mut out = Vec::new();
+        sw.write_json(&mut out).expect("writes to a Vec");
+        out
+    }
+
+    #[test]
+    fn write_json_is_serde_json_of_to_json() {
+        let p = Params::default();
+        for case in Case::ALL {
+            let sw = sweep_case(&p, case, &creep_grid(40), || {}).expect("sweep");
+            assert_eq!(written(&sw), serde_bytes(&sw), "case {}", case.id());
+        }
+    }
+
+    #[test]
+    fn write_json_non_finite_and_escapes() {
+        let p = Params::default();
+        let mut sw = sweep_case(&p, Case::C, &creep_grid(5), || {}).expect("sweep");
+        sw.eig[1][0] = Complex::new(f64::NAN, f64::INFINITY);
+        sw.eig[2][1] = Complex::new(-0.0, 1e-300);
+        sw.branch_names[0] = "a \"quoted\"\\ name\n\u{1}é".into();
+        sw.failed_points = vec![1.5e6, f64::NAN];
+        sw.crossings.push(Crossing {
+            creep_n: 2e6,
+            freq_hz: f64::NEG_INFINITY,
+            mode: "tab\there".into(),
+            unstable_below: false,
+        });
+        sw.states = vec!["s\"1", "s2"];
+        assert_eq!(written(&sw), serde_bytes(&sw));
     }
 }
