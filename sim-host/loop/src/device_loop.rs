@@ -497,27 +497,58 @@ pub struct WindowDeviation {
 pub const CURVE_WINDOWS: [(f64, f64); 2] = [(4.5, 5.0), (10.0, 12.0)];
 
 /// Compares `run` with `reference` (records at the same times), in one pass over the
-/// pairs of records.
+/// pairs of records ([`DeviationAcc`] over the records paired by index, the pairs at
+/// different times skipped).
 #[must_use]
 pub fn deviation(run: &Trajectory, reference: &Trajectory, windows: [(f64, f64); 2]) -> Deviation {
-    let forces = |r: &Record| [r.fx_r_n, r.fx_l_n, r.fy_n];
-    let rel = |a: f64, b: f64| (a - b).abs() / b.abs().max(1e-300);
-    let mut d = Deviation::default();
-    for (w, &(from_s, to_s)) in d.windows.iter_mut().zip(&windows) {
-        w.from_s = from_s;
-        w.to_s = to_s;
+    let mut acc = DeviationAcc::new(windows);
+    for (a, b) in run.records.iter().zip(&reference.records) {
+        acc.push(a, b);
     }
-    // Per window: the largest force deviation and the largest reference force.
-    let mut window_f = [(0.0f64, 0.0f64); 2];
-    let (mut y_ref_max, mut f_ref_max) = (0.0f64, 0.0f64);
-    let pairs = run
-        .records
-        .iter()
-        .zip(&reference.records)
-        .filter(|(a, b)| (a.t_s - b.t_s).abs() < 1e-9);
-    for (a, b) in pairs {
+    acc.finish()
+}
+
+/// [`deviation`] as the reference's records are made: push each pair `(run record,
+/// reference record)` in time order, then [`DeviationAcc::finish`]. A reference run
+/// streamed into it ([`wheelset_plant::sim::run_continuous_each`]) is never held in
+/// memory.
+#[derive(Debug, Clone)]
+pub struct DeviationAcc {
+    d: Deviation,
+    /// Per window: the largest force deviation and the largest reference force.
+    window_f: [(f64, f64); 2],
+    y_ref_max: f64,
+    f_ref_max: f64,
+}
+
+impl DeviationAcc {
+    /// An empty comparison over the time windows `[from_s, to_s)`.
+    #[must_use]
+    pub fn new(windows: [(f64, f64); 2]) -> Self {
+        let mut d = Deviation::default();
+        for (w, &(from_s, to_s)) in d.windows.iter_mut().zip(&windows) {
+            w.from_s = from_s;
+            w.to_s = to_s;
+        }
+        Self {
+            d,
+            window_f: [(0.0, 0.0); 2],
+            y_ref_max: 0.0,
+            f_ref_max: 0.0,
+        }
+    }
+
+    /// Takes the run's record `a` and the reference's `b`; a pair more than 1 ns apart
+    /// is not compared.
+    pub fn push(&mut self, a: &Record, b: &Record) {
+        if (a.t_s - b.t_s).abs() >= 1e-9 {
+            return;
+        }
+        let forces = |r: &Record| [r.fx_r_n, r.fx_l_n, r.fy_n];
+        let rel = |a: f64, b: f64| (a - b).abs() / b.abs().max(1e-300);
+        let d = &mut self.d;
         let (fa, fb) = (forces(a), forces(b));
-        for (w, (df, f_scale)) in d.windows.iter_mut().zip(&mut window_f) {
+        for (w, (df, f_scale)) in d.windows.iter_mut().zip(&mut self.window_f) {
             if b.t_s >= w.from_s && b.t_s < w.to_s {
                 w.y_rel = w.y_rel.max(rel(a.y_m, b.y_m));
                 for (&fa, &fb) in fa.iter().zip(&fb) {
@@ -529,18 +560,24 @@ pub fn deviation(run: &Trajectory, reference: &Trajectory, windows: [(f64, f64);
         d.diverged |= !(a.y_m.is_finite() && b.y_m.is_finite())
             || fa.iter().chain(&fb).any(|f| !f.is_finite());
         d.y_max_abs_m = d.y_max_abs_m.max((a.y_m - b.y_m).abs());
-        y_ref_max = y_ref_max.max(b.y_m.abs());
+        self.y_ref_max = self.y_ref_max.max(b.y_m.abs());
         for (&fa, &fb) in fa.iter().zip(&fb) {
             d.f_max_abs_n = d.f_max_abs_n.max((fa - fb).abs());
-            f_ref_max = f_ref_max.max(fb.abs());
+            self.f_ref_max = self.f_ref_max.max(fb.abs());
         }
     }
-    for (w, (df, f_scale)) in d.windows.iter_mut().zip(window_f) {
-        w.f_rel = df / f_scale.max(1e-300);
+
+    /// The deviation of the pairs pushed so far.
+    #[must_use]
+    pub fn finish(self) -> Deviation {
+        let mut d = self.d;
+        for (w, (df, f_scale)) in d.windows.iter_mut().zip(self.window_f) {
+            w.f_rel = df / f_scale.max(1e-300);
+        }
+        d.y_max_rel = d.y_max_abs_m / self.y_ref_max.max(1e-300);
+        d.f_max_rel = d.f_max_abs_n / self.f_ref_max.max(1e-300);
+        d
     }
-    d.y_max_rel = d.y_max_abs_m / y_ref_max.max(1e-300);
-    d.f_max_rel = d.f_max_abs_n / f_ref_max.max(1e-300);
-    d
 }
 
 impl fmt::Display for Deviation {

@@ -101,7 +101,9 @@ pub(crate) enum Lateral {
 /// `--loop device`: the firmware runtime over the simulated link; prints the frame
 /// accounting and the deviation from the continuous reference.
 pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
-    use wheelset_loop::device_loop::{deviation, run_device, DeviceOptions, CURVE_WINDOWS};
+    use wheelset_loop::device_loop::{run_device, DeviationAcc, DeviceOptions, CURVE_WINDOWS};
+    use wheelset_plant::control::ContinuousController;
+    use wheelset_plant::sim::{run_continuous_each, Trajectory};
     let d = &a.device;
     let wsp = d.wsp != Some(OnOff::Off);
     let latency_us = d.latency_us.unwrap_or(2.0);
@@ -203,11 +205,23 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
     if a.csv.is_none() {
         run.link = Vec::new();
     }
-    let reference = simulate(sc, a.control);
-    outln!(
-        "vs continuous reference: {}",
-        deviation(&run.trajectory, &reference, CURVE_WINDOWS)
+    // The reference is compared as it runs; it is kept only for the plots.
+    let mut reference = Vec::new();
+    let mut acc = DeviationAcc::new(CURVE_WINDOWS);
+    let mut own = run.trajectory.records.iter();
+    let info = run_continuous_each(
+        sc,
+        ContinuousController::new(&sc.params, a.control.into()),
+        |r| {
+            if let Some(mine) = own.next() {
+                acc.push(mine, &r);
+            }
+            if a.plot.is_some() {
+                reference.push(r);
+            }
+        },
     );
+    outln!("vs continuous reference: {}", acc.finish());
     if let Some(path) = &a.csv {
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir).map_err(|e| io_fail(dir, e))?;
@@ -222,6 +236,10 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
         );
     }
     if let Some(dir) = &a.plot {
+        let reference = Trajectory {
+            records: reference,
+            info,
+        };
         let mut runs = vec![run.trajectory, reference];
         for &c in &a.compare {
             if c != a.control {

@@ -136,3 +136,36 @@ fn a_link_too_slow_is_refused() {
         "{msg}"
     );
 }
+
+/// The reference streamed through [`DeviationAcc`] gives the deviation of the kept
+/// trajectories, and its records are the kept run's.
+#[test]
+fn a_streamed_reference_deviates_as_the_kept_one() {
+    use wheelset_plant::control::ContinuousController;
+    use wheelset_plant::sim::{run_continuous, run_continuous_each};
+    let mut sc = Scenario::load("curve", &wheelset_plant::params::Params::default())
+        .expect("built-in scenario");
+    sc.duration_ns = 6_000_000_000;
+    let run = run_continuous(&sc, YawLaw::Passive);
+    let kept = run_continuous(&sc, YawLaw::Lead);
+    let windows = [(1.0, 2.0), (4.5, 5.5)];
+    let expected = deviation(&run, &kept, windows);
+    assert!(expected.f_max_abs_n > 0.0 && expected.windows[1].y_rel > 0.0);
+
+    let mut acc = DeviationAcc::new(windows);
+    let mut mine = run.records.iter();
+    let mut streamed = Vec::new();
+    let info = run_continuous_each(
+        &sc,
+        ContinuousController::new(&sc.params, YawLaw::Lead),
+        |r| {
+            if let Some(a) = mine.next() {
+                acc.push(a, &r);
+            }
+            streamed.push(r);
+        },
+    );
+    assert_eq!(acc.finish(), expected);
+    assert_eq!(streamed, kept.records);
+    assert_eq!(info.steps, kept.info.steps);
+}

@@ -174,12 +174,16 @@ impl<'a> Setup<'a> {
     }
 
     pub(super) fn steps(&self) -> (u64, u64) {
-        let sc = self.sc;
-        (
-            sc.duration_ns.div_ceil(sc.dt_ns),
-            sc.output_dt_ns / sc.dt_ns,
-        )
+        steps(self.sc)
     }
+}
+
+/// `(RK4 steps, steps per record)` of a run of `sc`.
+fn steps(sc: &Scenario) -> (u64, u64) {
+    (
+        sc.duration_ns.div_ceil(sc.dt_ns),
+        sc.output_dt_ns / sc.dt_ns,
+    )
 }
 
 /// Runs `sc` with the continuous-time controllers (yaw `law`, PI current loop when the
@@ -190,13 +194,32 @@ pub fn run_continuous(sc: &Scenario, law: YawLaw) -> Trajectory {
 
 /// As [`run_continuous`] with an explicit controller (e.g. a reversed sign in tests).
 pub fn run_continuous_with(sc: &Scenario, ctrl: ContinuousController) -> Trajectory {
-    let s = Setup::new(sc, ctrl.law.has_spring());
-    crate::with_flags!(s.plant.cfg, flags => continuous(s, ctrl, flags))
+    let (n_steps, every) = steps(sc);
+    let mut records = Vec::with_capacity((n_steps / every + 2) as usize);
+    let info = run_continuous_each(sc, ctrl, |r| records.push(r));
+    Trajectory { records, info }
 }
 
-/// [`run_continuous_with`] on the set-up `s`, its plant's configuration as `flags` (one
+/// [`run_continuous_with`] handing each record to `on_record` as it is made, in time
+/// order, instead of keeping them: the same records, for a caller that only reduces
+/// them (a deviation, a maximum) and need not hold the trajectory in memory.
+pub fn run_continuous_each(
+    sc: &Scenario,
+    ctrl: ContinuousController,
+    on_record: impl FnMut(Record),
+) -> RunInfo {
+    let s = Setup::new(sc, ctrl.law.has_spring());
+    crate::with_flags!(s.plant.cfg, flags => continuous(s, ctrl, flags, on_record))
+}
+
+/// [`run_continuous_each`] on the set-up `s`, its plant's configuration as `flags` (one
 /// copy of the loop per configuration).
-fn continuous<F: Flags>(mut s: Setup<'_>, ctrl: ContinuousController, flags: F) -> Trajectory {
+fn continuous<F: Flags>(
+    mut s: Setup<'_>,
+    ctrl: ContinuousController,
+    flags: F,
+    mut on_record: impl FnMut(Record),
+) -> RunInfo {
     let sc = s.sc;
     let mut plant = s.plant;
     let drive = sc.drive;
@@ -206,7 +229,6 @@ fn continuous<F: Flags>(mut s: Setup<'_>, ctrl: ContinuousController, flags: F) 
     }
     let (n_steps, every) = s.steps();
     let h = sc.dt_ns as f64 * 1e-9;
-    let mut records = Vec::with_capacity((n_steps / every + 2) as usize);
     let mut diverged_at = None;
     // The next step that records (every `every`-th from step 0).
     let mut next_record = 0;
@@ -231,7 +253,7 @@ fn continuous<F: Flags>(mut s: Setup<'_>, ctrl: ContinuousController, flags: F) 
             } else {
                 0.0
             };
-            records.push(s.record(t_ns, &x, &e, ctrl.yaw_torque(&x), u_a));
+            on_record(s.record(t_ns, &x, &e, ctrl.yaw_torque(&x), u_a));
             if diverged(&x) {
                 diverged_at = Some(t_ns as f64 * 1e-9);
                 break;
@@ -280,19 +302,16 @@ fn continuous<F: Flags>(mut s: Setup<'_>, ctrl: ContinuousController, flags: F) 
             0.0
         };
         let g = sc.actuator_fault.map_or(1.0, |f| f.gain(t_end));
-        records.push(s.record(t_end, &x, &e, g * ctrl.yaw_torque(&x), u_a));
+        on_record(s.record(t_end, &x, &e, g * ctrl.yaw_torque(&x), u_a));
     }
-    Trajectory {
-        records,
-        info: RunInfo {
-            scenario: sc.name.clone(),
-            source: sc.source.clone(),
-            control: ctrl.law.name().to_string(),
-            dt_s: h,
-            steps: n_steps,
-            controller_calls: 0,
-            actuator_clamps: 0,
-            diverged_at_s: diverged_at,
-        },
+    RunInfo {
+        scenario: sc.name.clone(),
+        source: sc.source.clone(),
+        control: ctrl.law.name().to_string(),
+        dt_s: h,
+        steps: n_steps,
+        controller_calls: 0,
+        actuator_clamps: 0,
+        diverged_at_s: diverged_at,
     }
 }
