@@ -319,7 +319,7 @@ impl<const N: usize> Decoder<N> {
             // An empty frame (a lone delimiter).
             return Some((0, !0, 0));
         };
-        if has_zero(data) {
+        if crate::frame::has_delimiter(data) {
             return None;
         }
         let n = data.len();
@@ -406,29 +406,4 @@ impl<const N: usize> Decoder<N> {
         (self.n, self.left, self.zero, self.crc) = (n, left, zero, crc);
         (closed, rest)
     }
-}
-
-/// Whether `b` holds a 0x00: eight bytes at a time (a word has a zero byte iff
-/// `(x - 0x01..01) & !x & 0x80..80` is non-zero), the last word overlapping the one
-/// before it rather than a byte-wise tail.
-#[cfg(feature = "std")]
-#[inline(always)]
-fn has_zero(b: &[u8]) -> bool {
-    const LO: u64 = u64::from_ne_bytes([0x01; 8]);
-    const HI: u64 = u64::from_ne_bytes([0x80; 8]);
-    let zero_in = |w: &[u8; 8]| {
-        let x = u64::from_ne_bytes(*w);
-        x.wrapping_sub(LO) & !x & HI
-    };
-    let Some(last) = b.last_chunk::<8>() else {
-        return b.contains(&0);
-    };
-    let mut acc = zero_in(last);
-    let mut chunks = b.chunks_exact(8);
-    for c in &mut chunks {
-        if let Some(w) = c.first_chunk::<8>() {
-            acc |= zero_in(w);
-        }
-    }
-    acc != 0
 }

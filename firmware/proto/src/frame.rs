@@ -594,3 +594,50 @@ fn request_body(ty: u8, body: &[u8]) -> Result<Request, FrameError> {
         _ => return Err(FrameError::Postcard),
     })
 }
+
+/// Whether `b` holds a frame delimiter (0x00), the host's test of a frame's bytes:
+/// eight bytes at a time (a word has a zero byte iff `(x - 0x01..01) & !x & 0x80..80`
+/// is non-zero), the last word overlapping the one before it rather than a byte-wise
+/// tail, and no call into `memchr`.
+#[cfg(feature = "std")]
+#[inline(always)]
+#[must_use]
+pub fn has_delimiter(b: &[u8]) -> bool {
+    const LO: u64 = u64::from_ne_bytes([0x01; 8]);
+    const HI: u64 = u64::from_ne_bytes([0x80; 8]);
+    let zero_in = |w: &[u8; 8]| {
+        let x = u64::from_ne_bytes(*w);
+        x.wrapping_sub(LO) & !x & HI
+    };
+    let Some(last) = b.last_chunk::<8>() else {
+        return b.contains(&0);
+    };
+    let mut acc = zero_in(last);
+    let mut chunks = b.chunks_exact(8);
+    for c in &mut chunks {
+        if let Some(w) = c.first_chunk::<8>() {
+            acc |= zero_in(w);
+        }
+    }
+    acc != 0
+}
+
+#[cfg(all(test, feature = "std"))]
+mod tests {
+    /// Against the byte-wise test, for every length up to three words and a 0x00 at
+    /// every position (the overlapping last word included).
+    #[test]
+    fn has_delimiter_finds_a_zero_at_every_position() {
+        for n in 0..=24 {
+            let mut b = std::vec![0xA5u8; n];
+            assert!(!super::has_delimiter(&b), "len {n}");
+            for i in 0..n {
+                b[i] = 0;
+                assert!(super::has_delimiter(&b), "len {n}, zero at {i}");
+                b[i] = 0x80;
+                assert!(!super::has_delimiter(&b), "len {n}, 0x80 at {i}");
+                b[i] = 0xA5;
+            }
+        }
+    }
+}

@@ -119,13 +119,13 @@ pub mod reset_cause {
 
 pub use crc_ram::RamCrc;
 pub use decoder::{Decoder, NextFrame};
-#[cfg(feature = "std")]
-pub use frame::HostCrc;
 pub use frame::{
     cobs_decode_in_place, cobs_encode, crc32c, encode_reply, encode_sensor, encode_vec,
     EncodeError, FrameError, Reply, Request, CRC, CRC_LEN, MAX_FRAME, MAX_RAW, MIN_DECODED,
     SENSOR_FRAME_CAP, VERSION,
 };
+#[cfg(feature = "std")]
+pub use frame::{has_delimiter, HostCrc};
 pub use message::{
     Actuation, Command, Config, Flags, Lateral, Message, Rates, Sensor, Status, YawMode,
 };

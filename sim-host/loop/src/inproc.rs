@@ -37,7 +37,7 @@ use wheelset_proto::{encode_vec, Decoder, Message};
 use wheelset_runtime::{Runtime, RuntimeConfig};
 
 use crate::device_loop::{DeviceError, ACTUATION_WORST_BYTES, SENSOR_WORST_BYTES};
-use crate::sim_link::{check_budget, has_zero, wire_ns, Link, LinkConfig, RxPort};
+use crate::sim_link::{check_budget, wire_ns, Link, LinkConfig, RxPort};
 use crate::transport::{Clock, FrameSink, LinkAccounting, Transport, TransportError};
 
 /// A deliberately broken device, to prove the checks can fail.
@@ -340,7 +340,7 @@ impl<T: SampleBits> InProc<T> {
             }
         };
         match out.split_last() {
-            Some((&0, head)) if !has_zero(head) => send(out),
+            Some((&0, head)) if !wheelset_proto::has_delimiter(head) => send(out),
             _ => out.split_inclusive(|&b| b == 0).for_each(send),
         }
     }

@@ -29,7 +29,6 @@ mod capacity;
 mod channel;
 mod line_faults;
 
-pub(crate) use accounting::has_zero;
 pub use accounting::{Accounting, RxPort};
 pub use capacity::{
     check_budget, wire_ns, LinkBudgetError, LinkConfig, BUDGET_SHARE, DEFAULT_BAUD,

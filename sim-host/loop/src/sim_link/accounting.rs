@@ -161,7 +161,9 @@ impl Book<'_> {
         }
         match run.split_last() {
             // Typical: one whole frame, its delimiter last (one word-wise scan).
-            Some((&0, head)) if !has_zero(head) => self.piece(run, id, &mut decode),
+            Some((&0, head)) if !wheelset_proto::has_delimiter(head) => {
+                self.piece(run, id, &mut decode)
+            }
             _ => {
                 for piece in run.split_inclusive(|&b| b == 0) {
                     self.piece(piece, id, &mut decode);
@@ -218,29 +220,6 @@ impl Book<'_> {
         }
         self.pending.clear();
     }
-}
-
-/// Whether `b` holds a 0x00: eight bytes at a time (a word has a zero byte iff
-/// `(x - 0x01..01) & !x & 0x80..80` is non-zero), the last word overlapping the one
-/// before it rather than a byte-wise tail (a frame's bytes: no call into `memchr`).
-#[inline(always)]
-pub(crate) fn has_zero(b: &[u8]) -> bool {
-    const LO: u64 = u64::from_ne_bytes([0x01; 8]);
-    const HI: u64 = u64::from_ne_bytes([0x80; 8]);
-    let zero_in = |w: &[u8; 8]| {
-        let x = u64::from_ne_bytes(*w);
-        x.wrapping_sub(LO) & !x & HI
-    };
-    let Some(last) = b.last_chunk::<8>() else {
-        return b.contains(&0);
-    };
-    let mut acc = zero_in(last);
-    for c in b.chunks_exact(8) {
-        if let Some(w) = c.first_chunk::<8>() {
-            acc |= zero_in(w);
-        }
-    }
-    acc != 0
 }
 
 /// Every frame of one direction, accounted for.
