@@ -150,8 +150,8 @@ const ONE_PASS_CAP: usize = 32;
 /// delimiter = 43 B).
 pub const SENSOR_FRAME_CAP: usize = 64;
 
-/// The host's encoder for the Sensor frame it sends every period: the bytes of
-/// [`encode_vec`]`(&Message::Sensor(*s))` (tested) written into `out` in one pass
+/// The host's encoder for the Sensor frame it sends every period: the bytes of the
+/// general encoder's frame of `Message::Sensor(*s)` (tested) written into `out` in one pass
 /// (COBS and the CRC applied to each byte as it is produced, as the device's Actuation
 /// encoder does); returns the frame's length. Every Sensor frame fits `out`.
 pub fn encode_sensor(s: &Sensor, out: &mut [u8; SENSOR_FRAME_CAP]) -> usize {
@@ -388,7 +388,8 @@ fn finish_frame(out: &mut [u8], n: usize) -> Result<usize, EncodeError> {
 }
 
 /// The host's encoder: `msg` as one wire frame, delimiter included, in a fixed-capacity
-/// vector (no allocation; every message fits [`MAX_FRAME`], tested).
+/// vector (no allocation; every message fits [`MAX_FRAME`], tested). A Sensor frame is
+/// [`encode_sensor`]'s, so the host builds every Sensor frame one way.
 ///
 /// ```
 /// use wheelset_proto::{encode_vec, Command, Message};
@@ -397,10 +398,16 @@ fn finish_frame(out: &mut [u8], n: usize) -> Result<usize, EncodeError> {
 /// assert!(!frame[..frame.len() - 1].contains(&0));
 /// ```
 pub fn encode_vec(msg: &Message) -> Result<heapless::Vec<u8, MAX_FRAME>, EncodeError> {
+    let vec =
+        |frame: &[u8]| heapless::Vec::from_slice(frame).map_err(|_| EncodeError::BufferTooSmall);
+    if let Message::Sensor(s) = msg {
+        let mut buf = [0u8; SENSOR_FRAME_CAP];
+        let n = encode_sensor(s, &mut buf);
+        return vec(buf.get(..n).ok_or(EncodeError::BufferTooSmall)?);
+    }
     let mut buf = [0u8; MAX_FRAME];
     let n = encode(msg, &mut buf)?;
-    heapless::Vec::from_slice(buf.get(..n).ok_or(EncodeError::BufferTooSmall)?)
-        .map_err(|_| EncodeError::BufferTooSmall)
+    vec(buf.get(..n).ok_or(EncodeError::BufferTooSmall)?)
 }
 
 #[cfg(any(test, feature = "test-support"))]
