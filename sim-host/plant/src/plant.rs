@@ -274,6 +274,21 @@ impl<F: Flags> Flags for Linear<F> {
     }
 }
 
+/// Evaluates `$body` with `$f` rebound to [`Linear`]`($f)` when the plant `$plant` has
+/// no adhesion law, and as it is otherwise (two copies of `$body`: the law-free one
+/// skips the law's test in every RK4 stage).
+#[macro_export]
+macro_rules! with_creep_law {
+    ($plant:expr, $f:ident => $body:expr) => {{
+        if $plant.adhesion.is_none() {
+            let $f = $crate::plant::Linear($f);
+            $body
+        } else {
+            $body
+        }
+    }};
+}
+
 /// Evaluates `$body` with `$f` bound to the [`Fixed`] flags of the [`PlantConfig`]
 /// `$cfg` (one copy of `$body` per configuration).
 #[macro_export]

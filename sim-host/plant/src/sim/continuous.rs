@@ -3,7 +3,7 @@
 
 use super::*;
 use crate::control::{ContinuousController, Exogenous, YawLaw};
-use crate::plant::{ix, Flags, Linear, Plant, PlantConfig, State};
+use crate::plant::{ix, Flags, Plant, PlantConfig, State};
 use crate::scenario::{Scenario, TrackCursor};
 
 /// Per-step exogenous inputs shared by both run kinds.
@@ -267,30 +267,16 @@ fn continuous<F: Flags>(
             demand: e.demand,
         };
         let e3 = [ex(0), ex(1), ex(2)];
-        x = if plant.adhesion.is_none() {
-            let flags = Linear(flags);
-            rk4_step_with(
-                &x,
-                h,
-                ClosedLoopStages {
-                    plant: &plant,
-                    flags,
-                    ctrl: &ctrl,
-                    e: e3,
-                },
-            )
-        } else {
-            rk4_step_with(
-                &x,
-                h,
-                ClosedLoopStages {
-                    plant: &plant,
-                    flags,
-                    ctrl: &ctrl,
-                    e: e3,
-                },
-            )
-        };
+        x = crate::with_creep_law!(plant, flags => rk4_step_with(
+            &x,
+            h,
+            ClosedLoopStages {
+                plant: &plant,
+                flags,
+                ctrl: &ctrl,
+                e: e3,
+            },
+        ));
     }
     if diverged_at.is_none() {
         let t_end = n_steps * sc.dt_ns;

@@ -3,7 +3,7 @@
 
 use super::*;
 use crate::control::{Actuation, Measurements, SampledController};
-use crate::plant::{ix, Flags, Inputs, Linear, Plant, State};
+use crate::plant::{ix, Flags, Inputs, Plant, State};
 use crate::scenario::Scenario;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -296,27 +296,15 @@ fn sampled<F: Flags>(
         }
         let a = fault(t_ns, &held);
         let u = [inputs(&e, 0, &a), inputs(&e, 1, &a), inputs(&e, 2, &a)];
-        x = if plant.adhesion.is_none() {
-            rk4_step_with(
-                &x,
-                h,
-                PlantStages {
-                    plant: &plant,
-                    flags: Linear(flags),
-                    u,
-                },
-            )
-        } else {
-            rk4_step_with(
-                &x,
-                h,
-                PlantStages {
-                    plant: &plant,
-                    flags,
-                    u,
-                },
-            )
-        };
+        x = crate::with_creep_law!(plant, flags => rk4_step_with(
+            &x,
+            h,
+            PlantStages {
+                plant: &plant,
+                flags,
+                u,
+            },
+        ));
     }
     Trajectory {
         records,
