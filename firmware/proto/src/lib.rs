@@ -48,7 +48,7 @@
 //! | side | encodes | decodes |
 //! |---|---|---|
 //! | device | [`encode_reply`]: a [`Reply`] (Actuation, Status) into the caller's buffer | [`Decoder::next_sensor_or_request`]: the Sensor in place, any other frame as a [`Request`] |
-//! | host | [`encode_vec`]: any [`Message`] into a fixed-capacity vector; [`encode_sensor`]: the per-period Sensor frame in one pass into the caller's buffer (the same bytes) | [`Decoder::next_message`]: any [`Message`] |
+//! | host | [`encode_vec`]: any [`Message`] into a fixed-capacity vector, a Sensor through [`encode_sensor`]: the per-period Sensor frame in one pass into the caller's buffer | [`Decoder::next_message`]: any [`Message`] |
 //!
 //! Both decoders take bytes in any chunking, resynchronise on 0x00 and return the bytes
 //! after the frame they closed. The device's pair links only the messages the device
