@@ -44,6 +44,18 @@ pub struct PiAttribution {
     pub remedy: String,
 }
 
+impl PiAttribution {
+    /// The shares as the reports write them: `source x.x LSB`, comma-separated.
+    #[must_use]
+    pub fn shares_text(&self) -> String {
+        self.shares
+            .iter()
+            .map(|(n, v)| format!("{n} {v:.1} LSB"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+}
+
 /// One amplitude of the lead's sweep.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct AmplitudePoint {

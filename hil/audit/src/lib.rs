@@ -301,11 +301,7 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
         for c in checks.iter_mut().filter(|c| c.item == item) {
             c.reason += &format!(
                 "; by experiment: {} (of {:.1} LSB)",
-                p.shares
-                    .iter()
-                    .map(|(n, v)| format!("{n} {v:.1} LSB"))
-                    .collect::<Vec<_>>()
-                    .join(", "),
+                p.shares_text(),
                 p.baseline_lsb,
             );
             c.remedy.clone_from(&p.remedy);

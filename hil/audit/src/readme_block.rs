@@ -153,11 +153,7 @@ pub fn block(a: &Audit) -> String {
                 "- The `u_a` error in `{}` by experiment: {}; Ki has {:.1} significant bits \
                  (Q1.31 holding Ki 2^{}; relative error {:.2e}).",
                 p.scenario,
-                p.shares
-                    .iter()
-                    .map(|(n, v)| format!("{n} {v:.1} LSB"))
-                    .collect::<Vec<_>>()
-                    .join(", "),
+                p.shares_text(),
                 p.ki_significant_bits,
                 p.ki_shift,
                 p.ki_rel_err
@@ -221,11 +217,7 @@ pub fn block(a: &Audit) -> String {
         let _ = writeln!(
             w,
             "- {} `{}` {}: {}",
-            if c.not_run {
-                "not run"
-            } else {
-                c.status.as_str()
-            },
+            c.status_word(),
             c.controller,
             c.item,
             c.reason_and_remedy()

@@ -114,11 +114,7 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
             let _ = writeln!(
                 w,
                 "- **{}** `{}` {}: {}",
-                if c.not_run {
-                    "not run"
-                } else {
-                    c.status.as_str()
-                },
+                c.status_word(),
                 c.controller,
                 c.item,
                 c.reason_and_remedy()

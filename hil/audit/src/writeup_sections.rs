@@ -22,11 +22,7 @@ pub(crate) fn proofs_and_findings(a: &Audit, w: &mut String) {
                 p.baseline_lsb,
                 p.with_quantised_ki_lsb,
                 p.with_quantised_ki_and_ramps_lsb,
-                p.shares
-                    .iter()
-                    .map(|(n, v)| format!("{n} {v:.1} LSB"))
-                    .collect::<Vec<_>>()
-                    .join(", "),
+                p.shares_text(),
                 p.ki_significant_bits,
                 p.ki_shift,
                 p.ki_rel_err,
