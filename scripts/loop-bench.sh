@@ -4,7 +4,7 @@
 # Usage (from the repository root, after `cargo build --release -p sim-host`):
 #
 #     scripts/loop-bench.sh --against OTHER_SIM_HOST [--against ...] [--pairs N] [--this SIM_HOST]
-#                           [--instructions]
+#                           [--instructions] [--parts]
 #
 # Runs, alternating between each OTHER_SIM_HOST (e.g. builds of earlier commits; repeat
 # --against for several) and this build (default target/release/sim-host), N rounds
@@ -12,6 +12,13 @@
 #
 #   loop:  sim-host run --scenario curve --control lead --loop device   (output discarded)
 #   modes: sim-host modes --json DIR/modes.json                         (4 cases x 1 000 points)
+#
+# With --parts, two more workloads show what the closed loop is made of, the work it
+# cannot drop:
+#
+#   ref:   sim-host run --scenario curve --control lead                 (the continuous reference alone)
+#   core:  sim-host run --scenario curve --control lead --loop core     (the sampled run with the
+#                                                                        control core called in process: no frame, no link)
 #
 # and prints, for each binary (by its path) and workload, the medians of the whole
 # process's CPU time (user + system, ms; `wait4`'s rusage, microsecond resolution) and
@@ -26,12 +33,14 @@ this=target/release/sim-host
 against=()
 pairs=7
 instructions=0
+jobs=(loop modes)
 while [ $# -gt 0 ]; do
     case "$1" in
         --against) against+=("$2"); shift 2 ;;
         --this) this="$2"; shift 2 ;;
         --pairs) pairs="$2"; shift 2 ;;
         --instructions) instructions=1; shift ;;
+        --parts) jobs=(loop modes ref core); shift ;;
         -h|--help) sed -n '2,/^set -e/p' "$0" | grep '^#' | sed 's/^# \{0,1\}//'; exit 0 ;;
         *) echo "loop-bench: unknown argument $1 (see --help)" >&2; exit 2 ;;
     esac
@@ -70,11 +79,23 @@ print("%.1f %s" % ((ru.ru_utime + ru.ru_stime) * 1000, open(rss).read().split()[
         || { echo "loop-bench: failed: $*" >&2; cat "$tmp/err" >&2; exit 1; }
 }
 
+# The arguments of workload $1 (the modal sweep writes its JSON to $2), in `args`.
+args_of() {
+    case "$1" in
+        loop) args=(run --scenario curve --control lead --loop device) ;;
+        modes) args=(modes --json "$2") ;;
+        ref) args=(run --scenario curve --control lead) ;;
+        core) args=(run --scenario curve --control lead --loop core) ;;
+    esac
+}
+
 for i in $(seq "$pairs"); do
     for side in "${!bins[@]}"; do
         bin=${bins[$side]}
-        measure "$tmp/$side.loop" "$bin" run --scenario curve --control lead --loop device
-        measure "$tmp/$side.modes" "$bin" modes --json "$tmp/modes-$side.json"
+        for job in "${jobs[@]}"; do
+            args_of "$job" "$tmp/modes-$side.json"
+            measure "$tmp/$side.$job" "$bin" "${args[@]}"
+        done
     done
 done
 
@@ -84,7 +105,7 @@ w=6
 for b in "${bins[@]}"; do [ ${#b} -gt $w ] && w=${#b}; done
 printf "%-${w}s %-6s %12s %14s   (%s rounds, median)\n" binary job "cpu ms" "peak RSS MiB" "$pairs"
 for side in "${!bins[@]}"; do
-    for job in loop modes; do
+    for job in "${jobs[@]}"; do
         cpu=$(cut -d' ' -f1 "$tmp/$side.$job" | median)
         rss=$(cut -d' ' -f2 "$tmp/$side.$job" | median)
         printf "%-${w}s %-6s %12s %14.1f\n" "${bins[$side]}" "$job" "$cpu" "$(echo "$rss / 1024" | bc -l)"
@@ -95,12 +116,8 @@ if [ "$instructions" = 1 ]; then
     printf "%-${w}s %-6s %12s\n" binary job "instructions (M, callgrind)"
     for side in "${!bins[@]}"; do
         bin=${bins[$side]}
-        for job in loop modes; do
-            if [ "$job" = loop ]; then
-                args=(run --scenario curve --control lead --loop device)
-            else
-                args=(modes --json "$tmp/modes-cg.json")
-            fi
+        for job in "${jobs[@]}"; do
+            args_of "$job" "$tmp/modes-cg.json"
             valgrind --tool=callgrind --callgrind-out-file="$tmp/cg" "$bin" "${args[@]}" >/dev/null 2>"$tmp/err" \
                 || { echo "loop-bench: callgrind failed: $bin" >&2; cat "$tmp/err" >&2; exit 1; }
             ir=$(sed -n 's/^summary: \([0-9]*\).*/\1/p' "$tmp/cg")
