@@ -207,9 +207,14 @@ fn sampled<F: Flags>(
     flags: F,
 ) -> Trajectory {
     let sc = s.sc;
+    // The integrator's own copy of the plant, only ever read by inlined code: the
+    // calls that are not inlined (the measurement, the set-up) get the set-up's plant,
+    // which carries the same law ([`Setup::adhesion`] puts it there). A reference to
+    // this copy in such a call would let the compiler assume any later call may change
+    // it, and reload its coefficients in every integration step.
     let mut plant = s.plant;
     let drive = sc.drive;
-    let mut x = plant.rolling_state(sc.params.v);
+    let mut x = s.plant.rolling_state(sc.params.v);
     let (n_steps, every) = s.steps();
     let h = sc.dt_ns as f64 * 1e-9;
     let mut records = Vec::with_capacity((n_steps / every + 2) as usize);
@@ -238,14 +243,14 @@ fn sampled<F: Flags>(
     let e0 = s.exo(0);
     plant.adhesion = s.adhesion(0);
     let m0 = measure(
-        &plant,
+        &s.plant,
         &x,
         &Actuation::default(),
         &inputs(&e0, 0, &Actuation::default()),
         e0.demand,
         e0.i_ref,
     );
-    let mut held = ctrl.initial(&m0, plant.k_m());
+    let mut held = ctrl.initial(&m0, s.plant.k_m());
     let mut diverged_at = None;
     // The next controller call, ns (every `period` from 0), and the next step that
     // records (every `every`-th from step 0).
@@ -259,7 +264,7 @@ fn sampled<F: Flags>(
         if k < n_steps && t_ns == next_call {
             next_call += period;
             let on = fault(t_ns, &held);
-            let m = measure(&plant, &x, &on, &inputs(&e, 0, &on), e.demand, e.i_ref);
+            let m = measure(&s.plant, &x, &on, &inputs(&e, 0, &on), e.demand, e.i_ref);
             let m = sensor.apply(&m);
             let a = actuator.limit(ctrl.step(t_ns, &m));
             calls += 1;
