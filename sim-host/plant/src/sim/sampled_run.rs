@@ -286,12 +286,12 @@ fn sampled<F: Flags>(
         }
         if record || k == n_steps {
             let t_psi = fault(t_ns, &held).t_psi;
-            let mut r = s.record(t_ns, &x, &e, t_psi, if drive { held.u_a } else { 0.0 });
+            let mut r = s.record(t_ns, x, e, t_psi, if drive { held.u_a } else { 0.0 });
             if !drive {
                 r.u_a_v = 0.0;
             }
             records.push(r);
-            if diverged(&x) {
+            if diverged(x) {
                 diverged_at = Some(t_ns as f64 * 1e-9);
                 break;
             }
