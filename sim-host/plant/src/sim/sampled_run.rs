@@ -136,22 +136,37 @@ pub fn measure(
     demand: f64,
     i_ref: f64,
 ) -> Measurements {
+    measure_with(plant, plant.cfg, x, held, u, demand, i_ref)
+}
+
+/// [`measure`] with the plant's configuration as [`Flags`] (the sampled run passes its
+/// [`Fixed`](crate::plant::Fixed) ones: the same arithmetic without the branches).
+#[allow(clippy::too_many_arguments)]
+fn measure_with<F: Flags>(
+    plant: &Plant,
+    flags: F,
+    x: &State,
+    held: &Actuation,
+    u: &Inputs<f64>,
+    demand: f64,
+    i_ref: f64,
+) -> Measurements {
     let uu = Inputs {
         t_psi: held.t_psi,
         u_a: held.u_a,
         ..*u
     };
-    let (dx, _) = plant.rhs(x, &uu);
-    let w_l = if plant.cfg.axle == crate::scenario::Axle::Rigid {
-        x[ix::WR]
-    } else {
+    let (dx, _) = plant.rhs_with(flags, x, &uu);
+    let w_l = if flags.flexible() {
         x[ix::WL]
+    } else {
+        x[ix::WR]
     };
     Measurements {
         yd_mps: x[ix::YD],
         ydd_mps2: dx[ix::YD],
         i_a: x[ix::IA],
-        w_m: if plant.cfg.drive {
+        w_m: if flags.drive() {
             x[ix::WM]
         } else {
             plant.n() * 0.5 * (x[ix::WR] + w_l)
@@ -242,8 +257,9 @@ fn sampled<F: Flags>(
     };
     let e0 = s.exo(0);
     plant.adhesion = s.adhesion(0);
-    let m0 = measure(
+    let m0 = measure_with(
         &s.plant,
+        flags,
         &x,
         &Actuation::default(),
         &inputs(&e0, 0, &Actuation::default()),
@@ -264,7 +280,15 @@ fn sampled<F: Flags>(
         if k < n_steps && t_ns == next_call {
             next_call += period;
             let on = fault(t_ns, &held);
-            let m = measure(&s.plant, &x, &on, &inputs(&e, 0, &on), e.demand, e.i_ref);
+            let m = measure_with(
+                &s.plant,
+                flags,
+                &x,
+                &on,
+                &inputs(&e, 0, &on),
+                e.demand,
+                e.i_ref,
+            );
             let m = sensor.apply(&m);
             let a = actuator.limit(ctrl.step(t_ns, &m));
             calls += 1;
