@@ -523,9 +523,9 @@ impl Plant {
             debug_assert!(self.adhesion.is_none());
             return Creep { fx_r, fx_l, fy };
         }
-        match &self.adhesion {
+        match self.adhesion {
             None => Creep { fx_r, fx_l, fy },
-            Some(a) => self.limit(a, Creep { fx_r, fx_l, fy }, v),
+            Some(a) => Self::limit(a, self.inv.f11, self.inv.f22, Creep { fx_r, fx_l, fy }, v),
         }
     }
 
@@ -533,9 +533,12 @@ impl Plant {
     /// linear forces). The lateral force of the plant is per wheel; with adhesion the two
     /// wheels' lateral forces differ (each is limited with its own longitudinal
     /// creepage), and [`Creep::fy`] is their mean, so `2 F_y` in eq. (4) is their sum.
+    ///
+    /// Out of line, and given copies rather than the plant: a reference to the plant
+    /// passed to a call that is not inlined would let the compiler assume any later call
+    /// may change it, and reload its coefficients in every integration step.
     #[inline(never)]
-    fn limit<S: Scalar>(&self, a: &Adhesion, lin: Creep<S>, v: S) -> Creep<S> {
-        let (ix, iy) = (self.inv.f11, self.inv.f22);
+    fn limit<S: Scalar>(a: Adhesion, ix: f64, iy: f64, lin: Creep<S>, v: S) -> Creep<S> {
         let (fx_r, fy_r) = a.apply(lin.fx_r, lin.fy, ix, iy, v);
         let (fx_l, fy_l) = a.apply(lin.fx_l, lin.fy, ix, iy, v);
         Creep {

@@ -522,7 +522,9 @@ impl Scenario {
     }
 
     /// The rail condition at `t_ns`: `None` without `[[adhesion]]` sections (the linear
-    /// law), else the section's condition, `dry` outside every section.
+    /// law), else the section's condition, `dry` outside every section. Inlined: the
+    /// runs ask every integration step, and a call there makes them spill their state.
+    #[inline]
     pub fn condition_at(&self, t_ns: u64) -> Option<Condition> {
         if self.adhesion.is_empty() {
             return None;

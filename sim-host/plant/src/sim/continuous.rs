@@ -7,6 +7,7 @@ use crate::plant::{ix, Flags, Plant, PlantConfig, State};
 use crate::scenario::{Scenario, TrackCursor};
 
 /// Per-step exogenous inputs shared by both run kinds.
+#[derive(Clone, Copy)]
 pub(super) struct Exo {
     pub(super) demand: f64,
     pub(super) f_run: f64,
@@ -116,15 +117,13 @@ impl<'a> Setup<'a> {
         }
     }
 
+    /// The record of state `x` with inputs `e` at `t_ns`. `x` and `e` by value: a
+    /// reference to a run's own state handed to this out-of-line call would make the
+    /// compiler assume any later call may read or change it, and keep it in memory
+    /// through every integration step.
     #[allow(clippy::too_many_arguments)]
-    pub(super) fn record(
-        &mut self,
-        t_ns: u64,
-        x: &State,
-        e: &Exo,
-        t_ctrl: f64,
-        u_a: f64,
-    ) -> Record {
+    pub(super) fn record(&mut self, t_ns: u64, x: State, e: Exo, t_ctrl: f64, u_a: f64) -> Record {
+        let (x, e) = (&x, &e);
         let mu_avail = self.mu_avail(x[ix::V]);
         let p = &self.sc.params;
         let cr = self.plant.creep(x, e.curv[0]);
@@ -253,8 +252,8 @@ fn continuous<F: Flags>(
             } else {
                 0.0
             };
-            on_record(s.record(t_ns, &x, &e, ctrl.yaw_torque(&x), u_a));
-            if diverged(&x) {
+            on_record(s.record(t_ns, x, e, ctrl.yaw_torque(&x), u_a));
+            if diverged(x) {
                 diverged_at = Some(t_ns as f64 * 1e-9);
                 break;
             }
@@ -288,7 +287,7 @@ fn continuous<F: Flags>(
             0.0
         };
         let g = sc.actuator_fault.map_or(1.0, |f| f.gain(t_end));
-        on_record(s.record(t_end, &x, &e, g * ctrl.yaw_torque(&x), u_a));
+        on_record(s.record(t_end, x, e, g * ctrl.yaw_torque(&x), u_a));
     }
     RunInfo {
         scenario: sc.name.clone(),

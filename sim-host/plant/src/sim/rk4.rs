@@ -104,34 +104,45 @@ impl<F: Flags> Rhs for ClosedLoopStages<'_, F> {
 }
 
 /// [`rk4_step`] for any [`Rhs`]: the same arithmetic.
+///
+/// The update of state `i` is `x + h/6 (k1 + 2 (k2 + k3) + k4)`, evaluated left to
+/// right as written: `(h / 6) * ((k1 + 2 (k2 + k3)) + k4)`. The partial sum
+/// `k1 + 2 (k2 + k3)` needs only the first three stages, so it is formed before the
+/// fourth (the same operations on the same operands, hence the same bits), and only it,
+/// not `k1`, `k2` and `k3`, has to be kept across the last right-hand side.
 #[inline(always)]
 pub fn rk4_step_with<R: Rhs>(x: &State, h: f64, mut f: R) -> State {
     let moves: [bool; NX] = std::array::from_fn(|i| f.moves(i));
-    let mut f = |stage: usize, x: &State| f.eval(stage, x);
-    let k1 = f(0, x);
+    // `0.5 * h * k` is `(0.5 * h) * k` and `h / 6.0 * s` is `(h / 6.0) * s`: the
+    // factors are formed once per step.
+    let half_h = 0.5 * h;
+    let sixth_h = h / 6.0;
+    let k1 = f.eval(0, x);
     let mut xt = *x;
     for i in 0..NX {
         if moves[i] {
-            xt[i] = x[i] + 0.5 * h * k1[i];
+            xt[i] = x[i] + half_h * k1[i];
         }
     }
-    let k2 = f(1, &xt);
+    let k2 = f.eval(1, &xt);
     for i in 0..NX {
         if moves[i] {
-            xt[i] = x[i] + 0.5 * h * k2[i];
+            xt[i] = x[i] + half_h * k2[i];
         }
     }
-    let k3 = f(2, &xt);
+    let k3 = f.eval(2, &xt);
+    let mut sum = [0.0; NX];
     for i in 0..NX {
         if moves[i] {
             xt[i] = x[i] + h * k3[i];
+            sum[i] = k1[i] + 2.0 * (k2[i] + k3[i]);
         }
     }
-    let k4 = f(3, &xt);
+    let k4 = f.eval(3, &xt);
     let mut out = *x;
     for i in 0..NX {
         if moves[i] {
-            out[i] = x[i] + h / 6.0 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i]);
+            out[i] = x[i] + sixth_h * (sum[i] + k4[i]);
         }
     }
     out

@@ -136,22 +136,37 @@ pub fn measure(
     demand: f64,
     i_ref: f64,
 ) -> Measurements {
+    measure_with(plant, plant.cfg, x, held, u, demand, i_ref)
+}
+
+/// [`measure`] with the plant's configuration as [`Flags`] (the sampled run passes its
+/// [`Fixed`](crate::plant::Fixed) ones: the same arithmetic without the branches).
+#[allow(clippy::too_many_arguments)]
+fn measure_with<F: Flags>(
+    plant: &Plant,
+    flags: F,
+    x: &State,
+    held: &Actuation,
+    u: &Inputs<f64>,
+    demand: f64,
+    i_ref: f64,
+) -> Measurements {
     let uu = Inputs {
         t_psi: held.t_psi,
         u_a: held.u_a,
         ..*u
     };
-    let (dx, _) = plant.rhs(x, &uu);
-    let w_l = if plant.cfg.axle == crate::scenario::Axle::Rigid {
-        x[ix::WR]
-    } else {
+    let (dx, _) = plant.rhs_with(flags, x, &uu);
+    let w_l = if flags.flexible() {
         x[ix::WL]
+    } else {
+        x[ix::WR]
     };
     Measurements {
         yd_mps: x[ix::YD],
         ydd_mps2: dx[ix::YD],
         i_a: x[ix::IA],
-        w_m: if plant.cfg.drive {
+        w_m: if flags.drive() {
             x[ix::WM]
         } else {
             plant.n() * 0.5 * (x[ix::WR] + w_l)
@@ -207,9 +222,14 @@ fn sampled<F: Flags>(
     flags: F,
 ) -> Trajectory {
     let sc = s.sc;
+    // The integrator's own copy of the plant, only ever read by inlined code: the
+    // calls that are not inlined (the measurement, the set-up) get the set-up's plant,
+    // which carries the same law ([`Setup::adhesion`] puts it there). A reference to
+    // this copy in such a call would let the compiler assume any later call may change
+    // it, and reload its coefficients in every integration step.
     let mut plant = s.plant;
     let drive = sc.drive;
-    let mut x = plant.rolling_state(sc.params.v);
+    let mut x = s.plant.rolling_state(sc.params.v);
     let (n_steps, every) = s.steps();
     let h = sc.dt_ns as f64 * 1e-9;
     let mut records = Vec::with_capacity((n_steps / every + 2) as usize);
@@ -237,15 +257,16 @@ fn sampled<F: Flags>(
     };
     let e0 = s.exo(0);
     plant.adhesion = s.adhesion(0);
-    let m0 = measure(
-        &plant,
+    let m0 = measure_with(
+        &s.plant,
+        flags,
         &x,
         &Actuation::default(),
         &inputs(&e0, 0, &Actuation::default()),
         e0.demand,
         e0.i_ref,
     );
-    let mut held = ctrl.initial(&m0, plant.k_m());
+    let mut held = ctrl.initial(&m0, s.plant.k_m());
     let mut diverged_at = None;
     // The next controller call, ns (every `period` from 0), and the next step that
     // records (every `every`-th from step 0).
@@ -259,7 +280,15 @@ fn sampled<F: Flags>(
         if k < n_steps && t_ns == next_call {
             next_call += period;
             let on = fault(t_ns, &held);
-            let m = measure(&plant, &x, &on, &inputs(&e, 0, &on), e.demand, e.i_ref);
+            let m = measure_with(
+                &s.plant,
+                flags,
+                &x,
+                &on,
+                &inputs(&e, 0, &on),
+                e.demand,
+                e.i_ref,
+            );
             let m = sensor.apply(&m);
             let a = actuator.limit(ctrl.step(t_ns, &m));
             calls += 1;
@@ -281,12 +310,12 @@ fn sampled<F: Flags>(
         }
         if record || k == n_steps {
             let t_psi = fault(t_ns, &held).t_psi;
-            let mut r = s.record(t_ns, &x, &e, t_psi, if drive { held.u_a } else { 0.0 });
+            let mut r = s.record(t_ns, x, e, t_psi, if drive { held.u_a } else { 0.0 });
             if !drive {
                 r.u_a_v = 0.0;
             }
             records.push(r);
-            if diverged(&x) {
+            if diverged(x) {
                 diverged_at = Some(t_ns as f64 * 1e-9);
                 break;
             }

@@ -159,7 +159,9 @@ pub struct RunInfo {
 /// the linear creep law), m.
 pub const DIVERGED_Y_M: f64 = 0.05;
 
-pub(super) fn diverged(x: &State) -> bool {
+/// Whether state `x` has diverged (see [`RunInfo::diverged_at_s`]). By value, as
+/// `Setup::record` takes the state.
+pub(super) fn diverged(x: State) -> bool {
     !x.iter().all(|v| v.is_finite()) || x[ix::Y].abs() > DIVERGED_Y_M
 }
 
