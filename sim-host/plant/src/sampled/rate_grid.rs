@@ -127,6 +127,16 @@ pub struct RateRow {
     pub min_baud: f64,
 }
 
+/// Damping ratios closer than this are the same mode's, equal but for roundoff.
+const ZETA_TIE: f64 = 1e-9;
+
+/// Whether damping `zeta` is worse than the worst so far, `worst`, by more than roundoff:
+/// among grid points that tie, the first in grid order (creep, then conicity) is the one
+/// reported, whatever the last bits of their eigenvalues.
+fn worse(zeta: f64, worst: f64) -> bool {
+    zeta < worst - ZETA_TIE
+}
+
 fn worst_continuous(ev: &[Complex<f64>]) -> (f64, f64) {
     ev.iter()
         .filter(|e| e.im.abs() > 1e-9)
@@ -247,7 +257,7 @@ pub fn rate_row(
             row.newly_unstable += (cont_stable && !cl.stable()) as usize;
             row.max_damping_loss = row.max_damping_loss.max(zc - zs);
             row.max_radius = row.max_radius.max(cl.spectral_radius);
-            if zs < row.worst_sampled.zeta {
+            if worse(zs, row.worst_sampled.zeta) {
                 row.worst_sampled = GridMode {
                     creep,
                     lambda,
@@ -255,7 +265,7 @@ pub fn rate_row(
                     zeta: zs,
                 };
             }
-            if cont_stable && zs < row.worst_sampled_stable_region.zeta {
+            if cont_stable && worse(zs, row.worst_sampled_stable_region.zeta) {
                 row.worst_sampled_stable_region = GridMode {
                     creep,
                     lambda,
@@ -263,7 +273,7 @@ pub fn rate_row(
                     zeta: zs,
                 };
             }
-            if zc < row.worst_continuous.zeta {
+            if worse(zc, row.worst_continuous.zeta) {
                 row.worst_continuous = GridMode {
                     creep,
                     lambda,
@@ -448,4 +458,20 @@ pub fn rates(
         critical_creep,
         variants,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_tie_within_roundoff_keeps_the_first_grid_point() {
+        let first = -0.323_000_000_000_1;
+        assert!(worse(first, f64::INFINITY));
+        // The same mode at a later grid point, lower only in its last bits: not worse.
+        assert!(!worse(first - 1e-13, first));
+        // A lower damping by more than roundoff is.
+        assert!(worse(first - 1e-6, first));
+        assert!(!worse(f64::NAN, first));
+    }
 }
