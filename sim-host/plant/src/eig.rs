@@ -1,0 +1,582 @@
+//! Eigenvalues of a small dense real matrix, on the stack: balancing, Householder
+//! reduction to upper Hessenberg form, then the Francis implicit double-shift QR
+//! iteration without the Schur vectors (EISPACK `balanc` + `orthes` + `hqr`, with the
+//! deflation test, shifts and 2x2 standardisation of LAPACK `dlahqr` / `dlanv2`).
+//!
+//! 1. Balancing (`balanc`'s scaling loop, radix 2): `A <- D^-1 A D` with `D` diagonal of
+//!    powers of two, chosen so that each off-diagonal row and column have comparable
+//!    1-norms. Powers of two make the similarity exact (no rounding), and the smaller
+//!    norm bounds the rounding errors of the next steps. There is no permutation step:
+//!    a matrix with isolated eigenvalues is first split into its irreducible diagonal
+//!    blocks by the caller ([`crate::modes::eigenvalues`] does).
+//! 2. Hessenberg reduction: `n - 2` Householder reflections `H_k = I - tau v v^T`
+//!    applied on both sides (`Q^T A Q` is upper Hessenberg and has `A`'s eigenvalues).
+//! 3. QR iteration on the active window `H[l..=i, l..=i]`: a subdiagonal entry is set to
+//!    zero when negligible (`dlahqr`'s test, Ahues & Tisseur: relative to its neighbours,
+//!    which keeps small eigenvalues accurate); a trailing 1x1 block is a real eigenvalue,
+//!    a 2x2 block a real or complex-conjugate pair (standardised as `dlanv2` does).
+//!    Otherwise one double-shift step with the eigenvalues of the trailing 2x2 block as
+//!    shifts (a bulge chased by 3-element reflections from the lowest row `m` where two
+//!    consecutive subdiagonals are small). Every 10th step without a deflation uses an
+//!    exceptional shift (`0.75 s + h_ii`, `s` the last two subdiagonals; every 20th the
+//!    first two) to break cycles.
+//!
+//! Cost: about `10 n^3 / 3` flops for the reduction and `10 n^2` per QR step, about two
+//! steps per eigenvalue: no heap, no Schur vectors.
+
+use nalgebra::Complex;
+
+/// Largest order handled on the stack.
+pub const MAX_ORDER: usize = 16;
+
+/// QR steps allowed for a matrix of order `n`: `30 max(n, 10)` in all (as `dlahqr`
+/// allows per deflated block).
+fn step_budget(n: usize) -> usize {
+    30 * n.max(10)
+}
+
+/// Unit roundoff times the base, `2^-52` (LAPACK `dlamch('P')`).
+const ULP: f64 = f64::EPSILON;
+/// Smallest normal number (LAPACK `dlamch('S')`).
+const SAFE_MIN: f64 = f64::MIN_POSITIVE;
+
+/// A real square matrix of order `n <= MAX_ORDER`, row-major on the stack.
+#[derive(Debug, Clone)]
+pub struct SmallMatrix {
+    n: usize,
+    a: [[f64; MAX_ORDER]; MAX_ORDER],
+}
+
+/// The eigenvalues of a [`SmallMatrix`]: `len()` values, on the stack.
+#[derive(Debug, Clone, Copy)]
+pub struct Eigenvalues {
+    n: usize,
+    values: [Complex<f64>; MAX_ORDER],
+}
+
+impl Eigenvalues {
+    /// The eigenvalues as a slice.
+    pub fn as_slice(&self) -> &[Complex<f64>] {
+        &self.values[..self.n]
+    }
+}
+
+impl std::ops::Deref for Eigenvalues {
+    type Target = [Complex<f64>];
+    fn deref(&self) -> &[Complex<f64>] {
+        self.as_slice()
+    }
+}
+
+impl SmallMatrix {
+    /// The `n x n` matrix with entries `f(i, j)`; `None` when `n > MAX_ORDER`.
+    pub fn from_fn(n: usize, mut f: impl FnMut(usize, usize) -> f64) -> Option<Self> {
+        if n > MAX_ORDER {
+            return None;
+        }
+        let mut a = [[0.0; MAX_ORDER]; MAX_ORDER];
+        for (i, row) in a.iter_mut().enumerate().take(n) {
+            for (j, v) in row.iter_mut().enumerate().take(n) {
+                *v = f(i, j);
+            }
+        }
+        Some(SmallMatrix { n, a })
+    }
+
+    /// The order `n`.
+    pub fn order(&self) -> usize {
+        self.n
+    }
+
+    /// The eigenvalues of the matrix (see the module doc for the algorithm).
+    ///
+    /// Returns the `n` eigenvalues in the order of the diagonal of the computed real
+    /// Schur form, top to bottom: a complex-conjugate pair is adjacent, the one with the
+    /// positive imaginary part first; a real eigenvalue has imaginary part `0.0`. Each is
+    /// exact for a matrix within a few `eps ||A||` of `A` (backward stable).
+    ///
+    /// `None` when the QR iteration does not converge within `30 max(n, 10)` steps (never
+    /// seen on a finite matrix; a matrix with a non-finite entry always ends here, as
+    /// the iteration cannot converge on NaN).
+    ///
+    /// ```
+    /// use wheelset_plant::eig::SmallMatrix;
+    /// // x'' + 0.2 x' + 4 x = 0: lambda = -0.1 +- j sqrt(3.99).
+    /// let a = SmallMatrix::from_fn(2, |i, j| [[0.0, 1.0], [-4.0, -0.2]][i][j]).unwrap();
+    /// let l = a.eigenvalues().unwrap();
+    /// assert!((l[0].re + 0.1).abs() < 1e-15 && (l[0].im - 3.99f64.sqrt()).abs() < 1e-15);
+    /// assert_eq!(l[1], l[0].conj());
+    /// ```
+    pub fn eigenvalues(mut self) -> Option<Eigenvalues> {
+        let n = self.n;
+        let mut out = Eigenvalues {
+            n,
+            values: [Complex::new(0.0, 0.0); MAX_ORDER],
+        };
+        if self.a[..n]
+            .iter()
+            .any(|r| r[..n].iter().any(|v| !v.is_finite()))
+        {
+            return None;
+        }
+        self.balance();
+        self.hessenberg();
+        self.hqr(&mut out.values)?;
+        Some(out)
+    }
+
+    /// `balanc`'s scaling (no permutation): row and column `i` scaled by `1/f` and `f`
+    /// (a power of 2) when that reduces `c + r` (the off-diagonal 1-norms of column and
+    /// row `i`) by 5 %, sweeping `i` until no scaling is made. The diagonal is
+    /// unchanged by the similarity: it is set aside meanwhile, so the norms are sums
+    /// over whole rows and columns, found once per sweep and updated after a scaling.
+    fn balance(&mut self) {
+        const RADIX: f64 = 2.0;
+        const RADIX2: f64 = RADIX * RADIX;
+        // Scale factors kept within 2^+-256 of 1 and sweeps bounded: finite entries
+        // cannot overflow and the loop ends on any input.
+        const FMAX: f64 = 1.157_920_892_373_162e77; // 2^256
+        let n = self.n.min(MAX_ORDER);
+        let a = &mut self.a;
+        let mut diag = [0.0; MAX_ORDER];
+        for (i, d) in diag[..n].iter_mut().enumerate() {
+            *d = std::mem::take(&mut a[i][i]);
+        }
+        for _sweep in 0..64 {
+            // c[k], r[k]: 1-norms of column k and row k (entries beyond n are zero:
+            // whole rows of MAX_ORDER are summed).
+            let mut c = [0.0f64; MAX_ORDER];
+            let mut r = [0.0f64; MAX_ORDER];
+            for (row, rk) in a[..n].iter().zip(&mut r) {
+                let mut acc = [0.0f64; 4];
+                for (q, cq) in row.chunks_exact(4).zip(c.chunks_exact_mut(4)) {
+                    for t in 0..4 {
+                        cq[t] += q[t].abs();
+                        acc[t] += q[t].abs();
+                    }
+                }
+                *rk = (acc[0] + acc[1]) + (acc[2] + acc[3]);
+            }
+            let mut changed = false;
+            for i in 0..n {
+                let (mut ci, ri) = (c[i], r[i]);
+                if ci == 0.0 || ri == 0.0 {
+                    continue;
+                }
+                let s = ci + ri;
+                let mut f = 1.0;
+                let g = ri / RADIX;
+                while ci < g && f < FMAX {
+                    f *= RADIX;
+                    ci *= RADIX2;
+                }
+                let g = ri * RADIX;
+                while ci >= g && f > 1.0 / FMAX {
+                    f /= RADIX;
+                    ci /= RADIX2;
+                }
+                if (ci + ri) / f < 0.95 * s {
+                    changed = true;
+                    let g = 1.0 / f;
+                    // Row i by g: column k's norm changes by (g - 1) |a_ik|.
+                    for (v, ck) in a[i].iter_mut().zip(&mut c) {
+                        *ck += (g - 1.0) * v.abs();
+                        *v *= g;
+                    }
+                    // Column i by f: row k's norm changes by (f - 1) |a_ki|.
+                    for (row, rk) in a[..n].iter_mut().zip(&mut r) {
+                        *rk += (f - 1.0) * row[i].abs();
+                        row[i] *= f;
+                    }
+                }
+            }
+            if !changed {
+                break;
+            }
+        }
+        for (i, d) in diag[..n].iter().enumerate() {
+            a[i][i] = *d;
+        }
+    }
+
+    /// Reduction to upper Hessenberg form by stabilised elementary similarity
+    /// transformations (EISPACK `elmhes`: Gaussian elimination with partial pivoting,
+    /// each multiplier at most 1 in magnitude). Zero entries are skipped, so a sparse
+    /// matrix costs less than the `5 n^3 / 3` flops of a dense one.
+    fn hessenberg(&mut self) {
+        let n = self.n.min(MAX_ORDER);
+        let a = &mut self.a;
+        for m in 1..n.saturating_sub(1) {
+            // Pivot: the largest |a[j][m-1]|, j >= m.
+            let mut x = 0.0f64;
+            let mut piv = m;
+            for (j, row) in a[..n].iter().enumerate().skip(m) {
+                if row[m - 1].abs() > x.abs() {
+                    x = row[m - 1];
+                    piv = j;
+                }
+            }
+            if x == 0.0 {
+                continue;
+            }
+            if piv != m {
+                a.swap(piv, m);
+                for row in &mut a[..n] {
+                    row.swap(piv, m);
+                }
+            }
+            for i in m + 1..n {
+                let y = a[i][m - 1];
+                if y == 0.0 {
+                    continue;
+                }
+                let y = y / x;
+                a[i][m - 1] = 0.0;
+                // Row i -= y row m, then column m += y column i.
+                let (top, rest) = a.split_at_mut(i);
+                for (v, p) in rest[0][m..n].iter_mut().zip(&top[m][m..n]) {
+                    *v -= y * p;
+                }
+                for row in &mut a[..n] {
+                    row[m] += y * row[i];
+                }
+            }
+        }
+    }
+
+    /// The double-shift QR iteration on the Hessenberg matrix (LAPACK `dlahqr` with
+    /// `wantt = wantz = false`); writes the eigenvalues to `out[..n]`.
+    fn hqr(&mut self, out: &mut [Complex<f64>; MAX_ORDER]) -> Option<()> {
+        let n = self.n;
+        if n == 0 {
+            return Some(());
+        }
+        let h = &mut self.a;
+        // Entries below the first subdiagonal are zero after the reduction.
+        let smlnum = SAFE_MIN * (n as f64 / ULP);
+        let mut budget = step_budget(n);
+        let mut since_deflation = 0usize;
+        // Active window: rows/columns l..=i; everything below i is done.
+        let mut i = n - 1;
+        loop {
+            // Find l: the lowest negligible subdiagonal in the window.
+            let mut l = i;
+            while l > 0 {
+                let k = l;
+                let sub = h[k][k - 1].abs();
+                if sub <= smlnum {
+                    break;
+                }
+                let mut tst = h[k - 1][k - 1].abs() + h[k][k].abs();
+                if tst == 0.0 {
+                    if k >= 2 {
+                        tst += h[k - 1][k - 2].abs();
+                    }
+                    if k + 1 < n {
+                        tst += h[k + 1][k].abs();
+                    }
+                }
+                if sub <= ULP * tst {
+                    let sup = h[k - 1][k].abs();
+                    let (ab, ba) = (sub.max(sup), sub.min(sup));
+                    let diff = (h[k - 1][k - 1] - h[k][k]).abs();
+                    let hkk = h[k][k].abs();
+                    let (aa, bb) = (hkk.max(diff), hkk.min(diff));
+                    let s = aa + ab;
+                    if ba * (ab / s) <= smlnum.max(ULP * (bb * (aa / s))) {
+                        break;
+                    }
+                }
+                l -= 1;
+            }
+            if l > 0 {
+                h[l][l - 1] = 0.0;
+            }
+            if l == i {
+                // A real eigenvalue.
+                out[i] = Complex::new(h[i][i], 0.0);
+                since_deflation = 0;
+                if i == 0 {
+                    return Some(());
+                }
+                i -= 1;
+                continue;
+            }
+            if l + 1 == i {
+                // A 2x2 block: a real or complex-conjugate pair.
+                let (p, q) = standard_2x2(h[i - 1][i - 1], h[i - 1][i], h[i][i - 1], h[i][i]);
+                out[i - 1] = p;
+                out[i] = q;
+                since_deflation = 0;
+                if i < 2 {
+                    return Some(());
+                }
+                i -= 2;
+                continue;
+            }
+            if budget == 0 {
+                return None;
+            }
+            budget -= 1;
+            since_deflation += 1;
+
+            // The two shifts, as the eigenvalues (rt1, rt2) of a 2x2 block.
+            let (h11, h12, h21, h22) = if since_deflation.is_multiple_of(20) {
+                let s = h[i][i - 1].abs() + h[i - 1][i - 2].abs();
+                let d = 0.75 * s + h[i][i];
+                (d, -0.4375 * s, s, d)
+            } else if since_deflation.is_multiple_of(10) {
+                let s = h[l + 1][l].abs() + h[l + 2][l + 1].abs();
+                let d = 0.75 * s + h[l][l];
+                (d, -0.4375 * s, s, d)
+            } else {
+                (h[i - 1][i - 1], h[i - 1][i], h[i][i - 1], h[i][i])
+            };
+            let s = h11.abs() + h12.abs() + h21.abs() + h22.abs();
+            let (rt1r, rt1i, rt2r, rt2i) = if s == 0.0 {
+                (0.0, 0.0, 0.0, 0.0)
+            } else {
+                let (h11, h12, h21, h22) = (h11 / s, h12 / s, h21 / s, h22 / s);
+                let tr = (h11 + h22) / 2.0;
+                let det = (h11 - tr) * (h22 - tr) - h12 * h21;
+                let rtdisc = det.abs().sqrt();
+                if det >= 0.0 {
+                    // Complex pair.
+                    (tr * s, rtdisc * s, tr * s, -rtdisc * s)
+                } else {
+                    // Real pair: use the one nearer h22 twice.
+                    let (r1, r2) = (tr + rtdisc, tr - rtdisc);
+                    let r = if (r1 - h22).abs() <= (r2 - h22).abs() {
+                        r1
+                    } else {
+                        r2
+                    };
+                    (r * s, 0.0, r * s, 0.0)
+                }
+            };
+
+            // Find m: the start of the bulge (two consecutive small subdiagonals), and
+            // the first column of (H - rt1)(H - rt2), scaled.
+            let mut m = i - 2;
+            let mut v;
+            loop {
+                // Scaled by 1/s against overflow; the test below is scale-invariant, so
+                // v is normalised once m is found.
+                let rs = 1.0 / ((h[m][m] - rt2r).abs() + rt2i.abs() + h[m + 1][m].abs());
+                let h21s = h[m + 1][m] * rs;
+                v = [
+                    h21s * h[m][m + 1] + (h[m][m] - rt1r) * ((h[m][m] - rt2r) * rs)
+                        - rt1i * (rt2i * rs),
+                    h21s * (h[m][m] + h[m + 1][m + 1] - rt1r - rt2r),
+                    h21s * h[m + 2][m + 1],
+                ];
+                if m == l {
+                    break;
+                }
+                let h00 = h[m][m - 1].abs() * (v[1].abs() + v[2].abs());
+                let h01 =
+                    v[0].abs() * (h[m - 1][m - 1].abs() + h[m][m].abs() + h[m + 1][m + 1].abs());
+                if h00 <= ULP * h01 {
+                    break;
+                }
+                m -= 1;
+            }
+            let rs = 1.0 / (v[0].abs() + v[1].abs() + v[2].abs());
+            for x in &mut v {
+                *x *= rs;
+            }
+
+            // The double-shift step: chase the bulge from m down to i.
+            for k in m..i {
+                let three = k + 2 <= i;
+                if k > m {
+                    v = [h[k][k - 1], h[k + 1][k - 1], 0.0];
+                    if three {
+                        v[2] = h[k + 2][k - 1];
+                    }
+                }
+                let Some((beta, t1, v2, v3)) = reflector(v) else {
+                    continue;
+                };
+                if k > m {
+                    h[k][k - 1] = beta;
+                    h[k + 1][k - 1] = 0.0;
+                    if three {
+                        h[k + 2][k - 1] = 0.0;
+                    }
+                } else if m > l {
+                    // Not `-h[k][k-1]`: correct also when v2, v3 underflowed.
+                    h[k][k - 1] *= 1.0 - t1;
+                }
+                let (t2, t3) = (t1 * v2, t1 * v3);
+                if three {
+                    // Rows k..k+3 from the left, over columns k..=i.
+                    if let [r0, r1, r2, ..] = &mut h[k..] {
+                        let cols = r0[k..=i].iter_mut().zip(&mut r1[k..=i]).zip(&mut r2[k..=i]);
+                        for ((x, y), z) in cols {
+                            let sum = *x + v2 * *y + v3 * *z;
+                            *x -= sum * t1;
+                            *y -= sum * t2;
+                            *z -= sum * t3;
+                        }
+                    }
+                    // Columns k..k+3 from the right, over rows l..=min(k+3, i).
+                    for row in &mut h[l..=(k + 3).min(i)] {
+                        if let [x, y, z] = &mut row[k..k + 3] {
+                            let sum = *x + v2 * *y + v3 * *z;
+                            *x -= sum * t1;
+                            *y -= sum * t2;
+                            *z -= sum * t3;
+                        }
+                    }
+                } else {
+                    if let [r0, r1, ..] = &mut h[k..] {
+                        for (x, y) in r0[k..=i].iter_mut().zip(&mut r1[k..=i]) {
+                            let sum = *x + v2 * *y;
+                            *x -= sum * t1;
+                            *y -= sum * t2;
+                        }
+                    }
+                    for row in &mut h[l..=i] {
+                        if let [x, y] = &mut row[k..k + 2] {
+                            let sum = *x + v2 * *y;
+                            *x -= sum * t1;
+                            *y -= sum * t2;
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// An elementary reflector of order 3 (LAPACK `dlarfg`; order 2 when `x[2] = 0`):
+/// returns `(beta, tau, v2, v3)` such that `(I - tau v v^T) x = [beta, 0, 0]` for
+/// `v = [1, v2, v3]`; `None` when `x[1] = x[2] = 0` (no reflection needed).
+#[inline]
+fn reflector(x: [f64; 3]) -> Option<(f64, f64, f64, f64)> {
+    // Within these bounds the plain sum of squares neither overflows nor underflows
+    // and beta is far from the underflow threshold.
+    const TINY: f64 = 1.0e-280;
+    const HUGE: f64 = 1.0e280;
+    let [a, x1, x2] = x;
+    let ss = x1 * x1 + x2 * x2;
+    if ss > TINY && ss < HUGE && a.abs() < 1.0e140 {
+        let beta = -(a * a + ss).sqrt().copysign(a);
+        let tau = (beta - a) / beta;
+        let scale = 1.0 / (a - beta);
+        return Some((beta, tau, x1 * scale, x2 * scale));
+    }
+    reflector_scaled(x)
+}
+
+/// [`reflector`] for entries near the overflow or underflow thresholds: `dlarfg` with
+/// its scaled norm and rescaling.
+#[cold]
+fn reflector_scaled(x: [f64; 3]) -> Option<(f64, f64, f64, f64)> {
+    let [mut a, mut x1, mut x2] = x;
+    let xnorm = norm2(x1, x2);
+    if xnorm == 0.0 {
+        return None;
+    }
+    let mut beta = -a.hypot(xnorm).copysign(a);
+    // Rescale when beta would lose precision to underflow.
+    let safmin = SAFE_MIN / ULP;
+    let mut scaled = 0;
+    while beta.abs() < safmin && scaled < 20 {
+        scaled += 1;
+        x1 /= safmin;
+        x2 /= safmin;
+        beta /= safmin;
+        a /= safmin;
+    }
+    if scaled > 0 {
+        beta = -a.hypot(norm2(x1, x2)).copysign(a);
+    }
+    let tau = (beta - a) / beta;
+    let scale = 1.0 / (a - beta);
+    for _ in 0..scaled {
+        beta *= safmin;
+    }
+    Some((beta, tau, x1 * scale, x2 * scale))
+}
+
+/// `sqrt(x1^2 + x2^2)`, scaled against overflow and underflow.
+fn norm2(x1: f64, x2: f64) -> f64 {
+    x1.hypot(x2)
+}
+
+/// The eigenvalues of the 2x2 block `[[a, b], [c, d]]` as LAPACK `dlanv2` computes
+/// them (standardising the block to a real Schur form), in the order of the
+/// standardised diagonal: a real pair (for `a != d` and distinct eigenvalues, the first
+/// on `a`'s side of their mean), or a complex pair `p + jq, p - jq` with `q > 0`.
+fn standard_2x2(a: f64, b: f64, c: f64, d: f64) -> (Complex<f64>, Complex<f64>) {
+    const MULTPL: f64 = 4.0;
+    let eps = ULP / 2.0;
+    // 2^-484 and 2^484 (dlanv2's SAFMN2, SAFMX2 for IEEE double).
+    let safmn2 = (2.0f64).powi(-484);
+    let safmx2 = 1.0 / safmn2;
+    let real = |x: f64, y: f64| (Complex::new(x, 0.0), Complex::new(y, 0.0));
+    if c == 0.0 {
+        return real(a, d);
+    }
+    if b == 0.0 {
+        // Swap rows and columns.
+        return real(d, a);
+    }
+    if a - d == 0.0 && b.signum() != c.signum() {
+        let q = b.abs().sqrt() * c.abs().sqrt();
+        return (Complex::new(a, q), Complex::new(d, -q));
+    }
+    let temp = a - d;
+    let p = 0.5 * temp;
+    let bcmax = b.abs().max(c.abs());
+    let bcmis = b.abs().min(c.abs()) * 1f64.copysign(b) * 1f64.copysign(c);
+    let scale = p.abs().max(bcmax);
+    let z = (p / scale) * p + (bcmax / scale) * bcmis;
+    if z >= MULTPL * eps {
+        // Real eigenvalues.
+        let z = p + (scale.sqrt() * z.sqrt()).copysign(p);
+        let a1 = d + z;
+        let d1 = d - (bcmax / z) * bcmis;
+        return real(a1, d1);
+    }
+    // Complex or nearly equal real eigenvalues: make the diagonal entries equal.
+    let mut sigma = b + c;
+    let mut temp = temp;
+    for _ in 0..=20 {
+        let scale = temp.abs().max(sigma.abs());
+        if scale >= safmx2 {
+            sigma *= safmn2;
+            temp *= safmn2;
+        } else if scale <= safmn2 {
+            sigma *= safmx2;
+            temp *= safmx2;
+        } else {
+            break;
+        }
+    }
+    let p = 0.5 * temp;
+    let tau = sigma.hypot(temp);
+    let cs = (0.5 * (1.0 + sigma.abs() / tau)).sqrt();
+    let sn = -(p / (tau * cs)) * 1f64.copysign(sigma);
+    // [aa bb; cc dd] = [a b; c d] [cs -sn; sn cs]
+    let (aa, bb) = (a * cs + b * sn, -a * sn + b * cs);
+    let (cc, dd) = (c * cs + d * sn, -c * sn + d * cs);
+    // [a b; c d] = [cs sn; -sn cs] [aa bb; cc dd]
+    let b = bb * cs + dd * sn;
+    let c = -aa * sn + cc * cs;
+    let temp = 0.5 * ((aa * cs + cc * sn) + (-bb * sn + dd * cs));
+    if c != 0.0 && b != 0.0 && b.signum() == c.signum() {
+        // Real eigenvalues after all.
+        let sab = b.abs().sqrt();
+        let sac = c.abs().sqrt();
+        let p = (sab * sac).copysign(c);
+        return real(temp + p, temp - p);
+    }
+    if c == 0.0 || b == 0.0 {
+        return real(temp, temp);
+    }
+    let q = b.abs().sqrt() * c.abs().sqrt();
+    (Complex::new(temp, q), Complex::new(temp, -q))
+}
