@@ -129,7 +129,7 @@ impl SmallMatrix {
     /// (a power of 2) when that reduces `c + r` (the off-diagonal 1-norms of column and
     /// row `i`) by 5 %, sweeping `i` until no scaling is made. The diagonal is
     /// unchanged by the similarity: it is set aside meanwhile, so the norms are sums
-    /// over whole rows and columns, found once per sweep and updated after a scaling.
+    /// over whole rows and columns, found once and updated after each scaling.
     fn balance(&mut self) {
         const RADIX: f64 = 2.0;
         const RADIX2: f64 = RADIX * RADIX;
@@ -142,21 +142,21 @@ impl SmallMatrix {
         for (i, d) in diag[..n].iter_mut().enumerate() {
             *d = std::mem::take(&mut a[i][i]);
         }
-        for _sweep in 0..64 {
-            // c[k], r[k]: 1-norms of column k and row k (entries beyond n are zero:
-            // whole rows of MAX_ORDER are summed).
-            let mut c = [0.0f64; MAX_ORDER];
-            let mut r = [0.0f64; MAX_ORDER];
-            for (row, rk) in a[..n].iter().zip(&mut r) {
-                let mut acc = [0.0f64; 4];
-                for (q, cq) in row.chunks_exact(4).zip(c.chunks_exact_mut(4)) {
-                    for t in 0..4 {
-                        cq[t] += q[t].abs();
-                        acc[t] += q[t].abs();
-                    }
+        // c[k], r[k]: 1-norms of column k and row k (entries beyond n are zero: whole
+        // rows of MAX_ORDER are summed), kept up to date through the scalings.
+        let mut c = [0.0f64; MAX_ORDER];
+        let mut r = [0.0f64; MAX_ORDER];
+        for (row, rk) in a[..n].iter().zip(&mut r) {
+            let mut acc = [0.0f64; 4];
+            for (q, cq) in row.chunks_exact(4).zip(c.chunks_exact_mut(4)) {
+                for t in 0..4 {
+                    cq[t] += q[t].abs();
+                    acc[t] += q[t].abs();
                 }
-                *rk = (acc[0] + acc[1]) + (acc[2] + acc[3]);
             }
+            *rk = (acc[0] + acc[1]) + (acc[2] + acc[3]);
+        }
+        for _sweep in 0..64 {
             let mut changed = false;
             for i in 0..n {
                 let (mut ci, ri) = (c[i], r[i]);
@@ -188,6 +188,8 @@ impl SmallMatrix {
                         *rk += (f - 1.0) * row[i].abs();
                         row[i] *= f;
                     }
+                    c[i] *= f;
+                    r[i] *= g;
                 }
             }
             if !changed {
@@ -247,7 +249,7 @@ impl SmallMatrix {
     /// The double-shift QR iteration on the Hessenberg matrix (LAPACK `dlahqr` with
     /// `wantt = wantz = false`); writes the eigenvalues to `out[..n]`.
     fn hqr(&mut self, out: &mut [Complex<f64>; MAX_ORDER]) -> Option<()> {
-        let n = self.n;
+        let n = self.n.min(MAX_ORDER);
         if n == 0 {
             return Some(());
         }
