@@ -582,3 +582,314 @@ fn standard_2x2(a: f64, b: f64, c: f64, d: f64) -> (Complex<f64>, Complex<f64>) 
     let q = b.abs().sqrt() * c.abs().sqrt();
     (Complex::new(temp, q), Complex::new(temp, -q))
 }
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used, clippy::expect_used)]
+mod tests {
+    use super::*;
+    use crate::modes::{creep_grid, Case};
+    use crate::params::Params;
+    use nalgebra::DMatrix;
+    use rand::{Rng, SeedableRng};
+    use rand_pcg::Pcg64;
+
+    fn small(a: &DMatrix<f64>) -> SmallMatrix {
+        SmallMatrix::from_fn(a.nrows(), |i, j| a[(i, j)]).unwrap()
+    }
+
+    fn solve(a: &DMatrix<f64>) -> Vec<Complex<f64>> {
+        small(a).eigenvalues().expect("converges").to_vec()
+    }
+
+    /// The oracle: nalgebra's real Schur form.
+    fn oracle(a: &DMatrix<f64>) -> Vec<Complex<f64>> {
+        a.complex_eigenvalues().iter().copied().collect()
+    }
+
+    /// `got` and `want` are the same multiset within `tol` (each of `got` matched to the
+    /// nearest unmatched of `want`); returns the largest distance.
+    fn assert_same(got: &[Complex<f64>], want: &[Complex<f64>], tol: f64, what: &str) -> f64 {
+        assert_eq!(got.len(), want.len(), "{what}: count");
+        let mut used = vec![false; want.len()];
+        let mut worst: f64 = 0.0;
+        for g in got {
+            let (k, d) = want
+                .iter()
+                .enumerate()
+                .filter(|(k, _)| !used[*k])
+                .map(|(k, w)| (k, (g - w).norm()))
+                .min_by(|x, y| x.1.total_cmp(&y.1))
+                .unwrap();
+            used[k] = true;
+            assert!(d <= tol, "{what}: {g} is {d:e} from the nearest expected ({tol:e} allowed)\n got {got:?}\n want {want:?}");
+            worst = worst.max(d);
+        }
+        worst
+    }
+
+    /// Conjugate pairs adjacent, positive imaginary part first; real ones exactly real.
+    fn assert_pairs(l: &[Complex<f64>]) {
+        let mut k = 0;
+        while k < l.len() {
+            if l[k].im == 0.0 {
+                k += 1;
+                continue;
+            }
+            assert!(l[k].im > 0.0 && k + 1 < l.len(), "pair order in {l:?}");
+            assert_eq!(l[k + 1], l[k].conj(), "pair in {l:?}");
+            k += 2;
+        }
+    }
+
+    /// A random orthogonal matrix (product of reflectors).
+    fn orthogonal(n: usize, rng: &mut Pcg64) -> DMatrix<f64> {
+        let mut q = DMatrix::<f64>::identity(n, n);
+        for _ in 0..3 {
+            let u = DMatrix::<f64>::from_fn(n, 1, |_, _| rng.random_range(-1.0..1.0));
+            let h = DMatrix::identity(n, n) - &u * u.transpose() * (2.0 / u.norm_squared());
+            q = h * q;
+        }
+        q
+    }
+
+    #[test]
+    fn random_matrices_of_orders_1_to_13_match_nalgebra() {
+        let mut rng = Pcg64::seed_from_u64(0x5eed);
+        let mut worst: f64 = 0.0;
+        for n in 1..=13 {
+            for trial in 0..40 {
+                let a = DMatrix::<f64>::from_fn(n, n, |_, _| {
+                    // Some exact zeros, as in the sparse closed-loop matrices.
+                    if rng.random_bool(0.2) {
+                        0.0
+                    } else {
+                        rng.random_range(-1.0..1.0)
+                    }
+                });
+                let got = solve(&a);
+                assert_pairs(&got);
+                let tol = 1e-10 * a.norm();
+                let d = assert_same(&got, &oracle(&a), tol, &format!("order {n}, trial {trial}"));
+                worst = worst.max(d / a.norm());
+            }
+        }
+        assert!(worst < 1e-12, "largest difference {worst:e} ||A||");
+    }
+
+    #[test]
+    fn companion_matrix_has_the_polynomial_roots() {
+        // (s + 1)(s + 2)(s - 0.5)(s^2 + 6 s + 10)(s - 4): roots -1, -2, 0.5, -3 +- j, 4.
+        let roots = [
+            Complex::new(-1.0, 0.0),
+            Complex::new(-2.0, 0.0),
+            Complex::new(0.5, 0.0),
+            Complex::new(-3.0, 1.0),
+            Complex::new(-3.0, -1.0),
+            Complex::new(4.0, 0.0),
+        ];
+        // Coefficients of prod (s - r), highest first.
+        let mut c = vec![Complex::new(1.0, 0.0)];
+        for r in roots {
+            let mut next = vec![Complex::new(0.0, 0.0); c.len() + 1];
+            for (k, ck) in c.iter().enumerate() {
+                next[k] += ck;
+                next[k + 1] -= ck * r;
+            }
+            c = next;
+        }
+        let n = roots.len();
+        let a = DMatrix::<f64>::from_fn(n, n, |i, j| {
+            if i == 0 {
+                -c[j + 1].re
+            } else if i == j + 1 {
+                1.0
+            } else {
+                0.0
+            }
+        });
+        let got = solve(&a);
+        assert_pairs(&got);
+        assert_same(&got, &roots, 1e-10 * 4.0, "companion");
+    }
+
+    #[test]
+    fn rotation_blocks_in_a_rotated_basis() {
+        let mut rng = Pcg64::seed_from_u64(7);
+        // Block diagonal: [[a, b], [-b, a]] blocks (a +- j b) and two real ones.
+        let pairs = [(-0.1, 87.0), (-30.0, 2.0), (0.02, 1e-3), (-5.0, 5.0)];
+        let n = 2 * pairs.len() + 2;
+        let mut d = DMatrix::<f64>::zeros(n, n);
+        let mut want = Vec::new();
+        for (k, &(a, b)) in pairs.iter().enumerate() {
+            let i = 2 * k;
+            d[(i, i)] = a;
+            d[(i + 1, i + 1)] = a;
+            d[(i, i + 1)] = b;
+            d[(i + 1, i)] = -b;
+            want.push(Complex::new(a, b));
+            want.push(Complex::new(a, -b));
+        }
+        d[(n - 2, n - 2)] = -700.0;
+        d[(n - 1, n - 1)] = 0.0;
+        want.push(Complex::new(-700.0, 0.0));
+        want.push(Complex::new(0.0, 0.0));
+        let q = orthogonal(n, &mut rng);
+        let a = &q * d * q.transpose();
+        let got = solve(&a);
+        assert_pairs(&got);
+        // A normal matrix: every eigenvalue is perfectly conditioned.
+        assert_same(&got, &want, 1e-13 * a.norm(), "rotations");
+    }
+
+    #[test]
+    fn defective_jordan_block_within_its_conditioning() {
+        // J_4(2) in a rotated basis: computed eigenvalues spread by about
+        // (eps ||A||)^(1/4).
+        let mut rng = Pcg64::seed_from_u64(11);
+        let mut j = DMatrix::<f64>::zeros(4, 4);
+        for i in 0..4 {
+            j[(i, i)] = 2.0;
+            if i + 1 < 4 {
+                j[(i, i + 1)] = 1.0;
+            }
+        }
+        let q = orthogonal(4, &mut rng);
+        let a = &q * j * q.transpose();
+        let got = solve(&a);
+        assert_pairs(&got);
+        assert_same(&got, &[Complex::new(2.0, 0.0); 4], 1e-3, "Jordan");
+        // Their mean is the well-conditioned trace / 4.
+        let mean = got.iter().sum::<Complex<f64>>() / 4.0;
+        assert!((mean - Complex::new(2.0, 0.0)).norm() < 1e-13);
+    }
+
+    #[test]
+    fn badly_scaled_matrices_are_balanced_exactly() {
+        // D A D^-1 with D powers of two over 2^+-40: exactly similar to A, with entries
+        // from 1e-24 to 1e24; balancing undoes the scaling, so the eigenvalues are as
+        // accurate as those of A itself.
+        let mut rng = Pcg64::seed_from_u64(3);
+        for n in [3, 6, 9, 13] {
+            let a = DMatrix::<f64>::from_fn(n, n, |_, _| rng.random_range(-1.0..1.0));
+            let d: Vec<f64> = (0..n)
+                .map(|_| 2f64.powi(rng.random_range(-40..=40)))
+                .collect();
+            let b = DMatrix::from_fn(n, n, |i, j| d[i] * a[(i, j)] / d[j]);
+            assert!(b.norm() > 1e6 * a.norm());
+            let got = solve(&b);
+            assert_pairs(&got);
+            assert_same(
+                &got,
+                &oracle(&a),
+                1e-12 * a.norm(),
+                &format!("scaled, order {n}"),
+            );
+        }
+    }
+
+    #[test]
+    fn cyclic_permutation_needs_the_exceptional_shifts() {
+        // Standard shifts stall on the cyclic shift (every shift is 0); its
+        // eigenvalues are the 4th roots of unity.
+        let a = DMatrix::<f64>::from_fn(4, 4, |i, j| if i == (j + 1) % 4 { 1.0 } else { 0.0 });
+        let got = solve(&a);
+        assert_pairs(&got);
+        let want = [
+            Complex::new(1.0, 0.0),
+            Complex::new(-1.0, 0.0),
+            Complex::new(0.0, 1.0),
+            Complex::new(0.0, -1.0),
+        ];
+        assert_same(&got, &want, 1e-14, "cyclic");
+    }
+
+    #[test]
+    fn small_orders_and_refusals() {
+        assert!(SmallMatrix::from_fn(0, |_, _| 1.0)
+            .unwrap()
+            .eigenvalues()
+            .unwrap()
+            .is_empty());
+        let one = SmallMatrix::from_fn(1, |_, _| -3.5)
+            .unwrap()
+            .eigenvalues()
+            .unwrap();
+        assert_eq!(one.as_slice(), &[Complex::new(-3.5, 0.0)]);
+        let zero = SmallMatrix::from_fn(5, |_, _| 0.0)
+            .unwrap()
+            .eigenvalues()
+            .unwrap();
+        assert!(zero.iter().all(|l| *l == Complex::new(0.0, 0.0)));
+        // Upper triangular: the diagonal.
+        let t = SmallMatrix::from_fn(4, |i, j| if j >= i { (1 + i + j) as f64 } else { 0.0 });
+        let mut d: Vec<f64> = t
+            .unwrap()
+            .eigenvalues()
+            .unwrap()
+            .iter()
+            .map(|l| l.re)
+            .collect();
+        d.sort_by(f64::total_cmp);
+        assert_eq!(d, [1.0, 3.0, 5.0, 7.0]);
+        assert!(SmallMatrix::from_fn(MAX_ORDER + 1, |_, _| 0.0).is_none());
+        assert_eq!(
+            SmallMatrix::from_fn(MAX_ORDER, |_, _| 0.0).unwrap().order(),
+            MAX_ORDER
+        );
+        for bad in [f64::NAN, f64::INFINITY] {
+            let m = SmallMatrix::from_fn(3, |i, j| if (i, j) == (1, 2) { bad } else { 1.0 });
+            assert!(m.unwrap().eigenvalues().is_none());
+        }
+    }
+
+    #[test]
+    fn no_panic_on_extreme_finite_entries() {
+        // Entries over the whole exponent range, zeros and subnormals included: the
+        // solver returns (converged or not) and never panics; when the matrix is not
+        // near overflow, the eigenvalues sum to the trace.
+        let mut rng = Pcg64::seed_from_u64(99);
+        for trial in 0..3000 {
+            let n = rng.random_range(1..=MAX_ORDER);
+            let e_max = rng.random_range(-320..=300);
+            let m = SmallMatrix::from_fn(n, |_, _| match rng.random_range(0..10) {
+                0..=2 => 0.0,
+                3 => f64::MIN_POSITIVE / 8.0,
+                _ => rng.random_range(-1.0..1.0) * 10f64.powi(rng.random_range(e_max - 20..=e_max)),
+            })
+            .unwrap();
+            let trace: f64 = (0..n).map(|i| m.a[i][i]).sum();
+            let scale = m.a.iter().flatten().fold(0.0f64, |s, v| s.max(v.abs()));
+            if let Some(l) = m.eigenvalues() {
+                if scale < 1e100 && scale > 1e-100 {
+                    let sum: Complex<f64> = l.iter().sum();
+                    assert!(
+                        (sum.re - trace).abs() <= 1e-8 * scale * n as f64
+                            && sum.im.abs() <= 1e-8 * scale * n as f64,
+                        "trial {trial}: trace {trace}, sum {sum}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn every_closed_loop_of_the_sweep_matches_nalgebra() {
+        let p = Params::default();
+        let mut worst: f64 = 0.0;
+        for case in Case::ALL {
+            for c in creep_grid(250) {
+                let (a, _) = case.matrix(&p, c);
+                let got = crate::modes::eigenvalues(&a).unwrap();
+                let tol = 1e-10 * a.norm();
+                let d = assert_same(
+                    &got,
+                    &oracle(&a),
+                    tol,
+                    &format!("case {}, {c} N", case.id()),
+                );
+                worst = worst.max(d / a.norm());
+            }
+        }
+        assert!(worst < 1e-12, "largest difference {worst:e} ||A||");
+    }
+}
