@@ -140,6 +140,7 @@ impl Eigen {
     /// empty) if `a` has a non-finite entry or the QR iteration does not converge.
     pub(crate) fn solve(&mut self, a: &DMatrix<f64>, out: &mut Vec<Complex<f64>>) -> bool {
         out.clear();
+        out.reserve(a.nrows());
         let entries = a.as_slice();
         if !entries.iter().all(|v| v.is_finite()) {
             return false;
