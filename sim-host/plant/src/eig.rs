@@ -73,19 +73,40 @@ impl std::ops::Deref for Eigenvalues {
     }
 }
 
+/// Appends the eigenvalues of the `n x n` matrix with entries `f(i, j)` to `out`, as
+/// `SmallMatrix::from_fn(n, f)?.eigenvalues()` gives them (the matrix built in place,
+/// not moved); `None` (and `out` unchanged) when `n > MAX_ORDER` or when
+/// [`SmallMatrix::eigenvalues`] returns `None`.
+pub fn append_eigenvalues(
+    n: usize,
+    f: impl FnMut(usize, usize) -> f64,
+    out: &mut Vec<Complex<f64>>,
+) -> Option<()> {
+    if n > MAX_ORDER {
+        return None;
+    }
+    let mut m = SmallMatrix::filled(n, f);
+    let l = m.eigenvalues_in_place()?;
+    out.extend_from_slice(&l);
+    Some(())
+}
+
 impl SmallMatrix {
     /// The `n x n` matrix with entries `f(i, j)`; `None` when `n > MAX_ORDER`.
-    pub fn from_fn(n: usize, mut f: impl FnMut(usize, usize) -> f64) -> Option<Self> {
-        if n > MAX_ORDER {
-            return None;
-        }
+    pub fn from_fn(n: usize, f: impl FnMut(usize, usize) -> f64) -> Option<Self> {
+        (n <= MAX_ORDER).then(|| Self::filled(n, f))
+    }
+
+    /// [`Self::from_fn`] for `n <= MAX_ORDER` (a larger `n` is cut to `MAX_ORDER`).
+    fn filled(n: usize, mut f: impl FnMut(usize, usize) -> f64) -> Self {
+        let n = n.min(MAX_ORDER);
         let mut a = [[0.0; MAX_ORDER]; MAX_ORDER];
         for (i, row) in a.iter_mut().enumerate().take(n) {
             for (j, v) in row.iter_mut().enumerate().take(n) {
                 *v = f(i, j);
             }
         }
-        Some(SmallMatrix { n, a })
+        SmallMatrix { n, a }
     }
 
     /// The order `n`.
@@ -116,6 +137,11 @@ impl SmallMatrix {
     /// assert_eq!(l[1], l[0].conj());
     /// ```
     pub fn eigenvalues(mut self) -> Option<Eigenvalues> {
+        self.eigenvalues_in_place()
+    }
+
+    /// [`Self::eigenvalues`], leaving `self` overwritten (balanced, then reduced).
+    fn eigenvalues_in_place(&mut self) -> Option<Eigenvalues> {
         let n = self.n;
         let mut out = Eigenvalues {
             n,

@@ -24,7 +24,7 @@
 //! differently at the start that later merge into a complex pair keep both names.
 
 use crate::control::YawLaw;
-use crate::eig::{SmallMatrix, MAX_ORDER};
+use crate::eig::{append_eigenvalues, MAX_ORDER};
 use crate::linear::closed_loop_a;
 use crate::params::Params;
 use crate::scenario::Axle;
@@ -111,7 +111,7 @@ impl Case {
 /// components of its sparsity graph (after a symmetric permutation it is block
 /// triangular, so its eigenvalues are those of the diagonal blocks: e.g. the rigid
 /// axle's longitudinal motion decouples from the lateral one at pure rolling); each
-/// block goes to [`SmallMatrix::eigenvalues`] (balancing, Hessenberg reduction,
+/// block goes to [`crate::eig::SmallMatrix::eigenvalues`] (balancing, Hessenberg reduction,
 /// Francis double-shift QR, no Schur vectors; nalgebra's real Schur form for blocks
 /// above [`MAX_ORDER`]). Eigenvalues come block by block in the order of the components,
 /// within a block in the order of its Schur form (a complex pair adjacent, positive
@@ -170,7 +170,7 @@ impl Eigen {
 
 /// Appends the eigenvalues of the diagonal block `a[block, block]` to `out`; false
 /// (`out` unchanged) when the QR iteration does not converge. Blocks of up to
-/// [`MAX_ORDER`] states (every closed loop here) go to [`SmallMatrix`] (on the stack),
+/// [`MAX_ORDER`] states (every closed loop here) go to [`crate::eig::append_eigenvalues`] (on the stack),
 /// larger ones to nalgebra's real Schur form.
 fn block_eigenvalues(a: &DMatrix<f64>, block: &[usize], out: &mut Vec<Complex<f64>>) -> bool {
     match block.len() {
@@ -179,10 +179,7 @@ fn block_eigenvalues(a: &DMatrix<f64>, block: &[usize], out: &mut Vec<Complex<f6
             out.push(Complex::new(a[(block[0], block[0])], 0.0));
             true
         }
-        k if k <= MAX_ORDER => SmallMatrix::from_fn(k, |i, j| a[(block[i], block[j])])
-            .and_then(SmallMatrix::eigenvalues)
-            .map(|l| out.extend_from_slice(&l))
-            .is_some(),
+        k if k <= MAX_ORDER => append_eigenvalues(k, |i, j| a[(block[i], block[j])], out).is_some(),
         k => {
             let m = DMatrix::from_fn(k, k, |i, j| a[(block[i], block[j])]);
             nalgebra::Schur::try_new(m, f64::EPSILON, 30 * k.max(10))
