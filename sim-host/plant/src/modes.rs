@@ -170,8 +170,9 @@ impl Eigen {
 
 /// Appends the eigenvalues of the diagonal block `a[block, block]` to `out`; false
 /// (`out` unchanged) when the QR iteration does not converge. Blocks of up to
-/// [`MAX_ORDER`] states (every closed loop here) go to [`crate::eig::append_eigenvalues`] (on the stack),
-/// larger ones to nalgebra's real Schur form.
+/// [`MAX_ORDER`] states (every closed loop here) go to
+/// [`crate::eig::append_eigenvalues`] (on the stack), larger ones to nalgebra's real
+/// Schur form.
 fn block_eigenvalues(a: &DMatrix<f64>, block: &[usize], out: &mut Vec<Complex<f64>>) -> bool {
     match block.len() {
         0 => true,
