@@ -111,12 +111,12 @@ impl Case {
 /// components of its sparsity graph (after a symmetric permutation it is block
 /// triangular, so its eigenvalues are those of the diagonal blocks: e.g. the rigid
 /// axle's longitudinal motion decouples from the lateral one at pure rolling); each
-/// block goes to [`crate::eig::SmallMatrix::eigenvalues`] (balancing, Hessenberg reduction,
-/// Francis double-shift QR, no Schur vectors; nalgebra's real Schur form for blocks
-/// above [`MAX_ORDER`]). Eigenvalues come block by block in the order of the components,
-/// within a block in the order of its Schur form (a complex pair adjacent, positive
-/// imaginary part first).
-/// `None` if `a` has a non-finite entry or the QR iteration does not converge.
+/// block goes to [`crate::eig::SmallMatrix::eigenvalues`] (balancing, Hessenberg
+/// reduction, Francis double-shift QR, no Schur vectors; nalgebra's real Schur form for
+/// blocks above [`MAX_ORDER`]). Eigenvalues come block by block in the order of the
+/// components, within a block in the order of its Schur form (a complex pair adjacent,
+/// positive imaginary part first). `None` if `a` has a non-finite entry or the QR
+/// iteration does not converge.
 pub fn eigenvalues(a: &DMatrix<f64>) -> Option<Vec<Complex<f64>>> {
     let mut out = Vec::with_capacity(a.nrows());
     Eigen::default().solve(a, &mut out).then_some(out)
