@@ -1,7 +1,7 @@
 //! Guards of the linear algebra: no matrix reaches an eigenvalue or exponential solver
-//! unless every entry is finite (nalgebra's Schur iteration does not return on a NaN
-//! matrix), the parameter to blame for a non-finite matrix, and a conditioning check of
-//! computed eigenvalues.
+//! unless every entry is finite (a QR iteration cannot converge on a NaN matrix), the
+//! parameter to blame for a non-finite matrix, and a conditioning check of computed
+//! eigenvalues.
 //!
 //! Conditioning: the eigenvalues of `A` and of `A^T` are the same numbers; computed,
 //! they differ by about `kappa(lambda) eps ||A||`, where `kappa` is the eigenvalue's
@@ -41,10 +41,13 @@ pub fn check_finite(m: &DMatrix<f64>, what: &str) -> Result<(), String> {
     Ok(())
 }
 
-/// The eigenvalues of `m`, or an error when an entry is not finite.
+/// The eigenvalues of `m` ([`crate::modes::eigenvalues`], the crate's one eigenvalue
+/// routine), or an error when an entry is not finite or the QR iteration does not
+/// converge.
 pub fn eigenvalues(m: &DMatrix<f64>, what: &str) -> Result<Vec<Complex<f64>>, String> {
     check_finite(m, what)?;
-    Ok(m.complex_eigenvalues().iter().copied().collect())
+    crate::modes::eigenvalues(m)
+        .ok_or_else(|| format!("{what}: the QR iteration for the eigenvalues did not converge"))
 }
 
 /// The largest relative difference between the eigenvalues of `a` and of `a^T`
@@ -131,15 +134,29 @@ mod tests {
 
     #[test]
     fn disagreement_is_small_for_a_well_posed_matrix_and_large_for_a_defective_one() {
-        // A Jordan-like block with a tiny perturbation: eigenvalues ill-conditioned.
-        let mut a = DMatrix::<f64>::zeros(6, 6);
+        // A 6x6 Jordan block (eigenvalue -1, defective) in a rotated basis Q J Q with
+        // the reflector Q = I - 2 u u^T / u^T u: dense and irreducible, so neither the
+        // block split nor balancing makes it better conditioned; computed eigenvalues
+        // spread by about eps^(1/6).
+        let mut j = DMatrix::<f64>::zeros(6, 6);
         for i in 0..5 {
-            a[(i, i + 1)] = 1e4;
-            a[(i, i)] = -1.0;
+            j[(i, i + 1)] = 1.0;
+            j[(i, i)] = -1.0;
         }
-        a[(5, 5)] = -1.0;
+        j[(5, 5)] = -1.0;
+        let u = nalgebra::DVector::from_fn(6, |i, _| 1.0 + i as f64);
+        let q = DMatrix::identity(6, 6) - &u * u.transpose() * (2.0 / u.norm_squared());
+        let a = &q * j * &q;
         assert!(eigen_disagreement(&a).unwrap() > ILL_CONDITIONED);
         let b = DMatrix::from_row_slice(2, 2, &[-1.0, 2.0, -3.0, -0.5]);
         assert!(eigen_disagreement(&b).unwrap() < 1e-12);
+        // A triangular matrix splits into 1x1 blocks: its eigenvalues are exact.
+        let mut t = DMatrix::<f64>::zeros(6, 6);
+        for i in 0..5 {
+            t[(i, i + 1)] = 1e4;
+            t[(i, i)] = -1.0;
+        }
+        t[(5, 5)] = -1.0;
+        assert_eq!(eigen_disagreement(&t), Some(0.0));
     }
 }

@@ -2,8 +2,9 @@
 //!
 //! For each analysis case ([`Case`], as `docs/model.md` defines them) and each creep
 //! coefficient `f11 = f22` of the sweep, the closed loop is linearised at pure rolling
-//! on straight track ([`crate::linear`]) and its eigenvalues computed (nalgebra, real
-//! Schur form). Eigenvalues are tracked from point to point by continuity (greedy
+//! on straight track ([`crate::linear`]) and its eigenvalues computed ([`eigenvalues`]:
+//! irreducible blocks, each by the double-shift QR iteration of [`crate::eig`]).
+//! Eigenvalues are tracked from point to point by continuity (greedy
 //! nearest-neighbour assignment to a linear prediction), named once at the start of the
 //! sweep (10 MN) from their participation factors `|w_k v_k|` (left and right
 //! eigenvectors by inverse iteration), and instability crossings are located by
@@ -23,10 +24,11 @@
 //! differently at the start that later merge into a complex pair keep both names.
 
 use crate::control::YawLaw;
+use crate::eig::{append_eigenvalues, MAX_ORDER};
 use crate::linear::closed_loop_a;
 use crate::params::Params;
 use crate::scenario::Axle;
-use nalgebra::{Complex, DMatrix, SMatrix};
+use nalgebra::{Complex, DMatrix};
 use serde::Serialize;
 use std::f64::consts::PI;
 
@@ -109,8 +111,12 @@ impl Case {
 /// components of its sparsity graph (after a symmetric permutation it is block
 /// triangular, so its eigenvalues are those of the diagonal blocks: e.g. the rigid
 /// axle's longitudinal motion decouples from the lateral one at pure rolling); each
-/// block goes to nalgebra's real Schur form (implicit double-shift QR, no `Q`).
-/// `None` if `a` has a non-finite entry.
+/// block goes to [`crate::eig::SmallMatrix::eigenvalues`] (balancing, Hessenberg
+/// reduction, Francis double-shift QR, no Schur vectors; nalgebra's real Schur form for
+/// blocks above [`MAX_ORDER`]). Eigenvalues come block by block in the order of the
+/// components, within a block in the order of its Schur form (a complex pair adjacent,
+/// positive imaginary part first). `None` if `a` has a non-finite entry or the QR
+/// iteration does not converge.
 pub fn eigenvalues(a: &DMatrix<f64>) -> Option<Vec<Complex<f64>>> {
     let mut out = Vec::with_capacity(a.nrows());
     Eigen::default().solve(a, &mut out).then_some(out)
@@ -131,9 +137,10 @@ pub(crate) struct Eigen {
 
 impl Eigen {
     /// Replaces `out` by the eigenvalues of `a` (see [`eigenvalues`]); false (and `out`
-    /// empty) if `a` has a non-finite entry.
+    /// empty) if `a` has a non-finite entry or the QR iteration does not converge.
     pub(crate) fn solve(&mut self, a: &DMatrix<f64>, out: &mut Vec<Complex<f64>>) -> bool {
         out.clear();
+        out.reserve(a.nrows());
         let entries = a.as_slice();
         if !entries.iter().all(|v| v.is_finite()) {
             return false;
@@ -152,34 +159,35 @@ impl Eigen {
             self.blocks = components(a);
         }
         for block in &self.blocks {
-            block_eigenvalues(a, block, out);
+            if !block_eigenvalues(a, block, out) {
+                out.clear();
+                return false;
+            }
         }
         true
     }
 }
 
-/// Appends the eigenvalues of the diagonal block `a[block, block]` to `out`. Blocks of
-/// up to 13 states (every closed loop here) are copied into a statically sized matrix
-/// (no heap), larger ones into a dynamic one: the Schur iteration is the same code and
-/// the same arithmetic either way.
-fn block_eigenvalues(a: &DMatrix<f64>, block: &[usize], out: &mut Vec<Complex<f64>>) {
-    macro_rules! fixed {
-        ($($n:literal)*) => {
-            match block.len() {
-                0 => {}
-                1 => out.push(Complex::new(a[(block[0], block[0])], 0.0)),
-                $($n => {
-                    let m = SMatrix::<f64, $n, $n>::from_fn(|i, j| a[(block[i], block[j])]);
-                    out.extend(m.complex_eigenvalues().iter().copied());
-                })*
-                k => {
-                    let m = DMatrix::from_fn(k, k, |i, j| a[(block[i], block[j])]);
-                    out.extend(m.complex_eigenvalues().iter().copied());
-                }
-            }
-        };
+/// Appends the eigenvalues of the diagonal block `a[block, block]` to `out`; false
+/// (`out` unchanged) when the QR iteration does not converge. Blocks of up to
+/// [`MAX_ORDER`] states (every closed loop here) go to
+/// [`crate::eig::append_eigenvalues`] (on the stack), larger ones to nalgebra's real
+/// Schur form.
+fn block_eigenvalues(a: &DMatrix<f64>, block: &[usize], out: &mut Vec<Complex<f64>>) -> bool {
+    match block.len() {
+        0 => true,
+        1 => {
+            out.push(Complex::new(a[(block[0], block[0])], 0.0));
+            true
+        }
+        k if k <= MAX_ORDER => append_eigenvalues(k, |i, j| a[(block[i], block[j])], out).is_some(),
+        k => {
+            let m = DMatrix::from_fn(k, k, |i, j| a[(block[i], block[j])]);
+            nalgebra::Schur::try_new(m, f64::EPSILON, 30 * k.max(10))
+                .map(|s| out.extend(s.complex_eigenvalues().iter().copied()))
+                .is_some()
+        }
     }
-    fixed!(2 3 4 5 6 7 8 9 10 11 12 13);
 }
 
 /// Strongly connected components of the graph `i -> j` for `a[(i, j)] != 0`

@@ -121,60 +121,86 @@ impl CaseSweep {
             .collect();
         let zero = self.branch_names.iter().position(|n| n == STRUCTURAL_ZERO);
         let mut stable_everywhere = true;
+        // Each point is formatted into `buf` (a few hundred bytes, small appends to a
+        // `Vec` inline) and reaches `w` in one write. A mode's `re` and `im` and the
+        // structural zero repeat numbers of the point's eigenvalues: their text is
+        // copied from `spans` (`|x|` is the text of `x` without its `-`), not formatted
+        // again.
+        let mut buf: Vec<u8> = Vec::with_capacity(1024);
+        let mut spans: Vec<PairSpan> = Vec::new();
         for (k, eig) in self.eig.iter().enumerate() {
+            buf.clear();
+            spans.clear();
             if k > 0 {
-                w.write_all(b",")?;
+                buf.push(b',');
             }
-            w.write_all(b"{\"creep_n\":")?;
-            write_json_number(w, self.creep[k])?;
-            w.write_all(b",\"eigenvalues\":[")?;
+            buf.extend_from_slice(b"{\"creep_n\":");
+            write_json_number(&mut buf, self.creep[k])?;
+            buf.extend_from_slice(b",\"eigenvalues\":[");
             for (i, l) in eig.iter().enumerate() {
                 if i > 0 {
-                    w.write_all(b",")?;
+                    buf.push(b',');
                 }
-                pair(w, *l)?;
+                let open = buf.len();
+                buf.push(b'[');
+                write_json_number(&mut buf, l.re)?;
+                let comma = buf.len();
+                buf.push(b',');
+                write_json_number(&mut buf, l.im)?;
+                let close = buf.len();
+                buf.push(b']');
+                spans.push(PairSpan { open, comma, close });
             }
-            w.write_all(b"],\"modes\":[")?;
+            buf.extend_from_slice(b"],\"modes\":[");
             let mut stable = true;
             let mut first = true;
             for (name, branches) in &modes {
                 // The least stable branch, as `mode_eig` picks it.
-                let Some(l) = branches
+                let Some((b, l)) = branches
                     .iter()
-                    .map(|&b| eig[b])
-                    .max_by(|x, y| x.re.total_cmp(&y.re).then(x.im.total_cmp(&y.im)))
+                    .map(|&b| (b, eig[b]))
+                    .max_by(|x, y| x.1.re.total_cmp(&y.1.re).then(x.1.im.total_cmp(&y.1.im)))
                 else {
                     continue;
                 };
                 if !first {
-                    w.write_all(b",")?;
+                    buf.push(b',');
                 }
                 first = false;
                 let m = ModeNumbers::new(l);
                 stable &= m.re < 0.0;
-                w.write_all(b"{\"freq_hz\":")?;
-                write_json_number(w, m.freq_hz)?;
-                w.write_all(b",\"im\":")?;
-                write_json_number(w, m.im)?;
-                w.write_all(b",\"name\":")?;
-                write_json_string(w, name)?;
-                w.write_all(b",\"re\":")?;
-                write_json_number(w, m.re)?;
-                w.write_all(b",\"zeta\":")?;
-                write_json_number(w, m.zeta)?;
-                w.write_all(b"}")?;
+                let span = spans[b];
+                buf.extend_from_slice(b"{\"freq_hz\":");
+                write_json_number(&mut buf, m.freq_hz)?;
+                buf.extend_from_slice(b",\"im\":");
+                // m.im = |l.im|.
+                let im = span.comma + 1;
+                let im = if buf[im] == b'-' { im + 1 } else { im };
+                buf.extend_from_within(im..span.close);
+                buf.extend_from_slice(b",\"name\":");
+                write_json_string(&mut buf, name)?;
+                buf.extend_from_slice(b",\"re\":");
+                // m.re = l.re.
+                buf.extend_from_within(span.open + 1..span.comma);
+                buf.extend_from_slice(b",\"zeta\":");
+                write_json_number(&mut buf, m.zeta)?;
+                buf.push(b'}');
             }
             stable_everywhere &= stable;
-            w.write_all(if stable {
+            buf.extend_from_slice(if stable {
                 b"],\"stable\":true,\"structural_zero\":"
             } else {
                 b"],\"stable\":false,\"structural_zero\":"
-            })?;
+            });
             match zero {
-                Some(b) => pair(w, eig[b])?,
-                None => w.write_all(b"null")?,
+                Some(b) => {
+                    let span = spans[b];
+                    buf.extend_from_within(span.open..span.close + 1);
+                }
+                None => buf.extend_from_slice(b"null"),
             }
-            w.write_all(b"}")?;
+            buf.push(b'}');
+            w.write_all(&buf)?;
         }
         w.write_all(if stable_everywhere {
             b"],\"stable_everywhere\":true,\"states\":["
@@ -191,6 +217,15 @@ impl CaseSweep {
     }
 }
 
+/// Where a point's eigenvalue `[re,im]` lies in its text: `[` at `open`, `,` at
+/// `comma`, `]` at `close`.
+#[derive(Clone, Copy)]
+struct PairSpan {
+    open: usize,
+    comma: usize,
+    close: usize,
+}
+
 /// A number as serde_json writes an `f64`: `null` unless finite.
 pub fn write_json_number<W: Write + ?Sized>(w: &mut W, v: f64) -> io::Result<()> {
     if v.is_finite() {
@@ -198,15 +233,6 @@ pub fn write_json_number<W: Write + ?Sized>(w: &mut W, v: f64) -> io::Result<()>
     } else {
         w.write_all(b"null")
     }
-}
-
-/// `[re, im]`.
-fn pair<W: Write + ?Sized>(w: &mut W, l: Complex<f64>) -> io::Result<()> {
-    w.write_all(b"[")?;
-    write_json_number(w, l.re)?;
-    w.write_all(b",")?;
-    write_json_number(w, l.im)?;
-    w.write_all(b"]")
 }
 
 /// A JSON string as serde_json writes it: quoted as is when nothing needs escaping
@@ -250,6 +276,9 @@ mod tests {
         let mut sw = sweep_case(&p, Case::C, &creep_grid(5), || {}).expect("sweep");
         sw.eig[1][0] = Complex::new(f64::NAN, f64::INFINITY);
         sw.eig[2][1] = Complex::new(-0.0, 1e-300);
+        // Branch 0 alone carries its (renamed) mode: its `im` is written as |im|.
+        sw.eig[3][0] = Complex::new(-1.5, -2.25e-7);
+        sw.eig[4][0] = Complex::new(0.5, -0.0);
         sw.branch_names[0] = "a \"quoted\"\\ name\n\u{1}é".into();
         sw.failed_points = vec![1.5e6, f64::NAN];
         sw.crossings.push(Crossing {
