@@ -21,7 +21,9 @@
 //!    complex-conjugate pair (standardised as `dlanv2` does). Otherwise one double-shift
 //!    step with the eigenvalues of the trailing 2x2 block as shifts (one of them twice
 //!    when both are real): a bulge chased down by 3-element Householder reflectors from
-//!    the lowest row `m` where two consecutive subdiagonals are small. The 10th, 30th,
+//!    the top of the window (the textbook Francis step; `dlahqr` also looks for a lower
+//!    start where two consecutive subdiagonals are small, which cost more in the search
+//!    than it saved on these matrices of at most 16 states). The 10th, 30th,
 //!    ... step without a deflation uses the exceptional shifts of the 2x2 block
 //!    `[[d, -0.4375 s], [s, d]]`, `d = h[l][l] + 0.75 s` with `s` the window's first two
 //!    subdiagonals; the 20th, 40th, ... the same from the last two and `h[i][i]`.
@@ -391,32 +393,17 @@ impl SmallMatrix {
                 }
             };
 
-            // Find m: the start of the bulge (two consecutive small subdiagonals), and
-            // the first column of (H - rt1)(H - rt2), scaled.
-            let mut m = i - 2;
-            let mut v;
-            loop {
-                // Scaled by 1/s against overflow; the test below is scale-invariant, so
-                // v is normalised once m is found.
-                let rs = 1.0 / ((h[m][m] - rt2r).abs() + rt2i.abs() + h[m + 1][m].abs());
-                let h21s = h[m + 1][m] * rs;
-                v = [
-                    h21s * h[m][m + 1] + (h[m][m] - rt1r) * ((h[m][m] - rt2r) * rs)
-                        - rt1i * (rt2i * rs),
-                    h21s * (h[m][m] + h[m + 1][m + 1] - rt1r - rt2r),
-                    h21s * h[m + 2][m + 1],
-                ];
-                if m == l {
-                    break;
-                }
-                let h00 = h[m][m - 1].abs() * (v[1].abs() + v[2].abs());
-                let h01 =
-                    v[0].abs() * (h[m - 1][m - 1].abs() + h[m][m].abs() + h[m + 1][m + 1].abs());
-                if h00 <= ULP * h01 {
-                    break;
-                }
-                m -= 1;
-            }
+            // The first column of (H - rt1)(H - rt2) in the window (three non-zero
+            // entries), scaled by 1/rs against overflow, then normalised.
+            let m = l;
+            let rs = 1.0 / ((h[m][m] - rt2r).abs() + rt2i.abs() + h[m + 1][m].abs());
+            let h21s = h[m + 1][m] * rs;
+            let mut v = [
+                h21s * h[m][m + 1] + (h[m][m] - rt1r) * ((h[m][m] - rt2r) * rs)
+                    - rt1i * (rt2i * rs),
+                h21s * (h[m][m] + h[m + 1][m + 1] - rt1r - rt2r),
+                h21s * h[m + 2][m + 1],
+            ];
             let rs = 1.0 / (v[0].abs() + v[1].abs() + v[2].abs());
             for x in &mut v {
                 *x *= rs;
@@ -440,9 +427,6 @@ impl SmallMatrix {
                     if three {
                         h[k + 2][k - 1] = 0.0;
                     }
-                } else if m > l {
-                    // Not `-h[k][k-1]`: correct also when v2, v3 underflowed.
-                    h[k][k - 1] *= 1.0 - t1;
                 }
                 let (t2, t3) = (t1 * v2, t1 * v3);
                 if three {
