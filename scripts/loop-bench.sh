@@ -21,9 +21,9 @@
 #                                                                        control core called in process: no frame, no link)
 #
 # and prints, for each binary (by its path) and workload, the medians of the whole
-# process's CPU time (user + system, ms; `wait4`'s rusage, microsecond resolution) and
-# its peak resident memory (MiB, GNU time's report, which rounds CPU times to 10 ms and
-# so gives the memory only).
+# process's CPU time (user + system, ms, from its exec to its exit; `wait4`'s rusage,
+# microsecond resolution) and its peak resident memory (MiB, GNU time's report of a
+# second run, which rounds CPU times to 10 ms and so gives the memory only).
 # Alternating runs share the machine's state, so the comparison holds on a noisy machine.
 # With --instructions, each binary also runs each workload once under valgrind's
 # callgrind, whose instruction counts do not depend on the machine's load.
@@ -57,21 +57,25 @@ tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 
 # One run: appends "cpu_ms rss_kib" to the file $1; the rest is the command. The CPU time
-# is wait4's for the child (GNU time and the binary it reaps; GNU time's own share is a
-# fraction of a millisecond, the same for every binary). The peak memory is GNU time's
-# report of the binary alone: a process started by exec from Python's fork would carry
-# Python's resident set in its maximum.
+# is the binary's own (user + system, wait4's rusage of a child started by posix_spawn,
+# which runs nothing of its own before the exec: the process from its exec to its exit).
+# The peak memory comes from a second run under GNU time, whose report is the binary's
+# alone (a child's maximum from wait4 would carry the spawning Python's resident set
+# over the exec, and GNU time's own CPU time, about a millisecond, would be counted).
 measure() {
     local out="$1"; shift
     python3 -c '
 import os, sys
-rss = sys.argv[1]
-pid = os.fork()
-if pid == 0:
-    null = os.open(os.devnull, os.O_WRONLY)
-    os.dup2(null, 1)
-    os.execv("/usr/bin/time", ["/usr/bin/time", "-f", "%M", "-o", rss] + sys.argv[2:])
+rss, cmd = sys.argv[1], sys.argv[2:]
+null = os.open(os.devnull, os.O_WRONLY)
+quiet = [(os.POSIX_SPAWN_DUP2, null, 1)]
+pid = os.posix_spawn(cmd[0], cmd, os.environ, file_actions=quiet)
 _, status, ru = os.wait4(pid, 0)
+if os.waitstatus_to_exitcode(status) != 0:
+    sys.exit(1)
+timed = ["/usr/bin/time", "-f", "%M", "-o", rss] + cmd
+pid = os.posix_spawn(timed[0], timed, os.environ, file_actions=quiet)
+_, status, _ = os.wait4(pid, 0)
 if os.waitstatus_to_exitcode(status) != 0:
     sys.exit(1)
 print("%.1f %s" % ((ru.ru_utime + ru.ru_stime) * 1000, open(rss).read().split()[-1]))
