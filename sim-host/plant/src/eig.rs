@@ -409,63 +409,92 @@ impl SmallMatrix {
                 *x *= rs;
             }
 
-            // The double-shift step: chase the bulge from m down to i.
-            for k in m..i {
-                let three = k + 2 <= i;
-                if k > m {
-                    v = [h[k][k - 1], h[k + 1][k - 1], 0.0];
-                    if three {
-                        v[2] = h[k + 2][k - 1];
-                    }
-                }
-                let Some((beta, t1, v2, v3)) = reflector(v) else {
+            // The double-shift step: chase the bulge from m down to i, with reflectors
+            // of order 3 (the first from v, the next ones from the bulge in column
+            // k - 1), then one of order 2 at k = i - 1. The window has at least three
+            // rows, so the first reflector is of order 3.
+            if let Some((_, t1, v2, v3)) = reflector(v) {
+                apply_reflector3(h, m, l, i, t1, v2, v3);
+            }
+            for k in m + 1..i - 1 {
+                let Some((beta, t1, v2, v3)) =
+                    reflector([h[k][k - 1], h[k + 1][k - 1], h[k + 2][k - 1]])
+                else {
                     continue;
                 };
-                if k > m {
-                    h[k][k - 1] = beta;
-                    h[k + 1][k - 1] = 0.0;
-                    if three {
-                        h[k + 2][k - 1] = 0.0;
-                    }
-                }
-                let (t2, t3) = (t1 * v2, t1 * v3);
-                if three {
-                    // Rows k..k+3 from the left, over columns k..=i.
-                    if let [r0, r1, r2, ..] = &mut h[k..] {
-                        let cols = r0[k..=i].iter_mut().zip(&mut r1[k..=i]).zip(&mut r2[k..=i]);
-                        for ((x, y), z) in cols {
-                            let sum = *x + v2 * *y + v3 * *z;
-                            *x -= sum * t1;
-                            *y -= sum * t2;
-                            *z -= sum * t3;
-                        }
-                    }
-                    // Columns k..k+3 from the right, over rows l..=min(k+3, i).
-                    for row in &mut h[l..=(k + 3).min(i)] {
-                        if let [x, y, z] = &mut row[k..k + 3] {
-                            let sum = *x + v2 * *y + v3 * *z;
-                            *x -= sum * t1;
-                            *y -= sum * t2;
-                            *z -= sum * t3;
-                        }
-                    }
-                } else {
-                    if let [r0, r1, ..] = &mut h[k..] {
-                        for (x, y) in r0[k..=i].iter_mut().zip(&mut r1[k..=i]) {
-                            let sum = *x + v2 * *y;
-                            *x -= sum * t1;
-                            *y -= sum * t2;
-                        }
-                    }
-                    for row in &mut h[l..=i] {
-                        if let [x, y] = &mut row[k..k + 2] {
-                            let sum = *x + v2 * *y;
-                            *x -= sum * t1;
-                            *y -= sum * t2;
-                        }
-                    }
-                }
+                h[k][k - 1] = beta;
+                h[k + 1][k - 1] = 0.0;
+                h[k + 2][k - 1] = 0.0;
+                apply_reflector3(h, k, l, i, t1, v2, v3);
             }
+            let k = i - 1;
+            if let Some((beta, t1, v2, _)) = reflector([h[k][k - 1], h[k + 1][k - 1], 0.0]) {
+                h[k][k - 1] = beta;
+                h[k + 1][k - 1] = 0.0;
+                apply_reflector2(h, k, l, i, t1, v2);
+            }
+        }
+    }
+}
+
+/// `H <- P H P` in the window `l..=i` for the reflector `P = I - t1 v v^T`, `v = [1, v2,
+/// v3]` acting on rows and columns `k..k + 3`: rows from the left over columns `k..=i`,
+/// then columns from the right over rows `l..=min(k + 3, i)` (the rest of the window is
+/// zero there).
+#[inline(always)]
+fn apply_reflector3(
+    h: &mut [[f64; MAX_ORDER]; MAX_ORDER],
+    k: usize,
+    l: usize,
+    i: usize,
+    t1: f64,
+    v2: f64,
+    v3: f64,
+) {
+    let (t2, t3) = (t1 * v2, t1 * v3);
+    if let [r0, r1, r2, ..] = &mut h[k..] {
+        let cols = r0[k..=i].iter_mut().zip(&mut r1[k..=i]).zip(&mut r2[k..=i]);
+        for ((x, y), z) in cols {
+            let sum = *x + v2 * *y + v3 * *z;
+            *x -= sum * t1;
+            *y -= sum * t2;
+            *z -= sum * t3;
+        }
+    }
+    for row in &mut h[l..=(k + 3).min(i)] {
+        if let [x, y, z] = &mut row[k..k + 3] {
+            let sum = *x + v2 * *y + v3 * *z;
+            *x -= sum * t1;
+            *y -= sum * t2;
+            *z -= sum * t3;
+        }
+    }
+}
+
+/// [`apply_reflector3`] for a reflector of order 2, `v = [1, v2]` on rows and columns
+/// `k..k + 2` with `k + 1 = i`.
+#[inline(always)]
+fn apply_reflector2(
+    h: &mut [[f64; MAX_ORDER]; MAX_ORDER],
+    k: usize,
+    l: usize,
+    i: usize,
+    t1: f64,
+    v2: f64,
+) {
+    let t2 = t1 * v2;
+    if let [r0, r1, ..] = &mut h[k..] {
+        for (x, y) in r0[k..=i].iter_mut().zip(&mut r1[k..=i]) {
+            let sum = *x + v2 * *y;
+            *x -= sum * t1;
+            *y -= sum * t2;
+        }
+    }
+    for row in &mut h[l..=i] {
+        if let [x, y] = &mut row[k..k + 2] {
+            let sum = *x + v2 * *y;
+            *x -= sum * t1;
+            *y -= sum * t2;
         }
     }
 }
