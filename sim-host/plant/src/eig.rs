@@ -409,31 +409,36 @@ impl SmallMatrix {
                 *x *= rs;
             }
 
-            // The double-shift step: chase the bulge from m down to i, with reflectors
-            // of order 3 (the first from v, the next ones from the bulge in column
-            // k - 1), then one of order 2 at k = i - 1. The window has at least three
-            // rows, so the first reflector is of order 3.
-            if let Some((_, t1, v2, v3)) = reflector(v) {
-                apply_reflector3(h, m, l, i, t1, v2, v3);
-            }
-            for k in m + 1..i - 1 {
-                let Some((beta, t1, v2, v3)) =
-                    reflector([h[k][k - 1], h[k + 1][k - 1], h[k + 2][k - 1]])
-                else {
-                    continue;
-                };
-                h[k][k - 1] = beta;
-                h[k + 1][k - 1] = 0.0;
-                h[k + 2][k - 1] = 0.0;
-                apply_reflector3(h, k, l, i, t1, v2, v3);
-            }
-            let k = i - 1;
-            if let Some((beta, t1, v2, _)) = reflector([h[k][k - 1], h[k + 1][k - 1], 0.0]) {
-                h[k][k - 1] = beta;
-                h[k + 1][k - 1] = 0.0;
-                apply_reflector2(h, k, l, i, t1, v2);
-            }
+            chase_bulge(h, l, i, v);
         }
+    }
+}
+
+/// The double-shift step on the window `l..=i` (at least three rows) whose first
+/// reflector maps `v` to a multiple of `e1`: the bulge is chased from `l` down to `i`
+/// with reflectors of order 3 (the first from `v`, the next ones from the bulge in
+/// column `k - 1`), then one of order 2 at `k = i - 1`. Kept out of line: the chase
+/// then has the registers to itself.
+#[inline(never)]
+fn chase_bulge(h: &mut [[f64; MAX_ORDER]; MAX_ORDER], l: usize, i: usize, v: [f64; 3]) {
+    if let Some((_, t1, v2, v3)) = reflector(v) {
+        apply_reflector3(h, l, l, i, t1, v2, v3);
+    }
+    for k in l + 1..i - 1 {
+        let Some((beta, t1, v2, v3)) = reflector([h[k][k - 1], h[k + 1][k - 1], h[k + 2][k - 1]])
+        else {
+            continue;
+        };
+        h[k][k - 1] = beta;
+        h[k + 1][k - 1] = 0.0;
+        h[k + 2][k - 1] = 0.0;
+        apply_reflector3(h, k, l, i, t1, v2, v3);
+    }
+    let k = i - 1;
+    if let Some((beta, t1, v2, _)) = reflector([h[k][k - 1], h[k + 1][k - 1], 0.0]) {
+        h[k][k - 1] = beta;
+        h[k + 1][k - 1] = 0.0;
+        apply_reflector2(h, k, l, i, t1, v2);
     }
 }
 
