@@ -521,14 +521,16 @@ fn reflector(x: [f64; 3]) -> Option<(f64, f64, f64, f64)> {
         let scale = 1.0 / (a - beta);
         return Some((beta, tau, x1 * scale, x2 * scale));
     }
-    reflector_scaled(x)
+    reflector_scaled(a, x1, x2)
 }
 
 /// [`reflector`] for entries near the overflow or underflow thresholds: `dlarfg` with
 /// its scaled norm and rescaling.
+///
+/// The entries are passed one by one: they stay in registers (an array would be
+/// stored to memory on every call of [`reflector`] for this rare path).
 #[cold]
-fn reflector_scaled(x: [f64; 3]) -> Option<(f64, f64, f64, f64)> {
-    let [mut a, mut x1, mut x2] = x;
+fn reflector_scaled(mut a: f64, mut x1: f64, mut x2: f64) -> Option<(f64, f64, f64, f64)> {
     let xnorm = norm2(x1, x2);
     if xnorm == 0.0 {
         return None;
