@@ -149,13 +149,9 @@ impl SmallMatrix {
             n,
             values: [Complex::new(0.0, 0.0); MAX_ORDER],
         };
-        if self.a[..n]
-            .iter()
-            .any(|r| r[..n].iter().any(|v| !v.is_finite()))
-        {
+        if !self.balance() {
             return None;
         }
-        self.balance();
         self.hessenberg();
         self.hqr(&mut out.values)?;
         Some(out)
@@ -166,7 +162,12 @@ impl SmallMatrix {
     /// row `i`) by 5 %, sweeping `i` until no scaling is made. The diagonal is
     /// unchanged by the similarity: it is set aside meanwhile, so the norms are sums
     /// over whole rows and columns, found once and updated after each scaling.
-    fn balance(&mut self) {
+    ///
+    /// Returns `false`, the matrix unchanged, when an entry is not finite: the row
+    /// norms, found first, tell (an entry that is not finite makes its row's norm
+    /// infinite or NaN; only then are the entries themselves checked, since a norm
+    /// can also overflow).
+    fn balance(&mut self) -> bool {
         const RADIX: f64 = 2.0;
         const RADIX2: f64 = RADIX * RADIX;
         // Scale factors kept within 2^+-256 of 1 and sweeps bounded: finite entries
@@ -191,6 +192,21 @@ impl SmallMatrix {
                 }
             }
             *rk = (acc[0] + acc[1]) + (acc[2] + acc[3]);
+        }
+        let suspect = r[..n]
+            .iter()
+            .zip(&diag[..n])
+            .fold(false, |s, (rk, d)| s | !(rk + d).is_finite());
+        if suspect
+            && (diag[..n].iter().any(|d| !d.is_finite())
+                || a[..n]
+                    .iter()
+                    .any(|row| row[..n].iter().any(|v| !v.is_finite())))
+        {
+            for (i, d) in diag[..n].iter().enumerate() {
+                a[i][i] = *d;
+            }
+            return false;
         }
         for _sweep in 0..64 {
             let mut changed = false;
@@ -235,6 +251,7 @@ impl SmallMatrix {
         for (i, d) in diag[..n].iter().enumerate() {
             a[i][i] = *d;
         }
+        true
     }
 
     /// Reduction to upper Hessenberg form by stabilised elementary similarity
@@ -894,6 +911,17 @@ mod tests {
             let m = SmallMatrix::from_fn(3, |i, j| if (i, j) == (1, 2) { bad } else { 1.0 });
             assert!(m.unwrap().eigenvalues().is_none());
         }
+    }
+
+    #[test]
+    fn finite_entries_whose_row_norms_overflow_are_accepted() {
+        // The row norm 2e308 overflows; the entries are finite, so the matrix is solved.
+        let t = [[1e308, 1e308], [0.0, 1e308]];
+        let l = SmallMatrix::from_fn(2, |i, j| t[i][j])
+            .unwrap()
+            .eigenvalues()
+            .unwrap();
+        assert_eq!(l.as_slice(), &[Complex::new(1e308, 0.0); 2]);
     }
 
     #[test]
