@@ -436,35 +436,104 @@ impl SmallMatrix {
 /// with reflectors of order 3 (the first from `v`, the next ones from the bulge in
 /// column `k - 1`), then one of order 2 at `k = i - 1`. Kept out of line: the chase
 /// then has the registers to itself.
+///
+/// Each reflector `P_k` is applied as `H <- P_k H P_k`: rows `k..k + 3` from the left
+/// over columns `k..=i`, then columns `k..k + 3` from the right over rows
+/// `l..=min(k + 3, i)`. Only the part the next reflector depends on is applied at
+/// once: the left product on columns `k..k + 3` and the right one on rows
+/// `k + 1..=min(k + 3, i)`. The rest (left on columns `k + 3..=i`, right on rows
+/// `l..=k`) waits until the next reflector is computed, so that the processor can do
+/// it during that reflector's square root and divisions; it still comes before
+/// anything else that touches the same entries, so every entry sees the same
+/// operations in the same order as with the whole products applied in turn.
 #[inline(never)]
 fn chase_bulge(h: &mut [[f64; MAX_ORDER]; MAX_ORDER], l: usize, i: usize, v: [f64; 3]) {
-    if let Some((_, t1, v2, v3)) = reflector(v) {
-        apply_reflector3(h, l, l, i, t1, v2, v3);
-    }
-    for k in l + 1..i - 1 {
-        let Some((beta, t1, v2, v3)) = reflector([h[k][k - 1], h[k + 1][k - 1], h[k + 2][k - 1]])
-        else {
+    // The reflector (k, t1, v2, v3) whose deferred part is still to apply.
+    let mut pending = None;
+    for k in l..i - 1 {
+        let x = if k == l {
+            v
+        } else {
+            [h[k][k - 1], h[k + 1][k - 1], h[k + 2][k - 1]]
+        };
+        let next = reflector(x);
+        if let Some((k0, t1, v2, v3)) = pending.take() {
+            apply_deferred3(h, k0, l, i, t1, v2, v3);
+        }
+        let Some((beta, t1, v2, v3)) = next else {
             continue;
         };
-        h[k][k - 1] = beta;
-        h[k + 1][k - 1] = 0.0;
-        h[k + 2][k - 1] = 0.0;
-        apply_reflector3(h, k, l, i, t1, v2, v3);
+        if k > l {
+            h[k][k - 1] = beta;
+            h[k + 1][k - 1] = 0.0;
+            h[k + 2][k - 1] = 0.0;
+        }
+        apply_leading3(h, k, i, t1, v2, v3);
+        pending = Some((k, t1, v2, v3));
     }
     let k = i - 1;
-    if let Some((beta, t1, v2, _)) = reflector([h[k][k - 1], h[k + 1][k - 1], 0.0]) {
+    let next = reflector([h[k][k - 1], h[k + 1][k - 1], 0.0]);
+    if let Some((k0, t1, v2, v3)) = pending {
+        apply_deferred3(h, k0, l, i, t1, v2, v3);
+    }
+    if let Some((beta, t1, v2, _)) = next {
         h[k][k - 1] = beta;
         h[k + 1][k - 1] = 0.0;
         apply_reflector2(h, k, l, i, t1, v2);
     }
 }
 
-/// `H <- P H P` in the window `l..=i` for the reflector `P = I - t1 v v^T`, `v = [1, v2,
-/// v3]` acting on rows and columns `k..k + 3`: rows from the left over columns `k..=i`,
-/// then columns from the right over rows `l..=min(k + 3, i)` (the rest of the window is
-/// zero there).
+/// The leading part of `H <- P H P` for the reflector `P = I - t1 v v^T`, `v = [1, v2,
+/// v3]` on rows and columns `k..k + 3` (`k + 2 <= i`): rows `k..k + 3` from the left
+/// over columns `k..k + 3`, then columns `k..k + 3` from the right over rows
+/// `k + 1..=min(k + 3, i)`.
 #[inline(always)]
-fn apply_reflector3(
+fn apply_leading3(
+    h: &mut [[f64; MAX_ORDER]; MAX_ORDER],
+    k: usize,
+    i: usize,
+    t1: f64,
+    v2: f64,
+    v3: f64,
+) {
+    let (t2, t3) = (t1 * v2, t1 * v3);
+    if let [r0, r1, r2, ..] = &mut h[k..] {
+        let cols = r0[k..k + 3]
+            .iter_mut()
+            .zip(&mut r1[k..k + 3])
+            .zip(&mut r2[k..k + 3]);
+        for ((x, y), z) in cols {
+            let sum = *x + v2 * *y + v3 * *z;
+            *x -= sum * t1;
+            *y -= sum * t2;
+            *z -= sum * t3;
+        }
+    }
+    let right = |row: &mut [f64; MAX_ORDER]| {
+        if let [x, y, z] = &mut row[k..k + 3] {
+            let sum = *x + v2 * *y + v3 * *z;
+            *x -= sum * t1;
+            *y -= sum * t2;
+            *z -= sum * t3;
+        }
+    };
+    // Straight-line code for the two or three rows.
+    if k + 3 <= i {
+        if let [_, a, b, c, ..] = &mut h[k..] {
+            right(a);
+            right(b);
+            right(c);
+        }
+    } else if let [_, a, b, ..] = &mut h[k..] {
+        right(a);
+        right(b);
+    }
+}
+
+/// The rest of `H <- P H P` after [`apply_leading3`]: rows `k..k + 3` from the left over
+/// columns `k + 3..=i`, columns `k..k + 3` from the right over rows `l..=k`.
+#[inline(always)]
+fn apply_deferred3(
     h: &mut [[f64; MAX_ORDER]; MAX_ORDER],
     k: usize,
     l: usize,
@@ -475,7 +544,11 @@ fn apply_reflector3(
 ) {
     let (t2, t3) = (t1 * v2, t1 * v3);
     if let [r0, r1, r2, ..] = &mut h[k..] {
-        let cols = r0[k..=i].iter_mut().zip(&mut r1[k..=i]).zip(&mut r2[k..=i]);
+        let c0 = (k + 3).min(i + 1);
+        let cols = r0[c0..=i]
+            .iter_mut()
+            .zip(&mut r1[c0..=i])
+            .zip(&mut r2[c0..=i]);
         for ((x, y), z) in cols {
             let sum = *x + v2 * *y + v3 * *z;
             *x -= sum * t1;
@@ -483,7 +556,7 @@ fn apply_reflector3(
             *z -= sum * t3;
         }
     }
-    for row in &mut h[l..=(k + 3).min(i)] {
+    for row in &mut h[l..=k] {
         if let [x, y, z] = &mut row[k..k + 3] {
             let sum = *x + v2 * *y + v3 * *z;
             *x -= sum * t1;
@@ -493,8 +566,9 @@ fn apply_reflector3(
     }
 }
 
-/// [`apply_reflector3`] for a reflector of order 2, `v = [1, v2]` on rows and columns
-/// `k..k + 2` with `k + 1 = i`.
+/// `H <- P H P` in the window `l..=i` for the reflector `P = I - t1 v v^T`, `v = [1,
+/// v2]` on rows and columns `k..k + 2` with `k + 1 = i`: rows from the left over columns
+/// `k..=i`, then columns from the right over rows `l..=i`.
 #[inline(always)]
 fn apply_reflector2(
     h: &mut [[f64; MAX_ORDER]; MAX_ORDER],
