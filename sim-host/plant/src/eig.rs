@@ -149,13 +149,9 @@ impl SmallMatrix {
             n,
             values: [Complex::new(0.0, 0.0); MAX_ORDER],
         };
-        if self.a[..n]
-            .iter()
-            .any(|r| r[..n].iter().any(|v| !v.is_finite()))
-        {
+        if !self.balance() {
             return None;
         }
-        self.balance();
         self.hessenberg();
         self.hqr(&mut out.values)?;
         Some(out)
@@ -166,7 +162,12 @@ impl SmallMatrix {
     /// row `i`) by 5 %, sweeping `i` until no scaling is made. The diagonal is
     /// unchanged by the similarity: it is set aside meanwhile, so the norms are sums
     /// over whole rows and columns, found once and updated after each scaling.
-    fn balance(&mut self) {
+    ///
+    /// Returns `false`, the matrix unchanged, when an entry is not finite: the row
+    /// norms, found first, tell (an entry that is not finite makes its row's norm
+    /// infinite or NaN; only then are the entries themselves checked, since a norm
+    /// can also overflow).
+    fn balance(&mut self) -> bool {
         const RADIX: f64 = 2.0;
         const RADIX2: f64 = RADIX * RADIX;
         // Scale factors kept within 2^+-256 of 1 and sweeps bounded: finite entries
@@ -191,6 +192,21 @@ impl SmallMatrix {
                 }
             }
             *rk = (acc[0] + acc[1]) + (acc[2] + acc[3]);
+        }
+        let suspect = r[..n]
+            .iter()
+            .zip(&diag[..n])
+            .fold(false, |s, (rk, d)| s | !(rk + d).is_finite());
+        if suspect
+            && (diag[..n].iter().any(|d| !d.is_finite())
+                || a[..n]
+                    .iter()
+                    .any(|row| row[..n].iter().any(|v| !v.is_finite())))
+        {
+            for (i, d) in diag[..n].iter().enumerate() {
+                a[i][i] = *d;
+            }
+            return false;
         }
         for _sweep in 0..64 {
             let mut changed = false;
@@ -235,6 +251,7 @@ impl SmallMatrix {
         for (i, d) in diag[..n].iter().enumerate() {
             a[i][i] = *d;
         }
+        true
     }
 
     /// Reduction to upper Hessenberg form by stabilised elementary similarity
@@ -409,63 +426,171 @@ impl SmallMatrix {
                 *x *= rs;
             }
 
-            // The double-shift step: chase the bulge from m down to i.
-            for k in m..i {
-                let three = k + 2 <= i;
-                if k > m {
-                    v = [h[k][k - 1], h[k + 1][k - 1], 0.0];
-                    if three {
-                        v[2] = h[k + 2][k - 1];
-                    }
-                }
-                let Some((beta, t1, v2, v3)) = reflector(v) else {
-                    continue;
-                };
-                if k > m {
-                    h[k][k - 1] = beta;
-                    h[k + 1][k - 1] = 0.0;
-                    if three {
-                        h[k + 2][k - 1] = 0.0;
-                    }
-                }
-                let (t2, t3) = (t1 * v2, t1 * v3);
-                if three {
-                    // Rows k..k+3 from the left, over columns k..=i.
-                    if let [r0, r1, r2, ..] = &mut h[k..] {
-                        let cols = r0[k..=i].iter_mut().zip(&mut r1[k..=i]).zip(&mut r2[k..=i]);
-                        for ((x, y), z) in cols {
-                            let sum = *x + v2 * *y + v3 * *z;
-                            *x -= sum * t1;
-                            *y -= sum * t2;
-                            *z -= sum * t3;
-                        }
-                    }
-                    // Columns k..k+3 from the right, over rows l..=min(k+3, i).
-                    for row in &mut h[l..=(k + 3).min(i)] {
-                        if let [x, y, z] = &mut row[k..k + 3] {
-                            let sum = *x + v2 * *y + v3 * *z;
-                            *x -= sum * t1;
-                            *y -= sum * t2;
-                            *z -= sum * t3;
-                        }
-                    }
-                } else {
-                    if let [r0, r1, ..] = &mut h[k..] {
-                        for (x, y) in r0[k..=i].iter_mut().zip(&mut r1[k..=i]) {
-                            let sum = *x + v2 * *y;
-                            *x -= sum * t1;
-                            *y -= sum * t2;
-                        }
-                    }
-                    for row in &mut h[l..=i] {
-                        if let [x, y] = &mut row[k..k + 2] {
-                            let sum = *x + v2 * *y;
-                            *x -= sum * t1;
-                            *y -= sum * t2;
-                        }
-                    }
-                }
-            }
+            chase_bulge(h, l, i, v);
+        }
+    }
+}
+
+/// The double-shift step on the window `l..=i` (at least three rows) whose first
+/// reflector maps `v` to a multiple of `e1`: the bulge is chased from `l` down to `i`
+/// with reflectors of order 3 (the first from `v`, the next ones from the bulge in
+/// column `k - 1`), then one of order 2 at `k = i - 1`. Kept out of line: the chase
+/// then has the registers to itself.
+///
+/// Each reflector `P_k` is applied as `H <- P_k H P_k`: rows `k..k + 3` from the left
+/// over columns `k..=i`, then columns `k..k + 3` from the right over rows
+/// `l..=min(k + 3, i)`. Only the part the next reflector depends on is applied at
+/// once: the left product on columns `k..k + 3` and the right one on rows
+/// `k + 1..=min(k + 3, i)`. The rest (left on columns `k + 3..=i`, right on rows
+/// `l..=k`) waits until the next reflector is computed, so that the processor can do
+/// it during that reflector's square root and divisions; it still comes before
+/// anything else that touches the same entries, so every entry sees the same
+/// operations in the same order as with the whole products applied in turn.
+#[inline(never)]
+fn chase_bulge(h: &mut [[f64; MAX_ORDER]; MAX_ORDER], l: usize, i: usize, v: [f64; 3]) {
+    // The reflector (k, t1, v2, v3) whose deferred part is still to apply.
+    let mut pending = None;
+    for k in l..i - 1 {
+        let x = if k == l {
+            v
+        } else {
+            [h[k][k - 1], h[k + 1][k - 1], h[k + 2][k - 1]]
+        };
+        let next = reflector(x);
+        if let Some((k0, t1, v2, v3)) = pending.take() {
+            apply_deferred3(h, k0, l, i, t1, v2, v3);
+        }
+        let Some((beta, t1, v2, v3)) = next else {
+            continue;
+        };
+        if k > l {
+            h[k][k - 1] = beta;
+            h[k + 1][k - 1] = 0.0;
+            h[k + 2][k - 1] = 0.0;
+        }
+        apply_leading3(h, k, i, t1, v2, v3);
+        pending = Some((k, t1, v2, v3));
+    }
+    let k = i - 1;
+    let next = reflector([h[k][k - 1], h[k + 1][k - 1], 0.0]);
+    if let Some((k0, t1, v2, v3)) = pending {
+        apply_deferred3(h, k0, l, i, t1, v2, v3);
+    }
+    if let Some((beta, t1, v2, _)) = next {
+        h[k][k - 1] = beta;
+        h[k + 1][k - 1] = 0.0;
+        apply_reflector2(h, k, l, i, t1, v2);
+    }
+}
+
+/// The leading part of `H <- P H P` for the reflector `P = I - t1 v v^T`, `v = [1, v2,
+/// v3]` on rows and columns `k..k + 3` (`k + 2 <= i`): rows `k..k + 3` from the left
+/// over columns `k..k + 3`, then columns `k..k + 3` from the right over rows
+/// `k + 1..=min(k + 3, i)`.
+#[inline(always)]
+fn apply_leading3(
+    h: &mut [[f64; MAX_ORDER]; MAX_ORDER],
+    k: usize,
+    i: usize,
+    t1: f64,
+    v2: f64,
+    v3: f64,
+) {
+    let (t2, t3) = (t1 * v2, t1 * v3);
+    if let [r0, r1, r2, ..] = &mut h[k..] {
+        let cols = r0[k..k + 3]
+            .iter_mut()
+            .zip(&mut r1[k..k + 3])
+            .zip(&mut r2[k..k + 3]);
+        for ((x, y), z) in cols {
+            let sum = *x + v2 * *y + v3 * *z;
+            *x -= sum * t1;
+            *y -= sum * t2;
+            *z -= sum * t3;
+        }
+    }
+    let right = |row: &mut [f64; MAX_ORDER]| {
+        if let [x, y, z] = &mut row[k..k + 3] {
+            let sum = *x + v2 * *y + v3 * *z;
+            *x -= sum * t1;
+            *y -= sum * t2;
+            *z -= sum * t3;
+        }
+    };
+    // Straight-line code for the two or three rows.
+    if k + 3 <= i {
+        if let [_, a, b, c, ..] = &mut h[k..] {
+            right(a);
+            right(b);
+            right(c);
+        }
+    } else if let [_, a, b, ..] = &mut h[k..] {
+        right(a);
+        right(b);
+    }
+}
+
+/// The rest of `H <- P H P` after [`apply_leading3`]: rows `k..k + 3` from the left over
+/// columns `k + 3..=i`, columns `k..k + 3` from the right over rows `l..=k`.
+#[inline(always)]
+fn apply_deferred3(
+    h: &mut [[f64; MAX_ORDER]; MAX_ORDER],
+    k: usize,
+    l: usize,
+    i: usize,
+    t1: f64,
+    v2: f64,
+    v3: f64,
+) {
+    let (t2, t3) = (t1 * v2, t1 * v3);
+    if let [r0, r1, r2, ..] = &mut h[k..] {
+        let c0 = (k + 3).min(i + 1);
+        let cols = r0[c0..=i]
+            .iter_mut()
+            .zip(&mut r1[c0..=i])
+            .zip(&mut r2[c0..=i]);
+        for ((x, y), z) in cols {
+            let sum = *x + v2 * *y + v3 * *z;
+            *x -= sum * t1;
+            *y -= sum * t2;
+            *z -= sum * t3;
+        }
+    }
+    for row in &mut h[l..=k] {
+        if let [x, y, z] = &mut row[k..k + 3] {
+            let sum = *x + v2 * *y + v3 * *z;
+            *x -= sum * t1;
+            *y -= sum * t2;
+            *z -= sum * t3;
+        }
+    }
+}
+
+/// `H <- P H P` in the window `l..=i` for the reflector `P = I - t1 v v^T`, `v = [1,
+/// v2]` on rows and columns `k..k + 2` with `k + 1 = i`: rows from the left over columns
+/// `k..=i`, then columns from the right over rows `l..=i`.
+#[inline(always)]
+fn apply_reflector2(
+    h: &mut [[f64; MAX_ORDER]; MAX_ORDER],
+    k: usize,
+    l: usize,
+    i: usize,
+    t1: f64,
+    v2: f64,
+) {
+    let t2 = t1 * v2;
+    if let [r0, r1, ..] = &mut h[k..] {
+        for (x, y) in r0[k..=i].iter_mut().zip(&mut r1[k..=i]) {
+            let sum = *x + v2 * *y;
+            *x -= sum * t1;
+            *y -= sum * t2;
+        }
+    }
+    for row in &mut h[l..=i] {
+        if let [x, y] = &mut row[k..k + 2] {
+            let sum = *x + v2 * *y;
+            *x -= sum * t1;
+            *y -= sum * t2;
         }
     }
 }
@@ -487,14 +612,16 @@ fn reflector(x: [f64; 3]) -> Option<(f64, f64, f64, f64)> {
         let scale = 1.0 / (a - beta);
         return Some((beta, tau, x1 * scale, x2 * scale));
     }
-    reflector_scaled(x)
+    reflector_scaled(a, x1, x2)
 }
 
 /// [`reflector`] for entries near the overflow or underflow thresholds: `dlarfg` with
 /// its scaled norm and rescaling.
+///
+/// The entries are passed one by one: they stay in registers (an array would be
+/// stored to memory on every call of [`reflector`] for this rare path).
 #[cold]
-fn reflector_scaled(x: [f64; 3]) -> Option<(f64, f64, f64, f64)> {
-    let [mut a, mut x1, mut x2] = x;
+fn reflector_scaled(mut a: f64, mut x1: f64, mut x2: f64) -> Option<(f64, f64, f64, f64)> {
     let xnorm = norm2(x1, x2);
     if xnorm == 0.0 {
         return None;
@@ -858,6 +985,17 @@ mod tests {
             let m = SmallMatrix::from_fn(3, |i, j| if (i, j) == (1, 2) { bad } else { 1.0 });
             assert!(m.unwrap().eigenvalues().is_none());
         }
+    }
+
+    #[test]
+    fn finite_entries_whose_row_norms_overflow_are_accepted() {
+        // The row norm 2e308 overflows; the entries are finite, so the matrix is solved.
+        let t = [[1e308, 1e308], [0.0, 1e308]];
+        let l = SmallMatrix::from_fn(2, |i, j| t[i][j])
+            .unwrap()
+            .eigenvalues()
+            .unwrap();
+        assert_eq!(l.as_slice(), &[Complex::new(1e308, 0.0); 2]);
     }
 
     #[test]
