@@ -33,25 +33,34 @@ pub fn sweep_case(
     let mut eig: Vec<Vec<Complex<f64>>> = vec![e0];
     let mut creep = vec![top];
     let mut failed = Vec::new();
+    // Scratch vectors of the loop: the prediction and the tracked order.
+    let mut pred: Vec<Complex<f64>> = Vec::new();
+    let mut tracked: Vec<Complex<f64>> = Vec::new();
     for (&c, e) in desc.iter().zip(all).skip(1) {
-        let Some(e) = e else {
+        let Some(mut e) = e else {
             failed.push(c);
             continue;
         };
         let k = eig.len();
-        let pred: Vec<Complex<f64>> = if k >= 2 {
+        pred.clear();
+        if k >= 2 {
             // linear extrapolation in creep
             let (c1, c2) = (creep[k - 1], creep[k - 2]);
             let s = (c - c1) / (c1 - c2);
-            eig[k - 1]
-                .iter()
-                .zip(&eig[k - 2])
-                .map(|(l1, l2)| l1 + (l1 - l2) * s)
-                .collect()
+            pred.extend(
+                eig[k - 1]
+                    .iter()
+                    .zip(&eig[k - 2])
+                    .map(|(l1, l2)| l1 + (l1 - l2) * s),
+            );
         } else {
-            eig[k - 1].clone()
-        };
-        eig.push(assign(&pred, &e));
+            pred.extend_from_slice(&eig[k - 1]);
+        }
+        // The point's own vector is reused for its tracked order.
+        assign(&pred, &e, &mut tracked);
+        e.clear();
+        e.extend_from_slice(&tracked);
+        eig.push(e);
         creep.push(c);
     }
     eig.reverse();
