@@ -86,20 +86,22 @@ fn eigen_sweep(
     grid: &[f64],
     tick: &(impl Fn() + Sync),
 ) -> Vec<Option<Vec<Complex<f64>>>> {
-    // One workspace per thread (the components are found once per sparsity pattern).
-    let solve = |eig: &mut Eigen, c: f64| {
+    // One workspace per thread (the components are found once per sparsity pattern, the
+    // loop's matrix is rebuilt in place).
+    let solve = |(eig, lp): &mut (Eigen, CaseLoop), c: f64| {
         let mut out = Vec::new();
-        let ok = eig.solve(&case.matrix(p, c).0, &mut out);
+        let ok = eig.solve(lp.matrix(c), &mut out);
         tick();
         ok.then_some(out)
     };
+    let workspace = || (Eigen::default(), CaseLoop::new(case, p));
     let threads = std::thread::available_parallelism()
         .map_or(1, |n| n.get())
         .min(grid.len() / 64)
         .max(1);
     if threads == 1 {
-        let mut eig = Eigen::default();
-        return grid.iter().map(|&c| solve(&mut eig, c)).collect();
+        let mut ws = workspace();
+        return grid.iter().map(|&c| solve(&mut ws, c)).collect();
     }
     let chunk = grid.len().div_ceil(threads);
     std::thread::scope(|scope| {
@@ -107,8 +109,8 @@ fn eigen_sweep(
             .chunks(chunk)
             .map(|part| {
                 scope.spawn(move || {
-                    let mut eig = Eigen::default();
-                    part.iter().map(|&c| solve(&mut eig, c)).collect::<Vec<_>>()
+                    let mut ws = workspace();
+                    part.iter().map(|&c| solve(&mut ws, c)).collect::<Vec<_>>()
                 })
             })
             .collect();
@@ -127,6 +129,7 @@ fn eigen_sweep(
 fn find_crossings(p: &Params, sw: &CaseSweep) -> Vec<Crossing> {
     let mut out = Vec::new();
     let mut eig = Eigen::default();
+    let mut lp = CaseLoop::new(sw.case, p);
     let mut e = Vec::new();
     let least_stable = |branches: &[usize], k: usize| {
         branches
@@ -158,8 +161,7 @@ fn find_crossings(p: &Params, sw: &CaseSweep) -> Vec<Crossing> {
                 }
                 let mid = 0.5 * (lo + hi);
                 let guess = vlo + (vhi - vlo) * 0.5;
-                let (a, _) = sw.case.matrix(p, mid);
-                if !eig.solve(&a, &mut e) {
+                if !eig.solve(lp.matrix(mid), &mut e) {
                     break;
                 }
                 let Some(&vm) = e
