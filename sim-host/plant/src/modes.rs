@@ -194,16 +194,24 @@ impl Eigen {
         out.clear();
         out.reserve(a.nrows());
         let entries = a.as_slice();
-        if !entries.iter().all(|v| v.is_finite()) {
-            return false;
-        }
         let n = a.nrows();
-        let same = n == self.n
-            && self.pattern.len() == entries.len()
-            && entries
+        // One pass without early exits (it vectorises): finiteness and the pattern.
+        let (finite, same) = if n == self.n && self.pattern.len() == entries.len() {
+            entries
                 .iter()
                 .zip(&self.pattern)
-                .fold(true, |eq, (v, &nz)| eq & ((*v != 0.0) == nz));
+                .fold((true, true), |(fin, eq), (v, &nz)| {
+                    (fin & v.is_finite(), eq & ((*v != 0.0) == nz))
+                })
+        } else {
+            (
+                entries.iter().fold(true, |fin, v| fin & v.is_finite()),
+                false,
+            )
+        };
+        if !finite {
+            return false;
+        }
         if !same {
             self.n = n;
             self.pattern.clear();
