@@ -300,6 +300,21 @@ pub fn select(a: &Jac, states: &[usize]) -> DMatrix<f64> {
     DMatrix::from_fn(states.len(), states.len(), |i, j| a[(states[i], states[j])])
 }
 
+/// [`select`] into `out` (its storage reused when it already has the size).
+fn select_into(a: &Jac, states: &[usize], out: &mut DMatrix<f64>) {
+    let n = states.len();
+    if out.shape() != (n, n) {
+        *out = DMatrix::zeros(n, n);
+    }
+    // Both column-major: column `j` of `out` gathers from column `states[j]` of `a`.
+    for (col, &sj) in out.as_mut_slice().chunks_exact_mut(n).zip(states) {
+        let src = a.column(sj);
+        for (o, &si) in col.iter_mut().zip(states) {
+            *o = src[si];
+        }
+    }
+}
+
 /// The closed-loop `A` at the operating point for `law` on the plant `cfg` (the yaw
 /// spring is set from the law), restricted to the loop's states, analytic.
 pub fn closed_loop_a(
@@ -320,18 +335,37 @@ pub fn closed_loop_a_with(
     drive: bool,
     ctrl: &ContinuousController,
 ) -> (DMatrix<f64>, Vec<usize>) {
-    let law = ctrl.law;
     let cfg = PlantConfig {
         axle,
         drive,
-        yaw_spring: law.has_spring(),
+        yaw_spring: ctrl.law.has_spring(),
+    };
+    let states = closed_loop_states(&cfg, ctrl.law);
+    let mut a = DMatrix::zeros(states.len(), states.len());
+    closed_loop_a_into(p, axle, drive, ctrl, &states, &mut a);
+    (a, states)
+}
+
+/// The matrix of [`closed_loop_a_with`] into `out` (its storage reused when it already
+/// has the size), for `states` = the loop's [`closed_loop_states`] (the state list
+/// depends on the plant and law only: a sweep makes it once).
+pub fn closed_loop_a_into(
+    p: &Params,
+    axle: Axle,
+    drive: bool,
+    ctrl: &ContinuousController,
+    states: &[usize],
+    out: &mut DMatrix<f64>,
+) {
+    let cfg = PlantConfig {
+        axle,
+        drive,
+        yaw_spring: ctrl.law.has_spring(),
     };
     let plant = Plant::new(p, cfg);
-    let ctrl = *ctrl;
     let x = operating_point(&plant, p);
-    let a = closed_loop_jacobian(&plant, p, &ctrl, &x, &Exogenous::zero());
-    let states = closed_loop_states(&cfg, law);
-    (select(&a, &states), states)
+    let a = closed_loop_jacobian(&plant, p, ctrl, &x, &Exogenous::zero());
+    select_into(&a, states, out);
 }
 
 /// A linear state-space model `x' = A x + B u`, `y = C x` (open loop, no controller).

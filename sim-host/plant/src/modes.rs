@@ -23,10 +23,11 @@
 //! a mode's value is its least stable branch. Limitation: two real branches named
 //! differently at the start that later merge into a complex pair keep both names.
 
-use crate::control::YawLaw;
+use crate::control::{ContinuousController, YawLaw};
 use crate::eig::{append_eigenvalues, MAX_ORDER};
-use crate::linear::closed_loop_a;
+use crate::linear::{closed_loop_a, closed_loop_a_into, closed_loop_states};
 use crate::params::Params;
+use crate::plant::PlantConfig;
 use crate::scenario::Axle;
 use nalgebra::{Complex, DMatrix};
 use serde::Serialize;
@@ -107,6 +108,57 @@ impl Case {
     }
 }
 
+/// [`Case::matrix`] for many creep coefficients in a row: the parameters, controller
+/// and state list are made once, the matrix is written into a kept one. The matrices
+/// are those of [`Case::matrix`], bit for bit.
+#[derive(Debug, Clone)]
+pub(crate) struct CaseLoop {
+    /// The parameters, creep coefficients set per point.
+    q: Params,
+    axle: Axle,
+    drive: bool,
+    ctrl: ContinuousController,
+    /// The closed loop's states.
+    states: Vec<usize>,
+    /// The last matrix.
+    a: DMatrix<f64>,
+}
+
+impl CaseLoop {
+    pub(crate) fn new(case: Case, p: &Params) -> Self {
+        let (axle, drive, law) = case.setup();
+        let cfg = PlantConfig {
+            axle,
+            drive,
+            yaw_spring: law.has_spring(),
+        };
+        let states = closed_loop_states(&cfg, law);
+        CaseLoop {
+            q: p.clone(),
+            axle,
+            drive,
+            ctrl: ContinuousController::new(p, law),
+            a: DMatrix::zeros(states.len(), states.len()),
+            states,
+        }
+    }
+
+    /// The closed-loop `A` at creep coefficient `creep` (N).
+    pub(crate) fn matrix(&mut self, creep: f64) -> &DMatrix<f64> {
+        self.q.f11 = creep;
+        self.q.f22 = creep;
+        closed_loop_a_into(
+            &self.q,
+            self.axle,
+            self.drive,
+            &self.ctrl,
+            &self.states,
+            &mut self.a,
+        );
+        &self.a
+    }
+}
+
 /// Eigenvalues of `a`. The matrix is first split into the strongly connected
 /// components of its sparsity graph (after a symmetric permutation it is block
 /// triangular, so its eigenvalues are those of the diagonal blocks: e.g. the rigid
@@ -142,16 +194,24 @@ impl Eigen {
         out.clear();
         out.reserve(a.nrows());
         let entries = a.as_slice();
-        if !entries.iter().all(|v| v.is_finite()) {
-            return false;
-        }
         let n = a.nrows();
-        let same = n == self.n
-            && self.pattern.len() == entries.len()
-            && entries
+        // One pass without early exits (it vectorises): finiteness and the pattern.
+        let (finite, same) = if n == self.n && self.pattern.len() == entries.len() {
+            entries
                 .iter()
                 .zip(&self.pattern)
-                .fold(true, |eq, (v, &nz)| eq & ((*v != 0.0) == nz));
+                .fold((true, true), |(fin, eq), (v, &nz)| {
+                    (fin & v.is_finite(), eq & ((*v != 0.0) == nz))
+                })
+        } else {
+            (
+                entries.iter().fold(true, |fin, v| fin & v.is_finite()),
+                false,
+            )
+        };
+        if !finite {
+            return false;
+        }
         if !same {
             self.n = n;
             self.pattern.clear();

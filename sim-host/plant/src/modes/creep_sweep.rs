@@ -33,25 +33,34 @@ pub fn sweep_case(
     let mut eig: Vec<Vec<Complex<f64>>> = vec![e0];
     let mut creep = vec![top];
     let mut failed = Vec::new();
+    // Scratch vectors of the loop: the prediction and the tracked order.
+    let mut pred: Vec<Complex<f64>> = Vec::new();
+    let mut tracked: Vec<Complex<f64>> = Vec::new();
     for (&c, e) in desc.iter().zip(all).skip(1) {
-        let Some(e) = e else {
+        let Some(mut e) = e else {
             failed.push(c);
             continue;
         };
         let k = eig.len();
-        let pred: Vec<Complex<f64>> = if k >= 2 {
+        pred.clear();
+        if k >= 2 {
             // linear extrapolation in creep
             let (c1, c2) = (creep[k - 1], creep[k - 2]);
             let s = (c - c1) / (c1 - c2);
-            eig[k - 1]
-                .iter()
-                .zip(&eig[k - 2])
-                .map(|(l1, l2)| l1 + (l1 - l2) * s)
-                .collect()
+            pred.extend(
+                eig[k - 1]
+                    .iter()
+                    .zip(&eig[k - 2])
+                    .map(|(l1, l2)| l1 + (l1 - l2) * s),
+            );
         } else {
-            eig[k - 1].clone()
-        };
-        eig.push(assign(&pred, &e));
+            pred.extend_from_slice(&eig[k - 1]);
+        }
+        // The point's own vector is reused for its tracked order.
+        assign(&pred, &e, &mut tracked);
+        e.clear();
+        e.extend_from_slice(&tracked);
+        eig.push(e);
         creep.push(c);
     }
     eig.reverse();
@@ -77,20 +86,22 @@ fn eigen_sweep(
     grid: &[f64],
     tick: &(impl Fn() + Sync),
 ) -> Vec<Option<Vec<Complex<f64>>>> {
-    // One workspace per thread (the components are found once per sparsity pattern).
-    let solve = |eig: &mut Eigen, c: f64| {
+    // One workspace per thread (the components are found once per sparsity pattern, the
+    // loop's matrix is rebuilt in place).
+    let solve = |(eig, lp): &mut (Eigen, CaseLoop), c: f64| {
         let mut out = Vec::new();
-        let ok = eig.solve(&case.matrix(p, c).0, &mut out);
+        let ok = eig.solve(lp.matrix(c), &mut out);
         tick();
         ok.then_some(out)
     };
+    let workspace = || (Eigen::default(), CaseLoop::new(case, p));
     let threads = std::thread::available_parallelism()
         .map_or(1, |n| n.get())
         .min(grid.len() / 64)
         .max(1);
     if threads == 1 {
-        let mut eig = Eigen::default();
-        return grid.iter().map(|&c| solve(&mut eig, c)).collect();
+        let mut ws = workspace();
+        return grid.iter().map(|&c| solve(&mut ws, c)).collect();
     }
     let chunk = grid.len().div_ceil(threads);
     std::thread::scope(|scope| {
@@ -98,8 +109,8 @@ fn eigen_sweep(
             .chunks(chunk)
             .map(|part| {
                 scope.spawn(move || {
-                    let mut eig = Eigen::default();
-                    part.iter().map(|&c| solve(&mut eig, c)).collect::<Vec<_>>()
+                    let mut ws = workspace();
+                    part.iter().map(|&c| solve(&mut ws, c)).collect::<Vec<_>>()
                 })
             })
             .collect();
@@ -118,6 +129,7 @@ fn eigen_sweep(
 fn find_crossings(p: &Params, sw: &CaseSweep) -> Vec<Crossing> {
     let mut out = Vec::new();
     let mut eig = Eigen::default();
+    let mut lp = CaseLoop::new(sw.case, p);
     let mut e = Vec::new();
     let least_stable = |branches: &[usize], k: usize| {
         branches
@@ -149,8 +161,7 @@ fn find_crossings(p: &Params, sw: &CaseSweep) -> Vec<Crossing> {
                 }
                 let mid = 0.5 * (lo + hi);
                 let guess = vlo + (vhi - vlo) * 0.5;
-                let (a, _) = sw.case.matrix(p, mid);
-                if !eig.solve(&a, &mut e) {
+                if !eig.solve(lp.matrix(mid), &mut e) {
                     break;
                 }
                 let Some(&vm) = e

@@ -108,17 +108,18 @@ impl CaseSweep {
         w.write_all(b",\"label\":")?;
         write_json_string(w, self.case.label())?;
         w.write_all(b",\"points\":[")?;
-        // Each mode's branches, once for the case (what `mode_eig` filters per point).
-        let modes: Vec<(String, Vec<usize>)> = self
-            .mode_names()
-            .into_iter()
-            .map(|n| {
-                let b = (0..self.branch_names.len())
-                    .filter(|&b| self.branch_names[b] == n)
-                    .collect();
-                (n, b)
-            })
-            .collect();
+        // Each mode's branches, once for the case (what `mode_eig` filters per point),
+        // and the text between its `im` and `re` values with the name escaped.
+        let mut modes: Vec<(Vec<u8>, Vec<usize>)> = Vec::new();
+        for n in self.mode_names() {
+            let b = (0..self.branch_names.len())
+                .filter(|&b| self.branch_names[b] == n)
+                .collect();
+            let mut text = b",\"name\":".to_vec();
+            write_json_string(&mut text, &n)?;
+            text.extend_from_slice(b",\"re\":");
+            modes.push((text, b));
+        }
         let zero = self.branch_names.iter().position(|n| n == STRUCTURAL_ZERO);
         let mut stable_everywhere = true;
         // Each point is formatted into `buf` (a few hundred bytes, small appends to a
@@ -154,7 +155,7 @@ impl CaseSweep {
             buf.extend_from_slice(b"],\"modes\":[");
             let mut stable = true;
             let mut first = true;
-            for (name, branches) in &modes {
+            for (name_text, branches) in &modes {
                 // The least stable branch, as `mode_eig` picks it.
                 let Some((b, l)) = branches
                     .iter()
@@ -177,9 +178,7 @@ impl CaseSweep {
                 let im = span.comma + 1;
                 let im = if buf[im] == b'-' { im + 1 } else { im };
                 buf.extend_from_within(im..span.close);
-                buf.extend_from_slice(b",\"name\":");
-                write_json_string(&mut buf, name)?;
-                buf.extend_from_slice(b",\"re\":");
+                buf.extend_from_slice(name_text);
                 // m.re = l.re.
                 buf.extend_from_within(span.open + 1..span.comma);
                 buf.extend_from_slice(b",\"zeta\":");

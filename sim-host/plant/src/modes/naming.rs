@@ -10,28 +10,29 @@ use crate::scenario::Axle;
 use nalgebra::{Complex, DMatrix, DVector};
 use std::f64::consts::PI;
 
-/// Assigns `new` eigenvalues to the `pred` branches: each branch takes its nearest new
-/// eigenvalue when that is a one-to-one match (the usual case on a fine grid);
-/// otherwise greedy nearest pairs first.
-pub(super) fn assign(pred: &[Complex<f64>], new: &[Complex<f64>]) -> Vec<Complex<f64>> {
+/// Assigns `new` eigenvalues to the `pred` branches, into `out` (one per branch, NaN
+/// for a branch left without one): each branch takes its nearest new eigenvalue (the
+/// first of equally near ones, in `total_cmp` order) when that is a one-to-one match
+/// (the usual case on a fine grid; up to 128 branches); otherwise greedy nearest pairs
+/// first.
+pub(super) fn assign(pred: &[Complex<f64>], new: &[Complex<f64>], out: &mut Vec<Complex<f64>>) {
     let n = pred.len();
-    let mut out = vec![Complex::new(f64::NAN, f64::NAN); n];
-    if new.len() == n {
-        let mut taken = vec![false; n];
+    out.clear();
+    out.resize(n, Complex::new(f64::NAN, f64::NAN));
+    if new.len() == n && n <= 128 {
+        let mut taken = 0u128;
         let mut ok = true;
         for (i, p) in pred.iter().enumerate() {
-            let j = (0..n)
-                .min_by(|&x, &y| (new[x] - p).norm_sqr().total_cmp(&(new[y] - p).norm_sqr()))
-                .unwrap_or(0);
-            if taken[j] {
+            let j = nearest(*p, new);
+            if taken & (1 << j) != 0 {
                 ok = false;
                 break;
             }
-            taken[j] = true;
+            taken |= 1 << j;
             out[i] = new[j];
         }
         if ok {
-            return out;
+            return;
         }
     }
     let mut pairs: Vec<(f64, usize, usize)> = Vec::with_capacity(n * new.len());
@@ -50,7 +51,27 @@ pub(super) fn assign(pred: &[Complex<f64>], new: &[Complex<f64>]) -> Vec<Complex
             used_e[j] = true;
         }
     }
-    out
+}
+
+/// Index of the element of `new` nearest `p` (squared distance, `total_cmp` order, the
+/// first of equal ones); 0 if `new` is empty.
+fn nearest(p: Complex<f64>, new: &[Complex<f64>]) -> usize {
+    // `total_cmp` compares these integer keys (its own mapping of the bits), so each
+    // distance is mapped once rather than once per comparison.
+    let key = |d: f64| {
+        let b = d.to_bits() as i64;
+        b ^ (((b >> 63) as u64) >> 1) as i64
+    };
+    let mut best = 0;
+    let mut best_key = i64::MAX;
+    for (j, q) in new.iter().enumerate() {
+        let k = key((q - p).norm_sqr());
+        if j == 0 || k < best_key {
+            best = j;
+            best_key = k;
+        }
+    }
+    best
 }
 
 /// Right or left eigenvector for `lambda` by inverse iteration.
