@@ -503,18 +503,12 @@ fn apply_leading3(
             .zip(&mut r1[k..k + 3])
             .zip(&mut r2[k..k + 3]);
         for ((x, y), z) in cols {
-            let sum = *x + v2 * *y + v3 * *z;
-            *x -= sum * t1;
-            *y -= sum * t2;
-            *z -= sum * t3;
+            reflect3(x, y, z, [v2, v3], [t1, t2, t3]);
         }
     }
     let right = |row: &mut [f64; MAX_ORDER]| {
         if let [x, y, z] = &mut row[k..k + 3] {
-            let sum = *x + v2 * *y + v3 * *z;
-            *x -= sum * t1;
-            *y -= sum * t2;
-            *z -= sum * t3;
+            reflect3(x, y, z, [v2, v3], [t1, t2, t3]);
         }
     };
     // Straight-line code for the two or three rows.
@@ -550,18 +544,12 @@ fn apply_deferred3(
             .zip(&mut r1[c0..=i])
             .zip(&mut r2[c0..=i]);
         for ((x, y), z) in cols {
-            let sum = *x + v2 * *y + v3 * *z;
-            *x -= sum * t1;
-            *y -= sum * t2;
-            *z -= sum * t3;
+            reflect3(x, y, z, [v2, v3], [t1, t2, t3]);
         }
     }
     for row in &mut h[l..=k] {
         if let [x, y, z] = &mut row[k..k + 3] {
-            let sum = *x + v2 * *y + v3 * *z;
-            *x -= sum * t1;
-            *y -= sum * t2;
-            *z -= sum * t3;
+            reflect3(x, y, z, [v2, v3], [t1, t2, t3]);
         }
     }
 }
@@ -581,18 +569,33 @@ fn apply_reflector2(
     let t2 = t1 * v2;
     if let [r0, r1, ..] = &mut h[k..] {
         for (x, y) in r0[k..=i].iter_mut().zip(&mut r1[k..=i]) {
-            let sum = *x + v2 * *y;
-            *x -= sum * t1;
-            *y -= sum * t2;
+            reflect2(x, y, v2, [t1, t2]);
         }
     }
     for row in &mut h[l..=i] {
         if let [x, y] = &mut row[k..k + 2] {
-            let sum = *x + v2 * *y;
-            *x -= sum * t1;
-            *y -= sum * t2;
+            reflect2(x, y, v2, [t1, t2]);
         }
     }
+}
+
+/// One column (from the left) or row (from the right) of `P x` for the reflector
+/// `P = I - t1 v v^T`, `v = [1, v2, v3]`: `s = x + v2 y + v3 z`, then `x -= s t1`,
+/// `y -= s t1 v2`, `z -= s t1 v3` (`t = [t1, t1 v2, t1 v3]`).
+#[inline(always)]
+fn reflect3(x: &mut f64, y: &mut f64, z: &mut f64, [v2, v3]: [f64; 2], t: [f64; 3]) {
+    let sum = *x + v2 * *y + v3 * *z;
+    *x -= sum * t[0];
+    *y -= sum * t[1];
+    *z -= sum * t[2];
+}
+
+/// [`reflect3`] for `v = [1, v2]` (`t = [t1, t1 v2]`).
+#[inline(always)]
+fn reflect2(x: &mut f64, y: &mut f64, v2: f64, t: [f64; 2]) {
+    let sum = *x + v2 * *y;
+    *x -= sum * t[0];
+    *y -= sum * t[1];
 }
 
 /// An elementary reflector of order 3 (LAPACK `dlarfg`; order 2 when `x[2] = 0`):
