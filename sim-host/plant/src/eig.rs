@@ -497,15 +497,7 @@ fn apply_leading3(
     v3: f64,
 ) {
     let (t2, t3) = (t1 * v2, t1 * v3);
-    if let [r0, r1, r2, ..] = &mut h[k..] {
-        let cols = r0[k..k + 3]
-            .iter_mut()
-            .zip(&mut r1[k..k + 3])
-            .zip(&mut r2[k..k + 3]);
-        for ((x, y), z) in cols {
-            reflect3(x, y, z, [v2, v3], [t1, t2, t3]);
-        }
-    }
+    left3(h, k, k..k + 3, [v2, v3], [t1, t2, t3]);
     let right = |row: &mut [f64; MAX_ORDER]| {
         if let [x, y, z] = &mut row[k..k + 3] {
             reflect3(x, y, z, [v2, v3], [t1, t2, t3]);
@@ -537,16 +529,7 @@ fn apply_deferred3(
     v3: f64,
 ) {
     let (t2, t3) = (t1 * v2, t1 * v3);
-    if let [r0, r1, r2, ..] = &mut h[k..] {
-        let c0 = (k + 3).min(i + 1);
-        let cols = r0[c0..=i]
-            .iter_mut()
-            .zip(&mut r1[c0..=i])
-            .zip(&mut r2[c0..=i]);
-        for ((x, y), z) in cols {
-            reflect3(x, y, z, [v2, v3], [t1, t2, t3]);
-        }
-    }
+    left3(h, k, (k + 3).min(i + 1)..i + 1, [v2, v3], [t1, t2, t3]);
     for row in &mut h[l..=k] {
         if let [x, y, z] = &mut row[k..k + 3] {
             reflect3(x, y, z, [v2, v3], [t1, t2, t3]);
@@ -588,6 +571,23 @@ fn reflect3(x: &mut f64, y: &mut f64, z: &mut f64, [v2, v3]: [f64; 2], t: [f64; 
     *x -= sum * t[0];
     *y -= sum * t[1];
     *z -= sum * t[2];
+}
+
+/// [`reflect3`] from the left on rows `k..k + 3`, over the columns `cols`.
+#[inline(always)]
+fn left3(
+    h: &mut [[f64; MAX_ORDER]; MAX_ORDER],
+    k: usize,
+    cols: std::ops::Range<usize>,
+    v: [f64; 2],
+    t: [f64; 3],
+) {
+    if let [r0, r1, r2, ..] = &mut h[k..] {
+        let (r0, r1, r2) = (&mut r0[cols.clone()], &mut r1[cols.clone()], &mut r2[cols]);
+        for ((x, y), z) in r0.iter_mut().zip(r1).zip(r2) {
+            reflect3(x, y, z, v, t);
+        }
+    }
 }
 
 /// [`reflect3`] for `v = [1, v2]` (`t = [t1, t1 v2]`).
