@@ -73,7 +73,7 @@ impl Files {
             "duration_s = 0.2\n[params]\nl_a = \"small\"\n",
         );
         w(
-            "illcond.toml",
+            "extreme.toml",
             "v = 0.1\nk_t = 1e10\nk_gear = 1e10\ni_m = 0.01\ni_w = 1.0\nl_a = 1e-5\n\
              k_m = 100.0\nn_gear = 20.0\nm_v = 2e5\npi_kp = 1e3\npi_ti = 1e-4\nr_a = 10.0\n\
              c_lat = 1e7\nk_lat = 1e9\nk_yaw = 1e9\nm = 100.0\nj = 10.0\n",
@@ -337,12 +337,16 @@ const ROWS: &[Row] = &[
         0,
         &["scenario short"],
     ),
-    // Ill-conditioned eigenproblems warn.
-    row(
-        "modes --case d --points 20 --params {F}/illcond.toml --json {F}/m.json",
-        0,
-        &["ill-conditioned", "case (d)"],
-    ),
+    // Parameters at the ends of their ranges, whose closed-loop matrix spans many orders
+    // of magnitude: balanced before the QR iteration, its eigenvalues and those of its
+    // transpose agree (no ill-conditioning warning; the warning's threshold is
+    // unit-tested on a defective matrix in `wheelset_plant::finite`).
+    Row {
+        args: "modes --case d --points 20 --params {F}/extreme.toml --json {F}/m.json",
+        code: 0,
+        want: &["case (d)", "torsional"],
+        not: &["ill-conditioned"],
+    },
     Row {
         args: "modes --case d --points 20 --json {F}/m.json",
         code: 0,
