@@ -4,7 +4,7 @@
 //! COBS structure, length, CRC, version, postcard, no trailing bytes; the first failure is
 //! the [`FrameError`].
 
-use crate::message::{Actuation, Command, Config, Lateral, Message, Sensor, Status};
+use crate::message::{Actuation, Command, Config, Message, Sensor, Status};
 
 mod checksum;
 mod cobs;
@@ -241,6 +241,16 @@ impl<const CAP: usize> OnePass<'_, CAP> {
     }
 }
 
+/// The Sensor frame's body through the shared layout ([`crate::fast::write_sensor`]):
+/// every byte goes into the CRC and the COBS blocks as it comes.
+impl<const CAP: usize> crate::fast::Bytes for OnePass<'_, CAP> {
+    #[inline(always)]
+    fn byte(&mut self, b: u8) -> Option<()> {
+        OnePass::byte(self, b);
+        Some(())
+    }
+}
+
 impl OnePass<'_, ONE_PASS_CAP> {
     /// The frame of `encode(&Message::Actuation(*a), _)` in `buf`; its length.
     #[inline(never)]
@@ -289,41 +299,9 @@ impl OnePass<'_, SENSOR_FRAME_CAP> {
             code_at: 0,
             reg: PREFIX,
         };
-        let Sensor {
-            seq,
-            t_us,
-            lateral,
-            i_a_ma,
-            omega_m_mrad_s,
-            demand_nm,
-            v_ref_mm_s,
-        } = *s;
         w.put(VERSION);
-        w.byte(crate::fast::SENSOR);
-        w.u16_le(seq);
-        w.u16_le(t_us);
-        match lateral {
-            Lateral::Velocity(v) => {
-                w.byte(0);
-                w.i32(v);
-            }
-            Lateral::Acceleration(a) => {
-                w.byte(1);
-                w.i32(a);
-            }
-            Lateral::Both {
-                vel_um_s,
-                acc_dmm_s2,
-            } => {
-                w.byte(2);
-                w.i32(vel_um_s);
-                w.i32(acc_dmm_s2);
-            }
-        }
-        w.i32(i_a_ma);
-        w.i32(omega_m_mrad_s);
-        w.i32(demand_nm);
-        w.i32(v_ref_mm_s);
+        // The one-pass writer has room for every Sensor body: it never reports full.
+        let _ = crate::fast::write_sensor(s, &mut w);
         w.finish()
     }
 }

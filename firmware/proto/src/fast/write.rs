@@ -11,13 +11,12 @@ struct Out<'a> {
     n: usize,
 }
 
-impl Out<'_> {
-    #[inline(always)]
-    fn byte(&mut self, b: u8) -> Option<()> {
-        *self.buf.get_mut(self.n)? = b;
-        self.n += 1;
-        Some(())
-    }
+/// A sink of raw body bytes with postcard's field forms on top: the bounded [`Out`] here
+/// and the one-pass frame writer (COBS and CRC as it goes) of the host's Sensor frame,
+/// so a message's layout is written once ([`write_sensor`]).
+pub(crate) trait Bytes {
+    /// One byte; `None` when the sink is full.
+    fn byte(&mut self, b: u8) -> Option<()>;
 
     #[inline(always)]
     fn u16_le(&mut self, v: u16) -> Option<()> {
@@ -26,6 +25,7 @@ impl Out<'_> {
         self.byte(b)
     }
 
+    /// postcard's varint: 7 bits a byte, low first, the top bit set on all but the last.
     #[inline(always)]
     fn varint(&mut self, mut v: u32) -> Option<()> {
         while v >= 0x80 {
@@ -35,6 +35,23 @@ impl Out<'_> {
         self.byte(v as u8)
     }
 
+    /// postcard's signed varint (zigzag).
+    #[inline(always)]
+    fn i32(&mut self, v: i32) -> Option<()> {
+        self.varint(((v << 1) ^ (v >> 31)) as u32)
+    }
+}
+
+impl Bytes for Out<'_> {
+    #[inline(always)]
+    fn byte(&mut self, b: u8) -> Option<()> {
+        *self.buf.get_mut(self.n)? = b;
+        self.n += 1;
+        Some(())
+    }
+}
+
+impl Out<'_> {
     fn u64_le(&mut self, v: u64) -> Option<()> {
         for b in v.to_le_bytes() {
             self.byte(b)?;
@@ -47,11 +64,6 @@ impl Out<'_> {
             self.byte(b)?;
         }
         Some(())
-    }
-
-    #[inline(always)]
-    fn i32(&mut self, v: i32) -> Option<()> {
-        self.varint(((v << 1) ^ (v >> 31)) as u32)
     }
 }
 
@@ -71,6 +83,14 @@ pub(crate) fn encode_body(msg: &Message, out: &mut [u8]) -> Option<usize> {
 #[inline(always)]
 pub(crate) fn encode_sensor(s: &Sensor, out: &mut [u8]) -> Option<usize> {
     let mut w = Out { buf: out, n: 0 };
+    write_sensor(s, &mut w)?;
+    Some(w.n)
+}
+
+/// The postcard body of a [`Sensor`] (type byte first) into `w`: the one layout of the
+/// Sensor message for every writer.
+#[inline(always)]
+pub(crate) fn write_sensor(s: &Sensor, w: &mut impl Bytes) -> Option<()> {
     let Sensor {
         seq,
         t_us,
@@ -104,8 +124,7 @@ pub(crate) fn encode_sensor(s: &Sensor, out: &mut [u8]) -> Option<usize> {
     w.i32(i_a_ma)?;
     w.i32(omega_m_mrad_s)?;
     w.i32(demand_nm)?;
-    w.i32(v_ref_mm_s)?;
-    Some(w.n)
+    w.i32(v_ref_mm_s)
 }
 
 /// [`encode_body`] of an [`Actuation`].
