@@ -220,6 +220,7 @@
 pub mod compiled;
 pub mod config;
 pub mod controller;
+pub mod design;
 pub mod lead;
 pub mod monitor;
 pub mod pi;

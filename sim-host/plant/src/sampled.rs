@@ -37,17 +37,25 @@
 //!
 //! - `sampled/matrices.rs`: the loop matrices (ZOH, tick matrices, monodromy, modes, the
 //!   continuous closed loop);
+//! - `sampled/design.rs`: the gains designed per rate and delay, their criteria and
+//!   the verdict on every candidate;
+//! - `sampled/margins.rs`: the loops' gain and phase margins (Nyquist-safe for the
+//!   open-loop unstable yaw plant);
 //! - `sampled/rate_grid.rs`: the rate grid over creep and conicity, the link budget, and the
 //!   choice of the rates;
 //! - `sampled/summary.rs`: the rate table as JSON and text;
 //! - the plant variants ([`LinearPlant`], [`Model`], [`Reduced`], [`armature`]) live
 //!   with the linearisation in [`crate::linear`].
 
+mod design;
+mod margins;
 mod matrices;
 mod rate_grid;
 mod summary;
 
 pub use crate::linear::{armature, LinearPlant, Model, Reduced};
+pub use design::*;
+pub use margins::*;
 pub use matrices::*;
 pub use rate_grid::*;
 pub use summary::*;

@@ -1,0 +1,204 @@
+//! The gains designed for a base rate and an actuation delay: the set of rates a device
+//! accepts, each with its own traction PI and yaw law (host and build-script use; the
+//! device only compares bits, `wheelset_runtime`).
+//!
+//! Both loops run every base tick (divisors 1). The loop sees the sample-and-hold (half
+//! a period) and `d` ticks of computation and transport delay, an effective delay
+//!
+//! ```text
+//! tau = (d + 1/2) T,   T = 1/base_rate_hz;   tau_0 = 1.5/(5 kHz) = 300 us (the paper's point)
+//! ```
+//!
+//! - **Traction PI**: the armature `1/(L_a s + R_a)` is an integrator `1/(L_a s)` near
+//!   the crossover `w_c = Kp/L_a`, where the delay takes `w_c tau` of phase. The paper's
+//!   `Kp` gives 48.7 deg / 6.1 dB at `tau_0`; keeping `w_c tau <= w_c0 tau_0` keeps
+//!   those margins at a longer delay, so `Kp = Kp_0 min(1, tau_0/tau)`, with `Ti` kept
+//!   (`1/Ti` = 2 rad/s, two decades below every crossover: the integrator removes the
+//!   steady error and takes no phase there). A shorter delay keeps the paper's `Kp`
+//!   and gains margin.
+//! - **Yaw law**: the predictor extrapolates `y'` over the whole effective delay,
+//!   `alpha = min(d + 1/2, 3/2)` ticks (3/2: the largest the device's format takes,
+//!   `wheelset_proto::plausible::PREDICT_HALF_MAX_QUARTERS`), and the phase lead keeps
+//!   its shape with its gain `K` scaled by the point's `lead_gain` ([`DESIGNED`]): the
+//!   largest of [`LEAD_GAIN_STEPS`] whose loop keeps the margins of the paper's lead at
+//!   5 kHz within 1 dB and 5 deg, found by the sampled-data analysis on the host
+//!   (`wheelset_plant::sampled::design`, whose test holds this table to it).
+//!
+//! A point not in [`DESIGNED`] is not designed: its loops are not shown to hold, and a
+//! device refuses it.
+
+use crate::config::{Config, ConfigError};
+
+/// One accepted base rate and delay, with the lead's gain factor found for it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DesignPoint {
+    /// Base rate, Hz (both loops every tick).
+    pub base_rate_hz: u32,
+    /// Ticks from sampling to the actuation's application (1: the reply is back before
+    /// the next tick).
+    pub delay_ticks: u8,
+    /// Factor on the lead's `K` (1: the paper's lead).
+    pub lead_gain: f64,
+}
+
+/// The lead gain factors the design tries, largest (the paper's lead) first.
+pub const LEAD_GAIN_STEPS: [f64; 6] = [1.0, 0.95, 0.9, 0.85, 0.8, 0.75];
+
+/// The accepted rates and delays (module docs). `wheelset_plant::sampled::design`'s test
+/// checks that this is what the design finds over its candidates, and that every other
+/// candidate fails a stated criterion.
+pub const DESIGNED: [DesignPoint; 11] = [
+    DesignPoint {
+        base_rate_hz: 1_000,
+        delay_ticks: 1,
+        lead_gain: 0.95,
+    },
+    DesignPoint {
+        base_rate_hz: 2_000,
+        delay_ticks: 1,
+        lead_gain: 1.0,
+    },
+    DesignPoint {
+        base_rate_hz: 2_000,
+        delay_ticks: 2,
+        lead_gain: 0.9,
+    },
+    DesignPoint {
+        base_rate_hz: 2_500,
+        delay_ticks: 1,
+        lead_gain: 1.0,
+    },
+    DesignPoint {
+        base_rate_hz: 2_500,
+        delay_ticks: 2,
+        lead_gain: 0.9,
+    },
+    DesignPoint {
+        base_rate_hz: 5_000,
+        delay_ticks: 1,
+        lead_gain: 1.0,
+    },
+    DesignPoint {
+        base_rate_hz: 5_000,
+        delay_ticks: 2,
+        lead_gain: 0.95,
+    },
+    DesignPoint {
+        base_rate_hz: 5_000,
+        delay_ticks: 3,
+        lead_gain: 0.9,
+    },
+    DesignPoint {
+        base_rate_hz: 10_000,
+        delay_ticks: 1,
+        lead_gain: 1.0,
+    },
+    DesignPoint {
+        base_rate_hz: 10_000,
+        delay_ticks: 2,
+        lead_gain: 1.0,
+    },
+    DesignPoint {
+        base_rate_hz: 10_000,
+        delay_ticks: 3,
+        lead_gain: 0.95,
+    },
+];
+
+/// The paper's effective delay `tau_0`, s: 1.5 ticks at 5 kHz.
+pub const TAU_0_S: f64 = 1.5 / 5_000.0;
+
+/// The effective delay `tau = (d + 1/2)/base_rate_hz`, s.
+pub fn effective_delay_s(base_rate_hz: u32, delay_ticks: u8) -> f64 {
+    (f64::from(delay_ticks) + 0.5) / f64::from(base_rate_hz)
+}
+
+/// `Kp/Kp_0 = min(1, tau_0/tau)` (module docs).
+pub fn traction_gain_factor(base_rate_hz: u32, delay_ticks: u8) -> f64 {
+    (TAU_0_S / effective_delay_s(base_rate_hz, delay_ticks)).min(1.0)
+}
+
+/// The predictor's horizon `alpha = min(d + 1/2, 3/2)`, ticks.
+pub fn predict_ticks(delay_ticks: u8) -> f64 {
+    (f64::from(delay_ticks) + 0.5).min(1.5)
+}
+
+/// The design point of a rate and delay, if designed.
+pub fn point(base_rate_hz: u32, delay_ticks: u8) -> Option<DesignPoint> {
+    DESIGNED
+        .iter()
+        .find(|p| p.base_rate_hz == base_rate_hz && p.delay_ticks == delay_ticks)
+        .copied()
+}
+
+impl Config {
+    /// This configuration (its gains the paper's, at 5 kHz with one tick) redesigned for
+    /// `base_rate_hz` and `delay_ticks` with the lead gain factor `lead_gain` (module
+    /// docs): both divisors 1, `Kp` scaled, the predictor over the effective delay, `K`
+    /// scaled. Use [`Config::designed`] for an accepted point.
+    pub fn with_design(&self, base_rate_hz: u32, delay_ticks: u8, lead_gain: f64) -> Self {
+        let mut c = *self;
+        c.base_rate_hz = base_rate_hz;
+        c.yaw_divisor = 1;
+        c.traction_divisor = 1;
+        c.yaw_predict_ticks = predict_ticks(delay_ticks);
+        c.pi.kp = self.pi.kp * traction_gain_factor(base_rate_hz, delay_ticks);
+        c.lead.k = self.lead.k * lead_gain;
+        c
+    }
+
+    /// [`Config::with_design`] at an accepted point of [`DESIGNED`].
+    ///
+    /// Errors: the rate and delay are not designed (`Range` on `base_rate_hz`).
+    pub fn designed(&self, base_rate_hz: u32, delay_ticks: u8) -> Result<Self, ConfigError> {
+        let p = point(base_rate_hz, delay_ticks).ok_or(ConfigError::Range {
+            field: "base_rate_hz",
+            value: f64::from(base_rate_hz),
+            reason:
+                "no design for this rate and delay (accepted: wheelset_control::design::DESIGNED)",
+        })?;
+        Ok(self.with_design(base_rate_hz, delay_ticks, p.lead_gain))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_paper_point_is_the_paper() {
+        let c = Config::default();
+        assert_eq!(c.designed(5_000, 1).expect("designed"), c);
+    }
+
+    #[test]
+    fn kp_keeps_the_crossover_delay_product() {
+        let base = Config::default();
+        for p in DESIGNED {
+            let c = base
+                .designed(p.base_rate_hz, p.delay_ticks)
+                .expect("designed");
+            let tau = effective_delay_s(p.base_rate_hz, p.delay_ticks);
+            // w_c tau = (Kp/L_a) tau never above the paper's.
+            assert!(
+                c.pi.kp * tau <= base.pi.kp * TAU_0_S * (1.0 + 1e-12),
+                "{p:?}"
+            );
+            assert_eq!(c.pi.ti, base.pi.ti);
+            assert_eq!(c.lead.k, base.lead.k * p.lead_gain);
+            assert!(c.validate().is_ok(), "{p:?}");
+        }
+        let c = base.designed(1_000, 1).expect("designed");
+        assert!((c.pi.kp - 0.2 * base.pi.kp).abs() < 1e-12, "{}", c.pi.kp);
+        assert_eq!(c.yaw_predict_ticks, 1.5);
+        assert_eq!(predict_ticks(2), 1.5);
+        assert_eq!(predict_ticks(0), 0.5);
+    }
+
+    #[test]
+    fn undesigned_points_are_errors() {
+        assert!(Config::default().designed(500, 1).is_err());
+        assert!(Config::default().designed(5_000, 9).is_err());
+        assert!(Config::default().designed(4_000, 1).is_err());
+    }
+}

@@ -1,0 +1,277 @@
+//! Stability margins of each loop broken at its actuator, from the loop's frequency
+//! response on the unit circle and the sampled closed loop's own verdict.
+//!
+//! ```text
+//! yaw:      L(z) = -C_y(z) z^-d P_y(z),   P_y: T_psi -> y' (N m -> m/s)
+//!           C_y = K_hf (1 - h (1 + z^-1)/(1 - a z^-1)) (1 + alpha (1 - z^-1)),
+//!           a = 1 - kappa, h = kappa g/2, alpha = yaw_predict_ticks
+//! traction: L(z) =  C_i(z) z^-d P_i(z),   P_i: u_a -> i_a (V -> A),
+//!           C_i = Kp + Ki/(1 - z^-1)
+//! P(z) = C (zI - Ad)^-1 Bd                (ZOH at the base period)
+//! ```
+//!
+//! `T_psi = +C_y y'` acts through eq. 5's `-T_psi`, hence the yaw loop's minus sign; the
+//! PI acts on `i_ref - i_a`. Both loops run every base tick (divisors 1).
+//!
+//! The yaw plant has no passive spring and is open-loop unstable, so a Bode reading of
+//! "the" margin can be negative on a stable loop. Here the loop is first judged by the
+//! closed loop's eigenvalues ([`super::closed_loop`]); for a stable loop `k L` stays
+//! stable for every gain `k` between the nearest critical gains below and above 1 (a
+//! pole crosses the unit circle only where `k L(e^{jw}) = -1`, i.e. where `L` crosses
+//! the negative real axis at `-1/k`), and for every phase rotation smaller than the
+//! distance from `-180` deg of `arg L` at the nearest gain crossover `|L| = 1`. So:
+//!
+//! - **gain margin (up)**: `20 log10 k_up`, `k_up` the smallest critical gain above 1;
+//! - **gain margin (down)**: `20 log10 k_down` (negative), the largest below 1 (none
+//!   for an open-loop stable loop that stays stable down to zero gain);
+//! - **phase margin**: `min |180 + arg L|` over the gain crossovers.
+
+use super::*;
+use crate::params::Params;
+use nalgebra::{Complex, DMatrix, DVector};
+use std::f64::consts::PI;
+use wheelset_control::{Config, YawMode};
+
+/// Which loop is broken.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Loop {
+    /// The yaw damper (lead or gain), at the actuator torque `T_psi`.
+    Yaw,
+    /// The traction current loop, at the armature voltage `u_a`.
+    Traction,
+}
+
+impl Loop {
+    /// Name for reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Loop::Yaw => "yaw",
+            Loop::Traction => "traction",
+        }
+    }
+}
+
+/// A margin and the frequency it is read at (Hz).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct At {
+    /// dB (gain margins) or degrees (phase margin).
+    pub value: f64,
+    /// Frequency of the crossing, Hz.
+    pub hz: f64,
+}
+
+/// The margins of one loop (module docs).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Margins {
+    /// The loop is stable (judged alone: [`margins`]).
+    pub stable: bool,
+    /// Poles of the discretised plant (no yaw spring) outside the unit circle: why a
+    /// Bode reading alone cannot judge the yaw loop.
+    pub open_loop_unstable: usize,
+    /// Gain increase to instability, dB (`None`: none on the grid).
+    pub gain_up: Option<At>,
+    /// Gain decrease to instability, dB, negative (`None`: stable down to zero gain).
+    pub gain_down: Option<At>,
+    /// Phase rotation to instability, degrees (`None`: no gain crossover).
+    pub phase: Option<At>,
+}
+
+/// Frequencies of the response grid: 4000 points, log-spaced from 0.05 Hz to the Nyquist
+/// frequency (included).
+pub fn grid(base_hz: f64) -> Vec<f64> {
+    let m = 4000;
+    let (f0, f1) = (0.05f64, 0.5 * base_hz);
+    (0..m)
+        .map(|i| f0 * (f1 / f0).powf(i as f64 / (m - 1) as f64))
+        .collect()
+}
+
+/// `L(e^{j 2 pi f T})` of loop `which` on the frequencies `freqs` (module docs), with
+/// `delay_ticks` of delay.
+///
+/// Errors: divisors other than 1, an invalid configuration, a plant of the wrong shape.
+pub fn loop_response(
+    plant: &LinearPlant,
+    cfg: &Config,
+    delay_ticks: usize,
+    which: Loop,
+    freqs: &[f64],
+) -> Result<Vec<Complex<f64>>, String> {
+    cfg.validate().map_err(|e| e.to_string())?;
+    if cfg.yaw_divisor != 1 || cfg.traction_divisor != 1 {
+        return Err("margins: both loops must run every base tick (divisors 1)".into());
+    }
+    let n = plant.a.nrows();
+    if plant.b.shape() != (n, 2) || plant.c.shape() != (3, n) {
+        return Err("margins: plant shapes".into());
+    }
+    let t0 = cfg.base_period();
+    let (ad, bd) = zoh(&plant.a, &plant.b, t0);
+    let (input, output) = match which {
+        Loop::Yaw => (0, 0),
+        Loop::Traction => (1, 1),
+    };
+    let b: DVector<Complex<f64>> = bd.column(input).map(|v| Complex::new(v, 0.0));
+    let c: Vec<f64> = plant.c.row(output).iter().copied().collect();
+    let lead = cfg
+        .lead
+        .discretise(cfg.yaw_period())
+        .map_err(|e| e.to_string())?;
+    let pi = cfg
+        .pi
+        .discretise(cfg.traction_period())
+        .map_err(|e| e.to_string())?;
+    let alpha = cfg.yaw_predict_ticks;
+    let one = Complex::new(1.0, 0.0);
+    freqs
+        .iter()
+        .map(|&f| {
+            let zi = Complex::from_polar(1.0, -2.0 * PI * f * t0);
+            let z = one / zi;
+            let m: DMatrix<Complex<f64>> =
+                DMatrix::from_fn(n, n, |i, j| if i == j { z } else { one * 0.0 } - ad[(i, j)]);
+            let x = m
+                .lu()
+                .solve(&b)
+                .ok_or_else(|| format!("margins: zI - Ad singular at {f} Hz"))?;
+            let p: Complex<f64> = x.iter().zip(&c).map(|(v, ci)| v * *ci).sum();
+            let delay = zi.powi(delay_ticks as i32);
+            let ctrl = match which {
+                Loop::Yaw => {
+                    let pred = one + (one - zi) * alpha;
+                    let law = match cfg.yaw_mode {
+                        YawMode::Passive => one * 0.0,
+                        YawMode::Gain => one * cfg.gain_k,
+                        YawMode::Lead => {
+                            let h = lead.kappa * lead.g / 2.0;
+                            let lp = (one + zi) * h / (one - zi * (1.0 - lead.kappa));
+                            (one - lp) * lead.k_hf
+                        }
+                    };
+                    -(law * pred)
+                }
+                Loop::Traction => one * pi.kp + one * pi.ki / (one - zi),
+            };
+            Ok(ctrl * delay * p)
+        })
+        .collect()
+}
+
+fn wrap(d: f64) -> f64 {
+    let d = d.rem_euclid(360.0);
+    if d > 180.0 {
+        d - 360.0
+    } else {
+        d
+    }
+}
+
+/// The crossings of a response `l` on `freqs` (module docs): `(gain up, gain down,
+/// phase)`. A crossing is interpolated linearly between grid points.
+pub fn crossings(freqs: &[f64], l: &[Complex<f64>]) -> (Option<At>, Option<At>, Option<At>) {
+    let mut up: Option<At> = None;
+    let mut down: Option<At> = None;
+    let mut phase: Option<At> = None;
+    for i in 1..l.len().min(freqs.len()) {
+        let (a, b) = (l[i - 1], l[i]);
+        if !(a.norm().is_finite() && b.norm().is_finite()) {
+            continue;
+        }
+        let f_at = |t: f64| freqs[i - 1] + t * (freqs[i] - freqs[i - 1]);
+        // The negative real axis: Im changes sign where Re < 0.
+        if a.im * b.im <= 0.0 && a.im != b.im {
+            let t = a.im / (a.im - b.im);
+            let re = a.re + t * (b.re - a.re);
+            if re < 0.0 {
+                let db = -20.0 * (-re).log10();
+                let at = At {
+                    value: db,
+                    hz: f_at(t),
+                };
+                if db > 0.0 {
+                    if up.is_none_or(|u| db < u.value) {
+                        up = Some(at);
+                    }
+                } else if down.is_none_or(|d| db > d.value) {
+                    down = Some(at);
+                }
+            }
+        }
+        // Gain crossover.
+        let (ga, gb) = (a.norm().ln(), b.norm().ln());
+        if ga * gb <= 0.0 && ga != gb {
+            let t = ga / (ga - gb);
+            let (pa, pb) = (a.arg().to_degrees(), b.arg().to_degrees());
+            let ph = wrap(180.0 + pa + t * wrap(pb - pa)).abs();
+            if phase.is_none_or(|p| ph < p.value) {
+                phase = Some(At {
+                    value: ph,
+                    hz: f_at(t),
+                });
+            }
+        }
+    }
+    // The Nyquist frequency itself: L is real there.
+    if let (Some(&last), Some(&f)) = (l.last(), freqs.last()) {
+        if last.re < 0.0 && last.norm().is_finite() {
+            let db = -20.0 * (-last.re).log10();
+            let at = At { value: db, hz: f };
+            if db > 0.0 && up.is_none_or(|u| db < u.value) {
+                up = Some(at);
+            }
+            if db <= 0.0 && down.is_none_or(|d| db > d.value) {
+                down = Some(at);
+            }
+        }
+    }
+    (up, down, phase)
+}
+
+/// The margins of loop `which` of `cfg` with `delay_ticks` of delay, on the full plant
+/// (case d) at the operating point of `p` (its `f11`, `lambda`; module docs). The loop's
+/// own stability is judged with the other loop out of the way: the yaw loop with
+/// traction off (the drive alone is stable: the back-EMF brakes it), the traction loop
+/// on the wheelset with its passive yaw spring (stable at the nominal point). On straight
+/// track the two do not couple, so this names the loop that is unstable. Gain and phase
+/// margins are `None` when that loop is unstable.
+///
+/// Errors: as [`loop_response`] and [`closed_loop`].
+pub fn margins(
+    p: &Params,
+    cfg: &Config,
+    delay_ticks: usize,
+    which: Loop,
+) -> Result<Margins, String> {
+    let plant = Model::Full.plant(p, p.f11, p.lambda, false);
+    let freqs = grid(cfg.base_rate_hz as f64);
+    let l = loop_response(&plant, cfg, delay_ticks, which, &freqs)?;
+    let mut alone = *cfg;
+    let stable = match which {
+        Loop::Yaw => {
+            alone.traction_enabled = false;
+            closed_loop(&plant, &alone, delay_ticks)?.stable()
+        }
+        Loop::Traction => {
+            alone.yaw_mode = YawMode::Passive;
+            let sprung = Model::Full.plant(p, p.f11, p.lambda, true);
+            closed_loop(&sprung, &alone, delay_ticks)?.stable()
+        }
+    };
+    let (ad, _) = zoh(&plant.a, &plant.b, cfg.base_period());
+    let open_loop_unstable = crate::finite::eigenvalues(&ad, "the discretised plant")?
+        .iter()
+        .filter(|mu| mu.norm() > 1.0 + 1e-9)
+        .count();
+    let (gain_up, gain_down, phase) = if stable {
+        crossings(&freqs, &l)
+    } else {
+        (None, None, None)
+    };
+    Ok(Margins {
+        stable,
+        open_loop_unstable,
+        gain_up,
+        gain_down,
+        phase,
+    })
+}
