@@ -13,7 +13,7 @@ mod generated {
     use wheelset_control::{
         CompiledBits, MonitorBits, ScaleBits, ScheduleBits, WspBits, YawMode::*,
     };
-    use wheelset_runtime::{AccBits, RuntimeBits};
+    use wheelset_runtime::{AccBits, Rates, RuntimeBits};
     include!(concat!(env!("OUT_DIR"), "/default_runtime.rs"));
 }
 
@@ -119,6 +119,7 @@ pub fn new_runtime() -> Result<FwRuntime, RuntimeError> {
         DEFAULT_RUNTIME.hold_ticks,
         DEFAULT_RUNTIME.enable,
         DEFAULT_MONITOR,
+        &DEFAULT_RUNTIME.designed,
     )
 }
 

@@ -14,9 +14,11 @@
 //! only validates them ([`Compiled::from_bits`], [`Compiled::with_schedule`]: formats,
 //! signs, the 2 pu range of limits, divisors and rates).
 //!
-//! The split: the **schedule** ([`ScheduleBits`]) is what depends on the rates (the
-//! base rate, the divisors, the lead's `kappa`, the PI's `Ki`, the predictor's `alpha/2`,
-//! the per-step ramps); the rest (gains, limits, the wire codec) does not, and
+//! The split: the **schedule** ([`ScheduleBits`]) is what depends on the rates and the
+//! delay (the base rate, the divisors, the delay, the gains designed for them
+//! ([`crate::design`]: the lead's `K_hf` and `kappa`, the PI's `Kp` and `Ki`, the
+//! predictor's `alpha/2`), the per-step ramps); the rest (limits, the wire codec) does
+//! not, and
 //! [`CompiledBits::fingerprint`] identifies it, so a schedule computed against another
 //! controller can be refused.
 
@@ -65,6 +67,8 @@ pub struct Compiled<T: Sample> {
     pub(crate) torque_step: T,
     pub(crate) yaw_divisor: u16,
     pub(crate) traction_divisor: u16,
+    /// Ticks of delay the gains are designed for (not used by the tick).
+    pub(crate) delay_ticks: u8,
     pub(crate) base_rate_hz: u32,
     pub(crate) codec: Codec<T>,
     pub(crate) yaw_mode: YawMode,
@@ -93,10 +97,23 @@ pub struct ScheduleBits {
     pub yaw_divisor: u16,
     /// The traction loop runs every `traction_divisor` ticks (>= 1).
     pub traction_divisor: u16,
+    /// Ticks of delay the gains are designed for ([`crate::design`]; `>= 1`).
+    pub delay_ticks: u8,
     /// Lead `kappa = 1 - alpha` at the yaw period, coefficient, in `(0, 1)`.
     pub kappa: u64,
+    /// Lead `K_hf` (pu), coefficient: designed per rate and delay.
+    pub lead_k_hf: u64,
+    /// The wheel-slip protection's scheduled lead gain `lead_gain K_hf` (pu),
+    /// coefficient: follows the lead's `K_hf`.
+    pub wsp_lead_k_hf: u64,
+    /// PI `Kp` (pu), coefficient: designed per rate and delay.
+    pub kp: u64,
+    /// PI `Ki`'s shift `s` (`ki` is `Ki 2^s`, [`crate::Pi::ki_shift`]): fixed point
+    /// `1..=30`, floats 0; chosen for this `Kp` at the slowest traction period
+    /// ([`crate::pi::KI_SHIFT_PERIOD_S`]).
+    pub ki_shift: u8,
     /// PI `Ki = Kp T/Ti` at the traction period (pu) times `2^s`
-    /// ([`CompiledBits::pi_ki_shift`]), coefficient, in `(0, 1)`.
+    /// ([`ScheduleBits::ki_shift`]), coefficient, in `(0, 1)`.
     pub ki: u64,
     /// Predictor `alpha/2 = yaw_predict_ticks/(2 yaw_divisor)`, coefficient, in `[0, 1)`.
     pub predict_half: u64,
@@ -114,18 +131,10 @@ pub struct ScheduleBits {
 pub struct CompiledBits {
     /// The sample type ([`SampleBits::NUMERIC`]): 0 fixed point, 1 `f32`, 2 `f64`.
     pub numeric: u8,
-    /// Lead `K_hf` (pu), coefficient.
-    pub lead_k_hf: u64,
     /// Lead `g/2`, coefficient.
     pub lead_g_half: u64,
     /// Pure gain `K` (pu), coefficient.
     pub gain: u64,
-    /// PI `Kp` (pu), coefficient.
-    pub pi_kp: u64,
-    /// PI `Ki`'s shift `s` (the schedule's `ki` is `Ki 2^s`, [`crate::Pi::ki_shift`]):
-    /// fixed point `1..=30`, floats 0. Rate-independent (chosen for the slowest
-    /// traction period, [`crate::pi::KI_SHIFT_PERIOD_S`]).
-    pub pi_ki_shift: u8,
     /// PI lower output limit, pu signal.
     pub u_min: u64,
     /// PI upper output limit, pu signal.
@@ -183,7 +192,8 @@ impl<T: Sample> Compiled<T> {
         let pi_disc = config.pi.discretise(config.traction_period())?;
         let lead = Lead::new(&lead_disc.to_pu(s.y_dot, s.torque))?;
         // Ki's shift holds Ki at the slowest traction period a device accepts (or this
-        // configuration's, if slower): rate-independent, so every schedule fits it.
+        // configuration's, if slower) with this Kp. A design's Kp depends on the rate
+        // (`crate::design`), so the shift is part of the schedule.
         let pi_pu = pi_disc.to_pu(s.current, s.voltage);
         let t_tr = config.traction_period();
         let pi = Pi::with_ki_max(
@@ -222,6 +232,7 @@ impl<T: Sample> Compiled<T> {
             torque_step: T::from_f64(l.torque / s.torque * config.yaw_period() / config.safe.yaw_s),
             yaw_divisor: config.yaw_divisor,
             traction_divisor: config.traction_divisor,
+            delay_ticks: config.delay_ticks,
             base_rate_hz: config.base_rate_hz,
             codec: Codec::try_new(&config.wire, s)?,
             yaw_mode: config.yaw_mode,
@@ -278,11 +289,8 @@ impl<T: SampleBits> Compiled<T> {
         let k = &self.codec;
         CompiledBits {
             numeric: T::NUMERIC,
-            lead_k_hf: c(self.lead.k_hf),
             lead_g_half: c(self.lead.g_half),
             gain: c(self.gain),
-            pi_kp: c(self.pi.kp),
-            pi_ki_shift: self.pi.ki_shift as u8,
             u_min: self.pi.u_min.to_bits64(),
             u_max: self.pi.u_max.to_bits64(),
             clamps: [
@@ -316,7 +324,12 @@ impl<T: SampleBits> Compiled<T> {
             base_rate_hz: self.base_rate_hz,
             yaw_divisor: self.yaw_divisor,
             traction_divisor: self.traction_divisor,
+            delay_ticks: self.delay_ticks,
             kappa: T::coeff_to_bits64(self.lead.kappa),
+            lead_k_hf: T::coeff_to_bits64(self.lead.k_hf),
+            wsp_lead_k_hf: T::coeff_to_bits64(self.wsp.lead_k_hf),
+            kp: T::coeff_to_bits64(self.pi.kp),
+            ki_shift: self.pi.ki_shift as u8,
             ki: T::coeff_to_bits64(self.pi.ki),
             predict_half: T::coeff_to_bits64(self.predict_half),
             iref_step: self.iref_step.to_bits64(),
@@ -349,19 +362,15 @@ impl<T: SampleBits> Compiled<T> {
         }
         let c = Self {
             lead: Lead {
-                k_hf: coef("lead_k_hf", b.lead_k_hf)?,
+                k_hf: T::COEFF_ZERO,
                 g_half: coef("lead_g_half", b.lead_g_half)?,
                 kappa: T::COEFF_ZERO,
             },
             gain: coef("gain", b.gain)?,
             pi: Pi {
-                kp: coef("pi_kp", b.pi_kp)?,
+                kp: T::COEFF_ZERO,
                 ki: T::COEFF_ZERO,
-                ki_shift: Some(u32::from(b.pi_ki_shift))
-                    .filter(|s| T::acc_shift_ok(*s))
-                    .ok_or(BitsError {
-                        field: "pi_ki_shift",
-                    })?,
+                ki_shift: 0,
                 u_min,
                 u_max,
             },
@@ -379,6 +388,7 @@ impl<T: SampleBits> Compiled<T> {
             torque_step: T::ZERO,
             yaw_divisor: 1,
             traction_divisor: 1,
+            delay_ticks: 1,
             base_rate_hz: 0,
             codec: Codec {
                 y_dot: scale("codec.y_dot", sy)?,
@@ -396,10 +406,10 @@ impl<T: SampleBits> Compiled<T> {
     }
 
     /// The same controller at other rates: `s` replaces the rate-dependent part,
-    /// validated (integer work only): base rate 100 ..= 100 000 Hz, divisors >= 1,
-    /// `kappa` in `(0, 1)` (a discrete lead pole `alpha = 1 - kappa` in `(0, 1)`, as the
-    /// range analysis assumes), `Ki` in `(0, 1)`, `alpha/2` in `[0, 1)`, steps in
-    /// `(0, 2]` pu.
+    /// validated (integer work only): base rate 100 ..= 100 000 Hz, divisors and delay
+    /// >= 1, `kappa` in `(0, 1)` (a discrete lead pole `alpha = 1 - kappa` in `(0, 1)`,
+    /// as the range analysis assumes), `Kp` and `Ki` in `(0, 1)`, `alpha/2` in `[0, 1)`,
+    /// the lead gains valid coefficients, steps in `(0, 2]` pu.
     pub fn with_schedule(&self, s: &ScheduleBits) -> Result<Self, BitsError> {
         let e = |field| BitsError { field };
         if !(100..=100_000).contains(&s.base_rate_hz) {
@@ -416,12 +426,25 @@ impl<T: SampleBits> Compiled<T> {
                 .filter(|c| T::coeff_in_unit(*c, zero_ok))
                 .ok_or(e(field))
         };
+        if s.delay_ticks == 0 {
+            return Err(e("delay_ticks"));
+        }
         let kappa = unit("kappa", s.kappa, false)?;
         let ki = unit("ki", s.ki, false)?;
+        let kp = unit("kp", s.kp, false)?;
+        let k_hf = T::coeff_from_bits64(s.lead_k_hf).ok_or(e("lead_k_hf"))?;
+        let wsp_k_hf = T::coeff_from_bits64(s.wsp_lead_k_hf).ok_or(e("wsp_lead_k_hf"))?;
         let predict_half = unit("predict_half", s.predict_half, true)?;
         let mut c = *self;
         c.lead.kappa = kappa;
+        c.lead.k_hf = k_hf;
+        c.wsp.lead_k_hf = wsp_k_hf;
         c.pi.ki = ki;
+        c.pi.kp = kp;
+        c.pi.ki_shift = Some(u32::from(s.ki_shift))
+            .filter(|k| T::acc_shift_ok(*k))
+            .ok_or(e("ki_shift"))?;
+        c.delay_ticks = s.delay_ticks;
         c.predict_half = predict_half;
         c.iref_step = pu_limit::<T>(s.iref_step).ok_or(e("iref_step"))?;
         c.iref_safe_step = pu_limit::<T>(s.iref_safe_step).ok_or(e("iref_safe_step"))?;
@@ -459,12 +482,9 @@ impl CompiledBits {
         }
         let mut h: u32 = 0x811c_9dc5;
         h = word(h, self.numeric as u64);
-        h = word(h, self.pi_ki_shift as u64);
         let words = [
-            self.lead_k_hf,
             self.lead_g_half,
             self.gain,
-            self.pi_kp,
             self.u_min,
             self.u_max,
             self.demand_to_iref,
@@ -480,7 +500,6 @@ impl CompiledBits {
             self.wsp.kp_shift as u64,
             self.wsp.ki,
             self.wsp.ki_shift as u64,
-            self.wsp.lead_k_hf,
             self.wsp.lead_rho,
             self.wsp.v_ref.mul,
             self.wsp.v_ref.shift as u64,

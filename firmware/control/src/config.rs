@@ -156,6 +156,10 @@ pub struct Config {
     pub yaw_divisor: u16,
     /// The traction loop runs every `traction_divisor` ticks.
     pub traction_divisor: u16,
+    /// Ticks from sampling to the actuation's application that the gains are designed
+    /// for ([`crate::design`]; 1: the reply is back before the next tick). The control
+    /// law does not use it; it names the design point a device checks.
+    pub delay_ticks: u8,
     /// Yaw mode at start.
     pub yaw_mode: YawMode,
     /// Traction loop on at start.
@@ -200,6 +204,7 @@ impl Default for Config {
             base_rate_hz: DEFAULT_BASE_RATE_HZ,
             yaw_divisor: DEFAULT_YAW_DIVISOR,
             traction_divisor: DEFAULT_TRACTION_DIVISOR,
+            delay_ticks: 1,
             yaw_mode: YawMode::Lead,
             traction_enabled: true,
             lead: LeadParams::default(),
@@ -322,6 +327,12 @@ impl Config {
             self.traction_divisor as f64,
             self.traction_divisor >= 1,
             "divisor must be >= 1",
+        )?;
+        range(
+            "delay_ticks",
+            f64::from(self.delay_ticks),
+            self.delay_ticks >= 1,
+            "delay must be >= 1 tick",
         )?;
         let s = &self.scales;
         for (field, v) in [

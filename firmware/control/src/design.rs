@@ -141,6 +141,7 @@ impl Config {
         c.base_rate_hz = base_rate_hz;
         c.yaw_divisor = 1;
         c.traction_divisor = 1;
+        c.delay_ticks = delay_ticks;
         c.yaw_predict_ticks = predict_ticks(delay_ticks);
         c.pi.kp = self.pi.kp * traction_gain_factor(base_rate_hz, delay_ticks);
         c.lead.k = self.lead.k * lead_gain;

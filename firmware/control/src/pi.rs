@@ -15,13 +15,13 @@
 //! it with its own shift `s` ([`Sample::acc_shift`]): the Q1.31 coefficient is
 //! `Ki 2^s` and the product is shifted back by `s` ([`Sample::mul_c_acc_shr`]: one
 //! arithmetic shift of the product's high word, a few instructions on the control-law
-//! step, `cargo xtask fw-bench`). `s` is chosen once, at construction, for the
-//! largest `Ki` the controller may be rescheduled to: `Ki` at the slowest traction
-//! period a device accepts, [`KI_SHIFT_PERIOD_S`] (or the configured period if that is
-//! slower), so `s` does not depend on the rates (it is part of the rate-independent
-//! bits, [`crate::CompiledBits::pi_ki_shift`]) and every plausible schedule's `Ki` fits
-//! the same shift. The default set gets `s = 11` (`Ki` at 500 Hz is 4.0e-4 pu, times
-//! `2^11` 0.82): at 5 kHz `Ki 2^11` holds 27.4 significant bits.
+//! step, `cargo xtask fw-bench`). `s` is chosen at construction for `Ki` of these
+//! gains at the slowest traction period a device accepts, [`KI_SHIFT_PERIOD_S`] (or
+//! the configured period if that is slower): the same gains get the same shift at
+//! every rate, and a design's smaller `Kp` (`crate::design`) a larger one; the shift
+//! travels with the schedule ([`crate::ScheduleBits::ki_shift`]). The default set gets
+//! `s = 11` (`Ki` at 500 Hz is 4.0e-4 pu, times `2^11` 0.82): at 5 kHz `Ki 2^11` holds
+//! 27.4 significant bits.
 //!
 //! ```text
 //! fixed point:  Ki e[n] = floor((e c + r) / 2^(31+s)),  c = round(Ki 2^(31+s))  (Q1.31 of Ki 2^s)

@@ -340,8 +340,6 @@ pub struct WspBits {
     pub ki: u64,
     /// `ki`'s shift (`<= 16`).
     pub ki_shift: u8,
-    /// Scheduled lead `K_hf'`, a coefficient (signed, as the lead's).
-    pub lead_k_hf: u64,
     /// Scheduled lead `rho`, a coefficient (`|rho| < 1`).
     pub lead_rho: u64,
     /// The reference-speed scale.

@@ -50,7 +50,8 @@ fn a_controller_from_bits_is_the_same_controller() {
 }
 
 /// The schedule of another rate, applied to a compiled controller, gives exactly the
-/// compilation at that rate: the rate-independent part does not depend on the rates.
+/// compilation at that rate: the rate-independent part depends neither on the rates nor
+/// on the gains designed for them (`Kp`, the lead's `K`).
 #[test]
 fn a_schedule_is_all_that_depends_on_the_rates() {
     let base = Compiled::<Fx>::try_new(&at(5_000, 1, 1)).expect("valid");
@@ -63,9 +64,17 @@ fn a_schedule_is_all_that_depends_on_the_rates() {
         );
         assert_eq!(base.with_schedule(&other.schedule()), Ok(other), "{hz}");
     }
-    // Another gain is another controller.
+    for p in wheelset_control::design::DESIGNED {
+        let d = Config::default()
+            .designed(p.base_rate_hz, p.delay_ticks)
+            .expect("designed");
+        let other = Compiled::<Fx>::try_new(&d).expect("valid");
+        assert_eq!(base.to_bits().fingerprint(), other.to_bits().fingerprint());
+        assert_eq!(base.with_schedule(&other.schedule()), Ok(other), "{p:?}");
+    }
+    // Another limit is another controller.
     let mut cfg = at(5_000, 1, 1);
-    cfg.pi.kp = 2.0;
+    cfg.limits.torque = 1.0e4;
     let other = Compiled::<Fx>::try_new(&cfg).expect("valid");
     assert_ne!(base.to_bits().fingerprint(), other.to_bits().fingerprint());
     // Another sample type too.
@@ -84,7 +93,30 @@ fn invalid_bits_are_refused_by_name() {
         (
             "lead_k_hf",
             CompiledBits {
-                lead_k_hf: 0x8000_0000, // -1: not a Q1.31 coefficient here
+                schedule: ScheduleBits {
+                    lead_k_hf: 1 << 32, // wider than 32 bits
+                    ..good.schedule
+                },
+                ..good
+            },
+        ),
+        (
+            "kp",
+            CompiledBits {
+                schedule: ScheduleBits {
+                    kp: 0, // not in (0, 1)
+                    ..good.schedule
+                },
+                ..good
+            },
+        ),
+        (
+            "delay_ticks",
+            CompiledBits {
+                schedule: ScheduleBits {
+                    delay_ticks: 0,
+                    ..good.schedule
+                },
                 ..good
             },
         ),
@@ -140,16 +172,22 @@ fn invalid_bits_are_refused_by_name() {
             },
         ),
         (
-            "pi_ki_shift",
+            "ki_shift",
             CompiledBits {
-                pi_ki_shift: 0, // fixed point shifts Ki by 1..=30
+                schedule: ScheduleBits {
+                    ki_shift: 0, // fixed point shifts Ki by 1..=30
+                    ..good.schedule
+                },
                 ..good
             },
         ),
         (
-            "pi_ki_shift",
+            "ki_shift",
             CompiledBits {
-                pi_ki_shift: 31,
+                schedule: ScheduleBits {
+                    ki_shift: 31,
+                    ..good.schedule
+                },
                 ..good
             },
         ),
@@ -226,14 +264,15 @@ fn invalid_bits_are_refused_by_name() {
     }
 }
 
-/// `Ki` is held with its own shift, chosen for the slowest traction rate a device
-/// accepts (500 Hz): the same shift at every accepted rate, the most significant bits
-/// that allows at the default rate, and the exact value it stands for in `quantised`.
+/// `Ki` is held with its own shift, chosen for the gains' `Ki` at the slowest traction
+/// rate (500 Hz): the same shift for the same gains at every rate, the most significant
+/// bits that allows at the default rate, and the exact value it stands for in
+/// `quantised`.
 #[test]
-fn ki_has_its_own_rate_independent_shift() {
+fn ki_has_its_own_shift_for_its_gains() {
     let base = Compiled::<Fx>::try_new(&Config::default()).expect("valid");
     let s = base.pi().ki_shift();
-    assert_eq!(u32::from(base.to_bits().pi_ki_shift), s);
+    assert_eq!(u32::from(base.to_bits().schedule.ki_shift), s);
     let cfg = Config::default();
     let ki =
         cfg.pi.kp * cfg.traction_period() / cfg.pi.ti * cfg.scales.current / cfg.scales.voltage;
@@ -257,7 +296,11 @@ fn ki_has_its_own_rate_independent_shift() {
     }
     // Floats need no shift.
     let f = Compiled::<f32>::try_new(&Config::default()).expect("valid");
-    assert_eq!((f.pi().ki_shift(), f.to_bits().pi_ki_shift), (0, 0));
+    assert_eq!((f.pi().ki_shift(), f.to_bits().schedule.ki_shift), (0, 0));
+    // A design with a smaller Kp (1 kHz) holds its smaller Ki with a larger shift.
+    let slow = Compiled::<Fx>::try_new(&Config::default().designed(1_000, 1).expect("designed"))
+        .expect("valid");
+    assert!(slow.pi().ki_shift() > s);
     // A Ki of 0.5 pu per sample or more has no shift: refused by name.
     let mut big = Config::default();
     big.pi.ti = big.traction_period() * 0.05;

@@ -20,7 +20,7 @@ use cobs::cobs_decode_nonzero_to;
 pub use cobs::{cobs_decode_in_place, cobs_encode};
 
 /// Protocol version, the first byte of every decoded frame.
-pub const VERSION: u8 = 2;
+pub const VERSION: u8 = 3;
 
 /// CRC length in bytes.
 pub const CRC_LEN: usize = 4;

@@ -203,10 +203,11 @@ pub struct Config {
     pub rates: Option<Rates>,
 }
 
-/// Rates and the rate-dependent coefficients of the control core and the runtime, as
-/// exact bit patterns, computed by the host with the device's own control code
-/// (`wheelset_runtime::rates_for`): the device does no discretisation, it validates and
-/// applies them.
+/// Rates and the coefficients designed for them and the delay, of the control core and
+/// the runtime, as exact bit patterns, computed by the host with the device's own
+/// control code (`wheelset_runtime::rates_for` on a `RuntimeConfig::designed`): the
+/// device does no discretisation; it accepts exactly the designs of its own table
+/// (`wheelset_control::design::DESIGNED`), bit for bit, and applies them.
 ///
 /// A coefficient or per-unit signal is the bit pattern of the device's sample type
 /// (`numeric`): fixed point (0) Q1.31 / Q4.28 `i32` bits, `f32` (1) IEEE bits.
@@ -226,10 +227,22 @@ pub struct Rates {
     pub yaw_div: u16,
     /// Traction loop runs every `traction_div` base ticks.
     pub traction_div: u16,
+    /// Ticks from a Sensor frame's sampling to the application of its Actuation that
+    /// the gains are designed for (1: the reply is back before the next tick).
+    pub delay_ticks: u8,
     /// Lead `kappa` at the yaw period (coefficient bits).
     pub kappa: u32,
-    /// PI `Ki` at the traction period (coefficient bits).
+    /// Lead `K_hf` designed for the rate and delay (coefficient bits).
+    pub lead_k_hf: u32,
+    /// The wheel-slip protection's scheduled lead gain, which follows `K_hf`
+    /// (coefficient bits).
+    pub wsp_lead_k_hf: u32,
+    /// PI `Kp` designed for the rate and delay (coefficient bits).
+    pub kp: u32,
+    /// PI `Ki` at the traction period times `2^ki_shift` (coefficient bits).
     pub ki: u32,
+    /// The shift `Ki` is held with (fixed point; 0 for `f32`).
+    pub ki_shift: u8,
     /// Delay-compensation factor `alpha/2` (coefficient bits).
     pub predict_half: u32,
     /// Current-reference slew per traction step (per-unit signal bits).

@@ -5,32 +5,24 @@
 //!
 //! A Config can change the rates, the yaw law, traction, the output enable, the hold
 //! time and the switches; the coefficients in [`crate::Rates`] are not free parameters:
-//! each must be what the device's own control core yields for the requested rates, within
-//! [`RATE_TOLERANCE`] (relative) plus one LSB of a fixed-point format. The device checks
-//! that without discretising (it has no float maths): every rate-dependent coefficient is
-//! a known function of its loop period `T`, so it compares the received value with the
-//! one its start-up core has at its own period `T0`:
-//!
-//! ```text
-//! linear in T (ki, iref_step, iref_safe_step, torque_step, acc_gain, acc_leak):
-//!     x(T) = x(T0) T/T0
-//! the lead's kappa = 2c/(1 + c) with c = w2 T/2 (Tustin, no pre-warping):
-//!     c(T) = c(T0) T/T0,  c = kappa/(2 - kappa)
-//! T = yaw_div/base_rate (kappa, predict, torque_step), traction_div/base_rate (ki,
-//!     iref steps), 1/base_rate (the y'' integrator's acc_gain, acc_leak)
-//! ```
+//! a device accepts a base rate and a delay only where its own table of designs has
+//! them (`wheelset_control::design::DESIGNED`, each judged by the sampled-data analysis:
+//! `sim-host rates`), and then only the coefficients designed for them, bit for bit
+//! (the host computes them with the device's own control code). Anything else would run
+//! a loop that is unstable or not shown stable there: the refusal names the field and
+//! so the loop (traction: `kp`, `ki`, the reference steps; yaw: `kappa`, `lead_k_hf`,
+//! `predict_half`, `torque_step`, the protection's lead).
 //!
 //! | field | min | max | unit | why |
 //! |---|---|---|---|---|
 //! | `rates.numeric` | the device's | the device's | code | the coefficients' bit format |
-//! | `rates.fingerprint` | the device's | the device's | hash | computed against this core's gains, limits, scales |
-//! | `rates.base_rate_hz` | 500 | 20 000 | Hz | the slowest loop rate below (a base rate under it leaves no valid divisor); at 20 kHz the tick's budget (`cargo xtask fw-bench`: 1 500 instructions mean, 3 000 at most) is under 40 % of the 8 400-cycle period of the board's 168 MHz core. The low end is about what a device can run, not stability: the rate analysis (`sim-host rates`) finds the current loop unstable below 2.5 kHz with one period of delay. 500 Hz is the free-running QEMU's rate (its UART's byte rate, README "QEMU free-running") |
+//! | `rates.fingerprint` | the device's | the device's | hash | computed against this core's limits, scales and rate-independent gains |
+//! | `rates.base_rate_hz` | 500 | 20 000 | Hz | a rate of the device's design table (and within the board's link) |
 //! | period `1/base_rate_hz` | - | - | us | a whole number of microseconds: the board's ticker counts 1 us ([`TICKER_HZ`]) |
-//! | yaw loop rate `base_rate_hz/yaw_div` | 500 | - | Hz | the slowest yaw rate the rate analysis evaluates (the lead's `w2 T/2` = 0.27) |
-//! | traction loop rate `base_rate_hz/traction_div` | 500 | - | Hz | 5 samples per `L_a/R_a` = 10 ms armature time constant at least |
+//! | `rates.yaw_div`, `rates.traction_div` | 1 | 1 | - | the designs run both loops every tick |
+//! | `rates.delay_ticks` | 1 | - | ticks | a delay the rate has a design for |
 //! | `hold_ticks x T` | 0 | 20 000 | us | a fifth of the ~10 Hz kinematic mode's period: an older `y'` is off by more than 70 degrees of phase |
-//! | `kappa`, `ki`, `iref_step`, `iref_safe_step`, `torque_step`, `acc_gain_q32`, `acc_leak_q32` | `1 - 2^-10` | `1 + 2^-10` | x the device's own value at the requested rates (+ 1 LSB fixed point) | only the rates may change them |
-//! | `predict_half` | 0 | 0.75 | coefficient | `alpha/2`, `alpha = tau/T_yaw`; the matched compensation (zero-order hold + one tick = `1 + yaw_div/2` ticks) is at most 1.5 |
+//! | every coefficient | the design's | the design's | bits | the gains designed for the rate and delay; the ramps and the `y''` integrator at that rate |
 //! | f32 coefficients | - | - | - | normal numbers only (no subnormal, infinite, NaN or negative bit pattern) |
 //!
 //! [`PLAUSIBLE`] is this table as data (for tools and reports); the device uses the
@@ -49,14 +41,9 @@ pub const BASE_RATE_MAX_HZ: u32 = 20_000;
 pub const LOOP_RATE_MIN_HZ: u32 = 500;
 /// Longest plausible hold on a stale sample, `hold_ticks / base_rate_hz`, us.
 pub const HOLD_MAX_US: u32 = 20_000;
-/// Largest plausible `predict_half` (`alpha/2`), as a fraction `num/2^2`: 3/4.
+/// Largest plausible `predict_half` (`alpha/2`), as a fraction `num/2^2`: 3/4 (the
+/// designs extrapolate over at most 1.5 ticks).
 pub const PREDICT_HALF_MAX_QUARTERS: u32 = 3;
-/// Relative tolerance of a rate-dependent coefficient against the device's own value:
-/// `2^-RATE_TOLERANCE_LOG2` (~0.1 %, far above the quantisation of every format at
-/// 1-20 kHz, far below a change of a design parameter).
-pub const RATE_TOLERANCE_LOG2: u32 = 10;
-/// [`RATE_TOLERANCE_LOG2`] as a fraction.
-pub const RATE_TOLERANCE: f64 = 1.0 / (1u32 << RATE_TOLERANCE_LOG2) as f64;
 
 /// Why the latest [`crate::Config`] or [`crate::Command`] was refused: the field to blame
 /// ([`crate::Status`] `refuse_reason`; 0 = none since the counters were reset).
@@ -73,13 +60,13 @@ pub enum RefuseReason {
     Numeric = 2,
     /// `rates.fingerprint` is not the device's core.
     Fingerprint = 3,
-    /// `rates.base_rate_hz` outside its range.
+    /// `rates.base_rate_hz`: no design for it, or above the board's link.
     BaseRate = 4,
     /// The base period is not a whole number of ticker ticks (us).
     Period = 5,
-    /// `rates.yaw_div`: zero, or the yaw loop slower than [`LOOP_RATE_MIN_HZ`].
+    /// `rates.yaw_div`: not 1 (the designs run the yaw loop every tick).
     YawDiv = 6,
-    /// `rates.traction_div`: zero, or the traction loop slower than [`LOOP_RATE_MIN_HZ`].
+    /// `rates.traction_div`: not 1 (the designs run the traction loop every tick).
     TractionDiv = 7,
     /// `hold_ticks`: longer than [`HOLD_MAX_US`] at the base rate.
     HoldTicks = 8,
@@ -106,11 +93,19 @@ pub enum RefuseReason {
     /// ([`crate::Command::InjectStall`], [`crate::Command::InjectHardFault`]) on a build
     /// without it. (Every build takes every Config switch: `wsp`, `monitor_safe`.)
     Unsupported = 18,
+    /// `rates.delay_ticks`: the rate has no design for this delay.
+    Delay = 19,
+    /// `rates.kp`: not the traction loop's design for the rate and delay.
+    Kp = 20,
+    /// `rates.lead_k_hf`: not the yaw loop's design for the rate and delay.
+    LeadKhf = 21,
+    /// `rates.wsp_lead_k_hf`: not the wheel-slip protection's lead for the design.
+    WspLead = 22,
 }
 
 impl RefuseReason {
     /// Every reason, in code order.
-    pub const ALL: [Self; 19] = [
+    pub const ALL: [Self; 23] = [
         Self::None,
         Self::UnknownRequest,
         Self::Numeric,
@@ -130,6 +125,10 @@ impl RefuseReason {
         Self::AccLeak,
         Self::Bits,
         Self::Unsupported,
+        Self::Delay,
+        Self::Kp,
+        Self::LeadKhf,
+        Self::WspLead,
     ];
 
     /// The wire code.
@@ -167,6 +166,10 @@ impl RefuseReason {
             Self::AccLeak => "rates.acc_leak_q32",
             Self::Bits => "rates (bit pattern)",
             Self::Unsupported => "request (not honoured by this build)",
+            Self::Delay => "rates.delay_ticks",
+            Self::Kp => "rates.kp",
+            Self::LeadKhf => "rates.lead_k_hf",
+            Self::WspLead => "rates.wsp_lead_k_hf",
         }
     }
 }
@@ -196,15 +199,16 @@ pub struct Plausible {
     pub why: &'static str,
 }
 
-const RATED: &str = "x the device's own value at the requested rates";
-const RATED_WHY: &str = "rate-dependent: only the rates may change it (within 2^-10, + 1 LSB \
-                         fixed point)";
-const LO: f64 = 1.0 - RATE_TOLERANCE;
-const HI: f64 = 1.0 + RATE_TOLERANCE;
+const TRACTION: &str = "the traction loop's design for the rate and delay, bit for bit: \
+                        another leaves the current loop unstable or not shown stable";
+const YAW: &str = "the yaw loop's design for the rate and delay, bit for bit: another \
+                   leaves the yaw loop unstable or not shown stable";
+const AT_RATE: &str = "the runtime's value at the designed rate, bit for bit";
+const DESIGN: &str = "the design's";
 
 /// The plausibility table (see the module docs), one row per [`RefuseReason`] but
 /// `None`.
-pub const PLAUSIBLE: [Plausible; 18] = [
+pub const PLAUSIBLE: [Plausible; 22] = [
     Plausible {
         reason: RefuseReason::UnknownRequest,
         min: f64::NAN,
@@ -231,7 +235,7 @@ pub const PLAUSIBLE: [Plausible; 18] = [
         min: BASE_RATE_MIN_HZ as f64,
         max: BASE_RATE_MAX_HZ as f64,
         unit: "Hz",
-        why: "the slowest loop rate (divisor 1); 20 kHz leaves the tick a sixth of the period",
+        why: "a rate of the device's design table (`sim-host rates` lists each refused one with the criterion it fails), within the board's link",
     },
     Plausible {
         reason: RefuseReason::Period,
@@ -242,17 +246,17 @@ pub const PLAUSIBLE: [Plausible; 18] = [
     },
     Plausible {
         reason: RefuseReason::YawDiv,
-        min: LOOP_RATE_MIN_HZ as f64,
-        max: f64::NAN,
-        unit: "Hz (base_rate_hz / yaw_div)",
-        why: "the slowest yaw rate the rate analysis evaluates",
+        min: 1.0,
+        max: 1.0,
+        unit: "-",
+        why: "the designs run the yaw loop every tick",
     },
     Plausible {
         reason: RefuseReason::TractionDiv,
-        min: LOOP_RATE_MIN_HZ as f64,
-        max: f64::NAN,
-        unit: "Hz (base_rate_hz / traction_div)",
-        why: "at least 5 samples per 10 ms armature time constant",
+        min: 1.0,
+        max: 1.0,
+        unit: "-",
+        why: "the designs run the traction loop every tick",
     },
     Plausible {
         reason: RefuseReason::HoldTicks,
@@ -263,59 +267,59 @@ pub const PLAUSIBLE: [Plausible; 18] = [
     },
     Plausible {
         reason: RefuseReason::Kappa,
-        min: LO,
-        max: HI,
-        unit: RATED,
-        why: RATED_WHY,
+        min: f64::NAN,
+        max: f64::NAN,
+        unit: DESIGN,
+        why: YAW,
     },
     Plausible {
         reason: RefuseReason::Ki,
-        min: LO,
-        max: HI,
-        unit: RATED,
-        why: RATED_WHY,
+        min: f64::NAN,
+        max: f64::NAN,
+        unit: DESIGN,
+        why: TRACTION,
     },
     Plausible {
         reason: RefuseReason::PredictHalf,
         min: 0.0,
         max: PREDICT_HALF_MAX_QUARTERS as f64 / 4.0,
         unit: "coefficient",
-        why: "alpha/2 of the matched delay compensation (1 + yaw_div/2 ticks) is <= 0.75",
+        why: YAW,
     },
     Plausible {
         reason: RefuseReason::IrefStep,
-        min: LO,
-        max: HI,
-        unit: RATED,
-        why: RATED_WHY,
+        min: f64::NAN,
+        max: f64::NAN,
+        unit: DESIGN,
+        why: TRACTION,
     },
     Plausible {
         reason: RefuseReason::IrefSafeStep,
-        min: LO,
-        max: HI,
-        unit: RATED,
-        why: RATED_WHY,
+        min: f64::NAN,
+        max: f64::NAN,
+        unit: DESIGN,
+        why: TRACTION,
     },
     Plausible {
         reason: RefuseReason::TorqueStep,
-        min: LO,
-        max: HI,
-        unit: RATED,
-        why: RATED_WHY,
+        min: f64::NAN,
+        max: f64::NAN,
+        unit: DESIGN,
+        why: YAW,
     },
     Plausible {
         reason: RefuseReason::AccGain,
-        min: LO,
-        max: HI,
-        unit: RATED,
-        why: RATED_WHY,
+        min: f64::NAN,
+        max: f64::NAN,
+        unit: DESIGN,
+        why: AT_RATE,
     },
     Plausible {
         reason: RefuseReason::AccLeak,
-        min: LO,
-        max: HI,
-        unit: RATED,
-        why: RATED_WHY,
+        min: f64::NAN,
+        max: f64::NAN,
+        unit: DESIGN,
+        why: AT_RATE,
     },
     Plausible {
         reason: RefuseReason::Bits,
@@ -330,6 +334,34 @@ pub const PLAUSIBLE: [Plausible; 18] = [
         max: f64::NAN,
         unit: "-",
         why: "a test-only fault injection on a build that does not honour it",
+    },
+    Plausible {
+        reason: RefuseReason::Delay,
+        min: 1.0,
+        max: f64::NAN,
+        unit: "ticks",
+        why: "a delay the rate has a design for",
+    },
+    Plausible {
+        reason: RefuseReason::Kp,
+        min: f64::NAN,
+        max: f64::NAN,
+        unit: DESIGN,
+        why: TRACTION,
+    },
+    Plausible {
+        reason: RefuseReason::LeadKhf,
+        min: f64::NAN,
+        max: f64::NAN,
+        unit: DESIGN,
+        why: YAW,
+    },
+    Plausible {
+        reason: RefuseReason::WspLead,
+        min: f64::NAN,
+        max: f64::NAN,
+        unit: DESIGN,
+        why: YAW,
     },
 ];
 

@@ -36,10 +36,10 @@ pub const ACTUATION_MAX_FRAME: usize = frame_len(2 + 2 + V32 + V16 + V32 + V32);
 pub const COMMAND_MAX_FRAME: usize = frame_len(1);
 
 /// Config with rates: mode 1, traction 1, enable 1, hold 3, wsp 1, monitor_safe 1,
-/// Some 1, numeric 1, fingerprint 4, base rate 5, divisors 3 + 3, six coefficients
-/// 6 x 5, two Q32 factors 2 x 8.
+/// Some 1, numeric 1, fingerprint 4, base rate 5, divisors 3 + 3, delay 1, nine
+/// coefficients 9 x 5, `Ki`'s shift 1, two Q32 factors 2 x 8.
 pub const CONFIG_MAX_FRAME: usize =
-    frame_len(1 + 1 + 1 + V16 + 1 + 1 + 1 + 1 + 4 + V32 + 2 * V16 + 6 * V32 + 16);
+    frame_len(1 + 1 + 1 + V16 + 1 + 1 + 1 + 1 + 4 + V32 + 2 * V16 + 1 + 9 * V32 + 1 + 16);
 
 /// Status: 28 counters x 5, refuse reason 1, reset cause 1, flags 3.
 pub const STATUS_MAX_FRAME: usize = frame_len(28 * V32 + 1 + 1 + V16);

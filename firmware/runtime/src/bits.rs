@@ -3,6 +3,7 @@
 //! start without float maths) and the coefficients of a rate switch ([`rates_for`]),
 //! computed on the host with the device's control code.
 
+use wheelset_control::design::DESIGNED;
 use wheelset_control::{
     BitsError, Compiled, CompiledBits, Config as ControlConfig, ConfigError, Monitor, MonitorBits,
     MonitorParams, SampleBits, WireLsb,
@@ -53,6 +54,31 @@ pub struct RuntimeConfig {
     /// The stability monitor (`wheelset_control::monitor`: hunting and actuator alarms on
     /// the received `y'`); `None`: off (no alarms).
     pub monitor: Option<MonitorParams>,
+    /// The control configuration at the paper's point (5 kHz, one tick of delay) whose
+    /// designs for the other rates and delays ([`wheelset_control::design`]) the device
+    /// accepts; `None`: [`Self::control`] is that configuration.
+    pub design: Option<ControlConfig>,
+}
+
+impl RuntimeConfig {
+    /// The configuration at the design point `base_rate_hz`, `delay_ticks`: the control
+    /// core [`ControlConfig::designed`] from the design base ([`Self::design`]), the rest
+    /// as it is. What a host sends a device to change its rate.
+    ///
+    /// Errors: the point is not designed.
+    pub fn designed(&self, base_rate_hz: u32, delay_ticks: u8) -> Result<Self, RuntimeError> {
+        let base = self.design_base();
+        Ok(Self {
+            control: base.designed(base_rate_hz, delay_ticks)?,
+            design: Some(base),
+            ..*self
+        })
+    }
+
+    /// The configuration the designs are scaled from ([`Self::design`]).
+    pub fn design_base(&self) -> ControlConfig {
+        self.design.unwrap_or(self.control)
+    }
 }
 
 /// Default wash-out of the `y''` integrator: 2 s (corner 0.08 Hz, below the 3 s curve
@@ -68,6 +94,7 @@ impl Default for RuntimeConfig {
             enable: true,
             acc_washout_s: DEFAULT_ACC_WASHOUT_S,
             monitor: Some(MonitorParams::default()),
+            design: None,
         }
     }
 }
@@ -82,6 +109,9 @@ pub enum RuntimeError {
     Washout,
     /// Exact bits ([`RuntimeBits`], [`Rates`]) are invalid: the field named.
     Bits(BitsError),
+    /// The design base ([`RuntimeConfig::design`]) differs from the control core in its
+    /// rate-independent part: its designs could not be applied to this core.
+    Design,
 }
 
 impl core::fmt::Display for RuntimeError {
@@ -93,6 +123,10 @@ impl core::fmt::Display for RuntimeError {
                 "runtime: acc_washout_s must be 0 or a finite time of at least one tick"
             ),
             Self::Bits(e) => write!(f, "runtime: {e}"),
+            Self::Design => write!(
+                f,
+                "runtime: the design base differs from the control core beyond its rates and gains"
+            ),
         }
     }
 }
@@ -127,6 +161,10 @@ pub struct RuntimeBits {
     pub enable: bool,
     /// The stability monitor ([`RuntimeConfig::monitor`]; `rate_hz` 0: off).
     pub monitor: MonitorBits,
+    /// The rates a Config may set: one per design point of
+    /// [`wheelset_control::design::DESIGNED`], in its order, as [`rates_for`] computes
+    /// them from the design base. A received [`Rates`] must be one of them, bit for bit.
+    pub designed: [Rates; DESIGNED.len()],
 }
 
 impl RuntimeBits {
@@ -139,38 +177,67 @@ impl RuntimeBits {
             Some(p) => Monitor::<T>::try_new(p, control.base_rate_hz)?.to_bits(),
             None => Monitor::<T>::off().to_bits(),
         };
+        let compiled = Compiled::<T>::try_new(&control)?.to_bits();
+        let mut designed = [rates_of(&compiled, acc_factors(cfg)?)?; DESIGNED.len()];
+        for (slot, p) in designed.iter_mut().zip(DESIGNED) {
+            let at = cfg.designed(p.base_rate_hz, p.delay_ticks)?;
+            let mut c = at.control;
+            c.wire = WireLsb::default();
+            let bits = Compiled::<T>::try_new(&c)?.to_bits();
+            if bits.fingerprint() != compiled.fingerprint() {
+                return Err(RuntimeError::Design);
+            }
+            *slot = rates_of(&bits, acc_factors(&at)?)?;
+        }
         Ok(Self {
-            control: Compiled::<T>::try_new(&control)?.to_bits(),
+            control: compiled,
             acc: acc_factors(cfg)?,
             hold_ticks: cfg.hold_ticks,
             enable: cfg.enable,
             monitor,
+            designed,
         })
     }
 }
 
-/// The [`Rates`] that switch a device running `T` with the rate-independent part of
-/// `cfg` to the rates of `cfg` (its base rate and divisors): the coefficients computed
-/// here, with the device's control code. Host use.
-///
-/// Errors: `cfg` is invalid, or `T` has no 32-bit wire form (`f64`).
-pub fn rates_for<T: SampleBits>(cfg: &RuntimeConfig) -> Result<Rates, RuntimeError> {
-    let b = RuntimeBits::try_new::<T>(cfg)?;
-    let s = b.control.schedule;
+/// The [`Rates`] of compiled bits and the `y''` integrator's factors.
+fn rates_of(b: &CompiledBits, acc: AccBits) -> Result<Rates, RuntimeError> {
+    let s = b.schedule;
     let w = |field, v: u64| u32::try_from(v).map_err(|_| RuntimeError::Bits(BitsError { field }));
     Ok(Rates {
-        numeric: T::NUMERIC,
-        fingerprint: b.control.fingerprint(),
+        numeric: b.numeric,
+        fingerprint: b.fingerprint(),
         base_rate_hz: s.base_rate_hz,
         yaw_div: s.yaw_divisor,
         traction_div: s.traction_divisor,
+        delay_ticks: s.delay_ticks,
         kappa: w("kappa", s.kappa)?,
+        lead_k_hf: w("lead_k_hf", s.lead_k_hf)?,
+        wsp_lead_k_hf: w("wsp_lead_k_hf", s.wsp_lead_k_hf)?,
+        kp: w("kp", s.kp)?,
         ki: w("ki", s.ki)?,
+        ki_shift: s.ki_shift,
         predict_half: w("predict_half", s.predict_half)?,
         iref_step: w("iref_step", s.iref_step)?,
         iref_safe_step: w("iref_safe_step", s.iref_safe_step)?,
         torque_step: w("torque_step", s.torque_step)?,
-        acc_gain_q32: b.acc.gain_q32,
-        acc_leak_q32: b.acc.leak_q32,
+        acc_gain_q32: acc.gain_q32,
+        acc_leak_q32: acc.leak_q32,
     })
+}
+
+/// The [`Rates`] that switch a device running `T` with the rate-independent part of
+/// `cfg` to the rates, delay and gains of `cfg` (use [`RuntimeConfig::designed`] for a
+/// rate a device accepts): the coefficients computed here, with the device's control
+/// code. Host use.
+///
+/// Errors: `cfg` is invalid, or `T` has no 32-bit wire form (`f64`).
+pub fn rates_for<T: SampleBits>(cfg: &RuntimeConfig) -> Result<Rates, RuntimeError> {
+    let mut control = cfg.control;
+    control.wire = WireLsb::default();
+    let b = Compiled::<T>::try_new(&control)?.to_bits();
+    if T::NUMERIC > 1 {
+        return Err(RuntimeError::Bits(BitsError { field: "numeric" }));
+    }
+    rates_of(&b, acc_factors(cfg)?)
 }

@@ -1,6 +1,6 @@
 //! The hostile-Config table: every Config a device must refuse, with the reason it must
-//! give, beside those just inside each limit and the nominal ones at every plausible
-//! rate, which it must apply ([`rows`]); and the procedure that tries one row on any
+//! give, beside those just inside each limit and the nominal ones at every design
+//! point, which it must apply ([`rows`]); and the procedure that tries one row on any
 //! device that takes frames ([`Device`], [`probe`]) and judges it by what the device
 //! says and does ([`judge`]). The host runtime runs it (`tests/hostile.rs`, both sample
 //! types), and so does the firmware under QEMU over its UART
@@ -22,15 +22,15 @@
 //! |---|---|---|
 //! | the mode | | an index this version does not define (3, 127): `UnknownRequest` |
 //! | `rates.numeric`, `rates.fingerprint` | | the other sample type, 2, 255; one bit flipped, all flipped |
-//! | `rates.base_rate_hz` | 500 Hz, 20 kHz (the nominal rows) | 0, 499 Hz, 20 001 Hz, 25 kHz, `u32::MAX` |
-//! | the period | every rate with a whole number of us (the nominal rows) | 3 kHz, 7 kHz, 19 999 Hz (rates computed for them): `Period` |
-//! | `rates.yaw_div`, `rates.traction_div` | 10 at 5 kHz (a 500 Hz loop) | 11, 0, `u16::MAX` |
-//! | `hold_ticks` | 0, 100 at 5 kHz (20 ms); 400 at 20 kHz; 10 at 500 Hz | 101, 65 535 at 5 kHz; 401 at 20 kHz; 11 at 500 Hz |
-//! | `rates.predict_half` | 0.75 - 1 LSB (the nominal is 0.75), 0 (predictor off) | 0.75 + 1 LSB, x10, negative |
-//! | each rate-dependent coefficient | x(1 +- 0.9 2^-10), +-1 LSB | x(1 +- 1.1 2^-10), x1.01, x2, x3, x4, x10, x0.5, 1 LSB, 0, negative (the Q32 factors: `u64::MAX`); `f32`: the largest subnormal, NaN, infinity |
-//! | the rates together | | 4 kHz with the 5 kHz coefficients and the reverse, 5 kHz with 10 kHz's and the reverse, 20 kHz with 16 kHz's, 500 Hz with 625 Hz's (`Kappa`), 10 kHz / 2 / 1 with 5 kHz's (`Ki`), 10 kHz / 2 / 2 with 5 kHz's (`AccGain`) |
+//! | `rates.base_rate_hz` | every design point (the nominal rows) | 0, 499 Hz, 20 001 Hz, 25 kHz, `u32::MAX`; 500 Hz, 4 kHz, 20 kHz (in range, no design) |
+//! | the period | | 3 kHz, 7 kHz, 19 999 Hz (rates computed for them): `Period` |
+//! | `rates.yaw_div`, `rates.traction_div` | | 2, 10, 0, `u16::MAX` (the designs run both loops every tick) |
+//! | `rates.delay_ticks` | every design point | 0, 4 and 255 at 5 kHz; 2 at 1 kHz |
+//! | `hold_ticks` | 0, 100 at 5 kHz (20 ms); 200 at 10 kHz; 20 at 1 kHz | 101, 65 535 at 5 kHz; 201 at 10 kHz; 21 at 1 kHz |
+//! | each coefficient (the gains `kp`, `ki` and its shift, `lead_k_hf`, `kappa`, `predict_half`, the protection's lead; the ramps; the `y''` factors) | | +-1 LSB, x(1 +- 0.9 2^-10), x1.01, x2, x10, x0.5, 1 LSB, 0, negative (the Q32 factors: `u64::MAX`); `f32`: the largest subnormal, NaN, infinity |
+//! | the rates together | | 1 kHz and 2 kHz with the paper's gains re-discretised, 1 kHz with 5 kHz's coefficients, 5 kHz with 2 kHz's design, 5 kHz delay 2 with the delay-1 design, 10 kHz delay 1 with the delay-3 design (`Kp`); 1 kHz and 5 kHz delay 2 with the paper's lead (`LeadKhf`); 5 kHz with 10 kHz's coefficients (`Ki`) |
 //! | the switches | the protection, the monitor's safe state, another mode, traction off, outputs off | |
-//! | nominal | every base rate from 500 Hz to 20 kHz with a whole number of us, divisors 1 / 1; and 5 kHz / 10 / 1, 5 kHz / 1 / 10, 8 kHz / 2 / 1, 10 kHz / 2 / 1, 10 kHz / 4 / 2, 20 kHz / 10 / 4, 20 kHz / 40 / 40 | |
+//! | nominal | every design point of `wheelset_control::design::DESIGNED` | |
 //!
 //! (`f32` 1 LSB is the smallest subnormal.) `Bits` (a bit pattern the control core
 //! refuses after every range check passed) has no row: the ranges leave none that
@@ -190,8 +190,9 @@ impl Row {
     }
 }
 
-/// The runtime configuration at these rates (the default otherwise), with the matched
-/// delay compensation of the rate table (`1 + yaw_div/2` ticks).
+/// The runtime configuration at these rates with the paper's gains re-discretised (the
+/// default otherwise), with the delay compensation of one tick (`1 + yaw_div/2` ticks):
+/// not a design unless the rate is 5 kHz / 1 / 1 ([`designed`] is).
 pub fn at_rates(base_rate_hz: u32, yaw_div: u16, traction_div: u16) -> RuntimeConfig {
     let mut c = RuntimeConfig::default();
     c.control.base_rate_hz = base_rate_hz;
@@ -199,6 +200,14 @@ pub fn at_rates(base_rate_hz: u32, yaw_div: u16, traction_div: u16) -> RuntimeCo
     c.control.traction_divisor = traction_div;
     c.control.yaw_predict_ticks = 1.0 + f64::from(yaw_div) / 2.0;
     c
+}
+
+/// The runtime configuration designed for `base_rate_hz` and `delay_ticks`
+/// ([`RuntimeConfig::designed`]).
+///
+/// Errors: not a design point.
+pub fn designed(base_rate_hz: u32, delay_ticks: u8) -> Result<RuntimeConfig, RuntimeError> {
+    RuntimeConfig::default().designed(base_rate_hz, delay_ticks)
 }
 
 /// The nominal Config: the lead, traction on, outputs enabled, the default hold, the
@@ -219,30 +228,13 @@ fn with_rates(r: Rates) -> Config {
     }
 }
 
-/// The base rates and divisors of the nominal rows: every base rate from
-/// `BASE_RATE_MIN_HZ` to `BASE_RATE_MAX_HZ` whose period is a whole number of the
-/// ticker's microseconds, both loops at it; and loops below the base rate, down to the
-/// slowest plausible loop.
-pub fn nominal_rates() -> impl Iterator<Item = (u32, u16, u16)> {
-    use wheelset_proto::plausible::{BASE_RATE_MAX_HZ, BASE_RATE_MIN_HZ, TICKER_HZ};
-    (BASE_RATE_MIN_HZ..=BASE_RATE_MAX_HZ)
-        .filter(|hz| TICKER_HZ.is_multiple_of(*hz))
-        .map(|hz| (hz, 1, 1))
-        .chain([
-            (5_000, 10, 1),
-            (5_000, 1, 10),
-            (8_000, 2, 1),
-            (10_000, 2, 1),
-            (10_000, 4, 2),
-            (20_000, 10, 4),
-            (20_000, 40, 40),
-        ])
-}
-
 /// A rate-dependent value of [`Rates`].
 #[derive(Clone, Copy)]
 enum Coef {
     Kappa,
+    LeadKhf,
+    WspLead,
+    Kp,
     Ki,
     IrefStep,
     IrefSafeStep,
@@ -262,19 +254,26 @@ enum Bits {
 }
 
 impl Coef {
-    const RATED: [Self; 7] = [
+    const RATED: [Self; 11] = [
         Self::Kappa,
+        Self::LeadKhf,
+        Self::WspLead,
+        Self::Kp,
         Self::Ki,
         Self::IrefStep,
         Self::IrefSafeStep,
         Self::TorqueStep,
         Self::AccGain,
         Self::AccLeak,
+        Self::PredictHalf,
     ];
 
     fn reason(self) -> RefuseReason {
         match self {
             Self::Kappa => RefuseReason::Kappa,
+            Self::LeadKhf => RefuseReason::LeadKhf,
+            Self::WspLead => RefuseReason::WspLead,
+            Self::Kp => RefuseReason::Kp,
             Self::Ki => RefuseReason::Ki,
             Self::IrefStep => RefuseReason::IrefStep,
             Self::IrefSafeStep => RefuseReason::IrefSafeStep,
@@ -295,6 +294,9 @@ impl Coef {
     fn get(self, r: &Rates) -> u64 {
         match self {
             Self::Kappa => u64::from(r.kappa),
+            Self::LeadKhf => u64::from(r.lead_k_hf),
+            Self::WspLead => u64::from(r.wsp_lead_k_hf),
+            Self::Kp => u64::from(r.kp),
             Self::Ki => u64::from(r.ki),
             Self::IrefStep => u64::from(r.iref_step),
             Self::IrefSafeStep => u64::from(r.iref_safe_step),
@@ -310,6 +312,12 @@ impl Coef {
         let w = v as u32;
         match self {
             Self::Kappa => Rates { kappa: w, ..r },
+            Self::LeadKhf => Rates { lead_k_hf: w, ..r },
+            Self::WspLead => Rates {
+                wsp_lead_k_hf: w,
+                ..r
+            },
+            Self::Kp => Rates { kp: w, ..r },
             Self::Ki => Rates { ki: w, ..r },
             Self::IrefStep => Rates { iref_step: w, ..r },
             Self::IrefSafeStep => Rates {
@@ -378,6 +386,7 @@ pub fn rows<T: SampleBits>(mut each: impl FnMut(Row)) -> Result<(), RuntimeError
     let base = nominal::<T>()?;
     let good = rates_for::<T>(&RuntimeConfig::default())?;
     let at = |hz, yd, td| rates_for::<T>(&at_rates(hz, yd, td));
+    let with = |c: RuntimeConfig| rates_for::<T>(&c);
     let field = R::field;
     let no = Expect::Refused;
     let yes = |visible| Expect::Applied { visible };
@@ -424,7 +433,8 @@ pub fn rows<T: SampleBits>(mut each: impl FnMut(Row)) -> Result<(), RuntimeError
             no(R::Fingerprint),
         );
     }
-    // The base rate (the nominal coefficients: the range is checked first).
+    // The base rate (the nominal coefficients: the range is checked first), and rates
+    // in range that have no design (the paper's gains re-discretised there).
     for (change, base_rate_hz) in [
         ("0", 0),
         ("499 Hz", 499),
@@ -442,6 +452,18 @@ pub fn rows<T: SampleBits>(mut each: impl FnMut(Row)) -> Result<(), RuntimeError
             no(R::BaseRate),
         );
     }
+    for (change, hz) in [
+        ("500 Hz (no lead gain holds the yaw loop)", 500),
+        ("4 kHz (not a design point)", 4_000),
+        ("20 kHz (not a design point)", 20_000),
+    ] {
+        row(
+            field(R::BaseRate),
+            change,
+            wr(at(hz, 1, 1)?),
+            no(R::BaseRate),
+        );
+    }
     // A period of no whole number of microseconds, with the coefficients computed for it.
     for (change, hz) in [
         ("3 kHz (333.3 us)", 3_000),
@@ -450,8 +472,13 @@ pub fn rows<T: SampleBits>(mut each: impl FnMut(Row)) -> Result<(), RuntimeError
     ] {
         row(field(R::Period), change, wr(at(hz, 1, 1)?), no(R::Period));
     }
-    // The loops: the slowest plausible (500 Hz at 5 kHz) is a nominal row below.
-    for (change, div) in [("11 (454.5 Hz)", 11), ("0", 0), ("u16::MAX", u16::MAX)] {
+    // The divisors: the designs run both loops every tick.
+    for (change, div) in [
+        ("2", 2),
+        ("10 (a 500 Hz loop)", 10),
+        ("0", 0),
+        ("u16::MAX", u16::MAX),
+    ] {
         row(
             field(R::YawDiv),
             change,
@@ -471,6 +498,29 @@ pub fn rows<T: SampleBits>(mut each: impl FnMut(Row)) -> Result<(), RuntimeError
             no(R::TractionDiv),
         );
     }
+    // The delay: only where the rate has a design for it.
+    let d = field(R::Delay);
+    for (change, delay_ticks) in [("0", 0), ("4 at 5 kHz", 4), ("255", u8::MAX)] {
+        row(
+            d,
+            change,
+            wr(Rates {
+                delay_ticks,
+                ..good
+            }),
+            no(R::Delay),
+        );
+    }
+    let k1 = with(designed(1_000, 1)?)?;
+    row(
+        d,
+        "2 at 1 kHz (no lead gain holds the yaw loop)",
+        wr(Rates {
+            delay_ticks: 2,
+            ..k1
+        }),
+        no(R::Delay),
+    );
     // The hold: 20 ms at most (the gap of the probe is past the default hold, so a
     // longer one shows; 0 enters the safe state at the first tick without a frame).
     let hold = |hold_ticks, rates| Config {
@@ -489,60 +539,23 @@ pub fn rows<T: SampleBits>(mut each: impl FnMut(Row)) -> Result<(), RuntimeError
         hold(u16::MAX, Some(good)),
         no(R::HoldTicks),
     );
-    let (r20k, r500) = (at(20_000, 1, 1)?, at(500, 1, 1)?);
-    row(h, "400 (20 ms at 20 kHz)", hold(400, Some(r20k)), yes(true));
-    row(h, "401 at 20 kHz", hold(401, Some(r20k)), no(R::HoldTicks));
-    row(h, "10 (20 ms at 500 Hz)", hold(10, Some(r500)), yes(true));
-    row(h, "11 at 500 Hz", hold(11, Some(r500)), no(R::HoldTicks));
-    // The predictor's alpha/2: at most 0.75 (the nominal's), 0 = off.
-    let p = Coef::PredictHalf;
-    let pb = p.bits(n);
+    let k10 = with(designed(10_000, 1)?)?;
+    row(h, "200 (20 ms at 10 kHz)", hold(200, Some(k10)), yes(true));
+    row(h, "201 at 10 kHz", hold(201, Some(k10)), no(R::HoldTicks));
+    row(h, "20 (20 ms at 1 kHz)", hold(20, Some(k1)), yes(true));
+    row(h, "21 at 1 kHz", hold(21, Some(k1)), no(R::HoldTicks));
+    // Every coefficient, perturbed: only the design's bits are taken.
     let set = |c: Coef, v: u64| wr(c.set(good, v));
-    let v0 = p.get(&good);
-    row(
-        field(R::PredictHalf),
-        "0 (predictor off)",
-        set(p, 0),
-        yes(false),
-    );
-    row(field(R::PredictHalf), "-1 LSB", set(p, v0 - 1), yes(false));
-    row(
-        field(R::PredictHalf),
-        "+1 LSB",
-        set(p, v0 + 1),
-        no(R::PredictHalf),
-    );
-    row(
-        field(R::PredictHalf),
-        "x10",
-        set(p, scaled(pb, v0, 10, 1)),
-        no(R::PredictHalf),
-    );
-    row(
-        field(R::PredictHalf),
-        "negative",
-        set(p, negated(pb, v0)),
-        no(R::PredictHalf),
-    );
-    // Every rate-dependent coefficient, perturbed.
     for c in Coef::RATED {
         let (why, b, v) = (c.reason(), c.bits(n), c.get(&good));
         let f = field(why);
+        row(f, "+1 LSB", set(c, v + 1), no(why));
+        row(f, "-1 LSB", set(c, v.saturating_sub(1)), no(why));
         for (change, (num, den)) in [
             ("x(1 + 0.9 2^-10)", tolerance(9)),
             ("x(1 - 0.9 2^-10)", tolerance(-9)),
-        ] {
-            row(f, change, set(c, scaled(b, v, num, den)), yes(false));
-        }
-        row(f, "+1 LSB", set(c, v + 1), yes(false));
-        row(f, "-1 LSB", set(c, v.saturating_sub(1)), yes(false));
-        for (change, (num, den)) in [
-            ("x(1 + 1.1 2^-10)", tolerance(11)),
-            ("x(1 - 1.1 2^-10)", tolerance(-11)),
             ("x1.01", (101, 100)),
             ("x2", (2, 1)),
-            ("x3", (3, 1)),
-            ("x4", (4, 1)),
             ("x10", (10, 1)),
             ("x0.5", (1, 2)),
         ] {
@@ -566,62 +579,77 @@ pub fn rows<T: SampleBits>(mut each: impl FnMut(Row)) -> Result<(), RuntimeError
             }
         }
     }
-    // A base rate carrying another rate's coefficients.
-    let carrying = |hz, yd, td, r: Rates| {
+    for (change, k) in [("+1", 1i16), ("-1", -1)] {
+        let ki_shift = good.ki_shift.wrapping_add_signed(k as i8);
+        row(
+            field(R::Ki),
+            change,
+            wr(Rates { ki_shift, ..good }),
+            no(R::Ki),
+        );
+    }
+    // A rate carrying the gains of another rate or design: the loop named is the first
+    // whose gains differ (traction, then yaw).
+    let carrying = |hz, delay_ticks, r: Rates| {
         wr(Rates {
             base_rate_hz: hz,
-            yaw_div: yd,
-            traction_div: td,
+            delay_ticks,
             ..r
         })
     };
     let rates = "rates";
-    let (r4k, r10k, r16k, r625) = (
-        at(4_000, 1, 1)?,
-        at(10_000, 1, 1)?,
-        at(16_000, 1, 1)?,
-        at(625, 1, 1)?,
+    let (k2, k5d2, k10d3) = (
+        with(designed(2_000, 1)?)?,
+        with(designed(5_000, 2)?)?,
+        with(designed(10_000, 3)?)?,
     );
     for (change, config, why) in [
         (
-            "4 kHz with the 5 kHz coefficients",
-            carrying(4_000, 1, 1, good),
-            R::Kappa,
+            "1 kHz with the paper's gains re-discretised (its current loop unstable)",
+            wr(at(1_000, 1, 1)?),
+            R::Kp,
         ),
         (
-            "5 kHz with the 4 kHz coefficients",
-            carrying(5_000, 1, 1, r4k),
-            R::Kappa,
+            "2 kHz with the paper's gains re-discretised (its current loop unstable)",
+            wr(at(2_000, 1, 1)?),
+            R::Kp,
         ),
         (
-            "5 kHz with the 10 kHz coefficients",
-            carrying(5_000, 1, 1, r10k),
-            R::Kappa,
+            "1 kHz with the 5 kHz coefficients",
+            carrying(1_000, 1, good),
+            R::Kp,
+        ),
+        ("5 kHz with the 2 kHz design", carrying(5_000, 1, k2), R::Kp),
+        (
+            "5 kHz, delay 2, with the delay-1 design",
+            carrying(5_000, 2, good),
+            R::Kp,
         ),
         (
-            "10 kHz with the 5 kHz coefficients",
-            carrying(10_000, 1, 1, good),
-            R::Kappa,
+            "10 kHz, delay 1, with the delay-3 design",
+            carrying(10_000, 1, k10d3),
+            R::Kp,
         ),
         (
-            "20 kHz with the 16 kHz coefficients",
-            carrying(20_000, 1, 1, r16k),
-            R::Kappa,
-        ),
-        (
-            "500 Hz with the 625 Hz coefficients",
-            carrying(500, 1, 1, r625),
-            R::Kappa,
-        ),
-        (
-            "10 kHz / 2 / 1 with the 5 kHz coefficients (the yaw loop's match)",
-            carrying(10_000, 2, 1, good),
+            "5 kHz with the 10 kHz coefficients (same gains, other steps)",
+            carrying(5_000, 1, k10),
             R::Ki,
         ),
         (
-            "10 kHz / 2 / 2 with the 5 kHz coefficients (both loops' match)",
-            carrying(10_000, 2, 2, good),
-            R::AccGain,
+            "1 kHz with the 1 kHz traction design and the paper's lead",
+            wr(Rates {
+                lead_k_hf: good.lead_k_hf,
+                ..k1
+            }),
+            R::LeadKhf,
+        ),
+        (
+            "5 kHz, delay 2, with the paper's lead",
+            wr(Rates {
+                lead_k_hf: good.lead_k_hf,
+                ..k5d2
+            }),
+            R::LeadKhf,
         ),
     ] {
         row(rates, change, config, no(why));
@@ -679,14 +707,14 @@ pub fn rows<T: SampleBits>(mut each: impl FnMut(Row)) -> Result<(), RuntimeError
         },
         yes(true),
     );
-    // Nominal Configs at every plausible rate, as the host computes them.
-    for (hz, yd, td) in nominal_rates() {
-        let visible = (hz, yd, td) != (5_000, 1, 1);
+    // Nominal Configs at every design point, as the host computes them.
+    for p in wheelset_control::design::DESIGNED {
+        let (hz, d) = (p.base_rate_hz, p.delay_ticks);
         row(
             "nominal",
-            "as rates_for computes them",
-            wr(at(hz, yd, td)?),
-            yes(visible),
+            "a design point, as rates_for computes it",
+            wr(with(designed(hz, d)?)?),
+            yes((hz, d) != (5_000, 1)),
         );
     }
     Ok(())

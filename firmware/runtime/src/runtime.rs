@@ -4,15 +4,15 @@
 
 mod receive;
 
+use wheelset_control::design::DESIGNED;
 use wheelset_control::{
     Compiled, Controller, InputCodes, Monitor, MonitorState, Sample, SampleBits, TickEvents,
 };
 use wheelset_proto::{encode_reply, Decoder, FrameError, RefuseReason, Reply, Sensor};
 
-use crate::validate;
 use crate::{
-    AccBits, Actuation, Command, Flags, HoldPolicy, RuntimeBits, RuntimeConfig, RuntimeCounters,
-    RuntimeError, SafeChange, TX_CAPACITY,
+    AccBits, Actuation, Command, Flags, HoldPolicy, Rates, RuntimeBits, RuntimeConfig,
+    RuntimeCounters, RuntimeError, SafeChange, TX_CAPACITY,
 };
 
 /// A receive event worth a log record ([`Runtime::take_rx_event`]): a frame the decoder
@@ -42,8 +42,8 @@ pub struct Runtime<T: Sample> {
     core: Controller<T>,
     /// [`CompiledBits::fingerprint`] of the core's rate-independent part.
     fingerprint: u32,
-    /// The start-up core's rates: what a received [`Rates`] is checked against.
-    reference: validate::Reference,
+    /// The designs a received [`Rates`] must be one of ([`RuntimeBits::designed`]).
+    designed: [Rates; DESIGNED.len()],
     hold_ticks: u16,
     decoder: Decoder,
     /// The latest Sensor frame as the decoder wrote it (`receive`, in place): read only
@@ -119,6 +119,7 @@ impl<T: SampleBits> Runtime<T> {
             bits.hold_ticks,
             bits.enable,
             Monitor::from_bits(&bits.monitor, base)?,
+            &bits.designed,
         )
     }
 
@@ -136,6 +137,7 @@ impl<T: SampleBits> Runtime<T> {
         hold_ticks: u16,
         enable: bool,
         monitor: Monitor<T>,
+        designed: &[Rates; DESIGNED.len()],
     ) -> Result<Self, RuntimeError> {
         let core = Controller::new(law);
         let (acc_gain_q32, leak_q32) = acc.check()?;
@@ -145,10 +147,7 @@ impl<T: SampleBits> Runtime<T> {
         Ok(Self {
             core,
             fingerprint,
-            reference: validate::Reference {
-                schedule: law.schedule(),
-                acc,
-            },
+            designed: *designed,
             hold_ticks,
             decoder: Decoder::new(),
             rx_sensor: Sensor::ZERO,

@@ -108,29 +108,21 @@ fn covers(rows: &[Row]) {
             .filter(|r| r.field == f && matches!(r.expect, Expect::Applied { .. }))
             .count()
     };
-    for why in [
-        RefuseReason::HoldTicks,
-        RefuseReason::PredictHalf,
-        RefuseReason::Kappa,
-        RefuseReason::Ki,
-        RefuseReason::IrefStep,
-        RefuseReason::IrefSafeStep,
-        RefuseReason::TorqueStep,
-        RefuseReason::AccGain,
-        RefuseReason::AccLeak,
-    ] {
-        assert!(applied(why.field()) >= 2, "{why:?}: just inside");
-    }
+    assert!(
+        applied(RefuseReason::HoldTicks.field()) >= 2,
+        "hold: just inside"
+    );
+    // Every design point is applied, and nothing else that sets rates.
     let nominal: Vec<_> = rows
         .iter()
         .filter(|r| r.field == "nominal")
-        .filter_map(|r| r.config.rates.map(|x| x.base_rate_hz))
+        .filter_map(|r| r.config.rates.map(|x| (x.base_rate_hz, x.delay_ticks)))
         .collect();
-    assert!(
-        nominal.contains(&500) && nominal.contains(&20_000),
-        "{nominal:?}"
-    );
-    assert!(nominal.len() >= 20, "{nominal:?}");
+    let designed: Vec<_> = wheelset_control::design::DESIGNED
+        .iter()
+        .map(|p| (p.base_rate_hz, p.delay_ticks))
+        .collect();
+    assert_eq!(nominal, designed);
     // The switches every build takes.
     assert!(rows
         .iter()

@@ -8,8 +8,7 @@ use wheelset_proto::{encode_vec, Config, Flags, Message, YawMode};
 use wheelset_runtime::{rates_for, Runtime, RuntimeConfig};
 
 fn config_at(rate_hz: u32) -> Vec<u8> {
-    let mut cfg = RuntimeConfig::default();
-    cfg.control.base_rate_hz = rate_hz;
+    let cfg = RuntimeConfig::default().designed(rate_hz, 1).unwrap();
     let m = Message::Config(Config {
         mode: YawMode::Lead,
         traction: true,
@@ -49,7 +48,7 @@ fn a_rate_above_the_link_limit_is_refused_and_one_within_is_taken() {
 }
 
 #[test]
-fn without_a_limit_any_valid_rate_is_taken() {
+fn without_a_limit_any_designed_rate_is_taken() {
     let mut rt = Runtime::<Fx>::try_new(RuntimeConfig::default()).unwrap();
     rt.receive(&config_at(10_000));
     assert!(!refused(&mut rt));

@@ -353,7 +353,14 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
         remote_gains(&sc.params, &opts.target)?;
     }
     let mut rt = runtime_config_for(&sc, opts.control);
-    rt.control.base_rate_hz = run_rate(opts, rt.control.base_rate_hz)?;
+    let hz = run_rate(opts, rt.control.base_rate_hz)?;
+    // The gains designed for the rate (one tick: the exchange's delay); a rate without a
+    // design is refused below with the reason.
+    rt = rt.designed(hz, 1).unwrap_or_else(|_| {
+        let mut r = rt;
+        r.control.base_rate_hz = hz;
+        r
+    });
     if let Some(why) = wheelset_loop::device_loop::base_rate_refusal(&rt) {
         return Err(RunError::Input(format!(
             "--rate-hz {}: {why}",

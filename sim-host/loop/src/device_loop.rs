@@ -96,10 +96,27 @@ impl std::error::Error for DeviceError {}
 /// rt.control.base_rate_hz = 50;
 /// let why = base_rate_refusal(&rt).unwrap();
 /// assert!(why.contains("at least 500 Hz"), "{why}");
+/// rt.control.base_rate_hz = 4_000;
+/// let why = base_rate_refusal(&rt).unwrap();
+/// assert!(why.contains("no gains are designed for 4000 Hz"), "{why}");
 /// ```
 #[must_use]
 pub fn base_rate_refusal(rt: &RuntimeConfig) -> Option<String> {
-    use wheelset_control::ConfigError;
+    use wheelset_control::{design, ConfigError};
+    let (hz, d) = (rt.control.base_rate_hz, rt.control.delay_ticks);
+    if design::point(hz, d).is_none() && rt.control.validate().is_ok() {
+        let accepted: Vec<String> = design::DESIGNED
+            .iter()
+            .filter(|p| p.delay_ticks == d)
+            .map(|p| p.base_rate_hz.to_string())
+            .collect();
+        return Some(format!(
+            "the device refuses it: no gains are designed for {hz} Hz with {d} tick(s) of \
+             delay (designed: {} Hz); `sim-host rates` names the criterion each refused rate \
+             fails",
+            accepted.join(", ")
+        ));
+    }
     let e = wheelset_runtime::RuntimeBits::try_new::<Fx>(rt).err()?;
     Some(match (e, rt.monitor) {
         (
@@ -392,20 +409,26 @@ impl DeviceRun {
 }
 
 /// The runtime configuration of a device running `sc` with `law`: the control core from
-/// the scenario's parameters ([`control_config`]), the hold ticks and base rate of `opt`,
-/// outputs enabled. The one rule every path follows (`sim-host --loop device`, `hil run`,
+/// the scenario's parameters ([`control_config`]) designed for the base rate of `opt`
+/// (`RuntimeConfig::designed`), the hold ticks of `opt`, outputs enabled. The one rule every path follows (`sim-host --loop device`, `hil run`,
 /// `hil golden`): the device's configuration follows the scenario and the parameters.
 #[must_use]
 pub fn runtime_config(sc: &Scenario, law: YawLaw, opt: &DeviceOptions) -> RuntimeConfig {
-    let mut control = control_config(&sc.params, law, sc.drive);
-    if let Some(hz) = opt.base_rate_hz {
-        control.base_rate_hz = hz;
-    }
-    RuntimeConfig {
-        control,
+    let rt = RuntimeConfig {
+        control: control_config(&sc.params, law, sc.drive),
         hold_ticks: opt.hold_ticks,
         enable: true,
         ..RuntimeConfig::default()
+    };
+    match opt.base_rate_hz {
+        // The gains designed for the rate (one tick of delay: the lock-step exchange);
+        // a rate without a design keeps the gains, and `base_rate_refusal` names it.
+        Some(hz) => rt.designed(hz, 1).unwrap_or_else(|_| {
+            let mut r = rt;
+            r.control.base_rate_hz = hz;
+            r
+        }),
+        None => rt,
     }
 }
 

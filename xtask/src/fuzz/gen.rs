@@ -73,11 +73,15 @@ pub const KINDS: [&str; 8] = [
     "oversize",
 ];
 
-/// The device's own rates for `base_rate_hz` (the default configuration otherwise), if
-/// the host-side compilation takes that rate.
+/// The device's own design for `base_rate_hz` with one tick of delay (the paper's gains
+/// re-discretised where the rate has no design), if the host-side compilation takes it.
 pub(super) fn own_rates<T: SampleBits>(base_rate_hz: u32) -> Option<Rates> {
-    let mut cfg = RuntimeConfig::default();
-    cfg.control.base_rate_hz = base_rate_hz;
+    let cfg = RuntimeConfig::default();
+    let cfg = cfg.designed(base_rate_hz, 1).unwrap_or_else(|_| {
+        let mut c = cfg;
+        c.control.base_rate_hz = base_rate_hz;
+        c
+    });
     rates_for::<T>(&cfg).ok()
 }
 
@@ -94,7 +98,10 @@ pub(super) fn mutate_rates(g: &mut Gen, r: &mut Rates) {
             _ => u32::MAX,
         }
     };
-    match g.below(11) {
+    match g.below(14) {
+        11 => r.kp = scale(g, r.kp),
+        12 => r.lead_k_hf = scale(g, r.lead_k_hf),
+        13 => r.delay_ticks = g.byte(),
         0 => r.kappa = scale(g, r.kappa),
         1 => r.ki = scale(g, r.ki),
         2 => r.predict_half = scale(g, r.predict_half),
@@ -119,8 +126,13 @@ pub(super) fn config<T: SampleBits>(g: &mut Gen) -> Config {
             base_rate_hz: g.u32(),
             yaw_div: g.u64() as u16,
             traction_div: g.u64() as u16,
+            delay_ticks: g.byte(),
             kappa: g.u32(),
+            lead_k_hf: g.u32(),
+            wsp_lead_k_hf: g.u32(),
+            kp: g.u32(),
             ki: g.u32(),
+            ki_shift: g.byte(),
             predict_half: g.u32(),
             iref_step: g.u32(),
             iref_safe_step: g.u32(),

@@ -22,15 +22,15 @@ macro_rules! from_valid_bits {
                 let sch = &b.schedule;
                 Self {
                     lead: Lead {
-                        k_hf: c(b.lead_k_hf),
+                        k_hf: c(sch.lead_k_hf),
                         g_half: c(b.lead_g_half),
                         kappa: c(sch.kappa),
                     },
                     gain: c(b.gain),
                     pi: Pi {
-                        kp: c(b.pi_kp),
+                        kp: c(sch.kp),
                         ki: c(sch.ki),
-                        ki_shift: b.pi_ki_shift as u32,
+                        ki_shift: sch.ki_shift as u32,
                         u_min: s(b.u_min),
                         u_max: s(b.u_max),
                     },
@@ -48,6 +48,7 @@ macro_rules! from_valid_bits {
                     torque_step: s(sch.torque_step),
                     yaw_divisor: sch.yaw_divisor,
                     traction_divisor: sch.traction_divisor,
+                    delay_ticks: sch.delay_ticks,
                     base_rate_hz: sch.base_rate_hz,
                     codec: Codec {
                         y_dot: sc(b.codec[0]),
@@ -71,7 +72,7 @@ macro_rules! from_valid_bits {
                         kp_shift: b.wsp.kp_shift,
                         ki: c(b.wsp.ki),
                         ki_shift: b.wsp.ki_shift,
-                        lead_k_hf: c(b.wsp.lead_k_hf),
+                        lead_k_hf: c(sch.wsp_lead_k_hf),
                         lead_rho: c(b.wsp.lead_rho),
                         v_ref: sc(b.wsp.v_ref),
                     },

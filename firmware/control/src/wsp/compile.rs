@@ -200,7 +200,6 @@ impl<T: SampleBits> Wsp<T> {
             kp_shift: self.kp_shift,
             ki: T::coeff_to_bits64(self.ki),
             ki_shift: self.ki_shift,
-            lead_k_hf: T::coeff_to_bits64(self.lead_k_hf),
             lead_rho: T::coeff_to_bits64(self.lead_rho),
             v_ref: ScaleBits { mul, shift },
         }
@@ -243,7 +242,8 @@ impl<T: SampleBits> Wsp<T> {
             kp_shift: shift("wsp.kp_shift", b.kp_shift)?,
             ki: unit("wsp.ki", b.ki, false)?,
             ki_shift: shift("wsp.ki_shift", b.ki_shift)?,
-            lead_k_hf: T::coeff_from_bits64(b.lead_k_hf).ok_or(e("wsp.lead_k_hf"))?,
+            // Rate-dependent: set by the schedule (`Compiled::with_schedule`).
+            lead_k_hf: T::COEFF_ZERO,
             lead_rho: T::coeff_from_bits64(b.lead_rho).ok_or(e("wsp.lead_rho"))?,
             v_ref: T::scale_from_bits(b.v_ref.mul, b.v_ref.shift).ok_or(e("wsp.v_ref"))?,
         })

@@ -181,8 +181,13 @@ pub(crate) fn encode_config(c: &Config, out: &mut [u8]) -> Option<usize> {
                 base_rate_hz,
                 yaw_div,
                 traction_div,
+                delay_ticks,
                 kappa,
+                lead_k_hf,
+                wsp_lead_k_hf,
+                kp,
                 ki,
+                ki_shift,
                 predict_half,
                 iref_step,
                 iref_safe_step,
@@ -196,14 +201,12 @@ pub(crate) fn encode_config(c: &Config, out: &mut [u8]) -> Option<usize> {
             w.varint(base_rate_hz)?;
             w.varint(u32::from(yaw_div))?;
             w.varint(u32::from(traction_div))?;
-            for v in [
-                kappa,
-                ki,
-                predict_half,
-                iref_step,
-                iref_safe_step,
-                torque_step,
-            ] {
+            w.byte(delay_ticks)?;
+            for v in [kappa, lead_k_hf, wsp_lead_k_hf, kp, ki] {
+                w.varint(v)?;
+            }
+            w.byte(ki_shift)?;
+            for v in [predict_half, iref_step, iref_safe_step, torque_step] {
                 w.varint(v)?;
             }
             w.u64_le(acc_gain_q32)?;

@@ -90,18 +90,27 @@ pub fn rates() -> impl Strategy<Value = Rates> {
             any::<u16>(),
             any::<u16>(),
         ),
-        proptest::array::uniform6(any_u32()),
-        (any_u64(), any_u64()),
+        proptest::array::uniform9(any_u32()),
+        (any::<u8>(), any::<u8>(), any_u64(), any_u64()),
     )
         .prop_map(
-            |((numeric, fingerprint, base_rate_hz, yaw_div, traction_div), c, (g, l))| Rates {
+            |(
+                (numeric, fingerprint, base_rate_hz, yaw_div, traction_div),
+                c,
+                (delay_ticks, ki_shift, g, l),
+            )| Rates {
                 numeric,
                 fingerprint,
                 base_rate_hz,
                 yaw_div,
                 traction_div,
+                delay_ticks,
                 kappa: c[0],
+                lead_k_hf: c[6],
+                wsp_lead_k_hf: c[7],
+                kp: c[8],
                 ki: c[1],
+                ki_shift,
                 predict_half: c[2],
                 iref_step: c[3],
                 iref_safe_step: c[4],

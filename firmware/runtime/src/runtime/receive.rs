@@ -203,8 +203,8 @@ impl<T: SampleBits> Runtime<T> {
     }
 
     /// Validates `r` against this core (sample type, fingerprint, the plausible ranges of
-    /// `wheelset_proto::plausible`, the coefficients against the start-up core's at the
-    /// requested rates, `hold_ticks` at the new rate, the formats) and, if valid,
+    /// `wheelset_proto::plausible`, one of the device's designs bit for bit, `hold_ticks`
+    /// at the new rate, the formats) and, if valid,
     /// restarts the core on it. Nothing changes when it is refused.
     #[inline(never)]
     fn apply_rates(&mut self, r: &Rates, hold_ticks: u16) -> Result<(), RefuseReason> {
@@ -219,7 +219,7 @@ impl<T: SampleBits> Runtime<T> {
         if r.base_rate_hz > self.max_rate_hz {
             return Err(RefuseReason::BaseRate);
         }
-        validate::check_rates::<T>(r, &self.reference)?;
+        validate::check_rates(r, &self.designed)?;
         validate::check_hold(hold_ticks, r.base_rate_hz)?;
         let bits = RefuseReason::Bits;
         let (g, l) = AccBits {
@@ -235,7 +235,12 @@ impl<T: SampleBits> Runtime<T> {
                 base_rate_hz: r.base_rate_hz,
                 yaw_divisor: r.yaw_div,
                 traction_divisor: r.traction_div,
+                delay_ticks: r.delay_ticks,
                 kappa: u64::from(r.kappa),
+                lead_k_hf: u64::from(r.lead_k_hf),
+                wsp_lead_k_hf: u64::from(r.wsp_lead_k_hf),
+                kp: u64::from(r.kp),
+                ki_shift: r.ki_shift,
                 ki: u64::from(r.ki),
                 predict_half: u64::from(r.predict_half),
                 iref_step: u64::from(r.iref_step),

@@ -88,8 +88,9 @@ pub fn runtime_at(rate_hz: u32) -> Result<Runtime<Fx>, String> {
             "--rate-hz {rate_hz}: the period must be a whole number of nanoseconds"
         ));
     }
-    let mut cfg = RuntimeConfig::default();
-    cfg.control.base_rate_hz = rate_hz;
+    let cfg = RuntimeConfig::default()
+        .designed(rate_hz, 1)
+        .map_err(|e| format!("--rate-hz {rate_hz}: {e}"))?;
     Runtime::try_new(cfg).map_err(|e| format!("--rate-hz {rate_hz}: {e}"))
 }
 
