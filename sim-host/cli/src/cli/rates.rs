@@ -80,11 +80,34 @@ pub(crate) fn cmd_rates(a: &RatesArgs) -> Result<(), Failure> {
             }
         })?;
     out!("{}", report.render());
+    // The designs a device accepts, judged on these parameters (the lead on the full
+    // plant: what the device's table holds).
+    let design = if mode == wheelset_control::YawMode::Lead && model == Model::Full {
+        let base = wheelset_control::Config {
+            motor: cfg.motor,
+            ..wheelset_control::Config::default()
+        };
+        let fail = |e: String| Failure {
+            code: 2,
+            msg: format!("design table: {e}"),
+        };
+        let reference = wheelset_plant::sampled::reference_yaw(&p).map_err(fail)?;
+        let rows = wheelset_plant::sampled::design_table(&p, &base).map_err(fail)?;
+        outln!();
+        out!("{}", wheelset_plant::sampled::render_design(&rows, &reference));
+        Some(wheelset_plant::sampled::design_json(&rows))
+    } else {
+        None
+    };
     if let Some(path) = &a.json {
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir).map_err(|e| io_fail(dir, e))?;
         }
-        let text = serde_json::to_string_pretty(&report.to_json()).map_err(|e| Failure {
+        let mut json = report.to_json();
+        if let (Some(d), Some(obj)) = (design, json.as_object_mut()) {
+            obj.insert("design".into(), d);
+        }
+        let text = serde_json::to_string_pretty(&json).map_err(|e| Failure {
             code: 1,
             msg: format!("JSON: {e}"),
         })?;

@@ -237,6 +237,96 @@ pub fn accepted(rows: &[DesignRow]) -> Vec<DesignPoint> {
         .collect()
 }
 
+/// The design table as text: one row per candidate, its gains, margins and verdict
+/// (the criterion it fails, if any).
+pub fn render_design(rows: &[DesignRow], reference: &Margins) -> String {
+    use std::fmt::Write as _;
+    let f = |a: Option<At>, w: usize| {
+        a.map_or(format!("{:>w$}", "-"), |a| {
+            format!("{:>w$}", format!("{:.2}@{:.0}", a.value, a.hz))
+        })
+    };
+    let val = |a: Option<At>| a.map_or(f64::NAN, |a| a.value);
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "== gains designed per base rate and delay (both loops every tick; what a device accepts)"
+    );
+    let _ = writeln!(
+        s,
+        "criteria: traction GM >= {TRACTION_GAIN_DB} dB, PM >= {TRACTION_PHASE_DEG} deg, \
+         contraction <= {CURRENT_DECAY:.3} per max(tau, 300 us); yaw within \
+         {YAW_GAIN_SLACK_DB} dB / {YAW_PHASE_SLACK_DEG} deg of the paper's lead at 5 kHz \
+         (up {:.2} dB, down {:.2} dB, {:.2} deg); no grid point lost to sampling",
+        val(reference.gain_up),
+        val(reference.gain_down),
+        val(reference.phase)
+    );
+    let _ = writeln!(
+        s,
+        "   base  d  lead K    Kp V/A | yaw GM up dB@Hz GM down dB@Hz  PM deg@Hz | traction GM dB@Hz  PM deg@Hz  decay | verdict"
+    );
+    for r in rows {
+        let verdict = r
+            .failed
+            .as_deref()
+            .map_or("accepted".to_string(), |f| format!("refused: {f}"));
+        let _ = writeln!(
+            s,
+            "  {:>5} {:>2}  {:>6.2} {:>9.4} | {} {} {} | {} {} {:>6.3} | {verdict}",
+            r.base_rate_hz,
+            r.delay_ticks,
+            r.lead_gain,
+            r.kp,
+            f(r.yaw.gain_up, 15),
+            f(r.yaw.gain_down, 13),
+            f(r.yaw.phase, 10),
+            f(r.traction.gain_up, 17),
+            f(r.traction.phase, 10),
+            r.current_decay,
+        );
+    }
+    let _ = writeln!(
+        s,
+        "columns: d = ticks of delay; lead K = the design's factor on the paper's lead gain \
+         (the largest that meets the criteria, the last tried when none does); decay = the \
+         current loop's contraction per max(tau, 300 us), tau = (d + 1/2) T"
+    );
+    s
+}
+
+/// The design table as JSON.
+pub fn design_json(rows: &[DesignRow]) -> serde_json::Value {
+    use serde_json::json;
+    let at = |a: Option<At>| a.map(|a| json!({"value": a.value, "hz": a.hz}));
+    let m = |x: &Margins| {
+        json!({
+            "stable": x.stable,
+            "gain_up_db": at(x.gain_up),
+            "gain_down_db": at(x.gain_down),
+            "phase_deg": at(x.phase),
+        })
+    };
+    serde_json::Value::Array(
+        rows.iter()
+            .map(|r| {
+                json!({
+                    "base_rate_hz": r.base_rate_hz,
+                    "delay_ticks": r.delay_ticks,
+                    "lead_gain": r.lead_gain,
+                    "kp_v_per_a": r.kp,
+                    "yaw": m(&r.yaw),
+                    "traction": m(&r.traction),
+                    "current_radius_per_tick": r.current_radius,
+                    "current_decay": r.current_decay,
+                    "accepted": r.failed.is_none(),
+                    "refused_because": r.failed,
+                })
+            })
+            .collect(),
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
