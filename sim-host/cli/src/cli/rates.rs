@@ -94,7 +94,10 @@ pub(crate) fn cmd_rates(a: &RatesArgs) -> Result<(), Failure> {
         let reference = wheelset_plant::sampled::reference_yaw(&p).map_err(fail)?;
         let rows = wheelset_plant::sampled::design_table(&p, &base).map_err(fail)?;
         outln!();
-        out!("{}", wheelset_plant::sampled::render_design(&rows, &reference));
+        out!(
+            "{}",
+            wheelset_plant::sampled::render_design(&rows, &reference)
+        );
         Some(wheelset_plant::sampled::design_json(&rows))
     } else {
         None
