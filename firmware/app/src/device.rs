@@ -120,6 +120,7 @@ pub fn new_runtime() -> Result<FwRuntime, RuntimeError> {
         DEFAULT_RUNTIME.enable,
         DEFAULT_MONITOR,
         &DEFAULT_RUNTIME.designed,
+        &DEFAULT_RUNTIME.yaw_designed,
     )
 }
 

@@ -25,7 +25,8 @@
 //!   (`wheelset_plant::sampled::design`, whose test holds this table to it).
 //!
 //! A point not in [`DESIGNED`] is not designed: its loops are not shown to hold, and a
-//! device refuses it.
+//! device refuses it. A point whose yaw loop fails the criteria while the traction loop
+//! meets them is accepted with the passive yaw law only ([`DesignPoint::yaw`]).
 
 use crate::config::{Config, ConfigError};
 
@@ -39,69 +40,127 @@ pub struct DesignPoint {
     pub delay_ticks: u8,
     /// Factor on the lead's `K` (1: the paper's lead).
     pub lead_gain: f64,
+    /// The yaw loop holds here: the lead and gain laws are designed. `false`: only the
+    /// traction loop is (the yaw law must be passive; `lead_gain` is then 1, unused).
+    pub yaw: bool,
 }
 
 /// The lead gain factors the design tries, largest (the paper's lead) first.
 pub const LEAD_GAIN_STEPS: [f64; 6] = [1.0, 0.95, 0.9, 0.85, 0.8, 0.75];
 
-/// The accepted rates and delays (module docs). `wheelset_plant::sampled::design`'s test
-/// checks that this is what the design finds over its candidates, and that every other
-/// candidate fails a stated criterion.
-pub const DESIGNED: [DesignPoint; 11] = [
+/// The accepted rates and delays (module docs): every candidate at which the traction
+/// loop holds, with `yaw` where the yaw loop holds too. `wheelset_plant::sampled::design`'s
+/// test checks that this is what the design finds over its candidates, and that every
+/// other candidate (and every point without `yaw`, for the yaw loop) fails a stated
+/// criterion.
+pub const DESIGNED: [DesignPoint; 18] = [
+    DesignPoint {
+        base_rate_hz: 500,
+        delay_ticks: 1,
+        lead_gain: 1.0,
+        yaw: false,
+    },
+    DesignPoint {
+        base_rate_hz: 500,
+        delay_ticks: 2,
+        lead_gain: 1.0,
+        yaw: false,
+    },
+    DesignPoint {
+        base_rate_hz: 500,
+        delay_ticks: 3,
+        lead_gain: 1.0,
+        yaw: false,
+    },
     DesignPoint {
         base_rate_hz: 1_000,
         delay_ticks: 1,
         lead_gain: 0.95,
+        yaw: true,
+    },
+    DesignPoint {
+        base_rate_hz: 1_000,
+        delay_ticks: 2,
+        lead_gain: 1.0,
+        yaw: false,
+    },
+    DesignPoint {
+        base_rate_hz: 1_000,
+        delay_ticks: 3,
+        lead_gain: 1.0,
+        yaw: false,
     },
     DesignPoint {
         base_rate_hz: 2_000,
         delay_ticks: 1,
         lead_gain: 1.0,
+        yaw: true,
     },
     DesignPoint {
         base_rate_hz: 2_000,
         delay_ticks: 2,
         lead_gain: 0.9,
+        yaw: true,
+    },
+    DesignPoint {
+        base_rate_hz: 2_000,
+        delay_ticks: 3,
+        lead_gain: 1.0,
+        yaw: false,
     },
     DesignPoint {
         base_rate_hz: 2_500,
         delay_ticks: 1,
         lead_gain: 1.0,
+        yaw: true,
     },
     DesignPoint {
         base_rate_hz: 2_500,
         delay_ticks: 2,
         lead_gain: 0.9,
+        yaw: true,
+    },
+    DesignPoint {
+        base_rate_hz: 2_500,
+        delay_ticks: 3,
+        lead_gain: 1.0,
+        yaw: false,
     },
     DesignPoint {
         base_rate_hz: 5_000,
         delay_ticks: 1,
         lead_gain: 1.0,
+        yaw: true,
     },
     DesignPoint {
         base_rate_hz: 5_000,
         delay_ticks: 2,
         lead_gain: 0.95,
+        yaw: true,
     },
     DesignPoint {
         base_rate_hz: 5_000,
         delay_ticks: 3,
         lead_gain: 0.9,
+        yaw: true,
     },
     DesignPoint {
         base_rate_hz: 10_000,
         delay_ticks: 1,
         lead_gain: 1.0,
+        yaw: true,
     },
     DesignPoint {
         base_rate_hz: 10_000,
         delay_ticks: 2,
         lead_gain: 1.0,
+        yaw: true,
     },
     DesignPoint {
         base_rate_hz: 10_000,
         delay_ticks: 3,
         lead_gain: 0.95,
+        yaw: true,
     },
 ];
 
@@ -198,7 +257,8 @@ mod tests {
 
     #[test]
     fn undesigned_points_are_errors() {
-        assert!(Config::default().designed(500, 1).is_err());
+        assert!(point(500, 1).is_some_and(|p| !p.yaw), "passive yaw only");
+        assert!(point(5_000, 1).is_some_and(|p| p.yaw));
         assert!(Config::default().designed(5_000, 9).is_err());
         assert!(Config::default().designed(4_000, 1).is_err());
     }

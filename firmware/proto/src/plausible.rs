@@ -21,6 +21,7 @@
 //! | period `1/base_rate_hz` | - | - | us | a whole number of microseconds: the board's ticker counts 1 us ([`TICKER_HZ`]) |
 //! | `rates.yaw_div`, `rates.traction_div` | 1 | 1 | - | the designs run both loops every tick |
 //! | `rates.delay_ticks` | 1 | - | ticks | a delay the rate has a design for |
+//! | `mode` | - | - | - | an active yaw law only where the yaw loop has a design at the rates (else the passive law alone) |
 //! | `hold_ticks x T` | 0 | 20 000 | us | a fifth of the ~10 Hz kinematic mode's period: an older `y'` is off by more than 70 degrees of phase |
 //! | every coefficient | the design's | the design's | bits | the gains designed for the rate and delay; the ramps and the `y''` integrator at that rate |
 //! | f32 coefficients | - | - | - | normal numbers only (no subnormal, infinite, NaN or negative bit pattern) |
@@ -101,11 +102,14 @@ pub enum RefuseReason {
     LeadKhf = 21,
     /// `rates.wsp_lead_k_hf`: not the wheel-slip protection's lead for the design.
     WspLead = 22,
+    /// `mode`: an active yaw law (gain, lead) at rates where only the traction loop is
+    /// designed: the passive law alone is taken there.
+    YawNotDesigned = 23,
 }
 
 impl RefuseReason {
     /// Every reason, in code order.
-    pub const ALL: [Self; 23] = [
+    pub const ALL: [Self; 24] = [
         Self::None,
         Self::UnknownRequest,
         Self::Numeric,
@@ -129,6 +133,7 @@ impl RefuseReason {
         Self::Kp,
         Self::LeadKhf,
         Self::WspLead,
+        Self::YawNotDesigned,
     ];
 
     /// The wire code.
@@ -170,6 +175,7 @@ impl RefuseReason {
             Self::Kp => "rates.kp",
             Self::LeadKhf => "rates.lead_k_hf",
             Self::WspLead => "rates.wsp_lead_k_hf",
+            Self::YawNotDesigned => "mode (no yaw design at these rates)",
         }
     }
 }
@@ -208,7 +214,7 @@ const DESIGN: &str = "the design's";
 
 /// The plausibility table (see the module docs), one row per [`RefuseReason`] but
 /// `None`.
-pub const PLAUSIBLE: [Plausible; 22] = [
+pub const PLAUSIBLE: [Plausible; 23] = [
     Plausible {
         reason: RefuseReason::UnknownRequest,
         min: f64::NAN,
@@ -362,6 +368,13 @@ pub const PLAUSIBLE: [Plausible; 22] = [
         max: f64::NAN,
         unit: DESIGN,
         why: YAW,
+    },
+    Plausible {
+        reason: RefuseReason::YawNotDesigned,
+        min: f64::NAN,
+        max: f64::NAN,
+        unit: "-",
+        why: "no lead or gain holds the yaw loop at these rates and delay: the passive law only",
     },
 ];
 

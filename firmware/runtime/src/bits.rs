@@ -165,6 +165,9 @@ pub struct RuntimeBits {
     /// [`wheelset_control::design::DESIGNED`], in its order, as [`rates_for`] computes
     /// them from the design base. A received [`Rates`] must be one of them, bit for bit.
     pub designed: [Rates; DESIGNED.len()],
+    /// Per design: its yaw law is designed (an active yaw mode is taken there), as
+    /// [`wheelset_control::design::DesignPoint::yaw`].
+    pub yaw_designed: [bool; DESIGNED.len()],
 }
 
 impl RuntimeBits {
@@ -196,6 +199,7 @@ impl RuntimeBits {
             enable: cfg.enable,
             monitor,
             designed,
+            yaw_designed: DESIGNED.map(|p| p.yaw),
         })
     }
 }

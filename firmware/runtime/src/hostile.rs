@@ -22,15 +22,16 @@
 //! |---|---|---|
 //! | the mode | | an index this version does not define (3, 127): `UnknownRequest` |
 //! | `rates.numeric`, `rates.fingerprint` | | the other sample type, 2, 255; one bit flipped, all flipped |
-//! | `rates.base_rate_hz` | every design point (the nominal rows) | 0, 499 Hz, 20 001 Hz, 25 kHz, `u32::MAX`; 500 Hz, 4 kHz, 20 kHz (in range, no design) |
+//! | `rates.base_rate_hz` | every design point (the nominal rows) | 0, 499 Hz, 20 001 Hz, 25 kHz, `u32::MAX`; 4 kHz, 20 kHz (in range, no design) |
 //! | the period | | 3 kHz, 7 kHz, 19 999 Hz (rates computed for them): `Period` |
 //! | `rates.yaw_div`, `rates.traction_div` | | 2, 10, 0, `u16::MAX` (the designs run both loops every tick) |
-//! | `rates.delay_ticks` | every design point | 0, 4 and 255 at 5 kHz; 2 at 1 kHz |
+//! | `rates.delay_ticks` | every design point | 0, 4 and 255 at 5 kHz |
+//! | the mode | the passive law where only the traction loop is designed (nominal rows) | lead or gain at 500 Hz, lead at 1 kHz with two ticks, gain at 2.5 kHz with three: `YawNotDesigned` |
 //! | `hold_ticks` | 0, 100 at 5 kHz (20 ms); 200 at 10 kHz; 20 at 1 kHz | 101, 65 535 at 5 kHz; 201 at 10 kHz; 21 at 1 kHz |
 //! | each coefficient (the gains `kp`, `ki` and its shift, `lead_k_hf`, `kappa`, `predict_half`, the protection's lead; the ramps; the `y''` factors) | | +-1 LSB, x(1 +- 0.9 2^-10), x1.01, x2, x10, x0.5, 1 LSB, 0, negative (the Q32 factors: `u64::MAX`); `f32`: the largest subnormal, NaN, infinity |
 //! | the rates together | | 1 kHz and 2 kHz with the paper's gains re-discretised, 1 kHz with 5 kHz's coefficients, 5 kHz with 2 kHz's design, 5 kHz delay 2 with the delay-1 design, 10 kHz delay 1 with the delay-3 design (`Kp`); 1 kHz and 5 kHz delay 2 with the paper's lead (`LeadKhf`); 5 kHz with 10 kHz's coefficients (`Ki`) |
 //! | the switches | the protection, the monitor's safe state, another mode, traction off, outputs off | |
-//! | nominal | every design point of `wheelset_control::design::DESIGNED` | |
+//! | nominal | every design point of `wheelset_control::design::DESIGNED` (lead; passive where only the traction loop is designed) | |
 //!
 //! (`f32` 1 LSB is the smallest subnormal.) `Bits` (a bit pattern the control core
 //! refuses after every range check passed) has no row: the ranges leave none that
@@ -453,7 +454,6 @@ pub fn rows<T: SampleBits>(mut each: impl FnMut(Row)) -> Result<(), RuntimeError
         );
     }
     for (change, hz) in [
-        ("500 Hz (no lead gain holds the yaw loop)", 500),
         ("4 kHz (not a design point)", 4_000),
         ("20 kHz (not a design point)", 20_000),
     ] {
@@ -512,15 +512,20 @@ pub fn rows<T: SampleBits>(mut each: impl FnMut(Row)) -> Result<(), RuntimeError
         );
     }
     let k1 = with(designed(1_000, 1)?)?;
-    row(
-        d,
-        "2 at 1 kHz (no lead gain holds the yaw loop)",
-        wr(Rates {
-            delay_ticks: 2,
-            ..k1
-        }),
-        no(R::Delay),
-    );
+    // An active yaw law where only the traction loop is designed: the passive law only.
+    let y = field(R::YawNotDesigned);
+    for (change, hz, d, mode) in [
+        ("lead at 500 Hz", 500, 1, YawMode::Lead),
+        ("gain at 500 Hz", 500, 1, YawMode::Gain),
+        ("lead at 1 kHz with two ticks", 1_000, 2, YawMode::Lead),
+        ("gain at 2.5 kHz with three ticks", 2_500, 3, YawMode::Gain),
+    ] {
+        let c = Config {
+            mode,
+            ..wr(with(designed(hz, d)?)?)
+        };
+        row(y, change, c, no(R::YawNotDesigned));
+    }
     // The hold: 20 ms at most (the gap of the probe is past the default hold, so a
     // longer one shows; 0 enters the safe state at the first tick without a frame).
     let hold = |hold_ticks, rates| Config {
@@ -707,13 +712,22 @@ pub fn rows<T: SampleBits>(mut each: impl FnMut(Row)) -> Result<(), RuntimeError
         },
         yes(true),
     );
-    // Nominal Configs at every design point, as the host computes them.
+    // Nominal Configs at every design point, as the host computes them (the passive law
+    // where only the traction loop is designed).
     for p in wheelset_control::design::DESIGNED {
         let (hz, d) = (p.base_rate_hz, p.delay_ticks);
+        let mode = if p.yaw {
+            YawMode::Lead
+        } else {
+            YawMode::Passive
+        };
         row(
             "nominal",
             "a design point, as rates_for computes it",
-            wr(with(designed(hz, d)?)?),
+            Config {
+                mode,
+                ..wr(with(designed(hz, d)?)?)
+            },
             yes((hz, d) != (5_000, 1)),
         );
     }

@@ -44,6 +44,10 @@ pub struct Runtime<T: Sample> {
     fingerprint: u32,
     /// The designs a received [`Rates`] must be one of ([`RuntimeBits::designed`]).
     designed: [Rates; DESIGNED.len()],
+    /// Per design, an active yaw law is designed there ([`RuntimeBits::yaw_designed`]).
+    yaw_designed: [bool; DESIGNED.len()],
+    /// An active yaw law is designed at the current rates (the boot core's: yes).
+    yaw_ok: bool,
     hold_ticks: u16,
     decoder: Decoder,
     /// The latest Sensor frame as the decoder wrote it (`receive`, in place): read only
@@ -120,6 +124,7 @@ impl<T: SampleBits> Runtime<T> {
             bits.enable,
             Monitor::from_bits(&bits.monitor, base)?,
             &bits.designed,
+            &bits.yaw_designed,
         )
     }
 
@@ -138,6 +143,7 @@ impl<T: SampleBits> Runtime<T> {
         enable: bool,
         monitor: Monitor<T>,
         designed: &[Rates; DESIGNED.len()],
+        yaw_designed: &[bool; DESIGNED.len()],
     ) -> Result<Self, RuntimeError> {
         let core = Controller::new(law);
         let (acc_gain_q32, leak_q32) = acc.check()?;
@@ -148,6 +154,8 @@ impl<T: SampleBits> Runtime<T> {
             core,
             fingerprint,
             designed: *designed,
+            yaw_designed: *yaw_designed,
+            yaw_ok: true,
             hold_ticks,
             decoder: Decoder::new(),
             rx_sensor: Sensor::ZERO,

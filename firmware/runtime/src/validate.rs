@@ -25,9 +25,9 @@ pub(crate) fn period_ok(base_rate_hz: u32) -> bool {
 
 /// Checks the rates (the sample type and the fingerprint checked by the caller) against
 /// the device's designs `table`: the rate must have a design at the requested delay, and
-/// every coefficient must be that design's.
+/// every coefficient must be that design's. `Ok`: the design's index in `table`.
 #[inline(never)]
-pub(crate) fn check_rates(r: &Rates, table: &[Rates]) -> Result<(), RefuseReason> {
+pub(crate) fn check_rates(r: &Rates, table: &[Rates]) -> Result<usize, RefuseReason> {
     use RefuseReason as R;
     let hz = r.base_rate_hz;
     if !(BASE_RATE_MIN_HZ..=BASE_RATE_MAX_HZ).contains(&hz) {
@@ -42,12 +42,13 @@ pub(crate) fn check_rates(r: &Rates, table: &[Rates]) -> Result<(), RefuseReason
     if r.traction_div != 1 {
         return Err(R::TractionDiv);
     }
-    let mut at_rate = table.iter().filter(|d| d.base_rate_hz == hz).peekable();
-    if at_rate.peek().is_none() {
+    if !table.iter().any(|d| d.base_rate_hz == hz) {
         return Err(R::BaseRate);
     }
-    let d = at_rate
-        .find(|d| d.delay_ticks == r.delay_ticks)
+    let (i, d) = table
+        .iter()
+        .enumerate()
+        .find(|(_, d)| d.base_rate_hz == hz && d.delay_ticks == r.delay_ticks)
         .ok_or(R::Delay)?;
     // Traction first, then the yaw law, then the runtime's own factors.
     for (got, want, why) in [
@@ -72,7 +73,7 @@ pub(crate) fn check_rates(r: &Rates, table: &[Rates]) -> Result<(), RefuseReason
     if r.acc_leak_q32 != d.acc_leak_q32 {
         return Err(R::AccLeak);
     }
-    Ok(())
+    Ok(i)
 }
 
 #[cfg(test)]

@@ -104,10 +104,19 @@ impl std::error::Error for DeviceError {}
 pub fn base_rate_refusal(rt: &RuntimeConfig) -> Option<String> {
     use wheelset_control::{design, ConfigError};
     let (hz, d) = (rt.control.base_rate_hz, rt.control.delay_ticks);
+    let active = rt.control.yaw_mode != wheelset_control::YawMode::Passive;
+    if let Some(p) = design::point(hz, d).filter(|p| active && !p.yaw) {
+        return Some(format!(
+            "the device refuses an active yaw law there: no lead or gain holds the yaw loop \
+             at {} Hz with {} tick(s) of delay (only the traction loop is designed: run the \
+             passive law, or a rate `sim-host rates` accepts)",
+            p.base_rate_hz, p.delay_ticks
+        ));
+    }
     if design::point(hz, d).is_none() && rt.control.validate().is_ok() {
         let accepted: Vec<String> = design::DESIGNED
             .iter()
-            .filter(|p| p.delay_ticks == d)
+            .filter(|p| p.delay_ticks == d && (p.yaw || !active))
             .map(|p| p.base_rate_hz.to_string())
             .collect();
         return Some(format!(

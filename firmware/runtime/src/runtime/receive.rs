@@ -3,7 +3,7 @@
 //! [`Rates`]) and Command frames validated and applied or refused.
 
 use wheelset_control::{Controller, InputCodes, MonitorState, SampleBits, ScheduleBits};
-use wheelset_proto::{FrameError, Lateral, NextFrame, RefuseReason, Request};
+use wheelset_proto::{FrameError, Lateral, NextFrame, RefuseReason, Request, YawMode};
 
 use crate::validate;
 use crate::{AccBits, Command, Config, Rates, Runtime, RuntimeCounters, RxEvent};
@@ -161,8 +161,10 @@ impl<T: SampleBits> Runtime<T> {
 
     #[inline(never)]
     fn on_config(&mut self, c: &Config) {
+        let active = c.mode != YawMode::Passive;
         let checked = match &c.rates {
-            Some(r) => self.apply_rates(r, c.hold_ticks),
+            Some(r) => self.apply_rates(r, c.hold_ticks, active),
+            None if active && !self.yaw_ok => Err(RefuseReason::YawNotDesigned),
             None => validate::check_hold(c.hold_ticks, self.base_rate_hz()),
         };
         if let Err(why) = checked {
@@ -207,7 +209,12 @@ impl<T: SampleBits> Runtime<T> {
     /// at the new rate, the formats) and, if valid,
     /// restarts the core on it. Nothing changes when it is refused.
     #[inline(never)]
-    fn apply_rates(&mut self, r: &Rates, hold_ticks: u16) -> Result<(), RefuseReason> {
+    fn apply_rates(
+        &mut self,
+        r: &Rates,
+        hold_ticks: u16,
+        active_yaw: bool,
+    ) -> Result<(), RefuseReason> {
         if r.numeric != T::NUMERIC {
             return Err(RefuseReason::Numeric);
         }
@@ -219,8 +226,12 @@ impl<T: SampleBits> Runtime<T> {
         if r.base_rate_hz > self.max_rate_hz {
             return Err(RefuseReason::BaseRate);
         }
-        validate::check_rates(r, &self.designed)?;
+        let design = validate::check_rates(r, &self.designed)?;
         validate::check_hold(hold_ticks, r.base_rate_hz)?;
+        let yaw_ok = self.yaw_designed.get(design).copied().unwrap_or(false);
+        if active_yaw && !yaw_ok {
+            return Err(RefuseReason::YawNotDesigned);
+        }
         let bits = RefuseReason::Bits;
         let (g, l) = AccBits {
             gain_q32: r.acc_gain_q32,
@@ -267,6 +278,7 @@ impl<T: SampleBits> Runtime<T> {
         self.acc_gain_q32 = g;
         self.leak_q32 = l;
         self.core.set_safe_at(safe, limit);
+        self.yaw_ok = yaw_ok;
         Ok(())
     }
 }
