@@ -271,10 +271,25 @@ const ROWS: &[Row] = &[
         0,
         &["warning: scenario meant is meant for --control passive"],
     ),
+    // Fig. 9's lead diverges: exit 1 naming it, unless the run says it is meant to.
     row(
         "run --scenario beating --control lead",
+        1,
+        &[
+            "warning: scenario beating is meant for --control passive",
+            "the run diverged",
+            "--expect-divergence",
+        ],
+    ),
+    row(
+        "run --scenario beating --control lead --expect-divergence",
         0,
-        &["warning: scenario beating is meant for --control passive"],
+        &["diverged as expected"],
+    ),
+    row(
+        "run --scenario {F}/short.toml --expect-divergence",
+        1,
+        &["--expect-divergence: the run did not diverge"],
     ),
     Row {
         args: "run --scenario {F}/meant.toml --control passive",

@@ -140,13 +140,13 @@ pub const BLOCKS: &[Block] = &[
     sim("modes", "modes --json out/modes.json --plot out/modes"),
     sim("fig6-8", "run --scenario curve --control lead --compare passive --csv out/curve.csv --plot out/fig6-8 --at 4.9 --at 11.9"),
     sim("fig9", "run --scenario beating --control passive --csv out/beating.csv --plot out/fig9"),
-    sim("fig9-lead", "run --scenario beating --control lead"),
+    sim("fig9-lead", "run --scenario beating --control lead --expect-divergence"),
     // Adhesion-limited traction.
     sim("adhesion-dry", "adhesion --condition dry --json out/adh-dry.json --plot out/adh"),
     sim("adhesion-wet", "adhesion --condition wet --json out/adh-wet.json --plot out/adh"),
     sim("adhesion-low", "adhesion --condition low --json out/adh-low.json --plot out/adh"),
     sim("low-adhesion-on", "run --scenario low-adhesion --control lead --loop core --wsp on --json out/low-on.json --csv out/low-on.csv --plot out/low"),
-    sim("low-adhesion-off", "run --scenario low-adhesion --control lead --loop core --wsp off --json out/low-off.json"),
+    sim("low-adhesion-off", "run --scenario low-adhesion --control lead --loop core --wsp off --expect-divergence --json out/low-off.json"),
     // The sections with and without protection (Markdown: `wheelset_plant::traction::sections_table`).
     sim("low-adhesion-table", "run --scenario low-adhesion --control lead --loop core --sections-table").keep(Keep::Markdown),
     hil("actuator-fault", "run --scenario actuator-fault --report out/af"),

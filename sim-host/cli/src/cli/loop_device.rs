@@ -177,6 +177,7 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
         msg: e.to_string(),
     })?;
     print_summary(sc, &run.trajectory);
+    let verdict = super::run::judge_divergence(a, &run.trajectory);
     if let Some(s) = &run.report.device {
         outln!(
             "wheel-slip protection {} (Config.wsp): {} events, {} ticks acting (device status)",
@@ -252,5 +253,5 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
             outln!("plot: {}", f.display());
         }
     }
-    Ok(())
+    verdict
 }

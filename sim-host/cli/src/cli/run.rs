@@ -43,8 +43,33 @@ pub(crate) struct RunArgs {
     /// Markdown (the README's generated comparison table).
     #[arg(long)]
     pub(crate) sections_table: bool,
+    /// The run is meant to diverge (a demonstration of an unstable case, e.g. Fig. 9's
+    /// beating or a slipping wheel without protection): exit 0 when it does and 1 when it
+    /// does not. Without it a diverging run exits 1, naming what diverged.
+    #[arg(long)]
+    pub(crate) expect_divergence: bool,
     #[command(flatten)]
     pub(crate) device: DeviceArgs,
+}
+
+/// The exit of a run: 1 when it diverged unexpectedly, or did not diverge though
+/// `--expect-divergence` said it would (after every output is written).
+pub(crate) fn judge_divergence(a: &RunArgs, tr: &Trajectory) -> Result<(), Failure> {
+    match (wheelset_plant::outcome::stop_of(tr), a.expect_divergence) {
+        (Some(stop), true) => {
+            outln!("diverged as expected (--expect-divergence): {stop}");
+            Ok(())
+        }
+        (Some(stop), false) => Err(Failure {
+            code: 1,
+            msg: format!("the run diverged: {stop} (add --expect-divergence if that is its point)"),
+        }),
+        (None, true) => Err(Failure {
+            code: 1,
+            msg: "--expect-divergence: the run did not diverge".into(),
+        }),
+        (None, false) => Ok(()),
+    }
 }
 
 pub(crate) fn cmd_run(a: &RunArgs) -> Result<(), Failure> {
@@ -144,7 +169,7 @@ pub(crate) fn cmd_run(a: &RunArgs) -> Result<(), Failure> {
             outln!("plot: {}", f.display());
         }
     }
-    Ok(())
+    judge_divergence(a, main)
 }
 
 /// Prints the linearised modes of the scenario's plant with `law` at its operating point
@@ -269,6 +294,7 @@ pub(crate) fn cmd_run_core(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
     let wsp = a.device.wsp != Some(OnOff::Off);
     let (tr, c) = run_core::<f64>(sc, a.control.into(), wsp).map_err(fail)?;
     print_summary(sc, &tr);
+    let verdict = judge_divergence(a, &tr);
     outln!(
         "wheel-slip protection {}: {} events, {} ticks acting",
         if wsp { "on" } else { "off" },
@@ -328,7 +354,7 @@ pub(crate) fn cmd_run_core(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
             outln!("plot: {}", f.display());
         }
     }
-    Ok(())
+    verdict
 }
 
 /// The summary JSON of a run (`--json`): the run's description, and with `[[adhesion]]`

@@ -357,9 +357,10 @@ mod tests {
         assert_eq!(found, wheelset_control::design::DESIGNED.to_vec());
         for r in &rows {
             if r.traction_ok {
-                let g = |a: Option<At>| a.expect("a crossing").value;
-                assert!(g(r.traction.gain_up) >= TRACTION_GAIN_DB, "{r:?}");
-                assert!(g(r.traction.phase) >= TRACTION_PHASE_DEG, "{r:?}");
+                // No crossing: no gain (phase) rotation turns the loop unstable.
+                let at_least = |a: Option<At>, min: f64| a.is_none_or(|a| a.value >= min);
+                assert!(at_least(r.traction.gain_up, TRACTION_GAIN_DB), "{r:?}");
+                assert!(at_least(r.traction.phase, TRACTION_PHASE_DEG), "{r:?}");
                 assert!(r.current_decay <= CURRENT_DECAY, "{r:?}");
                 assert!(r.traction.stable);
             }
