@@ -13,6 +13,8 @@
 use core::panic::PanicInfo;
 use core::sync::atomic::{AtomicBool, Ordering};
 
+use crate::board::{Board, Selected};
+
 static HALTING: AtomicBool = AtomicBool::new(false);
 
 /// Marks the board as halting; `true` if it already was (a panic while sending the safe
@@ -29,17 +31,17 @@ pub fn enter_halt() -> bool {
 unsafe fn HardFault() -> ! {
     cortex_m::interrupt::disable();
     if !enter_halt() {
-        crate::board::send_safe_frame();
+        Selected::send_safe_frame();
     }
     crate::boot::record_cause(wheelset_proto::reset_cause::FAULT);
     cortex_m::peripheral::SCB::sys_reset()
 }
 
-/// Carries out a fault injection (`Command::InjectStall`, `InjectHardFault`; QEMU
-/// builds with `fault-inject` only): the control task loops forever without letting the
-/// watchdog be fed, or executes an undefined instruction (a UsageFault, escalated to
-/// HardFault since the UsageFault handler is not enabled).
-#[cfg(feature = "board-qemu")]
+/// Carries out a fault injection (`Command::InjectStall`, `InjectHardFault`; a board
+/// whose `Board::inject` calls it, QEMU's, in builds with `fault-inject`): the control
+/// task loops forever without letting the watchdog be fed, or executes an undefined
+/// instruction (a UsageFault, escalated to HardFault since the UsageFault handler is not
+/// enabled).
 pub fn inject(c: wheelset_proto::Command) {
     match c {
         wheelset_proto::Command::InjectStall => {
@@ -64,5 +66,5 @@ fn panic(info: &PanicInfo) -> ! {
     } else {
         defmt::error!("panic");
     }
-    crate::board::panic_halt()
+    Selected::halt()
 }

@@ -1,8 +1,9 @@
-//! What the Nucleo build assumes of its clock tree, as pure functions checked at start-up
-//! against the clocks embassy-stm32 configured (`embassy_stm32::rcc::clocks`) and tested
-//! on the host.
+//! What the STM32 board builds assume of their clock trees, as pure functions checked at
+//! start-up against the clocks embassy-stm32 configured (`embassy_stm32::rcc::clocks`)
+//! and tested on the host.
 //!
-//! **Baud rate** (RM0390 25.4.4, "Fractional baud rate generation"): USART2 runs on
+//! **USART baud rate** (the F446's USART2; RM0390 25.4.4, "Fractional baud rate
+//! generation"): USART2 runs on
 //! PCLK1 and makes `f_PCLK / (8 * (2 - OVER8) * USARTDIV)`. embassy-stm32's driver takes
 //! `d = round(f_PCLK / baud)` (`usart::find_and_set_brr`): oversampling by 16 with
 //! `BRR = d` (12-bit mantissa, 4-bit fraction of USARTDIV in sixteenths) when `d >= 16`,
@@ -61,7 +62,13 @@ pub const fn made_baud(pclk_hz: u32, baud: u32) -> Option<u32> {
 /// Whether USART2 on `pclk_hz` makes `baud` within `tolerance_permille` parts per
 /// thousand (0: exactly).
 pub const fn baud_fits(pclk_hz: u32, baud: u32, tolerance_permille: u32) -> bool {
-    match made_baud(pclk_hz, baud) {
+    within(made_baud(pclk_hz, baud), baud, tolerance_permille)
+}
+
+/// Whether the baud a UART `made` (`None`: it cannot make it) is `baud` within
+/// `tolerance_permille` parts per thousand (0: exactly).
+pub const fn within(made: Option<u32>, baud: u32, tolerance_permille: u32) -> bool {
+    match made {
         Some(made) => made.abs_diff(baud) as u64 * 1000 <= baud as u64 * tolerance_permille as u64,
         None => false,
     }
