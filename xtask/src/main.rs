@@ -112,6 +112,15 @@ const FIRMWARE: &[Firmware] = &[
         board: "nucleo",
         flip_link: true,
     },
+    // The Nucleo-G474RE: LPUART1 on the ST-LINK V3 virtual COM port, free-running.
+    Firmware {
+        bin: FW_BIN,
+        features: "board-nucleo-g474",
+        elf: "wheelset-nucleo-g474.elf",
+        target: FW_TARGET,
+        board: "nucleo_g474",
+        flip_link: true,
+    },
     Firmware {
         bin: FW_BIN,
         features: "board-qemu",

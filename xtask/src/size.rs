@@ -253,6 +253,10 @@ const README_SIZE_ROWS: &[(&str, &str)] = &[
         "wheelset-nucleo-frame.elf",
         "| flash / static RAM, Nucleo |",
     ),
+    (
+        "wheelset-nucleo-g474.elf",
+        "| flash / static RAM, Nucleo-G474 |",
+    ),
     ("wheelset-qemu.elf", "| flash / static RAM, QEMU |"),
     ("wheelset-qemu-m3.elf", "| flash / static RAM, QEMU |"),
     ("wheelset-qemu-free.elf", "| flash / static RAM, QEMU |"),

@@ -4,6 +4,7 @@
 //! its memory map (`build.rs`).
 //!
 //! - `board-nucleo`: Nucleo-F446RE on embassy-stm32's drivers (`board::nucleo`).
+//! - `board-nucleo-g474`: Nucleo-G474RE on embassy-stm32's drivers (`board::nucleo_g474`).
 //! - `board-qemu`: QEMU `mps2-an386`, the crate's own board layer (`board::qemu`),
 //!   frame-clocked lock-step, SysTick instruction counts, defmt over semihosting.
 //!

@@ -8,6 +8,11 @@ pub mod nucleo;
 #[cfg(feature = "board-nucleo")]
 pub use nucleo::Board as Selected;
 
+#[cfg(feature = "board-nucleo-g474")]
+pub mod nucleo_g474;
+#[cfg(feature = "board-nucleo-g474")]
+pub use nucleo_g474::Board as Selected;
+
 #[cfg(feature = "board-qemu")]
 pub mod qemu;
 #[cfg(feature = "board-qemu")]
