@@ -33,16 +33,18 @@ pub trait Board {
     /// (`u32::MAX`: no limit, the host's frames are the clock).
     const LINK_MAX_RATE_HZ: u32;
     /// Whether this build's watchdog runs, so that an injected stall
-    /// (`Command::InjectStall`, builds with `fault-inject`) ends in a reset.
-    const WATCHDOG_ENDS_STALL: bool;
+    /// (`Command::InjectStall`, builds with `fault-inject`) ends in a reset; no by
+    /// default (no board but QEMU's honours an injection).
+    const WATCHDOG_ENDS_STALL: bool = false;
     /// The execution-time counter of a tick (cycles on silicon, instructions under QEMU).
     type Stopwatch: Stopwatch;
 
     /// Brings the board up and runs the firmware forever.
     fn run() -> !;
     /// The control period, time-driver ticks, for a tick source that needs it (the QEMU
-    /// frame clock); a hardware timer's driver schedules its own alarms.
-    fn set_period(ticks: u64);
+    /// frame clock); by default nothing: a hardware timer's driver schedules its own
+    /// alarms.
+    fn set_period(_ticks: u64) {}
     /// The hardware's reset cause (`wheelset_proto::reset_cause`; `None`: the board has
     /// no such register) and whether it was a power-on reset, read once at start-up for
     /// the boot record (`crate::boot::start_on`).

@@ -103,7 +103,6 @@ pub struct Board;
 
 impl super::Board for Board {
     const LINK_MAX_RATE_HZ: u32 = LINK_MAX_RATE_HZ;
-    const WATCHDOG_ENDS_STALL: bool = false;
     type Stopwatch = stm32::DwtStopwatch;
 
     /// Brings the board up and runs forever.
@@ -162,9 +161,6 @@ impl super::Board for Board {
         stm32::serve(rx, tx, p.IWDG)
     }
 
-    /// The hardware timer needs no period: the ticker schedules its own alarms.
-    fn set_period(_ticks: u64) {}
-
     /// The reset cause from the RCC CSR flags (RM0390 6.3.21; `stm32::reset_cause`); the
     /// flags are then cleared (RMVF) so the next reset reports only its own.
     fn reset_cause() -> (Option<u8>, bool) {
@@ -184,17 +180,14 @@ impl super::Board for Board {
     /// then `stm32::send_polled` on TXE and TC (RM0390 25.6.1). Nothing is sent before
     /// USART2 is configured.
     fn send_safe_frame() {
-        let polls = stm32::fault_polls();
-        if polls == 0 {
-            return;
-        }
         let usart = pac::USART2;
-        let stream = pac::DMA1.st(TX_STREAM);
-        stream.cr().modify(|w| w.set_en(false));
-        let _ = bounded::poll_until(polls, || !stream.cr().read().en());
-        usart.cr3().modify(|w| w.set_dmat(false));
         stm32::send_polled(
-            polls,
+            |polls| {
+                let stream = pac::DMA1.st(TX_STREAM);
+                stream.cr().modify(|w| w.set_en(false));
+                let _ = bounded::poll_until(polls, || !stream.cr().read().en());
+                usart.cr3().modify(|w| w.set_dmat(false));
+            },
             || usart.sr().read().txe(),
             |b| usart.dr().write(|w| w.set_dr(u16::from(b))),
             || usart.sr().read().tc(),

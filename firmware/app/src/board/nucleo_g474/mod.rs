@@ -45,7 +45,7 @@ const _: () = assert!(
 );
 
 /// The transmit DMA channel: DMA1 channel 2, the `DMA1_CH2` given to `Uart::new` in
-/// [`run`] (registers count channels from 0); the fault path stops it.
+/// `Board::run` (registers count channels from 0); the fault path stops it.
 const TX_CHANNEL: usize = 1;
 
 bind_interrupts!(struct Irqs {
@@ -59,7 +59,6 @@ pub struct Board;
 
 impl super::Board for Board {
     const LINK_MAX_RATE_HZ: u32 = LINK_MAX_RATE_HZ;
-    const WATCHDOG_ENDS_STALL: bool = false;
     type Stopwatch = stm32::DwtStopwatch;
 
     /// Brings the board up and runs forever.
@@ -115,9 +114,6 @@ impl super::Board for Board {
         stm32::serve(rx, tx, p.IWDG)
     }
 
-    /// The hardware timer needs no period: the ticker schedules its own alarms.
-    fn set_period(_ticks: u64) {}
-
     /// The reset cause from the RCC CSR flags (`stm32::reset_cause`; the brown-out flag is
     /// the power-on one); the flags are then cleared (RMVF) so the next reset reports only
     /// its own.
@@ -137,15 +133,12 @@ impl super::Board for Board {
     /// then `stm32::send_polled` on TXE and TC. Nothing is sent before LPUART1 is
     /// configured.
     fn send_safe_frame() {
-        let polls = stm32::fault_polls();
-        if polls == 0 {
-            return;
-        }
         let uart = pac::LPUART1;
-        pac::DMA1.ch(TX_CHANNEL).cr().modify(|w| w.set_en(false));
-        uart.cr3().modify(|w| w.set_dmat(false));
         stm32::send_polled(
-            polls,
+            |_| {
+                pac::DMA1.ch(TX_CHANNEL).cr().modify(|w| w.set_en(false));
+                uart.cr3().modify(|w| w.set_dmat(false));
+            },
             || uart.isr().read().txe(),
             |b| uart.tdr().write(|w| w.set_dr(u16::from(b))),
             || uart.isr().read().tc(),

@@ -149,23 +149,29 @@ pub fn reset_cause(
     (Some(cause), power_on)
 }
 
-/// The safe frame by polled writes (the fault path, the link's DMA stopped): a lone
-/// delimiter (it ends a frame the DMA left half sent, so that the safe frame arrives
-/// whole), the frame, each byte after `txe` within `polls` polls; then `tc` (the last
-/// byte off the shift register, so a reset next does not cut it) within twice that
-/// bound. A byte that does not go out within its bound ends the frame.
-pub fn send_polled(polls: u32, txe: impl Fn() -> bool, write: impl Fn(u8), tc: impl Fn() -> bool) {
+/// The safe frame by polled writes on the link UART (the fault path): nothing before the
+/// UART is configured (`FAULT_POLLS` 0); else `stop_dma` (with the per-byte bound) stops
+/// its transmit DMA, then a lone delimiter (it ends a frame the DMA left half sent, so
+/// that the safe frame arrives whole), the frame, each byte after `txe` within the bound;
+/// then `tc` (the last byte off the shift register, so a reset next does not cut it)
+/// within twice that bound. A byte that does not go out within its bound ends the frame.
+pub fn send_polled(
+    stop_dma: impl FnOnce(u32),
+    txe: impl Fn() -> bool,
+    write: impl Fn(u8),
+    tc: impl Fn() -> bool,
+) {
+    let polls = FAULT_POLLS.load(Ordering::Relaxed);
+    if polls == 0 {
+        return;
+    }
+    stop_dma(polls);
     let mut buf = [0u8; wheelset_proto::MAX_FRAME];
     let frame = crate::device::safe_frame(&mut buf);
     if bounded::write_polled(&[0], polls, &txe, &write) == 1 {
         let _ = bounded::write_polled(frame, polls, &txe, &write);
     }
     let _ = bounded::poll_until(polls.saturating_mul(2), tc);
-}
-
-/// The fault path's bound per byte on the link (0: the UART is not configured yet).
-pub fn fault_polls() -> u32 {
-    FAULT_POLLS.load(Ordering::Relaxed)
 }
 
 /// The end of every fault path but the HardFault handler's: interrupts off, the board's
