@@ -4,7 +4,7 @@
 //! No panic is reachable from input (frames are decoded without `unwrap`, indexing is
 //! checked); this is the last line of defence against a bug. With interrupts off it
 //! logs, sends the safe actuation frame by polling the UART (the plant's actuators go to
-//! zero torque and zero traction demand) and ends as the board's `panic_halt` says: the
+//! zero torque and zero traction demand) and ends as the board's `Board::halt` says: the
 //! Nucleo records the cause FAULT and resets (SCB), whether or not its watchdog has
 //! started; QEMU exits with a failure code. On the Nucleo every wait of the path is
 //! bounded (`crate::bounded`): a UART that is not clocked or is wedged cannot keep it
