@@ -3,11 +3,12 @@
 //!    quantised for the build's sample type) and writes it as exact constants
 //!    (`$OUT_DIR/default_runtime.rs`, a `wheelset_runtime::RuntimeBits`), so the device
 //!    starts without any float maths. Host builds too (their tests check the constants).
-//! 2. Link set-up for the board binaries: puts the board's `memory.x` (and, for QEMU, the
-//!    interrupt names of the crate's own vector table in `device.x`) on the linker search
-//!    path and passes the cortex-m-rt and defmt linker scripts. Nothing on the host.
-
-use std::{env, fs, path::PathBuf};
+//! 2. Link set-up for the board build (nothing on the host): the board is the one
+//!    `board-<name>` feature, its memory map `src/board/<name>/memory.x` ([`link_setup`]).
+use std::{
+    env, fs,
+    path::{Path, PathBuf},
+};
 
 use wheelset_runtime::{RuntimeBits, RuntimeConfig};
 
@@ -39,39 +40,70 @@ fn main() {
         println!("cargo:warning=cannot write default_runtime.rs: {e}");
         std::process::exit(1);
     }
-    println!("cargo:rerun-if-changed=../../memory.x");
-    println!("cargo:rerun-if-changed=qemu/memory-qemu.x");
-    println!("cargo:rerun-if-changed=qemu/device.x");
-    println!("cargo:rerun-if-changed=qemu/link.x");
-    if env::var("CARGO_CFG_TARGET_OS").as_deref() != Ok("none") {
-        return;
-    }
-    let nucleo = env::var_os("CARGO_FEATURE_BOARD_NUCLEO").is_some();
-    let qemu = env::var_os("CARGO_FEATURE_BOARD_QEMU").is_some();
-    let manifest = PathBuf::from(env::var_os("CARGO_MANIFEST_DIR").unwrap_or_default());
-    let copy = |from: PathBuf, to: &str| {
-        if let Err(e) = fs::copy(&from, out.join(to)) {
-            println!("cargo:warning=cannot copy {}: {e}", from.display());
+    if env::var("CARGO_CFG_TARGET_OS").as_deref() == Ok("none") {
+        if let Err(e) = link_setup(&out) {
+            println!("cargo:warning={e}");
             std::process::exit(1);
         }
+    }
+}
+
+/// The board's memory map on the link, and the linker scripts.
+///
+/// cortex-m-rt's `link.x` starts with `INCLUDE memory.x`, and the linker (run in the
+/// workspace root) takes an included file from its working directory before any search
+/// path: the top-level `memory.x`, the Nucleo-F446RE's. A board without a map of its
+/// own links with it as it is. A board with its own map links with
+/// `$OUT_DIR/link-<name>.x`: its map, then `INCLUDE link.x`; and lld's `--remap-inputs`
+/// turns every `memory.x` the linker opens into an empty script, so the top-level map
+/// plays no part. flip-link (the STM32 boards' linker) finds the RAM region in that same
+/// first script and links its flipped image with its own copy of it.
+/// `src/board/<name>/device.x`, if there is one, names the board's interrupt handlers
+/// for cortex-m-rt's `device` feature. `cargo fw` checks every ELF's sections against
+/// its own board's map.
+fn link_setup(out: &Path) -> Result<(), String> {
+    let boards: Vec<String> = env::vars()
+        .filter_map(|(k, _)| Some(k.strip_prefix("CARGO_FEATURE_BOARD_")?.to_lowercase()))
+        .collect();
+    let [board] = boards.as_slice() else {
+        return Err(format!(
+            "the firmware needs exactly one `board-*` feature (firmware/app/Cargo.toml), \
+             not {boards:?}: use `cargo fw`"
+        ));
     };
-    // The linker runs in the workspace root and looks there first for an INCLUDEd file,
-    // so the QEMU map cannot be called `memory.x` (the top-level STM32 one would win):
-    // the QEMU build uses its own copy of cortex-m-rt's link.x that includes
-    // `memory-qemu.x` (see qemu/link.x).
-    let script = match (nucleo, qemu) {
-        (true, false) => {
-            copy(manifest.join("../../memory.x"), "memory.x");
-            "link.x"
+    let manifest = PathBuf::from(env::var_os("CARGO_MANIFEST_DIR").unwrap_or_default());
+    let dir = manifest.join("src/board").join(board);
+    let write = |name: &str, text: &str| {
+        fs::write(out.join(name), text).map_err(|e| format!("cannot write {name}: {e}"))
+    };
+    let read = |path: &Path| {
+        println!("cargo:rerun-if-changed={}", path.display());
+        fs::read_to_string(path).map_err(|e| format!("cannot read {}: {e}", path.display()))
+    };
+    if dir.join("device.x").exists() {
+        write("device.x", &read(&dir.join("device.x"))?)?;
+    }
+    let script = if dir.join("memory.x").exists() {
+        let script = format!("link-{board}.x");
+        write(
+            &script,
+            &(read(&dir.join("memory.x"))? + "\nINCLUDE link.x\n"),
+        )?;
+        let none = out.join("memory-none.x");
+        write(
+            "memory-none.x",
+            "/* The top-level memory.x, remapped away (build.rs). */\n",
+        )?;
+        for pattern in ["memory.x", "*/memory.x"] {
+            println!(
+                "cargo:rustc-link-arg-bins=--remap-inputs={pattern}={}",
+                none.display()
+            );
         }
-        (false, true) => {
-            copy(manifest.join("qemu/memory-qemu.x"), "memory-qemu.x");
-            copy(manifest.join("qemu/device.x"), "device.x");
-            copy(manifest.join("qemu/link.x"), "link-qemu.x");
-            "link-qemu.x"
-        }
-        // The library's compile_error! explains the feature choice; no link set-up.
-        _ => return,
+        script
+    } else {
+        write("memory.x", &read(&manifest.join("../../memory.x"))?)?;
+        "link.x".to_string()
     };
     println!("cargo:rustc-link-search={}", out.display());
     println!("cargo:rustc-link-arg-bins=--nmagic");
@@ -81,4 +113,5 @@ fn main() {
     println!("cargo:rustc-link-arg-bins=--icf=all");
     println!("cargo:rustc-link-arg-bins=-T{script}");
     println!("cargo:rustc-link-arg-bins=-Tdefmt.x");
+    Ok(())
 }

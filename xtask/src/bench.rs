@@ -26,6 +26,8 @@ fn bench_configs() -> [BenchConfig; 4] {
         features,
         elf,
         target,
+        board: "qemu",
+        flip_link: false,
     };
     [
         BenchConfig {
@@ -220,7 +222,7 @@ pub(crate) fn fw_bench(json: Option<PathBuf>) -> Result<(), String> {
         return Err("qemu-system-arm is not installed: `apt-get install qemu-system-arm`".into());
     }
     let mut results = Vec::new();
-    for (c, elf) in configs.iter().zip(&elfs) {
+    for (c, (elf, _)) in configs.iter().zip(&elfs) {
         let mut cmd = Command::new(crate::qemu_cmd::QEMU_BIN);
         cmd.args(crate::qemu_cmd::qemu_args(
             c.machine,

@@ -187,7 +187,7 @@ pub fn check(builds: &[&Firmware]) -> Result<(), String> {
     let mut problems = Vec::new();
     for fw in builds {
         let built = board_build(fw)?;
-        let qemu = fw.bin == "wheelset-qemu";
+        let qemu = fw.board == "qemu";
         for (name, t) in &tested {
             problems.extend(compare(fw.elf, qemu, &built, name, t));
         }

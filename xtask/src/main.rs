@@ -12,13 +12,13 @@
 //!   tests of the honoured fault injections compile only there);
 //!   then it builds every criterion benchmark (`cargo test --workspace --benches
 //!   --no-run`: they compile; they are not run).
-//! - `cargo fw [--f32]`: builds the board binaries for `thumbv7em-none-eabihf` with the
-//!   `fw` profile (release, LTO, size-optimised; the Nucleo build linked with flip-link,
-//!   installed when missing, in `target/flip-link`) and copies them to `target/fw/`:
-//!   `wheelset-nucleo.elf`, `wheelset-qemu.elf` (and with `--f32` the f32 builds
-//!   `wheelset-nucleo-f32.elf`, `wheelset-qemu-f32.elf`). Prints flash and RAM of each
-//!   against the budget (flash 64 KiB, static RAM 16 KiB) and fails above either (the f32
-//!   measurement builds: printed, not enforced).
+//! - `cargo fw [--f32]`: builds every board build of [`FIRMWARE`] with the `fw` profile
+//!   (release, LTO, size-optimised; the STM32 builds linked with flip-link, installed
+//!   when missing, in `target/flip-link`) and copies them to `target/fw/` (and with
+//!   `--f32` the f32 builds `wheelset-nucleo-f32.elf`, `wheelset-qemu-f32.elf`). Prints
+//!   flash and RAM of each against the budget (flash 64 KiB, static RAM 16 KiB) and fails
+//!   above either (the f32 measurement builds: printed, not enforced) or when an image is
+//!   not placed by its own board's memory map ([`size`]).
 //! - `cargo xtask fw-bench [--json FILE]`: builds `wheelset-qemu-bench` (fixed point and
 //!   f32, for the Cortex-M4F on `mps2-an386` and the Cortex-M3 on `mps2-an385`) and runs
 //!   it under QEMU: instructions per control-law step and per whole runtime tick, and the
@@ -79,65 +79,94 @@ const MCU_TARGETS: &[&str] = &["thumbv7em-none-eabihf", "thumbv6m-none-eabi"];
 const FW_TARGET: &str = "thumbv7em-none-eabihf";
 /// The Cortex-M3 (no FPU) of QEMU's mps2-an385: the fixed-point build where it matters.
 const M3_TARGET: &str = "thumbv7m-none-eabi";
-/// One firmware binary: cargo bin name, features, the name it gets in `target/fw`, and
-/// the target it is built for.
+/// One firmware binary: cargo bin name, features, the name it gets in `target/fw`, the
+/// target it is built for, its board (the `board-<name>` feature's module, whose memory
+/// map [`size::check_sizes`] holds the ELF to) and whether it links with flip-link.
 struct Firmware {
     bin: &'static str,
     features: &'static str,
     elf: &'static str,
     target: &'static str,
+    board: &'static str,
+    flip_link: bool,
 }
+
+/// The firmware binary of every board build.
+const FW_BIN: &str = "wheelset-fw";
 
 const FIRMWARE: &[Firmware] = &[
     Firmware {
-        bin: "wheelset-nucleo",
+        bin: FW_BIN,
         features: "board-nucleo",
         elf: "wheelset-nucleo.elf",
         target: FW_TARGET,
+        board: "nucleo",
+        flip_link: true,
     },
     // The Nucleo frame-clocked (lock-step over the ST-LINK VCP; feature `frame-clock`).
     Firmware {
-        bin: "wheelset-nucleo",
+        bin: FW_BIN,
         features: "frame-clock",
         elf: "wheelset-nucleo-frame.elf",
         target: FW_TARGET,
+        board: "nucleo",
+        flip_link: true,
+    },
+    // The Nucleo-G474RE: LPUART1 on the ST-LINK V3 virtual COM port, free-running.
+    Firmware {
+        bin: FW_BIN,
+        features: "board-nucleo-g474",
+        elf: "wheelset-nucleo-g474.elf",
+        target: FW_TARGET,
+        board: "nucleo_g474",
+        flip_link: true,
     },
     Firmware {
-        bin: "wheelset-qemu",
+        bin: FW_BIN,
         features: "board-qemu",
         elf: "wheelset-qemu.elf",
         target: FW_TARGET,
+        board: "qemu",
+        flip_link: false,
     },
     // QEMU free-running: the tick from TIMER0, QEMU without -icount, paced in real
     // time (`hil run --target qemu-free`).
     Firmware {
-        bin: "wheelset-qemu",
+        bin: FW_BIN,
         features: "free-run",
         elf: "wheelset-qemu-free.elf",
         target: FW_TARGET,
+        board: "qemu",
+        flip_link: false,
     },
     // The same QEMU firmware for the Cortex-M3 of mps2-an385 (same memory map, CMSDK
     // UART0 and interrupts; no FPU): `hil run --target qemu --machine mps2-an385`.
     Firmware {
-        bin: "wheelset-qemu",
+        bin: FW_BIN,
         features: "board-qemu",
         elf: "wheelset-qemu-m3.elf",
         target: M3_TARGET,
+        board: "qemu",
+        flip_link: false,
     },
 ];
 
 const FIRMWARE_F32: &[Firmware] = &[
     Firmware {
-        bin: "wheelset-nucleo",
+        bin: FW_BIN,
         features: "board-nucleo,f32",
         elf: "wheelset-nucleo-f32.elf",
         target: FW_TARGET,
+        board: "nucleo",
+        flip_link: true,
     },
     Firmware {
-        bin: "wheelset-qemu",
+        bin: FW_BIN,
         features: "board-qemu,f32",
         elf: "wheelset-qemu-f32.elf",
         target: FW_TARGET,
+        board: "qemu",
+        flip_link: false,
     },
 ];
 
@@ -274,7 +303,7 @@ fn ensure_flip_link() -> Result<(), String> {
 
 /// Builds the given firmware binaries, one cargo invocation each (so no board's HAL can
 /// reach another board's binary), and copies them to `target/fw/`.
-fn build_firmware(list: &[Firmware]) -> Result<Vec<PathBuf>, String> {
+fn build_firmware(list: &[Firmware]) -> Result<Vec<(PathBuf, &'static str)>, String> {
     let out_dir = target_dir().join("fw");
     std::fs::create_dir_all(&out_dir)
         .map_err(|e| format!("cannot create {}: {e}", out_dir.display()))?;
@@ -289,11 +318,11 @@ fn build_firmware(list: &[Firmware]) -> Result<Vec<PathBuf>, String> {
     flags.extend(remap_flags());
     let mut elfs = Vec::new();
     for fw in list {
-        // The board build links with flip-link (stack below the static data: an overflow
+        // An STM32 board build links with flip-link (stack below the static data: an overflow
         // faults instead of corrupting them), in its own target directory: a different
         // linker changes every unit's fingerprint, and sharing one directory with the
         // QEMU builds would rebuild everything at each switch.
-        let flip = fw.features.contains("board-nucleo");
+        let flip = fw.flip_link;
         let dir = if flip {
             ensure_flip_link()?;
             target_dir().join("flip-link")
@@ -334,7 +363,7 @@ fn build_firmware(list: &[Firmware]) -> Result<Vec<PathBuf>, String> {
         let dest = out_dir.join(fw.elf);
         std::fs::copy(&built, &dest)
             .map_err(|e| format!("cannot copy {} to {}: {e}", built.display(), dest.display()))?;
-        elfs.push(dest);
+        elfs.push((dest, fw.board));
     }
     Ok(elfs)
 }
@@ -381,7 +410,7 @@ fn ensure_qemu() -> bool {
     false
 }
 
-fn fw(args: &[String]) -> Result<Vec<PathBuf>, String> {
+fn fw(args: &[String]) -> Result<Vec<(PathBuf, &'static str)>, String> {
     let mut list: Vec<&Firmware> = FIRMWARE.iter().collect();
     for a in args {
         match a.as_str() {
@@ -418,7 +447,7 @@ fn test(extra: &[String]) -> Result<(), String> {
     if ensure_qemu() {
         cmd.env("REQUIRE_QEMU", "1");
     }
-    if let Some(qemu_elf) = elfs.iter().find(|p| p.ends_with("wheelset-qemu.elf")) {
+    if let Some((qemu_elf, _)) = elfs.iter().find(|(p, _)| p.ends_with("wheelset-qemu.elf")) {
         cmd.env("WHEELSET_QEMU_ELF", qemu_elf);
     }
     run(&mut cmd)?;

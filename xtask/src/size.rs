@@ -1,11 +1,179 @@
 //! The firmware's size budget: flash and static RAM of each built ELF against the
-//! enforced budget and the target ([`check_sizes`], printed by `cargo fw` and `cargo
-//! xtest`), and the size rows of the README and the book against the build
-//! ([`readme_sizes`]).
+//! enforced budget and the target, and its placement against its own board's memory map
+//! ([`check_sizes`], printed by `cargo fw` and `cargo xtest`), and the size rows of the
+//! README and the book against the build ([`readme_sizes`]).
 
 use std::path::{Path, PathBuf};
 
 use wheelset_targets::elf;
+
+#[cfg(test)]
+use crate::Firmware;
+
+/// One region of a memory map, bytes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Region {
+    pub origin: u64,
+    pub length: u64,
+}
+
+impl Region {
+    fn end(self) -> u64 {
+        self.origin + self.length
+    }
+
+    fn holds(self, addr: u64, size: u64) -> bool {
+        addr >= self.origin && addr + size <= self.end()
+    }
+}
+
+/// A board's memory map: what cortex-m-rt's `link.x` needs of it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Map {
+    pub flash: Region,
+    pub ram: Region,
+}
+
+/// The memory map of `board`, as `firmware/app/build.rs` finds it:
+/// `firmware/app/src/board/<board>/memory.x`, else the top-level `memory.x` (the
+/// Nucleo-F446RE's).
+pub fn map_path(board: &str) -> PathBuf {
+    let root = crate::workspace_root();
+    let own = root
+        .join("firmware/app/src/board")
+        .join(board)
+        .join("memory.x");
+    if own.exists() {
+        own
+    } else {
+        root.join("memory.x")
+    }
+}
+
+/// `0x2000_0000`, `512K`, `4M`, `65536`.
+fn number(s: &str) -> Option<u64> {
+    let s = s.trim().replace('_', "");
+    let (digits, scale) = match s.strip_suffix('K') {
+        Some(d) => (d.to_string(), 1024),
+        None => match s.strip_suffix('M') {
+            Some(d) => (d.to_string(), 1024 * 1024),
+            None => (s.clone(), 1),
+        },
+    };
+    let v = match digits.strip_prefix("0x") {
+        Some(h) => u64::from_str_radix(h, 16).ok()?,
+        None => digits.parse().ok()?,
+    };
+    Some(v * scale)
+}
+
+/// The FLASH and RAM regions of a `memory.x` (`NAME : ORIGIN = a, LENGTH = l`, one per
+/// line).
+pub fn parse_map(text: &str) -> Result<Map, String> {
+    let region = |name: &str| {
+        text.lines()
+            .filter_map(|l| {
+                let (n, rest) = l.split_once(':')?;
+                if n.trim() != name {
+                    return None;
+                }
+                let (origin, length) = rest.split_once(',')?;
+                let origin = number(
+                    origin
+                        .trim()
+                        .strip_prefix("ORIGIN")?
+                        .trim()
+                        .strip_prefix('=')?,
+                )?;
+                let length = number(
+                    length
+                        .trim()
+                        .strip_prefix("LENGTH")?
+                        .trim()
+                        .strip_prefix('=')?,
+                )?;
+                Some(Region { origin, length })
+            })
+            .next()
+            .ok_or_else(|| format!("no `{name} : ORIGIN = .., LENGTH = ..` line"))
+    };
+    Ok(Map {
+        flash: region("FLASH")?,
+        ram: region("RAM")?,
+    })
+}
+
+/// How far below the RAM region's end the top of the used RAM may be: flip-link rounds
+/// the flipped statics' start down to their alignment, so they may end a few bytes short.
+const RAM_TOP_SLACK: u64 = 64;
+
+/// The symbol a board's memory map defines (`__board_map_<board> = 1;`), which names the
+/// map an image was linked with.
+pub const MAP_MARK: &str = "__board_map_";
+
+/// Whether `layout` was linked with `board`'s memory map `map`: it carries that map's mark
+/// ([`MAP_MARK`]) and no other; every allocated section lies in the map's FLASH
+/// (read-only) or RAM (writable); and RAM is used up to the region's end (within
+/// [`RAM_TOP_SLACK`]): the stack's start there (`_stack_start`, cortex-m-rt's default),
+/// or, flipped by flip-link, the statics ending there.
+pub fn check_layout(board: &str, map: &Map, layout: &elf::Layout) -> Result<(), String> {
+    let mut wrong = Vec::new();
+    let mark = format!("{MAP_MARK}{board}");
+    let marks: Vec<&str> = layout
+        .symbols
+        .iter()
+        .map(|(n, _)| n.as_str())
+        .filter(|n| n.starts_with(MAP_MARK))
+        .collect();
+    if marks != [mark.as_str()] {
+        wrong.push(format!("linked with the map(s) {marks:?}, not {mark}"));
+    }
+    let mut ram_top = 0;
+    for s in layout.sections.iter().filter(|s| s.size > 0) {
+        let (region, kind) = if s.write {
+            ram_top = ram_top.max(s.addr + s.size);
+            (map.ram, "RAM")
+        } else {
+            (map.flash, "FLASH")
+        };
+        if !region.holds(s.addr, s.size) {
+            wrong.push(format!(
+                "{} at {:#x}..{:#x} is outside {kind} {:#x}..{:#x}",
+                s.name,
+                s.addr,
+                s.addr + s.size,
+                region.origin,
+                region.end()
+            ));
+        }
+    }
+    match layout.symbol("_stack_start") {
+        Some(sp) if map.ram.holds(sp, 0) => ram_top = ram_top.max(sp),
+        Some(sp) => wrong.push(format!("_stack_start {sp:#x} is outside RAM")),
+        None => wrong.push("no _stack_start".into()),
+    }
+    if ram_top + RAM_TOP_SLACK <= map.ram.end() {
+        wrong.push(format!(
+            "RAM is used up to {ram_top:#x}, not to the map's end {:#x}",
+            map.ram.end()
+        ));
+    }
+    if wrong.is_empty() {
+        Ok(())
+    } else {
+        Err(wrong.join("; "))
+    }
+}
+
+/// [`check_layout`] of the ELF `bytes` against `board`'s own map.
+fn check_board_map(board: &str, bytes: &[u8]) -> Result<(), String> {
+    let path = map_path(board);
+    let text = std::fs::read_to_string(&path)
+        .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let map = parse_map(&text).map_err(|e| format!("{}: {e}", path.display()))?;
+    check_layout(board, &map, &elf::layout(bytes)?)
+        .map_err(|e| format!("not linked with {}: {e}", path.display()))
+}
 
 /// Flash budget of each firmware binary, bytes (.vector_table + .text + .rodata + .data).
 /// Generous on purpose: the STM32F446RE has 512 KiB, and 64 KiB fits the smallest parts
@@ -17,14 +185,15 @@ pub const FLASH_BUDGET: u64 = 64 * 1024;
 /// section: cortex-m-rt puts it at the top of RAM), bytes. The F446RE has 128 KiB.
 pub const RAM_BUDGET: u64 = 16 * 1024;
 
-pub fn check_sizes(elfs: &[PathBuf]) -> Result<Vec<(String, elf::Sizes)>, String> {
+pub fn check_sizes(elfs: &[(PathBuf, &str)]) -> Result<Vec<(String, elf::Sizes)>, String> {
     let mut over = Vec::new();
     let mut all = Vec::new();
     outln!(
         "firmware size (budget: flash {FLASH_BUDGET} B, static RAM {RAM_BUDGET} B excluding \
-         the stack; the build fails above either)"
+         the stack; the build fails above either, or if an image is not placed by its own \
+         board's memory map)"
     );
-    for path in elfs {
+    for (path, board) in elfs {
         let bytes =
             std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
         let size = elf::sizes(&bytes).map_err(|e| format!("{}: {e}", path.display()))?;
@@ -32,6 +201,9 @@ pub fn check_sizes(elfs: &[PathBuf]) -> Result<Vec<(String, elf::Sizes)>, String
             || path.display().to_string(),
             |n| n.to_string_lossy().into_owned(),
         );
+        if let Err(e) = check_board_map(board, &bytes) {
+            over.push(format!("{name}: {e}"));
+        }
         outln!(
             "  {name:<26} flash {:>6} B ({:>5.1} KiB)   static RAM {:>5} B ({:>4.1} KiB)",
             size.flash,
@@ -65,7 +237,10 @@ pub fn check_sizes(elfs: &[PathBuf]) -> Result<Vec<(String, elf::Sizes)>, String
     if over.is_empty() {
         Ok(all)
     } else {
-        Err(format!("over the size budget: {}", over.join("; ")))
+        Err(format!(
+            "over the size budget or misplaced: {}",
+            over.join("; ")
+        ))
     }
 }
 
@@ -77,6 +252,10 @@ const README_SIZE_ROWS: &[(&str, &str)] = &[
     (
         "wheelset-nucleo-frame.elf",
         "| flash / static RAM, Nucleo |",
+    ),
+    (
+        "wheelset-nucleo-g474.elf",
+        "| flash / static RAM, Nucleo-G474 |",
     ),
     ("wheelset-qemu.elf", "| flash / static RAM, QEMU |"),
     ("wheelset-qemu-m3.elf", "| flash / static RAM, QEMU |"),
@@ -140,8 +319,134 @@ fn sizes_in_pages(
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
+
+    fn section(name: &str, addr: u64, size: u64, write: bool) -> elf::Section {
+        elf::Section {
+            name: name.into(),
+            addr,
+            size,
+            write,
+        }
+    }
+
+    /// An image as cortex-m-rt (`flip: false`) or flip-link lays it out on `map`, with
+    /// the mark of `board`'s map.
+    fn image(map: &Map, board: &str, flip: bool) -> elf::Layout {
+        let (flash, ram) = (map.flash.origin, map.ram.origin);
+        let statics = if flip { map.ram.end() - 0x100 } else { ram };
+        let stack = if flip { statics } else { map.ram.end() };
+        elf::Layout {
+            sections: vec![
+                section(".vector_table", flash, 0x400, false),
+                section(".text", flash + 0x400, 0x4000, false),
+                section(".data", statics, 0x10, true),
+                section(".bss", statics + 0x10, 0xF0, true),
+            ],
+            symbols: vec![
+                ("_stack_start".into(), stack),
+                (format!("{MAP_MARK}{board}"), 1),
+            ],
+        }
+    }
+
+    fn map(board: &str) -> Map {
+        parse_map(&std::fs::read_to_string(map_path(board)).unwrap()).unwrap()
+    }
+
+    #[test]
+    fn every_boards_map_is_read() {
+        let kib = 1024;
+        let f446 = map("nucleo");
+        assert_eq!(
+            f446.flash,
+            Region {
+                origin: 0x0800_0000,
+                length: 512 * kib
+            }
+        );
+        assert_eq!(
+            f446.ram,
+            Region {
+                origin: 0x2000_0000,
+                length: 128 * kib
+            }
+        );
+        let qemu = map("qemu");
+        assert_eq!(
+            qemu.flash,
+            Region {
+                origin: 0,
+                length: 4096 * kib
+            }
+        );
+        assert!(map_path("qemu").ends_with("firmware/app/src/board/qemu/memory.x"));
+        assert!(parse_map("MEMORY { }").is_err());
+    }
+
+    #[test]
+    fn an_image_is_held_to_its_own_boards_map() {
+        for (board, flip) in [("nucleo", true), ("qemu", false), ("nucleo", false)] {
+            let m = map(board);
+            assert_eq!(check_layout(board, &m, &image(&m, board, flip)), Ok(()));
+        }
+        let m = map("nucleo");
+        // Linked with another board's map (its mark), though every address would fit.
+        let e = check_layout("nucleo", &m, &image(&m, "other", true)).unwrap_err();
+        assert!(e.contains("__board_map_other"), "{e}");
+        // A smaller RAM than the image was laid out for: the statics beyond its end.
+        let small = Map {
+            ram: Region {
+                length: 96 * 1024,
+                ..m.ram
+            },
+            ..m
+        };
+        let e = check_layout("nucleo", &small, &image(&m, "nucleo", true)).unwrap_err();
+        assert!(
+            e.contains(".data at 0x2001ff00") && e.contains("outside RAM"),
+            "{e}"
+        );
+        // RAM not used up to its end: the image was laid out for a smaller region.
+        let e = check_layout("nucleo", &m, &image(&small, "nucleo", false)).unwrap_err();
+        assert!(e.contains("not to the map's end 0x20020000"), "{e}");
+        // Code outside the flash region.
+        let e = check_layout("qemu", &map("qemu"), &image(&m, "qemu", false)).unwrap_err();
+        assert!(e.contains(".text at 0x8000400"), "{e}");
+    }
+
+    /// The built images (`cargo fw`; `cargo xtest` builds them before the tests): each
+    /// passes against its own board's map and fails against every other board's.
+    #[test]
+    fn a_built_image_fails_against_another_boards_map() {
+        let dir = crate::target_dir().join("fw");
+        let built: Vec<(&Firmware, Vec<u8>)> = crate::FIRMWARE
+            .iter()
+            .filter_map(|fw| Some((fw, std::fs::read(dir.join(fw.elf)).ok()?)))
+            .collect();
+        if built.is_empty() {
+            eprintln!(
+                "no firmware in {} (`cargo fw`): nothing to check",
+                dir.display()
+            );
+            return;
+        }
+        let boards: std::collections::BTreeSet<&str> =
+            crate::FIRMWARE.iter().map(|fw| fw.board).collect();
+        for (fw, bytes) in &built {
+            for board in &boards {
+                let r = check_board_map(board, bytes);
+                assert_eq!(
+                    r.is_ok(),
+                    *board == fw.board,
+                    "{} as {board}: {r:?}",
+                    fw.elf
+                );
+            }
+        }
+    }
 
     #[test]
     fn figures_are_grouped_as_the_readme_writes_them() {

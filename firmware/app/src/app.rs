@@ -1,6 +1,6 @@
 //! The board-independent task structure: the pipes between the UART and the control
-//! task, and the control loop itself. Each board supplies the executors, the UART tasks,
-//! a [`Stopwatch`] and `set_period` (the QEMU frame clock needs the period).
+//! task, and the control loop itself, generic over the [`Board`] (its executors and UART
+//! tasks, its [`Stopwatch`], its tick source's period, its fault path).
 //!
 //! ```text
 //!  UART RX (ISR or DMA task) --RX pipe--> control task --TX pipe--> UART TX task
@@ -15,6 +15,7 @@ use embassy_executor::{SpawnError, SpawnToken};
 use embassy_sync::waitqueue::AtomicWaker;
 use embassy_time::Instant;
 
+use crate::board::Board;
 use crate::device::{new_runtime, Device, FwRuntime};
 use crate::ring::{ByteRing, Empty};
 use crate::settings::{RX_PIPE, TX_PIPE};
@@ -103,32 +104,30 @@ pub trait Stopwatch {
 /// The device the control task drives: the runtime with its default configuration. A
 /// configuration the control core refuses is a build error in disguise (it is not
 /// input): the board halts.
-pub fn new_device() -> FwRuntime {
+pub fn new_device<B: Board>() -> FwRuntime {
     match new_runtime() {
         Ok(mut rt) => {
             // A Config may not set a rate the board's link cannot carry.
-            rt.set_link_limit(crate::board::LINK_MAX_RATE_HZ);
-            // An injected stall only where a watchdog ends it: QEMU's free-running build
-            // (the lock-step build has none, and the Nucleo builds honour no injection).
-            #[cfg(feature = "board-qemu")]
-            rt.set_watchdog(crate::board::qemu::wdog::ENABLED);
+            rt.set_link_limit(B::LINK_MAX_RATE_HZ);
+            // An injected stall only where a watchdog ends it.
+            rt.set_watchdog(B::WATCHDOG_ENDS_STALL);
             rt
         }
         Err(e) => {
             defmt::error!("runtime refused its default configuration: {}", e);
-            crate::board::panic_halt()
+            B::halt()
         }
     }
 }
 
 /// Unwraps a task's spawn token; a full task pool is a build error in disguise, so it
 /// halts the board (it cannot depend on input: tasks are spawned once at start-up).
-pub fn token<S>(t: Result<SpawnToken<S>, SpawnError>) -> SpawnToken<S> {
+pub fn token<B: Board, S>(t: Result<SpawnToken<S>, SpawnError>) -> SpawnToken<S> {
     match t {
         Ok(t) => t,
         Err(_) => {
             defmt::error!("task pool exhausted at start-up");
-            crate::board::panic_halt()
+            B::halt()
         }
     }
 }
@@ -285,9 +284,9 @@ fn note_stack(device: &mut impl Device, ticks: &mut u32) {
 /// execution time, and queue the encoded frame for the transmitter. The execution time
 /// is measured from the wake-up to the encoded frame (drain + decode + control +
 /// encode). A host Config frame that changes the base rate re-arms the schedule.
-pub async fn control_loop<D: Device>(
+pub async fn control_loop<B: Board, D: Device>(
     make_device: impl FnOnce() -> D,
-    mut stopwatch: impl Stopwatch,
+    mut stopwatch: B::Stopwatch,
 ) -> ! {
     // Made here, not passed in: an async fn's arguments are kept in its future beside
     // the body's copy of them (rust-lang/rust#62958), so a device argument took the
@@ -299,7 +298,7 @@ pub async fn control_loop<D: Device>(
     let mut rate = device.base_rate_hz();
     // The schedule: a whole number of us per period, and a tick monitor for it.
     let schedule = period_ticks(rate).and_then(|p| {
-        crate::board::set_period(p);
+        B::set_period(p);
         let (ticker, first) = new_ticker(p);
         let monitor = TickMonitor::try_new(p, first, p / 4).ok()?;
         Some((p, ticker, monitor))
@@ -309,7 +308,7 @@ pub async fn control_loop<D: Device>(
             "base rate {=u32} Hz: no tick schedule (period not a whole number of us)",
             rate
         );
-        crate::board::panic_halt()
+        B::halt()
     };
     defmt::info!("control task: {=u32} Hz, period {=u64} us", rate, period);
     crate::stack::paint();
@@ -340,9 +339,8 @@ pub async fn control_loop<D: Device>(
         note_stack(&mut device, &mut stack_ticks);
         log_rx(&mut device, &mut rx_quiet);
         crate::watchdog::tick_ran();
-        #[cfg(feature = "board-qemu")]
         if let Some(c) = device.take_injected() {
-            crate::panic::inject(c);
+            B::inject(c);
         }
         // A Config frame from the host may have changed the base rate.
         let now_rate = device.base_rate_hz();
@@ -351,7 +349,7 @@ pub async fn control_loop<D: Device>(
                 Some(p) => {
                     rate = now_rate;
                     period = p;
-                    crate::board::set_period(period);
+                    B::set_period(period);
                     let (t, first) = new_ticker(period);
                     ticker = t;
                     monitor.rearm(period, first);
@@ -377,9 +375,9 @@ pub async fn control_loop<D: Device>(
 /// for each answer). No ticker and no missed-tick policy: the host's frames are the
 /// clock. The execution time is measured as in [`control_loop`] (DWT cycles).
 #[cfg(feature = "frame-clock")]
-pub async fn frame_loop<D: Device>(
+pub async fn frame_loop<B: Board, D: Device>(
     make_device: impl FnOnce() -> D,
-    mut stopwatch: impl Stopwatch,
+    mut stopwatch: B::Stopwatch,
 ) -> ! {
     // Made here, as in [`control_loop`] (an argument is kept twice in the future).
     let mut device = make_device();
@@ -401,9 +399,8 @@ pub async fn frame_loop<D: Device>(
         note_stack(&mut device, &mut stack_ticks);
         log_rx(&mut device, &mut rx_quiet);
         crate::watchdog::tick_ran();
-        #[cfg(feature = "board-qemu")]
         if let Some(c) = device.take_injected() {
-            crate::panic::inject(c);
+            B::inject(c);
         }
     }
 }

@@ -29,6 +29,8 @@ use core::sync::atomic::{AtomicU32, Ordering};
 
 use wheelset_proto::reset_cause;
 
+use crate::board::Board;
+
 /// Marks a written record ("WBR1").
 pub const MAGIC: u32 = 0x5742_5231;
 const CHECK_SALT: u32 = 0xA5C3_0F96;
@@ -94,6 +96,12 @@ pub fn start(hw_cause: Option<u8>, power_on: bool) -> (u32, u8) {
     write(Record::sealed(count, 0));
     THIS_BOOT.store(count << 8 | u32::from(cause), Ordering::Relaxed);
     (count, cause)
+}
+
+/// [`start`] with the board's own reset cause ([`Board::reset_cause`]).
+pub fn start_on<B: Board>() -> (u32, u8) {
+    let (hw_cause, power_on) = B::reset_cause();
+    start(hw_cause, power_on)
 }
 
 /// This boot's `(boot_count, reset_cause)` as [`start`] found them (`(0, UNKNOWN)`

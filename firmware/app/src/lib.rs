@@ -1,16 +1,16 @@
 //! The wheelset controller firmware: the embassy task structure shared by the boards
-//! and the two board layers.
+//! (`app`), generic over the [`board::Board`] interface, and the board layers; the one
+//! `board-<name>` feature of a build selects its board (`board::Selected`), its chip and
+//! its memory map (`build.rs`).
 //!
-//! - `wheelset-nucleo` (feature `board-nucleo`): Nucleo-F446RE on embassy-stm32's drivers
-//!   (clock tree, TIM2 time driver, USART2 with a DMA receive ring and DMA transmission,
-//!   independent watchdog), defmt over RTT, DWT cycle counter. **Not run on silicon
-//!   here**: it compiles, links and fits its budget (`cargo fw`); see `board::nucleo`.
-//! - `wheelset-qemu` (feature `board-qemu`): QEMU `mps2-an386`, the crate's own board
-//!   layer (`board`, built for the MCU only), frame-clocked lock-step, SysTick instruction counts, defmt over
-//!   semihosting.
+//! - `board-nucleo`: Nucleo-F446RE on embassy-stm32's drivers (`board::nucleo`).
+//! - `board-nucleo-g474`: Nucleo-G474RE on embassy-stm32's drivers (`board::nucleo_g474`).
+//! - `board-qemu`: QEMU `mps2-an386`, the crate's own board layer (`board::qemu`),
+//!   frame-clocked lock-step, SysTick instruction counts, defmt over semihosting.
 //!
-//! `cargo fw` builds both for `thumbv7em-none-eabihf`, one cargo invocation per board,
-//! so one board's HAL can never be linked into the other's binary. On the host only the
+//! The STM32 boards are **not run on silicon here**: they compile, link and fit their
+//! budget (`cargo fw`). `cargo fw` builds each board in its own cargo invocation, so one
+//! board's HAL can never be linked into another's binary. On the host only the
 //! board-independent modules build (and are tested).
 #![cfg_attr(not(test), no_std)]
 #![deny(missing_docs)]
@@ -25,21 +25,11 @@ pub mod settings;
 pub mod tick;
 #[cfg(target_os = "none")]
 pub mod watchdog;
-// The Nucleo's clock-tree checks, tested on the host (on the board they are
-// `board::nucleo_clock`).
+// The STM32 boards' clock-tree checks, tested on the host (on a board they are
+// `board::stm32::clock`).
 #[cfg(test)]
-#[path = "board/nucleo_clock.rs"]
-mod nucleo_clock;
-
-#[cfg(all(target_os = "none", feature = "board-nucleo", feature = "board-qemu"))]
-compile_error!("enable exactly one of the features `board-nucleo` and `board-qemu`");
-#[cfg(all(
-    target_os = "none",
-    not(any(feature = "board-nucleo", feature = "board-qemu"))
-))]
-compile_error!(
-    "the firmware needs a board: `--features board-nucleo` or `board-qemu` (or use `cargo fw`)"
-);
+#[path = "board/stm32/clock.rs"]
+mod stm32_clock;
 
 #[cfg(target_os = "none")]
 pub mod app;

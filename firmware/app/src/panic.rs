@@ -4,7 +4,7 @@
 //! No panic is reachable from input (frames are decoded without `unwrap`, indexing is
 //! checked); this is the last line of defence against a bug. With interrupts off it
 //! logs, sends the safe actuation frame by polling the UART (the plant's actuators go to
-//! zero torque and zero traction demand) and ends as the board's `panic_halt` says: the
+//! zero torque and zero traction demand) and ends as the board's `Board::halt` says: the
 //! Nucleo records the cause FAULT and resets (SCB), whether or not its watchdog has
 //! started; QEMU exits with a failure code. On the Nucleo every wait of the path is
 //! bounded (`crate::bounded`): a UART that is not clocked or is wedged cannot keep it
@@ -12,6 +12,8 @@
 
 use core::panic::PanicInfo;
 use core::sync::atomic::{AtomicBool, Ordering};
+
+use crate::board::{Board, Selected};
 
 static HALTING: AtomicBool = AtomicBool::new(false);
 
@@ -29,17 +31,17 @@ pub fn enter_halt() -> bool {
 unsafe fn HardFault() -> ! {
     cortex_m::interrupt::disable();
     if !enter_halt() {
-        crate::board::send_safe_frame();
+        Selected::send_safe_frame();
     }
     crate::boot::record_cause(wheelset_proto::reset_cause::FAULT);
     cortex_m::peripheral::SCB::sys_reset()
 }
 
-/// Carries out a fault injection (`Command::InjectStall`, `InjectHardFault`; QEMU
-/// builds with `fault-inject` only): the control task loops forever without letting the
-/// watchdog be fed, or executes an undefined instruction (a UsageFault, escalated to
-/// HardFault since the UsageFault handler is not enabled).
-#[cfg(feature = "board-qemu")]
+/// Carries out a fault injection (`Command::InjectStall`, `InjectHardFault`; a board
+/// whose `Board::inject` calls it, QEMU's, in builds with `fault-inject`): the control
+/// task loops forever without letting the watchdog be fed, or executes an undefined
+/// instruction (a UsageFault, escalated to HardFault since the UsageFault handler is not
+/// enabled).
 pub fn inject(c: wheelset_proto::Command) {
     match c {
         wheelset_proto::Command::InjectStall => {
@@ -64,5 +66,5 @@ fn panic(info: &PanicInfo) -> ! {
     } else {
         defmt::error!("panic");
     }
-    crate::board::panic_halt()
+    Selected::halt()
 }

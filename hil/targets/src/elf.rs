@@ -5,12 +5,16 @@
 //!   image is refused with "not an ELF for the target" instead of a QEMU that never
 //!   answers ("connection reset"). Only the 52-byte ELF32 header is read.
 //! - [`sizes`]: flash and static RAM from the section headers (`cargo fw`'s budget).
+//! - [`layout`]: where the allocated sections lie and the symbols' values (`cargo fw`'s
+//!   check that an image was linked with its own board's memory map).
 
 use std::io::Read;
 use std::path::Path;
 
+mod layout;
 mod section_sizes;
 
+pub use layout::{layout, Layout, Section};
 pub use section_sizes::{sizes, Sizes};
 
 /// `e_machine` of ARM (32-bit).

@@ -11,26 +11,26 @@ pub struct Sizes {
     pub ram: u64,
 }
 
-const SHF_WRITE: u32 = 0x1;
-const SHF_ALLOC: u32 = 0x2;
-const SHT_NOBITS: u32 = 8;
+pub(super) const SHF_WRITE: u32 = 0x1;
+pub(super) const SHF_ALLOC: u32 = 0x2;
+pub(super) const SHT_NOBITS: u32 = 8;
 
-fn u16_at(b: &[u8], at: usize) -> Result<u16, String> {
+pub(super) fn u16_at(b: &[u8], at: usize) -> Result<u16, String> {
     b.get(at..at + 2)
         .and_then(|s| s.try_into().ok())
         .map(u16::from_le_bytes)
         .ok_or_else(|| format!("truncated ELF (offset {at})"))
 }
 
-fn u32_at(b: &[u8], at: usize) -> Result<u32, String> {
+pub(super) fn u32_at(b: &[u8], at: usize) -> Result<u32, String> {
     b.get(at..at + 4)
         .and_then(|s| s.try_into().ok())
         .map(u32::from_le_bytes)
         .ok_or_else(|| format!("truncated ELF (offset {at})"))
 }
 
-/// Sums the section sizes of an ELF32 LE image.
-pub fn sizes(b: &[u8]) -> Result<Sizes, String> {
+/// The offsets of the section headers of an ELF32 LE image.
+pub(super) fn section_headers(b: &[u8]) -> Result<impl Iterator<Item = usize>, String> {
     if b.get(0..4) != Some(b"\x7fELF".as_slice()) {
         return Err("not an ELF file".into());
     }
@@ -43,9 +43,13 @@ pub fn sizes(b: &[u8]) -> Result<Sizes, String> {
     if shentsize < 0x28 {
         return Err(format!("bad section header size {shentsize}"));
     }
+    Ok((0..shnum).map(move |i| shoff + i * shentsize))
+}
+
+/// Sums the section sizes of an ELF32 LE image.
+pub fn sizes(b: &[u8]) -> Result<Sizes, String> {
     let mut s = Sizes { flash: 0, ram: 0 };
-    for i in 0..shnum {
-        let h = shoff + i * shentsize;
+    for h in section_headers(b)? {
         let kind = u32_at(b, h + 0x04)?;
         let flags = u32_at(b, h + 0x08)?;
         let size = u64::from(u32_at(b, h + 0x14)?);

@@ -77,7 +77,7 @@ impl Stopwatch for SysTickStopwatch {
 
 #[embassy_executor::task]
 async fn control_task(stopwatch: SysTickStopwatch) {
-    app::control_loop(app::new_device, stopwatch).await
+    app::control_loop::<Board, _>(app::new_device::<Board>, stopwatch).await
 }
 
 #[embassy_executor::task]
@@ -94,7 +94,46 @@ async fn tx_task() {
     }
 }
 
-pub use clock::set_period;
+/// QEMU's mps2-an386.
+pub struct Board;
+
+impl super::Board for Board {
+    const LINK_MAX_RATE_HZ: u32 = LINK_MAX_RATE_HZ;
+    const WATCHDOG_ENDS_STALL: bool = wdog::ENABLED;
+    type Stopwatch = SysTickStopwatch;
+
+    fn run() -> ! {
+        run()
+    }
+
+    fn set_period(ticks: u64) {
+        clock::set_period(ticks)
+    }
+
+    /// QEMU has no reset-cause register: a reset nobody recorded a cause for is UNKNOWN;
+    /// a fresh QEMU process starts from zeroed RAM (no valid record: boot 1, POWER_ON).
+    fn reset_cause() -> (Option<u8>, bool) {
+        (None, false)
+    }
+
+    fn send_safe_frame() {
+        send_safe_frame()
+    }
+
+    /// Sends the safe frame and exits QEMU with a failure status.
+    fn halt() -> ! {
+        if !crate::panic::enter_halt() {
+            send_safe_frame();
+        }
+        loop {
+            cortex_m_semihosting::debug::exit(cortex_m_semihosting::debug::EXIT_FAILURE);
+        }
+    }
+
+    fn inject(c: wheelset_proto::Command) {
+        crate::panic::inject(c)
+    }
+}
 
 /// The highest base rate a host Config may set: no limit, the QEMU build is
 /// frame-clocked (lock-step: its frames are the clock, whatever the link's speed).
@@ -111,7 +150,7 @@ pub const LINK_MAX_RATE_HZ: u32 = u32::MAX;
 pub const LINK_MAX_RATE_HZ: u32 = 500;
 
 /// Sends the safe frame by polling (interrupts off).
-pub fn send_safe_frame() {
+fn send_safe_frame() {
     let mut buf = [0u8; wheelset_proto::MAX_FRAME];
     let frame = crate::device::safe_frame(&mut buf);
     if bulk::active() {
@@ -144,27 +183,15 @@ unsafe fn NonMaskableInt() {
     }
 }
 
-/// Sends the safe frame and exits QEMU with a failure status.
-pub fn panic_halt() -> ! {
-    if !crate::panic::enter_halt() {
-        send_safe_frame();
-    }
-    loop {
-        cortex_m_semihosting::debug::exit(cortex_m_semihosting::debug::EXIT_FAILURE);
-    }
-}
-
 /// Brings the board up and runs forever.
-pub fn run() -> ! {
+fn run() -> ! {
     let Some(mut core) = cortex_m::Peripherals::take() else {
         defmt::error!("core peripherals taken twice");
-        panic_halt();
+        <Board as super::Board>::halt();
     };
     let stopwatch = SysTickStopwatch::new(core.SYST);
-    // The boot record (crate::boot): QEMU has no reset-cause register, so a reset
-    // nobody recorded a cause for is UNKNOWN; a fresh QEMU process starts from zeroed
-    // RAM (no valid record: boot 1, POWER_ON).
-    let (boot_count, reset_cause) = crate::boot::start(None, false);
+    // The boot record (crate::boot).
+    let (boot_count, reset_cause) = crate::boot::start_on::<Board>();
     defmt::info!("boot {=u32}, reset cause {=u8}", boot_count, reset_cause);
     // The bulk channel if the harness asked for it (blocks until it opened its ends).
     let bulk = bulk::open();
@@ -190,9 +217,9 @@ pub fn run() -> ! {
         core.NVIC.set_priority(Interrupt::Swi1, 0xC0);
     }
     let control = EXEC_CONTROL.start(Interrupt::Swi0);
-    control.spawn(app::token(control_task(stopwatch)));
+    control.spawn(app::token::<Board, _>(control_task(stopwatch)));
     let comms = EXEC_COMMS.start(Interrupt::Swi1);
-    comms.spawn(app::token(tx_task()));
+    comms.spawn(app::token::<Board, _>(tx_task()));
 
     // SAFETY: the handlers of both UART interrupts are defined below and only touch the
     // UART and lock-protected queues.

@@ -1,14 +1,22 @@
-//! What the Nucleo build assumes of its clock tree, as pure functions checked at start-up
-//! against the clocks embassy-stm32 configured (`embassy_stm32::rcc::clocks`) and tested
-//! on the host.
+//! What the STM32 board builds assume of their clock trees, as pure functions checked at
+//! start-up against the clocks embassy-stm32 configured (`embassy_stm32::rcc::clocks`)
+//! and tested on the host.
 //!
-//! **Baud rate** (RM0390 25.4.4, "Fractional baud rate generation"): USART2 runs on
+//! **USART baud rate** (the F446's USART2; RM0390 25.4.4, "Fractional baud rate
+//! generation"): USART2 runs on
 //! PCLK1 and makes `f_PCLK / (8 * (2 - OVER8) * USARTDIV)`. embassy-stm32's driver takes
 //! `d = round(f_PCLK / baud)` (`usart::find_and_set_brr`): oversampling by 16 with
 //! `BRR = d` (12-bit mantissa, 4-bit fraction of USARTDIV in sixteenths) when `d >= 16`,
 //! by 8 with `BRR = (d / 8) << 4 | d % 8` (3-bit fraction) down to `d = 8` (USARTDIV 1:
 //! the highest baud, `f_PCLK / 8`). [`brr`] and [`baud_of`] model that choice, so
 //! [`baud_fits`] says which baud the HAL's USART2 really makes from a PCLK1.
+//!
+//! **LPUART baud rate** (the G474's LPUART1; RM0440, "LPUART baud rate
+//! generation"): `baud = 256 * f_ck / LPUARTDIV`, with LPUARTDIV (BRR, 20 bits) at least
+//! 0x300. embassy-stm32 takes `LPUARTDIV = round(256 * f_ck / baud)` with the kernel
+//! clock undivided when that is below 2^20 (`usart::calculate_brr`), else a prescaler;
+//! [`lpuart_made_baud`] models the undivided case, which every baud above
+//! `f_ck / 4096` is.
 //!
 //! **Time base**: embassy-stm32's time driver sets its timer's prescaler to
 //! `f_TIM / TICK_HZ - 1` (integer division, `time_driver/gp16.rs`): the ticks are exact
@@ -61,9 +69,30 @@ pub const fn made_baud(pclk_hz: u32, baud: u32) -> Option<u32> {
 /// Whether USART2 on `pclk_hz` makes `baud` within `tolerance_permille` parts per
 /// thousand (0: exactly).
 pub const fn baud_fits(pclk_hz: u32, baud: u32, tolerance_permille: u32) -> bool {
-    match made_baud(pclk_hz, baud) {
+    within(made_baud(pclk_hz, baud), baud, tolerance_permille)
+}
+
+/// Whether the baud a UART `made` (`None`: it cannot make it) is `baud` within
+/// `tolerance_permille` parts per thousand (0: exactly).
+pub const fn within(made: Option<u32>, baud: u32, tolerance_permille: u32) -> bool {
+    match made {
         Some(made) => made.abs_diff(baud) as u64 * 1000 <= baud as u64 * tolerance_permille as u64,
         None => false,
+    }
+}
+
+/// The baud an LPUART on kernel clock `ck_hz` makes for `baud` (`None`: above `ck_hz / 3`,
+/// or so low that it needs the prescaler, which this model leaves out).
+pub const fn lpuart_made_baud(ck_hz: u32, baud: u32) -> Option<u32> {
+    if baud == 0 {
+        return None;
+    }
+    let (ck, b) = (ck_hz as u64, baud as u64);
+    let div = (256 * ck + b / 2) / b;
+    if div < 0x300 || div >= 0x10_0000 {
+        None
+    } else {
+        Some((256 * ck / div) as u32)
     }
 }
 
@@ -132,6 +161,24 @@ mod tests {
         assert!(!baud_fits(42_000_000, 921_600, 9));
         // Nothing fits a baud the USART cannot make.
         assert!(!baud_fits(16_000_000, 5_250_000, 1000));
+    }
+
+    #[test]
+    fn the_lpuart_makes_the_g474_link_exactly_and_refuses_what_it_cannot() {
+        // 5.3125 Mbaud from 170 MHz: LPUARTDIV 8192, exact.
+        assert_eq!(lpuart_made_baud(170_000_000, 5_312_500), Some(5_312_500));
+        assert!(within(
+            lpuart_made_baud(170_000_000, 5_312_500),
+            5_312_500,
+            0
+        ));
+        // Nearest divider otherwise: 921 600 baud is LPUARTDIV 47 222 (921 604 baud).
+        assert_eq!(lpuart_made_baud(170_000_000, 921_600), Some(921_604));
+        // Above f_ck / 3 (LPUARTDIV under 0x300), at 0, or needing the prescaler: none.
+        assert_eq!(lpuart_made_baud(170_000_000, 60_000_000), None);
+        assert_eq!(lpuart_made_baud(170_000_000, 0), None);
+        assert_eq!(lpuart_made_baud(170_000_000, 9_600), None);
+        assert!(!within(None, 9_600, 1000));
     }
 
     #[test]
