@@ -175,7 +175,7 @@
 //! fit; `sim-host rates` prints the baud each candidate rate needs. The default 5 kHz
 //! needs more than 4 Mbaud (`wheelset-loop`'s `tests/sim_link.rs`): more than a typical
 //! USB-serial bridge carries, within what the Nucleo build's USART2 makes (on APB1 at
-//! 42 MHz with 8x oversampling and USARTDIV 1, `wheelset-fw`'s `board::nucleo_clock`).
+//! 42 MHz with 8x oversampling and USARTDIV 1, `wheelset-fw`'s `board::stm32::clock`).
 //! On a slower link the rate that fits is one where the current loop at the paper's
 //! gain is unstable: a lower gain, not a lower rate.
 //!
