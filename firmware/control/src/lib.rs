@@ -137,7 +137,8 @@
 //! | damping ratio | unstable | unstable | 0.009 | 0.26 | **0.40** | 0.77 | 0.985 |
 //!
 //! (`current_loop_is_unstable_at_2_khz` and `current_loop_settles_at_the_default_rate`
-//! show both with this controller.) So the base rate must be 5 kHz or more.
+//! show both with this controller.) So with the paper's gains the base rate must be
+//! 5 kHz or more; at a slower rate the device runs gains designed for it ([`design`]).
 //!
 //! **Yaw loop (lead).** In continuous time the paper's lead loop is already unstable
 //! below a creep of about 1.55 MN (1.54 MN at conicity 0.05, 1.57 MN at 0.2: the
@@ -177,7 +178,8 @@
 //! USB-serial bridge carries, within what the Nucleo build's USART2 makes (on APB1 at
 //! 42 MHz with 8x oversampling and USARTDIV 1, `wheelset-fw`'s `board::stm32::clock`).
 //! On a slower link the rate that fits is one where the current loop at the paper's
-//! gain is unstable: a lower gain, not a lower rate.
+//! gain is unstable: the gains designed for that rate and delay ([`design`]: a lower
+//! `Kp`, the yaw law's margins kept) are what a device runs there.
 //!
 //! Selection rule of `sim-host rates`: the lowest base rate whose current loop has
 //! radius <= 0.75 per tick, with no grid point destabilised by sampling and a link
