@@ -470,7 +470,11 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
             wheelset_loop::device_loop::DeviceError::Refused(why, cfg).to_string(),
         )));
     }
-    let (reference, fine) = reference::make(&sc, opts.control.yaw(), wsp, period_ns)?;
+    // At a rate other than the scenario's own the device runs the gains designed for it:
+    // the f64 core with those gains is the yardstick.
+    let default_hz = runtime_config_for(&sc, opts.control).control.base_rate_hz;
+    let designed = (rt.control.base_rate_hz != default_hz).then_some(&rt.control);
+    let (reference, fine) = reference::make(&sc, opts.control.yaw(), wsp, period_ns, designed)?;
     let timing = analyse(
         &ctx,
         &cl.periods,

@@ -192,7 +192,18 @@ pub fn run_core<T: SampleBits>(
     law: YawLaw,
     wsp: bool,
 ) -> Result<(Trajectory, CoreRun), CoreError> {
-    let cfg = control_config(&sc.params, law, sc.drive);
+    run_core_with::<T>(sc, &control_config(&sc.params, law, sc.drive), law, wsp)
+}
+
+/// [`run_core`] with the control core of `cfg` (e.g. the gains designed for another
+/// rate: `wheelset_control::Config::designed`).
+pub fn run_core_with<T: SampleBits>(
+    sc: &Scenario,
+    cfg: &wheelset_control::Config,
+    law: YawLaw,
+    wsp: bool,
+) -> Result<(Trajectory, CoreRun), CoreError> {
+    let cfg = *cfg;
     let mut ctrl = CoreController::<T>::try_new(&cfg, wsp).map_err(CoreError::Config)?;
     let mut act = ActuatorModel::ideal();
     act.delay_ns = ctrl.period_ns;
