@@ -44,11 +44,19 @@ fn inductance_fault_alarms(l_a: f64) {
     assert_eq!(m.alarms[0].kind, "drive", "{:?}", m.alarms);
     assert_eq!(m.verdict, Verdict::Pass, "{}", m.reason);
     // The device's Status: the first drive alarm's tick, at the flag's period.
-    let tick = d.device_first_alarm_tick.expect("Status.first_drive_alarm_tick");
+    let tick = d
+        .device_first_alarm_tick
+        .expect("Status.first_drive_alarm_tick");
     let t_tick = f64::from(tick) * out.period_ns as f64 * 1e-9;
-    assert!((t_tick - t).abs() < 1e-3, "tick {tick} ({t_tick} s) vs flag {t} s");
+    assert!(
+        (t_tick - t).abs() < 1e-3,
+        "tick {tick} ({t_tick} s) vs flag {t} s"
+    );
     let st = out.report.device_status.unwrap();
-    assert!(st.drive_alarms >= 1 && st.first_alarm_tick == tick, "{st:?}");
+    assert!(
+        st.drive_alarms >= 1 && st.first_alarm_tick == tick,
+        "{st:?}"
+    );
     // A device that said nothing would fail.
     let mut silent = m.clone();
     silent.alarms.clear();
@@ -59,7 +67,11 @@ fn inductance_fault_alarms(l_a: f64) {
     };
     judge_drive(&mut silent, expect, 3.0);
     assert_eq!(silent.verdict, Verdict::Fail);
-    assert!(silent.reason.contains("no drive alarm"), "{}", silent.reason);
+    assert!(
+        silent.reason.contains("no drive alarm"),
+        "{}",
+        silent.reason
+    );
 }
 
 #[test]
