@@ -50,8 +50,8 @@
 //!   (an RMS of `r0/8`).
 //! - `thr` = 300 A (0.3 pu, `q` on at 0.09 pu^2): a limit cycle whose measured current
 //!   swings between the clamps has a ripple RMS above 1 kA; the healthy loop's largest
-//!   ripple is the protection's cut (measured margins: `docs/monitor.md`, "The drive
-//!   check").
+//!   ripple comes from the protection's cut, a burst (below) the persistence rides out
+//!   (`hil/harness/tests/drive.rs`: no drive alarm on the normal scenarios).
 //! - `P` = 64 steps (= `N`): a burst of ripple energy `E = sum r^2` over a few steps (a
 //!   step of the reference and the loop's answer) raises `q` by `k_d E`, which then
 //!   decays as `e^{-n/N}`; it stays above `thr^2` for `P` steps only if
