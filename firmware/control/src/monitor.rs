@@ -210,6 +210,24 @@ fn exp_small(x: f64) -> f64 {
     sum
 }
 
+/// `Ok` if `ok`, else the range error naming `field` (construction time).
+fn range(
+    field: &'static str,
+    value: f64,
+    ok: bool,
+    reason: &'static str,
+) -> Result<(), ConfigError> {
+    if ok {
+        Ok(())
+    } else {
+        Err(ConfigError::Range {
+            field,
+            value,
+            reason,
+        })
+    }
+}
+
 /// A one-pole coefficient `1 - exp(-2 pi f T)`.
 fn pole(f_hz: f64, t_s: f64) -> f64 {
     1.0 - exp_small(-2.0 * core::f64::consts::PI * f_hz * t_s)
@@ -329,17 +347,6 @@ impl<T: Sample> Monitor<T> {
     /// Validate `p`, discretise at `p.rate_hz` (f64) and quantise, for a base rate of
     /// `base_rate_hz`. Errors name the field. Host and build script.
     pub fn try_new(p: &MonitorParams, base_rate_hz: u32) -> Result<Self, ConfigError> {
-        let range = |field: &'static str, value: f64, ok: bool, reason: &'static str| {
-            if ok {
-                Ok(())
-            } else {
-                Err(ConfigError::Range {
-                    field,
-                    value,
-                    reason,
-                })
-            }
-        };
         let fs = f64::from(p.rate_hz);
         range(
             "monitor.rate_hz",

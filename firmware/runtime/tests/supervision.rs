@@ -54,20 +54,33 @@ fn hunting(k: u32, amp: f64) -> i32 {
     (amp * (2.0 * std::f64::consts::PI * 8.0 * f64::from(k) / 5_000.0).sin()) as i32
 }
 
-/// Runs `n` ticks of an 8 Hz `y'` of 0.1 m/s amplitude; returns the first tick flagged
-/// HUNTING and the last actuation.
-fn hunt(r: &mut Runtime<Fx>, from: u32, n: u32) -> (Option<u32>, Actuation) {
+/// Runs ticks `from..from + n` on the frames `frame(k)`; returns the first tick whose
+/// actuation has `flag` and the last actuation.
+fn first_flagged(
+    r: &mut Runtime<Fx>,
+    (from, n): (u32, u32),
+    flag: u16,
+    frame: impl Fn(u32) -> Vec<u8>,
+) -> (Option<u32>, Actuation) {
     let mut first = None;
     let mut last = None;
     for k in from..from + n {
-        r.receive(&sensor(k as u16, hunting(k, 100_000.0), 925_600, 0));
+        r.receive(&frame(k));
         let a = act(r.tick(0));
-        if a.flags.has(Flags::HUNTING) && first.is_none() {
+        if a.flags.has(flag) && first.is_none() {
             first = Some(k);
         }
         last = Some(a);
     }
     (first, last.expect("ticks ran"))
+}
+
+/// Runs `n` ticks of an 8 Hz `y'` of 0.1 m/s amplitude; returns the first tick flagged
+/// HUNTING and the last actuation.
+fn hunt(r: &mut Runtime<Fx>, from: u32, n: u32) -> (Option<u32>, Actuation) {
+    first_flagged(r, (from, n), Flags::HUNTING, |k| {
+        sensor(k as u16, hunting(k, 100_000.0), 925_600, 0)
+    })
 }
 
 #[test]
@@ -481,17 +494,7 @@ fn limit_cycle(k: u32, amp_ma: f64) -> Vec<u8> {
 /// Runs ticks `from..from + n` on [`limit_cycle`]; returns the first tick flagged
 /// DRIVE_OSC and the last actuation.
 fn oscillate(r: &mut Runtime<Fx>, from: u32, n: u32, amp_ma: f64) -> (Option<u32>, Actuation) {
-    let mut first = None;
-    let mut last = None;
-    for k in from..from + n {
-        r.receive(&limit_cycle(k, amp_ma));
-        let a = act(r.tick(0));
-        if a.flags.has(Flags::DRIVE_OSC) && first.is_none() {
-            first = Some(k);
-        }
-        last = Some(a);
-    }
-    (first, last.expect("ticks ran"))
+    first_flagged(r, (from, n), Flags::DRIVE_OSC, |k| limit_cycle(k, amp_ma))
 }
 
 #[test]

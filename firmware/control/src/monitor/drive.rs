@@ -69,7 +69,7 @@
 //! ([`Sample::mul_c_acc`]): no dead band. Cost: one subtract, one square, one
 //! multiply-accumulate and two compares per traction step (`cargo xtask fw-bench`).
 
-use super::{exp_small, Monitor, MonitorParams, MonitorState};
+use super::{exp_small, range, Monitor, MonitorParams, MonitorState};
 use crate::config::ConfigError;
 use crate::sample::Sample;
 
@@ -86,17 +86,6 @@ pub(super) struct DriveF64 {
 /// Validates the drive check's fields of `p` (errors name the field) and computes its
 /// coefficient and levels.
 pub(super) fn check_params(p: &MonitorParams) -> Result<DriveF64, ConfigError> {
-    let range = |field: &'static str, value: f64, ok: bool, reason: &'static str| {
-        if ok {
-            Ok(())
-        } else {
-            Err(ConfigError::Range {
-                field,
-                value,
-                reason,
-            })
-        }
-    };
     range(
         "monitor.current_scale_a",
         p.current_scale_a,
