@@ -549,9 +549,16 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
         .map(|s| s.first_drive_alarm_tick)
         .filter(|&n| n > 0);
     let end_s = trajectory.records.last().map_or(0.0, |x| x.t_s);
+    // The delay the loop ran with: the latency's 99th percentile in whole periods.
+    let delay = (timing.latency_ns.p99 / period_ns as f64).ceil();
+    let delay_ticks = if delay.is_finite() && delay > 1.0 {
+        (delay as usize).min(wheelset_plant::sampled::MAX_HYPER_PERIOD)
+    } else {
+        1
+    };
     crate::check::alarms::judge_drive(
         &mut monitor,
-        crate::check::alarms::drive_expectation(&sc, &rt, &mon_params),
+        crate::check::alarms::drive_expectation(&sc, &rt, &mon_params, delay_ticks),
         end_s,
     );
     let verdict = timing

@@ -55,7 +55,8 @@
 //! drive's are judged on their own:
 //!
 //! **The drive** (`Flags::DRIVE_OSC`, kind `drive`; [`judge_drive`]). The device's
-//! current loop (its PI at its base rate and traction divisor, one tick of delay) on the
+//! current loop (its PI at its base rate and traction divisor, with the run's delay: its
+//! input-to-output latency's 99th percentile in whole periods, at least one) on the
 //! plant's armature circuit (`l_a`, `r_a` of the run's parameters) is analysed as the
 //! firmware runs it, `wheelset_plant::sampled::current_loop_mode` (the `rates` table's
 //! `current` column): its fast pair's radius `rho` per base tick.
@@ -155,6 +156,8 @@ pub struct DriveReport {
     pub sigma_per_s: Option<f64>,
     /// The armature inductance of the plant, H.
     pub l_a_h: f64,
+    /// The actuation delay the analysis takes, base ticks.
+    pub delay_ticks: usize,
     /// The drive deadline, s (absolute).
     pub deadline_s: Option<f64>,
     /// The first drive alarm, s.
@@ -431,20 +434,27 @@ pub fn judge(
 }
 
 /// The drive check's expectation for a run of `sc` on the device configuration `rt`
-/// with the monitor `p` (module docs, "The drive"): the current loop's fast pair at the
-/// plant's armature and the device's PI and rates, and from it the deadline.
+/// with the monitor `p` and `delay_ticks` of actuation delay (module docs, "The drive"):
+/// the current loop's fast pair at the plant's armature and the device's PI and rates,
+/// and from it the deadline.
 #[must_use]
-pub fn drive_expectation(sc: &Scenario, rt: &RuntimeConfig, p: &MonitorParams) -> DriveReport {
+pub fn drive_expectation(
+    sc: &Scenario,
+    rt: &RuntimeConfig,
+    p: &MonitorParams,
+    delay_ticks: usize,
+) -> DriveReport {
     let mut d = DriveReport {
         expect: "none",
         l_a_h: sc.params.l_a,
+        delay_ticks,
         ..DriveReport::default()
     };
     if !rt.control.traction_enabled || !sc.drive {
         return d;
     }
     let arm = wheelset_plant::sampled::armature(sc.params.l_a, sc.params.r_a);
-    let Ok(mode) = wheelset_plant::sampled::current_loop_mode(&arm, &rt.control, 1) else {
+    let Ok(mode) = wheelset_plant::sampled::current_loop_mode(&arm, &rt.control, delay_ticks) else {
         return d;
     };
     let f_b = f64::from(rt.control.base_rate_hz.max(1));

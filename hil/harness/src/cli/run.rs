@@ -456,9 +456,11 @@ fn alarm_name(kind: &str) -> &'static str {
 fn drive_line(d: &hil::check::alarms::DriveReport) -> String {
     let pair = match (d.current_radius, d.mode_hz) {
         (Some(r), Some(f)) => format!(
-            "current loop radius {r:.3} per tick at {f:.0} Hz ({}, l_a = {:.3e} H)",
+            "current loop radius {r:.3} per tick at {f:.0} Hz ({}, l_a = {:.3e} H, delay {} \
+             tick(s))",
             if r >= 1.0 { "unstable" } else { "stable" },
-            d.l_a_h
+            d.l_a_h,
+            d.delay_ticks
         ),
         _ => "no current loop".to_string(),
     };
