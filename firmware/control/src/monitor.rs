@@ -117,7 +117,7 @@
 //! (RMS 1 mm/s) is 268 LSB per sample, 1.3e4 LSB per block energy. The block energy
 //! saturates (at 8 pu^2, an RMS of 0.4 m/s over a block), long after the hunting alarm.
 
-use crate::config::ConfigError;
+use crate::config::{in_range as range, ConfigError};
 use crate::sample::Sample;
 
 mod drive;
@@ -208,24 +208,6 @@ fn exp_small(x: f64) -> f64 {
         n += 1.0;
     }
     sum
-}
-
-/// `Ok` if `ok`, else the range error naming `field` (construction time).
-fn range(
-    field: &'static str,
-    value: f64,
-    ok: bool,
-    reason: &'static str,
-) -> Result<(), ConfigError> {
-    if ok {
-        Ok(())
-    } else {
-        Err(ConfigError::Range {
-            field,
-            value,
-            reason,
-        })
-    }
 }
 
 /// A one-pole coefficient `1 - exp(-2 pi f T)`.
