@@ -454,7 +454,8 @@ pub fn drive_expectation(
         return d;
     }
     let arm = wheelset_plant::sampled::armature(sc.params.l_a, sc.params.r_a);
-    let Ok(mode) = wheelset_plant::sampled::current_loop_mode(&arm, &rt.control, delay_ticks) else {
+    let Ok(mode) = wheelset_plant::sampled::current_loop_mode(&arm, &rt.control, delay_ticks)
+    else {
         return d;
     };
     let f_b = f64::from(rt.control.base_rate_hz.max(1));
