@@ -279,6 +279,17 @@ pub(crate) fn range(
     if !value.is_finite() {
         return Err(ConfigError::NotFinite { field });
     }
+    in_range(field, value, ok, reason)
+}
+
+/// `Ok` if `ok`, else [`ConfigError::Range`] naming `field` (a non-finite `value`
+/// included: the caller's `ok` judges it).
+pub(crate) fn in_range(
+    field: &'static str,
+    value: f64,
+    ok: bool,
+    reason: &'static str,
+) -> Result<(), ConfigError> {
     if ok {
         Ok(())
     } else {

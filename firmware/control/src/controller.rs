@@ -61,6 +61,9 @@ pub struct Controller<T: Sample> {
     /// target, so a tick with the same demand leaves `iref` as it is.
     ramp_settled: bool,
     settled_demand: T,
+    /// The traction step's current error `i_ref - i_a`, pu (0 while traction is off):
+    /// what the drive check watches ([`Self::current_error`]).
+    i_err: T,
 }
 
 /// The project's production controller: Q4.28 signals, Q1.31 coefficients.
@@ -120,6 +123,7 @@ impl<T: Sample> Controller<T> {
             kp_pre: kp_pre.unwrap_or(law.pi.kp),
             ramp_settled: false,
             settled_demand: T::ZERO,
+            i_err: T::ZERO,
         };
         c.refresh();
         c
@@ -351,6 +355,7 @@ impl<T: Sample> Controller<T> {
         if !u.within(u_min, u_max) {
             return false;
         }
+        self.i_err = e;
         self.pi_state = PiState { integ, residue };
         self.out.voltage = u;
         true
@@ -493,6 +498,7 @@ impl<T: Sample> Controller<T> {
             let w = Self::input(inp.speed, law.speed_max, event::SPEED, ev);
             self.out.voltage = w.mul_c(law.back_emf).limit(law.pi.u_min, law.pi.u_max).0;
             self.armed = false;
+            self.i_err = T::ZERO;
             return;
         }
         let i = Self::input(inp.current, law.current_max, event::CURRENT, ev);
@@ -528,7 +534,9 @@ impl<T: Sample> Controller<T> {
             self.wsp.active = false;
             self.wsp.sched = false;
         }
-        let (u, f) = law.pi.process_flags(&mut self.pi_state, iref.sat_sub(i));
+        let e = iref.sat_sub(i);
+        self.i_err = e;
+        let (u, f) = law.pi.process_flags(&mut self.pi_state, e);
         *ev |= ((f.integ as u32) << event::INTEGRATOR) | ((f.output as u32) << event::VOLTAGE);
         self.out.voltage = u;
     }

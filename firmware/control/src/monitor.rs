@@ -1,6 +1,8 @@
-//! Supervision of the yaw loop: a stability (hunting) monitor and a check that the yaw
-//! actuator acts, generic over the sample type like the filters (one implementation for
-//! `f64`, `f32` and the fixed-point [`crate::Fx`]).
+//! Supervision of the loops: a stability (hunting) monitor and a check that the yaw
+//! actuator acts, on `y'`; a check that the traction drive does not oscillate, on the
+//! current error (the drive check, in `monitor/drive.rs`). Generic over the sample type
+//! like the filters (one implementation for `f64`, `f32` and the fixed-point
+//! [`crate::Fx`]).
 //!
 //! # The signal
 //!
@@ -115,9 +117,10 @@
 //! (RMS 1 mm/s) is 268 LSB per sample, 1.3e4 LSB per block energy. The block energy
 //! saturates (at 8 pu^2, an RMS of 0.4 m/s over a block), long after the hunting alarm.
 
-use crate::config::ConfigError;
+use crate::config::{in_range as range, ConfigError};
 use crate::sample::Sample;
 
+mod drive;
 mod exact;
 
 /// The monitor's configuration in SI units (host and build script; the device starts
@@ -147,6 +150,19 @@ pub struct MonitorParams {
     /// Actuator check, drift: a block end at which the low-passed `y'` (the band-pass's
     /// lower edge, `l[n]`) exceeds this in magnitude counts as growth, m/s.
     pub act_drift_m_s: f64,
+    /// Drive check: time constant `N` of the ripple's exponential mean square, traction
+    /// steps.
+    pub drive_window_steps: u16,
+    /// Drive check: the alarm rises when the RMS of the current error's ripple stays
+    /// above this, A (it falls below `release x` this).
+    pub drive_ripple_a: f64,
+    /// Drive check: consecutive traction steps above the threshold that raise the alarm
+    /// (`P`).
+    pub drive_persist_steps: u16,
+    /// The control core's current scale (`scales.current`), A per pu: what the drive
+    /// check's level is quantised in (`RuntimeBits::try_new` sets it from the control
+    /// configuration).
+    pub current_scale_a: f64,
 }
 
 impl Default for MonitorParams {
@@ -156,8 +172,10 @@ impl Default for MonitorParams {
     /// threshold RMS 30 mm/s with release at 0.7 of it; actuator check over 2 blocks of
     /// 0.1 s at an amplitude growth rate of at least 3 1/s from an RMS of 1 mm/s, or a
     /// drift of the low-passed `y'` above 25 mm/s (healthy runs peak at 10.3 mm/s, the
-    /// failed wheelset's drift holds 45 mm/s: module docs). The README gives the margins
-    /// measured over the scenarios.
+    /// failed wheelset's drift holds 45 mm/s: module docs). Drive check: the ripple's
+    /// mean square over `N` = 64 traction steps, alarm when its RMS stays above 300 A for
+    /// `P` = 64 steps, in the default current scale of 1000 A per pu (`monitor/drive.rs`
+    /// gives the reasons). The README gives the margins measured over the scenarios.
     fn default() -> Self {
         Self {
             rate_hz: 500,
@@ -171,6 +189,10 @@ impl Default for MonitorParams {
             act_growth_per_s: 3.0,
             act_floor_m_s: 0.001,
             act_drift_m_s: 0.025,
+            drive_window_steps: 64,
+            drive_ripple_a: 300.0,
+            drive_persist_steps: 64,
+            current_scale_a: 1000.0,
         }
     }
 }
@@ -216,6 +238,13 @@ pub struct MonitorBits {
     pub blocks: u16,
     /// Actuator check: the drift level of `|l|`, pu signal (m/s).
     pub drift: u64,
+    /// Drive check: `k_d`, coefficient.
+    pub drive_k: u64,
+    /// Drive check: levels of the ripple's mean square, pu^2 signals: alarm on, alarm
+    /// off.
+    pub drive_levels: [u64; 2],
+    /// Drive check: consecutive traction steps above the on level that raise the alarm.
+    pub drive_persist: u16,
 }
 
 /// Block ends at which the actuator check judges no growth after a traction step the
@@ -238,6 +267,10 @@ pub struct Monitor<T: Sample> {
     block: u16,
     blocks: u16,
     drift: T,
+    drive_k: T::Coeff,
+    drive_on: T,
+    drive_off: T,
+    drive_persist: u16,
 }
 
 /// What one tick of the monitor reports.
@@ -252,6 +285,9 @@ pub struct MonitorEvents {
     pub hunting_rose: bool,
     /// The actuator alarm rose on this tick.
     pub actuator_rose: bool,
+    /// The drive check's alarm holds (`Flags::DRIVE_OSC`; its rising edge is
+    /// [`Monitor::drive_step`]'s return).
+    pub drive: bool,
 }
 
 /// The monitor's state (pu; the mean square in pu^2).
@@ -279,23 +315,20 @@ pub struct MonitorState<T: Sample> {
     pub quiet: u16,
     /// Alarm states.
     pub ev: MonitorEvents,
+    /// Drive check: the previous traction step's current error `e[n-1]`, pu.
+    pub drive_err: T,
+    /// Drive check: mean square of the ripple `e[n] - e[n-1]`, pu^2.
+    pub drive_ms: T,
+    /// Its increment's sub-LSB remainder.
+    pub drive_res: T::Residue,
+    /// Drive check: consecutive traction steps with the mean square above the on level.
+    pub drive_run: u16,
 }
 
 impl<T: Sample> Monitor<T> {
     /// Validate `p`, discretise at `p.rate_hz` (f64) and quantise, for a base rate of
     /// `base_rate_hz`. Errors name the field. Host and build script.
     pub fn try_new(p: &MonitorParams, base_rate_hz: u32) -> Result<Self, ConfigError> {
-        let range = |field: &'static str, value: f64, ok: bool, reason: &'static str| {
-            if ok {
-                Ok(())
-            } else {
-                Err(ConfigError::Range {
-                    field,
-                    value,
-                    reason,
-                })
-            }
-        };
         let fs = f64::from(p.rate_hz);
         range(
             "monitor.rate_hz",
@@ -351,6 +384,7 @@ impl<T: Sample> Monitor<T> {
             p.act_drift_m_s >= p.act_floor_m_s && p.act_drift_m_s <= 1.0,
             "the drift level must be in [the actuator-check floor, 1 m/s]",
         )?;
+        let drive = drive::check_params(p)?;
         let block = p.act_block_s * fs;
         range(
             "monitor.act_block_s",
@@ -386,6 +420,10 @@ impl<T: Sample> Monitor<T> {
             block: (block + 0.5) as u16,
             blocks: p.act_blocks,
             drift: T::from_f64(p.act_drift_m_s),
+            drive_k: q("monitor.drive_k", drive.k)?,
+            drive_on: T::from_f64(drive.on),
+            drive_off: T::from_f64(drive.off),
+            drive_persist: p.drive_persist_steps,
         };
         m.retime(base_rate_hz);
         Ok(m)
@@ -401,6 +439,12 @@ impl<T: Sample> Monitor<T> {
     /// Ticks per monitor step (0: the monitor is off).
     pub fn divisor(&self) -> u16 {
         self.div
+    }
+
+    /// The drive check's levels of the ripple's mean square, pu^2 of the current scale:
+    /// alarm on, alarm off.
+    pub fn drive_levels(&self) -> (T, T) {
+        (self.drive_on, self.drive_off)
     }
 
     /// The levels in pu^2 (`(m/s)^2`): mean square alarm on, alarm off; the check's

@@ -266,6 +266,10 @@ fn bits_round_trip_and_invalid_bits_are_refused() {
     assert_eq!(bad(&|x| x.block = 0), "monitor.block");
     assert_eq!(bad(&|x| x.drift = 0), "monitor.drift");
     assert_eq!(bad(&|x| x.levels[0] = 1 << 40), "monitor.levels");
+    assert_eq!(bad(&|x| x.drive_k = 0), "monitor.drive_k");
+    assert_eq!(bad(&|x| x.drive_levels.swap(0, 1)), "monitor.drive_levels");
+    assert_eq!(bad(&|x| x.drive_levels[1] = 0), "monitor.drive_levels");
+    assert_eq!(bad(&|x| x.drive_persist = 0), "monitor.drive_persist");
 }
 
 #[test]
@@ -276,6 +280,45 @@ fn bad_parameters_name_the_field() {
         e => panic!("{e:?}"),
     };
     assert_eq!(field(MonitorParams { rate_hz: 10, ..d }), "monitor.rate_hz");
+    for (p, name) in [
+        (
+            MonitorParams {
+                drive_window_steps: 2,
+                ..d
+            },
+            "monitor.drive_window_steps",
+        ),
+        (
+            MonitorParams {
+                drive_ripple_a: 0.0,
+                ..d
+            },
+            "monitor.drive_ripple_a",
+        ),
+        (
+            MonitorParams {
+                drive_ripple_a: 2500.0,
+                ..d
+            },
+            "monitor.drive_ripple_a",
+        ),
+        (
+            MonitorParams {
+                drive_persist_steps: 0,
+                ..d
+            },
+            "monitor.drive_persist_steps",
+        ),
+        (
+            MonitorParams {
+                current_scale_a: f64::NAN,
+                ..d
+            },
+            "monitor.current_scale_a",
+        ),
+    ] {
+        assert_eq!(field(p), name);
+    }
     assert_eq!(
         field(MonitorParams { rate_hz: 6000, ..d }),
         "monitor.rate_hz"

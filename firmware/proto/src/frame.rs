@@ -26,10 +26,10 @@ pub const VERSION: u8 = 3;
 pub const CRC_LEN: usize = 4;
 
 /// Largest `VERSION | postcard(Message)` (the [`crate::Status`] with every counter at
-/// `u32::MAX` and every flag set: 1 + 1 + 28 * 5 + 1 + 1 + 3 = 147), rounded up so that
+/// `u32::MAX` and every flag set: 1 + 1 + 30 * 5 + 1 + 1 + 3 = 157), rounded up so that
 /// [`MAX_FRAME`] is a multiple of 4 (an odd size made the compiler clear the buffers
 /// byte-wise: 208 B more flash, measured with `cargo fw`).
-pub const MAX_RAW: usize = 150;
+pub const MAX_RAW: usize = 158;
 
 /// Largest COBS-encoded frame including the 0x00 delimiter:
 /// `MAX_RAW + CRC_LEN` bytes need one COBS overhead byte per 254 (here 1).

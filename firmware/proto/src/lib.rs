@@ -34,7 +34,7 @@
 //! - [`Message`]: [`Sensor`] (host -> device, every tick), [`Actuation`] (device -> host,
 //!   every tick), [`Config`] and [`Command`] (host -> device), [`Status`] (device -> host,
 //!   the counters). Physical quantities are integers with the LSBs of [`units`].
-//! - Bounded: a frame is at most [`MAX_FRAME`] = 156 bytes on the wire. Nothing here
+//! - Bounded: a frame is at most [`MAX_FRAME`] = 164 bytes on the wire. Nothing here
 //!   panics on input; a rejected frame is a typed [`FrameError`] (Crc, Cobs, Version,
 //!   Length, Postcard).
 //!

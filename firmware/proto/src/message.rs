@@ -118,11 +118,16 @@ impl Flags {
     /// Bit 10. The stability monitor's actuator alarm is raised (the commanded yaw torque
     /// has no effect on the measured motion, or the actuator reports a fault).
     pub const ACTUATOR_FAULT: u16 = 1 << 10;
-    /// Bit 11. Sticky: an alarm (bits 9-10) or a watchdog / fault reset happened since
+    /// Bit 11. Sticky: an alarm (bits 9-10, 12) or a watchdog / fault reset happened since
     /// start-up or the last [`Command::ClearFaults`]. After such a reset the device also
     /// holds the safe state ([`Flags::SAFE`], zero torque from the first tick) until
     /// `ClearFaults`.
     pub const FAULT_LATCHED: u16 = 1 << 11;
+    /// Bit 12. The drive check's alarm is raised: the traction current loop oscillates
+    /// (the RMS of the current error's step-to-step ripple stayed above its threshold,
+    /// `wheelset_control::monitor`, the drive check): a current-loop limit cycle, not a
+    /// fault of the yaw actuator.
+    pub const DRIVE_OSC: u16 = 1 << 12;
 
     /// Whether every bit of `mask` is set.
     #[must_use]
@@ -357,6 +362,11 @@ pub struct Status {
     /// The `ticks` value at the first alarm since the last reset of the counters
     /// (0: none).
     pub first_alarm_tick: u32,
+    /// Drive alarms raised (rising edges of [`Flags::DRIVE_OSC`]).
+    pub drive_alarms: u32,
+    /// The `ticks` value at the first drive alarm since the last reset of the counters
+    /// (0: none); `first_alarm_tick` too if no other alarm came before it.
+    pub first_drive_alarm_tick: u32,
     /// Board: boots since power-on, kept in RAM outside the zeroed sections (survives a
     /// watchdog reset; not zeroed by [`Command::ResetCounters`]).
     pub boot_count: u32,

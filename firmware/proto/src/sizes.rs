@@ -41,5 +41,5 @@ pub const COMMAND_MAX_FRAME: usize = frame_len(1);
 pub const CONFIG_MAX_FRAME: usize =
     frame_len(1 + 1 + 1 + V16 + 1 + 1 + 1 + 1 + 4 + V32 + 2 * V16 + 1 + 9 * V32 + 1 + 16);
 
-/// Status: 28 counters x 5, refuse reason 1, reset cause 1, flags 3.
-pub const STATUS_MAX_FRAME: usize = frame_len(28 * V32 + 1 + 1 + V16);
+/// Status: 30 counters x 5, refuse reason 1, reset cause 1, flags 3.
+pub const STATUS_MAX_FRAME: usize = frame_len(30 * V32 + 1 + 1 + V16);

@@ -58,6 +58,8 @@ fn worst_status() -> Status {
         hunt_alarms: u32::MAX,
         act_alarms: u32::MAX,
         first_alarm_tick: u32::MAX,
+        drive_alarms: u32::MAX,
+        first_drive_alarm_tick: u32::MAX,
         boot_count: u32::MAX,
         stack_peak: u32::MAX,
         refuse_reason: u8::MAX,

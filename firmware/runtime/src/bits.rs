@@ -25,7 +25,7 @@ use crate::{acc_factors, AccBits, Rates, DEFAULT_HOLD_TICKS};
 ///   is 0 (unknown: a host that sends no reference) it stays idle rather than reading a
 ///   rolling wheel as a slip (`wheelset_control::wsp`, "An unknown reference");
 /// - **the stability monitor on** ([`Self::monitor`]), its alarms reported
-///   (`HUNTING`, `ACTUATOR_FAULT`, `FAULT_LATCHED`);
+///   (`HUNTING`, `ACTUATOR_FAULT`, `DRIVE_OSC`, `FAULT_LATCHED`);
 /// - **its safe action off** (`Config.monitor_safe = false`, the runtime's start): the
 ///   safe state zeroes the yaw torque, and in the lead and gain modes the actuator
 ///   replaces the yaw spring, so zero torque leaves the wheelset with neither (without
@@ -177,7 +177,14 @@ impl RuntimeBits {
         let mut control = cfg.control;
         control.wire = WireLsb::default();
         let monitor = match &cfg.monitor {
-            Some(p) => Monitor::<T>::try_new(p, control.base_rate_hz)?.to_bits(),
+            Some(p) => {
+                // The drive check's level is in pu of the core's current scale.
+                let p = MonitorParams {
+                    current_scale_a: control.scales.current,
+                    ..*p
+                };
+                Monitor::<T>::try_new(&p, control.base_rate_hz)?.to_bits()
+            }
             None => Monitor::<T>::off().to_bits(),
         };
         let compiled = Compiled::<T>::try_new(&control)?.to_bits();

@@ -287,7 +287,7 @@ impl<T: SampleBits> Runtime<T> {
             // sub-rate inside `Monitor::tick`.
             let ev = self.monitor.tick(&mut self.mon, inp.y_dot, commanding);
             if ev.hunting_rose | ev.actuator_rose {
-                self.on_alarm(ev.hunting_rose, ev.actuator_rose);
+                self.on_alarm(ev.hunting_rose, ev.actuator_rose, false);
             }
             flags.set(Flags::HUNTING, ev.hunting);
             flags.set(Flags::ACTUATOR_FAULT, ev.actuator);
@@ -310,6 +310,15 @@ impl<T: SampleBits> Runtime<T> {
                 // steps).
                 if self.core.wsp_state().active && !wsp_was {
                     self.monitor.traction_step(&mut self.mon);
+                }
+                // The drive check, on every traction step the core ran: the current
+                // error's ripple (wheelset_control::monitor, the drive check).
+                if self.core.traction_stepped()
+                    && self
+                        .monitor
+                        .drive_step(&mut self.mon, self.core.current_error())
+                {
+                    self.on_alarm(false, false, true);
                 }
                 let o = self.core.codec().encode(&out);
                 (o.yaw_torque, o.voltage)
@@ -343,6 +352,7 @@ impl<T: SampleBits> Runtime<T> {
         );
         flags.set(Flags::CMD_REFUSED, self.refused);
         flags.set(Flags::WHEEL_SLIP, self.core.wheel_slip());
+        flags.set(Flags::DRIVE_OSC, self.mon.ev.drive);
         flags.set(Flags::FAULT_LATCHED, self.fault_latched);
         self.counters.flags = flags;
         let act = Actuation {
@@ -379,15 +389,20 @@ impl<T: SampleBits> Runtime<T> {
         c.wsp_events = c.wsp_events.wrapping_add(u32::from(ev.wsp_started()));
     }
 
-    /// A stability alarm rose: counted, the fault latched, and with `monitor_safe` the
-    /// safe state held from the next tick until [`Command::ClearFaults`].
+    /// A monitor alarm rose (hunting, actuator, drive): counted, the fault latched, and
+    /// with `monitor_safe` the safe state held from the next tick until
+    /// [`Command::ClearFaults`].
     #[inline(never)]
-    fn on_alarm(&mut self, hunting: bool, actuator: bool) {
+    fn on_alarm(&mut self, hunting: bool, actuator: bool, drive: bool) {
         let c = &mut self.counters;
         c.hunt_alarms = c.hunt_alarms.wrapping_add(u32::from(hunting));
         c.act_alarms = c.act_alarms.wrapping_add(u32::from(actuator));
+        c.drive_alarms = c.drive_alarms.wrapping_add(u32::from(drive));
         if c.first_alarm_tick == 0 {
             c.first_alarm_tick = c.ticks;
+        }
+        if drive && c.first_drive_alarm_tick == 0 {
+            c.first_drive_alarm_tick = c.ticks;
         }
         self.fault_latched = true;
         if self.monitor_safe {

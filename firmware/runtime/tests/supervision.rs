@@ -54,20 +54,33 @@ fn hunting(k: u32, amp: f64) -> i32 {
     (amp * (2.0 * std::f64::consts::PI * 8.0 * f64::from(k) / 5_000.0).sin()) as i32
 }
 
-/// Runs `n` ticks of an 8 Hz `y'` of 0.1 m/s amplitude; returns the first tick flagged
-/// HUNTING and the last actuation.
-fn hunt(r: &mut Runtime<Fx>, from: u32, n: u32) -> (Option<u32>, Actuation) {
+/// Runs ticks `from..from + n` on the frames `frame(k)`; returns the first tick whose
+/// actuation has `flag` and the last actuation.
+fn first_flagged(
+    r: &mut Runtime<Fx>,
+    (from, n): (u32, u32),
+    flag: u16,
+    frame: impl Fn(u32) -> Vec<u8>,
+) -> (Option<u32>, Actuation) {
     let mut first = None;
     let mut last = None;
     for k in from..from + n {
-        r.receive(&sensor(k as u16, hunting(k, 100_000.0), 925_600, 0));
+        r.receive(&frame(k));
         let a = act(r.tick(0));
-        if a.flags.has(Flags::HUNTING) && first.is_none() {
+        if a.flags.has(flag) && first.is_none() {
             first = Some(k);
         }
         last = Some(a);
     }
     (first, last.expect("ticks ran"))
+}
+
+/// Runs `n` ticks of an 8 Hz `y'` of 0.1 m/s amplitude; returns the first tick flagged
+/// HUNTING and the last actuation.
+fn hunt(r: &mut Runtime<Fx>, from: u32, n: u32) -> (Option<u32>, Actuation) {
+    first_flagged(r, (from, n), Flags::HUNTING, |k| {
+        sensor(k as u16, hunting(k, 100_000.0), 925_600, 0)
+    })
 }
 
 #[test]
@@ -468,4 +481,70 @@ fn a_stall_is_honoured_only_where_a_watchdog_ends_it() {
     r.receive(&command(Command::InjectStall));
     assert!(!act(r.tick(0)).flags.has(Flags::CMD_REFUSED));
     assert_eq!(r.take_injected(), Some(Command::InjectStall));
+}
+
+/// A Sensor frame whose armature current swings by `amp_ma` at 0.186 of the rate around
+/// its 115 A (a current-loop limit cycle near 930 Hz at 5 kHz), tick `k`.
+fn limit_cycle(k: u32, amp_ma: f64) -> Vec<u8> {
+    let i = 115_000.0 + amp_ma * (2.0 * std::f64::consts::PI * 0.186 * f64::from(k)).sin();
+    sensor_frame(Sensor {
+        i_a_ma: i as i32,
+        ..sample(k as u16, Lateral::Velocity(0))
+    })
+}
+
+/// Runs ticks `from..from + n` on [`limit_cycle`]; returns the first tick flagged
+/// DRIVE_OSC and the last actuation.
+fn oscillate(r: &mut Runtime<Fx>, from: u32, n: u32, amp_ma: f64) -> (Option<u32>, Actuation) {
+    first_flagged(r, (from, n), Flags::DRIVE_OSC, |k| limit_cycle(k, amp_ma))
+}
+
+#[test]
+fn a_current_limit_cycle_raises_the_drive_alarm_not_the_yaw_ones() {
+    let mut r = Runtime::<Fx>::try_new(RuntimeConfig::default()).expect("valid");
+    // A ripple of 20 A (RMS 14 A, the healthy loop's order): nothing.
+    let (first, last) = oscillate(&mut r, 1, 2_000, 20_000.0);
+    assert!(first.is_none() && !last.flags.has(Flags::FAULT_LATCHED));
+    // 1.5 kA: the drive alarm, latched; neither yaw alarm; reported only.
+    let (first, last) = oscillate(&mut r, 2_001, 2_000, 1_500_000.0);
+    let first = first.expect("a ripple RMS of 1.2 kA is above the 300 A threshold");
+    // The mean square crosses within a few steps, then the persistence's 64 steps.
+    assert!(
+        (2_001 + 64..2_001 + 128).contains(&first),
+        "first at {first}"
+    );
+    assert!(last.flags.has(Flags::FAULT_LATCHED) && !last.flags.has(Flags::SAFE));
+    assert!(!last.flags.has(Flags::HUNTING) && !last.flags.has(Flags::ACTUATOR_FAULT));
+    let s = status(&mut r, 4_001);
+    assert_eq!(
+        (s.drive_alarms, s.hunt_alarms, s.act_alarms),
+        (1, 0, 0),
+        "{s:?}"
+    );
+    // The runtime's tick count at the rising edge (tick k is the runtime's k-th).
+    assert_eq!(s.first_drive_alarm_tick, first, "{s:?}");
+    assert_eq!(s.first_alarm_tick, first, "{s:?}");
+    // The oscillation gone, the alarm falls; the latch stays until ClearFaults.
+    let (_, last) = oscillate(&mut r, 4_002, 2_000, 0.0);
+    assert!(!last.flags.has(Flags::DRIVE_OSC) && last.flags.has(Flags::FAULT_LATCHED));
+    r.receive(&command(Command::ClearFaults));
+    let (_, last) = oscillate(&mut r, 6_002, 10, 0.0);
+    assert!(!last.flags.has(Flags::FAULT_LATCHED));
+}
+
+#[test]
+fn monitor_safe_takes_the_drive_alarm_to_the_safe_state() {
+    let mut r = Runtime::<Fx>::try_new(RuntimeConfig::default()).expect("valid");
+    r.receive(&config(YawMode::Lead, false, true, DEFAULT_HOLD_TICKS));
+    let (first, _) = oscillate(&mut r, 1, 1_000, 1_500_000.0);
+    let first = first.expect("drive alarm");
+    // Safe from the tick after the alarm on, the oscillation going on or not.
+    let (_, last) = oscillate(&mut r, 1_001, 2_000, 1_500_000.0);
+    assert!(last.flags.has(Flags::SAFE) && last.flags.has(Flags::FAULT_LATCHED));
+    let s = status(&mut r, 3_001);
+    assert_eq!(s.safe_entries, 1, "{s:?}");
+    assert_eq!(s.safe_ticks, 3_001 - first, "{s:?}");
+    r.receive(&command(Command::ClearFaults));
+    r.receive(&limit_cycle(3_002, 0.0));
+    assert!(!act(r.tick(0)).flags.has(Flags::SAFE));
 }

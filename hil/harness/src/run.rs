@@ -533,6 +533,7 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
             a.at_ns,
             a.frame.flags.has(wheelset_proto::Flags::HUNTING),
             a.frame.flags.has(wheelset_proto::Flags::ACTUATOR_FAULT),
+            a.frame.flags.has(wheelset_proto::Flags::DRIVE_OSC),
         )
     });
     let mut monitor = crate::check::alarms::judge(
@@ -553,6 +554,24 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     monitor.device_first_alarm_s = monitor
         .device_first_alarm_tick
         .map(|n| f64::from(n.saturating_sub(1 + pre)) * period_ns as f64 * 1e-9);
+    // The drive check: the current loop at the plant's armature, the device's PI.
+    monitor.drive.device_first_alarm_tick = status
+        .as_ref()
+        .map(|s| s.first_drive_alarm_tick)
+        .filter(|&n| n > 0);
+    let end_s = trajectory.records.last().map_or(0.0, |x| x.t_s);
+    // The delay the loop ran with: the latency's 99th percentile in whole periods.
+    let delay = (timing.latency_ns.p99 / period_ns as f64).ceil();
+    let delay_ticks = if delay.is_finite() && delay > 1.0 {
+        (delay as usize).min(wheelset_plant::sampled::MAX_HYPER_PERIOD)
+    } else {
+        1
+    };
+    crate::check::alarms::judge_drive(
+        &mut monitor,
+        crate::check::alarms::drive_expectation(&sc, &rt, &mon_params, delay_ticks),
+        end_s,
+    );
     let verdict = timing
         .verdict
         .max(numerics.verdict)

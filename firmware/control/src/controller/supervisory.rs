@@ -205,6 +205,18 @@ impl<T: Sample> Controller<T> {
     pub fn current_ref(&self) -> T {
         self.iref
     }
+    /// The current error `i_ref - i_a` (pu of `scales.current`, + when the current is
+    /// below its reference) of the latest traction step: the reference after the
+    /// wheel-slip protection's cap and the clamped measurement, as the PI took them;
+    /// 0 while traction is off. What [`crate::Monitor::drive_step`] watches.
+    pub fn current_error(&self) -> T {
+        self.i_err
+    }
+    /// Whether the latest [`Controller::tick`] ran a traction step (every tick on the
+    /// fast path; every `traction_divisor` ticks on the general one).
+    pub fn traction_stepped(&self) -> bool {
+        self.traction_phase == self.law.traction_divisor.saturating_sub(1)
+    }
     /// The outputs held from the last tick.
     pub fn outputs(&self) -> Outputs<T> {
         self.out

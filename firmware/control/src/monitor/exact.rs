@@ -21,6 +21,10 @@ impl<T: SampleBits> Monitor<T> {
             block: 0,
             blocks: 0,
             drift: T::ZERO,
+            drive_k: z,
+            drive_on: T::ZERO,
+            drive_off: T::ZERO,
+            drive_persist: 0,
         }
     }
 
@@ -41,11 +45,15 @@ impl<T: SampleBits> Monitor<T> {
             block: self.block,
             blocks: self.blocks,
             drift: self.drift.to_bits64(),
+            drive_k: c(self.drive_k),
+            drive_levels: [self.drive_on.to_bits64(), self.drive_off.to_bits64()],
+            drive_persist: self.drive_persist,
         }
     }
 
-    /// From exact bits, validated (coefficients in `(0, 1)`, levels `0 < off < on`,
-    /// `floor > 0`, `drift > 0`, a block and a count of at least 1), for `base_rate_hz`; rate 0 gives
+    /// From exact bits, validated (coefficients in `(0, 1)`, levels `0 < off < on` (the
+    /// drive check's too), `floor > 0`, `drift > 0`, a block, a count and a persistence
+    /// of at least 1), for `base_rate_hz`; rate 0 gives
     /// [`Self::off`]-like behaviour (never runs). Integer work only.
     pub fn from_bits(b: &MonitorBits, base_rate_hz: u32) -> Result<Self, crate::BitsError> {
         let err = |field| crate::BitsError { field };
@@ -71,6 +79,17 @@ impl<T: SampleBits> Monitor<T> {
         if drift <= T::ZERO {
             return Err(err("monitor.drift"));
         }
+        let [d_on, d_off] = b.drive_levels;
+        let (drive_on, drive_off) = (
+            sig("monitor.drive_levels", d_on)?,
+            sig("monitor.drive_levels", d_off)?,
+        );
+        if !(T::ZERO < drive_off && drive_off < drive_on) {
+            return Err(err("monitor.drive_levels"));
+        }
+        if b.drive_persist == 0 {
+            return Err(err("monitor.drive_persist"));
+        }
         let mut m = Self {
             rate_hz: b.rate_hz,
             div: 1,
@@ -84,6 +103,10 @@ impl<T: SampleBits> Monitor<T> {
             block: b.block,
             blocks: b.blocks,
             drift,
+            drive_k: coef("monitor.drive_k", b.drive_k)?,
+            drive_on,
+            drive_off,
+            drive_persist: b.drive_persist,
         };
         m.retime(base_rate_hz);
         Ok(m)
@@ -122,6 +145,10 @@ macro_rules! from_valid_bits {
                     block: b.block,
                     blocks: b.blocks,
                     drift: s(b.drift),
+                    drive_k: c(b.drive_k),
+                    drive_on: s(b.drive_levels[0]),
+                    drive_off: s(b.drive_levels[1]),
+                    drive_persist: b.drive_persist,
                 }
             }
         }

@@ -378,6 +378,8 @@ pub(crate) fn status(r: &mut In<'_>) -> Option<Status> {
         hunt_alarms: r.varint()?,
         act_alarms: r.varint()?,
         first_alarm_tick: r.varint()?,
+        drive_alarms: r.varint()?,
+        first_drive_alarm_tick: r.varint()?,
         boot_count: r.varint()?,
         stack_peak: r.varint()?,
         refuse_reason: r.byte()?,

@@ -273,6 +273,8 @@ fn status_counters(s: &Status) -> [u32; STATUS_COUNTERS] {
         hunt_alarms,
         act_alarms,
         first_alarm_tick,
+        drive_alarms,
+        first_drive_alarm_tick,
         boot_count,
         stack_peak,
         refuse_reason: _,
@@ -306,10 +308,12 @@ fn status_counters(s: &Status) -> [u32; STATUS_COUNTERS] {
         hunt_alarms,
         act_alarms,
         first_alarm_tick,
+        drive_alarms,
+        first_drive_alarm_tick,
         boot_count,
         stack_peak,
     ]
 }
 
 /// The number of `u32` counters of a [`Status`] (its worst case is 5 bytes each).
-pub(crate) const STATUS_COUNTERS: usize = 28;
+pub(crate) const STATUS_COUNTERS: usize = 30;

@@ -148,9 +148,9 @@ pub fn config() -> impl Strategy<Value = Config> {
 }
 
 pub fn status() -> impl Strategy<Value = Status> {
-    // A Vec, not an array: a 28-element array strategy overflowed the test's stack.
+    // A Vec, not an array: a 30-element array strategy overflowed the test's stack.
     (
-        proptest::collection::vec(any_u32(), 28),
+        proptest::collection::vec(any_u32(), 30),
         any::<u8>(),
         any::<u8>(),
         any::<u16>(),
@@ -182,8 +182,10 @@ pub fn status() -> impl Strategy<Value = Status> {
             hunt_alarms: c[23],
             act_alarms: c[24],
             first_alarm_tick: c[25],
-            boot_count: c[26],
-            stack_peak: c[27],
+            drive_alarms: c[26],
+            first_drive_alarm_tick: c[27],
+            boot_count: c[28],
+            stack_peak: c[29],
             refuse_reason,
             reset_cause,
             flags: Flags(flags),

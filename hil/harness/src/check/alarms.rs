@@ -51,7 +51,33 @@
 //!   is not false either (the actuator did fail).
 //!
 //! Whatever the linearisation says, a run that diverges (|y| > 50 mm) after the fault with
-//! no alarm before fails.
+//! no alarm before fails. These rules read the yaw alarms (`hunting`, `actuator`); the
+//! drive's are judged on their own:
+//!
+//! **The drive** (`Flags::DRIVE_OSC`, kind `drive`; [`judge_drive`]). The device's
+//! current loop (its PI at its base rate and traction divisor, with the run's delay: its
+//! input-to-output latency's 99th percentile in whole periods, at least one) on the
+//! plant's armature circuit (`l_a`, `r_a` of the run's parameters) is analysed as the
+//! firmware runs it, `wheelset_plant::sampled::current_loop_mode` (the `rates` table's
+//! `current` column): its fast pair's radius `rho` per base tick.
+//!
+//! - `rho >= 1` (e.g. `l_a` at a third of the design, 1.33e-4 H, and below, at 5 kHz:
+//!   the error grows until the voltage and the measurement clamp it, a limit cycle):
+//!   the first alarm of the run must be the drive's, by the **drive deadline**
+//!
+//!   ```text
+//!   t_alarm <= [ ln(thr / A_0) + ln(1 + 2 sigma tau)/2 ] / sigma + (P + N)/f_t,
+//!   sigma = f_b ln(rho),   tau = N/f_t
+//!   ```
+//!
+//!   the time for the pair to grow from one wire LSB of current (`A_0` = 1 mA: the
+//!   plant's parameters hold from `t = 0`, and the sampled measurement's rounding is
+//!   seed enough) to the check's threshold `thr`, the mean square's lag for a signal
+//!   growing at `sigma`, the persistence `P` and one window `N` of slack (`f_b` the base
+//!   rate, `f_t` the traction rate). The yaw alarms are reported, not judged, after it
+//!   (the oscillating drive shakes the wheelset through the creep forces).
+//! - `rho < 1`: a drive alarm is false, whatever else the run holds (a traction step,
+//!   the protection's cut, a faulty link, the safe state's ramp).
 
 use serde::Serialize;
 use wheelset_control::{Compiled, Fx, InputCodes, Monitor, MonitorParams, MonitorState, YawMode};
@@ -66,7 +92,8 @@ use wheelset_report::Verdict;
 /// One alarm: a rising edge of a monitor flag.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Alarm {
-    /// `hunting` (stability monitor) or `actuator` (actuator check).
+    /// `hunting` (stability monitor), `actuator` (actuator check) or `drive` (the drive
+    /// check: the traction current loop oscillates).
     pub kind: &'static str,
     /// Arrival time of the first Actuation frame carrying it, s.
     pub t_s: f64,
@@ -111,6 +138,32 @@ pub struct MonitorReport {
     pub device_first_alarm_tick: Option<u32>,
     /// The sample instant of that tick, s.
     pub device_first_alarm_s: Option<f64>,
+    /// The drive check's expectation ([`judge_drive`]; its verdict is in `verdict`).
+    pub drive: DriveReport,
+}
+
+/// The drive check's part of the `monitor` section (module docs, "The drive").
+#[derive(Debug, Clone, PartialEq, Serialize, Default)]
+pub struct DriveReport {
+    /// `none` (no drive alarm allowed) or `alarm` (the first alarm of the run is the
+    /// drive's, by `deadline_s`).
+    pub expect: &'static str,
+    /// The current loop's fast pair: radius per base tick (`>= 1`: unstable).
+    pub current_radius: Option<f64>,
+    /// Its frequency, Hz.
+    pub mode_hz: Option<f64>,
+    /// Its growth rate `f_b ln(rho)`, 1/s.
+    pub sigma_per_s: Option<f64>,
+    /// The armature inductance of the plant, H.
+    pub l_a_h: f64,
+    /// The actuation delay the analysis takes, base ticks.
+    pub delay_ticks: usize,
+    /// The drive deadline, s (absolute).
+    pub deadline_s: Option<f64>,
+    /// The first drive alarm, s.
+    pub first_alarm_s: Option<f64>,
+    /// The device's Status `first_drive_alarm_tick` (`null`: none, or no Status).
+    pub device_first_alarm_tick: Option<u32>,
 }
 
 impl MonitorReport {
@@ -166,13 +219,16 @@ fn delivering(g: f64) -> String {
     }
 }
 
-/// Rising edges of `(t_ns, hunting, actuator)` flag samples, in order.
+/// Rising edges of `(t_ns, hunting, actuator, drive)` flag samples, in order.
 #[must_use]
-pub fn alarms(samples: impl IntoIterator<Item = (u64, bool, bool)>) -> Vec<Alarm> {
+pub fn alarms(samples: impl IntoIterator<Item = FlagSample>) -> Vec<Alarm> {
     let mut out = Vec::new();
-    let (mut h0, mut a0) = (false, false);
-    for (t_ns, h, a) in samples {
+    let (mut h0, mut a0, mut d0) = (false, false, false);
+    for (t_ns, h, a, d) in samples {
         let t_s = t_ns as f64 * 1e-9;
+        if d && !d0 {
+            out.push(Alarm { kind: "drive", t_s });
+        }
         if a && !a0 {
             out.push(Alarm {
                 kind: "actuator",
@@ -185,19 +241,20 @@ pub fn alarms(samples: impl IntoIterator<Item = (u64, bool, bool)>) -> Vec<Alarm
                 t_s,
             });
         }
-        (h0, a0) = (h, a);
+        (h0, a0, d0) = (h, a, d);
     }
     out
 }
 
-/// One period's monitor flags: `(t_ns, hunting, actuator)`.
-pub type FlagSample = (u64, bool, bool);
+/// One period's monitor flags: `(t_ns, hunting, actuator, drive)`.
+pub type FlagSample = (u64, bool, bool, bool);
 /// A replay: the flags per period and the mean square `(t_s, (m/s)^2)` per monitor step.
 pub type Replay = (Vec<FlagSample>, Vec<(f64, f64)>);
 
 /// The device's monitor replayed on the samples it received (one per period from
 /// `t = 0`, wire codes), for the runtime configuration `rt` (its yaw mode decides whether
-/// the law commands) and the monitor configuration `p`. Returns the flag samples `(t_ns, hunting, actuator)` per period
+/// the law commands) and the monitor configuration `p`. Returns the flag samples `(t_ns, hunting, actuator,
+/// drive)` per period (the drive's always `false`: the replay has no current error)
 /// and the mean square `(t_s, ms in (m/s)^2)` at each monitor step; `None` if the
 /// configuration does not compile.
 #[must_use]
@@ -219,7 +276,7 @@ pub fn replay(
         let t_ns = k as u64 * period_ns;
         let ev = m.tick(&mut s, codec.decode(c).y_dot, commanding);
         // The actuation computed from sample k arrives one period later.
-        flags.push((t_ns + period_ns, ev.hunting, ev.actuator));
+        flags.push((t_ns + period_ns, ev.hunting, ev.actuator, false));
         if s.phase == m.divisor() {
             // 1 pu of y' = 1 m/s: the mean square is in (m/s)^2.
             ms.push((t_ns as f64 * 1e-9, s.ms.to_num::<f64>()));
@@ -260,11 +317,18 @@ pub fn judge(
     p: &MonitorParams,
     alarms: Vec<Alarm>,
 ) -> MonitorReport {
-    let first = alarms.first().map(|a| a.t_s);
+    // The yaw alarms before the first drive alarm (after it, an oscillating drive
+    // shakes the wheelset: reported, not judged); the drive's are judge_drive's.
+    let cut = alarms
+        .iter()
+        .find(|a| a.kind == "drive")
+        .map_or(f64::INFINITY, |a| a.t_s);
+    let judged = |a: &&Alarm| a.kind != "drive" && a.t_s < cut;
+    let first = alarms.iter().find(judged).map(|a| a.t_s);
     let mut r = MonitorReport {
         source: "device-flags",
+        first_alarm_s: alarms.first().map(|a| a.t_s),
         alarms,
-        first_alarm_s: first,
         expect: "none",
         fault_s: None,
         fault_gain: None,
@@ -278,6 +342,11 @@ pub fn judge(
         reason: String::new(),
         device_first_alarm_tick: None,
         device_first_alarm_s: None,
+        drive: DriveReport {
+            expect: "none",
+            l_a_h: sc.params.l_a,
+            ..DriveReport::default()
+        },
     };
     let diverged = tr.info.diverged_at_s;
     // The passive law commands no torque: its actuator's fault changes nothing.
@@ -288,7 +357,7 @@ pub fn judge(
         if let Some(d) = diverged {
             r.expect = "alarm";
             r.deadline_s = Some(d);
-            if !first.is_some_and(|t| t <= d) {
+            if !r.first_alarm_s.is_some_and(|t| t <= d) {
                 r.verdict = Verdict::Fail;
                 r.reason = format!("the plant hunted (diverged at {d:.3} s) with no alarm before");
             }
@@ -334,7 +403,7 @@ pub fn judge(
         r.expect = "alarm";
         r.deadline_s = Some(r.deadline_s.map_or(d, |x| x.min(d)));
     }
-    if let Some(early) = r.alarms.iter().find(|a| a.t_s < t_f) {
+    if let Some(early) = r.alarms.iter().filter(judged).find(|a| a.t_s < t_f) {
         r.verdict = Verdict::Fail;
         r.reason = format!(
             "a {} alarm at {:.3} s, before the fault at {t_f:.3} s",
@@ -342,7 +411,7 @@ pub fn judge(
         );
         return r;
     }
-    if let Some(d) = diverged.filter(|&d| !first.is_some_and(|t| t <= d)) {
+    if let Some(d) = diverged.filter(|&d| !r.first_alarm_s.is_some_and(|t| t <= d)) {
         r.verdict = Verdict::Fail;
         r.reason =
             format!("the wheelset diverged at {d:.3} s with no alarm before (fault at {t_f:.3} s)");
@@ -364,6 +433,118 @@ pub fn judge(
     r
 }
 
+/// The drive check's expectation for a run of `sc` on the device configuration `rt`
+/// with the monitor `p` and `delay_ticks` of actuation delay (module docs, "The drive"):
+/// the current loop's fast pair at the plant's armature and the device's PI and rates,
+/// and from it the deadline.
+#[must_use]
+pub fn drive_expectation(
+    sc: &Scenario,
+    rt: &RuntimeConfig,
+    p: &MonitorParams,
+    delay_ticks: usize,
+) -> DriveReport {
+    let mut d = DriveReport {
+        expect: "none",
+        l_a_h: sc.params.l_a,
+        delay_ticks,
+        ..DriveReport::default()
+    };
+    if !rt.control.traction_enabled || !sc.drive {
+        return d;
+    }
+    let arm = wheelset_plant::sampled::armature(sc.params.l_a, sc.params.r_a);
+    let Ok(mode) = wheelset_plant::sampled::current_loop_mode(&arm, &rt.control, delay_ticks)
+    else {
+        return d;
+    };
+    let f_b = f64::from(rt.control.base_rate_hz.max(1));
+    let f_t = f_b / f64::from(rt.control.traction_divisor.max(1));
+    let sigma = f_b * mode.radius.ln();
+    d.current_radius = Some(mode.radius);
+    d.mode_hz = Some(mode.freq_hz);
+    d.sigma_per_s = Some(sigma);
+    if mode.radius >= 1.0 && sigma.is_finite() {
+        // One wire LSB of current (wheelset_proto::units::CURRENT_LSB_A) as the seed.
+        let a0 = wheelset_proto::units::CURRENT_LSB_A;
+        let (n, persist) = (
+            f64::from(p.drive_window_steps),
+            f64::from(p.drive_persist_steps),
+        );
+        let tau = n / f_t;
+        let grow = if sigma > 0.0 {
+            ((p.drive_ripple_a / a0).ln() + 0.5 * (1.0 + 2.0 * sigma * tau).ln()) / sigma
+        } else {
+            f64::INFINITY
+        };
+        d.expect = "alarm";
+        d.deadline_s = Some(grow + (persist + n) / f_t);
+    }
+    d
+}
+
+/// Judges the drive alarms of `r` (made by [`judge`]) against `drive`
+/// ([`drive_expectation`]), the run ending at `end_s`: fills `r.drive` and fails `r`
+/// (keeping an earlier failure's reason) on a missing, late or false drive alarm.
+pub fn judge_drive(r: &mut MonitorReport, mut drive: DriveReport, end_s: f64) {
+    let first_drive = r.alarms.iter().find(|a| a.kind == "drive").map(|a| a.t_s);
+    drive.first_alarm_s = first_drive;
+    drive.device_first_alarm_tick = r.drive.device_first_alarm_tick;
+    let fail = |r: &mut MonitorReport, why: String| {
+        if r.verdict != Verdict::Fail {
+            r.reason = why;
+        }
+        r.verdict = Verdict::Fail;
+    };
+    match (drive.expect, drive.deadline_s) {
+        ("alarm", Some(due)) => {
+            let first = r.alarms.first();
+            match first_drive {
+                Some(t) if t <= due => {
+                    if let Some(a) = first.filter(|a| a.kind != "drive") {
+                        let why = format!(
+                            "the first alarm is the {}'s at {:.3} s, not the drive's (at {t:.3} s): \
+                             the current loop is unstable (radius {:.3} per tick)",
+                            a.kind,
+                            a.t_s,
+                            drive.current_radius.unwrap_or(f64::NAN)
+                        );
+                        fail(r, why);
+                    }
+                }
+                Some(t) => fail(
+                    r,
+                    format!("the drive alarm at {t:.3} s is after its deadline {due:.3} s"),
+                ),
+                None if due > end_s => {}
+                None => fail(
+                    r,
+                    format!(
+                        "no drive alarm by {due:.3} s: the current loop is unstable (radius \
+                         {:.3} per tick, {:.0} Hz, l_a = {:.3e} H)",
+                        drive.current_radius.unwrap_or(f64::NAN),
+                        drive.mode_hz.unwrap_or(f64::NAN),
+                        drive.l_a_h
+                    ),
+                ),
+            }
+        }
+        _ => {
+            if let Some(t) = first_drive {
+                fail(
+                    r,
+                    format!(
+                        "a drive alarm at {t:.3} s on a drive whose current loop is stable \
+                         (radius {:.3} per tick)",
+                        drive.current_radius.unwrap_or(f64::NAN)
+                    ),
+                );
+            }
+        }
+    }
+    r.drive = drive;
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -371,17 +552,22 @@ mod tests {
     #[test]
     fn rising_edges_become_alarms() {
         let s = [
-            (0, false, false),
-            (1_000_000_000, false, true),
-            (1_100_000_000, true, true),
-            (1_200_000_000, false, true),
-            (1_300_000_000, true, false),
+            (0, false, false, false),
+            (1_000_000_000, false, true, false),
+            (1_100_000_000, true, true, true),
+            (1_200_000_000, false, true, true),
+            (1_300_000_000, true, false, false),
         ];
         let a = alarms(s);
         let kinds: Vec<_> = a.iter().map(|a| (a.kind, a.t_s)).collect();
         assert_eq!(
             kinds,
-            [("actuator", 1.0), ("hunting", 1.1), ("hunting", 1.3)]
+            [
+                ("actuator", 1.0),
+                ("drive", 1.1),
+                ("hunting", 1.1),
+                ("hunting", 1.3)
+            ]
         );
     }
 }

@@ -422,11 +422,14 @@ pub(crate) fn print_summary(r: &hil::run::RunReport) {
     say!("verdict: {}", r.verdict);
     let m = &r.monitor;
     say!(
-        "  monitor ({}): {} alarm(s){}; expected {}: {}{}",
+        "  monitor ({}): {} alarm(s){}; yaw: expected {}: {}{}",
         m.source,
         m.alarms.len(),
-        m.first_alarm_s
-            .map_or(String::new(), |t| format!(", first at {t:.3} s")),
+        m.alarms.first().map_or(String::new(), |a| format!(
+            ", first at {:.3} s ({})",
+            a.t_s,
+            alarm_name(a.kind)
+        )),
         m.expectation(),
         m.verdict,
         if m.reason.is_empty() {
@@ -435,4 +438,38 @@ pub(crate) fn print_summary(r: &hil::run::RunReport) {
             format!(" ({})", m.reason)
         }
     );
+    say!("  {}", drive_line(&m.drive));
+}
+
+/// What an alarm kind names, in the summary.
+fn alarm_name(kind: &str) -> &'static str {
+    match kind {
+        "drive" => "the drive: the traction current loop oscillates",
+        "actuator" => "the yaw actuator",
+        "hunting" => "hunting",
+        _ => "unknown",
+    }
+}
+
+/// The drive check's line of the summary: the current loop's pair, what is due, what
+/// came.
+fn drive_line(d: &hil::check::alarms::DriveReport) -> String {
+    let pair = match (d.current_radius, d.mode_hz) {
+        (Some(r), Some(f)) => format!(
+            "current loop radius {r:.3} per tick at {f:.0} Hz ({}, l_a = {:.3e} H, delay {} \
+             tick(s))",
+            if r >= 1.0 { "unstable" } else { "stable" },
+            d.l_a_h,
+            d.delay_ticks
+        ),
+        _ => "no current loop".to_string(),
+    };
+    let due = match (d.expect, d.deadline_s) {
+        ("alarm", Some(t)) => format!("a drive alarm by {t:.3} s"),
+        _ => "no drive alarm".to_string(),
+    };
+    let came = d
+        .first_alarm_s
+        .map_or("none".to_string(), |t| format!("at {t:.3} s"));
+    format!("drive: {pair}; expected {due}; drive alarm {came}")
 }

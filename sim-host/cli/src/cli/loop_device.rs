@@ -186,6 +186,7 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
             s.wsp_ticks
         );
     }
+    outln!("{}", monitor_line(&run));
     write_run_summary(&a.json, sc, &run.trajectory, Some(wsp))?;
     outln!(
         "link: {} baud, latency {} us, period {} us, faults `{}` (seed {})",
@@ -254,4 +255,39 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
         }
     }
     verdict
+}
+
+/// The device monitor's alarms, each named by what it watches, with its first instant as
+/// the host saw it (the flag in the Actuation in force) and the Status's counts.
+fn monitor_line(run: &wheelset_loop::device_loop::DeviceRun) -> String {
+    use wheelset_runtime::Flags;
+    let kinds = [
+        (
+            Flags::DRIVE_OSC,
+            "drive (the traction current loop oscillates)",
+        ),
+        (Flags::ACTUATOR_FAULT, "yaw actuator"),
+        (Flags::HUNTING, "hunting"),
+    ];
+    let parts: Vec<String> = kinds
+        .iter()
+        .filter_map(|&(bit, name)| {
+            let first = run.link.iter().find(|l| Flags(l.flags).has(bit))?;
+            Some(format!(
+                "{name} from {:.3} s",
+                (first.t_ns + run.period_ns) as f64 * 1e-9
+            ))
+        })
+        .collect();
+    let counts = run.report.device.as_ref().map_or(String::new(), |s| {
+        format!(
+            " (device status: {} drive, {} actuator, {} hunting alarms)",
+            s.drive_alarms, s.act_alarms, s.hunt_alarms
+        )
+    });
+    if parts.is_empty() {
+        format!("monitor: no alarm{counts}")
+    } else {
+        format!("monitor alarms: {}{counts}", parts.join(", "))
+    }
 }

@@ -164,6 +164,45 @@ fn worst_sampled(cl: &ClosedLoop) -> (f64, f64) {
     }
 }
 
+/// The current loop's fast mode: the PI of `cfg` (its gains, base rate and traction
+/// divisor) on the armature circuit `armature` alone ([`crate::linear::armature`]), with
+/// `delay_ticks` of delay; the slowest of the modes faster than 50 rad/s (the PI's own
+/// slow pole near `-1/Ti` is not it). Its `radius` per base tick is at least 1 when the
+/// current loop is unstable: a limit cycle at `freq_hz` (the harness's expected drive
+/// alarm, `hil::check::alarms`), as the `rates` table's `current` column.
+///
+/// Errors: the configuration is invalid, or the analysis has no mode.
+pub fn current_loop_mode(
+    armature: &LinearPlant,
+    cfg: &Config,
+    delay_ticks: usize,
+) -> Result<Mode, String> {
+    let cur = closed_loop(
+        armature,
+        &Config {
+            yaw_mode: YawMode::Passive,
+            traction_enabled: true,
+            // The yaw divisor is irrelevant here; 1 keeps the hyper-period (and so the
+            // equivalent continuous damping) free of aliasing.
+            yaw_divisor: 1,
+            yaw_predict_ticks: 0.0,
+            ..*cfg
+        },
+        delay_ticks,
+    )?;
+    Ok(cur
+        .modes
+        .iter()
+        .filter(|m| m.s.norm() > 50.0)
+        .max_by(|a, b| {
+            a.radius
+                .partial_cmp(&b.radius)
+                .unwrap_or(std::cmp::Ordering::Equal)
+        })
+        .copied()
+        .unwrap_or(cur.worst))
+}
+
 /// Evaluate one candidate timing over the grid. `plant(creep, lambda, yaw_spring)` gives
 /// the linear plant; `armature` the current-loop plant alone.
 pub fn rate_row(
@@ -185,33 +224,7 @@ pub fn rate_row(
         cfg.yaw_predict_ticks = 1.0 + candidate.1 as f64 / 2.0;
     }
     let spring = cfg.yaw_mode == YawMode::Passive;
-    // Current loop alone.
-    let cur = closed_loop(
-        armature,
-        &Config {
-            yaw_mode: YawMode::Passive,
-            traction_enabled: true,
-            // The yaw divisor is irrelevant here; 1 keeps the hyper-period (and so the
-            // equivalent continuous damping) free of aliasing.
-            yaw_divisor: 1,
-            yaw_predict_ticks: 0.0,
-            ..cfg
-        },
-        delay_ticks,
-    )?;
-    // The current loop's fast mode: the slowest of the modes faster than 50 rad/s (the
-    // PI's own slow pole near -1/Ti is not it).
-    let fast = cur
-        .modes
-        .iter()
-        .filter(|m| m.s.norm() > 50.0)
-        .max_by(|a, b| {
-            a.radius
-                .partial_cmp(&b.radius)
-                .unwrap_or(std::cmp::Ordering::Equal)
-        })
-        .copied()
-        .unwrap_or(cur.worst);
+    let fast = current_loop_mode(armature, &cfg, delay_ticks)?;
     let mut row = RateRow {
         base_hz: cfg.base_rate_hz,
         yaw_divisor: cfg.yaw_divisor,
