@@ -159,16 +159,7 @@ enum Expect {
 
 fn host_expect(frame: &[u8]) -> Expect {
     let mut dec: Decoder = Decoder::new();
-    let mut out = None;
-    let mut rest = frame;
-    while !rest.is_empty() {
-        let (r, more) = dec.next_message(rest);
-        rest = more;
-        if r.is_some() {
-            out = r;
-        }
-    }
-    match out {
+    match dec.messages(frame).last() {
         Some(Ok(Message::Command(Command::ResetCounters))) => Expect::Ok { reset: true },
         Some(Ok(Message::Actuation(_) | Message::Status(_))) => Expect::Unexpected,
         Some(Ok(_)) => Expect::Ok { reset: false },
@@ -310,15 +301,8 @@ fn check_output<T: SampleBits>(
     rep: &mut Report,
 ) -> Result<(), String> {
     let mut dec: Decoder = Decoder::new();
-    let mut msgs = Vec::new();
-    let mut rest = out;
-    while !rest.is_empty() {
-        let (r, more) = dec.next_message(rest);
-        rest = more;
-        msgs.extend(r);
-    }
     let mut actuations = 0;
-    for m in msgs {
+    for m in dec.messages(out) {
         match m {
             Ok(Message::Actuation(a)) => {
                 actuations += 1;

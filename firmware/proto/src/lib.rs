@@ -94,6 +94,7 @@ mod fast;
 mod frame;
 pub mod link;
 mod message;
+mod pieces;
 pub mod plausible;
 #[cfg(feature = "std")]
 mod si;
@@ -129,6 +130,7 @@ pub use frame::{has_delimiter, HostCrc};
 pub use message::{
     Actuation, Command, Config, Flags, Lateral, Message, Rates, Sensor, Status, YawMode,
 };
+pub use pieces::{Closed, Pieces};
 pub use plausible::RefuseReason;
 #[cfg(feature = "std")]
 pub use si::{t_us_of, ActuationSi, LateralSensing, Quantized, SensorSi};

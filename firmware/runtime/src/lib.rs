@@ -111,9 +111,9 @@
 //! `torque_step` per yaw step, 40 N m per tick by default, until the new law's output is
 //! reached: bumpless).
 //!
-//! [`hostile`] is the table of Configs a device must refuse (each with its reason) and
-//! apply, with the procedure and judgement that tries them on the host runtime and on
-//! the firmware alike.
+//! The table of Configs a device must refuse (each with its reason) and apply, with the
+//! procedure that tries them on the host runtime and on the firmware alike, is the
+//! test-support crate `wheelset-hostile`.
 //!
 //! Counters ([`RuntimeCounters`] = the [`Status`] message) go out in a Status frame after
 //! the next actuation frame when a [`Command::RequestStatus`] arrives;
@@ -128,7 +128,6 @@ use wheelset_proto::MAX_FRAME;
 mod acc;
 mod bits;
 mod hold;
-pub mod hostile;
 mod runtime;
 mod validate;
 

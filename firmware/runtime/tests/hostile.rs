@@ -1,11 +1,11 @@
-//! The hostile-Config table (`wheelset_runtime::hostile`) on the host runtime, for both
+//! The hostile-Config table (`wheelset_hostile`) on the host runtime, for both
 //! sample types: one runtime through every row, each row from the nominal state
 //! (restored, and the restore proven), refused with its reason and nothing else changed,
 //! or applied. `hil/harness/tests/qemu_hostile.rs` runs the same table on the firmware.
 
 use wheelset_control::{Fx, SampleBits};
+use wheelset_hostile::{self as hostile, Expect, Row};
 use wheelset_proto::{Config, Flags, RefuseReason, YawMode};
-use wheelset_runtime::hostile::{self, Expect, Row};
 use wheelset_runtime::{Runtime, RuntimeConfig, DEFAULT_HOLD_TICKS};
 
 /// The runtime runs `c` (after an applied row): its switches, hold and, with rates, the

@@ -7,6 +7,8 @@
 //! the amplitude `(max - min)/2`), a dead band is the offset of the window's mean from
 //! the f64 controller's final value.
 
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64;
 use serde::Serialize;
 use wheelset_control::{Config, Sample};
 
@@ -89,13 +91,9 @@ pub fn limit_cycles<T: Sample>(
     for (x_hold, label) in holds {
         let mut a = Drive::<T>::new(kind, cfg)?;
         let mut b = Drive::<f64>::new(kind, cfg)?;
-        let mut seed = 0x1234_5678_u64;
+        let mut rng = Pcg64::seed_from_u64(0x1234_5678);
         for _ in 0..burst {
-            seed = seed
-                .wrapping_mul(6_364_136_223_846_793_005)
-                .wrapping_add(1_442_695_040_888_963_407);
-            let u = ((seed >> 11) as f64) / (1u64 << 53) as f64;
-            let x = amp * (2.0 * u - 1.0);
+            let x = amp * rng.random_range(-1.0..1.0);
             a.step(x);
             b.step(x);
         }

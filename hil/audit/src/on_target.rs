@@ -107,11 +107,10 @@ fn frame(seq: u16, c: &InputCodes) -> Result<Vec<u8>, String> {
 
 fn decode(bytes: &[u8], dec: &mut Decoder) -> Option<Actuation> {
     let mut out = None;
-    let mut rest = bytes;
-    while !rest.is_empty() {
-        let (r, more) = dec.next_message(rest);
-        rest = more;
-        if let (Some(Ok(Message::Actuation(a))), None) = (r, out) {
+    // Every frame is taken (the decoder carries over to the next bytes); the first
+    // Actuation is kept.
+    for r in dec.messages(bytes) {
+        if let (Ok(Message::Actuation(a)), None) = (r, out) {
             out = Some(a);
         }
     }

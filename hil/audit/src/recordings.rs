@@ -9,6 +9,8 @@
 //! sees the resulting actuation (closed loop), so the recorded inputs include the
 //! wheelset's response to the safe state.
 
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64;
 use wheelset_control::{Config, Controller, Inputs};
 use wheelset_plant::control::{Actuation, Measurements, SampledController, YawLaw};
 use wheelset_plant::params::Params;
@@ -35,7 +37,7 @@ struct Recorder {
     cfg: Config,
     period_ns: u64,
     faults: Faults,
-    rng: u64,
+    rng: Pcg64,
     held: [f64; 4],
     missing: u32,
     safe: bool,
@@ -50,13 +52,7 @@ impl Recorder {
         match self.faults {
             Faults::None => false,
             Faults::Outage(a, b) => t >= a && t < b,
-            Faults::Drops(p) => {
-                self.rng = self
-                    .rng
-                    .wrapping_mul(6_364_136_223_846_793_005)
-                    .wrapping_add(1_442_695_040_888_963_407);
-                ((self.rng >> 11) as f64 / (1u64 << 53) as f64) < p
-            }
+            Faults::Drops(p) => self.rng.random::<f64>() < p,
         }
     }
 }
@@ -149,7 +145,7 @@ fn record(
         cfg: *cfg,
         period_ns,
         faults,
-        rng: 0x00fa_0175,
+        rng: Pcg64::seed_from_u64(0x00fa_0175),
         held: [0.0; 4],
         missing: 0,
         safe: false,

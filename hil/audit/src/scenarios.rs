@@ -1,25 +1,11 @@
 //! The synthetic input scenarios of the audit (full-scale steps, a chirp, random
 //! full-scale inputs); the closed-loop ones come from [`super::recordings`].
 
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64;
 use wheelset_control::Config;
 
 use super::ranges::{Event, Scenario, Tick};
-
-/// A small deterministic generator (PCG-style LCG), for the random scenario.
-struct Lcg(u64);
-
-impl Lcg {
-    fn next(&mut self) -> f64 {
-        self.0 = self
-            .0
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        ((self.0 >> 11) as f64) / (1u64 << 53) as f64
-    }
-    fn uniform(&mut self, a: f64) -> f64 {
-        a * (2.0 * self.next() - 1.0)
-    }
-}
 
 /// The synthetic scenarios: full-scale steps (every input to and beyond its clamp,
 /// Nyquist alternation, safe-state and traction toggles), a chirp to `0.45 fs`, and
@@ -101,14 +87,16 @@ pub fn synthetic(cfg: &Config) -> Vec<Scenario> {
         ),
         ticks,
     };
-    let mut g = Lcg(0x5eed_a0d1);
+    let mut g = Pcg64::seed_from_u64(0x5eed_a0d1);
+    // Uniform in [-a, a).
+    let mut uniform = |a: f64| a * g.random_range(-1.0..1.0);
     let ticks = (0..n(1.0))
         .map(|_| Tick {
             si: [
-                g.uniform(1.2 * l.y_dot),
-                g.uniform(1.2 * l.current),
-                g.uniform(l.speed),
-                g.uniform(1.2 * l.demand),
+                uniform(1.2 * l.y_dot),
+                uniform(1.2 * l.current),
+                uniform(l.speed),
+                uniform(1.2 * l.demand),
             ],
             event: None,
         })

@@ -163,11 +163,8 @@ fn sensor_frame(k: usize, s: &InputCodes) -> Vec<u8> {
 }
 
 fn decode_actuations(bytes: &[u8], dec: &mut Decoder, out: &mut Vec<Out>) {
-    let mut rest = bytes;
-    while !rest.is_empty() {
-        let (r, more) = dec.next_message(rest);
-        rest = more;
-        if let Some(Ok(Message::Actuation(a))) = r {
+    for r in dec.messages(bytes) {
+        if let Ok(Message::Actuation(a)) = r {
             out.push(Out {
                 t_psi_dnm: a.t_psi_dnm,
                 u_a_cv: a.u_a_cv,

@@ -45,17 +45,12 @@ impl Pair {
 
     /// The host runtime's tick: its Actuation.
     fn host_tick(&mut self) -> Actuation {
-        let mut h = None;
         let mut dec: Decoder = Decoder::new();
-        let mut rest = self.host.tick(0);
-        while !rest.is_empty() {
-            let (r, more) = dec.next_message(rest);
-            rest = more;
-            if let Some(Ok(Message::Actuation(a))) = r {
-                h.get_or_insert(a);
-            }
-        }
-        h.expect("the host's Actuation")
+        let first = dec.messages(self.host.tick(0)).find_map(|r| match r {
+            Ok(Message::Actuation(a)) => Some(a),
+            _ => None,
+        });
+        first.expect("the host's Actuation")
     }
 
     /// The same frame to both.

@@ -1,4 +1,4 @@
-//! The hostile-Config table (`wheelset_runtime::hostile`) against the firmware
+//! The hostile-Config table (`wheelset_hostile`) against the firmware
 //! `wheelset-qemu.elf` over its UART: one boot, every row from the nominal state (the
 //! nominal Config restored between rows, the restore proven by the frames after it),
 //! each refused with its reason and nothing else changed, or applied; and every frame
@@ -10,8 +10,8 @@
 mod common;
 
 use wheelset_control::Fx;
+use wheelset_hostile::{self as hostile, Device, Expect, Reply, Row, Trace};
 use wheelset_proto::{Decoder, Message};
-use wheelset_runtime::hostile::{self, Device, Expect, Reply, Row, Trace};
 use wheelset_runtime::{Runtime, RuntimeConfig};
 use wheelset_targets::qemu::{Qemu, QemuConfig};
 

@@ -183,15 +183,13 @@ fn two_frames_in_one_write_are_two_ticks_and_two_answers() {
         .expect("both answers arrive (a lost one is a timeout error)");
     let (ticks, most) = device.finish();
     let mut dec: Decoder = Decoder::new();
-    let mut echoes = Vec::new();
-    let mut rest = &got[..];
-    while !rest.is_empty() {
-        let (m, more) = dec.next_message(rest);
-        rest = more;
-        if let Some(Ok(Message::Actuation(a))) = m {
-            echoes.push(a.seq_echo);
-        }
-    }
+    let echoes: Vec<u16> = dec
+        .messages(&got)
+        .filter_map(|m| match m {
+            Ok(Message::Actuation(a)) => Some(a.seq_echo),
+            _ => None,
+        })
+        .collect();
     assert_eq!(most, 1, "a burst held {most} frames");
     assert_eq!(ticks, 2);
     assert_eq!(echoes, vec![1, 2]);

@@ -39,11 +39,7 @@ impl Expect {
 
     /// Accounts for bytes sent: one frame per delimiter, two for a status request.
     pub fn sent(&mut self, bytes: &[u8]) {
-        let mut rest = bytes;
-        while !rest.is_empty() {
-            let (r, more) = self.decoder.next_message(rest);
-            let taken = rest.get(..rest.len() - more.len()).unwrap_or(&[]);
-            rest = more;
+        for (taken, r) in self.decoder.pieces(bytes) {
             if taken.last() == Some(&0) {
                 self.owed += 1;
                 if let Some(Ok(Message::Command(Command::RequestStatus))) = r {

@@ -538,15 +538,10 @@ fn poll_readable(s: &TcpStream, wait: Duration) -> io::Result<()> {
 /// Whether the frames in `bytes` hold a Status frame.
 fn is_status(bytes: &[u8]) -> bool {
     let mut d: Decoder = Decoder::new();
-    let mut rest = bytes;
-    while !rest.is_empty() {
-        let (r, more) = d.next_message(rest);
-        if matches!(r, Some(Ok(Message::Status(_)))) {
-            return true;
-        }
-        rest = more;
-    }
-    false
+    let found = d
+        .messages(bytes)
+        .any(|r| matches!(r, Ok(Message::Status(_))));
+    found
 }
 
 /// `x` wrapped into `[-t/2, t/2)`.

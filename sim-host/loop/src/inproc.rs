@@ -401,17 +401,12 @@ fn outcome(
 fn negate_torque(out: &[u8], res: &mut Vec<u8>) {
     let mut dec: Decoder = Decoder::new();
     res.clear();
-    let mut rest = out;
-    while !rest.is_empty() {
-        let (r, more) = dec.next_message(rest);
-        rest = more;
-        if let Some(Ok(mut m)) = r {
-            if let Message::Actuation(a) = &mut m {
-                a.t_psi_dnm = a.t_psi_dnm.saturating_neg();
-            }
-            if let Ok(f) = encode_vec(&m) {
-                res.extend_from_slice(&f);
-            }
+    for mut m in dec.messages(out).flatten() {
+        if let Message::Actuation(a) = &mut m {
+            a.t_psi_dnm = a.t_psi_dnm.saturating_neg();
+        }
+        if let Ok(f) = encode_vec(&m) {
+            res.extend_from_slice(&f);
         }
     }
 }

@@ -108,8 +108,8 @@ pub trait Transport {
     ) -> Result<(), TransportError>;
     /// [`Self::recv`] decoded with the host's decoder `dec` (its state carried from call
     /// to call): every delivered chunk is taken up to each delimiter
-    /// ([`Decoder::next_message`]) and each piece goes to `sink(arrival_ns, bytes,
-    /// frame)`, in order. A transport that accounts for frames itself (the in-process
+    /// ([`Decoder::pieces`]) and each piece goes to `sink(arrival_ns, bytes, frame)`, in
+    /// order. A transport that accounts for frames itself (the in-process
     /// link) overrides it to attribute the decoder's own results, with no second decoder
     /// over the same bytes.
     fn recv_frames(
@@ -119,11 +119,8 @@ pub trait Transport {
         sink: &mut FrameSink<'_>,
     ) -> Result<(), TransportError> {
         self.recv(deadline_ns, &mut |at, run| {
-            let mut rest = run;
-            while !rest.is_empty() {
-                let (r, more) = dec.next_message(rest);
-                sink(at, rest.len() - more.len(), r);
-                rest = more;
+            for (piece, r) in dec.pieces(run) {
+                sink(at, piece.len(), r);
             }
         })
     }

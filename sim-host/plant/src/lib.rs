@@ -14,8 +14,6 @@
 //! - [`sampled`]: the sampled-data rate analysis of the firmware's loops.
 //! - [`adhesion`]: Polach's adhesion-limited creep law, rail conditions as data.
 //! - [`traction`]: creep characteristics, the per-section adhesion summary, runaway.
-//! - [`eig`]: eigenvalues of small dense real matrices (balancing, Hessenberg, Francis
-//!   double-shift QR) on the stack.
 //! - [`finite`]: finiteness before every eigenvalue/exponential, blame, conditioning.
 //! - [`outcome`]: a stopped run is a numerical failure or an unstable loop.
 //! - [`memory`]: the memory estimate of a run or a sweep, refused above 2 GiB.
@@ -28,7 +26,6 @@
 
 pub mod adhesion;
 pub mod control;
-pub mod eig;
 pub mod error;
 pub mod fault;
 pub mod finite;

@@ -3,7 +3,7 @@
 //! For each analysis case ([`Case`], as `docs/model.md` defines them) and each creep
 //! coefficient `f11 = f22` of the sweep, the closed loop is linearised at pure rolling
 //! on straight track ([`crate::linear`]) and its eigenvalues computed ([`eigenvalues`]:
-//! irreducible blocks, each by the double-shift QR iteration of [`crate::eig`]).
+//! irreducible blocks, each balanced, then nalgebra's real Schur form).
 //! Eigenvalues are tracked from point to point by continuity (greedy
 //! nearest-neighbour assignment to a linear prediction), named once at the start of the
 //! sweep (10 MN) from their participation factors `|w_k v_k|` (left and right
@@ -24,7 +24,6 @@
 //! differently at the start that later merge into a complex pair keep both names.
 
 use crate::control::{ContinuousController, YawLaw};
-use crate::eig::{append_eigenvalues, MAX_ORDER};
 use crate::linear::{closed_loop_a, closed_loop_a_into, closed_loop_states};
 use crate::params::Params;
 use crate::plant::PlantConfig;
@@ -34,7 +33,9 @@ use serde::Serialize;
 use std::f64::consts::PI;
 
 // Files: `modes/naming.rs` (tracking and naming the modes), `modes/creep_sweep.rs` (the sweep
-// and its crossings), `modes/json.rs` (the JSON form).
+// and its crossings), `modes/json.rs` (the JSON form), `modes/balance.rs` (the balancing
+// in front of the solver).
+mod balance;
 mod creep_sweep;
 mod json;
 mod naming;
@@ -163,12 +164,11 @@ impl CaseLoop {
 /// components of its sparsity graph (after a symmetric permutation it is block
 /// triangular, so its eigenvalues are those of the diagonal blocks: e.g. the rigid
 /// axle's longitudinal motion decouples from the lateral one at pure rolling); each
-/// block goes to [`crate::eig::SmallMatrix::eigenvalues`] (balancing, Hessenberg
-/// reduction, Francis double-shift QR, no Schur vectors; nalgebra's real Schur form for
-/// blocks above [`MAX_ORDER`]). Eigenvalues come block by block in the order of the
-/// components, within a block in the order of its Schur form (a complex pair adjacent,
-/// positive imaginary part first). `None` if `a` has a non-finite entry or the QR
-/// iteration does not converge.
+/// block is balanced (an exact similarity by powers of two, LAPACK `dgebal`'s scaling)
+/// and its eigenvalues read from nalgebra's real Schur form. Eigenvalues come block by block in the order of the components,
+/// within a block in the order of its Schur form (a complex pair adjacent, positive
+/// imaginary part first). `None` if `a` has a non-finite entry or the QR iteration does
+/// not converge.
 pub fn eigenvalues(a: &DMatrix<f64>) -> Option<Vec<Complex<f64>>> {
     let mut out = Vec::with_capacity(a.nrows());
     Eigen::default().solve(a, &mut out).then_some(out)
@@ -228,21 +228,21 @@ impl Eigen {
     }
 }
 
-/// Appends the eigenvalues of the diagonal block `a[block, block]` to `out`; false
-/// (`out` unchanged) when the QR iteration does not converge. Blocks of up to
-/// [`MAX_ORDER`] states (every closed loop here) go to
-/// [`crate::eig::append_eigenvalues`] (on the stack), larger ones to nalgebra's real
-/// Schur form.
+/// Appends the eigenvalues of the diagonal block `a[block, block]` to `out`: balanced,
+/// then nalgebra's real Schur form with at most `30 max(k, 10)` QR steps for a block of
+/// `k` states (LAPACK `dlahqr`'s allowance). False (`out` unchanged) when it has not
+/// converged by then.
 fn block_eigenvalues(a: &DMatrix<f64>, block: &[usize], out: &mut Vec<Complex<f64>>) -> bool {
-    match block.len() {
-        0 => true,
-        1 => {
-            out.push(Complex::new(a[(block[0], block[0])], 0.0));
+    match *block {
+        [] => true,
+        [i] => {
+            out.push(Complex::new(a[(i, i)], 0.0));
             true
         }
-        k if k <= MAX_ORDER => append_eigenvalues(k, |i, j| a[(block[i], block[j])], out).is_some(),
-        k => {
-            let m = DMatrix::from_fn(k, k, |i, j| a[(block[i], block[j])]);
+        _ => {
+            let k = block.len();
+            let mut m = DMatrix::from_fn(k, k, |i, j| a[(block[i], block[j])]);
+            balance::balance(&mut m);
             nalgebra::Schur::try_new(m, f64::EPSILON, 30 * k.max(10))
                 .map(|s| out.extend(s.complex_eigenvalues().iter().copied()))
                 .is_some()
@@ -475,5 +475,62 @@ impl CaseSweep {
     /// Whether every mode (structural zero excluded) is stable at point `k`.
     pub fn stable_at(&self, k: usize) -> bool {
         self.modes_at(k).iter().all(|m| m.re < 0.0)
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn eigenvalues_come_block_by_block_with_pairs_adjacent() {
+        // A rotation block (-0.1 +- 87 j) feeding a real state (-700) and a companion
+        // block of (s + 1)(s + 2)(s - 0.5) feeding the rotation: three components.
+        let a = DMatrix::from_row_slice(
+            6,
+            6,
+            &[
+                -0.1, 87.0, 5.0, 0.0, 0.0, 0.0, //
+                -87.0, -0.1, 0.0, 0.0, 0.0, 0.0, //
+                0.0, 0.0, -700.0, 0.0, 0.0, 0.0, //
+                1.0, 0.0, 0.0, -2.5, -0.5, 1.0, //
+                0.0, 0.0, 0.0, 1.0, 0.0, 0.0, //
+                0.0, 0.0, 0.0, 0.0, 1.0, 0.0, //
+            ],
+        );
+        let l = eigenvalues(&a).unwrap();
+        assert_eq!(l.len(), 6);
+        let pair = l.iter().position(|z| z.im != 0.0).unwrap();
+        assert!(l[pair].im > 0.0);
+        assert_eq!(l[pair + 1], l[pair].conj());
+        let want = [
+            Complex::new(-0.1, 87.0),
+            Complex::new(-0.1, -87.0),
+            Complex::new(-700.0, 0.0),
+            Complex::new(-1.0, 0.0),
+            Complex::new(-2.0, 0.0),
+            Complex::new(0.5, 0.0),
+        ];
+        for w in want {
+            let d = l
+                .iter()
+                .map(|z| (z - w).norm())
+                .fold(f64::INFINITY, f64::min);
+            assert!(d < 1e-12 * 700.0, "{w}: {d:e} from the nearest of {l:?}");
+        }
+        assert_eq!(
+            l.iter().filter(|z| z.re == -700.0 && z.im == 0.0).count(),
+            1
+        );
+    }
+
+    #[test]
+    fn non_finite_matrices_are_refused() {
+        for bad in [f64::NAN, f64::INFINITY] {
+            let a = DMatrix::from_fn(3, 3, |i, j| if (i, j) == (1, 2) { bad } else { 1.0 });
+            assert_eq!(eigenvalues(&a), None);
+        }
+        assert_eq!(eigenvalues(&DMatrix::zeros(0, 0)), Some(vec![]));
     }
 }

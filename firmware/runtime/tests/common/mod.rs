@@ -37,16 +37,9 @@ pub fn vel(seq: u16, y_um_s: i32) -> Vec<u8> {
 /// Every message in the bytes a tick returned (the runtime sends only valid frames).
 pub fn frames(bytes: &[u8]) -> Vec<Message> {
     let mut dec: Decoder = Decoder::new();
-    let mut out = Vec::new();
-    let mut rest = bytes;
-    while !rest.is_empty() {
-        let (r, more) = dec.next_message(rest);
-        rest = more;
-        if let Some(r) = r {
-            out.push(r.expect("the runtime only sends valid frames"));
-        }
-    }
-    out
+    dec.messages(bytes)
+        .map(|r| r.expect("the runtime only sends valid frames"))
+        .collect()
 }
 
 /// The Actuation frame a tick returned (its first frame).

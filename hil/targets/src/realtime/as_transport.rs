@@ -25,13 +25,10 @@ impl Transport for RealTime {
         // Only a Sensor frame opens a period (not the status request at the end).
         let mut d: Decoder = Decoder::new();
         let mut sensor = None;
-        let mut rest = bytes;
-        while !rest.is_empty() {
-            let (r, more) = d.next_message(rest);
-            rest = more;
+        for r in d.messages(bytes) {
             match r {
-                Some(Ok(Message::Sensor(s))) => sensor = Some(s.seq),
-                Some(Ok(Message::Command(Command::RequestStatus))) if self.synced => {
+                Ok(Message::Sensor(s)) => sensor = Some(s.seq),
+                Ok(Message::Command(Command::RequestStatus)) if self.synced => {
                     self.status_owed = true;
                 }
                 _ => {}

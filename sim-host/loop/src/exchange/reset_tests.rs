@@ -27,13 +27,8 @@ impl Transport for Recorder {
     }
     fn send(&mut self, _t_ns: u64, bytes: &[u8]) -> Result<(), TransportError> {
         let mut dec: Decoder = Decoder::new();
-        let mut rest = bytes;
-        while !rest.is_empty() {
-            let (r, more) = dec.next_message(rest);
-            rest = more;
-            if let Some(r) = r {
-                self.sent.push(r.expect("the host's own frame decodes"));
-            }
+        for r in dec.messages(bytes) {
+            self.sent.push(r.expect("the host's own frame decodes"));
         }
         Ok(())
     }

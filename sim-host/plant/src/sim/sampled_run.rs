@@ -6,6 +6,7 @@ use crate::control::{Actuation, Measurements, SampledController};
 use crate::plant::{ix, Flags, Inputs, Plant, State};
 use crate::scenario::Scenario;
 use rand::{Rng, SeedableRng};
+use rand_distr::StandardNormal;
 use rand_pcg::Pcg64;
 use std::collections::VecDeque;
 
@@ -37,10 +38,7 @@ impl SensorModel {
     }
 
     fn gauss(&mut self) -> f64 {
-        // Box-Muller; u1 in (0, 1].
-        let u1: f64 = 1.0 - self.rng.random::<f64>();
-        let u2: f64 = self.rng.random::<f64>();
-        (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
+        self.rng.sample(StandardNormal)
     }
 
     /// Applies noise then quantisation.

@@ -2,10 +2,11 @@
 //! give, beside those just inside each limit and the nominal ones at every design
 //! point, which it must apply ([`rows`]); and the procedure that tries one row on any
 //! device that takes frames ([`Device`], [`probe`]) and judges it by what the device
-//! says and does ([`judge`]). The host runtime runs it (`tests/hostile.rs`, both sample
-//! types), and so does the firmware under QEMU over its UART
-//! (`hil/harness/tests/qemu_hostile.rs`): one table, the same judgement. Host use (the rows are
-//! computed with [`rates_for`]); nothing of it is linked into a firmware.
+//! says and does ([`judge`]). The host runtime runs it
+//! (`firmware/runtime/tests/hostile.rs`, both sample types), and so does the firmware
+//! under QEMU over its UART (`hil/harness/tests/qemu_hostile.rs`): one table, the same
+//! judgement. Test support on the host (the rows are computed with [`rates_for`]): those
+//! tests depend on this crate, no firmware does.
 //!
 //! This file holds one long idea, the table: [`rows`] writes each row beside the limit
 //! it tests and the reason the device must give, in the order of the table below, so a
@@ -63,6 +64,8 @@
 //! table's matter). An applied row counts no refusal, and where it must show
 //! ([`Expect::Applied`] `visible`) its frames differ from the nominal run's.
 
+#![deny(missing_docs)]
+
 use core::fmt;
 
 use wheelset_control::SampleBits;
@@ -71,7 +74,7 @@ use wheelset_proto::{
     Flags, Lateral, Message, Rates, RefuseReason, Sensor, Status, YawMode, CRC_LEN, MAX_FRAME,
 };
 
-use crate::{rates_for, Runtime, RuntimeConfig, RuntimeError, DEFAULT_HOLD_TICKS};
+use wheelset_runtime::{rates_for, Runtime, RuntimeConfig, RuntimeError, DEFAULT_HOLD_TICKS};
 
 pub mod procedure;
 pub use procedure::*;

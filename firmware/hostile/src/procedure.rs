@@ -43,13 +43,10 @@ impl<T: SampleBits> Device for Runtime<T> {
         self.receive(frame);
         let mut dec: Decoder = Decoder::new();
         let (mut actuation, mut got) = (None, None);
-        let mut rest = self.tick(0);
-        while !rest.is_empty() {
-            let (m, more) = dec.next_message(rest);
-            rest = more;
+        for m in dec.messages(self.tick(0)) {
             match m {
-                Some(Ok(Message::Actuation(a))) if actuation.is_none() => actuation = Some(a),
-                Some(Ok(Message::Status(s))) => got = Some(s),
+                Ok(Message::Actuation(a)) if actuation.is_none() => actuation = Some(a),
+                Ok(Message::Status(s)) => got = Some(s),
                 _ => {}
             }
         }
