@@ -36,6 +36,7 @@ use std::path::Path;
 
 mod figure;
 pub mod heatmap;
+pub mod lint;
 mod render;
 mod ticks;
 
