@@ -98,9 +98,24 @@ impl Plot {
         if self.series.iter().any(|s| !s.points.is_empty()) {
             let (xr, yr) = self.data_range();
             for (k, s) in self.series.iter().enumerate() {
-                if !self.clipped_exits(k, xr, yr).is_empty() {
-                    let name = if s.label.is_empty() { "data" } else { &s.label };
-                    rows.push((k, format!("{name}: beyond the axes"), true));
+                if self.clipped_exits(k, xr, yr).is_empty() {
+                    continue;
+                }
+                // An unlabelled series goes by the labelled one of its colour.
+                let col = self.colour(k, s);
+                let name = if s.label.is_empty() {
+                    self.series
+                        .iter()
+                        .enumerate()
+                        .find(|(j, o)| !o.label.is_empty() && self.colour(*j, o) == col)
+                        .map_or("data", |(_, o)| o.label.as_str())
+                } else {
+                    &s.label
+                };
+                let short = name.split(':').next().unwrap_or(name);
+                let text = format!("{short}: beyond the axes");
+                if !rows.iter().any(|r| r.2 && r.1 == text) {
+                    rows.push((k, text, true));
                 }
             }
         }
@@ -395,7 +410,8 @@ impl Plot {
                         }
                         let _ = writeln!(
                             o,
-                            r#"<path d="{d}" fill="none" stroke="{col}" stroke-width="1.4"{dash}/>"#
+                            r#"<path d="{d}" fill="none" stroke="{col}" stroke-width="{}"{dash}/>"#,
+                            s.width
                         );
                     }
                 }
@@ -588,11 +604,12 @@ impl Plot {
                             };
                             let _ = writeln!(
                                 o,
-                                r#"<line x1="{:.1}" y1="{:.1}" x2="{:.1}" y2="{:.1}" stroke="{col}" stroke-width="2"{dash}/>"#,
+                                r#"<line x1="{:.1}" y1="{:.1}" x2="{:.1}" y2="{:.1}" stroke="{col}" stroke-width="{}"{dash}/>"#,
                                 lx + 5.0,
                                 y - 4.0,
                                 lx + 24.0,
-                                y - 4.0
+                                y - 4.0,
+                                s.width.clamp(2.0, 6.0)
                             );
                         }
                     }
