@@ -68,7 +68,12 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
     };
     // Drawing order: the compared runs first, wide, then the main run thin on top, so
     // that where two laws coincide both show (the main run inside the other's band).
-    let order: Vec<(usize, &Trajectory)> = runs.iter().enumerate().skip(1).chain(runs.iter().enumerate().take(1)).collect();
+    let order: Vec<(usize, &Trajectory)> = runs
+        .iter()
+        .enumerate()
+        .skip(1)
+        .chain(runs.iter().enumerate().take(1))
+        .collect();
     let styled = |k: usize, s: Series| -> Series {
         let s = s.color(PALETTE[k % PALETTE.len()]);
         if k == 0 {
@@ -91,7 +96,10 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
             .width(6.0),
     );
     for &(k, tr) in &order {
-        p = p.series(styled(k, series(tr, &format!("y, {}", label(tr)), |r| r.y_m * 1e3)));
+        p = p.series(styled(
+            k,
+            series(tr, &format!("y, {}", label(tr)), |r| r.y_m * 1e3),
+        ));
     }
     let mut psi = Plot::new("Yaw angle")
         .x_label("t (s)")
@@ -131,7 +139,10 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
     .x_label("t (s)")
     .y_label("T_psi (N m)");
     for &(k, tr) in &order {
-        p = p.series(styled(k, series(tr, &format!("T_psi, {}", label(tr)), |r| r.t_psi_nm)));
+        p = p.series(styled(
+            k,
+            series(tr, &format!("T_psi, {}", label(tr)), |r| r.t_psi_nm),
+        ));
     }
     save("torque.svg", Figure::new(&title).panel(p))?;
 
@@ -248,9 +259,9 @@ pub fn write_root_locus(sw: &CaseSweep, dir: &Path) -> std::io::Result<std::path
     let mut freq = Plot::new(
         "Frequency of each mode: natural |lambda|/2pi dashed, damped Im lambda/2pi solid",
     )
-        .size(900.0, 360.0)
-        .x_label("creep coefficient f11 = f22 (MN)")
-        .y_label("frequency (Hz)");
+    .size(900.0, 360.0)
+    .x_label("creep coefficient f11 = f22 (MN)")
+    .y_label("frequency (Hz)");
     let mut zeta = Plot::new("Damping ratio of each mode (below 0 = unstable)")
         .size(900.0, 360.0)
         .x_label("creep coefficient f11 = f22 (MN)")

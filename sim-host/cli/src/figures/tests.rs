@@ -60,13 +60,13 @@ fn time_histories_name_the_figure_of_their_scenario() {
         (
             "beating",
             YawLaw::Passive,
-            "Lateral displacement (Fig. 9)",
+            "pure rolling line y0 (Fig. 9)",
             "(Fig. 6)",
         ),
         (
             "curve",
             YawLaw::Lead,
-            "Lateral displacement (Fig. 6)",
+            "pure rolling line y0 (Fig. 6)",
             "(Fig. 9)",
         ),
     ] {

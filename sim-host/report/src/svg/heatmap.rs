@@ -86,7 +86,7 @@ impl HeatMap {
         self.cells = cells;
         self
     }
-    /// Adds a legend entry.
+    /// Adds a legend entry (colour `none`: a line of text without a swatch).
     #[must_use]
     pub fn legend(mut self, color: &str, label: &str) -> Self {
         self.legend.push((color.into(), label.into()));
@@ -187,11 +187,14 @@ impl HeatMap {
         let lx = ml + pw + 12.0;
         for (row, (col, label)) in self.legend.iter().enumerate() {
             let y = mt + row as f64 * 16.0;
-            let _ = writeln!(
-                o,
-                r##"<rect x="{lx:.1}" y="{y:.1}" width="14" height="12" fill="{}" stroke="#999"/>"##,
-                esc(col)
-            );
+            // A legend row of colour `none` is a line of text without a swatch.
+            if col != "none" {
+                let _ = writeln!(
+                    o,
+                    r##"<rect x="{lx:.1}" y="{y:.1}" width="14" height="12" fill="{}" stroke="#999"/>"##,
+                    esc(col)
+                );
+            }
             let _ = writeln!(
                 o,
                 r#"<text x="{:.1}" y="{:.1}">{}</text>"#,

@@ -132,9 +132,10 @@ impl Plot {
         axis(self.y_log, y)
     }
 
-    /// A panel that carries only a note: no data, so no axes to read.
+    /// A panel that carries only a note: no data and no marks, so no axes to read.
     fn note_only(&self) -> bool {
         !self.note.is_empty()
+            && self.marks.is_empty()
             && self.bars.is_empty()
             && self.series.iter().all(|s| s.points.is_empty())
     }
@@ -490,7 +491,14 @@ impl Plot {
                     cands.push((at - 3.0, y, true));
                 }
             } else {
-                for y in [at - 3.0, at + 12.0] {
+                for y in [
+                    at - 3.0,
+                    at + 12.0,
+                    at - 15.0,
+                    at + 24.0,
+                    at - 27.0,
+                    at + 36.0,
+                ] {
                     cands.push((ml + 4.0, y, false));
                     cands.push((ml + pw - 4.0, y, true));
                 }
@@ -499,28 +507,27 @@ impl Plot {
                 let x0 = if end { x - w } else { x };
                 (x0, y - 9.0, x0 + w, y + 3.0)
             };
-            let score = |cand: (f64, f64, bool)| -> (bool, bool, usize) {
+            // Outside the area, over another label, across another mark's line, over
+            // data: in that order of cost (rows further down cost a little, so that
+            // labels stay near the top).
+            let score = |i: usize, cand: (f64, f64, bool)| -> (bool, bool, bool, usize) {
                 let r = rect_of(cand);
                 let outside = r.0 < ml || r.2 > ml + pw || r.1 < mt || r.3 > mt + ph;
-                let clash = taken.iter().any(|t| overlap(t, &r))
-                    || v_lines
-                        .iter()
-                        .any(|&x| (x - at).abs() > 0.5 && x > r.0 && x < r.2);
+                let clash = taken.iter().any(|t| overlap(t, &r));
+                let crosses = v_lines
+                    .iter()
+                    .any(|&x| (x - at).abs() > 0.5 && x > r.0 && x < r.2);
                 let hidden = placed_pts
                     .iter()
                     .filter(|p| p.0 >= r.0 && p.0 <= r.2 && p.1 >= r.1 && p.1 <= r.3)
                     .count();
-                (outside, clash, hidden)
+                (outside, clash, crosses, hidden + i / 2)
             };
             let best = cands
                 .iter()
                 .copied()
                 .enumerate()
-                .min_by_key(|&(i, cand)| {
-                    let (out, clash, hidden) = score(cand);
-                    // Rows further down cost a little, so that labels stay near the top.
-                    (out, clash, hidden + i / 2)
-                })
+                .min_by_key(|&(i, cand)| score(i, cand))
                 .map(|(_, cand)| cand);
             let Some(cand) = best else { continue };
             taken.push(rect_of(cand));
