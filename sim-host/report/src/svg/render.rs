@@ -181,7 +181,8 @@ impl Plot {
         let fix = |r: (f64, f64)| {
             if !r.0.is_finite() {
                 (0.0, 1.0)
-            } else if r.1 - r.0 <= f64::EPSILON * r.0.abs().max(1e-300) {
+            } else if r.1 - r.0 <= 1e-9 * r.0.abs().max(1e-300) {
+                // A constant (to rounding): a range around it, not ticks in its noise.
                 let d = if r.0 == 0.0 { 1.0 } else { r.0.abs() * 0.1 };
                 (r.0 - d, r.1 + d)
             } else {
@@ -234,7 +235,7 @@ impl Plot {
     pub fn render_group_with(&self, ox: f64, oy: f64, legend_w: f64) -> String {
         // The legend sits in a column right of the plotting area, so it never hides data.
         let legend_w = legend_w.max(self.legend_width());
-        // Slanted category names (40 degrees, ~6 px per character at font-size 11)
+        // Slanted category names (40 degrees, [`LABEL_CHAR_PX`] per character)
         // take sin(40) of their length below the axis.
         let longest = self
             .x_categories
@@ -245,29 +246,34 @@ impl Plot {
         let cat_h = if longest == 0 {
             0.0
         } else {
-            longest as f64 * 6.0 * 0.643 + 8.0
+            longest as f64 * LABEL_CHAR_PX * 0.643 + 8.0
         };
         let (mr, mt, mb) = (16.0 + legend_w, 30.0, 46.0 + cat_h);
         // The first category's slanted name reaches left of its centre by its length
         // times cos(40): the left margin grows so that the edge does not cut it off.
-        let first = self
-            .x_categories
-            .first()
-            .map_or(0.0, |c| c.chars().count() as f64 * 6.0 * 0.766 + 6.0);
+        let first = self.x_categories.first().map_or(0.0, |c| {
+            c.chars().count() as f64 * LABEL_CHAR_PX * 0.766 + 6.0
+        });
         let half = 0.5 / self.x_categories.len().max(1) as f64;
-        let ml = f64::max(78.0, (first - (self.width - mr) * half) / (1.0 - half));
-        let (pw, ph) = (self.width - ml - mr, self.height - mt - mb);
         let ((x0, x1), (y0, y1)) = self.data_range();
         let blank = self.note_only();
-        let xt = if blank || !self.x_categories.is_empty() {
-            Vec::new()
-        } else {
-            Self::ticks(self.x_log, x0, x1, 7)
-        };
         let yt = if blank {
             Vec::new()
         } else {
             Self::ticks(self.y_log, y0, y1, 6)
+        };
+        // Room for the longest y tick label right of the rotated y label.
+        let tick_w = yt
+            .iter()
+            .map(|t| t.1.chars().count() as f64 * LABEL_CHAR_PX)
+            .fold(0.0, f64::max);
+        let ml =
+            f64::max(78.0, (first - (self.width - mr) * half) / (1.0 - half)).max(tick_w + 28.0);
+        let (pw, ph) = (self.width - ml - mr, self.height - mt - mb);
+        let xt = if blank || !self.x_categories.is_empty() {
+            Vec::new()
+        } else {
+            Self::ticks(self.x_log, x0, x1, 7)
         };
         // Axis units to px (`sx`, `sy`); data units to px (`px`, `py`).
         let sx = |x: f64| ml + (x - x0) / (x1 - x0) * pw;
@@ -448,6 +454,17 @@ impl Plot {
         // The marks on top of the data, each label beside its line where it hides the
         // fewest data points and no other label.
         let placed_pts = self.drawn_px(&sx, &sy);
+        // The bars as drawn (a label over one hides it as much as over fifty points).
+        let bar_px: Vec<Rect> = self
+            .bars
+            .iter()
+            .filter(|b| !(self.y_log && b.2 <= 0.0))
+            .map(|&(a, b, h)| {
+                let top = sy(self.ty(h).max(y0));
+                let bottom = sy(if self.y_log { y0 } else { 0f64.max(y0) });
+                (px(a), top.min(bottom), px(b), top.max(bottom))
+            })
+            .collect();
         let mut taken: Vec<Rect> = Vec::new();
         let v_lines: Vec<f64> = self
             .marks
@@ -455,6 +472,13 @@ impl Plot {
             .filter(|m| m.vertical)
             .map(|m| px(m.at))
             .filter(|x| x.is_finite())
+            .collect();
+        let h_lines: Vec<f64> = self
+            .marks
+            .iter()
+            .filter(|m| !m.vertical)
+            .map(|m| py(m.at))
+            .filter(|y| y.is_finite())
             .collect();
         for m in &self.marks {
             let label = esc(&m.label);
@@ -514,13 +538,19 @@ impl Plot {
                 let r = rect_of(cand);
                 let outside = r.0 < ml || r.2 > ml + pw || r.1 < mt || r.3 > mt + ph;
                 let clash = taken.iter().any(|t| overlap(t, &r));
+                // Another mark's line through the label (its own runs beside it).
+                let other = |l: f64, vertical: bool| m.vertical != vertical || (l - at).abs() > 0.5;
                 let crosses = v_lines
                     .iter()
-                    .any(|&x| (x - at).abs() > 0.5 && x > r.0 && x < r.2);
+                    .any(|&x| other(x, true) && x > r.0 && x < r.2)
+                    || h_lines
+                        .iter()
+                        .any(|&y| other(y, false) && y > r.1 && y < r.3);
                 let hidden = placed_pts
                     .iter()
                     .filter(|p| p.0 >= r.0 && p.0 <= r.2 && p.1 >= r.1 && p.1 <= r.3)
-                    .count();
+                    .count()
+                    + 50 * bar_px.iter().filter(|b| overlap(b, &r)).count();
                 (outside, clash, crosses, hidden + i / 2)
             };
             let best = cands
@@ -595,7 +625,22 @@ impl Plot {
                     );
                 } else {
                     match s.style {
-                        Style::Markers | Style::Crosses => {
+                        Style::Crosses => {
+                            let (cx, cy) = (lx + 14.0, y - 4.0);
+                            let _ = writeln!(
+                                o,
+                                r#"<path d="M{:.1},{:.1} L{:.1},{:.1} M{:.1},{:.1} L{:.1},{:.1}" stroke="{col}" stroke-width="1.5"/>"#,
+                                cx - 4.0,
+                                cy - 4.0,
+                                cx + 4.0,
+                                cy + 4.0,
+                                cx - 4.0,
+                                cy + 4.0,
+                                cx + 4.0,
+                                cy - 4.0
+                            );
+                        }
+                        Style::Markers => {
                             let _ = writeln!(
                                 o,
                                 r#"<circle cx="{:.1}" cy="{:.1}" r="3" fill="{col}"/>"#,

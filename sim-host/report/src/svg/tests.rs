@@ -124,7 +124,7 @@ fn a_long_first_category_name_is_not_cut_off() {
     let s = Plot::histogram("h", &[0.0, 1.0, 2.0], &[1.0, 2.0])
         .x_categories(&names)
         .to_svg();
-    // The name's left end: its anchor x minus its length at 6 px x cos(40).
+    // The name's left end: its anchor x minus its length at 6.6 px x cos(40).
     let anchor: f64 = s
         .split("<text transform=\"translate(")
         .nth(1)
@@ -132,7 +132,7 @@ fn a_long_first_category_name_is_not_cut_off() {
         .and_then(|x| x.parse().ok())
         .unwrap();
     assert!(
-        anchor - names[0].len() as f64 * 6.0 * 0.766 >= 0.0,
+        anchor - names[0].len() as f64 * 6.6 * 0.766 >= 0.0,
         "{anchor}"
     );
 }
