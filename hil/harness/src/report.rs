@@ -327,8 +327,7 @@ fn exec_histogram(r: &RunReport) -> Figure {
                 .x_range(0.0, period_us * 1.25)
                 .y_range(0.0, 1.0)
                 .note(
-                    "execution time not measured in process: --target qemu, cargo xtask \
-                     fw-bench or a board measure it",
+                    "not measured in process: --target qemu, xtask fw-bench or a board measure it",
                 ),
         ));
     }

@@ -35,16 +35,21 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
     };
     // The title says what is compared: the main run's control against the others'.
     let others: Vec<String> = runs[1..].iter().map(label).collect();
-    let title = if others.is_empty() {
-        format!("scenario {}, control {}", main.info.scenario, label(main))
-    } else {
-        format!(
-            "scenario {}: control {} (thin, on top) against {} (wide, beneath)",
-            main.info.scenario,
-            label(main),
-            others.join(", ")
-        )
+    // How each figure draws the runs: the main run thin over the others' wide band, or
+    // solid under the others dashed.
+    let titled = |main_style: &str, others_style: &str| {
+        if others.is_empty() {
+            format!("scenario {}, control {}", main.info.scenario, label(main))
+        } else {
+            format!(
+                "scenario {}: control {} ({main_style}) against {} ({others_style})",
+                main.info.scenario,
+                label(main),
+                others.join(", ")
+            )
+        }
     };
+    let title = titled("thin, on top", "wide, beneath");
     // The paper's figure each plot reproduces: `curve` is Figs. 6-8, `beating` Fig. 9;
     // other scenarios are no figure of the paper.
     let fig = |curve: &str, beating: &str| -> String {
@@ -172,7 +177,10 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
     });
     save(
         "creep.svg",
-        Figure::new(&title).panel(fxr).panel(fxl).panel(fy),
+        Figure::new(&titled("solid", "dashed, on top"))
+            .panel(fxr)
+            .panel(fxl)
+            .panel(fy),
     )?;
 
     // Traction and Fig. 9 view.
@@ -201,11 +209,15 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
         .series(series(main, "v", |r| r.v_mps));
     save(
         "traction.svg",
-        Figure::new(&format!("{title}, control {}", label(main)))
-            .panel(ia)
-            .panel(ua)
-            .panel(wind)
-            .panel(v),
+        Figure::new(&format!(
+            "scenario {}, control {}: the drive",
+            main.info.scenario,
+            label(main)
+        ))
+        .panel(ia)
+        .panel(ua)
+        .panel(wind)
+        .panel(v),
     )?;
     Ok(files)
 }
@@ -301,6 +313,8 @@ pub fn write_root_locus(sw: &CaseSweep, dir: &Path) -> std::io::Result<std::path
         let (lo, hi) = hz_range(name, &f64::hypot);
         let named = if hi > 0.0 {
             format!("{name}: f_n {lo:.1}-{hi:.1} Hz")
+        } else if name.contains("real") {
+            name.clone()
         } else {
             format!("{name}: real")
         };
@@ -550,8 +564,16 @@ pub fn characteristic(ch: &Characteristic) -> Figure {
             .style(Style::Dashed)
             .color("#000"),
     )
-    .hline(ch.mu_peak);
-    Figure::new(&format!("adhesion: {}", ch.source)).panel(plot)
+    .hmark(
+        ch.mu_peak,
+        &format!("peak adhesion {:.3}", ch.mu_peak),
+        "#777777",
+    );
+    // The figure is as wide as its title (the law's source) needs: 9 px a character at
+    // font-size 15.
+    let title = format!("adhesion: {}", ch.source);
+    let width = (title.chars().count() as f64 * 9.0 + 40.0).max(plot.width);
+    Figure::new(&title).panel(plot.size(width, 360.0))
 }
 
 #[cfg(test)]
