@@ -76,7 +76,8 @@ pub fn full_text(a: &Audit, quiet: bool) -> String {
 
 /// The terminal summary, a handful of lines: the configuration, the controllers' worst
 /// error, each loop's stability and margins, one line per check not passed (its figure;
-/// the reason and remedy are in the report), where the report went, and the verdict
+/// the reason and remedy are in the report; a check not run says how to run it), where
+/// the report went, and the verdict
 /// (`quiet`: without the controllers' and the loops' lines).
 pub fn summary(a: &Audit, report: Option<&Path>, quiet: bool) -> String {
     let mut s = String::new();
@@ -122,8 +123,9 @@ pub fn summary(a: &Audit, report: Option<&Path>, quiet: bool) -> String {
         }
     }
     for c in a.checks.iter().filter(|c| c.status != Status::Pass) {
+        // A check that could not run says why and how to run it.
         let value = if c.not_run {
-            "not run".to_string()
+            c.reason_and_remedy()
         } else {
             format!("{:.3} {}", c.value, c.unit)
         };
