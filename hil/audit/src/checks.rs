@@ -395,10 +395,10 @@ pub const USUAL_MARGINS: (f64, f64) = (6.0, 30.0);
 /// warning, a dither within the proven rounding bound passes), the margins' loss by
 /// quantisation (the change in dB / degrees, judged against the discretisation
 /// tolerances), and the margins themselves against the usual 6 dB / 30 degrees
-/// ([`USUAL_MARGINS`]; a warning below, never a failure: the yaw plant is open-loop
-/// unstable, so the classical crossover figures guide robustness and do not decide
-/// stability, which `sim-host rates` does). `p` is the operating point of the margins
-/// (its axle torsion frequency names the yaw loop's crossover).
+/// ([`USUAL_MARGINS`]; a warning below), and each loop's stability by the Nyquist count
+/// (a failure when unstable; it agrees with `sim-host rates`'s eigenvalues). `p` is the
+/// operating point of the margins (its axle torsion frequency names the yaw loop's
+/// crossover).
 pub fn closed_loop_checks(
     lc: &LimitCycleReport,
     m: &[Margin],
@@ -500,6 +500,70 @@ pub fn closed_loop_checks(
     v
 }
 
+/// What the Nyquist count says of one loop: `P`, `W` and `Z`.
+fn nyquist_words(x: &Margin) -> String {
+    let p = x.open_loop_unstable_poles;
+    let plural = |n: i64, w: &str| format!("{n} {w}{}", if n == 1 { "" } else { "s" });
+    let count = format!(
+        "{} outside the unit circle, the Nyquist plot of L turns {} round -1 \
+         counter-clockwise, so the closed loop has Z = P - W = {}",
+        plural(p as i64, "open-loop pole"),
+        plural(x.encirclements, "time"),
+        plural(x.closed_loop_unstable_poles, "unstable pole")
+    );
+    if p == 0 {
+        format!("The loop has no {count}").replace("no 0 open-loop poles", "no open-loop pole")
+    } else {
+        format!(
+            "The loop's plant has {count}: an open-loop-unstable loop needs a minimum gain, \
+             so its margins are a gain interval (how far the gain may drop and rise) and the \
+             phase lag and lead that would change the count"
+        )
+    }
+}
+
+/// The gain interval of a loop in words.
+fn gain_words(x: &Margin) -> String {
+    let db = |v: Option<f64>, none: &str| v.map_or(none.to_string(), |d| format!("{d:+.2} dB"));
+    format!(
+        "stable from {} to {} of loop gain",
+        db(x.gain_reduction_db, "no lower limit"),
+        db(x.gain_increase_db, "no upper limit")
+    )
+}
+
+/// The phase margins of a loop in words.
+fn phase_words(x: &Margin) -> String {
+    let deg = |v: Option<f64>| v.map_or("none".to_string(), |d| format!("{d:.2} deg"));
+    format!(
+        "extra lag to instability {}, extra lead {}",
+        deg(x.phase_lag_deg),
+        deg(x.phase_lead_deg)
+    )
+}
+
+/// The loop's stability by the Nyquist criterion: a fail when the closed loop has a pole
+/// outside the unit circle.
+fn stability_check(x: &Margin, remedy: String) -> Check {
+    let z = x.closed_loop_unstable_poles;
+    Check {
+        controller: x.loop_name.clone(),
+        item: "closed-loop stability (Nyquist: Z = P - W)".to_string(),
+        value: z as f64,
+        warn: f64::NAN,
+        fail: 0.5,
+        unit: "unstable poles".to_string(),
+        status: if x.stable { Status::Pass } else { Status::Fail },
+        reason: format!(
+            "{} ({})",
+            nyquist_words(x),
+            if x.stable { "stable" } else { "unstable" }
+        ),
+        remedy,
+        not_run: false,
+    }
+}
+
 /// The margins of one loop against [`USUAL_MARGINS`], with what sets them and what would
 /// raise them.
 fn usual_margin_checks(x: &Margin, cfg: &Config, p: &wheelset_plant::params::Params) -> Vec<Check> {
@@ -530,9 +594,8 @@ fn usual_margin_checks(x: &Margin, cfg: &Config, p: &wheelset_plant::params::Par
                  ({torsion_hz:.0} Hz), which the paper's lead does not roll off: to raise \
                  them, notch or roll off the lead there, or lower its high-frequency gain \
                  K a, and confirm with `sim-host rates` and `sim-host modes` that the \
-                 kinematic mode stays damped over the conicities. The yaw plant is open-loop \
-                 unstable (no passive spring), so these crossover figures guide robustness; \
-                 the stability verdict is `sim-host rates`'s"
+                 kinematic mode stays damped over the conicities. {}",
+                nyquist_words(x)
             )
         } else {
             format!(
@@ -541,7 +604,10 @@ fn usual_margin_checks(x: &Margin, cfg: &Config, p: &wheelset_plant::params::Par
             )
         }
     };
-    let mut out = Vec::new();
+    let mut out = vec![stability_check(
+        x,
+        remedy(x.gain_crossover_hz.unwrap_or(0.0)),
+    )];
     let (gm_usual, pm_usual) = USUAL_MARGINS;
     let mk = |item: &str, value: f64, at_hz: Option<f64>, usual: f64, unit: &str| {
         let below = value < usual;
@@ -555,7 +621,12 @@ fn usual_margin_checks(x: &Margin, cfg: &Config, p: &wheelset_plant::params::Par
             unit: unit.to_string(),
             status: if below { Status::Warn } else { Status::Pass },
             reason: format!(
-                "{value:.2} {unit}{at}, {} the usual {usual} {unit}{}",
+                "{value:.2} {unit}{at} ({}), {} the usual {usual} {unit}{}",
+                if unit == "deg" {
+                    phase_words(x)
+                } else {
+                    gain_words(x)
+                },
                 if below { "below" } else { "at or above" },
                 if unit == "deg" {
                     " (30-45 deg is the usual range)"

@@ -158,7 +158,10 @@ pub fn run(args: &AuditArgs) -> Result<u8, AuditError> {
     if args.readme_block {
         wheelset_report::out!("{}", readme_block::block(&audit));
     } else {
-        wheelset_report::out!("{}", writeup::summary(&audit, args.quiet));
+        wheelset_report::out!(
+            "{}",
+            writeup::summary(&audit, args.report.as_deref(), args.quiet)
+        );
     }
     Ok(if audit.verdict == Status::Fail { 1 } else { 0 })
 }

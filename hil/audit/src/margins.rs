@@ -1,8 +1,8 @@
-//! Stability margins of the two loops after quantisation: the plant linearised about
-//! straight track at pure rolling (`wheelset_plant::sampled::Model::Full`, the rate table's
-//! plant), discretised exactly with a zero-order hold at the base period
-//! (`wheelset_plant::sampled::zoh`), one period of actuation delay, and the controller as the
-//! device holds it (quantised) or ideal (the f64 discretisation).
+//! Stability and stability margins of the two loops after quantisation: the plant
+//! linearised about straight track at pure rolling (`wheelset_plant::sampled::Model::Full`,
+//! the rate table's plant), discretised exactly with a zero-order hold at the base period
+//! (`wheelset_plant::sampled::zoh`), one period of actuation delay, and the controller as
+//! the device holds it (quantised) or ideal (the f64 discretisation).
 //!
 //! Each loop is broken at its actuator with the other loop open (on straight track the
 //! linearised lateral/yaw and drive dynamics do not couple):
@@ -14,86 +14,93 @@
 //! ```
 //!
 //! (`T_psi = +C_y y'` acts through eq. 5's `-T_psi`, so the yaw loop's return ratio carries
-//! the minus sign; the PI acts on `i_ref - i_a`.) On a log grid of 4000 frequencies from
-//! 0.05 Hz to Nyquist: the **gain margin** at each phase crossover (`arg L = -180 deg`)
-//! is `-20 log10 |L|`, reported at the crossover with the smallest `|margin|`; the
-//! **phase margin** at each gain crossover (`|L| = 1`) is `180 + arg L` (wrapped to
-//! `(-180, 180]`), the smallest in magnitude. The yaw plant is open-loop unstable without
-//! the passive spring, so these are the classical crossover figures, not a Nyquist
-//! verdict (the stability verdict is `sim-host rates`'s monodromy).
+//! the minus sign; the PI acts on `i_ref - i_a`; the closed loop's poles are the zeros of
+//! `1 + L`.)
+//!
+//! **Stability (Nyquist).** `P` counts the open-loop poles outside the unit circle (the
+//! plant's: the yaw plant without the passive spring has one), `W` the counter-clockwise
+//! turns of `1 + L(z)` as `z` runs once round the circle `|z| = 1 + 1e-6` (just outside
+//! the unit circle, so that the PI's integrator at `z = 1` counts as inside); the closed
+//! loop has `Z = P - W` poles outside, and is stable when `Z = 0`.
+//!
+//! **Margins.** For a stable loop the margins say how far `L` is from changing that count:
+//! the **gain interval** `(k_lo, k_hi)` of loop-gain factors keeping it stable, read from
+//! where `L` crosses the negative real axis (a crossing at `-x` is the critical factor
+//! `1/x`). An open-loop-stable loop has `k_lo = 0` (no lower limit) and the classical
+//! gain margin `20 log10 k_hi`; an open-loop-unstable one also has a lower limit: it needs
+//! a minimum gain, and `20 log10 k_lo < 0` is how far the gain may *drop*. The **phase
+//! margins** are the smallest extra phase lag and lead, at a gain crossover (`|L| = 1`),
+//! that bring `L` onto `-1`. The reported gain margin is the smaller of the two gain
+//! changes (in dB, positive), the phase margin the smaller of lag and lead: both
+//! positive whenever the closed loop is stable. An unstable loop has no margins (`null`).
 
+use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 use wheelset_control::Config;
 use wheelset_plant::params::Params;
 use wheelset_plant::sampled::{zoh, Model};
 
 use super::bounds::Quantised;
-use super::response::C64;
 
-/// One loop's margins, ideal vs quantised.
+use super::response::C64 as Complex64;
+
+/// Radius of the Nyquist contour: just outside the unit circle.
+const CONTOUR_RADIUS: f64 = 1.0 + 1e-6;
+
+/// One loop's stability and margins, ideal vs quantised.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Margin {
     /// `yaw (lead)` or `traction (PI)`.
     #[serde(rename = "loop")]
     pub loop_name: String,
-    /// Gain margin with the f64 controller, dB (`null`: no phase crossover).
+    /// Gain margin with the f64 controller: the smaller of the gain increase and the
+    /// gain reduction to instability, dB (positive for a stable loop; `null`: the loop is
+    /// unstable, or no gain change destabilises it).
     pub gain_db_ideal: Option<f64>,
     /// Gain margin with the quantised controller, dB.
     pub gain_db_quantised: Option<f64>,
-    /// Phase margin with the f64 controller, degrees (`null`: no gain crossover).
+    /// Phase margin with the f64 controller: the smaller of the phase lag and lead to
+    /// instability, degrees (positive for a stable loop; `null`: unstable, or no gain
+    /// crossover).
     pub phase_deg_ideal: Option<f64>,
     /// Phase margin with the quantised controller, degrees.
     pub phase_deg_quantised: Option<f64>,
-    /// Phase crossover frequency (quantised), Hz.
+    /// Where the gain margin is read (the crossing of the negative real axis), Hz
+    /// (quantised).
     pub phase_crossover_hz: Option<f64>,
-    /// Gain crossover frequency (quantised), Hz.
+    /// Where the phase margin is read (`|L| = 1`), Hz (quantised).
     pub gain_crossover_hz: Option<f64>,
+    /// Open-loop poles outside the unit circle, `P` (plant and controller).
+    pub open_loop_unstable_poles: usize,
+    /// Counter-clockwise turns of `1 + L` round the origin on the Nyquist contour, `W`
+    /// (quantised controller).
+    pub encirclements: i64,
+    /// Closed-loop poles outside the unit circle, `Z = P - W` (quantised controller).
+    pub closed_loop_unstable_poles: i64,
+    /// `Z = 0` (quantised controller).
+    pub stable: bool,
+    /// The gain reduction to instability, dB (negative: how far the loop gain may drop;
+    /// `null`: no lower limit, as for an open-loop-stable plant) (quantised).
+    pub gain_reduction_db: Option<f64>,
+    /// The gain increase to instability, dB (`null`: none) (quantised).
+    pub gain_increase_db: Option<f64>,
+    /// The extra phase lag to instability, degrees (`null`: none) (quantised).
+    pub phase_lag_deg: Option<f64>,
+    /// The extra phase lead to instability, degrees (`null`: none) (quantised).
+    pub phase_lead_deg: Option<f64>,
 }
 
-/// `C (zI - A)^-1 B` for one input column and one output row, by Gaussian elimination
-/// with partial pivoting in complex arithmetic.
-#[allow(clippy::needless_range_loop)]
-fn freq_resp(a: &[Vec<f64>], b: &[f64], c: &[f64], z: C64) -> C64 {
-    let n = a.len();
-    let mut m: Vec<Vec<C64>> = (0..n)
-        .map(|i| {
-            let mut r: Vec<C64> = (0..n).map(|j| C64::new(-a[i][j], 0.0)).collect();
-            r[i] = r[i].plus(z);
-            r.push(C64::new(b[i], 0.0));
-            r
-        })
-        .collect();
-    for col in 0..n {
-        let p = (col..n)
-            .max_by(|&x, &y| m[x][col].abs().total_cmp(&m[y][col].abs()))
-            .unwrap_or(col);
-        m.swap(col, p);
-        let piv = m[col][col];
-        if piv.abs() == 0.0 {
-            return C64::new(f64::NAN, f64::NAN);
-        }
-        for r in col + 1..n {
-            let f = m[r][col].over(piv);
-            if f.abs() == 0.0 {
-                continue;
-            }
-            for k in col..=n {
-                let v = m[col][k].times(f);
-                m[r][k] = m[r][k].plus(v.scale(-1.0));
-            }
-        }
-    }
-    let mut x = vec![C64::new(0.0, 0.0); n];
-    for i in (0..n).rev() {
-        let mut s = m[i][n];
-        for k in i + 1..n {
-            s = s.plus(m[i][k].times(x[k]).scale(-1.0));
-        }
-        x[i] = s.over(m[i][i]);
-    }
-    x.iter()
-        .zip(c)
-        .fold(C64::new(0.0, 0.0), |acc, (v, ci)| acc.plus(v.scale(*ci)))
+/// `c (zI - A)^-1 b` at `z`, by LU decomposition (`None`: `z` is a pole).
+fn freq_resp(
+    a: &DMatrix<Complex64>,
+    b: &DVector<Complex64>,
+    c: &DVector<Complex64>,
+    z: Complex64,
+) -> Option<Complex64> {
+    let n = a.nrows();
+    let m = DMatrix::from_diagonal_element(n, n, z) - a;
+    let x = m.lu().solve(b)?;
+    Some(c.dot(&x))
 }
 
 fn wrap(d: f64) -> f64 {
@@ -107,53 +114,235 @@ fn wrap(d: f64) -> f64 {
     d
 }
 
-/// A margin and the frequency it is read at, Hz.
-type Crossing = Option<(f64, f64)>;
-
-/// `(gain margin dB, at Hz, phase margin deg, at Hz)` of `l` on the grid `f`.
-fn margins_of(f: &[f64], l: &[C64]) -> (Crossing, Crossing) {
-    let mut gm: Option<(f64, f64)> = None;
-    let mut pm: Option<(f64, f64)> = None;
-    for i in 1..l.len() {
-        let (a, b) = (l[i - 1], l[i]);
-        if !(a.abs().is_finite() && b.abs().is_finite()) {
-            continue;
-        }
-        // Phase crossover: arg L passes -180 (the wrap point of atan2 at +-180).
-        let (pa, pb) = (a.arg_deg(), b.arg_deg());
-        if (pa - pb).abs() > 180.0 && a.re < 0.0 && b.re < 0.0 {
-            let g = -20.0 * (0.5 * (a.abs() + b.abs())).log10();
-            if gm.is_none_or(|(x, _)| g.abs() < x.abs()) {
-                gm = Some((g, 0.5 * (f[i - 1] + f[i])));
-            }
-        }
-        // Gain crossover.
-        let (ga, gb) = (a.abs().log10(), b.abs().log10());
-        if ga * gb <= 0.0 && ga != gb {
-            let t = ga / (ga - gb);
-            let ph = wrap(180.0 + pa + t * wrap(pb - pa));
-            if pm.is_none_or(|(x, _)| ph.abs() < x.abs()) {
-                pm = Some((ph, f[i - 1] + t * (f[i] - f[i - 1])));
-            }
-        }
+/// A loop's return ratio sampled round the upper half of the Nyquist contour: angles
+/// `w` (rad per sample, 0 to pi) and `L(r e^{jw})`, refined until successive samples of
+/// `L` and of `1 + L` turn by under 20 degrees.
+fn sample_half_contour(l: &dyn Fn(Complex64) -> Complex64, f_min: f64) -> Vec<(f64, Complex64)> {
+    let at = |w: f64| (w, l(Complex64::from_polar(CONTOUR_RADIUS, w)));
+    // A log grid from `f_min` (rad) to pi, with the end points 0 and pi.
+    let m = 2000;
+    let mut ws = vec![0.0];
+    ws.extend((0..m).map(|i| f_min * (std::f64::consts::PI / f_min).powf(i as f64 / m as f64)));
+    ws.push(std::f64::consts::PI);
+    let mut out: Vec<(f64, Complex64)> = Vec::with_capacity(ws.len() * 2);
+    let mut prev = at(ws[0]);
+    out.push(prev);
+    for &w in &ws[1..] {
+        let next = at(w);
+        refine(&at, prev, next, 0, &mut out);
+        out.push(next);
+        prev = next;
     }
-    (gm, pm)
+    out
 }
 
-/// The margins of the yaw (lead) and traction (PI) loops for `cfg` (one base period of
-/// delay) at the operating point `p`, ideal (f64 coefficients) and quantised (`q`, as the device holds them).
+fn turn(a: Complex64, b: Complex64) -> f64 {
+    (b / a).arg().abs()
+}
+
+fn refine(
+    at: &dyn Fn(f64) -> (f64, Complex64),
+    a: (f64, Complex64),
+    b: (f64, Complex64),
+    depth: u32,
+    out: &mut Vec<(f64, Complex64)>,
+) {
+    let one = Complex64::new(1.0, 0.0);
+    let limit = 20f64.to_radians();
+    let coarse = turn(a.1, b.1) > limit || turn(one + a.1, one + b.1) > limit;
+    if depth >= 24 || !coarse || !(a.1.norm().is_finite() && b.1.norm().is_finite()) {
+        return;
+    }
+    let mid = at(0.5 * (a.0 + b.0));
+    refine(at, a, mid, depth + 1, out);
+    out.push(mid);
+    refine(at, mid, b, depth + 1, out);
+}
+
+/// What the Nyquist plot of one loop says: `W`, the critical gain factors and the
+/// phase distances at the gain crossovers, each with its frequency (Hz).
+struct Nyquist {
+    encirclements: i64,
+    /// Loop-gain factors at which the closed loop is marginal, with their frequency.
+    critical: Vec<(f64, f64)>,
+    /// `wrap(180 + arg L)` at each gain crossover, with its frequency.
+    crossovers: Vec<(f64, f64)>,
+}
+
+fn nyquist(half: &[(f64, Complex64)], fs: f64) -> Nyquist {
+    let one = Complex64::new(1.0, 0.0);
+    let hz = |w: f64| w * fs / (2.0 * std::f64::consts::PI);
+    // Turns of 1 + L: twice the upper half (the lower half is its mirror image).
+    let mut turned = 0.0;
+    let mut critical = Vec::new();
+    let mut crossovers = Vec::new();
+    for e in [half.first(), half.last()].into_iter().flatten() {
+        // At w = 0 and w = pi, L is real: on the negative real axis it is a crossing.
+        if e.1.re < 0.0 && e.1.im.abs() <= 1e-9 * e.1.norm() {
+            critical.push((-1.0 / e.1.re, hz(e.0)));
+        }
+    }
+    for p in half.windows(2) {
+        let ((wa, a), (wb, b)) = (p[0], p[1]);
+        if !(a.norm().is_finite() && b.norm().is_finite()) {
+            continue;
+        }
+        turned += ((one + b) / (one + a)).arg();
+        // A crossing of the negative real axis between the samples.
+        if (a.im > 0.0) != (b.im > 0.0) && a.im != b.im {
+            let t = a.im / (a.im - b.im);
+            let x = a.re + t * (b.re - a.re);
+            if x < 0.0 {
+                critical.push((-1.0 / x, hz(wa + t * (wb - wa))));
+            }
+        }
+        // A gain crossover.
+        let (ga, gb) = (a.norm().ln(), b.norm().ln());
+        if (ga > 0.0) != (gb > 0.0) && ga != gb {
+            let t = ga / (ga - gb);
+            let ph = wrap(180.0 + a.arg().to_degrees() + t * wrap((b / a).arg().to_degrees()));
+            crossovers.push((ph, hz(wa + t * (wb - wa))));
+        }
+    }
+    Nyquist {
+        encirclements: (2.0 * turned / (2.0 * std::f64::consts::PI)).round() as i64,
+        critical,
+        crossovers,
+    }
+}
+
+/// The margins of one return ratio, given its open-loop unstable poles `p`.
+struct Read {
+    w: i64,
+    stable: bool,
+    reduction: Option<(f64, f64)>,
+    increase: Option<(f64, f64)>,
+    lag: Option<(f64, f64)>,
+    lead: Option<(f64, f64)>,
+}
+
+impl Read {
+    fn of(l: &dyn Fn(Complex64) -> Complex64, p: usize, fs: f64) -> Read {
+        let half = sample_half_contour(l, 2.0 * std::f64::consts::PI * 1e-3 / fs);
+        let n = nyquist(&half, fs);
+        let stable = n.encirclements == p as i64;
+        let db = |k: f64| 20.0 * k.log10();
+        let below = n
+            .critical
+            .iter()
+            .filter(|c| c.0 < 1.0)
+            .max_by(|a, b| a.0.total_cmp(&b.0))
+            .map(|c| (db(c.0), c.1));
+        let above = n
+            .critical
+            .iter()
+            .filter(|c| c.0 > 1.0)
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+            .map(|c| (db(c.0), c.1));
+        let lag = n
+            .crossovers
+            .iter()
+            .filter(|c| c.0 > 0.0)
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+            .copied();
+        let lead = n
+            .crossovers
+            .iter()
+            .filter(|c| c.0 <= 0.0)
+            .max_by(|a, b| a.0.total_cmp(&b.0))
+            .map(|c| (-c.0, c.1));
+        Read {
+            w: n.encirclements,
+            stable,
+            reduction: below,
+            increase: above,
+            lag,
+            lead,
+        }
+    }
+
+    /// The smaller gain change to instability, dB (positive), and where.
+    fn gain(&self) -> Option<(f64, f64)> {
+        if !self.stable {
+            return None;
+        }
+        let down = self.reduction.map(|(g, f)| (-g, f));
+        match (down, self.increase) {
+            (Some(a), Some(b)) => Some(if a.0 <= b.0 { a } else { b }),
+            (a, b) => a.or(b),
+        }
+    }
+
+    /// The smaller phase change to instability, degrees (positive), and where.
+    fn phase(&self) -> Option<(f64, f64)> {
+        if !self.stable {
+            return None;
+        }
+        match (self.lag, self.lead) {
+            (Some(a), Some(b)) => Some(if a.0 <= b.0 { a } else { b }),
+            (a, b) => a.or(b),
+        }
+    }
+}
+
+/// A discrete controller `(n0 + n1 z^-1 + ...)/(1 + d1 z^-1 + ...)` (SI units), the sign
+/// with which it acts on the plant's output (`+1`: `u = C y`; `-1`: `u = C (-y)`), and the
+/// plant's input and output it connects.
+struct Loop<'a> {
+    num: Vec<f64>,
+    den: Vec<f64>,
+    sign: f64,
+    b: &'a DMatrix<f64>,
+    c: &'a DMatrix<f64>,
+}
+
+/// The plant `(A, b_in, c_out)` with `lp` closed round it through one period of delay:
+/// states `[x; s; d]` (plant, the controller in transposed direct form II, the held
+/// actuation).
+fn close(a: &DMatrix<f64>, lp: &Loop<'_>) -> DMatrix<f64> {
+    let n = a.nrows();
+    let m = lp.den.len().max(lp.num.len()) - 1;
+    let coef = |v: &[f64], i: usize| v.get(i).copied().unwrap_or(0.0);
+    let n0 = coef(&lp.num, 0);
+    let dim = n + m + 1;
+    let mut out = DMatrix::zeros(dim, dim);
+    out.view_mut((0, 0), (n, n)).copy_from(a);
+    // x+ = A x + b d
+    for i in 0..n {
+        out[(i, n + m)] = lp.b[(i, 0)];
+    }
+    // s+ = A_c s + B_c e, e = sign c x; d+ = C_c s + D e.
+    for i in 0..m {
+        out[(n + i, n)] = -coef(&lp.den, i + 1);
+        if i + 1 < m {
+            out[(n + i, n + i + 1)] = 1.0;
+        }
+        let bc = coef(&lp.num, i + 1) - coef(&lp.den, i + 1) * n0;
+        for j in 0..n {
+            out[(n + i, j)] = bc * lp.sign * lp.c[(0, j)];
+        }
+    }
+    if m > 0 {
+        out[(n + m, n)] = 1.0;
+    }
+    for j in 0..n {
+        out[(n + m, j)] = n0 * lp.sign * lp.c[(0, j)];
+    }
+    out
+}
+
+/// The stability and margins of the yaw (lead) and traction (PI) loops for `cfg` (one
+/// base period of delay) at the operating point `p`, ideal (f64 coefficients) and
+/// quantised (`q`, as the device holds them).
 pub fn margins(cfg: &Config, q: &Quantised, p: &Params) -> Result<Vec<Margin>, String> {
     let plant = Model::Full.plant(p, p.f11, p.lambda, false);
     let t0 = cfg.base_period();
     let (ad, bd) = zoh(&plant.a, &plant.b, t0);
-    let n = ad.nrows();
-    let a: Vec<Vec<f64>> = (0..n)
-        .map(|i| (0..n).map(|j| ad[(i, j)]).collect())
-        .collect();
-    let col = |k: usize| -> Vec<f64> { (0..n).map(|i| bd[(i, k)]).collect() };
-    let row = |r: usize| -> Vec<f64> { (0..n).map(|j| plant.c[(r, j)]).collect() };
-    let (b_t, b_u) = (col(0), col(1));
-    let (c_y, c_i) = (row(0), row(1));
+    let (b_t, b_u) = (bd.columns(0, 1).into_owned(), bd.columns(1, 1).into_owned());
+    let (c_y, c_i) = (
+        plant.c.rows(0, 1).into_owned(),
+        plant.c.rows(1, 1).into_owned(),
+    );
     let s = &cfg.scales;
     let ideal_lead = cfg
         .lead
@@ -167,67 +356,111 @@ pub fn margins(cfg: &Config, q: &Quantised, p: &Params) -> Result<Vec<Margin>, S
         .to_pu(s.current, s.voltage);
     let ideal_ph = cfg.yaw_predict_ticks / (2.0 * cfg.yaw_divisor as f64);
     let fs = 1.0 / t0;
-    let m = 4000;
-    let (f0, f1) = (0.05f64, 0.4999 * fs);
-    let f: Vec<f64> = (0..m)
-        .map(|i| f0 * (f1 / f0).powf(i as f64 / (m - 1) as f64))
-        .collect();
-    let yaw = |k: f64, g: f64, kap: f64, ph: f64| -> Vec<C64> {
-        f.iter()
-            .map(|&fr| {
-                let zi = C64::expj(-2.0 * std::f64::consts::PI * fr * t0);
-                let z = C64::new(1.0, 0.0).over(zi);
-                let one = C64::new(1.0, 0.0);
-                let h = kap * g;
-                let lp = one.plus(zi).scale(h).over(one.plus(zi.scale(-(1.0 - kap))));
-                let hz = one.plus(lp.scale(-1.0)).scale(k * s.torque / s.y_dot);
-                let pred = one.plus(one.plus(zi.scale(-1.0)).scale(2.0 * ph));
-                let pl = freq_resp(&a, &b_t, &c_y, z);
-                hz.times(pred).times(zi).times(pl).scale(-1.0)
-            })
-            .collect()
+    // The controllers as transfer functions in z^-1, SI units:
+    // C_y = g K [(1-h) - (a+h) z^-1][(1+2p) - 2p z^-1] / (1 - a z^-1),
+    // C_i = s [(Kp+Ki) - Kp z^-1] / (1 - z^-1).
+    let yaw = |k: f64, g: f64, kap: f64, ph: f64| -> Loop<'_> {
+        let (a, h) = (1.0 - kap, kap * g);
+        let gain = k * s.torque / s.y_dot;
+        Loop {
+            num: vec![
+                gain * (1.0 - h) * (1.0 + 2.0 * ph),
+                gain * (-(1.0 - h) * 2.0 * ph - (a + h) * (1.0 + 2.0 * ph)),
+                gain * (a + h) * 2.0 * ph,
+            ],
+            den: vec![1.0, -a, 0.0],
+            sign: 1.0,
+            b: &b_t,
+            c: &c_y,
+        }
     };
-    let trac = |kp: f64, ki: f64| -> Vec<C64> {
-        f.iter()
-            .map(|&fr| {
-                let zi = C64::expj(-2.0 * std::f64::consts::PI * fr * t0);
-                let z = C64::new(1.0, 0.0).over(zi);
-                let one = C64::new(1.0, 0.0);
-                let c = C64::new(kp, 0.0)
-                    .plus(C64::new(ki, 0.0).over(one.plus(zi.scale(-1.0))))
-                    .scale(s.voltage / s.current);
-                let pl = freq_resp(&a, &b_u, &c_i, z);
-                c.times(zi).times(pl)
-            })
-            .collect()
+    let trac = |kp: f64, ki: f64| -> Loop<'_> {
+        let g = s.voltage / s.current;
+        Loop {
+            num: vec![g * (kp + ki), -g * kp],
+            den: vec![1.0, -1.0],
+            sign: -1.0,
+            b: &b_u,
+            c: &c_i,
+        }
     };
-    let (yi_g, yi_p) = margins_of(
-        &f,
-        &yaw(
+    // One loop broken at its actuator with the other closed, as the device runs them:
+    // its stability and margins.
+    let read = |this: &Loop<'_>, other: &Loop<'_>| -> Result<(usize, Read), String> {
+        let a_aug = close(&ad, other);
+        let dim = a_aug.nrows();
+        let n = ad.nrows();
+        let cplx = |m: &DMatrix<f64>| m.map(|x| Complex64::new(x, 0.0));
+        let a_c = cplx(&a_aug);
+        let b_c = DVector::from_fn(dim, |i, _| {
+            Complex64::new(if i < n { this.b[(i, 0)] } else { 0.0 }, 0.0)
+        });
+        let c_c = DVector::from_fn(dim, |j, _| {
+            Complex64::new(if j < n { this.c[(0, j)] } else { 0.0 }, 0.0)
+        });
+        // Open-loop poles outside the contour that this loop's transfer function has (the
+        // controller's own poles, the lead's `a` and the PI's integrator, lie inside it):
+        // a pole makes `c (zI - A)^-1 b` grow a thousandfold as `z` comes a thousand times
+        // closer; a mode the loop neither drives nor sees does not.
+        let eig = wheelset_plant::modes::eigenvalues(&a_aug)
+            .ok_or("the sampled loop's eigenvalues did not converge")?;
+        let growth = |l: Complex64, d: f64| {
+            freq_resp(&a_c, &b_c, &c_c, l * (1.0 + d)).map_or(f64::INFINITY, |v| v.norm())
+        };
+        let unstable = eig
+            .iter()
+            .filter(|l| l.norm() > CONTOUR_RADIUS)
+            .filter(|l| growth(**l, 1e-7) > 100.0 * growth(**l, 1e-4))
+            .count();
+        let poly = |c: &[f64], zi: Complex64| {
+            c.iter()
+                .rev()
+                .fold(Complex64::new(0.0, 0.0), |acc, &k| acc * zi + k)
+        };
+        let l = |z: Complex64| -> Complex64 {
+            let zi = 1.0 / z;
+            let ctrl = poly(&this.num, zi) / poly(&this.den, zi);
+            let pl = freq_resp(&a_c, &b_c, &c_c, z).unwrap_or(Complex64::new(f64::NAN, f64::NAN));
+            -this.sign * ctrl * zi * pl
+        };
+        Ok((unstable, Read::of(&l, unstable, fs)))
+    };
+    let (yl_i, yl_q) = (
+        yaw(
             ideal_lead.k_hf,
             ideal_lead.g_half,
             ideal_lead.kappa,
             ideal_ph,
         ),
+        yaw(q.lead.k_hf, q.lead.g_half, q.lead.kappa, q.ph),
     );
-    let (yq_g, yq_p) = margins_of(&f, &yaw(q.lead.k_hf, q.lead.g_half, q.lead.kappa, q.ph));
-    let (ti_g, ti_p) = margins_of(&f, &trac(ideal_pi.kp, ideal_pi.ki));
-    let (tq_g, tq_p) = margins_of(&f, &trac(q.kp, q.ki));
-    let mk =
-        |n: &str, gi: Option<(f64, f64)>, gq: Option<(f64, f64)>, pi, pq: Option<(f64, f64)>| {
-            let pi: Option<(f64, f64)> = pi;
-            Margin {
-                loop_name: n.into(),
-                gain_db_ideal: gi.map(|x| x.0),
-                gain_db_quantised: gq.map(|x| x.0),
-                phase_deg_ideal: pi.map(|x| x.0),
-                phase_deg_quantised: pq.map(|x| x.0),
-                phase_crossover_hz: gq.map(|x| x.1),
-                gain_crossover_hz: pq.map(|x| x.1),
-            }
-        };
+    let (tl_i, tl_q) = (trac(ideal_pi.kp, ideal_pi.ki), trac(q.kp, q.ki));
+    let (_, yi) = read(&yl_i, &tl_i)?;
+    let (p_yaw, yq) = read(&yl_q, &tl_q)?;
+    let (_, ti) = read(&tl_i, &yl_i)?;
+    let (p_trac, tq) = read(&tl_q, &yl_q)?;
+    let mk = |name: &str, p: usize, i: &Read, q: &Read| Margin {
+        loop_name: name.into(),
+        gain_db_ideal: i.gain().map(|x| x.0),
+        gain_db_quantised: q.gain().map(|x| x.0),
+        phase_deg_ideal: i.phase().map(|x| x.0),
+        phase_deg_quantised: q.phase().map(|x| x.0),
+        phase_crossover_hz: q.gain().map(|x| x.1),
+        gain_crossover_hz: q.phase().map(|x| x.1),
+        open_loop_unstable_poles: p,
+        encirclements: q.w,
+        closed_loop_unstable_poles: p as i64 - q.w,
+        stable: q.stable,
+        gain_reduction_db: q.reduction.map(|x| x.0),
+        gain_increase_db: q.increase.map(|x| x.0),
+        phase_lag_deg: q.lag.map(|x| x.0),
+        phase_lead_deg: q.lead.map(|x| x.0),
+    };
     Ok(vec![
-        mk("yaw (lead)", yi_g, yq_g, yi_p, yq_p),
-        mk("traction (PI)", ti_g, tq_g, ti_p, tq_p),
+        mk("yaw (lead)", p_yaw, &yi, &yq),
+        mk("traction (PI)", p_trac, &ti, &tq),
     ])
 }
+
+#[cfg(test)]
+mod tests;

@@ -23,8 +23,8 @@ pub struct GainPhase {
 impl From<C64> for GainPhase {
     fn from(c: C64) -> Self {
         Self {
-            gain: c.abs(),
-            phase_deg: c.arg_deg(),
+            gain: c.norm(),
+            phase_deg: c.arg().to_degrees(),
         }
     }
 }

@@ -15,6 +15,23 @@ const WARN_COLOUR: &str = "#E69F00";
 const FAIL_COLOUR: &str = "#D55E00";
 const EDGE_COLOUR: &str = "#555555";
 
+/// A phase trace (degrees, in frequency order) without its jumps of 360 degrees.
+fn unwrap(v: Vec<(f64, f64)>) -> Vec<(f64, f64)> {
+    let mut out = Vec::with_capacity(v.len());
+    let mut shift = 0.0;
+    let mut prev: Option<f64> = None;
+    for (f, ph) in v {
+        if let Some(p) = prev {
+            let d = ph + shift - p;
+            shift -= 360.0 * (d / 360.0).round();
+        }
+        let u = ph + shift;
+        prev = Some(u);
+        out.push((f, u));
+    }
+    out
+}
+
 fn save(fig: &Figure, dir: &Path, file: &str) -> Result<String, AuditError> {
     let p = dir.join(file);
     fig.save(&p)
@@ -41,48 +58,83 @@ pub fn write_plots(a: &Audit, dir: &Path) -> Result<Vec<(String, String)>, Audit
                 .size(860.0, 280.0)
                 .vmark(limit, &judged, EDGE_COLOUR)
         };
-        let forms = |p: Plot, g: &dyn Fn(&super::GainPhase) -> f64| {
-            p.series(Series::line("continuous", pts(&|x| g(&x.continuous))))
-                .series(Series::line("discrete f64", pts(&|x| g(&x.discrete_f64))))
-                .series(Series::line("fixed (measured)", pts(&|x| g(&x.fixed))))
+        // The three forms nearly coincide: the continuous wide and pale beneath, the
+        // discrete f64 narrower over it, the fixed point thin on top, so each shows.
+        let forms = |p: Plot, unwrap_phase: bool, g: &dyn Fn(&super::GainPhase) -> f64| {
+            let u = |v: Vec<(f64, f64)>| if unwrap_phase { unwrap(v) } else { v };
+            p.series(
+                Series::line("continuous (wide)", u(pts(&|x| g(&x.continuous))))
+                    .color("#9ECAE1")
+                    .width(6.0),
+            )
+            .series(
+                Series::line("discrete f64", u(pts(&|x| g(&x.discrete_f64))))
+                    .color("#D55E00")
+                    .width(3.0),
+            )
+            .series(
+                Series::line("fixed (measured, thin)", u(pts(&|x| g(&x.fixed))))
+                    .color("#000000")
+                    .width(1.2),
+            )
         };
-        // An error panel against its tolerance: warn at +-w, fail at +-f.
-        let error = |title: &str, unit: &str, (w, f): (f64, f64), s: Series| {
-            bode(title, unit)
-                .series(s)
-                .hmark(w, &format!("warn above ±{w} {unit}"), WARN_COLOUR)
-                .hmark(-w, "", WARN_COLOUR)
-                .hmark(f, &format!("fail above ±{f} {unit}"), FAIL_COLOUR)
-                .hmark(-f, "", FAIL_COLOUR)
+        // An error panel against its tolerance: warn at +-w, fail at +-f (none where the
+        // figure is not judged).
+        let error = |title: &str, unit: &str, tol: Option<(f64, f64)>, s: Series| {
+            let p = bode(title, unit).series(s);
+            match tol {
+                Some((w, f)) => p
+                    .hmark(w, &format!("warn above ±{w} {unit}"), WARN_COLOUR)
+                    .hmark(-w, "", WARN_COLOUR)
+                    .hmark(f, &format!("fail above ±{f} {unit}"), FAIL_COLOUR)
+                    .hmark(-f, "", FAIL_COLOUR),
+                None => p,
+            }
+        };
+        // The predictor approximates an ideal advance by design: its discretisation
+        // error is not judged (the sampled-data analysis is), so it has no limits.
+        let judged = c.name != "yaw_predictor";
+        let disc = |t: (f64, f64)| judged.then_some(t);
+        let disc_title = |what: &str| {
+            if judged {
+                format!("discretisation: discrete f64 - continuous, {what}")
+            } else {
+                format!(
+                    "discretisation: discrete f64 - ideal advance, {what} (not judged: an \
+                     approximation by design)"
+                )
+            }
         };
         let fig = Figure::new(&format!(
             "{} at {:.0} Hz: Bode ({}) and errors",
             c.name, c.rate_hz, c.unit
         ))
-        .panel(forms(bode("gain |H|", "dB"), &|g| db(g.gain)))
-        .panel(forms(bode("phase arg H", "deg"), &|g| g.phase_deg))
+        .panel(forms(bode("gain |H|", "dB"), false, &|g| db(g.gain)))
+        .panel(forms(bode("phase arg H (unwrapped)", "deg"), true, &|g| {
+            g.phase_deg
+        }))
         .panel(error(
-            "discretisation: discrete f64 - continuous, gain",
+            &disc_title("gain"),
             "dB",
-            tol.discrete_gain_db,
+            disc(tol.discrete_gain_db),
             Series::line("gain error", pts(&|p| p.f64_vs_continuous_db)),
         ))
         .panel(error(
-            "discretisation: discrete f64 - continuous, phase",
+            &disc_title("phase"),
             "deg",
-            tol.discrete_phase_deg,
-            Series::line("phase error", pts(&|p| p.f64_vs_continuous_deg)),
+            disc(tol.discrete_phase_deg),
+            Series::line("phase error", unwrap(pts(&|p| p.f64_vs_continuous_deg))),
         ))
         .panel(error(
             "fixed point: fixed (measured) - discrete f64, gain",
             "dB",
-            tol.fixed_gain_db,
+            Some(tol.fixed_gain_db),
             Series::line("gain error", pts(&|p| p.fixed_vs_f64_db)),
         ))
         .panel(error(
             "fixed point: fixed (measured) - discrete f64, phase",
             "deg",
-            tol.fixed_phase_deg,
+            Some(tol.fixed_phase_deg),
             Series::line("phase error", pts(&|p| p.fixed_vs_f64_deg)),
         ));
         let f = save(&fig, dir, &format!("bode_{}.svg", c.name))?;
@@ -129,33 +181,64 @@ pub fn write_plots(a: &Audit, dir: &Path) -> Result<Vec<(String, String)>, Audit
         .iter()
         .map(|p| p.1)
         .fold((range, range), |(lo, hi), y| (lo.min(y), hi.max(y)));
-    let fig = Figure::new(&format!("Ranges against {}", a.formats.signal))
-        .panel(
-            Plot::histogram("headroom (bits)", &edges, &head)
-                .x_label("signal")
-                .y_label("bits")
-                .x_categories(&names)
-                .size(1100.0, 560.0)
-                .hmark(
-                    tol.headroom_bits.0,
-                    &format!("warn below {} bit", tol.headroom_bits.0),
-                    WARN_COLOUR,
-                ),
+    // The proven headroom of the same signals (any input within the clamps), where the
+    // proofs name the signal.
+    let proven: Vec<(f64, f64)> = sigs
+        .iter()
+        .enumerate()
+        .filter_map(|(i, s)| {
+            a.bounds
+                .iter()
+                .find(|b| b.signal == s.name && s.controller.starts_with(b.controller.as_str()))
+                .or_else(|| a.bounds.iter().find(|b| b.signal == s.name))
+                .map(|b| (i as f64 + 0.5, b.margin_bits))
+        })
+        .collect();
+    let fig = Figure::new(&format!(
+        "Ranges against {}: signals in per unit (pu = the value over its full scale)",
+        a.formats.signal
+    ))
+    .panel(
+        Plot::histogram(
+            "headroom (bits) = log2(format range / peak): observed over the scenarios, proven for any input",
+            &edges,
+            &head,
         )
-        .panel(
-            Plot::new("log2 peak |value| (pu)")
-                .x_label("signal")
-                .y_label("log2 pu")
-                .x_categories(&names)
-                .size(1100.0, 560.0)
-                .y_range(lo - 1.0, hi + 1.0)
-                .series(Series::scatter("peak", peaks))
-                .hmark(
-                    range,
-                    &format!("the format's range: 2^{range:.0} pu"),
-                    FAIL_COLOUR,
-                ),
-        );
+        .x_label("signal")
+        .y_label("bits")
+        .x_categories(&names)
+        .size(1100.0, 580.0)
+        .series(Series::line("bars: observed headroom", Vec::new()).color("#56B4E9").width(6.0))
+        .series(
+            Series::scatter("proven headroom", proven)
+                .style(wheelset_report::svg::Style::Crosses)
+                .color("#000000"),
+        )
+        // The bars fill the width: the warn line is named in the legend, not over them.
+        .series(
+            Series::line(
+                &format!("warn below {} bit (dashed)", tol.headroom_bits.0),
+                Vec::new(),
+            )
+            .style(wheelset_report::svg::Style::Dashed)
+            .color(WARN_COLOUR),
+        )
+        .hmark(tol.headroom_bits.0, "", WARN_COLOUR),
+    )
+    .panel(
+        Plot::new("log2 peak |value| (pu), observed")
+            .x_label("signal")
+            .y_label("log2 pu")
+            .x_categories(&names)
+            .size(1100.0, 580.0)
+            .y_range(lo - 1.0, hi + 1.0)
+            .series(Series::scatter("peak", peaks))
+            .hmark(
+                range,
+                &format!("the format's range: 2^{range:.0} pu"),
+                FAIL_COLOUR,
+            ),
+    );
     let f = save(&fig, dir, "ranges.svg")?;
     out.push(("Ranges and headroom per signal".to_string(), f));
     // The noise traces against the noise tolerance (`noise_wire_lsb`, in wire LSBs of

@@ -12,56 +12,8 @@ use wheelset_control::{Config, Controller, Inputs, LeadPu, PiPu, Sample, YawMode
 mod measure;
 pub use measure::{measure_amplitude, measured, measured_at, measured_dc, Drive};
 
-/// A complex number (the few operations needed here).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct C64 {
-    /// Real part.
-    pub re: f64,
-    /// Imaginary part.
-    pub im: f64,
-}
-
-impl C64 {
-    /// `re + j im`.
-    pub const fn new(re: f64, im: f64) -> Self {
-        Self { re, im }
-    }
-    /// `e^{j w}`.
-    pub fn expj(w: f64) -> Self {
-        Self::new(w.cos(), w.sin())
-    }
-    /// Magnitude.
-    pub fn abs(self) -> f64 {
-        self.re.hypot(self.im)
-    }
-    /// Argument, degrees.
-    pub fn arg_deg(self) -> f64 {
-        self.im.atan2(self.re).to_degrees()
-    }
-    /// Sum.
-    pub fn plus(self, o: Self) -> Self {
-        Self::new(self.re + o.re, self.im + o.im)
-    }
-    /// Product.
-    pub fn times(self, o: Self) -> Self {
-        Self::new(
-            self.re * o.re - self.im * o.im,
-            self.re * o.im + self.im * o.re,
-        )
-    }
-    /// Quotient.
-    pub fn over(self, o: Self) -> Self {
-        let d = o.re * o.re + o.im * o.im;
-        Self::new(
-            (self.re * o.re + self.im * o.im) / d,
-            (self.im * o.re - self.re * o.im) / d,
-        )
-    }
-    /// `k self`.
-    pub fn scale(self, k: f64) -> Self {
-        Self::new(self.re * k, self.im * k)
-    }
-}
+/// A complex number (`num_complex`'s, as nalgebra re-exports it).
+pub type C64 = nalgebra::Complex<f64>;
 
 /// The audited controllers.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -146,18 +98,14 @@ pub fn continuous(kind: Kind, cfg: &Config, f_hz: f64) -> C64 {
     match kind {
         Kind::YawLead => {
             let l = &cfg.lead;
-            s.plus(C64::new(l.w1, 0.0))
-                .over(s.plus(C64::new(l.w2, 0.0)))
-                .scale(l.k * l.a)
+            (s + l.w1) / (s + l.w2) * (l.k * l.a)
         }
         Kind::YawGain => C64::new(cfg.gain_k, 0.0),
         Kind::TractionPi => {
             let p = &cfg.pi;
-            C64::new(1.0, 0.0)
-                .plus(C64::new(1.0, 0.0).over(s.scale(p.ti)))
-                .scale(p.kp)
+            (1.0 + 1.0 / (s * p.ti)) * p.kp
         }
-        Kind::YawPredictor => C64::expj(s.im * cfg.yaw_predict_ticks * cfg.base_period()),
+        Kind::YawPredictor => C64::cis(s.im * cfg.yaw_predict_ticks * cfg.base_period()),
     }
 }
 
@@ -234,20 +182,15 @@ impl Coeffs {
 
     /// The discrete transfer function at `z = e^{j 2 pi f T}`.
     pub fn response(&self, f_hz: f64, t_s: f64) -> C64 {
-        let zi = C64::expj(-2.0 * std::f64::consts::PI * f_hz * t_s); // z^-1
-        let one = C64::new(1.0, 0.0);
+        let zi = C64::cis(-2.0 * std::f64::consts::PI * f_hz * t_s); // z^-1
         match *self {
             Coeffs::Lead { .. } => {
                 let (b0, b1, a1) = self.lead_direct_form();
-                C64::new(b0, 0.0)
-                    .plus(zi.scale(b1))
-                    .over(one.plus(zi.scale(-a1)))
+                (b0 + zi * b1) / (1.0 - zi * a1)
             }
             Coeffs::Gain { k } => C64::new(k, 0.0),
-            Coeffs::Predictor { alpha } => C64::new(1.0 + alpha, 0.0).plus(zi.scale(-alpha)),
-            Coeffs::Pi { kp, ki } => {
-                C64::new(kp, 0.0).plus(C64::new(ki, 0.0).over(one.plus(zi.scale(-1.0))))
-            }
+            Coeffs::Predictor { alpha } => (1.0 + alpha) - zi * alpha,
+            Coeffs::Pi { kp, ki } => kp + ki / (1.0 - zi),
         }
     }
 
@@ -405,12 +348,12 @@ pub fn isolate(kind: Kind, base: &Config) -> Config {
 
 /// Gain error `20 log10(|a|/|b|)`, dB.
 pub fn gain_err_db(a: C64, b: C64) -> f64 {
-    20.0 * (a.abs() / b.abs()).log10()
+    20.0 * (a.norm() / b.norm()).log10()
 }
 
 /// Phase error `arg(a) - arg(b)` wrapped to `(-180, 180]`, degrees.
 pub fn phase_err_deg(a: C64, b: C64) -> f64 {
-    let mut d = a.arg_deg() - b.arg_deg();
+    let mut d = (a.arg() - b.arg()).to_degrees();
     while d > 180.0 {
         d -= 360.0;
     }

@@ -14,9 +14,10 @@ fn fmt_opt(v: Option<f64>) -> String {
     }
 }
 
-/// The terminal summary: one line per controller with the headline figures, then every
-/// warn/fail check (and all checks unless `quiet`), then the verdict.
-pub fn summary(a: &Audit, quiet: bool) -> String {
+/// The full text: one line per controller with the headline figures, the noise per
+/// scenario, the proofs, then every check with its reason and remedy (only those not
+/// passed when `quiet`), then the verdict. The report directory keeps it as `audit.txt`.
+pub fn full_text(a: &Audit, quiet: bool) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -73,7 +74,95 @@ pub fn summary(a: &Audit, quiet: bool) -> String {
     s
 }
 
-/// Write `audit.md` (and the plots) into `dir`.
+/// The terminal summary, a handful of lines: the configuration, the controllers' worst
+/// error, each loop's stability and margins, one line per check not passed (its figure;
+/// the reason and remedy are in the report; a check not run says how to run it), where
+/// the report went, and the verdict
+/// (`quiet`: without the controllers' and the loops' lines).
+pub fn summary(a: &Audit, report: Option<&Path>, quiet: bool) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "hil audit: base rate {} Hz, signals {}, coefficients {} ({})",
+        a.base_rate_hz, a.formats.signal, a.formats.coef, a.sample_type
+    );
+    let worst = |f: &dyn Fn(&super::ControllerAudit) -> f64| {
+        a.controllers
+            .iter()
+            .map(f)
+            .fold(0.0f64, |m, v| m.max(v.abs()))
+    };
+    let names: Vec<&str> = a.controllers.iter().map(|c| c.name.as_str()).collect();
+    if !quiet {
+        let _ = writeln!(
+            s,
+            "  controllers {}: fixed vs f64 within {:.2e} dB, {:.2e} deg below {:.0} Hz",
+            names.join(", "),
+            worst(&|c| c.worst.fixed_gain_db.0),
+            worst(&|c| c.worst.fixed_phase_deg.0),
+            a.controllers.first().map_or(0.0, |c| c.worst.below_hz)
+        );
+    }
+    if let Some(cl) = a.closed_loop.as_ref().filter(|_| !quiet) {
+        for m in &cl.margins {
+            let db =
+                |v: Option<f64>, none: &str| v.map_or(none.to_string(), |d| format!("{d:+.2} dB"));
+            let deg = |v: Option<f64>| v.map_or("-".to_string(), |d| format!("{d:.1} deg"));
+            let _ = writeln!(
+                s,
+                "  {}: {} (open-loop unstable poles P = {}, encirclements W = {}); gain {} to {}, phase lag {}, lead {}",
+                m.loop_name,
+                if m.stable { "stable" } else { "UNSTABLE" },
+                m.open_loop_unstable_poles,
+                m.encirclements,
+                db(m.gain_reduction_db, "no lower limit"),
+                db(m.gain_increase_db, "no upper limit"),
+                deg(m.phase_lag_deg),
+                deg(m.phase_lead_deg)
+            );
+        }
+    }
+    for c in a.checks.iter().filter(|c| c.status != Status::Pass) {
+        // A check that could not run says why and how to run it.
+        let value = if c.not_run {
+            c.reason_and_remedy()
+        } else {
+            format!("{:.3} {}", c.value, c.unit)
+        };
+        let _ = writeln!(
+            s,
+            "  {:<4} {:<12} {}: {value}",
+            c.status.as_str(),
+            c.controller,
+            c.item
+        );
+    }
+    match report {
+        Some(d) => {
+            let _ = writeln!(
+                s,
+                "  report: {} (every check with its reason and remedy; the full text in {})",
+                d.join("audit.md").display(),
+                d.join("audit.txt").display()
+            );
+        }
+        None => {
+            let _ = writeln!(
+                s,
+                "  the reasons and remedies: --report DIR (audit.md, audit.txt)"
+            );
+        }
+    }
+    let _ = writeln!(
+        s,
+        "verdict: {} ({})",
+        a.verdict.as_str().to_uppercase(),
+        super::counts_words(&a.checks)
+    );
+    s
+}
+
+/// Write `audit.md`, `audit.txt` (the full text) and the plots into `dir`.
 pub fn write_report(a: &Audit, dir: &Path) -> Result<(), AuditError> {
     std::fs::create_dir_all(dir).map_err(|e| AuditError::Io {
         path: dir.to_path_buf(),
@@ -81,6 +170,7 @@ pub fn write_report(a: &Audit, dir: &Path) -> Result<(), AuditError> {
     })?;
     let plots = super::plots::write_plots(a, dir)?;
     let md = markdown(a, &plots);
+    super::write(&dir.join("audit.txt"), &full_text(a, false))?;
     super::write(&dir.join("audit.md"), &md)
 }
 

@@ -134,8 +134,13 @@ pub(crate) fn proofs_and_findings(a: &Audit, w: &mut String) {
         let _ = write!(w, "{t}");
         let _ = writeln!(
             w,
-            "\nMargins (plant linearised on straight track, one period of delay; see \
-             `wheelset_audit::margins`):\n"
+            "\nStability and margins (plant linearised on straight track, one period of \
+             delay, each loop broken with the other closed; see `wheelset_audit::margins`). \
+             P counts the open-loop poles outside the unit circle, W the counter-clockwise \
+             turns of the Nyquist plot round -1; the closed loop is stable when Z = P - W = \
+             0. A loop with P > 0 needs a minimum gain: its gain margin is the smaller of \
+             the reduction and the increase that destabilise it, its phase margin the \
+             smaller of the extra lag and lead:\n"
         );
         let mut t = Table::new([
             "loop",
@@ -144,6 +149,9 @@ pub(crate) fn proofs_and_findings(a: &Audit, w: &mut String) {
             "phase margin ideal (deg)",
             "phase margin quantised (deg)",
             "phase / gain crossover (Hz)",
+            "P, W: closed loop",
+            "gain interval (dB)",
+            "phase lag / lead (deg)",
         ]);
         let o = |v: Option<f64>| v.map(|x| format!("{x:.6}")).unwrap_or_else(|| "-".into());
         for m in &cl.margins {
@@ -154,6 +162,14 @@ pub(crate) fn proofs_and_findings(a: &Audit, w: &mut String) {
                 o(m.phase_deg_ideal),
                 o(m.phase_deg_quantised),
                 format!("{} / {}", o(m.phase_crossover_hz), o(m.gain_crossover_hz)),
+                format!(
+                    "{}, {}: {}",
+                    m.open_loop_unstable_poles,
+                    m.encirclements,
+                    if m.stable { "stable" } else { "unstable" }
+                ),
+                format!("{} to {}", o(m.gain_reduction_db), o(m.gain_increase_db)),
+                format!("{} / {}", o(m.phase_lag_deg), o(m.phase_lead_deg)),
             ]);
         }
         let _ = write!(w, "{t}");

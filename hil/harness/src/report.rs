@@ -76,10 +76,28 @@ fn trajectories(out: &RunOutcome) -> Figure {
     let r = &out.report;
     let fault = r.monitor.fault_s;
     let end = out.trajectory.records.last().map_or(1.0, |x| x.t_s);
+    // A run stopped as diverged ends early: the reference is drawn over the same span.
+    let stopped = out
+        .trajectory
+        .info
+        .diverged_at_s
+        .map_or(String::new(), |t| format!(" (diverged at {t:.3} s)"));
     let mut fig = Figure::new(&format!(
-        "{} on {}: device vs f64 reference, each with the error judged",
+        "{} on {}: device vs f64 reference, and the error judged{stopped}",
         r.scenario, r.target
     ));
+    let reference = |f: fn(&Record) -> f64, k: f64| {
+        Series::line(
+            "reference",
+            out.reference
+                .records
+                .iter()
+                .filter(|x| x.t_s <= end)
+                .map(|x| (x.t_s, f(x) * k))
+                .collect(),
+        )
+        .style(Style::Dashed)
+    };
     for (title, unit, k, column, f) in SIGNALS {
         let mut p = Plot::new(title)
             .x_label("t (s)")
@@ -87,7 +105,7 @@ fn trajectories(out: &RunOutcome) -> Figure {
             .size(860.0, 260.0)
             .x_range(0.0, end)
             .series(series(&out.trajectory, "device", |x| f(x) * k))
-            .series(series(&out.reference, "reference", |x| f(x) * k).style(Style::Dashed));
+            .series(reference(f, k));
         if let Some(t) = fault {
             p = p.vmark(t, "plant fault", EVENT_COLOUR);
         }
@@ -103,8 +121,9 @@ fn trajectories(out: &RunOutcome) -> Figure {
         let allowed = c.allowed * k;
         let fail = allowed * c.tolerance.warn_factor;
         let pts = e.iter().map(|&(t, v)| (t, v * k)).collect();
+        let symbol = unit.split_once(" (").map_or(unit, |(s, _)| s);
         let mut p = Plot::new(&format!(
-            "{title}: device - reference outside the ±{:.0} ms tube (max {} at {:.3} s: {})",
+            "{symbol}: device - reference outside the ±{:.0} ms tube, max {} {unit_only} at {:.3} s ({})",
             c.tolerance.time_s * 1e3,
             value_label(c.max_err * k),
             c.max_err_t_s,
@@ -145,61 +164,88 @@ fn monitor(out: &RunOutcome) -> Figure {
     let thr = mp.threshold_m_s * 1e3;
     let rel = thr * mp.release;
     let ms: Vec<(f64, f64)> = out.monitor_ms.iter().map(|&(t, v)| (t, v * 1e6)).collect();
-    let mut events: Vec<(f64, String, &str)> = Vec::new();
+    // Each event: its time, its name, its name with the time (the zoom's), its colour.
+    let mut events: Vec<(f64, String, String, &str)> = Vec::new();
     if let Some(t) = m.fault_s {
-        events.push((t, format!("plant fault {t:.3} s"), EVENT_COLOUR));
+        events.push((
+            t,
+            "fault".into(),
+            format!("plant fault {t:.3} s"),
+            EVENT_COLOUR,
+        ));
     }
     for a in &m.alarms {
         events.push((
             a.t_s,
+            "alarm".into(),
             format!("{} alarm {:.3} s", a.kind, a.t_s),
             FAIL_COLOUR,
         ));
     }
     if let (Some(d), "alarm") = (m.deadline_s, m.expect) {
-        events.push((d, format!("deadline {d:.3} s"), "#777777"));
+        events.push((
+            d,
+            "deadline".into(),
+            format!("deadline {d:.3} s"),
+            "#777777",
+        ));
     }
     let end = out.trajectory.records.last().map_or(1.0, |x| x.t_s);
     let peak = ms.iter().map(|p| p.1).fold(thr * thr, f64::max);
-    let floor = ms
+    // The smallest value above zero sits a decade above the axis's floor; a mean square
+    // of exactly zero (below the monitor's resolution) has no place on a log axis and is
+    // drawn, in grey, at the floor.
+    let smallest = ms
         .iter()
         .map(|p| p.1)
         .filter(|v| *v > 0.0)
         .fold(f64::INFINITY, f64::min)
-        .max(thr * thr * 1e-8);
+        .max(thr * thr * 1e-8)
+        .min(thr * thr);
+    let floor = smallest / 10.0;
     let ms_plot = |title: &str, pts: Vec<(f64, f64)>| {
-        Plot::new(title)
+        let zero: Vec<(f64, f64)> = pts
+            .iter()
+            .map(|&(t, v)| (t, if v == 0.0 { floor * 1.25 } else { f64::NAN }))
+            .collect();
+        let mut p = Plot::new(title)
             .x_label("t (s)")
             .y_label("mean square ((mm/s)^2)")
             .log_y()
             .y_range(floor, peak * 3.0)
-            .series(Series::line("mean square", pts))
-            .hmark(
-                thr * thr,
-                &format!("alarm threshold: RMS {thr:.0} mm/s"),
-                FAIL_COLOUR,
-            )
-            .hmark(
-                rel * rel,
-                &format!("release: RMS {rel:.0} mm/s"),
-                PASS_COLOUR,
-            )
+            .series(Series::line("mean square", pts));
+        if zero.iter().any(|z| z.1.is_finite()) {
+            p = p.series(
+                Series::line("mean square = 0 (drawn at the floor)", zero)
+                    .color("#999999")
+                    .width(3.0),
+            );
+        }
+        p.hmark(
+            thr * thr,
+            &format!("alarm threshold: RMS {thr:.0} mm/s"),
+            FAIL_COLOUR,
+        )
+        .hmark(
+            rel * rel,
+            &format!("release: RMS {rel:.0} mm/s"),
+            PASS_COLOUR,
+        )
     };
-    // Over the whole run the events are marked; their labels are in the zoom.
-    let mark = |mut p: Plot, labelled: bool| {
-        for (t, label, c) in &events {
-            p = p.vmark(*t, if labelled { label } else { "" }, c);
+    let mark = |mut p: Plot, zoom: bool| {
+        for (t, short, long, c) in &events {
+            p = p.vmark(*t, if zoom { long } else { short }, c);
         }
         p
     };
+    let alarms = match (m.alarms.len(), m.first_alarm_s) {
+        (0, _) | (_, None) => "no alarm".to_string(),
+        (1, Some(t)) => format!("1 alarm at {t:.3} s"),
+        (n, Some(t)) => format!("{n} alarms, the first at {t:.3} s"),
+    };
     let mut fig = Figure::new(&format!(
-        "{} on {}: stability monitor ({} alarm(s), first {}; {})",
-        r.scenario,
-        r.target,
-        m.alarms.len(),
-        m.first_alarm_s
-            .map_or("none".to_string(), |t| format!("at {t:.3} s")),
-        m.verdict
+        "{} on {}: stability monitor ({alarms}; {})",
+        r.scenario, r.target, m.verdict
     ))
     .panel(mark(
         Plot::new("Lateral displacement y")
@@ -219,6 +265,7 @@ fn monitor(out: &RunOutcome) -> Figure {
     ));
     let first = events.iter().map(|e| e.0).fold(f64::INFINITY, f64::min);
     let last = events.iter().map(|e| e.0).fold(f64::NEG_INFINITY, f64::max);
+    // Over the whole run the events are marked with their names; the zoom adds times.
     if first.is_finite() {
         let (t0, t1) = (
             (first - 0.3).max(0.0),
@@ -242,21 +289,52 @@ fn monitor(out: &RunOutcome) -> Figure {
 /// device that measures none gets a note, not an empty axis.
 fn exec_histogram(r: &RunReport) -> Figure {
     let t = &r.timing;
-    // In process the device reports 0 ns unless a device fault simulates its time.
-    if t.exec_ns.max <= 0.0 {
-        return Figure::new(&format!("Execution time per tick ({})", r.target)).panel(
-            Plot::new("Execution time").size(860.0, 160.0).note(
-                "not measured in process: real figures from --target qemu, cargo xtask \
-                 fw-bench or a board",
-            ),
+    let period_us = t.period_ns as f64 * 1e-3;
+    let cpu = t.checks.iter().find(|c| c.name == "cpu_max");
+    let budgets = |mut p: Plot| {
+        p = p.vmark(
+            period_us,
+            &format!("period T = {} us", value_label(period_us)),
+            EVENT_COLOUR,
         );
+        if let Some(c) = cpu {
+            p = p
+                .vmark(
+                    c.limit.warn * period_us,
+                    &format!("CPU warn {:.0} % of T", c.limit.warn * 100.0),
+                    "#E69F00",
+                )
+                .vmark(
+                    c.limit.fail * period_us,
+                    &format!("CPU fail {:.0} % of T", c.limit.fail * 100.0),
+                    FAIL_COLOUR,
+                );
+        }
+        p
+    };
+    // In process the device reports 0 ns unless a device fault simulates its time: the
+    // budgets on an empty axis, and where the figures come from.
+    if t.exec_ns.max <= 0.0 {
+        return Figure::new(&format!(
+            "Execution time per tick ({}: not measured)",
+            r.target
+        ))
+        .panel(budgets(
+            Plot::new("The period T and the CPU budget a measured tick is held to")
+                .x_label("execution time (us)")
+                .y_label("ticks")
+                .size(860.0, 240.0)
+                .x_range(0.0, period_us * 1.25)
+                .y_range(0.0, 1.0)
+                .note(
+                    "not measured in process: --target qemu, xtask fw-bench or a board measure it",
+                ),
+        ));
     }
     let h = &t.exec_histogram;
     let edges_us: Vec<f64> = h.edges_ns.iter().map(|e| e * 1e-3).collect();
     let counts: Vec<f64> = h.counts.iter().map(|&c| c as f64).collect();
-    let period_us = t.period_ns as f64 * 1e-3;
     let worst_us = t.exec_ns.max * 1e-3;
-    let cpu = t.checks.iter().find(|c| c.name == "cpu_max");
     let worst = format!(
         "worst {} us ({:.1} % of T)",
         value_label(worst_us),
@@ -274,35 +352,19 @@ fn exec_histogram(r: &RunReport) -> Figure {
     .log_y()
     .y_range(0.5, top)
     .vmark(worst_us, &worst, FAIL_COLOUR);
-    let mut budget = Plot::histogram(
-        "Against the period T and the CPU budget",
-        &edges_us,
-        &counts,
-    )
-    .x_label("execution time (us, log axis)")
-    .y_label("ticks")
-    .log_x()
-    .log_y()
-    .x_range(lo_us * 0.8, period_us * 1.25)
-    .y_range(0.5, top)
-    .vmark(
-        period_us,
-        &format!("period T = {} us", value_label(period_us)),
-        EVENT_COLOUR,
+    let budget = budgets(
+        Plot::histogram(
+            "Against the period T and the CPU budget",
+            &edges_us,
+            &counts,
+        )
+        .x_label("execution time (us, log axis)")
+        .y_label("ticks")
+        .log_x()
+        .log_y()
+        .x_range(lo_us * 0.8, period_us * 1.25)
+        .y_range(0.5, top),
     );
-    if let Some(c) = cpu {
-        budget = budget
-            .vmark(
-                c.limit.warn * period_us,
-                &format!("CPU warn {:.0} % of T", c.limit.warn * 100.0),
-                "#E69F00",
-            )
-            .vmark(
-                c.limit.fail * period_us,
-                &format!("CPU fail {:.0} % of T", c.limit.fail * 100.0),
-                FAIL_COLOUR,
-            );
-    }
     Figure::new(&if t.exec_measured {
         format!(
             "Execution time per tick ({}: {} at {} ns each)",

@@ -348,6 +348,23 @@ fn json_has_the_issue_fields_and_the_binary_exit_codes_follow_the_verdict() {
     ] {
         assert!(md.contains(s), "report lacks {s}");
     }
+    // Every plot of the report is laid out without a label over another or off the
+    // canvas (the Bode figures, the ranges, the noise traces).
+    let mut svgs = 0;
+    for e in std::fs::read_dir(&rep).unwrap() {
+        let p = e.unwrap().path();
+        if p.extension().is_some_and(|x| x == "svg") {
+            let problems =
+                wheelset_report::svg::lint::problems(&std::fs::read_to_string(&p).unwrap());
+            assert!(problems.is_empty(), "{}: {problems:#?}", p.display());
+            svgs += 1;
+        }
+    }
+    assert!(svgs >= 6, "{svgs} plots");
+    // The full text beside the report.
+    assert!(std::fs::read_to_string(rep.join("audit.txt"))
+        .unwrap()
+        .contains("verdict: "));
     // A too-narrow format: exit 1. A malformed one: exit 2.
     let st = Command::new(exe)
         .args([

@@ -157,6 +157,8 @@ fn shards_merged_are_the_single_run_byte_for_byte_and_records_are_the_runs() {
     for svg in ["verdict.svg", "peak_y.svg"] {
         let t = std::fs::read_to_string(report.join(svg)).unwrap();
         assert_eq!(t.matches(r#"<rect class="cell""#).count(), 6, "{svg}");
+        let problems = wheelset_report::svg::lint::problems(&t);
+        assert!(problems.is_empty(), "{svg}: {problems:#?}");
     }
 
     // A part left out, a part twice, another campaign: refused with the reason.

@@ -33,7 +33,23 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
     let Some(main) = runs.first() else {
         return Ok(vec![]);
     };
-    let title = format!("scenario {}", main.info.scenario);
+    // The title says what is compared: the main run's control against the others'.
+    let others: Vec<String> = runs[1..].iter().map(label).collect();
+    // How each figure draws the runs: the main run thin over the others' wide band, or
+    // solid under the others dashed.
+    let titled = |main_style: &str, others_style: &str| {
+        if others.is_empty() {
+            format!("scenario {}, control {}", main.info.scenario, label(main))
+        } else {
+            format!(
+                "scenario {}: control {} ({main_style}) against {} ({others_style})",
+                main.info.scenario,
+                label(main),
+                others.join(", ")
+            )
+        }
+    };
+    let title = titled("thin, on top", "wide, beneath");
     // The paper's figure each plot reproduces: `curve` is Figs. 6-8, `beating` Fig. 9;
     // other scenarios are no figure of the paper.
     let fig = |curve: &str, beating: &str| -> String {
@@ -55,24 +71,46 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
         files.push(p);
         Ok(())
     };
+    // Drawing order: the compared runs first, wide, then the main run thin on top, so
+    // that where two laws coincide both show (the main run inside the other's band).
+    let order: Vec<(usize, &Trajectory)> = runs
+        .iter()
+        .enumerate()
+        .skip(1)
+        .chain(runs.iter().enumerate().take(1))
+        .collect();
+    let styled = |k: usize, s: Series| -> Series {
+        let s = s.color(PALETTE[k % PALETTE.len()]);
+        if k == 0 {
+            s
+        } else {
+            s.width(3.2)
+        }
+    };
 
-    // Fig. 6
-    let mut p = Plot::new(&format!("Lateral displacement{}", fig("6", "9")))
-        .x_label("t (s)")
-        .y_label("y (mm)");
-    for tr in runs {
-        p = p.series(series(tr, &format!("y, {}", label(tr)), |r| r.y_m * 1e3));
-    }
-    p = p.series(
-        series(main, "pure rolling line y0", |r| r.y0_m * 1e3)
-            .style(Style::Dashed)
-            .color("#000"),
+    // Fig. 6: the pure rolling line as a wide grey band beneath the runs.
+    let mut p = Plot::new(&format!(
+        "Lateral displacement y against the pure rolling line y0{}",
+        fig("6", "9")
+    ))
+    .x_label("t (s)")
+    .y_label("y (mm)")
+    .series(
+        series(main, "pure rolling line y0 (grey band)", |r| r.y0_m * 1e3)
+            .color("#BBBBBB")
+            .width(6.0),
     );
+    for &(k, tr) in &order {
+        p = p.series(styled(
+            k,
+            series(tr, &format!("y, {}", label(tr)), |r| r.y_m * 1e3),
+        ));
+    }
     let mut psi = Plot::new("Yaw angle")
         .x_label("t (s)")
         .y_label("psi (mrad)");
-    for tr in runs {
-        psi = psi.series(series(tr, &label(tr), |r| r.psi_rad * 1e3));
+    for &(k, tr) in &order {
+        psi = psi.series(styled(k, series(tr, &label(tr), |r| r.psi_rad * 1e3)));
     }
     // Zoom on the traction step (Fig. 9's beating shows here).
     let t_step = main
@@ -84,14 +122,14 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
         .x_label("t (s)")
         .y_label("y - y0 (mm)")
         .x_range(t_step - 0.2, t_step + 2.0);
-    for tr in runs {
+    for &(k, tr) in &order {
         let pts = tr
             .records
             .iter()
             .filter(|r| r.t_s >= t_step - 0.2 && r.t_s <= t_step + 2.0)
             .map(|r| (r.t_s, (r.y_m - r.y0_m) * 1e3))
             .collect();
-        zoom = zoom.series(Series::line(&label(tr), pts));
+        zoom = zoom.series(styled(k, Series::line(&label(tr), pts)));
     }
     save(
         "lateral.svg",
@@ -105,8 +143,11 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
     ))
     .x_label("t (s)")
     .y_label("T_psi (N m)");
-    for tr in runs {
-        p = p.series(series(tr, &format!("T_psi, {}", label(tr)), |r| r.t_psi_nm));
+    for &(k, tr) in &order {
+        p = p.series(styled(
+            k,
+            series(tr, &format!("T_psi, {}", label(tr)), |r| r.t_psi_nm),
+        ));
     }
     save("torque.svg", Figure::new(&title).panel(p))?;
 
@@ -136,7 +177,10 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
     });
     save(
         "creep.svg",
-        Figure::new(&title).panel(fxr).panel(fxl).panel(fy),
+        Figure::new(&titled("solid", "dashed, on top"))
+            .panel(fxr)
+            .panel(fxl)
+            .panel(fy),
     )?;
 
     // Traction and Fig. 9 view.
@@ -165,11 +209,15 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
         .series(series(main, "v", |r| r.v_mps));
     save(
         "traction.svg",
-        Figure::new(&format!("{title}, control {}", label(main)))
-            .panel(ia)
-            .panel(ua)
-            .panel(wind)
-            .panel(v),
+        Figure::new(&format!(
+            "scenario {}, control {}: the drive",
+            main.info.scenario,
+            label(main)
+        ))
+        .panel(ia)
+        .panel(ua)
+        .panel(wind)
+        .panel(v),
     )?;
     Ok(files)
 }
@@ -212,7 +260,7 @@ pub fn write_root_locus(sw: &CaseSweep, dir: &Path) -> std::io::Result<std::path
             .join(", ")
     };
     let mut locus = Plot::new(&format!(
-        "Root locus over f11 = f22 = 1-10 MN ({crossings}; x markers: the 10 MN end)"
+        "Root locus, f11 = f22 = 1-10 MN ({crossings}; x: the 10 MN end)"
     ))
     .x_label("Re (1/s)")
     .y_label("Im (rad/s)")
@@ -220,17 +268,38 @@ pub fn write_root_locus(sw: &CaseSweep, dir: &Path) -> std::io::Result<std::path
     .y_range(-1.05 * im_hi, 1.05 * im_hi)
     .size(900.0, 560.0)
     .vline(0.0);
-    let mut freq = Plot::new("Damped frequency of each mode")
-        .size(900.0, 360.0)
-        .x_label("creep coefficient f11 = f22 (MN)")
-        .y_label("frequency (Hz)");
+    let mut freq = Plot::new(
+        "Frequency of each mode: natural |lambda|/2pi dashed, damped Im lambda/2pi solid",
+    )
+    .size(900.0, 360.0)
+    .x_label("creep coefficient f11 = f22 (MN)")
+    .y_label("frequency (Hz)");
     let mut zeta = Plot::new("Damping ratio of each mode (below 0 = unstable)")
         .size(900.0, 360.0)
         .x_label("creep coefficient f11 = f22 (MN)")
         .y_label("zeta")
         .hline(0.0);
+    // The modes that are real somewhere in the sweep coincide there at zero frequency
+    // and zeta = 1: the ones drawn first are wider, so that they show as nested bands.
+    let hz_range = |name: &str, f: &dyn Fn(f64, f64) -> f64| {
+        (0..n_pts)
+            .filter_map(|k| sw.mode_eig(name, k))
+            .filter(|(_, l)| l.im.abs() > 0.0)
+            .map(|(_, l)| f(l.re, l.im) / (2.0 * std::f64::consts::PI))
+            .fold((f64::INFINITY, 0.0f64), |(a, b), f| (a.min(f), b.max(f)))
+    };
+    let real: Vec<bool> = names
+        .iter()
+        .map(|n| (0..n_pts).any(|k| sw.mode_eig(n, k).is_some_and(|(_, l)| l.im == 0.0)))
+        .collect();
     for (m, name) in names.iter().enumerate() {
-        let col = PALETTE[m % PALETTE.len()];
+        let col = MODE_COLOURS[m % MODE_COLOURS.len()];
+        let later_real = real[m + 1..].iter().filter(|r| **r).count();
+        let width = if real[m] {
+            1.6 + 2.4 * later_real as f64
+        } else {
+            1.6
+        };
         let mut pts = Vec::new();
         for k in (0..n_pts).step_by(stride) {
             for (b, l) in sw.eig[k].iter().enumerate() {
@@ -239,7 +308,17 @@ pub fn write_root_locus(sw: &CaseSweep, dir: &Path) -> std::io::Result<std::path
                 }
             }
         }
-        locus = locus.series(Series::scatter(name, pts).color(col));
+        // The legend names each mode with its frequency range over the sweep.
+        // The names speak of the natural frequency |lambda| / 2 pi of the complex pair.
+        let (lo, hi) = hz_range(name, &f64::hypot);
+        let named = if hi > 0.0 {
+            format!("{name}: f_n {lo:.1}-{hi:.1} Hz")
+        } else if name.contains("real") {
+            name.clone()
+        } else {
+            format!("{name}: real")
+        };
+        locus = locus.series(Series::scatter(&named, pts).color(col));
         let top: Vec<(f64, f64)> = sw.eig[n_pts - 1]
             .iter()
             .enumerate()
@@ -247,7 +326,7 @@ pub fn write_root_locus(sw: &CaseSweep, dir: &Path) -> std::io::Result<std::path
             .map(|(_, l)| (l.re, l.im))
             .collect();
         locus = locus.series(Series::scatter("", top).style(Style::Crosses).color(col));
-        let vals: Vec<(f64, f64, f64)> = (0..n_pts)
+        let vals: Vec<(f64, f64, f64, f64)> = (0..n_pts)
             .filter_map(|k| {
                 sw.mode_eig(name, k).map(|(_, l)| {
                     let mag = l.norm();
@@ -255,14 +334,31 @@ pub fn write_root_locus(sw: &CaseSweep, dir: &Path) -> std::io::Result<std::path
                         sw.creep[k] * 1e-6,
                         l.im.abs() / (2.0 * std::f64::consts::PI),
                         if mag > 0.0 { -l.re / mag } else { 0.0 },
+                        if l.im == 0.0 {
+                            f64::NAN
+                        } else {
+                            mag / (2.0 * std::f64::consts::PI)
+                        },
                     )
                 })
             })
             .collect();
-        freq =
-            freq.series(Series::line(name, vals.iter().map(|v| (v.0, v.1)).collect()).color(col));
-        zeta =
-            zeta.series(Series::line(name, vals.iter().map(|v| (v.0, v.2)).collect()).color(col));
+        freq = freq
+            .series(
+                Series::line(name, vals.iter().map(|v| (v.0, v.1)).collect())
+                    .color(col)
+                    .width(width),
+            )
+            .series(
+                Series::line("", vals.iter().map(|v| (v.0, v.3)).collect())
+                    .color(col)
+                    .style(Style::Dashed),
+            );
+        zeta = zeta.series(
+            Series::line(name, vals.iter().map(|v| (v.0, v.2)).collect())
+                .color(col)
+                .width(width),
+        );
     }
     for c in &sw.crossings {
         zeta = zeta.vline(c.creep_n * 1e-6);
@@ -275,6 +371,11 @@ pub fn write_root_locus(sw: &CaseSweep, dir: &Path) -> std::io::Result<std::path
         .save(&path)?;
     Ok(path)
 }
+
+/// The modes' colours: the palette with its two blues apart (the sky blue last).
+const MODE_COLOURS: [&str; 8] = [
+    "#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#000000", "#999999", "#56B4E9",
+];
 
 /// One run of [`write_figure`].
 #[derive(Debug, Clone, Copy)]
@@ -314,27 +415,66 @@ pub fn write_figure(
         }
     };
     let mut force = panel("Traction force delivered F_xR + F_xL", "F (kN)");
-    let mut mu = panel("Adhesion available (peak) and used", "F / Q (1)");
+    let mut mu = panel(
+        "Adhesion available (peak) and used",
+        "F / Q (creep force over wheel load)",
+    );
+    // The other runs first and wide, the first run thin on top: where they coincide
+    // (before the first low-adhesion section) both show.
+    let order: Vec<usize> = (1..runs.len()).chain(0..runs.len().min(1)).collect();
+    let width = |k: usize| if k == 0 { 1.4 } else { 3.6 };
+    for &k in &order {
+        let run = &runs[k];
+        let pts = |f: &dyn Fn(&Record) -> f64| -> Vec<(f64, f64)> {
+            run.tr.records.iter().map(|r| (r.t_s, f(r))).collect()
+        };
+        force = force.series(
+            Series::line(run.label, pts(&|r| (r.fx_r_n + r.fx_l_n) * 1e-3))
+                .color(colour(k))
+                .width(width(k)),
+        );
+        mu = mu.series(
+            Series::line(&format!("used, {}", run.label), pts(&|r| r.mu_used))
+                .color(colour(k))
+                .width(width(k)),
+        );
+    }
+    if let Some(run) = runs.first() {
+        mu = mu.series(
+            Series::line(
+                "available",
+                run.tr.records.iter().map(|r| (r.t_s, r.mu_avail)).collect(),
+            )
+            .style(Style::Dashed)
+            .color("#000"),
+        );
+    }
+    // A run that stopped early (diverged) says so where it ends, in every panel it is in.
+    let ends: Vec<(f64, String, &str)> = runs
+        .iter()
+        .enumerate()
+        .filter_map(|(k, r)| {
+            let last = r.tr.records.last()?.t_s;
+            (last < end - 1e-9).then(|| {
+                let why = if r.tr.info.diverged_at_s.is_some() {
+                    "stopped: diverged"
+                } else {
+                    "ends"
+                };
+                (last, format!("{} {why} at {last:.3} s", r.label), colour(k))
+            })
+        })
+        .collect();
     let mut slips = Vec::new();
     for (k, run) in runs.iter().enumerate() {
         let pts = |f: &dyn Fn(&Record) -> f64| -> Vec<(f64, f64)> {
             run.tr.records.iter().map(|r| (r.t_s, f(r))).collect()
         };
-        force = force.series(
-            Series::line(run.label, pts(&|r| (r.fx_r_n + r.fx_l_n) * 1e-3)).color(colour(k)),
-        );
-        mu = mu.series(
-            Series::line(&format!("used, {}", run.label), pts(&|r| r.mu_used)).color(colour(k)),
-        );
-        if k == 0 {
-            mu = mu.series(
-                Series::line("available", pts(&|r| r.mu_avail))
-                    .style(Style::Dashed)
-                    .color("#000"),
-            );
-        }
-        let slip = panel(&format!("Slip velocity, {}", run.label), "slip (m/s)")
+        let mut slip = panel(&format!("Slip velocity, {}", run.label), "slip (m/s)")
             .series(Series::line(run.label, pts(&|r| r.slip_mps)).color(colour(k)));
+        if let Some((t, l, c)) = ends.iter().find(|e| e.1.starts_with(run.label)) {
+            slip = slip.vmark(*t, l, c);
+        }
         slips.push(if run.set_point.is_empty() {
             slip.hmark(
                 RUNAWAY_SLIP_MPS,
@@ -342,8 +482,10 @@ pub fn write_figure(
                 "#D55E00",
             )
         } else {
-            // The set point, broken where the protection did not act.
+            // The set point, broken where the protection did not act; a dot where each
+            // stretch ends (the protection hands back to the driver's demand).
             let mut sp = Vec::with_capacity(run.set_point.len());
+            let mut released = Vec::new();
             let dt = run
                 .set_point
                 .windows(2)
@@ -353,14 +495,24 @@ pub fn write_figure(
                 sp.push(w[0]);
                 if w[1].0 - w[0].0 > 1.5 * dt {
                     sp.push((f64::NAN, f64::NAN));
+                    released.push(w[0]);
                 }
             }
             sp.extend(run.set_point.last());
+            released.extend(run.set_point.last());
+            let top = run
+                .set_point
+                .iter()
+                .chain(&pts(&|r| r.slip_mps))
+                .map(|p| p.1)
+                .fold(slip_on_mps, f64::max);
             slip.series(
                 Series::line("regulator's set point", sp)
                     .style(Style::Dashed)
                     .color("#000"),
             )
+            .series(Series::scatter("protection releases", released).color("#000"))
+            .y_range(-0.05 * top, 1.15 * top)
             .hmark(
                 slip_on_mps,
                 &format!("detection: slip above {slip_on_mps} m/s"),
@@ -368,8 +520,17 @@ pub fn write_figure(
             )
         });
     }
+    for (t, l, c) in &ends {
+        force = force.vmark(*t, l, c);
+        mu = mu.vmark(*t, "", c);
+    }
     let path = dir.join("adhesion.svg");
-    let mut fig = Figure::new("low adhesion: traction, slip, adhesion").panel(force);
+    let names: Vec<&str> = runs.iter().map(|r| r.label).collect();
+    let mut fig = Figure::new(&format!(
+        "Low adhesion, {}: traction force, slip, adhesion",
+        names.join(" vs ")
+    ))
+    .panel(force);
     for p in slips {
         fig = fig.panel(p);
     }
@@ -395,16 +556,24 @@ pub fn characteristic(ch: &Characteristic) -> Figure {
         "Polach creep characteristic, {} rail, v = {} m/s (peak {:.3} at creepage {:.4})",
         ch.condition, ch.v_mps, ch.mu_peak, ch.creepage_peak
     ))
-    .x_label("longitudinal creepage (1)")
-    .y_label("F / Q (1)")
+    .x_label("longitudinal creepage (slip velocity over speed)")
+    .y_label("F / Q (creep force over wheel load)")
     .series(Series::line(&format!("{}", ch.condition), pts))
     .series(
         Series::line("linear law f11 s / Q", lin)
             .style(Style::Dashed)
             .color("#000"),
     )
-    .hline(ch.mu_peak);
-    Figure::new(&format!("adhesion: {}", ch.source)).panel(plot)
+    .hmark(
+        ch.mu_peak,
+        &format!("peak adhesion {:.3}", ch.mu_peak),
+        "#777777",
+    );
+    // The figure is as wide as its title (the law's source) needs: 9 px a character at
+    // font-size 15.
+    let title = format!("adhesion: {}", ch.source);
+    let width = (title.chars().count() as f64 * 9.0 + 40.0).max(plot.width);
+    Figure::new(&title).panel(plot.size(width, 360.0))
 }
 
 #[cfg(test)]

@@ -355,6 +355,9 @@ fn the_core_with_protection_holds_the_wheel_and_without_it_runs_away() {
     ] {
         assert!(svg.contains(want), "{want}");
     }
+    // Laid out without a label over another or off the canvas.
+    let problems = wheelset_report::svg::lint::problems(&svg);
+    assert!(problems.is_empty(), "{problems:#?}");
     let _ = std::fs::remove_dir_all(&dir);
     // The production type takes the same course.
     let (fx, c_fx) = run_core::<wheelset_control::Fx>(&sc, YawLaw::Lead, true).unwrap();

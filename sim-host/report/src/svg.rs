@@ -36,6 +36,7 @@ use std::path::Path;
 
 mod figure;
 pub mod heatmap;
+pub mod lint;
 mod render;
 mod ticks;
 
@@ -87,6 +88,9 @@ pub struct Series {
     pub style: Style,
     /// Colour (`None` = next palette colour).
     pub color: Option<String>,
+    /// Line width, px (lines only; a wide pale line drawn first shows a trace that
+    /// another one follows closely).
+    pub width: f64,
 }
 
 impl Series {
@@ -97,6 +101,7 @@ impl Series {
             points,
             style: Style::Line,
             color: None,
+            width: 1.4,
         }
     }
     /// A scatter of dots.
@@ -114,6 +119,11 @@ impl Series {
     /// Sets the colour (any SVG colour).
     pub fn color(mut self, c: &str) -> Self {
         self.color = Some(c.to_string());
+        self
+    }
+    /// Sets the line width, px.
+    pub fn width(mut self, px: f64) -> Self {
+        self.width = px;
         self
     }
 }

@@ -76,38 +76,19 @@ impl<T: Sample> Drive<T> {
 
 /// Least-squares fit of `y[n] ~ a sin(w n) + b cos(w n) + d`; returns `(a, b, d)`.
 fn fit_sine(y: &[f64], w: f64, n0: usize) -> (f64, f64, f64) {
-    let mut m = [[0.0f64; 4]; 3];
+    // The normal equations `(R^T R) x = R^T y`, solved by LU decomposition.
+    let mut m = nalgebra::Matrix3::<f64>::zeros();
+    let mut rhs = nalgebra::Vector3::<f64>::zeros();
     for (k, &v) in y.iter().enumerate() {
         let ph = w * (n0 + k) as f64;
-        let r = [ph.sin(), ph.cos(), 1.0];
-        for i in 0..3 {
-            for j in 0..3 {
-                m[i][j] += r[i] * r[j];
-            }
-            m[i][3] += r[i] * v;
-        }
+        let r = nalgebra::Vector3::new(ph.sin(), ph.cos(), 1.0);
+        m += r * r.transpose();
+        rhs += r * v;
     }
-    // Gaussian elimination with partial pivoting on the 3x3 normal equations.
-    for col in 0..3 {
-        let p = (col..3)
-            .max_by(|&a, &b| m[a][col].abs().total_cmp(&m[b][col].abs()))
-            .unwrap_or(col);
-        m.swap(col, p);
-        let d = m[col][col];
-        if d == 0.0 {
-            return (0.0, 0.0, 0.0);
-        }
-        for r in 0..3 {
-            if r != col {
-                let f = m[r][col] / d;
-                let pivot = m[col];
-                for (x, p) in m[r].iter_mut().zip(pivot).skip(col) {
-                    *x -= f * p;
-                }
-            }
-        }
+    match m.lu().solve(&rhs) {
+        Some(x) => (x[0], x[1], x[2]),
+        None => (0.0, 0.0, 0.0),
     }
-    (m[0][3] / m[0][0], m[1][3] / m[1][1], m[2][3] / m[2][2])
 }
 
 /// Stimulus amplitudes used to measure the responses, SI: `y'` 10 mm/s (a typical

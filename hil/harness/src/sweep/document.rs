@@ -34,6 +34,14 @@ const VERDICT_COLOURS: [(wheelset_report::Verdict, &str); 3] = [
     (wheelset_report::Verdict::Fail, "#D55E00"),
 ];
 
+/// A parameter key with its unit (`f11 (N)`; a pure number stays bare).
+fn axis_label(key: &str) -> String {
+    match wheelset_plant::params::RANGES.iter().find(|r| r.key == key) {
+        Some(r) if r.unit != "1" => format!("{key} ({})", r.unit),
+        _ => key.to_string(),
+    }
+}
+
 /// The heat maps of a campaign: the first axis across, the second (if any) up, one map
 /// per combination of the further axes; `cell` colours and labels one record.
 fn heat_maps(
@@ -83,7 +91,10 @@ fn heat_maps(
                     a.values.iter().map(|&v| value_label(v)).collect()
                 }),
             )
-            .labels(&x.key, y.map_or("", |a| a.key.as_str()))
+            .labels(
+                &axis_label(&x.key),
+                &y.map_or(String::new(), |a| axis_label(&a.key)),
+            )
             .cells(cells);
             for (c, l) in legend {
                 h = h.legend(c, l);
@@ -158,10 +169,19 @@ pub fn write_sweep_report(
     let legend = if peaks.is_empty() {
         Vec::new()
     } else {
-        vec![
-            (sequential(0.0), format!("{:.3} mm", lo * 1e3)),
-            (sequential(1.0), format!("{:.3} mm", hi * 1e3)),
-        ]
+        // Five steps of the logarithmic scale, then what a cell's "div" means.
+        let mut l: Vec<(String, String)> = (0..5)
+            .map(|k| {
+                let t = f64::from(k) / 4.0;
+                let v = lo * (hi / lo).powf(t) * 1e3;
+                (sequential(t), format!("{v:.3} mm"))
+            })
+            .collect();
+        l.push(("none".into(), "log colour scale".into()));
+        if doc.records.iter().any(|r| r.diverged_at_s.is_some()) {
+            l.push(("none".into(), "div t: diverged at t".into()));
+        }
+        l
     };
     let maps = heat_maps(
         doc,

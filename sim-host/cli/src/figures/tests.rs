@@ -1,5 +1,7 @@
 //! The figures' titles: the root locus names where the stability changes (not the
 //! 10 MN end), and the time histories name the paper's figure of their scenario only.
+//! Every figure drawn here passes the layout lint (no label over another or off the
+//! canvas; data beyond a fixed axis is marked by the plotting module).
 
 use super::{write_root_locus, write_time_histories};
 use wheelset_plant::control::YawLaw;
@@ -7,6 +9,13 @@ use wheelset_plant::modes::{creep_grid, sweep_case, Case};
 use wheelset_plant::params::Params;
 use wheelset_plant::scenario::Scenario;
 use wheelset_plant::sim::run_continuous;
+
+/// Asserts that the SVG file at `path` has no overlapping or cut-off label.
+fn assert_laid_out(path: &std::path::Path) {
+    let svg = std::fs::read_to_string(path).expect("read");
+    let problems = wheelset_report::svg::lint::problems(&svg);
+    assert!(problems.is_empty(), "{}: {problems:#?}", path.display());
+}
 
 fn tmp(name: &str) -> std::path::PathBuf {
     let d = std::env::temp_dir().join(format!("sim-host-figures-{}-{name}", std::process::id()));
@@ -21,6 +30,7 @@ fn root_locus_subtitle_states_the_bisected_crossing() {
     let c = sw.crossings.first().expect("case (b) crosses");
     let dir = tmp("locus");
     let f = write_root_locus(&sw, &dir).expect("written");
+    assert_laid_out(&f);
     let svg = std::fs::read_to_string(f).expect("read");
     let want = format!("kinematic crosses at {:.2} MN", c.creep_n * 1e-6);
     assert!(svg.contains(&want), "no `{want}` in the subtitle");
@@ -28,24 +38,35 @@ fn root_locus_subtitle_states_the_bisected_crossing() {
     // Case (a) does not cross in 1-10 MN and says so.
     let sa = sweep_case(&p, Case::A, &creep_grid(60), || {}).expect("sweep");
     assert!(sa.crossings.is_empty());
-    let svg = std::fs::read_to_string(write_root_locus(&sa, &dir).expect("written")).expect("read");
+    let fa = write_root_locus(&sa, &dir).expect("written");
+    assert_laid_out(&fa);
+    let svg = std::fs::read_to_string(fa).expect("read");
     assert!(svg.contains("no stability change in 1-10 MN"));
 }
 
 #[test]
 fn time_histories_name_the_figure_of_their_scenario() {
     let p = Params::default();
+    let sc = Scenario::load("curve", &p).expect("built in");
+    let (lead, passive) = (
+        run_continuous(&sc, YawLaw::Lead),
+        run_continuous(&sc, YawLaw::Passive),
+    );
+    let dir = tmp("compare");
+    for f in write_time_histories(&[lead, passive], &dir).expect("written") {
+        assert_laid_out(&f);
+    }
     for (scenario, law, lateral, not) in [
         (
             "beating",
             YawLaw::Passive,
-            "Lateral displacement (Fig. 9)",
+            "pure rolling line y0 (Fig. 9)",
             "(Fig. 6)",
         ),
         (
             "curve",
             YawLaw::Lead,
-            "Lateral displacement (Fig. 6)",
+            "pure rolling line y0 (Fig. 6)",
             "(Fig. 9)",
         ),
     ] {

@@ -86,7 +86,7 @@ impl HeatMap {
         self.cells = cells;
         self
     }
-    /// Adds a legend entry.
+    /// Adds a legend entry (colour `none`: a line of text without a swatch).
     #[must_use]
     pub fn legend(mut self, color: &str, label: &str) -> Self {
         self.legend.push((color.into(), label.into()));
@@ -101,13 +101,18 @@ impl HeatMap {
             .map_or(0.0, |n| n as f64 * 6.5 + 40.0)
     }
 
+    /// The title's estimated width at font-size 13, px (see [`super::lint`]).
+    fn title_width(&self) -> f64 {
+        self.title.chars().count() as f64 * 13.0 * super::lint::CHAR_WIDTH
+    }
+
     /// Width and height of the panel, px.
     #[must_use]
     pub fn size(&self) -> (f64, f64) {
         let (ml, mr, mt, mb) = MARGIN;
         let w = ml + mr + self.legend_width() + CELL.0 * self.x_ticks.len().max(1) as f64;
         let h = mt + mb + CELL.1 * self.y_ticks.len().max(1) as f64;
-        (w.max(300.0), h)
+        (w.max(300.0).max(self.title_width() + 16.0), h)
     }
 
     /// The panel as an SVG group translated to `(ox, oy)`.
@@ -124,7 +129,8 @@ impl HeatMap {
         let _ = writeln!(
             o,
             r#"<text x="{:.1}" y="18" text-anchor="middle" font-size="13" font-weight="bold">{}</text>"#,
-            ml + pw / 2.0,
+            // Over the cells, or as far right as a title wider than them needs.
+            (ml + pw / 2.0).max(self.title_width() / 2.0 + 8.0),
             esc(&self.title)
         );
         for (k, c) in self.cells.iter().enumerate().take(nx * ny) {
@@ -187,11 +193,14 @@ impl HeatMap {
         let lx = ml + pw + 12.0;
         for (row, (col, label)) in self.legend.iter().enumerate() {
             let y = mt + row as f64 * 16.0;
-            let _ = writeln!(
-                o,
-                r##"<rect x="{lx:.1}" y="{y:.1}" width="14" height="12" fill="{}" stroke="#999"/>"##,
-                esc(col)
-            );
+            // A legend row of colour `none` is a line of text without a swatch.
+            if col != "none" {
+                let _ = writeln!(
+                    o,
+                    r##"<rect x="{lx:.1}" y="{y:.1}" width="14" height="12" fill="{}" stroke="#999"/>"##,
+                    esc(col)
+                );
+            }
             let _ = writeln!(
                 o,
                 r#"<text x="{:.1}" y="{:.1}">{}</text>"#,

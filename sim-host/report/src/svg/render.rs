@@ -22,7 +22,106 @@ fn axis(log: bool, v: f64) -> f64 {
     }
 }
 
+/// A box in px: left, top, right, bottom.
+type Rect = (f64, f64, f64, f64);
+
+/// Estimated width of a character at font-size 11, px (see [`super::lint`]).
+const LABEL_CHAR_PX: f64 = 11.0 * super::lint::CHAR_WIDTH;
+
+fn overlap(a: &Rect, b: &Rect) -> bool {
+    a.0 < b.2 && b.0 < a.2 && a.1 < b.3 && b.1 < a.3
+}
+
 impl Plot {
+    /// The colour series `k` is drawn in.
+    fn colour(&self, k: usize, s: &Series) -> String {
+        s.color
+            .clone()
+            .unwrap_or_else(|| PALETTE[k % PALETTE.len()].to_string())
+    }
+
+    /// The points of every series as drawn, px (at most about 2000 per series).
+    fn drawn_px(&self, sx: &dyn Fn(f64) -> f64, sy: &dyn Fn(f64) -> f64) -> Vec<(f64, f64)> {
+        let mut out = Vec::new();
+        for s in &self.series {
+            let step = (s.points.len() / 2000).max(1);
+            for &(x, y) in s.points.iter().step_by(step) {
+                let (x, y) = (sx(self.tx(x)), sy(self.ty(y)));
+                if x.is_finite() && y.is_finite() {
+                    out.push((x, y));
+                }
+            }
+        }
+        out
+    }
+
+    /// The points of series `k` (axis units) where it leaves the ranges drawn: the first
+    /// point of each run outside them (each point for a scatter; at most 200).
+    pub(super) fn clipped_exits(
+        &self,
+        k: usize,
+        xr: (f64, f64),
+        yr: (f64, f64),
+    ) -> Vec<(f64, f64)> {
+        let Some(s) = self.series.get(k) else {
+            return Vec::new();
+        };
+        let (ex, ey) = (1e-9 * (xr.1 - xr.0), 1e-9 * (yr.1 - yr.0));
+        let scatter = matches!(s.style, Style::Markers | Style::Crosses);
+        let mut out = Vec::new();
+        let mut inside = true;
+        for &(x, y) in &s.points {
+            let (x, y) = (self.tx(x), self.ty(y));
+            if !(x.is_finite() && y.is_finite()) {
+                inside = true;
+                continue;
+            }
+            let outside = x < xr.0 - ex || x > xr.1 + ex || y < yr.0 - ey || y > yr.1 + ey;
+            if outside && (inside || scatter) && out.len() < 200 {
+                out.push((x, y));
+            }
+            inside = !outside;
+        }
+        out
+    }
+
+    /// The legend's rows: each labelled series, then a row per series with data beyond
+    /// the ranges drawn: `(series index, text, clipped)`.
+    fn legend_rows(&self) -> Vec<(usize, String, bool)> {
+        let mut rows: Vec<(usize, String, bool)> = self
+            .series
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| !s.label.is_empty())
+            .map(|(k, s)| (k, s.label.clone(), false))
+            .collect();
+        if self.series.iter().any(|s| !s.points.is_empty()) {
+            let (xr, yr) = self.data_range();
+            for (k, s) in self.series.iter().enumerate() {
+                if self.clipped_exits(k, xr, yr).is_empty() {
+                    continue;
+                }
+                // An unlabelled series goes by the labelled one of its colour.
+                let col = self.colour(k, s);
+                let name = if s.label.is_empty() {
+                    self.series
+                        .iter()
+                        .enumerate()
+                        .find(|(j, o)| !o.label.is_empty() && self.colour(*j, o) == col)
+                        .map_or("data", |(_, o)| o.label.as_str())
+                } else {
+                    &s.label
+                };
+                let short = name.split(':').next().unwrap_or(name);
+                let text = format!("{short}: beyond the axes");
+                if !rows.iter().any(|r| r.2 && r.1 == text) {
+                    rows.push((k, text, true));
+                }
+            }
+        }
+        rows
+    }
+
     /// The x value as drawn (see [`axis`]).
     fn tx(&self, x: f64) -> f64 {
         axis(self.x_log, x)
@@ -33,9 +132,10 @@ impl Plot {
         axis(self.y_log, y)
     }
 
-    /// A panel that carries only a note: no data, so no axes to read.
+    /// A panel that carries only a note: no data and no marks, so no axes to read.
     fn note_only(&self) -> bool {
         !self.note.is_empty()
+            && self.marks.is_empty()
             && self.bars.is_empty()
             && self.series.iter().all(|s| s.points.is_empty())
     }
@@ -81,7 +181,8 @@ impl Plot {
         let fix = |r: (f64, f64)| {
             if !r.0.is_finite() {
                 (0.0, 1.0)
-            } else if r.1 - r.0 <= f64::EPSILON * r.0.abs().max(1e-300) {
+            } else if r.1 - r.0 <= 1e-9 * r.0.abs().max(1e-300) {
+                // A constant (to rounding): a range around it, not ticks in its noise.
                 let d = if r.0 == 0.0 { 1.0 } else { r.0.abs() * 0.1 };
                 (r.0 - d, r.1 + d)
             } else {
@@ -117,12 +218,11 @@ impl Plot {
 
     /// Width of the legend column, px (0 without labelled series).
     pub fn legend_width(&self) -> f64 {
-        self.series
+        self.legend_rows()
             .iter()
-            .filter(|s| !s.label.is_empty())
-            .map(|s| s.label.chars().count())
+            .map(|r| r.1.chars().count())
             .max()
-            .map_or(0.0, |n| n as f64 * 6.5 + 34.0)
+            .map_or(0.0, |n| n as f64 * 6.8 + 34.0)
     }
 
     /// Renders the panel as an SVG group translated to `(ox, oy)`.
@@ -135,7 +235,7 @@ impl Plot {
     pub fn render_group_with(&self, ox: f64, oy: f64, legend_w: f64) -> String {
         // The legend sits in a column right of the plotting area, so it never hides data.
         let legend_w = legend_w.max(self.legend_width());
-        // Slanted category names (40 degrees, ~6 px per character at font-size 11)
+        // Slanted category names (40 degrees, [`LABEL_CHAR_PX`] per character)
         // take sin(40) of their length below the axis.
         let longest = self
             .x_categories
@@ -146,29 +246,34 @@ impl Plot {
         let cat_h = if longest == 0 {
             0.0
         } else {
-            longest as f64 * 6.0 * 0.643 + 8.0
+            longest as f64 * LABEL_CHAR_PX * 0.643 + 8.0
         };
         let (mr, mt, mb) = (16.0 + legend_w, 30.0, 46.0 + cat_h);
         // The first category's slanted name reaches left of its centre by its length
         // times cos(40): the left margin grows so that the edge does not cut it off.
-        let first = self
-            .x_categories
-            .first()
-            .map_or(0.0, |c| c.chars().count() as f64 * 6.0 * 0.766 + 6.0);
+        let first = self.x_categories.first().map_or(0.0, |c| {
+            c.chars().count() as f64 * LABEL_CHAR_PX * 0.766 + 6.0
+        });
         let half = 0.5 / self.x_categories.len().max(1) as f64;
-        let ml = f64::max(78.0, (first - (self.width - mr) * half) / (1.0 - half));
-        let (pw, ph) = (self.width - ml - mr, self.height - mt - mb);
         let ((x0, x1), (y0, y1)) = self.data_range();
         let blank = self.note_only();
-        let xt = if blank || !self.x_categories.is_empty() {
-            Vec::new()
-        } else {
-            Self::ticks(self.x_log, x0, x1, 7)
-        };
         let yt = if blank {
             Vec::new()
         } else {
             Self::ticks(self.y_log, y0, y1, 6)
+        };
+        // Room for the longest y tick label right of the rotated y label.
+        let tick_w = yt
+            .iter()
+            .map(|t| t.1.chars().count() as f64 * LABEL_CHAR_PX)
+            .fold(0.0, f64::max);
+        let ml =
+            f64::max(78.0, (first - (self.width - mr) * half) / (1.0 - half)).max(tick_w + 28.0);
+        let (pw, ph) = (self.width - ml - mr, self.height - mt - mb);
+        let xt = if blank || !self.x_categories.is_empty() {
+            Vec::new()
+        } else {
+            Self::ticks(self.x_log, x0, x1, 7)
         };
         // Axis units to px (`sx`, `sy`); data units to px (`px`, `py`).
         let sx = |x: f64| ml + (x - x0) / (x1 - x0) * pw;
@@ -312,7 +417,8 @@ impl Plot {
                         }
                         let _ = writeln!(
                             o,
-                            r#"<path d="{d}" fill="none" stroke="{col}" stroke-width="1.4"{dash}/>"#
+                            r#"<path d="{d}" fill="none" stroke="{col}" stroke-width="{}"{dash}/>"#,
+                            s.width
                         );
                     }
                 }
@@ -345,112 +451,226 @@ impl Plot {
                 }
             }
         }
-        // The marks on top of the data, each label beside its line (vertical ones
-        // staggered down the top of the area so that neighbours do not overprint).
-        let mut h_labels: Vec<f64> = Vec::new();
-        for (k, m) in self.marks.iter().enumerate() {
+        // The marks on top of the data, each label beside its line where it hides the
+        // fewest data points and no other label.
+        let placed_pts = self.drawn_px(&sx, &sy);
+        // The bars as drawn (a label over one hides it as much as over fifty points).
+        let bar_px: Vec<Rect> = self
+            .bars
+            .iter()
+            .filter(|b| !(self.y_log && b.2 <= 0.0))
+            .map(|&(a, b, h)| {
+                let top = sy(self.ty(h).max(y0));
+                let bottom = sy(if self.y_log { y0 } else { 0f64.max(y0) });
+                (px(a), top.min(bottom), px(b), top.max(bottom))
+            })
+            .collect();
+        let mut taken: Vec<Rect> = Vec::new();
+        let v_lines: Vec<f64> = self
+            .marks
+            .iter()
+            .filter(|m| m.vertical)
+            .map(|m| px(m.at))
+            .filter(|x| x.is_finite())
+            .collect();
+        let h_lines: Vec<f64> = self
+            .marks
+            .iter()
+            .filter(|m| !m.vertical)
+            .map(|m| py(m.at))
+            .filter(|y| y.is_finite())
+            .collect();
+        for m in &self.marks {
             let label = esc(&m.label);
             let c = &m.color;
+            let at = if m.vertical { px(m.at) } else { py(m.at) };
+            if !at.is_finite() {
+                continue;
+            }
             if m.vertical {
-                let x = px(m.at);
-                if !x.is_finite() {
-                    continue;
-                }
                 let _ = writeln!(
                     o,
-                    r#"<line x1="{x:.1}" y1="{mt}" x2="{x:.1}" y2="{:.1}" stroke="{c}" stroke-width="1.2" stroke-dasharray="5,3"/>"#,
+                    r#"<line x1="{at:.1}" y1="{mt}" x2="{at:.1}" y2="{:.1}" stroke="{c}" stroke-width="1.2" stroke-dasharray="5,3"/>"#,
                     mt + ph
                 );
-                let right = x < ml + 0.7 * pw;
-                let _ = writeln!(
-                    o,
-                    r##"<text x="{:.1}" y="{:.1}" text-anchor="{}" fill="{c}" stroke="#fff" stroke-width="3" paint-order="stroke">{label}</text>"##,
-                    if right { x + 3.0 } else { x - 3.0 },
-                    mt + 12.0 + 12.0 * (k % 4) as f64,
-                    if right { "start" } else { "end" }
-                );
             } else {
-                let y = py(m.at);
-                if !y.is_finite() {
-                    continue;
-                }
                 let _ = writeln!(
                     o,
-                    r#"<line x1="{ml:.1}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}" stroke="{c}" stroke-width="1.2" stroke-dasharray="5,3"/>"#,
+                    r#"<line x1="{ml:.1}" y1="{at:.1}" x2="{:.1}" y2="{at:.1}" stroke="{c}" stroke-width="1.2" stroke-dasharray="5,3"/>"#,
                     ml + pw
                 );
-                // At the left end (the events' labels are at the top right), above the
-                // line, or below it where the top edge or another label is in the way.
-                if label.is_empty() {
-                    continue;
+            }
+            if m.label.is_empty() {
+                continue;
+            }
+            let w = m.label.chars().count() as f64 * LABEL_CHAR_PX;
+            // Candidates: a vertical mark's label right or left of its line, in one of
+            // the rows down the top of the area; a horizontal one's above or below its
+            // line, at the left or the right end.
+            let mut cands: Vec<(f64, f64, bool)> = Vec::new();
+            if m.vertical {
+                for row in 0..((ph / 12.0).floor() as usize).max(1) {
+                    let y = mt + 12.0 + 12.0 * row as f64;
+                    cands.push((at + 3.0, y, false));
+                    cands.push((at - 3.0, y, true));
                 }
-                let clash = |at: f64| h_labels.iter().any(|&u: &f64| (u - at).abs() < 11.0);
-                let at = if y - 3.0 < mt + 11.0 || clash(y - 3.0) {
-                    y + 12.0
+            } else {
+                for y in [
+                    at - 3.0,
+                    at + 12.0,
+                    at - 15.0,
+                    at + 24.0,
+                    at - 27.0,
+                    at + 36.0,
+                ] {
+                    cands.push((ml + 4.0, y, false));
+                    cands.push((ml + pw - 4.0, y, true));
+                }
+            }
+            let rect_of = |(x, y, end): (f64, f64, bool)| -> Rect {
+                let x0 = if end { x - w } else { x };
+                (x0, y - 9.0, x0 + w, y + 3.0)
+            };
+            // Outside the area, over another label, across another mark's line, over
+            // data: in that order of cost (rows further down cost a little, so that
+            // labels stay near the top).
+            let score = |i: usize, cand: (f64, f64, bool)| -> (bool, bool, bool, usize) {
+                let r = rect_of(cand);
+                let outside = r.0 < ml || r.2 > ml + pw || r.1 < mt || r.3 > mt + ph;
+                let clash = taken.iter().any(|t| overlap(t, &r));
+                // Another mark's line through the label (its own runs beside it).
+                let other = |l: f64, vertical: bool| m.vertical != vertical || (l - at).abs() > 0.5;
+                let crosses = v_lines
+                    .iter()
+                    .any(|&x| other(x, true) && x > r.0 && x < r.2)
+                    || h_lines
+                        .iter()
+                        .any(|&y| other(y, false) && y > r.1 && y < r.3);
+                let hidden = placed_pts
+                    .iter()
+                    .filter(|p| p.0 >= r.0 && p.0 <= r.2 && p.1 >= r.1 && p.1 <= r.3)
+                    .count()
+                    + 50 * bar_px.iter().filter(|b| overlap(b, &r)).count();
+                (outside, clash, crosses, hidden + i / 2)
+            };
+            let best = cands
+                .iter()
+                .copied()
+                .enumerate()
+                .min_by_key(|&(i, cand)| score(i, cand))
+                .map(|(_, cand)| cand);
+            let Some(cand) = best else { continue };
+            taken.push(rect_of(cand));
+            let _ = writeln!(
+                o,
+                r##"<text x="{:.1}" y="{:.1}" text-anchor="{}" fill="{c}" stroke="#fff" stroke-width="3" paint-order="stroke">{label}</text>"##,
+                cand.0,
+                cand.1,
+                if cand.2 { "end" } else { "start" }
+            );
+        }
+        // Data beyond a fixed range: a triangle on the edge where each run leaves the
+        // axes (pointing out), and a legend row per series that leaves them.
+        for (k, s) in self.series.iter().enumerate() {
+            let col = self.colour(k, s);
+            for &(x, y) in &self.clipped_exits(k, (x0, x1), (y0, y1)) {
+                let (cx, cy) = (sx(x.clamp(x0, x1)), sy(y.clamp(y0, y1)));
+                let d = if y > y1 {
+                    (0.0, -1.0)
+                } else if y < y0 {
+                    (0.0, 1.0)
+                } else if x > x1 {
+                    (1.0, 0.0)
                 } else {
-                    y - 3.0
+                    (-1.0, 0.0)
                 };
-                h_labels.push(at);
+                // The tip on the edge, the base inside the area (the group clips).
+                let (bx, by) = (cx - 8.0 * d.0, cy - 8.0 * d.1);
                 let _ = writeln!(
                     o,
-                    r##"<text x="{:.1}" y="{at:.1}" fill="{c}" stroke="#fff" stroke-width="3" paint-order="stroke">{label}</text>"##,
-                    ml + 4.0
+                    r##"<path class="clipped" d="M{cx:.1},{cy:.1} L{:.1},{:.1} L{:.1},{:.1} Z" fill="{col}" stroke="#fff" stroke-width="0.8"/>"##,
+                    bx - 5.0 * d.1,
+                    by + 5.0 * d.0,
+                    bx + 5.0 * d.1,
+                    by - 5.0 * d.0
                 );
             }
         }
         o.push_str("</g>\n");
         // legend
-        let labelled: Vec<(usize, &Series)> = self
-            .series
-            .iter()
-            .enumerate()
-            .filter(|(_, s)| !s.label.is_empty())
-            .collect();
-        if !labelled.is_empty() {
+        let rows = self.legend_rows();
+        if !rows.is_empty() {
             let lw = legend_w;
             let lx = ml + pw + 8.0;
             let ly = mt + 6.0;
             let _ = writeln!(
                 o,
                 r##"<rect x="{lx:.1}" y="{ly:.1}" width="{lw:.1}" height="{:.1}" fill="#fff" fill-opacity="0.85" stroke="#999"/>"##,
-                labelled.len() as f64 * 15.0 + 6.0
+                rows.len() as f64 * 15.0 + 6.0
             );
-            for (row, (k, s)) in labelled.iter().enumerate() {
-                let col = s
-                    .color
-                    .clone()
-                    .unwrap_or_else(|| PALETTE[k % PALETTE.len()].to_string());
+            for (row, (k, text, clipped)) in rows.iter().enumerate() {
+                let s = &self.series[*k];
+                let col = self.colour(*k, s);
                 let y = ly + 13.0 + row as f64 * 15.0;
-                match s.style {
-                    Style::Markers | Style::Crosses => {
-                        let _ = writeln!(
-                            o,
-                            r#"<circle cx="{:.1}" cy="{:.1}" r="3" fill="{col}"/>"#,
-                            lx + 14.0,
-                            y - 4.0
-                        );
-                    }
-                    _ => {
-                        let dash = if s.style == Style::Dashed {
-                            r#" stroke-dasharray="6,4""#
-                        } else {
-                            ""
-                        };
-                        let _ = writeln!(
-                            o,
-                            r#"<line x1="{:.1}" y1="{:.1}" x2="{:.1}" y2="{:.1}" stroke="{col}" stroke-width="2"{dash}/>"#,
-                            lx + 5.0,
-                            y - 4.0,
-                            lx + 24.0,
-                            y - 4.0
-                        );
+                if *clipped {
+                    let _ = writeln!(
+                        o,
+                        r#"<path d="M{:.1},{:.1} L{:.1},{:.1} L{:.1},{:.1} Z" fill="{col}"/>"#,
+                        lx + 14.0,
+                        y - 10.0,
+                        lx + 9.0,
+                        y - 2.0,
+                        lx + 19.0,
+                        y - 2.0
+                    );
+                } else {
+                    match s.style {
+                        Style::Crosses => {
+                            let (cx, cy) = (lx + 14.0, y - 4.0);
+                            let _ = writeln!(
+                                o,
+                                r#"<path d="M{:.1},{:.1} L{:.1},{:.1} M{:.1},{:.1} L{:.1},{:.1}" stroke="{col}" stroke-width="1.5"/>"#,
+                                cx - 4.0,
+                                cy - 4.0,
+                                cx + 4.0,
+                                cy + 4.0,
+                                cx - 4.0,
+                                cy + 4.0,
+                                cx + 4.0,
+                                cy - 4.0
+                            );
+                        }
+                        Style::Markers => {
+                            let _ = writeln!(
+                                o,
+                                r#"<circle cx="{:.1}" cy="{:.1}" r="3" fill="{col}"/>"#,
+                                lx + 14.0,
+                                y - 4.0
+                            );
+                        }
+                        _ => {
+                            let dash = if s.style == Style::Dashed {
+                                r#" stroke-dasharray="6,4""#
+                            } else {
+                                ""
+                            };
+                            let _ = writeln!(
+                                o,
+                                r#"<line x1="{:.1}" y1="{:.1}" x2="{:.1}" y2="{:.1}" stroke="{col}" stroke-width="{}"{dash}/>"#,
+                                lx + 5.0,
+                                y - 4.0,
+                                lx + 24.0,
+                                y - 4.0,
+                                s.width.clamp(2.0, 6.0)
+                            );
+                        }
                     }
                 }
                 let _ = writeln!(
                     o,
                     r#"<text x="{:.1}" y="{y:.1}">{}</text>"#,
                     lx + 29.0,
-                    esc(&s.label)
+                    esc(text)
                 );
             }
         }

@@ -124,7 +124,7 @@ fn a_long_first_category_name_is_not_cut_off() {
     let s = Plot::histogram("h", &[0.0, 1.0, 2.0], &[1.0, 2.0])
         .x_categories(&names)
         .to_svg();
-    // The name's left end: its anchor x minus its length at 6 px x cos(40).
+    // The name's left end: its anchor x minus its length at 6.6 px x cos(40).
     let anchor: f64 = s
         .split("<text transform=\"translate(")
         .nth(1)
@@ -132,7 +132,76 @@ fn a_long_first_category_name_is_not_cut_off() {
         .and_then(|x| x.parse().ok())
         .unwrap();
     assert!(
-        anchor - names[0].len() as f64 * 6.0 * 0.766 >= 0.0,
+        anchor - names[0].len() as f64 * 6.6 * 0.766 >= 0.0,
         "{anchor}"
     );
+}
+
+#[test]
+fn data_beyond_a_fixed_range_is_marked_on_the_edge_and_in_the_legend() {
+    let pts = vec![(0.0, 0.0), (1.0, 2.0), (2.0, 0.5), (3.0, -3.0), (4.0, 0.0)];
+    let held = Plot::new("all in").series(Series::line("s", pts.clone()));
+    let s = held.to_svg();
+    assert!(
+        !s.contains("class=\"clipped\"") && !s.contains("beyond the axes"),
+        "{s}"
+    );
+    let clipped = held.y_range(-1.0, 1.0);
+    let s = clipped.to_svg();
+    // Two runs leave the range: one above, one below.
+    assert_eq!(s.matches("class=\"clipped\"").count(), 2, "{s}");
+    assert!(s.contains(">s: beyond the axes</text>"), "{s}");
+    // A log axis's floor clips what lies under it.
+    let s = Plot::new("log")
+        .log_y()
+        .y_range(1.0, 100.0)
+        .series(Series::line("ms", vec![(0.0, 0.01), (1.0, 10.0)]))
+        .to_svg();
+    assert_eq!(s.matches("class=\"clipped\"").count(), 1, "{s}");
+}
+
+#[test]
+fn the_lint_finds_overlapping_and_cut_off_labels() {
+    let two = |x2: f64| {
+        format!(
+            "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"200\" height=\"100\">\n\
+             <g transform=\"translate(0,20)\" font-size=\"11\">\n\
+             <text x=\"10\" y=\"20\">first label</text>\n\
+             <text x=\"{x2}\" y=\"24\">second</text>\n</g>\n</svg>\n"
+        )
+    };
+    // "first label": 11 characters x 6.6 px = 72.6 px from x = 10.
+    assert_eq!(
+        lint::problems(&two(60.0)).len(),
+        1,
+        "{:?}",
+        lint::problems(&two(60.0))
+    );
+    assert!(lint::problems(&two(90.0)).is_empty());
+    // Past the right edge of the 200 px canvas.
+    assert_eq!(lint::problems(&two(180.0)).len(), 1);
+    let ((w, h), boxes) = lint::text_boxes(&two(90.0));
+    assert_eq!((w, h), (200.0, 100.0));
+    // The group's offset is applied: the baseline at 20 + 20, the box above it.
+    assert!(
+        (boxes[0].rect.3 - (40.0 + 0.25 * 11.0)).abs() < 1e-9,
+        "{boxes:?}"
+    );
+}
+
+#[test]
+fn mark_labels_at_the_same_place_do_not_overprint() {
+    let p = Plot::new("marks")
+        .series(Series::line(
+            "y",
+            (0..100).map(|i| (i as f64 * 0.1, 1.0)).collect(),
+        ))
+        .hmark(1.0, "allowed ±1", "#009E73")
+        .hmark(1.05, "fail above ±1.05", "#D55E00")
+        .hmark(-1.0, "", "#009E73")
+        .vmark(6.0, "plant fault 6.000 s", "#000")
+        .vmark(6.02, "hunting alarm 6.020 s", "#D55E00")
+        .vmark(6.05, "deadline 6.050 s", "#777");
+    let s = Figure::new("marks").panel(p).to_svg();
+    assert!(lint::problems(&s).is_empty(), "{:?}", lint::problems(&s));
 }

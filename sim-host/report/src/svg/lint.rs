@@ -1,0 +1,173 @@
+//! A layout check over the SVG this module writes: every `<text>` element's extent is
+//! estimated and the labels that overlap each other or leave the canvas are named.
+//!
+//! The estimate is deliberately simple: a sans-serif character is taken as `0.6` of the
+//! font size wide (DejaVu Sans, the usual fallback, averages 0.55-0.6 over mixed text),
+//! and a line spans `0.75` of the font size above its baseline and `0.25` below. Boxes
+//! are shrunk by [`SLACK`] px on each side before they are compared, so labels that only
+//! touch are not reported. Rotated labels (the y axis's `rotate(-90)`, slanted category
+//! names) get the axis-aligned box of the rotated line; slanted names are not compared
+//! with each other (parallel slanted lines overlap as boxes without touching as text).
+//!
+//! It reads the forms this module writes: `<g transform="translate(x,y)" ...
+//! font-size="..">` groups and one `<text ...>label</text>` per line, positioned by
+//! `x`/`y` or by `transform="translate(x,y) rotate(a)"`.
+
+/// Width of one character, in units of the font size.
+pub const CHAR_WIDTH: f64 = 0.6;
+/// Pixels trimmed off each side of a box before comparing (touching is not overlap).
+pub const SLACK: f64 = 1.0;
+
+/// The estimated extent of one label, in canvas px.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TextBox {
+    /// The label as written (XML entities left as they are).
+    pub text: String,
+    /// Left, top, right, bottom.
+    pub rect: (f64, f64, f64, f64),
+    /// Written at an angle other than 0 or -90 degrees.
+    pub slanted: bool,
+}
+
+impl TextBox {
+    fn overlaps(&self, o: &TextBox) -> bool {
+        let (a, b) = (self.rect, o.rect);
+        a.0 + SLACK < b.2 - SLACK
+            && b.0 + SLACK < a.2 - SLACK
+            && a.1 + SLACK < b.3 - SLACK
+            && b.1 + SLACK < a.3 - SLACK
+    }
+}
+
+fn attr(tag: &str, name: &str) -> Option<String> {
+    let key = format!(" {name}=\"");
+    let i = tag.find(&key)? + key.len();
+    let rest = &tag[i..];
+    Some(rest[..rest.find('"')?].to_string())
+}
+
+fn num(tag: &str, name: &str) -> Option<f64> {
+    attr(tag, name)?.parse().ok()
+}
+
+/// `translate(x,y)` and the optional `rotate(a)` of a `transform` attribute.
+fn transform(t: &str) -> Option<((f64, f64), f64)> {
+    let i = t.find("translate(")? + "translate(".len();
+    let inner = &t[i..i + t[i..].find(')')?];
+    let mut it = inner.split([',', ' ']).filter(|s| !s.is_empty());
+    let x: f64 = it.next()?.parse().ok()?;
+    let y: f64 = it.next().and_then(|s| s.parse().ok()).unwrap_or(0.0);
+    let rot = t
+        .find("rotate(")
+        .and_then(|j| {
+            let r = &t[j + "rotate(".len()..];
+            r[..r.find(')')?].parse::<f64>().ok()
+        })
+        .unwrap_or(0.0);
+    Some(((x, y), rot))
+}
+
+/// The canvas size and the estimated box of every non-empty label of `svg`.
+pub fn text_boxes(svg: &str) -> ((f64, f64), Vec<TextBox>) {
+    let mut canvas = (f64::INFINITY, f64::INFINITY);
+    let mut groups: Vec<((f64, f64), Option<f64>)> = Vec::new();
+    let mut out = Vec::new();
+    for line in svg.lines() {
+        let line = line.trim();
+        if line.starts_with("<svg") {
+            canvas = (
+                num(line, "width").unwrap_or(f64::INFINITY),
+                num(line, "height").unwrap_or(f64::INFINITY),
+            );
+        } else if line.starts_with("<g ") && !line.ends_with("/>") {
+            let off = attr(line, "transform")
+                .and_then(|t| transform(&t))
+                .map_or((0.0, 0.0), |t| t.0);
+            groups.push((off, num(line, "font-size")));
+        } else if line.contains("<g ") || line.contains("<g>") {
+            // A group opened after other elements on its line (the plotting area's
+            // clipped group): no offset of its own.
+            groups.push(((0.0, 0.0), None));
+        }
+        if line.starts_with("<text") {
+            let (Some(open_end), Some(close)) = (line.find('>'), line.rfind("</text>")) else {
+                continue;
+            };
+            let tag = &line[..open_end];
+            let text = &line[open_end + 1..close];
+            if text.trim().is_empty() {
+                continue;
+            }
+            let (gx, gy) = groups
+                .iter()
+                .fold((0.0, 0.0), |a, g| (a.0 + g.0 .0, a.1 + g.0 .1));
+            let fs = num(tag, "font-size")
+                .or_else(|| groups.iter().rev().find_map(|g| g.1))
+                .unwrap_or(11.0);
+            let ((x, y), rot) = match attr(tag, "transform").and_then(|t| transform(&t)) {
+                Some(t) => t,
+                None => (
+                    (num(tag, "x").unwrap_or(0.0), num(tag, "y").unwrap_or(0.0)),
+                    0.0,
+                ),
+            };
+            // Entities count as one character.
+            let chars = text.chars().count() - text.matches('&').count() * 3;
+            let w = chars as f64 * CHAR_WIDTH * fs;
+            let start = match attr(tag, "text-anchor").as_deref() {
+                Some("middle") => -w / 2.0,
+                Some("end") => -w,
+                _ => 0.0,
+            };
+            // The line's corners in its own frame (along, across: baseline at 0, up < 0).
+            let corners = [
+                (start, -0.75 * fs),
+                (start + w, -0.75 * fs),
+                (start, 0.25 * fs),
+                (start + w, 0.25 * fs),
+            ];
+            let (s, c) = rot.to_radians().sin_cos();
+            let pts = corners.map(|(u, v)| (x + gx + u * c - v * s, y + gy + u * s + v * c));
+            let rect = pts.iter().fold(
+                (
+                    f64::INFINITY,
+                    f64::INFINITY,
+                    f64::NEG_INFINITY,
+                    f64::NEG_INFINITY,
+                ),
+                |r, p| (r.0.min(p.0), r.1.min(p.1), r.2.max(p.0), r.3.max(p.1)),
+            );
+            out.push(TextBox {
+                text: text.to_string(),
+                rect,
+                slanted: rot != 0.0 && rot.rem_euclid(90.0) != 0.0,
+            });
+        }
+        if line.starts_with("</g>") || line.ends_with("</g>") {
+            groups.pop();
+        }
+    }
+    (canvas, out)
+}
+
+/// The layout problems of `svg`: each pair of labels that overlap, and each label that
+/// leaves the canvas, as a sentence naming the labels. Empty: none.
+pub fn problems(svg: &str) -> Vec<String> {
+    let ((w, h), boxes) = text_boxes(svg);
+    let mut out = Vec::new();
+    for (i, a) in boxes.iter().enumerate() {
+        let r = a.rect;
+        if r.0 < -SLACK || r.1 < -SLACK || r.2 > w + SLACK || r.3 > h + SLACK {
+            out.push(format!(
+                "`{}` leaves the {w} x {h} canvas ({:.0}, {:.0}, {:.0}, {:.0})",
+                a.text, r.0, r.1, r.2, r.3
+            ));
+        }
+        for b in &boxes[i + 1..] {
+            if !(a.slanted && b.slanted) && a.overlaps(b) {
+                out.push(format!("`{}` overlaps `{}`", a.text, b.text));
+            }
+        }
+    }
+    out
+}
