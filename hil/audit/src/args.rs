@@ -152,13 +152,17 @@ pub(crate) fn formats_of(args: &AuditArgs) -> Result<Formats, AuditError> {
 }
 
 /// The configuration audited: the control core's default (with the gains and motor
-/// constants of `--params`) with the rate options.
+/// constants of `--params`) with the rate options; `--rate` takes the gains designed for
+/// that rate with one tick of delay (`wheelset_control::design`) where it has a design.
 pub fn config_of(args: &AuditArgs) -> Config {
     let mut c = args.params.as_ref().map_or_else(Config::default, |p| {
         wheelset_loop::device_loop::runtime_for(&p.params).control
     });
     if let Some(r) = args.rate {
-        c.base_rate_hz = r;
+        c = c.designed(r, 1).unwrap_or(Config {
+            base_rate_hz: r,
+            ..c
+        });
     }
     if let Some(d) = args.yaw_divisor {
         c.yaw_divisor = d;
