@@ -13,7 +13,7 @@ mod generated {
     use wheelset_control::{
         CompiledBits, MonitorBits, ScaleBits, ScheduleBits, WspBits, YawMode::*,
     };
-    use wheelset_runtime::{AccBits, Rates, RuntimeBits};
+    use wheelset_runtime::{AccBits, Designs, Rates, RuntimeBits};
     include!(concat!(env!("OUT_DIR"), "/default_runtime.rs"));
 }
 
@@ -119,8 +119,7 @@ pub fn new_runtime() -> Result<FwRuntime, RuntimeError> {
         DEFAULT_RUNTIME.hold_ticks,
         DEFAULT_RUNTIME.enable,
         DEFAULT_MONITOR,
-        &DEFAULT_RUNTIME.designed,
-        &DEFAULT_RUNTIME.yaw_designed,
+        &DEFAULT_RUNTIME.designs,
     )
 }
 

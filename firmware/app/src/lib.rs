@@ -1,5 +1,5 @@
 //! The wheelset controller firmware: the embassy task structure shared by the boards
-//! (`app`), generic over the [`board::Board`] interface, and the board layers; the one
+//! (`app`), generic over the `board::Board` interface, and the board layers; the one
 //! `board-<name>` feature of a build selects its board (`board::Selected`), its chip and
 //! its memory map (`build.rs`).
 //!

@@ -406,8 +406,8 @@ impl<T: SampleBits> Compiled<T> {
     }
 
     /// The same controller at other rates: `s` replaces the rate-dependent part,
-    /// validated (integer work only): base rate 100 ..= 100 000 Hz, divisors and delay
-    /// >= 1, `kappa` in `(0, 1)` (a discrete lead pole `alpha = 1 - kappa` in `(0, 1)`,
+    /// validated (integer work only): base rate 100 ..= 100 000 Hz, divisors and delay at
+    /// least 1, `kappa` in `(0, 1)` (a discrete lead pole `alpha = 1 - kappa` in `(0, 1)`,
     /// as the range analysis assumes), `Kp` and `Ki` in `(0, 1)`, `alpha/2` in `[0, 1)`,
     /// the lead gains valid coefficients, steps in `(0, 2]` pu.
     pub fn with_schedule(&self, s: &ScheduleBits) -> Result<Self, BitsError> {

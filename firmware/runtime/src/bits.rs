@@ -161,13 +161,20 @@ pub struct RuntimeBits {
     pub enable: bool,
     /// The stability monitor ([`RuntimeConfig::monitor`]; `rate_hz` 0: off).
     pub monitor: MonitorBits,
-    /// The rates a Config may set: one per design point of
-    /// [`wheelset_control::design::DESIGNED`], in its order, as [`rates_for`] computes
-    /// them from the design base. A received [`Rates`] must be one of them, bit for bit.
-    pub designed: [Rates; DESIGNED.len()],
+    /// The rates a Config may set ([`Designs`]).
+    pub designs: Designs,
+}
+
+/// The designs a device accepts: one per design point of
+/// [`wheelset_control::design::DESIGNED`], in its order.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Designs {
+    /// The rates as [`rates_for`] computes them from the design base. A received
+    /// [`Rates`] must be one of them, bit for bit.
+    pub rates: [Rates; DESIGNED.len()],
     /// Per design: its yaw law is designed (an active yaw mode is taken there), as
     /// [`wheelset_control::design::DesignPoint::yaw`].
-    pub yaw_designed: [bool; DESIGNED.len()],
+    pub yaw: [bool; DESIGNED.len()],
 }
 
 impl RuntimeBits {
@@ -205,8 +212,10 @@ impl RuntimeBits {
             hold_ticks: cfg.hold_ticks,
             enable: cfg.enable,
             monitor,
-            designed,
-            yaw_designed: DESIGNED.map(|p| p.yaw),
+            designs: Designs {
+                rates: designed,
+                yaw: DESIGNED.map(|p| p.yaw),
+            },
         })
     }
 }

@@ -133,7 +133,9 @@ mod validate;
 
 pub(crate) use acc::acc_factors;
 pub use acc::AccBits;
-pub use bits::{rates_for, RuntimeBits, RuntimeConfig, RuntimeError, DEFAULT_ACC_WASHOUT_S};
+pub use bits::{
+    rates_for, Designs, RuntimeBits, RuntimeConfig, RuntimeError, DEFAULT_ACC_WASHOUT_S,
+};
 pub use hold::{HoldPolicy, HoldStep, SafeChange};
 pub use runtime::{Runtime, RxEvent, SafeOutputs};
 pub use wheelset_proto::{Actuation, Command, Config, Flags, Message, Rates, Sensor, Status};

@@ -4,15 +4,15 @@
 
 mod receive;
 
-use wheelset_control::design::DESIGNED;
+use crate::Designs;
 use wheelset_control::{
     Compiled, Controller, InputCodes, Monitor, MonitorState, Sample, SampleBits, TickEvents,
 };
 use wheelset_proto::{encode_reply, Decoder, FrameError, RefuseReason, Reply, Sensor};
 
 use crate::{
-    AccBits, Actuation, Command, Flags, HoldPolicy, Rates, RuntimeBits, RuntimeConfig,
-    RuntimeCounters, RuntimeError, SafeChange, TX_CAPACITY,
+    AccBits, Actuation, Command, Flags, HoldPolicy, RuntimeBits, RuntimeConfig, RuntimeCounters,
+    RuntimeError, SafeChange, TX_CAPACITY,
 };
 
 /// A receive event worth a log record ([`Runtime::take_rx_event`]): a frame the decoder
@@ -42,10 +42,8 @@ pub struct Runtime<T: Sample> {
     core: Controller<T>,
     /// [`CompiledBits::fingerprint`] of the core's rate-independent part.
     fingerprint: u32,
-    /// The designs a received [`Rates`] must be one of ([`RuntimeBits::designed`]).
-    designed: [Rates; DESIGNED.len()],
-    /// Per design, an active yaw law is designed there ([`RuntimeBits::yaw_designed`]).
-    yaw_designed: [bool; DESIGNED.len()],
+    /// The designs a received [`Rates`] must be one of ([`RuntimeBits::designs`]).
+    designs: Designs,
     /// An active yaw law is designed at the current rates (the boot core's: yes).
     yaw_ok: bool,
     hold_ticks: u16,
@@ -123,8 +121,7 @@ impl<T: SampleBits> Runtime<T> {
             bits.hold_ticks,
             bits.enable,
             Monitor::from_bits(&bits.monitor, base)?,
-            &bits.designed,
-            &bits.yaw_designed,
+            &bits.designs,
         )
     }
 
@@ -142,8 +139,7 @@ impl<T: SampleBits> Runtime<T> {
         hold_ticks: u16,
         enable: bool,
         monitor: Monitor<T>,
-        designed: &[Rates; DESIGNED.len()],
-        yaw_designed: &[bool; DESIGNED.len()],
+        designs: &Designs,
     ) -> Result<Self, RuntimeError> {
         let core = Controller::new(law);
         let (acc_gain_q32, leak_q32) = acc.check()?;
@@ -153,8 +149,7 @@ impl<T: SampleBits> Runtime<T> {
         Ok(Self {
             core,
             fingerprint,
-            designed: *designed,
-            yaw_designed: *yaw_designed,
+            designs: *designs,
             yaw_ok: true,
             hold_ticks,
             decoder: Decoder::new(),

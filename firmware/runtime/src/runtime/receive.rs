@@ -226,9 +226,9 @@ impl<T: SampleBits> Runtime<T> {
         if r.base_rate_hz > self.max_rate_hz {
             return Err(RefuseReason::BaseRate);
         }
-        let design = validate::check_rates(r, &self.designed)?;
+        let design = validate::check_rates(r, &self.designs.rates)?;
         validate::check_hold(hold_ticks, r.base_rate_hz)?;
-        let yaw_ok = self.yaw_designed.get(design).copied().unwrap_or(false);
+        let yaw_ok = self.designs.yaw.get(design).copied().unwrap_or(false);
         if active_yaw && !yaw_ok {
             return Err(RefuseReason::YawNotDesigned);
         }
