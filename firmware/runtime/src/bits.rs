@@ -68,9 +68,15 @@ impl RuntimeConfig {
     /// Errors: the point is not designed.
     pub fn designed(&self, base_rate_hz: u32, delay_ticks: u8) -> Result<Self, RuntimeError> {
         let base = self.design_base();
+        let control = base.designed(base_rate_hz, delay_ticks)?;
         Ok(Self {
-            control: base.designed(base_rate_hz, delay_ticks)?,
-            design: Some(base),
+            control,
+            // At the base's own point the configuration is its own design base.
+            design: if control == base {
+                self.design
+            } else {
+                Some(base)
+            },
             ..*self
         })
     }

@@ -120,5 +120,6 @@ fn the_firmware_refuses_every_hostile_config_with_its_reason_and_applies_the_nom
          applied, of {} rows",
         rows.len()
     );
-    assert!(refused >= 100 && applied >= 40, "{refused} / {applied}");
+    // Every design point and the switches are applied; the rest refused.
+    assert!(refused >= 100 && applied >= 20, "{refused} / {applied}");
 }

@@ -66,6 +66,7 @@ impl Files {
         w("long.toml", "duration_s = 1e5\n");
         w("s4000.toml", "duration_s = 4000.0\n");
         w("short.toml", "duration_s = 0.2\n");
+        w("weak_la.toml", "duration_s = 0.2\n[params]\nl_a = 1.2e-4\n");
         w("meant.toml", "duration_s = 0.2\nlaws = [\"passive\"]\n");
         w("badlaw.toml", "duration_s = 0.2\nlaws = [\"sideways\"]\n");
         w(
@@ -242,11 +243,21 @@ const ROWS: &[Row] = &[
         want: &["--rate-hz 50", "at least 500 Hz"],
         not: &["monitor.rate_hz"],
     },
-    // A rate the sampled-data analysis finds unstable warns before the run.
+    // A loop the sampled-data analysis finds unstable with the file's parameters warns
+    // before the run, naming the loop; a rate without a design is refused.
     row(
-        "run --scenario {F}/short.toml --loop device --rate-hz 2000",
+        "run --scenario {F}/weak_la.toml --loop device --rate-hz 5000",
         0,
-        &["warning: --rate-hz 2000", "unstable"],
+        &[
+            "warning: --rate-hz 5000",
+            "traction current loop",
+            "unstable",
+        ],
+    ),
+    row(
+        "run --scenario {F}/short.toml --loop device --rate-hz 4000",
+        2,
+        &["--rate-hz 4000", "no gains are designed for 4000 Hz"],
     ),
     // Negative numbers name the flag and what it wants.
     row(

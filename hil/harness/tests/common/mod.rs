@@ -170,8 +170,14 @@ pub fn qemu_curve(q: Qemu, duration_s: f64) -> (Trajectory, Vec<Actuation>) {
 /// A Config frame for the fixed-point core at base rate `hz` (lead law, traction on,
 /// outputs enabled, the default hold), its rates as the host computes them.
 pub fn config_at(hz: u32) -> Vec<u8> {
-    let mut rt = wheelset_runtime::RuntimeConfig::default();
-    rt.control.base_rate_hz = hz;
+    // The design for the rate where there is one; else the paper's gains re-discretised
+    // (what a device refuses).
+    let rt = wheelset_runtime::RuntimeConfig::default();
+    let rt = rt.designed(hz, 1).unwrap_or_else(|_| {
+        let mut r = rt;
+        r.control.base_rate_hz = hz;
+        r
+    });
     let rates =
         wheelset_runtime::rates_for::<wheelset_control::Fx>(&rt).expect("the host computes them");
     encode_vec(&Message::Config(wheelset_proto::Config {
