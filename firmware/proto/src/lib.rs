@@ -20,11 +20,15 @@
 //! | 3 | [`Command`] | host -> device | | [`RefuseReason`] | [`plausible`] |
 //! | 4 | [`Status`] | device -> host | | `reset_cause` | [`reset_cause`] |
 //!
-//! Version 2 (this one) added to version 1: the Sensor's `v_ref_mm_s` (the wheel-slip
-//! protection's reference speed), 16-bit [`Flags`] (a varint: `WHEEL_SLIP`, `HUNTING`,
-//! `ACTUATOR_FAULT`, `FAULT_LATCHED`), the Config's `wsp` and `monitor_safe`,
-//! [`Command::ClearFaults`], and the Status's board, supervision and boot fields. A
-//! version-1 frame is refused as `rx_version`.
+//! Version 3 (this one) added to version 2: the [`Rates`] of a design (`delay_ticks`,
+//! the designed `kp`, `lead_k_hf`, `wsp_lead_k_hf` and `Ki`'s shift, which left the
+//! fingerprint: a device accepts exactly its own designs, `wheelset_control::design`),
+//! [`Flags::DRIVE_OSC`] (the drive check's alarm) and the Status's `drive_alarms` and
+//! `first_drive_alarm_tick`. Version 2 added to version 1 the Sensor's `v_ref_mm_s` (the
+//! wheel-slip protection's reference speed), 16-bit [`Flags`] (a varint: `WHEEL_SLIP`,
+//! `HUNTING`, `ACTUATOR_FAULT`, `FAULT_LATCHED`), the Config's `wsp` and `monitor_safe`,
+//! [`Command::ClearFaults`], and the Status's board, supervision and boot fields. A frame
+//! of another version is refused as `rx_version`.
 //!
 //! [`Actuation`] `tick` counts the device's ticks from 1 (the first tick after start-up
 //! sends 1; modulo 2^16). An undefined Command or YawMode index (any well-formed varint
