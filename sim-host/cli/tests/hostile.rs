@@ -247,11 +247,12 @@ const ROWS: &[Row] = &[
     // before the run, naming the loop; a rate without a design is refused.
     row(
         "run --scenario {F}/weak_la.toml --loop device --rate-hz 5000",
-        0,
+        1,
         &[
             "warning: --rate-hz 5000",
             "traction current loop",
             "unstable",
+            "limit-cycled",
         ],
     ),
     row(

@@ -177,7 +177,7 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
         msg: e.to_string(),
     })?;
     print_summary(sc, &run.trajectory);
-    let verdict = super::run::judge_divergence(a, &run.trajectory);
+    let mut verdict = super::run::judge_divergence(a, &run.trajectory);
     if let Some(s) = &run.report.device {
         outln!(
             "wheel-slip protection {} (Config.wsp): {} events, {} ticks acting (device status)",
@@ -187,6 +187,21 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
         );
     }
     outln!("{}", monitor_line(&run));
+    // A limit cycle of the drive (the device's drive alarm) fails the run as a divergence
+    // does, unless the run says that is its point.
+    let drive = run
+        .report
+        .device
+        .as_ref()
+        .is_some_and(|s| s.drive_alarms > 0);
+    if drive && verdict.is_ok() && !a.expect_divergence {
+        verdict = Err(Failure {
+            code: 1,
+            msg: "the traction current loop limit-cycled (the device's drive alarm, \
+                  above); add --expect-divergence if that is the run's point"
+                .into(),
+        });
+    }
     write_run_summary(&a.json, sc, &run.trajectory, Some(wsp))?;
     outln!(
         "link: {} baud, latency {} us, period {} us, faults `{}` (seed {})",

@@ -45,7 +45,8 @@ pub(crate) struct RunArgs {
     pub(crate) sections_table: bool,
     /// The run is meant to diverge (a demonstration of an unstable case, e.g. Fig. 9's
     /// beating or a slipping wheel without protection): exit 0 when it does and 1 when it
-    /// does not. Without it a diverging run exits 1, naming what diverged.
+    /// does not. Without it a diverging run exits 1, naming what diverged, and so does a
+    /// device run whose drive limit-cycles (the device's drive alarm).
     #[arg(long)]
     pub(crate) expect_divergence: bool,
     #[command(flatten)]
