@@ -86,24 +86,10 @@ pub fn decay_of(radius: f64, base_rate_hz: u32, delay_ticks: u8) -> f64 {
     radius.powf(tau.max(wheelset_control::design::TAU_0_S) / t)
 }
 
-/// The current loop's fast pair, radius per tick (as `sim-host rates`' `cur r`).
+/// The current loop's fast pair, radius per tick ([`current_loop_mode`], as
+/// `sim-host rates`' `cur r`).
 pub fn current_radius(p: &Params, cfg: &Config, delay_ticks: usize) -> Result<f64, String> {
-    let cur = closed_loop(
-        &armature(p.l_a, p.r_a),
-        &Config {
-            yaw_mode: wheelset_control::YawMode::Passive,
-            traction_enabled: true,
-            yaw_predict_ticks: 0.0,
-            ..*cfg
-        },
-        delay_ticks,
-    )?;
-    Ok(cur
-        .modes
-        .iter()
-        .filter(|m| m.s.norm() > 50.0)
-        .map(|m| m.radius)
-        .fold(0.0, f64::max))
+    current_loop_mode(&armature(p.l_a, p.r_a), cfg, delay_ticks).map(|m| m.radius)
 }
 
 /// Judge `base` redesigned for one rate, delay and lead gain (module docs).

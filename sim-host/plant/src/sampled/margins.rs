@@ -101,10 +101,7 @@ pub fn loop_response(
     if cfg.yaw_divisor != 1 || cfg.traction_divisor != 1 {
         return Err("margins: both loops must run every base tick (divisors 1)".into());
     }
-    let n = plant.a.nrows();
-    if plant.b.shape() != (n, 2) || plant.c.shape() != (3, n) {
-        return Err("margins: plant shapes".into());
-    }
+    let n = plant_order(plant)?;
     let t0 = cfg.base_period();
     let (ad, bd) = zoh(&plant.a, &plant.b, t0);
     let (input, output) = match which {
@@ -113,14 +110,7 @@ pub fn loop_response(
     };
     let b: DVector<Complex<f64>> = bd.column(input).map(|v| Complex::new(v, 0.0));
     let c: Vec<f64> = plant.c.row(output).iter().copied().collect();
-    let lead = cfg
-        .lead
-        .discretise(cfg.yaw_period())
-        .map_err(|e| e.to_string())?;
-    let pi = cfg
-        .pi
-        .discretise(cfg.traction_period())
-        .map_err(|e| e.to_string())?;
+    let (lead, pi) = discretised(cfg)?;
     let alpha = cfg.yaw_predict_ticks;
     let one = Complex::new(1.0, 0.0);
     freqs

@@ -20,6 +20,35 @@ pub fn zoh(a: &DMatrix<f64>, b: &DMatrix<f64>, t: f64) -> (DMatrix<f64>, DMatrix
     )
 }
 
+/// The order `n` of `plant`, checked: `A` n x n, `B` n x 2, `C` 3 x n.
+pub(crate) fn plant_order(plant: &LinearPlant) -> Result<usize, String> {
+    let n = plant.a.nrows();
+    if plant.a.ncols() != n || plant.b.shape() != (n, 2) || plant.c.shape() != (3, n) {
+        return Err(format!(
+            "plant shapes: A {:?}, B {:?}, C {:?}; want n x n, n x 2, 3 x n",
+            plant.a.shape(),
+            plant.b.shape(),
+            plant.c.shape()
+        ));
+    }
+    Ok(n)
+}
+
+/// The lead at the yaw period and the PI at the traction period of `cfg` (f64).
+pub(crate) fn discretised(
+    cfg: &Config,
+) -> Result<(wheelset_control::LeadDiscrete, wheelset_control::PiDiscrete), String> {
+    let lead = cfg
+        .lead
+        .discretise(cfg.yaw_period())
+        .map_err(|e| e.to_string())?;
+    let pi = cfg
+        .pi
+        .discretise(cfg.traction_period())
+        .map_err(|e| e.to_string())?;
+    Ok((lead, pi))
+}
+
 /// One closed-loop mode.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Mode {
@@ -103,15 +132,7 @@ pub fn tick_matrices(
     delay_ticks: usize,
 ) -> Result<Vec<DMatrix<f64>>, String> {
     cfg.validate().map_err(|e| e.to_string())?;
-    let n = plant.a.nrows();
-    if plant.a.ncols() != n || plant.b.shape() != (n, 2) || plant.c.shape() != (3, n) {
-        return Err(format!(
-            "plant shapes: A {:?}, B {:?}, C {:?}; want n x n, n x 2, 3 x n",
-            plant.a.shape(),
-            plant.b.shape(),
-            plant.c.shape()
-        ));
-    }
+    let n = plant_order(plant)?;
     let traction = cfg.traction_enabled && plant.c.row(1).iter().any(|v| *v != 0.0);
     let tm = Timing::of(cfg, delay_ticks);
     let t0 = 1.0 / tm.base_hz;
@@ -120,14 +141,7 @@ pub fn tick_matrices(
     let (ad, bd) = zoh(&plant.a, &plant.b, t0);
     crate::finite::check_finite(&ad, "the discretised plant matrix Ad")?;
     crate::finite::check_finite(&bd, "the discretised plant matrix Bd")?;
-    let lead = cfg
-        .lead
-        .discretise(cfg.yaw_period())
-        .map_err(|e| e.to_string())?;
-    let pi = cfg
-        .pi
-        .discretise(cfg.traction_period())
-        .map_err(|e| e.to_string())?;
+    let (lead, pi) = discretised(cfg)?;
     // Layout of X.
     let d = tm.delay_ticks;
     let nreg = d.max(1); // output registers o[k-1] .. o[k-nreg], 2 each
