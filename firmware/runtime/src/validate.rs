@@ -1,7 +1,7 @@
 //! The device's plausibility check of a received [`Config`](wheelset_proto::Config): the
 //! ranges of `wheelset_proto::plausible` (stated there once, with the reasons), applied
 //! with integer work only. Rates are accepted only as one of the device's own designs
-//! ([`RuntimeBits::designed`](crate::RuntimeBits::designed)), bit for bit; a mismatch is
+//! ([`RuntimeBits::designs`](crate::RuntimeBits::designs)), bit for bit; a mismatch is
 //! refused with the first field that differs, which names the loop.
 
 use wheelset_proto::plausible::{BASE_RATE_MAX_HZ, BASE_RATE_MIN_HZ, HOLD_MAX_US, TICKER_HZ};

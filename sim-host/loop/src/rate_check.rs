@@ -56,7 +56,7 @@ pub fn warning(sc: &Scenario, law: YawLaw, base_rate_hz: u32) -> Option<String> 
     (!unstable.is_empty()).then(|| {
         format!(
             "--rate-hz {base_rate_hz}: the sampled-data analysis finds {} unstable at f11 = \
-             {:.3e} N, conicity {}, with these parameters; the run will diverge: see \
+             {:.3e} N, conicity {}, with these parameters; it will diverge or limit-cycle: see \
              `sim-host rates` for the designed rates and their margins",
             unstable.join(" and "),
             p.f11,

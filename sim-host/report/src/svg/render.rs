@@ -434,19 +434,7 @@ impl Plot {
                 }
                 Style::Crosses => {
                     for &(x, y) in drawn.iter().filter(finite) {
-                        let (cx, cy) = (sx(x), sy(y));
-                        let _ = writeln!(
-                            o,
-                            r#"<path d="M{:.1},{:.1} L{:.1},{:.1} M{:.1},{:.1} L{:.1},{:.1}" stroke="{col}" stroke-width="1.5"/>"#,
-                            cx - 4.0,
-                            cy - 4.0,
-                            cx + 4.0,
-                            cy + 4.0,
-                            cx - 4.0,
-                            cy + 4.0,
-                            cx + 4.0,
-                            cy - 4.0
-                        );
+                        cross(&mut o, sx(x), sy(y), &col);
                     }
                 }
             }
@@ -626,19 +614,7 @@ impl Plot {
                 } else {
                     match s.style {
                         Style::Crosses => {
-                            let (cx, cy) = (lx + 14.0, y - 4.0);
-                            let _ = writeln!(
-                                o,
-                                r#"<path d="M{:.1},{:.1} L{:.1},{:.1} M{:.1},{:.1} L{:.1},{:.1}" stroke="{col}" stroke-width="1.5"/>"#,
-                                cx - 4.0,
-                                cy - 4.0,
-                                cx + 4.0,
-                                cy + 4.0,
-                                cx - 4.0,
-                                cy + 4.0,
-                                cx + 4.0,
-                                cy - 4.0
-                            );
+                            cross(&mut o, lx + 14.0, y - 4.0, &col);
                         }
                         Style::Markers => {
                             let _ = writeln!(
@@ -696,4 +672,21 @@ impl Plot {
     pub fn save(&self, path: &Path) -> std::io::Result<()> {
         write_file(path, &self.to_svg())
     }
+}
+
+/// A cross mark of 8 px centred on `(cx, cy)`: the data points of `Style::Crosses` and
+/// their legend swatch.
+fn cross(o: &mut String, cx: f64, cy: f64, col: &str) {
+    let _ = writeln!(
+        o,
+        r#"<path d="M{:.1},{:.1} L{:.1},{:.1} M{:.1},{:.1} L{:.1},{:.1}" stroke="{col}" stroke-width="1.5"/>"#,
+        cx - 4.0,
+        cy - 4.0,
+        cx + 4.0,
+        cy + 4.0,
+        cx - 4.0,
+        cy + 4.0,
+        cx + 4.0,
+        cy - 4.0
+    );
 }
