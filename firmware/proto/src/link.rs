@@ -9,6 +9,17 @@
 //! fits    <=> needed <= allowed
 //! ```
 //!
+//! A link slower than one period (a USB-serial bridge: about 1 ms each way) pipelines
+//! the exchange over `d` ticks of delay: the host sends each Sensor frame without waiting
+//! for the previous Actuation and applies each Actuation exactly `d` periods after its
+//! sample. Each direction must then carry one period's frame within the period, and the
+//! round trip must fit the delay ([`link_fits_delayed`]; `d = 1` is the equation above):
+//!
+//! ```text
+//! ceil(max(up, down) bytes x BITS_PER_BYTE / baud)  <= share x T
+//! needed                                            <= share x d T
+//! ```
+//!
 //! `latency_ns` is the one-way latency of the link (UART FIFO, DMA hand-off, USB, the
 //! device's turnaround); the share leaves the rest of the period as margin for the
 //! device's execution time and jitter. Two shares are stated here, once:
@@ -51,7 +62,10 @@ pub enum LinkError {
     ZeroBaud,
     /// The share is zero or above 1000 permille.
     Share,
-    /// The round trip does not fit.
+    /// The delay is zero ticks.
+    ZeroDelay,
+    /// The round trip does not fit (or, pipelined, one direction's frame does not fit
+    /// its period: then `needed_ns` is that frame's time on the line).
     TooSlow {
         /// Round-trip time needed, ns.
         needed_ns: u64,
@@ -66,13 +80,14 @@ impl core::fmt::Display for LinkError {
             Self::ZeroRate => write!(f, "link budget: the rate is 0 Hz"),
             Self::ZeroBaud => write!(f, "link budget: the baud is 0"),
             Self::Share => write!(f, "link budget: the share must be 1 ..= 1000 permille"),
+            Self::ZeroDelay => write!(f, "link budget: the delay is 0 ticks"),
             Self::TooSlow {
                 needed_ns,
                 allowed_ns,
             } => write!(
                 f,
-                "link budget exceeded: the round trip needs {needed_ns} ns, the period \
-                 allows {allowed_ns} ns"
+                "link budget exceeded: the exchange needs {needed_ns} ns, its share of the \
+                 period (or of the delay) allows {allowed_ns} ns"
             ),
         }
     }
@@ -127,6 +142,32 @@ pub const fn link_fits(
     latency_ns: u64,
     share_permille: u32,
 ) -> Result<u64, LinkError> {
+    link_fits_delayed(
+        rate_hz,
+        baud,
+        up_bytes,
+        down_bytes,
+        latency_ns,
+        share_permille,
+        1,
+    )
+}
+
+/// [`link_fits`] for an exchange pipelined over `delay_ticks` periods (module docs):
+/// each direction's frame within `share` of a period, the round trip within `share` of
+/// `delay_ticks` periods. Returns the round-trip time, ns. One tick is [`link_fits`].
+pub const fn link_fits_delayed(
+    rate_hz: u32,
+    baud: u32,
+    up_bytes: u32,
+    down_bytes: u32,
+    latency_ns: u64,
+    share_permille: u32,
+    delay_ticks: u32,
+) -> Result<u64, LinkError> {
+    if delay_ticks == 0 {
+        return Err(LinkError::ZeroDelay);
+    }
     if rate_hz == 0 {
         return Err(LinkError::ZeroRate);
     }
@@ -136,15 +177,28 @@ pub const fn link_fits(
     if share_permille == 0 || share_permille > 1000 {
         return Err(LinkError::Share);
     }
-    let needed_ns = round_trip_ns(baud, up_bytes, down_bytes, latency_ns);
-    if needed_ns as u128 * rate_hz as u128 * 1000 <= share_permille as u128 * NS_PER_S {
-        Ok(needed_ns)
+    let share = share_permille as u128 * NS_PER_S;
+    let larger = if up_bytes > down_bytes {
+        up_bytes
     } else {
-        Err(LinkError::TooSlow {
+        down_bytes
+    };
+    let needed_ns = round_trip_ns(baud, up_bytes, down_bytes, latency_ns);
+    if needed_ns as u128 * rate_hz as u128 * 1000 > share * delay_ticks as u128 {
+        return Err(LinkError::TooSlow {
             needed_ns,
-            allowed_ns: allowed_ns(rate_hz, share_permille),
-        })
+            allowed_ns: allowed_ns(rate_hz, share_permille).saturating_mul(delay_ticks as u64),
+        });
     }
+    // (Implied by the round trip for one tick.)
+    let one_way = wire_ns(larger as u64, baud);
+    if one_way as u128 * rate_hz as u128 * 1000 > share {
+        return Err(LinkError::TooSlow {
+            needed_ns: one_way,
+            allowed_ns: allowed_ns(rate_hz, share_permille),
+        });
+    }
+    Ok(needed_ns)
 }
 
 /// The highest rate, Hz, at which the exchange fits ([`link_fits`]); 0 if none does
@@ -240,6 +294,44 @@ mod tests {
                 allowed_ns: 170_000
             })
         );
+    }
+
+    #[test]
+    fn a_pipelined_link_carries_a_round_trip_longer_than_the_period() {
+        // An ST-LINK-like bridge: 921 600 baud, 1 ms each way. 1 kHz: 43 + 30 bytes take
+        // 793 us on the line, the round trip 2.793 ms.
+        let (rate, baud, lat) = (1_000, 921_600, 1_000_000);
+        let rt = 2_000_000 + wire_ns(73, baud);
+        for d in 1..=3 {
+            assert_eq!(
+                link_fits_delayed(rate, baud, 43, 30, lat, 850, d),
+                Err(LinkError::TooSlow {
+                    needed_ns: rt,
+                    allowed_ns: 850_000 * u64::from(d)
+                })
+            );
+        }
+        assert_eq!(link_fits_delayed(rate, baud, 43, 30, lat, 850, 4), Ok(rt));
+        // 2 kHz: one direction's frame alone (43 bytes, 467 us) overruns 85 % of 500 us,
+        // however long the delay.
+        assert_eq!(
+            link_fits_delayed(2_000, baud, 43, 30, 0, 850, 10),
+            Err(LinkError::TooSlow {
+                needed_ns: wire_ns(43, baud),
+                allowed_ns: 425_000
+            })
+        );
+        assert_eq!(
+            link_fits_delayed(1, 1, 1, 1, 0, 850, 0),
+            Err(LinkError::ZeroDelay)
+        );
+        // One tick is link_fits.
+        for baud in [1_000_000, 4_000_000, 5_000_000] {
+            assert_eq!(
+                link_fits_delayed(5_000, baud, 43, 30, 2_000, 850, 1),
+                link_fits(5_000, baud, 43, 30, 2_000, 850)
+            );
+        }
     }
 
     #[test]

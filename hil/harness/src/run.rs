@@ -194,6 +194,10 @@ pub struct RunOptions {
     /// device is built at it; a device elsewhere is configured over the wire with the
     /// rates and coefficients of `wheelset_runtime::rates_for`.
     pub rate_hz: Option<u32>,
+    /// Ticks from a sample to its actuation (1: lock-step; more: the host pipelines the
+    /// exchange and applies each actuation that many periods after its sample); the
+    /// device runs the gains designed for the rate and this delay.
+    pub delay_ticks: u8,
     /// What the real-time loop asks of the operating system (real-time pacing).
     pub realtime: Want,
     /// The base parameters (`--params FILE`; default: the paper's). The scenario's
@@ -236,6 +240,7 @@ impl Default for RunOptions {
             qemu_link: wheelset_targets::qemu::Channel::Uart,
             progress: false,
             rate_hz: None,
+            delay_ticks: 1,
             realtime: Want::all(
                 wheelset_targets::realtime::os::allowed_cpus()
                     .last()
@@ -354,16 +359,18 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     }
     let mut rt = runtime_config_for(&sc, opts.control);
     let hz = run_rate(opts, rt.control.base_rate_hz)?;
-    // The gains designed for the rate (one tick: the exchange's delay); a rate without a
-    // design is refused below with the reason.
-    rt = rt.designed(hz, 1).unwrap_or_else(|_| {
+    // The gains designed for the rate and the exchange's delay; a point without a design
+    // is refused below with the reason.
+    let d = opts.delay_ticks.max(1);
+    rt = rt.designed(hz, d).unwrap_or_else(|_| {
         let mut r = rt;
         r.control.base_rate_hz = hz;
+        r.control.delay_ticks = d;
         r
     });
     if let Some(why) = wheelset_loop::device_loop::base_rate_refusal(&rt) {
         return Err(RunError::Input(format!(
-            "--rate-hz {}: {why}",
+            "--rate-hz {} --delay-ticks {d}: {why}",
             rt.control.base_rate_hz
         )));
     }
@@ -396,6 +403,7 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     let ctx = TimingContext {
         clock: tr.clock(),
         period_ns,
+        delay_ticks: u32::from(d),
         baud: tr.baud(),
         latency_ns: if opts.target == Target::InProc {
             opts.link.latency_ns
@@ -451,6 +459,7 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
             clear_faults_at_ns,
             stall_at_ns,
             reset_config,
+            delay_ticks: u32::from(d),
             ..LoopSetup::default()
         },
     )
@@ -470,10 +479,12 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
             wheelset_loop::device_loop::DeviceError::Refused(why, cfg).to_string(),
         )));
     }
-    // At a rate other than the scenario's own the device runs the gains designed for it:
-    // the f64 core with those gains is the yardstick.
-    let default_hz = runtime_config_for(&sc, opts.control).control.base_rate_hz;
-    let designed = (rt.control.base_rate_hz != default_hz).then_some(&rt.control);
+    // At a rate or delay other than the scenario's own the device runs the gains designed
+    // for it: the f64 core with those gains and that delay is the yardstick.
+    let default = runtime_config_for(&sc, opts.control).control;
+    let designed = (rt.control.base_rate_hz != default.base_rate_hz
+        || rt.control.delay_ticks != default.delay_ticks)
+        .then_some(&rt.control);
     let (reference, fine) = reference::make(&sc, opts.control.yaw(), wsp, period_ns, designed)?;
     let timing = analyse(
         &ctx,
@@ -560,13 +571,15 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
         .map(|s| s.first_drive_alarm_tick)
         .filter(|&n| n > 0);
     let end_s = trajectory.records.last().map_or(0.0, |x| x.t_s);
-    // The delay the loop ran with: the latency's 99th percentile in whole periods.
+    // The delay the loop ran with: the latency's 99th percentile in whole periods, and
+    // at least the delay the host applies the actuations with.
     let delay = (timing.latency_ns.p99 / period_ns as f64).ceil();
     let delay_ticks = if delay.is_finite() && delay > 1.0 {
         (delay as usize).min(wheelset_plant::sampled::MAX_HYPER_PERIOD)
     } else {
         1
-    };
+    }
+    .max(usize::from(d));
     crate::check::alarms::judge_drive(
         &mut monitor,
         crate::check::alarms::drive_expectation(&sc, &rt, &mon_params, delay_ticks),

@@ -47,3 +47,34 @@ fn a_rate_without_a_design_is_refused_before_the_run() {
         assert!(e.contains(why), "{hz} Hz: {e}");
     }
 }
+
+#[test]
+fn every_designed_longer_delay_passes_over_a_pipelined_link() {
+    for p in DESIGNED.iter().filter(|p| p.delay_ticks > 1 && p.yaw) {
+        let (hz, d) = (p.base_rate_hz, p.delay_ticks);
+        // A latency whose round trip needs all d ticks: (d - 1/2) of the 85 % share.
+        let period = 1e9 / f64::from(hz);
+        let wire = wheelset_loop::sim_link::wire_ns(
+            wheelset_proto::SENSOR_ONE_LATERAL_MAX_FRAME + wheelset_proto::ACTUATION_MAX_FRAME,
+            10_000_000,
+        ) as f64;
+        let mut o = at(hz);
+        o.delay_ticks = d;
+        o.link.latency_ns = ((0.85 * (f64::from(d) - 0.5) * period - wire) / 2.0) as u64;
+        let out = run(&o).expect("the run is made");
+        let r = &out.report;
+        assert_eq!(
+            r.verdict,
+            Verdict::Pass,
+            "{hz} Hz, {d} ticks: {}",
+            serde_json::to_string_pretty(r).unwrap()
+        );
+        // The same link with one tick less is refused before the run, naming the budget.
+        o.delay_ticks = d - 1;
+        let e = run(&o).err().expect("refused").to_string();
+        assert!(
+            e.contains("link budget exceeded"),
+            "{hz} Hz, {d} ticks: {e}"
+        );
+    }
+}

@@ -196,7 +196,9 @@ pub fn run_core<T: SampleBits>(
 }
 
 /// [`run_core`] with the control core of `cfg` (e.g. the gains designed for another
-/// rate: `wheelset_control::Config::designed`).
+/// rate and delay: `wheelset_control::Config::designed`); the actuation acts
+/// `cfg.delay_ticks` base periods after its sample, as the device's over a pipelined
+/// link.
 pub fn run_core_with<T: SampleBits>(
     sc: &Scenario,
     cfg: &wheelset_control::Config,
@@ -206,7 +208,7 @@ pub fn run_core_with<T: SampleBits>(
     let cfg = *cfg;
     let mut ctrl = CoreController::<T>::try_new(&cfg, wsp).map_err(CoreError::Config)?;
     let mut act = ActuatorModel::ideal();
-    act.delay_ns = ctrl.period_ns;
+    act.delay_ns = ctrl.period_ns * u64::from(cfg.delay_ticks.max(1));
     let label = format!("core {} wsp {}", T::NAME, if wsp { "on" } else { "off" });
     let tr = run_sampled(
         sc,

@@ -335,6 +335,9 @@ pub struct DeviceOptions {
     pub hold_ticks: u16,
     /// Base rate override, Hz (None: the control core's default).
     pub base_rate_hz: Option<u32>,
+    /// Ticks from a sample to its actuation (1: lock-step; more: a pipelined link), the
+    /// delay the device's gains are designed for.
+    pub delay_ticks: u8,
     /// `y'` or `y''` in the Sensor frames.
     pub lateral: LateralSensing,
     /// Wheel-slip protection (`Config.wsp`; default on).
@@ -352,6 +355,7 @@ impl Default for DeviceOptions {
             link: LinkConfig::default(),
             hold_ticks: wheelset_runtime::DEFAULT_HOLD_TICKS,
             base_rate_hz: None,
+            delay_ticks: 1,
             lateral: LateralSensing::Velocity,
             wsp: true,
             monitor_safe: false,
@@ -429,15 +433,20 @@ pub fn runtime_config(sc: &Scenario, law: YawLaw, opt: &DeviceOptions) -> Runtim
         enable: true,
         ..RuntimeConfig::default()
     };
-    match opt.base_rate_hz {
-        // The gains designed for the rate (one tick of delay: the lock-step exchange);
-        // a rate without a design keeps the gains, and `base_rate_refusal` names it.
-        Some(hz) => rt.designed(hz, 1).unwrap_or_else(|_| {
-            let mut r = rt;
-            r.control.base_rate_hz = hz;
-            r
-        }),
-        None => rt,
+    let d = opt.delay_ticks.max(1);
+    match (opt.base_rate_hz, d) {
+        (None, 1) => rt,
+        // The gains designed for the rate and delay; a point without a design keeps the
+        // gains, and `base_rate_refusal` names it.
+        (hz, d) => {
+            let hz = hz.unwrap_or(rt.control.base_rate_hz);
+            rt.designed(hz, d).unwrap_or_else(|_| {
+                let mut r = rt;
+                r.control.base_rate_hz = hz;
+                r.control.delay_ticks = d;
+                r
+            })
+        }
     }
 }
 
@@ -474,6 +483,7 @@ pub fn run_device(
             label: &label,
             clear_faults_at_ns: opt.clear_faults_at_ns,
             records: Records::LinkLog,
+            delay_ticks: u32::from(rt_cfg.control.delay_ticks),
             ..LoopSetup::default()
         },
     )

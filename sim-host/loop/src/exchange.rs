@@ -16,7 +16,11 @@
 //! ```
 //!
 //! So the plant sees the one-period computation/transport delay the control core's rate
-//! analysis assumes, on every target alike. A [`Config`] frame given with
+//! analysis assumes, on every target alike. A link slower than a period (a USB-serial
+//! bridge) runs pipelined over `d` ticks ([`LoopSetup::delay_ticks`], the delay the
+//! device's gains are designed for): the host sends every sample on time and applies the
+//! actuation echoing sample `k` exactly from `t_k + d T`, holding one that arrives
+//! earlier until then; `d = 1` is the schedule above. A [`Config`] frame given with
 //! [`DeviceController::with_config`] goes out before the first Sensor frame, and the
 //! device must not flag it refused ([`DeviceController::config_refused`]). At the end,
 //! [`DeviceController::finish`] fetches the device's counters (the one Status fetch: a
@@ -116,6 +120,11 @@ pub struct DeviceController<'a> {
     seq: u16,
     k: u64,
     held: Option<(SiActuation, Actuation)>,
+    /// Ticks from a sample to its actuation taking effect (at least 1).
+    delay_ticks: u64,
+    /// Actuations received ahead of their instant (pipelined link), with the sample each
+    /// echoes, oldest first.
+    early: std::collections::VecDeque<(u64, SiActuation, Actuation)>,
     fresh: bool,
     /// The frames of one [`Self::receive`]: arrival, bytes on the wire, result.
     rx_frames: Vec<(u64, usize, Result<Message, FrameError>)>,
@@ -187,6 +196,8 @@ impl<'a> DeviceController<'a> {
             seq: 0,
             k: 0,
             held: None,
+            delay_ticks: 1,
+            early: std::collections::VecDeque::new(),
             fresh: false,
             rx_frames: Vec::new(),
             frame_bytes: 0,
@@ -316,16 +327,25 @@ impl<'a> DeviceController<'a> {
                     self.config_refused |= a.flags.has(Flags::CMD_REFUSED);
                 }
                 let si = a.to_si();
-                self.held = Some((
-                    SiActuation {
-                        t_psi: si.t_psi,
-                        u_a: si.u_a,
-                    },
-                    a,
-                ));
-                self.fresh = true;
-                if let (Some(e), Some(p)) = (echo, self.periods.last_mut()) {
-                    if e + 1 == self.k && p.echo_at_ns.is_none() {
+                let si = SiActuation {
+                    t_psi: si.t_psi,
+                    u_a: si.u_a,
+                };
+                // Sample `e` (0-based) acts from t_e + d T: at the end of period k - 1
+                // (this call's deadline t_{k-1} + T) when e + d <= k.
+                match echo {
+                    Some(e) if e + self.delay_ticks > self.k => {
+                        self.early.push_back((e, si, a));
+                    }
+                    _ => {
+                        self.held = Some((si, a));
+                        self.fresh = true;
+                    }
+                }
+                // The period's echo, if it came by its deadline t_e + d T.
+                let due = self.delay_ticks * self.period_ns;
+                if let Some(p) = echo.and_then(|e| self.periods.get_mut(usize::try_from(e).ok()?)) {
+                    if p.echo_at_ns.is_none() && at_ns <= p.t_ns + due {
                         p.echo_at_ns = Some(at_ns);
                     }
                 }
@@ -440,6 +460,14 @@ impl SampledController for DeviceController<'_> {
         }
         self.fresh = false;
         self.receive(t_ns + self.period_ns);
+        while let Some(&(e, si, a)) = self.early.front() {
+            if e + self.delay_ticks > self.k {
+                break;
+            }
+            self.early.pop_front();
+            self.held = Some((si, a));
+            self.fresh = true;
+        }
         let (seq_echo, flags) = self
             .held
             .as_ref()
@@ -500,6 +528,9 @@ pub struct LoopSetup<'l> {
     /// The Config to send again after a device reset
     /// ([`DeviceController::reset_config`]).
     pub reset_config: Option<Config>,
+    /// Ticks from a sample to its actuation taking effect (0 or 1: lock-step; more: the
+    /// pipelined link of the module docs).
+    pub delay_ticks: u32,
     /// A progress bar to advance (simulated ms).
     pub progress: Option<ProgressBar>,
     /// Which records to keep.
@@ -557,6 +588,7 @@ pub fn close_loop(
     ctrl.stall_at_ns = setup.stall_at_ns;
     ctrl.reset_config = setup.reset_config;
     ctrl.records = setup.records;
+    ctrl.delay_ticks = u64::from(setup.delay_ticks.max(1));
     // One record per period, reserved once (doubling to 100 000 records re-copies and
     // re-faults megabytes); capped: a very long scenario grows the rest as it goes.
     let periods = (sc.duration_ns / period_ns.max(1)).min(1 << 22);

@@ -11,8 +11,9 @@
 //! ```
 //!
 //! so the frame the host sends at a sample instant `k T` has arrived when tick `k` runs,
-//! and its Actuation frame is back before `(k + 1) T` (the link budget check,
-//! [`crate::sim_link::check_budget`], refuses a link where it is not). Tick `j` takes the
+//! and its Actuation frame is back before `(k + d) T`, `d` the delay the runtime's gains
+//! are designed for (the link budget check, [`crate::sim_link::check_budget`], refuses a
+//! link where it is not). Tick `j` takes the
 //! bytes that arrived by `t_j`, runs [`Runtime::tick`] and hands each frame of its output
 //! to the down link at `t_j + exec`, where `exec` is a simulated execution time (0 by
 //! default; see [`DeviceFault::TooSlow`]), which is also what the next Actuation frame
@@ -192,6 +193,7 @@ impl<T: SampleBits> InProc<T> {
             link_cfg.baud,
             link_cfg.latency_ns,
             period_ns,
+            u32::from(rt_cfg.control.delay_ticks),
         )?;
         let rt = Runtime::<T>::try_new(rt_cfg).map_err(DeviceError::Runtime)?;
         Ok(Self {

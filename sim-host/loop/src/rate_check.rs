@@ -2,8 +2,8 @@
 //! analysis ([`wheelset_plant::sampled`]) finds unstable: the device's configuration for
 //! the scenario (its law, the gains designed for the requested base rate, the
 //! scenario's parameters) is closed around the linear plant of case (d) at the
-//! scenario's creep coefficient and conicity, with the firmware's one tick of delay, one
-//! loop at a time ([`wheelset_plant::sampled::margins`]), so the warning names the loop.
+//! scenario's creep coefficient and conicity, with the run's ticks of delay, one loop at
+//! a time ([`wheelset_plant::sampled::margins`]), so the warning names the loop.
 
 use crate::device_loop::control_config;
 use wheelset_control::YawMode;
@@ -11,20 +11,18 @@ use wheelset_plant::control::YawLaw;
 use wheelset_plant::sampled::{margins, Loop};
 use wheelset_plant::scenario::Scenario;
 
-/// The firmware's actuation delay, ticks.
-const DELAY_TICKS: u8 = 1;
-
-/// A warning when a loop of `sc` with `law` at `base_rate_hz` (its gains designed for
-/// that rate where a design exists) is unstable at the scenario's operating point,
+/// A warning when a loop of `sc` with `law` at `base_rate_hz` and `delay_ticks` (its
+/// gains designed for that point where a design exists) is unstable at the scenario's operating point,
 /// naming the loop (traction, yaw); `None` when both are stable, or the rate is refused
 /// anyway (invalid).
 #[must_use]
-pub fn warning(sc: &Scenario, law: YawLaw, base_rate_hz: u32) -> Option<String> {
+pub fn warning(sc: &Scenario, law: YawLaw, base_rate_hz: u32, delay_ticks: u8) -> Option<String> {
     let base = control_config(&sc.params, law, sc.drive);
     let cfg = base
-        .designed(base_rate_hz, DELAY_TICKS)
+        .designed(base_rate_hz, delay_ticks)
         .unwrap_or(wheelset_control::Config {
             base_rate_hz,
+            delay_ticks,
             ..base
         });
     if cfg.validate().is_err() {
@@ -40,7 +38,7 @@ pub fn warning(sc: &Scenario, law: YawLaw, base_rate_hz: u32) -> Option<String> 
     }
     let mut unstable = vec![];
     for l in loops {
-        match margins(p, &cfg, usize::from(DELAY_TICKS), l) {
+        match margins(p, &cfg, usize::from(delay_ticks.max(1)), l) {
             Ok(m) if m.stable => {}
             Ok(_) => unstable.push(match l {
                 Loop::Traction => "the traction current loop (armature and PI)".to_string(),

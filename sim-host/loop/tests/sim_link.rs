@@ -252,13 +252,13 @@ fn budget_fits_or_names_the_numbers() {
         wheelset_proto::SENSOR_MAX_FRAME,
         wheelset_proto::ACTUATION_MAX_FRAME,
     );
-    let rt = check_budget(up, down, DEFAULT_BAUD, DEFAULT_LATENCY_NS, 200_000).expect("fits");
+    let rt = check_budget(up, down, DEFAULT_BAUD, DEFAULT_LATENCY_NS, 200_000, 1).expect("fits");
     assert_eq!(
         rt,
         ((up + down) as u64 * 10 * 1_000_000_000).div_ceil(5_000_000) + 4_000
     );
-    assert!(check_budget(up, down, 4_000_000, DEFAULT_LATENCY_NS, 200_000).is_err());
-    let e = check_budget(33, 28, 1_000_000, 2_000, 200_000).expect_err("too slow");
+    assert!(check_budget(up, down, 4_000_000, DEFAULT_LATENCY_NS, 200_000, 1).is_err());
+    let e = check_budget(33, 28, 1_000_000, 2_000, 200_000, 1).expect_err("too slow");
     let msg = e.to_string();
     for needle in [
         "33 + 28",
@@ -270,5 +270,5 @@ fn budget_fits_or_names_the_numbers() {
     ] {
         assert!(msg.contains(needle), "missing {needle}: {msg}");
     }
-    assert!(check_budget(33, 28, 0, 0, 200_000).is_err());
+    assert!(check_budget(33, 28, 0, 0, 200_000, 1).is_err());
 }

@@ -1,6 +1,7 @@
 //! Timing checks from what the host saw of each exchange.
 //!
-//! With `T` the control period and `t_k = k T` the sample instants:
+//! With `T` the control period, `t_k = k T` the sample instants and `d` the ticks of
+//! delay the host applies each actuation with (1: lock-step; more: a pipelined link):
 //!
 //! - **execution time**: the `exec` field of each Actuation frame (the device's previous
 //!   tick, in its unit: host ns in process, instructions under QEMU, cycles on a board),
@@ -14,10 +15,14 @@
 //!   tick counter, `t_0` the earliest phase seen, so the deviations are lateness and
 //!   their maximum is the peak-to-peak jitter): max and RMS. Not
 //!   applicable under lock-step (the host's frame is the clock).
-//! - **missed ticks**: periods without an actuation echoing their own sample by `t_k + T`;
+//! - **missed ticks**: periods without an actuation echoing their own sample by `t_k + d T`;
 //!   device tick-counter gaps are counted separately. **Overruns**: execution time > T.
 //! - **CPU utilisation**: execution time / T, mean and max.
-//! - **link utilisation**: mean bytes per period (both directions) x 10 bits / baud / T.
+//! - **link utilisation**: mean bytes per period (both directions) x 10 bits / baud / T;
+//!   pipelined, the larger of each direction's share of `T` and both directions' share
+//!   of `d T`.
+//!
+//! The latency is judged as a share of `d T`, the time the actuation has.
 
 use serde::Serialize;
 use wheelset_loop::sim_link::wire_ns;
@@ -140,6 +145,8 @@ pub struct TimingContext {
     pub clock: Clock,
     /// Control period, ns.
     pub period_ns: u64,
+    /// Ticks of delay the host applies each actuation with (at least 1).
+    pub delay_ticks: u32,
     /// Line rate.
     pub baud: u32,
     /// One-way link latency, ns (0 if unknown).
@@ -249,7 +256,9 @@ pub fn analyse(
     let n = periods.len().max(1) as f64;
     let (up, down) = (bytes.0 as f64 / n, bytes.1 as f64 / n);
     let bits = wheelset_proto::link::BITS_PER_BYTE as f64;
-    let link = (up + down) * bits / f64::from(ctx.baud.max(1)) * 1e9 / t;
+    let d = f64::from(ctx.delay_ticks.max(1));
+    let line = |bytes: f64| bytes * bits / f64::from(ctx.baud.max(1)) * 1e9;
+    let link = (line(up + down) / (d * t)).max(line(up.max(down)) / t);
     let cpu_mean = exec_ns.mean / t;
     let cpu_max = exec_ns.max / t;
     let mut checks = Vec::new();
@@ -268,7 +277,7 @@ pub fn analyse(
     };
     check(
         "latency_max",
-        latency_ns.max / t,
+        latency_ns.max / (d * t),
         b.latency_max,
         !latency.is_empty(),
     );

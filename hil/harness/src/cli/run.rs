@@ -95,6 +95,15 @@ pub(crate) struct RunArgs {
     /// against it before the run.
     #[arg(long)]
     rate_hz: Option<u32>,
+    /// Ticks from a sample to its actuation, 1 to the longest designed [default: 1]: the
+    /// host pipelines the exchange and applies each actuation that many periods after its
+    /// sample (a link whose round trip is longer than a period); the device runs the
+    /// gains designed for the rate and this delay.
+    #[arg(long, allow_negative_numbers = true)]
+    delay_ticks: Option<u8>,
+    /// One-way latency of the simulated link (in process), us, in [0, 1e6] [default: 2].
+    #[arg(long, allow_negative_numbers = true)]
+    latency_us: Option<f64>,
     /// Real-time pacing: pin the harness's loop to this CPU (default: the last one
     /// allowed).
     #[arg(long)]
@@ -198,6 +207,29 @@ pub(crate) fn cmd_run(a: &RunArgs, command: &str) -> Result<Verdict, Failure> {
             )));
         }
     }
+    let latency_us = a.latency_us.unwrap_or(2.0);
+    if !(latency_us.is_finite() && (0.0..=1e6).contains(&latency_us)) {
+        return Err(input(format!(
+            "--latency-us {latency_us:e}: must be a finite value in [0, 1e6] us"
+        )));
+    }
+    if a.latency_us.is_some() && a.target != Target::InProc {
+        return Err(input(format!(
+            "--latency-us: the latency is part of the simulated link; target {} has a real one",
+            a.target
+        )));
+    }
+    let max_delay = wheelset_control::design::DESIGNED
+        .iter()
+        .map(|p| p.delay_ticks)
+        .max()
+        .unwrap_or(1);
+    if let Some(d) = a.delay_ticks.filter(|d| !(1..=max_delay).contains(d)) {
+        return Err(input(format!(
+            "--delay-ticks {d}: must be 1 ..= {max_delay} (the delays the device's gains are \
+             designed for)"
+        )));
+    }
     // The outputs are checked before the run, not found unwritable after it.
     for (flag, p) in [("--json", &a.json), ("--csv", &a.csv)] {
         if let Some(p) = p {
@@ -225,7 +257,7 @@ pub(crate) fn cmd_run(a: &RunArgs, command: &str) -> Result<Verdict, Failure> {
             baud: a.baud,
             faults: a.faults.clone(),
             seed: a.seed,
-            ..LinkConfig::default()
+            latency_ns: (latency_us * 1e3).round() as u64,
         },
         pace: match a.pace {
             PaceArg::Realtime => wheelset_targets::serial::Pace::RealTime,
@@ -237,6 +269,7 @@ pub(crate) fn cmd_run(a: &RunArgs, command: &str) -> Result<Verdict, Failure> {
         qemu_link: a.qemu_link,
         progress: !a.quiet && std::io::stderr().is_terminal(),
         rate_hz: a.rate_hz,
+        delay_ticks: a.delay_ticks.unwrap_or(1),
         wsp: a.wsp.map(|w| w == OnOffArg::On),
         monitor_safe: a.monitor_safe,
         clear_faults_at_s: a.clear_faults_at,

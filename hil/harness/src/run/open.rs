@@ -186,7 +186,7 @@ pub(super) fn run_rate(opts: &RunOptions, default_hz: u32) -> Result<u32, RunErr
         } else {
             wheelset_loop::sim_link::DEFAULT_LATENCY_NS
         };
-        link_fits(baud, hz, latency_ns).map_err(RunError::Input)?;
+        link_fits(baud, hz, latency_ns, opts.delay_ticks).map_err(RunError::Input)?;
     }
     Ok(hz)
 }
@@ -196,7 +196,7 @@ pub(super) fn run_rate(opts: &RunOptions, default_hz: u32) -> Result<u32, RunErr
 /// link budget ([`wheelset_loop::sim_link::check_budget`]). The refusal names the
 /// budget's numbers, the lowest baud this rate needs and the highest rate this baud
 /// carries.
-fn link_fits(baud: u32, rate_hz: u32, latency_ns: u64) -> Result<(), String> {
+fn link_fits(baud: u32, rate_hz: u32, latency_ns: u64, delay_ticks: u8) -> Result<(), String> {
     let period_ns = 1_000_000_000 / u64::from(rate_hz.max(1));
     wheelset_loop::sim_link::check_budget(
         wheelset_proto::SENSOR_ONE_LATERAL_MAX_FRAME,
@@ -204,6 +204,7 @@ fn link_fits(baud: u32, rate_hz: u32, latency_ns: u64) -> Result<(), String> {
         baud,
         latency_ns,
         period_ns,
+        u32::from(delay_ticks),
     )
     .map(|_| ())
     .map_err(|e| {
@@ -268,13 +269,16 @@ mod tests {
         let (lat, s) = (2_000, LINK_SHARE_MAX_PERMILLE);
         let r = max_rate_hz(921_600, up, down, lat, s);
         let b = min_baud(5_000, up, down, lat, s).unwrap_or(0);
-        let e = link_fits(921_600, 5_000, lat).err().unwrap_or_default();
+        let e = link_fits(921_600, 5_000, lat, 1).err().unwrap_or_default();
         assert!(e.contains("link budget exceeded"), "{e}");
         assert!(e.contains(&format!("highest rate is {r} Hz")), "{e}");
-        assert!(e.contains(&format!("at least {b} or")), "{e}");
-        assert!(link_fits(wheelset_loop::sim_link::DEFAULT_BAUD, 5_000, lat).is_ok());
-        assert!(link_fits(b, 5_000, lat).is_ok());
-        assert!(link_fits(b - 1, 5_000, lat).is_err());
-        assert!(link_fits(921_600, r, lat).is_ok());
+        assert!(e.contains(&format!("at least {b},")), "{e}");
+        assert!(link_fits(wheelset_loop::sim_link::DEFAULT_BAUD, 5_000, lat, 1).is_ok());
+        assert!(link_fits(b, 5_000, lat, 1).is_ok());
+        assert!(link_fits(b - 1, 5_000, lat, 1).is_err());
+        assert!(link_fits(921_600, r, lat, 1).is_ok());
+        // Pipelined: a round trip of 2.8 ms at 1 kHz needs four ticks.
+        assert!(link_fits(921_600, 1_000, 1_000_000, 3).is_err());
+        assert!(link_fits(921_600, 1_000, 1_000_000, 4).is_ok());
     }
 }

@@ -57,6 +57,12 @@ pub(crate) struct DeviceArgs {
     /// Device base rate, Hz (default: the control core's).
     #[arg(long, allow_negative_numbers = true)]
     pub(crate) rate_hz: Option<u32>,
+    /// Ticks from a sample to its actuation, 1 to the longest designed [default: 1]: the host applies each
+    /// actuation that many periods after its sample (a pipelined link, for a link whose
+    /// round trip is longer than a period), and the device runs the gains designed for
+    /// the rate and this delay.
+    #[arg(long, allow_negative_numbers = true)]
+    pub(crate) delay_ticks: Option<u8>,
     /// Ticks the device bridges a missing sensor frame before its safe state
     /// [default: the runtime's].
     #[arg(long, allow_negative_numbers = true)]
@@ -76,6 +82,7 @@ impl DeviceArgs {
             ("--baud", self.baud.is_some()),
             ("--latency-us", self.latency_us.is_some()),
             ("--rate-hz", self.rate_hz.is_some()),
+            ("--delay-ticks", self.delay_ticks.is_some()),
             ("--hold-ticks", self.hold_ticks.is_some()),
             ("--lateral", self.lateral.is_some()),
         ]
@@ -128,6 +135,22 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
             msg: "--rate-hz 0: must be positive".into(),
         });
     }
+    let delay_ticks = d.delay_ticks.unwrap_or(1);
+    // The longest delay the device's table of designs holds.
+    let max_delay = wheelset_control::design::DESIGNED
+        .iter()
+        .map(|p| p.delay_ticks)
+        .max()
+        .unwrap_or(1);
+    if !(1..=max_delay).contains(&delay_ticks) {
+        return Err(Failure {
+            code: 2,
+            msg: format!(
+                "--delay-ticks {delay_ticks}: must be 1 ..= {max_delay} (the delays the \
+                 device's gains are designed for)"
+            ),
+        });
+    }
     let faults_spec = d.faults.clone().unwrap_or_default();
     let faults: wheelset_loop::sim_link::Faults =
         faults_spec
@@ -145,6 +168,7 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
         },
         hold_ticks: d.hold_ticks.unwrap_or(wheelset_runtime::DEFAULT_HOLD_TICKS),
         base_rate_hz: d.rate_hz,
+        delay_ticks,
         lateral: match d.lateral.unwrap_or(Lateral::Velocity) {
             Lateral::Velocity => wheelset_loop::device_loop::LateralSensing::Velocity,
             Lateral::Acceleration => wheelset_loop::device_loop::LateralSensing::Acceleration,
@@ -166,10 +190,10 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
     if let Some(why) = wheelset_loop::device_loop::base_rate_refusal(&rt) {
         return Err(Failure {
             code: 2,
-            msg: format!("--rate-hz {hz}: {why}"),
+            msg: format!("--rate-hz {hz} --delay-ticks {delay_ticks}: {why}"),
         });
     }
-    if let Some(w) = wheelset_loop::rate_check::warning(sc, a.control.into(), hz) {
+    if let Some(w) = wheelset_loop::rate_check::warning(sc, a.control.into(), hz, delay_ticks) {
         warn(&w);
     }
     let mut run = run_device(sc, a.control.into(), &opt).map_err(|e| Failure {

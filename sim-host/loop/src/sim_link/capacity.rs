@@ -56,18 +56,43 @@ pub struct LinkBudgetError {
     pub period_ns: u64,
     /// Round-trip time needed, ns.
     pub needed_ns: u64,
-    /// Round-trip time allowed (`BUDGET_SHARE` of the period), ns.
+    /// Time allowed (`BUDGET_SHARE` of the period, or of the delay for the round trip),
+    /// ns.
     pub allowed_ns: u64,
+    /// Ticks of delay the exchange is pipelined over (1: lock-step).
+    pub delay_ticks: u32,
 }
 
 impl fmt::Display for LinkBudgetError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let rate = NS_PER_S as f64 / self.period_ns as f64;
+        if self.delay_ticks > 1 {
+            let larger = self.up_bytes.max(self.down_bytes);
+            return write!(
+                f,
+                "link budget exceeded: pipelined over {} ticks at {:.0} Hz, each direction's \
+                 frame ({larger} bytes at most) must take at most {:.0} % of the {:.1} us period \
+                 ({:.1} us on the line at {} baud) and the round trip at most {:.0} % of the \
+                 delay ({:.1} us of {:.1} us allowed, {} ns latency each way); raise the baud, \
+                 lower the latency, lengthen the delay or lower the rate",
+                self.delay_ticks,
+                rate,
+                BUDGET_SHARE * 100.0,
+                self.period_ns as f64 / 1e3,
+                wire_ns(larger, self.baud) as f64 / 1e3,
+                self.baud,
+                BUDGET_SHARE * 100.0,
+                self.needed_ns as f64 / 1e3,
+                self.allowed_ns as f64 / 1e3,
+                self.latency_ns,
+            );
+        }
         write!(
             f,
             "link budget exceeded: ({} + {}) bytes x {} bits / {} baud + 2 x {} ns latency = {:.1} us \
              per {:.0} Hz period, but only {:.0} % of the {:.1} us period = {:.1} us is allowed; \
-             raise the baud to at least {:.0} or lower the rate",
+             raise the baud to at least {:.0}, lower the rate or pipeline the exchange over \
+             more ticks of delay",
             self.up_bytes,
             self.down_bytes,
             BITS_PER_BYTE,
@@ -114,33 +139,54 @@ pub fn wire_ns(n: usize, baud: u32) -> u64 {
     wheelset_proto::link::wire_ns(n as u64, baud)
 }
 
-/// The link budget of a lock-step exchange: the sensor frame goes up, the device ticks,
-/// the actuation frame comes down, all within one period:
-/// `(up + down) bytes x 10 / baud + 2 latency <= BUDGET_SHARE x period`, evaluated by
-/// the one link budget, [`wheelset_proto::link::link_fits`] (at the rate
-/// `1e9 / period_ns`). Returns the round-trip time, or an error naming the numbers.
+/// The link budget of an exchange with `delay_ticks` ticks of delay: the sensor frame
+/// goes up, the device ticks, the actuation frame comes down, within the delay:
+/// `(up + down) bytes x 10 / baud + 2 latency <= BUDGET_SHARE x delay_ticks x period`, and
+/// each direction's frame within `BUDGET_SHARE` of a period (one tick: the lock-step
+/// exchange), evaluated by the one link budget,
+/// [`wheelset_proto::link::link_fits_delayed`] (at the rate `1e9 / period_ns`). Returns
+/// the round-trip time, or an error naming the numbers.
 pub fn check_budget(
     up_bytes: usize,
     down_bytes: usize,
     baud: u32,
     latency_ns: u64,
     period_ns: u64,
+    delay_ticks: u32,
 ) -> Result<u64, LinkBudgetError> {
-    use wheelset_proto::link::{allowed_ns, link_fits, round_trip_ns, LINK_SHARE_MAX_PERMILLE};
+    use wheelset_proto::link::{link_fits_delayed, LinkError, LINK_SHARE_MAX_PERMILLE};
     let rate_hz = u32::try_from(NS_PER_S / period_ns.max(1)).unwrap_or(u32::MAX);
     let (up, down) = (
         u32::try_from(up_bytes).unwrap_or(u32::MAX),
         u32::try_from(down_bytes).unwrap_or(u32::MAX),
     );
-    link_fits(rate_hz, baud, up, down, latency_ns, LINK_SHARE_MAX_PERMILLE).map_err(|_| {
+    let d = delay_ticks.max(1);
+    link_fits_delayed(
+        rate_hz,
+        baud,
+        up,
+        down,
+        latency_ns,
+        LINK_SHARE_MAX_PERMILLE,
+        d,
+    )
+    .map_err(|e| {
+        let (needed_ns, allowed_ns) = match e {
+            LinkError::TooSlow {
+                needed_ns,
+                allowed_ns,
+            } => (needed_ns, allowed_ns),
+            _ => (u64::MAX, 0),
+        };
         LinkBudgetError {
             up_bytes,
             down_bytes,
             baud,
             latency_ns,
             period_ns,
-            needed_ns: round_trip_ns(baud, up, down, latency_ns),
-            allowed_ns: allowed_ns(rate_hz, LINK_SHARE_MAX_PERMILLE),
+            needed_ns,
+            allowed_ns,
+            delay_ticks: d,
         }
     })
 }
