@@ -48,6 +48,7 @@
 //!   with the linearisation in [`crate::linear`].
 
 mod design;
+mod link_choice;
 mod margins;
 mod matrices;
 mod rate_grid;
@@ -55,6 +56,7 @@ mod summary;
 
 pub use crate::linear::{armature, LinearPlant, Model, Reduced};
 pub use design::*;
+pub use link_choice::*;
 pub use margins::*;
 pub use matrices::*;
 pub use rate_grid::*;

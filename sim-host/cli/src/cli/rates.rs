@@ -29,9 +29,14 @@ pub(crate) struct RatesArgs {
     /// Ticks of computation and transport delay on the actuation (the firmware: 1).
     #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
     delay: usize,
-    /// The fastest UART baud the link may assume (selection criterion).
+    /// The fastest UART baud the link may assume: the rate table's selection criterion,
+    /// and the link the designed points are judged against (the fastest it carries is
+    /// chosen, with delays up to `--delay`).
     #[arg(long, default_value_t = 6_000_000, allow_negative_numbers = true)]
     max_baud: u32,
+    /// One-way latency of that link, us (a USB-serial bridge: about 1000).
+    #[arg(long, default_value_t = 5.0, allow_negative_numbers = true)]
+    latency_us: f64,
     /// Write the table as JSON (directories created).
     #[arg(long)]
     json: Option<PathBuf>,
@@ -49,6 +54,15 @@ pub(crate) fn cmd_rates(a: &RatesArgs) -> Result<(), Failure> {
         return Err(Failure {
             code: 2,
             msg: "--max-baud 0: must be positive".into(),
+        });
+    }
+    if !(a.latency_us.is_finite() && (0.0..=1e6).contains(&a.latency_us)) {
+        return Err(Failure {
+            code: 2,
+            msg: format!(
+                "--latency-us {:e}: must be a finite value in [0, 1e6] us",
+                a.latency_us
+            ),
         });
     }
     let p = load_params(&a.params)?;
@@ -102,13 +116,25 @@ pub(crate) fn cmd_rates(a: &RatesArgs) -> Result<(), Failure> {
     } else {
         None
     };
+    // The designed points over the link: the fastest it carries.
+    let delay = u8::try_from(a.delay).unwrap_or(u8::MAX);
+    let link = wheelset_plant::sampled::link_choice(
+        a.max_baud,
+        (a.latency_us * 1e3).round() as u64,
+        delay,
+    );
+    outln!();
+    out!("{}", link.render());
     if let Some(path) = &a.json {
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir).map_err(|e| io_fail(dir, e))?;
         }
         let mut json = report.to_json();
-        if let (Some(d), Some(obj)) = (design, json.as_object_mut()) {
-            obj.insert("design".into(), d);
+        if let Some(obj) = json.as_object_mut() {
+            if let Some(d) = design {
+                obj.insert("design".into(), d);
+            }
+            obj.insert("link".into(), link.to_json());
         }
         let text = serde_json::to_string_pretty(&json).map_err(|e| Failure {
             code: 1,
