@@ -369,8 +369,13 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
         r
     });
     if let Some(why) = wheelset_loop::device_loop::base_rate_refusal(&rt) {
+        let delay = if d > 1 {
+            format!(" --delay-ticks {d}")
+        } else {
+            String::new()
+        };
         return Err(RunError::Input(format!(
-            "--rate-hz {} --delay-ticks {d}: {why}",
+            "--rate-hz {}{delay}: {why}",
             rt.control.base_rate_hz
         )));
     }

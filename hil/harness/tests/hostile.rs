@@ -139,6 +139,22 @@ const ROWS: &[Row] = &[
     Row { args: "audit --no-target --json {F}", code: 2, want: &["--json", "is a directory"] },
     // A base rate the device refuses is refused in words about the rate asked for.
     Row { args: "run --scenario {F}/short.toml --rate-hz 50", code: 2, want: &["--rate-hz 50: ", "at least 500 Hz"] },
+    // A delay outside the designs, a latency that is not a time, a link too slow for the
+    // delay: refused before the run.
+    Row { args: "run --delay-ticks 0", code: 2, want: &["--delay-ticks 0", "designed for"] },
+    Row { args: "run --delay-ticks 4", code: 2, want: &["--delay-ticks 4", "designed for"] },
+    Row { args: "run --latency-us nan", code: 2, want: &["--latency-us", "finite"] },
+    Row { args: "run --target qemu --latency-us 5", code: 2, want: &["--latency-us", "real one"] },
+    Row {
+        args: "run --latency-us 300",
+        code: 2,
+        want: &["link budget exceeded", "more ticks of delay"],
+    },
+    Row {
+        args: "run --rate-hz 1000 --delay-ticks 2",
+        code: 2,
+        want: &["--delay-ticks 2", "no lead or gain holds the yaw loop"],
+    },
     // A repeated fault key is refused, naming it (only outages repeat).
     Row { args: "run --faults ber=1e-3,ber=1e-2", code: 2, want: &["ber=1e-2", "`ber` is given twice"] },
     Row { args: "run --faults drop=0.1,ber=1e-4,drop=0.2", code: 2, want: &["`drop` is given twice"] },

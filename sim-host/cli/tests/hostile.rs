@@ -236,6 +236,17 @@ const ROWS: &[Row] = &[
         &["--baud 0"],
     ),
     row("rates --max-baud 0", 2, &["--max-baud 0"]),
+    row("rates --latency-us -1", 2, &["--latency-us", "finite"]),
+    row(
+        "run --scenario {F}/short.toml --loop device --delay-ticks 4",
+        2,
+        &["--delay-ticks 4", "designed for"],
+    ),
+    row(
+        "run --scenario {F}/short.toml --loop device --latency-us 300",
+        2,
+        &["link budget exceeded", "more ticks of delay"],
+    ),
     // A base rate the device refuses is refused in words about the rate asked for.
     Row {
         args: "run --scenario {F}/short.toml --loop device --rate-hz 50",

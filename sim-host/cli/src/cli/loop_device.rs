@@ -190,7 +190,11 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
     if let Some(why) = wheelset_loop::device_loop::base_rate_refusal(&rt) {
         return Err(Failure {
             code: 2,
-            msg: format!("--rate-hz {hz} --delay-ticks {delay_ticks}: {why}"),
+            msg: if delay_ticks > 1 {
+                format!("--rate-hz {hz} --delay-ticks {delay_ticks}: {why}")
+            } else {
+                format!("--rate-hz {hz}: {why}")
+            },
         });
     }
     if let Some(w) = wheelset_loop::rate_check::warning(sc, a.control.into(), hz, delay_ticks) {
