@@ -1,11 +1,15 @@
-//! `cargo xtask fw-bench [--json FILE]`: the QEMU benchmark firmware
+//! `cargo xtask fw-bench [--json FILE] [--check]`: the QEMU benchmark firmware
 //! (`wheelset-qemu-bench`) built for the Cortex-M4F (`mps2-an386`) and the Cortex-M3
 //! (`mps2-an385`), fixed point and f32, run under QEMU; its `FWBENCH` lines become a
-//! table and the JSON; fails when the whole tick's mean on the Cortex-M4 fixed-point
-//! build exceeds its budget ([`TICK_MEAN_BUDGET_INSTRUCTIONS`]).
+//! table and the JSON, its measurement lines the pages' figures ([`pages`]: rewritten,
+//! or with `--check` compared); fails when the whole tick's mean on the Cortex-M4
+//! fixed-point build exceeds its budget ([`TICK_MEAN_BUDGET_INSTRUCTIONS`]) or, with
+//! `--check`, when a page's figure differs from the bench's.
 
 use std::path::PathBuf;
 use std::process::Command;
+
+mod pages;
 
 use crate::{build_firmware, ensure_targets, have_qemu, Firmware, FW_TARGET, M3_TARGET};
 use wheelset_targets::qemu::TICK_MEAN_BUDGET_INSTRUCTIONS;
@@ -192,15 +196,17 @@ fn bench_table(results: &[(&BenchConfig, BenchResult)]) -> String {
     t
 }
 
-/// `fw-bench` arguments: `[--json FILE]`.
-pub(crate) fn parse_bench_args(args: &[String]) -> Result<Option<PathBuf>, String> {
-    let usage = "usage: cargo xtask fw-bench [--json FILE]";
-    match args {
-        [] => Ok(None),
-        [flag, file] if flag == "--json" && !file.starts_with("--") => {
-            Ok(Some(PathBuf::from(file)))
+/// `fw-bench` arguments: `[--json FILE] [--check]`, as `(json, check)`.
+pub(crate) fn parse_bench_args(args: &[String]) -> Result<(Option<PathBuf>, bool), String> {
+    let usage = "usage: cargo xtask fw-bench [--json FILE] [--check]";
+    let check = args.iter().any(|a| a == "--check");
+    let rest: Vec<&String> = args.iter().filter(|a| *a != "--check").collect();
+    match rest.as_slice() {
+        [] => Ok((None, check)),
+        [flag, file] if *flag == "--json" && !file.starts_with("--") => {
+            Ok((Some(PathBuf::from(file)), check))
         }
-        [flag] if flag == "--json" => Err(format!("fw-bench: --json needs a FILE ({usage})")),
+        [flag] if *flag == "--json" => Err(format!("fw-bench: --json needs a FILE ({usage})")),
         _ => Err(format!(
             "fw-bench: unknown arguments `{}` ({usage})",
             args.join(" ")
@@ -208,10 +214,55 @@ pub(crate) fn parse_bench_args(args: &[String]) -> Result<Option<PathBuf>, Strin
     }
 }
 
+/// The pages' `fw-bench` table and README row from this run ([`pages`]): rewritten, or
+/// with `check` compared (`Err` naming the pages that differ).
+fn sync_pages(
+    results: &[(&BenchConfig, BenchResult)],
+    outputs: &[String],
+    check: bool,
+) -> Result<(), String> {
+    let root = crate::workspace_root();
+    let heads: Vec<String> = results
+        .iter()
+        .map(|(c, _)| {
+            let core = c.core.replace("cortex-", "").to_uppercase();
+            format!("{core} {}", c.numeric)
+        })
+        .collect();
+    let block = pages::table(&heads, outputs);
+    let (law, tick) = results
+        .iter()
+        .find(|(c, _)| c.core == "cortex-m4" && c.numeric == "fixed")
+        .map(|(_, r)| (r.law.mean, r.tick.mean))
+        .ok_or("fw-bench: no Cortex-M4 fixed-point result")?;
+    let row = pages::readme_row(law, tick, TICK_MEAN_BUDGET_INSTRUCTIONS);
+    let list = crate::readme::pages(&root)?;
+    let (new, changed) = pages::update(&list, &block, &row)?;
+    if changed.is_empty() {
+        eprintln!("xtask: the pages' fw-bench figures match this run");
+        return Ok(());
+    }
+    if check {
+        return Err(format!(
+            "fw-bench: the figures of {} differ from this run (`cargo xtask fw-bench` \
+             rewrites them)",
+            changed.join(", ")
+        ));
+    }
+    for ((path, old), text) in list.iter().zip(&new) {
+        if old != text {
+            let p = root.join(path);
+            std::fs::write(&p, text).map_err(|e| format!("cannot write {}: {e}", p.display()))?;
+            eprintln!("xtask: {path}: fw-bench figures rewritten");
+        }
+    }
+    Ok(())
+}
+
 /// Builds the QEMU benchmark firmware (fixed point and f32, Cortex-M4 and Cortex-M3) and
 /// runs it: instruction counts of the control-law step and of the whole runtime tick,
 /// and the stack high-water mark. Prints the table; writes the JSON to `json` if given.
-pub(crate) fn fw_bench(json: Option<PathBuf>) -> Result<(), String> {
+pub(crate) fn fw_bench(json: Option<PathBuf>, check: bool) -> Result<(), String> {
     ensure_targets()?;
     let configs = bench_configs();
     let mut elfs = Vec::new();
@@ -222,6 +273,7 @@ pub(crate) fn fw_bench(json: Option<PathBuf>) -> Result<(), String> {
         return Err("qemu-system-arm is not installed: `apt-get install qemu-system-arm`".into());
     }
     let mut results = Vec::new();
+    let mut outputs = Vec::new();
     for (c, (elf, _)) in configs.iter().zip(&elfs) {
         let mut cmd = Command::new(crate::qemu_cmd::QEMU_BIN);
         cmd.args(crate::qemu_cmd::qemu_args(
@@ -248,6 +300,7 @@ pub(crate) fn fw_bench(json: Option<PathBuf>) -> Result<(), String> {
         }
         let r = parse_bench(&text).map_err(|e| format!("{}: {e}", elf.display()))?;
         results.push((c, r));
+        outputs.push(text.into_owned());
     }
     outln!();
     out!("{}", bench_table(&results));
@@ -263,8 +316,9 @@ pub(crate) fn fw_bench(json: Option<PathBuf>) -> Result<(), String> {
             .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
         outln!("wrote {}", path.display());
     }
+    let pages = sync_pages(&results, &outputs, check);
     match over {
-        None => Ok(()),
+        None => pages,
         Some(e) => Err(e),
     }
 }
@@ -397,10 +451,14 @@ mod tests {
     #[test]
     fn bench_arguments() {
         let a = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
-        assert_eq!(parse_bench_args(&a(&[])), Ok(None));
+        assert_eq!(parse_bench_args(&a(&[])), Ok((None, false)));
         assert_eq!(
             parse_bench_args(&a(&["--json", "x.json"])),
-            Ok(Some(PathBuf::from("x.json")))
+            Ok((Some(PathBuf::from("x.json")), false))
+        );
+        assert_eq!(
+            parse_bench_args(&a(&["--check", "--json", "x.json"])),
+            Ok((Some(PathBuf::from("x.json")), true))
         );
         assert!(parse_bench_args(&a(&["--json"]))
             .unwrap_err()

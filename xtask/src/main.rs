@@ -11,7 +11,9 @@
 //!   and the runtime's tests with `fault-inject` (the QEMU firmware's runtime: the
 //!   tests of the honoured fault injections compile only there);
 //!   then it builds every criterion benchmark (`cargo test --workspace --benches
-//!   --no-run`: they compile; they are not run).
+//!   --no-run`: they compile; they are not run), checks the pages' fw-bench figures
+//!   against a bench run when QEMU is there (`cargo xtask fw-bench --check`) and the
+//!   pages' generated blocks (`cargo xtask readme --check`).
 //! - `cargo fw [--f32]`: builds every board build of [`FIRMWARE`] with the `fw` profile
 //!   (release, LTO, size-optimised; the STM32 builds linked with flip-link, installed
 //!   when missing, in `target/flip-link`) and copies them to `target/fw/` (and with
@@ -19,12 +21,14 @@
 //!   flash and RAM of each against the budget (flash 64 KiB, static RAM 16 KiB) and fails
 //!   above either (the f32 measurement builds: printed, not enforced) or when an image is
 //!   not placed by its own board's memory map ([`size`]).
-//! - `cargo xtask fw-bench [--json FILE]`: builds `wheelset-qemu-bench` (fixed point and
-//!   f32, for the Cortex-M4F on `mps2-an386` and the Cortex-M3 on `mps2-an385`) and runs
-//!   it under QEMU: instructions per control-law step and per whole runtime tick, and the
-//!   stack high-water mark; prints a table, and with `--json` writes
+//! - `cargo xtask fw-bench [--json FILE] [--check]`: builds `wheelset-qemu-bench` (fixed
+//!   point and f32, for the Cortex-M4F on `mps2-an386` and the Cortex-M3 on `mps2-an385`)
+//!   and runs it under QEMU: instructions per control-law step and per whole runtime
+//!   tick, and the stack high-water mark; prints a table, and with `--json` writes
 //!   `{"cortex-m4":{"fixed":{"law":{"min","mean","max"},"tick":{..},"stack_peak_bytes":N},
-//!   "f32":{..}},"cortex-m3":{..}}`.
+//!   "f32":{..}},"cortex-m3":{..}}`; rewrites the pages' fw-bench table and README row
+//!   from the run (`--check`: fails instead when they differ; `cargo xtest` runs that
+//!   when QEMU is there).
 //! - `cargo xtask fuzz --frames N [--seed S]`: random, mutated, truncated and bit-flipped
 //!   frames and hostile Configs into `Runtime<Fx>` and `Runtime<f32>`, with overflow
 //!   checks: no panic, every output within the actuator limits, every frame accounted
@@ -476,6 +480,10 @@ fn test(extra: &[String]) -> Result<(), String> {
     let mut benches = cargo();
     benches.args(["test", "--workspace", "--benches", "--no-run"]);
     run(&mut benches)?;
+    // The pages' instruction counts and stack figures against the bench (under QEMU).
+    if have_qemu() {
+        bench::fw_bench(None, true)?;
+    }
     // The README and the book: their generated blocks and figures against their
     // commands and their links, then their short board-free commands against their
     // stated exit codes (`cargo xtask readme`).
@@ -550,7 +558,7 @@ fn main() -> ExitCode {
         Some("test") => test(&args[1..]),
         Some("fw") => fw(&args[1..]).map(|_| ()),
         Some("fw-bench") => match bench::parse_bench_args(&args[1..]) {
-            Ok(json) => bench::fw_bench(json),
+            Ok((json, check)) => bench::fw_bench(json, check),
             Err(e) => {
                 eprintln!("xtask: {e}");
                 return ExitCode::from(2);
@@ -567,7 +575,7 @@ fn main() -> ExitCode {
         }
         _ => {
             eprintln!(
-                "usage: cargo xtask <test [cargo test args]|fw [--f32]|fw-bench [--json FILE]|\
+                "usage: cargo xtask <test [cargo test args]|fw [--f32]|fw-bench [--json FILE] [--check]|\
                  fuzz --frames N [--seed S]|qemu-cmd [ELF] [--machine M --cpu C] [--tcp PORT] \
                  [-- QEMU ARGS]|readme [--check] [--dev] | --links | --commands [--long]>"
             );

@@ -263,7 +263,7 @@ const README_SIZE_ROWS: &[(&str, &str)] = &[
 ];
 
 /// `25464` as the pages write it: `25 464`.
-fn grouped(n: u64) -> String {
+pub(crate) fn grouped(n: u64) -> String {
     let digits = n.to_string();
     let mut out = String::new();
     for (i, c) in digits.chars().enumerate() {

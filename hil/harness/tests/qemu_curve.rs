@@ -2,7 +2,8 @@
 //! through the QEMU device (`hil run --target qemu --qemu-link bulk`: the semihosting
 //! bulk channel, the same frames as UART0 and ~8x faster, `hil/harness/tests/qemu_bulk.rs`) gives
 //! the in-process run's trajectory record for record, passes every check and keeps the
-//! firmware tick's maximum within its budget (`wheelset_targets::qemu::TICK_MAX_BUDGET_INSTRUCTIONS`). Skips when
+//! firmware tick's maximum within its budget (`wheelset_targets::qemu::TICK_MAX_BUDGET_INSTRUCTIONS`),
+//! and holds the performance chapter's rows of that tick and the stack to the run. Skips when
 //! QEMU or the firmware ELF is missing, unless `REQUIRE_QEMU=1` (`cargo xtest`).
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
@@ -62,4 +63,50 @@ fn the_20_s_curve_through_the_qemu_firmware_is_the_in_process_run() {
     );
     assert_eq!(qemu.report.numerics, inproc.report.numerics);
     assert_eq!(qemu.report.monitor.alarms, inproc.report.monitor.alarms);
+    let e = &r.timing.exec_units;
+    let status = r.device_status.as_ref().expect("the firmware's Status");
+    check_the_performance_rows((e.min, e.mean, e.max), status.stack_peak);
+}
+
+/// `25464` as the pages write it: `25 464`.
+fn grouped(n: u64) -> String {
+    let d = n.to_string();
+    let mut out = String::new();
+    for (i, c) in d.chars().enumerate() {
+        if i > 0 && (d.len() - i).is_multiple_of(3) {
+            out.push(' ');
+        }
+        out.push(c);
+    }
+    out
+}
+
+/// The performance chapter's rows of the firmware's tick and stack over the curve must
+/// state this run's figures: a change of the tick's cost fails here until the page says it.
+fn check_the_performance_rows(exec: (f64, f64, f64), stack_peak: u32) {
+    let page = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs/performance.md");
+    let text = std::fs::read_to_string(&page).expect("docs/performance.md");
+    let row = |prefix: &str| {
+        text.lines()
+            .find(|l| l.starts_with(prefix))
+            .unwrap_or_else(|| panic!("{}: no row `{prefix}`", page.display()))
+    };
+    let (min, mean, max) = exec;
+    let want = format!(
+        "min {}, mean {}, max {} instructions",
+        grouped(min as u64),
+        grouped(mean.round() as u64),
+        grouped(max as u64)
+    );
+    let tick = row("| tick in the firmware");
+    assert!(
+        tick.contains(&want),
+        "docs/performance.md's tick row must say `{want}`: {tick}"
+    );
+    let want = format!("| {} B on the Cortex-M4", grouped(u64::from(stack_peak)));
+    let stack = row("| stack high-water mark of the firmware");
+    assert!(
+        stack.contains(&want),
+        "docs/performance.md's stack row must say `{want}`: {stack}"
+    );
 }
