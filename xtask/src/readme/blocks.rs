@@ -156,6 +156,11 @@ pub const BLOCKS: &[Block] = &[
     sim("device-acceleration", "run --scenario curve --control lead --loop device --lateral acceleration").keep(Keep::Starting(&["vs continuous reference"])),
     sim("device-baud-refused", "run --scenario curve --control lead --loop device --baud 115200").exit(2).stderr(),
     sim("rates", "rates"),
+    // The designed points over a USB-serial bridge, and the pipelined runs.
+    sim("rates-usb", "rates --max-baud 921600 --latency-us 1000 --delay 3").keep(Keep::Starting(&["== the designed points", "chosen ("])),
+    sim("rates-usb-hs", "rates --max-baud 3000000 --latency-us 250 --delay 3").keep(Keep::Starting(&["chosen ("])),
+    sim("device-usb-passive", "run --scenario curve --control passive --loop device --rate-hz 500 --delay-ticks 2 --baud 921600 --latency-us 1000").keep(Keep::Starting(&["monitor:", "vs continuous reference"])),
+    sim("device-usb-hs", "run --scenario curve --control lead --loop device --rate-hz 2000 --delay-ticks 2 --baud 3000000 --latency-us 250").keep(Keep::Starting(&["monitor:", "vs continuous reference"])),
     // The fixed-point audit (Markdown: `wheelset_audit::readme_block`).
     hil("audit", "audit --no-target --readme-block").keep(Keep::Markdown),
     // The harness, in process.
