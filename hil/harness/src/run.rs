@@ -425,8 +425,20 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     // The in-process device was configured before the run (`InProc::configure`), a
     // free-running one by `RealTime::prepare`; a lock-step device gets the Config frame
     // (rates unchanged) as the first frame of the run.
-    let lockstep_config = is_lockstep_remote
-        .then(|| wheelset_loop::device_loop::run_config(&rt, wsp, opts.monitor_safe));
+    // At another rate or delay than the firmware's own, the Config carries the design's
+    // rates and coefficients (which the device checks against its table).
+    let default = runtime_config_for(&sc, opts.control).control;
+    let other_point = rt.control.base_rate_hz != default.base_rate_hz
+        || rt.control.delay_ticks != default.delay_ticks;
+    let lockstep_config = match (is_lockstep_remote, other_point) {
+        (false, _) => None,
+        (true, false) => Some(wheelset_loop::device_loop::run_config(
+            &rt,
+            wsp,
+            opts.monitor_safe,
+        )),
+        (true, true) => Some(device_config(&rt, wsp, opts.monitor_safe)?),
+    };
     // `--device-fault stall:T`: the harness sends InjectStall at T to a device whose
     // watchdog resets it (the free-running QEMU build; the lock-step one has no watchdog,
     // firmware/app/src/board/qemu/wdog.rs) and sends the Config again after the reset.
@@ -486,10 +498,7 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     }
     // At a rate or delay other than the scenario's own the device runs the gains designed
     // for it: the f64 core with those gains and that delay is the yardstick.
-    let default = runtime_config_for(&sc, opts.control).control;
-    let designed = (rt.control.base_rate_hz != default.base_rate_hz
-        || rt.control.delay_ticks != default.delay_ticks)
-        .then_some(&rt.control);
+    let designed = other_point.then_some(&rt.control);
     let (reference, fine) = reference::make(&sc, opts.control.yaw(), wsp, period_ns, designed)?;
     let timing = analyse(
         &ctx,

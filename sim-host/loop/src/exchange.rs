@@ -20,7 +20,9 @@
 //! bridge) runs pipelined over `d` ticks ([`LoopSetup::delay_ticks`], the delay the
 //! device's gains are designed for): the host sends every sample on time and applies the
 //! actuation echoing sample `k` exactly from `t_k + d T`, holding one that arrives
-//! earlier until then; `d = 1` is the schedule above. A [`Config`] frame given with
+//! earlier until then (and an answer that used no sample, such as the Config frame's,
+//! does not replace the start-up output before the first sample's is due); `d = 1` is the
+//! schedule above. A [`Config`] frame given with
 //! [`DeviceController::with_config`] goes out before the first Sensor frame, and the
 //! device must not flag it refused ([`DeviceController::config_refused`]). At the end,
 //! [`DeviceController::finish`] fetches the device's counters (the one Status fetch: a
@@ -337,6 +339,9 @@ impl<'a> DeviceController<'a> {
                     Some(e) if e + self.delay_ticks > self.k => {
                         self.early.push_back((e, si, a));
                     }
+                    // An answer that used no sample (the Config frame's) before the first
+                    // sample's actuation is due: the start-up output stands.
+                    None if self.k < self.delay_ticks => {}
                     _ => {
                         self.held = Some((si, a));
                         self.fresh = true;

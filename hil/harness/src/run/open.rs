@@ -166,13 +166,6 @@ pub(super) fn run_rate(opts: &RunOptions, default_hz: u32) -> Result<u32, RunErr
     }
     let lockstep = matches!(opts.target, Target::Qemu | Target::QemuAt(_))
         || (matches!(opts.target, Target::Serial(_)) && opts.pace == Pace::LockStep);
-    if lockstep && hz != default_hz {
-        return Err(RunError::Input(format!(
-            "--rate-hz {hz}: lock-step targets run the firmware's default rate ({default_hz} Hz); \
-             another rate is configured over the wire on the in-process and real-time serial \
-             targets"
-        )));
-    }
     // Lock-step: the host's frames are the device's clock, so the link need not carry
     // an exchange per period of wall time (the run just takes longer).
     if !lockstep {
