@@ -33,6 +33,10 @@
 //!   frames and hostile Configs into `Runtime<Fx>` and `Runtime<f32>`, with overflow
 //!   checks: no panic, every output within the actuator limits, every frame accounted
 //!   ([`fuzz`]; a short seeded run is a unit test of this crate, so `cargo xtest` runs it).
+//! - `cargo xtask mutants [--package P]... [--file GLOB]... [--shard K/N] [--out DIR]`
+//!   (or `--summary DIR...`): cargo-mutants over the device crates, each against its own
+//!   tests; prints caught / missed / unviable / timed out per crate against the whole
+//!   list ([`mutants`]).
 //! - `cargo xtask qemu-cmd [ELF] [--machine M --cpu C] [--tcp PORT] [-- QEMU ARGS]`:
 //!   prints the QEMU command line of every project run (`wheelset_targets::qemu::cmd`,
 //!   the harness's launcher's) for `ELF`, UART0 to null or to a TCP server, with the extra
@@ -66,6 +70,7 @@ macro_rules! outln {
 mod bench;
 mod features;
 mod fuzz;
+mod mutants;
 mod readme;
 mod size;
 
@@ -565,6 +570,14 @@ fn main() -> ExitCode {
             }
         },
         Some("fuzz") => return fuzz::main(&args[1..]),
+        Some("mutants") => match mutants::main(&args[1..]) {
+            Ok(true) => Ok(()),
+            Ok(false) => return ExitCode::FAILURE,
+            Err(e) => {
+                eprintln!("xtask: {e}");
+                return ExitCode::from(2);
+            }
+        },
         Some("readme") => return readme::main(&args[1..]),
         Some("qemu-cmd") => {
             if let Err(e) = qemu_cmd_line(&args[1..]) {
@@ -576,7 +589,7 @@ fn main() -> ExitCode {
         _ => {
             eprintln!(
                 "usage: cargo xtask <test [cargo test args]|fw [--f32]|fw-bench [--json FILE] [--check]|\
-                 fuzz --frames N [--seed S]|qemu-cmd [ELF] [--machine M --cpu C] [--tcp PORT] \
+                 fuzz --frames N [--seed S]|mutants [--package P] [--file GLOB] [--shard K/N] [--out DIR] | --summary DIR...|qemu-cmd [ELF] [--machine M --cpu C] [--tcp PORT] \
                  [-- QEMU ARGS]|readme [--check] [--dev] | --links | --commands [--long]>"
             );
             return ExitCode::from(2);
