@@ -33,6 +33,8 @@
 //!   frames and hostile Configs into `Runtime<Fx>` and `Runtime<f32>`, with overflow
 //!   checks: no panic, every output within the actuator limits, every frame accounted
 //!   ([`fuzz`]; a short seeded run is a unit test of this crate, so `cargo xtest` runs it).
+//! - `cargo xtask loc [--check]`: the non-test Rust lines and their comment share
+//!   ([`loc`]); `--check` fails above 42 000 lines or at 15 % comments.
 //! - `cargo xtask mutants [--package P]... [--file GLOB]... [--shard K/N] [--out DIR]`
 //!   (or `--summary DIR...`): cargo-mutants over the device crates, each against its own
 //!   tests; prints caught / missed / unviable / timed out per crate against the whole
@@ -70,6 +72,7 @@ macro_rules! outln {
 mod bench;
 mod features;
 mod fuzz;
+mod loc;
 mod mutants;
 mod readme;
 mod size;
@@ -570,6 +573,14 @@ fn main() -> ExitCode {
             }
         },
         Some("fuzz") => return fuzz::main(&args[1..]),
+        Some("loc") => match args.get(1).map(String::as_str) {
+            None => loc::main(false),
+            Some("--check") => loc::main(true),
+            Some(other) => {
+                eprintln!("xtask: loc: unexpected `{other}` (loc [--check])");
+                return ExitCode::from(2);
+            }
+        },
         Some("mutants") => match mutants::main(&args[1..]) {
             Ok(true) => Ok(()),
             Ok(false) => return ExitCode::FAILURE,
@@ -589,7 +600,7 @@ fn main() -> ExitCode {
         _ => {
             eprintln!(
                 "usage: cargo xtask <test [cargo test args]|fw [--f32]|fw-bench [--json FILE] [--check]|\
-                 fuzz --frames N [--seed S]|mutants [--package P] [--file GLOB] [--shard K/N] [--out DIR] | --summary DIR...|qemu-cmd [ELF] [--machine M --cpu C] [--tcp PORT] \
+                 fuzz --frames N [--seed S]|loc [--check]|mutants [--package P] [--file GLOB] [--shard K/N] [--out DIR] | --summary DIR...|qemu-cmd [ELF] [--machine M --cpu C] [--tcp PORT] \
                  [-- QEMU ARGS]|readme [--check] [--dev] | --links | --commands [--long]>"
             );
             return ExitCode::from(2);

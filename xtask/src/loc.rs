@@ -1,0 +1,162 @@
+//! `cargo xtask loc [--check]`: the workspace's non-test Rust, counted one way.
+//!
+//! Counted: the non-blank lines of every `.rs` file under the workspace's crates, outside
+//! `tests/`, `benches/` and `examples/` folders, outside files whose name ends in
+//! `tests.rs`, and outside `#[cfg(test)]` items (a module or function whose braces follow
+//! the attribute). A comment line is one whose text starts with `//` (`///`, `//!`
+//! included). `--check` fails above [`MAX_LINES`] lines or at [`MAX_COMMENT_SHARE`] and
+//! more comment lines.
+
+use std::path::{Path, PathBuf};
+
+/// Most non-test lines.
+pub const MAX_LINES: u64 = 42_000;
+/// Comment lines must stay under this share of the non-test lines.
+pub const MAX_COMMENT_SHARE: f64 = 0.15;
+
+/// The folders holding the workspace's crates.
+const ROOTS: [&str; 4] = ["firmware", "sim-host", "hil", "xtask"];
+
+/// Lines of one body of code.
+#[derive(Debug, Default, Clone, Copy, PartialEq, Eq)]
+pub struct Lines {
+    /// Non-blank lines.
+    pub code: u64,
+    /// Of which comment lines.
+    pub comments: u64,
+}
+
+impl std::ops::AddAssign for Lines {
+    fn add_assign(&mut self, o: Self) {
+        self.code += o.code;
+        self.comments += o.comments;
+    }
+}
+
+/// The non-test lines of one file's text (module docs).
+#[must_use]
+pub fn count(text: &str) -> Lines {
+    let mut l = Lines::default();
+    let mut skip_depth: Option<i64> = None;
+    let mut pending_test = false;
+    for line in text.lines() {
+        let t = line.trim();
+        if let Some(depth) = skip_depth.as_mut() {
+            *depth += braces(t);
+            if *depth <= 0 {
+                skip_depth = None;
+            }
+            continue;
+        }
+        if t.is_empty() {
+            continue;
+        }
+        if t.starts_with("#[cfg(test)]") {
+            pending_test = true;
+            continue;
+        }
+        if pending_test && !t.starts_with("#[") && !t.starts_with("//") {
+            pending_test = false;
+            let b = braces(t);
+            if t.contains('{') && b > 0 {
+                skip_depth = Some(b);
+                continue;
+            }
+            if t.ends_with(';') {
+                // `mod tests;`: the file is counted (or not) by its name.
+                continue;
+            }
+        }
+        l.code += 1;
+        l.comments += u64::from(t.starts_with("//"));
+    }
+    l
+}
+
+/// Opening minus closing braces on a line (strings and comments not told apart: the
+/// crates' test modules open and close on their own lines).
+fn braces(t: &str) -> i64 {
+    let code = t.split("//").next().unwrap_or("");
+    code.matches('{').count() as i64 - code.matches('}').count() as i64
+}
+
+fn is_test_path(p: &Path) -> bool {
+    p.components().any(|c| {
+        matches!(
+            c.as_os_str().to_str(),
+            Some("tests" | "benches" | "examples" | "target")
+        )
+    }) || p
+        .file_name()
+        .and_then(|n| n.to_str())
+        .is_some_and(|n| n.ends_with("tests.rs"))
+}
+
+fn walk(dir: &Path, out: &mut Vec<PathBuf>) -> Result<(), String> {
+    let rd = std::fs::read_dir(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    for e in rd {
+        let p = e.map_err(|e| format!("{}: {e}", dir.display()))?.path();
+        if p.is_dir() {
+            walk(&p, out)?;
+        } else if p.extension().is_some_and(|x| x == "rs") {
+            out.push(p);
+        }
+    }
+    Ok(())
+}
+
+/// The workspace's count, from the workspace root `root`.
+pub fn workspace(root: &Path) -> Result<Lines, String> {
+    let mut files = Vec::new();
+    for r in ROOTS {
+        walk(&root.join(r), &mut files)?;
+    }
+    let mut total = Lines::default();
+    for f in files
+        .iter()
+        .filter(|f| !is_test_path(f.strip_prefix(root).unwrap_or(f)))
+    {
+        let text = std::fs::read_to_string(f).map_err(|e| format!("{}: {e}", f.display()))?;
+        total += count(&text);
+    }
+    Ok(total)
+}
+
+/// Runs the task: prints the count; with `check`, fails above the limits.
+pub fn main(check: bool) -> Result<(), String> {
+    let l = workspace(Path::new("."))?;
+    let share = l.comments as f64 / l.code.max(1) as f64;
+    outln!(
+        "non-test Rust: {} lines (at most {MAX_LINES}), {} comment lines = {:.1} % (under {:.0} %)",
+        l.code,
+        l.comments,
+        100.0 * share,
+        100.0 * MAX_COMMENT_SHARE
+    );
+    if check && (l.code > MAX_LINES || share >= MAX_COMMENT_SHARE) {
+        return Err("loc: the non-test Rust is above its limits".into());
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn test_modules_blank_lines_and_test_files_are_not_counted() {
+        let text = "//! Docs.\n\nfn a() {}\n// why\n#[cfg(test)]\nmod tests {\n    fn b() {\n    }\n}\nfn c() {}\n#[cfg(test)]\nmod more;\n";
+        assert_eq!(
+            count(text),
+            Lines {
+                code: 4,
+                comments: 2
+            }
+        );
+        assert!(is_test_path(Path::new("firmware/proto/tests/x.rs")));
+        assert!(is_test_path(Path::new(
+            "sim-host/loop/src/exchange/reset_tests.rs"
+        )));
+        assert!(!is_test_path(Path::new("sim-host/loop/src/exchange.rs")));
+    }
+}
