@@ -8,7 +8,8 @@
 //! cargo xtask mutants --summary DIR...
 //! ```
 //!
-//! Runs `cargo mutants --package P --no-shuffle [--file GLOB] [--shard K/N]` for each
+//! Runs `cargo mutants --package P --no-shuffle [--features F] [--file GLOB] [--shard K/N]`
+//! (`F`: the features the crate's tests need, `features`) for each
 //! package (default: [`DEVICE_CRATES`]) into `DIR/P[-K-of-N]` (default DIR:
 //! `target/mutants`), then prints per package the mutants caught, missed, unviable and
 //! timed out, and the caught share of the viable ones against the whole list
@@ -21,6 +22,17 @@ use std::process::Command;
 
 /// The crates whose mutants are counted: the control core, the wire, the runtime.
 pub const DEVICE_CRATES: [&str; 3] = ["wheelset-control", "wheelset-proto", "wheelset-runtime"];
+
+/// The features each crate's tests run with: the wire's host conversions (`std`, whose
+/// tests are gated on it) and the runtime's honoured fault injections (`fault-inject`, the
+/// QEMU firmware's runtime). The other features only add derives.
+fn features(package: &str) -> &'static str {
+    match package {
+        "wheelset-proto" => "std",
+        "wheelset-runtime" => "fault-inject",
+        _ => "",
+    }
+}
 
 /// The outcomes cargo-mutants writes, one mutant per line, in its `mutants.out`.
 const OUTCOMES: [&str; 4] = ["caught", "missed", "unviable", "timeout"];
@@ -95,6 +107,9 @@ impl Counts {
 fn listed(package: &str, files: &[String]) -> Result<u64, String> {
     let mut c = Command::new("cargo");
     c.args(["mutants", "--list", "--package", package]);
+    if !features(package).is_empty() {
+        c.args(["--features", features(package)]);
+    }
     for f in files {
         c.args(["--file", f]);
     }
@@ -223,6 +238,9 @@ pub fn main(args: &[String]) -> Result<bool, String> {
         let mut c = Command::new("cargo");
         c.args(["mutants", "--package", p, "--no-shuffle", "--output"])
             .arg(&dir);
+        if !features(p).is_empty() {
+            c.args(["--features", features(p)]);
+        }
         for f in &a.files {
             c.args(["--file", f]);
         }
