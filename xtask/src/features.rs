@@ -4,8 +4,8 @@
 //! well under a second each).
 //!
 //! The tested builds are the host's `cargo test --workspace` and the device-feature run
-//! of `cargo xtest` ([`DEVICE_TEST_PACKAGES`]: the wire crate without `std`, so its tests
-//! run the firmware's own CRC path). A board build may differ from them only in the
+//! of `cargo xtest` ([`DEVICE_TEST_PACKAGES`]: the wire crate without `std`, as the
+//! firmware builds it). A board build may differ from them only in the
 //! features of [`ON_PURPOSE`], none of which changes what the device does with a frame;
 //! any other difference (a protection switched off, a check left out) fails
 //! ([`check`], run by `cargo xtest` before anything is built, and by this crate's tests).
@@ -34,20 +34,9 @@ pub const ON_PURPOSE: &[(&str, &str)] = &[
          (checked: no other board build has it)",
     ),
     (
-        "serde",
-        "serde derives on the wire crate's messages for the host's reports: no device code \
-         path uses them",
-    ),
-    (
-        "test-support",
-        "the wire crate's general encoder and decoders that its own tests check the device's \
-         and the host's codec against (turned on by its dev-dependency on itself): it adds \
-         functions and changes none the device calls",
-    ),
-    (
         "std",
-        "the wire crate's host conveniences and its host CRC table; the device's CRC path \
-         is tested by the device-feature run",
+        "the wire crate's host conveniences (error impls, the SI conversions); its bytes are \
+         handled by the same code with and without it, tested by the device-feature run too",
     ),
 ];
 

@@ -7,7 +7,7 @@
 //!   `cargo test --workspace` (with `REQUIRE_QEMU=1` when QEMU is there, so the
 //!   processor-in-the-loop smoke test cannot silently skip) and the device-feature run:
 //!   the wire crate's and the runtime's tests once more with the firmware's features
-//!   (the wire crate without `std`: its frames checked by the device's own CRC path),
+//!   (the wire crate without `std`),
 //!   and the runtime's tests with `fault-inject` (the QEMU firmware's runtime: the
 //!   tests of the honoured fault injections compile only there);
 //!   then it builds every criterion benchmark (`cargo test --workspace --benches
@@ -463,8 +463,7 @@ fn test(extra: &[String]) -> Result<(), String> {
         cmd.env("WHEELSET_QEMU_ELF", qemu_elf);
     }
     run(&mut cmd)?;
-    // The device's crates with the firmware's features (no `std` in the wire crate: the
-    // device's CRC path, the `RamCrc` table, under every framing test).
+    // The device's crates with the firmware's features (no `std` in the wire crate).
     let mut device = cargo();
     device.args(["test", "--no-fail-fast"]);
     for p in features::DEVICE_TEST_PACKAGES {

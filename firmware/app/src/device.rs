@@ -5,7 +5,7 @@
 //! core, frame encoding), the same code the host's in-process device runs.
 
 use wheelset_control::{Compiled, Monitor, SampleBits};
-use wheelset_proto::{encode_reply, Actuation, Flags, Reply, MAX_FRAME};
+use wheelset_proto::{encode, Actuation, Flags, Message, MAX_FRAME};
 use wheelset_runtime::{Runtime, RuntimeBits, RuntimeError, RxEvent};
 
 /// The default runtime compiled at build time (`build.rs`): the generated constant.
@@ -137,7 +137,7 @@ pub fn safe_frame(out: &mut [u8; MAX_FRAME]) -> &[u8] {
         t_psi_dnm: safe.t_psi_dnm,
         u_a_cv: safe.u_a_cv,
     };
-    match encode_reply(Reply::Actuation(&msg), out) {
+    match encode(&Message::Actuation(msg), out) {
         Ok(n) => out.get(..n).unwrap_or(&[]),
         Err(_) => &[],
     }
@@ -146,7 +146,7 @@ pub fn safe_frame(out: &mut [u8; MAX_FRAME]) -> &[u8] {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use wheelset_proto::{encode_vec, Decoder, Lateral, Message, Sensor};
+    use wheelset_proto::{encode_vec, Decoder, Lateral, Sensor};
 
     fn decode_all(bytes: &[u8]) -> Vec<Message> {
         let mut dec: Decoder = Decoder::new();

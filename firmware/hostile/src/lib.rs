@@ -70,8 +70,8 @@ use core::fmt;
 
 use wheelset_control::SampleBits;
 use wheelset_proto::{
-    cobs_decode_in_place, cobs_encode, crc32c, encode_vec, Actuation, Command, Config, Decoder,
-    Flags, Lateral, Message, Rates, RefuseReason, Sensor, Status, YawMode, CRC_LEN, MAX_FRAME,
+    encode_raw, encode_vec, frame_raw, Actuation, Command, Config, Decoder, Flags, Lateral,
+    Message, Rates, RefuseReason, Sensor, Status, YawMode, MAX_FRAME, MAX_RAW,
 };
 
 use wheelset_runtime::{rates_for, Runtime, RuntimeConfig, RuntimeError, DEFAULT_HOLD_TICKS};
@@ -162,34 +162,24 @@ impl Frame {
 impl Row {
     /// The row's frame: its Config, with the undefined mode index if it has one.
     pub fn frame(&self) -> Frame {
-        let f = Frame::of(&Message::Config(self.config));
         let Some(mode) = self.undefined_mode else {
-            return f;
+            return Frame::of(&Message::Config(self.config));
         };
-        // The raw frame is `VERSION | type | body | CRC`; a Config's body starts with its
+        // The raw frame is `VERSION | type | body`; a Config's body starts with its
         // mode's variant index (one byte below 0x80).
-        let mut raw = f.buf;
-        let encoded = f.len.saturating_sub(1);
-        let Some(n) = raw.get_mut(..encoded).and_then(cobs_decode_in_place) else {
-            return f;
-        };
-        let body = n.saturating_sub(CRC_LEN);
+        let mut raw = [0u8; MAX_RAW];
+        let n = encode_raw(&Message::Config(self.config), &mut raw).unwrap_or(0);
         if let Some(b) = raw.get_mut(2) {
             *b = mode;
-        }
-        let crc = crc32c(raw.get(..body).unwrap_or(&[]));
-        if let Some(c) = raw.get_mut(body..n) {
-            c.copy_from_slice(&crc.to_le_bytes());
         }
         let mut out = Frame {
             buf: [0; MAX_FRAME],
             len: 0,
         };
-        let len = raw
+        out.len = raw
             .get(..n)
-            .and_then(|r| cobs_encode(r, &mut out.buf[..MAX_FRAME - 1]))
+            .and_then(|r| frame_raw(r, &mut out.buf).ok())
             .unwrap_or(0);
-        out.len = len + 1; // the delimiter: the buffer's 0 after the encoding
         out
     }
 }
@@ -741,7 +731,6 @@ pub fn rows<T: SampleBits>(mut each: impl FnMut(Row)) -> Result<(), RuntimeError
 mod tests {
     use super::*;
     use wheelset_control::Fx;
-    use wheelset_proto::FrameError;
 
     #[test]
     fn scaling_rounds_in_each_format() {
@@ -762,13 +751,10 @@ mod tests {
             if let Some(m) = r.undefined_mode {
                 found += 1;
                 let f = r.frame();
-                let mut dec: Decoder = Decoder::new();
-                let (mut sensor, mut frame) = (Sensor::ZERO, Err(FrameError::Length));
-                let (next, rest) =
-                    dec.next_sensor_or_request(f.as_bytes(), &mut sensor, &mut frame);
+                let mut dec = Decoder::new();
+                let (next, rest) = dec.next_request(f.as_bytes());
                 assert!(rest.is_empty(), "mode {m}");
-                assert_eq!(next, wheelset_proto::NextFrame::Frame, "mode {m}");
-                assert_eq!(frame, Ok(wheelset_proto::Request::Unknown), "mode {m}");
+                assert_eq!(next, Some(Ok(wheelset_proto::Request::Unknown)), "mode {m}");
             }
         })
         .expect("the table");

@@ -5,7 +5,7 @@
 //!
 //! ```text
 //! wire  = COBS( raw | crc ) 0x00
-//! raw   = VERSION (1 byte, = 2) | postcard(Message)     (the enum index is the type byte)
+//! raw   = VERSION (1 byte, = 3) | postcard(Message)     (the enum index is the type byte)
 //! crc   = CRC-32C(raw), little-endian, 4 bytes
 //! ```
 //!
@@ -42,23 +42,23 @@
 //!   panics on input; a rejected frame is a typed [`FrameError`] (Crc, Cobs, Version,
 //!   Length, Postcard).
 //!
-//! # The two codecs
+//! # The codec
 //!
-//! One encoder and one decoder for each side, all on the same hand-written postcard
-//! codec, CRC and COBS. `postcard` is no dependency: the tests use it as the oracle that
-//! the codec writes its bytes and makes its decisions (through the serde derives of the
-//! `serde` feature, which the host's reports use too).
+//! Message bodies are `postcard` (the serde derives of the messages), the frame's COBS
+//! the `cobs` crate's, its CRC the `crc` crate's ([`CRC`]): one encoder and one decoder,
+//! the same code on the host and the device (`std` adds only error impls and the SI
+//! conversions).
 //!
 //! | side | encodes | decodes |
 //! |---|---|---|
-//! | device | [`encode_reply`]: a [`Reply`] (Actuation, Status) into the caller's buffer | [`Decoder::next_sensor_or_request`]: the Sensor in place, any other frame as a [`Request`] |
-//! | host | [`encode_vec`]: any [`Message`] into a fixed-capacity vector, a Sensor through [`encode_sensor`]: the per-period Sensor frame in one pass into the caller's buffer | [`Decoder::next_message`]: any [`Message`] |
+//! | device | [`encode`]: an Actuation (each tick) or a Status into the caller's buffer | [`Decoder::next_request`]: the messages it takes as a [`Request`] |
+//! | host | [`encode`], [`encode_vec`] (into a fixed-capacity vector) | [`Decoder::next_message`]: any [`Message`] |
 //!
 //! Both decoders take bytes in any chunking, resynchronise on 0x00 and return the bytes
-//! after the frame they closed. The device's pair links only the messages the device
-//! sends and takes. With `std` (the host's build, the in-process device's decoder too) a
-//! whole frame at the start of the bytes is decoded in bulk (its COBS blocks copied at
-//! once, the CRC by slice-by-16) rather than byte by byte: the same decisions.
+//! after the frame they closed; they differ only in the messages they decode (the
+//! device links the decoders of the messages it takes, not of those it sends).
+//! [`frame_raw`] frames any raw bytes (`VERSION | body`) as [`encode`] does: a test's or
+//! a client's own frames.
 //!
 //! # Sizes on the wire (delimiter included; measured by the `sizes` test)
 //!
@@ -92,9 +92,7 @@
 #![cfg_attr(not(feature = "std"), no_std)]
 #![deny(missing_docs)]
 
-mod crc_ram;
 mod decoder;
-mod fast;
 mod frame;
 pub mod link;
 mod message;
@@ -122,15 +120,11 @@ pub mod reset_cause {
     pub const FAULT: u8 = 5;
 }
 
-pub use crc_ram::RamCrc;
-pub use decoder::{Decoder, NextFrame};
+pub use decoder::Decoder;
 pub use frame::{
-    cobs_decode_in_place, cobs_encode, crc32c, encode_reply, encode_sensor, encode_vec,
-    EncodeError, FrameError, Reply, Request, CRC, CRC_LEN, MAX_FRAME, MAX_RAW, MIN_DECODED,
-    SENSOR_FRAME_CAP, VERSION,
+    encode, encode_raw, encode_vec, frame_raw, EncodeError, FrameError, Request, CRC, CRC_LEN,
+    MAX_FRAME, MAX_RAW, MIN_DECODED, VERSION,
 };
-#[cfg(feature = "std")]
-pub use frame::{has_delimiter, HostCrc};
 pub use message::{
     Actuation, Command, Config, Flags, Lateral, Message, Rates, Sensor, Status, YawMode,
 };
@@ -138,56 +132,6 @@ pub use pieces::{Closed, Pieces};
 pub use plausible::RefuseReason;
 #[cfg(feature = "std")]
 pub use si::{t_us_of, ActuationSi, LateralSensing, Quantized, SensorSi};
-/// The general entry points the two pairs are tested against (any message into any
-/// buffer, one frame from its COBS bytes): for this crate's tests and fuzzing only
-/// (feature `test-support`, which the crate's dev-dependency on itself turns on).
-#[cfg(feature = "test-support")]
-#[doc(hidden)]
-pub mod oracle {
-    pub use crate::frame::{decode_frame, decode_request, encode};
-}
-/// postcard's `fixint::le` for the serde derives (feature `serde`): an integer as its
-/// little-endian bytes (a tuple of `u8`, which postcard writes raw), the fixed-width
-/// fields' wire form. The tests' postcard oracle reads and writes the messages with it.
-#[cfg(feature = "serde")]
-mod fixint_le {
-    use serde::{Deserialize, Deserializer, Serialize, Serializer};
-
-    /// An integer with a fixed-width little-endian form.
-    pub trait Le: Sized {
-        /// The bytes.
-        type Bytes: Serialize + for<'de> Deserialize<'de>;
-        /// `self` as little-endian bytes.
-        fn to_le(&self) -> Self::Bytes;
-        /// The integer of little-endian bytes.
-        fn from_le(b: Self::Bytes) -> Self;
-    }
-
-    macro_rules! le {
-        ($($t:ty),*) => {$(
-            impl Le for $t {
-                type Bytes = [u8; core::mem::size_of::<$t>()];
-                fn to_le(&self) -> Self::Bytes {
-                    self.to_le_bytes()
-                }
-                fn from_le(b: Self::Bytes) -> Self {
-                    <$t>::from_le_bytes(b)
-                }
-            }
-        )*};
-    }
-    le!(u16, u32, u64);
-
-    /// serde's `serialize_with`.
-    pub fn serialize<T: Le, S: Serializer>(v: &T, s: S) -> Result<S::Ok, S::Error> {
-        v.to_le().serialize(s)
-    }
-
-    /// serde's `deserialize_with`.
-    pub fn deserialize<'de, T: Le, D: Deserializer<'de>>(d: D) -> Result<T, D::Error> {
-        T::Bytes::deserialize(d).map(T::from_le)
-    }
-}
 
 pub use sizes::{
     frame_len, ACTUATION_MAX_FRAME, COMMAND_MAX_FRAME, CONFIG_MAX_FRAME, SENSOR_MAX_FRAME,

@@ -5,8 +5,7 @@
 /// constant curve): velocity `y'`, acceleration `y''`, or both. Positive towards +y
 /// (right, the outer rail of the left-hand `curve`). Wire index: `Velocity` 0,
 /// `Acceleration` 1, `Both` 2.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum Lateral {
     /// `y'` in um/s ([`crate::units::LAT_VEL_LSB_M_PER_S`]).
     Velocity(i32),
@@ -23,14 +22,13 @@ pub enum Lateral {
 }
 
 /// Host -> device, once per base-rate tick: the sampled plant measurements.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Sensor {
     /// Sequence number, +1 per frame (wrapping); the device echoes the latest one.
-    #[cfg_attr(feature = "serde", serde(with = "crate::fixint_le"))]
+    #[serde(with = "postcard::fixint::le")]
     pub seq: u16,
     /// Host sampling instant in us, modulo 2^16 (wraps every 65.536 ms).
-    #[cfg_attr(feature = "serde", serde(with = "crate::fixint_le"))]
+    #[serde(with = "postcard::fixint::le")]
     pub t_us: u16,
     /// Lateral velocity and/or acceleration of the wheelset, track relative.
     pub lateral: Lateral,
@@ -74,9 +72,8 @@ impl Sensor {
 /// Status and fault flags carried in every [`Actuation`] and [`Status`] (bit set = true).
 /// 16 bits, a postcard varint on the wire (1 byte while only bits 0-6 are set, 2 up to
 /// bit 13, 3 above).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
-#[cfg_attr(feature = "serde", serde(transparent))]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(transparent)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Flags(pub u16);
 
@@ -145,14 +142,13 @@ impl Flags {
 }
 
 /// Device -> host, once per base-rate tick: the actuator commands and the tick's record.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Actuation {
     /// The `seq` of the latest valid [`Sensor`] the device used (0 before the first).
-    #[cfg_attr(feature = "serde", serde(with = "crate::fixint_le"))]
+    #[serde(with = "postcard::fixint::le")]
     pub seq_echo: u16,
     /// Device tick count modulo 2^16, from 1 (the first tick after start-up sends 1).
-    #[cfg_attr(feature = "serde", serde(with = "crate::fixint_le"))]
+    #[serde(with = "postcard::fixint::le")]
     pub tick: u16,
     /// Execution time of the previous tick: cycles (board, DWT) or instructions (QEMU).
     pub exec: u32,
@@ -167,8 +163,7 @@ pub struct Actuation {
 /// Yaw damping law selected on the device; the control core's own enum
 /// (`wheelset_control::YawMode` is this type). Wire index: `Passive` 0, `Gain` 1,
 /// `Lead` 2; another index is an unknown request (refused, not a decoding error).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum YawMode {
     /// 0. Passive: the device's yaw output is zero (the yaw spring is mechanical).
@@ -182,8 +177,7 @@ pub enum YawMode {
 
 /// Host -> device: configuration. Applied at the next tick if valid, refused (and
 /// counted, [`Flags::CMD_REFUSED`]) otherwise; the previous configuration stays.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Config {
     /// Yaw damping law.
     pub mode: YawMode,
@@ -216,15 +210,14 @@ pub struct Config {
 ///
 /// A coefficient or per-unit signal is the bit pattern of the device's sample type
 /// (`numeric`): fixed point (0) Q1.31 / Q4.28 `i32` bits, `f32` (1) IEEE bits.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Rates {
     /// The device's sample type: 0 fixed point, 1 `f32`; another is refused.
     pub numeric: u8,
     /// Fingerprint of the rate-independent part of the control core these coefficients
     /// were computed against (`wheelset_control::CompiledBits::fingerprint`); a
     /// mismatch is refused.
-    #[cfg_attr(feature = "serde", serde(with = "crate::fixint_le"))]
+    #[serde(with = "postcard::fixint::le")]
     pub fingerprint: u32,
     /// Base (tick) rate in Hz.
     pub base_rate_hz: u32,
@@ -258,16 +251,15 @@ pub struct Rates {
     pub torque_step: u32,
     /// `y''` integrator: `T` in Q32 (um/s per 0.1 mm/s^2 code per tick), `<= 2^32`
     /// (fixed 8 bytes: shorter than a varint's worst case, and simpler to read).
-    #[cfg_attr(feature = "serde", serde(with = "crate::fixint_le"))]
+    #[serde(with = "postcard::fixint::le")]
     pub acc_gain_q32: u64,
     /// `y''` integrator wash-out `T/tau` in Q32, `<= 2^32` (0: none; fixed 8 bytes).
-    #[cfg_attr(feature = "serde", serde(with = "crate::fixint_le"))]
+    #[serde(with = "postcard::fixint::le")]
     pub acc_leak_q32: u64,
 }
 
 /// Host -> device: one-shot requests.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum Command {
     /// Zero every counter of the [`Status`].
     ResetCounters,
@@ -300,8 +292,7 @@ pub enum Command {
 /// counts the refused Configs and Commands among `rx_ok` (unknown requests included);
 /// `held_ticks` counts the ticks flagged [`Flags::HOLDING`], `safe_ticks` those flagged
 /// [`Flags::SAFE`], `yaw_sat` those flagged [`Flags::YAW_SAT`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Status {
     /// Base-rate ticks run.
@@ -389,8 +380,7 @@ pub struct Status {
 }
 
 /// Every message; the postcard variant index is the message type byte.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum Message {
     /// Type 0, host -> device.
     Sensor(Sensor),

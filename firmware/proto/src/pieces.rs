@@ -11,12 +11,12 @@ pub type Closed = Option<Result<Message, FrameError>>;
 /// ([`Decoder::pieces`]): each up to and including a delimiter, or to the end of the
 /// run, with what it closed. The pieces put together are the run.
 #[derive(Debug)]
-pub struct Pieces<'d, 'b, const N: usize> {
-    dec: &'d mut Decoder<N>,
+pub struct Pieces<'d, 'b> {
+    dec: &'d mut Decoder,
     rest: &'b [u8],
 }
 
-impl<'b, const N: usize> Iterator for Pieces<'_, 'b, N> {
+impl<'b> Iterator for Pieces<'_, 'b> {
     type Item = (&'b [u8], Closed);
 
     fn next(&mut self) -> Option<Self::Item> {
@@ -32,11 +32,11 @@ impl<'b, const N: usize> Iterator for Pieces<'_, 'b, N> {
     }
 }
 
-impl<const N: usize> Decoder<N> {
+impl Decoder {
     /// The pieces of `bytes` and what each closed ([`Pieces`]), for a caller that
     /// accounts for the bytes of each frame. The decoder's state carries over from the
     /// run before and to the next.
-    pub fn pieces<'d, 'b>(&'d mut self, bytes: &'b [u8]) -> Pieces<'d, 'b, N> {
+    pub fn pieces<'d, 'b>(&'d mut self, bytes: &'b [u8]) -> Pieces<'d, 'b> {
         Pieces {
             dec: self,
             rest: bytes,
@@ -47,7 +47,7 @@ impl<const N: usize> Decoder<N> {
     pub fn messages<'d, 'b>(
         &'d mut self,
         bytes: &'b [u8],
-    ) -> impl Iterator<Item = Result<Message, FrameError>> + use<'d, 'b, N> {
+    ) -> impl Iterator<Item = Result<Message, FrameError>> + use<'d, 'b> {
         self.pieces(bytes).filter_map(|(_, r)| r)
     }
 }
@@ -71,7 +71,7 @@ mod tests {
         bad[2] = if bad[2] == 0x55 { 0x56 } else { 0x55 };
         run.extend_from_slice(&bad);
         run.extend_from_slice(&a[..3]);
-        let mut dec: Decoder = Decoder::new();
+        let mut dec = Decoder::new();
         let pieces: Vec<_> = dec.pieces(&run).collect();
         let joined: Vec<u8> = pieces.iter().flat_map(|(p, _)| p.iter().copied()).collect();
         assert_eq!(joined, run);
@@ -84,7 +84,7 @@ mod tests {
         // The cut frame's rest completes it in the next run.
         let got: Vec<_> = dec.messages(&a[3..]).collect();
         assert_eq!(got, [Ok(Message::Command(Command::ResetCounters))]);
-        let mut dec: Decoder = Decoder::new();
+        let mut dec = Decoder::new();
         let got: Vec<_> = dec.messages(&run).collect();
         assert_eq!(got.len(), 2);
         assert_eq!(got[0], Ok(Message::Command(Command::ResetCounters)));

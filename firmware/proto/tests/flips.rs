@@ -14,11 +14,9 @@ use wheelset_proto::*;
 /// True if the stream (a corrupted frame, then one more delimiter as the next frame would
 /// bring) yields any accepted message.
 fn accepted(wire: &[u8]) -> bool {
-    let mut dec: Decoder = Decoder::new();
-    let mut any = false;
-    dec.feed(wire, |r| any |= r.is_ok());
-    any |= matches!(dec.push(0), Some(Ok(_)));
-    any
+    let mut dec = Decoder::new();
+    let any = dec.messages(wire).any(|r| r.is_ok());
+    any | matches!(dec.next_message(&[0]).0, Some(Ok(_)))
 }
 
 fn flip(wire: &mut [u8], bit: usize) {

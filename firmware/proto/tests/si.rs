@@ -9,8 +9,7 @@ use wheelset_proto::units::{
     SPEED_LSB_RAD_PER_S, TORQUE_LSB_NM, VOLTAGE_LSB_V, V_REF_LSB_M_PER_S,
 };
 use wheelset_proto::{
-    encode_vec, oracle::decode_frame, Actuation, Flags, Lateral, LateralSensing, Message, Sensor,
-    SensorSi,
+    encode_vec, Actuation, Decoder, Flags, Lateral, LateralSensing, Message, Sensor, SensorSi,
 };
 
 /// Within half an LSB (plus the rounding of `x / lsb` itself, a few ulp of `x`).
@@ -37,9 +36,8 @@ proptest! {
             prop_assert_eq!(q.msg.seq, seq);
             prop_assert_eq!(u64::from(q.msg.t_us), (t_ns / 1000) % 65_536);
             // Through the wire and back.
-            let mut f = encode_vec(&Message::Sensor(q.msg)).unwrap().to_vec();
-            f.pop(); // the delimiter
-            let Ok(Message::Sensor(s)) = decode_frame(&mut f) else {
+            let f = encode_vec(&Message::Sensor(q.msg)).unwrap();
+            let Some(Ok(Message::Sensor(s))) = Decoder::new().next_message(&f).0 else {
                 panic!("not a sensor frame");
             };
             prop_assert_eq!(s, q.msg);

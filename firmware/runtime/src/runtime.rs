@@ -8,7 +8,7 @@ use crate::Designs;
 use wheelset_control::{
     Compiled, Controller, InputCodes, Monitor, MonitorState, Sample, SampleBits, TickEvents,
 };
-use wheelset_proto::{encode_reply, Decoder, FrameError, RefuseReason, Reply, Sensor};
+use wheelset_proto::{encode, Decoder, FrameError, Message, RefuseReason};
 
 use crate::{
     AccBits, Actuation, Command, Flags, HoldPolicy, RuntimeBits, RuntimeConfig, RuntimeCounters,
@@ -48,9 +48,6 @@ pub struct Runtime<T: Sample> {
     yaw_ok: bool,
     hold_ticks: u16,
     decoder: Decoder,
-    /// The latest Sensor frame as the decoder wrote it (`receive`, in place): read only
-    /// by `on_sensor`, right after the decoder reported it complete and valid.
-    rx_sensor: Sensor,
     sample: Option<InputCodes>,
     /// The latest Sensor frame's reference speed code while the wheel-slip protection
     /// is off (not yet given to the core, whose only reader of it is the protection):
@@ -143,9 +140,6 @@ impl<T: SampleBits> Runtime<T> {
     ) -> Result<Self, RuntimeError> {
         let core = Controller::new(law);
         let (acc_gain_q32, leak_q32) = acc.check()?;
-        // The device's CRC table is built in RAM by the first checksum (about 10 000
-        // instructions): here, at start-up, not in the first tick.
-        let _ = wheelset_proto::CRC.checksum(&[]);
         Ok(Self {
             core,
             fingerprint,
@@ -153,7 +147,6 @@ impl<T: SampleBits> Runtime<T> {
             yaw_ok: true,
             hold_ticks,
             decoder: Decoder::new(),
-            rx_sensor: Sensor::ZERO,
             sample: None,
             v_ref_held: None,
             acc: None,
@@ -359,10 +352,10 @@ impl<T: SampleBits> Runtime<T> {
             u_a_cv: u_a,
         };
         // MAX_FRAME always fits (the proto tests prove every message encodes within it).
-        let mut n = encode_reply(Reply::Actuation(&act), &mut self.tx).unwrap_or(0);
+        let mut n = encode(&Message::Actuation(act), &mut self.tx).unwrap_or(0);
         if core::mem::replace(&mut self.status_requested, false) {
             if let Some(rest) = self.tx.get_mut(n..) {
-                n += encode_reply(Reply::Status(&self.counters), rest).unwrap_or(0);
+                n += encode(&Message::Status(self.counters), rest).unwrap_or(0);
             }
         }
         self.tx.get(..n).unwrap_or(&[])

@@ -18,11 +18,9 @@ fn sensor(seq: u16, lateral: Lateral) -> Vec<u8> {
 fn raw_frame(ty: u8, body: &[u8]) -> Vec<u8> {
     let mut raw = vec![VERSION, ty];
     raw.extend_from_slice(body);
-    raw.extend_from_slice(&crc32c(&raw).to_le_bytes());
-    let mut out = vec![0u8; raw.len() + 2];
-    let n = cobs_encode(&raw, &mut out).expect("fits");
+    let mut out = vec![0u8; MAX_FRAME];
+    let n = frame_raw(&raw, &mut out).expect("fits");
     out.truncate(n);
-    out.push(0);
     out
 }
 

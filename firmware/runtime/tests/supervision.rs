@@ -416,11 +416,9 @@ fn a_boot_after_a_fault_drives_the_safe_outputs_until_clear_faults() {
 fn command_index(index: &[u8]) -> Vec<u8> {
     let mut raw = vec![VERSION, 3];
     raw.extend_from_slice(index);
-    raw.extend_from_slice(&crc32c(&raw).to_le_bytes());
-    let mut out = vec![0u8; raw.len() + 2];
-    let n = cobs_encode(&raw, &mut out).expect("fits");
+    let mut out = vec![0u8; MAX_FRAME];
+    let n = frame_raw(&raw, &mut out).expect("fits");
     out.truncate(n);
-    out.push(0);
     out
 }
 

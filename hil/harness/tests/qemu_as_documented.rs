@@ -12,8 +12,8 @@ mod common;
 
 use wheelset_control::Fx;
 use wheelset_proto::{
-    cobs_encode, crc32c, encode_vec, Actuation, Command, Config, Decoder, Flags, Lateral, Message,
-    RefuseReason, Sensor, Status, YawMode, VERSION,
+    encode_vec, frame_raw, Actuation, Command, Config, Decoder, Flags, Lateral, Message,
+    RefuseReason, Sensor, Status, YawMode, MAX_FRAME, VERSION,
 };
 use wheelset_runtime::{Runtime, RuntimeConfig, DEFAULT_HOLD_TICKS};
 use wheelset_targets::qemu::{Qemu, QemuConfig};
@@ -182,11 +182,9 @@ fn the_device_boots_with_the_protection_and_the_monitor_on() {
 fn command_index(index: &[u8]) -> Vec<u8> {
     let mut raw = vec![VERSION, 3];
     raw.extend_from_slice(index);
-    raw.extend_from_slice(&crc32c(&raw).to_le_bytes());
-    let mut out = vec![0u8; raw.len() + 2];
-    let n = cobs_encode(&raw, &mut out).unwrap();
+    let mut out = vec![0u8; MAX_FRAME];
+    let n = frame_raw(&raw, &mut out).unwrap();
     out.truncate(n);
-    out.push(0);
     out
 }
 

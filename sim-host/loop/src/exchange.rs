@@ -32,8 +32,8 @@
 use indicatif::ProgressBar;
 use wheelset_control::InputCodes;
 use wheelset_proto::{
-    encode_sensor, encode_vec, Actuation, Command, Config, Decoder, Flags, FrameError, Lateral,
-    LateralSensing, Message, Sensor, SensorSi, Status, SENSOR_FRAME_CAP,
+    encode, encode_vec, Actuation, Command, Config, Decoder, Flags, FrameError, Lateral,
+    LateralSensing, Message, Sensor, SensorSi, Status, MAX_FRAME,
 };
 
 use crate::transport::{Transport, TransportError};
@@ -436,9 +436,8 @@ impl SampledController for DeviceController<'_> {
                 demand: sensor.demand_nm,
             });
         }
-        // The period's frame by the one-pass Sensor encoder: `encode_vec`'s bytes.
-        let mut frame = [0u8; SENSOR_FRAME_CAP];
-        let n = encode_sensor(&sensor, &mut frame);
+        let mut frame = [0u8; MAX_FRAME];
+        let n = encode(&Message::Sensor(sensor), &mut frame).unwrap_or(0);
         self.send_frame(t_ns, frame.get(..n).unwrap_or(&[]));
         if all {
             self.periods.push(Period {

@@ -342,7 +342,7 @@ impl<T: SampleBits> InProc<T> {
             }
         };
         match out.split_last() {
-            Some((&0, head)) if !wheelset_proto::has_delimiter(head) => send(out),
+            Some((&0, head)) if !head.contains(&0) => send(out),
             _ => out.split_inclusive(|&b| b == 0).for_each(send),
         }
     }

@@ -4,8 +4,8 @@
 
 use wheelset_control::SampleBits;
 use wheelset_proto::{
-    cobs_encode, crc32c, encode_vec, Command, Config, Lateral, Message, Rates, Sensor, YawMode,
-    MAX_FRAME, VERSION,
+    encode_vec, frame_raw, Command, Config, Lateral, Message, Rates, Sensor, YawMode, MAX_FRAME,
+    VERSION,
 };
 use wheelset_runtime::{rates_for, RuntimeConfig};
 
@@ -238,11 +238,10 @@ pub(super) fn frame<T: SampleBits>(g: &mut Gen, seq: &mut u16) -> (usize, Vec<u8
             let mut raw = vec![if g.chance(900) { VERSION } else { g.byte() }];
             raw.push(g.byte() % 6); // the type byte, mostly in range
             raw.extend((0..n).map(|_| g.byte()));
-            let crc = crc32c(&raw);
-            raw.extend_from_slice(&crc.to_le_bytes());
-            let mut out = vec![0u8; raw.len() + raw.len() / 254 + 2];
-            let k = cobs_encode(&raw, &mut out).unwrap_or(0);
-            out.truncate(k);
+            let mut out = vec![0u8; raw.len() + raw.len() / 254 + 7];
+            let k = frame_raw(&raw, &mut out).unwrap_or(1);
+            // Without the delimiter, as the other kinds.
+            out.truncate(k - 1);
             (6, out)
         }
         _ => {

@@ -1,28 +1,24 @@
-//! Arbitrary bytes into the streaming decoder, in two chunkings: it must never panic,
-//! both chunkings must agree, and every accepted message must re-encode to a frame that
-//! decodes to itself.
+//! Arbitrary bytes into the streaming decoders, whole and byte by byte: they must never
+//! panic, both chunkings must agree, and every accepted message must re-encode to a
+//! frame that decodes to itself.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
 use wheelset_proto::{encode_vec, Decoder};
 
 fuzz_target!(|data: &[u8]| {
-    let mut a: Decoder = Decoder::new();
-    let mut by_byte = Vec::new();
-    for &b in data {
-        if let Some(r) = a.push(b) {
-            by_byte.push(r);
-        }
+    let whole: Vec<_> = Decoder::new().messages(data).collect();
+    let mut a = Decoder::new();
+    let by_byte: Vec<_> = data.chunks(1).flat_map(|b| a.messages(b).collect::<Vec<_>>()).collect();
+    assert_eq!(whole, by_byte);
+    let mut dev = Decoder::new();
+    let mut rest = data;
+    while !rest.is_empty() {
+        rest = dev.next_request(rest).1;
     }
-    let mut b: Decoder = Decoder::new();
-    let mut fed = Vec::new();
-    b.feed(data, |r| fed.push(r));
-    assert_eq!(by_byte, fed);
-    for m in by_byte.into_iter().flatten() {
+    for m in whole.into_iter().flatten() {
         let frame = encode_vec(&m).expect("a decoded message re-encodes");
-        let mut c: Decoder = Decoder::new();
-        let mut again = None;
-        c.feed(&frame, |r| again = Some(r));
-        assert_eq!(again, Some(Ok(m)));
+        let again: Vec<_> = Decoder::new().messages(&frame).collect();
+        assert_eq!(again, [Ok(m)]);
     }
 });

@@ -205,8 +205,5 @@ pub fn message() -> impl Strategy<Value = Message> {
 
 /// Feeds `bytes` to a fresh decoder; returns every result.
 pub fn decode_all(bytes: &[u8]) -> Vec<Result<Message, FrameError>> {
-    let mut dec: Decoder = Decoder::new();
-    let mut out = Vec::new();
-    dec.feed(bytes, |r| out.push(r));
-    out
+    Decoder::new().messages(bytes).collect()
 }

@@ -3,7 +3,7 @@
 //! [`Rates`]) and Command frames validated and applied or refused.
 
 use wheelset_control::{Controller, InputCodes, MonitorState, SampleBits, ScheduleBits};
-use wheelset_proto::{FrameError, Lateral, NextFrame, RefuseReason, Request, YawMode};
+use wheelset_proto::{FrameError, Lateral, RefuseReason, Request, Sensor, YawMode};
 
 use crate::validate;
 use crate::{AccBits, Command, Config, Rates, Runtime, RuntimeCounters, RxEvent};
@@ -13,36 +13,18 @@ impl<T: SampleBits> Runtime<T> {
     /// frames. Never panics.
     pub fn receive(&mut self, bytes: &[u8]) {
         // Frame by frame, the decoder a field of `self` (a callback into `self` would need
-        // the decoder moved out and back: two copies of its buffer per call). A Sensor
-        // frame is decoded in place into `self.rx_sensor`, which `on_sensor` then reads:
-        // no Config-sized `Request` moved out, no zeroed local, no copy per tick.
-        // `other` receives any other frame's result (the decoder writes it before it
-        // says `Frame`; the initial value is never read, and `Ok(Unexpected)` is the
-        // cheapest one to store).
-        let mut other = Ok(Request::Unexpected);
+        // the decoder moved out and back: two copies of its buffer per call).
         let mut rest = bytes;
         while !rest.is_empty() {
-            let (r, more) =
-                self.decoder
-                    .next_sensor_or_request(rest, &mut self.rx_sensor, &mut other);
+            let (r, more) = self.decoder.next_request(rest);
             rest = more;
-            match r {
-                NextFrame::Nothing => {}
-                NextFrame::Sensor => {
-                    // As `on_frame` counts a valid Sensor request.
-                    self.counters.rx_ok = self.counters.rx_ok.wrapping_add(1);
-                    self.on_sensor();
-                }
-                NextFrame::Frame => self.on_frame(other),
+            if let Some(r) = r {
+                self.on_frame(r);
             }
         }
     }
 
-    /// Any frame but a Sensor frame the decoder wrote in place (rare: Config, Command, a
-    /// rejected frame): counted and applied. Out of line so that `receive`'s loop, run
-    /// on every Sensor frame, keeps few registers and no set-up for these paths (and
-    /// less stack and flash than inlined).
-    #[inline(never)]
+    /// A frame's result: counted and applied.
     fn on_frame(&mut self, r: Result<Request, FrameError>) {
         let c = &mut self.counters;
         let m = match r {
@@ -75,10 +57,7 @@ impl<T: SampleBits> Runtime<T> {
             self.refused = false;
         }
         match m {
-            Request::Sensor(s) => {
-                self.rx_sensor = s;
-                self.on_sensor();
-            }
+            Request::Sensor(s) => self.on_sensor(s),
             Request::Config(cfg) => self.on_config(&cfg),
             Request::Command(Command::ResetCounters) => {
                 // The board's boot record and stack measurement are not counters.
@@ -107,9 +86,8 @@ impl<T: SampleBits> Runtime<T> {
         }
     }
 
-    /// The Sensor frame in `self.rx_sensor` taken as the latest sample.
-    fn on_sensor(&mut self) {
-        let s = self.rx_sensor;
+    /// A valid Sensor frame taken as the latest sample.
+    fn on_sensor(&mut self, s: Sensor) {
         let y_dot = match s.lateral {
             Lateral::Both {
                 vel_um_s: v,

@@ -160,10 +160,8 @@ impl Book<'_> {
             self.reached.resize(len, false);
         }
         match run.split_last() {
-            // Typical: one whole frame, its delimiter last (one word-wise scan).
-            Some((&0, head)) if !wheelset_proto::has_delimiter(head) => {
-                self.piece(run, id, &mut decode)
-            }
+            // Typical: one whole frame, its delimiter last.
+            Some((&0, head)) if !head.contains(&0) => self.piece(run, id, &mut decode),
             _ => {
                 for piece in run.split_inclusive(|&b| b == 0) {
                     self.piece(piece, id, &mut decode);
