@@ -22,6 +22,15 @@
 //! [`DeviceController::finish`] fetches the device's counters (the one Status fetch: a
 //! `RequestStatus`, then three periods of receiving, repeated up to [`STATUS_TRIES`]
 //! times while the link eats the request or the reply).
+//!
+//! **Two exchanges in flight.** The plant runs from `t_k` to `t_k + T` on the actuation
+//! of sample `k - 1`, so sample `k + 1` can be measured and sent before the actuation of
+//! sample `k` is back. Over a transport that allows it ([`Transport::pipelined`]: the
+//! QEMU bulk channel) [`close_loop`] does so: [`DeviceController::step`] only sends, and
+//! the receive until `t_k + T` happens when the plant needs the actuation, at `t_k + T`,
+//! after the next sample went out ([`SampledController::take_deferred`]). The device
+//! computes while the host integrates, and neither waits for the other's turn; every
+//! frame, arrival stamp, record and plant step is the one-in-flight run's.
 
 use indicatif::ProgressBar;
 use wheelset_control::InputCodes;
@@ -165,6 +174,25 @@ pub struct DeviceController<'a> {
     last_latched: bool,
     /// Which records are kept ([`Records::All`] unless set).
     pub records: Records,
+    /// Two exchanges in flight ([`Self::pipelined`]).
+    deferred: bool,
+    /// The steps sent whose actuation has not been taken yet, oldest first (with two
+    /// exchanges in flight; none otherwise).
+    awaiting: std::collections::VecDeque<Awaiting>,
+}
+
+/// A step whose actuation is still to be taken ([`DeviceController::take_deferred`]).
+#[derive(Debug, Clone, Copy)]
+struct Awaiting {
+    /// Its sample instant, ns.
+    t_ns: u64,
+    /// The sequence number of its Sensor frame.
+    seq: u16,
+    /// Its sample count (1 for the first sample).
+    k: u64,
+    /// The measured motor speed, rad/s (the back-EMF voltage held before the first
+    /// actuation).
+    w_m: f64,
 }
 
 impl<'a> DeviceController<'a> {
@@ -211,7 +239,18 @@ impl<'a> DeviceController<'a> {
             last_tick: 0,
             last_latched: false,
             records: Records::All,
+            deferred: false,
+            awaiting: std::collections::VecDeque::with_capacity(2),
         }
+    }
+
+    /// Keeps two exchanges in flight when the transport allows it
+    /// ([`Transport::pipelined`]; see the module docs). Only for `run_sampled` with an
+    /// actuator delay of one period, as [`close_loop`] runs it.
+    #[must_use]
+    pub fn pipelined(mut self) -> Self {
+        self.deferred = self.tr.pipelined();
+        self
     }
 
     /// Sends `y''` (or both) instead of `y'`.
@@ -324,8 +363,14 @@ impl<'a> DeviceController<'a> {
                     a,
                 ));
                 self.fresh = true;
-                if let (Some(e), Some(p)) = (echo, self.periods.last_mut()) {
-                    if e + 1 == self.k && p.echo_at_ns.is_none() {
+                // The answer to the sample awaited: the last one sent, or with two
+                // exchanges in flight the oldest one not yet taken.
+                let awaited = self.awaiting.front().map_or(self.k, |w| w.k);
+                if let Some(e) = echo.filter(|&e| e + 1 == awaited) {
+                    let p = usize::try_from(e)
+                        .ok()
+                        .and_then(|i| self.periods.get_mut(i));
+                    if let Some(p) = p.filter(|p| p.echo_at_ns.is_none()) {
                         p.echo_at_ns = Some(at_ns);
                     }
                 }
@@ -438,29 +483,64 @@ impl SampledController for DeviceController<'_> {
             self.stall_sent_ns = Some(t_ns);
             self.send(t_ns, &Message::Command(Command::InjectStall));
         }
-        self.fresh = false;
-        self.receive(t_ns + self.period_ns);
-        let (seq_echo, flags) = self
-            .held
-            .as_ref()
-            .map_or((0, 0), |(_, a)| (a.seq_echo, a.flags.0));
-        self.log.push(LinkSample {
-            t_ns,
-            seq: self.seq,
-            seq_echo,
-            age: self.seq.wrapping_sub(seq_echo),
-            flags,
-            fresh: self.fresh,
-        });
         if let Some(pb) = &self.progress {
             if self.k.is_multiple_of(1024) {
                 pb.set_position(t_ns / 1_000_000);
             }
         }
+        let step = Awaiting {
+            t_ns,
+            seq: self.seq,
+            k: self.k,
+            w_m: m.w_m,
+        };
+        if self.deferred {
+            // Taken at `t_ns + T` (`take_deferred`), after the next sample went out.
+            self.awaiting.push_back(step);
+            return SiActuation::default();
+        }
+        self.answer(step)
+    }
+
+    fn defers(&self) -> bool {
+        self.deferred
+    }
+
+    fn take_deferred(&mut self, _due_ns: u64) -> SiActuation {
+        match self.awaiting.front().copied() {
+            Some(step) => {
+                let a = self.answer(step);
+                self.awaiting.pop_front();
+                a
+            }
+            None => self.held.map_or(SiActuation::default(), |(si, _)| si),
+        }
+    }
+}
+
+impl DeviceController<'_> {
+    /// The actuation in force from `step.t_ns + T`: receives until then, logs the
+    /// period and returns the latest actuation (before the first, zero torque and the
+    /// back-EMF voltage).
+    fn answer(&mut self, step: Awaiting) -> SiActuation {
+        self.fresh = false;
+        self.receive(step.t_ns + self.period_ns);
+        let (seq_echo, flags) = self
+            .held
+            .as_ref()
+            .map_or((0, 0), |(_, a)| (a.seq_echo, a.flags.0));
+        self.log.push(LinkSample {
+            t_ns: step.t_ns,
+            seq: step.seq,
+            seq_echo,
+            age: step.seq.wrapping_sub(seq_echo),
+            flags,
+            fresh: self.fresh,
+        });
         self.held.map_or(
             SiActuation {
                 t_psi: 0.0,
-                u_a: self.k_m * m.w_m,
+                u_a: self.k_m * step.w_m,
             },
             |(si, _)| si,
         )
@@ -557,6 +637,8 @@ pub fn close_loop(
     ctrl.stall_at_ns = setup.stall_at_ns;
     ctrl.reset_config = setup.reset_config;
     ctrl.records = setup.records;
+    // The actuator delay below is one period: two exchanges may be in flight.
+    let mut ctrl = ctrl.pipelined();
     // One record per period, reserved once (doubling to 100 000 records re-copies and
     // re-faults megabytes); capped: a very long scenario grows the rest as it goes.
     let periods = (sc.duration_ns / period_ns.max(1)).min(1 << 22);

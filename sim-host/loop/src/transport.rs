@@ -124,6 +124,15 @@ pub trait Transport {
             }
         })
     }
+    /// Whether a lock-step transport keeps two exchanges in flight: the next frame goes
+    /// out before the device has answered the last one, and [`Self::recv`] waits only for
+    /// the answers to the frames sent before its deadline (`t_sent < deadline_ns`),
+    /// keeping later ones for a later call. The closed loop then sends sample `k + 1`
+    /// before it takes the actuation of sample `k`, which the plant applies only from
+    /// `t_k + T` ([`crate::exchange`]). Default: `false` (one exchange in flight).
+    fn pipelined(&self) -> bool {
+        false
+    }
     /// Exact link accounting after the run has drained, if the transport knows it.
     fn link_accounting(&self) -> Option<LinkAccounting> {
         None
