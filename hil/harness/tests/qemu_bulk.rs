@@ -182,3 +182,32 @@ fn two_exchanges_in_flight_over_the_bulk_channel_are_the_uart_s_loop() {
         uart.trajectory.info.controller_calls
     );
 }
+
+/// A firmware change that must not change a bit: the 20 s `curve` through this ELF and
+/// through another build (`WHEELSET_QEMU_ELF_BEFORE`, e.g. `target/fw/wheelset-qemu.elf`
+/// of an earlier commit) over the bulk channel, every Actuation frame (`exec` included)
+/// and trajectory record compared. `WHEELSET_QEMU_ELF_BEFORE=OLD.elf cargo test --release
+/// -p hil --test qemu_bulk -- --ignored --nocapture same_frames`
+#[test]
+#[ignore = "needs WHEELSET_QEMU_ELF_BEFORE; 20 s scenario twice: run by hand"]
+fn same_frames_as_another_build() {
+    let Some(before) = std::env::var_os("WHEELSET_QEMU_ELF_BEFORE") else {
+        panic!("set WHEELSET_QEMU_ELF_BEFORE to the other build's ELF");
+    };
+    let cfg = |elf| wheelset_targets::qemu::QemuConfig {
+        channel: Channel::Bulk,
+        elf,
+        ..wheelset_targets::qemu::QemuConfig::new()
+    };
+    let this = cfg(wheelset_targets::qemu::QemuConfig::default_elf());
+    let (Some(a), Some(b)) = (
+        common::start_cfg_or_skip("this build", &this),
+        common::start_cfg_or_skip("the other build", &cfg(before.into())),
+    ) else {
+        return;
+    };
+    let a = qemu_curve(a, 20.0);
+    let b = qemu_curve(b, 20.0);
+    assert_eq!(a.1.len(), 100_000);
+    assert_same(&a, &b);
+}
