@@ -6,13 +6,17 @@
 #
 # Usage (from the repository root, after `cargo build --release -p hil` and `cargo fw`):
 #
-#     scripts/pil-bench.sh [--rounds N] [--against OLD_HIL] [--this HIL] [--uart] [--syscalls]
+#     scripts/pil-bench.sh [--rounds N] [--before-elf OLD.elf] [--against OLD_HIL] [--this HIL]
+#                          [--uart] [--syscalls]
 #
 # Runs N rounds (default 5), alternating, of
 #
-#   before: WHEELSET_QEMU_IN_FLIGHT=1 HIL run --target qemu --qemu-link bulk   (or OLD_HIL run ...)
-#   now:    HIL run --target qemu --qemu-link bulk
+#   before: WHEELSET_QEMU_IN_FLIGHT=1 WHEELSET_QEMU_ELF=OLD.elf HIL run --target qemu --qemu-link bulk
+#           (or OLD_HIL run ...)
+#   now:    HIL run --target qemu --qemu-link bulk     (the default ELF, target/fw/wheelset-qemu.elf)
 #
+# OLD.elf is the firmware before (e.g. `cargo fw` in a worktree of an earlier commit:
+# `git worktree add /tmp/before COMMIT`); without --before-elf both use the default ELF.
 # (the default reference and checks, `--json` of each run kept) and prints for each the
 # median wall time (s), the median CPU time of the run with its QEMU (user + system, s:
 # `wait4`'s rusage of the whole process tree), the exchanges per second of wall time and
@@ -27,6 +31,7 @@ set -euo pipefail
 
 this=target/release/hil
 against=""
+before_elf=""
 rounds=5
 uart=0
 syscalls=0
@@ -34,6 +39,7 @@ while [ $# -gt 0 ]; do
     case "$1" in
         --rounds) rounds="$2"; shift 2 ;;
         --against) against="$2"; shift 2 ;;
+        --before-elf) before_elf="$2"; shift 2 ;;
         --this) this="$2"; shift 2 ;;
         --uart) uart=1; shift ;;
         --syscalls) syscalls=1; shift ;;
@@ -44,6 +50,10 @@ done
 case "$rounds" in
     ''|*[!0-9]*|0) echo "pil-bench: --rounds $rounds: a whole number of rounds, at least 1" >&2; exit 2 ;;
 esac
+if [ -n "$before_elf" ] && [ ! -f "$before_elf" ]; then
+    echo "pil-bench: --before-elf $before_elf: no such file" >&2
+    exit 2
+fi
 for b in "$this" ${against:+"$against"}; do
     [ -x "$b" ] || { echo "pil-bench: $b is not an executable (cargo build --release -p hil)" >&2; exit 2; }
 done
@@ -67,8 +77,6 @@ out, tag, argv = sys.argv[1], sys.argv[2], sys.argv[3:]
 argv = argv + ["--json", tag + ".json", "--csv", tag + ".csv"]
 t0 = time.monotonic()
 pid = os.posix_spawnp(argv[0], argv, os.environ)
-with open(os.devnull, "w") as null:
-    pass
 _, status, ru = os.wait4(pid, 0)
 wall = time.monotonic() - t0
 if os.waitstatus_to_exitcode(status) != 0:
@@ -78,14 +86,20 @@ with open(out, "a") as f:
 EOF
 }
 
+# The run before, in a subshell with its environment: one exchange in flight (unless an
+# old build), its ELF if given.
 run_before() {
     local tag=$1
     shift
-    if [ -n "$against" ]; then
-        measure "$tmp/before" "$tag" "$against" run --quiet --target qemu "$@" </dev/null >/dev/null
-    else
-        WHEELSET_QEMU_IN_FLIGHT=1 measure "$tmp/before" "$tag" "$this" run --quiet --target qemu "$@" </dev/null >/dev/null
-    fi
+    (
+        [ -z "$before_elf" ] || export WHEELSET_QEMU_ELF="$before_elf"
+        if [ -n "$against" ]; then
+            measure "$tmp/before" "$tag" "$against" run --quiet --target qemu "$@"
+        else
+            export WHEELSET_QEMU_IN_FLIGHT=1
+            measure "$tmp/before" "$tag" "$this" run --quiet --target qemu "$@"
+        fi
+    ) </dev/null >/dev/null
 }
 run_now() {
     local tag=$1
@@ -141,16 +155,17 @@ fi
 if [ "$syscalls" = 1 ]; then
     echo "system calls per exchange (strace -f -c, the harness and its QEMU):"
     for which in before now; do
-        if [ "$which" = before ] && [ -z "$against" ]; then
-            WHEELSET_QEMU_IN_FLIGHT=1 strace -f -c -o "$tmp/strace-$which" "$this" run --quiet --target qemu --qemu-link bulk >/dev/null
-        elif [ "$which" = before ]; then
-            strace -f -c -o "$tmp/strace-$which" "$against" run --quiet --target qemu --qemu-link bulk >/dev/null
-        else
-            strace -f -c -o "$tmp/strace-$which" "$this" run --quiet --target qemu --qemu-link bulk >/dev/null
-        fi
+        (
+            bin=$this
+            if [ "$which" = before ]; then
+                [ -z "$before_elf" ] || export WHEELSET_QEMU_ELF="$before_elf"
+                if [ -n "$against" ]; then bin=$against; else export WHEELSET_QEMU_IN_FLIGHT=1; fi
+            fi
+            strace -f -c -o "$tmp/strace-$which" "$bin" run --quiet --target qemu --qemu-link bulk >/dev/null
+        )
         awk -v n="$exchanges" -v w="$which" '
-            $NF ~ /^[a-z_0-9]+$/ && $(NF - 1) ~ /^[0-9]+$/ && $NF != "total" { calls[$NF] = ($(NF - 2) ~ /^[0-9]+$/ && NF == 6) ? $(NF - 2) : $(NF - 1) }
-            $NF == "total" { total = ($(NF - 2) ~ /^[0-9]+$/ && NF == 5) ? $(NF - 2) : $(NF - 1) }
+            # strace -c: % time, seconds, usecs/call, calls, [errors,] syscall.
+            $1 ~ /^[0-9.]+$/ && $NF != "total" { calls[$NF] = $4; total += $4 }
             END {
                 printf "  %-6s %6.2f in all:", w, total / n
                 for (c in calls) if (calls[c] / n >= 0.05) printf " %s %.2f", c, calls[c] / n
