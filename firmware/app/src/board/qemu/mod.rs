@@ -14,7 +14,7 @@
 //! | UART0 RX (IRQ 0) | 0x20 | bytes to the RX pipe, frame edges to the clock |
 //! | SWI0 (IRQ 16) | 0x40 | control executor: the control task |
 //! | UART0 TX (IRQ 1) | 0x80 | holding register free |
-//! | SWI1 (IRQ 17) | 0xC0 | communication executor: the TX task |
+//! | SWI1 (IRQ 17) | 0xC0 | communication executor: the UART's TX task |
 
 mod bulk;
 pub mod clock;
@@ -107,17 +107,14 @@ async fn control_task(stopwatch: SysTickStopwatch) {
     app::control_loop::<Board, _>(app::new_device::<Board>, stopwatch).await
 }
 
+/// The UART's transmitter (the bulk channel's receiver sends the frames itself,
+/// [`bulk::Bulk::run`]).
 #[embassy_executor::task]
 async fn tx_task() {
     let mut buf = [0u8; 64];
     loop {
         let n = app::TX.read(&mut buf).await;
-        let frame = buf.get(..n).unwrap_or(&[]);
-        if bulk::active() {
-            bulk::write_all(frame);
-        } else {
-            uart::write_all(frame).await;
-        }
+        uart::write_all(buf.get(..n).unwrap_or(&[])).await;
     }
 }
 
@@ -246,7 +243,9 @@ fn run() -> ! {
     let control = EXEC_CONTROL.start(Interrupt::Swi0);
     control.spawn(app::token::<Board, _>(control_task(stopwatch)));
     let comms = EXEC_COMMS.start(Interrupt::Swi1);
-    comms.spawn(app::token::<Board, _>(tx_task()));
+    if bulk.is_none() {
+        comms.spawn(app::token::<Board, _>(tx_task()));
+    }
 
     // SAFETY: the handlers of both UART interrupts are defined below and only touch the
     // UART and lock-protected queues.
