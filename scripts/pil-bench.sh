@@ -148,8 +148,10 @@ if [ "$uart" = 1 ]; then
     run_before uart-before
     run_now uart-now
     echo "UART path (one round each):"
-    summary before <(tail -n1 "$tmp/before")
-    summary now <(tail -n1 "$tmp/now")
+    tail -n1 "$tmp/before" >"$tmp/uart-before.row"
+    tail -n1 "$tmp/now" >"$tmp/uart-now.row"
+    summary before "$tmp/uart-before.row"
+    summary now "$tmp/uart-now.row"
 fi
 
 if [ "$syscalls" = 1 ]; then

@@ -11,8 +11,10 @@
 //!   stamped with its simulated arrival time. Deterministic.
 //! - [`Clock::LockStep`]: the host's sensor frame is the device's clock (QEMU, or a
 //!   frame-clocked device on a serial port). `recv` waits (in wall time, bounded by the
-//!   transport's timeout) for the reply to the last frame sent; the arrival stamp is the
-//!   send time, and the harness models the wire time at the link's baud.
+//!   transport's timeout) for the reply to the last frame sent (with two exchanges in
+//!   flight, [`Transport::pipelined`]: to every frame sent before its deadline); the
+//!   arrival stamp is the deadline, and the harness models the wire time at the link's
+//!   baud.
 //! - [`Clock::RealTime`]: a board with its own tick timer. `send` waits for the wall
 //!   clock to reach `t_ns` after the run's start; `recv` returns what arrived by
 //!   `deadline_ns`, stamped with the wall time of arrival.
