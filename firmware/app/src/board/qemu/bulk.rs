@@ -13,10 +13,15 @@
 //! delimiter is the same frame edge of the clock ([`super::clock`]) and the same control
 //! task runs the same tick. The edge pends the control task's interrupt, so the tick has
 //! run when the edge returns: the receiver then writes what the tick put in the TX pipe
-//! itself (no TX task: one interrupt less per frame). Since the tick sees the same bytes in the same RX pipe, its instructions (the
-//! `exec` field) are the same as well: the two channels give the same Actuation frames
-//! bit for bit (`hil/harness/tests/qemu_bulk.rs`). A semihosting read blocks the whole vCPU
-//! until the host writes, so nothing counts time while the guest waits.
+//! itself (no TX task: one interrupt less per frame). Since the tick sees the same bytes
+//! in the same RX pipe, its instructions (the `exec` field) are the same as well: the two
+//! channels give the same Actuation frames bit for bit (`hil/harness/tests/qemu_bulk.rs`).
+//! A semihosting read blocks the whole vCPU until the host writes, so nothing counts time
+//! while the guest waits.
+//!
+//! Each frame is taken whole and its tick runs before the receiver reads on, so the host
+//! may send the next frame before the answer to this one (two exchanges in flight,
+//! `wheelset_targets::qemu::target`): the tick still sees its own frame alone.
 
 use core::sync::atomic::{AtomicI32, Ordering};
 
