@@ -320,7 +320,7 @@ fn run_point(
 /// Runs the points of `shard` (every point without one) on `jobs` threads, calling
 /// `progress(done, total)` after each point. The records come back in index order,
 /// whatever the threads' order. Also returns what the campaign cost
-/// ([`throughput::Throughput`]: CPU time of its threads, wall time), which is not part of
+/// ([`throughput::Throughput`]: CPU time of its threads and child processes, wall time), which is not part of
 /// the document.
 pub fn run_campaign(
     c: &Campaign,
@@ -330,6 +330,8 @@ pub fn run_campaign(
 ) -> Result<(SweepDoc, throughput::Throughput), RunError> {
     let wall = std::time::Instant::now();
     let main_cpu = throughput::thread_cpu();
+    // Each point's QEMU is a child, waited for when its point ends.
+    let children_cpu = throughput::children_cpu();
     let all = prepare(c).map_err(RunError::Input)?;
     let mine: Vec<(usize, &(Point, Params))> = all
         .iter()
@@ -394,11 +396,15 @@ pub fn run_campaign(
     let main = main_cpu
         .zip(throughput::thread_cpu())
         .map(|(a, b)| b.saturating_sub(a));
+    let children = children_cpu
+        .zip(throughput::children_cpu())
+        .map(|(a, b)| b.saturating_sub(a));
     let cost = throughput::Throughput {
         points: records.len(),
         cpu: main
+            .zip(children)
             .filter(|_| cpu_known.load(Ordering::Relaxed))
-            .map(|m| m + std::time::Duration::from_nanos(cpu_ns.load(Ordering::Relaxed))),
+            .map(|(m, c)| m + c + std::time::Duration::from_nanos(cpu_ns.load(Ordering::Relaxed))),
         wall: wall.elapsed(),
     };
     let doc = SweepDoc {

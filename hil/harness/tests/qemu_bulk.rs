@@ -112,3 +112,102 @@ fn low_adhesion_under_qemu_passes_its_numerics_and_is_the_in_process_loop() {
     assert_eq!(qemu.trajectory.records, inproc.trajectory.records);
     assert_eq!(qemu.report.numerics, inproc.report.numerics);
 }
+
+/// The closed loop of the harness (`wheelset_loop::exchange::close_loop`) through the
+/// QEMU target: over the bulk channel with two exchanges in flight (the next Sensor
+/// frame goes out before the answer to the last one) and over the UART with one. Every
+/// Actuation frame (`exec` included) with its arrival stamp, every period and link
+/// record, the device's counters and the plant's trajectory are the same.
+#[test]
+fn two_exchanges_in_flight_over_the_bulk_channel_are_the_uart_s_loop() {
+    use std::time::Duration;
+    use wheelset_loop::exchange::{close_loop, ClosedLoop, LoopSetup};
+    use wheelset_loop::transport::Transport;
+    use wheelset_plant::params::Params;
+    use wheelset_plant::scenario::Scenario;
+    use wheelset_targets::qemu::{target::QemuTarget, Machine, QemuConfig};
+    let cfg = QemuConfig::new();
+    if !common::can_run("two exchanges in flight", &cfg) {
+        return;
+    }
+    let mut sc = Scenario::load("curve", &Params::default()).unwrap();
+    sc.duration_ns = 400_000_000;
+    let period_ns = 1_000_000_000 / u64::from(wheelset_control::DEFAULT_BASE_RATE_HZ);
+    let run = |channel| -> (ClosedLoop, bool) {
+        let mut t = QemuTarget::start_with(
+            Machine::default(),
+            channel,
+            1_000_000,
+            168e6,
+            Duration::from_secs(10),
+        )
+        .unwrap();
+        let pipelined = t.pipelined();
+        let cl = close_loop(
+            &sc,
+            &mut t,
+            LoopSetup {
+                period_ns,
+                yaw_spring: false,
+                label: "lead",
+                ..LoopSetup::default()
+            },
+        )
+        .unwrap();
+        assert!(cl.error.is_none(), "{:?}", cl.error);
+        (cl, pipelined)
+    };
+    let (bulk, pipelined) = run(Channel::Bulk);
+    let (uart, one) = run(Channel::Uart);
+    assert!(!one);
+    if std::env::var("WHEELSET_QEMU_IN_FLIGHT").as_deref() != Ok("1") {
+        assert!(pipelined, "the bulk channel keeps two exchanges in flight");
+    }
+    // 2 000 Sensor frames, then the tick of the status request.
+    assert_eq!(bulk.actuations.len(), 2_001);
+    assert!(bulk.actuations.iter().any(|a| a.frame.exec != 0));
+    assert_eq!(bulk.actuations, uart.actuations);
+    assert_eq!(bulk.periods, uart.periods);
+    assert_eq!(bulk.log, uart.log);
+    assert_eq!(bulk.host, uart.host);
+    // The Status's counters; its stack mark is the channel's own (the bulk receiver's
+    // buffer is on thread mode's stack, under the tick's interrupt frames).
+    let counters = |s: Option<wheelset_proto::Status>| {
+        s.map(|s| wheelset_proto::Status { stack_peak: 0, ..s })
+    };
+    assert_eq!(counters(bulk.status), counters(uart.status));
+    assert_eq!(bulk.trajectory.records, uart.trajectory.records);
+    assert_eq!(
+        bulk.trajectory.info.controller_calls,
+        uart.trajectory.info.controller_calls
+    );
+}
+
+/// A firmware change that must not change a bit: the 20 s `curve` through this ELF and
+/// through another build (`WHEELSET_QEMU_ELF_BEFORE`, e.g. `target/fw/wheelset-qemu.elf`
+/// of an earlier commit) over the bulk channel, every Actuation frame (`exec` included)
+/// and trajectory record compared. `WHEELSET_QEMU_ELF_BEFORE=OLD.elf cargo test --release
+/// -p hil --test qemu_bulk -- --ignored --nocapture same_frames`
+#[test]
+#[ignore = "needs WHEELSET_QEMU_ELF_BEFORE; 20 s scenario twice: run by hand"]
+fn same_frames_as_another_build() {
+    let Some(before) = std::env::var_os("WHEELSET_QEMU_ELF_BEFORE") else {
+        panic!("set WHEELSET_QEMU_ELF_BEFORE to the other build's ELF");
+    };
+    let cfg = |elf| wheelset_targets::qemu::QemuConfig {
+        channel: Channel::Bulk,
+        elf,
+        ..wheelset_targets::qemu::QemuConfig::new()
+    };
+    let this = cfg(wheelset_targets::qemu::QemuConfig::default_elf());
+    let (Some(a), Some(b)) = (
+        common::start_cfg_or_skip("this build", &this),
+        common::start_cfg_or_skip("the other build", &cfg(before.into())),
+    ) else {
+        return;
+    };
+    let a = qemu_curve(a, 20.0);
+    let b = qemu_curve(b, 20.0);
+    assert_eq!(a.1.len(), 100_000);
+    assert_same(&a, &b);
+}

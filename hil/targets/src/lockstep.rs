@@ -13,6 +13,16 @@
 //! The same holds inside one write: a write with several delimiters (two frames passed
 //! at once, or a frame whose byte a fault turned into 0x00) is sent as its [`frames`],
 //! one at a time, each after the answers owed before it.
+//!
+//! **Two exchanges in flight.** A device that takes each frame whole and ticks on it
+//! before it reads on (the QEMU bulk channel: one frame per trap, the tick runs before
+//! the receiver goes on) may get the next frame before it has answered the last one. Its
+//! transport sends at once and receives by the deadline ([`Expect::sent_at`],
+//! [`Expect::owed_before`]): a receive with deadline `d` waits for the answers to the
+//! frames sent before `d`, and leaves later answers for a later receive, so every
+//! answer still arrives in the receive it arrived in with one frame in flight.
+
+use std::collections::VecDeque;
 
 use wheelset_proto::{Command, Decoder, Message};
 
@@ -28,6 +38,9 @@ pub struct Expect {
     decoder: Decoder,
     owed: u64,
     early: Vec<u8>,
+    /// The answers owed by send time, oldest first: (sent at, ns; frames); their sum is
+    /// `owed` when every send was timed ([`Self::sent_at`]).
+    by_time: VecDeque<(u64, u64)>,
 }
 
 impl Expect {
@@ -49,10 +62,45 @@ impl Expect {
         }
     }
 
+    /// [`Self::sent`] at `t_ns` on the transport's clock, for [`Self::owed_before`].
+    pub fn sent_at(&mut self, t_ns: u64, bytes: &[u8]) {
+        let before = self.owed;
+        self.sent(bytes);
+        let n = self.owed - before;
+        if n > 0 {
+            match self.by_time.back_mut() {
+                Some((t, k)) if *t == t_ns => *k += n,
+                _ => self.by_time.push_back((t_ns, n)),
+            }
+        }
+    }
+
     /// Accounts for received bytes: one frame per delimiter.
     pub fn received(&mut self, bytes: &[u8]) {
-        let n = bytes.iter().filter(|&&b| b == 0).count() as u64;
+        let mut n = bytes.iter().filter(|&&b| b == 0).count() as u64;
         self.owed = self.owed.saturating_sub(n);
+        // The oldest answers first: the device answers in order.
+        while n > 0 {
+            let Some((_, k)) = self.by_time.front_mut() else {
+                break;
+            };
+            let take = n.min(*k);
+            *k -= take;
+            n -= take;
+            if *k == 0 {
+                self.by_time.pop_front();
+            }
+        }
+    }
+
+    /// Frames owed for what was sent before `deadline_ns` ([`Self::sent_at`]).
+    #[must_use]
+    pub fn owed_before(&self, deadline_ns: u64) -> u64 {
+        self.by_time
+            .iter()
+            .take_while(|&&(t, _)| t < deadline_ns)
+            .map(|&(_, k)| k)
+            .sum()
     }
 
     /// Frames still owed.
@@ -93,6 +141,36 @@ mod tests {
         assert_eq!(e.owed(), 4);
         e.received(&[1, 2, 0, 5, 0]);
         assert_eq!(e.owed(), 2);
+    }
+
+    #[test]
+    fn answers_are_owed_by_send_time_oldest_first() {
+        let mut e = Expect::new();
+        let s = |seq| {
+            encode_vec(&Message::Sensor(Sensor {
+                seq,
+                ..Sensor::ZERO
+            }))
+            .unwrap_or_default()
+        };
+        e.sent_at(0, &s(1));
+        e.sent_at(
+            0,
+            &encode_vec(&Message::Command(Command::RequestStatus)).unwrap_or_default(),
+        );
+        e.sent_at(200, &s(2));
+        assert_eq!(e.owed(), 4);
+        assert_eq!(e.owed_before(0), 0);
+        assert_eq!(e.owed_before(200), 3);
+        assert_eq!(e.owed_before(201), 4);
+        // Two answers: both to the frames sent at 0.
+        e.received(&[1, 0, 2, 0]);
+        assert_eq!(
+            (e.owed(), e.owed_before(200), e.owed_before(400)),
+            (2, 1, 2)
+        );
+        e.received(&[3, 0, 4, 0]);
+        assert_eq!((e.owed(), e.owed_before(400)), (0, 0));
     }
 
     #[test]

@@ -28,6 +28,15 @@
 //! [`DeviceController::finish`] fetches the device's counters (the one Status fetch: a
 //! `RequestStatus`, then three periods of receiving, repeated up to [`STATUS_TRIES`]
 //! times while the link eats the request or the reply).
+//!
+//! **Two exchanges in flight.** The plant runs from `t_k` to `t_k + T` on the actuation
+//! of sample `k - 1`, so sample `k + 1` can be measured and sent before the actuation of
+//! sample `k` is back. Over a transport that allows it ([`Transport::pipelined`]: the
+//! QEMU bulk channel) [`close_loop`] does so: [`DeviceController::step`] only sends, and
+//! the receive until `t_k + T` happens when the plant needs the actuation, at `t_k + T`,
+//! after the next sample went out ([`SampledController::take_deferred`]). The device
+//! computes while the host integrates, and neither waits for the other's turn; every
+//! frame, arrival stamp, record and plant step is the one-in-flight run's.
 
 use indicatif::ProgressBar;
 use wheelset_control::InputCodes;
@@ -124,9 +133,11 @@ pub struct DeviceController<'a> {
     held: Option<(SiActuation, Actuation)>,
     /// Ticks from a sample to its actuation taking effect (at least 1).
     delay_ticks: u64,
-    /// Actuations received ahead of their instant (pipelined link), with the sample each
-    /// echoes, oldest first.
-    early: std::collections::VecDeque<(u64, SiActuation, Actuation)>,
+    /// Actuations received and not yet in force, with the sample each echoes (none: it
+    /// used no sample), in order of arrival; each is taken when due ([`Self::answer`]).
+    early: std::collections::VecDeque<(Option<u64>, SiActuation, Actuation)>,
+    /// The sample count of the step whose actuation is being received (`answer`).
+    answering: u64,
     fresh: bool,
     /// The frames of one [`Self::receive`]: arrival, bytes on the wire, result.
     rx_frames: Vec<(u64, usize, Result<Message, FrameError>)>,
@@ -176,6 +187,25 @@ pub struct DeviceController<'a> {
     last_latched: bool,
     /// Which records are kept ([`Records::All`] unless set).
     pub records: Records,
+    /// Two exchanges in flight ([`Self::pipelined`]).
+    deferred: bool,
+    /// The steps sent whose actuation has not been taken yet, oldest first (with two
+    /// exchanges in flight; none otherwise).
+    awaiting: std::collections::VecDeque<Awaiting>,
+}
+
+/// A step whose actuation is still to be taken ([`DeviceController::take_deferred`]).
+#[derive(Debug, Clone, Copy)]
+struct Awaiting {
+    /// Its sample instant, ns.
+    t_ns: u64,
+    /// The sequence number of its Sensor frame.
+    seq: u16,
+    /// Its sample count (1 for the first sample).
+    k: u64,
+    /// The measured motor speed, rad/s (the back-EMF voltage held before the first
+    /// actuation).
+    w_m: f64,
 }
 
 impl<'a> DeviceController<'a> {
@@ -200,6 +230,7 @@ impl<'a> DeviceController<'a> {
             held: None,
             delay_ticks: 1,
             early: std::collections::VecDeque::new(),
+            answering: 0,
             fresh: false,
             rx_frames: Vec::new(),
             frame_bytes: 0,
@@ -224,7 +255,18 @@ impl<'a> DeviceController<'a> {
             last_tick: 0,
             last_latched: false,
             records: Records::All,
+            deferred: false,
+            awaiting: std::collections::VecDeque::with_capacity(2),
         }
+    }
+
+    /// Keeps two exchanges in flight when the transport allows it
+    /// ([`Transport::pipelined`]; see the module docs). Only for `run_sampled` with an
+    /// actuator delay of one period, as [`close_loop`] runs it.
+    #[must_use]
+    pub fn pipelined(mut self) -> Self {
+        self.deferred = self.tr.pipelined();
+        self
     }
 
     /// Sends `y''` (or both) instead of `y'`.
@@ -333,26 +375,16 @@ impl<'a> DeviceController<'a> {
                     t_psi: si.t_psi,
                     u_a: si.u_a,
                 };
-                // Sample `e` (0-based) acts from t_e + d T: at the end of period k - 1
-                // (this call's deadline t_{k-1} + T) when e + d <= k.
-                match echo {
-                    Some(e) if e + self.delay_ticks > self.k => {
-                        self.early.push_back((e, si, a));
-                    }
-                    // An answer that used no sample (the Config frame's) before the first
-                    // sample's actuation is due: the start-up output stands.
-                    None if self.k < self.delay_ticks => {}
-                    _ => {
-                        self.held = Some((si, a));
-                        self.fresh = true;
-                    }
+                // An answer that used no sample (the Config frame's) before the first
+                // sample's actuation is due: the start-up output stands.
+                if echo.is_some() || self.answering >= self.delay_ticks {
+                    self.early.push_back((echo, si, a));
                 }
                 // The period's echo, if it came by its deadline t_e + d T.
                 let due = self.delay_ticks * self.period_ns;
-                if let Some(p) = echo.and_then(|e| self.periods.get_mut(usize::try_from(e).ok()?)) {
-                    if p.echo_at_ns.is_none() && at_ns <= p.t_ns + due {
-                        p.echo_at_ns = Some(at_ns);
-                    }
+                let p = echo.and_then(|e| self.periods.get_mut(usize::try_from(e).ok()?));
+                if let Some(p) = p.filter(|p| p.echo_at_ns.is_none() && at_ns <= p.t_ns + due) {
+                    p.echo_at_ns = Some(at_ns);
                 }
             }
             Ok(Message::Status(s)) => {
@@ -462,10 +494,53 @@ impl SampledController for DeviceController<'_> {
             self.stall_sent_ns = Some(t_ns);
             self.send(t_ns, &Message::Command(Command::InjectStall));
         }
+        if let Some(pb) = &self.progress {
+            if self.k.is_multiple_of(1024) {
+                pb.set_position(t_ns / 1_000_000);
+            }
+        }
+        let step = Awaiting {
+            t_ns,
+            seq: self.seq,
+            k: self.k,
+            w_m: m.w_m,
+        };
+        if self.deferred {
+            // Taken at `t_ns + T` (`take_deferred`), after the next sample went out.
+            self.awaiting.push_back(step);
+            return SiActuation::default();
+        }
+        self.answer(step)
+    }
+
+    fn defers(&self) -> bool {
+        self.deferred
+    }
+
+    fn take_deferred(&mut self, _due_ns: u64) -> SiActuation {
+        match self.awaiting.front().copied() {
+            Some(step) => {
+                let a = self.answer(step);
+                self.awaiting.pop_front();
+                a
+            }
+            None => self.held.map_or(SiActuation::default(), |(si, _)| si),
+        }
+    }
+}
+
+impl DeviceController<'_> {
+    /// The actuation in force from `step.t_ns + T`: receives until then, logs the
+    /// period and returns the latest actuation (before the first, zero torque and the
+    /// back-EMF voltage).
+    fn answer(&mut self, step: Awaiting) -> SiActuation {
         self.fresh = false;
-        self.receive(t_ns + self.period_ns);
+        self.answering = step.k;
+        self.receive(step.t_ns + self.period_ns);
+        // Sample `e` (0-based) acts from t_e + d T: from this step's t_k + T (k counted
+        // from 1) when e + d <= k; an answer that used no sample, at once (in order).
         while let Some(&(e, si, a)) = self.early.front() {
-            if e + self.delay_ticks > self.k {
+            if e.is_some_and(|e| e + self.delay_ticks > step.k) {
                 break;
             }
             self.early.pop_front();
@@ -477,22 +552,17 @@ impl SampledController for DeviceController<'_> {
             .as_ref()
             .map_or((0, 0), |(_, a)| (a.seq_echo, a.flags.0));
         self.log.push(LinkSample {
-            t_ns,
-            seq: self.seq,
+            t_ns: step.t_ns,
+            seq: step.seq,
             seq_echo,
-            age: self.seq.wrapping_sub(seq_echo),
+            age: step.seq.wrapping_sub(seq_echo),
             flags,
             fresh: self.fresh,
         });
-        if let Some(pb) = &self.progress {
-            if self.k.is_multiple_of(1024) {
-                pb.set_position(t_ns / 1_000_000);
-            }
-        }
         self.held.map_or(
             SiActuation {
                 t_psi: 0.0,
-                u_a: self.k_m * m.w_m,
+                u_a: self.k_m * step.w_m,
             },
             |(si, _)| si,
         )
@@ -593,6 +663,8 @@ pub fn close_loop(
     ctrl.reset_config = setup.reset_config;
     ctrl.records = setup.records;
     ctrl.delay_ticks = u64::from(setup.delay_ticks.max(1));
+    // The actuator delay below is one period: two exchanges may be in flight.
+    let mut ctrl = ctrl.pipelined();
     // One record per period, reserved once (doubling to 100 000 records re-copies and
     // re-faults megabytes); capped: a very long scenario grows the rest as it goes.
     let periods = (sc.duration_ns / period_ns.max(1)).min(1 << 22);

@@ -11,8 +11,10 @@
 //!   stamped with its simulated arrival time. Deterministic.
 //! - [`Clock::LockStep`]: the host's sensor frame is the device's clock (QEMU, or a
 //!   frame-clocked device on a serial port). `recv` waits (in wall time, bounded by the
-//!   transport's timeout) for the reply to the last frame sent; the arrival stamp is the
-//!   send time, and the harness models the wire time at the link's baud.
+//!   transport's timeout) for the reply to the last frame sent (with two exchanges in
+//!   flight, [`Transport::pipelined`]: to every frame sent before its deadline); the
+//!   arrival stamp is the deadline, and the harness models the wire time at the link's
+//!   baud.
 //! - [`Clock::RealTime`]: a board with its own tick timer. `send` waits for the wall
 //!   clock to reach `t_ns` after the run's start; `recv` returns what arrived by
 //!   `deadline_ns`, stamped with the wall time of arrival.
@@ -123,6 +125,15 @@ pub trait Transport {
                 sink(at, piece.len(), r);
             }
         })
+    }
+    /// Whether a lock-step transport keeps two exchanges in flight: the next frame goes
+    /// out before the device has answered the last one, and [`Self::recv`] waits only for
+    /// the answers to the frames sent before its deadline (`t_sent < deadline_ns`),
+    /// keeping later ones for a later call. The closed loop then sends sample `k + 1`
+    /// before it takes the actuation of sample `k`, which the plant applies only from
+    /// `t_k + T` ([`crate::exchange`]). Default: `false` (one exchange in flight).
+    fn pipelined(&self) -> bool {
+        false
     }
     /// Exact link accounting after the run has drained, if the transport knows it.
     fn link_accounting(&self) -> Option<LinkAccounting> {

@@ -227,4 +227,19 @@ pub trait SampledController {
             u_a: k_m * meas.w_m,
         }
     }
+    /// Whether a step's actuation is known only when it takes effect: the controller
+    /// answers later (a device that gets the next sample before it has answered this
+    /// one, as the one period of actuator delay allows), so
+    /// [`run_sampled`](crate::sim::run_sampled) ignores what [`Self::step`] returned and
+    /// asks [`Self::take_deferred`] when the actuation is due. Default: `false`.
+    fn defers(&self) -> bool {
+        false
+    }
+    /// The actuation of the oldest step not yet taken, due from `due_ns` (the step's
+    /// time plus the actuator delay); called once per step, in order, only when
+    /// [`Self::defers`]. Default: zero torque and voltage.
+    fn take_deferred(&mut self, due_ns: u64) -> Actuation {
+        let _ = due_ns;
+        Actuation::default()
+    }
 }

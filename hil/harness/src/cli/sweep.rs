@@ -60,6 +60,10 @@ pub(crate) struct SweepArgs {
     /// Where the device runs: inproc or qemu (one QEMU per thread).
     #[arg(long, default_value = "inproc", value_parser = parse_sweep_target)]
     target: Target,
+    /// The QEMU target's link, as `hil run --qemu-link`: `uart` or `bulk` (the same
+    /// records, faster).
+    #[arg(long, default_value = "uart", value_parser = super::run::parse_channel)]
+    qemu_link: wheelset_targets::qemu::Channel,
     /// Link faults at every point, e.g. `ber=1e-4,drop=0.01` (in-process link only).
     #[arg(long, default_value = "", value_parser = parse_faults)]
     faults: Faults,
@@ -203,6 +207,12 @@ pub(crate) fn cmd_sweep(c: &SweepCmd, command: &str) -> Result<Verdict, Failure>
         Some(n) => n,
         None => std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get),
     };
+    if a.target != Target::Qemu && a.qemu_link != wheelset_targets::qemu::Channel::Uart {
+        return Err(input(format!(
+            "--qemu-link bulk: the bulk channel is the QEMU target's, not {}'s",
+            a.target
+        )));
+    }
     if a.target != Target::InProc && a.faults != Faults::none() {
         return Err(input(format!(
             "--faults: the fault injection is part of the simulated link; target {} has a real one",
@@ -230,6 +240,7 @@ pub(crate) fn cmd_sweep(c: &SweepCmd, command: &str) -> Result<Verdict, Failure>
     let campaign = sweep::Campaign {
         base: RunOptions {
             target: a.target.clone(),
+            qemu_link: a.qemu_link,
             scenario: a.scenario.clone(),
             control: law,
             faults_spec: a.faults.to_string(),

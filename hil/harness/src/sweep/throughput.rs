@@ -1,10 +1,14 @@
 //! The campaign's throughput: points per core-second, the CPU time of the threads that
-//! ran the points (and of the thread that collected them). Printed on the console by
-//! `hil sweep`, never written into the campaign's document (whose shards merge byte for
+//! ran the points (and of the thread that collected them) and of the child processes
+//! they ran (each point's QEMU under `--target qemu`). Printed on the console by `hil
+//! sweep`, never written into the campaign's document (whose shards merge byte for
 //! byte).
 //!
-//! A thread's CPU time is its on-CPU time in `/proc/thread-self/schedstat` (Linux, ns).
-//! Where that file does not exist the throughput is unknown (`None`), not guessed.
+//! A thread's CPU time is its on-CPU time in `/proc/thread-self/schedstat` (Linux, ns);
+//! the children's is the user and system time of the children waited for, `cutime` and
+//! `cstime` in `/proc/self/stat` (the `RUSAGE_CHILDREN` of `getrusage`, in the kernel's
+//! 1/100 s). Where those files do not exist the throughput is unknown (`None`), not
+//! guessed.
 
 use std::time::Duration;
 
@@ -58,6 +62,25 @@ pub fn thread_cpu() -> Option<Duration> {
     Some(Duration::from_nanos(ns))
 }
 
+/// The CPU time (user + system) of this process's children that have been waited
+/// for, if the OS reports it.
+#[must_use]
+pub fn children_cpu() -> Option<Duration> {
+    let s = std::fs::read_to_string("/proc/self/stat").ok()?;
+    children_cpu_of(&s)
+}
+
+/// `cutime + cstime` of a `/proc/PID/stat` line: fields 16 and 17, in the ABI's fixed
+/// 100 ticks per second (after the command in parentheses, which may hold spaces).
+fn children_cpu_of(stat: &str) -> Option<Duration> {
+    let rest = &stat[stat.rfind(')')? + 1..];
+    // `rest` starts at field 3 (the state): fields 16 and 17 are its 14th and 15th.
+    let mut f = rest.split_whitespace().skip(13);
+    let cutime: u64 = f.next()?.parse().ok()?;
+    let cstime: u64 = f.next()?.parse().ok()?;
+    Some(Duration::from_millis((cutime + cstime) * 10))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -80,5 +103,16 @@ mod tests {
         if std::path::Path::new("/proc/thread-self/schedstat").exists() {
             assert!(thread_cpu().is_some());
         }
+        if std::path::Path::new("/proc/self/stat").exists() {
+            assert!(children_cpu().is_some());
+        }
+    }
+
+    #[test]
+    fn the_children_s_cpu_time_is_cutime_plus_cstime() {
+        let line = "42 (hil (x) y) S 1 42 42 0 -1 4194304 100 0 0 0 7 3 250 125 20 0 1 0";
+        assert_eq!(children_cpu_of(line), Some(Duration::from_millis(3_750)));
+        assert_eq!(children_cpu_of("42 (hil) S 1"), None);
+        assert_eq!(children_cpu_of("no parenthesis"), None);
     }
 }

@@ -8,6 +8,12 @@
 //! the icount shift), deterministic run to run. Its time scale for the timing checks is
 //! `--cpu-hz` at one instruction per cycle (default the board's 168 MHz, an estimate; the
 //! emulated mps2-an386 itself is nominally 25 MHz, [`MPS2_CPU_HZ`]).
+//!
+//! Over the bulk channel the target keeps two exchanges in flight
+//! ([`Transport::pipelined`]): the firmware takes each frame whole and runs its tick
+//! before it reads on, so the next frame may wait in the FIFO while it computes.
+//! `WHEELSET_QEMU_IN_FLIGHT=1` keeps one (each frame after the answer to the last), the
+//! same frames and records, for comparison (`scripts/pil-bench.sh`).
 
 use std::time::Duration;
 
@@ -24,6 +30,14 @@ pub struct QemuTarget {
     baud: u32,
     cpu_hz: f64,
     expect: Expect,
+    /// Two exchanges in flight (the bulk channel).
+    pipelined: bool,
+}
+
+/// Whether a target on `channel` keeps two exchanges in flight: on the bulk channel,
+/// unless `WHEELSET_QEMU_IN_FLIGHT=1`.
+fn pipelined(channel: Channel) -> bool {
+    channel == Channel::Bulk && std::env::var("WHEELSET_QEMU_IN_FLIGHT").as_deref() != Ok("1")
 }
 
 impl QemuTarget {
@@ -65,6 +79,7 @@ impl QemuTarget {
             baud,
             cpu_hz,
             expect: Expect::new(),
+            pipelined: pipelined(channel),
         })
     }
 }
@@ -85,6 +100,7 @@ impl QemuTarget {
             baud,
             cpu_hz,
             expect: Expect::new(),
+            pipelined: false,
         })
     }
 }
@@ -106,7 +122,22 @@ impl Transport for QemuTarget {
         ("instructions", 1e9 / self.cpu_hz)
     }
 
-    fn send(&mut self, _t_ns: u64, bytes: &[u8]) -> Result<(), TransportError> {
+    fn pipelined(&self) -> bool {
+        self.pipelined
+    }
+
+    fn send(&mut self, t_ns: u64, bytes: &[u8]) -> Result<(), TransportError> {
+        if self.pipelined {
+            // The firmware ticks on each frame before it reads the next: the whole write
+            // at once, each frame's answers owed from `t_ns` (`crate::lockstep`).
+            for part in crate::lockstep::frames(bytes) {
+                self.expect.sent_at(t_ns, part);
+            }
+            return self
+                .q
+                .send(bytes)
+                .map_err(|e| TransportError::Io(e.to_string()));
+        }
         // One frame in flight (`crate::lockstep`): each frame of the write after the
         // answers still owed.
         for part in crate::lockstep::frames(bytes) {
@@ -130,6 +161,15 @@ impl Transport for QemuTarget {
         if !early.is_empty() {
             sink(deadline_ns, &early);
         }
+        if self.pipelined {
+            // The answers to what was sent before the deadline; later ones stay in the
+            // link's buffer for a later receive.
+            while self.expect.owed_before(deadline_ns) > 0 {
+                let frame = self.recv_one()?;
+                sink(deadline_ns, &frame);
+            }
+            return Ok(());
+        }
         self.wait_owed(&mut |b| sink(deadline_ns, b))
     }
 }
@@ -138,14 +178,20 @@ impl QemuTarget {
     /// Receives every frame owed, each to `sink` (its delimiter included).
     fn wait_owed(&mut self, sink: &mut dyn FnMut(&[u8])) -> Result<(), TransportError> {
         while self.expect.owed() > 0 {
-            let mut frame = self
-                .q
-                .recv_frame()
-                .map_err(|e| TransportError::Io(e.to_string()))?;
-            frame.push(0);
-            self.expect.received(&frame);
+            let frame = self.recv_one()?;
             sink(&frame);
         }
         Ok(())
+    }
+
+    /// The next frame (its delimiter included), accounted as received.
+    fn recv_one(&mut self) -> Result<Vec<u8>, TransportError> {
+        let mut frame = self
+            .q
+            .recv_frame()
+            .map_err(|e| TransportError::Io(e.to_string()))?;
+        frame.push(0);
+        self.expect.received(&frame);
+        Ok(frame)
     }
 }

@@ -180,7 +180,9 @@ fn measure_with<F: Flags>(
 /// `yaw_spring` (the active controller replaces it). Each period: measure (with the
 /// actuation held from before), apply the sensor model, call the controller, apply the
 /// actuator model, and hold the result from `t + delay` (ZOH). Records carry the held
-/// actuation. Without the drive, `u_a` is ignored and the demand acts on the wheel.
+/// actuation. Without the drive, `u_a` is ignored and the demand acts on the wheel. A
+/// controller that [defers](SampledController::defers) hands each actuation over when
+/// it is due (the same schedule: the plant runs on to `t + delay` meanwhile).
 pub fn run_sampled(
     sc: &Scenario,
     ctrl: &mut dyn SampledController,
@@ -236,6 +238,7 @@ fn sampled<F: Flags>(
     // `u64::MAX` while none is pending.
     let mut next_due = u64::MAX;
     let mut calls = 0u64;
+    let defers = ctrl.defers();
     let inputs = |e: &Exo, j: usize, a: &Actuation| Inputs {
         t_psi: a.t_psi,
         u_a: if drive { a.u_a } else { 0.0 },
@@ -288,7 +291,9 @@ fn sampled<F: Flags>(
                 e.i_ref,
             );
             let m = sensor.apply(&m);
-            let a = actuator.limit(ctrl.step(t_ns, &m));
+            let a = ctrl.step(t_ns, &m);
+            // A deferring controller's actuation is taken (and limited) when due.
+            let a = if defers { a } else { actuator.limit(a) };
             calls += 1;
             let due = t_ns + actuator.delay_ns;
             if pending.is_empty() {
@@ -297,8 +302,12 @@ fn sampled<F: Flags>(
             pending.push_back((due, a));
         }
         while next_due <= t_ns {
-            if let Some((_, a)) = pending.pop_front() {
-                held = a;
+            if let Some((due, a)) = pending.pop_front() {
+                held = if defers {
+                    actuator.limit(ctrl.take_deferred(due))
+                } else {
+                    a
+                };
             }
             next_due = pending.front().map_or(u64::MAX, |&(due, _)| due);
         }
@@ -332,6 +341,13 @@ fn sampled<F: Flags>(
                 u,
             },
         ));
+    }
+    // The steps whose actuation was not due by the end (a run that diverged): taken and
+    // limited all the same, as a controller that does not defer had them.
+    if defers {
+        for (due, _) in pending.drain(..) {
+            actuator.limit(ctrl.take_deferred(due));
+        }
     }
     Trajectory {
         records,

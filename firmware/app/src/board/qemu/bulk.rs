@@ -10,12 +10,18 @@
 //! bytes from `DIR/rx` and writes device -> host frames to `DIR/tx`.
 //!
 //! Everything else is the UART build's: the bytes go into the same RX pipe, a frame
-//! delimiter is the same frame edge of the clock ([`super::clock`]), the same control
-//! task runs the same tick and the TX task writes its frames here instead of to the
-//! UART. Since the tick sees the same bytes in the same RX pipe, its instructions (the
-//! `exec` field) are the same as well: the two channels give the same Actuation frames
-//! bit for bit (`hil/harness/tests/qemu_bulk.rs`). A semihosting read blocks the whole vCPU
-//! until the host writes, so nothing counts time while the guest waits.
+//! delimiter is the same frame edge of the clock ([`super::clock`]) and the same control
+//! task runs the same tick. The edge pends the control task's interrupt, so the tick has
+//! run when the edge returns: the receiver then writes what the tick put in the TX pipe
+//! itself (no TX task: one interrupt less per frame). Since the tick sees the same bytes
+//! in the same RX pipe, its instructions (the `exec` field) are the same as well: the two
+//! channels give the same Actuation frames bit for bit (`hil/harness/tests/qemu_bulk.rs`).
+//! A semihosting read blocks the whole vCPU until the host writes, so nothing counts time
+//! while the guest waits.
+//!
+//! Each frame is taken whole and its tick runs before the receiver reads on, so the host
+//! may send the next frame before the answer to this one (two exchanges in flight,
+//! `wheelset_targets::qemu::target`): the tick still sees its own frame alone.
 
 use core::sync::atomic::{AtomicI32, Ordering};
 
@@ -90,6 +96,11 @@ pub fn write_all(bytes: &[u8]) {
     }
 }
 
+/// Writes every frame the TX pipe holds (the tick's answer) to the TX FIFO, in place.
+fn send_answers() {
+    while crate::app::TX.read_in_place(write_all).is_ok() {}
+}
+
 impl Bulk {
     /// Reads what the host has written (blocking for at least one byte); 0 at the end
     /// of the stream (the host closed its end).
@@ -134,6 +145,7 @@ impl Bulk {
                 crate::watchdog::rx_ran();
                 if part.last() == Some(&0) {
                     super::clock::frame_edge();
+                    send_answers();
                 }
                 if crate::watchdog::take_both() {
                     super::wdog::feed();
