@@ -37,6 +37,9 @@ pub(crate) struct SoakArgs {
     /// The traction demand steps to its new levels instead of ramping over 2-6 s.
     #[arg(long)]
     demand_steps: bool,
+    /// Configs may choose the pure gain law, not only the phase lead.
+    #[arg(long)]
+    gain_law: bool,
     /// Print each episode of the service as it starts (what led up to a failure).
     #[arg(long)]
     trace: bool,
@@ -107,6 +110,7 @@ pub(crate) fn cmd_soak(a: &SoakArgs) -> Result<Verdict, Failure> {
                 service: ServiceOptions {
                     low_adhesion: a.low_adhesion,
                     demand_steps: a.demand_steps,
+                    gain_law: a.gain_law,
                 },
             })
             .map_err(input)?;

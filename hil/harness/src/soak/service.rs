@@ -82,15 +82,18 @@ impl Default for Track {
     }
 }
 
-/// What the service may do beyond its default day: the two conditions under which the
-/// device's actuator check raises an alarm with nothing failed (the book's soak
-/// section), each off by default.
+/// What the service may do beyond its default day (each off by default): the two
+/// conditions under which the device's actuator check raises an alarm with nothing
+/// failed, and the pure gain law, with which the wheelset hunts on a wet patch (the book's soak section).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct ServiceOptions {
     /// Adhesion patches may be low (leaves), not only wet.
     pub low_adhesion: bool,
     /// The traction demand steps rather than ramping.
     pub demand_steps: bool,
+    /// Configs may choose the pure gain law, not only the phase lead (on a wet patch
+    /// the gain-damped wheelset hunts: the device's hunting alarm, rightly).
+    pub gain_law: bool,
 }
 
 /// The traction demand at the wheel (N m): at random times a new level, ramped to over
@@ -231,10 +234,14 @@ pub fn next_episode(rng: &mut Pcg64, now_ns: u64, opt: ServiceOptions) -> (u64, 
             len_ns: ns(rng.random_range(2.0..10.0)),
         },
         60..=69 => Episode::Actuator,
-        _ => Episode::Config {
-            rate_hz: RATES_HZ[rng.random_range(0..RATES_HZ.len())],
-            lead: rng.random_range(0..4) != 0,
-        },
+        _ => {
+            let rate_hz = RATES_HZ[rng.random_range(0..RATES_HZ.len())];
+            let gain = rng.random_range(0..4) == 0;
+            Episode::Config {
+                rate_hz,
+                lead: !(gain && opt.gain_law),
+            }
+        }
     };
     (start, e)
 }
