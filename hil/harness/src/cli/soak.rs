@@ -18,10 +18,10 @@ pub(crate) struct SoakArgs {
     #[arg(long, default_value = "inproc", value_parser = parse_soak_target)]
     target: SoakTarget,
     /// Hours of service to soak (simulated in process; real time under QEMU).
-    #[arg(long, conflicts_with = "minutes")]
+    #[arg(long, conflicts_with = "minutes", allow_negative_numbers = true)]
     hours: Option<f64>,
     /// Minutes of service to soak (instead of --hours).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     minutes: Option<f64>,
     /// Seed of every random choice (track, faults, Configs): a failure names it, and the
     /// same seed replays the same run.
