@@ -145,6 +145,8 @@ pub struct SoakFailure {
     pub seed: u64,
     /// What broke.
     pub what: String,
+    /// The run's options beyond the seed and length, as `hil soak` flags (for the replay).
+    pub flags: String,
 }
 
 impl fmt::Display for SoakFailure {
@@ -165,7 +167,10 @@ impl SoakFailure {
     #[must_use]
     pub fn replay(&self) -> String {
         let minutes = (self.t_ns / 60_000_000_000) + 1;
-        format!("hil soak --seed {} --minutes {minutes}", self.seed)
+        format!(
+            "hil soak --seed {} --minutes {minutes}{}",
+            self.seed, self.flags
+        )
     }
 }
 
@@ -234,13 +239,15 @@ impl SoakReport {
         let speed = self.simulated_s / self.wall_s.max(1e-9);
         let _ = writeln!(
             s,
-            "hil soak: seed {}, {} simulated ({} ticks) in {:.1} s wall, {:.1} s CPU ({:.0}x real time)",
+            "hil soak: seed {}, {} simulated ({} ticks)",
             self.seed,
             hms((self.simulated_s * 1e9) as u64),
             self.ticks,
-            self.wall_s,
-            self.cpu_s,
-            speed
+        );
+        let _ = writeln!(
+            s,
+            "  time: {:.1} s wall, {:.1} s CPU ({:.0}x real time)",
+            self.wall_s, self.cpu_s, speed
         );
         for (name, c) in [("host -> device", &self.up), ("device -> host", &self.down)] {
             let _ = writeln!(
@@ -268,20 +275,23 @@ impl SoakReport {
         let [h, a, d] = self.alarms;
         let _ = writeln!(
             s,
-            "  device: alarms {} (hunting {h}, actuator {a}, drive {d}), every one expected; safe entries {}, held ticks {}; tick counter wrapped at {}",
+            "  device: alarms {} (hunting {h}, actuator {a}, drive {d}), every one expected; safe entries {}, held ticks {}; {}",
             h + a + d,
             self.safe_entries,
             self.held_ticks,
-            self.tick_wrap_s.map_or("-".into(), |t| format!("{t:.1} s")),
+            self.tick_wrap_s.map_or("its tick counter has not wrapped yet".into(), |t| {
+                format!("its tick counter wrapped at {t:.1} s")
+            }),
         );
         let _ = writeln!(
             s,
-            "  Status frames checked {}, lost on the line {}; peak RSS {} KiB at {:.0} s, {} KiB at the end",
-            self.statuses_checked,
-            self.statuses_lost,
-            self.rss_first_kib,
-            self.rss_first_s,
-            self.rss_end_kib
+            "  Status frames checked {}, lost on the line {}",
+            self.statuses_checked, self.statuses_lost,
+        );
+        let _ = writeln!(
+            s,
+            "  memory: peak RSS {} KiB at {:.0} s, {} KiB at the end",
+            self.rss_first_kib, self.rss_first_s, self.rss_end_kib
         );
         match &self.failure {
             None => {
@@ -535,7 +545,22 @@ impl Soak {
     fn fail(&mut self, what: String) {
         if self.failure.is_none() {
             let x = &self.x;
+            let o = &self.opts;
+            let mut flags = String::new();
+            for (on, flag) in [
+                (o.service.low_adhesion, " --low-adhesion"),
+                (o.service.demand_steps, " --demand-steps"),
+                (o.service.gain_law, " --gain-law"),
+            ] {
+                if on {
+                    flags.push_str(flag);
+                }
+            }
+            if o.defect != Defect::None {
+                flags.push_str(&format!(" --defect {}", o.defect));
+            }
             self.failure = Some(SoakFailure {
+                flags,
                 t_ns: self.t_ns,
                 seed: self.opts.seed,
                 what: format!(
