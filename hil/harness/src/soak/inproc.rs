@@ -15,7 +15,8 @@
 //! valid Sensor frame, `SAFE` after more than `hold_ticks` of them until the next, no
 //! `NO_SAMPLE` once one came, `ENABLED`, never `CMD_REFUSED`; the echo of the latest
 //! valid `seq`; the tick count); alarms (`HUNTING`, `ACTUATOR_FAULT`) only while an
-//! actuator fault is on or within [`ALARM_GRACE_NS`] of its repair, every actuator
+//! actuator fault is on or within [`ALARM_GRACE_NS`] of its repair, or in a safe state
+//! (zero yaw torque) or within [`ALARM_GRACE_NS`] of its end, every actuator
 //! fault alarmed within [`ALARM_DEADLINE_NS`], never `DRIVE_OSC`; `FAULT_LATCHED` from
 //! an alarm until a ClearFaults arrives. On a line without faults every frame arrives
 //! valid. At every Status the host receives: every frame accounted for both ways, the
@@ -972,7 +973,7 @@ impl Soak {
             };
         if rose != 0 && !expected {
             broke.push(format!(
-                "an alarm nobody expected (flags {:#06x}; no actuator fault)",
+                "an alarm nobody expected (flags {:#06x}; no actuator fault or safe state to explain it)",
                 f.0
             ));
         }
