@@ -68,7 +68,8 @@ fn a_broken_device_is_caught_named_and_replayed_in_a_shorter_run() {
         replay.starts_with("hil soak --seed 7 --minutes "),
         "{replay}"
     );
-    let minutes: u64 = replay.rsplit(' ').next().unwrap().parse().unwrap();
+    assert!(replay.ends_with(" --defect corrupt:150000"), "{replay}");
+    let minutes: u64 = replay.split(' ').nth(5).unwrap().parse().unwrap();
     assert!(minutes < 10, "a shorter run: {replay}");
     let again = soak(options(minutes, 7, broken)).expect("the replay starts");
     assert_eq!(
