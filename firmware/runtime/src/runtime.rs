@@ -386,16 +386,32 @@ impl<T: SampleBits> Runtime<T> {
         c.hunt_alarms = c.hunt_alarms.wrapping_add(u32::from(hunting));
         c.act_alarms = c.act_alarms.wrapping_add(u32::from(actuator));
         c.drive_alarms = c.drive_alarms.wrapping_add(u32::from(drive));
+        // 0 means "none": an alarm on the tick whose count wrapped to 0 (every 2^32
+        // ticks, 9.9 days at 5 kHz) is recorded as 1, the count of the tick after it.
+        let at = c.ticks.max(1);
         if c.first_alarm_tick == 0 {
-            c.first_alarm_tick = c.ticks;
+            c.first_alarm_tick = at;
         }
         if drive && c.first_drive_alarm_tick == 0 {
-            c.first_drive_alarm_tick = c.ticks;
+            c.first_drive_alarm_tick = at;
         }
         self.fault_latched = true;
         if self.monitor_safe {
             self.alarm_safe = true;
         }
+    }
+
+    /// Starts the counters at `start` (its `flags` aside: they are the next tick's), and
+    /// the tick count the Actuation frames carry (its low 16 bits) at `start.ticks`: a
+    /// host soak starts them near their wrap so that its run crosses it (2^32 ticks are
+    /// 9.9 days at 5 kHz). [`Command::ResetCounters`] zeroes them as ever. Host use: a
+    /// board starts from zero.
+    pub fn preset_counters(&mut self, start: &RuntimeCounters) {
+        self.counters = RuntimeCounters {
+            flags: self.counters.flags,
+            ..*start
+        };
+        self.ticks = start.ticks;
     }
 
     /// The counters.

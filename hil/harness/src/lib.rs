@@ -14,6 +14,8 @@
 //! - [`sweep`]: `hil sweep`, the closed loop over a parameter grid, sharded and merged,
 //!   with its report ([`sweep::document`]).
 //! - [`golden`]: `hil golden`, open-loop golden vectors host vs target, bit for bit.
+//! - [`soak`]: `hil soak`, hours of simulated service in process (streamed, checked at
+//!   every tick), or minutes of real time against the free-running firmware under QEMU.
 #![deny(missing_docs)]
 
 pub mod budget;
@@ -21,4 +23,5 @@ pub mod check;
 pub mod golden;
 pub mod report;
 pub mod run;
+pub mod soak;
 pub mod sweep;

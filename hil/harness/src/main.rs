@@ -20,7 +20,8 @@ macro_rules! say {
 mod cli;
 
 use cli::{
-    cmd_golden, cmd_run, cmd_serve, cmd_sweep, input, GoldenArgs, RunArgs, ServeArgs, SweepCmd,
+    cmd_golden, cmd_run, cmd_serve, cmd_soak, cmd_sweep, input, GoldenArgs, RunArgs, ServeArgs,
+    SoakArgs, SweepCmd,
 };
 
 /// The HIL harness: the plant against the device wherever it runs, with timing and
@@ -52,6 +53,12 @@ enum Cmd {
     /// the base rate behind a pseudo-terminal it creates (prints its path), answering
     /// every tick. For `hil run --target serial:PATH` (real-time pacing).
     Serve(ServeArgs),
+    /// A simulated day (or any hours) of service with nothing lost: one runtime over the
+    /// simulated link through a random track, link, adhesion and actuator faults and
+    /// Config changes, checked at every tick; or (`--target qemu-free`) the free-running
+    /// firmware under QEMU in real time. Exit 1 on the first failure, named with its
+    /// simulated time and seed.
+    Soak(SoakArgs),
 }
 
 fn main() -> ExitCode {
@@ -70,6 +77,7 @@ fn main() -> ExitCode {
         Some(Cmd::Golden(g)) => cmd_golden(g),
         Some(Cmd::Serve(a)) => cmd_serve(a),
         Some(Cmd::Sweep(c)) => cmd_sweep(c, &command),
+        Some(Cmd::Soak(a)) => cmd_soak(a),
         Some(Cmd::Audit(a)) => match wheelset_audit::run(a) {
             Ok(code) => return ExitCode::from(code),
             Err(e) => Err(input(e.to_string())),

@@ -115,6 +115,10 @@ pub(super) const fn sim(name: &'static str, args: &'static str) -> Block {
     }
 }
 
+/// The lines of `hil soak`'s summary that depend on the machine: wall and CPU time, the
+/// peak RSS.
+const SOAK_MACHINE_DEPENDENT: &[&str] = &["s wall", "peak RSS"];
+
 /// A `cargo hil` block: every line but the machine-dependent ones
 /// ([`MACHINE_DEPENDENT`]: the harness prints wall times and host nanoseconds), exit 0,
 /// standard output.
@@ -173,6 +177,14 @@ pub const BLOCKS: &[Block] = &[
     hil("hil-gain", "run --control gain"),
     hil("hil-beating", "run --scenario beating").exit(1),
     hil("hil-short", "run --scenario hil/harness/tests/data/short.toml"),
+    // The soak: a broken device caught, named with its time and seed, and the shorter
+    // run that replays it (wall, CPU and RSS figures left out).
+    hil("soak-defect", "soak --seed 7 --minutes 10 --defect corrupt:150000")
+        .exit(1)
+        .keep(Keep::AllBut(SOAK_MACHINE_DEPENDENT)),
+    hil("soak-replay", "soak --seed 7 --minutes 1 --defect corrupt:150000")
+        .exit(1)
+        .keep(Keep::AllBut(SOAK_MACHINE_DEPENDENT)),
     hil("golden", "golden"),
     // Any operating point and campaigns over the envelope.
     hil("hil-params-3mn", "run --params sim-host/params/creep-3mn.toml"),

@@ -44,6 +44,15 @@ pub(super) const RULES: &[(&str, Class)] = &[
             "needs a QEMU started by hand (hil/harness/tests/qemu_by_hand.rs runs the pair)",
         ),
     ),
+    (
+        "hil soak --hours 24",
+        Class::Skip("a simulated day, 8 minutes (its hour is hil/harness/tests/soak.rs)"),
+    ),
+    (
+        "hil soak --target qemu-free --minutes 60",
+        Class::Skip("an hour of real time (its minute is hil/harness/tests/qemu_soak.rs)"),
+    ),
+    ("hil soak --minutes 30", Class::Long),
     ("--target qemu", Class::Long),
     ("cargo fw", Class::Long),
     ("fw-bench", Class::Long),

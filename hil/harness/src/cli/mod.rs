@@ -5,11 +5,13 @@
 mod golden;
 mod run;
 mod serve;
+mod soak;
 mod sweep;
 
 pub(crate) use golden::{cmd_golden, GoldenArgs};
 pub(crate) use run::{cmd_run, RunArgs};
 pub(crate) use serve::{cmd_serve, ServeArgs};
+pub(crate) use soak::{cmd_soak, SoakArgs};
 pub(crate) use sweep::{cmd_sweep, SweepCmd};
 
 use clap::ValueEnum;

@@ -1,0 +1,129 @@
+//! `hil soak`: hours of simulated service in process, or minutes of real time against
+//! the free-running firmware under QEMU; its arguments and what it prints.
+
+use std::io::IsTerminal;
+
+use clap::Args;
+use hil::soak::inproc::{soak, Defect, SoakOptions};
+use hil::soak::qemu::soak_qemu;
+use hil::soak::service::ServiceOptions;
+use wheelset_report::Verdict;
+
+use super::{input, run_error, Failure};
+
+#[derive(Args, Clone)]
+pub(crate) struct SoakArgs {
+    /// Where the device runs: inproc (the runtime over the simulated link, simulated
+    /// time) or qemu-free (the free-running firmware under QEMU, real time).
+    #[arg(long, default_value = "inproc", value_parser = parse_soak_target)]
+    target: SoakTarget,
+    /// Hours of service to soak (simulated in process; real time under QEMU).
+    #[arg(long, conflicts_with = "minutes", allow_negative_numbers = true)]
+    hours: Option<f64>,
+    /// Minutes of service to soak (instead of --hours).
+    #[arg(long, allow_negative_numbers = true)]
+    minutes: Option<f64>,
+    /// Seed of every random choice (track, faults, Configs): a failure names it, and the
+    /// same seed replays the same run.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// A deliberately broken in-process device: corrupt:EVERY (every EVERY-th frame it
+    /// sends has a bit flipped), to show that the soak catches it and names the seed.
+    #[arg(long, default_value = "none", value_parser = parse_defect)]
+    defect: Defect,
+    /// Adhesion patches may be low (leaves on the rail), not only wet.
+    #[arg(long)]
+    low_adhesion: bool,
+    /// The traction demand steps to its new levels instead of ramping over 2-6 s.
+    #[arg(long)]
+    demand_steps: bool,
+    /// Configs may choose the pure gain law, not only the phase lead.
+    #[arg(long)]
+    gain_law: bool,
+    /// Print each episode of the service as it starts (what led up to a failure).
+    #[arg(long)]
+    trace: bool,
+    /// Write the figures (JSON).
+    #[arg(long, value_name = "FILE")]
+    json: Option<std::path::PathBuf>,
+}
+
+fn parse_defect(s: &str) -> Result<Defect, String> {
+    s.parse()
+}
+
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub(crate) enum SoakTarget {
+    InProc,
+    QemuFree,
+}
+
+fn parse_soak_target(s: &str) -> Result<SoakTarget, String> {
+    match s {
+        "inproc" => Ok(SoakTarget::InProc),
+        "qemu-free" => Ok(SoakTarget::QemuFree),
+        _ => Err(format!(
+            "unknown soak target `{s}` (expected inproc or qemu-free)"
+        )),
+    }
+}
+
+/// The soak's length in seconds, from `--hours` or `--minutes` (one of them; positive
+/// and at most a week).
+fn duration_s(a: &SoakArgs) -> Result<f64, Failure> {
+    let s = match (a.hours, a.minutes) {
+        (Some(h), None) => h * 3600.0,
+        (None, Some(m)) => m * 60.0,
+        _ => return Err(input("hil soak: give --hours H or --minutes M")),
+    };
+    if !(s.is_finite() && s > 0.0 && s <= 7.0 * 86_400.0) {
+        return Err(input(
+            "hil soak: the length must be positive and at most a week (168 h)",
+        ));
+    }
+    Ok(s)
+}
+
+pub(crate) fn cmd_soak(a: &SoakArgs) -> Result<Verdict, Failure> {
+    let secs = duration_s(a)?;
+    match a.target {
+        SoakTarget::QemuFree if a.defect != Defect::None => Err(input(
+            "hil soak: --defect is the in-process device's (--target inproc)",
+        )),
+        SoakTarget::QemuFree => {
+            let minutes = (secs / 60.0).ceil() as u32;
+            let r = soak_qemu(minutes).map_err(run_error)?;
+            say!("{}", r.summary().trim_end());
+            Ok(if r.clean() {
+                Verdict::Pass
+            } else {
+                Verdict::Fail
+            })
+        }
+        SoakTarget::InProc => {
+            let r = soak(SoakOptions {
+                duration_ns: (secs * 1e9).round() as u64,
+                seed: a.seed,
+                defect: a.defect,
+                progress: std::io::stderr().is_terminal() || secs >= 3_600.0,
+                trace: a.trace,
+                service: ServiceOptions {
+                    low_adhesion: a.low_adhesion,
+                    demand_steps: a.demand_steps,
+                    gain_law: a.gain_law,
+                },
+            })
+            .map_err(input)?;
+            if let Some(p) = &a.json {
+                let text = serde_json::to_string_pretty(&r).map_err(|e| input(e.to_string()))?;
+                std::fs::write(p, text).map_err(|e| input(format!("{}: {e}", p.display())))?;
+            }
+            say!("{}", r.summary().trim_end());
+            Ok(if r.failure.is_none() {
+                Verdict::Pass
+            } else {
+                Verdict::Fail
+            })
+        }
+    }
+}

@@ -1,0 +1,1185 @@
+//! The in-process soak: one `Runtime<Fx>` (the production build's fixed-point runtime),
+//! never re-created, over the soak's line ([`super::line`]) for hours of simulated
+//! service ([`super::service`]), streamed: the state is the plant's, the device's and a
+//! handful of running counts, whatever the length.
+//!
+//! Every period `T` (the device's own rate, which Configs change): at `t_k` the plant's
+//! measurements go up in a Sensor frame (then a Config or a Command when the service has
+//! one), the device ticks, its frames come down, and the latest valid Actuation acts on
+//! the plant from `t_k + T` (the exchange of `wheelset_loop::exchange`). The plant is
+//! the flexible axle with the traction drive (`curve`'s), RK4 at [`STEP_NS`].
+//!
+//! Checked at every tick, on the device's own output (the frames before the line):
+//! outputs within their limits (zero yaw torque once the safe ramp has run out); the
+//! flags the harness's own account predicts (`HOLDING` exactly on the ticks without a
+//! valid Sensor frame, `SAFE` after more than `hold_ticks` of them until the next, no
+//! `NO_SAMPLE` once one came, `ENABLED`, never `CMD_REFUSED`; the echo of the latest
+//! valid `seq`; the tick count); alarms (`HUNTING`, `ACTUATOR_FAULT`) only while an
+//! actuator fault is on or within [`ALARM_GRACE_NS`] of its repair, or in a safe state
+//! (zero yaw torque) or within [`ALARM_GRACE_NS`] of its end, every actuator
+//! fault alarmed within [`ALARM_DEADLINE_NS`], never `DRIVE_OSC`; `FAULT_LATCHED` from
+//! an alarm until a ClearFaults arrives. On a line without faults every frame arrives
+//! valid. At every Status the host receives: every frame accounted for both ways, the
+//! device's counters against the harness's counts (valid frames and rejects by kind,
+//! ticks and frames sent, held and safe ticks, safe entries and exits, `seq` gaps,
+//! alarms, no refusal, the first alarm's tick), all modulo 2^32 from a start near the
+//! wrap. The plant must stay on the rails (`|y|` under [`Y_MAX_M`]); the peak RSS after
+//! the first simulated hour (a quarter of a shorter run) and at the end must agree
+//! within [`RSS_GROWTH_MAX_KIB`]. The first failure stops the run, named with its
+//! simulated time and the seed.
+
+use std::fmt;
+use std::time::Instant;
+
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64;
+use wheelset_control::Fx;
+use wheelset_plant::adhesion::{Adhesion, Condition};
+use wheelset_plant::params::Params;
+use wheelset_plant::plant::{ix, Fixed, Inputs, Plant, PlantConfig, State};
+use wheelset_plant::scenario::{Axle, Scenario};
+use wheelset_plant::sim::rk4_step;
+use wheelset_proto::units::{TORQUE_LSB_NM, VOLTAGE_LSB_V};
+use wheelset_proto::{
+    encode_sensor, encode_vec, Actuation, Command, Config, Decoder, Flags, FrameError,
+    LateralSensing, Message, Sensor, SensorSi, Status, SENSOR_FRAME_CAP,
+};
+use wheelset_runtime::{Runtime, TX_CAPACITY};
+
+use super::line::{Fate, Line, LineCounts, LineFaults};
+use super::service::{next_episode, Demand, Episode, ServiceOptions, Track};
+use crate::run::{device_config, runtime_config_for, Law};
+
+/// The plant's integration step, ns: the built-in scenarios' (`sim.dt_s = 1e-4`), a
+/// whole number of steps in every period the soak moves between (1, 0.5, 0.4, 0.2 ms).
+pub const STEP_NS: u64 = 100_000;
+/// The line rate, baud (`wheelset_loop::sim_link::DEFAULT_BAUD`).
+pub const BAUD: u32 = wheelset_loop::sim_link::DEFAULT_BAUD;
+/// The device's tick after the sample instant, ns: the worst-case Sensor frame's wire
+/// time plus the link latency (`wheelset_loop::inproc`'s tick phase).
+pub const PHASE_NS: u64 = 45 * 2_000 + wheelset_loop::sim_link::DEFAULT_LATENCY_NS;
+/// An actuator fault must be alarmed within this, ns: the failed wheelset's kinematic
+/// mode grows at 19 1/s at the default conicity 0.2 (`docs/monitor.md`), from the
+/// monitor's noise floor to its 30 mm/s threshold in under 1 s; 3 s is the bound.
+pub const ALARM_DEADLINE_NS: u64 = 3_000_000_000;
+/// Alarms stay expected this long after the actuator's repair or the end of a safe state
+/// (whose zero yaw torque leaves the wheelset's kinematic mode free to grow), ns (the
+/// monitor's mean square decays with tau = 0.6 s).
+pub const ALARM_GRACE_NS: u64 = 5_000_000_000;
+/// The plant has left the rails: `|y|` above this, m.
+pub const Y_MAX_M: f64 = 0.02;
+/// Growth of the peak RSS allowed between the first checkpoint and the end, KiB.
+pub const RSS_GROWTH_MAX_KIB: u64 = 8 * 1024;
+/// The device's tick count (and its count of valid frames) starts this far below its
+/// wrap: crossed after 20 min at 5 kHz, 100 min at 1 kHz (the same start whatever the
+/// run's length: the Status frame's length depends on the counts, and with it where the
+/// line's faults fall, so a replay must start where the run did).
+pub const START_TICKS_BEFORE_WRAP: u32 = 6_000_000;
+/// The speed the service holds, m/s (the paper's 83.3 m/s): the running resistance
+/// balances the demand plus `m_long (v - V0) / 30 s`.
+const SPEED_HOLD_S: f64 = 30.0;
+
+/// A deliberately broken device, to show the soak catches and replays it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Defect {
+    /// A correct device.
+    #[default]
+    None,
+    /// Every `every`-th frame the device sends has one bit flipped (a broken UART).
+    Corrupt {
+        /// Period of the corruption, frames (>= 1).
+        every: u64,
+    },
+}
+
+impl fmt::Display for Defect {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::None => f.write_str("none"),
+            Self::Corrupt { every } => write!(f, "corrupt:{every}"),
+        }
+    }
+}
+
+impl std::str::FromStr for Defect {
+    type Err = String;
+
+    /// `none` or `corrupt:EVERY` (a whole number of frames, >= 1).
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.split_once(':') {
+            None if s == "none" => Ok(Self::None),
+            Some(("corrupt", n)) => match n.parse::<u64>() {
+                Ok(every) if every > 0 => Ok(Self::Corrupt { every }),
+                _ => Err(format!(
+                    "corrupt:{n}: EVERY must be a whole number of frames >= 1"
+                )),
+            },
+            _ => Err(format!("unknown defect `{s}` (known: none, corrupt:EVERY)")),
+        }
+    }
+}
+
+/// How the soak runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SoakOptions {
+    /// Simulated service, ns.
+    pub duration_ns: u64,
+    /// Seed of every random choice.
+    pub seed: u64,
+    /// A deliberately broken device.
+    pub defect: Defect,
+    /// Print a line per simulated hour on stderr.
+    pub progress: bool,
+    /// Print each episode of the service as it starts, and the actuator's repairs, on
+    /// stderr (what led up to a failure).
+    pub trace: bool,
+    /// What the service may do beyond its default day.
+    pub service: ServiceOptions,
+}
+
+/// What broke, when, with which seed.
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]
+pub struct SoakFailure {
+    /// Simulated time, ns.
+    pub t_ns: u64,
+    /// The run's seed.
+    pub seed: u64,
+    /// What broke.
+    pub what: String,
+    /// The run's options beyond the seed and length, as `hil soak` flags (for the replay).
+    pub flags: String,
+}
+
+impl fmt::Display for SoakFailure {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "at {} (t = {:.4} s), seed {}: {}",
+            hms(self.t_ns),
+            self.t_ns as f64 * 1e-9,
+            self.seed,
+            self.what
+        )
+    }
+}
+
+impl SoakFailure {
+    /// The command that replays the run up to just past the failure.
+    #[must_use]
+    pub fn replay(&self) -> String {
+        let minutes = (self.t_ns / 60_000_000_000) + 1;
+        format!(
+            "hil soak --seed {} --minutes {minutes}{}",
+            self.seed, self.flags
+        )
+    }
+}
+
+/// `H:MM:SS.ssssss` of `t_ns`.
+fn hms(t_ns: u64) -> String {
+    let s = t_ns / 1_000_000_000;
+    let us = (t_ns % 1_000_000_000) / 1_000;
+    format!("{}:{:02}:{:02}.{us:06}", s / 3600, (s / 60) % 60, s % 60)
+}
+
+/// The figures of a soak.
+#[derive(Debug, Clone, Default, serde::Serialize)]
+pub struct SoakReport {
+    /// The seed.
+    pub seed: u64,
+    /// Simulated service, s.
+    pub simulated_s: f64,
+    /// Device ticks (= control periods) run.
+    pub ticks: u64,
+    /// Host -> device frames.
+    pub up: LineCounts,
+    /// Device -> host frames.
+    pub down: LineCounts,
+    /// Status frames the host received and checked.
+    pub statuses_checked: u64,
+    /// Status frames requested that the line lost (either way).
+    pub statuses_lost: u64,
+    /// Link fault episodes: bit errors, drops, outages, bursts.
+    pub link_episodes: [u64; 4],
+    /// Adhesion patches.
+    pub adhesion_patches: u64,
+    /// Actuator faults (each alarmed, repaired and cleared).
+    pub actuator_faults: u64,
+    /// Alarms the device raised (rising edges: hunting, actuator, drive).
+    pub alarms: [u64; 3],
+    /// Configs applied, and how many changed the rate.
+    pub configs: u64,
+    /// Of them, rate changes.
+    pub rate_changes: u64,
+    /// Safe-state entries.
+    pub safe_entries: u64,
+    /// Ticks held on the last sample.
+    pub held_ticks: u64,
+    /// When the device's 32-bit tick counter wrapped, s.
+    pub tick_wrap_s: Option<f64>,
+    /// Peak RSS at the first checkpoint, KiB, and when, s.
+    pub rss_first_kib: u64,
+    /// When the first RSS figure was taken, s.
+    pub rss_first_s: f64,
+    /// Peak RSS at the end, KiB.
+    pub rss_end_kib: u64,
+    /// Wall time, s.
+    pub wall_s: f64,
+    /// CPU time of the process, s.
+    pub cpu_s: f64,
+    /// The first failure (none: clean).
+    pub failure: Option<SoakFailure>,
+}
+
+impl SoakReport {
+    /// The summary `hil soak` prints.
+    #[must_use]
+    pub fn summary(&self) -> String {
+        use std::fmt::Write as _;
+        let mut s = String::new();
+        let speed = self.simulated_s / self.wall_s.max(1e-9);
+        let _ = writeln!(
+            s,
+            "hil soak: seed {}, {} simulated ({} ticks)",
+            self.seed,
+            hms((self.simulated_s * 1e9) as u64),
+            self.ticks,
+        );
+        let _ = writeln!(
+            s,
+            "  time: {:.1} s wall, {:.1} s CPU ({:.0}x real time)",
+            self.wall_s, self.cpu_s, speed
+        );
+        for (name, c) in [("host -> device", &self.up), ("device -> host", &self.down)] {
+            let _ = writeln!(
+                s,
+                "  {name}: sent {} = received {} + rejected {} + dropped {} + in flight {} ({}); {} touched by the line",
+                c.sent,
+                c.received,
+                c.rejected,
+                c.dropped,
+                c.in_flight,
+                if c.adds_up() { "adds up" } else { "DOES NOT ADD UP" },
+                c.touched
+            );
+        }
+        let [ber, drop, outage, burst] = self.link_episodes;
+        let _ = writeln!(
+            s,
+            "  service: link faults {} (bit errors {ber}, drops {drop}, outages {outage}, bursts {burst}), adhesion patches {}, actuator faults {}, Configs {} ({} rate changes)",
+            ber + drop + outage + burst,
+            self.adhesion_patches,
+            self.actuator_faults,
+            self.configs,
+            self.rate_changes
+        );
+        let [h, a, d] = self.alarms;
+        let _ = writeln!(
+            s,
+            "  device: alarms {} (hunting {h}, actuator {a}, drive {d}), every one expected; safe entries {}, held ticks {}; {}",
+            h + a + d,
+            self.safe_entries,
+            self.held_ticks,
+            self.tick_wrap_s.map_or("its tick counter has not wrapped yet".into(), |t| {
+                format!("its tick counter wrapped at {t:.1} s")
+            }),
+        );
+        let _ = writeln!(
+            s,
+            "  Status frames checked {}, lost on the line {}",
+            self.statuses_checked, self.statuses_lost,
+        );
+        let _ = writeln!(
+            s,
+            "  memory: peak RSS {} KiB at {:.0} s, {} KiB at the end",
+            self.rss_first_kib, self.rss_first_s, self.rss_end_kib
+        );
+        match &self.failure {
+            None => {
+                let _ = writeln!(s, "soak: clean");
+            }
+            Some(f) => {
+                let _ = writeln!(s, "soak FAILED {f}");
+                let _ = writeln!(s, "replay: {}", f.replay());
+            }
+        }
+        s
+    }
+}
+
+/// The actuator-fault episode's state.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum ActState {
+    /// Working; no fault since the grace ran out.
+    Idle,
+    /// Delivering nothing since `t_ns`; the alarm is due.
+    Failed(u64),
+    /// Repaired at `t_ns` (the host saw the alarm).
+    Repaired(u64),
+}
+
+/// The harness's own account of what the device must be doing.
+#[derive(Debug, Clone, Copy, Default)]
+struct Account {
+    sampled: bool,
+    missing: u32,
+    safe: bool,
+    safe_since_ns: u64,
+    safe_exit_ns: u64,
+    hold_ticks: u16,
+    last_seq: u16,
+    latched: bool,
+    rate_hz: u32,
+    ticks: u64,
+    statuses: u64,
+    held: u64,
+    safe_ticks: u64,
+    safe_entries: u64,
+    safe_exits: u64,
+    seq_gaps: u64,
+    alarm_flags: u16,
+    rises: [u64; 3],
+    first_alarm_tick: Option<u32>,
+}
+
+/// The soak's state.
+struct Soak {
+    opts: SoakOptions,
+    rt: Runtime<Fx>,
+    start: Status,
+    up: Line,
+    down: Line,
+    dev_dec: Decoder,
+    host_dec: Decoder,
+    plant: Plant,
+    params: Params,
+    x: State,
+    v0: f64,
+    held: (f64, f64),
+    gain: f64,
+    track: Track,
+    demand: Demand,
+    rng_track: Pcg64,
+    rng_service: Pcg64,
+    next: (u64, Episode),
+    episode_end: Option<u64>,
+    act: ActState,
+    act_alarm_seen: bool,
+    config_pending: Option<(Config, u32)>,
+    configs: [Option<Config>; 8],
+    status_next_ns: u64,
+    status_pending: bool,
+    clear_next_ns: u64,
+    acc: Account,
+    torque_max: i32,
+    voltage: (i32, i32),
+    safe_ramp_ns: u64,
+    t_ns: u64,
+    period_ns: u64,
+    seq: u16,
+    frames_out: u64,
+    rss_at_ns: u64,
+    report: SoakReport,
+    failure: Option<SoakFailure>,
+}
+
+/// The Config index of a design point: rate and law.
+fn config_slot(rate_hz: u32, lead: bool) -> usize {
+    let r = match rate_hz {
+        1_000 => 0,
+        2_000 => 1,
+        2_500 => 2,
+        _ => 3,
+    };
+    2 * r + usize::from(lead)
+}
+
+/// The peak resident set of this process, KiB (`VmHWM`; 0 where unknown).
+#[must_use]
+pub fn peak_rss_kib() -> u64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find_map(|l| l.strip_prefix("VmHWM:"))
+                .and_then(|v| v.trim().trim_end_matches("kB").trim().parse().ok())
+        })
+        .unwrap_or(0)
+}
+
+/// CPU time this process's main thread has run, s (`/proc/self/schedstat`; 0 where
+/// unknown).
+#[must_use]
+pub fn cpu_s() -> f64 {
+    std::fs::read_to_string("/proc/self/schedstat")
+        .ok()
+        .and_then(|s| s.split_whitespace().next()?.parse::<u64>().ok())
+        .map_or(0.0, |ns| ns as f64 * 1e-9)
+}
+
+impl Soak {
+    fn new(opts: SoakOptions) -> Result<Self, String> {
+        let sc = Scenario::load("curve", &Params::default()).map_err(|e| e.to_string())?;
+        let base = runtime_config_for(&sc, Law::Lead);
+        let mut rt = Runtime::<Fx>::try_new(base).map_err(|e| e.to_string())?;
+        // Every design point the service moves between, computed once (the host's side
+        // of a rate change: `wheelset_runtime::rates_for`).
+        let mut configs = [None; 8];
+        for &hz in &super::service::RATES_HZ {
+            for lead in [false, true] {
+                let mut r = base.designed(hz, 1).map_err(|e| e.to_string())?;
+                r.control.yaw_mode = if lead {
+                    wheelset_control::YawMode::Lead
+                } else {
+                    wheelset_control::YawMode::Gain
+                };
+                let cfg = device_config(&r, true, false).map_err(|e| e.to_string())?;
+                configs[config_slot(hz, lead)] = Some(cfg);
+            }
+        }
+        // The device's start: the run's Config (the protection on, alarms reported), and
+        // every 32-bit counter near its wrap: the tick and frame counts wrap halfway
+        // through the run, the others within a few hundred events; the host's `seq`
+        // wraps within 100 periods.
+        let boot = wheelset_loop::device_loop::run_config(&base, true, false);
+        let frame = encode_vec(&Message::Config(boot)).map_err(|e| format!("{e:?}"))?;
+        rt.receive(&frame);
+        if rt.counters().cmd_refused != 0 {
+            return Err(format!(
+                "the device refused the run's Config: {:?}",
+                rt.refuse_reason()
+            ));
+        }
+        let mut rng_service = Pcg64::seed_from_u64(opts.seed ^ 0x50a4_0001);
+        let near = |r: &mut Pcg64| u32::MAX - r.random_range(0..300u32);
+        let start = Status {
+            ticks: u32::MAX - START_TICKS_BEFORE_WRAP,
+            rx_ok: u32::MAX - START_TICKS_BEFORE_WRAP,
+            rx_crc: near(&mut rng_service),
+            rx_cobs: near(&mut rng_service),
+            rx_version: near(&mut rng_service),
+            rx_length: near(&mut rng_service),
+            rx_postcard: near(&mut rng_service),
+            rx_unexpected: near(&mut rng_service),
+            seq_gaps: near(&mut rng_service),
+            held_ticks: near(&mut rng_service),
+            safe_ticks: near(&mut rng_service),
+            safe_entries: near(&mut rng_service),
+            safe_exits: near(&mut rng_service),
+            yaw_sat: near(&mut rng_service),
+            traction_sat: near(&mut rng_service),
+            input_clamped: near(&mut rng_service),
+            cmd_refused: near(&mut rng_service),
+            wsp_ticks: near(&mut rng_service),
+            wsp_events: near(&mut rng_service),
+            hunt_alarms: near(&mut rng_service),
+            act_alarms: near(&mut rng_service),
+            drive_alarms: near(&mut rng_service),
+            ..Status::default()
+        };
+        rt.preset_counters(&start);
+        let start = *rt.counters();
+        let params = sc.params;
+        let plant = Plant::new(
+            &params,
+            PlantConfig {
+                axle: Axle::Flexible,
+                drive: true,
+                yaw_spring: false,
+            },
+        );
+        let x = plant.rolling_state(params.v);
+        let lim = base.control.limits;
+        let next = next_episode(&mut rng_service, 0, opts.service);
+        let rss_at_ns = (opts.duration_ns / 4).min(3_600_000_000_000);
+        Ok(Self {
+            up: Line::new(Pcg64::seed_from_u64(opts.seed ^ 0x50a4_0002), BAUD),
+            down: Line::new(Pcg64::seed_from_u64(opts.seed ^ 0x50a4_0003), BAUD),
+            dev_dec: Decoder::new(),
+            host_dec: Decoder::new(),
+            held: (0.0, plant.back_emf(&x)),
+            plant,
+            v0: params.v,
+            params,
+            x,
+            gain: 1.0,
+            track: Track::new(),
+            demand: Demand::new(opts.service.demand_steps),
+            rng_track: Pcg64::seed_from_u64(opts.seed ^ 0x50a4_0004),
+            rng_service,
+            next,
+            episode_end: None,
+            act: ActState::Idle,
+            act_alarm_seen: false,
+            config_pending: None,
+            configs,
+            status_next_ns: 2_000_000_000,
+            status_pending: false,
+            clear_next_ns: 0,
+            acc: Account {
+                hold_ticks: boot.hold_ticks,
+                rate_hz: rt.base_rate_hz(),
+                ..Account::default()
+            },
+            torque_max: (lim.torque / TORQUE_LSB_NM).round() as i32,
+            voltage: (
+                (lim.voltage_min / VOLTAGE_LSB_V).round() as i32,
+                (lim.voltage_max / VOLTAGE_LSB_V).round() as i32,
+            ),
+            safe_ramp_ns: (base.control.safe.yaw_s * 1e9) as u64,
+            period_ns: 1_000_000_000 / u64::from(rt.base_rate_hz()),
+            rt,
+            start,
+            t_ns: 0,
+            seq: u16::MAX - 99,
+            frames_out: 0,
+            rss_at_ns,
+            report: SoakReport {
+                seed: opts.seed,
+                ..SoakReport::default()
+            },
+            failure: None,
+            opts,
+        })
+    }
+
+    fn fail(&mut self, what: String) {
+        if self.failure.is_none() {
+            let x = &self.x;
+            let o = &self.opts;
+            let mut flags = String::new();
+            for (on, flag) in [
+                (o.service.low_adhesion, " --low-adhesion"),
+                (o.service.demand_steps, " --demand-steps"),
+                (o.service.gain_law, " --gain-law"),
+            ] {
+                if on {
+                    flags.push_str(flag);
+                }
+            }
+            if o.defect != Defect::None {
+                flags.push_str(&format!(" --defect {}", o.defect));
+            }
+            self.failure = Some(SoakFailure {
+                flags,
+                t_ns: self.t_ns,
+                seed: self.opts.seed,
+                what: format!(
+                    "{what} [at {} Hz; plant: y {:.3} mm, y' {:.1} mm/s, psi {:.3} mrad, v {:.2} m/s]",
+                    self.acc.rate_hz,
+                    x[ix::Y] * 1e3,
+                    x[ix::YD] * 1e3,
+                    x[ix::PSI] * 1e3,
+                    x[ix::V]
+                ),
+            });
+        }
+    }
+
+    /// Runs to the end or the first failure.
+    fn run(&mut self) {
+        let t0 = Instant::now();
+        let mut next_hour = 3_600_000_000_000u64;
+        while self.t_ns < self.opts.duration_ns && self.failure.is_none() {
+            self.period();
+            if self.report.rss_first_kib == 0 && self.t_ns >= self.rss_at_ns {
+                self.report.rss_first_kib = peak_rss_kib();
+                self.report.rss_first_s = self.t_ns as f64 * 1e-9;
+            }
+            if self.opts.progress && self.t_ns >= next_hour {
+                next_hour += 3_600_000_000_000;
+                eprintln!(
+                    "hil soak: {} simulated, {:.1} s wall, {} ticks, peak RSS {} KiB",
+                    hms(self.t_ns),
+                    t0.elapsed().as_secs_f64(),
+                    self.acc.ticks,
+                    peak_rss_kib()
+                );
+            }
+        }
+    }
+
+    /// The service's episodes at `t`: the one due starts, the one running ends.
+    fn service(&mut self, t: u64) {
+        if let Some(end) = self.episode_end {
+            if t >= end {
+                self.episode_end = None;
+                self.up.set_faults(LineFaults::default(), t);
+                self.down.set_faults(LineFaults::default(), t);
+                self.plant.adhesion = None;
+                self.next = next_episode(&mut self.rng_service, t, self.opts.service);
+            }
+            return;
+        }
+        if self.act != ActState::Idle || self.config_pending.is_some() || t < self.next.0 {
+            return;
+        }
+        if self.opts.trace {
+            eprintln!("{} {:?}", hms(t), self.next.1);
+        }
+        match self.next.1 {
+            Episode::Link {
+                faults,
+                len_ns,
+                kind,
+            } => {
+                self.report.link_episodes[kind] += 1;
+                self.up.set_faults(faults, t);
+                self.down.set_faults(faults, t);
+                self.episode_end = Some(t + len_ns);
+            }
+            Episode::Adhesion { low, len_ns } => {
+                self.report.adhesion_patches += 1;
+                let c = if low { Condition::Low } else { Condition::Wet };
+                self.plant.adhesion = Some(Adhesion::new(c, self.params.q()));
+                self.episode_end = Some(t + len_ns);
+            }
+            Episode::Actuator => {
+                self.report.actuator_faults += 1;
+                self.act = ActState::Failed(t);
+                self.act_alarm_seen = false;
+                self.gain = 0.0;
+            }
+            Episode::Config { rate_hz, lead } => {
+                if let Some(cfg) = self.configs[config_slot(rate_hz, lead)] {
+                    self.config_pending = Some((cfg, rate_hz));
+                }
+            }
+        }
+        if matches!(self.next.1, Episode::Actuator | Episode::Config { .. }) {
+            // Drawn again when it ends (`after_tick`).
+            self.next.0 = u64::MAX;
+        }
+    }
+
+    /// One period: exchange, checks, plant.
+    fn period(&mut self) {
+        let t = self.t_ns;
+        self.service(t);
+        let (curvature, cant) = self.track.at(&mut self.rng_track, t);
+        let demand = self.demand.at(&mut self.rng_track, t);
+        let x = self.x;
+        // Up: the Sensor frame, then a Config or Commands.
+        self.seq = self.seq.wrapping_add(1);
+        let si = SensorSi {
+            y_dot: x[ix::YD],
+            y_ddot: 0.0,
+            i_a: x[ix::IA],
+            w_m: x[ix::WM],
+            demand_nm: demand,
+            v_ref: x[ix::V],
+        };
+        let s: Sensor = Sensor::from_si(self.seq, t, &si, LateralSensing::Velocity).msg;
+        let mut sbuf = [0u8; SENSOR_FRAME_CAP];
+        let n = encode_sensor(&s, &mut sbuf);
+        let fresh = self.send_up(t, sbuf.get(..n).unwrap_or(&[])) == Fate::Valid;
+        let mut at = t + n as u64 * 2_000;
+        let mut config_applied = None;
+        if let Some((cfg, hz)) = self.config_pending {
+            if let Ok(f) = encode_vec(&Message::Config(cfg)) {
+                if self.send_up(at, &f) == Fate::Valid {
+                    config_applied = Some((cfg, hz));
+                }
+                at += f.len() as u64 * 2_000;
+            }
+        }
+        let mut status_requested = false;
+        if t >= self.status_next_ns {
+            self.status_next_ns = t + (self.rng_service.random_range(2.0..6.0) * 1e9) as u64;
+            if self.status_pending {
+                self.report.statuses_lost += 1;
+            }
+            self.status_pending = true;
+            status_requested = self.command(&mut at, Command::RequestStatus);
+        }
+        let mut cleared = false;
+        if self.acc.latched && t >= self.clear_next_ns && !matches!(self.act, ActState::Failed(_)) {
+            // The host clears a latched fault once the actuator works (at most every
+            // 10 ms: its view of the latch comes with the Actuation frames).
+            self.clear_next_ns = t + 10_000_000;
+            cleared = self.command(&mut at, Command::ClearFaults);
+        }
+        // The device's tick.
+        let tick_at = t + PHASE_NS;
+        let mut out = [0u8; TX_CAPACITY];
+        let n = {
+            let o = self.rt.tick(0);
+            let n = o.len().min(out.len());
+            out[..n].copy_from_slice(&o[..n]);
+            n
+        };
+        let out = &mut out[..n];
+        self.after_tick(t, fresh, config_applied, status_requested, cleared, out);
+        // Down: each frame, the host's decoder.
+        let mut fresh_act: Option<Actuation> = None;
+        let mut status: Option<Status> = None;
+        let mut at = tick_at;
+        let mut rest: &mut [u8] = out;
+        while !rest.is_empty() {
+            let len = rest
+                .iter()
+                .position(|&b| b == 0)
+                .map_or(rest.len(), |i| i + 1);
+            let (frame, more) = rest.split_at_mut(len);
+            rest = more;
+            self.frames_out += 1;
+            if let Defect::Corrupt { every } = self.opts.defect {
+                if self.frames_out.is_multiple_of(every) && frame.len() > 3 {
+                    frame[2] ^= 0x10;
+                }
+            }
+            let clean = !self.down.faults().any() && !self.down.open();
+            let dec = &mut self.host_dec;
+            let fate = self.down.carry(at, frame, |piece| {
+                let (r, _) = dec.next_message(piece);
+                match r {
+                    Some(Ok(Message::Actuation(a))) => fresh_act = Some(a),
+                    Some(Ok(Message::Status(s))) => status = Some(s),
+                    _ => {}
+                }
+                r.map(|r| r.map(|_| ()))
+            });
+            if clean && fate != Fate::Valid {
+                self.fail(format!(
+                    "device -> host: a frame {fate:?} on a line without faults (the device sent it broken)"
+                ));
+            }
+            at += len as u64 * 2_000;
+        }
+        if let Some(s) = status {
+            self.status_pending = false;
+            self.check_status(&s);
+        }
+        if let Some(a) = fresh_act {
+            self.host_sees(t, &a);
+        }
+        // The plant over the period under the actuation in force, then the new one.
+        self.integrate(curvature, cant, demand);
+        if let Some(a) = fresh_act {
+            self.held = (
+                f64::from(a.t_psi_dnm) * TORQUE_LSB_NM,
+                f64::from(a.u_a_cv) * VOLTAGE_LSB_V,
+            );
+        }
+        self.t_ns = t + self.period_ns;
+        // The device's ticker at its rate from now on.
+        let hz = self.rt.base_rate_hz();
+        if hz != self.acc.rate_hz {
+            self.fail(format!(
+                "the device ticks at {hz} Hz, the harness's account says {} Hz",
+                self.acc.rate_hz
+            ));
+        }
+        self.period_ns = 1_000_000_000 / u64::from(hz.max(1));
+    }
+
+    /// A Command after the Sensor frame; whether the device received it valid.
+    fn command(&mut self, at: &mut u64, c: Command) -> bool {
+        let Ok(f) = encode_vec(&Message::Command(c)) else {
+            return false;
+        };
+        let fate = self.send_up(*at, &f);
+        *at += f.len() as u64 * 2_000;
+        fate == Fate::Valid
+    }
+
+    /// One frame up through the line into the runtime, its fate attributed from the
+    /// runtime's own counters (`wheelset_loop::inproc`'s rule).
+    fn send_up(&mut self, t: u64, frame: &[u8]) -> Fate {
+        let clean = !self.up.faults().any() && !self.up.open();
+        let rt = &mut self.rt;
+        let fate = self.up.carry(t, frame, |piece| {
+            let before = rx_counts(rt.counters());
+            rt.receive(piece);
+            let after = rx_counts(rt.counters());
+            if after[0] != before[0] {
+                return Some(Ok(()));
+            }
+            const KINDS: [FrameError; 5] = [
+                FrameError::Crc,
+                FrameError::Cobs,
+                FrameError::Version,
+                FrameError::Length,
+                FrameError::Postcard,
+            ];
+            (1..6)
+                .find(|&k| after[k] != before[k])
+                .and_then(|k| KINDS.get(k - 1).copied())
+                .map(Err)
+        });
+        if clean && fate != Fate::Valid {
+            self.fail(format!(
+                "host -> device: a frame {fate:?} on a line without faults"
+            ));
+        }
+        fate
+    }
+
+    /// The tick's checks against the account, on the device's own output.
+    fn after_tick(
+        &mut self,
+        t: u64,
+        fresh: bool,
+        config: Option<(Config, u32)>,
+        status_requested: bool,
+        cleared: bool,
+        out: &[u8],
+    ) {
+        let acc = &mut self.acc;
+        acc.ticks += 1;
+        if let Some((cfg, hz)) = config {
+            acc.hold_ticks = cfg.hold_ticks;
+            self.report.configs += 1;
+            if hz != acc.rate_hz {
+                self.report.rate_changes += 1;
+            }
+            acc.rate_hz = hz;
+            self.config_pending = None;
+            self.next = next_episode(&mut self.rng_service, t, self.opts.service);
+        }
+        if cleared {
+            acc.latched = false;
+        }
+        // The hold policy (`wheelset_runtime`'s fault policy, items 2 to 4).
+        let holding = acc.sampled && !fresh;
+        if fresh {
+            if acc.sampled && self.seq != acc.last_seq.wrapping_add(1) {
+                acc.seq_gaps += 1;
+            }
+            acc.sampled = true;
+            acc.missing = 0;
+            acc.last_seq = self.seq;
+        } else if acc.sampled {
+            acc.missing = acc.missing.saturating_add(1);
+        }
+        let safe = acc.sampled && acc.missing > u32::from(acc.hold_ticks);
+        if safe && !acc.safe {
+            acc.safe_entries += 1;
+            acc.safe_since_ns = t;
+        }
+        if !safe && acc.safe {
+            acc.safe_exits += 1;
+            acc.safe_exit_ns = t;
+        }
+        acc.safe = safe;
+        acc.held += u64::from(holding);
+        acc.safe_ticks += u64::from(safe);
+        if status_requested {
+            acc.statuses += 1;
+        }
+        // The device's frames as it sent them.
+        let mut a = None;
+        let mut st = false;
+        let mut rest = out;
+        while !rest.is_empty() {
+            let (r, more) = self.dev_dec.next_message(rest);
+            rest = more;
+            match r {
+                Some(Ok(Message::Actuation(x))) => a = Some(x),
+                Some(Ok(Message::Status(_))) => st = true,
+                Some(other) => {
+                    self.fail(format!(
+                        "the device sent {other:?} where an Actuation or Status belongs"
+                    ));
+                    return;
+                }
+                None => {}
+            }
+        }
+        let Some(a) = a else {
+            self.fail("the device's tick sent no Actuation frame".into());
+            return;
+        };
+        if st != status_requested {
+            self.fail(format!(
+                "a Status frame {} (requested: {status_requested})",
+                if st {
+                    "came unrequested"
+                } else {
+                    "did not come"
+                }
+            ));
+        }
+        let f = a.flags;
+        let acc = &mut self.acc;
+        let tick_count = self.start.ticks.wrapping_add(acc.ticks as u32);
+        if tick_count == 0 {
+            self.report.tick_wrap_s = Some(t as f64 * 1e-9);
+        }
+        let mut broke = Vec::new();
+        if a.tick != tick_count as u16 {
+            broke.push(format!("tick {} where the count is {tick_count}", a.tick));
+        }
+        let expect = [
+            (Flags::HOLDING, holding, "HOLDING"),
+            (Flags::SAFE, safe, "SAFE"),
+            (Flags::NO_SAMPLE, !acc.sampled, "NO_SAMPLE"),
+            (Flags::ENABLED, true, "ENABLED"),
+            (Flags::CMD_REFUSED, false, "CMD_REFUSED"),
+            (Flags::DRIVE_OSC, false, "DRIVE_OSC"),
+        ];
+        for (flag, want, name) in expect {
+            if f.has(flag) != want {
+                broke.push(format!("flag {name} is {} (policy: {want})", f.has(flag)));
+            }
+        }
+        if acc.sampled && a.seq_echo != acc.last_seq {
+            broke.push(format!(
+                "seq_echo {} where the latest valid Sensor frame was {}",
+                a.seq_echo, acc.last_seq
+            ));
+        }
+        if a.t_psi_dnm.abs() > self.torque_max
+            || a.u_a_cv < self.voltage.0
+            || a.u_a_cv > self.voltage.1
+        {
+            broke.push(format!(
+                "outputs out of their limits: T_psi {} x 0.1 N m, u_a {} x 10 mV",
+                a.t_psi_dnm, a.u_a_cv
+            ));
+        }
+        if safe
+            && t > acc.safe_since_ns + self.safe_ramp_ns + 2 * self.period_ns
+            && a.t_psi_dnm != 0
+        {
+            broke.push(format!(
+                "yaw torque {} x 0.1 N m after the safe ramp ran out",
+                a.t_psi_dnm
+            ));
+        }
+        // Alarms: rising edges counted; only where the account expects them.
+        let alarm_bits = f.0 & (Flags::HUNTING | Flags::ACTUATOR_FAULT | Flags::DRIVE_OSC);
+        let rose = alarm_bits & !acc.alarm_flags;
+        acc.alarm_flags = alarm_bits;
+        for (i, flag) in [Flags::HUNTING, Flags::ACTUATOR_FAULT, Flags::DRIVE_OSC]
+            .into_iter()
+            .enumerate()
+        {
+            if rose & flag != 0 {
+                acc.rises[i] += 1;
+                self.report.alarms[i] += 1;
+                acc.latched = true;
+                acc.first_alarm_tick.get_or_insert(tick_count.max(1));
+            }
+        }
+        // The safe state zeroes the yaw torque: the wheelset's kinematic mode grows
+        // meanwhile, as with a failed actuator, and the actuator check may see it.
+        let after_safe = safe || (acc.safe_exit_ns > 0 && t < acc.safe_exit_ns + ALARM_GRACE_NS);
+        let expected = after_safe
+            || match self.act {
+                ActState::Idle => false,
+                ActState::Failed(_) => true,
+                ActState::Repaired(at) => t < at + ALARM_GRACE_NS,
+            };
+        if rose != 0 && !expected {
+            broke.push(format!(
+                "an alarm nobody expected (flags {:#06x}; no actuator fault or safe state to explain it)",
+                f.0
+            ));
+        }
+        if f.has(Flags::FAULT_LATCHED) != acc.latched {
+            broke.push(format!(
+                "FAULT_LATCHED is {} (account: an alarm since the last ClearFaults: {})",
+                f.has(Flags::FAULT_LATCHED),
+                acc.latched
+            ));
+        }
+        match self.act {
+            ActState::Failed(since) if t > since + ALARM_DEADLINE_NS => broke.push(format!(
+                "no alarm {:.1} s after the actuator failed at {}",
+                (t - since) as f64 * 1e-9,
+                hms(since)
+            )),
+            ActState::Repaired(at) if t >= at + ALARM_GRACE_NS => {
+                self.act = ActState::Idle;
+                self.next = next_episode(&mut self.rng_service, t, self.opts.service);
+            }
+            _ => {}
+        }
+        if !broke.is_empty() {
+            self.fail(broke.join("; "));
+        }
+    }
+
+    /// What the host does on an Actuation frame: after an actuator fault, the alarm it
+    /// carries is the cue to repair the actuator.
+    fn host_sees(&mut self, t: u64, a: &Actuation) {
+        let alarm = a.flags.0 & (Flags::HUNTING | Flags::ACTUATOR_FAULT | Flags::FAULT_LATCHED);
+        if let ActState::Failed(_) = self.act {
+            if alarm != 0 {
+                if self.opts.trace {
+                    eprintln!(
+                        "{} the host sees the alarm (flags {:#06x}): actuator repaired",
+                        hms(t),
+                        a.flags.0
+                    );
+                }
+                self.act = ActState::Repaired(t);
+                self.gain = 1.0;
+            }
+        }
+    }
+
+    /// The device's Status against the account (all modulo 2^32 from its start).
+    fn check_status(&mut self, s: &Status) {
+        self.report.statuses_checked += 1;
+        let (st, acc, up, down) = (&self.start, &self.acc, &self.up.counts, &self.down.counts);
+        let d = |now: u32, then: u32| now.wrapping_sub(then);
+        let w = |n: u64| n as u32;
+        let mut broke = Vec::new();
+        let mut eq = |name: &str, device: u32, harness: u32| {
+            if device != harness {
+                broke.push(format!("{name}: device {device}, harness {harness}"));
+            }
+        };
+        eq(
+            "valid frames up",
+            d(s.rx_ok, st.rx_ok).wrapping_add(d(s.rx_unexpected, st.rx_unexpected)),
+            w(up.ok_events),
+        );
+        for (i, (now, then, name)) in [
+            (s.rx_crc, st.rx_crc, "CRC rejects"),
+            (s.rx_cobs, st.rx_cobs, "COBS rejects"),
+            (s.rx_version, st.rx_version, "version rejects"),
+            (s.rx_length, st.rx_length, "length rejects"),
+            (s.rx_postcard, st.rx_postcard, "postcard rejects"),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            eq(name, d(now, then), w(up.rejects[i]));
+        }
+        eq("ticks", d(s.ticks, st.ticks), w(acc.ticks));
+        eq(
+            "frames down (ticks + Status frames)",
+            d(s.ticks, st.ticks).wrapping_add(w(acc.statuses)),
+            w(down.sent),
+        );
+        eq("held ticks", d(s.held_ticks, st.held_ticks), w(acc.held));
+        eq(
+            "safe ticks",
+            d(s.safe_ticks, st.safe_ticks),
+            w(acc.safe_ticks),
+        );
+        eq(
+            "safe entries",
+            d(s.safe_entries, st.safe_entries),
+            w(acc.safe_entries),
+        );
+        eq(
+            "safe exits",
+            d(s.safe_exits, st.safe_exits),
+            w(acc.safe_exits),
+        );
+        eq("seq gaps", d(s.seq_gaps, st.seq_gaps), w(acc.seq_gaps));
+        eq(
+            "hunting alarms",
+            d(s.hunt_alarms, st.hunt_alarms),
+            w(acc.rises[0]),
+        );
+        eq(
+            "actuator alarms",
+            d(s.act_alarms, st.act_alarms),
+            w(acc.rises[1]),
+        );
+        eq(
+            "drive alarms",
+            d(s.drive_alarms, st.drive_alarms),
+            w(acc.rises[2]),
+        );
+        eq("refusals", d(s.cmd_refused, st.cmd_refused), 0);
+        eq(
+            "first alarm tick",
+            s.first_alarm_tick,
+            acc.first_alarm_tick.unwrap_or(0),
+        );
+        if !up.adds_up() || !down.adds_up() {
+            broke.push(format!("frames do not add up: up {up:?}, down {down:?}"));
+        }
+        if !broke.is_empty() {
+            self.fail(format!("Status: {}", broke.join("; ")));
+        }
+    }
+
+    /// The plant over one period under the held actuation (the actuator delivering
+    /// `gain` of its torque).
+    fn integrate(&mut self, curvature: f64, cant: f64, demand: f64) {
+        let h = STEP_NS as f64 * 1e-9;
+        let m_long = self.params.m + self.params.m_v / 2.0;
+        let plant = self.plant;
+        let mut x = self.x;
+        for _ in 0..self.period_ns / STEP_NS {
+            let u = Inputs {
+                t_psi: self.gain * self.held.0,
+                u_a: self.held.1,
+                curvature,
+                cant,
+                f_run: demand / self.params.r0 + m_long * (x[ix::V] - self.v0) / SPEED_HOLD_S,
+                t_drive: 0.0,
+            };
+            x = rk4_step(&x, h, |_, x| {
+                plant.rhs_with(Fixed::<true, true, false>, x, &u).0
+            });
+        }
+        self.x = x;
+        if !(x.iter().all(|v| v.is_finite()) && x[ix::Y].abs() < Y_MAX_M) {
+            self.fail(format!(
+                "the plant left the rails: y = {:.4} m, psi = {:.4} rad",
+                x[ix::Y],
+                x[ix::PSI]
+            ));
+        }
+    }
+}
+
+/// The runtime's receive counters: valid (`rx_ok + rx_unexpected`), then the rejects
+/// by kind.
+fn rx_counts(s: &Status) -> [u32; 6] {
+    [
+        s.rx_ok.wrapping_add(s.rx_unexpected),
+        s.rx_crc,
+        s.rx_cobs,
+        s.rx_version,
+        s.rx_length,
+        s.rx_postcard,
+    ]
+}
+
+/// Runs the soak; a panic in the device or the harness is a failure at the time it
+/// happened. Errors: the set-up (scenario, configurations).
+pub fn soak(opts: SoakOptions) -> Result<SoakReport, String> {
+    let wall = Instant::now();
+    let cpu0 = cpu_s();
+    let mut s = Soak::new(opts)?;
+    let ran = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| s.run()));
+    if let Err(p) = ran {
+        let msg = p
+            .downcast_ref::<&str>()
+            .map(|m| (*m).to_string())
+            .or_else(|| p.downcast_ref::<String>().cloned())
+            .unwrap_or_default();
+        s.fail(format!("panic: {msg}"));
+    }
+    let mut r = std::mem::take(&mut s.report);
+    r.simulated_s = s.t_ns as f64 * 1e-9;
+    r.ticks = s.acc.ticks;
+    r.up = s.up.counts;
+    r.down = s.down.counts;
+    r.safe_entries = s.acc.safe_entries;
+    r.held_ticks = s.acc.held;
+    r.rss_end_kib = peak_rss_kib();
+    if r.rss_first_kib == 0 {
+        r.rss_first_kib = r.rss_end_kib;
+        r.rss_first_s = r.simulated_s;
+    }
+    if s.failure.is_none() && r.rss_end_kib > r.rss_first_kib + RSS_GROWTH_MAX_KIB {
+        s.fail(format!(
+            "memory grew: peak RSS {} KiB at {:.0} s, {} KiB at the end",
+            r.rss_first_kib, r.rss_first_s, r.rss_end_kib
+        ));
+    }
+    r.failure = s.failure.take();
+    r.wall_s = wall.elapsed().as_secs_f64();
+    r.cpu_s = cpu_s() - cpu0;
+    Ok(r)
+}

@@ -1,0 +1,126 @@
+//! `hil soak` in process: a simulated hour runs clean (CI's soak; `hil soak --hours 24`
+//! is the day), a broken device is caught with its time and seed and a shorter run
+//! replays the failure, and bad flags are refused with the reason.
+
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
+use std::process::Command;
+
+use hil::soak::inproc::{soak, Defect, SoakOptions};
+use hil::soak::service::ServiceOptions;
+
+const MINUTE_NS: u64 = 60_000_000_000;
+
+fn options(minutes: u64, seed: u64, defect: Defect) -> SoakOptions {
+    SoakOptions {
+        duration_ns: minutes * MINUTE_NS,
+        seed,
+        defect,
+        progress: false,
+        trace: false,
+        service: ServiceOptions::default(),
+    }
+}
+
+#[test]
+fn a_simulated_hour_of_service_runs_clean() {
+    let r = soak(options(60, 1, Defect::None)).expect("the soak starts");
+    eprintln!("{}", r.summary());
+    assert!(r.failure.is_none(), "{}", r.summary());
+    assert!((r.simulated_s - 3600.0).abs() < 0.01, "{}", r.simulated_s);
+    // The service did what a day does, and the counters crossed their wrap.
+    assert!(
+        r.link_episodes.iter().all(|&n| n > 0),
+        "{:?}",
+        r.link_episodes
+    );
+    assert!(r.actuator_faults > 0 && r.rate_changes > 0 && r.adhesion_patches > 0);
+    assert!(
+        r.alarms[0] + r.alarms[1] >= r.actuator_faults,
+        "{:?}",
+        r.alarms
+    );
+    assert_eq!(r.alarms[2], 0, "no drive alarm");
+    assert!(r.safe_entries > 0 && r.tick_wrap_s.is_some());
+    assert!(r.up.adds_up() && r.down.adds_up());
+    assert!(r.up.rejected > 0 && r.down.dropped > 0);
+    assert!(r.statuses_checked > 500, "{}", r.statuses_checked);
+}
+
+#[test]
+fn a_broken_device_is_caught_named_and_replayed_in_a_shorter_run() {
+    // Every 150 000th frame the device sends has a bit flipped: the first about 30 s in.
+    let broken = Defect::Corrupt { every: 150_000 };
+    let r = soak(options(10, 7, broken)).expect("the soak starts");
+    let f = r.failure.expect("the soak catches the broken frame");
+    let text = f.to_string();
+    assert!(text.contains("seed 7"), "{text}");
+    assert!(
+        f.what.contains("device -> host") && f.what.contains("without faults"),
+        "{text}"
+    );
+    assert!(
+        f.t_ns > 10_000_000_000 && f.t_ns < 120_000_000_000,
+        "{text}"
+    );
+    let replay = f.replay();
+    assert!(
+        replay.starts_with("hil soak --seed 7 --minutes "),
+        "{replay}"
+    );
+    assert!(replay.ends_with(" --defect corrupt:150000"), "{replay}");
+    let minutes: u64 = replay.split(' ').nth(5).unwrap().parse().unwrap();
+    assert!(minutes < 10, "a shorter run: {replay}");
+    let again = soak(options(minutes, 7, broken)).expect("the replay starts");
+    assert_eq!(
+        again.failure,
+        Some(f),
+        "the replay fails the same way, at the same time"
+    );
+}
+
+fn hil(args: &[&str]) -> (i32, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_hil"))
+        .args(args)
+        .output()
+        .expect("hil runs");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn bad_soak_flags_are_refused_with_the_reason() {
+    for (args, says) in [
+        (&["soak"][..], "--hours"),
+        (&["soak", "--hours", "0"], "positive"),
+        (&["soak", "--hours", "-1"], "positive"),
+        (&["soak", "--hours", "1", "--minutes", "3"], "--minutes"),
+        (
+            &["soak", "--hours", "1", "--target", "qemu"],
+            "inproc or qemu-free",
+        ),
+        (&["soak", "--hours", "1", "--defect", "corrupt:0"], "EVERY"),
+        (
+            &["soak", "--hours", "1", "--defect", "wrong-sign"],
+            "corrupt:EVERY",
+        ),
+        (
+            &[
+                "soak",
+                "--minutes",
+                "1",
+                "--target",
+                "qemu-free",
+                "--defect",
+                "corrupt:5",
+            ],
+            "in-process",
+        ),
+    ] {
+        let (code, err) = hil(args);
+        assert_eq!(code, 2, "{args:?}: {err}");
+        assert!(err.contains(says), "{args:?}: {err}");
+    }
+}
