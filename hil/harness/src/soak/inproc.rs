@@ -41,8 +41,8 @@ use wheelset_plant::scenario::{Axle, Scenario};
 use wheelset_plant::sim::rk4_step;
 use wheelset_proto::units::{TORQUE_LSB_NM, VOLTAGE_LSB_V};
 use wheelset_proto::{
-    encode_sensor, encode_vec, Actuation, Command, Config, Decoder, Flags, FrameError,
-    LateralSensing, Message, Sensor, SensorSi, Status, SENSOR_FRAME_CAP,
+    encode, encode_vec, Actuation, Command, Config, Decoder, Flags, FrameError, LateralSensing,
+    Message, Sensor, SensorSi, Status, MAX_FRAME,
 };
 use wheelset_runtime::{Runtime, TX_CAPACITY};
 
@@ -670,8 +670,8 @@ impl Soak {
             v_ref: x[ix::V],
         };
         let s: Sensor = Sensor::from_si(self.seq, t, &si, LateralSensing::Velocity).msg;
-        let mut sbuf = [0u8; SENSOR_FRAME_CAP];
-        let n = encode_sensor(&s, &mut sbuf);
+        let mut sbuf = [0u8; MAX_FRAME];
+        let n = encode(&Message::Sensor(s), &mut sbuf).unwrap_or(0);
         let fresh = self.send_up(t, sbuf.get(..n).unwrap_or(&[])) == Fate::Valid;
         let mut at = t + n as u64 * 2_000;
         let mut config_applied = None;
