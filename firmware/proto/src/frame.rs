@@ -68,6 +68,24 @@ pub enum FrameError {
     Postcard,
 }
 
+impl FrameError {
+    /// Every kind, in the order of [`Self::index`] and of the Status's rejection counters
+    /// (`rx_crc`, `rx_cobs`, `rx_version`, `rx_length`, `rx_postcard`).
+    pub const KINDS: [FrameError; 5] = [
+        Self::Crc,
+        Self::Cobs,
+        Self::Version,
+        Self::Length,
+        Self::Postcard,
+    ];
+
+    /// The kind's place in [`Self::KINDS`].
+    #[must_use]
+    pub const fn index(self) -> usize {
+        self as usize
+    }
+}
+
 impl core::fmt::Display for FrameError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.write_str(match self {
@@ -261,6 +279,15 @@ pub(crate) fn request(msg: &[u8]) -> Result<Request, FrameError> {
 #[cfg(test)]
 #[allow(clippy::unwrap_used)]
 mod tests {
+    use super::FrameError;
+
+    #[test]
+    fn each_reject_kind_indexes_its_place() {
+        for (i, k) in FrameError::KINDS.into_iter().enumerate() {
+            assert_eq!(k.index(), i, "{k:?}");
+        }
+    }
+
     use super::*;
     use crate::{Actuation, Command, Config, Flags, Sensor, Status, YawMode};
 

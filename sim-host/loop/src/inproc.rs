@@ -384,17 +384,10 @@ fn outcome(
     if !(closes && nonempty) {
         return None;
     }
-    const KINDS: [FrameError; 5] = [
-        FrameError::Crc,
-        FrameError::Cobs,
-        FrameError::Version,
-        FrameError::Length,
-        FrameError::Postcard,
-    ];
     let kind = before
         .into_iter()
         .zip(after)
-        .zip(KINDS)
+        .zip(FrameError::KINDS)
         .find_map(|((b, a), e)| (a == b.wrapping_add(1)).then_some(e));
     Some(kind.map_or(Ok(()), Err))
 }

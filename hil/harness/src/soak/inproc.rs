@@ -795,16 +795,9 @@ impl Soak {
             if after[0] != before[0] {
                 return Some(Ok(()));
             }
-            const KINDS: [FrameError; 5] = [
-                FrameError::Crc,
-                FrameError::Cobs,
-                FrameError::Version,
-                FrameError::Length,
-                FrameError::Postcard,
-            ];
             (1..6)
                 .find(|&k| after[k] != before[k])
-                .and_then(|k| KINDS.get(k - 1).copied())
+                .and_then(|k| FrameError::KINDS.get(k - 1).copied())
                 .map(Err)
         });
         if clean && fate != Fate::Valid {

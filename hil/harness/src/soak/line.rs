@@ -67,18 +67,6 @@ impl LineCounts {
     }
 }
 
-/// The index of a decoder reject in [`LineCounts::rejects`].
-#[must_use]
-pub fn reject_index(e: FrameError) -> usize {
-    match e {
-        FrameError::Crc => 0,
-        FrameError::Cobs => 1,
-        FrameError::Version => 2,
-        FrameError::Length => 3,
-        FrameError::Postcard => 4,
-    }
-}
-
 /// One direction: the faults in force, their random state, the receiver's accounting.
 #[derive(Debug, Clone)]
 pub struct Line {
@@ -198,7 +186,7 @@ impl Line {
                     c.received += n;
                 }
                 Some(Err(e)) => {
-                    c.rejects[reject_index(e)] += 1;
+                    c.rejects[e.index()] += 1;
                     c.rejected += n;
                 }
                 None => c.rejected += n,

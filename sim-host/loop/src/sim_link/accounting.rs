@@ -122,16 +122,6 @@ impl RxPort {
     }
 }
 
-fn error_index(e: FrameError) -> usize {
-    match e {
-        FrameError::Crc => 0,
-        FrameError::Cobs => 1,
-        FrameError::Version => 2,
-        FrameError::Length => 3,
-        FrameError::Postcard => 4,
-    }
-}
-
 /// The attribution state of an [`RxPort`], borrowed apart from its decoder.
 struct Book<'a> {
     pending: &'a mut Vec<FrameId>,
@@ -195,8 +185,8 @@ impl Book<'_> {
         let (to, count) = match r {
             Some(Ok(())) => (Fate::Received, &mut *self.received),
             Some(Err(e)) => {
-                self.errors[error_index(e)] += 1;
-                cause = Some(error_index(e));
+                self.errors[e.index()] += 1;
+                cause = Some(e.index());
                 (Fate::Rejected, &mut *self.rejected)
             }
             None => {
