@@ -1,7 +1,9 @@
-//! `hil run --rate-hz R` on `curve` at every rate whose yaw law is designed with one
-//! tick of delay (`wheelset_control::design::DESIGNED`), in process: the device at the
-//! gains designed for the rate, judged against the f64 core at the same rate with the
-//! harness's own tolerances; and a rate without a design refused before the run.
+//! `hil run --rate-hz R [--delay-ticks D]` on `curve` at every designed point
+//! (`wheelset_control::design::DESIGNED`), in process: the lead where its yaw law is
+//! designed (longer delays over a link whose round trip needs them), the passive law
+//! elsewhere; the device at the gains designed for the point, judged against the f64 core
+//! at the same rate and delay with the harness's own tolerances. A rate without a design,
+//! and a link that cannot carry a delay, refused before the run.
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
@@ -75,6 +77,31 @@ fn every_designed_longer_delay_passes_over_a_pipelined_link() {
         assert!(
             e.contains("link budget exceeded"),
             "{hz} Hz, {d} ticks: {e}"
+        );
+    }
+}
+
+#[test]
+fn every_point_designed_for_the_passive_law_alone_passes_with_it() {
+    for p in DESIGNED.iter().filter(|p| !p.yaw) {
+        let (hz, d) = (p.base_rate_hz, p.delay_ticks);
+        let period = 1e9 / f64::from(hz);
+        let wire = wheelset_loop::sim_link::wire_ns(
+            wheelset_proto::SENSOR_ONE_LATERAL_MAX_FRAME + wheelset_proto::ACTUATION_MAX_FRAME,
+            10_000_000,
+        ) as f64;
+        let mut o = at(hz);
+        o.control = hil::run::Law::Passive;
+        o.delay_ticks = d;
+        if d > 1 {
+            o.link.latency_ns = ((0.85 * (f64::from(d) - 0.5) * period - wire) / 2.0) as u64;
+        }
+        let out = run(&o).expect("the run is made");
+        assert_eq!(
+            out.report.verdict,
+            Verdict::Pass,
+            "{hz} Hz, {d} ticks, passive: {}",
+            serde_json::to_string_pretty(&out.report).unwrap()
         );
     }
 }
