@@ -2,7 +2,7 @@
 //!
 //! For each sample type of the control core (`Runtime<Fx>`, the production fixed point,
 //! and `Runtime<f32>`), `N` frames drawn from a seeded generator
-//! ([`Gen`]; splitmix64, so a seed reproduces a run exactly):
+//! ([`Gen`]; PCG from `rand_pcg`, so a seed reproduces a run exactly):
 //!
 //! | kind | what |
 //! |---|---|

@@ -164,6 +164,9 @@ pub struct InProc<T: SampleBits = Fx> {
     next_tick: u64,
     last_exec: u32,
     frames_out: u64,
+    /// The execution times of [`DeviceFault::Jitter`] (a fixed seed: a deterministic
+    /// sequence).
+    jitter: rand_pcg::Pcg64,
     /// A tick's output as a broken device changes it.
     scratch: Vec<u8>,
     /// Arrival time of the last byte of each down-link frame (index: frame id).
@@ -210,6 +213,7 @@ impl<T: SampleBits> InProc<T> {
             next_tick: 0,
             last_exec: 0,
             frames_out: 0,
+            jitter: rand::SeedableRng::seed_from_u64(0x6a69_7474_6572),
             scratch: Vec::new(),
             arrival_ns: Vec::new(),
             timed: true,
@@ -307,13 +311,8 @@ impl<T: SampleBits> InProc<T> {
             }
             DeviceFault::TooSlow { exec_ns } => (out, exec_ns),
             DeviceFault::Jitter { max_ns } => {
-                // xorshift64*: deterministic, no extra state beyond the tick count.
-                let mut x = self.frames_out.wrapping_add(0x9e37_79b9_7f4a_7c15);
-                x ^= x >> 12;
-                x ^= x << 25;
-                x ^= x >> 27;
-                let r = x.wrapping_mul(0x2545_f491_4f6c_dd1d);
-                (out, r % max_ns.saturating_add(1))
+                use rand::Rng as _;
+                (out, self.jitter.random_range(0..=max_ns))
             }
             DeviceFault::Corrupt { every } => {
                 self.scratch.clear();

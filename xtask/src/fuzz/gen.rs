@@ -1,4 +1,4 @@
-//! The hostile frames: a seeded splitmix64 generator ([`Gen`]) and the frame kinds of
+//! The hostile frames: a seeded generator ([`Gen`], `rand_pcg`'s PCG) and the frame kinds of
 //! the module docs' table ([`KINDS`]), valid bodies (Sensor, Config with rates, Command)
 //! and their mutations.
 
@@ -9,23 +9,22 @@ use wheelset_proto::{
 };
 use wheelset_runtime::{rates_for, RuntimeConfig};
 
-/// splitmix64: small, fast, reproducible.
+/// The fuzz stream: PCG (`rand_pcg::Pcg64`) seeded from the run's seed, so a seed
+/// reproduces a run exactly.
 #[derive(Debug, Clone)]
-pub struct Gen(u64);
+pub struct Gen(rand_pcg::Pcg64);
 
 impl Gen {
     /// A generator from `seed`.
     pub fn new(seed: u64) -> Self {
-        Self(seed)
+        use rand::SeedableRng as _;
+        Self(rand_pcg::Pcg64::seed_from_u64(seed))
     }
 
     /// The next 64 random bits.
     pub fn u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
+        use rand::RngCore as _;
+        self.0.next_u64()
     }
 
     /// Uniform in `0..n` (`n > 0`).
