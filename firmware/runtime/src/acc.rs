@@ -60,3 +60,33 @@ impl AccBits {
         Ok((self.gain_q32 as i64, self.leak_q32 as i64))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_factors_are_t_and_t_over_tau_in_q32_rounded_to_nearest() {
+        // 5 kHz, tau = 2 s: T = 200 us per 100 um/s^2 code, 0.02 * 2^32 = 85 899 345.92;
+        // T/tau = 1e-4, 1e-4 * 2^32 = 429 496.73.
+        let b = acc_factors(&RuntimeConfig::default()).expect("the default");
+        assert_eq!(b.gain_q32, 85_899_346);
+        assert_eq!(b.leak_q32, 429_497);
+        // No wash-out: a pure integrator.
+        let pure = RuntimeConfig {
+            acc_washout_s: 0.0,
+            ..RuntimeConfig::default()
+        };
+        assert_eq!(acc_factors(&pure).expect("valid").leak_q32, 0);
+    }
+
+    #[test]
+    fn the_check_takes_its_bounds_and_refuses_beyond_them() {
+        const ONE: u64 = 1 << 32;
+        let ok = |gain_q32, leak_q32| AccBits { gain_q32, leak_q32 }.check().is_ok();
+        assert!(ok(1, 0) && ok(ONE, ONE));
+        assert!(!ok(0, 0), "a zero gain");
+        assert!(!ok(ONE + 1, 0), "a gain above 1");
+        assert!(!ok(1, ONE + 1), "a leak above 1");
+    }
+}
