@@ -24,6 +24,17 @@ fn at(hz: u32) -> RunOptions {
     }
 }
 
+/// A one-way latency whose round trip at 10 Mbaud needs all `d` ticks: `d - 1/2` of the
+/// delay's 85 % share.
+fn pipelined_latency_ns(hz: u32, d: u8) -> u64 {
+    let period = 1e9 / f64::from(hz);
+    let wire = wheelset_loop::sim_link::wire_ns(
+        wheelset_proto::SENSOR_ONE_LATERAL_MAX_FRAME + wheelset_proto::ACTUATION_MAX_FRAME,
+        10_000_000,
+    ) as f64;
+    ((0.85 * (f64::from(d) - 0.5) * period - wire) / 2.0) as u64
+}
+
 #[test]
 fn every_designed_rate_passes_on_the_curve() {
     for p in DESIGNED.iter().filter(|p| p.delay_ticks == 1 && p.yaw) {
@@ -54,15 +65,9 @@ fn a_rate_without_a_design_is_refused_before_the_run() {
 fn every_designed_longer_delay_passes_over_a_pipelined_link() {
     for p in DESIGNED.iter().filter(|p| p.delay_ticks > 1 && p.yaw) {
         let (hz, d) = (p.base_rate_hz, p.delay_ticks);
-        // A latency whose round trip needs all d ticks: (d - 1/2) of the 85 % share.
-        let period = 1e9 / f64::from(hz);
-        let wire = wheelset_loop::sim_link::wire_ns(
-            wheelset_proto::SENSOR_ONE_LATERAL_MAX_FRAME + wheelset_proto::ACTUATION_MAX_FRAME,
-            10_000_000,
-        ) as f64;
         let mut o = at(hz);
         o.delay_ticks = d;
-        o.link.latency_ns = ((0.85 * (f64::from(d) - 0.5) * period - wire) / 2.0) as u64;
+        o.link.latency_ns = pipelined_latency_ns(hz, d);
         let out = run(&o).expect("the run is made");
         let r = &out.report;
         assert_eq!(
@@ -85,16 +90,11 @@ fn every_designed_longer_delay_passes_over_a_pipelined_link() {
 fn every_point_designed_for_the_passive_law_alone_passes_with_it() {
     for p in DESIGNED.iter().filter(|p| !p.yaw) {
         let (hz, d) = (p.base_rate_hz, p.delay_ticks);
-        let period = 1e9 / f64::from(hz);
-        let wire = wheelset_loop::sim_link::wire_ns(
-            wheelset_proto::SENSOR_ONE_LATERAL_MAX_FRAME + wheelset_proto::ACTUATION_MAX_FRAME,
-            10_000_000,
-        ) as f64;
         let mut o = at(hz);
         o.control = hil::run::Law::Passive;
         o.delay_ticks = d;
         if d > 1 {
-            o.link.latency_ns = ((0.85 * (f64::from(d) - 0.5) * period - wire) / 2.0) as u64;
+            o.link.latency_ns = pipelined_latency_ns(hz, d);
         }
         let out = run(&o).expect("the run is made");
         assert_eq!(
