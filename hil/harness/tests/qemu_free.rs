@@ -10,7 +10,8 @@
 //! a run with the drive diverges whatever the pacing; without it the run measures the
 //! pacing, the frame accounting and the watchdog reset.
 //!
-//! Judged: the accounting, the numerics, and the timing: the latency's 99th percentile
+//! Judged: the accounting and the numerics; the timing is printed, and judged by hand on
+//! a quiet machine (`JUDGE_TIMING=1`): the latency's 99th percentile
 //! within two periods (the bar for a board) and the device's misses under 5 %
 //! (measured 0.8-1.3 % on a quiet machine: QEMU's UART is slow both ways, and the
 //! exchange takes about half the period; a board's bar of 1 % is for the stand-in and a
@@ -163,6 +164,19 @@ fn the_free_running_firmware_under_qemu_holds_the_loop_in_real_time() {
         "{}",
         serde_json::to_string_pretty(&r.numerics).unwrap()
     );
+    if !common::judge_timing() {
+        eprintln!(
+            "qemu-free: timing not judged (JUDGE_TIMING=1 on a quiet machine judges it): \
+             host missed {host_missed}, device missed {} of {} periods, latency p99 {:.0} us \
+             of a {:.0} us period (load {})",
+            r.timing.missed_ticks,
+            r.timing.periods,
+            r.timing.latency_ns.p99 * 1e-3,
+            t * 1e-3,
+            loadavg()
+        );
+        return;
+    }
     if host_missed as f64 >= 0.01 * periods {
         eprintln!(
             "qemu-free: timing not judged: the host's own deadline loop missed {host_missed} \

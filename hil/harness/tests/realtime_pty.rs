@@ -10,13 +10,16 @@
 //! itself: the device's period found, the frames it sent before the run discarded and
 //! counted apart, every other frame accounted for, and the trajectory *identical* to the
 //! in-process device at the same rate (the same runtime, the same one-period delay) up to
-//! the first period in which the host or the device missed its deadline. The timing limits (host misses < 1 %, latency p99 within two periods) are
-//! asserted when the stand-in itself held its clock (it reports its own late and skipped
-//! ticks): on a machine loaded past that, a real-time verdict says nothing about the
-//! harness, and the test says so instead of failing. The 5 kHz run is the ignored test
+//! the first period in which the host or the device missed its deadline. The timing figures (host misses, latency)
+//! are printed; their limits (host misses < 1 %, latency p99 within two periods) are
+//! asserted only by hand on a quiet machine (`JUDGE_TIMING=1`), and then only when the
+//! stand-in itself held its clock (it reports its own late and skipped ticks): a shared
+//! machine's timing says nothing about the harness. The 5 kHz run is the ignored test
 //! below (figures in the README).
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
+
+mod common;
 
 use std::io::{BufRead, BufReader};
 use std::process::{Child, Command, Stdio};
@@ -152,7 +155,7 @@ fn realtime_pacing_holds_against_a_free_running_stand_in_started_first() {
         .and_then(|s| s.split_whitespace().next()?.parse().ok())
         .unwrap_or(0.0);
     let quiet = load < cpus;
-    let held = quiet && device_slips * 100 < ticks;
+    let held = common::judge_timing() && quiet && device_slips * 100 < ticks;
     eprintln!(
         "1 kHz: {} periods, host missed {host_missed}, device missed {} answers, latency p99 \
          {:.0} us max {:.0} us, pre-run {}, identical to in process for {same} of {} records; \
@@ -181,8 +184,9 @@ fn realtime_pacing_holds_against_a_free_running_stand_in_started_first() {
         );
     } else {
         eprintln!(
-            "not judged: load average {load:.1} on {cpus} CPUs, the stand-in {device_slips} of \
-             {ticks} ticks late or skipped (the host's timing limits need a quiet machine)"
+            "timing not judged (JUDGE_TIMING=1 on a quiet machine judges it): load average \
+             {load:.1} on {cpus} CPUs, the stand-in {device_slips} of {ticks} ticks late or \
+             skipped"
         );
     }
 }
