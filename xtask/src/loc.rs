@@ -105,26 +105,47 @@ fn walk(dir: &Path, out: &mut Vec<PathBuf>) -> Result<(), String> {
     Ok(())
 }
 
-/// The workspace's count, from the workspace root `root`.
-pub fn workspace(root: &Path) -> Result<Lines, String> {
+/// The workspace's count per crate folder (`firmware/control`, `xtask`, ...), from the
+/// workspace root `root`, largest first.
+pub fn workspace(root: &Path) -> Result<Vec<(String, Lines)>, String> {
     let mut files = Vec::new();
     for r in ROOTS {
         walk(&root.join(r), &mut files)?;
     }
-    let mut total = Lines::default();
-    for f in files
-        .iter()
-        .filter(|f| !is_test_path(f.strip_prefix(root).unwrap_or(f)))
-    {
+    let mut by_crate = std::collections::BTreeMap::<String, Lines>::new();
+    for f in &files {
+        let rel = f.strip_prefix(root).unwrap_or(f);
+        if is_test_path(rel) {
+            continue;
+        }
         let text = std::fs::read_to_string(f).map_err(|e| format!("{}: {e}", f.display()))?;
-        total += count(&text);
+        let parts: Vec<_> = rel.components().take(2).collect();
+        let name = if parts.len() == 2 && rel.starts_with("xtask") {
+            "xtask".to_string()
+        } else {
+            PathBuf::from_iter(parts).display().to_string()
+        };
+        *by_crate.entry(name).or_default() += count(&text);
     }
-    Ok(total)
+    let mut v: Vec<_> = by_crate.into_iter().collect();
+    v.sort_by_key(|(_, l)| std::cmp::Reverse(l.code));
+    Ok(v)
 }
 
-/// Runs the task: prints the count; with `check`, fails above the limits.
+/// Runs the task: prints the count per crate and in all; with `check`, fails above the
+/// limits.
 pub fn main(check: bool) -> Result<(), String> {
-    let l = workspace(Path::new("."))?;
+    let crates = workspace(Path::new("."))?;
+    let mut l = Lines::default();
+    for (name, c) in &crates {
+        outln!(
+            "{name:<22} {:>6} lines, {:>5} comment lines = {:.1} %",
+            c.code,
+            c.comments,
+            100.0 * c.comments as f64 / c.code.max(1) as f64
+        );
+        l += *c;
+    }
     let share = l.comments as f64 / l.code.max(1) as f64;
     outln!(
         "non-test Rust: {} lines (at most {MAX_LINES}), {} comment lines = {:.1} % (under {:.0} %)",
