@@ -53,13 +53,13 @@
 //! ```text
 //! every block:  grow = (E > N floor^2  and  E_prev < s E)   (s = e^{-2 g B})
 //!                      or |l| > drift                       (the drift, below)
+//!               quiet = |i_ref - i_ref_prev| > D ? Q : quiet   (a traction change, Q = 2)
 //!               run  = !commanding ? 0
 //!                    : quiet > 0   ? run                      (a quiet block: skipped)
 //!                    : grow        ? run + 1 : 0
-//!               quiet = max(quiet - 1, 0);  E_prev = E, E = 0
+//!               quiet = max(quiet - 1, 0);  E_prev = E, E = 0;  i_ref_prev = i_ref
 //!               ACTUATOR_FAULT rises when run >= n, falls with HUNTING's release level
 //!               and run = 0
-//! a traction step the device made itself (Monitor::traction_step):  quiet = Q = 2
 //! ```
 //!
 //! A damped loop after a short disturbance (a curve transition) grows the energy only
@@ -70,23 +70,27 @@
 //! own gain pushing the mode (about 100 1/s with the lead at conicity 0.3: the plant's
 //! test `a_reversed_actuator_grows_faster_than_the_free_wheelset`).
 //!
-//! **The rule for the device's own traction steps.** The wheel-slip protection's cut
-//! (its cut at detection: `wheelset_control::wsp`, the reference capped at once to
-//! `cut_fraction` of itself) is a step of the longitudinal creep
-//! forces of both wheels, which reaches the yaw and lateral motion. Its lateral response
-//! rises over more than one block, so its energy onset straddles a block boundary: two
-//! growing blocks (measured on `low-adhesion`'s wet section with the
-//! protection's earlier cut/re-apply law, amplitude growth 8.5 then 14.5 1/s, then decay at 8 1/s, the healthy
-//! loop's damping: the false alarms at 14.2 s and 16.3 s of the check without this
-//! rule). The check therefore judges no growth at the end of the block holding such a
-//! step nor at the end of the next (`Q = 2` block ends, whatever the step's phase in
-//! its block): they are skipped, neither counted as growth nor breaking a run (a
-//! standing alarm stays up through them). A failed actuator keeps
-//! growing after the quiet blocks, so it is still caught, at most `Q B` = 0.2 s later
-//! when a cut falls just before its alarm, provided the cuts are at least `(Q + n) B` =
-//! 0.4 s apart (the protection cuts once per event: twice on `low-adhesion`, in the low and the wet section; closer
-//! cuts leave the failed actuator to the hunting alarm); with no cut (dry rail, the
-//! protection idle) the check is the one above. The saturated creep of a wheel the protection does not
+//! **The rule for traction changes.** A step of the traction torque (a demand step, the
+//! wheel-slip protection's cut) is a step of the longitudinal creep forces of both
+//! wheels, which reaches the yaw and lateral motion. Its lateral response rises over
+//! more than one block, so its energy onset straddles a block boundary: two growing
+//! blocks (the protection's cut on `low-adhesion`'s wet section: amplitude growth 8.5
+//! then 14.5 1/s, then decay at the healthy loop's 8 1/s; demand steps of 2 kN m in
+//! `hil soak --demand-steps`). The device sees such a change in its own current
+//! reference `i_ref` (pu of `scales.current`, after the protection's cap), compared at
+//! block ends: a move of more than `D` (`act_traction_change_a`, 50 A: about 1.1 kN m at
+//! the wheel through `n K_m`, above a driver's notch ramped at 2 kN m/s, 9 A a block)
+//! makes the check judge no growth at the end of that block nor of the next (`Q = 2`
+//! block ends, whatever the change's phase in its block): they are skipped, neither
+//! counted as growth nor breaking a run (a standing alarm stays up through them). A
+//! failed actuator keeps growing after the quiet blocks, so it is still caught, at most
+//! `Q B` = 0.2 s later when a change falls just before its alarm, provided the changes
+//! are at least `(Q + n) B` = 0.4 s apart (closer ones leave the failed actuator to the
+//! hunting alarm); with a steady reference (the protection idle, the demand steady or
+//! ramped) the check is the one above. A creep-force step the device does not make
+//! (the onset of a low-adhesion patch under traction, before the protection detects a
+//! slip) is not announced: its transient can raise the alarm (`docs/soak.md`). The
+//! saturated creep of a wheel the protection does not
 //! hold (`hil run --wsp off` on `low-adhesion`: the wheel spins up to tens of m/s of slip
 //! and both alarms rise from 7 s) is outside the check's premise: there the loop itself
 //! is no longer damped (`wheelset_control::wsp`, "The scheduled lead").
@@ -150,6 +154,10 @@ pub struct MonitorParams {
     /// Actuator check, drift: a block end at which the low-passed `y'` (the band-pass's
     /// lower edge, `l[n]`) exceeds this in magnitude counts as growth, m/s.
     pub act_drift_m_s: f64,
+    /// Actuator check: a block over which the traction current reference moved by more
+    /// than this (A, either sign) holds a traction change, whatever moved it (the demand,
+    /// the wheel-slip protection): growth is not judged at its end nor at the next.
+    pub act_traction_change_a: f64,
     /// Drive check: time constant `N` of the ripple's exponential mean square, traction
     /// steps.
     pub drive_window_steps: u16,
@@ -189,6 +197,7 @@ impl Default for MonitorParams {
             act_growth_per_s: 3.0,
             act_floor_m_s: 0.001,
             act_drift_m_s: 0.025,
+            act_traction_change_a: 50.0,
             drive_window_steps: 64,
             drive_ripple_a: 300.0,
             drive_persist_steps: 64,
@@ -238,6 +247,8 @@ pub struct MonitorBits {
     pub blocks: u16,
     /// Actuator check: the drift level of `|l|`, pu signal (m/s).
     pub drift: u64,
+    /// Actuator check: the traction change, pu signal of the current scale.
+    pub traction_change: u64,
     /// Drive check: `k_d`, coefficient.
     pub drive_k: u64,
     /// Drive check: levels of the ripple's mean square, pu^2 signals: alarm on, alarm
@@ -247,9 +258,8 @@ pub struct MonitorBits {
     pub drive_persist: u16,
 }
 
-/// Block ends at which the actuator check judges no growth after a traction step the
-/// device made itself ([`Monitor::traction_step`]): the block holding the step and the
-/// next, whatever the step's phase in its block (module docs).
+/// Block ends at which the actuator check judges no growth after a traction change: the
+/// block holding the change and the next, whatever its phase in the block (module docs).
 pub const QUIET_BLOCKS: u16 = 2;
 
 /// The monitor's quantised configuration (immutable while running).
@@ -267,6 +277,7 @@ pub struct Monitor<T: Sample> {
     block: u16,
     blocks: u16,
     drift: T,
+    traction_change: T,
     drive_k: T::Coeff,
     drive_on: T,
     drive_off: T,
@@ -311,8 +322,10 @@ pub struct MonitorState<T: Sample> {
     pub block_left: u16,
     /// Consecutive growing blocks.
     pub run: u16,
-    /// Block ends left at which growth is not judged (after a traction step).
+    /// Block ends left at which growth is not judged (after a traction change).
     pub quiet: u16,
+    /// The traction current reference at the last block end, pu.
+    pub iref_block: T,
     /// Alarm states.
     pub ev: MonitorEvents,
     /// Drive check: the previous traction step's current error `e[n-1]`, pu.
@@ -385,6 +398,14 @@ impl<T: Sample> Monitor<T> {
             "the drift level must be in [the actuator-check floor, 1 m/s]",
         )?;
         let drive = drive::check_params(p)?;
+        range(
+            "monitor.act_traction_change_a",
+            p.act_traction_change_a,
+            p.act_traction_change_a.is_finite()
+                && p.act_traction_change_a >= 1e-3 * p.current_scale_a
+                && p.act_traction_change_a <= 2.0 * p.current_scale_a,
+            "the traction step must be between 1e-3 and 2 of the current scale",
+        )?;
         let block = p.act_block_s * fs;
         range(
             "monitor.act_block_s",
@@ -420,6 +441,7 @@ impl<T: Sample> Monitor<T> {
             block: (block + 0.5) as u16,
             blocks: p.act_blocks,
             drift: T::from_f64(p.act_drift_m_s),
+            traction_change: T::from_f64(p.act_traction_change_a / p.current_scale_a),
             drive_k: q("monitor.drive_k", drive.k)?,
             drive_on: T::from_f64(drive.on),
             drive_off: T::from_f64(drive.off),
@@ -454,45 +476,51 @@ impl<T: Sample> Monitor<T> {
     }
 
     /// One base tick: every `div` ticks a monitor step on `y_dot` (pu), with
-    /// `commanding` = the yaw law is acting (an active mode, enabled, not safe). Returns
-    /// the alarm states and their rising edges. Never fails, never panics.
+    /// `commanding` = the yaw law is acting (an active mode, enabled, not safe) and
+    /// `iref` the traction current reference (pu of the current scale, after the
+    /// wheel-slip protection's cap). Returns the alarm states and their rising edges.
+    /// Never fails, never panics.
     ///
     /// The phase count is inlined into the caller and the step is a call, made only on
     /// the ticks that run it: the ticks without a step pay only the count (`cargo xtask
     /// fw-bench`, whole tick).
     #[inline(always)]
-    pub fn tick(&self, s: &mut MonitorState<T>, y_dot: T, commanding: bool) -> MonitorEvents {
+    pub fn tick(
+        &self,
+        s: &mut MonitorState<T>,
+        y_dot: T,
+        commanding: bool,
+        iref: T,
+    ) -> MonitorEvents {
         s.ev.hunting_rose = false;
         s.ev.actuator_rose = false;
         if s.phase > 1 {
             s.phase -= 1;
             return s.ev;
         }
-        self.tick_step(s, y_dot, commanding)
+        self.tick_step(s, y_dot, commanding, iref)
     }
 
     /// The rest of [`Self::tick`] on a tick whose phase count has run out.
     #[inline(never)]
-    fn tick_step(&self, s: &mut MonitorState<T>, y_dot: T, commanding: bool) -> MonitorEvents {
+    fn tick_step(
+        &self,
+        s: &mut MonitorState<T>,
+        y_dot: T,
+        commanding: bool,
+        iref: T,
+    ) -> MonitorEvents {
         if self.div == 0 {
             return s.ev;
         }
         s.phase = self.div;
-        self.step(s, y_dot, commanding);
+        self.step(s, y_dot, commanding, iref);
         s.ev
-    }
-
-    /// A traction step the device made itself on this tick (the wheel-slip protection's
-    /// cut): the actuator check judges no growth at the next [`QUIET_BLOCKS`] block ends
-    /// (module docs, the rule for the device's own traction steps). Never fails.
-    #[inline]
-    pub fn traction_step(&self, s: &mut MonitorState<T>) {
-        s.quiet = QUIET_BLOCKS;
     }
 
     /// One monitor step (see the module docs).
     #[inline(always)]
-    fn step(&self, s: &mut MonitorState<T>, x: T, commanding: bool) {
+    fn step(&self, s: &mut MonitorState<T>, x: T, commanding: bool, iref: T) {
         s.lo = s.lo.sat_add(x.sat_sub(s.lo).mul_c(self.k_lo));
         let h = x.sat_sub(s.lo);
         s.band = s.band.sat_add(h.sat_sub(s.band).mul_c(self.k_hi));
@@ -512,9 +540,13 @@ impl<T: Sample> Monitor<T> {
             return;
         }
         s.block_left = self.block;
+        if !iref.sat_sub(s.iref_block).abs_within(self.traction_change) {
+            s.quiet = QUIET_BLOCKS;
+        }
+        s.iref_block = iref;
         let grow = (s.energy > self.floor && s.energy_prev < s.energy.mul_c(self.shrink))
             || !s.lo.abs_within(self.drift);
-        // Not commanding: no check. The quiet blocks after a traction step: skipped,
+        // Not commanding: no check. The quiet blocks after a traction change: skipped,
         // the run neither counted on nor broken.
         s.run = if !commanding {
             0

@@ -23,7 +23,7 @@ fn drive<T: Sample>(
     let n = (dur * f64::from(BASE)) as usize;
     for k in 0..n {
         let t = k as f64 / f64::from(BASE);
-        ev = m.tick(&mut s, T::from_f64(f(t)), commanding);
+        ev = m.tick(&mut s, T::from_f64(f(t)), commanding, T::ZERO);
         if ev.hunting_rose {
             h.push(t);
         }
@@ -134,31 +134,45 @@ fn a_damped_disturbance_is_no_actuator_fault() {
     assert!(a.is_empty(), "{a:?}");
 }
 
-/// As [`drive`] in Q4.28, commanding, with a traction step the device made itself
-/// (`Monitor::traction_step`) on the first tick at or after each of `steps` (s); returns
-/// the actuator alarms' times.
+/// As [`drive`] in Q4.28, commanding, with the traction current reference `iref(t)` (pu
+/// of the current scale); returns the actuator alarms' times.
+fn drive_with_iref(
+    p: &MonitorParams,
+    dur: f64,
+    iref: impl Fn(f64) -> f64,
+    f: impl Fn(f64) -> f64,
+) -> Vec<f64> {
+    let m = Monitor::<Fx>::try_new(p, BASE).unwrap();
+    let mut s = MonitorState::default();
+    let mut a = Vec::new();
+    let n = (dur * f64::from(BASE)) as usize;
+    for k in 0..n {
+        let t = k as f64 / f64::from(BASE);
+        if m.tick(&mut s, Fx::from_f64(f(t)), true, Fx::from_f64(iref(t)))
+            .actuator_rose
+        {
+            a.push(t);
+        }
+    }
+    a
+}
+
+/// The traction step of the default rule plus `extra` (pu): the reference moves up by it
+/// at each of `steps` (s), on the first tick at or after it.
+fn stepped(p: &MonitorParams, extra: f64, steps: &[f64]) -> impl Fn(f64) -> f64 {
+    let jump = p.act_traction_change_a / p.current_scale_a + extra;
+    let steps = steps.to_vec();
+    move |t| jump * steps.iter().filter(|&&ts| t >= ts).count() as f64
+}
+
+/// As [`drive_with_iref`], the reference stepping by 100 A at each of `steps` (s).
 fn drive_with_steps(
     p: &MonitorParams,
     dur: f64,
     steps: &[f64],
     f: impl Fn(f64) -> f64,
 ) -> Vec<f64> {
-    let m = Monitor::<Fx>::try_new(p, BASE).unwrap();
-    let mut s = MonitorState::default();
-    let mut a = Vec::new();
-    let mut next = steps.iter().copied().peekable();
-    let n = (dur * f64::from(BASE)) as usize;
-    for k in 0..n {
-        let t = k as f64 / f64::from(BASE);
-        if m.tick(&mut s, Fx::from_f64(f(t)), true).actuator_rose {
-            a.push(t);
-        }
-        if next.peek().is_some_and(|&ts| t >= ts) {
-            next.next();
-            m.traction_step(&mut s);
-        }
-    }
-    a
+    drive_with_iref(p, dur, stepped(p, 0.05, steps), f)
 }
 
 /// The response to a traction step as `low-adhesion` shows it (the protection's cut):
@@ -180,7 +194,7 @@ fn step_response(t0: f64) -> impl Fn(f64) -> f64 {
 }
 
 #[test]
-fn a_traction_step_the_device_made_is_no_actuator_fault_whatever_its_phase() {
+fn a_traction_step_is_no_actuator_fault_whatever_its_phase() {
     let p = MonitorParams::default();
     let mut alarmed_without = 0;
     // Steps at 2.0 s + every phase of a 0.1 s block (blocks end at multiples of 0.1 s).
@@ -190,14 +204,52 @@ fn a_traction_step_the_device_made_is_no_actuator_fault_whatever_its_phase() {
         // Unannounced, the onset's two growing blocks raise the alarm for some phases:
         // the false alarm of `low-adhesion` before the rule.
         alarmed_without += usize::from(!drive_with_steps(&p, 4.0, &[], &f).is_empty());
-        // Announced by the device's own cut on that tick: silent.
+        // With the traction reference stepping on that tick (a demand step, the
+        // protection's cut, either sign): silent.
         let a = drive_with_steps(&p, 4.0, &[t0], &f);
         assert!(a.is_empty(), "step at {t0}: {a:?}");
+        let down = stepped(&p, 0.05, &[t0]);
+        let a = drive_with_iref(&p, 4.0, |t| 0.5 - down(t), &f);
+        assert!(a.is_empty(), "step down at {t0}: {a:?}");
     }
     assert!(
         alarmed_without > 0,
         "the test response must challenge the check"
     );
+}
+
+/// The rule's level: a reference change within a block of at most the traction step is
+/// no step (the check judges the block), one just above it is.
+#[test]
+fn the_traction_step_is_a_change_above_its_level_within_a_block() {
+    let p = MonitorParams::default();
+    let lsb = 1.0 / f64::from(1u32 << 28);
+    for k in 0..10 {
+        let t0 = 2.0 + 0.01 * f64::from(k);
+        let f = step_response(t0);
+        if drive_with_steps(&p, 4.0, &[], &f).is_empty() {
+            continue;
+        }
+        // Two LSB under the level: the onset's growth is judged, as without a step.
+        let under = drive_with_iref(&p, 4.0, stepped(&p, -2.0 * lsb, &[t0]), &f);
+        assert!(!under.is_empty(), "step at {t0}");
+        let over = drive_with_iref(&p, 4.0, stepped(&p, 2.0 * lsb, &[t0]), &f);
+        assert!(over.is_empty(), "step at {t0}: {over:?}");
+    }
+}
+
+/// A driver's notch ramped under the traction controller's jerk limit (2 kN m/s at the
+/// wheel: about 9 A per 0.1 s block through `n K_m` = 21.4 N m/A) moves the reference by
+/// less than the step in every block, so the check keeps judging: a failed actuator
+/// during the ramp alarms when it would without one.
+#[test]
+fn a_ramped_demand_does_not_quiet_the_check() {
+    let p = MonitorParams::default();
+    let f = growing(5.0, 1e-4);
+    let a0 = drive_with_steps(&p, 3.0, &[], &f);
+    let ramp = |t: f64| 0.093 * t;
+    let a = drive_with_iref(&p, 3.0, ramp, &f);
+    assert_eq!(a, a0);
 }
 
 #[test]
@@ -270,6 +322,7 @@ fn bits_round_trip_and_invalid_bits_are_refused() {
     assert_eq!(bad(&|x| x.drive_levels.swap(0, 1)), "monitor.drive_levels");
     assert_eq!(bad(&|x| x.drive_levels[1] = 0), "monitor.drive_levels");
     assert_eq!(bad(&|x| x.drive_persist = 0), "monitor.drive_persist");
+    assert_eq!(bad(&|x| x.traction_change = 0), "monitor.traction_change");
 }
 
 #[test]
@@ -308,6 +361,20 @@ fn bad_parameters_name_the_field() {
                 ..d
             },
             "monitor.drive_persist_steps",
+        ),
+        (
+            MonitorParams {
+                act_traction_change_a: 0.0,
+                ..d
+            },
+            "monitor.act_traction_change_a",
+        ),
+        (
+            MonitorParams {
+                act_traction_change_a: 2001.0,
+                ..d
+            },
+            "monitor.act_traction_change_a",
         ),
         (
             MonitorParams {
@@ -405,6 +472,7 @@ fn an_off_monitor_never_alarms() {
             &mut s,
             Fx::from_num(if k % 2 == 0 { 1.0 } else { -1.0 }),
             true,
+            Fx::from_num(k % 2),
         );
         assert!(!ev.hunting && !ev.actuator);
     }

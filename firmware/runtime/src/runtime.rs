@@ -273,7 +273,12 @@ impl<T: SampleBits> Runtime<T> {
                 && self.core.mode() != wheelset_control::YawMode::Passive;
             // The stability monitor on the received (or integrated) `y'`, at its own
             // sub-rate inside `Monitor::tick`.
-            let ev = self.monitor.tick(&mut self.mon, inp.y_dot, commanding);
+            let ev = self.monitor.tick(
+                &mut self.mon,
+                inp.y_dot,
+                commanding,
+                self.core.applied_ref(),
+            );
             if ev.hunting_rose | ev.actuator_rose {
                 self.on_alarm(ev.hunting_rose, ev.actuator_rose, false);
             }
@@ -289,16 +294,8 @@ impl<T: SampleBits> Runtime<T> {
                     self.core.preset_back_emf(inp.speed);
                     inp.current = T::ZERO;
                 }
-                let wsp_was = self.core.wsp_state().active;
                 let out = self.core.tick(&inp);
                 events = self.core.tick_events();
-                // The protection cut the traction on this tick (its cut at detection): a
-                // traction step the device made itself, which the actuator check does not
-                // take for a failed actuator (wheelset_control::monitor, the rule for such
-                // steps).
-                if self.core.wsp_state().active && !wsp_was {
-                    self.monitor.traction_step(&mut self.mon);
-                }
                 // The drive check, on every traction step the core ran: the current
                 // error's ripple (wheelset_control::monitor, the drive check).
                 if self.core.traction_stepped()

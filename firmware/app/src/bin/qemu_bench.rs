@@ -85,8 +85,13 @@ mod bench {
     /// One base tick of the stability monitor and actuator check (a monitor step every
     /// `div` ticks, 500 Hz; a phase count on the others).
     #[inline(never)]
-    fn monitor_tick(m: &Monitor<Num>, s: &mut MonitorState<Num>, y: Num) -> MonitorEvents {
-        m.tick(s, y, true)
+    fn monitor_tick(
+        m: &Monitor<Num>,
+        s: &mut MonitorState<Num>,
+        y: Num,
+        iref: Num,
+    ) -> MonitorEvents {
+        m.tick(s, y, true, iref)
     }
 
     /// Calibration: the same call shape doing nothing.
@@ -302,7 +307,7 @@ mod bench {
             let (y, i, w, d) = stim.next_si();
             let inp = Inputs::<Num>::from_si(&cfg.scales, y, i, w, d);
             let t0 = sw.start();
-            core::hint::black_box(monitor_tick(&mon, &mut ms, inp.y_dot));
+            core::hint::black_box(monitor_tick(&mon, &mut ms, inp.y_dot, inp.current));
             let n = sw.stop(t0);
             mon_all.add(n);
             // The ticks that ran a monitor step reset the phase to the divisor.

@@ -205,6 +205,16 @@ impl<T: Sample> Controller<T> {
     pub fn current_ref(&self) -> T {
         self.iref
     }
+    /// The current reference the PI follows, pu: the ramped reference, or the wheel-slip
+    /// protection's cap while it acts. What the actuator check's traction-change rule
+    /// watches ([`crate::Monitor::tick`]).
+    pub fn applied_ref(&self) -> T {
+        if self.wsp.active {
+            self.wsp.cap
+        } else {
+            self.iref
+        }
+    }
     /// The current error `i_ref - i_a` (pu of `scales.current`, + when the current is
     /// below its reference) of the latest traction step: the reference after the
     /// wheel-slip protection's cap and the clamped measurement, as the PI took them;

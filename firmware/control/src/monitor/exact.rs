@@ -21,6 +21,7 @@ impl<T: SampleBits> Monitor<T> {
             block: 0,
             blocks: 0,
             drift: T::ZERO,
+            traction_change: T::ZERO,
             drive_k: z,
             drive_on: T::ZERO,
             drive_off: T::ZERO,
@@ -45,6 +46,7 @@ impl<T: SampleBits> Monitor<T> {
             block: self.block,
             blocks: self.blocks,
             drift: self.drift.to_bits64(),
+            traction_change: self.traction_change.to_bits64(),
             drive_k: c(self.drive_k),
             drive_levels: [self.drive_on.to_bits64(), self.drive_off.to_bits64()],
             drive_persist: self.drive_persist,
@@ -79,6 +81,10 @@ impl<T: SampleBits> Monitor<T> {
         if drift <= T::ZERO {
             return Err(err("monitor.drift"));
         }
+        let traction_change = sig("monitor.traction_change", b.traction_change)?;
+        if traction_change <= T::ZERO {
+            return Err(err("monitor.traction_change"));
+        }
         let [d_on, d_off] = b.drive_levels;
         let (drive_on, drive_off) = (
             sig("monitor.drive_levels", d_on)?,
@@ -103,6 +109,7 @@ impl<T: SampleBits> Monitor<T> {
             block: b.block,
             blocks: b.blocks,
             drift,
+            traction_change,
             drive_k: coef("monitor.drive_k", b.drive_k)?,
             drive_on,
             drive_off,
@@ -145,6 +152,7 @@ macro_rules! from_valid_bits {
                     block: b.block,
                     blocks: b.blocks,
                     drift: s(b.drift),
+                    traction_change: s(b.traction_change),
                     drive_k: c(b.drive_k),
                     drive_on: s(b.drive_levels[0]),
                     drive_off: s(b.drive_levels[1]),

@@ -274,7 +274,8 @@ pub fn replay(
     let mut ms = Vec::with_capacity(codes.len() / usize::from(m.divisor().max(1)) + 1);
     for (k, c) in codes.iter().enumerate() {
         let t_ns = k as u64 * period_ns;
-        let ev = m.tick(&mut s, codec.decode(c).y_dot, commanding);
+        // The traction reference (0 here) moves only the actuator check's quiet blocks.
+        let ev = m.tick(&mut s, codec.decode(c).y_dot, commanding, Fx::ZERO);
         // The actuation computed from sample k arrives one period later.
         flags.push((t_ns + period_ns, ev.hunting, ev.actuator, false));
         if s.phase == m.divisor() {
@@ -297,7 +298,7 @@ fn band_rms_before(p: &MonitorParams, tr: &Trajectory, t_s: f64) -> Option<f64> 
     let mut s = MonitorState::<f64>::default();
     let (mut sum, mut n) = (0.0, 0u32);
     for r in tr.records.iter().take_while(|r| r.t_s < t_s) {
-        m.tick(&mut s, r.yd_mps, true);
+        m.tick(&mut s, r.yd_mps, true, 0.0);
         // (`phase` is reset to the divisor on the ticks that run a monitor step.)
         if r.t_s >= t_s - p.act_block_s && s.phase == m.divisor() {
             sum += s.band * s.band;
