@@ -1,17 +1,11 @@
-//! What a [`crate::Config`] may ask of the device: the plausible range of every field,
-//! stated once ([`PLAUSIBLE`]), and the [`RefuseReason`] codes the device reports in
-//! [`crate::Status`] `refuse_reason` when it refuses one (counted in `cmd_refused`,
-//! flagged [`crate::Flags::CMD_REFUSED`], the old configuration kept).
+//! What a [`crate::Config`] may ask of the device: every field's plausible range, stated
+//! once ([`PLAUSIBLE`]), and the [`RefuseReason`] codes of a refusal (`refuse_reason`,
+//! `cmd_refused`, [`crate::Flags::CMD_REFUSED`]; the old configuration kept).
 //!
-//! A Config can change the rates, the yaw law, traction, the output enable, the hold
-//! time and the switches; the coefficients in [`crate::Rates`] are not free parameters:
-//! a device accepts a base rate and a delay only where its own table of designs has
-//! them (`wheelset_control::design::DESIGNED`, each judged by the sampled-data analysis:
-//! `sim-host rates`), and then only the coefficients designed for them, bit for bit
-//! (the host computes them with the device's own control code). Anything else would run
-//! a loop that is unstable or not shown stable there: the refusal names the field and
-//! so the loop (traction: `kp`, `ki`, the reference steps; yaw: `kappa`, `lead_k_hf`,
-//! `predict_half`, `torque_step`, the protection's lead).
+//! The coefficients of [`crate::Rates`] are not free: a device accepts a rate and delay
+//! only where its table of designs has them (`wheelset_control::design::DESIGNED`), and
+//! then only the coefficients designed for them, bit for bit; anything else runs a loop
+//! not shown stable.
 //!
 //! | field | min | max | unit | why |
 //! |---|---|---|---|---|
@@ -25,16 +19,12 @@
 //! | `hold_ticks x T` | 0 | 20 000 | us | a fifth of the ~10 Hz kinematic mode's period: an older `y'` is off by more than 70 degrees of phase |
 //! | every coefficient | the design's | the design's | bits | the gains designed for the rate and delay; the ramps and the `y''` integrator at that rate |
 //! | f32 coefficients | - | - | - | normal numbers only (no subnormal, infinite, NaN or negative bit pattern) |
-//!
-//! [`PLAUSIBLE`] is this table as data (for tools and reports); the device uses the
-//! constants it is built from.
 
-/// The board's ticker resolution, Hz: a base period must be a whole number of its ticks
-/// (embassy-time with `tick-hz-1_000_000`: 1 us).
+/// The board's ticker resolution, Hz (embassy-time `tick-hz-1_000_000`): a base period must
+/// be a whole number of its ticks.
 pub const TICKER_HZ: u32 = 1_000_000;
 
-/// Lowest plausible base rate, Hz: [`LOOP_RATE_MIN_HZ`], the slowest loop (both loops at
-/// divisor 1).
+/// Lowest plausible base rate, Hz: [`LOOP_RATE_MIN_HZ`] (both loops at divisor 1).
 pub const BASE_RATE_MIN_HZ: u32 = LOOP_RATE_MIN_HZ;
 /// Highest plausible base rate, Hz.
 pub const BASE_RATE_MAX_HZ: u32 = 20_000;
@@ -42,20 +32,18 @@ pub const BASE_RATE_MAX_HZ: u32 = 20_000;
 pub const LOOP_RATE_MIN_HZ: u32 = 500;
 /// Longest plausible hold on a stale sample, `hold_ticks / base_rate_hz`, us.
 pub const HOLD_MAX_US: u32 = 20_000;
-/// Largest plausible `predict_half` (`alpha/2`), as a fraction `num/2^2`: 3/4 (the
-/// designs extrapolate over at most 1.5 ticks).
+/// Largest plausible `predict_half` (`alpha/2`) as `num/2^2`: 3/4 (at most 1.5 ticks).
 pub const PREDICT_HALF_MAX_QUARTERS: u32 = 3;
 
 /// Why the latest [`crate::Config`] or [`crate::Command`] was refused: the field to blame
-/// ([`crate::Status`] `refuse_reason`; 0 = none since the counters were reset).
+/// (0 = none since the counters were reset).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[repr(u8)]
 pub enum RefuseReason {
     /// Nothing refused.
     None = 0,
-    /// An unknown request: a Command variant or a Config `mode` this version does not
-    /// define.
+    /// An unknown request: a Command variant or Config `mode` this version does not define.
     UnknownRequest = 1,
     /// `rates.numeric` is not the device's sample type.
     Numeric = 2,
@@ -87,12 +75,9 @@ pub enum RefuseReason {
     AccGain = 15,
     /// `rates.acc_leak_q32`.
     AccLeak = 16,
-    /// A value's bit pattern is not valid for the sample type (the control core's format
-    /// check, after every range above passed).
+    /// A bit pattern not valid for the sample type (the core's format check, after the ranges).
     Bits = 17,
-    /// A request this build of the device does not honour: a test-only fault injection
-    /// ([`crate::Command::InjectStall`], [`crate::Command::InjectHardFault`]) on a build
-    /// without it. (Every build takes every Config switch: `wsp`, `monitor_safe`.)
+    /// A request this build does not honour: a test-only fault injection on a build without it.
     Unsupported = 18,
     /// `rates.delay_ticks`: the rate has no design for this delay.
     Delay = 19,
@@ -102,8 +87,7 @@ pub enum RefuseReason {
     LeadKhf = 21,
     /// `rates.wsp_lead_k_hf`: not the wheel-slip protection's lead for the design.
     WspLead = 22,
-    /// `mode`: an active yaw law (gain, lead) at rates where only the traction loop is
-    /// designed: the passive law alone is taken there.
+    /// `mode`: an active yaw law at rates where only the traction loop is designed.
     YawNotDesigned = 23,
 }
 
@@ -212,8 +196,7 @@ const YAW: &str = "the yaw loop's design for the rate and delay, bit for bit: an
 const AT_RATE: &str = "the runtime's value at the designed rate, bit for bit";
 const DESIGN: &str = "the design's";
 
-/// The plausibility table (see the module docs), one row per [`RefuseReason`] but
-/// `None`.
+/// The plausibility table (module docs), one row per [`RefuseReason`] but `None`.
 pub const PLAUSIBLE: [Plausible; 23] = [
     Plausible {
         reason: RefuseReason::UnknownRequest,
