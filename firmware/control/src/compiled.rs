@@ -1,15 +1,7 @@
-//! The compiled controller: everything the tick multiplies and compares with,
-//! discretised (f64) and quantised for one sample type, and its exact bit patterns.
-//!
-//! ```text
-//!  Config (SI, f64) --Compiled::try_new (host, build script)--> Compiled<T>
-//!  Compiled<T> <--to_bits / from_bits (integer work, validated)--> CompiledBits
-//!  Compiled<T> --Controller::new (no float maths)--> Controller<T>
-//! ```
-//!
-//! The device never discretises: it starts from build-time [`CompiledBits`] and takes a
-//! new rate as a host-computed [`ScheduleBits`] (the rate- and delay-dependent part),
-//! validated against [`CompiledBits::fingerprint`] of the rest.
+//! The compiled controller: what the tick multiplies and compares with, discretised (f64)
+//! and quantised for one sample type ([`Compiled::try_new`]), and its exact bits
+//! ([`CompiledBits`]). The device never discretises: it starts from build-time bits and
+//! takes a new rate as a host-computed [`ScheduleBits`], checked by [`CompiledBits::fingerprint`].
 
 use crate::config::{Config, ConfigError, YawMode, MAX_LIMIT_PU};
 use crate::controller::Codec;
@@ -20,11 +12,9 @@ use crate::wsp::{Wsp, WspBits};
 
 mod const_bits;
 
-/// The discretised, quantised controller for sample type `T` (immutable while running):
-/// [`Compiled::try_new`] (f64) or [`Compiled::from_bits`] (integer work).
+/// The discretised, quantised controller for `T` (immutable while running).
 #[derive(Clone, Copy, Debug, PartialEq)]
-// `repr(C)`, the fast path's constants first in the order it reads them, so that
-// neighbours load as one `LDRD` (`cargo xtask fw-bench`).
+// `repr(C)`, the fast path's constants in its read order: neighbours load as one `LDRD`.
 #[repr(C)]
 pub struct Compiled<T: Sample> {
     /// Input clamp of `y'`, pu.
@@ -59,7 +49,6 @@ pub struct Compiled<T: Sample> {
     pub(crate) codec: Codec<T>,
     pub(crate) yaw_mode: YawMode,
     pub(crate) traction_enabled: bool,
-    /// Wheel-slip protection ([`crate::wsp`]).
     pub(crate) wsp: Wsp<T>,
 }
 
@@ -73,8 +62,7 @@ pub struct ScaleBits {
     pub shift: u8,
 }
 
-/// The rate-dependent part of a [`Compiled`], as exact bits (a coefficient or signal is
-/// its [`Sample`] bit pattern: Q1.31 / Q4.28 `i32` bits zero-extended, or IEEE bits).
+/// The rate-dependent part of a [`Compiled`] as exact bits ([`Sample`] bit patterns).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct ScheduleBits {
     /// Base (tick) rate, Hz (100 ..= 100 000).
@@ -93,8 +81,7 @@ pub struct ScheduleBits {
     pub wsp_lead_k_hf: u64,
     /// PI `Kp` (pu), coefficient: designed per rate and delay.
     pub kp: u64,
-    /// PI `Ki`'s shift `s` (`ki = Ki 2^s`): fixed point `1..=30`, floats 0; set for this `Kp`
-    /// at the slowest traction period ([`crate::pi::KI_SHIFT_PERIOD_S`]).
+    /// PI `Ki`'s shift `s` (`ki = Ki 2^s`): fixed point `1..=30`, floats 0.
     pub ki_shift: u8,
     /// PI `Ki = Kp T/Ti` at the traction period (pu) times `2^s`, coefficient, in `(0, 1)`.
     pub ki: u64,
@@ -170,8 +157,7 @@ impl<T: Sample> Compiled<T> {
         let lead_disc = config.lead.discretise(config.yaw_period())?;
         let pi_disc = config.pi.discretise(config.traction_period())?;
         let lead = Lead::new(&lead_disc.to_pu(s.y_dot, s.torque))?;
-        // Ki's shift holds Ki at the slowest traction period accepted with this Kp, which a
-        // design sets per rate, so the shift is part of the schedule.
+        // Ki's shift depends on Kp, which a design sets per rate: part of the schedule.
         let pi_pu = pi_disc.to_pu(s.current, s.voltage);
         let t_tr = config.traction_period();
         let pi = Pi::with_ki_max(
@@ -316,8 +302,8 @@ impl<T: SampleBits> Compiled<T> {
         }
     }
 
-    /// From exact bits, validated (integer work): the sample type must match, every value
-    /// valid for `T`, clamps and limits in `(0, 2]` pu, the schedule as [`Self::with_schedule`].
+    /// From exact bits, validated (integer work): limits in `(0, 2]` pu, the schedule as
+    /// [`Self::with_schedule`].
     pub fn from_bits(b: &CompiledBits) -> Result<Self, BitsError> {
         if b.numeric != T::NUMERIC {
             return Err(BitsError { field: "numeric" });
@@ -381,9 +367,8 @@ impl<T: SampleBits> Compiled<T> {
         c.with_schedule(&b.schedule)
     }
 
-    /// The same controller at other rates, validated (integer work): base rate 100 ..=
-    /// 100 000 Hz, divisors and delay >= 1, `kappa`, `Kp`, `Ki` in `(0, 1)` (a lead pole in
-    /// `(0, 1)`, as the range analysis assumes), `alpha/2` in `[0, 1)`, steps in `(0, 2]` pu.
+    /// The same controller at other rates, validated (integer work): 100 ..= 100 000 Hz,
+    /// divisors and delay >= 1, `kappa`, `Kp`, `Ki` in `(0, 1)`, `alpha/2` in `[0, 1)`, steps in `(0, 2]` pu.
     pub fn with_schedule(&self, s: &ScheduleBits) -> Result<Self, BitsError> {
         let e = |field| BitsError { field };
         if !(100..=100_000).contains(&s.base_rate_hz) {
@@ -430,7 +415,6 @@ impl<T: SampleBits> Compiled<T> {
     }
 }
 
-/// A signal from bits.
 fn signal<T: SampleBits>(v: u64) -> Option<T> {
     T::from_bits64(v)
 }
@@ -441,8 +425,7 @@ fn pu_limit<T: SampleBits>(v: u64) -> Option<T> {
 }
 
 impl CompiledBits {
-    /// A 32-bit FNV-1a hash of everything but the schedule, start mode and traction, so that a
-    /// [`ScheduleBits`] computed against another controller is refused; `const` for the firmware.
+    /// A 32-bit FNV-1a hash of all but the schedule, start mode and traction (`const`).
     pub const fn fingerprint(&self) -> u32 {
         const fn word(mut h: u32, w: u64) -> u32 {
             let mut i = 0;

@@ -1,17 +1,14 @@
-//! Configuration: rates, modes, controller parameters, limits, full scales, wire LSBs.
-//! Validated once ([`Config::validate`]); the tick never fails.
+//! Configuration, validated once ([`Config::validate`]); the tick never fails.
 
 use crate::lead::LeadParams;
 use crate::pi::PiParams;
 use crate::wsp::WspParams;
 use wheelset_proto::units;
 
-/// Yaw control mode (the wire's enum, [`wheelset_proto::YawMode`]): `Passive` `T_psi = 0`
-/// (the yaw spring is mechanical), `Gain` `T_psi = K y'`, `Lead` (default) `T_psi = Ks(s) y'`.
+/// Yaw control mode ([`wheelset_proto::YawMode`]): `Passive` `T_psi = 0`, `Gain` `T_psi = K y'`, `Lead` `T_psi = Ks(s) y'`.
 pub use wheelset_proto::YawMode;
 
-/// Per-unit full scales (`x_pu = x / FS`): every signal and state within `[-2, 2]` pu at
-/// its limits, every coefficient in `(-1, 1)`.
+/// Per-unit full scales, `x_pu = x / FS`: signals within `[-2, 2]` pu at their limits.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FullScales {
     /// Lateral velocity y', m/s (1).
@@ -122,8 +119,7 @@ impl Default for WireLsb {
     }
 }
 
-/// Safe-state ramp times: on [`crate::Controller::set_safe`]`(true)` the yaw torque limit
-/// and the current reference ramp linearly to zero.
+/// Safe-state ramp times of the yaw torque limit and the current reference to zero.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SafeRamps {
     /// Yaw torque limit from `limits.torque` to 0, s (0.1).
@@ -150,8 +146,7 @@ pub struct Config {
     pub yaw_divisor: u16,
     /// The traction loop runs every `traction_divisor` ticks.
     pub traction_divisor: u16,
-    /// Ticks from sampling to actuation the gains are designed for ([`crate::design`]); not
-    /// used by the law, it names the design point a device checks.
+    /// Ticks from sampling to actuation the gains are designed for ([`crate::design`]).
     pub delay_ticks: u8,
     /// Yaw mode at start.
     pub yaw_mode: YawMode,

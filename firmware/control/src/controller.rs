@@ -1,6 +1,5 @@
-//! The multi-rate controller: input sanitising and clamps, the yaw loop (passive / gain /
-//! lead) and the traction loop (ramped reference + PI), output limits, the safe state,
-//! counters, and wire-code conversion.
+//! The multi-rate controller: input clamps, the yaw loop (passive / gain / lead), the
+//! traction loop (ramped reference + PI), output limits, the safe state, counters.
 
 use crate::compiled::Compiled;
 use crate::config::{Config, ConfigError, YawMode};
@@ -18,7 +17,7 @@ pub use signals::{
     Codec, Counters, InputCodes, Inputs, OutputCodes, Outputs, SignalCounts, TickEvents,
 };
 
-/// The controller: configuration, filter states, counters. See the crate docs.
+/// The controller: configuration, filter states, counters.
 #[derive(Clone, Debug)]
 pub struct Controller<T: Sample> {
     law: Compiled<T>,
@@ -35,22 +34,18 @@ pub struct Controller<T: Sample> {
     iref: T,
     /// Present torque limit (ramps to 0 in the safe state), pu.
     torque_lim: T,
-    /// A law change is being slewed (bumpless): the torque moves towards the new law's
-    /// output by at most `torque_step` per yaw step.
+    /// A law change is being slewed: at most `torque_step` per yaw step towards the new law.
     slewing: bool,
     /// Last clamped y' (the predictor's `y'[n-1]`; a bumpless switch into the lead).
     last_y_dot: T,
     out: Outputs<T>,
     counters: Counters,
-    /// What the latest tick counted ([`Self::tick_events`]).
     events: TickEvents,
-    /// Wheel-slip protection: on, state, acted on the last traction step.
     wsp_on: bool,
     wsp: WspState<T>,
     wsp_acting: bool,
     /// The next tick may try the fast path (normal running: see [`Self::tick`]).
     fast: bool,
-    /// The fast path is turned off ([`Self::set_fast_path`]).
     fast_off: bool,
     /// The configuration meets the fast path's preconditions (checked in [`Self::new`]).
     fast_ok: bool,
@@ -77,9 +72,8 @@ impl<T: Sample> Controller<T> {
         Ok(Self::new(&Compiled::try_new(config)?))
     }
 
-    /// A controller running `law` (no float maths), in `law`'s yaw mode and traction, all
-    /// states zero, the integrator not yet preset: the first traction step presets it to the
-    /// back-EMF `K_m omega_m` (bumpless start), unless [`Self::preset_back_emf`] ran.
+    /// A controller running `law` (no float maths), states zero, the integrator to be preset
+    /// to the back-EMF by the first traction step (bumpless).
     pub fn new(law: &Compiled<T>) -> Self {
         // The fast path's preconditions: its short products are exact for every reachable state.
         let g_half_pre = T::pre_coeff(law.lead.g_half);
@@ -124,9 +118,7 @@ impl<T: Sample> Controller<T> {
         c
     }
 
-    /// Recomputes whether the fast path applies: normal running (lead, traction on and preset,
-    /// not safe, not slewing, torque limit at its maximum, no protection) on a configuration
-    /// that meets its preconditions. Called after every change of those states.
+    /// Recomputes whether the fast path applies (normal running on a suitable configuration).
     #[inline(always)]
     fn refresh(&mut self) {
         self.fast = self.fast_ok
@@ -140,13 +132,9 @@ impl<T: Sample> Controller<T> {
             && self.torque_lim == self.law.torque_max;
     }
 
-    /// One base-rate tick: sanitise and clamp the inputs (counted), the yaw loop every
-    /// `yaw_divisor` ticks and the traction loop every `traction_divisor` ticks (both on
-    /// tick 0), other outputs held. Never fails, never panics.
-    ///
-    /// The fast path (normal running) computes the laws straight through with each clamp
-    /// replaced by a check that it would not engage, and declines, state untouched, to the
-    /// general path when one would (or on NaN); the two are equal bit for bit (tested).
+    /// One base-rate tick: inputs sanitised and clamped (counted), the yaw loop every
+    /// `yaw_divisor` ticks, the traction loop every `traction_divisor`; never panics. The fast
+    /// path declines to the general one, state untouched, where a clamp would engage.
     #[inline]
     pub fn tick(&mut self, inp: &Inputs<T>) -> Outputs<T> {
         T::controller_tick(self, inp)
@@ -158,8 +146,7 @@ impl<T: Sample> Controller<T> {
         if !self.fast {
             return self.general_tick(inp);
         }
-        // Normal running: both loops every tick; neither changes a state `refresh` reads, so
-        // `fast` stays as it is.
+        // Normal running: neither loop changes a state `refresh` reads.
         let k = &mut self.counters;
         k.ticks = k.ticks.wrapping_add(1);
         k.yaw_steps = k.yaw_steps.wrapping_add(1);
@@ -176,7 +163,6 @@ impl<T: Sample> Controller<T> {
         };
         if !fast {
             ev |= self.traction_general(inp);
-            // The protection may have started acting: the next path follows from the states again.
             self.refresh();
         }
         if ev != 0 {
@@ -186,8 +172,7 @@ impl<T: Sample> Controller<T> {
         self.out
     }
 
-    /// What the latest [`Self::tick`] counted, one bit per counter ([`TickEvents::NONE`] in
-    /// normal running); the runtime's counters follow it on ticks with events only.
+    /// What the latest [`Self::tick`] counted, one bit per counter.
     #[inline(always)]
     pub fn tick_events(&self) -> TickEvents {
         self.events
@@ -202,7 +187,6 @@ impl<T: Sample> Controller<T> {
         if !y.abs_within(law.y_dot_max) {
             return false;
         }
-        // Predictor and lead (`Lead::process`), as in `yaw_step`.
         let d = y.sat_sub(self.last_y_dot).mul_c_small(law.predict_half);
         let x = y.sat_add(d).sat_add(d);
         if !x.abs_within(law.y_dot_pred_max) {
@@ -225,10 +209,8 @@ impl<T: Sample> Controller<T> {
         true
     }
 
-    /// The traction loop's fast path: `false`, nothing changed, if a clamp (current, demand,
-    /// ramp, integrator, output) would engage; the ramp skipped while settled. The demand's
-    /// product is exact (`|demand| <= 2`), `Kp`'s by [`Self::new`]'s precondition. The settled
-    /// case returns straight from the PI: no ramp state to write back (`cargo xtask fw-bench`).
+    /// The traction loop's fast path: `false`, nothing changed, if a clamp would engage.
+    /// Exact: `|demand| <= 2`, and `Kp` by [`Self::new`]'s precondition.
     #[inline(always)]
     fn fast_traction<const WSP: bool>(&mut self, inp: &Inputs<T>) -> bool {
         let law = &self.law;
@@ -238,7 +220,6 @@ impl<T: Sample> Controller<T> {
         }
         let dm = inp.demand;
         if self.ramp_settled && dm == self.settled_demand {
-            // `iref` is the ramp's target: the ramp would leave it as it is.
             let Some(w) = self.fast_wsp::<WSP>(inp.speed, self.iref) else {
                 return false;
             };
@@ -270,10 +251,8 @@ impl<T: Sample> Controller<T> {
         true
     }
 
-    /// The protection's fast step (on, not acting): `None` if the speed clamp would engage,
-    /// the speed is NaN, or it detects with `iref` (the general step then cuts); otherwise
-    /// what [`Self::fast_wsp_commit`] stores once the PI has run. `Some` of nothing with
-    /// the protection off (`WSP` is `wsp_on`).
+    /// The protection's fast step: `None` on a clamp, NaN or a detection; else what
+    /// [`Self::fast_wsp_commit`] stores.
     #[inline(always)]
     fn fast_wsp<const WSP: bool>(&self, speed: T, iref: T) -> Option<Option<(T, T)>> {
         if !WSP {
@@ -303,8 +282,7 @@ impl<T: Sample> Controller<T> {
         }
     }
 
-    /// The PI of [`Self::fast_traction`] on the error `e`: `false`, with nothing
-    /// changed, if the integrator or the output clamp would engage.
+    /// The fast PI on `e`: `false`, nothing changed, if the integrator or output clamp would engage.
     #[inline(always)]
     fn fast_pi(&mut self, e: T) -> bool {
         let law = &self.law;
@@ -327,11 +305,9 @@ impl<T: Sample> Controller<T> {
         true
     }
 
-    /// The general path of [`Self::tick`].
     #[inline(never)]
     fn general_tick(&mut self, inp: &Inputs<T>) -> Outputs<T> {
         self.counters.ticks = self.counters.ticks.wrapping_add(1);
-        // Events of this tick, one bit each; the counters are updated only on ticks with events.
         let mut ev = 0u32;
         if self.yaw_phase == 0 {
             self.yaw_phase = self.law.yaw_divisor - 1;
@@ -405,7 +381,6 @@ impl<T: Sample> Controller<T> {
         let raw = match self.mode {
             YawMode::Passive => T::ZERO,
             YawMode::Gain => x.mul_c(law.gain),
-            // The scheduled lead while the protection holds the wheel at the limit (crate::wsp).
             YawMode::Lead => {
                 let d = law.lead.advance(&mut self.lead_state, x);
                 if self.wsp.sched {
@@ -416,7 +391,6 @@ impl<T: Sample> Controller<T> {
                 }
             }
         };
-        // Bumpless law change: at most `torque_step` per yaw step until caught up.
         let raw = if self.slewing {
             let step = law.torque_step;
             let (d, limited) = raw
@@ -427,8 +401,7 @@ impl<T: Sample> Controller<T> {
         } else {
             raw
         };
-        // The torque limit, ramped towards 0 in the safe state and back; a clamp by either is a
-        // saturation. At its maximum in normal running the ramp is skipped.
+        // The torque limit, ramped to 0 in the safe state and back; either clamp is a saturation.
         let lim = if self.safe {
             self.torque_lim
                 .sat_sub(law.torque_step)
@@ -462,7 +435,6 @@ impl<T: Sample> Controller<T> {
         let i = Self::input(inp.current, law.current_max, event::CURRENT, ev);
         let d = Self::input(inp.demand, law.demand_max, event::DEMAND, ev);
         if !self.armed {
-            // Bumpless start.
             let w = Self::input(inp.speed, law.speed_max, event::SPEED, ev);
             law.pi.preset(&mut self.pi_state, w.mul_c(law.back_emf));
             self.wsp.w_prev = w;
@@ -478,7 +450,6 @@ impl<T: Sample> Controller<T> {
             .limit(T::ZERO.sat_sub(step), step)
             .0;
         self.iref = self.iref.sat_add(delta);
-        // Wheel-slip protection (crate::wsp): caps the reference while the wheel slips.
         let mut iref = self.iref;
         self.wsp_acting = false;
         if self.wsp_on & !self.safe {

@@ -1,6 +1,5 @@
-//! The gains designed for a base rate and an actuation delay: the set of (rate, delay)
-//! points a device accepts, each with its traction PI and yaw law (host and build
-//! script; the device only compares bits). Both loops every tick; the effective delay
+//! The gains designed per (base rate, delay) point a device accepts ([`DESIGNED`]; a
+//! point whose yaw loop fails takes the passive law only). Both loops every tick.
 //!
 //! ```text
 //! tau = (d + 1/2) T,   T = 1/base_rate_hz;   tau_0 = 1.5/(5 kHz) = 300 us (the paper's point)
@@ -8,11 +7,6 @@
 //! alpha = min(d + 1/2, 3/2) ticks   (the predictor over the delay, at most the wire's 3/2)
 //! K   = lead_gain K_0               (the largest of LEAD_GAIN_STEPS within 1 dB / 5 deg of the paper's margins)
 //! ```
-//!
-//! The lead gains come from the host's sampled-data analysis
-//! (`wheelset_plant::sampled::design`, whose test holds [`DESIGNED`] to it). A point not
-//! in [`DESIGNED`] is refused; one whose yaw loop fails is accepted with the passive yaw
-//! law only ([`DesignPoint::yaw`]). `docs/closed-loop.md` has the analysis.
 
 use crate::config::{Config, ConfigError};
 
@@ -32,8 +26,7 @@ pub struct DesignPoint {
 /// The lead gain factors the design tries, largest (the paper's lead) first.
 pub const LEAD_GAIN_STEPS: [f64; 6] = [1.0, 0.95, 0.9, 0.85, 0.8, 0.75];
 
-/// The accepted rates and delays (module docs), checked against the design's findings by
-/// `wheelset_plant::sampled::design`'s test.
+/// The accepted rates and delays, held to the host's analysis by `wheelset_plant::sampled::design`'s test.
 pub const DESIGNED: [DesignPoint; 18] = [
     DesignPoint {
         base_rate_hz: 500,
@@ -172,8 +165,7 @@ pub fn point(base_rate_hz: u32, delay_ticks: u8) -> Option<DesignPoint> {
 }
 
 impl Config {
-    /// This configuration (the paper's gains, 5 kHz, one tick) redesigned for the rate, the
-    /// delay and `lead_gain` (module docs). Use [`Config::designed`] for an accepted point.
+    /// This configuration redesigned for the rate, delay and `lead_gain` ([`Config::designed`]).
     pub fn with_design(&self, base_rate_hz: u32, delay_ticks: u8, lead_gain: f64) -> Self {
         let mut c = *self;
         c.base_rate_hz = base_rate_hz;

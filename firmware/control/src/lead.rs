@@ -1,8 +1,6 @@
-//! Phase-lead yaw damping `Ks(s) = K a (s + w1)/(s + w2)`, discretised by Tustin.
-//!
-//! Not as a direct form: there `b0 ~ -b1` and the DC gain is the difference of two large
-//! numbers, which a narrow Q format loses. Split instead (still exactly Tustin's map,
-//! evaluated in a well-conditioned order):
+//! Phase-lead yaw damping `Ks(s) = K a (s + w1)/(s + w2)` by Tustin, evaluated as a
+//! high-pass around a low-pass rather than a direct form (whose `b0 ~ -b1` loses the DC
+//! gain in a narrow Q format). Sign: `T_psi = +Ks(s) y'`.
 //!
 //! ```text
 //! Ks(s) = K_hf (1 - g w2/(s + w2)),  K_hf = K a,  g = (w2 - w1)/w2
@@ -11,10 +9,6 @@
 //! z[n]   = z[n-1] + kappa ( (g/2)(x[n] + x[n-1]) - z[n-1] )
 //! y[n]   = K_hf (x[n] - z[n])
 //! ```
-//!
-//! At DC `z = g x` whatever `kappa` quantises to: the DC gain `K a w1/w2` depends on the
-//! quantisation of `K_hf` and `g/2` alone. Sign: `T_psi = +Ks(s) y'` (eq. 5:
-//! `J psi'' + ... = -T_psi`).
 
 use crate::sample::Sample;
 use crate::ConfigError;
@@ -57,9 +51,8 @@ impl LeadParams {
         self.k * self.a
     }
 
-    /// Tustin discretisation at period `t_s` s. Errors: non-finite or non-positive parameters,
-    /// `w1 >= w2`, `prewarp >= pi/T`, or `c >= 1` (a negative discrete pole; the Q-format
-    /// range analysis assumes `alpha > 0`).
+    /// Tustin discretisation at period `t_s` s; errors: bad parameters, `w1 >= w2`,
+    /// `prewarp >= pi/T`, or `c >= 1` (a negative pole; the range analysis needs `alpha > 0`).
     pub fn discretise(&self, t_s: f64) -> Result<LeadDiscrete, ConfigError> {
         let fin = |v: f64| v.is_finite();
         if !(fin(self.k) && fin(self.a) && fin(self.w1) && fin(self.w2) && fin(t_s)) {
@@ -103,8 +96,7 @@ impl LeadParams {
     }
 }
 
-/// `tan(x)` for `0 <= x < 1.42` without libm: Lambert's continued fraction to 12 levels,
-/// ~1e-15 in that range (construction time only).
+/// `tan(x)` for `0 <= x < 1.42` without libm: Lambert's continued fraction, ~1e-15.
 pub(crate) fn tan_small(x: f64) -> f64 {
     let x2 = x * x;
     let mut d = 25.0;
@@ -134,8 +126,7 @@ pub struct LeadDiscrete {
 }
 
 impl LeadDiscrete {
-    /// The same filter as a direct form `y[n] = a1 y[n-1] + b0 x[n] + b1 x[n-1]` (N m s/m):
-    /// `(b0, b1, a1)`, for audit only.
+    /// The direct form `y[n] = a1 y[n-1] + b0 x[n] + b1 x[n-1]`: `(b0, b1, a1)`, N m s/m (audit).
     pub fn direct_form(&self) -> (f64, f64, f64) {
         let h = self.kappa * self.g / 2.0;
         (
@@ -192,8 +183,7 @@ pub struct LeadPu {
     pub kappa: f64,
 }
 
-/// The lead as it runs: quantised per-unit coefficients; `repr(C)` in the fast path's
-/// read order (`kappa`, `k_hf`: one `LDRD`).
+/// The lead as it runs: quantised per-unit coefficients; `repr(C)` in read order.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C)]
 pub struct Lead<T: Sample> {
@@ -239,8 +229,7 @@ impl<T: Sample> Lead<T> {
         self.advance(s, x).mul_c(self.k_hf)
     }
 
-    /// The state update alone, returning `x - z[n]` (pu): [`Self::process`] is `K_hf` times
-    /// it; the protection's scheduled lead is `K_hf' (x - z - rho z)` on the same state.
+    /// The state update alone, returning `x - z[n]` (pu); [`Self::process`] is `K_hf` times it.
     #[inline(always)]
     pub fn advance(&self, s: &mut LeadState<T>, x: T) -> T {
         let m = x.sat_add(s.x1);
@@ -250,8 +239,7 @@ impl<T: Sample> Lead<T> {
         x.sat_sub(s.z)
     }
 
-    /// The steady state for a constant `x`: `x1 = x`, `z = g x`; switching in from it is
-    /// bumpless (output `K_hf (1 - g) x` at once).
+    /// The steady state for a constant `x` (`z = g x`): switching in from it is bumpless.
     pub fn steady_state(&self, x: T) -> LeadState<T> {
         LeadState {
             x1: x,

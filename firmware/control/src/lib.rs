@@ -1,10 +1,11 @@
-//! The wheelset's control laws, `no_std`: discretised phase-lead yaw damping, the PI
-//! traction current loop and its wheel-slip protection ([`wsp`]), generic over the
-//! sample type (`f64` reference, `f32`, and the fixed-point production type [`Fx`] = Q4.28).
+//! The wheelset's control laws, `no_std`: discretised phase-lead yaw damping ([`lead`]),
+//! the PI traction current loop ([`pi`]) and its wheel-slip protection ([`wsp`]), generic
+//! over the sample type (`f64` reference, `f32`, fixed-point [`Fx`] = Q4.28 for production).
 //!
-//! No allocation, no HAL, no division, no panic on the tick path. Configuration is
-//! validated once ([`Controller::try_new`] returns a typed [`ConfigError`]); the tick
-//! never fails: it sanitises (NaN -> 0), clamps, and counts ([`Counters`]).
+//! No allocation, no HAL, no division, no panic on the tick path; no `libm` on the device
+//! (the discretisation runs once, in f64, as series of this crate, so the compiled bits
+//! are the same everywhere). Configuration is validated once ([`Controller::try_new`]);
+//! the tick never fails: it sanitises (NaN -> 0), clamps, and counts ([`Counters`]).
 //!
 //! ```
 //! use wheelset_control::{Config, FixedController, InputCodes};
@@ -17,8 +18,6 @@
 //! assert!(out.yaw_torque > 0);
 //! ```
 //!
-//! # Signals, units, signs
-//!
 //! | signal | SI | full scale (1 pu) | clamp / limit (default) | wire LSB (default) |
 //! |---|---|---|---|---|
 //! | `y'` lateral velocity rel. track, + right | m/s | 1 m/s | ±1 m/s | 1 um/s |
@@ -29,29 +28,10 @@
 //! | traction demand (wheel torque) | N m | 1e4 N m | ±2e4 N m | 1 N m |
 //!
 //! Yaw torque sign: eq. 5 of the model, `J psi'' + ... = -T_psi`; the active law is
-//! `T_psi = +K y'` (or `+Ks(s) y'`): a wheelset moving right is yawed nose-left.
-//! Current reference `i_ref = demand/(n K_m)`; back-EMF `K_m theta_m'`.
-//!
-//! # Discretisation (computed in f64, then quantised)
-//!
-//! ```text
-//! lead Ks(s) = K a (s + w1)/(s + w2), Tustin (see [`lead`]):
-//!   c = w2 T/2 (or w2 tan(wp T/2)/wp), alpha = (1-c)/(1+c), kappa = 1 - alpha, g = (w2-w1)/w2
-//!   z[n] = z[n-1] + kappa ((g/2)(x[n] + x[n-1]) - z[n-1]),  y[n] = K a (x[n] - z[n])
-//! PI Kp (1 + 1/(Ti s)), backward Euler, integrator clamped (see [`pi`]):
-//!   e = i_ref - i_a,  I[n] = clamp(I[n-1] + (Kp T/Ti) e[n]),  u[n] = clamp(Kp e[n] + I[n])
-//! yaw delay compensation: x = y'[n] + alpha (y'[n] - y'[n-1]), alpha = yaw_predict_ticks/yaw_divisor
-//! reference ramp: i_ref[n] = i_ref[n-1] + clamp(target - i_ref[n-1], ±r T)
-//! ```
-//!
-//! The tick runs no `libm` function: the transcendental functions of the discretisation
-//! run once, in f64, where a configuration is compiled (host or build script), as series
-//! in this crate so that the compiled bits are the same everywhere ([`Compiled::from_bits`]).
-//!
-//! Fixed point ([`FixedController`]): signals and states Q4.28 per unit, coefficients
-//! Q1.31 in `(-1, 1)`; products exact in 64 bits and rounded ([`sample::mul_q31`]), sums
-//! saturating. Ranges and rounding errors: `docs/audit.md`; rates and link budget:
-//! `docs/closed-loop.md`.
+//! `T_psi = +K y'` (or `+Ks(s) y'`): a wheelset moving right is yawed nose-left. Current
+//! reference `i_ref = demand/(n K_m)`, ramped: `i_ref[n] = i_ref[n-1] + clamp(target -
+//! i_ref[n-1], ±r T)`; back-EMF `K_m theta_m'`. Ranges and rounding: `docs/audit.md`;
+//! rates and link budget: `docs/closed-loop.md`.
 #![no_std]
 #![deny(missing_docs)]
 

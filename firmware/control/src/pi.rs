@@ -1,5 +1,5 @@
-//! PI traction current controller `Kt(s) = Kp (1 + 1/(Ti s))`, backward-Euler integrator
-//! with clamping anti-windup.
+//! PI traction current controller `Kt(s) = Kp (1 + 1/(Ti s))`, backward Euler, with
+//! clamping anti-windup:
 //!
 //! ```text
 //! e[n] = r[n] - i[n]                                            (A; pu inside)
@@ -8,17 +8,12 @@
 //! fixed point:  Ki e[n] = floor((e c + r) / 2^(31+s)),  c = round(Ki 2^(31+s)), remainder carried in r
 //! ```
 //!
-//! `Ki` is small, so fixed point holds it as `Ki 2^s` ([`Sample::acc_shift`]), `s` chosen
-//! at construction for `Ki` at [`KI_SHIFT_PERIOD_S`] and carried in the schedule. The
-//! integrator's pole is exactly `z = 1` in every type (no coefficient multiplies the state);
-//! clamped to the output range, it leaves saturation as soon as `Kp e` changes sign.
-//! Bumpless start: [`PiState::integ`] preset to the back-EMF `K_m omega_m`.
+//! The integrator's pole is exactly `z = 1` (no coefficient multiplies the state).
 
 use crate::sample::Sample;
 use crate::ConfigError;
 
-/// The slowest traction period a device accepts, s (`1/LOOP_RATE_MIN_HZ`): `Ki`'s shift
-/// fits `Ki` at this period, so every accepted schedule fits the start-up controller's shift.
+/// The slowest traction period a device accepts, s: `Ki`'s shift is set to fit `Ki` there.
 pub const KI_SHIFT_PERIOD_S: f64 = 1.0 / wheelset_proto::plausible::LOOP_RATE_MIN_HZ as f64;
 
 /// The continuous PI: `Kp (1 + 1/(Ti s))`.
@@ -103,8 +98,7 @@ pub struct PiPu {
     pub ki: f64,
 }
 
-/// The PI as it runs: quantised coefficients and output limits; `repr(C)` in the fast
-/// path's read order (one `LDRD` per pair).
+/// The PI as it runs: quantised coefficients and output limits; `repr(C)` in read order.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C)]
 pub struct Pi<T: Sample> {
@@ -153,8 +147,7 @@ impl<T: Sample> Pi<T> {
         Self::with_ki_max(pu, pu.ki, u_min, u_max)
     }
 
-    /// As [`Self::new`], `Ki`'s shift chosen for `ki_max` (pu, at least `pu.ki`):
-    /// [`ConfigError::Coefficient`] if too large (fixed point: `Ki >= 0.5` pu per sample).
+    /// As [`Self::new`], `Ki`'s shift chosen for `ki_max` (pu, `>= pu.ki`).
     pub fn with_ki_max(
         pu: &PiPu,
         ki_max: f64,

@@ -1,8 +1,6 @@
-//! The sample trait: the few operations a filter needs, for `f64` (reference), `f32`
-//! (FPU build) and [`Fx`] (Q4.28, the production build). Every signal is per unit
-//! (`x_pu = x_SI / FS`, [`crate::FullScales`]). Fixed point: coefficients Q1.31 in
-//! `(-1, 1)`, sums saturating, products `y = (x c + 2^30) >> 31` ([`mul_q31`]), which
-//! cannot overflow since `|c| < 1`; the input clamps keep the saturations from engaging.
+//! The sample trait: the operations a filter needs, for `f64` (reference), `f32` and
+//! [`Fx`] (Q4.28); signals per unit (`x_SI / FS`). Fixed point: coefficients Q1.31 in
+//! `(-1, 1)`, sums saturating, products `(x c + 2^30) >> 31` ([`mul_q31`]), no overflow.
 
 use fixed::types::{I1F31, I4F28};
 
@@ -14,8 +12,7 @@ pub use fx::{mul_q31, smmulr, FxScale};
 
 /// The production fixed-point signal type: Q4.28 per unit (`[-8, 8)`, LSB `2^-28`).
 pub type Fx = I4F28;
-/// The production fixed-point coefficient type: Q1.31 in `(-1, 1)` (LSB `2^-31`), so a
-/// product with a Q4.28 signal cannot overflow.
+/// The production coefficient type: Q1.31 in `(-1, 1)`, so a product cannot overflow.
 pub type Coef = I1F31;
 
 /// Number of fractional bits of [`Fx`] signals.
@@ -27,8 +24,7 @@ pub const COEF_FRAC: u32 = 31;
 pub trait Sample: Copy + Default + PartialEq + PartialOrd + core::fmt::Debug {
     /// Quantised coefficient (`Self` for floats, [`Coef`] Q1.31 for [`Fx`]).
     type Coeff: Copy + core::fmt::Debug + PartialEq;
-    /// An integrator's sub-LSB remainder (`()` for floats, `u64` for [`Fx`]: up to
-    /// `31 + s` bits, [`Sample::mul_c_acc_shr`]).
+    /// An integrator's sub-LSB remainder (`()` for floats, `u64` for [`Fx`]).
     type Residue: Copy + Default + core::fmt::Debug + PartialEq;
     /// Precomputed wire-code scale (`Self` for floats, [`FxScale`] for [`Fx`]).
     type Scale: Copy + core::fmt::Debug + PartialEq;
@@ -50,24 +46,20 @@ pub trait Sample: Copy + Default + PartialEq + PartialOrd + core::fmt::Debug {
     fn sat_sub(self, rhs: Self) -> Self;
     /// `self * c`, rounded to nearest and saturating.
     fn mul_c(self, c: Self::Coeff) -> Self;
-    /// The signal as a coefficient, exact where the format holds it, saturated otherwise
-    /// (`Fx`: Q4.28 to Q1.31, a shift): the slip regulator's product with the slew.
+    /// The signal as a coefficient, saturated to the coefficient range (`Fx`: a shift).
     fn to_coeff_sat(self) -> Self::Coeff;
-    /// `self^2`, pu^2, rounded and saturating (the monitor's mean square); the default goes
-    /// through `f64`.
+    /// `self^2`, pu^2, rounded and saturating.
     #[inline]
     fn square(self) -> Self {
         let x = self.to_f64();
         Self::from_f64(x * x)
     }
-    /// `self * c` for an integrator's increment with first-order error feedback: fixed point
-    /// floors and carries the remainder in `r`, so the running sum is exact to one LSB (no
-    /// dead band, no rounding bias); floats just multiply.
+    /// `self * c` for an integrator's increment with error feedback: fixed point floors and
+    /// carries the remainder in `r`, so the running sum is exact to one LSB; floats multiply.
     fn mul_c_acc(self, c: Self::Coeff, r: &mut Self::Residue) -> Self;
-    /// The shift `s` holding a small integrator coefficient as `c 2^s` (the PI's `Ki`): the
-    /// largest the type allows such that every coefficient up to `c_max` still quantises,
-    /// keeping all significant bits. `None` if `c_max` is not finite and positive or too
-    /// large. Floats 0; fixed point `1..=`[`Sample::ACC_SHIFT_MAX`] (`c_max < 0.5`).
+    /// The shift `s` holding a small coefficient as `c 2^s` (the PI's `Ki`): the largest such
+    /// that every coefficient up to `c_max` still quantises; `None` if `c_max` is not finite,
+    /// positive and small enough. Floats 0; fixed point `1..=`[`Sample::ACC_SHIFT_MAX`].
     fn acc_shift(c_max: f64) -> Option<u32> {
         (c_max.is_finite() && c_max > 0.0).then_some(0)
     }
@@ -78,8 +70,7 @@ pub trait Sample: Copy + Default + PartialEq + PartialOrd + core::fmt::Debug {
         s == 0
     }
     /// `self * c 2^-s` with [`Sample::mul_c_acc`]'s error feedback, `c` held as `c 2^s`:
-    /// fixed point floors `(x c + r) / 2^(31+s)` and carries `31 + s` bits in `r`. The
-    /// default is [`Sample::mul_c_acc`], right for types whose shift is 0.
+    /// fixed point floors `(x c + r) / 2^(31+s)` and carries `31 + s` bits in `r`.
     #[inline(always)]
     fn mul_c_acc_shr(self, c: Self::Coeff, s: u32, r: &mut Self::Residue) -> Self {
         let _ = s;
@@ -98,8 +89,7 @@ pub trait Sample: Copy + Default + PartialEq + PartialOrd + core::fmt::Debug {
     /// `round(self * scale)` to a code, saturating at the `i32` range (NaN gives 0).
     fn to_code(self, scale: &Self::Scale) -> i32;
 
-    // The fast path's operations: each gives exactly the result of the general operation
-    // under the stated condition; the defaults are the general ones (`pre_coeff` `None`).
+    // The fast path's operations: exactly the general operation's result under the stated condition.
 
     /// Two per unit (the range bound of the fast path's preconditions).
     #[inline(always)]
@@ -118,8 +108,7 @@ pub trait Sample: Copy + Default + PartialEq + PartialOrd + core::fmt::Debug {
         let (x, bad) = self.sanitize();
         !bad && !x.limit(lo, hi).1
     }
-    /// `c` in [`Sample::mul_pre`]'s form: fixed point `2c` for `|c| <= 0.5 - 2^-30` (so a
-    /// product with `|x| <= 4` pu stays below 2 pu); floats `c`.
+    /// `c` in [`Sample::mul_pre`]'s form: fixed point `2c` for `|c| <= 0.5 - 2^-30`; floats `c`.
     #[inline(always)]
     fn pre_coeff(_c: Self::Coeff) -> Option<Self::Coeff> {
         None
@@ -130,15 +119,13 @@ pub trait Sample: Copy + Default + PartialEq + PartialOrd + core::fmt::Debug {
     fn mul_pre(self, pc: Self::Coeff) -> Self {
         self.mul_c(pc)
     }
-    /// `self * c`, the same value as [`Sample::mul_c`] when `-4 <= self < 4` pu (fixed
-    /// point: `SMMULR(2x, c)`, two instructions; `2x` does not overflow in that range).
+    /// `self * c`, equal to [`Sample::mul_c`] for `-4 <= self < 4` pu (fixed point `SMMULR(2x, c)`).
     #[inline(always)]
     fn mul_c_small(self, c: Self::Coeff) -> Self {
         self.mul_c(c)
     }
 
-    /// [`crate::Controller::tick`] for this type, non-generic in this crate so that it gets
-    /// this crate's optimisation level (`s` in the `fw` profile), not the caller's.
+    /// [`crate::Controller::tick`], non-generic here so it gets this crate's opt-level.
     #[inline(always)]
     fn controller_tick(
         c: &mut crate::Controller<Self>,
@@ -148,8 +135,7 @@ pub trait Sample: Copy + Default + PartialEq + PartialOrd + core::fmt::Debug {
     }
 }
 
-/// Exact bit patterns of a [`Sample`]'s values, coefficients and scales (constants and
-/// the wire, [`crate::CompiledBits`]); integer work only.
+/// Exact bit patterns of a [`Sample`]'s values, coefficients and scales (integer work).
 pub trait SampleBits: Sample {
     /// The type's tag ([`crate::CompiledBits::numeric`]): 0 Q4.28 / Q1.31, 1 `f32`, 2 `f64`.
     const NUMERIC: u8;
@@ -170,8 +156,7 @@ pub trait SampleBits: Sample {
     fn coeff_in_unit(c: Self::Coeff, zero_ok: bool) -> bool;
     /// The exact bits of a wire-code scale: `(mul, shift)` (floats: the IEEE bits, 0).
     fn scale_to_bits(s: &Self::Scale) -> (u64, u8);
-    /// A scale from [`SampleBits::scale_to_bits`]'s bits; `None` if invalid (fixed point:
-    /// `mul` in `[1024, 2^31)`, `shift <= 62`; floats: finite and positive).
+    /// A scale from [`SampleBits::scale_to_bits`]'s bits; `None` if invalid.
     fn scale_from_bits(mul: u64, shift: u8) -> Option<Self::Scale>;
 }
 

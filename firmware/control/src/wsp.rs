@@ -1,7 +1,4 @@
-//! Wheel-slip protection (WSP) of the traction loop, generic over the sample type like
-//! the lead and the PI; the design and its figures: `docs/adhesion.md`.
-//!
-//! All in motor-speed pu, so the slip needs no conversion on the tick:
+//! Wheel-slip protection (WSP) of the traction loop, in motor-speed pu:
 //!
 //! ```text
 //! w = theta_m',  w_ref = n v_ref / r0,  slip = w - w_ref  (= n/r0 times the rim's slip velocity, m/s)
@@ -15,23 +12,18 @@
 //! output:  cap while active, i_ref otherwise
 //! ```
 //!
-//! Positive slip: the wheel turns faster than the vehicle runs (motoring); traction only
-//! (`i_ref > 0`). Gains in pu: `kp' = kp / (n/r0 scales.current)`, the integral per step
-//! `ki' / current_ref_rate` times the schedule's `iref_step`, so a new schedule keeps the
-//! SI rates with no discretisation on the device.
+//! Positive slip: the wheel faster than the vehicle (motoring); traction only. Per-step
+//! quantities are ratios to the schedule's `iref_step`, so a new rate needs no
+//! discretisation on the device. Design and figures: `docs/adhesion.md`.
 //!
 //! # An unknown reference
 //!
-//! `v_ref_mm_s = 0` gives `w_ref = 0` exactly in every build: no detection (a wheel at
-//! line speed would read as slipping, and the acceleration test alone would cut on the
-//! gear's transients), no regulation (a cap in force rises by `iref_step` per step and
-//! releases at `i_ref`, no torque step). A host that knows the vehicle stands sends 1 mm/s.
+//! `v_ref_mm_s = 0` gives `w_ref = 0` exactly: no detection (a rolling wheel would read as
+//! slipping) and no regulation (a cap in force rises by `iref_step` per step and releases).
 //!
 //! # The scheduled lead
 //!
-//! While `sched`, the yaw lead runs as `0.3 K a (s + 15)/(s + 274)` (the paper's lead goes
-//! unstable near the adhesion peak), on the lead's own state ([`crate::lead`]: its
-//! low-pass of `g' x` is `z (1 + rho)`); the switch is abrupt:
+//! While `sched`, the lead runs as `0.3 K a (s + 15)/(s + 274)` on its own state:
 //!
 //! ```text
 //! y' = K_hf' (x - z - rho z),   K_hf' = lead_gain K_hf,   rho = (w1 - w1')/(w2 - w1) = 22/237
@@ -39,11 +31,9 @@
 //!
 //! # Exact decisions
 //!
-//! The builds must decide on the same tick on the same codes. The slip `c_w a - c_v b`
-//! (`a` = 1 mrad/s, `b` = 1 mm/s at the rim = `100/9` mrad/s) is a multiple of `a/9`,
-//! so the thresholds sit half a speed code above their values: no slip then equals a
-//! threshold, the nearest lies `a/18` away, beyond the Q4.28 and f64 errors (not f32's).
-//! The acceleration test's level is 6.67 `a` at 5 kHz, a third of a code from a lattice point.
+//! The slip `c_w a - c_v b` (`a` = 1 mrad/s, `b` = 1 mm/s at the rim = `100/9` mrad/s)
+//! is a multiple of `a/9`; the thresholds sit half a speed code above their values, so
+//! no slip equals one and the builds decide on the same tick (f32 not guaranteed).
 //!
 //! # The slip bound on `low-adhesion`
 //!
@@ -52,11 +42,8 @@
 //! s_tr    = s0 + r0 dT t_cut / J + (cut i_d - i_low) / kp + r0 dT / (J_w w_g) + r0 (1 - cut) T_d / (J_m w_g)
 //!   s0 dry slip at mu_d;  dT = T_d (1 - mu_low(s0) / mu_d);  i_low = mu_low(s0) / mu_d i_d
 //!   J_w = 2 I_w, J_m = n^2 I_m, J = J_w + J_m;  w_g = sqrt(k_gear (1/J_w + 1/J_m))
-//!   t_cut = t_detect + L_a/K_p
+//!   t_cut = t_detect + L_a/K_p              (`sim-host/cli/tests/adhesion.rs` computes it)
 //! ```
-//!
-//! The terms: spin-up until the cut, the regulator's proportional take-back, the gear's
-//! twist from the rail's drop and from the cut (`sim-host/cli/tests/adhesion.rs` computes it).
 //!
 //! ```
 //! use wheelset_control::{Config, F64Controller, Inputs};
@@ -129,7 +116,7 @@ impl Default for WspParams {
     }
 }
 
-/// The compiled protection for sample type `T` (immutable while running).
+/// The compiled protection for `T` (immutable while running).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Wsp<T: Sample> {
     pub(crate) enabled: bool,
@@ -139,7 +126,6 @@ pub struct Wsp<T: Sample> {
     pub(crate) slip_accel: T,
     /// Acceleration threshold per traction step over `iref_step`.
     pub(crate) accel_ratio: T::Coeff,
-    /// Fraction kept at detection.
     pub(crate) cut: T::Coeff,
     /// Half the set point at zero cap, motor-speed pu.
     pub(crate) sp_half: T,
@@ -232,8 +218,7 @@ impl<T: Sample> Wsp<T> {
         self.sp_half.sat_add(cap.mul_c(self.sp_half_slope))
     }
 
-    /// Detection on this step while idle (module docs); one rule for [`Self::process`] and
-    /// the controller's fast path, which declines the step to the general one when it detects.
+    /// Detection on this step while idle (module docs); shared with the fast path.
     #[inline(always)]
     pub(crate) fn detects(&self, w_ref: T, slip: T, dw: T, iref: T, step: T) -> bool {
         let detect =
@@ -241,15 +226,14 @@ impl<T: Sample> Wsp<T> {
         detect && iref > T::ZERO && w_ref != T::ZERO
     }
 
-    /// One traction step (`w` clamped motor speed, `iref` ramped reference, `step` slew per
-    /// step, pu): the reference to use, acting, started acting. Sets `st.sched`.
+    /// One traction step (`w` motor speed, `iref` reference, `step` slew, pu): the reference
+    /// to use, acting, started acting.
     #[inline(always)]
     pub fn process(&self, st: &mut WspState<T>, w: T, iref: T, step: T) -> (T, bool, bool) {
         let slip = w.sat_sub(st.w_ref);
         let dw = w.sat_sub(st.w_prev);
         st.w_prev = w;
         let known = st.w_ref != T::ZERO;
-        // The proportional term differences known slips only.
         let d_slip = if st.known {
             slip.sat_sub(st.slip_prev)
         } else {
@@ -266,7 +250,6 @@ impl<T: Sample> Wsp<T> {
             if !self.detects(st.w_ref, slip, dw, iref, step) {
                 return (iref, false, false);
             }
-            // Detected: the instantaneous cut, where the regulator starts.
             st.active = true;
             st.cap = iref.mul_c(self.cut);
         } else {
@@ -279,7 +262,6 @@ impl<T: Sample> Wsp<T> {
                 .mul_c(self.ki)
                 .mul_c_acc(step.to_coeff_sat(), &mut st.residue);
             let raw = st.cap.sat_sub(p).sat_add(i);
-            // Release where the regulator asks for the whole reference.
             if raw >= iref {
                 st.active = false;
                 st.sched = false;
@@ -291,8 +273,7 @@ impl<T: Sample> Wsp<T> {
         (st.cap, true, new)
     }
 
-    /// The reference unknown while a cap is in force: the cap rises by `step` and releases
-    /// at `iref`; no regulation, no scheduled lead.
+    /// The reference unknown while a cap is in force: the cap rises by `step` to `iref`.
     #[cold]
     #[inline(never)]
     fn hand_back(st: &mut WspState<T>, iref: T, step: T) -> (T, bool, bool) {

@@ -9,11 +9,8 @@ const LIMIT: usize = MAX_FRAME - 1;
 /// The result of a frame a call closed: `None` when it closed none.
 type Next<'b, M> = (Option<Result<M, FrameError>>, &'b [u8]);
 
-/// Collects the bytes up to each 0x00 in a fixed buffer and decodes the frame there (COBS
-/// in place, length, CRC, version, message). Empty frames are skipped (a sender may send
-/// 0x00 to resynchronise); an over-long frame is discarded to the next delimiter and
-/// reported once as [`FrameError::Length`]. Never panics or allocates; the result does
-/// not depend on how the bytes were chunked (`tests/stream.rs`).
+/// Collects the bytes up to each 0x00 in a fixed buffer and decodes the frame there;
+/// empty frames are skipped, an over-long one reported once as [`FrameError::Length`].
 ///
 /// ```
 /// use wheelset_proto::{encode_vec, Command, Decoder, Message};
@@ -60,20 +57,17 @@ impl Decoder {
         self.enc.min(MAX_FRAME)
     }
 
-    /// The host's decoder: takes `bytes` up to and including the first delimiter; the frame's
-    /// result if that closed one, and the bytes not yet taken (a caller loops until empty).
+    /// The host's decoder: `bytes` up to the first delimiter; that frame's result, and the rest.
     pub fn next_message<'b>(&mut self, bytes: &'b [u8]) -> Next<'b, Message> {
         self.next_with(bytes, message)
     }
 
-    /// The device's decoder: [`Self::next_message`]'s bytes-handling and decisions (tested),
-    /// decoding only the messages the device takes ([`Request`]).
+    /// The device's decoder: the same decisions, decoding only what the device takes.
     pub fn next_request<'b>(&mut self, bytes: &'b [u8]) -> Next<'b, Request> {
         self.next_with(bytes, request)
     }
 
-    /// The bytes up to the next delimiter into the buffer; at a delimiter the frame's result,
-    /// decided in order: length, COBS, [`check`] (length, CRC, version), `decode`.
+    /// The bytes up to the next delimiter; at a delimiter the frame's result.
     fn next_with<'b, M>(
         &mut self,
         bytes: &'b [u8],
@@ -91,7 +85,6 @@ impl Decoder {
                 to.copy_from_slice(data);
             }
         }
-        // No delimiter: every byte taken, the frame still open.
         let Some(rest) = rest else {
             return (None, &[]);
         };

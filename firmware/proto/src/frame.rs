@@ -1,5 +1,4 @@
-//! Framing, `COBS( VERSION | postcard(Message) | CRC-32C LE ) 0x00`: the one encoder and
-//! the checks of a received frame, in [`FrameError`]'s order.
+//! Framing, `COBS( VERSION | postcard(Message) | CRC-32C LE ) 0x00`: the encoder and the checks.
 
 use serde::de::DeserializeOwned;
 
@@ -11,8 +10,7 @@ pub const VERSION: u8 = 3;
 /// CRC length in bytes.
 pub const CRC_LEN: usize = 4;
 
-/// Largest `VERSION | postcard(Message)` (a [`crate::Status`] with every counter at
-/// `u32::MAX`: 157, pinned by the `sizes` test), rounded up so [`MAX_FRAME`] is a multiple of 4.
+/// Largest `VERSION | postcard(Message)` (157), rounded up: [`MAX_FRAME`] a multiple of 4.
 pub const MAX_RAW: usize = 158;
 
 /// Largest COBS-encoded frame with its delimiter (one COBS overhead byte per 254).
@@ -21,11 +19,8 @@ pub const MAX_FRAME: usize = MAX_RAW + CRC_LEN + 1 + 1;
 /// Shortest valid decoded frame: version, type, CRC.
 pub const MIN_DECODED: usize = 1 + 1 + CRC_LEN;
 
-/// The frame CRC: CRC-32C (Castagnoli, `crc::CRC_32_ISCSI`), stored little-endian; a
-/// byte-wise table (1 KiB of flash). 32 bits because a flip in a COBS code byte or a
-/// delimiter scrambles the payload, which an `n`-bit CRC rejects only with probability
-/// `1 - 2^-n` (`cargo test -p wheelset-proto --test flips -- --nocapture` measures the
-/// share); Castagnoli's polynomial keeps Hamming distance 6 at these lengths.
+/// The frame CRC: CRC-32C, little-endian. 32 bits: a flip in a COBS code byte scrambles
+/// the payload, which an `n`-bit CRC passes with probability `2^-n` (the `flips` test).
 pub static CRC: crc::Crc<u32, crc::Table<1>> =
     crc::Crc::<u32, crc::Table<1>>::new(&crc::CRC_32_ISCSI);
 
@@ -105,8 +100,7 @@ impl core::fmt::Display for EncodeError {
 #[cfg(feature = "std")]
 impl std::error::Error for EncodeError {}
 
-/// `msg` as one wire frame, delimiter included, into `out`; its length. Every message fits
-/// [`MAX_FRAME`] (tested).
+/// `msg` as one wire frame, delimiter included, into `out`; its length.
 pub fn encode(msg: &Message, out: &mut [u8]) -> Result<usize, EncodeError> {
     let area = out.len().min(1 + MAX_RAW);
     let n = encode_raw(
@@ -138,9 +132,7 @@ pub fn frame_raw(raw: &[u8], out: &mut [u8]) -> Result<usize, EncodeError> {
     seal(out, raw.len())
 }
 
-/// The frame around the raw bytes `out[1..=n]` (CRC, COBS, delimiter); its length. COBS in
-/// place: raw byte `k` already lies at `out[k + 1]`, where COBS puts it while no block
-/// reaches 254 bytes (none does), so only the code bytes are written.
+/// The frame around the raw bytes `out[1..=n]` (CRC, COBS in place, delimiter); its length.
 fn seal(out: &mut [u8], n: usize) -> Result<usize, EncodeError> {
     let too_small = EncodeError::BufferTooSmall;
     let with_crc = n + CRC_LEN;
@@ -213,8 +205,7 @@ pub(crate) fn message(msg: &[u8]) -> Result<Message, FrameError> {
     whole(msg)
 }
 
-/// What the device takes from a frame: the host -> device messages; Actuation and Status
-/// frames are recognised by their type byte only ([`Request::Unexpected`]).
+/// What the device takes from a frame; Actuation and Status are known by type byte only.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Request {
     /// [`Message::Sensor`].
@@ -225,8 +216,7 @@ pub enum Request {
     Command(crate::Command),
     /// A valid frame of a type the device sends, not takes; its body is not checked.
     Unexpected,
-    /// A Command or Config `mode` index this version does not define (a well-formed leading
-    /// varint): refused as [`crate::RefuseReason::UnknownRequest`], not a decoding error.
+    /// A Command or Config `mode` index this version does not define (an unknown request).
     Unknown,
 }
 

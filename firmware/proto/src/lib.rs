@@ -17,28 +17,9 @@
 //! | 3 | [`Command`] | host -> device | | [`RefuseReason`] | [`plausible`] |
 //! | 4 | [`Status`] | device -> host | | `reset_cause` | [`reset_cause`] |
 //!
-//! An undefined Command or YawMode index (a well-formed varint) is refused as an unknown
-//! request, not a decoding error; a malformed varint is `rx_postcard`. Physical quantities
-//! are integers with the LSBs of [`units`]. A frame is at most [`MAX_FRAME`] bytes; nothing
-//! panics on input, a rejected frame is a typed [`FrameError`].
-//!
-//! One codec for host and device: postcard bodies, the `cobs` crate's framing, the `crc`
-//! crate's [`CRC`]; [`encode`] (host also [`encode_vec`]); [`Decoder::next_request`]
-//! (device: the messages it takes) and [`Decoder::next_message`] (host: any). Both take
-//! bytes in any chunking and resynchronise on 0x00. [`frame_raw`] frames raw bytes.
-//!
-//! Sizes on the wire, delimiter included (the `sizes` test):
-//!
-//! | frame | typical (`curve`, traction on) | worst case |
-//! |---|---|---|
-//! | Sensor, `y'` only | 26 | 38 (43 with `y'` and `y''`) |
-//! | Actuation | 20 | 30 |
-//! | Status (counters) | - | 153 |
-//!
-//! Fixed overhead: COBS 1 + delimiter 1 + version 1 + type 1 + CRC 4 = 8 bytes; the three
-//! 16-bit counters are fixed-width (a varint of their full range would take 3 bytes).
-//! Every single and double bit flip is rejected (the `flips` test); fuzzing:
-//! `firmware/proto/fuzz` (`cargo +nightly fuzz run decode`).
+//! Physical quantities are integers with the LSBs of [`units`]; frames are at most
+//! [`MAX_FRAME`] bytes; nothing panics on input. One codec for host and device:
+//! [`encode`], and [`Decoder`] (bytes in any chunking, resynchronising on 0x00).
 
 #![cfg_attr(not(feature = "std"), no_std)]
 #![deny(missing_docs)]

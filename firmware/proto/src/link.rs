@@ -1,6 +1,5 @@
-//! The link budget: the one definition of "the frames of one tick fit the period".
-//! Lock-step (Sensor up, tick, Actuation down within `T = 1/rate`), or pipelined over `d`
-//! ticks on a link slower than a period ([`link_fits_delayed`]):
+//! The link budget: whether the frames of one tick fit the period (lock-step), or
+//! pipelined over `d` ticks ([`link_fits_delayed`]); `latency_ns` one way:
 //!
 //! ```text
 //! needed  = ceil((up + down) bytes x BITS_PER_BYTE / baud)  + 2 latency     (ns)
@@ -8,10 +7,6 @@
 //! lock-step:  needed <= allowed
 //! pipelined:  ceil(max(up, down) bytes x BITS_PER_BYTE / baud) <= share x T,  needed <= share x d T
 //! ```
-//!
-//! `latency_ns` is one way (FIFO, DMA, USB, the device's turnaround); the rest of the
-//! period is margin for execution and jitter. Integer arithmetic (`u128`) and `const fn`,
-//! so a board build asserts its link at compile time:
 //!
 //! ```
 //! use wheelset_proto::link::{link_fits, LINK_SHARE_MAX_PERMILLE};
@@ -45,8 +40,7 @@ pub enum LinkError {
     Share,
     /// The delay is zero ticks.
     ZeroDelay,
-    /// The round trip does not fit (pipelined: or one direction's frame, then `needed_ns` is
-    /// its time on the line).
+    /// The round trip (pipelined: or one direction's frame) does not fit.
     TooSlow {
         /// Round-trip time needed, ns.
         needed_ns: u64,
@@ -107,8 +101,7 @@ pub const fn allowed_ns(rate_hz: u32, share_permille: u32) -> u64 {
     (share_permille as u128 * 1_000_000 / rate_hz as u128) as u64
 }
 
-/// Whether one tick's frames plus twice `latency_ns` fit `share_permille` of the period
-/// (module docs); the round-trip time, ns. Exact: `needed x rate x 1000 <= share x 1e9`.
+/// Whether one tick fits (exact: `needed x rate x 1000 <= share x 1e9`); the round trip, ns.
 pub const fn link_fits(
     rate_hz: u32,
     baud: u32,
@@ -163,7 +156,6 @@ pub const fn link_fits_delayed(
             allowed_ns: allowed_ns(rate_hz, share_permille).saturating_mul(delay_ticks as u64),
         });
     }
-    // (Implied by the round trip for one tick.)
     let one_way = wire_ns(larger as u64, baud);
     if one_way as u128 * rate_hz as u128 * 1000 > share {
         return Err(LinkError::TooSlow {
@@ -174,8 +166,7 @@ pub const fn link_fits_delayed(
     Ok(needed_ns)
 }
 
-/// The highest rate, Hz, at which [`link_fits`] holds; 0 if none (baud 0, invalid share,
-/// or the latency alone takes the share of a second).
+/// The highest rate, Hz, at which [`link_fits`] holds; 0 if none.
 #[must_use]
 pub const fn max_rate_hz(
     baud: u32,
@@ -200,8 +191,7 @@ pub const fn max_rate_hz(
     }
 }
 
-/// The lowest baud at which [`link_fits`] holds at `rate_hz`; `None` if none does or it
-/// exceeds `u32::MAX`.
+/// The lowest baud at which [`link_fits`] holds at `rate_hz`, if any within `u32`.
 #[must_use]
 pub const fn min_baud(
     rate_hz: u32,

@@ -1,8 +1,6 @@
-//! The messages. Every physical field is an integer count of the LSB stated in
-//! [`crate::units`]; the field name carries the unit.
+//! The messages; every physical field is an integer count of its [`crate::units`] LSB.
 
-/// The lateral measurement relative to the track (zero on a constant curve): `y'`, `y''`
-/// or both; positive towards +y (right). Wire index: `Velocity` 0, `Acceleration` 1, `Both` 2.
+/// The lateral measurement relative to the track: `y'`, `y''` or both; + towards +y (right).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum Lateral {
     /// `y'` in um/s ([`crate::units::LAT_VEL_LSB_M_PER_S`]).
@@ -35,11 +33,8 @@ pub struct Sensor {
     pub omega_m_mrad_s: i32,
     /// Traction demand as wheel torque `n K_m i_ref` in N m (0: none).
     pub demand_nm: i32,
-    /// Vehicle reference speed `v` in mm/s ([`crate::units::V_REF_LSB_M_PER_S`]), positive
-    /// forwards, from a source independent of this drive: the wheel-slip protection's
-    /// reference. **0 means unknown**: the protection neither detects nor regulates (a cut in
-    /// force is handed back at the normal slew); a vehicle known to stand is sent as 1 mm/s
-    /// (`wheelset_control::wsp`, "An unknown reference").
+    /// Vehicle reference speed `v` in mm/s, + forwards, from a source independent of this
+    /// drive; **0 means unknown** (no slip protection), so a standing vehicle is sent as 1.
     pub v_ref_mm_s: i32,
 }
 
@@ -56,8 +51,7 @@ impl Sensor {
     };
 }
 
-/// Status and fault flags of every [`Actuation`] and [`Status`] (bit set = true); 16 bits,
-/// a postcard varint (1 byte up to bit 6, 2 up to bit 13, 3 above).
+/// Status and fault flags (bit set = true); 16 bits, a postcard varint.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(transparent)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -78,9 +72,7 @@ impl Flags {
     pub const TRACTION_SAT: u16 = 1 << 5;
     /// Bit 6. No valid sensor frame since start or reset: the outputs are the safe outputs.
     pub const NO_SAMPLE: u16 = 1 << 6;
-    /// Bit 7. The latest [`Config`] or [`Command`] before this tick was refused
-    /// ([`Status::refuse_reason`]); an accepted one clears it, [`Command::RequestStatus`]
-    /// leaves it (a read does not change what it reads).
+    /// Bit 7. The latest Config or Command was refused (a `RequestStatus` leaves it).
     pub const CMD_REFUSED: u16 = 1 << 7;
     /// Bit 8. The wheel-slip protection holds the current reference below the demand's.
     pub const WHEEL_SLIP: u16 = 1 << 8;
@@ -88,8 +80,7 @@ impl Flags {
     pub const HUNTING: u16 = 1 << 9;
     /// Bit 10. The monitor's actuator alarm (the torque has no effect, or a reported fault).
     pub const ACTUATOR_FAULT: u16 = 1 << 10;
-    /// Bit 11. Sticky: an alarm (bits 9, 10, 12) or a watchdog / fault reset since start-up
-    /// or [`Command::ClearFaults`]; after such a reset the device holds the safe state until then.
+    /// Bit 11. Sticky: an alarm or a watchdog / fault reset since [`Command::ClearFaults`].
     pub const FAULT_LATCHED: u16 = 1 << 11;
     /// Bit 12. The drive check's alarm: the traction current loop oscillates.
     pub const DRIVE_OSC: u16 = 1 << 12;
@@ -128,8 +119,7 @@ pub struct Actuation {
     pub u_a_cv: i32,
 }
 
-/// Yaw damping law (the control core's own enum). Wire index: `Passive` 0, `Gain` 1,
-/// `Lead` 2; another index is refused as an unknown request.
+/// Yaw damping law (the control core's own enum); another index is an unknown request.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum YawMode {
@@ -142,8 +132,7 @@ pub enum YawMode {
     Lead = 2,
 }
 
-/// Host -> device: configuration, applied at the next tick if valid, else refused and
-/// counted ([`Flags::CMD_REFUSED`]) with the previous one kept.
+/// Host -> device: configuration, applied at the next tick if valid, else refused whole.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Config {
     /// Yaw damping law.
@@ -156,23 +145,18 @@ pub struct Config {
     pub hold_ticks: u16,
     /// Wheel-slip protection on ([`Flags::WHEEL_SLIP`]; idle while `v_ref_mm_s` is 0). On at boot.
     pub wsp: bool,
-    /// A stability alarm enters the safe state until [`Command::ClearFaults`]; off: only
-    /// reported. Off at boot (`wheelset_runtime`'s `RuntimeConfig`).
+    /// A stability alarm holds the safe state until [`Command::ClearFaults`]; off: only reported.
     pub monitor_safe: bool,
     /// New rates with their coefficients (the core restarts on them); `None` keeps the rates.
     pub rates: Option<Rates>,
 }
 
-/// Rates and the coefficients designed for them, as exact bit patterns computed by the
-/// host with the device's code (`wheelset_runtime::rates_for`): the device accepts exactly
-/// its own designs (`wheelset_control::design::DESIGNED`), bit for bit. Bits are those of
-/// `numeric`: fixed point (0) Q1.31 / Q4.28 `i32` bits, `f32` (1) IEEE bits.
+/// Rates and their designed coefficients as exact bits (`wheelset_runtime::rates_for`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Rates {
     /// The device's sample type: 0 fixed point, 1 `f32`; another is refused.
     pub numeric: u8,
-    /// Fingerprint of the core's rate-independent part
-    /// (`wheelset_control::CompiledBits::fingerprint`); a mismatch is refused.
+    /// Fingerprint of the core's rate-independent part; a mismatch is refused.
     #[serde(with = "postcard::fixint::le")]
     pub fingerprint: u32,
     /// Base (tick) rate in Hz.
@@ -218,20 +202,16 @@ pub enum Command {
     ResetCounters,
     /// Send a [`Status`] frame (after the next actuation frame).
     RequestStatus,
-    /// Clear [`Flags::FAULT_LATCHED`] and leave a safe state held by an alarm or by the boot
-    /// after a watchdog or fault reset.
+    /// Clear [`Flags::FAULT_LATCHED`] and leave a safe state held by an alarm or a fault reset.
     ClearFaults,
-    /// Test only (index 3): stall the control task so the watchdog resets the board; honoured
-    /// by a `fault-inject` firmware with a watchdog (free-running QEMU), refused elsewhere
-    /// (`RefuseReason::Unsupported`).
+    /// Test only (index 3): stall the control task so the watchdog resets the board.
     InjectStall,
     /// Test only (index 4): trigger a HardFault (safe outputs, reset); `fault-inject` QEMU builds.
     InjectHardFault,
 }
 
-/// Device -> host, on request: the counters (all wrap at 2^32). Every delimited frame
-/// counts in exactly one of `rx_ok`, `rx_unexpected`, `rx_crc`, `rx_cobs`, `rx_version`,
-/// `rx_length`, `rx_postcard`.
+/// Device -> host, on request: the counters (wrapping); each delimited frame counts in
+/// exactly one of `rx_ok`, `rx_unexpected` and the five `rx_*` errors.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Status {
@@ -293,11 +273,9 @@ pub struct Status {
     pub first_drive_alarm_tick: u32,
     /// Board: boots since power-on (survives a watchdog reset and [`Command::ResetCounters`]).
     pub boot_count: u32,
-    /// Board: the stack's high-water mark, bytes, scanned every 1 024 ticks (0: not yet or not
-    /// measured); not zeroed by [`Command::ResetCounters`].
+    /// Board: the stack's high-water mark, bytes (0: not measured); kept by a reset of the counters.
     pub stack_peak: u32,
-    /// Why the latest refused Config or Command was refused ([`crate::RefuseReason`] code;
-    /// 0: none since start-up or reset), kept while later requests are accepted.
+    /// Why the latest refused Config or Command was refused ([`crate::RefuseReason`]; 0: none).
     pub refuse_reason: u8,
     /// Why the board last started ([`crate::reset_cause`]); not zeroed by a reset.
     pub reset_cause: u8,

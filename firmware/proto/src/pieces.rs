@@ -5,8 +5,7 @@ use crate::{Decoder, FrameError, Message};
 /// The result of the frame a piece closed (`None`: none).
 pub type Closed = Option<Result<Message, FrameError>>;
 
-/// The pieces of a byte run as [`Decoder::next_message`] takes them: each up to and
-/// including a delimiter, or to the end, with what it closed.
+/// The pieces of a byte run as [`Decoder::next_message`] takes them, with what each closed.
 #[derive(Debug)]
 pub struct Pieces<'d, 'b> {
     dec: &'d mut Decoder,
@@ -21,7 +20,6 @@ impl<'b> Iterator for Pieces<'_, 'b> {
             return None;
         }
         let (r, more) = self.dec.next_message(self.rest);
-        // `more` is the tail of `rest` after the bytes taken.
         let taken = self.rest.len().saturating_sub(more.len());
         let piece = self.rest.get(..taken).unwrap_or_default();
         self.rest = more;

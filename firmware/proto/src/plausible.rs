@@ -1,27 +1,7 @@
-//! What a [`crate::Config`] may ask of the device: every field's plausible range, stated
-//! once ([`PLAUSIBLE`]), and the [`RefuseReason`] codes of a refusal (`refuse_reason`,
-//! `cmd_refused`, [`crate::Flags::CMD_REFUSED`]; the old configuration kept).
-//!
-//! The coefficients of [`crate::Rates`] are not free: a device accepts a rate and delay
-//! only where its table of designs has them (`wheelset_control::design::DESIGNED`), and
-//! then only the coefficients designed for them, bit for bit; anything else runs a loop
-//! not shown stable.
-//!
-//! | field | min | max | unit | why |
-//! |---|---|---|---|---|
-//! | `rates.numeric` | the device's | the device's | code | the coefficients' bit format |
-//! | `rates.fingerprint` | the device's | the device's | hash | computed against this core's limits, scales and rate-independent gains |
-//! | `rates.base_rate_hz` | 500 | 20 000 | Hz | a rate of the device's design table (and within the board's link) |
-//! | period `1/base_rate_hz` | - | - | us | a whole number of microseconds: the board's ticker counts 1 us ([`TICKER_HZ`]) |
-//! | `rates.yaw_div`, `rates.traction_div` | 1 | 1 | - | the designs run both loops every tick |
-//! | `rates.delay_ticks` | 1 | - | ticks | a delay the rate has a design for |
-//! | `mode` | - | - | - | an active yaw law only where the yaw loop has a design at the rates (else the passive law alone) |
-//! | `hold_ticks x T` | 0 | 20 000 | us | a fifth of the ~10 Hz kinematic mode's period: an older `y'` is off by more than 70 degrees of phase |
-//! | every coefficient | the design's | the design's | bits | the gains designed for the rate and delay; the ramps and the `y''` integrator at that rate |
-//! | f32 coefficients | - | - | - | normal numbers only (no subnormal, infinite, NaN or negative bit pattern) |
+//! What a Config may ask of the device: every field's plausible range and why, as data
+//! ([`PLAUSIBLE`]), and the [`RefuseReason`] codes; rates only as the device's own designs.
 
-/// The board's ticker resolution, Hz (embassy-time `tick-hz-1_000_000`): a base period must
-/// be a whole number of its ticks.
+/// The board's ticker resolution, Hz: a base period must be a whole number of its ticks.
 pub const TICKER_HZ: u32 = 1_000_000;
 
 /// Lowest plausible base rate, Hz: [`LOOP_RATE_MIN_HZ`] (both loops at divisor 1).
@@ -30,13 +10,12 @@ pub const BASE_RATE_MIN_HZ: u32 = LOOP_RATE_MIN_HZ;
 pub const BASE_RATE_MAX_HZ: u32 = 20_000;
 /// Lowest plausible yaw and traction loop rate (`base_rate_hz / divisor`), Hz.
 pub const LOOP_RATE_MIN_HZ: u32 = 500;
-/// Longest plausible hold on a stale sample, `hold_ticks / base_rate_hz`, us.
+/// Longest plausible hold on a stale sample, `hold_ticks / base_rate_hz`, us (a fifth of the ~10 Hz kinematic period).
 pub const HOLD_MAX_US: u32 = 20_000;
 /// Largest plausible `predict_half` (`alpha/2`) as `num/2^2`: 3/4 (at most 1.5 ticks).
 pub const PREDICT_HALF_MAX_QUARTERS: u32 = 3;
 
-/// Why the latest [`crate::Config`] or [`crate::Command`] was refused: the field to blame
-/// (0 = none since the counters were reset).
+/// Why the latest Config or Command was refused: the field to blame (0 = none).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[repr(u8)]

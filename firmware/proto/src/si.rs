@@ -1,7 +1,4 @@
-//! SI <-> wire codes on the host (`std` feature): the only conversion between the plant's
-//! SI values and the messages. `count = round(x / LSB)` ([`units::quantize`]; saturated
-//! or NaN values counted in [`Quantized::clamped`]), `x = count * LSB`, so
-//! `|to_si(from_si(x)) - x| <= LSB / 2` within the range.
+//! SI <-> wire codes on the host (`std`): `count = round(x / LSB)`, `x = count * LSB`.
 //!
 //! ```
 //! use wheelset_proto::{Lateral, LateralSensing, Sensor, SensorSi};
@@ -32,8 +29,7 @@ pub enum LateralSensing {
     Both,
 }
 
-/// The measurements the host samples, SI; signs as in [`Sensor`] (`y` towards +y, current
-/// motoring, speed forwards).
+/// The measurements the host samples, SI; signs as in [`Sensor`].
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct SensorSi {
     /// Lateral velocity of the wheelset relative to the track `y'`, m/s.

@@ -1,7 +1,5 @@
-//! Worst-case frame sizes on the wire, delimiter included: the one definition every link
-//! budget uses (pinned by `tests/sizes.rs`). A frame is `body + 8` bytes ([`frame_len`]);
-//! worst widths: `i32`/`u32` varint 5, `u16` varint 3, fixed `u16` 2, `u32` 4, `u64` 8,
-//! `u8`/`bool`/tags 1.
+//! Worst-case frame sizes, delimiter included (pinned by `tests/sizes.rs`): `body + 8`
+//! bytes, with `i32`/`u32` varints 5 bytes, `u16` varints 3.
 
 use crate::frame::CRC_LEN;
 
@@ -9,15 +7,13 @@ use crate::frame::CRC_LEN;
 const V32: usize = 5;
 const V16: usize = 3;
 
-/// Bytes on the wire of a message with a `body`-byte body: COBS 1 + version 1 + type 1 +
-/// body + CRC + delimiter 1 (below 254 raw bytes).
+/// Bytes on the wire of a `body`-byte body: COBS, version, type, CRC, delimiter.
 #[must_use]
 pub const fn frame_len(body: usize) -> usize {
     1 + 1 + 1 + body + CRC_LEN + 1
 }
 
-/// Sensor, `Lateral::Velocity` or `Acceleration` (one lateral value): seq 2, t 2,
-/// lateral tag 1 + 5, current 5, speed 5, demand 5, reference speed 5.
+/// Sensor with one lateral value: seq 2, t 2, lateral 1 + 5, four `i32`s.
 pub const SENSOR_ONE_LATERAL_MAX_FRAME: usize = frame_len(2 + 2 + 1 + V32 + V32 + V32 + V32 + V32);
 
 /// Any Sensor (`Lateral::Both`: two lateral values): the host -> device budget per tick.
@@ -29,9 +25,8 @@ pub const ACTUATION_MAX_FRAME: usize = frame_len(2 + 2 + V32 + V16 + V32 + V32);
 /// Command: the variant index, 1 byte.
 pub const COMMAND_MAX_FRAME: usize = frame_len(1);
 
-/// Config with rates: mode 1, traction 1, enable 1, hold 3, wsp 1, monitor_safe 1,
-/// Some 1, numeric 1, fingerprint 4, base rate 5, divisors 3 + 3, delay 1, nine
-/// coefficients 9 x 5, `Ki`'s shift 1, two Q32 factors 2 x 8.
+/// Config with rates: 7 flags and tags, hold 3, numeric 1, fingerprint 4, rate 5,
+/// divisors 3 + 3, delay 1, nine coefficients 9 x 5, shift 1, two Q32 factors 2 x 8.
 pub const CONFIG_MAX_FRAME: usize =
     frame_len(1 + 1 + 1 + V16 + 1 + 1 + 1 + 1 + 4 + V32 + 2 * V16 + 1 + 9 * V32 + 1 + 16);
 

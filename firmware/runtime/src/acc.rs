@@ -1,12 +1,10 @@
-//! The acceleration integrator's factors: `y''` frames integrated into `y'` with a
-//! wash-out, `v[n] = v[n-1] (1 - T/tau) + a[n] T`, as Q32 integers fixed at build time.
+//! The `y''` integrator's Q32 factors, `v[n] = v[n-1] (1 - T/tau) + a[n] T`.
 
 use wheelset_control::BitsError;
 
 use crate::{RuntimeConfig, RuntimeError};
 
-/// The `y''` integrator's factors in Q32, `T` (um/s per 0.1 mm/s^2 code per tick) and
-/// `T/tau`, computed here so the tick has no division.
+/// `T` (um/s per 0.1 mm/s^2 code per tick) and `T/tau`, in Q32.
 pub(crate) fn acc_factors(cfg: &RuntimeConfig) -> Result<AccBits, RuntimeError> {
     let t = 1.0 / f64::from(cfg.control.base_rate_hz.max(1));
     let q32 = 4_294_967_296.0;

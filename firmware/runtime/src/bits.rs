@@ -1,5 +1,4 @@
-//! Build-time bits: [`RuntimeConfig`], its exact bits ([`RuntimeBits`], the device's start
-//! without float maths) and a rate switch's coefficients ([`rates_for`], on the host).
+//! Build-time bits: [`RuntimeConfig`], its exact bits [`RuntimeBits`], and [`rates_for`].
 
 use wheelset_control::design::DESIGNED;
 use wheelset_control::{
@@ -13,40 +12,32 @@ use crate::{acc_factors, AccBits, Rates, DEFAULT_HOLD_TICKS};
 ///
 /// # The device's boot defaults
 ///
-/// [`RuntimeConfig::default`], run from power-on until a host's Config: the core's
-/// defaults with the wheel-slip protection on (idle while `v_ref` is unknown), the
-/// monitor on, and its safe action off (`monitor_safe = false`): the actuator replaces
-/// the yaw spring, so the safe state's zero torque would leave the wheelset with
-/// neither (`wheelset_plant::fault`, `the_passive_less_wheelset_is_unstable`); a host
-/// for which zero torque is the safer failure sets it.
+/// Protection on, monitor on, its safe action off: the actuator replaces the yaw spring,
+/// so zero torque would leave the wheelset with neither (`the_passive_less_wheelset_is_unstable`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RuntimeConfig {
     /// The core's configuration; its `wire` LSBs are overwritten with the protocol's.
     pub control: ControlConfig,
-    /// Consecutive ticks without a new sensor frame run on the held sample before the safe
-    /// state (0: the first missing frame enters it).
+    /// Ticks without a new sensor frame bridged by the held sample (0: none).
     pub hold_ticks: u16,
     /// Outputs enabled at start.
     pub enable: bool,
-    /// Wash-out time constant of the `y''` integrator, s: `v[n] = v[n-1] (1 - T/tau) + a[n] T`,
-    /// a high-pass against accelerometer offset drift; 0: a pure integrator.
+    /// Wash-out time constant of the `y''` integrator, s, `v[n] = v[n-1] (1 - T/tau) + a[n] T`
+    /// (against accelerometer offset drift; 0: a pure integrator).
     pub acc_washout_s: f64,
     /// The stability monitor (`wheelset_control::monitor`); `None`: off.
     pub monitor: Option<MonitorParams>,
-    /// The configuration at the paper's point (5 kHz, one tick) whose designs the device
-    /// accepts; `None`: [`Self::control`] is it.
+    /// The configuration at the paper's point whose designs the device accepts (`None`: `control`).
     pub design: Option<ControlConfig>,
 }
 
 impl RuntimeConfig {
-    /// The configuration at the design point (the core [`ControlConfig::designed`] from
-    /// [`Self::design`], the rest kept): what a host sends to change the rate. Errors: not designed.
+    /// The configuration at a design point: what a host sends to change the rate.
     pub fn designed(&self, base_rate_hz: u32, delay_ticks: u8) -> Result<Self, RuntimeError> {
         let base = self.design_base();
         let control = base.designed(base_rate_hz, delay_ticks)?;
         Ok(Self {
             control,
-            // At the base's own point the configuration is its own design base.
             design: if control == base {
                 self.design
             } else {
@@ -62,12 +53,10 @@ impl RuntimeConfig {
     }
 }
 
-/// Default wash-out of the `y''` integrator: 2 s (corner 0.08 Hz, far below the ~10 Hz
-/// kinematic mode).
+/// Default wash-out of the `y''` integrator: 2 s (corner 0.08 Hz, far below the ~10 Hz kinematic mode).
 pub const DEFAULT_ACC_WASHOUT_S: f64 = 2.0;
 
 impl Default for RuntimeConfig {
-    /// The device's boot defaults (the type's docs).
     fn default() -> Self {
         Self {
             control: ControlConfig::default(),
@@ -123,10 +112,7 @@ impl From<ConfigError> for RuntimeError {
     }
 }
 
-/// A whole runtime configuration as exact bits (core, `y''` integrator, fault policy):
-/// the firmware's build-time constant, started with [`Runtime::from_bits`].
-///
-/// [`Runtime::from_bits`]: crate::Runtime::from_bits
+/// A whole runtime configuration as exact bits: the firmware's build-time constant.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct RuntimeBits {
     /// The control core ([`Compiled::to_bits`]).
@@ -220,9 +206,8 @@ fn rates_of(b: &CompiledBits, acc: AccBits) -> Result<Rates, RuntimeError> {
     })
 }
 
-/// The [`Rates`] that switch a device running `T` (the rate-independent part of `cfg`)
-/// to the rates, delay and gains of `cfg` ([`RuntimeConfig::designed`]). Host use.
-/// Errors: `cfg` invalid, or `T` without a 32-bit wire form (`f64`).
+/// The [`Rates`] that switch a device running `T` to the rates and gains of `cfg`; errors:
+/// `cfg` invalid, or `T` without a 32-bit wire form (`f64`).
 pub fn rates_for<T: SampleBits>(cfg: &RuntimeConfig) -> Result<Rates, RuntimeError> {
     let mut control = cfg.control;
     control.wire = WireLsb::default();

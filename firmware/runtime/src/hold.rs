@@ -1,10 +1,9 @@
-//! The hold-safe policy (crate docs, fault policy items 2 to 4) as a pure state machine,
-//! with `m` the consecutive ticks without a new frame and `H` = `hold_ticks`:
+//! The hold-safe policy as a pure state machine (`m`: ticks without a new frame):
 //!
 //! ```text
 //! holding[n] = !fresh[n] && sampled[n]          (the tick runs on the held sample)
 //! m[n]       = 0 if fresh[n], m[n-1] + 1 if holding[n] (saturating), else m[n-1]
-//! safe[n]    = (sampled[n] && m[n] > H) || alarm_safe[n]
+//! safe[n]    = (sampled[n] && m[n] > hold_ticks) || alarm_safe[n]
 //! ```
 
 /// The policy's state: ticks without a new frame and whether the safe state is in force.
@@ -44,8 +43,7 @@ impl HoldPolicy {
         }
     }
 
-    /// One tick (module docs): `fresh`, a new Sensor frame since the previous tick; `sampled`,
-    /// a sample ever received; `alarm_safe`, an alarm holds the safe state.
+    /// One tick: `fresh` a new Sensor frame, `sampled` any ever, `alarm_safe` an alarm's hold.
     #[inline]
     pub fn step(
         &mut self,

@@ -1,6 +1,5 @@
-//! The device runtime, `no_std`, no allocation, board independent: frame handling, the
-//! fault policy and the control tick. The board binaries and the host's in-process device
-//! run this same code; the board layer only moves bytes and measures time.
+//! The device runtime, `no_std`, board independent: frame handling, the fault policy and
+//! the control tick, run by the board binaries and the host's in-process device alike.
 //!
 //! ```
 //! use wheelset_proto::{encode_vec, Lateral, Message, Sensor, Decoder, Flags};
@@ -20,49 +19,27 @@
 //! assert!((a.u_a_cv - 396_157).abs() <= 1);   // bumpless: u_a = K_m omega = 3961.57 V
 //! ```
 //!
-//! [`Runtime::receive`] takes bytes in any chunking; [`Runtime::tick`], once per base
-//! period, runs the core on the latest sample and returns the [`Actuation`] frame.
-//!
 //! # Fault policy
 //!
-//! 1. **Bad frames** are dropped and counted by kind ([`Status`] `rx_*`, exactly one
-//!    counter per delimited frame), flagged [`Flags::RX_ERROR`]; an undefined Command or
-//!    mode is refused ([`RefuseReason::UnknownRequest`]). A `seq` not the previous + 1
-//!    counts a `seq_gap`.
-//! 2. **A missing sensor frame**: the tick runs on the held sample ([`Flags::HOLDING`],
-//!    `held_ticks`) for at most [`RuntimeConfig::hold_ticks`] consecutive ticks.
-//! 3. **Safe state** after that ([`Flags::SAFE`]): the yaw torque limit ramps to zero;
-//!    the current reference is zero and, the held current being stale, each tick presets
-//!    the PI to the back-EMF of the held speed, so the current decays (`L_a/R_a`).
-//! 4. **Recovery** on the first valid Sensor: PI from the back-EMF, reference and torque
-//!    limit ramping back up (bumpless both ways).
-//! 5. **Zero current, not 0 V**: outputs disabled give zero torque and the back-EMF
-//!    (0 V at speed would short the motor). Before the first sample ([`Flags::NO_SAMPLE`])
-//!    the outputs are [`Runtime::safe_outputs`] (zero, zero), which a host must read as
-//!    "not driving".
-//! 6. **After a watchdog or fault reset** ([`Runtime::set_boot`]): [`Flags::FAULT_LATCHED`]
-//!    and the safe state with the torque limit at zero from the first tick, until
-//!    [`Command::ClearFaults`] (a Config does not end it).
+//! 1. Bad frames are dropped and counted by kind ([`Status`] `rx_*`), [`Flags::RX_ERROR`].
+//! 2. A missing sensor frame: the held sample for at most [`RuntimeConfig::hold_ticks`].
+//! 3. Then the safe state: torque limit ramped to zero, current reference zero, the PI
+//!    preset each tick to the back-EMF of the held speed (the stale current not integrated).
+//! 4. The first valid Sensor frame leaves it, bumpless.
+//! 5. Zero current, not 0 V (a short circuit at speed); before any sample
+//!    [`Runtime::safe_outputs`] (zero, zero).
+//! 6. After a watchdog or fault reset ([`Runtime::set_boot`]): the safe state at zero
+//!    torque until [`Command::ClearFaults`].
 //!
-//! `y''` only: an integrator with wash-out ([`RuntimeConfig::acc_washout_s`]) in Q32
-//! um/s, handing the core the whole um/s below it (`floor`: on average half an LSB low).
-//! `Lateral::Both`: a complementary filter, crossover `1/(2 pi tau)`, run every tick
-//! (`tau = 0`: `y'` as it is):
+//! `Lateral::Both` runs a complementary filter every tick (`tau = 0`: `y'` as it is):
 //!
 //! ```text
 //! v[n] = v[n-1] + T y''[n] - (T/tau) (v[n-1] - y'[n])      (y' the latest measured)
 //! V(s) = (s Y'(s) + Y'(s)/tau) / (s + 1/tau)  when  y'' = d y'/dt:  V = Y'
 //! ```
 //!
-//! A [`Config`] applies at once or not at all: outside `wheelset_proto::plausible` it is
-//! refused (counted, [`Flags::CMD_REFUSED`], [`Runtime::refuse_reason`]), the old one kept.
-//! New [`Rates`] come with their coefficients ([`rates_for`] on the host); the device does
-//! no float maths, validates them against its own designs and restarts the core: the
-//! traction loop bumpless from the back-EMF, the yaw torque slewing from the old output
-//! under the old limit and safe state. `wheelset-hostile` holds the Configs a device must
-//! refuse and apply.
-//!
-//! [`RefuseReason::UnknownRequest`]: wheelset_proto::RefuseReason::UnknownRequest
+//! A [`Config`] applies whole or is refused ([`Runtime::refuse_reason`]); new [`Rates`]
+//! must be one of the device's designs ([`rates_for`] on the host).
 #![no_std]
 #![deny(missing_docs)]
 

@@ -1,5 +1,4 @@
-//! The runtime: the [`Runtime`] state, its start, the tick with the fault policy, and the
-//! accessors; the receive side is in `receive`.
+//! The [`Runtime`]: its state, start, tick and accessors (the receive side: `receive`).
 
 mod receive;
 
@@ -14,8 +13,7 @@ use crate::{
     RuntimeError, SafeChange, TX_CAPACITY,
 };
 
-/// A receive event worth a log record ([`Runtime::take_rx_event`]): a rejected frame or a
-/// refused Config or Command (each also counted in the Status).
+/// A receive event worth a log record: a rejected frame or a refused request.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum RxEvent {
@@ -47,15 +45,13 @@ pub struct Runtime<T: Sample> {
     hold_ticks: u16,
     decoder: Decoder,
     sample: Option<InputCodes>,
-    /// The latest reference speed code while the protection is off (its only reader), given
-    /// to the core by the Config that switches it on.
+    /// The reference speed code held while the protection (its only reader) is off.
     v_ref_held: Option<i32>,
     /// The latest sample carried only `y''` (codes of 0.1 mm/s^2): integrate it.
     acc: Option<i32>,
     /// `y'` estimate from `y''`, um/s in Q32.
     vel_q32: i64,
-    /// What the estimate washes out towards, um/s in Q32: 0 (`y''` only) or the measured `y'`
-    /// (`Lateral::Both`).
+    /// What the estimate washes out towards, um/s in Q32: 0 or the measured `y'` (`Both`).
     acc_ref_q32: i64,
     /// `T` in the integrator: um/s per (0.1 mm/s^2 code) per tick, Q32.
     acc_gain_q32: i64,
@@ -63,7 +59,6 @@ pub struct Runtime<T: Sample> {
     leak_q32: i64,
     seq: u16,
     fresh: bool,
-    /// The hold-safe policy (ticks without a frame, the safe state).
     hold: HoldPolicy,
     enabled: bool,
     rx_error: bool,
@@ -72,15 +67,12 @@ pub struct Runtime<T: Sample> {
     /// The first receive event since [`Self::take_rx_event`], and how many followed it.
     rx_event: Option<RxEvent>,
     rx_events_after: u32,
-    /// The stability monitor and its state.
     monitor: Monitor<T>,
     mon: MonitorState<T>,
     /// A stability alarm holds the safe state until `Command::ClearFaults`.
     monitor_safe: bool,
-    /// The safe state is held until `Command::ClearFaults` (an alarm with `monitor_safe`, or a
-    /// boot after a watchdog or fault reset).
+    /// The safe state is held until `Command::ClearFaults` (an alarm, or a fault reset).
     alarm_safe: bool,
-    /// Sticky [`Flags::FAULT_LATCHED`].
     fault_latched: bool,
     status_requested: bool,
     /// A fault injection the board is to carry out (feature `fault-inject`).
@@ -95,8 +87,7 @@ pub struct Runtime<T: Sample> {
 }
 
 impl<T: SampleBits> Runtime<T> {
-    /// Builds the core (validated, discretised, quantised) and an idle runtime:
-    /// [`RuntimeBits::try_new`] then [`Self::from_bits`]. Host use.
+    /// Builds the core and an idle runtime ([`RuntimeBits::try_new`], [`Self::from_bits`]).
     pub fn try_new(cfg: RuntimeConfig) -> Result<Self, RuntimeError> {
         Self::from_bits(&RuntimeBits::try_new::<T>(&cfg)?)
     }
@@ -115,9 +106,8 @@ impl<T: SampleBits> Runtime<T> {
         )
     }
 
-    /// An idle runtime on an already validated core `law` with fingerprint `fingerprint` and
-    /// the other fields of [`RuntimeBits`]: the start from build-time constants, with no
-    /// conversion code ([`Self::from_bits`] is this after validation).
+    /// An idle runtime on an already validated core with fingerprint `fingerprint`: the start
+    /// from build-time constants ([`Self::from_bits`] after validation).
     pub fn with_core(
         law: &Compiled<T>,
         fingerprint: u32,
@@ -167,16 +157,13 @@ impl<T: SampleBits> Runtime<T> {
         })
     }
 
-    /// The board's link limit: a Config with a base rate above `max_rate_hz` is refused, the
-    /// link not carrying an exchange per period (`wheelset_proto::link::max_rate_hz`);
-    /// `u32::MAX` (default): no limit.
+    /// The board's link limit: a Config above `max_rate_hz` is refused (`u32::MAX`: none).
     pub fn set_link_limit(&mut self, max_rate_hz: u32) {
         self.max_rate_hz = max_rate_hz;
     }
 
-    /// The board runs a hardware watchdog (default `false`): only then is
-    /// [`Command::InjectStall`] honoured (with `fault-inject`), since without one a stalled
-    /// task never ends; else refused as [`RefuseReason::Unsupported`].
+    /// The board runs a watchdog (default `false`): only then is [`Command::InjectStall`]
+    /// honoured, since without one a stalled task never ends.
     pub fn set_watchdog(&mut self, running: bool) {
         self.watchdog = running;
     }
@@ -190,16 +177,14 @@ impl<T: SampleBits> Runtime<T> {
         }
     }
 
-    /// One base-rate tick (crate docs, fault policy): the Actuation frame (COBS, delimiter
-    /// included), then a Status frame if requested. `last_exec`: the previous tick's
-    /// execution time (cycles or instructions). Never panics.
+    /// One base-rate tick: the Actuation frame, then a Status frame if requested;
+    /// `last_exec` is the previous tick's execution time. Never panics.
     pub fn tick(&mut self, last_exec: u32) -> &[u8] {
         self.ticks = self.ticks.wrapping_add(1);
         let fresh = core::mem::replace(&mut self.fresh, false);
         let mut flags = Flags::default();
         let c = &mut self.counters;
         c.ticks = c.ticks.wrapping_add(1);
-        // The safe state: too many ticks without a frame, or an alarm held by `monitor_safe`.
         let step = self.hold.step(
             fresh,
             self.sample.is_some(),
@@ -245,13 +230,11 @@ impl<T: SampleBits> Runtime<T> {
             };
             s.y_dot = v;
         }
-        // The sample in per-unit, decoded once for the monitor and the core.
         let inp = self.sample.map(|s| self.core.codec().decode(&s));
         if let Some(inp) = &inp {
             let commanding = self.enabled
                 && !self.hold.is_safe()
                 && self.core.mode() != wheelset_control::YawMode::Passive;
-            // The monitor on the received (or integrated) `y'`, at its own sub-rate.
             let ev = self.monitor.tick(&mut self.mon, inp.y_dot, commanding);
             if ev.hunting_rose | ev.actuator_rose {
                 self.on_alarm(ev.hunting_rose, ev.actuator_rose, false);
@@ -259,7 +242,6 @@ impl<T: SampleBits> Runtime<T> {
             flags.set(Flags::HUNTING, ev.hunting);
             flags.set(Flags::ACTUATOR_FAULT, ev.actuator);
         }
-        // What the core counted on this tick (nothing if it did not run).
         let mut events = TickEvents::NONE;
         let (t_psi, u_a) = match (inp, self.enabled) {
             (Some(mut inp), true) => {
@@ -271,12 +253,10 @@ impl<T: SampleBits> Runtime<T> {
                 let wsp_was = self.core.wsp_state().active;
                 let out = self.core.tick(&inp);
                 events = self.core.tick_events();
-                // The protection's own cut: a traction step the actuator check must not take for a
-                // failed actuator.
+                // The protection's own cut is not an actuator failure.
                 if self.core.wsp_state().active && !wsp_was {
                     self.monitor.traction_step(&mut self.mon);
                 }
-                // The drive check on every traction step the core ran.
                 if self.core.traction_stepped()
                     && self
                         .monitor
@@ -301,7 +281,6 @@ impl<T: SampleBits> Runtime<T> {
                 (s.t_psi_dnm, s.u_a_cv)
             }
         };
-        // The core's events: the counters move only on a tick that has some.
         if events.any() {
             self.count_events(events);
         }
@@ -350,8 +329,7 @@ impl<T: SampleBits> Runtime<T> {
         c.wsp_events = c.wsp_events.wrapping_add(u32::from(ev.wsp_started()));
     }
 
-    /// A monitor alarm rose: counted, the fault latched, and with `monitor_safe` the safe
-    /// state held from the next tick until [`Command::ClearFaults`].
+    /// A monitor alarm rose: counted, latched, and with `monitor_safe` the safe state held.
     #[inline(never)]
     fn on_alarm(&mut self, hunting: bool, actuator: bool, drive: bool) {
         let c = &mut self.counters;
@@ -372,8 +350,7 @@ impl<T: SampleBits> Runtime<T> {
         }
     }
 
-    /// Starts the counters at `start` (not its `flags`) and the Actuation tick count at
-    /// `start.ticks`: a host soak crosses the wrap. Host use.
+    /// Starts the counters and the tick count at `start` (a host soak crosses the wrap).
     pub fn preset_counters(&mut self, start: &RuntimeCounters) {
         self.counters = RuntimeCounters {
             flags: self.counters.flags,
@@ -387,8 +364,7 @@ impl<T: SampleBits> Runtime<T> {
         &self.counters
     }
 
-    /// The board's own counters since its previous call (added, wrapping): late ticks,
-    /// skipped deadlines, receive overruns, dropped transmit frames.
+    /// The board's own counters since its previous call (added, wrapping).
     pub fn note_board(&mut self, late: u32, missed: u32, rx_overrun: u32, tx_dropped: u32) {
         let c = &mut self.counters;
         c.ticks_late = c.ticks_late.wrapping_add(late);
@@ -397,10 +373,9 @@ impl<T: SampleBits> Runtime<T> {
         c.tx_dropped = c.tx_dropped.wrapping_add(tx_dropped);
     }
 
-    /// The board's boot record (boots since power-on, `wheelset_proto::reset_cause`), once
-    /// before the first tick. A watchdog or fault reset latches [`Flags::FAULT_LATCHED`] and
-    /// holds the safe state with zero torque limit until [`Command::ClearFaults`] (a Config
-    /// does not end it): a device that has just crashed drives nothing until acknowledged.
+    /// The board's boot record, once before the first tick. A watchdog or fault reset latches
+    /// [`Flags::FAULT_LATCHED`] and holds the safe state at zero torque until
+    /// [`Command::ClearFaults`]: a device that has just crashed drives nothing until acknowledged.
     ///
     /// [`Command::ClearFaults`]: crate::Command::ClearFaults
     pub fn set_boot(&mut self, boot_count: u32, reset_cause: u8) {
@@ -416,14 +391,12 @@ impl<T: SampleBits> Runtime<T> {
         }
     }
 
-    /// The fault injection received since the last call (only with `fault-inject`), which
-    /// the board carries out after the tick.
+    /// The fault injection received since the last call (`fault-inject` only).
     pub fn take_injected(&mut self) -> Option<Command> {
         self.injected.take()
     }
 
-    /// The first receive event since the previous call and the number after it; held until
-    /// taken, so a bounded-rate log records the first of each interval.
+    /// The first receive event since the previous call and the number after it.
     pub fn take_rx_event(&mut self) -> Option<(RxEvent, u32)> {
         let e = self.rx_event.take()?;
         Some((e, core::mem::take(&mut self.rx_events_after)))

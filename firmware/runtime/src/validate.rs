@@ -1,6 +1,4 @@
-//! The device's plausibility check of a received [`Config`](wheelset_proto::Config), in
-//! integer work: the ranges of `wheelset_proto::plausible`, and rates only as one of the
-//! device's designs bit for bit (a mismatch names the first differing field).
+//! The device's plausibility check of a received Config, in integer work.
 
 use wheelset_proto::plausible::{BASE_RATE_MAX_HZ, BASE_RATE_MIN_HZ, HOLD_MAX_US, TICKER_HZ};
 use wheelset_proto::{Rates, RefuseReason};
@@ -21,8 +19,7 @@ pub(crate) fn period_ok(base_rate_hz: u32) -> bool {
     base_rate_hz != 0 && TICKER_HZ.is_multiple_of(base_rate_hz)
 }
 
-/// Checks the rates against the designs `table`: a design at the requested delay, every
-/// coefficient that design's. `Ok`: its index in `table`.
+/// The index in `table` of the design whose coefficients `r` carries, at its delay.
 #[inline(never)]
 pub(crate) fn check_rates(r: &Rates, table: &[Rates]) -> Result<usize, RefuseReason> {
     use RefuseReason as R;

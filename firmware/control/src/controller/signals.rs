@@ -1,12 +1,10 @@
-//! The controller's signals: one tick's inputs and outputs per unit ([`Inputs`],
-//! [`Outputs`]), their wire codes and the conversion ([`InputCodes`], [`OutputCodes`],
-//! [`Codec`]), and the clamp, saturation and event counters ([`Counters`]).
+//! The controller's signals: per-unit inputs and outputs, their wire codes and
+//! conversion, and the clamp and event counters.
 
 use crate::config::{ConfigError, FullScales, WireLsb};
 use crate::sample::Sample;
 
-/// One tick's inputs, per unit (`x_SI / FS`, [`FullScales`]): [`Inputs::from_si`] or
-/// [`Codec::decode`].
+/// One tick's inputs, per unit (`x_SI / FS`).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Inputs<T> {
     /// Lateral velocity `y'` relative to the track, pu of `scales.y_dot` (+ = right).
@@ -34,8 +32,7 @@ impl<T: Sample> Inputs<T> {
 /// One tick's outputs, per unit.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Outputs<T> {
-    /// Yaw control torque `T_psi`, pu of `scales.torque`. Sign: eq. 5
-    /// `J psi'' + ... = -T_psi`; the active law is `T_psi = +K y'`.
+    /// Yaw control torque `T_psi`, pu of `scales.torque`; sign: eq. 5 `J psi'' + ... = -T_psi`.
     pub yaw_torque: T,
     /// Motor voltage `u_a`, pu of `scales.voltage` (0 while traction is off).
     pub voltage: T,
@@ -114,9 +111,7 @@ pub(super) mod event {
     pub const WSP_STARTED: u32 = 16;
 }
 
-/// What one [`Controller::tick`] counted, one bit per counter it can move (each at most
-/// once per tick, each set bit one increment of the matching [`Counters`] field): a
-/// caller with counters of its own updates them only when the word is not [`Self::NONE`].
+/// What one [`Controller::tick`] counted, one bit per [`Counters`] increment.
 ///
 /// [`Controller::tick`]: super::Controller::tick
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -225,8 +220,7 @@ pub struct OutputCodes {
     pub voltage: i32,
 }
 
-/// Wire-code <-> per-unit conversion with factors precomputed at construction
-/// (`pu = code * LSB/FS`; for [`Fx`] an integer multiply and shift, no float).
+/// Wire-code <-> per-unit conversion, `pu = code * LSB/FS` (for [`Fx`] integer work).
 ///
 /// [`Fx`]: crate::Fx
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -258,8 +252,7 @@ impl<T: Sample> Codec<T> {
         })
     }
 
-    /// Codes -> per-unit inputs; always inlined, as [`Self::encode`], so the scaling folds
-    /// into the tick's arithmetic (`cargo xtask fw-bench`).
+    /// Codes -> per-unit inputs; always inlined, so the scaling folds into the tick.
     #[inline(always)]
     pub fn decode(&self, c: &InputCodes) -> Inputs<T> {
         Inputs {

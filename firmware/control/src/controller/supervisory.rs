@@ -1,5 +1,5 @@
-//! The controller's supervisory interface: mode switches, presets before a law change or
-//! the first tick, read access. None of it runs on the per-tick path.
+//! The controller's supervisory interface: mode switches, presets, read access (none on
+//! the per-tick path).
 
 use super::{Controller, Counters};
 use crate::compiled::Compiled;
@@ -12,8 +12,7 @@ use crate::wsp::WspState;
 use super::{Codec, Outputs};
 
 impl<T: Sample> Controller<T> {
-    /// Turns the fast path off (`false`) or back on (default); the general path alone gives
-    /// the same results bit for bit, only slower.
+    /// Turns the fast path off or back on; the general path gives the same results bit for bit.
     pub fn set_fast_path(&mut self, on: bool) {
         self.fast_off = !on;
         self.refresh();
@@ -47,9 +46,8 @@ impl<T: Sample> Controller<T> {
     pub fn torque_limit(&self) -> T {
         self.torque_lim
     }
-    /// [`Self::set_safe`] with the yaw torque limit at `torque_limit` (pu, clamped to
-    /// `[0, torque_max]`): for a core continuing another's state (new rates), or a boot
-    /// after a fault (limit 0: zero torque from the first tick).
+    /// [`Self::set_safe`] with the torque limit at `torque_limit` (pu, clamped to
+    /// `[0, torque_max]`): a core continuing another's state, or a boot after a fault (0).
     pub fn set_safe_at(&mut self, safe: bool, torque_limit: T) {
         let max = self.law.torque_max;
         self.torque_lim = torque_limit.sanitize().0.limit(T::ZERO, max).0;
@@ -70,16 +68,14 @@ impl<T: Sample> Controller<T> {
         self.refresh();
     }
 
-    /// Continue from a yaw torque `t_psi` (pu) output by another core: the next yaw steps
-    /// slew from it, as a law change does.
+    /// Continue from a yaw torque `t_psi` (pu) of another core, slewing as a law change does.
     pub fn continue_from(&mut self, t_psi: T) {
         self.out.yaw_torque = t_psi;
         self.slewing = true;
         self.refresh();
     }
 
-    /// The back-EMF `K_m omega_m` of `speed` (pu, clamped), clamped to the voltage limits:
-    /// the voltage of zero armature current.
+    /// The back-EMF `K_m omega_m` of `speed` (pu), clamped to the voltage limits.
     pub fn back_emf(&self, speed: T) -> T {
         let law = &self.law;
         speed
@@ -128,8 +124,8 @@ impl<T: Sample> Controller<T> {
     pub fn wheel_slip(&self) -> bool {
         self.wsp_acting
     }
-    /// The vehicle reference speed as motor speed `n v_ref / r0`, pu of `scales.speed`
-    /// (held; sanitised, clamped). Zero means unknown ([`crate::wsp`], "An unknown reference").
+    /// The reference speed as motor speed `n v_ref / r0`, pu (held, sanitised, clamped); zero
+    /// means unknown.
     pub fn set_v_ref(&mut self, w_ref: T) {
         let m = self.law.speed_max;
         self.wsp.w_ref = w_ref.sanitize().0.limit(T::ZERO.sat_sub(m), m).0;
@@ -143,8 +139,7 @@ impl<T: Sample> Controller<T> {
         &self.wsp
     }
 
-    /// Bumpless start: preset the PI integrator to the back-EMF of `speed` (pu), clamped to
-    /// the voltage limits, and the reference to 0.
+    /// Bumpless start: the PI integrator to the back-EMF of `speed` (pu), the reference to 0.
     pub fn preset_back_emf(&mut self, speed: T) {
         let u = self.back_emf(speed);
         self.law.pi.preset(&mut self.pi_state, u);
@@ -189,7 +184,7 @@ impl<T: Sample> Controller<T> {
         self.iref
     }
     /// The latest traction step's error `i_ref - i_a` (pu, + when the current is below its
-    /// reference), after the protection's cap, as the PI took it; 0 with traction off.
+    /// reference), as the PI took it; 0 with traction off.
     pub fn current_error(&self) -> T {
         self.i_err
     }

@@ -1,6 +1,5 @@
-//! The drive check: a current-loop limit cycle, or any sustained oscillation of the
-//! traction drive, in the ripple of the current error `e = i_ref - i_a` (pu, + when the
-//! current is below its reference; [`crate::Controller::current_error`]).
+//! The drive check: a current-loop limit cycle seen in the ripple of the current error
+//! `e = i_ref - i_a` (pu); the design and defaults: `docs/monitor.md`, "The drive check".
 //!
 //! ```text
 //! r[n] = e[n] - e[n-1]
@@ -9,12 +8,7 @@
 //! DRIVE_OSC rises when run >= P, falls when q < (release thr)^2
 //! ```
 //!
-//! The first difference passes a limit cycle (a fifth of the rate and above) and rejects
-//! what the loop does on purpose; `N` and `P` count steps, not seconds, so no coefficient
-//! changes with the rates. A burst of ripple energy `E` stays above `thr^2` for `P` steps
-//! only if `k_d E > e^{P/N} thr^2`. Fixed point: `q` in pu^2, the square saturating at
-//! 8 pu^2, the increment with error feedback ([`Sample::mul_c_acc`]). Why these choices
-//! and the defaults: `docs/monitor.md`, "The drive check".
+//! `N` and `P` count steps, so no coefficient changes with the rates.
 
 use super::{exp_small, range, Monitor, MonitorParams, MonitorState};
 use crate::config::ConfigError;
@@ -66,8 +60,7 @@ pub(super) fn check_params(p: &MonitorParams) -> Result<DriveF64, ConfigError> {
 }
 
 impl<T: Sample> Monitor<T> {
-    /// One traction step of the drive check on the current error `e` (pu): whether the alarm
-    /// rose (its state: `s.ev.drive`). A monitor that is off (rate 0) never raises it.
+    /// One traction step of the drive check on `e` (pu): whether the alarm rose.
     #[inline(always)]
     pub fn drive_step(&self, s: &mut MonitorState<T>, e: T) -> bool {
         let r = e.sat_sub(s.drive_err);

@@ -1,5 +1,4 @@
-//! The monitor as exact bits: the monitor that never runs, [`MonitorBits`] to and from a
-//! [`Monitor`], and the `const` constructor the firmware builds its boot monitor with.
+//! The monitor as exact bits, and the `const` constructor of the firmware's boot monitor.
 
 use super::{divisor_for, Monitor, MonitorBits};
 use crate::sample::{Coef, Fx, SampleBits};
@@ -51,9 +50,7 @@ impl<T: SampleBits> Monitor<T> {
         }
     }
 
-    /// From exact bits for `base_rate_hz`, validated (coefficients in `(0, 1)`, levels
-    /// `0 < off < on`, `floor > 0`, `drift > 0`, block, count and persistence >= 1); rate 0
-    /// never runs. Integer work only.
+    /// From exact bits for `base_rate_hz`, validated (integer work); rate 0 never runs.
     pub fn from_bits(b: &MonitorBits, base_rate_hz: u32) -> Result<Self, crate::BitsError> {
         let err = |field| crate::BitsError { field };
         let coef = |field, v: u64| {
@@ -125,8 +122,7 @@ const fn f32_value(v: u64) -> f32 {
 macro_rules! from_valid_bits {
     ($t:ty, $signal:expr, $coeff:expr) => {
         impl Monitor<$t> {
-            /// [`Monitor::from_bits`] without validation, `const`, for bits known valid (the
-            /// firmware's build-time constant, checked by a host test); `div` as [`Monitor::retime`].
+            /// [`Monitor::from_bits`] without validation, `const`, for bits known valid.
             pub const fn from_valid_bits(b: &MonitorBits, base_rate_hz: u32) -> Self {
                 let (s, c) = ($signal, $coeff);
                 Self {

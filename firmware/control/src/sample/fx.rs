@@ -1,13 +1,8 @@
-//! The fixed-point sample [`Fx`] (Q4.28) with Q1.31 coefficients: its wire-code scales
-//! ([`FxScale`]), the rounding Q31 products ([`mul_q31`], [`smmulr`]) and its
-//! [`Sample`] and [`SampleBits`] implementations.
+//! The fixed-point sample [`Fx`] (Q4.28) with Q1.31 coefficients and wire-code scales.
 
 use super::{Coef, Fx, Sample, SampleBits, COEF_FRAC, FX_FRAC};
 
-/// A wire-code scale for the fixed-point type: `out = sat32((in * mul + round) >> shift)`.
-/// Construction resolves [`Self::apply`]'s form (`wide`: `shift >= 32`) and its shift
-/// amounts, so `apply` does no arithmetic on `shift`. `repr(C)` in `apply`'s read order
-/// (`round`, `mul`: one `LDM`).
+/// A wire-code scale, `out = sat32((in * mul + round) >> shift)`; `repr(C)` in read order.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[repr(C)]
 pub struct FxScale {
@@ -25,8 +20,7 @@ pub struct FxScale {
     wide: bool,
 }
 
-/// A shift amount `0..=31`, an enum so that the compiler drops the `& 31` before each
-/// variable shift.
+/// A shift amount `0..=31`, an enum so the compiler drops the `& 31` before each shift.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[repr(u8)]
 #[rustfmt::skip]
@@ -43,11 +37,9 @@ impl Shift {
             S19, S20, S21, S22, S23, S24, S25, S26, S27, S28, S29, S30, S31,
         ]
     };
-    /// `n & 31` as a shift amount.
     const fn of(n: u32) -> Self {
         Self::ALL[(n & 31) as usize]
     }
-    /// The amount, `0..=31`.
     #[inline(always)]
     fn get(self) -> u32 {
         self as u32
@@ -55,8 +47,7 @@ impl Shift {
 }
 
 impl FxScale {
-    /// The scale from its parts (no validation), `apply`'s form resolved; `const` for the
-    /// compiled-in controllers.
+    /// The scale from its parts (no validation); `const` for the compiled-in controllers.
     pub(crate) const fn from_parts(mul: i32, shift: u32, round: i64) -> Self {
         let wide = shift >= 32;
         let (sh, sh_up) = if wide {
@@ -76,7 +67,6 @@ impl FxScale {
     }
 
     /// The scale closest to `factor`: the largest `shift` with `round(factor 2^shift) < 2^31`.
-    /// `None` if `factor` is not finite, not positive, `>= 2^31` or below `2^-40`.
     pub fn new(factor: f64) -> Option<Self> {
         if !(1e-12..2_147_483_647.0).contains(&factor) {
             return None;
@@ -98,8 +88,7 @@ impl FxScale {
         ))
     }
 
-    /// The scale `mul / 2^shift` from its parts: `None` unless `mul` is in `[1024, 2^31)` and
-    /// `shift <= 62`.
+    /// The scale from its parts: `None` unless `mul` in `[1024, 2^31)` and `shift <= 62`.
     pub fn from_bits(mul: u64, shift: u8) -> Option<Self> {
         let shift = u32::from(shift);
         if !(1024..(1u64 << 31)).contains(&mul) || shift > 62 {
@@ -129,7 +118,6 @@ impl FxScale {
             if hi >> sh == q >> 31 {
                 q
             } else {
-                // i32::MIN for a negative product, i32::MAX otherwise.
                 (hi >> 31) ^ i32::MAX
             }
         }
@@ -158,7 +146,6 @@ pub(crate) fn round_f64(x: f64) -> f64 {
     }
 }
 
-/// Saturate an `i64` to `i32`.
 #[inline(always)]
 pub(crate) fn sat32(x: i64) -> i32 {
     if x > i32::MAX as i64 {
@@ -243,8 +230,7 @@ impl Sample for Fx {
     }
     const ACC_SHIFT_MAX: u32 = 30;
     fn acc_shift(c_max: f64) -> Option<u32> {
-        // The largest s in 1..=30 with c_max 2^s still a Q1.31 coefficient (below 1
-        // after rounding); s >= 1 keeps `mul_c_acc_shr` to the product's high word.
+        // The largest s in 1..=30 with c_max 2^s still a Q1.31 coefficient.
         if !(c_max.is_finite() && c_max > 0.0) {
             return None;
         }
@@ -305,8 +291,7 @@ impl Sample for Fx {
     }
     #[inline(always)]
     fn abs_within(self, max: Self) -> bool {
-        // One unsigned compare: `x + max` in `[0, 2 max]` (for `0 <= max < 2^30`; outside it
-        // wraps or lands beyond `2 max`).
+        // One unsigned compare: `x + max` in `[0, 2 max]` (for `0 <= max < 2^30`).
         let m = max.to_bits();
         (self.to_bits().wrapping_add(m) as u32) <= (m as u32) << 1
     }
@@ -357,7 +342,6 @@ impl SampleBits for Fx {
         Some(Coef::from_bits(u32::try_from(b).ok()? as i32)).filter(|q| *q != Coef::MIN)
     }
     fn coeff_in_unit(c: Coef, zero_ok: bool) -> bool {
-        // Below 1 by the format.
         c > Coef::ZERO || (zero_ok && c == Coef::ZERO)
     }
     fn scale_to_bits(s: &FxScale) -> (u64, u8) {

@@ -1,6 +1,4 @@
-//! Compiling the protection: [`WspParams`] validated against the motor, scales, limits
-//! and the yaw lead, and quantised for a sample type ([`Wsp::try_new`]); its exact bits
-//! and back ([`Wsp::to_bits`], [`Wsp::from_bits`]).
+//! Compiling the protection: [`WspParams`] validated and quantised, and its exact bits.
 
 use super::{Wsp, WspBits, WspParams, MAX_SHIFT};
 use crate::compiled::ScaleBits;
@@ -9,8 +7,8 @@ use crate::lead::LeadParams;
 use crate::sample::{Sample, SampleBits};
 
 impl<T: Sample> Wsp<T> {
-    /// Validate `p` against the motor, scales, limits and the yaw lead (whose pole and state
-    /// the scheduled lead shares), and quantise; `speed_lsb` is the wire's motor-speed LSB, rad/s.
+    /// Validate `p` against the motor, scales, limits and the lead, and quantise;
+    /// `speed_lsb` is the wire's motor-speed LSB, rad/s.
     pub fn try_new(
         p: &WspParams,
         motor: &Motor,
@@ -201,8 +199,7 @@ impl<T: SampleBits> Wsp<T> {
         }
     }
 
-    /// From exact bits, validated: `0 < slip_accel < slip_on <= 2` pu, `0 < sp_half <
-    /// slip_on`, coefficients in `(0, 1)` (slope `[0, 1)`), shifts at most 16, a valid scale.
+    /// From exact bits, validated (thresholds `0 < slip_accel < slip_on <= 2` pu, shifts <= 16).
     pub fn from_bits(b: &WspBits) -> Result<Self, crate::BitsError> {
         let e = |field| crate::BitsError { field };
         let sig = |field, v| {

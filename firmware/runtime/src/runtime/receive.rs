@@ -1,5 +1,4 @@
-//! The receive side of [`Runtime`]: frames decoded and counted, Sensor frames taken,
-//! Config and Command frames validated and applied or refused.
+//! The receive side of [`Runtime`]: frames decoded, counted, applied or refused.
 
 use wheelset_control::{Controller, InputCodes, MonitorState, SampleBits, ScheduleBits};
 use wheelset_proto::{FrameError, Lateral, RefuseReason, Request, Sensor, YawMode};
@@ -21,7 +20,6 @@ impl<T: SampleBits> Runtime<T> {
         }
     }
 
-    /// A frame's result: counted and applied.
     fn on_frame(&mut self, r: Result<Request, FrameError>) {
         let c = &mut self.counters;
         let m = match r {
@@ -41,7 +39,6 @@ impl<T: SampleBits> Runtime<T> {
             }
         };
         if matches!(m, Request::Unexpected) {
-            // A device -> host type: counted here only.
             c.rx_unexpected = c.rx_unexpected.wrapping_add(1);
             return;
         }
@@ -67,7 +64,6 @@ impl<T: SampleBits> Runtime<T> {
                 self.alarm_safe = false;
             }
             Request::Command(c @ (Command::InjectStall | Command::InjectHardFault)) => {
-                // A stall is honoured only where a watchdog ends it (`set_watchdog`).
                 let ends = self.watchdog || c == Command::InjectHardFault;
                 if cfg!(feature = "fault-inject") && ends {
                     self.injected = Some(c);
@@ -80,14 +76,12 @@ impl<T: SampleBits> Runtime<T> {
         }
     }
 
-    /// A valid Sensor frame taken as the latest sample.
     fn on_sensor(&mut self, s: Sensor) {
         let y_dot = match s.lateral {
             Lateral::Both {
                 vel_um_s: v,
                 acc_dmm_s2: a,
             } if self.leak_q32 != 0 => {
-                // The complementary filter (crate docs).
                 if self.acc.is_none() {
                     self.vel_q32 = i64::from(v) << 32;
                 }
@@ -111,9 +105,7 @@ impl<T: SampleBits> Runtime<T> {
             self.counters.seq_gaps = self.counters.seq_gaps.wrapping_add(1);
         }
         self.seq = s.seq;
-        // The protection is the reference speed's only reader: converted only while it is on,
-        // else held for the Config that switches it on, so the core sees the same `w_ref`
-        // either way and a tick with it off does no conversion.
+        // The protection is the reference speed's only reader: converted only while it is on.
         if self.core.wsp_enabled() {
             self.core.set_v_ref_code(s.v_ref_mm_s);
         } else {
@@ -148,7 +140,6 @@ impl<T: SampleBits> Runtime<T> {
         self.core.set_mode(c.mode);
         self.core.set_traction(c.traction);
         self.core.set_wsp(c.wsp);
-        // The reference speed held while the protection was off, as `on_sensor` would give it.
         if c.wsp {
             if let Some(code) = self.v_ref_held.take() {
                 self.core.set_v_ref_code(code);
@@ -160,8 +151,7 @@ impl<T: SampleBits> Runtime<T> {
         self.refused = false;
     }
 
-    /// A refused Config or Command: counted, flagged until the next accepted one, the reason
-    /// kept for the Status; nothing else changes.
+    /// A refused request: counted, flagged, the reason kept; nothing else changes.
     fn refuse(&mut self, why: RefuseReason) {
         self.refused = true;
         self.counters.cmd_refused = self.counters.cmd_refused.wrapping_add(1);
@@ -170,8 +160,7 @@ impl<T: SampleBits> Runtime<T> {
         self.note_rx_event(RxEvent::Refused(why));
     }
 
-    /// Validates `r` against this core (sample type, fingerprint, plausible ranges, one of
-    /// the designs bit for bit, `hold_ticks` at the new rate) and restarts the core on it.
+    /// Validates `r` against this core and its designs, then restarts the core on it.
     #[inline(never)]
     fn apply_rates(
         &mut self,
@@ -185,7 +174,6 @@ impl<T: SampleBits> Runtime<T> {
         if r.fingerprint != self.fingerprint {
             return Err(RefuseReason::Fingerprint);
         }
-        // Above the board's link limit.
         if r.base_rate_hz > self.max_rate_hz {
             return Err(RefuseReason::BaseRate);
         }
@@ -222,13 +210,11 @@ impl<T: SampleBits> Runtime<T> {
                 torque_step: u64::from(r.torque_step),
             })
             .map_err(|_| bits)?;
-        // A fresh core; the Config sets its mode and traction right after.
         let t_psi = self.core.outputs().yaw_torque;
         // The safe state and its torque limit go on (a boot-held zero limit stays zero).
         let (safe, limit) = (self.core.is_safe(), self.core.torque_limit());
         let wsp = self.core.wsp_enabled();
         self.core = Controller::new(&law);
-        // The new core has no reference speed (0) until the next Sensor frame.
         self.v_ref_held = None;
         self.core.continue_from(t_psi);
         if wsp {
