@@ -42,10 +42,8 @@ fn main() {
     }
 }
 
-/// The board's memory map and linker scripts: the linker takes `INCLUDE memory.x` from
-/// its working directory first (the top-level map, the F446's), so a board with its own
-/// map links with `$OUT_DIR/link-<name>.x` and lld's `--remap-inputs` empties every
-/// other `memory.x`.
+/// The board's memory map: the linker takes `INCLUDE memory.x` from its working directory
+/// first (the F446's), so a board with its own map links with `$OUT_DIR/link-<name>.x`.
 fn link_setup(out: &Path) -> Result<(), String> {
     let boards: Vec<String> = env::vars()
         .filter_map(|(k, _)| Some(k.strip_prefix("CARGO_FEATURE_BOARD_")?.to_lowercase()))

@@ -1,6 +1,5 @@
-//! `memcpy` and `memset` and their ARM EABI entry points in a few dozen bytes of Thumb-2
-//! instead of `compiler_builtins`' unrolled ones; in assembly because LLVM turns a Rust
-//! copy loop into a call to `memcpy`. Contracts (AAPCS, ARM run-time ABI):
+//! `memcpy`, `memset` and their ARM EABI entry points, smaller than `compiler_builtins`'
+//! (in assembly: LLVM turns a Rust copy loop into a `memcpy` call). Contracts:
 //! - `memcpy(dst r0, src r1, n r2) -> dst`; `__aeabi_memcpy{,4,8}(dst, src, n)`; no
 //!   overlap (no `memmove`: a reference fails to link).
 //! - `memset(dst r0, c r1, n r2) -> dst`; `__aeabi_memset{,4,8}(dst r0, n r1, c r2)`;

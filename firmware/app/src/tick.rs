@@ -1,7 +1,6 @@
-//! The missed-tick policy: with `lateness = now - deadline` (1 us ticks), on time up to
-//! `late_after`, **late** (counted) below a period, and from a period on
-//! `missed = floor(lateness / period)` deadlines **skipped** (counted), the tick run once
-//! and the next deadline `deadline + (missed + 1) * period`, instead of `Ticker`'s burst.
+//! The missed-tick policy, `lateness = now - deadline` (1 us ticks): on time up to
+//! `late_after`, late below a period, else `missed = floor(lateness / period)` deadlines
+//! skipped and the next at `deadline + (missed + 1) * period` (no burst of catch-up ticks).
 
 /// Counters of the tick schedule, reported by the control task.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

@@ -156,9 +156,8 @@ pub struct Config {
     pub lead: LeadParams,
     /// Pure-gain `K`, N m s/m (1.05e5).
     pub gain_k: f64,
-    /// Yaw delay compensation, base ticks: `y'_p = y' + (tau/T_yaw) (y'[n] - y'[n-1])`, in
-    /// `[0, 2)` of `T_yaw`. The ZOH's half period plus the tick of delay is `1 + yaw_divisor/2`
-    /// ticks: default 1.5, which restores the continuous loop's damping; 0 = off (the paper's law).
+    /// Yaw delay compensation `tau`, base ticks: `y'_p = y' + (tau/T_yaw) (y'[n] - y'[n-1])`,
+    /// `tau/T_yaw` in `[0, 2)`; default 1.5 (the ZOH's half period plus the tick of delay), 0 = off.
     pub yaw_predict_ticks: f64,
     /// PI parameters.
     pub pi: PiParams,

@@ -2,10 +2,8 @@
 //! the PI traction current loop ([`pi`]) and its wheel-slip protection ([`wsp`]), generic
 //! over the sample type (`f64` reference, `f32`, fixed-point [`Fx`] = Q4.28 for production).
 //!
-//! No allocation, no HAL, no division, no panic on the tick path; no `libm` on the device
-//! (the discretisation runs once, in f64, as series of this crate, so the compiled bits
-//! are the same everywhere). Configuration is validated once ([`Controller::try_new`]);
-//! the tick never fails: it sanitises (NaN -> 0), clamps, and counts ([`Counters`]).
+//! No allocation, division, `libm` or panic on the tick path (the discretisation runs once,
+//! in f64); the tick never fails: it sanitises (NaN -> 0), clamps, and counts ([`Counters`]).
 //!
 //! ```
 //! use wheelset_control::{Config, FixedController, InputCodes};

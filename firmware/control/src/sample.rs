@@ -57,9 +57,8 @@ pub trait Sample: Copy + Default + PartialEq + PartialOrd + core::fmt::Debug {
     /// `self * c` for an integrator's increment with error feedback: fixed point floors and
     /// carries the remainder in `r`, so the running sum is exact to one LSB; floats multiply.
     fn mul_c_acc(self, c: Self::Coeff, r: &mut Self::Residue) -> Self;
-    /// The shift `s` holding a small coefficient as `c 2^s` (the PI's `Ki`): the largest such
-    /// that every coefficient up to `c_max` still quantises; `None` if `c_max` is not finite,
-    /// positive and small enough. Floats 0; fixed point `1..=`[`Sample::ACC_SHIFT_MAX`].
+    /// The largest shift `s` holding every coefficient up to `c_max` as `c 2^s` (the PI's `Ki`),
+    /// if any: floats 0, fixed point `1..=`[`Sample::ACC_SHIFT_MAX`].
     fn acc_shift(c_max: f64) -> Option<u32> {
         (c_max.is_finite() && c_max > 0.0).then_some(0)
     }

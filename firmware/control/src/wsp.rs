@@ -19,7 +19,8 @@
 //! # An unknown reference
 //!
 //! `v_ref_mm_s = 0` gives `w_ref = 0` exactly: no detection (a rolling wheel would read as
-//! slipping) and no regulation (a cap in force rises by `iref_step` per step and releases).
+//! slipping, and the gear's twist alone trips the acceleration test) and no regulation
+//! (a cap in force rises by `iref_step` per step and releases).
 //!
 //! # The scheduled lead
 //!

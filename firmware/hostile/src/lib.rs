@@ -1,15 +1,8 @@
-//! The hostile-Config table: every Config a device must refuse, with its reason, beside
-//! those just inside each limit and the nominal ones at every design point, which it
-//! must apply ([`rows`]); and the [`procedure`] that tries a row on any device taking
-//! frames and judges it. The host runtime (`firmware/runtime/tests/hostile.rs`) and the
-//! firmware under QEMU (`hil/harness/tests/qemu_hostile.rs`) run it: one table, one
-//! judgement. Test support on the host; no firmware depends on it.
-//!
-//! This file holds one long idea, the table: [`rows`] writes each row, from the
-//! plausibility table of `wheelset_proto::plausible`, beside the limit it tests and the
-//! reason the device must give; each row is the [`nominal`] Config with one thing
-//! changed. `Bits` has no row (the ranges leave no pattern that reaches it), nor
-//! `Unsupported` (not about a Config).
+//! The hostile-Config table ([`rows`]): every Config a device must refuse, with its
+//! reason, and those just inside each limit, which it must apply; the [`procedure`] tries
+//! a row on the host runtime or the firmware under QEMU and judges it. This file holds one
+//! long idea, the table: each row the [`nominal`] Config with one thing changed, beside the
+//! limit it tests. `Bits` and `Unsupported` have no row (no Config reaches them).
 
 #![deny(missing_docs)]
 
@@ -128,8 +121,8 @@ impl Row {
     }
 }
 
-/// The runtime configuration at these rates with the paper's gains re-discretised and one
-/// tick of delay compensation: not a design unless 5 kHz / 1 / 1 ([`designed`] is).
+/// The runtime configuration at these rates with the paper's gains re-discretised: not a
+/// design unless 5 kHz / 1 / 1 ([`designed`] is).
 pub fn at_rates(base_rate_hz: u32, yaw_div: u16, traction_div: u16) -> RuntimeConfig {
     let mut c = RuntimeConfig::default();
     c.control.base_rate_hz = base_rate_hz;
@@ -144,8 +137,7 @@ pub fn designed(base_rate_hz: u32, delay_ticks: u8) -> Result<RuntimeConfig, Run
     RuntimeConfig::default().designed(base_rate_hz, delay_ticks)
 }
 
-/// The nominal Config: lead, traction on, outputs enabled, default hold, the default
-/// rates as [`rates_for`] computes them for `T`.
+/// The nominal Config: lead, traction, outputs on, default hold and rates ([`rates_for`]).
 pub fn nominal<T: SampleBits>() -> Result<Config, RuntimeError> {
     Ok(with_rates(rates_for::<T>(&RuntimeConfig::default())?))
 }
@@ -311,8 +303,7 @@ const fn tolerance(k_tenths: i32) -> (u32, u32) {
     ((10_240 + k_tenths) as u32, 10_240)
 }
 
-/// Every row for `T`, in table order, handed to `each`; errors: a row's rates cannot be
-/// computed (a bug of the table).
+/// Every row for `T`, in table order, handed to `each` (an error is a bug of the table).
 pub fn rows<T: SampleBits>(mut each: impl FnMut(Row)) -> Result<(), RuntimeError> {
     use RefuseReason as R;
     let n = T::NUMERIC;
@@ -457,8 +448,7 @@ pub fn rows<T: SampleBits>(mut each: impl FnMut(Row)) -> Result<(), RuntimeError
         };
         row(y, change, c, no(R::YawNotDesigned));
     }
-    // The hold: 20 ms at most (the probe's gap is past the default hold, so a longer one
-    // shows; 0 enters the safe state at the first tick without a frame).
+    // The hold: 20 ms at most (the probe's gap is past the default hold, so a longer one shows).
     let hold = |hold_ticks, rates| Config {
         hold_ticks,
         rates,

@@ -31,9 +31,8 @@ impl<T: Sample> Controller<T> {
         self.counters = Counters::default();
     }
 
-    /// Enter (`true`) or leave the safe state. Entering: the yaw torque limit ramps linearly
-    /// to 0 over `safe.yaw_s`, the current reference to 0 over at most `safe.traction_s`;
-    /// leaving: the limit ramps back at the same rate, the reference at its normal slew.
+    /// Enter (`true`) or leave the safe state: the torque limit ramps to 0 over `safe.yaw_s`
+    /// and back, the current reference to 0 over at most `safe.traction_s`.
     pub fn set_safe(&mut self, safe: bool) {
         self.safe = safe;
         self.refresh();
@@ -54,9 +53,8 @@ impl<T: Sample> Controller<T> {
         self.set_safe(safe);
     }
 
-    /// Change the yaw mode, bumpless: into [`YawMode::Lead`] the lead starts from its steady
-    /// state for the last `y'`, and the torque slews from the old law's output at most
-    /// `torque_step` per yaw step (`limits.torque / safe.yaw_s`) until it has caught up.
+    /// Change the yaw mode, bumpless: the lead starts from its steady state, and the torque
+    /// slews at most `torque_step` per yaw step (`limits.torque / safe.yaw_s`).
     pub fn set_mode(&mut self, mode: YawMode) {
         if mode == YawMode::Lead && self.mode != YawMode::Lead {
             self.lead_state = self.law.lead.steady_state(self.last_y_dot);

@@ -21,9 +21,8 @@ use pac::Interrupt;
 static EXEC_CONTROL: InterruptExecutor = InterruptExecutor::new();
 static EXEC_COMMS: InterruptExecutor = InterruptExecutor::new();
 
-/// SysTick as a stopwatch, running only while a tick executes (stopped, it arms no timer
-/// for `sleep=off` to jump to): instructions, `counts * 40 ns / 2^shift`. It counts on
-/// from where it stopped (a cleared counter's reload is a timer QEMU expires at once).
+/// SysTick as a stopwatch of instructions, `counts * 40 ns / 2^shift`, running only while a
+/// tick executes (stopped, it arms no timer for `sleep=off` to jump to).
 pub struct SysTickStopwatch {
     syst: SYST,
 }

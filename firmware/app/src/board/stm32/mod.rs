@@ -110,9 +110,8 @@ pub fn reset_cause(
     (Some(cause), power_on)
 }
 
-/// The safe frame by polled writes on the link UART, every byte within its bound: the
-/// transmit DMA stopped, a lone delimiter (ending a half-sent frame), the frame, then
-/// `tc` (so the reset does not cut the last byte).
+/// The safe frame by bounded polled writes: a lone delimiter first (ending a half-sent
+/// frame), and `tc` last (so the reset does not cut the last byte).
 pub fn send_polled(
     stop_dma: impl FnOnce(u32),
     txe: impl Fn() -> bool,
@@ -217,9 +216,8 @@ async fn control_task() {
     app::frame_loop::<Selected, _>(app::new_device::<Selected>, DwtStopwatch).await
 }
 
-/// The receive task: the DMA ring's bytes into the RX pipe at each IDLE line, half ring
-/// or error. `rx_overrun` counts one per receive error (the lost bytes are unknown) and
-/// each byte the pipe had no room for.
+/// The receive task: the DMA ring's bytes into the RX pipe; `rx_overrun` counts one per
+/// receive error (the lost bytes are unknown) and each byte the pipe had no room for.
 #[embassy_executor::task]
 async fn rx_task(mut rx: RingBufferedUartRx<'static>) {
     let mut buf = [0u8; 32];
