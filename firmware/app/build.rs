@@ -1,10 +1,6 @@
-//! 1. The default controller, compiled: discretises and quantises the default
-//!    configuration with the firmware's own control code (`wheelset-control`, f64 then
-//!    quantised for the build's sample type) and writes it as exact constants
-//!    (`$OUT_DIR/default_runtime.rs`, a `wheelset_runtime::RuntimeBits`), so the device
-//!    starts without any float maths. Host builds too (their tests check the constants).
-//! 2. Link set-up for the board build (nothing on the host): the board is the one
-//!    `board-<name>` feature, its memory map `src/board/<name>/memory.x` ([`link_setup`]).
+//! 1. The default runtime compiled with the firmware's own control code into exact
+//!    constants (`$OUT_DIR/default_runtime.rs`): no float maths on the device.
+//! 2. Link set-up for the board build ([`link_setup`]).
 use std::{
     env, fs,
     path::{Path, PathBuf},
@@ -21,9 +17,7 @@ fn default_runtime() -> String {
         RuntimeBits::try_new::<wheelset_control::Fx>(&cfg)
     };
     match bits {
-        // The derived `Debug` of these plain structs (integers, bools, arrays, a unit
-        // enum) is Rust expression syntax; the host test `default_runtime_is_compiled`
-        // checks the constant against a fresh compilation.
+        // The derived `Debug` of these plain structs is Rust expression syntax.
         Ok(b) => format!("pub const DEFAULT_RUNTIME: RuntimeBits = {b:#?};\n"),
         Err(e) => {
             println!("cargo:warning=the default configuration does not compile: {e}");
@@ -48,19 +42,8 @@ fn main() {
     }
 }
 
-/// The board's memory map on the link, and the linker scripts.
-///
-/// cortex-m-rt's `link.x` starts with `INCLUDE memory.x`, and the linker (run in the
-/// workspace root) takes an included file from its working directory before any search
-/// path: the top-level `memory.x`, the Nucleo-F446RE's. A board without a map of its
-/// own links with it as it is. A board with its own map links with
-/// `$OUT_DIR/link-<name>.x`: its map, then `INCLUDE link.x`; and lld's `--remap-inputs`
-/// turns every `memory.x` the linker opens into an empty script, so the top-level map
-/// plays no part. flip-link (the STM32 boards' linker) finds the RAM region in that same
-/// first script and links its flipped image with its own copy of it.
-/// `src/board/<name>/device.x`, if there is one, names the board's interrupt handlers
-/// for cortex-m-rt's `device` feature. `cargo fw` checks every ELF's sections against
-/// its own board's map.
+/// The board's memory map: the linker takes `INCLUDE memory.x` from its working directory
+/// first (the F446's), so a board with its own map links with `$OUT_DIR/link-<name>.x`.
 fn link_setup(out: &Path) -> Result<(), String> {
     let boards: Vec<String> = env::vars()
         .filter_map(|(k, _)| Some(k.strip_prefix("CARGO_FEATURE_BOARD_")?.to_lowercase()))
@@ -107,9 +90,7 @@ fn link_setup(out: &Path) -> Result<(), String> {
     };
     println!("cargo:rustc-link-search={}", out.display());
     println!("cargo:rustc-link-arg-bins=--nmagic");
-    // Identical code folding (rust-lld): the generic runtime is instantiated per message
-    // and sample type, and many copies are identical; folding them saves flash
-    // (`cargo fw` prints the sizes).
+    // Identical code folding: the generic runtime's many identical instances share flash.
     println!("cargo:rustc-link-arg-bins=--icf=all");
     println!("cargo:rustc-link-arg-bins=-T{script}");
     println!("cargo:rustc-link-arg-bins=-Tdefmt.x");

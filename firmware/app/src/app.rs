@@ -1,11 +1,5 @@
-//! The board-independent task structure: the pipes between the UART and the control
-//! task, and the control loop itself, generic over the [`Board`] (its executors and UART
-//! tasks, its [`Stopwatch`], its tick source's period, its fault path).
-//!
-//! ```text
-//!  UART RX (ISR or DMA task) --RX pipe--> control task --TX pipe--> UART TX task
-//!                                         (Ticker, base rate, highest executor)
-//! ```
+//! The board-independent task structure, generic over the [`Board`]: UART RX --RX pipe-->
+//! control task (ticker, highest executor) --TX pipe--> UART TX.
 
 use core::future::poll_fn;
 use core::sync::atomic::{AtomicU32, Ordering};
@@ -26,9 +20,7 @@ pub static RX: Pipe<RX_PIPE> = Pipe::new();
 /// Encoded frames from the control task to the UART transmitter.
 pub static TX: Pipe<TX_PIPE> = Pipe::new();
 
-/// A byte pipe between one producer and one consumer: the panic-free [`ByteRing`] and
-/// the consumer's waker (instead of `embassy_sync::pipe::Pipe`, whose panic paths link
-/// `core::fmt`; see [`crate::ring`]).
+/// A single-producer, single-consumer byte pipe: the panic-free [`ByteRing`] and a waker.
 pub struct Pipe<const N: usize> {
     ring: ByteRing<N>,
     reader: AtomicWaker,
@@ -68,8 +60,7 @@ impl<const N: usize> Pipe<N> {
         self.ring.free_capacity()
     }
 
-    /// Waits until at least one byte is held, then reads up to `out.len()` (0 only for
-    /// an empty `out`).
+    /// Waits until a byte is held, then reads up to `out.len()` (0 only for an empty `out`).
     pub async fn read(&self, out: &mut [u8]) -> usize {
         if out.is_empty() {
             return 0;
@@ -86,30 +77,22 @@ impl<const N: usize> Pipe<N> {
     }
 }
 
-/// Bytes the board's receive path lost since the control task last looked (the RX pipe
-/// was full; on the Nucleo also one per receive error its UART driver reports, which
-/// cannot say how many bytes it lost: `board::nucleo`'s RX task), for the Status
-/// `rx_overrun`.
+/// Bytes the receive path lost since the control task last looked (`rx_overrun`).
 pub static RX_OVERRUN: AtomicU32 = AtomicU32::new(0);
 
 /// The execution-time counter of a board.
 pub trait Stopwatch {
     /// Starts a measurement; returns the raw start reading.
     fn start(&mut self) -> u32;
-    /// Ends the measurement started at `start`; returns cycles (board) or instructions
-    /// (QEMU).
+    /// Ends the measurement started at `start`: cycles (board) or instructions (QEMU).
     fn stop(&mut self, start: u32) -> u32;
 }
 
-/// The device the control task drives: the runtime with its default configuration. A
-/// configuration the control core refuses is a build error in disguise (it is not
-/// input): the board halts.
+/// The runtime with its default configuration (a refusal is a build error: the board halts).
 pub fn new_device<B: Board>() -> FwRuntime {
     match new_runtime() {
         Ok(mut rt) => {
-            // A Config may not set a rate the board's link cannot carry.
             rt.set_link_limit(B::LINK_MAX_RATE_HZ);
-            // An injected stall only where a watchdog ends it.
             rt.set_watchdog(B::WATCHDOG_ENDS_STALL);
             rt
         }
@@ -120,8 +103,7 @@ pub fn new_device<B: Board>() -> FwRuntime {
     }
 }
 
-/// Unwraps a task's spawn token; a full task pool is a build error in disguise, so it
-/// halts the board (it cannot depend on input: tasks are spawned once at start-up).
+/// Unwraps a spawn token (a full pool is a build error: the board halts).
 pub fn token<B: Board, S>(t: Result<SpawnToken<S>, SpawnError>) -> SpawnToken<S> {
     match t {
         Ok(t) => t,
@@ -144,15 +126,8 @@ fn new_ticker(period: u64) -> (Ticker, u64) {
     (t, start.saturating_add(period))
 }
 
-/// The control task's periodic wake-up: `embassy_time::Ticker`'s behaviour (a tick
-/// already due is taken at once, then the deadline moves on by one period, so a late
-/// tick does not shift the schedule) on time-driver ticks with saturating additions.
-///
-/// Why not `embassy_time::Ticker`: its `Instant + Duration` is `checked_add(..)
-/// .expect("overflow ...")`, and the message's formatting links `core::fmt`'s `str`
-/// Display (`Formatter::pad`, hundreds of bytes of the Nucleo's flash, `arm-none-eabi-nm
-/// --size-sort`), for an overflow that needs `2^64` 1 us ticks (hundreds of thousands of
-/// years).
+/// The control task's periodic wake-up, `embassy_time::Ticker`'s behaviour with saturating
+/// additions (`Ticker`'s overflow `expect` links `core::fmt`).
 struct Ticker {
     /// The next deadline, time-driver ticks.
     expires_at: u64,
@@ -180,9 +155,7 @@ impl Ticker {
     }
 }
 
-/// The board's counters not yet handed to the device: ticks late and deadlines skipped
-/// (the tick monitor's classification of each wake-up) and frames the TX pipe had no
-/// room for.
+/// The board's counters not yet handed to the device.
 #[derive(Default)]
 struct BoardNote {
     late: u32,
@@ -190,12 +163,8 @@ struct BoardNote {
     tx_dropped: u32,
 }
 
-/// One tick's work, from the wake-up at stopwatch reading `t0`: hand the board's
-/// counters to the device (`note_board`, with the bytes lost on receive from
-/// [`RX_OVERRUN`]), feed the bytes received since the last tick to the device, run its tick with the previous tick's execution
-/// time, and queue the encoded frame for the transmitter (whole or not at all: a frame
-/// that does not fit is dropped and counted in `tx_dropped`). Returns this tick's
-/// execution time (drain + decode + control + encode).
+/// One tick's work from the wake-up at `t0`: counters and received bytes to the device,
+/// its tick, the frame queued whole or dropped. Returns the execution time.
 #[inline(always)]
 fn exchange(
     device: &mut impl Device,
@@ -211,23 +180,17 @@ fn exchange(
         RX_OVERRUN.swap(0, Ordering::Relaxed),
         taken.tx_dropped,
     );
-    // The held bytes in place, in at most two runs (up to the ring's end, then from its
-    // start); bounded, as bytes may keep arriving from the receiver meanwhile.
+    // The held bytes in place, in at most two runs; bounded, as bytes keep arriving.
     for _ in 0..3 {
         if RX.read_in_place(|held| device.receive(held)).is_err() {
             break;
         }
     }
     let frame = device.tick(last_exec);
-    // The measurement ends with the encoded frame: handing it to the transmitter
-    // costs more or less depending on whether the TX task is already waiting,
-    // which under lock-step depends on host timing, not on the tick.
+    // The measurement ends with the encoded frame (handing it over depends on host timing).
     let exec = stopwatch.stop(t0);
-    // A frame goes out whole or not at all.
     if !frame.is_empty() {
         if TX.free_capacity() >= frame.len() {
-            // The pipe is a ring: one write stops at its end, so write until done
-            // (at most two writes; the room was checked above).
             let mut rest = frame;
             while let Ok(n @ 1..) = TX.try_write(rest) {
                 rest = rest.get(n..).unwrap_or(&[]);
@@ -240,16 +203,10 @@ fn exchange(
     exec
 }
 
-/// Base ticks between two log records of rejected frames and refused requests (0.1 s at
-/// the default 5 kHz): a burst of bad frames logs its first, and the next record, at
-/// most this many ticks later, the first after it with the number in between; the
-/// Status counters count every one.
+/// Base ticks between two receive log records (a burst logs its first, then the count).
 pub const RX_LOG_QUIET_TICKS: u32 = 500;
 
-/// The receive log, once per tick after the frame went out (outside the measured
-/// execution time): while `quiet` counts down nothing is taken (the runtime keeps the
-/// first event and counts the rest); then the held event, if any, is logged with
-/// `defmt::warn!` and the countdown restarts.
+/// The receive log, after the frame went out: the held event once `quiet` ran down.
 #[inline(always)]
 fn log_rx(device: &mut impl Device, quiet: &mut u32) {
     if *quiet != 0 {
@@ -266,8 +223,7 @@ fn log_rx_event(e: wheelset_runtime::RxEvent, more: u32) {
     defmt::warn!("rx {} (+{=u32} more since the last record)", e, more);
 }
 
-/// Every [`crate::stack::SCAN_TICKS`] ticks (counted in `ticks`), the stack's
-/// high-water mark into the device's Status ([`crate::stack`]).
+/// Every [`crate::stack::SCAN_TICKS`] ticks, the stack's high-water mark into the Status.
 #[inline(always)]
 fn note_stack(device: &mut impl Device, ticks: &mut u32) {
     *ticks = ticks.wrapping_add(1);
@@ -277,26 +233,18 @@ fn note_stack(device: &mut impl Device, ticks: &mut u32) {
     }
 }
 
-/// The control task's body. Deadline: one base period per tick.
-///
-/// Each tick: apply the missed-tick policy ([`crate::tick`]), feed the bytes received
-/// since the last tick to the device, run the device's tick with the previous tick's
-/// execution time, and queue the encoded frame for the transmitter. The execution time
-/// is measured from the wake-up to the encoded frame (drain + decode + control +
-/// encode). A host Config frame that changes the base rate re-arms the schedule.
+/// The control task's body; deadline one base period per tick. A Config that changes the
+/// base rate re-arms the schedule.
 pub async fn control_loop<B: Board, D: Device>(
     make_device: impl FnOnce() -> D,
     mut stopwatch: B::Stopwatch,
 ) -> ! {
-    // Made here, not passed in: an async fn's arguments are kept in its future beside
-    // the body's copy of them (rust-lang/rust#62958), so a device argument took the
-    // runtime's size twice in the task's static RAM (`cargo fw`: see the README).
+    // Made here, not passed in: an async fn's arguments are kept twice in its future
+    // (rust-lang/rust#62958).
     let mut device = make_device();
-    // The boot record the board read at start-up (crate::boot).
     let (count, cause) = crate::boot::this_boot();
     device.set_boot(count, cause);
     let mut rate = device.base_rate_hz();
-    // The schedule: a whole number of us per period, and a tick monitor for it.
     let schedule = period_ticks(rate).and_then(|p| {
         B::set_period(p);
         let (ticker, first) = new_ticker(p);
@@ -342,7 +290,6 @@ pub async fn control_loop<B: Board, D: Device>(
         if let Some(c) = device.take_injected() {
             B::inject(c);
         }
-        // A Config frame from the host may have changed the base rate.
         let now_rate = device.base_rate_hz();
         if now_rate != rate {
             match period_ticks(now_rate) {
@@ -356,8 +303,7 @@ pub async fn control_loop<B: Board, D: Device>(
                     defmt::info!("base rate now {=u32} Hz", rate);
                 }
                 None => {
-                    // Logged once (`rate` follows): the runtime refuses such a rate
-                    // (`RefuseReason::Period`), so this is a guard, not a path.
+                    // A guard: the runtime refuses such a rate (`RefuseReason::Period`).
                     defmt::warn!(
                         "base rate {=u32} Hz refused: not a whole number of us",
                         now_rate
@@ -369,17 +315,12 @@ pub async fn control_loop<B: Board, D: Device>(
     }
 }
 
-/// The frame-clocked control task (feature `frame-clock`, the Nucleo's lock-step build):
-/// one tick per frame delimiter (0x00) received, as the QEMU build's frame clock, so a
-/// board behind a USB serial bridge runs in lock-step at the full rate (the host waits
-/// for each answer). No ticker and no missed-tick policy: the host's frames are the
-/// clock. The execution time is measured as in [`control_loop`] (DWT cycles).
+/// The frame-clocked control task (`frame-clock`): one tick per frame delimiter received.
 #[cfg(feature = "frame-clock")]
 pub async fn frame_loop<B: Board, D: Device>(
     make_device: impl FnOnce() -> D,
     mut stopwatch: B::Stopwatch,
 ) -> ! {
-    // Made here, as in [`control_loop`] (an argument is kept twice in the future).
     let mut device = make_device();
     let (count, cause) = crate::boot::this_boot();
     device.set_boot(count, cause);

@@ -1,27 +1,6 @@
-//! The boot record: a few words of RAM that survive a reset (not a power cycle), kept
-//! in the `.uninit` section (NOLOAD: neither the start-up code nor the loader writes
-//! it).
-//!
-//! | word | meaning |
-//! |---|---|
-//! | `magic` | [`MAGIC`] once the record was written |
-//! | `count` | boots since power-on (1 = the first) |
-//! | `pending` | the reset cause a handler recorded just before it reset the board (`wheelset_proto::reset_cause`; 0 = none) |
-//! | `check` | `magic ^ count ^ pending ^ CHECK_SALT`: a record of random RAM after power-on is not taken for a valid one |
-//!
-//! At start-up [`start`] reads the record and returns `(boot_count, reset_cause)`:
-//! a valid record after a reset gives `count + 1` and the cause a handler recorded
-//! ([`record_cause`]: the watchdog's early-warning interrupt, the HardFault handler),
-//! or else the hardware's own cause (the Nucleo's RCC CSR flags; UNKNOWN on QEMU,
-//! which has no such register); no valid record, or a power-on reset, gives
-//! `(1, POWER_ON)`. The record is then rewritten with no pending cause.
-//!
-//! QEMU (7.2, measured): a system reset reloads the ELF's flash image and leaves the RAM
-//! as it was; the start-up code then zeroes `.bss` and copies `.data`, and `.uninit`
-//! (after `.bss`, in the same NOBITS load segment) keeps its words. Measured with the
-//! QEMU monitor: `xp /4wx` of the record after each `system_reset` read boot counts
-//! 1, 2, 3 (the record's address from `arm-none-eabi-nm`, symbol `boot::RECORD`). A
-//! fresh QEMU process starts from zeroed RAM: no valid record, boot 1, POWER_ON.
+//! The boot record: `.uninit` words that survive a reset: `magic`, `count` (boots since
+//! power-on), `pending` (a cause a handler recorded before resetting), `check` (so random
+//! RAM after power-on is not taken for a record).
 
 use core::mem::MaybeUninit;
 use core::ptr::{addr_of_mut, read_volatile, write_volatile};
@@ -66,9 +45,8 @@ static mut RECORD: MaybeUninit<Record> = MaybeUninit::uninit();
 static THIS_BOOT: AtomicU32 = AtomicU32::new(0);
 
 fn read() -> Record {
-    // SAFETY: RECORD is a plain, aligned static of four u32 words; any bit pattern is a
-    // valid `Record` (uninitialised RAM is read as whatever it holds, which `valid`
-    // checks). Only this module touches it, single-core, with volatile accesses.
+    // SAFETY: RECORD is a plain, aligned static of u32 words and any bit pattern is a valid
+    // `Record`; only this module touches it, single-core, volatile.
     unsafe { read_volatile(addr_of_mut!(RECORD).cast::<Record>()) }
 }
 
@@ -77,9 +55,8 @@ fn write(r: Record) {
     unsafe { write_volatile(addr_of_mut!(RECORD).cast::<Record>(), r) }
 }
 
-/// Reads the record at start-up, counts this boot and returns `(boot_count,
-/// reset_cause)`. `hw_cause` is the board's own reset cause (`None`: no register);
-/// `power_on` says the hardware saw a power-on reset (the RAM is not to be trusted).
+/// Reads the record and counts this boot: `(boot_count, reset_cause)`, the recorded cause
+/// winning over `hw_cause`; `power_on` distrusts the RAM.
 pub fn start(hw_cause: Option<u8>, power_on: bool) -> (u32, u8) {
     let r = read();
     let (count, cause) = if r.valid() && !power_on {
@@ -104,15 +81,13 @@ pub fn start_on<B: Board>() -> (u32, u8) {
     start(hw_cause, power_on)
 }
 
-/// This boot's `(boot_count, reset_cause)` as [`start`] found them (`(0, UNKNOWN)`
-/// before it ran).
+/// This boot's `(boot_count, reset_cause)` (`(0, UNKNOWN)` before [`start`]).
 pub fn this_boot() -> (u32, u8) {
     let b = THIS_BOOT.load(Ordering::Relaxed);
     (b >> 8, (b & 0xFF) as u8)
 }
 
-/// Records why the board is about to reset (a handler, just before the reset), so the
-/// next boot reports it.
+/// Records why the board is about to reset, for the next boot.
 pub fn record_cause(cause: u8) {
     let r = read();
     let count = if r.valid() { r.count } else { 0 };

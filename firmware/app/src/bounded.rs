@@ -1,23 +1,13 @@
-//! Bounded waits for the fault paths (panic, HardFault): every poll of a peripheral
-//! there gives up after a fixed number of reads, so a peripheral that never becomes
-//! ready (not clocked yet, wedged, misconfigured) cannot keep the path from its end (a
-//! reset). Board-independent and tested on the host; the boards pass their register
-//! reads and writes as closures.
-//!
-//! The bound is a count of polls, not a time: it needs no timer (a fault may come before
-//! any timer runs, or from one). A poll is at least one core cycle, so a bound of
-//! [`polls_per_char`] polls lasts at least two character times of the UART at the core
-//! clock it is computed from: a working UART is never given up on early.
+//! Bounded waits for the fault paths: every poll of a peripheral gives up after a fixed
+//! count (no timer needed), so nothing keeps a fault path from its reset.
 
-/// Polls `ready` until it returns `true`, at most `limit` times; `true` if it did.
-/// `limit` 0 polls nothing and gives `false`.
+/// Polls `ready` until `true`, at most `limit` times (0: none, `false`); whether it was.
 pub fn poll_until(limit: u32, mut ready: impl FnMut() -> bool) -> bool {
     (0..limit).any(|_| ready())
 }
 
-/// Writes `bytes` one at a time with `write`, each after `ready` said the transmitter
-/// can take it (polled at most `polls_per_byte` times per byte). Stops at the first byte
-/// the transmitter did not take within its bound; returns the bytes written.
+/// Writes `bytes`, each after `ready` (at most `polls_per_byte` polls), stopping at the
+/// first byte not taken; the bytes written.
 pub fn write_polled(
     bytes: &[u8],
     polls_per_byte: u32,
@@ -35,9 +25,7 @@ pub fn write_polled(
     written
 }
 
-/// Polls of a UART's "transmit data register empty" flag that last at least two
-/// character times (10 bits each: 8N1) at `baud` on a core clocked at `core_hz`
-/// (a poll takes at least one core cycle), saturating; at least 1.
+/// Polls of a UART's TXE flag lasting at least two 8N1 character times (a poll >= 1 cycle).
 pub const fn polls_per_char(core_hz: u32, baud: u32) -> u32 {
     let cycles = match (core_hz as u64 * 10).checked_div(baud as u64) {
         Some(c) => c,
@@ -80,8 +68,7 @@ mod tests {
         assert_eq!(polls, 7);
     }
 
-    /// A transmitter whose "ready" flag sets after `delay` polls following each write,
-    /// or never once `dead_after` bytes went out.
+    /// A transmitter ready `delay` polls after each write, dead after `dead_after` bytes.
     struct Uart {
         delay: u32,
         dead_after: usize,
@@ -168,8 +155,6 @@ mod tests {
 
     #[test]
     fn the_bound_covers_a_character_at_one_poll_per_cycle() {
-        // A UART that needs exactly a character time (in cycles, one poll each) per byte
-        // gets every byte within the bound.
         let core_hz = 168_000_000;
         let baud = 921_600;
         let char_cycles = core_hz * 10 / baud;

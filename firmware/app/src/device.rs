@@ -1,8 +1,4 @@
 //! What the control task drives: bytes in, one encoded frame out per tick.
-//!
-//! The board binaries call this interface only. It is implemented by the board-
-//! independent runtime (`wheelset-runtime`: frame decoding, fault policy, the control
-//! core, frame encoding), the same code the host's in-process device runs.
 
 use wheelset_control::{Compiled, Monitor, SampleBits};
 use wheelset_proto::{encode, Actuation, Flags, Message, MAX_FRAME};
@@ -21,25 +17,19 @@ mod generated {
 pub trait Device {
     /// Feeds bytes received from the UART since the previous call (any split).
     fn receive(&mut self, bytes: &[u8]);
-    /// Runs one control tick; `last_exec` is the execution time of the previous tick
-    /// (cycles on the board, instructions under QEMU). Returns the encoded frame(s) to
-    /// transmit, delimiters included.
+    /// Runs one tick (`last_exec`: the previous tick's cycles or instructions); the frames out.
     fn tick(&mut self, last_exec: u32) -> &[u8];
-    /// The base (tick) rate the device runs at now, Hz (a host Config frame may change
-    /// it).
+    /// The base rate in force, Hz (a Config may change it).
     fn base_rate_hz(&self) -> u32;
-    /// The board's counters since the previous call (ticks late, deadlines skipped,
-    /// bytes lost on receive, frames dropped on transmit), for the Status.
+    /// The board's counters since the previous call, for the Status.
     fn note_board(&mut self, late: u32, missed: u32, rx_overrun: u32, tx_dropped: u32);
-    /// The boot record: boots since power-on and the reset cause
-    /// (`wheelset_proto::reset_cause`).
+    /// The boot record: boots since power-on and `wheelset_proto::reset_cause`.
     fn set_boot(&mut self, boot_count: u32, reset_cause: u8);
     /// The board's stack high-water mark, bytes (reported in `Status.stack_peak`).
     fn set_stack_peak(&mut self, bytes: u32);
     /// A fault injection received (test builds with `fault-inject` only).
     fn take_injected(&mut self) -> Option<wheelset_proto::Command>;
-    /// The first rejected frame or refused request since the previous call and the
-    /// number after it ([`Runtime::take_rx_event`]), for the log.
+    /// The first receive event since the previous call and the number after it.
     fn take_rx_event(&mut self) -> Option<(RxEvent, u32)>;
 }
 
@@ -77,30 +67,23 @@ impl<T: SampleBits> Device for Runtime<T> {
     }
 }
 
-/// The sample type of the control core in this build: fixed point (`I4F28`) by
-/// default, `f32` with the `f32` feature.
+/// The core's sample type: fixed point (`I4F28`), or `f32` with the `f32` feature.
 #[cfg(not(feature = "f32"))]
 pub type Num = wheelset_control::Fx;
-/// The sample type of the control core in this build: fixed point (`I4F28`) by
-/// default, `f32` with the `f32` feature.
+/// The core's sample type: fixed point (`I4F28`), or `f32` with the `f32` feature.
 #[cfg(feature = "f32")]
 pub type Num = f32;
 
 /// The firmware's runtime.
 pub type FwRuntime = Runtime<Num>;
 
-/// The default configuration (the control core's default rates, gains and limits, the
-/// fault policy's defaults), discretised and quantised for [`Num`] at build time by the
-/// same control code the host runs: exact bits, so the device needs no float maths.
+/// The default configuration compiled for [`Num`] at build time: exact bits.
 pub const DEFAULT_RUNTIME: RuntimeBits = generated::DEFAULT_RUNTIME;
 
-/// The default control core, converted from [`DEFAULT_RUNTIME`] at compile time (the
-/// bits are valid: [`wheelset_control::Compiled::to_bits`] output, and the host test
-/// `default_runtime_is_compiled` validates them).
+/// The default core from [`DEFAULT_RUNTIME`] at compile time (validated by a host test).
 pub const DEFAULT_CORE: Compiled<Num> = Compiled::<Num>::from_valid_bits(&DEFAULT_RUNTIME.control);
 
-/// The default stability monitor at the default base rate, converted at compile time
-/// (bits validated by the host test `default_runtime_is_compiled`).
+/// The default monitor at the default base rate, at compile time (validated by the same test).
 pub const DEFAULT_MONITOR: Monitor<Num> = Monitor::<Num>::from_valid_bits(
     &DEFAULT_RUNTIME.monitor,
     DEFAULT_RUNTIME.control.schedule.base_rate_hz,
@@ -109,8 +92,7 @@ pub const DEFAULT_MONITOR: Monitor<Num> = Monitor::<Num>::from_valid_bits(
 /// The fingerprint of the default core's rate-independent part, at compile time.
 pub const DEFAULT_FINGERPRINT: u32 = DEFAULT_RUNTIME.control.fingerprint();
 
-/// The firmware's runtime with the default configuration ([`DEFAULT_CORE`]; no float
-/// maths and no conversion code on the device).
+/// The firmware's runtime with the default configuration (no conversion code on the device).
 pub fn new_runtime() -> Result<FwRuntime, RuntimeError> {
     FwRuntime::with_core(
         &DEFAULT_CORE,
@@ -123,10 +105,7 @@ pub fn new_runtime() -> Result<FwRuntime, RuntimeError> {
     )
 }
 
-/// Encodes the frame that puts the actuators in their safe state
-/// ([`Runtime::safe_outputs`]: zero yaw torque, zero motor voltage; flag `SAFE`, not
-/// `ENABLED`) into `out`; returns the frame with its delimiter (empty if it does not
-/// fit, which `MAX_FRAME` rules out).
+/// Encodes the safe-state frame ([`Runtime::safe_outputs`], flag `SAFE`) into `out`.
 pub fn safe_frame(out: &mut [u8; MAX_FRAME]) -> &[u8] {
     let safe = FwRuntime::safe_outputs();
     let msg = Actuation {

@@ -1,19 +1,12 @@
-//! Execution time of one tick, from the device's own counters.
-//!
-//! - Board: the DWT cycle counter `CYCCNT` (32 bit, counts up at the core clock).
-//!   `cycles = end - start` (wrapping).
-//! - QEMU: the DWT reads 0, so SysTick (24 bit, counts *down*) is the stopwatch. It is
-//!   clocked at the mps2's 25 MHz core clock in virtual time, and with
-//!   `-icount shift=N,sleep=off` virtual time is `2^N` ns per executed instruction, so
-//!   `instructions = counts * 40 ns / 2^N ns` exactly (see [`systick_to_instructions`]).
+//! Execution time of one tick: DWT `CYCCNT` on a board; under QEMU SysTick at 25 MHz of
+//! virtual time, `instructions = counts * 40 ns / 2^N ns` with `-icount shift=N`.
 
 /// Cycles between two reads of a 32-bit up-counter (DWT CYCCNT), across a wrap.
 pub fn cyccnt_elapsed(start: u32, end: u32) -> u32 {
     end.wrapping_sub(start)
 }
 
-/// Counts between two reads of the 24-bit down-counting SysTick (`SYST_CVR`), across at
-/// most one wrap with the reload value `0xFF_FFFF`.
+/// Counts between two reads of the 24-bit down-counting SysTick, across at most one wrap.
 pub fn systick_elapsed(start: u32, end: u32) -> u32 {
     start.wrapping_sub(end) & 0x00FF_FFFF
 }
@@ -21,8 +14,7 @@ pub fn systick_elapsed(start: u32, end: u32) -> u32 {
 /// SysTick period of the mps2 boards' 25 MHz core clock, in ns.
 pub const MPS2_SYSTICK_NS: u32 = 40;
 
-/// Instructions executed in `counts` SysTick counts under `-icount shift=<shift>`:
-/// `counts * 40 / 2^shift`, rounded to nearest (saturating).
+/// Instructions in `counts` SysTick counts: `counts * 40 / 2^shift`, rounded, saturating.
 pub fn systick_to_instructions(counts: u32, shift: u32) -> u32 {
     let ns = u64::from(counts) * u64::from(MPS2_SYSTICK_NS);
     let half = (1u64 << shift) >> 1;

@@ -1,6 +1,4 @@
-//! The firmware of the board its `board-*` feature names. Build with `cargo fw`; flash
-//! an STM32 board with its `cargo flash-*` alias (probe-rs); run the QEMU builds with
-//! the harness (`cargo hil run --target qemu`).
+//! The firmware of the board its `board-*` feature names (`cargo fw`).
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
 #[cfg(target_os = "none")]

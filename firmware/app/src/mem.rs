@@ -1,28 +1,11 @@
-//! `memcpy` and `memset` (and their ARM EABI entry points) for the firmware, in a few
-//! dozen bytes of Thumb-2 instead of `compiler_builtins`' unrolled versions.
+//! `memcpy`, `memset` and their ARM EABI entry points, smaller than `compiler_builtins`'
+//! (in assembly: LLVM turns a Rust copy loop into a `memcpy` call). Contracts:
+//! - `memcpy(dst r0, src r1, n r2) -> dst`; `__aeabi_memcpy{,4,8}(dst, src, n)`; no
+//!   overlap (no `memmove`: a reference fails to link).
+//! - `memset(dst r0, c r1, n r2) -> dst`; `__aeabi_memset{,4,8}(dst r0, n r1, c r2)`;
+//!   `__aeabi_memclr{,4,8}(dst r0, n r1)`.
 //!
-//! Why: `compiler_builtins`' `memcpy` with its `__aeabi_memcpy4/8` and
-//! `__aeabi_memclr4/8` variants take over a kilobyte of the Nucleo build's flash, these
-//! a tenth of it (`arm-none-eabi-nm -S --size-sort target/fw/wheelset-nucleo.elf`). The frames the firmware copies and clears are at most `MAX_FRAME` bytes, so
-//! the unrolling bought little: the loops here move a word per 4 instructions when both
-//! pointers are word aligned (every call the compiler makes through the `4`/`8` entry
-//! points, and the frame buffers), a byte per 4 instructions otherwise.
-//!
-//! Written in assembly, not Rust: a Rust loop that copies bytes is recognised by LLVM
-//! as a `memcpy` idiom and compiled into a call to `memcpy` itself. The symbols are
-//! global, so the linker takes them and never pulls `compiler_builtins`' ones in.
-//!
-//! Contracts (AAPCS; the C library's and the ARM run-time ABI's):
-//! - `memcpy(dst r0, src r1, n r2) -> dst`; `__aeabi_memcpy{,4,8}(dst, src, n)` (4/8:
-//!   both pointers aligned to 4/8). Regions must not overlap (no `memmove` here: the
-//!   firmware does not reference it; a reference would fail to link, not misbehave).
-//! - `memset(dst r0, c r1, n r2) -> dst`; `__aeabi_memset{,4,8}(dst r0, n r1, c r2)`
-//!   (note the order); `__aeabi_memclr{,4,8}(dst r0, n r1)`.
-//!
-//! Clobbers only r0-r3 and r12 (caller-saved), no stack. Cortex-M3/M4 (Thumb-2,
-//! `IT` blocks, post-indexed loads and stores). Exercised by every firmware run: the
-//! QEMU smoke and closed-loop tests compare the device's frames with the host's bit for
-//! bit.
+//! Clobbers only r0-r3 and r12, no stack.
 
 // SAFETY: the symbols below implement the C and ARM EABI contracts stated above
 // (checked by every firmware run); nothing else in the program defines them.
@@ -99,7 +82,6 @@ core::arch::global_asm!(
     "__aeabi_memset4:",
     ".thumb_func",
     "__aeabi_memset8:",
-    // (dst, n, c) -> (dst, c, n)
     "    mov   r3, r1",
     "    mov   r1, r2",
     "    mov   r2, r3",

@@ -1,14 +1,5 @@
-//! The panic and HardFault handlers: outputs to the safe state first, then the board's
-//! end of the path.
-//!
-//! No panic is reachable from input (frames are decoded without `unwrap`, indexing is
-//! checked); this is the last line of defence against a bug. With interrupts off it
-//! logs, sends the safe actuation frame by polling the UART (the plant's actuators go to
-//! zero torque and zero traction demand) and ends as the board's `Board::halt` says: the
-//! Nucleo records the cause FAULT and resets (SCB), whether or not its watchdog has
-//! started; QEMU exits with a failure code. On the Nucleo every wait of the path is
-//! bounded (`crate::bounded`): a UART that is not clocked or is wedged cannot keep it
-//! from the reset.
+//! The panic and HardFault handlers, the last line of defence (no panic is reachable from
+//! input): interrupts off, the safe frame by bounded polling, then `Board::halt`.
 
 use core::panic::PanicInfo;
 use core::sync::atomic::{AtomicBool, Ordering};
@@ -17,16 +8,12 @@ use crate::board::{Board, Selected};
 
 static HALTING: AtomicBool = AtomicBool::new(false);
 
-/// Marks the board as halting; `true` if it already was (a panic while sending the safe
-/// frame must not try again).
+/// Marks the board as halting; `true` if it already was (no second safe frame).
 pub fn enter_halt() -> bool {
     HALTING.swap(true, Ordering::Relaxed)
 }
 
-/// The HardFault handler, every build: the safe outputs first (as the panic handler;
-/// bounded on the Nucleo), then the cause FAULT in the boot record (`crate::boot`), then
-/// a system reset (SYSRESETREQ), which ends the path: the board boots into its safe
-/// outputs, reports `reset_cause` FAULT with `FAULT_LATCHED`, and rejoins the loop.
+/// The HardFault handler: the safe outputs (bounded), cause FAULT, then SYSRESETREQ.
 #[cortex_m_rt::exception(trampoline = false)]
 unsafe fn HardFault() -> ! {
     cortex_m::interrupt::disable();
@@ -37,11 +24,8 @@ unsafe fn HardFault() -> ! {
     cortex_m::peripheral::SCB::sys_reset()
 }
 
-/// Carries out a fault injection (`Command::InjectStall`, `InjectHardFault`; a board
-/// whose `Board::inject` calls it, QEMU's, in builds with `fault-inject`): the control
-/// task loops forever without letting the watchdog be fed, or executes an undefined
-/// instruction (a UsageFault, escalated to HardFault since the UsageFault handler is not
-/// enabled).
+/// Carries out a fault injection (`fault-inject`): a stall that starves the watchdog, or
+/// an undefined instruction (escalated to HardFault).
 pub fn inject(c: wheelset_proto::Command) {
     match c {
         wheelset_proto::Command::InjectStall => {

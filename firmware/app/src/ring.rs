@@ -1,17 +1,7 @@
-//! A single-producer single-consumer byte ring that cannot panic.
-//!
-//! It replaces `embassy_sync::pipe::Pipe` between the UART and the control task: the
-//! pipe's `RefCell`, slice indexing and `copy_from_slice` carry panic paths whose
-//! messages format a `usize` (`core::fmt`), and its two copy loops plus the checks cost
-//! hundreds of bytes of Nucleo flash (`arm-none-eabi-nm --size-sort`); this ring is two
-//! counters and a byte loop, and it has no panic path at all.
-//!
-//! `head` counts the bytes ever written, `tail` the bytes ever read (both wrap at
-//! `usize::MAX + 1`); the bytes held are `head - tail` (wrapping), at most `N`. Byte `k`
-//! of the stream lives at `buf[k % N]`. Only the producer stores `head`, only the
-//! consumer stores `tail`: a Release store after the bytes are written (read) and an
-//! Acquire load on the other side order the byte accesses, so an interrupt handler may
-//! produce while a task consumes (or the other way round) without a lock.
+//! A single-producer single-consumer byte ring that cannot panic. `head` and `tail` count
+//! the bytes ever written and read (wrapping); byte `k` lives at `buf[k % N]`. Each side
+//! stores only its own counter, Release after its byte accesses, Acquire on the other
+//! side, so an interrupt may produce while a task consumes without a lock.
 
 use core::cell::UnsafeCell;
 use core::sync::atomic::{AtomicUsize, Ordering};
@@ -27,10 +17,9 @@ pub struct ByteRing<const N: usize> {
     tail: AtomicUsize,
 }
 
-// SAFETY: the producer writes only bytes outside `[tail, head)` and publishes them with
-// the Release store of `head`; the consumer reads only bytes inside `[tail, head)` and
-// frees them with the Release store of `tail`. With one producer and one consumer (the
-// contract of `try_write` / `try_read`) no byte is accessed by both at once.
+// SAFETY: the producer writes only outside `[tail, head)` and publishes with the Release
+// store of `head`; the consumer reads only inside and frees with the Release store of
+// `tail`. With one producer and one consumer no byte is accessed by both at once.
 #[allow(unsafe_code)]
 unsafe impl<const N: usize> Sync for ByteRing<N> {}
 
@@ -66,9 +55,7 @@ impl<const N: usize> ByteRing<N> {
         N.saturating_sub(self.len())
     }
 
-    /// Copies as much of `data` as fits (across the end of the buffer); returns the
-    /// bytes taken, or [`Empty`] if there was no room at all (or `data` is empty). Only
-    /// one producer may call it.
+    /// Copies as much of `data` as fits; the bytes taken, or [`Empty`] if none. One producer only.
     pub fn try_write(&self, data: &[u8]) -> Result<usize, Empty> {
         let head = self.head.load(Ordering::Relaxed);
         let tail = self.tail.load(Ordering::Acquire);
@@ -81,8 +68,7 @@ impl<const N: usize> ByteRing<N> {
         for (k, &b) in data.iter().take(n).enumerate() {
             // `% N` keeps the index inside the buffer (N > 0: `n` is 0 otherwise).
             let at = head.wrapping_add(k) % N;
-            // SAFETY: `at < N` is inside the array; the byte is free (outside
-            // `[tail, head)`), so the consumer does not read it until `head` is stored.
+            // SAFETY: `at < N`; the byte is outside `[tail, head)`, unread until `head` is stored.
             #[allow(unsafe_code)]
             unsafe {
                 base.add(at).write(b)
@@ -92,8 +78,7 @@ impl<const N: usize> ByteRing<N> {
         Ok(n)
     }
 
-    /// Moves as many bytes as are held and fit into `out`; returns the count, or
-    /// [`Empty`] if none was held (or `out` is empty). Only one consumer may call it.
+    /// Moves as many held bytes as fit into `out`; the count, or [`Empty`] if none. One consumer only.
     pub fn try_read(&self, out: &mut [u8]) -> Result<usize, Empty> {
         let tail = self.tail.load(Ordering::Relaxed);
         let head = self.head.load(Ordering::Acquire);
@@ -104,8 +89,7 @@ impl<const N: usize> ByteRing<N> {
         let base = self.buf.get().cast::<u8>();
         for (k, o) in out.iter_mut().take(n).enumerate() {
             let at = tail.wrapping_add(k) % N;
-            // SAFETY: `at < N` is inside the array; the byte is held (inside
-            // `[tail, head)`, published by the producer's Release store of `head`).
+            // SAFETY: `at < N`; the byte is inside `[tail, head)`, published by the producer.
             #[allow(unsafe_code)]
             let b = unsafe { base.add(at).read() };
             *o = b;
@@ -114,15 +98,8 @@ impl<const N: usize> ByteRing<N> {
         Ok(n)
     }
 
-    /// Hands the held bytes from the read position up to the ring's end (or to the last
-    /// held byte) to `f` in place, then frees them; returns their count, or [`Empty`] if
-    /// none was held. Bytes that wrap round the end come in a second call. Only one
-    /// consumer may call it (as [`Self::try_read`]).
-    ///
-    /// No copy: the control task's drain was [`Self::try_read`] into a 32-byte chunk
-    /// (zeroed, then filled byte by byte with a `% N` each) before the device decoded the
-    /// chunk. `cargo hil run --target qemu --qemu-link bulk`, the firmware's tick
-    /// (`exec`, M4 fixed point): see the README's "tick in the firmware" row.
+    /// Hands the held bytes up to the ring's end to `f` in place, then frees them; their
+    /// count, or [`Empty`]. One consumer only.
     pub fn read_in_place(&self, f: impl FnOnce(&[u8])) -> Result<usize, Empty> {
         let tail = self.tail.load(Ordering::Relaxed);
         let head = self.head.load(Ordering::Acquire);
@@ -131,10 +108,8 @@ impl<const N: usize> ByteRing<N> {
         if n == 0 {
             return Err(Empty);
         }
-        // SAFETY: `at + n <= N`: the run is inside the array. Its bytes are held (inside
-        // `[tail, head)`, published by the producer's Release store of `head`), so the
-        // producer does not write them until the Release store of `tail` below, after
-        // `f` has returned and the shared slice is gone.
+        // SAFETY: `at + n <= N`; the bytes are held, so the producer leaves them until the
+        // Release store of `tail` below, after `f` has returned.
         #[allow(unsafe_code)]
         let held = unsafe { core::slice::from_raw_parts(self.buf.get().cast::<u8>().add(at), n) };
         f(held);

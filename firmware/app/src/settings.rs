@@ -1,13 +1,11 @@
 //! Build-time configuration of the firmware shared by both boards.
 
-/// Base (control) rate of the tick at start, Hz: the control core's default (a host
-/// Config frame may change it at run time).
+/// Base rate at start, Hz: the core's default (a Config may change it).
 pub const BASE_RATE_HZ: u32 = wheelset_control::DEFAULT_BASE_RATE_HZ;
 
 /// embassy-time tick rate (feature `tick-hz-1_000_000`).
 pub const TIMER_HZ: u32 = 1_000_000;
 
-// The default period must be a whole number of timer ticks.
 const _: () = assert!(TIMER_HZ.is_multiple_of(BASE_RATE_HZ));
 
 /// Bytes buffered between the UART receiver and the control task.
@@ -23,6 +21,5 @@ pub const NUMERIC: &str = if cfg!(feature = "f32") {
     "fixed point"
 };
 
-/// The `-icount shift` the QEMU launcher passes: one instruction = 2^shift ns of virtual
-/// time; the SysTick stopwatch converts counts to instructions with it.
+/// QEMU's `-icount shift`: one instruction = 2^shift ns of virtual time.
 pub const QEMU_ICOUNT_SHIFT: u32 = 10;

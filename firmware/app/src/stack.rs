@@ -1,23 +1,10 @@
-//! The stack's high-water mark on the board: painted once at the
-//! control task's start, read back every [`SCAN_TICKS`] ticks into the runtime's
-//! `set_stack_peak`, so it reaches `Status.stack_peak` (bytes).
-//!
-//! [`paint`] fills the window of up to [`WINDOW`] bytes below the current stack pointer
-//! (never below `_stack_end`, the end of the statics in cortex-m-rt's linker script)
-//! with [`PAINT`], interrupts off (an interrupt handler uses the same main stack). The
-//! peak is `_stack_start - a`, with `a` the lowest word of the window that no longer
-//! holds the paint: everything above the window's top (the start-up frames and the task
-//! that painted) counts as used. A deeper use than the window reads as the whole window
-//! (the peak is then a lower bound: it saturates at `_stack_start - bottom`).
-//!
-//! Cost: the scan reads the unused part of the window word by word (at most 4 096 words:
-//! ~12 k instructions, once per [`SCAN_TICKS`] ticks, after the tick's frame is queued,
-//! outside its measured execution time).
+//! The stack's high-water mark (`Status.stack_peak`): [`paint`] fills up to [`WINDOW`]
+//! bytes below the stack pointer with [`PAINT`]; the peak is `_stack_start` minus the
+//! lowest repainted word, scanned every [`SCAN_TICKS`] ticks outside the measured tick.
 
 use core::sync::atomic::{AtomicUsize, Ordering};
 
-/// Bytes painted below the stack pointer (the firmware uses a few KiB; both boards'
-/// RAM leaves far more than this above the statics).
+/// Bytes painted below the stack pointer (far more than the firmware uses).
 pub const WINDOW: usize = 16 * 1024;
 /// The paint: a word no pointer or small integer of the program looks like.
 pub const PAINT: u32 = 0xC5AC_CE55;
@@ -34,8 +21,7 @@ extern "C" {
     static _stack_end: u32;
 }
 
-/// Paints the window below the current stack pointer (once; interrupts off while it
-/// does).
+/// Paints the window below the current stack pointer (once; interrupts off).
 pub fn paint() {
     cortex_m::interrupt::free(|_| {
         let sp = cortex_m::register::msp::read() as usize;
@@ -45,8 +31,7 @@ pub fn paint() {
         let bottom = end.saturating_sub(WINDOW).max(floor);
         let mut a = bottom;
         while a < end {
-            // SAFETY: `a` is word aligned, above the statics (`_stack_end`) and below
-            // the live stack (interrupts are off, so nothing else writes there now).
+            // SAFETY: `a` is word aligned, above the statics and below the live stack (interrupts off).
             unsafe { core::ptr::write_volatile(a as *mut u32, PAINT) };
             a += 4;
         }

@@ -1,22 +1,6 @@
-//! The missed-tick policy of the control task: detect, count, and skip.
-//!
-//! embassy-time's `Ticker` neither reports nor limits lateness: after a long stall it
-//! fires once per missed period, back to back, until it has caught up. For a control
-//! loop that is wrong twice over: the catch-up ticks all see the same (newest) sensor
-//! sample, and they emit a burst of actuation frames that the plant applies within a
-//! fraction of a period. The policy here is **skip**:
-//!
-//! - every wake-up is compared with the deadline it was scheduled for:
-//!   `lateness = now - deadline` (in timer ticks; 1 tick = 1 us with
-//!   `tick-hz-1_000_000`);
-//! - `lateness <= late_after`: on time;
-//! - `late_after < lateness < period`: a **late** tick, counted, still run;
-//! - `lateness >= period`: `missed = floor(lateness / period)` deadlines passed without a
-//!   tick. They are **skipped** (counted in `skipped_periods`), the tick runs once with
-//!   the newest sample, and the schedule re-aligns to the original phase grid: the next
-//!   deadline is `deadline + (missed + 1) * period`, the first grid point after `now`.
-//!
-//! The monitor is pure arithmetic on `u64` ticks, so it is tested on the host.
+//! The missed-tick policy, `lateness = now - deadline` (1 us ticks): on time up to
+//! `late_after`, late below a period, else `missed = floor(lateness / period)` deadlines
+//! skipped and the next at `deadline + (missed + 1) * period` (no burst of catch-up ticks).
 
 /// Counters of the tick schedule, reported by the control task.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -41,8 +25,7 @@ pub enum TickWake {
         /// Timer ticks after the deadline.
         lateness: u64,
     },
-    /// Run the tick once; `missed` deadlines were skipped. The ticker must be re-armed
-    /// at `next_deadline` (the next point of the phase grid after now).
+    /// Run the tick once; `missed` deadlines were skipped; re-arm the ticker at `next_deadline`.
     Skipped {
         /// Deadlines that passed without a tick.
         missed: u32,
@@ -70,8 +53,7 @@ pub struct TickMonitor {
 }
 
 impl TickMonitor {
-    /// A monitor for ticks every `period` timer ticks, the first due at `first_deadline`;
-    /// a tick more than `late_after` ticks after its deadline counts as late.
+    /// A monitor for ticks every `period`, the first at `first_deadline`, late after `late_after`.
     pub fn try_new(
         period: u64,
         first_deadline: u64,
@@ -91,8 +73,7 @@ impl TickMonitor {
         })
     }
 
-    /// A new period, first deadline at `first_deadline`, late after a quarter period;
-    /// the counters carry on (a base-rate change at run time).
+    /// A new period and first deadline, late after a quarter period; the counters carry on.
     pub fn rearm(&mut self, period: u64, first_deadline: u64) {
         self.period = period.max(1);
         self.late_after = self.period / 4;
@@ -109,9 +90,7 @@ impl TickMonitor {
         self.counters
     }
 
-    /// Classifies a wake-up at `now` (timer ticks) and advances the schedule.
-    ///
-    /// A wake-up before the deadline (which a `Ticker` never does) counts as on time.
+    /// Classifies a wake-up at `now` and advances the schedule (early counts as on time).
     pub fn on_wake(&mut self, now: u64) -> TickWake {
         let deadline = self.next_deadline;
         let lateness = now.saturating_sub(deadline);
@@ -127,9 +106,7 @@ impl TickMonitor {
                 TickWake::OnTime
             }
         } else {
-            // 32-bit division (the M4 has it in hardware; a u64 one pulls in ~1 KiB of
-            // library code): periods are far below 2^32 ticks, a stall of more than
-            // 2^32 us (71 min) saturates.
+            // 32-bit division (a u64 one pulls in ~1 KiB of library code).
             let period32 = u32::try_from(self.period).unwrap_or(u32::MAX);
             let missed = u32::try_from(lateness).unwrap_or(u32::MAX) / period32;
             let next_deadline =
@@ -145,8 +122,7 @@ impl TickMonitor {
     }
 }
 
-/// The tick period in embassy-time ticks (1 us) of a base rate in Hz, if it is a whole
-/// number of ticks: `1e6 / hz`.
+/// The tick period in 1 us ticks of a base rate, `1e6 / hz`, if whole.
 pub fn period_ticks(hz: u32) -> Option<u64> {
     let timer = crate::settings::TIMER_HZ;
     if hz == 0 || hz > timer || !timer.is_multiple_of(hz) {

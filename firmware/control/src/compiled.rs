@@ -1,26 +1,7 @@
-//! The compiled controller: everything the tick multiplies, compares and divides by,
-//! discretised (f64) and quantised for one sample type, and its exact bit patterns.
-//!
-//! ```text
-//!  Config (SI, f64) --Compiled::try_new (host, build script: f64 + quantise)--> Compiled<T>
-//!  Compiled<T> <--to_bits / from_bits (integer work, validated)--> CompiledBits
-//!  Compiled<T> --Controller::new (no float maths)--> Controller<T>
-//! ```
-//!
-//! The device never discretises: its default set is computed at build time by this code
-//! (the firmware's build script) and written as [`CompiledBits`] constants; a new rate
-//! arrives as a [`ScheduleBits`] (the rate-dependent part) computed by the host with this
-//! code. Host and device therefore run the identical quantised numbers, and the device
-//! only validates them ([`Compiled::from_bits`], [`Compiled::with_schedule`]: formats,
-//! signs, the 2 pu range of limits, divisors and rates).
-//!
-//! The split: the **schedule** ([`ScheduleBits`]) is what depends on the rates and the
-//! delay (the base rate, the divisors, the delay, the gains designed for them
-//! ([`crate::design`]: the lead's `K_hf` and `kappa`, the PI's `Kp` and `Ki`, the
-//! predictor's `alpha/2`), the per-step ramps); the rest (limits, the wire codec) does
-//! not, and
-//! [`CompiledBits::fingerprint`] identifies it, so a schedule computed against another
-//! controller can be refused.
+//! The compiled controller: what the tick multiplies and compares with, discretised (f64)
+//! and quantised for one sample type ([`Compiled::try_new`]), and its exact bits
+//! ([`CompiledBits`]). The device never discretises: it starts from build-time bits and
+//! takes a new rate as a host-computed [`ScheduleBits`], checked by [`CompiledBits::fingerprint`].
 
 use crate::config::{Config, ConfigError, YawMode, MAX_LIMIT_PU};
 use crate::controller::Codec;
@@ -31,14 +12,9 @@ use crate::wsp::{Wsp, WspBits};
 
 mod const_bits;
 
-/// The discretised, quantised controller for sample type `T` (immutable while running).
-/// Build it from a [`Config`] with [`Compiled::try_new`] (f64; host and build script) or
-/// from exact bits with [`Compiled::from_bits`] (integer work; the device).
+/// The discretised, quantised controller for `T` (immutable while running).
 #[derive(Clone, Copy, Debug, PartialEq)]
-// `repr(C)`, the fast path's constants first, in the order it reads them
-// (`Controller::tick`), so that neighbours load as one `LDRD` (`cargo xtask fw-bench`
-// measures the law step and the whole tick). The constants stay here, not copied into
-// the controller: a copy costs RAM per controller and did not shorten the whole tick.
+// `repr(C)`, the fast path's constants in its read order: neighbours load as one `LDRD`.
 #[repr(C)]
 pub struct Compiled<T: Sample> {
     /// Input clamp of `y'`, pu.
@@ -73,7 +49,6 @@ pub struct Compiled<T: Sample> {
     pub(crate) codec: Codec<T>,
     pub(crate) yaw_mode: YawMode,
     pub(crate) traction_enabled: bool,
-    /// Wheel-slip protection ([`crate::wsp`]).
     pub(crate) wsp: Wsp<T>,
 }
 
@@ -87,8 +62,7 @@ pub struct ScaleBits {
     pub shift: u8,
 }
 
-/// The rate-dependent part of a [`Compiled`], as exact bits (a coefficient or signal is
-/// its [`Sample`] bit pattern: Q1.31 / Q4.28 `i32` bits zero-extended, or IEEE bits).
+/// The rate-dependent part of a [`Compiled`] as exact bits ([`Sample`] bit patterns).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct ScheduleBits {
     /// Base (tick) rate, Hz (100 ..= 100 000).
@@ -103,17 +77,13 @@ pub struct ScheduleBits {
     pub kappa: u64,
     /// Lead `K_hf` (pu), coefficient: designed per rate and delay.
     pub lead_k_hf: u64,
-    /// The wheel-slip protection's scheduled lead gain `lead_gain K_hf` (pu),
-    /// coefficient: follows the lead's `K_hf`.
+    /// The wheel-slip protection's scheduled lead gain `lead_gain K_hf` (pu), coefficient.
     pub wsp_lead_k_hf: u64,
     /// PI `Kp` (pu), coefficient: designed per rate and delay.
     pub kp: u64,
-    /// PI `Ki`'s shift `s` (`ki` is `Ki 2^s`, [`crate::Pi::ki_shift`]): fixed point
-    /// `1..=30`, floats 0; chosen for this `Kp` at the slowest traction period
-    /// ([`crate::pi::KI_SHIFT_PERIOD_S`]).
+    /// PI `Ki`'s shift `s` (`ki = Ki 2^s`): fixed point `1..=30`, floats 0.
     pub ki_shift: u8,
-    /// PI `Ki = Kp T/Ti` at the traction period (pu) times `2^s`
-    /// ([`ScheduleBits::ki_shift`]), coefficient, in `(0, 1)`.
+    /// PI `Ki = Kp T/Ti` at the traction period (pu) times `2^s`, coefficient, in `(0, 1)`.
     pub ki: u64,
     /// Predictor `alpha/2 = yaw_predict_ticks/(2 yaw_divisor)`, coefficient, in `[0, 1)`.
     pub predict_half: u64,
@@ -125,8 +95,7 @@ pub struct ScheduleBits {
     pub torque_step: u64,
 }
 
-/// A whole [`Compiled`] as exact bits: what the firmware's build script writes as
-/// constants (so the device needs no float maths to start) and what the tests compare.
+/// A whole [`Compiled`] as exact bits: the firmware's build-time constants.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct CompiledBits {
     /// The sample type ([`SampleBits::NUMERIC`]): 0 fixed point, 1 `f32`, 2 `f64`.
@@ -139,8 +108,7 @@ pub struct CompiledBits {
     pub u_min: u64,
     /// PI upper output limit, pu signal.
     pub u_max: u64,
-    /// Input clamps and the torque limit, pu signals in `(0, 2]`: `y'`, current, speed,
-    /// demand, torque.
+    /// Input clamps and the torque limit, pu in `(0, 2]`: `y'`, current, speed, demand, torque.
     pub clamps: [u64; 5],
     /// Demand -> current reference, coefficient.
     pub demand_to_iref: u64,
@@ -156,8 +124,7 @@ pub struct CompiledBits {
     pub traction_enabled: bool,
     /// The rate-dependent part.
     pub schedule: ScheduleBits,
-    /// Wheel-slip protection (rate-independent: its per-step quantities are ratios to
-    /// the schedule's `iref_step`, [`crate::wsp`]).
+    /// Wheel-slip protection (rate-independent: its per-step quantities are ratios to `iref_step`).
     pub wsp: WspBits,
 }
 
@@ -182,8 +149,7 @@ impl core::fmt::Display for BitsError {
 impl core::error::Error for BitsError {}
 
 impl<T: Sample> Compiled<T> {
-    /// Validate `config`, discretise (f64), quantise for `T`. The only place the
-    /// controller does float maths; the device never calls it.
+    /// Validate `config`, discretise (f64), quantise for `T`; the device never calls it.
     pub fn try_new(config: &Config) -> Result<Self, ConfigError> {
         config.validate()?;
         let s = &config.scales;
@@ -191,9 +157,7 @@ impl<T: Sample> Compiled<T> {
         let lead_disc = config.lead.discretise(config.yaw_period())?;
         let pi_disc = config.pi.discretise(config.traction_period())?;
         let lead = Lead::new(&lead_disc.to_pu(s.y_dot, s.torque))?;
-        // Ki's shift holds Ki at the slowest traction period a device accepts (or this
-        // configuration's, if slower) with this Kp. A design's Kp depends on the rate
-        // (`crate::design`), so the shift is part of the schedule.
+        // Ki's shift depends on Kp, which a design sets per rate: part of the schedule.
         let pi_pu = pi_disc.to_pu(s.current, s.voltage);
         let t_tr = config.traction_period();
         let pi = Pi::with_ki_max(
@@ -338,9 +302,7 @@ impl<T: SampleBits> Compiled<T> {
         }
     }
 
-    /// From exact bits, validated (integer work only): the sample type must match, every
-    /// coefficient, signal and scale must be valid for `T`, the clamps and limits within
-    /// `(0, 2]` pu (`u_min < u_max` within `[-2, 2]`), the schedule as
+    /// From exact bits, validated (integer work): limits in `(0, 2]` pu, the schedule as
     /// [`Self::with_schedule`].
     pub fn from_bits(b: &CompiledBits) -> Result<Self, BitsError> {
         if b.numeric != T::NUMERIC {
@@ -405,11 +367,8 @@ impl<T: SampleBits> Compiled<T> {
         c.with_schedule(&b.schedule)
     }
 
-    /// The same controller at other rates: `s` replaces the rate-dependent part,
-    /// validated (integer work only): base rate 100 ..= 100 000 Hz, divisors and delay at
-    /// least 1, `kappa` in `(0, 1)` (a discrete lead pole `alpha = 1 - kappa` in `(0, 1)`,
-    /// as the range analysis assumes), `Kp` and `Ki` in `(0, 1)`, `alpha/2` in `[0, 1)`,
-    /// the lead gains valid coefficients, steps in `(0, 2]` pu.
+    /// The same controller at other rates, validated (integer work): 100 ..= 100 000 Hz,
+    /// divisors and delay >= 1, `kappa`, `Kp`, `Ki` in `(0, 1)`, `alpha/2` in `[0, 1)`, steps in `(0, 2]` pu.
     pub fn with_schedule(&self, s: &ScheduleBits) -> Result<Self, BitsError> {
         let e = |field| BitsError { field };
         if !(100..=100_000).contains(&s.base_rate_hz) {
@@ -456,7 +415,6 @@ impl<T: SampleBits> Compiled<T> {
     }
 }
 
-/// A signal from bits.
 fn signal<T: SampleBits>(v: u64) -> Option<T> {
     T::from_bits64(v)
 }
@@ -467,10 +425,7 @@ fn pu_limit<T: SampleBits>(v: u64) -> Option<T> {
 }
 
 impl CompiledBits {
-    /// A 32-bit FNV-1a hash of everything but the schedule, the start mode and traction:
-    /// identifies the rate-independent part, so that a [`ScheduleBits`] computed against
-    /// another controller (other gains, limits, scales or sample type) can be refused.
-    /// A `const fn`: the firmware computes its own at compile time.
+    /// A 32-bit FNV-1a hash of all but the schedule, start mode and traction (`const`).
     pub const fn fingerprint(&self) -> u32 {
         const fn word(mut h: u32, w: u64) -> u32 {
             let mut i = 0;

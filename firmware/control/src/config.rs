@@ -1,20 +1,14 @@
-//! Configuration: rates, modes, controller parameters, limits, full scales, wire LSBs.
-//! Validated once ([`Config::validate`]); the tick never fails.
+//! Configuration, validated once ([`Config::validate`]); the tick never fails.
 
 use crate::lead::LeadParams;
 use crate::pi::PiParams;
 use crate::wsp::WspParams;
 use wheelset_proto::units;
 
-/// Yaw control mode: the wire's enum ([`wheelset_proto::YawMode`]; the device applies a
-/// Config's mode as it is). `Passive`: `T_psi = 0` from the controller (the yaw spring is
-/// mechanical); `Gain`: `T_psi = K y'` ([`Config::gain_k`]); `Lead` (default):
-/// `T_psi = Ks(s) y'` ([`Config::lead`]).
+/// Yaw control mode ([`wheelset_proto::YawMode`]): `Passive` `T_psi = 0`, `Gain` `T_psi = K y'`, `Lead` `T_psi = Ks(s) y'`.
 pub use wheelset_proto::YawMode;
 
-/// Per-unit full scales: a signal `x` (SI) is `x / FS` inside the controller. Chosen so
-/// that every signal and state sits in `[-2, 2]` pu at its limits (the Q4.28 range
-/// analysis in the crate docs) and every coefficient in `(-1, 1)` (Q1.31).
+/// Per-unit full scales, `x_pu = x / FS`: signals within `[-2, 2]` pu at their limits.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FullScales {
     /// Lateral velocity y', m/s (1).
@@ -44,8 +38,7 @@ impl Default for FullScales {
     }
 }
 
-/// Input clamps, output limits and the reference ramp (SI units). Each input is clamped
-/// (and the clamp counted) before it enters a filter.
+/// Input clamps (counted), output limits and the reference ramp (SI units).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Limits {
     /// |y'| clamp, m/s (1).
@@ -96,9 +89,7 @@ impl Default for Motor {
     }
 }
 
-/// Wire LSBs (SI value of one integer code), precomputed into [`crate::Codec`] scale
-/// factors at construction. The default is the protocol's, `wheelset_proto::units` (the
-/// one definition of every wire unit); a test configuration may change them.
+/// Wire LSBs (SI value of one code); default the protocol's `wheelset_proto::units`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WireLsb {
     /// y', m/s per code ([`units::LAT_VEL_LSB_M_PER_S`]).
@@ -128,8 +119,7 @@ impl Default for WireLsb {
     }
 }
 
-/// Safe-state ramp times: on [`crate::Controller::set_safe`]`(true)` the yaw torque limit
-/// ramps linearly from `limits.torque` to zero and the current reference to zero.
+/// Safe-state ramp times of the yaw torque limit and the current reference to zero.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SafeRamps {
     /// Yaw torque limit from `limits.torque` to 0, s (0.1).
@@ -156,9 +146,7 @@ pub struct Config {
     pub yaw_divisor: u16,
     /// The traction loop runs every `traction_divisor` ticks.
     pub traction_divisor: u16,
-    /// Ticks from sampling to the actuation's application that the gains are designed
-    /// for ([`crate::design`]; 1: the reply is back before the next tick). The control
-    /// law does not use it; it names the design point a device checks.
+    /// Ticks from sampling to actuation the gains are designed for ([`crate::design`]).
     pub delay_ticks: u8,
     /// Yaw mode at start.
     pub yaw_mode: YawMode,
@@ -168,12 +156,8 @@ pub struct Config {
     pub lead: LeadParams,
     /// Pure-gain `K`, N m s/m (1.05e5).
     pub gain_k: f64,
-    /// Delay compensation of the yaw loop: `y'` is extrapolated linearly this many base
-    /// ticks ahead before the yaw law, `y'_p = y' + (tau/T_yaw) (y'[n] - y'[n-1])`.
-    /// The zero-order hold (half a yaw period) plus the one tick of computation and
-    /// transport delay is `1 + yaw_divisor/2` ticks: 1.5 at the default rates, which the
-    /// sampled-data analysis shows restores the continuous loop's damping (crate docs).
-    /// Default 1.5; 0 = off (the paper's law as it is). `tau/T_yaw` must be in `[0, 2)`.
+    /// Yaw delay compensation `tau`, base ticks: `y'_p = y' + (tau/T_yaw) (y'[n] - y'[n-1])`,
+    /// `tau/T_yaw` in `[0, 2)`; default 1.5 (the ZOH's half period plus the tick of delay), 0 = off.
     pub yaw_predict_ticks: f64,
     /// PI parameters.
     pub pi: PiParams,
@@ -268,8 +252,7 @@ impl core::fmt::Display for ConfigError {
 
 impl core::error::Error for ConfigError {}
 
-/// `Ok` when `ok` holds for a finite `value`; otherwise the Config error naming `field`
-/// (`NotFinite` for a NaN or an infinity, else `Range` with `reason`).
+/// `Ok` when `ok` holds for a finite `value`; else `NotFinite` or `Range` naming `field`.
 pub(crate) fn range(
     field: &'static str,
     value: f64,
@@ -282,8 +265,7 @@ pub(crate) fn range(
     in_range(field, value, ok, reason)
 }
 
-/// `Ok` if `ok`, else [`ConfigError::Range`] naming `field` (a non-finite `value`
-/// included: the caller's `ok` judges it).
+/// `Ok` if `ok`, else [`ConfigError::Range`] naming `field` (`ok` judges a non-finite `value`).
 pub(crate) fn in_range(
     field: &'static str,
     value: f64,
@@ -318,8 +300,7 @@ impl Config {
         1.0 / self.base_rate_hz as f64
     }
 
-    /// Check every field (rates, divisors, parameters, limits against the full scales),
-    /// then the discretisations. The first problem found is returned.
+    /// Check every field, then the discretisations; the first problem found is returned.
     pub fn validate(&self) -> Result<(), ConfigError> {
         range(
             "base_rate_hz",

@@ -1,6 +1,5 @@
-//! The multi-rate controller: input sanitising and clamps, the yaw loop (passive / gain /
-//! lead) and the traction loop (ramped reference + PI), output limits, the safe state,
-//! counters, and wire-code conversion.
+//! The multi-rate controller: input clamps, the yaw loop (passive / gain / lead), the
+//! traction loop (ramped reference + PI), output limits, the safe state, counters.
 
 use crate::compiled::Compiled;
 use crate::config::{Config, ConfigError, YawMode};
@@ -18,7 +17,7 @@ pub use signals::{
     Codec, Counters, InputCodes, Inputs, OutputCodes, Outputs, SignalCounts, TickEvents,
 };
 
-/// The controller: configuration, filter states, counters. See the crate docs.
+/// The controller: configuration, filter states, counters.
 #[derive(Clone, Debug)]
 pub struct Controller<T: Sample> {
     law: Compiled<T>,
@@ -35,34 +34,28 @@ pub struct Controller<T: Sample> {
     iref: T,
     /// Present torque limit (ramps to 0 in the safe state), pu.
     torque_lim: T,
-    /// A law change is being slewed: the torque moves from the old law's output towards
-    /// the new one's by at most `torque_step` per yaw step (bumpless switch).
+    /// A law change is being slewed: at most `torque_step` per yaw step towards the new law.
     slewing: bool,
     /// Last clamped y' (the predictor's `y'[n-1]`; a bumpless switch into the lead).
     last_y_dot: T,
     out: Outputs<T>,
     counters: Counters,
-    /// What the latest tick counted ([`Self::tick_events`]).
     events: TickEvents,
-    /// Wheel-slip protection: on, state, acted on the last traction step.
     wsp_on: bool,
     wsp: WspState<T>,
     wsp_acting: bool,
     /// The next tick may try the fast path (normal running: see [`Self::tick`]).
     fast: bool,
-    /// The fast path is turned off ([`Self::set_fast_path`]).
     fast_off: bool,
     /// The configuration meets the fast path's preconditions (checked in [`Self::new`]).
     fast_ok: bool,
     /// `g_half` and `Kp` in [`Sample::pre_coeff`] form (the fast path's products).
     g_half_pre: T::Coeff,
     kp_pre: T::Coeff,
-    /// The reference ramp has settled on the demand `settled_demand`: `iref` equals its
-    /// target, so a tick with the same demand leaves `iref` as it is.
+    /// The ramp has settled on `settled_demand`: `iref` equals its target.
     ramp_settled: bool,
     settled_demand: T,
-    /// The traction step's current error `i_ref - i_a`, pu (0 while traction is off):
-    /// what the drive check watches ([`Self::current_error`]).
+    /// The traction step's error `i_ref - i_a`, pu (0 with traction off), for the drive check.
     i_err: T,
 }
 
@@ -74,19 +67,15 @@ pub type F32Controller = Controller<f32>;
 pub type F64Controller = Controller<f64>;
 
 impl<T: Sample> Controller<T> {
-    /// Validate `config`, discretise (f64), quantise ([`Compiled::try_new`]), and
-    /// [`Self::new`]. Host and build-script use: the device starts from bits.
+    /// Validate, discretise and quantise ([`Compiled::try_new`]), then [`Self::new`].
     pub fn try_new(config: &Config) -> Result<Self, ConfigError> {
         Ok(Self::new(&Compiled::try_new(config)?))
     }
 
-    /// A controller running `law` (no float maths). Starts in `law`'s yaw mode, with
-    /// traction as there, not safe, all states zero and the integrator *not yet
-    /// preset*: the first traction step presets it to the back-EMF `K_m omega_m` of the
-    /// measured speed (bumpless start), unless [`Self::preset_back_emf`] ran before.
+    /// A controller running `law` (no float maths), states zero, the integrator to be preset
+    /// to the back-EMF by the first traction step (bumpless).
     pub fn new(law: &Compiled<T>) -> Self {
-        // The fast path's preconditions (see `fast_tick`): the products it computes in
-        // their short forms are exact for every state the loops can reach.
+        // The fast path's preconditions: its short products are exact for every reachable state.
         let g_half_pre = T::pre_coeff(law.lead.g_half);
         let kp_pre = T::pre_coeff(law.pi.kp);
         let fast_ok = g_half_pre.is_some()
@@ -129,10 +118,7 @@ impl<T: Sample> Controller<T> {
         c
     }
 
-    /// Recomputes whether the fast path applies: normal running (lead mode, traction on
-    /// with its integrator preset, no safe state, no law change being slewed, the torque
-    /// limit at its maximum, no wheel-slip protection) on a configuration that meets its
-    /// preconditions. Called after every change of those states.
+    /// Recomputes whether the fast path applies (normal running on a suitable configuration).
     #[inline(always)]
     fn refresh(&mut self) {
         self.fast = self.fast_ok
@@ -146,19 +132,9 @@ impl<T: Sample> Controller<T> {
             && self.torque_lim == self.law.torque_max;
     }
 
-    /// One base-rate tick: sanitise and clamp the inputs (counted), run the yaw loop
-    /// every `yaw_divisor` ticks and the traction loop every `traction_divisor` ticks
-    /// (both on tick 0), hold the other outputs. Never fails, never panics.
-    ///
-    /// Two paths, one result (bit for bit, tested against each other):
-    /// - the **fast path**, in normal running (see `refresh`): the lead, the predictor,
-    ///   the reference and the PI computed straight through, the torque limit applied
-    ///   (and counted) as there, every other clamp replaced by a check that it would
-    ///   not engage; the reference ramp skipped while it has settled on an unchanged
-    ///   demand. If one of those clamps would engage (or an input is NaN) it returns
-    ///   without touching the state and the tick runs the general path;
-    /// - the **general path**: every clamp, ramp, slew and safe-state rule, the events
-    ///   counted.
+    /// One base-rate tick: inputs sanitised and clamped (counted), the yaw loop every
+    /// `yaw_divisor` ticks, the traction loop every `traction_divisor`; never panics. The fast
+    /// path declines to the general one, state untouched, where a clamp would engage.
     #[inline]
     pub fn tick(&mut self, inp: &Inputs<T>) -> Outputs<T> {
         T::controller_tick(self, inp)
@@ -170,9 +146,7 @@ impl<T: Sample> Controller<T> {
         if !self.fast {
             return self.general_tick(inp);
         }
-        // Normal running: both loops every tick (`fast_ok`), each on its fast path or,
-        // if that declines, on its general step; neither changes a state `refresh`
-        // reads in normal running, so `fast` stays as it is.
+        // Normal running: neither loop changes a state `refresh` reads.
         let k = &mut self.counters;
         k.ticks = k.ticks.wrapping_add(1);
         k.yaw_steps = k.yaw_steps.wrapping_add(1);
@@ -181,8 +155,7 @@ impl<T: Sample> Controller<T> {
         if !self.fast_yaw(inp.y_dot, &mut ev) {
             ev = self.yaw_general(inp.y_dot);
         }
-        // One copy of the traction fast path for each setting of the protection: its
-        // test once per tick, not in each branch of the step.
+        // One copy of the traction fast path per setting of the protection.
         let fast = if self.wsp_on {
             self.fast_traction::<true>(inp)
         } else {
@@ -190,8 +163,6 @@ impl<T: Sample> Controller<T> {
         };
         if !fast {
             ev |= self.traction_general(inp);
-            // The protection may have started acting (its detection declines the fast
-            // step): the next tick's path follows from the states again.
             self.refresh();
         }
         if ev != 0 {
@@ -201,28 +172,21 @@ impl<T: Sample> Controller<T> {
         self.out
     }
 
-    /// What the latest [`Self::tick`] counted, one bit per counter it moved
-    /// ([`TickEvents`]; [`TickEvents::NONE`] in normal running): the runtime's own
-    /// counters and flags follow it, updated only on ticks with events.
+    /// What the latest [`Self::tick`] counted, one bit per counter.
     #[inline(always)]
     pub fn tick_events(&self) -> TickEvents {
         self.events
     }
 
-    /// The yaw loop's fast path (`yaw_step` in normal running): `false`, with nothing
-    /// changed, if the `y'` or the predictor clamp would engage. Exact: no clamp but the
-    /// torque limit engages, so each other `limit` is the identity; the short products
-    /// are exact by [`Self::new`]'s preconditions and the ranges they imply (`|y'| < 2`
-    /// so `|y'[n] - y'[n-1]| < 4`; the lead's `x, x[n-1]` within 2 pu and
-    /// `|g/2| <= 0.5 - 2^-30` keep `(g/2)(x + x[n-1])`, hence `z` (a convex update of
-    /// it, rounded), below 2 pu, so `|e| < 4` and `|x - z| < 4`).
+    /// The yaw loop's fast path: `false`, nothing changed, if the `y'` or predictor clamp
+    /// would engage. Exact: `|y'| < 2` so `|y'[n] - y'[n-1]| < 4`; `x, x[n-1]` within 2 pu and
+    /// `|g/2| <= 0.5 - 2^-30` keep `z` below 2 pu, so `|e| < 4` and `|x - z| < 4`.
     #[inline(always)]
     fn fast_yaw(&mut self, y: T, ev: &mut u32) -> bool {
         let law = &self.law;
         if !y.abs_within(law.y_dot_max) {
             return false;
         }
-        // Predictor and lead (`Lead::process`), as in `yaw_step`.
         let d = y.sat_sub(self.last_y_dot).mul_c_small(law.predict_half);
         let x = y.sat_add(d).sat_add(d);
         if !x.abs_within(law.y_dot_pred_max) {
@@ -234,29 +198,19 @@ impl<T: Sample> Controller<T> {
         let t = x.sat_sub(z).mul_c_small(law.lead.k_hf);
         self.last_y_dot = y;
         self.lead_state = LeadState { x1: x, z };
-        // The torque limit (at its maximum in normal running) engages with a large y':
-        // applied and counted here.
+        // The torque limit can engage in normal running: applied and counted here.
         let tmax = law.torque_max;
         self.out.yaw_torque = if t.abs_within(tmax) {
             t
         } else {
-            // Counted by `Counters::record` with the tick's other events.
             *ev |= 1 << event::TORQUE;
             t.limit(T::ZERO.sat_sub(tmax), tmax).0
         };
         true
     }
 
-    /// The traction loop's fast path (`traction_step` in normal running): `false`, with
-    /// nothing changed, if a clamp (current, demand, reference ramp, integrator, output)
-    /// would engage. While the ramp has settled on an unchanged demand, `iref` is its
-    /// target and the ramp is skipped. The demand's product is exact (`|demand| <= 2`),
-    /// `Kp`'s by [`Self::new`]'s precondition.
-    ///
-    /// The settled case returns straight from the PI (one copy of it per case, inlined):
-    /// nothing of the ramp's state to write back, so the common tick neither tests nor
-    /// stores it (shorter than one PI with the ramp's write-back under an `Option` test;
-    /// `cargo xtask fw-bench`, law step).
+    /// The traction loop's fast path: `false`, nothing changed, if a clamp would engage.
+    /// Exact: `|demand| <= 2`, and `Kp` by [`Self::new`]'s precondition.
     #[inline(always)]
     fn fast_traction<const WSP: bool>(&mut self, inp: &Inputs<T>) -> bool {
         let law = &self.law;
@@ -266,7 +220,6 @@ impl<T: Sample> Controller<T> {
         }
         let dm = inp.demand;
         if self.ramp_settled && dm == self.settled_demand {
-            // `iref` is the ramp's target: the ramp would leave it as it is.
             let Some(w) = self.fast_wsp::<WSP>(inp.speed, self.iref) else {
                 return false;
             };
@@ -298,14 +251,8 @@ impl<T: Sample> Controller<T> {
         true
     }
 
-    /// The wheel-slip protection's step on the fast path (`traction_step` with the
-    /// protection on, not acting: the fast path runs only then, see `refresh`): `None`
-    /// if the speed clamp would engage (or the speed is NaN) or the protection detects
-    /// slip on this step with the reference `iref` (the general step then cuts);
-    /// otherwise the speed and slip to commit ([`Self::fast_wsp_commit`]) once the PI
-    /// has taken the step, the reference passing unchanged. With the protection off
-    /// (`WSP` is `wsp_on`), `Some` of nothing to commit. `cargo xtask fw-bench`, the whole tick with the
-    /// protection on: see the README.
+    /// The protection's fast step: `None` on a clamp, NaN or a detection; else what
+    /// [`Self::fast_wsp_commit`] stores.
     #[inline(always)]
     fn fast_wsp<const WSP: bool>(&self, speed: T, iref: T) -> Option<Option<(T, T)>> {
         if !WSP {
@@ -324,9 +271,7 @@ impl<T: Sample> Controller<T> {
         Some(Some((speed, slip)))
     }
 
-    /// Commits [`Self::fast_wsp`]'s step: what `Wsp::process` stores while it does not
-    /// act (the speed and slip for the next step's differences, whether the reference
-    /// was known; not acting).
+    /// Commits [`Self::fast_wsp`]'s step: what `Wsp::process` stores while it does not act.
     #[inline(always)]
     fn fast_wsp_commit(&mut self, w: Option<(T, T)>) {
         if let Some((speed, slip)) = w {
@@ -337,8 +282,7 @@ impl<T: Sample> Controller<T> {
         }
     }
 
-    /// The PI of [`Self::fast_traction`] on the error `e`: `false`, with nothing
-    /// changed, if the integrator or the output clamp would engage.
+    /// The fast PI on `e`: `false`, nothing changed, if the integrator or output clamp would engage.
     #[inline(always)]
     fn fast_pi(&mut self, e: T) -> bool {
         let law = &self.law;
@@ -361,12 +305,9 @@ impl<T: Sample> Controller<T> {
         true
     }
 
-    /// The general path of [`Self::tick`].
     #[inline(never)]
     fn general_tick(&mut self, inp: &Inputs<T>) -> Outputs<T> {
         self.counters.ticks = self.counters.ticks.wrapping_add(1);
-        // Clamp/invalid events of this tick, one bit each; the counters are updated off
-        // the hot path, only on ticks where something was clamped.
         let mut ev = 0u32;
         if self.yaw_phase == 0 {
             self.yaw_phase = self.law.yaw_divisor - 1;
@@ -428,9 +369,8 @@ impl<T: Sample> Controller<T> {
     fn yaw_step(&mut self, y_dot: T, ev: &mut u32) {
         let law = &self.law;
         let y = Self::input(y_dot, law.y_dot_max, event::Y_DOT, ev);
-        // Delay compensation: x = y + alpha (y - y_prev), computed as two adds of
-        // (y - y_prev) alpha/2 so the coefficient stays in Q1.31; clamped to 2 pu (the
-        // range analysis), counted with the y' clamps.
+        // x = y + alpha (y - y_prev) as two adds of (y - y_prev) alpha/2, so the coefficient
+        // stays in Q1.31; clamped to 2 pu (the range analysis), counted with the y' clamps.
         let d = y.sat_sub(self.last_y_dot).mul_c(law.predict_half);
         let (x, sat) = y
             .sat_add(d)
@@ -441,9 +381,6 @@ impl<T: Sample> Controller<T> {
         let raw = match self.mode {
             YawMode::Passive => T::ZERO,
             YawMode::Gain => x.mul_c(law.gain),
-            // While the protection holds the wheel at the limit, the scheduled lead
-            // (crate::wsp; the fast path runs with the protection on only while it is
-            // neither acting nor scheduling the lead).
             YawMode::Lead => {
                 let d = law.lead.advance(&mut self.lead_state, x);
                 if self.wsp.sched {
@@ -454,8 +391,6 @@ impl<T: Sample> Controller<T> {
                 }
             }
         };
-        // Bumpless law change: from the old output towards the new law's, at most
-        // `torque_step` per yaw step, until it has caught up.
         let raw = if self.slewing {
             let step = law.torque_step;
             let (d, limited) = raw
@@ -466,10 +401,7 @@ impl<T: Sample> Controller<T> {
         } else {
             raw
         };
-        // The torque limit: `torque_max`, ramped towards 0 in the safe state and back up
-        // after it. A clamp by the full limit or by the ramp is a saturation (the output
-        // is not what the law asked for).
-        // (Normal running, limit at its maximum, skips the ramp: a branch on state.)
+        // The torque limit, ramped to 0 in the safe state and back; either clamp is a saturation.
         let lim = if self.safe {
             self.torque_lim
                 .sat_sub(law.torque_step)
@@ -493,8 +425,7 @@ impl<T: Sample> Controller<T> {
     fn traction_step(&mut self, inp: &Inputs<T>, ev: &mut u32) {
         let law = &self.law;
         if !self.traction {
-            // Zero current, not 0 V (a short circuit at speed): the back-EMF of the
-            // present speed.
+            // Zero current, not 0 V (a short circuit at speed): the back-EMF of the present speed.
             let w = Self::input(inp.speed, law.speed_max, event::SPEED, ev);
             self.out.voltage = w.mul_c(law.back_emf).limit(law.pi.u_min, law.pi.u_max).0;
             self.armed = false;
@@ -504,7 +435,6 @@ impl<T: Sample> Controller<T> {
         let i = Self::input(inp.current, law.current_max, event::CURRENT, ev);
         let d = Self::input(inp.demand, law.demand_max, event::DEMAND, ev);
         if !self.armed {
-            // Bumpless start.
             let w = Self::input(inp.speed, law.speed_max, event::SPEED, ev);
             law.pi.preset(&mut self.pi_state, w.mul_c(law.back_emf));
             self.wsp.w_prev = w;
@@ -520,7 +450,6 @@ impl<T: Sample> Controller<T> {
             .limit(T::ZERO.sat_sub(step), step)
             .0;
         self.iref = self.iref.sat_add(delta);
-        // Wheel-slip protection (crate::wsp): caps the reference while the wheel slips.
         let mut iref = self.iref;
         self.wsp_acting = false;
         if self.wsp_on & !self.safe {
@@ -528,7 +457,6 @@ impl<T: Sample> Controller<T> {
             let (r, acting, new) = law.wsp.process(&mut self.wsp, w, iref, law.iref_step);
             iref = r;
             self.wsp_acting = acting;
-            // Counted by `Counters::record` (`wsp_ticks`, `wsp_events`).
             *ev |= ((acting as u32) << event::WSP_ACTING) | ((new as u32) << event::WSP_STARTED);
         } else {
             self.wsp.active = false;

@@ -1,32 +1,12 @@
-//! The gains designed for a base rate and an actuation delay: the set of rates a device
-//! accepts, each with its own traction PI and yaw law (host and build-script use; the
-//! device only compares bits, `wheelset_runtime`).
-//!
-//! Both loops run every base tick (divisors 1). The loop sees the sample-and-hold (half
-//! a period) and `d` ticks of computation and transport delay, an effective delay
+//! The gains designed per (base rate, delay) point a device accepts ([`DESIGNED`]; a
+//! point whose yaw loop fails takes the passive law only). Both loops every tick.
 //!
 //! ```text
 //! tau = (d + 1/2) T,   T = 1/base_rate_hz;   tau_0 = 1.5/(5 kHz) = 300 us (the paper's point)
+//! Kp  = Kp_0 min(1, tau_0/tau)      (crossover phase w_c tau kept: the paper's margins; Ti kept)
+//! alpha = min(d + 1/2, 3/2) ticks   (the predictor over the delay, at most the wire's 3/2)
+//! K   = lead_gain K_0               (the largest of LEAD_GAIN_STEPS within 1 dB / 5 deg of the paper's margins)
 //! ```
-//!
-//! - **Traction PI**: the armature `1/(L_a s + R_a)` is an integrator `1/(L_a s)` near
-//!   the crossover `w_c = Kp/L_a`, where the delay takes `w_c tau` of phase. The paper's
-//!   `Kp` gives 48.7 deg / 6.1 dB at `tau_0`; keeping `w_c tau <= w_c0 tau_0` keeps
-//!   those margins at a longer delay, so `Kp = Kp_0 min(1, tau_0/tau)`, with `Ti` kept
-//!   (`1/Ti` = 2 rad/s, two decades below every crossover: the integrator removes the
-//!   steady error and takes no phase there). A shorter delay keeps the paper's `Kp`
-//!   and gains margin.
-//! - **Yaw law**: the predictor extrapolates `y'` over the whole effective delay,
-//!   `alpha = min(d + 1/2, 3/2)` ticks (3/2: the largest the device's format takes,
-//!   `wheelset_proto::plausible::PREDICT_HALF_MAX_QUARTERS`), and the phase lead keeps
-//!   its shape with its gain `K` scaled by the point's `lead_gain` ([`DESIGNED`]): the
-//!   largest of [`LEAD_GAIN_STEPS`] whose loop keeps the margins of the paper's lead at
-//!   5 kHz within 1 dB and 5 deg, found by the sampled-data analysis on the host
-//!   (`wheelset_plant::sampled::design`, whose test holds this table to it).
-//!
-//! A point not in [`DESIGNED`] is not designed: its loops are not shown to hold, and a
-//! device refuses it. A point whose yaw loop fails the criteria while the traction loop
-//! meets them is accepted with the passive yaw law only ([`DesignPoint::yaw`]).
 
 use crate::config::{Config, ConfigError};
 
@@ -35,24 +15,18 @@ use crate::config::{Config, ConfigError};
 pub struct DesignPoint {
     /// Base rate, Hz (both loops every tick).
     pub base_rate_hz: u32,
-    /// Ticks from sampling to the actuation's application (1: the reply is back before
-    /// the next tick).
+    /// Ticks from sampling to actuation (1: the reply is back before the next tick).
     pub delay_ticks: u8,
     /// Factor on the lead's `K` (1: the paper's lead).
     pub lead_gain: f64,
-    /// The yaw loop holds here: the lead and gain laws are designed. `false`: only the
-    /// traction loop is (the yaw law must be passive; `lead_gain` is then 1, unused).
+    /// The yaw loop holds: lead and gain laws designed. `false`: passive only (`lead_gain` 1).
     pub yaw: bool,
 }
 
 /// The lead gain factors the design tries, largest (the paper's lead) first.
 pub const LEAD_GAIN_STEPS: [f64; 6] = [1.0, 0.95, 0.9, 0.85, 0.8, 0.75];
 
-/// The accepted rates and delays (module docs): every candidate at which the traction
-/// loop holds, with `yaw` where the yaw loop holds too. `wheelset_plant::sampled::design`'s
-/// test checks that this is what the design finds over its candidates, and that every
-/// other candidate (and every point without `yaw`, for the yaw loop) fails a stated
-/// criterion.
+/// The accepted rates and delays, held to the host's analysis by `wheelset_plant::sampled::design`'s test.
 pub const DESIGNED: [DesignPoint; 18] = [
     DesignPoint {
         base_rate_hz: 500,
@@ -191,10 +165,7 @@ pub fn point(base_rate_hz: u32, delay_ticks: u8) -> Option<DesignPoint> {
 }
 
 impl Config {
-    /// This configuration (its gains the paper's, at 5 kHz with one tick) redesigned for
-    /// `base_rate_hz` and `delay_ticks` with the lead gain factor `lead_gain` (module
-    /// docs): both divisors 1, `Kp` scaled, the predictor over the effective delay, `K`
-    /// scaled. Use [`Config::designed`] for an accepted point.
+    /// This configuration redesigned for the rate, delay and `lead_gain` ([`Config::designed`]).
     pub fn with_design(&self, base_rate_hz: u32, delay_ticks: u8, lead_gain: f64) -> Self {
         let mut c = *self;
         c.base_rate_hz = base_rate_hz;
@@ -207,9 +178,7 @@ impl Config {
         c
     }
 
-    /// [`Config::with_design`] at an accepted point of [`DESIGNED`].
-    ///
-    /// Errors: the rate and delay are not designed (`Range` on `base_rate_hz`).
+    /// [`Config::with_design`] at an accepted point of [`DESIGNED`]; else `Range` on `base_rate_hz`.
     pub fn designed(&self, base_rate_hz: u32, delay_ticks: u8) -> Result<Self, ConfigError> {
         let p = point(base_rate_hz, delay_ticks).ok_or(ConfigError::Range {
             field: "base_rate_hz",

@@ -1,35 +1,14 @@
-//! Phase-lead yaw damping `Ks(s) = K a (s + w1)/(s + w2)`, discretised by Tustin.
-//!
-//! # Structure (why not a direct form)
-//!
-//! Tustin's direct form `y[n] = alpha y[n-1] + b0 x[n] + b1 x[n-1]` has `b0 ~ -b1`
-//! (they differ by a few percent): the DC gain `(b0 + b1)/(1 - alpha)` is the small
-//! difference of two large numbers and a narrow Q format loses it. Split instead
+//! Phase-lead yaw damping `Ks(s) = K a (s + w1)/(s + w2)` by Tustin, evaluated as a
+//! high-pass around a low-pass rather than a direct form (whose `b0 ~ -b1` loses the DC
+//! gain in a narrow Q format). Sign: `T_psi = +Ks(s) y'`.
 //!
 //! ```text
-//! Ks(s) = K a [1 - (w2 - w1)/(s + w2)] = K_hf (1 - g w2/(s + w2)),
-//! K_hf = K a,  g = (w2 - w1)/w2  (the low-pass DC gain, 0.865 for the paper)
-//! ```
-//!
-//! and discretise the first-order low-pass `g w2/(s + w2)` by Tustin. Tustin is linear
-//! in the transfer function, so this *is* the Tustin discretisation of `Ks`, only
-//! evaluated in a well-conditioned order:
-//!
-//! ```text
-//! c      = w2 T/2                          (no pre-warping)
-//!        = w2 tan(wp T/2)/wp               (pre-warped at wp: exact phase/gain there)
-//! alpha  = (1 - c)/(1 + c)                 (the discrete pole)
-//! kappa  = 1 - alpha = 2c/(1 + c)
+//! Ks(s) = K_hf (1 - g w2/(s + w2)),  K_hf = K a,  g = (w2 - w1)/w2
+//! c      = w2 T/2   (or w2 tan(wp T/2)/wp, pre-warped at wp)
+//! alpha  = (1 - c)/(1 + c),  kappa = 1 - alpha = 2c/(1 + c)
 //! z[n]   = z[n-1] + kappa ( (g/2)(x[n] + x[n-1]) - z[n-1] )
 //! y[n]   = K_hf (x[n] - z[n])
 //! ```
-//!
-//! DC: `z = g x` whatever `kappa` quantises to, so the DC gain is `K_hf (1 - g)` =
-//! `K a w1/w2` up to the quantisation of `K_hf` and `g/2` alone (relative `2^-31`
-//! each in Q1.31). The equivalent direct form is returned by
-//! [`LeadDiscrete::direct_form`] for audit and tests.
-//!
-//! Sign: `T_psi = +Ks(s) y'` (eq. 5 as printed: `J psi'' + ... = -T_psi`).
 
 use crate::sample::Sample;
 use crate::ConfigError;
@@ -72,11 +51,8 @@ impl LeadParams {
         self.k * self.a
     }
 
-    /// Tustin discretisation at period `t_s` seconds (see the module docs).
-    ///
-    /// Errors: non-finite or non-positive parameters, `w1 >= w2` (not a lead),
-    /// `prewarp >= pi/T`, or `c >= 1` (a negative discrete pole: the rate is too low
-    /// for this lead; the range analysis of the Q formats assumes `alpha > 0`).
+    /// Tustin discretisation at period `t_s` s; errors: bad parameters, `w1 >= w2`,
+    /// `prewarp >= pi/T`, or `c >= 1` (a negative pole; the range analysis needs `alpha > 0`).
     pub fn discretise(&self, t_s: f64) -> Result<LeadDiscrete, ConfigError> {
         let fin = |v: f64| v.is_finite();
         if !(fin(self.k) && fin(self.a) && fin(self.w1) && fin(self.w2) && fin(t_s)) {
@@ -120,8 +96,7 @@ impl LeadParams {
     }
 }
 
-/// `tan(x)` for `0 <= x < 1.42` without libm (construction time only): a continued
-/// fraction (Lambert) to 12 levels, accurate to ~1e-15 in that range.
+/// `tan(x)` for `0 <= x < 1.42` without libm: Lambert's continued fraction, ~1e-15.
 pub(crate) fn tan_small(x: f64) -> f64 {
     let x2 = x * x;
     let mut d = 25.0;
@@ -151,8 +126,7 @@ pub struct LeadDiscrete {
 }
 
 impl LeadDiscrete {
-    /// The same filter as a direct form `y[n] = a1 y[n-1] + b0 x[n] + b1 x[n-1]`
-    /// (N m s/m): returns `(b0, b1, a1)`. For audit only; not what runs.
+    /// The direct form `y[n] = a1 y[n-1] + b0 x[n] + b1 x[n-1]`: `(b0, b1, a1)`, N m s/m (audit).
     pub fn direct_form(&self) -> (f64, f64, f64) {
         let h = self.kappa * self.g / 2.0;
         (
@@ -209,10 +183,7 @@ pub struct LeadPu {
     pub kappa: f64,
 }
 
-/// The lead as it runs: quantised per-unit coefficients (configuration).
-///
-/// `repr(C)` in the order the controller's fast path reads the coefficients (`kappa`,
-/// `k_hf`: one `LDRD`; its `g/2` is a copy in another form).
+/// The lead as it runs: quantised per-unit coefficients; `repr(C)` in read order.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C)]
 pub struct Lead<T: Sample> {
@@ -258,10 +229,7 @@ impl<T: Sample> Lead<T> {
         self.advance(s, x).mul_c(self.k_hf)
     }
 
-    /// The filter's state update alone, returning `x - z[n]` (pu): [`Self::process`] is
-    /// `K_hf` times it; the scheduled lead of the wheel-slip protection (`crate::wsp`)
-    /// is `K_hf' (x - z - rho z)` on the same state (the low-pass of `g' x = g (1 + rho) x`
-    /// is `(1 + rho) z`).
+    /// The state update alone, returning `x - z[n]` (pu); [`Self::process`] is `K_hf` times it.
     #[inline(always)]
     pub fn advance(&self, s: &mut LeadState<T>, x: T) -> T {
         let m = x.sat_add(s.x1);
@@ -271,8 +239,7 @@ impl<T: Sample> Lead<T> {
         x.sat_sub(s.z)
     }
 
-    /// The steady state for a constant input `x`: `x1 = x`, `z = (g/2)(2x)`; switching
-    /// to the lead from this state is bumpless (output `K_hf (1 - g) x` at once).
+    /// The steady state for a constant `x` (`z = g x`): switching in from it is bumpless.
     pub fn steady_state(&self, x: T) -> LeadState<T> {
         LeadState {
             x1: x,

@@ -1,51 +1,19 @@
-//! PI traction current controller `Kt(s) = Kp (1 + 1/(Ti s))`, backward-Euler integrator
-//! with clamping anti-windup.
+//! PI traction current controller `Kt(s) = Kp (1 + 1/(Ti s))`, backward Euler, with
+//! clamping anti-windup:
 //!
 //! ```text
-//! e[n] = r[n] - i[n]                                   (A; pu inside)
-//! I[n] = clamp(I[n-1] + Ki e[n], u_min, u_max),  Ki = Kp T/Ti   (backward Euler)
-//!        (fixed point: Ki e[n] is floored and its remainder carried to the next step,
-//!         so the integrator has no dead band and no rounding drift)
+//! e[n] = r[n] - i[n]                                            (A; pu inside)
+//! I[n] = clamp(I[n-1] + Ki e[n], u_min, u_max),  Ki = Kp T/Ti
 //! u[n] = clamp(Kp e[n] + I[n], u_min, u_max)
+//! fixed point:  Ki e[n] = floor((e c + r) / 2^(31+s)),  c = round(Ki 2^(31+s)), remainder carried in r
 //! ```
 //!
-//! `Ki` is small (4.0e-5 pu per sample at the default 5 kHz traction rate): in Q1.31 it
-//! would keep only 16.4 significant bits (relative error -4.0e-6, which the audit found
-//! to be 138 of the 149 LSB of the `u_a` error against f64). The fixed-point build holds
-//! it with its own shift `s` ([`Sample::acc_shift`]): the Q1.31 coefficient is
-//! `Ki 2^s` and the product is shifted back by `s` ([`Sample::mul_c_acc_shr`]: one
-//! arithmetic shift of the product's high word, a few instructions on the control-law
-//! step, `cargo xtask fw-bench`). `s` is chosen at construction for `Ki` of these
-//! gains at the slowest traction period a device accepts, [`KI_SHIFT_PERIOD_S`] (or
-//! the configured period if that is slower): the same gains get the same shift at
-//! every rate, and a design's smaller `Kp` (`crate::design`) a larger one; the shift
-//! travels with the schedule ([`crate::ScheduleBits::ki_shift`]). The default set gets
-//! `s = 11` (`Ki` at 500 Hz is 4.0e-4 pu, times `2^11` 0.82): at 5 kHz `Ki 2^11` holds
-//! 27.4 significant bits.
-//!
-//! ```text
-//! fixed point:  Ki e[n] = floor((e c + r) / 2^(31+s)),  c = round(Ki 2^(31+s))  (Q1.31 of Ki 2^s)
-//! ```
-//!
-//! Transfer function while unsaturated: `U/E = Kp + Ki/(1 - z^-1)`, i.e.
-//! `Kt(s)` with `1/s -> T/(1 - z^-1)`; DC gain infinite (exact integrator: the
-//! integrator's pole is exactly `z = 1` in every number type since no coefficient
-//! multiplies the state).
-//!
-//! Anti-windup: the integrator is clamped to the output range, so after a saturated
-//! run it sits at most at the limit and the output leaves saturation as soon as
-//! `Kp e` changes sign; the overshoot bound is tested.
-//!
-//! Bumpless start: [`PiState::integ`] is preset to the back-EMF `K_m omega_m` so the
-//! first output is the voltage that keeps the current at zero (3961 V at 83.3 m/s).
+//! The integrator's pole is exactly `z = 1` (no coefficient multiplies the state).
 
 use crate::sample::Sample;
 use crate::ConfigError;
 
-/// The slowest traction period a device accepts, s: `1/LOOP_RATE_MIN_HZ` (500 Hz,
-/// `wheelset_proto::plausible`). `Ki`'s shift ([`Pi::ki_shift`]) is chosen so that `Ki`
-/// at this period still fits, so that every schedule a device accepts fits the shift of
-/// its start-up controller.
+/// The slowest traction period a device accepts, s: `Ki`'s shift is set to fit `Ki` there.
 pub const KI_SHIFT_PERIOD_S: f64 = 1.0 / wheelset_proto::plausible::LOOP_RATE_MIN_HZ as f64;
 
 /// The continuous PI: `Kp (1 + 1/(Ti s))`.
@@ -130,10 +98,7 @@ pub struct PiPu {
     pub ki: f64,
 }
 
-/// The PI as it runs: quantised coefficients and output limits (configuration).
-///
-/// `repr(C)` in the order the controller's fast path reads the fields (`Ki` and its
-/// shift, the limits: one `LDRD` each; its `Kp` is a copy in another form).
+/// The PI as it runs: quantised coefficients and output limits; `repr(C)` in read order.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C)]
 pub struct Pi<T: Sample> {
@@ -177,16 +142,12 @@ pub struct PiFlags {
 }
 
 impl<T: Sample> Pi<T> {
-    /// Quantise the coefficients; limits in pu (`u_min < u_max`). `Ki`'s shift is
-    /// chosen for `pu.ki` itself ([`Self::with_ki_max`]).
+    /// Quantise the coefficients; limits in pu (`u_min < u_max`); `Ki`'s shift for `pu.ki`.
     pub fn new(pu: &PiPu, u_min: f64, u_max: f64) -> Result<Self, ConfigError> {
         Self::with_ki_max(pu, pu.ki, u_min, u_max)
     }
 
-    /// As [`Self::new`], with `Ki`'s shift chosen for `ki_max` (pu; the largest `Ki` the
-    /// shift must hold, e.g. at the slowest rate; at least `pu.ki`):
-    /// [`ConfigError::Coefficient`] if `Ki` is too large for the type's smallest shift
-    /// (fixed point: `Ki >= 0.5` pu per sample).
+    /// As [`Self::new`], `Ki`'s shift chosen for `ki_max` (pu, `>= pu.ki`).
     pub fn with_ki_max(
         pu: &PiPu,
         ki_max: f64,

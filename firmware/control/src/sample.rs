@@ -1,18 +1,6 @@
-//! The sample trait: the few operations a filter needs, for `f64`, `f32` and fixed point.
-//!
-//! Every signal inside the controller is **per unit** (`x_pu = x_SI / FS`, the full
-//! scales are in [`crate::FullScales`]), so one sample type serves every signal.
-//!
-//! - `f64`: the reference. `f32`: the FPU build. [`Fx`] (= `fixed::types::I4F28`,
-//!   Q4.28, range `[-8, 8)` pu, LSB `2^-28` = 3.7e-9 pu): the production build.
-//! - Coefficients are quantised once, at construction ([`Sample::quantise`]); for
-//!   [`Fx`] they are Q1.31 ([`Coef`], validated into `(-1, 1)`, LSB `2^-31` = 4.7e-10).
-//! - Fixed-point sums and differences saturate (`QADD`/`QSUB` on Cortex-M4); a product
-//!   is the exact 64-bit `i32 x i32` product rounded to nearest (ties up),
-//!   `y = (x c + 2^30) >> 31` ([`mul_q31`]), which cannot overflow because `|c| < 1`.
-//!   The range analysis in the crate docs shows the saturations cannot engage inside
-//!   the filters once the inputs are clamped; they are the belt, the input clamps
-//!   (counted) are the braces.
+//! The sample trait: the operations a filter needs, for `f64` (reference), `f32` and
+//! [`Fx`] (Q4.28); signals per unit (`x_SI / FS`). Fixed point: coefficients Q1.31 in
+//! `(-1, 1)`, sums saturating, products `(x c + 2^30) >> 31` ([`mul_q31`]), no overflow.
 
 use fixed::types::{I1F31, I4F28};
 
@@ -24,8 +12,7 @@ pub use fx::{mul_q31, smmulr, FxScale};
 
 /// The production fixed-point signal type: Q4.28 per unit (`[-8, 8)`, LSB `2^-28`).
 pub type Fx = I4F28;
-/// The production fixed-point coefficient type: Q1.31, validated into `(-1, 1)`
-/// (LSB `2^-31`), so that a product with a Q4.28 signal cannot overflow.
+/// The production coefficient type: Q1.31 in `(-1, 1)`, so a product cannot overflow.
 pub type Coef = I1F31;
 
 /// Number of fractional bits of [`Fx`] signals.
@@ -33,13 +20,11 @@ pub const FX_FRAC: u32 = 28;
 /// Number of fractional bits of [`Coef`] coefficients.
 pub const COEF_FRAC: u32 = 31;
 
-/// A per-unit sample: the operations the filters use. One filter implementation serves
-/// every type (idsp style); nothing here allocates, divides or panics.
+/// A per-unit sample: the operations the filters use (no allocation, division or panic).
 pub trait Sample: Copy + Default + PartialEq + PartialOrd + core::fmt::Debug {
     /// Quantised coefficient (`Self` for floats, [`Coef`] Q1.31 for [`Fx`]).
     type Coeff: Copy + core::fmt::Debug + PartialEq;
-    /// An integrator's sub-LSB remainder (`()` for floats, `u64` for [`Fx`]: up to
-    /// `31 + s` bits, [`Sample::mul_c_acc_shr`]).
+    /// An integrator's sub-LSB remainder (`()` for floats, `u64` for [`Fx`]).
     type Residue: Copy + Default + core::fmt::Debug + PartialEq;
     /// Precomputed wire-code scale (`Self` for floats, [`FxScale`] for [`Fx`]).
     type Scale: Copy + core::fmt::Debug + PartialEq;
@@ -61,32 +46,19 @@ pub trait Sample: Copy + Default + PartialEq + PartialOrd + core::fmt::Debug {
     fn sat_sub(self, rhs: Self) -> Self;
     /// `self * c`, rounded to nearest and saturating.
     fn mul_c(self, c: Self::Coeff) -> Self;
-    /// The signal as a coefficient, exactly where the coefficient format holds it and
-    /// saturated to its range otherwise (`Fx`: Q4.28 to Q1.31, `|x| < 1`, a shift; floats:
-    /// the value): the slip regulator multiplies by the reference's slew per step
-    /// ([`crate::wsp`]).
+    /// The signal as a coefficient, saturated to the coefficient range (`Fx`: a shift).
     fn to_coeff_sat(self) -> Self::Coeff;
-    /// `self^2` (a signal squared, pu^2), rounded to nearest and saturating: the
-    /// stability monitor's mean square ([`crate::monitor`]). The default goes through
-    /// `f64`; `f32`, `f64` and [`Fx`] (the exact 64-bit product) override it.
+    /// `self^2`, pu^2, rounded and saturating.
     #[inline]
     fn square(self) -> Self {
         let x = self.to_f64();
         Self::from_f64(x * x)
     }
-    /// `self * c` for an integrator's increment, with first-order error feedback: fixed
-    /// point floors the product and carries the remainder in `r` to the next call, so
-    /// the running sum of increments is exact to one LSB (no dead band, no drift from a
-    /// rounding bias); floats just multiply.
+    /// `self * c` for an integrator's increment with error feedback: fixed point floors and
+    /// carries the remainder in `r`, so the running sum is exact to one LSB; floats multiply.
     fn mul_c_acc(self, c: Self::Coeff, r: &mut Self::Residue) -> Self;
-    /// The shift `s` that holds a small positive integrator coefficient `c` as `c 2^s`
-    /// (the PI's `Ki`): the largest `s` the type allows such that every coefficient up to
-    /// `c_max` (`c <= c_max`, e.g. `Ki` at the slowest rate it is used at) still
-    /// quantises as `c 2^s`, so a coefficient far below 1 keeps all the coefficient
-    /// format's significant bits instead of `31 + log2 c` of them. Chosen at
-    /// construction, never at tick time. `None` if `c_max` is not finite and positive or
-    /// too large for the type's smallest shift. Floats: 0 (their exponent is the shift);
-    /// fixed point `1..=`[`Sample::ACC_SHIFT_MAX`] (`c_max < 0.5`).
+    /// The largest shift `s` holding every coefficient up to `c_max` as `c 2^s` (the PI's `Ki`),
+    /// if any: floats 0, fixed point `1..=`[`Sample::ACC_SHIFT_MAX`].
     fn acc_shift(c_max: f64) -> Option<u32> {
         (c_max.is_finite() && c_max > 0.0).then_some(0)
     }
@@ -96,12 +68,8 @@ pub trait Sample: Copy + Default + PartialEq + PartialOrd + core::fmt::Debug {
     fn acc_shift_ok(s: u32) -> bool {
         s == 0
     }
-    /// `self * c 2^-s` for an integrator's increment, with the error feedback of
-    /// [`Sample::mul_c_acc`]: `c` is the coefficient held as `c 2^s`, `s` from
-    /// [`Sample::acc_shift`]. Fixed point floors `(x c + r) / 2^(31+s)` and carries the
-    /// remainder (`31 + s` bits) in `r`, so the running sum of increments is exact to one
-    /// LSB of the true product `x c 2^-s`. The default is [`Sample::mul_c_acc`], valid for
-    /// the types whose shift is always 0 (floats).
+    /// `self * c 2^-s` with [`Sample::mul_c_acc`]'s error feedback, `c` held as `c 2^s`:
+    /// fixed point floors `(x c + r) / 2^(31+s)` and carries `31 + s` bits in `r`.
     #[inline(always)]
     fn mul_c_acc_shr(self, c: Self::Coeff, s: u32, r: &mut Self::Residue) -> Self {
         let _ = s;
@@ -120,55 +88,43 @@ pub trait Sample: Copy + Default + PartialEq + PartialOrd + core::fmt::Debug {
     /// `round(self * scale)` to a code, saturating at the `i32` range (NaN gives 0).
     fn to_code(self, scale: &Self::Scale) -> i32;
 
-    // The fast path's operations ([`crate::Controller::tick`]): each gives exactly the
-    // result of the general operation it stands for, under the condition stated. The
-    // defaults are the general operations themselves, and `pre_coeff` `None`, which
-    // keeps a type without its own versions on the general path.
+    // The fast path's operations: exactly the general operation's result under the stated condition.
 
     /// Two per unit (the range bound of the fast path's preconditions).
     #[inline(always)]
     fn two_pu() -> Self {
         Self::from_f64(2.0)
     }
-    /// `|self| <= max` (`false` for NaN): the clamp `limit(-max, max)` would not engage
-    /// (`0 <= max <= 2` pu).
+    /// `|self| <= max` (`false` for NaN), `0 <= max <= 2` pu: `limit(-max, max)` would not engage.
     #[inline(always)]
     fn abs_within(self, max: Self) -> bool {
         let (x, bad) = self.sanitize();
         !bad && !x.limit(Self::ZERO.sat_sub(max), max).1
     }
-    /// `lo <= self <= hi` (`false` for NaN): `limit(lo, hi)` would not engage
-    /// (`lo <= hi`).
+    /// `lo <= self <= hi` (`false` for NaN): `limit(lo, hi)` would not engage.
     #[inline(always)]
     fn within(self, lo: Self, hi: Self) -> bool {
         let (x, bad) = self.sanitize();
         !bad && !x.limit(lo, hi).1
     }
-    /// `c` in the form [`Sample::mul_pre`] takes, if it has one: fixed point `2c`,
-    /// for `|c| <= 0.5 - 2^-30` (so `2c` is a Q1.31 coefficient, and a product with
-    /// `|x| <= 4` pu stays below 2 pu by at least one LSB); floats `c` itself.
+    /// `c` in [`Sample::mul_pre`]'s form: fixed point `2c` for `|c| <= 0.5 - 2^-30`; floats `c`.
     #[inline(always)]
     fn pre_coeff(_c: Self::Coeff) -> Option<Self::Coeff> {
         None
     }
-    /// `self * c` from `pc = pre_coeff(c)`: the same value as [`Sample::mul_c`]`(c)`.
-    /// Fixed point: `SMMULR(x, 2c) = (2 x c + 2^31) >> 32 = (x c + 2^30) >> 31` (one
-    /// instruction instead of five).
+    /// `self * c` from `pc = pre_coeff(c)`, equal to [`Sample::mul_c`]`(c)`. Fixed point:
+    /// `SMMULR(x, 2c) = (2 x c + 2^31) >> 32 = (x c + 2^30) >> 31`, one instruction.
     #[inline(always)]
     fn mul_pre(self, pc: Self::Coeff) -> Self {
         self.mul_c(pc)
     }
-    /// `self * c`, the same value as [`Sample::mul_c`] when `-4 <= self < 4` pu (fixed
-    /// point: `SMMULR(2x, c)`, two instructions; `2x` does not overflow in that range).
+    /// `self * c`, equal to [`Sample::mul_c`] for `-4 <= self < 4` pu (fixed point `SMMULR(2x, c)`).
     #[inline(always)]
     fn mul_c_small(self, c: Self::Coeff) -> Self {
         self.mul_c(c)
     }
 
-    /// [`crate::Controller::tick`] for this type: the production types implement it as
-    /// a non-generic function of this crate, so it is compiled with this crate's
-    /// optimisation level (the `fw` profile gives it `s`: see the workspace
-    /// `Cargo.toml`), not the caller's.
+    /// [`crate::Controller::tick`], non-generic here so it gets this crate's opt-level.
     #[inline(always)]
     fn controller_tick(
         c: &mut crate::Controller<Self>,
@@ -178,36 +134,28 @@ pub trait Sample: Copy + Default + PartialEq + PartialOrd + core::fmt::Debug {
     }
 }
 
-/// Exact bit patterns of a [`Sample`]'s values, coefficients and scales: how a compiled
-/// controller is written as constants and sent over the wire ([`crate::CompiledBits`]).
-/// Conversions are integer work only (no float maths on the device).
+/// Exact bit patterns of a [`Sample`]'s values, coefficients and scales (integer work).
 pub trait SampleBits: Sample {
-    /// The type's tag in exact bit patterns ([`crate::CompiledBits::numeric`]): 0 Q4.28 /
-    /// Q1.31, 1 `f32`, 2 `f64`.
+    /// The type's tag ([`crate::CompiledBits::numeric`]): 0 Q4.28 / Q1.31, 1 `f32`, 2 `f64`.
     const NUMERIC: u8;
-    /// The largest per-unit magnitude of a clamp or limit, 2 pu
-    /// ([`crate::config::MAX_LIMIT_PU`], the Q4.28 range analysis).
+    /// The largest magnitude of a clamp or limit, 2 pu ([`crate::config::MAX_LIMIT_PU`]).
     const MAX_LIMIT: Self;
     /// The zero coefficient.
     const COEFF_ZERO: Self::Coeff;
 
-    /// The exact bit pattern of a signal value (Q4.28: the `i32` bits; floats: IEEE bits),
-    /// zero-extended to 64 bits.
+    /// A signal's bit pattern (Q4.28 `i32` or IEEE bits), zero-extended to 64 bits.
     fn to_bits64(self) -> u64;
-    /// A signal value from its bit pattern; `None` for a pattern of another width or a
-    /// non-finite float. Integer work only.
+    /// A signal from its bit pattern; `None` for another width or a non-finite float.
     fn from_bits64(b: u64) -> Option<Self>;
     /// The exact bit pattern of a coefficient (Q1.31 `i32` bits; floats: IEEE bits).
     fn coeff_to_bits64(c: Self::Coeff) -> u64;
-    /// A coefficient from its bit pattern; `None` if it is not a valid coefficient (Q1.31:
-    /// `-1` itself, which [`Sample::quantise`] never produces; floats: not finite).
+    /// A coefficient from its bit pattern; `None` if invalid (Q1.31 `-1`; non-finite floats).
     fn coeff_from_bits64(b: u64) -> Option<Self::Coeff>;
     /// `0 < c < 1` (`0 <= c < 1` with `zero_ok`).
     fn coeff_in_unit(c: Self::Coeff, zero_ok: bool) -> bool;
     /// The exact bits of a wire-code scale: `(mul, shift)` (floats: the IEEE bits, 0).
     fn scale_to_bits(s: &Self::Scale) -> (u64, u8);
-    /// A wire-code scale from [`SampleBits::scale_to_bits`]'s bits; `None` if invalid (fixed
-    /// point: `mul` in `[1024, 2^31)`, `shift <= 62`; floats: finite and positive).
+    /// A scale from [`SampleBits::scale_to_bits`]'s bits; `None` if invalid.
     fn scale_from_bits(mul: u64, shift: u8) -> Option<Self::Scale>;
 }
 

@@ -1,68 +1,8 @@
-//! The hostile-Config table: every Config a device must refuse, with the reason it must
-//! give, beside those just inside each limit and the nominal ones at every design
-//! point, which it must apply ([`rows`]); and the procedure that tries one row on any
-//! device that takes frames ([`Device`], [`probe`]) and judges it by what the device
-//! says and does ([`judge`]). The host runtime runs it
-//! (`firmware/runtime/tests/hostile.rs`, both sample types), and so does the firmware
-//! under QEMU over its UART (`hil/harness/tests/qemu_hostile.rs`): one table, the same
-//! judgement. Test support on the host (the rows are computed with [`rates_for`]): those
-//! tests depend on this crate, no firmware does.
-//!
-//! This file holds one long idea, the table: [`rows`] writes each row beside the limit
-//! it tests and the reason the device must give, in the order of the table below, so a
-//! row is read where its limit is. The procedure that tries a row is [`procedure`].
-//!
-//! # The rows
-//!
-//! From the plausibility table of `wheelset_proto::plausible`, for sample type `T`, each
-//! row the nominal Config ([`nominal`]: the lead, traction on, outputs enabled, the
-//! default hold, the default rates as [`rates_for`] computes them) with one thing
-//! changed:
-//!
-//! | field | applied (just inside) | refused (the reason: the field) |
-//! |---|---|---|
-//! | the mode | | an index this version does not define (3, 127): `UnknownRequest` |
-//! | `rates.numeric`, `rates.fingerprint` | | the other sample type, 2, 255; one bit flipped, all flipped |
-//! | `rates.base_rate_hz` | every design point (the nominal rows) | 0, 499 Hz, 20 001 Hz, 25 kHz, `u32::MAX`; 4 kHz, 20 kHz (in range, no design) |
-//! | the period | | 3 kHz, 7 kHz, 19 999 Hz (rates computed for them): `Period` |
-//! | `rates.yaw_div`, `rates.traction_div` | | 2, 10, 0, `u16::MAX` (the designs run both loops every tick) |
-//! | `rates.delay_ticks` | every design point | 0, 4 and 255 at 5 kHz |
-//! | the mode | the passive law where only the traction loop is designed (nominal rows) | lead or gain at 500 Hz, lead at 1 kHz with two ticks, gain at 2.5 kHz with three: `YawNotDesigned` |
-//! | `hold_ticks` | 0, 100 at 5 kHz (20 ms); 200 at 10 kHz; 20 at 1 kHz | 101, 65 535 at 5 kHz; 201 at 10 kHz; 21 at 1 kHz |
-//! | each coefficient (the gains `kp`, `ki` and its shift, `lead_k_hf`, `kappa`, `predict_half`, the protection's lead; the ramps; the `y''` factors) | | +-1 LSB, x(1 +- 0.9 2^-10), x1.01, x2, x10, x0.5, 1 LSB, 0, negative (the Q32 factors: `u64::MAX`); `f32`: the largest subnormal, NaN, infinity |
-//! | the rates together | | 1 kHz and 2 kHz with the paper's gains re-discretised, 1 kHz with 5 kHz's coefficients, 5 kHz with 2 kHz's design, 5 kHz delay 2 with the delay-1 design, 10 kHz delay 1 with the delay-3 design (`Kp`); 1 kHz and 5 kHz delay 2 with the paper's lead (`LeadKhf`); 5 kHz with 10 kHz's coefficients (`Ki`) |
-//! | the switches | the protection, the monitor's safe state, another mode, traction off, outputs off | |
-//! | nominal | every design point of `wheelset_control::design::DESIGNED` (lead; passive where only the traction loop is designed) | |
-//!
-//! (`f32` 1 LSB is the smallest subnormal.) `Bits` (a bit pattern the control core
-//! refuses after every range check passed) has no row: the ranges leave none that
-//! reaches it. `Unsupported` is not about a Config (a fault injection on a build without
-//! it).
-//!
-//! # One row
-//!
-//! Every row starts from the nominal state and runs the frames of the nominal run with
-//! one frame replaced by the row's ([`probe`]):
-//!
-//! 1. restore: a Sensor frame, the nominal Config with the outputs off, a Sensor frame,
-//!    the nominal Config (each restarts the core: its filters from zero; the re-enabled
-//!    outputs slew the yaw torque from zero and restart the PI from the back-EMF),
-//!    `ClearFaults`, `ResetCounters`;
-//! 2. a Status (`s0`);
-//! 3. [`PROBE_TICKS`] Sensor frames ([`probe_sensor`]): `before`;
-//! 4. the row's frame (in the nominal run `ClearFaults`, which changes nothing): `at`;
-//! 5. the Sensor frames again, [`GAP_TICKS`] ticks without a frame (longer than the
-//!    default hold: the safe state), [`RECOVER_TICKS`] Sensor frames: `after`;
-//! 6. a Status (`s1`).
-//!
-//! [`judge`]: the restore is proven by `s0` and `before` equal to the nominal run's (the
-//! counters from zero, the same outputs on the same frames). A refusal is proven by
-//! `s1`: `cmd_refused` 1 and `refuse_reason` the row's reason (the counters were reset
-//! in step 1, so the count is this row's own), with `at`, `after` and every other
-//! counter equal to the nominal run's: the Config changed nothing. The flag
-//! `CMD_REFUSED` is not compared (whether it persists after the refused frame is not the
-//! table's matter). An applied row counts no refusal, and where it must show
-//! ([`Expect::Applied`] `visible`) its frames differ from the nominal run's.
+//! The hostile-Config table ([`rows`]): every Config a device must refuse, with its
+//! reason, and those just inside each limit, which it must apply; the [`procedure`] tries
+//! a row on the host runtime or the firmware under QEMU and judges it. This file holds one
+//! long idea, the table: each row the [`nominal`] Config with one thing changed, beside the
+//! limit it tests. `Bits` and `Unsupported` have no row (no Config reaches them).
 
 #![deny(missing_docs)]
 
@@ -93,8 +33,7 @@ pub const AFTER_TICKS: usize = PROBE_TICKS + GAP_TICKS + RECOVER_TICKS;
 pub enum Expect {
     /// Refuse it for this reason: counted once, nothing else changed.
     Refused(RefuseReason),
-    /// Apply it: no refusal counted; `visible`: the frames after it differ from the
-    /// nominal run's (a new rate, law, hold or switch that the probe's frames show).
+    /// Apply it: no refusal counted; `visible`: the frames after it differ from the nominal run's.
     Applied {
         /// The frames after it differ from the nominal run's.
         visible: bool,
@@ -110,8 +49,7 @@ pub struct Row {
     pub change: &'static str,
     /// The Config sent.
     pub config: Config,
-    /// `Some(index)`: the Config goes out with its `mode` replaced by this index, which
-    /// the protocol does not define (an unknown request).
+    /// `Some(index)`: the Config goes out with its `mode` replaced by this undefined index.
     pub undefined_mode: Option<u8>,
     /// What the device must do.
     pub expect: Expect,
@@ -165,8 +103,7 @@ impl Row {
         let Some(mode) = self.undefined_mode else {
             return Frame::of(&Message::Config(self.config));
         };
-        // The raw frame is `VERSION | type | body`; a Config's body starts with its
-        // mode's variant index (one byte below 0x80).
+        // The raw frame is `VERSION | type | body`; a Config's body starts with its mode index.
         let mut raw = [0u8; MAX_RAW];
         let n = encode_raw(&Message::Config(self.config), &mut raw).unwrap_or(0);
         if let Some(b) = raw.get_mut(2) {
@@ -184,9 +121,8 @@ impl Row {
     }
 }
 
-/// The runtime configuration at these rates with the paper's gains re-discretised (the
-/// default otherwise), with the delay compensation of one tick (`1 + yaw_div/2` ticks):
-/// not a design unless the rate is 5 kHz / 1 / 1 ([`designed`] is).
+/// The runtime configuration at these rates with the paper's gains re-discretised: not a
+/// design unless 5 kHz / 1 / 1 ([`designed`] is).
 pub fn at_rates(base_rate_hz: u32, yaw_div: u16, traction_div: u16) -> RuntimeConfig {
     let mut c = RuntimeConfig::default();
     c.control.base_rate_hz = base_rate_hz;
@@ -196,16 +132,12 @@ pub fn at_rates(base_rate_hz: u32, yaw_div: u16, traction_div: u16) -> RuntimeCo
     c
 }
 
-/// The runtime configuration designed for `base_rate_hz` and `delay_ticks`
-/// ([`RuntimeConfig::designed`]).
-///
-/// Errors: not a design point.
+/// The runtime configuration designed for the rate and delay; errors: not a design point.
 pub fn designed(base_rate_hz: u32, delay_ticks: u8) -> Result<RuntimeConfig, RuntimeError> {
     RuntimeConfig::default().designed(base_rate_hz, delay_ticks)
 }
 
-/// The nominal Config: the lead, traction on, outputs enabled, the default hold, the
-/// default rates as [`rates_for`] computes them for `T`.
+/// The nominal Config: lead, traction, outputs on, default hold and rates ([`rates_for`]).
 pub fn nominal<T: SampleBits>() -> Result<Config, RuntimeError> {
     Ok(with_rates(rates_for::<T>(&RuntimeConfig::default())?))
 }
@@ -338,8 +270,7 @@ impl Coef {
     }
 }
 
-/// `v` (bits of kind `b`, a positive value) times `num/den`, rounded (saturated at the
-/// format's largest value).
+/// `v` (bits of kind `b`, positive) times `num/den`, rounded, saturated.
 fn scaled(b: Bits, v: u64, num: u32, den: u32) -> u64 {
     match b {
         Bits::Sample(0) => {
@@ -372,8 +303,7 @@ const fn tolerance(k_tenths: i32) -> (u32, u32) {
     ((10_240 + k_tenths) as u32, 10_240)
 }
 
-/// Every row for sample type `T`, in table order, handed to `each` (no allocation).
-/// Errors: the host cannot compute a row's rates (a bug of the table).
+/// Every row for `T`, in table order, handed to `each` (an error is a bug of the table).
 pub fn rows<T: SampleBits>(mut each: impl FnMut(Row)) -> Result<(), RuntimeError> {
     use RefuseReason as R;
     let n = T::NUMERIC;
@@ -427,8 +357,7 @@ pub fn rows<T: SampleBits>(mut each: impl FnMut(Row)) -> Result<(), RuntimeError
             no(R::Fingerprint),
         );
     }
-    // The base rate (the nominal coefficients: the range is checked first), and rates
-    // in range that have no design (the paper's gains re-discretised there).
+    // The base rate (the range is checked first), and rates in range without a design.
     for (change, base_rate_hz) in [
         ("0", 0),
         ("499 Hz", 499),
@@ -519,8 +448,7 @@ pub fn rows<T: SampleBits>(mut each: impl FnMut(Row)) -> Result<(), RuntimeError
         };
         row(y, change, c, no(R::YawNotDesigned));
     }
-    // The hold: 20 ms at most (the gap of the probe is past the default hold, so a
-    // longer one shows; 0 enters the safe state at the first tick without a frame).
+    // The hold: 20 ms at most (the probe's gap is past the default hold, so a longer one shows).
     let hold = |hold_ticks, rates| Config {
         hold_ticks,
         rates,
@@ -586,8 +514,7 @@ pub fn rows<T: SampleBits>(mut each: impl FnMut(Row)) -> Result<(), RuntimeError
             no(R::Ki),
         );
     }
-    // A rate carrying the gains of another rate or design: the loop named is the first
-    // whose gains differ (traction, then yaw).
+    // A rate carrying another design's gains: the first loop whose gains differ is named.
     let carrying = |hz, delay_ticks, r: Rates| {
         wr(Rates {
             base_rate_hz: hz,
@@ -705,8 +632,7 @@ pub fn rows<T: SampleBits>(mut each: impl FnMut(Row)) -> Result<(), RuntimeError
         },
         yes(true),
     );
-    // Nominal Configs at every design point, as the host computes them (the passive law
-    // where only the traction loop is designed).
+    // Nominal Configs at every design point (passive where only traction is designed).
     for p in wheelset_control::design::DESIGNED {
         let (hz, d) = (p.base_rate_hz, p.delay_ticks);
         let mode = if p.yaw {

@@ -1,6 +1,12 @@
-//! The procedure: one row tried on any device that takes frames ([`Device`]: the host
-//! runtime, the firmware over a link), [`probe`]d before and after the Config, and
-//! [`judge`]d by what the device says and does.
+//! The procedure: one row tried on any device that takes frames ([`Device`]), [`probe`]d
+//! and [`judge`]d. A probe: (1) restore: Sensor, the nominal Config with outputs off,
+//! Sensor, the nominal Config, `ClearFaults`, `ResetCounters`; (2) Status `s0`;
+//! (3) [`PROBE_TICKS`] Sensor frames, `before`; (4) the row's frame, `at`; (5) Sensor
+//! frames, [`GAP_TICKS`] ticks without one (the safe state), [`RECOVER_TICKS`] Sensor
+//! frames, `after`; (6) Status `s1`. The judgement: `s0` and `before` equal the nominal
+//! run's (the restore worked); a refused row has `cmd_refused` 1 with its reason and
+//! everything else as the nominal run's; an applied row counts no refusal and, where
+//! `visible`, changes the frames.
 
 #[allow(clippy::wildcard_imports)]
 use super::*;
@@ -10,9 +16,8 @@ use super::*;
 pub trait Device {
     /// Why an exchange failed (the link, a garbled answer).
     type Error;
-    /// Sends `frame` (one frame with its delimiter, or a bare delimiter: a tick without
-    /// a frame) and returns the frames of the one tick it ends in: the Actuation and,
-    /// when `status` (the frame asked for one), the Status after it.
+    /// Sends `frame` (with its delimiter, or a bare delimiter: a tick without a frame) and
+    /// returns that tick's Actuation and, when `status`, the Status after it.
     fn exchange(&mut self, frame: &[u8], status: bool) -> Result<Reply, Self::Error>;
 }
 
@@ -64,17 +69,14 @@ impl<T: SampleBits> Device for Runtime<T> {
     }
 }
 
-/// The lateral velocities of the probe's Sensor frames, um/s: one period of a 3 mm/s
-/// sine (a yaw loop with something to do).
+/// The probe's lateral velocities, um/s: one period of a 3 mm/s sine.
 const PROBE_Y_UM_S: [i32; PROBE_TICKS] = [
     0, 1_148, 2_121, 2_772, 3_000, 2_772, 2_121, 1_148, 0, -1_148, -2_121, -2_772, -3_000, -2_772,
     -2_121, -1_148,
 ];
 
-/// The probe's Sensor frame `seq` (its lateral velocity the `seq % 16`-th of a sine
-/// period): the `curve` operating point (115 A, 925.6 rad/s, 2 460 N m demand) with a
-/// reference speed of 82.8 m/s, 0.5 m/s below the wheel's 83.3 (a slip the wheel-slip
-/// protection acts on when it is on).
+/// The probe's Sensor frame `seq`: the `curve` operating point (115 A, 925.6 rad/s,
+/// 2 460 N m) with a reference speed 0.5 m/s below the wheel's (a slip the protection acts on).
 pub fn probe_sensor(seq: u16) -> Sensor {
     Sensor {
         seq,
@@ -116,9 +118,8 @@ const NO_ACTUATION: Actuation = Actuation {
     u_a_cv: 0,
 };
 
-/// Runs one row's frames on `dev` (module docs, "One row"): the restore to `nominal`,
-/// then `frame` (the row's; for the nominal run [`null_frame`]) among the probe's
-/// Sensor frames.
+/// Runs one row's frames on `dev` (module docs): the restore to `nominal`, then `frame`
+/// (the nominal run: [`null_frame`]) among the probe's Sensor frames.
 pub fn probe<D: Device>(dev: &mut D, nominal: &Config, frame: &[u8]) -> Result<Trace, D::Error> {
     let sensor = |seq| Frame::of(&Message::Sensor(probe_sensor(seq)));
     let command = |c| Frame::of(&Message::Command(c));
@@ -170,8 +171,7 @@ pub fn probe<D: Device>(dev: &mut D, nominal: &Config, frame: &[u8]) -> Result<T
     Ok(trace)
 }
 
-/// The nominal run's frame in place of a row's: `ClearFaults`, which changes nothing
-/// after the restore (a valid frame, counted like a Config).
+/// The nominal run's frame in place of a row's: `ClearFaults`, which changes nothing.
 pub fn null_frame() -> Frame {
     Frame::of(&Message::Command(Command::ClearFaults))
 }
@@ -179,8 +179,7 @@ pub fn null_frame() -> Frame {
 /// Why a row failed ([`judge`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Fault {
-    /// The restore did not reach the nominal state: the Status after it, or the
-    /// Actuation of this probe frame, differs from the nominal run's.
+    /// The restore did not reach the nominal state (the Status, or this probe frame's Actuation).
     Restore {
         /// The probe frame (`None`: the Status).
         tick: Option<usize>,
@@ -192,9 +191,8 @@ pub enum Fault {
         /// `refuse_reason` after it.
         reason: u8,
     },
-    /// A refused row changed what the device does: the Actuation of this tick after the
-    /// row's frame (`Some(0)` the frame's own tick), or (`None`) a counter, differs from
-    /// the nominal run's.
+    /// A refused row changed what the device does: this tick's Actuation after the row's
+    /// frame (`Some(0)`: its own tick) or (`None`) a counter differs from the nominal run's.
     Changed {
         /// The tick (`None`: the Status).
         tick: Option<usize>,
@@ -243,8 +241,7 @@ impl fmt::Display for Fault {
     }
 }
 
-/// An Actuation as compared with another run's: the echoed `seq`, the flags but
-/// `CMD_REFUSED`, the outputs (not the tick count since boot, nor the measured time).
+/// An Actuation as compared: echoed `seq`, flags but `CMD_REFUSED`, the outputs.
 pub fn outputs(a: &Actuation) -> (u16, u16, i32, i32) {
     (
         a.seq_echo,
@@ -254,9 +251,8 @@ pub fn outputs(a: &Actuation) -> (u16, u16, i32, i32) {
     )
 }
 
-/// A Status as compared with another run's: without the refusal (judged on its own),
-/// the flag `CMD_REFUSED`, and what the board measures of itself (boot record, stack,
-/// late and missed ticks, receive overrun, dropped transmissions).
+/// A Status as compared: without the refusal, `CMD_REFUSED`, and what the board measures
+/// of itself (boot record, stack, timing, overruns, dropped frames).
 pub fn counters(s: &Status) -> Status {
     Status {
         cmd_refused: 0,
@@ -273,7 +269,7 @@ pub fn counters(s: &Status) -> Status {
     }
 }
 
-/// Judges one row's trace against the nominal run's (module docs, "One row").
+/// Judges one row's trace against the nominal run's (module docs).
 pub fn judge(expect: Expect, trace: &Trace, nominal: &Trace) -> Result<(), Fault> {
     if counters(&trace.s0) != counters(&nominal.s0)
         || trace.s0.cmd_refused != 0

@@ -3,28 +3,14 @@
 use crate::frame::{check, message, request, FrameError, Request, MAX_FRAME};
 use crate::message::Message;
 
-/// Longest frame (encoded, delimiter excluded) that is decoded; longer ones are
-/// [`FrameError::Length`].
+/// Longest encoded frame (delimiter excluded) decoded; longer ones are [`FrameError::Length`].
 const LIMIT: usize = MAX_FRAME - 1;
 
 /// The result of a frame a call closed: `None` when it closed none.
 type Next<'b, M> = (Option<Result<M, FrameError>>, &'b [u8]);
 
-/// Collects the bytes up to each 0x00 delimiter in a fixed buffer and decodes the frame
-/// there: COBS in place (the `cobs` crate), then length, CRC and version, then the
-/// message (postcard).
-///
-/// - Empty frames (repeated delimiters) are skipped silently: a sender may put a 0x00
-///   before a frame to resynchronise the receiver.
-/// - A frame longer than [`MAX_FRAME`] is discarded up to the next delimiter and
-///   reported once as [`FrameError::Length`]: the decoder resynchronises on 0x00.
-/// - Never panics, never allocates.
-///
-/// The device takes its requests with [`Self::next_request`], the host its replies with
-/// [`Self::next_message`]: the same bytes-handling, then the messages each side takes.
-/// Both take any chunk of bytes and return the bytes after the frame they closed; the
-/// result does not depend on how the bytes were cut into chunks (tested:
-/// `tests/stream.rs`).
+/// Collects the bytes up to each 0x00 in a fixed buffer and decodes the frame there;
+/// empty frames are skipped, an over-long one reported once as [`FrameError::Length`].
 ///
 /// ```
 /// use wheelset_proto::{encode_vec, Command, Decoder, Message};
@@ -71,26 +57,17 @@ impl Decoder {
         self.enc.min(MAX_FRAME)
     }
 
-    /// The host's decoder. Takes `bytes` up to and including the first delimiter: returns
-    /// the frame's result if that closed one and the bytes not yet taken. A caller loops
-    /// until the rest is empty, and may use its own state between frames (the bytes each
-    /// frame took on the wire, say).
+    /// The host's decoder: `bytes` up to the first delimiter; that frame's result, and the rest.
     pub fn next_message<'b>(&mut self, bytes: &'b [u8]) -> Next<'b, Message> {
         self.next_with(bytes, message)
     }
 
-    /// The device's decoder: [`Self::next_message`]'s bytes-handling, and only the
-    /// messages the device takes decoded ([`Request`]: the device -> host types
-    /// recognised by their type byte only). The same accept/reject decisions as
-    /// [`Self::next_message`] (tested on arbitrary byte strings).
+    /// The device's decoder: the same decisions, decoding only what the device takes.
     pub fn next_request<'b>(&mut self, bytes: &'b [u8]) -> Next<'b, Request> {
         self.next_with(bytes, request)
     }
 
-    /// The bytes up to and including the next delimiter (or all of them) into the
-    /// buffer; at a delimiter the frame's result, decisions in this order: length, COBS
-    /// (a block cut short by the delimiter; the `cobs` crate, in place), then [`check`]
-    /// (length, CRC, version), then `decode` (the message, no bytes left over).
+    /// The bytes up to the next delimiter; at a delimiter the frame's result.
     fn next_with<'b, M>(
         &mut self,
         bytes: &'b [u8],
@@ -108,7 +85,6 @@ impl Decoder {
                 to.copy_from_slice(data);
             }
         }
-        // No delimiter: every byte taken, the frame still open.
         let Some(rest) = rest else {
             return (None, &[]);
         };

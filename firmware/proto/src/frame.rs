@@ -1,6 +1,4 @@
-//! Framing: `COBS( VERSION | postcard(Message) | CRC-32C LE ) 0x00`, with `postcard`,
-//! the `cobs` crate and the `crc` crate; the one encoder and the checks of a received
-//! frame, in the order of [`FrameError`]'s decisions.
+//! Framing, `COBS( VERSION | postcard(Message) | CRC-32C LE ) 0x00`: the encoder and the checks.
 
 use serde::de::DeserializeOwned;
 
@@ -12,31 +10,17 @@ pub const VERSION: u8 = 3;
 /// CRC length in bytes.
 pub const CRC_LEN: usize = 4;
 
-/// Largest `VERSION | postcard(Message)` (the [`crate::Status`] with every counter at
-/// `u32::MAX` and every flag set: 1 + 1 + 30 * 5 + 1 + 1 + 3 = 157, pinned by the
-/// `sizes` test), rounded up so that [`MAX_FRAME`] is a multiple of 4.
+/// Largest `VERSION | postcard(Message)` (157), rounded up: [`MAX_FRAME`] a multiple of 4.
 pub const MAX_RAW: usize = 158;
 
-/// Largest COBS-encoded frame including the 0x00 delimiter:
-/// `MAX_RAW + CRC_LEN` bytes need one COBS overhead byte per 254 (here 1).
+/// Largest COBS-encoded frame with its delimiter (one COBS overhead byte per 254).
 pub const MAX_FRAME: usize = MAX_RAW + CRC_LEN + 1 + 1;
 
 /// Shortest valid decoded frame: version, type, CRC.
 pub const MIN_DECODED: usize = 1 + 1 + CRC_LEN;
 
-/// The frame CRC: CRC-32C (Castagnoli, `crc::CRC_32_ISCSI`: reflected, init and final
-/// XOR `0xFFFF_FFFF`), stored little-endian; the `crc` crate's byte-wise table (1 KiB of
-/// flash), the same function on the host and on the device.
-///
-/// Why 32 bits: a 1- or 2-bit flip inside COBS data bytes is a 1- or 2-bit error of the
-/// payload, which any CRC with Hamming distance >= 3 rejects. But a flip in a COBS code
-/// byte, or one that creates or destroys a 0x00 delimiter, moves zeros around or
-/// splits/merges frames: the decoded payload then differs in many bits, and a CRC
-/// rejects it only with probability `1 - 2^-n`. The share of corruptions that reach the
-/// CRC scrambled is measured by `cargo test -p wheelset-proto --test flips --
-/// --nocapture`; at 2 x 2000 frames/s a 16-bit CRC would pass one of them every few
-/// hours of a bad link, CRC-32C one in years, for two more bytes per frame.
-/// Castagnoli's polynomial keeps Hamming distance 6 at these lengths.
+/// The frame CRC: CRC-32C, little-endian. 32 bits: a flip in a COBS code byte scrambles
+/// the payload, which an `n`-bit CRC passes with probability `2^-n` (the `flips` test).
 pub static CRC: crc::Crc<u32, crc::Table<1>> =
     crc::Crc::<u32, crc::Table<1>>::new(&crc::CRC_32_ISCSI);
 
@@ -48,8 +32,7 @@ pub(crate) const COMMAND: u32 = 3;
 pub(crate) const STATUS: u32 = 4;
 /// [`crate::Command`] variants this version defines (indices `0..COMMANDS`).
 pub(crate) const COMMANDS: u32 = 5;
-/// [`crate::YawMode`] variants (the first field of a [`crate::Config`]), indices
-/// `0..YAW_MODES`.
+/// [`crate::YawMode`] variants (a [`crate::Config`]'s first field), indices `0..YAW_MODES`.
 pub(crate) const YAW_MODES: u32 = 3;
 
 /// Why a frame was rejected.
@@ -69,8 +52,7 @@ pub enum FrameError {
 }
 
 impl FrameError {
-    /// Every kind, in the order of [`Self::index`] and of the Status's rejection counters
-    /// (`rx_crc`, `rx_cobs`, `rx_version`, `rx_length`, `rx_postcard`).
+    /// Every kind, in the order of [`Self::index`] and of the Status's `rx_*` counters.
     pub const KINDS: [FrameError; 5] = [
         Self::Crc,
         Self::Cobs,
@@ -118,9 +100,7 @@ impl core::fmt::Display for EncodeError {
 #[cfg(feature = "std")]
 impl std::error::Error for EncodeError {}
 
-/// The encoder: `msg` as one wire frame, delimiter included, into `out`; returns its
-/// length. Every message fits [`MAX_FRAME`] (tested); a shorter `out` than the frame is
-/// [`EncodeError::BufferTooSmall`].
+/// `msg` as one wire frame, delimiter included, into `out`; its length.
 pub fn encode(msg: &Message, out: &mut [u8]) -> Result<usize, EncodeError> {
     let area = out.len().min(1 + MAX_RAW);
     let n = encode_raw(
@@ -130,8 +110,7 @@ pub fn encode(msg: &Message, out: &mut [u8]) -> Result<usize, EncodeError> {
     seal(out, n)
 }
 
-/// The first half of [`encode`]: `VERSION | postcard(msg)` into `out`; returns its
-/// length.
+/// The first half of [`encode`]: `VERSION | postcard(msg)` into `out`; its length.
 pub fn encode_raw(msg: &Message, out: &mut [u8]) -> Result<usize, EncodeError> {
     let (version, body) = out.split_first_mut().ok_or(EncodeError::BufferTooSmall)?;
     *version = VERSION;
@@ -141,9 +120,7 @@ pub fn encode_raw(msg: &Message, out: &mut [u8]) -> Result<usize, EncodeError> {
     Ok(1 + n)
 }
 
-/// [`encode`] of raw bytes (`VERSION | body`, at most [`MAX_RAW`]; a test's or a
-/// client's own frame): `COBS(raw | CRC-32C(raw) LE) 0x00` into `out`; returns its
-/// length.
+/// [`encode`] of raw bytes (`VERSION | body`, at most [`MAX_RAW`]) into `out`; its length.
 pub fn frame_raw(raw: &[u8], out: &mut [u8]) -> Result<usize, EncodeError> {
     let too_small = EncodeError::BufferTooSmall;
     if raw.len() > MAX_RAW {
@@ -155,13 +132,7 @@ pub fn frame_raw(raw: &[u8], out: &mut [u8]) -> Result<usize, EncodeError> {
     seal(out, raw.len())
 }
 
-/// The frame around the raw bytes `out[1..=n]`: their CRC after them, COBS, the
-/// delimiter; returns the frame's length.
-///
-/// COBS in place with the `cobs` crate's encoder state machine: raw byte `k` already
-/// lies at `out[k + 1]`, where COBS puts it as long as no block reaches 254 bytes (a
-/// frame has at most `MAX_RAW + CRC_LEN` < 254), so the encoding only writes the code
-/// bytes, at `out[0]` and over each 0x00.
+/// The frame around the raw bytes `out[1..=n]` (CRC, COBS in place, delimiter); its length.
 fn seal(out: &mut [u8], n: usize) -> Result<usize, EncodeError> {
     let too_small = EncodeError::BufferTooSmall;
     let with_crc = n + CRC_LEN;
@@ -189,8 +160,7 @@ fn seal(out: &mut [u8], n: usize) -> Result<usize, EncodeError> {
     Ok(with_crc + 2)
 }
 
-/// The host's form of [`encode`]: `msg` as one wire frame, delimiter included, in a
-/// fixed-capacity vector (no allocation).
+/// The host's [`encode`] into a fixed-capacity vector (no allocation).
 ///
 /// ```
 /// use wheelset_proto::{encode_vec, Command, Message};
@@ -205,8 +175,7 @@ pub fn encode_vec(msg: &Message) -> Result<heapless::Vec<u8, MAX_FRAME>, EncodeE
         .map_err(|_| EncodeError::BufferTooSmall)
 }
 
-/// Checks a COBS-decoded frame's length, CRC and version; returns the message bytes
-/// (type first).
+/// Checks a COBS-decoded frame's length, CRC and version; the message bytes (type first).
 pub(crate) fn check(frame: &[u8]) -> Result<&[u8], FrameError> {
     let n = frame.len();
     if n < MIN_DECODED {
@@ -236,9 +205,7 @@ pub(crate) fn message(msg: &[u8]) -> Result<Message, FrameError> {
     whole(msg)
 }
 
-/// What the device takes from a frame: the host -> device messages. Frames of the
-/// device -> host types ([`Message::Actuation`], [`Message::Status`]) are recognised by
-/// their type byte and not decoded further ([`Request::Unexpected`]).
+/// What the device takes from a frame; Actuation and Status are known by type byte only.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Request {
     /// [`Message::Sensor`].
@@ -247,19 +214,13 @@ pub enum Request {
     Config(crate::Config),
     /// [`Message::Command`].
     Command(crate::Command),
-    /// A frame with a valid CRC and version whose type is one the device sends, not
-    /// takes (Actuation, Status); its body is not checked.
+    /// A valid frame of a type the device sends, not takes; its body is not checked.
     Unexpected,
-    /// A Command whose variant index, or a Config whose `mode` index, this version does
-    /// not define (the body's leading varint, in any of its forms, at or above the
-    /// defined count; the rest is not checked; a malformed varint is a decoding error):
-    /// the device refuses it as an unknown request (`CMD_REFUSED`,
-    /// [`crate::RefuseReason::UnknownRequest`]), not as a decoding error.
+    /// A Command or Config `mode` index this version does not define (an unknown request).
     Unknown,
 }
 
-/// The device's reading of a checked frame's message bytes: the message type (a
-/// varint), then the messages it takes; only their decoders are linked.
+/// The device's reading of a checked frame: only the decoders of what it takes are linked.
 pub(crate) fn request(msg: &[u8]) -> Result<Request, FrameError> {
     let (ty, body) = postcard::take_from_bytes::<u32>(msg).map_err(|_| FrameError::Postcard)?;
     // postcard writes an enum as its variant index (a varint), then the variant.

@@ -1,34 +1,12 @@
-//! The link budget: the one definition of "the frames of one tick fit the period".
-//!
-//! A lock-step exchange sends the Sensor frame up, the device ticks, the Actuation frame
-//! comes down, all within one base period `T = 1/rate`:
+//! The link budget: whether the frames of one tick fit the period (lock-step), or
+//! pipelined over `d` ticks ([`link_fits_delayed`]); `latency_ns` one way:
 //!
 //! ```text
 //! needed  = ceil((up + down) bytes x BITS_PER_BYTE / baud)  + 2 latency     (ns)
 //! allowed = share x T = share_permille / 1000 x 1e9 / rate_hz               (ns)
-//! fits    <=> needed <= allowed
+//! lock-step:  needed <= allowed
+//! pipelined:  ceil(max(up, down) bytes x BITS_PER_BYTE / baud) <= share x T,  needed <= share x d T
 //! ```
-//!
-//! A link slower than one period (a USB-serial bridge: about 1 ms each way) pipelines
-//! the exchange over `d` ticks of delay: the host sends each Sensor frame without waiting
-//! for the previous Actuation and applies each Actuation exactly `d` periods after its
-//! sample. Each direction must then carry one period's frame within the period, and the
-//! round trip must fit the delay ([`link_fits_delayed`]; `d = 1` is the equation above):
-//!
-//! ```text
-//! ceil(max(up, down) bytes x BITS_PER_BYTE / baud)  <= share x T
-//! needed                                            <= share x d T
-//! ```
-//!
-//! `latency_ns` is the one-way latency of the link (UART FIFO, DMA hand-off, USB, the
-//! device's turnaround); the share leaves the rest of the period as margin for the
-//! device's execution time and jitter. Two shares are stated here, once:
-//! [`LINK_SHARE_MAX_PERMILLE`] (85 %, above it a configuration is refused) and
-//! [`LINK_SHARE_WARN_PERMILLE`] (70 %, the design target the rate table sizes the baud
-//! for; above it a check warns).
-//!
-//! Integer arithmetic only (exact, `u128` intermediates) and `const fn`, so a board
-//! build asserts its own link at compile time:
 //!
 //! ```
 //! use wheelset_proto::link::{link_fits, LINK_SHARE_MAX_PERMILLE};
@@ -42,12 +20,10 @@
 /// Bits on the line per byte: start, 8 data, stop (8N1).
 pub const BITS_PER_BYTE: u64 = 10;
 
-/// The largest share of the period the round trip may take (85 %): above it a
-/// configuration is refused.
+/// The largest share of the period the round trip may take (85 %); above it, refused.
 pub const LINK_SHARE_MAX_PERMILLE: u32 = 850;
 
-/// The design target (70 %): the rate table sizes the baud for it, and a measured
-/// utilisation above it is a warning.
+/// The design target (70 %): the rate table sizes the baud for it; above it, a warning.
 pub const LINK_SHARE_WARN_PERMILLE: u32 = 700;
 
 const NS_PER_S: u128 = 1_000_000_000;
@@ -64,8 +40,7 @@ pub enum LinkError {
     Share,
     /// The delay is zero ticks.
     ZeroDelay,
-    /// The round trip does not fit (or, pipelined, one direction's frame does not fit
-    /// its period: then `needed_ns` is that frame's time on the line).
+    /// The round trip (pipelined: or one direction's frame) does not fit.
     TooSlow {
         /// Round-trip time needed, ns.
         needed_ns: u64,
@@ -96,8 +71,7 @@ impl core::fmt::Display for LinkError {
 #[cfg(feature = "std")]
 impl std::error::Error for LinkError {}
 
-/// Time on the line for `bytes` at `baud`, ns, rounded up:
-/// `ceil(bytes x BITS_PER_BYTE x 1e9 / baud)` (`u64::MAX` for baud 0, saturating).
+/// Time on the line, ns: `ceil(bytes x BITS_PER_BYTE x 1e9 / baud)` (saturating; baud 0: max).
 #[must_use]
 pub const fn wire_ns(bytes: u64, baud: u32) -> u64 {
     if baud == 0 {
@@ -112,15 +86,13 @@ pub const fn wire_ns(bytes: u64, baud: u32) -> u64 {
     }
 }
 
-/// The round trip of one tick, ns: `wire_ns(up + down, baud) + 2 latency_ns`
-/// (saturating).
+/// The round trip of one tick, ns: `wire_ns(up + down, baud) + 2 latency_ns` (saturating).
 #[must_use]
 pub const fn round_trip_ns(baud: u32, up_bytes: u32, down_bytes: u32, latency_ns: u64) -> u64 {
     wire_ns(up_bytes as u64 + down_bytes as u64, baud).saturating_add(latency_ns.saturating_mul(2))
 }
 
-/// The share of the period allowed, ns: `floor(share_permille x 1e6 / rate_hz)`
-/// (0 for rate 0).
+/// The share of the period allowed, ns: `floor(share_permille x 1e6 / rate_hz)` (0 for rate 0).
 #[must_use]
 pub const fn allowed_ns(rate_hz: u32, share_permille: u32) -> u64 {
     if rate_hz == 0 {
@@ -129,11 +101,7 @@ pub const fn allowed_ns(rate_hz: u32, share_permille: u32) -> u64 {
     (share_permille as u128 * 1_000_000 / rate_hz as u128) as u64
 }
 
-/// Whether the frames of one tick (`up_bytes` host -> device, `down_bytes` back) plus
-/// twice the one-way `latency_ns` fit `share_permille` of the period at `rate_hz` on a
-/// `baud` link (see the module docs for the equation). Returns the round-trip time, ns.
-///
-/// The comparison is exact: `needed x rate x 1000 <= share x 1e9`.
+/// Whether one tick fits (exact: `needed x rate x 1000 <= share x 1e9`); the round trip, ns.
 pub const fn link_fits(
     rate_hz: u32,
     baud: u32,
@@ -153,9 +121,7 @@ pub const fn link_fits(
     )
 }
 
-/// [`link_fits`] for an exchange pipelined over `delay_ticks` periods (module docs):
-/// each direction's frame within `share` of a period, the round trip within `share` of
-/// `delay_ticks` periods. Returns the round-trip time, ns. One tick is [`link_fits`].
+/// [`link_fits`] pipelined over `delay_ticks` periods (module docs); the round-trip time, ns.
 pub const fn link_fits_delayed(
     rate_hz: u32,
     baud: u32,
@@ -190,7 +156,6 @@ pub const fn link_fits_delayed(
             allowed_ns: allowed_ns(rate_hz, share_permille).saturating_mul(delay_ticks as u64),
         });
     }
-    // (Implied by the round trip for one tick.)
     let one_way = wire_ns(larger as u64, baud);
     if one_way as u128 * rate_hz as u128 * 1000 > share {
         return Err(LinkError::TooSlow {
@@ -201,8 +166,7 @@ pub const fn link_fits_delayed(
     Ok(needed_ns)
 }
 
-/// The highest rate, Hz, at which the exchange fits ([`link_fits`]); 0 if none does
-/// (baud 0, share invalid, or the latency alone takes more than the share of a second).
+/// The highest rate, Hz, at which [`link_fits`] holds; 0 if none.
 #[must_use]
 pub const fn max_rate_hz(
     baud: u32,
@@ -227,9 +191,7 @@ pub const fn max_rate_hz(
     }
 }
 
-/// The lowest baud at which the exchange fits at `rate_hz` ([`link_fits`]); `None` if no
-/// baud does (the latency alone takes the share, rate 0, share invalid, or above
-/// `u32::MAX` baud).
+/// The lowest baud at which [`link_fits`] holds at `rate_hz`, if any within `u32`.
 #[must_use]
 pub const fn min_baud(
     rate_hz: u32,
@@ -249,8 +211,7 @@ pub const fn min_baud(
     }
     let avail = budget - lat;
     let bits = (up_bytes as u128 + down_bytes as u128) * BITS_PER_BYTE as u128;
-    // wire_ns(bits, baud) x 1000 rate <= avail  <=  bits x 1e9 x 1000 rate / baud <= avail
-    // (plus the rounding of wire_ns: search upward from the real-valued bound).
+    // wire_ns(bits, baud) x 1000 rate <= avail: search upward from the real-valued bound.
     let mut baud = (bits * NS_PER_S * 1000 * rate_hz as u128).div_ceil(avail);
     if baud == 0 {
         baud = 1;

@@ -1,18 +1,13 @@
-//! The messages. Every physical field is an integer count of the LSB stated in
-//! [`crate::units`]; the field name carries the unit.
+//! The messages; every physical field is an integer count of its [`crate::units`] LSB.
 
-/// The lateral measurement of the wheelset, relative to the track (so it is zero on a
-/// constant curve): velocity `y'`, acceleration `y''`, or both. Positive towards +y
-/// (right, the outer rail of the left-hand `curve`). Wire index: `Velocity` 0,
-/// `Acceleration` 1, `Both` 2.
+/// The lateral measurement relative to the track: `y'`, `y''` or both; + towards +y (right).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum Lateral {
     /// `y'` in um/s ([`crate::units::LAT_VEL_LSB_M_PER_S`]).
     Velocity(i32),
     /// `y''` in 0.1 mm/s^2 ([`crate::units::LAT_ACC_LSB_M_PER_S2`]); the device integrates.
     Acceleration(i32),
-    /// Both: the device runs a complementary filter of the two (crossover at the `y''`
-    /// wash-out, `wheelset_runtime` crate docs).
+    /// Both: the device runs a complementary filter of the two (`wheelset_runtime` crate docs).
     Both {
         /// `y'` in um/s.
         vel_um_s: i32,
@@ -38,26 +33,13 @@ pub struct Sensor {
     pub omega_m_mrad_s: i32,
     /// Traction demand as wheel torque `n K_m i_ref` in N m (0: none).
     pub demand_nm: i32,
-    /// Vehicle reference speed `v` in mm/s ([`crate::units::V_REF_LSB_M_PER_S`]),
-    /// positive forwards, from a source independent of this wheelset's drive (the
-    /// train's speed estimate): what the wheel-slip protection compares the wheel's
-    /// circumferential speed with.
-    ///
-    /// **0 means unknown** (a speed estimate that dropped out). While it is unknown the
-    /// protection neither detects nor regulates: no [`Flags::WHEEL_SLIP`], no cut,
-    /// whatever the wheel's speed; a cut in force when the reference drops out is handed
-    /// back at the current reference's normal slew (no step), flagged until it is.
-    /// Detecting by the wheel's acceleration alone is not done: the drive's own gear
-    /// transients exceed its threshold on a wheel that does not slip
-    /// (`wheelset_control::wsp`, "An unknown reference"). So a vehicle *known* to stand
-    /// is sent as 1 mm/s (the protection then acts as at any known speed: 1 mm/s is far
-    /// below its thresholds of 0.06 and 0.25 m/s), and 0 only when the speed is not known.
+    /// Vehicle reference speed `v` in mm/s, + forwards, from a source independent of this
+    /// drive; **0 means unknown** (no slip protection), so a standing vehicle is sent as 1.
     pub v_ref_mm_s: i32,
 }
 
 impl Sensor {
-    /// Every field zero, the lateral channel a velocity: a receiver's buffer before the
-    /// first frame, and the base of a test's `Sensor { seq: 1, ..Sensor::ZERO }`.
+    /// Every field zero, the lateral a velocity: a buffer before the first frame, a test's base.
     pub const ZERO: Self = Self {
         seq: 0,
         t_us: 0,
@@ -69,61 +51,38 @@ impl Sensor {
     };
 }
 
-/// Status and fault flags carried in every [`Actuation`] and [`Status`] (bit set = true).
-/// 16 bits, a postcard varint on the wire (1 byte while only bits 0-6 are set, 2 up to
-/// bit 13, 3 above).
+/// Status and fault flags (bit set = true); 16 bits, a postcard varint.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(transparent)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Flags(pub u16);
 
 impl Flags {
-    /// Bit 0. Outputs enabled (a [`Config`] with `enable = true` was applied, or the
-    /// default).
+    /// Bit 0. Outputs enabled (a [`Config`] with `enable = true`, or the default).
     pub const ENABLED: u16 = 1 << 0;
-    /// Bit 1. This tick ran on a held sample: no new valid sensor frame since the last
-    /// tick (in the safe state too; `held_ticks` counts these ticks).
+    /// Bit 1. This tick ran on a held sample: no new valid sensor frame since the last tick.
     pub const HOLDING: u16 = 1 << 1;
-    /// Bit 2. The safe state is active: yaw torque ramping to / held at zero, traction
-    /// demand zero.
+    /// Bit 2. Safe state: yaw torque ramping to / held at zero, traction demand zero.
     pub const SAFE: u16 = 1 << 2;
-    /// Bit 3. At least one frame was rejected (CRC, COBS, version, length, postcard)
-    /// since the previous actuation frame.
+    /// Bit 3. A frame was rejected since the previous actuation frame.
     pub const RX_ERROR: u16 = 1 << 3;
-    /// Bit 4. The yaw torque was limited this tick: by the fixed limit, or by the
-    /// safe-state / recovery ramp of the limit.
+    /// Bit 4. The yaw torque was limited this tick (fixed limit or the safe-state ramp).
     pub const YAW_SAT: u16 = 1 << 4;
     /// Bit 5. The traction loop (voltage) saturated this tick.
     pub const TRACTION_SAT: u16 = 1 << 5;
-    /// Bit 6. No valid sensor frame since start or the last reset: outputs are the safe
-    /// outputs.
+    /// Bit 6. No valid sensor frame since start or reset: the outputs are the safe outputs.
     pub const NO_SAMPLE: u16 = 1 << 6;
-    /// Bit 7. The latest [`Config`] or [`Command`] the device took before this tick was
-    /// refused (the reason in [`Status::refuse_reason`]); an accepted one clears it.
-    /// [`Command::RequestStatus`] leaves it as it is (a read does not change what it
-    /// reads: a Config and a request for the Status in one tick show the Config's
-    /// verdict in both frames).
+    /// Bit 7. The latest Config or Command was refused (a `RequestStatus` leaves it).
     pub const CMD_REFUSED: u16 = 1 << 7;
-    /// Bit 8. The wheel-slip protection acts this tick (`Config.wsp` on): it holds the
-    /// traction current reference below the demand's, from a slip detected against the
-    /// Sensor's `v_ref_mm_s` until its release (or, once the reference became unknown,
-    /// until the reference is handed back: [`Sensor::v_ref_mm_s`]).
+    /// Bit 8. The wheel-slip protection holds the current reference below the demand's.
     pub const WHEEL_SLIP: u16 = 1 << 8;
-    /// Bit 9. The stability monitor's hunting alarm is raised (band-passed `y'` RMS above
-    /// its threshold).
+    /// Bit 9. The monitor's hunting alarm (band-passed `y'` RMS above its threshold).
     pub const HUNTING: u16 = 1 << 9;
-    /// Bit 10. The stability monitor's actuator alarm is raised (the commanded yaw torque
-    /// has no effect on the measured motion, or the actuator reports a fault).
+    /// Bit 10. The monitor's actuator alarm (the torque has no effect, or a reported fault).
     pub const ACTUATOR_FAULT: u16 = 1 << 10;
-    /// Bit 11. Sticky: an alarm (bits 9-10, 12) or a watchdog / fault reset happened since
-    /// start-up or the last [`Command::ClearFaults`]. After such a reset the device also
-    /// holds the safe state ([`Flags::SAFE`], zero torque from the first tick) until
-    /// `ClearFaults`.
+    /// Bit 11. Sticky: an alarm or a watchdog / fault reset since [`Command::ClearFaults`].
     pub const FAULT_LATCHED: u16 = 1 << 11;
-    /// Bit 12. The drive check's alarm is raised: the traction current loop oscillates
-    /// (the RMS of the current error's step-to-step ripple stayed above its threshold,
-    /// `wheelset_control::monitor`, the drive check): a current-loop limit cycle, not a
-    /// fault of the yaw actuator.
+    /// Bit 12. The drive check's alarm: the traction current loop oscillates.
     pub const DRIVE_OSC: u16 = 1 << 12;
 
     /// Whether every bit of `mask` is set.
@@ -160,9 +119,7 @@ pub struct Actuation {
     pub u_a_cv: i32,
 }
 
-/// Yaw damping law selected on the device; the control core's own enum
-/// (`wheelset_control::YawMode` is this type). Wire index: `Passive` 0, `Gain` 1,
-/// `Lead` 2; another index is an unknown request (refused, not a decoding error).
+/// Yaw damping law (the control core's own enum); another index is an unknown request.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum YawMode {
@@ -175,8 +132,7 @@ pub enum YawMode {
     Lead = 2,
 }
 
-/// Host -> device: configuration. Applied at the next tick if valid, refused (and
-/// counted, [`Flags::CMD_REFUSED`]) otherwise; the previous configuration stays.
+/// Host -> device: configuration, applied at the next tick if valid, else refused whole.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Config {
     /// Yaw damping law.
@@ -187,36 +143,20 @@ pub struct Config {
     pub enable: bool,
     /// Ticks a missing sensor frame is bridged by the held sample before the safe state.
     pub hold_ticks: u16,
-    /// Wheel-slip protection on: the traction torque is reduced while the wheel slips
-    /// against the Sensor's `v_ref_mm_s` ([`Flags::WHEEL_SLIP`]; idle while that is 0,
-    /// unknown). A device boots with it on.
+    /// Wheel-slip protection on ([`Flags::WHEEL_SLIP`]; idle while `v_ref_mm_s` is 0). On at boot.
     pub wsp: bool,
-    /// A stability alarm ([`Flags::HUNTING`], [`Flags::ACTUATOR_FAULT`]) enters the safe
-    /// state and keeps it until [`Command::ClearFaults`]; off: the alarm is only reported.
-    /// A device boots with it off: the safe state's zero yaw torque leaves a wheelset
-    /// whose yaw spring the actuator replaces with neither (`wheelset_runtime`'s
-    /// `RuntimeConfig`, "The device's boot defaults").
+    /// A stability alarm holds the safe state until [`Command::ClearFaults`]; off: only reported.
     pub monitor_safe: bool,
-    /// New rates with their coefficients (the control core restarts on them); `None`
-    /// keeps the rates.
+    /// New rates with their coefficients (the core restarts on them); `None` keeps the rates.
     pub rates: Option<Rates>,
 }
 
-/// Rates and the coefficients designed for them and the delay, of the control core and
-/// the runtime, as exact bit patterns, computed by the host with the device's own
-/// control code (`wheelset_runtime::rates_for` on a `RuntimeConfig::designed`): the
-/// device does no discretisation; it accepts exactly the designs of its own table
-/// (`wheelset_control::design::DESIGNED`), bit for bit, and applies them.
-///
-/// A coefficient or per-unit signal is the bit pattern of the device's sample type
-/// (`numeric`): fixed point (0) Q1.31 / Q4.28 `i32` bits, `f32` (1) IEEE bits.
+/// Rates and their designed coefficients as exact bits (`wheelset_runtime::rates_for`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Rates {
     /// The device's sample type: 0 fixed point, 1 `f32`; another is refused.
     pub numeric: u8,
-    /// Fingerprint of the rate-independent part of the control core these coefficients
-    /// were computed against (`wheelset_control::CompiledBits::fingerprint`); a
-    /// mismatch is refused.
+    /// Fingerprint of the core's rate-independent part; a mismatch is refused.
     #[serde(with = "postcard::fixint::le")]
     pub fingerprint: u32,
     /// Base (tick) rate in Hz.
@@ -225,15 +165,13 @@ pub struct Rates {
     pub yaw_div: u16,
     /// Traction loop runs every `traction_div` base ticks.
     pub traction_div: u16,
-    /// Ticks from a Sensor frame's sampling to the application of its Actuation that
-    /// the gains are designed for (1: the reply is back before the next tick).
+    /// Ticks from sampling to actuation the gains are designed for (1: reply before the next tick).
     pub delay_ticks: u8,
     /// Lead `kappa` at the yaw period (coefficient bits).
     pub kappa: u32,
     /// Lead `K_hf` designed for the rate and delay (coefficient bits).
     pub lead_k_hf: u32,
-    /// The wheel-slip protection's scheduled lead gain, which follows `K_hf`
-    /// (coefficient bits).
+    /// The wheel-slip protection's scheduled lead gain (coefficient bits).
     pub wsp_lead_k_hf: u32,
     /// PI `Kp` designed for the rate and delay (coefficient bits).
     pub kp: u32,
@@ -249,8 +187,7 @@ pub struct Rates {
     pub iref_safe_step: u32,
     /// Safe-state torque-limit ramp per yaw step (per-unit signal bits).
     pub torque_step: u32,
-    /// `y''` integrator: `T` in Q32 (um/s per 0.1 mm/s^2 code per tick), `<= 2^32`
-    /// (fixed 8 bytes: shorter than a varint's worst case, and simpler to read).
+    /// `y''` integrator: `T` in Q32 (um/s per 0.1 mm/s^2 code per tick), `<= 2^32`, fixed 8 bytes.
     #[serde(with = "postcard::fixint::le")]
     pub acc_gain_q32: u64,
     /// `y''` integrator wash-out `T/tau` in Q32, `<= 2^32` (0: none; fixed 8 bytes).
@@ -265,40 +202,22 @@ pub enum Command {
     ResetCounters,
     /// Send a [`Status`] frame (after the next actuation frame).
     RequestStatus,
-    /// Clear [`Flags::FAULT_LATCHED`] and leave a safe state held by a stability alarm
-    /// (`Config.monitor_safe`) or by the boot after a watchdog or fault reset: the host's
-    /// acknowledgement after it has acted.
+    /// Clear [`Flags::FAULT_LATCHED`] and leave a safe state held by an alarm or a fault reset.
     ClearFaults,
-    /// Test only (index 3): stall the control task (it loops without letting the
-    /// watchdog be fed) so the watchdog resets the board. Honoured only by a firmware
-    /// built with the `fault-inject` feature whose board runs a watchdog (the
-    /// free-running QEMU build, `wheelset-qemu-free.elf`); refused elsewhere with
-    /// `RefuseReason::Unsupported`, the lock-step QEMU build included (no watchdog
-    /// there: the stall would never end). A new index and no new field: `VERSION` stays
-    /// 2, and a device without it refuses it as an unknown request.
+    /// Test only (index 3): stall the control task so the watchdog resets the board.
     InjectStall,
-    /// Test only (index 4): trigger a HardFault, whose handler drives the safe outputs
-    /// and resets the board. Honoured by a `fault-inject` firmware (both QEMU builds: no
-    /// watchdog needed), refused elsewhere as [`Command::InjectStall`].
+    /// Test only (index 4): trigger a HardFault (safe outputs, reset); `fault-inject` QEMU builds.
     InjectHardFault,
 }
 
-/// Device -> host, on request: the counters (all wrap at 2^32).
-///
-/// Accounting identity (receive side): every frame the device's decoder delimits (bytes
-/// between two 0x00, empty ones ignored) counts in exactly one of `rx_ok`,
-/// `rx_unexpected`, `rx_crc`, `rx_cobs`, `rx_version`, `rx_length`, `rx_postcard`; so a
-/// host that sent `n` frames over a clean link reads `n` as their sum. `cmd_refused`
-/// counts the refused Configs and Commands among `rx_ok` (unknown requests included);
-/// `held_ticks` counts the ticks flagged [`Flags::HOLDING`], `safe_ticks` those flagged
-/// [`Flags::SAFE`], `yaw_sat` those flagged [`Flags::YAW_SAT`].
+/// Device -> host, on request: the counters (wrapping); each delimited frame counts in
+/// exactly one of `rx_ok`, `rx_unexpected` and the five `rx_*` errors.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Status {
     /// Base-rate ticks run.
     pub ticks: u32,
-    /// Valid frames of a type the device takes (Sensor, Config, Command; refused ones
-    /// included).
+    /// Valid frames of a type the device takes (refused ones included).
     pub rx_ok: u32,
     /// Frames rejected: CRC mismatch.
     pub rx_crc: u32,
@@ -310,8 +229,7 @@ pub struct Status {
     pub rx_length: u32,
     /// Frames rejected: postcard could not decode the message.
     pub rx_postcard: u32,
-    /// Frames (CRC and version valid) of a type the device does not accept (an Actuation
-    /// or a Status; their bodies are not decoded); not also in `rx_ok`.
+    /// Valid frames of a type the device does not take (Actuation, Status); not in `rx_ok`.
     pub rx_unexpected: u32,
     /// Sensor frames whose `seq` was not the previous one + 1 (a gap or a repeat).
     pub seq_gaps: u32,
@@ -331,14 +249,11 @@ pub struct Status {
     pub input_clamped: u32,
     /// Refused configurations and commands.
     pub cmd_refused: u32,
-    /// Board: ticks that started later than their deadline (the ticker fell behind by at
-    /// least one period's quarter); 0 from a frame-clocked or in-process device.
+    /// Board: ticks that started at least a quarter period late; 0 when frame-clocked.
     pub ticks_late: u32,
     /// Board: deadlines that passed without a tick (the ticker skipped them).
     pub ticks_missed: u32,
-    /// Board: bytes lost on receive: each byte a full receive buffer had no room for,
-    /// and one per UART receive error (overrun, framing, noise, parity) whose lost bytes
-    /// the board's driver cannot count (the Nucleo's).
+    /// Board: bytes lost on receive (no room, or one per UART receive error).
     pub rx_overrun: u32,
     /// Board: transmit frames dropped because the previous one was still being sent.
     pub tx_dropped: u32,
@@ -350,30 +265,19 @@ pub struct Status {
     pub hunt_alarms: u32,
     /// Actuator alarms raised (rising edges of [`Flags::ACTUATOR_FAULT`]).
     pub act_alarms: u32,
-    /// The `ticks` value at the first alarm since the last reset of the counters
-    /// (0: none).
+    /// `ticks` at the first alarm since the counters' reset (0: none).
     pub first_alarm_tick: u32,
     /// Drive alarms raised (rising edges of [`Flags::DRIVE_OSC`]).
     pub drive_alarms: u32,
-    /// The `ticks` value at the first drive alarm since the last reset of the counters
-    /// (0: none); `first_alarm_tick` too if no other alarm came before it.
+    /// `ticks` at the first drive alarm since the counters' reset (0: none).
     pub first_drive_alarm_tick: u32,
-    /// Board: boots since power-on, kept in RAM outside the zeroed sections (survives a
-    /// watchdog reset; not zeroed by [`Command::ResetCounters`]).
+    /// Board: boots since power-on (survives a watchdog reset and [`Command::ResetCounters`]).
     pub boot_count: u32,
-    /// Board: the stack's high-water mark in bytes, as the board last measured it: the
-    /// stack is painted at start-up and scanned every 1 024 ticks (0.2 s at 5 kHz; a
-    /// scan reads up to 16 KiB, too long for the tick that answers a request), so the
-    /// figure is at most 1 024 ticks old, and 0 before the first scan or where not
-    /// measured (the in-process device). Not zeroed by [`Command::ResetCounters`].
+    /// Board: the stack's high-water mark, bytes (0: not measured); kept by a reset of the counters.
     pub stack_peak: u32,
-    /// Why the latest refused Config or Command was refused ([`crate::RefuseReason`]
-    /// code; 0: none since start-up or [`Command::ResetCounters`]). Kept while later
-    /// requests are accepted; [`Flags::CMD_REFUSED`] says whether the latest one was
-    /// refused, `cmd_refused` how many were.
+    /// Why the latest refused Config or Command was refused ([`crate::RefuseReason`]; 0: none).
     pub refuse_reason: u8,
-    /// Why the board last started ([`crate::reset_cause`] code). Not zeroed by
-    /// [`Command::ResetCounters`].
+    /// Why the board last started ([`crate::reset_cause`]); not zeroed by a reset.
     pub reset_cause: u8,
     /// The current flags.
     pub flags: Flags,

@@ -1,15 +1,11 @@
-//! Reading a run of bytes with the host's decoder: the loop over
-//! [`Decoder::next_message`] until every byte is taken, once.
+//! Reading a run of bytes with the host's decoder, [`Decoder::next_message`] looped once.
 
 use crate::{Decoder, FrameError, Message};
 
-/// The result of the frame a piece closed: `None` when it closed none (no delimiter
-/// yet, or an empty frame).
+/// The result of the frame a piece closed (`None`: none).
 pub type Closed = Option<Result<Message, FrameError>>;
 
-/// The pieces of a byte run as [`Decoder::next_message`] takes them
-/// ([`Decoder::pieces`]): each up to and including a delimiter, or to the end of the
-/// run, with what it closed. The pieces put together are the run.
+/// The pieces of a byte run as [`Decoder::next_message`] takes them, with what each closed.
 #[derive(Debug)]
 pub struct Pieces<'d, 'b> {
     dec: &'d mut Decoder,
@@ -24,7 +20,6 @@ impl<'b> Iterator for Pieces<'_, 'b> {
             return None;
         }
         let (r, more) = self.dec.next_message(self.rest);
-        // `more` is the tail of `rest` after the bytes taken.
         let taken = self.rest.len().saturating_sub(more.len());
         let piece = self.rest.get(..taken).unwrap_or_default();
         self.rest = more;
@@ -33,9 +28,7 @@ impl<'b> Iterator for Pieces<'_, 'b> {
 }
 
 impl Decoder {
-    /// The pieces of `bytes` and what each closed ([`Pieces`]), for a caller that
-    /// accounts for the bytes of each frame. The decoder's state carries over from the
-    /// run before and to the next.
+    /// The pieces of `bytes` and what each closed; the decoder's state carries over runs.
     pub fn pieces<'d, 'b>(&'d mut self, bytes: &'b [u8]) -> Pieces<'d, 'b> {
         Pieces {
             dec: self,

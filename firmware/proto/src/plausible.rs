@@ -1,61 +1,28 @@
-//! What a [`crate::Config`] may ask of the device: the plausible range of every field,
-//! stated once ([`PLAUSIBLE`]), and the [`RefuseReason`] codes the device reports in
-//! [`crate::Status`] `refuse_reason` when it refuses one (counted in `cmd_refused`,
-//! flagged [`crate::Flags::CMD_REFUSED`], the old configuration kept).
-//!
-//! A Config can change the rates, the yaw law, traction, the output enable, the hold
-//! time and the switches; the coefficients in [`crate::Rates`] are not free parameters:
-//! a device accepts a base rate and a delay only where its own table of designs has
-//! them (`wheelset_control::design::DESIGNED`, each judged by the sampled-data analysis:
-//! `sim-host rates`), and then only the coefficients designed for them, bit for bit
-//! (the host computes them with the device's own control code). Anything else would run
-//! a loop that is unstable or not shown stable there: the refusal names the field and
-//! so the loop (traction: `kp`, `ki`, the reference steps; yaw: `kappa`, `lead_k_hf`,
-//! `predict_half`, `torque_step`, the protection's lead).
-//!
-//! | field | min | max | unit | why |
-//! |---|---|---|---|---|
-//! | `rates.numeric` | the device's | the device's | code | the coefficients' bit format |
-//! | `rates.fingerprint` | the device's | the device's | hash | computed against this core's limits, scales and rate-independent gains |
-//! | `rates.base_rate_hz` | 500 | 20 000 | Hz | a rate of the device's design table (and within the board's link) |
-//! | period `1/base_rate_hz` | - | - | us | a whole number of microseconds: the board's ticker counts 1 us ([`TICKER_HZ`]) |
-//! | `rates.yaw_div`, `rates.traction_div` | 1 | 1 | - | the designs run both loops every tick |
-//! | `rates.delay_ticks` | 1 | - | ticks | a delay the rate has a design for |
-//! | `mode` | - | - | - | an active yaw law only where the yaw loop has a design at the rates (else the passive law alone) |
-//! | `hold_ticks x T` | 0 | 20 000 | us | a fifth of the ~10 Hz kinematic mode's period: an older `y'` is off by more than 70 degrees of phase |
-//! | every coefficient | the design's | the design's | bits | the gains designed for the rate and delay; the ramps and the `y''` integrator at that rate |
-//! | f32 coefficients | - | - | - | normal numbers only (no subnormal, infinite, NaN or negative bit pattern) |
-//!
-//! [`PLAUSIBLE`] is this table as data (for tools and reports); the device uses the
-//! constants it is built from.
+//! What a Config may ask of the device: every field's plausible range and why, as data
+//! ([`PLAUSIBLE`]), and the [`RefuseReason`] codes; rates only as the device's own designs.
 
-/// The board's ticker resolution, Hz: a base period must be a whole number of its ticks
-/// (embassy-time with `tick-hz-1_000_000`: 1 us).
+/// The board's ticker resolution, Hz: a base period must be a whole number of its ticks.
 pub const TICKER_HZ: u32 = 1_000_000;
 
-/// Lowest plausible base rate, Hz: [`LOOP_RATE_MIN_HZ`], the slowest loop (both loops at
-/// divisor 1).
+/// Lowest plausible base rate, Hz: [`LOOP_RATE_MIN_HZ`] (both loops at divisor 1).
 pub const BASE_RATE_MIN_HZ: u32 = LOOP_RATE_MIN_HZ;
 /// Highest plausible base rate, Hz.
 pub const BASE_RATE_MAX_HZ: u32 = 20_000;
 /// Lowest plausible yaw and traction loop rate (`base_rate_hz / divisor`), Hz.
 pub const LOOP_RATE_MIN_HZ: u32 = 500;
-/// Longest plausible hold on a stale sample, `hold_ticks / base_rate_hz`, us.
+/// Longest plausible hold on a stale sample, `hold_ticks / base_rate_hz`, us (a fifth of the ~10 Hz kinematic period).
 pub const HOLD_MAX_US: u32 = 20_000;
-/// Largest plausible `predict_half` (`alpha/2`), as a fraction `num/2^2`: 3/4 (the
-/// designs extrapolate over at most 1.5 ticks).
+/// Largest plausible `predict_half` (`alpha/2`) as `num/2^2`: 3/4 (at most 1.5 ticks).
 pub const PREDICT_HALF_MAX_QUARTERS: u32 = 3;
 
-/// Why the latest [`crate::Config`] or [`crate::Command`] was refused: the field to blame
-/// ([`crate::Status`] `refuse_reason`; 0 = none since the counters were reset).
+/// Why the latest Config or Command was refused: the field to blame (0 = none).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[repr(u8)]
 pub enum RefuseReason {
     /// Nothing refused.
     None = 0,
-    /// An unknown request: a Command variant or a Config `mode` this version does not
-    /// define.
+    /// An unknown request: a Command variant or Config `mode` this version does not define.
     UnknownRequest = 1,
     /// `rates.numeric` is not the device's sample type.
     Numeric = 2,
@@ -87,12 +54,9 @@ pub enum RefuseReason {
     AccGain = 15,
     /// `rates.acc_leak_q32`.
     AccLeak = 16,
-    /// A value's bit pattern is not valid for the sample type (the control core's format
-    /// check, after every range above passed).
+    /// A bit pattern not valid for the sample type (the core's format check, after the ranges).
     Bits = 17,
-    /// A request this build of the device does not honour: a test-only fault injection
-    /// ([`crate::Command::InjectStall`], [`crate::Command::InjectHardFault`]) on a build
-    /// without it. (Every build takes every Config switch: `wsp`, `monitor_safe`.)
+    /// A request this build does not honour: a test-only fault injection on a build without it.
     Unsupported = 18,
     /// `rates.delay_ticks`: the rate has no design for this delay.
     Delay = 19,
@@ -102,8 +66,7 @@ pub enum RefuseReason {
     LeadKhf = 21,
     /// `rates.wsp_lead_k_hf`: not the wheel-slip protection's lead for the design.
     WspLead = 22,
-    /// `mode`: an active yaw law (gain, lead) at rates where only the traction loop is
-    /// designed: the passive law alone is taken there.
+    /// `mode`: an active yaw law at rates where only the traction loop is designed.
     YawNotDesigned = 23,
 }
 
@@ -212,8 +175,7 @@ const YAW: &str = "the yaw loop's design for the rate and delay, bit for bit: an
 const AT_RATE: &str = "the runtime's value at the designed rate, bit for bit";
 const DESIGN: &str = "the design's";
 
-/// The plausibility table (see the module docs), one row per [`RefuseReason`] but
-/// `None`.
+/// The plausibility table (module docs), one row per [`RefuseReason`] but `None`.
 pub const PLAUSIBLE: [Plausible; 23] = [
     Plausible {
         reason: RefuseReason::UnknownRequest,

@@ -1,12 +1,4 @@
-//! SI <-> wire codes on the host (`std` feature): the only conversion between the
-//! plant's measurements and actuation (SI units) and the messages (integer counts of the
-//! LSBs of [`crate::units`]).
-//!
-//! One rounding rule, [`units::quantize`]: `count = round(x / LSB)`, half away from zero;
-//! a value beyond the `i32` range saturates and NaN maps to 0, and each such value is
-//! counted in [`Quantized::clamped`] so the caller can report it. Back to SI is exact:
-//! `x = count * LSB` ([`units::to_si`]). So `|from_si(x) -> to_si - x| <= LSB / 2` for
-//! every value inside the range.
+//! SI <-> wire codes on the host (`std`): `count = round(x / LSB)`, `x = count * LSB`.
 //!
 //! ```
 //! use wheelset_proto::{Lateral, LateralSensing, Sensor, SensorSi};
@@ -37,8 +29,7 @@ pub enum LateralSensing {
     Both,
 }
 
-/// The measurements the host samples, SI units; signs as in [`Sensor`] (`y` positive
-/// towards +y, the current positive motoring, the speed positive forwards).
+/// The measurements the host samples, SI; signs as in [`Sensor`].
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct SensorSi {
     /// Lateral velocity of the wheelset relative to the track `y'`, m/s.
@@ -80,8 +71,7 @@ pub fn t_us_of(t_ns: u64) -> u16 {
 }
 
 impl Sensor {
-    /// The Sensor frame `seq` of the sample `m` taken at `t_ns` (host time, ns), the
-    /// lateral motion as `lateral` asks; every field by [`units::quantize`].
+    /// The Sensor frame `seq` of the sample `m` at `t_ns` (host time, ns), lateral as asked.
     #[must_use]
     pub fn from_si(seq: u16, t_ns: u64, m: &SensorSi, lateral: LateralSensing) -> Quantized<Self> {
         let mut clamped = 0u32;
@@ -112,8 +102,7 @@ impl Sensor {
         Quantized { msg, clamped }
     }
 
-    /// The sample this frame carries, back in SI (`count * LSB`); a lateral quantity the
-    /// frame does not carry is 0.
+    /// The sample back in SI (`count * LSB`); a lateral quantity not carried is 0.
     #[must_use]
     pub fn to_si(&self) -> SensorSi {
         let (y_dot, y_ddot) = match self.lateral {

@@ -1,26 +1,5 @@
-//! Wire units: every physical quantity crosses the link as an integer count of a stated
-//! least significant bit (LSB). `value_SI = count * LSB`.
-//!
-//! | field | type | LSB | range on the wire | largest value in `docs/model.md` |
-//! |---|---|---|---|---|
-//! | lateral velocity `y'` (track relative) | `i32` varint | 1 um/s | +-2147 m/s | ~0.5 m/s (8 mm at 10 Hz) |
-//! | lateral acceleration `y''` | `i32` varint | 0.1 mm/s^2 | +-214 km/s^2 | ~30 m/s^2 |
-//! | motor current `i_a` | `i32` varint | 1 mA | +-2.1 MA | ~115 A |
-//! | motor speed `theta_m'` | `i32` varint | 1 mrad/s | +-2.1e6 rad/s | ~925.6 rad/s |
-//! | traction demand (wheel torque `n K_m i_ref`) | `i32` varint | 1 N m | +-2.1e9 N m | 2460 N m |
-//! | yaw torque `T_psi` | `i32` varint | 0.1 N m | +-2.1e8 N m | ~1e4 N m |
-//! | motor voltage `u_a` | `i32` varint | 10 mV | +-2.1e7 V | ~3961 V (back-EMF) |
-//! | host timestamp | `u16` fixed | 1 us | wraps every 65.536 ms | - |
-//! | device tick count | `u16` fixed | 1 tick | wraps every 65 536 ticks | - |
-//! | execution time of the previous tick | `u32` varint | 1 cycle (board: DWT) or 1 instruction (QEMU) | 4.29e9 | - |
-//!
-//! Why these LSBs: each is at least 100 times finer than the resolution the loops need
-//! (1 um/s of `y'` is 0.1 N m of pure-gain torque; 10 mV is 0.025 % of the back-EMF), and
-//! each keeps the typical values of the `curve` scenario inside the short postcard varints
-//! (a zigzag varint takes 1 byte below 64 counts, 2 below 8192, 3 below 1 048 576): 1 mV
-//! would push the back-EMF to 4 bytes, 0.1 N m for the 2.46 kN m demand to 3.
-//! The two wrapping 16-bit counters save 4 bytes per exchange; the receiver unwraps them
-//! against its own clock (a frame every tick, never 65 536 ticks apart).
+//! Wire units: every physical quantity is an `i32` count of its LSB, `value_SI = count *
+//! LSB`, each at least 100 times finer than the loops need.
 
 /// `y'` LSB: 1 um/s, in m/s.
 pub const LAT_VEL_LSB_M_PER_S: f64 = 1e-6;
@@ -41,11 +20,8 @@ pub const V_REF_LSB_M_PER_S: f64 = 1e-3;
 /// Host timestamp LSB: 1 us, in s (the field wraps every 65.536 ms).
 pub const TIME_LSB_S: f64 = 1e-6;
 
-/// Quantises an SI value to wire counts: `round(x / lsb)`, half away from zero.
-///
-/// Returns the count and whether it was clamped: values beyond the `i32` range saturate
-/// to `i32::MIN`/`i32::MAX`, and NaN maps to 0 (also reported as clamped), so the caller
-/// can count every value it could not carry. `no_std`: no `libm` needed.
+/// Quantises an SI value, `round(x / lsb)` half away from zero, and whether it was clamped
+/// (saturated to `i32`, or NaN as 0).
 ///
 /// ```
 /// use wheelset_proto::units::{quantize, VOLTAGE_LSB_V};
@@ -60,8 +36,7 @@ pub fn quantize(x: f64, lsb: f64) -> (i32, bool) {
         return (0, true);
     }
     let r = if q >= 0.0 { q + 0.5 } else { q - 0.5 };
-    // `as` saturates at the i32 range; detect it so it is counted, never silent.
-    // Truncation toward zero keeps everything in (-2^31 - 1, 2^31) inside the range.
+    // `as` saturates silently: detect it so it is counted.
     let clamped = !(r > -2_147_483_649.0 && r < 2_147_483_648.0);
     (r as i32, clamped)
 }

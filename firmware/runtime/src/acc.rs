@@ -1,12 +1,10 @@
-//! The acceleration integrator's factors: `y''` frames integrated into `y'` with a
-//! wash-out, `v[n] = v[n-1] (1 - T/tau) + a[n] T`, as Q32 integers fixed at build time.
+//! The `y''` integrator's Q32 factors, `v[n] = v[n-1] (1 - T/tau) + a[n] T`.
 
 use wheelset_control::BitsError;
 
 use crate::{RuntimeConfig, RuntimeError};
 
-/// The `y''` integrator's factors in Q32: `T` (um/s per 0.1 mm/s^2 code per tick) and
-/// `T/tau`. Computed once here (f64), so the tick has no division.
+/// `T` (um/s per 0.1 mm/s^2 code per tick) and `T/tau`, in Q32.
 pub(crate) fn acc_factors(cfg: &RuntimeConfig) -> Result<AccBits, RuntimeError> {
     let t = 1.0 / f64::from(cfg.control.base_rate_hz.max(1));
     let q32 = 4_294_967_296.0;
@@ -41,8 +39,7 @@ pub struct AccBits {
 }
 
 impl AccBits {
-    /// Validated (positive gain, both at most `2^32`, i.e. `T <= 1 s` per 100 um/s^2 and
-    /// `tau >= T`) as signed Q32 factors.
+    /// Validated (positive gain, both at most `2^32`: `T <= 1 s`, `tau >= T`) as signed Q32.
     pub(crate) fn check(&self) -> Result<(i64, i64), RuntimeError> {
         const ONE: u64 = 1 << 32;
         if !(1..=ONE).contains(&self.gain_q32) {

@@ -1,7 +1,4 @@
-//! Build-time bits: the runtime's configuration ([`RuntimeConfig`]), its compiled form as
-//! exact bits ([`RuntimeBits`], written by the firmware's build script, the device's
-//! start without float maths) and the coefficients of a rate switch ([`rates_for`]),
-//! computed on the host with the device's control code.
+//! Build-time bits: [`RuntimeConfig`], its exact bits [`RuntimeBits`], and [`rates_for`].
 
 use wheelset_control::design::DESIGNED;
 use wheelset_control::{
@@ -11,67 +8,36 @@ use wheelset_control::{
 
 use crate::{acc_factors, AccBits, Rates, DEFAULT_HOLD_TICKS};
 
-/// The runtime configuration: the control core's configuration and the fault policy.
+/// The runtime configuration: the core's configuration and the fault policy.
 ///
 /// # The device's boot defaults
 ///
-/// [`RuntimeConfig::default`] is what a board runs from power-on until a host's Config
-/// (the firmware's build script compiles it into the binary): the control core's
-/// defaults (lead, traction on, 5 kHz, `wheelset_control::Config::default`) with
-///
-/// - **the wheel-slip protection on** (`WspParams::enabled`): a drive without it runs a
-///   slipping wheel away
-///   (`sim-host/tests/adhesion.rs`); it needs the Sensor's `v_ref_mm_s`, and while that
-///   is 0 (unknown: a host that sends no reference) it stays idle rather than reading a
-///   rolling wheel as a slip (`wheelset_control::wsp`, "An unknown reference");
-/// - **the stability monitor on** ([`Self::monitor`]), its alarms reported
-///   (`HUNTING`, `ACTUATOR_FAULT`, `DRIVE_OSC`, `FAULT_LATCHED`);
-/// - **its safe action off** (`Config.monitor_safe = false`, the runtime's start): the
-///   safe state zeroes the yaw torque, and in the lead and gain modes the actuator
-///   replaces the yaw spring, so zero torque leaves the wheelset with neither (without
-///   the actuator it hunts at every conicity of the envelope: `wheelset_plant::fault`, test
-///   `the_passive_less_wheelset_is_unstable`). A
-///   hunting alarm is then not cured by the device's zero torque; it asks the vehicle
-///   to slow down, which the host decides. A host that knows zero torque is the safer
-///   failure (an actuator that may act reversed) sets `monitor_safe`;
-/// - outputs enabled, `hold_ticks` [`crate::DEFAULT_HOLD_TICKS`], the `y''` wash-out
-///   [`DEFAULT_ACC_WASHOUT_S`].
+/// Protection on, monitor on, its safe action off: the actuator replaces the yaw spring,
+/// so zero torque would leave the wheelset with neither (`the_passive_less_wheelset_is_unstable`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RuntimeConfig {
-    /// The control core's configuration. Its `wire` LSBs are overwritten with the
-    /// protocol's (`WireLsb::default()`, `wheelset_proto::units`): the format has one
-    /// definition.
+    /// The core's configuration; its `wire` LSBs are overwritten with the protocol's.
     pub control: ControlConfig,
-    /// Consecutive ticks without a new sensor frame that run on the held sample before
-    /// the safe state (0: the first missing frame enters it).
+    /// Ticks without a new sensor frame bridged by the held sample (0: none).
     pub hold_ticks: u16,
     /// Outputs enabled at start.
     pub enable: bool,
-    /// Wash-out time constant of the `y''` integrator, s (acceleration-only frames):
-    /// `v[n] = v[n-1] (1 - T/tau) + a[n] T`. A high-pass against accelerometer offset
-    /// drift; 0 disables the wash-out (a pure integrator).
+    /// Wash-out time constant of the `y''` integrator, s, `v[n] = v[n-1] (1 - T/tau) + a[n] T`
+    /// (against accelerometer offset drift; 0: a pure integrator).
     pub acc_washout_s: f64,
-    /// The stability monitor (`wheelset_control::monitor`: hunting and actuator alarms on
-    /// the received `y'`); `None`: off (no alarms).
+    /// The stability monitor (`wheelset_control::monitor`); `None`: off.
     pub monitor: Option<MonitorParams>,
-    /// The control configuration at the paper's point (5 kHz, one tick of delay) whose
-    /// designs for the other rates and delays ([`wheelset_control::design`]) the device
-    /// accepts; `None`: [`Self::control`] is that configuration.
+    /// The configuration at the paper's point whose designs the device accepts (`None`: `control`).
     pub design: Option<ControlConfig>,
 }
 
 impl RuntimeConfig {
-    /// The configuration at the design point `base_rate_hz`, `delay_ticks`: the control
-    /// core [`ControlConfig::designed`] from the design base ([`Self::design`]), the rest
-    /// as it is. What a host sends a device to change its rate.
-    ///
-    /// Errors: the point is not designed.
+    /// The configuration at a design point: what a host sends to change the rate.
     pub fn designed(&self, base_rate_hz: u32, delay_ticks: u8) -> Result<Self, RuntimeError> {
         let base = self.design_base();
         let control = base.designed(base_rate_hz, delay_ticks)?;
         Ok(Self {
             control,
-            // At the base's own point the configuration is its own design base.
             design: if control == base {
                 self.design
             } else {
@@ -87,12 +53,10 @@ impl RuntimeConfig {
     }
 }
 
-/// Default wash-out of the `y''` integrator: 2 s (corner 0.08 Hz, below the 3 s curve
-/// transitions' content and far below the ~10 Hz kinematic mode).
+/// Default wash-out of the `y''` integrator: 2 s (corner 0.08 Hz, far below the ~10 Hz kinematic mode).
 pub const DEFAULT_ACC_WASHOUT_S: f64 = 2.0;
 
 impl Default for RuntimeConfig {
-    /// The device's boot defaults (the type's docs).
     fn default() -> Self {
         Self {
             control: ControlConfig::default(),
@@ -115,8 +79,7 @@ pub enum RuntimeError {
     Washout,
     /// Exact bits ([`RuntimeBits`], [`Rates`]) are invalid: the field named.
     Bits(BitsError),
-    /// The design base ([`RuntimeConfig::design`]) differs from the control core in its
-    /// rate-independent part: its designs could not be applied to this core.
+    /// The design base differs from the core in its rate-independent part.
     Design,
 }
 
@@ -149,12 +112,7 @@ impl From<ConfigError> for RuntimeError {
     }
 }
 
-/// A whole runtime configuration as exact bits: the compiled control core, the `y''`
-/// integrator's factors, the fault policy. The firmware's build script writes the
-/// default one as a constant ([`RuntimeBits::try_new`] on the host); the device starts
-/// from it with [`Runtime::from_bits`], without float maths.
-///
-/// [`Runtime::from_bits`]: crate::Runtime::from_bits
+/// A whole runtime configuration as exact bits: the firmware's build-time constant.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct RuntimeBits {
     /// The control core ([`Compiled::to_bits`]).
@@ -171,21 +129,17 @@ pub struct RuntimeBits {
     pub designs: Designs,
 }
 
-/// The designs a device accepts: one per design point of
-/// [`wheelset_control::design::DESIGNED`], in its order.
+/// The designs a device accepts, one per point of [`wheelset_control::design::DESIGNED`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Designs {
-    /// The rates as [`rates_for`] computes them from the design base. A received
-    /// [`Rates`] must be one of them, bit for bit.
+    /// The rates [`rates_for`] computes; a received [`Rates`] must be one, bit for bit.
     pub rates: [Rates; DESIGNED.len()],
-    /// Per design: its yaw law is designed (an active yaw mode is taken there), as
-    /// [`wheelset_control::design::DesignPoint::yaw`].
+    /// Per design: its yaw law is designed ([`wheelset_control::design::DesignPoint::yaw`]).
     pub yaw: [bool; DESIGNED.len()],
 }
 
 impl RuntimeBits {
-    /// Compile `cfg` for sample type `T` (f64 discretisation, then quantisation; the
-    /// protocol's wire LSBs replace `cfg.control.wire`). Host and build-script use.
+    /// Compile `cfg` for `T` (the protocol's wire LSBs replace `cfg.control.wire`). Host use.
     pub fn try_new<T: SampleBits>(cfg: &RuntimeConfig) -> Result<Self, RuntimeError> {
         let mut control = cfg.control;
         control.wire = WireLsb::default();
@@ -252,12 +206,8 @@ fn rates_of(b: &CompiledBits, acc: AccBits) -> Result<Rates, RuntimeError> {
     })
 }
 
-/// The [`Rates`] that switch a device running `T` with the rate-independent part of
-/// `cfg` to the rates, delay and gains of `cfg` (use [`RuntimeConfig::designed`] for a
-/// rate a device accepts): the coefficients computed here, with the device's control
-/// code. Host use.
-///
-/// Errors: `cfg` is invalid, or `T` has no 32-bit wire form (`f64`).
+/// The [`Rates`] that switch a device running `T` to the rates and gains of `cfg`; errors:
+/// `cfg` invalid, or `T` without a 32-bit wire form (`f64`).
 pub fn rates_for<T: SampleBits>(cfg: &RuntimeConfig) -> Result<Rates, RuntimeError> {
     let mut control = cfg.control;
     control.wire = WireLsb::default();

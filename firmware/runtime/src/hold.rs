@@ -1,20 +1,10 @@
-//! The hold-safe policy (crate docs, fault policy items 2 to 4) as a pure state machine:
-//! one decision per tick from whether a new Sensor frame arrived since the last tick,
-//! whether any sample was ever received, `hold_ticks` and the stability alarm's hold.
-//!
-//! With `m` the consecutive ticks without a new frame (counted only once a sample
-//! exists) and `H` = `hold_ticks`:
+//! The hold-safe policy as a pure state machine (`m`: ticks without a new frame):
 //!
 //! ```text
 //! holding[n] = !fresh[n] && sampled[n]          (the tick runs on the held sample)
 //! m[n]       = 0 if fresh[n], m[n-1] + 1 if holding[n] (saturating), else m[n-1]
-//! safe[n]    = (sampled[n] && m[n] > H) || alarm_safe[n]
+//! safe[n]    = (sampled[n] && m[n] > hold_ticks) || alarm_safe[n]
 //! ```
-//!
-//! so the safe state is entered on the `H + 1`-th consecutive tick without a frame and
-//! left on the first tick after a new one (unless the alarm holds it). The runtime acts
-//! on the [`HoldStep`]: counters, flags, the control core's safe ramp and the bumpless
-//! restart on [`SafeChange::Exit`].
 
 /// The policy's state: ticks without a new frame and whether the safe state is in force.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -35,8 +25,7 @@ pub enum SafeChange {
 /// What one tick of the policy decided.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct HoldStep {
-    /// The tick runs on the held sample ([`crate::Flags::HOLDING`], `held_ticks`), in
-    /// the safe state or not.
+    /// The tick runs on the held sample ([`crate::Flags::HOLDING`]), safe or not.
     pub holding: bool,
     /// In the safe state this tick ([`crate::Flags::SAFE`], `safe_ticks`).
     pub safe: bool,
@@ -54,10 +43,7 @@ impl HoldPolicy {
         }
     }
 
-    /// One tick: `fresh`, a new Sensor frame since the previous tick; `sampled`, a sample
-    /// has been received at some time; `hold_ticks`, the ticks the held sample may
-    /// bridge; `alarm_safe`, a stability alarm holds the safe state. See the module docs
-    /// for the equations.
+    /// One tick: `fresh` a new Sensor frame, `sampled` any ever, `alarm_safe` an alarm's hold.
     #[inline]
     pub fn step(
         &mut self,

@@ -1,6 +1,4 @@
-//! The runtime: the [`Runtime`] state, its start (from a configuration, from exact bits,
-//! from a validated core), the tick with the fault policy, and the accessors. The
-//! receive side (frames decoded, counted and applied) is in `receive`.
+//! The [`Runtime`]: its state, start, tick and accessors (the receive side: `receive`).
 
 mod receive;
 
@@ -15,9 +13,7 @@ use crate::{
     RuntimeError, SafeChange, TX_CAPACITY,
 };
 
-/// A receive event worth a log record ([`Runtime::take_rx_event`]): a frame the decoder
-/// rejected, or a valid Config or Command the device refused. Each is also counted in the
-/// Status (`rx_crc` ... `rx_postcard`; `cmd_refused` with `refuse_reason`).
+/// A receive event worth a log record: a rejected frame or a refused request.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum RxEvent {
@@ -49,16 +45,13 @@ pub struct Runtime<T: Sample> {
     hold_ticks: u16,
     decoder: Decoder,
     sample: Option<InputCodes>,
-    /// The latest Sensor frame's reference speed code while the wheel-slip protection
-    /// is off (not yet given to the core, whose only reader of it is the protection):
-    /// given by the Config that switches the protection on (`receive`).
+    /// The reference speed code held while the protection (its only reader) is off.
     v_ref_held: Option<i32>,
     /// The latest sample carried only `y''` (codes of 0.1 mm/s^2): integrate it.
     acc: Option<i32>,
     /// `y'` estimate from `y''`, um/s in Q32.
     vel_q32: i64,
-    /// What the estimate washes out towards, um/s in Q32: 0 (`y''` only) or the measured
-    /// `y'` (`Lateral::Both`, the complementary filter).
+    /// What the estimate washes out towards, um/s in Q32: 0 or the measured `y'` (`Both`).
     acc_ref_q32: i64,
     /// `T` in the integrator: um/s per (0.1 mm/s^2 code) per tick, Q32.
     acc_gain_q32: i64,
@@ -66,26 +59,20 @@ pub struct Runtime<T: Sample> {
     leak_q32: i64,
     seq: u16,
     fresh: bool,
-    /// The hold-safe policy (ticks without a frame, the safe state).
     hold: HoldPolicy,
     enabled: bool,
     rx_error: bool,
     refused: bool,
     refuse_reason: RefuseReason,
-    /// The first receive event since [`Self::take_rx_event`] last took one, and how many
-    /// followed it (for the firmware's log: the first is logged, the rest counted).
+    /// The first receive event since [`Self::take_rx_event`], and how many followed it.
     rx_event: Option<RxEvent>,
     rx_events_after: u32,
-    /// The stability monitor and its state.
     monitor: Monitor<T>,
     mon: MonitorState<T>,
-    /// A stability alarm holds the safe state (`Config.monitor_safe`) until
-    /// `Command::ClearFaults`.
+    /// A stability alarm holds the safe state until `Command::ClearFaults`.
     monitor_safe: bool,
-    /// The safe state is held until `Command::ClearFaults`: by a stability alarm (with
-    /// `monitor_safe`) or by a boot after a watchdog or fault reset ([`Self::set_boot`]).
+    /// The safe state is held until `Command::ClearFaults` (an alarm, or a fault reset).
     alarm_safe: bool,
-    /// Sticky [`Flags::FAULT_LATCHED`].
     fault_latched: bool,
     status_requested: bool,
     /// A fault injection the board is to carry out (feature `fault-inject`).
@@ -100,15 +87,12 @@ pub struct Runtime<T: Sample> {
 }
 
 impl<T: SampleBits> Runtime<T> {
-    /// Builds the control core (validated, discretised in f64, quantised) and an idle
-    /// runtime: [`RuntimeBits::try_new`] then [`Self::from_bits`], the device's path.
-    /// Host use.
+    /// Builds the core and an idle runtime ([`RuntimeBits::try_new`], [`Self::from_bits`]).
     pub fn try_new(cfg: RuntimeConfig) -> Result<Self, RuntimeError> {
         Self::from_bits(&RuntimeBits::try_new::<T>(&cfg)?)
     }
 
-    /// An idle runtime running exactly `bits` (validated; integer work only): how the
-    /// device starts.
+    /// An idle runtime running exactly `bits` (validated; integer work): the device's start.
     pub fn from_bits(bits: &RuntimeBits) -> Result<Self, RuntimeError> {
         let base = bits.control.schedule.base_rate_hz;
         Self::with_core(
@@ -122,13 +106,8 @@ impl<T: SampleBits> Runtime<T> {
         )
     }
 
-    /// An idle runtime on an already validated core `law` whose bits have the
-    /// fingerprint `fingerprint` ([`CompiledBits::fingerprint`]), with the other fields of
-    /// [`RuntimeBits`]: the device's start from build-time constants
-    /// (`Compiled::from_valid_bits` and the fingerprint evaluated at compile time), with
-    /// no conversion code. [`Self::from_bits`] is this after validating the bits.
-    ///
-    /// [`CompiledBits::fingerprint`]: wheelset_control::CompiledBits::fingerprint
+    /// An idle runtime on an already validated core with fingerprint `fingerprint`: the start
+    /// from build-time constants ([`Self::from_bits`] after validation).
     pub fn with_core(
         law: &Compiled<T>,
         fingerprint: u32,
@@ -178,22 +157,13 @@ impl<T: SampleBits> Runtime<T> {
         })
     }
 
-    /// The board's link limit: from now on a Config whose base rate is above
-    /// `max_rate_hz` is refused (counted, [`Flags::CMD_REFUSED`]), because the board's
-    /// link cannot carry one exchange per period at it. A board computes it at build time
-    /// from its baud and the worst-case frames (`wheelset_proto::link::max_rate_hz`);
-    /// `u32::MAX` (the default) is no limit (a frame-clocked device in lock-step).
+    /// The board's link limit: a Config above `max_rate_hz` is refused (`u32::MAX`: none).
     pub fn set_link_limit(&mut self, max_rate_hz: u32) {
         self.max_rate_hz = max_rate_hz;
     }
 
-    /// The board runs a hardware watchdog that resets it when a tick stalls (`false` by
-    /// default: a frame-clocked board and the in-process device have none). Only then is
-    /// [`Command::InjectStall`] honoured (with the `fault-inject` feature): on a board
-    /// without one a stalled control task would never be ended, so the command is
-    /// refused as [`RefuseReason::Unsupported`] (as every injection is without
-    /// `fault-inject`). [`Command::InjectHardFault`] needs no watchdog: the HardFault
-    /// handler resets the board itself.
+    /// The board runs a watchdog (default `false`): only then is [`Command::InjectStall`]
+    /// honoured, since without one a stalled task never ends.
     pub fn set_watchdog(&mut self, running: bool) {
         self.watchdog = running;
     }
@@ -207,18 +177,14 @@ impl<T: SampleBits> Runtime<T> {
         }
     }
 
-    /// One base-rate tick (see the crate docs for the policy). Returns the Actuation frame
-    /// (COBS, 0x00 delimiter included), followed by a Status frame if one was requested.
-    /// `last_exec`: the measured execution time of the previous tick (cycles or
-    /// instructions), reported in the frame. Never panics.
+    /// One base-rate tick: the Actuation frame, then a Status frame if requested;
+    /// `last_exec` is the previous tick's execution time. Never panics.
     pub fn tick(&mut self, last_exec: u32) -> &[u8] {
         self.ticks = self.ticks.wrapping_add(1);
         let fresh = core::mem::replace(&mut self.fresh, false);
         let mut flags = Flags::default();
         let c = &mut self.counters;
         c.ticks = c.ticks.wrapping_add(1);
-        // The safe state: too many ticks without a frame, or a stability alarm held by
-        // `Config.monitor_safe` (until `Command::ClearFaults`).
         let step = self.hold.step(
             fresh,
             self.sample.is_some(),
@@ -238,8 +204,7 @@ impl<T: SampleBits> Runtime<T> {
             } else {
                 c.safe_exits = c.safe_exits.wrapping_add(1);
                 if let Some(s) = self.sample {
-                    // Bumpless restart of the traction loop from the back-EMF, reference
-                    // ramping up from zero.
+                    // Bumpless restart of traction from the back-EMF, reference ramping up from zero.
                     let speed = self.core.codec().decode(&s).speed;
                     self.core.preset_back_emf(speed);
                 }
@@ -265,14 +230,11 @@ impl<T: SampleBits> Runtime<T> {
             };
             s.y_dot = v;
         }
-        // The sample in per-unit, decoded once for the monitor and the core.
         let inp = self.sample.map(|s| self.core.codec().decode(&s));
         if let Some(inp) = &inp {
             let commanding = self.enabled
                 && !self.hold.is_safe()
                 && self.core.mode() != wheelset_control::YawMode::Passive;
-            // The stability monitor on the received (or integrated) `y'`, at its own
-            // sub-rate inside `Monitor::tick`.
             let ev = self.monitor.tick(
                 &mut self.mon,
                 inp.y_dot,
@@ -285,7 +247,6 @@ impl<T: SampleBits> Runtime<T> {
             flags.set(Flags::HUNTING, ev.hunting);
             flags.set(Flags::ACTUATOR_FAULT, ev.actuator);
         }
-        // What the core counted on this tick (nothing if it did not run).
         let mut events = TickEvents::NONE;
         let (t_psi, u_a) = match (inp, self.enabled) {
             (Some(mut inp), true) => {
@@ -296,8 +257,6 @@ impl<T: SampleBits> Runtime<T> {
                 }
                 let out = self.core.tick(&inp);
                 events = self.core.tick_events();
-                // The drive check, on every traction step the core ran: the current
-                // error's ripple (wheelset_control::monitor, the drive check).
                 if self.core.traction_stepped()
                     && self
                         .monitor
@@ -309,8 +268,7 @@ impl<T: SampleBits> Runtime<T> {
                 (o.yaw_torque, o.voltage)
             }
             (Some(inp), false) => {
-                // Outputs disabled: zero torque and zero current, i.e. the back-EMF of
-                // the latest speed (0 V would short the motor at speed).
+                // Outputs disabled: zero torque, zero current (the back-EMF; 0 V would short the motor).
                 let speed = inp.speed;
                 let o = self.core.codec().encode(&wheelset_control::Outputs {
                     yaw_torque: T::ZERO,
@@ -323,7 +281,6 @@ impl<T: SampleBits> Runtime<T> {
                 (s.t_psi_dnm, s.u_a_cv)
             }
         };
-        // The core's events: the counters move only on a tick that has some.
         if events.any() {
             self.count_events(events);
         }
@@ -358,9 +315,7 @@ impl<T: SampleBits> Runtime<T> {
         self.tx.get(..n).unwrap_or(&[])
     }
 
-    /// The core's events of one tick into the runtime's counters: `yaw_sat`,
-    /// `traction_sat`, `input_clamped` (invalid and clamped inputs), `wsp_ticks` and
-    /// `wsp_events` (cold: normal running has no events).
+    /// The core's events into the runtime's counters (cold: normal running has none).
     #[cold]
     #[inline(never)]
     fn count_events(&mut self, ev: TickEvents) {
@@ -374,17 +329,14 @@ impl<T: SampleBits> Runtime<T> {
         c.wsp_events = c.wsp_events.wrapping_add(u32::from(ev.wsp_started()));
     }
 
-    /// A monitor alarm rose (hunting, actuator, drive): counted, the fault latched, and
-    /// with `monitor_safe` the safe state held from the next tick until
-    /// [`Command::ClearFaults`].
+    /// A monitor alarm rose: counted, latched, and with `monitor_safe` the safe state held.
     #[inline(never)]
     fn on_alarm(&mut self, hunting: bool, actuator: bool, drive: bool) {
         let c = &mut self.counters;
         c.hunt_alarms = c.hunt_alarms.wrapping_add(u32::from(hunting));
         c.act_alarms = c.act_alarms.wrapping_add(u32::from(actuator));
         c.drive_alarms = c.drive_alarms.wrapping_add(u32::from(drive));
-        // 0 means "none": an alarm on the tick whose count wrapped to 0 (every 2^32
-        // ticks, 9.9 days at 5 kHz) is recorded as 1, the count of the tick after it.
+        // 0 means "none": an alarm on the tick whose count wrapped to 0 is recorded as 1.
         let at = c.ticks.max(1);
         if c.first_alarm_tick == 0 {
             c.first_alarm_tick = at;
@@ -398,11 +350,7 @@ impl<T: SampleBits> Runtime<T> {
         }
     }
 
-    /// Starts the counters at `start` (its `flags` aside: they are the next tick's), and
-    /// the tick count the Actuation frames carry (its low 16 bits) at `start.ticks`: a
-    /// host soak starts them near their wrap so that its run crosses it (2^32 ticks are
-    /// 9.9 days at 5 kHz). [`Command::ResetCounters`] zeroes them as ever. Host use: a
-    /// board starts from zero.
+    /// Starts the counters and the tick count at `start` (a host soak crosses the wrap).
     pub fn preset_counters(&mut self, start: &RuntimeCounters) {
         self.counters = RuntimeCounters {
             flags: self.counters.flags,
@@ -416,11 +364,7 @@ impl<T: SampleBits> Runtime<T> {
         &self.counters
     }
 
-    /// The board's own counters since its previous call (added, wrapping): ticks that
-    /// started late, deadlines skipped, bytes lost to a receive overrun, transmit frames
-    /// dropped. Reported in the [`Status`].
-    ///
-    /// [`Status`]: crate::Status
+    /// The board's own counters since its previous call (added, wrapping).
     pub fn note_board(&mut self, late: u32, missed: u32, rx_overrun: u32, tx_dropped: u32) {
         let c = &mut self.counters;
         c.ticks_late = c.ticks_late.wrapping_add(late);
@@ -429,18 +373,9 @@ impl<T: SampleBits> Runtime<T> {
         c.tx_dropped = c.tx_dropped.wrapping_add(tx_dropped);
     }
 
-    /// The board's boot record: boots since power-on and the reset cause
-    /// (`wheelset_proto::reset_cause`), given once, before the first tick. A reset by
-    /// the watchdog or after a fault latches [`Flags::FAULT_LATCHED`] and holds the safe
-    /// state, both until [`Command::ClearFaults`]: a device that has just crashed drives
-    /// nothing until its host has seen that and acknowledged it. From the first tick:
-    /// [`Flags::SAFE`], zero yaw torque (the torque limit starts at zero, not ramping
-    /// down from the full limit: the fault handler drove zero before the reset), zero
-    /// traction current (the back-EMF of the received speed; before any sample the
-    /// [`Self::safe_outputs`]); a Config does not end it (a host that reconfigures a
-    /// device after its reset has not thereby acknowledged the fault). `ClearFaults`
-    /// leaves it as the end of any safe state does: the torque limit ramps back up, the
-    /// traction reference from zero (crate docs, fault policy item 4).
+    /// The board's boot record, once before the first tick. A watchdog or fault reset latches
+    /// [`Flags::FAULT_LATCHED`] and holds the safe state at zero torque until
+    /// [`Command::ClearFaults`]: a device that has just crashed drives nothing until acknowledged.
     ///
     /// [`Command::ClearFaults`]: crate::Command::ClearFaults
     pub fn set_boot(&mut self, boot_count: u32, reset_cause: u8) {
@@ -456,22 +391,12 @@ impl<T: SampleBits> Runtime<T> {
         }
     }
 
-    /// The fault injection received since the last call ([`Command::InjectStall`] or
-    /// [`Command::InjectHardFault`]; only with the `fault-inject` feature, otherwise
-    /// they are refused as `Unsupported` and this is always `None`): the board carries
-    /// it out after the tick.
-    ///
-    /// [`Command::InjectStall`]: crate::Command::InjectStall
-    /// [`Command::InjectHardFault`]: crate::Command::InjectHardFault
+    /// The fault injection received since the last call (`fault-inject` only).
     pub fn take_injected(&mut self) -> Option<Command> {
         self.injected.take()
     }
 
-    /// The first receive event ([`RxEvent`]: a rejected frame, a refused Config or
-    /// Command) since the previous call, with the number of events after it; `None` if
-    /// there was none. Held until taken, so a caller that takes it at a bounded rate (the
-    /// firmware's log) records the first event of each interval and counts the others;
-    /// the Status counters count every one of them.
+    /// The first receive event since the previous call and the number after it.
     pub fn take_rx_event(&mut self) -> Option<(RxEvent, u32)> {
         let e = self.rx_event.take()?;
         Some((e, core::mem::take(&mut self.rx_events_after)))

@@ -1,8 +1,4 @@
-//! The device's plausibility check of a received [`Config`](wheelset_proto::Config): the
-//! ranges of `wheelset_proto::plausible` (stated there once, with the reasons), applied
-//! with integer work only. Rates are accepted only as one of the device's own designs
-//! ([`RuntimeBits::designs`](crate::RuntimeBits::designs)), bit for bit; a mismatch is
-//! refused with the first field that differs, which names the loop.
+//! The device's plausibility check of a received Config, in integer work.
 
 use wheelset_proto::plausible::{BASE_RATE_MAX_HZ, BASE_RATE_MIN_HZ, HOLD_MAX_US, TICKER_HZ};
 use wheelset_proto::{Rates, RefuseReason};
@@ -23,9 +19,7 @@ pub(crate) fn period_ok(base_rate_hz: u32) -> bool {
     base_rate_hz != 0 && TICKER_HZ.is_multiple_of(base_rate_hz)
 }
 
-/// Checks the rates (the sample type and the fingerprint checked by the caller) against
-/// the device's designs `table`: the rate must have a design at the requested delay, and
-/// every coefficient must be that design's. `Ok`: the design's index in `table`.
+/// The index in `table` of the design whose coefficients `r` carries, at its delay.
 #[inline(never)]
 pub(crate) fn check_rates(r: &Rates, table: &[Rates]) -> Result<usize, RefuseReason> {
     use RefuseReason as R;

@@ -1,15 +1,6 @@
-//! Instruction counts of the control law and of the whole runtime tick on the emulated
-//! Cortex-M4 (QEMU `mps2-an386`, `-icount shift=10`: SysTick counts convert exactly to
-//! instructions). Run with `cargo xtask fw-bench` (fixed point and f32, Cortex-M4 on
-//! `mps2-an386` and Cortex-M3 on `mps2-an385`). Prints one line per measurement over
-//! semihosting, then one machine-readable line for the xtask
-//! (`FWBENCH law <min> <mean> <max> tick <min> <mean> <max> stack <bytes>`), then exits
-//! QEMU.
-//!
-//! Stack: the bench paints [`STACK_WINDOW`] bytes below its stack pointer at start-up and
-//! after the runs reports the high-water mark (`_stack_start` minus the lowest word that
-//! is no longer the paint): the deepest the whole tick's call chain (decode, control,
-//! encode) and the bench's own frames went.
+//! Instruction counts of the control law and the whole runtime tick under QEMU
+//! (`-icount shift=10`), for `cargo xtask fw-bench`: one line per measurement, then
+//! `FWBENCH law <min> <mean> <max> tick <min> <mean> <max> stack <bytes>`.
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
 #[cfg(target_os = "none")]
@@ -27,8 +18,7 @@ mod bench {
 
     const N: u32 = 2_000;
 
-    /// Bytes of stack painted below the stack pointer at start-up (the firmware needs a
-    /// small fraction of it; QEMU's RAM is 4 MiB).
+    /// Bytes of stack painted below the stack pointer at start-up (QEMU's RAM is 4 MiB).
     pub const STACK_WINDOW: usize = 16 * 1024;
     /// The paint: a word no pointer or small integer of the program looks like.
     const PAINT: u32 = 0xC5AC_CE55;
@@ -48,16 +38,14 @@ mod bench {
         let bottom = end - STACK_WINDOW;
         let mut a = bottom;
         while a < end {
-            // SAFETY: `a` is word aligned and below the live stack, inside QEMU's 4 MiB
-            // RAM (above the statics: the window is far smaller than the RAM).
+            // SAFETY: `a` is word aligned and below the live stack, inside QEMU's 4 MiB RAM.
             unsafe { core::ptr::write_volatile(a as *mut u32, PAINT) };
             a += 4;
         }
         bottom
     }
 
-    /// Bytes of stack used since [`paint_stack`]: from the top of the stack down to the
-    /// lowest word no longer painted.
+    /// Bytes of stack used since [`paint_stack`]: top of stack down to the lowest repainted word.
     #[allow(unsafe_code)]
     fn stack_peak(bottom: usize) -> usize {
         let top = core::ptr::addr_of!(_stack_start) as usize;
@@ -82,8 +70,7 @@ mod bench {
         rt.tick(exec).len()
     }
 
-    /// One base tick of the stability monitor and actuator check (a monitor step every
-    /// `div` ticks, 500 Hz; a phase count on the others).
+    /// One base tick of the monitor and actuator check (a step every `div` ticks, 500 Hz).
     #[inline(never)]
     fn monitor_tick(
         m: &Monitor<Num>,
@@ -157,8 +144,7 @@ mod bench {
     /// The vehicle's reference speed in the sensor frame (m/s; wire v2's `v_ref_mm_s`).
     const V_REF_M_S: f64 = 83.3;
 
-    /// `(cos x, sin x)` for a small `|x|` (here 2 pi 50 / 5000 = 0.063 rad) by their
-    /// Taylor series to x^13 (remainder below 1e-20): `core` has no `sin` in `no_std`.
+    /// `(cos x, sin x)` for small `|x|` by Taylor series to x^13 (no `sin` in `no_std`).
     const fn cos_sin(x: f64) -> (f64, f64) {
         let (mut c, mut s, mut term, mut k) = (0.0, 0.0, 1.0, 0);
         // term = x^k / k!; even k go to cos, odd to sin, signs alternate in pairs.
@@ -175,8 +161,7 @@ mod bench {
         (c, s)
     }
 
-    /// `exp(-x)` for a small `x >= 0` (here 1 / (0.2 * 5000) = 0.001) by its Taylor
-    /// series to x^8.
+    /// `exp(-x)` for small `x >= 0` (here 0.001) by Taylor series to x^8.
     const fn exp_neg(x: f64) -> f64 {
         let (mut e, mut term, mut k) = (0.0, 1.0, 0);
         while k <= 8 {
@@ -187,13 +172,8 @@ mod bench {
         e
     }
 
-    /// The stimulus: y' rings like a damped yaw mode, a decaying sine
-    /// `y'(t) = A exp(-t / tau) sin(2 pi f t)` (A = 20 mm/s, f = 50 Hz, tau = 0.2 s),
-    /// generated per tick by rotating the phasor `(c, s)` by `2 pi f / rate` and scaling
-    /// it by `exp(-1 / (tau rate))`; the current follows at 100 A per m/s, the wheel
-    /// turns at 925.6 rad/s with the vehicle at [`V_REF_M_S`] (the control core's default
-    /// scales: 925.6 rad/s at 83.3 m/s, so no slip), and the demand steps up at
-    /// mid-run, so every branch of the loops is exercised.
+    /// The stimulus: `y'(t) = A exp(-t / tau) sin(2 pi f t)` (20 mm/s, 50 Hz, 0.2 s) by a
+    /// rotating, decaying phasor; the wheel at 925.6 rad/s with no slip, a demand step at mid-run.
     struct Stimulus {
         k: u32,
         c: f64,
@@ -225,8 +205,7 @@ mod bench {
         }
     }
 
-    /// `N` whole ticks of a fresh default runtime, sent `config` first, on the stimulus;
-    /// `None` if the runtime or the Config is refused.
+    /// `N` whole ticks of a fresh default runtime sent `config` first; `None` if refused.
     fn whole_ticks(sw: &mut SysTickStopwatch, config: WheelsetConfig) -> Option<Stats> {
         let mut rt = new_runtime().ok()?;
         let frame = encode_vec(&Message::Config(config)).ok()?;
@@ -279,8 +258,7 @@ mod bench {
             hprintln!("controller refused the default configuration");
             exit(debug::EXIT_FAILURE)
         };
-        // The laws alone: the wheel-slip protection (on by default) off, as in the whole
-        // tick's first row below; its cost is the third row's.
+        // The laws alone: the protection (on by default) off; its cost is the third row's.
         c.set_wsp(false);
         let mut law = Stats::new();
         let mut stim = Stimulus::new();
@@ -310,7 +288,6 @@ mod bench {
             core::hint::black_box(monitor_tick(&mon, &mut ms, inp.y_dot, inp.current));
             let n = sw.stop(t0);
             mon_all.add(n);
-            // The ticks that ran a monitor step reset the phase to the divisor.
             if ms.phase == mon.divisor() {
                 mon_step.add(n);
             }
@@ -321,9 +298,7 @@ mod bench {
         );
         mon_step.print("monitor, the ticks that run its step", overhead);
 
-        // The default runtime with the wheel-slip protection switched by a Config frame:
-        // off (the boot default has it on), then on (no slip in the stimulus: the cost of
-        // the check itself, every tick), so the two rows differ by the protection alone.
+        // The protection switched off, then on (no slip): the rows differ by its check alone.
         let wsp = |on: bool| WheelsetConfig {
             mode: YawMode::Lead,
             traction: true,

@@ -1,20 +1,13 @@
-//! The `const` constructor from bits known valid ([`Compiled::from_valid_bits`]), per
-//! sample type with a `const` bit conversion: what the firmware starts its controller
-//! with, no conversion code on the device.
+//! The `const` constructor from bits known valid: the firmware's start, no conversion code.
 
 #[allow(clippy::wildcard_imports)]
 use super::*;
 
-/// `from_valid_bits` for each sample type with a `const` bit conversion.
 macro_rules! from_valid_bits {
     ($t:ty, $signal:expr, $coeff:expr, $scale:expr) => {
         impl Compiled<$t> {
-            /// The controller of `b` without validation, in a `const` context: for bits
-            /// that are known valid, i.e. [`Compiled::to_bits`] output (the firmware's
-            /// build-time constants, checked by [`Compiled::from_bits`] in a test). The
-            /// device then starts with no conversion code at all. Invalid bits give a
-            /// controller that runs (nothing here is unsafe) but not one that was
-            /// validated.
+            /// The controller of `b` without validation, `const`, for bits known valid
+            /// ([`Compiled::to_bits`] output, checked by [`Compiled::from_bits`] in a test).
             pub const fn from_valid_bits(b: &CompiledBits) -> Self {
                 let s = $signal;
                 let c = $coeff;

@@ -1,12 +1,10 @@
-//! The controller's signals: one tick's inputs and outputs per unit ([`Inputs`],
-//! [`Outputs`]), their wire codes and the conversion ([`InputCodes`], [`OutputCodes`],
-//! [`Codec`]), and the clamp, saturation and event counters ([`Counters`]).
+//! The controller's signals: per-unit inputs and outputs, their wire codes and
+//! conversion, and the clamp and event counters.
 
 use crate::config::{ConfigError, FullScales, WireLsb};
 use crate::sample::Sample;
 
-/// One tick's inputs, per unit (`x_SI / FS`, [`FullScales`]). Build them from SI values
-/// with [`Inputs::from_si`] or from wire codes with [`Codec::decode`].
+/// One tick's inputs, per unit (`x_SI / FS`).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Inputs<T> {
     /// Lateral velocity `y'` relative to the track, pu of `scales.y_dot` (+ = right).
@@ -34,8 +32,7 @@ impl<T: Sample> Inputs<T> {
 /// One tick's outputs, per unit.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Outputs<T> {
-    /// Yaw control torque `T_psi`, pu of `scales.torque`. Sign: eq. 5
-    /// `J psi'' + ... = -T_psi`; the active law is `T_psi = +K y'`.
+    /// Yaw control torque `T_psi`, pu of `scales.torque`; sign: eq. 5 `J psi'' + ... = -T_psi`.
     pub yaw_torque: T,
     /// Motor voltage `u_a`, pu of `scales.voltage` (0 while traction is off).
     pub voltage: T,
@@ -83,13 +80,11 @@ pub struct Counters {
     pub y_dot: SignalCounts,
     /// Input current (clamp `limits.current`; read on traction steps with traction on).
     pub current: SignalCounts,
-    /// Input speed (clamp `limits.speed`; read for the bumpless preset and, with the
-    /// wheel-slip protection on, on every traction step).
+    /// Input speed (clamp `limits.speed`; read for the bumpless preset and by the protection).
     pub speed: SignalCounts,
     /// Input demand (clamp `limits.demand`; as the current).
     pub demand: SignalCounts,
-    /// Output yaw torque against `limits.torque` (clamps by the safe-state ramp of the
-    /// limit are not counted).
+    /// Output yaw torque against `limits.torque` (the safe-state ramp's clamps not counted).
     pub yaw_torque: SignalCounts,
     /// PI output against the voltage limits.
     pub voltage: SignalCounts,
@@ -116,19 +111,9 @@ pub(super) mod event {
     pub const WSP_STARTED: u32 = 16;
 }
 
-/// What one [`Controller::tick`] counted, as one event word
-/// ([`Controller::tick_events`]): a caller that keeps counters of its own (the runtime)
-/// updates them only on ticks whose word is not [`Self::NONE`], instead of comparing
-/// the core's [`Counters`] before and after every tick.
-///
-/// The word holds one bit per counter a tick can move (each at most once per tick):
-/// for each input (`y'`, current, speed, demand) an invalid bit and a clamped bit, the
-/// yaw torque and the PI output (voltage) clamped, the integrator clamped, and the
-/// wheel-slip protection acting and starting to act. Each set bit is exactly one
-/// increment of the matching field of [`Counters`] on that tick.
+/// What one [`Controller::tick`] counted, one bit per [`Counters`] increment.
 ///
 /// [`Controller::tick`]: super::Controller::tick
-/// [`Controller::tick_events`]: super::Controller::tick_events
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct TickEvents(pub(super) u32);
 
@@ -148,8 +133,7 @@ impl TickEvents {
     pub fn bits(self) -> u32 {
         self.0
     }
-    /// The yaw torque was clamped by `limits.torque` (`Counters::yaw_torque.clamped`
-    /// moved by one).
+    /// The yaw torque was clamped by `limits.torque` (`Counters::yaw_torque.clamped` + 1).
     #[inline(always)]
     pub fn yaw_saturated(self) -> bool {
         self.0 & (1 << event::TORQUE) != 0
@@ -159,8 +143,7 @@ impl TickEvents {
     pub fn traction_saturated(self) -> bool {
         self.0 & (1 << event::VOLTAGE) != 0
     }
-    /// Input events on this tick: invalid and clamped inputs, 0..=8 (the sum of the
-    /// four inputs' `invalid + clamped` moved by this much).
+    /// Input events on this tick, 0..=8: the four inputs' `invalid + clamped` moved by this much.
     #[inline(always)]
     pub fn inputs(self) -> u32 {
         (self.0 & Self::INPUTS).count_ones()
@@ -237,8 +220,7 @@ pub struct OutputCodes {
     pub voltage: i32,
 }
 
-/// Wire-code <-> per-unit conversion with factors precomputed at construction
-/// (`pu = code * LSB/FS`; for [`Fx`] an integer multiply and shift, no float).
+/// Wire-code <-> per-unit conversion, `pu = code * LSB/FS` (for [`Fx`] integer work).
 ///
 /// [`Fx`]: crate::Fx
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -270,11 +252,7 @@ impl<T: Sample> Codec<T> {
         })
     }
 
-    /// Codes -> per-unit inputs.
-    ///
-    /// Always inlined, as [`Self::encode`]: the scaling then folds into the tick's own
-    /// arithmetic instead of a call per frame, for a little more flash (`cargo xtask
-    /// fw-bench`, whole tick; `cargo fw`).
+    /// Codes -> per-unit inputs; always inlined, so the scaling folds into the tick.
     #[inline(always)]
     pub fn decode(&self, c: &InputCodes) -> Inputs<T> {
         Inputs {

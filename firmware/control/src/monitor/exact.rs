@@ -1,5 +1,4 @@
-//! The monitor as exact bits: the monitor that never runs, [`MonitorBits`] to and from a
-//! [`Monitor`], and the `const` constructor the firmware builds its boot monitor with.
+//! The monitor as exact bits, and the `const` constructor of the firmware's boot monitor.
 
 use super::{divisor_for, Monitor, MonitorBits};
 use crate::sample::{Coef, Fx, SampleBits};
@@ -53,10 +52,7 @@ impl<T: SampleBits> Monitor<T> {
         }
     }
 
-    /// From exact bits, validated (coefficients in `(0, 1)`, levels `0 < off < on` (the
-    /// drive check's too), `floor > 0`, `drift > 0`, a block, a count and a persistence
-    /// of at least 1), for `base_rate_hz`; rate 0 gives
-    /// [`Self::off`]-like behaviour (never runs). Integer work only.
+    /// From exact bits for `base_rate_hz`, validated (integer work); rate 0 never runs.
     pub fn from_bits(b: &MonitorBits, base_rate_hz: u32) -> Result<Self, crate::BitsError> {
         let err = |field| crate::BitsError { field };
         let coef = |field, v: u64| {
@@ -133,10 +129,7 @@ const fn f32_value(v: u64) -> f32 {
 macro_rules! from_valid_bits {
     ($t:ty, $signal:expr, $coeff:expr) => {
         impl Monitor<$t> {
-            /// [`Monitor::from_bits`] without validation, in a `const` context, for bits
-            /// known valid ([`Monitor::to_bits`] output: the firmware's build-time
-            /// constant, checked by a host test), with `div` for `base_rate_hz` as
-            /// [`Monitor::retime`].
+            /// [`Monitor::from_bits`] without validation, `const`, for bits known valid.
             pub const fn from_valid_bits(b: &MonitorBits, base_rate_hz: u32) -> Self {
                 let (s, c) = ($signal, $coeff);
                 Self {

@@ -1,21 +1,8 @@
-//! The fixed-point sample [`Fx`] (Q4.28) with Q1.31 coefficients: its wire-code scales
-//! ([`FxScale`]), the rounding Q31 products ([`mul_q31`], [`smmulr`]) and its
-//! [`Sample`] and [`SampleBits`] implementations.
+//! The fixed-point sample [`Fx`] (Q4.28) with Q1.31 coefficients and wire-code scales.
 
 use super::{Coef, Fx, Sample, SampleBits, COEF_FRAC, FX_FRAC};
 
-/// A wire-code scale for the fixed-point type, precomputed at construction:
-/// `out = sat32((in * mul + round) >> shift)`, i.e. a multiplication by `mul / 2^shift`.
-///
-/// Besides `mul`, `shift` and `round`, construction resolves which of the two forms of
-/// [`Self::apply`] the shift takes (`wide`: `shift >= 32`, the output scales; otherwise
-/// the input scales) and the shift amounts that form needs (`sh`, `sh_up`), so that
-/// `apply` does no arithmetic on `shift` at tick time.
-///
-/// `repr(C)`, in the order `apply` reads the words (`round`, `mul`: one `LDM`), the
-/// shift amounts as bytes: `apply` inlined without a run-time branch on `shift` is the
-/// short form (`cargo xtask fw-bench`, whole tick); shift amounts as words would load
-/// in one `LDM` too but cost flash and static RAM for no shorter tick.
+/// A wire-code scale, `out = sat32((in * mul + round) >> shift)`; `repr(C)` in read order.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[repr(C)]
 pub struct FxScale {
@@ -27,16 +14,13 @@ pub struct FxScale {
     pub shift: u32,
     /// `wide`: `min(shift - 32, 31)`; otherwise `shift` (`0..=31`).
     sh: Shift,
-    /// Not `wide`: `31 - shift`, the left shift of the high word (after a shift by one)
-    /// into the result's top bits; `wide`: 0 (unused).
+    /// Not `wide`: `31 - shift`, the high word's left shift (after a shift by one); `wide`: 0.
     sh_up: Shift,
     /// `shift >= 32`: the result is the product's high word shifted right by `sh`.
     wide: bool,
 }
 
-/// A shift amount `0..=31`. An enum, so that its loads carry the range and the
-/// compiler drops the `& 31` that a plain integer shift amount would need before each
-/// variable shift (Rust's `>>` masks the amount; checked in the bench's disassembly).
+/// A shift amount `0..=31`, an enum so the compiler drops the `& 31` before each shift.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[repr(u8)]
 #[rustfmt::skip]
@@ -53,11 +37,9 @@ impl Shift {
             S19, S20, S21, S22, S23, S24, S25, S26, S27, S28, S29, S30, S31,
         ]
     };
-    /// `n & 31` as a shift amount.
     const fn of(n: u32) -> Self {
         Self::ALL[(n & 31) as usize]
     }
-    /// The amount, `0..=31`.
     #[inline(always)]
     fn get(self) -> u32 {
         self as u32
@@ -65,9 +47,7 @@ impl Shift {
 }
 
 impl FxScale {
-    /// The scale from `mul`, `shift` and `round` (as given: no validation), with the
-    /// form [`Self::apply`] takes resolved. `const`: the build's compiled-in
-    /// controllers ([`crate::CompiledBits`]) construct their scales at compile time.
+    /// The scale from its parts (no validation); `const` for the compiled-in controllers.
     pub(crate) const fn from_parts(mul: i32, shift: u32, round: i64) -> Self {
         let wide = shift >= 32;
         let (sh, sh_up) = if wide {
@@ -86,9 +66,7 @@ impl FxScale {
         }
     }
 
-    /// The scale closest to `factor` with the most precision: the largest `shift` such
-    /// that `round(factor 2^shift) < 2^31`. `None` if `factor` is not finite, not
-    /// positive, `>= 2^31`, or smaller than `2^-40` (no useful precision left).
+    /// The scale closest to `factor`: the largest `shift` with `round(factor 2^shift) < 2^31`.
     pub fn new(factor: f64) -> Option<Self> {
         if !(1e-12..2_147_483_647.0).contains(&factor) {
             return None;
@@ -110,8 +88,7 @@ impl FxScale {
         ))
     }
 
-    /// The scale `mul / 2^shift` from its parts, as [`Self::new`] produces them: `None`
-    /// unless `mul` is in `[1024, 2^31)` and `shift <= 62`. Integer work only.
+    /// The scale from its parts: `None` unless `mul` in `[1024, 2^31)` and `shift <= 62`.
     pub fn from_bits(mul: u64, shift: u8) -> Option<Self> {
         let shift = u32::from(shift);
         if !(1024..(1u64 << 31)).contains(&mul) || shift > 62 {
@@ -124,16 +101,10 @@ impl FxScale {
         ))
     }
 
-    /// `sat32((x * mul + round) >> shift)`.
-    ///
-    /// Without a 64-bit shift by a variable amount (on a 32-bit core a library call,
-    /// `__aeabi_lasr`) and without arithmetic on `shift`: the product
-    /// is one `SMLAL` into `(hi, lo)`; a `wide` scale (`shift >= 32`, the output scales)
-    /// is `hi >> sh`, which always fits; a shorter shift (the input scales) combines the
-    /// words (`lo >> shift | (hi << 1) << (31 - shift)`) and saturates when the high
-    /// word is not the sign extension of the result. Inlined: the six scalings of a tick
-    /// (and the slip regulator's `v_ref`) then skip a call's overhead each
-    /// (`scripts/tick-profile.py` profiles the tick per function).
+    /// `sat32((x * mul + round) >> shift)` without a 64-bit variable shift (a library call on
+    /// a 32-bit core): one `SMLAL` into `(hi, lo)`; `wide` is `hi >> sh`, which always fits;
+    /// otherwise `lo >> shift | (hi << 1) << (31 - shift)`, saturated when the high word is
+    /// not the result's sign extension.
     #[inline(always)]
     pub fn apply(&self, x: i32) -> i32 {
         let p = x as i64 * self.mul as i64 + self.round;
@@ -147,7 +118,6 @@ impl FxScale {
             if hi >> sh == q >> 31 {
                 q
             } else {
-                // i32::MIN for a negative product, i32::MAX otherwise.
                 (hi >> 31) ^ i32::MAX
             }
         }
@@ -176,7 +146,6 @@ pub(crate) fn round_f64(x: f64) -> f64 {
     }
 }
 
-/// Saturate an `i64` to `i32`.
 #[inline(always)]
 pub(crate) fn sat32(x: i64) -> i32 {
     if x > i32::MAX as i64 {
@@ -188,20 +157,15 @@ pub(crate) fn sat32(x: i64) -> i32 {
     }
 }
 
-/// `(x c + 2^30) >> 31`: the Q4.28 x Q1.31 product, rounded to nearest (ties up).
-///
-/// Never overflows, so needs no saturation: `|x| <= 2^31` and `|c| <= 2^31 - 1` (a
-/// [`Coef`] is validated into `(-1, 1)` by [`Sample::quantise`]) give
-/// `|x c + 2^30| < 2^62`, so the shifted result lies in `[-2^31, 2^31 - 1]`. Cortex-M4:
-/// `SMLAL` + two ALU instructions.
+/// `(x c + 2^30) >> 31`: the Q4.28 x Q1.31 product, rounded to nearest (ties up). Never
+/// overflows: `|x| <= 2^31`, `|c| <= 2^31 - 1` give `|x c + 2^30| < 2^62`.
 #[inline(always)]
 pub fn mul_q31(x: i32, c: i32) -> i32 {
     ((x as i64 * c as i64 + (1 << (COEF_FRAC - 1))) >> COEF_FRAC) as i32
 }
 
-/// `(a b + 2^31) >> 32`, the high word of the product rounded (Cortex-M4: `SMMULR`).
-/// With `a = 2x` (or `b = 2c`) it is [`mul_q31`]`(x, c)` exactly:
-/// `(2 x c + 2^31) >> 32 = (x c + 2^30) >> 31`.
+/// `(a b + 2^31) >> 32`, the rounded high word (`SMMULR`); with `a = 2x` (or `b = 2c`)
+/// it equals [`mul_q31`]`(x, c)`.
 #[inline(always)]
 pub fn smmulr(a: i32, b: i32) -> i32 {
     ((a as i64 * b as i64 + (1 << 31)) >> 32) as i32
@@ -214,8 +178,7 @@ impl Sample for Fx {
     const ZERO: Self = Fx::ZERO;
     const NAME: &'static str = "Q4.28";
     fn from_f64(x: f64) -> Self {
-        // `saturating_from_num` panics on NaN: a NaN is no value, so it becomes 0
-        // (callers that care count it as invalid before converting).
+        // `saturating_from_num` panics on NaN: NaN becomes 0 (callers count it first).
         if x.is_nan() {
             Fx::ZERO
         } else {
@@ -259,17 +222,15 @@ impl Sample for Fx {
     }
     #[inline(always)]
     fn mul_c_acc(self, c: Coef, r: &mut u64) -> Self {
-        // p = x c + r (one SMLAL); floor to Q4.28 and keep the low 31 bits as the
-        // remainder. No overflow: |x c| < 2^62 (|x| <= 2^31, |c| < 2^31) and
-        // 0 <= r < 2^31, so p >> 31 lies in [-2^31, 2^31).
+        // p = x c + r (one SMLAL); floor to Q4.28, keep the low 31 bits. No overflow:
+        // |x c| < 2^62 and 0 <= r < 2^31.
         let p = self.to_bits() as i64 * c.to_bits() as i64 + *r as i64;
         *r = (p & ((1 << COEF_FRAC) - 1)) as u64;
         Fx::from_bits((p >> COEF_FRAC) as i32)
     }
     const ACC_SHIFT_MAX: u32 = 30;
     fn acc_shift(c_max: f64) -> Option<u32> {
-        // The largest s in 1..=30 with c_max 2^s still a Q1.31 coefficient (below 1
-        // after rounding); s >= 1 keeps `mul_c_acc_shr` to the product's high word.
+        // The largest s in 1..=30 with c_max 2^s still a Q1.31 coefficient.
         if !(c_max.is_finite() && c_max > 0.0) {
             return None;
         }
@@ -288,12 +249,9 @@ impl Sample for Fx {
     }
     #[inline(always)]
     fn mul_c_acc_shr(self, c: Coef, s: u32, r: &mut u64) -> Self {
-        // p = x c + r (one SMLAL into the remainder's two words); the increment is
-        // floor(p / 2^(31+s)) = (p >> 32) >> (s - 1) (1 <= s <= 30: one arithmetic shift
-        // of the high word), the remainder the low 31 + s bits: the low word and
-        // hi - (q << (s - 1)). No overflow: |x c| <= 2^62 - 2^31 and 0 <= r < 2^(31+s)
-        // <= 2^61, so |p| < 2^63; the remainder lies in [0, 2^(31+s)). The wrapping
-        // shifts only keep an invalid s (refused at construction) from panicking.
+        // p = x c + r; the increment is floor(p / 2^(31+s)) = (p >> 32) >> (s - 1), the
+        // remainder the low 31 + s bits. No overflow: |x c| <= 2^62 - 2^31, r < 2^61, so
+        // |p| < 2^63. The wrapping shifts keep an invalid s (refused earlier) from panicking.
         let p = self.to_bits() as i64 * c.to_bits() as i64 + *r as i64;
         let hi = (p >> 32) as i32;
         let sh = s.wrapping_sub(1);
@@ -333,9 +291,7 @@ impl Sample for Fx {
     }
     #[inline(always)]
     fn abs_within(self, max: Self) -> bool {
-        // One unsigned compare (`ADD`, `CMP ..., LSL #1`): `x + max` in `[0, 2 max]`
-        // (for `0 <= max < 2^30`, which every limit is; below `-max` or above `max`
-        // it wraps or lands beyond `2 max`).
+        // One unsigned compare: `x + max` in `[0, 2 max]` (for `0 <= max < 2^30`).
         let m = max.to_bits();
         (self.to_bits().wrapping_add(m) as u32) <= (m as u32) << 1
     }
@@ -386,7 +342,6 @@ impl SampleBits for Fx {
         Some(Coef::from_bits(u32::try_from(b).ok()? as i32)).filter(|q| *q != Coef::MIN)
     }
     fn coeff_in_unit(c: Coef, zero_ok: bool) -> bool {
-        // Below 1 by the format.
         c > Coef::ZERO || (zero_ok && c == Coef::ZERO)
     }
     fn scale_to_bits(s: &FxScale) -> (u64, u8) {

@@ -1,6 +1,4 @@
-//! Compiling the protection: [`WspParams`] validated against the motor, scales, limits
-//! and the yaw lead, and quantised for a sample type ([`Wsp::try_new`]); its exact bits
-//! and back ([`Wsp::to_bits`], [`Wsp::from_bits`]).
+//! Compiling the protection: [`WspParams`] validated and quantised, and its exact bits.
 
 use super::{Wsp, WspBits, WspParams, MAX_SHIFT};
 use crate::compiled::ScaleBits;
@@ -9,10 +7,8 @@ use crate::lead::LeadParams;
 use crate::sample::{Sample, SampleBits};
 
 impl<T: Sample> Wsp<T> {
-    /// Validate `p` against the motor, scales, limits and the yaw lead `lead` (the
-    /// scheduled lead shares its pole and state), and quantise; `speed_lsb` is the
-    /// wire's motor-speed LSB, rad/s (`Config.wire.speed`): the slip thresholds sit half
-    /// of it above their values (module docs, "Exact decisions").
+    /// Validate `p` against the motor, scales, limits and the lead, and quantise;
+    /// `speed_lsb` is the wire's motor-speed LSB, rad/s.
     pub fn try_new(
         p: &WspParams,
         motor: &Motor,
@@ -126,8 +122,7 @@ impl<T: Sample> Wsp<T> {
             speed_lsb > 0.0 && 2.0 * half <= p.slip_accel_mps * pu,
             "must be positive and at most wsp.slip_accel_mps at the motor",
         )?;
-        // The regulator in pu (module docs, "Law"): kp' = kp / (pu scales.current),
-        // ki' = ki / (pu current_ref_rate), the integral per step `ki' iref_step e`.
+        // kp' = kp / (pu scales.current), ki' = ki / (pu current_ref_rate).
         let (kp, kp_shift) = split(
             "wsp kp / (n/r0 scales.current)",
             p.kp_a_per_mps / (pu * s.current),
@@ -146,8 +141,7 @@ impl<T: Sample> Wsp<T> {
             name: "wsp slip_sp_per_a scales.current n/r0 / 2",
             value: slope,
         })?;
-        // The scheduled lead `lead_gain K a (s + w1')/(s + w2)` on the lead's state: its
-        // low-pass gain `g' = (w2 - w1')/w2 = g (1 + rho)`, `rho = (w1 - w1')/(w2 - w1)`.
+        // g' = (w2 - w1')/w2 = g (1 + rho), rho = (w1 - w1')/(w2 - w1).
         let k_hf = lead.k * lead.a * s.y_dot / s.torque;
         let rho = (lead.w1 - p.lead_w1_rad_s) / (lead.w2 - lead.w1);
         Ok(Self {
@@ -205,9 +199,7 @@ impl<T: SampleBits> Wsp<T> {
         }
     }
 
-    /// From exact bits, validated: thresholds `0 < slip_accel < slip_on <= 2` pu and
-    /// `0 < sp_half < slip_on`, coefficients in `(0, 1)` (the set point's slope in
-    /// `[0, 1)`, the scheduled lead's any), shifts at most 16, a valid scale.
+    /// From exact bits, validated (thresholds `0 < slip_accel < slip_on <= 2` pu, shifts <= 16).
     pub fn from_bits(b: &WspBits) -> Result<Self, crate::BitsError> {
         let e = |field| crate::BitsError { field };
         let sig = |field, v| {

@@ -1,6 +1,4 @@
-//! The receive side of [`Runtime`]: bytes in any chunking decoded into frames, bad ones
-//! counted by kind, Sensor frames taken as the latest sample, Config (with its
-//! [`Rates`]) and Command frames validated and applied or refused.
+//! The receive side of [`Runtime`]: frames decoded, counted, applied or refused.
 
 use wheelset_control::{Controller, InputCodes, MonitorState, SampleBits, ScheduleBits};
 use wheelset_proto::{FrameError, Lateral, RefuseReason, Request, Sensor, YawMode};
@@ -9,11 +7,9 @@ use crate::validate;
 use crate::{AccBits, Command, Config, Rates, Runtime, RuntimeCounters, RxEvent};
 
 impl<T: SampleBits> Runtime<T> {
-    /// Takes received bytes in any chunking; decodes frames, applies commands, counts bad
-    /// frames. Never panics.
+    /// Takes received bytes in any chunking. Never panics.
     pub fn receive(&mut self, bytes: &[u8]) {
-        // Frame by frame, the decoder a field of `self` (a callback into `self` would need
-        // the decoder moved out and back: two copies of its buffer per call).
+        // Frame by frame, the decoder a field of `self` (a callback would copy its buffer).
         let mut rest = bytes;
         while !rest.is_empty() {
             let (r, more) = self.decoder.next_request(rest);
@@ -24,7 +20,6 @@ impl<T: SampleBits> Runtime<T> {
         }
     }
 
-    /// A frame's result: counted and applied.
     fn on_frame(&mut self, r: Result<Request, FrameError>) {
         let c = &mut self.counters;
         let m = match r {
@@ -44,15 +39,11 @@ impl<T: SampleBits> Runtime<T> {
             }
         };
         if matches!(m, Request::Unexpected) {
-            // A valid frame of a device -> host type: counted here only (the accounting
-            // identity of the Status docs).
             c.rx_unexpected = c.rx_unexpected.wrapping_add(1);
             return;
         }
         c.rx_ok = c.rx_ok.wrapping_add(1);
-        // `CMD_REFUSED` marks the latest Config or Command: an accepted Command clears
-        // it (a refused one sets it again in `refuse`; a Config in `on_config`), but
-        // `RequestStatus`, a read, does not change what it reads.
+        // `CMD_REFUSED` marks the latest Config or Command; `RequestStatus`, a read, leaves it.
         if matches!(m, Request::Command(c) if c != Command::RequestStatus) {
             self.refused = false;
         }
@@ -73,7 +64,6 @@ impl<T: SampleBits> Runtime<T> {
                 self.alarm_safe = false;
             }
             Request::Command(c @ (Command::InjectStall | Command::InjectHardFault)) => {
-                // A stall is honoured only where a watchdog ends it (`set_watchdog`).
                 let ends = self.watchdog || c == Command::InjectHardFault;
                 if cfg!(feature = "fault-inject") && ends {
                     self.injected = Some(c);
@@ -86,15 +76,12 @@ impl<T: SampleBits> Runtime<T> {
         }
     }
 
-    /// A valid Sensor frame taken as the latest sample.
     fn on_sensor(&mut self, s: Sensor) {
         let y_dot = match s.lateral {
             Lateral::Both {
                 vel_um_s: v,
                 acc_dmm_s2: a,
             } if self.leak_q32 != 0 => {
-                // The complementary filter (crate docs): y' pulls the estimate at the
-                // wash-out rate, y'' is integrated.
                 if self.acc.is_none() {
                     self.vel_q32 = i64::from(v) << 32;
                 }
@@ -118,11 +105,7 @@ impl<T: SampleBits> Runtime<T> {
             self.counters.seq_gaps = self.counters.seq_gaps.wrapping_add(1);
         }
         self.seq = s.seq;
-        // The reference speed's only reader is the protection's step: converted for the
-        // core (a scaling and a clamp) only while the protection is on, else held and
-        // given to the core by the Config that switches it on (`on_config`), so the core
-        // steps on the same `w_ref` either way, and a tick with the protection off does
-        // no conversion (`cargo xtask fw-bench` measures the tick).
+        // The protection is the reference speed's only reader: converted only while it is on.
         if self.core.wsp_enabled() {
             self.core.set_v_ref_code(s.v_ref_mm_s);
         } else {
@@ -157,9 +140,6 @@ impl<T: SampleBits> Runtime<T> {
         self.core.set_mode(c.mode);
         self.core.set_traction(c.traction);
         self.core.set_wsp(c.wsp);
-        // The latest reference speed received while the protection was off (for this
-        // core: `apply_rates` drops it with the core it replaces), as `on_sensor` would
-        // have given it.
         if c.wsp {
             if let Some(code) = self.v_ref_held.take() {
                 self.core.set_v_ref_code(code);
@@ -171,9 +151,7 @@ impl<T: SampleBits> Runtime<T> {
         self.refused = false;
     }
 
-    /// A refused Config or Command: counted, flagged until the next accepted one, the
-    /// reason kept for the Status (until the next refusal or `ResetCounters`); nothing
-    /// else changes.
+    /// A refused request: counted, flagged, the reason kept; nothing else changes.
     fn refuse(&mut self, why: RefuseReason) {
         self.refused = true;
         self.counters.cmd_refused = self.counters.cmd_refused.wrapping_add(1);
@@ -182,10 +160,7 @@ impl<T: SampleBits> Runtime<T> {
         self.note_rx_event(RxEvent::Refused(why));
     }
 
-    /// Validates `r` against this core (sample type, fingerprint, the plausible ranges of
-    /// `wheelset_proto::plausible`, one of the device's designs bit for bit, `hold_ticks`
-    /// at the new rate, the formats) and, if valid,
-    /// restarts the core on it. Nothing changes when it is refused.
+    /// Validates `r` against this core and its designs, then restarts the core on it.
     #[inline(never)]
     fn apply_rates(
         &mut self,
@@ -199,8 +174,6 @@ impl<T: SampleBits> Runtime<T> {
         if r.fingerprint != self.fingerprint {
             return Err(RefuseReason::Fingerprint);
         }
-        // The board's link cannot carry one exchange per period above its limit: out of
-        // this board's range of base rates.
         if r.base_rate_hz > self.max_rate_hz {
             return Err(RefuseReason::BaseRate);
         }
@@ -237,15 +210,11 @@ impl<T: SampleBits> Runtime<T> {
                 torque_step: u64::from(r.torque_step),
             })
             .map_err(|_| bits)?;
-        // A fresh core (filter states zero, integrator to be preset from the back-EMF);
-        // the Config sets its mode and traction right after.
         let t_psi = self.core.outputs().yaw_torque;
-        // The safe state and its torque limit go on where they were (a safe state held
-        // from boot, with the limit at zero, stays at zero torque).
+        // The safe state and its torque limit go on (a boot-held zero limit stays zero).
         let (safe, limit) = (self.core.is_safe(), self.core.torque_limit());
         let wsp = self.core.wsp_enabled();
         self.core = Controller::new(&law);
-        // The new core has no reference speed (0) until the next Sensor frame.
         self.v_ref_held = None;
         self.core.continue_from(t_psi);
         if wsp {

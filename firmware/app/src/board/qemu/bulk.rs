@@ -1,27 +1,7 @@
-//! The bulk channel: the control frames over semihosting file I/O on two host pipes
-//! instead of UART0, for runs faster than real time.
-//!
-//! The CMSDK UART hands over one byte per interrupt, and QEMU's I/O thread and vCPU
-//! thread hand every byte to each other: ~1 300 exchanges per second of wall time. A
-//! semihosting `SYS_READ` takes a whole frame in one trap. The harness asks for the
-//! channel with a semihosting argument `bulk:DIR` (`-semihosting-config
-//! ...,arg=wheelset-qemu,arg=bulk:DIR`, [`open`] reads it with `SYS_GET_CMDLINE`),
-//! where `DIR/rx` and `DIR/tx` are FIFOs it created: the firmware reads host -> device
-//! bytes from `DIR/rx` and writes device -> host frames to `DIR/tx`.
-//!
-//! Everything else is the UART build's: the bytes go into the same RX pipe, a frame
-//! delimiter is the same frame edge of the clock ([`super::clock`]) and the same control
-//! task runs the same tick. The edge pends the control task's interrupt, so the tick has
-//! run when the edge returns: the receiver then writes what the tick put in the TX pipe
-//! itself (no TX task: one interrupt less per frame). Since the tick sees the same bytes
-//! in the same RX pipe, its instructions (the `exec` field) are the same as well: the two
-//! channels give the same Actuation frames bit for bit (`hil/harness/tests/qemu_bulk.rs`).
-//! A semihosting read blocks the whole vCPU until the host writes, so nothing counts time
-//! while the guest waits.
-//!
-//! Each frame is taken whole and its tick runs before the receiver reads on, so the host
-//! may send the next frame before the answer to this one (two exchanges in flight,
-//! `wheelset_targets::qemu::target`): the tick still sees its own frame alone.
+//! The bulk channel: frames over semihosting file I/O on two host FIFOs (`bulk:DIR`)
+//! instead of UART0, for runs faster than real time; otherwise the UART build's path,
+//! so the same frames bit for bit. The frame edge runs the tick, and the receiver writes
+//! the answer itself.
 
 use core::sync::atomic::{AtomicI32, Ordering};
 
@@ -35,23 +15,20 @@ pub struct Bulk {
     rx: usize,
 }
 
-/// `SYS_OPEN` of the NUL-terminated `path` (without its NUL: `len`) in `mode`; the
-/// handle, or `None`.
+/// `SYS_OPEN` of the NUL-terminated `path` (`len` without the NUL) in `mode`; the handle.
 fn open_file(path: &[u8], mode: usize) -> Option<usize> {
     let len = path.iter().position(|&b| b == 0)?;
-    // SAFETY: the parameter block names a NUL-terminated string that lives for the
-    // call; QEMU only reads it.
+    // SAFETY: the block names a NUL-terminated string live for the call; QEMU only reads it.
     let h = unsafe { cortex_m_semihosting::syscall!(OPEN, path.as_ptr(), mode, len) } as isize;
     (h >= 0).then_some(h as usize)
 }
 
-/// The bulk channel if the semihosting command line asks for it (`bulk:DIR`), opened
-/// (blocking until the host has opened its ends of both FIFOs); `None` otherwise.
+/// The bulk channel if the command line asks for it, opened (blocks for the host).
 pub fn open() -> Option<Bulk> {
     let mut cmd = [0u8; 256];
     let mut block = [cmd.as_mut_ptr() as usize, cmd.len() - 1];
-    // SAFETY: `SYS_GET_CMDLINE` writes at most `block[1]` bytes into `cmd` and the
-    // length into `block`, both live and exclusively borrowed for the call.
+    // SAFETY: `SYS_GET_CMDLINE` writes at most `block[1]` bytes into `cmd`, both live and
+    // exclusively borrowed for the call.
     let r = unsafe { cortex_m_semihosting::syscall1(nr::GET_CMDLINE, block.as_mut_ptr() as usize) };
     if r != 0 {
         return None;
@@ -81,8 +58,7 @@ pub fn active() -> bool {
     TX.load(Ordering::Relaxed) >= 0
 }
 
-/// Writes `bytes` to the TX FIFO (blocking). A failed write loses the frame; the host
-/// sees it missing.
+/// Writes `bytes` to the TX FIFO (blocking); a failed write loses the frame.
 pub fn write_all(bytes: &[u8]) {
     let h = TX.load(Ordering::Relaxed) as usize;
     let mut rest = bytes;
@@ -102,20 +78,15 @@ fn send_answers() {
 }
 
 impl Bulk {
-    /// Reads what the host has written (blocking for at least one byte); 0 at the end
-    /// of the stream (the host closed its end).
+    /// Reads what the host wrote (blocking for a byte); 0 at the end of the stream.
     fn read(&self, buf: &mut [u8]) -> usize {
-        // SAFETY: QEMU writes at most `buf.len()` bytes into `buf`, live and exclusively
-        // borrowed for the call.
+        // SAFETY: QEMU writes at most `buf.len()` bytes into `buf`, exclusively borrowed.
         let left =
             unsafe { cortex_m_semihosting::syscall!(READ, self.rx, buf.as_mut_ptr(), buf.len()) };
         buf.len().saturating_sub(left)
     }
 
-    /// The receiver, in thread mode, forever: each chunk into the RX pipe up to and
-    /// including each delimiter, then that frame edge, as the UART's RX interrupt does
-    /// byte by byte (the edge pends the control executor, which runs the tick before
-    /// this loop goes on). Exits QEMU when the host closes the channel.
+    /// The receiver, in thread mode: each chunk into the RX pipe, then its frame edge.
     pub fn run(self) -> ! {
         let mut buf = [0u8; 256];
         loop {

@@ -1,28 +1,7 @@
-//! The QEMU build's embassy-time driver: the host's frames are the clock.
-//!
-//! Lock-step needs a device clock that stands still while the guest waits for the
-//! host. With `-icount sleep=off`, QEMU jumps virtual time to the next armed timer as
-//! soon as the guest idles, so any hardware timer (SysTick, CMSDK timers) would expire
-//! "instantly" in wall time, before the host's next frame could arrive, and the tick
-//! would see old or new data depending on host speed. Here device time is instead
-//!
-//! `now = frame_edges * period` (embassy-time ticks of 1 us),
-//!
-//! where a frame edge is the delimiter byte 0x00 that ends each host frame: the host
-//! sends exactly one frame per control period, so the control task's `Ticker` fires
-//! once per host frame, after the frame's bytes are in the RX pipe. Nothing counts time
-//! while the guest sleeps in WFI, so a run's per-tick trace depends only on the bytes
-//! exchanged. A host that wants a tick without a sensor frame (a dropped frame in a fault
-//! run) sends a bare 0x00, which every COBS decoder ignores as an empty frame.
-//!
-//! **Free-running build** (feature `free-run`, QEMU without `-icount`, virtual time
-//! following the host's clock): the same clock, its edges from the CMSDK TIMER0
-//! (0x4000_0000, IRQ 8, counting down at the 25 MHz system clock) instead of the frame
-//! delimiters. TIMER0 reloads every period, `RELOAD = period_us * 25 - 1`, and each of
-//! its interrupts is one edge: the board ticks on its own clock as a real board does,
-//! whatever the host sends. Device time is quantised to whole periods, so the tick
-//! monitor sees a delayed edge as a skipped tick (lateness a multiple of the period),
-//! never as a late one.
+//! The QEMU build's embassy-time driver: the host's frames are the clock. With `-icount
+//! sleep=off` a hardware timer would expire before the host's next frame, so `now =
+//! frame_edges * period` (1 us ticks), an edge being each frame's 0x00: a run's trace
+//! depends only on the bytes exchanged. Free-running (`free-run`): TIMER0 makes the edges.
 
 use core::cell::{Cell, RefCell};
 use core::sync::atomic::{AtomicU32, Ordering};
@@ -35,8 +14,7 @@ use embassy_time_queue_utils::Queue;
 /// The control period in embassy-time ticks (1 us), set by the control task.
 static PERIOD: AtomicU32 = AtomicU32::new(0);
 
-/// Sets the period one frame edge advances the clock by (and, free-running, the
-/// TIMER0 reload that makes the edges).
+/// Sets the period a frame edge advances the clock by (free-running: TIMER0's reload).
 pub fn set_period(ticks: u64) {
     let ticks = u32::try_from(ticks).unwrap_or(u32::MAX);
     PERIOD.store(ticks, Ordering::Relaxed);
@@ -60,8 +38,7 @@ pub mod timer {
     const COUNTS_PER_US: u32 = 25;
 
     fn write(addr: usize, value: u32) {
-        // SAFETY: `addr` is one of TIMER0's registers above: a valid, aligned MMIO word of
-        // the mps2-an386; TIMER0 is owned by this module alone.
+        // SAFETY: `addr` is a TIMER0 register: valid, aligned MMIO, owned by this module alone.
         unsafe { write_volatile(addr as *mut u32, value) }
     }
 
@@ -96,7 +73,6 @@ impl Driver for FrameClock {
         critical_section::with(|cs| {
             let mut queue = self.queue.borrow_ref_mut(cs);
             if queue.schedule_wake(at, waker) {
-                // Wakes it at once if `at` has already passed.
                 queue.next_expiration(self.now.borrow(cs).get());
             }
         });
@@ -108,8 +84,7 @@ embassy_time_driver::time_driver_impl!(static CLOCK: FrameClock = FrameClock {
     queue: Mutex::new(RefCell::new(Queue::new())),
 });
 
-/// One host frame ended: advance device time by one control period and wake whatever
-/// was due (the control task's ticker).
+/// One host frame ended: device time advances one period, and whatever was due wakes.
 pub fn frame_edge() {
     critical_section::with(|cs| {
         let now = CLOCK.now.borrow(cs);

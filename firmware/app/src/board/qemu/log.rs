@@ -1,5 +1,4 @@
-//! defmt global logger over semihosting (QEMU's stdout), keeping logs off the control
-//! UART. Decode with `defmt-print -e target/fw/wheelset-qemu.elf` on QEMU's stdout.
+//! defmt global logger over semihosting (QEMU's stdout), off the control UART.
 
 use core::ptr::addr_of_mut;
 use core::sync::atomic::{AtomicBool, Ordering};
@@ -11,8 +10,7 @@ use critical_section::RestoreState;
 struct SemihostingLogger;
 
 static TAKEN: AtomicBool = AtomicBool::new(false);
-// The three statics below are touched only between `acquire` and `release`, i.e.
-// inside one critical section with TAKEN set: never by two contexts at once.
+// These statics are touched only between `acquire` and `release`, with TAKEN set.
 static mut RESTORE: RestoreState = RestoreState::invalid();
 static mut ENCODER: defmt::Encoder = defmt::Encoder::new();
 static mut STREAM: Option<HostStream> = None;
@@ -24,14 +22,12 @@ fn emit(bytes: &[u8]) {
         *stream = hio::hstdout().ok();
     }
     if let Some(s) = stream.as_mut() {
-        // A failed host write loses log bytes, nothing else.
         let _ = s.write_all(bytes);
     }
 }
 
-// SAFETY: `acquire` enters a critical section that `release` leaves, so frames never
-// interleave and the encoder is used by one context at a time; a nested `acquire`
-// (logging from inside the logger) is refused by TAKEN.
+// SAFETY: `acquire` enters a critical section that `release` leaves, so one context uses
+// the encoder at a time; TAKEN refuses a nested `acquire`.
 unsafe impl defmt::Logger for SemihostingLogger {
     fn acquire() {
         // SAFETY: paired with the `release` below (defmt guarantees the pairing).

@@ -1,7 +1,4 @@
-//! The mps2-an386 interrupt table: what a PAC would provide. Handler names match
-//! `qemu/device.x`, which points every unimplemented one at cortex-m-rt's
-//! `DefaultHandler`. IRQs 16 and 17 are not wired to any peripheral in QEMU; the
-//! firmware uses them as software interrupts for its two embassy interrupt executors.
+//! The mps2-an386 interrupt table; IRQs 16 and 17 are the executors' software interrupts.
 
 /// External interrupts of the mps2-an386 used by the firmware.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -19,8 +16,7 @@ pub enum Interrupt {
     Swi1 = 17,
 }
 
-// SAFETY: `number` returns the interrupt's position in the vector table below, and every
-// value is below the 32 external interrupts the table (and QEMU's NVIC) provide.
+// SAFETY: `number` is the interrupt's vector table position, below the 32 provided.
 unsafe impl cortex_m::interrupt::InterruptNumber for Interrupt {
     fn number(self) -> u16 {
         self as u16
@@ -60,8 +56,7 @@ const fn h(handler: unsafe extern "C" fn()) -> Vector {
     Vector { handler }
 }
 
-/// The 32 external interrupt vectors, placed after the core exceptions by cortex-m-rt's
-/// `link.x` (this is the `device` feature's contract).
+/// The 32 external interrupt vectors, after the core exceptions (cortex-m-rt's `device`).
 #[unsafe(link_section = ".vector_table.interrupts")]
 #[unsafe(no_mangle)]
 pub static __INTERRUPTS: [Vector; 32] = [

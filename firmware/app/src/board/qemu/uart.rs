@@ -1,11 +1,5 @@
-//! CMSDK APB UART0 of the mps2-an386 (0x4000_4000): the control link.
-//!
-//! The CMSDK UART has a one-byte holding register and no FIFO, so the RX interrupt
-//! handler is the receiver: it moves each byte into the RX pipe of the control task and,
-//! on the frame delimiter 0x00, advances the frame clock ([`super::clock`]). QEMU hands
-//! the UART the next byte only after the previous one was read, so nothing is overrun.
-//! Transmission is a task: one byte per write, waiting for the TX interrupt when the
-//! holding register is full.
+//! CMSDK APB UART0 of the mps2-an386: the control link. No FIFO, so the RX interrupt is
+//! the receiver (each 0x00 advances the frame clock); transmission is a task.
 
 use core::future::poll_fn;
 use core::ptr::{read_volatile, write_volatile};
@@ -36,8 +30,7 @@ const BAUD_DIVIDER: u32 = 217;
 static TX_WAKER: AtomicWaker = AtomicWaker::new();
 
 fn read(addr: usize) -> u32 {
-    // SAFETY: `addr` is one of the UART0 registers above: a valid, aligned MMIO word of
-    // the mps2-an386; reading it has no side effect except DATA (which the caller wants).
+    // SAFETY: `addr` is a UART0 register: valid, aligned MMIO; only DATA's read has an effect.
     unsafe { read_volatile(addr as *const u32) }
 }
 
@@ -53,8 +46,7 @@ pub fn init() {
     write(CTRL, CTRL_TX_EN | CTRL_RX_EN | CTRL_RX_INTEN);
 }
 
-/// UART0 RX interrupt: drain the holding register into the RX pipe. Deadline: one byte
-/// time (QEMU: before the next byte can be delivered, which it waits for anyway).
+/// UART0 RX interrupt: the holding register into the RX pipe (deadline: one byte time).
 pub fn on_rx_interrupt() {
     loop {
         // Clear first, then read: a byte arriving after the read raises a new interrupt.
@@ -65,7 +57,6 @@ pub fn on_rx_interrupt() {
         let byte = (read(DATA) & 0xFF) as u8;
         crate::watchdog::rx_ran();
         if crate::app::RX.try_write(&[byte]) != Ok(1) {
-            // Lost: counted for the Status (`rx_overrun`).
             crate::app::RX_OVERRUN.fetch_add(1, Ordering::Relaxed);
         }
         // The free-running build's clock is TIMER0, not the host's frames.

@@ -1,31 +1,12 @@
-//! What the STM32 board builds assume of their clock trees, as pure functions checked at
-//! start-up against the clocks embassy-stm32 configured (`embassy_stm32::rcc::clocks`)
-//! and tested on the host.
-//!
-//! **USART baud rate** (the F446's USART2; RM0390 25.4.4, "Fractional baud rate
-//! generation"): USART2 runs on
-//! PCLK1 and makes `f_PCLK / (8 * (2 - OVER8) * USARTDIV)`. embassy-stm32's driver takes
-//! `d = round(f_PCLK / baud)` (`usart::find_and_set_brr`): oversampling by 16 with
-//! `BRR = d` (12-bit mantissa, 4-bit fraction of USARTDIV in sixteenths) when `d >= 16`,
-//! by 8 with `BRR = (d / 8) << 4 | d % 8` (3-bit fraction) down to `d = 8` (USARTDIV 1:
-//! the highest baud, `f_PCLK / 8`). [`brr`] and [`baud_of`] model that choice, so
-//! [`baud_fits`] says which baud the HAL's USART2 really makes from a PCLK1.
-//!
-//! **LPUART baud rate** (the G474's LPUART1; RM0440, "LPUART baud rate
-//! generation"): `baud = 256 * f_ck / LPUARTDIV`, with LPUARTDIV (BRR, 20 bits) at least
-//! 0x300. embassy-stm32 takes `LPUARTDIV = round(256 * f_ck / baud)` with the kernel
-//! clock undivided when that is below 2^20 (`usart::calculate_brr`), else a prescaler;
-//! [`lpuart_made_baud`] models the undivided case, which every baud above
-//! `f_ck / 4096` is.
-//!
-//! **Time base**: embassy-stm32's time driver sets its timer's prescaler to
-//! `f_TIM / TICK_HZ - 1` (integer division, `time_driver/gp16.rs`): the ticks are exact
-//! only if the timer clock is a whole multiple of the tick rate within the 16-bit
-//! prescaler's range ([`timer_divides`]).
+//! The STM32 builds' clock-tree assumptions as pure functions, checked at start-up and
+//! tested on the host:
+//! - USART (RM0390 25.4.4): `baud = f_PCLK / (8 * (2 - OVER8) * USARTDIV)`; embassy-stm32
+//!   takes `d = round(f_PCLK / baud)`: by 16 with `BRR = d` for `d >= 16`, else by 8 with
+//!   `BRR = (d / 8) << 4 | d % 8` down to `d = 8`.
+//! - LPUART (RM0440): `baud = 256 * f_ck / LPUARTDIV`, LPUARTDIV >= 0x300.
+//! - Time base: prescaler `f_TIM / TICK_HZ - 1`, exact only for a whole multiple.
 
-/// USART_BRR and whether to oversample by 8 (CR1 OVER8) for `baud` from `pclk_hz`, as
-/// embassy-stm32 chooses them; `None` if `baud` is 0 or above `pclk_hz / 8`, or the
-/// divider exceeds BRR's 16 bits.
+/// USART_BRR and OVER8 for `baud` from `pclk_hz` as embassy-stm32 chooses them, if any.
 pub const fn brr(pclk_hz: u32, baud: u32) -> Option<(u16, bool)> {
     if baud == 0 {
         return None;
@@ -66,14 +47,12 @@ pub const fn made_baud(pclk_hz: u32, baud: u32) -> Option<u32> {
     }
 }
 
-/// Whether USART2 on `pclk_hz` makes `baud` within `tolerance_permille` parts per
-/// thousand (0: exactly).
+/// Whether USART2 on `pclk_hz` makes `baud` within `tolerance_permille` (0: exactly).
 pub const fn baud_fits(pclk_hz: u32, baud: u32, tolerance_permille: u32) -> bool {
     within(made_baud(pclk_hz, baud), baud, tolerance_permille)
 }
 
-/// Whether the baud a UART `made` (`None`: it cannot make it) is `baud` within
-/// `tolerance_permille` parts per thousand (0: exactly).
+/// Whether the baud `made` (`None`: cannot) is `baud` within `tolerance_permille`.
 pub const fn within(made: Option<u32>, baud: u32, tolerance_permille: u32) -> bool {
     match made {
         Some(made) => made.abs_diff(baud) as u64 * 1000 <= baud as u64 * tolerance_permille as u64,
@@ -81,8 +60,7 @@ pub const fn within(made: Option<u32>, baud: u32, tolerance_permille: u32) -> bo
     }
 }
 
-/// The baud an LPUART on kernel clock `ck_hz` makes for `baud` (`None`: above `ck_hz / 3`,
-/// or so low that it needs the prescaler, which this model leaves out).
+/// The baud an LPUART on `ck_hz` makes for `baud` (`None`: above `ck_hz / 3`, or prescaled).
 pub const fn lpuart_made_baud(ck_hz: u32, baud: u32) -> Option<u32> {
     if baud == 0 {
         return None;
@@ -96,9 +74,7 @@ pub const fn lpuart_made_baud(ck_hz: u32, baud: u32) -> Option<u32> {
     }
 }
 
-/// Whether a timer clocked at `timer_hz` counts exactly `tick_hz` through a 16-bit
-/// prescaler (PSC = `timer_hz / tick_hz - 1`, RM0390 18.4.11): `timer_hz` a whole
-/// multiple of `tick_hz`, the ratio from 1 to 65 536.
+/// Whether a timer at `timer_hz` counts exactly `tick_hz` through a 16-bit prescaler.
 pub const fn timer_divides(timer_hz: u32, tick_hz: u32) -> bool {
     match timer_hz.checked_div(tick_hz) {
         Some(div) => div >= 1 && div <= 65_536 && timer_hz.is_multiple_of(tick_hz),

@@ -1,22 +1,7 @@
-//! What the STM32 boards share on embassy-stm32 0.6: the DWT stopwatch, the tasks around
-//! the UART driver (a DMA receive ring, DMA transmission), two interrupt executors, the
-//! independent watchdog's feeding, the fault path's end, and the clock checks
-//! ([`clock`]). A board module adds its clock tree, its UART and pins, its reset flags
-//! and the polled safe frame of its fault path.
-//!
-//! Executors and priorities (4 priority bits, lower = more urgent):
-//!
-//! | context | priority | job |
-//! |---|---|---|
-//! | TIM2 (embassy-stm32's time driver) | P4 | wakes the ticker |
-//! | UART4 (unused peripheral, software-pended) | P6 | control executor: the control task |
-//! | the link's UART and DMA channels (embassy-stm32's handlers) | P8 | UART driver |
-//! | UART5 (unused peripheral, software-pended) | P10 | communication executor: RX task, TX task |
-//! | thread mode | lowest | WFI, feeds the IWDG |
-//!
-//! A UART burst is handled by the DMA, the driver's interrupts and the communication
-//! executor, all of which the control executor preempts: it cannot delay a tick. (Both
-//! executors run in interrupt mode, so the thread executor is not linked.)
+//! What the STM32 boards share: the DWT stopwatch, the UART's DMA tasks, two interrupt
+//! executors, the watchdog, the fault path's end, the clock checks ([`clock`]).
+//! Priorities: TIM2 P4 > control executor P6 > link UART and DMA P8 > communication
+//! executor P10 > thread mode, so a UART burst cannot delay a tick.
 
 pub mod clock;
 
@@ -37,52 +22,32 @@ use crate::app::{self, Stopwatch};
 use crate::bounded;
 use crate::exec::cyccnt_elapsed;
 
-/// The time driver's TIM2 interrupt: above both executors, so the control task's ticker
-/// is woken on time whatever the communication executor does.
+/// The time driver's TIM2 interrupt: above both executors, so the ticker wakes on time.
 const TIME_PRIORITY: Priority = Priority::P4;
-/// The control executor's.
 const CONTROL_PRIORITY: Priority = Priority::P6;
-/// The link UART's and its DMA channels' interrupts (embassy-stm32 sets every DMA
-/// channel's from its `Config`'s DMA interrupt priority): below the control executor (a UART
-/// burst cannot delay a tick), above the communication executor (the driver's state is
-/// up to date whenever the RX and TX tasks run).
+/// The link UART's and DMA's interrupts: below the control executor (a burst cannot delay
+/// a tick), above the communication executor (the driver's state is current for its tasks).
 pub const UART_PRIORITY: Priority = Priority::P8;
-/// The communication executor's.
 const COMMS_PRIORITY: Priority = Priority::P10;
 
-/// The receive DMA ring, bytes: more than five worst-case Sensor frames; the RX task
-/// empties it at each IDLE line or half ring.
+/// The receive DMA ring, bytes: more than five worst-case Sensor frames.
 pub const RX_RING: usize = 256;
-/// The most bytes of one transmit transfer (the TX pipe is a byte stream: a longer
-/// frame goes in several transfers, back to back).
+/// The most bytes of one transmit transfer (a longer frame goes in several).
 const TX_LEN: usize = 64;
 
-/// The independent watchdog's timeout, us, at the LSI's nominal 32 kHz (the HAL derives
-/// its prescaler and reload from it). The board feeds it once per control period when
-/// the host's frames come (200 us at the 5 kHz base rate), so neither a late tick nor a
-/// frame-clocked build's USB latency comes near it, while a stalled control task or a
-/// silent link puts the outputs back to the reset state within half a second. Once
-/// started it runs until the next reset (a debugger halting the core does not stop it:
-/// DBGMCU is left as it is); its reset sets the RCC CSR flag IWDGRSTF, which the boot
-/// record reports as `reset_cause` WATCHDOG.
+/// The independent watchdog's timeout, us, at the LSI's nominal 32 kHz: far above a
+/// period, so only a stalled task or a silent link resets the board (`reset_cause` WATCHDOG).
 pub const IWDG_TIMEOUT_US: u32 = 250_000;
 
-/// The core clock, Hz: the HSI's 16 MHz from reset (both boards' reset clock), SYSCLK
-/// from the configured clock tree once the board set it ([`clocks`]). The fault
-/// path's bounds and its delay before the reset are counted in its cycles.
+/// The core clock, Hz (16 MHz HSI from reset, SYSCLK once [`clocks`] ran).
 static CORE_HZ: AtomicU32 = AtomicU32::new(16_000_000);
-/// Polls of the link UART's TXE flag within which a byte must go out on the fault path
-/// ([`bounded::polls_per_char`] at the core clock and the link's baud); 0 until the UART
-/// is configured, and then the fault path sends nothing (nobody can hear it).
+/// Polls of TXE within which a byte must go out on the fault path (0: UART not configured).
 static FAULT_POLLS: AtomicU32 = AtomicU32::new(0);
 
 static EXEC_CONTROL: InterruptExecutor = InterruptExecutor::new();
 static EXEC_COMMS: InterruptExecutor = InterruptExecutor::new();
 
-/// The DWT cycle counter as a stopwatch: core cycles at SYSCLK (read from the clock tree
-/// and logged at start-up; a host converts them to time with it). The counter is 32 bits:
-/// a measurement is the wrapping difference of two reads
-/// (`crate::exec::cyccnt_elapsed`), right for any tick shorter than a wrap.
+/// The DWT cycle counter as a stopwatch (32-bit, wrapping difference).
 pub struct DwtStopwatch;
 
 impl Stopwatch for DwtStopwatch {
@@ -98,9 +63,7 @@ impl Stopwatch for DwtStopwatch {
 /// One-way latency of a board's link the budget allows for (UART FIFO + DMA hand-off), ns.
 pub const LINK_LATENCY_NS: u64 = 2_000;
 
-/// The highest base rate a link at `baud` carries: one worst-case Sensor frame up and one
-/// Actuation frame down per period within the project's link budget
-/// (`wheelset_proto::link`). A host Config above it is refused.
+/// The highest base rate a link at `baud` carries (`wheelset_proto::link`).
 pub const fn link_max_rate_hz(baud: u32) -> u32 {
     wheelset_proto::link::max_rate_hz(
         baud,
@@ -111,8 +74,7 @@ pub const fn link_max_rate_hz(baud: u32) -> u32 {
     )
 }
 
-/// Whether a link at `baud` carries one exchange per period at the build's base rate
-/// (a board asserts it at compile time).
+/// Whether a link at `baud` carries the build's base rate (asserted at compile time).
 pub const fn carries_base_rate(baud: u32) -> bool {
     wheelset_proto::link::link_fits(
         crate::settings::BASE_RATE_HZ,
@@ -125,9 +87,8 @@ pub const fn carries_base_rate(baud: u32) -> bool {
     .is_ok()
 }
 
-/// The reset cause from a board's RCC CSR flags, in priority order (the reset pin flag is
-/// set by every internal reset too, so it comes last), and whether it was a power-on or
-/// brown-out reset.
+/// The reset cause from RCC CSR flags, in priority order (the pin flag last: every
+/// internal reset sets it too), and whether it was a power-on reset.
 pub fn reset_cause(
     power_on: bool,
     watchdog: bool,
@@ -149,12 +110,8 @@ pub fn reset_cause(
     (Some(cause), power_on)
 }
 
-/// The safe frame by polled writes on the link UART (the fault path): nothing before the
-/// UART is configured (`FAULT_POLLS` 0); else `stop_dma` (with the per-byte bound) stops
-/// its transmit DMA, then a lone delimiter (it ends a frame the DMA left half sent, so
-/// that the safe frame arrives whole), the frame, each byte after `txe` within the bound;
-/// then `tc` (the last byte off the shift register, so a reset next does not cut it)
-/// within twice that bound. A byte that does not go out within its bound ends the frame.
+/// The safe frame by bounded polled writes: a lone delimiter first (ending a half-sent
+/// frame), and `tc` last (so the reset does not cut the last byte).
 pub fn send_polled(
     stop_dma: impl FnOnce(u32),
     txe: impl Fn() -> bool,
@@ -174,12 +131,8 @@ pub fn send_polled(
     let _ = bounded::poll_until(polls.saturating_mul(2), tc);
 }
 
-/// The end of every fault path but the HardFault handler's: interrupts off, the board's
-/// safe frame (bounded), the cause FAULT in the boot record, a tenth of a second of core
-/// cycles for a debug probe to read the defmt log from RAM, then a system reset (SCB
-/// AIRCR SYSRESETREQ). It never waits on a peripheral without a bound and ends in the
-/// reset whether or not the watchdog has started: the board reboots into its safe
-/// outputs and reports `reset_cause` FAULT.
+/// The end of every fault path but HardFault's: interrupts off, the safe frame, cause
+/// FAULT, 0.1 s for a probe to read the log, SYSRESETREQ; no unbounded wait.
 pub fn halt() -> ! {
     cortex_m::interrupt::disable();
     if !crate::panic::enter_halt() {
@@ -190,18 +143,14 @@ pub fn halt() -> ! {
     SCB::sys_reset()
 }
 
-/// Stops the board at start-up on a configuration it cannot run (the clock tree does not
-/// give what the build assumes; a driver refused its configuration): a build error in
-/// disguise, logged, then the fault path.
+/// Stops the board at start-up on a configuration it cannot run: logged, then the fault path.
 #[cold]
 pub fn refuse(what: &str) -> ! {
     defmt::error!("start-up refused: {=str}", what);
     halt()
 }
 
-/// The clock checks of a board build: its UART makes `baud` from `uart_hz` within
-/// `tolerance_permille` (`made_baud`: the UART's divider model, [`clock`]), and TIM2's
-/// clock `tim_hz` counts the time driver's ticks exactly.
+/// The clock checks: the UART's baud within `tolerance_permille` ([`clock`]), TIM2 exact.
 pub fn check_clocks(
     made_baud: Option<u32>,
     baud: u32,
@@ -217,9 +166,7 @@ pub fn check_clocks(
     Ok(())
 }
 
-/// The clock figures the firmware needs, Hz, read from the clock tree `embassy_stm32::init`
-/// configured: SYSCLK (stored for the fault path), PCLK1 and APB1's timer clock (TIM2's).
-/// Also sets the time driver's interrupt priority and starts the DWT cycle counter.
+/// SYSCLK, PCLK1 and TIM2's clock, Hz, from the configured tree; starts the DWT counter.
 pub fn clocks(rcc: &Peri<'static, RCC>) -> (u32, u32, u32) {
     interrupt::TIM2.set_priority(TIME_PRIORITY);
     let clocks = embassy_stm32::rcc::clocks(rcc);
@@ -240,9 +187,7 @@ pub fn uart_config(baud: u32) -> usart::Config {
     c
 }
 
-/// The link UART as the HAL configured it (at `baud`; `name` for the refusal), its
-/// interrupt at [`UART_PRIORITY`]: split, reception into the DMA ring started; from here
-/// the fault path may send on it.
+/// The link UART at `baud`, split, reception into the DMA ring started.
 pub fn link(
     uart: Result<Uart<'static, Async>, usart::ConfigError>,
     irq: impl InterruptExt,
@@ -271,19 +216,8 @@ async fn control_task() {
     app::frame_loop::<Selected, _>(app::new_device::<Selected>, DwtStopwatch).await
 }
 
-/// The receive task: the bytes the DMA ring holds into the RX pipe, at each IDLE line
-/// (a frame ended), half ring or error.
-///
-/// `rx_overrun` (the Status, through `app::RX_OVERRUN`) counts what the driver reports,
-/// with no arithmetic that could jump: one for each receive error the HAL returns
-/// (`usart::Error::Overrun`: the UART's overrun flag, or the DMA lapping the ring
-/// before the task read it; `Framing`, `Noise`, `Parity`: a corrupted character),
-/// since neither the UART nor the ring says how many bytes an error lost; plus each
-/// byte the RX pipe had no room for. After an error the HAL stops reception and restarts
-/// it at the next read; the frame decoder resynchronises on the next delimiter. (Whether
-/// one line fault gives one report or also a second while the HAL re-synchronises its
-/// ring is for a board to show; none has run here.) The sum is the runtime's
-/// (`Runtime::note_board`), wrapping after 2^32 as every Status counter.
+/// The receive task: the DMA ring's bytes into the RX pipe; `rx_overrun` counts one per
+/// receive error (the lost bytes are unknown) and each byte the pipe had no room for.
 #[embassy_executor::task]
 async fn rx_task(mut rx: RingBufferedUartRx<'static>) {
     let mut buf = [0u8; 32];
@@ -297,7 +231,6 @@ async fn rx_task(mut rx: RingBufferedUartRx<'static>) {
                 while let Ok(w @ 1..) = app::RX.try_write(rest) {
                     rest = rest.get(w..).unwrap_or(&[]);
                 }
-                // One tick per frame delimiter, after its bytes are in the pipe.
                 #[cfg(feature = "frame-clock")]
                 app::edges::add(edges);
                 if !rest.is_empty() {
@@ -325,12 +258,8 @@ async fn tx_task(mut tx: UartTx<'static, Async>) {
     }
 }
 
-/// Runs the firmware on a board brought up to here (clocks, time driver, link UART):
-/// the control executor with the control task, the communication executor with the RX
-/// and TX tasks, and thread mode sleeping in WFI and feeding the independent watchdog
-/// when the tick and the receive path have both run (`crate::watchdog`). The watchdog is
-/// configured now and started at the first such feed (the host's first bytes and a tick
-/// after them), so a board waiting for its host is not reset.
+/// Runs the firmware: the control executor, the communication executor with the RX and
+/// TX tasks, thread mode in WFI feeding the watchdog (started at the first feed).
 pub fn serve(
     rx: RingBufferedUartRx<'static>,
     tx: UartTx<'static, Async>,
