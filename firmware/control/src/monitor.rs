@@ -1,125 +1,47 @@
 //! Supervision of the loops: a stability (hunting) monitor and a check that the yaw
 //! actuator acts, on `y'`; a check that the traction drive does not oscillate, on the
-//! current error (the drive check, in `monitor/drive.rs`). Generic over the sample type
-//! like the filters (one implementation for `f64`, `f32` and the fixed-point
-//! [`crate::Fx`]).
+//! current error ([`drive`]). Generic over the sample type (`f64`, `f32`, Q4.28). The
+//! reasons and the measured margins are in the book (`docs/monitor.md`).
 //!
-//! # The signal
-//!
-//! The lateral velocity `y'` the device receives (pu of `scales.y_dot` = 1 m/s, + right),
-//! sampled every `div` base ticks (the monitor's own sub-rate, [`MonitorParams::rate_hz`]:
-//! 500 Hz, every 10th tick at 5 kHz; nothing the monitor watches is above 25 Hz).
-//!
-//! # Band-pass, mean square, alarm (the stability monitor)
-//!
-//! As EN 14363 judges instability (RMS of the band-passed lateral signal over a sliding
-//! window of about 100 m of track), with `T_m` the monitor period:
+//! The signal: the received `y'` (pu of 1 m/s, + right), sampled every `div` base ticks
+//! (the monitor's own rate, [`MonitorParams::rate_hz`], 500 Hz). With `T_m` its period:
 //!
 //! ```text
 //! l[n] = l[n-1] + k_lo (x[n] - l[n-1])          one-pole low-pass at f_lo
 //! h[n] = x[n] - l[n]                            -> first-order high-pass at f_lo
 //! b[n] = b[n-1] + k_hi (h[n] - b[n-1])          one-pole low-pass at f_hi: the band-pass
 //! m[n] = m[n-1] + k_ms (b[n]^2 - m[n-1])        exponential mean square, tau = W/2
-//! k = 1 - exp(-2 pi f T_m)  (the poles mapped exactly),   k_ms = 1 - exp(-T_m/tau)
+//! k = 1 - exp(-2 pi f T_m),   k_ms = 1 - exp(-T_m/tau)
+//! HUNTING rises when m > thr^2, falls when m < (release thr)^2
 //! ```
 //!
-//! **Why an exponential mean square for the sliding window.** A rectangular window of
-//! length `W` and an exponential average of time constant `tau` have the same equivalent
-//! noise bandwidth (`1/(2W)` against `1/(4 tau)`: the same variance of the estimate for a
-//! broadband signal) when `tau = W/2`; `W` = 100 m at 83.3 m/s = 1.2 s gives `tau` =
-//! 0.6 s. For a mode growing as `e^{sigma t}` (power `e^{2 sigma t}`) both windows
-//! follow the power with a constant ratio (`1/(1 + 2 sigma tau)` for the exponential),
-//! i.e. a fixed delay of `ln(1 + 2 sigma tau)/(2 sigma)`. One state, one multiply, no
-//! square root: the threshold is compared as a mean square.
-//!
-//! **Alarm with hysteresis.** `HUNTING` rises when `m > thr^2` and falls when
-//! `m < (release thr)^2` (`release < 1`).
-//!
-//! # The actuator check
-//!
-//! The active law replaces the passive yaw spring, so a working actuator makes the
-//! kinematic mode well damped (zeta >= 0.05 over the envelope at 10 MN; the `cargo sim
-//! modes` figures) while a failed one leaves the wheelset with no yaw restraint: its
-//! kinematic mode is then unstable (the free wheelset hunts). The check tests the
-//! commanded loop's consistency with the lateral response it should produce: **while
-//! the yaw law is commanding** (an active mode, outputs enabled, not in the safe state),
-//! band-passed lateral energy that **grows** over `n` consecutive blocks of `B` seconds
-//! by at least `e^{2 g B}` per block (an amplitude growth rate of at least `g` 1/s),
-//! from above a floor, contradicts the damping the commanded torque gives. The block
-//! energy is the block-recursive sum `E = sum b[n]^2` over the block's `N = B/T_m`
-//! samples (`E/N` is the block's mean square; a block of at least half the slowest
-//! kinematic period keeps its ripple small):
+//! The actuator check, while the yaw law commands: the band-passed energy growing over
+//! `n` consecutive blocks of `B` seconds by at least `e^{2 g B}` a block (an amplitude
+//! growth rate of at least `g` 1/s) from above a floor contradicts the damping the
+//! commanded torque gives (a failed actuator leaves the free wheelset, which hunts). The
+//! block energy is `E = sum b[n]^2` over the block's `N = B/T_m` samples:
 //!
 //! ```text
-//! every block:  grow = (E > N floor^2  and  E_prev < s E)   (s = e^{-2 g B})
-//!                      or |l| > drift                       (the drift, below)
-//!               quiet = |i_ref - i_ref_prev| > D ? Q : quiet   (a traction change, Q = 2)
-//!               run  = !commanding ? 0
-//!                    : quiet > 0   ? run                      (a quiet block: skipped)
-//!                    : grow        ? run + 1 : 0
-//!               quiet = max(quiet - 1, 0);  E_prev = E, E = 0;  i_ref_prev = i_ref
+//! every block:  grow  = (E > N floor^2  and  E_prev < s E)  or  |l| > drift  (s = e^{-2 g B})
+//!               quiet = |i_ref - i_ref_prev| > D ? Q : quiet             (Q = 2)
+//!               run   = !commanding ? 0  :  quiet > 0 ? run  :  grow ? run + 1 : 0
+//!               quiet = max(quiet - 1, 0);  E_prev = E;  E = 0;  i_ref_prev = i_ref
 //!               ACTUATOR_FAULT rises when run >= n, falls with HUNTING's release level
 //!               and run = 0
 //! ```
 //!
-//! A damped loop after a short disturbance (a curve transition) grows the energy only
-//! while the disturbance lasts (one block), then it decays; a stopped or disconnected
-//! actuator grows it at the free wheelset's rate (5-25 1/s over conicity 0.05-0.4,
-//! `wheelset_plant::fault::failed_actuator_mode`) for as long as the motion lasts, from
-//! well below the hunting threshold, and a reversed one several times faster, the law's
-//! own gain pushing the mode (about 100 1/s with the lead at conicity 0.3: the plant's
-//! test `a_reversed_actuator_grows_faster_than_the_free_wheelset`).
+//! A traction change (the current reference the PI follows, `i_ref` in pu of the current
+//! scale, moving by more than `D` over a block: a demand step, the wheel-slip
+//! protection's cut) steps the creep forces, and its lateral response grows over two
+//! blocks before it decays: the block holding it and the next are not judged (neither
+//! growth nor a break of the run). A failed actuator is then caught at most `Q B` later,
+//! while changes are at least `(Q + n) B` apart. `|l| > drift` catches a failed actuator
+//! pushing the wheelset to the flange at a nearly constant `y'`, which the band-pass
+//! rejects. Not seen: an actuator at a fraction of its command that still damps the mode.
 //!
-//! **The rule for traction changes.** A step of the traction torque (a demand step, the
-//! wheel-slip protection's cut) is a step of the longitudinal creep forces of both
-//! wheels, which reaches the yaw and lateral motion. Its lateral response rises over
-//! more than one block, so its energy onset straddles a block boundary: two growing
-//! blocks (the protection's cut on `low-adhesion`'s wet section: amplitude growth 8.5
-//! then 14.5 1/s, then decay at the healthy loop's 8 1/s; demand steps of 2 kN m in
-//! `hil soak --demand-steps`). The device sees such a change in its own current
-//! reference `i_ref` (pu of `scales.current`, after the protection's cap), compared at
-//! block ends: a move of more than `D` (`act_traction_change_a`, 50 A: about 1.1 kN m at
-//! the wheel through `n K_m`, above a driver's notch ramped at 2 kN m/s, 9 A a block)
-//! makes the check judge no growth at the end of that block nor of the next (`Q = 2`
-//! block ends, whatever the change's phase in its block): they are skipped, neither
-//! counted as growth nor breaking a run (a standing alarm stays up through them). A
-//! failed actuator keeps growing after the quiet blocks, so it is still caught, at most
-//! `Q B` = 0.2 s later when a change falls just before its alarm, provided the changes
-//! are at least `(Q + n) B` = 0.4 s apart (closer ones leave the failed actuator to the
-//! hunting alarm); with a steady reference (the protection idle, the demand steady or
-//! ramped) the check is the one above. A creep-force step the device does not make
-//! (the onset of a low-adhesion patch under traction, before the protection detects a
-//! slip) is not announced: its transient can raise the alarm (`docs/soak.md`). The
-//! saturated creep of a wheel the protection does not
-//! hold (`hil run --wsp off` on `low-adhesion`: the wheel spins up to tens of m/s of slip
-//! and both alarms rise from 7 s) is outside the check's premise: there the loop itself
-//! is no longer damped (`wheelset_control::wsp`, "The scheduled lead").
-//!
-//! **Drift.** A failed actuator does not always make the wheelset oscillate: at a low
-//! conicity (0.05) on the `low` rail a reversed actuator pushes it to the flange at an
-//! almost constant `y'` (about 45 mm/s from 0.3 s after the fault, |y| = 50 mm 1 s
-//! later), which the band-pass rejects: no energy, no growth, no alarm. The band-pass's
-//! own lower stage `l[n]` (the 3 Hz low-pass of `y'`) is that drift, so a block end at
-//! which `|l| > drift` counts as a growing block: the same run of `n` blocks, the same
-//! quiet blocks, no new state and one compare per block. `drift` = 25 mm/s: healthy runs
-//! with the lead peak at |l| = 10.3 mm/s (`low-adhesion` at conicity 0.05, the
-//! protection's cuts; 8.3 mm/s at 0.2-0.4; `curve` 3.2 mm/s; the host's CSV of `cargo
-//! hil run` low-passed at 3 Hz), the failed wheelset's drift holds 45 mm/s: a factor of
-//! 2.4 above the healthy peak and 1.8 below the drift. A wheelset parked against the
-//! flange has `y' = 0` and is outside this check (the plant stops the run there).
-//!
-//! What it cannot see: an actuator at a fraction of its command that still damps the
-//! mode (the loop is then stable, and nothing in `y'` tells it from a healthy one).
-//!
-//! # Fixed point
-//!
-//! Every state is a Q4.28 signal (pu; the mean square in pu^2); coefficients are Q1.31.
-//! The square `b^2` ([`Sample::square`]) is the exact 64-bit product rounded to Q4.28 and saturated (it
-//! cannot saturate for `|b| < 2.8` pu = 2.8 m/s); the mean square's increment uses the
-//! integrator's error feedback ([`Sample::mul_c_acc`]) so it has no dead band. At the
-//! default threshold (RMS 0.03 m/s) the mean square is 2.4e5 LSB; the check's floor
-//! (RMS 1 mm/s) is 268 LSB per sample, 1.3e4 LSB per block energy. The block energy
-//! saturates (at 8 pu^2, an RMS of 0.4 m/s over a block), long after the hunting alarm.
+//! Fixed point: states are Q4.28 signals (the mean square in pu^2), coefficients Q1.31;
+//! `b^2` is the exact 64-bit product rounded and saturated (not below `|b|` = 2.8 m/s),
+//! and the mean square's increment carries its sub-LSB remainder (no dead band).
 
 use crate::config::{in_range as range, ConfigError};
 use crate::sample::Sample;

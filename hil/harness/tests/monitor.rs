@@ -219,7 +219,7 @@ fn a_failed_actuator_is_caught_on_low_adhesion_with_the_protection_cutting() {
 /// A reversed actuator on the `low` rail at conicity 0.05 (the fault at 7.0 s) does not
 /// make the wheelset hunt: it drifts to the flange at an almost constant `y'` of about
 /// 45 mm/s, which the band-pass rejects. The actuator check's drift rule (the low-passed
-/// `y'` above 25 mm/s, `wheelset_control::monitor`, "Drift") catches it, by the deadline
+/// `y'` above 25 mm/s, `docs/monitor.md`, "A drift to the flange") catches it, by the deadline
 /// and before the run diverges (|y| > 50 mm at about 8.0 s).
 #[test]
 fn a_reversed_actuator_drifting_to_the_flange_is_caught() {
