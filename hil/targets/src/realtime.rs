@@ -58,6 +58,7 @@ use wheelset_proto::{Command, Decoder, Message, Status};
 use crate::realtime::os::{self as rt_os, Obtained, Want};
 
 mod as_transport;
+pub mod bridge;
 pub mod os;
 mod prepare;
 mod queue;
