@@ -159,7 +159,7 @@ pub struct SyncReport {
 
 /// Status requests whose least round trip [`RealTime::prepare`] takes, each a
 /// `1/ROUND_TRIP_PROBES` period later in the device's tick than the one before.
-pub const ROUND_TRIP_PROBES: u64 = 16;
+pub const ROUND_TRIP_PROBES: u64 = 32;
 
 /// Options of the real-time transport.
 #[derive(Debug, Clone, Copy)]

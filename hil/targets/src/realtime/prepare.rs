@@ -162,7 +162,7 @@ impl RealTime {
     /// and otherwise a later tick answers it, a period per tick; the answer is in time
     /// for a delay of `d` ticks while that time is within `lead + (d - 1) T`. Measured
     /// (the least of the probes, less the device's execution, the answer's frames and
-    /// the request on the wire, plus the Sensor frame; less the probes' spacing `T/16`
+    /// the request on the wire, plus the Sensor frame; less the probes' spacing `T/32`
     /// for the tick the request waited for), it is reported in the `sync` section.
     fn check_round_trip(&mut self, delay: u8) -> Result<(), TransportError> {
         let t = self.o.period_ns;
@@ -171,11 +171,15 @@ impl RealTime {
         let step = t / ROUND_TRIP_PROBES;
         let mut best: Option<(f64, usize)> = None;
         for i in 0..ROUND_TRIP_PROBES {
-            // Each request i/16 of a period after the device's last Status arrived.
-            let base = self
-                .last_status_at
-                .map_or_else(Instant::now, |(at, _)| self.wall(at));
-            self.wait_until(base + Duration::from_nanos(i * step))?;
+            // Each request i/32 of a period (and whole periods) after the device's last
+            // Status arrived: a later phase of its tick than the request before.
+            let now = Instant::now();
+            let mut at = self.last_status_at.map_or(now, |(at, _)| self.wall(at))
+                + Duration::from_nanos(i * step);
+            while at < now {
+                at += self.period();
+            }
+            self.wait_until(at)?;
             let sent = self.at_ns(Instant::now());
             self.write(&req)?;
             self.await_status("a round-trip probe")?;
