@@ -138,15 +138,17 @@ pub(crate) fn cmd_serve(a: &ServeArgs) -> Result<Verdict, Failure> {
     );
     if let Some(b) = &rep.bridge {
         eprintln!(
-            "hil serve: the bridge delayed {} runs up ({:.1} to {:.1} us), {} down ({:.1} to \
-             {:.1} us), released at most {:.1} us late, {} runs dropped",
+            "hil serve: the bridge delayed {} runs up ({:.1} to {:.1} us; taken by the runtime \
+             at most {:.1} us after their release, at its next tick), {} down ({:.1} to {:.1} \
+             us; written at most {:.1} us after their release), {} runs dropped",
             b.up.runs,
             b.up.delay_min_ns as f64 * 1e-3,
             b.up.delay_max_ns as f64 * 1e-3,
+            b.up.release_late_max_ns as f64 * 1e-3,
             b.down.runs,
             b.down.delay_min_ns as f64 * 1e-3,
             b.down.delay_max_ns as f64 * 1e-3,
-            b.up.release_late_max_ns.max(b.down.release_late_max_ns) as f64 * 1e-3,
+            b.down.release_late_max_ns as f64 * 1e-3,
             b.up.dropped + b.down.dropped
         );
     }

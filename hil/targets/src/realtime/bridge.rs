@@ -101,7 +101,9 @@ pub struct LineReport {
     pub delay_min_ns: u64,
     /// See `delay_min_ns`.
     pub delay_max_ns: u64,
-    /// The largest lateness of a release behind its due time, ns (the stand-in's loop).
+    /// The largest lateness of a release behind its due time, ns: the stand-in's loop
+    /// (host to stand-in, the runtime takes a run at its first tick after the release:
+    /// up to a period more).
     pub release_late_max_ns: u64,
 }
 
