@@ -22,9 +22,13 @@
 //! 2. sends the run's Config (yaw law, hold ticks, the rates computed by
 //!    `wheelset_runtime::rates_for`) with a status request, and checks that the device
 //!    applied it;
-//! 3. asks for a second Status: its counters are the *baseline* the end-of-run counters
+//! 3. on a serial port, probes the link's round trip ([`ROUND_TRIP_PROBES`] status
+//!    requests spread over the device's period) and refuses a run whose delay
+//!    (`--delay-ticks`) it does not fit, naming the delay that would (a board behind a
+//!    USB bridge: 1-2 ms of round trip; the probe's arithmetic in `prepare.rs`);
+//! 4. asks for a second Status: its counters are the *baseline* the end-of-run counters
 //!    are taken relative to ([`RunStart`]);
-//! 4. measures the device's tick phase from the arrival of its frames (the earliest
+//! 5. measures the device's tick phase from the arrival of its frames (the earliest
 //!    output instant `o_j - j T` over 32 ticks, `j` from the frames' tick counter) and
 //!    its period, and refuses a device that does not tick at the configured rate.
 //!
@@ -58,6 +62,7 @@ use wheelset_proto::{Command, Decoder, Message, Status};
 use crate::realtime::os::{self as rt_os, Obtained, Want};
 
 mod as_transport;
+pub mod bridge;
 pub mod os;
 mod prepare;
 mod queue;
@@ -142,7 +147,19 @@ pub struct SyncReport {
     pub phase_corrections: u64,
     /// Their sum, ns (positive: the device's clock runs slow against the host's).
     pub phase_correction_ns: i64,
+    /// The least round trip of [`ROUND_TRIP_PROBES`] status requests before the run
+    /// (request written to its Status read), ns; 0 where not probed (a TCP device).
+    pub round_trip_ns: f64,
+    /// What of it a Sensor frame needs before the device's tick, as the host sees that
+    /// tick: both ways' latency and the Sensor frame's wire time, ns (the round trip
+    /// less the device's execution, the answer's frames' and the request's wire time,
+    /// plus the Sensor frame's; [`RealTime::prepare`] refuses a run this does not fit).
+    pub before_tick_ns: f64,
 }
+
+/// Status requests whose least round trip [`RealTime::prepare`] takes, each a
+/// `1/ROUND_TRIP_PROBES` period later in the device's tick than the one before.
+pub const ROUND_TRIP_PROBES: u64 = 32;
 
 /// Options of the real-time transport.
 #[derive(Debug, Clone, Copy)]
@@ -243,6 +260,8 @@ pub struct RealTime {
     baseline: Option<Status>,
     /// The last Status seen during start-up.
     last_status: Option<Status>,
+    /// Its arrival (ns after `origin`) and its bytes on the wire.
+    last_status_at: Option<(u64, usize)>,
     /// Actuation frames seen during start-up: (arrival ns, wire bytes, tick, exec).
     seen: Vec<(u64, usize, u16, u32)>,
     /// Phase tracking during the run: the device's output phase on the run's clock,
@@ -300,6 +319,7 @@ impl RealTime {
             sync: SyncReport::default(),
             baseline: None,
             last_status: None,
+            last_status_at: None,
             seen: Vec::new(),
             phase_ref_ns: 0.0,
             window: Vec::with_capacity(TRACK_FRAMES),
@@ -406,7 +426,10 @@ impl RealTime {
                         self.seen.push((at, n, a.tick, a.exec));
                     }
                 }
-                Ok(Message::Status(s)) if !self.synced => self.last_status = Some(s),
+                Ok(Message::Status(s)) if !self.synced => {
+                    self.last_status = Some(s);
+                    self.last_status_at = Some((at, n));
+                }
                 _ => {}
             }
             if self.synced {

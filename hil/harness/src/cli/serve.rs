@@ -30,6 +30,22 @@ pub(crate) struct ServeArgs {
     /// Write what the stand-in did (JSON) at the end.
     #[arg(long)]
     json: Option<PathBuf>,
+    /// A USB-serial bridge between the stand-in and the host: every byte run, each way,
+    /// is held this long, us, in [0, 1e6] (full-speed USB, as the ST-LINK's virtual COM
+    /// port: about 1000) [default: 0, no bridge].
+    #[arg(long, allow_negative_numbers = true)]
+    latency_us: Option<f64>,
+    /// The bridge's jitter: each run's delay is the latency plus 0 to this, us, uniform,
+    /// in [0, 1e6] [default: 0].
+    #[arg(long, allow_negative_numbers = true)]
+    jitter_us: Option<f64>,
+    /// Seed of the bridge's jitter (the same seed, the same delays run for run).
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// The UART between the board and the bridge, baud: each run also takes its wire
+    /// time (a pseudo-terminal has none) [default: none].
+    #[arg(long)]
+    baud: Option<u32>,
 }
 
 pub(crate) fn cmd_serve(a: &ServeArgs) -> Result<Verdict, Failure> {
@@ -47,11 +63,22 @@ pub(crate) fn cmd_serve(a: &ServeArgs) -> Result<Verdict, Failure> {
     if !(a.cpu_hz.is_finite() && a.cpu_hz > 0.0) {
         return Err(input("--cpu-hz: must be a positive number"));
     }
+    let bridge = wheelset_targets::realtime::bridge::BridgeModel::from_us(
+        a.latency_us.unwrap_or(0.0),
+        a.jitter_us.unwrap_or(0.0),
+        a.seed,
+    )
+    .map_err(input)?
+    .with_baud(match a.baud {
+        Some(0) => return Err(input("--baud 0: must be positive")),
+        b => b.unwrap_or(0),
+    });
     let rt = serve::runtime_at(a.rate_hz).map_err(input)?;
     let opts = serve::ServeOptions {
         rate_hz: a.rate_hz,
         duration,
         cpu_hz: a.cpu_hz,
+        bridge,
         want: if a.no_rt {
             wheelset_targets::realtime::os::Want::none()
         } else {
@@ -69,8 +96,23 @@ pub(crate) fn cmd_serve(a: &ServeArgs) -> Result<Verdict, Failure> {
     // The path first, alone on its line, for whoever starts the stand-in.
     say!("{path}");
     let _ = std::io::stdout().flush();
+    let behind = if bridge.is_none() {
+        String::new()
+    } else {
+        format!(
+            " behind a modelled USB bridge ({:.1} us + 0 to {:.1} us each way, seed {}{})",
+            bridge.latency_ns as f64 * 1e-3,
+            bridge.jitter_ns as f64 * 1e-3,
+            bridge.seed,
+            if bridge.baud > 0 {
+                format!(", {} baud on the wire", bridge.baud)
+            } else {
+                String::new()
+            }
+        )
+    };
     eprintln!(
-        "hil serve: the runtime (fixed point) free-running at {} Hz on {path};          `hil run --target serial:{path}`",
+        "hil serve: the runtime (fixed point) free-running at {} Hz on {path}{behind};          `hil run --target serial:{path}`",
         a.rate_hz
     );
     let stop = std::sync::atomic::AtomicBool::new(false);
@@ -81,7 +123,8 @@ pub(crate) fn cmd_serve(a: &ServeArgs) -> Result<Verdict, Failure> {
     drop(slave);
     eprintln!(
         "hil serve: {} ticks, {} late, {} skipped (max lateness {:.1} us), rx {} B, tx {} B, \
-         {} frames dropped, {} Hz at the end; real-time scheduling obtained: {}",
+         {} frames dropped, {} Hz and {} tick(s) of delay at the end; real-time scheduling \
+         obtained: {}",
         rep.ticks,
         rep.late,
         rep.skipped,
@@ -90,8 +133,25 @@ pub(crate) fn cmd_serve(a: &ServeArgs) -> Result<Verdict, Failure> {
         rep.tx_bytes,
         rep.tx_dropped,
         rep.rate_hz,
+        rep.delay_ticks,
         rep.realtime
     );
+    if let Some(b) = &rep.bridge {
+        eprintln!(
+            "hil serve: the bridge delayed {} runs up ({:.1} to {:.1} us; taken by the runtime \
+             at most {:.1} us after their release, at its next tick), {} down ({:.1} to {:.1} \
+             us; written at most {:.1} us after their release), {} runs dropped",
+            b.up.runs,
+            b.up.delay_min_ns as f64 * 1e-3,
+            b.up.delay_max_ns as f64 * 1e-3,
+            b.up.release_late_max_ns as f64 * 1e-3,
+            b.down.runs,
+            b.down.delay_min_ns as f64 * 1e-3,
+            b.down.delay_max_ns as f64 * 1e-3,
+            b.down.release_late_max_ns as f64 * 1e-3,
+            b.up.dropped + b.down.dropped
+        );
+    }
     if let Some(p) = &a.json {
         let text = serde_json::to_string_pretty(&rep).unwrap_or_default();
         std::fs::write(p, text + "\n")

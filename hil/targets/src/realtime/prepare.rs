@@ -9,7 +9,7 @@ use wheelset_proto::{encode_vec, Command, Config, Flags, Message, Status};
 
 use wheelset_loop::transport::TransportError;
 
-use super::{lower_decile, wrap, RealTime, PHASE_FRAMES};
+use super::{lower_decile, wrap, Port, RealTime, PHASE_FRAMES, ROUND_TRIP_PROBES};
 
 impl RealTime {
     /// Reads until a Status frame arrives after this call (at most `timeout`).
@@ -74,9 +74,14 @@ impl RealTime {
                 why.map_or_else(|| format!("code {}", s.refuse_reason), |w| w.to_string())
             )));
         }
-        // Let a re-armed ticker settle, then 3. the baseline.
+        // Let a re-armed ticker settle; on a serial port, is the link's round trip
+        // within the run's delay? Then 3. the baseline.
         let settle = Instant::now() + Duration::from_nanos(3 * t);
         self.wait_until(settle)?;
+        if matches!(self.port, Port::Tty(_)) {
+            let delay = cfg.rates.map_or(1, |r| r.delay_ticks);
+            self.check_round_trip(delay)?;
+        }
         let f = encode_vec(&Message::Command(Command::RequestStatus))
             .map_err(|e| TransportError::Io(format!("cannot encode a status request: {e:?}")))?;
         self.write(&f)?;
@@ -146,6 +151,111 @@ impl RealTime {
         self.pending.clear();
         Ok(())
     }
+}
+
+impl RealTime {
+    /// Probes the link's round trip with [`ROUND_TRIP_PROBES`] status requests, spread
+    /// over the device's period, and refuses a run whose `delay` it does not fit: a
+    /// Sensor frame is written `lead` before the device's tick *as the host sees it*
+    /// (its answers' arrival, one-way latency later than the tick), so it reaches the
+    /// tick only if both ways' latency and its own wire time fit within the lead,
+    /// and otherwise a later tick answers it, a period per tick; the answer is in time
+    /// for a delay of `d` ticks while that time is within `lead + (d - 1) T`. Measured
+    /// (the least of the probes, less the device's execution, the answer's frames and
+    /// the request on the wire, plus the Sensor frame; less the probes' spacing `T/32`
+    /// for the tick the request waited for), it is reported in the `sync` section.
+    fn check_round_trip(&mut self, delay: u8) -> Result<(), TransportError> {
+        let t = self.o.period_ns;
+        let req = encode_vec(&Message::Command(Command::RequestStatus))
+            .map_err(|e| TransportError::Io(format!("cannot encode a status request: {e:?}")))?;
+        let step = t / ROUND_TRIP_PROBES;
+        let mut best: Option<(f64, usize)> = None;
+        for i in 0..ROUND_TRIP_PROBES {
+            // Each request i/32 of a period (and whole periods) after the device's last
+            // Status arrived: a later phase of its tick than the request before.
+            let now = Instant::now();
+            let mut at = self.last_status_at.map_or(now, |(at, _)| self.wall(at))
+                + Duration::from_nanos(i * step);
+            while at < now {
+                at += self.period();
+            }
+            self.wait_until(at)?;
+            let sent = self.at_ns(Instant::now());
+            self.write(&req)?;
+            self.await_status("a round-trip probe")?;
+            if let Some((at, n)) = self.last_status_at {
+                let rt = at.saturating_sub(sent) as f64;
+                if best.is_none_or(|(b, _)| rt < b) {
+                    best = Some((rt, n));
+                }
+            }
+        }
+        let (rt, status_bytes) = best.unwrap_or((0.0, 0));
+        let wire = |n: usize| wire_ns(n, self.o.baud) as f64;
+        // The device's execution time: the median of its latest reports.
+        let mut execs: Vec<f64> = self
+            .seen
+            .iter()
+            .rev()
+            .take(PHASE_FRAMES)
+            .map(|s| f64::from(s.3) * 1e9 / self.o.cpu_hz)
+            .collect();
+        execs.sort_by(f64::total_cmp);
+        let exec = execs.get(execs.len() / 2).copied().unwrap_or(0.0);
+        let before = rt
+            - exec
+            - wire(status_bytes)
+            - wire(wheelset_proto::ACTUATION_MAX_FRAME)
+            - wire(req.len())
+            + wire(wheelset_proto::SENSOR_ONE_LATERAL_MAX_FRAME);
+        let before = (before - step as f64).max(0.0);
+        self.sync.round_trip_ns = rt;
+        self.sync.before_tick_ns = before;
+        let lead = (t * self.o.lead_num.clamp(1, 7) / 8) as f64;
+        let tf = t as f64;
+        let allowed = lead + f64::from(delay.max(1) - 1) * tf;
+        if before <= allowed {
+            return Ok(());
+        }
+        // The least delay that fits, and whether the device has gains for it.
+        let need = ((before - lead) / tf).ceil().max(0.0) as u64 + 1;
+        let rate = cfg_rate(t);
+        let designed: Vec<u8> = wheelset_control::design::DESIGNED
+            .iter()
+            .filter(|p| p.base_rate_hz == rate && u64::from(p.delay_ticks) >= need)
+            .map(|p| p.delay_ticks)
+            .collect();
+        let remedy = match designed.first() {
+            Some(d) => format!("pipeline the exchange: --delay-ticks {d}"),
+            None => format!(
+                "no delay designed for {rate} Hz is that long: a lower rate (`sim-host rates \
+                 --max-baud B --latency-us L --delay D` chooses a designed rate and delay \
+                 for the link)"
+            ),
+        };
+        Err(TransportError::Unavailable(format!(
+            "{}: the link's round trip is {:.0} us (the least of {ROUND_TRIP_PROBES} status \
+             requests), so a Sensor frame needs {:.0} us (both ways' latency and its wire \
+             time) to reach the device's tick, longer than the {:.0} us a run with \
+             --delay-ticks {delay} at {rate} Hz gives it ({:.0} us of lead{}): every answer \
+             would miss its deadline; {remedy}",
+            self.path,
+            rt * 1e-3,
+            before * 1e-3,
+            allowed * 1e-3,
+            lead * 1e-3,
+            if delay > 1 {
+                format!(" and {} period(s)", delay - 1)
+            } else {
+                String::new()
+            },
+        )))
+    }
+}
+
+/// The rate of a period of `t` ns, Hz.
+fn cfg_rate(t: u64) -> u32 {
+    u32::try_from(1_000_000_000 / t.max(1)).unwrap_or(u32::MAX)
 }
 
 /// The device's period, ns, from its output instants `outs` (ns) and tick counters

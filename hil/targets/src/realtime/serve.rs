@@ -16,6 +16,14 @@
 //! The execution time (drain + decode + control + encode, host ns) is reported in the
 //! Actuation frame's `exec` field as cycles of a `cpu_hz` core, the unit `hil run
 //! --cpu-hz` reads.
+//!
+//! **Behind a USB bridge** ([`ServeOptions::bridge`], `hil serve --latency-us L
+//! --jitter-us J --seed S`; [`crate::realtime::bridge`]): between ticks the loop reads the
+//! pty as bytes come (each run stamped at its read) and holds every run, in each
+//! direction, for the modelled delay. A run from the host reaches the runtime at the
+//! first tick after its release (as the board's UART buffer is drained by its control
+//! task); a frame the runtime sends goes into the bridge at its tick and out to the pty
+//! at its release, through the TX queue. Without a model the loop is the one above.
 
 use std::collections::VecDeque;
 use std::io::{self, Read};
@@ -27,6 +35,7 @@ use serialport::{SerialPort, TTYPort};
 use wheelset_control::Fx;
 use wheelset_runtime::{Runtime, RuntimeConfig};
 
+use crate::realtime::bridge::{BridgeModel, DelayLine, LineReport};
 use crate::realtime::os::{self as rt_os, Obtained, Want};
 use crate::realtime::{flush_queue, queue_frame};
 
@@ -44,6 +53,19 @@ pub struct ServeOptions {
     pub cpu_hz: f64,
     /// What to ask of the operating system.
     pub want: Want,
+    /// The USB bridge between the stand-in and the host ([`BridgeModel::none`]: none).
+    pub bridge: BridgeModel,
+}
+
+/// What the modelled bridge did (`hil serve --json`, `bridge`).
+#[derive(Debug, Clone, Copy, Serialize, Default)]
+pub struct BridgeReport {
+    /// The model as applied.
+    pub model: BridgeModel,
+    /// Host to stand-in.
+    pub up: LineReport,
+    /// Stand-in to host.
+    pub down: LineReport,
 }
 
 /// What the stand-in did.
@@ -65,6 +87,11 @@ pub struct ServeReport {
     pub tx_dropped: u64,
     /// Base rate at the end, Hz.
     pub rate_hz: u32,
+    /// Ticks of delay the gains in force at the end are designed for (a host Config
+    /// frame's rates set it).
+    pub delay_ticks: u8,
+    /// The modelled USB bridge, if any.
+    pub bridge: Option<BridgeReport>,
     /// What the operating system granted.
     pub realtime: Obtained,
 }
@@ -107,6 +134,9 @@ pub fn serve(
         realtime: rt_os::obtain(o.want),
         ..ServeReport::default()
     };
+    // The bridge's two directions (none without a model).
+    let mut bridge =
+        (!o.bridge.is_none()).then(|| (DelayLine::new(o.bridge, 0), DelayLine::new(o.bridge, 1)));
     let mut rate = rt.base_rate_hz();
     let mut period = period_ns(rate).unwrap_or(1_000_000);
     let start = Instant::now();
@@ -117,16 +147,29 @@ pub fn serve(
     let mut last_exec = 0u32;
     let ns_to_cycles = o.cpu_hz / 1e9;
     while !stop.load(Ordering::Relaxed) && end.is_none_or(|e| Instant::now() < e) {
-        // Sleep to shortly before the deadline, then spin.
+        // Sleep to shortly before the deadline, then spin; behind a bridge, read and
+        // release the bridge's runs meanwhile.
         let spin = Duration::from_nanos((period / 5).min(80_000));
         loop {
             let now = Instant::now();
+            if let Some((_, down)) = bridge.as_mut() {
+                release(port, down, &mut queue, now, &mut rep)?;
+            }
             if now >= next {
                 break;
             }
             let left = next - now;
             if left > spin {
-                std::thread::sleep((left - spin).min(Duration::from_millis(5)));
+                let wait = (left - spin).min(Duration::from_millis(5));
+                match bridge.as_mut() {
+                    None => std::thread::sleep(wait),
+                    Some((up, down)) => {
+                        let wait = down
+                            .next_release()
+                            .map_or(wait, |r| wait.min(r.saturating_duration_since(now)));
+                        read_into(port, up, wait, &mut buf, &mut rep)?;
+                    }
+                }
             } else {
                 std::hint::spin_loop();
             }
@@ -142,27 +185,48 @@ pub fn serve(
             rep.late += 1;
         }
         // The tick: drain, receive, tick, queue.
-        let _ = port.set_timeout(Duration::ZERO);
-        loop {
-            match port.read(&mut buf) {
-                Ok(0) => break,
-                Ok(n) => {
-                    rep.rx_bytes += n as u64;
-                    rt.receive(buf.get(..n).unwrap_or(&[]));
-                    if n < buf.len() {
-                        break;
+        match bridge.as_mut() {
+            None => {
+                let _ = port.set_timeout(Duration::ZERO);
+                loop {
+                    match port.read(&mut buf) {
+                        Ok(0) => break,
+                        Ok(n) => {
+                            rep.rx_bytes += n as u64;
+                            rt.receive(buf.get(..n).unwrap_or(&[]));
+                            if n < buf.len() {
+                                break;
+                            }
+                        }
+                        Err(e) if quiet(&e) => break,
+                        Err(e) => return Err(e),
                     }
                 }
-                Err(e) if quiet(&e) => break,
-                Err(e) => return Err(e),
+            }
+            Some((up, _)) => {
+                // What came since the last read goes into the bridge; what the bridge
+                // released by now reaches the runtime.
+                while read_into(port, up, Duration::ZERO, &mut buf, &mut rep)? == buf.len() {}
+                while let Some(run) = up.pop_due(woke) {
+                    rt.receive(&run);
+                }
             }
         }
         let out = rt.tick(last_exec);
         let len = out.len() as u64;
-        if queue_frame(&mut queue, TX_QUEUE, out) {
-            rep.tx_bytes += len;
-        } else {
-            rep.tx_dropped += 1;
+        match bridge.as_mut() {
+            None => {
+                if queue_frame(&mut queue, TX_QUEUE, out) {
+                    rep.tx_bytes += len;
+                } else {
+                    rep.tx_dropped += 1;
+                }
+            }
+            Some((_, down)) => {
+                if !down.push(Instant::now(), out) {
+                    rep.tx_dropped += 1;
+                }
+            }
         }
         let exec_ns = woke.elapsed().as_nanos() as f64;
         last_exec = (exec_ns * ns_to_cycles).min(f64::from(u32::MAX)) as u32;
@@ -180,7 +244,58 @@ pub fn serve(
         }
     }
     rep.rate_hz = rate;
+    rep.delay_ticks = rt.core().compiled().schedule().delay_ticks;
+    rep.bridge = bridge.map(|(up, down)| BridgeReport {
+        model: o.bridge,
+        up: up.report(),
+        down: down.report(),
+    });
     Ok(rep)
+}
+
+/// One read of what the pty holds (waiting at most `wait` for it) into the bridge's
+/// `up` line, stamped at the read; returns the bytes read.
+fn read_into(
+    port: &mut TTYPort,
+    up: &mut DelayLine,
+    wait: Duration,
+    buf: &mut [u8],
+    rep: &mut ServeReport,
+) -> io::Result<usize> {
+    let _ = port.set_timeout(wait);
+    match port.read(buf) {
+        Ok(n) => {
+            rep.rx_bytes += n as u64;
+            up.push(Instant::now(), buf.get(..n).unwrap_or(&[]));
+            Ok(n)
+        }
+        Err(e) if quiet(&e) => Ok(0),
+        Err(e) => Err(e),
+    }
+}
+
+/// The bridge's `down` runs due by `now` into the TX queue (a run that does not fit is
+/// dropped whole, as a frame), and the queue out to the pty.
+fn release(
+    port: &mut TTYPort,
+    down: &mut DelayLine,
+    queue: &mut VecDeque<u8>,
+    now: Instant,
+    rep: &mut ServeReport,
+) -> io::Result<()> {
+    let mut any = false;
+    while let Some(run) = down.pop_due(now) {
+        any = true;
+        if queue_frame(queue, TX_QUEUE, &run) {
+            rep.tx_bytes += run.len() as u64;
+        } else {
+            rep.tx_dropped += 1;
+        }
+    }
+    if any {
+        flush_queue(port, queue)?;
+    }
+    Ok(())
 }
 
 /// Creates a pseudo-terminal pair and returns (master, slave, slave path). The caller
