@@ -21,51 +21,10 @@
 
 mod common;
 
-use std::io::{BufRead, BufReader};
-use std::process::{Child, Command, Stdio};
 use std::time::Duration;
 
 use hil::run::{run, RunOptions, Target};
 use wheelset_targets::serial::Pace;
-
-struct StandIn {
-    child: Child,
-    path: String,
-    report: std::path::PathBuf,
-}
-
-impl StandIn {
-    fn start(rate_hz: u32, duration_s: f64, tag: &str) -> Self {
-        let report =
-            std::env::temp_dir().join(format!("hil-serve-{tag}-{}.json", std::process::id()));
-        let mut child = Command::new(env!("CARGO_BIN_EXE_hil"))
-            .args(["serve", "--pty", "--rate-hz", &rate_hz.to_string()])
-            .args(["--duration-s", &duration_s.to_string()])
-            .arg("--json")
-            .arg(&report)
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("hil serve starts");
-        let mut line = String::new();
-        BufReader::new(child.stdout.take().expect("stdout"))
-            .read_line(&mut line)
-            .expect("hil serve prints its pty");
-        Self {
-            child,
-            path: line.trim().to_string(),
-            report,
-        }
-    }
-
-    fn finish(mut self) -> serde_json::Value {
-        let status = self.child.wait().expect("hil serve ends");
-        assert!(status.success(), "hil serve: {status}");
-        let text = std::fs::read_to_string(&self.report).expect("the stand-in's report");
-        let _ = std::fs::remove_file(&self.report);
-        serde_json::from_str(&text).expect("JSON")
-    }
-}
 
 fn scenario() -> String {
     concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/short.toml").into()
@@ -81,7 +40,7 @@ fn realtime_pacing_holds_against_a_free_running_stand_in_started_first() {
     let rate = 1_000;
     // Before the run: the run pins this thread to one core (its real-time loop).
     let cpus = std::thread::available_parallelism().map_or(1, |n| n.get()) as f64;
-    let device = StandIn::start(rate, 4.0, "1k");
+    let device = common::StandIn::start(rate, 4.0, "1k", &[]);
     assert!(device.path.starts_with("/dev/"), "{}", device.path);
     // Powered before the host: it ticks (and talks) for 0.3 s first.
     std::thread::sleep(Duration::from_millis(300));
@@ -212,7 +171,7 @@ fn a_silent_port_is_refused_with_the_reason() {
 /// One rate's real-time run against the stand-in started 0.3 s first, as one row of the
 /// README's table; the frame accounting is asserted, the timing figures are printed.
 fn figures(rate: u32, serve_s: f64, nodrive: bool) -> String {
-    let device = StandIn::start(rate, serve_s, &format!("fig{rate}{nodrive}"));
+    let device = common::StandIn::start(rate, serve_s, &format!("fig{rate}{nodrive}"), &[]);
     std::thread::sleep(Duration::from_millis(300));
     let out = run(&RunOptions {
         target: Target::Serial(device.path.clone()),

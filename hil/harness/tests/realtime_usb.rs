@@ -29,8 +29,7 @@
 
 mod common;
 
-use std::io::{BufRead, BufReader};
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::time::Duration;
 
 use hil::run::{run, Law, RunOptions, Target};
@@ -63,46 +62,6 @@ fn one_at_a_time() -> std::sync::MutexGuard<'static, ()> {
         .unwrap_or_else(std::sync::PoisonError::into_inner)
 }
 
-struct StandIn {
-    child: Child,
-    path: String,
-    report: std::path::PathBuf,
-}
-
-impl StandIn {
-    fn start(rate_hz: u32, duration_s: f64, tag: &str) -> Self {
-        let report =
-            std::env::temp_dir().join(format!("hil-serve-usb-{tag}-{}.json", std::process::id()));
-        let mut child = Command::new(env!("CARGO_BIN_EXE_hil"))
-            .args(["serve", "--pty", "--rate-hz", &rate_hz.to_string()])
-            .args(["--duration-s", &duration_s.to_string()])
-            .args(BRIDGE)
-            .arg("--json")
-            .arg(&report)
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("hil serve starts");
-        let mut line = String::new();
-        BufReader::new(child.stdout.take().expect("stdout"))
-            .read_line(&mut line)
-            .expect("hil serve prints its pty");
-        Self {
-            child,
-            path: line.trim().to_string(),
-            report,
-        }
-    }
-
-    fn finish(mut self) -> serde_json::Value {
-        let status = self.child.wait().expect("hil serve ends");
-        assert!(status.success(), "hil serve: {status}");
-        let text = std::fs::read_to_string(&self.report).expect("the stand-in's report");
-        let _ = std::fs::remove_file(&self.report);
-        serde_json::from_str(&text).expect("JSON")
-    }
-}
-
 fn short_nodrive() -> String {
     concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/short-nodrive.toml").into()
 }
@@ -128,7 +87,7 @@ fn the_designed_pipelined_point_runs_in_real_time_through_the_modelled_bridge() 
     let _one = one_at_a_time();
     let (rate, delay) = (500, 2u8);
     let cpus = std::thread::available_parallelism().map_or(1, |n| n.get()) as f64;
-    let device = StandIn::start(rate, 5.0, "d2");
+    let device = common::StandIn::start(rate, 5.0, "usb-d2", &BRIDGE);
     assert!(device.path.starts_with("/dev/"), "{}", device.path);
     // Powered before the host.
     std::thread::sleep(Duration::from_millis(300));
@@ -253,7 +212,7 @@ fn the_designed_pipelined_point_runs_in_real_time_through_the_modelled_bridge() 
 fn with_the_drive_the_trajectory_is_the_in_process_one_until_an_answer_is_missed() {
     let _one = one_at_a_time();
     let (rate, delay) = (500, 2u8);
-    let device = StandIn::start(rate, 5.0, "drive");
+    let device = common::StandIn::start(rate, 5.0, "usb-drive", &BRIDGE);
     std::thread::sleep(Duration::from_millis(300));
     let drive = |target| RunOptions {
         scenario: concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/short.toml").into(),
@@ -293,7 +252,7 @@ fn with_the_drive_the_trajectory_is_the_in_process_one_until_an_answer_is_missed
 #[test]
 fn the_bridge_without_the_delay_is_refused_before_the_run() {
     let _one = one_at_a_time();
-    let device = StandIn::start(500, 1.5, "d1");
+    let device = common::StandIn::start(500, 1.5, "usb-d1", &BRIDGE);
     std::thread::sleep(Duration::from_millis(300));
     let e = run(&at(500, 1, Target::Serial(device.path.clone())))
         .err()

@@ -199,3 +199,49 @@ pub fn config_at(hz: u32) -> Vec<u8> {
 pub fn judge_timing() -> bool {
     std::env::var("JUDGE_TIMING").is_ok_and(|v| v == "1")
 }
+
+/// `hil serve --pty` started as a powered board is, before the host: its pseudo-terminal
+/// and its JSON report (`extra`: more `hil serve` options, such as a bridge model).
+pub struct StandIn {
+    child: std::process::Child,
+    /// The pseudo-terminal it serves.
+    pub path: String,
+    report: std::path::PathBuf,
+}
+
+impl StandIn {
+    /// Starts it at `rate_hz` for `duration_s`; `tag` names its report file.
+    pub fn start(rate_hz: u32, duration_s: f64, tag: &str, extra: &[&str]) -> Self {
+        use std::io::BufRead;
+        let report =
+            std::env::temp_dir().join(format!("hil-serve-{tag}-{}.json", std::process::id()));
+        let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_hil"))
+            .args(["serve", "--pty", "--rate-hz", &rate_hz.to_string()])
+            .args(["--duration-s", &duration_s.to_string()])
+            .args(extra)
+            .arg("--json")
+            .arg(&report)
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .expect("hil serve starts");
+        let mut line = String::new();
+        std::io::BufReader::new(child.stdout.take().expect("stdout"))
+            .read_line(&mut line)
+            .expect("hil serve prints its pty");
+        Self {
+            child,
+            path: line.trim().to_string(),
+            report,
+        }
+    }
+
+    /// Waits for its end (it must succeed) and returns its report.
+    pub fn finish(mut self) -> serde_json::Value {
+        let status = self.child.wait().expect("hil serve ends");
+        assert!(status.success(), "hil serve: {status}");
+        let text = std::fs::read_to_string(&self.report).expect("the stand-in's report");
+        let _ = std::fs::remove_file(&self.report);
+        serde_json::from_str(&text).expect("JSON")
+    }
+}
