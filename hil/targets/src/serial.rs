@@ -78,16 +78,7 @@ impl Serial {
     fn read_some(&mut self, buf: &mut [u8]) -> Result<usize, TransportError> {
         match self.port.read(buf) {
             Ok(n) => Ok(n),
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    io::ErrorKind::TimedOut
-                        | io::ErrorKind::WouldBlock
-                        | io::ErrorKind::Interrupted
-                ) =>
-            {
-                Ok(0)
-            }
+            Err(e) if nothing_yet(&e) => Ok(0),
             Err(e) => Err(self.io(&e)),
         }
     }
@@ -174,16 +165,7 @@ pub fn serve_lockstep<P: Read + Write + ?Sized>(
     while !stop.load(Ordering::Relaxed) {
         let n = match port.read(&mut buf) {
             Ok(n) => n,
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    io::ErrorKind::TimedOut
-                        | io::ErrorKind::WouldBlock
-                        | io::ErrorKind::Interrupted
-                ) =>
-            {
-                continue
-            }
+            Err(e) if nothing_yet(&e) => continue,
             Err(e) => return Err(e),
         };
         for chunk in buf[..n].split_inclusive(|&b| b == 0) {
@@ -196,4 +178,12 @@ pub fn serve_lockstep<P: Read + Write + ?Sized>(
         }
     }
     Ok(ticks)
+}
+
+/// A read that timed out or was interrupted: nothing arrived yet.
+pub(crate) fn nothing_yet(e: &io::Error) -> bool {
+    matches!(
+        e.kind(),
+        io::ErrorKind::TimedOut | io::ErrorKind::WouldBlock | io::ErrorKind::Interrupted
+    )
 }
