@@ -1,15 +1,8 @@
-//! The serial-port target: a board (or anything speaking the protocol) on a serial port,
-//! through the `serialport` crate (default features off: no libudev, so a fresh machine
-//! builds it; ports are named by path).
-//!
-//! Two pacings:
-//! - [`Pace::RealTime`] (the default, a board whose control task runs on its own timer):
-//!   [`crate::realtime::RealTime`], deadline-driven, synchronised to the device's tick;
-//! - [`Pace::LockStep`] (a frame-clocked device, like the firmware under QEMU, the
-//!   frame-clocked Nucleo build, or [`serve_lockstep`] on the other end of a
-//!   pseudo-terminal in the tests): [`Serial`], the host waits for each tick's answer
-//!   (bounded by a timeout), and the timing is modelled from the baud and the reported
-//!   execution time.
+//! The serial-port target: a board on a serial port (`serialport`, default features off:
+//! no libudev). Two pacings: [`Pace::RealTime`] (the default, a board ticking on its own
+//! timer: [`crate::realtime::RealTime`]) and [`Pace::LockStep`] (a frame-clocked device,
+//! or [`serve_lockstep`] behind a pseudo-terminal in the tests: [`Serial`] waits for each
+//! tick's answer, and the timing is modelled from the baud and the reported `exec`).
 
 use std::io::{self, Read, Write};
 use std::sync::atomic::{AtomicBool, Ordering};
