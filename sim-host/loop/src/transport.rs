@@ -99,12 +99,9 @@ pub trait Transport {
         deadline_ns: u64,
         sink: &mut dyn FnMut(u64, &[u8]),
     ) -> Result<(), TransportError>;
-    /// [`Self::recv`] decoded with the host's decoder `dec` (its state carried from call
-    /// to call): every delivered chunk is taken up to each delimiter
-    /// ([`Decoder::pieces`]) and each piece goes to `sink(arrival_ns, bytes, frame)`, in
-    /// order. A transport that accounts for frames itself (the in-process
-    /// link) overrides it to attribute the decoder's own results, with no second decoder
-    /// over the same bytes.
+    /// [`Self::recv`] decoded with the host's decoder `dec` (its state carried over):
+    /// each piece ([`Decoder::pieces`]) goes to `sink(arrival_ns, bytes, frame)`, in
+    /// order. The in-process link overrides it to attribute the decoder's own results.
     fn recv_frames(
         &mut self,
         deadline_ns: u64,
@@ -117,12 +114,9 @@ pub trait Transport {
             }
         })
     }
-    /// Whether a lock-step transport keeps two exchanges in flight: the next frame goes
-    /// out before the device has answered the last one, and [`Self::recv`] waits only for
-    /// the answers to the frames sent before its deadline (`t_sent < deadline_ns`),
-    /// keeping later ones for a later call. The closed loop then sends sample `k + 1`
-    /// before it takes the actuation of sample `k`, which the plant applies only from
-    /// `t_k + T` ([`crate::exchange`]). Default: `false` (one exchange in flight).
+    /// Whether a lock-step transport keeps two exchanges in flight: [`Self::recv`] waits
+    /// only for the answers to the frames sent before its deadline, keeping later ones
+    /// ([`crate::exchange`]). Default: `false`.
     fn pipelined(&self) -> bool {
         false
     }
