@@ -32,7 +32,7 @@ use wheelset_proto::{
     encode, encode_vec, Actuation, Command, Config, Decoder, Flags, FrameError, LateralSensing,
     Message, Sensor, SensorSi, Status, MAX_FRAME,
 };
-use wheelset_runtime::{Runtime, TX_CAPACITY};
+use wheelset_runtime::{HoldPolicy, Runtime, SafeChange, TX_CAPACITY};
 
 use super::line::{Fate, Line, LineCounts, LineFaults};
 use super::service::{next_episode, Demand, Episode, ServiceOptions, Track};
@@ -310,8 +310,8 @@ enum ActState {
 #[derive(Debug, Clone, Copy, Default)]
 struct Account {
     sampled: bool,
-    missing: u32,
-    safe: bool,
+    /// The runtime's own hold-then-safe policy, fed what the device should have seen.
+    hold: HoldPolicy,
     safe_since_ns: u64,
     safe_exit_ns: u64,
     hold_ticks: u16,
@@ -821,28 +821,28 @@ impl Soak {
         if cleared {
             acc.latched = false;
         }
-        // The hold policy (`wheelset_runtime`'s fault policy, items 2 to 4).
-        let holding = acc.sampled && !fresh;
         if fresh {
             if acc.sampled && self.seq != acc.last_seq.wrapping_add(1) {
                 acc.seq_gaps += 1;
             }
             acc.sampled = true;
-            acc.missing = 0;
             acc.last_seq = self.seq;
-        } else if acc.sampled {
-            acc.missing = acc.missing.saturating_add(1);
         }
-        let safe = acc.sampled && acc.missing > u32::from(acc.hold_ticks);
-        if safe && !acc.safe {
-            acc.safe_entries += 1;
-            acc.safe_since_ns = t;
+        // The hold policy (`wheelset_runtime`'s fault policy, items 2 to 4; no alarm holds
+        // the safe state: the soak's Configs report alarms only).
+        let h = acc.hold.step(fresh, acc.sampled, acc.hold_ticks, false);
+        let (holding, safe) = (h.holding, h.safe);
+        match h.change {
+            Some(SafeChange::Enter) => {
+                acc.safe_entries += 1;
+                acc.safe_since_ns = t;
+            }
+            Some(SafeChange::Exit) => {
+                acc.safe_exits += 1;
+                acc.safe_exit_ns = t;
+            }
+            None => {}
         }
-        if !safe && acc.safe {
-            acc.safe_exits += 1;
-            acc.safe_exit_ns = t;
-        }
-        acc.safe = safe;
         acc.held += u64::from(holding);
         acc.safe_ticks += u64::from(safe);
         if status_requested {
