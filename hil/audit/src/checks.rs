@@ -77,34 +77,25 @@ pub fn controller_checks(a: &ControllerAudit, tol: &Tolerances, cfg: &Config) ->
         );
     }
     let w = &a.worst;
-    v.push(
-        judge(
-            n,
-            &format!(
-                "gain error fixed vs f64 below {:.0} Hz (worst at {:.3} Hz)",
-                w.below_hz, w.fixed_gain_db.1
-            ),
-            w.fixed_gain_db.0,
-            tol.fixed_gain_db,
-            "dB",
-            "gain error",
-        )
-        .with_remedy(format!("{COEF_REMEDY}; or {SIGNAL_REMEDY}")),
-    );
-    v.push(
-        judge(
-            n,
-            &format!(
-                "phase error fixed vs f64 below {:.0} Hz (worst at {:.3} Hz)",
-                w.below_hz, w.fixed_phase_deg.1
-            ),
-            w.fixed_phase_deg.0,
-            tol.fixed_phase_deg,
-            "deg",
-            "phase error",
-        )
-        .with_remedy(format!("{COEF_REMEDY}; or {SIGNAL_REMEDY}")),
-    );
+    for (what, (err, at), limit, unit) in [
+        ("gain", w.fixed_gain_db, tol.fixed_gain_db, "dB"),
+        ("phase", w.fixed_phase_deg, tol.fixed_phase_deg, "deg"),
+    ] {
+        v.push(
+            judge(
+                n,
+                &format!(
+                    "{what} error fixed vs f64 below {:.0} Hz (worst at {at:.3} Hz)",
+                    w.below_hz
+                ),
+                err,
+                limit,
+                unit,
+                &format!("{what} error"),
+            )
+            .with_remedy(format!("{COEF_REMEDY}; or {SIGNAL_REMEDY}")),
+        );
+    }
     if n == "yaw_predictor" {
         // The predictor approximates an ideal advance by design; its deviation from it
         // is the sampled-data analysis' business, not a numerics figure: not judged.

@@ -1,39 +1,25 @@
-//! The closed-loop audit: the fixed-point runtime in the loop with the plant, through the
-//! wire's resolutions, against the f64 continuous reference; the straight-track limit
-//! cycle measured and attributed by experiment.
+//! The closed-loop audit: the fixed-point runtime in the loop with the plant through the
+//! wire (`wheelset_loop::device_loop::run_device` on `curve`, every period recorded)
+//! against the continuous reference (`wheelset_plant::sim::run_continuous`); the
+//! straight-track limit cycle measured in the window [`WINDOW_S`] (the torque's peak to
+//! peak, RMS about its mean and dominant frequency, [`dominant_hz`]; `y` peak to peak)
+//! and attributed by re-running the control core ([`CoreController`]) with every source,
+//! then with one removed at a time: the wire LSB of `y'`, the internal rounding (the core
+//! in f64), the predictor, the output wire LSB.
 //!
-//! - **Device run**: `wheelset_loop::device_loop::run_device` (the firmware runtime `Runtime<Fx>`
-//!   behind the in-process link, `wheelset_loop::inproc` through `wheelset_loop::exchange`), the
-//!   lead law on `curve`, every period recorded (output interval = one control period).
-//! - **Reference**: `wheelset_plant::sim::run_continuous` (the continuous lead, no delay, no
-//!   quantisation).
-//! - **Window**: the straight track after the curve, `17 s .. 20 s`. The limit cycle is
-//!   the device's torque there: peak to peak, RMS about its mean, the dominant frequency
-//!   (the largest DFT magnitude on a 0.25 Hz grid up to Nyquist, mean removed), and the
-//!   lateral displacement `y` peak to peak.
-//! - **Attribution**: the control core itself in the loop ([`CoreController`], one period of
-//!   actuation delay as the device), first with every source (it must reproduce the
-//!   device), then with one source removed at a time: the wire LSB of `y'` (`y'` passed
-//!   unquantised), the internal rounding (the core in f64: no rounding, no coefficient
-//!   quantisation; the wire kept), the predictor (`yaw_predict_ticks = 0`), the output
-//!   wire LSB (`T_psi`, `u_a` unquantised). The amplitude with a source removed says how
-//!   much of the cycle that source sustains.
-//!
-//! One definition of a limit cycle (the same as [`super::limits`]): a **self-sustained
-//! oscillation** is a periodic output that persists without an input to drive it and
-//! whose amplitude exceeds the output's proven rounding-error bound; a **bounded
-//! dither** is an output that moves by at most one LSB of its format about its settled
-//! value (e.g. an integrator stepping by one LSB on a ramp). On straight track the plant
-//! input is zero, so a torque moving by many wire LSBs is self-sustained.
+//! A **self-sustained oscillation** persists without an input and exceeds the output's
+//! proven rounding-error bound; a **bounded dither** stays within it (as
+//! [`super::limits`]). On straight track the plant input is zero.
 
 use serde::Serialize;
 use wheelset_control::{Config, SampleBits};
 use wheelset_loop::core::{CoreController, Sources};
 use wheelset_loop::device_loop::{control_config, run_device, DeviceOptions};
+use wheelset_loop::drive::drive;
 use wheelset_plant::control::{SampledController, YawLaw};
 use wheelset_plant::params::Params;
 use wheelset_plant::scenario::Scenario as Track;
-use wheelset_plant::sim::{run_continuous, run_sampled, ActuatorModel, SensorModel, Trajectory};
+use wheelset_plant::sim::{run_continuous, Trajectory};
 use wheelset_proto::units::TORQUE_LSB_NM;
 
 /// The straight-track window of `curve`, s.
@@ -160,20 +146,18 @@ fn core_run<T: SampleBits>(sc: &Track, cfg: &Config, src: Sources) -> Result<Cyc
     let mut ctrl = CoreController::<T>::try_new(cfg, cfg.wsp.enabled)
         .map_err(|e| e.to_string())?
         .with_sources(src);
-    let mut act = ActuatorModel::ideal();
-    act.delay_ns = ctrl.period_ns();
-    let tr = run_sampled(
-        sc,
-        &mut ctrl,
-        &mut SensorModel::ideal(),
-        &mut act,
-        false,
-        "audit core loop",
-    )
+    // `(t_s, T_psi N m)` as commanded (before the actuator's delay), in the window.
+    let mut torque = Vec::new();
+    let tr = drive(sc, &mut ctrl, 1, false, "audit core loop", |_, t_ns, a| {
+        let t = t_ns as f64 * 1e-9;
+        if (WINDOW_S.0..=WINDOW_S.1).contains(&t) {
+            torque.push((t, a.t_psi));
+        }
+    })
     .map_err(|e| e.to_string())?;
     let y: Vec<(f64, f64)> = tr.records.iter().map(|r| (r.t_s, r.y_m)).collect();
     let fs = 1e9 / ctrl.period_ns() as f64;
-    Ok(stats(ctrl.torque(), &y, fs))
+    Ok(stats(&torque, &y, fs))
 }
 
 /// The straight-track limit cycle of the lead on `curve`, measured on the device and

@@ -1,40 +1,14 @@
 //! `hil audit`: the fixed-point accuracy audit of the control core, per controller (yaw
-//! lead, yaw pure gain, PI traction), at the configured rates and Q formats.
+//! lead, yaw pure gain, PI traction), at the configured rates and Q formats
+//! (`docs/audit.md`): coefficients (f64 discretisation against the quantised values the
+//! controller multiplies by), poles, zeros and DC gain, frequency responses (the fixed
+//! point *measured* with sinusoids and a least-squares fit), ranges and noise
+//! ([`ranges`]), proven bounds ([`bounds`], [`wcpg`]), limit cycles ([`limits`],
+//! [`closed`]), margins ([`margins`]) and recommended formats ([`formats`]). Every figure
+//! is judged against [`Tolerances`]: pass, warn or fail; the exit code is 1 on any fail.
 //!
-//! What it computes, and how:
-//!
-//! - **Coefficients**: the f64 discretisation ([`wheelset_control::LeadParams::discretise`],
-//!   [`wheelset_control::PiParams::discretise`]) against the quantised values the
-//!   controller really multiplies by (read back from [`wheelset_control::Lead::quantised`]
-//!   and [`wheelset_control::Pi::quantised`]); absolute and relative errors.
-//! - **Poles, zeros, DC gain**: continuous (docs/model.md), discrete f64 and discrete
-//!   quantised (from the direct form of each), the discrete roots also mapped back to
-//!   rad/s by the inverse bilinear map; shifts between them. The fixed-point DC gain is
-//!   *measured* with a constant input.
-//! - **Frequency response**: continuous, discrete f64 (analytic), discrete quantised
-//!   (analytic) and fixed point *measured* by driving the running controller with
-//!   sinusoids and least-squares fitting; at 1, 10, 16, 50, 100 Hz and a log grid
-//!   0.1 Hz .. 0.45 fs; worst errors below [`Tolerances::frac_fs`] of the rate.
-//! - **Ranges and noise** ([`ranges`]): every signal and state over the scenarios, with
-//!   headroom in bits and overflow counts; fixed minus f64 on the same inputs.
-//! - **Limit cycles** ([`limits`]).
-//! - **Recommended formats**: integer bits from the observed peaks plus a margin; the
-//!   fraction bits from a bisection over the signal format (the smallest that passes
-//!   every accuracy check, plus a margin).
-//!
-//! Every number is judged against [`Tolerances`] (stated in the report): pass, warn or
-//! fail; the exit code is 1 on any fail.
-//!
-//! The modules: [`args`] (the command line), [`tolerances`] (tolerances, the pass/warn/fail
-//! status shared with the run budgets, the judged figure), [`model`] (the JSON result
-//! model), [`per_controller`] (the per-controller audit), [`checks`] (every figure judged),
-//! [`bounds`] and [`wcpg`] (the proofs), [`formats`] (format proposals and the
-//! word-length sweep), [`ranges`], [`limits`], [`recordings`], [`response`], [`qdyn`],
-//! [`on_target`], [`writeup`], [`plots`].
-//!
-//! A library: `hil audit` (the harness's subcommand) parses [`AuditArgs`] and calls
-//! [`run`]; the options are a `clap::Args` here so that the command line and the
-//! library's options are one type.
+//! `hil audit` parses [`AuditArgs`] (a `clap::Args`: the command line and the library's
+//! options are one type) and calls [`run`].
 #![deny(missing_docs)]
 
 pub mod args;

@@ -1,11 +1,8 @@
-//! Stability and stability margins of the two loops after quantisation: the plant
-//! linearised about straight track at pure rolling (`wheelset_plant::sampled::Model::Full`,
-//! the rate table's plant), discretised exactly with a zero-order hold at the base period
-//! (`wheelset_plant::sampled::zoh`), one period of actuation delay, and the controller as
-//! the device holds it (quantised) or ideal (the f64 discretisation).
-//!
-//! Each loop is broken at its actuator with the other loop open (on straight track the
-//! linearised lateral/yaw and drive dynamics do not couple):
+//! Stability and margins of the two loops after quantisation (`docs/audit.md`): the plant
+//! linearised about straight track at pure rolling (`wheelset_plant::sampled::Model::Full`),
+//! discretised with a zero-order hold at the base period, one period of actuation delay,
+//! and the controller quantised as the device holds it or ideal (f64). Each loop is
+//! broken at its actuator with the other loop closed:
 //!
 //! ```text
 //! yaw:      L(z) = -C_y(z) z^-1 P_y(z),   P_y: T_psi -> y',  C_y = (T_fs/y'_fs) H(z) (1 + 2p (1 - z^-1))
@@ -13,26 +10,15 @@
 //! traction: L(z) =  C_i(z) z^-1 P_i(z),   P_i: u_a -> i_a,  C_i = (V_fs/I_fs)(Kp + Ki/(1 - z^-1))
 //! ```
 //!
-//! (`T_psi = +C_y y'` acts through eq. 5's `-T_psi`, so the yaw loop's return ratio carries
-//! the minus sign; the PI acts on `i_ref - i_a`; the closed loop's poles are the zeros of
-//! `1 + L`.)
-//!
-//! **Stability (Nyquist).** `P` counts the open-loop poles outside the unit circle (the
-//! plant's: the yaw plant without the passive spring has one), `W` the counter-clockwise
-//! turns of `1 + L(z)` as `z` runs once round the circle `|z| = 1 + 1e-6` (just outside
-//! the unit circle, so that the PI's integrator at `z = 1` counts as inside); the closed
-//! loop has `Z = P - W` poles outside, and is stable when `Z = 0`.
-//!
-//! **Margins.** For a stable loop the margins say how far `L` is from changing that count:
-//! the **gain interval** `(k_lo, k_hi)` of loop-gain factors keeping it stable, read from
-//! where `L` crosses the negative real axis (a crossing at `-x` is the critical factor
-//! `1/x`). An open-loop-stable loop has `k_lo = 0` (no lower limit) and the classical
-//! gain margin `20 log10 k_hi`; an open-loop-unstable one also has a lower limit: it needs
-//! a minimum gain, and `20 log10 k_lo < 0` is how far the gain may *drop*. The **phase
-//! margins** are the smallest extra phase lag and lead, at a gain crossover (`|L| = 1`),
-//! that bring `L` onto `-1`. The reported gain margin is the smaller of the two gain
-//! changes (in dB, positive), the phase margin the smaller of lag and lead: both
-//! positive whenever the closed loop is stable. An unstable loop has no margins (`null`).
+//! (`T_psi = +C_y y'` acts through eq. 5's `-T_psi`, hence the minus; the PI acts on
+//! `i_ref - i_a`.) **Stability (Nyquist):** with `P` the open-loop poles outside the unit
+//! circle and `W` the counter-clockwise turns of `1 + L(z)` round `|z| = 1 + 1e-6` (the
+//! PI's integrator at `z = 1` inside), the closed loop has `Z = P - W` unstable poles.
+//! **Margins** of a stable loop: the gain interval `(k_lo, k_hi)` from the crossings of
+//! the negative real axis (a crossing at `-x` is the factor `1/x`; `k_lo = 0` for an
+//! open-loop-stable loop), and the extra phase lag and lead at a gain crossover that
+//! bring `L` onto `-1`. The reported margins are the smaller gain change (dB) and the
+//! smaller of lag and lead; an unstable loop has none (`null`).
 
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;

@@ -1,14 +1,9 @@
-//! The same numbers from the target: the `wheelset-qemu` firmware (the real runtime and
-//! control core compiled for Cortex-M4, `thumbv7em-none-eabihf`) under QEMU, driven in
-//! lock-step over its UART ([`wheelset_targets::qemu`]) with Sensor frames carrying an audit
-//! scenario's inputs as wire codes.
-//!
-//! The host runs [`wheelset_runtime::Runtime`] on `Fx` with the firmware's configuration
-//! (`RuntimeConfig::default()`) on the *same bytes*; the f64 control core runs on the
-//! same codes. Reported: ticks compared, Actuation codes that differ between target and
-//! host (the fixed-point core must be bit-identical), and the max error of the target's
-//! and the host's outputs against f64, in wire LSBs (the target's outputs are only
-//! visible as wire codes: 0.1 N m and 10 mV).
+//! The same numbers from the target: the `wheelset-qemu` firmware under QEMU, lock-step
+//! over its UART ([`wheelset_targets::qemu`]), fed an audit scenario's inputs as Sensor
+//! frames. The host runs [`wheelset_runtime::Runtime`] on `Fx` with the firmware's
+//! configuration on the same bytes, and the f64 core on the same codes. Reported: ticks
+//! compared, Actuation codes that differ between target and host (the fixed-point core
+//! must be bit-identical), and both outputs' largest error against f64 in wire LSBs.
 
 use serde::Serialize;
 use wheelset_control::WireLsb;

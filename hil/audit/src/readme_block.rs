@@ -6,6 +6,7 @@
 
 use std::fmt::Write as _;
 
+use super::model::ControllerAudit;
 use super::ranges::Phase;
 use super::writeup_sections::{bounds_table, error_bounds_table, Detail};
 use super::{Audit, Status};
@@ -38,92 +39,71 @@ pub fn block(a: &Audit) -> String {
          compares this block with the tool's output).\n",
         a.base_rate_hz, a.formats.signal, a.formats.coef
     );
-    let ctrl = |n: &str| a.controllers.iter().find(|c| c.name == n);
     let names = ["yaw_lead", "yaw_gain", "traction_pi"];
     let mut t = Table::new(["figure", "yaw lead", "yaw gain", "PI"]);
-    t.row(
-        std::iter::once("largest coefficient relative error".to_string())
-            .chain(names.iter().map(|n| worst_coef(a, n))),
+    // One row: `label`, then each controller's cell (`None`: not audited).
+    let mut row = |label: String, cell: &dyn Fn(&str, Option<&ControllerAudit>) -> String| {
+        let ctrl = |n: &str| a.controllers.iter().find(|c| c.name == n);
+        t.row(std::iter::once(label).chain(names.iter().map(|n| cell(n, ctrl(n)))));
+    };
+    row("largest coefficient relative error".into(), &|n, _| {
+        worst_coef(a, n)
+    });
+    row(
+        "largest pole/zero relative shift (quantised vs f64)".into(),
+        &|_, c| {
+            c.map(|c| &c.poles_zeros.shift_quantisation_rel)
+                .filter(|v| !v.is_empty())
+                .map(|v| format!("{:.1e}", v.iter().fold(0.0f64, |m, x| m.max(x.abs()))))
+                .unwrap_or_else(|| "-".into())
+        },
     );
-    t.row(
-        std::iter::once("largest pole/zero relative shift (quantised vs f64)".to_string()).chain(
-            names.iter().map(|n| {
-                ctrl(n)
-                    .map(|c| &c.poles_zeros.shift_quantisation_rel)
-                    .filter(|v| !v.is_empty())
-                    .map(|v| format!("{:.1e}", v.iter().fold(0.0f64, |m, x| m.max(x.abs()))))
-                    .unwrap_or_else(|| "-".into())
-            }),
-        ),
+    row(
+        "DC gain continuous / fixed (measured), relative error".into(),
+        &|_, c| {
+            c.and_then(|c| {
+                let d = &c.dc_gain;
+                Some(format!(
+                    "{:.6e} / {:.6e} ({:.1e})",
+                    d.continuous?, d.fixed?, d.fixed_vs_continuous_rel?
+                ))
+            })
+            .unwrap_or_else(|| "integrator".into())
+        },
     );
-    t.row(
-        std::iter::once("DC gain continuous / fixed (measured), relative error".to_string()).chain(
-            names.iter().map(|n| {
-                ctrl(n)
-                    .and_then(|c| {
-                        let d = &c.dc_gain;
-                        Some(format!(
-                            "{:.6e} / {:.6e} ({:.1e})",
-                            d.continuous?, d.fixed?, d.fixed_vs_continuous_rel?
-                        ))
-                    })
-                    .unwrap_or_else(|| "integrator".into())
-            }),
-        ),
-    );
-    t.row(
-        std::iter::once(format!(
+    let db_deg = |(g, p): (f64, f64)| format!("{:.1e} dB / {:.1e} deg", g.abs(), p.abs());
+    row(
+        format!(
             "worst gain / phase error fixed vs f64, f <= {:.0} Hz",
             a.tolerances.frac_fs * a.base_rate_hz as f64
-        ))
-        .chain(names.iter().map(|n| {
-            ctrl(n)
-                .map(|c| {
-                    format!(
-                        "{:.1e} dB / {:.1e} deg",
-                        c.worst.fixed_gain_db.0.abs(),
-                        c.worst.fixed_phase_deg.0.abs()
-                    )
-                })
+        ),
+        &|_, c| {
+            c.map(|c| db_deg((c.worst.fixed_gain_db.0, c.worst.fixed_phase_deg.0)))
                 .unwrap_or_default()
-        })),
+        },
     );
-    t.row(
-        std::iter::once("worst error discrete f64 vs continuous".to_string()).chain(
-            names.iter().map(|n| {
-                ctrl(n)
-                    .map(|c| {
-                        format!(
-                            "{:.1e} dB / {:.1e} deg",
-                            c.worst.discrete_gain_db.0.abs(),
-                            c.worst.discrete_phase_deg.0.abs()
-                        )
-                    })
-                    .unwrap_or_default()
-            }),
-        ),
-    );
-    t.row(
-        std::iter::once("largest dead-band offset after a hold (wire LSB)".to_string()).chain(
-            names.iter().map(|n| {
-                let l = wheelset_control::WireLsb::default();
-                let wire = if *n == "traction_pi" {
-                    l.voltage
-                } else {
-                    l.torque
-                };
-                ctrl(n)
-                    .map(|c| {
-                        format!(
-                            "{:.4}",
-                            c.limit_cycles
-                                .iter()
-                                .fold(0.0f64, |m, l| m.max(l.offset_si.abs() / wire))
-                        )
-                    })
-                    .unwrap_or_default()
-            }),
-        ),
+    row("worst error discrete f64 vs continuous".into(), &|_, c| {
+        c.map(|c| db_deg((c.worst.discrete_gain_db.0, c.worst.discrete_phase_deg.0)))
+            .unwrap_or_default()
+    });
+    row(
+        "largest dead-band offset after a hold (wire LSB)".into(),
+        &|n, c| {
+            let l = wheelset_control::WireLsb::default();
+            let wire = if n == "traction_pi" {
+                l.voltage
+            } else {
+                l.torque
+            };
+            c.map(|c| {
+                let m = c.limit_cycles.iter();
+                format!(
+                    "{:.4}",
+                    m.fold(0.0f64, |m, l| m.max(l.offset_si.abs() / wire))
+                )
+            })
+            .unwrap_or_default()
+        },
     );
     let _ = writeln!(w, "{t}");
     let _ = writeln!(w, "{}\n", a.proof_statement);

@@ -3,24 +3,21 @@
 //! on `curve` with link faults; the controller's inputs and events are recorded tick by
 //! tick and replayed through the fixed-point and f64 controllers ([`super::ranges`]).
 //!
-//! Fault runs emulate the device runtime's policy at the controller: a missing frame
-//! holds the last valid inputs; after [`HOLD_TICKS`] missing frames in a row the
-//! controller enters the safe state, and leaves it at the next valid frame. The plant
-//! sees the resulting actuation (closed loop), so the recorded inputs include the
-//! wheelset's response to the safe state.
+//! Fault runs apply the device runtime's own hold policy (`wheelset_runtime::HoldPolicy`,
+//! `DEFAULT_HOLD_TICKS`) at the controller: a missing frame holds the last valid inputs,
+//! then the safe state until the next valid frame. The plant sees the resulting
+//! actuation, so the recorded inputs include the wheelset's response to the safe state.
 
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use wheelset_control::{Config, Controller, Inputs};
+use wheelset_loop::drive::drive;
 use wheelset_plant::control::{Actuation, Measurements, SampledController, YawLaw};
 use wheelset_plant::params::Params;
 use wheelset_plant::scenario::Scenario as Track;
-use wheelset_plant::sim::{run_sampled, ActuatorModel, SensorModel};
+use wheelset_runtime::{HoldPolicy, SafeChange, DEFAULT_HOLD_TICKS};
 
 use super::ranges::{Event, Scenario, Tick};
-
-/// Missing frames tolerated before the safe state (the runtime's default: 2 ms at 5 kHz).
-pub const HOLD_TICKS: u32 = 10;
 
 /// Which frames are lost.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -39,9 +36,10 @@ struct Recorder {
     faults: Faults,
     rng: Pcg64,
     held: [f64; 4],
-    missing: u32,
-    safe: bool,
-    ticks: Vec<Tick>,
+    hold: HoldPolicy,
+    /// The latest tick's record.
+    tick: Tick,
+    steps: u64,
     frames_lost: u64,
     safe_entries: u64,
 }
@@ -63,28 +61,21 @@ impl SampledController for Recorder {
     }
 
     fn step(&mut self, t_ns: u64, m: &Measurements) -> Actuation {
-        let mut event = None;
-        if self.lost(t_ns) && !self.ticks.is_empty() {
-            self.frames_lost += 1;
-            self.missing += 1;
-            if self.missing > HOLD_TICKS && !self.safe {
-                self.safe = true;
-                self.safe_entries += 1;
-                event = Some(Event::Safe(true));
-            }
-        } else {
+        let sampled = self.steps > 0;
+        let fresh = !self.lost(t_ns) || !sampled;
+        self.steps += 1;
+        let h = self.hold.step(fresh, sampled, DEFAULT_HOLD_TICKS, false);
+        if fresh {
             self.held = [m.yd_mps, m.i_a, m.w_m, m.demand_nm];
-            self.missing = 0;
-            if self.safe {
-                self.safe = false;
-                event = Some(Event::Safe(false));
-            }
         }
+        self.frames_lost += u64::from(h.holding);
+        let event = h.change.map(|c| Event::Safe(c == SafeChange::Enter));
         if let Some(Event::Safe(b)) = event {
+            self.safe_entries += u64::from(b);
             self.ctrl.set_safe(b);
         }
         let si = self.held;
-        self.ticks.push(Tick { si, event });
+        self.tick = Tick { si, event };
         let s = self.cfg.scales;
         let o = self
             .ctrl
@@ -147,26 +138,22 @@ fn record(
         faults,
         rng: Pcg64::seed_from_u64(0x00fa_0175),
         held: [0.0; 4],
-        missing: 0,
-        safe: false,
-        ticks: Vec::new(),
+        hold: HoldPolicy::new(),
+        tick: Tick {
+            si: [0.0; 4],
+            event: None,
+        },
+        steps: 0,
         frames_lost: 0,
         safe_entries: 0,
     };
     // One period of computation/transport delay, as the device loop runs.
-    let mut act = ActuatorModel::ideal();
-    act.delay_ns = period_ns;
-    run_sampled(
-        &sc,
-        &mut rec,
-        &mut SensorModel::ideal(),
-        &mut act,
-        false,
-        "f64 reference",
-    )
+    let mut ticks = Vec::new();
+    drive(&sc, &mut rec, 1, false, "f64 reference", |r, _, _| {
+        ticks.push(r.tick);
+    })
     .map_err(|e| e.to_string())?;
-    if let Some(k) = rec
-        .ticks
+    if let Some(k) = ticks
         .iter()
         .position(|t| t.si.iter().any(|v| !v.is_finite()))
     {
@@ -178,7 +165,7 @@ fn record(
     let fault_note = match faults {
         Faults::None => String::new(),
         _ => format!(
-            "; {} frames lost, {} safe-state entries (hold {HOLD_TICKS} ticks, then safe, \
+            "; {} frames lost, {} safe-state entries (hold {DEFAULT_HOLD_TICKS} ticks, then safe, \
              recover on the next valid frame)",
             rec.frames_lost, rec.safe_entries
         ),
@@ -195,7 +182,7 @@ fn record(
                 Faults::Drops(p) => format!("; random frame loss p = {p}{fault_note}"),
             }
         ),
-        ticks: rec.ticks,
+        ticks,
     })
 }
 

@@ -1,30 +1,10 @@
-//! Budgets: the limits the checks compare against, with a pass/warn/fail verdict each.
-//! Defaults below; override them with a TOML file (`--budget FILE`) and/or single keys
-//! (`--set timing.cpu_max.fail=0.5`), later ones winning.
-//!
-//! ```toml
-//! [timing]                       # fractions of the control period T unless stated
-//! latency_max   = { warn = 0.80, fail = 1.00 }   # sensor sent -> echoing actuation in
-//! jitter_max    = { warn = 0.05, fail = 0.10 }   # |output instant - ideal schedule|
-//! missed_frac   = { warn = 0.0,  fail = 0.01 }   # periods without a fresh echo by t_k + T
-//! overrun_frac  = { warn = 0.0,  fail = 0.0 }    # ticks whose exec time exceeds T
-//! cpu_max       = { warn = 0.50, fail = 0.80 }   # max exec time / T
-//! cpu_mean      = { warn = 0.30, fail = 0.60 }   # mean exec time / T
-//! link          = { warn = 0.70, fail = 0.85 }   # wire time of the bytes per period / T
-//!
-//! [frames]                       # fractions of the frames sent (both directions)
-//! rejected_frac = { warn = 0.0, fail = 0.001 }   # with --faults, raise these
-//! dropped_frac  = { warn = 0.0, fail = 0.001 }
-//!
-//! [numerics.y_m]                 # closed loop vs the f64 continuous reference
-//! abs = 2e-6      # m
-//! rel = 0.01      # of the reference's peak |value|
-//! time_s = 0.002  # the reference may be shifted by up to this much
-//! warn_factor = 2 # pass <= allowed < warn <= warn_factor x allowed < fail
-//! ```
-//!
-//! A value above `warn` is a warning, above `fail` a failure (`value > limit`), so
-//! `warn = 0` warns on any occurrence.
+//! Budgets: the limits the checks compare against, with a pass/warn/fail verdict each
+//! (`docs/harness.md`). Defaults below ([`Budgets::default`]); override them with a TOML
+//! file (`--budget FILE`) and/or single keys (`--set timing.cpu_max.fail=0.5`), later
+//! ones winning. Timing limits are fractions of the control period `T`, frame limits
+//! fractions of the frames sent; a numerics entry has `abs` (SI), `rel` (of the
+//! reference's peak), `time_s` and `warn_factor`. A value above `warn` warns, above
+//! `fail` fails (`value > limit`), so `warn = 0` warns on any occurrence.
 
 use std::collections::BTreeMap;
 use std::fmt;

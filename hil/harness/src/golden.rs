@@ -1,21 +1,12 @@
 //! Open-loop golden vectors through the fixed-point control core, on the host and on a
 //! target, compared bit for bit.
 //!
-//! A vector is a sequence of sensor samples in wire codes (`wheelset_proto` LSBs: y' in
-//! um/s, current in mA, speed in mrad/s, demand in N m). The **host** result is
-//! `wheelset_runtime::Runtime<Fx>` (the firmware's runtime: decode, Q4.28 control core,
-//! encode) ticked once per sample in this process; the **target** result is the same
-//! samples sent as Sensor frames through a [`Transport`], one per tick, and the
-//! Actuation frames it returns. Compared per tick: yaw torque (0.1 N m codes), motor
-//! voltage (10 mV codes), flags and the echoed sequence number. The comparison is of the
-//! wire codes: the Q4.28 internals are ~5 bits finer than the torque code, but every
-//! internal difference that changes a rounding anywhere in a vector shows, and a filter
-//! state that differs shows in every later output.
-//!
-//! The vectors ([`vectors`]): steps and a chirp of y', a traction-demand step with the
-//! current following it, an input far beyond the clamps (saturation and anti-windup),
-//! and a sensor stream recorded from the in-process closed loop of `curve` around the
-//! traction step (`hil/golden/curve_4.9-5.3s.csv`).
+//! A vector is a sequence of sensor samples in wire codes. The **host** result is
+//! `wheelset_runtime::Runtime<Fx>` ticked once per sample in this process; the **target**
+//! result the Actuation frames a [`Transport`] returns for the same samples as Sensor
+//! frames. Compared per tick: the torque and voltage codes, the flags and the echoed
+//! sequence number (an internal difference that changes a rounding shows, and a differing
+//! filter state shows in every later output). The vectors: [`vectors`].
 
 use serde::Serialize;
 use wheelset_control::{Fx, InputCodes};

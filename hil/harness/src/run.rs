@@ -1,17 +1,12 @@
 //! `hil run`: one closed loop of the plant with the device on a target, checked.
 //!
-//! The plant is `wheelset_plant::sim::run_sampled` (RK4 at the scenario's step) with the
-//! device as its sampled controller ([`wheelset_loop::exchange`]) and an actuator delay of
-//! one control period; the reference is `wheelset_plant::sim::run_continuous` with the same
-//! scenario and law (with `[[adhesion]]` sections: the f64 control core with the
-//! device's wheel-slip protection, `wheelset_loop::core`). The parameters are
-//! [`RunOptions::params`] (`--params FILE`) with the scenario's `[params]` on top, the
-//! rule of `sim-host --params`; the plant, the reference and the device's configuration
-//! follow them ([`runtime_config_for`], the same rule as `sim-host run --loop device`):
-//! the yaw law of `--control`, traction when the drive is modelled, the lead, gain, PI
-//! and motor constants from the parameters, the default rates (5 kHz, Q4.28 fixed
-//! point). A device on another target has its gains compiled in: parameters that change
-//! them are refused there ([`remote_gains`]).
+//! The plant is `run_sampled` with the device as its controller ([`wheelset_loop::exchange`]);
+//! the reference `run_continuous` with the same scenario and law (with `[[adhesion]]`:
+//! the f64 control core, `wheelset_loop::core`). The parameters are
+//! [`RunOptions::params`] with the scenario's `[params]` on top; the device's
+//! configuration follows them ([`runtime_config_for`], as `sim-host run --loop device`).
+//! A device on another target has its gains compiled in: parameters that change them
+//! are refused there ([`remote_gains`]).
 
 use std::fmt;
 use std::time::Duration;
@@ -46,12 +41,9 @@ pub use open::{device_config, open_transport, remote_gains, DEVICE_KEYS};
 use open::{open_qemu_free, open_realtime, run_rate};
 use reference::before;
 
-/// Default core clock of the device, Hz: the Nucleo-F446RE build's SYSCLK, 168 MHz
-/// (`wheelset_fw`'s `board::nucleo`: the clock that gives USART2 its 42 MHz APB1; the
-/// part's 180 MHz maximum is not what the board runs). A board's
-/// `exec` is in cycles of it; the QEMU target's `exec` is in instructions, converted at
-/// one instruction per cycle of it (an estimate: flash wait states and multi-cycle
-/// instructions make the real board slower).
+/// Default core clock of the device, Hz: the Nucleo-F446RE build's SYSCLK. A board's
+/// `exec` is in cycles of it; the QEMU target's instructions count one cycle each (an
+/// estimate: wait states and multi-cycle instructions make the board slower).
 pub const DEFAULT_CPU_HZ: f64 = 168e6;
 
 /// Where the device runs.
@@ -75,15 +67,12 @@ pub enum Target {
 }
 
 /// The default (and highest) base rate of `--target qemu-free`: what QEMU's CMSDK UART
-/// over a TCP chardev carries in real time (the firmware's `LINK_MAX_RATE_HZ` of the
-/// `free-run` build; measured in the README, "QEMU free-running": 1 kHz does not hold).
+/// over a TCP chardev carries in real time (the `free-run` build's `LINK_MAX_RATE_HZ`).
 pub const QEMU_FREE_RATE_HZ: u32 = 500;
 
-/// The line rate the link check and the timing model assume for `--target qemu-free`:
-/// QEMU does not time the UART's bytes; this is about the byte rate its slow direction
-/// (host -> device, one byte per round trip between QEMU's I/O and vCPU threads)
-/// sustains, times 10 bits: 26-55 kB/s measured on this 2-core machine (README, "QEMU
-/// free-running"). The link check then carries 500 Hz and refuses 1 kHz.
+/// The line rate the link check and the timing model assume for `--target qemu-free`
+/// (QEMU does not time the UART's bytes): about the byte rate of its slow direction,
+/// host -> device, one byte per round trip between QEMU's threads, times 10 bits.
 pub const QEMU_FREE_BAUD: u32 = 460_800;
 
 impl std::str::FromStr for Target {
@@ -200,10 +189,8 @@ pub struct RunOptions {
     pub delay_ticks: u8,
     /// What the real-time loop asks of the operating system (real-time pacing).
     pub realtime: Want,
-    /// The base parameters (`--params FILE`; default: the paper's). The scenario's
-    /// `[params]` apply on top of them (the rule of `sim-host --params`); the plant, the
-    /// reference and the device's configuration ([`runtime_config_for`]) all follow the
-    /// result.
+    /// The base parameters (`--params FILE`; default: the paper's), the scenario's
+    /// `[params]` on top; the plant, the reference and the device all follow the result.
     pub params: Params,
     /// Wheel-slip protection of the device (`--wsp on|off`, sent as `Config.wsp`); `None`:
     /// on (every firmware build has the protection).
@@ -302,10 +289,8 @@ pub struct RunReport {
     pub frames_verdict: Verdict,
     /// The device's counters (its Status frame), if it arrived.
     pub device_status: Option<Status>,
-    /// Resets of the device the host saw during the run (its tick counter going back,
-    /// `wheelset_loop::exchange::DeviceController::device_resets`); the Config went out again
-    /// after each. The Status above is then the last boot's (`boot_count`,
-    /// `reset_cause`).
+    /// Resets of the device the host saw (`DeviceController::device_resets`); the Status
+    /// above is then the last boot's.
     pub device_resets: u32,
     /// When the first reset was seen, s of the run.
     pub first_reset_s: Option<f64>,
@@ -335,16 +320,14 @@ pub struct RunOutcome {
     /// The monitor's mean square `(t_s, (m/s)^2)` at each of its steps.
     pub monitor_ms: Vec<(f64, f64)>,
     /// The errors the numerics judged, per signal (CSV column): `(t_s, signed error)`
-    /// outside the reference's time tube (`crate::numerics::judged_errors`; up to the
-    /// plant fault when the scenario has one).
+    /// outside the reference's time tube.
     pub numerics_errors: Vec<(String, Vec<(f64, f64)>)>,
     /// The device's configuration as applied (from the parameters, the law and the rate).
     pub runtime: RuntimeConfig,
 }
 
-/// The device's runtime configuration for a run of `sc`: the scenario's parameters, the
-/// law, the default hold ticks and rates (`wheelset_loop::device_loop::runtime_config`, the rule
-/// `sim-host run --loop device` follows too).
+/// The device's runtime configuration for a run of `sc` and `law`
+/// (`wheelset_loop::device_loop::runtime_config`, as `sim-host run --loop device`).
 #[must_use]
 pub fn runtime_config_for(sc: &Scenario, law: Law) -> RuntimeConfig {
     runtime_config(sc, law.yaw(), &DeviceOptions::default())
@@ -422,11 +405,9 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     let target_name = tr.name();
     let label = format!("{} on {}", law_name(opts.control), target_name);
     let wsp = opts.wsp_on();
-    // The in-process device was configured before the run (`InProc::configure`), a
-    // free-running one by `RealTime::prepare`; a lock-step device gets the Config frame
-    // (rates unchanged) as the first frame of the run.
-    // At another rate or delay than the firmware's own, the Config carries the design's
-    // rates and coefficients (which the device checks against its table).
+    // A lock-step device gets the Config frame as the run's first (the in-process and
+    // free-running ones were configured before); at another rate or delay than the
+    // firmware's own it carries the design's rates and coefficients.
     let default = runtime_config_for(&sc, opts.control).control;
     let other_point = rt.control.base_rate_hz != default.base_rate_hz
         || rt.control.delay_ticks != default.delay_ticks;
@@ -483,11 +464,12 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     .map_err(|e| RunError::Input(format!("scenario {}: {e}", sc.source)))?;
     // The loop is over: back to the normal scheduler for the analysis.
     wheelset_targets::realtime::os::release();
-    if let Some(e) = cl.error.take() {
+    if let Some(e) = cl.rec.error.take() {
         return Err(RunError::Target(e));
     }
-    if let (true, Some(cfg)) = (cl.config_refused, lockstep_config) {
+    if let (true, Some(cfg)) = (cl.rec.config_refused, lockstep_config) {
         let why = cl
+            .rec
             .status
             .as_ref()
             .and_then(|s| wheelset_proto::RefuseReason::from_code(s.refuse_reason))
@@ -502,9 +484,9 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     let (reference, fine) = reference::make(&sc, opts.control.yaw(), wsp, period_ns, designed)?;
     let timing = analyse(
         &ctx,
-        &cl.periods,
-        &cl.actuations,
-        (cl.host.bytes_sent, cl.host.bytes_received),
+        &cl.rec.periods,
+        &cl.rec.actuations,
+        (cl.rec.host.bytes_sent, cl.rec.host.bytes_received),
         &opts.budgets.timing,
     );
     // A plant fault (scenario data) makes the wheelset hunt by design after it: the
@@ -531,10 +513,12 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
             )
         }
     };
-    let (host, mut status) = (cl.host, cl.status);
-    let (device_resets, first_reset_s) =
-        (cl.device_resets, cl.first_reset_ns.map(|t| t as f64 * 1e-9));
-    let sensor_codes = std::mem::take(&mut cl.sent_codes);
+    let (host, mut status) = (cl.rec.host, cl.rec.status);
+    let (device_resets, first_reset_s) = (
+        cl.rec.device_resets,
+        cl.rec.first_reset_ns.map(|t| t as f64 * 1e-9),
+    );
+    let sensor_codes = std::mem::take(&mut cl.rec.sent_codes);
     let transport = tr.extra();
     let link = tr.link_accounting();
     // A free-running device's counters count from its start, not the run's.
@@ -553,7 +537,7 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     // it received. The alarms: the device's own flags, as its Actuation frames carried them.
     let (_, monitor_ms) = crate::check::alarms::replay(&sensor_codes, period_ns, &rt, &mon_params)
         .unwrap_or_default();
-    let flags = cl.actuations.iter().map(|a| {
+    let flags = cl.rec.actuations.iter().map(|a| {
         (
             a.at_ns,
             a.frame.flags.has(wheelset_proto::Flags::HUNTING),

@@ -1,38 +1,20 @@
-//! `hil sweep`: the closed loop of `hil run` at every point of a parameter grid (a
-//! campaign over the operating envelope), on all cores, and the merge of shards.
+//! `hil sweep`: the closed loop of `hil run` at every point of a parameter grid, on all
+//! cores, and the merge of shards (`docs/campaigns.md`).
 //!
-//! The grid is the Cartesian product of the `--param` axes, in the order given, the
-//! last axis varying fastest: point `i` has the axis indices of `i` written in the mixed
-//! radix of the axis lengths. An axis `KEY=FROM..TO:N` has the `N` values
-//! `v_j = FROM + (TO - FROM) j / (N - 1)`, `j = 0..N-1` (linear spacing, both ends
-//! included; `N = 1` needs `FROM = TO`), `KEY=VALUE` one value. `KEY` is any parameter
-//! key (`wheelset_plant::params::Params`, SI units); `f11` sets `f22` too unless `f22` is an
-//! axis of its own (the paper varies the two creep coefficients together).
+//! The grid is the Cartesian product of the `--param` axes, the last varying fastest
+//! (point `i`'s axis indices are `i` in the mixed radix of the axis lengths). An axis
+//! `KEY=FROM..TO:N` has the values `v_j = FROM + (TO - FROM) j / (N - 1)`, `j = 0..N-1`
+//! (`N = 1` needs `FROM = TO`), `KEY=VALUE` one value; `KEY` is a parameter key (SI);
+//! `f11` sets `f22` too unless `f22` is an axis of its own. A point's parameters are the
+//! base with the point's values on top, then the scenario's `[params]`; a scenario that
+//! would override a swept key is refused. Every point runs the same fault seed, so the
+//! records depend on the grid and the seed only, not on threads, shards or machines.
 //!
-//! Each point's parameters are the base (`--params FILE` or the paper's) with the
-//! point's values on top, then the scenario's `[params]` on top of those (the rule of
-//! `hil run --params`); a scenario whose `[params]` would override a swept key is
-//! refused, since the records would then name values the plant never saw. Every point
-//! runs the same seed of the link's faults: the grid and the seeds fix the result, and
-//! the records do not depend on the number of threads, shards or machines.
-//!
-//! # Shards, job arrays and the merge
-//!
-//! `--shard I/N` runs the points `i` with `i mod N = I`; [`merge`] joins the shards'
-//! documents into the one document a single run writes, byte for byte (same header, the
-//! records of every point once, in index order, the summary recomputed). On a cluster
-//! each shard is one task of a job array ([`shard`] module: `--shard auto` reads Slurm's
-//! `SLURM_ARRAY_TASK_*` variables, `--shard auto/N` Kubernetes' `JOB_COMPLETION_INDEX`),
-//! and the merge is a job that depends on the array; `hil/slurm/` holds the job scripts.
-//!
-//! A scheduler may kill a task and run it again (node failure, preemption, `scontrol
-//! requeue`), so a shard's document is written atomically ([`atomic`]): the merge sees
-//! it whole or not at all. Each header carries the campaign's [`Identity`]: the digests
-//! of the `hil` binary, of the firmware ELF under QEMU and of the scenario, parameter
-//! and budget files, so the merge refuses a shard of another build or of edited inputs,
-//! naming the file and the field. The documents hold no timing (no wall time, no
-//! throughput): what the grid and the seed fix is all they hold, which is what makes the
-//! merged document equal the single run's.
+//! `--shard I/N` runs the points with `i mod N = I` ([`shard`]: Slurm's and Kubernetes'
+//! array variables); [`merge`] joins the shards into the single run's document, byte for
+//! byte. Shard documents are written atomically ([`atomic`]) and carry the campaign's
+//! [`Identity`] (digests of the binary, the ELF and the input files), so the merge
+//! refuses a shard of another build or of edited inputs. The documents hold no timing.
 
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::mpsc;

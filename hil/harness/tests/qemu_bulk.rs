@@ -154,7 +154,7 @@ fn two_exchanges_in_flight_over_the_bulk_channel_are_the_uart_s_loop() {
             },
         )
         .unwrap();
-        assert!(cl.error.is_none(), "{:?}", cl.error);
+        assert!(cl.rec.error.is_none(), "{:?}", cl.rec.error);
         (cl, pipelined)
     };
     let (bulk, pipelined) = run(Channel::Bulk);
@@ -164,18 +164,18 @@ fn two_exchanges_in_flight_over_the_bulk_channel_are_the_uart_s_loop() {
         assert!(pipelined, "the bulk channel keeps two exchanges in flight");
     }
     // 2 000 Sensor frames, then the tick of the status request.
-    assert_eq!(bulk.actuations.len(), 2_001);
-    assert!(bulk.actuations.iter().any(|a| a.frame.exec != 0));
-    assert_eq!(bulk.actuations, uart.actuations);
-    assert_eq!(bulk.periods, uart.periods);
-    assert_eq!(bulk.log, uart.log);
-    assert_eq!(bulk.host, uart.host);
+    assert_eq!(bulk.rec.actuations.len(), 2_001);
+    assert!(bulk.rec.actuations.iter().any(|a| a.frame.exec != 0));
+    assert_eq!(bulk.rec.actuations, uart.rec.actuations);
+    assert_eq!(bulk.rec.periods, uart.rec.periods);
+    assert_eq!(bulk.rec.log, uart.rec.log);
+    assert_eq!(bulk.rec.host, uart.rec.host);
     // The Status's counters; its stack mark is the channel's own (the bulk receiver's
     // buffer is on thread mode's stack, under the tick's interrupt frames).
     let counters = |s: Option<wheelset_proto::Status>| {
         s.map(|s| wheelset_proto::Status { stack_peak: 0, ..s })
     };
-    assert_eq!(counters(bulk.status), counters(uart.status));
+    assert_eq!(counters(bulk.rec.status), counters(uart.rec.status));
     assert_eq!(bulk.trajectory.records, uart.trajectory.records);
     assert_eq!(
         bulk.trajectory.info.controller_calls,

@@ -1,12 +1,8 @@
-//! The firmware's ELF images, read without binutils:
-//!
-//! - [`check_target_elf`]: the image is checked before QEMU is launched: an ELF header
-//!   for the target (32-bit, little-endian, ARM, an executable), so a garbage or a host
-//!   image is refused with "not an ELF for the target" instead of a QEMU that never
-//!   answers ("connection reset"). Only the 52-byte ELF32 header is read.
-//! - [`sizes`]: flash and static RAM from the section headers (`cargo fw`'s budget).
-//! - [`layout`]: where the allocated sections lie and the symbols' values (`cargo fw`'s
-//!   check that an image was linked with its own board's memory map).
+//! The firmware's ELF images, read without binutils: [`check_target_elf`] (the 52-byte
+//! ELF32 header checked before QEMU is launched, so a host or garbage image is refused
+//! by name, not by a QEMU that never answers), [`sizes`] (flash and static RAM, `cargo
+//! fw`'s budget) and [`layout`] (the allocated sections and symbols, `cargo fw`'s check of
+//! each image's memory map).
 
 use std::io::Read;
 use std::path::Path;

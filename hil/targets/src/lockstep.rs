@@ -1,26 +1,18 @@
 //! Bookkeeping shared by the lock-step transports (QEMU, a frame-clocked serial device):
-//! every 0x00 frame delimiter the host sends is one device tick, and each tick answers
-//! with one Actuation frame, followed by a Status frame when the tick's input held a
-//! `RequestStatus` command. [`Expect`] counts the frames the host must wait for.
+//! every 0x00 delimiter the host sends is one device tick, answered by one Actuation
+//! frame (and a Status frame after a `RequestStatus`). [`Expect`] counts the frames owed.
 //!
-//! **One frame in flight.** A device that ticks on delimiters runs one tick per frame only
-//! if it is idle when each frame arrives: two frames that reach it back to back (the
-//! run's Config and the first Sensor frame, a Sensor frame and a `ClearFaults`) are two
-//! clock edges in one burst of its receiver, so the tick monitor sees one late tick and
-//! skips the other, and the host waits forever for the answer that never comes. So a
-//! lock-step transport waits for what is owed before it sends the next frame, and keeps
-//! those early answers ([`Expect::stash`]) for the next receive ([`Expect::take_early`]).
-//! The same holds inside one write: a write with several delimiters (two frames passed
-//! at once, or a frame whose byte a fault turned into 0x00) is sent as its [`frames`],
-//! one at a time, each after the answers owed before it.
+//! **One frame in flight.** Two frames reaching a delimiter-clocked device back to back
+//! are two clock edges in one burst: it runs one tick and the host would wait forever for
+//! the other's answer. So the transport waits for what is owed before sending the next
+//! frame (a write with several delimiters goes as its [`frames`], one at a time) and
+//! keeps early answers ([`Expect::stash`], [`Expect::take_early`]).
 //!
-//! **Two exchanges in flight.** A device that takes each frame whole and ticks on it
-//! before it reads on (the QEMU bulk channel: one frame per trap, the tick runs before
-//! the receiver goes on) may get the next frame before it has answered the last one. Its
-//! transport sends at once and receives by the deadline ([`Expect::sent_at`],
-//! [`Expect::owed_before`]): a receive with deadline `d` waits for the answers to the
-//! frames sent before `d`, and leaves later answers for a later receive, so every
-//! answer still arrives in the receive it arrived in with one frame in flight.
+//! **Two exchanges in flight.** A device that takes each frame whole and ticks on it (the
+//! QEMU bulk channel) may get the next frame before answering the last: the transport
+//! sends at once, and a receive with deadline `d` waits for the answers to the frames
+//! sent before `d` ([`Expect::sent_at`], [`Expect::owed_before`]), so every answer lands
+//! in the receive it would with one frame in flight.
 
 use std::collections::VecDeque;
 

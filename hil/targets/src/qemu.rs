@@ -1,21 +1,13 @@
 //! The QEMU launcher: runs the `wheelset-qemu` firmware on `qemu-system-arm -machine
-//! mps2-an386` and connects its UART0 over TCP, for lock-step processor-in-the-loop runs.
+//! mps2-an386` with the one command line ([`crate::qemu::cmd`]) and connects its UART0
+//! over TCP. With `-icount shift=N,sleep=off` virtual time is `2^N` ns per instruction
+//! and the firmware's clock is the host's frames, so a run depends only on the bytes
+//! exchanged. QEMU is killed when the [`Qemu`] is dropped, on every exit path.
 //!
-//! The command line is [`crate::qemu::cmd`]'s (defined once). QEMU runs with
-//! `-icount shift=N,sleep=off`: virtual time is `2^N` ns per executed
-//! instruction and never advances while the guest sleeps, and the firmware's clock is
-//! the host's frames (each 0x00 frame delimiter is one control period), so a run depends
-//! only on the bytes exchanged: the same run twice gives the same per-tick trace.
-//! QEMU is killed when the [`Qemu`] is dropped, on every exit path (including a panic
-//! unwinding through the owner).
-//!
-//! Each QEMU is pinned to one core (`taskset -c N`, round robin over the cores this
-//! process may use; `WHEELSET_QEMU_PIN=off` turns it off). The CMSDK UART has a one-byte
-//! holding register, so QEMU's I/O thread and its vCPU thread hand every byte to each
-//! other (read one byte, raise the interrupt, wait for the guest to read it, poll again);
-//! on one core those hand-offs need no cross-core wake-up. Measured with the 20 s `curve`
-//! run (`cargo hil run --target qemu`, 100 000 exchanges, quiet machine): 76 s pinned,
-//! 140 s with `WHEELSET_QEMU_PIN=off`.
+//! Each QEMU is pinned to one core (`taskset -c N`, round robin; `WHEELSET_QEMU_PIN=off`
+//! turns it off): the CMSDK UART's one-byte holding register makes QEMU's I/O and vCPU
+//! threads hand every byte to each other, and on one core that needs no cross-core
+//! wake-up.
 
 use std::fmt;
 use std::fs::File;
@@ -38,14 +30,11 @@ pub mod target;
 /// The command line's constants, defined once in [`crate::qemu::cmd`].
 pub use crate::qemu::cmd::{ICOUNT_SHIFT, QEMU_BIN};
 
-/// The firmware tick's budget in the instructions QEMU counts (the `exec` of its
-/// Actuation frames, `cargo xtask fw-bench`'s `tick`): the mean of the whole tick at
-/// most this (`cargo xtask fw-bench` fails above it on the Cortex-M4 fixed-point build,
-/// the one the boards flash).
+/// The firmware tick's budget in the instructions QEMU counts (`exec`): the mean of the
+/// whole tick at most this (`cargo xtask fw-bench` fails above it on the boards' build).
 pub const TICK_MEAN_BUDGET_INSTRUCTIONS: u64 = 2_500;
 /// The firmware tick's maximum over the 20 s `curve` under QEMU at most this (the test
-/// `qemu_curve` fails above it): 12 % of the Nucleo-F446's 168 MHz core at the 5 kHz
-/// base rate at about a cycle per instruction (flash accelerator on).
+/// `qemu_curve` fails above it).
 pub const TICK_MAX_BUDGET_INSTRUCTIONS: u64 = 4_000;
 use bulk::poll_readable;
 use pin::next_core;
@@ -124,12 +113,9 @@ pub struct QemuConfig {
     /// QEMU without `-icount` (its clock follows the host's), for the free-running
     /// firmware `wheelset-qemu-free.elf` ([`QemuConfig::free_running`]).
     pub free_run: bool,
-    /// A free-running QEMU at `SCHED_RR` where permitted (`hil run --target qemu-free`
-    /// sets it). Not for a QEMU that ticks at the firmware's default 5 kHz: its vCPU
-    /// thread is then runnable most of the time, and at one real-time priority its
-    /// round-robin slices (100 ms) starve QEMU's I/O thread, which moves the UART's bytes
-    /// (measured: `qemu_board`'s watchdog test then lost its Status requests in 6 of 7
-    /// runs here and in one CI run; 0 of 4 without).
+    /// A free-running QEMU at `SCHED_RR` where permitted (`hil run --target qemu-free`).
+    /// Not for a QEMU ticking at 5 kHz: its vCPU thread, runnable most of the time, would
+    /// starve the I/O thread that moves the UART's bytes.
     pub realtime: bool,
 }
 
@@ -155,9 +141,8 @@ impl QemuConfig {
         Self::built_elf(Machine::An386)
     }
 
-    /// The ELF `cargo fw` builds for `machine`'s core: `target/fw/wheelset-qemu.elf`
-    /// (Cortex-M4F) or `target/fw/wheelset-qemu-m3.elf` (Cortex-M3), honouring
-    /// `$CARGO_TARGET_DIR`.
+    /// The ELF `cargo fw` builds for `machine`'s core (`target/fw/wheelset-qemu.elf` or
+    /// `wheelset-qemu-m3.elf`, honouring `$CARGO_TARGET_DIR`).
     pub fn built_elf(machine: Machine) -> PathBuf {
         let target = std::env::var_os("CARGO_TARGET_DIR")
             .map(PathBuf::from)
@@ -412,9 +397,8 @@ impl Qemu {
     }
 
     /// Connects to a QEMU started by hand with its UART0 on a TCP server at
-    /// `127.0.0.1:port` (`cargo xtask qemu-cmd ELF --tcp PORT` prints that command line):
-    /// the client the README's by-hand run waits for (`hil run --target qemu:PORT`).
-    /// Tries for `timeout` to connect; `timeout` also bounds each read.
+    /// `127.0.0.1:port` (`hil run --target qemu:PORT`), trying for `timeout`, which also
+    /// bounds each read.
     pub fn connect(port: u16, timeout: Duration) -> Result<Self, QemuError> {
         let deadline = Instant::now() + timeout;
         let stream = loop {

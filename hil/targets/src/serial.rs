@@ -1,15 +1,8 @@
-//! The serial-port target: a board (or anything speaking the protocol) on a serial port,
-//! through the `serialport` crate (default features off: no libudev, so a fresh machine
-//! builds it; ports are named by path).
-//!
-//! Two pacings:
-//! - [`Pace::RealTime`] (the default, a board whose control task runs on its own timer):
-//!   [`crate::realtime::RealTime`], deadline-driven, synchronised to the device's tick;
-//! - [`Pace::LockStep`] (a frame-clocked device, like the firmware under QEMU, the
-//!   frame-clocked Nucleo build, or [`serve_lockstep`] on the other end of a
-//!   pseudo-terminal in the tests): [`Serial`], the host waits for each tick's answer
-//!   (bounded by a timeout), and the timing is modelled from the baud and the reported
-//!   execution time.
+//! The serial-port target: a board on a serial port (`serialport`, default features off:
+//! no libudev). Two pacings: [`Pace::RealTime`] (the default, a board ticking on its own
+//! timer: [`crate::realtime::RealTime`]) and [`Pace::LockStep`] (a frame-clocked device,
+//! or [`serve_lockstep`] behind a pseudo-terminal in the tests: [`Serial`] waits for each
+//! tick's answer, and the timing is modelled from the baud and the reported `exec`).
 
 use std::io::{self, Read, Write};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -78,16 +71,7 @@ impl Serial {
     fn read_some(&mut self, buf: &mut [u8]) -> Result<usize, TransportError> {
         match self.port.read(buf) {
             Ok(n) => Ok(n),
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    io::ErrorKind::TimedOut
-                        | io::ErrorKind::WouldBlock
-                        | io::ErrorKind::Interrupted
-                ) =>
-            {
-                Ok(0)
-            }
+            Err(e) if nothing_yet(&e) => Ok(0),
             Err(e) => Err(self.io(&e)),
         }
     }
@@ -174,16 +158,7 @@ pub fn serve_lockstep<P: Read + Write + ?Sized>(
     while !stop.load(Ordering::Relaxed) {
         let n = match port.read(&mut buf) {
             Ok(n) => n,
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    io::ErrorKind::TimedOut
-                        | io::ErrorKind::WouldBlock
-                        | io::ErrorKind::Interrupted
-                ) =>
-            {
-                continue
-            }
+            Err(e) if nothing_yet(&e) => continue,
             Err(e) => return Err(e),
         };
         for chunk in buf[..n].split_inclusive(|&b| b == 0) {
@@ -196,4 +171,12 @@ pub fn serve_lockstep<P: Read + Write + ?Sized>(
         }
     }
     Ok(ticks)
+}
+
+/// A read that timed out or was interrupted: nothing arrived yet.
+pub(crate) fn nothing_yet(e: &io::Error) -> bool {
+    matches!(
+        e.kind(),
+        io::ErrorKind::TimedOut | io::ErrorKind::WouldBlock | io::ErrorKind::Interrupted
+    )
 }

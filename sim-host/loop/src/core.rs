@@ -1,19 +1,15 @@
-//! The control core itself (`wheelset_control::Controller<T>`, e.g. the f64 reference)
-//! closing the loop on the plant, without the link: the same laws the device runs,
-//! wheel-slip protection included, with the device's timing (the actuation computed
-//! from the sample of tick `k` acts from tick `k + 1`, one base period of delay) and its
-//! wire quantisation of the inputs (each measurement rounded to its wire LSB, as the
-//! Sensor frame carries it).
-//!
-//! This is the f64 reference of a run where the adhesion law and the protection matter
-//! (`hil run --scenario low-adhesion`): the continuous controllers have no protection,
-//! so they are no yardstick there.
+//! The control core itself (`wheelset_control::Controller<T>`, e.g. the f64 reference) on
+//! the plant without the link: the device's laws, protection included, with its timing
+//! (the actuation of tick `k` acts from tick `k + 1`) and its wire quantisation of the
+//! inputs. The f64 reference where the adhesion law and the protection matter (the
+//! continuous controllers have no protection).
 
 use crate::device_loop::control_config;
+use crate::drive::drive;
 use wheelset_control::{Controller, InputCodes, Inputs, SampleBits};
 use wheelset_plant::control::{Actuation, Measurements, SampledController, YawLaw};
 use wheelset_plant::scenario::Scenario;
-use wheelset_plant::sim::{run_sampled, ActuatorModel, SensorModel, SimError, Trajectory};
+use wheelset_plant::sim::{SimError, Trajectory};
 use wheelset_proto::units::{
     CURRENT_LSB_A, DEMAND_LSB_NM, LAT_VEL_LSB_M_PER_S, SPEED_LSB_RAD_PER_S, TORQUE_LSB_NM,
     VOLTAGE_LSB_V, V_REF_LSB_M_PER_S,
@@ -50,10 +46,6 @@ pub struct CoreController<T: SampleBits> {
     cfg: wheelset_control::Config,
     period_ns: u64,
     src: Sources,
-    /// `(t_s, m/s)`: the slip regulator's set point on each tick the protection acts.
-    set_point: Vec<(f64, f64)>,
-    /// `(t_s, T_psi N m)`: the commanded yaw torque on every tick.
-    torque: Vec<(f64, f64)>,
 }
 
 /// `round(x / lsb)` (half away from zero) saturated to the `i32` range, NaN to 0: an SI
@@ -81,8 +73,6 @@ impl<T: SampleBits> CoreController<T> {
             cfg: *cfg,
             period_ns: 1_000_000_000 / u64::from(cfg.base_rate_hz),
             src: Sources::WIRE,
-            set_point: Vec::new(),
-            torque: Vec::new(),
         })
     }
 
@@ -98,10 +88,15 @@ impl<T: SampleBits> CoreController<T> {
         &self.core
     }
 
-    /// `(t_s, T_psi N m)`: the yaw torque the core commanded on every tick so far (at
-    /// the control period, before the actuator's delay).
-    pub fn torque(&self) -> &[(f64, f64)] {
-        &self.torque
+    /// The slip regulator's set point `slip_sp + slip_sp_per_a cap`, m/s, if the
+    /// protection acted on the latest tick.
+    pub fn wsp_set_point(&self) -> Option<f64> {
+        let (sp, per_a) = (self.cfg.wsp.slip_sp_mps, self.cfg.wsp.slip_sp_per_a);
+        let cap_a = self.core.wsp_state().cap.to_f64() * self.cfg.scales.current;
+        self.core
+            .tick_events()
+            .wsp_acting()
+            .then(|| sp + per_a * cap_a.max(0.0))
     }
 }
 
@@ -110,7 +105,7 @@ impl<T: SampleBits> SampledController for CoreController<T> {
         self.period_ns
     }
 
-    fn step(&mut self, t_ns: u64, m: &Measurements) -> Actuation {
+    fn step(&mut self, _t_ns: u64, m: &Measurements) -> Actuation {
         self.core.set_v_ref_code(code(m.v_mps, V_REF_LSB_M_PER_S));
         let codes = InputCodes {
             y_dot: code(m.yd_mps, LAT_VEL_LSB_M_PER_S),
@@ -141,13 +136,6 @@ impl<T: SampleBits> SampledController for CoreController<T> {
                 Actuation { t_psi, u_a }
             }
         };
-        let t_s = t_ns as f64 * 1e-9;
-        if self.core.tick_events().wsp_acting() {
-            let (sp, per_a) = (self.cfg.wsp.slip_sp_mps, self.cfg.wsp.slip_sp_per_a);
-            let cap_a = self.core.wsp_state().cap.to_f64() * self.cfg.scales.current;
-            self.set_point.push((t_s, sp + per_a * cap_a.max(0.0)));
-        }
-        self.torque.push((t_s, a.t_psi));
         a
     }
 }
@@ -205,19 +193,15 @@ pub fn run_core_with<T: SampleBits>(
     law: YawLaw,
     wsp: bool,
 ) -> Result<(Trajectory, CoreRun), CoreError> {
-    let cfg = *cfg;
-    let mut ctrl = CoreController::<T>::try_new(&cfg, wsp).map_err(CoreError::Config)?;
-    let mut act = ActuatorModel::ideal();
-    act.delay_ns = ctrl.period_ns * u64::from(cfg.delay_ticks.max(1));
+    let mut ctrl = CoreController::<T>::try_new(cfg, wsp).map_err(CoreError::Config)?;
     let label = format!("core {} wsp {}", T::NAME, if wsp { "on" } else { "off" });
-    let tr = run_sampled(
-        sc,
-        &mut ctrl,
-        &mut SensorModel::ideal(),
-        &mut act,
-        law.has_spring(),
-        &label,
-    )
+    let mut set_point = Vec::new();
+    let delay = u32::from(cfg.delay_ticks);
+    let tr = drive(sc, &mut ctrl, delay, law.has_spring(), &label, |c, t, _| {
+        if let Some(sp) = c.wsp_set_point() {
+            set_point.push((t as f64 * 1e-9, sp));
+        }
+    })
     .map_err(CoreError::Sim)?;
     let c = ctrl.core.counters();
     Ok((
@@ -225,7 +209,7 @@ pub fn run_core_with<T: SampleBits>(
         CoreRun {
             wsp_ticks: c.wsp_ticks,
             wsp_events: c.wsp_events,
-            set_point: ctrl.set_point,
+            set_point,
         },
     ))
 }

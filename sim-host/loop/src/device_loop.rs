@@ -1,23 +1,9 @@
-//! The device in process, behind the simulated serial link: the firmware's own
-//! [`Runtime`](wheelset_runtime::Runtime) (control core + protocol + fault policy) as an
-//! [`InProc`] transport on simulated time, closed with the plant through the one
-//! closed-loop adapter [`crate::exchange`] (the same code `hil run` uses on every target).
-//!
-//! One exchange per control period `T` (the device's base rate), starting at the sample
-//! instant `t_k = k T`:
-//!
-//! ```text
-//! t_k            host quantises the measurements into a Sensor frame (seq k) -> up link
-//! t_k + d        device tick: Runtime::receive(bytes arrived by now); Runtime::tick()
-//!                -> Actuation frame -> down link      (d = worst-case Sensor frame time
-//!                                                      on the wire + latency)
-//! t_k + T        host applies the latest valid Actuation that arrived (ZOH until t_k+2T);
-//!                if none arrived, it holds the previous one
-//! ```
-//!
-//! So the plant sees the computation/transport delay of one period that the control
-//! core's rate analysis assumes. The link budget check refuses a configuration whose
-//! round trip does not fit ([`crate::sim_link::check_budget`]).
+//! A device-in-the-loop run of a scenario (`sim-host run --loop device`): the firmware's
+//! own [`Runtime`](wheelset_runtime::Runtime) as an [`InProc`] transport on simulated
+//! time, closed with the plant through [`crate::exchange`] (the code `hil run` uses on
+//! every target): its options, the device's configuration, the deviation from a
+//! reference. The link budget check refuses a link whose round trip does not fit
+//! ([`crate::sim_link::check_budget`]).
 
 use std::fmt;
 
@@ -491,10 +477,10 @@ pub fn run_device(
     // (The simulated link always accounts exactly.)
     let acc = dev.accounting();
     let (up, down) = (acc.up, acc.down);
-    let report = LinkReport::of(&run.log, run.status, &run.host, up, down);
+    let report = LinkReport::of(&run.rec.log, run.rec.status, &run.rec.host, up, down);
     Ok(DeviceRun {
         trajectory: run.trajectory,
-        link: run.log,
+        link: run.rec.log,
         report,
         period_ns,
     })

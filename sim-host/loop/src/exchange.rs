@@ -1,42 +1,20 @@
 //! The closed-loop adapter: a device behind any [`Transport`] as the plant's
-//! [`SampledController`]. The one exchange every closed loop uses (`sim-host run --loop
-//! device`, `hil run` on every target, `hil golden --record`).
-//!
-//! `run_sampled` calls [`DeviceController::step`] once per control period `T`; each call
-//! is one exchange with the device:
+//! [`SampledController`], one exchange per control period `T`, for every device loop.
 //!
 //! ```text
-//! t_k              measurements (SI) -> Sensor::from_si (seq k, the wire LSBs) -> send
-//! t_k .. t_k + T   receive until the deadline t_k + T; every valid Actuation frame is
-//!                  recorded (arrival time, seq_echo, exec, flags, device tick)
-//! t_k + T          the latest valid actuation received is applied (Actuation::to_si;
-//!                  ZOH: `run_sampled` with an actuator delay of one period), or the
-//!                  previous one is held; before the first, zero torque and the back-EMF
-//!                  voltage `K_m theta_m'` (zero current)
+//! t_k              measurements (SI) -> Sensor::from_si (seq k) -> send
+//! t_k .. t_k + T   receive until t_k + T; every valid Actuation frame recorded
+//! t_k + T          the latest valid actuation applied (ZOH), or the previous one held;
+//!                  before the first, zero torque and the back-EMF voltage K_m theta_m'
 //! ```
 //!
-//! So the plant sees the one-period computation/transport delay the control core's rate
-//! analysis assumes, on every target alike. A link slower than a period (a USB-serial
-//! bridge) runs pipelined over `d` ticks ([`LoopSetup::delay_ticks`], the delay the
-//! device's gains are designed for): the host sends every sample on time and applies the
-//! actuation echoing sample `k` exactly from `t_k + d T`, holding one that arrives
-//! earlier until then (and an answer that used no sample, such as the Config frame's,
-//! does not replace the start-up output before the first sample's is due); `d = 1` is the
-//! schedule above. A [`Config`] frame given with
-//! [`DeviceController::with_config`] goes out before the first Sensor frame, and the
-//! device must not flag it refused ([`DeviceController::config_refused`]). At the end,
-//! [`DeviceController::finish`] fetches the device's counters (the one Status fetch: a
-//! `RequestStatus`, then three periods of receiving, repeated up to [`STATUS_TRIES`]
-//! times while the link eats the request or the reply).
-//!
-//! **Two exchanges in flight.** The plant runs from `t_k` to `t_k + T` on the actuation
-//! of sample `k - 1`, so sample `k + 1` can be measured and sent before the actuation of
-//! sample `k` is back. Over a transport that allows it ([`Transport::pipelined`]: the
-//! QEMU bulk channel) [`close_loop`] does so: [`DeviceController::step`] only sends, and
-//! the receive until `t_k + T` happens when the plant needs the actuation, at `t_k + T`,
-//! after the next sample went out ([`SampledController::take_deferred`]). The device
-//! computes while the host integrates, and neither waits for the other's turn; every
-//! frame, arrival stamp, record and plant step is the one-in-flight run's.
+//! Over a link slower than a period the exchange runs pipelined over `d` ticks
+//! ([`LoopSetup::delay_ticks`]): the actuation echoing sample `k` applies exactly from
+//! `t_k + d T`. Over a [`Transport::pipelined`] transport two exchanges are in flight
+//! ([`SampledController::take_deferred`]): the plant runs to `t_k + T` on sample
+//! `k - 1`'s actuation, so sample `k + 1` goes out before `k`'s answer is taken; every
+//! frame, stamp and plant step is the one-in-flight run's. At the end,
+//! [`DeviceController::finish`] fetches the device's counters (the one Status fetch).
 
 use indicatif::ProgressBar;
 use wheelset_control::InputCodes;
@@ -45,10 +23,11 @@ use wheelset_proto::{
     LateralSensing, Message, Sensor, SensorSi, Status, MAX_FRAME,
 };
 
+use crate::drive::drive;
 use crate::transport::{Transport, TransportError};
 use wheelset_plant::control::{Actuation as SiActuation, Measurements, SampledController};
 use wheelset_plant::scenario::Scenario;
-use wheelset_plant::sim::{run_sampled, ActuatorModel, SensorModel, SimError, Trajectory};
+use wheelset_plant::sim::{SimError, Trajectory};
 
 /// Status requests [`DeviceController::finish`] makes before it gives up.
 pub const STATUS_TRIES: usize = 20;
@@ -89,9 +68,8 @@ pub struct LinkSample {
     pub seq: u16,
     /// `seq_echo` of the actuation in force from `t_ns + T`.
     pub seq_echo: u16,
-    /// Age of that actuation's sample, periods: `seq - seq_echo` (0: computed from this
-    /// period's sample, the normal case; more when frames were lost and an older
-    /// actuation is held).
+    /// Age of that actuation's sample, periods: `seq - seq_echo` (more than 0 when an
+    /// older actuation is held).
     pub age: u16,
     /// Its flags (the bits of [`Flags`]).
     pub flags: u16,
@@ -119,6 +97,37 @@ pub struct HostCounts {
     pub clamped: u64,
 }
 
+/// What a closed loop records besides the plant's trajectory.
+#[derive(Debug, Default)]
+pub struct LoopRecords {
+    /// Every period.
+    pub periods: Vec<Period>,
+    /// Every Actuation frame received, in order.
+    pub actuations: Vec<RxActuation>,
+    /// One link record per period.
+    pub log: Vec<LinkSample>,
+    /// The sensor samples sent, in wire codes, one per period (velocity sensing only).
+    pub sent_codes: Vec<InputCodes>,
+    /// Host-side counts.
+    pub host: HostCounts,
+    /// The device's counters, if its Status frame arrived.
+    pub status: Option<Status>,
+    /// The first transport error; the loop holds the last actuation after it.
+    pub error: Option<TransportError>,
+    /// The first actuation after the Config frame carried `CMD_REFUSED`.
+    pub config_refused: bool,
+    /// When `Command::ClearFaults` went out, ns.
+    pub clear_faults_sent_ns: Option<u64>,
+    /// When `Command::InjectStall` went out, ns.
+    pub stall_sent_ns: Option<u64>,
+    /// Resets of the device seen: an Actuation whose tick counter went back (by less
+    /// than half its 16-bit range, so not a wrap) or that raised `FAULT_LATCHED` with a
+    /// tick below the one before. The Config goes out again after each.
+    pub device_resets: u32,
+    /// When the first reset was seen, ns.
+    pub first_reset_ns: Option<u64>,
+}
+
 /// The device as a sampled controller of the plant, through a transport.
 pub struct DeviceController<'a> {
     tr: &'a mut dyn Transport,
@@ -133,8 +142,7 @@ pub struct DeviceController<'a> {
     held: Option<(SiActuation, Actuation)>,
     /// Ticks from a sample to its actuation taking effect (at least 1).
     delay_ticks: u64,
-    /// Actuations received and not yet in force, with the sample each echoes (none: it
-    /// used no sample), in order of arrival; each is taken when due ([`Self::answer`]).
+    /// Actuations received and not yet in force, with the sample each echoes, in order.
     early: std::collections::VecDeque<(Option<u64>, SiActuation, Actuation)>,
     /// The sample count of the step whose actuation is being received (`answer`).
     answering: u64,
@@ -142,55 +150,27 @@ pub struct DeviceController<'a> {
     /// The frames of one [`Self::receive`]: arrival, bytes on the wire, result.
     rx_frames: Vec<(u64, usize, Result<Message, FrameError>)>,
     frame_bytes: usize,
-    /// Every Actuation frame received, in order.
-    pub actuations: Vec<RxActuation>,
-    /// Every period.
-    pub periods: Vec<Period>,
-    /// One link record per period.
-    pub log: Vec<LinkSample>,
-    /// The sensor samples sent, in wire codes, one per period (a recorded sensor stream;
-    /// velocity sensing only).
-    pub sent_codes: Vec<InputCodes>,
-    /// Host-side counts.
-    pub host: HostCounts,
-    /// The device's counters, if its Status frame arrived.
-    pub status: Option<Status>,
-    /// The first transport error; the loop holds the last actuation after it.
-    pub error: Option<TransportError>,
-    /// The first actuation after the Config frame carried `CMD_REFUSED`.
-    pub config_refused: bool,
+    /// What the loop records.
+    pub rec: LoopRecords,
     config_echo_pending: bool,
     progress: Option<ProgressBar>,
     status_seen: bool,
     /// Send `Command::ClearFaults` before the Sensor frame of the first sample instant at
     /// or after this time, ns (once).
     pub clear_faults_at_ns: Option<u64>,
-    /// When the ClearFaults command went out, ns.
-    pub clear_faults_sent_ns: Option<u64>,
-    /// Send `Command::InjectStall` (a device built with `fault-inject` stalls its control
-    /// task: its watchdog resets it) with the Sensor frame of the first sample instant at
-    /// or after this time, ns (once).
+    /// Send `Command::InjectStall` (a `fault-inject` build stalls: its watchdog resets it)
+    /// with the Sensor frame of the first sample instant at or after this time, ns (once).
     pub stall_at_ns: Option<u64>,
-    /// When the InjectStall command went out, ns.
-    pub stall_sent_ns: Option<u64>,
-    /// The Config frame sent again after the device is seen to reset (a free-running
-    /// device configured before the run: [`DeviceController::with_config`]'s frame is
-    /// sent again in any case).
+    /// The Config frame sent again after the device is seen to reset (besides
+    /// [`DeviceController::with_config`]'s, sent again in any case).
     pub reset_config: Option<Config>,
-    /// Resets of the device seen: an Actuation whose tick counter went back (by less
-    /// than half its 16-bit range, so not a wrap) or that raised `FAULT_LATCHED` with a
-    /// tick below the one before. The Config goes out again after each.
-    pub device_resets: u32,
-    /// When the first reset was seen, ns.
-    pub first_reset_ns: Option<u64>,
     last_tick: u16,
     last_latched: bool,
     /// Which records are kept ([`Records::All`] unless set).
     pub records: Records,
     /// Two exchanges in flight ([`Self::pipelined`]).
     deferred: bool,
-    /// The steps sent whose actuation has not been taken yet, oldest first (with two
-    /// exchanges in flight; none otherwise).
+    /// The steps sent whose actuation is not taken yet, oldest first (two in flight).
     awaiting: std::collections::VecDeque<Awaiting>,
 }
 
@@ -203,8 +183,7 @@ struct Awaiting {
     seq: u16,
     /// Its sample count (1 for the first sample).
     k: u64,
-    /// The measured motor speed, rad/s (the back-EMF voltage held before the first
-    /// actuation).
+    /// The measured motor speed, rad/s (for the back-EMF voltage before the first).
     w_m: f64,
 }
 
@@ -234,24 +213,13 @@ impl<'a> DeviceController<'a> {
             fresh: false,
             rx_frames: Vec::new(),
             frame_bytes: 0,
-            actuations: Vec::new(),
-            periods: Vec::new(),
-            log: Vec::new(),
-            sent_codes: Vec::new(),
-            host: HostCounts::default(),
-            status: None,
-            error: None,
-            config_refused: false,
+            rec: LoopRecords::default(),
             config_echo_pending: false,
             progress,
             status_seen: false,
             clear_faults_at_ns: None,
-            clear_faults_sent_ns: None,
             stall_at_ns: None,
-            stall_sent_ns: None,
             reset_config: None,
-            device_resets: 0,
-            first_reset_ns: None,
             last_tick: 0,
             last_latched: false,
             records: Records::All,
@@ -260,9 +228,8 @@ impl<'a> DeviceController<'a> {
         }
     }
 
-    /// Keeps two exchanges in flight when the transport allows it
-    /// ([`Transport::pipelined`]; see the module docs). Only for `run_sampled` with an
-    /// actuator delay of one period, as [`close_loop`] runs it.
+    /// Keeps two exchanges in flight when the transport allows it (module docs); only
+    /// with an actuator delay of one period, as [`close_loop`] runs it.
     #[must_use]
     pub fn pipelined(mut self) -> Self {
         self.deferred = self.tr.pipelined();
@@ -276,8 +243,7 @@ impl<'a> DeviceController<'a> {
         self
     }
 
-    /// Sends `cfg` before the first Sensor frame (a remote device that must be brought
-    /// to the run's configuration).
+    /// Sends `cfg` before the first Sensor frame.
     #[must_use]
     pub fn with_config(mut self, cfg: Config) -> Self {
         self.config = Some(cfg);
@@ -286,11 +252,11 @@ impl<'a> DeviceController<'a> {
 
     /// Reserves the per-period records for `periods` periods.
     pub fn reserve(&mut self, periods: usize) {
-        self.log.reserve(periods);
+        self.rec.log.reserve(periods);
         if self.records == Records::All {
-            self.periods.reserve(periods);
-            self.actuations.reserve(periods);
-            self.sent_codes.reserve(periods);
+            self.rec.periods.reserve(periods);
+            self.rec.actuations.reserve(periods);
+            self.rec.sent_codes.reserve(periods);
         }
     }
 
@@ -302,21 +268,19 @@ impl<'a> DeviceController<'a> {
     /// Sends one encoded frame (delimiter included) and counts it.
     fn send_frame(&mut self, t_ns: u64, frame: &[u8]) {
         let n = frame.len();
-        self.host.sent += 1;
-        self.host.bytes_sent += n as u64;
-        if self.error.is_none() {
+        self.rec.host.sent += 1;
+        self.rec.host.bytes_sent += n as u64;
+        if self.rec.error.is_none() {
             if let Err(e) = self.tr.send(t_ns, frame) {
-                self.error = Some(e);
+                self.rec.error = Some(e);
             }
         }
     }
 
-    /// Receives until `deadline_ns`: the transport decodes each delivered run with the
-    /// host's decoder as it comes ([`Transport::recv_frames`]; the frames closed in it
-    /// collected with the arrival of their run and their bytes on the wire, delimiter
-    /// included), then each frame is taken in order.
+    /// Receives until `deadline_ns` ([`Transport::recv_frames`] with the host's decoder),
+    /// then takes each frame closed, in order.
     fn receive(&mut self, deadline_ns: u64) {
-        if self.error.is_some() {
+        if self.rec.error.is_some() {
             return;
         }
         let mut frames = std::mem::take(&mut self.rx_frames);
@@ -324,7 +288,7 @@ impl<'a> DeviceController<'a> {
         let (dec, frame_bytes, received) = (
             &mut self.decoder,
             &mut self.frame_bytes,
-            &mut self.host.bytes_received,
+            &mut self.rec.host.bytes_received,
         );
         if let Err(e) = self.tr.recv_frames(deadline_ns, dec, &mut |at, taken, r| {
             *received += taken as u64;
@@ -333,7 +297,7 @@ impl<'a> DeviceController<'a> {
                 frames.push((at, std::mem::take(frame_bytes), r));
             }
         }) {
-            self.error = Some(e);
+            self.rec.error = Some(e);
         }
         for &(at, n, r) in &frames {
             self.on_frame(at, n, r);
@@ -342,12 +306,11 @@ impl<'a> DeviceController<'a> {
     }
 
     fn on_frame(&mut self, at_ns: u64, wire_bytes: usize, r: Result<Message, FrameError>) {
-        // Frames after the Status are not counted: the Status's counters are the device's
-        // side of the identity, up to the Status.
+        // Counted up to the Status, as the Status's counters are.
         if !self.status_seen {
             match r {
-                Ok(_) => self.host.received += 1,
-                Err(_) => self.host.rejected += 1,
+                Ok(_) => self.rec.host.received += 1,
+                Err(_) => self.rec.host.rejected += 1,
             }
         }
         match r {
@@ -359,7 +322,7 @@ impl<'a> DeviceController<'a> {
                 });
                 let echo = echo.map(|e| e.saturating_sub(1));
                 if self.records == Records::All {
-                    self.actuations.push(RxActuation {
+                    self.rec.actuations.push(RxActuation {
                         at_ns,
                         wire_bytes,
                         echo,
@@ -368,7 +331,7 @@ impl<'a> DeviceController<'a> {
                 }
                 self.note_tick(at_ns, &a);
                 if std::mem::take(&mut self.config_echo_pending) {
-                    self.config_refused |= a.flags.has(Flags::CMD_REFUSED);
+                    self.rec.config_refused |= a.flags.has(Flags::CMD_REFUSED);
                 }
                 let si = a.to_si();
                 let si = SiActuation {
@@ -382,13 +345,13 @@ impl<'a> DeviceController<'a> {
                 }
                 // The period's echo, if it came by its deadline t_e + d T.
                 let due = self.delay_ticks * self.period_ns;
-                let p = echo.and_then(|e| self.periods.get_mut(usize::try_from(e).ok()?));
+                let p = echo.and_then(|e| self.rec.periods.get_mut(usize::try_from(e).ok()?));
                 if let Some(p) = p.filter(|p| p.echo_at_ns.is_none() && at_ns <= p.t_ns + due) {
                     p.echo_at_ns = Some(at_ns);
                 }
             }
             Ok(Message::Status(s)) => {
-                self.status = Some(s);
+                self.rec.status = Some(s);
                 self.status_seen = true;
             }
             _ => {}
@@ -404,8 +367,8 @@ impl<'a> DeviceController<'a> {
             let back = self.last_tick.wrapping_sub(a.tick);
             let went_back = a.tick < self.last_tick;
             if went_back && (back < 0x8000 || (latched && !self.last_latched)) {
-                self.device_resets += 1;
-                self.first_reset_ns.get_or_insert(at_ns);
+                self.rec.device_resets += 1;
+                self.rec.first_reset_ns.get_or_insert(at_ns);
                 if self.config.is_some() || self.reset_config.is_some() {
                     self.config_sent = false;
                 }
@@ -415,8 +378,8 @@ impl<'a> DeviceController<'a> {
         }
     }
 
-    /// Ends the run at `t_ns` (the end of the last period): fetches the device's counters
-    /// (see the module docs), receiving everything in flight meanwhile.
+    /// Ends the run at `t_ns` (the end of the last period): a `RequestStatus`, then
+    /// [`STATUS_WAIT_PERIODS`] of receiving, up to [`STATUS_TRIES`] times.
     pub fn finish(&mut self, t_ns: u64) {
         let mut t = t_ns;
         for _ in 0..STATUS_TRIES {
@@ -425,7 +388,7 @@ impl<'a> DeviceController<'a> {
                 t += self.period_ns;
                 self.receive(t);
             }
-            if self.status_seen || self.error.is_some() {
+            if self.status_seen || self.rec.error.is_some() {
                 break;
             }
         }
@@ -457,11 +420,11 @@ impl SampledController for DeviceController<'_> {
             v_ref: m.v_mps,
         };
         let q = Sensor::from_si(self.seq, t_ns, &sample, self.lateral);
-        self.host.clamped += u64::from(q.clamped);
+        self.rec.host.clamped += u64::from(q.clamped);
         let sensor = q.msg;
         let all = self.records == Records::All;
         if let (Lateral::Velocity(v), true) = (sensor.lateral, all) {
-            self.sent_codes.push(InputCodes {
+            self.rec.sent_codes.push(InputCodes {
                 y_dot: v,
                 current: sensor.i_a_ma,
                 speed: sensor.omega_m_mrad_s,
@@ -472,7 +435,7 @@ impl SampledController for DeviceController<'_> {
         let n = encode(&Message::Sensor(sensor), &mut frame).unwrap_or(0);
         self.send_frame(t_ns, frame.get(..n).unwrap_or(&[]));
         if all {
-            self.periods.push(Period {
+            self.rec.periods.push(Period {
                 t_ns,
                 sensor_bytes: n,
                 echo_at_ns: None,
@@ -482,16 +445,16 @@ impl SampledController for DeviceController<'_> {
         // the command at its next tick.
         if self
             .clear_faults_at_ns
-            .is_some_and(|t| t_ns >= t && self.clear_faults_sent_ns.is_none())
+            .is_some_and(|t| t_ns >= t && self.rec.clear_faults_sent_ns.is_none())
         {
-            self.clear_faults_sent_ns = Some(t_ns);
+            self.rec.clear_faults_sent_ns = Some(t_ns);
             self.send(t_ns, &Message::Command(Command::ClearFaults));
         }
         if self
             .stall_at_ns
-            .is_some_and(|t| t_ns >= t && self.stall_sent_ns.is_none())
+            .is_some_and(|t| t_ns >= t && self.rec.stall_sent_ns.is_none())
         {
-            self.stall_sent_ns = Some(t_ns);
+            self.rec.stall_sent_ns = Some(t_ns);
             self.send(t_ns, &Message::Command(Command::InjectStall));
         }
         if let Some(pb) = &self.progress {
@@ -531,8 +494,7 @@ impl SampledController for DeviceController<'_> {
 
 impl DeviceController<'_> {
     /// The actuation in force from `step.t_ns + T`: receives until then, logs the
-    /// period and returns the latest actuation (before the first, zero torque and the
-    /// back-EMF voltage).
+    /// period and returns the latest actuation.
     fn answer(&mut self, step: Awaiting) -> SiActuation {
         self.fresh = false;
         self.answering = step.k;
@@ -551,7 +513,7 @@ impl DeviceController<'_> {
             .held
             .as_ref()
             .map_or((0, 0), |(_, a)| (a.seq_echo, a.flags.0));
-        self.log.push(LinkSample {
+        self.rec.log.push(LinkSample {
             t_ns: step.t_ns,
             seq: step.seq,
             seq_echo,
@@ -572,13 +534,10 @@ impl DeviceController<'_> {
 /// Which per-period records [`close_loop`] keeps.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Records {
-    /// Every record: the periods, the actuations received, the sensor codes sent and
-    /// the link log (what `hil run`'s checks read).
+    /// Every record (what `hil run`'s checks read).
     #[default]
     All,
-    /// The link log only ([`ClosedLoop::log`]): `periods`, `actuations` and
-    /// `sent_codes` stay empty (a run that reports the trajectory and the link, as
-    /// `sim-host run --loop device` does, without the memory of the rest).
+    /// The link log only ([`ClosedLoop::log`]; `sim-host run --loop device`).
     LinkLog,
 }
 
@@ -593,17 +552,13 @@ pub struct LoopSetup<'l> {
     pub lateral: LateralSensing,
     /// A Config frame to send before the first Sensor frame.
     pub config: Option<Config>,
-    /// Send `Command::ClearFaults` (the latch and a held alarm safe state cleared) with
-    /// the Sensor frame of the first sample instant at or after this time, ns.
+    /// [`DeviceController::clear_faults_at_ns`].
     pub clear_faults_at_ns: Option<u64>,
-    /// Send `Command::InjectStall` with the Sensor frame of the first sample instant at
-    /// or after this time, ns ([`DeviceController::stall_at_ns`]).
+    /// [`DeviceController::stall_at_ns`].
     pub stall_at_ns: Option<u64>,
-    /// The Config to send again after a device reset
-    /// ([`DeviceController::reset_config`]).
+    /// [`DeviceController::reset_config`].
     pub reset_config: Option<Config>,
-    /// Ticks from a sample to its actuation taking effect (0 or 1: lock-step; more: the
-    /// pipelined link of the module docs).
+    /// Ticks from a sample to its actuation taking effect (0 or 1: lock-step).
     pub delay_ticks: u32,
     /// A progress bar to advance (simulated ms).
     pub progress: Option<ProgressBar>,
@@ -613,36 +568,13 @@ pub struct LoopSetup<'l> {
     pub label: &'l str,
 }
 
-/// A finished closed loop through a transport: the plant's trajectory and the records of
-/// [`DeviceController`].
+/// A finished closed loop: the plant's trajectory and [`DeviceController`]'s records.
 #[derive(Debug)]
 pub struct ClosedLoop {
     /// The plant's trajectory.
     pub trajectory: Trajectory,
-    /// Every period.
-    pub periods: Vec<Period>,
-    /// Every Actuation frame received, in order.
-    pub actuations: Vec<RxActuation>,
-    /// One link record per period.
-    pub log: Vec<LinkSample>,
-    /// The sensor samples sent (wire codes, velocity sensing).
-    pub sent_codes: Vec<InputCodes>,
-    /// Host-side counts.
-    pub host: HostCounts,
-    /// The device's counters, if its Status frame arrived.
-    pub status: Option<Status>,
-    /// The first transport error (the run held the last actuation after it).
-    pub error: Option<TransportError>,
-    /// The device flagged the Config frame refused.
-    pub config_refused: bool,
-    /// When `Command::ClearFaults` went out ([`LoopSetup::clear_faults_at_ns`]), ns.
-    pub clear_faults_sent_ns: Option<u64>,
-    /// When `Command::InjectStall` went out ([`LoopSetup::stall_at_ns`]), ns.
-    pub stall_sent_ns: Option<u64>,
-    /// Device resets the host saw ([`DeviceController::device_resets`]).
-    pub device_resets: u32,
-    /// When the first was seen, ns.
-    pub first_reset_ns: Option<u64>,
+    /// What the loop recorded.
+    pub rec: LoopRecords,
 }
 
 /// Runs `sc` with the device behind `tr` as the plant's sampled controller (actuator
@@ -665,38 +597,22 @@ pub fn close_loop(
     ctrl.delay_ticks = u64::from(setup.delay_ticks.max(1));
     // The actuator delay below is one period: two exchanges may be in flight.
     let mut ctrl = ctrl.pipelined();
-    // One record per period, reserved once (doubling to 100 000 records re-copies and
-    // re-faults megabytes); capped: a very long scenario grows the rest as it goes.
+    // One record per period, reserved once; capped for a very long scenario.
     let periods = (sc.duration_ns / period_ns.max(1)).min(1 << 22);
     ctrl.reserve(usize::try_from(periods).unwrap_or(0).saturating_add(2));
-    let mut actuator = ActuatorModel {
-        delay_ns: period_ns,
-        ..ActuatorModel::ideal()
-    };
-    let trajectory = run_sampled(
+    let trajectory = drive(
         sc,
         &mut ctrl,
-        &mut SensorModel::ideal(),
-        &mut actuator,
+        1,
         setup.yaw_spring,
         setup.label,
+        |_, _, _| {},
     )?;
-    let t_end = ctrl.log.last().map_or(0, |p| p.t_ns + period_ns);
+    let t_end = ctrl.rec.log.last().map_or(0, |p| p.t_ns + period_ns);
     ctrl.finish(t_end);
     Ok(ClosedLoop {
         trajectory,
-        periods: std::mem::take(&mut ctrl.periods),
-        actuations: std::mem::take(&mut ctrl.actuations),
-        log: std::mem::take(&mut ctrl.log),
-        sent_codes: std::mem::take(&mut ctrl.sent_codes),
-        host: ctrl.host,
-        status: ctrl.status,
-        error: ctrl.error.take(),
-        config_refused: ctrl.config_refused,
-        clear_faults_sent_ns: ctrl.clear_faults_sent_ns,
-        stall_sent_ns: ctrl.stall_sent_ns,
-        device_resets: ctrl.device_resets,
-        first_reset_ns: ctrl.first_reset_ns,
+        rec: std::mem::take(&mut ctrl.rec),
     })
 }
 

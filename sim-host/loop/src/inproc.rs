@@ -1,8 +1,6 @@
-//! The in-process device: the firmware's own [`Runtime`] (control core, protocol, fault
-//! policy) behind the simulated serial link of [`crate::sim_link`], on simulated time, as a
-//! [`Transport`]. Needs nothing installed; deterministic for a seed. Every closed loop
-//! with an in-process device goes through it: `sim-host run --loop device`, `hil run`,
-//! `hil golden`.
+//! The in-process device: the firmware's own [`Runtime`] behind the simulated serial link
+//! of [`crate::sim_link`], on simulated time, as a [`Transport`]; deterministic for a
+//! seed. Every closed loop with an in-process device goes through it.
 //!
 //! The device ticks on its own timer (the one tick-phase formula): tick `j` at
 //!
@@ -10,26 +8,17 @@
 //! t_j = j T + phase,   phase = wire time of the worst-case Sensor frame + link latency
 //! ```
 //!
-//! so the frame the host sends at a sample instant `k T` has arrived when tick `k` runs,
-//! and its Actuation frame is back before `(k + d) T`, `d` the delay the runtime's gains
-//! are designed for (the link budget check, [`crate::sim_link::check_budget`], refuses a
-//! link where it is not). Tick `j` takes the
-//! bytes that arrived by `t_j`, runs [`Runtime::tick`] and hands each frame of its output
-//! to the down link at `t_j + exec`, where `exec` is a simulated execution time (0 by
-//! default; see [`DeviceFault::TooSlow`]), which is also what the next Actuation frame
-//! reports as `exec` (ns): the verdicts stay deterministic. The host's own wall-clock
-//! time per [`Runtime::tick`] call is measured too and reported as an informative figure
-//! ([`Transport::extra`]: `host_tick_ns`), never judged.
+//! so the frame sent at `k T` has arrived when tick `k` runs and its answer is back
+//! before `(k + d) T` (the link budget, [`crate::sim_link::check_budget`]). Tick `j` takes
+//! the bytes arrived by `t_j`, runs [`Runtime::tick`] and hands its frames to the down
+//! link at `t_j + exec`, `exec` a simulated execution time (0 unless
+//! [`DeviceFault::TooSlow`]), which the Actuation frame reports: the verdicts stay
+//! deterministic. The host's wall-clock time per tick is reported, never judged
+//! ([`Transport::extra`]: `host_tick_ns`).
 //!
-//! Frame accounting (the one method): each end of the link has an [`RxPort`] that
-//! attributes every frame sent to its fate ([`Transport::link_accounting`]), each from
-//! the receiver's own decoder: the device's port from the runtime's (its rejection
-//! counters, see `outcome`), the host's from the host adapter's
-//! ([`Transport::recv_frames`]). A caller of plain [`Transport::recv`] gets the bytes,
-//! and the host's port then decodes them itself.
-//!
-//! Deliberately broken devices ([`DeviceFault`]) exist so the harness's checks can be
-//! shown to fail.
+//! Each end of the link has an [`RxPort`] that attributes every frame sent to its fate
+//! ([`Transport::link_accounting`]) from the receiver's own decoder. [`DeviceFault`]s are
+//! deliberately broken devices, to show the harness's checks fail.
 
 use std::time::Instant;
 

@@ -1,19 +1,13 @@
-//! The closed loop of the plant with the device: the plant of `wheelset-plant` against
-//! the firmware's runtime, wherever the device runs, through one [`transport::Transport`].
-//!
-//! - [`transport`]: the one transport trait (bytes out, bytes in with a deadline).
-//! - [`sim_link`]: the simulated serial link (baud, latency, faults, frame accounting).
-//! - [`inproc`]: the in-process device (the flashed `Runtime`) as a transport.
-//! - [`exchange`]: the closed-loop adapter every device loop uses (one exchange per
-//!   control period).
-//! - [`device_loop`]: a device-in-the-loop run of a scenario (`sim-host run --loop
-//!   device`): its options, the device's configuration, the deviation from a reference.
-//! - [`core`]: the control core (e.g. f64) on the plant without the link.
-//! - [`rate_check`]: the warning before a device run at a rate the analysis finds unstable.
+//! The closed loop of the plant with the device, wherever it runs, through one
+//! [`transport::Transport`]: the simulated link ([`sim_link`]), the in-process device
+//! ([`inproc`]), the exchange per period ([`exchange`]), a device run of a scenario
+//! ([`device_loop`]), the control core on the plant ([`core`]), the one driver of a
+//! controller on the plant ([`drive`]) and the rate warning ([`rate_check`]).
 #![deny(missing_docs)]
 
 pub mod core;
 pub mod device_loop;
+pub mod drive;
 pub mod exchange;
 pub mod inproc;
 pub mod rate_check;

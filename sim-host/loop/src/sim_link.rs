@@ -1,23 +1,15 @@
 //! The simulated serial link: two byte streams (host -> device "up", device -> host
-//! "down"), each a UART timed by its baud rate (10 bits per byte: start, 8 data, stop)
-//! plus a fixed latency, in integer-nanosecond simulated time, with seeded fault
-//! injection. Deterministic for a seed.
+//! "down"), each a UART of 10 bits per byte plus a fixed latency, in integer-ns simulated
+//! time, with seeded faults. Byte `k` (from 0) of a frame sent at `t` leaves the line at
+//! `start + ceil((k+1) * 10 * 1e9 / baud)` ns, `start = max(t, line free)`, and arrives
+//! `latency` ns later.
 //!
-//! Byte `k` (from 0) of a frame handed to [`Channel::send`] at `t` leaves the line at
-//! `start + ceil((k+1) * 10 * 1e9 / baud)` ns, `start = max(t, line free)`, and reaches the
-//! receiver `latency` ns later.
-//!
-//! Faults ([`Faults`], parsed from `--faults SPEC`), applied per direction in this order:
-//! whole-frame drop, outage (bytes on the wire during an outage are lost), byte drop,
-//! bit errors (each data bit flips with probability `ber`, drawn by geometric skips),
-//! bursts (a Poisson process of `rate` bursts per second, each XOR-ing `len` consecutive
-//! bytes with random non-zero values).
-//!
-//! Frame accounting ([`RxPort`], [`Accounting`]): every byte carries the id of the frame it
-//! belongs to, and the receiving port attributes each sent frame to exactly one fate:
-//! received (decoded valid), rejected (part of a frame the decoder rejected: CRC, COBS,
-//! length ...), dropped by the link (none of its bytes reached the decoder), or in flight
-//! at the end of the run.
+//! Faults ([`Faults`], `--faults SPEC`), per direction in this order: whole-frame drop,
+//! outage, byte drop, bit errors (probability `ber` per data bit, drawn by geometric
+//! skips), bursts (Poisson, `rate` per second, each XOR-ing `len` bytes with random
+//! non-zero values). Every byte carries its frame's id, and the receiving port
+//! ([`RxPort`], [`Accounting`]) attributes each frame sent to one fate: received,
+//! rejected, dropped or in flight.
 
 /// Bits on the line per byte (8N1).
 pub const BITS_PER_BYTE: u64 = wheelset_proto::link::BITS_PER_BYTE;

@@ -1,23 +1,14 @@
-//! One transport for every target: bytes out, bytes in with a deadline.
+//! One transport for every target: bytes out, bytes in with a deadline; every closed loop
+//! drives a device through [`Transport`] only ([`crate::exchange`]). Time is integer ns on
+//! the transport's [`Clock`]:
 //!
-//! Every closed loop and every comparison with a device drives it through [`Transport`]
-//! only (the closed-loop adapter [`crate::exchange`]): in process over the simulated link
-//! ([`crate::inproc`]), or, in `hil`, the firmware under QEMU and a board on a serial
-//! port. Time is integer
-//! nanoseconds on the transport's [`Clock`]:
-//!
-//! - [`Clock::Simulated`]: the in-process device behind the simulated link. `send` at
-//!   simulated `t_ns`, `recv` delivers every byte that has arrived by `deadline_ns`,
-//!   stamped with its simulated arrival time. Deterministic.
-//! - [`Clock::LockStep`]: the host's sensor frame is the device's clock (QEMU, or a
-//!   frame-clocked device on a serial port). `recv` waits (in wall time, bounded by the
-//!   transport's timeout) for the reply to the last frame sent (with two exchanges in
-//!   flight, [`Transport::pipelined`]: to every frame sent before its deadline); the
-//!   arrival stamp is the deadline, and the harness models the wire time at the link's
-//!   baud.
-//! - [`Clock::RealTime`]: a board with its own tick timer. `send` waits for the wall
-//!   clock to reach `t_ns` after the run's start; `recv` returns what arrived by
-//!   `deadline_ns`, stamped with the wall time of arrival.
+//! - [`Clock::Simulated`]: the in-process device ([`crate::inproc`]); `recv` delivers the
+//!   bytes arrived by `deadline_ns`, stamped with their simulated arrival. Deterministic.
+//! - [`Clock::LockStep`]: the host's frame is the device's clock (QEMU, a frame-clocked
+//!   serial device); `recv` waits in wall time for the replies owed, stamped with the
+//!   deadline (the harness models the wire time).
+//! - [`Clock::RealTime`]: a board with its own timer; `send` waits for the wall clock to
+//!   reach `t_ns`, `recv` stamps the wall time of arrival.
 
 use std::fmt;
 
@@ -108,12 +99,9 @@ pub trait Transport {
         deadline_ns: u64,
         sink: &mut dyn FnMut(u64, &[u8]),
     ) -> Result<(), TransportError>;
-    /// [`Self::recv`] decoded with the host's decoder `dec` (its state carried from call
-    /// to call): every delivered chunk is taken up to each delimiter
-    /// ([`Decoder::pieces`]) and each piece goes to `sink(arrival_ns, bytes, frame)`, in
-    /// order. A transport that accounts for frames itself (the in-process
-    /// link) overrides it to attribute the decoder's own results, with no second decoder
-    /// over the same bytes.
+    /// [`Self::recv`] decoded with the host's decoder `dec` (its state carried over):
+    /// each piece ([`Decoder::pieces`]) goes to `sink(arrival_ns, bytes, frame)`, in
+    /// order. The in-process link overrides it to attribute the decoder's own results.
     fn recv_frames(
         &mut self,
         deadline_ns: u64,
@@ -126,12 +114,9 @@ pub trait Transport {
             }
         })
     }
-    /// Whether a lock-step transport keeps two exchanges in flight: the next frame goes
-    /// out before the device has answered the last one, and [`Self::recv`] waits only for
-    /// the answers to the frames sent before its deadline (`t_sent < deadline_ns`),
-    /// keeping later ones for a later call. The closed loop then sends sample `k + 1`
-    /// before it takes the actuation of sample `k`, which the plant applies only from
-    /// `t_k + T` ([`crate::exchange`]). Default: `false` (one exchange in flight).
+    /// Whether a lock-step transport keeps two exchanges in flight: [`Self::recv`] waits
+    /// only for the answers to the frames sent before its deadline, keeping later ones
+    /// ([`crate::exchange`]). Default: `false`.
     fn pipelined(&self) -> bool {
         false
     }

@@ -1,83 +1,39 @@
-//! The `monitor` section of `hil run`: the stability-monitor and actuator-check alarms of
-//! the run, and the check of them against the scenario.
+//! The `monitor` section of `hil run`: the device's alarms (the rising edges of
+//! `Flags::HUNTING`, `ACTUATOR_FAULT`, `DRIVE_OSC` in the Actuation frames received;
+//! `source = "device-flags"`) judged against the scenario (`docs/monitor.md` in the
+//! book). The mean square of the figure is the device's monitor code replayed on the `y'`
+//! codes it received ([`replay`]): the wire does not carry it.
 //!
-//! **Source** (`source = "device-flags"`). The alarms are the rising edges of the
-//! device's own flags, `Flags::HUNTING` and `Flags::ACTUATOR_FAULT`, in the Actuation
-//! frames the host received (each alarm's `t_s`: the arrival of the first frame carrying
-//! it), on every target alike; the device's Status adds its `first_alarm_tick`
-//! (`device_first_alarm_tick`, and that tick's sample instant `device_first_alarm_s`).
-//! The monitor's mean square for the figure (`RunOutcome::monitor_ms`) is the device's
-//! monitor code ([`wheelset_control::Monitor`] in Q4.28, [`MonitorParams::default`])
-//! replayed on the `y'` codes the device received ([`replay`]): the wire does not carry it.
+//! **Yaw.** Without a plant fault no alarm is allowed (unless the plant hunts on its
+//! own: then one is due before the divergence). With an `[actuator_fault]` from `t_f`
+//! under an active law, none before `t_f`; after it the faulty loop
+//! (`wheelset_plant::fault::faulty_loop_mode`, delivered gain `g`) decides: its least
+//! stable mode grows at `sigma_g`, and with `sigma_g > 0` the first alarm is due by
 //!
-//! ```json
-//! "monitor": {"alarms": [{"kind": "actuator", "t_s": 6.2}, {"kind": "hunting", "t_s": 6.28}],
-//!             "first_alarm_s": 6.2, "expect": "alarm", "deadline_s": 6.39, ...}
+//! ```text
+//! t_alarm - t_f <= [ ln(thr / A_0) + ln(1 + 2 sigma tau)/2 ] / sigma + B,
+//! sigma = min(sigma_g, sigma_0)
 //! ```
 //!
-//! **Expected.** A scenario without a plant fault must raise no alarm at all (the
-//! healthy loop is damped), unless the plant hunts on its own (e.g. passive control
-//! above its critical conicity: the run diverges), where an alarm is due before the
-//! divergence. With an `[actuator_fault]` from `t_f` (under an active law: the passive
-//! law commands no torque, so the fault changes nothing and the scenario is judged as
-//! one without), no alarm before `t_f`, and after it what the **faulty loop** decides:
-//! the loop linearised with the actuator delivering its faulty gain `g` (0 off, `f`
-//! fraction, -1 reversed), `wheelset_plant::fault::faulty_loop_mode`, whose least stable mode
-//! grows at `sigma_g`:
+//! (`A_0` the band-passed RMS of `y'` over the block before `t_f`, at least its wire LSB;
+//! the second term the exponential mean square's lag; `B` one actuator-check block of
+//! slack; `sigma_0` the stopped actuator's mode: a reversed actuator's faster mode lasts
+//! only until its torque saturates). With `sigma_g <= 0` no alarm is due. A deadline
+//! after the run's end is not judged (`optional`); a run that diverges after the fault
+//! with no alarm fails.
 //!
-//! - `sigma_g > 0`: the wheelset hunts or drifts, and the first alarm is due by the
-//!   **deadline**
+//! **The drive** ([`judge_drive`]). The device's current loop on the run's armature
+//! circuit (`wheelset_plant::sampled::current_loop_mode`, the run's delay) has its fast
+//! pair at radius `rho` per base tick. With `rho >= 1` the run's first alarm must be the
+//! drive's, by
 //!
-//!   ```text
-//!   t_alarm - t_f <= [ ln(thr / A_0) + ln(1 + 2 sigma tau)/2 ] / sigma + B,
-//!   sigma = min(sigma_g, sigma_0)
-//!   ```
+//! ```text
+//! t_alarm <= [ ln(thr / A_0) + ln(1 + 2 sigma tau)/2 ] / sigma + (P + N)/f_t,
+//! sigma = f_b ln(rho),   tau = N/f_t,   A_0 = 1 mA (one wire LSB)
+//! ```
 //!
-//!   the time for the mode to grow from the band-passed RMS `A_0` present at the fault
-//!   (measured on the plant's `y'` over the block before `t_f` with the device's own
-//!   filter, [`wheelset_control::Monitor`] in f64; at least the wire LSB of `y'`,
-//!   1 um/s) to the hunting threshold `thr`, plus the exponential mean square's lag for
-//!   a mode growing at `sigma` (`ms = p/(1 + 2 sigma tau)`, module docs of
-//!   `wheelset_control::monitor`), plus one actuator-check block `B` of slack. `sigma_0`
-//!   is the stopped actuator's (`g = 0`, the free wheelset's kinematic mode): a reversed
-//!   actuator's faster mode (`sigma_g` about 100 1/s, real) lasts only until its torque
-//!   saturates (the device's limit, or the adhesion on a low rail), after which the
-//!   wheelset is the free one under a constant torque, growing at `sigma_0`; a fraction
-//!   (`0 < g < 1`) grows slower than a stopped actuator, `sigma_g < sigma_0`. This is the
-//!   hunting alarm's bound; the actuator check usually comes first. A deadline after the
-//!   run's end is stated but not judged (`expect` is then `optional`).
-//! - `sigma_g <= 0` (a fraction that still damps the wheelset): nothing in `y'` tells the
-//!   loop from a healthy one, no alarm is due (`expect: "optional"`); one after the fault
-//!   is not false either (the actuator did fail).
-//!
-//! Whatever the linearisation says, a run that diverges (|y| > 50 mm) after the fault with
-//! no alarm before fails. These rules read the yaw alarms (`hunting`, `actuator`); the
-//! drive's are judged on their own:
-//!
-//! **The drive** (`Flags::DRIVE_OSC`, kind `drive`; [`judge_drive`]). The device's
-//! current loop (its PI at its base rate and traction divisor, with the run's delay: its
-//! input-to-output latency's 99th percentile in whole periods, at least one) on the
-//! plant's armature circuit (`l_a`, `r_a` of the run's parameters) is analysed as the
-//! firmware runs it, `wheelset_plant::sampled::current_loop_mode` (the `rates` table's
-//! `current` column): its fast pair's radius `rho` per base tick.
-//!
-//! - `rho >= 1` (e.g. `l_a` at a third of the design, 1.33e-4 H, and below, at 5 kHz:
-//!   the error grows until the voltage and the measurement clamp it, a limit cycle):
-//!   the first alarm of the run must be the drive's, by the **drive deadline**
-//!
-//!   ```text
-//!   t_alarm <= [ ln(thr / A_0) + ln(1 + 2 sigma tau)/2 ] / sigma + (P + N)/f_t,
-//!   sigma = f_b ln(rho),   tau = N/f_t
-//!   ```
-//!
-//!   the time for the pair to grow from one wire LSB of current (`A_0` = 1 mA: the
-//!   plant's parameters hold from `t = 0`, and the sampled measurement's rounding is
-//!   seed enough) to the check's threshold `thr`, the mean square's lag for a signal
-//!   growing at `sigma`, the persistence `P` and one window `N` of slack (`f_b` the base
-//!   rate, `f_t` the traction rate). The yaw alarms are reported, not judged, after it
-//!   (the oscillating drive shakes the wheelset through the creep forces).
-//! - `rho < 1`: a drive alarm is false, whatever else the run holds (a traction step,
-//!   the protection's cut, a faulty link, the safe state's ramp).
+//! (`P` the persistence, `N` the window, `f_b` the base and `f_t` the traction rate); the
+//! yaw alarms are then reported, not judged. With `rho < 1` a drive alarm is false.
 
 use serde::Serialize;
 use wheelset_control::{Compiled, Fx, InputCodes, Monitor, MonitorParams, MonitorState, YawMode};

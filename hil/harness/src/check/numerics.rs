@@ -1,38 +1,22 @@
-//! Closed-loop numerics: the trajectory through the device against the f64
-//! continuous-time reference (`wheelset_plant::sim::run_continuous`, same scenario, same law).
+//! Closed-loop numerics: the trajectory through the device against the f64 reference
+//! (`wheelset_plant::sim::run_continuous`, same scenario and law).
 //!
-//! For each signal `x` with reference `r`, both sampled at the scenario's output
-//! interval, the error at `t` is the distance from `x(t)` to the tube the reference spans
-//! within the time tolerance `tau`:
+//! For each signal `x` with reference `r`, the error at `t` is the distance from `x(t)` to
+//! the tube the reference spans within the time tolerance `tau`:
 //! `e(t) = max(0, x(t) - max_{|s| <= tau} r(t + s), min_{|s| <= tau} r(t + s) - x(t))`
-//! (so a step the device follows a little later, or ramps through, is not an error while
-//! it stays inside the reference's range over `t +- tau`). The signal passes if
-//! `max_t e(t) <= abs + rel * max_t |r(t)|`, warns up to `warn_factor` times that, and
-//! fails beyond (or if the run produced a non-finite value). A run or a reference that
-//! diverged (and was stopped by `wheelset_plant::sim`) fails the numerics outright.
+//! (a step followed a little later is no error while it stays inside the reference's
+//! range). The signal passes if `max_t e(t) <= abs + rel * max_t |r(t)|`, warns up to
+//! `warn_factor` times that, and fails beyond, on a non-finite value, or when the run or
+//! the reference diverged.
 //!
-//! # The tube at the control period ([`compare_fine`])
-//! The tube is a range over a continuous `s`. Taken on the reference's records at the
-//! output interval (1 ms), it misses whatever the reference does between two records, and
-//! a transient shorter than the interval that the device makes a tick or two away from the
-//! reference is then judged against the reference at another phase of it. The wheel-slip
-//! protection's cuts are such transients: a cut steps the current reference within one
-//! control period (`u_a` moves 240 V in 0.2 ms and swings back within 2 ms on
-//! `low-adhesion`), and the device's and the reference's closed loops are two plant runs
-//! whose measurements part by an LSB after about a second (the first differing speed code
-//! at 1.17 s). The protection decides exactly on the codes it gets (`wheelset_control`'s
-//! `wsp`, "Exact decisions"), but on codes that differ a threshold crossing can fall a
-//! tick apart: the slip crossing `slip_on` at 14.0520 s in the Q4.28 device and 14.0522 s
-//! in the f64 reference. On the records alone that cut is a 29.9 V `u_a` error at
-//! 14.053 s against a 5 V budget (22 V at 7.346 s before the exact decisions), although
-//! the device's value lies inside the reference's own swing 0.2 ms away and the budget's
-//! `tau` is 8 ms. So where the reference can be recorded at
-//! the control period (the control core as reference, `wheelset_loop::core`: every run
-//! with `[[adhesion]]`), the tube is taken over those records: the same `tau`, `abs`,
-//! `rel` and peak (the peak on the output records, so `allowed` does not change), only the
-//! range is the reference's range over `t +- tau` at the device's own resolution. It can
-//! only add the reference's values between records: an amplitude error, a wrong sign or a
-//! shift beyond `tau` fails as before.
+//! [`compare_fine`]: where the reference can be recorded at the control period (the
+//! control core, `wheelset_loop::core`, for runs with `[[adhesion]]`), the tube is taken
+//! over those records (same `tau`, `abs`, `rel`; the peak from the output records). A
+//! transient shorter than the output interval that the device makes a tick away from the
+//! reference (a wheel-slip cut whose threshold crossing falls a tick apart on codes that
+//! differ by an LSB) is then judged against the reference's own swing, not against
+//! another phase of it; an amplitude error, a wrong sign or a shift beyond `tau` fails as
+//! before.
 
 use std::collections::BTreeMap;
 

@@ -1,28 +1,21 @@
-//! Timing checks from what the host saw of each exchange.
+//! Timing checks from what the host saw of each exchange. With `T` the control period,
+//! `t_k = k T` the sample instants and `d` the ticks of delay the host applies each
+//! actuation with (1: lock-step; more: a pipelined link):
 //!
-//! With `T` the control period, `t_k = k T` the sample instants and `d` the ticks of
-//! delay the host applies each actuation with (1: lock-step; more: a pipelined link):
-//!
-//! - **execution time**: the `exec` field of each Actuation frame (the device's previous
-//!   tick, in its unit: host ns in process, instructions under QEMU, cycles on a board),
-//!   converted to ns with the transport's factor; min/mean/p99/max and a histogram.
-//! - **latency**: `arrival of the first actuation echoing sample k - t_k` (measured on
-//!   simulated or wall time; under lock-step, where the host's frame is the device's
-//!   clock, it is modelled: wire time of both frames at the link's baud + the reported
-//!   execution time).
-//! - **period jitter**: the device's output instants (arrival - the frame's wire time -
-//!   the link latency) against the ideal schedule `t_0 + j T` (`j` from the device's
-//!   tick counter, `t_0` the earliest phase seen, so the deviations are lateness and
-//!   their maximum is the peak-to-peak jitter): max and RMS. Not
-//!   applicable under lock-step (the host's frame is the clock).
-//! - **missed ticks**: periods without an actuation echoing their own sample by `t_k + d T`;
-//!   device tick-counter gaps are counted separately. **Overruns**: execution time > T.
+//! - **execution time**: each Actuation frame's `exec` (the device's previous tick: host
+//!   ns in process, instructions under QEMU, cycles on a board), in ns by the
+//!   transport's factor; min/mean/p99/max and a histogram.
+//! - **latency**: `arrival of the first actuation echoing sample k - t_k`, judged as a
+//!   share of `d T` (under lock-step, where the host's frame is the device's clock,
+//!   modelled: both frames' wire time at the link's baud + the reported execution time).
+//! - **period jitter**: the device's output instants (arrival - wire time - latency)
+//!   against `t_0 + j T` (`j` the device's tick counter, `t_0` the earliest phase seen, so
+//!   the maximum lateness is the peak-to-peak jitter); not applicable under lock-step.
+//! - **missed ticks**: periods without an actuation echoing their own sample by
+//!   `t_k + d T` (tick-counter gaps counted apart); **overruns**: execution time > T.
 //! - **CPU utilisation**: execution time / T, mean and max.
-//! - **link utilisation**: mean bytes per period (both directions) x 10 bits / baud / T;
-//!   pipelined, the larger of each direction's share of `T` and both directions' share
-//!   of `d T`.
-//!
-//! The latency is judged as a share of `d T`, the time the actuation has.
+//! - **link utilisation**: mean bytes per period (both ways) x 10 bits / baud / T;
+//!   pipelined, the larger of each direction's share of `T` and both's share of `d T`.
 
 use serde::Serialize;
 use wheelset_loop::sim_link::wire_ns;

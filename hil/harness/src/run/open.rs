@@ -121,11 +121,8 @@ pub(super) fn open_qemu_free(opts: &RunOptions, rt: &RuntimeConfig) -> Result<Re
         .tcp_stream()
         .map_err(|e| RunError::Target(TransportError::Unavailable(e.to_string())))?;
     let o = RealTimeOptions {
-        // 5/8 of the period: QEMU's UART is slow both ways (26-55 kB/s), so a Sensor
-        // frame needs most of half the 2 ms period to reach the tick, and the answer
-        // ~0.45 ms more to come back. Measured on a quiet machine, device misses per
-        // 1 500 periods: lead 3/8: 158-545; 4/8: 15-20; 5/8: 12-14 (README, "QEMU
-        // free-running").
+        // 5/8 of the period: QEMU's UART is slow both ways, so a Sensor frame needs most
+        // of half the period to reach the tick (docs: "QEMU free-running").
         lead_num: 5,
         ..realtime_options(
             opts,

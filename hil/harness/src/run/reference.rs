@@ -10,21 +10,14 @@ use super::RunError;
 use crate::check::numerics::{every_nth, gcd};
 
 /// The reference of `sc` under `law` at the output interval, and the same run recorded at
-/// the control period `period_ns` where there is one (for the numerics' tube,
+/// the control period `period_ns` where there is one (for
 /// [`crate::check::numerics::compare_fine`]).
 ///
-/// With `[[adhesion]]` sections the continuous controllers (no wheel-slip protection)
-/// are no yardstick: the reference is then the control core in f64 with the device's
-/// protection (as the run set it, `Config.wsp`), timing and wire quantisation
-/// (`wheelset_loop::core`). It is recorded at the greatest common divisor of the output
-/// interval and the control period (a multiple of the integration step, since both are),
-/// and every `output / that`-th record is the output-interval reference: the same run, so
-/// the two agree on every record they share. The protection's cuts are shorter than the
-/// output interval (`crate::check::numerics`), the continuous reference has none.
-///
-/// At another rate than the scenario's (`designed`: the device's control core with the
-/// gains designed for that rate, `wheelset_control::design`) the gains are not the
-/// continuous controllers' either: the reference is the same f64 core at the same rate.
+/// With `[[adhesion]]` sections (the continuous controllers have no wheel-slip
+/// protection) or at a designed rate other than the scenario's, the reference is the
+/// control core in f64 (`wheelset_loop::core`, the run's protection and gains), recorded
+/// at the gcd of the output interval and the control period; every `output / that`-th
+/// record is the output-interval reference, so the two agree on every record they share.
 pub(super) fn make(
     sc: &Scenario,
     law: YawLaw,

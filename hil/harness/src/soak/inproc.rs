@@ -1,32 +1,20 @@
-//! The in-process soak: one `Runtime<Fx>` (the production build's fixed-point runtime),
-//! never re-created, over the soak's line ([`super::line`]) for hours of simulated
-//! service ([`super::service`]), streamed: the state is the plant's, the device's and a
-//! handful of running counts, whatever the length.
+//! The in-process soak: one `Runtime<Fx>`, never re-created, over the soak's line
+//! ([`super::line`]) for hours of simulated service ([`super::service`]), streamed: the
+//! state is the plant's, the device's and a handful of running counts, whatever the
+//! length. Each period `T` is the exchange of `wheelset_loop::exchange` (the actuation
+//! from `t_k + T`) on the flexible axle with the traction drive, RK4 at [`STEP_NS`].
 //!
-//! Every period `T` (the device's own rate, which Configs change): at `t_k` the plant's
-//! measurements go up in a Sensor frame (then a Config or a Command when the service has
-//! one), the device ticks, its frames come down, and the latest valid Actuation acts on
-//! the plant from `t_k + T` (the exchange of `wheelset_loop::exchange`). The plant is
-//! the flexible axle with the traction drive (`curve`'s), RK4 at [`STEP_NS`].
-//!
-//! Checked at every tick, on the device's own output (the frames before the line):
-//! outputs within their limits (zero yaw torque once the safe ramp has run out); the
-//! flags the harness's own account predicts (`HOLDING` exactly on the ticks without a
-//! valid Sensor frame, `SAFE` after more than `hold_ticks` of them until the next, no
-//! `NO_SAMPLE` once one came, `ENABLED`, never `CMD_REFUSED`; the echo of the latest
-//! valid `seq`; the tick count); alarms (`HUNTING`, `ACTUATOR_FAULT`) only while an
-//! actuator fault is on or within [`ALARM_GRACE_NS`] of its repair, or in a safe state
-//! (zero yaw torque) or within [`ALARM_GRACE_NS`] of its end, every actuator
-//! fault alarmed within [`ALARM_DEADLINE_NS`], never `DRIVE_OSC`; `FAULT_LATCHED` from
-//! an alarm until a ClearFaults arrives. On a line without faults every frame arrives
-//! valid. At every Status the host receives: every frame accounted for both ways, the
-//! device's counters against the harness's counts (valid frames and rejects by kind,
-//! ticks and frames sent, held and safe ticks, safe entries and exits, `seq` gaps,
-//! alarms, no refusal, the first alarm's tick), all modulo 2^32 from a start near the
-//! wrap. The plant must stay on the rails (`|y|` under [`Y_MAX_M`]); the peak RSS after
-//! the first simulated hour (a quarter of a shorter run) and at the end must agree
-//! within [`RSS_GROWTH_MAX_KIB`]. The first failure stops the run, named with its
-//! simulated time and the seed.
+//! Checked at every tick on the device's own output (`docs/soak.md`): outputs within
+//! their limits; the flags the harness's own account predicts (`HOLDING`, `SAFE` after
+//! more than `hold_ticks` without a frame, `NO_SAMPLE`, `ENABLED`, never `CMD_REFUSED`),
+//! the `seq` echo and the tick count; alarms only around an actuator fault or a safe
+//! state ([`ALARM_GRACE_NS`]), every actuator fault alarmed within
+//! [`ALARM_DEADLINE_NS`], never `DRIVE_OSC`; `FAULT_LATCHED` until a ClearFaults. On a
+//! clean line every frame arrives valid. At every Status: every frame accounted for both
+//! ways and the device's counters against the harness's counts, modulo 2^32 from a start
+//! near the wrap. `|y|` stays under [`Y_MAX_M`]; the peak RSS after the first simulated
+//! hour and at the end agree within [`RSS_GROWTH_MAX_KIB`]. The first failure stops the
+//! run, named with its simulated time and the seed.
 
 use std::fmt;
 use std::time::Instant;
@@ -44,7 +32,7 @@ use wheelset_proto::{
     encode, encode_vec, Actuation, Command, Config, Decoder, Flags, FrameError, LateralSensing,
     Message, Sensor, SensorSi, Status, MAX_FRAME,
 };
-use wheelset_runtime::{Runtime, TX_CAPACITY};
+use wheelset_runtime::{HoldPolicy, Runtime, SafeChange, TX_CAPACITY};
 
 use super::line::{Fate, Line, LineCounts, LineFaults};
 use super::service::{next_episode, Demand, Episode, ServiceOptions, Track};
@@ -322,8 +310,8 @@ enum ActState {
 #[derive(Debug, Clone, Copy, Default)]
 struct Account {
     sampled: bool,
-    missing: u32,
-    safe: bool,
+    /// The runtime's own hold-then-safe policy, fed what the device should have seen.
+    hold: HoldPolicy,
     safe_since_ns: u64,
     safe_exit_ns: u64,
     hold_ticks: u16,
@@ -833,28 +821,28 @@ impl Soak {
         if cleared {
             acc.latched = false;
         }
-        // The hold policy (`wheelset_runtime`'s fault policy, items 2 to 4).
-        let holding = acc.sampled && !fresh;
         if fresh {
             if acc.sampled && self.seq != acc.last_seq.wrapping_add(1) {
                 acc.seq_gaps += 1;
             }
             acc.sampled = true;
-            acc.missing = 0;
             acc.last_seq = self.seq;
-        } else if acc.sampled {
-            acc.missing = acc.missing.saturating_add(1);
         }
-        let safe = acc.sampled && acc.missing > u32::from(acc.hold_ticks);
-        if safe && !acc.safe {
-            acc.safe_entries += 1;
-            acc.safe_since_ns = t;
+        // The hold policy (`wheelset_runtime`'s fault policy, items 2 to 4; no alarm holds
+        // the safe state: the soak's Configs report alarms only).
+        let h = acc.hold.step(fresh, acc.sampled, acc.hold_ticks, false);
+        let (holding, safe) = (h.holding, h.safe);
+        match h.change {
+            Some(SafeChange::Enter) => {
+                acc.safe_entries += 1;
+                acc.safe_since_ns = t;
+            }
+            Some(SafeChange::Exit) => {
+                acc.safe_exits += 1;
+                acc.safe_exit_ns = t;
+            }
+            None => {}
         }
-        if !safe && acc.safe {
-            acc.safe_exits += 1;
-            acc.safe_exit_ns = t;
-        }
-        acc.safe = safe;
         acc.held += u64::from(holding);
         acc.safe_ticks += u64::from(safe);
         if status_requested {
@@ -863,21 +851,23 @@ impl Soak {
         // The device's frames as it sent them.
         let mut a = None;
         let mut st = false;
-        let mut rest = out;
-        while !rest.is_empty() {
-            let (r, more) = self.dev_dec.next_message(rest);
-            rest = more;
+        let mut wrong = None;
+        for r in self.dev_dec.messages(out) {
             match r {
-                Some(Ok(Message::Actuation(x))) => a = Some(x),
-                Some(Ok(Message::Status(_))) => st = true,
-                Some(other) => {
-                    self.fail(format!(
-                        "the device sent {other:?} where an Actuation or Status belongs"
-                    ));
-                    return;
+                Ok(Message::Actuation(x)) => a = Some(x),
+                Ok(Message::Status(_)) => st = true,
+                other => {
+                    wrong = Some(other);
+                    break;
                 }
-                None => {}
             }
+        }
+        if let Some(other) = wrong {
+            self.fail(format!(
+                "the device sent {:?} where an Actuation or Status belongs",
+                Some(other)
+            ));
+            return;
         }
         let Some(a) = a else {
             self.fail("the device's tick sent no Actuation frame".into());

@@ -1,23 +1,15 @@
-//! Which part of the grid one process runs: `--shard I/N`, `--shard auto`, `--shard
-//! auto/N` or `--shard all`, and the job arrays' variables that `auto` reads.
+//! Which part of the grid one process runs: `--shard I/N`, `auto`, `auto/N` or `all`.
+//! Shard `I` of `N` holds the points `i` with `i mod N = I`; the index is derived from
+//! the job array, never taken as is:
 //!
-//! Shard `I` of `N` holds the points `i` with `i mod N = I`. A job array numbers its tasks
-//! its own way, so the index is derived, never taken as is:
+//! - Slurm: `I = (SLURM_ARRAY_TASK_ID - SLURM_ARRAY_TASK_MIN) / SLURM_ARRAY_TASK_STEP`,
+//!   `N = SLURM_ARRAY_TASK_COUNT` (`--array=0-3`, `1-4` and `1-7:2` are all shards `0..3`
+//!   of 4); an array that is not one range with one step is refused.
+//! - Kubernetes Indexed Jobs: `I = JOB_COMPLETION_INDEX`, `N` from `--shard auto/N`.
 //!
-//! - Slurm (`sbatch --array=FIRST-LAST[:STEP]`): `I = (SLURM_ARRAY_TASK_ID -
-//!   SLURM_ARRAY_TASK_MIN) / SLURM_ARRAY_TASK_STEP` and `N = SLURM_ARRAY_TASK_COUNT`, so
-//!   `--array=0-3`, `--array=1-4` and `--array=1-7:2` are all the shards `0..3` of 4. An
-//!   array that is not one range with one step (`--array=1,2,5`: Slurm reports MIN 1,
-//!   MAX 5, STEP 1, COUNT 3) cannot be numbered `0..N-1` and is refused, saying why.
-//! - Kubernetes Indexed Jobs: `I = JOB_COMPLETION_INDEX`; the Job's `completions` are not
-//!   in the pod's environment, so `N` comes from the flag: `--shard auto/N`.
-//!
-//! Without `--shard`, a process inside a Slurm array task takes its shard from the
-//! array (a grid run whole in every task would be the same work N times); inside an
-//! Indexed Job it is refused for want of `N`. `--shard I/N` given inside an array must
-//! agree with the array, and `--shard auto/N` with `SLURM_ARRAY_TASK_COUNT`: a conflict
-//! is refused naming the flag and the variable. `--shard all` runs every point whatever
-//! the environment (a whole grid per task of an array over something else).
+//! Without `--shard`, a Slurm array task takes its shard from the array (an Indexed Job
+//! is refused for want of `N`); a flag that disagrees with the array is refused, naming
+//! both. `--shard all` runs every point whatever the environment.
 
 use std::fmt;
 use std::str::FromStr;

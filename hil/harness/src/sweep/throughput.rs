@@ -1,14 +1,8 @@
-//! The campaign's throughput: points per core-second, the CPU time of the threads that
-//! ran the points (and of the thread that collected them) and of the child processes
-//! they ran (each point's QEMU under `--target qemu`). Printed on the console by `hil
-//! sweep`, never written into the campaign's document (whose shards merge byte for
-//! byte).
-//!
-//! A thread's CPU time is its on-CPU time in `/proc/thread-self/schedstat` (Linux, ns);
-//! the children's is the user and system time of the children waited for, `cutime` and
-//! `cstime` in `/proc/self/stat` (the `RUSAGE_CHILDREN` of `getrusage`, in the kernel's
-//! 1/100 s). Where those files do not exist the throughput is unknown (`None`), not
-//! guessed.
+//! The campaign's throughput, printed by `hil sweep` and never written into the document:
+//! points per core-second, from the CPU time of the threads that ran and collected the
+//! points (`/proc/thread-self/schedstat`, ns) and of their children, each point's QEMU
+//! (`cutime` + `cstime` of `/proc/self/stat`, 1/100 s). Without those files it is
+//! unknown (`None`), not guessed.
 
 use std::time::Duration;
 

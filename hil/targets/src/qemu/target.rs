@@ -1,19 +1,12 @@
-//! The QEMU target: the `wheelset-qemu` firmware (the real runtime and control core,
-//! compiled for the Cortex-M4F) on `qemu-system-arm -machine mps2-an386`, started and
-//! stopped by the launcher [`crate::qemu`], lock-step: each frame delimiter the host
-//! sends is one device tick, and virtual time is `2^ICOUNT_SHIFT` ns per instruction,
-//! so a run depends only on the bytes exchanged.
+//! The QEMU target: the `wheelset-qemu` firmware on `qemu-system-arm -machine
+//! mps2-an386`, started and stopped by [`crate::qemu`], lock-step (each frame delimiter
+//! the host sends is one device tick).
 //!
-//! The `exec` field is in instructions (the firmware's SysTick stopwatch converted with
-//! the icount shift), deterministic run to run. Its time scale for the timing checks is
-//! `--cpu-hz` at one instruction per cycle (default the board's 168 MHz, an estimate; the
-//! emulated mps2-an386 itself is nominally 25 MHz, [`MPS2_CPU_HZ`]).
-//!
-//! Over the bulk channel the target keeps two exchanges in flight
-//! ([`Transport::pipelined`]): the firmware takes each frame whole and runs its tick
-//! before it reads on, so the next frame may wait in the FIFO while it computes.
-//! `WHEELSET_QEMU_IN_FLIGHT=1` keeps one (each frame after the answer to the last), the
-//! same frames and records, for comparison (`scripts/pil-bench.sh`).
+//! The `exec` field is in instructions (deterministic run to run), scaled for the timing
+//! checks at `--cpu-hz`, one instruction per cycle (an estimate; the emulated machine is
+//! nominally [`MPS2_CPU_HZ`]). Over the bulk channel two exchanges are in flight
+//! ([`Transport::pipelined`]: the firmware takes each frame whole and ticks before it reads
+//! on); `WHEELSET_QEMU_IN_FLIGHT=1` keeps one, with the same frames and records.
 
 use std::time::Duration;
 

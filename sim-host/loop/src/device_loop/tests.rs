@@ -28,8 +28,8 @@ fn run_seeded(faults: &str, periods: u64, seed: u64) -> (Vec<LinkSample>, LinkRe
         let _ = c.step(k * t, &sample(k));
     }
     c.finish(periods * t);
-    let log = std::mem::take(&mut c.log);
-    let (status, host) = (c.status, c.host);
+    let log = std::mem::take(&mut c.rec.log);
+    let (status, host) = (c.rec.status, c.rec.host);
     drop(c);
     let acc = d.accounting();
     let r = LinkReport::of(&log, status, &host, acc.up, acc.down);

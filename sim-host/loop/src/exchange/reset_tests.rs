@@ -76,14 +76,14 @@ fn a_tick_counter_that_goes_back_is_a_reset_and_the_config_goes_out_again() {
         ctrl.step(u64::from(k) * period, &m);
         ctrl.on_frame(u64::from(k) * period, 10, Ok(act(100 + k, false)));
     }
-    assert_eq!(ctrl.stall_sent_ns, Some(2 * period));
-    assert_eq!(ctrl.device_resets, 0);
+    assert_eq!(ctrl.rec.stall_sent_ns, Some(2 * period));
+    assert_eq!(ctrl.rec.device_resets, 0);
     // The handler's safe frame (tick 0) is not a boot; the new boot's tick 1 is.
     ctrl.on_frame(5 * period, 10, Ok(act(0, false)));
-    assert_eq!(ctrl.device_resets, 0);
+    assert_eq!(ctrl.rec.device_resets, 0);
     ctrl.on_frame(6 * period, 10, Ok(act(1, true)));
     assert_eq!(
-        (ctrl.device_resets, ctrl.first_reset_ns),
+        (ctrl.rec.device_resets, ctrl.rec.first_reset_ns),
         (1, Some(6 * period))
     );
     ctrl.step(7 * period, &m);
@@ -92,10 +92,10 @@ fn a_tick_counter_that_goes_back_is_a_reset_and_the_config_goes_out_again() {
     // that raises the latch is.
     ctrl.on_frame(8 * period, 10, Ok(act(65_535, false)));
     ctrl.on_frame(9 * period, 10, Ok(act(0x0001, false)));
-    assert_eq!(ctrl.device_resets, 1);
+    assert_eq!(ctrl.rec.device_resets, 1);
     ctrl.on_frame(10 * period, 10, Ok(act(40_000, false)));
     ctrl.on_frame(11 * period, 10, Ok(act(3, true)));
-    assert_eq!(ctrl.device_resets, 2);
+    assert_eq!(ctrl.rec.device_resets, 2);
     drop(ctrl);
     let stalls = tr
         .sent
