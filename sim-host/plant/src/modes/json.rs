@@ -1,8 +1,6 @@
-//! The JSON form of a case's sweep.
-//!
-//! The fields of every struct here (and of [`ModeValue`] and [`Crossing`]) are declared in
-//! alphabetical order: serialized directly (streamed to the file, no `serde_json::Value`
-//! tree), the keys come out sorted, as a `Value` map writes them.
+//! The JSON form of a case's sweep. The fields of every struct here (and of
+//! [`ModeValue`], [`Crossing`]) are in alphabetical order, so serialized directly the
+//! keys come out sorted, as a `serde_json::Value` map writes them.
 
 use super::*;
 use serde::Serialize;
@@ -46,8 +44,6 @@ pub struct CaseJson {
 impl CaseSweep {
     /// The JSON form.
     pub fn to_json(&self) -> CaseJson {
-        // The names once for the case, each point's modes once (`stable_at` and
-        // `modes_at` per point would name the modes twice).
         let names = self.mode_names();
         let points: Vec<PointJson> = (0..self.creep.len())
             .map(|k| {
@@ -75,9 +71,7 @@ impl CaseSweep {
 
 impl CaseSweep {
     /// Writes [`Self::to_json`] as compact JSON to `w`: byte for byte what
-    /// `serde_json::to_writer` writes for it, without building the points (no per-point
-    /// vectors or name strings). Numbers go through serde_json's own formatter
-    /// (non-finite ones as `null`), strings are escaped as serde_json escapes them.
+    /// `serde_json::to_writer` writes, without building the points.
     pub fn write_json<W: Write + ?Sized>(&self, w: &mut W) -> io::Result<()> {
         w.write_all(b"{\"crossings\":[")?;
         for (i, c) in self.crossings.iter().enumerate() {
@@ -108,8 +102,7 @@ impl CaseSweep {
         w.write_all(b",\"label\":")?;
         write_json_string(w, self.case.label())?;
         w.write_all(b",\"points\":[")?;
-        // Each mode's branches, once for the case (what `mode_eig` filters per point),
-        // and the text between its `im` and `re` values with the name escaped.
+        // Each mode's branches once for the case, and the text between its `im` and `re`.
         let mut modes: Vec<(Vec<u8>, Vec<usize>)> = Vec::new();
         for n in self.mode_names() {
             let b = (0..self.branch_names.len())
@@ -122,11 +115,8 @@ impl CaseSweep {
         }
         let zero = self.branch_names.iter().position(|n| n == STRUCTURAL_ZERO);
         let mut stable_everywhere = true;
-        // Each point is formatted into `buf` (a few hundred bytes, small appends to a
-        // `Vec` inline) and reaches `w` in one write. A mode's `re` and `im` and the
-        // structural zero repeat numbers of the point's eigenvalues: their text is
-        // copied from `spans` (`|x|` is the text of `x` without its `-`), not formatted
-        // again.
+        // Each point is formatted into `buf` and reaches `w` in one write; a mode's `re`
+        // and `im` and the structural zero are copied from the eigenvalues' text (`spans`).
         let mut buf: Vec<u8> = Vec::with_capacity(1024);
         let mut spans: Vec<PairSpan> = Vec::new();
         for (k, eig) in self.eig.iter().enumerate() {
@@ -174,12 +164,10 @@ impl CaseSweep {
                 buf.extend_from_slice(b"{\"freq_hz\":");
                 write_json_number(&mut buf, m.freq_hz)?;
                 buf.extend_from_slice(b",\"im\":");
-                // m.im = |l.im|.
                 let im = span.comma + 1;
                 let im = if buf[im] == b'-' { im + 1 } else { im };
                 buf.extend_from_within(im..span.close);
                 buf.extend_from_slice(name_text);
-                // m.re = l.re.
                 buf.extend_from_within(span.open + 1..span.comma);
                 buf.extend_from_slice(b",\"zeta\":");
                 write_json_number(&mut buf, m.zeta)?;
@@ -216,8 +204,7 @@ impl CaseSweep {
     }
 }
 
-/// Where a point's eigenvalue `[re,im]` lies in its text: `[` at `open`, `,` at
-/// `comma`, `]` at `close`.
+/// Where a point's eigenvalue `[re,im]` lies in its text.
 #[derive(Clone, Copy)]
 struct PairSpan {
     open: usize,
