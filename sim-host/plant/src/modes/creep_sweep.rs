@@ -110,9 +110,7 @@ fn eigen_sweep(
             .collect();
         handles
             .into_iter()
-            .flat_map(|h| {
-                h.join().unwrap_or_else(|_| vec![None; chunk])
-            })
+            .flat_map(|h| h.join().unwrap_or_else(|_| vec![None; chunk]))
             .take(grid.len())
             .collect()
     })
