@@ -215,8 +215,7 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
         );
     }
     outln!("{}", monitor_line(&run));
-    // A limit cycle of the drive (the device's drive alarm) fails the run as a divergence
-    // does, unless the run says that is its point.
+    // A drive limit cycle fails the run as a divergence does, unless that is its point.
     let drive = run
         .report
         .device
@@ -245,8 +244,7 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
     );
     out!("{}", run.report);
     outln!();
-    // The link log (one record per period) is the CSV's link columns, its report
-    // printed: without a CSV it is freed before the reference trajectory is made.
+    // Without a CSV the link log is freed before the reference trajectory is made.
     if a.csv.is_none() {
         run.link = Vec::new();
     }
@@ -300,8 +298,8 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
     verdict
 }
 
-/// The device monitor's alarms, each named by what it watches, with its first instant as
-/// the host saw it (the flag in the Actuation in force) and the Status's counts.
+/// The device monitor's alarms, each with its first instant as the host saw it and the
+/// Status's counts.
 fn monitor_line(run: &wheelset_loop::device_loop::DeviceRun) -> String {
     use wheelset_runtime::Flags;
     let kinds = [

@@ -92,8 +92,7 @@ pub(crate) fn load_params(path: &Option<PathBuf>) -> Result<Params, ConfigError>
     }
 }
 
-/// One simulation of the scenario. This is the place where further loop kinds (the
-/// device over the link) plug in: they produce the same [`Trajectory`].
+/// One simulation of the scenario on the continuous loop.
 pub(crate) fn simulate(sc: &Scenario, control: Control) -> Trajectory {
     run_continuous(sc, control.into())
 }

@@ -171,10 +171,8 @@ pub(crate) fn cmd_modes(a: &ModesArgs) -> Result<(), Failure> {
     Ok(())
 }
 
-/// The modes file, streamed as it is made (no tree of the 4 000 points): the object
-/// `{cases, derived, kinematic_hz, note, params, speed_mps}`, keys in alphabetical order
-/// as serde_json writes a `Value` map; each case as [`CaseSweep::write_json`] writes it,
-/// `derived` and `params` (small `Value` maps) by serde_json.
+/// The modes file, streamed as it is made: keys in alphabetical order as serde_json
+/// writes a `Value` map, each case as [`CaseSweep::write_json`] writes it.
 fn write_modes_file(
     w: &mut impl Write,
     sweeps: &[CaseSweep],

@@ -94,8 +94,7 @@ pub(crate) fn cmd_rates(a: &RatesArgs) -> Result<(), Failure> {
             }
         })?;
     out!("{}", report.render());
-    // The designs a device accepts, judged on these parameters (the lead on the full
-    // plant: what the device's table holds).
+    // The designs a device accepts, judged on these parameters.
     let design = if mode == wheelset_control::YawMode::Lead && model == Model::Full {
         let base = wheelset_control::Config {
             motor: cfg.motor,

@@ -120,8 +120,7 @@ pub(crate) fn cmd_run(a: &RunArgs) -> Result<(), Failure> {
             msg: "--at: only for the continuous loop (the default --loop)".into(),
         });
     }
-    // Every trajectory kept at once: this one, the compared ones, and on the device loop
-    // the continuous reference (the device's own records are checked with its rate).
+    // Every trajectory kept at once: this one, the compared ones, the device's reference.
     let kept = 1
         + a.compare.iter().filter(|&&c| c != a.control).count() as u64
         + u64::from(a.device.loop_kind == LoopKind::Device);
@@ -173,8 +172,8 @@ pub(crate) fn cmd_run(a: &RunArgs) -> Result<(), Failure> {
     judge_divergence(a, main)
 }
 
-/// Prints the linearised modes of the scenario's plant with `law` at its operating point
-/// (pure rolling, straight track, the scenario's creep coefficients), least damped first.
+/// Prints the linearised modes of the scenario's plant with `law` at its operating point,
+/// least damped first.
 pub(crate) fn print_modes(sc: &Scenario, law: Control) {
     let Some(modes) =
         wheelset_plant::modes::modes_at_point(&sc.params, sc.axle, sc.drive, law.into())
@@ -268,7 +267,7 @@ pub(crate) fn print_at(runs: &[Trajectory], at: &[f64]) {
 }
 
 /// `--loop core`: the f64 control core on the plant; with `--plot` and `[[adhesion]]`
-/// sections also the traction figure with and without protection (`adhesion.svg`).
+/// sections also `adhesion.svg` with and without protection.
 pub(crate) fn cmd_run_core(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
     use wheelset_loop::core::run_core;
     let fail = |e: wheelset_loop::core::CoreError| Failure {
@@ -358,8 +357,7 @@ pub(crate) fn cmd_run_core(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
     verdict
 }
 
-/// The summary JSON of a run (`--json`): the run's description, and with `[[adhesion]]`
-/// sections the `adhesion` object; prints the sections table.
+/// The summary JSON of a run (`--json`) with the `adhesion` object; prints the sections table.
 pub(crate) fn write_run_summary(
     path: &Option<PathBuf>,
     sc: &Scenario,

@@ -1,12 +1,5 @@
 //! Heat maps: a grid of coloured cells over two categorical axes (a parameter campaign's
 //! grid), each cell with an optional text, and a legend of the colours.
-//!
-//! ```
-//! use wheelset_report::svg::heatmap::{Cell, HeatMap};
-//! let h = HeatMap::new("verdicts", vec!["1e6".into(), "1e7".into()], vec!["0.1".into()])
-//!     .cells(vec![Cell::new("#009E73", "pass"), Cell::new("#D55E00", "fail")]);
-//! assert_eq!(h.to_svg().matches("<rect class=\"cell\"").count(), 2);
-//! ```
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -47,8 +40,7 @@ pub struct HeatMap {
     pub x_ticks: Vec<String>,
     /// Row labels, bottom to top.
     pub y_ticks: Vec<String>,
-    /// `y_ticks.len() * x_ticks.len()` cells, row by row from the bottom; missing cells
-    /// are drawn empty.
+    /// `y_ticks.len() * x_ticks.len()` cells, row by row from the bottom (missing: empty).
     pub cells: Vec<Cell>,
     /// Legend entries `(colour, label)`, right of the map.
     pub legend: Vec<(String, String)>,
@@ -254,8 +246,8 @@ pub fn stack(title: &str, maps: &[HeatMap]) -> String {
     o
 }
 
-/// A sequential colour for `t` in `[0, 1]` (clamped; NaN: grey): five stops of the
-/// viridis map, linearly interpolated in sRGB.
+/// A sequential colour for `t` in `[0, 1]` (clamped; NaN: grey): five stops of viridis,
+/// interpolated in sRGB.
 #[must_use]
 pub fn sequential(t: f64) -> String {
     const STOPS: [(u8, u8, u8); 5] = [
