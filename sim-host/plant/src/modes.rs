@@ -330,29 +330,9 @@ pub struct ModeValue {
 
 impl ModeValue {
     fn new(name: &str, l: Complex<f64>) -> Self {
-        let m = ModeNumbers::new(l);
+        let mag = l.norm();
         ModeValue {
             name: name.to_string(),
-            re: m.re,
-            im: m.im,
-            freq_hz: m.freq_hz,
-            zeta: m.zeta,
-        }
-    }
-}
-
-/// The numbers of a [`ModeValue`] (for writers that need no name string).
-struct ModeNumbers {
-    freq_hz: f64,
-    im: f64,
-    re: f64,
-    zeta: f64,
-}
-
-impl ModeNumbers {
-    fn new(l: Complex<f64>) -> Self {
-        let mag = l.norm();
-        ModeNumbers {
             re: l.re,
             im: l.im.abs(),
             freq_hz: l.im.abs() / (2.0 * PI),

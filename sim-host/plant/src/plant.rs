@@ -3,7 +3,6 @@
 //! precision). States, units and sign conventions: [`ix`] and the book's chapter.
 //! The passive yaw spring is in the plant only with [`PlantConfig::yaw_spring`]: the
 //! active modes replace it by the actuator's `T_psi`.
-//! demand acts directly as the torque [`Inputs::t_drive`] on the left wheel.
 
 use crate::adhesion::Adhesion;
 use crate::params::Params;

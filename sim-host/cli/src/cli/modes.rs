@@ -1,11 +1,10 @@
 //! `sim-host modes`: the modal analysis along the creep sweep.
 
 use clap::ValueEnum;
+use serde::{Serialize, Serializer};
 use std::io::Write;
 use std::path::PathBuf;
-use wheelset_plant::modes::{
-    creep_grid, sweep_case, write_json_number, write_json_string, Case, CaseSweep,
-};
+use wheelset_plant::modes::{creep_grid, sweep_case, Case, CaseSweep};
 use wheelset_report::outln;
 
 use super::{io_fail, load_params, warn, Failure};
@@ -158,7 +157,16 @@ pub(crate) fn cmd_modes(a: &ModesArgs) -> Result<(), Failure> {
     }
     let out = std::fs::File::create(&a.json).map_err(|e| io_fail(&a.json, e))?;
     let mut out = std::io::BufWriter::with_capacity(1 << 16, out);
-    write_modes_file(&mut out, &sweeps, &derived, &p, &params)
+    let file = ModesFile {
+        cases: Cases(&sweeps),
+        derived: &derived,
+        kinematic_hz: p.kinematic_hz(),
+        note: "structural zero eigenvalue (free rolling at any speed) reported as structural_zero and excluded from stability verdicts",
+        params: &params,
+        speed_mps: p.v,
+    };
+    serde_json::to_writer(&mut out, &file)
+        .map_err(std::io::Error::from)
         .and_then(|()| out.flush())
         .map_err(|e| io_fail(&a.json, e))?;
     outln!("json: {}", a.json.display());
@@ -171,34 +179,22 @@ pub(crate) fn cmd_modes(a: &ModesArgs) -> Result<(), Failure> {
     Ok(())
 }
 
-/// The modes file, streamed as it is made: keys in alphabetical order as serde_json
-/// writes a `Value` map, each case as [`CaseSweep::write_json`] writes it.
-fn write_modes_file(
-    w: &mut impl Write,
-    sweeps: &[CaseSweep],
-    derived: &serde_json::Value,
-    p: &wheelset_plant::params::Params,
-    params: &serde_json::Value,
-) -> std::io::Result<()> {
-    w.write_all(b"{\"cases\":[")?;
-    for (i, sw) in sweeps.iter().enumerate() {
-        if i > 0 {
-            w.write_all(b",")?;
-        }
-        sw.write_json(w)?;
+/// The modes file: keys in alphabetical order as serde_json writes a `Value` map.
+#[derive(Serialize)]
+struct ModesFile<'a> {
+    cases: Cases<'a>,
+    derived: &'a serde_json::Value,
+    kinematic_hz: f64,
+    note: &'a str,
+    params: &'a serde_json::Value,
+    speed_mps: f64,
+}
+
+/// The cases' sweeps, each made into its JSON form only as it is written.
+struct Cases<'a>(&'a [CaseSweep]);
+
+impl Serialize for Cases<'_> {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_seq(self.0.iter().map(CaseSweep::to_json))
     }
-    w.write_all(b"],\"derived\":")?;
-    serde_json::to_writer(&mut *w, derived)?;
-    w.write_all(b",\"kinematic_hz\":")?;
-    write_json_number(w, p.kinematic_hz())?;
-    w.write_all(b",\"note\":")?;
-    write_json_string(
-        w,
-        "structural zero eigenvalue (free rolling at any speed) reported as structural_zero and excluded from stability verdicts",
-    )?;
-    w.write_all(b",\"params\":")?;
-    serde_json::to_writer(&mut *w, params)?;
-    w.write_all(b",\"speed_mps\":")?;
-    write_json_number(w, p.v)?;
-    w.write_all(b"}")
 }
