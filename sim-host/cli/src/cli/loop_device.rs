@@ -6,7 +6,7 @@ use wheelset_plant::scenario::Scenario;
 use wheelset_report::{out, outln};
 
 use super::run::{print_summary, write_run_summary, RunArgs};
-use super::{io_fail, simulate, warn, Failure};
+use super::{create_file, io_fail, simulate, warn, Failure};
 
 /// Which controllers close the loop.
 #[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
@@ -266,11 +266,7 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
     );
     outln!("vs continuous reference: {}", acc.finish());
     if let Some(path) = &a.csv {
-        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir).map_err(|e| io_fail(dir, e))?;
-        }
-        let f = std::fs::File::create(path).map_err(|e| io_fail(path, e))?;
-        run.write_csv(std::io::BufWriter::new(f))
+        run.write_csv(create_file(path)?)
             .map_err(|e| io_fail(path, e))?;
         outln!(
             "csv: {} ({} rows)",

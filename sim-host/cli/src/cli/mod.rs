@@ -14,6 +14,7 @@ pub(crate) use rates::{cmd_rates, RatesArgs};
 pub(crate) use run::{cmd_run, RunArgs};
 
 use clap::ValueEnum;
+use std::io::{BufWriter, Write};
 use std::path::PathBuf;
 use wheelset_plant::control::YawLaw;
 use wheelset_plant::error::ConfigError;
@@ -101,16 +102,22 @@ pub(crate) fn warn(msg: &str) {
     eprintln!("sim-host: warning: {msg}");
 }
 
-/// Writes `value` as pretty JSON to `path` (directories created).
-pub(crate) fn write_json(path: &std::path::Path, value: &serde_json::Value) -> Result<(), Failure> {
+/// Creates the file `path` (its directories too), buffered.
+pub(crate) fn create_file(path: &std::path::Path) -> Result<BufWriter<std::fs::File>, Failure> {
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(|e| io_fail(dir, e))?;
     }
-    let text = serde_json::to_string_pretty(value).map_err(|e| Failure {
-        code: 1,
-        msg: format!("{}: {e}", path.display()),
-    })?;
-    std::fs::write(path, text).map_err(|e| io_fail(path, e))?;
+    let f = std::fs::File::create(path).map_err(|e| io_fail(path, e))?;
+    Ok(BufWriter::with_capacity(1 << 16, f))
+}
+
+/// Writes `value` as pretty JSON to `path` (directories created).
+pub(crate) fn write_json(path: &std::path::Path, value: &serde_json::Value) -> Result<(), Failure> {
+    let mut f = create_file(path)?;
+    serde_json::to_writer_pretty(&mut f, value)
+        .map_err(std::io::Error::from)
+        .and_then(|()| f.flush())
+        .map_err(|e| io_fail(path, e))?;
     outln!("json: {}", path.display());
     Ok(())
 }

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use wheelset_plant::modes::{creep_grid, sweep_case, Case, CaseSweep};
 use wheelset_report::outln;
 
-use super::{io_fail, load_params, warn, Failure};
+use super::{create_file, io_fail, load_params, warn, Failure};
 
 /// Analysis case of docs/model.md.
 #[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
@@ -152,11 +152,7 @@ pub(crate) fn cmd_modes(a: &ModesArgs) -> Result<(), Failure> {
         code: 1,
         msg: e.to_string(),
     })?;
-    if let Some(dir) = a.json.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(|e| io_fail(dir, e))?;
-    }
-    let out = std::fs::File::create(&a.json).map_err(|e| io_fail(&a.json, e))?;
-    let mut out = std::io::BufWriter::with_capacity(1 << 16, out);
+    let mut out = create_file(&a.json)?;
     let file = ModesFile {
         cases: Cases(&sweeps),
         derived: &derived,

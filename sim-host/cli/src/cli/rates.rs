@@ -4,7 +4,8 @@ use clap::ValueEnum;
 use std::path::PathBuf;
 use wheelset_report::{out, outln};
 
-use super::{io_fail, load_params, Control, Failure};
+use super::{create_file, io_fail, load_params, Control, Failure};
+use std::io::Write;
 
 /// Plant of the rate analysis.
 #[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
@@ -125,9 +126,6 @@ pub(crate) fn cmd_rates(a: &RatesArgs) -> Result<(), Failure> {
     outln!();
     out!("{}", link.render());
     if let Some(path) = &a.json {
-        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir).map_err(|e| io_fail(dir, e))?;
-        }
         let mut json = report.to_json();
         if let Some(obj) = json.as_object_mut() {
             if let Some(d) = design {
@@ -139,7 +137,10 @@ pub(crate) fn cmd_rates(a: &RatesArgs) -> Result<(), Failure> {
             code: 1,
             msg: format!("JSON: {e}"),
         })?;
-        std::fs::write(path, text).map_err(|e| io_fail(path, e))?;
+        let mut f = create_file(path)?;
+        f.write_all(text.as_bytes())
+            .and_then(|()| f.flush())
+            .map_err(|e| io_fail(path, e))?;
         outln!("wrote {}", path.display());
     }
     Ok(())

@@ -7,7 +7,9 @@ use wheelset_plant::sim::Trajectory;
 use wheelset_report::outln;
 
 use super::loop_device::{cmd_run_device, DeviceArgs, LoopKind, OnOff};
-use super::{check_outputs, io_fail, load_params, simulate, warn, write_json, Control, Failure};
+use super::{
+    check_outputs, create_file, io_fail, load_params, simulate, warn, write_json, Control, Failure,
+};
 
 #[derive(clap::Args)]
 pub(crate) struct RunArgs {
@@ -154,11 +156,7 @@ pub(crate) fn cmd_run(a: &RunArgs) -> Result<(), Failure> {
     print_at(&runs, &a.at);
     write_run_summary(&a.json, &sc, main, None)?;
     if let Some(path) = &a.csv {
-        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir).map_err(|e| io_fail(dir, e))?;
-        }
-        let f = std::fs::File::create(path).map_err(|e| io_fail(path, e))?;
-        main.write_csv(std::io::BufWriter::new(f))
+        main.write_csv(create_file(path)?)
             .map_err(|e| io_fail(path, e))?;
         outln!("csv: {} ({} rows)", path.display(), main.records.len());
     }
@@ -303,11 +301,7 @@ pub(crate) fn cmd_run_core(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
     );
     write_run_summary(&a.json, sc, &tr, Some(wsp))?;
     if let Some(path) = &a.csv {
-        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir).map_err(|e| io_fail(dir, e))?;
-        }
-        let f = std::fs::File::create(path).map_err(|e| io_fail(path, e))?;
-        tr.write_csv(std::io::BufWriter::new(f))
+        tr.write_csv(create_file(path)?)
             .map_err(|e| io_fail(path, e))?;
         outln!("csv: {} ({} rows)", path.display(), tr.records.len());
     }
