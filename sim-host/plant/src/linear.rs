@@ -6,7 +6,7 @@
 
 use crate::control::{closed_loop_rhs, ContinuousController, Exogenous, YawLaw};
 use crate::params::Params;
-use crate::plant::{ix, Inputs, Plant, PlantConfig, State, NX, STATE_NAMES};
+use crate::plant::{ix, Inputs, Plant, PlantConfig, State, NX};
 use crate::scenario::Axle;
 use nalgebra::{Complex, DMatrix, SMatrix};
 
@@ -335,24 +335,12 @@ pub fn closed_loop_a_into(
 pub struct LinearModel {
     /// State matrix, `n x n`.
     pub a: DMatrix<f64>,
-    /// Input matrix, `n x 2`, inputs [`LinearModel::INPUTS`].
+    /// Input matrix, `n x 2`: `T_psi` (N m), `u_a` (V).
     pub b: DMatrix<f64>,
-    /// Output matrix, `3 x n`, outputs [`LinearModel::OUTPUTS`].
+    /// Output matrix, `3 x n`: `y'` (m/s), `i_a` (A), `theta_m'` (rad/s).
     pub c: DMatrix<f64>,
     /// Which full-state slot each state is ([`crate::plant::ix`]).
     pub states: Vec<usize>,
-}
-
-impl LinearModel {
-    /// Input names and units.
-    pub const INPUTS: [&'static str; 2] = ["T_psi_Nm", "u_a_V"];
-    /// Output names and units.
-    pub const OUTPUTS: [&'static str; 3] = ["yd_mps", "i_a_A", "w_m_radps"];
-
-    /// State names (CSV-style, with units).
-    pub fn state_names(&self) -> Vec<&'static str> {
-        self.states.iter().map(|&i| STATE_NAMES[i]).collect()
-    }
 }
 
 /// The open-loop plant linearised at pure rolling on straight track, inputs `T_psi`

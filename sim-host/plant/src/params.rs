@@ -226,11 +226,6 @@ impl Params {
             .unwrap_or_else(|| (self.m + self.m_v / 2.0) * self.g / 2.0)
     }
 
-    /// Motor speed at pure rolling, `n v / r0`, rad/s.
-    pub fn rolling_motor_speed(&self) -> f64 {
-        self.n_gear * self.v / self.r0
-    }
-
     /// The list of values with their keys (for reports and validation).
     pub fn entries(&self) -> Vec<(&'static str, f64)> {
         vec![
@@ -375,7 +370,7 @@ mod tests {
         let y0 = p.pure_rolling_y(1.0 / 2300.0);
         assert!((y0 - 0.685e-3).abs() < 0.001e-3, "{y0}");
         // back-EMF at 83.3 m/s: about 3961 V.
-        assert!((p.k_m * p.rolling_motor_speed() - 3961.0).abs() < 2.0);
+        assert!((p.k_m * p.n_gear * p.v / p.r0 - 3961.0).abs() < 2.0);
     }
 
     #[test]

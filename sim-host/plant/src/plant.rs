@@ -257,46 +257,20 @@ macro_rules! with_creep_law {
 #[macro_export]
 macro_rules! with_flags {
     ($cfg:expr, $f:ident => $body:expr) => {{
-        use $crate::plant::Fixed;
         let cfg: $crate::plant::PlantConfig = $cfg;
-        match (
-            cfg.axle == $crate::scenario::Axle::Flexible,
-            cfg.drive,
-            cfg.yaw_spring,
-        ) {
-            (false, false, false) => {
-                let $f = Fixed::<false, false, false>;
-                $body
-            }
-            (false, false, true) => {
-                let $f = Fixed::<false, false, true>;
-                $body
-            }
-            (false, true, false) => {
-                let $f = Fixed::<false, true, false>;
-                $body
-            }
-            (false, true, true) => {
-                let $f = Fixed::<false, true, true>;
-                $body
-            }
-            (true, false, false) => {
-                let $f = Fixed::<true, false, false>;
-                $body
-            }
-            (true, false, true) => {
-                let $f = Fixed::<true, false, true>;
-                $body
-            }
-            (true, true, false) => {
-                let $f = Fixed::<true, true, false>;
-                $body
-            }
-            (true, true, true) => {
-                let $f = Fixed::<true, true, true>;
-                $body
-            }
+        let flexible = cfg.axle == $crate::scenario::Axle::Flexible;
+        $crate::with_flags!(@ [flexible, cfg.drive, cfg.yaw_spring] [] $f => $body)
+    }};
+    (@ [$c:expr $(, $rest:expr)*] [$($b:tt)*] $f:ident => $body:expr) => {
+        if $c {
+            $crate::with_flags!(@ [$($rest),*] [$($b)* true] $f => $body)
+        } else {
+            $crate::with_flags!(@ [$($rest),*] [$($b)* false] $f => $body)
         }
+    };
+    (@ [] [$x:tt $y:tt $z:tt] $f:ident => $body:expr) => {{
+        let $f = $crate::plant::Fixed::<$x, $y, $z>;
+        $body
     }};
 }
 
