@@ -120,11 +120,9 @@ enum Expect {
     Ok { reset: bool },
     /// An error counter (index 1-5).
     Err(usize),
-    /// The host's decoder says length or postcard error (index 4 or 5): the device's
-    /// request decoder rejects it the same way, or, for a frame of a type it does not
-    /// take (Actuation, Status), counts it unexpected (index 6) without decoding it, or,
-    /// for a postcard error that is an undefined Command variant or Config mode, counts
-    /// it valid (an unknown request, refused).
+    /// The host's decoder says length or postcard error (index 4 or 5): the device
+    /// rejects it the same way, counts a frame of a type it does not take unexpected
+    /// (6), or counts an undefined Command variant or Config mode valid (refused).
     ErrOrUnexpected(usize),
     /// A valid frame of a device -> host type: `rx_unexpected` only (index 6).
     Unexpected,

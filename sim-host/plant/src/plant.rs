@@ -86,51 +86,37 @@ pub trait Scalar:
     fn exp(self) -> Self;
 }
 
-impl Scalar for f64 {
-    #[inline(always)]
-    fn c(x: f64) -> Self {
-        x
-    }
-    #[inline(always)]
-    fn re(self) -> f64 {
-        self
-    }
-    #[inline(always)]
-    fn sqrt(self) -> Self {
-        f64::sqrt(self)
-    }
-    #[inline(always)]
-    fn atan(self) -> Self {
-        f64::atan(self)
-    }
-    #[inline(always)]
-    fn exp(self) -> Self {
-        f64::exp(self)
-    }
+/// [`Scalar`] for `$t`, whose `sqrt`, `atan` and `exp` are its own.
+macro_rules! scalar {
+    ($t:ty, $lift:expr, $re:expr) => {
+        impl Scalar for $t {
+            #[inline(always)]
+            fn c(x: f64) -> Self {
+                $lift(x)
+            }
+            #[inline(always)]
+            fn re(self) -> f64 {
+                $re(self)
+            }
+            #[inline(always)]
+            fn sqrt(self) -> Self {
+                <$t>::sqrt(self)
+            }
+            #[inline(always)]
+            fn atan(self) -> Self {
+                <$t>::atan(self)
+            }
+            #[inline(always)]
+            fn exp(self) -> Self {
+                <$t>::exp(self)
+            }
+        }
+    };
 }
 
-impl Scalar for Complex<f64> {
-    #[inline(always)]
-    fn c(x: f64) -> Self {
-        Complex::new(x, 0.0)
-    }
-    #[inline(always)]
-    fn re(self) -> f64 {
-        self.re
-    }
-    #[inline(always)]
-    fn sqrt(self) -> Self {
-        Complex::sqrt(self)
-    }
-    #[inline(always)]
-    fn atan(self) -> Self {
-        Complex::atan(self)
-    }
-    #[inline(always)]
-    fn exp(self) -> Self {
-        Complex::exp(self)
-    }
-}
+scalar!(f64, |x| x, |x| x);
+scalar!(Complex<f64>, |x| Complex::new(x, 0.0), |z: Complex<f64>| z
+    .re);
 
 /// Which parts of the plant are present.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
