@@ -2,6 +2,7 @@
 //! summary and the run's JSON summary.
 
 use std::path::PathBuf;
+use wheelset_plant::control::YawLaw;
 use wheelset_plant::scenario::Scenario;
 use wheelset_plant::sim::Trajectory;
 use wheelset_report::outln;
@@ -155,19 +156,24 @@ pub(crate) fn cmd_run(a: &RunArgs) -> Result<(), Failure> {
     print_modes(&sc, a.control);
     print_at(&runs, &a.at);
     write_run_summary(&a.json, &sc, main, None)?;
-    if let Some(path) = &a.csv {
+    write_csv_and_plots(a, &runs)?;
+    judge_divergence(a, main)
+}
+
+/// `--csv` of the first run and `--plot` of them all (the others overlaid).
+fn write_csv_and_plots(a: &RunArgs, runs: &[Trajectory]) -> Result<(), Failure> {
+    if let (Some(path), Some(main)) = (&a.csv, runs.first()) {
         main.write_csv(create_file(path)?)
             .map_err(|e| io_fail(path, e))?;
         outln!("csv: {} ({} rows)", path.display(), main.records.len());
     }
     if let Some(dir) = &a.plot {
-        let files =
-            crate::figures::write_time_histories(&runs, dir).map_err(|e| io_fail(dir, e))?;
+        let files = crate::figures::write_time_histories(runs, dir).map_err(|e| io_fail(dir, e))?;
         for f in files {
             outln!("plot: {}", f.display());
         }
     }
-    judge_divergence(a, main)
+    Ok(())
 }
 
 /// Prints the linearised modes of the scenario's plant with `law` at its operating point,
@@ -275,14 +281,10 @@ pub(crate) fn cmd_run_core(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
     if a.sections_table {
         let on = run_core::<f64>(sc, a.control.into(), true).map_err(fail)?;
         let off = run_core::<f64>(sc, a.control.into(), false).map_err(fail)?;
-        let law = match a.control {
-            Control::Passive => "passive",
-            Control::Gain => "gain",
-            Control::Lead => "lead",
-        };
         let shown = format!(
-            "cargo sim run --scenario {} --control {law} --loop core --sections-table",
-            a.scenario
+            "cargo sim run --scenario {} --control {} --loop core --sections-table",
+            a.scenario,
+            YawLaw::from(a.control).name()
         );
         let table =
             wheelset_plant::traction::sections_table(sc, &on.0, &off.0, &shown).unwrap_or_default();
@@ -300,40 +302,30 @@ pub(crate) fn cmd_run_core(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
         c.wsp_ticks
     );
     write_run_summary(&a.json, sc, &tr, Some(wsp))?;
-    if let Some(path) = &a.csv {
-        tr.write_csv(create_file(path)?)
-            .map_err(|e| io_fail(path, e))?;
-        outln!("csv: {} ({} rows)", path.display(), tr.records.len());
+    let mut runs = vec![tr];
+    if a.plot.is_some() {
+        runs.extend(a.compare.iter().map(|&k| simulate(sc, k)));
     }
+    write_csv_and_plots(a, &runs)?;
     if let Some(dir) = &a.plot {
-        let mut runs = vec![tr];
-        for &k in &a.compare {
-            runs.push(simulate(sc, k));
-        }
-        let files =
-            crate::figures::write_time_histories(&runs, dir).map_err(|e| io_fail(dir, e))?;
-        for f in files {
-            outln!("plot: {}", f.display());
-        }
         if !sc.adhesion.is_empty() {
             use crate::figures::FigureRun;
             let (other, oc) = run_core::<f64>(sc, a.control.into(), !wsp).map_err(fail)?;
+            let label = |on: bool| {
+                if on {
+                    "protection on"
+                } else {
+                    "protection off"
+                }
+            };
             let (main, other) = (
                 FigureRun {
-                    label: if wsp {
-                        "protection on"
-                    } else {
-                        "protection off"
-                    },
+                    label: label(wsp),
                     tr: &runs[0],
                     set_point: &c.set_point,
                 },
                 FigureRun {
-                    label: if wsp {
-                        "protection off"
-                    } else {
-                        "protection on"
-                    },
+                    label: label(!wsp),
                     tr: &other,
                     set_point: &oc.set_point,
                 },
