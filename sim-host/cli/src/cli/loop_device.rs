@@ -115,25 +115,16 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
     let wsp = d.wsp != Some(OnOff::Off);
     let latency_us = d.latency_us.unwrap_or(2.0);
     if !(latency_us.is_finite() && (0.0..=MAX_LATENCY_US).contains(&latency_us)) {
-        return Err(Failure {
-            code: 2,
-            msg: format!(
-                "--latency-us {latency_us:e}: must be a finite value in [0, {MAX_LATENCY_US:e}] us"
-            ),
-        });
+        return Err(Failure::bad(format!(
+            "--latency-us {latency_us:e}: must be a finite value in [0, {MAX_LATENCY_US:e}] us"
+        )));
     }
     let baud = d.baud.unwrap_or(wheelset_loop::sim_link::DEFAULT_BAUD);
     if baud == 0 {
-        return Err(Failure {
-            code: 2,
-            msg: "--baud 0: must be positive".into(),
-        });
+        return Err(Failure::bad("--baud 0: must be positive".into()));
     }
     if d.rate_hz == Some(0) {
-        return Err(Failure {
-            code: 2,
-            msg: "--rate-hz 0: must be positive".into(),
-        });
+        return Err(Failure::bad("--rate-hz 0: must be positive".into()));
     }
     let delay_ticks = d.delay_ticks.unwrap_or(1);
     // The longest delay the device's table of designs holds.
@@ -143,22 +134,15 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
         .max()
         .unwrap_or(1);
     if !(1..=max_delay).contains(&delay_ticks) {
-        return Err(Failure {
-            code: 2,
-            msg: format!(
-                "--delay-ticks {delay_ticks}: must be 1 ..= {max_delay} (the delays the \
+        return Err(Failure::bad(format!(
+            "--delay-ticks {delay_ticks}: must be 1 ..= {max_delay} (the delays the \
                  device's gains are designed for)"
-            ),
-        });
+        )));
     }
     let faults_spec = d.faults.clone().unwrap_or_default();
-    let faults: wheelset_loop::sim_link::Faults =
-        faults_spec
-            .parse()
-            .map_err(|e: wheelset_loop::sim_link::FaultSpecError| Failure {
-                code: 2,
-                msg: e.to_string(),
-            })?;
+    let faults: wheelset_loop::sim_link::Faults = faults_spec
+        .parse()
+        .map_err(|e: wheelset_loop::sim_link::FaultSpecError| Failure::bad(e.to_string()))?;
     let opt = DeviceOptions {
         link: wheelset_loop::sim_link::LinkConfig {
             baud,
@@ -182,28 +166,20 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
     let period_ns = 1_000_000_000 / u64::from(hz.max(1));
     let kept = 2 + a.compare.iter().filter(|&&c| c != a.control).count() as u64;
     wheelset_plant::memory::check_runs(sc.duration_ns, sc.output_dt_ns, Some(period_ns), kept)
-        .map_err(|msg| Failure {
-            code: 2,
-            msg: format!("{}: {msg}", sc.source),
-        })?;
+        .map_err(|msg| Failure::bad(format!("{}: {msg}", sc.source)))?;
     let rt = wheelset_loop::device_loop::runtime_config(sc, a.control.into(), &opt);
     if let Some(why) = wheelset_loop::device_loop::base_rate_refusal(&rt) {
-        return Err(Failure {
-            code: 2,
-            msg: if delay_ticks > 1 {
-                format!("--rate-hz {hz} --delay-ticks {delay_ticks}: {why}")
-            } else {
-                format!("--rate-hz {hz}: {why}")
-            },
-        });
+        return Err(Failure::bad(if delay_ticks > 1 {
+            format!("--rate-hz {hz} --delay-ticks {delay_ticks}: {why}")
+        } else {
+            format!("--rate-hz {hz}: {why}")
+        }));
     }
     if let Some(w) = wheelset_loop::rate_check::warning(sc, a.control.into(), hz, delay_ticks) {
         warn(&w);
     }
-    let mut run = run_device(sc, a.control.into(), &opt).map_err(|e| Failure {
-        code: 2,
-        msg: e.to_string(),
-    })?;
+    let mut run =
+        run_device(sc, a.control.into(), &opt).map_err(|e| Failure::bad(e.to_string()))?;
     print_summary(sc, &run.trajectory);
     let mut verdict = super::run::judge_divergence(a, &run.trajectory);
     if let Some(s) = &run.report.device {
@@ -222,12 +198,11 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
         .as_ref()
         .is_some_and(|s| s.drive_alarms > 0);
     if drive && verdict.is_ok() && !a.expect_divergence {
-        verdict = Err(Failure {
-            code: 1,
-            msg: "the traction current loop limit-cycled (the device's drive alarm, \
+        verdict = Err(Failure::failed(
+            "the traction current loop limit-cycled (the device's drive alarm, \
                   above); add --expect-divergence if that is the run's point"
                 .into(),
-        });
+        ));
     }
     write_run_summary(&a.json, sc, &run.trajectory, Some(wsp))?;
     outln!(

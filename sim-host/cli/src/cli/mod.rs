@@ -50,20 +50,26 @@ pub(crate) struct Failure {
     pub(crate) msg: String,
 }
 
+impl Failure {
+    /// Bad usage or input: exit code 2.
+    pub(crate) fn bad(msg: String) -> Self {
+        Failure { code: 2, msg }
+    }
+
+    /// Any other failure: exit code 1.
+    pub(crate) fn failed(msg: String) -> Self {
+        Failure { code: 1, msg }
+    }
+}
+
 impl From<ConfigError> for Failure {
     fn from(e: ConfigError) -> Self {
-        Failure {
-            code: 2,
-            msg: e.to_string(),
-        }
+        Failure::bad(e.to_string())
     }
 }
 
 pub(crate) fn io_fail(what: &std::path::Path, e: std::io::Error) -> Failure {
-    Failure {
-        code: 1,
-        msg: format!("{}: cannot write: {e}", what.display()),
-    }
+    Failure::failed(format!("{}: cannot write: {e}", what.display()))
 }
 
 /// Checks the output paths before any work (`wheelset_report::output`): `files` and `dirs` as
@@ -72,15 +78,14 @@ pub(crate) fn check_outputs(
     files: &[(&str, Option<&std::path::Path>)],
     dirs: &[(&str, Option<&std::path::Path>)],
 ) -> Result<(), Failure> {
-    let bad = |msg: String| Failure { code: 2, msg };
     for (flag, p) in files {
         if let Some(p) = p {
-            wheelset_report::output::check_file_flag(flag, p).map_err(bad)?;
+            wheelset_report::output::check_file_flag(flag, p).map_err(Failure::bad)?;
         }
     }
     for (flag, d) in dirs {
         if let Some(d) = d {
-            wheelset_report::output::check_dir_flag(flag, d).map_err(bad)?;
+            wheelset_report::output::check_dir_flag(flag, d).map_err(Failure::bad)?;
         }
     }
     Ok(())

@@ -68,7 +68,7 @@ pub(crate) fn cmd_modes(a: &ModesArgs) -> Result<(), Failure> {
         Some(CaseArg::D) => vec![Case::D],
     };
     wheelset_plant::memory::check_modes(u64::from(a.points), cases.len() as u64)
-        .map_err(|msg| Failure { code: 2, msg })?;
+        .map_err(Failure::bad)?;
     super::check_outputs(
         &[("--json", Some(a.json.as_path()))],
         &[("--plot", a.plot.as_deref())],
@@ -77,10 +77,8 @@ pub(crate) fn cmd_modes(a: &ModesArgs) -> Result<(), Failure> {
     let pb = progress((grid.len() * cases.len()) as u64, "modal sweep");
     let mut sweeps = Vec::new();
     for &case in &cases {
-        let sw = sweep_case(&p, case, &grid, || pb.inc(1)).map_err(|e| Failure {
-            code: 1,
-            msg: e.to_string(),
-        })?;
+        let sw = sweep_case(&p, case, &grid, || pb.inc(1))
+            .map_err(|e| Failure::failed(e.to_string()))?;
         sweeps.push(sw);
     }
     pb.finish_and_clear();
@@ -148,10 +146,7 @@ pub(crate) fn cmd_modes(a: &ModesArgs) -> Result<(), Failure> {
     let derived = serde_json::json!({
         "k_t": p.k_t(), "k_gear": p.k_gear(), "y0_at_2300m": p.pure_rolling_y(1.0 / 2300.0)
     });
-    let params = serde_json::to_value(&p).map_err(|e| Failure {
-        code: 1,
-        msg: e.to_string(),
-    })?;
+    let params = serde_json::to_value(&p).map_err(|e| Failure::failed(e.to_string()))?;
     let mut out = create_file(&a.json)?;
     let file = ModesFile {
         cases: Cases(&sweeps),

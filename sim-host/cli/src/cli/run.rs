@@ -64,14 +64,12 @@ pub(crate) fn judge_divergence(a: &RunArgs, tr: &Trajectory) -> Result<(), Failu
             outln!("diverged as expected (--expect-divergence): {stop}");
             Ok(())
         }
-        (Some(stop), false) => Err(Failure {
-            code: 1,
-            msg: format!("the run diverged: {stop} (add --expect-divergence if that is its point)"),
-        }),
-        (None, true) => Err(Failure {
-            code: 1,
-            msg: "--expect-divergence: the run did not diverge".into(),
-        }),
+        (Some(stop), false) => Err(Failure::failed(format!(
+            "the run diverged: {stop} (add --expect-divergence if that is its point)"
+        ))),
+        (None, true) => Err(Failure::failed(
+            "--expect-divergence: the run did not diverge".into(),
+        )),
         (None, false) => Ok(()),
     }
 }
@@ -79,9 +77,7 @@ pub(crate) fn judge_divergence(a: &RunArgs, tr: &Trajectory) -> Result<(), Failu
 pub(crate) fn cmd_run(a: &RunArgs) -> Result<(), Failure> {
     if a.device.loop_kind != LoopKind::Device {
         if let Some(flag) = a.device.given().first() {
-            return Err(Failure {
-                code: 2,
-                msg: format!(
+            return Err(Failure::bad(format!(
                     "{flag}: applies only to the device loop over the simulated link (add --loop device); \
                      the {} loop has no link, rate or device",
                     if a.device.loop_kind == LoopKind::Core {
@@ -89,8 +85,7 @@ pub(crate) fn cmd_run(a: &RunArgs) -> Result<(), Failure> {
                     } else {
                         "continuous"
                     }
-                ),
-            });
+                )));
         }
     }
     let base = load_params(&a.params)?;
@@ -100,39 +95,32 @@ pub(crate) fn cmd_run(a: &RunArgs) -> Result<(), Failure> {
         &[("--plot", a.plot.as_deref())],
     )?;
     if a.sections_table && (a.device.loop_kind != LoopKind::Core || sc.adhesion.is_empty()) {
-        return Err(Failure {
-            code: 2,
-            msg: "--sections-table: only with --loop core on a scenario with [[adhesion]] \
+        return Err(Failure::bad(
+            "--sections-table: only with --loop core on a scenario with [[adhesion]] \
                   sections"
                 .into(),
-        });
+        ));
     }
     let end_s = sc.duration_ns as f64 * 1e-9;
     if let Some(t) =
         a.at.iter()
             .find(|t| !(t.is_finite() && (0.0..=end_s).contains(*t)))
     {
-        return Err(Failure {
-            code: 2,
-            msg: format!("--at {t}: must be a time within the run, 0-{end_s} s"),
-        });
+        return Err(Failure::bad(format!(
+            "--at {t}: must be a time within the run, 0-{end_s} s"
+        )));
     }
     if !a.at.is_empty() && a.device.loop_kind != LoopKind::Continuous {
-        return Err(Failure {
-            code: 2,
-            msg: "--at: only for the continuous loop (the default --loop)".into(),
-        });
+        return Err(Failure::bad(
+            "--at: only for the continuous loop (the default --loop)".into(),
+        ));
     }
     // Every trajectory kept at once: this one, the compared ones, the device's reference.
     let kept = 1
         + a.compare.iter().filter(|&&c| c != a.control).count() as u64
         + u64::from(a.device.loop_kind == LoopKind::Device);
-    wheelset_plant::memory::check_runs(sc.duration_ns, sc.output_dt_ns, None, kept).map_err(
-        |msg| Failure {
-            code: 2,
-            msg: format!("{}: {msg}", sc.source),
-        },
-    )?;
+    wheelset_plant::memory::check_runs(sc.duration_ns, sc.output_dt_ns, None, kept)
+        .map_err(|msg| Failure::bad(format!("{}: {msg}", sc.source)))?;
     for law in std::iter::once(a.control).chain(a.compare.iter().copied()) {
         if let Some(w) = sc.law_warning(law.into()) {
             warn(&w);
@@ -274,10 +262,7 @@ pub(crate) fn print_at(runs: &[Trajectory], at: &[f64]) {
 /// sections also `adhesion.svg` with and without protection.
 pub(crate) fn cmd_run_core(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
     use wheelset_loop::core::run_core;
-    let fail = |e: wheelset_loop::core::CoreError| Failure {
-        code: 2,
-        msg: e.to_string(),
-    };
+    let fail = |e: wheelset_loop::core::CoreError| Failure::bad(e.to_string());
     if a.sections_table {
         let on = run_core::<f64>(sc, a.control.into(), true).map_err(fail)?;
         let off = run_core::<f64>(sc, a.control.into(), false).map_err(fail)?;
