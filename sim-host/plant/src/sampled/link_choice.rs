@@ -59,42 +59,35 @@ fn fits(p: &DesignPoint, baud: u32, latency_ns: u64) -> bool {
     .is_ok()
 }
 
-/// The largest latency carrying `p` at `baud` (bisection on the budget itself).
-fn max_latency(p: &DesignPoint, baud: u32) -> Option<u64> {
-    if !fits(p, baud, 0) {
-        return None;
+/// The least `x` in `lo..=hi` with `pred(x)`, for a `pred` that is false, then true, and
+/// true at `hi` (bisection).
+fn least(mut lo: u64, mut hi: u64, pred: impl Fn(u64) -> bool) -> u64 {
+    if pred(lo) {
+        return lo;
     }
-    let (mut lo, mut hi) = (0u64, 1_000_000_000u64);
     while hi - lo > 1 {
         let mid = lo + (hi - lo) / 2;
-        if fits(p, baud, mid) {
-            lo = mid;
-        } else {
+        if pred(mid) {
             hi = mid;
+        } else {
+            lo = mid;
         }
     }
-    Some(lo)
+    hi
+}
+
+/// The largest latency carrying `p` at `baud` (bisection on the budget itself).
+fn max_latency(p: &DesignPoint, baud: u32) -> Option<u64> {
+    fits(p, baud, 0).then(|| least(0, 1_000_000_000, |l| !fits(p, baud, l)) - 1)
 }
 
 /// The lowest baud carrying `p` at `latency_ns` (bisection; `None` above 1 Gbaud).
 fn min_baud(p: &DesignPoint, latency_ns: u64) -> Option<u32> {
     let top = 1_000_000_000u32;
-    if !fits(p, top, latency_ns) {
-        return None;
-    }
-    let (mut lo, mut hi) = (1u32, top);
-    if fits(p, lo, latency_ns) {
-        return Some(lo);
-    }
-    while hi - lo > 1 {
-        let mid = lo + (hi - lo) / 2;
-        if fits(p, mid, latency_ns) {
-            hi = mid;
-        } else {
-            lo = mid;
-        }
-    }
-    Some(hi)
+    fits(p, top, latency_ns).then(|| {
+        let b = least(1, u64::from(top), |b| fits(p, b as u32, latency_ns));
+        b as u32
+    })
 }
 
 /// Every designed point with a delay up to `max_delay` ticks against a link of `baud`
