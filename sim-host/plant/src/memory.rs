@@ -14,8 +14,7 @@ pub const RECORD_BYTES: u64 = std::mem::size_of::<Record>() as u64;
 /// fate of each of the period's two frames (`wheelset-loop` asserts the size).
 pub const DEVICE_BYTES_PER_PERIOD: u64 = 24 + 16;
 
-/// Bytes per creep point and case of `sim-host modes`, with margin (6.9 kB measured as
-/// maximum resident set at 5 000 and 20 000 points).
+/// Bytes per creep point and case of `sim-host modes`: an upper bound of what a sweep keeps.
 pub const MODES_BYTES_PER_POINT: u64 = 8_000;
 
 /// Estimated bytes of a run of `duration_ns` sampled every `output_dt_ns`, plus one
