@@ -3,7 +3,7 @@
 //! slip above [`RUNAWAY_SLIP_MPS`] for [`RUNAWAY_HOLD_S`] without a break (3 m/s is past
 //! the adhesion peak of every condition, 0.2-1.5 m/s). Definitions: `docs/adhesion.md`.
 
-use crate::adhesion::{Adhesion, Condition};
+use crate::adhesion::{Adhesion, Condition, Polach};
 use crate::params::Params;
 use crate::scenario::Scenario;
 use crate::sim::{Record, Trajectory};
@@ -27,16 +27,9 @@ pub struct Characteristic {
     pub q_n: f64,
     /// Longitudinal creep coefficient `f11`, N (the slope at zero creepage).
     pub f11_n: f64,
-    /// Polach `mu0`.
-    pub mu0: f64,
-    /// Polach `A`.
-    pub a: f64,
-    /// Polach `B`, s/m.
-    pub b: f64,
-    /// Polach `kA`.
-    pub ka: f64,
-    /// Polach `kS`.
-    pub ks: f64,
+    /// Polach's parameters (flattened into the JSON).
+    #[serde(flatten)]
+    pub law: Polach,
     /// Creepage of each point, 0..=0.2.
     pub creepage: Vec<f64>,
     /// `F/Q` at each point.
@@ -66,11 +59,7 @@ pub fn characteristic(condition: Condition, v: f64, p: &Params, points: usize) -
         v_mps: v,
         q_n: q,
         f11_n: p.f11,
-        mu0: law.mu0,
-        a: law.a,
-        b: law.b,
-        ka: law.ka,
-        ks: law.ks,
+        law,
         creepage,
         force_over_q,
         mu_peak,

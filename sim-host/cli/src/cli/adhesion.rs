@@ -65,7 +65,7 @@ pub(crate) fn cmd_adhesion(a: &AdhesionArgs) -> Result<(), Failure> {
     let ch = wheelset_plant::traction::characteristic(a.condition.into(), v, &p, a.points as usize);
     outln!(
         "adhesion {}: v {} m/s, Q {:.1} N, f11 {:.3e} N, mu0 {} A {} B {} s/m kA {} kS {}; peak F/Q {:.4} at creepage {:.5} (slip {:.3} m/s)",
-        ch.condition, ch.v_mps, ch.q_n, ch.f11_n, ch.mu0, ch.a, ch.b, ch.ka, ch.ks,
+        ch.condition, ch.v_mps, ch.q_n, ch.f11_n, ch.law.mu0, ch.law.a, ch.law.b, ch.law.ka, ch.law.ks,
         ch.mu_peak, ch.creepage_peak, ch.slip_peak_mps
     );
     outln!("source: {}", ch.source);
