@@ -4,6 +4,7 @@
 //! than with `plotters`, whose SVG backend takes whole-pixel coordinates (this module
 //! writes 0.1 px, so sub-pixel traces stay smooth) and estimates text sizes.
 
+use std::fmt::Write as _;
 use std::path::Path;
 
 mod figure;
@@ -251,6 +252,50 @@ impl Plot {
             .collect();
         p
     }
+}
+
+/// The SVG document `w` px wide: `title` (28 px high, when given) over the groups
+/// `group(i, y)` of panels `heights` high, stacked from the top at `y`.
+fn document(title: &str, w: f64, heights: &[f64], group: impl Fn(usize, f64) -> String) -> String {
+    let top = if title.is_empty() { 0.0 } else { 28.0 };
+    let h = top + heights.iter().sum::<f64>();
+    let mut o = String::new();
+    let _ = writeln!(
+        o,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}">"#
+    );
+    let _ = writeln!(o, r##"<rect width="100%" height="100%" fill="#fff"/>"##);
+    if !title.is_empty() {
+        let _ = writeln!(
+            o,
+            r#"<text x="{:.1}" y="20" text-anchor="middle" font-family="sans-serif" font-size="15" font-weight="bold">{}</text>"#,
+            w / 2.0,
+            esc(title)
+        );
+    }
+    let mut y = top;
+    for (i, ph) in heights.iter().enumerate() {
+        o.push_str(&group(i, y));
+        y += ph;
+    }
+    o.push_str("</svg>\n");
+    o
+}
+
+/// The x label centred at `x_at` and the y label turned upright, centred at height `y_mid`.
+fn axis_labels(o: &mut String, x_at: (f64, f64), y_mid: f64, x_label: &str, y_label: &str) {
+    let _ = writeln!(
+        o,
+        r#"<text x="{:.1}" y="{:.1}" text-anchor="middle">{}</text>"#,
+        x_at.0,
+        x_at.1,
+        esc(x_label)
+    );
+    let _ = writeln!(
+        o,
+        r#"<text transform="translate(14,{y_mid:.1}) rotate(-90)" text-anchor="middle">{}</text>"#,
+        esc(y_label)
+    );
 }
 
 fn write_file(path: &Path, text: &str) -> std::io::Result<()> {
