@@ -374,10 +374,7 @@ impl Plot {
             );
         }
         for (k, s) in self.series.iter().enumerate() {
-            let col = s
-                .color
-                .clone()
-                .unwrap_or_else(|| PALETTE[k % PALETTE.len()].to_string());
+            let col = self.colour(k, s);
             let drawn: Vec<(f64, f64)> = s
                 .points
                 .iter()
