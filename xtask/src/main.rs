@@ -501,36 +501,26 @@ fn main() -> ExitCode {
         Some("fw") => fw(&args[1..]).map(|_| ()),
         Some("fw-bench") => match bench::parse_bench_args(&args[1..]) {
             Ok((json, check)) => bench::fw_bench(json, check),
-            Err(e) => {
-                eprintln!("xtask: {e}");
-                return ExitCode::from(2);
-            }
+            Err(e) => return usage_error(e),
         },
         Some("fuzz") => return fuzz::main(&args[1..]),
         Some("loc") => match args.get(1).map(String::as_str) {
             None => loc::main(false),
             Some("--check") => loc::main(true),
             Some(other) => {
-                eprintln!("xtask: loc: unexpected `{other}` (loc [--check])");
-                return ExitCode::from(2);
+                return usage_error(format!("loc: unexpected `{other}` (loc [--check])"))
             }
         },
         Some("mutants") => match mutants::main(&args[1..]) {
             Ok(true) => Ok(()),
             Ok(false) => return ExitCode::FAILURE,
-            Err(e) => {
-                eprintln!("xtask: {e}");
-                return ExitCode::from(2);
-            }
+            Err(e) => return usage_error(e),
         },
         Some("readme") => return readme::main(&args[1..]),
-        Some("qemu-cmd") => {
-            if let Err(e) = qemu_cmd_line(&args[1..]) {
-                eprintln!("xtask: {e}");
-                return ExitCode::from(2);
-            }
-            Ok(())
-        }
+        Some("qemu-cmd") => match qemu_cmd_line(&args[1..]) {
+            Ok(()) => Ok(()),
+            Err(e) => return usage_error(e),
+        },
         _ => {
             eprintln!(
                 "usage: cargo xtask <test [cargo test args]|fw [--f32]|fw-bench [--json FILE] [--check]|\
@@ -547,6 +537,12 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// A usage error: the message, then exit code 2.
+fn usage_error(e: impl std::fmt::Display) -> ExitCode {
+    eprintln!("xtask: {e}");
+    ExitCode::from(2)
 }
 
 /// Writes to standard output for [`out!`] and [`outln!`].
