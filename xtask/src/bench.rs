@@ -1,10 +1,8 @@
-//! `cargo xtask fw-bench [--json FILE] [--check]`: the QEMU benchmark firmware
-//! (`wheelset-qemu-bench`) built for the Cortex-M4F (`mps2-an386`) and the Cortex-M3
-//! (`mps2-an385`), fixed point and f32, run under QEMU; its `FWBENCH` lines become a
-//! table and the JSON, its measurement lines the pages' figures ([`pages`]: rewritten,
-//! or with `--check` compared); fails when the whole tick's mean on the Cortex-M4
-//! fixed-point build exceeds its budget ([`TICK_MEAN_BUDGET_INSTRUCTIONS`]) or, with
-//! `--check`, when a page's figure differs from the bench's.
+//! `cargo xtask fw-bench [--json FILE] [--check]`: the QEMU benchmark firmware, fixed
+//! point and f32, on the Cortex-M4F (`mps2-an386`) and Cortex-M3 (`mps2-an385`); its
+//! `FWBENCH` lines become a table, the JSON and the pages' figures ([`pages`]: rewritten,
+//! or compared with `--check`). Fails when the Cortex-M4 fixed-point tick's mean exceeds
+//! [`TICK_MEAN_BUDGET_INSTRUCTIONS`].
 
 use std::path::PathBuf;
 use std::process::Command;
@@ -85,9 +83,8 @@ struct BenchResult {
     stack_peak_bytes: u64,
 }
 
-/// Parses the bench's machine-readable line,
-/// `FWBENCH law <min> <mean> <max> tick <min> <mean> <max> stack <bytes>`, out of its
-/// semihosting output.
+/// Parses the bench's line
+/// `FWBENCH law <min> <mean> <max> tick <min> <mean> <max> stack <bytes>`.
 fn parse_bench(output: &str) -> Result<BenchResult, String> {
     let line = output
         .lines()
@@ -132,9 +129,8 @@ fn parse_bench(output: &str) -> Result<BenchResult, String> {
     })
 }
 
-/// The JSON: `{"cortex-m4":{"fixed":{..},"f32":{..}},"cortex-m3":{..}}`, each
-/// with `law` and `tick` (`min`, `mean`, `max` instructions) and `stack_peak_bytes`, plus
-/// the QEMU `machine` and the Rust `target` (extra fields).
+/// The JSON: `{"cortex-m4":{"fixed":{..},"f32":{..}},"cortex-m3":{..}}`, each with `law`
+/// and `tick` (`min`, `mean`, `max`), `stack_peak_bytes`, `machine` and `target`.
 fn bench_json(results: &[(&BenchConfig, BenchResult)]) -> String {
     let mmm = |m: &MinMeanMax| {
         format!(
@@ -214,8 +210,7 @@ pub(crate) fn parse_bench_args(args: &[String]) -> Result<(Option<PathBuf>, bool
     }
 }
 
-/// The pages' `fw-bench` table and README row from this run ([`pages`]): rewritten, or
-/// with `check` compared (`Err` naming the pages that differ).
+/// The pages' `fw-bench` figures from this run: rewritten, or with `check` compared.
 fn sync_pages(
     results: &[(&BenchConfig, BenchResult)],
     outputs: &[String],
@@ -259,9 +254,8 @@ fn sync_pages(
     Ok(())
 }
 
-/// Builds the QEMU benchmark firmware (fixed point and f32, Cortex-M4 and Cortex-M3) and
-/// runs it: instruction counts of the control-law step and of the whole runtime tick,
-/// and the stack high-water mark. Prints the table; writes the JSON to `json` if given.
+/// Builds and runs the QEMU benchmark firmware; prints the table, writes the JSON to
+/// `json` if given.
 pub(crate) fn fw_bench(json: Option<PathBuf>, check: bool) -> Result<(), String> {
     ensure_targets()?;
     let configs = bench_configs();
@@ -306,8 +300,7 @@ pub(crate) fn fw_bench(json: Option<PathBuf>, check: bool) -> Result<(), String>
     out!("{}", bench_table(&results));
     let over = over_budget(&results);
     if let Some(path) = json {
-        // The folder too, as `sim-host` and `hil` make theirs (`--json out/fwb.json` on a
-        // fresh clone has no `out/`).
+        // The folder too, as `sim-host` and `hil` make theirs.
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir)
                 .map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
@@ -323,9 +316,8 @@ pub(crate) fn fw_bench(json: Option<PathBuf>, check: bool) -> Result<(), String>
     }
 }
 
-/// The tick's budget: the whole tick's mean instructions of the build the boards flash
-/// (Cortex-M4, fixed point) at most [`TICK_MEAN_BUDGET_INSTRUCTIONS`]; `Some` names the
-/// excess.
+/// The tick's budget on the build the boards flash (Cortex-M4, fixed point); `Some`
+/// names the excess.
 fn over_budget(results: &[(&BenchConfig, BenchResult)]) -> Option<String> {
     results
         .iter()

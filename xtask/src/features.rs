@@ -1,14 +1,8 @@
-//! What is flashed is what is tested: the Cargo features of the device crates
-//! ([`DEVICE_CRATES`]) in every board build ([`crate::FIRMWARE`], [`crate::FIRMWARE_F32`])
-//! against the builds the tests run, resolved by cargo itself (`cargo tree`, no build:
-//! well under a second each).
-//!
-//! The tested builds are the host's `cargo test --workspace` and the device-feature run
-//! of `cargo xtest` ([`DEVICE_TEST_PACKAGES`]: the wire crate without `std`, as the
-//! firmware builds it). A board build may differ from them only in the
-//! features of [`ON_PURPOSE`], none of which changes what the device does with a frame;
-//! any other difference (a protection switched off, a check left out) fails
-//! ([`check`], run by `cargo xtest` before anything is built, and by this crate's tests).
+//! What is flashed is what is tested: the Cargo features of the device crates in every
+//! board build against the builds the tests run (the host's `cargo test --workspace` and
+//! the device-feature run), resolved by `cargo tree`. They may differ only in the
+//! features of [`ON_PURPOSE`]; any other difference fails ([`check`], run by `cargo
+//! xtest` before anything is built).
 
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -43,9 +37,8 @@ pub const ON_PURPOSE: &[(&str, &str)] = &[
 /// Features of each crate of a build, as cargo resolves them.
 pub type Features = BTreeMap<String, BTreeSet<String>>;
 
-/// The features of [`DEVICE_CRATES`] in `cargo tree`'s `{p}|{f}` lines (one package per
-/// line, without prefix): a crate that appears with two different sets is an error (the
-/// tree is of one build's normal dependencies: each crate is built once).
+/// The features of [`DEVICE_CRATES`] in `cargo tree`'s `{p}|{f}` lines; a crate that
+/// appears with two different sets is an error.
 pub fn parse_tree(out: &str) -> Result<Features, String> {
     let mut found = Features::new();
     for line in out.lines() {
@@ -137,7 +130,7 @@ pub fn tested_builds() -> Result<Vec<(&'static str, Features)>, String> {
 }
 
 /// What differs between a board build and a tested build beyond [`ON_PURPOSE`], and a
-/// fault injection in a build that is not QEMU's: one line each, empty when none.
+/// fault injection outside QEMU's build: one line each.
 pub fn compare(
     board: &str,
     qemu: bool,

@@ -1,37 +1,10 @@
-//! `cargo xtask fuzz --frames N [--seed S]`: hostile frames into the device runtime.
-//!
-//! For each sample type of the control core (`Runtime<Fx>`, the production fixed point,
-//! and `Runtime<f32>`), `N` frames drawn from a seeded generator
-//! ([`Gen`]; PCG from `rand_pcg`, so a seed reproduces a run exactly):
-//!
-//! | kind | what |
-//! |---|---|
-//! | sensor | a valid Sensor frame with random fields (extremes of every range included) |
-//! | config | a valid Config: random rates, or the device's own rates for a random base rate with one field scaled (x0, 1 LSB, x0.5, x2, x4, x100, max) |
-//! | command | a valid Command (status requests, counter resets) |
-//! | bitflip | a valid frame with 1-3 bits flipped (a flip to 0x00 splits it) |
-//! | truncated | a valid frame cut short |
-//! | random | random bytes, 1-120 of them |
-//! | crc_valid | a version byte and random body with a correct CRC, COBS-encoded (reaches the message decoder) |
-//! | oversize | 103-300 random non-zero bytes (longer than `MAX_FRAME`) |
-//!
-//! Each frame is fed in random chunks, then 0-2 ticks run. Checked after every frame and
-//! every tick (a failure names the seed, the sample type and the frame index):
-//!
-//! - **no panic** (xtask builds with the dev profile: overflow checks on, so an
-//!   arithmetic overflow is a panic too);
-//! - **every frame accounted**: each non-empty frame between two delimiters moves
-//!   exactly one of the device's receive counters by one (`rx_ok` or one `rx_*` error),
-//!   the one the host's decoder expects (`Decoder`, the host's full message decoder, as
-//!   opposed to the device's request decoder), and a counter reset leaves them zero;
-//! - **outputs within the actuator limits**: every Actuation has `|T_psi|` within the
-//!   torque limit and `u_a` within the voltage limits of the control core's
-//!   configuration (wire LSBs of `wheelset_proto::units`);
-//! - **what goes out decodes**: every byte the tick returns is valid frames (one
-//!   Actuation, plus a Status when one was requested, equal to the device's counters).
-//!
-//! CI runs a short seeded version (the `fuzz_short_seeded` test of this crate, inside
-//! `cargo xtest`); the README gives the figures of the last long run.
+//! `cargo xtask fuzz --frames N [--seed S]`: hostile frames into the device runtime
+//! (`Runtime<Fx>` and `Runtime<f32>`) from a seeded generator ([`Gen`]): valid,
+//! bit-flipped, truncated, random, CRC-valid and oversize frames and hostile Configs, fed
+//! in random chunks with 0-2 ticks after each. Checked after every frame and tick: no
+//! panic (overflow checks on), every frame accounted by exactly the receive counter the
+//! host's decoder expects, every Actuation within the actuator limits, every byte out a
+//! valid frame (`docs/hardening.md`). A short seeded run is a unit test of this crate.
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::process::ExitCode;
@@ -147,11 +120,9 @@ enum Expect {
     Ok { reset: bool },
     /// An error counter (index 1-5).
     Err(usize),
-    /// The host's decoder says length or postcard error (index 4 or 5): the device's
-    /// request decoder rejects it the same way, or, for a frame of a type it does not
-    /// take (Actuation, Status), counts it unexpected (index 6) without decoding it, or,
-    /// for a postcard error that is an undefined Command variant or Config mode, counts
-    /// it valid (an unknown request, refused).
+    /// The host's decoder says length or postcard error (index 4 or 5): the device
+    /// rejects it the same way, counts a frame of a type it does not take unexpected
+    /// (6), or counts an undefined Command variant or Config mode valid (refused).
     ErrOrUnexpected(usize),
     /// A valid frame of a device -> host type: `rx_unexpected` only (index 6).
     Unexpected,

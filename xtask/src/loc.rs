@@ -1,11 +1,7 @@
-//! `cargo xtask loc [--check]`: the workspace's non-test Rust, counted one way.
-//!
-//! Counted: the non-blank lines of every `.rs` file under the workspace's crates, outside
-//! `tests/`, `benches/` and `examples/` folders, outside files whose name ends in
-//! `tests.rs`, and outside `#[cfg(test)]` items (a module or function whose braces follow
-//! the attribute). A comment line is one whose text starts with `//` (`///`, `//!`
-//! included). `--check` fails above [`MAX_LINES`] lines or at [`MAX_COMMENT_SHARE`] and
-//! more comment lines.
+//! `cargo xtask loc [--check]`: the non-blank lines of the workspace's `.rs` files
+//! outside `tests/`, `benches/`, `examples/`, `*tests.rs` and `#[cfg(test)]` items, and
+//! of them the comment lines (starting with `//`); `--check` fails above [`MAX_LINES`]
+//! or at [`MAX_COMMENT_SHARE`].
 
 use std::path::{Path, PathBuf};
 
@@ -132,8 +128,7 @@ pub fn workspace(root: &Path) -> Result<Vec<(String, Lines)>, String> {
     Ok(v)
 }
 
-/// Runs the task: prints the count per crate and in all; with `check`, fails above the
-/// limits.
+/// Runs the task: prints the count per crate and in all; `check` fails above the limits.
 pub fn main(check: bool) -> Result<(), String> {
     let crates = workspace(Path::new("."))?;
     let mut l = Lines::default();

@@ -1,58 +1,12 @@
-//! Project automation, run through cargo aliases (`.cargo/config.toml`):
-//!
-//! - `cargo xtest`: the test command. Checks that every board build has the device
-//!   crates' features of the tested builds ([`features`]), does the set-up a fresh
-//!   machine lacks (the MCU targets, QEMU), checks that the `no_std` crates build for
-//!   both Cortex-M targets, builds the firmware and enforces its size budget, then runs
-//!   `cargo test --workspace` (with `REQUIRE_QEMU=1` when QEMU is there, so the
-//!   processor-in-the-loop smoke test cannot silently skip) and the device-feature run:
-//!   the wire crate's and the runtime's tests once more with the firmware's features
-//!   (the wire crate without `std`),
-//!   and the runtime's tests with `fault-inject` (the QEMU firmware's runtime: the
-//!   tests of the honoured fault injections compile only there);
-//!   then it builds every criterion benchmark (`cargo test --workspace --benches
-//!   --no-run`: they compile; they are not run), checks the pages' fw-bench figures
-//!   against a bench run when QEMU is there (`cargo xtask fw-bench --check`) and the
-//!   pages' generated blocks (`cargo xtask readme --check`).
-//! - `cargo fw [--f32]`: builds every board build of [`FIRMWARE`] with the `fw` profile
-//!   (release, LTO, size-optimised; the STM32 builds linked with flip-link, installed
-//!   when missing, in `target/flip-link`) and copies them to `target/fw/` (and with
-//!   `--f32` the f32 builds `wheelset-nucleo-f32.elf`, `wheelset-qemu-f32.elf`). Prints
-//!   flash and RAM of each against the budget (flash 64 KiB, static RAM 16 KiB) and fails
-//!   above either (the f32 measurement builds: printed, not enforced) or when an image is
-//!   not placed by its own board's memory map ([`size`]).
-//! - `cargo xtask fw-bench [--json FILE] [--check]`: builds `wheelset-qemu-bench` (fixed
-//!   point and f32, for the Cortex-M4F on `mps2-an386` and the Cortex-M3 on `mps2-an385`)
-//!   and runs it under QEMU: instructions per control-law step and per whole runtime
-//!   tick, and the stack high-water mark; prints a table, and with `--json` writes
-//!   `{"cortex-m4":{"fixed":{"law":{"min","mean","max"},"tick":{..},"stack_peak_bytes":N},
-//!   "f32":{..}},"cortex-m3":{..}}`; rewrites the pages' fw-bench table and README row
-//!   from the run (`--check`: fails instead when they differ; `cargo xtest` runs that
-//!   when QEMU is there).
-//! - `cargo xtask fuzz --frames N [--seed S]`: random, mutated, truncated and bit-flipped
-//!   frames and hostile Configs into `Runtime<Fx>` and `Runtime<f32>`, with overflow
-//!   checks: no panic, every output within the actuator limits, every frame accounted
-//!   ([`fuzz`]; a short seeded run is a unit test of this crate, so `cargo xtest` runs it).
-//! - `cargo xtask loc [--check]`: the non-test Rust lines and their comment share
-//!   ([`loc`]); `--check` fails above 42 000 lines or at 15 % comments.
-//! - `cargo xtask mutants [--package P]... [--file GLOB]... [--shard K/N] [--out DIR]`
-//!   (or `--summary DIR...`): cargo-mutants over the device crates, each against its own
-//!   tests; prints caught / missed / unviable / timed out per crate against the whole
-//!   list ([`mutants`]).
-//! - `cargo xtask qemu-cmd [ELF] [--machine M --cpu C] [--tcp PORT] [-- QEMU ARGS]`:
-//!   prints the QEMU command line of every project run (`wheelset_targets::qemu::cmd`,
-//!   the harness's launcher's) for `ELF`, UART0 to null or to a TCP server, with the extra
-//!   arguments appended (`scripts/tick-profile.py --record` runs it).
-//! - `cargo xtask readme [--check] [--dev]`: reruns the commands of the generated blocks
-//!   of the README and the book (`docs/`) and rewrites them and the figures they draw;
-//!   `--check` fails naming the drifted ones and every broken relative link or image
-//!   (`--links`: only that check); `cargo xtask readme --commands [--long]` runs the
-//!   pages' board-free commands against their stated exit codes ([`readme`]; `cargo
-//!   xtest` runs the check and the short commands after the tests).
+//! Project automation, run through cargo aliases (`.cargo/config.toml`): `cargo xtest`
+//! (the set-up a fresh machine lacks, the `no_std` and firmware builds with their size
+//! budget, the workspace's tests, the device-feature runs, the benches' build, the pages'
+//! fw-bench figures and generated blocks), `cargo fw [--f32]` (the board builds into
+//! `target/fw/`), and `cargo xtask fw-bench`, `fuzz`, `loc`, `mutants`, `qemu-cmd` and
+//! `readme` (each module's docs; the usage line is in `main`).
 
-/// `print!` for the tasks' output: a closed standard output (`cargo xtask ... | head`)
-/// ends the task quietly with exit code 0, as Unix tools do, instead of panicking; another
-/// write error ends it with 1 and the reason.
+/// `print!` for the tasks' output: a closed standard output ends the task quietly with
+/// exit code 0; another write error ends it with 1 and the reason.
 macro_rules! out {
     ($($t:tt)*) => {
         $crate::write_stdout(format_args!($($t)*))
@@ -92,8 +46,8 @@ const FW_TARGET: &str = "thumbv7em-none-eabihf";
 /// The Cortex-M3 (no FPU) of QEMU's mps2-an385: the fixed-point build where it matters.
 const M3_TARGET: &str = "thumbv7m-none-eabi";
 /// One firmware binary: cargo bin name, features, the name it gets in `target/fw`, the
-/// target it is built for, its board (the `board-<name>` feature's module, whose memory
-/// map [`size::check_sizes`] holds the ELF to) and whether it links with flip-link.
+/// target, its board (the `board-<name>` feature's module, whose memory map
+/// [`size::check_sizes`] holds the ELF to) and whether it links with flip-link.
 struct Firmware {
     bin: &'static str,
     features: &'static str,
@@ -103,83 +57,85 @@ struct Firmware {
     flip_link: bool,
 }
 
+/// A board build of [`FW_BIN`].
+const fn fw_build(
+    features: &'static str,
+    elf: &'static str,
+    target: &'static str,
+    board: &'static str,
+    flip_link: bool,
+) -> Firmware {
+    Firmware {
+        bin: FW_BIN,
+        features,
+        elf,
+        target,
+        board,
+        flip_link,
+    }
+}
+
 /// The firmware binary of every board build.
 const FW_BIN: &str = "wheelset-fw";
 
+/// The board builds: the Nucleo (free-running, and frame-clocked over the ST-LINK VCP),
+/// the Nucleo-G474RE (LPUART1), QEMU (`-icount`, and free-running on TIMER0 paced in real
+/// time), and the QEMU firmware for the Cortex-M3 of mps2-an385.
 const FIRMWARE: &[Firmware] = &[
-    Firmware {
-        bin: FW_BIN,
-        features: "board-nucleo",
-        elf: "wheelset-nucleo.elf",
-        target: FW_TARGET,
-        board: "nucleo",
-        flip_link: true,
-    },
-    // The Nucleo frame-clocked (lock-step over the ST-LINK VCP; feature `frame-clock`).
-    Firmware {
-        bin: FW_BIN,
-        features: "frame-clock",
-        elf: "wheelset-nucleo-frame.elf",
-        target: FW_TARGET,
-        board: "nucleo",
-        flip_link: true,
-    },
-    // The Nucleo-G474RE: LPUART1 on the ST-LINK V3 virtual COM port, free-running.
-    Firmware {
-        bin: FW_BIN,
-        features: "board-nucleo-g474",
-        elf: "wheelset-nucleo-g474.elf",
-        target: FW_TARGET,
-        board: "nucleo_g474",
-        flip_link: true,
-    },
-    Firmware {
-        bin: FW_BIN,
-        features: "board-qemu",
-        elf: "wheelset-qemu.elf",
-        target: FW_TARGET,
-        board: "qemu",
-        flip_link: false,
-    },
-    // QEMU free-running: the tick from TIMER0, QEMU without -icount, paced in real
-    // time (`hil run --target qemu-free`).
-    Firmware {
-        bin: FW_BIN,
-        features: "free-run",
-        elf: "wheelset-qemu-free.elf",
-        target: FW_TARGET,
-        board: "qemu",
-        flip_link: false,
-    },
-    // The same QEMU firmware for the Cortex-M3 of mps2-an385 (same memory map, CMSDK
-    // UART0 and interrupts; no FPU): `hil run --target qemu --machine mps2-an385`.
-    Firmware {
-        bin: FW_BIN,
-        features: "board-qemu",
-        elf: "wheelset-qemu-m3.elf",
-        target: M3_TARGET,
-        board: "qemu",
-        flip_link: false,
-    },
+    fw_build(
+        "board-nucleo",
+        "wheelset-nucleo.elf",
+        FW_TARGET,
+        "nucleo",
+        true,
+    ),
+    fw_build(
+        "frame-clock",
+        "wheelset-nucleo-frame.elf",
+        FW_TARGET,
+        "nucleo",
+        true,
+    ),
+    fw_build(
+        "board-nucleo-g474",
+        "wheelset-nucleo-g474.elf",
+        FW_TARGET,
+        "nucleo_g474",
+        true,
+    ),
+    fw_build("board-qemu", "wheelset-qemu.elf", FW_TARGET, "qemu", false),
+    fw_build(
+        "free-run",
+        "wheelset-qemu-free.elf",
+        FW_TARGET,
+        "qemu",
+        false,
+    ),
+    fw_build(
+        "board-qemu",
+        "wheelset-qemu-m3.elf",
+        M3_TARGET,
+        "qemu",
+        false,
+    ),
 ];
 
+/// The f32 measurement builds (`cargo fw --f32`): sizes printed, not enforced.
 const FIRMWARE_F32: &[Firmware] = &[
-    Firmware {
-        bin: FW_BIN,
-        features: "board-nucleo,f32",
-        elf: "wheelset-nucleo-f32.elf",
-        target: FW_TARGET,
-        board: "nucleo",
-        flip_link: true,
-    },
-    Firmware {
-        bin: FW_BIN,
-        features: "board-qemu,f32",
-        elf: "wheelset-qemu-f32.elf",
-        target: FW_TARGET,
-        board: "qemu",
-        flip_link: false,
-    },
+    fw_build(
+        "board-nucleo,f32",
+        "wheelset-nucleo-f32.elf",
+        FW_TARGET,
+        "nucleo",
+        true,
+    ),
+    fw_build(
+        "board-qemu,f32",
+        "wheelset-qemu-f32.elf",
+        FW_TARGET,
+        "qemu",
+        false,
+    ),
 ];
 
 fn cargo() -> Command {
@@ -199,10 +155,8 @@ fn target_dir() -> PathBuf {
         .unwrap_or_else(|| workspace_root().join("target"))
 }
 
-/// Runs a command, echoing it; an error names the command.
-/// A command as a user would type it: the program's name and its arguments, without the
-/// environment the task sets (`Command`'s `Debug` prints that too, e.g. the whole
-/// `CARGO_ENCODED_RUSTFLAGS`).
+/// A command as a user would type it: the program and its arguments, without the
+/// environment the task sets.
 fn shown(cmd: &Command) -> String {
     let program = Path::new(cmd.get_program());
     std::iter::once(program.file_name().unwrap_or(program.as_os_str()))
@@ -212,8 +166,7 @@ fn shown(cmd: &Command) -> String {
         .join(" ")
 }
 
-/// Runs `cmd`, saying first what it is (`xtask: cargo build ...`); its own output (cargo's
-/// progress) goes straight to the terminal.
+/// Runs `cmd`, saying first what it is (`xtask: cargo build ...`).
 fn run(cmd: &mut Command) -> Result<(), String> {
     run_as(&shown(cmd), cmd)
 }
@@ -231,8 +184,7 @@ fn run_as(what: &str, cmd: &mut Command) -> Result<(), String> {
     }
 }
 
-/// Installs the MCU targets if the toolchain lacks them (rust-toolchain.toml lists them,
-/// but a toolchain installed before that file existed may not have them).
+/// Installs the MCU targets if the toolchain lacks them.
 fn ensure_targets() -> Result<(), String> {
     let out = Command::new("rustup")
         .args(["target", "list", "--installed"])
@@ -270,10 +222,8 @@ fn check_no_std() -> Result<(), String> {
     Ok(())
 }
 
-/// `--remap-path-prefix` flags that shorten the source paths the firmware carries for its
-/// panic locations (`/home/me/.cargo/registry/src/index.crates.io-<hash>/embassy-stm32-
-/// 0.6.0/src/..` becomes `embassy-stm32-0.6.0/src/..`): about 1 KiB of flash. The
-/// workspace's own paths are relative already.
+/// `--remap-path-prefix` flags that shorten the registry paths the firmware carries for
+/// its panic locations (about 1 KiB of flash).
 fn remap_flags() -> Vec<String> {
     let home = std::env::var_os("CARGO_HOME")
         .map(PathBuf::from)
@@ -298,8 +248,7 @@ fn remap_flags() -> Vec<String> {
 /// The cargo `--config` that links the board build with flip-link.
 const FLIP_LINK_CONFIG: &str = "target.thumbv7em-none-eabihf.linker=\"flip-link\"";
 
-/// Makes sure `flip-link` (the board build's linker) is installed: `cargo install
-/// flip-link --locked` if it is not (3-5 minutes of build on two busy cores).
+/// Makes sure `flip-link` (the board build's linker) is installed.
 fn ensure_flip_link() -> Result<(), String> {
     let found = Command::new("flip-link")
         .stdout(std::process::Stdio::null())
@@ -313,14 +262,13 @@ fn ensure_flip_link() -> Result<(), String> {
     run(cargo().args(["install", "flip-link", "--locked"]))
 }
 
-/// Builds the given firmware binaries, one cargo invocation each (so no board's HAL can
+/// Builds the given firmware binaries, one cargo invocation each (no board's HAL can
 /// reach another board's binary), and copies them to `target/fw/`.
 fn build_firmware(list: &[Firmware]) -> Result<Vec<(PathBuf, &'static str)>, String> {
     let out_dir = target_dir().join("fw");
     std::fs::create_dir_all(&out_dir)
         .map_err(|e| format!("cannot create {}: {e}", out_dir.display()))?;
-    // The target's flags only (with `--target`, build scripts do not get them); any
-    // flags already given are kept.
+    // The target's flags only (with `--target`, build scripts do not get them).
     let mut flags: Vec<String> = match std::env::var("CARGO_ENCODED_RUSTFLAGS") {
         Ok(f) if !f.is_empty() => f.split('\x1f').map(String::from).collect(),
         _ => std::env::var("RUSTFLAGS")
@@ -330,10 +278,8 @@ fn build_firmware(list: &[Firmware]) -> Result<Vec<(PathBuf, &'static str)>, Str
     flags.extend(remap_flags());
     let mut elfs = Vec::new();
     for fw in list {
-        // An STM32 board build links with flip-link (stack below the static data: an overflow
-        // faults instead of corrupting them), in its own target directory: a different
-        // linker changes every unit's fingerprint, and sharing one directory with the
-        // QEMU builds would rebuild everything at each switch.
+        // flip-link (stack below the static data: an overflow faults instead of corrupting
+        // them), in its own target directory: another linker changes every fingerprint.
         let flip = fw.flip_link;
         let dir = if flip {
             ensure_flip_link()?;
@@ -380,10 +326,6 @@ fn build_firmware(list: &[Firmware]) -> Result<Vec<(PathBuf, &'static str)>, Str
     Ok(elfs)
 }
 
-/// Prints flash and static RAM of each ELF; fails if a production (fixed-point) build is
-/// over budget. The `-f32` variants are measurement builds (`cargo fw --f32`, the f32
-/// column of the benchmarks): their overrun is printed, not enforced (the Nucleo's f32
-/// build is ~0.4 KiB larger: the f32 control core plus its conversions).
 fn have_qemu() -> bool {
     Command::new("qemu-system-arm")
         .arg("--version")
@@ -398,8 +340,7 @@ fn is_root() -> bool {
         .is_ok_and(|o| String::from_utf8_lossy(&o.stdout).trim() == "0")
 }
 
-/// Makes sure `qemu-system-arm` is there: installs it with apt-get when running as root,
-/// otherwise says how. Returns whether QEMU is available.
+/// Makes sure `qemu-system-arm` is there (apt-get when root); whether it is.
 fn ensure_qemu() -> bool {
     if have_qemu() {
         return true;
@@ -470,8 +411,7 @@ fn test(extra: &[String]) -> Result<(), String> {
         device.args(["-p", p]);
     }
     run(device.args(extra))?;
-    // The runtime as the QEMU firmware builds it (`fault-inject`): the tests that only
-    // this feature compiles (the fault injections honoured).
+    // The runtime as the QEMU firmware builds it (`fault-inject`).
     let mut inject = cargo();
     inject.args([
         "test",
@@ -482,8 +422,7 @@ fn test(extra: &[String]) -> Result<(), String> {
         "fault-inject",
     ]);
     run(inject.args(extra))?;
-    // The benchmarks compile (criterion's; not run: timings are no tests). Built in the
-    // test profile, beside the test binaries above.
+    // The benchmarks compile (not run: timings are no tests).
     let mut benches = cargo();
     benches.args(["test", "--workspace", "--benches", "--no-run"]);
     run(&mut benches)?;
@@ -491,9 +430,8 @@ fn test(extra: &[String]) -> Result<(), String> {
     if have_qemu() {
         bench::fw_bench(None, true)?;
     }
-    // The README and the book: their generated blocks and figures against their
-    // commands and their links, then their short board-free commands against their
-    // stated exit codes (`cargo xtask readme`).
+    // The README and the book: generated blocks, figures and links, then their short
+    // board-free commands against their stated exit codes.
     if !readme::run(true, false)? {
         return Err(
             "the README or the book: generated blocks or figures drifted, or a link is broken \
@@ -514,11 +452,8 @@ fn test(extra: &[String]) -> Result<(), String> {
 }
 
 /// `cargo xtask qemu-cmd [ELF] [--machine M --cpu C] [--tcp PORT] [-- EXTRA...]`: prints
-/// the QEMU command line of the project's runs (the harness's launcher's arguments) for
-/// `ELF` (default `target/fw/wheelset-qemu-bench.elf`) on `M`/`C` (default mps2-an386 /
-/// cortex-m4), UART0 to null or, with `--tcp PORT`, to a TCP server on 127.0.0.1:PORT as
-/// the harness connects to it, with `EXTRA` appended: what `scripts/tick-profile.py
-/// --record` runs.
+/// the QEMU command line of the harness's launcher for `ELF` (default
+/// `target/fw/wheelset-qemu-bench.elf`), UART0 to null or to a TCP server on 127.0.0.1.
 fn qemu_cmd_line(args: &[String]) -> Result<(), String> {
     let usage = "qemu-cmd: usage: cargo xtask qemu-cmd [ELF] [--machine M --cpu C] \
                  [--tcp PORT] [-- QEMU ARGS]";
@@ -566,36 +501,26 @@ fn main() -> ExitCode {
         Some("fw") => fw(&args[1..]).map(|_| ()),
         Some("fw-bench") => match bench::parse_bench_args(&args[1..]) {
             Ok((json, check)) => bench::fw_bench(json, check),
-            Err(e) => {
-                eprintln!("xtask: {e}");
-                return ExitCode::from(2);
-            }
+            Err(e) => return usage_error(e),
         },
         Some("fuzz") => return fuzz::main(&args[1..]),
         Some("loc") => match args.get(1).map(String::as_str) {
             None => loc::main(false),
             Some("--check") => loc::main(true),
             Some(other) => {
-                eprintln!("xtask: loc: unexpected `{other}` (loc [--check])");
-                return ExitCode::from(2);
+                return usage_error(format!("loc: unexpected `{other}` (loc [--check])"))
             }
         },
         Some("mutants") => match mutants::main(&args[1..]) {
             Ok(true) => Ok(()),
             Ok(false) => return ExitCode::FAILURE,
-            Err(e) => {
-                eprintln!("xtask: {e}");
-                return ExitCode::from(2);
-            }
+            Err(e) => return usage_error(e),
         },
         Some("readme") => return readme::main(&args[1..]),
-        Some("qemu-cmd") => {
-            if let Err(e) = qemu_cmd_line(&args[1..]) {
-                eprintln!("xtask: {e}");
-                return ExitCode::from(2);
-            }
-            Ok(())
-        }
+        Some("qemu-cmd") => match qemu_cmd_line(&args[1..]) {
+            Ok(()) => Ok(()),
+            Err(e) => return usage_error(e),
+        },
         _ => {
             eprintln!(
                 "usage: cargo xtask <test [cargo test args]|fw [--f32]|fw-bench [--json FILE] [--check]|\
@@ -612,6 +537,12 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// A usage error: the message, then exit code 2.
+fn usage_error(e: impl std::fmt::Display) -> ExitCode {
+    eprintln!("xtask: {e}");
+    ExitCode::from(2)
 }
 
 /// Writes to standard output for [`out!`] and [`outln!`].

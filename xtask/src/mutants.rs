@@ -1,21 +1,8 @@
-//! `cargo xtask mutants`: mutation testing of the device crates with cargo-mutants
-//! (<https://mutants.rs>, `cargo install cargo-mutants --locked`), each crate against its
-//! own tests (cargo-mutants' default for `--package`: the tests of the mutated package,
-//! not the workspace's simulation and QEMU suites).
-//!
-//! ```text
-//! cargo xtask mutants [--package P]... [--file GLOB]... [--shard K/N] [--out DIR]
-//! cargo xtask mutants --summary DIR...
-//! ```
-//!
-//! Runs `cargo mutants --package P --no-shuffle [--features F] [--file GLOB] [--shard K/N]`
-//! (`F`: the features the crate's tests need, `features`) for each
-//! package (default: [`DEVICE_CRATES`]) into `DIR/P[-K-of-N]` (default DIR:
-//! `target/mutants`), then prints per package the mutants caught, missed, unviable and
-//! timed out, and the caught share of the viable ones against the whole list
-//! (`cargo mutants --list`: a mutant a shard or a filter did not run counts as not
-//! caught). `--summary` prints the same from the output directories of earlier runs (the
-//! shards of a Slurm array, merged). Exit 1 when a mutant is missed or times out.
+//! `cargo xtask mutants [--package P]... [--file GLOB]... [--shard K/N] [--out DIR]` (or
+//! `--summary DIR...`): cargo-mutants over the device crates, each against its own tests,
+//! into `DIR/P[-K-of-N]` (default `target/mutants`); prints per package the mutants
+//! caught, missed, unviable and timed out against the whole list (`docs/mutants.md`).
+//! Exit 1 when a mutant is missed or times out.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -23,9 +10,8 @@ use std::process::Command;
 /// The crates whose mutants are counted: the control core, the wire, the runtime.
 pub const DEVICE_CRATES: [&str; 3] = ["wheelset-control", "wheelset-proto", "wheelset-runtime"];
 
-/// The features each crate's tests run with: the wire's host conversions (`std`, whose
-/// tests are gated on it) and the runtime's honoured fault injections (`fault-inject`, the
-/// QEMU firmware's runtime). The other features only add derives.
+/// The features each crate's tests run with (`std` for the wire, `fault-inject` for the
+/// runtime); the other features only add derives.
 fn features(package: &str) -> &'static str {
     match package {
         "wheelset-proto" => "std",
@@ -80,9 +66,8 @@ impl Counts {
         self.caught + self.missed + self.unviable + self.timeout
     }
 
-    /// The line printed for `package`, with `listed` mutants in its whole list (the
-    /// denominator: listed but unviable ones left out, every other one not caught counts
-    /// against).
+    /// The line printed for `package` with `listed` mutants in its whole list (unviable
+    /// ones left out, every other one not caught counts against).
     #[must_use]
     pub fn line(&self, package: &str, listed: Option<u64>) -> String {
         let viable = listed.map_or(self.tested(), |l| l.max(self.tested())) - self.unviable;
@@ -251,8 +236,7 @@ pub fn main(args: &[String]) -> Result<bool, String> {
         let status = c.status().map_err(|e| {
             format!("cargo mutants: {e} (install: cargo install cargo-mutants --locked)")
         })?;
-        // 0: all caught; 2: some missed; 3: some timed out. Anything else is a failure
-        // of the run itself (4: the unmutated tests fail).
+        // 0: all caught; 2: some missed; 3: some timed out; anything else a failed run.
         match status.code() {
             Some(0 | 2 | 3) => {}
             other => return Err(format!("cargo mutants --package {p} ended with {other:?}")),

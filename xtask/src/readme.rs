@@ -1,37 +1,10 @@
 //! `cargo xtask readme [--check] [--dev]`: the generated blocks, figures and links of
-//! the README and the book.
-//!
-//! The pages are `README.md` and every Markdown file under `docs/` (the mdBook, its
-//! build output `docs/book/` excepted: [`pages`]). Every deterministic figure of a page
-//! (fixed-seed fault runs, modes, golden vectors, frame counts, the rate analysis's grid
-//! counts, ...) sits between
-//!
-//! ```text
-//! <!-- generated:NAME -->
-//! ...
-//! <!-- /generated:NAME -->
-//! ```
-//!
-//! and the text between the two markers is the output of one command of [`BLOCKS`], the
-//! one table of them: the command as a user types it (`$ cargo sim ...`, `$ cargo hil
-//! ...`) followed by the lines of its standard output (of its standard error for a
-//! refusal's message) the block keeps, in a `text`
-//! code block. A block lives in exactly one page; moving it to another page moves its
-//! check with it. `cargo xtask readme` reruns every command and rewrites the blocks and
-//! the committed figures ([`figures`]); `--check` rewrites nothing and exits 1 naming
-//! each block that drifted, with a line diff (`-` the page, `+` the command), and each
-//! figure that differs from what its command draws. A marker without a table entry, an
-//! entry without its markers, a command that does not start or that exits with another
-//! code than its entry states are errors too, and so is a relative link or image path
-//! that does not resolve, or an image no listed command draws ([`links`]; `--links`
-//! checks only these, without building). `cargo xtest` runs the check after the tests.
-//!
-//! The commands run the binaries that the cargo aliases run (`cargo sim` = `sim-host`,
-//! `cargo hil` = `hil`), built first with `cargo build --release -p sim-host -p hil`
-//! (`--dev`: the dev profile, which `cargo test` has built already; the figures are the
-//! same: no fast-math in Rust, so every profile computes the same floating-point
-//! results), from the workspace root, so the paths they write (`out/...`) are the
-//! pages'.
+//! the README and the book (`README.md` and `docs/**.md`). The text between
+//! `<!-- generated:NAME -->` and `<!-- /generated:NAME -->` is the output of one command
+//! of [`BLOCKS`]; `readme` reruns them (release builds of `sim-host` and `hil`, or
+//! `--dev`: the same figures) and rewrites the blocks and figures, `--check` exits 1
+//! naming each drifted block (with a line diff) or figure, each marker without an entry
+//! and each broken relative link ([`links`]; `--links` checks only these).
 
 use std::fmt::Write as _;
 use std::path::Path;

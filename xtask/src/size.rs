@@ -1,7 +1,6 @@
-//! The firmware's size budget: flash and static RAM of each built ELF against the
-//! enforced budget and the target, and its placement against its own board's memory map
-//! ([`check_sizes`], printed by `cargo fw` and `cargo xtest`), and the size rows of the
-//! README and the book against the build ([`readme_sizes`]).
+//! The firmware's size budget: flash and static RAM of each built ELF against the budget,
+//! its placement against its own board's memory map ([`check_sizes`]), and the pages'
+//! size rows against the build ([`readme_sizes`]).
 
 use std::path::{Path, PathBuf};
 
@@ -34,9 +33,8 @@ pub struct Map {
     pub ram: Region,
 }
 
-/// The memory map of `board`, as `firmware/app/build.rs` finds it:
-/// `firmware/app/src/board/<board>/memory.x`, else the top-level `memory.x` (the
-/// Nucleo-F446RE's).
+/// The memory map of `board`, as `firmware/app/build.rs` finds it: its board folder's
+/// `memory.x`, else the top-level one (the Nucleo-F446RE's).
 pub fn map_path(board: &str) -> PathBuf {
     let root = crate::workspace_root();
     let own = root
@@ -111,11 +109,9 @@ const RAM_TOP_SLACK: u64 = 64;
 /// map an image was linked with.
 pub const MAP_MARK: &str = "__board_map_";
 
-/// Whether `layout` was linked with `board`'s memory map `map`: it carries that map's mark
-/// ([`MAP_MARK`]) and no other; every allocated section lies in the map's FLASH
-/// (read-only) or RAM (writable); and RAM is used up to the region's end (within
-/// [`RAM_TOP_SLACK`]): the stack's start there (`_stack_start`, cortex-m-rt's default),
-/// or, flipped by flip-link, the statics ending there.
+/// Whether `layout` was linked with `board`'s memory map `map`: only that map's
+/// [`MAP_MARK`], every allocated section in its FLASH or RAM, and RAM used up to the
+/// region's end (within [`RAM_TOP_SLACK`]: the stack's start or flip-link's statics).
 pub fn check_layout(board: &str, map: &Map, layout: &elf::Layout) -> Result<(), String> {
     let mut wrong = Vec::new();
     let mark = format!("{MAP_MARK}{board}");
@@ -175,14 +171,10 @@ fn check_board_map(board: &str, bytes: &[u8]) -> Result<(), String> {
         .map_err(|e| format!("not linked with {}: {e}", path.display()))
 }
 
-/// Flash budget of each firmware binary, bytes (.vector_table + .text + .rodata + .data).
-/// Generous on purpose: the STM32F446RE has 512 KiB, and 64 KiB fits the smallest parts
-/// of its family. A protection or a well-kept driver is never traded for bytes; the
-/// budget only catches a build that grows by accident (a formatting machinery, a table
-/// linked twice).
+/// Flash budget of each firmware binary, bytes (.vector_table + .text + .rodata + .data):
+/// generous on purpose, it only catches a build that grows by accident.
 pub const FLASH_BUDGET: u64 = 64 * 1024;
-/// Static RAM budget of each firmware binary (.data + .bss + .uninit; the stack is not a
-/// section: cortex-m-rt puts it at the top of RAM), bytes. The F446RE has 128 KiB.
+/// Static RAM budget of each firmware binary (.data + .bss + .uninit), bytes.
 pub const RAM_BUDGET: u64 = 16 * 1024;
 
 pub fn check_sizes(elfs: &[(PathBuf, &str)]) -> Result<Vec<(String, elf::Sizes)>, String> {
@@ -244,9 +236,7 @@ pub fn check_sizes(elfs: &[(PathBuf, &str)]) -> Result<Vec<(String, elf::Sizes)>
     }
 }
 
-/// The table rows (in the README or any chapter of the book: the performance chapter
-/// holds them) that state each enforced build's flash / static RAM: the figures must be
-/// what the build gives (`cargo fw` prints them), so they cannot drift.
+/// The table rows of the pages that state each enforced build's flash / static RAM.
 const README_SIZE_ROWS: &[(&str, &str)] = &[
     ("wheelset-nucleo.elf", "| flash / static RAM, Nucleo |"),
     (

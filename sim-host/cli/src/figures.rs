@@ -17,18 +17,9 @@ fn label(tr: &Trajectory) -> String {
     tr.info.control.clone()
 }
 
-/// Writes the time-history figures of `runs` (first = main run, others overlaid for
-/// comparison) into `dir`; returns the files written.
-///
-/// - `lateral.svg` (Fig. 6 for `curve`, Fig. 9 for `beating`): `y` in mm against the
-///   pure rolling line `y0`.
-/// - `torque.svg` (Fig. 7 for `curve`): yaw torque (control torque or passive spring
-///   torque).
-/// - `creep.svg` (Fig. 8 for `curve`): longitudinal and lateral creep forces.
-/// - `traction.svg`: current and reference, voltage, speed, gear wind-up (Fig. 9 for
-///   `beating`: the beating shows in the wind-up and in `y`).
-///
-/// Titles name the paper's figure only for the scenario that reproduces it.
+/// Writes the time-history figures of `runs` (first = main run, others overlaid) into
+/// `dir`: `lateral.svg` (Fig. 6 for `curve`, Fig. 9 for `beating`), `torque.svg` (Fig. 7),
+/// `creep.svg` (Fig. 8) and `traction.svg`; returns the files written.
 pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<Vec<PathBuf>> {
     let Some(main) = runs.first() else {
         return Ok(vec![]);
@@ -50,8 +41,7 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
         }
     };
     let title = titled("thin, on top", "wide, beneath");
-    // The paper's figure each plot reproduces: `curve` is Figs. 6-8, `beating` Fig. 9;
-    // other scenarios are no figure of the paper.
+    // `curve` is Figs. 6-8 of the paper, `beating` Fig. 9.
     let fig = |curve: &str, beating: &str| -> String {
         let n = match main.info.scenario.as_str() {
             "curve" => curve,
@@ -71,8 +61,7 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
         files.push(p);
         Ok(())
     };
-    // Drawing order: the compared runs first, wide, then the main run thin on top, so
-    // that where two laws coincide both show (the main run inside the other's band).
+    // The compared runs first, wide, then the main run thin on top: both show.
     let order: Vec<(usize, &Trajectory)> = runs
         .iter()
         .enumerate()
@@ -151,9 +140,8 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
     }
     save("torque.svg", Figure::new(&title).panel(p))?;
 
-    // Fig. 8: one panel per force, one colour per run throughout (the main run solid,
-    // the compared ones dashed and drawn over it, so that where they coincide both
-    // show).
+    // Fig. 8: one panel per force, one colour per run (the main run solid, the compared
+    // ones dashed over it).
     let per_run = |title: &str, y_label: &str, f: &dyn Fn(&Record) -> f64| {
         let mut p = Plot::new(title).x_label("t (s)").y_label(y_label);
         for (k, tr) in runs.iter().enumerate() {
@@ -222,9 +210,8 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
     Ok(files)
 }
 
-/// Writes `modes_case_<id>.svg`: the root locus (eigenvalues of every named mode over
-/// the sweep, structural zero left out; the 10 MN end marked with crosses), and the
-/// frequency and damping ratio of each mode against the creep coefficient.
+/// Writes `modes_case_<id>.svg`: the root locus of every named mode over the sweep (the
+/// 10 MN end marked), and each mode's frequency and damping against the creep.
 pub fn write_root_locus(sw: &CaseSweep, dir: &Path) -> std::io::Result<std::path::PathBuf> {
     let names = sw.mode_names();
     let n_pts = sw.creep.len();
@@ -248,8 +235,7 @@ pub fn write_root_locus(sw: &CaseSweep, dir: &Path) -> std::io::Result<std::path
         .map(|l| l.re)
         .fold(0.0f64, f64::max)
         .max(-0.05 * re_lo);
-    // The subtitle states where the stability changes (the bisected crossings), so the
-    // 10 MN end's markers are not read as a crossing there.
+    // The subtitle states where the stability changes (the bisected crossings).
     let crossings = if sw.crossings.is_empty() {
         "no stability change in 1-10 MN".to_string()
     } else {
@@ -279,8 +265,8 @@ pub fn write_root_locus(sw: &CaseSweep, dir: &Path) -> std::io::Result<std::path
         .x_label("creep coefficient f11 = f22 (MN)")
         .y_label("zeta")
         .hline(0.0);
-    // The modes that are real somewhere in the sweep coincide there at zero frequency
-    // and zeta = 1: the ones drawn first are wider, so that they show as nested bands.
+    // Modes real somewhere coincide there at zero frequency and zeta = 1: the ones drawn
+    // first are wider, so they show as nested bands.
     let hz_range = |name: &str, f: &dyn Fn(f64, f64) -> f64| {
         (0..n_pts)
             .filter_map(|k| sw.mode_eig(name, k))
@@ -308,8 +294,7 @@ pub fn write_root_locus(sw: &CaseSweep, dir: &Path) -> std::io::Result<std::path
                 }
             }
         }
-        // The legend names each mode with its frequency range over the sweep.
-        // The names speak of the natural frequency |lambda| / 2 pi of the complex pair.
+        // The legend names each mode with its natural frequency range over the sweep.
         let (lo, hi) = hz_range(name, &f64::hypot);
         let named = if hi > 0.0 {
             format!("{name}: f_n {lo:.1}-{hi:.1} Hz")
@@ -384,16 +369,13 @@ pub struct FigureRun<'a> {
     pub label: &'a str,
     /// The run.
     pub tr: &'a Trajectory,
-    /// The slip regulator's set point while the protection acted, `(t_s, m/s)`
-    /// ([`wheelset_loop::core::CoreRun::set_point`]); empty for a run without protection.
+    /// The slip regulator's set point while the protection acted, `(t_s, m/s)`.
     pub set_point: &'a [(f64, f64)],
 }
 
-/// The traction engineer's figure (`adhesion.svg` in `dir`): traction force delivered,
-/// then the slip velocity of each run in its own panel and scale (a protected wheel's
-/// tenths of m/s against its regulator's set point and the detection threshold
-/// `slip_on_mps`; an unprotected one's runaway against the runaway threshold), then the
-/// adhesion available and used. Each run keeps its colour across the panels.
+/// The traction engineer's figure (`adhesion.svg` in `dir`): traction force, the slip
+/// velocity of each run in its own panel (against the set point and thresholds), then
+/// the adhesion available and used; each run keeps its colour across the panels.
 pub fn write_figure(
     runs: &[FigureRun<'_>],
     slip_on_mps: f64,
@@ -419,8 +401,7 @@ pub fn write_figure(
         "Adhesion available (peak) and used",
         "F / Q (creep force over wheel load)",
     );
-    // The other runs first and wide, the first run thin on top: where they coincide
-    // (before the first low-adhesion section) both show.
+    // The other runs first and wide, the first run thin on top.
     let order: Vec<usize> = (1..runs.len()).chain(0..runs.len().min(1)).collect();
     let width = |k: usize| if k == 0 { 1.4 } else { 3.6 };
     for &k in &order {
@@ -482,8 +463,7 @@ pub fn write_figure(
                 "#D55E00",
             )
         } else {
-            // The set point, broken where the protection did not act; a dot where each
-            // stretch ends (the protection hands back to the driver's demand).
+            // The set point, broken where the protection did not act, a dot at each end.
             let mut sp = Vec::with_capacity(run.set_point.len());
             let mut released = Vec::new();
             let dt = run
@@ -569,8 +549,7 @@ pub fn characteristic(ch: &Characteristic) -> Figure {
         &format!("peak adhesion {:.3}", ch.mu_peak),
         "#777777",
     );
-    // The figure is as wide as its title (the law's source) needs: 9 px a character at
-    // font-size 15.
+    // As wide as its title needs: 9 px a character at font-size 15.
     let title = format!("adhesion: {}", ch.source);
     let width = (title.chars().count() as f64 * 9.0 + 40.0).max(plot.width);
     Figure::new(&title).panel(plot.size(width, 360.0))

@@ -1,19 +1,6 @@
-//! `sim-host`: the plant simulator's command line.
-//!
-//! - `sim-host modes [--case a|b|c|d] [--points N] --json FILE [--plot DIR]`
-//! - `sim-host rates [--control lead|gain|passive] [--model full|reduced] [--delay N]
-//!   [--max-baud B] [--json FILE]`: the sampled-data rate analysis of the firmware loops
-//! - `sim-host run --scenario curve|beating|FILE --control passive|gain|lead [--csv FILE] [--plot DIR]`
-//! - `sim-host run ... --loop device [--wsp on|off] [--faults SPEC] [--seed N] [--baud B] [--latency-us L]`:
-//!   the firmware runtime in the loop over the simulated serial link
-//! - `sim-host run ... --loop core [--wsp on|off]`: the f64 control core on the plant
-//!   (the device's laws and timing without the link)
-//! - `sim-host run ... --json FILE`: the run's summary (with `[[adhesion]]` sections: the
-//!   per-section adhesion table and the runaway verdict, `wheelset_plant::traction`)
-//! - `sim-host adhesion --condition dry|wet|low [--v-mps V] --json FILE [--plot DIR]`:
-//!   Polach's creep characteristic `F/Q` against creepage 0..0.2
-//!
-//! Exit codes: 0 success, 2 bad usage or bad input file, 1 other failures (writing output).
+//! `sim-host`: the plant simulator's command line (`modes`, `rates`, `run`, `adhesion`;
+//! `--help` documents each). Exit codes: 0 success, 2 bad usage or bad input file, 1
+//! other failures (writing output).
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;

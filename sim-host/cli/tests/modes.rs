@@ -14,7 +14,7 @@ use wheelset_plant::linear::{
 };
 use wheelset_plant::modes::{creep_grid, eigenvalues, sweep_case, Case};
 use wheelset_plant::params::Params;
-use wheelset_plant::plant::{ix, Inputs, Plant, PlantConfig, NX};
+use wheelset_plant::plant::{ix, Inputs, Plant, PlantConfig, NX, STATE_NAMES};
 use wheelset_plant::scenario::Axle;
 
 fn configs() -> Vec<PlantConfig> {
@@ -189,7 +189,7 @@ fn linear_plant_has_the_documented_shape() {
     assert!((m.b[(psid, 0)] + 1.0 / p.j).abs() < 1e-15);
     assert!((m.b[(ia, 1)] - 1.0 / p.l_a).abs() < 1e-9);
     assert_eq!(m.c.row(1).iter().filter(|v| **v == 1.0).count(), 1);
-    assert_eq!(m.state_names()[ia], "i_a_A");
+    assert_eq!(STATE_NAMES[m.states[ia]], "i_a_A");
 }
 
 /// The lateral eigenvalue nearest the kinematic one.

@@ -1,49 +1,9 @@
-//! Adhesion-limited creep forces: Polach's method (O. Polach, "Creep forces in
-//! simulations of traction vehicles running on adhesion limit", *Wear* 258 (2005)
-//! 992-1000), per wheel, on the resultant creepage, scaled so that the small-creep slopes
-//! are the paper's `f11` (longitudinal) and `f22` (lateral).
-//!
-//! # The law
-//!
-//! For one wheel with longitudinal creepage `s_x` and lateral creepage `s_y` the linear
-//! law (eqs. 1-3 of `docs/model.md`) gives the force vector `F_lin = (f11 s_x, f22 s_y)`,
-//! N. With adhesion, the force keeps the direction of `F_lin` and its magnitude follows
-//! Polach's saturating characteristic:
-//!
-//! ```text
-//! s   = sqrt(s_x^2 + s_y^2)                 resultant creepage, 1
-//! w   = s v                                 slip velocity, m/s
-//! mu  = mu0 [ (1 - A) exp(-B w) + A ]       friction coefficient, 1   (B in s/m)
-//! e   = |F_lin| pi / (2 Q mu (kA + kS))     gradient of the tangential stress, 1
-//! F   = (2 Q mu / pi) [ kA e / (1 + (kA e)^2) + atan(kS e) ]         N
-//! F_vec = F_lin * F / |F_lin| = F_lin * r(e),
-//! r(e) = [ kA e / (1 + (kA e)^2) + atan(kS e) ] / ((kA + kS) e)
-//! ```
-//!
-//! `dF/de` at `e = 0` is `kA + kS`, so `F = |F_lin| (1 + O(e^2))`: the slope of each
-//! component at zero creepage is exactly `f11` resp. `f22` (for a pure longitudinal or
-//! pure lateral creepage `e = s f pi / (2 Q mu (kA + kS))`, Polach's form with his
-//! `C pi a b / 4 ...` replaced by the paper's coefficient). As `mu -> infinity`,
-//! `e -> 0` and `r -> 1`: the linear law. `r(e)` is evaluated by its Taylor series
-//! `1 - (kA^3 + kS^3/3) e^2 / (kA + kS)` below `e = 1e-4` (relative error < 1e-16),
-//! so zero creepage is not a 0/0.
-//!
-//! Signs: `F_lin` is the rail's force on the wheel as in eqs. (1)-(3) (+ forward, + right),
-//! and `r > 0`, so every sign convention of the plant is kept.
-//!
-//! # Rail conditions (data, [`Condition`])
-//!
-//! | condition | `mu0` | `A` | `B`, s/m | `kA` | `kS` | source |
-//! |---|---|---|---|---|---|---|
-//! | `dry` | 0.55 | 0.40 | 0.60 | 0.54 | 0.18 | Polach 2005 (its validation parameter sets): the dry-rail set fitted to the SBB Re 460 locomotive measurements |
-//! | `wet` | 0.30 | 0.40 | 0.29 | 0.30 | 0.075 | Polach 2005 (its validation parameter sets): the wet-rail set fitted to the measurements of the 12X locomotive |
-//! | `low` | 0.08 | 0.40 | 0.29 | 0.30 | 0.075 | **project choice**: Polach gives no set for leaves or oil; the `wet` shape with `mu0` scaled so the peak at 83.3 m/s is ~0.06, inside the 0.03-0.08 range of contaminated rail (`docs/model.md`) |
-//!
-//! `sim-host adhesion --condition C --v-mps V --json F` prints the characteristic and its
-//! peak for any condition and speed.
-//!
-//! # Wheel load
-//! `Q` per wheel, N: [`crate::params::Params::q`], default `(m + m_v/2) g / 2`.
+//! Adhesion-limited creep forces: Polach's method (Wear 258 (2005) 992-1000) per wheel
+//! on the resultant creepage, scaled so the small-creep slopes are `f11` and `f22`
+//! (`docs/model.md`, "adhesion-limited creep"). The force keeps the direction of the
+//! linear one, `F_vec = F_lin r(e)`, `e = |F_lin| pi / (2 Q mu (kA + kS))`,
+//! `r(e) = [kA e / (1 + (kA e)^2) + atan(kS e)] / ((kA + kS) e)`; below `e = 1e-4`
+//! its Taylor series `1 - (kA^3 + kS^3/3) e^2 / (kA + kS)` (no 0/0 at zero creepage).
 
 use crate::plant::Scalar;
 use serde::{Deserialize, Serialize};
@@ -88,8 +48,8 @@ impl Polach {
         (kae / (c(1.0) + kae * kae) + (c(self.ks) * e).atan()) / (c(ksum) * e)
     }
 
-    /// Scales the linear force vector `(fx, fy)` (N) of one wheel carrying load `q` (N)
-    /// whose resultant slip velocity is `w` (m/s, `>= 0`): returns `r(e)`.
+    /// `r(e)` for the linear force `(fx, fy)` (N) of a wheel with load `q` (N) and
+    /// resultant slip velocity `w` (m/s, `>= 0`).
     #[inline]
     pub fn scale<S: Scalar>(&self, q: f64, fx: S, fy: S, w: S) -> S {
         let c = S::c;
@@ -106,8 +66,8 @@ impl Polach {
         f * s * r / q
     }
 
-    /// The peak of [`Self::force_over_q`] over creepage `0..=s_max` (golden-section
-    /// refinement of a 2 000-point scan): `(s_peak, F/Q at the peak)`.
+    /// The peak `(s_peak, F/Q)` of [`Self::force_over_q`] over creepage `0..=s_max`
+    /// (golden-section refinement of a 2 000-point scan).
     pub fn peak(&self, q: f64, f: f64, v: f64, s_max: f64) -> (f64, f64) {
         let n = 2000;
         let g = |s: f64| self.force_over_q(q, f, s, v);
@@ -169,7 +129,8 @@ impl Condition {
         Self::ALL.into_iter().find(|c| c.name() == s)
     }
 
-    /// Polach's parameters of this condition (table in the module docs).
+    /// Polach's parameters of this condition (`low` is a project choice: the `wet` shape
+    /// with `mu0` scaled to a peak of ~0.06 at 83.3 m/s).
     pub fn polach(self) -> Polach {
         match self {
             Condition::Dry => Polach {
@@ -239,9 +200,8 @@ impl Adhesion {
         }
     }
 
-    /// Applies the law to one wheel: the linear forces `(fx, fy)` (N, from eqs. 1-3)
-    /// with creep coefficients `f11`, `f22` (N) at speed `v` (m/s) become the
-    /// adhesion-limited forces (same direction). The creepages are `fx/f11`, `fy/f22`.
+    /// Applies the law to one wheel's linear forces `(fx, fy)` (N) at speed `v` (m/s);
+    /// the creepages are `fx/f11`, `fy/f22`.
     #[inline]
     pub fn apply<S: Scalar>(&self, fx: S, fy: S, inv_f11: f64, inv_f22: f64, v: S) -> (S, S) {
         let c = S::c;

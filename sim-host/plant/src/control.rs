@@ -1,14 +1,7 @@
-//! Controllers.
-//!
-//! - Continuous-time reference controllers ([`YawLaw`], [`ContinuousController`]) are
-//!   extra ODE states integrated with the plant.
-//! - A discrete controller (the firmware over the link, or a host reference) plugs in
-//!   through [`SampledController`]: it is called once per period with the sensor frame
-//!   ([`Measurements`]) and returns the [`Actuation`], which the plant holds (ZOH).
-//!
-//! Signs (eq. 5 as printed, `J psi'' + ... = -T_psi`): passive `T_psi = +k_yaw psi`
-//! (the plant's spring); active `T_psi = +K y'` or `+Ks(s) y'`: a wheelset moving right
-//! is yawed nose-left.
+//! Controllers: the continuous-time references ([`ContinuousController`], ODE states
+//! integrated with the plant) and the interface of a discrete one
+//! ([`SampledController`], called once per period, its output held). Signs (eq. 5,
+//! `J psi'' + ... = -T_psi`): passive `T_psi = +k_yaw psi`, active `T_psi = +K y'`.
 
 use crate::params::Params;
 use crate::plant::{ix, Flags, Inputs, Plant, Scalar, NX};
@@ -141,9 +134,8 @@ impl<S: Scalar> Exogenous<S> {
     }
 }
 
-/// The closed loop's right-hand side: plant with `T_psi` from the yaw law and `u_a`
-/// from the PI (drive), plus the controller state derivatives. Generic so that the
-/// same code is simulated (`f64`) and differentiated by complex step.
+/// The closed loop's right-hand side: the plant with `T_psi` from the yaw law and `u_a`
+/// from the PI, plus the controller states (generic for the complex step).
 #[inline(always)]
 pub fn closed_loop_rhs<S: Scalar>(
     plant: &Plant,
@@ -199,8 +191,7 @@ pub struct Measurements {
     pub demand_nm: f64,
     /// Current reference `demand / (n K_m)`, A.
     pub i_ref: f64,
-    /// Forward speed of the wheelset `v` (the vehicle reference speed a real vehicle
-    /// measures on unpowered axles or by radar), m/s.
+    /// Forward speed `v` (a vehicle's reference speed), m/s.
     pub v_mps: f64,
 }
 
@@ -219,25 +210,21 @@ pub trait SampledController {
     fn period_ns(&self) -> u64;
     /// One control step at `t_ns` from the (sensor-modelled) measurements.
     fn step(&mut self, t_ns: u64, meas: &Measurements) -> Actuation;
-    /// Actuation before the first step (default: zero torque, `u_a` = the measured
-    /// back-EMF so the current stays at zero).
+    /// Actuation before the first step (zero torque, `u_a` = the back-EMF).
     fn initial(&self, meas: &Measurements, k_m: f64) -> Actuation {
         Actuation {
             t_psi: 0.0,
             u_a: k_m * meas.w_m,
         }
     }
-    /// Whether a step's actuation is known only when it takes effect: the controller
-    /// answers later (a device that gets the next sample before it has answered this
-    /// one, as the one period of actuator delay allows), so
-    /// [`run_sampled`](crate::sim::run_sampled) ignores what [`Self::step`] returned and
-    /// asks [`Self::take_deferred`] when the actuation is due. Default: `false`.
+    /// Whether the actuation is known only when due (a device answering one period
+    /// late): [`run_sampled`](crate::sim::run_sampled) then asks
+    /// [`Self::take_deferred`]. Default: `false`.
     fn defers(&self) -> bool {
         false
     }
-    /// The actuation of the oldest step not yet taken, due from `due_ns` (the step's
-    /// time plus the actuator delay); called once per step, in order, only when
-    /// [`Self::defers`]. Default: zero torque and voltage.
+    /// The actuation of the oldest step not yet taken, due from `due_ns`; called once per
+    /// step, in order, only when [`Self::defers`].
     fn take_deferred(&mut self, due_ns: u64) -> Actuation {
         let _ = due_ns;
         Actuation::default()

@@ -1,8 +1,5 @@
-//! Typed errors for configuration input (parameter and scenario files).
-//!
-//! Every error names the file (or `<builtin:NAME>` for an embedded scenario), the key
-//! (a dotted TOML path such as `params.f11` or `track[2].t_s`) where one is known, and
-//! the reason. The command line maps all of them to exit code 2.
+//! Typed errors of parameter and scenario files: the file, the dotted key where known
+//! (`params.f11`, `track[2].t_s`) and the reason; the command line exits 2 on any.
 
 use std::fmt;
 

@@ -1,33 +1,8 @@
-//! Plant-side faults of the yaw actuator, as scenario data (not code paths).
-//!
-//! From the fault time on, the torque the actuator puts on the wheelset is
-//!
-//! ```text
-//! T_delivered = g T_commanded,   g = 0 (off), f (fraction), -1 (reversed)
-//! ```
-//!
-//! with `T_commanded` the controller's yaw torque (eq. 5 sign). Before it `g = 1`. The
-//! passive yaw spring (passive mode) is mechanical and not affected. The scenario TOML:
-//!
-//! ```toml
-//! [actuator_fault]
-//! t_s = 6.0            # the actuator fails at 6 s
-//! mode = "off"         # "off": output ignored; "reversed": sign reversed;
-//!                      # "fraction": acts at `fraction` of its command
-//! fraction = 0.3       # only with mode = "fraction", in [0, 1)
-//! ```
-//!
-//! The continuous reference ([`crate::sim::run_continuous`]) scales its yaw law by `g`
-//! (the law is linear in its gain, so this is the same torque); the sampled and device
-//! loops ([`crate::sim::run_sampled`]) scale the actuation they apply to the plant. The
-//! CSV's `T_ctrl_Nm` is the delivered torque.
-//!
-//! ```
-//! use wheelset_plant::fault::{ActuatorFault, FaultMode};
-//! let f = ActuatorFault { t_on_ns: 6_000_000_000, mode: FaultMode::Reversed };
-//! assert_eq!(f.gain(5_999_999_999), 1.0);
-//! assert_eq!(f.delivered(6_000_000_000, 250.0), -250.0);
-//! ```
+//! Plant-side faults of the yaw actuator, as scenario data (`[actuator_fault]`): from
+//! the fault time on the actuator delivers `T_delivered = g T_commanded`, `g = 0`
+//! (off), `f` (fraction) or `-1` (reversed); the passive spring is mechanical and not
+//! affected. The continuous reference scales its (linear) yaw law by `g`, the sampled
+//! loops the actuation they apply; the CSV's `T_ctrl_Nm` is the delivered torque.
 
 use serde::{Deserialize, Serialize};
 
@@ -79,8 +54,7 @@ pub struct ActuatorFault {
 }
 
 impl ActuatorFault {
-    /// Delivered/commanded torque ratio at `t_ns`: 1 before the failure, then
-    /// [`FaultMode::gain`].
+    /// Delivered/commanded torque ratio at `t_ns` (1 before the failure).
     pub fn gain(&self, t_ns: u64) -> f64 {
         if t_ns < self.t_on_ns {
             1.0
@@ -111,29 +85,20 @@ impl ActuatorFault {
 pub struct FailedMode {
     /// Growth rate `sigma = Re(lambda)`, 1/s (> 0: unstable).
     pub sigma_per_s: f64,
-    /// Frequency `Im(lambda)/(2 pi)`, Hz (0: a real mode, a drift rather than an
-    /// oscillation).
+    /// Frequency `Im(lambda)/(2 pi)`, Hz (0: a real mode).
     pub f_hz: f64,
 }
 
 impl FailedMode {
-    /// The time the mode takes to grow by `factor` (> 1), `ln(factor)/sigma`, s; `None`
-    /// if it does not grow.
+    /// The time to grow by `factor` (> 1), `ln(factor)/sigma`, s; `None` if it does not grow.
     pub fn time_to_grow(&self, factor: f64) -> Option<f64> {
         (self.sigma_per_s > 0.0 && factor > 1.0).then(|| factor.ln() / self.sigma_per_s)
     }
 }
 
-/// The least stable mode of the loop whose yaw actuator delivers `gain` times the
-/// command of `law` ([`FaultMode::gain`]: 0 off, `f` fraction, -1 reversed; 1 healthy),
-/// linearised at straight-track pure rolling: `linear::closed_loop_a_with` with the
-/// law's yaw gain `K` scaled by `gain` (the delivered torque `g Ks(s) y'` is the law with
-/// gain `g K`). Real and oscillatory modes alike, the structural zero (free rolling)
-/// left out: a reversed actuator's least stable mode is real (the wheelset is pushed
-/// off the centre line, about 100 1/s at 10 MN), a stopped one's is the kinematic
-/// oscillation of the free wheelset. Under [`YawLaw::Passive`] the law commands no
-/// torque and the yaw spring is mechanical: `gain` changes nothing. `None` if the
-/// matrix has a non-finite entry.
+/// The least stable mode (structural zero left out) of the loop whose yaw actuator
+/// delivers `gain` times the command of `law`, linearised at straight-track pure
+/// rolling: the law's gain `K` scaled by `gain`. `None` if the matrix is not finite.
 ///
 /// ```
 /// use wheelset_plant::{control::YawLaw, fault::faulty_loop_mode, params::Params, scenario::Axle};
@@ -172,10 +137,7 @@ pub fn faulty_loop_mode(
         })
 }
 
-/// The least stable mode of the wheelset once its yaw actuator has stopped acting (no
-/// yaw spring, no yaw torque): [`faulty_loop_mode`] with `gain` 0. Over the envelope
-/// (conicity 0.05-0.4 at 10 MN) it is the kinematic oscillation of the free wheelset,
-/// unstable.
+/// The least stable mode once the yaw actuator has stopped ([`faulty_loop_mode`], gain 0).
 pub fn failed_actuator_mode(p: &Params, axle: Axle, drive: bool) -> Option<FailedMode> {
     faulty_loop_mode(p, axle, drive, YawLaw::Gain, 0.0)
 }

@@ -1,24 +1,6 @@
-//! Guards of the linear algebra: no matrix reaches an eigenvalue or exponential solver
-//! unless every entry is finite (a QR iteration cannot converge on a NaN matrix), the
-//! parameter to blame for a non-finite matrix, and a conditioning check of computed
-//! eigenvalues.
-//!
-//! Conditioning: the eigenvalues of `A` and of `A^T` are the same numbers; computed,
-//! they differ by about `kappa(lambda) eps ||A||`, where `kappa` is the eigenvalue's
-//! condition number. [`eigen_disagreement`] returns the largest such difference
-//! relative to `|lambda|` (eigenvalues below `1e-9 ||A||`, like the structural zero of
-//! free rolling, are measured against `||A||` instead); above [`ILL_CONDITIONED`] the
-//! printed modes carry fewer than about six correct digits and the tools warn.
-//!
-//! ```
-//! use nalgebra::DMatrix;
-//! use wheelset_plant::finite::{check_finite, eigen_disagreement};
-//! let a = DMatrix::from_row_slice(2, 2, &[0.0, 1.0, -4.0, -0.1]);
-//! assert!(check_finite(&a, "A").is_ok());
-//! assert!(eigen_disagreement(&a).unwrap() < 1e-12);
-//! let bad = DMatrix::from_row_slice(1, 1, &[f64::NAN]);
-//! assert!(check_finite(&bad, "A").unwrap_err().contains("not finite"));
-//! ```
+//! Guards of the linear algebra: every matrix finite before an eigenvalue or exponential
+//! solver, the parameter to blame for a non-finite one, and a conditioning check: the
+//! computed eigenvalues of `A` and `A^T` differ by about `kappa(lambda) eps ||A||`.
 
 use crate::params::{Params, RANGES};
 use nalgebra::{Complex, DMatrix};
@@ -41,18 +23,16 @@ pub fn check_finite(m: &DMatrix<f64>, what: &str) -> Result<(), String> {
     Ok(())
 }
 
-/// The eigenvalues of `m` ([`crate::modes::eigenvalues`], the crate's one eigenvalue
-/// routine), or an error when an entry is not finite or the QR iteration does not
-/// converge.
+/// The eigenvalues of `m` ([`crate::modes::eigenvalues`]), or an error when an entry is
+/// not finite or the QR iteration does not converge.
 pub fn eigenvalues(m: &DMatrix<f64>, what: &str) -> Result<Vec<Complex<f64>>, String> {
     check_finite(m, what)?;
     crate::modes::eigenvalues(m)
         .ok_or_else(|| format!("{what}: the QR iteration for the eigenvalues did not converge"))
 }
 
-/// The largest relative difference between the eigenvalues of `a` and of `a^T`
-/// (matched nearest first), a measure of how many digits the computed eigenvalues
-/// carry; `None` when `a` is not finite or empty.
+/// The largest difference between the eigenvalues of `a` and of `a^T` relative to
+/// `|lambda|` (to `||A||` below `1e-9 ||A||`); `None` when `a` is not finite or empty.
 pub fn eigen_disagreement(a: &DMatrix<f64>) -> Option<f64> {
     if a.is_empty() || check_finite(a, "A").is_err() {
         return None;

@@ -1,25 +1,13 @@
-//! The one way the tools read an input file (parameters, scenarios, budgets, golden
-//! vectors, ...): a regular file of at most [`MAX_INPUT_BYTES`], read as UTF-8 text.
-//!
-//! Refused with the reason, before anything is read: a FIFO (opening one blocks until a
-//! writer comes, reading it may never end), a character or block device (`/dev/zero`
-//! never ends), a socket, a directory, and a regular file larger than the limit. A file
-//! that grows while it is read is cut at the limit and refused as well, so no input makes
-//! a tool hang or allocate more than the limit.
-//!
-//! ```
-//! use wheelset_plant::input::{read_text, MAX_INPUT_BYTES};
-//! let e = read_text(std::path::Path::new("/dev/zero"), MAX_INPUT_BYTES).unwrap_err();
-//! assert!(e.to_string().contains("not a regular file"), "{e}");
-//! ```
+//! The one way the tools read an input file: a regular file of at most
+//! [`MAX_INPUT_BYTES`], as UTF-8. FIFOs, devices, sockets and directories are refused
+//! before anything is read (they may block or never end), as is a file over the limit
+//! (one that grows while read is cut at the limit and refused).
 
 use crate::error::ConfigError;
 use std::io::Read;
 use std::path::Path;
 
-/// Largest input file any tool reads: 1 MiB. The largest file the project ships (a
-/// scenario, a parameter table, a budget) is under 4 KiB; a recorded sensor stream of a
-/// few seconds is under 100 KiB.
+/// Largest input file any tool reads: 1 MiB (the shipped ones are under 4 KiB).
 pub const MAX_INPUT_BYTES: u64 = 1 << 20;
 
 /// What kind of non-regular file `path` is, for the refusal message.

@@ -1,34 +1,12 @@
-//! Linearisation about straight-track pure rolling.
-//!
-//! The operating point: `y = psi = 0`, wheels at `v/r0`, motor at `n v/r0`, zero
-//! current, no twist or wind-up, the PI integrator at the back-EMF, the lead state zero.
-//! Two independent Jacobians of the same right-hand side:
-//!
-//! - [`plant_jacobian`]: analytic, term by term from the creep-force gradients;
-//! - [`plant_jacobian_complex_step`] / [`closed_loop_jacobian_complex_step`]:
-//!   `df/dx_j = Im f(x + i h e_j) / h` with `h = 1e-20`, exact to rounding because there
-//!   is no subtraction.
-//!
-//! - [`closed_loop_jacobian_central`]: central differences, for the plant with the
-//!   adhesion law on (where the complex step is wrong).
-//!
-//! A test cross-checks them at random states. Free rolling at any speed is an
-//! equilibrium, so every linear model here has one eigenvalue at exactly zero (the
-//! rolling/speed direction); [`crate::modes`] reports it separately and leaves it out of
-//! stability verdicts.
-//!
-//! [`LinearModel`] is the open-loop plant `x' = A x + B u`, `y = C x` with inputs
-//! `[T_psi (N m), u_a (V)]` and outputs `[y' (m/s), i_a (A), theta_m' (rad/s)]`, the
-//! interface for sampled-data (ZOH + delay) analyses of the discrete controllers.
-//!
-//! The plant variants those analyses ([`crate::sampled`]) close their loops on:
-//! [`LinearPlant`] (`A`, `B`, `C` of any of them), [`Model`] (the full linearisation or
-//! the [`Reduced`] lateral/yaw + armature plant) and [`armature`] (the current loop's
-//! plant alone).
+//! Linearisation about straight-track pure rolling (`y = psi = 0`, wheels at `v/r0`,
+//! the PI integrator at the back-EMF): an analytic Jacobian ([`plant_jacobian`]), a
+//! complex-step one (`df/dx_j = Im f(x + i h e_j) / h`, exact to rounding) and central
+//! differences for the adhesion law, cross-checked by a test. Free rolling is an
+//! equilibrium at any speed, so every model here has one eigenvalue at exactly zero.
 
 use crate::control::{closed_loop_rhs, ContinuousController, Exogenous, YawLaw};
 use crate::params::Params;
-use crate::plant::{ix, Inputs, Plant, PlantConfig, State, NX, STATE_NAMES};
+use crate::plant::{ix, Inputs, Plant, PlantConfig, State, NX};
 use crate::scenario::Axle;
 use nalgebra::{Complex, DMatrix, SMatrix};
 
@@ -50,17 +28,13 @@ pub fn operating_point(plant: &Plant, p: &Params) -> State {
     x
 }
 
-/// Analytic Jacobians `(df/dx, df/d[T_psi, u_a])` of the plant RHS at any state `x`
-/// and inputs `u` (not only the operating point).
-///
+/// Analytic Jacobians `(df/dx, df/d[T_psi, u_a])` of the plant RHS at any `x` and `u`.
 /// Creep-force gradients (`w_L` is `w_R` on a rigid axle):
 /// `dF_xR/dpsi' = f11 Lg/v`, `dF_xR/dw_R = f11 (r0 + lambda y)/v`,
 /// `dF_xR/dy = f11 lambda w_R/v`, `dF_xR/dv = -f11 (Lg psi' + w_R (r0 + lambda y))/v^2`;
 /// `dF_xL/dpsi' = -f11 Lg/v`, `dF_xL/dw_L = f11 (r0 - lambda y)/v`,
 /// `dF_xL/dy = -f11 lambda w_L/v`, `dF_xL/dv = f11 (Lg psi' - w_L (r0 - lambda y))/v^2`;
 /// `dF_y/dy' = -f22/v`, `dF_y/dpsi = f22`, `dF_y/dv = f22 y'/v^2`.
-/// Each equation of motion is linear in the forces, so its row is the matching
-/// combination of these gradients plus its direct terms.
 pub fn plant_jacobian(plant: &Plant, p: &Params, x: &State, u: &Inputs<f64>) -> (Jac, InJac) {
     let cfg = plant.cfg;
     let rigid = cfg.axle == Axle::Rigid;
@@ -140,7 +114,6 @@ pub fn plant_jacobian(plant: &Plant, p: &Params, x: &State, u: &Inputs<f64>) -> 
 
 /// Complex-step Jacobians of the plant RHS (same layout as [`plant_jacobian`]).
 pub fn plant_jacobian_complex_step(plant: &Plant, x: &State, u: &Inputs<f64>) -> (Jac, InJac) {
-    let xc: [Complex<f64>; NX] = x.map(|v| Complex::new(v, 0.0));
     let lift = |v: f64| Complex::new(v, 0.0);
     let uc = Inputs {
         t_psi: lift(u.t_psi),
@@ -150,15 +123,8 @@ pub fn plant_jacobian_complex_step(plant: &Plant, x: &State, u: &Inputs<f64>) ->
         f_run: lift(u.f_run),
         t_drive: lift(u.t_drive),
     };
-    let mut a = Jac::zeros();
-    for j in 0..NX {
-        let mut xp = xc;
-        xp[j].im = COMPLEX_STEP;
-        let (f, _) = plant.rhs(&xp, &uc);
-        for i in 0..NX {
-            a[(i, j)] = f[i].im / COMPLEX_STEP;
-        }
-    }
+    let xc: [Complex<f64>; NX] = x.map(lift);
+    let a = complex_step(x, |xp| plant.rhs(xp, &uc).0);
     let mut b = InJac::zeros();
     for k in 0..2 {
         let mut up = uc;
@@ -223,6 +189,20 @@ pub fn closed_loop_jacobian(
     a
 }
 
+/// `df/dx` of `f` at `x` by the complex step.
+fn complex_step(x: &State, f: impl Fn(&[Complex<f64>; NX]) -> [Complex<f64>; NX]) -> Jac {
+    let mut a = Jac::zeros();
+    for j in 0..NX {
+        let mut xp = x.map(|v| Complex::new(v, 0.0));
+        xp[j].im = COMPLEX_STEP;
+        let f = f(&xp);
+        for i in 0..NX {
+            a[(i, j)] = f[i].im / COMPLEX_STEP;
+        }
+    }
+    a
+}
+
 /// Complex-step closed-loop Jacobian of [`closed_loop_rhs`].
 pub fn closed_loop_jacobian_complex_step(
     plant: &Plant,
@@ -238,29 +218,15 @@ pub fn closed_loop_jacobian_complex_step(
         i_ref: lift(e.i_ref),
         demand: lift(e.demand),
     };
-    let xc: [Complex<f64>; NX] = x.map(lift);
-    let mut a = Jac::zeros();
-    for j in 0..NX {
-        let mut xp = xc;
-        xp[j].im = COMPLEX_STEP;
-        let f = closed_loop_rhs(plant, ctrl, &xp, &ec);
-        for i in 0..NX {
-            a[(i, j)] = f[i].im / COMPLEX_STEP;
-        }
-    }
-    a
+    complex_step(x, |xp| closed_loop_rhs(plant, ctrl, xp, &ec))
 }
 
 /// Relative step of [`closed_loop_jacobian_central`]: `h_j = CENTRAL_STEP max(|x_j|, 1e-2)`.
 pub const CENTRAL_STEP: f64 = 1e-6;
 
 /// Central-difference closed-loop Jacobian of [`closed_loop_rhs`] at any state:
-/// `A[:, j] = (f(x + h_j e_j) - f(x - h_j e_j)) / (2 h_j)`,
-/// `h_j = 1e-6 max(|x_j|, 1e-2)` in the SI unit of state `j` (truncation `O(h^2)`).
-///
-/// The one to use with the adhesion law on ([`Plant::adhesion`]): the complex step
-/// ([`closed_loop_jacobian_complex_step`]) is wrong there, `num_complex`'s `atan` is a
-/// difference of two logarithms and loses the imaginary part.
+/// `A[:, j] = (f(x + h_j e_j) - f(x - h_j e_j)) / (2 h_j)` (truncation `O(h^2)`). The
+/// one to use with the adhesion law on: `num_complex`'s `atan` loses the imaginary part.
 pub fn closed_loop_jacobian_central(
     plant: &Plant,
     ctrl: &ContinuousController,
@@ -306,7 +272,6 @@ fn select_into(a: &Jac, states: &[usize], out: &mut DMatrix<f64>) {
     if out.shape() != (n, n) {
         *out = DMatrix::zeros(n, n);
     }
-    // Both column-major: column `j` of `out` gathers from column `states[j]` of `a`.
     for (col, &sj) in out.as_mut_slice().chunks_exact_mut(n).zip(states) {
         let src = a.column(sj);
         for (o, &si) in col.iter_mut().zip(states) {
@@ -326,9 +291,7 @@ pub fn closed_loop_a(
     closed_loop_a_with(p, axle, drive, &ContinuousController::new(p, law))
 }
 
-/// [`closed_loop_a`] for the controller `ctrl` (e.g. its yaw gain `k` scaled by what a
-/// faulty actuator delivers, `crate::fault::faulty_loop_mode`); the yaw spring is set
-/// from `ctrl.law`.
+/// [`closed_loop_a`] for the controller `ctrl`; the yaw spring is set from `ctrl.law`.
 pub fn closed_loop_a_with(
     p: &Params,
     axle: Axle,
@@ -346,9 +309,8 @@ pub fn closed_loop_a_with(
     (a, states)
 }
 
-/// The matrix of [`closed_loop_a_with`] into `out` (its storage reused when it already
-/// has the size), for `states` = the loop's [`closed_loop_states`] (the state list
-/// depends on the plant and law only: a sweep makes it once).
+/// The matrix of [`closed_loop_a_with`] into `out` (its storage reused), for `states` =
+/// the loop's [`closed_loop_states`].
 pub fn closed_loop_a_into(
     p: &Params,
     axle: Axle,
@@ -373,29 +335,16 @@ pub fn closed_loop_a_into(
 pub struct LinearModel {
     /// State matrix, `n x n`.
     pub a: DMatrix<f64>,
-    /// Input matrix, `n x 2`, inputs [`LinearModel::INPUTS`].
+    /// Input matrix, `n x 2`: `T_psi` (N m), `u_a` (V).
     pub b: DMatrix<f64>,
-    /// Output matrix, `3 x n`, outputs [`LinearModel::OUTPUTS`].
+    /// Output matrix, `3 x n`: `y'` (m/s), `i_a` (A), `theta_m'` (rad/s).
     pub c: DMatrix<f64>,
     /// Which full-state slot each state is ([`crate::plant::ix`]).
     pub states: Vec<usize>,
 }
 
-impl LinearModel {
-    /// Input names and units.
-    pub const INPUTS: [&'static str; 2] = ["T_psi_Nm", "u_a_V"];
-    /// Output names and units.
-    pub const OUTPUTS: [&'static str; 3] = ["yd_mps", "i_a_A", "w_m_radps"];
-
-    /// State names (CSV-style, with units).
-    pub fn state_names(&self) -> Vec<&'static str> {
-        self.states.iter().map(|&i| STATE_NAMES[i]).collect()
-    }
-}
-
-/// The open-loop plant linearised at pure rolling on straight track. Inputs `T_psi`
-/// (eq. 5 sign) and `u_a`; outputs `y'`, `i_a`, `theta_m'` (the last two are zero rows
-/// without the drive). With `cfg.yaw_spring` the passive spring is inside `A`.
+/// The open-loop plant linearised at pure rolling on straight track, inputs `T_psi`
+/// (eq. 5 sign) and `u_a`, outputs `y'`, `i_a`, `theta_m'`.
 pub fn linear_plant(p: &Params, cfg: PlantConfig) -> LinearModel {
     let plant = Plant::new(p, cfg);
     let x = operating_point(&plant, p);
@@ -439,11 +388,9 @@ pub fn armature(l_a: f64, r_a: f64) -> LinearPlant {
     LinearPlant { a, b, c }
 }
 
-/// The reduced plant: the lateral/yaw dynamics of case (a) (rigid axle, straight
-/// track, speed constant, eqs. 4-5 linearised; no yaw spring, the active modes replace
-/// it; with the spring for [`YawLaw::Passive`]) and the armature circuit at constant
-/// motor speed (eq. 9). States `[y, y', psi, psi', i_a]`. For cross-checks and quick
-/// looks; the rate table uses the full linearisation by default.
+/// The reduced plant: the lateral/yaw dynamics of case (a) (rigid axle, straight track,
+/// constant speed, eqs. 4-5 linearised) and the armature circuit at constant motor
+/// speed (eq. 9). States `[y, y', psi, psi', i_a]`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Reduced {
     /// Creep coefficients f11 = f22, N.
@@ -494,8 +441,7 @@ impl Reduced {
 /// The plant the rate table closes the loops on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Model {
-    /// Case (d): flexible axle (40 Hz), motor on its gear spring, armature circuit,
-    /// forward speed: `crate::linear::linear_plant`.
+    /// Case (d): flexible axle, drive, armature ([`linear_plant`]).
     Full,
     /// [`Reduced`]: lateral/yaw of case (a) plus the armature circuit.
     Reduced,

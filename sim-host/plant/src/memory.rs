@@ -1,42 +1,20 @@
-//! Memory follows the output that was asked for: the estimate of what a run or a sweep
-//! keeps in memory, checked against [`MAX_BYTES`] before anything is allocated, so an
-//! accepted input never makes a tool abort on allocation. A refusal gives the estimate
-//! and how to lower it.
-//!
-//! - A run keeps one [`Record`] (one `f64` per CSV column) per output sample,
-//!   `duration_s / output_dt_s + 2` of them; on `--loop device` also one link record per
-//!   control period ([`DEVICE_BYTES_PER_PERIOD`]).
-//! - A modal sweep keeps, per creep point and case, the eigenvalues and their JSON
-//!   document ([`MODES_BYTES_PER_POINT`], measured).
-//!
-//! ```
-//! use wheelset_plant::memory::{run_bytes, MAX_BYTES, RECORD_BYTES};
-//! // 20 s at 1 ms: 20 002 records.
-//! assert_eq!(run_bytes(20_000_000_000, 1_000_000, None), 20_002 * RECORD_BYTES);
-//! // 1e5 s at 1 ms: 1e8 records, about 20 GiB: refused.
-//! assert!(run_bytes(100_000_000_000_000, 1_000_000, None) > MAX_BYTES);
-//! ```
+//! The estimate of what a run or a sweep keeps in memory, checked against [`MAX_BYTES`]
+//! before anything is allocated; a refusal gives the estimate and how to lower it.
 
 use crate::sim::Record;
 
-/// The most memory a run or a sweep may plan for: 2 GiB (the machines this project
-/// runs on have 24 GiB for up to eight builds and runs at once).
+/// The most memory a run or a sweep may plan for: 2 GiB (of 24 GiB for up to eight
+/// builds and runs at once).
 pub const MAX_BYTES: u64 = 2 << 30;
 
 /// Bytes of one output record.
 pub const RECORD_BYTES: u64 = std::mem::size_of::<Record>() as u64;
 
-/// Bytes kept per control period by the device loop: its link record
-/// (`wheelset_loop::exchange::LinkSample`, 24 B) and the link's fate of each of the
-/// period's frames (2 x 8 B, rounded up). `wheelset-loop` asserts at compile time that
-/// this is the size of its record plus 16.
+/// Bytes kept per control period by the device loop: its link record (24 B) and the
+/// fate of each of the period's two frames (`wheelset-loop` asserts the size).
 pub const DEVICE_BYTES_PER_PERIOD: u64 = 24 + 16;
 
-/// Bytes per creep point and case of `sim-host modes`: the eigenvalues in the sweep and
-/// the JSON document of the point (each value a `serde_json::Value` in a map). Measured:
-/// `/usr/bin/time -v sim-host modes --points N` (all four cases) keeps 139 MB at
-/// N = 5 000 and 541 MB at N = 20 000 (maximum resident set), 6.9 kB per point and case;
-/// 8 kB with margin.
+/// Bytes per creep point and case of `sim-host modes`: an upper bound of what a sweep keeps.
 pub const MODES_BYTES_PER_POINT: u64 = 8_000;
 
 /// Estimated bytes of a run of `duration_ns` sampled every `output_dt_ns`, plus one
@@ -81,8 +59,7 @@ pub fn check_run(
     check_runs(duration_ns, output_dt_ns, device_period_ns, 1)
 }
 
-/// [`check_run`] for `runs` trajectories kept at once (`--compare`, the continuous
-/// reference of a device run); the device records count once.
+/// [`check_run`] for `runs` trajectories kept at once; the device records count once.
 pub fn check_runs(
     duration_ns: u64,
     output_dt_ns: u64,

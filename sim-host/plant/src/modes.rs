@@ -1,27 +1,8 @@
-//! Modal analysis along the creep-coefficient sweep (Figs. 2-5 of the paper).
-//!
-//! For each analysis case ([`Case`], as `docs/model.md` defines them) and each creep
-//! coefficient `f11 = f22` of the sweep, the closed loop is linearised at pure rolling
-//! on straight track ([`crate::linear`]) and its eigenvalues computed ([`eigenvalues`]:
-//! irreducible blocks, each balanced, then nalgebra's real Schur form).
-//! Eigenvalues are tracked from point to point by continuity (greedy
-//! nearest-neighbour assignment to a linear prediction), named once at the start of the
-//! sweep (10 MN) from their participation factors `|w_k v_k|` (left and right
-//! eigenvectors by inverse iteration), and instability crossings are located by
-//! bisection on the creep coefficient.
-//!
-//! The structural zero eigenvalue (free rolling at any speed is an equilibrium) is
-//! identified, reported separately as `rolling (structural zero)`, and excluded from
-//! every stability verdict.
-//!
-//! Naming rules (at the highest creep of the sweep): the lateral/yaw-dominated
-//! eigenvalue nearest the kinematic eigenvalue `j v sqrt(lambda/(r0 Lg))` is
-//! `kinematic`; other lateral complex pairs are `high-frequency`; lateral real ones are
-//! `high-frequency` (over-damped) when no other lateral pair exists, else
-//! `lateral (real)`; then `torsional` / `longitudinal` (axle and speed states), `gear`,
-//! `current loop`, `lead compensator`. Branches keep their names along the sweep, and
-//! a mode's value is its least stable branch. Limitation: two real branches named
-//! differently at the start that later merge into a complex pair keep both names.
+//! Modal analysis along the creep-coefficient sweep (Figs. 2-5 of the paper): per case
+//! ([`Case`]) and creep coefficient `f11 = f22`, the closed loop's eigenvalues at pure
+//! rolling, tracked from point to point, named at the start of the sweep (10 MN) from
+//! their participation factors (`modes/naming.rs`), crossings found by bisection. The
+//! structural zero (free rolling) is reported apart and excluded from every verdict.
 
 use crate::control::{ContinuousController, YawLaw};
 use crate::linear::{closed_loop_a, closed_loop_a_into, closed_loop_states};
@@ -32,9 +13,6 @@ use nalgebra::{Complex, DMatrix};
 use serde::Serialize;
 use std::f64::consts::PI;
 
-// Files: `modes/naming.rs` (tracking and naming the modes), `modes/creep_sweep.rs` (the sweep
-// and its crossings), `modes/json.rs` (the JSON form), `modes/balance.rs` (the balancing
-// in front of the solver).
 mod balance;
 mod creep_sweep;
 mod json;
@@ -109,9 +87,8 @@ impl Case {
     }
 }
 
-/// [`Case::matrix`] for many creep coefficients in a row: the parameters, controller
-/// and state list are made once, the matrix is written into a kept one. The matrices
-/// are those of [`Case::matrix`], bit for bit.
+/// [`Case::matrix`] for many creep coefficients in a row (the same matrices, bit for
+/// bit): the parameters, controller and state list are made once.
 #[derive(Debug, Clone)]
 pub(crate) struct CaseLoop {
     /// The parameters, creep coefficients set per point.
@@ -160,23 +137,18 @@ impl CaseLoop {
     }
 }
 
-/// Eigenvalues of `a`. The matrix is first split into the strongly connected
-/// components of its sparsity graph (after a symmetric permutation it is block
-/// triangular, so its eigenvalues are those of the diagonal blocks: e.g. the rigid
-/// axle's longitudinal motion decouples from the lateral one at pure rolling); each
-/// block is balanced (an exact similarity by powers of two, LAPACK `dgebal`'s scaling)
-/// and its eigenvalues read from nalgebra's real Schur form. Eigenvalues come block by block in the order of the components,
-/// within a block in the order of its Schur form (a complex pair adjacent, positive
-/// imaginary part first). `None` if `a` has a non-finite entry or the QR iteration does
-/// not converge.
+/// Eigenvalues of `a`: split into the strongly connected components of its sparsity
+/// graph (block triangular after a permutation), each block balanced (LAPACK `dgebal`'s
+/// scaling) and solved by nalgebra's real Schur form. Block by block, a complex pair
+/// adjacent (positive imaginary part first). `None` if `a` has a non-finite entry or
+/// the QR iteration does not converge.
 pub fn eigenvalues(a: &DMatrix<f64>) -> Option<Vec<Complex<f64>>> {
     let mut out = Vec::with_capacity(a.nrows());
     Eigen::default().solve(a, &mut out).then_some(out)
 }
 
-/// Workspace of [`eigenvalues`] for many matrices in a row (a sweep): the components of
-/// the last sparsity pattern are kept and found again only when the pattern changes.
-/// The eigenvalues are those of [`eigenvalues`], bit for bit.
+/// Workspace of [`eigenvalues`] for a sweep: the components of the last sparsity
+/// pattern are found again only when the pattern changes.
 #[derive(Debug, Default)]
 pub(crate) struct Eigen {
     /// Order of the last pattern.
@@ -188,8 +160,7 @@ pub(crate) struct Eigen {
 }
 
 impl Eigen {
-    /// Replaces `out` by the eigenvalues of `a` (see [`eigenvalues`]); false (and `out`
-    /// empty) if `a` has a non-finite entry or the QR iteration does not converge.
+    /// Replaces `out` by the eigenvalues of `a` (see [`eigenvalues`]); false on failure.
     pub(crate) fn solve(&mut self, a: &DMatrix<f64>, out: &mut Vec<Complex<f64>>) -> bool {
         out.clear();
         out.reserve(a.nrows());
@@ -228,10 +199,9 @@ impl Eigen {
     }
 }
 
-/// Appends the eigenvalues of the diagonal block `a[block, block]` to `out`: balanced,
-/// then nalgebra's real Schur form with at most `30 max(k, 10)` QR steps for a block of
-/// `k` states (LAPACK `dlahqr`'s allowance). False (`out` unchanged) when it has not
-/// converged by then.
+/// Appends the eigenvalues of the block `a[block, block]` to `out`, at most
+/// `30 max(k, 10)` QR steps for `k` states (LAPACK `dlahqr`'s allowance). False
+/// (`out` unchanged) when it has not converged.
 fn block_eigenvalues(a: &DMatrix<f64>, block: &[usize], out: &mut Vec<Complex<f64>>) -> bool {
     match *block {
         [] => true,
@@ -343,8 +313,7 @@ pub struct Crossing {
     pub unstable_below: bool,
 }
 
-/// A mode's value at one point (fields in alphabetical order: the JSON's keys sorted,
-/// see `modes/json.rs`).
+/// A mode's value at one point (fields in alphabetical order: the JSON's keys sorted).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ModeValue {
     /// Damped frequency `im / 2 pi`, Hz.
@@ -361,29 +330,9 @@ pub struct ModeValue {
 
 impl ModeValue {
     fn new(name: &str, l: Complex<f64>) -> Self {
-        let m = ModeNumbers::new(l);
+        let mag = l.norm();
         ModeValue {
             name: name.to_string(),
-            re: m.re,
-            im: m.im,
-            freq_hz: m.freq_hz,
-            zeta: m.zeta,
-        }
-    }
-}
-
-/// The numbers of a [`ModeValue`] (for writers that need no name string).
-struct ModeNumbers {
-    freq_hz: f64,
-    im: f64,
-    re: f64,
-    zeta: f64,
-}
-
-impl ModeNumbers {
-    fn new(l: Complex<f64>) -> Self {
-        let mag = l.norm();
-        ModeNumbers {
             re: l.re,
             im: l.im.abs(),
             freq_hz: l.im.abs() / (2.0 * PI),
@@ -450,8 +399,7 @@ impl CaseSweep {
         self.modes_named(&self.mode_names(), k)
     }
 
-    /// [`Self::modes_at`] with the case's [`Self::mode_names`] given (made once for a
-    /// pass over every point).
+    /// [`Self::modes_at`] with the case's [`Self::mode_names`] given.
     fn modes_named(&self, names: &[String], k: usize) -> Vec<ModeValue> {
         names
             .iter()

@@ -1,7 +1,5 @@
-//! What a stopped run means: a run that was stopped ([`crate::sim::RunInfo::diverged_at_s`])
-//! either produced a non-finite number (a numerical failure: which states, at which
-//! time) or grew beyond the flange clearance with finite numbers (an unstable loop).
-//! The two are reported differently, so a NaN is never called "unstable".
+//! What a stopped run means: a non-finite number (a numerical failure: which states,
+//! when) or growth beyond the flange clearance with finite numbers (an unstable loop).
 
 use crate::sim::{Record, Trajectory};
 
@@ -44,9 +42,8 @@ impl std::fmt::Display for Stop {
     }
 }
 
-/// The columns of `r` that are not finite although they were in `first` (a column that
-/// is NaN from the start means "not applicable", e.g. the adhesion columns without
-/// adhesion).
+/// The columns of `r` that are not finite although they were in `first` (NaN from the
+/// start means "not applicable").
 fn non_finite(first: &Record, r: &Record) -> Vec<&'static str> {
     Record::COLUMNS
         .iter()

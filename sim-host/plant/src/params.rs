@@ -1,18 +1,11 @@
-//! Physical and controller parameters of the wheelset, its traction drive and the
-//! continuous-time reference controllers, with the paper's defaults (`docs/model.md`).
-//!
-//! All values are SI. A TOML table may override any subset of the fields; unknown keys
-//! and out-of-range values are refused with a [`ConfigError`] naming the key.
-//!
-//! ```
-//! let p = wheelset_plant::params::Params::from_toml_str("f11 = 5e6\nf22 = 5e6\n", "x.toml").unwrap();
-//! assert_eq!(p.f11, 5e6);
-//! assert_eq!(p.m, 1250.0); // default kept
-//! ```
+//! Physical and controller parameters of the wheelset, its drive and the reference
+//! controllers, SI, with the paper's defaults (`docs/model.md`). A TOML table may
+//! override any subset; unknown keys and out-of-range values are a [`ConfigError`].
 
 use crate::error::{from_toml, ConfigError};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
+use std::sync::LazyLock;
 
 /// The wheelset, drive and controller parameters. Field names are the TOML keys.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -122,9 +115,8 @@ impl Default for Params {
 }
 
 /// The plausible range of one parameter: values outside `[min, max]` are refused by
-/// [`Params::validate`] with `why`. The table [`RANGES`] is the one source of truth; the
-/// model document (`docs/model.md`, "Plausible ranges") prints the same rows, and a test
-/// compares the two.
+/// [`Params::validate`] with `why`. `docs/model.md` prints the same rows (a test
+/// compares them).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Range {
     /// The TOML key.
@@ -139,221 +131,59 @@ pub struct Range {
     pub why: &'static str,
 }
 
-const fn r(key: &'static str, unit: &'static str, min: f64, max: f64, why: &'static str) -> Range {
-    Range {
-        key,
-        unit,
-        min,
-        max,
-        why,
-    }
-}
+/// `key | unit | min | max | why` of every parameter, in [`Params::entries`] order: physical
+/// limits with a generous margin (light rail to heavy freight, 0.1 m/s to the speed
+/// record); outside them the linear algebra is meaningless (`l_a = 1e-61` H puts
+/// `R_a / L_a = 4e59` 1/s in the plant matrix).
+const RANGE_TABLE: &str = "\
+m | kg | 100 | 1e4 | a wheelset: light rail ~500 kg, heavy freight ~2.5 t
+m_v | kg | 0 | 2e6 | vehicle (or hauled train) mass per driven wheelset; 0 = none; a heavy train ~2000 t on 4 driven axles is 5e5
+j | kg m^2 | 10 | 1e4 | wheelset yaw inertia ~ m Lg^2 (600 at 1.25 t)
+i_w | kg m^2 | 1 | 1000 | one wheel (with its half axle): 20-100 kg m^2
+i_m | kg m^2 | 0.01 | 1000 | motor rotor: 1-50 kg m^2 for traction motors
+f11 | N | 1e5 | 1e8 | Kalker coefficient: 1-10 MN for 5-20 t wheel loads; 0.1 MN = severely reduced adhesion
+f22 | N | 1e5 | 1e8 | as f11
+c_lat | N s/m | 0 | 1e7 | lateral (primary) damping: 0-100 kN s/m typical
+k_lat | N/m | 0 | 1e9 | lateral (primary) stiffness: 0-10 MN/m typical
+k_yaw | N m/rad | 0 | 1e9 | passive yaw stiffness: 1-20 MN m/rad typical
+torsion_hz | Hz | 1 | 1000 | axle torsion mode: 30-100 Hz for solid axles
+k_t | N m/rad | 1000 | 1e10 | axle torsional stiffness: ~1e6-1e8 N m/rad
+gear_hz | Hz | 1 | 1000 | motor-on-gear mode (wheel held): 5-100 Hz
+k_gear | N m/rad | 1000 | 1e10 | gear stiffness at the wheel: ~1e5-1e8 N m/rad
+l_g | m | 0.3 | 1 | half gauge: 600 mm narrow gauge to 1676 mm broad gauge, contact points
+r0 | m | 0.2 | 0.8 | wheel rolling radius: tram 0.3 m to locomotive 0.63 m
+lambda | 1 | 0.01 | 1 | effective conicity: new profiles 0.05-0.4, worn up to ~0.8
+g | m/s^2 | 1 | 20 | gravity: 9.78-9.83 on Earth; other values only to study the gravitational stiffness
+v | m/s | 0.1 | 160 | forward speed: standstill excluded (the model divides by v) to the 160 m/s record
+n_gear | 1 | 1 | 20 | traction gear ratio: 2-8 typical
+k_m | N m/A | 0.1 | 100 | motor constant (= V s/rad): 1-10 typical
+l_a | H | 1e-5 | 1 | armature inductance: 0.1-10 mH; below 10 uH the armature pole is past any sampling rate
+r_a | ohm | 0 | 10 | armature resistance: 10-100 mOhm typical; 0 = ideal
+k_active | N m s/m | 0 | 1e7 | active yaw damping gain: the paper's 1.05e5 with two decades of margin
+lead_gain | 1 | 1 | 100 | phase-lead high-frequency factor a >= 1 (the paper: 7.5)
+lead_zero | rad/s | 0.1 | 1e4 | phase-lead zero (the paper: 37 rad/s)
+lead_pole | rad/s | 0.1 | 1e5 | phase-lead pole (the paper: 274 rad/s)
+pi_kp | V/A | 1e-3 | 1000 | traction PI proportional gain (the paper: 1 V/A)
+pi_ti | s | 1e-4 | 100 | traction PI integral time (the paper: 0.5 s)
+q | N | 1e3 | 5e5 | vertical wheel load: a light tram ~20 kN to a 35 t freight axle ~170 kN per wheel";
 
-/// Plausible range of every parameter (SI), in [`Params::entries`] order. Every bound is
-/// a physical limit with a generous margin (light rail to heavy freight, 0.1 m/s to the
-/// speed record), so a study anywhere in the paper's envelope is accepted; what lies
-/// outside is a typing error or a value no wheelset has, and makes the linear algebra
-/// meaningless (e.g. `l_a = 1e-61` H puts `R_a / L_a = 4e59` 1/s in the plant matrix).
-pub const RANGES: &[Range] = &[
-    r(
-        "m",
-        "kg",
-        100.0,
-        1e4,
-        "a wheelset: light rail ~500 kg, heavy freight ~2.5 t",
-    ),
-    r(
-        "m_v",
-        "kg",
-        0.0,
-        2e6,
-        "vehicle (or hauled train) mass per driven wheelset; 0 = none; a heavy train ~2000 t on 4 driven axles is 5e5",
-    ),
-    r(
-        "j",
-        "kg m^2",
-        10.0,
-        1e4,
-        "wheelset yaw inertia ~ m Lg^2 (600 at 1.25 t)",
-    ),
-    r(
-        "i_w",
-        "kg m^2",
-        1.0,
-        1e3,
-        "one wheel (with its half axle): 20-100 kg m^2",
-    ),
-    r(
-        "i_m",
-        "kg m^2",
-        0.01,
-        1e3,
-        "motor rotor: 1-50 kg m^2 for traction motors",
-    ),
-    r(
-        "f11",
-        "N",
-        1e5,
-        1e8,
-        "Kalker coefficient: 1-10 MN for 5-20 t wheel loads; 0.1 MN = severely reduced adhesion",
-    ),
-    r("f22", "N", 1e5, 1e8, "as f11"),
-    r(
-        "c_lat",
-        "N s/m",
-        0.0,
-        1e7,
-        "lateral (primary) damping: 0-100 kN s/m typical",
-    ),
-    r(
-        "k_lat",
-        "N/m",
-        0.0,
-        1e9,
-        "lateral (primary) stiffness: 0-10 MN/m typical",
-    ),
-    r(
-        "k_yaw",
-        "N m/rad",
-        0.0,
-        1e9,
-        "passive yaw stiffness: 1-20 MN m/rad typical",
-    ),
-    r(
-        "torsion_hz",
-        "Hz",
-        1.0,
-        1e3,
-        "axle torsion mode: 30-100 Hz for solid axles",
-    ),
-    r(
-        "k_t",
-        "N m/rad",
-        1e3,
-        1e10,
-        "axle torsional stiffness: ~1e6-1e8 N m/rad",
-    ),
-    r(
-        "gear_hz",
-        "Hz",
-        1.0,
-        1e3,
-        "motor-on-gear mode (wheel held): 5-100 Hz",
-    ),
-    r(
-        "k_gear",
-        "N m/rad",
-        1e3,
-        1e10,
-        "gear stiffness at the wheel: ~1e5-1e8 N m/rad",
-    ),
-    r(
-        "l_g",
-        "m",
-        0.3,
-        1.0,
-        "half gauge: 600 mm narrow gauge to 1676 mm broad gauge, contact points",
-    ),
-    r(
-        "r0",
-        "m",
-        0.2,
-        0.8,
-        "wheel rolling radius: tram 0.3 m to locomotive 0.63 m",
-    ),
-    r(
-        "lambda",
-        "1",
-        0.01,
-        1.0,
-        "effective conicity: new profiles 0.05-0.4, worn up to ~0.8",
-    ),
-    r(
-        "g",
-        "m/s^2",
-        1.0,
-        20.0,
-        "gravity: 9.78-9.83 on Earth; other values only to study the gravitational stiffness",
-    ),
-    r(
-        "v",
-        "m/s",
-        0.1,
-        160.0,
-        "forward speed: standstill excluded (the model divides by v) to the 160 m/s record",
-    ),
-    r("n_gear", "1", 1.0, 20.0, "traction gear ratio: 2-8 typical"),
-    r(
-        "k_m",
-        "N m/A",
-        0.1,
-        100.0,
-        "motor constant (= V s/rad): 1-10 typical",
-    ),
-    r(
-        "l_a",
-        "H",
-        1e-5,
-        1.0,
-        "armature inductance: 0.1-10 mH; below 10 uH the armature pole is past any sampling rate",
-    ),
-    r(
-        "r_a",
-        "ohm",
-        0.0,
-        10.0,
-        "armature resistance: 10-100 mOhm typical; 0 = ideal",
-    ),
-    r(
-        "k_active",
-        "N m s/m",
-        0.0,
-        1e7,
-        "active yaw damping gain: the paper's 1.05e5 with two decades of margin",
-    ),
-    r(
-        "lead_gain",
-        "1",
-        1.0,
-        100.0,
-        "phase-lead high-frequency factor a >= 1 (the paper: 7.5)",
-    ),
-    r(
-        "lead_zero",
-        "rad/s",
-        0.1,
-        1e4,
-        "phase-lead zero (the paper: 37 rad/s)",
-    ),
-    r(
-        "lead_pole",
-        "rad/s",
-        0.1,
-        1e5,
-        "phase-lead pole (the paper: 274 rad/s)",
-    ),
-    r(
-        "pi_kp",
-        "V/A",
-        1e-3,
-        1e3,
-        "traction PI proportional gain (the paper: 1 V/A)",
-    ),
-    r(
-        "pi_ti",
-        "s",
-        1e-4,
-        100.0,
-        "traction PI integral time (the paper: 0.5 s)",
-    ),
-    r(
-        "q",
-        "N",
-        1e3,
-        5e5,
-        "vertical wheel load: a light tram ~20 kN to a 35 t freight axle ~170 kN per wheel",
-    ),
-];
+/// Plausible range of every parameter (SI), parsed from [`RANGE_TABLE`].
+pub static RANGES: LazyLock<Vec<Range>> = LazyLock::new(|| {
+    RANGE_TABLE
+        .lines()
+        .map(|line| {
+            let f: Vec<&'static str> = line.splitn(5, " | ").collect();
+            let num = |s: &str| s.parse().unwrap_or(f64::NAN);
+            Range {
+                key: f[0],
+                unit: f[1],
+                min: num(f[2]),
+                max: num(f[3]),
+                why: f[4],
+            }
+        })
+        .collect()
+});
 
 /// `v` for messages: plain between 1e-3 and 1e6, else in exponent form (`1e-61`).
 fn num(v: f64) -> String {
@@ -396,11 +226,6 @@ impl Params {
             .unwrap_or_else(|| (self.m + self.m_v / 2.0) * self.g / 2.0)
     }
 
-    /// Motor speed at pure rolling, `n v / r0`, rad/s.
-    pub fn rolling_motor_speed(&self) -> f64 {
-        self.n_gear * self.v / self.r0
-    }
-
     /// The list of values with their keys (for reports and validation).
     pub fn entries(&self) -> Vec<(&'static str, f64)> {
         vec![
@@ -437,8 +262,7 @@ impl Params {
         ]
     }
 
-    /// Checks every value against its plausible range ([`RANGES`]). The error names the
-    /// key, the value, the range with its unit, and why.
+    /// Checks every value against its plausible range ([`RANGES`]).
     pub fn validate(&self) -> Result<(), ConfigError> {
         // The values as given first, then the stiffnesses derived from them, so a bad
         // `n_gear` is named as such rather than through `k_gear`.
@@ -457,7 +281,6 @@ impl Params {
                 continue;
             };
             if !value.is_finite() || value < r.min || value > r.max {
-                // A derived stiffness out of range names the key it came from.
                 let from = match (key, self.k_t, self.k_gear, self.q) {
                     ("k_t", None, _, _) => " (derived from i_w and torsion_hz)",
                     ("k_gear", _, None, _) => " (derived from n_gear, i_m and gear_hz)",
@@ -482,7 +305,6 @@ impl Params {
     }
 
     /// Parses a parameter table (every key optional) and validates it.
-    /// `file` is used in error messages.
     pub fn from_toml_str(src: &str, file: &str) -> Result<Params, ConfigError> {
         let p: Params = toml::from_str(src).map_err(|e| from_toml(file, src, &e))?;
         p.validate().map_err(|e| e.with_file(file))?;
@@ -496,8 +318,7 @@ impl Params {
         Self::from_toml_str(&src, &file)
     }
 
-    /// Applies a TOML table of overrides on top of `self` (unknown keys refused),
-    /// validates, and returns the result.
+    /// Applies a TOML table of overrides on top of `self` (unknown keys refused), validated.
     pub fn with_overrides(&self, table: &toml::Table, file: &str) -> Result<Params, ConfigError> {
         let mut base = toml::Table::try_from(self).map_err(|e| ConfigError::Parse {
             file: file.to_string(),
@@ -549,7 +370,7 @@ mod tests {
         let y0 = p.pure_rolling_y(1.0 / 2300.0);
         assert!((y0 - 0.685e-3).abs() < 0.001e-3, "{y0}");
         // back-EMF at 83.3 m/s: about 3961 V.
-        assert!((p.k_m * p.rolling_motor_speed() - 3961.0).abs() < 2.0);
+        assert!((p.k_m * p.n_gear * p.v / p.r0 - 3961.0).abs() < 2.0);
     }
 
     #[test]

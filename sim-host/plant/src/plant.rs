@@ -1,41 +1,8 @@
 //! The nonlinear wheelset plant, eqs. (1)-(10) of `docs/model.md` as corrected, on
-//! relative angles.
-//!
-//! # State (index constants in [`ix`])
-//!
-//! | index | symbol | unit | meaning |
-//! |---|---|---|---|
-//! | `Y` | `y` | m | lateral displacement from the track centre line, + right |
-//! | `YD` | `y'` | m/s | lateral velocity relative to the track |
-//! | `PSI` | `psi` | rad | yaw relative to the track tangent, + nose towards +y |
-//! | `PSID` | `psi'` | rad/s | yaw rate |
-//! | `WR`, `WL` | `phi_R'`, `phi_L'` | rad/s | wheel speeds (rigid axle: `WL` mirrors `WR`) |
-//! | `TWIST` | `phi_R - phi_L` | rad | axle twist (flexible axle) |
-//! | `WIND` | `phi_L - theta_m/n` | rad | gear wind-up (drive) |
-//! | `WM` | `theta_m'` | rad/s | motor speed (drive) |
-//! | `IA` | `i_a` | A | armature current (drive) |
-//! | `V` | `v` | m/s | forward speed (eq. 8) |
-//! | `LEAD` | `x_c` | m | phase-lead compensator state (controller) |
-//! | `PI` | `x_i` | V | PI integrator state (controller) |
-//!
-//! No absolute rotation angle is a state, so long runs keep full precision.
-//!
-//! # Sign conventions
-//! x forward, y right, psi nose-right positive; right wheel rolling radius `r0 + lambda y`;
-//! curvature `1/R > 0` bends left (right wheel on the outer rail); `F_x` is the rail's
-//! force on the wheel, + forward; the yaw torque `T_psi` enters eq. (5) as
-//! `J psi'' + Lg (F_xR - F_xL) = -T_psi`.
-//!
-//! # Yaw spring
-//! The passive mechanical yaw spring `T_spring = k_yaw psi` is part of the plant only
-//! when [`PlantConfig::yaw_spring`] is set (passive mode). The active modes **replace**
-//! the spring by the actuator (the paper: "actuators are used to replace the yaw
-//! stiffness"), so their plant has no spring and the controller supplies `T_psi`.
-//!
-//! # Traction
-//! With [`PlantConfig::drive`] the motor drives the left wheel through the gear spring:
-//! wheel torque `k_gear (theta_m/n - phi_L) = -k_gear WIND`. Without it, the traction
-//! demand acts directly as the torque [`Inputs::t_drive`] on the left wheel.
+//! relative angles (no absolute rotation angle is a state, so long runs keep full
+//! precision). States, units and sign conventions: [`ix`] and the book's chapter.
+//! The passive yaw spring is in the plant only with [`PlantConfig::yaw_spring`]: the
+//! active modes replace it by the actuator's `T_psi`.
 
 use crate::adhesion::Adhesion;
 use crate::params::Params;
@@ -119,51 +86,37 @@ pub trait Scalar:
     fn exp(self) -> Self;
 }
 
-impl Scalar for f64 {
-    #[inline(always)]
-    fn c(x: f64) -> Self {
-        x
-    }
-    #[inline(always)]
-    fn re(self) -> f64 {
-        self
-    }
-    #[inline(always)]
-    fn sqrt(self) -> Self {
-        f64::sqrt(self)
-    }
-    #[inline(always)]
-    fn atan(self) -> Self {
-        f64::atan(self)
-    }
-    #[inline(always)]
-    fn exp(self) -> Self {
-        f64::exp(self)
-    }
+/// [`Scalar`] for `$t`, whose `sqrt`, `atan` and `exp` are its own.
+macro_rules! scalar {
+    ($t:ty, $lift:expr, $re:expr) => {
+        impl Scalar for $t {
+            #[inline(always)]
+            fn c(x: f64) -> Self {
+                $lift(x)
+            }
+            #[inline(always)]
+            fn re(self) -> f64 {
+                $re(self)
+            }
+            #[inline(always)]
+            fn sqrt(self) -> Self {
+                <$t>::sqrt(self)
+            }
+            #[inline(always)]
+            fn atan(self) -> Self {
+                <$t>::atan(self)
+            }
+            #[inline(always)]
+            fn exp(self) -> Self {
+                <$t>::exp(self)
+            }
+        }
+    };
 }
 
-impl Scalar for Complex<f64> {
-    #[inline(always)]
-    fn c(x: f64) -> Self {
-        Complex::new(x, 0.0)
-    }
-    #[inline(always)]
-    fn re(self) -> f64 {
-        self.re
-    }
-    #[inline(always)]
-    fn sqrt(self) -> Self {
-        Complex::sqrt(self)
-    }
-    #[inline(always)]
-    fn atan(self) -> Self {
-        Complex::atan(self)
-    }
-    #[inline(always)]
-    fn exp(self) -> Self {
-        Complex::exp(self)
-    }
-}
+scalar!(f64, |x| x, |x| x);
+scalar!(Complex<f64>, |x| Complex::new(x, 0.0), |z: Complex<f64>| z
+    .re);
 
 /// Which parts of the plant are present.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -203,8 +156,7 @@ pub trait Flags: Copy {
     fn drive(&self) -> bool;
     /// Passive yaw spring present.
     fn yaw_spring(&self) -> bool;
-    /// The plant's adhesion law is known to be `None` (the linear creep law), so
-    /// [`Plant::creep_with`] need not look at it. Default: not known (it looks).
+    /// The adhesion law is known to be `None`, so [`Plant::creep_with`] need not look.
     #[inline(always)]
     fn linear_creep(&self) -> bool {
         false
@@ -248,10 +200,8 @@ impl<const FLEXIBLE: bool, const DRIVE: bool, const YAW_SPRING: bool> Flags
     }
 }
 
-/// Flags `F` on a plant whose adhesion law is `None`: [`Flags::linear_creep`] is true,
-/// so the creep forces skip the test of the law (the same arithmetic as with `F`).
-/// Only for a plant with `adhesion == None`; with a law the forces would be the linear
-/// ones, not the law's.
+/// Flags `F` on a plant whose adhesion law is `None` (only then): [`Flags::linear_creep`]
+/// is true, so the creep forces skip the test of the law.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Linear<F>(pub F);
 
@@ -274,9 +224,8 @@ impl<F: Flags> Flags for Linear<F> {
     }
 }
 
-/// Evaluates `$body` with `$f` rebound to [`Linear`]`($f)` when the plant `$plant` has
-/// no adhesion law, and as it is otherwise (two copies of `$body`: the law-free one
-/// skips the law's test in every RK4 stage).
+/// Evaluates `$body` with `$f` rebound to [`Linear`]`($f)` when `$plant` has no
+/// adhesion law, and as it is otherwise.
 #[macro_export]
 macro_rules! with_creep_law {
     ($plant:expr, $f:ident => $body:expr) => {{
@@ -294,46 +243,20 @@ macro_rules! with_creep_law {
 #[macro_export]
 macro_rules! with_flags {
     ($cfg:expr, $f:ident => $body:expr) => {{
-        use $crate::plant::Fixed;
         let cfg: $crate::plant::PlantConfig = $cfg;
-        match (
-            cfg.axle == $crate::scenario::Axle::Flexible,
-            cfg.drive,
-            cfg.yaw_spring,
-        ) {
-            (false, false, false) => {
-                let $f = Fixed::<false, false, false>;
-                $body
-            }
-            (false, false, true) => {
-                let $f = Fixed::<false, false, true>;
-                $body
-            }
-            (false, true, false) => {
-                let $f = Fixed::<false, true, false>;
-                $body
-            }
-            (false, true, true) => {
-                let $f = Fixed::<false, true, true>;
-                $body
-            }
-            (true, false, false) => {
-                let $f = Fixed::<true, false, false>;
-                $body
-            }
-            (true, false, true) => {
-                let $f = Fixed::<true, false, true>;
-                $body
-            }
-            (true, true, false) => {
-                let $f = Fixed::<true, true, false>;
-                $body
-            }
-            (true, true, true) => {
-                let $f = Fixed::<true, true, true>;
-                $body
-            }
+        let flexible = cfg.axle == $crate::scenario::Axle::Flexible;
+        $crate::with_flags!(@ [flexible, cfg.drive, cfg.yaw_spring] [] $f => $body)
+    }};
+    (@ [$c:expr $(, $rest:expr)*] [$($b:tt)*] $f:ident => $body:expr) => {
+        if $c {
+            $crate::with_flags!(@ [$($rest),*] [$($b)* true] $f => $body)
+        } else {
+            $crate::with_flags!(@ [$($rest),*] [$($b)* false] $f => $body)
         }
+    };
+    (@ [] [$x:tt $y:tt $z:tt] $f:ident => $body:expr) => {{
+        let $f = $crate::plant::Fixed::<$x, $y, $z>;
+        $body
     }};
 }
 
@@ -379,14 +302,13 @@ pub struct Creep<S> {
     pub fy: S,
 }
 
-/// The plant: parameters reduced to the coefficients the RHS needs, plus its
+/// The plant: parameters reduced to the coefficients the RHS needs, and its
 /// configuration. Cheap to copy; the RHS does not allocate.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Plant {
     /// Configuration.
     pub cfg: PlantConfig,
-    /// The adhesion law in force ([`crate::adhesion`]); `None` = the linear creep law.
-    /// A run sets it per integration step from the scenario's `[[adhesion]]` sections.
+    /// The adhesion law in force, set per integration step; `None` = linear creep law.
     pub adhesion: Option<Adhesion>,
     m: f64,
     m_long: f64,
@@ -409,12 +331,10 @@ pub struct Plant {
     l_a: f64,
     r_a: f64,
     inv: Inverses,
-    /// Products of parameters the RHS uses, formed once with the same operations.
     pre: Products,
 }
 
-/// Parameter products the RHS would otherwise form per call: each is the same
-/// floating-point operation on the same operands, so the RHS is bit-identical.
+/// Parameter products formed once with the same operations (the RHS is bit-identical).
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Products {
     /// `m g`.
@@ -529,14 +449,9 @@ impl Plant {
         }
     }
 
-    /// The adhesion-limited forces of the two wheels ([`Adhesion::apply`] on each wheel's
-    /// linear forces). The lateral force of the plant is per wheel; with adhesion the two
-    /// wheels' lateral forces differ (each is limited with its own longitudinal
-    /// creepage), and [`Creep::fy`] is their mean, so `2 F_y` in eq. (4) is their sum.
-    ///
-    /// Out of line, and given copies rather than the plant: a reference to the plant
-    /// passed to a call that is not inlined would let the compiler assume any later call
-    /// may change it, and reload its coefficients in every integration step.
+    /// The adhesion-limited forces of the two wheels; [`Creep::fy`] is the mean of the
+    /// wheels' lateral forces, so `2 F_y` in eq. (4) is their sum. Out of line and given
+    /// copies, so the caller need not reload the plant's coefficients each step.
     #[inline(never)]
     fn limit<S: Scalar>(a: Adhesion, ix: f64, iy: f64, lin: Creep<S>, v: S) -> Creep<S> {
         let (fx_r, fy_r) = a.apply(lin.fx_r, lin.fy, ix, iy, v);
@@ -581,8 +496,7 @@ impl Plant {
         self.rhs_with(self.cfg, x, u)
     }
 
-    /// [`Plant::rhs`] with the configuration as [`Flags`] (a [`Fixed`] one compiles the
-    /// branches away; the arithmetic is the same).
+    /// [`Plant::rhs`] with the configuration as [`Flags`].
     #[inline(always)]
     pub fn rhs_with<S: Scalar, F: Flags>(
         &self,
@@ -637,8 +551,7 @@ impl Plant {
         (dx, cr)
     }
 
-    /// Pure rolling on straight track at speed `v`: `y = psi = 0`, wheels at `v/r0`,
-    /// motor at `n v/r0`, no wind-up, no twist, zero current. Controller entries zero.
+    /// Pure rolling on straight track at speed `v` (wheels at `v/r0`, motor at `n v/r0`).
     pub fn rolling_state(&self, v: f64) -> State {
         let mut x = [0.0; NX];
         x[ix::V] = v;

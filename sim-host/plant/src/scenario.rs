@@ -1,45 +1,8 @@
 //! Track scenarios as data: piecewise-linear curvature and cant in time, the traction
-//! demand and running-resistance steps, parameter overrides and integration settings.
-//!
-//! Four scenarios ship in `sim-host/scenarios/` and are embedded in the binary, so
-//! `--scenario curve` works from any directory; any other argument is read as a file.
-//!
-//! ```toml
-//! name = "my-track"
-//! duration_s = 10.0
-//! [[track]]
-//! t_s = 0.0
-//! [[track]]
-//! t_s = 3.0
-//! radius_m = 2300.0    # or curvature_per_m = 4.348e-4; absent = straight
-//! cant_deg = 6.0
-//! [traction]
-//! demand_nm = 2460.0   # at the wheel, n K_m i_a
-//! t_on_s = 5.0
-//! [resistance]
-//! f_run_n = 5470.0
-//! t_on_s = 5.0
-//! [params]             # any key of `Params`
-//! k_gear = 1.0e6
-//! [[adhesion]]         # optional: Polach's adhesion law (crate::adhesion) on sections
-//! start_s = 6.0
-//! end_s = 10.0
-//! condition = "low"    # dry | wet | low
-//! [actuator_fault]     # optional: the yaw actuator fails (see `fault`)
-//! t_s = 6.0
-//! mode = "off"         # off | fraction (with fraction = F) | reversed
-//! ```
-//!
-//! An optional top-level `laws = ["passive"]` lists the yaw laws the scenario is meant
-//! for; the tools warn before running it with another ([`Scenario::law_warning`]). The
-//! plausible ranges of every key are in `docs/model.md`; a scenario whose output would
-//! not fit in memory ([`crate::memory`]) is refused with the estimate.
-//!
-//! Adhesion: without any `[[adhesion]]` section the plant uses the paper's linear creep
-//! law. With at least one, the adhesion law is on for the whole run: each section's
-//! condition holds on `[start_s, end_s)` (sorted, not overlapping), and the rail is
-//! `dry` outside every section. The condition is sampled at each integration step's
-//! start, like the traction and resistance steps.
+//! demand and running-resistance steps, parameter overrides, rail-condition sections
+//! (`[[adhesion]]`: the law on for the whole run, `dry` outside every section), an
+//! actuator fault and integration settings. The built-in ones (`sim-host/scenarios/`)
+//! are embedded in the binary; the format is in `docs/model.md` and `docs/adhesion.md`.
 
 use crate::adhesion::{Adhesion, Condition};
 use crate::control::YawLaw;
@@ -149,8 +112,8 @@ pub struct Scenario {
     pub resistance: StepInput,
     /// Axle model.
     pub axle: Axle,
-    /// Whether the traction drive (gear spring, motor, armature, PI) is modelled; without
-    /// it the demand acts directly as a torque on the left wheel.
+    /// Whether the traction drive is modelled; without it the demand acts directly as a
+    /// torque on the left wheel.
     pub drive: bool,
     /// Parameters after the scenario's overrides.
     pub params: Params,
@@ -317,8 +280,8 @@ fn time(file: &str, key: &str, t: f64, max: f64) -> Result<u64, ConfigError> {
 }
 
 impl Scenario {
-    /// Parses and validates a scenario from TOML text. `file` names it in errors;
-    /// `base` are the parameters the scenario's `[params]` table overrides.
+    /// Parses and validates a scenario from TOML text (`file` names it in errors) on top
+    /// of the parameters `base`.
     pub fn from_toml_str(src: &str, file: &str, base: &Params) -> Result<Scenario, ConfigError> {
         let raw: RawScenario = toml::from_str(src).map_err(|e| from_toml(file, src, &e))?;
         let duration_ns = time(file, "duration_s", raw.duration_s, 1e5)?;
@@ -521,9 +484,8 @@ impl Scenario {
         Self::from_toml_str(&src, name_or_path, base)
     }
 
-    /// The rail condition at `t_ns`: `None` without `[[adhesion]]` sections (the linear
-    /// law), else the section's condition, `dry` outside every section. Inlined: the
-    /// runs ask every integration step, and a call there makes them spill their state.
+    /// The rail condition at `t_ns`: `None` without `[[adhesion]]` sections, else the
+    /// section's, `dry` outside every section. Inlined: the runs ask every step.
     #[inline]
     pub fn condition_at(&self, t_ns: u64) -> Option<Condition> {
         if self.adhesion.is_empty() {
@@ -543,9 +505,8 @@ impl Scenario {
             .map(|c| Adhesion::new(c, self.params.q()))
     }
 
-    /// The warning to print before running this scenario with `law` when its `laws`
-    /// key does not list it (e.g. `beating` with the phase lead, which destabilises the
-    /// high-frequency mode at that gear stiffness); `None` when the law is meant.
+    /// The warning to print before running with `law` when the scenario's `laws` key
+    /// does not list it; `None` when the law is meant.
     pub fn law_warning(&self, law: YawLaw) -> Option<String> {
         if self.laws.is_empty() || self.laws.contains(&law) {
             return None;

@@ -1,15 +1,7 @@
-//! Time integration: fixed-step RK4 on integer-nanosecond time, the continuous-time
-//! reference run, and the sampled-data run with a
-//! [`SampledController`](crate::control::SampledController) behind optional sensor and
-//! actuator models.
-//!
-//! Inputs: the track (piecewise linear) is evaluated at each RK4 stage time; the step
-//! inputs (traction demand, `F_run`) are sampled once at the start of each step, so a
-//! step at 5 s acts from exactly 5 s. Time is `k * dt_ns`, never accumulated in floats.
-//!
-//! Files: `sim/rk4.rs` (the integrator), `sim/trajectory.rs` (records, run info, the
-//! divergence rule), `sim/continuous.rs` (the continuous-time reference run and the
-//! set-up shared with the sampled run), `sim/sampled_run.rs` (the sampled-data run).
+//! Time integration: fixed-step RK4 on integer-nanosecond time (`k * dt_ns`, never
+//! accumulated in floats), the continuous-time reference run and the sampled-data run.
+//! The track is evaluated at each RK4 stage; the step inputs (demand, `F_run`) once at
+//! each step's start, so a step at 5 s acts from exactly 5 s.
 
 use std::fmt;
 

@@ -1,26 +1,9 @@
 //! What a traction engineer reads from an adhesion run: the creep characteristic of a
-//! rail condition (`sim-host adhesion`), the per-section adhesion summary of a run
-//! (`sim-host run --json`) and the runaway verdict (the traction figure is the command
-//! line's, `sim-host`'s `figures`).
-//!
-//! # Section summary
-//! For each `[[adhesion]]` section `[t0, t1)` of the scenario, over the records in it:
-//! `mu_peak` = mean of [`Record::mu_avail`] (the condition's peak at the speed of the
-//! moment), `mu_used_mean` = mean of [`Record::mu_used`] (`(F_xR + F_xL)/(2Q)`),
-//! `utilisation = mu_used_mean / mu_peak`, `slip_peak_mps` = largest `|slip_mps|`.
-//! A section the records do not reach (a run stopped as diverged before it) has every
-//! figure NaN (`null` in the JSON).
-//!
-//! # Runaway
-//! A run **runs away** when the wheelset's slip velocity `|slip_mps|` stays above
-//! [`RUNAWAY_SLIP_MPS`] = 3 m/s for [`RUNAWAY_HOLD_S`] = 1 s without a break (or until
-//! the records end, when a run was stopped as diverged while above it). 3 m/s is past
-//! the adhesion peak of every condition at every speed of the scenarios (the peaks lie
-//! at 0.2-1.5 m/s of slip, `sim-host adhesion`), where the force falls as slip grows:
-//! a wheel held there for a second by its motor torque is accelerating away, not
-//! creeping.
+//! rail condition, the per-section adhesion summary of a run and the runaway verdict:
+//! slip above [`RUNAWAY_SLIP_MPS`] for [`RUNAWAY_HOLD_S`] without a break (3 m/s is past
+//! the adhesion peak of every condition, 0.2-1.5 m/s). Definitions: `docs/adhesion.md`.
 
-use crate::adhesion::{Adhesion, Condition};
+use crate::adhesion::{Adhesion, Condition, Polach};
 use crate::params::Params;
 use crate::scenario::Scenario;
 use crate::sim::{Record, Trajectory};
@@ -44,16 +27,9 @@ pub struct Characteristic {
     pub q_n: f64,
     /// Longitudinal creep coefficient `f11`, N (the slope at zero creepage).
     pub f11_n: f64,
-    /// Polach `mu0`.
-    pub mu0: f64,
-    /// Polach `A`.
-    pub a: f64,
-    /// Polach `B`, s/m.
-    pub b: f64,
-    /// Polach `kA`.
-    pub ka: f64,
-    /// Polach `kS`.
-    pub ks: f64,
+    /// Polach's parameters (flattened into the JSON).
+    #[serde(flatten)]
+    pub law: Polach,
     /// Creepage of each point, 0..=0.2.
     pub creepage: Vec<f64>,
     /// `F/Q` at each point.
@@ -66,8 +42,7 @@ pub struct Characteristic {
     pub slip_peak_mps: f64,
 }
 
-/// The characteristic of `condition` at speed `v` with `p`'s `Q` and `f11`, `points`
-/// evenly spaced creepages over 0..=0.2.
+/// The characteristic of `condition` at speed `v`, `points` creepages over 0..=0.2.
 pub fn characteristic(condition: Condition, v: f64, p: &Params, points: usize) -> Characteristic {
     let law = condition.polach();
     let q = p.q();
@@ -84,11 +59,7 @@ pub fn characteristic(condition: Condition, v: f64, p: &Params, points: usize) -
         v_mps: v,
         q_n: q,
         f11_n: p.f11,
-        mu0: law.mu0,
-        a: law.a,
-        b: law.b,
-        ka: law.ka,
-        ks: law.ks,
+        law,
         creepage,
         force_over_q,
         mu_peak,
@@ -127,8 +98,8 @@ pub struct AdhesionSummary {
     pub slip_peak_mps: f64,
 }
 
-/// Whether the records show a runaway (module docs); `stopped` = the run was stopped
-/// as diverged, so records ending above the threshold count.
+/// Whether the records show a runaway; `stopped` = the run was stopped as diverged,
+/// so records ending above the threshold count.
 pub fn runaway(records: &[Record], stopped: bool) -> bool {
     let mut since: Option<f64> = None;
     for r in records {
@@ -198,12 +169,8 @@ pub fn law(condition: Condition, p: &Params) -> Adhesion {
 }
 
 /// The sections table of `sc` with (`on`) and without (`off`) the wheel-slip protection,
-/// as Markdown (the README's generated comparison, `sim-host run --loop core
-/// --sections-table`; `shown` is that command): per section its condition, the peak
-/// adhesion available (of the protected run, which covers every section), and for each
-/// run the mean adhesion used, the utilisation and the slip peak. A run stopped as
-/// diverged shows where: a section it ended in is marked "to T s", one it never reached
-/// "diverged at T s". `None` without `[[adhesion]]` sections.
+/// as Markdown (`sim-host run --loop core --sections-table`; `shown` is that command).
+/// `None` without `[[adhesion]]` sections.
 pub fn sections_table(
     sc: &Scenario,
     on: &Trajectory,

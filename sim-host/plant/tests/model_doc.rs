@@ -55,7 +55,7 @@ fn the_documented_ranges_are_the_code_ranges() {
 
 #[test]
 fn each_bound_is_enforced_and_named() {
-    for r in RANGES {
+    for r in RANGES.iter() {
         for (value, ok) in [
             (r.min, true),
             (r.max, true),

@@ -1,12 +1,7 @@
-//! What every report of the workspace is made of, with no dependency of the workspace.
-//!
-//! - [`svg`]: a small dependency-free SVG plotting module (line, scatter, bars, heat maps).
-//! - [`table`]: the one Markdown table writer of every report.
-//! - [`verdict`]: the pass/warn/fail [`Verdict`] of a check.
-//! - [`stats`]: the summary [`Stats`] of a sample (min, mean, p99, max).
-//! - [`out`](mod@out): the command lines' standard output ([`outln!`], [`out!`]), quiet
-//!   on a closed pipe.
-//! - [`output`]: output paths checked before any work (exit 2 naming the flag).
+//! What every report of the workspace is made of, with no dependency of the workspace:
+//! SVG figures ([`svg`]), Markdown tables ([`table`]), the [`Verdict`] of a check, the
+//! [`Stats`] of a sample, quiet standard output ([`out`](mod@out)) and output paths
+//! checked before any work ([`output`]).
 #![deny(missing_docs)]
 
 pub mod out;

@@ -1,31 +1,13 @@
-//! Output paths checked before any work: a command that writes a file or a directory of
-//! files (`--csv`, `--json`, `--plot`, `--report`) finds out that it cannot before it
-//! simulates, not after (bad input, exit code 2, naming the flag and the path).
-//!
-//! The checks create what the command would create anyway (the missing directories) and
-//! nothing else: a file that does not exist yet is created and removed again, an
-//! existing regular file is opened for writing without truncating it. Files that are not
-//! regular (`/dev/null`, a FIFO someone reads) are left to the write itself: opening a
-//! FIFO for writing would block until a reader comes.
-//!
-//! ```
-//! use wheelset_report::output::{check_dir, check_file};
-//! let dir = std::env::temp_dir().join(format!("sim-host-output-doc-{}", std::process::id()));
-//! check_file(&dir.join("a/run.csv")).unwrap(); // creates a/, leaves no run.csv
-//! assert!(dir.join("a").is_dir() && !dir.join("a/run.csv").exists());
-//! let err = check_file(&dir.join("a")).unwrap_err();
-//! assert!(err.contains("is a directory"), "{err}");
-//! std::fs::write(dir.join("f"), "x").unwrap();
-//! assert!(check_dir(&dir.join("f")).unwrap_err().contains("not a directory"));
-//! assert!(check_file(&dir.join("f/run.csv")).is_err());
-//! std::fs::remove_dir_all(&dir).unwrap();
-//! ```
+//! Output paths checked before any work: a command that writes a file or a directory
+//! (`--csv`, `--json`, `--plot`, `--report`) finds out that it cannot before it
+//! simulates (exit code 2, naming the flag and the path). The checks create only the
+//! missing directories; a new file is created and removed again, an existing regular one
+//! opened without truncating, and non-regular files (a FIFO would block) left to the write.
 
 use std::fs::OpenOptions;
 use std::path::Path;
 
-/// Checks that `path` can be written as a file (see the module docs); the error says why
-/// not, for a message that names the flag and the path.
+/// Checks that `path` can be written as a file; the error says why not.
 pub fn check_file(path: &Path) -> Result<(), String> {
     if path.as_os_str().is_empty() {
         return Err("an empty path".into());
@@ -55,8 +37,7 @@ pub fn check_file(path: &Path) -> Result<(), String> {
     }
 }
 
-/// Checks that `dir` is (or can be created as) a directory whose files can be written
-/// (creates it; see the module docs).
+/// Checks that `dir` is (or can be created as) a directory whose files can be written.
 pub fn check_dir(dir: &Path) -> Result<(), String> {
     if dir.as_os_str().is_empty() {
         return Err("an empty path".into());

@@ -1,37 +1,10 @@
-//! A small, dependency-free SVG plotting module: line plots with several series,
-//! scatter plots (root loci), bar histograms, vertical stacks of panels, and heat maps
-//! of a parameter grid ([`heatmap`]); linear or logarithmic axes, and labelled marks
-//! (thresholds, budgets, events) that a plot's range always includes.
-//!
-//! ```
-//! use wheelset_report::svg::{Plot, Series};
-//! let s = Series::line("sin", (0..100).map(|i| (i as f64 * 0.1, (i as f64 * 0.1).sin())).collect());
-//! let svg = Plot::new("A sine").x_label("t (s)").y_label("y").series(s).to_svg();
-//! assert!(svg.starts_with("<svg"));
-//! ```
-//!
-//! Output is plain SVG 1.1 text; write it with [`Plot::save`] or [`Figure::save`].
-//!
-//! # Why SVG by hand rather than `plotters` (measured 2026-12-02)
-//!
-//! Cost is not the reason: `plotters` 0.3.7 with only its `svg_backend` (plus
-//! `line_series`, `point_series`, `histogram`; `default-features = false`) is 5 crates
-//! (`plotters`, `plotters-backend`, `plotters-svg`, `num-traits`, `autocfg`) and builds
-//! in release in 3.9 s of CPU (10 s wall at load average 8 on the 2-core machine), and
-//! its SVG backend writes `<text>` without system fonts (a probe crate drawing a line
-//! chart with a caption and axis labels: 25 `<text>` elements). The reasons to keep this
-//! module:
-//! - `plotters`' backends take integer pixel coordinates (`BackendCoord = (i32, i32)`):
-//!   the probe's polylines are whole pixels (`points="39,20 39,329"`); this module writes
-//!   0.1 px, which keeps sub-pixel traces (`y - y0` around the traction step, the
-//!   monitor's mean square far below its threshold) as they are instead of stair steps.
-//! - Without a font feature `plotters` sizes text from estimates (the probe's 13 px
-//!   caption came out at `font-size="10.48"`); this module lays out labels itself.
-//! - 43 call sites in `sim-host` and `hil` use what this module has and `plotters` would
-//!   need code for at each site: the legend in a column right of the plotting area (it
-//!   never hides data), one legend width across stacked panels so their axes line up,
-//!   reference lines, notes ("not measured"), category axes and heat maps.
+//! A small, dependency-free SVG plotting module: line plots, scatter plots (root loci),
+//! bar histograms, stacks of panels and heat maps ([`heatmap`]); linear or logarithmic
+//! axes and labelled marks that a plot's range always includes. Written by hand rather
+//! than with `plotters`, whose SVG backend takes whole-pixel coordinates (this module
+//! writes 0.1 px, so sub-pixel traces stay smooth) and estimates text sizes.
 
+use std::fmt::Write as _;
 use std::path::Path;
 
 mod figure;
@@ -62,9 +35,8 @@ pub enum Style {
     Crosses,
 }
 
-/// A labelled reference line: a threshold, a budget, a tolerance or an event, drawn
-/// dashed in its colour across the plotting area with its label beside it. A plot's
-/// range always includes its marks, so a mark is never off the axis.
+/// A labelled reference line (a threshold, a budget, an event), drawn dashed across the
+/// plotting area with its label beside it; a plot's range always includes it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Mark {
     /// A vertical line at `x = at` (else a horizontal one at `y = at`).
@@ -88,8 +60,7 @@ pub struct Series {
     pub style: Style,
     /// Colour (`None` = next palette colour).
     pub color: Option<String>,
-    /// Line width, px (lines only; a wide pale line drawn first shows a trace that
-    /// another one follows closely).
+    /// Line width, px (lines only).
     pub width: f64,
 }
 
@@ -153,19 +124,16 @@ pub struct Plot {
     pub vlines: Vec<f64>,
     /// Horizontal reference lines at these y.
     pub hlines: Vec<f64>,
-    /// A note written across the middle of the plotting area (e.g. "not measured" for
-    /// a panel without data to show; empty = none).
+    /// A note written across the middle of the plotting area (empty = none).
     pub note: String,
     /// Labelled reference lines ([`Mark`]).
     pub marks: Vec<Mark>,
-    /// Logarithmic x axis (decade ticks labelled with the values; points with `x <= 0`
-    /// are skipped).
+    /// Logarithmic x axis (points with `x <= 0` are skipped).
     pub x_log: bool,
     /// Logarithmic y axis (points with `y <= 0` are skipped; bars rise from the axis).
     pub y_log: bool,
-    /// Category names of the x axis: when given, category `i` spans `[i, i + 1)` and
-    /// its name is written under `i + 0.5`, slanted, instead of numeric x ticks (a bar
-    /// or scatter per named item; the bottom margin grows to fit the longest name).
+    /// Category names of the x axis: category `i` spans `[i, i + 1)`, its name written
+    /// slanted under `i + 0.5` instead of numeric x ticks.
     pub x_categories: Vec<String>,
 }
 
@@ -284,6 +252,50 @@ impl Plot {
             .collect();
         p
     }
+}
+
+/// The SVG document `w` px wide: `title` (28 px high, when given) over the groups
+/// `group(i, y)` of panels `heights` high, stacked from the top at `y`.
+fn document(title: &str, w: f64, heights: &[f64], group: impl Fn(usize, f64) -> String) -> String {
+    let top = if title.is_empty() { 0.0 } else { 28.0 };
+    let h = top + heights.iter().sum::<f64>();
+    let mut o = String::new();
+    let _ = writeln!(
+        o,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}">"#
+    );
+    let _ = writeln!(o, r##"<rect width="100%" height="100%" fill="#fff"/>"##);
+    if !title.is_empty() {
+        let _ = writeln!(
+            o,
+            r#"<text x="{:.1}" y="20" text-anchor="middle" font-family="sans-serif" font-size="15" font-weight="bold">{}</text>"#,
+            w / 2.0,
+            esc(title)
+        );
+    }
+    let mut y = top;
+    for (i, ph) in heights.iter().enumerate() {
+        o.push_str(&group(i, y));
+        y += ph;
+    }
+    o.push_str("</svg>\n");
+    o
+}
+
+/// The x label centred at `x_at` and the y label turned upright, centred at height `y_mid`.
+fn axis_labels(o: &mut String, x_at: (f64, f64), y_mid: f64, x_label: &str, y_label: &str) {
+    let _ = writeln!(
+        o,
+        r#"<text x="{:.1}" y="{:.1}" text-anchor="middle">{}</text>"#,
+        x_at.0,
+        x_at.1,
+        esc(x_label)
+    );
+    let _ = writeln!(
+        o,
+        r#"<text transform="translate(14,{y_mid:.1}) rotate(-90)" text-anchor="middle">{}</text>"#,
+        esc(y_label)
+    );
 }
 
 fn write_file(path: &Path, text: &str) -> std::io::Result<()> {

@@ -1,17 +1,6 @@
-//! The one Markdown table writer of the harness's reports (`hil run --report`,
-//! `hil audit --report`, and any report added later).
-//!
-//! A table is a header row and body rows of cells. Rendering writes GitHub-flavoured
-//! Markdown: `| a | b |`, the separator `|---|---|`, one line per row. Cells are escaped
-//! so a table cannot be broken by its content: a `|` becomes `\|`, a line break a space.
-//! A row shorter than the header is padded with empty cells; a longer one is an error of
-//! the caller and is truncated to the header's width (no panic).
-//!
-//! ```
-//! let mut t = wheelset_report::table::Table::new(["signal", "max"]);
-//! t.row(["y_m", "1.0e-6"]);
-//! assert_eq!(t.render(), "| signal | max |\n|---|---|\n| y_m | 1.0e-6 |\n");
-//! ```
+//! The one Markdown table writer of the reports: GitHub-flavoured rows, cells escaped
+//! (`|` as `\|`, a line break as a space) so content cannot break a table; a short row
+//! is padded, a long one truncated to the header's width.
 
 use std::fmt::Display;
 

@@ -1,8 +1,6 @@
-//! The pages' `fw-bench` figures: the table between `<!-- fw-bench -->` and
-//! `<!-- /fw-bench -->` (the performance chapter) and the README's tick row are written
-//! from the bench's own output, so they cannot drift from it: `cargo xtask fw-bench`
-//! rewrites them, `cargo xtask fw-bench --check` (run by `cargo xtest`) fails naming each
-//! that differs.
+//! The pages' `fw-bench` figures (the performance chapter's table between
+//! `<!-- fw-bench -->` markers, the README's tick row), written from the bench's output:
+//! `cargo xtask fw-bench` rewrites them, `--check` fails naming each that differs.
 
 use crate::size::grouped;
 
@@ -70,9 +68,8 @@ pub fn readme_row(law_mean: u64, tick_mean: u64, budget: u64) -> String {
     )
 }
 
-/// `pages` (`(path, text)`) with the block and the row replaced; `Err` when no page or
-/// more than one has the block, or no page has the row. Returns the new texts and the
-/// names of what changed (`path: fw-bench table` / `path: tick row`).
+/// `pages` with the block and the row replaced (`Err` when not exactly one page has the
+/// block, or none the row); the new texts and the names of what changed.
 pub fn update(
     pages: &[(String, String)],
     block: &str,

@@ -1,5 +1,4 @@
-//! The table of the generated blocks of the README and the book ([`BLOCKS`]): each block's name, the
-//! command that makes it and which lines of its output it keeps.
+//! The table of the generated blocks of the README and the book ([`BLOCKS`]).
 
 /// The binaries the README's aliases run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -32,13 +31,11 @@ impl Bin {
 pub enum Keep {
     /// Every line.
     All,
-    /// Every line but those containing one of these (figures that depend on the
-    /// machine: wall times, host nanoseconds).
+    /// Every line but those containing one of these (machine-dependent figures).
     AllBut(&'static [&'static str]),
     /// Only the lines starting with one of these (a long report's summary lines).
     Starting(&'static [&'static str]),
-    /// The output is Markdown: the block is the output verbatim, no text fence and no
-    /// command line (the block says its command itself).
+    /// The output is Markdown: the block is the output verbatim (it says its command).
     Markdown,
 }
 
@@ -59,8 +56,7 @@ pub struct Block {
     pub name: &'static str,
     /// The binary.
     pub bin: Bin,
-    /// Its arguments, separated by spaces (the README shows `alias args...`; no argument
-    /// holds a space).
+    /// Its arguments, separated by spaces (no argument holds a space).
     pub args: &'static str,
     /// The exit code the command is expected to end with.
     pub exit: i32,
@@ -115,13 +111,10 @@ pub(super) const fn sim(name: &'static str, args: &'static str) -> Block {
     }
 }
 
-/// The lines of `hil soak`'s summary that depend on the machine: wall and CPU time, the
-/// peak RSS.
+/// The lines of `hil soak`'s summary that depend on the machine.
 const SOAK_MACHINE_DEPENDENT: &[&str] = &["s wall", "peak RSS"];
 
-/// A `cargo hil` block: every line but the machine-dependent ones
-/// ([`MACHINE_DEPENDENT`]: the harness prints wall times and host nanoseconds), exit 0,
-/// standard output.
+/// A `cargo hil` block: every line but the [`MACHINE_DEPENDENT`] ones, exit 0, stdout.
 pub(super) const fn hil(name: &'static str, args: &'static str) -> Block {
     Block {
         name,
@@ -177,8 +170,7 @@ pub const BLOCKS: &[Block] = &[
     hil("hil-gain", "run --control gain"),
     hil("hil-beating", "run --scenario beating").exit(1),
     hil("hil-short", "run --scenario hil/harness/tests/data/short.toml"),
-    // The soak: a broken device caught, named with its time and seed, and the shorter
-    // run that replays it (wall, CPU and RSS figures left out).
+    // The soak: a broken device caught and the shorter run that replays it.
     hil("soak-defect", "soak --seed 7 --minutes 10 --defect corrupt:150000")
         .exit(1)
         .keep(Keep::AllBut(SOAK_MACHINE_DEPENDENT)),

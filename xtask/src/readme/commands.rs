@@ -155,10 +155,9 @@ pub fn commands(readme: &str) -> Vec<ReadmeCommand> {
     out
 }
 
-/// Runs the commands of the README and the book's pages ([`super::pages`]; `long`: also
-/// the long ones) from the workspace root with `sh -c`, each checked against its stated
-/// exit code (`list`: none run, each printed with its class); a command shown on several
-/// pages runs once. Prints one line per command; returns the failures.
+/// Runs the pages' commands (`long`: also the long ones) from the workspace root with
+/// `sh -c`, each once, checked against its stated exit code (`list`: printed with its
+/// class, none run); returns the failures.
 pub fn run_commands(long: bool, list: bool) -> Result<Vec<String>, String> {
     let root = crate::workspace_root();
     let mut failures = Vec::new();

@@ -1,11 +1,6 @@
 //! The pictures of the README and the book: every image a page shows is a file under
-//! `docs/figures/` that one generated block's command draws ([`FIGURES`]), so a figure
-//! cannot go stale any more than a block's text can.
-//!
-//! `cargo xtask readme` copies each drawn file over its committed copy after the blocks'
-//! commands have run; `--check` compares them byte for byte (the plots are deterministic:
-//! fixed seeds, integer-nanosecond time, no timestamps) and names each that differs. The
-//! link check ([`super::links`]) refuses an image that is not in the table.
+//! `docs/figures/` that one generated block's command draws ([`FIGURES`]); `readme`
+//! copies each drawn file over its committed copy, `--check` compares them byte for byte.
 
 use std::path::Path;
 
@@ -51,8 +46,7 @@ pub const FIGURES: &[Figure] = &[
 ];
 
 /// After the blocks' commands ran from `root`: copies every drawn figure over its
-/// committed copy, or with `check` compares them. Returns the paths that differed
-/// (written, or drifted under `check`).
+/// committed copy, or with `check` compares them; the paths that differed.
 pub fn sync(root: &Path, check: bool) -> Result<Vec<&'static str>, String> {
     let mut changed = Vec::new();
     for f in FIGURES {

@@ -1,11 +1,7 @@
-//! The pages' links: every relative link and image path of the README and the book's
-//! chapters resolves to a file or folder of the repository (an `#anchor` after it is not
-//! checked: there is no renderer here to say which anchors a page has), and every image
-//! is a figure of [`super::figures::FIGURES`], drawn by a listed command. Links with a
-//! scheme (`https:`, `mailto:`) are left alone: there is no network to check them
-//! against. Code blocks and inline code are not links. A chapter of the book (a page
-//! under `docs/`) links only inside `docs/`: mdBook renders that folder alone, so a link
-//! out of it would be dead in the book (name such a file in code instead).
+//! The pages' links: every relative link and image path of the README and the book
+//! resolves to a file or folder of the repository (anchors and links with a scheme are
+//! not checked), every image is a figure of [`super::figures::FIGURES`], and a chapter
+//! under `docs/` links only inside `docs/` (mdBook renders that folder alone).
 
 use std::path::{Component, Path, PathBuf};
 
@@ -102,9 +98,8 @@ fn resolve(base: &Path, rel: &str) -> Option<PathBuf> {
     Some(parts.iter().collect())
 }
 
-/// Checks the links of `pages` (`(path from the root, text)`) against the files under
-/// `root` and the images against `figures` (their paths from the root). Returns one
-/// message per broken link, naming the page, the line and the target.
+/// Checks the links of `pages` (`(path, text)`) against the files under `root` and the
+/// images against `figures`: one message per broken link.
 pub fn check(root: &Path, pages: &[(String, String)], figures: &[&str]) -> Vec<String> {
     let mut bad = Vec::new();
     for (page, text) in pages {

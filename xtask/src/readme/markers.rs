@@ -11,10 +11,8 @@ pub(super) fn close(name: &str) -> String {
     format!("<!-- /generated:{name} -->")
 }
 
-/// The blocks of `readme` (the text of the page `page`, named in errors): `(name, byte
-/// range of the text between the markers)`, in order. A marker is a line of its own (a
-/// marker quoted inside a line of text is not one); an error for a marker without its
-/// close, a nested or a repeated block.
+/// The blocks of `readme` (the page `page`): `(name, byte range between the markers)`,
+/// in order; a marker is a line of its own. Errors: an unclosed, nested or repeated block.
 pub fn find_blocks(
     page: &str,
     readme: &str,
@@ -114,11 +112,9 @@ pub fn diff(old: &str, new: &str) -> String {
 /// diffs.
 pub type Updated = (Vec<String>, Vec<(String, String)>);
 
-/// Rewrites (or with `check`, compares) the blocks of `pages` (`(path, text)`: the README
-/// and the book's chapters) with `fresh`, the new text per block name. Every block of the
-/// table must be in exactly one page, and every block of a page in the table. Returns
-/// each page's new text (in the order of `pages`) and the names of the blocks that differ,
-/// with their diffs.
+/// Rewrites (or with `check`, compares) the blocks of `pages` with `fresh`, the new text
+/// per block name; every block in exactly one page and in the table. Returns each page's
+/// new text and the blocks that differ with their diffs.
 pub fn update(pages: &[(String, String)], fresh: &[(&str, String)]) -> Result<Updated, String> {
     let mut found: Vec<(&str, String, std::ops::Range<usize>)> = Vec::new();
     for (page, text) in pages {

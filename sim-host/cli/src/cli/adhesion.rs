@@ -54,10 +54,9 @@ pub(crate) fn cmd_adhesion(a: &AdhesionArgs) -> Result<(), Failure> {
     let p = load_params(&a.params)?;
     let v = a.v_mps.unwrap_or(p.v);
     if !(v.is_finite() && (0.1..=200.0).contains(&v)) {
-        return Err(Failure {
-            code: 2,
-            msg: format!("--v-mps {v}: must be within [0.1, 200] m/s"),
-        });
+        return Err(Failure::bad(format!(
+            "--v-mps {v}: must be within [0.1, 200] m/s"
+        )));
     }
     super::check_outputs(
         &[("--json", Some(a.json.as_path()))],
@@ -66,14 +65,11 @@ pub(crate) fn cmd_adhesion(a: &AdhesionArgs) -> Result<(), Failure> {
     let ch = wheelset_plant::traction::characteristic(a.condition.into(), v, &p, a.points as usize);
     outln!(
         "adhesion {}: v {} m/s, Q {:.1} N, f11 {:.3e} N, mu0 {} A {} B {} s/m kA {} kS {}; peak F/Q {:.4} at creepage {:.5} (slip {:.3} m/s)",
-        ch.condition, ch.v_mps, ch.q_n, ch.f11_n, ch.mu0, ch.a, ch.b, ch.ka, ch.ks,
+        ch.condition, ch.v_mps, ch.q_n, ch.f11_n, ch.law.mu0, ch.law.a, ch.law.b, ch.law.ka, ch.law.ks,
         ch.mu_peak, ch.creepage_peak, ch.slip_peak_mps
     );
     outln!("source: {}", ch.source);
-    let json = serde_json::to_value(&ch).map_err(|e| Failure {
-        code: 1,
-        msg: e.to_string(),
-    })?;
+    let json = serde_json::to_value(&ch).map_err(|e| Failure::failed(e.to_string()))?;
     write_json(&a.json, &json)?;
     if let Some(dir) = &a.plot {
         std::fs::create_dir_all(dir).map_err(|e| io_fail(dir, e))?;

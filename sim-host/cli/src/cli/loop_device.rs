@@ -6,7 +6,7 @@ use wheelset_plant::scenario::Scenario;
 use wheelset_report::{out, outln};
 
 use super::run::{print_summary, write_run_summary, RunArgs};
-use super::{io_fail, simulate, warn, Failure};
+use super::{create_file, io_fail, simulate, warn, Failure};
 
 /// Which controllers close the loop.
 #[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
@@ -115,25 +115,16 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
     let wsp = d.wsp != Some(OnOff::Off);
     let latency_us = d.latency_us.unwrap_or(2.0);
     if !(latency_us.is_finite() && (0.0..=MAX_LATENCY_US).contains(&latency_us)) {
-        return Err(Failure {
-            code: 2,
-            msg: format!(
-                "--latency-us {latency_us:e}: must be a finite value in [0, {MAX_LATENCY_US:e}] us"
-            ),
-        });
+        return Err(Failure::bad(format!(
+            "--latency-us {latency_us:e}: must be a finite value in [0, {MAX_LATENCY_US:e}] us"
+        )));
     }
     let baud = d.baud.unwrap_or(wheelset_loop::sim_link::DEFAULT_BAUD);
     if baud == 0 {
-        return Err(Failure {
-            code: 2,
-            msg: "--baud 0: must be positive".into(),
-        });
+        return Err(Failure::bad("--baud 0: must be positive".into()));
     }
     if d.rate_hz == Some(0) {
-        return Err(Failure {
-            code: 2,
-            msg: "--rate-hz 0: must be positive".into(),
-        });
+        return Err(Failure::bad("--rate-hz 0: must be positive".into()));
     }
     let delay_ticks = d.delay_ticks.unwrap_or(1);
     // The longest delay the device's table of designs holds.
@@ -143,22 +134,15 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
         .max()
         .unwrap_or(1);
     if !(1..=max_delay).contains(&delay_ticks) {
-        return Err(Failure {
-            code: 2,
-            msg: format!(
-                "--delay-ticks {delay_ticks}: must be 1 ..= {max_delay} (the delays the \
+        return Err(Failure::bad(format!(
+            "--delay-ticks {delay_ticks}: must be 1 ..= {max_delay} (the delays the \
                  device's gains are designed for)"
-            ),
-        });
+        )));
     }
     let faults_spec = d.faults.clone().unwrap_or_default();
-    let faults: wheelset_loop::sim_link::Faults =
-        faults_spec
-            .parse()
-            .map_err(|e: wheelset_loop::sim_link::FaultSpecError| Failure {
-                code: 2,
-                msg: e.to_string(),
-            })?;
+    let faults: wheelset_loop::sim_link::Faults = faults_spec
+        .parse()
+        .map_err(|e: wheelset_loop::sim_link::FaultSpecError| Failure::bad(e.to_string()))?;
     let opt = DeviceOptions {
         link: wheelset_loop::sim_link::LinkConfig {
             baud,
@@ -182,28 +166,20 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
     let period_ns = 1_000_000_000 / u64::from(hz.max(1));
     let kept = 2 + a.compare.iter().filter(|&&c| c != a.control).count() as u64;
     wheelset_plant::memory::check_runs(sc.duration_ns, sc.output_dt_ns, Some(period_ns), kept)
-        .map_err(|msg| Failure {
-            code: 2,
-            msg: format!("{}: {msg}", sc.source),
-        })?;
+        .map_err(|msg| Failure::bad(format!("{}: {msg}", sc.source)))?;
     let rt = wheelset_loop::device_loop::runtime_config(sc, a.control.into(), &opt);
     if let Some(why) = wheelset_loop::device_loop::base_rate_refusal(&rt) {
-        return Err(Failure {
-            code: 2,
-            msg: if delay_ticks > 1 {
-                format!("--rate-hz {hz} --delay-ticks {delay_ticks}: {why}")
-            } else {
-                format!("--rate-hz {hz}: {why}")
-            },
-        });
+        return Err(Failure::bad(if delay_ticks > 1 {
+            format!("--rate-hz {hz} --delay-ticks {delay_ticks}: {why}")
+        } else {
+            format!("--rate-hz {hz}: {why}")
+        }));
     }
     if let Some(w) = wheelset_loop::rate_check::warning(sc, a.control.into(), hz, delay_ticks) {
         warn(&w);
     }
-    let mut run = run_device(sc, a.control.into(), &opt).map_err(|e| Failure {
-        code: 2,
-        msg: e.to_string(),
-    })?;
+    let mut run =
+        run_device(sc, a.control.into(), &opt).map_err(|e| Failure::bad(e.to_string()))?;
     print_summary(sc, &run.trajectory);
     let mut verdict = super::run::judge_divergence(a, &run.trajectory);
     if let Some(s) = &run.report.device {
@@ -215,20 +191,18 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
         );
     }
     outln!("{}", monitor_line(&run));
-    // A limit cycle of the drive (the device's drive alarm) fails the run as a divergence
-    // does, unless the run says that is its point.
+    // A drive limit cycle fails the run as a divergence does, unless that is its point.
     let drive = run
         .report
         .device
         .as_ref()
         .is_some_and(|s| s.drive_alarms > 0);
     if drive && verdict.is_ok() && !a.expect_divergence {
-        verdict = Err(Failure {
-            code: 1,
-            msg: "the traction current loop limit-cycled (the device's drive alarm, \
+        verdict = Err(Failure::failed(
+            "the traction current loop limit-cycled (the device's drive alarm, \
                   above); add --expect-divergence if that is the run's point"
                 .into(),
-        });
+        ));
     }
     write_run_summary(&a.json, sc, &run.trajectory, Some(wsp))?;
     outln!(
@@ -245,8 +219,7 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
     );
     out!("{}", run.report);
     outln!();
-    // The link log (one record per period) is the CSV's link columns, its report
-    // printed: without a CSV it is freed before the reference trajectory is made.
+    // Without a CSV the link log is freed before the reference trajectory is made.
     if a.csv.is_none() {
         run.link = Vec::new();
     }
@@ -268,11 +241,7 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
     );
     outln!("vs continuous reference: {}", acc.finish());
     if let Some(path) = &a.csv {
-        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir).map_err(|e| io_fail(dir, e))?;
-        }
-        let f = std::fs::File::create(path).map_err(|e| io_fail(path, e))?;
-        run.write_csv(std::io::BufWriter::new(f))
+        run.write_csv(create_file(path)?)
             .map_err(|e| io_fail(path, e))?;
         outln!(
             "csv: {} ({} rows)",
@@ -300,8 +269,8 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
     verdict
 }
 
-/// The device monitor's alarms, each named by what it watches, with its first instant as
-/// the host saw it (the flag in the Actuation in force) and the Status's counts.
+/// The device monitor's alarms, each with its first instant as the host saw it and the
+/// Status's counts.
 fn monitor_line(run: &wheelset_loop::device_loop::DeviceRun) -> String {
     use wheelset_runtime::Flags;
     let kinds = [

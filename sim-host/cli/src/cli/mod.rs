@@ -14,6 +14,7 @@ pub(crate) use rates::{cmd_rates, RatesArgs};
 pub(crate) use run::{cmd_run, RunArgs};
 
 use clap::ValueEnum;
+use std::io::{BufWriter, Write};
 use std::path::PathBuf;
 use wheelset_plant::control::YawLaw;
 use wheelset_plant::error::ConfigError;
@@ -49,20 +50,26 @@ pub(crate) struct Failure {
     pub(crate) msg: String,
 }
 
+impl Failure {
+    /// Bad usage or input: exit code 2.
+    pub(crate) fn bad(msg: String) -> Self {
+        Failure { code: 2, msg }
+    }
+
+    /// Any other failure: exit code 1.
+    pub(crate) fn failed(msg: String) -> Self {
+        Failure { code: 1, msg }
+    }
+}
+
 impl From<ConfigError> for Failure {
     fn from(e: ConfigError) -> Self {
-        Failure {
-            code: 2,
-            msg: e.to_string(),
-        }
+        Failure::bad(e.to_string())
     }
 }
 
 pub(crate) fn io_fail(what: &std::path::Path, e: std::io::Error) -> Failure {
-    Failure {
-        code: 1,
-        msg: format!("{}: cannot write: {e}", what.display()),
-    }
+    Failure::failed(format!("{}: cannot write: {e}", what.display()))
 }
 
 /// Checks the output paths before any work (`wheelset_report::output`): `files` and `dirs` as
@@ -71,15 +78,14 @@ pub(crate) fn check_outputs(
     files: &[(&str, Option<&std::path::Path>)],
     dirs: &[(&str, Option<&std::path::Path>)],
 ) -> Result<(), Failure> {
-    let bad = |msg: String| Failure { code: 2, msg };
     for (flag, p) in files {
         if let Some(p) = p {
-            wheelset_report::output::check_file_flag(flag, p).map_err(bad)?;
+            wheelset_report::output::check_file_flag(flag, p).map_err(Failure::bad)?;
         }
     }
     for (flag, d) in dirs {
         if let Some(d) = d {
-            wheelset_report::output::check_dir_flag(flag, d).map_err(bad)?;
+            wheelset_report::output::check_dir_flag(flag, d).map_err(Failure::bad)?;
         }
     }
     Ok(())
@@ -92,8 +98,7 @@ pub(crate) fn load_params(path: &Option<PathBuf>) -> Result<Params, ConfigError>
     }
 }
 
-/// One simulation of the scenario. This is the place where further loop kinds (the
-/// device over the link) plug in: they produce the same [`Trajectory`].
+/// One simulation of the scenario on the continuous loop.
 pub(crate) fn simulate(sc: &Scenario, control: Control) -> Trajectory {
     run_continuous(sc, control.into())
 }
@@ -102,16 +107,22 @@ pub(crate) fn warn(msg: &str) {
     eprintln!("sim-host: warning: {msg}");
 }
 
-/// Writes `value` as pretty JSON to `path` (directories created).
-pub(crate) fn write_json(path: &std::path::Path, value: &serde_json::Value) -> Result<(), Failure> {
+/// Creates the file `path` (its directories too), buffered.
+pub(crate) fn create_file(path: &std::path::Path) -> Result<BufWriter<std::fs::File>, Failure> {
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(|e| io_fail(dir, e))?;
     }
-    let text = serde_json::to_string_pretty(value).map_err(|e| Failure {
-        code: 1,
-        msg: format!("{}: {e}", path.display()),
-    })?;
-    std::fs::write(path, text).map_err(|e| io_fail(path, e))?;
+    let f = std::fs::File::create(path).map_err(|e| io_fail(path, e))?;
+    Ok(BufWriter::with_capacity(1 << 16, f))
+}
+
+/// Writes `value` as pretty JSON to `path` (directories created).
+pub(crate) fn write_json(path: &std::path::Path, value: &serde_json::Value) -> Result<(), Failure> {
+    let mut f = create_file(path)?;
+    serde_json::to_writer_pretty(&mut f, value)
+        .map_err(std::io::Error::from)
+        .and_then(|()| f.flush())
+        .map_err(|e| io_fail(path, e))?;
     outln!("json: {}", path.display());
     Ok(())
 }

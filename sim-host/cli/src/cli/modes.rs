@@ -1,14 +1,13 @@
 //! `sim-host modes`: the modal analysis along the creep sweep.
 
 use clap::ValueEnum;
+use serde::{Serialize, Serializer};
 use std::io::Write;
 use std::path::PathBuf;
-use wheelset_plant::modes::{
-    creep_grid, sweep_case, write_json_number, write_json_string, Case, CaseSweep,
-};
+use wheelset_plant::modes::{creep_grid, sweep_case, Case, CaseSweep};
 use wheelset_report::outln;
 
-use super::{io_fail, load_params, warn, Failure};
+use super::{create_file, io_fail, load_params, warn, Failure};
 
 /// Analysis case of docs/model.md.
 #[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
@@ -69,7 +68,7 @@ pub(crate) fn cmd_modes(a: &ModesArgs) -> Result<(), Failure> {
         Some(CaseArg::D) => vec![Case::D],
     };
     wheelset_plant::memory::check_modes(u64::from(a.points), cases.len() as u64)
-        .map_err(|msg| Failure { code: 2, msg })?;
+        .map_err(Failure::bad)?;
     super::check_outputs(
         &[("--json", Some(a.json.as_path()))],
         &[("--plot", a.plot.as_deref())],
@@ -78,10 +77,8 @@ pub(crate) fn cmd_modes(a: &ModesArgs) -> Result<(), Failure> {
     let pb = progress((grid.len() * cases.len()) as u64, "modal sweep");
     let mut sweeps = Vec::new();
     for &case in &cases {
-        let sw = sweep_case(&p, case, &grid, || pb.inc(1)).map_err(|e| Failure {
-            code: 1,
-            msg: e.to_string(),
-        })?;
+        let sw = sweep_case(&p, case, &grid, || pb.inc(1))
+            .map_err(|e| Failure::failed(e.to_string()))?;
         sweeps.push(sw);
     }
     pb.finish_and_clear();
@@ -149,16 +146,18 @@ pub(crate) fn cmd_modes(a: &ModesArgs) -> Result<(), Failure> {
     let derived = serde_json::json!({
         "k_t": p.k_t(), "k_gear": p.k_gear(), "y0_at_2300m": p.pure_rolling_y(1.0 / 2300.0)
     });
-    let params = serde_json::to_value(&p).map_err(|e| Failure {
-        code: 1,
-        msg: e.to_string(),
-    })?;
-    if let Some(dir) = a.json.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(|e| io_fail(dir, e))?;
-    }
-    let out = std::fs::File::create(&a.json).map_err(|e| io_fail(&a.json, e))?;
-    let mut out = std::io::BufWriter::with_capacity(1 << 16, out);
-    write_modes_file(&mut out, &sweeps, &derived, &p, &params)
+    let params = serde_json::to_value(&p).map_err(|e| Failure::failed(e.to_string()))?;
+    let mut out = create_file(&a.json)?;
+    let file = ModesFile {
+        cases: Cases(&sweeps),
+        derived: &derived,
+        kinematic_hz: p.kinematic_hz(),
+        note: "structural zero eigenvalue (free rolling at any speed) reported as structural_zero and excluded from stability verdicts",
+        params: &params,
+        speed_mps: p.v,
+    };
+    serde_json::to_writer(&mut out, &file)
+        .map_err(std::io::Error::from)
         .and_then(|()| out.flush())
         .map_err(|e| io_fail(&a.json, e))?;
     outln!("json: {}", a.json.display());
@@ -171,36 +170,22 @@ pub(crate) fn cmd_modes(a: &ModesArgs) -> Result<(), Failure> {
     Ok(())
 }
 
-/// The modes file, streamed as it is made (no tree of the 4 000 points): the object
-/// `{cases, derived, kinematic_hz, note, params, speed_mps}`, keys in alphabetical order
-/// as serde_json writes a `Value` map; each case as [`CaseSweep::write_json`] writes it,
-/// `derived` and `params` (small `Value` maps) by serde_json.
-fn write_modes_file(
-    w: &mut impl Write,
-    sweeps: &[CaseSweep],
-    derived: &serde_json::Value,
-    p: &wheelset_plant::params::Params,
-    params: &serde_json::Value,
-) -> std::io::Result<()> {
-    w.write_all(b"{\"cases\":[")?;
-    for (i, sw) in sweeps.iter().enumerate() {
-        if i > 0 {
-            w.write_all(b",")?;
-        }
-        sw.write_json(w)?;
+/// The modes file: keys in alphabetical order as serde_json writes a `Value` map.
+#[derive(Serialize)]
+struct ModesFile<'a> {
+    cases: Cases<'a>,
+    derived: &'a serde_json::Value,
+    kinematic_hz: f64,
+    note: &'a str,
+    params: &'a serde_json::Value,
+    speed_mps: f64,
+}
+
+/// The cases' sweeps, each made into its JSON form only as it is written.
+struct Cases<'a>(&'a [CaseSweep]);
+
+impl Serialize for Cases<'_> {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_seq(self.0.iter().map(CaseSweep::to_json))
     }
-    w.write_all(b"],\"derived\":")?;
-    serde_json::to_writer(&mut *w, derived)?;
-    w.write_all(b",\"kinematic_hz\":")?;
-    write_json_number(w, p.kinematic_hz())?;
-    w.write_all(b",\"note\":")?;
-    write_json_string(
-        w,
-        "structural zero eigenvalue (free rolling at any speed) reported as structural_zero and excluded from stability verdicts",
-    )?;
-    w.write_all(b",\"params\":")?;
-    serde_json::to_writer(&mut *w, params)?;
-    w.write_all(b",\"speed_mps\":")?;
-    write_json_number(w, p.v)?;
-    w.write_all(b"}")
 }

@@ -4,7 +4,8 @@ use clap::ValueEnum;
 use std::path::PathBuf;
 use wheelset_report::{out, outln};
 
-use super::{io_fail, load_params, Control, Failure};
+use super::{create_file, io_fail, load_params, Control, Failure};
+use std::io::Write;
 
 /// Plant of the rate analysis.
 #[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
@@ -45,25 +46,19 @@ pub(crate) struct RatesArgs {
 pub(crate) fn cmd_rates(a: &RatesArgs) -> Result<(), Failure> {
     use wheelset_plant::sampled::{rates, Criteria, LinkBudget, Model};
     if a.delay > 10 {
-        return Err(Failure {
-            code: 2,
-            msg: format!("--delay {}: at most 10 ticks", a.delay),
-        });
+        return Err(Failure::bad(format!(
+            "--delay {}: at most 10 ticks",
+            a.delay
+        )));
     }
     if a.max_baud == 0 {
-        return Err(Failure {
-            code: 2,
-            msg: "--max-baud 0: must be positive".into(),
-        });
+        return Err(Failure::bad("--max-baud 0: must be positive".into()));
     }
     if !(a.latency_us.is_finite() && (0.0..=1e6).contains(&a.latency_us)) {
-        return Err(Failure {
-            code: 2,
-            msg: format!(
-                "--latency-us {:e}: must be a finite value in [0, 1e6] us",
-                a.latency_us
-            ),
-        });
+        return Err(Failure::bad(format!(
+            "--latency-us {:e}: must be a finite value in [0, 1e6] us",
+            a.latency_us
+        )));
     }
     let p = load_params(&a.params)?;
     super::check_outputs(&[("--json", a.json.as_deref())], &[])?;
@@ -86,25 +81,16 @@ pub(crate) fn cmd_rates(a: &RatesArgs) -> Result<(), Failure> {
         max_baud: a.max_baud as f64,
         ..Criteria::default()
     };
-    let report =
-        rates(&p, model, &cfg, a.delay, &LinkBudget::default(), &criteria).map_err(|e| {
-            Failure {
-                code: 2,
-                msg: format!("rate analysis: {e}"),
-            }
-        })?;
+    let report = rates(&p, model, &cfg, a.delay, &LinkBudget::default(), &criteria)
+        .map_err(|e| Failure::bad(format!("rate analysis: {e}")))?;
     out!("{}", report.render());
-    // The designs a device accepts, judged on these parameters (the lead on the full
-    // plant: what the device's table holds).
+    // The designs a device accepts, judged on these parameters.
     let design = if mode == wheelset_control::YawMode::Lead && model == Model::Full {
         let base = wheelset_control::Config {
             motor: cfg.motor,
             ..wheelset_control::Config::default()
         };
-        let fail = |e: String| Failure {
-            code: 2,
-            msg: format!("design table: {e}"),
-        };
+        let fail = |e: String| Failure::bad(format!("design table: {e}"));
         let reference = wheelset_plant::sampled::reference_yaw(&p).map_err(fail)?;
         let rows = wheelset_plant::sampled::design_table(&p, &base).map_err(fail)?;
         outln!();
@@ -126,9 +112,6 @@ pub(crate) fn cmd_rates(a: &RatesArgs) -> Result<(), Failure> {
     outln!();
     out!("{}", link.render());
     if let Some(path) = &a.json {
-        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir).map_err(|e| io_fail(dir, e))?;
-        }
         let mut json = report.to_json();
         if let Some(obj) = json.as_object_mut() {
             if let Some(d) = design {
@@ -136,11 +119,12 @@ pub(crate) fn cmd_rates(a: &RatesArgs) -> Result<(), Failure> {
             }
             obj.insert("link".into(), link.to_json());
         }
-        let text = serde_json::to_string_pretty(&json).map_err(|e| Failure {
-            code: 1,
-            msg: format!("JSON: {e}"),
-        })?;
-        std::fs::write(path, text).map_err(|e| io_fail(path, e))?;
+        let text = serde_json::to_string_pretty(&json)
+            .map_err(|e| Failure::failed(format!("JSON: {e}")))?;
+        let mut f = create_file(path)?;
+        f.write_all(text.as_bytes())
+            .and_then(|()| f.flush())
+            .map_err(|e| io_fail(path, e))?;
         outln!("wrote {}", path.display());
     }
     Ok(())

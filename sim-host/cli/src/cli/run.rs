@@ -2,12 +2,15 @@
 //! summary and the run's JSON summary.
 
 use std::path::PathBuf;
+use wheelset_plant::control::YawLaw;
 use wheelset_plant::scenario::Scenario;
 use wheelset_plant::sim::Trajectory;
 use wheelset_report::outln;
 
 use super::loop_device::{cmd_run_device, DeviceArgs, LoopKind, OnOff};
-use super::{check_outputs, io_fail, load_params, simulate, warn, write_json, Control, Failure};
+use super::{
+    check_outputs, create_file, io_fail, load_params, simulate, warn, write_json, Control, Failure,
+};
 
 #[derive(clap::Args)]
 pub(crate) struct RunArgs {
@@ -61,14 +64,12 @@ pub(crate) fn judge_divergence(a: &RunArgs, tr: &Trajectory) -> Result<(), Failu
             outln!("diverged as expected (--expect-divergence): {stop}");
             Ok(())
         }
-        (Some(stop), false) => Err(Failure {
-            code: 1,
-            msg: format!("the run diverged: {stop} (add --expect-divergence if that is its point)"),
-        }),
-        (None, true) => Err(Failure {
-            code: 1,
-            msg: "--expect-divergence: the run did not diverge".into(),
-        }),
+        (Some(stop), false) => Err(Failure::failed(format!(
+            "the run diverged: {stop} (add --expect-divergence if that is its point)"
+        ))),
+        (None, true) => Err(Failure::failed(
+            "--expect-divergence: the run did not diverge".into(),
+        )),
         (None, false) => Ok(()),
     }
 }
@@ -76,9 +77,7 @@ pub(crate) fn judge_divergence(a: &RunArgs, tr: &Trajectory) -> Result<(), Failu
 pub(crate) fn cmd_run(a: &RunArgs) -> Result<(), Failure> {
     if a.device.loop_kind != LoopKind::Device {
         if let Some(flag) = a.device.given().first() {
-            return Err(Failure {
-                code: 2,
-                msg: format!(
+            return Err(Failure::bad(format!(
                     "{flag}: applies only to the device loop over the simulated link (add --loop device); \
                      the {} loop has no link, rate or device",
                     if a.device.loop_kind == LoopKind::Core {
@@ -86,8 +85,7 @@ pub(crate) fn cmd_run(a: &RunArgs) -> Result<(), Failure> {
                     } else {
                         "continuous"
                     }
-                ),
-            });
+                )));
         }
     }
     let base = load_params(&a.params)?;
@@ -97,40 +95,32 @@ pub(crate) fn cmd_run(a: &RunArgs) -> Result<(), Failure> {
         &[("--plot", a.plot.as_deref())],
     )?;
     if a.sections_table && (a.device.loop_kind != LoopKind::Core || sc.adhesion.is_empty()) {
-        return Err(Failure {
-            code: 2,
-            msg: "--sections-table: only with --loop core on a scenario with [[adhesion]] \
+        return Err(Failure::bad(
+            "--sections-table: only with --loop core on a scenario with [[adhesion]] \
                   sections"
                 .into(),
-        });
+        ));
     }
     let end_s = sc.duration_ns as f64 * 1e-9;
     if let Some(t) =
         a.at.iter()
             .find(|t| !(t.is_finite() && (0.0..=end_s).contains(*t)))
     {
-        return Err(Failure {
-            code: 2,
-            msg: format!("--at {t}: must be a time within the run, 0-{end_s} s"),
-        });
+        return Err(Failure::bad(format!(
+            "--at {t}: must be a time within the run, 0-{end_s} s"
+        )));
     }
     if !a.at.is_empty() && a.device.loop_kind != LoopKind::Continuous {
-        return Err(Failure {
-            code: 2,
-            msg: "--at: only for the continuous loop (the default --loop)".into(),
-        });
+        return Err(Failure::bad(
+            "--at: only for the continuous loop (the default --loop)".into(),
+        ));
     }
-    // Every trajectory kept at once: this one, the compared ones, and on the device loop
-    // the continuous reference (the device's own records are checked with its rate).
+    // Every trajectory kept at once: this one, the compared ones, the device's reference.
     let kept = 1
         + a.compare.iter().filter(|&&c| c != a.control).count() as u64
         + u64::from(a.device.loop_kind == LoopKind::Device);
-    wheelset_plant::memory::check_runs(sc.duration_ns, sc.output_dt_ns, None, kept).map_err(
-        |msg| Failure {
-            code: 2,
-            msg: format!("{}: {msg}", sc.source),
-        },
-    )?;
+    wheelset_plant::memory::check_runs(sc.duration_ns, sc.output_dt_ns, None, kept)
+        .map_err(|msg| Failure::bad(format!("{}: {msg}", sc.source)))?;
     for law in std::iter::once(a.control).chain(a.compare.iter().copied()) {
         if let Some(w) = sc.law_warning(law.into()) {
             warn(&w);
@@ -154,27 +144,28 @@ pub(crate) fn cmd_run(a: &RunArgs) -> Result<(), Failure> {
     print_modes(&sc, a.control);
     print_at(&runs, &a.at);
     write_run_summary(&a.json, &sc, main, None)?;
-    if let Some(path) = &a.csv {
-        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir).map_err(|e| io_fail(dir, e))?;
-        }
-        let f = std::fs::File::create(path).map_err(|e| io_fail(path, e))?;
-        main.write_csv(std::io::BufWriter::new(f))
+    write_csv_and_plots(a, &runs)?;
+    judge_divergence(a, main)
+}
+
+/// `--csv` of the first run and `--plot` of them all (the others overlaid).
+fn write_csv_and_plots(a: &RunArgs, runs: &[Trajectory]) -> Result<(), Failure> {
+    if let (Some(path), Some(main)) = (&a.csv, runs.first()) {
+        main.write_csv(create_file(path)?)
             .map_err(|e| io_fail(path, e))?;
         outln!("csv: {} ({} rows)", path.display(), main.records.len());
     }
     if let Some(dir) = &a.plot {
-        let files =
-            crate::figures::write_time_histories(&runs, dir).map_err(|e| io_fail(dir, e))?;
+        let files = crate::figures::write_time_histories(runs, dir).map_err(|e| io_fail(dir, e))?;
         for f in files {
             outln!("plot: {}", f.display());
         }
     }
-    judge_divergence(a, main)
+    Ok(())
 }
 
-/// Prints the linearised modes of the scenario's plant with `law` at its operating point
-/// (pure rolling, straight track, the scenario's creep coefficients), least damped first.
+/// Prints the linearised modes of the scenario's plant with `law` at its operating point,
+/// least damped first.
 pub(crate) fn print_modes(sc: &Scenario, law: Control) {
     let Some(modes) =
         wheelset_plant::modes::modes_at_point(&sc.params, sc.axle, sc.drive, law.into())
@@ -268,24 +259,17 @@ pub(crate) fn print_at(runs: &[Trajectory], at: &[f64]) {
 }
 
 /// `--loop core`: the f64 control core on the plant; with `--plot` and `[[adhesion]]`
-/// sections also the traction figure with and without protection (`adhesion.svg`).
+/// sections also `adhesion.svg` with and without protection.
 pub(crate) fn cmd_run_core(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
     use wheelset_loop::core::run_core;
-    let fail = |e: wheelset_loop::core::CoreError| Failure {
-        code: 2,
-        msg: e.to_string(),
-    };
+    let fail = |e: wheelset_loop::core::CoreError| Failure::bad(e.to_string());
     if a.sections_table {
         let on = run_core::<f64>(sc, a.control.into(), true).map_err(fail)?;
         let off = run_core::<f64>(sc, a.control.into(), false).map_err(fail)?;
-        let law = match a.control {
-            Control::Passive => "passive",
-            Control::Gain => "gain",
-            Control::Lead => "lead",
-        };
         let shown = format!(
-            "cargo sim run --scenario {} --control {law} --loop core --sections-table",
-            a.scenario
+            "cargo sim run --scenario {} --control {} --loop core --sections-table",
+            a.scenario,
+            YawLaw::from(a.control).name()
         );
         let table =
             wheelset_plant::traction::sections_table(sc, &on.0, &off.0, &shown).unwrap_or_default();
@@ -303,44 +287,30 @@ pub(crate) fn cmd_run_core(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
         c.wsp_ticks
     );
     write_run_summary(&a.json, sc, &tr, Some(wsp))?;
-    if let Some(path) = &a.csv {
-        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir).map_err(|e| io_fail(dir, e))?;
-        }
-        let f = std::fs::File::create(path).map_err(|e| io_fail(path, e))?;
-        tr.write_csv(std::io::BufWriter::new(f))
-            .map_err(|e| io_fail(path, e))?;
-        outln!("csv: {} ({} rows)", path.display(), tr.records.len());
+    let mut runs = vec![tr];
+    if a.plot.is_some() {
+        runs.extend(a.compare.iter().map(|&k| simulate(sc, k)));
     }
+    write_csv_and_plots(a, &runs)?;
     if let Some(dir) = &a.plot {
-        let mut runs = vec![tr];
-        for &k in &a.compare {
-            runs.push(simulate(sc, k));
-        }
-        let files =
-            crate::figures::write_time_histories(&runs, dir).map_err(|e| io_fail(dir, e))?;
-        for f in files {
-            outln!("plot: {}", f.display());
-        }
         if !sc.adhesion.is_empty() {
             use crate::figures::FigureRun;
             let (other, oc) = run_core::<f64>(sc, a.control.into(), !wsp).map_err(fail)?;
+            let label = |on: bool| {
+                if on {
+                    "protection on"
+                } else {
+                    "protection off"
+                }
+            };
             let (main, other) = (
                 FigureRun {
-                    label: if wsp {
-                        "protection on"
-                    } else {
-                        "protection off"
-                    },
+                    label: label(wsp),
                     tr: &runs[0],
                     set_point: &c.set_point,
                 },
                 FigureRun {
-                    label: if wsp {
-                        "protection off"
-                    } else {
-                        "protection on"
-                    },
+                    label: label(!wsp),
                     tr: &other,
                     set_point: &oc.set_point,
                 },
@@ -358,8 +328,7 @@ pub(crate) fn cmd_run_core(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
     verdict
 }
 
-/// The summary JSON of a run (`--json`): the run's description, and with `[[adhesion]]`
-/// sections the `adhesion` object; prints the sections table.
+/// The summary JSON of a run (`--json`) with the `adhesion` object; prints the sections table.
 pub(crate) fn write_run_summary(
     path: &Option<PathBuf>,
     sc: &Scenario,

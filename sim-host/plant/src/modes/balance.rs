@@ -7,14 +7,10 @@ const FMAX: f64 = 1.157_920_892_373_162e77; // 2^256
 /// Sweeps over the rows at most: the loop ends on any input.
 const MAX_SWEEPS: usize = 64;
 
-/// Balances the square matrix `a` in place: `A <- D^-1 A D` with `D` diagonal of powers
-/// of two, chosen so that row and column `i` have comparable off-diagonal 1-norms `r`
-/// and `c` (LAPACK `dgebal`'s scaling loop: row `i` scaled by `1/f` and column `i` by `f`
-/// when that reduces `c + r` by 5 %, sweeping until no scaling is made). Powers of two
-/// make the similarity exact, so the eigenvalues are unchanged, and the smaller norm
-/// bounds the rounding errors of the solver that follows. No permutation step: the
-/// caller splits the matrix into its irreducible blocks first. A row whose norms are
-/// not finite is left as it is.
+/// Balances the square matrix `a` in place: `A <- D^-1 A D`, `D` diagonal of powers of
+/// two (exact: the eigenvalues are unchanged), row `i` scaled by `1/f` and column `i` by
+/// `f` when that reduces `c + r` by 5 % (LAPACK `dgebal`'s loop, without its
+/// permutation: the caller splits the matrix into irreducible blocks first).
 pub(crate) fn balance(a: &mut DMatrix<f64>) {
     let n = a.nrows().min(a.ncols());
     for _ in 0..MAX_SWEEPS {

@@ -6,9 +6,8 @@ use crate::plant::STATE_NAMES;
 use nalgebra::Complex;
 use std::f64::consts::PI;
 
-/// Sweeps `case` over `grid` (ascending). Names modes at the highest creep, tracks
-/// downwards, then finds the crossings by bisection. `tick` is called once per point
-/// (from worker threads).
+/// Sweeps `case` over `grid` (ascending): names modes at the highest creep, tracks
+/// downwards, finds the crossings by bisection. `tick` is called once per point.
 pub fn sweep_case(
     p: &Params,
     case: Case,
@@ -33,7 +32,6 @@ pub fn sweep_case(
     let mut eig: Vec<Vec<Complex<f64>>> = vec![e0];
     let mut creep = vec![top];
     let mut failed = Vec::new();
-    // Scratch vectors of the loop: the prediction and the tracked order.
     let mut pred: Vec<Complex<f64>> = Vec::new();
     let mut tracked: Vec<Complex<f64>> = Vec::new();
     for (&c, e) in desc.iter().zip(all).skip(1) {
@@ -44,7 +42,6 @@ pub fn sweep_case(
         let k = eig.len();
         pred.clear();
         if k >= 2 {
-            // linear extrapolation in creep
             let (c1, c2) = (creep[k - 1], creep[k - 2]);
             let s = (c - c1) / (c1 - c2);
             pred.extend(
@@ -56,7 +53,6 @@ pub fn sweep_case(
         } else {
             pred.extend_from_slice(&eig[k - 1]);
         }
-        // The point's own vector is reused for its tracked order.
         assign(&pred, &e, &mut tracked);
         e.clear();
         e.extend_from_slice(&tracked);
@@ -78,16 +74,14 @@ pub fn sweep_case(
     Ok(sw)
 }
 
-/// Eigenvalues at every creep value of `grid`, computed on up to
-/// `available_parallelism` threads (scoped; no pool). `tick` is called once per point.
+/// Eigenvalues at every creep value of `grid` on up to `available_parallelism` scoped
+/// threads.
 fn eigen_sweep(
     p: &Params,
     case: Case,
     grid: &[f64],
     tick: &(impl Fn() + Sync),
 ) -> Vec<Option<Vec<Complex<f64>>>> {
-    // One workspace per thread (the components are found once per sparsity pattern, the
-    // loop's matrix is rebuilt in place).
     let solve = |(eig, lp): &mut (Eigen, CaseLoop), c: f64| {
         let mut out = Vec::new();
         let ok = eig.solve(lp.matrix(c), &mut out);
@@ -116,10 +110,7 @@ fn eigen_sweep(
             .collect();
         handles
             .into_iter()
-            .flat_map(|h| {
-                // A worker cannot panic on these inputs; if one did, its points count as failed.
-                h.join().unwrap_or_else(|_| vec![None; chunk])
-            })
+            .flat_map(|h| h.join().unwrap_or_else(|_| vec![None; chunk]))
             .take(grid.len())
             .collect()
     })

@@ -10,11 +10,9 @@ use crate::scenario::Axle;
 use nalgebra::{Complex, DMatrix, DVector};
 use std::f64::consts::PI;
 
-/// Assigns `new` eigenvalues to the `pred` branches, into `out` (one per branch, NaN
-/// for a branch left without one): each branch takes its nearest new eigenvalue (the
-/// first of equally near ones, in `total_cmp` order) when that is a one-to-one match
-/// (the usual case on a fine grid; up to 128 branches); otherwise greedy nearest pairs
-/// first.
+/// Assigns `new` eigenvalues to the `pred` branches, into `out` (NaN for a branch left
+/// without one): each branch its nearest when that is one-to-one (up to 128 branches),
+/// otherwise greedy nearest pairs first.
 pub(super) fn assign(pred: &[Complex<f64>], new: &[Complex<f64>], out: &mut Vec<Complex<f64>>) {
     let n = pred.len();
     out.clear();
@@ -53,11 +51,9 @@ pub(super) fn assign(pred: &[Complex<f64>], new: &[Complex<f64>], out: &mut Vec<
     }
 }
 
-/// Index of the element of `new` nearest `p` (squared distance, `total_cmp` order, the
-/// first of equal ones); 0 if `new` is empty.
+/// Index of the element of `new` nearest `p` (the first of equal ones); 0 if empty.
 fn nearest(p: Complex<f64>, new: &[Complex<f64>]) -> usize {
-    // `total_cmp` compares these integer keys (its own mapping of the bits), so each
-    // distance is mapped once rather than once per comparison.
+    // `total_cmp`'s integer keys, mapped once per distance rather than per comparison.
     let key = |d: f64| {
         let b = d.to_bits() as i64;
         b ^ (((b >> 63) as u64) >> 1) as i64
@@ -223,19 +219,13 @@ pub struct ModeAtPoint {
     /// Name, eigenvalue, frequency, damping.
     pub mode: ModeValue,
     /// Participation of each group of [`GROUPS`]: the sum over the group's states of
-    /// `|w_k v_k|` (left and right eigenvectors), normalised to sum to 1. A mode with
-    /// two large shares is a coupled one (e.g. `beating`'s 8.1 Hz mode: lateral/yaw and
-    /// gear/motor).
+    /// `|w_k v_k|` (left and right eigenvectors), normalised to sum to 1.
     pub participation: [f64; 5],
 }
 
-/// The named modes of one closed loop at its operating point (pure rolling on straight
-/// track, the creep coefficients of `p`): the plant `axle`/`drive` with the yaw `law`, the
-/// structural zero left out, one entry per complex pair (positive imaginary part) and
-/// per real eigenvalue, least damped first. Each is `lambda = re + j im`, `freq_hz =
-/// im / 2 pi`, `zeta = -re / |lambda|`. What `sim-host run` prints for a scenario's plant
-/// (e.g. `beating`: the gear mode next to the kinematic mode, Fig. 9). `None` if the
-/// eigenvalues are not computable (a non-finite matrix).
+/// The named modes of one closed loop at its operating point (pure rolling, the creep
+/// coefficients of `p`), the structural zero left out, one entry per complex pair and
+/// per real eigenvalue, least damped first. `None` for a non-finite matrix.
 pub fn modes_at_point(
     p: &Params,
     axle: Axle,

@@ -1,32 +1,15 @@
 //! The design of the gains per base rate and delay, judged: the criteria every accepted
-//! point of `wheelset_control::design::DESIGNED` meets, the search that picks each
-//! point's lead gain, and the verdict on every candidate rate and delay.
-//!
-//! Criteria (at the nominal point for the margins, over the creep x conicity grid for
-//! the stability):
-//!
-//! - **traction**: the current loop broken at `u_a` with a gain margin of at least 6 dB
-//!   and a phase margin of at least 45 deg; its fast pair contracting to at most
-//!   `0.75^1.5` per effective delay `tau = (d + 1/2) T` or per the paper's `tau_0` =
-//!   300 us, whichever is longer. With one tick at or below 5 kHz that is 0.75 per tick
-//!   (the rate table's criterion); per `tau` it does not tighten with a longer delay (the
-//!   loop designed for `tau` settles in proportion to it), and per `tau_0` a faster rate
-//!   keeps at least the settling of the paper's 5 kHz loop instead of a per-tick figure
-//!   that tightens as the rate rises;
-//! - **yaw**: stable, with its margins no more than 1 dB (gain, up and down) and 5 deg
-//!   (phase) below those of the paper's lead at 5 kHz with one tick;
-//! - **sampling**: no grid point that the paper's continuous loop holds is unstable in
-//!   the sampled loop (the points where the continuous lead loop is itself unstable,
-//!   at 1 MN, stay excluded).
+//! point of `wheelset_control::design::DESIGNED` meets, the search for each point's
+//! lead gain, and the verdict on every candidate (`docs/closed-loop.md`, "Choosing the
+//! rates").
 
 use super::*;
 use crate::params::Params;
 use wheelset_control::design::{DesignPoint, LEAD_GAIN_STEPS};
 use wheelset_control::Config;
 
-/// Candidate base rates of the design, Hz: the device's ticker takes any whole number of
-/// microseconds per period; these are the rates whose period the scenarios' 100 us
-/// integration step divides, from the slowest loop rate a device takes (500 Hz).
+/// Candidate base rates of the design, Hz: whole microseconds per period that the
+/// scenarios' 100 us step divides, from 500 Hz.
 pub const CANDIDATE_RATES: [u32; 6] = [500, 1_000, 2_000, 2_500, 5_000, 10_000];
 
 /// Candidate delays, ticks.
@@ -36,9 +19,8 @@ pub const CANDIDATE_DELAYS: [u8; 3] = [1, 2, 3];
 pub const TRACTION_GAIN_DB: f64 = 6.0;
 /// Minimum traction phase margin, degrees.
 pub const TRACTION_PHASE_DEG: f64 = 45.0;
-/// Largest contraction of the current loop's fast pair per effective delay `tau` or per
-/// the paper's `tau_0` (300 us), whichever is longer: `0.75^1.5`, i.e. 0.75 per tick
-/// with one tick of delay at or below 5 kHz.
+/// Largest contraction of the current loop's fast pair per `max(tau, tau_0 = 300 us)`:
+/// `0.75^1.5`, i.e. 0.75 per tick with one tick of delay at or below 5 kHz.
 pub const CURRENT_DECAY: f64 = 0.649_519_052_838_329;
 /// How far the yaw gain margins may fall below the paper's lead at 5 kHz, dB.
 pub const YAW_GAIN_SLACK_DB: f64 = 1.0;
@@ -64,8 +46,7 @@ pub struct DesignRow {
     pub current_radius: f64,
     /// The same per `max(tau, tau_0)` ([`decay_of`]).
     pub current_decay: f64,
-    /// Grid points held by the paper's continuous loop and lost by this sampled loop
-    /// (counted only once every other criterion holds).
+    /// Grid points held by the paper's continuous loop and lost by this sampled loop.
     pub newly_unstable: usize,
     /// `None`: every criterion met; else the first one failed.
     pub failed: Option<String>,
@@ -86,8 +67,7 @@ pub fn decay_of(radius: f64, base_rate_hz: u32, delay_ticks: u8) -> f64 {
     radius.powf(tau.max(wheelset_control::design::TAU_0_S) / t)
 }
 
-/// The current loop's fast pair, radius per tick ([`current_loop_mode`], as
-/// `sim-host rates`' `cur r`).
+/// The current loop's fast pair, radius per tick ([`current_loop_mode`]).
 pub fn current_radius(p: &Params, cfg: &Config, delay_ticks: usize) -> Result<f64, String> {
     current_loop_mode(&armature(p.l_a, p.r_a), cfg, delay_ticks).map(|m| m.radius)
 }
@@ -218,8 +198,8 @@ pub fn design_table(p: &Params, base: &Config) -> Result<Vec<DesignRow>, String>
     Ok(rows)
 }
 
-/// The accepted points of a design table, as `wheelset_control::design::DESIGNED` holds
-/// them: every point whose traction loop holds, the yaw law designed where it holds too.
+/// The accepted points of a design table (as `DESIGNED` holds them): traction holds,
+/// the yaw law designed where it holds too.
 pub fn accepted(rows: &[DesignRow]) -> Vec<DesignPoint> {
     rows.iter()
         .filter(|r| r.traction_ok)
@@ -235,8 +215,7 @@ pub fn accepted(rows: &[DesignRow]) -> Vec<DesignPoint> {
         .collect()
 }
 
-/// The design table as text: one row per candidate, its gains, margins and verdict
-/// (the criterion it fails, if any).
+/// The design table as text, one row per candidate.
 pub fn render_design(rows: &[DesignRow], reference: &Margins) -> String {
     use std::fmt::Write as _;
     let f = |a: Option<At>, w: usize| {

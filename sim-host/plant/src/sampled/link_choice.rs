@@ -1,13 +1,7 @@
-//! Which designed point a link carries: for a link of `baud` and a one-way `latency`,
-//! every base rate and delay the device accepts ([`wheelset_control::design::DESIGNED`])
-//! judged by the pipelined link budget ([`wheelset_proto::link::link_fits_delayed`]:
-//! each direction's worst-case frame within 85 % of a period, the round trip within 85 %
-//! of the `d` periods of delay), and the fastest point carried chosen, for the active yaw
-//! laws (the point's yaw law designed) and for the passive law (the traction loop alone).
-//!
-//! Where no point with a designed yaw law is carried, each such point states what the link
-//! would need: the largest one-way latency at this baud, and the lowest baud at this
-//! latency.
+//! Which designed point a link carries: every base rate and delay the device accepts
+//! judged by the pipelined link budget ([`wheelset_proto::link::link_fits_delayed`]),
+//! the fastest carried chosen for the active yaw laws and for the passive one; where
+//! none is carried, what the link would need (latency at this baud, baud at this latency).
 
 use wheelset_control::design::{DesignPoint, DESIGNED};
 use wheelset_proto::link::{link_fits_delayed, round_trip_ns, wire_ns, LINK_SHARE_MAX_PERMILLE};
@@ -29,11 +23,9 @@ pub struct LinkPoint {
     pub one_way_ns: u64,
     /// The link carries the point.
     pub carried: bool,
-    /// The largest one-way latency with which this baud carries the point, ns (`None`:
-    /// a frame alone overruns its period at this baud).
+    /// The largest one-way latency with which this baud carries the point, ns.
     pub max_latency_ns: Option<u64>,
-    /// The lowest baud that carries the point at this latency (`None`: the latency alone
-    /// takes the delay's share).
+    /// The lowest baud that carries the point at this latency.
     pub min_baud: Option<u32>,
 }
 
@@ -48,8 +40,7 @@ pub struct LinkChoice {
     pub max_delay: u8,
     /// Every designed point with a delay up to `max_delay`, in the table's order.
     pub points: Vec<LinkPoint>,
-    /// The fastest carried point whose yaw law is designed (the lead and gain laws),
-    /// the shortest delay first among equal rates.
+    /// The fastest carried point whose yaw law is designed (shortest delay first).
     pub active: Option<DesignPoint>,
     /// The fastest carried point (the passive law: the traction loop alone).
     pub passive: Option<DesignPoint>,
@@ -68,46 +59,39 @@ fn fits(p: &DesignPoint, baud: u32, latency_ns: u64) -> bool {
     .is_ok()
 }
 
-/// The largest latency carrying `p` at `baud` (bisection on the budget itself).
-fn max_latency(p: &DesignPoint, baud: u32) -> Option<u64> {
-    if !fits(p, baud, 0) {
-        return None;
+/// The least `x` in `lo..=hi` with `pred(x)`, for a `pred` that is false, then true, and
+/// true at `hi` (bisection).
+fn least(mut lo: u64, mut hi: u64, pred: impl Fn(u64) -> bool) -> u64 {
+    if pred(lo) {
+        return lo;
     }
-    let (mut lo, mut hi) = (0u64, 1_000_000_000u64);
     while hi - lo > 1 {
         let mid = lo + (hi - lo) / 2;
-        if fits(p, baud, mid) {
-            lo = mid;
-        } else {
+        if pred(mid) {
             hi = mid;
+        } else {
+            lo = mid;
         }
     }
-    Some(lo)
+    hi
+}
+
+/// The largest latency carrying `p` at `baud` (bisection on the budget itself).
+fn max_latency(p: &DesignPoint, baud: u32) -> Option<u64> {
+    fits(p, baud, 0).then(|| least(0, 1_000_000_000, |l| !fits(p, baud, l)) - 1)
 }
 
 /// The lowest baud carrying `p` at `latency_ns` (bisection; `None` above 1 Gbaud).
 fn min_baud(p: &DesignPoint, latency_ns: u64) -> Option<u32> {
     let top = 1_000_000_000u32;
-    if !fits(p, top, latency_ns) {
-        return None;
-    }
-    let (mut lo, mut hi) = (1u32, top);
-    if fits(p, lo, latency_ns) {
-        return Some(lo);
-    }
-    while hi - lo > 1 {
-        let mid = lo + (hi - lo) / 2;
-        if fits(p, mid, latency_ns) {
-            hi = mid;
-        } else {
-            lo = mid;
-        }
-    }
-    Some(hi)
+    fits(p, top, latency_ns).then(|| {
+        let b = least(1, u64::from(top), |b| fits(p, b as u32, latency_ns));
+        b as u32
+    })
 }
 
 /// Every designed point with a delay up to `max_delay` ticks against a link of `baud`
-/// and one-way `latency_ns` (module docs).
+/// and one-way `latency_ns`.
 #[must_use]
 pub fn link_choice(baud: u32, latency_ns: u64, max_delay: u8) -> LinkChoice {
     let points: Vec<LinkPoint> = DESIGNED

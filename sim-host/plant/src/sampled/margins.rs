@@ -10,21 +10,11 @@
 //! P(z) = C (zI - Ad)^-1 Bd                (ZOH at the base period)
 //! ```
 //!
-//! `T_psi = +C_y y'` acts through eq. 5's `-T_psi`, hence the yaw loop's minus sign; the
-//! PI acts on `i_ref - i_a`. Both loops run every base tick (divisors 1).
-//!
-//! The yaw plant has no passive spring and is open-loop unstable, so a Bode reading of
-//! "the" margin can be negative on a stable loop. Here the loop is first judged by the
-//! closed loop's eigenvalues ([`super::closed_loop`]); for a stable loop `k L` stays
-//! stable for every gain `k` between the nearest critical gains below and above 1 (a
-//! pole crosses the unit circle only where `k L(e^{jw}) = -1`, i.e. where `L` crosses
-//! the negative real axis at `-1/k`), and for every phase rotation smaller than the
-//! distance from `-180` deg of `arg L` at the nearest gain crossover `|L| = 1`. So:
-//!
-//! - **gain margin (up)**: `20 log10 k_up`, `k_up` the smallest critical gain above 1;
-//! - **gain margin (down)**: `20 log10 k_down` (negative), the largest below 1 (none
-//!   for an open-loop stable loop that stays stable down to zero gain);
-//! - **phase margin**: `min |180 + arg L|` over the gain crossovers.
+//! `T_psi = +C_y y'` acts through eq. 5's `-T_psi`, hence the yaw loop's minus sign. The
+//! yaw plant is open-loop unstable, so the loop is judged by its closed-loop eigenvalues
+//! first; its margins are then the critical gains nearest 1 above and below (where `L`
+//! crosses the negative real axis) and `min |180 + arg L|` over the gain crossovers
+//! (`docs/audit.md`).
 
 use super::*;
 use crate::params::Params;
@@ -65,8 +55,7 @@ pub struct At {
 pub struct Margins {
     /// The loop is stable (judged alone: [`margins`]).
     pub stable: bool,
-    /// Poles of the discretised plant (no yaw spring) outside the unit circle: why a
-    /// Bode reading alone cannot judge the yaw loop.
+    /// Poles of the discretised plant (no yaw spring) outside the unit circle.
     pub open_loop_unstable: usize,
     /// Gain increase to instability, dB (`None`: none on the grid).
     pub gain_up: Option<At>,
@@ -76,8 +65,7 @@ pub struct Margins {
     pub phase: Option<At>,
 }
 
-/// Frequencies of the response grid: 4000 points, log-spaced from 0.05 Hz to the Nyquist
-/// frequency (included).
+/// Frequencies of the response grid: 4000 points, log-spaced from 0.05 Hz to Nyquist.
 pub fn grid(base_hz: f64) -> Vec<f64> {
     let m = 4000;
     let (f0, f1) = (0.05f64, 0.5 * base_hz);
@@ -86,9 +74,7 @@ pub fn grid(base_hz: f64) -> Vec<f64> {
         .collect()
 }
 
-/// `L(e^{j 2 pi f T})` of loop `which` on the frequencies `freqs` (module docs), with
-/// `delay_ticks` of delay.
-///
+/// `L(e^{j 2 pi f T})` of loop `which` on `freqs` with `delay_ticks` of delay.
 /// Errors: divisors other than 1, an invalid configuration, a plant of the wrong shape.
 pub fn loop_response(
     plant: &LinearPlant,
@@ -156,8 +142,8 @@ fn wrap(d: f64) -> f64 {
     }
 }
 
-/// The crossings of a response `l` on `freqs` (module docs): `(gain up, gain down,
-/// phase)`. A crossing is interpolated linearly between grid points.
+/// The crossings `(gain up, gain down, phase)` of a response `l` on `freqs`,
+/// interpolated linearly between grid points.
 pub fn crossings(freqs: &[f64], l: &[Complex<f64>]) -> (Option<At>, Option<At>, Option<At>) {
     let mut up: Option<At> = None;
     let mut down: Option<At> = None;
@@ -218,14 +204,9 @@ pub fn crossings(freqs: &[f64], l: &[Complex<f64>]) -> (Option<At>, Option<At>, 
 }
 
 /// The margins of loop `which` of `cfg` with `delay_ticks` of delay, on the full plant
-/// (case d) at the operating point of `p` (its `f11`, `lambda`; module docs). The loop's
-/// own stability is judged with the other loop out of the way: the yaw loop with
-/// traction off (the drive alone is stable: the back-EMF brakes it), the traction loop
-/// on the wheelset with its passive yaw spring (stable at the nominal point). On straight
-/// track the two do not couple, so this names the loop that is unstable. Gain and phase
-/// margins are `None` when that loop is unstable.
-///
-/// Errors: as [`loop_response`] and [`closed_loop`].
+/// (case d) at the operating point of `p`. The loop's own stability is judged with the
+/// other out of the way (the yaw loop without traction, the traction loop with the
+/// passive yaw spring); the margins are `None` when that loop is unstable.
 pub fn margins(
     p: &Params,
     cfg: &Config,

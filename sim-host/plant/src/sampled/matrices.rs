@@ -120,12 +120,8 @@ fn gcd(a: usize, b: usize) -> usize {
     }
 }
 
-/// The per-tick loop matrices `M_0 .. M_{L-1}` over one hyper-period (see the module
-/// docs for the layout of `X`). Traction is left out when `cfg.traction_enabled` is off
-/// or the plant has no current output (no drive).
-///
-/// Errors: the configuration is invalid (`Config::validate`), or `plant` has the wrong
-/// shape.
+/// The per-tick loop matrices `M_0 .. M_{L-1}` over one hyper-period (`X` as in the
+/// module docs); no traction when it is off or the plant has no drive.
 pub fn tick_matrices(
     plant: &LinearPlant,
     cfg: &Config,
@@ -275,10 +271,8 @@ pub fn tick_matrices(
     Ok(mats)
 }
 
-/// Close the loop of `plant` with the controllers of `cfg` (its yaw mode, lead, gain, PI,
-/// traction on/off, rates) and `delay_ticks` of delay; monodromy eigenvalues.
-///
-/// Errors: as [`tick_matrices`].
+/// Closes the loop of `plant` with the controllers of `cfg` and `delay_ticks` of delay:
+/// its monodromy's modes.
 pub fn closed_loop(
     plant: &LinearPlant,
     cfg: &Config,
@@ -314,8 +308,7 @@ pub fn closed_loop(
             }
         })
         .collect();
-    // Leave out the free-rolling modes: as many as the continuous loop has zero
-    // eigenvalues, nearest mu = 1.
+    // Leave out as many modes nearest mu = 1 as the continuous loop has zero eigenvalues.
     let nz = free_rolling_modes(plant, cfg);
     modes.sort_by(|a, b| {
         (a.mu - 1.0)
@@ -324,8 +317,7 @@ pub fn closed_loop(
             .unwrap_or(std::cmp::Ordering::Equal)
     });
     let excluded: Vec<Mode> = modes.drain(..nz.min(modes.len())).collect();
-    // Drop the structurally zero eigenvalues of unused controller states (mu = 0 exactly
-    // is fine to keep: radius 0).
+    // Drop the structurally zero eigenvalues of unused controller states.
     modes.sort_by(|a, b| {
         b.radius
             .partial_cmp(&a.radius)
@@ -357,11 +349,8 @@ pub fn closed_loop(
     })
 }
 
-/// The continuous closed loop (no sampling): plant + continuous lead/gain + continuous
-/// PI, for comparison. Returns the eigenvalues (free-rolling ones removed).
-///
-/// A matrix with a non-finite entry is not passed to the solver: the result is then one
-/// NaN eigenvalue (neither stable nor unstable; [`rates`] refuses such a plant first).
+/// The continuous closed loop's eigenvalues (free-rolling ones removed); one NaN
+/// eigenvalue for a non-finite matrix.
 pub fn continuous_closed_loop(plant: &LinearPlant, cfg: &Config) -> Vec<Complex<f64>> {
     let mut ev: Vec<Complex<f64>> = continuous_closed_loop_all(plant, cfg);
     let nz = count_zeros(&ev);
@@ -428,9 +417,7 @@ fn count_zeros(ev: &[Complex<f64>]) -> usize {
     ev.iter().filter(|e| e.norm() < 1e-9 * scale).count()
 }
 
-/// The number of free-rolling modes of the loop: zero eigenvalues of the continuous
-/// closed loop (with the current held by the PI, free rolling at any speed is an
-/// equilibrium; open loop the back-EMF brakes it, so `A` alone may have none).
+/// The number of free-rolling modes: zero eigenvalues of the continuous closed loop.
 pub fn free_rolling_modes(plant: &LinearPlant, cfg: &Config) -> usize {
     let ev = continuous_closed_loop_all(plant, cfg);
     count_zeros(&ev)

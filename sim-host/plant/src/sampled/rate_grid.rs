@@ -15,17 +15,15 @@ pub const CONICITY_GRID: [f64; 5] = [0.05, 0.1, 0.2, 0.3, 0.4];
 /// The nominal point (docs/model.md defaults): 10 MN, conicity 0.2.
 pub const NOMINAL: (f64, f64) = (10e6, 0.2);
 
-/// Link budget assumptions: a Sensor frame in, an Actuation frame out, sequential within
-/// one period (the reply must be back before the next tick for one period of delay),
-/// evaluated by the one link budget, [`wheelset_proto::link`].
+/// Link budget: a Sensor frame in, an Actuation frame out, sequential within one period
+/// ([`wheelset_proto::link`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LinkBudget {
     /// Sensor frame bytes on the wire (`wheelset_proto::SENSOR_ONE_LATERAL_MAX_FRAME`).
     pub bytes_in: u32,
     /// Actuation frame bytes (`wheelset_proto::ACTUATION_MAX_FRAME`).
     pub bytes_out: u32,
-    /// One-way latency, ns; the round trip takes it twice (5 us: 10 us per period of
-    /// device computation and turnaround).
+    /// One-way latency, ns (the round trip takes it twice).
     pub latency_ns: u64,
     /// Largest acceptable share of the period, permille (the design target,
     /// [`wheelset_proto::link::LINK_SHARE_WARN_PERMILLE`]).
@@ -130,9 +128,8 @@ pub struct RateRow {
 /// Damping ratios closer than this are the same mode's, equal but for roundoff.
 const ZETA_TIE: f64 = 1e-9;
 
-/// Whether damping `zeta` is worse than the worst so far, `worst`, by more than roundoff:
-/// among grid points that tie, the first in grid order (creep, then conicity) is the one
-/// reported, whatever the last bits of their eigenvalues.
+/// Whether damping `zeta` is worse than `worst` by more than roundoff (among ties the
+/// first in grid order is reported).
 fn worse(zeta: f64, worst: f64) -> bool {
     zeta < worst - ZETA_TIE
 }
@@ -164,14 +161,9 @@ fn worst_sampled(cl: &ClosedLoop) -> (f64, f64) {
     }
 }
 
-/// The current loop's fast mode: the PI of `cfg` (its gains, base rate and traction
-/// divisor) on the armature circuit `armature` alone ([`crate::linear::armature`]), with
-/// `delay_ticks` of delay; the slowest of the modes faster than 50 rad/s (the PI's own
-/// slow pole near `-1/Ti` is not it). Its `radius` per base tick is at least 1 when the
-/// current loop is unstable: a limit cycle at `freq_hz` (the harness's expected drive
-/// alarm, `hil::check::alarms`), as the `rates` table's `current` column.
-///
-/// Errors: the configuration is invalid, or the analysis has no mode.
+/// The current loop's fast mode: the PI of `cfg` on the armature circuit alone with
+/// `delay_ticks` of delay, the slowest of the modes faster than 50 rad/s (not the PI's
+/// own pole near `-1/Ti`). A `radius` of 1 or more is a limit cycle at `freq_hz`.
 pub fn current_loop_mode(
     armature: &LinearPlant,
     cfg: &Config,
@@ -182,8 +174,7 @@ pub fn current_loop_mode(
         &Config {
             yaw_mode: YawMode::Passive,
             traction_enabled: true,
-            // The yaw divisor is irrelevant here; 1 keeps the hyper-period (and so the
-            // equivalent continuous damping) free of aliasing.
+            // 1: the hyper-period (and so the equivalent damping) free of aliasing.
             yaw_divisor: 1,
             yaw_predict_ticks: 0.0,
             ..*cfg
@@ -318,8 +309,7 @@ pub fn candidates() -> Vec<(u32, u16, u16)> {
 }
 
 /// The creep coefficient (N) below which the continuous loop of `cfg` is unstable at
-/// conicity `lambda`, by bisection on 0.1-20 MN; `None` if stable (or unstable)
-/// throughout.
+/// `lambda` (bisection on 0.1-20 MN); `None` if stable (or unstable) throughout.
 pub fn critical_creep(
     cfg: &Config,
     lambda: f64,
@@ -350,8 +340,7 @@ pub fn critical_creep(
 /// What a candidate must meet to be chosen.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Criteria {
-    /// Largest radius per base tick of the current loop's fast mode (0.75: damping
-    /// ratio about 0.3 or better).
+    /// Largest radius per base tick of the current loop's fast mode.
     pub max_current_radius: f64,
     /// The fastest UART the link may assume, baud.
     pub max_baud: f64,
@@ -373,9 +362,8 @@ pub struct Variant {
     pub predict: bool,
     /// All candidates.
     pub rows: Vec<RateRow>,
-    /// The chosen candidate: the lowest base rate meeting the criteria (current-loop
-    /// radius, no grid point destabilised by sampling, link within `max_baud`), ties
-    /// broken by the smaller damping loss.
+    /// The chosen candidate: the lowest base rate meeting the criteria, ties broken by
+    /// the smaller damping loss.
     pub chosen: Option<RateRow>,
 }
 
@@ -409,8 +397,7 @@ pub fn rates(
     let plant = |c: f64, l: f64, s: bool| model.plant(params, c, l, s);
     let arm = armature(params.l_a, params.r_a);
     let cfg = *base;
-    // Every matrix finite before any eigenvalue or exponential: a non-finite one is
-    // refused with the parameter to blame.
+    // Every matrix finite first: a non-finite one is refused with the parameter to blame.
     let corners = |q: &Params| {
         let mut v = vec![armature(q.l_a, q.r_a).a];
         for &c in &[CREEP_GRID[0], CREEP_GRID[CREEP_GRID.len() - 1]] {

@@ -37,9 +37,7 @@ pub fn track_at(track: &[Knot], t_ns: u64, hint: &mut usize) -> (f64, f64) {
     lerp(&track[i], &track[i + 1], t_ns)
 }
 
-/// Curvature and cant at `t_ns` on the segment from knot `a` to knot `b`
-/// (`a.t_ns <= t_ns <= b.t_ns`, `a.t_ns < b.t_ns`): `a + s (b - a)`, `s` the fraction of
-/// the segment's time.
+/// Curvature and cant at `t_ns` on the segment from knot `a` to knot `b`: `a + s (b - a)`.
 #[inline(always)]
 fn lerp(a: &Knot, b: &Knot, t_ns: u64) -> (f64, f64) {
     lerp_over(a, b, (b.t_ns - a.t_ns) as f64, t_ns)
@@ -55,22 +53,17 @@ fn lerp_over(a: &Knot, b: &Knot, span_ns: f64, t_ns: u64) -> (f64, f64) {
     )
 }
 
-/// [`track_at`] for monotone (or any) times, remembering the span of time of the last
-/// look-up: before the first knot, after the last, and on a level segment (equal
-/// curvature and cant at both knots, where `a + s (b - a)` is `a + 0.0` for every `s`)
-/// the value holds over the span; on a sloped segment the span is the segment's and a
-/// look-up inside it interpolates between its knots as [`track_at`] does (the knots
-/// are strictly increasing in time, so every time inside the segment is
-/// [`track_at`]'s segment). Inside the span a look-up is one comparison (and the
-/// interpolation); the values are bit-identical to [`track_at`]'s.
+/// [`track_at`] for monotone times, remembering the span of the last look-up over which
+/// the value holds (before the first knot, after the last, on a level segment) or one
+/// sloped segment interpolates; inside it a look-up is one comparison, the values
+/// bit-identical to [`track_at`]'s.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct TrackCursor {
     hint: usize,
     /// `[from, to)` ns over which `value` holds, or `seg` interpolates.
     span: (u64, u64),
     value: (f64, f64),
-    /// The knots of the sloped segment `span` lies on and its duration as `f64`, ns;
-    /// `None`: `value` holds.
+    /// The knots of the sloped segment and its duration, ns; `None`: `value` holds.
     seg: Option<(Knot, Knot, f64)>,
 }
 
@@ -107,9 +100,8 @@ impl TrackCursor {
             } else if t_ns >= last.t_ns {
                 self.span = (last.t_ns, u64::MAX);
             } else if let (Some(a), Some(b)) = (track.get(self.hint), track.get(self.hint + 1)) {
-                // Interior: `hint` is the segment `[a, b)` that holds `t_ns`.
-                // (At the first knot itself `track_at` returns the knot, not
-                // `a + 0 (b - a)`: the span starts after it.)
+                // Interior: `hint` is the segment `[a, b)` that holds `t_ns` (the span
+                // starts after the first knot, which `track_at` returns as is).
                 self.span = (a.t_ns.max(first.t_ns + 1), b.t_ns);
                 if a.curvature != b.curvature || a.cant != b.cant {
                     self.seg = Some((*a, *b, (b.t_ns - a.t_ns) as f64));

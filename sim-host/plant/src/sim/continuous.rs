@@ -30,14 +30,12 @@ pub(super) struct Setup<'a> {
     pub(super) sc: &'a Scenario,
     pub(super) plant: Plant,
     pub(super) track: TrackCursor,
-    /// `(condition, v, peak)` of the last [`Setup::mu_avail`], recomputed when the
-    /// condition changes or the speed moves by more than 1 mm/s.
+    /// `(condition, v, peak)` of the last [`Setup::mu_avail`] (recomputed when the
+    /// condition changes or the speed moves by more than 1 mm/s).
     pub(super) peak_cache: Option<(crate::adhesion::Condition, f64, f64)>,
-    /// `(t_ns, curvature, cant)` of the last step's end: the next step's start (the
-    /// track is a function of time alone, so reading it again gives the same bits).
+    /// `(t_ns, curvature, cant)` of the last step's end: the next step's start.
     pub(super) track_end: Option<(u64, f64, f64)>,
-    /// The rail condition of the last [`Setup::adhesion`] (`Some(None)`: no law), `None`
-    /// before the first.
+    /// The rail condition of the last [`Setup::adhesion`], `None` before the first.
     pub(super) condition: Option<Option<crate::adhesion::Condition>>,
 }
 
@@ -58,8 +56,7 @@ impl<'a> Setup<'a> {
         }
     }
 
-    /// Puts the rail condition of `t_ns` on the setup's plant and returns the law (the
-    /// run copies it onto its own plant). A no-op without `[[adhesion]]` sections.
+    /// Puts the rail condition of `t_ns` on the setup's plant and returns the law.
     pub(super) fn adhesion(&mut self, t_ns: u64) -> Option<crate::adhesion::Adhesion> {
         let a = self.sc.adhesion_at(t_ns);
         self.plant.adhesion = a;
@@ -67,9 +64,8 @@ impl<'a> Setup<'a> {
         a
     }
 
-    /// [`Setup::adhesion`] when the rail condition of `t_ns` is not the last call's
-    /// (the law is a function of the condition alone), else `None`: the law in force
-    /// holds.
+    /// [`Setup::adhesion`] when the rail condition of `t_ns` is not the last call's,
+    /// else `None` (the law in force holds).
     #[inline(always)]
     pub(super) fn adhesion_change(
         &mut self,
@@ -117,10 +113,8 @@ impl<'a> Setup<'a> {
         }
     }
 
-    /// The record of state `x` with inputs `e` at `t_ns`. `x` and `e` by value: a
-    /// reference to a run's own state handed to this out-of-line call would make the
-    /// compiler assume any later call may read or change it, and keep it in memory
-    /// through every integration step.
+    /// The record of state `x` with inputs `e` at `t_ns` (by value, so a run's state
+    /// need not stay in memory across this out-of-line call).
     #[allow(clippy::too_many_arguments)]
     pub(super) fn record(&mut self, t_ns: u64, x: State, e: Exo, t_ctrl: f64, u_a: f64) -> Record {
         let (x, e) = (&x, &e);
@@ -199,9 +193,8 @@ pub fn run_continuous_with(sc: &Scenario, ctrl: ContinuousController) -> Traject
     Trajectory { records, info }
 }
 
-/// [`run_continuous_with`] handing each record to `on_record` as it is made, in time
-/// order, instead of keeping them: the same records, for a caller that only reduces
-/// them (a deviation, a maximum) and need not hold the trajectory in memory.
+/// [`run_continuous_with`] handing each record to `on_record` in time order instead of
+/// keeping them.
 pub fn run_continuous_each(
     sc: &Scenario,
     ctrl: ContinuousController,
@@ -211,8 +204,7 @@ pub fn run_continuous_each(
     crate::with_flags!(s.plant.cfg, flags => continuous(s, ctrl, flags, on_record))
 }
 
-/// [`run_continuous_each`] on the set-up `s`, its plant's configuration as `flags` (one
-/// copy of the loop per configuration).
+/// [`run_continuous_each`] on the set-up `s` with the configuration as `flags`.
 fn continuous<F: Flags>(
     mut s: Setup<'_>,
     ctrl: ContinuousController,

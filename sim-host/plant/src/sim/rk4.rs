@@ -16,10 +16,8 @@ pub trait Rhs {
     /// `dx/dt` at RK4 stage `stage` (0: step start, 1 and 2: midpoint, 3: end).
     fn eval(&mut self, stage: usize, x: &State) -> State;
 
-    /// Whether state `i` can move. [`rk4_step_with`] copies a state that cannot instead
-    /// of adding `h`-weighted zeros to it: exact when its `dx/dt` is `+0.0` at every
-    /// stage and its value is not `-0.0` (`x + 0.0` is `x` bit for bit for every other
-    /// `x`). Default: every state moves.
+    /// Whether state `i` can move; [`rk4_step_with`] copies one that cannot (exact when
+    /// its `dx/dt` is `+0.0` at every stage and it is not `-0.0`). Default: all move.
     #[inline(always)]
     fn moves(&self, i: usize) -> bool {
         let _ = i;
@@ -35,8 +33,7 @@ impl<F: FnMut(usize, &State) -> State> Rhs for F {
 }
 
 /// The plant alone with fixed inputs per stage slot (start, midpoint, end), built once
-/// per step. Its right-hand side is inlined into each RK4 stage (a closure would be an
-/// out-of-line call per stage). Same arithmetic, bit-identical states.
+/// per step and inlined into each stage; bit-identical states.
 pub(super) struct PlantStages<'a, F: Flags> {
     pub(super) plant: &'a Plant,
     pub(super) flags: F,
@@ -50,18 +47,14 @@ impl<F: Flags> Rhs for PlantStages<'_, F> {
         self.plant.rhs_with(self.flags, x, u).0
     }
 
-    /// The controller states and the states of absent parts (the twist of a rigid
-    /// axle; wind-up, motor speed and current without the drive) have `dx/dt = +0.0`;
-    /// the sampled run starts them at `+0.0` ([`Plant::rolling_state`]).
+    /// The controller states and the states of absent parts have `dx/dt = +0.0`.
     #[inline(always)]
     fn moves(&self, i: usize) -> bool {
         plant_state_moves(self.flags, i)
     }
 }
 
-/// Whether the plant's right-hand side can move state `i` under flags `f` (see
-/// [`Rhs::moves`]): not the controller states, not the twist of a rigid axle, not the
-/// drive's states without the drive.
+/// Whether the plant's right-hand side can move state `i` under flags `f`.
 #[inline(always)]
 fn plant_state_moves<F: Flags>(f: F, i: usize) -> bool {
     match i {
@@ -72,10 +65,8 @@ fn plant_state_moves<F: Flags>(f: F, i: usize) -> bool {
     }
 }
 
-/// The plant closed by the continuous-time controllers, with the exogenous inputs per
-/// stage slot (start, midpoint, end) built once per step: [`closed_loop_rhs`] inlined
-/// into each RK4 stage instead of an out-of-line closure call. Same arithmetic as the
-/// closure, bit-identical states.
+/// The plant closed by the continuous-time controllers, exogenous inputs per stage
+/// slot built once per step, [`closed_loop_rhs`] inlined; bit-identical states.
 pub(super) struct ClosedLoopStages<'a, F: Flags> {
     pub(super) plant: &'a Plant,
     pub(super) flags: F,
@@ -90,9 +81,7 @@ impl<F: Flags> Rhs for ClosedLoopStages<'_, F> {
         closed_loop_rhs_with(self.plant, self.flags, self.ctrl, x, e)
     }
 
-    /// The plant's states that cannot move ([`PlantStages`]'s), without the controller
-    /// states (the lead's moves under its law, the PI's with the drive, where the run
-    /// presets it to the back-EMF); the continuous run starts the others at `+0.0`.
+    /// [`PlantStages`]'s fixed states less the controller states in use.
     #[inline(always)]
     fn moves(&self, i: usize) -> bool {
         match i {
@@ -103,18 +92,12 @@ impl<F: Flags> Rhs for ClosedLoopStages<'_, F> {
     }
 }
 
-/// [`rk4_step`] for any [`Rhs`]: the same arithmetic.
-///
-/// The update of state `i` is `x + h/6 (k1 + 2 (k2 + k3) + k4)`, evaluated left to
-/// right as written: `(h / 6) * ((k1 + 2 (k2 + k3)) + k4)`. The partial sum
-/// `k1 + 2 (k2 + k3)` needs only the first three stages, so it is formed before the
-/// fourth (the same operations on the same operands, hence the same bits), and only it,
-/// not `k1`, `k2` and `k3`, has to be kept across the last right-hand side.
+/// [`rk4_step`] for any [`Rhs`]. State `i` becomes `x + (h / 6) * ((k1 + 2 (k2 + k3)) + k4)`
+/// evaluated as written; the partial sum is formed before the fourth stage (same bits),
+/// so only it is kept across the last right-hand side.
 #[inline(always)]
 pub fn rk4_step_with<R: Rhs>(x: &State, h: f64, mut f: R) -> State {
     let moves: [bool; NX] = std::array::from_fn(|i| f.moves(i));
-    // `0.5 * h * k` is `(0.5 * h) * k` and `h / 6.0 * s` is `(h / 6.0) * s`: the
-    // factors are formed once per step.
     let half_h = 0.5 * h;
     let sixth_h = h / 6.0;
     let k1 = f.eval(0, x);

@@ -10,9 +10,8 @@ use rand_distr::StandardNormal;
 use rand_pcg::Pcg64;
 use std::collections::VecDeque;
 
-/// Sensor model applied to each measurement before the controller sees it: additive
-/// Gaussian noise (standard deviation per channel) then quantisation to an LSB
-/// (0 = none). Deterministic: seeded PCG64.
+/// Sensor model: additive Gaussian noise (standard deviation per channel), then
+/// quantisation to an LSB (0 = none). Deterministic: seeded PCG64.
 #[derive(Debug, Clone)]
 pub struct SensorModel {
     /// Noise standard deviations for `[yd, ydd, i_a, w_m, w_wheel]`.
@@ -44,8 +43,6 @@ impl SensorModel {
     /// Applies noise then quantisation.
     #[inline]
     pub fn apply(&mut self, m: &Measurements) -> Measurements {
-        // No noise and no quantisation on any channel: `apply_any` would copy every
-        // value unchanged and draw no random number.
         if self.noise_std == [0.0; 5] && self.lsb == [0.0; 5] {
             return *m;
         }
@@ -75,9 +72,8 @@ impl SensorModel {
     }
 }
 
-/// Actuator model: limits on torque and voltage (each clamp counted), then a transport
-/// delay (a multiple of the integration step), then zero-order hold until the next
-/// command takes effect.
+/// Actuator model: limits on torque and voltage (each clamp counted), a transport delay
+/// (a multiple of the integration step), then zero-order hold.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ActuatorModel {
     /// `|T_psi|` limit, N m (infinite = none).
@@ -137,8 +133,7 @@ pub fn measure(
     measure_with(plant, plant.cfg, x, held, u, demand, i_ref)
 }
 
-/// [`measure`] with the plant's configuration as [`Flags`] (the sampled run passes its
-/// [`Fixed`](crate::plant::Fixed) ones: the same arithmetic without the branches).
+/// [`measure`] with the plant's configuration as [`Flags`].
 #[allow(clippy::too_many_arguments)]
 fn measure_with<F: Flags>(
     plant: &Plant,
@@ -176,13 +171,10 @@ fn measure_with<F: Flags>(
     }
 }
 
-/// Runs `sc` with a discrete controller. The plant has no yaw spring unless
-/// `yaw_spring` (the active controller replaces it). Each period: measure (with the
-/// actuation held from before), apply the sensor model, call the controller, apply the
-/// actuator model, and hold the result from `t + delay` (ZOH). Records carry the held
-/// actuation. Without the drive, `u_a` is ignored and the demand acts on the wheel. A
-/// controller that [defers](SampledController::defers) hands each actuation over when
-/// it is due (the same schedule: the plant runs on to `t + delay` meanwhile).
+/// Runs `sc` with a discrete controller (no yaw spring unless `yaw_spring`). Each
+/// period: measure (the actuation held), the sensor model, the controller, the actuator
+/// model, and hold the result from `t + delay`. Without the drive `u_a` is ignored. A
+/// [deferring](SampledController::defers) controller hands each actuation over when due.
 pub fn run_sampled(
     sc: &Scenario,
     ctrl: &mut dyn SampledController,
@@ -210,8 +202,7 @@ pub fn run_sampled(
     })
 }
 
-/// [`run_sampled`] on the set-up `s` (the checks passed), its plant's configuration as
-/// `flags` (one copy of the loop per configuration).
+/// [`run_sampled`] on the set-up `s` with the configuration as `flags`.
 fn sampled<F: Flags>(
     mut s: Setup<'_>,
     ctrl: &mut dyn SampledController,
@@ -222,11 +213,8 @@ fn sampled<F: Flags>(
     flags: F,
 ) -> Trajectory {
     let sc = s.sc;
-    // The integrator's own copy of the plant, only ever read by inlined code: the
-    // calls that are not inlined (the measurement, the set-up) get the set-up's plant,
-    // which carries the same law ([`Setup::adhesion`] puts it there). A reference to
-    // this copy in such a call would let the compiler assume any later call may change
-    // it, and reload its coefficients in every integration step.
+    // The integrator's own copy of the plant, read only by inlined code (so it is not
+    // reloaded every step); calls out of line get the set-up's, with the same law.
     let mut plant = s.plant;
     let drive = sc.drive;
     let mut x = s.plant.rolling_state(sc.params.v);
@@ -234,8 +222,7 @@ fn sampled<F: Flags>(
     let h = sc.dt_ns as f64 * 1e-9;
     let mut records = Vec::with_capacity((n_steps / every + 2) as usize);
     let mut pending: VecDeque<(u64, Actuation)> = VecDeque::new();
-    // When the front of `pending` is due (the commands are queued in time order), ns;
-    // `u64::MAX` while none is pending.
+    // When the front of `pending` is due, ns; `u64::MAX` while none is pending.
     let mut next_due = u64::MAX;
     let mut calls = 0u64;
     let defers = ctrl.defers();
@@ -247,8 +234,7 @@ fn sampled<F: Flags>(
         f_run: e.f_run,
         t_drive: if drive { 0.0 } else { e.demand },
     };
-    // The plant's actuator: the torque it delivers for the held command (a scenario
-    // fault scales it from its time on; sampled at integrator step starts).
+    // The torque the actuator delivers for the held command (a scenario fault scales it).
     let fault = |t_ns: u64, a: &Actuation| match &sc.actuator_fault {
         Some(f) => Actuation {
             t_psi: f.delivered(t_ns, a.t_psi),
@@ -269,8 +255,7 @@ fn sampled<F: Flags>(
     );
     let mut held = ctrl.initial(&m0, s.plant.k_m());
     let mut diverged_at = None;
-    // The next controller call, ns (every `period` from 0), and the next step that
-    // records (every `every`-th from step 0).
+    // The next controller call and the next recording step.
     let (mut next_call, mut next_record) = (0, 0);
     for k in 0..=n_steps {
         let t_ns = k * sc.dt_ns;
@@ -342,8 +327,7 @@ fn sampled<F: Flags>(
             },
         ));
     }
-    // The steps whose actuation was not due by the end (a run that diverged): taken and
-    // limited all the same, as a controller that does not defer had them.
+    // The steps whose actuation was not due by the end: taken and limited all the same.
     if defers {
         for (due, _) in pending.drain(..) {
             actuator.limit(ctrl.take_deferred(due));

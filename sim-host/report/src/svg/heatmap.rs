@@ -1,12 +1,5 @@
 //! Heat maps: a grid of coloured cells over two categorical axes (a parameter campaign's
 //! grid), each cell with an optional text, and a legend of the colours.
-//!
-//! ```
-//! use wheelset_report::svg::heatmap::{Cell, HeatMap};
-//! let h = HeatMap::new("verdicts", vec!["1e6".into(), "1e7".into()], vec!["0.1".into()])
-//!     .cells(vec![Cell::new("#009E73", "pass"), Cell::new("#D55E00", "fail")]);
-//! assert_eq!(h.to_svg().matches("<rect class=\"cell\"").count(), 2);
-//! ```
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -47,8 +40,7 @@ pub struct HeatMap {
     pub x_ticks: Vec<String>,
     /// Row labels, bottom to top.
     pub y_ticks: Vec<String>,
-    /// `y_ticks.len() * x_ticks.len()` cells, row by row from the bottom; missing cells
-    /// are drawn empty.
+    /// `y_ticks.len() * x_ticks.len()` cells, row by row from the bottom (missing: empty).
     pub cells: Vec<Cell>,
     /// Legend entries `(colour, label)`, right of the map.
     pub legend: Vec<(String, String)>,
@@ -177,19 +169,8 @@ impl HeatMap {
                 esc(t)
             );
         }
-        let _ = writeln!(
-            o,
-            r#"<text x="{:.1}" y="{:.1}" text-anchor="middle">{}</text>"#,
-            ml + pw / 2.0,
-            mt + ph + 36.0,
-            esc(&self.x_label)
-        );
-        let _ = writeln!(
-            o,
-            r#"<text transform="translate(14,{:.1}) rotate(-90)" text-anchor="middle">{}</text>"#,
-            mt + ph / 2.0,
-            esc(&self.y_label)
-        );
+        let x_at = (ml + pw / 2.0, mt + ph + 36.0);
+        super::axis_labels(&mut o, x_at, mt + ph / 2.0, &self.x_label, &self.y_label);
         let lx = ml + pw + 12.0;
         for (row, (col, label)) in self.legend.iter().enumerate() {
             let y = mt + row as f64 * 16.0;
@@ -228,34 +209,13 @@ impl HeatMap {
 /// Several maps stacked vertically under an optional title, as one SVG document.
 #[must_use]
 pub fn stack(title: &str, maps: &[HeatMap]) -> String {
-    let top = if title.is_empty() { 0.0 } else { 28.0 };
     let w = maps.iter().map(|m| m.size().0).fold(100.0, f64::max);
-    let h = top + maps.iter().map(|m| m.size().1).sum::<f64>();
-    let mut o = String::new();
-    let _ = writeln!(
-        o,
-        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}">"#
-    );
-    let _ = writeln!(o, r##"<rect width="100%" height="100%" fill="#fff"/>"##);
-    if !title.is_empty() {
-        let _ = writeln!(
-            o,
-            r#"<text x="{:.1}" y="20" text-anchor="middle" font-family="sans-serif" font-size="15" font-weight="bold">{}</text>"#,
-            w / 2.0,
-            esc(title)
-        );
-    }
-    let mut y = top;
-    for m in maps {
-        o.push_str(&m.render_group(0.0, y));
-        y += m.size().1;
-    }
-    o.push_str("</svg>\n");
-    o
+    let heights: Vec<f64> = maps.iter().map(|m| m.size().1).collect();
+    super::document(title, w, &heights, |i, y| maps[i].render_group(0.0, y))
 }
 
-/// A sequential colour for `t` in `[0, 1]` (clamped; NaN: grey): five stops of the
-/// viridis map, linearly interpolated in sRGB.
+/// A sequential colour for `t` in `[0, 1]` (clamped; NaN: grey): five stops of viridis,
+/// interpolated in sRGB.
 #[must_use]
 pub fn sequential(t: f64) -> String {
     const STOPS: [(u8, u8, u8); 5] = [

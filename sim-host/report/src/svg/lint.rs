@@ -1,17 +1,8 @@
 //! A layout check over the SVG this module writes: every `<text>` element's extent is
-//! estimated and the labels that overlap each other or leave the canvas are named.
-//!
-//! The estimate is deliberately simple: a sans-serif character is taken as `0.6` of the
-//! font size wide (DejaVu Sans, the usual fallback, averages 0.55-0.6 over mixed text),
-//! and a line spans `0.75` of the font size above its baseline and `0.25` below. Boxes
-//! are shrunk by [`SLACK`] px on each side before they are compared, so labels that only
-//! touch are not reported. Rotated labels (the y axis's `rotate(-90)`, slanted category
-//! names) get the axis-aligned box of the rotated line; slanted names are not compared
-//! with each other (parallel slanted lines overlap as boxes without touching as text).
-//!
-//! It reads the forms this module writes: `<g transform="translate(x,y)" ...
-//! font-size="..">` groups and one `<text ...>label</text>` per line, positioned by
-//! `x`/`y` or by `transform="translate(x,y) rotate(a)"`.
+//! estimated (a character [`CHAR_WIDTH`] of the font size wide, a line `0.75` of it above
+//! the baseline and `0.25` below, boxes shrunk by [`SLACK`]; rotated labels as the
+//! axis-aligned box of the rotated line) and the labels that overlap each other or leave
+//! the canvas are named. Slanted names are not compared with each other.
 
 /// Width of one character, in units of the font size.
 pub const CHAR_WIDTH: f64 = 0.6;
@@ -85,8 +76,7 @@ pub fn text_boxes(svg: &str) -> ((f64, f64), Vec<TextBox>) {
                 .map_or((0.0, 0.0), |t| t.0);
             groups.push((off, num(line, "font-size")));
         } else if line.contains("<g ") || line.contains("<g>") {
-            // A group opened after other elements on its line (the plotting area's
-            // clipped group): no offset of its own.
+            // A group opened after other elements on its line: no offset of its own.
             groups.push(((0.0, 0.0), None));
         }
         if line.starts_with("<text") {

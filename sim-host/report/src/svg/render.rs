@@ -7,7 +7,8 @@ use std::path::Path;
 
 use super::ticks::{fmt_log, log_ticks};
 use super::{
-    decimate, esc, fmt_tick, nice_ticks, write_file, Figure, Plot, Series, Style, PALETTE,
+    axis_labels, decimate, esc, fmt_tick, nice_ticks, write_file, Figure, Plot, Series, Style,
+    PALETTE,
 };
 
 /// A value on an axis: itself, or its `log10` on a logarithmic axis (NaN for `v <= 0`,
@@ -332,19 +333,8 @@ impl Plot {
             );
         }
         if !blank {
-            let _ = writeln!(
-                o,
-                r#"<text x="{:.1}" y="{:.1}" text-anchor="middle">{}</text>"#,
-                ml + pw / 2.0,
-                self.height - 8.0,
-                esc(&self.x_label)
-            );
-            let _ = writeln!(
-                o,
-                r#"<text transform="translate(14,{:.1}) rotate(-90)" text-anchor="middle">{}</text>"#,
-                mt + ph / 2.0,
-                esc(&self.y_label)
-            );
+            let x_at = (ml + pw / 2.0, self.height - 8.0);
+            axis_labels(&mut o, x_at, mt + ph / 2.0, &self.x_label, &self.y_label);
         }
         let clip = (ox + 10000.0 * oy) as i64;
         let _ = writeln!(
@@ -384,10 +374,7 @@ impl Plot {
             );
         }
         for (k, s) in self.series.iter().enumerate() {
-            let col = s
-                .color
-                .clone()
-                .unwrap_or_else(|| PALETTE[k % PALETTE.len()].to_string());
+            let col = self.colour(k, s);
             let drawn: Vec<(f64, f64)> = s
                 .points
                 .iter()
