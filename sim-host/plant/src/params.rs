@@ -5,7 +5,6 @@
 use crate::error::{from_toml, ConfigError};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
-use std::sync::LazyLock;
 
 /// The wheelset, drive and controller parameters. Field names are the TOML keys.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -131,59 +130,56 @@ pub struct Range {
     pub why: &'static str,
 }
 
-/// `key | unit | min | max | why` of every parameter, in [`Params::entries`] order: physical
-/// limits with a generous margin (light rail to heavy freight, 0.1 m/s to the speed
-/// record); outside them the linear algebra is meaningless (`l_a = 1e-61` H puts
-/// `R_a / L_a = 4e59` 1/s in the plant matrix).
-const RANGE_TABLE: &str = "\
-m | kg | 100 | 1e4 | a wheelset: light rail ~500 kg, heavy freight ~2.5 t
-m_v | kg | 0 | 2e6 | vehicle (or hauled train) mass per driven wheelset; 0 = none; a heavy train ~2000 t on 4 driven axles is 5e5
-j | kg m^2 | 10 | 1e4 | wheelset yaw inertia ~ m Lg^2 (600 at 1.25 t)
-i_w | kg m^2 | 1 | 1000 | one wheel (with its half axle): 20-100 kg m^2
-i_m | kg m^2 | 0.01 | 1000 | motor rotor: 1-50 kg m^2 for traction motors
-f11 | N | 1e5 | 1e8 | Kalker coefficient: 1-10 MN for 5-20 t wheel loads; 0.1 MN = severely reduced adhesion
-f22 | N | 1e5 | 1e8 | as f11
-c_lat | N s/m | 0 | 1e7 | lateral (primary) damping: 0-100 kN s/m typical
-k_lat | N/m | 0 | 1e9 | lateral (primary) stiffness: 0-10 MN/m typical
-k_yaw | N m/rad | 0 | 1e9 | passive yaw stiffness: 1-20 MN m/rad typical
-torsion_hz | Hz | 1 | 1000 | axle torsion mode: 30-100 Hz for solid axles
-k_t | N m/rad | 1000 | 1e10 | axle torsional stiffness: ~1e6-1e8 N m/rad
-gear_hz | Hz | 1 | 1000 | motor-on-gear mode (wheel held): 5-100 Hz
-k_gear | N m/rad | 1000 | 1e10 | gear stiffness at the wheel: ~1e5-1e8 N m/rad
-l_g | m | 0.3 | 1 | half gauge: 600 mm narrow gauge to 1676 mm broad gauge, contact points
-r0 | m | 0.2 | 0.8 | wheel rolling radius: tram 0.3 m to locomotive 0.63 m
-lambda | 1 | 0.01 | 1 | effective conicity: new profiles 0.05-0.4, worn up to ~0.8
-g | m/s^2 | 1 | 20 | gravity: 9.78-9.83 on Earth; other values only to study the gravitational stiffness
-v | m/s | 0.1 | 160 | forward speed: standstill excluded (the model divides by v) to the 160 m/s record
-n_gear | 1 | 1 | 20 | traction gear ratio: 2-8 typical
-k_m | N m/A | 0.1 | 100 | motor constant (= V s/rad): 1-10 typical
-l_a | H | 1e-5 | 1 | armature inductance: 0.1-10 mH; below 10 uH the armature pole is past any sampling rate
-r_a | ohm | 0 | 10 | armature resistance: 10-100 mOhm typical; 0 = ideal
-k_active | N m s/m | 0 | 1e7 | active yaw damping gain: the paper's 1.05e5 with two decades of margin
-lead_gain | 1 | 1 | 100 | phase-lead high-frequency factor a >= 1 (the paper: 7.5)
-lead_zero | rad/s | 0.1 | 1e4 | phase-lead zero (the paper: 37 rad/s)
-lead_pole | rad/s | 0.1 | 1e5 | phase-lead pole (the paper: 274 rad/s)
-pi_kp | V/A | 1e-3 | 1000 | traction PI proportional gain (the paper: 1 V/A)
-pi_ti | s | 1e-4 | 100 | traction PI integral time (the paper: 0.5 s)
-q | N | 1e3 | 5e5 | vertical wheel load: a light tram ~20 kN to a 35 t freight axle ~170 kN per wheel";
+/// Declares [`RANGES`] from rows `key, unit, min, max, why;` (one row per parameter).
+macro_rules! ranges {
+    ($($key:ident, $unit:literal, $min:literal, $max:literal, $why:literal;)*) => {
+        /// Plausible range of every parameter (SI), in [`Params::entries`] order: physical
+        /// limits with a generous margin (light rail to heavy freight, 0.1 m/s to the
+        /// speed record); outside them the linear algebra is meaningless (`l_a = 1e-61` H
+        /// puts `R_a / L_a = 4e59` 1/s in the plant matrix).
+        pub const RANGES: &[Range] = &[$(Range {
+            key: stringify!($key),
+            unit: $unit,
+            min: $min,
+            max: $max,
+            why: $why,
+        }),*];
+    };
+}
 
-/// Plausible range of every parameter (SI), parsed from [`RANGE_TABLE`].
-pub static RANGES: LazyLock<Vec<Range>> = LazyLock::new(|| {
-    RANGE_TABLE
-        .lines()
-        .map(|line| {
-            let f: Vec<&'static str> = line.splitn(5, " | ").collect();
-            let num = |s: &str| s.parse().unwrap_or(f64::NAN);
-            Range {
-                key: f[0],
-                unit: f[1],
-                min: num(f[2]),
-                max: num(f[3]),
-                why: f[4],
-            }
-        })
-        .collect()
-});
+#[rustfmt::skip]
+ranges! {
+    m, "kg", 100.0, 1e4, "a wheelset: light rail ~500 kg, heavy freight ~2.5 t";
+    m_v, "kg", 0.0, 2e6, "vehicle (or hauled train) mass per driven wheelset; 0 = none; a heavy train ~2000 t on 4 driven axles is 5e5";
+    j, "kg m^2", 10.0, 1e4, "wheelset yaw inertia ~ m Lg^2 (600 at 1.25 t)";
+    i_w, "kg m^2", 1.0, 1000.0, "one wheel (with its half axle): 20-100 kg m^2";
+    i_m, "kg m^2", 0.01, 1000.0, "motor rotor: 1-50 kg m^2 for traction motors";
+    f11, "N", 1e5, 1e8, "Kalker coefficient: 1-10 MN for 5-20 t wheel loads; 0.1 MN = severely reduced adhesion";
+    f22, "N", 1e5, 1e8, "as f11";
+    c_lat, "N s/m", 0.0, 1e7, "lateral (primary) damping: 0-100 kN s/m typical";
+    k_lat, "N/m", 0.0, 1e9, "lateral (primary) stiffness: 0-10 MN/m typical";
+    k_yaw, "N m/rad", 0.0, 1e9, "passive yaw stiffness: 1-20 MN m/rad typical";
+    torsion_hz, "Hz", 1.0, 1000.0, "axle torsion mode: 30-100 Hz for solid axles";
+    k_t, "N m/rad", 1000.0, 1e10, "axle torsional stiffness: ~1e6-1e8 N m/rad";
+    gear_hz, "Hz", 1.0, 1000.0, "motor-on-gear mode (wheel held): 5-100 Hz";
+    k_gear, "N m/rad", 1000.0, 1e10, "gear stiffness at the wheel: ~1e5-1e8 N m/rad";
+    l_g, "m", 0.3, 1.0, "half gauge: 600 mm narrow gauge to 1676 mm broad gauge, contact points";
+    r0, "m", 0.2, 0.8, "wheel rolling radius: tram 0.3 m to locomotive 0.63 m";
+    lambda, "1", 0.01, 1.0, "effective conicity: new profiles 0.05-0.4, worn up to ~0.8";
+    g, "m/s^2", 1.0, 20.0, "gravity: 9.78-9.83 on Earth; other values only to study the gravitational stiffness";
+    v, "m/s", 0.1, 160.0, "forward speed: standstill excluded (the model divides by v) to the 160 m/s record";
+    n_gear, "1", 1.0, 20.0, "traction gear ratio: 2-8 typical";
+    k_m, "N m/A", 0.1, 100.0, "motor constant (= V s/rad): 1-10 typical";
+    l_a, "H", 1e-5, 1.0, "armature inductance: 0.1-10 mH; below 10 uH the armature pole is past any sampling rate";
+    r_a, "ohm", 0.0, 10.0, "armature resistance: 10-100 mOhm typical; 0 = ideal";
+    k_active, "N m s/m", 0.0, 1e7, "active yaw damping gain: the paper's 1.05e5 with two decades of margin";
+    lead_gain, "1", 1.0, 100.0, "phase-lead high-frequency factor a >= 1 (the paper: 7.5)";
+    lead_zero, "rad/s", 0.1, 1e4, "phase-lead zero (the paper: 37 rad/s)";
+    lead_pole, "rad/s", 0.1, 1e5, "phase-lead pole (the paper: 274 rad/s)";
+    pi_kp, "V/A", 1e-3, 1000.0, "traction PI proportional gain (the paper: 1 V/A)";
+    pi_ti, "s", 1e-4, 100.0, "traction PI integral time (the paper: 0.5 s)";
+    q, "N", 1e3, 5e5, "vertical wheel load: a light tram ~20 kN to a 35 t freight axle ~170 kN per wheel";
+}
 
 /// `v` for messages: plain between 1e-3 and 1e6, else in exponent form (`1e-61`).
 fn num(v: f64) -> String {
