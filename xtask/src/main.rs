@@ -385,9 +385,10 @@ fn fw(args: &[String]) -> Result<Vec<(PathBuf, &'static str)>, String> {
 }
 
 fn test(extra: &[String]) -> Result<(), String> {
-    // Fast (cargo's resolution only): before anything is built.
+    // Fast (cargo's resolution and a line count): before anything is built.
     let boards: Vec<&Firmware> = FIRMWARE.iter().chain(FIRMWARE_F32).collect();
     features::check(&boards)?;
+    loc::main(true)?;
     ensure_targets()?;
     check_no_std()?;
     let elfs = build_firmware(FIRMWARE)?;
