@@ -1,8 +1,6 @@
-//! The QEMU launcher: runs the firmware on `qemu-system-arm -machine mps2-an386` with the
-//! one command line ([`crate::qemu::cmd`]) and connects its UART0 over TCP; QEMU is
-//! killed when the [`Qemu`] is dropped. With `-icount` a run depends only on the bytes
-//! exchanged. Each QEMU is pinned to one core (`WHEELSET_QEMU_PIN=off` turns it off): the
-//! UART's one-byte register hands every byte between QEMU's threads, cheaper on one core.
+//! The QEMU launcher: runs the firmware on `qemu-system-arm` ([`crate::qemu::cmd`]) and
+//! connects its UART0 over TCP. Each QEMU is pinned to one core: the UART's one-byte
+//! register hands every byte between QEMU's threads, cheaper on one core.
 
 use std::fmt;
 use std::fs::File;
@@ -204,8 +202,7 @@ impl Default for QemuConfig {
     }
 }
 
-/// A running emulated device with its UART0 connected. Dropping it kills a QEMU
-/// [`Qemu::start`] started (not one reached with [`Qemu::connect`]).
+/// A running emulated device; dropping it kills a QEMU that [`Qemu::start`] started.
 #[derive(Debug)]
 pub struct Qemu {
     launch: Launch,

@@ -1,15 +1,8 @@
-//! Real-time pacing against a free-running device on a serial port or TCP (a board,
-//! `hil serve --pty`, the firmware under QEMU on its own timer): the [`RealTime`]
-//! transport, one deadline loop (`send`, `recv`) on the host's monotonic clock.
-//!
-//! Host misses (a Sensor frame written, or a receive ended, more than a quarter period
-//! late) are counted apart from the device's `missed_ticks`. Start-up
-//! ([`RealTime::prepare`], `realtime/prepare.rs`) checks the device ticks, applies the
-//! Config, probes the round trip, takes the baseline Status ([`RunStart`]) and measures
-//! the tick phase; each Sensor frame is then written a lead ([`RealTimeOptions::lead_num`])
-//! before the device's tick, and frames before the run's first echo
-//! ([`echoes_this_run`]) are discarded. The phase is re-measured every [`TRACK_FRAMES`]
-//! device frames to follow a drifting clock. See docs/board-in-loop.md.
+//! Real-time pacing against a free-running device (a board, `hil serve --pty`, QEMU on
+//! its own timer): the [`RealTime`] transport, one deadline loop on the host's monotonic
+//! clock. [`RealTime::prepare`] syncs to the device's tick phase; each Sensor frame is
+//! written a lead ([`RealTimeOptions::lead_num`]) before the tick, and the phase is
+//! re-measured every [`TRACK_FRAMES`] frames. See docs/board-in-loop.md.
 
 use std::collections::VecDeque;
 use std::io::{self, Read, Write};
@@ -133,8 +126,7 @@ pub struct RealTimeOptions {
     pub lead_num: u64,
 }
 
-/// The byte stream to a free-running device: a serial port, or QEMU's UART0 over TCP
-/// (holding the QEMU, so it is killed when the transport is dropped).
+/// The byte stream to a free-running device: a serial port, or QEMU's UART0 over TCP.
 pub enum Port {
     /// A serial port (a board, `hil serve --pty`).
     Tty(TTYPort),

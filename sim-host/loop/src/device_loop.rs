@@ -1,7 +1,5 @@
-//! A device-in-the-loop run (`sim-host run --loop device`): the firmware's
-//! [`Runtime`](wheelset_runtime::Runtime) as an [`InProc`] transport on simulated time,
-//! closed with the plant through [`crate::exchange`]; the device's configuration and the
-//! deviation from a reference.
+//! A device-in-the-loop run (`sim-host run --loop device`): the firmware's runtime as an
+//! [`InProc`] transport closed with the plant ([`crate::exchange`]), and its deviation.
 
 use std::fmt;
 
@@ -225,8 +223,7 @@ impl fmt::Display for LinkReport {
     }
 }
 
-/// The control core's configuration for a scenario: gains and motor constants from its
-/// parameters, the yaw mode from `law`, traction on when the drive is modelled.
+/// The control core's configuration for a scenario's parameters and yaw `law`.
 #[must_use]
 pub fn control_config(p: &Params, law: YawLaw, drive: bool) -> wheelset_control::Config {
     let d = wheelset_control::Config::default();
@@ -281,8 +278,7 @@ fn on_off(b: bool) -> &'static str {
     }
 }
 
-/// The Config frame of a run on `rt` with `wsp` and `monitor_safe`, rates unchanged; every
-/// host path sends it before the first Sensor frame.
+/// The Config frame of a run on `rt` with `wsp` and `monitor_safe`, rates unchanged.
 #[must_use]
 pub fn run_config(rt: &RuntimeConfig, wsp: bool, monitor_safe: bool) -> wheelset_proto::Config {
     use wheelset_proto::YawMode as W;
@@ -393,8 +389,7 @@ impl DeviceRun {
     }
 }
 
-/// The runtime configuration of a device running `sc` with `law`: [`control_config`]
-/// designed for the base rate of `opt`, its hold ticks, outputs enabled (every path).
+/// The runtime configuration of a device running `sc` with `law` (every path's rule).
 #[must_use]
 pub fn runtime_config(sc: &Scenario, law: YawLaw, opt: &DeviceOptions) -> RuntimeConfig {
     let rt = RuntimeConfig {
@@ -419,8 +414,7 @@ pub fn runtime_config(sc: &Scenario, law: YawLaw, opt: &DeviceOptions) -> Runtim
     }
 }
 
-/// Runs `sc` with the firmware runtime in the loop over the simulated link; the actuation
-/// from the sample at `t_k` acts from `t_k + T` (ZOH).
+/// Runs `sc` with the firmware runtime over the simulated link (`t_k`'s actuation from `t_k + T`).
 pub fn run_device(
     sc: &Scenario,
     law: YawLaw,
@@ -512,8 +506,7 @@ pub fn deviation(run: &Trajectory, reference: &Trajectory, windows: [(f64, f64);
     acc.finish()
 }
 
-/// [`deviation`] streamed: push each `(run, reference)` record pair in time order, then
-/// [`DeviationAcc::finish`] (the reference is never held in memory).
+/// [`deviation`] streamed: push `(run, reference)` pairs in time order, then [`DeviationAcc::finish`].
 #[derive(Debug, Clone)]
 pub struct DeviationAcc {
     d: Deviation,

@@ -1,15 +1,8 @@
 //! The closed-loop adapter: a device behind any [`Transport`] as the plant's
-//! [`SampledController`], one exchange per control period `T`, for every device loop.
-//!
-//! ```text
-//! t_k              measurements (SI) -> Sensor::from_si (seq k) -> send
-//! t_k .. t_k + T   receive until t_k + T; every valid Actuation frame recorded
-//! t_k + T          the latest valid actuation applied (ZOH), or the previous one held;
-//!                  before the first, zero torque and the back-EMF voltage K_m theta_m'
-//! ```
-//!
-//! With `d` ticks of delay ([`LoopSetup::delay_ticks`]) sample `k`'s actuation applies
-//! from `t_k + d T`; a [`Transport::pipelined`] transport keeps two exchanges in flight
+//! [`SampledController`]: at `t_k` a Sensor frame out, until `t_k + T` receive, then the
+//! latest actuation applied (ZOH; before the first, zero torque and the back-EMF voltage
+//! `K_m theta_m'`). With `d` ticks of delay ([`LoopSetup::delay_ticks`]) sample `k` acts
+//! from `t_k + d T`; [`Transport::pipelined`]: two exchanges in flight
 //! ([`SampledController::take_deferred`]). See docs/closed-loop.md.
 
 use indicatif::ProgressBar;
@@ -115,8 +108,7 @@ pub struct LoopRecords {
     pub clear_faults_sent_ns: Option<u64>,
     /// When `Command::InjectStall` went out, ns.
     pub stall_sent_ns: Option<u64>,
-    /// Device resets seen (tick counter back by less than half its range, or
-    /// `FAULT_LATCHED` raised at a lower tick); the Config goes out again after each.
+    /// Device resets seen (tick counter back, or `FAULT_LATCHED` at a lower tick).
     pub device_resets: u32,
     /// When the first reset was seen, ns.
     pub first_reset_ns: Option<u64>,
@@ -159,7 +151,6 @@ pub struct DeviceController<'a> {
     last_latched: bool,
     /// Which records are kept ([`Records::All`] unless set).
     pub records: Records,
-    /// Two exchanges in flight ([`Self::pipelined`]).
     deferred: bool,
     /// The steps sent whose actuation is not taken yet, oldest first (two in flight).
     awaiting: std::collections::VecDeque<Awaiting>,
@@ -170,7 +161,6 @@ pub struct DeviceController<'a> {
 struct Awaiting {
     /// Its sample instant, ns.
     t_ns: u64,
-    /// The sequence number of its Sensor frame.
     seq: u16,
     /// Its sample count (1 for the first sample).
     k: u64,
@@ -179,8 +169,7 @@ struct Awaiting {
 }
 
 impl<'a> DeviceController<'a> {
-    /// A controller with period `period_ns` through `tr`; `k_m` (V s/rad) gives the
-    /// back-EMF voltage held before the first actuation.
+    /// A controller with period `period_ns` through `tr`; `k_m` (V s/rad): back-EMF gain.
     pub fn new(
         tr: &'a mut dyn Transport,
         period_ns: u64,
@@ -365,8 +354,7 @@ impl<'a> DeviceController<'a> {
         }
     }
 
-    /// Ends the run at `t_ns`: a `RequestStatus` and [`STATUS_WAIT_PERIODS`] of receiving,
-    /// up to [`STATUS_TRIES`] times.
+    /// Ends the run at `t_ns`: fetches the Status, up to [`STATUS_TRIES`] requests.
     pub fn finish(&mut self, t_ns: u64) {
         let mut t = t_ns;
         for _ in 0..STATUS_TRIES {
@@ -484,8 +472,7 @@ impl DeviceController<'_> {
         self.fresh = false;
         self.answering = step.k;
         self.receive(step.t_ns + self.period_ns);
-        // Sample `e` (0-based) acts from t_e + d T: from this step's t_k + T (k counted
-        // from 1) when e + d <= k; an answer that used no sample, at once (in order).
+        // Sample `e` (0-based) acts from t_e + d T, i.e. when e + d <= k (k from 1).
         while let Some(&(e, si, a)) = self.early.front() {
             if e.is_some_and(|e| e + self.delay_ticks > step.k) {
                 break;
@@ -562,8 +549,7 @@ pub struct ClosedLoop {
     pub rec: LoopRecords,
 }
 
-/// Runs `sc` with the device behind `tr` as its controller (actuator delay one period),
-/// then fetches the device's counters.
+/// Runs `sc` with the device behind `tr` as its controller, then fetches its counters.
 pub fn close_loop(
     sc: &Scenario,
     tr: &mut dyn Transport,

@@ -1,16 +1,7 @@
-//! The in-process device: the firmware's own [`Runtime`] behind the simulated serial link
-//! of [`crate::sim_link`], on simulated time, as a [`Transport`]; deterministic for a
-//! seed. Every closed loop with an in-process device goes through it.
-//!
-//! The device ticks on its own timer (the one tick-phase formula): tick `j` at
-//!
-//! ```text
-//! t_j = j T + phase,   phase = wire time of the worst-case Sensor frame + link latency
-//! ```
-//!
-//! so the frame sent at `k T` has arrived when tick `k` runs ([`crate::sim_link::check_budget`]).
-//! Frames leave at `t_j + exec`, `exec` simulated (deterministic); the host's wall time
-//! per tick is reported, never judged. Each end's [`RxPort`] accounts every frame.
+//! The in-process device: the firmware's [`Runtime`] behind the simulated link of
+//! [`crate::sim_link`] as a [`Transport`], deterministic for a seed. Tick `j` runs at
+//! `t_j = j T + phase`, `phase` = worst-case Sensor frame wire time + link latency, so the
+//! frame sent at `k T` has arrived by tick `k`; each end's [`RxPort`] accounts every frame.
 
 use std::time::Instant;
 
@@ -310,8 +301,7 @@ impl<T: SampleBits> InProc<T> {
     }
 }
 
-/// The runtime's rejection counters in [`outcome`]'s order: CRC, COBS, version, length,
-/// postcard.
+/// The runtime's rejection counters in [`outcome`]'s order (CRC, COBS, version, ...).
 #[inline(always)]
 fn rejections(s: &wheelset_proto::Status) -> [u32; 5] {
     [
@@ -323,9 +313,8 @@ fn rejections(s: &wheelset_proto::Status) -> [u32; 5] {
     ]
 }
 
-/// The outcome of the frame one [`Runtime::receive`] on `piece` closed, read from the
-/// runtime's counters (no second decoder). `open`: the decoder holds an unfinished frame
-/// (empty frames are skipped). A rejected frame raised exactly one rejection counter.
+/// The outcome of the frame one [`Runtime::receive`] on `piece` closed, from the runtime's
+/// counters; `open`: its decoder holds an unfinished frame.
 fn outcome(
     piece: &[u8],
     open: &mut bool,

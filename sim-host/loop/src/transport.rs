@@ -1,6 +1,5 @@
-//! One transport for every target: bytes out, bytes in with a deadline ([`Transport`]),
-//! time in integer ns on the transport's [`Clock`]. Lock-step `recv` stamps with the
-//! deadline (the harness models the wire time); real-time `send` waits for `t_ns`.
+//! One transport for every target: bytes out, bytes in with a deadline ([`Transport`]), in
+//! integer ns on its [`Clock`] (lock-step `recv` stamps with the deadline).
 
 use std::fmt;
 

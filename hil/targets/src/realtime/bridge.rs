@@ -1,7 +1,5 @@
-//! A USB-serial bridge's latency, modelled in `hil serve`: each byte run is held for
-//! `L + u`, `u` uniform in `0 ..= J` ns from a seeded generator (one stream per
-//! direction), in FIFO order, plus its wire time (10 bits a byte) with a line rate. At
-//! most [`BRIDGE_BYTES`] per direction; a run that does not fit is dropped (counted).
+//! A USB-serial bridge's latency, modelled in `hil serve`: each byte run is held, in FIFO
+//! order, for `L + u` (`u` seeded uniform in `0 ..= J` ns) plus its wire time.
 
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};

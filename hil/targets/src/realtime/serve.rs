@@ -1,9 +1,6 @@
-//! `hil serve --pty`: a free-running stand-in for a board. The firmware's runtime
-//! (`Runtime<Fx>`) ticks on its own clock behind a pseudo-terminal and answers every
-//! tick, with the board's tick policy (`firmware/app/src/tick.rs`: late past a quarter
-//! period, skipped past a period) and its 256-byte TX pipe. `exec` reports host ns as
-//! cycles of a `cpu_hz` core. Optionally behind a modelled USB bridge
-//! ([`crate::realtime::bridge`]). See docs/board-in-loop.md.
+//! `hil serve --pty`: a free-running stand-in for a board, the firmware's runtime ticking
+//! behind a pseudo-terminal with the board's tick policy (`firmware/app/src/tick.rs`),
+//! optionally behind a modelled USB bridge. See docs/board-in-loop.md.
 
 use std::collections::VecDeque;
 use std::io::{self, Read};
@@ -100,8 +97,7 @@ pub fn runtime_at(rate_hz: u32) -> Result<Runtime<Fx>, String> {
     Runtime::try_new(cfg).map_err(|e| format!("--rate-hz {rate_hz}: {e}"))
 }
 
-/// Runs `rt` free-running on `port` (the pty's master) until `stop`, the duration's end or
-/// a port failure; OS requests are made on the calling thread.
+/// Runs `rt` free-running on `port` (the pty's master) until `stop`, the end or a failure.
 pub fn serve(
     port: &mut TTYPort,
     mut rt: Runtime<Fx>,

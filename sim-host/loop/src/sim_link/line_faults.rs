@@ -1,5 +1,4 @@
-//! The fault specification: what `--faults SPEC` parses into ([`Faults`]: frame drop,
-//! outages, byte drop, bit errors, bursts, per direction) and prints back.
+//! The fault specification: what `--faults SPEC` parses into ([`Faults`]) and prints back.
 
 use std::fmt;
 use std::str::FromStr;
