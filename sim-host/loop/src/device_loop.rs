@@ -506,7 +506,7 @@ pub fn deviation(run: &Trajectory, reference: &Trajectory, windows: [(f64, f64);
     acc.finish()
 }
 
-/// [`deviation`] streamed: push `(run, reference)` pairs in time order, then [`DeviationAcc::finish`].
+/// [`deviation`] streamed: push `(run, reference)` pairs in time order, then finish.
 #[derive(Debug, Clone)]
 pub struct DeviationAcc {
     d: Deviation,

@@ -145,7 +145,7 @@ pub struct DeviceController<'a> {
     pub clear_faults_at_ns: Option<u64>,
     /// Send `Command::InjectStall` once, at the first sample at or after this time, ns.
     pub stall_at_ns: Option<u64>,
-    /// A Config frame sent again after a device reset (besides [`DeviceController::with_config`]'s).
+    /// A Config frame sent again after a device reset (besides `with_config`'s).
     pub reset_config: Option<Config>,
     last_tick: u16,
     last_latched: bool,
