@@ -509,7 +509,7 @@ pub enum Records {
     /// Every record (what `hil run`'s checks read).
     #[default]
     All,
-    /// The link log only ([`ClosedLoop::log`]; `sim-host run --loop device`).
+    /// The link log only ([`LoopRecords::log`]; `sim-host run --loop device`).
     LinkLog,
 }
 
