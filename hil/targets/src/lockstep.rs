@@ -2,17 +2,10 @@
 //! every 0x00 delimiter the host sends is one device tick, answered by one Actuation
 //! frame (and a Status frame after a `RequestStatus`). [`Expect`] counts the frames owed.
 //!
-//! **One frame in flight.** Two frames reaching a delimiter-clocked device back to back
-//! are two clock edges in one burst: it runs one tick and the host would wait forever for
-//! the other's answer. So the transport waits for what is owed before sending the next
-//! frame (a write with several delimiters goes as its [`frames`], one at a time) and
-//! keeps early answers ([`Expect::stash`], [`Expect::take_early`]).
-//!
-//! **Two exchanges in flight.** A device that takes each frame whole and ticks on it (the
-//! QEMU bulk channel) may get the next frame before answering the last: the transport
-//! sends at once, and a receive with deadline `d` waits for the answers to the frames
-//! sent before `d` ([`Expect::sent_at`], [`Expect::owed_before`]), so every answer lands
-//! in the receive it would with one frame in flight.
+//! One frame in flight: two frames back to back are two clock edges in one burst, one
+//! tick, and the host would wait forever for the other answer; so it waits for what is
+//! owed before sending ([`frames`], [`Expect::stash`]). A device taking frames whole (QEMU
+//! bulk) may have two in flight ([`Expect::owed_before`]).
 
 use std::collections::VecDeque;
 

@@ -1,13 +1,6 @@
-//! The QEMU launcher: runs the `wheelset-qemu` firmware on `qemu-system-arm -machine
-//! mps2-an386` with the one command line ([`crate::qemu::cmd`]) and connects its UART0
-//! over TCP. With `-icount shift=N,sleep=off` virtual time is `2^N` ns per instruction
-//! and the firmware's clock is the host's frames, so a run depends only on the bytes
-//! exchanged. QEMU is killed when the [`Qemu`] is dropped, on every exit path.
-//!
-//! Each QEMU is pinned to one core (`taskset -c N`, round robin; `WHEELSET_QEMU_PIN=off`
-//! turns it off): the CMSDK UART's one-byte holding register makes QEMU's I/O and vCPU
-//! threads hand every byte to each other, and on one core that needs no cross-core
-//! wake-up.
+//! The QEMU launcher: runs the firmware on `qemu-system-arm` ([`crate::qemu::cmd`]) and
+//! connects its UART0 over TCP. Each QEMU is pinned to one core: the UART's one-byte
+//! register hands every byte between QEMU's threads, cheaper on one core.
 
 use std::fmt;
 use std::fs::File;
@@ -30,11 +23,9 @@ pub mod target;
 /// The command line's constants, defined once in [`crate::qemu::cmd`].
 pub use crate::qemu::cmd::{ICOUNT_SHIFT, QEMU_BIN};
 
-/// The firmware tick's budget in the instructions QEMU counts (`exec`): the mean of the
-/// whole tick at most this (`cargo xtask fw-bench` fails above it on the boards' build).
+/// Budget of the firmware tick's mean, in QEMU instructions (`exec`; `cargo xtask fw-bench`).
 pub const TICK_MEAN_BUDGET_INSTRUCTIONS: u64 = 2_500;
-/// The firmware tick's maximum over the 20 s `curve` under QEMU at most this (the test
-/// `qemu_curve` fails above it).
+/// Budget of the tick's maximum over the 20 s `curve` under QEMU (test `qemu_curve`).
 pub const TICK_MAX_BUDGET_INSTRUCTIONS: u64 = 4_000;
 use bulk::poll_readable;
 use pin::next_core;
@@ -100,40 +91,33 @@ impl std::error::Error for QemuError {}
 pub struct QemuConfig {
     /// The firmware (`target/fw/wheelset-qemu.elf`, built by `cargo fw`).
     pub elf: PathBuf,
-    /// Where QEMU's stdout (the defmt log over semihosting) goes; `None` discards it.
-    /// Decode with `defmt-print -e ELF < FILE`.
+    /// Where QEMU's stdout (the defmt log) goes; `None` discards it.
     pub log: Option<PathBuf>,
     /// Read timeout of the serial link (a guest that stops answering).
     pub timeout: Duration,
     /// The emulated board (`-machine`, `-cpu`): mps2-an386 (Cortex-M4F) by default.
     pub machine: Machine,
-    /// How the frames travel: UART0 over TCP (the default, the faithful path) or the
-    /// semihosting bulk channel.
+    /// How the frames travel: UART0 over TCP (default) or the semihosting bulk channel.
     pub channel: Channel,
-    /// QEMU without `-icount` (its clock follows the host's), for the free-running
-    /// firmware `wheelset-qemu-free.elf` ([`QemuConfig::free_running`]).
+    /// QEMU without `-icount`, for the free-running firmware ([`QemuConfig::free_running`]).
     pub free_run: bool,
-    /// A free-running QEMU at `SCHED_RR` where permitted (`hil run --target qemu-free`).
-    /// Not for a QEMU ticking at 5 kHz: its vCPU thread, runnable most of the time, would
-    /// starve the I/O thread that moves the UART's bytes.
+    /// A free-running QEMU at `SCHED_RR` where permitted. Not at 5 kHz: the busy vCPU
+    /// thread would starve the I/O thread that moves the UART's bytes.
     pub realtime: bool,
 }
 
 /// The link between the harness and the emulated device.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub enum Channel {
-    /// UART0 over a TCP chardev: byte by byte through the emulated CMSDK UART and its
-    /// interrupts, as on a board.
+    /// UART0 over a TCP chardev, byte by byte with interrupts, as on a board.
     #[default]
     Uart,
-    /// Semihosting file I/O on two FIFOs (firmware/app/src/board/qemu/bulk.rs): one
-    /// trap per frame instead of one interrupt per byte, the same frames bit for bit.
+    /// Semihosting file I/O on two FIFOs: one trap per frame, the same frames bit for bit.
     Bulk,
 }
 
 impl QemuConfig {
-    /// The default ELF: `$WHEELSET_QEMU_ELF`, else `target/fw/wheelset-qemu.elf` in the
-    /// workspace (honouring `$CARGO_TARGET_DIR`).
+    /// The default ELF: `$WHEELSET_QEMU_ELF`, else `target/fw/wheelset-qemu.elf`.
     pub fn default_elf() -> PathBuf {
         if let Some(p) = std::env::var_os("WHEELSET_QEMU_ELF") {
             return PathBuf::from(p);
@@ -141,8 +125,7 @@ impl QemuConfig {
         Self::built_elf(Machine::An386)
     }
 
-    /// The ELF `cargo fw` builds for `machine`'s core (`target/fw/wheelset-qemu.elf` or
-    /// `wheelset-qemu-m3.elf`, honouring `$CARGO_TARGET_DIR`).
+    /// The ELF `cargo fw` builds for `machine`'s core.
     pub fn built_elf(machine: Machine) -> PathBuf {
         let target = std::env::var_os("CARGO_TARGET_DIR")
             .map(PathBuf::from)
@@ -155,8 +138,7 @@ impl QemuConfig {
         target.join("fw").join(machine.elf_name())
     }
 
-    /// The default configuration on `machine`: its ELF (`$WHEELSET_QEMU_ELF` for the
-    /// default machine only), no log, a 10 s timeout.
+    /// The default configuration on `machine`: its ELF, no log, a 10 s timeout.
     pub fn on(machine: Machine) -> Self {
         Self {
             elf: if machine == Machine::default() {
@@ -182,9 +164,7 @@ impl QemuConfig {
         }
     }
 
-    /// The free-running firmware (`target/fw/wheelset-qemu-free.elf`, or
-    /// `$WHEELSET_QEMU_FREE_ELF`) on mps2-an386 without `-icount`: its tick comes from
-    /// TIMER0 on QEMU's clock, which follows the host's.
+    /// The free-running firmware on mps2-an386 without `-icount` (TIMER0 on the host's clock).
     pub fn free_running() -> Self {
         let elf = std::env::var_os("WHEELSET_QEMU_FREE_ELF")
             .map(PathBuf::from)
@@ -222,9 +202,7 @@ impl Default for QemuConfig {
     }
 }
 
-/// A running emulated device with its UART0 connected. Dropping it kills QEMU (when
-/// this process started it: [`Qemu::start`]; one started by hand and reached with
-/// [`Qemu::connect`] is left running).
+/// A running emulated device; dropping it kills a QEMU that [`Qemu::start`] started.
 #[derive(Debug)]
 pub struct Qemu {
     launch: Launch,
@@ -278,9 +256,8 @@ impl Qemu {
         cmd
     }
 
-    /// Launches QEMU as `cfg` says with the frames on `to` (the launch both channels
-    /// share): pinned to the next core ([`next_core`]), standard output to `cfg.log`,
-    /// standard error to `stderr_path`. The [`Guard`] kills it on every early return.
+    /// Launches QEMU as `cfg` says with the frames on `to`, pinned to [`next_core`]; the
+    /// [`Guard`] kills it on every early return.
     fn spawn(cfg: &QemuConfig, to: SerialTo, stderr_path: &Path) -> Result<Guard, QemuError> {
         let stderr = File::create(stderr_path).map_err(QemuError::Io)?;
         let stdout = match &cfg.log {
@@ -356,8 +333,7 @@ impl Qemu {
         self.launch
     }
 
-    /// Starts QEMU and connects to the firmware's UART0 (or its bulk channel,
-    /// [`QemuConfig::channel`]).
+    /// Starts QEMU and connects to the firmware's UART0 (or [`QemuConfig::channel`]).
     pub fn start(cfg: &QemuConfig) -> Result<Self, QemuError> {
         cfg.check()?;
         if cfg.channel == Channel::Bulk {
@@ -396,9 +372,8 @@ impl Qemu {
         Self::started(guard, Link::Tcp(stream), stderr_path, cfg.timeout)
     }
 
-    /// Connects to a QEMU started by hand with its UART0 on a TCP server at
-    /// `127.0.0.1:port` (`hil run --target qemu:PORT`), trying for `timeout`, which also
-    /// bounds each read.
+    /// Connects to a QEMU started by hand with UART0 on `127.0.0.1:port`, trying for
+    /// `timeout`, which also bounds each read.
     pub fn connect(port: u16, timeout: Duration) -> Result<Self, QemuError> {
         let deadline = Instant::now() + timeout;
         let stream = loop {
@@ -434,8 +409,7 @@ impl Qemu {
         })
     }
 
-    /// A second handle on the TCP link to UART0 (the real-time transport reads and
-    /// writes it directly); an error on the bulk channel.
+    /// A second handle on the TCP link to UART0; an error on the bulk channel.
     pub fn tcp_stream(&self) -> Result<TcpStream, QemuError> {
         match &self.link {
             Link::Tcp(s) => s.try_clone().map_err(QemuError::Io),
@@ -454,8 +428,7 @@ impl Qemu {
         r.map_err(|e| self.link_error(e))
     }
 
-    /// Reads what the device sent: at least one byte, or an error (end of stream, or
-    /// nothing within the timeout).
+    /// Reads at least one byte, or an error (end of stream, or nothing within the timeout).
     fn read_some(&mut self, buf: &mut [u8]) -> io::Result<usize> {
         match &mut self.link {
             Link::Tcp(s) => s.read(buf),
@@ -487,8 +460,7 @@ impl Qemu {
         }
     }
 
-    /// Receives bytes up to and including the next 0x00 delimiter; returns the frame
-    /// without its delimiter (COBS-encoded, as sent).
+    /// Receives up to the next 0x00 delimiter; returns the COBS frame without it.
     pub fn recv_frame(&mut self) -> Result<Vec<u8>, QemuError> {
         let mut buf = [0u8; 512];
         loop {
@@ -539,8 +511,7 @@ impl Drop for Qemu {
 /// Kills a child on drop unless taken.
 struct Guard(Option<Child>, Launch);
 
-/// How a QEMU was started: the core it is pinned to and its real-time priority, if any
-/// (reported by the free-running target: `transport.device_process`).
+/// How a QEMU was started: its pinned core and real-time priority, if any.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
 pub struct Launch {
     /// The core of `taskset -c`, if pinned.

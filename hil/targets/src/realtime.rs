@@ -1,53 +1,8 @@
-//! Real-time pacing against a free-running device on a serial port (a board on its own
-//! ticker, `hil serve --pty`, the firmware under QEMU on its own timer): the
-//! [`RealTime`] transport.
-//!
-//! **Deadline-driven.** Every wait is against a deadline on the host's monotonic clock:
-//! the port is polled for input with a bounded wait (at most a quarter period, never a
-//! blocking read past the deadline) until `spin` before the deadline, then with
-//! non-blocking reads until it. Each chunk is stamped at its read; bytes stamped after a
-//! period's deadline belong to the next period. Where permitted the loop runs with
-//! `SCHED_FIFO`, locked memory and a pinned core ([`crate::realtime::os`]); what was obtained
-//! is reported.
-//!
-//! **Host deadlines apart from the device's answers.** A Sensor frame written more than
-//! a quarter period after its instant `t_k`, or a receive deadline overshot by as much,
-//! is a *host* miss (`host.missed_deadlines`); the device's late or missing answers are
-//! the timing checks' `missed_ticks` as on every target.
-//!
-//! **Start-up.** A free-running device talks before the run (a powered board sends an
-//! Actuation every tick). [`RealTime::prepare`]:
-//! 1. listens for a few periods (a silent device is refused: frame-clocked devices take
-//!    `--pace lockstep`);
-//! 2. sends the run's Config (yaw law, hold ticks, the rates computed by
-//!    `wheelset_runtime::rates_for`) with a status request, and checks that the device
-//!    applied it;
-//! 3. on a serial port, probes the link's round trip ([`ROUND_TRIP_PROBES`] status
-//!    requests spread over the device's period) and refuses a run whose delay
-//!    (`--delay-ticks`) it does not fit, naming the delay that would (a board behind a
-//!    USB bridge: 1-2 ms of round trip; the probe's arithmetic in `prepare.rs`);
-//! 4. asks for a second Status: its counters are the *baseline* the end-of-run counters
-//!    are taken relative to ([`RunStart`]);
-//! 5. measures the device's tick phase from the arrival of its frames (the earliest
-//!    output instant `o_j - j T` over 32 ticks, `j` from the frames' tick counter) and
-//!    its period, and refuses a device that does not tick at the configured rate.
-//!
-//! The plant's clock then starts so that each Sensor frame is written a *lead* before the
-//! device's tick (`lead_ns`, [`RealTimeOptions::lead_num`] eighths of the period: half
-//! by default): the Actuation echoing sample `k` arrives about `lead + exec + wire` after
-//! `t_k`, and a host up to `T - lead` late, or a frame up to `lead` on its way, is still
-//! in time. Every
-//! frame that arrives before the device first answers one of the run's Sensor frames
-//! (by echoing its `seq`: the first one, or a later one if the first was superseded
-//! within one device tick, [`echoes_this_run`]) is discarded and counted (`pre_run`),
-//! never passed on. During the
-//! run the phase is re-measured every 256 device frames and the schedule follows a
-//! drifting device clock (a board's crystal against the host's).
-//!
-//! Files: the start-up in `realtime/prepare.rs`, the send queue in `realtime/queue.rs`,
-//! the tests in `realtime/tests.rs`; what stays here (~600 lines) is the one deadline loop
-//! of [`RealTime`] (`send`, `recv`) with the phase and envelope estimates it needs on
-//! every period, kept together because each step of the loop reads them.
+//! Real-time pacing against a free-running device (a board, `hil serve --pty`, QEMU on
+//! its own timer): the [`RealTime`] transport, one deadline loop on the host's monotonic
+//! clock. [`RealTime::prepare`] syncs to the device's tick phase; each Sensor frame is
+//! written a lead ([`RealTimeOptions::lead_num`]) before the tick, and the phase is
+//! re-measured every [`TRACK_FRAMES`] frames. See docs/board-in-loop.md.
 
 use std::collections::VecDeque;
 use std::io::{self, Read, Write};
@@ -85,17 +40,14 @@ pub const TRACK_FRAMES: usize = 256;
 pub struct RunStart {
     /// The device's counters just before the run.
     pub baseline: Status,
-    /// Frames the device sent after the baseline Status and before the run's first
-    /// echo (ticks that belong to no period of the run).
+    /// Frames sent after the baseline Status and before the run's first echo.
     pub ticks_before_run: u64,
     /// Every frame discarded before the run (before and after the baseline).
     pub pre_run: u64,
 }
 
 impl RunStart {
-    /// The end-of-run counters `end` relative to the start of the run: the fields the
-    /// frame accounting reads (ticks, received and rejected frames) less the baseline,
-    /// the ticks before the run's first echo taken off.
+    /// The end-of-run counters `end` less the baseline (and the ticks before the first echo).
     #[must_use]
     pub fn relative(&self, end: &Status) -> Status {
         let b = &self.baseline;
@@ -117,8 +69,7 @@ impl RunStart {
 pub struct HostDeadlines {
     /// Periods run.
     pub periods: u64,
-    /// Periods in which the host wrote its Sensor frame, or ended its receive, more
-    /// than a quarter period late.
+    /// Periods with a send or receive more than a quarter period late.
     pub missed_deadlines: u64,
     /// `missed_deadlines / periods`.
     pub missed_frac: f64,
@@ -147,18 +98,14 @@ pub struct SyncReport {
     pub phase_corrections: u64,
     /// Their sum, ns (positive: the device's clock runs slow against the host's).
     pub phase_correction_ns: i64,
-    /// The least round trip of [`ROUND_TRIP_PROBES`] status requests before the run
-    /// (request written to its Status read), ns; 0 where not probed (a TCP device).
+    /// The least round trip of [`ROUND_TRIP_PROBES`] status requests, ns; 0 if not probed.
     pub round_trip_ns: f64,
-    /// What of it a Sensor frame needs before the device's tick, as the host sees that
-    /// tick: both ways' latency and the Sensor frame's wire time, ns (the round trip
-    /// less the device's execution, the answer's frames' and the request's wire time,
-    /// plus the Sensor frame's; [`RealTime::prepare`] refuses a run this does not fit).
+    /// Time a Sensor frame needs before the device's tick (latency both ways plus its
+    /// wire time), ns; [`RealTime::prepare`] refuses a run this does not fit.
     pub before_tick_ns: f64,
 }
 
-/// Status requests whose least round trip [`RealTime::prepare`] takes, each a
-/// `1/ROUND_TRIP_PROBES` period later in the device's tick than the one before.
+/// Status requests probed for the round trip, spread over the device's period.
 pub const ROUND_TRIP_PROBES: u64 = 32;
 
 /// Options of the real-time transport.
@@ -174,15 +121,12 @@ pub struct RealTimeOptions {
     pub timeout: Duration,
     /// What to ask of the operating system.
     pub want: Want,
-    /// The lead of each Sensor frame before the device's tick, in eighths of the period
-    /// (4: half a period; the module docs). A link whose frames take longer than half a
-    /// period to cross (QEMU's UART, `--target qemu-free`) needs more.
+    /// Lead of each Sensor frame before the device's tick, eighths of the period (4: half;
+    /// a link slower than half a period, QEMU's UART, needs more).
     pub lead_num: u64,
 }
 
-/// The byte stream to a free-running device: a serial port, or the TCP chardev of
-/// QEMU's UART0 (the free-running firmware, `--target qemu-free`; the QEMU it belongs
-/// to is held here, so it is killed when the transport is dropped).
+/// The byte stream to a free-running device: a serial port, or QEMU's UART0 over TCP.
 pub enum Port {
     /// A serial port (a board, `hil serve --pty`).
     Tty(TTYPort),
@@ -191,14 +135,8 @@ pub enum Port {
 }
 
 impl Port {
-    /// Bounds the next read to `wait` (zero: non-blocking) and writes to a period.
-    ///
-    /// A TCP stream waits in `ppoll` (nanosecond timeout) and then reads without
-    /// blocking: a socket's `SO_RCVTIMEO` is rounded *up to whole jiffies* by Linux
-    /// (`sock_set_timeout`), so a 250 us bounded read blocked for a whole jiffy and the
-    /// host missed most deadlines of a 1 kHz `qemu-free` run (measured with `SO_RCVTIMEO`:
-    /// 2 994 of 3 000, send lateness p99 4.8 ms; with `ppoll`: 0 to 10 of 3 000, p99
-    /// 12-19 us; README "QEMU free-running").
+    /// Bounds the next read to `wait` (zero: non-blocking). TCP waits in `ppoll`: Linux
+    /// rounds `SO_RCVTIMEO` up to whole jiffies, which missed most 1 kHz deadlines.
     fn set_timeout(&mut self, wait: Duration) -> io::Result<()> {
         match self {
             Self::Tty(p) => p.set_timeout(wait).map_err(io::Error::other),
@@ -229,8 +167,7 @@ impl Port {
         match self {
             Self::Tty(p) => p.write_all(bytes),
             Self::Tcp(s, _) => {
-                // A non-blocking socket left from the last read: block for the write
-                // (bounded by a write timeout; a few jiffies more do not matter there).
+                // Non-blocking from the last read: block for the write, bounded.
                 s.set_nonblocking(false)?;
                 s.set_write_timeout(Some(Duration::from_millis(100)))?;
                 s.write_all(bytes)
@@ -264,8 +201,7 @@ pub struct RealTime {
     last_status_at: Option<(u64, usize)>,
     /// Actuation frames seen during start-up: (arrival ns, wire bytes, tick, exec).
     seen: Vec<(u64, usize, u16, u32)>,
-    /// Phase tracking during the run: the device's output phase on the run's clock,
-    /// and the window of residuals.
+    /// The device's output phase on the run's clock, and the window of residuals.
     phase_ref_ns: f64,
     window: Vec<f64>,
     send_late: Vec<f64>,
@@ -283,8 +219,7 @@ fn io_err(path: &str, e: &io::Error) -> TransportError {
 }
 
 impl RealTime {
-    /// Opens `path` at `o.baud` (8N1) and asks the operating system for `o.want` on the
-    /// calling thread (the harness's loop).
+    /// Opens `path` at `o.baud` (8N1); asks the OS for `o.want` on the calling thread.
     pub fn open(path: &str, o: RealTimeOptions) -> Result<Self, TransportError> {
         let port = serialport::new(path, o.baud)
             .timeout(Duration::ZERO)
@@ -300,8 +235,7 @@ impl RealTime {
         Ok(Self::on(&format!("serial:{path}"), Port::Tty(port), o))
     }
 
-    /// Real-time pacing over `port` (named `name` in messages and the report); asks the
-    /// operating system for `o.want` on the calling thread.
+    /// Real-time pacing over `port` (named `name`); asks the OS for `o.want` on this thread.
     #[must_use]
     pub fn on(name: &str, port: Port, o: RealTimeOptions) -> Self {
         let obtained = rt_os::obtain(o.want);
@@ -351,8 +285,7 @@ impl RealTime {
         self.origin + Duration::from_nanos(t_ns)
     }
 
-    /// One read of what is there, waiting at most `wait` for it; the chunk is stamped
-    /// and filtered.
+    /// One read, waiting at most `wait`; the chunk is stamped and filtered.
     fn read_once(&mut self, wait: Duration) -> Result<(), TransportError> {
         let mut buf = [0u8; 512];
         let _ = self.port.set_timeout(wait);
@@ -377,8 +310,7 @@ impl RealTime {
         }
     }
 
-    /// Reads until `deadline`: bounded waits for input up to `spin` before it, then
-    /// non-blocking reads.
+    /// Reads until `deadline`: bounded waits up to `spin` before it, then non-blocking.
     fn wait_until(&mut self, deadline: Instant) -> Result<(), TransportError> {
         let max_block = self.period() / 4;
         let spin = self.spin();
@@ -397,8 +329,8 @@ impl RealTime {
         }
     }
 
-    /// Splits the device's bytes into frames; before the run's first echo every frame is
-    /// examined and discarded (counted), from it on every byte is passed on.
+    /// Splits the bytes into frames: discarded (counted) before the run's first echo,
+    /// then passed on.
     fn ingest(&mut self, at: u64, bytes: &[u8]) {
         let mut rest = bytes;
         while !rest.is_empty() {
@@ -448,10 +380,8 @@ impl RealTime {
         // A partial frame is passed on whole when its delimiter arrives.
     }
 
-    /// Phase tracking during the run (see the module docs): the device's output
-    /// instants modulo the period against the reference phase; every
-    /// [`TRACK_FRAMES`] frames the schedule follows the window's lower decile (robust to
-    /// frames delayed on the way and to ticks the device skipped).
+    /// Phase tracking: every [`TRACK_FRAMES`] frames the schedule follows the window's
+    /// lower decile (robust to frames delayed on the way and to skipped ticks).
     fn track(&mut self, at: u64, wire_bytes: usize) {
         let t = self.o.period_ns as f64;
         let o = at as f64 - wire_ns(wire_bytes, self.o.baud) as f64;
@@ -522,18 +452,14 @@ impl RealTime {
     }
 }
 
-/// Whether an Actuation echoing `echo` answers a Sensor frame this run sent: seqs
-/// `first..=last` (16-bit, wrapping; 0 is the echo of no sample). The run starts at the
-/// first such answer, not only at the echo of `first`: a device that received the first
-/// two Sensor frames within one of its ticks (a host late by a period) echoes only the
-/// second, and waiting for the first would discard the whole run.
+/// Whether `echo` answers a Sensor frame of this run, seqs `first..=last` (wrapping; 0
+/// echoes nothing). Not only `first`: given two frames in one tick, a device echoes the second.
 #[must_use]
 pub fn echoes_this_run(echo: u16, first: u16, last: u16) -> bool {
     echo != 0 && echo.wrapping_sub(first) <= last.wrapping_sub(first)
 }
 
-/// Waits until `s` is readable (or hung up) for at most `wait`, with `ppoll`'s
-/// nanosecond timeout (not `SO_RCVTIMEO`'s whole jiffies); a signal ends the wait early.
+/// Waits at most `wait` (ns resolution, `ppoll`) until `s` is readable or hung up.
 #[allow(unsafe_code)]
 fn poll_readable(s: &TcpStream, wait: Duration) -> io::Result<()> {
     use std::os::fd::AsRawFd;

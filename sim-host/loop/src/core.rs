@@ -1,8 +1,6 @@
-//! The control core itself (`wheelset_control::Controller<T>`, e.g. the f64 reference) on
-//! the plant without the link: the device's laws, protection included, with its timing
-//! (the actuation of tick `k` acts from tick `k + 1`) and its wire quantisation of the
-//! inputs. The f64 reference where the adhesion law and the protection matter (the
-//! continuous controllers have no protection).
+//! The control core itself (`wheelset_control::Controller<T>`) on the plant without the
+//! link: the device's laws and protection, its timing (tick `k` acts from `k + 1`) and
+//! its wire quantisation of the inputs.
 
 use crate::device_loop::control_config;
 use crate::drive::drive;
@@ -15,9 +13,8 @@ use wheelset_proto::units::{
     VOLTAGE_LSB_V, V_REF_LSB_M_PER_S,
 };
 
-/// Which wire quantisations a [`CoreController`] applies. The device applies both
-/// ([`Sources::WIRE`], the default); the fixed-point audit removes one at a time to
-/// attribute a limit cycle to its sources.
+/// Which wire quantisations a [`CoreController`] applies (the device: [`Sources::WIRE`]);
+/// the audit removes one at a time to attribute a limit cycle.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Sources {
     /// `y'` quantised to its wire LSB (else passed to the core exact, in per unit).
@@ -183,10 +180,8 @@ pub fn run_core<T: SampleBits>(
     run_core_with::<T>(sc, &control_config(&sc.params, law, sc.drive), law, wsp)
 }
 
-/// [`run_core`] with the control core of `cfg` (e.g. the gains designed for another
-/// rate and delay: `wheelset_control::Config::designed`); the actuation acts
-/// `cfg.delay_ticks` base periods after its sample, as the device's over a pipelined
-/// link.
+/// [`run_core`] with the control core of `cfg`; the actuation acts `cfg.delay_ticks` base
+/// periods after its sample.
 pub fn run_core_with<T: SampleBits>(
     sc: &Scenario,
     cfg: &wheelset_control::Config,

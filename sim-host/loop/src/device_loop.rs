@@ -1,9 +1,5 @@
-//! A device-in-the-loop run of a scenario (`sim-host run --loop device`): the firmware's
-//! own [`Runtime`](wheelset_runtime::Runtime) as an [`InProc`] transport on simulated
-//! time, closed with the plant through [`crate::exchange`] (the code `hil run` uses on
-//! every target): its options, the device's configuration, the deviation from a
-//! reference. The link budget check refuses a link whose round trip does not fit
-//! ([`crate::sim_link::check_budget`]).
+//! A device-in-the-loop run (`sim-host run --loop device`): the firmware's runtime as an
+//! [`InProc`] transport closed with the plant ([`crate::exchange`]), and its deviation.
 
 use std::fmt;
 
@@ -28,8 +24,7 @@ const _: () = assert!(
         == wheelset_plant::memory::DEVICE_BYTES_PER_PERIOD
 );
 
-/// Worst-case Sensor frame (one lateral value) on the wire, bytes: the wire crate's
-/// [`wheelset_proto::SENSOR_ONE_LATERAL_MAX_FRAME`].
+/// Worst-case Sensor frame on the wire, bytes ([`wheelset_proto::SENSOR_ONE_LATERAL_MAX_FRAME`]).
 pub const SENSOR_WORST_BYTES: usize = wheelset_proto::SENSOR_ONE_LATERAL_MAX_FRAME;
 /// Worst-case Actuation frame on the wire, bytes ([`wheelset_proto::ACTUATION_MAX_FRAME`]).
 pub const ACTUATION_WORST_BYTES: usize = wheelset_proto::ACTUATION_MAX_FRAME;
@@ -71,9 +66,8 @@ impl fmt::Display for DeviceError {
 
 impl std::error::Error for DeviceError {}
 
-/// Why a device cannot run at the base rate of `rt`, in words about that rate (the
-/// runtime's own error names the field that refuses it, e.g. the stability monitor's
-/// 500 Hz step, which a user who asked for a base rate never typed); `None` when it can.
+/// Why a device cannot run at the base rate of `rt`, in words about that rate (not the
+/// refusing field, which the user never typed); `None` when it can.
 ///
 /// ```
 /// use wheelset_loop::device_loop::base_rate_refusal;
@@ -138,8 +132,7 @@ pub struct LinkReport {
     pub up: Accounting,
     /// Device -> host.
     pub down: Accounting,
-    /// The device's counters as read back over the link in a Status frame, asked for
-    /// after the run (None if every try was lost).
+    /// The device's counters from its Status frame after the run (None if every try was lost).
     pub device: Option<Status>,
     /// Periods in which the safe flag was set in the applied actuation.
     pub safe_periods: u64,
@@ -230,9 +223,7 @@ impl fmt::Display for LinkReport {
     }
 }
 
-/// The control core's configuration for a scenario: the lead, gain, PI and motor
-/// constants from its parameters (so a scenario file that changes them changes the
-/// device too), the yaw mode from `law`, traction on when the drive is modelled.
+/// The control core's configuration for a scenario's parameters and yaw `law`.
 #[must_use]
 pub fn control_config(p: &Params, law: YawLaw, drive: bool) -> wheelset_control::Config {
     let d = wheelset_control::Config::default();
@@ -263,10 +254,8 @@ pub fn control_config(p: &Params, law: YawLaw, drive: bool) -> wheelset_control:
     }
 }
 
-/// The device's configuration at parameters `p` (`hil golden --params`, `hil audit
-/// --params`): the firmware's default (its law, traction on, its rates) with the gains
-/// and motor constants of `p` ([`control_config`], the rule of `hil run`). At the
-/// default parameters this is `RuntimeConfig::default()`.
+/// The device's configuration at parameters `p`: the firmware's default with the gains and
+/// motor constants of `p` ([`control_config`]); `RuntimeConfig::default()` at the defaults.
 #[must_use]
 pub fn runtime_for(p: &Params) -> RuntimeConfig {
     let d = RuntimeConfig::default();
@@ -289,11 +278,7 @@ fn on_off(b: bool) -> &'static str {
     }
 }
 
-/// The Config frame of a run on `rt` (law, traction, enable, hold ticks) with the
-/// wheel-slip protection `wsp` and the monitor's response `monitor_safe`; the rates
-/// unchanged (`rates: None`). Every host path sends it before the first Sensor frame:
-/// the in-process device through [`InProc::configure`], a device elsewhere as the first
-/// frame of the run.
+/// The Config frame of a run on `rt` with `wsp` and `monitor_safe`, rates unchanged.
 #[must_use]
 pub fn run_config(rt: &RuntimeConfig, wsp: bool, monitor_safe: bool) -> wheelset_proto::Config {
     use wheelset_proto::YawMode as W;
@@ -321,15 +306,13 @@ pub struct DeviceOptions {
     pub hold_ticks: u16,
     /// Base rate override, Hz (None: the control core's default).
     pub base_rate_hz: Option<u32>,
-    /// Ticks from a sample to its actuation (1: lock-step; more: a pipelined link), the
-    /// delay the device's gains are designed for.
+    /// Ticks from a sample to its actuation (1: lock-step), the gains' design delay.
     pub delay_ticks: u8,
     /// `y'` or `y''` in the Sensor frames.
     pub lateral: LateralSensing,
     /// Wheel-slip protection (`Config.wsp`; default on).
     pub wsp: bool,
-    /// A stability alarm holds the safe state until `ClearFaults` (`Config.monitor_safe`;
-    /// default off: report only).
+    /// A stability alarm holds the safe state until `ClearFaults` (default off).
     pub monitor_safe: bool,
     /// Send `Command::ClearFaults` at the first sample instant at or after this time, ns.
     pub clear_faults_at_ns: Option<u64>,
@@ -364,8 +347,7 @@ pub struct DeviceRun {
 }
 
 impl DeviceRun {
-    /// The link record describing the actuation in force at `t_ns` (computed from the
-    /// sample of the previous period); None before the first.
+    /// The link record of the actuation in force at `t_ns`; None before the first.
     #[must_use]
     pub fn link_at(&self, t_ns: u64) -> Option<&LinkSample> {
         let k = (t_ns / self.period_ns).checked_sub(1)?;
@@ -407,10 +389,7 @@ impl DeviceRun {
     }
 }
 
-/// The runtime configuration of a device running `sc` with `law`: the control core from
-/// the scenario's parameters ([`control_config`]) designed for the base rate of `opt`
-/// (`RuntimeConfig::designed`), the hold ticks of `opt`, outputs enabled. The one rule every path follows (`sim-host --loop device`, `hil run`,
-/// `hil golden`): the device's configuration follows the scenario and the parameters.
+/// The runtime configuration of a device running `sc` with `law` (every path's rule).
 #[must_use]
 pub fn runtime_config(sc: &Scenario, law: YawLaw, opt: &DeviceOptions) -> RuntimeConfig {
     let rt = RuntimeConfig {
@@ -422,8 +401,7 @@ pub fn runtime_config(sc: &Scenario, law: YawLaw, opt: &DeviceOptions) -> Runtim
     let d = opt.delay_ticks.max(1);
     match (opt.base_rate_hz, d) {
         (None, 1) => rt,
-        // The gains designed for the rate and delay; a point without a design keeps the
-        // gains, and `base_rate_refusal` names it.
+        // A point without a design keeps the gains; `base_rate_refusal` names it.
         (hz, d) => {
             let hz = hz.unwrap_or(rt.control.base_rate_hz);
             rt.designed(hz, d).unwrap_or_else(|_| {
@@ -436,9 +414,7 @@ pub fn runtime_config(sc: &Scenario, law: YawLaw, opt: &DeviceOptions) -> Runtim
     }
 }
 
-/// Runs `sc` with the firmware runtime (fixed point, the production build) in the loop
-/// over the simulated link ([`InProc`] through [`close_loop`]). The actuation computed
-/// from the sample at `t_k` acts on the plant from `t_k + T` (ZOH).
+/// Runs `sc` with the firmware runtime over the simulated link (`t_k`'s actuation from `t_k + T`).
 pub fn run_device(
     sc: &Scenario,
     law: YawLaw,
@@ -446,8 +422,7 @@ pub fn run_device(
 ) -> Result<DeviceRun, DeviceError> {
     let rt_cfg = runtime_config(sc, law, opt);
     let mut dev = InProc::<Fx>::try_new(rt_cfg, &opt.link, DeviceFault::None)?;
-    // What a DeviceRun reports: the trajectory, the link log and the accounting; not the
-    // host's time per tick nor the per-period timing records `hil run` checks.
+    // The link log only: not the timing records `hil run` checks.
     dev.time_ticks(false);
     let cfg = run_config(&rt_cfg, opt.wsp, opt.monitor_safe);
     dev.configure(&cfg)
@@ -499,8 +474,7 @@ pub struct Deviation {
     pub f_max_abs_n: f64,
     /// The same relative to the largest reference creep force over the run.
     pub f_max_rel: f64,
-    /// A value of either run was NaN or infinite (a diverged run): the figures above
-    /// are then meaningless (`f64::max` skips NaN).
+    /// A value of either run was not finite: the figures above are meaningless.
     pub diverged: bool,
 }
 
@@ -513,10 +487,8 @@ pub struct WindowDeviation {
     pub to_s: f64,
     /// Max `|y - y_ref| / |y_ref|`.
     pub y_rel: f64,
-    /// Max over the window and over `Fx_R`, `Fx_L`, `Fy` of `|F - F_ref|`, relative to
-    /// the window's largest reference creep force (before the traction step the
-    /// longitudinal forces are ~0.1 N against a lateral 1.2 kN: a per-force ratio there
-    /// would measure noise, not the loop).
+    /// Max of `|F - F_ref|` over `Fx_R`, `Fx_L`, `Fy`, relative to the window's largest
+    /// reference force (a per-force ratio would measure noise on the ~0 N forces).
     pub f_rel: f64,
 }
 
@@ -524,9 +496,7 @@ pub struct WindowDeviation {
 /// traction step at 5 s (settled: 4.5-5 s) and after it (settled: 10-12 s).
 pub const CURVE_WINDOWS: [(f64, f64); 2] = [(4.5, 5.0), (10.0, 12.0)];
 
-/// Compares `run` with `reference` (records at the same times), in one pass over the
-/// pairs of records ([`DeviationAcc`] over the records paired by index, the pairs at
-/// different times skipped).
+/// Compares `run` with `reference` record by record ([`DeviationAcc`]).
 #[must_use]
 pub fn deviation(run: &Trajectory, reference: &Trajectory, windows: [(f64, f64); 2]) -> Deviation {
     let mut acc = DeviationAcc::new(windows);
@@ -536,10 +506,7 @@ pub fn deviation(run: &Trajectory, reference: &Trajectory, windows: [(f64, f64);
     acc.finish()
 }
 
-/// [`deviation`] as the reference's records are made: push each pair `(run record,
-/// reference record)` in time order, then [`DeviationAcc::finish`]. A reference run
-/// streamed into it ([`wheelset_plant::sim::run_continuous_each`]) is never held in
-/// memory.
+/// [`deviation`] streamed: push `(run, reference)` pairs in time order, then finish.
 #[derive(Debug, Clone)]
 pub struct DeviationAcc {
     d: Deviation,
@@ -566,8 +533,7 @@ impl DeviationAcc {
         }
     }
 
-    /// Takes the run's record `a` and the reference's `b`; a pair more than 1 ns apart
-    /// is not compared.
+    /// Takes the run's record `a` and the reference's `b` (skipped if over 1 ns apart).
     pub fn push(&mut self, a: &Record, b: &Record) {
         if (a.t_s - b.t_s).abs() >= 1e-9 {
             return;

@@ -1,20 +1,9 @@
 //! The closed-loop adapter: a device behind any [`Transport`] as the plant's
-//! [`SampledController`], one exchange per control period `T`, for every device loop.
-//!
-//! ```text
-//! t_k              measurements (SI) -> Sensor::from_si (seq k) -> send
-//! t_k .. t_k + T   receive until t_k + T; every valid Actuation frame recorded
-//! t_k + T          the latest valid actuation applied (ZOH), or the previous one held;
-//!                  before the first, zero torque and the back-EMF voltage K_m theta_m'
-//! ```
-//!
-//! Over a link slower than a period the exchange runs pipelined over `d` ticks
-//! ([`LoopSetup::delay_ticks`]): the actuation echoing sample `k` applies exactly from
-//! `t_k + d T`. Over a [`Transport::pipelined`] transport two exchanges are in flight
-//! ([`SampledController::take_deferred`]): the plant runs to `t_k + T` on sample
-//! `k - 1`'s actuation, so sample `k + 1` goes out before `k`'s answer is taken; every
-//! frame, stamp and plant step is the one-in-flight run's. At the end,
-//! [`DeviceController::finish`] fetches the device's counters (the one Status fetch).
+//! [`SampledController`]: at `t_k` a Sensor frame out, until `t_k + T` receive, then the
+//! latest actuation applied (ZOH; before the first, zero torque and the back-EMF voltage
+//! `K_m theta_m'`). With `d` ticks of delay ([`LoopSetup::delay_ticks`]) sample `k` acts
+//! from `t_k + d T`; [`Transport::pipelined`]: two exchanges in flight
+//! ([`SampledController::take_deferred`]). See docs/closed-loop.md.
 
 use indicatif::ProgressBar;
 use wheelset_control::InputCodes;
@@ -68,8 +57,7 @@ pub struct LinkSample {
     pub seq: u16,
     /// `seq_echo` of the actuation in force from `t_ns + T`.
     pub seq_echo: u16,
-    /// Age of that actuation's sample, periods: `seq - seq_echo` (more than 0 when an
-    /// older actuation is held).
+    /// Age of that actuation's sample, periods: `seq - seq_echo`.
     pub age: u16,
     /// Its flags (the bits of [`Flags`]).
     pub flags: u16,
@@ -120,9 +108,7 @@ pub struct LoopRecords {
     pub clear_faults_sent_ns: Option<u64>,
     /// When `Command::InjectStall` went out, ns.
     pub stall_sent_ns: Option<u64>,
-    /// Resets of the device seen: an Actuation whose tick counter went back (by less
-    /// than half its 16-bit range, so not a wrap) or that raised `FAULT_LATCHED` with a
-    /// tick below the one before. The Config goes out again after each.
+    /// Device resets seen (tick counter back, or `FAULT_LATCHED` at a lower tick).
     pub device_resets: u32,
     /// When the first reset was seen, ns.
     pub first_reset_ns: Option<u64>,
@@ -155,20 +141,16 @@ pub struct DeviceController<'a> {
     config_echo_pending: bool,
     progress: Option<ProgressBar>,
     status_seen: bool,
-    /// Send `Command::ClearFaults` before the Sensor frame of the first sample instant at
-    /// or after this time, ns (once).
+    /// Send `Command::ClearFaults` once, at the first sample at or after this time, ns.
     pub clear_faults_at_ns: Option<u64>,
-    /// Send `Command::InjectStall` (a `fault-inject` build stalls: its watchdog resets it)
-    /// with the Sensor frame of the first sample instant at or after this time, ns (once).
+    /// Send `Command::InjectStall` once, at the first sample at or after this time, ns.
     pub stall_at_ns: Option<u64>,
-    /// The Config frame sent again after the device is seen to reset (besides
-    /// [`DeviceController::with_config`]'s, sent again in any case).
+    /// A Config frame sent again after a device reset (besides `with_config`'s).
     pub reset_config: Option<Config>,
     last_tick: u16,
     last_latched: bool,
     /// Which records are kept ([`Records::All`] unless set).
     pub records: Records,
-    /// Two exchanges in flight ([`Self::pipelined`]).
     deferred: bool,
     /// The steps sent whose actuation is not taken yet, oldest first (two in flight).
     awaiting: std::collections::VecDeque<Awaiting>,
@@ -179,7 +161,6 @@ pub struct DeviceController<'a> {
 struct Awaiting {
     /// Its sample instant, ns.
     t_ns: u64,
-    /// The sequence number of its Sensor frame.
     seq: u16,
     /// Its sample count (1 for the first sample).
     k: u64,
@@ -188,8 +169,7 @@ struct Awaiting {
 }
 
 impl<'a> DeviceController<'a> {
-    /// A controller with period `period_ns` talking through `tr`; `k_m` (V s/rad) gives
-    /// the back-EMF voltage held before the first actuation frame arrives.
+    /// A controller with period `period_ns` through `tr`; `k_m` (V s/rad): back-EMF gain.
     pub fn new(
         tr: &'a mut dyn Transport,
         period_ns: u64,
@@ -228,8 +208,7 @@ impl<'a> DeviceController<'a> {
         }
     }
 
-    /// Keeps two exchanges in flight when the transport allows it (module docs); only
-    /// with an actuator delay of one period, as [`close_loop`] runs it.
+    /// Two exchanges in flight when the transport allows it (actuator delay one period only).
     #[must_use]
     pub fn pipelined(mut self) -> Self {
         self.deferred = self.tr.pipelined();
@@ -277,8 +256,7 @@ impl<'a> DeviceController<'a> {
         }
     }
 
-    /// Receives until `deadline_ns` ([`Transport::recv_frames`] with the host's decoder),
-    /// then takes each frame closed, in order.
+    /// Receives until `deadline_ns`, then takes each frame, in order.
     fn receive(&mut self, deadline_ns: u64) {
         if self.rec.error.is_some() {
             return;
@@ -338,8 +316,7 @@ impl<'a> DeviceController<'a> {
                     t_psi: si.t_psi,
                     u_a: si.u_a,
                 };
-                // An answer that used no sample (the Config frame's) before the first
-                // sample's actuation is due: the start-up output stands.
+                // An answer to no sample (the Config's): the start-up output stands.
                 if echo.is_some() || self.answering >= self.delay_ticks {
                     self.early.push_back((echo, si, a));
                 }
@@ -358,8 +335,7 @@ impl<'a> DeviceController<'a> {
         }
     }
 
-    /// Watches the device's tick counter for a reset ([`Self::device_resets`]); after one
-    /// the Config goes out again with the next Sensor frame.
+    /// Watches the tick counter for a reset ([`Self::device_resets`]).
     fn note_tick(&mut self, at_ns: u64, a: &wheelset_proto::Actuation) {
         let latched = a.flags.has(Flags::FAULT_LATCHED);
         // Tick 0 is the safe frame of a handler (no tick ran), not a new boot's.
@@ -378,8 +354,7 @@ impl<'a> DeviceController<'a> {
         }
     }
 
-    /// Ends the run at `t_ns` (the end of the last period): a `RequestStatus`, then
-    /// [`STATUS_WAIT_PERIODS`] of receiving, up to [`STATUS_TRIES`] times.
+    /// Ends the run at `t_ns`: fetches the Status, up to [`STATUS_TRIES`] requests.
     pub fn finish(&mut self, t_ns: u64) {
         let mut t = t_ns;
         for _ in 0..STATUS_TRIES {
@@ -441,8 +416,7 @@ impl SampledController for DeviceController<'_> {
                 echo_at_ns: None,
             });
         }
-        // After the Sensor frame, so this period's sample is on time: the device applies
-        // the command at its next tick.
+        // After the Sensor frame, so this period's sample is on time.
         if self
             .clear_faults_at_ns
             .is_some_and(|t| t_ns >= t && self.rec.clear_faults_sent_ns.is_none())
@@ -493,14 +467,12 @@ impl SampledController for DeviceController<'_> {
 }
 
 impl DeviceController<'_> {
-    /// The actuation in force from `step.t_ns + T`: receives until then, logs the
-    /// period and returns the latest actuation.
+    /// Receives until `step.t_ns + T`, logs the period; the actuation in force from then.
     fn answer(&mut self, step: Awaiting) -> SiActuation {
         self.fresh = false;
         self.answering = step.k;
         self.receive(step.t_ns + self.period_ns);
-        // Sample `e` (0-based) acts from t_e + d T: from this step's t_k + T (k counted
-        // from 1) when e + d <= k; an answer that used no sample, at once (in order).
+        // Sample `e` (0-based) acts from t_e + d T, i.e. when e + d <= k (k from 1).
         while let Some(&(e, si, a)) = self.early.front() {
             if e.is_some_and(|e| e + self.delay_ticks > step.k) {
                 break;
@@ -577,8 +549,7 @@ pub struct ClosedLoop {
     pub rec: LoopRecords,
 }
 
-/// Runs `sc` with the device behind `tr` as the plant's sampled controller (actuator
-/// delay one period, ideal sensor), then fetches the device's counters.
+/// Runs `sc` with the device behind `tr` as its controller, then fetches its counters.
 pub fn close_loop(
     sc: &Scenario,
     tr: &mut dyn Transport,

@@ -1,24 +1,7 @@
-//! The in-process device: the firmware's own [`Runtime`] behind the simulated serial link
-//! of [`crate::sim_link`], on simulated time, as a [`Transport`]; deterministic for a
-//! seed. Every closed loop with an in-process device goes through it.
-//!
-//! The device ticks on its own timer (the one tick-phase formula): tick `j` at
-//!
-//! ```text
-//! t_j = j T + phase,   phase = wire time of the worst-case Sensor frame + link latency
-//! ```
-//!
-//! so the frame sent at `k T` has arrived when tick `k` runs and its answer is back
-//! before `(k + d) T` (the link budget, [`crate::sim_link::check_budget`]). Tick `j` takes
-//! the bytes arrived by `t_j`, runs [`Runtime::tick`] and hands its frames to the down
-//! link at `t_j + exec`, `exec` a simulated execution time (0 unless
-//! [`DeviceFault::TooSlow`]), which the Actuation frame reports: the verdicts stay
-//! deterministic. The host's wall-clock time per tick is reported, never judged
-//! ([`Transport::extra`]: `host_tick_ns`).
-//!
-//! Each end of the link has an [`RxPort`] that attributes every frame sent to its fate
-//! ([`Transport::link_accounting`]) from the receiver's own decoder. [`DeviceFault`]s are
-//! deliberately broken devices, to show the harness's checks fail.
+//! The in-process device: the firmware's [`Runtime`] behind the simulated link of
+//! [`crate::sim_link`] as a [`Transport`], deterministic for a seed. Tick `j` runs at
+//! `t_j = j T + phase`, `phase` = worst-case Sensor frame wire time + link latency, so the
+//! frame sent at `k T` has arrived by tick `k`; each end's [`RxPort`] accounts every frame.
 
 use std::time::Instant;
 
@@ -38,14 +21,12 @@ pub enum DeviceFault {
     None,
     /// The yaw torque's sign is reversed (a wrong sign convention in the firmware).
     WrongSign,
-    /// Every tick takes `exec_ns` of simulated time before its frame leaves (and reports
-    /// it as its execution time).
+    /// Every tick takes `exec_ns` of simulated time before its frame leaves.
     TooSlow {
         /// Simulated execution time per tick, ns.
         exec_ns: u64,
     },
-    /// Each tick takes a pseudo-random simulated execution time, uniform in
-    /// `[0, max_ns]` (a deterministic sequence): its output instants jitter.
+    /// Each tick takes a seeded uniform execution time in `[0, max_ns]`.
     Jitter {
         /// Largest execution time, ns.
         max_ns: u64,
@@ -55,10 +36,8 @@ pub enum DeviceFault {
         /// Period of the corruption, frames (>= 1).
         every: u32,
     },
-    /// Not the in-process device's: the harness sends `Command::InjectStall` at `at_ns`
-    /// to a firmware built with `fault-inject` (`hil run --target qemu-free
-    /// --device-fault stall:T`), whose watchdog resets it. The in-process device has no
-    /// watchdog: `hil run` refuses it there, and it would tick on unharmed.
+    /// `Command::InjectStall` at `at_ns` to a `fault-inject` firmware, whose watchdog
+    /// resets it; not for the in-process device, which has no watchdog.
     Stall {
         /// When the command goes out, ns of the run.
         at_ns: u64,
@@ -66,8 +45,7 @@ pub enum DeviceFault {
 }
 
 impl std::fmt::Display for DeviceFault {
-    /// The `--device-fault` form that parses back to it: `none`, `wrong-sign`,
-    /// `slow:300`, `jitter:40`, `corrupt:10`, `stall:6.5` (times in us, the stall's in s).
+    /// The `--device-fault` form that parses back to it (times in us, the stall's in s).
     ///
     /// ```
     /// use wheelset_loop::inproc::DeviceFault;
@@ -136,8 +114,7 @@ impl std::str::FromStr for DeviceFault {
     }
 }
 
-/// The in-process device behind the simulated link (`T`: the runtime's sample type,
-/// fixed point by default as in the production build).
+/// The in-process device behind the simulated link (`T`: the runtime's sample type).
 pub struct InProc<T: SampleBits = Fx> {
     link: Link,
     latency_ns: u64,
@@ -153,8 +130,7 @@ pub struct InProc<T: SampleBits = Fx> {
     next_tick: u64,
     last_exec: u32,
     frames_out: u64,
-    /// The execution times of [`DeviceFault::Jitter`] (a fixed seed: a deterministic
-    /// sequence).
+    /// The execution times of [`DeviceFault::Jitter`] (a fixed seed).
     jitter: rand_pcg::Pcg64,
     /// A tick's output as a broken device changes it.
     scratch: Vec<u8>,
@@ -166,9 +142,7 @@ pub struct InProc<T: SampleBits = Fx> {
 }
 
 impl<T: SampleBits> InProc<T> {
-    /// The runtime with `rt_cfg` behind a link with `link_cfg`. Refused: a base rate
-    /// whose period is not a whole number of nanoseconds, a link that cannot carry one
-    /// exchange per period, a configuration the runtime refuses.
+    /// The runtime with `rt_cfg` behind a link with `link_cfg`, or why it is refused.
     pub fn try_new(
         rt_cfg: RuntimeConfig,
         link_cfg: &LinkConfig,
@@ -210,8 +184,7 @@ impl<T: SampleBits> InProc<T> {
         })
     }
 
-    /// Reserves room for the per-tick records of `ticks` ticks (a long run otherwise
-    /// grows them by doubling).
+    /// Reserves room for the per-tick records of `ticks` ticks.
     pub fn reserve(&mut self, ticks: usize) {
         self.arrival_ns.reserve(ticks);
         if self.timed {
@@ -219,20 +192,14 @@ impl<T: SampleBits> InProc<T> {
         }
     }
 
-    /// Whether the host's own wall time per [`Runtime::tick`] call is measured (on by
-    /// default; two clock reads per tick) for [`Transport::extra`]'s `host_tick_ns`. A
-    /// run that reports no `extra` (`sim-host run --loop device`) turns it off; nothing
-    /// the device does depends on it.
+    /// Whether the host's wall time per [`Runtime::tick`] is measured for
+    /// [`Transport::extra`] (default on; nothing the device does depends on it).
     pub fn time_ticks(&mut self, on: bool) {
         self.timed = on;
     }
 
-    /// Brings the device to `cfg` before the run, the way a board is configured before
-    /// it is started: the Config frame's bytes through the runtime's own receive path
-    /// (decoded, validated, applied or refused exactly as over the link), then a
-    /// `ResetCounters` so the run's counters (and the link's frame accounting) start from
-    /// zero. Out of band: no byte of it is on the simulated link, so the first period's
-    /// timing is the run's own. Refused: the reason the runtime gave.
+    /// Brings the device to `cfg` out of band (through the runtime's receive path, then a
+    /// `ResetCounters`), so the first period's timing is the run's own; or the refusal.
     pub fn configure(
         &mut self,
         cfg: &wheelset_proto::Config,
@@ -316,9 +283,7 @@ impl<T: SampleBits> InProc<T> {
         };
         self.last_exec = u32::try_from(exec_ns).unwrap_or(u32::MAX);
         self.frames_out += 1;
-        // Each frame (Actuation, then a Status if requested) is its own frame on the link,
-        // stamped with the arrival of its last byte. (One frame, the usual tick: found by
-        // a word-wise zero scan rather than a split test per byte.)
+        // Each frame is its own on the link, stamped with the arrival of its last byte.
         let (down, arrival, latency) = (&mut self.link.down, &mut self.arrival_ns, self.latency_ns);
         let mut send = |frame: &[u8]| {
             let id = down.send(t_ns + exec_ns, frame) as usize;
@@ -336,9 +301,7 @@ impl<T: SampleBits> InProc<T> {
     }
 }
 
-/// The runtime's rejection counters, in the order of [`outcome`]'s kinds: CRC, COBS,
-/// version, length, postcard (read before and after each receive call, rather than a
-/// copy of the whole `Status`).
+/// The runtime's rejection counters in [`outcome`]'s order (CRC, COBS, version, ...).
 #[inline(always)]
 fn rejections(s: &wheelset_proto::Status) -> [u32; 5] {
     [
@@ -350,15 +313,8 @@ fn rejections(s: &wheelset_proto::Status) -> [u32; 5] {
     ]
 }
 
-/// The outcome of the frame that one [`Runtime::receive`] call on `piece` (bytes up to
-/// and including a 0x00, or a run's tail) closed, read from the runtime's own counters:
-/// the up link's frame accounting attributes what the device's decoder decided, with no
-/// second decoder over the same bytes.
-///
-/// `open` tracks whether the runtime's decoder holds bytes of an unfinished frame (a
-/// non-zero byte since the last 0x00: its decoder skips empty frames and decodes every
-/// other one). A closed non-empty frame is either rejected, and exactly one of the
-/// rejection counters went up by one, or valid (a `ResetCounters` then zeroed them all).
+/// The outcome of the frame one [`Runtime::receive`] on `piece` closed, from the runtime's
+/// counters; `open`: its decoder holds an unfinished frame.
 fn outcome(
     piece: &[u8],
     open: &mut bool,
@@ -394,8 +350,7 @@ fn negate_torque(out: &[u8], res: &mut Vec<u8>) {
     }
 }
 
-/// Summary of the host's wall time per tick, ns: `{n, min, mean, p99, max}`
-/// (informative only).
+/// Summary of the host's wall time per tick, ns: `{n, min, mean, p99, max}`.
 fn host_tick_summary(v: &[f64]) -> serde_json::Value {
     if v.is_empty() {
         return serde_json::json!({ "n": 0, "min": 0.0, "mean": 0.0, "p99": 0.0, "max": 0.0 });
@@ -465,8 +420,7 @@ impl<T: SampleBits> Transport for InProc<T> {
         Ok(())
     }
 
-    /// The host's decoder decides each frame; the down link's port attributes its
-    /// result ([`RxPort::push_with`]), as the up link's port attributes the runtime's.
+    /// The host's decoder decides each frame; the down link's port attributes it.
     fn recv_frames(
         &mut self,
         deadline_ns: u64,
@@ -478,8 +432,7 @@ impl<T: SampleBits> Transport for InProc<T> {
         self.link.down.deliver(deadline_ns, |run, id| {
             let at = arrival.get(id as usize).copied().unwrap_or(deadline_ns);
             port.push_with(run, id, |piece| {
-                // A piece holds at most one delimiter, at its end: the decoder takes it
-                // whole.
+                // A piece holds at most one delimiter, at its end.
                 let (r, _) = dec.next_message(piece);
                 let outcome = r.as_ref().map(|r| r.as_ref().map(|_| ()).map_err(|e| *e));
                 sink(at, piece.len(), r);

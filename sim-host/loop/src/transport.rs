@@ -1,21 +1,11 @@
-//! One transport for every target: bytes out, bytes in with a deadline; every closed loop
-//! drives a device through [`Transport`] only ([`crate::exchange`]). Time is integer ns on
-//! the transport's [`Clock`]:
-//!
-//! - [`Clock::Simulated`]: the in-process device ([`crate::inproc`]); `recv` delivers the
-//!   bytes arrived by `deadline_ns`, stamped with their simulated arrival. Deterministic.
-//! - [`Clock::LockStep`]: the host's frame is the device's clock (QEMU, a frame-clocked
-//!   serial device); `recv` waits in wall time for the replies owed, stamped with the
-//!   deadline (the harness models the wire time).
-//! - [`Clock::RealTime`]: a board with its own timer; `send` waits for the wall clock to
-//!   reach `t_ns`, `recv` stamps the wall time of arrival.
+//! One transport for every target: bytes out, bytes in with a deadline ([`Transport`]), in
+//! integer ns on its [`Clock`] (lock-step `recv` stamps with the deadline).
 
 use std::fmt;
 
 use wheelset_proto::{Decoder, FrameError, Message};
 
-/// What [`Transport::recv_frames`] hands over for each piece it decoded: its arrival
-/// (ns), the bytes it took, and the result of the frame it closed (None: none closed).
+/// Per decoded piece of [`Transport::recv_frames`]: arrival ns, bytes, closed frame's result.
 pub type FrameSink<'s> = dyn FnMut(u64, usize, Option<Result<Message, FrameError>>) + 's;
 
 /// The time base a transport runs on (see the module docs).
@@ -44,8 +34,7 @@ impl std::fmt::Display for Clock {
 /// What a transport can fail with (all carry a human-readable reason).
 #[derive(Debug)]
 pub enum TransportError {
-    /// The target cannot be started or opened (missing QEMU, missing ELF, no such port);
-    /// the message says how to get it.
+    /// The target cannot be started or opened; the message says how to get it.
     Unavailable(String),
     /// An I/O error while the loop ran.
     Io(String),
@@ -65,8 +54,7 @@ impl fmt::Display for TransportError {
 
 impl std::error::Error for TransportError {}
 
-/// Frame accounting of one direction as the link itself saw it (only the simulated link
-/// knows this exactly; other transports derive it from the device's counters).
+/// Frame accounting of one direction as the link itself saw it.
 pub use crate::sim_link::Accounting;
 
 /// Exact per-direction accounting a transport may provide at the end of a run.
@@ -86,22 +74,18 @@ pub trait Transport {
     fn clock(&self) -> Clock;
     /// The line rate in bits per second (10 bits per byte), for the link utilisation.
     fn baud(&self) -> u32;
-    /// How the device's `exec` field converts to nanoseconds, and its unit's name
-    /// (`("ns", 1.0)` in process, `("instructions", 2^shift)` under QEMU, `("cycles",
-    /// 1e9 / f_cpu)` on a board).
+    /// The device's `exec` unit and its ns per unit (`("cycles", 1e9 / f_cpu)` on a board).
     fn exec_unit(&self) -> (&'static str, f64);
     /// Hands `bytes` (whole frames, delimiters included) to the link at `t_ns`.
     fn send(&mut self, t_ns: u64, bytes: &[u8]) -> Result<(), TransportError>;
-    /// Passes every chunk of bytes that arrived by `deadline_ns` to `sink(arrival_ns,
-    /// bytes)`, in order.
+    /// Passes every chunk arrived by `deadline_ns` to `sink(arrival_ns, bytes)`, in order.
     fn recv(
         &mut self,
         deadline_ns: u64,
         sink: &mut dyn FnMut(u64, &[u8]),
     ) -> Result<(), TransportError>;
-    /// [`Self::recv`] decoded with the host's decoder `dec` (its state carried over):
-    /// each piece ([`Decoder::pieces`]) goes to `sink(arrival_ns, bytes, frame)`, in
-    /// order. The in-process link overrides it to attribute the decoder's own results.
+    /// [`Self::recv`] decoded with `dec`, each piece ([`Decoder::pieces`]) to
+    /// `sink(arrival_ns, bytes, frame)`, in order.
     fn recv_frames(
         &mut self,
         deadline_ns: u64,
@@ -114,9 +98,7 @@ pub trait Transport {
             }
         })
     }
-    /// Whether a lock-step transport keeps two exchanges in flight: [`Self::recv`] waits
-    /// only for the answers to the frames sent before its deadline, keeping later ones
-    /// ([`crate::exchange`]). Default: `false`.
+    /// Whether a lock-step transport keeps two exchanges in flight (default `false`).
     fn pipelined(&self) -> bool {
         false
     }

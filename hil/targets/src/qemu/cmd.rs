@@ -1,14 +1,7 @@
-//! The QEMU command line, defined once: the emulated board, the CPU, the `-icount`
-//! shift and the semihosting set-up of every QEMU run of the firmware. The harness's
-//! launcher (`wheelset_targets::qemu`) starts the lock-step device with it; `cargo xtask
-//! fw-bench` runs the benchmark firmware with it and `cargo xtask qemu-cmd` prints it
-//! (what `scripts/tick-profile.py --record` runs), both through this crate.
-//!
-//! `-icount shift=N,sleep=off`: virtual time is `2^N` ns per executed instruction and
-//! never advances while the guest sleeps. With `N` = `ICOUNT_SHIFT` = 10, 1024 ns per
-//! instruction, the mps2-an386's 25 MHz SysTick counts 25.6 per instruction, so the
-//! firmware converts its SysTick counts to exact instruction counts (its
-//! `settings::QEMU_ICOUNT_SHIFT` must equal this).
+//! The QEMU command line, defined once for the harness, `cargo xtask fw-bench` and
+//! `cargo xtask qemu-cmd`. `-icount shift=N,sleep=off`: `2^N` ns of virtual time per
+//! instruction, none while the guest sleeps; the firmware converts its SysTick counts to
+//! instructions, so its `settings::QEMU_ICOUNT_SHIFT` must equal [`ICOUNT_SHIFT`].
 
 /// The QEMU executable.
 pub const QEMU_BIN: &str = "qemu-system-arm";
@@ -16,8 +9,7 @@ pub const QEMU_BIN: &str = "qemu-system-arm";
 /// `-icount shift` of every run: `2^10` ns of virtual time per instruction.
 pub const ICOUNT_SHIFT: u32 = 10;
 
-/// The default emulated board (an MPS2 with a Cortex-M4F image, the AN386; the boards
-/// the harness knows are `crate::qemu::machine::Machine`'s).
+/// The default emulated board (an MPS2 with a Cortex-M4F image, the AN386).
 pub const MACHINE: &str = "mps2-an386";
 
 /// The default emulated CPU (of [`MACHINE`]).
@@ -40,9 +32,8 @@ pub enum SerialTo {
     Bulk(String),
 }
 
-/// The arguments (after [`QEMU_BIN`]) that run the firmware `elf` on the board
-/// `machine` with CPU `cpu` (e.g. [`MACHINE`], [`CPU`]) and its UART0 to `serial`: no
-/// display, no monitor, the [`ICOUNT_SHIFT`] clock, semihosting to the host's stdout.
+/// The arguments (after [`QEMU_BIN`]) running `elf` on `machine` with CPU `cpu`, UART0 to
+/// `serial`, the [`ICOUNT_SHIFT`] clock and semihosting to the host's stdout.
 #[must_use]
 pub fn qemu_args(machine: &str, cpu: &str, elf: &str, serial: SerialTo) -> Vec<String> {
     let (serial, semihosting) = match serial {
@@ -78,9 +69,7 @@ pub fn qemu_args(machine: &str, cpu: &str, elf: &str, serial: SerialTo) -> Vec<S
     .collect()
 }
 
-/// `args` ([`qemu_args`]) without `-icount`: QEMU's virtual clock then follows the
-/// host's (the free-running firmware, `wheelset-qemu-free.elf`, ticks on its own timer
-/// in real time; instruction counts are not exact any more).
+/// `args` ([`qemu_args`]) without `-icount`: the virtual clock follows the host's.
 #[must_use]
 pub fn without_icount(args: Vec<String>) -> Vec<String> {
     let mut out = Vec::with_capacity(args.len());

@@ -1,12 +1,6 @@
-//! The QEMU target: the `wheelset-qemu` firmware on `qemu-system-arm -machine
-//! mps2-an386`, started and stopped by [`crate::qemu`], lock-step (each frame delimiter
-//! the host sends is one device tick).
-//!
-//! The `exec` field is in instructions (deterministic run to run), scaled for the timing
-//! checks at `--cpu-hz`, one instruction per cycle (an estimate; the emulated machine is
-//! nominally [`MPS2_CPU_HZ`]). Over the bulk channel two exchanges are in flight
-//! ([`Transport::pipelined`]: the firmware takes each frame whole and ticks before it reads
-//! on); `WHEELSET_QEMU_IN_FLIGHT=1` keeps one, with the same frames and records.
+//! The QEMU target, lock-step (each frame delimiter is one device tick). `exec` is in
+//! instructions, scaled at `--cpu-hz` one per cycle (nominally [`MPS2_CPU_HZ`]). Over the
+//! bulk channel two exchanges are in flight ([`Transport::pipelined`]).
 
 use std::time::Duration;
 

@@ -1,14 +1,5 @@
-//! The latency of a USB-serial bridge, modelled in `hil serve` (`--latency-us L
-//! --jitter-us J --seed S`): a real board sits behind one (the ST-LINK V2-1/V3 virtual
-//! COM port, an FTDI or CP210x adapter), and its bytes cross USB, which moves them in
-//! frames polled by the host (full speed: every 1 ms). Each byte run the stand-in sends,
-//! and each it receives, is held for `L + u` before it goes on, `u` drawn uniformly from
-//! `0 ..= J` ns-exact from a generator seeded by `S` (one stream per direction), and a run
-//! never overtakes the one before it (the bridge is a FIFO): the same seed draws the same
-//! delays, run for run. With a line rate (`--baud B`: the UART between the board and the
-//! bridge, which a pseudo-terminal does not have) each run also takes its wire time, 10
-//! bits a byte, after the run ahead of it. A bridge holds at most [`BRIDGE_BYTES`] in each
-//! direction; a run that does not fit is dropped whole (counted).
+//! A USB-serial bridge's latency, modelled in `hil serve`: each byte run is held, in FIFO
+//! order, for `L + u` (`u` seeded uniform in `0 ..= J` ns) plus its wire time.
 
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
@@ -63,8 +54,7 @@ impl BridgeModel {
         }
     }
 
-    /// The model from the command line's microseconds, or why not (each finite, in
-    /// `[0, MAX_US]`).
+    /// The model from the command line's microseconds (each finite, in `[0, MAX_US]`).
     pub fn from_us(latency_us: f64, jitter_us: f64, seed: u64) -> Result<Self, String> {
         let ns = |flag: &str, us: f64| {
             if us.is_finite() && (0.0..=MAX_US).contains(&us) {
@@ -101,9 +91,7 @@ pub struct LineReport {
     pub delay_min_ns: u64,
     /// See `delay_min_ns`.
     pub delay_max_ns: u64,
-    /// The largest lateness of a release behind its due time, ns: the stand-in's loop
-    /// (host to stand-in, the runtime takes a run at its first tick after the release:
-    /// up to a period more).
+    /// The largest lateness of a release behind its due time, ns.
     pub release_late_max_ns: u64,
 }
 
@@ -143,9 +131,8 @@ impl DelayLine {
         self.model.latency_ns + u
     }
 
-    /// Holds `bytes`, arrived at `now`, until `now` plus a drawn delay (never before the
-    /// run ahead of it), plus their wire time. False, and the run dropped, when the bridge
-    /// is full.
+    /// Holds `bytes`, arrived at `now`, for a drawn delay and their wire time, behind the
+    /// run ahead; false (dropped) when full.
     pub fn push(&mut self, now: Instant, bytes: &[u8]) -> bool {
         if bytes.is_empty() {
             return true;
@@ -196,8 +183,7 @@ impl DelayLine {
     }
 }
 
-/// SplitMix64 (Steele, Lea and Flood, 2014): a tiny seeded generator, the same stream
-/// for the same seed on every platform.
+/// SplitMix64: the same stream for the same seed on every platform.
 #[derive(Debug, Clone)]
 struct SplitMix64(u64);
 

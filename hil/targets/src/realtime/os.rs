@@ -1,14 +1,7 @@
-//! What the operating system grants a real-time loop (Linux): `SCHED_FIFO` priority,
-//! locked memory (`mlockall`), a pinned core (`sched_setaffinity`) and a 1 ns timer
-//! slack (`prctl(PR_SET_TIMERSLACK)`: a normal thread's timed waits otherwise end up to
-//! 50 us late, a quarter of the 5 kHz period and more than the loops' 40 us spin window
-//! before a deadline; a `SCHED_FIFO` thread has no slack anyway). Each is asked for
-//! and what was obtained is reported ([`Obtained`], in the run's JSON): without the
-//! privilege (not root, no `CAP_SYS_NICE` / `RLIMIT_MEMLOCK`) the loop still runs, with
-//! the reason recorded. Elsewhere than Linux nothing is obtained.
-//!
-//! The only `unsafe` of the harness: four libc calls on the calling thread, each with
-//! its arguments built here.
+//! What Linux grants a real-time loop: `SCHED_FIFO`, `mlockall`, a pinned core and a 1 ns
+//! timer slack (the default 50 us would exceed the spin window). What was obtained is
+//! reported ([`Obtained`]); without privilege the loop still runs. The harness's only
+//! `unsafe`: four libc calls.
 #![allow(unsafe_code)]
 
 use serde::{Deserialize, Serialize};
@@ -66,8 +59,7 @@ pub struct Obtained {
 }
 
 impl std::fmt::Display for Obtained {
-    /// `SCHED_FIFO 80, memory locked, pinned to CPU 1, timer slack 1 ns` (what was
-    /// obtained, `nothing` if none), then `; refused: ...`.
+    /// `SCHED_FIFO 80, memory locked, pinned to CPU 1, timer slack 1 ns; refused: ...`.
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let mut got = Vec::new();
         if let Some(p) = self.sched_fifo {
@@ -198,8 +190,7 @@ pub fn obtain(want: Want) -> Obtained {
     got
 }
 
-/// Back to the normal scheduler (`SCHED_OTHER`) and pageable memory on the calling
-/// thread, after the loop; the pinning stays.
+/// Back to `SCHED_OTHER` and pageable memory on the calling thread; the pinning stays.
 pub fn release() {
     #[cfg(target_os = "linux")]
     {

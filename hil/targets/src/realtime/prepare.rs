@@ -1,6 +1,4 @@
-//! [`RealTime::prepare`]: the start of a run against a free-running device (listen,
-//! configure, take the baseline, measure the tick phase and period; the module docs of
-//! [`super`]).
+//! [`RealTime::prepare`]: the start of a run against a free-running device.
 
 use std::time::{Duration, Instant};
 
@@ -29,8 +27,7 @@ impl RealTime {
         )))
     }
 
-    /// The start-up sequence (see the module docs): configures the device with `cfg`,
-    /// takes the baseline counters and locks the schedule to the device's tick phase.
+    /// Configures the device with `cfg`, takes the baseline and locks to its tick phase.
     pub fn prepare(&mut self, cfg: &Config) -> Result<(), TransportError> {
         let t = self.o.period_ns;
         // 1. Is anybody there, ticking on its own?
@@ -74,8 +71,7 @@ impl RealTime {
                 why.map_or_else(|| format!("code {}", s.refuse_reason), |w| w.to_string())
             )));
         }
-        // Let a re-armed ticker settle; on a serial port, is the link's round trip
-        // within the run's delay? Then 3. the baseline.
+        // A re-armed ticker settles; the round trip is probed; 3. the baseline.
         let settle = Instant::now() + Duration::from_nanos(3 * t);
         self.wait_until(settle)?;
         if matches!(self.port, Port::Tty(_)) {
@@ -109,9 +105,7 @@ impl RealTime {
             .iter()
             .map(|&(at, n, _, _)| at as f64 - wire_ns(n, self.o.baud) as f64)
             .collect();
-        // The period: the slope of the lower envelope of the output instants against the
-        // device's tick counter (robust to a skipped tick, and to frames read in bursts,
-        // which all carry the stamp of the read: only the earliest of each half counts).
+        // The period: the lower envelope's slope (robust to skipped ticks and bursts).
         let measured = envelope_period(&seen.iter().map(|s| s.2).collect::<Vec<_>>(), &outs, tf);
         self.sync.device_period_ns = measured;
         if (measured - tf).abs() > 0.1 * tf {
@@ -134,8 +128,7 @@ impl RealTime {
             .collect();
         execs.sort_by(f64::total_cmp);
         let exec_ns = execs.get(execs.len() / 2).copied().unwrap_or(0.0);
-        // The next device tick at least two periods from now, and the first send half
-        // a period before it.
+        // The first send half a period before a device tick at least two periods away.
         let now = self.at_ns(Instant::now()) as f64;
         let mut tick_at = phase - exec_ns;
         let k = ((now + 2.0 * tf - tick_at) / tf).ceil().max(0.0);
@@ -146,24 +139,16 @@ impl RealTime {
         // The device's output phase on the run's clock (origin = `first`).
         self.phase_ref_ns = wrap(phase - first as f64, tf);
         self.origin += Duration::from_nanos(first);
-        // Everything read so far was re-stamped against the old origin: it is pre-run
-        // and nothing of it is pending.
+        // Everything read so far is pre-run (stamped against the old origin).
         self.pending.clear();
         Ok(())
     }
 }
 
 impl RealTime {
-    /// Probes the link's round trip with [`ROUND_TRIP_PROBES`] status requests, spread
-    /// over the device's period, and refuses a run whose `delay` it does not fit: a
-    /// Sensor frame is written `lead` before the device's tick *as the host sees it*
-    /// (its answers' arrival, one-way latency later than the tick), so it reaches the
-    /// tick only if both ways' latency and its own wire time fit within the lead,
-    /// and otherwise a later tick answers it, a period per tick; the answer is in time
-    /// for a delay of `d` ticks while that time is within `lead + (d - 1) T`. Measured
-    /// (the least of the probes, less the device's execution, the answer's frames and
-    /// the request on the wire, plus the Sensor frame; less the probes' spacing `T/32`
-    /// for the tick the request waited for), it is reported in the `sync` section.
+    /// Probes the round trip with [`ROUND_TRIP_PROBES`] status requests and refuses a run
+    /// whose `delay` it does not fit: both ways' latency plus the Sensor frame's wire time
+    /// must be within `lead + (d - 1) T` for a delay of `d` ticks (reported in `sync`).
     fn check_round_trip(&mut self, delay: u8) -> Result<(), TransportError> {
         let t = self.o.period_ns;
         let req = encode_vec(&Message::Command(Command::RequestStatus))
@@ -171,8 +156,7 @@ impl RealTime {
         let step = t / ROUND_TRIP_PROBES;
         let mut best: Option<(f64, usize)> = None;
         for i in 0..ROUND_TRIP_PROBES {
-            // Each request i/32 of a period (and whole periods) after the device's last
-            // Status arrived: a later phase of its tick than the request before.
+            // Request i at i/32 of a period after the last Status: a later tick phase each.
             let now = Instant::now();
             let mut at = self.last_status_at.map_or(now, |(at, _)| self.wall(at))
                 + Duration::from_nanos(i * step);
@@ -258,14 +242,9 @@ fn cfg_rate(t: u64) -> u32 {
     u32::try_from(1_000_000_000 / t.max(1)).unwrap_or(u32::MAX)
 }
 
-/// The device's period, ns, from its output instants `outs` (ns) and tick counters
-/// `ticks` (16-bit, wrapping): the nominal period `t` corrected by the slope of the lower
-/// envelope of the residuals `r_i = o_i - j_i t` (`j_i` ticks since the first frame)
-/// between the first and the second half of the frames,
-/// `T = t + (r_b - r_a) / (j_b - j_a)`, `a` and `b` the frames of least residual in each
-/// half. A frame delayed on its way through the host (frames read in a burst all carry
-/// the stamp of the read) only raises its residual, so the earliest frames set the
-/// estimate. 0 if fewer than 4 frames or the two frames are the same tick.
+/// The device's period, ns, from output instants `outs` and 16-bit `ticks`:
+/// `T = t + (r_b - r_a) / (j_b - j_a)`, residuals `r_i = o_i - j_i t`, `a` and `b` the least
+/// residual of each half (delays only raise residuals). 0 if under 4 frames or one tick.
 #[must_use]
 pub fn envelope_period(ticks: &[u16], outs: &[f64], t: f64) -> f64 {
     let n = ticks.len().min(outs.len());

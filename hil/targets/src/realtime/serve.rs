@@ -1,29 +1,6 @@
-//! `hil serve --pty`: a free-running stand-in for a board. The firmware's runtime
-//! (`wheelset_runtime::Runtime<Fx>`, the production fixed-point build) ticks on its own
-//! clock at its base rate behind a pseudo-terminal, whether or not frames arrive, and
-//! answers every tick, as the board's control task does:
-//!
-//! ```text
-//! every T (deadline on the monotonic clock: sleep to shortly before, then spin)
-//!   drain what the pty holds -> Runtime::receive; Runtime::tick(last exec) -> TX queue
-//! ```
-//!
-//! The board's tick policy (`firmware/app/src/tick.rs`): a wake-up more than a quarter
-//! period late is *late*; one a period or more late *skips* the missed ticks (counted)
-//! and stays on the original phase grid. The TX queue holds 256 bytes, as the
-//! firmware's TX pipe: a frame that does not fit whole is dropped (counted). A Config
-//! frame from the host that changes the base rate re-arms the clock, as on the board.
-//! The execution time (drain + decode + control + encode, host ns) is reported in the
-//! Actuation frame's `exec` field as cycles of a `cpu_hz` core, the unit `hil run
-//! --cpu-hz` reads.
-//!
-//! **Behind a USB bridge** ([`ServeOptions::bridge`], `hil serve --latency-us L
-//! --jitter-us J --seed S`; [`crate::realtime::bridge`]): between ticks the loop reads the
-//! pty as bytes come (each run stamped at its read) and holds every run, in each
-//! direction, for the modelled delay. A run from the host reaches the runtime at the
-//! first tick after its release (as the board's UART buffer is drained by its control
-//! task); a frame the runtime sends goes into the bridge at its tick and out to the pty
-//! at its release, through the TX queue. Without a model the loop is the one above.
+//! `hil serve --pty`: a free-running stand-in for a board, the firmware's runtime ticking
+//! behind a pseudo-terminal with the board's tick policy (`firmware/app/src/tick.rs`),
+//! optionally behind a modelled USB bridge. See docs/board-in-loop.md.
 
 use std::collections::VecDeque;
 use std::io::{self, Read};
@@ -87,8 +64,7 @@ pub struct ServeReport {
     pub tx_dropped: u64,
     /// Base rate at the end, Hz.
     pub rate_hz: u32,
-    /// Ticks of delay the gains in force at the end are designed for (a host Config
-    /// frame's rates set it).
+    /// Ticks of delay the gains in force at the end are designed for.
     pub delay_ticks: u8,
     /// The modelled USB bridge, if any.
     pub bridge: Option<BridgeReport>,
@@ -121,9 +97,7 @@ pub fn runtime_at(rate_hz: u32) -> Result<Runtime<Fx>, String> {
     Runtime::try_new(cfg).map_err(|e| format!("--rate-hz {rate_hz}: {e}"))
 }
 
-/// Runs `rt` free-running on `port` (the pty's master side) until `stop` is set, the
-/// duration is over or the port fails. The operating-system requests are made on the
-/// calling thread.
+/// Runs `rt` free-running on `port` (the pty's master) until `stop`, the end or a failure.
 pub fn serve(
     port: &mut TTYPort,
     mut rt: Runtime<Fx>,
@@ -147,8 +121,7 @@ pub fn serve(
     let mut last_exec = 0u32;
     let ns_to_cycles = o.cpu_hz / 1e9;
     while !stop.load(Ordering::Relaxed) && end.is_none_or(|e| Instant::now() < e) {
-        // Sleep to shortly before the deadline, then spin; behind a bridge, read and
-        // release the bridge's runs meanwhile.
+        // Sleep to shortly before the deadline, then spin (moving the bridge's runs).
         let spin = Duration::from_nanos((period / 5).min(80_000));
         loop {
             let now = Instant::now();
@@ -204,8 +177,6 @@ pub fn serve(
                 }
             }
             Some((up, _)) => {
-                // What came since the last read goes into the bridge; what the bridge
-                // released by now reaches the runtime.
                 while read_into(port, up, Duration::ZERO, &mut buf, &mut rep)? == buf.len() {}
                 while let Some(run) = up.pop_due(woke) {
                     rt.receive(&run);
@@ -253,8 +224,7 @@ pub fn serve(
     Ok(rep)
 }
 
-/// One read of what the pty holds (waiting at most `wait` for it) into the bridge's
-/// `up` line, stamped at the read; returns the bytes read.
+/// One read of the pty (waiting at most `wait`) into the bridge's `up` line; the bytes read.
 fn read_into(
     port: &mut TTYPort,
     up: &mut DelayLine,
@@ -274,8 +244,7 @@ fn read_into(
     }
 }
 
-/// The bridge's `down` runs due by `now` into the TX queue (a run that does not fit is
-/// dropped whole, as a frame), and the queue out to the pty.
+/// The bridge's `down` runs due by `now` into the TX queue, and the queue to the pty.
 fn release(
     port: &mut TTYPort,
     down: &mut DelayLine,
@@ -298,9 +267,8 @@ fn release(
     Ok(())
 }
 
-/// Creates a pseudo-terminal pair and returns (master, slave, slave path). The caller
-/// keeps the slave open so the master never sees the other side closed while no host is
-/// connected.
+/// Creates a pty pair: (master, slave, slave path). Keep the slave open, or the master
+/// sees the other side closed while no host is connected.
 pub fn open_pty() -> io::Result<(TTYPort, TTYPort, String)> {
     let (master, slave) = TTYPort::pair().map_err(io::Error::other)?;
     let path = slave

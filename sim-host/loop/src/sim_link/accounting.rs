@@ -15,9 +15,8 @@ enum Fate {
     Rejected,
 }
 
-/// The receiving end of a channel: attributes every sent frame to its fate, with the
-/// receiver's own decoding ([`Self::push_with`]: the in-process device's runtime, the
-/// host adapter's decoder) or its own decoder ([`Self::push`]).
+/// The receiving end of a channel: attributes every sent frame to its fate, decoded by
+/// the receiver ([`Self::push_with`]) or by its own decoder ([`Self::push`]).
 #[derive(Debug, Clone, Default)]
 pub struct RxPort {
     decoder: Decoder,
@@ -30,8 +29,7 @@ pub struct RxPort {
     pub rejected: u64,
     /// Decoder rejections by kind: CRC, COBS, version, length, postcard.
     pub errors: [u64; 5],
-    /// Rejected frames by the kind of the reject they took part in (sums to
-    /// `rejected`; a burst that destroys a delimiter merges two frames into one reject).
+    /// Rejected frames by the kind of their reject (sums to `rejected`).
     pub rejected_by: [u64; 5],
 }
 
@@ -42,8 +40,7 @@ impl RxPort {
         Self::default()
     }
 
-    /// Takes a run of delivered bytes of frame `id` and decodes it with the port's own
-    /// decoder, calling `on_msg` for every valid message.
+    /// Decodes delivered bytes of frame `id` with its own decoder; `on_msg` per valid message.
     pub fn push(&mut self, run: &[u8], id: FrameId, mut on_msg: impl FnMut(Message)) {
         let (dec, mut book) = self.split();
         book.attribute(run, id, |piece| {
@@ -52,10 +49,8 @@ impl RxPort {
         });
     }
 
-    /// Takes a run of delivered bytes of frame `id` that another decoder (the device's
-    /// runtime) decodes: `decode(piece)` gets the run split after each 0x00 and returns
-    /// the outcome of the frame the piece closed (None: no frame closed, e.g. an empty
-    /// one). The port attributes the outcome to every frame with bytes in it.
+    /// Delivered bytes of frame `id` decoded elsewhere: `decode(piece)` (split after each
+    /// 0x00) returns the closed frame's outcome, attributed to every frame with bytes in it.
     pub fn push_with(
         &mut self,
         run: &[u8],
@@ -101,8 +96,7 @@ impl RxPort {
         in_flight.dedup();
         let open = |id: FrameId| self.fates.get(id as usize).is_none_or(|f| *f == Fate::Open);
         in_flight.retain(|&id| open(id));
-        // Dropped by the link: no byte of the frame reached the decoder (lost whole, in an
-        // outage, byte by byte, or only its delimiter survived), and none is on its way.
+        // Dropped: no byte reached the decoder, and none is on its way.
         let dropped = (0..sent as FrameId)
             .filter(|&id| {
                 !self.reached.get(id as usize).copied().unwrap_or(false)
@@ -227,14 +221,12 @@ pub struct Accounting {
     pub link_dropped_whole: u64,
     /// Decoder rejections (events) by kind: CRC, COBS, version, length, postcard.
     pub errors: [u64; 5],
-    /// Rejected frames by the kind of their reject, same order; sums to `rejected`
-    /// (one reject event can take several frames when a delimiter was destroyed).
+    /// Rejected frames by the kind of their reject, same order; sums to `rejected`.
     pub rejected_by: [u64; 5],
 }
 
 impl Accounting {
-    /// `sent == received + rejected + dropped + in_flight`, and the rejected frames by
-    /// cause sum to `rejected`.
+    /// `sent == received + rejected + dropped + in_flight`, and by cause sum to `rejected`.
     #[must_use]
     pub fn adds_up(&self) -> bool {
         self.sent == self.received + self.rejected + self.dropped + self.in_flight

@@ -18,16 +18,12 @@ pub struct LinkConfig {
     pub seed: u64,
 }
 
-/// Default baud: 5 Mbaud, a round figure just below the Nucleo build's 5.25 Mbaud (USART2
-/// on APB1 at 42 MHz, OVER8 = 1, USARTDIV 1: its highest); it carries the default 5 kHz
-/// round trip of the worst-case frames (43 + 30 bytes, 146 us + 2 x 2 us of latency) within
-/// the 85 % share (170 us; see [`check_budget`]); 4 Mbaud (183 us) does not (both
-/// checked by `tests/sim_link.rs`, the frame sizes by `wheelset-proto`'s `tests/sizes.rs`).
+/// Default baud: 5 Mbaud, just below the Nucleo build's highest (5.25 Mbaud); it carries
+/// the 5 kHz worst-case round trip within [`check_budget`]'s share, 4 Mbaud does not.
 pub const DEFAULT_BAUD: u32 = 5_000_000;
 /// Default one-way latency: 2 us (UART FIFO + DMA hand-off).
 pub const DEFAULT_LATENCY_NS: u64 = 2_000;
-/// Share of the period the round trip may use; the rest is margin for the device's
-/// execution time and jitter ([`wheelset_proto::link::LINK_SHARE_MAX_PERMILLE`]).
+/// Share of the period the round trip may use; the rest is margin for execution and jitter.
 pub const BUDGET_SHARE: f64 = wheelset_proto::link::LINK_SHARE_MAX_PERMILLE as f64 / 1000.0;
 
 impl Default for LinkConfig {
@@ -132,20 +128,15 @@ impl LinkBudgetError {
     }
 }
 
-/// Time on the line for `n` bytes at `baud`, ns (rounded up):
-/// [`wheelset_proto::link::wire_ns`].
+/// Time on the line for `n` bytes at `baud`, ns (rounded up; [`wheelset_proto::link::wire_ns`]).
 #[must_use]
 pub fn wire_ns(n: usize, baud: u32) -> u64 {
     wheelset_proto::link::wire_ns(n as u64, baud)
 }
 
-/// The link budget of an exchange with `delay_ticks` ticks of delay: the sensor frame
-/// goes up, the device ticks, the actuation frame comes down, within the delay:
-/// `(up + down) bytes x 10 / baud + 2 latency <= BUDGET_SHARE x delay_ticks x period`, and
-/// each direction's frame within `BUDGET_SHARE` of a period (one tick: the lock-step
-/// exchange), evaluated by the one link budget,
-/// [`wheelset_proto::link::link_fits_delayed`] (at the rate `1e9 / period_ns`). Returns
-/// the round-trip time, or an error naming the numbers.
+/// The link budget with `delay_ticks` ticks of delay ([`wheelset_proto::link::link_fits_delayed`]):
+/// `(up + down) bytes x 10 / baud + 2 latency <= BUDGET_SHARE x delay_ticks x period`, each
+/// frame within `BUDGET_SHARE` of a period. The round-trip time, or an error naming the numbers.
 pub fn check_budget(
     up_bytes: usize,
     down_bytes: usize,

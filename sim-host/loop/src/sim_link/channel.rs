@@ -1,6 +1,4 @@
-//! The channel: one direction of the line, bytes timed by the baud rate and the latency,
-//! faults injected from the seeded generator ([`Channel`]), and the two directions
-//! together ([`Link`]).
+//! One direction of the line with seeded faults ([`Channel`]), and both ([`Link`]).
 
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -33,9 +31,8 @@ pub struct ChannelCounters {
     pub burst_bytes: u64,
 }
 
-/// The surviving bytes of one frame on their way, with their arrival times: listed in
-/// `at_ns` when faults may drop bytes; otherwise (`at_ns` empty) byte `k` arrives at
-/// `first_ns + byte_ns[k + 1]` (the channel's table), with nothing stored per byte.
+/// The surviving bytes of one frame on their way: arrival times in `at_ns`, or (empty)
+/// byte `k` at `first_ns + byte_ns[k + 1]`.
 #[derive(Debug, Clone, Default)]
 struct Segment {
     frame: FrameId,
@@ -47,9 +44,7 @@ struct Segment {
     pos: usize,
 }
 
-/// The segments in flight, a ring over reused storage: sending and delivering a frame
-/// moves no `Segment` and allocates nothing once the ring has grown to the frames in
-/// flight (1-2 on a clean link).
+/// The segments in flight, a ring over reused storage (no allocation once grown).
 #[derive(Debug, Clone, Default)]
 struct Ring {
     segs: Vec<Segment>,
@@ -157,8 +152,7 @@ impl Channel {
         }
     }
 
-    /// Hands a frame to the UART at `t_ns`; returns its id. Bytes are queued behind any
-    /// frame still on the line.
+    /// Hands a frame to the UART at `t_ns`, behind any frame still on the line; its id.
     pub fn send(&mut self, t_ns: u64, bytes: &[u8]) -> FrameId {
         let id = self.counters.frames_sent as FrameId;
         self.counters.frames_sent += 1;
@@ -268,13 +262,11 @@ impl Channel {
         Some(b)
     }
 
-    /// Delivers every byte that has arrived by `t_ns`, in order, as runs of consecutive
-    /// bytes of one frame: `f(bytes, frame)`.
+    /// Delivers every byte arrived by `t_ns`, in order, as runs of one frame: `f(bytes, frame)`.
     pub fn deliver(&mut self, t_ns: u64, mut f: impl FnMut(&[u8], FrameId)) {
         while let Some(seg) = self.queue.front_mut() {
             let n = if seg.at_ns.is_empty() {
-                // Byte k arrived iff first + byte_ns[k + 1] <= t (the table rises: all
-                // of them once the last one has, the usual case).
+                // Byte k arrived iff first + byte_ns[k + 1] <= t (the table rises).
                 let due = self
                     .byte_ns
                     .get(seg.pos + 1..=seg.bytes.len())

@@ -1,5 +1,4 @@
-//! The fault specification: what `--faults SPEC` parses into ([`Faults`]: frame drop,
-//! outages, byte drop, bit errors, bursts, per direction) and prints back.
+//! The fault specification: what `--faults SPEC` parses into ([`Faults`]) and prints back.
 
 use std::fmt;
 use std::str::FromStr;
@@ -15,8 +14,7 @@ pub struct Outage {
     pub dir: FaultDir,
 }
 
-/// Error bursts: a Poisson process of `rate_hz` bursts per second; each burst garbles
-/// `len_bytes` consecutive bytes.
+/// Error bursts: Poisson, `rate_hz` per second, each garbling `len_bytes` bytes.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Burst {
     /// Mean bursts per second.
@@ -37,8 +35,7 @@ pub enum FaultDir {
     Down,
 }
 
-/// The fault injection of one link, `--faults SPEC`:
-/// a comma-separated list of `key=value`:
+/// The fault injection of one link, `--faults SPEC`, comma-separated `key=value`:
 ///
 /// | key | value | meaning |
 /// |---|---|---|
@@ -140,8 +137,7 @@ impl FromStr for Faults {
 
     fn from_str(spec: &str) -> Result<Self, Self::Err> {
         let mut f = Faults::default();
-        // Every key but `outage` (one item per outage) sets one value: a second item of
-        // the same key is refused rather than silently overriding the first.
+        // A repeated key (but `outage`) is refused rather than silently overriding.
         let mut seen: Vec<&str> = Vec::new();
         for item in spec.split(',').map(str::trim).filter(|s| !s.is_empty()) {
             let err = |reason: &str| FaultSpecError {
@@ -218,8 +214,7 @@ impl FromStr for Faults {
     }
 }
 
-/// The canonical spec of the faults, `key=value` items in a fixed order, only those
-/// that act (empty for none); it parses back to the same [`Faults`] (outages to the ns).
+/// The canonical spec: the acting items in a fixed order; parses back to the same [`Faults`].
 ///
 /// ```
 /// use wheelset_loop::sim_link::Faults;
