@@ -132,3 +132,17 @@ fn predict_half_is_at_most_three_quarters() {
     assert_eq!(p.max, f64::from(PREDICT_HALF_MAX_QUARTERS) / 4.0);
     assert_eq!(p.min, 0.0);
 }
+
+#[test]
+fn the_shortest_frame_is_judged_on_its_message() {
+    // MIN_DECODED bytes (version, type, CRC) is a whole frame: a Command without its
+    // variant is a message that does not decode, not a bad length; one byte fewer is.
+    let mut out = [0u8; MAX_FRAME];
+    let n = frame_raw(&[VERSION, 3], &mut out).expect("fits");
+    assert_eq!(n, MIN_DECODED + 2, "COBS byte and delimiter");
+    let mut d = Decoder::new();
+    assert_eq!(d.next_message(&out[..n]).0, Some(Err(FrameError::Postcard)));
+    assert_eq!(d.next_request(&out[..n]).0, Some(Err(FrameError::Postcard)));
+    let n = frame_raw(&[VERSION], &mut out).expect("fits");
+    assert_eq!(d.next_message(&out[..n]).0, Some(Err(FrameError::Length)));
+}
