@@ -157,3 +157,20 @@ fn the_link_errors_say_why() {
         "{slow}"
     );
 }
+
+#[test]
+fn the_largest_baud_is_a_baud() {
+    // A link that needs exactly u32::MAX baud gets it. 1 Hz, the whole period: 1 000 949
+    // bytes take T = ceil(1 000 949 x 10 x 1e9 / (2^32 - 1)) = 2 330 516 ns at 2^32 - 1
+    // baud, and just over T at one baud less (T - x < x / (2^32 - 2) for the exact
+    // time x); the latency, twice, makes up the rest of the second.
+    let (bytes, t) = (1_000_949u32, 2_330_516u64);
+    assert_eq!(wire_ns(u64::from(bytes), u32::MAX), t);
+    let lat = (1_000_000_000 - t) / 2;
+    assert_eq!(
+        link_fits(1, u32::MAX, bytes, 0, lat, 1_000),
+        Ok(1_000_000_000)
+    );
+    assert!(link_fits(1, u32::MAX - 1, bytes, 0, lat, 1_000).is_err());
+    assert_eq!(min_baud(1, bytes, 0, lat, 1_000), Some(u32::MAX));
+}
