@@ -211,32 +211,45 @@ pub const fn min_baud(
     }
     let avail = budget - lat;
     let bits = (up_bytes as u128 + down_bytes as u128) * BITS_PER_BYTE as u128;
-    // wire_ns(bits, baud) x 1000 rate <= avail: search upward from the real-valued bound.
-    let mut baud = (bits * NS_PER_S * 1000 * rate_hz as u128).div_ceil(avail);
-    if baud == 0 {
-        baud = 1;
+    // wire_ns(bits, baud) x 1000 rate <= avail gives a lower bound (the wire times round
+    // up); [`link_fits`] only gets easier as the baud rises: bisect from there.
+    let mut lo = (bits * NS_PER_S * 1000 * rate_hz as u128).div_ceil(avail);
+    if lo == 0 {
+        lo = 1;
     }
-    let mut i = 0;
-    while i < 4 {
-        if baud > u32::MAX as u128 {
-            return None;
-        }
-        if link_fits(
+    let mut hi = u32::MAX as u128;
+    if lo > hi {
+        return None;
+    }
+    if link_fits(
+        rate_hz,
+        u32::MAX,
+        up_bytes,
+        down_bytes,
+        latency_ns,
+        share_permille,
+    )
+    .is_err()
+    {
+        return None;
+    }
+    while lo < hi {
+        let mid = lo + (hi - lo) / 2;
+        let fits = link_fits(
             rate_hz,
-            baud as u32,
+            mid as u32,
             up_bytes,
             down_bytes,
             latency_ns,
             share_permille,
-        )
-        .is_ok()
-        {
-            return Some(baud as u32);
+        );
+        if fits.is_ok() {
+            hi = mid;
+        } else {
+            lo = mid + 1;
         }
-        baud += 1;
-        i += 1;
     }
-    None
+    Some(lo as u32)
 }
 
 #[cfg(test)]

@@ -85,10 +85,13 @@ fn pipelined_each_frame_must_fit_its_period_the_larger_either_way() {
 
 #[test]
 fn min_baud_is_the_least_baud_that_fits() {
-    // Where `min_baud` gives a baud, no lower one fits. (Where it gives none: its search
-    // tries four bauds up from the real-valued bound, and at a period of no whole number
-    // of nanoseconds the least baud can lie further up, e.g. 3 kHz, 21 + 28 bytes, 70 %:
-    // 2 100 004 baud fits, the bound is 2 100 000. Not judged here.)
+    // A baud fits wherever `u32::MAX` does, and `min_baud` gives the least: no lower one
+    // fits, also at a period of no whole number of nanoseconds, where the least lies
+    // several bauds above the real-valued bound (3 kHz, 21 + 28 bytes, 70 %: 2 100 004).
+    assert_eq!(
+        min_baud(3_000, 21, 28, 0, LINK_SHARE_WARN_PERMILLE),
+        Some(2_100_004)
+    );
     let (mut given, mut rounded_up) = (0, 0);
     // (3 and 7 kHz: periods of no whole number of nanoseconds.)
     for rate in [500u32, 1_000, 3_000, 3_125, 5_000, 7_000, 20_000] {
@@ -96,11 +99,12 @@ fn min_baud_is_the_least_baud_that_fits() {
             for down in [1u32, 28] {
                 for lat in [0u64, 1_234] {
                     for share in [LINK_SHARE_WARN_PERMILLE, LINK_SHARE_MAX_PERMILLE, 1_000] {
+                        let fits = |baud| link_fits(rate, baud, up, down, lat, share).is_ok();
                         let Some(b) = min_baud(rate, up, down, lat, share) else {
+                            assert!(!fits(u32::MAX), "{rate} {up} {down} {lat} {share}");
                             continue;
                         };
                         given += 1;
-                        let fits = |baud| link_fits(rate, baud, up, down, lat, share).is_ok();
                         assert!(fits(b) && !fits(b - 1), "{rate} {up} {down} {lat} {share}");
                         // The real-valued bound: bits x 1e9 / baud <= share x T - 2 lat.
                         let avail = u128::from(share) * 1_000_000_000
@@ -115,9 +119,9 @@ fn min_baud_is_the_least_baud_that_fits() {
             }
         }
     }
-    // Every case at a period of whole nanoseconds is given, and some case needs a baud
-    // above the real-valued bound (the time on the line rounded up).
-    assert!(given >= 5 * 60 * 2 * 2 * 3, "{given}");
+    // Every case is given, and some need a baud above the real-valued bound (the time on
+    // the line rounded up).
+    assert_eq!(given, 7 * 60 * 2 * 2 * 3);
     assert!(rounded_up > 0, "{rounded_up}");
 }
 

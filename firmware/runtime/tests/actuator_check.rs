@@ -1,9 +1,9 @@
 //! The stability monitor's actuator check on the device (`wheelset_control::monitor`):
 //! it judges the lateral response only **while the yaw law is commanding** (an active
 //! mode, outputs enabled, not in the safe state); an alarm it raises is counted as an
-//! actuator alarm (not a hunting or drive one) and latches the fault; and the
-//! wheel-slip protection's cut quiets it for its quiet blocks once, at the cut, not for
-//! as long as the protection acts.
+//! actuator alarm (not a hunting or drive one) and latches the fault; and a traction
+//! change (the current reference the PI follows moving by more than the monitor's level
+//! over a block) quiets it for its quiet blocks.
 //!
 //! The signal: a lateral velocity held at 30 mm/s, above the check's drift level
 //! (`MonitorParams::act_drift_m_s`, 25 mm/s), which counts as growth at every block end
@@ -33,10 +33,12 @@ fn config(mode: YawMode, enable: bool, wsp: bool) -> Vec<u8> {
     }))
 }
 
-/// A frame with `y'` at the drift level; `v_ref_mm_s` the reference speed (0: unknown).
-fn drifting(k: u32, v_ref_mm_s: i32) -> Vec<u8> {
+/// A frame with `y'` at the drift level; `v_ref_mm_s` the reference speed (0: unknown),
+/// `demand_nm` the traction demand.
+fn drifting(k: u32, v_ref_mm_s: i32, demand_nm: i32) -> Vec<u8> {
     sensor_frame(Sensor {
         v_ref_mm_s,
+        demand_nm,
         ..sample(k as u16, Lateral::Velocity(DRIFT_UM_S))
     })
 }
@@ -53,6 +55,11 @@ struct Seen {
 }
 
 fn run(r: &mut Runtime<Fx>, v_ref_mm_s: i32) -> Seen {
+    run_at(r, v_ref_mm_s, sample(0, Lateral::Velocity(0)).demand_nm)
+}
+
+/// As [`run`], with the traction demand `demand_nm`.
+fn run_at(r: &mut Runtime<Fx>, v_ref_mm_s: i32, demand_nm: i32) -> Seen {
     let mut seen = Seen {
         actuator_at: None,
         hunting: false,
@@ -64,7 +71,7 @@ fn run(r: &mut Runtime<Fx>, v_ref_mm_s: i32) -> Seen {
         if k == TICKS {
             r.receive(&frame(&Message::Command(Command::RequestStatus)));
         }
-        r.receive(&drifting(k, v_ref_mm_s));
+        r.receive(&drifting(k, v_ref_mm_s, demand_nm));
         let out = frames(r.tick(0));
         let a = match out.first() {
             Some(Message::Actuation(a)) => *a,
@@ -138,21 +145,21 @@ fn no_check_while_the_yaw_law_is_not_commanding() {
     }
 }
 
+/// The demand's reference ramps from 0 to 115 A (2 460 N m through `n K_m`) in the first
+/// block: a traction change above the monitor's 50 A, so that block end and the next are
+/// not judged and the alarm comes those blocks later than with no demand (no change).
 #[test]
-fn the_protections_cut_quiets_the_check_once_not_while_it_acts() {
-    // Wheel 83.3 m/s against a reference of 70 m/s: the protection cuts at once and acts
-    // on every tick after (the slip stays: the frames hold the speed).
-    let mut r = runtime();
-    let seen = run(&mut r, 70_000);
+fn a_traction_change_quiets_the_check_for_its_blocks() {
+    let p = MonitorParams::default();
+    let block_ticks = (p.act_block_s * 5_000.0) as u32;
+    let still = run_at(&mut runtime(), 0, 0).actuator_at.expect("raised");
+    let stepped = run(&mut runtime(), 0).actuator_at.expect("raised after");
+    let quiet = u32::from(wheelset_control::QUIET_BLOCKS);
     assert!(
-        seen.slipping_ticks >= TICKS - 10,
-        "acting throughout: {}",
-        seen.slipping_ticks
+        stepped > still && stepped <= still + quiet * block_ticks,
+        "{stepped} vs {still}"
     );
-    let slipping = seen
-        .actuator_at
-        .expect("the check resumes after its quiet blocks");
-    // Later than without the cut: the quiet blocks skipped.
-    let plain = run(&mut runtime(), 0).actuator_at.expect("raised");
-    assert!(slipping > plain, "{slipping} vs {plain}");
+    // A demand whose reference moves by less than the level in its block: judged.
+    let small = run_at(&mut runtime(), 0, 800).actuator_at.expect("raised");
+    assert_eq!(small, still);
 }
