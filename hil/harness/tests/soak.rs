@@ -103,6 +103,58 @@ fn hil(args: &[&str]) -> (i32, String) {
     )
 }
 
+/// The condition the day leaves out (`docs/soak.md`): a low patch under traction. Its
+/// traced onset shows the wheel creeping into slip below the protection's detection
+/// (0.25 m/s) while `y'` grows, and the actuator check blames the actuator.
+#[test]
+fn a_low_patch_under_traction_is_traced_to_its_unexplained_actuator_alarm() {
+    let (code, err) = hil(&[
+        "soak",
+        "--seed",
+        "3",
+        "--minutes",
+        "2",
+        "--low-adhesion",
+        "--trace",
+    ]);
+    assert_eq!(code, 1, "{err}");
+    let after = err
+        .split("Adhesion { low: true")
+        .nth(1)
+        .expect("a low patch");
+    let blocks: Vec<(f64, f64)> = after
+        .lines()
+        .filter(|l| l.contains("y' peak"))
+        .map(|l| {
+            let num = |key: &str| -> f64 {
+                let v = l.split(key).nth(1).unwrap().trim_start();
+                v[..v.find(' ').unwrap()].parse().unwrap()
+            };
+            (num("y' peak"), num("slip"))
+        })
+        .collect();
+    assert!(blocks.len() >= 2, "{err}");
+    assert!(
+        blocks
+            .windows(2)
+            .all(|w| w[1].0 > w[0].0 && w[1].1 > w[0].1),
+        "{blocks:?}"
+    );
+    assert!(
+        blocks.iter().all(|b| (0.06..0.25).contains(&b.1)),
+        "{blocks:?}"
+    );
+    let out = Command::new(env!("CARGO_BIN_EXE_hil"))
+        .args(["soak", "--seed", "3", "--minutes", "2", "--low-adhesion"])
+        .output()
+        .expect("hil runs");
+    let out = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.contains("an alarm nobody expected (flags 0x0c01"),
+        "{out}"
+    );
+}
+
 #[test]
 fn bad_soak_flags_are_refused_with_the_reason() {
     for (args, says) in [

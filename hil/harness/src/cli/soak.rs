@@ -40,7 +40,8 @@ pub(crate) struct SoakArgs {
     /// Configs may choose the pure gain law, not only the phase lead.
     #[arg(long)]
     gain_law: bool,
-    /// Print each episode of the service as it starts (what led up to a failure).
+    /// Print each episode of the service as it starts, and the first second of each
+    /// adhesion patch per 0.1 s (what led up to a failure).
     #[arg(long)]
     trace: bool,
     /// Write the figures (JSON).

@@ -118,8 +118,8 @@ pub struct SoakOptions {
     pub defect: Defect,
     /// Print a line per simulated hour on stderr.
     pub progress: bool,
-    /// Print each episode of the service as it starts, and the actuator's repairs, on
-    /// stderr (what led up to a failure).
+    /// Print each episode of the service as it starts, the actuator's repairs and the
+    /// first second of each adhesion patch per 0.1 s, on stderr (what led up to a failure).
     pub trace: bool,
     /// What the service may do beyond its default day.
     pub service: ServiceOptions,
@@ -351,6 +351,9 @@ struct Soak {
     rng_service: Pcg64,
     next: (u64, Episode),
     episode_end: Option<u64>,
+    /// `--trace`: the start of the adhesion patch whose first second is traced, and the
+    /// peak `|y'|` of the block so far (m/s).
+    onset: Option<(u64, f64)>,
     act: ActState,
     act_alarm_seen: bool,
     config_pending: Option<(Config, u32)>,
@@ -497,6 +500,7 @@ impl Soak {
             rng_service,
             next,
             episode_end: None,
+            onset: None,
             act: ActState::Idle,
             act_alarm_seen: false,
             config_pending: None,
@@ -621,6 +625,7 @@ impl Soak {
                 let c = if low { Condition::Low } else { Condition::Wet };
                 self.plant.adhesion = Some(Adhesion::new(c, self.params.q()));
                 self.episode_end = Some(t + len_ns);
+                self.onset = self.opts.trace.then_some((t, 0.0));
             }
             Episode::Actuator => {
                 self.report.actuator_faults += 1;
@@ -637,6 +642,32 @@ impl Soak {
         if matches!(self.next.1, Episode::Actuator | Episode::Config { .. }) {
             // Drawn again when it ends (`after_tick`).
             self.next.0 = u64::MAX;
+        }
+    }
+
+    /// `--trace`, over the first second of an adhesion patch: per 0.1 s, the peak `|y'|`,
+    /// the rim's slip velocity `w_m r0 / n - v` and the armature current.
+    fn trace_onset(&mut self, t: u64, si: &SensorSi) {
+        const BLOCK_NS: u64 = 100_000_000;
+        let Some((t0, peak)) = self.onset.as_mut() else {
+            return;
+        };
+        *peak = peak.max(si.y_dot.abs());
+        let since = t - *t0;
+        if since > 0 && since % BLOCK_NS < self.period_ns {
+            let slip = si.w_m * self.params.r0 / self.params.n_gear - si.v_ref;
+            eprintln!(
+                "{}   +{:.1} s: y' peak {:.1} mm/s, slip {:.3} m/s, i_a {:.1} A",
+                hms(t),
+                since as f64 * 1e-9,
+                *peak * 1e3,
+                slip,
+                si.i_a
+            );
+            *peak = 0.0;
+        }
+        if since >= 10 * BLOCK_NS {
+            self.onset = None;
         }
     }
 
@@ -658,6 +689,7 @@ impl Soak {
             v_ref: x[ix::V],
         };
         let s: Sensor = Sensor::from_si(self.seq, t, &si, LateralSensing::Velocity).msg;
+        self.trace_onset(t, &si);
         let mut sbuf = [0u8; MAX_FRAME];
         let n = encode(&Message::Sensor(s), &mut sbuf).unwrap_or(0);
         let fresh = self.send_up(t, sbuf.get(..n).unwrap_or(&[])) == Fate::Valid;
