@@ -460,11 +460,6 @@ impl Qemu {
         r.map_err(|e| self.link_error(e))
     }
 
-    /// QEMU's process id, if this handle started it.
-    pub(crate) fn pid(&self) -> Option<u32> {
-        self.child.as_ref().map(Child::id)
-    }
-
     /// Reads at least one byte, or an error (end of stream, or nothing within the timeout).
     fn read_some(&mut self, buf: &mut [u8]) -> io::Result<usize> {
         match &mut self.link {
