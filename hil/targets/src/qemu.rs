@@ -33,6 +33,9 @@ use pin::next_core;
 /// Largest frame [`Qemu::recv_frame`] accepts, delimiter excluded.
 pub const MAX_FRAME: usize = 256;
 
+/// Bytes one read of the link asks for: every answer already there in one system call.
+const RX_CHUNK: usize = 4096;
+
 /// Why the emulated device could not be started or talked to.
 #[derive(Debug)]
 pub enum QemuError {
@@ -209,7 +212,11 @@ pub struct Qemu {
     child: Option<Child>,
     link: Link,
     stderr_path: PathBuf,
+    /// Bytes received and not yet taken; frames start at `rx_at`.
     rx: Vec<u8>,
+    rx_at: usize,
+    /// Bytes queued by [`Qemu::queue`], written before the next wait for the device.
+    pending: Vec<u8>,
     timeout: Duration,
 }
 
@@ -322,7 +329,9 @@ impl Qemu {
             child: Some(child),
             link,
             stderr_path,
-            rx: Vec::with_capacity(MAX_FRAME),
+            rx: Vec::with_capacity(RX_CHUNK + MAX_FRAME),
+            rx_at: 0,
+            pending: Vec::new(),
             timeout,
         })
     }
@@ -404,7 +413,9 @@ impl Qemu {
             child: None,
             link: Link::Tcp(stream),
             stderr_path: PathBuf::new(),
-            rx: Vec::with_capacity(MAX_FRAME),
+            rx: Vec::with_capacity(RX_CHUNK + MAX_FRAME),
+            rx_at: 0,
+            pending: Vec::new(),
             timeout,
         })
     }
@@ -419,12 +430,33 @@ impl Qemu {
         }
     }
 
-    /// Sends raw bytes to the firmware's UART0.
+    /// Sends raw bytes to the firmware's UART0 (after any bytes [`Self::queue`]d).
     pub fn send(&mut self, bytes: &[u8]) -> Result<(), QemuError> {
+        self.flush()?;
         let r = match &mut self.link {
             Link::Tcp(s) => s.write_all(bytes),
             Link::Bulk { tx, .. } => tx.write_all(bytes),
         };
+        r.map_err(|e| self.link_error(e))
+    }
+
+    /// Queues bytes for the device: written, with any queued before, when the host next
+    /// waits for the device ([`Self::recv_frame`] with nothing left to take) or sends.
+    /// The device sees the same bytes in the same order, in fewer writes.
+    pub fn queue(&mut self, bytes: &[u8]) {
+        self.pending.extend_from_slice(bytes);
+    }
+
+    /// Writes the queued bytes (one system call).
+    fn flush(&mut self) -> Result<(), QemuError> {
+        if self.pending.is_empty() {
+            return Ok(());
+        }
+        let r = match &mut self.link {
+            Link::Tcp(s) => s.write_all(&self.pending),
+            Link::Bulk { tx, .. } => tx.write_all(&self.pending),
+        };
+        self.pending.clear();
         r.map_err(|e| self.link_error(e))
     }
 
@@ -462,25 +494,56 @@ impl Qemu {
 
     /// Receives up to the next 0x00 delimiter; returns the COBS frame without it.
     pub fn recv_frame(&mut self) -> Result<Vec<u8>, QemuError> {
-        let mut buf = [0u8; 512];
+        self.with_frame(|f| f.get(..f.len() - 1).unwrap_or(&[]).to_vec())
+    }
+
+    /// The next frame, its 0x00 delimiter included, to `f` (no copy): taken from what an
+    /// earlier read brought if it is there, else read (queued bytes written first).
+    pub fn with_frame<R>(&mut self, f: impl FnOnce(&[u8]) -> R) -> Result<R, QemuError> {
+        let mut scanned = self.rx_at;
         loop {
-            if let Some(end) = self.rx.iter().position(|&b| b == 0) {
-                let frame: Vec<u8> = self.rx.drain(..=end).take(end).collect();
-                return Ok(frame);
+            let held = self.rx.get(scanned..).unwrap_or(&[]);
+            if let Some(i) = held.iter().position(|&b| b == 0) {
+                let (start, end) = (self.rx_at, scanned + i + 1);
+                self.rx_at = end;
+                let r = f(self.rx.get(start..end).unwrap_or(&[]));
+                if self.rx_at == self.rx.len() {
+                    self.rx.clear();
+                    self.rx_at = 0;
+                }
+                return Ok(r);
             }
-            if self.rx.len() > MAX_FRAME {
+            if self.rx.len() - self.rx_at > MAX_FRAME {
                 return Err(QemuError::FrameTooLong);
             }
-            let n = match self.read_some(&mut buf) {
+            // Nothing whole held: what the device needs first, then wait for it.
+            self.flush()?;
+            if self.rx_at > 0 {
+                self.rx.drain(..self.rx_at);
+                self.rx_at = 0;
+            }
+            scanned = self.rx.len();
+            self.rx.resize(scanned + RX_CHUNK, 0);
+            let r = {
+                let mut buf = std::mem::take(&mut self.rx);
+                let r = self.read_some(buf.get_mut(scanned..).unwrap_or(&mut []));
+                self.rx = buf;
+                r
+            };
+            let n = match r {
                 Ok(0) => {
+                    self.rx.truncate(scanned);
                     let e = io::Error::new(io::ErrorKind::UnexpectedEof, "QEMU closed the link");
                     return Err(self.link_error(e));
                 }
                 Ok(n) => n,
-                Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
-                Err(e) => return Err(self.link_error(e)),
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => 0,
+                Err(e) => {
+                    self.rx.truncate(scanned);
+                    return Err(self.link_error(e));
+                }
             };
-            self.rx.extend_from_slice(buf.get(..n).unwrap_or(&[]));
+            self.rx.truncate(scanned + n);
         }
     }
 

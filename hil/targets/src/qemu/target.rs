@@ -1,6 +1,8 @@
 //! The QEMU target, lock-step (each frame delimiter is one device tick). `exec` is in
 //! instructions, scaled at `--cpu-hz` one per cycle (nominally [`MPS2_CPU_HZ`]). Over the
-//! bulk channel two exchanges are in flight ([`Transport::pipelined`]).
+//! bulk channel two exchanges are in flight ([`Transport::pipelined`]) and the frames
+//! sent are written when the host next waits ([`Qemu::queue`]): one write, one wait and
+//! one read per two periods when the device is the slower side.
 
 use std::time::Duration;
 
@@ -120,10 +122,10 @@ impl Transport for QemuTarget {
             for part in crate::lockstep::frames(bytes) {
                 self.expect.sent_at(t_ns, part);
             }
-            return self
-                .q
-                .send(bytes)
-                .map_err(|e| TransportError::Io(e.to_string()));
+            // Written when the host next waits for an answer not yet here: the frames of
+            // two periods often go in one write.
+            self.q.queue(bytes);
+            return Ok(());
         }
         // One frame in flight (`crate::lockstep`): each frame of the write after the
         // answers still owed.
@@ -152,8 +154,7 @@ impl Transport for QemuTarget {
             // The answers to what was sent before the deadline; later ones stay in the
             // link's buffer for a later receive.
             while self.expect.owed_before(deadline_ns) > 0 {
-                let frame = self.recv_one()?;
-                sink(deadline_ns, &frame);
+                self.recv_one(&mut |b| sink(deadline_ns, b))?;
             }
             return Ok(());
         }
@@ -165,20 +166,19 @@ impl QemuTarget {
     /// Receives every frame owed, each to `sink` (its delimiter included).
     fn wait_owed(&mut self, sink: &mut dyn FnMut(&[u8])) -> Result<(), TransportError> {
         while self.expect.owed() > 0 {
-            let frame = self.recv_one()?;
-            sink(&frame);
+            self.recv_one(sink)?;
         }
         Ok(())
     }
 
-    /// The next frame (its delimiter included), accounted as received.
-    fn recv_one(&mut self) -> Result<Vec<u8>, TransportError> {
-        let mut frame = self
-            .q
-            .recv_frame()
-            .map_err(|e| TransportError::Io(e.to_string()))?;
-        frame.push(0);
-        self.expect.received(&frame);
-        Ok(frame)
+    /// The next frame (its delimiter included) to `sink`, accounted as received.
+    fn recv_one(&mut self, sink: &mut dyn FnMut(&[u8])) -> Result<(), TransportError> {
+        let expect = &mut self.expect;
+        self.q
+            .with_frame(|frame| {
+                expect.received(frame);
+                sink(frame);
+            })
+            .map_err(|e| TransportError::Io(e.to_string()))
     }
 }

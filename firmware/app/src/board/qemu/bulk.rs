@@ -1,9 +1,14 @@
 //! The bulk channel: frames over semihosting file I/O on two host FIFOs (`bulk:DIR`)
 //! instead of UART0, for runs faster than real time; otherwise the UART build's path,
-//! so the same frames bit for bit. The frame edge runs the tick, and the receiver writes
-//! the answer itself.
+//! so the same frames bit for bit. One `SYS_READ` takes whatever the host has sent (one
+//! frame or several); each frame edge polls the control executor in thread mode (its
+//! SWI0 masked: no exception per tick) and the tick's answer leaves the TX pipe at once,
+//! as on the UART; one `SYS_WRITE` sends the answers of the whole read.
 
+use core::cell::RefCell;
 use core::sync::atomic::{AtomicI32, Ordering};
+
+use critical_section::Mutex;
 
 use cortex_m_semihosting::nr;
 
@@ -72,9 +77,62 @@ pub fn write_all(bytes: &[u8]) {
     }
 }
 
-/// Writes every frame the TX pipe holds (the tick's answer) to the TX FIFO, in place.
-fn send_answers() {
-    while crate::app::TX.read_in_place(write_all).is_ok() {}
+/// Room for the answers of one read: two ticks' worth at least ([`crate::settings::TX_PIPE`]
+/// each), flushed early when the next would not fit.
+const BATCH: usize = 2 * crate::settings::TX_PIPE;
+
+/// The answers of the frames read so far, in order, not yet written.
+struct Batch {
+    buf: [u8; BATCH],
+    len: usize,
+}
+
+static BATCH_OUT: Mutex<RefCell<Batch>> = Mutex::new(RefCell::new(Batch {
+    buf: [0; BATCH],
+    len: 0,
+}));
+
+impl Batch {
+    /// Appends `bytes`, writing out what is held first if they would not fit.
+    fn push(&mut self, bytes: &[u8]) {
+        if self.len + bytes.len() > BATCH {
+            self.flush();
+        }
+        match self.buf.get_mut(self.len..self.len + bytes.len()) {
+            Some(room) => {
+                room.copy_from_slice(bytes);
+                self.len += bytes.len();
+            }
+            None => write_all(bytes),
+        }
+    }
+
+    /// Writes what is held (one `SYS_WRITE`).
+    fn flush(&mut self) {
+        if self.len > 0 {
+            write_all(self.buf.get(..self.len).unwrap_or(&[]));
+            self.len = 0;
+        }
+    }
+}
+
+/// Moves every frame the TX pipe holds (the tick's answer) into the batch: the pipe is
+/// empty before the next tick, as when each answer was written at once.
+fn take_answers() {
+    critical_section::with(|cs| {
+        let mut b = BATCH_OUT.borrow_ref_mut(cs);
+        while crate::app::TX.read_in_place(|run| b.push(run)).is_ok() {}
+    });
+}
+
+/// Writes the answers held (the end of a read, or before the safe frame, which must
+/// follow them).
+pub fn flush_answers() {
+    critical_section::with(|cs| {
+        if let Ok(mut b) = BATCH_OUT.borrow(cs).try_borrow_mut() {
+            b.flush();
+        }
+    });
 }
 
 impl Bulk {
@@ -86,7 +144,8 @@ impl Bulk {
         buf.len().saturating_sub(left)
     }
 
-    /// The receiver, in thread mode: each chunk into the RX pipe, then its frame edge.
+    /// The receiver, in thread mode: each frame of a read into the RX pipe, then its
+    /// frame edge and tick; the read's answers in one write.
     pub fn run(self) -> ! {
         let mut buf = [0u8; 256];
         loop {
@@ -116,13 +175,17 @@ impl Bulk {
                 crate::watchdog::rx_ran();
                 if part.last() == Some(&0) {
                     super::clock::frame_edge();
-                    send_answers();
+                    // SAFETY: SWI0, the executor's interrupt, is masked on the bulk channel
+                    // (`super::run`): this is the only place it is polled, in thread mode.
+                    unsafe { super::EXEC_CONTROL.on_interrupt() };
+                    take_answers();
                 }
                 if crate::watchdog::take_both() {
                     super::wdog::feed();
                 }
                 rest = more;
             }
+            flush_answers();
         }
     }
 }

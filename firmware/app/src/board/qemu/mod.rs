@@ -18,13 +18,14 @@ use crate::app::{self, Stopwatch};
 use crate::exec::{systick_elapsed, systick_to_instructions};
 use pac::Interrupt;
 
-static EXEC_CONTROL: InterruptExecutor = InterruptExecutor::new();
+pub(super) static EXEC_CONTROL: InterruptExecutor = InterruptExecutor::new();
 static EXEC_COMMS: InterruptExecutor = InterruptExecutor::new();
 
 /// SysTick as a stopwatch of instructions, `counts * 40 ns / 2^shift`, running only while a
 /// tick executes (stopped, it arms no timer for `sleep=off` to jump to).
 pub struct SysTickStopwatch {
-    syst: SYST,
+    /// Owned: nothing else touches SysTick (the stopwatch's accesses are in assembly).
+    _syst: SYST,
 }
 
 impl SysTickStopwatch {
@@ -33,24 +34,25 @@ impl SysTickStopwatch {
         syst.set_clock_source(SystClkSource::Core);
         syst.disable_interrupt();
         syst.disable_counter();
-        Self { syst }
+        syst.set_reload(0x00FF_FFFF);
+        Self { _syst: syst }
     }
 }
 
 impl Stopwatch for SysTickStopwatch {
-    /// The count, the enable, one read of the counter: in assembly, so the order is kept.
+    /// The held count, the enable: in assembly, so the order is kept.
     fn start(&mut self) -> u32 {
         let start: u32;
-        // SAFETY: SysTick's registers (0xE000_E010/14/18), owned by this stopwatch; word accesses
+        // SAFETY: SysTick's registers (0xE000_E010/18), owned by this stopwatch; word accesses
         // to the core's System Control Space, no program memory touched.
         unsafe {
             core::arch::asm!(
-                "str {reload}, [{base}, #4]",
+                "mov {tmp}, {reload}",
                 "ldr {start}, [{base}, #8]",
-                "ldr {tmp}, [{base}, #0]",
-                "orr {tmp}, {tmp}, #1",
+                "mov {tmp}, #5",
+                "mov {tmp}, {tmp}",
                 "str {tmp}, [{base}, #0]",
-                "ldr {tmp}, [{base}, #8]",
+                "mov {tmp}, {tmp}",
                 base = in(reg) 0xE000_E010u32,
                 reload = in(reg) 0x00FF_FFFFu32,
                 start = out(reg) start,
@@ -62,8 +64,19 @@ impl Stopwatch for SysTickStopwatch {
     }
 
     fn stop(&mut self, start: u32) -> u32 {
-        let end = SYST::get_current();
-        self.syst.disable_counter();
+        let end: u32;
+        // SAFETY: as in `start`.
+        unsafe {
+            core::arch::asm!(
+                "ldr {end}, [{base}, #8]",
+                "mov {tmp}, #4",
+                "str {tmp}, [{base}, #0]",
+                base = in(reg) 0xE000_E010u32,
+                end = out(reg) end,
+                tmp = out(reg) _,
+                options(nostack, preserves_flags),
+            );
+        }
         // Free-running (no -icount): 25 MHz cycles of virtual time, reported as they are.
         if cfg!(feature = "free-run") {
             return systick_elapsed(start, end);
@@ -143,6 +156,7 @@ fn send_safe_frame() {
     let mut buf = [0u8; wheelset_proto::MAX_FRAME];
     let frame = crate::device::safe_frame(&mut buf);
     if bulk::active() {
+        bulk::flush_answers();
         bulk::write_all(frame);
     } else {
         // A lone delimiter ends a frame the interrupted TX task left half sent.
@@ -210,6 +224,9 @@ fn run() -> ! {
     }
     if let Some(bulk) = bulk {
         defmt::info!("frames over the semihosting bulk channel");
+        // The receiver polls the control executor after each frame edge itself: SWI0 stays
+        // pending, masked, and no exception is taken per frame (the same tick, in thread mode).
+        NVIC::mask(Interrupt::Swi0);
         // A blocking read does not advance virtual time; the watchdog stays off in lock-step.
         if wdog::ENABLED {
             wdog::start();
