@@ -105,7 +105,8 @@ fn the_nyquist_verdict_agrees_with_the_eigenvalues_over_rates_and_delays() {
     let base = control_config(&p, YawLaw::Lead, true);
     let mut seen = (false, false);
     for (rate, delay) in [(1000, 1), (2000, 2), (5000, 3), (10_000, 1)] {
-        for gain in [0.25, 1.0, 3.0] {
+        for gain in [0.25, 0.5, 1.0] {
+            // Gains up to the largest whose `k_hf` the Q1.31 format holds.
             let (m, eig) = audit_and_eigen_at(&p, base.with_design(rate, delay, gain));
             let both = m.iter().all(|x| x.stable);
             assert_eq!(both, eig, "{rate} Hz, {delay} ticks, lead x{gain}: {m:#?}");
