@@ -160,6 +160,8 @@ pub const BLOCKS: &[Block] = &[
     sim("device-usb-hs", "run --scenario curve --control lead --loop device --rate-hz 2000 --delay-ticks 2 --baud 3000000 --latency-us 250").keep(Keep::Starting(&["monitor:", "vs continuous reference"])),
     // The fixed-point audit (Markdown: `wheelset_audit::readme_block`).
     hil("audit", "audit --no-target --readme-block").keep(Keep::Markdown),
+    // Its margins with a softer lead: the loop lines and the verdict.
+    hil("audit-lead5", "audit --no-target --no-sweep --params sim-host/params/lead-gain-5.toml").keep(Keep::Starting(&["  yaw (lead):", "  traction (PI):", "verdict"])),
     // The harness, in process.
     hil("hil", ""),
     hil("hil-faults", "run --faults ber=1e-4,drop=0.01").exit(1),
