@@ -117,5 +117,8 @@ fn the_nyquist_verdict_agrees_with_the_eigenvalues_over_rates_and_delays() {
             }
         }
     }
-    assert!(seen.0 && seen.1, "the points should span stable and unstable loops");
+    assert!(
+        seen.0 && seen.1,
+        "the points should span stable and unstable loops"
+    );
 }

@@ -111,7 +111,11 @@ impl Law {
     }
 
     fn at(&self, zi: C64) -> C64 {
-        let poly = |c: &[f64]| c.iter().rev().fold(C64::new(0.0, 0.0), |acc, &k| acc * zi + k);
+        let poly = |c: &[f64]| {
+            c.iter()
+                .rev()
+                .fold(C64::new(0.0, 0.0), |acc, &k| acc * zi + k)
+        };
         poly(&self.num) / poly(&self.den)
     }
 }
@@ -252,7 +256,9 @@ pub fn margins_of(
     let dim = a_aug.nrows();
     let n = ad.nrows();
     let a_c = a_aug.map(|x| C64::new(x, 0.0));
-    let b_c = DVector::from_fn(dim, |i, _| C64::new(if i < n { bd[(i, input)] } else { 0.0 }, 0.0));
+    let b_c = DVector::from_fn(dim, |i, _| {
+        C64::new(if i < n { bd[(i, input)] } else { 0.0 }, 0.0)
+    });
     let c_c = DVector::from_fn(dim, |j, _| {
         C64::new(if j < n { plant.c[(output, j)] } else { 0.0 }, 0.0)
     });
@@ -506,7 +512,10 @@ mod tests {
     #[test]
     fn the_traction_loop_has_no_lower_gain_limit() {
         let m = margins(&Params::default(), &Config::default(), 1, Loop::Traction).expect("m");
-        assert!(m.stable && m.open_loop_unstable == 0 && m.encirclements == 0, "{m:?}");
+        assert!(
+            m.stable && m.open_loop_unstable == 0 && m.encirclements == 0,
+            "{m:?}"
+        );
         assert!(m.gain_down.is_none() && m.gain_up.is_some() && m.phase.is_some());
     }
 }
