@@ -174,13 +174,15 @@ pub const QUOTING: &[&str] = &[
     "docs/campaigns.md",
     "docs/audit.md",
     "docs/harness.md",
+    "docs/closed-loop.md",
 ];
 
 /// Figures of the prose that are budgets or constants, not a command's output:
 /// `(page, figure)`.
 const CONSTANTS: &[(&str, &str)] = &[
-    ("docs/harness.md", "0.85"), // the `timing.link` fail share
-    ("docs/harness.md", "5.75"), // the core's current-reference slew time, ms
+    ("docs/harness.md", "0.85"),       // the `timing.link` fail share
+    ("docs/harness.md", "5.75"),       // the core's current-reference slew time, ms
+    ("docs/closed-loop.md", "5.3125"), // the Nucleo-G474 VCP's baud, Mbaud
 ];
 
 /// The decimal figures (two or more fraction digits) of `text` outside its generated
