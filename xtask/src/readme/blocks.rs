@@ -147,6 +147,8 @@ pub const BLOCKS: &[Block] = &[
     // The sections with and without protection (Markdown: `wheelset_plant::traction::sections_table`).
     sim("low-adhesion-table", "run --scenario low-adhesion --control lead --loop core --sections-table").keep(Keep::Markdown),
     hil("actuator-fault", "run --scenario actuator-fault --report out/af"),
+    // The drive check on a traction current loop the device runs unstable.
+    hil("drive-alarm", "run --params sim-host/params/l-a-1.2e-4.toml").exit(1).keep(Keep::Starting(&["numerics", "verdict", "  monitor", "  drive:"])),
     // The closed loop over the simulated link.
     sim("device-clean", "run --scenario curve --control lead --loop device --csv out/device.csv"),
     sim("device-faults-seed1", "run --scenario curve --control lead --loop device --faults ber=1e-3,drop=0.1,outage=8.0:0.05 --seed 1"),

@@ -175,6 +175,7 @@ pub const QUOTING: &[&str] = &[
     "docs/audit.md",
     "docs/harness.md",
     "docs/closed-loop.md",
+    "docs/monitor.md",
 ];
 
 /// Figures of the prose that are budgets or constants, not a command's output:
@@ -183,6 +184,8 @@ const CONSTANTS: &[(&str, &str)] = &[
     ("docs/harness.md", "0.85"),       // the `timing.link` fail share
     ("docs/harness.md", "5.75"),       // the core's current-reference slew time, ms
     ("docs/closed-loop.md", "5.3125"), // the Nucleo-G474 VCP's baud, Mbaud
+    ("docs/monitor.md", "0.01"),       // a fault rate of a command line
+    ("docs/monitor.md", "0.05"),       // a conicity and an outage of command lines
 ];
 
 /// The decimal figures (two or more fraction digits) of `text` outside its generated
