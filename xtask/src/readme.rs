@@ -3,8 +3,10 @@
 //! `<!-- generated:NAME -->` and `<!-- /generated:NAME -->` is the output of one command
 //! of [`BLOCKS`]; `readme` reruns them (release builds of `sim-host` and `hil`, or
 //! `--dev`: the same figures) and rewrites the blocks and figures, `--check` exits 1
-//! naming each drifted block (with a line diff) or figure, each marker without an entry
-//! and each broken relative link ([`links`]; `--links` checks only these).
+//! naming each drifted block (with a line diff) or figure, each marker without an entry,
+//! each figure a quoting page states outside its blocks that none of them holds
+//! ([`markers::unquoted`]) and each broken relative link ([`links`]; `--links` checks only
+//! these).
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -195,6 +197,14 @@ pub fn run(check: bool, dev: bool) -> Result<bool, String> {
         fresh.push((b.name, generate(&root, &bin_dir, b)?));
     }
     let (new, drifted) = update(&pages, &fresh)?;
+    let mut unquoted = Vec::new();
+    for ((page, _), text) in pages.iter().zip(&new) {
+        if markers::QUOTING.contains(&page.as_str()) {
+            for f in markers::unquoted(page, text)? {
+                unquoted.push(format!("{page}: `{f}` is in none of its generated blocks"));
+            }
+        }
+    }
     let figs = figures::sync(&root, check)?;
     let names = |v: &[(String, String)]| {
         v.iter()
@@ -209,10 +219,13 @@ pub fn run(check: bool, dev: bool) -> Result<bool, String> {
         for f in &figs {
             eprintln!("xtask readme: figure {f} differs from what its command draws");
         }
-        if drifted.is_empty() && figs.is_empty() && broken.is_empty() {
+        for u in &unquoted {
+            eprintln!("xtask readme: {u}");
+        }
+        if drifted.is_empty() && figs.is_empty() && broken.is_empty() && unquoted.is_empty() {
             eprintln!(
                 "xtask readme: {} blocks and {} figures in {} pages match their commands; \
-                 every link resolves",
+                 every link resolves; every figure quoted from them is in them",
                 BLOCKS.len(),
                 FIGURES.len(),
                 pages.len()
@@ -259,5 +272,8 @@ pub fn run(check: bool, dev: bool) -> Result<bool, String> {
             format!(" ({})", figs.join(", "))
         }
     );
-    Ok(broken.is_empty())
+    for u in &unquoted {
+        eprintln!("xtask readme: {u}");
+    }
+    Ok(broken.is_empty() && unquoted.is_empty())
 }

@@ -5,7 +5,7 @@ use wheelset_control::Config;
 
 use super::bounds::Proofs;
 use super::closed::LimitCycleReport;
-use super::margins::Margin;
+use super::closed::Margin;
 use super::model::ControllerAudit;
 use super::ranges::{self, Observed};
 use super::tolerances::{judge, Check, Status, Tolerances};

@@ -18,6 +18,9 @@ use wheelset_loop::device_loop::{control_config, run_device, DeviceOptions};
 use wheelset_loop::drive::drive;
 use wheelset_plant::control::{SampledController, YawLaw};
 use wheelset_plant::params::Params;
+use wheelset_plant::sampled::{margins_of, At, Law, Laws, Loop, Other};
+
+use super::bounds::Quantised;
 use wheelset_plant::scenario::Scenario as Track;
 use wheelset_plant::sim::{run_continuous, Trajectory};
 use wheelset_proto::units::TORQUE_LSB_NM;
@@ -72,7 +75,7 @@ pub struct ClosedLoopAudit {
     /// The straight-track limit cycle.
     pub limit_cycle: LimitCycleReport,
     /// Stability margins, ideal vs quantised.
-    pub margins: Vec<super::margins::Margin>,
+    pub margins: Vec<Margin>,
     /// What the section is, in words.
     pub note: String,
 }
@@ -249,6 +252,99 @@ pub fn limit_cycle(lead_err_nm: f64, params: &Params) -> Result<LimitCycleReport
         dither_limit_nm: lead_err_nm,
     })
 }
+
+/// One loop's stability and margins, ideal (f64 controller) vs quantised (as the device
+/// holds it), read by [`wheelset_plant::sampled::margins_of`] with the other loop closed.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Margin {
+    /// `yaw (lead)` or `traction (PI)`.
+    #[serde(rename = "loop")]
+    pub loop_name: String,
+    /// Gain margin with the f64 controller: the smaller gain change to instability, dB
+    /// (positive; `null`: the loop is unstable, or no gain change destabilises it).
+    pub gain_db_ideal: Option<f64>,
+    /// Gain margin with the quantised controller, dB.
+    pub gain_db_quantised: Option<f64>,
+    /// Phase margin with the f64 controller: the smaller of the phase lag and lead to
+    /// instability, degrees (positive; `null`: unstable, or no gain crossover).
+    pub phase_deg_ideal: Option<f64>,
+    /// Phase margin with the quantised controller, degrees.
+    pub phase_deg_quantised: Option<f64>,
+    /// Where the gain margin is read, Hz (quantised).
+    pub phase_crossover_hz: Option<f64>,
+    /// Where the phase margin is read (`|L| = 1`), Hz (quantised).
+    pub gain_crossover_hz: Option<f64>,
+    /// Open-loop poles outside the unit circle, `P` (quantised).
+    pub open_loop_unstable_poles: usize,
+    /// Counter-clockwise turns of `1 + L` round the origin, `W` (quantised).
+    pub encirclements: i64,
+    /// Closed-loop poles outside the unit circle, `Z = P - W` (quantised).
+    pub closed_loop_unstable_poles: i64,
+    /// `Z = 0` (quantised).
+    pub stable: bool,
+    /// The gain reduction to instability, dB, negative (`null`: no lower limit)
+    /// (quantised).
+    pub gain_reduction_db: Option<f64>,
+    /// The gain increase to instability, dB (`null`: none) (quantised).
+    pub gain_increase_db: Option<f64>,
+    /// The extra phase lag to instability, degrees (`null`: none) (quantised).
+    pub phase_lag_deg: Option<f64>,
+    /// The extra phase lead to instability, degrees (`null`: none) (quantised).
+    pub phase_lead_deg: Option<f64>,
+}
+
+/// The stability and margins of the yaw (lead) and traction (PI) loops of `cfg` at the
+/// operating point `p`, each broken at its actuator with the other closed, ideal and
+/// quantised (`q`). Errors: as [`wheelset_plant::sampled::margins_of`].
+pub fn margins(cfg: &Config, q: &Quantised, p: &Params) -> Result<Vec<Margin>, String> {
+    let s = &cfg.scales;
+    let ideal = Laws::of(&Config {
+        yaw_mode: wheelset_control::YawMode::Lead,
+        traction_enabled: true,
+        ..*cfg
+    })?;
+    let quantised = Laws {
+        yaw: Some(Law::lead(
+            q.lead.k_hf * s.torque / s.y_dot,
+            q.lead.g_half,
+            q.lead.kappa,
+            2.0 * q.ph,
+        )),
+        traction: Some(Law::pi(
+            q.kp * s.voltage / s.current,
+            q.ki * s.voltage / s.current,
+        )),
+    };
+    let (t0, d) = (cfg.base_period(), usize::from(cfg.delay_ticks.max(1)));
+    let read = |laws: &Laws, l: Loop| margins_of(p, t0, d, laws, l, Other::Closed);
+    [(Loop::Yaw, "yaw (lead)"), (Loop::Traction, "traction (PI)")]
+        .into_iter()
+        .map(|(l, name)| {
+            let (i, m) = (read(&ideal, l)?, read(&quantised, l)?);
+            let v = |a: Option<At>| a.map(|a| a.value);
+            Ok(Margin {
+                loop_name: name.into(),
+                gain_db_ideal: v(i.gain()),
+                gain_db_quantised: v(m.gain()),
+                phase_deg_ideal: v(i.phase),
+                phase_deg_quantised: v(m.phase),
+                phase_crossover_hz: m.gain().map(|a| a.hz),
+                gain_crossover_hz: m.phase.map(|a| a.hz),
+                open_loop_unstable_poles: m.open_loop_unstable,
+                encirclements: m.encirclements,
+                closed_loop_unstable_poles: m.closed_loop_unstable,
+                stable: m.stable,
+                gain_reduction_db: v(m.gain_down),
+                gain_increase_db: v(m.gain_up),
+                phase_lag_deg: v(m.phase_lag),
+                phase_lead_deg: v(m.phase_lead),
+            })
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod margin_tests;
 
 #[cfg(test)]
 mod tests {

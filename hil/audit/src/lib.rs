@@ -4,7 +4,7 @@
 //! controller multiplies by), poles, zeros and DC gain, frequency responses (the fixed
 //! point *measured* with sinusoids and a least-squares fit), ranges and noise
 //! ([`ranges`]), proven bounds ([`bounds`], [`wcpg`]), limit cycles ([`limits`],
-//! [`closed`]), margins ([`margins`]) and recommended formats ([`formats`]). Every figure
+//! [`closed`]), margins ([`closed::margins`]) and recommended formats ([`formats`]). Every figure
 //! is judged against [`Tolerances`]: pass, warn or fail; the exit code is 1 on any fail.
 //!
 //! `hil audit` parses [`AuditArgs`] (a `clap::Args`: the command line and the library's
@@ -18,7 +18,6 @@ pub mod closed;
 pub mod diagnose;
 pub mod formats;
 pub mod limits;
-pub mod margins;
 pub mod model;
 pub mod on_target;
 pub mod per_controller;
@@ -234,7 +233,7 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
         let k = bounds::Quantised::of::<Fx>(&cfg)?;
         match (
             closed::limit_cycle(lead_err, &params),
-            margins::margins(&cfg, &k, &params),
+            closed::margins(&cfg, &k, &params),
         ) {
             (Ok(lc), Ok(m)) => {
                 checks.extend(checks::closed_loop_checks(&lc, &m, &cfg, &params));

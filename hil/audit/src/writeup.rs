@@ -105,21 +105,34 @@ pub fn summary(a: &Audit, report: Option<&Path>, quiet: bool) -> String {
     }
     if let Some(cl) = a.closed_loop.as_ref().filter(|_| !quiet) {
         for m in &cl.margins {
-            let db =
-                |v: Option<f64>, none: &str| v.map_or(none.to_string(), |d| format!("{d:+.2} dB"));
             let deg = |v: Option<f64>| v.map_or("-".to_string(), |d| format!("{d:.1} deg"));
-            let _ = writeln!(
-                s,
-                "  {}: {} (open-loop unstable poles P = {}, encirclements W = {}); gain {} to {}, phase lag {}, lead {}",
-                m.loop_name,
-                if m.stable { "stable" } else { "UNSTABLE" },
-                m.open_loop_unstable_poles,
-                m.encirclements,
-                db(m.gain_reduction_db, "no lower limit"),
-                db(m.gain_increase_db, "no upper limit"),
-                deg(m.phase_lag_deg),
-                deg(m.phase_lead_deg)
+            let counts = format!(
+                "open-loop unstable poles P = {}, encirclements W = {}",
+                m.open_loop_unstable_poles, m.encirclements
             );
+            // A stable loop's gain interval: from the drop (negative) to the rise.
+            let gain = match (m.gain_reduction_db, m.gain_increase_db) {
+                (Some(d), Some(u)) => format!("from {d:+.2} dB to {u:+.2} dB of loop gain"),
+                (None, Some(u)) => format!("up to {u:+.2} dB of loop gain"),
+                (Some(d), None) => format!("down to {d:+.2} dB of loop gain"),
+                (None, None) => "at any loop gain".to_string(),
+            };
+            let _ = if m.stable {
+                writeln!(
+                    s,
+                    "  {}: stable ({counts}) {gain}; phase lag {}, lead {}",
+                    m.loop_name,
+                    deg(m.phase_lag_deg),
+                    deg(m.phase_lead_deg)
+                )
+            } else {
+                writeln!(
+                    s,
+                    "  {}: UNSTABLE ({counts}, Z = {} closed-loop poles outside the unit \
+                     circle): no margins",
+                    m.loop_name, m.closed_loop_unstable_poles
+                )
+            };
         }
     }
     for c in a.checks.iter().filter(|c| c.status != Status::Pass) {

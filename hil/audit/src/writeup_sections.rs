@@ -135,7 +135,7 @@ pub(crate) fn proofs_and_findings(a: &Audit, w: &mut String) {
         let _ = writeln!(
             w,
             "\nStability and margins (plant linearised on straight track, one period of \
-             delay, each loop broken with the other closed; see `wheelset_audit::margins`). \
+             delay, each loop broken with the other closed; see `wheelset_plant::sampled::margins_of`). \
              P counts the open-loop poles outside the unit circle, W the counter-clockwise \
              turns of the Nyquist plot round -1; the closed loop is stable when Z = P - W = \
              0. A loop with P > 0 needs a minimum gain: its gain margin is the smaller of \

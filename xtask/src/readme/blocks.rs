@@ -147,6 +147,8 @@ pub const BLOCKS: &[Block] = &[
     // The sections with and without protection (Markdown: `wheelset_plant::traction::sections_table`).
     sim("low-adhesion-table", "run --scenario low-adhesion --control lead --loop core --sections-table").keep(Keep::Markdown),
     hil("actuator-fault", "run --scenario actuator-fault --report out/af"),
+    // The drive check on a traction current loop the device runs unstable.
+    hil("drive-alarm", "run --params sim-host/params/l-a-1.2e-4.toml").exit(1).keep(Keep::Starting(&["numerics", "verdict", "  monitor", "  drive:"])),
     // The closed loop over the simulated link.
     sim("device-clean", "run --scenario curve --control lead --loop device --csv out/device.csv"),
     sim("device-faults-seed1", "run --scenario curve --control lead --loop device --faults ber=1e-3,drop=0.1,outage=8.0:0.05 --seed 1"),
@@ -160,6 +162,8 @@ pub const BLOCKS: &[Block] = &[
     sim("device-usb-hs", "run --scenario curve --control lead --loop device --rate-hz 2000 --delay-ticks 2 --baud 3000000 --latency-us 250").keep(Keep::Starting(&["monitor:", "vs continuous reference"])),
     // The fixed-point audit (Markdown: `wheelset_audit::readme_block`).
     hil("audit", "audit --no-target --readme-block").keep(Keep::Markdown),
+    // Its margins with a softer lead: the loop lines and the verdict.
+    hil("audit-lead5", "audit --no-target --no-sweep --params sim-host/params/lead-gain-5.toml").keep(Keep::Starting(&["  yaw (lead):", "  traction (PI):", "verdict"])),
     // The harness, in process.
     hil("hil", ""),
     hil("hil-faults", "run --faults ber=1e-4,drop=0.01").exit(1),

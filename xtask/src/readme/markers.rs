@@ -166,3 +166,55 @@ pub fn update(pages: &[(String, String)], fresh: &[(&str, String)]) -> Result<Up
     }
     Ok((out, drifted))
 }
+
+/// The pages whose prose quotes their generated blocks' figures: [`unquoted`] must find
+/// none in them.
+pub const QUOTING: &[&str] = &[
+    "docs/reproduce.md",
+    "docs/campaigns.md",
+    "docs/audit.md",
+    "docs/harness.md",
+    "docs/closed-loop.md",
+    "docs/monitor.md",
+];
+
+/// Figures of the prose that are budgets or constants, not a command's output:
+/// `(page, figure)`.
+const CONSTANTS: &[(&str, &str)] = &[
+    ("docs/harness.md", "0.85"),       // the `timing.link` fail share
+    ("docs/harness.md", "5.75"),       // the core's current-reference slew time, ms
+    ("docs/closed-loop.md", "5.3125"), // the Nucleo-G474 VCP's baud, Mbaud
+    ("docs/monitor.md", "0.01"),       // a fault rate of a command line
+    ("docs/monitor.md", "0.05"),       // a conicity and an outage of command lines
+];
+
+/// The decimal figures (two or more fraction digits) of `text` outside its generated
+/// blocks that none of its blocks holds, but for [`CONSTANTS`]: a quoted figure that has
+/// drifted from its command. Errors: as [`find_blocks`].
+pub fn unquoted(page: &str, text: &str) -> Result<Vec<String>, String> {
+    let blocks = find_blocks(page, text)?;
+    let inside: String = blocks.iter().map(|(_, r)| &text[r.clone()]).collect();
+    let mut prose = String::new();
+    let mut at = 0;
+    for (_, r) in &blocks {
+        prose.push_str(&text[at..r.start]);
+        at = r.end;
+    }
+    prose.push_str(&text[at..]);
+    let word = |c: char| c.is_ascii_alphanumeric() || c == '.' || c == '_';
+    let mut out = Vec::new();
+    for tok in prose.split(|c: char| !word(c)) {
+        let t = tok.trim_end_matches('.');
+        let figure = t.split_once('.').is_some_and(|(i, f)| {
+            !i.is_empty()
+                && f.len() >= 2
+                && i.chars().all(|c| c.is_ascii_digit())
+                && f.chars().all(|c| c.is_ascii_digit())
+        });
+        let constant = CONSTANTS.iter().any(|&(p, f)| p == page && f == t);
+        if figure && !constant && !inside.contains(t) && !out.iter().any(|o| o == t) {
+            out.push(t.to_string());
+        }
+    }
+    Ok(out)
+}

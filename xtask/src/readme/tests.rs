@@ -270,3 +270,21 @@ fn keep_filters() {
     assert!(!Keep::AllBut(MACHINE_DEPENDENT).keeps("pass, 0.5 s wall"));
     assert!(Keep::AllBut(MACHINE_DEPENDENT).keeps("frames 200 005 sent"));
 }
+
+#[test]
+fn a_quoted_figure_not_in_the_blocks_is_named() {
+    let text = "y 0.6846 mm, 12.5 %, 3 of 4, v1.2.3, x 0.70.\n<!-- generated:a -->\ny = 0.6846\n\
+                <!-- /generated:a -->\nthen 0.70 and 1.25\n";
+    let u = super::markers::unquoted("p.md", text).expect("blocks");
+    assert_eq!(u, vec!["0.70".to_string(), "1.25".to_string()]);
+}
+
+#[test]
+fn the_quoting_pages_quote_only_their_blocks() {
+    let root = crate::workspace_root();
+    for page in super::markers::QUOTING {
+        let text = std::fs::read_to_string(root.join(page)).expect(page);
+        let u = super::markers::unquoted(page, &text).expect("blocks");
+        assert!(u.is_empty(), "{page}: figures in none of its blocks: {u:?}");
+    }
+}

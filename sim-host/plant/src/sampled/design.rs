@@ -345,8 +345,8 @@ mod tests {
             .all(|r| r.traction_ok && r.failed.as_deref().is_some_and(|f| f.contains("yaw"))));
     }
 
-    /// The margins of the paper's loops at 5 kHz with one tick, as the audit reports
-    /// them, and the classical reading of the yaw loop's critical gains.
+    /// The margins of the paper's loops at 5 kHz with one tick, each loop alone (the
+    /// design's reference), and the classical reading of the yaw loop's critical gains.
     #[test]
     fn the_paper_margins() {
         let p = Params::default();

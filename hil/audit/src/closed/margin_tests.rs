@@ -1,7 +1,7 @@
 //! The audit's stability verdict (Nyquist: `Z = P - W`) against the sampled-data
 //! eigenvalue analysis of `sim-host rates` (`wheelset_plant::sampled::closed_loop`), over
-//! lead gains on both sides of the stability limits; and margins that are positive
-//! whenever the loop is stable.
+//! lead gains on both sides of the stability limits and over rates and delays; and
+//! margins that are positive whenever the loop is stable.
 
 use super::margins;
 use crate::bounds::Quantised;
@@ -12,11 +12,15 @@ use wheelset_plant::params::Params;
 use wheelset_plant::sampled::{closed_loop, Model};
 
 fn audit_and_eigen(p: &Params) -> (Vec<super::Margin>, bool) {
-    let cfg: Config = control_config(p, YawLaw::Lead, true);
+    audit_and_eigen_at(p, control_config(p, YawLaw::Lead, true))
+}
+
+fn audit_and_eigen_at(p: &Params, cfg: Config) -> (Vec<super::Margin>, bool) {
     let q = Quantised::of::<wheelset_control::Fx>(&cfg).expect("quantised");
     let m = margins(&cfg, &q, p).expect("margins");
     let plant = Model::Full.plant(p, p.f11, p.lambda, false);
-    let eig = closed_loop(&plant, &cfg, 1).expect("closed loop").stable();
+    let d = usize::from(cfg.delay_ticks.max(1));
+    let eig = closed_loop(&plant, &cfg, d).expect("closed loop").stable();
     (m, eig)
 }
 
@@ -93,4 +97,28 @@ fn the_gain_interval_edges_are_where_the_eigenvalues_change() {
         let (_, eig) = audit_and_eigen(&q);
         assert_eq!(eig, stable, "gain x{k:.4} ({down:.2} dB x {factor})");
     }
+}
+
+#[test]
+fn the_nyquist_verdict_agrees_with_the_eigenvalues_over_rates_and_delays() {
+    let p = Params::default();
+    let base = control_config(&p, YawLaw::Lead, true);
+    let mut seen = (false, false);
+    for (rate, delay) in [(1000, 1), (2000, 2), (5000, 3), (10_000, 1)] {
+        for gain in [0.25, 0.5, 1.0] {
+            // Gains up to the largest whose `k_hf` the Q1.31 format holds.
+            let (m, eig) = audit_and_eigen_at(&p, base.with_design(rate, delay, gain));
+            let both = m.iter().all(|x| x.stable);
+            assert_eq!(both, eig, "{rate} Hz, {delay} ticks, lead x{gain}: {m:#?}");
+            if eig {
+                seen.0 = true;
+            } else {
+                seen.1 = true;
+            }
+        }
+    }
+    assert!(
+        seen.0 && seen.1,
+        "the points should span stable and unstable loops"
+    );
 }
