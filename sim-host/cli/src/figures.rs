@@ -33,14 +33,14 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
             format!("scenario {}, control {}", main.info.scenario, label(main))
         } else {
             format!(
-                "scenario {}: control {} ({main_style}) against {} ({others_style})",
+                "scenario {}: control {} ({main_style}) vs {} ({others_style})",
                 main.info.scenario,
                 label(main),
                 others.join(", ")
             )
         }
     };
-    let title = titled("thin, on top", "wide, beneath");
+    let title = titled("thin, on top", "wide, pale, beneath");
     // `curve` is Figs. 6-8 of the paper, `beating` Fig. 9.
     let fig = |curve: &str, beating: &str| -> String {
         let n = match main.info.scenario.as_str() {
@@ -73,7 +73,7 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
         if k == 0 {
             s
         } else {
-            s.width(3.2)
+            s.width(4.0).opacity(0.5)
         }
     };
 
@@ -122,7 +122,10 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
     }
     save(
         "lateral.svg",
-        Figure::new(&title).panel(p).panel(psi).panel(zoom),
+        Figure::new(&format!("Lateral motion, {title}"))
+            .panel(p)
+            .panel(psi)
+            .panel(zoom),
     )?;
 
     // Fig. 7
@@ -260,13 +263,14 @@ pub fn write_root_locus(sw: &CaseSweep, dir: &Path) -> std::io::Result<std::path
     .size(900.0, 360.0)
     .x_label("creep coefficient f11 = f22 (MN)")
     .y_label("frequency (Hz)");
-    let mut zeta = Plot::new("Damping ratio of each mode (below 0 = unstable)")
-        .size(900.0, 360.0)
-        .x_label("creep coefficient f11 = f22 (MN)")
-        .y_label("zeta")
-        .hline(0.0);
+    let mut zeta =
+        Plot::new("Damping ratio of each mode (below 0 = unstable; real: 1, nested bands)")
+            .size(900.0, 360.0)
+            .x_label("creep coefficient f11 = f22 (MN)")
+            .y_label("zeta")
+            .hline(0.0);
     // Modes real somewhere coincide there at zero frequency and zeta = 1: the ones drawn
-    // first are wider, so they show as nested bands.
+    // first are wider, so they show as nested bands (nested dots on the real axis).
     let hz_range = |name: &str, f: &dyn Fn(f64, f64) -> f64| {
         (0..n_pts)
             .filter_map(|k| sw.mode_eig(name, k))
@@ -282,7 +286,7 @@ pub fn write_root_locus(sw: &CaseSweep, dir: &Path) -> std::io::Result<std::path
         let col = MODE_COLOURS[m % MODE_COLOURS.len()];
         let later_real = real[m + 1..].iter().filter(|r| **r).count();
         let width = if real[m] {
-            1.6 + 2.4 * later_real as f64
+            1.6 + 3.0 * later_real as f64
         } else {
             1.6
         };
@@ -303,7 +307,7 @@ pub fn write_root_locus(sw: &CaseSweep, dir: &Path) -> std::io::Result<std::path
         } else {
             format!("{name}: real")
         };
-        locus = locus.series(Series::scatter(&named, pts).color(col));
+        locus = locus.series(Series::scatter(&named, pts).color(col).width(width));
         let top: Vec<(f64, f64)> = sw.eig[n_pts - 1]
             .iter()
             .enumerate()
@@ -403,7 +407,8 @@ pub fn write_figure(
     );
     // The other runs first and wide, the first run thin on top.
     let order: Vec<usize> = (1..runs.len()).chain(0..runs.len().min(1)).collect();
-    let width = |k: usize| if k == 0 { 1.4 } else { 3.6 };
+    let width = |k: usize| if k == 0 { 1.4 } else { 4.0 };
+    let pale = |k: usize| if k == 0 { 1.0 } else { 0.5 };
     for &k in &order {
         let run = &runs[k];
         let pts = |f: &dyn Fn(&Record) -> f64| -> Vec<(f64, f64)> {
@@ -412,12 +417,14 @@ pub fn write_figure(
         force = force.series(
             Series::line(run.label, pts(&|r| (r.fx_r_n + r.fx_l_n) * 1e-3))
                 .color(colour(k))
-                .width(width(k)),
+                .width(width(k))
+                .opacity(pale(k)),
         );
         mu = mu.series(
             Series::line(&format!("used, {}", run.label), pts(&|r| r.mu_used))
                 .color(colour(k))
-                .width(width(k)),
+                .width(width(k))
+                .opacity(pale(k)),
         );
     }
     if let Some(run) = runs.first() {

@@ -47,6 +47,8 @@ pub struct Mark {
     pub label: String,
     /// Colour (any SVG colour).
     pub color: String,
+    /// A horizontal mark drawn only over `x` in this range (data units; `None`: across).
+    pub span: Option<(f64, f64)>,
 }
 
 /// One data series.
@@ -60,8 +62,11 @@ pub struct Series {
     pub style: Style,
     /// Colour (`None` = next palette colour).
     pub color: Option<String>,
-    /// Line width, px (lines only).
+    /// Line width, px (a marker's radius is `1.3 + width / 2`).
     pub width: f64,
+    /// Opacity, 0 to 1: a wide series drawn pale beneath a thin one that coincides with
+    /// it lets both show.
+    pub opacity: f64,
 }
 
 impl Series {
@@ -73,6 +78,7 @@ impl Series {
             style: Style::Line,
             color: None,
             width: 1.4,
+            opacity: 1.0,
         }
     }
     /// A scatter of dots.
@@ -95,6 +101,11 @@ impl Series {
     /// Sets the line width, px.
     pub fn width(mut self, px: f64) -> Self {
         self.width = px;
+        self
+    }
+    /// Sets the opacity (0 to 1).
+    pub fn opacity(mut self, a: f64) -> Self {
+        self.opacity = a;
         self
     }
 }
@@ -166,6 +177,7 @@ impl Plot {
             at: y,
             label: label.to_string(),
             color: color.to_string(),
+            span: None,
         });
         self
     }
@@ -176,7 +188,15 @@ impl Plot {
             at: x,
             label: label.to_string(),
             color: color.to_string(),
+            span: None,
         });
+        self
+    }
+    /// The last mark drawn only over `x` in `[lo, hi]` (data units; see [`Mark::span`]).
+    pub fn over(mut self, lo: f64, hi: f64) -> Self {
+        if let Some(m) = self.marks.last_mut() {
+            m.span = Some((lo, hi));
+        }
         self
     }
     /// A logarithmic x axis.

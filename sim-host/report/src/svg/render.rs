@@ -41,6 +41,20 @@ impl Plot {
             .unwrap_or_else(|| PALETTE[k % PALETTE.len()].to_string())
     }
 
+    /// The colour of series `k` as an attribute's value, its opacity appended as
+    /// attributes when below 1.
+    fn paint(&self, k: usize, s: &Series) -> String {
+        let col = self.colour(k, s);
+        if s.opacity < 1.0 {
+            format!(
+                "{col}\" stroke-opacity=\"{0}\" fill-opacity=\"{0}",
+                s.opacity
+            )
+        } else {
+            col
+        }
+    }
+
     /// The points of every series as drawn, px (at most about 2000 per series).
     fn drawn_px(&self, sx: &dyn Fn(f64) -> f64, sy: &dyn Fn(f64) -> f64) -> Vec<(f64, f64)> {
         let mut out = Vec::new();
@@ -374,13 +388,13 @@ impl Plot {
             );
         }
         for (k, s) in self.series.iter().enumerate() {
-            let col = self.colour(k, s);
             let drawn: Vec<(f64, f64)> = s
                 .points
                 .iter()
                 .map(|&(x, y)| (self.tx(x), self.ty(y)))
                 .collect();
             let finite = |p: &&(f64, f64)| p.0.is_finite() && p.1.is_finite();
+            let col = self.paint(k, s);
             match s.style {
                 Style::Line | Style::Dashed => {
                     let dash = if s.style == Style::Dashed {
@@ -410,10 +424,11 @@ impl Plot {
                     }
                 }
                 Style::Markers => {
+                    let r = 1.3 + s.width / 2.0;
                     for &(x, y) in drawn.iter().filter(finite) {
                         let _ = writeln!(
                             o,
-                            r#"<circle cx="{:.1}" cy="{:.1}" r="2" fill="{col}"/>"#,
+                            r#"<circle cx="{:.1}" cy="{:.1}" r="{r:.1}" fill="{col}"/>"#,
                             sx(x),
                             sy(y)
                         );
@@ -462,6 +477,10 @@ impl Plot {
             if !at.is_finite() {
                 continue;
             }
+            // A horizontal mark's extent, px.
+            let (left, right) = m
+                .span
+                .map_or((ml, ml + pw), |(a, b)| (px(a).max(ml), px(b).min(ml + pw)));
             if m.vertical {
                 let _ = writeln!(
                     o,
@@ -471,8 +490,7 @@ impl Plot {
             } else {
                 let _ = writeln!(
                     o,
-                    r#"<line x1="{ml:.1}" y1="{at:.1}" x2="{:.1}" y2="{at:.1}" stroke="{c}" stroke-width="1.2" stroke-dasharray="5,3"/>"#,
-                    ml + pw
+                    r#"<line x1="{left:.1}" y1="{at:.1}" x2="{right:.1}" y2="{at:.1}" stroke="{c}" stroke-width="1.2" stroke-dasharray="5,3"/>"#
                 );
             }
             if m.label.is_empty() {
@@ -498,8 +516,8 @@ impl Plot {
                     at - 27.0,
                     at + 36.0,
                 ] {
-                    cands.push((ml + 4.0, y, false));
-                    cands.push((ml + pw - 4.0, y, true));
+                    cands.push((left + 4.0, y, false));
+                    cands.push((right - 4.0, y, true));
                 }
             }
             let rect_of = |(x, y, end): (f64, f64, bool)| -> Rect {
@@ -585,7 +603,7 @@ impl Plot {
             );
             for (row, (k, text, clipped)) in rows.iter().enumerate() {
                 let s = &self.series[*k];
-                let col = self.colour(*k, s);
+                let col = self.paint(*k, s);
                 let y = ly + 13.0 + row as f64 * 15.0;
                 if *clipped {
                     let _ = writeln!(
@@ -640,7 +658,7 @@ impl Plot {
         if !self.note.is_empty() {
             let _ = writeln!(
                 o,
-                r##"<text x="{:.1}" y="{:.1}" text-anchor="middle" font-size="14" fill="#555">{}</text>"##,
+                r##"<text x="{:.1}" y="{:.1}" text-anchor="middle" font-size="14" fill="#555" stroke="#fff" stroke-width="4" paint-order="stroke">{}</text>"##,
                 ml + pw / 2.0,
                 mt + ph / 2.0,
                 esc(&self.note)
