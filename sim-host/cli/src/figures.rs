@@ -255,17 +255,17 @@ pub fn write_root_locus(sw: &CaseSweep, dir: &Path) -> std::io::Result<std::path
     .y_label("Im (rad/s)")
     .x_range(1.05 * re_lo, 1.05 * re_hi)
     .y_range(-1.05 * im_hi, 1.05 * im_hi)
-    .size(900.0, 560.0)
+    .size(980.0, 560.0)
     .vline(0.0);
     let mut freq = Plot::new(
         "Frequency of each mode: natural |lambda|/2pi dashed, damped Im lambda/2pi solid",
     )
-    .size(900.0, 360.0)
+    .size(980.0, 360.0)
     .x_label("creep coefficient f11 = f22 (MN)")
     .y_label("frequency (Hz)");
     let mut zeta =
         Plot::new("Damping ratio of each mode (below 0 = unstable; real: 1, nested bands)")
-            .size(900.0, 360.0)
+            .size(980.0, 360.0)
             .x_label("creep coefficient f11 = f22 (MN)")
             .y_label("zeta")
             .hline(0.0);
@@ -300,13 +300,25 @@ pub fn write_root_locus(sw: &CaseSweep, dir: &Path) -> std::io::Result<std::path
         }
         // The legend names each mode with its natural frequency range over the sweep.
         let (lo, hi) = hz_range(name, &f64::hypot);
-        let named = if hi > 0.0 {
+        let mut named = if hi > 0.0 {
             format!("{name}: f_n {lo:.1}-{hi:.1} Hz")
         } else if name.contains("real") {
             name.clone()
         } else {
             format!("{name}: real")
         };
+        // How far a branch runs past the axis's left end.
+        let far = sw
+            .eig
+            .iter()
+            .flat_map(|row| row.iter().zip(&sw.branch_names))
+            .filter(|(_, b)| *b == name)
+            .map(|(l, _)| l.re)
+            .fold(0.0, f64::min);
+        if far < 1.05 * re_lo {
+            let sep = if named.contains(':') { "," } else { ":" };
+            named += &format!("{sep} to {far:.0} 1/s");
+        }
         locus = locus.series(Series::scatter(&named, pts).color(col).width(width));
         let top: Vec<(f64, f64)> = sw.eig[n_pts - 1]
             .iter()
