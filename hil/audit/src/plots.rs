@@ -158,11 +158,9 @@ pub fn write_plots(a: &Audit, dir: &Path) -> Result<Vec<(String, String)>, Audit
     let head: Vec<f64> = sigs
         .iter()
         .map(|s| {
-            if s.headroom_bits.is_finite() {
-                s.headroom_bits
-            } else {
-                0.0
-            }
+            Some(s.headroom_bits)
+                .filter(|h| h.is_finite())
+                .unwrap_or(0.0)
         })
         .collect();
     let peaks: Vec<(f64, f64)> = sigs

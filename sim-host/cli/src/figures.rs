@@ -48,11 +48,9 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
             "beating" => beating,
             _ => "",
         };
-        if n.is_empty() {
-            String::new()
-        } else {
-            format!(" (Fig. {n})")
-        }
+        Some(n)
+            .filter(|n| !n.is_empty())
+            .map_or(String::new(), |n| format!(" (Fig. {n})"))
     };
     let mut files = Vec::new();
     let mut save = |name: &str, fig: Figure| -> std::io::Result<()> {
@@ -256,7 +254,7 @@ pub fn write_root_locus(sw: &CaseSweep, dir: &Path) -> std::io::Result<std::path
     .x_range(1.05 * re_lo, 1.05 * re_hi)
     .y_range(-1.05 * im_hi, 1.05 * im_hi)
     .size(980.0, 560.0)
-    .vline(0.0);
+    .vmark(0.0, "", AXIS_GREY);
     let mut freq = Plot::new(
         "Frequency of each mode: natural |lambda|/2pi dashed, damped Im lambda/2pi solid",
     )
@@ -268,7 +266,7 @@ pub fn write_root_locus(sw: &CaseSweep, dir: &Path) -> std::io::Result<std::path
             .size(980.0, 360.0)
             .x_label("creep coefficient f11 = f22 (MN)")
             .y_label("zeta")
-            .hline(0.0);
+            .hmark(0.0, "", AXIS_GREY);
     // Modes real somewhere coincide there at zero frequency and zeta = 1: the ones drawn
     // first are wider, so they show as nested bands (nested dots on the real axis).
     let hz_range = |name: &str, f: &dyn Fn(f64, f64) -> f64| {
@@ -362,7 +360,7 @@ pub fn write_root_locus(sw: &CaseSweep, dir: &Path) -> std::io::Result<std::path
         );
     }
     for c in &sw.crossings {
-        zeta = zeta.vline(c.creep_n * 1e-6);
+        zeta = zeta.vmark(c.creep_n * 1e-6, "", AXIS_GREY);
     }
     let path = dir.join(format!("modes_case_{}.svg", sw.case.id()));
     Figure::new(&format!("Case ({}): {}", sw.case.id(), sw.case.label()))
@@ -372,6 +370,9 @@ pub fn write_root_locus(sw: &CaseSweep, dir: &Path) -> std::io::Result<std::path
         .save(&path)?;
     Ok(path)
 }
+
+/// The colour of the root locus's imaginary axis, zeta = 0 and the crossings' lines.
+const AXIS_GREY: &str = "#888888";
 
 /// The modes' colours: the palette with its two blues apart (the sky blue last).
 const MODE_COLOURS: [&str; 8] = [
@@ -404,13 +405,12 @@ pub fn write_figure(
         .iter()
         .filter_map(|r| r.tr.records.last().map(|x| x.t_s))
         .fold(0.0f64, f64::max);
+    // (A run without records: no range given, the data's own.)
     let panel = |title: &str, y_label: &str| {
-        let p = Plot::new(title).x_label("t (s)").y_label(y_label);
-        if end > 0.0 {
-            p.x_range(0.0, end)
-        } else {
-            p
-        }
+        Plot::new(title)
+            .x_label("t (s)")
+            .y_label(y_label)
+            .x_range(0.0, end)
     };
     let mut force = panel("Traction force delivered F_xR + F_xL", "F (kN)");
     let mut mu = panel(

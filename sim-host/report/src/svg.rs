@@ -131,10 +131,6 @@ pub struct Plot {
     pub width: f64,
     /// Height, px.
     pub height: f64,
-    /// Vertical reference lines at these x.
-    pub vlines: Vec<f64>,
-    /// Horizontal reference lines at these y.
-    pub hlines: Vec<f64>,
     /// A note written across the middle of the plotting area (empty = none).
     pub note: String,
     /// Labelled reference lines ([`Mark`]).
@@ -161,8 +157,6 @@ impl Plot {
             bars: Vec::new(),
             width: 860.0,
             height: 360.0,
-            vlines: Vec::new(),
-            hlines: Vec::new(),
             note: String::new(),
             marks: Vec::new(),
             x_log: false,
@@ -250,16 +244,6 @@ impl Plot {
     pub fn size(mut self, w: f64, h: f64) -> Self {
         self.width = w;
         self.height = h;
-        self
-    }
-    /// Adds a vertical reference line.
-    pub fn vline(mut self, x: f64) -> Self {
-        self.vlines.push(x);
-        self
-    }
-    /// Adds a horizontal reference line.
-    pub fn hline(mut self, y: f64) -> Self {
-        self.hlines.push(y);
         self
     }
     /// A histogram: `edges` has one more entry than `counts`.

@@ -156,12 +156,16 @@ fn path_points(d: &str) -> Vec<(f64, f64)> {
 /// while the panel has no clipping mark. Empty: every panel holds its data or says not.
 pub fn unmarked_clipping(svg: &str) -> Vec<String> {
     let mut out = Vec::new();
-    let (mut area, mut title) = ((0.0, 0.0, 0.0, 0.0), String::new());
+    let (mut area, mut title) = ([(0.0, 0.0); 2], String::new());
     let (mut inside, mut marked, mut beyond) = (false, false, 0usize);
     for line in svg.lines().map(str::trim) {
+        let n = |k| num(line, k).unwrap_or(0.0);
+        let corners = [
+            (n("x"), n("y")),
+            (n("x") + n("width"), n("y") + n("height")),
+        ];
         if line.starts_with("<rect") && line.contains(r##"stroke="#333""##) {
-            let n = |k| num(line, k).unwrap_or(0.0);
-            area = (n("x"), n("y"), n("x") + n("width"), n("y") + n("height"));
+            area = corners;
         } else if line.starts_with("<text") && line.contains(r#"font-weight="bold""#) {
             let t = &line[line.find('>').map_or(0, |i| i + 1)..];
             title = t.trim_end_matches("</text>").to_string();
@@ -175,38 +179,26 @@ pub fn unmarked_clipping(svg: &str) -> Vec<String> {
                 ));
             }
         } else if inside {
-            let pts = if line.contains(r#"class="clipped""#) {
-                marked = true;
-                Vec::new()
-            } else if line.starts_with("<path") {
-                let p = path_points(&attr(line, "d").unwrap_or_default());
-                // A cross mark (two strokes): its centre.
-                if line.matches('M').count() == 2 && p.len() == 4 {
-                    vec![((p[0].0 + p[1].0) / 2.0, (p[0].1 + p[1].1) / 2.0)]
-                } else {
-                    p
+            marked |= line.contains(r#"class="clipped""#);
+            let pts = match line.split(' ').next() {
+                _ if marked => Vec::new(),
+                Some("<path") => {
+                    let p = path_points(&attr(line, "d").unwrap_or_default());
+                    // A cross mark (two strokes): its centre.
+                    match (line.matches('M').count(), p.as_slice()) {
+                        (2, [a, b, _, _]) => vec![((a.0 + b.0) / 2.0, (a.1 + b.1) / 2.0)],
+                        _ => p,
+                    }
                 }
-            } else if line.starts_with("<circle") {
-                vec![(
-                    num(line, "cx").unwrap_or(0.0),
-                    num(line, "cy").unwrap_or(0.0),
-                )]
-            } else if line.starts_with("<rect") {
-                let n = |k| num(line, k).unwrap_or(0.0);
-                vec![
-                    (n("x"), n("y")),
-                    (n("x") + n("width"), n("y") + n("height")),
-                ]
-            } else {
-                Vec::new()
+                Some("<circle") => vec![(n("cx"), n("cy"))],
+                Some("<rect") => corners.to_vec(),
+                _ => Vec::new(),
             };
-            let (l, t, r, b) = area;
-            beyond += pts
-                .iter()
-                .filter(|p| {
-                    p.0 < l - SLACK || p.0 > r + SLACK || p.1 < t - SLACK || p.1 > b + SLACK
-                })
-                .count();
+            let [(l, t), (r, b)] = area;
+            let out_of = |p: &&(f64, f64)| {
+                p.0 < l - SLACK || p.0 > r + SLACK || p.1 < t - SLACK || p.1 > b + SLACK
+            };
+            beyond += pts.iter().filter(out_of).count();
         }
     }
     out
