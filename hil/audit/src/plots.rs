@@ -50,16 +50,18 @@ pub fn write_plots(a: &Audit, dir: &Path) -> Result<Vec<(String, String)>, Audit
         let db = |x: f64| 20.0 * x.log10();
         let limit = c.worst.below_hz;
         let judged = format!("judged below {limit:.0} Hz");
-        let bode = |title: &str, unit: &str| {
+        let f_lo = c.freq_response.first().map_or(limit, |p| p.f_hz);
+        let plain = |title: &str, unit: &str| {
             Plot::new(title)
                 .x_label("f (Hz)")
                 .y_label(unit)
                 .log_x()
                 .size(860.0, 280.0)
-                .vmark(limit, &judged, EDGE_COLOUR)
         };
+        let bode = |title: &str, unit: &str| plain(title, unit).vmark(limit, &judged, EDGE_COLOUR);
         // The three forms nearly coincide: the continuous wide and pale beneath, the
-        // discrete f64 narrower over it, the fixed point thin on top, so each shows.
+        // discrete f64 narrower and half transparent over it, the fixed point thin on
+        // top, so each shows.
         let forms = |p: Plot, unwrap_phase: bool, g: &dyn Fn(&super::GainPhase) -> f64| {
             let u = |v: Vec<(f64, f64)>| if unwrap_phase { unwrap(v) } else { v };
             p.series(
@@ -70,7 +72,8 @@ pub fn write_plots(a: &Audit, dir: &Path) -> Result<Vec<(String, String)>, Audit
             .series(
                 Series::line("discrete f64", u(pts(&|x| g(&x.discrete_f64))))
                     .color("#D55E00")
-                    .width(3.0),
+                    .width(3.5)
+                    .opacity(0.5),
             )
             .series(
                 Series::line("fixed (measured, thin)", u(pts(&|x| g(&x.fixed))))
@@ -78,18 +81,20 @@ pub fn write_plots(a: &Audit, dir: &Path) -> Result<Vec<(String, String)>, Audit
                     .width(1.2),
             )
         };
-        // An error panel against its tolerance: warn at +-w, fail at +-f (none where the
-        // figure is not judged).
-        let error = |title: &str, unit: &str, tol: Option<(f64, f64)>, s: Series| {
-            let p = bode(title, unit).series(s);
-            match tol {
-                Some((w, f)) => p
-                    .hmark(w, &format!("warn above ±{w} {unit}"), WARN_COLOUR)
-                    .hmark(-w, "", WARN_COLOUR)
-                    .hmark(f, &format!("fail above ±{f} {unit}"), FAIL_COLOUR)
-                    .hmark(-f, "", FAIL_COLOUR),
-                None => p,
-            }
+        // An error panel against its tolerance: warn at +-w, fail at +-f over the band
+        // the check judges (no limits and no band where the figure is not judged).
+        let error = |title: &str, unit: &str, tol: Option<(f64, f64)>, s: Series| match tol {
+            Some((w, f)) => bode(title, unit)
+                .series(s)
+                .hmark(w, &format!("warn above ±{w} {unit}"), WARN_COLOUR)
+                .over(f_lo, limit)
+                .hmark(-w, "", WARN_COLOUR)
+                .over(f_lo, limit)
+                .hmark(f, &format!("fail above ±{f} {unit}"), FAIL_COLOUR)
+                .over(f_lo, limit)
+                .hmark(-f, "", FAIL_COLOUR)
+                .over(f_lo, limit),
+            None => plain(title, unit).series(s),
         };
         // The predictor approximates an ideal advance by design: its discretisation
         // error is not judged (the sampled-data analysis is), so it has no limits.
@@ -153,11 +158,9 @@ pub fn write_plots(a: &Audit, dir: &Path) -> Result<Vec<(String, String)>, Audit
     let head: Vec<f64> = sigs
         .iter()
         .map(|s| {
-            if s.headroom_bits.is_finite() {
-                s.headroom_bits
-            } else {
-                0.0
-            }
+            Some(s.headroom_bits)
+                .filter(|h| h.is_finite())
+                .unwrap_or(0.0)
         })
         .collect();
     let peaks: Vec<(f64, f64)> = sigs

@@ -136,13 +136,13 @@ fn trajectories(out: &RunOutcome) -> Figure {
         .series(Series::line("judged error", pts).color("#0072B2"))
         .hmark(
             allowed,
-            &format!("allowed ±{}", value_label(allowed)),
+            &format!("allowed ±{} {unit_only}", value_label(allowed)),
             PASS_COLOUR,
         )
         .hmark(-allowed, "", PASS_COLOUR)
         .hmark(
             fail,
-            &format!("fail above ±{}", value_label(fail)),
+            &format!("fail above ±{} {unit_only}", value_label(fail)),
             FAIL_COLOUR,
         )
         .hmark(-fail, "", FAIL_COLOUR);
@@ -177,7 +177,7 @@ fn monitor(out: &RunOutcome) -> Figure {
     for a in &m.alarms {
         events.push((
             a.t_s,
-            "alarm".into(),
+            format!("{} alarm", a.kind),
             format!("{} alarm {:.3} s", a.kind, a.t_s),
             FAIL_COLOUR,
         ));

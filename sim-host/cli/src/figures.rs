@@ -33,14 +33,14 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
             format!("scenario {}, control {}", main.info.scenario, label(main))
         } else {
             format!(
-                "scenario {}: control {} ({main_style}) against {} ({others_style})",
+                "scenario {}: control {} ({main_style}) vs {} ({others_style})",
                 main.info.scenario,
                 label(main),
                 others.join(", ")
             )
         }
     };
-    let title = titled("thin, on top", "wide, beneath");
+    let title = titled("thin, on top", "wide, pale, beneath");
     // `curve` is Figs. 6-8 of the paper, `beating` Fig. 9.
     let fig = |curve: &str, beating: &str| -> String {
         let n = match main.info.scenario.as_str() {
@@ -48,11 +48,9 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
             "beating" => beating,
             _ => "",
         };
-        if n.is_empty() {
-            String::new()
-        } else {
-            format!(" (Fig. {n})")
-        }
+        Some(n)
+            .filter(|n| !n.is_empty())
+            .map_or(String::new(), |n| format!(" (Fig. {n})"))
     };
     let mut files = Vec::new();
     let mut save = |name: &str, fig: Figure| -> std::io::Result<()> {
@@ -73,7 +71,7 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
         if k == 0 {
             s
         } else {
-            s.width(3.2)
+            s.width(4.0).opacity(0.5)
         }
     };
 
@@ -122,7 +120,10 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
     }
     save(
         "lateral.svg",
-        Figure::new(&title).panel(p).panel(psi).panel(zoom),
+        Figure::new(&format!("Lateral motion, {title}"))
+            .panel(p)
+            .panel(psi)
+            .panel(zoom),
     )?;
 
     // Fig. 7
@@ -252,21 +253,22 @@ pub fn write_root_locus(sw: &CaseSweep, dir: &Path) -> std::io::Result<std::path
     .y_label("Im (rad/s)")
     .x_range(1.05 * re_lo, 1.05 * re_hi)
     .y_range(-1.05 * im_hi, 1.05 * im_hi)
-    .size(900.0, 560.0)
-    .vline(0.0);
+    .size(980.0, 560.0)
+    .vmark(0.0, "", AXIS_GREY);
     let mut freq = Plot::new(
         "Frequency of each mode: natural |lambda|/2pi dashed, damped Im lambda/2pi solid",
     )
-    .size(900.0, 360.0)
+    .size(980.0, 360.0)
     .x_label("creep coefficient f11 = f22 (MN)")
     .y_label("frequency (Hz)");
-    let mut zeta = Plot::new("Damping ratio of each mode (below 0 = unstable)")
-        .size(900.0, 360.0)
-        .x_label("creep coefficient f11 = f22 (MN)")
-        .y_label("zeta")
-        .hline(0.0);
+    let mut zeta =
+        Plot::new("Damping ratio of each mode (below 0 = unstable; real: 1, nested bands)")
+            .size(980.0, 360.0)
+            .x_label("creep coefficient f11 = f22 (MN)")
+            .y_label("zeta")
+            .hmark(0.0, "", AXIS_GREY);
     // Modes real somewhere coincide there at zero frequency and zeta = 1: the ones drawn
-    // first are wider, so they show as nested bands.
+    // first are wider, so they show as nested bands (nested dots on the real axis).
     let hz_range = |name: &str, f: &dyn Fn(f64, f64) -> f64| {
         (0..n_pts)
             .filter_map(|k| sw.mode_eig(name, k))
@@ -282,7 +284,7 @@ pub fn write_root_locus(sw: &CaseSweep, dir: &Path) -> std::io::Result<std::path
         let col = MODE_COLOURS[m % MODE_COLOURS.len()];
         let later_real = real[m + 1..].iter().filter(|r| **r).count();
         let width = if real[m] {
-            1.6 + 2.4 * later_real as f64
+            1.6 + 3.0 * later_real as f64
         } else {
             1.6
         };
@@ -296,14 +298,26 @@ pub fn write_root_locus(sw: &CaseSweep, dir: &Path) -> std::io::Result<std::path
         }
         // The legend names each mode with its natural frequency range over the sweep.
         let (lo, hi) = hz_range(name, &f64::hypot);
-        let named = if hi > 0.0 {
+        let mut named = if hi > 0.0 {
             format!("{name}: f_n {lo:.1}-{hi:.1} Hz")
         } else if name.contains("real") {
             name.clone()
         } else {
             format!("{name}: real")
         };
-        locus = locus.series(Series::scatter(&named, pts).color(col));
+        // How far a branch runs past the axis's left end.
+        let far = sw
+            .eig
+            .iter()
+            .flat_map(|row| row.iter().zip(&sw.branch_names))
+            .filter(|(_, b)| *b == name)
+            .map(|(l, _)| l.re)
+            .fold(0.0, f64::min);
+        if far < 1.05 * re_lo {
+            let sep = if named.contains(':') { "," } else { ":" };
+            named += &format!("{sep} to {far:.0} 1/s");
+        }
+        locus = locus.series(Series::scatter(&named, pts).color(col).width(width));
         let top: Vec<(f64, f64)> = sw.eig[n_pts - 1]
             .iter()
             .enumerate()
@@ -346,7 +360,7 @@ pub fn write_root_locus(sw: &CaseSweep, dir: &Path) -> std::io::Result<std::path
         );
     }
     for c in &sw.crossings {
-        zeta = zeta.vline(c.creep_n * 1e-6);
+        zeta = zeta.vmark(c.creep_n * 1e-6, "", AXIS_GREY);
     }
     let path = dir.join(format!("modes_case_{}.svg", sw.case.id()));
     Figure::new(&format!("Case ({}): {}", sw.case.id(), sw.case.label()))
@@ -356,6 +370,9 @@ pub fn write_root_locus(sw: &CaseSweep, dir: &Path) -> std::io::Result<std::path
         .save(&path)?;
     Ok(path)
 }
+
+/// The colour of the root locus's imaginary axis, zeta = 0 and the crossings' lines.
+const AXIS_GREY: &str = "#888888";
 
 /// The modes' colours: the palette with its two blues apart (the sky blue last).
 const MODE_COLOURS: [&str; 8] = [
@@ -388,13 +405,12 @@ pub fn write_figure(
         .iter()
         .filter_map(|r| r.tr.records.last().map(|x| x.t_s))
         .fold(0.0f64, f64::max);
+    // (A run without records: no range given, the data's own.)
     let panel = |title: &str, y_label: &str| {
-        let p = Plot::new(title).x_label("t (s)").y_label(y_label);
-        if end > 0.0 {
-            p.x_range(0.0, end)
-        } else {
-            p
-        }
+        Plot::new(title)
+            .x_label("t (s)")
+            .y_label(y_label)
+            .x_range(0.0, end)
     };
     let mut force = panel("Traction force delivered F_xR + F_xL", "F (kN)");
     let mut mu = panel(
@@ -403,7 +419,8 @@ pub fn write_figure(
     );
     // The other runs first and wide, the first run thin on top.
     let order: Vec<usize> = (1..runs.len()).chain(0..runs.len().min(1)).collect();
-    let width = |k: usize| if k == 0 { 1.4 } else { 3.6 };
+    let width = |k: usize| if k == 0 { 1.4 } else { 4.0 };
+    let pale = |k: usize| if k == 0 { 1.0 } else { 0.5 };
     for &k in &order {
         let run = &runs[k];
         let pts = |f: &dyn Fn(&Record) -> f64| -> Vec<(f64, f64)> {
@@ -412,12 +429,14 @@ pub fn write_figure(
         force = force.series(
             Series::line(run.label, pts(&|r| (r.fx_r_n + r.fx_l_n) * 1e-3))
                 .color(colour(k))
-                .width(width(k)),
+                .width(width(k))
+                .opacity(pale(k)),
         );
         mu = mu.series(
             Series::line(&format!("used, {}", run.label), pts(&|r| r.mu_used))
                 .color(colour(k))
-                .width(width(k)),
+                .width(width(k))
+                .opacity(pale(k)),
         );
     }
     if let Some(run) = runs.first() {

@@ -1,5 +1,5 @@
 //! Lints SVG files drawn by `wheelset_report::svg`: names every label that overlaps
-//! another or leaves the canvas. `cargo run -p wheelset-report --example svg_lint --
+//! another or leaves the canvas, and every panel whose data leave its axes unmarked. `cargo run -p wheelset-report --example svg_lint --
 //! out/report/*.svg`; exits 1 if any file has a problem.
 
 use std::process::ExitCode;

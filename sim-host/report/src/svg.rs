@@ -47,6 +47,8 @@ pub struct Mark {
     pub label: String,
     /// Colour (any SVG colour).
     pub color: String,
+    /// A horizontal mark drawn only over `x` in this range (data units; `None`: across).
+    pub span: Option<(f64, f64)>,
 }
 
 /// One data series.
@@ -60,8 +62,11 @@ pub struct Series {
     pub style: Style,
     /// Colour (`None` = next palette colour).
     pub color: Option<String>,
-    /// Line width, px (lines only).
+    /// Line width, px (a marker's radius is `1.3 + width / 2`).
     pub width: f64,
+    /// Opacity, 0 to 1: a wide series drawn pale beneath a thin one that coincides with
+    /// it lets both show.
+    pub opacity: f64,
 }
 
 impl Series {
@@ -73,6 +78,7 @@ impl Series {
             style: Style::Line,
             color: None,
             width: 1.4,
+            opacity: 1.0,
         }
     }
     /// A scatter of dots.
@@ -95,6 +101,11 @@ impl Series {
     /// Sets the line width, px.
     pub fn width(mut self, px: f64) -> Self {
         self.width = px;
+        self
+    }
+    /// Sets the opacity (0 to 1).
+    pub fn opacity(mut self, a: f64) -> Self {
+        self.opacity = a;
         self
     }
 }
@@ -120,10 +131,6 @@ pub struct Plot {
     pub width: f64,
     /// Height, px.
     pub height: f64,
-    /// Vertical reference lines at these x.
-    pub vlines: Vec<f64>,
-    /// Horizontal reference lines at these y.
-    pub hlines: Vec<f64>,
     /// A note written across the middle of the plotting area (empty = none).
     pub note: String,
     /// Labelled reference lines ([`Mark`]).
@@ -150,8 +157,6 @@ impl Plot {
             bars: Vec::new(),
             width: 860.0,
             height: 360.0,
-            vlines: Vec::new(),
-            hlines: Vec::new(),
             note: String::new(),
             marks: Vec::new(),
             x_log: false,
@@ -166,6 +171,7 @@ impl Plot {
             at: y,
             label: label.to_string(),
             color: color.to_string(),
+            span: None,
         });
         self
     }
@@ -176,7 +182,15 @@ impl Plot {
             at: x,
             label: label.to_string(),
             color: color.to_string(),
+            span: None,
         });
+        self
+    }
+    /// The last mark drawn only over `x` in `[lo, hi]` (data units; see [`Mark::span`]).
+    pub fn over(mut self, lo: f64, hi: f64) -> Self {
+        if let Some(m) = self.marks.last_mut() {
+            m.span = Some((lo, hi));
+        }
         self
     }
     /// A logarithmic x axis.
@@ -230,16 +244,6 @@ impl Plot {
     pub fn size(mut self, w: f64, h: f64) -> Self {
         self.width = w;
         self.height = h;
-        self
-    }
-    /// Adds a vertical reference line.
-    pub fn vline(mut self, x: f64) -> Self {
-        self.vlines.push(x);
-        self
-    }
-    /// Adds a horizontal reference line.
-    pub fn hline(mut self, y: f64) -> Self {
-        self.hlines.push(y);
         self
     }
     /// A histogram: `edges` has one more entry than `counts`.

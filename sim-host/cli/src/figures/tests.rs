@@ -1,9 +1,11 @@
 //! The figures' titles: the root locus names where the stability changes (not the
 //! 10 MN end), and the time histories name the paper's figure of their scenario only.
 //! Every figure drawn here passes the layout lint (no label over another or off the
-//! canvas; data beyond a fixed axis is marked by the plotting module).
+//! canvas; data beyond a fixed axis is marked by the plotting module): the time
+//! histories, the four root loci and the three creep characteristics.
 
-use super::{write_root_locus, write_time_histories};
+use super::{characteristic, write_root_locus, write_time_histories};
+use wheelset_plant::adhesion::Condition;
 use wheelset_plant::control::YawLaw;
 use wheelset_plant::modes::{creep_grid, sweep_case, Case};
 use wheelset_plant::params::Params;
@@ -77,5 +79,21 @@ fn time_histories_name_the_figure_of_their_scenario() {
         let svg = std::fs::read_to_string(dir.join("lateral.svg")).expect("read");
         assert!(svg.contains(lateral), "{scenario}: no `{lateral}`");
         assert!(!svg.contains(not), "{scenario}: `{not}` in lateral.svg");
+    }
+}
+
+#[test]
+fn every_root_locus_and_characteristic_is_laid_out() {
+    let p = Params::default();
+    let dir = tmp("all-loci");
+    for case in [Case::C, Case::D] {
+        let sw = sweep_case(&p, case, &creep_grid(60), || {}).expect("sweep");
+        assert_laid_out(&write_root_locus(&sw, &dir).expect("written"));
+    }
+    for c in [Condition::Dry, Condition::Wet, Condition::Low] {
+        let ch = wheelset_plant::traction::characteristic(c, p.v, &p, 200);
+        let svg = characteristic(&ch).to_svg();
+        let problems = wheelset_report::svg::lint::problems(&svg);
+        assert!(problems.is_empty(), "{c:?}: {problems:#?}");
     }
 }

@@ -2,7 +2,10 @@
 //! estimated (a character [`CHAR_WIDTH`] of the font size wide, a line `0.75` of it above
 //! the baseline and `0.25` below, boxes shrunk by [`SLACK`]; rotated labels as the
 //! axis-aligned box of the rotated line) and the labels that overlap each other or leave
-//! the canvas are named. Slanted names are not compared with each other.
+//! the canvas are named. Slanted names are not compared with each other. A panel's data
+//! (the paths, dots and bars in its clipped group) beyond its plotting area by more than
+//! [`SLACK`] must come with a clipping mark (`class="clipped"`, [`super::Plot`] draws
+//! one where each run leaves the axes).
 
 /// Width of one character, in units of the font size.
 pub const CHAR_WIDTH: f64 = 0.6;
@@ -140,11 +143,73 @@ pub fn text_boxes(svg: &str) -> ((f64, f64), Vec<TextBox>) {
     (canvas, out)
 }
 
-/// The layout problems of `svg`: each pair of labels that overlap, and each label that
-/// leaves the canvas, as a sentence naming the labels. Empty: none.
+/// The numbers of a path's `d` as `(x, y)` pairs (absolute `M`/`L` commands only).
+fn path_points(d: &str) -> Vec<(f64, f64)> {
+    let nums: Vec<f64> = d
+        .split(|c: char| !(c.is_ascii_digit() || c == '.' || c == '-' || c == 'e'))
+        .filter_map(|t| t.parse().ok())
+        .collect();
+    nums.chunks_exact(2).map(|p| (p[0], p[1])).collect()
+}
+
+/// Per panel of `svg` (by its title): the data points drawn beyond the plotting area
+/// while the panel has no clipping mark. Empty: every panel holds its data or says not.
+pub fn unmarked_clipping(svg: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    let (mut area, mut title) = ([(0.0, 0.0); 2], String::new());
+    let (mut inside, mut marked, mut beyond) = (false, false, 0usize);
+    for line in svg.lines().map(str::trim) {
+        let n = |k| num(line, k).unwrap_or(0.0);
+        let corners = [
+            (n("x"), n("y")),
+            (n("x") + n("width"), n("y") + n("height")),
+        ];
+        if line.starts_with("<rect") && line.contains(r##"stroke="#333""##) {
+            area = corners;
+        } else if line.starts_with("<text") && line.contains(r#"font-weight="bold""#) {
+            let t = &line[line.find('>').map_or(0, |i| i + 1)..];
+            title = t.trim_end_matches("</text>").to_string();
+        } else if line.contains(r#"<g clip-path=""#) {
+            (inside, marked, beyond) = (true, false, 0);
+        } else if inside && line.starts_with("</g>") {
+            inside = false;
+            if beyond > 0 && !marked {
+                out.push(format!(
+                    "panel `{title}`: {beyond} data points beyond its axes, no clipping mark"
+                ));
+            }
+        } else if inside {
+            marked |= line.contains(r#"class="clipped""#);
+            let pts = match line.split(' ').next() {
+                _ if marked => Vec::new(),
+                Some("<path") => {
+                    let p = path_points(&attr(line, "d").unwrap_or_default());
+                    // A cross mark (two strokes): its centre.
+                    match (line.matches('M').count(), p.as_slice()) {
+                        (2, [a, b, _, _]) => vec![((a.0 + b.0) / 2.0, (a.1 + b.1) / 2.0)],
+                        _ => p,
+                    }
+                }
+                Some("<circle") => vec![(n("cx"), n("cy"))],
+                Some("<rect") => corners.to_vec(),
+                _ => Vec::new(),
+            };
+            let [(l, t), (r, b)] = area;
+            let out_of = |p: &&(f64, f64)| {
+                p.0 < l - SLACK || p.0 > r + SLACK || p.1 < t - SLACK || p.1 > b + SLACK
+            };
+            beyond += pts.iter().filter(out_of).count();
+        }
+    }
+    out
+}
+
+/// The layout problems of `svg`: each pair of labels that overlap, each label that
+/// leaves the canvas, and each panel whose data leaves its axes unmarked
+/// ([`unmarked_clipping`]), as a sentence naming them. Empty: none.
 pub fn problems(svg: &str) -> Vec<String> {
     let ((w, h), boxes) = text_boxes(svg);
-    let mut out = Vec::new();
+    let mut out = unmarked_clipping(svg);
     for (i, a) in boxes.iter().enumerate() {
         let r = a.rect;
         if r.0 < -SLACK || r.1 < -SLACK || r.2 > w + SLACK || r.3 > h + SLACK {

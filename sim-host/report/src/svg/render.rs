@@ -41,6 +41,20 @@ impl Plot {
             .unwrap_or_else(|| PALETTE[k % PALETTE.len()].to_string())
     }
 
+    /// The colour of series `k` as an attribute's value, its opacity appended as
+    /// attributes when below 1.
+    fn paint(&self, k: usize, s: &Series) -> String {
+        let col = self.colour(k, s);
+        if s.opacity < 1.0 {
+            format!(
+                "{col}\" stroke-opacity=\"{0}\" fill-opacity=\"{0}",
+                s.opacity
+            )
+        } else {
+            col
+        }
+    }
+
     /// The points of every series as drawn, px (at most about 2000 per series).
     fn drawn_px(&self, sx: &dyn Fn(f64) -> f64, sy: &dyn Fn(f64) -> f64) -> Vec<(f64, f64)> {
         let mut out = Vec::new();
@@ -305,31 +319,27 @@ impl Plot {
                 esc(c)
             );
         }
+        let (bottom, right) = (mt + ph, ml + pw);
         for (t, label) in &xt {
-            let x = sx(*t);
+            let (x, ty) = (sx(*t), bottom + 15.0);
             let _ = writeln!(
                 o,
-                r##"<line x1="{x:.1}" y1="{mt}" x2="{x:.1}" y2="{:.1}" stroke="#ddd"/>"##,
-                mt + ph
+                r##"<line x1="{x:.1}" y1="{mt}" x2="{x:.1}" y2="{bottom:.1}" stroke="#ddd"/>"##
             );
             let _ = writeln!(
                 o,
-                r#"<text x="{x:.1}" y="{:.1}" text-anchor="middle">{label}</text>"#,
-                mt + ph + 15.0
+                r#"<text x="{x:.1}" y="{ty:.1}" text-anchor="middle">{label}</text>"#
             );
         }
         for (t, label) in &yt {
-            let y = sy(*t);
+            let (y, tx, ty) = (sy(*t), ml - 5.0, sy(*t) + 4.0);
             let _ = writeln!(
                 o,
-                r##"<line x1="{ml:.1}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}" stroke="#ddd"/>"##,
-                ml + pw
+                r##"<line x1="{ml:.1}" y1="{y:.1}" x2="{right:.1}" y2="{y:.1}" stroke="#ddd"/>"##
             );
             let _ = writeln!(
                 o,
-                r#"<text x="{:.1}" y="{:.1}" text-anchor="end">{label}</text>"#,
-                ml - 5.0,
-                y + 4.0
+                r#"<text x="{tx:.1}" y="{ty:.1}" text-anchor="end">{label}</text>"#
             );
         }
         if !blank {
@@ -349,45 +359,23 @@ impl Plot {
             let top = self.ty(h).max(y0);
             let bottom = if self.y_log { y0 } else { 0f64.max(y0) };
             let (ya, yb) = (sy(top), sy(bottom));
+            let (y, w, h) = (ya.min(yb), (xb - xa).max(0.5), (yb - ya).abs());
             let _ = writeln!(
                 o,
-                r##"<rect x="{xa:.1}" y="{:.1}" width="{:.1}" height="{:.1}" fill="#56B4E9" stroke="#0072B2"/>"##,
-                ya.min(yb),
-                (xb - xa).max(0.5),
-                (yb - ya).abs()
-            );
-        }
-        for &v in &self.vlines {
-            let _ = writeln!(
-                o,
-                r##"<line x1="{0:.1}" y1="{mt}" x2="{0:.1}" y2="{1:.1}" stroke="#888" stroke-dasharray="3,3"/>"##,
-                px(v),
-                mt + ph
-            );
-        }
-        for &h in &self.hlines {
-            let _ = writeln!(
-                o,
-                r##"<line x1="{ml:.1}" y1="{0:.1}" x2="{1:.1}" y2="{0:.1}" stroke="#888" stroke-dasharray="3,3"/>"##,
-                py(h),
-                ml + pw
+                r##"<rect x="{xa:.1}" y="{y:.1}" width="{w:.1}" height="{h:.1}" fill="#56B4E9" stroke="#0072B2"/>"##
             );
         }
         for (k, s) in self.series.iter().enumerate() {
-            let col = self.colour(k, s);
             let drawn: Vec<(f64, f64)> = s
                 .points
                 .iter()
                 .map(|&(x, y)| (self.tx(x), self.ty(y)))
                 .collect();
             let finite = |p: &&(f64, f64)| p.0.is_finite() && p.1.is_finite();
+            let col = self.paint(k, s);
             match s.style {
                 Style::Line | Style::Dashed => {
-                    let dash = if s.style == Style::Dashed {
-                        r#" stroke-dasharray="6,4""#
-                    } else {
-                        ""
-                    };
+                    let dash = dash(s);
                     for run in drawn.split(|p| !(p.0.is_finite() && p.1.is_finite())) {
                         if run.is_empty() {
                             continue;
@@ -410,10 +398,11 @@ impl Plot {
                     }
                 }
                 Style::Markers => {
+                    let r = 1.3 + s.width / 2.0;
                     for &(x, y) in drawn.iter().filter(finite) {
                         let _ = writeln!(
                             o,
-                            r#"<circle cx="{:.1}" cy="{:.1}" r="2" fill="{col}"/>"#,
+                            r#"<circle cx="{:.1}" cy="{:.1}" r="{r:.1}" fill="{col}"/>"#,
                             sx(x),
                             sy(y)
                         );
@@ -462,6 +451,10 @@ impl Plot {
             if !at.is_finite() {
                 continue;
             }
+            // A horizontal mark's extent, px.
+            let (left, right) = m
+                .span
+                .map_or((ml, ml + pw), |(a, b)| (px(a).max(ml), px(b).min(ml + pw)));
             if m.vertical {
                 let _ = writeln!(
                     o,
@@ -471,8 +464,7 @@ impl Plot {
             } else {
                 let _ = writeln!(
                     o,
-                    r#"<line x1="{ml:.1}" y1="{at:.1}" x2="{:.1}" y2="{at:.1}" stroke="{c}" stroke-width="1.2" stroke-dasharray="5,3"/>"#,
-                    ml + pw
+                    r#"<line x1="{left:.1}" y1="{at:.1}" x2="{right:.1}" y2="{at:.1}" stroke="{c}" stroke-width="1.2" stroke-dasharray="5,3"/>"#
                 );
             }
             if m.label.is_empty() {
@@ -498,8 +490,8 @@ impl Plot {
                     at - 27.0,
                     at + 36.0,
                 ] {
-                    cands.push((ml + 4.0, y, false));
-                    cands.push((ml + pw - 4.0, y, true));
+                    cands.push((left + 4.0, y, false));
+                    cands.push((right - 4.0, y, true));
                 }
             }
             let rect_of = |(x, y, end): (f64, f64, bool)| -> Rect {
@@ -536,12 +528,10 @@ impl Plot {
                 .map(|(_, cand)| cand);
             let Some(cand) = best else { continue };
             taken.push(rect_of(cand));
+            let (x, y, anchor) = (cand.0, cand.1, if cand.2 { "end" } else { "start" });
             let _ = writeln!(
                 o,
-                r##"<text x="{:.1}" y="{:.1}" text-anchor="{}" fill="{c}" stroke="#fff" stroke-width="3" paint-order="stroke">{label}</text>"##,
-                cand.0,
-                cand.1,
-                if cand.2 { "end" } else { "start" }
+                r##"<text x="{x:.1}" y="{y:.1}" text-anchor="{anchor}" fill="{c}" stroke="#fff" stroke-width="3" paint-order="stroke">{label}</text>"##
             );
         }
         // Data beyond a fixed range: a triangle on the edge where each run leaves the
@@ -561,13 +551,15 @@ impl Plot {
                 };
                 // The tip on the edge, the base inside the area (the group clips).
                 let (bx, by) = (cx - 8.0 * d.0, cy - 8.0 * d.1);
-                let _ = writeln!(
-                    o,
-                    r##"<path class="clipped" d="M{cx:.1},{cy:.1} L{:.1},{:.1} L{:.1},{:.1} Z" fill="{col}" stroke="#fff" stroke-width="0.8"/>"##,
+                let (ax, ay, bx, by) = (
                     bx - 5.0 * d.1,
                     by + 5.0 * d.0,
                     bx + 5.0 * d.1,
-                    by - 5.0 * d.0
+                    by - 5.0 * d.0,
+                );
+                let _ = writeln!(
+                    o,
+                    r##"<path class="clipped" d="M{cx:.1},{cy:.1} L{ax:.1},{ay:.1} L{bx:.1},{by:.1} Z" fill="{col}" stroke="#fff" stroke-width="0.8"/>"##
                 );
             }
         }
@@ -585,65 +577,38 @@ impl Plot {
             );
             for (row, (k, text, clipped)) in rows.iter().enumerate() {
                 let s = &self.series[*k];
-                let col = self.colour(*k, s);
+                let col = self.paint(*k, s);
                 let y = ly + 13.0 + row as f64 * 15.0;
+                let (cx, cy) = (lx + 14.0, y - 4.0);
                 if *clipped {
+                    let (l, r, t, b) = (cx - 5.0, cx + 5.0, y - 10.0, y - 2.0);
                     let _ = writeln!(
                         o,
-                        r#"<path d="M{:.1},{:.1} L{:.1},{:.1} L{:.1},{:.1} Z" fill="{col}"/>"#,
-                        lx + 14.0,
-                        y - 10.0,
-                        lx + 9.0,
-                        y - 2.0,
-                        lx + 19.0,
-                        y - 2.0
+                        r#"<path d="M{cx:.1},{t:.1} L{l:.1},{b:.1} L{r:.1},{b:.1} Z" fill="{col}"/>"#
+                    );
+                } else if s.style == Style::Crosses {
+                    cross(&mut o, cx, cy, &col);
+                } else if s.style == Style::Markers {
+                    let _ = writeln!(
+                        o,
+                        r#"<circle cx="{cx:.1}" cy="{cy:.1}" r="3" fill="{col}"/>"#
                     );
                 } else {
-                    match s.style {
-                        Style::Crosses => {
-                            cross(&mut o, lx + 14.0, y - 4.0, &col);
-                        }
-                        Style::Markers => {
-                            let _ = writeln!(
-                                o,
-                                r#"<circle cx="{:.1}" cy="{:.1}" r="3" fill="{col}"/>"#,
-                                lx + 14.0,
-                                y - 4.0
-                            );
-                        }
-                        _ => {
-                            let dash = if s.style == Style::Dashed {
-                                r#" stroke-dasharray="6,4""#
-                            } else {
-                                ""
-                            };
-                            let _ = writeln!(
-                                o,
-                                r#"<line x1="{:.1}" y1="{:.1}" x2="{:.1}" y2="{:.1}" stroke="{col}" stroke-width="{}"{dash}/>"#,
-                                lx + 5.0,
-                                y - 4.0,
-                                lx + 24.0,
-                                y - 4.0,
-                                s.width.clamp(2.0, 6.0)
-                            );
-                        }
-                    }
+                    let (l, r, w, dash) = (lx + 5.0, lx + 24.0, s.width.clamp(2.0, 6.0), dash(s));
+                    let _ = writeln!(
+                        o,
+                        r#"<line x1="{l:.1}" y1="{cy:.1}" x2="{r:.1}" y2="{cy:.1}" stroke="{col}" stroke-width="{w}"{dash}/>"#
+                    );
                 }
-                let _ = writeln!(
-                    o,
-                    r#"<text x="{:.1}" y="{y:.1}">{}</text>"#,
-                    lx + 29.0,
-                    esc(text)
-                );
+                let (tx, text) = (lx + 29.0, esc(text));
+                let _ = writeln!(o, r#"<text x="{tx:.1}" y="{y:.1}">{text}</text>"#);
             }
         }
         if !self.note.is_empty() {
+            let (x, y, note) = (ml + pw / 2.0, mt + ph / 2.0, esc(&self.note));
             let _ = writeln!(
                 o,
-                r##"<text x="{:.1}" y="{:.1}" text-anchor="middle" font-size="14" fill="#555">{}</text>"##,
-                ml + pw / 2.0,
-                mt + ph / 2.0,
-                esc(&self.note)
+                r##"<text x="{x:.1}" y="{y:.1}" text-anchor="middle" font-size="14" fill="#555" stroke="#fff" stroke-width="4" paint-order="stroke">{note}</text>"##
             );
         }
         o.push_str("</g>\n");
@@ -661,19 +626,21 @@ impl Plot {
     }
 }
 
+/// The dash attribute of a series drawn dashed (empty otherwise).
+fn dash(s: &Series) -> &'static str {
+    if s.style == Style::Dashed {
+        r#" stroke-dasharray="6,4""#
+    } else {
+        ""
+    }
+}
+
 /// A cross mark of 8 px centred on `(cx, cy)`: the data points of `Style::Crosses` and
 /// their legend swatch.
 fn cross(o: &mut String, cx: f64, cy: f64, col: &str) {
+    let (l, r, t, b) = (cx - 4.0, cx + 4.0, cy - 4.0, cy + 4.0);
     let _ = writeln!(
         o,
-        r#"<path d="M{:.1},{:.1} L{:.1},{:.1} M{:.1},{:.1} L{:.1},{:.1}" stroke="{col}" stroke-width="1.5"/>"#,
-        cx - 4.0,
-        cy - 4.0,
-        cx + 4.0,
-        cy + 4.0,
-        cx - 4.0,
-        cy + 4.0,
-        cx + 4.0,
-        cy - 4.0
+        r#"<path d="M{l:.1},{t:.1} L{r:.1},{b:.1} M{l:.1},{b:.1} L{r:.1},{t:.1}" stroke="{col}" stroke-width="1.5"/>"#
     );
 }

@@ -146,11 +146,28 @@ fn data_beyond_a_fixed_range_is_marked_on_the_edge_and_in_the_legend() {
         !s.contains("class=\"clipped\"") && !s.contains("beyond the axes"),
         "{s}"
     );
-    let clipped = held.y_range(-1.0, 1.0);
+    let clipped = held.clone().y_range(-1.0, 1.0);
     let s = clipped.to_svg();
     // Two runs leave the range: one above, one below.
     assert_eq!(s.matches("class=\"clipped\"").count(), 2, "{s}");
     assert!(s.contains(">s: beyond the axes</text>"), "{s}");
+    // The lint accepts data beyond the axes with its marks, not without them.
+    assert!(lint::unmarked_clipping(&held.to_svg()).is_empty());
+    assert!(lint::unmarked_clipping(&s).is_empty(), "{s}");
+    let strip = |svg: &str| -> String {
+        svg.lines()
+            .filter(|l| !l.contains("clipped"))
+            .map(|l| format!("{l}\n"))
+            .collect()
+    };
+    assert_eq!(lint::unmarked_clipping(&strip(&s)).len(), 1, "{s}");
+    let dots = Plot::new("dots")
+        .x_range(0.0, 1.0)
+        .series(Series::scatter("d", vec![(0.5, 0.0), (3.0, 0.0)]))
+        .to_svg();
+    assert!(lint::problems(&dots).is_empty(), "{dots}");
+    let p = lint::problems(&strip(&dots));
+    assert!(p[0].contains("panel `dots`: 1 data points"), "{p:?}");
     // A log axis's floor clips what lies under it.
     let s = Plot::new("log")
         .log_y()
