@@ -233,10 +233,10 @@ fn invalid_bits_are_refused_by_name() {
         ),
     ];
     for (field, bits) in cases {
-        assert_eq!(
-            Compiled::<Fx>::from_bits(&bits).map_err(|e| e.field),
-            Err(field)
-        );
+        let e = Compiled::<Fx>::from_bits(&bits).expect_err(field);
+        assert_eq!(e.field, field);
+        // The message names the field.
+        assert!(e.to_string().contains(&format!("`{field}`")), "{e}");
     }
     // Floats: non-finite values and coefficients of 1 or more are refused.
     let f: CompiledBits = Compiled::<f32>::try_new(&Config::default())
@@ -310,4 +310,79 @@ fn ki_has_its_own_shift_for_its_gains() {
         }
         other => panic!("{other:?}"),
     }
+}
+
+/// Every limit, slew and conversion the controller is compiled with is its SI value over
+/// its full scale (`pu = SI / scale`), and the rates are the configuration's: checked in
+/// `f64`, where quantising is exact, on scales other than 1 so that a product in place of
+/// a quotient shows.
+#[test]
+fn limits_and_slews_are_their_si_values_over_their_scales() {
+    let mut cfg = at(2_000, 2, 4);
+    cfg.scales.y_dot = 2.0;
+    cfg.scales.torque = 4.0e4;
+    cfg.scales.demand = 4.0e4;
+    cfg.safe.yaw_s = 0.2;
+    cfg.safe.traction_s = 0.4;
+    let c = Compiled::<f64>::try_new(&cfg).expect("valid");
+    let (s, l, m) = (&cfg.scales, &cfg.limits, &cfg.motor);
+    let (t_yaw, t_tr) = (cfg.yaw_period(), cfg.traction_period());
+    assert_eq!((t_yaw, t_tr), (1e-3, 2e-3));
+    assert_eq!(
+        (c.base_rate_hz(), c.yaw_divisor(), c.traction_divisor()),
+        (2_000, 2, 4)
+    );
+    let b = c.to_bits();
+    let v = f64::from_bits;
+    let close = |what: &str, got: u64, want: f64| {
+        let got = v(got);
+        assert!(
+            (got - want).abs() <= 1e-12 * want.abs(),
+            "{what}: {got} != {want}"
+        );
+    };
+    for (i, (what, want)) in [
+        ("y'", l.y_dot / s.y_dot),
+        ("current", l.current / s.current),
+        ("speed", l.speed / s.speed),
+        ("demand", l.demand / s.demand),
+        ("torque", l.torque / s.torque),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        close(what, b.clamps[i], want);
+    }
+    close("u_min", b.u_min, l.voltage_min / s.voltage);
+    close("u_max", b.u_max, l.voltage_max / s.voltage);
+    close("gain", b.gain, cfg.gain_k * s.y_dot / s.torque);
+    let iref_max = l.demand / (m.n * m.k_m) / s.current;
+    close(
+        "demand_to_iref",
+        b.demand_to_iref,
+        s.demand / (m.n * m.k_m * s.current),
+    );
+    close("back_emf", b.back_emf, m.k_m * s.speed / s.voltage);
+    let sch = b.schedule;
+    close(
+        "iref_step",
+        sch.iref_step,
+        l.current_ref_rate * t_tr / s.current,
+    );
+    // The safe ramps take their configured times from the largest value to zero.
+    close(
+        "iref_safe_step",
+        sch.iref_safe_step,
+        iref_max * t_tr / cfg.safe.traction_s,
+    );
+    close(
+        "torque_step",
+        sch.torque_step,
+        l.torque / s.torque * t_yaw / cfg.safe.yaw_s,
+    );
+    close(
+        "predict_half",
+        sch.predict_half,
+        cfg.yaw_predict_ticks / (2.0 * 2.0),
+    );
 }
