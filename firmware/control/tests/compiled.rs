@@ -386,3 +386,68 @@ fn limits_and_slews_are_their_si_values_over_their_scales() {
         cfg.yaw_predict_ticks / (2.0 * 2.0),
     );
 }
+
+/// The fingerprint covers every bit of every constant outside the schedule: flipping the
+/// lowest or the highest bit of any one changes it; the schedule, the start mode and the
+/// traction switch leave it alone.
+#[test]
+fn the_fingerprint_sees_every_bit_of_every_constant() {
+    let good = Compiled::<Fx>::try_new(&Config::default())
+        .expect("valid")
+        .to_bits();
+    let fp = good.fingerprint();
+    type Field = fn(&mut CompiledBits) -> &mut u64;
+    let words: [Field; 19] = [
+        |b| &mut b.lead_g_half,
+        |b| &mut b.gain,
+        |b| &mut b.u_min,
+        |b| &mut b.u_max,
+        |b| &mut b.demand_to_iref,
+        |b| &mut b.back_emf,
+        |b| &mut b.y_dot_pred_max,
+        |b| &mut b.wsp.slip_on,
+        |b| &mut b.wsp.slip_accel,
+        |b| &mut b.wsp.accel_ratio,
+        |b| &mut b.wsp.cut,
+        |b| &mut b.wsp.sp_half,
+        |b| &mut b.wsp.sp_half_slope,
+        |b| &mut b.wsp.kp,
+        |b| &mut b.wsp.ki,
+        |b| &mut b.wsp.lead_rho,
+        |b| &mut b.wsp.v_ref.mul,
+        |b| &mut b.clamps[0],
+        |b| &mut b.clamps[4],
+    ];
+    for (i, field) in words.iter().enumerate() {
+        for bit in [0, 63] {
+            let mut b = good;
+            *field(&mut b) ^= 1 << bit;
+            assert_ne!(b.fingerprint(), fp, "word {i}, bit {bit}");
+        }
+    }
+    for i in 0..good.codec.len() {
+        for bit in [0, 63] {
+            let mut b = good;
+            b.codec[i].mul ^= 1 << bit;
+            assert_ne!(b.fingerprint(), fp, "codec {i}, bit {bit}");
+        }
+        let mut b = good;
+        b.codec[i].shift ^= 1;
+        assert_ne!(b.fingerprint(), fp, "codec {i} shift");
+    }
+    for flip in [
+        |b: &mut CompiledBits| b.numeric ^= 1,
+        |b: &mut CompiledBits| b.wsp.kp_shift ^= 1,
+        |b: &mut CompiledBits| b.wsp.ki_shift ^= 1,
+        |b: &mut CompiledBits| b.wsp.v_ref.shift ^= 1,
+    ] {
+        let mut b = good;
+        flip(&mut b);
+        assert_ne!(b.fingerprint(), fp);
+    }
+    let mut b = good;
+    b.schedule.kp ^= 1;
+    b.traction_enabled = !b.traction_enabled;
+    b.yaw_mode = wheelset_control::YawMode::Passive;
+    assert_eq!(b.fingerprint(), fp);
+}
