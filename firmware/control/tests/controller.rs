@@ -419,3 +419,49 @@ fn yaw_predictor_extrapolates_linearly() {
     assert!((t - cfg.limits.torque).abs() < 1e-6);
     assert_eq!(c.counters().y_dot.clamped, 2);
 }
+
+/// The validation's boundaries: a scale, a limit or a rate of exactly zero is refused, a
+/// voltage range of zero width is refused, and a limit of exactly two full scales is
+/// accepted; the periods are the divisors over the base rate.
+#[test]
+fn validation_boundaries_are_where_the_ranges_say() {
+    let base = Config {
+        base_rate_hz: 2_000,
+        yaw_divisor: 2,
+        traction_divisor: 4,
+        yaw_predict_ticks: 1.5,
+        ..Config::default()
+    };
+    assert_eq!(
+        (
+            base.base_period(),
+            base.yaw_period(),
+            base.traction_period()
+        ),
+        (5e-4, 1e-3, 2e-3)
+    );
+    let field_of = |c: &Config| match c.validate() {
+        Err(ConfigError::Range { field, .. }) => Some(field),
+        Err(e) => panic!("{e}"),
+        Ok(()) => None,
+    };
+    let mut c = base;
+    c.scales.speed = 0.0;
+    assert_eq!(field_of(&c), Some("scales.speed"));
+    let mut c = base;
+    c.limits.y_dot = 0.0;
+    assert_eq!(field_of(&c), Some("limits.y_dot"));
+    let mut c = base;
+    c.limits.current_ref_rate = 0.0;
+    assert_eq!(field_of(&c), Some("limits.current_ref_rate"));
+    let mut c = base;
+    c.limits.voltage_min = c.limits.voltage_max;
+    assert_eq!(field_of(&c), Some("limits.voltage_max"));
+    let mut c = base;
+    c.limits.voltage_max = 2.0 * c.scales.voltage + 1.0;
+    assert_eq!(field_of(&c), Some("limits.voltage_max"));
+    let mut c = base;
+    c.limits.voltage_max = 2.0 * c.scales.voltage;
+    c.limits.y_dot = 2.0 * c.scales.y_dot;
+    assert_eq!(field_of(&c), None);
+}
