@@ -236,10 +236,12 @@ fn safe_state_ramps_torque_and_reference_to_zero() {
         }
         assert_eq!(c.outputs().yaw_torque, 0.0);
         assert!(c.current_ref().abs() < 1e-12);
-        // Leaving the safe state ramps back up.
+        // Leaving the safe state ramps back up over the same time, not at once.
         c.set_safe(false);
-        for _ in 0..(cfg.safe.yaw_s * fs) as usize + 1 {
-            c.tick(&inp);
+        for n in 1..=(cfg.safe.yaw_s * fs) as usize + 1 {
+            let (t, _) = c.tick(&inp).to_si(&cfg.scales);
+            let bound = cfg.limits.torque * (n as f64 / (cfg.safe.yaw_s * fs)).min(1.0);
+            assert!(t.abs() <= bound + 1e-6, "n={n}: {t} > {bound}");
         }
         let (t, _) = c.outputs().to_si(&cfg.scales);
         assert!((t - cfg.limits.torque).abs() < 1e-6);
