@@ -233,10 +233,10 @@ fn invalid_bits_are_refused_by_name() {
         ),
     ];
     for (field, bits) in cases {
-        assert_eq!(
-            Compiled::<Fx>::from_bits(&bits).map_err(|e| e.field),
-            Err(field)
-        );
+        let e = Compiled::<Fx>::from_bits(&bits).expect_err(field);
+        assert_eq!(e.field, field);
+        // The message names the field.
+        assert!(e.to_string().contains(&format!("`{field}`")), "{e}");
     }
     // Floats: non-finite values and coefficients of 1 or more are refused.
     let f: CompiledBits = Compiled::<f32>::try_new(&Config::default())
@@ -310,4 +310,144 @@ fn ki_has_its_own_shift_for_its_gains() {
         }
         other => panic!("{other:?}"),
     }
+}
+
+/// Every limit, slew and conversion the controller is compiled with is its SI value over
+/// its full scale (`pu = SI / scale`), and the rates are the configuration's: checked in
+/// `f64`, where quantising is exact, on scales other than 1 so that a product in place of
+/// a quotient shows.
+#[test]
+fn limits_and_slews_are_their_si_values_over_their_scales() {
+    let mut cfg = at(2_000, 2, 4);
+    cfg.scales.y_dot = 2.0;
+    cfg.scales.torque = 4.0e4;
+    cfg.scales.demand = 4.0e4;
+    cfg.safe.yaw_s = 0.2;
+    cfg.safe.traction_s = 0.4;
+    let c = Compiled::<f64>::try_new(&cfg).expect("valid");
+    let (s, l, m) = (&cfg.scales, &cfg.limits, &cfg.motor);
+    let (t_yaw, t_tr) = (cfg.yaw_period(), cfg.traction_period());
+    assert_eq!((t_yaw, t_tr), (1e-3, 2e-3));
+    assert_eq!(
+        (c.base_rate_hz(), c.yaw_divisor(), c.traction_divisor()),
+        (2_000, 2, 4)
+    );
+    let b = c.to_bits();
+    let v = f64::from_bits;
+    let close = |what: &str, got: u64, want: f64| {
+        let got = v(got);
+        assert!(
+            (got - want).abs() <= 1e-12 * want.abs(),
+            "{what}: {got} != {want}"
+        );
+    };
+    for (i, (what, want)) in [
+        ("y'", l.y_dot / s.y_dot),
+        ("current", l.current / s.current),
+        ("speed", l.speed / s.speed),
+        ("demand", l.demand / s.demand),
+        ("torque", l.torque / s.torque),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        close(what, b.clamps[i], want);
+    }
+    close("u_min", b.u_min, l.voltage_min / s.voltage);
+    close("u_max", b.u_max, l.voltage_max / s.voltage);
+    close("gain", b.gain, cfg.gain_k * s.y_dot / s.torque);
+    let iref_max = l.demand / (m.n * m.k_m) / s.current;
+    close(
+        "demand_to_iref",
+        b.demand_to_iref,
+        s.demand / (m.n * m.k_m * s.current),
+    );
+    close("back_emf", b.back_emf, m.k_m * s.speed / s.voltage);
+    let sch = b.schedule;
+    close(
+        "iref_step",
+        sch.iref_step,
+        l.current_ref_rate * t_tr / s.current,
+    );
+    // The safe ramps take their configured times from the largest value to zero.
+    close(
+        "iref_safe_step",
+        sch.iref_safe_step,
+        iref_max * t_tr / cfg.safe.traction_s,
+    );
+    close(
+        "torque_step",
+        sch.torque_step,
+        l.torque / s.torque * t_yaw / cfg.safe.yaw_s,
+    );
+    close(
+        "predict_half",
+        sch.predict_half,
+        cfg.yaw_predict_ticks / (2.0 * 2.0),
+    );
+}
+
+/// The fingerprint covers every bit of every constant outside the schedule: flipping the
+/// lowest or the highest bit of any one changes it; the schedule, the start mode and the
+/// traction switch leave it alone.
+#[test]
+fn the_fingerprint_sees_every_bit_of_every_constant() {
+    let good = Compiled::<Fx>::try_new(&Config::default())
+        .expect("valid")
+        .to_bits();
+    let fp = good.fingerprint();
+    type Field = fn(&mut CompiledBits) -> &mut u64;
+    let words: [Field; 19] = [
+        |b| &mut b.lead_g_half,
+        |b| &mut b.gain,
+        |b| &mut b.u_min,
+        |b| &mut b.u_max,
+        |b| &mut b.demand_to_iref,
+        |b| &mut b.back_emf,
+        |b| &mut b.y_dot_pred_max,
+        |b| &mut b.wsp.slip_on,
+        |b| &mut b.wsp.slip_accel,
+        |b| &mut b.wsp.accel_ratio,
+        |b| &mut b.wsp.cut,
+        |b| &mut b.wsp.sp_half,
+        |b| &mut b.wsp.sp_half_slope,
+        |b| &mut b.wsp.kp,
+        |b| &mut b.wsp.ki,
+        |b| &mut b.wsp.lead_rho,
+        |b| &mut b.wsp.v_ref.mul,
+        |b| &mut b.clamps[0],
+        |b| &mut b.clamps[4],
+    ];
+    for (i, field) in words.iter().enumerate() {
+        for bit in [0, 63] {
+            let mut b = good;
+            *field(&mut b) ^= 1 << bit;
+            assert_ne!(b.fingerprint(), fp, "word {i}, bit {bit}");
+        }
+    }
+    for i in 0..good.codec.len() {
+        for bit in [0, 63] {
+            let mut b = good;
+            b.codec[i].mul ^= 1 << bit;
+            assert_ne!(b.fingerprint(), fp, "codec {i}, bit {bit}");
+        }
+        let mut b = good;
+        b.codec[i].shift ^= 1;
+        assert_ne!(b.fingerprint(), fp, "codec {i} shift");
+    }
+    for flip in [
+        |b: &mut CompiledBits| b.numeric ^= 1,
+        |b: &mut CompiledBits| b.wsp.kp_shift ^= 1,
+        |b: &mut CompiledBits| b.wsp.ki_shift ^= 1,
+        |b: &mut CompiledBits| b.wsp.v_ref.shift ^= 1,
+    ] {
+        let mut b = good;
+        flip(&mut b);
+        assert_ne!(b.fingerprint(), fp);
+    }
+    let mut b = good;
+    b.schedule.kp ^= 1;
+    b.traction_enabled = !b.traction_enabled;
+    b.yaw_mode = wheelset_control::YawMode::Passive;
+    assert_eq!(b.fingerprint(), fp);
 }

@@ -236,10 +236,12 @@ fn safe_state_ramps_torque_and_reference_to_zero() {
         }
         assert_eq!(c.outputs().yaw_torque, 0.0);
         assert!(c.current_ref().abs() < 1e-12);
-        // Leaving the safe state ramps back up.
+        // Leaving the safe state ramps back up over the same time, not at once.
         c.set_safe(false);
-        for _ in 0..(cfg.safe.yaw_s * fs) as usize + 1 {
-            c.tick(&inp);
+        for n in 1..=(cfg.safe.yaw_s * fs) as usize + 1 {
+            let (t, _) = c.tick(&inp).to_si(&cfg.scales);
+            let bound = cfg.limits.torque * (n as f64 / (cfg.safe.yaw_s * fs)).min(1.0);
+            assert!(t.abs() <= bound + 1e-6, "n={n}: {t} > {bound}");
         }
         let (t, _) = c.outputs().to_si(&cfg.scales);
         assert!((t - cfg.limits.torque).abs() < 1e-6);
@@ -418,4 +420,50 @@ fn yaw_predictor_extrapolates_linearly() {
     let (t, _) = c.tick(&si(&cfg, 1.0, 0.0, 0.0, 0.0)).to_si(&cfg.scales);
     assert!((t - cfg.limits.torque).abs() < 1e-6);
     assert_eq!(c.counters().y_dot.clamped, 2);
+}
+
+/// The validation's boundaries: a scale, a limit or a rate of exactly zero is refused, a
+/// voltage range of zero width is refused, and a limit of exactly two full scales is
+/// accepted; the periods are the divisors over the base rate.
+#[test]
+fn validation_boundaries_are_where_the_ranges_say() {
+    let base = Config {
+        base_rate_hz: 2_000,
+        yaw_divisor: 2,
+        traction_divisor: 4,
+        yaw_predict_ticks: 1.5,
+        ..Config::default()
+    };
+    assert_eq!(
+        (
+            base.base_period(),
+            base.yaw_period(),
+            base.traction_period()
+        ),
+        (5e-4, 1e-3, 2e-3)
+    );
+    let field_of = |c: &Config| match c.validate() {
+        Err(ConfigError::Range { field, .. }) => Some(field),
+        Err(e) => panic!("{e}"),
+        Ok(()) => None,
+    };
+    let mut c = base;
+    c.scales.speed = 0.0;
+    assert_eq!(field_of(&c), Some("scales.speed"));
+    let mut c = base;
+    c.limits.y_dot = 0.0;
+    assert_eq!(field_of(&c), Some("limits.y_dot"));
+    let mut c = base;
+    c.limits.current_ref_rate = 0.0;
+    assert_eq!(field_of(&c), Some("limits.current_ref_rate"));
+    let mut c = base;
+    c.limits.voltage_min = c.limits.voltage_max;
+    assert_eq!(field_of(&c), Some("limits.voltage_max"));
+    let mut c = base;
+    c.limits.voltage_max = 2.0 * c.scales.voltage + 1.0;
+    assert_eq!(field_of(&c), Some("limits.voltage_max"));
+    let mut c = base;
+    c.limits.voltage_max = 2.0 * c.scales.voltage;
+    c.limits.y_dot = 2.0 * c.scales.y_dot;
+    assert_eq!(field_of(&c), None);
 }
