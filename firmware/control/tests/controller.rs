@@ -467,3 +467,26 @@ fn validation_boundaries_are_where_the_ranges_say() {
     c.limits.y_dot = 2.0 * c.scales.y_dot;
     assert_eq!(field_of(&c), None);
 }
+
+/// Per unit is SI over the full scale, in and out, on scales other than 1.
+#[test]
+fn signals_convert_by_their_full_scales() {
+    let s = wheelset_control::FullScales {
+        y_dot: 2.0,
+        torque: 4.0e4,
+        current: 500.0,
+        voltage: 8.0e3,
+        speed: 250.0,
+        demand: 3.0e4,
+    };
+    let i = Inputs::<f64>::from_si(&s, 0.5, 100.0, 50.0, 6.0e3);
+    assert_eq!(
+        (i.y_dot, i.current, i.speed, i.demand),
+        (0.25, 0.2, 0.2, 0.2)
+    );
+    let o = wheelset_control::Outputs::<f64> {
+        yaw_torque: 0.5,
+        voltage: -0.25,
+    };
+    assert_eq!(o.to_si(&s), (2.0e4, -2.0e3));
+}
