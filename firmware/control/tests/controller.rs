@@ -490,3 +490,27 @@ fn signals_convert_by_their_full_scales() {
     };
     assert_eq!(o.to_si(&s), (2.0e4, -2.0e3));
 }
+
+/// Each clamp is counted on its own signal: a demand the armature cannot follow (no
+/// current flows) winds the PI into its limits (100 V here), and the counts are the
+/// voltage's and the integrator's clamps, one a tick once there, nothing invalid, nothing
+/// for the protection.
+#[test]
+fn a_saturated_pi_counts_its_voltage_and_integrator_clamps() {
+    let mut cfg = Config::default();
+    cfg.limits.voltage_max = 100.0;
+    cfg.limits.voltage_min = -100.0;
+    let mut c = F64Controller::try_new(&cfg).expect("valid");
+    let inp = si::<f64>(&cfg, 0.0, 0.0, 0.0, 2.0e4);
+    for _ in 0..2_000 {
+        c.tick(&inp);
+    }
+    let before = *c.counters();
+    assert!(before.integrator.clamped > 0 && before.voltage.clamped > 0);
+    c.tick(&inp);
+    let after = *c.counters();
+    assert_eq!(after.integrator.clamped, before.integrator.clamped + 1);
+    assert_eq!(after.voltage.clamped, before.voltage.clamped + 1);
+    assert_eq!(after.integrator.invalid + after.voltage.invalid, 0);
+    assert_eq!((after.wsp_ticks, after.wsp_events), (0, 0));
+}
