@@ -514,3 +514,28 @@ fn a_saturated_pi_counts_its_voltage_and_integrator_clamps() {
     assert_eq!(after.integrator.invalid + after.voltage.invalid, 0);
     assert_eq!((after.wsp_ticks, after.wsp_events), (0, 0));
 }
+
+/// The supervisory accessors say what was set: the safe state, the torque limit (full in
+/// normal running, 0 once the safe ramp has run out) and the fast path's switch.
+#[test]
+fn the_supervisory_state_reads_back() {
+    let cfg = Config::default();
+    let mut c = F64Controller::try_new(&cfg).expect("valid");
+    let full = cfg.limits.torque / cfg.scales.torque;
+    c.tick(&Inputs::default());
+    assert!(!c.is_safe());
+    assert_eq!(c.torque_limit(), full);
+    assert!(c.fast_path_armed());
+    c.set_fast_path(false);
+    assert!(!c.fast_path_armed(), "switched off");
+    c.set_fast_path(true);
+    assert!(c.fast_path_armed(), "switched back on");
+    c.set_safe(true);
+    assert!(c.is_safe());
+    for _ in 0..(cfg.safe.yaw_s * cfg.base_rate_hz as f64) as usize + 1 {
+        c.tick(&Inputs::default());
+    }
+    assert_eq!(c.torque_limit(), 0.0);
+    c.set_safe(false);
+    assert!(!c.is_safe());
+}
