@@ -539,3 +539,71 @@ fn the_supervisory_state_reads_back() {
     c.set_safe(false);
     assert!(!c.is_safe());
 }
+
+/// The supervisory changes do what they say: a torque limit handed over (clamped, NaN as
+/// 0), a law change to the lead starting from its steady state and a repeated one
+/// changing nothing, a torque continued from another core slewing from there, the
+/// back-EMF `K_m omega` in pu, and traction off driving the back-EMF (zero current).
+#[test]
+fn supervisory_changes_do_what_they_say() {
+    let cfg = Config::default();
+    let s = cfg.scales;
+    let full = cfg.limits.torque / s.torque;
+    let new = || F64Controller::try_new(&cfg).expect("valid");
+    let mut c = new();
+    for (given, held) in [
+        (0.25 * full, 0.25 * full),
+        (2.0 * full, full),
+        (f64::NAN, 0.0),
+    ] {
+        c.set_safe_at(true, given);
+        assert!(c.is_safe());
+        assert_eq!(c.torque_limit(), held, "{given}");
+    }
+    // Gain, then the lead: it starts from its steady state for the held y', so 10 ticks
+    // on (the slew run out) the torque is the lead's DC gain times y' (no transient).
+    let y = 0.002;
+    let inp = si::<f64>(&cfg, y, 0.0, 0.0, 0.0);
+    let mut c = new();
+    c.set_mode(YawMode::Gain);
+    assert_eq!(c.mode(), YawMode::Gain);
+    for _ in 0..5_000 {
+        c.tick(&inp);
+    }
+    c.set_mode(YawMode::Lead);
+    assert_eq!(c.mode(), YawMode::Lead);
+    for _ in 0..10 {
+        c.tick(&inp);
+    }
+    let dc = cfg.lead.dc_gain() * y / s.torque;
+    let t = c.tick(&inp).yaw_torque;
+    assert!((t - dc).abs() <= 1e-9 * dc.abs(), "{t} vs the DC {dc}");
+    // Setting the lead again while it is in a transient changes nothing.
+    let step = si::<f64>(&cfg, 0.02, 0.0, 0.0, 0.0);
+    c.tick(&step);
+    let mut again = c.clone();
+    again.set_mode(YawMode::Lead);
+    assert_eq!(again.tick(&step), c.tick(&step));
+    // Continued from another core's torque: the first tick slews from it, not from 0.
+    let mut c = new();
+    c.set_mode(YawMode::Passive);
+    c.tick(&Inputs::default());
+    c.continue_from(0.5 * full);
+    let t = c.tick(&Inputs::default()).yaw_torque;
+    assert!(t > 0.4 * full && t < 0.5 * full, "{t}");
+    // The back-EMF, and traction off drives it.
+    let mut c = new();
+    let w = 0.3;
+    let e = cfg.motor.k_m * w * s.speed / s.voltage;
+    assert!(
+        (c.back_emf(w) - e).abs() < 1e-12,
+        "{} vs {e}",
+        c.back_emf(w)
+    );
+    c.set_traction(false);
+    assert!(!c.traction_enabled());
+    let v = c
+        .tick(&si::<f64>(&cfg, 0.0, 0.0, w * s.speed, 1.0e4))
+        .voltage;
+    assert!((v - e).abs() < 1e-12, "{v} vs {e}");
+}
