@@ -600,10 +600,18 @@ fn supervisory_changes_do_what_they_say() {
         "{} vs {e}",
         c.back_emf(w)
     );
+    assert!(c.traction_enabled());
+    // A current with no demand winds the integrator down; off, then on again with no error:
+    // the integrator starts from the back-EMF, not from what it held.
+    let at = |i: f64| si::<f64>(&cfg, 0.0, i, w * s.speed, 0.0);
+    for _ in 0..100 {
+        c.tick(&at(500.0));
+    }
     c.set_traction(false);
     assert!(!c.traction_enabled());
-    let v = c
-        .tick(&si::<f64>(&cfg, 0.0, 0.0, w * s.speed, 1.0e4))
-        .voltage;
+    let v = c.tick(&at(500.0)).voltage;
+    assert!((v - e).abs() < 1e-12, "{v} vs {e}");
+    c.set_traction(true);
+    let v = c.tick(&at(0.0)).voltage;
     assert!((v - e).abs() < 1e-12, "{v} vs {e}");
 }
