@@ -601,12 +601,16 @@ fn supervisory_changes_do_what_they_say() {
         c.back_emf(w)
     );
     assert!(c.traction_enabled());
-    // A current with no demand winds the integrator down; off, then on again with no error:
-    // the integrator starts from the back-EMF, not from what it held.
+    // A current with no demand winds the integrator down; setting traction on again while
+    // on changes nothing; off, then on again with no error: the integrator starts from the
+    // back-EMF, not from what it held.
     let at = |i: f64| si::<f64>(&cfg, 0.0, i, w * s.speed, 0.0);
     for _ in 0..100 {
         c.tick(&at(500.0));
     }
+    let mut again = c.clone();
+    again.set_traction(true);
+    assert_eq!(again.tick(&at(0.0)), c.clone().tick(&at(0.0)));
     c.set_traction(false);
     assert!(!c.traction_enabled());
     let v = c.tick(&at(500.0)).voltage;
