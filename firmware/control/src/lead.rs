@@ -46,10 +46,6 @@ impl LeadParams {
     pub fn dc_gain(&self) -> f64 {
         self.k * self.a * self.w1 / self.w2
     }
-    /// High-frequency gain `k a`, N m s/m.
-    pub fn hf_gain(&self) -> f64 {
-        self.k * self.a
-    }
 
     /// Tustin discretisation at period `t_s` s; errors: bad parameters, `w1 >= w2`,
     /// `prewarp >= pi/T`, or `c >= 1` (a negative pole; the range analysis needs `alpha > 0`).

@@ -451,3 +451,22 @@ fn the_fingerprint_sees_every_bit_of_every_constant() {
     b.yaw_mode = wheelset_control::YawMode::Passive;
     assert_eq!(b.fingerprint(), fp);
 }
+
+/// The `const` constructor the firmware starts from builds the controller `from_bits`
+/// validates, also at the edges of a wire scale's range (shift 0 and 62).
+#[test]
+fn the_const_constructor_is_the_validated_one_at_the_scale_edges() {
+    let good = Compiled::<Fx>::try_new(&Config::default())
+        .expect("valid")
+        .to_bits();
+    for (mul, shift) in [(1024, 0), ((1 << 31) - 1, 62), (1 << 20, 1)] {
+        let mut b = good;
+        b.codec[0] = wheelset_control::ScaleBits { mul, shift };
+        let checked = Compiled::<Fx>::from_bits(&b).expect("valid scale");
+        assert_eq!(
+            Compiled::<Fx>::from_valid_bits(&b),
+            checked,
+            "{mul} >> {shift}"
+        );
+    }
+}

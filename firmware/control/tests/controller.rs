@@ -467,3 +467,155 @@ fn validation_boundaries_are_where_the_ranges_say() {
     c.limits.y_dot = 2.0 * c.scales.y_dot;
     assert_eq!(field_of(&c), None);
 }
+
+/// Per unit is SI over the full scale, in and out, on scales other than 1.
+#[test]
+fn signals_convert_by_their_full_scales() {
+    let s = wheelset_control::FullScales {
+        y_dot: 2.0,
+        torque: 4.0e4,
+        current: 500.0,
+        voltage: 8.0e3,
+        speed: 250.0,
+        demand: 3.0e4,
+    };
+    let i = Inputs::<f64>::from_si(&s, 0.5, 100.0, 50.0, 6.0e3);
+    assert_eq!(
+        (i.y_dot, i.current, i.speed, i.demand),
+        (0.25, 0.2, 0.2, 0.2)
+    );
+    let o = wheelset_control::Outputs::<f64> {
+        yaw_torque: 0.5,
+        voltage: -0.25,
+    };
+    assert_eq!(o.to_si(&s), (2.0e4, -2.0e3));
+}
+
+/// Each clamp is counted on its own signal: a demand the armature cannot follow (no
+/// current flows) winds the PI into its limits (100 V here), and the counts are the
+/// voltage's and the integrator's clamps, one a tick once there, nothing invalid, nothing
+/// for the protection.
+#[test]
+fn a_saturated_pi_counts_its_voltage_and_integrator_clamps() {
+    let mut cfg = Config::default();
+    cfg.limits.voltage_max = 100.0;
+    cfg.limits.voltage_min = -100.0;
+    let mut c = F64Controller::try_new(&cfg).expect("valid");
+    let inp = si::<f64>(&cfg, 0.0, 0.0, 0.0, 2.0e4);
+    for _ in 0..2_000 {
+        c.tick(&inp);
+    }
+    let before = *c.counters();
+    assert!(before.integrator.clamped > 0 && before.voltage.clamped > 0);
+    c.tick(&inp);
+    let after = *c.counters();
+    assert_eq!(after.integrator.clamped, before.integrator.clamped + 1);
+    assert_eq!(after.voltage.clamped, before.voltage.clamped + 1);
+    assert_eq!(after.integrator.invalid + after.voltage.invalid, 0);
+    assert_eq!((after.wsp_ticks, after.wsp_events), (0, 0));
+}
+
+/// The supervisory accessors say what was set: the safe state, the torque limit (full in
+/// normal running, 0 once the safe ramp has run out) and the fast path's switch.
+#[test]
+fn the_supervisory_state_reads_back() {
+    let cfg = Config::default();
+    let mut c = F64Controller::try_new(&cfg).expect("valid");
+    let full = cfg.limits.torque / cfg.scales.torque;
+    c.tick(&Inputs::default());
+    assert!(!c.is_safe());
+    assert_eq!(c.torque_limit(), full);
+    assert!(c.fast_path_armed());
+    c.set_fast_path(false);
+    assert!(!c.fast_path_armed(), "switched off");
+    c.set_fast_path(true);
+    assert!(c.fast_path_armed(), "switched back on");
+    c.set_safe(true);
+    assert!(c.is_safe());
+    for _ in 0..(cfg.safe.yaw_s * cfg.base_rate_hz as f64) as usize + 1 {
+        c.tick(&Inputs::default());
+    }
+    assert_eq!(c.torque_limit(), 0.0);
+    c.set_safe(false);
+    assert!(!c.is_safe());
+}
+
+/// The supervisory changes do what they say: a torque limit handed over (clamped, NaN as
+/// 0), a law change to the lead starting from its steady state and a repeated one
+/// changing nothing, a torque continued from another core slewing from there, the
+/// back-EMF `K_m omega` in pu, and traction off driving the back-EMF (zero current).
+#[test]
+fn supervisory_changes_do_what_they_say() {
+    let cfg = Config::default();
+    let s = cfg.scales;
+    let full = cfg.limits.torque / s.torque;
+    let new = || F64Controller::try_new(&cfg).expect("valid");
+    let mut c = new();
+    for (given, held) in [
+        (0.25 * full, 0.25 * full),
+        (2.0 * full, full),
+        (f64::NAN, 0.0),
+    ] {
+        c.set_safe_at(true, given);
+        assert!(c.is_safe());
+        assert_eq!(c.torque_limit(), held, "{given}");
+    }
+    // Gain, then the lead: it starts from its steady state for the held y', so 10 ticks
+    // on (the slew run out) the torque is the lead's DC gain times y' (no transient).
+    let y = 0.002;
+    let inp = si::<f64>(&cfg, y, 0.0, 0.0, 0.0);
+    let mut c = new();
+    c.set_mode(YawMode::Gain);
+    assert_eq!(c.mode(), YawMode::Gain);
+    for _ in 0..5_000 {
+        c.tick(&inp);
+    }
+    c.set_mode(YawMode::Lead);
+    assert_eq!(c.mode(), YawMode::Lead);
+    for _ in 0..10 {
+        c.tick(&inp);
+    }
+    let dc = cfg.lead.dc_gain() * y / s.torque;
+    let t = c.tick(&inp).yaw_torque;
+    assert!((t - dc).abs() <= 1e-9 * dc.abs(), "{t} vs the DC {dc}");
+    // Setting the lead again while it is in a transient changes nothing.
+    let step = si::<f64>(&cfg, 0.02, 0.0, 0.0, 0.0);
+    c.tick(&step);
+    let mut again = c.clone();
+    again.set_mode(YawMode::Lead);
+    assert_eq!(again.tick(&step), c.tick(&step));
+    // Continued from another core's torque: the first tick slews from it, not from 0.
+    let mut c = new();
+    c.set_mode(YawMode::Passive);
+    c.tick(&Inputs::default());
+    c.continue_from(0.5 * full);
+    let t = c.tick(&Inputs::default()).yaw_torque;
+    assert!(t > 0.4 * full && t < 0.5 * full, "{t}");
+    // The back-EMF, and traction off drives it.
+    let mut c = new();
+    let w = 0.3;
+    let e = cfg.motor.k_m * w * s.speed / s.voltage;
+    assert!(
+        (c.back_emf(w) - e).abs() < 1e-12,
+        "{} vs {e}",
+        c.back_emf(w)
+    );
+    assert!(c.traction_enabled());
+    // A current with no demand winds the integrator down; setting traction on again while
+    // on changes nothing; off, then on again with no error: the integrator starts from the
+    // back-EMF, not from what it held.
+    let at = |i: f64| si::<f64>(&cfg, 0.0, i, w * s.speed, 0.0);
+    for _ in 0..100 {
+        c.tick(&at(500.0));
+    }
+    let mut again = c.clone();
+    again.set_traction(true);
+    assert_eq!(again.tick(&at(0.0)), c.clone().tick(&at(0.0)));
+    c.set_traction(false);
+    assert!(!c.traction_enabled());
+    let v = c.tick(&at(500.0)).voltage;
+    assert!((v - e).abs() < 1e-12, "{v} vs {e}");
+    c.set_traction(true);
+    let v = c.tick(&at(0.0)).voltage;
+    assert!((v - e).abs() < 1e-12, "{v} vs {e}");
+}

@@ -2,7 +2,11 @@
 //! the difference equations, frequency responses against the continuous controllers,
 //! DC gains.
 
-use wheelset_control::{Fx, Lead, LeadParams, LeadState, Pi, PiParams, PiState, Sample};
+use std::f64::consts::PI;
+
+use wheelset_control::{
+    ConfigError, Fx, Lead, LeadParams, LeadState, Pi, PiParams, PiState, Sample,
+};
 
 /// Rates the tests cover, Hz.
 const RATES: [f64; 5] = [1000.0, 2500.0, 5000.0, 10_000.0, 20_000.0];
@@ -205,6 +209,41 @@ fn pi_step_response_equals_difference_equation() {
         let cont = p.kp * (1.0 + 1.0 / p.ti);
         assert!((u - cont).abs() < 2.0 * d.ki + 1e-9, "{fs}: {u} vs {cont}");
     }
+}
+
+/// The lead's refusals name their cause: a yaw rate too low for the lead (with that rate),
+/// and a pre-warp frequency at or past 0.45 of the yaw rate (`w_p T < 0.9 pi`).
+#[test]
+fn the_leads_refusals_name_the_rate_and_the_prewarp() {
+    let p = LeadParams::default();
+    match p.discretise(1.0 / 100.0) {
+        Err(ConfigError::Range { field, value, .. }) => {
+            assert_eq!((field, value), ("yaw rate", 100.0));
+        }
+        other => panic!("{other:?}"),
+    }
+    let field = |wp: f64, t: f64| match (LeadParams {
+        prewarp_rad_s: wp,
+        ..p
+    })
+    .discretise(t)
+    {
+        Err(ConfigError::Range { field, .. }) => field,
+        other => panic!("{other:?}"),
+    };
+    // At exactly 0.9 pi (t = 0.5 s, so the product is exact), between 0.9 pi and pi, and
+    // negative.
+    let t = 0.5;
+    assert_eq!(field(PI * 1.8, t), "lead.prewarp_rad_s");
+    assert_eq!(field(3.0 / t, t), "lead.prewarp_rad_s");
+    assert_eq!(field(-1.0, 1e-3), "lead.prewarp_rad_s");
+    // Just below the edge the pre-warp is taken (the lead at 2 kHz, pre-warped to 400 Hz).
+    assert!(LeadParams {
+        prewarp_rad_s: 2.0 * PI * 400.0,
+        ..p
+    }
+    .discretise(5e-4)
+    .is_ok());
 }
 
 #[test]

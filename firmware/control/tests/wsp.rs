@@ -514,3 +514,22 @@ fn the_regulator_resumes_from_the_cap_when_the_reference_returns() {
     assert!(k.wsp_state().sched);
     assert_eq!(k.counters().wsp_events, 1);
 }
+
+/// The reference speed from the Sensor frame's code is the motor speed `n v / r0` in pu,
+/// 0 (unknown) stays 0; the protection's switch reads back.
+#[test]
+fn the_reference_speed_code_is_the_motor_speed_and_the_switch_reads_back() {
+    let cfg = Config::default();
+    let mut c = Controller::<f64>::try_new(&cfg).expect("valid");
+    assert_eq!(c.wsp_enabled(), cfg.wsp.enabled);
+    c.set_v_ref_code(25_000);
+    let want = 25.0 * cfg.motor.n / cfg.wsp.r0_m / cfg.scales.speed;
+    let got = c.wsp_state().w_ref;
+    assert!((got - want).abs() < 1e-9 * want, "{got} vs {want}");
+    c.set_v_ref_code(0);
+    assert_eq!(c.wsp_state().w_ref, 0.0);
+    c.set_wsp(false);
+    assert!(!c.wsp_enabled());
+    c.set_wsp(true);
+    assert!(c.wsp_enabled());
+}

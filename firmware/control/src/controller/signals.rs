@@ -128,11 +128,6 @@ impl TickEvents {
     pub fn any(self) -> bool {
         self.0 != 0
     }
-    /// The raw word (bit positions as documented on the type; for tests and logs).
-    #[inline(always)]
-    pub fn bits(self) -> u32 {
-        self.0
-    }
     /// The yaw torque was clamped by `limits.torque` (`Counters::yaw_torque.clamped` + 1).
     #[inline(always)]
     pub fn yaw_saturated(self) -> bool {
