@@ -315,6 +315,8 @@ fn bits_round_trip_and_invalid_bits_are_refused() {
     assert_eq!(bad(&|x| x.k_ms = 0x8000_0000), "monitor.k_ms");
     assert_eq!(bad(&|x| x.levels.swap(0, 1)), "monitor.levels");
     assert_eq!(bad(&|x| x.levels[2] = 0), "monitor.levels");
+    assert_eq!(bad(&|x| x.levels[1] = x.levels[0]), "monitor.levels");
+    assert_eq!(bad(&|x| x.levels[1] = 0), "monitor.levels");
     assert_eq!(bad(&|x| x.block = 0), "monitor.block");
     assert_eq!(bad(&|x| x.drift = 0), "monitor.drift");
     assert_eq!(bad(&|x| x.levels[0] = 1 << 40), "monitor.levels");
