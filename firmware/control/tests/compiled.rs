@@ -469,4 +469,12 @@ fn the_const_constructor_is_the_validated_one_at_the_scale_edges() {
             "{mul} >> {shift}"
         );
     }
+    // And in f32, whose bits are the floats'.
+    let b = Compiled::<f32>::try_new(&Config::default())
+        .expect("valid")
+        .to_bits();
+    assert_eq!(
+        Compiled::<f32>::from_valid_bits(&b),
+        Compiled::<f32>::from_bits(&b).expect("valid")
+    );
 }

@@ -619,3 +619,35 @@ fn supervisory_changes_do_what_they_say() {
     let v = c.tick(&at(0.0)).voltage;
     assert!((v - e).abs() < 1e-12, "{v} vs {e}");
 }
+
+/// The traction accessors: a preset puts the integrator at the back-EMF and the reference
+/// at 0; the error is the reference less the current; the traction step runs one tick in
+/// `traction_divisor`; the reference the PI follows is the ramped one until the protection
+/// acts, then its cap.
+#[test]
+fn the_traction_accessors_say_what_the_loop_holds() {
+    let cfg = Config {
+        traction_divisor: 4,
+        ..Config::default()
+    };
+    let s = cfg.scales;
+    let mut c = F64Controller::try_new(&cfg).expect("valid");
+    c.preset_back_emf(0.3);
+    assert_eq!(c.pi_state().integ, c.back_emf(0.3));
+    assert_eq!(c.current_ref(), 0.0);
+    let inp = si::<f64>(&cfg, 0.0, 100.0, 0.0, 2460.0);
+    let stepped: Vec<bool> = (0..8)
+        .map(|_| {
+            c.tick(&inp);
+            c.traction_stepped()
+        })
+        .collect();
+    assert_eq!(stepped.iter().filter(|&&b| b).count(), 2, "{stepped:?}");
+    assert!(stepped
+        .windows(4)
+        .all(|w| w.iter().filter(|&&b| b).count() == 1));
+    let e = c.current_error();
+    assert!(e != 0.0);
+    assert!((e - (c.current_ref() - 100.0 / s.current)).abs() < 1e-12);
+    assert_eq!(c.applied_ref(), c.current_ref());
+}

@@ -317,3 +317,13 @@ fn pi_frequency_response_within_tolerance_below_fs_over_20() {
         }
     }
 }
+
+/// The lead in per unit: `K_hf` scaled by `y_dot_fs / torque_fs` (input over output full
+/// scale), the low-pass and pole terms unscaled.
+#[test]
+fn the_lead_in_per_unit_scales_its_gain_by_input_over_output() {
+    let (_, d) = lead_f64(&LeadParams::default(), 2e-4);
+    let pu = d.to_pu(2.0, 4.0e4);
+    assert!((pu.k_hf - d.k_hf * 2.0 / 4.0e4).abs() <= 1e-15 * pu.k_hf.abs());
+    assert_eq!((pu.g_half, pu.kappa), (d.g / 2.0, d.kappa));
+}

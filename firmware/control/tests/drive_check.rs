@@ -4,10 +4,10 @@
 //! and the loop's damped answer) does not; the three sample types from one
 //! implementation; its level in the core's current scale (its fields' validation: the
 //! `monitor` tests).
-#![allow(clippy::unwrap_used, clippy::expect_used)]
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 use std::f64::consts::PI;
-use wheelset_control::{Fx, Monitor, MonitorParams, MonitorState, Sample};
+use wheelset_control::{ConfigError, Fx, Monitor, MonitorParams, MonitorState, Sample};
 
 const BASE: u32 = 5000;
 
@@ -162,4 +162,56 @@ fn the_level_follows_the_current_scale() {
     .unwrap();
     assert!((m.drive_levels().0 - 0.15f64.powi(2)).abs() < 1e-12);
     assert!((m.drive_levels().1 - (0.7f64 * 0.15).powi(2)).abs() < 1e-12);
+}
+
+/// The current scale the drive check divides by must be a positive number of amperes:
+/// zero and negative scales are refused by name.
+#[test]
+fn a_zero_or_negative_current_scale_is_refused() {
+    for bad in [0.0, -2000.0] {
+        let p = MonitorParams {
+            current_scale_a: bad,
+            ..MonitorParams::default()
+        };
+        match Monitor::<f64>::try_new(&p, 5000) {
+            Err(ConfigError::Range { field, .. }) => {
+                assert_eq!(field, "monitor.current_scale_a", "{bad}");
+            }
+            other => panic!("{bad}: {other:?}"),
+        }
+    }
+}
+
+/// The drive check's boundaries: its threshold must lie strictly between 1e-3 and 2 of
+/// the current scale, and a mean square exactly at the alarm level does not count (only
+/// above it), here with a one-step persistence and levels exact in f64.
+#[test]
+fn the_drive_checks_boundaries_are_strict() {
+    let d = MonitorParams::default();
+    for ripple in [1e-3 * d.current_scale_a, 2.0 * d.current_scale_a] {
+        let p = MonitorParams {
+            drive_ripple_a: ripple,
+            ..d
+        };
+        match Monitor::<f64>::try_new(&p, 5000) {
+            Err(ConfigError::Range { field, .. }) => assert_eq!(field, "monitor.drive_ripple_a"),
+            other => panic!("{ripple}: {other:?}"),
+        }
+    }
+    let p = MonitorParams {
+        drive_ripple_a: 0.25 * d.current_scale_a,
+        drive_persist_steps: 1,
+        ..d
+    };
+    let m = Monitor::<f64>::try_new(&p, 5000).unwrap();
+    assert_eq!(m.drive_levels().0, 0.0625);
+    let at = |e: f64| {
+        let mut s = MonitorState::<f64> {
+            drive_ms: 0.0625,
+            ..MonitorState::default()
+        };
+        m.drive_step(&mut s, e)
+    };
+    assert!(!at(0.25), "exactly at the level");
+    assert!(at(0.2501), "above it");
 }

@@ -315,12 +315,18 @@ fn bits_round_trip_and_invalid_bits_are_refused() {
     assert_eq!(bad(&|x| x.k_ms = 0x8000_0000), "monitor.k_ms");
     assert_eq!(bad(&|x| x.levels.swap(0, 1)), "monitor.levels");
     assert_eq!(bad(&|x| x.levels[2] = 0), "monitor.levels");
+    assert_eq!(bad(&|x| x.levels[1] = x.levels[0]), "monitor.levels");
+    assert_eq!(bad(&|x| x.levels[1] = 0), "monitor.levels");
     assert_eq!(bad(&|x| x.block = 0), "monitor.block");
     assert_eq!(bad(&|x| x.drift = 0), "monitor.drift");
     assert_eq!(bad(&|x| x.levels[0] = 1 << 40), "monitor.levels");
     assert_eq!(bad(&|x| x.drive_k = 0), "monitor.drive_k");
     assert_eq!(bad(&|x| x.drive_levels.swap(0, 1)), "monitor.drive_levels");
     assert_eq!(bad(&|x| x.drive_levels[1] = 0), "monitor.drive_levels");
+    assert_eq!(
+        bad(&|x| x.drive_levels[1] = x.drive_levels[0]),
+        "monitor.drive_levels"
+    );
     assert_eq!(bad(&|x| x.drive_persist = 0), "monitor.drive_persist");
     assert_eq!(bad(&|x| x.traction_change = 0), "monitor.traction_change");
 }
@@ -333,6 +339,15 @@ fn bad_parameters_name_the_field() {
         e => panic!("{e:?}"),
     };
     assert_eq!(field(MonitorParams { rate_hz: 10, ..d }), "monitor.rate_hz");
+    // The band's top edge must be strictly below a quarter of the monitor rate.
+    let quarter = 0.25 * f64::from(d.rate_hz);
+    assert_eq!(
+        field(MonitorParams {
+            band_hi_hz: quarter,
+            ..d
+        }),
+        "monitor.band_hi_hz"
+    );
     for (p, name) in [
         (
             MonitorParams {

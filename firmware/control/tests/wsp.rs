@@ -532,4 +532,20 @@ fn the_reference_speed_code_is_the_motor_speed_and_the_switch_reads_back() {
     assert!(!c.wsp_enabled());
     c.set_wsp(true);
     assert!(c.wsp_enabled());
+    // A slip: the reference the PI follows is the protection's cap, below the ramped one.
+    c.set_v_ref(0.9);
+    let at = |speed: f64| wheelset_control::Inputs {
+        y_dot: 0.0,
+        current: 0.0,
+        speed,
+        demand: 0.5,
+    };
+    for _ in 0..50 {
+        c.tick(&at(0.9));
+    }
+    assert_eq!(c.applied_ref(), c.current_ref());
+    c.tick(&at(1.2));
+    assert!(c.wsp_state().active);
+    assert_eq!(c.applied_ref(), c.wsp_state().cap);
+    assert!(c.applied_ref() < c.current_ref());
 }
