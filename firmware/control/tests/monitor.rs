@@ -527,3 +527,64 @@ fn a_drift_to_the_flange_raises_the_actuator_alarm() {
     let (_, a, _) = drive::<Fx>(&p, 2.0, false, ramp(0.045));
     assert!(a.is_empty(), "not commanding: {a:?}");
 }
+
+/// The parameter ranges' edges: each open edge refused at exactly its value (a band edge
+/// of 0 or equal to the other, a threshold, a release and a growth of 0, a floor equal to
+/// the threshold), each closed edge accepted (a threshold of 1 m/s, a floor of 1e-4 m/s).
+#[test]
+fn the_parameter_ranges_refuse_their_open_edges() {
+    let d = MonitorParams::default();
+    let refused = |p: MonitorParams, name: &str| match Monitor::<f64>::try_new(&p, BASE) {
+        Err(wheelset_control::ConfigError::Range { field, .. }) => assert_eq!(field, name),
+        other => panic!("{name}: {other:?}"),
+    };
+    refused(
+        MonitorParams {
+            band_lo_hz: 0.0,
+            ..d
+        },
+        "monitor.band_lo_hz",
+    );
+    refused(
+        MonitorParams {
+            band_lo_hz: d.band_hi_hz,
+            ..d
+        },
+        "monitor.band_lo_hz",
+    );
+    refused(
+        MonitorParams {
+            threshold_m_s: 0.0,
+            ..d
+        },
+        "monitor.threshold_m_s",
+    );
+    refused(MonitorParams { release: 0.0, ..d }, "monitor.release");
+    refused(MonitorParams { release: 1.0, ..d }, "monitor.release");
+    refused(
+        MonitorParams {
+            act_floor_m_s: d.threshold_m_s,
+            ..d
+        },
+        "monitor.act_floor_m_s",
+    );
+    refused(
+        MonitorParams {
+            act_growth_per_s: 0.0,
+            ..d
+        },
+        "monitor.act_growth_per_s",
+    );
+    for ok in [
+        MonitorParams {
+            threshold_m_s: 1.0,
+            ..d
+        },
+        MonitorParams {
+            act_floor_m_s: 1e-4,
+            ..d
+        },
+    ] {
+        assert!(Monitor::<f64>::try_new(&ok, BASE).is_ok(), "{ok:?}");
+    }
+}

@@ -1,6 +1,6 @@
 //! The sample types' arithmetic: rounding, saturation, Q31 products, quantisation.
 
-use super::fx::sat32;
+use super::fx::{round_f64, sat32};
 use super::*;
 
 #[test]
@@ -307,5 +307,23 @@ fn fx_scale_precomputed_apply_equals_branching() {
         for x in [i32::MIN, -1, 0, 1, i32::MAX] {
             assert_eq!(f.apply(x), apply_branching(&f, x), "{x} {f:?}");
         }
+    }
+}
+
+#[test]
+fn round_f64_rounds_half_away_from_zero() {
+    for (x, want) in [
+        (2.5, 3.0),
+        (-2.5, -3.0),
+        (2.4, 2.0),
+        (-2.4, -2.0),
+        (2.6, 3.0),
+        (-2.6, -3.0),
+        (0.5, 1.0),
+        (-0.5, -1.0),
+        (0.0, 0.0),
+        (1_048_575.5, 1_048_576.0),
+    ] {
+        assert_eq!(round_f64(x), want, "{x}");
     }
 }
