@@ -327,3 +327,22 @@ fn round_f64_rounds_half_away_from_zero() {
         assert_eq!(round_f64(x), want, "{x}");
     }
 }
+
+#[test]
+fn fixed_square_rounds_to_nearest() {
+    // (b 2^-28)^2 = b^2 2^-56 in Q4.28: b^2 / 2^28 LSB, rounded to nearest.
+    for b in [
+        1i32,
+        3,
+        11_585,
+        16_385,
+        23_170,
+        46_341,
+        -46_341,
+        1 << 20,
+        33_554_431,
+    ] {
+        let want = ((f64::from(b) * f64::from(b)) / f64::from(1u32 << 28)).round();
+        assert_eq!(f64::from(Fx::from_bits(b).square().to_bits()), want, "{b}");
+    }
+}
