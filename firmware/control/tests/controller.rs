@@ -466,6 +466,26 @@ fn validation_boundaries_are_where_the_ranges_say() {
     c.limits.voltage_max = 2.0 * c.scales.voltage;
     c.limits.y_dot = 2.0 * c.scales.y_dot;
     assert_eq!(field_of(&c), None);
+    let zero: [(fn(&mut Config), &str); 5] = [
+        (|c| c.motor.k_m = 0.0, "motor.k_m"),
+        (|c| c.motor.n = 0.0, "motor.n"),
+        (|c| c.safe.yaw_s = 0.0, "safe.yaw_s"),
+        (|c| c.safe.traction_s = 0.0, "safe.traction_s"),
+        (|c| c.wire.speed = 0.0, "wire.speed"),
+    ];
+    for (set, name) in zero {
+        let mut c = base;
+        set(&mut c);
+        assert_eq!(field_of(&c), Some(name));
+    }
+    // The largest current reference `demand / (n K_m)` within 2 current full scales.
+    let mut c = base;
+    c.scales.demand = 1.0e5;
+    let per_fs = c.motor.n * c.motor.k_m * c.scales.current;
+    c.limits.demand = 2.01 * per_fs;
+    assert_eq!(field_of(&c), Some("limits.demand"));
+    c.limits.demand = 1.99 * per_fs;
+    assert_eq!(field_of(&c), None);
 }
 
 /// Per unit is SI over the full scale, in and out, on scales other than 1.

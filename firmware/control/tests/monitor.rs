@@ -588,3 +588,23 @@ fn the_parameter_ranges_refuse_their_open_edges() {
         assert!(Monitor::<f64>::try_new(&ok, BASE).is_ok(), "{ok:?}");
     }
 }
+
+/// The traction-change step's range is 1e-3 to 2 current full scales (1 A refused, 2.5 kA
+/// accepted at a 2 kA scale), and the mean square's coefficient is `1 - exp(-T/(W/2))`.
+#[test]
+fn the_traction_change_range_and_the_window_coefficient() {
+    let d = MonitorParams::default();
+    let with = |a: f64| MonitorParams {
+        act_traction_change_a: a,
+        current_scale_a: 2000.0,
+        ..d
+    };
+    assert!(Monitor::<f64>::try_new(&with(1.0), BASE).is_err());
+    assert!(Monitor::<f64>::try_new(&with(2500.0), BASE).is_ok());
+    assert!(Monitor::<f64>::try_new(&with(4001.0), BASE).is_err());
+    let m = Monitor::<f64>::try_new(&d, BASE).unwrap();
+    let t = 1.0 / f64::from(d.rate_hz);
+    let want = 1.0 - (-t / (d.window_s / 2.0)).exp();
+    let got = f64::from_bits(m.to_bits().k_ms);
+    assert!((got - want).abs() < 1e-12 * want, "{got} vs {want}");
+}
