@@ -466,7 +466,8 @@ fn validation_boundaries_are_where_the_ranges_say() {
     c.limits.voltage_max = 2.0 * c.scales.voltage;
     c.limits.y_dot = 2.0 * c.scales.y_dot;
     assert_eq!(field_of(&c), None);
-    let zero: [(fn(&mut Config), &str); 5] = [
+    type Set = fn(&mut Config);
+    let zero: [(Set, &str); 5] = [
         (|c| c.motor.k_m = 0.0, "motor.k_m"),
         (|c| c.motor.n = 0.0, "motor.n"),
         (|c| c.safe.yaw_s = 0.0, "safe.yaw_s"),
