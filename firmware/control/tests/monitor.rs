@@ -608,3 +608,23 @@ fn the_traction_change_range_and_the_window_coefficient() {
     let got = f64::from_bits(m.to_bits().k_ms);
     assert!((got - want).abs() < 1e-12 * want, "{got} vs {want}");
 }
+
+/// The alarm levels in (m/s)^2: on at the threshold squared, off at (release x threshold)
+/// squared, the block's energy floor at the floor squared times the samples in a block
+/// (0.1 s at 500 Hz: 50).
+#[test]
+fn the_levels_are_the_squares_of_the_parameters() {
+    let d = MonitorParams::default();
+    let m = Monitor::<f64>::try_new(&d, BASE).unwrap();
+    let (on, off, floor) = m.levels();
+    let thr2 = d.threshold_m_s * d.threshold_m_s;
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * b;
+    assert!(close(on, thr2), "{on}");
+    assert!(close(off, thr2 * d.release * d.release), "{off}");
+    let per_block = (d.act_block_s * f64::from(d.rate_hz)).round();
+    assert_eq!(per_block, 50.0);
+    assert!(
+        close(floor, d.act_floor_m_s * d.act_floor_m_s * per_block),
+        "{floor}"
+    );
+}

@@ -549,3 +549,23 @@ fn the_reference_speed_code_is_the_motor_speed_and_the_switch_reads_back() {
     assert_eq!(c.applied_ref(), c.wsp_state().cap);
     assert!(c.applied_ref() < c.current_ref());
 }
+
+/// The protection's open range edges are refused by name: a wheel radius of 0.1 m, a
+/// detection slip of 0 and an acceleration-test slip of 0.
+#[test]
+fn the_protections_open_edges_are_refused() {
+    let d = Config::default();
+    let field = |c: &Config| match Controller::<f64>::try_new(c) {
+        Err(wheelset_control::ConfigError::Range { field, .. }) => field,
+        other => panic!("{other:?}"),
+    };
+    let mut c = d;
+    c.wsp.r0_m = 0.1;
+    assert_eq!(field(&c), "wsp.r0_m");
+    let mut c = d;
+    c.wsp.slip_on_mps = 0.0;
+    assert_eq!(field(&c), "wsp.slip_on_mps");
+    let mut c = d;
+    c.wsp.slip_accel_mps = 0.0;
+    assert_eq!(field(&c), "wsp.slip_accel_mps");
+}

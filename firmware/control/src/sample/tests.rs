@@ -346,3 +346,17 @@ fn fixed_square_rounds_to_nearest() {
         assert_eq!(f64::from(Fx::from_bits(b).square().to_bits()), want, "{b}");
     }
 }
+
+#[test]
+fn fixed_pre_doubling_coefficient_and_unit_range_edges() {
+    // A coefficient is pre-doubled only while 2c stays a coefficient: |c| <= 2^30 - 2 LSB.
+    let c = |b: i32| Coef::from_bits(b);
+    assert_eq!(Fx::pre_coeff(c((1 << 30) - 2)), Some(c(i32::MAX - 3)));
+    assert_eq!(Fx::pre_coeff(c(-(1 << 30) + 2)), Some(c(i32::MIN + 4)));
+    assert_eq!(Fx::pre_coeff(c((1 << 30) - 1)), None);
+    assert_eq!(Fx::pre_coeff(c(-(1 << 30) + 1)), None);
+    // In the unit interval: positive, or zero when zero is allowed; never negative.
+    assert!(Fx::coeff_in_unit(c(1), false));
+    assert!(Fx::coeff_in_unit(c(0), true) && !Fx::coeff_in_unit(c(0), false));
+    assert!(!Fx::coeff_in_unit(c(-1), true) && !Fx::coeff_in_unit(c(-1), false));
+}
