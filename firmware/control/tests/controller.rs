@@ -472,7 +472,7 @@ fn validation_boundaries_are_where_the_ranges_say() {
         (|c| c.motor.n = 0.0, "motor.n"),
         (|c| c.safe.yaw_s = 0.0, "safe.yaw_s"),
         (|c| c.safe.traction_s = 0.0, "safe.traction_s"),
-        (|c| c.wire.speed = 0.0, "wire.speed"),
+        (|c| c.wire.voltage = 0.0, "wire.voltage"),
     ];
     for (set, name) in zero {
         let mut c = base;
