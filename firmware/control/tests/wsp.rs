@@ -568,4 +568,26 @@ fn the_protections_open_edges_are_refused() {
     let mut c = d;
     c.wsp.slip_accel_mps = 0.0;
     assert_eq!(field(&c), "wsp.slip_accel_mps");
+    type Set = fn(&mut Config);
+    let edges: [(Set, &str); 8] = [
+        (|c| c.wsp.accel_on_mps2 = 0.0, "wsp.accel_on_mps2"),
+        (|c| c.wsp.accel_on_mps2 = -1.0, "wsp.accel_on_mps2"),
+        (|c| c.wsp.cut_fraction = 0.0, "wsp.cut_fraction"),
+        (|c| c.wsp.cut_fraction = 1.0, "wsp.cut_fraction"),
+        (|c| c.wsp.cut_fraction = -0.5, "wsp.cut_fraction"),
+        (|c| c.wsp.slip_sp_mps = 0.0, "wsp.slip_sp_mps"),
+        (|c| c.wsp.slip_sp_mps = c.wsp.slip_on_mps, "wsp.slip_sp_mps"),
+        (|c| c.wsp.kp_a_per_mps = -1.0, "wsp.kp_a_per_mps"),
+    ];
+    for (set, name) in edges {
+        let mut c = d;
+        set(&mut c);
+        assert_eq!(field(&c), name);
+    }
+    // The set point's slope: up to 1 m/s per current full scale, accepted at the edge.
+    let mut c = d;
+    c.wsp.slip_sp_per_a = 1.0 / c.scales.current;
+    assert!(Controller::<f64>::try_new(&c).is_ok());
+    c.wsp.slip_sp_per_a = 1.01 / c.scales.current;
+    assert_eq!(field(&c), "wsp.slip_sp_per_a");
 }
