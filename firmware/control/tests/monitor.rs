@@ -629,18 +629,18 @@ fn the_levels_are_the_squares_of_the_parameters() {
     );
 }
 
-/// The monitor steps once every `divisor()` base ticks: 10 steps in 100 ticks at 500 Hz
+/// The monitor steps once every `divisor()` base ticks: 20 steps in 200 ticks at 500 Hz
 /// of a 5 kHz base.
 #[test]
 fn the_monitor_steps_once_per_divisor() {
     let m = Monitor::<f64>::try_new(&MonitorParams::default(), BASE).unwrap();
     assert_eq!(m.divisor(), 10);
     let mut s = MonitorState::default();
-    let steps = (0..100)
+    let steps = (0..200)
         .filter(|_| {
             m.tick(&mut s, 0.0, true, 0.0);
             s.phase == m.divisor()
         })
         .count();
-    assert_eq!(steps, 10);
+    assert_eq!(steps, 20);
 }
