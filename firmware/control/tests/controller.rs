@@ -672,3 +672,25 @@ fn the_traction_accessors_say_what_the_loop_holds() {
     assert!((e - (c.current_ref() - 100.0 / s.current)).abs() < 1e-12);
     assert_eq!(c.applied_ref(), c.current_ref());
 }
+
+/// The wire codec's inputs are `code x LSB / full scale` (the y' full scale other than 1).
+#[test]
+fn the_codec_decodes_by_lsb_over_full_scale() {
+    let mut cfg = Config::default();
+    cfg.scales.y_dot = 2.0;
+    let c = F64Controller::try_new(&cfg).expect("valid");
+    let i = c.codec().decode(&wheelset_control::InputCodes {
+        y_dot: 100_000,
+        current: 50_000,
+        speed: 0,
+        demand: 0,
+    });
+    let (w, s) = (cfg.wire, cfg.scales);
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b.abs();
+    assert!(close(i.y_dot, 100_000.0 * w.y_dot / s.y_dot), "{}", i.y_dot);
+    assert!(
+        close(i.current, 50_000.0 * w.current / s.current),
+        "{}",
+        i.current
+    );
+}
