@@ -73,11 +73,9 @@ impl Decoder {
         bytes: &'b [u8],
         decode: fn(&[u8]) -> Result<M, FrameError>,
     ) -> Next<'b, M> {
-        let (data, rest) = match bytes.iter().position(|&b| b == 0) {
-            Some(z) => (bytes.get(..z), bytes.get(z + 1..)),
-            None => (Some(bytes), None),
-        };
-        let data = data.unwrap_or_default();
+        let mut split = bytes.splitn(2, |&b| b == 0);
+        let data = split.next().unwrap_or_default();
+        let rest = split.next();
         let start = self.enc;
         self.enc = self.enc.saturating_add(data.len());
         if self.enc <= LIMIT {
