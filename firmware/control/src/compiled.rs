@@ -427,17 +427,27 @@ fn pu_limit<T: SampleBits>(v: u64) -> Option<T> {
 impl CompiledBits {
     /// A 32-bit FNV-1a hash of all but the schedule, start mode and traction (`const`).
     pub const fn fingerprint(&self) -> u32 {
-        const fn word(mut h: u32, w: u64) -> u32 {
-            let mut i = 0;
-            while i < 8 {
-                h = (h ^ ((w >> (8 * i)) & 0xff) as u32).wrapping_mul(0x0100_0193);
-                i += 1;
+        // Over slices by pattern (no index arithmetic): `const` has no iterators.
+        const fn bytes(mut h: u32, mut rest: &[u8]) -> u32 {
+            while let [b, tail @ ..] = rest {
+                h = (h ^ *b as u32).wrapping_mul(0x0100_0193);
+                rest = tail;
+            }
+            h
+        }
+        const fn word(h: u32, w: u64) -> u32 {
+            bytes(h, &w.to_le_bytes())
+        }
+        const fn words(mut h: u32, mut rest: &[u64]) -> u32 {
+            while let [w, tail @ ..] = rest {
+                h = word(h, *w);
+                rest = tail;
             }
             h
         }
         let mut h: u32 = 0x811c_9dc5;
         h = word(h, self.numeric as u64);
-        let words = [
+        let fields = [
             self.lead_g_half,
             self.gain,
             self.u_min,
@@ -459,21 +469,13 @@ impl CompiledBits {
             self.wsp.v_ref.mul,
             self.wsp.v_ref.shift as u64,
         ];
-        let mut i = 0;
-        while i < words.len() {
-            h = word(h, words[i]);
-            i += 1;
-        }
-        let mut i = 0;
-        while i < self.clamps.len() {
-            h = word(h, self.clamps[i]);
-            i += 1;
-        }
-        let mut i = 0;
-        while i < self.codec.len() {
-            h = word(h, self.codec[i].mul);
-            h = word(h, self.codec[i].shift as u64);
-            i += 1;
+        h = words(h, &fields);
+        h = words(h, &self.clamps);
+        let mut rest: &[ScaleBits] = &self.codec;
+        while let [c, tail @ ..] = rest {
+            h = word(h, c.mul);
+            h = word(h, c.shift as u64);
+            rest = tail;
         }
         h
     }

@@ -96,10 +96,8 @@ impl LeadParams {
 pub(crate) fn tan_small(x: f64) -> f64 {
     let x2 = x * x;
     let mut d = 25.0;
-    let mut k = 23.0;
-    while k > 0.0 {
-        d = k - x2 / d;
-        k -= 2.0;
+    for k in (1..=23u8).rev().step_by(2) {
+        d = f64::from(k) - x2 / d;
     }
     x / d
 }

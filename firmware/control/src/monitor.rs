@@ -132,11 +132,9 @@ impl Default for MonitorParams {
 /// 30 terms, accurate to ~1e-16 there.
 fn exp_small(x: f64) -> f64 {
     let (mut sum, mut term) = (1.0, 1.0);
-    let mut n = 1.0;
-    while n <= 30.0 {
-        term *= x / n;
+    for n in 1..=30u8 {
+        term *= x / f64::from(n);
         sum += term;
-        n += 1.0;
     }
     sum
 }

@@ -235,14 +235,8 @@ impl Sample for Fx {
             return None;
         }
         let fits = |s: u32| Self::quantise(c_max * (1u64 << s) as f64).is_some();
-        if !fits(1) {
-            return None;
-        }
-        let mut s = 1;
-        while s < Self::ACC_SHIFT_MAX && fits(s + 1) {
-            s += 1;
-        }
-        Some(s)
+        // `c_max 2^s` grows with `s`: the largest shift that fits.
+        (1..=Self::ACC_SHIFT_MAX).rev().find(|&s| fits(s))
     }
     fn acc_shift_ok(s: u32) -> bool {
         (1..=Self::ACC_SHIFT_MAX).contains(&s)
