@@ -518,4 +518,13 @@ mod tests {
         }
         assert!((exp_small(-1.0) - 0.367_879_441_171_442_3).abs() < 1e-15);
     }
+
+    #[test]
+    fn the_divisor_is_at_least_one_and_at_most_u16_max() {
+        assert_eq!(divisor_for(0, 5000), 0);
+        assert_eq!(divisor_for(10_000, 1), 1);
+        assert_eq!(divisor_for(1, u32::MAX), u16::MAX);
+        assert_eq!(divisor_for(1, u32::from(u16::MAX)), u16::MAX);
+        assert_eq!(divisor_for(1, u32::from(u16::MAX) + 1), u16::MAX);
+    }
 }

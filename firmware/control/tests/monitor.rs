@@ -644,3 +644,130 @@ fn the_monitor_steps_once_per_divisor() {
         .count();
     assert_eq!(steps, 20);
 }
+
+/// The divisor is `base / rate` rounded half up: 2.5 ticks a step is 3, 2.4 is 2; and
+/// [`Monitor::retime`] follows a new base rate.
+#[test]
+fn the_divisor_rounds_half_up() {
+    let p = |hz| MonitorParams {
+        rate_hz: hz,
+        ..MonitorParams::default()
+    };
+    assert_eq!(
+        Monitor::<f64>::try_new(&p(2000), 5000).unwrap().divisor(),
+        3
+    );
+    assert_eq!(
+        Monitor::<f64>::try_new(&p(2000), 4800).unwrap().divisor(),
+        2
+    );
+    let mut m = Monitor::<f64>::try_new(&p(500), 5000).unwrap();
+    m.retime(1250);
+    assert_eq!(m.divisor(), 3);
+}
+
+/// One monitor step at a block end (phase and block count at 1) on `y' = 0` with the
+/// state's filters at rest, the block's energy `energy` and the last block's 0.
+fn block_end(m: &Monitor<f64>, energy: f64, s: &mut MonitorState<f64>) {
+    s.phase = 1;
+    s.block_left = 1;
+    s.energy = energy;
+    s.energy_prev = 0.0;
+    m.tick(s, 0.0, true, 0.0);
+}
+
+/// A block grows only with its energy strictly above the floor: at the floor the run of
+/// growing blocks does not start, one step above it does.
+#[test]
+fn a_block_at_the_energy_floor_is_not_growth() {
+    let m = Monitor::<f64>::try_new(&MonitorParams::default(), BASE).unwrap();
+    let (_, _, floor) = m.levels();
+    let mut s = MonitorState::default();
+    block_end(&m, floor, &mut s);
+    assert_eq!(s.run, 0);
+    block_end(&m, floor.next_up(), &mut s);
+    assert_eq!(s.run, 1);
+}
+
+/// The actuator alarm, once raised, holds while the mean square is at or above the off
+/// level or the run of growing blocks goes on, and releases at the first block end with
+/// neither.
+#[test]
+fn the_actuator_alarm_releases_when_growth_and_motion_stop() {
+    let m = Monitor::<f64>::try_new(&MonitorParams::default(), BASE).unwrap();
+    let (_, off, floor) = m.levels();
+    let mut s = MonitorState::default();
+    s.ev.actuator = true;
+    // Still growing: held.
+    block_end(&m, 2.0 * floor, &mut s);
+    assert!(s.ev.actuator && s.run == 1);
+    // The mean square at twice the off level with no growth: held.
+    s.ms = 2.0 * off;
+    block_end(&m, 0.0, &mut s);
+    assert!(s.ev.actuator && s.run == 0 && s.ms >= off, "{}", s.ms);
+    // Neither: released.
+    s.ms = 0.0;
+    block_end(&m, 0.0, &mut s);
+    assert!(!s.ev.actuator);
+}
+
+/// A block grows only by more than the growth factor over the last: a block whose energy
+/// shrunk by the factor equals the last block's is not growth.
+#[test]
+fn a_block_grown_by_exactly_the_factor_is_not_growth() {
+    let m = Monitor::<f64>::try_new(&MonitorParams::default(), BASE).unwrap();
+    let (_, _, floor) = m.levels();
+    let shrink = f64::from_bits(m.to_bits().shrink);
+    let e = 4.0 * floor;
+    let mut s = MonitorState::default();
+    let mut end = |prev: f64| {
+        s.phase = 1;
+        s.block_left = 1;
+        s.energy = e;
+        s.energy_prev = prev;
+        m.tick(&mut s, 0.0, true, 0.0);
+        s.run
+    };
+    assert_eq!(end(e * shrink), 0);
+    assert_eq!(end((e * shrink).next_down()), 1);
+}
+
+/// The hunting alarm rises only with the mean square strictly above the on level: a step
+/// that lands it exactly on the level does not raise it, one LSB above does.
+#[test]
+fn the_hunting_alarm_rises_strictly_above_its_level() {
+    let m = Monitor::<f64>::try_new(&MonitorParams::default(), BASE).unwrap();
+    let (on, _, _) = m.levels();
+    let k = f64::from_bits(m.to_bits().k_ms);
+    // A step on y' = 0 at rest decays the mean square by (1 - k): find the start that
+    // lands on `on` exactly.
+    let after = |ms: f64| {
+        let mut s = MonitorState {
+            ms,
+            block_left: 1000,
+            ..MonitorState::default()
+        };
+        m.tick(&mut s, 0.0, false, 0.0);
+        s
+    };
+    let mut ms = on / (1.0 - k);
+    for _ in 0..64 {
+        let got = after(ms).ms;
+        if got == on {
+            break;
+        }
+        ms = if got > on {
+            ms.next_down()
+        } else {
+            ms.next_up()
+        };
+    }
+    let s = after(ms);
+    assert_eq!(s.ms, on, "no start lands on the level");
+    assert!(!s.ev.hunting && !s.ev.hunting_rose);
+    let mut up = ms.next_up();
+    while after(up).ms == on {
+        up = up.next_up();
+    }
+    assert!(after(up).ev.hunting_rose);
+}
