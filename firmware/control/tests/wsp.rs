@@ -584,6 +584,30 @@ fn the_protections_open_edges_are_refused() {
         set(&mut c);
         assert_eq!(field(&c), name);
     }
+    let edges: [(Set, &str); 5] = [
+        (|c| c.wsp.ki_a_per_s_per_mps = 0.0, "wsp.ki_a_per_s_per_mps"),
+        (|c| c.wsp.ki_a_per_s_per_mps = 2e5, "wsp.ki_a_per_s_per_mps"),
+        (|c| c.wsp.kp_a_per_mps = 2e4, "wsp.kp_a_per_mps"),
+        (|c| c.wsp.lead_w1_rad_s = 0.0, "wsp.lead_w1_rad_s"),
+        (|c| c.wsp.lead_gain = 1.5, "wsp.lead_gain"),
+    ];
+    for (set, name) in edges {
+        let mut c = d;
+        set(&mut c);
+        assert_eq!(field(&c), name);
+    }
+    // A coefficient must be below 1 in every build, floats too: the acceleration test's
+    // ratio `accel_on n/r0 / current_ref_rate` (pu) at 1 or more is refused by name.
+    let mut c = d;
+    let pu = c.motor.n / (c.wsp.r0_m * c.scales.speed);
+    c.limits.current_ref_rate = c.wsp.accel_on_mps2 * pu * c.scales.current / 1.5;
+    match Controller::<f64>::try_new(&c) {
+        Err(wheelset_control::ConfigError::Coefficient { name, value }) => {
+            assert_eq!(name, "wsp accel_on n/r0 / current_ref_rate");
+            assert!((value - 1.5).abs() < 1e-9, "{value}");
+        }
+        other => panic!("{other:?}"),
+    }
     // The set point's slope: up to 1 m/s per current full scale, accepted at the edge.
     let mut c = d;
     c.wsp.slip_sp_per_a = 1.0 / c.scales.current;
