@@ -7,7 +7,7 @@
 
 use wheelset_control::{
     Compiled, Config, ConfigError, Controller, F32Controller, F64Controller, FixedController, Fx,
-    Inputs, Sample, SampleBits, WspBits, WspParams,
+    Inputs, Sample, SampleBits, Wsp, WspBits, WspParams,
 };
 
 const N_R0: f64 = 5.0 / 0.45;
@@ -614,4 +614,54 @@ fn the_protections_open_edges_are_refused() {
     assert!(Controller::<f64>::try_new(&c).is_ok());
     c.wsp.slip_sp_per_a = 1.01 / c.scales.current;
     assert_eq!(field(&c), "wsp.slip_sp_per_a");
+}
+
+/// The wire's motor-speed LSB must resolve the acceleration test's slip: one code at most
+/// `slip_accel_mps` at the motor (`n/r0`, pu of the speed scale); 1 % under is accepted,
+/// 1 % over refused by name.
+#[test]
+fn the_speed_code_must_resolve_the_acceleration_slip() {
+    let d = Config::default();
+    let limit = d.wsp.slip_accel_mps * d.motor.n / d.wsp.r0_m; // rad/s at the motor
+    let with = |lsb: f64| {
+        let mut c = d;
+        c.wire.speed = lsb;
+        Controller::<f64>::try_new(&c)
+    };
+    assert!(with(0.99 * limit).is_ok());
+    match with(1.01 * limit) {
+        Err(ConfigError::Range { field, .. }) => assert_eq!(field, "wire.speed"),
+        other => panic!("{other:?}"),
+    }
+}
+
+/// A gain is split as `c 2^s` with `s` at most 16: a protection integral gain that needs
+/// a 17th halving is refused by name, one that needs 16 is accepted.
+#[test]
+fn a_gain_past_the_largest_shift_is_refused() {
+    let d = Config::default();
+    let pu = d.motor.n / (d.wsp.r0_m * d.scales.speed);
+    // ki' = ki / (pu current_ref_rate): set the rate for ki' = 1.5 x 2^16, then 1.5 x 2^15.
+    let with = |ki_pu: f64| {
+        let mut c = d;
+        c.limits.current_ref_rate = c.wsp.ki_a_per_s_per_mps / (pu * ki_pu);
+        // The acceleration test's ratio scales with 1/current_ref_rate too: kept below 1.
+        c.wsp.accel_on_mps2 /= 20.0;
+        Wsp::<f64>::try_new(
+            &c.wsp,
+            &c.motor,
+            &c.scales,
+            &c.limits,
+            c.wire.speed,
+            &c.lead,
+        )
+    };
+    match with(1.5 * 65536.0) {
+        Err(ConfigError::Coefficient { name, .. }) => {
+            assert_eq!(name, "wsp ki / (n/r0 current_ref_rate)");
+        }
+        other => panic!("{other:?}"),
+    }
+    let w = with(1.5 * 32768.0).expect("16 halvings fit");
+    assert_eq!(w.to_bits().ki_shift, 16);
 }
