@@ -204,10 +204,8 @@ const MAX_SHIFT: u8 = 16;
 /// `x 2^s` by exact doublings, saturating.
 #[inline(always)]
 fn shl<T: Sample>(mut x: T, s: u8) -> T {
-    let mut i = 0;
-    while i < s {
+    for _ in 0..s {
         x = x.sat_add(x);
-        i += 1;
     }
     x
 }

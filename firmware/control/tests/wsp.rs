@@ -7,7 +7,7 @@
 
 use wheelset_control::{
     Compiled, Config, ConfigError, Controller, F32Controller, F64Controller, FixedController, Fx,
-    Inputs, Sample, SampleBits, Wsp, WspBits, WspParams,
+    Inputs, Sample, SampleBits, Wsp, WspBits, WspParams, WspState,
 };
 
 const N_R0: f64 = 5.0 / 0.45;
@@ -664,4 +664,44 @@ fn a_gain_past_the_largest_shift_is_refused() {
     }
     let w = with(1.5 * 32768.0).expect("16 halvings fit");
     assert_eq!(w.to_bits().ki_shift, 16);
+}
+
+/// The scheduled yaw lead runs while the protection acts with the slip strictly above
+/// half its set point: a slip exactly at half the set point does not schedule it, the
+/// next value up does.
+#[test]
+fn the_scheduled_lead_needs_the_slip_above_half_the_set_point() {
+    let mut c = cfg();
+    c.wsp.slip_sp_per_a = 0.0; // a set point that does not move with the cap
+    let w = Wsp::<f64>::try_new(
+        &c.wsp,
+        &c.motor,
+        &c.scales,
+        &c.limits,
+        c.wire.speed,
+        &c.lead,
+    )
+    .unwrap();
+    let h = w.half_set_point(0.0);
+    // A reference of `h` itself: the slip `2h - h` is exactly `h` (no rounding).
+    let (w_ref, iref, step) = (h, 0.8, 1e-4);
+    let sched = |speed: f64| {
+        let slip = speed - w_ref;
+        let mut st = WspState {
+            cap: 0.1,
+            active: true,
+            w_prev: speed,
+            w_ref,
+            slip_prev: slip,
+            known: true,
+            ..WspState::default()
+        };
+        let (r, acting, _) = w.process(&mut st, speed, iref, step);
+        assert!(acting && r < iref, "still capping");
+        (st.sched, slip)
+    };
+    assert_eq!(sched(2.0 * h), (false, h));
+    let up = (2.0 * h).next_up();
+    assert!(sched(up).1 > h);
+    assert!(sched(up).0);
 }
