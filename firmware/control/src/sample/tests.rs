@@ -360,3 +360,129 @@ fn fixed_pre_doubling_coefficient_and_unit_range_edges() {
     assert!(Fx::coeff_in_unit(c(0), true) && !Fx::coeff_in_unit(c(0), false));
     assert!(!Fx::coeff_in_unit(c(-1), true) && !Fx::coeff_in_unit(c(-1), false));
 }
+
+/// A sample type with only the required operations (`f64`'s), so the trait's provided
+/// operations are the ones used (the audit's dynamic format relies on them).
+#[derive(Clone, Copy, Debug, Default, PartialEq, PartialOrd)]
+struct Plain(f64);
+
+impl Sample for Plain {
+    type Coeff = f64;
+    type Residue = ();
+    type Scale = f64;
+    const ZERO: Self = Plain(0.0);
+    const NAME: &'static str = "plain";
+    fn from_f64(x: f64) -> Self {
+        Plain(x)
+    }
+    fn to_f64(self) -> f64 {
+        self.0
+    }
+    fn quantise(c: f64) -> Option<f64> {
+        f64::quantise(c)
+    }
+    fn coeff_to_f64(c: f64) -> f64 {
+        c
+    }
+    fn sat_add(self, rhs: Self) -> Self {
+        Plain(self.0 + rhs.0)
+    }
+    fn sat_sub(self, rhs: Self) -> Self {
+        Plain(self.0 - rhs.0)
+    }
+    fn mul_c(self, c: f64) -> Self {
+        Plain(self.0 * c)
+    }
+    fn to_coeff_sat(self) -> f64 {
+        self.0
+    }
+    fn mul_c_acc(self, c: f64, _r: &mut ()) -> Self {
+        Plain(self.0 * c)
+    }
+    fn limit(self, lo: Self, hi: Self) -> (Self, bool) {
+        let (y, c) = self.0.limit(lo.0, hi.0);
+        (Plain(y), c)
+    }
+    fn sanitize(self) -> (Self, bool) {
+        let (y, bad) = self.0.sanitize();
+        (Plain(y), bad)
+    }
+    fn scale_in(factor: f64) -> Option<f64> {
+        f64::scale_in(factor)
+    }
+    fn scale_out(factor: f64) -> Option<f64> {
+        f64::scale_out(factor)
+    }
+    fn from_code(code: i32, scale: &f64) -> Self {
+        Plain(f64::from_code(code, scale))
+    }
+    fn to_code(self, scale: &f64) -> i32 {
+        self.0.to_code(scale)
+    }
+}
+
+#[test]
+fn the_provided_operations_are_their_definitions() {
+    let p = Plain;
+    assert_eq!(p(-1.5).square(), p(2.25));
+    assert_eq!(Plain::two_pu(), p(2.0));
+    for (x, max, inside) in [
+        (1.0, 1.0, true),
+        (-1.0, 1.0, true),
+        (0.0, 0.0, true),
+        (1.0 + 1e-9, 1.0, false),
+        (-1.0 - 1e-9, 1.0, false),
+        (f64::NAN, 1.0, false),
+    ] {
+        assert_eq!(p(x).abs_within(p(max)), inside, "{x} {max}");
+    }
+    for (x, inside) in [
+        (-0.5, true),
+        (1.0, true),
+        (0.0, true),
+        (-0.5 - 1e-9, false),
+        (1.0 + 1e-9, false),
+        (f64::NAN, false),
+    ] {
+        assert_eq!(p(x).within(p(-0.5), p(1.0)), inside, "{x}");
+    }
+    assert_eq!(Plain::pre_coeff(0.25), None);
+    assert_eq!(p(3.0).mul_pre(0.25), p(0.75));
+    assert_eq!(p(3.0).mul_c_small(-0.25), p(-0.75));
+    assert_eq!(Plain::acc_shift(0.5), Some(0));
+    assert_eq!(Plain::acc_shift(0.0), None);
+    assert!(Plain::acc_shift_ok(0) && !Plain::acc_shift_ok(1));
+    assert_eq!(p(3.0).mul_c_acc_shr(0.5, 0, &mut ()), p(1.5));
+}
+
+/// The provided tick is the controller's: the same outputs as `f64`'s, tick by tick.
+#[test]
+fn the_provided_tick_is_the_controllers() {
+    let cfg = crate::Config::default();
+    let mut a = crate::Controller::<Plain>::try_new(&cfg).expect("valid");
+    let mut b = crate::Controller::<f64>::try_new(&cfg).expect("valid");
+    for k in 0..200 {
+        let x = f64::from(k % 17) * 0.01 - 0.08;
+        let ia = crate::Inputs {
+            y_dot: p(x),
+            current: p(0.1),
+            speed: p(0.5),
+            demand: p(0.3),
+        };
+        let ib = crate::Inputs {
+            y_dot: x,
+            current: 0.1,
+            speed: 0.5,
+            demand: 0.3,
+        };
+        let (oa, ob) = (a.tick(&ia), b.tick(&ib));
+        assert_eq!(
+            (oa.yaw_torque.0, oa.voltage.0),
+            (ob.yaw_torque, ob.voltage),
+            "tick {k}"
+        );
+    }
+    fn p(x: f64) -> Plain {
+        Plain(x)
+    }
+}
