@@ -365,8 +365,16 @@ fn yaw_dc<T: Sample>(c: &Config, slip: f64) -> f64 {
 fn the_scheduled_lead_has_its_dc_gain() {
     // On the lead's state, `K_hf' (x - (1 + rho) z)` settles at
     // `lead_gain K a w1'/w2 x`: the DC gain of `0.3 K a (s + 15)/(s + 274)`, against the
-    // lead's `K a 37/274 x` when the wheel does not slip.
-    let c = cfg();
+    // lead's `K a 37/274 x` when the wheel does not slip; on the default scales and on a
+    // y' scale other than 1 (the gain is `K a scales.y_dot / scales.torque` in pu).
+    let mut c2 = cfg();
+    c2.scales.y_dot = 0.5;
+    for c in [cfg(), c2] {
+        dc_gains(&c);
+    }
+}
+
+fn dc_gains(c: &Config) {
     let l = c.lead;
     for (slip, want) in [
         (0.0, l.k * l.a * l.w1 / l.w2 * 0.01),
@@ -375,7 +383,7 @@ fn the_scheduled_lead_has_its_dc_gain() {
             c.wsp.lead_gain * l.k * l.a * c.wsp.lead_w1_rad_s / l.w2 * 0.01,
         ),
     ] {
-        for got in [yaw_dc::<f64>(&c, slip), yaw_dc::<Fx>(&c, slip)] {
+        for got in [yaw_dc::<f64>(c, slip), yaw_dc::<Fx>(c, slip)] {
             assert!(
                 (got - want).abs() < 1e-3 * want,
                 "slip {slip}: {got} N m, {want} N m"
@@ -704,4 +712,56 @@ fn the_scheduled_lead_needs_the_slip_above_half_the_set_point() {
     let up = (2.0 * h).next_up();
     assert!(sched(up).1 > h);
     assert!(sched(up).0);
+}
+
+/// Every compiled quantity of the protection is its SI formula (the `f64` build holds it
+/// exactly), on scales other than 1 and a set-point slope other than 0. With
+/// `pu = n/(r0 scales.speed)` (m/s at the rim to motor-speed pu) and `half` half a
+/// motor-speed code in pu: thresholds `slip_on pu + half`, `slip_accel pu + half`; the
+/// acceleration ratio `accel_on pu / (current_ref_rate / scales.current)`; set point
+/// halves `slip_sp pu / 2` and `slip_sp_per_a scales.current pu / 2`; gains as `c 2^s`,
+/// `kp' = kp/(pu scales.current)`, `ki' = ki/(pu current_ref_rate)`; the lead's
+/// `rho = (w1 - w1')/(w2 - w1)`; the reference code scale `v_ref_lsb pu`.
+#[test]
+fn every_compiled_quantity_is_its_formula() {
+    let mut c = cfg();
+    c.scales.speed = 1500.0;
+    c.scales.current = 800.0;
+    c.wsp.slip_sp_per_a = 2e-4;
+    c.wire.speed = 0.01;
+    let p = c.wsp;
+    let w = Wsp::<f64>::try_new(&p, &c.motor, &c.scales, &c.limits, c.wire.speed, &c.lead)
+        .unwrap()
+        .to_bits();
+    let pu = c.motor.n / (p.r0_m * c.scales.speed);
+    let half = 0.5 * c.wire.speed / c.scales.speed;
+    let split = |g: f64, s: u8| g / f64::from(1u32 << s);
+    let close = |got: u64, want: f64, what: &str| {
+        let got = f64::from_bits(got);
+        assert!(
+            (got - want).abs() <= 1e-12 * want.abs(),
+            "{what}: {got} vs {want}"
+        );
+    };
+    close(w.slip_on, p.slip_on_mps * pu + half, "slip_on");
+    close(w.slip_accel, p.slip_accel_mps * pu + half, "slip_accel");
+    let slew = c.limits.current_ref_rate / c.scales.current;
+    close(w.accel_ratio, p.accel_on_mps2 * pu / slew, "accel_ratio");
+    close(w.cut, p.cut_fraction, "cut");
+    close(w.sp_half, 0.5 * p.slip_sp_mps * pu, "sp_half");
+    let slope = 0.5 * p.slip_sp_per_a * c.scales.current * pu;
+    close(w.sp_half_slope, slope, "sp_half_slope");
+    let kp = p.kp_a_per_mps / (pu * c.scales.current);
+    close(w.kp, split(kp, w.kp_shift), "kp");
+    assert!(f64::from_bits(w.kp) < 1.0 && (w.kp_shift == 0 || f64::from_bits(w.kp) >= 0.5));
+    let ki = p.ki_a_per_s_per_mps / (pu * c.limits.current_ref_rate);
+    close(w.ki, split(ki, w.ki_shift), "ki");
+    assert!(f64::from_bits(w.ki) < 1.0 && (w.ki_shift == 0 || f64::from_bits(w.ki) >= 0.5));
+    let l = c.lead;
+    close(
+        w.lead_rho,
+        (l.w1 - p.lead_w1_rad_s) / (l.w2 - l.w1),
+        "lead_rho",
+    );
+    close(w.v_ref.mul, p.v_ref_lsb_m_per_s * pu, "v_ref");
 }
