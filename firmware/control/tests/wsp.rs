@@ -86,7 +86,14 @@ fn bits_round_trip_and_invalid_bits_are_refused() {
     assert_eq!(Compiled::<Fx>::from_bits(&b).unwrap(), law);
     assert_eq!(Compiled::<Fx>::from_valid_bits(&b), law);
     type Spoil = fn(&mut WspBits);
-    let cases: [(&str, Spoil); 5] = [
+    // Q4.28 bits of 2 pu (the largest limit) and of one LSB more.
+    const TWO: u64 = 2 << 28;
+    let cases: [(&str, Spoil); 10] = [
+        ("wsp.slip_on", |w| w.slip_on = 0),
+        ("wsp.slip_on", |w| w.slip_on = TWO + 1),
+        ("wsp.slip_accel", |w| w.slip_accel = 0),
+        ("wsp.sp_half", |w| w.sp_half = 0),
+        ("wsp.sp_half", |w| w.sp_half = TWO + 1),
         ("wsp.slip_accel", |w| w.slip_accel = w.slip_on),
         ("wsp.sp_half", |w| w.sp_half = w.slip_on),
         ("wsp.cut", |w| w.cut = 0),
@@ -98,6 +105,10 @@ fn bits_round_trip_and_invalid_bits_are_refused() {
         f(&mut bad.wsp);
         assert_eq!(Compiled::<Fx>::from_bits(&bad).unwrap_err().field, field);
     }
+    // The detection threshold may be as high as 2 pu.
+    let mut top = b;
+    top.wsp.slip_on = TWO;
+    assert!(Compiled::<Fx>::from_bits(&top).is_ok());
     // The protection's parameters are part of the fingerprint.
     for f in [
         (|p: &mut WspParams| p.slip_on_mps = 0.5) as fn(&mut WspParams),
@@ -764,4 +775,22 @@ fn every_compiled_quantity_is_its_formula() {
         "lead_rho",
     );
     close(w.v_ref.mul, p.v_ref_lsb_m_per_s * pu, "v_ref");
+}
+
+/// The scheduled lead's `rho = (w1 - w1')/(w2 - w1)` must be below 1 in magnitude in every
+/// build: with the lead's corners at 200 and 274 rad/s, `w1' = 126` gives exactly 1 and is
+/// refused by name (a float build would hold it).
+#[test]
+fn a_scheduled_lead_rho_of_one_is_refused() {
+    let mut c = cfg();
+    c.lead.w1 = 200.0;
+    c.wsp.lead_w1_rad_s = 126.0;
+    match Controller::<f64>::try_new(&c) {
+        Err(ConfigError::Coefficient { name, value }) => {
+            assert_eq!((name, value), ("wsp lead rho = (w1 - w1')/(w2 - w1)", 1.0));
+        }
+        other => panic!("{other:?}"),
+    }
+    c.wsp.lead_w1_rad_s = 127.0;
+    assert!(Controller::<f64>::try_new(&c).is_ok());
 }
