@@ -673,7 +673,8 @@ fn the_traction_accessors_say_what_the_loop_holds() {
     assert_eq!(c.applied_ref(), c.current_ref());
 }
 
-/// The wire codec's inputs are `code x LSB / full scale` (the y' full scale other than 1).
+/// The wire codec's inputs are `code x LSB / full scale` and its outputs `pu x full scale
+/// / LSB` rounded, each on its own signal's factor (the y' full scale other than 1).
 #[test]
 fn the_codec_decodes_by_lsb_over_full_scale() {
     let mut cfg = Config::default();
@@ -682,15 +683,23 @@ fn the_codec_decodes_by_lsb_over_full_scale() {
     let i = c.codec().decode(&wheelset_control::InputCodes {
         y_dot: 100_000,
         current: 50_000,
-        speed: 0,
-        demand: 0,
+        speed: 30_000,
+        demand: 7_000,
     });
     let (w, s) = (cfg.wire, cfg.scales);
     let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b.abs();
-    assert!(close(i.y_dot, 100_000.0 * w.y_dot / s.y_dot), "{}", i.y_dot);
-    assert!(
-        close(i.current, 50_000.0 * w.current / s.current),
-        "{}",
-        i.current
-    );
+    for (got, want) in [
+        (i.y_dot, 100_000.0 * w.y_dot / s.y_dot),
+        (i.current, 50_000.0 * w.current / s.current),
+        (i.speed, 30_000.0 * w.speed / s.speed),
+        (i.demand, 7_000.0 * w.demand / s.demand),
+    ] {
+        assert!(close(got, want), "{got} vs {want}");
+    }
+    let o = c.codec().encode(&wheelset_control::Outputs {
+        yaw_torque: 0.25,
+        voltage: -0.5,
+    });
+    assert_eq!(o.yaw_torque, (0.25 * s.torque / w.torque).round() as i32);
+    assert_eq!(o.voltage, (-0.5 * s.voltage / w.voltage).round() as i32);
 }
