@@ -148,13 +148,7 @@ pub(crate) fn round_f64(x: f64) -> f64 {
 
 #[inline(always)]
 pub(crate) fn sat32(x: i64) -> i32 {
-    if x > i32::MAX as i64 {
-        i32::MAX
-    } else if x < i32::MIN as i64 {
-        i32::MIN
-    } else {
-        x as i32
-    }
+    x.clamp(i32::MIN.into(), i32::MAX.into()) as i32
 }
 
 /// `(x c + 2^30) >> 31`: the Q4.28 x Q1.31 product, rounded to nearest (ties up). Never
