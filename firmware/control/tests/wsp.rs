@@ -794,3 +794,75 @@ fn a_scheduled_lead_rho_of_one_is_refused() {
     c.wsp.lead_w1_rad_s = 127.0;
     assert!(Controller::<f64>::try_new(&c).is_ok());
 }
+
+/// Detection is strictly above each threshold (a code-quantised slip never lands on one:
+/// they sit half a code above; the `f64` build can be placed on them): a slip exactly at
+/// `slip_on` with no acceleration, exactly at `slip_accel` with a fast acceleration, and
+/// between them with the acceleration exactly at `accel_ratio x step`, are not detected;
+/// the next value up is.
+#[test]
+fn detection_is_strictly_above_each_threshold() {
+    let c = cfg();
+    let w = Wsp::<f64>::try_new(
+        &c.wsp,
+        &c.motor,
+        &c.scales,
+        &c.limits,
+        c.wire.speed,
+        &c.lead,
+    )
+    .unwrap();
+    let b = w.to_bits();
+    let (on, accel, ratio) = (
+        f64::from_bits(b.slip_on),
+        f64::from_bits(b.slip_accel),
+        f64::from_bits(b.accel_ratio),
+    );
+    let iref = 0.5;
+    // Idle, reference `w_ref`, speed `speed` after `prev`, slew `step`: detected?
+    let detects = |w_ref: f64, speed: f64, prev: f64, step: f64| {
+        let mut st = WspState {
+            w_ref,
+            w_prev: prev,
+            ..WspState::default()
+        };
+        w.process(&mut st, speed, iref, step).1
+    };
+    // A reference equal to the slip: `2s - s` is `s` exactly.
+    assert!(!detects(on, 2.0 * on, 2.0 * on, 1e-3));
+    assert!(detects(
+        on,
+        (2.0 * on).next_up(),
+        (2.0 * on).next_up(),
+        1e-3
+    ));
+    let fast = 1.0; // an acceleration far above accel_ratio x step
+    assert!(!detects(accel, 2.0 * accel, 2.0 * accel - fast, 1e-3));
+    assert!(detects(
+        accel,
+        (2.0 * accel).next_up(),
+        2.0 * accel - fast,
+        1e-3
+    ));
+    // Between the thresholds, from rest (dw = speed): the step whose product with the
+    // ratio is exactly the acceleration.
+    let s = 0.5 * (on + accel);
+    let speed = s + s;
+    let mut step = speed / ratio;
+    while step * ratio > speed {
+        step = step.next_down();
+    }
+    while step * ratio < speed {
+        step = step.next_up();
+    }
+    assert_eq!(step * ratio, speed, "no step lands on the acceleration");
+    assert!(!detects(s, speed, 0.0, step));
+    assert!(detects(s, speed, 0.0, step.next_down()));
+    // No traction demand (a zero reference current): a slip is not the motor's to cut.
+    let mut st = WspState {
+        w_ref: on,
+        w_prev: 4.0 * on,
+        ..WspState::default()
+    };
+    assert!(!w.process(&mut st, 4.0 * on, 0.0, 1e-3).1);
+}
