@@ -1039,75 +1039,46 @@ impl Soak {
     fn check_status(&mut self, s: &Status) {
         self.report.statuses_checked += 1;
         let (st, acc, up, down) = (&self.start, &self.acc, &self.up.counts, &self.down.counts);
-        let d = |now: u32, then: u32| now.wrapping_sub(then);
-        let w = |n: u64| n as u32;
+        // Each count the device keeps since its start against the harness's, as u32.
+        let d = |f: fn(&Status) -> u32| f(s).wrapping_sub(f(st));
         let mut broke = Vec::new();
-        let mut eq = |name: &str, device: u32, harness: u32| {
+        for (name, device, harness) in [
+            (
+                "valid frames up",
+                d(|x| x.rx_ok).wrapping_add(d(|x| x.rx_unexpected)),
+                up.ok_events,
+            ),
+            ("CRC rejects", d(|x| x.rx_crc), up.rejects[0]),
+            ("COBS rejects", d(|x| x.rx_cobs), up.rejects[1]),
+            ("version rejects", d(|x| x.rx_version), up.rejects[2]),
+            ("length rejects", d(|x| x.rx_length), up.rejects[3]),
+            ("postcard rejects", d(|x| x.rx_postcard), up.rejects[4]),
+            ("ticks", d(|x| x.ticks), acc.ticks),
+            (
+                "frames down (ticks + Status frames)",
+                d(|x| x.ticks).wrapping_add(acc.statuses as u32),
+                down.sent,
+            ),
+            ("held ticks", d(|x| x.held_ticks), acc.held),
+            ("safe ticks", d(|x| x.safe_ticks), acc.safe_ticks),
+            ("safe entries", d(|x| x.safe_entries), acc.safe_entries),
+            ("safe exits", d(|x| x.safe_exits), acc.safe_exits),
+            ("seq gaps", d(|x| x.seq_gaps), acc.seq_gaps),
+            ("hunting alarms", d(|x| x.hunt_alarms), acc.rises[0]),
+            ("actuator alarms", d(|x| x.act_alarms), acc.rises[1]),
+            ("drive alarms", d(|x| x.drive_alarms), acc.rises[2]),
+            ("refusals", d(|x| x.cmd_refused), 0),
+            (
+                "first alarm tick",
+                s.first_alarm_tick,
+                acc.first_alarm_tick.map_or(0, u64::from),
+            ),
+        ] {
+            let harness = harness as u32;
             if device != harness {
                 broke.push(format!("{name}: device {device}, harness {harness}"));
             }
-        };
-        eq(
-            "valid frames up",
-            d(s.rx_ok, st.rx_ok).wrapping_add(d(s.rx_unexpected, st.rx_unexpected)),
-            w(up.ok_events),
-        );
-        for (i, (now, then, name)) in [
-            (s.rx_crc, st.rx_crc, "CRC rejects"),
-            (s.rx_cobs, st.rx_cobs, "COBS rejects"),
-            (s.rx_version, st.rx_version, "version rejects"),
-            (s.rx_length, st.rx_length, "length rejects"),
-            (s.rx_postcard, st.rx_postcard, "postcard rejects"),
-        ]
-        .into_iter()
-        .enumerate()
-        {
-            eq(name, d(now, then), w(up.rejects[i]));
         }
-        eq("ticks", d(s.ticks, st.ticks), w(acc.ticks));
-        eq(
-            "frames down (ticks + Status frames)",
-            d(s.ticks, st.ticks).wrapping_add(w(acc.statuses)),
-            w(down.sent),
-        );
-        eq("held ticks", d(s.held_ticks, st.held_ticks), w(acc.held));
-        eq(
-            "safe ticks",
-            d(s.safe_ticks, st.safe_ticks),
-            w(acc.safe_ticks),
-        );
-        eq(
-            "safe entries",
-            d(s.safe_entries, st.safe_entries),
-            w(acc.safe_entries),
-        );
-        eq(
-            "safe exits",
-            d(s.safe_exits, st.safe_exits),
-            w(acc.safe_exits),
-        );
-        eq("seq gaps", d(s.seq_gaps, st.seq_gaps), w(acc.seq_gaps));
-        eq(
-            "hunting alarms",
-            d(s.hunt_alarms, st.hunt_alarms),
-            w(acc.rises[0]),
-        );
-        eq(
-            "actuator alarms",
-            d(s.act_alarms, st.act_alarms),
-            w(acc.rises[1]),
-        );
-        eq(
-            "drive alarms",
-            d(s.drive_alarms, st.drive_alarms),
-            w(acc.rises[2]),
-        );
-        eq("refusals", d(s.cmd_refused, st.cmd_refused), 0);
-        eq(
-            "first alarm tick",
-            s.first_alarm_tick,
-            acc.first_alarm_tick.unwrap_or(0),
-        );
         if !up.adds_up() || !down.adds_up() {
             broke.push(format!("frames do not add up: up {up:?}, down {down:?}"));
         }
