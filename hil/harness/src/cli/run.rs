@@ -363,11 +363,7 @@ pub(crate) fn print_summary(r: &hil::run::RunReport) {
             c.value,
             check_unit(&c.name),
             c.verdict,
-            if c.verdict == Verdict::Fail {
-                c.limit.fail
-            } else {
-                c.limit.warn
-            },
+            c.limit.crossed(c.verdict),
             c.limit.warn,
             c.limit.fail
         );
