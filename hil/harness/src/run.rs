@@ -140,7 +140,9 @@ impl Law {
         }
     }
 
-    fn yaw(self) -> YawLaw {
+    /// The plant's yaw law.
+    #[must_use]
+    pub fn yaw(self) -> YawLaw {
         match self {
             Self::Passive => YawLaw::Passive,
             Self::Gain => YawLaw::Gain,

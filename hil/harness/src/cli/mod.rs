@@ -15,7 +15,7 @@ pub(crate) use soak::{cmd_soak, SoakArgs};
 pub(crate) use sweep::{cmd_sweep, SweepCmd};
 
 use clap::ValueEnum;
-use hil::run::RunError;
+use hil::run::{Law, RunError};
 use wheelset_loop::sim_link::Faults;
 use wheelset_plant::params::Params;
 use wheelset_targets::qemu::machine::Machine;
@@ -60,6 +60,24 @@ pub(crate) enum Control {
     Gain,
     /// Phase lead `K 7.5 (s+37)/(s+274)` on `y'`.
     Lead,
+}
+
+impl Control {
+    /// The law; a scenario meant for other laws (its `laws` key) warns first (one that
+    /// does not load is reported by the run itself).
+    pub(crate) fn law_for(self, scenario: &str, params: &Params) -> Law {
+        let law = match self {
+            Self::Passive => Law::Passive,
+            Self::Gain => Law::Gain,
+            Self::Lead => Law::Lead,
+        };
+        if let Ok(sc) = wheelset_plant::scenario::Scenario::load(scenario, params) {
+            if let Some(w) = sc.law_warning(law.yaw()) {
+                eprintln!("hil: warning: {w}");
+            }
+        }
+        law
+    }
 }
 
 pub(crate) fn parse_machine(s: &str) -> Result<Machine, String> {

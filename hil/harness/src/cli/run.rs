@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use clap::{Args, ValueEnum};
 use hil::budget::Budgets;
 use hil::report;
-use hil::run::{run, Law, RunOptions, Target};
+use hil::run::{run, RunOptions, Target};
 use wheelset_loop::inproc::DeviceFault;
 use wheelset_loop::sim_link::{Faults, LinkConfig};
 use wheelset_plant::params::Params;
@@ -165,18 +165,7 @@ pub(crate) fn cmd_run(a: &RunArgs, command: &str) -> Result<Verdict, Failure> {
             a.cpu_hz
         )));
     }
-    // A scenario meant for other laws (its `laws` key) warns before the run; a file
-    // that does not load is reported by the run itself.
-    if let Ok(sc) = wheelset_plant::scenario::Scenario::load(&a.scenario, &params) {
-        let law = match a.control {
-            Control::Passive => wheelset_plant::control::YawLaw::Passive,
-            Control::Gain => wheelset_plant::control::YawLaw::Gain,
-            Control::Lead => wheelset_plant::control::YawLaw::Lead,
-        };
-        if let Some(w) = sc.law_warning(law) {
-            eprintln!("hil: warning: {w}");
-        }
-    }
+    let law = a.control.law_for(&a.scenario, &params);
     if a.target != Target::Qemu && a.machine != Machine::default() {
         return Err(input(format!(
             "--machine {}: the emulated board is for --target qemu, not {}",
@@ -245,11 +234,7 @@ pub(crate) fn cmd_run(a: &RunArgs, command: &str) -> Result<Verdict, Failure> {
     let opts = RunOptions {
         target: a.target.clone(),
         scenario: a.scenario.clone(),
-        control: match a.control {
-            Control::Passive => Law::Passive,
-            Control::Gain => Law::Gain,
-            Control::Lead => Law::Lead,
-        },
+        control: law,
         faults_spec,
         device_fault: a.device_fault,
         budgets,

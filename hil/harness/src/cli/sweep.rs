@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use clap::{Args, Subcommand};
 use hil::budget::Budgets;
-use hil::run::{Law, RunOptions, Target};
+use hil::run::{RunOptions, Target};
 use wheelset_loop::sim_link::{Faults, LinkConfig};
 use wheelset_report::Verdict;
 
@@ -222,21 +222,7 @@ pub(crate) fn cmd_sweep(c: &SweepCmd, command: &str) -> Result<Verdict, Failure>
     let budgets = Budgets::load(a.budget.as_deref(), &a.sets).map_err(|e| input(e.to_string()))?;
     let params = load_params(a.params.as_deref())?;
     let identity = identity(a)?;
-    let law = match a.control {
-        Control::Passive => Law::Passive,
-        Control::Gain => Law::Gain,
-        Control::Lead => Law::Lead,
-    };
-    if let Ok(sc) = wheelset_plant::scenario::Scenario::load(&a.scenario, &params) {
-        let yaw = match a.control {
-            Control::Passive => wheelset_plant::control::YawLaw::Passive,
-            Control::Gain => wheelset_plant::control::YawLaw::Gain,
-            Control::Lead => wheelset_plant::control::YawLaw::Lead,
-        };
-        if let Some(w) = sc.law_warning(yaw) {
-            eprintln!("hil: warning: {w}");
-        }
-    }
+    let law = a.control.law_for(&a.scenario, &params);
     let campaign = sweep::Campaign {
         base: RunOptions {
             target: a.target.clone(),
