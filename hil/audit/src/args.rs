@@ -133,6 +133,16 @@ impl core::fmt::Display for AuditError {
 
 impl std::error::Error for AuditError {}
 
+impl AuditError {
+    /// The error of an I/O operation on `path`, for `map_err`.
+    pub(crate) fn io(path: &std::path::Path) -> impl FnOnce(std::io::Error) -> Self + '_ {
+        move |source| AuditError::Io {
+            path: path.to_path_buf(),
+            source,
+        }
+    }
+}
+
 impl From<ConfigError> for AuditError {
     fn from(e: ConfigError) -> Self {
         AuditError::Config(e)

@@ -119,10 +119,8 @@ pub fn run(args: &AuditArgs) -> Result<u8, AuditError> {
     }
     let audit = build(args)?;
     if let Some(p) = &args.json {
-        let s = serde_json::to_string_pretty(&audit).map_err(|e| AuditError::Io {
-            path: p.clone(),
-            source: std::io::Error::other(e),
-        })?;
+        let s = serde_json::to_string_pretty(&audit)
+            .map_err(|e| AuditError::io(p)(std::io::Error::other(e)))?;
         write(p, &s)?;
     }
     if let Some(dir) = &args.report {
@@ -141,18 +139,13 @@ pub fn run(args: &AuditArgs) -> Result<u8, AuditError> {
 
 /// Write `s` to `p`, creating the parent directory.
 pub(crate) fn write(p: &std::path::Path, s: &str) -> Result<(), AuditError> {
-    if let Some(d) = p.parent() {
-        if !d.as_os_str().is_empty() {
-            std::fs::create_dir_all(d).map_err(|e| AuditError::Io {
-                path: d.to_path_buf(),
-                source: e,
-            })?;
+    match p.parent() {
+        Some(d) if !d.as_os_str().is_empty() => {
+            std::fs::create_dir_all(d).map_err(AuditError::io(d))?;
         }
+        _ => {}
     }
-    std::fs::write(p, s).map_err(|e| AuditError::Io {
-        path: p.to_path_buf(),
-        source: e,
-    })
+    std::fs::write(p, s).map_err(AuditError::io(p))
 }
 
 /// Compute the whole audit (no output written).

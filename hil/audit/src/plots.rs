@@ -34,8 +34,7 @@ fn unwrap(v: Vec<(f64, f64)>) -> Vec<(f64, f64)> {
 
 fn save(fig: &Figure, dir: &Path, file: &str) -> Result<String, AuditError> {
     let p = dir.join(file);
-    fig.save(&p)
-        .map_err(|e| AuditError::Io { path: p, source: e })?;
+    fig.save(&p).map_err(AuditError::io(&p))?;
     Ok(file.to_string())
 }
 
