@@ -268,6 +268,12 @@ pub fn coefficients<T: Sample>(
 ) -> Result<(Coeffs, Coeffs), wheelset_control::ConfigError> {
     let c = Controller::<T>::try_new(cfg)?;
     let s = &cfg.scales;
+    // A per-unit coefficient as the controller holds it.
+    let quantised = |name, value: f64| {
+        T::quantise(value)
+            .map(T::coeff_to_f64)
+            .ok_or(wheelset_control::ConfigError::Coefficient { name, value })
+    };
     Ok(match kind {
         Kind::YawLead => {
             let ideal = cfg
@@ -280,15 +286,11 @@ pub fn coefficients<T: Sample>(
             )
         }
         Kind::YawGain => {
-            let k_pu = cfg.gain_k * s.y_dot / s.torque;
-            let q = T::quantise(k_pu).ok_or(wheelset_control::ConfigError::Coefficient {
-                name: "gain_k (pu)",
-                value: k_pu,
-            })?;
+            let q = quantised("gain_k (pu)", cfg.gain_k * s.y_dot / s.torque)?;
             (
                 Coeffs::Gain { k: cfg.gain_k },
                 Coeffs::Gain {
-                    k: T::coeff_to_f64(q) * s.torque / s.y_dot,
+                    k: q * s.torque / s.y_dot,
                 },
             )
         }
@@ -305,15 +307,10 @@ pub fn coefficients<T: Sample>(
         Kind::YawPredictor => {
             // The controller multiplies by alpha/2 twice (keeps it in Q1.31).
             let half = cfg.yaw_predict_ticks / (2.0 * cfg.yaw_divisor as f64);
-            let q = T::quantise(half).ok_or(wheelset_control::ConfigError::Coefficient {
-                name: "yaw_predict_ticks/(2 yaw_divisor)",
-                value: half,
-            })?;
+            let q = quantised("yaw_predict_ticks/(2 yaw_divisor)", half)?;
             (
                 Coeffs::Predictor { alpha: 2.0 * half },
-                Coeffs::Predictor {
-                    alpha: 2.0 * T::coeff_to_f64(q),
-                },
+                Coeffs::Predictor { alpha: 2.0 * q },
             )
         }
     })
