@@ -296,18 +296,19 @@ impl RealTime {
                 self.ingest(at, buf.get(..n).unwrap_or(&[]));
                 Ok(())
             }
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    io::ErrorKind::TimedOut
-                        | io::ErrorKind::WouldBlock
-                        | io::ErrorKind::Interrupted
-                ) =>
-            {
-                Ok(())
-            }
+            Err(e) if crate::serial::nothing_yet(&e) => Ok(()),
             Err(e) => Err(io_err(&self.path, &e)),
         }
+    }
+
+    /// Reads period by period until `done` holds or the timeout runs out; whether it holds.
+    fn wait_for(&mut self, done: impl Fn(&Self) -> bool) -> Result<bool, TransportError> {
+        let give_up = Instant::now() + self.o.timeout;
+        while !done(self) && Instant::now() < give_up {
+            let d = Instant::now() + self.period();
+            self.wait_until(d)?;
+        }
+        Ok(done(self))
     }
 
     /// Reads until `deadline`: bounded waits up to `spin` before it, then non-blocking.
@@ -427,20 +428,6 @@ impl RealTime {
         }
     }
 
-    /// The host's deadlines so far.
-    #[must_use]
-    pub fn host_deadlines(&self) -> HostDeadlines {
-        self.host_report()
-    }
-
-    /// The start-up synchronisation so far.
-    #[must_use]
-    pub fn sync_report(&self) -> &SyncReport {
-        &self.sync
-    }
-}
-
-impl RealTime {
     /// The run's start for the frame accounting, once the baseline was taken.
     #[must_use]
     pub fn run_start(&self) -> Option<RunStart> {
@@ -496,6 +483,13 @@ fn is_status(bytes: &[u8]) -> bool {
 /// `x` wrapped into `[-t/2, t/2)`.
 fn wrap(x: f64, t: f64) -> f64 {
     x - t * (x / t).round()
+}
+
+/// The median of the device's reported execution times `execs` (cycles at `cpu_hz`), ns.
+fn median_exec_ns(execs: impl Iterator<Item = u32>, cpu_hz: f64) -> f64 {
+    let mut v: Vec<f64> = execs.map(|e| f64::from(e) * 1e9 / cpu_hz).collect();
+    v.sort_by(f64::total_cmp);
+    v.get(v.len() / 2).copied().unwrap_or(0.0)
 }
 
 /// The lower decile of `v` (reorders it; 0 when empty).
