@@ -268,12 +268,6 @@ pub fn coefficients<T: Sample>(
 ) -> Result<(Coeffs, Coeffs), wheelset_control::ConfigError> {
     let c = Controller::<T>::try_new(cfg)?;
     let s = &cfg.scales;
-    // A per-unit coefficient as the controller holds it.
-    let quantised = |name, value: f64| {
-        T::quantise(value)
-            .map(T::coeff_to_f64)
-            .ok_or(wheelset_control::ConfigError::Coefficient { name, value })
-    };
     Ok(match kind {
         Kind::YawLead => {
             let ideal = cfg
@@ -286,7 +280,7 @@ pub fn coefficients<T: Sample>(
             )
         }
         Kind::YawGain => {
-            let q = quantised("gain_k (pu)", cfg.gain_k * s.y_dot / s.torque)?;
+            let q = crate::bounds::qc::<T>("gain_k (pu)", cfg.gain_k * s.y_dot / s.torque)?;
             (
                 Coeffs::Gain { k: cfg.gain_k },
                 Coeffs::Gain {
@@ -307,7 +301,7 @@ pub fn coefficients<T: Sample>(
         Kind::YawPredictor => {
             // The controller multiplies by alpha/2 twice (keeps it in Q1.31).
             let half = cfg.yaw_predict_ticks / (2.0 * cfg.yaw_divisor as f64);
-            let q = quantised("yaw_predict_ticks/(2 yaw_divisor)", half)?;
+            let q = crate::bounds::qc::<T>("yaw_predict_ticks/(2 yaw_divisor)", half)?;
             (
                 Coeffs::Predictor { alpha: 2.0 * half },
                 Coeffs::Predictor { alpha: 2.0 * q },

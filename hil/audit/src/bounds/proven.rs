@@ -50,10 +50,14 @@ pub struct Quantised {
     pub i_safe_step: f64,
 }
 
-fn qc<T: Sample>(name: &'static str, v: f64) -> Result<f64, ConfigError> {
-    T::quantise(v)
-        .map(T::coeff_to_f64)
-        .ok_or(ConfigError::Coefficient { name, value: v })
+/// `v` quantised as the controller holds a coefficient; the error names it.
+pub(crate) fn quantise<T: Sample>(name: &'static str, v: f64) -> Result<T::Coeff, ConfigError> {
+    T::quantise(v).ok_or(ConfigError::Coefficient { name, value: v })
+}
+
+/// The exact value of `v` quantised ([`quantise`]).
+pub(crate) fn qc<T: Sample>(name: &'static str, v: f64) -> Result<f64, ConfigError> {
+    quantise::<T>(name, v).map(T::coeff_to_f64)
 }
 
 fn qs<T: Sample>(v: f64) -> f64 {
