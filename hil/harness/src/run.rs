@@ -8,6 +8,7 @@
 //! A device on another target has its gains compiled in: parameters that change them
 //! are refused there ([`remote_gains`]).
 
+use std::borrow::Cow;
 use std::fmt;
 use std::time::Duration;
 
@@ -494,27 +495,17 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     // A plant fault (scenario data) makes the wheelset hunt by design after it: the
     // numerics judge the device against the reference up to the fault.
     let trajectory = cl.trajectory;
-    let (numerics, numerics_errors) = match sc.actuator_fault {
-        Some(f) => {
-            let (run, reference) = (
-                before(&trajectory, f.t_on_s()),
-                before(&reference, f.t_on_s()),
-            );
-            let fine = fine.map(|r| before(&r, f.t_on_s()));
-            let tol = &opts.budgets.numerics;
-            (
-                compare_fine(&run, &reference, fine.as_ref(), tol),
-                judged_errors(&run, &reference, fine.as_ref(), tol),
-            )
-        }
-        None => {
-            let tol = &opts.budgets.numerics;
-            (
-                compare_fine(&trajectory, &reference, fine.as_ref(), tol),
-                judged_errors(&trajectory, &reference, fine.as_ref(), tol),
-            )
-        }
+    let (judged, yardstick, fine) = match sc.actuator_fault.map(|f| f.t_on_s()) {
+        Some(t) => (
+            Cow::Owned(before(&trajectory, t)),
+            Cow::Owned(before(&reference, t)),
+            fine.map(|r| before(&r, t)),
+        ),
+        None => (Cow::Borrowed(&trajectory), Cow::Borrowed(&reference), fine),
     };
+    let tol = &opts.budgets.numerics;
+    let numerics = compare_fine(&judged, &yardstick, fine.as_ref(), tol);
+    let numerics_errors = judged_errors(&judged, &yardstick, fine.as_ref(), tol);
     let (host, mut status) = (cl.rec.host, cl.rec.status);
     let (device_resets, first_reset_s) = (
         cl.rec.device_resets,
