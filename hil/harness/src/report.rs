@@ -22,8 +22,8 @@ fn create_parent(path: &Path) -> io::Result<()> {
     }
 }
 
-/// Writes the verdict document as pretty JSON.
-pub fn write_json(report: &RunReport, path: &Path) -> io::Result<()> {
+/// Writes a document (the verdict document of a run) as pretty JSON, a newline after.
+pub fn write_json(report: &impl serde::Serialize, path: &Path) -> io::Result<()> {
     create_parent(path)?;
     let text = serde_json::to_string_pretty(report).map_err(io::Error::other)?;
     std::fs::write(path, text + "\n")

@@ -149,8 +149,7 @@ pub(crate) fn cmd_golden(g: &GoldenArgs) -> Result<Verdict, Failure> {
             "target": g.target.to_string(),
             "vectors": results,
         });
-        let text = serde_json::to_string_pretty(&doc).unwrap_or_default();
-        std::fs::write(p, text + "\n")
+        hil::report::write_json(&doc, p)
             .map_err(|e| input(format!("{}: cannot write: {e}", p.display())))?;
     }
     Ok(if all { Verdict::Pass } else { Verdict::Fail })
