@@ -277,19 +277,15 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
         }
     }
     let target = if args.no_target {
-        on_target::TargetReport {
-            available: false,
-            outcome: on_target::TargetOutcome::Skipped,
-            note: "target: not run (--no-target)".into(),
-            runs: Vec::new(),
-        }
+        on_target::TargetReport::without(
+            on_target::TargetOutcome::Skipped,
+            "target: not run (--no-target)",
+        )
     } else if !production {
-        on_target::TargetReport {
-            available: false,
-            outcome: on_target::TargetOutcome::NotApplicable,
-            note: "target: not applicable (the firmware runs the production formats)".into(),
-            runs: Vec::new(),
-        }
+        on_target::TargetReport::without(
+            on_target::TargetOutcome::NotApplicable,
+            "target: not applicable (the firmware runs the production formats)",
+        )
     } else {
         let pick = |n: &str| scenarios.iter().find(|s| s.name == n);
         let mut w: Vec<(&Scenario, f64)> = Vec::new();
