@@ -494,7 +494,7 @@ impl Soak {
             params,
             x,
             gain: 1.0,
-            track: Track::new(),
+            track: Track::default(),
             demand: Demand::new(opts.service.demand_steps),
             rng_track: Pcg64::seed_from_u64(opts.seed ^ 0x50a4_0004),
             rng_service,
