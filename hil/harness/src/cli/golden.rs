@@ -35,14 +35,11 @@ pub(crate) struct GoldenArgs {
 }
 
 pub(crate) fn parse_golden_target(s: &str) -> Result<Target, String> {
-    match s.parse::<Target>()? {
-        t @ (Target::InProc | Target::Qemu) => Ok(t),
-        Target::QemuAt(_) => Err(
-            "golden vectors start a fresh QEMU per vector (--target qemu), not one started by hand"
-                .into(),
-        ),
-        Target::Serial(_) | Target::QemuFree => Err("golden vectors run on inproc or qemu".into()),
-    }
+    super::inproc_or_qemu(
+        s,
+        "golden vectors start a fresh QEMU per vector (--target qemu), not one started by hand",
+        "golden vectors run on inproc or qemu",
+    )
 }
 
 pub(crate) fn cmd_golden(g: &GoldenArgs) -> Result<Verdict, Failure> {

@@ -15,10 +15,11 @@ pub(crate) use soak::{cmd_soak, SoakArgs};
 pub(crate) use sweep::{cmd_sweep, SweepCmd};
 
 use clap::ValueEnum;
-use hil::run::{Law, RunError};
+use hil::run::{Law, RunError, Target};
 use wheelset_loop::sim_link::Faults;
 use wheelset_plant::params::Params;
 use wheelset_targets::qemu::machine::Machine;
+use wheelset_targets::qemu::Channel;
 
 /// A failure with its exit code.
 pub(crate) struct Failure {
@@ -77,6 +78,35 @@ impl Control {
             }
         }
         law
+    }
+}
+
+/// `--qemu-link bulk` only on the QEMU target, `--faults` only on the simulated link.
+pub(crate) fn check_link_flags(
+    target: &Target,
+    qemu_link: Channel,
+    faults: &Faults,
+) -> Result<(), Failure> {
+    if *target != Target::Qemu && qemu_link != Channel::Uart {
+        return Err(input(format!(
+            "--qemu-link bulk: the bulk channel is the QEMU target's, not {target}'s"
+        )));
+    }
+    if *target != Target::InProc && *faults != Faults::none() {
+        return Err(input(format!(
+            "--faults: the fault injection is part of the simulated link; target {target} has a real one"
+        )));
+    }
+    Ok(())
+}
+
+/// `s` as a target that is `inproc` or `qemu`; `by_hand`: why not `qemu:PORT`, `other`:
+/// why not the others.
+pub(crate) fn inproc_or_qemu(s: &str, by_hand: &str, other: &str) -> Result<Target, String> {
+    match s.parse::<Target>()? {
+        t @ (Target::InProc | Target::Qemu) => Ok(t),
+        Target::QemuAt(_) => Err(by_hand.into()),
+        Target::Serial(_) | Target::QemuFree => Err(other.into()),
     }
 }
 

@@ -172,29 +172,16 @@ pub(crate) fn cmd_run(a: &RunArgs, command: &str) -> Result<Verdict, Failure> {
             a.machine, a.target
         )));
     }
-    if a.target != Target::Qemu && a.qemu_link != wheelset_targets::qemu::Channel::Uart {
+    super::check_link_flags(&a.target, a.qemu_link, &a.faults)?;
+    if a.target != Target::InProc
+        && a.device_fault != DeviceFault::None
+        && !(a.target == Target::QemuFree && matches!(a.device_fault, DeviceFault::Stall { .. }))
+    {
         return Err(input(format!(
-            "--qemu-link bulk: the bulk channel is the QEMU target's, not {}'s",
+            "--device-fault: only the in-process device can be broken on purpose (and \
+             `stall:T` needs --target qemu-free), not {}",
             a.target
         )));
-    }
-    if a.target != Target::InProc {
-        if a.faults != Faults::none() {
-            return Err(input(format!(
-                "--faults: the fault injection is part of the simulated link; target {} has a real one",
-                a.target
-            )));
-        }
-        if a.device_fault != DeviceFault::None
-            && !(a.target == Target::QemuFree
-                && matches!(a.device_fault, DeviceFault::Stall { .. }))
-        {
-            return Err(input(format!(
-                "--device-fault: only the in-process device can be broken on purpose (and \
-                 `stall:T` needs --target qemu-free), not {}",
-                a.target
-            )));
-        }
     }
     let latency_us = a.latency_us.unwrap_or(2.0);
     if !(latency_us.is_finite() && (0.0..=1e6).contains(&latency_us)) {

@@ -117,15 +117,11 @@ fn env_var(name: &str) -> Option<String> {
 }
 
 pub(crate) fn parse_sweep_target(s: &str) -> Result<Target, String> {
-    match s.parse::<Target>()? {
-        t @ (Target::InProc | Target::Qemu) => Ok(t),
-        Target::QemuAt(_) => {
-            Err("a sweep starts its own QEMUs (--target qemu), not one started by hand".into())
-        }
-        Target::Serial(_) | Target::QemuFree => {
-            Err("a sweep runs on inproc or qemu (one board cannot run a grid in parallel)".into())
-        }
-    }
+    super::inproc_or_qemu(
+        s,
+        "a sweep starts its own QEMUs (--target qemu), not one started by hand",
+        "a sweep runs on inproc or qemu (one board cannot run a grid in parallel)",
+    )
 }
 
 pub(crate) fn cmd_sweep(c: &SweepCmd, command: &str) -> Result<Verdict, Failure> {
@@ -207,18 +203,7 @@ pub(crate) fn cmd_sweep(c: &SweepCmd, command: &str) -> Result<Verdict, Failure>
         Some(n) => n,
         None => std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get),
     };
-    if a.target != Target::Qemu && a.qemu_link != wheelset_targets::qemu::Channel::Uart {
-        return Err(input(format!(
-            "--qemu-link bulk: the bulk channel is the QEMU target's, not {}'s",
-            a.target
-        )));
-    }
-    if a.target != Target::InProc && a.faults != Faults::none() {
-        return Err(input(format!(
-            "--faults: the fault injection is part of the simulated link; target {} has a real one",
-            a.target
-        )));
-    }
+    super::check_link_flags(&a.target, a.qemu_link, &a.faults)?;
     let budgets = Budgets::load(a.budget.as_deref(), &a.sets).map_err(|e| input(e.to_string()))?;
     let params = load_params(a.params.as_deref())?;
     let identity = identity(a)?;
