@@ -27,7 +27,7 @@ pub use crate::qemu::cmd::{ICOUNT_SHIFT, QEMU_BIN};
 pub const TICK_MEAN_BUDGET_INSTRUCTIONS: u64 = 2_500;
 /// Budget of the tick's maximum over the 20 s `curve` under QEMU (test `qemu_curve`).
 pub const TICK_MAX_BUDGET_INSTRUCTIONS: u64 = 4_000;
-use bulk::poll_readable;
+use crate::realtime::poll_readable;
 use pin::next_core;
 
 /// Largest frame [`Qemu::recv_frame`] accepts, delimiter excluded.

@@ -446,12 +446,12 @@ pub fn echoes_this_run(echo: u16, first: u16, last: u16) -> bool {
     echo != 0 && echo.wrapping_sub(first) <= last.wrapping_sub(first)
 }
 
-/// Waits at most `wait` (ns resolution, `ppoll`) until `s` is readable or hung up.
+/// Waits at most `wait` (ns resolution, `ppoll`) until `fd` is readable or hung up;
+/// `false` on timeout (`true` when a signal interrupts the wait).
 #[allow(unsafe_code)]
-fn poll_readable(s: &TcpStream, wait: Duration) -> io::Result<()> {
-    use std::os::fd::AsRawFd;
+pub(crate) fn poll_readable(fd: &impl std::os::fd::AsRawFd, wait: Duration) -> io::Result<bool> {
     let mut p = libc::pollfd {
-        fd: s.as_raw_fd(),
+        fd: fd.as_raw_fd(),
         events: libc::POLLIN,
         revents: 0,
     };
@@ -460,15 +460,17 @@ fn poll_readable(s: &TcpStream, wait: Duration) -> io::Result<()> {
         tv_nsec: libc::c_long::from(wait.subsec_nanos()),
     };
     // SAFETY: one valid `pollfd` and one valid `timespec` for the call, no signal mask
-    // (null), an fd owned by `s` and open throughout.
+    // (null), an fd owned by the caller's `fd` and open throughout.
     let r = unsafe { libc::ppoll(&mut p, 1, &ts, std::ptr::null()) };
     if r < 0 {
         let e = io::Error::last_os_error();
-        if e.kind() != io::ErrorKind::Interrupted {
-            return Err(e);
-        }
+        return if e.kind() == io::ErrorKind::Interrupted {
+            Ok(true)
+        } else {
+            Err(e)
+        };
     }
-    Ok(())
+    Ok(r > 0)
 }
 
 /// Whether the frames in `bytes` hold a Status frame.
