@@ -134,7 +134,6 @@ impl core::fmt::Display for AuditError {
 impl std::error::Error for AuditError {}
 
 impl AuditError {
-    /// The error of an I/O operation on `path`, for `map_err`.
     pub(crate) fn io(path: &std::path::Path) -> impl FnOnce(std::io::Error) -> Self + '_ {
         move |source| AuditError::Io {
             path: path.to_path_buf(),
@@ -191,7 +190,6 @@ pub(crate) fn command_line(a: &AuditArgs) -> String {
         v.map(|v| v.to_string())
     }
     let on = |switch: bool| switch.then(String::new);
-    // Each flag given, in this order; a switch has no value.
     let flags = [
         ("--rate", opt(a.rate)),
         ("--yaw-divisor", opt(a.yaw_divisor)),

@@ -152,7 +152,6 @@ pub(crate) fn write(p: &std::path::Path, s: &str) -> Result<(), AuditError> {
 pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
     let fmt = formats_of(args)?;
     let cfg = config_of(args);
-    // The operating point of the plant runs (`--params`, else the paper's).
     let params = args
         .params
         .as_ref()
@@ -173,8 +172,7 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
     let production = fmt == Formats::PRODUCTION;
     let c = if production {
         let mut c = core::<Fx>(&cfg, &tol, &fmt, &scenarios, &|fs| grid(fs))?;
-        // The instrumented type is bit-identical at the production formats; run it over
-        // the scenarios too to count the arithmetic saturations Fx performs silently.
+        // Fx's silent saturations, counted by the instrumented type (bit-identical here).
         let o = qdyn::with_formats(fmt, || {
             qdyn::take_saturations();
             ranges::observe::<QDyn>(&cfg, &scenarios, fmt.signal).map(|_| qdyn::take_saturations())

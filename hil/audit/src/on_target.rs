@@ -98,8 +98,7 @@ fn codes(t: &super::ranges::Tick) -> InputCodes {
     }
 }
 
-/// The Sensor frame of the wire codes `c` numbered `seq` (`t_us` at 5 kHz from 0, no
-/// speed reference), as the lock-step comparisons send it.
+/// The Sensor frame of the codes `c` numbered `seq` (`t_us` = 200 `seq`, no speed reference).
 pub fn sensor_frame(seq: u16, c: &InputCodes) -> Result<Vec<u8>, String> {
     let s = Sensor {
         seq,

@@ -128,7 +128,6 @@ enum Fs {
     Voltage,
 }
 
-/// The full scale (SI per pu) of `f` and its SI unit.
 fn fs_of(f: Fs, c: &Config) -> (f64, &'static str) {
     let s = &c.scales;
     match f {
@@ -335,8 +334,7 @@ pub fn observe_against<T: Sample>(
             let d2i = s.demand / (cfg.motor.n * cfg.motor.k_m * s.current);
             let bemf = cfg.motor.k_m * s.speed / s.voltage;
             let (mut ey, mut eu) = (Acc::default(), Acc::default());
-            // Ticks in or within the ramp-back time after the safe state: the ramps'
-            // quantised per-step increments accumulate; judged separately.
+            // Ticks in the safe state or its ramp back (the ramps' steps accumulate): judged apart.
             let (mut ry, mut ru) = (Acc::default(), Acc::default());
             let mut in_safe = false;
             let ramp_ticks = ((cfg.safe.yaw_s.max(cfg.safe.traction_s)) * cfg.base_rate_hz as f64)
@@ -419,8 +417,7 @@ pub fn observe_against<T: Sample>(
                     let raw = match mode {
                         YawMode::Lead => {
                             let ls1 = *fx.lead_state();
-                            // The lead's input as it ran (after the optional y'
-                            // predictor): the state keeps it exactly.
+                            // The lead's input as it ran (after the predictor): the state keeps it.
                             let x = ls1.x1.to_f64();
                             let m = x + ls0.x1.to_f64();
                             put(Sig::LeadSum, m);

@@ -314,9 +314,8 @@ pub fn coefficients<T: Sample>(
 /// gain with traction off, or yaw passive with traction on; the y' predictor off.
 pub fn isolate(kind: Kind, base: &Config) -> Config {
     let mut c = *base;
-    // The y' predictor (delay compensation, on by default) is not part of the lead's
-    // or the gain's transfer function: audited without it, and on its own (behind the
-    // gain, whose quantised value is divided out).
+    // The y' predictor is not part of the lead's or the gain's transfer function: audited
+    // without it, and on its own behind the gain (whose quantised value is divided out).
     if kind != Kind::YawPredictor {
         c.yaw_predict_ticks = 0.0;
     }

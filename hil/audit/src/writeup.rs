@@ -14,7 +14,6 @@ fn fmt_opt(v: Option<f64>) -> String {
     }
 }
 
-/// The first line of the full text and of the summary: the rate and the formats.
 fn headline(a: &Audit) -> String {
     format!(
         "hil audit: base rate {} Hz, signals {}, coefficients {} ({})\n",
@@ -22,7 +21,6 @@ fn headline(a: &Audit) -> String {
     )
 }
 
-/// The last line of the full text and of the summary.
 fn verdict_line(a: &Audit) -> String {
     let counts = super::counts_words(&a.checks);
     format!(

@@ -258,9 +258,8 @@ impl Budgets {
             Self::layer(&mut table, &text, &src)?;
             last = src;
         }
-        // Each `--set` is parsed and typed alone (so a syntax or type error names it);
-        // the limits are validated once, on the whole result, so the order of a
-        // `warn`/`fail` pair does not matter.
+        // Each `--set` parsed and typed alone (an error names it); the limits validated once, on
+        // the result, so a `warn`/`fail` pair may come in either order.
         for s in sets {
             let src = format!("--set {s}");
             if !s.contains('=') {
@@ -286,7 +285,6 @@ impl Budgets {
         Ok(b)
     }
 
-    /// `text` (from `src`) merged over `table`, the result typed.
     fn layer(table: &mut toml::Table, text: &str, src: &str) -> Result<(), BudgetError> {
         let t: toml::Table = text.parse().map_err(|e: toml::de::Error| BudgetError {
             source: src.to_string(),

@@ -84,8 +84,7 @@ pub fn vectors() -> Result<Vec<Vector>, String> {
             codes(0, i.round() as i32, OMEGA, d)
         })
         .collect();
-    // Far beyond every clamp, alternating: input clamps, torque and voltage saturation,
-    // anti-windup.
+    // Far beyond every clamp, alternating: clamps, torque/voltage saturation, anti-windup.
     let saturation = (0..n)
         .map(|k| {
             let s = if (k / 250) % 2 == 0 { 1 } else { -1 };

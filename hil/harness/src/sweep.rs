@@ -267,7 +267,6 @@ pub fn failing(r: &RunReport) -> Vec<Failing> {
     out
 }
 
-/// Runs one point.
 fn run_point(
     c: &Campaign,
     index: usize,

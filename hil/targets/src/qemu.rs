@@ -289,7 +289,6 @@ impl Qemu {
             pinned_cpu: core,
             sched_rr: None,
         };
-        // `cmd` run by `prog` with `args` before it.
         let wrap = |prog: &str, args: [String; 2], cmd: &Command| {
             let mut w = Command::new(prog);
             w.args(args).arg(cmd.get_program()).args(cmd.get_args());
@@ -328,7 +327,6 @@ impl Qemu {
         ))
     }
 
-    /// The device on `link`, nothing received or queued yet.
     fn on_link(
         link: Link,
         child: Option<Child>,

@@ -27,7 +27,6 @@ pub fn observed_errors<T: Sample>(
     let yd = cfg.yaw_divisor.max(1) as usize;
     let td = cfg.traction_divisor.max(1) as usize;
     for sc in scenarios {
-        // Yaw: fixed and exact predictor + lead + gain.
         let mut st = wheelset_control::LeadState::<T>::default();
         let (mut ez, mut ex1) = (0.0f64, 0.0f64);
         let (mut yp_f, mut yp_e) = (T::ZERO, 0.0f64);

@@ -55,7 +55,6 @@ pub(crate) fn quantise<T: Sample>(name: &'static str, v: f64) -> Result<T::Coeff
     T::quantise(v).ok_or(ConfigError::Coefficient { name, value: v })
 }
 
-/// The exact value of `v` quantised ([`quantise`]).
 pub(crate) fn qc<T: Sample>(name: &'static str, v: f64) -> Result<f64, ConfigError> {
     quantise::<T>(name, v).map(T::coeff_to_f64)
 }
@@ -385,7 +384,6 @@ pub fn proven(k: &Quantised, cfg: &Config, q: f64) -> Proven {
         "interval: S |K_m| + q/2".into(),
     );
     let _ = (k.i_step, k.i_safe_step);
-    // The linear parts.
     let mut parts: Vec<LinearPart> = sys
         .iter()
         .map(|(n, s)| LinearPart {

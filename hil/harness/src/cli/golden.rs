@@ -78,10 +78,8 @@ pub(crate) fn cmd_golden(g: &GoldenArgs) -> Result<Verdict, Failure> {
     let opts = RunOptions {
         target: g.target.clone(),
         machine: g.machine,
-        // The host side runs the runtime at its own configuration, which has the
-        // wheel-slip protection off until a Config turns it on; the in-process target
-        // is configured by `open_transport`, so it is told the same (`hil run` turns it
-        // on by default).
+        // As the host side's runtime (its own configuration: wheel-slip protection off until a
+        // Config); `hil run` turns it on by default.
         wsp: Some(false),
         ..RunOptions::default()
     };

@@ -64,8 +64,7 @@ pub(crate) enum Control {
 }
 
 impl Control {
-    /// The law; a scenario meant for other laws (its `laws` key) warns first (one that
-    /// does not load is reported by the run itself).
+    /// The law; a scenario meant for other laws (its `laws` key) warns first.
     pub(crate) fn law_for(self, scenario: &str, params: &Params) -> Law {
         let law = match self {
             Self::Passive => Law::Passive,
@@ -100,8 +99,6 @@ pub(crate) fn check_link_flags(
     Ok(())
 }
 
-/// `s` as a target that is `inproc` or `qemu`; `by_hand`: why not `qemu:PORT`, `other`:
-/// why not the others.
 pub(crate) fn inproc_or_qemu(s: &str, by_hand: &str, other: &str) -> Result<Target, String> {
     match s.parse::<Target>()? {
         t @ (Target::InProc | Target::Qemu) => Ok(t),

@@ -215,8 +215,7 @@ pub(crate) fn cmd_run(a: &RunArgs, command: &str) -> Result<Verdict, Failure> {
     if let Some(d) = &a.report {
         wheelset_report::output::check_dir_flag("--report", d).map_err(input)?;
     }
-    // The faults as applied (canonical spec), whichever form the flag took
-    // (`--faults SPEC` or `--faults=SPEC`).
+    // The faults as applied (canonical spec), whichever form the flag took.
     let faults_spec = a.faults.to_string();
     let opts = RunOptions {
         target: a.target.clone(),

@@ -265,8 +265,7 @@ pub(crate) fn cmd_sweep(c: &SweepCmd, command: &str) -> Result<Verdict, Failure>
     if let Some(pb) = &bar {
         pb.finish_and_clear();
     }
-    // On the console only (standard error: a figure of the machine and its load, beside
-    // the progress bar): the document's shards merge byte for byte.
+    // Standard error only (a figure of the machine): the shards' documents merge byte for byte.
     eprintln!("hil sweep: throughput: {cost} ({jobs} threads)");
     write(&doc, json, a.report.as_deref())
 }
@@ -294,8 +293,7 @@ fn identity(a: &SweepArgs) -> Result<hil::sweep::Identity, Failure> {
             ),
             _ => None,
         },
-        // A built-in scenario is part of the binary; a name that is neither is refused
-        // by the run with the list of built-ins.
+        // A built-in scenario is part of the binary; an unknown name is refused by the run.
         scenario_sha256: if wheelset_plant::scenario::BUILTIN
             .iter()
             .any(|(n, _)| *n == a.scenario)

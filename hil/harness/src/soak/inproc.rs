@@ -330,7 +330,6 @@ struct Account {
     first_alarm_tick: Option<u32>,
 }
 
-/// The soak's state.
 struct Soak {
     opts: SoakOptions,
     rt: Runtime<Fx>,
@@ -413,8 +412,7 @@ impl Soak {
         let sc = Scenario::load("curve", &Params::default()).map_err(|e| e.to_string())?;
         let base = runtime_config_for(&sc, Law::Lead);
         let mut rt = Runtime::<Fx>::try_new(base).map_err(|e| e.to_string())?;
-        // Every design point the service moves between, computed once (the host's side
-        // of a rate change: `wheelset_runtime::rates_for`).
+        // Every design point of the service, computed once (`wheelset_runtime::rates_for`).
         let mut configs = [None; 8];
         for &hz in &super::service::RATES_HZ {
             for lead in [false, true] {
@@ -428,10 +426,9 @@ impl Soak {
                 configs[config_slot(hz, lead)] = Some(cfg);
             }
         }
-        // The device's start: the run's Config (the protection on, alarms reported), and
-        // every 32-bit counter near its wrap: the tick and frame counts wrap halfway
-        // through the run, the others within a few hundred events; the host's `seq`
-        // wraps within 100 periods.
+        // The device's start: the run's Config (protection on, alarms reported) and every 32-bit
+        // counter near its wrap (tick and frame counts wrap halfway through the run, the others
+        // within a few hundred events; the host's `seq` within 100 periods).
         let boot = wheelset_loop::device_loop::run_config(&base, true, false);
         let frame = encode_vec(&Message::Config(boot)).map_err(|e| format!("{e:?}"))?;
         rt.receive(&frame);
@@ -568,7 +565,6 @@ impl Soak {
         }
     }
 
-    /// Runs to the end or the first failure.
     fn run(&mut self) {
         let t0 = Instant::now();
         let mut next_hour = 3_600_000_000_000u64;
@@ -671,14 +667,12 @@ impl Soak {
         }
     }
 
-    /// One period: exchange, checks, plant.
     fn period(&mut self) {
         let t = self.t_ns;
         self.service(t);
         let (curvature, cant) = self.track.at(&mut self.rng_track, t);
         let demand = self.demand.at(&mut self.rng_track, t);
         let x = self.x;
-        // Up: the Sensor frame, then a Config or Commands.
         self.seq = self.seq.wrapping_add(1);
         let si = SensorSi {
             y_dot: x[ix::YD],
@@ -719,7 +713,6 @@ impl Soak {
             self.clear_next_ns = t + 10_000_000;
             cleared = self.command(&mut at, Command::ClearFaults);
         }
-        // The device's tick.
         let tick_at = t + PHASE_NS;
         let mut out = [0u8; TX_CAPACITY];
         let n = {
@@ -730,7 +723,6 @@ impl Soak {
         };
         let out = &mut out[..n];
         self.after_tick(t, fresh, config_applied, status_requested, cleared, out);
-        // Down: each frame, the host's decoder.
         let mut fresh_act: Option<Actuation> = None;
         let mut status: Option<Status> = None;
         let mut at = tick_at;
@@ -782,7 +774,6 @@ impl Soak {
             );
         }
         self.t_ns = t + self.period_ns;
-        // The device's ticker at its rate from now on.
         let hz = self.rt.base_rate_hz();
         if hz != self.acc.rate_hz {
             self.fail(format!(
@@ -880,7 +871,6 @@ impl Soak {
         if status_requested {
             acc.statuses += 1;
         }
-        // The device's frames as it sent them.
         let mut a = None;
         let mut st = false;
         let mut wrong = None;
@@ -962,7 +952,6 @@ impl Soak {
                 a.t_psi_dnm
             ));
         }
-        // Alarms: rising edges counted; only where the account expects them.
         let alarm_bits = f.0 & (Flags::HUNTING | Flags::ACTUATOR_FAULT | Flags::DRIVE_OSC);
         let rose = alarm_bits & !acc.alarm_flags;
         acc.alarm_flags = alarm_bits;
@@ -1039,7 +1028,6 @@ impl Soak {
     fn check_status(&mut self, s: &Status) {
         self.report.statuses_checked += 1;
         let (st, acc, up, down) = (&self.start, &self.acc, &self.up.counts, &self.down.counts);
-        // Each count the device keeps since its start against the harness's, as u32.
         let d = |f: fn(&Status) -> u32| f(s).wrapping_sub(f(st));
         let mut broke = Vec::new();
         for (name, device, harness) in [

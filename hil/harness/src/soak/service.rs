@@ -8,7 +8,6 @@ use rand_pcg::Pcg64;
 
 use super::line::LineFaults;
 
-/// Nanoseconds per second.
 const NS: f64 = 1e9;
 
 fn ns(s: f64) -> u64 {

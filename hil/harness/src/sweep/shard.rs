@@ -130,7 +130,6 @@ pub struct ArrayShard {
     pub source: String,
 }
 
-/// A job array's variable, set and not empty.
 fn var(env: &dyn Fn(&str) -> Option<String>, name: &str) -> Option<String> {
     env(name).filter(|v| !v.trim().is_empty())
 }
@@ -144,7 +143,6 @@ fn number(env: &dyn Fn(&str) -> Option<String>, name: &str, why: &str) -> Result
     whole(name, &v)
 }
 
-/// The value `v` of the variable `name` as a whole number.
 fn whole(name: &str, v: &str) -> Result<usize, String> {
     v.trim()
         .parse::<usize>()

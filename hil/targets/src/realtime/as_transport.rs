@@ -62,8 +62,7 @@ impl Transport for RealTime {
     ) -> Result<(), TransportError> {
         let deadline = self.wall(deadline_ns);
         self.wait_until(deadline)?;
-        // The Status frame requested at the end of the run may come later than a
-        // period on a stalled device: wait for it (bounded), it is after the run.
+        // A stalled device's closing Status may come after a period: waited for (bounded).
         if self.status_owed {
             self.wait_for(|s| s.pending.iter().any(|(_, f)| is_status(f)))?;
             self.status_owed = false;

@@ -153,7 +153,6 @@ impl RealTime {
         }
         let (rt, status_bytes) = best.unwrap_or((0.0, 0));
         let wire = |n: usize| wire_ns(n, self.o.baud) as f64;
-        // The device's execution time: the median of its latest reports.
         let latest = self.seen.iter().rev().take(PHASE_FRAMES);
         let exec = median_exec_ns(latest.map(|s| s.3), self.o.cpu_hz);
         let before = rt

@@ -151,7 +151,6 @@ pub fn serve(
         } else if lateness > period / 4 {
             rep.late += 1;
         }
-        // The tick: drain, receive, tick, queue.
         match bridge.as_mut() {
             None => {
                 let _ = port.set_timeout(Duration::ZERO);
