@@ -133,6 +133,15 @@ impl core::fmt::Display for AuditError {
 
 impl std::error::Error for AuditError {}
 
+impl AuditError {
+    pub(crate) fn io(path: &std::path::Path) -> impl FnOnce(std::io::Error) -> Self + '_ {
+        move |source| AuditError::Io {
+            path: path.to_path_buf(),
+            source,
+        }
+    }
+}
+
 impl From<ConfigError> for AuditError {
     fn from(e: ConfigError) -> Self {
         AuditError::Config(e)
@@ -177,45 +186,57 @@ pub fn config_of(args: &AuditArgs) -> Config {
 }
 
 pub(crate) fn command_line(a: &AuditArgs) -> String {
+    fn opt(v: Option<impl ToString>) -> Option<String> {
+        v.map(|v| v.to_string())
+    }
+    let on = |switch: bool| switch.then(String::new);
+    let flags = [
+        ("--rate", opt(a.rate)),
+        ("--yaw-divisor", opt(a.yaw_divisor)),
+        ("--traction-divisor", opt(a.traction_divisor)),
+        ("--params", opt(a.params.as_ref().map(|p| p.path.display()))),
+        ("--yaw-predict-ticks", opt(a.yaw_predict_ticks)),
+        ("--signal-q", a.signal_q.clone()),
+        ("--coef-q", a.coef_q.clone()),
+        ("--no-sweep", on(a.no_sweep)),
+        ("--no-plant", on(a.no_plant)),
+        ("--no-target", on(a.no_target)),
+        ("--no-closed-loop", on(a.no_closed_loop)),
+        ("--json", opt(a.json.as_ref().map(|p| p.display()))),
+        ("--report", opt(a.report.as_ref().map(|p| p.display()))),
+    ];
     let mut s = String::from("hil audit");
-    if let Some(r) = a.rate {
-        s += &format!(" --rate {r}");
-    }
-    if let Some(d) = a.yaw_divisor {
-        s += &format!(" --yaw-divisor {d}");
-    }
-    if let Some(d) = a.traction_divisor {
-        s += &format!(" --traction-divisor {d}");
-    }
-    if let Some(p) = &a.params {
-        s += &format!(" --params {}", p.path.display());
-    }
-    if let Some(t) = a.yaw_predict_ticks {
-        s += &format!(" --yaw-predict-ticks {t}");
-    }
-    if let Some(q) = &a.signal_q {
-        s += &format!(" --signal-q {q}");
-    }
-    if let Some(q) = &a.coef_q {
-        s += &format!(" --coef-q {q}");
-    }
-    if a.no_sweep {
-        s += " --no-sweep";
-    }
-    if a.no_plant {
-        s += " --no-plant";
-    }
-    if a.no_target {
-        s += " --no-target";
-    }
-    if a.no_closed_loop {
-        s += " --no-closed-loop";
-    }
-    if let Some(p) = &a.json {
-        s += &format!(" --json {}", p.display());
-    }
-    if let Some(p) = &a.report {
-        s += &format!(" --report {}", p.display());
+    for (flag, value) in flags {
+        match value.as_deref() {
+            Some("") => s += &format!(" {flag}"),
+            Some(v) => s += &format!(" {flag} {v}"),
+            None => {}
+        }
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{command_line, AuditArgs};
+
+    #[test]
+    fn the_command_line_names_each_flag_given_in_order() {
+        let a = AuditArgs {
+            rate: Some(2_000),
+            traction_divisor: Some(4),
+            yaw_predict_ticks: Some(1.5),
+            coef_q: Some("1.31".into()),
+            no_sweep: true,
+            no_closed_loop: true,
+            report: Some("out".into()),
+            ..AuditArgs::default()
+        };
+        assert_eq!(
+            command_line(&a),
+            "hil audit --rate 2000 --traction-divisor 4 --yaw-predict-ticks 1.5 --coef-q 1.31 \
+             --no-sweep --no-closed-loop --report out"
+        );
+        assert_eq!(command_line(&AuditArgs::default()), "hil audit");
+    }
 }

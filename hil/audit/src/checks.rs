@@ -101,61 +101,49 @@ pub fn controller_checks(a: &ControllerAudit, tol: &Tolerances, cfg: &Config) ->
         // is the sampled-data analysis' business, not a numerics figure: not judged.
         return v;
     }
-    v.push(
-        judge(
-            n,
-            &format!(
-                "gain error discrete f64 vs continuous below {:.0} Hz (worst at {:.3} Hz)",
-                w.below_hz, w.discrete_gain_db.1
-            ),
-            w.discrete_gain_db.0,
-            tol.discrete_gain_db,
-            "dB",
-            "discretisation gain error",
-        )
-        .with_remedy(DISCRETE_REMEDY),
-    );
-    v.push(
-        judge(
-            n,
-            &format!(
-                "phase error discrete f64 vs continuous below {:.0} Hz (worst at {:.3} Hz)",
-                w.below_hz, w.discrete_phase_deg.1
-            ),
-            w.discrete_phase_deg.0,
-            tol.discrete_phase_deg,
-            "deg",
-            "discretisation phase error",
-        )
-        .with_remedy(DISCRETE_REMEDY),
-    );
+    for (what, (err, at), limit, unit) in [
+        ("gain", w.discrete_gain_db, tol.discrete_gain_db, "dB"),
+        ("phase", w.discrete_phase_deg, tol.discrete_phase_deg, "deg"),
+    ] {
+        v.push(
+            judge(
+                n,
+                &format!(
+                    "{what} error discrete f64 vs continuous below {:.0} Hz (worst at {at:.3} Hz)",
+                    w.below_hz
+                ),
+                err,
+                limit,
+                unit,
+                &format!("discretisation {what} error"),
+            )
+            .with_remedy(DISCRETE_REMEDY),
+        );
+    }
     let wire = match n.as_str() {
         "traction_pi" => cfg.wire.voltage,
         _ => cfg.wire.torque,
     };
     for lc in &a.limit_cycles {
-        v.push(
-            judge(
-                n,
-                &format!("limit cycle amplitude, hold {}", lc.hold),
-                lc.amplitude_si / wire,
-                tol.limit_cycle_wire_lsb,
-                "wire LSB",
+        for (item, si, figure) in [
+            (
+                "limit cycle amplitude",
+                lc.amplitude_si,
                 "sustained oscillation amplitude",
-            )
-            .with_remedy(SIGNAL_REMEDY),
-        );
-        v.push(
-            judge(
+            ),
+            ("dead-band offset vs f64", lc.offset_si, "final offset"),
+        ] {
+            let item = format!("{item}, hold {}", lc.hold);
+            let c = judge(
                 n,
-                &format!("dead-band offset vs f64, hold {}", lc.hold),
-                lc.offset_si / wire,
+                &item,
+                si / wire,
                 tol.limit_cycle_wire_lsb,
                 "wire LSB",
-                "final offset",
-            )
-            .with_remedy(SIGNAL_REMEDY),
-        );
+                figure,
+            );
+            v.push(c.with_remedy(SIGNAL_REMEDY));
+        }
     }
     v
 }

@@ -119,10 +119,8 @@ pub fn run(args: &AuditArgs) -> Result<u8, AuditError> {
     }
     let audit = build(args)?;
     if let Some(p) = &args.json {
-        let s = serde_json::to_string_pretty(&audit).map_err(|e| AuditError::Io {
-            path: p.clone(),
-            source: std::io::Error::other(e),
-        })?;
+        let s = serde_json::to_string_pretty(&audit)
+            .map_err(|e| AuditError::io(p)(std::io::Error::other(e)))?;
         write(p, &s)?;
     }
     if let Some(dir) = &args.report {
@@ -141,25 +139,19 @@ pub fn run(args: &AuditArgs) -> Result<u8, AuditError> {
 
 /// Write `s` to `p`, creating the parent directory.
 pub(crate) fn write(p: &std::path::Path, s: &str) -> Result<(), AuditError> {
-    if let Some(d) = p.parent() {
-        if !d.as_os_str().is_empty() {
-            std::fs::create_dir_all(d).map_err(|e| AuditError::Io {
-                path: d.to_path_buf(),
-                source: e,
-            })?;
+    match p.parent() {
+        Some(d) if !d.as_os_str().is_empty() => {
+            std::fs::create_dir_all(d).map_err(AuditError::io(d))?;
         }
+        _ => {}
     }
-    std::fs::write(p, s).map_err(|e| AuditError::Io {
-        path: p.to_path_buf(),
-        source: e,
-    })
+    std::fs::write(p, s).map_err(AuditError::io(p))
 }
 
 /// Compute the whole audit (no output written).
 pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
     let fmt = formats_of(args)?;
     let cfg = config_of(args);
-    // The operating point of the plant runs (`--params`, else the paper's).
     let params = args
         .params
         .as_ref()
@@ -180,8 +172,7 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
     let production = fmt == Formats::PRODUCTION;
     let c = if production {
         let mut c = core::<Fx>(&cfg, &tol, &fmt, &scenarios, &|fs| grid(fs))?;
-        // The instrumented type is bit-identical at the production formats; run it over
-        // the scenarios too to count the arithmetic saturations Fx performs silently.
+        // Fx's silent saturations, counted by the instrumented type (bit-identical here).
         let o = qdyn::with_formats(fmt, || {
             qdyn::take_saturations();
             ranges::observe::<QDyn>(&cfg, &scenarios, fmt.signal).map(|_| qdyn::take_saturations())
@@ -284,19 +275,15 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
         }
     }
     let target = if args.no_target {
-        on_target::TargetReport {
-            available: false,
-            outcome: on_target::TargetOutcome::Skipped,
-            note: "target: not run (--no-target)".into(),
-            runs: Vec::new(),
-        }
+        on_target::TargetReport::without(
+            on_target::TargetOutcome::Skipped,
+            "target: not run (--no-target)",
+        )
     } else if !production {
-        on_target::TargetReport {
-            available: false,
-            outcome: on_target::TargetOutcome::NotApplicable,
-            note: "target: not applicable (the firmware runs the production formats)".into(),
-            runs: Vec::new(),
-        }
+        on_target::TargetReport::without(
+            on_target::TargetOutcome::NotApplicable,
+            "target: not applicable (the firmware runs the production formats)",
+        )
     } else {
         let pick = |n: &str| scenarios.iter().find(|s| s.name == n);
         let mut w: Vec<(&Scenario, f64)> = Vec::new();

@@ -67,6 +67,19 @@ pub struct TargetReport {
     pub runs: Vec<TargetRun>,
 }
 
+impl TargetReport {
+    /// No target numbers: the comparison's `outcome` and why.
+    #[must_use]
+    pub fn without(outcome: TargetOutcome, note: impl Into<String>) -> Self {
+        Self {
+            available: false,
+            outcome,
+            note: note.into(),
+            runs: Vec::new(),
+        }
+    }
+}
+
 fn codes(t: &super::ranges::Tick) -> InputCodes {
     let w = WireLsb::default();
     let c = |v: f64, lsb: f64| {
@@ -85,7 +98,8 @@ fn codes(t: &super::ranges::Tick) -> InputCodes {
     }
 }
 
-fn frame(seq: u16, c: &InputCodes) -> Result<Vec<u8>, String> {
+/// The Sensor frame of the codes `c` numbered `seq` (`t_us` = 200 `seq`, no speed reference).
+pub fn sensor_frame(seq: u16, c: &InputCodes) -> Result<Vec<u8>, String> {
     let s = Sensor {
         seq,
         t_us: seq.wrapping_mul(200),
@@ -116,30 +130,21 @@ fn decode(bytes: &[u8], dec: &mut Decoder) -> Option<Actuation> {
 /// The firmware runs the runtime's default configuration: `cfg` must equal it (wire
 /// LSBs aside, which the runtime takes from the protocol).
 pub fn compare(scenarios: &[(&Scenario, f64)], window: usize, cfg: &Config) -> TargetReport {
-    let na = |note: String| TargetReport {
-        available: false,
-        outcome: TargetOutcome::NotRun,
-        note: format!("target: not run: {note}"),
-        runs: Vec::new(),
+    let na = |note: String| {
+        TargetReport::without(TargetOutcome::NotRun, format!("target: not run: {note}"))
     };
-    let broke = |note: String| TargetReport {
-        available: false,
-        outcome: TargetOutcome::Failed,
-        note: format!("target: failed: {note}"),
-        runs: Vec::new(),
+    let broke = |note: String| {
+        TargetReport::without(TargetOutcome::Failed, format!("target: failed: {note}"))
     };
     let rc = RuntimeConfig::default();
     let mut mine = *cfg;
     mine.wire = rc.control.wire;
     if mine != rc.control {
-        return TargetReport {
-            available: false,
-            outcome: TargetOutcome::NotApplicable,
-            note: "target: not applicable: the firmware runs the default configuration; \
-                   this audit's rate, divisors or predictor differ"
-                .into(),
-            runs: Vec::new(),
-        };
+        return TargetReport::without(
+            TargetOutcome::NotApplicable,
+            "target: not applicable: the firmware runs the default configuration; this \
+             audit's rate, divisors or predictor differ",
+        );
     }
     let base_rate_hz = cfg.base_rate_hz;
     let qc = QemuConfig::new();
@@ -182,7 +187,7 @@ pub fn compare(scenarios: &[(&Scenario, f64)], window: usize, cfg: &Config) -> T
         for (k, t) in ticks.iter().enumerate() {
             let c = codes(t);
             let seq = (k as u16).wrapping_add(1);
-            let bytes = match frame(seq, &c) {
+            let bytes = match sensor_frame(seq, &c) {
                 Ok(b) => b,
                 Err(e) => return na(format!("encode: {e}")),
             };

@@ -34,8 +34,7 @@ fn unwrap(v: Vec<(f64, f64)>) -> Vec<(f64, f64)> {
 
 fn save(fig: &Figure, dir: &Path, file: &str) -> Result<String, AuditError> {
     let p = dir.join(file);
-    fig.save(&p)
-        .map_err(|e| AuditError::Io { path: p, source: e })?;
+    fig.save(&p).map_err(AuditError::io(&p))?;
     Ok(file.to_string())
 }
 
@@ -59,9 +58,8 @@ pub fn write_plots(a: &Audit, dir: &Path) -> Result<Vec<(String, String)>, Audit
                 .size(860.0, 280.0)
         };
         let bode = |title: &str, unit: &str| plain(title, unit).vmark(limit, &judged, EDGE_COLOUR);
-        // The three forms nearly coincide: the continuous wide and pale beneath, the
-        // discrete f64 narrower and half transparent over it, the fixed point thin on
-        // top, so each shows.
+        // The three forms nearly coincide: continuous wide and pale beneath, discrete f64
+        // narrower and half transparent over it, fixed point thin on top, so each shows.
         let forms = |p: Plot, unwrap_phase: bool, g: &dyn Fn(&super::GainPhase) -> f64| {
             let u = |v: Vec<(f64, f64)>| if unwrap_phase { unwrap(v) } else { v };
             p.series(
@@ -184,8 +182,7 @@ pub fn write_plots(a: &Audit, dir: &Path) -> Result<Vec<(String, String)>, Audit
         .iter()
         .map(|p| p.1)
         .fold((range, range), |(lo, hi), y| (lo.min(y), hi.max(y)));
-    // The proven headroom of the same signals (any input within the clamps), where the
-    // proofs name the signal.
+    // The proven headroom (any input within the clamps) where the proofs name the signal.
     let proven: Vec<(f64, f64)> = sigs
         .iter()
         .enumerate()
@@ -244,8 +241,7 @@ pub fn write_plots(a: &Audit, dir: &Path) -> Result<Vec<(String, String)>, Audit
     );
     let f = save(&fig, dir, "ranges.svg")?;
     out.push(("Ranges and headroom per signal".to_string(), f));
-    // The noise traces against the noise tolerance (`noise_wire_lsb`, in wire LSBs of
-    // each output).
+    // The noise traces against `noise_wire_lsb` (in wire LSBs of each output).
     let wire = wheelset_control::WireLsb::default();
     let (warn_lsb, fail_lsb) = tol.noise_wire_lsb;
     for (name, tr) in &a.observed.traces {

@@ -79,68 +79,41 @@ enum Sig {
     BackEmf,
 }
 
-/// `(name, kind, SI unit, full scale selector, is a state)`.
-const SIGNALS: [(&str, &str, &str, Fs, bool); 21] = [
-    ("y_dot (clamped input)", "yaw", "m/s", Fs::YDot, false),
-    ("predictor y' - y'[n-1]", "yaw", "m/s", Fs::YDot, false),
-    (
-        "predictor y' + 2d (before clamp)",
-        "yaw",
-        "m/s",
-        Fs::YDot,
-        false,
-    ),
-    ("lead x + x1", "yaw_lead", "m/s", Fs::YDot, false),
-    ("lead (g/2)(x + x1) - z", "yaw_lead", "m/s", Fs::YDot, false),
-    ("lead z (state)", "yaw_lead", "m/s", Fs::YDot, true),
-    ("lead x1 (state)", "yaw_lead", "m/s", Fs::YDot, true),
-    ("lead x - z", "yaw_lead", "m/s", Fs::YDot, false),
-    ("T_psi before limit", "yaw", "N m", Fs::Torque, false),
-    ("T_psi (output)", "yaw", "N m", Fs::Torque, false),
-    (
-        "i_a (clamped input)",
-        "traction_pi",
-        "A",
-        Fs::Current,
-        false,
-    ),
-    (
-        "demand (clamped input)",
-        "traction_pi",
-        "N m",
-        Fs::Demand,
-        false,
-    ),
-    ("i_ref target", "traction_pi", "A", Fs::Current, false),
-    (
-        "i_ref (ramped, state)",
-        "traction_pi",
-        "A",
-        Fs::Current,
-        true,
-    ),
-    ("e = i_ref - i_a", "traction_pi", "A", Fs::Current, false),
-    ("PI Kp e", "traction_pi", "V", Fs::Voltage, false),
+/// `(name, kind, full scale selector, is a state)`.
+const SIGNALS: [(&str, &str, Fs, bool); 21] = [
+    ("y_dot (clamped input)", "yaw", Fs::YDot, false),
+    ("predictor y' - y'[n-1]", "yaw", Fs::YDot, false),
+    ("predictor y' + 2d (before clamp)", "yaw", Fs::YDot, false),
+    ("lead x + x1", "yaw_lead", Fs::YDot, false),
+    ("lead (g/2)(x + x1) - z", "yaw_lead", Fs::YDot, false),
+    ("lead z (state)", "yaw_lead", Fs::YDot, true),
+    ("lead x1 (state)", "yaw_lead", Fs::YDot, true),
+    ("lead x - z", "yaw_lead", Fs::YDot, false),
+    ("T_psi before limit", "yaw", Fs::Torque, false),
+    ("T_psi (output)", "yaw", Fs::Torque, false),
+    ("i_a (clamped input)", "traction_pi", Fs::Current, false),
+    ("demand (clamped input)", "traction_pi", Fs::Demand, false),
+    ("i_ref target", "traction_pi", Fs::Current, false),
+    ("i_ref (ramped, state)", "traction_pi", Fs::Current, true),
+    ("e = i_ref - i_a", "traction_pi", Fs::Current, false),
+    ("PI Kp e", "traction_pi", Fs::Voltage, false),
     (
         "PI I + Ki e (before clamp)",
         "traction_pi",
-        "V",
         Fs::Voltage,
         false,
     ),
-    ("PI I (state)", "traction_pi", "V", Fs::Voltage, true),
+    ("PI I (state)", "traction_pi", Fs::Voltage, true),
     (
         "PI Kp e + I (before limit)",
         "traction_pi",
-        "V",
         Fs::Voltage,
         false,
     ),
-    ("u_a (output)", "traction_pi", "V", Fs::Voltage, false),
+    ("u_a (output)", "traction_pi", Fs::Voltage, false),
     (
         "back-EMF preset K_m omega",
         "traction_pi",
-        "V",
         Fs::Voltage,
         false,
     ),
@@ -155,14 +128,14 @@ enum Fs {
     Voltage,
 }
 
-fn fs_of(f: Fs, c: &Config) -> f64 {
+fn fs_of(f: Fs, c: &Config) -> (f64, &'static str) {
     let s = &c.scales;
     match f {
-        Fs::YDot => s.y_dot,
-        Fs::Torque => s.torque,
-        Fs::Current => s.current,
-        Fs::Demand => s.demand,
-        Fs::Voltage => s.voltage,
+        Fs::YDot => (s.y_dot, "m/s"),
+        Fs::Torque => (s.torque, "N m"),
+        Fs::Current => (s.current, "A"),
+        Fs::Demand => (s.demand, "N m"),
+        Fs::Voltage => (s.voltage, "V"),
     }
 }
 
@@ -320,20 +293,23 @@ pub fn observe_against<T: Sample>(
 ) -> Result<Observed, wheelset_control::ConfigError> {
     let mut sig: Vec<SignalRange> = SIGNALS
         .iter()
-        .map(|(n, k, u, f, st)| SignalRange {
-            name: n.to_string(),
-            controller: k.to_string(),
-            state: *st,
-            unit: u.to_string(),
-            full_scale: fs_of(*f, base),
-            min_pu: 0.0,
-            max_pu: 0.0,
-            min_si: 0.0,
-            max_si: 0.0,
-            worst_scenario: String::new(),
-            headroom_bits: f64::INFINITY,
-            overflows: 0,
-            samples: 0,
+        .map(|&(n, k, f, state)| {
+            let (full_scale, unit) = fs_of(f, base);
+            SignalRange {
+                name: n.to_string(),
+                controller: k.to_string(),
+                state,
+                unit: unit.to_string(),
+                full_scale,
+                min_pu: 0.0,
+                max_pu: 0.0,
+                min_si: 0.0,
+                max_si: 0.0,
+                worst_scenario: String::new(),
+                headroom_bits: f64::INFINITY,
+                overflows: 0,
+                samples: 0,
+            }
         })
         .collect();
     let mut noise = Vec::new();
@@ -358,8 +334,7 @@ pub fn observe_against<T: Sample>(
             let d2i = s.demand / (cfg.motor.n * cfg.motor.k_m * s.current);
             let bemf = cfg.motor.k_m * s.speed / s.voltage;
             let (mut ey, mut eu) = (Acc::default(), Acc::default());
-            // Ticks in or within the ramp-back time after the safe state: the ramps'
-            // quantised per-step increments accumulate; judged separately.
+            // Ticks in the safe state or its ramp back (the ramps' steps accumulate): judged apart.
             let (mut ry, mut ru) = (Acc::default(), Acc::default());
             let mut in_safe = false;
             let ramp_ticks = ((cfg.safe.yaw_s.max(cfg.safe.traction_s)) * cfg.base_rate_hz as f64)
@@ -442,8 +417,7 @@ pub fn observe_against<T: Sample>(
                     let raw = match mode {
                         YawMode::Lead => {
                             let ls1 = *fx.lead_state();
-                            // The lead's input as it ran (after the optional y'
-                            // predictor): the state keeps it exactly.
+                            // The lead's input as it ran (after the predictor): the state keeps it.
                             let x = ls1.x1.to_f64();
                             let m = x + ls0.x1.to_f64();
                             put(Sig::LeadSum, m);

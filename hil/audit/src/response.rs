@@ -280,15 +280,11 @@ pub fn coefficients<T: Sample>(
             )
         }
         Kind::YawGain => {
-            let k_pu = cfg.gain_k * s.y_dot / s.torque;
-            let q = T::quantise(k_pu).ok_or(wheelset_control::ConfigError::Coefficient {
-                name: "gain_k (pu)",
-                value: k_pu,
-            })?;
+            let q = crate::bounds::qc::<T>("gain_k (pu)", cfg.gain_k * s.y_dot / s.torque)?;
             (
                 Coeffs::Gain { k: cfg.gain_k },
                 Coeffs::Gain {
-                    k: T::coeff_to_f64(q) * s.torque / s.y_dot,
+                    k: q * s.torque / s.y_dot,
                 },
             )
         }
@@ -305,15 +301,10 @@ pub fn coefficients<T: Sample>(
         Kind::YawPredictor => {
             // The controller multiplies by alpha/2 twice (keeps it in Q1.31).
             let half = cfg.yaw_predict_ticks / (2.0 * cfg.yaw_divisor as f64);
-            let q = T::quantise(half).ok_or(wheelset_control::ConfigError::Coefficient {
-                name: "yaw_predict_ticks/(2 yaw_divisor)",
-                value: half,
-            })?;
+            let q = crate::bounds::qc::<T>("yaw_predict_ticks/(2 yaw_divisor)", half)?;
             (
                 Coeffs::Predictor { alpha: 2.0 * half },
-                Coeffs::Predictor {
-                    alpha: 2.0 * T::coeff_to_f64(q),
-                },
+                Coeffs::Predictor { alpha: 2.0 * q },
             )
         }
     })
@@ -323,9 +314,8 @@ pub fn coefficients<T: Sample>(
 /// gain with traction off, or yaw passive with traction on; the y' predictor off.
 pub fn isolate(kind: Kind, base: &Config) -> Config {
     let mut c = *base;
-    // The y' predictor (delay compensation, on by default) is not part of the lead's
-    // or the gain's transfer function: audited without it, and on its own (behind the
-    // gain, whose quantised value is divided out).
+    // The y' predictor is not part of the lead's or the gain's transfer function: audited
+    // without it, and on its own behind the gain (whose quantised value is divided out).
     if kind != Kind::YawPredictor {
         c.yaw_predict_ticks = 0.0;
     }

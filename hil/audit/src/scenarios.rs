@@ -14,7 +14,6 @@ pub fn synthetic(cfg: &Config) -> Vec<Scenario> {
     let fs = cfg.base_rate_hz as f64;
     let l = cfg.limits;
     let n = |s: f64| (s * fs).round() as usize;
-    // Full-scale steps.
     let mut t = Vec::new();
     let levels = [1.0, -1.0, 1.5, -1.5, 0.0, 1.0, -1.0, 0.0];
     let iref_max = l.demand / (cfg.motor.n * cfg.motor.k_m);

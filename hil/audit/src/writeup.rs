@@ -14,16 +14,26 @@ fn fmt_opt(v: Option<f64>) -> String {
     }
 }
 
+fn headline(a: &Audit) -> String {
+    format!(
+        "hil audit: base rate {} Hz, signals {}, coefficients {} ({})\n",
+        a.base_rate_hz, a.formats.signal, a.formats.coef, a.sample_type
+    )
+}
+
+fn verdict_line(a: &Audit) -> String {
+    let counts = super::counts_words(&a.checks);
+    format!(
+        "verdict: {} ({counts})\n",
+        a.verdict.as_str().to_uppercase()
+    )
+}
+
 /// The full text: one line per controller with the headline figures, the noise per
 /// scenario, the proofs, then every check with its reason and remedy (only those not
 /// passed when `quiet`), then the verdict. The report directory keeps it as `audit.txt`.
 pub fn full_text(a: &Audit, quiet: bool) -> String {
-    let mut s = String::new();
-    let _ = writeln!(
-        s,
-        "hil audit: base rate {} Hz, signals {}, coefficients {} ({})",
-        a.base_rate_hz, a.formats.signal, a.formats.coef, a.sample_type
-    );
+    let mut s = headline(a);
     for c in &a.controllers {
         let _ = writeln!(
             s,
@@ -65,13 +75,7 @@ pub fn full_text(a: &Audit, quiet: bool) -> String {
             );
         }
     }
-    let _ = writeln!(
-        s,
-        "verdict: {} ({})",
-        a.verdict.as_str().to_uppercase(),
-        super::counts_words(&a.checks)
-    );
-    s
+    s + &verdict_line(a)
 }
 
 /// The terminal summary, a handful of lines: the configuration, the controllers' worst
@@ -80,12 +84,7 @@ pub fn full_text(a: &Audit, quiet: bool) -> String {
 /// the report went, and the verdict
 /// (`quiet`: without the controllers' and the loops' lines).
 pub fn summary(a: &Audit, report: Option<&Path>, quiet: bool) -> String {
-    let mut s = String::new();
-    let _ = writeln!(
-        s,
-        "hil audit: base rate {} Hz, signals {}, coefficients {} ({})",
-        a.base_rate_hz, a.formats.signal, a.formats.coef, a.sample_type
-    );
+    let mut s = headline(a);
     let worst = |f: &dyn Fn(&super::ControllerAudit) -> f64| {
         a.controllers
             .iter()
@@ -166,21 +165,12 @@ pub fn summary(a: &Audit, report: Option<&Path>, quiet: bool) -> String {
             );
         }
     }
-    let _ = writeln!(
-        s,
-        "verdict: {} ({})",
-        a.verdict.as_str().to_uppercase(),
-        super::counts_words(&a.checks)
-    );
-    s
+    s + &verdict_line(a)
 }
 
 /// Write `audit.md`, `audit.txt` (the full text) and the plots into `dir`.
 pub fn write_report(a: &Audit, dir: &Path) -> Result<(), AuditError> {
-    std::fs::create_dir_all(dir).map_err(|e| AuditError::Io {
-        path: dir.to_path_buf(),
-        source: e,
-    })?;
+    std::fs::create_dir_all(dir).map_err(AuditError::io(dir))?;
     let plots = super::plots::write_plots(a, dir)?;
     let md = markdown(a, &plots);
     super::write(&dir.join("audit.txt"), &full_text(a, false))?;

@@ -24,6 +24,16 @@ pub struct Limit {
 }
 
 impl Limit {
+    /// The limit a `verdict` crossed: the failure limit on a fail, else the warning one.
+    #[must_use]
+    pub fn crossed(&self, verdict: Verdict) -> f64 {
+        if verdict == Verdict::Fail {
+            self.fail
+        } else {
+            self.warn
+        }
+    }
+
     /// The verdict for `value` (NaN fails).
     #[must_use]
     pub fn judge(&self, value: f64) -> Verdict {
@@ -245,17 +255,11 @@ impl Budgets {
                     },
                 });
             }
-            let t: toml::Table = text.parse().map_err(|e: toml::de::Error| BudgetError {
-                source: src.clone(),
-                reason: e.message().to_string(),
-            })?;
-            merge(&mut table, t);
-            Self::typed(table.clone(), &src)?;
+            Self::layer(&mut table, &text, &src)?;
             last = src;
         }
-        // Each `--set` is parsed and typed alone (so a syntax or type error names it);
-        // the limits are validated once, on the whole result, so the order of a
-        // `warn`/`fail` pair does not matter.
+        // Each `--set` parsed and typed alone (an error names it); the limits validated once, on
+        // the result, so a `warn`/`fail` pair may come in either order.
         for s in sets {
             let src = format!("--set {s}");
             if !s.contains('=') {
@@ -264,12 +268,7 @@ impl Budgets {
                     reason: "expected KEY=VALUE".into(),
                 });
             }
-            let t: toml::Table = s.parse().map_err(|e: toml::de::Error| BudgetError {
-                source: src.clone(),
-                reason: e.message().to_string(),
-            })?;
-            merge(&mut table, t);
-            Self::typed(table.clone(), &src)?;
+            Self::layer(&mut table, s, &src)?;
         }
         if !sets.is_empty() {
             last = if file.is_some() {
@@ -284,6 +283,15 @@ impl Budgets {
             reason,
         })?;
         Ok(b)
+    }
+
+    fn layer(table: &mut toml::Table, text: &str, src: &str) -> Result<(), BudgetError> {
+        let t: toml::Table = text.parse().map_err(|e: toml::de::Error| BudgetError {
+            source: src.to_string(),
+            reason: e.message().to_string(),
+        })?;
+        merge(table, t);
+        Self::typed(table.clone(), src).map(|_| ())
     }
 
     fn typed(t: toml::Table, src: &str) -> Result<Self, BudgetError> {

@@ -10,7 +10,7 @@
 
 use serde::Serialize;
 use wheelset_control::{Fx, InputCodes};
-use wheelset_proto::{encode_vec, Decoder, Lateral, Message, Sensor};
+use wheelset_proto::{Decoder, Message};
 use wheelset_runtime::{Runtime, RuntimeConfig, RuntimeError};
 
 use wheelset_loop::transport::{Transport, TransportError};
@@ -84,8 +84,7 @@ pub fn vectors() -> Result<Vec<Vector>, String> {
             codes(0, i.round() as i32, OMEGA, d)
         })
         .collect();
-    // Far beyond every clamp, alternating: input clamps, torque and voltage saturation,
-    // anti-windup.
+    // Far beyond every clamp, alternating: clamps, torque/voltage saturation, anti-windup.
     let saturation = (0..n)
         .map(|k| {
             let s = if (k / 250) % 2 == 0 { 1 } else { -1 };
@@ -140,17 +139,7 @@ pub struct Out {
 }
 
 fn sensor_frame(k: usize, s: &InputCodes) -> Vec<u8> {
-    let seq = (k as u16).wrapping_add(1);
-    let m = Message::Sensor(Sensor {
-        seq,
-        t_us: seq.wrapping_mul(200),
-        lateral: Lateral::Velocity(s.y_dot),
-        i_a_ma: s.current,
-        omega_m_mrad_s: s.speed,
-        demand_nm: s.demand,
-        v_ref_mm_s: 0,
-    });
-    encode_vec(&m).map(|f| f.to_vec()).unwrap_or_default()
+    wheelset_audit::on_target::sensor_frame((k as u16).wrapping_add(1), s).unwrap_or_default()
 }
 
 fn decode_actuations(bytes: &[u8], dec: &mut Decoder, out: &mut Vec<Out>) {

@@ -22,8 +22,8 @@ fn create_parent(path: &Path) -> io::Result<()> {
     }
 }
 
-/// Writes the verdict document as pretty JSON.
-pub fn write_json(report: &RunReport, path: &Path) -> io::Result<()> {
+/// Writes a document (the verdict document of a run) as pretty JSON, a newline after.
+pub fn write_json(report: &impl serde::Serialize, path: &Path) -> io::Result<()> {
     create_parent(path)?;
     let text = serde_json::to_string_pretty(report).map_err(io::Error::other)?;
     std::fs::write(path, text + "\n")
@@ -192,9 +192,8 @@ fn monitor(out: &RunOutcome) -> Figure {
     }
     let end = out.trajectory.records.last().map_or(1.0, |x| x.t_s);
     let peak = ms.iter().map(|p| p.1).fold(thr * thr, f64::max);
-    // The smallest value above zero sits a decade above the axis's floor; a mean square
-    // of exactly zero (below the monitor's resolution) has no place on a log axis and is
-    // drawn, in grey, at the floor.
+    // The smallest value above zero sits a decade above the floor; a mean square of exactly
+    // zero (below the monitor's resolution) is drawn, in grey, at the floor.
     let smallest = ms
         .iter()
         .map(|p| p.1)
@@ -312,8 +311,7 @@ fn exec_histogram(r: &RunReport) -> Figure {
         }
         p
     };
-    // In process the device reports 0 ns unless a device fault simulates its time: the
-    // budgets on an empty axis, and where the figures come from.
+    // In process (0 ns unless a device fault simulates it): the budgets and a note.
     if t.exec_ns.max <= 0.0 {
         return Figure::new(&format!(
             "Execution time per tick ({}: not measured)",

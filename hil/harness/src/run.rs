@@ -8,6 +8,7 @@
 //! A device on another target has its gains compiled in: parameters that change them
 //! are refused there ([`remote_gains`]).
 
+use std::borrow::Cow;
 use std::fmt;
 use std::time::Duration;
 
@@ -140,7 +141,9 @@ impl Law {
         }
     }
 
-    fn yaw(self) -> YawLaw {
+    /// The plant's yaw law.
+    #[must_use]
+    pub fn yaw(self) -> YawLaw {
         match self {
             Self::Passive => YawLaw::Passive,
             Self::Gain => YawLaw::Gain,
@@ -342,8 +345,7 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     }
     let mut rt = runtime_config_for(&sc, opts.control);
     let hz = run_rate(opts, rt.control.base_rate_hz)?;
-    // The gains designed for the rate and the exchange's delay; a point without a design
-    // is refused below with the reason.
+    // The gains designed for the rate and delay (a point without a design is refused below).
     let d = opts.delay_ticks.max(1);
     rt = rt.designed(hz, d).unwrap_or_else(|_| {
         let mut r = rt;
@@ -420,9 +422,8 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
         )),
         (true, true) => Some(device_config(&rt, wsp, opts.monitor_safe)?),
     };
-    // `--device-fault stall:T`: the harness sends InjectStall at T to a device whose
-    // watchdog resets it (the free-running QEMU build; the lock-step one has no watchdog,
-    // firmware/app/src/board/qemu/wdog.rs) and sends the Config again after the reset.
+    // `--device-fault stall:T`: InjectStall at T to a device whose watchdog resets it (the
+    // free-running QEMU build), the Config sent again after the reset.
     let stall_at_ns = match (opts.device_fault, &opts.target) {
         (DeviceFault::Stall { at_ns }, Target::QemuFree) => Some(at_ns),
         (DeviceFault::Stall { .. }, t) => {
@@ -478,8 +479,7 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
             wheelset_loop::device_loop::DeviceError::Refused(why, cfg).to_string(),
         )));
     }
-    // At a rate or delay other than the scenario's own the device runs the gains designed
-    // for it: the f64 core with those gains and that delay is the yardstick.
+    // At another rate or delay the yardstick is the f64 core with the gains designed for it.
     let designed = other_point.then_some(&rt.control);
     let (reference, fine) = reference::make(&sc, opts.control.yaw(), wsp, period_ns, designed)?;
     let timing = analyse(
@@ -489,30 +489,19 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
         (cl.rec.host.bytes_sent, cl.rec.host.bytes_received),
         &opts.budgets.timing,
     );
-    // A plant fault (scenario data) makes the wheelset hunt by design after it: the
-    // numerics judge the device against the reference up to the fault.
+    // After a plant fault the wheelset hunts by design: judged up to the fault.
     let trajectory = cl.trajectory;
-    let (numerics, numerics_errors) = match sc.actuator_fault {
-        Some(f) => {
-            let (run, reference) = (
-                before(&trajectory, f.t_on_s()),
-                before(&reference, f.t_on_s()),
-            );
-            let fine = fine.map(|r| before(&r, f.t_on_s()));
-            let tol = &opts.budgets.numerics;
-            (
-                compare_fine(&run, &reference, fine.as_ref(), tol),
-                judged_errors(&run, &reference, fine.as_ref(), tol),
-            )
-        }
-        None => {
-            let tol = &opts.budgets.numerics;
-            (
-                compare_fine(&trajectory, &reference, fine.as_ref(), tol),
-                judged_errors(&trajectory, &reference, fine.as_ref(), tol),
-            )
-        }
+    let (judged, yardstick, fine) = match sc.actuator_fault.map(|f| f.t_on_s()) {
+        Some(t) => (
+            Cow::Owned(before(&trajectory, t)),
+            Cow::Owned(before(&reference, t)),
+            fine.map(|r| before(&r, t)),
+        ),
+        None => (Cow::Borrowed(&trajectory), Cow::Borrowed(&reference), fine),
     };
+    let tol = &opts.budgets.numerics;
+    let numerics = compare_fine(&judged, &yardstick, fine.as_ref(), tol);
+    let numerics_errors = judged_errors(&judged, &yardstick, fine.as_ref(), tol);
     let (host, mut status) = (cl.rec.host, cl.rec.status);
     let (device_resets, first_reset_s) = (
         cl.rec.device_resets,
@@ -552,9 +541,8 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
         &mon_params,
         crate::check::alarms::alarms(flags),
     );
-    // The Status's first alarm: its tick, and that tick's sample instant (ticks count from
-    // the run's start; a lock-step device's Config frame was one tick before the first
-    // sample).
+    // The Status's first alarm tick and its sample instant (ticks count from the run's
+    // start; a lock-step device's Config frame was one tick before the first sample).
     let pre = u32::from(lockstep_config.is_some());
     monitor.device_first_alarm_tick = status
         .as_ref()
@@ -563,14 +551,12 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     monitor.device_first_alarm_s = monitor
         .device_first_alarm_tick
         .map(|n| f64::from(n.saturating_sub(1 + pre)) * period_ns as f64 * 1e-9);
-    // The drive check: the current loop at the plant's armature, the device's PI.
     monitor.drive.device_first_alarm_tick = status
         .as_ref()
         .map(|s| s.first_drive_alarm_tick)
         .filter(|&n| n > 0);
     let end_s = trajectory.records.last().map_or(0.0, |x| x.t_s);
-    // The delay the loop ran with: the latency's 99th percentile in whole periods, and
-    // at least the delay the host applies the actuations with.
+    // The loop's delay: the latency's p99 in whole periods, at least the host's delay.
     let delay = (timing.latency_ns.p99 / period_ns as f64).ceil();
     let delay_ticks = if delay.is_finite() && delay > 1.0 {
         (delay as usize).min(wheelset_plant::sampled::MAX_HYPER_PERIOD)

@@ -210,11 +210,7 @@ pub fn failing(r: &RunReport) -> Vec<Failing> {
                 "{:.4} above the {} limit {} (warn {}, fail {})",
                 c.value,
                 c.verdict,
-                if c.verdict == Verdict::Fail {
-                    c.limit.fail
-                } else {
-                    c.limit.warn
-                },
+                c.limit.crossed(c.verdict),
                 c.limit.warn,
                 c.limit.fail
             ),
@@ -271,7 +267,6 @@ pub fn failing(r: &RunReport) -> Vec<Failing> {
     out
 }
 
-/// Runs one point.
 fn run_point(
     c: &Campaign,
     index: usize,

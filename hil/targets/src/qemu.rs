@@ -27,7 +27,7 @@ pub use crate::qemu::cmd::{ICOUNT_SHIFT, QEMU_BIN};
 pub const TICK_MEAN_BUDGET_INSTRUCTIONS: u64 = 2_500;
 /// Budget of the tick's maximum over the 20 s `curve` under QEMU (test `qemu_curve`).
 pub const TICK_MAX_BUDGET_INSTRUCTIONS: u64 = 4_000;
-use bulk::poll_readable;
+use crate::realtime::poll_readable;
 use pin::next_core;
 
 /// Largest frame [`Qemu::recv_frame`] accepts, delimiter excluded.
@@ -289,23 +289,17 @@ impl Qemu {
             pinned_cpu: core,
             sched_rr: None,
         };
+        let wrap = |prog: &str, args: [String; 2], cmd: &Command| {
+            let mut w = Command::new(prog);
+            w.args(args).arg(cmd.get_program()).args(cmd.get_args());
+            w
+        };
         if let Some(core) = core {
-            let mut pinned = Command::new("taskset");
-            pinned
-                .arg("-c")
-                .arg(core.to_string())
-                .arg(cmd.get_program())
-                .args(cmd.get_args());
-            cmd = pinned;
+            cmd = wrap("taskset", ["-c".into(), core.to_string()], &cmd);
         }
         if cfg.free_run && cfg.realtime && pin::free_run_rr() {
             launch.sched_rr = Some(pin::FREE_RUN_RR);
-            let mut rr = Command::new("chrt");
-            rr.arg("-r")
-                .arg(pin::FREE_RUN_RR.to_string())
-                .arg(cmd.get_program())
-                .args(cmd.get_args());
-            cmd = rr;
+            cmd = wrap("chrt", ["-r".into(), pin::FREE_RUN_RR.to_string()], &cmd);
         }
         let child = cmd
             .stdin(Stdio::null())
@@ -324,16 +318,32 @@ impl Qemu {
         timeout: Duration,
     ) -> Result<Self, QemuError> {
         let child = guard.0.take().ok_or(QemuError::Exited(String::new()))?;
-        Ok(Self {
-            launch: guard.1,
-            child: Some(child),
+        Ok(Self::on_link(
+            link,
+            Some(child),
+            guard.1,
+            stderr_path,
+            timeout,
+        ))
+    }
+
+    fn on_link(
+        link: Link,
+        child: Option<Child>,
+        launch: Launch,
+        stderr_path: PathBuf,
+        timeout: Duration,
+    ) -> Self {
+        Self {
+            launch,
+            child,
             link,
             stderr_path,
             rx: Vec::with_capacity(RX_CHUNK + MAX_FRAME),
             rx_at: 0,
             pending: Vec::new(),
             timeout,
-        })
+        }
     }
 
     /// How this QEMU was started (its core and real-time priority).
@@ -407,17 +417,15 @@ impl Qemu {
         stream
             .set_read_timeout(Some(timeout))
             .map_err(QemuError::Io)?;
-        Ok(Self {
-            // Started elsewhere: not known here.
-            launch: Launch::default(),
-            child: None,
-            link: Link::Tcp(stream),
-            stderr_path: PathBuf::new(),
-            rx: Vec::with_capacity(RX_CHUNK + MAX_FRAME),
-            rx_at: 0,
-            pending: Vec::new(),
+        // Started elsewhere: how is not known here.
+        let (child, launch) = (None, Launch::default());
+        Ok(Self::on_link(
+            Link::Tcp(stream),
+            child,
+            launch,
+            PathBuf::new(),
             timeout,
-        })
+        ))
     }
 
     /// A second handle on the TCP link to UART0; an error on the bulk channel.
@@ -432,12 +440,8 @@ impl Qemu {
 
     /// Sends raw bytes to the firmware's UART0 (after any bytes [`Self::queue`]d).
     pub fn send(&mut self, bytes: &[u8]) -> Result<(), QemuError> {
-        self.flush()?;
-        let r = match &mut self.link {
-            Link::Tcp(s) => s.write_all(bytes),
-            Link::Bulk { tx, .. } => tx.write_all(bytes),
-        };
-        r.map_err(|e| self.link_error(e))
+        self.queue(bytes);
+        self.flush()
     }
 
     /// Queues bytes for the device: written, with any queued before, when the host next

@@ -296,18 +296,19 @@ impl RealTime {
                 self.ingest(at, buf.get(..n).unwrap_or(&[]));
                 Ok(())
             }
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    io::ErrorKind::TimedOut
-                        | io::ErrorKind::WouldBlock
-                        | io::ErrorKind::Interrupted
-                ) =>
-            {
-                Ok(())
-            }
+            Err(e) if crate::serial::nothing_yet(&e) => Ok(()),
             Err(e) => Err(io_err(&self.path, &e)),
         }
+    }
+
+    /// Reads period by period until `done` holds or the timeout runs out; whether it holds.
+    fn wait_for(&mut self, done: impl Fn(&Self) -> bool) -> Result<bool, TransportError> {
+        let give_up = Instant::now() + self.o.timeout;
+        while !done(self) && Instant::now() < give_up {
+            let d = Instant::now() + self.period();
+            self.wait_until(d)?;
+        }
+        Ok(done(self))
     }
 
     /// Reads until `deadline`: bounded waits up to `spin` before it, then non-blocking.
@@ -427,20 +428,6 @@ impl RealTime {
         }
     }
 
-    /// The host's deadlines so far.
-    #[must_use]
-    pub fn host_deadlines(&self) -> HostDeadlines {
-        self.host_report()
-    }
-
-    /// The start-up synchronisation so far.
-    #[must_use]
-    pub fn sync_report(&self) -> &SyncReport {
-        &self.sync
-    }
-}
-
-impl RealTime {
     /// The run's start for the frame accounting, once the baseline was taken.
     #[must_use]
     pub fn run_start(&self) -> Option<RunStart> {
@@ -459,12 +446,12 @@ pub fn echoes_this_run(echo: u16, first: u16, last: u16) -> bool {
     echo != 0 && echo.wrapping_sub(first) <= last.wrapping_sub(first)
 }
 
-/// Waits at most `wait` (ns resolution, `ppoll`) until `s` is readable or hung up.
+/// Waits at most `wait` (ns resolution, `ppoll`) until `fd` is readable or hung up;
+/// `false` on timeout (`true` when a signal interrupts the wait).
 #[allow(unsafe_code)]
-fn poll_readable(s: &TcpStream, wait: Duration) -> io::Result<()> {
-    use std::os::fd::AsRawFd;
+pub(crate) fn poll_readable(fd: &impl std::os::fd::AsRawFd, wait: Duration) -> io::Result<bool> {
     let mut p = libc::pollfd {
-        fd: s.as_raw_fd(),
+        fd: fd.as_raw_fd(),
         events: libc::POLLIN,
         revents: 0,
     };
@@ -473,15 +460,17 @@ fn poll_readable(s: &TcpStream, wait: Duration) -> io::Result<()> {
         tv_nsec: libc::c_long::from(wait.subsec_nanos()),
     };
     // SAFETY: one valid `pollfd` and one valid `timespec` for the call, no signal mask
-    // (null), an fd owned by `s` and open throughout.
+    // (null), an fd owned by the caller's `fd` and open throughout.
     let r = unsafe { libc::ppoll(&mut p, 1, &ts, std::ptr::null()) };
     if r < 0 {
         let e = io::Error::last_os_error();
-        if e.kind() != io::ErrorKind::Interrupted {
-            return Err(e);
-        }
+        return if e.kind() == io::ErrorKind::Interrupted {
+            Ok(true)
+        } else {
+            Err(e)
+        };
     }
-    Ok(())
+    Ok(r > 0)
 }
 
 /// Whether the frames in `bytes` hold a Status frame.
@@ -496,6 +485,13 @@ fn is_status(bytes: &[u8]) -> bool {
 /// `x` wrapped into `[-t/2, t/2)`.
 fn wrap(x: f64, t: f64) -> f64 {
     x - t * (x / t).round()
+}
+
+/// The median of the device's reported execution times `execs` (cycles at `cpu_hz`), ns.
+fn median_exec_ns(execs: impl Iterator<Item = u32>, cpu_hz: f64) -> f64 {
+    let mut v: Vec<f64> = execs.map(|e| f64::from(e) * 1e9 / cpu_hz).collect();
+    v.sort_by(f64::total_cmp);
+    v.get(v.len() / 2).copied().unwrap_or(0.0)
 }
 
 /// The lower decile of `v` (reorders it; 0 when empty).

@@ -61,6 +61,7 @@ mod proven;
 
 pub use observed::observed_errors;
 pub use proven::{lead_error_systems, lead_systems, proven, Proven, Quantised};
+pub(crate) use proven::{qc, quantise};
 
 use serde::Serialize;
 use wheelset_control::Config;

@@ -3,7 +3,7 @@
 
 use wheelset_control::{Config, ConfigError, Controller, Lead, Pi, PiState, Sample};
 
-use super::Quantised;
+use super::{quantise, Quantised};
 use crate::ranges::Scenario;
 
 /// Largest |fixed - exact| over the scenarios for the lead (with the predictor), the
@@ -17,18 +17,9 @@ pub fn observed_errors<T: Sample>(
     let c = Controller::<T>::try_new(cfg)?;
     let lead: Lead<T> = *c.lead();
     let pi: Pi<T> = *c.pi();
-    let ph = T::quantise(k.ph).ok_or(ConfigError::Coefficient {
-        name: "predict_half",
-        value: k.ph,
-    })?;
-    let gain = T::quantise(k.gain).ok_or(ConfigError::Coefficient {
-        name: "gain",
-        value: k.gain,
-    })?;
-    let d2i = T::quantise(k.d2i).ok_or(ConfigError::Coefficient {
-        name: "demand_to_iref",
-        value: k.d2i,
-    })?;
+    let ph = quantise::<T>("predict_half", k.ph)?;
+    let gain = quantise::<T>("gain", k.gain)?;
+    let d2i = quantise::<T>("demand_to_iref", k.d2i)?;
     let s = cfg.scales;
     let l = &k.lead;
     let mut worst = [0.0f64; 4];
@@ -36,7 +27,6 @@ pub fn observed_errors<T: Sample>(
     let yd = cfg.yaw_divisor.max(1) as usize;
     let td = cfg.traction_divisor.max(1) as usize;
     for sc in scenarios {
-        // Yaw: fixed and exact predictor + lead + gain.
         let mut st = wheelset_control::LeadState::<T>::default();
         let (mut ez, mut ex1) = (0.0f64, 0.0f64);
         let (mut yp_f, mut yp_e) = (T::ZERO, 0.0f64);

@@ -50,10 +50,13 @@ pub struct Quantised {
     pub i_safe_step: f64,
 }
 
-fn qc<T: Sample>(name: &'static str, v: f64) -> Result<f64, ConfigError> {
-    T::quantise(v)
-        .map(T::coeff_to_f64)
-        .ok_or(ConfigError::Coefficient { name, value: v })
+/// `v` quantised as the controller holds a coefficient; the error names it.
+pub(crate) fn quantise<T: Sample>(name: &'static str, v: f64) -> Result<T::Coeff, ConfigError> {
+    T::quantise(v).ok_or(ConfigError::Coefficient { name, value: v })
+}
+
+pub(crate) fn qc<T: Sample>(name: &'static str, v: f64) -> Result<f64, ConfigError> {
+    quantise::<T>(name, v).map(T::coeff_to_f64)
 }
 
 fn qs<T: Sample>(v: f64) -> f64 {
@@ -381,7 +384,6 @@ pub fn proven(k: &Quantised, cfg: &Config, q: f64) -> Proven {
         "interval: S |K_m| + q/2".into(),
     );
     let _ = (k.i_step, k.i_safe_step);
-    // The linear parts.
     let mut parts: Vec<LinearPart> = sys
         .iter()
         .map(|(n, s)| LinearPart {

@@ -182,20 +182,10 @@ pub fn alarms(samples: impl IntoIterator<Item = FlagSample>) -> Vec<Alarm> {
     let (mut h0, mut a0, mut d0) = (false, false, false);
     for (t_ns, h, a, d) in samples {
         let t_s = t_ns as f64 * 1e-9;
-        if d && !d0 {
-            out.push(Alarm { kind: "drive", t_s });
-        }
-        if a && !a0 {
-            out.push(Alarm {
-                kind: "actuator",
-                t_s,
-            });
-        }
-        if h && !h0 {
-            out.push(Alarm {
-                kind: "hunting",
-                t_s,
-            });
+        for (kind, now, was) in [("drive", d, d0), ("actuator", a, a0), ("hunting", h, h0)] {
+            if now && !was {
+                out.push(Alarm { kind, t_s });
+            }
         }
         (h0, a0, d0) = (h, a, d);
     }

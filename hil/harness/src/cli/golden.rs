@@ -35,14 +35,11 @@ pub(crate) struct GoldenArgs {
 }
 
 pub(crate) fn parse_golden_target(s: &str) -> Result<Target, String> {
-    match s.parse::<Target>()? {
-        t @ (Target::InProc | Target::Qemu) => Ok(t),
-        Target::QemuAt(_) => Err(
-            "golden vectors start a fresh QEMU per vector (--target qemu), not one started by hand"
-                .into(),
-        ),
-        Target::Serial(_) | Target::QemuFree => Err("golden vectors run on inproc or qemu".into()),
-    }
+    super::inproc_or_qemu(
+        s,
+        "golden vectors start a fresh QEMU per vector (--target qemu), not one started by hand",
+        "golden vectors run on inproc or qemu",
+    )
 }
 
 pub(crate) fn cmd_golden(g: &GoldenArgs) -> Result<Verdict, Failure> {
@@ -81,10 +78,8 @@ pub(crate) fn cmd_golden(g: &GoldenArgs) -> Result<Verdict, Failure> {
     let opts = RunOptions {
         target: g.target.clone(),
         machine: g.machine,
-        // The host side runs the runtime at its own configuration, which has the
-        // wheel-slip protection off until a Config turns it on; the in-process target
-        // is configured by `open_transport`, so it is told the same (`hil run` turns it
-        // on by default).
+        // As the host side's runtime (its own configuration: wheel-slip protection off until a
+        // Config); `hil run` turns it on by default.
         wsp: Some(false),
         ..RunOptions::default()
     };
@@ -149,8 +144,7 @@ pub(crate) fn cmd_golden(g: &GoldenArgs) -> Result<Verdict, Failure> {
             "target": g.target.to_string(),
             "vectors": results,
         });
-        let text = serde_json::to_string_pretty(&doc).unwrap_or_default();
-        std::fs::write(p, text + "\n")
+        hil::report::write_json(&doc, p)
             .map_err(|e| input(format!("{}: cannot write: {e}", p.display())))?;
     }
     Ok(if all { Verdict::Pass } else { Verdict::Fail })

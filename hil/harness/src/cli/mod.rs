@@ -15,10 +15,11 @@ pub(crate) use soak::{cmd_soak, SoakArgs};
 pub(crate) use sweep::{cmd_sweep, SweepCmd};
 
 use clap::ValueEnum;
-use hil::run::RunError;
+use hil::run::{Law, RunError, Target};
 use wheelset_loop::sim_link::Faults;
 use wheelset_plant::params::Params;
 use wheelset_targets::qemu::machine::Machine;
+use wheelset_targets::qemu::Channel;
 
 /// A failure with its exit code.
 pub(crate) struct Failure {
@@ -60,6 +61,50 @@ pub(crate) enum Control {
     Gain,
     /// Phase lead `K 7.5 (s+37)/(s+274)` on `y'`.
     Lead,
+}
+
+impl Control {
+    /// The law; a scenario meant for other laws (its `laws` key) warns first.
+    pub(crate) fn law_for(self, scenario: &str, params: &Params) -> Law {
+        let law = match self {
+            Self::Passive => Law::Passive,
+            Self::Gain => Law::Gain,
+            Self::Lead => Law::Lead,
+        };
+        if let Ok(sc) = wheelset_plant::scenario::Scenario::load(scenario, params) {
+            if let Some(w) = sc.law_warning(law.yaw()) {
+                eprintln!("hil: warning: {w}");
+            }
+        }
+        law
+    }
+}
+
+/// `--qemu-link bulk` only on the QEMU target, `--faults` only on the simulated link.
+pub(crate) fn check_link_flags(
+    target: &Target,
+    qemu_link: Channel,
+    faults: &Faults,
+) -> Result<(), Failure> {
+    if *target != Target::Qemu && qemu_link != Channel::Uart {
+        return Err(input(format!(
+            "--qemu-link bulk: the bulk channel is the QEMU target's, not {target}'s"
+        )));
+    }
+    if *target != Target::InProc && *faults != Faults::none() {
+        return Err(input(format!(
+            "--faults: the fault injection is part of the simulated link; target {target} has a real one"
+        )));
+    }
+    Ok(())
+}
+
+pub(crate) fn inproc_or_qemu(s: &str, by_hand: &str, other: &str) -> Result<Target, String> {
+    match s.parse::<Target>()? {
+        t @ (Target::InProc | Target::Qemu) => Ok(t),
+        Target::QemuAt(_) => Err(by_hand.into()),
+        Target::Serial(_) | Target::QemuFree => Err(other.into()),
+    }
 }
 
 pub(crate) fn parse_machine(s: &str) -> Result<Machine, String> {

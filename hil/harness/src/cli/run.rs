@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use clap::{Args, ValueEnum};
 use hil::budget::Budgets;
 use hil::report;
-use hil::run::{run, Law, RunOptions, Target};
+use hil::run::{run, RunOptions, Target};
 use wheelset_loop::inproc::DeviceFault;
 use wheelset_loop::sim_link::{Faults, LinkConfig};
 use wheelset_plant::params::Params;
@@ -165,47 +165,23 @@ pub(crate) fn cmd_run(a: &RunArgs, command: &str) -> Result<Verdict, Failure> {
             a.cpu_hz
         )));
     }
-    // A scenario meant for other laws (its `laws` key) warns before the run; a file
-    // that does not load is reported by the run itself.
-    if let Ok(sc) = wheelset_plant::scenario::Scenario::load(&a.scenario, &params) {
-        let law = match a.control {
-            Control::Passive => wheelset_plant::control::YawLaw::Passive,
-            Control::Gain => wheelset_plant::control::YawLaw::Gain,
-            Control::Lead => wheelset_plant::control::YawLaw::Lead,
-        };
-        if let Some(w) = sc.law_warning(law) {
-            eprintln!("hil: warning: {w}");
-        }
-    }
+    let law = a.control.law_for(&a.scenario, &params);
     if a.target != Target::Qemu && a.machine != Machine::default() {
         return Err(input(format!(
             "--machine {}: the emulated board is for --target qemu, not {}",
             a.machine, a.target
         )));
     }
-    if a.target != Target::Qemu && a.qemu_link != wheelset_targets::qemu::Channel::Uart {
+    super::check_link_flags(&a.target, a.qemu_link, &a.faults)?;
+    if a.target != Target::InProc
+        && a.device_fault != DeviceFault::None
+        && !(a.target == Target::QemuFree && matches!(a.device_fault, DeviceFault::Stall { .. }))
+    {
         return Err(input(format!(
-            "--qemu-link bulk: the bulk channel is the QEMU target's, not {}'s",
+            "--device-fault: only the in-process device can be broken on purpose (and \
+             `stall:T` needs --target qemu-free), not {}",
             a.target
         )));
-    }
-    if a.target != Target::InProc {
-        if a.faults != Faults::none() {
-            return Err(input(format!(
-                "--faults: the fault injection is part of the simulated link; target {} has a real one",
-                a.target
-            )));
-        }
-        if a.device_fault != DeviceFault::None
-            && !(a.target == Target::QemuFree
-                && matches!(a.device_fault, DeviceFault::Stall { .. }))
-        {
-            return Err(input(format!(
-                "--device-fault: only the in-process device can be broken on purpose (and \
-                 `stall:T` needs --target qemu-free), not {}",
-                a.target
-            )));
-        }
     }
     let latency_us = a.latency_us.unwrap_or(2.0);
     if !(latency_us.is_finite() && (0.0..=1e6).contains(&latency_us)) {
@@ -239,17 +215,12 @@ pub(crate) fn cmd_run(a: &RunArgs, command: &str) -> Result<Verdict, Failure> {
     if let Some(d) = &a.report {
         wheelset_report::output::check_dir_flag("--report", d).map_err(input)?;
     }
-    // The faults as applied (canonical spec), whichever form the flag took
-    // (`--faults SPEC` or `--faults=SPEC`).
+    // The faults as applied (canonical spec), whichever form the flag took.
     let faults_spec = a.faults.to_string();
     let opts = RunOptions {
         target: a.target.clone(),
         scenario: a.scenario.clone(),
-        control: match a.control {
-            Control::Passive => Law::Passive,
-            Control::Gain => Law::Gain,
-            Control::Lead => Law::Lead,
-        },
+        control: law,
         faults_spec,
         device_fault: a.device_fault,
         budgets,
@@ -363,11 +334,7 @@ pub(crate) fn print_summary(r: &hil::run::RunReport) {
             c.value,
             check_unit(&c.name),
             c.verdict,
-            if c.verdict == Verdict::Fail {
-                c.limit.fail
-            } else {
-                c.limit.warn
-            },
+            c.limit.crossed(c.verdict),
             c.limit.warn,
             c.limit.fail
         );

@@ -153,8 +153,7 @@ pub(crate) fn cmd_serve(a: &ServeArgs) -> Result<Verdict, Failure> {
         );
     }
     if let Some(p) = &a.json {
-        let text = serde_json::to_string_pretty(&rep).unwrap_or_default();
-        std::fs::write(p, text + "\n")
+        hil::report::write_json(&rep, p)
             .map_err(|e| input(format!("{}: cannot write: {e}", p.display())))?;
     }
     Ok(Verdict::Pass)

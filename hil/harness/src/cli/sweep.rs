@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use clap::{Args, Subcommand};
 use hil::budget::Budgets;
-use hil::run::{Law, RunOptions, Target};
+use hil::run::{RunOptions, Target};
 use wheelset_loop::sim_link::{Faults, LinkConfig};
 use wheelset_report::Verdict;
 
@@ -117,15 +117,11 @@ fn env_var(name: &str) -> Option<String> {
 }
 
 pub(crate) fn parse_sweep_target(s: &str) -> Result<Target, String> {
-    match s.parse::<Target>()? {
-        t @ (Target::InProc | Target::Qemu) => Ok(t),
-        Target::QemuAt(_) => {
-            Err("a sweep starts its own QEMUs (--target qemu), not one started by hand".into())
-        }
-        Target::Serial(_) | Target::QemuFree => {
-            Err("a sweep runs on inproc or qemu (one board cannot run a grid in parallel)".into())
-        }
-    }
+    super::inproc_or_qemu(
+        s,
+        "a sweep starts its own QEMUs (--target qemu), not one started by hand",
+        "a sweep runs on inproc or qemu (one board cannot run a grid in parallel)",
+    )
 }
 
 pub(crate) fn cmd_sweep(c: &SweepCmd, command: &str) -> Result<Verdict, Failure> {
@@ -207,36 +203,11 @@ pub(crate) fn cmd_sweep(c: &SweepCmd, command: &str) -> Result<Verdict, Failure>
         Some(n) => n,
         None => std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get),
     };
-    if a.target != Target::Qemu && a.qemu_link != wheelset_targets::qemu::Channel::Uart {
-        return Err(input(format!(
-            "--qemu-link bulk: the bulk channel is the QEMU target's, not {}'s",
-            a.target
-        )));
-    }
-    if a.target != Target::InProc && a.faults != Faults::none() {
-        return Err(input(format!(
-            "--faults: the fault injection is part of the simulated link; target {} has a real one",
-            a.target
-        )));
-    }
+    super::check_link_flags(&a.target, a.qemu_link, &a.faults)?;
     let budgets = Budgets::load(a.budget.as_deref(), &a.sets).map_err(|e| input(e.to_string()))?;
     let params = load_params(a.params.as_deref())?;
     let identity = identity(a)?;
-    let law = match a.control {
-        Control::Passive => Law::Passive,
-        Control::Gain => Law::Gain,
-        Control::Lead => Law::Lead,
-    };
-    if let Ok(sc) = wheelset_plant::scenario::Scenario::load(&a.scenario, &params) {
-        let yaw = match a.control {
-            Control::Passive => wheelset_plant::control::YawLaw::Passive,
-            Control::Gain => wheelset_plant::control::YawLaw::Gain,
-            Control::Lead => wheelset_plant::control::YawLaw::Lead,
-        };
-        if let Some(w) = sc.law_warning(yaw) {
-            eprintln!("hil: warning: {w}");
-        }
-    }
+    let law = a.control.law_for(&a.scenario, &params);
     let campaign = sweep::Campaign {
         base: RunOptions {
             target: a.target.clone(),
@@ -294,8 +265,7 @@ pub(crate) fn cmd_sweep(c: &SweepCmd, command: &str) -> Result<Verdict, Failure>
     if let Some(pb) = &bar {
         pb.finish_and_clear();
     }
-    // On the console only (standard error: a figure of the machine and its load, beside
-    // the progress bar): the document's shards merge byte for byte.
+    // Standard error only (a figure of the machine): the shards' documents merge byte for byte.
     eprintln!("hil sweep: throughput: {cost} ({jobs} threads)");
     write(&doc, json, a.report.as_deref())
 }
@@ -323,8 +293,7 @@ fn identity(a: &SweepArgs) -> Result<hil::sweep::Identity, Failure> {
             ),
             _ => None,
         },
-        // A built-in scenario is part of the binary; a name that is neither is refused
-        // by the run with the list of built-ins.
+        // A built-in scenario is part of the binary; an unknown name is refused by the run.
         scenario_sha256: if wheelset_plant::scenario::BUILTIN
             .iter()
             .any(|(n, _)| *n == a.scenario)

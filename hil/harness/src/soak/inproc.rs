@@ -330,7 +330,6 @@ struct Account {
     first_alarm_tick: Option<u32>,
 }
 
-/// The soak's state.
 struct Soak {
     opts: SoakOptions,
     rt: Runtime<Fx>,
@@ -413,8 +412,7 @@ impl Soak {
         let sc = Scenario::load("curve", &Params::default()).map_err(|e| e.to_string())?;
         let base = runtime_config_for(&sc, Law::Lead);
         let mut rt = Runtime::<Fx>::try_new(base).map_err(|e| e.to_string())?;
-        // Every design point the service moves between, computed once (the host's side
-        // of a rate change: `wheelset_runtime::rates_for`).
+        // Every design point of the service, computed once (`wheelset_runtime::rates_for`).
         let mut configs = [None; 8];
         for &hz in &super::service::RATES_HZ {
             for lead in [false, true] {
@@ -428,10 +426,9 @@ impl Soak {
                 configs[config_slot(hz, lead)] = Some(cfg);
             }
         }
-        // The device's start: the run's Config (the protection on, alarms reported), and
-        // every 32-bit counter near its wrap: the tick and frame counts wrap halfway
-        // through the run, the others within a few hundred events; the host's `seq`
-        // wraps within 100 periods.
+        // The device's start: the run's Config (protection on, alarms reported) and every 32-bit
+        // counter near its wrap (tick and frame counts wrap halfway through the run, the others
+        // within a few hundred events; the host's `seq` within 100 periods).
         let boot = wheelset_loop::device_loop::run_config(&base, true, false);
         let frame = encode_vec(&Message::Config(boot)).map_err(|e| format!("{e:?}"))?;
         rt.receive(&frame);
@@ -494,7 +491,7 @@ impl Soak {
             params,
             x,
             gain: 1.0,
-            track: Track::new(),
+            track: Track::default(),
             demand: Demand::new(opts.service.demand_steps),
             rng_track: Pcg64::seed_from_u64(opts.seed ^ 0x50a4_0004),
             rng_service,
@@ -568,7 +565,6 @@ impl Soak {
         }
     }
 
-    /// Runs to the end or the first failure.
     fn run(&mut self) {
         let t0 = Instant::now();
         let mut next_hour = 3_600_000_000_000u64;
@@ -671,14 +667,12 @@ impl Soak {
         }
     }
 
-    /// One period: exchange, checks, plant.
     fn period(&mut self) {
         let t = self.t_ns;
         self.service(t);
         let (curvature, cant) = self.track.at(&mut self.rng_track, t);
         let demand = self.demand.at(&mut self.rng_track, t);
         let x = self.x;
-        // Up: the Sensor frame, then a Config or Commands.
         self.seq = self.seq.wrapping_add(1);
         let si = SensorSi {
             y_dot: x[ix::YD],
@@ -719,7 +713,6 @@ impl Soak {
             self.clear_next_ns = t + 10_000_000;
             cleared = self.command(&mut at, Command::ClearFaults);
         }
-        // The device's tick.
         let tick_at = t + PHASE_NS;
         let mut out = [0u8; TX_CAPACITY];
         let n = {
@@ -730,7 +723,6 @@ impl Soak {
         };
         let out = &mut out[..n];
         self.after_tick(t, fresh, config_applied, status_requested, cleared, out);
-        // Down: each frame, the host's decoder.
         let mut fresh_act: Option<Actuation> = None;
         let mut status: Option<Status> = None;
         let mut at = tick_at;
@@ -782,7 +774,6 @@ impl Soak {
             );
         }
         self.t_ns = t + self.period_ns;
-        // The device's ticker at its rate from now on.
         let hz = self.rt.base_rate_hz();
         if hz != self.acc.rate_hz {
             self.fail(format!(
@@ -880,7 +871,6 @@ impl Soak {
         if status_requested {
             acc.statuses += 1;
         }
-        // The device's frames as it sent them.
         let mut a = None;
         let mut st = false;
         let mut wrong = None;
@@ -962,7 +952,6 @@ impl Soak {
                 a.t_psi_dnm
             ));
         }
-        // Alarms: rising edges counted; only where the account expects them.
         let alarm_bits = f.0 & (Flags::HUNTING | Flags::ACTUATOR_FAULT | Flags::DRIVE_OSC);
         let rose = alarm_bits & !acc.alarm_flags;
         acc.alarm_flags = alarm_bits;
@@ -1039,75 +1028,45 @@ impl Soak {
     fn check_status(&mut self, s: &Status) {
         self.report.statuses_checked += 1;
         let (st, acc, up, down) = (&self.start, &self.acc, &self.up.counts, &self.down.counts);
-        let d = |now: u32, then: u32| now.wrapping_sub(then);
-        let w = |n: u64| n as u32;
+        let d = |f: fn(&Status) -> u32| f(s).wrapping_sub(f(st));
         let mut broke = Vec::new();
-        let mut eq = |name: &str, device: u32, harness: u32| {
+        for (name, device, harness) in [
+            (
+                "valid frames up",
+                d(|x| x.rx_ok).wrapping_add(d(|x| x.rx_unexpected)),
+                up.ok_events,
+            ),
+            ("CRC rejects", d(|x| x.rx_crc), up.rejects[0]),
+            ("COBS rejects", d(|x| x.rx_cobs), up.rejects[1]),
+            ("version rejects", d(|x| x.rx_version), up.rejects[2]),
+            ("length rejects", d(|x| x.rx_length), up.rejects[3]),
+            ("postcard rejects", d(|x| x.rx_postcard), up.rejects[4]),
+            ("ticks", d(|x| x.ticks), acc.ticks),
+            (
+                "frames down (ticks + Status frames)",
+                d(|x| x.ticks).wrapping_add(acc.statuses as u32),
+                down.sent,
+            ),
+            ("held ticks", d(|x| x.held_ticks), acc.held),
+            ("safe ticks", d(|x| x.safe_ticks), acc.safe_ticks),
+            ("safe entries", d(|x| x.safe_entries), acc.safe_entries),
+            ("safe exits", d(|x| x.safe_exits), acc.safe_exits),
+            ("seq gaps", d(|x| x.seq_gaps), acc.seq_gaps),
+            ("hunting alarms", d(|x| x.hunt_alarms), acc.rises[0]),
+            ("actuator alarms", d(|x| x.act_alarms), acc.rises[1]),
+            ("drive alarms", d(|x| x.drive_alarms), acc.rises[2]),
+            ("refusals", d(|x| x.cmd_refused), 0),
+            (
+                "first alarm tick",
+                s.first_alarm_tick,
+                acc.first_alarm_tick.map_or(0, u64::from),
+            ),
+        ] {
+            let harness = harness as u32;
             if device != harness {
                 broke.push(format!("{name}: device {device}, harness {harness}"));
             }
-        };
-        eq(
-            "valid frames up",
-            d(s.rx_ok, st.rx_ok).wrapping_add(d(s.rx_unexpected, st.rx_unexpected)),
-            w(up.ok_events),
-        );
-        for (i, (now, then, name)) in [
-            (s.rx_crc, st.rx_crc, "CRC rejects"),
-            (s.rx_cobs, st.rx_cobs, "COBS rejects"),
-            (s.rx_version, st.rx_version, "version rejects"),
-            (s.rx_length, st.rx_length, "length rejects"),
-            (s.rx_postcard, st.rx_postcard, "postcard rejects"),
-        ]
-        .into_iter()
-        .enumerate()
-        {
-            eq(name, d(now, then), w(up.rejects[i]));
         }
-        eq("ticks", d(s.ticks, st.ticks), w(acc.ticks));
-        eq(
-            "frames down (ticks + Status frames)",
-            d(s.ticks, st.ticks).wrapping_add(w(acc.statuses)),
-            w(down.sent),
-        );
-        eq("held ticks", d(s.held_ticks, st.held_ticks), w(acc.held));
-        eq(
-            "safe ticks",
-            d(s.safe_ticks, st.safe_ticks),
-            w(acc.safe_ticks),
-        );
-        eq(
-            "safe entries",
-            d(s.safe_entries, st.safe_entries),
-            w(acc.safe_entries),
-        );
-        eq(
-            "safe exits",
-            d(s.safe_exits, st.safe_exits),
-            w(acc.safe_exits),
-        );
-        eq("seq gaps", d(s.seq_gaps, st.seq_gaps), w(acc.seq_gaps));
-        eq(
-            "hunting alarms",
-            d(s.hunt_alarms, st.hunt_alarms),
-            w(acc.rises[0]),
-        );
-        eq(
-            "actuator alarms",
-            d(s.act_alarms, st.act_alarms),
-            w(acc.rises[1]),
-        );
-        eq(
-            "drive alarms",
-            d(s.drive_alarms, st.drive_alarms),
-            w(acc.rises[2]),
-        );
-        eq("refusals", d(s.cmd_refused, st.cmd_refused), 0);
-        eq(
-            "first alarm tick",
-            s.first_alarm_tick,
-            acc.first_alarm_tick.unwrap_or(0),
-        );
         if !up.adds_up() || !down.adds_up() {
             broke.push(format!("frames do not add up: up {up:?}, down {down:?}"));
         }

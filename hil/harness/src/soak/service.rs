@@ -8,7 +8,6 @@ use rand_pcg::Pcg64;
 
 use super::line::LineFaults;
 
-/// Nanoseconds per second.
 const NS: f64 = 1e9;
 
 fn ns(s: f64) -> u64 {
@@ -17,8 +16,8 @@ fn ns(s: f64) -> u64 {
 
 /// Curvature (1/m) and cant (rad) along the track, linear in time between knots:
 /// straight, transition, curve, transition, repeated with random lengths, radii (left and
-/// right) and cants.
-#[derive(Debug, Clone)]
+/// right) and cants; the default starts straight at t = 0.
+#[derive(Debug, Clone, Default)]
 pub struct Track {
     from: (f64, f64),
     to: (f64, f64),
@@ -30,19 +29,6 @@ pub struct Track {
 }
 
 impl Track {
-    /// A track starting straight at t = 0.
-    #[must_use]
-    pub fn new() -> Self {
-        Self {
-            from: (0.0, 0.0),
-            to: (0.0, 0.0),
-            t0: 0,
-            t1: 0,
-            next: 0,
-            curve: (0.0, 0.0),
-        }
-    }
-
     /// Curvature and cant at `t_ns` (non-decreasing calls).
     pub fn at(&mut self, rng: &mut Pcg64, t_ns: u64) -> (f64, f64) {
         while t_ns >= self.t1 {
@@ -73,12 +59,6 @@ impl Track {
         self.next = (self.next + 1) % 4;
         self.to = to;
         self.t1 = self.t0 + ns(len_s);
-    }
-}
-
-impl Default for Track {
-    fn default() -> Self {
-        Self::new()
     }
 }
 
@@ -145,12 +125,6 @@ impl Demand {
         }
         let f = t_ns.saturating_sub(self.t0) as f64 / (self.t1 - self.t0).max(1) as f64;
         self.from + f * (self.to - self.from)
-    }
-}
-
-impl Default for Demand {
-    fn default() -> Self {
-        Self::new(false)
     }
 }
 

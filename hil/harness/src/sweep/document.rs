@@ -148,7 +148,6 @@ pub fn write_sweep_report(
     std::fs::write(&p, stack("", &maps))?;
     files.push(p);
 
-    // Peak |y| on a log scale between the smallest and the largest peak.
     let peaks: Vec<f64> = doc
         .records
         .iter()

@@ -134,7 +134,6 @@ pub fn merge(parts: &[(String, SweepDoc)]) -> Result<SweepDoc, String> {
     })
 }
 
-/// The first few numbers of `v`, comma-separated.
 fn list(v: &[usize]) -> String {
     let mut s: Vec<String> = v.iter().take(8).map(usize::to_string).collect();
     if v.len() > 8 {

@@ -130,7 +130,6 @@ pub struct ArrayShard {
     pub source: String,
 }
 
-/// A job array's variable, set and not empty.
 fn var(env: &dyn Fn(&str) -> Option<String>, name: &str) -> Option<String> {
     env(name).filter(|v| !v.trim().is_empty())
 }
@@ -141,6 +140,10 @@ fn number(env: &dyn Fn(&str) -> Option<String>, name: &str, why: &str) -> Result
             "SLURM_ARRAY_TASK_ID is set but {name} is not ({why}); is this a Slurm array task?"
         ));
     };
+    whole(name, &v)
+}
+
+fn whole(name: &str, v: &str) -> Result<usize, String> {
     v.trim()
         .parse::<usize>()
         .map_err(|_| format!("{name}={v}: not a whole number"))
@@ -151,10 +154,7 @@ fn slurm(env: &dyn Fn(&str) -> Option<String>) -> Result<Option<ArrayShard>, Str
     let Some(id_text) = var(env, "SLURM_ARRAY_TASK_ID") else {
         return Ok(None);
     };
-    let id = id_text
-        .trim()
-        .parse::<usize>()
-        .map_err(|_| format!("SLURM_ARRAY_TASK_ID={id_text}: not a whole number"))?;
+    let id = whole("SLURM_ARRAY_TASK_ID", &id_text)?;
     let min = number(env, "SLURM_ARRAY_TASK_MIN", "the first task's ID")?;
     let step = number(env, "SLURM_ARRAY_TASK_STEP", "the step between task IDs")?;
     let count = number(env, "SLURM_ARRAY_TASK_COUNT", "the number of shards")?;
@@ -180,10 +180,7 @@ fn slurm(env: &dyn Fn(&str) -> Option<String>) -> Result<Option<ArrayShard>, Str
     // MAX is absent from some launchers' environments; where it is set it must close
     // the range, or the IDs are a list (`--array=1,2,5`) rather than FIRST-LAST:STEP.
     if let Some(max_text) = var(env, "SLURM_ARRAY_TASK_MAX") {
-        let max = max_text
-            .trim()
-            .parse::<usize>()
-            .map_err(|_| format!("SLURM_ARRAY_TASK_MAX={max_text}: not a whole number"))?;
+        let max = whole("SLURM_ARRAY_TASK_MAX", &max_text)?;
         if max != last {
             return Err(format!(
                 "the Slurm array (SLURM_ARRAY_TASK_MIN={min}, SLURM_ARRAY_TASK_MAX={max}, \
@@ -219,10 +216,7 @@ pub fn array_shard(env: &dyn Fn(&str) -> Option<String>) -> Result<Option<ArrayS
     let k = match var(env, "JOB_COMPLETION_INDEX") {
         None => None,
         Some(v) => Some(ArrayShard {
-            index: v
-                .trim()
-                .parse::<usize>()
-                .map_err(|_| format!("JOB_COMPLETION_INDEX={v}: not a whole number"))?,
+            index: whole("JOB_COMPLETION_INDEX", &v)?,
             count: None,
             source: format!("JOB_COMPLETION_INDEX={}", v.trim()),
         }),

@@ -1,8 +1,6 @@
 //! The bulk channel's start: two FIFOs in a fresh directory, QEMU told where, the
-//! host's ends opened once the firmware has opened its own; and waiting for a FIFO to
-//! become readable.
+//! host's ends opened once the firmware has opened its own.
 
-use std::fs::File;
 use std::io;
 use std::process::Command;
 use std::time::{Duration, Instant};
@@ -12,29 +10,6 @@ use crate::qemu::cmd::SerialTo;
 
 /// `O_NONBLOCK` (Linux).
 const O_NONBLOCK: i32 = libc::O_NONBLOCK;
-
-/// Waits until `f` is readable (or hung up) for at most `timeout`; `false` on timeout.
-#[allow(unsafe_code)]
-pub(super) fn poll_readable(f: &File, timeout: Duration) -> io::Result<bool> {
-    use std::os::fd::AsRawFd;
-    let mut p = libc::pollfd {
-        fd: f.as_raw_fd(),
-        events: libc::POLLIN,
-        revents: 0,
-    };
-    let ms = i32::try_from(timeout.as_millis()).unwrap_or(i32::MAX);
-    // SAFETY: one valid `pollfd` for the call, an fd owned by `f` and open throughout.
-    let r = unsafe { libc::poll(&mut p, 1, ms) };
-    if r < 0 {
-        let e = io::Error::last_os_error();
-        return if e.kind() == io::ErrorKind::Interrupted {
-            Ok(true)
-        } else {
-            Err(e)
-        };
-    }
-    Ok(r > 0)
-}
 
 impl Qemu {
     /// [`Self::start`] with the bulk channel: two FIFOs in a fresh directory, QEMU told

@@ -151,8 +151,7 @@ impl Transport for QemuTarget {
             sink(deadline_ns, &early);
         }
         if self.pipelined {
-            // The answers to what was sent before the deadline; later ones stay in the
-            // link's buffer for a later receive.
+            // The answers owed before the deadline; later ones wait in the link's buffer.
             while self.expect.owed_before(deadline_ns) > 0 {
                 self.recv_one(&mut |b| sink(deadline_ns, b))?;
             }

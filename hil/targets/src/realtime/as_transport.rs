@@ -62,14 +62,9 @@ impl Transport for RealTime {
     ) -> Result<(), TransportError> {
         let deadline = self.wall(deadline_ns);
         self.wait_until(deadline)?;
-        // The Status frame requested at the end of the run may come later than a
-        // period on a stalled device: wait for it (bounded), it is after the run.
+        // A stalled device's closing Status may come after a period: waited for (bounded).
         if self.status_owed {
-            let give_up = Instant::now() + self.o.timeout;
-            while !self.pending.iter().any(|(_, f)| is_status(f)) && Instant::now() < give_up {
-                let d = Instant::now() + self.period();
-                self.wait_until(d)?;
-            }
+            self.wait_for(|s| s.pending.iter().any(|(_, f)| is_status(f)))?;
             self.status_owed = false;
             while let Some((at, bytes)) = self.pending.pop_front() {
                 sink(at.min(deadline_ns), &bytes);

@@ -7,24 +7,19 @@ use wheelset_proto::{encode_vec, Command, Config, Flags, Message, Status};
 
 use wheelset_loop::transport::TransportError;
 
-use super::{lower_decile, wrap, Port, RealTime, PHASE_FRAMES, ROUND_TRIP_PROBES};
+use super::{lower_decile, median_exec_ns, wrap, Port, RealTime, PHASE_FRAMES, ROUND_TRIP_PROBES};
 
 impl RealTime {
     /// Reads until a Status frame arrives after this call (at most `timeout`).
     fn await_status(&mut self, what: &str) -> Result<Status, TransportError> {
         self.last_status = None;
-        let give_up = Instant::now() + self.o.timeout;
-        while Instant::now() < give_up {
-            let d = Instant::now() + self.period();
-            self.wait_until(d)?;
-            if let Some(s) = self.last_status.take() {
-                return Ok(s);
-            }
-        }
-        Err(TransportError::Timeout(format!(
-            "{}: no Status frame within {:?} after {what}",
-            self.path, self.o.timeout
-        )))
+        self.wait_for(|s| s.last_status.is_some())?;
+        self.last_status.take().ok_or_else(|| {
+            TransportError::Timeout(format!(
+                "{}: no Status frame within {:?} after {what}",
+                self.path, self.o.timeout
+            ))
+        })
     }
 
     /// Configures the device with `cfg`, takes the baseline and locks to its tick phase.
@@ -33,19 +28,12 @@ impl RealTime {
         // 1. Is anybody there, ticking on its own?
         let listen = Instant::now() + Duration::from_nanos((4 * t).max(20_000_000));
         self.wait_until(listen)?;
-        if self.sync.pre_run == 0 {
-            let give_up = Instant::now() + self.o.timeout;
-            while self.sync.pre_run == 0 && Instant::now() < give_up {
-                let d = Instant::now() + self.period();
-                self.wait_until(d)?;
-            }
-            if self.sync.pre_run == 0 {
-                return Err(TransportError::Timeout(format!(
-                    "{}: the device sent nothing in {:?}: a free-running device \
-                     answers every tick (a frame-clocked one needs --pace lockstep)",
-                    self.path, self.o.timeout
-                )));
-            }
+        if !self.wait_for(|s| s.sync.pre_run != 0)? {
+            return Err(TransportError::Timeout(format!(
+                "{}: the device sent nothing in {:?}: a free-running device \
+                 answers every tick (a frame-clocked one needs --pace lockstep)",
+                self.path, self.o.timeout
+            )));
         }
         // 2. The run's configuration, checked.
         let mut out = Vec::new();
@@ -85,11 +73,7 @@ impl RealTime {
         self.baseline = Some(b);
         // 4. The device's phase and period.
         self.seen.clear();
-        let give_up = Instant::now() + self.o.timeout;
-        while self.seen.len() < PHASE_FRAMES && Instant::now() < give_up {
-            let d = Instant::now() + self.period();
-            self.wait_until(d)?;
-        }
+        self.wait_for(|s| s.seen.len() >= PHASE_FRAMES)?;
         let seen = std::mem::take(&mut self.seen);
         if seen.len() < PHASE_FRAMES {
             return Err(TransportError::Timeout(format!(
@@ -122,12 +106,7 @@ impl RealTime {
         let mut res: Vec<f64> = outs.iter().map(|&o| wrap(o - first, tf)).collect();
         let phase = first + lower_decile(&mut res);
         // Its tick: the output instant less the median reported execution time.
-        let mut execs: Vec<f64> = seen
-            .iter()
-            .map(|s| f64::from(s.3) * 1e9 / self.o.cpu_hz)
-            .collect();
-        execs.sort_by(f64::total_cmp);
-        let exec_ns = execs.get(execs.len() / 2).copied().unwrap_or(0.0);
+        let exec_ns = median_exec_ns(seen.iter().map(|s| s.3), self.o.cpu_hz);
         // The first send half a period before a device tick at least two periods away.
         let now = self.at_ns(Instant::now()) as f64;
         let mut tick_at = phase - exec_ns;
@@ -143,9 +122,7 @@ impl RealTime {
         self.pending.clear();
         Ok(())
     }
-}
 
-impl RealTime {
     /// Probes the round trip with [`ROUND_TRIP_PROBES`] status requests and refuses a run
     /// whose `delay` it does not fit: both ways' latency plus the Sensor frame's wire time
     /// must be within `lead + (d - 1) T` for a delay of `d` ticks (reported in `sync`).
@@ -176,16 +153,8 @@ impl RealTime {
         }
         let (rt, status_bytes) = best.unwrap_or((0.0, 0));
         let wire = |n: usize| wire_ns(n, self.o.baud) as f64;
-        // The device's execution time: the median of its latest reports.
-        let mut execs: Vec<f64> = self
-            .seen
-            .iter()
-            .rev()
-            .take(PHASE_FRAMES)
-            .map(|s| f64::from(s.3) * 1e9 / self.o.cpu_hz)
-            .collect();
-        execs.sort_by(f64::total_cmp);
-        let exec = execs.get(execs.len() / 2).copied().unwrap_or(0.0);
+        let latest = self.seen.iter().rev().take(PHASE_FRAMES);
+        let exec = median_exec_ns(latest.map(|s| s.3), self.o.cpu_hz);
         let before = rt
             - exec
             - wire(status_bytes)

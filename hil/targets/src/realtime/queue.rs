@@ -23,16 +23,7 @@ pub fn flush_queue<W: Write + ?Sized>(port: &mut W, queue: &mut VecDeque<u8>) ->
             Ok(n) => {
                 queue.drain(..n);
             }
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    io::ErrorKind::TimedOut
-                        | io::ErrorKind::WouldBlock
-                        | io::ErrorKind::Interrupted
-                ) =>
-            {
-                return Ok(())
-            }
+            Err(e) if crate::serial::nothing_yet(&e) => return Ok(()),
             Err(e) => return Err(e),
         }
     }

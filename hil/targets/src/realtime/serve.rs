@@ -15,6 +15,7 @@ use wheelset_runtime::{Runtime, RuntimeConfig};
 use crate::realtime::bridge::{BridgeModel, DelayLine, LineReport};
 use crate::realtime::os::{self as rt_os, Obtained, Want};
 use crate::realtime::{flush_queue, queue_frame};
+use crate::serial::nothing_yet;
 
 /// Bytes the stand-in queues for transmission (the firmware's TX pipe).
 pub const TX_QUEUE: usize = 256;
@@ -75,13 +76,6 @@ pub struct ServeReport {
 fn period_ns(rate_hz: u32) -> Option<u64> {
     (rate_hz > 0 && 1_000_000_000 % u64::from(rate_hz) == 0)
         .then(|| 1_000_000_000 / u64::from(rate_hz))
-}
-
-fn quiet(e: &io::Error) -> bool {
-    matches!(
-        e.kind(),
-        io::ErrorKind::TimedOut | io::ErrorKind::WouldBlock | io::ErrorKind::Interrupted
-    )
 }
 
 /// The runtime for `rate_hz`, or why not.
@@ -157,7 +151,6 @@ pub fn serve(
         } else if lateness > period / 4 {
             rep.late += 1;
         }
-        // The tick: drain, receive, tick, queue.
         match bridge.as_mut() {
             None => {
                 let _ = port.set_timeout(Duration::ZERO);
@@ -171,7 +164,7 @@ pub fn serve(
                                 break;
                             }
                         }
-                        Err(e) if quiet(&e) => break,
+                        Err(e) if nothing_yet(&e) => break,
                         Err(e) => return Err(e),
                     }
                 }
@@ -239,7 +232,7 @@ fn read_into(
             up.push(Instant::now(), buf.get(..n).unwrap_or(&[]));
             Ok(n)
         }
-        Err(e) if quiet(&e) => Ok(0),
+        Err(e) if nothing_yet(&e) => Ok(0),
         Err(e) => Err(e),
     }
 }
