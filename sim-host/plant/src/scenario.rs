@@ -236,18 +236,16 @@ fn parse_laws(file: &str, laws: &Option<Vec<String>>) -> Result<Vec<YawLaw>, Con
     }
     let mut out = Vec::with_capacity(names.len());
     for (i, n) in names.iter().enumerate() {
-        let law = match n.as_str() {
-            "passive" => YawLaw::Passive,
-            "gain" => YawLaw::Gain,
-            "lead" => YawLaw::Lead,
-            _ => {
-                return Err(invalid(
+        let law = [YawLaw::Passive, YawLaw::Gain, YawLaw::Lead]
+            .into_iter()
+            .find(|l| l.name() == n)
+            .ok_or_else(|| {
+                invalid(
                     file,
                     format!("laws[{i}]"),
                     format!("`{n}` is not a yaw law (passive, gain, lead)"),
-                ))
-            }
-        };
+                )
+            })?;
         if out.contains(&law) {
             return Err(invalid(
                 file,
@@ -511,16 +509,11 @@ impl Scenario {
         if self.laws.is_empty() || self.laws.contains(&law) {
             return None;
         }
-        let name = |l: &YawLaw| match l {
-            YawLaw::Passive => "passive",
-            YawLaw::Gain => "gain",
-            YawLaw::Lead => "lead",
-        };
         Some(format!(
             "scenario {} is meant for --control {} (its `laws`), not {}: expect a result outside what it was made to show{}",
             self.name,
-            self.laws.iter().map(name).collect::<Vec<_>>().join(" or "),
-            name(&law),
+            self.laws.iter().map(|l| l.name()).collect::<Vec<_>>().join(" or "),
+            law.name(),
             if self.description.is_empty() {
                 String::new()
             } else {
