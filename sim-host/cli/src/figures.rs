@@ -423,30 +423,18 @@ pub fn write_figure(
     let pale = |k: usize| if k == 0 { 1.0 } else { 0.5 };
     for &k in &order {
         let run = &runs[k];
-        let pts = |f: &dyn Fn(&Record) -> f64| -> Vec<(f64, f64)> {
-            run.tr.records.iter().map(|r| (r.t_s, f(r))).collect()
-        };
-        force = force.series(
-            Series::line(run.label, pts(&|r| (r.fx_r_n + r.fx_l_n) * 1e-3))
-                .color(colour(k))
-                .width(width(k))
-                .opacity(pale(k)),
-        );
-        mu = mu.series(
-            Series::line(&format!("used, {}", run.label), pts(&|r| r.mu_used))
-                .color(colour(k))
-                .width(width(k))
-                .opacity(pale(k)),
-        );
+        let style = |s: Series| s.color(colour(k)).width(width(k)).opacity(pale(k));
+        force = force.series(style(series(run.tr, run.label, |r| {
+            (r.fx_r_n + r.fx_l_n) * 1e-3
+        })));
+        let used = format!("used, {}", run.label);
+        mu = mu.series(style(series(run.tr, &used, |r| r.mu_used)));
     }
     if let Some(run) = runs.first() {
         mu = mu.series(
-            Series::line(
-                "available",
-                run.tr.records.iter().map(|r| (r.t_s, r.mu_avail)).collect(),
-            )
-            .style(Style::Dashed)
-            .color("#000"),
+            series(run.tr, "available", |r| r.mu_avail)
+                .style(Style::Dashed)
+                .color("#000"),
         );
     }
     // A run that stopped early (diverged) says so where it ends, in every panel it is in.
@@ -467,11 +455,8 @@ pub fn write_figure(
         .collect();
     let mut slips = Vec::new();
     for (k, run) in runs.iter().enumerate() {
-        let pts = |f: &dyn Fn(&Record) -> f64| -> Vec<(f64, f64)> {
-            run.tr.records.iter().map(|r| (r.t_s, f(r))).collect()
-        };
         let mut slip = panel(&format!("Slip velocity, {}", run.label), "slip (m/s)")
-            .series(Series::line(run.label, pts(&|r| r.slip_mps)).color(colour(k)));
+            .series(series(run.tr, run.label, |r| r.slip_mps).color(colour(k)));
         if let Some((t, l, c)) = ends.iter().find(|e| e.1.starts_with(run.label)) {
             slip = slip.vmark(*t, l, c);
         }
@@ -502,8 +487,8 @@ pub fn write_figure(
             let top = run
                 .set_point
                 .iter()
-                .chain(&pts(&|r| r.slip_mps))
                 .map(|p| p.1)
+                .chain(run.tr.records.iter().map(|r| r.slip_mps))
                 .fold(slip_on_mps, f64::max);
             slip.series(
                 Series::line("regulator's set point", sp)
