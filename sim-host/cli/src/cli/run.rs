@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 use wheelset_plant::control::YawLaw;
 use wheelset_plant::scenario::Scenario;
-use wheelset_plant::sim::Trajectory;
+use wheelset_plant::sim::{Record, Trajectory};
 use wheelset_report::outln;
 
 use super::loop_device::{cmd_run_device, DeviceArgs, LoopKind, OnOff};
@@ -217,13 +217,7 @@ pub(crate) fn print_at(runs: &[Trajectory], at: &[f64]) {
     );
     for &t in at {
         for tr in runs {
-            let Some(r) = tr
-                .records
-                .iter()
-                .min_by(|a, b| (a.t_s - t).abs().total_cmp(&(b.t_s - t).abs()))
-            else {
-                continue;
-            };
+            let Some(r) = tr.at(t) else { continue };
             outln!(
                 "{:>6.3} {:<8} {:>9.4} {:>9.4} {:>7.3} {:>9.1} {:>11.1} {:>8.1} {:>8.1} {:>8.1}",
                 r.t_s,
@@ -244,18 +238,23 @@ pub(crate) fn print_at(runs: &[Trajectory], at: &[f64]) {
         }
     }
     for tr in runs {
-        let peak = |f: &dyn Fn(&wheelset_plant::sim::Record) -> f64| {
-            tr.records.iter().map(f).fold(0.0f64, |a, b| a.max(b.abs()))
-        };
+        let [y, t_psi, fx, fy] = peaks(tr);
         outln!(
-            "peaks, {}: |y| {:.4} mm, |T_psi| {:.1} N m, |F_x| {:.1} N, |F_y| {:.1} N",
-            tr.info.control,
-            peak(&|r| r.y_m) * 1e3,
-            peak(&|r| r.t_psi_nm),
-            peak(&|r| r.fx_r_n.abs().max(r.fx_l_n.abs())),
-            peak(&|r| r.fy_n)
+            "peaks, {}: |y| {y:.4} mm, |T_psi| {t_psi:.1} N m, |F_x| {fx:.1} N, |F_y| {fy:.1} N",
+            tr.info.control
         );
     }
+}
+
+/// The peaks of a run: `|y|` (mm), `|T_psi|` (N m), `|F_x|` of either wheel (N), `|F_y|` (N).
+fn peaks(tr: &Trajectory) -> [f64; 4] {
+    let max = |f: fn(&Record) -> f64| tr.records.iter().map(f).fold(0.0f64, |a, b| a.max(b.abs()));
+    [
+        max(|r| r.y_m) * 1e3,
+        max(|r| r.t_psi_nm),
+        max(|r| r.fx_r_n.abs().max(r.fx_l_n.abs())),
+        max(|r| r.fy_n),
+    ]
 }
 
 /// `--loop core`: the f64 control core on the plant; with `--plot` and `[[adhesion]]`
@@ -390,15 +389,9 @@ pub(crate) fn print_summary(sc: &Scenario, tr: &Trajectory) {
         p.k_gear(),
         p.pi_ti
     );
-    let max = |f: &dyn Fn(&wheelset_plant::sim::Record) -> f64| {
-        tr.records.iter().map(f).fold(0.0f64, |a, b| a.max(b.abs()))
-    };
+    let [y, t_psi, fx, fy] = peaks(tr);
     outln!(
-        "max |y| {:.4} mm, max |T_psi| {:.1} N m, max |F_x| {:.1} N, max |F_y| {:.1} N",
-        max(&|r| r.y_m) * 1e3,
-        max(&|r| r.t_psi_nm),
-        max(&|r| r.fx_r_n.abs().max(r.fx_l_n.abs())),
-        max(&|r| r.fy_n)
+        "max |y| {y:.4} mm, max |T_psi| {t_psi:.1} N m, max |F_x| {fx:.1} N, max |F_y| {fy:.1} N"
     );
     if let Some(stop) = wheelset_plant::outcome::stop_of(tr) {
         outln!("WARNING: {stop}");
