@@ -264,7 +264,9 @@ fn ensure_flip_link() -> Result<(), String> {
 
 /// Builds the given firmware binaries, one cargo invocation each (no board's HAL can
 /// reach another board's binary), and copies them to `target/fw/`.
-fn build_firmware(list: &[Firmware]) -> Result<Vec<(PathBuf, &'static str)>, String> {
+fn build_firmware<'a>(
+    list: impl IntoIterator<Item = &'a Firmware>,
+) -> Result<Vec<(PathBuf, &'static str)>, String> {
     let out_dir = target_dir().join("fw");
     std::fs::create_dir_all(&out_dir)
         .map_err(|e| format!("cannot create {}: {e}", out_dir.display()))?;
@@ -376,10 +378,7 @@ fn fw(args: &[String]) -> Result<Vec<(PathBuf, &'static str)>, String> {
         }
     }
     ensure_targets()?;
-    let mut elfs = Vec::new();
-    for fw in list {
-        elfs.extend(build_firmware(std::slice::from_ref(fw))?);
-    }
+    let elfs = build_firmware(list)?;
     size::check_sizes(&elfs)?;
     Ok(elfs)
 }
@@ -504,7 +503,10 @@ fn main() -> ExitCode {
             Ok((json, check)) => bench::fw_bench(json, check),
             Err(e) => return usage_error(e),
         },
-        Some("fuzz") => return fuzz::main(&args[1..]),
+        Some("fuzz") => match fuzz::parse_args(&args[1..]) {
+            Ok(a) => fuzz::fuzz(a),
+            Err(e) => return usage_error(e),
+        },
         Some("loc") => match args.get(1).map(String::as_str) {
             None => loc::main(false),
             Some("--check") => loc::main(true),

@@ -106,67 +106,55 @@ fn generate(root: &Path, bin_dir: &Path, b: &Block) -> Result<String, String> {
 /// `cargo xtask readme [--check] [--dev] | --links | --commands [--long] [--list]` (the
 /// arguments after `readme`; `--list` prints each command's class without running any).
 pub fn main(args: &[String]) -> ExitCode {
-    let mut check = false;
-    let mut dev = false;
-    let mut cmds = false;
-    let mut long = false;
-    let mut list = false;
-    let mut links_only = false;
-    for a in args {
-        match a.as_str() {
-            "--check" => check = true,
-            "--dev" => dev = true,
-            "--commands" => cmds = true,
-            "--long" => long = true,
-            "--list" => list = true,
-            "--links" => links_only = true,
-            other => {
-                eprintln!(
-                    "xtask readme: unknown argument `{other}` (usage: cargo xtask readme \
-                     [--check] [--dev] | --links | --commands [--long] [--list])"
-                );
-                return ExitCode::from(2);
-            }
+    const FLAGS: [&str; 6] = [
+        "--check",
+        "--dev",
+        "--commands",
+        "--long",
+        "--list",
+        "--links",
+    ];
+    if let Some(other) = args.iter().find(|a| !FLAGS.contains(&a.as_str())) {
+        eprintln!(
+            "xtask readme: unknown argument `{other}` (usage: cargo xtask readme \
+             [--check] [--dev] | --links | --commands [--long] [--list])"
+        );
+        return ExitCode::from(2);
+    }
+    let has = |flag: &str| args.iter().any(|a| a == flag);
+    let (check, dev, long, list) = (has("--check"), has("--dev"), has("--long"), has("--list"));
+    if has("--links") {
+        let bad = check_links(&crate::workspace_root());
+        if bad.as_ref().is_ok_and(Vec::is_empty) {
+            eprintln!("xtask readme: every link and image of the pages resolves");
         }
+        return failures(bad, "broken link(s)");
     }
-    if links_only {
-        return match check_links(&crate::workspace_root()) {
-            Ok(bad) if bad.is_empty() => {
-                eprintln!("xtask readme: every link and image of the pages resolves");
-                ExitCode::SUCCESS
-            }
-            Ok(bad) => {
-                for b in &bad {
-                    eprintln!("xtask readme: {b}");
-                }
-                eprintln!("xtask readme: {} broken link(s)", bad.len());
-                ExitCode::FAILURE
-            }
-            Err(e) => {
-                eprintln!("xtask readme: {e}");
-                ExitCode::FAILURE
-            }
-        };
-    }
-    if cmds {
-        return match run_commands(long, list) {
-            Ok(f) if f.is_empty() => ExitCode::SUCCESS,
-            Ok(f) => {
-                for e in &f {
-                    eprintln!("xtask readme: {e}");
-                }
-                eprintln!("xtask readme: {} command(s) of the pages failed", f.len());
-                ExitCode::FAILURE
-            }
-            Err(e) => {
-                eprintln!("xtask readme: {e}");
-                ExitCode::FAILURE
-            }
-        };
+    if has("--commands") {
+        return failures(run_commands(long, list), "command(s) of the pages failed");
     }
     match run(check, dev) {
         Ok(true) => ExitCode::SUCCESS,
         Ok(false) => ExitCode::FAILURE,
+        Err(e) => {
+            eprintln!("xtask readme: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// Exit 0 when `r` names no failure; else each failure on stderr, then their count
+/// with `what`, and exit 1.
+fn failures(r: Result<Vec<String>, String>, what: &str) -> ExitCode {
+    match r {
+        Ok(f) if f.is_empty() => ExitCode::SUCCESS,
+        Ok(f) => {
+            for e in &f {
+                eprintln!("xtask readme: {e}");
+            }
+            eprintln!("xtask readme: {} {what}", f.len());
+            ExitCode::FAILURE
+        }
         Err(e) => {
             eprintln!("xtask readme: {e}");
             ExitCode::FAILURE
