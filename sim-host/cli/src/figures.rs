@@ -74,9 +74,16 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
             s.width(4.0).opacity(0.5)
         }
     };
+    // `p` with a series `f` of every run in `order`, named `prefix` and the run's control.
+    let overlay = |mut p: Plot, prefix: &str, f: fn(&Record) -> f64| {
+        for &(k, tr) in &order {
+            p = p.series(styled(k, series(tr, &format!("{prefix}{}", label(tr)), f)));
+        }
+        p
+    };
 
     // Fig. 6: the pure rolling line as a wide grey band beneath the runs.
-    let mut p = Plot::new(&format!(
+    let p = Plot::new(&format!(
         "Lateral displacement y against the pure rolling line y0{}",
         fig("6", "9")
     ))
@@ -87,18 +94,11 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
             .color("#BBBBBB")
             .width(6.0),
     );
-    for &(k, tr) in &order {
-        p = p.series(styled(
-            k,
-            series(tr, &format!("y, {}", label(tr)), |r| r.y_m * 1e3),
-        ));
-    }
-    let mut psi = Plot::new("Yaw angle")
+    let p = overlay(p, "y, ", |r| r.y_m * 1e3);
+    let psi = Plot::new("Yaw angle")
         .x_label("t (s)")
         .y_label("psi (mrad)");
-    for &(k, tr) in &order {
-        psi = psi.series(styled(k, series(tr, &label(tr), |r| r.psi_rad * 1e3)));
-    }
+    let psi = overlay(psi, "", |r| r.psi_rad * 1e3);
     // Zoom on the traction step (Fig. 9's beating shows here).
     let t_step = main
         .records
@@ -127,18 +127,13 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
     )?;
 
     // Fig. 7
-    let mut p = Plot::new(&format!(
+    let p = Plot::new(&format!(
         "Yaw torque: control (active) / suspension (passive){}",
         fig("7", "")
     ))
     .x_label("t (s)")
     .y_label("T_psi (N m)");
-    for &(k, tr) in &order {
-        p = p.series(styled(
-            k,
-            series(tr, &format!("T_psi, {}", label(tr)), |r| r.t_psi_nm),
-        ));
-    }
+    let p = overlay(p, "T_psi, ", |r| r.t_psi_nm);
     save("torque.svg", Figure::new(&title).panel(p))?;
 
     // Fig. 8: one panel per force, one colour per run (the main run solid, the compared
