@@ -212,12 +212,10 @@ fn ensure_targets() -> Result<(), String> {
 /// Builds the `no_std` crates for every MCU target.
 fn check_no_std() -> Result<(), String> {
     for target in MCU_TARGETS {
-        let mut cmd = cargo();
-        cmd.args(["build", "--release", "--target", target]);
-        for krate in NO_STD_CRATES {
-            cmd.args(["-p", krate]);
-        }
-        run(&mut cmd)?;
+        let crates = NO_STD_CRATES.iter().flat_map(|k| ["-p", k]);
+        run(cargo()
+            .args(["build", "--release", "--target", target])
+            .args(crates))?;
     }
     Ok(())
 }
@@ -405,27 +403,21 @@ fn test(extra: &[String]) -> Result<(), String> {
     }
     run(&mut cmd)?;
     // The device's crates with the firmware's features (no `std` in the wire crate).
-    let mut device = cargo();
-    device.args(["test", "--no-fail-fast"]);
-    for p in features::DEVICE_TEST_PACKAGES {
-        device.args(["-p", p]);
-    }
-    run(device.args(extra))?;
+    let device = features::DEVICE_TEST_PACKAGES
+        .iter()
+        .flat_map(|p| ["-p", p]);
+    run(cargo()
+        .args(["test", "--no-fail-fast"])
+        .args(device)
+        .args(extra))?;
     // The runtime as the QEMU firmware builds it (`fault-inject`).
-    let mut inject = cargo();
-    inject.args([
-        "test",
-        "--no-fail-fast",
-        "-p",
-        "wheelset-runtime",
-        "--features",
-        "fault-inject",
-    ]);
-    run(inject.args(extra))?;
+    let inject = ["-p", "wheelset-runtime", "--features", "fault-inject"];
+    run(cargo()
+        .args(["test", "--no-fail-fast"])
+        .args(inject)
+        .args(extra))?;
     // The benchmarks compile (not run: timings are no tests).
-    let mut benches = cargo();
-    benches.args(["test", "--workspace", "--benches", "--no-run"]);
-    run(&mut benches)?;
+    run(cargo().args(["test", "--workspace", "--benches", "--no-run"]))?;
     // The pages' instruction counts and stack figures against the bench (under QEMU).
     if have_qemu() {
         bench::fw_bench(None, true)?;

@@ -194,11 +194,18 @@ pub fn run(check: bool, dev: bool) -> Result<bool, String> {
         }
     }
     let figs = figures::sync(&root, check)?;
-    let names = |v: &[(String, String)]| {
-        v.iter()
-            .map(|(n, _)| n.as_str())
-            .collect::<Vec<_>>()
-            .join(", ")
+    let names = drifted
+        .iter()
+        .map(|(n, _)| n.as_str())
+        .collect::<Vec<_>>()
+        .join(", ");
+    // ` (list)`, or nothing for an empty list.
+    let listed = |s: &str| {
+        if s.is_empty() {
+            String::new()
+        } else {
+            format!(" ({s})")
+        }
     };
     if check {
         for (name, d) in &drifted {
@@ -226,7 +233,7 @@ pub fn run(check: bool, dev: bool) -> Result<bool, String> {
                  `cargo xtask readme` rewrites them",
                 drifted.len(),
                 BLOCKS.len(),
-                names(&drifted),
+                names,
                 figs.len(),
                 FIGURES.len(),
                 figs.join(", ")
@@ -247,18 +254,10 @@ pub fn run(check: bool, dev: bool) -> Result<bool, String> {
         "xtask readme: {} blocks written, {} changed{}; {} figures, {} changed{}",
         BLOCKS.len(),
         drifted.len(),
-        if drifted.is_empty() {
-            String::new()
-        } else {
-            format!(" ({})", names(&drifted))
-        },
+        listed(&names),
         FIGURES.len(),
         figs.len(),
-        if figs.is_empty() {
-            String::new()
-        } else {
-            format!(" ({})", figs.join(", "))
-        }
+        listed(&figs.join(", "))
     );
     for u in &unquoted {
         eprintln!("xtask readme: {u}");
