@@ -132,13 +132,8 @@ pub(crate) fn cmd_run(a: &RunArgs) -> Result<(), Failure> {
     if a.device.loop_kind == LoopKind::Core {
         return cmd_run_core(a, &sc);
     }
-    let main = simulate(&sc, a.control);
-    let mut runs = vec![main];
-    for &c in &a.compare {
-        if c != a.control {
-            runs.push(simulate(&sc, c));
-        }
-    }
+    let mut runs = vec![simulate(&sc, a.control)];
+    runs.extend(compared(a, &sc));
     let main = &runs[0];
     print_summary(&sc, main);
     print_modes(&sc, a.control);
@@ -148,6 +143,17 @@ pub(crate) fn cmd_run(a: &RunArgs) -> Result<(), Failure> {
     judge_divergence(a, main)
 }
 
+/// The runs of `--compare` but for `--control`'s own, on the continuous loop.
+pub(crate) fn compared<'a>(
+    a: &'a RunArgs,
+    sc: &'a Scenario,
+) -> impl Iterator<Item = Trajectory> + 'a {
+    a.compare
+        .iter()
+        .filter(|&&c| c != a.control)
+        .map(|&c| simulate(sc, c))
+}
+
 /// `--csv` of the first run and `--plot` of them all (the others overlaid).
 fn write_csv_and_plots(a: &RunArgs, runs: &[Trajectory]) -> Result<(), Failure> {
     if let (Some(path), Some(main)) = (&a.csv, runs.first()) {
@@ -155,6 +161,11 @@ fn write_csv_and_plots(a: &RunArgs, runs: &[Trajectory]) -> Result<(), Failure> 
             .map_err(|e| io_fail(path, e))?;
         outln!("csv: {} ({} rows)", path.display(), main.records.len());
     }
+    write_plots(a, runs)
+}
+
+/// `--plot`: the time histories of `runs` (the first the main run, the others overlaid).
+pub(crate) fn write_plots(a: &RunArgs, runs: &[Trajectory]) -> Result<(), Failure> {
     if let Some(dir) = &a.plot {
         let files = crate::figures::write_time_histories(runs, dir).map_err(|e| io_fail(dir, e))?;
         for f in files {
