@@ -217,12 +217,6 @@ impl<T: SampleBits> InProc<T> {
         Ok(())
     }
 
-    /// The device's runtime (read only).
-    #[must_use]
-    pub fn runtime(&self) -> &Runtime<T> {
-        &self.rt
-    }
-
     /// The control period `T`, ns.
     #[must_use]
     pub fn period_ns(&self) -> u64 {
@@ -236,12 +230,6 @@ impl<T: SampleBits> InProc<T> {
             up: self.dev_rx.account(&self.link.up),
             down: self.host_rx.account(&self.link.down),
         }
-    }
-
-    /// The tick phase, ns: tick `j` runs at `j T + phase`.
-    #[must_use]
-    pub fn phase_ns(&self) -> u64 {
-        self.phase_ns
     }
 
     fn tick(&mut self, t_ns: u64) {
