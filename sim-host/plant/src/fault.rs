@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 use crate::control::{ContinuousController, YawLaw};
 use crate::error::ConfigError;
 use crate::linear::closed_loop_a_with;
-use crate::modes::eigenvalues;
+use crate::modes::{eigenvalues, structural_zero_index};
 use crate::params::Params;
 use crate::scenario::Axle;
 
@@ -118,14 +118,7 @@ pub fn faulty_loop_mode(
     ctrl.k *= gain;
     let (a, _) = closed_loop_a_with(p, axle, drive, &ctrl);
     let mut eig = eigenvalues(&a)?;
-    // The structural zero: the eigenvalue of least magnitude, numerically zero.
-    let scale = a.amax().max(1.0);
-    if let Some((iz, _)) = eig
-        .iter()
-        .enumerate()
-        .min_by(|x, y| x.1.norm().total_cmp(&y.1.norm()))
-        .filter(|(_, l)| l.norm() < 1e-9 * scale)
-    {
+    if let Some(iz) = structural_zero_index(&a, &eig) {
         eig.swap_remove(iz);
     }
     eig.into_iter()
