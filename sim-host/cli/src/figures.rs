@@ -283,14 +283,15 @@ pub fn write_root_locus(sw: &CaseSweep, dir: &Path) -> std::io::Result<std::path
         } else {
             1.6
         };
-        let mut pts = Vec::new();
-        for k in (0..n_pts).step_by(stride) {
-            for (b, l) in sw.eig[k].iter().enumerate() {
-                if &sw.branch_names[b] == name {
-                    pts.push((l.re, l.im));
-                }
-            }
-        }
+        // The mode's eigenvalues at sweep point `k`.
+        let branch = |k: usize| {
+            sw.eig[k]
+                .iter()
+                .zip(&sw.branch_names)
+                .filter(|(_, b)| *b == name)
+                .map(|(l, _)| (l.re, l.im))
+        };
+        let pts: Vec<(f64, f64)> = (0..n_pts).step_by(stride).flat_map(branch).collect();
         // The legend names each mode with its natural frequency range over the sweep.
         let (lo, hi) = hz_range(name, &f64::hypot);
         let mut named = if hi > 0.0 {
@@ -301,24 +302,13 @@ pub fn write_root_locus(sw: &CaseSweep, dir: &Path) -> std::io::Result<std::path
             format!("{name}: real")
         };
         // How far a branch runs past the axis's left end.
-        let far = sw
-            .eig
-            .iter()
-            .flat_map(|row| row.iter().zip(&sw.branch_names))
-            .filter(|(_, b)| *b == name)
-            .map(|(l, _)| l.re)
-            .fold(0.0, f64::min);
+        let far = (0..n_pts).flat_map(branch).map(|p| p.0).fold(0.0, f64::min);
         if far < 1.05 * re_lo {
             let sep = if named.contains(':') { "," } else { ":" };
             named += &format!("{sep} to {far:.0} 1/s");
         }
         locus = locus.series(Series::scatter(&named, pts).color(col).width(width));
-        let top: Vec<(f64, f64)> = sw.eig[n_pts - 1]
-            .iter()
-            .enumerate()
-            .filter(|(b, _)| &sw.branch_names[*b] == name)
-            .map(|(_, l)| (l.re, l.im))
-            .collect();
+        let top = branch(n_pts - 1).collect();
         locus = locus.series(Series::scatter("", top).style(Style::Crosses).color(col));
         let vals: Vec<(f64, f64, f64, f64)> = (0..n_pts)
             .filter_map(|k| {
