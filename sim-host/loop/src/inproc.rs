@@ -7,6 +7,7 @@ use std::time::Instant;
 
 use wheelset_control::{Fx, SampleBits};
 use wheelset_proto::{encode_vec, Decoder, Message};
+use wheelset_report::stats::Stats;
 use wheelset_runtime::{Runtime, RuntimeConfig};
 
 use crate::device_loop::{DeviceError, ACTUATION_WORST_BYTES, SENSOR_WORST_BYTES};
@@ -338,25 +339,6 @@ fn negate_torque(out: &[u8], res: &mut Vec<u8>) {
     }
 }
 
-/// Summary of the host's wall time per tick, ns: `{n, min, mean, p99, max}`.
-fn host_tick_summary(v: &[f64]) -> serde_json::Value {
-    if v.is_empty() {
-        return serde_json::json!({ "n": 0, "min": 0.0, "mean": 0.0, "p99": 0.0, "max": 0.0 });
-    }
-    let mut s = v.to_vec();
-    s.sort_by(f64::total_cmp);
-    let n = s.len();
-    let rank = ((0.99 * n as f64).ceil() as usize).clamp(1, n) - 1;
-    let at = |i: usize| s.get(i).copied().unwrap_or(0.0);
-    serde_json::json!({
-        "n": n,
-        "min": at(0),
-        "mean": s.iter().sum::<f64>() / n as f64,
-        "p99": at(rank),
-        "max": at(n - 1),
-    })
-}
-
 impl<T: SampleBits> InProc<T> {
     /// Runs every tick due by `deadline_ns`.
     fn ticks_until(&mut self, deadline_ns: u64) {
@@ -431,7 +413,8 @@ impl<T: SampleBits> Transport for InProc<T> {
     }
 
     fn extra(&self) -> Option<serde_json::Value> {
-        Some(serde_json::json!({ "host_tick_ns": host_tick_summary(&self.host_tick_ns) }))
+        // The host's wall time per tick, ns: `{n, min, mean, p99, max}`.
+        Some(serde_json::json!({ "host_tick_ns": Stats::of(&self.host_tick_ns) }))
     }
 
     fn link_accounting(&self) -> Option<LinkAccounting> {
@@ -472,11 +455,12 @@ mod tests {
 
     #[test]
     fn the_host_tick_summary_is_the_nearest_rank_p99() {
+        let summary = |v: &[f64]| serde_json::json!(Stats::of(v));
         let v: Vec<f64> = (1..=200).map(f64::from).collect();
-        let s = host_tick_summary(&v);
+        let s = summary(&v);
         assert_eq!(s["n"], 200);
         assert_eq!(s["p99"], 198.0);
         assert_eq!(s["max"], 200.0);
-        assert_eq!(host_tick_summary(&[])["n"], 0);
+        assert_eq!(summary(&[])["n"], 0);
     }
 }
