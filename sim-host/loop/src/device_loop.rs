@@ -68,18 +68,6 @@ impl std::error::Error for DeviceError {}
 
 /// Why a device cannot run at the base rate of `rt`, in words about that rate (not the
 /// refusing field, which the user never typed); `None` when it can.
-///
-/// ```
-/// use wheelset_loop::device_loop::base_rate_refusal;
-/// let mut rt = wheelset_runtime::RuntimeConfig::default();
-/// assert_eq!(base_rate_refusal(&rt), None);
-/// rt.control.base_rate_hz = 50;
-/// let why = base_rate_refusal(&rt).unwrap();
-/// assert!(why.contains("at least 500 Hz"), "{why}");
-/// rt.control.base_rate_hz = 4_000;
-/// let why = base_rate_refusal(&rt).unwrap();
-/// assert!(why.contains("no gains are designed for 4000 Hz"), "{why}");
-/// ```
 #[must_use]
 pub fn base_rate_refusal(rt: &RuntimeConfig) -> Option<String> {
     use wheelset_control::{design, ConfigError};

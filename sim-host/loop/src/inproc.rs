@@ -47,13 +47,6 @@ pub enum DeviceFault {
 
 impl std::fmt::Display for DeviceFault {
     /// The `--device-fault` form that parses back to it (times in us, the stall's in s).
-    ///
-    /// ```
-    /// use wheelset_loop::inproc::DeviceFault;
-    /// for s in ["none", "wrong-sign", "slow:300", "jitter:40", "corrupt:10", "stall:6.5"] {
-    ///     assert_eq!(s.parse::<DeviceFault>().unwrap().to_string(), s);
-    /// }
-    /// ```
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let us = |ns: u64| ns as f64 * 1e-3;
         match *self {
@@ -325,7 +318,6 @@ fn outcome(
     Some(kind.map_or(Ok(()), Err))
 }
 
-/// Re-encodes every Actuation frame in `out` into `res` with the yaw torque negated.
 fn negate_torque(out: &[u8], res: &mut Vec<u8>) {
     let mut dec: Decoder = Decoder::new();
     res.clear();
@@ -425,6 +417,23 @@ impl<T: SampleBits> Transport for InProc<T> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn device_fault_prints_the_form_it_parses_from() {
+        for s in [
+            "none",
+            "wrong-sign",
+            "slow:300",
+            "jitter:40",
+            "corrupt:10",
+            "stall:6.5",
+        ] {
+            assert_eq!(
+                s.parse::<DeviceFault>().map(|f| f.to_string()),
+                Ok(s.to_string())
+            );
+        }
+    }
 
     #[test]
     fn device_fault_parses_and_refuses() {
