@@ -67,7 +67,6 @@ fn bench_configs() -> [BenchConfig; 4] {
     })
 }
 
-/// Minimum, mean and maximum instructions of one measurement.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 struct MinMeanMax {
     min: u64,
@@ -168,7 +167,6 @@ fn bench_json(results: &[(&BenchConfig, BenchResult)]) -> String {
     format!("{{{}}}\n", per_core.join(","))
 }
 
-/// The same figures as a table.
 fn bench_table(results: &[(&BenchConfig, BenchResult)]) -> String {
     let mut t = String::from(
         "| core | build | law min | law mean | law max | tick min | tick mean | tick max | stack peak B |\n\

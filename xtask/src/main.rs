@@ -37,11 +37,9 @@ use std::process::{Command, ExitCode};
 // The QEMU command line, defined once (the harness's launcher uses it too).
 use wheelset_targets::qemu::cmd as qemu_cmd;
 
-/// The `no_std` crates that must build for every MCU target.
 const NO_STD_CRATES: &[&str] = &["wheelset-control", "wheelset-proto", "wheelset-runtime"];
 /// Cortex-M4F (the board and QEMU's mps2-an386) and Cortex-M0 (no FPU).
 const MCU_TARGETS: &[&str] = &["thumbv7em-none-eabihf", "thumbv6m-none-eabi"];
-/// The firmware's target.
 const FW_TARGET: &str = "thumbv7em-none-eabihf";
 /// The Cortex-M3 (no FPU) of QEMU's mps2-an385: the fixed-point build where it matters.
 const M3_TARGET: &str = "thumbv7m-none-eabi";
@@ -57,7 +55,6 @@ struct Firmware {
     flip_link: bool,
 }
 
-/// A board build of [`FW_BIN`].
 const fn fw_build(
     features: &'static str,
     elf: &'static str,
@@ -75,7 +72,6 @@ const fn fw_build(
     }
 }
 
-/// The firmware binary of every board build.
 const FW_BIN: &str = "wheelset-fw";
 
 /// The board builds: the Nucleo (free-running, and frame-clocked over the ST-LINK VCP),
@@ -184,7 +180,6 @@ fn run_as(what: &str, cmd: &mut Command) -> Result<(), String> {
     }
 }
 
-/// Installs the MCU targets if the toolchain lacks them.
 fn ensure_targets() -> Result<(), String> {
     let out = Command::new("rustup")
         .args(["target", "list", "--installed"])
@@ -209,7 +204,6 @@ fn ensure_targets() -> Result<(), String> {
         .args(&missing))
 }
 
-/// Builds the `no_std` crates for every MCU target.
 fn check_no_std() -> Result<(), String> {
     for target in MCU_TARGETS {
         let crates = NO_STD_CRATES.iter().flat_map(|k| ["-p", k]);
@@ -243,10 +237,8 @@ fn remap_flags() -> Vec<String> {
     flags
 }
 
-/// The cargo `--config` that links the board build with flip-link.
 const FLIP_LINK_CONFIG: &str = "target.thumbv7em-none-eabihf.linker=\"flip-link\"";
 
-/// Makes sure `flip-link` (the board build's linker) is installed.
 fn ensure_flip_link() -> Result<(), String> {
     let found = Command::new("flip-link")
         .stdout(std::process::Stdio::null())
@@ -540,7 +532,6 @@ fn usage_error(e: impl std::fmt::Display) -> ExitCode {
     ExitCode::from(2)
 }
 
-/// Writes to standard output for [`out!`] and [`outln!`].
 fn write_stdout(args: std::fmt::Arguments<'_>) {
     use std::io::Write as _;
     let mut out = std::io::stdout().lock();

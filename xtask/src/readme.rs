@@ -199,7 +199,6 @@ pub fn run(check: bool, dev: bool) -> Result<bool, String> {
         .map(|(n, _)| n.as_str())
         .collect::<Vec<_>>()
         .join(", ");
-    // ` (list)`, or nothing for an empty list.
     let listed = |s: &str| {
         if s.is_empty() {
             String::new()

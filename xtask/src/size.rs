@@ -68,7 +68,6 @@ fn number(s: &str) -> Option<u64> {
 /// The FLASH and RAM regions of a `memory.x` (`NAME : ORIGIN = a, LENGTH = l`, one per
 /// line).
 pub fn parse_map(text: &str) -> Result<Map, String> {
-    // `KEY = value`.
     let field = |s: &str, key: &str| number(s.trim().strip_prefix(key)?.trim().strip_prefix('=')?);
     let region = |name: &str| {
         text.lines()

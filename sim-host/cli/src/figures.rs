@@ -74,7 +74,6 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
             s.width(4.0).opacity(0.5)
         }
     };
-    // `p` with a series `f` of every run in `order`, named `prefix` and the run's control.
     let overlay = |mut p: Plot, prefix: &str, f: fn(&Record) -> f64| {
         for &(k, tr) in &order {
             p = p.series(styled(k, series(tr, &format!("{prefix}{}", label(tr)), f)));
@@ -283,7 +282,6 @@ pub fn write_root_locus(sw: &CaseSweep, dir: &Path) -> std::io::Result<std::path
         } else {
             1.6
         };
-        // The mode's eigenvalues at sweep point `k`.
         let branch = |k: usize| {
             sw.eig[k]
                 .iter()

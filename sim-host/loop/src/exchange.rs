@@ -120,7 +120,6 @@ pub struct DeviceController<'a> {
     period_ns: u64,
     k_m: f64,
     lateral: LateralSensing,
-    /// A Config frame sent before the first Sensor frame.
     config: Option<Config>,
     config_sent: bool,
     decoder: Decoder,

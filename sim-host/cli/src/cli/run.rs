@@ -143,7 +143,6 @@ pub(crate) fn cmd_run(a: &RunArgs) -> Result<(), Failure> {
     judge_divergence(a, main)
 }
 
-/// The runs of `--compare` but for `--control`'s own, on the continuous loop.
 pub(crate) fn compared<'a>(
     a: &'a RunArgs,
     sc: &'a Scenario,
@@ -154,7 +153,6 @@ pub(crate) fn compared<'a>(
         .map(|&c| simulate(sc, c))
 }
 
-/// `--csv` of the first run and `--plot` of them all (the others overlaid).
 fn write_csv_and_plots(a: &RunArgs, runs: &[Trajectory]) -> Result<(), Failure> {
     if let (Some(path), Some(main)) = (&a.csv, runs.first()) {
         main.write_csv(create_file(path)?)
@@ -164,7 +162,6 @@ fn write_csv_and_plots(a: &RunArgs, runs: &[Trajectory]) -> Result<(), Failure> 
     write_plots(a, runs)
 }
 
-/// `--plot`: the time histories of `runs` (the first the main run, the others overlaid).
 pub(crate) fn write_plots(a: &RunArgs, runs: &[Trajectory]) -> Result<(), Failure> {
     if let Some(dir) = &a.plot {
         let files = crate::figures::write_time_histories(runs, dir).map_err(|e| io_fail(dir, e))?;

@@ -96,7 +96,6 @@ fn eigvec(a: &DMatrix<f64>, lambda: Complex<f64>, left: bool) -> DVector<Complex
     x
 }
 
-/// Which physical group a state belongs to.
 fn group(state: usize) -> usize {
     match state {
         ix::Y | ix::YD | ix::PSI | ix::PSID => 0,

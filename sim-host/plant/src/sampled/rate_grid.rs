@@ -216,7 +216,6 @@ pub fn rate_row(
     }
     let spring = cfg.yaw_mode == YawMode::Passive;
     let fast = current_loop_mode(armature, &cfg, delay_ticks)?;
-    // Any mode is worse than this.
     let none = GridMode {
         creep: 0.0,
         lambda: 0.0,

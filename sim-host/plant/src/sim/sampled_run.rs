@@ -195,7 +195,6 @@ pub fn run_sampled(
     })
 }
 
-/// [`run_sampled`] on the set-up `s` with the configuration as `flags`.
 fn sampled<F: Flags>(
     mut s: Setup<'_>,
     ctrl: &mut dyn SampledController,

@@ -137,12 +137,10 @@ impl Plot {
         rows
     }
 
-    /// The x value as drawn (see [`axis`]).
     fn tx(&self, x: f64) -> f64 {
         axis(self.x_log, x)
     }
 
-    /// The y value as drawn.
     fn ty(&self, y: f64) -> f64 {
         axis(self.y_log, y)
     }
@@ -557,7 +555,6 @@ impl Plot {
             }
         }
         o.push_str("</g>\n");
-        // legend
         let rows = self.legend_rows();
         if !rows.is_empty() {
             let lw = legend_w;
@@ -619,7 +616,6 @@ impl Plot {
     }
 }
 
-/// The dash attribute of a series drawn dashed (empty otherwise).
 fn dash(s: &Series) -> &'static str {
     if s.style == Style::Dashed {
         r#" stroke-dasharray="6,4""#
