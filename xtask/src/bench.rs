@@ -12,62 +12,61 @@ mod pages;
 use crate::{build_firmware, ensure_targets, have_qemu, Firmware, FW_TARGET, M3_TARGET};
 use wheelset_targets::qemu::TICK_MEAN_BUDGET_INSTRUCTIONS;
 
-/// One `fw-bench` configuration: core, numeric build, target, QEMU machine and CPU.
+/// One `fw-bench` configuration: core (QEMU's CPU too), numeric build, firmware, QEMU
+/// machine.
 struct BenchConfig {
     core: &'static str,
     numeric: &'static str,
     fw: Firmware,
     machine: &'static str,
-    cpu: &'static str,
 }
 
 /// The four configurations, in the order of the JSON and the table.
 fn bench_configs() -> [BenchConfig; 4] {
-    let bench = |features, elf, target| Firmware {
-        bin: "wheelset-qemu-bench",
-        features,
-        elf,
-        target,
-        board: "qemu",
-        flip_link: false,
-    };
     [
-        BenchConfig {
-            core: "cortex-m4",
-            numeric: "fixed",
-            fw: bench("board-qemu", "wheelset-qemu-bench.elf", FW_TARGET),
-            machine: "mps2-an386",
-            cpu: "cortex-m4",
-        },
-        BenchConfig {
-            core: "cortex-m4",
-            numeric: "f32",
-            fw: bench("board-qemu,f32", "wheelset-qemu-bench-f32.elf", FW_TARGET),
-            machine: "mps2-an386",
-            cpu: "cortex-m4",
-        },
-        BenchConfig {
-            core: "cortex-m3",
-            numeric: "fixed",
-            fw: bench("board-qemu", "wheelset-qemu-bench-m3.elf", M3_TARGET),
-            machine: "mps2-an385",
-            cpu: "cortex-m3",
-        },
-        BenchConfig {
-            core: "cortex-m3",
-            numeric: "f32",
-            fw: bench(
-                "board-qemu,f32",
-                "wheelset-qemu-bench-m3-f32.elf",
-                M3_TARGET,
-            ),
-            machine: "mps2-an385",
-            cpu: "cortex-m3",
-        },
+        (
+            "cortex-m4",
+            "fixed",
+            "board-qemu",
+            "wheelset-qemu-bench.elf",
+        ),
+        (
+            "cortex-m4",
+            "f32",
+            "board-qemu,f32",
+            "wheelset-qemu-bench-f32.elf",
+        ),
+        (
+            "cortex-m3",
+            "fixed",
+            "board-qemu",
+            "wheelset-qemu-bench-m3.elf",
+        ),
+        (
+            "cortex-m3",
+            "f32",
+            "board-qemu,f32",
+            "wheelset-qemu-bench-m3-f32.elf",
+        ),
     ]
+    .map(|(core, numeric, features, elf)| {
+        let m3 = core == "cortex-m3";
+        BenchConfig {
+            core,
+            numeric,
+            fw: Firmware {
+                bin: "wheelset-qemu-bench",
+                features,
+                elf,
+                target: if m3 { M3_TARGET } else { FW_TARGET },
+                board: "qemu",
+                flip_link: false,
+            },
+            machine: if m3 { "mps2-an385" } else { "mps2-an386" },
+        }
+    })
 }
 
-/// Minimum, mean and maximum instructions of one measurement.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 struct MinMeanMax {
     min: u64,
@@ -114,17 +113,16 @@ fn parse_bench(output: &str) -> Result<BenchResult, String> {
             w.len()
         ));
     }
+    let mmm = |i: usize| -> Result<MinMeanMax, String> {
+        Ok(MinMeanMax {
+            min: num(i)?,
+            mean: num(i + 1)?,
+            max: num(i + 2)?,
+        })
+    };
     Ok(BenchResult {
-        law: MinMeanMax {
-            min: num(1)?,
-            mean: num(2)?,
-            max: num(3)?,
-        },
-        tick: MinMeanMax {
-            min: num(5)?,
-            mean: num(6)?,
-            max: num(7)?,
-        },
+        law: mmm(1)?,
+        tick: mmm(5)?,
         stack_peak_bytes: num(9)?,
     })
 }
@@ -169,7 +167,6 @@ fn bench_json(results: &[(&BenchConfig, BenchResult)]) -> String {
     format!("{{{}}}\n", per_core.join(","))
 }
 
-/// The same figures as a table.
 fn bench_table(results: &[(&BenchConfig, BenchResult)]) -> String {
     let mut t = String::from(
         "| core | build | law min | law mean | law max | tick min | tick mean | tick max | stack peak B |\n\
@@ -259,10 +256,7 @@ fn sync_pages(
 pub(crate) fn fw_bench(json: Option<PathBuf>, check: bool) -> Result<(), String> {
     ensure_targets()?;
     let configs = bench_configs();
-    let mut elfs = Vec::new();
-    for c in &configs {
-        elfs.extend(build_firmware(std::slice::from_ref(&c.fw))?);
-    }
+    let elfs = build_firmware(configs.iter().map(|c| &c.fw))?;
     if !have_qemu() {
         return Err("qemu-system-arm is not installed: `apt-get install qemu-system-arm`".into());
     }
@@ -272,7 +266,7 @@ pub(crate) fn fw_bench(json: Option<PathBuf>, check: bool) -> Result<(), String>
         let mut cmd = Command::new(crate::qemu_cmd::QEMU_BIN);
         cmd.args(crate::qemu_cmd::qemu_args(
             c.machine,
-            c.cpu,
+            c.core,
             &elf.to_string_lossy(),
             crate::qemu_cmd::SerialTo::Null,
         ));

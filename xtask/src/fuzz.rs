@@ -7,7 +7,6 @@
 //! valid frame (`docs/hardening.md`). A short seeded run is a unit test of this crate.
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
-use std::process::ExitCode;
 use std::time::Instant;
 
 use wheelset_control::{Config as ControlConfig, Fx, SampleBits};
@@ -306,26 +305,9 @@ fn check_output<T: SampleBits>(
     Ok(())
 }
 
-/// The command: both sample types, a summary; exit 0 when every check held, 1 on a
-/// failed check (the message names the seed and the frame), 2 on a usage error.
-pub fn main(args: &[String]) -> ExitCode {
-    let a = match parse_args(args) {
-        Ok(a) => a,
-        Err(e) => {
-            eprintln!("xtask: {e}");
-            return ExitCode::from(2);
-        }
-    };
-    match fuzz(a) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("xtask: {e}");
-            ExitCode::FAILURE
-        }
-    }
-}
-
-fn fuzz(a: Args) -> Result<(), String> {
+/// The command: both sample types, a summary; an error names the seed and the frame of
+/// the failed check.
+pub fn fuzz(a: Args) -> Result<(), String> {
     outln!(
         "fuzz: {} frames per sample type, seed {} (overflow checks on: {})",
         a.frames,

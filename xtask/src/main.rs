@@ -37,11 +37,9 @@ use std::process::{Command, ExitCode};
 // The QEMU command line, defined once (the harness's launcher uses it too).
 use wheelset_targets::qemu::cmd as qemu_cmd;
 
-/// The `no_std` crates that must build for every MCU target.
 const NO_STD_CRATES: &[&str] = &["wheelset-control", "wheelset-proto", "wheelset-runtime"];
 /// Cortex-M4F (the board and QEMU's mps2-an386) and Cortex-M0 (no FPU).
 const MCU_TARGETS: &[&str] = &["thumbv7em-none-eabihf", "thumbv6m-none-eabi"];
-/// The firmware's target.
 const FW_TARGET: &str = "thumbv7em-none-eabihf";
 /// The Cortex-M3 (no FPU) of QEMU's mps2-an385: the fixed-point build where it matters.
 const M3_TARGET: &str = "thumbv7m-none-eabi";
@@ -57,7 +55,6 @@ struct Firmware {
     flip_link: bool,
 }
 
-/// A board build of [`FW_BIN`].
 const fn fw_build(
     features: &'static str,
     elf: &'static str,
@@ -75,7 +72,6 @@ const fn fw_build(
     }
 }
 
-/// The firmware binary of every board build.
 const FW_BIN: &str = "wheelset-fw";
 
 /// The board builds: the Nucleo (free-running, and frame-clocked over the ST-LINK VCP),
@@ -184,7 +180,6 @@ fn run_as(what: &str, cmd: &mut Command) -> Result<(), String> {
     }
 }
 
-/// Installs the MCU targets if the toolchain lacks them.
 fn ensure_targets() -> Result<(), String> {
     let out = Command::new("rustup")
         .args(["target", "list", "--installed"])
@@ -209,15 +204,12 @@ fn ensure_targets() -> Result<(), String> {
         .args(&missing))
 }
 
-/// Builds the `no_std` crates for every MCU target.
 fn check_no_std() -> Result<(), String> {
     for target in MCU_TARGETS {
-        let mut cmd = cargo();
-        cmd.args(["build", "--release", "--target", target]);
-        for krate in NO_STD_CRATES {
-            cmd.args(["-p", krate]);
-        }
-        run(&mut cmd)?;
+        let crates = NO_STD_CRATES.iter().flat_map(|k| ["-p", k]);
+        run(cargo()
+            .args(["build", "--release", "--target", target])
+            .args(crates))?;
     }
     Ok(())
 }
@@ -245,10 +237,8 @@ fn remap_flags() -> Vec<String> {
     flags
 }
 
-/// The cargo `--config` that links the board build with flip-link.
 const FLIP_LINK_CONFIG: &str = "target.thumbv7em-none-eabihf.linker=\"flip-link\"";
 
-/// Makes sure `flip-link` (the board build's linker) is installed.
 fn ensure_flip_link() -> Result<(), String> {
     let found = Command::new("flip-link")
         .stdout(std::process::Stdio::null())
@@ -264,7 +254,9 @@ fn ensure_flip_link() -> Result<(), String> {
 
 /// Builds the given firmware binaries, one cargo invocation each (no board's HAL can
 /// reach another board's binary), and copies them to `target/fw/`.
-fn build_firmware(list: &[Firmware]) -> Result<Vec<(PathBuf, &'static str)>, String> {
+fn build_firmware<'a>(
+    list: impl IntoIterator<Item = &'a Firmware>,
+) -> Result<Vec<(PathBuf, &'static str)>, String> {
     let out_dir = target_dir().join("fw");
     std::fs::create_dir_all(&out_dir)
         .map_err(|e| format!("cannot create {}: {e}", out_dir.display()))?;
@@ -376,10 +368,7 @@ fn fw(args: &[String]) -> Result<Vec<(PathBuf, &'static str)>, String> {
         }
     }
     ensure_targets()?;
-    let mut elfs = Vec::new();
-    for fw in list {
-        elfs.extend(build_firmware(std::slice::from_ref(fw))?);
-    }
+    let elfs = build_firmware(list)?;
     size::check_sizes(&elfs)?;
     Ok(elfs)
 }
@@ -406,27 +395,21 @@ fn test(extra: &[String]) -> Result<(), String> {
     }
     run(&mut cmd)?;
     // The device's crates with the firmware's features (no `std` in the wire crate).
-    let mut device = cargo();
-    device.args(["test", "--no-fail-fast"]);
-    for p in features::DEVICE_TEST_PACKAGES {
-        device.args(["-p", p]);
-    }
-    run(device.args(extra))?;
+    let device = features::DEVICE_TEST_PACKAGES
+        .iter()
+        .flat_map(|p| ["-p", p]);
+    run(cargo()
+        .args(["test", "--no-fail-fast"])
+        .args(device)
+        .args(extra))?;
     // The runtime as the QEMU firmware builds it (`fault-inject`).
-    let mut inject = cargo();
-    inject.args([
-        "test",
-        "--no-fail-fast",
-        "-p",
-        "wheelset-runtime",
-        "--features",
-        "fault-inject",
-    ]);
-    run(inject.args(extra))?;
+    let inject = ["-p", "wheelset-runtime", "--features", "fault-inject"];
+    run(cargo()
+        .args(["test", "--no-fail-fast"])
+        .args(inject)
+        .args(extra))?;
     // The benchmarks compile (not run: timings are no tests).
-    let mut benches = cargo();
-    benches.args(["test", "--workspace", "--benches", "--no-run"]);
-    run(&mut benches)?;
+    run(cargo().args(["test", "--workspace", "--benches", "--no-run"]))?;
     // The pages' instruction counts and stack figures against the bench (under QEMU).
     if have_qemu() {
         bench::fw_bench(None, true)?;
@@ -504,7 +487,10 @@ fn main() -> ExitCode {
             Ok((json, check)) => bench::fw_bench(json, check),
             Err(e) => return usage_error(e),
         },
-        Some("fuzz") => return fuzz::main(&args[1..]),
+        Some("fuzz") => match fuzz::parse_args(&args[1..]) {
+            Ok(a) => fuzz::fuzz(a),
+            Err(e) => return usage_error(e),
+        },
         Some("loc") => match args.get(1).map(String::as_str) {
             None => loc::main(false),
             Some("--check") => loc::main(true),
@@ -546,7 +532,6 @@ fn usage_error(e: impl std::fmt::Display) -> ExitCode {
     ExitCode::from(2)
 }
 
-/// Writes to standard output for [`out!`] and [`outln!`].
 fn write_stdout(args: std::fmt::Arguments<'_>) {
     use std::io::Write as _;
     let mut out = std::io::stdout().lock();

@@ -106,67 +106,55 @@ fn generate(root: &Path, bin_dir: &Path, b: &Block) -> Result<String, String> {
 /// `cargo xtask readme [--check] [--dev] | --links | --commands [--long] [--list]` (the
 /// arguments after `readme`; `--list` prints each command's class without running any).
 pub fn main(args: &[String]) -> ExitCode {
-    let mut check = false;
-    let mut dev = false;
-    let mut cmds = false;
-    let mut long = false;
-    let mut list = false;
-    let mut links_only = false;
-    for a in args {
-        match a.as_str() {
-            "--check" => check = true,
-            "--dev" => dev = true,
-            "--commands" => cmds = true,
-            "--long" => long = true,
-            "--list" => list = true,
-            "--links" => links_only = true,
-            other => {
-                eprintln!(
-                    "xtask readme: unknown argument `{other}` (usage: cargo xtask readme \
-                     [--check] [--dev] | --links | --commands [--long] [--list])"
-                );
-                return ExitCode::from(2);
-            }
+    const FLAGS: [&str; 6] = [
+        "--check",
+        "--dev",
+        "--commands",
+        "--long",
+        "--list",
+        "--links",
+    ];
+    if let Some(other) = args.iter().find(|a| !FLAGS.contains(&a.as_str())) {
+        eprintln!(
+            "xtask readme: unknown argument `{other}` (usage: cargo xtask readme \
+             [--check] [--dev] | --links | --commands [--long] [--list])"
+        );
+        return ExitCode::from(2);
+    }
+    let has = |flag: &str| args.iter().any(|a| a == flag);
+    let (check, dev, long, list) = (has("--check"), has("--dev"), has("--long"), has("--list"));
+    if has("--links") {
+        let bad = check_links(&crate::workspace_root());
+        if bad.as_ref().is_ok_and(Vec::is_empty) {
+            eprintln!("xtask readme: every link and image of the pages resolves");
         }
+        return failures(bad, "broken link(s)");
     }
-    if links_only {
-        return match check_links(&crate::workspace_root()) {
-            Ok(bad) if bad.is_empty() => {
-                eprintln!("xtask readme: every link and image of the pages resolves");
-                ExitCode::SUCCESS
-            }
-            Ok(bad) => {
-                for b in &bad {
-                    eprintln!("xtask readme: {b}");
-                }
-                eprintln!("xtask readme: {} broken link(s)", bad.len());
-                ExitCode::FAILURE
-            }
-            Err(e) => {
-                eprintln!("xtask readme: {e}");
-                ExitCode::FAILURE
-            }
-        };
-    }
-    if cmds {
-        return match run_commands(long, list) {
-            Ok(f) if f.is_empty() => ExitCode::SUCCESS,
-            Ok(f) => {
-                for e in &f {
-                    eprintln!("xtask readme: {e}");
-                }
-                eprintln!("xtask readme: {} command(s) of the pages failed", f.len());
-                ExitCode::FAILURE
-            }
-            Err(e) => {
-                eprintln!("xtask readme: {e}");
-                ExitCode::FAILURE
-            }
-        };
+    if has("--commands") {
+        return failures(run_commands(long, list), "command(s) of the pages failed");
     }
     match run(check, dev) {
         Ok(true) => ExitCode::SUCCESS,
         Ok(false) => ExitCode::FAILURE,
+        Err(e) => {
+            eprintln!("xtask readme: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// Exit 0 when `r` names no failure; else each failure on stderr, then their count
+/// with `what`, and exit 1.
+fn failures(r: Result<Vec<String>, String>, what: &str) -> ExitCode {
+    match r {
+        Ok(f) if f.is_empty() => ExitCode::SUCCESS,
+        Ok(f) => {
+            for e in &f {
+                eprintln!("xtask readme: {e}");
+            }
+            eprintln!("xtask readme: {} {what}", f.len());
+            ExitCode::FAILURE
+        }
         Err(e) => {
             eprintln!("xtask readme: {e}");
             ExitCode::FAILURE
@@ -206,11 +194,17 @@ pub fn run(check: bool, dev: bool) -> Result<bool, String> {
         }
     }
     let figs = figures::sync(&root, check)?;
-    let names = |v: &[(String, String)]| {
-        v.iter()
-            .map(|(n, _)| n.as_str())
-            .collect::<Vec<_>>()
-            .join(", ")
+    let names = drifted
+        .iter()
+        .map(|(n, _)| n.as_str())
+        .collect::<Vec<_>>()
+        .join(", ");
+    let listed = |s: &str| {
+        if s.is_empty() {
+            String::new()
+        } else {
+            format!(" ({s})")
+        }
     };
     if check {
         for (name, d) in &drifted {
@@ -238,7 +232,7 @@ pub fn run(check: bool, dev: bool) -> Result<bool, String> {
                  `cargo xtask readme` rewrites them",
                 drifted.len(),
                 BLOCKS.len(),
-                names(&drifted),
+                names,
                 figs.len(),
                 FIGURES.len(),
                 figs.join(", ")
@@ -259,18 +253,10 @@ pub fn run(check: bool, dev: bool) -> Result<bool, String> {
         "xtask readme: {} blocks written, {} changed{}; {} figures, {} changed{}",
         BLOCKS.len(),
         drifted.len(),
-        if drifted.is_empty() {
-            String::new()
-        } else {
-            format!(" ({})", names(&drifted))
-        },
+        listed(&names),
         FIGURES.len(),
         figs.len(),
-        if figs.is_empty() {
-            String::new()
-        } else {
-            format!(" ({})", figs.join(", "))
-        }
+        listed(&figs.join(", "))
     );
     for u in &unquoted {
         eprintln!("xtask readme: {u}");

@@ -68,6 +68,7 @@ fn number(s: &str) -> Option<u64> {
 /// The FLASH and RAM regions of a `memory.x` (`NAME : ORIGIN = a, LENGTH = l`, one per
 /// line).
 pub fn parse_map(text: &str) -> Result<Map, String> {
+    let field = |s: &str, key: &str| number(s.trim().strip_prefix(key)?.trim().strip_prefix('=')?);
     let region = |name: &str| {
         text.lines()
             .filter_map(|l| {
@@ -76,21 +77,10 @@ pub fn parse_map(text: &str) -> Result<Map, String> {
                     return None;
                 }
                 let (origin, length) = rest.split_once(',')?;
-                let origin = number(
-                    origin
-                        .trim()
-                        .strip_prefix("ORIGIN")?
-                        .trim()
-                        .strip_prefix('=')?,
-                )?;
-                let length = number(
-                    length
-                        .trim()
-                        .strip_prefix("LENGTH")?
-                        .trim()
-                        .strip_prefix('=')?,
-                )?;
-                Some(Region { origin, length })
+                Some(Region {
+                    origin: field(origin, "ORIGIN")?,
+                    length: field(length, "LENGTH")?,
+                })
             })
             .next()
             .ok_or_else(|| format!("no `{name} : ORIGIN = .., LENGTH = ..` line"))

@@ -74,9 +74,15 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
             s.width(4.0).opacity(0.5)
         }
     };
+    let overlay = |mut p: Plot, prefix: &str, f: fn(&Record) -> f64| {
+        for &(k, tr) in &order {
+            p = p.series(styled(k, series(tr, &format!("{prefix}{}", label(tr)), f)));
+        }
+        p
+    };
 
     // Fig. 6: the pure rolling line as a wide grey band beneath the runs.
-    let mut p = Plot::new(&format!(
+    let p = Plot::new(&format!(
         "Lateral displacement y against the pure rolling line y0{}",
         fig("6", "9")
     ))
@@ -87,18 +93,11 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
             .color("#BBBBBB")
             .width(6.0),
     );
-    for &(k, tr) in &order {
-        p = p.series(styled(
-            k,
-            series(tr, &format!("y, {}", label(tr)), |r| r.y_m * 1e3),
-        ));
-    }
-    let mut psi = Plot::new("Yaw angle")
+    let p = overlay(p, "y, ", |r| r.y_m * 1e3);
+    let psi = Plot::new("Yaw angle")
         .x_label("t (s)")
         .y_label("psi (mrad)");
-    for &(k, tr) in &order {
-        psi = psi.series(styled(k, series(tr, &label(tr), |r| r.psi_rad * 1e3)));
-    }
+    let psi = overlay(psi, "", |r| r.psi_rad * 1e3);
     // Zoom on the traction step (Fig. 9's beating shows here).
     let t_step = main
         .records
@@ -127,18 +126,13 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
     )?;
 
     // Fig. 7
-    let mut p = Plot::new(&format!(
+    let p = Plot::new(&format!(
         "Yaw torque: control (active) / suspension (passive){}",
         fig("7", "")
     ))
     .x_label("t (s)")
     .y_label("T_psi (N m)");
-    for &(k, tr) in &order {
-        p = p.series(styled(
-            k,
-            series(tr, &format!("T_psi, {}", label(tr)), |r| r.t_psi_nm),
-        ));
-    }
+    let p = overlay(p, "T_psi, ", |r| r.t_psi_nm);
     save("torque.svg", Figure::new(&title).panel(p))?;
 
     // Fig. 8: one panel per force, one colour per run (the main run solid, the compared
@@ -288,14 +282,14 @@ pub fn write_root_locus(sw: &CaseSweep, dir: &Path) -> std::io::Result<std::path
         } else {
             1.6
         };
-        let mut pts = Vec::new();
-        for k in (0..n_pts).step_by(stride) {
-            for (b, l) in sw.eig[k].iter().enumerate() {
-                if &sw.branch_names[b] == name {
-                    pts.push((l.re, l.im));
-                }
-            }
-        }
+        let branch = |k: usize| {
+            sw.eig[k]
+                .iter()
+                .zip(&sw.branch_names)
+                .filter(|(_, b)| *b == name)
+                .map(|(l, _)| (l.re, l.im))
+        };
+        let pts: Vec<(f64, f64)> = (0..n_pts).step_by(stride).flat_map(branch).collect();
         // The legend names each mode with its natural frequency range over the sweep.
         let (lo, hi) = hz_range(name, &f64::hypot);
         let mut named = if hi > 0.0 {
@@ -306,24 +300,13 @@ pub fn write_root_locus(sw: &CaseSweep, dir: &Path) -> std::io::Result<std::path
             format!("{name}: real")
         };
         // How far a branch runs past the axis's left end.
-        let far = sw
-            .eig
-            .iter()
-            .flat_map(|row| row.iter().zip(&sw.branch_names))
-            .filter(|(_, b)| *b == name)
-            .map(|(l, _)| l.re)
-            .fold(0.0, f64::min);
+        let far = (0..n_pts).flat_map(branch).map(|p| p.0).fold(0.0, f64::min);
         if far < 1.05 * re_lo {
             let sep = if named.contains(':') { "," } else { ":" };
             named += &format!("{sep} to {far:.0} 1/s");
         }
         locus = locus.series(Series::scatter(&named, pts).color(col).width(width));
-        let top: Vec<(f64, f64)> = sw.eig[n_pts - 1]
-            .iter()
-            .enumerate()
-            .filter(|(b, _)| &sw.branch_names[*b] == name)
-            .map(|(_, l)| (l.re, l.im))
-            .collect();
+        let top = branch(n_pts - 1).collect();
         locus = locus.series(Series::scatter("", top).style(Style::Crosses).color(col));
         let vals: Vec<(f64, f64, f64, f64)> = (0..n_pts)
             .filter_map(|k| {
@@ -423,30 +406,18 @@ pub fn write_figure(
     let pale = |k: usize| if k == 0 { 1.0 } else { 0.5 };
     for &k in &order {
         let run = &runs[k];
-        let pts = |f: &dyn Fn(&Record) -> f64| -> Vec<(f64, f64)> {
-            run.tr.records.iter().map(|r| (r.t_s, f(r))).collect()
-        };
-        force = force.series(
-            Series::line(run.label, pts(&|r| (r.fx_r_n + r.fx_l_n) * 1e-3))
-                .color(colour(k))
-                .width(width(k))
-                .opacity(pale(k)),
-        );
-        mu = mu.series(
-            Series::line(&format!("used, {}", run.label), pts(&|r| r.mu_used))
-                .color(colour(k))
-                .width(width(k))
-                .opacity(pale(k)),
-        );
+        let style = |s: Series| s.color(colour(k)).width(width(k)).opacity(pale(k));
+        force = force.series(style(series(run.tr, run.label, |r| {
+            (r.fx_r_n + r.fx_l_n) * 1e-3
+        })));
+        let used = format!("used, {}", run.label);
+        mu = mu.series(style(series(run.tr, &used, |r| r.mu_used)));
     }
     if let Some(run) = runs.first() {
         mu = mu.series(
-            Series::line(
-                "available",
-                run.tr.records.iter().map(|r| (r.t_s, r.mu_avail)).collect(),
-            )
-            .style(Style::Dashed)
-            .color("#000"),
+            series(run.tr, "available", |r| r.mu_avail)
+                .style(Style::Dashed)
+                .color("#000"),
         );
     }
     // A run that stopped early (diverged) says so where it ends, in every panel it is in.
@@ -467,11 +438,8 @@ pub fn write_figure(
         .collect();
     let mut slips = Vec::new();
     for (k, run) in runs.iter().enumerate() {
-        let pts = |f: &dyn Fn(&Record) -> f64| -> Vec<(f64, f64)> {
-            run.tr.records.iter().map(|r| (r.t_s, f(r))).collect()
-        };
         let mut slip = panel(&format!("Slip velocity, {}", run.label), "slip (m/s)")
-            .series(Series::line(run.label, pts(&|r| r.slip_mps)).color(colour(k)));
+            .series(series(run.tr, run.label, |r| r.slip_mps).color(colour(k)));
         if let Some((t, l, c)) = ends.iter().find(|e| e.1.starts_with(run.label)) {
             slip = slip.vmark(*t, l, c);
         }
@@ -502,8 +470,8 @@ pub fn write_figure(
             let top = run
                 .set_point
                 .iter()
-                .chain(&pts(&|r| r.slip_mps))
                 .map(|p| p.1)
+                .chain(run.tr.records.iter().map(|r| r.slip_mps))
                 .fold(slip_on_mps, f64::max);
             slip.series(
                 Series::line("regulator's set point", sp)

@@ -7,15 +7,81 @@ use nalgebra::Complex;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use std::f64::consts::PI;
+use wheelset_plant::control::closed_loop_rhs;
 use wheelset_plant::control::{ContinuousController, Exogenous, YawLaw};
 use wheelset_plant::linear::{
-    closed_loop_a, closed_loop_jacobian, closed_loop_jacobian_central,
-    closed_loop_jacobian_complex_step, linear_plant, plant_jacobian, plant_jacobian_complex_step,
+    closed_loop_a, closed_loop_jacobian, closed_loop_jacobian_central, linear_plant,
+    plant_jacobian, InJac, Jac,
 };
 use wheelset_plant::modes::{creep_grid, eigenvalues, sweep_case, Case};
 use wheelset_plant::params::Params;
-use wheelset_plant::plant::{ix, Inputs, Plant, PlantConfig, NX, STATE_NAMES};
+use wheelset_plant::plant::{ix, Inputs, Plant, PlantConfig, State, NX, STATE_NAMES};
 use wheelset_plant::scenario::Axle;
+
+/// Step of the complex-step derivative (`df/dx_j = Im f(x + i h e_j) / h`, exact to
+/// rounding): the oracle of the analytic Jacobians.
+const COMPLEX_STEP: f64 = 1e-20;
+
+/// Complex-step Jacobians of the plant RHS (same layout as `plant_jacobian`).
+fn plant_jacobian_complex_step(plant: &Plant, x: &State, u: &Inputs<f64>) -> (Jac, InJac) {
+    let lift = |v: f64| Complex::new(v, 0.0);
+    let uc = Inputs {
+        t_psi: lift(u.t_psi),
+        u_a: lift(u.u_a),
+        curvature: lift(u.curvature),
+        cant: lift(u.cant),
+        f_run: lift(u.f_run),
+        t_drive: lift(u.t_drive),
+    };
+    let xc: [Complex<f64>; NX] = x.map(lift);
+    let a = complex_step(x, |xp| plant.rhs(xp, &uc).0);
+    let mut b = InJac::zeros();
+    for k in 0..2 {
+        let mut up = uc;
+        if k == 0 {
+            up.t_psi.im = COMPLEX_STEP;
+        } else {
+            up.u_a.im = COMPLEX_STEP;
+        }
+        let (f, _) = plant.rhs(&xc, &up);
+        for i in 0..NX {
+            b[(i, k)] = f[i].im / COMPLEX_STEP;
+        }
+    }
+    (a, b)
+}
+
+/// `df/dx` of `f` at `x` by the complex step.
+fn complex_step(x: &State, f: impl Fn(&[Complex<f64>; NX]) -> [Complex<f64>; NX]) -> Jac {
+    let mut a = Jac::zeros();
+    for j in 0..NX {
+        let mut xp = x.map(|v| Complex::new(v, 0.0));
+        xp[j].im = COMPLEX_STEP;
+        let f = f(&xp);
+        for i in 0..NX {
+            a[(i, j)] = f[i].im / COMPLEX_STEP;
+        }
+    }
+    a
+}
+
+/// Complex-step closed-loop Jacobian of `closed_loop_rhs`.
+fn closed_loop_jacobian_complex_step(
+    plant: &Plant,
+    ctrl: &ContinuousController,
+    x: &State,
+    e: &Exogenous<f64>,
+) -> Jac {
+    let lift = |v: f64| Complex::new(v, 0.0);
+    let ec = Exogenous {
+        curvature: lift(e.curvature),
+        cant: lift(e.cant),
+        f_run: lift(e.f_run),
+        i_ref: lift(e.i_ref),
+        demand: lift(e.demand),
+    };
+    complex_step(x, |xp| closed_loop_rhs(plant, ctrl, xp, &ec))
+}
 
 fn configs() -> Vec<PlantConfig> {
     let mut v = Vec::new();

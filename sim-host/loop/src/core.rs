@@ -110,30 +110,24 @@ impl<T: SampleBits> SampledController for CoreController<T> {
             speed: code(m.w_m, SPEED_LSB_RAD_PER_S),
             demand: code(m.demand_nm, DEMAND_LSB_NM),
         };
-        let a = if self.src == Sources::WIRE {
-            let out = self.core.tick_codes(&codes);
-            Actuation {
-                t_psi: f64::from(out.yaw_torque) * TORQUE_LSB_NM,
-                u_a: f64::from(out.voltage) * VOLTAGE_LSB_V,
-            }
+        let c = if self.src == Sources::WIRE {
+            self.core.tick_codes(&codes)
         } else {
             let mut inp: Inputs<T> = self.core.codec().decode(&codes);
             if !self.src.y_wire {
                 inp.y_dot = T::from_f64(m.yd_mps / self.cfg.scales.y_dot);
             }
             let out = self.core.tick(&inp);
-            if self.src.out_wire {
-                let c = self.core.codec().encode(&out);
-                Actuation {
-                    t_psi: f64::from(c.yaw_torque) * TORQUE_LSB_NM,
-                    u_a: f64::from(c.voltage) * VOLTAGE_LSB_V,
-                }
-            } else {
+            if !self.src.out_wire {
                 let (t_psi, u_a) = out.to_si(&self.cfg.scales);
-                Actuation { t_psi, u_a }
+                return Actuation { t_psi, u_a };
             }
+            self.core.codec().encode(&out)
         };
-        a
+        Actuation {
+            t_psi: f64::from(c.yaw_torque) * TORQUE_LSB_NM,
+            u_a: f64::from(c.voltage) * VOLTAGE_LSB_V,
+        }
     }
 }
 

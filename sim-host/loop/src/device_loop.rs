@@ -68,18 +68,6 @@ impl std::error::Error for DeviceError {}
 
 /// Why a device cannot run at the base rate of `rt`, in words about that rate (not the
 /// refusing field, which the user never typed); `None` when it can.
-///
-/// ```
-/// use wheelset_loop::device_loop::base_rate_refusal;
-/// let mut rt = wheelset_runtime::RuntimeConfig::default();
-/// assert_eq!(base_rate_refusal(&rt), None);
-/// rt.control.base_rate_hz = 50;
-/// let why = base_rate_refusal(&rt).unwrap();
-/// assert!(why.contains("at least 500 Hz"), "{why}");
-/// rt.control.base_rate_hz = 4_000;
-/// let why = base_rate_refusal(&rt).unwrap();
-/// assert!(why.contains("no gains are designed for 4000 Hz"), "{why}");
-/// ```
 #[must_use]
 pub fn base_rate_refusal(rt: &RuntimeConfig) -> Option<String> {
     use wheelset_control::{design, ConfigError};
@@ -228,11 +216,7 @@ impl fmt::Display for LinkReport {
 pub fn control_config(p: &Params, law: YawLaw, drive: bool) -> wheelset_control::Config {
     let d = wheelset_control::Config::default();
     wheelset_control::Config {
-        yaw_mode: match law {
-            YawLaw::Passive => wheelset_control::YawMode::Passive,
-            YawLaw::Gain => wheelset_control::YawMode::Gain,
-            YawLaw::Lead => wheelset_control::YawMode::Lead,
-        },
+        yaw_mode: law.into(),
         traction_enabled: drive,
         gain_k: p.k_active,
         lead: wheelset_control::LeadParams {
@@ -259,13 +243,8 @@ pub fn control_config(p: &Params, law: YawLaw, drive: bool) -> wheelset_control:
 #[must_use]
 pub fn runtime_for(p: &Params) -> RuntimeConfig {
     let d = RuntimeConfig::default();
-    let law = match d.control.yaw_mode {
-        wheelset_control::YawMode::Passive => YawLaw::Passive,
-        wheelset_control::YawMode::Gain => YawLaw::Gain,
-        wheelset_control::YawMode::Lead => YawLaw::Lead,
-    };
     RuntimeConfig {
-        control: control_config(p, law, d.control.traction_enabled),
+        control: control_config(p, d.control.yaw_mode.into(), d.control.traction_enabled),
         ..d
     }
 }
@@ -355,23 +334,9 @@ impl DeviceRun {
     }
 
     /// Writes the CSV: the continuous run's columns, then [`LINK_COLUMNS`].
-    pub fn write_csv<W: std::io::Write>(&self, mut w: W) -> std::io::Result<()> {
+    pub fn write_csv<W: std::io::Write>(&self, w: W) -> std::io::Result<()> {
         use std::fmt::Write as _;
-        writeln!(
-            w,
-            "{},{}",
-            Record::COLUMNS.join(","),
-            LINK_COLUMNS.join(",")
-        )?;
-        let mut line = String::with_capacity(600);
-        for r in &self.trajectory.records {
-            line.clear();
-            for (i, v) in r.values().iter().enumerate() {
-                if i > 0 {
-                    line.push(',');
-                }
-                let _ = write!(line, "{v:.9e}");
-            }
+        self.trajectory.write_csv_with(w, &LINK_COLUMNS, |r, line| {
             let t_ns = (r.t_s * 1e9).round() as u64;
             let l = self.link_at(t_ns).copied().unwrap_or_default();
             let _ = write!(
@@ -383,9 +348,7 @@ impl DeviceRun {
                 l.flags,
                 u8::from(l.fresh)
             );
-            writeln!(w, "{line}")?;
-        }
-        Ok(())
+        })
     }
 }
 

@@ -145,7 +145,7 @@ pub struct DeviceController<'a> {
     pub clear_faults_at_ns: Option<u64>,
     /// Send `Command::InjectStall` once, at the first sample at or after this time, ns.
     pub stall_at_ns: Option<u64>,
-    /// A Config frame sent again after a device reset (besides `with_config`'s).
+    /// A Config frame sent again after a device reset (besides `config`).
     pub reset_config: Option<Config>,
     last_tick: u16,
     last_latched: bool,
@@ -206,27 +206,6 @@ impl<'a> DeviceController<'a> {
             deferred: false,
             awaiting: std::collections::VecDeque::with_capacity(2),
         }
-    }
-
-    /// Two exchanges in flight when the transport allows it (actuator delay one period only).
-    #[must_use]
-    pub fn pipelined(mut self) -> Self {
-        self.deferred = self.tr.pipelined();
-        self
-    }
-
-    /// Sends `y''` (or both) instead of `y'`.
-    #[must_use]
-    pub fn with_lateral(mut self, lateral: LateralSensing) -> Self {
-        self.lateral = lateral;
-        self
-    }
-
-    /// Sends `cfg` before the first Sensor frame.
-    #[must_use]
-    pub fn with_config(mut self, cfg: Config) -> Self {
-        self.config = Some(cfg);
-        self
     }
 
     /// Reserves the per-period records for `periods` periods.
@@ -556,18 +535,16 @@ pub fn close_loop(
     setup: LoopSetup<'_>,
 ) -> Result<ClosedLoop, SimError> {
     let period_ns = setup.period_ns;
-    let mut ctrl = DeviceController::new(tr, period_ns, sc.params.k_m, setup.progress)
-        .with_lateral(setup.lateral);
-    if let Some(cfg) = setup.config {
-        ctrl = ctrl.with_config(cfg);
-    }
+    let mut ctrl = DeviceController::new(tr, period_ns, sc.params.k_m, setup.progress);
+    ctrl.lateral = setup.lateral;
+    ctrl.config = setup.config;
     ctrl.clear_faults_at_ns = setup.clear_faults_at_ns;
     ctrl.stall_at_ns = setup.stall_at_ns;
     ctrl.reset_config = setup.reset_config;
     ctrl.records = setup.records;
     ctrl.delay_ticks = u64::from(setup.delay_ticks.max(1));
-    // The actuator delay below is one period: two exchanges may be in flight.
-    let mut ctrl = ctrl.pipelined();
+    // Two exchanges in flight when the transport allows it.
+    ctrl.deferred = ctrl.tr.pipelined();
     // One record per period, reserved once; capped for a very long scenario.
     let periods = (sc.duration_ns / period_ns.max(1)).min(1 << 22);
     ctrl.reserve(usize::try_from(periods).unwrap_or(0).saturating_add(2));

@@ -7,6 +7,7 @@ use std::time::Instant;
 
 use wheelset_control::{Fx, SampleBits};
 use wheelset_proto::{encode_vec, Decoder, Message};
+use wheelset_report::stats::Stats;
 use wheelset_runtime::{Runtime, RuntimeConfig};
 
 use crate::device_loop::{DeviceError, ACTUATION_WORST_BYTES, SENSOR_WORST_BYTES};
@@ -46,13 +47,6 @@ pub enum DeviceFault {
 
 impl std::fmt::Display for DeviceFault {
     /// The `--device-fault` form that parses back to it (times in us, the stall's in s).
-    ///
-    /// ```
-    /// use wheelset_loop::inproc::DeviceFault;
-    /// for s in ["none", "wrong-sign", "slow:300", "jitter:40", "corrupt:10", "stall:6.5"] {
-    ///     assert_eq!(s.parse::<DeviceFault>().unwrap().to_string(), s);
-    /// }
-    /// ```
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let us = |ns: u64| ns as f64 * 1e-3;
         match *self {
@@ -217,12 +211,6 @@ impl<T: SampleBits> InProc<T> {
         Ok(())
     }
 
-    /// The device's runtime (read only).
-    #[must_use]
-    pub fn runtime(&self) -> &Runtime<T> {
-        &self.rt
-    }
-
     /// The control period `T`, ns.
     #[must_use]
     pub fn period_ns(&self) -> u64 {
@@ -236,12 +224,6 @@ impl<T: SampleBits> InProc<T> {
             up: self.dev_rx.account(&self.link.up),
             down: self.host_rx.account(&self.link.down),
         }
-    }
-
-    /// The tick phase, ns: tick `j` runs at `j T + phase`.
-    #[must_use]
-    pub fn phase_ns(&self) -> u64 {
-        self.phase_ns
     }
 
     fn tick(&mut self, t_ns: u64) {
@@ -336,7 +318,6 @@ fn outcome(
     Some(kind.map_or(Ok(()), Err))
 }
 
-/// Re-encodes every Actuation frame in `out` into `res` with the yaw torque negated.
 fn negate_torque(out: &[u8], res: &mut Vec<u8>) {
     let mut dec: Decoder = Decoder::new();
     res.clear();
@@ -348,25 +329,6 @@ fn negate_torque(out: &[u8], res: &mut Vec<u8>) {
             res.extend_from_slice(&f);
         }
     }
-}
-
-/// Summary of the host's wall time per tick, ns: `{n, min, mean, p99, max}`.
-fn host_tick_summary(v: &[f64]) -> serde_json::Value {
-    if v.is_empty() {
-        return serde_json::json!({ "n": 0, "min": 0.0, "mean": 0.0, "p99": 0.0, "max": 0.0 });
-    }
-    let mut s = v.to_vec();
-    s.sort_by(f64::total_cmp);
-    let n = s.len();
-    let rank = ((0.99 * n as f64).ceil() as usize).clamp(1, n) - 1;
-    let at = |i: usize| s.get(i).copied().unwrap_or(0.0);
-    serde_json::json!({
-        "n": n,
-        "min": at(0),
-        "mean": s.iter().sum::<f64>() / n as f64,
-        "p99": at(rank),
-        "max": at(n - 1),
-    })
 }
 
 impl<T: SampleBits> InProc<T> {
@@ -443,7 +405,8 @@ impl<T: SampleBits> Transport for InProc<T> {
     }
 
     fn extra(&self) -> Option<serde_json::Value> {
-        Some(serde_json::json!({ "host_tick_ns": host_tick_summary(&self.host_tick_ns) }))
+        // The host's wall time per tick, ns: `{n, min, mean, p99, max}`.
+        Some(serde_json::json!({ "host_tick_ns": Stats::of(&self.host_tick_ns) }))
     }
 
     fn link_accounting(&self) -> Option<LinkAccounting> {
@@ -454,6 +417,23 @@ impl<T: SampleBits> Transport for InProc<T> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn device_fault_prints_the_form_it_parses_from() {
+        for s in [
+            "none",
+            "wrong-sign",
+            "slow:300",
+            "jitter:40",
+            "corrupt:10",
+            "stall:6.5",
+        ] {
+            assert_eq!(
+                s.parse::<DeviceFault>().map(|f| f.to_string()),
+                Ok(s.to_string())
+            );
+        }
+    }
 
     #[test]
     fn device_fault_parses_and_refuses() {
@@ -484,11 +464,12 @@ mod tests {
 
     #[test]
     fn the_host_tick_summary_is_the_nearest_rank_p99() {
+        let summary = |v: &[f64]| serde_json::json!(Stats::of(v));
         let v: Vec<f64> = (1..=200).map(f64::from).collect();
-        let s = host_tick_summary(&v);
+        let s = summary(&v);
         assert_eq!(s["n"], 200);
         assert_eq!(s["p99"], 198.0);
         assert_eq!(s["max"], 200.0);
-        assert_eq!(host_tick_summary(&[])["n"], 0);
+        assert_eq!(summary(&[])["n"], 0);
     }
 }

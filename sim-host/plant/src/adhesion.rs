@@ -29,12 +29,6 @@ pub struct Polach {
 const E_SERIES: f64 = 1e-4;
 
 impl Polach {
-    /// Friction coefficient at slip velocity `w` (m/s, either sign):
-    /// `mu0 [(1 - A) exp(-B |w|) + A]`.
-    pub fn mu(&self, w: f64) -> f64 {
-        self.mu0 * ((1.0 - self.a) * (-self.b * w.abs()).exp() + self.a)
-    }
-
     /// The reduction factor `r(e) = F / |F_lin|` (see the module docs), for `e >= 0`.
     #[inline]
     pub fn reduction<S: Scalar>(&self, e: S) -> S {
@@ -49,7 +43,8 @@ impl Polach {
     }
 
     /// `r(e)` for the linear force `(fx, fy)` (N) of a wheel with load `q` (N) and
-    /// resultant slip velocity `w` (m/s, `>= 0`).
+    /// resultant slip velocity `w` (m/s, `>= 0`), the friction coefficient being
+    /// `mu = mu0 [(1 - A) exp(-B w) + A]`.
     #[inline]
     pub fn scale<S: Scalar>(&self, q: f64, fx: S, fy: S, w: S) -> S {
         let c = S::c;

@@ -35,6 +35,27 @@ impl YawLaw {
     }
 }
 
+impl From<YawLaw> for wheelset_control::YawMode {
+    fn from(law: YawLaw) -> Self {
+        match law {
+            YawLaw::Passive => Self::Passive,
+            YawLaw::Gain => Self::Gain,
+            YawLaw::Lead => Self::Lead,
+        }
+    }
+}
+
+impl From<wheelset_control::YawMode> for YawLaw {
+    fn from(m: wheelset_control::YawMode) -> Self {
+        use wheelset_control::YawMode as M;
+        match m {
+            M::Passive => Self::Passive,
+            M::Gain => Self::Gain,
+            M::Lead => Self::Lead,
+        }
+    }
+}
+
 /// Continuous-time controllers as ODE states.
 ///
 /// Phase lead: `Ks(s) = K a (s + z)/(s + p) = K a [1 - (p - z)/(s + p)]`, realised as

@@ -10,7 +10,6 @@ use std::path::Path;
 /// Largest input file any tool reads: 1 MiB (the shipped ones are under 4 KiB).
 pub const MAX_INPUT_BYTES: u64 = 1 << 20;
 
-/// What kind of non-regular file `path` is, for the refusal message.
 fn kind(ft: std::fs::FileType) -> &'static str {
     use std::os::unix::fs::FileTypeExt;
     if ft.is_dir() {

@@ -1,22 +1,19 @@
 //! Linearisation about straight-track pure rolling (`y = psi = 0`, wheels at `v/r0`,
-//! the PI integrator at the back-EMF): an analytic Jacobian ([`plant_jacobian`]), a
-//! complex-step one (`df/dx_j = Im f(x + i h e_j) / h`, exact to rounding) and central
-//! differences for the adhesion law, cross-checked by a test. Free rolling is an
+//! the PI integrator at the back-EMF): an analytic Jacobian ([`plant_jacobian`],
+//! checked against the complex step by a test) and central differences for the adhesion
+//! law. Free rolling is an
 //! equilibrium at any speed, so every model here has one eigenvalue at exactly zero.
 
 use crate::control::{closed_loop_rhs, ContinuousController, Exogenous, YawLaw};
 use crate::params::Params;
 use crate::plant::{ix, Inputs, Plant, PlantConfig, State, NX};
 use crate::scenario::Axle;
-use nalgebra::{Complex, DMatrix, SMatrix};
+use nalgebra::{DMatrix, SMatrix};
 
 /// Full-size Jacobian (all 13 state slots; absent states have zero rows and columns).
 pub type Jac = SMatrix<f64, NX, NX>;
 /// Full-size input matrix for `[T_psi, u_a]`.
 pub type InJac = SMatrix<f64, NX, 2>;
-
-/// Step of the complex-step derivative.
-pub const COMPLEX_STEP: f64 = 1e-20;
 
 /// The operating point: pure rolling on straight track at the parameters' speed, with
 /// the PI integrator preset to the back-EMF.
@@ -112,35 +109,6 @@ pub fn plant_jacobian(plant: &Plant, p: &Params, x: &State, u: &Inputs<f64>) -> 
     (a, b)
 }
 
-/// Complex-step Jacobians of the plant RHS (same layout as [`plant_jacobian`]).
-pub fn plant_jacobian_complex_step(plant: &Plant, x: &State, u: &Inputs<f64>) -> (Jac, InJac) {
-    let lift = |v: f64| Complex::new(v, 0.0);
-    let uc = Inputs {
-        t_psi: lift(u.t_psi),
-        u_a: lift(u.u_a),
-        curvature: lift(u.curvature),
-        cant: lift(u.cant),
-        f_run: lift(u.f_run),
-        t_drive: lift(u.t_drive),
-    };
-    let xc: [Complex<f64>; NX] = x.map(lift);
-    let a = complex_step(x, |xp| plant.rhs(xp, &uc).0);
-    let mut b = InJac::zeros();
-    for k in 0..2 {
-        let mut up = uc;
-        if k == 0 {
-            up.t_psi.im = COMPLEX_STEP;
-        } else {
-            up.u_a.im = COMPLEX_STEP;
-        }
-        let (f, _) = plant.rhs(&xc, &up);
-        for i in 0..NX {
-            b[(i, k)] = f[i].im / COMPLEX_STEP;
-        }
-    }
-    (a, b)
-}
-
 /// Analytic closed-loop Jacobian: plant Jacobian plus `B dT/dx + B du_a/dx` plus the
 /// controller rows (lead `x_c' = -p x_c + y'`, PI `x_i' = Kp (i_ref - i_a)/Ti`).
 pub fn closed_loop_jacobian(
@@ -187,38 +155,6 @@ pub fn closed_loop_jacobian(
         a[(ix::PI, ix::IA)] = -ctrl.kp / ctrl.ti;
     }
     a
-}
-
-/// `df/dx` of `f` at `x` by the complex step.
-fn complex_step(x: &State, f: impl Fn(&[Complex<f64>; NX]) -> [Complex<f64>; NX]) -> Jac {
-    let mut a = Jac::zeros();
-    for j in 0..NX {
-        let mut xp = x.map(|v| Complex::new(v, 0.0));
-        xp[j].im = COMPLEX_STEP;
-        let f = f(&xp);
-        for i in 0..NX {
-            a[(i, j)] = f[i].im / COMPLEX_STEP;
-        }
-    }
-    a
-}
-
-/// Complex-step closed-loop Jacobian of [`closed_loop_rhs`].
-pub fn closed_loop_jacobian_complex_step(
-    plant: &Plant,
-    ctrl: &ContinuousController,
-    x: &State,
-    e: &Exogenous<f64>,
-) -> Jac {
-    let lift = |v: f64| Complex::new(v, 0.0);
-    let ec = Exogenous {
-        curvature: lift(e.curvature),
-        cant: lift(e.cant),
-        f_run: lift(e.f_run),
-        i_ref: lift(e.i_ref),
-        demand: lift(e.demand),
-    };
-    complex_step(x, |xp| closed_loop_rhs(plant, ctrl, xp, &ec))
 }
 
 /// Relative step of [`closed_loop_jacobian_central`]: `h_j = CENTRAL_STEP max(|x_j|, 1e-2)`.

@@ -173,33 +173,35 @@ struct RawResistance {
 }
 
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 struct RawSim {
-    #[serde(default = "default_dt")]
     dt_s: f64,
-    #[serde(default = "default_out_dt")]
     output_dt_s: f64,
 }
-fn default_dt() -> f64 {
-    1e-4
-}
-fn default_out_dt() -> f64 {
-    1e-3
+
+impl Default for RawSim {
+    fn default() -> Self {
+        RawSim {
+            dt_s: 1e-4,
+            output_dt_s: 1e-3,
+        }
+    }
 }
 
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 struct RawPlant {
-    #[serde(default = "default_axle")]
     axle: Axle,
-    #[serde(default = "default_true")]
     drive: bool,
 }
-fn default_axle() -> Axle {
-    Axle::Flexible
-}
-fn default_true() -> bool {
-    true
+
+impl Default for RawPlant {
+    fn default() -> Self {
+        RawPlant {
+            axle: Axle::Flexible,
+            drive: true,
+        }
+    }
 }
 
 #[derive(Deserialize)]
@@ -209,8 +211,10 @@ struct RawScenario {
     #[serde(default)]
     description: String,
     duration_s: f64,
-    sim: Option<RawSim>,
-    plant: Option<RawPlant>,
+    #[serde(default)]
+    sim: RawSim,
+    #[serde(default)]
+    plant: RawPlant,
     #[serde(default)]
     track: Vec<RawKnot>,
     traction: Option<RawTraction>,
@@ -236,18 +240,16 @@ fn parse_laws(file: &str, laws: &Option<Vec<String>>) -> Result<Vec<YawLaw>, Con
     }
     let mut out = Vec::with_capacity(names.len());
     for (i, n) in names.iter().enumerate() {
-        let law = match n.as_str() {
-            "passive" => YawLaw::Passive,
-            "gain" => YawLaw::Gain,
-            "lead" => YawLaw::Lead,
-            _ => {
-                return Err(invalid(
+        let law = [YawLaw::Passive, YawLaw::Gain, YawLaw::Lead]
+            .into_iter()
+            .find(|l| l.name() == n)
+            .ok_or_else(|| {
+                invalid(
                     file,
                     format!("laws[{i}]"),
                     format!("`{n}` is not a yaw law (passive, gain, lead)"),
-                ))
-            }
-        };
+                )
+            })?;
         if out.contains(&law) {
             return Err(invalid(
                 file,
@@ -288,10 +290,7 @@ impl Scenario {
         if duration_ns == 0 {
             return Err(invalid(file, "duration_s", "must be positive"));
         }
-        let sim = raw.sim.unwrap_or(RawSim {
-            dt_s: default_dt(),
-            output_dt_s: default_out_dt(),
-        });
+        let sim = raw.sim;
         if !(sim.dt_s.is_finite() && sim.dt_s >= 1e-7 && sim.dt_s <= 1e-2) {
             return Err(invalid(
                 file,
@@ -314,10 +313,7 @@ impl Scenario {
         crate::memory::check_run(duration_ns, out_ns, None)
             .map_err(|r| invalid(file, "duration_s", r))?;
         let laws = parse_laws(file, &raw.laws)?;
-        let plant = raw.plant.unwrap_or(RawPlant {
-            axle: Axle::Flexible,
-            drive: true,
-        });
+        let plant = raw.plant;
         let mut track = Vec::with_capacity(raw.track.len());
         for (i, k) in raw.track.iter().enumerate() {
             let t_ns = time(file, &format!("track[{i}].t_s"), k.t_s, 1e5)?;
@@ -511,16 +507,11 @@ impl Scenario {
         if self.laws.is_empty() || self.laws.contains(&law) {
             return None;
         }
-        let name = |l: &YawLaw| match l {
-            YawLaw::Passive => "passive",
-            YawLaw::Gain => "gain",
-            YawLaw::Lead => "lead",
-        };
         Some(format!(
             "scenario {} is meant for --control {} (its `laws`), not {}: expect a result outside what it was made to show{}",
             self.name,
-            self.laws.iter().map(name).collect::<Vec<_>>().join(" or "),
-            name(&law),
+            self.laws.iter().map(|l| l.name()).collect::<Vec<_>>().join(" or "),
+            law.name(),
             if self.description.is_empty() {
                 String::new()
             } else {

@@ -3,7 +3,7 @@
 //! slip above [`RUNAWAY_SLIP_MPS`] for [`RUNAWAY_HOLD_S`] without a break (3 m/s is past
 //! the adhesion peak of every condition, 0.2-1.5 m/s). Definitions: `docs/adhesion.md`.
 
-use crate::adhesion::{Adhesion, Condition, Polach};
+use crate::adhesion::{Condition, Polach};
 use crate::params::Params;
 use crate::scenario::Scenario;
 use crate::sim::{Record, Trajectory};
@@ -161,11 +161,6 @@ pub fn summary(sc: &Scenario, tr: &Trajectory) -> Option<AdhesionSummary> {
             .iter()
             .fold(0.0f64, |a, r| a.max(r.slip_mps.abs())),
     })
-}
-
-/// The adhesion law of `condition` with `p`'s wheel load (a convenience for tools).
-pub fn law(condition: Condition, p: &Params) -> Adhesion {
-    Adhesion::new(condition, p.q())
 }
 
 /// The sections table of `sc` with (`on`) and without (`off`) the wheel-slip protection,

@@ -5,8 +5,8 @@ use clap::ValueEnum;
 use wheelset_plant::scenario::Scenario;
 use wheelset_report::{out, outln};
 
-use super::run::{print_summary, write_run_summary, RunArgs};
-use super::{create_file, io_fail, simulate, warn, Failure};
+use super::run::{compared, print_summary, write_plots, write_run_summary, RunArgs};
+use super::{create_file, io_fail, warn, Failure};
 
 /// Which controllers close the loop.
 #[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
@@ -249,22 +249,14 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
             run.trajectory.records.len()
         );
     }
-    if let Some(dir) = &a.plot {
+    if a.plot.is_some() {
         let reference = Trajectory {
             records: reference,
             info,
         };
         let mut runs = vec![run.trajectory, reference];
-        for &c in &a.compare {
-            if c != a.control {
-                runs.push(simulate(sc, c));
-            }
-        }
-        let files =
-            crate::figures::write_time_histories(&runs, dir).map_err(|e| io_fail(dir, e))?;
-        for f in files {
-            outln!("plot: {}", f.display());
-        }
+        runs.extend(compared(a, sc));
+        write_plots(a, &runs)?;
     }
     verdict
 }

@@ -98,7 +98,6 @@ pub(crate) fn load_params(path: &Option<PathBuf>) -> Result<Params, ConfigError>
     }
 }
 
-/// One simulation of the scenario on the continuous loop.
 pub(crate) fn simulate(sc: &Scenario, control: Control) -> Trajectory {
     run_continuous(sc, control.into())
 }

@@ -60,12 +60,10 @@ pub(crate) fn progress(total: u64, msg: &str) -> indicatif::ProgressBar {
 
 pub(crate) fn cmd_modes(a: &ModesArgs) -> Result<(), Failure> {
     let p = load_params(&a.params)?;
+    // `CaseArg` lists the cases in `Case::ALL`'s order.
     let cases: Vec<Case> = match a.case {
         None => Case::ALL.to_vec(),
-        Some(CaseArg::A) => vec![Case::A],
-        Some(CaseArg::B) => vec![Case::B],
-        Some(CaseArg::C) => vec![Case::C],
-        Some(CaseArg::D) => vec![Case::D],
+        Some(c) => vec![Case::ALL[c as usize]],
     };
     wheelset_plant::memory::check_modes(u64::from(a.points), cases.len() as u64)
         .map_err(Failure::bad)?;

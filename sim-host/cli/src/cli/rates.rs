@@ -6,6 +6,7 @@ use wheelset_report::{out, outln};
 
 use super::{create_file, io_fail, load_params, Control, Failure};
 use std::io::Write;
+use wheelset_plant::control::YawLaw;
 
 /// Plant of the rate analysis.
 #[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
@@ -62,11 +63,7 @@ pub(crate) fn cmd_rates(a: &RatesArgs) -> Result<(), Failure> {
     }
     let p = load_params(&a.params)?;
     super::check_outputs(&[("--json", a.json.as_deref())], &[])?;
-    let mode = match a.control {
-        Control::Passive => wheelset_control::YawMode::Passive,
-        Control::Gain => wheelset_control::YawMode::Gain,
-        Control::Lead => wheelset_control::YawMode::Lead,
-    };
+    let mode = YawLaw::from(a.control).into();
     let model = match a.model {
         RatesModel::Full => Model::Full,
         RatesModel::Reduced => Model::Reduced,

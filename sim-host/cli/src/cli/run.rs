@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 use wheelset_plant::control::YawLaw;
 use wheelset_plant::scenario::Scenario;
-use wheelset_plant::sim::Trajectory;
+use wheelset_plant::sim::{Record, Trajectory};
 use wheelset_report::outln;
 
 use super::loop_device::{cmd_run_device, DeviceArgs, LoopKind, OnOff};
@@ -132,13 +132,8 @@ pub(crate) fn cmd_run(a: &RunArgs) -> Result<(), Failure> {
     if a.device.loop_kind == LoopKind::Core {
         return cmd_run_core(a, &sc);
     }
-    let main = simulate(&sc, a.control);
-    let mut runs = vec![main];
-    for &c in &a.compare {
-        if c != a.control {
-            runs.push(simulate(&sc, c));
-        }
-    }
+    let mut runs = vec![simulate(&sc, a.control)];
+    runs.extend(compared(a, &sc));
     let main = &runs[0];
     print_summary(&sc, main);
     print_modes(&sc, a.control);
@@ -148,13 +143,26 @@ pub(crate) fn cmd_run(a: &RunArgs) -> Result<(), Failure> {
     judge_divergence(a, main)
 }
 
-/// `--csv` of the first run and `--plot` of them all (the others overlaid).
+pub(crate) fn compared<'a>(
+    a: &'a RunArgs,
+    sc: &'a Scenario,
+) -> impl Iterator<Item = Trajectory> + 'a {
+    a.compare
+        .iter()
+        .filter(|&&c| c != a.control)
+        .map(|&c| simulate(sc, c))
+}
+
 fn write_csv_and_plots(a: &RunArgs, runs: &[Trajectory]) -> Result<(), Failure> {
     if let (Some(path), Some(main)) = (&a.csv, runs.first()) {
         main.write_csv(create_file(path)?)
             .map_err(|e| io_fail(path, e))?;
         outln!("csv: {} ({} rows)", path.display(), main.records.len());
     }
+    write_plots(a, runs)
+}
+
+pub(crate) fn write_plots(a: &RunArgs, runs: &[Trajectory]) -> Result<(), Failure> {
     if let Some(dir) = &a.plot {
         let files = crate::figures::write_time_histories(runs, dir).map_err(|e| io_fail(dir, e))?;
         for f in files {
@@ -217,13 +225,7 @@ pub(crate) fn print_at(runs: &[Trajectory], at: &[f64]) {
     );
     for &t in at {
         for tr in runs {
-            let Some(r) = tr
-                .records
-                .iter()
-                .min_by(|a, b| (a.t_s - t).abs().total_cmp(&(b.t_s - t).abs()))
-            else {
-                continue;
-            };
+            let Some(r) = tr.at(t) else { continue };
             outln!(
                 "{:>6.3} {:<8} {:>9.4} {:>9.4} {:>7.3} {:>9.1} {:>11.1} {:>8.1} {:>8.1} {:>8.1}",
                 r.t_s,
@@ -244,18 +246,23 @@ pub(crate) fn print_at(runs: &[Trajectory], at: &[f64]) {
         }
     }
     for tr in runs {
-        let peak = |f: &dyn Fn(&wheelset_plant::sim::Record) -> f64| {
-            tr.records.iter().map(f).fold(0.0f64, |a, b| a.max(b.abs()))
-        };
+        let [y, t_psi, fx, fy] = peaks(tr);
         outln!(
-            "peaks, {}: |y| {:.4} mm, |T_psi| {:.1} N m, |F_x| {:.1} N, |F_y| {:.1} N",
-            tr.info.control,
-            peak(&|r| r.y_m) * 1e3,
-            peak(&|r| r.t_psi_nm),
-            peak(&|r| r.fx_r_n.abs().max(r.fx_l_n.abs())),
-            peak(&|r| r.fy_n)
+            "peaks, {}: |y| {y:.4} mm, |T_psi| {t_psi:.1} N m, |F_x| {fx:.1} N, |F_y| {fy:.1} N",
+            tr.info.control
         );
     }
+}
+
+/// The peaks of a run: `|y|` (mm), `|T_psi|` (N m), `|F_x|` of either wheel (N), `|F_y|` (N).
+fn peaks(tr: &Trajectory) -> [f64; 4] {
+    let max = |f: fn(&Record) -> f64| tr.records.iter().map(f).fold(0.0f64, |a, b| a.max(b.abs()));
+    [
+        max(|r| r.y_m) * 1e3,
+        max(|r| r.t_psi_nm),
+        max(|r| r.fx_r_n.abs().max(r.fx_l_n.abs())),
+        max(|r| r.fy_n),
+    ]
 }
 
 /// `--loop core`: the f64 control core on the plant; with `--plot` and `[[adhesion]]`
@@ -390,15 +397,9 @@ pub(crate) fn print_summary(sc: &Scenario, tr: &Trajectory) {
         p.k_gear(),
         p.pi_ti
     );
-    let max = |f: &dyn Fn(&wheelset_plant::sim::Record) -> f64| {
-        tr.records.iter().map(f).fold(0.0f64, |a, b| a.max(b.abs()))
-    };
+    let [y, t_psi, fx, fy] = peaks(tr);
     outln!(
-        "max |y| {:.4} mm, max |T_psi| {:.1} N m, max |F_x| {:.1} N, max |F_y| {:.1} N",
-        max(&|r| r.y_m) * 1e3,
-        max(&|r| r.t_psi_nm),
-        max(&|r| r.fx_r_n.abs().max(r.fx_l_n.abs())),
-        max(&|r| r.fy_n)
+        "max |y| {y:.4} mm, max |T_psi| {t_psi:.1} N m, max |F_x| {fx:.1} N, max |F_y| {fy:.1} N"
     );
     if let Some(stop) = wheelset_plant::outcome::stop_of(tr) {
         outln!("WARNING: {stop}");

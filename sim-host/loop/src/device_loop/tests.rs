@@ -169,3 +169,17 @@ fn a_streamed_reference_deviates_as_the_kept_one() {
     assert_eq!(streamed, kept.records);
     assert_eq!(info.steps, kept.info.steps);
 }
+
+/// The default runtime runs; a rate below the monitor's and a rate without designed gains
+/// are refused in words about the rate.
+#[test]
+fn a_refused_base_rate_is_named_by_the_rate() {
+    let mut rt = RuntimeConfig::default();
+    assert_eq!(base_rate_refusal(&rt), None);
+    rt.control.base_rate_hz = 50;
+    let why = base_rate_refusal(&rt).unwrap_or_default();
+    assert!(why.contains("at least 500 Hz"), "{why}");
+    rt.control.base_rate_hz = 4_000;
+    let why = base_rate_refusal(&rt).unwrap_or_default();
+    assert!(why.contains("no gains are designed for 4000 Hz"), "{why}");
+}

@@ -96,7 +96,6 @@ fn eigvec(a: &DMatrix<f64>, lambda: Complex<f64>, left: bool) -> DVector<Complex
     x
 }
 
-/// Which physical group a state belongs to.
 fn group(state: usize) -> usize {
     match state {
         ix::Y | ix::YD | ix::PSI | ix::PSID => 0,
@@ -105,6 +104,17 @@ fn group(state: usize) -> usize {
         ix::IA | ix::PI => 3,
         _ => 4, // lead
     }
+}
+
+/// Which of the eigenvalues `eig` of `a` is the structural zero: the one of least
+/// magnitude, if it is numerically zero (below `1e-9 max(max |a_ij|, 1)`).
+pub(crate) fn structural_zero_index(a: &DMatrix<f64>, eig: &[Complex<f64>]) -> Option<usize> {
+    let scale = a.amax().max(1.0);
+    eig.iter()
+        .enumerate()
+        .min_by(|x, y| x.1.norm().total_cmp(&y.1.norm()))
+        .filter(|(_, l)| l.norm() < 1e-9 * scale)
+        .map(|(i, _)| i)
 }
 
 /// Names the eigenvalues of `a` (states `states`) from their participation factors;
@@ -117,16 +127,8 @@ pub fn name_modes(
 ) -> Vec<String> {
     let n = eig.len();
     let mut names = vec![String::new(); n];
-    // Structural zero: the smallest |lambda|, if it is numerically zero.
-    let scale = a.amax().max(1.0);
-    if let Some((iz, lz)) = eig
-        .iter()
-        .enumerate()
-        .min_by(|x, y| x.1.norm().total_cmp(&y.1.norm()))
-    {
-        if lz.norm() < 1e-9 * scale {
-            names[iz] = STRUCTURAL_ZERO.to_string();
-        }
+    if let Some(iz) = structural_zero_index(a, eig) {
+        names[iz] = STRUCTURAL_ZERO.to_string();
     }
     let mut dom = vec![0usize; n];
     for (i, &l) in eig.iter().enumerate() {

@@ -175,28 +175,20 @@ impl LinkChoice {
                 p.base_rate_hz, p.delay_ticks
             )
         };
-        match (&self.active, &self.passive) {
-            (Some(a), _) => {
-                let _ = writeln!(s, "chosen (lead, gain): {}", name(a));
-            }
-            (None, _) => {
-                let _ = writeln!(
-                    s,
-                    "chosen (lead, gain): none: no designed yaw law at delays up to {} tick(s) \
-                     is carried by this link; it would need, for one of them, the latency or \
-                     the baud in the last two columns",
-                    self.max_delay
-                );
-            }
-        }
-        match &self.passive {
-            Some(p) => {
-                let _ = writeln!(s, "chosen (passive): {}", name(p));
-            }
-            None => {
-                let _ = writeln!(s, "chosen (passive): none carried");
-            }
-        }
+        let _ = match &self.active {
+            Some(a) => writeln!(s, "chosen (lead, gain): {}", name(a)),
+            None => writeln!(
+                s,
+                "chosen (lead, gain): none: no designed yaw law at delays up to {} tick(s) \
+                 is carried by this link; it would need, for one of them, the latency or \
+                 the baud in the last two columns",
+                self.max_delay
+            ),
+        };
+        let _ = match &self.passive {
+            Some(p) => writeln!(s, "chosen (passive): {}", name(p)),
+            None => writeln!(s, "chosen (passive): none carried"),
+        };
         let _ = writeln!(
             s,
             "columns: frame = the larger frame's time on the line, allowed {} % of T; round \

@@ -216,6 +216,12 @@ pub fn rate_row(
     }
     let spring = cfg.yaw_mode == YawMode::Passive;
     let fast = current_loop_mode(armature, &cfg, delay_ticks)?;
+    let none = GridMode {
+        creep: 0.0,
+        lambda: 0.0,
+        freq_hz: 0.0,
+        zeta: f64::INFINITY,
+    };
     let mut row = RateRow {
         base_hz: cfg.base_rate_hz,
         yaw_divisor: cfg.yaw_divisor,
@@ -223,24 +229,9 @@ pub fn rate_row(
         delay_ticks,
         current_radius: fast.radius,
         current_zeta: fast.zeta,
-        worst_sampled: GridMode {
-            creep: 0.0,
-            lambda: 0.0,
-            freq_hz: 0.0,
-            zeta: f64::INFINITY,
-        },
-        worst_continuous: GridMode {
-            creep: 0.0,
-            lambda: 0.0,
-            freq_hz: 0.0,
-            zeta: f64::INFINITY,
-        },
-        worst_sampled_stable_region: GridMode {
-            creep: 0.0,
-            lambda: 0.0,
-            freq_hz: 0.0,
-            zeta: f64::INFINITY,
-        },
+        worst_sampled: none,
+        worst_continuous: none,
+        worst_sampled_stable_region: none,
         max_damping_loss: f64::NEG_INFINITY,
         newly_unstable: 0,
         unstable_continuous: 0,
@@ -261,29 +252,20 @@ pub fn rate_row(
             row.newly_unstable += (cont_stable && !cl.stable()) as usize;
             row.max_damping_loss = row.max_damping_loss.max(zc - zs);
             row.max_radius = row.max_radius.max(cl.spectral_radius);
+            let mode = |freq_hz, zeta| GridMode {
+                creep,
+                lambda,
+                freq_hz,
+                zeta,
+            };
             if worse(zs, row.worst_sampled.zeta) {
-                row.worst_sampled = GridMode {
-                    creep,
-                    lambda,
-                    freq_hz: fs,
-                    zeta: zs,
-                };
+                row.worst_sampled = mode(fs, zs);
             }
             if cont_stable && worse(zs, row.worst_sampled_stable_region.zeta) {
-                row.worst_sampled_stable_region = GridMode {
-                    creep,
-                    lambda,
-                    freq_hz: fs,
-                    zeta: zs,
-                };
+                row.worst_sampled_stable_region = mode(fs, zs);
             }
             if worse(zc, row.worst_continuous.zeta) {
-                row.worst_continuous = GridMode {
-                    creep,
-                    lambda,
-                    freq_hz: fc,
-                    zeta: zc,
-                };
+                row.worst_continuous = mode(fc, zc);
             }
             if (creep, lambda) == NOMINAL {
                 row.nominal_zeta = zs;

@@ -1,6 +1,7 @@
 //! The rate table as JSON and as text.
 
 use super::*;
+use crate::control::YawLaw;
 use serde_json::{json, Value};
 use wheelset_control::YawMode;
 
@@ -49,20 +50,12 @@ fn row_json(r: &RateRow) -> Value {
     })
 }
 
-fn mode_name(m: YawMode) -> &'static str {
-    match m {
-        YawMode::Passive => "passive",
-        YawMode::Gain => "gain",
-        YawMode::Lead => "lead",
-    }
-}
-
 impl RatesReport {
     /// The report as JSON.
     pub fn to_json(&self) -> Value {
         json!({
             "model": self.model.name(),
-            "control": mode_name(self.mode),
+            "control": YawLaw::from(self.mode).name(),
             "delay_ticks": self.delay_ticks,
             "grid": {"creep_n": CREEP_GRID, "conicity": CONICITY_GRID},
             "nominal": {"creep_n": NOMINAL.0, "lambda": NOMINAL.1},
@@ -94,7 +87,7 @@ impl RatesReport {
             s,
             "sampled-data rate analysis: {} plant, {} yaw control, ZOH + {} tick(s) of delay",
             self.model.name(),
-            mode_name(self.mode),
+            YawLaw::from(self.mode).name(),
             self.delay_ticks
         );
         let _ = writeln!(

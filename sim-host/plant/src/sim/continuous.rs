@@ -204,7 +204,6 @@ pub fn run_continuous_each(
     crate::with_flags!(s.plant.cfg, flags => continuous(s, ctrl, flags, on_record))
 }
 
-/// [`run_continuous_each`] on the set-up `s` with the configuration as `flags`.
 fn continuous<F: Flags>(
     mut s: Setup<'_>,
     ctrl: ContinuousController,

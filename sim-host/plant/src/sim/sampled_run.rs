@@ -99,25 +99,18 @@ impl ActuatorModel {
 
     /// Clamps `a` to the limits, counting each clamp.
     pub fn limit(&mut self, a: Actuation) -> Actuation {
-        let mut out = a;
-        if !a.t_psi.is_finite() || a.t_psi.abs() > self.t_psi_max {
-            out.t_psi = if a.t_psi.is_nan() {
-                0.0
-            } else {
-                a.t_psi.clamp(-self.t_psi_max, self.t_psi_max)
-            };
+        // NaN becomes 0 (within the limits).
+        let mut clamp = |v: f64, (lo, hi): (f64, f64)| {
+            if v.is_finite() && (lo..=hi).contains(&v) {
+                return v;
+            }
             self.clamps += 1;
+            if v.is_nan() { 0.0 } else { v }.clamp(lo, hi)
+        };
+        Actuation {
+            t_psi: clamp(a.t_psi, (-self.t_psi_max, self.t_psi_max)),
+            u_a: clamp(a.u_a, self.u_a_range),
         }
-        let (lo, hi) = self.u_a_range;
-        if !a.u_a.is_finite() || a.u_a < lo || a.u_a > hi {
-            out.u_a = if a.u_a.is_nan() {
-                0.0f64.clamp(lo, hi)
-            } else {
-                a.u_a.clamp(lo, hi)
-            };
-            self.clamps += 1;
-        }
-        out
     }
 }
 
@@ -202,7 +195,6 @@ pub fn run_sampled(
     })
 }
 
-/// [`run_sampled`] on the set-up `s` with the configuration as `flags`.
 fn sampled<F: Flags>(
     mut s: Setup<'_>,
     ctrl: &mut dyn SampledController,

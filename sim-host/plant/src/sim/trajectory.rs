@@ -176,18 +176,31 @@ pub struct Trajectory {
 
 impl Trajectory {
     /// Writes the CSV (header row [`Record::COLUMNS`], one row per record).
-    pub fn write_csv<W: Write>(&self, mut w: W) -> std::io::Result<()> {
-        writeln!(w, "{}", Record::COLUMNS.join(","))?;
-        let mut line = String::with_capacity(512);
+    pub fn write_csv<W: Write>(&self, w: W) -> std::io::Result<()> {
+        self.write_csv_with(w, &[], |_, _| {})
+    }
+
+    /// [`Self::write_csv`] with the columns `extra` after the record's: `row(r, line)`
+    /// appends each record's values to its line, each after a comma.
+    pub fn write_csv_with<W: Write>(
+        &self,
+        mut w: W,
+        extra: &[&str],
+        mut row: impl FnMut(&Record, &mut String),
+    ) -> std::io::Result<()> {
+        use std::fmt::Write as _;
+        let header: Vec<&str> = Record::COLUMNS.iter().chain(extra).copied().collect();
+        writeln!(w, "{}", header.join(","))?;
+        let mut line = String::with_capacity(600);
         for r in &self.records {
             line.clear();
             for (i, v) in r.values().iter().enumerate() {
                 if i > 0 {
                     line.push(',');
                 }
-                use std::fmt::Write as _;
                 let _ = write!(line, "{v:.9e}");
             }
+            row(r, &mut line);
             writeln!(w, "{line}")?;
         }
         Ok(())

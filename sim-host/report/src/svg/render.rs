@@ -137,12 +137,10 @@ impl Plot {
         rows
     }
 
-    /// The x value as drawn (see [`axis`]).
     fn tx(&self, x: f64) -> f64 {
         axis(self.x_log, x)
     }
 
-    /// The y value as drawn.
     fn ty(&self, y: f64) -> f64 {
         axis(self.y_log, y)
     }
@@ -351,15 +349,19 @@ impl Plot {
             o,
             r#"<clipPath id="c{clip}"><rect x="{ml:.1}" y="{mt}" width="{pw:.1}" height="{ph:.1}"/></clipPath><g clip-path="url(#c{clip})">"#
         );
-        for &(a, b, h) in &self.bars {
-            if self.y_log && h <= 0.0 {
-                continue;
-            }
-            let (xa, xb) = (px(a), px(b));
-            let top = self.ty(h).max(y0);
-            let bottom = if self.y_log { y0 } else { 0f64.max(y0) };
-            let (ya, yb) = (sy(top), sy(bottom));
-            let (y, w, h) = (ya.min(yb), (xb - xa).max(0.5), (yb - ya).abs());
+        // The bars as drawn (a label over one hides it as much as over fifty points).
+        let bar_px: Vec<Rect> = self
+            .bars
+            .iter()
+            .filter(|b| !(self.y_log && b.2 <= 0.0))
+            .map(|&(a, b, h)| {
+                let top = sy(self.ty(h).max(y0));
+                let bottom = sy(if self.y_log { y0 } else { 0f64.max(y0) });
+                (px(a), top.min(bottom), px(b), top.max(bottom))
+            })
+            .collect();
+        for &(xa, y, xb, yb) in &bar_px {
+            let (w, h) = ((xb - xa).max(0.5), yb - y);
             let _ = writeln!(
                 o,
                 r##"<rect x="{xa:.1}" y="{y:.1}" width="{w:.1}" height="{h:.1}" fill="#56B4E9" stroke="#0072B2"/>"##
@@ -418,17 +420,6 @@ impl Plot {
         // The marks on top of the data, each label beside its line where it hides the
         // fewest data points and no other label.
         let placed_pts = self.drawn_px(&sx, &sy);
-        // The bars as drawn (a label over one hides it as much as over fifty points).
-        let bar_px: Vec<Rect> = self
-            .bars
-            .iter()
-            .filter(|b| !(self.y_log && b.2 <= 0.0))
-            .map(|&(a, b, h)| {
-                let top = sy(self.ty(h).max(y0));
-                let bottom = sy(if self.y_log { y0 } else { 0f64.max(y0) });
-                (px(a), top.min(bottom), px(b), top.max(bottom))
-            })
-            .collect();
         let mut taken: Vec<Rect> = Vec::new();
         let v_lines: Vec<f64> = self
             .marks
@@ -564,7 +555,6 @@ impl Plot {
             }
         }
         o.push_str("</g>\n");
-        // legend
         let rows = self.legend_rows();
         if !rows.is_empty() {
             let lw = legend_w;
@@ -626,7 +616,6 @@ impl Plot {
     }
 }
 
-/// The dash attribute of a series drawn dashed (empty otherwise).
 fn dash(s: &Series) -> &'static str {
     if s.style == Style::Dashed {
         r#" stroke-dasharray="6,4""#
