@@ -627,6 +627,13 @@ fn the_protections_open_edges_are_refused() {
         }
         other => panic!("{other:?}"),
     }
+    // At exactly 1 too (the rate chosen so the ratio rounds to 1.0).
+    let mut c = d;
+    c.limits.current_ref_rate = c.wsp.accel_on_mps2 * pu * c.scales.current;
+    match Controller::<f64>::try_new(&c) {
+        Err(wheelset_control::ConfigError::Coefficient { value, .. }) => assert_eq!(value, 1.0),
+        other => panic!("{other:?}"),
+    }
     // The set point's slope: up to 1 m/s per current full scale, accepted at the edge.
     let mut c = d;
     c.wsp.slip_sp_per_a = 1.0 / c.scales.current;
