@@ -873,3 +873,19 @@ fn detection_is_strictly_above_each_threshold() {
     };
     assert!(!w.process(&mut st, 4.0 * on, 0.0, 1e-3).1);
 }
+
+/// A reference-speed LSB too fine for the fixed-point code scale is refused by name, with
+/// the factor it needed (`v_ref_lsb n/(r0 scales.speed)`, pu per code).
+#[test]
+fn a_reference_lsb_the_code_scale_cannot_hold_is_refused() {
+    let mut c = cfg();
+    c.wsp.v_ref_lsb_m_per_s = 1e-30;
+    let want = 1e-30 * c.motor.n / (c.wsp.r0_m * c.scales.speed);
+    match Controller::<Fx>::try_new(&c) {
+        Err(ConfigError::Coefficient { name, value }) => {
+            assert_eq!(name, "wsp v_ref lsb n/(r0 scales.speed)");
+            assert!((value - want).abs() <= 1e-12 * want, "{value} vs {want}");
+        }
+        other => panic!("{other:?}"),
+    }
+}
