@@ -193,63 +193,39 @@ pub const fn max_rate_hz(
 
 /// The lowest baud at which [`link_fits`] holds at `rate_hz`, if any within `u32`.
 #[must_use]
-pub const fn min_baud(
+pub fn min_baud(
     rate_hz: u32,
     up_bytes: u32,
     down_bytes: u32,
     latency_ns: u64,
     share_permille: u32,
 ) -> Option<u32> {
-    if rate_hz == 0 || share_permille == 0 || share_permille > 1000 {
-        return None;
-    }
-    // Time left for the bytes, in units of 1 / (1000 rate) ns: share x 1e9 - 2 lat x 1000 rate.
-    let budget = share_permille as u128 * NS_PER_S;
-    let lat = latency_ns as u128 * 2 * 1000 * rate_hz as u128;
-    if lat >= budget {
-        return None;
-    }
-    let avail = budget - lat;
-    let bits = (up_bytes as u128 + down_bytes as u128) * BITS_PER_BYTE as u128;
-    // wire_ns(bits, baud) x 1000 rate <= avail gives a lower bound (the wire times round
-    // up); [`link_fits`] only gets easier as the baud rises: bisect from there.
-    let mut lo = (bits * NS_PER_S * 1000 * rate_hz as u128).div_ceil(avail);
-    if lo == 0 {
-        lo = 1;
-    }
-    let mut hi = u32::MAX as u128;
-    if lo > hi {
-        return None;
-    }
-    if link_fits(
-        rate_hz,
-        u32::MAX,
-        up_bytes,
-        down_bytes,
-        latency_ns,
-        share_permille,
-    )
-    .is_err()
-    {
-        return None;
-    }
-    while lo < hi {
-        let mid = lo + (hi - lo) / 2;
-        let fits = link_fits(
+    let fits = |baud| {
+        link_fits(
             rate_hz,
-            mid as u32,
+            baud,
             up_bytes,
             down_bytes,
             latency_ns,
             share_permille,
-        );
-        if fits.is_ok() {
+        )
+        .is_ok()
+    };
+    if !fits(u32::MAX) {
+        return None;
+    }
+    // `link_fits` only gets easier as the baud rises: 32 halvings of [1, u32::MAX] leave
+    // the least baud that fits (`fits(hi)` holds throughout, `fits(lo - 1)` does not).
+    let (mut lo, mut hi) = (1u32, u32::MAX);
+    for _ in 0..32 {
+        let mid = lo + (hi - lo) / 2;
+        if fits(mid) {
             hi = mid;
         } else {
             lo = mid + 1;
         }
     }
-    Some(lo as u32)
+    Some(hi)
 }
 
 #[cfg(test)]
