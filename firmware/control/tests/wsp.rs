@@ -889,3 +889,36 @@ fn a_reference_lsb_the_code_scale_cannot_hold_is_refused() {
         other => panic!("{other:?}"),
     }
 }
+
+/// The set point's slope coefficient `slip_sp_per_a scales.current pu / 2` must be below
+/// 1: scales chosen so it is exactly 1 (`pu = 5 / (0.5 x 1.25) = 8`, `2^-12 x 1024 x 8 /
+/// 2`) are refused by name in a float build.
+#[test]
+fn a_set_point_slope_of_one_is_refused() {
+    let mut c = cfg();
+    c.motor.n = 5.0;
+    c.wsp.r0_m = 0.5;
+    c.scales.speed = 1.25;
+    c.scales.current = 1024.0;
+    c.wsp.slip_on_mps = 0.05;
+    c.wsp.slip_accel_mps = 0.01;
+    c.wsp.slip_sp_mps = 0.02;
+    c.wsp.slip_sp_per_a = 1.0 / 4096.0;
+    c.wire.speed = 0.01;
+    match Wsp::<f64>::try_new(
+        &c.wsp,
+        &c.motor,
+        &c.scales,
+        &c.limits,
+        c.wire.speed,
+        &c.lead,
+    ) {
+        Err(ConfigError::Coefficient { name, value }) => {
+            assert_eq!(
+                (name, value),
+                ("wsp slip_sp_per_a scales.current n/r0 / 2", 1.0)
+            );
+        }
+        other => panic!("{other:?}"),
+    }
+}
