@@ -466,8 +466,7 @@ impl<T: Sample> Monitor<T> {
         s.iref_block = iref;
         let grow = (s.energy > self.floor && s.energy_prev < s.energy.mul_c(self.shrink))
             || !s.lo.abs_within(self.drift);
-        // Not commanding: no check. The quiet blocks after a traction change: skipped,
-        // the run neither counted on nor broken.
+        // Not commanding: no check; a traction change's quiet blocks neither count nor break the run.
         s.run = if !commanding {
             0
         } else if s.quiet > 0 {

@@ -214,8 +214,7 @@ pub fn min_baud(
     if !fits(u32::MAX) {
         return None;
     }
-    // `link_fits` only gets easier as the baud rises: 32 halvings of [1, u32::MAX] leave
-    // the least baud that fits (`fits(hi)` holds throughout, `fits(lo - 1)` does not).
+    // `link_fits` only gets easier as the baud rises: 32 halvings of [1, u32::MAX].
     let (mut lo, mut hi) = (1u32, u32::MAX);
     for _ in 0..32 {
         let mid = lo + (hi - lo) / 2;

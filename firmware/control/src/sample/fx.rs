@@ -224,12 +224,11 @@ impl Sample for Fx {
     }
     const ACC_SHIFT_MAX: u32 = 30;
     fn acc_shift(c_max: f64) -> Option<u32> {
-        // The largest s in 1..=30 with c_max 2^s still a Q1.31 coefficient.
+        // The largest s in 1..=30 with c_max 2^s (growing with s) still a Q1.31 coefficient.
         if !(c_max.is_finite() && c_max > 0.0) {
             return None;
         }
         let fits = |s: u32| Self::quantise(c_max * (1u64 << s) as f64).is_some();
-        // `c_max 2^s` grows with `s`: the largest shift that fits.
         (1..=Self::ACC_SHIFT_MAX).rev().find(|&s| fits(s))
     }
     fn acc_shift_ok(s: u32) -> bool {
