@@ -214,14 +214,14 @@ pub fn min_baud(
     if !fits(u32::MAX) {
         return None;
     }
-    // `link_fits` only gets easier as the baud rises: 32 halvings of [1, u32::MAX].
+    // Monotone in baud; `fits(hi)`, `lo` 1 or not fitting: 32 halvings leave `hi` the least.
     let (mut lo, mut hi) = (1u32, u32::MAX);
     for _ in 0..32 {
         let mid = lo + (hi - lo) / 2;
         if fits(mid) {
             hi = mid;
         } else {
-            lo = mid + 1;
+            lo = mid;
         }
     }
     Some(hi)
