@@ -673,14 +673,7 @@ fn a_gain_past_the_largest_shift_is_refused() {
         c.limits.current_ref_rate = c.wsp.ki_a_per_s_per_mps / (pu * ki_pu);
         // The acceleration test's ratio scales with 1/current_ref_rate too: kept below 1.
         c.wsp.accel_on_mps2 /= 20.0;
-        Wsp::<f64>::try_new(
-            &c.wsp,
-            &c.motor,
-            &c.scales,
-            &c.limits,
-            c.wire.speed,
-            &c.lead,
-        )
+        wsp_f64(&c)
     };
     match with(1.5 * 65536.0) {
         Err(ConfigError::Coefficient { name, .. }) => {
@@ -699,15 +692,7 @@ fn a_gain_past_the_largest_shift_is_refused() {
 fn the_scheduled_lead_needs_the_slip_above_half_the_set_point() {
     let mut c = cfg();
     c.wsp.slip_sp_per_a = 0.0; // a set point that does not move with the cap
-    let w = Wsp::<f64>::try_new(
-        &c.wsp,
-        &c.motor,
-        &c.scales,
-        &c.limits,
-        c.wire.speed,
-        &c.lead,
-    )
-    .unwrap();
+    let w = wsp_f64(&c).unwrap();
     let h = w.half_set_point(0.0);
     // A reference of `h` itself: the slip `2h - h` is exactly `h` (no rounding).
     let (w_ref, iref, step) = (h, 0.8, 1e-4);
@@ -810,15 +795,7 @@ fn a_scheduled_lead_rho_of_one_is_refused() {
 #[test]
 fn detection_is_strictly_above_each_threshold() {
     let c = cfg();
-    let w = Wsp::<f64>::try_new(
-        &c.wsp,
-        &c.motor,
-        &c.scales,
-        &c.limits,
-        c.wire.speed,
-        &c.lead,
-    )
-    .unwrap();
+    let w = wsp_f64(&c).unwrap();
     let b = w.to_bits();
     let (on, accel, ratio) = (
         f64::from_bits(b.slip_on),
@@ -905,14 +882,7 @@ fn a_set_point_slope_of_one_is_refused() {
     c.wsp.slip_sp_mps = 0.02;
     c.wsp.slip_sp_per_a = 1.0 / 4096.0;
     c.wire.speed = 0.01;
-    match Wsp::<f64>::try_new(
-        &c.wsp,
-        &c.motor,
-        &c.scales,
-        &c.limits,
-        c.wire.speed,
-        &c.lead,
-    ) {
+    match wsp_f64(&c) {
         Err(ConfigError::Coefficient { name, value }) => {
             assert_eq!(
                 (name, value),
@@ -921,4 +891,16 @@ fn a_set_point_slope_of_one_is_refused() {
         }
         other => panic!("{other:?}"),
     }
+}
+
+/// The protection compiled alone from `c`, in `f64`.
+fn wsp_f64(c: &Config) -> Result<Wsp<f64>, ConfigError> {
+    Wsp::try_new(
+        &c.wsp,
+        &c.motor,
+        &c.scales,
+        &c.limits,
+        c.wire.speed,
+        &c.lead,
+    )
 }
