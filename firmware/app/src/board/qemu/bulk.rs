@@ -116,8 +116,8 @@ impl Batch {
     }
 }
 
-/// Moves every frame the TX pipe holds (the tick's answer) into the batch: the pipe is
-/// empty before the next tick, as when each answer was written at once.
+/// Moves every frame the TX pipe holds (the tick's answer) into the batch, so each tick
+/// starts with the pipe empty.
 fn take_answers() {
     critical_section::with(|cs| {
         let mut b = BATCH_OUT.borrow_ref_mut(cs);
