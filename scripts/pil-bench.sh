@@ -1,9 +1,11 @@
 #!/usr/bin/env bash
 # Side-by-side wall and CPU time of the processor-in-the-loop run: the 20 s `curve`
 # closed through the QEMU firmware over the bulk channel, this build's exchange (two in
-# flight, the frames of a wait in one write each way) against the lock-step exchange
-# (`WHEELSET_QEMU_IN_FLIGHT=1`: one frame in flight, each written at once; or a build
-# of an earlier commit with --against).
+# flight, the frames of a wait in one write each way, the harness's thread on QEMU's core)
+# against the exchange before: lock-step (`WHEELSET_QEMU_IN_FLIGHT=1`: one frame in
+# flight, each written at once) with QEMU alone pinned (`WHEELSET_QEMU_PIN=qemu`), or a
+# build of an earlier commit with --against; and between them the lock-step exchange on
+# one core, to show what each part gives.
 #
 # Usage (from the repository root, after `cargo build --release -p hil` and `cargo fw`):
 #
@@ -12,20 +14,21 @@
 #
 # Runs N rounds (default 5), alternating, of
 #
-#   before: WHEELSET_QEMU_IN_FLIGHT=1 WHEELSET_QEMU_ELF=OLD.elf HIL run --target qemu --qemu-link bulk
-#           (or OLD_HIL run ...)
-#   now:    HIL run --target qemu --qemu-link bulk     (the default ELF, target/fw/wheelset-qemu.elf)
+#   before:   WHEELSET_QEMU_IN_FLIGHT=1 WHEELSET_QEMU_PIN=qemu WHEELSET_QEMU_ELF=OLD.elf
+#             HIL run --target qemu --qemu-link bulk   (or OLD_HIL run ...)
+#   lockstep: WHEELSET_QEMU_IN_FLIGHT=1 HIL run --target qemu --qemu-link bulk
+#   now:      HIL run --target qemu --qemu-link bulk   (the default ELF, target/fw/wheelset-qemu.elf)
 #
 # OLD.elf is the firmware before (e.g. `cargo fw` in a worktree of an earlier commit:
 # `git worktree add /tmp/before COMMIT`); without --before-elf both use the default ELF.
 # (the default reference and checks, `--json` of each run kept) and prints for each the
 # median wall time (s), the median CPU time of the run with its QEMU (user + system, s:
 # `wait4`'s rusage of the whole process tree), the exchanges per second of wall time and
-# the speed-up of the medians. Then it checks that the two runs' documents and CSVs are
+# the speed-up of the medians. Then it checks that the runs' documents and CSVs are
 # the same byte for byte (every trajectory record and the link columns; with
 # --before-elf the device's stack mark aside, which is the firmware's own; the frames
 # themselves are compared by `cargo test -p hil --test qemu_bulk`). With --uart, the
-# UART path too (one round each way: it takes about a minute). With --syscalls, one
+# UART path too (one round each way: a minute or two each). With --syscalls, one
 # more run of each under `strace -f -c`: system calls per exchange, by call.
 # Alternating runs share the machine's state, so the comparison holds on a noisy
 # machine; the load average is printed beside.
@@ -98,10 +101,15 @@ run_before() {
         if [ -n "$against" ]; then
             measure "$tmp/before" "$tag" "$against" run --quiet --target qemu "$@"
         else
-            export WHEELSET_QEMU_IN_FLIGHT=1
+            export WHEELSET_QEMU_IN_FLIGHT=1 WHEELSET_QEMU_PIN=qemu
             measure "$tmp/before" "$tag" "$this" run --quiet --target qemu "$@"
         fi
     ) </dev/null >/dev/null
+}
+run_lockstep() {
+    local tag=$1
+    shift
+    WHEELSET_QEMU_IN_FLIGHT=1 measure "$tmp/lockstep" "$tag" "$this" run --quiet --target qemu "$@" </dev/null >/dev/null
 }
 run_now() {
     local tag=$1
@@ -112,9 +120,11 @@ run_now() {
 echo "pil-bench: $rounds rounds of the 20 s curve over the bulk channel; load average $(cut -d' ' -f1-3 /proc/loadavg)"
 for r in $(seq 1 "$rounds"); do
     run_before "before-$r" --qemu-link bulk
+    run_lockstep "lockstep-$r" --qemu-link bulk
     run_now "now-$r" --qemu-link bulk
-    printf '  round %d: before %s s, now %s s wall\n' "$r" \
-        "$(tail -n1 "$tmp/before" | cut -d' ' -f1)" "$(tail -n1 "$tmp/now" | cut -d' ' -f1)"
+    printf '  round %d: before %s s, lock-step on one core %s s, now %s s wall\n' "$r" \
+        "$(tail -n1 "$tmp/before" | cut -d' ' -f1)" "$(tail -n1 "$tmp/lockstep" | cut -d' ' -f1)" \
+        "$(tail -n1 "$tmp/now" | cut -d' ' -f1)"
 done
 # The device's stack mark (`stack_peak` of its Status) is the firmware's own: another
 # build's (--before-elf) may differ there and nowhere else.
@@ -134,6 +144,10 @@ for r in $(seq 1 "$rounds"); do
         echo "pil-bench: round $r: the two runs' csv differ" >&2
         exit 1
     }
+    cmp -s "$tmp/lockstep-$r.json" "$tmp/now-$r.json" && cmp -s "$tmp/lockstep-$r.csv" "$tmp/now-$r.csv" || {
+        echo "pil-bench: round $r: the lock-step run on one core differs" >&2
+        exit 1
+    }
 done
 
 # Median of column $2 of file $1.
@@ -151,16 +165,19 @@ summary() {
 }
 echo "medians of $rounds (the harness with its QEMU; the documents and CSVs of each pair identical):"
 summary before "$tmp/before"
+summary lockstep "$tmp/lockstep"
 summary now "$tmp/now"
-printf 'speed-up: %.2fx wall, %.2fx CPU; load average now %s\n' \
-    "$(echo "$(median "$tmp/before" 1) / $(median "$tmp/now" 1)" | bc -l)" \
-    "$(echo "$(median "$tmp/before" 2) / $(median "$tmp/now" 2)" | bc -l)" \
+ratio() { echo "$(median "$1" "$3") / $(median "$2" "$3")" | bc -l; }
+printf 'speed-up: %.2fx wall, %.2fx CPU (now against before); %.2fx wall, %.2fx CPU (now against lock-step on one core); load average now %s\n' \
+    "$(ratio "$tmp/before" "$tmp/now" 1)" "$(ratio "$tmp/before" "$tmp/now" 2)" \
+    "$(ratio "$tmp/lockstep" "$tmp/now" 1)" "$(ratio "$tmp/lockstep" "$tmp/now" 2)" \
     "$(cut -d' ' -f1-3 /proc/loadavg)"
 
 if [ "$uart" = 1 ]; then
+    # The UART keeps one exchange in flight: what it gets is the placement.
     run_before uart-before
     run_now uart-now
-    echo "UART path (one round each):"
+    echo "UART path (one round each; one exchange in flight both ways):"
     tail -n1 "$tmp/before" >"$tmp/uart-before.row"
     tail -n1 "$tmp/now" >"$tmp/uart-now.row"
     summary before "$tmp/uart-before.row"
@@ -174,7 +191,7 @@ if [ "$syscalls" = 1 ]; then
             bin=$this
             if [ "$which" = before ]; then
                 [ -z "$before_elf" ] || export WHEELSET_QEMU_ELF="$before_elf"
-                if [ -n "$against" ]; then bin=$against; else export WHEELSET_QEMU_IN_FLIGHT=1; fi
+                if [ -n "$against" ]; then bin=$against; else export WHEELSET_QEMU_IN_FLIGHT=1 WHEELSET_QEMU_PIN=qemu; fi
             fi
             strace -f -c -o "$tmp/strace-$which" "$bin" run --quiet --target qemu --qemu-link bulk >/dev/null
         )

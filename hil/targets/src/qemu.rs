@@ -27,6 +27,7 @@ pub use crate::qemu::cmd::{ICOUNT_SHIFT, QEMU_BIN};
 pub const TICK_MEAN_BUDGET_INSTRUCTIONS: u64 = 2_500;
 /// Budget of the tick's maximum over the 20 s `curve` under QEMU (test `qemu_curve`).
 pub const TICK_MAX_BUDGET_INSTRUCTIONS: u64 = 4_000;
+use crate::realtime::os::HeldOn;
 use crate::realtime::poll_readable;
 use pin::next_core;
 
@@ -209,6 +210,8 @@ impl Default for QemuConfig {
 #[derive(Debug)]
 pub struct Qemu {
     launch: Launch,
+    /// The starting thread held on QEMU's core, released on drop.
+    _held: Option<HeldOn>,
     child: Option<Child>,
     link: Link,
     stderr_path: PathBuf,
@@ -287,8 +290,11 @@ impl Qemu {
         };
         let mut launch = Launch {
             pinned_cpu: core,
-            sched_rr: None,
+            ..Launch::default()
         };
+        let held = core
+            .filter(|_| !cfg.free_run && pin::beside())
+            .and_then(crate::realtime::os::hold_on);
         let wrap = |prog: &str, args: [String; 2], cmd: &Command| {
             let mut w = Command::new(prog);
             w.args(args).arg(cmd.get_program()).args(cmd.get_args());
@@ -307,7 +313,8 @@ impl Qemu {
             .stderr(stderr)
             .spawn()
             .map_err(QemuError::QemuMissing)?;
-        Ok(Guard(Some(child), launch))
+        launch.harness_beside = held.is_some();
+        Ok(Guard(Some(child), launch, held))
     }
 
     /// The running QEMU of `guard` on `link`, no longer killed by the guard.
@@ -318,13 +325,9 @@ impl Qemu {
         timeout: Duration,
     ) -> Result<Self, QemuError> {
         let child = guard.0.take().ok_or(QemuError::Exited(String::new()))?;
-        Ok(Self::on_link(
-            link,
-            Some(child),
-            guard.1,
-            stderr_path,
-            timeout,
-        ))
+        let mut q = Self::on_link(link, Some(child), guard.1, stderr_path, timeout);
+        q._held = guard.2.take();
+        Ok(q)
     }
 
     fn on_link(
@@ -336,6 +339,7 @@ impl Qemu {
     ) -> Self {
         Self {
             launch,
+            _held: None,
             child,
             link,
             stderr_path,
@@ -576,7 +580,7 @@ impl Drop for Qemu {
 }
 
 /// Kills a child on drop unless taken.
-struct Guard(Option<Child>, Launch);
+struct Guard(Option<Child>, Launch, Option<HeldOn>);
 
 /// How a QEMU was started: its pinned core and real-time priority, if any.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
@@ -585,6 +589,9 @@ pub struct Launch {
     pub pinned_cpu: Option<usize>,
     /// The `SCHED_RR` priority of `chrt -r`, if set.
     pub sched_rr: Option<u8>,
+    /// The thread that started it is held on the same core while it runs (lock-step; not
+    /// with `WHEELSET_QEMU_PIN=qemu`).
+    pub harness_beside: bool,
 }
 
 impl Guard {

@@ -1,5 +1,7 @@
 //! Pinning each QEMU to one core: round robin over the cores this process may use
-//! (`/proc/self/status` `Cpus_allowed_list`), `WHEELSET_QEMU_PIN=off` to turn it off.
+//! (`/proc/self/status` `Cpus_allowed_list`). `WHEELSET_QEMU_PIN`: `off` pins nothing,
+//! `qemu` pins QEMU alone; by default the thread that starts a lock-step QEMU is held on
+//! its core too ([`beside`]).
 
 use std::process::{Command, Stdio};
 
@@ -55,6 +57,14 @@ pub(super) fn next_core() -> Option<usize> {
         .as_ref()?;
     let k = NEXT.fetch_add(1, Ordering::Relaxed);
     cores.get(k % cores.len()).copied()
+}
+
+/// Whether the thread that starts a lock-step QEMU is held on QEMU's core while it runs
+/// (not with `WHEELSET_QEMU_PIN=qemu`). Host and device take turns, so one core serves
+/// both, and each hand-over is a switch on that core rather than a wake-up on the other
+/// (a cross-core wake-up costs an inter-processor interrupt, dear on a virtual machine).
+pub(super) fn beside() -> bool {
+    std::env::var("WHEELSET_QEMU_PIN").map_or(true, |v| v != "qemu")
 }
 
 /// The core of a free-running QEMU: the first this process may use (the real-time host

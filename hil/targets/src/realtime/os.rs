@@ -1,7 +1,7 @@
 //! What Linux grants a real-time loop: `SCHED_FIFO`, `mlockall`, a pinned core and a 1 ns
 //! timer slack (the default 50 us would exceed the spin window). What was obtained is
-//! reported ([`Obtained`]); without privilege the loop still runs. The harness's only
-//! `unsafe`: four libc calls.
+//! reported ([`Obtained`]); without privilege the loop still runs. Also a thread held on
+//! one CPU beside a lock-step QEMU ([`hold_on`]). The harness's only `unsafe`: libc calls.
 #![allow(unsafe_code)]
 
 use serde::{Deserialize, Serialize};
@@ -109,6 +109,69 @@ pub fn allowed_cpus() -> Vec<usize> {
     Vec::new()
 }
 
+/// The calling thread kept on one CPU ([`hold_on`]); dropped, it gets back the CPUs it
+/// had, from whichever thread drops it.
+#[derive(Debug)]
+pub struct HeldOn {
+    #[cfg(target_os = "linux")]
+    tid: libc::pid_t,
+    before: Vec<usize>,
+}
+
+/// Keeps the calling thread on `cpu` until the returned value is dropped; `None` if the
+/// kernel refuses (the thread's CPUs unchanged).
+#[must_use]
+pub fn hold_on(cpu: usize) -> Option<HeldOn> {
+    #[cfg(target_os = "linux")]
+    {
+        let before = allowed_cpus();
+        // SAFETY: no arguments; returns the calling thread's id.
+        let tid = unsafe { libc::gettid() };
+        set_cpus(0, &[cpu]).ok()?;
+        Some(HeldOn { tid, before })
+    }
+    #[cfg(not(target_os = "linux"))]
+    {
+        let _ = cpu;
+        None
+    }
+}
+
+impl Drop for HeldOn {
+    fn drop(&mut self) {
+        #[cfg(target_os = "linux")]
+        let _ = set_cpus(self.tid, &self.before);
+    }
+}
+
+/// Sets the CPUs thread `tid` (0: the calling one) may run on.
+#[cfg(target_os = "linux")]
+fn set_cpus(tid: libc::pid_t, cpus: &[usize]) -> Result<(), String> {
+    // SAFETY: a zeroed bit set, then bits below CPU_SETSIZE set in it.
+    let mut set: libc::cpu_set_t = unsafe { std::mem::zeroed() };
+    for &cpu in cpus {
+        if cpu >= libc::CPU_SETSIZE as usize {
+            return Err(format!("cpu {cpu}: out of range"));
+        }
+        // SAFETY: `cpu` < CPU_SETSIZE (checked above).
+        unsafe { libc::CPU_SET(cpu, &mut set) };
+    }
+    // SAFETY: `tid` is a thread of this process or 0; size and pointer describe `set`.
+    let r = unsafe {
+        libc::sched_setaffinity(tid, std::mem::size_of::<libc::cpu_set_t>(), &raw const set)
+    };
+    if r == 0 {
+        Ok(())
+    } else {
+        let list: Vec<String> = cpus.iter().map(ToString::to_string).collect();
+        Err(format!(
+            "pin to cpu {}: {}",
+            list.join(","),
+            std::io::Error::last_os_error()
+        ))
+    }
+}
+
 /// Asks for `want` on the calling thread; never fails (refusals are reported).
 #[must_use]
 pub fn obtain(want: Want) -> Obtained {
@@ -117,26 +180,9 @@ pub fn obtain(want: Want) -> Obtained {
     {
         let err = || std::io::Error::last_os_error().to_string();
         if let Some(cpu) = want.cpu {
-            if cpu >= libc::CPU_SETSIZE as usize {
-                got.refused.push(format!("cpu {cpu}: out of range"));
-            } else {
-                // SAFETY: a zeroed bit set, then one bit below CPU_SETSIZE set in it.
-                let mut set: libc::cpu_set_t = unsafe { std::mem::zeroed() };
-                // SAFETY: `cpu` < CPU_SETSIZE (checked above).
-                unsafe { libc::CPU_SET(cpu, &mut set) };
-                // SAFETY: pid 0 = the calling thread; size and pointer describe `set`.
-                let r = unsafe {
-                    libc::sched_setaffinity(
-                        0,
-                        std::mem::size_of::<libc::cpu_set_t>(),
-                        &raw const set,
-                    )
-                };
-                if r == 0 {
-                    got.pinned_cpu = Some(cpu);
-                } else {
-                    got.refused.push(format!("pin to cpu {cpu}: {}", err()));
-                }
+            match set_cpus(0, &[cpu]) {
+                Ok(()) => got.pinned_cpu = Some(cpu),
+                Err(e) => got.refused.push(e),
             }
         }
         if let Some(ns) = want.timer_slack_ns {
