@@ -58,11 +58,21 @@ fn run_exchange(q: &mut Qemu, ticks: u16) -> Vec<Actuation> {
 
 #[test]
 fn the_emulated_device_runs_the_controller_in_deterministic_lock_step() {
+    let cpus = wheelset_targets::realtime::os::allowed_cpus;
+    let initial = cpus();
     let Some(mut q) = start_or_skip("lock-step") else {
         return;
     };
+    // The thread driving a lock-step QEMU runs on QEMU's core while it lives.
+    let launch = q.launch();
+    let beside = std::env::var_os("WHEELSET_QEMU_PIN").is_none() && launch.pinned_cpu.is_some();
+    if beside {
+        assert!(launch.harness_beside);
+        assert_eq!(cpus(), launch.pinned_cpu.into_iter().collect::<Vec<_>>());
+    }
     let first = run_exchange(&mut q, 300);
     drop(q);
+    assert_eq!(cpus(), initial, "the thread's CPUs given back");
     let mut q = start_or_skip("lock-step, second run").unwrap();
     let second = run_exchange(&mut q, 300);
     // Same bytes in, same per-tick trace out, execution times (instruction counts)

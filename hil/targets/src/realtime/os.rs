@@ -257,6 +257,23 @@ mod tests {
         assert_eq!(obtain(Want::none()), Obtained::default());
     }
 
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn a_held_thread_runs_on_its_cpu_and_gets_its_cpus_back_when_released() {
+        std::thread::spawn(|| {
+            let before = allowed_cpus();
+            let cpu = *before.last().expect("some CPU");
+            let held = hold_on(cpu).expect("an allowed CPU is granted");
+            assert_eq!(allowed_cpus(), vec![cpu]);
+            drop(held);
+            assert_eq!(allowed_cpus(), before);
+            assert!(hold_on(libc::CPU_SETSIZE as usize).is_none());
+            assert_eq!(allowed_cpus(), before);
+        })
+        .join()
+        .expect("the test thread");
+    }
+
     #[test]
     fn pinning_to_an_allowed_cpu_is_obtained_or_refused_with_a_reason() {
         let cpus = allowed_cpus();
