@@ -18,45 +18,6 @@ mod bench {
 
     const N: u32 = 2_000;
 
-    /// Bytes of stack painted below the stack pointer at start-up (QEMU's RAM is 4 MiB).
-    pub const STACK_WINDOW: usize = 16 * 1024;
-    /// The paint: a word no pointer or small integer of the program looks like.
-    const PAINT: u32 = 0xC5AC_CE55;
-
-    extern "C" {
-        /// The initial stack pointer (cortex-m-rt's linker script: the top of RAM).
-        static _stack_start: u32;
-    }
-
-    /// Paints the window below the current stack pointer; returns its lowest address.
-    #[inline(never)]
-    #[allow(unsafe_code)]
-    fn paint_stack() -> usize {
-        let sp = cortex_m::register::msp::read() as usize;
-        // Below this function's own frame nothing is live (no interrupt is enabled).
-        let end = (sp - 64) & !3;
-        let bottom = end - STACK_WINDOW;
-        let mut a = bottom;
-        while a < end {
-            // SAFETY: `a` is word aligned and below the live stack, inside QEMU's 4 MiB RAM.
-            unsafe { core::ptr::write_volatile(a as *mut u32, PAINT) };
-            a += 4;
-        }
-        bottom
-    }
-
-    /// Bytes of stack used since [`paint_stack`]: top of stack down to the lowest repainted word.
-    #[allow(unsafe_code)]
-    fn stack_peak(bottom: usize) -> usize {
-        let top = core::ptr::addr_of!(_stack_start) as usize;
-        let mut a = bottom;
-        // SAFETY: word-aligned reads within the painted window and the live stack.
-        while a < top && unsafe { core::ptr::read_volatile(a as *const u32) } == PAINT {
-            a += 4;
-        }
-        top - a
-    }
-
     /// The control-law step: both loops, limits, safe ramp; per-unit in and out.
     #[inline(never)]
     fn law_step(c: &mut Controller<Num>, i: &Inputs<Num>) -> Outputs<Num> {
@@ -239,7 +200,7 @@ mod bench {
     }
 
     pub fn run() -> ! {
-        let stack_bottom = paint_stack();
+        wheelset_fw::stack::paint();
         let Some(core) = cortex_m::Peripherals::take() else {
             exit(debug::EXIT_FAILURE)
         };
@@ -321,12 +282,12 @@ mod bench {
             exit(debug::EXIT_FAILURE)
         };
         whole_wsp.print("whole tick with wheel-slip protection on", overhead);
-        let peak = stack_peak(stack_bottom);
+        let peak = wheelset_fw::stack::peak();
         hprintln!(
             "stack high-water mark [{}]: {} bytes (painted window {} bytes)",
             wheelset_fw::settings::NUMERIC,
             peak,
-            STACK_WINDOW
+            wheelset_fw::stack::WINDOW
         );
         let (l, t) = (law.figures(overhead), whole.figures(overhead));
         hprintln!(
