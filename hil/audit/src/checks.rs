@@ -36,89 +36,68 @@ const PROOF_REMEDY: &str = "the proof is unsound for this signal: fix its bound 
 /// Judge one controller's figures.
 pub fn controller_checks(a: &ControllerAudit, tol: &Tolerances, cfg: &Config) -> Vec<Check> {
     let n = &a.name;
-    let mut v = Vec::new();
-    for c in &a.coefficients {
-        v.push(
-            judge(
-                n,
-                &format!("coefficient {} relative quantisation error", c.name),
-                c.rel_err,
-                tol.coef_rel,
-                "",
-                "relative error",
-            )
-            .with_remedy(COEF_REMEDY),
-        );
-    }
-    for (i, s) in a.poles_zeros.shift_quantisation_rel.iter().enumerate() {
-        v.push(
-            judge(
-                n,
-                &format!("root {i} relative shift (quantised vs f64)"),
-                *s,
-                tol.root_rel,
-                "",
-                "relative shift",
-            )
-            .with_remedy(COEF_REMEDY),
-        );
-    }
-    if let Some(r) = a.dc_gain.fixed_vs_continuous_rel {
-        v.push(
-            judge(
-                n,
-                "DC gain, fixed (measured) vs continuous",
-                r,
-                tol.dc_rel,
-                "",
-                "relative error",
-            )
-            .with_remedy(COEF_REMEDY),
-        );
-    }
+    let coef = |item: String, value: f64, limit, what| {
+        judge(n, &item, value, limit, "", what).with_remedy(COEF_REMEDY)
+    };
+    let mut v: Vec<Check> = a
+        .coefficients
+        .iter()
+        .map(|c| {
+            let item = format!("coefficient {} relative quantisation error", c.name);
+            coef(item, c.rel_err, tol.coef_rel, "relative error")
+        })
+        .collect();
+    v.extend(
+        a.poles_zeros
+            .shift_quantisation_rel
+            .iter()
+            .enumerate()
+            .map(|(i, s)| {
+                let item = format!("root {i} relative shift (quantised vs f64)");
+                coef(item, *s, tol.root_rel, "relative shift")
+            }),
+    );
+    v.extend(a.dc_gain.fixed_vs_continuous_rel.map(|r| {
+        let item = "DC gain, fixed (measured) vs continuous".to_string();
+        coef(item, r, tol.dc_rel, "relative error")
+    }));
     let w = &a.worst;
-    for (what, (err, at), limit, unit) in [
-        ("gain", w.fixed_gain_db, tol.fixed_gain_db, "dB"),
-        ("phase", w.fixed_phase_deg, tol.fixed_phase_deg, "deg"),
-    ] {
-        v.push(
-            judge(
-                n,
-                &format!(
-                    "{what} error fixed vs f64 below {:.0} Hz (worst at {at:.3} Hz)",
-                    w.below_hz
-                ),
-                err,
-                limit,
-                unit,
-                &format!("{what} error"),
-            )
-            .with_remedy(format!("{COEF_REMEDY}; or {SIGNAL_REMEDY}")),
-        );
+    let both = format!("{COEF_REMEDY}; or {SIGNAL_REMEDY}");
+    let fixed = [
+        (w.fixed_gain_db, tol.fixed_gain_db),
+        (w.fixed_phase_deg, tol.fixed_phase_deg),
+    ];
+    let discrete = [
+        (w.discrete_gain_db, tol.discrete_gain_db),
+        (w.discrete_phase_deg, tol.discrete_phase_deg),
+    ];
+    // The predictor approximates an ideal advance by design; its deviation from it is the
+    // sampled-data analysis' business, not a numerics figure: only its fixed point is judged.
+    let predictor = n == "yaw_predictor";
+    let kinds = [
+        ("fixed vs f64", "", fixed, both.as_str()),
+        (
+            "discrete f64 vs continuous",
+            "discretisation ",
+            discrete,
+            DISCRETE_REMEDY,
+        ),
+    ];
+    for (versus, of, figures, remedy) in kinds.into_iter().take(if predictor { 1 } else { 2 }) {
+        for ((what, unit), ((err, at), limit)) in
+            [("gain", "dB"), ("phase", "deg")].into_iter().zip(figures)
+        {
+            let item = format!(
+                "{what} error {versus} below {:.0} Hz (worst at {at:.3} Hz)",
+                w.below_hz
+            );
+            v.push(
+                judge(n, &item, err, limit, unit, &format!("{of}{what} error")).with_remedy(remedy),
+            );
+        }
     }
-    if n == "yaw_predictor" {
-        // The predictor approximates an ideal advance by design; its deviation from it
-        // is the sampled-data analysis' business, not a numerics figure: not judged.
+    if predictor {
         return v;
-    }
-    for (what, (err, at), limit, unit) in [
-        ("gain", w.discrete_gain_db, tol.discrete_gain_db, "dB"),
-        ("phase", w.discrete_phase_deg, tol.discrete_phase_deg, "deg"),
-    ] {
-        v.push(
-            judge(
-                n,
-                &format!(
-                    "{what} error discrete f64 vs continuous below {:.0} Hz (worst at {at:.3} Hz)",
-                    w.below_hz
-                ),
-                err,
-                limit,
-                unit,
-                &format!("discretisation {what} error"),
-            )
-            .with_remedy(DISCRETE_REMEDY),
-        );
     }
     let wire = match n.as_str() {
         "traction_pi" => cfg.wire.voltage,
@@ -448,31 +427,27 @@ pub fn closed_loop_checks(
     for x in m {
         let coef = "the quantised coefficients move it: more coefficient fraction bits \
                     (--coef-q I.F)";
-        if let (Some(a), Some(b)) = (x.phase_deg_ideal, x.phase_deg_quantised) {
-            v.push(
-                judge(
-                    &x.loop_name,
-                    "phase margin change by quantisation",
-                    b - a,
-                    (0.1, 1.0),
-                    "deg",
-                    "phase margin change",
-                )
-                .with_remedy(coef),
-            );
-        }
-        if let (Some(a), Some(b)) = (x.gain_db_ideal, x.gain_db_quantised) {
-            v.push(
-                judge(
-                    &x.loop_name,
-                    "gain margin change by quantisation",
-                    b - a,
-                    (0.01, 0.1),
-                    "dB",
-                    "gain margin change",
-                )
-                .with_remedy(coef),
-            );
+        for (what, ideal, quantised, limit, unit) in [
+            (
+                "phase",
+                x.phase_deg_ideal,
+                x.phase_deg_quantised,
+                (0.1, 1.0),
+                "deg",
+            ),
+            (
+                "gain",
+                x.gain_db_ideal,
+                x.gain_db_quantised,
+                (0.01, 0.1),
+                "dB",
+            ),
+        ] {
+            if let (Some(a), Some(b)) = (ideal, quantised) {
+                let item = format!("{what} margin change by quantisation");
+                let figure = format!("{what} margin change");
+                v.push(judge(&x.loop_name, &item, b - a, limit, unit, &figure).with_remedy(coef));
+            }
         }
         v.extend(usual_margin_checks(x, cfg, p));
     }
