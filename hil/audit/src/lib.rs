@@ -37,7 +37,6 @@ use wheelset_control::{Config, ConfigError, Fx, Sample};
 
 pub use args::{config_of, AuditArgs, AuditError};
 pub use checks::{all_checks, controller_checks, observed_checks};
-pub use formats::bit_identical_to_fx;
 pub use model::{
     Audit, CoefRow, ControllerAudit, DcGain, FreqPoint, GainPhase, PoleZero, Recommendation, Roots,
     Sweep, Worst,
