@@ -163,21 +163,19 @@ pub fn observed_checks(o: &Observed, tol: &Tolerances) -> Vec<Check> {
         } else {
             Status::Pass
         };
-        v.push(Check {
-            controller: s.controller.clone(),
-            item: format!("{} headroom", s.name),
-            value: h,
-            warn: tol.headroom_bits.0,
-            fail: tol.headroom_bits.1,
-            unit: "bits".into(),
+        let (warn, fail) = tol.headroom_bits;
+        let reason = format!("headroom {h:.2} bits (warn below {warn} bits, fail below {fail})");
+        let item = format!("{} headroom", s.name);
+        let c = Check::new(
+            &s.controller,
+            &item,
+            h,
+            (warn, fail),
+            "bits",
             status,
-            reason: format!(
-                "headroom {h:.2} bits (warn below {} bits, fail below {})",
-                tol.headroom_bits.0, tol.headroom_bits.1
-            ),
-            remedy: RANGE_REMEDY.into(),
-            not_run: false,
-        });
+            reason,
+        );
+        v.push(c.with_remedy(RANGE_REMEDY));
     }
     for nz in &o.noise {
         let ctrl = if nz.output == "u_a" {
@@ -242,21 +240,13 @@ pub fn proof_checks(p: &Proofs, tol: &Tolerances) -> Vec<Check> {
     } else {
         Status::Pass
     };
-    v.push(Check {
-        controller: "all".into(),
-        item: "proven: no overflow for any input within the clamps".into(),
-        value: margin,
-        warn: 0.0,
-        fail: 0.0,
-        unit: "bits".into(),
-        status,
-        reason: format!(
-            "smallest margin of a proven bound to the format's range {margin:.2} bits ({worst}); \
-             fail at or below 0"
-        ),
-        remedy: format!("for {worst}: {RANGE_REMEDY}"),
-        not_run: false,
-    });
+    let reason = format!(
+        "smallest margin of a proven bound to the format's range {margin:.2} bits ({worst}); \
+         fail at or below 0"
+    );
+    let item = "proven: no overflow for any input within the clamps";
+    let c = Check::new("all", item, margin, (0.0, 0.0), "bits", status, reason);
+    v.push(c.with_remedy(format!("for {worst}: {RANGE_REMEDY}")));
     let over: Vec<&str> = p
         .bounds
         .iter()
@@ -499,23 +489,24 @@ fn phase_words(x: &Margin) -> String {
 /// The loop's stability by the Nyquist criterion: a fail when the closed loop has a pole
 /// outside the unit circle.
 fn stability_check(x: &Margin, remedy: String) -> Check {
-    let z = x.closed_loop_unstable_poles;
-    Check {
-        controller: x.loop_name.clone(),
-        item: "closed-loop stability (Nyquist: Z = P - W)".to_string(),
-        value: z as f64,
-        warn: f64::NAN,
-        fail: 0.5,
-        unit: "unstable poles".to_string(),
-        status: if x.stable { Status::Pass } else { Status::Fail },
-        reason: format!(
-            "{} ({})",
-            nyquist_words(x),
-            if x.stable { "stable" } else { "unstable" }
-        ),
-        remedy,
-        not_run: false,
-    }
+    let z = x.closed_loop_unstable_poles as f64;
+    let (status, word) = if x.stable {
+        (Status::Pass, "stable")
+    } else {
+        (Status::Fail, "unstable")
+    };
+    let item = "closed-loop stability (Nyquist: Z = P - W)";
+    let reason = format!("{} ({word})", nyquist_words(x));
+    Check::new(
+        &x.loop_name,
+        item,
+        z,
+        (f64::NAN, 0.5),
+        "unstable poles",
+        status,
+        reason,
+    )
+    .with_remedy(remedy)
 }
 
 /// The margins of one loop against [`USUAL_MARGINS`], with what sets them and what would
@@ -563,52 +554,46 @@ fn usual_margin_checks(x: &Margin, cfg: &Config, p: &wheelset_plant::params::Par
         remedy(x.gain_crossover_hz.unwrap_or(0.0)),
     )];
     let (gm_usual, pm_usual) = USUAL_MARGINS;
-    let mk = |item: &str, value: f64, at_hz: Option<f64>, usual: f64, unit: &str| {
-        let below = value < usual;
-        let at = at_hz.map_or(String::new(), |f| format!(" at {f:.1} Hz"));
-        Check {
-            controller: x.loop_name.clone(),
-            item: item.to_string(),
-            value,
-            warn: usual,
-            fail: f64::NAN,
-            unit: unit.to_string(),
-            status: if below { Status::Warn } else { Status::Pass },
-            reason: format!(
-                "{value:.2} {unit}{at} ({}), {} the usual {usual} {unit}{}",
-                if unit == "deg" {
-                    phase_words(x)
-                } else {
-                    gain_words(x)
-                },
-                if below { "below" } else { "at or above" },
-                if unit == "deg" {
-                    " (30-45 deg is the usual range)"
-                } else {
-                    ""
-                }
-            ),
-            remedy: remedy(at_hz.unwrap_or(0.0)),
-            not_run: false,
-        }
-    };
-    if let Some(g) = x.gain_db_quantised {
-        out.push(mk(
+    let rows = [
+        (
             "gain margin against the usual 6 dB",
-            g,
+            x.gain_db_quantised,
             x.phase_crossover_hz,
             gm_usual,
             "dB",
-        ));
-    }
-    if let Some(ph) = x.phase_deg_quantised {
-        out.push(mk(
+            gain_words(x),
+            "",
+        ),
+        (
             "phase margin against the usual 30 deg",
-            ph,
+            x.phase_deg_quantised,
             x.gain_crossover_hz,
             pm_usual,
             "deg",
-        ));
+            phase_words(x),
+            " (30-45 deg is the usual range)",
+        ),
+    ];
+    for (item, value, at_hz, usual, unit, words, range) in rows {
+        let Some(value) = value else { continue };
+        let (status, side) = if value < usual {
+            (Status::Warn, "below")
+        } else {
+            (Status::Pass, "at or above")
+        };
+        let at = at_hz.map_or(String::new(), |f| format!(" at {f:.1} Hz"));
+        let reason =
+            format!("{value:.2} {unit}{at} ({words}), {side} the usual {usual} {unit}{range}");
+        let c = Check::new(
+            &x.loop_name,
+            item,
+            value,
+            (usual, f64::NAN),
+            unit,
+            status,
+            reason,
+        );
+        out.push(c.with_remedy(remedy(at_hz.unwrap_or(0.0))));
     }
     out
 }

@@ -284,13 +284,10 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
             "target: not applicable (the firmware runs the production formats)",
         )
     } else {
-        let pick = |n: &str| scenarios.iter().find(|s| s.name == n);
-        let mut w: Vec<(&Scenario, f64)> = Vec::new();
-        for (n, from) in [("full_scale_steps", 0.0), ("chirp", 0.0), ("curve", 4.8)] {
-            if let Some(s) = pick(n) {
-                w.push((s, from));
-            }
-        }
+        let w: Vec<(&Scenario, f64)> = [("full_scale_steps", 0.0), ("chirp", 0.0), ("curve", 4.8)]
+            .into_iter()
+            .filter_map(|(n, from)| Some((scenarios.iter().find(|s| s.name == n)?, from)))
+            .collect();
         on_target::compare(&w, args.target_ticks, &cfg)
     };
     for r in &target.runs {
