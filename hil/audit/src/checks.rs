@@ -302,10 +302,8 @@ pub fn proof_checks(p: &Proofs, tol: &Tolerances) -> Vec<Check> {
     v
 }
 
-/// What remains of the limit cycle with each source removed, least first: `without
-/// the wire LSB of y' 0.20 N m (95 % less), ...`, and the source whose removal takes the
-/// most away. The baseline is the core in the loop with every source (it reproduces the
-/// device).
+/// What remains of the limit cycle with each source removed, least first (`without the
+/// wire LSB of y' 0.20 N m (95 % less), ...`), and the source whose removal takes most.
 #[must_use]
 pub fn attribution_words(lc: &LimitCycleReport) -> (String, Option<String>) {
     let base = lc.core_all_sources.torque_p2p_nm;
@@ -338,15 +336,10 @@ pub fn attribution_words(lc: &LimitCycleReport) -> (String, Option<String>) {
 /// 30 degrees of phase margin (30-45 degrees is the usual range).
 pub const USUAL_MARGINS: (f64, f64) = (6.0, 30.0);
 
-/// Judge the closed loop: the straight-track limit cycle's amplitude in wire LSBs of the
-/// torque (against the limit-cycle tolerance: a self-sustained cycle of several LSB is a
-/// warning, a dither within the proven rounding bound passes), the margins' loss by
-/// quantisation (the change in dB / degrees, judged against the discretisation
-/// tolerances), and the margins themselves against the usual 6 dB / 30 degrees
-/// ([`USUAL_MARGINS`]; a warning below), and each loop's stability by the Nyquist count
-/// (a failure when unstable; it agrees with `sim-host rates`'s eigenvalues). `p` is the
-/// operating point of the margins (its axle torsion frequency names the yaw loop's
-/// crossover).
+/// Judge the closed loop: the straight-track limit cycle (wire LSBs of torque), the
+/// margins' change by quantisation, the margins against [`USUAL_MARGINS`] and each loop's
+/// Nyquist stability. `p` is the margins' operating point (its axle torsion frequency
+/// names the yaw loop's crossover).
 pub fn closed_loop_checks(
     lc: &LimitCycleReport,
     m: &[Margin],

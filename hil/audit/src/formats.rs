@@ -76,12 +76,9 @@ pub(crate) fn sweep(cfg: &Config, tol: &Tolerances, fmt: &Formats, coefs: &[Coef
     }
 }
 
-/// Recommended formats per signal, from the proofs ([`super::bounds`]): integer bits
-/// (incl. sign) the smallest with `2^(i-1)` above the *proven* bound (no overflow for
-/// any input within the clamps), fraction bits the smallest for which the proven
-/// rounding error of the signal's chain output stays within half a wire LSB. The
-/// observed peak is stated next to it; the sweep's smallest passing format (if run) is a
-/// separate, weaker statement (no check failed on the scenarios).
+/// Recommended formats per signal, from the proofs ([`super::bounds`]): the fewest integer
+/// bits (incl. sign) with `2^(i-1)` above the *proven* bound, the fewest fraction bits
+/// keeping the proven rounding error of the chain's output within half a wire LSB.
 pub(crate) fn recommend(o: &Observed, p: &Proofs) -> Vec<Recommendation> {
     p.proposals
         .iter()

@@ -75,11 +75,9 @@ pub fn full_text(a: &Audit, quiet: bool) -> String {
     s + &verdict_line(a)
 }
 
-/// The terminal summary, a handful of lines: the configuration, the controllers' worst
-/// error, each loop's stability and margins, one line per check not passed (its figure;
-/// the reason and remedy are in the report; a check not run says how to run it), where
-/// the report went, and the verdict
-/// (`quiet`: without the controllers' and the loops' lines).
+/// The terminal summary: the configuration, the controllers' worst error and each loop's
+/// margins (not when `quiet`), one line per check not passed, where the report went, and
+/// the verdict.
 pub fn summary(a: &Audit, report: Option<&Path>, quiet: bool) -> String {
     let mut s = headline(a);
     let worst = |f: &dyn Fn(&super::ControllerAudit) -> f64| {
@@ -132,7 +130,6 @@ pub fn summary(a: &Audit, report: Option<&Path>, quiet: bool) -> String {
         }
     }
     for c in a.checks.iter().filter(|c| c.status != Status::Pass) {
-        // A check that could not run says why and how to run it.
         let value = if c.not_run {
             c.reason_and_remedy()
         } else {
