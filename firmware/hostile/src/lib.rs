@@ -10,8 +10,8 @@ use core::fmt;
 
 use wheelset_control::SampleBits;
 use wheelset_proto::{
-    encode_raw, encode_vec, frame_raw, Actuation, Command, Config, Decoder, Flags, Lateral,
-    Message, Rates, RefuseReason, Sensor, Status, YawMode, MAX_FRAME, MAX_RAW,
+    encode, encode_raw, frame_raw, Actuation, Command, Config, Decoder, Flags, Lateral, Message,
+    Rates, RefuseReason, Sensor, Status, YawMode, MAX_FRAME, MAX_RAW,
 };
 
 use wheelset_runtime::{rates_for, Runtime, RuntimeConfig, RuntimeError, DEFAULT_HOLD_TICKS};
@@ -80,14 +80,7 @@ impl Frame {
     /// The frame of `m` (every message fits [`MAX_FRAME`]: the wire crate's tests).
     pub fn of(m: &Message) -> Self {
         let mut buf = [0; MAX_FRAME];
-        let frame = encode_vec(m).unwrap_or_default();
-        let len = match buf.get_mut(..frame.len()) {
-            Some(b) => {
-                b.copy_from_slice(&frame);
-                frame.len()
-            }
-            None => 0,
-        };
+        let len = encode(m, &mut buf).unwrap_or(0);
         Self { buf, len }
     }
 
