@@ -46,12 +46,7 @@ impl Serial {
         let port = serialport::new(path, baud)
             .timeout(Duration::from_millis(1))
             .open()
-            .map_err(|e| {
-                TransportError::Unavailable(format!(
-                    "serial:{path}: cannot open at {baud} baud: {e} (is the board connected, \
-                     and is the path right?)"
-                ))
-            })?;
+            .map_err(|e| open_error(path, baud, &e))?;
         let _ = port.clear(serialport::ClearBuffer::All);
         Ok(Self {
             path: path.to_string(),
@@ -160,6 +155,14 @@ pub fn serve_lockstep<P: Read + Write + ?Sized>(
         }
     }
     Ok(ticks)
+}
+
+/// `path` did not open at `baud`.
+pub(crate) fn open_error(path: &str, baud: u32, e: &serialport::Error) -> TransportError {
+    TransportError::Unavailable(format!(
+        "serial:{path}: cannot open at {baud} baud: {e} (is the board connected, and is the \
+         path right?)"
+    ))
 }
 
 /// A read that timed out or was interrupted: nothing arrived yet.
