@@ -156,18 +156,14 @@ enum Bits {
     Q32,
 }
 
-/// A rate-dependent value of [`Rates`], in place.
+/// A rate-dependent value of [`Rates`], in place (its bits as [`Bits`] reads them).
 enum Slot<'a> {
-    /// The sample type's 32-bit pattern.
     Sample(&'a mut u32),
-    /// A Q32 integer factor.
     Q32(&'a mut u64),
 }
 
-/// A rate-dependent value of [`Rates`], with the reason that refuses it.
+/// Every rate-dependent value of [`Rates`], with the reason that refuses it.
 type Rated = fn(&mut Rates) -> (RefuseReason, Slot<'_>);
-
-/// Every rate-dependent value of [`Rates`].
 const RATED: [Rated; 11] = [
     |r| (RefuseReason::Kappa, Slot::Sample(&mut r.kappa)),
     |r| (RefuseReason::LeadKhf, Slot::Sample(&mut r.lead_k_hf)),

@@ -107,10 +107,8 @@ impl Expect {
     }
 }
 
-/// A lock-step link with one frame in flight (a frame-clocked serial device, QEMU over its
-/// UART): the frames of a write go out one by one, each after the answers still owed.
+/// A lock-step link with one frame in flight (a serial device, QEMU over its UART).
 pub(crate) trait OneInFlight {
-    /// The frames owed.
     fn expect(&mut self) -> &mut Expect;
 
     /// Writes one part of a write ([`frames`]).
@@ -120,7 +118,6 @@ pub(crate) trait OneInFlight {
     /// when the device stays silent for the link's timeout.
     fn recv_some(&mut self, sink: &mut dyn FnMut(&[u8])) -> Result<(), TransportError>;
 
-    /// Receives every frame owed, each run of bytes to `sink`.
     fn wait_owed(&mut self, sink: &mut dyn FnMut(&[u8])) -> Result<(), TransportError> {
         while self.expect().owed() > 0 {
             self.recv_some(sink)?;
