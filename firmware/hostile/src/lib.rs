@@ -10,8 +10,8 @@ use core::fmt;
 
 use wheelset_control::SampleBits;
 use wheelset_proto::{
-    encode_raw, encode_vec, frame_raw, Actuation, Command, Config, Decoder, Flags, Lateral,
-    Message, Rates, RefuseReason, Sensor, Status, YawMode, MAX_FRAME, MAX_RAW,
+    encode, encode_raw, frame_raw, Actuation, Command, Config, Decoder, Flags, Lateral, Message,
+    Rates, RefuseReason, Sensor, Status, YawMode, MAX_FRAME, MAX_RAW,
 };
 
 use wheelset_runtime::{rates_for, Runtime, RuntimeConfig, RuntimeError, DEFAULT_HOLD_TICKS};
@@ -80,14 +80,7 @@ impl Frame {
     /// The frame of `m` (every message fits [`MAX_FRAME`]: the wire crate's tests).
     pub fn of(m: &Message) -> Self {
         let mut buf = [0; MAX_FRAME];
-        let frame = encode_vec(m).unwrap_or_default();
-        let len = match buf.get_mut(..frame.len()) {
-            Some(b) => {
-                b.copy_from_slice(&frame);
-                frame.len()
-            }
-            None => 0,
-        };
+        let len = encode(m, &mut buf).unwrap_or(0);
         Self { buf, len }
     }
 
@@ -154,22 +147,6 @@ fn with_rates(r: Rates) -> Config {
     }
 }
 
-/// A rate-dependent value of [`Rates`].
-#[derive(Clone, Copy)]
-enum Coef {
-    Kappa,
-    LeadKhf,
-    WspLead,
-    Kp,
-    Ki,
-    IrefStep,
-    IrefSafeStep,
-    TorqueStep,
-    AccGain,
-    AccLeak,
-    PredictHalf,
-}
-
 /// How a value's bits read.
 #[derive(Clone, Copy, PartialEq, Eq)]
 enum Bits {
@@ -179,96 +156,32 @@ enum Bits {
     Q32,
 }
 
-impl Coef {
-    const RATED: [Self; 11] = [
-        Self::Kappa,
-        Self::LeadKhf,
-        Self::WspLead,
-        Self::Kp,
-        Self::Ki,
-        Self::IrefStep,
-        Self::IrefSafeStep,
-        Self::TorqueStep,
-        Self::AccGain,
-        Self::AccLeak,
-        Self::PredictHalf,
-    ];
-
-    fn reason(self) -> RefuseReason {
-        match self {
-            Self::Kappa => RefuseReason::Kappa,
-            Self::LeadKhf => RefuseReason::LeadKhf,
-            Self::WspLead => RefuseReason::WspLead,
-            Self::Kp => RefuseReason::Kp,
-            Self::Ki => RefuseReason::Ki,
-            Self::IrefStep => RefuseReason::IrefStep,
-            Self::IrefSafeStep => RefuseReason::IrefSafeStep,
-            Self::TorqueStep => RefuseReason::TorqueStep,
-            Self::AccGain => RefuseReason::AccGain,
-            Self::AccLeak => RefuseReason::AccLeak,
-            Self::PredictHalf => RefuseReason::PredictHalf,
-        }
-    }
-
-    fn bits(self, numeric: u8) -> Bits {
-        match self {
-            Self::AccGain | Self::AccLeak => Bits::Q32,
-            _ => Bits::Sample(numeric),
-        }
-    }
-
-    fn get(self, r: &Rates) -> u64 {
-        match self {
-            Self::Kappa => u64::from(r.kappa),
-            Self::LeadKhf => u64::from(r.lead_k_hf),
-            Self::WspLead => u64::from(r.wsp_lead_k_hf),
-            Self::Kp => u64::from(r.kp),
-            Self::Ki => u64::from(r.ki),
-            Self::IrefStep => u64::from(r.iref_step),
-            Self::IrefSafeStep => u64::from(r.iref_safe_step),
-            Self::TorqueStep => u64::from(r.torque_step),
-            Self::AccGain => r.acc_gain_q32,
-            Self::AccLeak => r.acc_leak_q32,
-            Self::PredictHalf => u64::from(r.predict_half),
-        }
-    }
-
-    /// `r` with this value set to `v` (a 32-bit field takes the low 32 bits).
-    fn set(self, r: Rates, v: u64) -> Rates {
-        let w = v as u32;
-        match self {
-            Self::Kappa => Rates { kappa: w, ..r },
-            Self::LeadKhf => Rates { lead_k_hf: w, ..r },
-            Self::WspLead => Rates {
-                wsp_lead_k_hf: w,
-                ..r
-            },
-            Self::Kp => Rates { kp: w, ..r },
-            Self::Ki => Rates { ki: w, ..r },
-            Self::IrefStep => Rates { iref_step: w, ..r },
-            Self::IrefSafeStep => Rates {
-                iref_safe_step: w,
-                ..r
-            },
-            Self::TorqueStep => Rates {
-                torque_step: w,
-                ..r
-            },
-            Self::AccGain => Rates {
-                acc_gain_q32: v,
-                ..r
-            },
-            Self::AccLeak => Rates {
-                acc_leak_q32: v,
-                ..r
-            },
-            Self::PredictHalf => Rates {
-                predict_half: w,
-                ..r
-            },
-        }
-    }
+/// A rate-dependent value of [`Rates`], in place (its bits as [`Bits`] reads them).
+enum Slot<'a> {
+    Sample(&'a mut u32),
+    Q32(&'a mut u64),
 }
+
+/// Every rate-dependent value of [`Rates`], with the reason that refuses it.
+type Rated = fn(&mut Rates) -> (RefuseReason, Slot<'_>);
+const RATED: [Rated; 11] = [
+    |r| (RefuseReason::Kappa, Slot::Sample(&mut r.kappa)),
+    |r| (RefuseReason::LeadKhf, Slot::Sample(&mut r.lead_k_hf)),
+    |r| (RefuseReason::WspLead, Slot::Sample(&mut r.wsp_lead_k_hf)),
+    |r| (RefuseReason::Kp, Slot::Sample(&mut r.kp)),
+    |r| (RefuseReason::Ki, Slot::Sample(&mut r.ki)),
+    |r| (RefuseReason::IrefStep, Slot::Sample(&mut r.iref_step)),
+    |r| {
+        (
+            RefuseReason::IrefSafeStep,
+            Slot::Sample(&mut r.iref_safe_step),
+        )
+    },
+    |r| (RefuseReason::TorqueStep, Slot::Sample(&mut r.torque_step)),
+    |r| (RefuseReason::AccGain, Slot::Q32(&mut r.acc_gain_q32)),
+    |r| (RefuseReason::AccLeak, Slot::Q32(&mut r.acc_leak_q32)),
+    |r| (RefuseReason::PredictHalf, Slot::Sample(&mut r.predict_half)),
+];
 
 /// `v` (bits of kind `b`, positive) times `num/den`, rounded, saturated.
 fn scaled(b: Bits, v: u64, num: u32, den: u32) -> u64 {
@@ -333,105 +246,57 @@ pub fn rows<T: SampleBits>(mut each: impl FnMut(Row)) -> Result<(), RuntimeError
             expect,
         });
     };
-    // The core's identity.
     let wr = with_rates;
-    for (change, numeric) in [("the other sample type", n ^ 1), ("2", 2), ("255", 255)] {
-        row(
-            field(R::Numeric),
-            change,
-            wr(Rates { numeric, ..good }),
-            no(R::Numeric),
-        );
+    // A row refused for `why`: the nominal rates with one edit.
+    let mut refuse = |why: R, change, edit: &dyn Fn(&mut Rates)| {
+        let mut r = good;
+        edit(&mut r);
+        row(field(why), change, wr(r), no(why));
+    };
+    // The core's identity.
+    for (change, v) in [("the other sample type", n ^ 1), ("2", 2), ("255", 255)] {
+        refuse(R::Numeric, change, &|r| r.numeric = v);
     }
-    for (change, fingerprint) in [
+    for (change, v) in [
         ("one bit flipped", good.fingerprint ^ 1),
         ("all bits flipped", !good.fingerprint),
     ] {
-        row(
-            field(R::Fingerprint),
-            change,
-            wr(Rates {
-                fingerprint,
-                ..good
-            }),
-            no(R::Fingerprint),
-        );
+        refuse(R::Fingerprint, change, &|r| r.fingerprint = v);
     }
     // The base rate (the range is checked first), and rates in range without a design.
-    for (change, base_rate_hz) in [
+    for (change, v) in [
         ("0", 0),
         ("499 Hz", 499),
         ("20 001 Hz", 20_001),
         ("25 kHz", 25_000),
         ("u32::MAX", u32::MAX),
     ] {
-        row(
-            field(R::BaseRate),
-            change,
-            wr(Rates {
-                base_rate_hz,
-                ..good
-            }),
-            no(R::BaseRate),
-        );
+        refuse(R::BaseRate, change, &|r| r.base_rate_hz = v);
     }
-    for (change, hz) in [
-        ("4 kHz (not a design point)", 4_000),
-        ("20 kHz (not a design point)", 20_000),
+    for (why, change, hz) in [
+        (R::BaseRate, "4 kHz (not a design point)", 4_000),
+        (R::BaseRate, "20 kHz (not a design point)", 20_000),
+        // A period of no whole number of microseconds, with the coefficients computed for it.
+        (R::Period, "3 kHz (333.3 us)", 3_000),
+        (R::Period, "7 kHz (142.9 us)", 7_000),
+        (R::Period, "19 999 Hz", 19_999),
     ] {
-        row(
-            field(R::BaseRate),
-            change,
-            wr(at(hz, 1, 1)?),
-            no(R::BaseRate),
-        );
-    }
-    // A period of no whole number of microseconds, with the coefficients computed for it.
-    for (change, hz) in [
-        ("3 kHz (333.3 us)", 3_000),
-        ("7 kHz (142.9 us)", 7_000),
-        ("19 999 Hz", 19_999),
-    ] {
-        row(field(R::Period), change, wr(at(hz, 1, 1)?), no(R::Period));
+        let k = at(hz, 1, 1)?;
+        refuse(why, change, &|r| *r = k);
     }
     // The divisors: the designs run both loops every tick.
-    for (change, div) in [
+    for (change, v) in [
         ("2", 2),
         ("10 (a 500 Hz loop)", 10),
         ("0", 0),
         ("u16::MAX", u16::MAX),
     ] {
-        row(
-            field(R::YawDiv),
-            change,
-            wr(Rates {
-                yaw_div: div,
-                ..good
-            }),
-            no(R::YawDiv),
-        );
-        row(
-            field(R::TractionDiv),
-            change,
-            wr(Rates {
-                traction_div: div,
-                ..good
-            }),
-            no(R::TractionDiv),
-        );
+        refuse(R::YawDiv, change, &|r| r.yaw_div = v);
+        refuse(R::TractionDiv, change, &|r| r.traction_div = v);
     }
     // The delay: only where the rate has a design for it.
-    let d = field(R::Delay);
-    for (change, delay_ticks) in [("0", 0), ("4 at 5 kHz", 4), ("255", u8::MAX)] {
-        row(
-            d,
-            change,
-            wr(Rates {
-                delay_ticks,
-                ..good
-            }),
-            no(R::Delay),
-        );
+    for (change, v) in [("0", 0), ("4 at 5 kHz", 4), ("255", u8::MAX)] {
+        refuse(R::Delay, change, &|r| r.delay_ticks = v);
     }
     let k1 = with(designed(1_000, 1)?)?;
     // An active yaw law where only the traction loop is designed: the passive law only.
@@ -471,12 +336,24 @@ pub fn rows<T: SampleBits>(mut each: impl FnMut(Row)) -> Result<(), RuntimeError
     row(h, "20 (20 ms at 1 kHz)", hold(20, Some(k1)), yes(true));
     row(h, "21 at 1 kHz", hold(21, Some(k1)), no(R::HoldTicks));
     // Every coefficient, perturbed: only the design's bits are taken.
-    let set = |c: Coef, v: u64| wr(c.set(good, v));
-    for c in Coef::RATED {
-        let (why, b, v) = (c.reason(), c.bits(n), c.get(&good));
+    for slot in RATED {
+        // `r` with this value set to `v` (a 32-bit value takes the low 32 bits).
+        let set = |v: u64| {
+            let mut r = good;
+            match slot(&mut r).1 {
+                Slot::Sample(w) => *w = v as u32,
+                Slot::Q32(q) => *q = v,
+            }
+            wr(r)
+        };
+        let mut r = good;
+        let (why, (b, v)) = match slot(&mut r) {
+            (why, Slot::Sample(w)) => (why, (Bits::Sample(n), u64::from(*w))),
+            (why, Slot::Q32(q)) => (why, (Bits::Q32, *q)),
+        };
         let f = field(why);
-        row(f, "+1 LSB", set(c, v + 1), no(why));
-        row(f, "-1 LSB", set(c, v.saturating_sub(1)), no(why));
+        row(f, "+1 LSB", set(v + 1), no(why));
+        row(f, "-1 LSB", set(v.saturating_sub(1)), no(why));
         for (change, (num, den)) in [
             ("x(1 + 0.9 2^-10)", tolerance(9)),
             ("x(1 - 0.9 2^-10)", tolerance(-9)),
@@ -485,23 +362,23 @@ pub fn rows<T: SampleBits>(mut each: impl FnMut(Row)) -> Result<(), RuntimeError
             ("x10", (10, 1)),
             ("x0.5", (1, 2)),
         ] {
-            row(f, change, set(c, scaled(b, v, num, den)), no(why));
+            row(f, change, set(scaled(b, v, num, den)), no(why));
         }
-        row(f, "1 LSB", set(c, 1), no(why));
-        row(f, "0", set(c, 0), no(why));
+        row(f, "1 LSB", set(1), no(why));
+        row(f, "0", set(0), no(why));
         let sign = if b == Bits::Q32 {
             "u64::MAX"
         } else {
             "negative"
         };
-        row(f, sign, set(c, negated(b, v)), no(why));
+        row(f, sign, set(negated(b, v)), no(why));
         if b == Bits::Sample(1) {
             for (change, bits) in [
                 ("the largest subnormal", 0x007F_FFFFu64),
                 ("NaN", 0x7FC0_0000),
                 ("infinity", 0x7F80_0000),
             ] {
-                row(f, change, set(c, bits), no(why));
+                row(f, change, set(bits), no(why));
             }
         }
     }
@@ -580,58 +457,29 @@ pub fn rows<T: SampleBits>(mut each: impl FnMut(Row)) -> Result<(), RuntimeError
         row(rates, change, config, no(why));
     }
     // The switches, all taken by every build.
-    let sw = "switches";
-    row(
-        sw,
-        "wheel-slip protection on",
-        Config { wsp: true, ..base },
-        yes(true),
-    );
-    row(
-        sw,
-        "monitor_safe on",
-        Config {
-            monitor_safe: true,
-            ..base
-        },
-        yes(false),
-    );
-    row(
-        sw,
-        "mode passive",
-        Config {
-            mode: YawMode::Passive,
-            ..base
-        },
-        yes(true),
-    );
-    row(
-        sw,
-        "mode gain",
-        Config {
-            mode: YawMode::Gain,
-            ..base
-        },
-        yes(true),
-    );
-    row(
-        sw,
-        "traction off",
-        Config {
-            traction: false,
-            ..base
-        },
-        yes(true),
-    );
-    row(
-        sw,
-        "outputs off",
-        Config {
-            enable: false,
-            ..base
-        },
-        yes(true),
-    );
+    let switched = |f: fn(&mut Config)| {
+        let mut c = base;
+        f(&mut c);
+        c
+    };
+    for (change, config, visible) in [
+        ("wheel-slip protection on", switched(|c| c.wsp = true), true),
+        (
+            "monitor_safe on",
+            switched(|c| c.monitor_safe = true),
+            false,
+        ),
+        (
+            "mode passive",
+            switched(|c| c.mode = YawMode::Passive),
+            true,
+        ),
+        ("mode gain", switched(|c| c.mode = YawMode::Gain), true),
+        ("traction off", switched(|c| c.traction = false), true),
+        ("outputs off", switched(|c| c.enable = false), true),
+    ] {
+        row("switches", change, config, yes(visible));
+    }
     // Nominal Configs at every design point (passive where only traction is designed).
     for p in wheelset_control::design::DESIGNED {
         let (hz, d) = (p.base_rate_hz, p.delay_ticks);

@@ -55,17 +55,15 @@ impl<T: SampleBits> Device for Runtime<T> {
                 _ => {}
             }
         }
-        match (actuation, status, got) {
-            (Some(actuation), false, _) => Ok(Reply {
-                actuation,
-                status: None,
-            }),
-            (Some(actuation), true, Some(s)) => Ok(Reply {
-                actuation,
-                status: Some(s),
-            }),
-            _ => Err(NoReply),
-        }
+        let status = if status {
+            Some(got.ok_or(NoReply)?)
+        } else {
+            None
+        };
+        Ok(Reply {
+            actuation: actuation.ok_or(NoReply)?,
+            status,
+        })
     }
 }
 
@@ -283,7 +281,7 @@ pub fn judge(expect: Expect, trace: &Trace, nominal: &Trace) -> Result<(), Fault
     let (count, reason) = (trace.s1.cmd_refused, trace.s1.refuse_reason);
     let ticks = || core::iter::once(&trace.at).chain(&trace.after);
     let nominal_ticks = || core::iter::once(&nominal.at).chain(&nominal.after);
-    let changed = first_difference_iter(ticks(), nominal_ticks());
+    let changed = first_difference(ticks(), nominal_ticks());
     match expect {
         Expect::Refused(why) => {
             if count != 1 || reason != why.code() {
@@ -314,13 +312,11 @@ pub fn judge(expect: Expect, trace: &Trace, nominal: &Trace) -> Result<(), Fault
     Ok(())
 }
 
-fn first_difference(a: &[Actuation], b: &[Actuation]) -> Option<usize> {
-    first_difference_iter(a.iter(), b.iter())
-}
-
-fn first_difference_iter<'a>(
-    a: impl Iterator<Item = &'a Actuation>,
-    b: impl Iterator<Item = &'a Actuation>,
+fn first_difference<'a>(
+    a: impl IntoIterator<Item = &'a Actuation>,
+    b: impl IntoIterator<Item = &'a Actuation>,
 ) -> Option<usize> {
-    a.zip(b).position(|(x, y)| outputs(x) != outputs(y))
+    a.into_iter()
+        .zip(b)
+        .position(|(x, y)| outputs(x) != outputs(y))
 }

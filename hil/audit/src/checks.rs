@@ -36,89 +36,68 @@ const PROOF_REMEDY: &str = "the proof is unsound for this signal: fix its bound 
 /// Judge one controller's figures.
 pub fn controller_checks(a: &ControllerAudit, tol: &Tolerances, cfg: &Config) -> Vec<Check> {
     let n = &a.name;
-    let mut v = Vec::new();
-    for c in &a.coefficients {
-        v.push(
-            judge(
-                n,
-                &format!("coefficient {} relative quantisation error", c.name),
-                c.rel_err,
-                tol.coef_rel,
-                "",
-                "relative error",
-            )
-            .with_remedy(COEF_REMEDY),
-        );
-    }
-    for (i, s) in a.poles_zeros.shift_quantisation_rel.iter().enumerate() {
-        v.push(
-            judge(
-                n,
-                &format!("root {i} relative shift (quantised vs f64)"),
-                *s,
-                tol.root_rel,
-                "",
-                "relative shift",
-            )
-            .with_remedy(COEF_REMEDY),
-        );
-    }
-    if let Some(r) = a.dc_gain.fixed_vs_continuous_rel {
-        v.push(
-            judge(
-                n,
-                "DC gain, fixed (measured) vs continuous",
-                r,
-                tol.dc_rel,
-                "",
-                "relative error",
-            )
-            .with_remedy(COEF_REMEDY),
-        );
-    }
+    let coef = |item: String, value: f64, limit, what| {
+        judge(n, &item, value, limit, "", what).with_remedy(COEF_REMEDY)
+    };
+    let mut v: Vec<Check> = a
+        .coefficients
+        .iter()
+        .map(|c| {
+            let item = format!("coefficient {} relative quantisation error", c.name);
+            coef(item, c.rel_err, tol.coef_rel, "relative error")
+        })
+        .collect();
+    v.extend(
+        a.poles_zeros
+            .shift_quantisation_rel
+            .iter()
+            .enumerate()
+            .map(|(i, s)| {
+                let item = format!("root {i} relative shift (quantised vs f64)");
+                coef(item, *s, tol.root_rel, "relative shift")
+            }),
+    );
+    v.extend(a.dc_gain.fixed_vs_continuous_rel.map(|r| {
+        let item = "DC gain, fixed (measured) vs continuous".to_string();
+        coef(item, r, tol.dc_rel, "relative error")
+    }));
     let w = &a.worst;
-    for (what, (err, at), limit, unit) in [
-        ("gain", w.fixed_gain_db, tol.fixed_gain_db, "dB"),
-        ("phase", w.fixed_phase_deg, tol.fixed_phase_deg, "deg"),
-    ] {
-        v.push(
-            judge(
-                n,
-                &format!(
-                    "{what} error fixed vs f64 below {:.0} Hz (worst at {at:.3} Hz)",
-                    w.below_hz
-                ),
-                err,
-                limit,
-                unit,
-                &format!("{what} error"),
-            )
-            .with_remedy(format!("{COEF_REMEDY}; or {SIGNAL_REMEDY}")),
-        );
+    let both = format!("{COEF_REMEDY}; or {SIGNAL_REMEDY}");
+    let fixed = [
+        (w.fixed_gain_db, tol.fixed_gain_db),
+        (w.fixed_phase_deg, tol.fixed_phase_deg),
+    ];
+    let discrete = [
+        (w.discrete_gain_db, tol.discrete_gain_db),
+        (w.discrete_phase_deg, tol.discrete_phase_deg),
+    ];
+    // The predictor approximates an ideal advance by design; its deviation from it is the
+    // sampled-data analysis' business, not a numerics figure: only its fixed point is judged.
+    let predictor = n == "yaw_predictor";
+    let kinds = [
+        ("fixed vs f64", "", fixed, both.as_str()),
+        (
+            "discrete f64 vs continuous",
+            "discretisation ",
+            discrete,
+            DISCRETE_REMEDY,
+        ),
+    ];
+    for (versus, of, figures, remedy) in kinds.into_iter().take(if predictor { 1 } else { 2 }) {
+        for ((what, unit), ((err, at), limit)) in
+            [("gain", "dB"), ("phase", "deg")].into_iter().zip(figures)
+        {
+            let item = format!(
+                "{what} error {versus} below {:.0} Hz (worst at {at:.3} Hz)",
+                w.below_hz
+            );
+            v.push(
+                judge(n, &item, err, limit, unit, &format!("{of}{what} error")).with_remedy(remedy),
+            );
+        }
     }
-    if n == "yaw_predictor" {
-        // The predictor approximates an ideal advance by design; its deviation from it
-        // is the sampled-data analysis' business, not a numerics figure: not judged.
+    if predictor {
         return v;
-    }
-    for (what, (err, at), limit, unit) in [
-        ("gain", w.discrete_gain_db, tol.discrete_gain_db, "dB"),
-        ("phase", w.discrete_phase_deg, tol.discrete_phase_deg, "deg"),
-    ] {
-        v.push(
-            judge(
-                n,
-                &format!(
-                    "{what} error discrete f64 vs continuous below {:.0} Hz (worst at {at:.3} Hz)",
-                    w.below_hz
-                ),
-                err,
-                limit,
-                unit,
-                &format!("discretisation {what} error"),
-            )
-            .with_remedy(DISCRETE_REMEDY),
-        );
     }
     let wire = match n.as_str() {
         "traction_pi" => cfg.wire.voltage,
@@ -184,21 +163,19 @@ pub fn observed_checks(o: &Observed, tol: &Tolerances) -> Vec<Check> {
         } else {
             Status::Pass
         };
-        v.push(Check {
-            controller: s.controller.clone(),
-            item: format!("{} headroom", s.name),
-            value: h,
-            warn: tol.headroom_bits.0,
-            fail: tol.headroom_bits.1,
-            unit: "bits".into(),
+        let (warn, fail) = tol.headroom_bits;
+        let reason = format!("headroom {h:.2} bits (warn below {warn} bits, fail below {fail})");
+        let item = format!("{} headroom", s.name);
+        let c = Check::new(
+            &s.controller,
+            &item,
+            h,
+            (warn, fail),
+            "bits",
             status,
-            reason: format!(
-                "headroom {h:.2} bits (warn below {} bits, fail below {})",
-                tol.headroom_bits.0, tol.headroom_bits.1
-            ),
-            remedy: RANGE_REMEDY.into(),
-            not_run: false,
-        });
+            reason,
+        );
+        v.push(c.with_remedy(RANGE_REMEDY));
     }
     for nz in &o.noise {
         let ctrl = if nz.output == "u_a" {
@@ -263,21 +240,13 @@ pub fn proof_checks(p: &Proofs, tol: &Tolerances) -> Vec<Check> {
     } else {
         Status::Pass
     };
-    v.push(Check {
-        controller: "all".into(),
-        item: "proven: no overflow for any input within the clamps".into(),
-        value: margin,
-        warn: 0.0,
-        fail: 0.0,
-        unit: "bits".into(),
-        status,
-        reason: format!(
-            "smallest margin of a proven bound to the format's range {margin:.2} bits ({worst}); \
-             fail at or below 0"
-        ),
-        remedy: format!("for {worst}: {RANGE_REMEDY}"),
-        not_run: false,
-    });
+    let reason = format!(
+        "smallest margin of a proven bound to the format's range {margin:.2} bits ({worst}); \
+         fail at or below 0"
+    );
+    let item = "proven: no overflow for any input within the clamps";
+    let c = Check::new("all", item, margin, (0.0, 0.0), "bits", status, reason);
+    v.push(c.with_remedy(format!("for {worst}: {RANGE_REMEDY}")));
     let over: Vec<&str> = p
         .bounds
         .iter()
@@ -333,10 +302,8 @@ pub fn proof_checks(p: &Proofs, tol: &Tolerances) -> Vec<Check> {
     v
 }
 
-/// What remains of the limit cycle with each source removed, least first: `without
-/// the wire LSB of y' 0.20 N m (95 % less), ...`, and the source whose removal takes the
-/// most away. The baseline is the core in the loop with every source (it reproduces the
-/// device).
+/// What remains of the limit cycle with each source removed, least first (`without the
+/// wire LSB of y' 0.20 N m (95 % less), ...`), and the source whose removal takes most.
 #[must_use]
 pub fn attribution_words(lc: &LimitCycleReport) -> (String, Option<String>) {
     let base = lc.core_all_sources.torque_p2p_nm;
@@ -369,15 +336,10 @@ pub fn attribution_words(lc: &LimitCycleReport) -> (String, Option<String>) {
 /// 30 degrees of phase margin (30-45 degrees is the usual range).
 pub const USUAL_MARGINS: (f64, f64) = (6.0, 30.0);
 
-/// Judge the closed loop: the straight-track limit cycle's amplitude in wire LSBs of the
-/// torque (against the limit-cycle tolerance: a self-sustained cycle of several LSB is a
-/// warning, a dither within the proven rounding bound passes), the margins' loss by
-/// quantisation (the change in dB / degrees, judged against the discretisation
-/// tolerances), and the margins themselves against the usual 6 dB / 30 degrees
-/// ([`USUAL_MARGINS`]; a warning below), and each loop's stability by the Nyquist count
-/// (a failure when unstable; it agrees with `sim-host rates`'s eigenvalues). `p` is the
-/// operating point of the margins (its axle torsion frequency names the yaw loop's
-/// crossover).
+/// Judge the closed loop: the straight-track limit cycle (wire LSBs of torque), the
+/// margins' change by quantisation, the margins against [`USUAL_MARGINS`] and each loop's
+/// Nyquist stability. `p` is the margins' operating point (its axle torsion frequency
+/// names the yaw loop's crossover).
 pub fn closed_loop_checks(
     lc: &LimitCycleReport,
     m: &[Margin],
@@ -448,31 +410,27 @@ pub fn closed_loop_checks(
     for x in m {
         let coef = "the quantised coefficients move it: more coefficient fraction bits \
                     (--coef-q I.F)";
-        if let (Some(a), Some(b)) = (x.phase_deg_ideal, x.phase_deg_quantised) {
-            v.push(
-                judge(
-                    &x.loop_name,
-                    "phase margin change by quantisation",
-                    b - a,
-                    (0.1, 1.0),
-                    "deg",
-                    "phase margin change",
-                )
-                .with_remedy(coef),
-            );
-        }
-        if let (Some(a), Some(b)) = (x.gain_db_ideal, x.gain_db_quantised) {
-            v.push(
-                judge(
-                    &x.loop_name,
-                    "gain margin change by quantisation",
-                    b - a,
-                    (0.01, 0.1),
-                    "dB",
-                    "gain margin change",
-                )
-                .with_remedy(coef),
-            );
+        for (what, ideal, quantised, limit, unit) in [
+            (
+                "phase",
+                x.phase_deg_ideal,
+                x.phase_deg_quantised,
+                (0.1, 1.0),
+                "deg",
+            ),
+            (
+                "gain",
+                x.gain_db_ideal,
+                x.gain_db_quantised,
+                (0.01, 0.1),
+                "dB",
+            ),
+        ] {
+            if let (Some(a), Some(b)) = (ideal, quantised) {
+                let item = format!("{what} margin change by quantisation");
+                let figure = format!("{what} margin change");
+                v.push(judge(&x.loop_name, &item, b - a, limit, unit, &figure).with_remedy(coef));
+            }
         }
         v.extend(usual_margin_checks(x, cfg, p));
     }
@@ -524,23 +482,24 @@ fn phase_words(x: &Margin) -> String {
 /// The loop's stability by the Nyquist criterion: a fail when the closed loop has a pole
 /// outside the unit circle.
 fn stability_check(x: &Margin, remedy: String) -> Check {
-    let z = x.closed_loop_unstable_poles;
-    Check {
-        controller: x.loop_name.clone(),
-        item: "closed-loop stability (Nyquist: Z = P - W)".to_string(),
-        value: z as f64,
-        warn: f64::NAN,
-        fail: 0.5,
-        unit: "unstable poles".to_string(),
-        status: if x.stable { Status::Pass } else { Status::Fail },
-        reason: format!(
-            "{} ({})",
-            nyquist_words(x),
-            if x.stable { "stable" } else { "unstable" }
-        ),
-        remedy,
-        not_run: false,
-    }
+    let z = x.closed_loop_unstable_poles as f64;
+    let (status, word) = if x.stable {
+        (Status::Pass, "stable")
+    } else {
+        (Status::Fail, "unstable")
+    };
+    let item = "closed-loop stability (Nyquist: Z = P - W)";
+    let reason = format!("{} ({word})", nyquist_words(x));
+    Check::new(
+        &x.loop_name,
+        item,
+        z,
+        (f64::NAN, 0.5),
+        "unstable poles",
+        status,
+        reason,
+    )
+    .with_remedy(remedy)
 }
 
 /// The margins of one loop against [`USUAL_MARGINS`], with what sets them and what would
@@ -588,52 +547,46 @@ fn usual_margin_checks(x: &Margin, cfg: &Config, p: &wheelset_plant::params::Par
         remedy(x.gain_crossover_hz.unwrap_or(0.0)),
     )];
     let (gm_usual, pm_usual) = USUAL_MARGINS;
-    let mk = |item: &str, value: f64, at_hz: Option<f64>, usual: f64, unit: &str| {
-        let below = value < usual;
-        let at = at_hz.map_or(String::new(), |f| format!(" at {f:.1} Hz"));
-        Check {
-            controller: x.loop_name.clone(),
-            item: item.to_string(),
-            value,
-            warn: usual,
-            fail: f64::NAN,
-            unit: unit.to_string(),
-            status: if below { Status::Warn } else { Status::Pass },
-            reason: format!(
-                "{value:.2} {unit}{at} ({}), {} the usual {usual} {unit}{}",
-                if unit == "deg" {
-                    phase_words(x)
-                } else {
-                    gain_words(x)
-                },
-                if below { "below" } else { "at or above" },
-                if unit == "deg" {
-                    " (30-45 deg is the usual range)"
-                } else {
-                    ""
-                }
-            ),
-            remedy: remedy(at_hz.unwrap_or(0.0)),
-            not_run: false,
-        }
-    };
-    if let Some(g) = x.gain_db_quantised {
-        out.push(mk(
+    let rows = [
+        (
             "gain margin against the usual 6 dB",
-            g,
+            x.gain_db_quantised,
             x.phase_crossover_hz,
             gm_usual,
             "dB",
-        ));
-    }
-    if let Some(ph) = x.phase_deg_quantised {
-        out.push(mk(
+            gain_words(x),
+            "",
+        ),
+        (
             "phase margin against the usual 30 deg",
-            ph,
+            x.phase_deg_quantised,
             x.gain_crossover_hz,
             pm_usual,
             "deg",
-        ));
+            phase_words(x),
+            " (30-45 deg is the usual range)",
+        ),
+    ];
+    for (item, value, at_hz, usual, unit, words, range) in rows {
+        let Some(value) = value else { continue };
+        let (status, side) = if value < usual {
+            (Status::Warn, "below")
+        } else {
+            (Status::Pass, "at or above")
+        };
+        let at = at_hz.map_or(String::new(), |f| format!(" at {f:.1} Hz"));
+        let reason =
+            format!("{value:.2} {unit}{at} ({words}), {side} the usual {usual} {unit}{range}");
+        let c = Check::new(
+            &x.loop_name,
+            item,
+            value,
+            (usual, f64::NAN),
+            unit,
+            status,
+            reason,
+        );
+        out.push(c.with_remedy(remedy(at_hz.unwrap_or(0.0))));
     }
     out
 }

@@ -1,14 +1,14 @@
 //! Format proposals: the word-length bisection over the signal format and the
-//! recommended formats per signal; the instrumented type's identity with `Fx`.
+//! recommended formats per signal.
 
-use wheelset_control::{Config, Fx, Sample};
+use wheelset_control::Config;
 
 use super::bounds::Proofs;
 use super::checks::all_checks;
 use super::core_dyn;
 use super::model::{CoefRow, Recommendation, Sweep};
 use super::per_controller::NAMED_HZ;
-use super::qdyn::{self, Formats, QDyn, QFormat};
+use super::qdyn::{Formats, QFormat};
 use super::ranges::{self, Observed};
 use super::tolerances::{Status, Tolerances};
 
@@ -76,12 +76,9 @@ pub(crate) fn sweep(cfg: &Config, tol: &Tolerances, fmt: &Formats, coefs: &[Coef
     }
 }
 
-/// Recommended formats per signal, from the proofs ([`super::bounds`]): integer bits
-/// (incl. sign) the smallest with `2^(i-1)` above the *proven* bound (no overflow for
-/// any input within the clamps), fraction bits the smallest for which the proven
-/// rounding error of the signal's chain output stays within half a wire LSB. The
-/// observed peak is stated next to it; the sweep's smallest passing format (if run) is a
-/// separate, weaker statement (no check failed on the scenarios).
+/// Recommended formats per signal, from the proofs ([`super::bounds`]): the fewest integer
+/// bits (incl. sign) with `2^(i-1)` above the *proven* bound, the fewest fraction bits
+/// keeping the proven rounding error of the chain's output within half a wire LSB.
 pub(crate) fn recommend(o: &Observed, p: &Proofs) -> Vec<Recommendation> {
     p.proposals
         .iter()
@@ -113,34 +110,4 @@ pub(crate) fn recommend(o: &Observed, p: &Proofs) -> Vec<Recommendation> {
             }
         })
         .collect()
-}
-
-/// Identity check used by tests and the report: run `T` and the instrumented type at
-/// `fmt` side by side on `xs` (pu, y' and current) and count differing output bits.
-pub fn bit_identical_to_fx(xs: &[(f64, f64)]) -> bool {
-    let cfg = Config::default();
-    let Ok(mut a) = wheelset_control::Controller::<Fx>::try_new(&cfg) else {
-        return false;
-    };
-    qdyn::with_formats(Formats::PRODUCTION, || {
-        let Ok(mut b) = wheelset_control::Controller::<QDyn>::try_new(&cfg) else {
-            return false;
-        };
-        xs.iter().all(|&(y, i)| {
-            let oa = a.tick(&wheelset_control::Inputs {
-                y_dot: Fx::from_f64(y),
-                current: Fx::from_f64(i),
-                speed: Fx::from_f64(0.9256),
-                demand: Fx::from_f64(0.246),
-            });
-            let ob = b.tick(&wheelset_control::Inputs {
-                y_dot: QDyn::from_f64(y),
-                current: QDyn::from_f64(i),
-                speed: QDyn::from_f64(0.9256),
-                demand: QDyn::from_f64(0.246),
-            });
-            oa.yaw_torque.to_bits() as i64 == ob.yaw_torque.0
-                && oa.voltage.to_bits() as i64 == ob.voltage.0
-        })
-    })
 }

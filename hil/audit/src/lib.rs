@@ -37,7 +37,6 @@ use wheelset_control::{Config, ConfigError, Fx, Sample};
 
 pub use args::{config_of, AuditArgs, AuditError};
 pub use checks::{all_checks, controller_checks, observed_checks};
-pub use formats::bit_identical_to_fx;
 pub use model::{
     Audit, CoefRow, ControllerAudit, DcGain, FreqPoint, GainPhase, PoleZero, Recommendation, Roots,
     Sweep, Worst,
@@ -285,13 +284,10 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
             "target: not applicable (the firmware runs the production formats)",
         )
     } else {
-        let pick = |n: &str| scenarios.iter().find(|s| s.name == n);
-        let mut w: Vec<(&Scenario, f64)> = Vec::new();
-        for (n, from) in [("full_scale_steps", 0.0), ("chirp", 0.0), ("curve", 4.8)] {
-            if let Some(s) = pick(n) {
-                w.push((s, from));
-            }
-        }
+        let w: Vec<(&Scenario, f64)> = [("full_scale_steps", 0.0), ("chirp", 0.0), ("curve", 4.8)]
+            .into_iter()
+            .filter_map(|(n, from)| Some((scenarios.iter().find(|s| s.name == n)?, from)))
+            .collect();
         on_target::compare(&w, args.target_ticks, &cfg)
     };
     for r in &target.runs {

@@ -116,8 +116,7 @@ pub fn sensor_frame(seq: u16, c: &InputCodes) -> Result<Vec<u8>, String> {
 
 fn decode(bytes: &[u8], dec: &mut Decoder) -> Option<Actuation> {
     let mut out = None;
-    // Every frame is taken (the decoder carries over to the next bytes); the first
-    // Actuation is kept.
+    // The first Actuation; every frame is taken (the decoder carries over).
     for r in dec.messages(bytes) {
         if let (Ok(Message::Actuation(a)), None) = (r, out) {
             out = Some(a);

@@ -79,22 +79,19 @@ pub fn audit_controller<T: Sample>(
         poles_s: cp,
         zeros_s: cz,
     };
+    let shift = |a: Vec<f64>, b: Vec<f64>, f: fn(f64, f64) -> f64| -> Vec<f64> {
+        a.into_iter().zip(b).map(|(a, b)| f(a, b)).collect()
+    };
     let poles_zeros = PoleZero {
-        shift_quantisation_z: cat(&rq, false)
-            .iter()
-            .zip(cat(&rf, false))
-            .map(|(a, b)| a - b)
-            .collect(),
-        shift_quantisation_rel: cat(&rq, true)
-            .iter()
-            .zip(cat(&rf, true))
-            .map(|(a, b)| if b != 0.0 { (a - b) / b } else { a - b })
-            .collect(),
-        shift_discretisation_s: cat(&rf, true)
-            .iter()
-            .zip(cat(&cont, true))
-            .map(|(a, b)| a - b)
-            .collect(),
+        shift_quantisation_z: shift(cat(&rq, false), cat(&rf, false), |a, b| a - b),
+        shift_quantisation_rel: shift(cat(&rq, true), cat(&rf, true), |a, b| {
+            if b != 0.0 {
+                (a - b) / b
+            } else {
+                a - b
+            }
+        }),
+        shift_discretisation_s: shift(cat(&rf, true), cat(&cont, true), |a, b| a - b),
         continuous: cont,
         discrete_f64: rf,
         discrete_quantised: rq,
@@ -105,10 +102,7 @@ pub fn audit_controller<T: Sample>(
         discrete_f64: ideal.dc_gain(),
         fixed: fixed_dc,
         discrete_quantised: quant.dc_gain(),
-        fixed_vs_continuous_rel: match (fixed_dc, cdc) {
-            (Some(a), Some(b)) => Some((a - b) / b),
-            _ => None,
-        },
+        fixed_vs_continuous_rel: fixed_dc.zip(cdc).map(|(a, b)| (a - b) / b),
     };
     let mut freq_response = Vec::with_capacity(freqs.len());
     for &(f, named) in freqs {

@@ -94,8 +94,7 @@ pub fn write_plots(a: &Audit, dir: &Path) -> Result<Vec<(String, String)>, Audit
                 .over(f_lo, limit),
             None => plain(title, unit).series(s),
         };
-        // The predictor approximates an ideal advance by design: its discretisation
-        // error is not judged (the sampled-data analysis is), so it has no limits.
+        // The predictor's discretisation error is not judged (`checks`): no limits.
         let judged = c.name != "yaw_predictor";
         let disc = |t: (f64, f64)| judged.then_some(t);
         let disc_title = |what: &str| {

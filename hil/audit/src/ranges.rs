@@ -140,7 +140,7 @@ fn fs_of(f: Fs, c: &Config) -> (f64, &'static str) {
 }
 
 /// Range of one signal or state over the scenarios.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct SignalRange {
     /// Signal name.
     pub name: String,
@@ -301,14 +301,7 @@ pub fn observe_against<T: Sample>(
                 state,
                 unit: unit.to_string(),
                 full_scale,
-                min_pu: 0.0,
-                max_pu: 0.0,
-                min_si: 0.0,
-                max_si: 0.0,
-                worst_scenario: String::new(),
-                headroom_bits: f64::INFINITY,
-                overflows: 0,
-                samples: 0,
+                ..SignalRange::default()
             }
         })
         .collect();
@@ -485,37 +478,29 @@ pub fn observe_against<T: Sample>(
             } else {
                 "gain"
             };
-            for (acc, phase) in [(&ey, Phase::Normal), (&ry, Phase::SafeRamp)] {
-                if acc.n > 0 {
-                    noise.push(acc.noise(
-                        "T_psi",
-                        &sc.name,
-                        mname,
-                        phase,
-                        lsb,
-                        s.torque,
-                        cfg.wire.torque,
-                        l.torque,
-                        "N m",
-                    ));
-                }
-            }
-            if mode == YawMode::Lead {
-                for (acc, phase) in [(&eu, Phase::Normal), (&ru, Phase::SafeRamp)] {
+            let mut push = |out, accs: [&Acc; 2], (fs, wire, limit), unit| {
+                for (acc, phase) in accs.into_iter().zip([Phase::Normal, Phase::SafeRamp]) {
                     if acc.n > 0 {
-                        noise.push(acc.noise(
-                            "u_a",
-                            &sc.name,
-                            mname,
-                            phase,
-                            lsb,
-                            s.voltage,
-                            cfg.wire.voltage,
-                            l.voltage_max.abs().max(l.voltage_min.abs()),
-                            "V",
-                        ));
+                        let n = acc.noise(out, &sc.name, mname, phase, lsb, fs, wire, limit, unit);
+                        noise.push(n);
                     }
                 }
+            };
+            push(
+                "T_psi",
+                [&ey, &ry],
+                (s.torque, cfg.wire.torque, l.torque),
+                "N m",
+            );
+            // u_a once per scenario: from the lead run.
+            if mode == YawMode::Lead {
+                let v_limit = l.voltage_max.abs().max(l.voltage_min.abs());
+                push(
+                    "u_a",
+                    [&eu, &ru],
+                    (s.voltage, cfg.wire.voltage, v_limit),
+                    "V",
+                );
                 traces.push((sc.name.clone(), trace));
             }
         }

@@ -1,8 +1,6 @@
 //! The book's generated audit block: the audit's headline figures as Markdown, printed by
-//! `hil audit --no-target --readme-block`. The block `audit` of `docs/audit.md` is checked
-//! against that output by `cargo xtask readme --check` like every other generated block
-//! (a Markdown block: the output verbatim), so a change that moves a figure fails until
-//! the chapter follows.
+//! `hil audit --no-target --readme-block` and checked in `docs/audit.md` by
+//! `cargo xtask readme --check`.
 
 use std::fmt::Write as _;
 

@@ -139,10 +139,7 @@ fn record(
         rng: Pcg64::seed_from_u64(0x00fa_0175),
         held: [0.0; 4],
         hold: HoldPolicy::new(),
-        tick: Tick {
-            si: [0.0; 4],
-            event: None,
-        },
+        tick: Tick::default(),
         steps: 0,
         frames_lost: 0,
         safe_entries: 0,

@@ -86,6 +86,32 @@ pub struct Check {
 }
 
 impl Check {
+    /// A judged figure: `value` in `unit` against `(warn, fail)`, with its status and
+    /// reason; no remedy yet ([`Self::with_remedy`]).
+    #[must_use]
+    pub fn new(
+        controller: &str,
+        item: &str,
+        value: f64,
+        (warn, fail): (f64, f64),
+        unit: &str,
+        status: Status,
+        reason: String,
+    ) -> Self {
+        Self {
+            controller: controller.to_string(),
+            item: item.to_string(),
+            value,
+            warn,
+            fail,
+            unit: unit.to_string(),
+            status,
+            reason,
+            remedy: String::new(),
+            not_run: false,
+        }
+    }
+
     /// The check with its remedy.
     #[must_use]
     pub fn with_remedy(mut self, remedy: impl Into<String>) -> Self {
@@ -177,16 +203,5 @@ pub(crate) fn judge(
         Status::Warn => format!("{what} {value:.3e} {unit} above the warn level {warn:.1e}"),
         Status::Fail => format!("{what} {value:.3e} {unit} exceeds the tolerance {fail:.1e}"),
     };
-    Check {
-        controller: controller.to_string(),
-        item: item.to_string(),
-        value,
-        warn,
-        fail,
-        unit: unit.to_string(),
-        status,
-        reason,
-        remedy: String::new(),
-        not_run: false,
-    }
+    Check::new(controller, item, value, (warn, fail), unit, status, reason)
 }

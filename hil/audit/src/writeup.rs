@@ -8,10 +8,7 @@ use super::{Audit, AuditError, Status};
 use wheelset_report::table::Table;
 
 fn fmt_opt(v: Option<f64>) -> String {
-    match v {
-        Some(x) => format!("{x:.9e}"),
-        None => "inf (integrator)".into(),
-    }
+    v.map_or("inf (integrator)".into(), |x| format!("{x:.9e}"))
 }
 
 fn headline(a: &Audit) -> String {
@@ -78,11 +75,9 @@ pub fn full_text(a: &Audit, quiet: bool) -> String {
     s + &verdict_line(a)
 }
 
-/// The terminal summary, a handful of lines: the configuration, the controllers' worst
-/// error, each loop's stability and margins, one line per check not passed (its figure;
-/// the reason and remedy are in the report; a check not run says how to run it), where
-/// the report went, and the verdict
-/// (`quiet`: without the controllers' and the loops' lines).
+/// The terminal summary: the configuration, the controllers' worst error and each loop's
+/// margins (not when `quiet`), one line per check not passed, where the report went, and
+/// the verdict.
 pub fn summary(a: &Audit, report: Option<&Path>, quiet: bool) -> String {
     let mut s = headline(a);
     let worst = |f: &dyn Fn(&super::ControllerAudit) -> f64| {
@@ -135,7 +130,6 @@ pub fn summary(a: &Audit, report: Option<&Path>, quiet: bool) -> String {
         }
     }
     for c in a.checks.iter().filter(|c| c.status != Status::Pass) {
-        // A check that could not run says why and how to run it.
         let value = if c.not_run {
             c.reason_and_remedy()
         } else {
@@ -149,22 +143,18 @@ pub fn summary(a: &Audit, report: Option<&Path>, quiet: bool) -> String {
             c.item
         );
     }
-    match report {
-        Some(d) => {
-            let _ = writeln!(
-                s,
-                "  report: {} (every check with its reason and remedy; the full text in {})",
-                d.join("audit.md").display(),
-                d.join("audit.txt").display()
-            );
-        }
-        None => {
-            let _ = writeln!(
-                s,
-                "  the reasons and remedies: --report DIR (audit.md, audit.txt)"
-            );
-        }
-    }
+    let _ = match report {
+        Some(d) => writeln!(
+            s,
+            "  report: {} (every check with its reason and remedy; the full text in {})",
+            d.join("audit.md").display(),
+            d.join("audit.txt").display()
+        ),
+        None => writeln!(
+            s,
+            "  the reasons and remedies: --report DIR (audit.md, audit.txt)"
+        ),
+    };
     s + &verdict_line(a)
 }
 
@@ -342,18 +332,13 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
             "f64-cont dB",
             "f64-cont deg",
         ]);
+        let gp = |r: &super::model::GainPhase| format!("{:.6e} / {:.3} deg", r.gain, r.phase_deg);
         for p in c.freq_response.iter().filter(|p| p.named) {
             t.row([
                 p.f_hz.to_string(),
-                format!(
-                    "{:.6e} / {:.3} deg",
-                    p.continuous.gain, p.continuous.phase_deg
-                ),
-                format!(
-                    "{:.6e} / {:.3} deg",
-                    p.discrete_f64.gain, p.discrete_f64.phase_deg
-                ),
-                format!("{:.6e} / {:.3} deg", p.fixed.gain, p.fixed.phase_deg),
+                gp(&p.continuous),
+                gp(&p.discrete_f64),
+                gp(&p.fixed),
                 format!("{:.2e}", p.fixed_vs_f64_db),
                 format!("{:.2e}", p.fixed_vs_f64_deg),
                 format!("{:.2e}", p.f64_vs_continuous_db),
@@ -402,10 +387,7 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
                 l.classification.clone(),
                 format!("{:.2}", l.p2p_lsb),
                 format!("{:.3e} {}", l.amplitude_si, l.unit),
-                l.period_samples
-                    .map(|p| format!("{p:.1}"))
-                    .unwrap_or_else(|| "-".into())
-                    .to_string(),
+                l.period_samples.map_or("-".into(), |p| format!("{p:.1}")),
                 format!("{:.3e} {}", l.offset_si, l.unit),
                 format!("{:.2}", l.offset_lsb),
             ]);
@@ -579,6 +561,7 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
             "host vs f64 (wire LSB)",
             "mean instructions/tick",
         ]);
+        let pair = |(x, y): (f64, f64)| format!("{x:.1}, {y:.1}");
         for r in &a.target.runs {
             t.row([
                 r.scenario.to_string(),
@@ -586,14 +569,8 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
                 r.ticks.to_string(),
                 r.mismatches.to_string(),
                 format!("{}, {}", r.max_code_diff.0, r.max_code_diff.1),
-                format!(
-                    "{:.1}, {:.1}",
-                    r.target_vs_f64_wire_lsb.0, r.target_vs_f64_wire_lsb.1
-                ),
-                format!(
-                    "{:.1}, {:.1}",
-                    r.host_vs_f64_wire_lsb.0, r.host_vs_f64_wire_lsb.1
-                ),
+                pair(r.target_vs_f64_wire_lsb),
+                pair(r.host_vs_f64_wire_lsb),
                 format!("{:.0}", r.mean_exec),
             ]);
         }

@@ -108,21 +108,17 @@ pub(crate) fn proofs_and_findings(a: &Audit, w: &mut String) {
             "frequency (Hz)",
             "y p2p (nm)",
         ]);
-        let mut rows = vec![
-            (
-                "device (Runtime<Fx>, in-process link)".to_string(),
-                &lc.device,
-            ),
-            ("continuous f64 reference".to_string(), &lc.reference),
-            (
-                "core in the loop, every source".to_string(),
-                &lc.core_all_sources,
-            ),
+        let runs = [
+            ("device (Runtime<Fx>, in-process link)", &lc.device),
+            ("continuous f64 reference", &lc.reference),
+            ("core in the loop, every source", &lc.core_all_sources),
         ];
-        for (n, c) in &lc.removed {
-            rows.push((format!("without {n}"), c));
-        }
-        for (n, c) in rows {
+        let removed = lc.removed.iter().map(|(n, c)| (format!("without {n}"), c));
+        for (n, c) in runs
+            .map(|(n, c)| (n.to_string(), c))
+            .into_iter()
+            .chain(removed)
+        {
             t.row([
                 n,
                 format!("{:.4}", c.torque_p2p_nm),

@@ -261,19 +261,6 @@ fn too_few_coefficient_bits_warn_on_the_coefficients_and_fail_on_accuracy() {
 }
 
 #[test]
-fn instrumented_type_is_bit_identical_to_fx() {
-    let mut s = 0x9e37_79b9_7f4a_7c15_u64;
-    let mut next = || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        (s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    };
-    let xs: Vec<(f64, f64)> = (0..20_000).map(|_| (next() * 1.2, next() * 2.5)).collect();
-    assert!(audit::bit_identical_to_fx(&xs));
-}
-
-#[test]
 fn json_has_the_issue_fields_and_the_binary_exit_codes_follow_the_verdict() {
     let dir = std::env::temp_dir().join(format!("hil-audit-test-{}", std::process::id()));
     let json = dir.join("audit.json");

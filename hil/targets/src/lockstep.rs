@@ -9,6 +9,7 @@
 
 use std::collections::VecDeque;
 
+use wheelset_loop::transport::TransportError;
 use wheelset_proto::{Command, Decoder, Message};
 
 /// The parts of one write as the device's clock sees them: each up to and including a
@@ -103,6 +104,52 @@ impl Expect {
     /// The bytes kept by [`Self::stash`], in arrival order; empty after.
     pub fn take_early(&mut self) -> Vec<u8> {
         std::mem::take(&mut self.early)
+    }
+}
+
+/// A lock-step link with one frame in flight (a serial device, QEMU over its UART).
+pub(crate) trait OneInFlight {
+    fn expect(&mut self) -> &mut Expect;
+
+    /// Writes one part of a write ([`frames`]).
+    fn write(&mut self, part: &[u8]) -> Result<(), TransportError>;
+
+    /// The next bytes from the device to `sink`, accounted as received; a timeout error
+    /// when the device stays silent for the link's timeout.
+    fn recv_some(&mut self, sink: &mut dyn FnMut(&[u8])) -> Result<(), TransportError>;
+
+    fn wait_owed(&mut self, sink: &mut dyn FnMut(&[u8])) -> Result<(), TransportError> {
+        while self.expect().owed() > 0 {
+            self.recv_some(sink)?;
+        }
+        Ok(())
+    }
+
+    /// Sends each frame of `bytes` after the answers still owed (kept for the next
+    /// [`Self::recv_owed`]).
+    fn send_frames(&mut self, bytes: &[u8]) -> Result<(), TransportError> {
+        for part in frames(bytes) {
+            let mut early = Vec::new();
+            self.wait_owed(&mut |b| early.extend_from_slice(b))?;
+            self.expect().stash(&early);
+            self.expect().sent(part);
+            self.write(part)?;
+        }
+        Ok(())
+    }
+
+    /// The answers kept by [`Self::send_frames`], then every frame owed, all to `sink` at
+    /// `deadline_ns`.
+    fn recv_owed(
+        &mut self,
+        deadline_ns: u64,
+        sink: &mut dyn FnMut(u64, &[u8]),
+    ) -> Result<(), TransportError> {
+        let early = self.expect().take_early();
+        if !early.is_empty() {
+            sink(deadline_ns, &early);
+        }
+        self.wait_owed(&mut |b| sink(deadline_ns, b))
     }
 }
 

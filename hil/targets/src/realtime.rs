@@ -224,13 +224,7 @@ impl RealTime {
         let port = serialport::new(path, o.baud)
             .timeout(Duration::ZERO)
             .open_native()
-            .map_err(|e| {
-                TransportError::Unavailable(format!(
-                    "serial:{path}: cannot open at {} baud: {e} (is the board connected, \
-                     and is the path right?)",
-                    o.baud
-                ))
-            })?;
+            .map_err(|e| crate::serial::open_error(path, o.baud, &e))?;
         let _ = port.clear(serialport::ClearBuffer::All);
         Ok(Self::on(&format!("serial:{path}"), Port::Tty(port), o))
     }

@@ -12,7 +12,7 @@ use serialport::SerialPort;
 use wheelset_control::Fx;
 use wheelset_runtime::Runtime;
 
-use crate::lockstep::Expect;
+use crate::lockstep::{Expect, OneInFlight};
 use wheelset_loop::transport::{Clock, Transport, TransportError};
 
 /// How the host paces the exchanges (see the module docs).
@@ -46,12 +46,7 @@ impl Serial {
         let port = serialport::new(path, baud)
             .timeout(Duration::from_millis(1))
             .open()
-            .map_err(|e| {
-                TransportError::Unavailable(format!(
-                    "serial:{path}: cannot open at {baud} baud: {e} (is the board connected, \
-                     and is the path right?)"
-                ))
-            })?;
+            .map_err(|e| open_error(path, baud, &e))?;
         let _ = port.clear(serialport::ClearBuffer::All);
         Ok(Self {
             path: path.to_string(),
@@ -65,15 +60,6 @@ impl Serial {
 
     fn io(&self, e: &io::Error) -> TransportError {
         TransportError::Io(format!("serial:{}: {e}", self.path))
-    }
-
-    /// Reads what is there (up to the port's 1 ms timeout); `Ok(empty)` if nothing.
-    fn read_some(&mut self, buf: &mut [u8]) -> Result<usize, TransportError> {
-        match self.port.read(buf) {
-            Ok(n) => Ok(n),
-            Err(e) if nothing_yet(&e) => Ok(0),
-            Err(e) => Err(self.io(&e)),
-        }
     }
 }
 
@@ -95,16 +81,7 @@ impl Transport for Serial {
     }
 
     fn send(&mut self, _t_ns: u64, bytes: &[u8]) -> Result<(), TransportError> {
-        // One frame in flight (`crate::lockstep`): each frame of the write after the
-        // answers still owed.
-        for part in crate::lockstep::frames(bytes) {
-            let mut early = Vec::new();
-            self.wait_owed(&mut |b| early.extend_from_slice(b))?;
-            self.expect.stash(&early);
-            self.expect.sent(part);
-            self.port.write_all(part).map_err(|e| self.io(&e))?;
-        }
-        Ok(())
+        self.send_frames(bytes)
     }
 
     fn recv(
@@ -112,26 +89,34 @@ impl Transport for Serial {
         deadline_ns: u64,
         sink: &mut dyn FnMut(u64, &[u8]),
     ) -> Result<(), TransportError> {
-        let early = self.expect.take_early();
-        if !early.is_empty() {
-            sink(deadline_ns, &early);
-        }
-        self.wait_owed(&mut |b| sink(deadline_ns, b))
+        self.recv_owed(deadline_ns, sink)
     }
 }
 
-impl Serial {
-    /// Reads until nothing is owed, every run of bytes to `sink`; a timeout error if the
-    /// device stays silent for `timeout`.
-    fn wait_owed(&mut self, sink: &mut dyn FnMut(&[u8])) -> Result<(), TransportError> {
+impl OneInFlight for Serial {
+    fn expect(&mut self) -> &mut Expect {
+        &mut self.expect
+    }
+
+    fn write(&mut self, part: &[u8]) -> Result<(), TransportError> {
+        self.port.write_all(part).map_err(|e| self.io(&e))
+    }
+
+    /// Reads until bytes come (the port's reads time out after 1 ms).
+    fn recv_some(&mut self, sink: &mut dyn FnMut(&[u8])) -> Result<(), TransportError> {
         let mut buf = [0u8; 256];
         let give_up = Instant::now() + self.timeout;
-        while self.expect.owed() > 0 {
-            let n = self.read_some(&mut buf)?;
-            if n > 0 {
-                self.expect.received(&buf[..n]);
-                sink(&buf[..n]);
-            } else if Instant::now() > give_up {
+        loop {
+            match self.port.read(&mut buf) {
+                Ok(n) if n > 0 => {
+                    self.expect.received(&buf[..n]);
+                    sink(&buf[..n]);
+                    return Ok(());
+                }
+                Err(e) if !nothing_yet(&e) => return Err(self.io(&e)),
+                _ => {}
+            }
+            if Instant::now() > give_up {
                 return Err(TransportError::Timeout(format!(
                     "serial:{}: no answer within {:?} ({} frames owed)",
                     self.path,
@@ -140,7 +125,6 @@ impl Serial {
                 )));
             }
         }
-        Ok(())
     }
 }
 
@@ -171,6 +155,14 @@ pub fn serve_lockstep<P: Read + Write + ?Sized>(
         }
     }
     Ok(ticks)
+}
+
+/// `path` did not open at `baud`.
+pub(crate) fn open_error(path: &str, baud: u32, e: &serialport::Error) -> TransportError {
+    TransportError::Unavailable(format!(
+        "serial:{path}: cannot open at {baud} baud: {e} (is the board connected, and is the \
+         path right?)"
+    ))
 }
 
 /// A read that timed out or was interrupted: nothing arrived yet.

@@ -91,9 +91,8 @@ fn fit_sine(y: &[f64], w: f64, n0: usize) -> (f64, f64, f64) {
     }
 }
 
-/// Stimulus amplitudes used to measure the responses, SI: `y'` 10 mm/s (a typical
-/// hunting amplitude; the lead's peak output 7.9 kN m stays below the 20 kN m torque
-/// limit) and a current error of 10 A.
+/// Stimulus amplitudes of the measured responses, SI: `y'` 10 mm/s (a typical hunting
+/// amplitude, the lead's output below the torque limit), a current error of 10 A.
 pub fn measure_amplitude(kind: Kind) -> f64 {
     match kind {
         Kind::YawLead | Kind::YawGain | Kind::YawPredictor => 0.01,
@@ -154,8 +153,7 @@ pub fn measured_at<T: Sample>(
 }
 
 /// The DC gain measured on the running controller: a constant input (SI: `y'` 0.15 m/s,
-/// output 16 kN m below the torque limit; or 10 A) held until the lead settles
-/// (60 time constants), output over input. `None` for the PI (its integrator ramps).
+/// or 10 A) held 60 lead time constants, output over input. `None` for the PI.
 pub fn measured_dc<T: Sample>(
     kind: Kind,
     cfg: &Config,

@@ -6,7 +6,7 @@
 
 use std::time::Duration;
 
-use crate::lockstep::Expect;
+use crate::lockstep::{Expect, OneInFlight};
 use crate::qemu::{Channel, Machine, Qemu, QemuConfig};
 use wheelset_loop::transport::{Clock, Transport, TransportError};
 
@@ -127,18 +127,7 @@ impl Transport for QemuTarget {
             self.q.queue(bytes);
             return Ok(());
         }
-        // One frame in flight (`crate::lockstep`): each frame of the write after the
-        // answers still owed.
-        for part in crate::lockstep::frames(bytes) {
-            let mut early = Vec::new();
-            self.wait_owed(&mut |b| early.extend_from_slice(b))?;
-            self.expect.stash(&early);
-            self.expect.sent(part);
-            self.q
-                .send(part)
-                .map_err(|e| TransportError::Io(e.to_string()))?;
-        }
-        Ok(())
+        self.send_frames(bytes)
     }
 
     fn recv(
@@ -146,32 +135,30 @@ impl Transport for QemuTarget {
         deadline_ns: u64,
         sink: &mut dyn FnMut(u64, &[u8]),
     ) -> Result<(), TransportError> {
-        let early = self.expect.take_early();
-        if !early.is_empty() {
-            sink(deadline_ns, &early);
+        if !self.pipelined {
+            return self.recv_owed(deadline_ns, sink);
         }
-        if self.pipelined {
-            // The answers owed before the deadline; later ones wait in the link's buffer.
-            while self.expect.owed_before(deadline_ns) > 0 {
-                self.recv_one(&mut |b| sink(deadline_ns, b))?;
-            }
-            return Ok(());
-        }
-        self.wait_owed(&mut |b| sink(deadline_ns, b))
-    }
-}
-
-impl QemuTarget {
-    /// Receives every frame owed, each to `sink` (its delimiter included).
-    fn wait_owed(&mut self, sink: &mut dyn FnMut(&[u8])) -> Result<(), TransportError> {
-        while self.expect.owed() > 0 {
-            self.recv_one(sink)?;
+        // The answers owed before the deadline; later ones wait in the link's buffer.
+        while self.expect.owed_before(deadline_ns) > 0 {
+            self.recv_some(&mut |b| sink(deadline_ns, b))?;
         }
         Ok(())
     }
+}
 
-    /// The next frame (its delimiter included) to `sink`, accounted as received.
-    fn recv_one(&mut self, sink: &mut dyn FnMut(&[u8])) -> Result<(), TransportError> {
+impl OneInFlight for QemuTarget {
+    fn expect(&mut self) -> &mut Expect {
+        &mut self.expect
+    }
+
+    fn write(&mut self, part: &[u8]) -> Result<(), TransportError> {
+        self.q
+            .send(part)
+            .map_err(|e| TransportError::Io(e.to_string()))
+    }
+
+    /// The next frame (its delimiter included).
+    fn recv_some(&mut self, sink: &mut dyn FnMut(&[u8])) -> Result<(), TransportError> {
         let expect = &mut self.expect;
         self.q
             .with_frame(|frame| {
