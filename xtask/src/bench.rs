@@ -60,7 +60,6 @@ fn bench_configs() -> [BenchConfig; 4] {
                 elf,
                 target: if m3 { M3_TARGET } else { FW_TARGET },
                 board: "qemu",
-                flip_link: false,
             },
             machine: if m3 { "mps2-an385" } else { "mps2-an386" },
         }
