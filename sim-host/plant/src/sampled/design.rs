@@ -198,23 +198,6 @@ pub fn design_table(p: &Params, base: &Config) -> Result<Vec<DesignRow>, String>
     Ok(rows)
 }
 
-/// The accepted points of a design table (as `DESIGNED` holds them): traction holds,
-/// the yaw law designed where it holds too.
-pub fn accepted(rows: &[DesignRow]) -> Vec<DesignPoint> {
-    rows.iter()
-        .filter(|r| r.traction_ok)
-        .map(|r| {
-            let yaw = r.failed.is_none();
-            DesignPoint {
-                base_rate_hz: r.base_rate_hz,
-                delay_ticks: r.delay_ticks,
-                lead_gain: if yaw { r.lead_gain } else { 1.0 },
-                yaw,
-            }
-        })
-        .collect()
-}
-
 /// The design table as text, one row per candidate.
 pub fn render_design(rows: &[DesignRow], reference: &Margins) -> String {
     use std::fmt::Write as _;
@@ -311,6 +294,23 @@ pub fn design_json(rows: &[DesignRow]) -> serde_json::Value {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The accepted points of a design table (as `DESIGNED` holds them): traction holds,
+    /// the yaw law designed where it holds too.
+    fn accepted(rows: &[DesignRow]) -> Vec<DesignPoint> {
+        rows.iter()
+            .filter(|r| r.traction_ok)
+            .map(|r| {
+                let yaw = r.failed.is_none();
+                DesignPoint {
+                    base_rate_hz: r.base_rate_hz,
+                    delay_ticks: r.delay_ticks,
+                    lead_gain: if yaw { r.lead_gain } else { 1.0 },
+                    yaw,
+                }
+            })
+            .collect()
+    }
 
     /// The device's table is what the design finds, every other candidate fails a named
     /// criterion, and the paper's point is the paper's lead and PI.
