@@ -5,7 +5,7 @@
 
 use super::*;
 use crate::params::Params;
-use wheelset_control::design::{DesignPoint, LEAD_GAIN_STEPS};
+use wheelset_control::design::LEAD_GAIN_STEPS;
 use wheelset_control::Config;
 
 /// Candidate base rates of the design, Hz: whole microseconds per period that the
@@ -294,6 +294,7 @@ pub fn design_json(rows: &[DesignRow]) -> serde_json::Value {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use wheelset_control::design::DesignPoint;
 
     /// The accepted points of a design table (as `DESIGNED` holds them): traction holds,
     /// the yaw law designed where it holds too.
