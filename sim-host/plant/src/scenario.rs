@@ -12,7 +12,6 @@ use crate::params::Params;
 use serde::Deserialize;
 use std::path::Path;
 
-// The track's knots and lookups: `scenario/track.rs`.
 mod track;
 pub use track::{track_at, Knot, TrackCursor};
 

@@ -174,7 +174,6 @@ impl HeatMap {
         let lx = ml + pw + 12.0;
         for (row, (col, label)) in self.legend.iter().enumerate() {
             let y = mt + row as f64 * 16.0;
-            // A legend row of colour `none` is a line of text without a swatch.
             if col != "none" {
                 let _ = writeln!(
                     o,

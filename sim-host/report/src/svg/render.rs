@@ -246,7 +246,6 @@ impl Plot {
     /// As [`Plot::render_group`] with the legend column `legend_w` px wide (a figure
     /// uses its widest legend for every panel so the plotting areas line up).
     pub fn render_group_with(&self, ox: f64, oy: f64, legend_w: f64) -> String {
-        // The legend sits in a column right of the plotting area, so it never hides data.
         let legend_w = legend_w.max(self.legend_width());
         // Slanted category names (40 degrees, [`LABEL_CHAR_PX`] per character)
         // take sin(40) of their length below the axis.
@@ -462,9 +461,8 @@ impl Plot {
                 continue;
             }
             let w = m.label.chars().count() as f64 * LABEL_CHAR_PX;
-            // Candidates: a vertical mark's label right or left of its line, in one of
-            // the rows down the top of the area; a horizontal one's above or below its
-            // line, at the left or the right end.
+            // Candidates: beside a vertical line, in rows down the top of the area; above
+            // or below a horizontal one, at either end.
             let mut cands: Vec<(f64, f64, bool)> = Vec::new();
             if m.vertical {
                 for row in 0..((ph / 12.0).floor() as usize).max(1) {
@@ -525,8 +523,7 @@ impl Plot {
                 r##"<text x="{x:.1}" y="{y:.1}" text-anchor="{anchor}" fill="{c}" stroke="#fff" stroke-width="3" paint-order="stroke">{label}</text>"##
             );
         }
-        // Data beyond a fixed range: a triangle on the edge where each run leaves the
-        // axes (pointing out), and a legend row per series that leaves them.
+        // Data beyond a fixed range: a triangle on the edge where each run leaves the axes.
         for (k, s) in self.series.iter().enumerate() {
             let col = self.colour(k, s);
             for &(x, y) in &self.clipped_exits(k, (x0, x1), (y0, y1)) {
