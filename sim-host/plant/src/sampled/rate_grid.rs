@@ -75,9 +75,10 @@ impl LinkBudget {
 }
 
 /// Where on the grid, and which mode.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct GridMode {
     /// Creep coefficient, N.
+    #[serde(rename = "creep_n")]
     pub creep: f64,
     /// Conicity.
     pub lambda: f64,
@@ -87,8 +88,8 @@ pub struct GridMode {
     pub zeta: f64,
 }
 
-/// One row of the rate table.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// One row of the rate table (its JSON adds `yaw_hz`).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct RateRow {
     /// Base rate, Hz.
     pub base_hz: u32,
@@ -320,7 +321,7 @@ pub fn critical_creep(
 }
 
 /// What a candidate must meet to be chosen.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct Criteria {
     /// Largest radius per base tick of the current loop's fast mode.
     pub max_current_radius: f64,
