@@ -12,8 +12,7 @@ mod pages;
 use crate::{build_firmware, ensure_targets, have_qemu, Firmware, FW_TARGET, M3_TARGET};
 use wheelset_targets::qemu::TICK_MEAN_BUDGET_INSTRUCTIONS;
 
-/// One `fw-bench` configuration: core (QEMU's CPU too), numeric build, firmware, QEMU
-/// machine.
+/// One `fw-bench` configuration (the core is QEMU's CPU too).
 struct BenchConfig {
     core: &'static str,
     numeric: &'static str,
@@ -235,8 +234,7 @@ fn sync_pages(
     Ok(())
 }
 
-/// Builds and runs the QEMU benchmark firmware; prints the table, writes the JSON to
-/// `json` if given.
+/// Builds and runs the QEMU benchmark firmware; prints the table, writes `json` if given.
 pub(crate) fn fw_bench(json: Option<PathBuf>, check: bool) -> Result<(), String> {
     ensure_targets()?;
     let configs = bench_configs();

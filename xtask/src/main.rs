@@ -43,9 +43,8 @@ const MCU_TARGETS: &[&str] = &["thumbv7em-none-eabihf", "thumbv6m-none-eabi"];
 const FW_TARGET: &str = "thumbv7em-none-eabihf";
 /// The Cortex-M3 (no FPU) of QEMU's mps2-an385: the fixed-point build where it matters.
 const M3_TARGET: &str = "thumbv7m-none-eabi";
-/// One firmware binary: cargo bin name, features, the name it gets in `target/fw`, the
-/// target and its board (the `board-<name>` feature's module, whose memory map
-/// [`size::check_sizes`] holds the ELF to).
+/// One firmware binary: its name in `target/fw`, and its board (the `board-<name>`
+/// feature's module, whose memory map [`size::check_sizes`] holds the ELF to).
 struct Firmware {
     bin: &'static str,
     features: &'static str,
@@ -105,8 +104,7 @@ fn target_dir() -> PathBuf {
         .unwrap_or_else(|| workspace_root().join("target"))
 }
 
-/// A command as a user would type it: the program and its arguments, without the
-/// environment the task sets.
+/// A command as a user would type it (without the environment the task sets).
 fn shown(cmd: &Command) -> String {
     let program = Path::new(cmd.get_program());
     std::iter::once(program.file_name().unwrap_or(program.as_os_str()))
