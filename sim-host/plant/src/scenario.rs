@@ -282,7 +282,8 @@ fn check(
     }
 }
 
-fn time(file: &str, key: &str, t: f64, max: f64) -> Result<u64, ConfigError> {
+/// `t` s as ns, refused outside `[0, max]` s.
+pub(crate) fn time(file: &str, key: &str, t: f64, max: f64) -> Result<u64, ConfigError> {
     let ok = t.is_finite() && (0.0..=max).contains(&t);
     check(ok, file, key, format!("time {t} s is outside [0, {max}] s"))?;
     Ok(s_to_ns(t))
