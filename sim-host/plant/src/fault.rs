@@ -84,13 +84,6 @@ pub struct FailedMode {
     pub f_hz: f64,
 }
 
-impl FailedMode {
-    /// The time to grow by `factor` (> 1), `ln(factor)/sigma`, s; `None` if it does not grow.
-    pub fn time_to_grow(&self, factor: f64) -> Option<f64> {
-        (self.sigma_per_s > 0.0 && factor > 1.0).then(|| factor.ln() / self.sigma_per_s)
-    }
-}
-
 /// The least stable mode (structural zero left out) of the loop whose yaw actuator
 /// delivers `gain` times the command of `law`, linearised at straight-track pure
 /// rolling: the law's gain `K` scaled by `gain`. `None` if the matrix is not finite.
@@ -225,7 +218,7 @@ mod tests {
                 "lambda {lambda}: sigma {:.3} 1/s, {:.2} Hz (Klingel {klingel:.2} Hz), x10 in {:.2} s",
                 m.sigma_per_s,
                 m.f_hz,
-                m.time_to_grow(10.0).unwrap_or(f64::NAN)
+                10f64.ln() / m.sigma_per_s
             );
             assert!(m.sigma_per_s > 0.0, "{lambda}: {m:?}");
             assert!(
