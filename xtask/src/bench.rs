@@ -65,8 +65,7 @@ struct BenchResult {
     stack_peak_bytes: u64,
 }
 
-/// Parses the bench's line
-/// `FWBENCH law <min> <mean> <max> tick <min> <mean> <max> stack <bytes>`.
+/// Parses `FWBENCH law <min> <mean> <max> tick <min> <mean> <max> stack <bytes>`.
 fn parse_bench(output: &str) -> Result<BenchResult, String> {
     let line = output
         .lines()
@@ -292,8 +291,7 @@ pub(crate) fn fw_bench(json: Option<PathBuf>, check: bool) -> Result<(), String>
     }
 }
 
-/// The tick's budget on the build the boards flash (Cortex-M4, fixed point); `Some`
-/// names the excess.
+/// The flashed build's (Cortex-M4, fixed point) excess over the tick's budget, if any.
 fn over_budget(results: &[(&BenchConfig, BenchResult)]) -> Option<String> {
     results
         .iter()

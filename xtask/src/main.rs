@@ -166,8 +166,7 @@ fn check_no_std() -> Result<(), String> {
     Ok(())
 }
 
-/// `--remap-path-prefix` flags that shorten the registry paths the firmware carries for
-/// its panic locations (about 1 KiB of flash).
+/// `--remap-path-prefix` flags: shorter registry paths in the panic locations (~1 KiB).
 fn remap_flags() -> Vec<String> {
     let home = std::env::var_os("CARGO_HOME")
         .map(PathBuf::from)

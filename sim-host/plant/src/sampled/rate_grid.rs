@@ -129,8 +129,7 @@ pub struct RateRow {
 /// Damping ratios closer than this are the same mode's, equal but for roundoff.
 const ZETA_TIE: f64 = 1e-9;
 
-/// Whether damping `zeta` is worse than `worst` by more than roundoff (among ties the
-/// first in grid order is reported).
+/// Whether `zeta` is worse than `worst` beyond roundoff (of ties, the first in grid order).
 fn worse(zeta: f64, worst: f64) -> bool {
     zeta < worst - ZETA_TIE
 }

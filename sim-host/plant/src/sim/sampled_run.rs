@@ -114,8 +114,7 @@ impl ActuatorModel {
     }
 }
 
-/// The sensor frame the plant produces at state `x` with actuation `held` in force, the
-/// plant's configuration as [`Flags`].
+/// The sensor frame the plant produces at state `x` with actuation `held` in force.
 #[allow(clippy::too_many_arguments)]
 fn measure<F: Flags>(
     plant: &Plant,

@@ -41,8 +41,7 @@ impl Plot {
             .unwrap_or_else(|| PALETTE[k % PALETTE.len()].to_string())
     }
 
-    /// The colour of series `k` as an attribute's value, its opacity appended as
-    /// attributes when below 1.
+    /// The colour of series `k` as an attribute's value, with its opacity when below 1.
     fn paint(&self, k: usize, s: &Series) -> String {
         let col = self.colour(k, s);
         if s.opacity < 1.0 {
@@ -621,8 +620,7 @@ fn dash(s: &Series) -> &'static str {
     }
 }
 
-/// A cross mark of 8 px centred on `(cx, cy)`: the data points of `Style::Crosses` and
-/// their legend swatch.
+/// A cross of 8 px centred on `(cx, cy)`: a `Style::Crosses` point or its legend swatch.
 fn cross(o: &mut String, cx: f64, cy: f64, col: &str) {
     let (l, r, t, b) = (cx - 4.0, cx + 4.0, cy - 4.0, cy + 4.0);
     let _ = writeln!(
