@@ -59,8 +59,7 @@ fn fits(p: &DesignPoint, baud: u32, latency_ns: u64) -> bool {
     .is_ok()
 }
 
-/// The least `x` in `lo..=hi` with `pred(x)`, for a `pred` that is false, then true, and
-/// true at `hi` (bisection).
+/// The least `x` in `lo..=hi` with `pred(x)`, `pred` false then true, true at `hi` (bisection).
 fn least(mut lo: u64, mut hi: u64, pred: impl Fn(u64) -> bool) -> u64 {
     if pred(lo) {
         return lo;

@@ -11,8 +11,7 @@ use super::{
     PALETTE,
 };
 
-/// A value on an axis: itself, or its `log10` on a logarithmic axis (NaN for `v <= 0`,
-/// which every drawing step skips as non-finite).
+/// `v` on an axis: itself, or its `log10` on a log axis (NaN for `v <= 0`: never drawn).
 fn axis(log: bool, v: f64) -> f64 {
     if !log {
         v
