@@ -57,8 +57,7 @@ fn code(x: f64, lsb: f64) -> i32 {
 }
 
 impl<T: SampleBits> CoreController<T> {
-    /// The core of `cfg` (validated), protection on or off, every wire quantisation
-    /// applied.
+    /// The core of `cfg` (validated), protection on or off, every wire quantisation applied.
     pub fn try_new(
         cfg: &wheelset_control::Config,
         wsp: bool,
@@ -174,8 +173,7 @@ pub fn run_core<T: SampleBits>(
     run_core_with::<T>(sc, &control_config(&sc.params, law, sc.drive), law, wsp)
 }
 
-/// [`run_core`] with the control core of `cfg`; the actuation acts `cfg.delay_ticks` base
-/// periods after its sample.
+/// [`run_core`] on the core of `cfg`, acting `cfg.delay_ticks` base periods after each sample.
 pub fn run_core_with<T: SampleBits>(
     sc: &Scenario,
     cfg: &wheelset_control::Config,

@@ -111,8 +111,7 @@ pub struct Scenario {
     pub resistance: StepInput,
     /// Axle model.
     pub axle: Axle,
-    /// Whether the traction drive is modelled; without it the demand acts directly as a
-    /// torque on the left wheel.
+    /// Whether the traction drive is modelled (else the demand is a torque on the left wheel).
     pub drive: bool,
     /// Parameters after the scenario's overrides.
     pub params: Params,
@@ -290,8 +289,7 @@ pub(crate) fn time(file: &str, key: &str, t: f64, max: f64) -> Result<u64, Confi
 }
 
 impl Scenario {
-    /// Parses and validates a scenario from TOML text (`file` names it in errors) on top
-    /// of the parameters `base`.
+    /// Parses and validates a scenario from TOML text on `base` (`file` names it in errors).
     pub fn from_toml_str(src: &str, file: &str, base: &Params) -> Result<Scenario, ConfigError> {
         let raw: RawScenario = toml::from_str(src).map_err(|e| from_toml(file, src, &e))?;
         let duration_ns = time(file, "duration_s", raw.duration_s, 1e5)?;

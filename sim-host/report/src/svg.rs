@@ -203,8 +203,7 @@ impl Plot {
         self.y_log = true;
         self
     }
-    /// Names the x axis's categories (see [`Plot::x_categories`]); the x range becomes
-    /// `[0, names.len()]`.
+    /// Names the x categories ([`Plot::x_categories`]); the x range becomes `[0, names.len()]`.
     pub fn x_categories(mut self, names: &[String]) -> Self {
         self.x_range = Some((0.0, names.len().max(1) as f64));
         self.x_categories = names.to_vec();

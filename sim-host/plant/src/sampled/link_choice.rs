@@ -89,8 +89,7 @@ fn min_baud(p: &DesignPoint, latency_ns: u64) -> Option<u32> {
     })
 }
 
-/// Every designed point with a delay up to `max_delay` ticks against a link of `baud`
-/// and one-way `latency_ns`.
+/// Every designed point with up to `max_delay` ticks of delay on a link of `baud`, `latency_ns`.
 #[must_use]
 pub fn link_choice(baud: u32, latency_ns: u64, max_delay: u8) -> LinkChoice {
     let points: Vec<LinkPoint> = DESIGNED

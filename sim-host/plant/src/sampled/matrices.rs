@@ -270,8 +270,7 @@ pub fn tick_matrices(
     Ok(mats)
 }
 
-/// Closes the loop of `plant` with the controllers of `cfg` and `delay_ticks` of delay:
-/// its monodromy's modes.
+/// The monodromy's modes of `plant` closed by `cfg`'s controllers with `delay_ticks` of delay.
 pub fn closed_loop(
     plant: &LinearPlant,
     cfg: &Config,

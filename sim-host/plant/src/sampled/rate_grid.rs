@@ -344,8 +344,7 @@ pub struct Variant {
     pub predict: bool,
     /// All candidates.
     pub rows: Vec<RateRow>,
-    /// The chosen candidate: the lowest base rate meeting the criteria, ties broken by
-    /// the smaller damping loss.
+    /// The chosen candidate: the lowest base rate meeting the criteria (ties: least damping loss).
     pub chosen: Option<RateRow>,
 }
 

@@ -193,8 +193,7 @@ pub fn run_continuous_with(sc: &Scenario, ctrl: ContinuousController) -> Traject
     Trajectory { records, info }
 }
 
-/// [`run_continuous_with`] handing each record to `on_record` in time order instead of
-/// keeping them.
+/// [`run_continuous_with`] handing each record to `on_record` in time order, keeping none.
 pub fn run_continuous_each(
     sc: &Scenario,
     ctrl: ContinuousController,

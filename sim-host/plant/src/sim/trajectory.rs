@@ -113,8 +113,7 @@ pub struct RunInfo {
 /// the linear creep law), m.
 pub const DIVERGED_Y_M: f64 = 0.05;
 
-/// Whether state `x` has diverged (see [`RunInfo::diverged_at_s`]). By value, as
-/// `Setup::record` takes the state.
+/// Whether state `x` has diverged ([`RunInfo::diverged_at_s`]); by value, as `Setup::record`.
 pub(super) fn diverged(x: State) -> bool {
     !x.iter().all(|v| v.is_finite()) || x[ix::Y].abs() > DIVERGED_Y_M
 }

@@ -151,8 +151,7 @@ impl Plot {
             && self.series.iter().all(|s| s.points.is_empty())
     }
 
-    /// The ranges drawn, in axis units (`log10` on a logarithmic axis): the data, the
-    /// bars and the marks, or the ranges given.
+    /// The ranges drawn, axis units (`log10` on a log axis): of data, bars and marks, or as given.
     pub(super) fn data_range(&self) -> ((f64, f64), (f64, f64)) {
         let (xl, yl) = (self.x_log, self.y_log);
         let mut xs = (f64::INFINITY, f64::NEG_INFINITY);
