@@ -84,8 +84,7 @@ impl<T: SampleBits> CoreController<T> {
         &self.core
     }
 
-    /// The slip regulator's set point `slip_sp + slip_sp_per_a cap`, m/s, if the
-    /// protection acted on the latest tick.
+    /// The slip regulator's set point `slip_sp + slip_sp_per_a cap`, m/s, if it acted last tick.
     pub fn wsp_set_point(&self) -> Option<f64> {
         let (sp, per_a) = (self.cfg.wsp.slip_sp_mps, self.cfg.wsp.slip_sp_per_a);
         let cap_a = self.core.wsp_state().cap.to_f64() * self.cfg.scales.current;

@@ -420,8 +420,7 @@ impl Scenario {
         })
     }
 
-    /// Loads `name_or_path`: a built-in name (`curve`, `beating`, `low-adhesion`,
-    /// `actuator-fault`) or a TOML file.
+    /// Loads `name_or_path`: a built-in scenario ([`BUILTIN`]) or a TOML file.
     pub fn load(name_or_path: &str, base: &Params) -> Result<Scenario, ConfigError> {
         if let Some((name, src)) = BUILTIN.iter().find(|(n, _)| *n == name_or_path) {
             return Self::from_toml_str(src, &format!("<builtin:{name}>"), base);
@@ -458,8 +457,7 @@ impl Scenario {
             .map(|c| Adhesion::new(c, self.params.q()))
     }
 
-    /// The warning to print before running with `law` when the scenario's `laws` key
-    /// does not list it; `None` when the law is meant.
+    /// The warning before running with a `law` that the scenario's `laws` key does not list.
     pub fn law_warning(&self, law: YawLaw) -> Option<String> {
         if self.laws.is_empty() || self.laws.contains(&law) {
             return None;

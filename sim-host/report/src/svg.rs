@@ -64,8 +64,7 @@ pub struct Series {
     pub color: Option<String>,
     /// Line width, px (a marker's radius is `1.3 + width / 2`).
     pub width: f64,
-    /// Opacity, 0 to 1: a wide series drawn pale beneath a thin one that coincides with
-    /// it lets both show.
+    /// Opacity, 0 to 1 (a wide pale series beneath a thin one that coincides lets both show).
     pub opacity: f64,
 }
 

@@ -107,8 +107,7 @@ pub struct RateRow {
     pub worst_sampled: GridMode,
     /// Least-damped mode of the continuous loop over the grid.
     pub worst_continuous: GridMode,
-    /// Least-damped sampled mode over the grid points where the continuous loop is
-    /// stable (the region the rate is responsible for).
+    /// Least-damped sampled mode where the continuous loop is stable (the rate's responsibility).
     pub worst_sampled_stable_region: GridMode,
     /// Largest damping loss `zeta_cont - zeta_sampled` of the worst modes, per grid point.
     pub max_damping_loss: f64,

@@ -64,8 +64,7 @@ impl<'a> Setup<'a> {
         a
     }
 
-    /// [`Setup::adhesion`] when the rail condition of `t_ns` is not the last call's,
-    /// else `None` (the law in force holds).
+    /// [`Setup::adhesion`] if the rail condition of `t_ns` is new since the last call, else `None`.
     #[inline(always)]
     pub(super) fn adhesion_change(
         &mut self,
