@@ -161,8 +161,7 @@ pub fn judge(
     })
 }
 
-/// The design of one candidate: the largest lead gain step that meets every criterion,
-/// or the last step's verdict when none does.
+/// One candidate's design: the largest lead gain step meeting every criterion, else the last.
 pub fn design_point(
     p: &Params,
     base: &Config,

@@ -364,8 +364,7 @@ fn choose(rows: &[RateRow], c: &Criteria) -> Option<RateRow> {
         .copied()
 }
 
-/// Build the rate table over [`candidates`] for `base` (its yaw mode and controller
-/// parameters), with and without the yaw delay compensation.
+/// The rate table over [`candidates`] for `base`, with and without the yaw delay compensation.
 pub fn rates(
     params: &Params,
     model: Model,
