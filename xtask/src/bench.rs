@@ -12,8 +12,7 @@ mod pages;
 use crate::{build_firmware, ensure_targets, have_qemu, Firmware, FW_TARGET, M3_TARGET};
 use wheelset_targets::qemu::TICK_MEAN_BUDGET_INSTRUCTIONS;
 
-/// One `fw-bench` configuration: core (QEMU's CPU too), numeric build, firmware, QEMU
-/// machine.
+/// One `fw-bench` configuration (the core is QEMU's CPU too).
 struct BenchConfig {
     core: &'static str,
     numeric: &'static str,
@@ -24,33 +23,18 @@ struct BenchConfig {
 /// The four configurations, in the order of the JSON and the table.
 fn bench_configs() -> [BenchConfig; 4] {
     [
-        (
-            "cortex-m4",
-            "fixed",
-            "board-qemu",
-            "wheelset-qemu-bench.elf",
-        ),
-        (
-            "cortex-m4",
-            "f32",
-            "board-qemu,f32",
-            "wheelset-qemu-bench-f32.elf",
-        ),
-        (
-            "cortex-m3",
-            "fixed",
-            "board-qemu",
-            "wheelset-qemu-bench-m3.elf",
-        ),
-        (
-            "cortex-m3",
-            "f32",
-            "board-qemu,f32",
-            "wheelset-qemu-bench-m3-f32.elf",
-        ),
+        ("cortex-m4", "fixed", "wheelset-qemu-bench.elf"),
+        ("cortex-m4", "f32", "wheelset-qemu-bench-f32.elf"),
+        ("cortex-m3", "fixed", "wheelset-qemu-bench-m3.elf"),
+        ("cortex-m3", "f32", "wheelset-qemu-bench-m3-f32.elf"),
     ]
-    .map(|(core, numeric, features, elf)| {
+    .map(|(core, numeric, elf)| {
         let m3 = core == "cortex-m3";
+        let features = if numeric == "f32" {
+            "board-qemu,f32"
+        } else {
+            "board-qemu"
+        };
         BenchConfig {
             core,
             numeric,
@@ -60,7 +44,6 @@ fn bench_configs() -> [BenchConfig; 4] {
                 elf,
                 target: if m3 { M3_TARGET } else { FW_TARGET },
                 board: "qemu",
-                flip_link: false,
             },
             machine: if m3 { "mps2-an385" } else { "mps2-an386" },
         }
@@ -82,8 +65,7 @@ struct BenchResult {
     stack_peak_bytes: u64,
 }
 
-/// Parses the bench's line
-/// `FWBENCH law <min> <mean> <max> tick <min> <mean> <max> stack <bytes>`.
+/// Parses `FWBENCH law <min> <mean> <max> tick <min> <mean> <max> stack <bytes>`.
 fn parse_bench(output: &str) -> Result<BenchResult, String> {
     let line = output
         .lines()
@@ -251,8 +233,7 @@ fn sync_pages(
     Ok(())
 }
 
-/// Builds and runs the QEMU benchmark firmware; prints the table, writes the JSON to
-/// `json` if given.
+/// Builds and runs the QEMU benchmark firmware; prints the table, writes `json` if given.
 pub(crate) fn fw_bench(json: Option<PathBuf>, check: bool) -> Result<(), String> {
     ensure_targets()?;
     let configs = bench_configs();
@@ -310,8 +291,7 @@ pub(crate) fn fw_bench(json: Option<PathBuf>, check: bool) -> Result<(), String>
     }
 }
 
-/// The tick's budget on the build the boards flash (Cortex-M4, fixed point); `Some`
-/// names the excess.
+/// The flashed build's (Cortex-M4, fixed point) excess over the tick's budget, if any.
 fn over_budget(results: &[(&BenchConfig, BenchResult)]) -> Option<String> {
     results
         .iter()

@@ -87,7 +87,7 @@ pub struct Report {
     /// The device's receive counters summed over the run: valid, CRC, COBS, version,
     /// length, postcard (rejections), unexpected (valid frames of a device -> host type).
     pub rx: [u64; 7],
-    /// Config frames the device took / refused.
+    /// Config frames the device took.
     pub configs_applied: u64,
     /// Config frames refused.
     pub configs_refused: u64,

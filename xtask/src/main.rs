@@ -43,95 +43,48 @@ const MCU_TARGETS: &[&str] = &["thumbv7em-none-eabihf", "thumbv6m-none-eabi"];
 const FW_TARGET: &str = "thumbv7em-none-eabihf";
 /// The Cortex-M3 (no FPU) of QEMU's mps2-an385: the fixed-point build where it matters.
 const M3_TARGET: &str = "thumbv7m-none-eabi";
-/// One firmware binary: cargo bin name, features, the name it gets in `target/fw`, the
-/// target, its board (the `board-<name>` feature's module, whose memory map
-/// [`size::check_sizes`] holds the ELF to) and whether it links with flip-link.
+/// One firmware binary: its name in `target/fw`, and its board (the `board-<name>`
+/// feature's module, whose memory map [`size::check_sizes`] holds the ELF to).
 struct Firmware {
     bin: &'static str,
     features: &'static str,
     elf: &'static str,
     target: &'static str,
     board: &'static str,
-    flip_link: bool,
 }
 
-const fn fw_build(
-    features: &'static str,
-    elf: &'static str,
-    target: &'static str,
-    board: &'static str,
-    flip_link: bool,
-) -> Firmware {
-    Firmware {
-        bin: FW_BIN,
-        features,
-        elf,
-        target,
-        board,
-        flip_link,
+impl Firmware {
+    /// The Nucleo boards link with flip-link.
+    fn flip_link(&self) -> bool {
+        self.board.starts_with("nucleo")
     }
 }
 
 const FW_BIN: &str = "wheelset-fw";
 
+/// [`Firmware`] rows of [`FW_BIN`]: `features, elf, target, board;`.
+macro_rules! firmware {
+    ($($features:literal, $elf:literal, $target:ident, $board:literal;)*) => {
+        &[$(Firmware { bin: FW_BIN, features: $features, elf: $elf, target: $target, board: $board }),*]
+    };
+}
+
 /// The board builds: the Nucleo (free-running, and frame-clocked over the ST-LINK VCP),
 /// the Nucleo-G474RE (LPUART1), QEMU (`-icount`, and free-running on TIMER0 paced in real
 /// time), and the QEMU firmware for the Cortex-M3 of mps2-an385.
-const FIRMWARE: &[Firmware] = &[
-    fw_build(
-        "board-nucleo",
-        "wheelset-nucleo.elf",
-        FW_TARGET,
-        "nucleo",
-        true,
-    ),
-    fw_build(
-        "frame-clock",
-        "wheelset-nucleo-frame.elf",
-        FW_TARGET,
-        "nucleo",
-        true,
-    ),
-    fw_build(
-        "board-nucleo-g474",
-        "wheelset-nucleo-g474.elf",
-        FW_TARGET,
-        "nucleo_g474",
-        true,
-    ),
-    fw_build("board-qemu", "wheelset-qemu.elf", FW_TARGET, "qemu", false),
-    fw_build(
-        "free-run",
-        "wheelset-qemu-free.elf",
-        FW_TARGET,
-        "qemu",
-        false,
-    ),
-    fw_build(
-        "board-qemu",
-        "wheelset-qemu-m3.elf",
-        M3_TARGET,
-        "qemu",
-        false,
-    ),
+const FIRMWARE: &[Firmware] = firmware![
+    "board-nucleo", "wheelset-nucleo.elf", FW_TARGET, "nucleo";
+    "frame-clock", "wheelset-nucleo-frame.elf", FW_TARGET, "nucleo";
+    "board-nucleo-g474", "wheelset-nucleo-g474.elf", FW_TARGET, "nucleo_g474";
+    "board-qemu", "wheelset-qemu.elf", FW_TARGET, "qemu";
+    "free-run", "wheelset-qemu-free.elf", FW_TARGET, "qemu";
+    "board-qemu", "wheelset-qemu-m3.elf", M3_TARGET, "qemu";
 ];
 
 /// The f32 measurement builds (`cargo fw --f32`): sizes printed, not enforced.
-const FIRMWARE_F32: &[Firmware] = &[
-    fw_build(
-        "board-nucleo,f32",
-        "wheelset-nucleo-f32.elf",
-        FW_TARGET,
-        "nucleo",
-        true,
-    ),
-    fw_build(
-        "board-qemu,f32",
-        "wheelset-qemu-f32.elf",
-        FW_TARGET,
-        "qemu",
-        false,
-    ),
+const FIRMWARE_F32: &[Firmware] = firmware![
+    "board-nucleo,f32", "wheelset-nucleo-f32.elf", FW_TARGET, "nucleo";
+    "board-qemu,f32", "wheelset-qemu-f32.elf", FW_TARGET, "qemu";
 ];
 
 fn cargo() -> Command {
@@ -151,8 +104,7 @@ fn target_dir() -> PathBuf {
         .unwrap_or_else(|| workspace_root().join("target"))
 }
 
-/// A command as a user would type it: the program and its arguments, without the
-/// environment the task sets.
+/// A command as a user would type it (without the environment the task sets).
 fn shown(cmd: &Command) -> String {
     let program = Path::new(cmd.get_program());
     std::iter::once(program.file_name().unwrap_or(program.as_os_str()))
@@ -214,8 +166,7 @@ fn check_no_std() -> Result<(), String> {
     Ok(())
 }
 
-/// `--remap-path-prefix` flags that shorten the registry paths the firmware carries for
-/// its panic locations (about 1 KiB of flash).
+/// `--remap-path-prefix` flags: shorter registry paths in the panic locations (~1 KiB).
 fn remap_flags() -> Vec<String> {
     let home = std::env::var_os("CARGO_HOME")
         .map(PathBuf::from)
@@ -272,7 +223,7 @@ fn build_firmware<'a>(
     for fw in list {
         // flip-link (stack below the static data: an overflow faults instead of corrupting
         // them), in its own target directory: another linker changes every fingerprint.
-        let flip = fw.flip_link;
+        let flip = fw.flip_link();
         let dir = if flip {
             ensure_flip_link()?;
             target_dir().join("flip-link")

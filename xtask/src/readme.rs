@@ -1,12 +1,9 @@
-//! `cargo xtask readme [--check] [--dev]`: the generated blocks, figures and links of
-//! the README and the book (`README.md` and `docs/**.md`). The text between
-//! `<!-- generated:NAME -->` and `<!-- /generated:NAME -->` is the output of one command
-//! of [`BLOCKS`]; `readme` reruns them (release builds of `sim-host` and `hil`, or
-//! `--dev`: the same figures) and rewrites the blocks and figures, `--check` exits 1
-//! naming each drifted block (with a line diff) or figure, each marker without an entry,
-//! each figure a quoting page states outside its blocks that none of them holds
-//! ([`markers::unquoted`]) and each broken relative link ([`links`]; `--links` checks only
-//! these).
+//! `cargo xtask readme [--check] [--dev]`: the text between `<!-- generated:NAME -->`
+//! and `<!-- /generated:NAME -->` in `README.md` and `docs/**.md` is the output of one
+//! command of [`BLOCKS`]; `readme` reruns them (release builds, or `--dev`) and rewrites
+//! the blocks and figures, `--check` exits 1 naming what drifted, each figure a page
+//! quotes that its blocks lack ([`markers::unquoted`]) and each broken relative link
+//! ([`links`]; `--links` checks only these).
 
 use std::fmt::Write as _;
 use std::path::Path;

@@ -65,8 +65,7 @@ fn number(s: &str) -> Option<u64> {
     Some(v * scale)
 }
 
-/// The FLASH and RAM regions of a `memory.x` (`NAME : ORIGIN = a, LENGTH = l`, one per
-/// line).
+/// The FLASH and RAM regions of a `memory.x` (lines `NAME : ORIGIN = a, LENGTH = l`).
 pub fn parse_map(text: &str) -> Result<Map, String> {
     let field = |s: &str, key: &str| number(s.trim().strip_prefix(key)?.trim().strip_prefix('=')?);
     let region = |name: &str| {

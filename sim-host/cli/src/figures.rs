@@ -13,6 +13,11 @@ fn series(tr: &Trajectory, label: &str, f: impl Fn(&Record) -> f64) -> Series {
     Series::line(label, tr.records.iter().map(|r| (r.t_s, f(r))).collect())
 }
 
+/// A panel against time, s.
+fn over_t(title: &str, y_label: &str) -> Plot {
+    Plot::new(title).x_label("t (s)").y_label(y_label)
+}
+
 fn label(tr: &Trajectory) -> String {
     tr.info.control.clone()
 }
@@ -82,21 +87,20 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
     };
 
     // Fig. 6: the pure rolling line as a wide grey band beneath the runs.
-    let p = Plot::new(&format!(
-        "Lateral displacement y against the pure rolling line y0{}",
-        fig("6", "9")
-    ))
-    .x_label("t (s)")
-    .y_label("y (mm)")
+    let p = over_t(
+        &format!(
+            "Lateral displacement y against the pure rolling line y0{}",
+            fig("6", "9")
+        ),
+        "y (mm)",
+    )
     .series(
         series(main, "pure rolling line y0 (grey band)", |r| r.y0_m * 1e3)
             .color("#BBBBBB")
             .width(6.0),
     );
     let p = overlay(p, "y, ", |r| r.y_m * 1e3);
-    let psi = Plot::new("Yaw angle")
-        .x_label("t (s)")
-        .y_label("psi (mrad)");
+    let psi = over_t("Yaw angle", "psi (mrad)");
     let psi = overlay(psi, "", |r| r.psi_rad * 1e3);
     // Zoom on the traction step (Fig. 9's beating shows here).
     let t_step = main
@@ -104,9 +108,7 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
         .iter()
         .find(|r| r.demand_nm != 0.0)
         .map_or(5.0, |r| r.t_s);
-    let mut zoom = Plot::new("y - y0 around the traction step")
-        .x_label("t (s)")
-        .y_label("y - y0 (mm)")
+    let mut zoom = over_t("y - y0 around the traction step", "y - y0 (mm)")
         .x_range(t_step - 0.2, t_step + 2.0);
     for &(k, tr) in &order {
         let pts = tr
@@ -126,19 +128,20 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
     )?;
 
     // Fig. 7
-    let p = Plot::new(&format!(
-        "Yaw torque: control (active) / suspension (passive){}",
-        fig("7", "")
-    ))
-    .x_label("t (s)")
-    .y_label("T_psi (N m)");
+    let p = over_t(
+        &format!(
+            "Yaw torque: control (active) / suspension (passive){}",
+            fig("7", "")
+        ),
+        "T_psi (N m)",
+    );
     let p = overlay(p, "T_psi, ", |r| r.t_psi_nm);
     save("torque.svg", Figure::new(&title).panel(p))?;
 
     // Fig. 8: one panel per force, one colour per run (the main run solid, the compared
     // ones dashed over it).
     let per_run = |title: &str, y_label: &str, f: &dyn Fn(&Record) -> f64| {
-        let mut p = Plot::new(title).x_label("t (s)").y_label(y_label);
+        let mut p = over_t(title, y_label);
         for (k, tr) in runs.iter().enumerate() {
             let s = series(tr, &label(tr), f).color(PALETTE[k % PALETTE.len()]);
             p = p.series(if k == 0 { s } else { s.style(Style::Dashed) });
@@ -167,29 +170,19 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
     )?;
 
     // Traction and Fig. 9 view.
-    let ia = Plot::new("Armature current")
-        .x_label("t (s)")
-        .y_label("i_a (A)")
+    let ia = over_t("Armature current", "i_a (A)")
         .series(series(main, "i_a", |r| r.i_a_a))
         .series(series(main, "i_ref", |r| r.i_ref_a).style(Style::Dashed));
-    let ua = Plot::new("Armature voltage")
-        .x_label("t (s)")
-        .y_label("u_a (V)")
-        .series(series(main, "u_a", |r| r.u_a_v));
-    let wind = Plot::new(&format!(
-        "Gear wind-up and axle twist{}",
-        fig("", "9: beating")
-    ))
-    .x_label("t (s)")
-    .y_label("angle (mrad)")
+    let ua = over_t("Armature voltage", "u_a (V)").series(series(main, "u_a", |r| r.u_a_v));
+    let wind = over_t(
+        &format!("Gear wind-up and axle twist{}", fig("", "9: beating")),
+        "angle (mrad)",
+    )
     .series(series(main, "wind-up phi_L - theta_m/n", |r| {
         r.wind_rad * 1e3
     }))
     .series(series(main, "twist phi_R - phi_L", |r| r.twist_rad * 1e3));
-    let v = Plot::new("Forward speed")
-        .x_label("t (s)")
-        .y_label("v (m/s)")
-        .series(series(main, "v", |r| r.v_mps));
+    let v = over_t("Forward speed", "v (m/s)").series(series(main, "v", |r| r.v_mps));
     save(
         "traction.svg",
         Figure::new(&format!(
@@ -389,12 +382,7 @@ pub fn write_figure(
         .filter_map(|r| r.tr.records.last().map(|x| x.t_s))
         .fold(0.0f64, f64::max);
     // (A run without records: no range given, the data's own.)
-    let panel = |title: &str, y_label: &str| {
-        Plot::new(title)
-            .x_label("t (s)")
-            .y_label(y_label)
-            .x_range(0.0, end)
-    };
+    let panel = |title: &str, y_label: &str| over_t(title, y_label).x_range(0.0, end);
     let mut force = panel("Traction force delivered F_xR + F_xL", "F (kN)");
     let mut mu = panel(
         "Adhesion available (peak) and used",

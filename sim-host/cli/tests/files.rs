@@ -76,7 +76,7 @@ fn each_bad_scenario_names_its_key() {
     ];
     for (src, key) in cases {
         let e = scenario_err(src);
-        assert_eq!(e.file(), "bad.toml", "{e}");
+        assert!(e.to_string().starts_with("bad.toml:"), "{e}");
         assert_eq!(e.key(), Some(*key), "for\n{src}\ngot: {e}");
         assert!(e.to_string().contains(key), "{e}");
     }

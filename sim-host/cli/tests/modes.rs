@@ -245,17 +245,17 @@ fn linear_plant_has_the_documented_shape() {
         drive: true,
         yaw_spring: false,
     };
-    let m = linear_plant(&p, cfg);
+    let (m, states) = linear_plant(&p, cfg);
     assert_eq!(m.a.shape(), (11, 11));
     assert_eq!(m.b.shape(), (11, 2));
     assert_eq!(m.c.shape(), (3, 11));
     // B: T_psi enters the yaw acceleration as -1/J, u_a the current as 1/L_a.
-    let psid = m.states.iter().position(|&s| s == ix::PSID).unwrap();
-    let ia = m.states.iter().position(|&s| s == ix::IA).unwrap();
+    let psid = states.iter().position(|&s| s == ix::PSID).unwrap();
+    let ia = states.iter().position(|&s| s == ix::IA).unwrap();
     assert!((m.b[(psid, 0)] + 1.0 / p.j).abs() < 1e-15);
     assert!((m.b[(ia, 1)] - 1.0 / p.l_a).abs() < 1e-9);
     assert_eq!(m.c.row(1).iter().filter(|v| **v == 1.0).count(), 1);
-    assert_eq!(STATE_NAMES[m.states[ia]], "i_a_A");
+    assert_eq!(STATE_NAMES[states[ia]], "i_a_A");
 }
 
 /// The lateral eigenvalue nearest the kinematic one.

@@ -57,8 +57,7 @@ fn code(x: f64, lsb: f64) -> i32 {
 }
 
 impl<T: SampleBits> CoreController<T> {
-    /// The core of `cfg` (validated), protection on or off, every wire quantisation
-    /// applied.
+    /// The core of `cfg` (validated), protection on or off, every wire quantisation applied.
     pub fn try_new(
         cfg: &wheelset_control::Config,
         wsp: bool,
@@ -85,8 +84,7 @@ impl<T: SampleBits> CoreController<T> {
         &self.core
     }
 
-    /// The slip regulator's set point `slip_sp + slip_sp_per_a cap`, m/s, if the
-    /// protection acted on the latest tick.
+    /// The slip regulator's set point `slip_sp + slip_sp_per_a cap`, m/s, if it acted last tick.
     pub fn wsp_set_point(&self) -> Option<f64> {
         let (sp, per_a) = (self.cfg.wsp.slip_sp_mps, self.cfg.wsp.slip_sp_per_a);
         let cap_a = self.core.wsp_state().cap.to_f64() * self.cfg.scales.current;
@@ -174,8 +172,7 @@ pub fn run_core<T: SampleBits>(
     run_core_with::<T>(sc, &control_config(&sc.params, law, sc.drive), law, wsp)
 }
 
-/// [`run_core`] with the control core of `cfg`; the actuation acts `cfg.delay_ticks` base
-/// periods after its sample.
+/// [`run_core`] on the core of `cfg`, acting `cfg.delay_ticks` base periods after each sample.
 pub fn run_core_with<T: SampleBits>(
     sc: &Scenario,
     cfg: &wheelset_control::Config,

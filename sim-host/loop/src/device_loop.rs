@@ -260,13 +260,8 @@ fn on_off(b: bool) -> &'static str {
 /// The Config frame of a run on `rt` with `wsp` and `monitor_safe`, rates unchanged.
 #[must_use]
 pub fn run_config(rt: &RuntimeConfig, wsp: bool, monitor_safe: bool) -> wheelset_proto::Config {
-    use wheelset_proto::YawMode as W;
     wheelset_proto::Config {
-        mode: match rt.control.yaw_mode {
-            wheelset_control::YawMode::Passive => W::Passive,
-            wheelset_control::YawMode::Gain => W::Gain,
-            wheelset_control::YawMode::Lead => W::Lead,
-        },
+        mode: rt.control.yaw_mode,
         traction: rt.control.traction_enabled,
         enable: rt.enable,
         hold_ticks: rt.hold_ticks,

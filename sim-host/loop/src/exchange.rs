@@ -543,7 +543,6 @@ pub fn close_loop(
     ctrl.reset_config = setup.reset_config;
     ctrl.records = setup.records;
     ctrl.delay_ticks = u64::from(setup.delay_ticks.max(1));
-    // Two exchanges in flight when the transport allows it.
     ctrl.deferred = ctrl.tr.pipelined();
     // One record per period, reserved once; capped for a very long scenario.
     let periods = (sc.duration_ns / period_ns.max(1)).min(1 << 22);

@@ -1,9 +1,7 @@
-//! The warning before a device-loop run whose loops the project's own sampled-data
-//! analysis ([`wheelset_plant::sampled`]) finds unstable: the device's configuration for
-//! the scenario (its law, the gains designed for the requested base rate, the
-//! scenario's parameters) is closed around the linear plant of case (d) at the
-//! scenario's creep coefficient and conicity, with the run's ticks of delay, one loop at
-//! a time ([`wheelset_plant::sampled::margins`]), so the warning names the loop.
+//! The warning before a device-loop run whose loops the sampled-data analysis finds
+//! unstable: the device's configuration for the scenario is closed around the linear
+//! plant of case (d) at the scenario's creep and conicity, with the run's delay, one loop
+//! at a time ([`wheelset_plant::sampled::margins`]), so the warning names the loop.
 
 use crate::device_loop::control_config;
 use wheelset_control::YawMode;

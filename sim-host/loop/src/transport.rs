@@ -84,8 +84,7 @@ pub trait Transport {
         deadline_ns: u64,
         sink: &mut dyn FnMut(u64, &[u8]),
     ) -> Result<(), TransportError>;
-    /// [`Self::recv`] decoded with `dec`, each piece ([`Decoder::pieces`]) to
-    /// `sink(arrival_ns, bytes, frame)`, in order.
+    /// [`Self::recv`] decoded with `dec`: each piece to `sink(arrival_ns, bytes, frame)`.
     fn recv_frames(
         &mut self,
         deadline_ns: u64,

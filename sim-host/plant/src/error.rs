@@ -43,16 +43,6 @@ pub enum ConfigError {
 }
 
 impl ConfigError {
-    /// The file this error is about (empty for an unknown scenario name).
-    pub fn file(&self) -> &str {
-        match self {
-            ConfigError::Io { file, .. }
-            | ConfigError::Parse { file, .. }
-            | ConfigError::Invalid { file, .. } => file,
-            ConfigError::UnknownScenario { .. } => "",
-        }
-    }
-
     /// The dotted key this error is about, if known.
     pub fn key(&self) -> Option<&str> {
         match self {

@@ -65,12 +65,7 @@ impl ActuatorFault {
 
     /// The torque the actuator delivers at `t_ns` for the command `t_cmd` (N m).
     pub fn delivered(&self, t_ns: u64, t_cmd: f64) -> f64 {
-        let g = self.gain(t_ns);
-        if g == 1.0 {
-            t_cmd
-        } else {
-            g * t_cmd
-        }
+        self.gain(t_ns) * t_cmd
     }
 
     /// Failure time, s.
@@ -87,13 +82,6 @@ pub struct FailedMode {
     pub sigma_per_s: f64,
     /// Frequency `Im(lambda)/(2 pi)`, Hz (0: a real mode).
     pub f_hz: f64,
-}
-
-impl FailedMode {
-    /// The time to grow by `factor` (> 1), `ln(factor)/sigma`, s; `None` if it does not grow.
-    pub fn time_to_grow(&self, factor: f64) -> Option<f64> {
-        (self.sigma_per_s > 0.0 && factor > 1.0).then(|| factor.ln() / self.sigma_per_s)
-    }
 }
 
 /// The least stable mode (structural zero left out) of the loop whose yaw actuator
@@ -139,57 +127,39 @@ pub(crate) struct RawActuatorFault {
 impl RawActuatorFault {
     /// Validates the table; errors name `file`, the key and why.
     pub(crate) fn validate(&self, file: &str, t_max_s: f64) -> Result<ActuatorFault, ConfigError> {
-        let invalid = |key: &str, reason: String| ConfigError::Invalid {
+        let t_on_ns = crate::scenario::time(file, "actuator_fault.t_s", self.t_s, t_max_s)?;
+        let mode = match (self.mode.as_str(), self.fraction) {
+            ("off", None) => Ok(FaultMode::Off),
+            ("reversed", None) => Ok(FaultMode::Reversed),
+            ("fraction", Some(f)) if f.is_finite() && (0.0..1.0).contains(&f) => {
+                Ok(FaultMode::Fraction(f))
+            }
+            ("fraction", Some(f)) => Err((
+                "fraction",
+                format!("{f} is outside [0, 1) (1 is no fault; use mode = \"reversed\" for -1)"),
+            )),
+            ("fraction", None) => Err((
+                "fraction",
+                "mode = \"fraction\" needs `fraction` in [0, 1)".into(),
+            )),
+            ("off" | "reversed", Some(_)) => Err((
+                "fraction",
+                format!(
+                    "only mode = \"fraction\" takes a fraction (mode is \"{}\")",
+                    self.mode
+                ),
+            )),
+            (m, _) => Err((
+                "mode",
+                format!("unknown mode \"{m}\" (expected off, fraction or reversed)"),
+            )),
+        };
+        let mode = mode.map_err(|(key, reason)| ConfigError::Invalid {
             file: file.to_string(),
             key: format!("actuator_fault.{key}"),
             reason,
-        };
-        if !self.t_s.is_finite() || self.t_s < 0.0 || self.t_s > t_max_s {
-            return Err(invalid(
-                "t_s",
-                format!("time {} s is outside [0, {t_max_s}] s", self.t_s),
-            ));
-        }
-        let mode = match (self.mode.as_str(), self.fraction) {
-            ("off", None) => FaultMode::Off,
-            ("reversed", None) => FaultMode::Reversed,
-            ("fraction", Some(f)) if f.is_finite() && (0.0..1.0).contains(&f) => {
-                FaultMode::Fraction(f)
-            }
-            ("fraction", Some(f)) => {
-                return Err(invalid(
-                    "fraction",
-                    format!(
-                        "{f} is outside [0, 1) (1 is no fault; use mode = \"reversed\" for -1)"
-                    ),
-                ))
-            }
-            ("fraction", None) => {
-                return Err(invalid(
-                    "fraction",
-                    "mode = \"fraction\" needs `fraction` in [0, 1)".into(),
-                ))
-            }
-            ("off" | "reversed", Some(_)) => {
-                return Err(invalid(
-                    "fraction",
-                    format!(
-                        "only mode = \"fraction\" takes a fraction (mode is \"{}\")",
-                        self.mode
-                    ),
-                ))
-            }
-            (m, _) => {
-                return Err(invalid(
-                    "mode",
-                    format!("unknown mode \"{m}\" (expected off, fraction or reversed)"),
-                ))
-            }
-        };
-        Ok(ActuatorFault {
-            t_on_ns: crate::scenario::s_to_ns(self.t_s),
-            mode,
-        })
+        })?;
+        Ok(ActuatorFault { t_on_ns, mode })
     }
 }
 
@@ -248,7 +218,7 @@ mod tests {
                 "lambda {lambda}: sigma {:.3} 1/s, {:.2} Hz (Klingel {klingel:.2} Hz), x10 in {:.2} s",
                 m.sigma_per_s,
                 m.f_hz,
-                m.time_to_grow(10.0).unwrap_or(f64::NAN)
+                10f64.ln() / m.sigma_per_s
             );
             assert!(m.sigma_per_s > 0.0, "{lambda}: {m:?}");
             assert!(

@@ -266,22 +266,10 @@ pub fn closed_loop_a_into(
     select_into(&a, states, out);
 }
 
-/// A linear state-space model `x' = A x + B u`, `y = C x` (open loop, no controller).
-#[derive(Debug, Clone, PartialEq)]
-pub struct LinearModel {
-    /// State matrix, `n x n`.
-    pub a: DMatrix<f64>,
-    /// Input matrix, `n x 2`: `T_psi` (N m), `u_a` (V).
-    pub b: DMatrix<f64>,
-    /// Output matrix, `3 x n`: `y'` (m/s), `i_a` (A), `theta_m'` (rad/s).
-    pub c: DMatrix<f64>,
-    /// Which full-state slot each state is ([`crate::plant::ix`]).
-    pub states: Vec<usize>,
-}
-
 /// The open-loop plant linearised at pure rolling on straight track, inputs `T_psi`
-/// (eq. 5 sign) and `u_a`, outputs `y'`, `i_a`, `theta_m'`.
-pub fn linear_plant(p: &Params, cfg: PlantConfig) -> LinearModel {
+/// (eq. 5 sign) and `u_a`, outputs `y'`, `i_a`, `theta_m'`; with the full-state slot
+/// ([`crate::plant::ix`]) of each of its states.
+pub fn linear_plant(p: &Params, cfg: PlantConfig) -> (LinearPlant, Vec<usize>) {
     let plant = Plant::new(p, cfg);
     let x = operating_point(&plant, p);
     let mut u = Inputs::zero();
@@ -294,12 +282,8 @@ pub fn linear_plant(p: &Params, cfg: PlantConfig) -> LinearModel {
     let bm = DMatrix::from_fn(n, 2, |i, k| b[(states[i], k)]);
     let out = [ix::YD, ix::IA, ix::WM];
     let c = DMatrix::from_fn(3, n, |r, j| if states[j] == out[r] { 1.0 } else { 0.0 });
-    LinearModel {
-        a: select(&a, &states),
-        b: bm,
-        c,
-        states,
-    }
+    let a = select(&a, &states);
+    (LinearPlant { a, b: bm, c }, states)
 }
 
 /// A linear plant `x' = A x + B u`, `y = C x`.
@@ -400,19 +384,12 @@ impl Model {
                 q.f11 = creep;
                 q.f22 = creep;
                 q.lambda = lambda;
-                let m = linear_plant(
-                    &q,
-                    PlantConfig {
-                        axle: Axle::Flexible,
-                        drive: true,
-                        yaw_spring,
-                    },
-                );
-                LinearPlant {
-                    a: m.a,
-                    b: m.b,
-                    c: m.c,
-                }
+                let cfg = PlantConfig {
+                    axle: Axle::Flexible,
+                    drive: true,
+                    yaw_spring,
+                };
+                linear_plant(&q, cfg).0
             }
             Model::Reduced => Reduced {
                 creep,

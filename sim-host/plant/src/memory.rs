@@ -99,8 +99,7 @@ pub fn check_runs(
     ))
 }
 
-/// Refuses a modal sweep whose estimate is above [`MAX_BYTES`], with the largest
-/// `--points` that fits.
+/// Refuses a modal sweep above [`MAX_BYTES`], naming the largest `--points` that fits.
 pub fn check_modes(points: u64, cases: u64) -> Result<(), String> {
     let bytes = modes_bytes(points, cases);
     if bytes <= MAX_BYTES {

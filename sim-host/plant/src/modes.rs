@@ -220,8 +220,7 @@ fn block_eigenvalues(a: &DMatrix<f64>, block: &[usize], out: &mut Vec<Complex<f6
     }
 }
 
-/// Strongly connected components of the graph `i -> j` for `a[(i, j)] != 0`
-/// (Tarjan's algorithm; at most a few dozen nodes).
+/// Strongly connected components of `i -> j` for `a[(i, j)] != 0` (Tarjan; a few dozen nodes).
 fn components(a: &DMatrix<f64>) -> Vec<Vec<usize>> {
     struct T<'a> {
         a: &'a DMatrix<f64>,

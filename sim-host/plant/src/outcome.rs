@@ -42,8 +42,7 @@ impl std::fmt::Display for Stop {
     }
 }
 
-/// The columns of `r` that are not finite although they were in `first` (NaN from the
-/// start means "not applicable").
+/// The columns non-finite in `r` but finite in `first` (NaN from the start: not applicable).
 fn non_finite(first: &Record, r: &Record) -> Vec<&'static str> {
     Record::COLUMNS
         .iter()

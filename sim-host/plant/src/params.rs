@@ -373,7 +373,7 @@ mod tests {
     fn unknown_key_and_bad_range_are_named() {
         let e = Params::from_toml_str("f11 = 1e7\nfoo = 3\n", "p.toml").unwrap_err();
         assert_eq!(e.key(), Some("foo"), "{e}");
-        assert_eq!(e.file(), "p.toml");
+        assert!(e.to_string().starts_with("p.toml:"), "{e}");
         let e = Params::from_toml_str("lambda = -0.2\n", "p.toml").unwrap_err();
         assert_eq!(e.key(), Some("lambda"), "{e}");
         let e = Params::from_toml_str("r0 = \"big\"\n", "p.toml").unwrap_err();

@@ -12,7 +12,6 @@ use crate::params::Params;
 use serde::Deserialize;
 use std::path::Path;
 
-// The track's knots and lookups: `scenario/track.rs`.
 mod track;
 pub use track::{track_at, Knot, TrackCursor};
 
@@ -112,8 +111,7 @@ pub struct Scenario {
     pub resistance: StepInput,
     /// Axle model.
     pub axle: Axle,
-    /// Whether the traction drive is modelled; without it the demand acts directly as a
-    /// torque on the left wheel.
+    /// Whether the traction drive is modelled (else the demand is a torque on the left wheel).
     pub drive: bool,
     /// Parameters after the scenario's overrides.
     pub params: Params,
@@ -231,13 +229,12 @@ fn parse_laws(file: &str, laws: &Option<Vec<String>>) -> Result<Vec<YawLaw>, Con
     let Some(names) = laws else {
         return Ok(Vec::new());
     };
-    if names.is_empty() {
-        return Err(invalid(
-            file,
-            "laws",
-            "an empty list: omit `laws` for a scenario meant for every law",
-        ));
-    }
+    check(
+        !names.is_empty(),
+        file,
+        "laws",
+        "an empty list: omit `laws` for a scenario meant for every law",
+    )?;
     let mut out = Vec::with_capacity(names.len());
     for (i, n) in names.iter().enumerate() {
         let law = [YawLaw::Passive, YawLaw::Gain, YawLaw::Lead]
@@ -250,13 +247,13 @@ fn parse_laws(file: &str, laws: &Option<Vec<String>>) -> Result<Vec<YawLaw>, Con
                     format!("`{n}` is not a yaw law (passive, gain, lead)"),
                 )
             })?;
-        if out.contains(&law) {
-            return Err(invalid(
-                file,
-                format!("laws[{i}]"),
-                format!("`{n}` is listed twice"),
-            ));
-        }
+        let key = format!("laws[{i}]");
+        check(
+            !out.contains(&law),
+            file,
+            key,
+            format!("`{n}` is listed twice"),
+        )?;
         out.push(law);
     }
     Ok(out)
@@ -270,102 +267,80 @@ fn invalid(file: &str, key: impl Into<String>, reason: impl Into<String>) -> Con
     }
 }
 
-fn time(file: &str, key: &str, t: f64, max: f64) -> Result<u64, ConfigError> {
-    if !t.is_finite() || t < 0.0 || t > max {
-        return Err(invalid(
-            file,
-            key,
-            format!("time {t} s is outside [0, {max}] s"),
-        ));
+/// `Ok` when `ok`, else the [`invalid`] error of `key`.
+fn check(
+    ok: bool,
+    file: &str,
+    key: impl Into<String>,
+    reason: impl Into<String>,
+) -> Result<(), ConfigError> {
+    if ok {
+        Ok(())
+    } else {
+        Err(invalid(file, key, reason))
     }
+}
+
+/// `t` s as ns, refused outside `[0, max]` s.
+pub(crate) fn time(file: &str, key: &str, t: f64, max: f64) -> Result<u64, ConfigError> {
+    let ok = t.is_finite() && (0.0..=max).contains(&t);
+    check(ok, file, key, format!("time {t} s is outside [0, {max}] s"))?;
     Ok(s_to_ns(t))
 }
 
 impl Scenario {
-    /// Parses and validates a scenario from TOML text (`file` names it in errors) on top
-    /// of the parameters `base`.
+    /// Parses and validates a scenario from TOML text on `base` (`file` names it in errors).
     pub fn from_toml_str(src: &str, file: &str, base: &Params) -> Result<Scenario, ConfigError> {
         let raw: RawScenario = toml::from_str(src).map_err(|e| from_toml(file, src, &e))?;
         let duration_ns = time(file, "duration_s", raw.duration_s, 1e5)?;
-        if duration_ns == 0 {
-            return Err(invalid(file, "duration_s", "must be positive"));
-        }
+        check(duration_ns > 0, file, "duration_s", "must be positive")?;
         let sim = raw.sim;
-        if !(sim.dt_s.is_finite() && sim.dt_s >= 1e-7 && sim.dt_s <= 1e-2) {
-            return Err(invalid(
-                file,
-                "sim.dt_s",
-                format!("{} s is outside [1e-7, 1e-2] s", sim.dt_s),
-            ));
-        }
+        let dt_ok = sim.dt_s.is_finite() && (1e-7..=1e-2).contains(&sim.dt_s);
+        let reason = format!("{} s is outside [1e-7, 1e-2] s", sim.dt_s);
+        check(dt_ok, file, "sim.dt_s", reason)?;
         let dt_ns = s_to_ns(sim.dt_s);
         let out_ns = time(file, "sim.output_dt_s", sim.output_dt_s, 1.0)?;
-        if out_ns == 0 || !out_ns.is_multiple_of(dt_ns) {
-            return Err(invalid(
-                file,
-                "sim.output_dt_s",
-                format!(
-                    "{} s must be a positive multiple of sim.dt_s = {} s",
-                    sim.output_dt_s, sim.dt_s
-                ),
-            ));
-        }
+        let reason = format!(
+            "{} s must be a positive multiple of sim.dt_s = {} s",
+            sim.output_dt_s, sim.dt_s
+        );
+        let ok = out_ns > 0 && out_ns.is_multiple_of(dt_ns);
+        check(ok, file, "sim.output_dt_s", reason)?;
         crate::memory::check_run(duration_ns, out_ns, None)
             .map_err(|r| invalid(file, "duration_s", r))?;
         let laws = parse_laws(file, &raw.laws)?;
         let plant = raw.plant;
         let mut track = Vec::with_capacity(raw.track.len());
         for (i, k) in raw.track.iter().enumerate() {
-            let t_ns = time(file, &format!("track[{i}].t_s"), k.t_s, 1e5)?;
-            if let Some(prev) = track.last() {
-                let prev: &Knot = prev;
-                if t_ns <= prev.t_ns {
-                    return Err(invalid(
-                        file,
-                        format!("track[{i}].t_s"),
-                        "knot times must be strictly increasing",
-                    ));
-                }
-            }
+            let key = |k: &str| format!("track[{i}].{k}");
+            let t_ns = time(file, &key("t_s"), k.t_s, 1e5)?;
+            let rising = track.last().is_none_or(|prev: &Knot| t_ns > prev.t_ns);
+            let reason = "knot times must be strictly increasing";
+            check(rising, file, key("t_s"), reason)?;
             let curvature = match (k.radius_m, k.curvature_per_m) {
                 (Some(_), Some(_)) => {
-                    return Err(invalid(
-                        file,
-                        format!("track[{i}].radius_m"),
-                        "give either radius_m or curvature_per_m, not both",
-                    ))
+                    let reason = "give either radius_m or curvature_per_m, not both";
+                    return Err(invalid(file, key("radius_m"), reason));
                 }
                 (Some(r), None) => {
-                    if !r.is_finite() || r.abs() < 50.0 {
-                        return Err(invalid(
-                            file,
-                            format!("track[{i}].radius_m"),
-                            format!(
-                                "{r} m: |R| must be at least 50 m (omit it for straight track)"
-                            ),
-                        ));
-                    }
+                    let reason =
+                        format!("{r} m: |R| must be at least 50 m (omit it for straight track)");
+                    let ok = r.is_finite() && r.abs() >= 50.0;
+                    check(ok, file, key("radius_m"), reason)?;
                     1.0 / r
                 }
                 (None, Some(c)) => {
-                    if !c.is_finite() || c.abs() > 0.02 {
-                        return Err(invalid(
-                            file,
-                            format!("track[{i}].curvature_per_m"),
-                            format!("{c} 1/m is outside [-0.02, 0.02] 1/m"),
-                        ));
-                    }
+                    let reason = format!("{c} 1/m is outside [-0.02, 0.02] 1/m");
+                    let ok = c.is_finite() && c.abs() <= 0.02;
+                    check(ok, file, key("curvature_per_m"), reason)?;
                     c
                 }
                 (None, None) => 0.0,
             };
-            if !k.cant_deg.is_finite() || k.cant_deg.abs() > 15.0 {
-                return Err(invalid(
-                    file,
-                    format!("track[{i}].cant_deg"),
-                    format!("{} deg is outside [-15, 15] deg", k.cant_deg),
-                ));
-            }
+            let cant = k.cant_deg;
+            let reason = format!("{cant} deg is outside [-15, 15] deg");
+            let ok = cant.is_finite() && cant.abs() <= 15.0;
+            check(ok, file, key("cant_deg"), reason)?;
             track.push(Knot {
                 t_ns,
                 curvature,
@@ -373,13 +348,8 @@ impl Scenario {
             });
         }
         let step = |key: &str, value: f64, t_on: f64, ramp: f64, max: f64| {
-            if !value.is_finite() || value.abs() > max {
-                return Err(invalid(
-                    file,
-                    key.to_string(),
-                    format!("{value} is outside [-{max}, {max}]"),
-                ));
-            }
+            let reason = format!("{value} is outside [-{max}, {max}]");
+            check(value.is_finite() && value.abs() <= max, file, key, reason)?;
             let table = key.split('.').next().unwrap_or(key);
             Ok(StepInput {
                 value,
@@ -403,31 +373,18 @@ impl Scenario {
         };
         let mut adhesion: Vec<AdhesionSection> = Vec::with_capacity(raw.adhesion.len());
         for (i, a) in raw.adhesion.iter().enumerate() {
-            let t0_ns = time(file, &format!("adhesion[{i}].start_s"), a.start_s, 1e5)?;
-            let t1_ns = time(file, &format!("adhesion[{i}].end_s"), a.end_s, 1e5)?;
-            if t1_ns <= t0_ns {
-                return Err(invalid(
-                    file,
-                    format!("adhesion[{i}].end_s"),
-                    format!("{} s must be after start_s = {} s", a.end_s, a.start_s),
-                ));
-            }
-            if let Some(prev) = adhesion.last() {
-                if t0_ns < prev.t1_ns {
-                    return Err(invalid(
-                        file,
-                        format!("adhesion[{i}].start_s"),
-                        "sections must be sorted and must not overlap",
-                    ));
-                }
-            }
-            let Some(condition) = Condition::from_name(&a.condition) else {
-                return Err(invalid(
-                    file,
-                    format!("adhesion[{i}].condition"),
-                    format!("`{}` is not a rail condition (dry, wet, low)", a.condition),
-                ));
-            };
+            let key = |k: &str| format!("adhesion[{i}].{k}");
+            let t0_ns = time(file, &key("start_s"), a.start_s, 1e5)?;
+            let t1_ns = time(file, &key("end_s"), a.end_s, 1e5)?;
+            let reason = format!("{} s must be after start_s = {} s", a.end_s, a.start_s);
+            check(t1_ns > t0_ns, file, key("end_s"), reason)?;
+            let sorted = adhesion.last().is_none_or(|prev| t0_ns >= prev.t1_ns);
+            let reason = "sections must be sorted and must not overlap";
+            check(sorted, file, key("start_s"), reason)?;
+            let condition = Condition::from_name(&a.condition).ok_or_else(|| {
+                let reason = format!("`{}` is not a rail condition (dry, wet, low)", a.condition);
+                invalid(file, key("condition"), reason)
+            })?;
             adhesion.push(AdhesionSection {
                 t0_ns,
                 t1_ns,
@@ -463,8 +420,7 @@ impl Scenario {
         })
     }
 
-    /// Loads `name_or_path`: a built-in name (`curve`, `beating`, `low-adhesion`,
-    /// `actuator-fault`) or a TOML file.
+    /// Loads `name_or_path`: a built-in scenario ([`BUILTIN`]) or a TOML file.
     pub fn load(name_or_path: &str, base: &Params) -> Result<Scenario, ConfigError> {
         if let Some((name, src)) = BUILTIN.iter().find(|(n, _)| *n == name_or_path) {
             return Self::from_toml_str(src, &format!("<builtin:{name}>"), base);
@@ -501,8 +457,7 @@ impl Scenario {
             .map(|c| Adhesion::new(c, self.params.q()))
     }
 
-    /// The warning to print before running with `law` when the scenario's `laws` key
-    /// does not list it; `None` when the law is meant.
+    /// The warning before running with a `law` that the scenario's `laws` key does not list.
     pub fn law_warning(&self, law: YawLaw) -> Option<String> {
         if self.laws.is_empty() || self.laws.contains(&law) {
             return None;

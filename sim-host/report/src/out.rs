@@ -16,8 +16,7 @@ pub fn write(args: std::fmt::Arguments<'_>) {
     }
 }
 
-/// The end of a failed write to standard output: quiet success on a closed pipe,
-/// exit code 1 with the reason otherwise.
+/// Ends the program after a failed write to stdout: 0 on a closed pipe, else 1 with the reason.
 pub fn failed(e: &std::io::Error) -> ! {
     if e.kind() == std::io::ErrorKind::BrokenPipe {
         std::process::exit(0);

@@ -64,8 +64,7 @@ pub struct Series {
     pub color: Option<String>,
     /// Line width, px (a marker's radius is `1.3 + width / 2`).
     pub width: f64,
-    /// Opacity, 0 to 1: a wide series drawn pale beneath a thin one that coincides with
-    /// it lets both show.
+    /// Opacity, 0 to 1 (a wide pale series beneath a thin one that coincides lets both show).
     pub opacity: f64,
 }
 
@@ -203,8 +202,7 @@ impl Plot {
         self.y_log = true;
         self
     }
-    /// Names the x axis's categories (see [`Plot::x_categories`]); the x range becomes
-    /// `[0, names.len()]`.
+    /// Names the x categories ([`Plot::x_categories`]); the x range becomes `[0, names.len()]`.
     pub fn x_categories(mut self, names: &[String]) -> Self {
         self.x_range = Some((0.0, names.len().max(1) as f64));
         self.x_categories = names.to_vec();

@@ -178,8 +178,7 @@ pub const QUOTING: &[&str] = &[
     "docs/monitor.md",
 ];
 
-/// Figures of the prose that are budgets or constants, not a command's output:
-/// `(page, figure)`.
+/// Figures of the prose that are budgets or constants, not a command's output: `(page, figure)`.
 const CONSTANTS: &[(&str, &str)] = &[
     ("docs/harness.md", "0.85"),       // the `timing.link` fail share
     ("docs/harness.md", "5.75"),       // the core's current-reference slew time, ms

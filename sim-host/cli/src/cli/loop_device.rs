@@ -261,8 +261,7 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
     verdict
 }
 
-/// The device monitor's alarms, each with its first instant as the host saw it and the
-/// Status's counts.
+/// The device monitor's alarms: each one's first instant (host side), the Status's counts.
 fn monitor_line(run: &wheelset_loop::device_loop::DeviceRun) -> String {
     use wheelset_runtime::Flags;
     let kinds = [

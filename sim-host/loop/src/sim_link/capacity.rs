@@ -52,8 +52,7 @@ pub struct LinkBudgetError {
     pub period_ns: u64,
     /// Round-trip time needed, ns.
     pub needed_ns: u64,
-    /// Time allowed (`BUDGET_SHARE` of the period, or of the delay for the round trip),
-    /// ns.
+    /// Time allowed, ns (`BUDGET_SHARE` of the period, or of the delay for the round trip).
     pub allowed_ns: u64,
     /// Ticks of delay the exchange is pipelined over (1: lock-step).
     pub delay_ticks: u32,

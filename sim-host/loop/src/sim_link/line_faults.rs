@@ -109,12 +109,11 @@ fn pair(item: &str, v: &str, what: &str) -> Result<(f64, f64), FaultSpecError> {
     let (a, b) = v
         .split_once(':')
         .ok_or_else(|| err(format!("expected {what}")))?;
-    let a: f64 = a
-        .parse()
-        .map_err(|_| err(format!("`{a}` is not a number ({what})")))?;
-    let b: f64 = b
-        .parse()
-        .map_err(|_| err(format!("`{b}` is not a number ({what})")))?;
+    let num = |x: &str| {
+        x.parse::<f64>()
+            .map_err(|_| err(format!("`{x}` is not a number ({what})")))
+    };
+    let (a, b) = (num(a)?, num(b)?);
     if !(a.is_finite() && b.is_finite() && a >= 0.0 && b > 0.0) {
         return Err(err(format!(
             "{what}: need finite values, first >= 0, second > 0"

@@ -74,8 +74,7 @@ pub fn sweep_case(
     Ok(sw)
 }
 
-/// Eigenvalues at every creep value of `grid` on up to `available_parallelism` scoped
-/// threads.
+/// Eigenvalues at every creep value of `grid`, on `available_parallelism` scoped threads.
 fn eigen_sweep(
     p: &Params,
     case: Case,

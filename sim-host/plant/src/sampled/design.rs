@@ -5,7 +5,7 @@
 
 use super::*;
 use crate::params::Params;
-use wheelset_control::design::{DesignPoint, LEAD_GAIN_STEPS};
+use wheelset_control::design::LEAD_GAIN_STEPS;
 use wheelset_control::Config;
 
 /// Candidate base rates of the design, Hz: whole microseconds per period that the
@@ -161,8 +161,7 @@ pub fn judge(
     })
 }
 
-/// The design of one candidate: the largest lead gain step that meets every criterion,
-/// or the last step's verdict when none does.
+/// One candidate's design: the largest lead gain step meeting every criterion, else the last.
 pub fn design_point(
     p: &Params,
     base: &Config,
@@ -196,23 +195,6 @@ pub fn design_table(p: &Params, base: &Config) -> Result<Vec<DesignRow>, String>
         }
     }
     Ok(rows)
-}
-
-/// The accepted points of a design table (as `DESIGNED` holds them): traction holds,
-/// the yaw law designed where it holds too.
-pub fn accepted(rows: &[DesignRow]) -> Vec<DesignPoint> {
-    rows.iter()
-        .filter(|r| r.traction_ok)
-        .map(|r| {
-            let yaw = r.failed.is_none();
-            DesignPoint {
-                base_rate_hz: r.base_rate_hz,
-                delay_ticks: r.delay_ticks,
-                lead_gain: if yaw { r.lead_gain } else { 1.0 },
-                yaw,
-            }
-        })
-        .collect()
 }
 
 /// The design table as text, one row per candidate.
@@ -311,6 +293,24 @@ pub fn design_json(rows: &[DesignRow]) -> serde_json::Value {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use wheelset_control::design::DesignPoint;
+
+    /// The accepted points of a design table (as `DESIGNED` holds them): traction holds,
+    /// the yaw law designed where it holds too.
+    fn accepted(rows: &[DesignRow]) -> Vec<DesignPoint> {
+        rows.iter()
+            .filter(|r| r.traction_ok)
+            .map(|r| {
+                let yaw = r.failed.is_none();
+                DesignPoint {
+                    base_rate_hz: r.base_rate_hz,
+                    delay_ticks: r.delay_ticks,
+                    lead_gain: if yaw { r.lead_gain } else { 1.0 },
+                    yaw,
+                }
+            })
+            .collect()
+    }
 
     /// The device's table is what the design finds, every other candidate fails a named
     /// criterion, and the paper's point is the paper's lead and PI.

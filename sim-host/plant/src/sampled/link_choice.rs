@@ -59,8 +59,7 @@ fn fits(p: &DesignPoint, baud: u32, latency_ns: u64) -> bool {
     .is_ok()
 }
 
-/// The least `x` in `lo..=hi` with `pred(x)`, for a `pred` that is false, then true, and
-/// true at `hi` (bisection).
+/// The least `x` in `lo..=hi` with `pred(x)`, `pred` false then true, true at `hi` (bisection).
 fn least(mut lo: u64, mut hi: u64, pred: impl Fn(u64) -> bool) -> u64 {
     if pred(lo) {
         return lo;
@@ -90,8 +89,7 @@ fn min_baud(p: &DesignPoint, latency_ns: u64) -> Option<u32> {
     })
 }
 
-/// Every designed point with a delay up to `max_delay` ticks against a link of `baud`
-/// and one-way `latency_ns`.
+/// Every designed point with up to `max_delay` ticks of delay on a link of `baud`, `latency_ns`.
 #[must_use]
 pub fn link_choice(baud: u32, latency_ns: u64, max_delay: u8) -> LinkChoice {
     let points: Vec<LinkPoint> = DESIGNED

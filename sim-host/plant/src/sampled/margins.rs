@@ -130,8 +130,7 @@ pub struct Laws {
 }
 
 impl Laws {
-    /// The f64 controllers of `cfg`. Errors: divisors other than 1, an invalid
-    /// configuration.
+    /// The f64 controllers of `cfg`. Errors: divisors other than 1, an invalid configuration.
     pub fn of(cfg: &Config) -> Result<Laws, String> {
         cfg.validate().map_err(|e| e.to_string())?;
         if cfg.yaw_divisor != 1 || cfg.traction_divisor != 1 {

@@ -138,7 +138,6 @@ pub fn tick_matrices(
     crate::finite::check_finite(&ad, "the discretised plant matrix Ad")?;
     crate::finite::check_finite(&bd, "the discretised plant matrix Bd")?;
     let (lead, pi) = discretised(cfg)?;
-    // Layout of X.
     let d = tm.delay_ticks;
     let nreg = d.max(1); // output registers o[k-1] .. o[k-nreg], 2 each
     let ir = n; // registers start
@@ -271,8 +270,7 @@ pub fn tick_matrices(
     Ok(mats)
 }
 
-/// Closes the loop of `plant` with the controllers of `cfg` and `delay_ticks` of delay:
-/// its monodromy's modes.
+/// The monodromy's modes of `plant` closed by `cfg`'s controllers with `delay_ticks` of delay.
 pub fn closed_loop(
     plant: &LinearPlant,
     cfg: &Config,

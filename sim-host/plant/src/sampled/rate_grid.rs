@@ -75,9 +75,10 @@ impl LinkBudget {
 }
 
 /// Where on the grid, and which mode.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct GridMode {
     /// Creep coefficient, N.
+    #[serde(rename = "creep_n")]
     pub creep: f64,
     /// Conicity.
     pub lambda: f64,
@@ -87,8 +88,8 @@ pub struct GridMode {
     pub zeta: f64,
 }
 
-/// One row of the rate table.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// One row of the rate table (its JSON adds `yaw_hz`).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct RateRow {
     /// Base rate, Hz.
     pub base_hz: u32,
@@ -106,8 +107,7 @@ pub struct RateRow {
     pub worst_sampled: GridMode,
     /// Least-damped mode of the continuous loop over the grid.
     pub worst_continuous: GridMode,
-    /// Least-damped sampled mode over the grid points where the continuous loop is
-    /// stable (the region the rate is responsible for).
+    /// Least-damped sampled mode where the continuous loop is stable (the rate's responsibility).
     pub worst_sampled_stable_region: GridMode,
     /// Largest damping loss `zeta_cont - zeta_sampled` of the worst modes, per grid point.
     pub max_damping_loss: f64,
@@ -128,8 +128,7 @@ pub struct RateRow {
 /// Damping ratios closer than this are the same mode's, equal but for roundoff.
 const ZETA_TIE: f64 = 1e-9;
 
-/// Whether damping `zeta` is worse than `worst` by more than roundoff (among ties the
-/// first in grid order is reported).
+/// Whether `zeta` is worse than `worst` beyond roundoff (of ties, the first in grid order).
 fn worse(zeta: f64, worst: f64) -> bool {
     zeta < worst - ZETA_TIE
 }
@@ -320,7 +319,7 @@ pub fn critical_creep(
 }
 
 /// What a candidate must meet to be chosen.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct Criteria {
     /// Largest radius per base tick of the current loop's fast mode.
     pub max_current_radius: f64,
@@ -344,8 +343,7 @@ pub struct Variant {
     pub predict: bool,
     /// All candidates.
     pub rows: Vec<RateRow>,
-    /// The chosen candidate: the lowest base rate meeting the criteria, ties broken by
-    /// the smaller damping loss.
+    /// The chosen candidate: the lowest base rate meeting the criteria (ties: least damping loss).
     pub chosen: Option<RateRow>,
 }
 
@@ -366,8 +364,7 @@ fn choose(rows: &[RateRow], c: &Criteria) -> Option<RateRow> {
         .copied()
 }
 
-/// Build the rate table over [`candidates`] for `base` (its yaw mode and controller
-/// parameters), with and without the yaw delay compensation.
+/// The rate table over [`candidates`] for `base`, with and without the yaw delay compensation.
 pub fn rates(
     params: &Params,
     model: Model,

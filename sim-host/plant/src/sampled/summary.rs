@@ -24,30 +24,10 @@ pub struct RatesReport {
     pub variants: Vec<Variant>,
 }
 
-fn grid_json(g: &GridMode) -> Value {
-    json!({"creep_n": g.creep, "lambda": g.lambda, "freq_hz": g.freq_hz, "zeta": g.zeta})
-}
-
 fn row_json(r: &RateRow) -> Value {
-    json!({
-        "base_hz": r.base_hz,
-        "yaw_divisor": r.yaw_divisor,
-        "traction_divisor": r.traction_divisor,
-        "yaw_hz": r.base_hz as f64 / r.yaw_divisor as f64,
-        "delay_ticks": r.delay_ticks,
-        "current_radius": r.current_radius,
-        "current_zeta": r.current_zeta,
-        "worst_sampled": grid_json(&r.worst_sampled),
-        "worst_sampled_stable_region": grid_json(&r.worst_sampled_stable_region),
-        "worst_continuous": grid_json(&r.worst_continuous),
-        "max_damping_loss": r.max_damping_loss,
-        "newly_unstable": r.newly_unstable,
-        "unstable_continuous": r.unstable_continuous,
-        "nominal_zeta": r.nominal_zeta,
-        "max_radius": r.max_radius,
-        "link_utilisation": r.link_utilisation,
-        "min_baud": r.min_baud,
-    })
+    let mut v = json!(r);
+    v["yaw_hz"] = json!(r.base_hz as f64 / r.yaw_divisor as f64);
+    v
 }
 
 impl RatesReport {
@@ -66,10 +46,7 @@ impl RatesReport {
                 "max_utilisation": self.link.max_utilisation(),
                 "baud": self.link.baud,
             },
-            "criteria": {
-                "max_current_radius": self.criteria.max_current_radius,
-                "max_baud": self.criteria.max_baud,
-            },
+            "criteria": self.criteria,
             "critical_creep_n": self.critical_creep.iter().map(|(l, c)| json!({"lambda": l, "creep_n": c})).collect::<Vec<_>>(),
             "variants": self.variants.iter().map(|v| json!({
                 "yaw_predict": if v.predict { "1 + yaw_divisor/2 ticks" } else { "off" },

@@ -64,8 +64,7 @@ impl<'a> Setup<'a> {
         a
     }
 
-    /// [`Setup::adhesion`] when the rail condition of `t_ns` is not the last call's,
-    /// else `None` (the law in force holds).
+    /// [`Setup::adhesion`] if the rail condition of `t_ns` is new since the last call, else `None`.
     #[inline(always)]
     pub(super) fn adhesion_change(
         &mut self,
@@ -193,8 +192,7 @@ pub fn run_continuous_with(sc: &Scenario, ctrl: ContinuousController) -> Traject
     Trajectory { records, info }
 }
 
-/// [`run_continuous_with`] handing each record to `on_record` in time order instead of
-/// keeping them.
+/// [`run_continuous_with`] handing each record to `on_record` in time order, keeping none.
 pub fn run_continuous_each(
     sc: &Scenario,
     ctrl: ContinuousController,

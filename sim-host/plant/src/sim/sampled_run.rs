@@ -115,20 +115,8 @@ impl ActuatorModel {
 }
 
 /// The sensor frame the plant produces at state `x` with actuation `held` in force.
-pub fn measure(
-    plant: &Plant,
-    x: &State,
-    held: &Actuation,
-    u: &Inputs<f64>,
-    demand: f64,
-    i_ref: f64,
-) -> Measurements {
-    measure_with(plant, plant.cfg, x, held, u, demand, i_ref)
-}
-
-/// [`measure`] with the plant's configuration as [`Flags`].
 #[allow(clippy::too_many_arguments)]
-fn measure_with<F: Flags>(
+fn measure<F: Flags>(
     plant: &Plant,
     flags: F,
     x: &State,
@@ -236,7 +224,7 @@ fn sampled<F: Flags>(
     };
     let e0 = s.exo(0);
     plant.adhesion = s.adhesion(0);
-    let m0 = measure_with(
+    let m0 = measure(
         &s.plant,
         flags,
         &x,
@@ -258,7 +246,7 @@ fn sampled<F: Flags>(
         if k < n_steps && t_ns == next_call {
             next_call += period;
             let on = fault(t_ns, &held);
-            let m = measure_with(
+            let m = measure(
                 &s.plant,
                 flags,
                 &x,

@@ -4,133 +4,87 @@ use crate::plant::{ix, State};
 use serde::Serialize;
 use std::io::Write;
 
-/// One output sample. CSV column names are in [`Record::COLUMNS`] (SI, unit suffix).
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
-pub struct Record {
+/// Declares [`Record`] from rows `field => "CSV column",` (each an `f64`, SI), with its
+/// [`Record::COLUMNS`] and [`Record::values`] in the same order.
+macro_rules! record {
+    ($($(#[$doc:meta])* $field:ident => $col:literal,)*) => {
+        /// One output sample. CSV column names are in [`Record::COLUMNS`] (SI, unit suffix).
+        #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
+        pub struct Record {
+            $($(#[$doc])* pub $field: f64,)*
+        }
+
+        impl Record {
+            /// CSV header names, in the order of [`Record::values`].
+            pub const COLUMNS: [&'static str; [$($col),*].len()] = [$($col),*];
+
+            /// The values in [`Record::COLUMNS`] order.
+            pub fn values(&self) -> [f64; Self::COLUMNS.len()] {
+                [$(self.$field),*]
+            }
+        }
+    };
+}
+
+record! {
     /// Time, s.
-    pub t_s: f64,
+    t_s => "t_s",
     /// Lateral displacement `y`, m.
-    pub y_m: f64,
+    y_m => "y_m",
     /// Yaw angle `psi`, rad.
-    pub psi_rad: f64,
+    psi_rad => "psi_rad",
     /// Total yaw torque on the wheelset `T_psi` (spring + actuator), N m, eq. 5 sign.
-    pub t_psi_nm: f64,
+    t_psi_nm => "T_psi_Nm",
     /// Right longitudinal creep force, N.
-    pub fx_r_n: f64,
+    fx_r_n => "Fx_R_N",
     /// Left longitudinal creep force, N.
-    pub fx_l_n: f64,
+    fx_l_n => "Fx_L_N",
     /// Lateral creep force per wheel, N.
-    pub fy_n: f64,
+    fy_n => "Fy_N",
     /// Forward speed, m/s.
-    pub v_mps: f64,
+    v_mps => "v_mps",
     /// Armature current, A.
-    pub i_a_a: f64,
+    i_a_a => "i_a_A",
     /// Armature voltage, V.
-    pub u_a_v: f64,
+    u_a_v => "u_a_V",
     /// Lateral velocity relative to the track, m/s.
-    pub yd_mps: f64,
+    yd_mps => "yd_mps",
     /// Actuator (control) part of the yaw torque, N m.
-    pub t_ctrl_nm: f64,
+    t_ctrl_nm => "T_ctrl_Nm",
     /// Passive spring part of the yaw torque `k_yaw psi`, N m.
-    pub t_spring_nm: f64,
+    t_spring_nm => "T_spring_Nm",
     /// Right wheel speed, rad/s.
-    pub w_r_radps: f64,
+    w_r_radps => "w_R_radps",
     /// Left wheel speed, rad/s.
-    pub w_l_radps: f64,
+    w_l_radps => "w_L_radps",
     /// Motor speed, rad/s.
-    pub w_m_radps: f64,
+    w_m_radps => "w_m_radps",
     /// Axle twist, rad.
-    pub twist_rad: f64,
+    twist_rad => "twist_rad",
     /// Gear wind-up, rad.
-    pub wind_rad: f64,
+    wind_rad => "wind_rad",
     /// Current reference, A.
-    pub i_ref_a: f64,
+    i_ref_a => "i_ref_A",
     /// Traction demand at the wheel, N m.
-    pub demand_nm: f64,
+    demand_nm => "demand_Nm",
     /// Running resistance, N.
-    pub f_run_n: f64,
+    f_run_n => "F_run_N",
     /// Track curvature, 1/m.
-    pub curvature_1pm: f64,
+    curvature_1pm => "curvature_1pm",
     /// Cant, rad.
-    pub cant_rad: f64,
+    cant_rad => "cant_rad",
     /// Pure rolling line `r0 Lg / (lambda R)` for the current curvature, m.
-    pub y0_m: f64,
+    y0_m => "y0_m",
     /// Longitudinal slip velocity of the wheelset, the mean of the two wheels'
     /// `v s_x` (`s_x` the creepage of eqs. 1-2: circumferential minus forward speed over
     /// `v`), m/s; + = the wheels turn faster than the vehicle runs (traction).
-    pub slip_mps: f64,
+    slip_mps => "slip_mps",
     /// Adhesion available: the peak `F/Q` of the present rail condition's longitudinal
     /// characteristic at the present speed ([`crate::adhesion::Adhesion::peak`]); `inf`
     /// under the linear law (no limit).
-    pub mu_avail: f64,
+    mu_avail => "mu_avail",
     /// Adhesion used: the traction coefficient `(F_xR + F_xL) / (2 Q)`.
-    pub mu_used: f64,
-}
-
-impl Record {
-    /// CSV header names, in the order of [`Record::values`].
-    pub const COLUMNS: [&'static str; 27] = [
-        "t_s",
-        "y_m",
-        "psi_rad",
-        "T_psi_Nm",
-        "Fx_R_N",
-        "Fx_L_N",
-        "Fy_N",
-        "v_mps",
-        "i_a_A",
-        "u_a_V",
-        "yd_mps",
-        "T_ctrl_Nm",
-        "T_spring_Nm",
-        "w_R_radps",
-        "w_L_radps",
-        "w_m_radps",
-        "twist_rad",
-        "wind_rad",
-        "i_ref_A",
-        "demand_Nm",
-        "F_run_N",
-        "curvature_1pm",
-        "cant_rad",
-        "y0_m",
-        "slip_mps",
-        "mu_avail",
-        "mu_used",
-    ];
-
-    /// The values in [`Record::COLUMNS`] order.
-    pub fn values(&self) -> [f64; 27] {
-        [
-            self.t_s,
-            self.y_m,
-            self.psi_rad,
-            self.t_psi_nm,
-            self.fx_r_n,
-            self.fx_l_n,
-            self.fy_n,
-            self.v_mps,
-            self.i_a_a,
-            self.u_a_v,
-            self.yd_mps,
-            self.t_ctrl_nm,
-            self.t_spring_nm,
-            self.w_r_radps,
-            self.w_l_radps,
-            self.w_m_radps,
-            self.twist_rad,
-            self.wind_rad,
-            self.i_ref_a,
-            self.demand_nm,
-            self.f_run_n,
-            self.curvature_1pm,
-            self.cant_rad,
-            self.y0_m,
-            self.slip_mps,
-            self.mu_avail,
-            self.mu_used,
-        ]
-    }
+    mu_used => "mu_used",
 }
 
 /// What a run did, for reports.
@@ -159,8 +113,7 @@ pub struct RunInfo {
 /// the linear creep law), m.
 pub const DIVERGED_Y_M: f64 = 0.05;
 
-/// Whether state `x` has diverged (see [`RunInfo::diverged_at_s`]). By value, as
-/// `Setup::record` takes the state.
+/// Whether state `x` has diverged ([`RunInfo::diverged_at_s`]); by value, as `Setup::record`.
 pub(super) fn diverged(x: State) -> bool {
     !x.iter().all(|v| v.is_finite()) || x[ix::Y].abs() > DIVERGED_Y_M
 }

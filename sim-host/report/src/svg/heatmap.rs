@@ -174,7 +174,6 @@ impl HeatMap {
         let lx = ml + pw + 12.0;
         for (row, (col, label)) in self.legend.iter().enumerate() {
             let y = mt + row as f64 * 16.0;
-            // A legend row of colour `none` is a line of text without a swatch.
             if col != "none" {
                 let _ = writeln!(
                     o,
@@ -214,8 +213,7 @@ pub fn stack(title: &str, maps: &[HeatMap]) -> String {
     super::document(title, w, &heights, |i, y| maps[i].render_group(0.0, y))
 }
 
-/// A sequential colour for `t` in `[0, 1]` (clamped; NaN: grey): five stops of viridis,
-/// interpolated in sRGB.
+/// A sequential colour for `t` in `[0, 1]` (clamped; NaN: grey): 5 viridis stops, sRGB lerp.
 #[must_use]
 pub fn sequential(t: f64) -> String {
     const STOPS: [(u8, u8, u8); 5] = [

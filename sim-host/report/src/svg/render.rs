@@ -11,8 +11,7 @@ use super::{
     PALETTE,
 };
 
-/// A value on an axis: itself, or its `log10` on a logarithmic axis (NaN for `v <= 0`,
-/// which every drawing step skips as non-finite).
+/// `v` on an axis: itself, or its `log10` on a log axis (NaN for `v <= 0`: never drawn).
 fn axis(log: bool, v: f64) -> f64 {
     if !log {
         v
@@ -41,8 +40,7 @@ impl Plot {
             .unwrap_or_else(|| PALETTE[k % PALETTE.len()].to_string())
     }
 
-    /// The colour of series `k` as an attribute's value, its opacity appended as
-    /// attributes when below 1.
+    /// The colour of series `k` as an attribute's value, with its opacity when below 1.
     fn paint(&self, k: usize, s: &Series) -> String {
         let col = self.colour(k, s);
         if s.opacity < 1.0 {
@@ -153,8 +151,7 @@ impl Plot {
             && self.series.iter().all(|s| s.points.is_empty())
     }
 
-    /// The ranges drawn, in axis units (`log10` on a logarithmic axis): the data, the
-    /// bars and the marks, or the ranges given.
+    /// The ranges drawn, axis units (`log10` on a log axis): of data, bars and marks, or as given.
     pub(super) fn data_range(&self) -> ((f64, f64), (f64, f64)) {
         let (xl, yl) = (self.x_log, self.y_log);
         let mut xs = (f64::INFINITY, f64::NEG_INFINITY);
@@ -246,7 +243,6 @@ impl Plot {
     /// As [`Plot::render_group`] with the legend column `legend_w` px wide (a figure
     /// uses its widest legend for every panel so the plotting areas line up).
     pub fn render_group_with(&self, ox: f64, oy: f64, legend_w: f64) -> String {
-        // The legend sits in a column right of the plotting area, so it never hides data.
         let legend_w = legend_w.max(self.legend_width());
         // Slanted category names (40 degrees, [`LABEL_CHAR_PX`] per character)
         // take sin(40) of their length below the axis.
@@ -462,9 +458,8 @@ impl Plot {
                 continue;
             }
             let w = m.label.chars().count() as f64 * LABEL_CHAR_PX;
-            // Candidates: a vertical mark's label right or left of its line, in one of
-            // the rows down the top of the area; a horizontal one's above or below its
-            // line, at the left or the right end.
+            // Candidates: beside a vertical line, in rows down the top of the area; above
+            // or below a horizontal one, at either end.
             let mut cands: Vec<(f64, f64, bool)> = Vec::new();
             if m.vertical {
                 for row in 0..((ph / 12.0).floor() as usize).max(1) {
@@ -525,8 +520,7 @@ impl Plot {
                 r##"<text x="{x:.1}" y="{y:.1}" text-anchor="{anchor}" fill="{c}" stroke="#fff" stroke-width="3" paint-order="stroke">{label}</text>"##
             );
         }
-        // Data beyond a fixed range: a triangle on the edge where each run leaves the
-        // axes (pointing out), and a legend row per series that leaves them.
+        // Data beyond a fixed range: a triangle on the edge where each run leaves the axes.
         for (k, s) in self.series.iter().enumerate() {
             let col = self.colour(k, s);
             for &(x, y) in &self.clipped_exits(k, (x0, x1), (y0, y1)) {
@@ -624,8 +618,7 @@ fn dash(s: &Series) -> &'static str {
     }
 }
 
-/// A cross mark of 8 px centred on `(cx, cy)`: the data points of `Style::Crosses` and
-/// their legend swatch.
+/// A cross of 8 px centred on `(cx, cy)`: a `Style::Crosses` point or its legend swatch.
 fn cross(o: &mut String, cx: f64, cy: f64, col: &str) {
     let (l, r, t, b) = (cx - 4.0, cx + 4.0, cy - 4.0, cy + 4.0);
     let _ = writeln!(
