@@ -114,7 +114,16 @@ pub(crate) fn cmd_rates(a: &RatesArgs) -> Result<(), Failure> {
             if let Some(d) = design {
                 obj.insert("design".into(), d);
             }
-            obj.insert("link".into(), link.to_json());
+            // The link's budget (the report's) and the designed points over it, one object.
+            let mut both = link.to_json();
+            if let (Some(b), Some(serde_json::Value::Object(budget))) =
+                (both.as_object_mut(), obj.remove("link"))
+            {
+                for (k, v) in budget {
+                    b.entry(k).or_insert(v);
+                }
+            }
+            obj.insert("link".into(), both);
         }
         let text = serde_json::to_string_pretty(&json)
             .map_err(|e| Failure::failed(format!("JSON: {e}")))?;

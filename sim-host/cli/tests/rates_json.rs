@@ -1,0 +1,39 @@
+//! `sim-host rates --json`: the link's budget and the designed points over it in one
+//! `link` object.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use std::process::Command;
+
+#[test]
+fn the_rates_document_keeps_the_link_budget_beside_the_designed_points() {
+    let dir = std::env::temp_dir().join(format!("wheelset-rates-json-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("rates.json");
+    let out = Command::new(env!("CARGO_BIN_EXE_sim-host"))
+        .args(["rates", "--json"])
+        .arg(&path)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
+    let link = &v["link"];
+    for key in [
+        "bytes_in",
+        "bytes_out",
+        "max_utilisation",
+        "baud",
+        "latency_ns",
+        "points",
+        "max_delay_ticks",
+    ] {
+        assert!(link.get(key).is_some(), "link.{key} missing: {link}");
+    }
+    assert!(link["bytes_in"].as_u64().unwrap() > 0 && link["bytes_out"].as_u64().unwrap() > 0);
+    assert!(!link["points"].as_array().unwrap().is_empty());
+}
