@@ -37,6 +37,7 @@ use wheelset_runtime::{HoldPolicy, Runtime, SafeChange, TX_CAPACITY};
 use super::line::{Fate, Line, LineCounts, LineFaults};
 use super::service::{next_episode, Demand, Episode, ServiceOptions, Track};
 use crate::run::{device_config, runtime_config_for, Law};
+use crate::sweep::throughput::thread_cpu;
 
 /// The plant's integration step, ns: the built-in scenarios' (`sim.dt_s = 1e-4`), a
 /// whole number of steps in every period the soak moves between (1, 0.5, 0.4, 0.2 ms).
@@ -195,7 +196,7 @@ pub struct SoakReport {
     pub actuator_faults: u64,
     /// Alarms the device raised (rising edges: hunting, actuator, drive).
     pub alarms: [u64; 3],
-    /// Configs applied, and how many changed the rate.
+    /// Configs applied.
     pub configs: u64,
     /// Of them, rate changes.
     pub rate_changes: u64,
@@ -205,7 +206,7 @@ pub struct SoakReport {
     pub held_ticks: u64,
     /// When the device's 32-bit tick counter wrapped, s.
     pub tick_wrap_s: Option<f64>,
-    /// Peak RSS at the first checkpoint, KiB, and when, s.
+    /// Peak RSS at the first checkpoint, KiB.
     pub rss_first_kib: u64,
     /// When the first RSS figure was taken, s.
     pub rss_first_s: f64,
@@ -213,7 +214,7 @@ pub struct SoakReport {
     pub rss_end_kib: u64,
     /// Wall time, s.
     pub wall_s: f64,
-    /// CPU time of the process, s.
+    /// CPU time of the soak's thread, s (0 where unknown).
     pub cpu_s: f64,
     /// The first failure (none: clean).
     pub failure: Option<SoakFailure>,
@@ -223,25 +224,9 @@ impl SoakReport {
     /// The summary `hil soak` prints.
     #[must_use]
     pub fn summary(&self) -> String {
-        use std::fmt::Write as _;
-        let mut s = String::new();
-        let speed = self.simulated_s / self.wall_s.max(1e-9);
-        let _ = writeln!(
-            s,
-            "hil soak: seed {}, {} simulated ({} ticks)",
-            self.seed,
-            hms((self.simulated_s * 1e9) as u64),
-            self.ticks,
-        );
-        let _ = writeln!(
-            s,
-            "  time: {:.1} s wall, {:.1} s CPU ({:.0}x real time)",
-            self.wall_s, self.cpu_s, speed
-        );
-        for (name, c) in [("host -> device", &self.up), ("device -> host", &self.down)] {
-            let _ = writeln!(
-                s,
-                "  {name}: sent {} = received {} + rejected {} + dropped {} + in flight {} ({}); {} touched by the line",
+        let lines = [("host -> device", &self.up), ("device -> host", &self.down)].map(|(name, c)| {
+            format!(
+                "  {name}: sent {} = received {} + rejected {} + dropped {} + in flight {} ({}); {} touched by the line\n",
                 c.sent,
                 c.received,
                 c.rejected,
@@ -249,49 +234,48 @@ impl SoakReport {
                 c.in_flight,
                 if c.adds_up() { "adds up" } else { "DOES NOT ADD UP" },
                 c.touched
-            );
-        }
+            )
+        });
         let [ber, drop, outage, burst] = self.link_episodes;
-        let _ = writeln!(
-            s,
-            "  service: link faults {} (bit errors {ber}, drops {drop}, outages {outage}, bursts {burst}), adhesion patches {}, actuator faults {}, Configs {} ({} rate changes)",
+        let [h, a, d] = self.alarms;
+        let wrap = self
+            .tick_wrap_s
+            .map_or("its tick counter has not wrapped yet".into(), |t| {
+                format!("its tick counter wrapped at {t:.1} s")
+            });
+        let end = match &self.failure {
+            None => "soak: clean\n".to_string(),
+            Some(f) => format!("soak FAILED {f}\nreplay: {}\n", f.replay()),
+        };
+        format!(
+            "hil soak: seed {}, {} simulated ({} ticks)\n\
+             \x20 time: {:.1} s wall, {:.1} s CPU ({:.0}x real time)\n{}{}\
+             \x20 service: link faults {} (bit errors {ber}, drops {drop}, outages {outage}, bursts {burst}), adhesion patches {}, actuator faults {}, Configs {} ({} rate changes)\n\
+             \x20 device: alarms {} (hunting {h}, actuator {a}, drive {d}), every one expected; safe entries {}, held ticks {}; {wrap}\n\
+             \x20 Status frames checked {}, lost on the line {}\n\
+             \x20 memory: peak RSS {} KiB at {:.0} s, {} KiB at the end\n{end}",
+            self.seed,
+            hms((self.simulated_s * 1e9) as u64),
+            self.ticks,
+            self.wall_s,
+            self.cpu_s,
+            self.simulated_s / self.wall_s.max(1e-9),
+            lines[0],
+            lines[1],
             ber + drop + outage + burst,
             self.adhesion_patches,
             self.actuator_faults,
             self.configs,
-            self.rate_changes
-        );
-        let [h, a, d] = self.alarms;
-        let _ = writeln!(
-            s,
-            "  device: alarms {} (hunting {h}, actuator {a}, drive {d}), every one expected; safe entries {}, held ticks {}; {}",
+            self.rate_changes,
             h + a + d,
             self.safe_entries,
             self.held_ticks,
-            self.tick_wrap_s.map_or("its tick counter has not wrapped yet".into(), |t| {
-                format!("its tick counter wrapped at {t:.1} s")
-            }),
-        );
-        let _ = writeln!(
-            s,
-            "  Status frames checked {}, lost on the line {}",
-            self.statuses_checked, self.statuses_lost,
-        );
-        let _ = writeln!(
-            s,
-            "  memory: peak RSS {} KiB at {:.0} s, {} KiB at the end",
-            self.rss_first_kib, self.rss_first_s, self.rss_end_kib
-        );
-        match &self.failure {
-            None => {
-                let _ = writeln!(s, "soak: clean");
-            }
-            Some(f) => {
-                let _ = writeln!(s, "soak FAILED {f}");
-                let _ = writeln!(s, "replay: {}", f.replay());
-            }
-        }
-        s
+            self.statuses_checked,
+            self.statuses_lost,
+            self.rss_first_kib,
+            self.rss_first_s,
+            self.rss_end_kib
+        )
     }
 }
 
@@ -395,16 +379,6 @@ pub fn peak_rss_kib() -> u64 {
                 .and_then(|v| v.trim().trim_end_matches("kB").trim().parse().ok())
         })
         .unwrap_or(0)
-}
-
-/// CPU time this process's main thread has run, s (`/proc/self/schedstat`; 0 where
-/// unknown).
-#[must_use]
-pub fn cpu_s() -> f64 {
-    std::fs::read_to_string("/proc/self/schedstat")
-        .ok()
-        .and_then(|s| s.split_whitespace().next()?.parse::<u64>().ok())
-        .map_or(0.0, |ns| ns as f64 * 1e-9)
 }
 
 impl Soak {
@@ -1123,7 +1097,7 @@ fn rx_counts(s: &Status) -> [u32; 6] {
 /// happened. Errors: the set-up (scenario, configurations).
 pub fn soak(opts: SoakOptions) -> Result<SoakReport, String> {
     let wall = Instant::now();
-    let cpu0 = cpu_s();
+    let cpu0 = thread_cpu();
     let mut s = Soak::new(opts)?;
     let ran = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| s.run()));
     if let Err(p) = ran {
@@ -1154,6 +1128,8 @@ pub fn soak(opts: SoakOptions) -> Result<SoakReport, String> {
     }
     r.failure = s.failure.take();
     r.wall_s = wall.elapsed().as_secs_f64();
-    r.cpu_s = cpu_s() - cpu0;
+    r.cpu_s = thread_cpu()
+        .zip(cpu0)
+        .map_or(0.0, |(b, a)| b.saturating_sub(a).as_secs_f64());
     Ok(r)
 }

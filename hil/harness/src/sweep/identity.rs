@@ -31,16 +31,7 @@ pub struct Identity {
 /// SHA-256 of what `r` yields, in hex.
 pub fn sha256_of(mut r: impl Read) -> io::Result<String> {
     let mut h = Sha256::new();
-    let mut buf = vec![0u8; 1 << 16];
-    loop {
-        let n = match r.read(&mut buf) {
-            Ok(0) => break,
-            Ok(n) => n,
-            Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
-            Err(e) => return Err(e),
-        };
-        h.update(&buf[..n]);
-    }
+    io::copy(&mut r, &mut h)?;
     Ok(h.finalize()
         .iter()
         .map(|b| format!("{b:02x}"))
