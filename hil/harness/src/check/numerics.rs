@@ -101,16 +101,6 @@ fn per_interval(run: &Trajectory, fine: &Trajectory, n: usize) -> Option<usize> 
     Some(m)
 }
 
-/// Compares `run` with `reference` for every signal in `tolerances`.
-#[must_use]
-pub fn compare(
-    run: &Trajectory,
-    reference: &Trajectory,
-    tolerances: &BTreeMap<String, Tolerance>,
-) -> NumericsReport {
-    compare_fine(run, reference, None, tolerances)
-}
-
 /// The tube a run is judged against: `tube`'s records, `m` of them per output interval
 /// of the run, over the first `n` records of the run.
 struct Tube<'a> {
@@ -200,11 +190,11 @@ pub fn judged_errors(
         .collect()
 }
 
-/// [`compare`], with the tube taken over `fine` (the same reference run recorded at the
-/// control period: module docs) where given and aligned with `run`'s records; `reference`
-/// gives the peak, the length and the divergence as in [`compare`]. A `fine` whose records
-/// do not fall on `run`'s (not a whole number per output interval, or shorter) is not
-/// used: the tube is then `reference`'s.
+/// Compares `run` with `reference` for every signal in `tolerances`, the tube taken over
+/// `fine` (the same reference run recorded at the control period: module docs) where
+/// given and aligned with `run`'s records; `reference` gives the peak, the length and the
+/// divergence. A `fine` whose records do not fall on `run`'s (not a whole number per
+/// output interval, or shorter) is not used: the tube is then `reference`'s.
 #[must_use]
 pub fn compare_fine(
     run: &Trajectory,
@@ -368,7 +358,7 @@ mod tests {
         assert!(reference.records.iter().all(|r| r.u_a_v == 100.0));
         assert_eq!(reference.records.len(), 2001);
         let run = u_a(1e-3, 5004, 40.0);
-        let coarse = compare(&run, &reference, &tol);
+        let coarse = compare_fine(&run, &reference, None, &tol);
         assert_eq!(coarse.verdict, Verdict::Fail, "{coarse:?}");
         assert!((coarse.signals[0].max_err - 60.0).abs() < 1e-9);
         let at_ticks = compare_fine(&run, &reference, Some(&fine), &tol);
