@@ -415,73 +415,48 @@ fn f(x: f64) -> String {
 pub fn markdown(out: &RunOutcome, command: &str) -> String {
     let r = &out.report;
     let t = &r.timing;
-    let mut s = String::new();
-    let _ = writeln!(
-        s,
-        "# HIL run: {} on {} ({})\n",
-        r.scenario, r.target, r.verdict
-    );
-    let _ = writeln!(s, "Reproduce: `{command}`\n");
     let mut tb = Table::new(["", ""]);
-    tb.row(["verdict".to_string(), format!("**{}**", r.verdict)])
-        .row([
-            "target".to_string(),
-            format!("{} ({} clock)", r.target, t.clock),
-        ])
-        .row([
-            "scenario".to_string(),
+    let faults = if r.faults.is_empty() {
+        "none"
+    } else {
+        &r.faults
+    };
+    for (k, v) in [
+        ("verdict", format!("**{}**", r.verdict)),
+        ("target", format!("{} ({} clock)", r.target, t.clock)),
+        (
+            "scenario",
             format!("{} ({})", r.scenario, r.scenario_source),
-        ])
-        .row(["control".to_string(), r.control.words().to_string()])
-        .row([
-            "link faults".to_string(),
-            if r.faults.is_empty() {
-                "none".to_string()
-            } else {
-                r.faults.clone()
-            },
-        ])
-        .row(["device fault".to_string(), r.device_fault.to_string()]);
-    let _ = writeln!(s, "{tb}");
-    let _ = writeln!(s, "## Timing ({})\n", t.verdict);
-    let _ = writeln!(
-        s,
-        "Period T = {} ns, {} periods, {} baud.\n",
-        t.period_ns, t.periods, t.baud
+        ),
+        ("control", crate::run::law_words(r.control).to_string()),
+        ("link faults", faults.to_string()),
+        ("device fault", r.device_fault.to_string()),
+    ] {
+        tb.row([k.to_string(), v]);
+    }
+    let mut s = format!(
+        "# HIL run: {} on {} ({})\n\nReproduce: `{command}`\n\n{tb}\n## Timing ({})\n\n\
+         Period T = {} ns, {} periods, {} baud.\n\n",
+        r.scenario, r.target, r.verdict, t.verdict, t.period_ns, t.periods, t.baud
     );
     if !t.exec_measured {
         let _ = writeln!(s, "Execution time {}.\n", t.exec_note);
     }
     let shown = t.exec_measured || t.exec_units.max > 0.0;
-    let cell = |v: f64| {
-        if shown {
-            f(v)
-        } else {
-            "not measured".to_string()
-        }
-    };
+    let e = &t.exec_units;
+    let exec =
+        [e.min, e.mean, e.p99, e.max].map(|v| if shown { f(v) } else { "not measured".into() });
+    let l = &t.latency_ns;
+    let modelled = if t.latency_modelled { ", modelled" } else { "" };
     let mut tb = Table::new(["figure", "min", "mean", "p99", "max"]);
-    tb.row([
-        format!("execution time ({})", t.exec_unit),
-        cell(t.exec_units.min),
-        cell(t.exec_units.mean),
-        cell(t.exec_units.p99),
-        cell(t.exec_units.max),
-    ])
-    .row([
-        format!(
-            "latency (ns{})",
-            if t.latency_modelled { ", modelled" } else { "" }
-        ),
-        f(t.latency_ns.min),
-        f(t.latency_ns.mean),
-        f(t.latency_ns.p99),
-        f(t.latency_ns.max),
-    ]);
-    let _ = writeln!(s, "{tb}");
+    tb.row(std::iter::once(format!("execution time ({})", t.exec_unit)).chain(exec))
+        .row(
+            std::iter::once(format!("latency (ns{modelled})"))
+                .chain([l.min, l.mean, l.p99, l.max].map(f)),
+        );
     let _ = writeln!(
         s,
-        "Jitter max {} ns (RMS {} ns); missed ticks {}; device tick gaps {}; overruns {}; \
+        "{tb}\nJitter max {} ns (RMS {} ns); missed ticks {}; device tick gaps {}; overruns {}; \
          CPU mean {:.3} % / max {:.3} %; link {:.1} % ({:.1} + {:.1} bytes per period).\n",
         t.jitter_max_ns.map_or("n/a".into(), f),
         t.jitter_rms_ns.map_or("n/a".into(), f),
@@ -504,12 +479,10 @@ pub fn markdown(out: &RunOutcome, command: &str) -> String {
             format!("{}{}", c.verdict, if c.applicable { "" } else { " (n/a)" }),
         ]);
     }
-    let _ = write!(s, "{tb}");
-    let _ = writeln!(s, "\n![execution time](exec_histogram.svg)\n");
     let n = &r.numerics;
     let _ = writeln!(
         s,
-        "## Numerics ({})\n\nAgainst the {}.\n",
+        "{tb}\n![execution time](exec_histogram.svg)\n\n## Numerics ({})\n\nAgainst the {}.\n",
         n.verdict, n.reference
     );
     if let Some(t) = n.run_diverged_at_s {
@@ -544,22 +517,22 @@ pub fn markdown(out: &RunOutcome, command: &str) -> String {
             c.verdict.to_string(),
         ]);
     }
-    let _ = write!(s, "{tb}");
-    let _ = writeln!(s, "\n![trajectories](trajectories.svg)\n");
     let m = &r.monitor;
-    let _ = writeln!(s, "## Stability monitor ({})\n", m.verdict);
+    let alarms: Vec<String> = m
+        .alarms
+        .iter()
+        .map(|a| format!("{} at {:.3} s", a.kind, a.t_s))
+        .collect();
     let _ = writeln!(
         s,
-        "Alarms ({}): {}. Expected: {}.{}\n",
+        "{tb}\n![trajectories](trajectories.svg)\n\n## Stability monitor ({})\n\n\
+         Alarms ({}): {}. Expected: {}.{}\n\n![stability monitor](monitor.svg)\n",
+        m.verdict,
         m.source,
-        if m.alarms.is_empty() {
+        if alarms.is_empty() {
             "none".to_string()
         } else {
-            m.alarms
-                .iter()
-                .map(|a| format!("{} at {:.3} s", a.kind, a.t_s))
-                .collect::<Vec<_>>()
-                .join(", ")
+            alarms.join(", ")
         },
         m.expectation(),
         if m.reason.is_empty() {
@@ -568,13 +541,7 @@ pub fn markdown(out: &RunOutcome, command: &str) -> String {
             format!(" **{}**.", m.reason)
         }
     );
-    let _ = writeln!(s, "![stability monitor](monitor.svg)\n");
     let fr = &r.frames;
-    let _ = writeln!(
-        s,
-        "## Frames ({}; source: {})\n",
-        r.frames_verdict, fr.source
-    );
     let mut tb = Table::new([
         "direction",
         "sent",
@@ -583,25 +550,18 @@ pub fn markdown(out: &RunOutcome, command: &str) -> String {
         "dropped",
         "in flight",
     ]);
-    for (name, d) in [("host -> device", fr.up), ("device -> host", fr.down)] {
-        tb.row([
-            name.to_string(),
-            d.sent.to_string(),
-            d.received.to_string(),
-            d.rejected.to_string(),
-            d.dropped.to_string(),
-            d.in_flight.to_string(),
-        ]);
+    for (name, d) in [
+        ("host -> device", fr.up),
+        ("device -> host", fr.down),
+        ("total", fr.total()),
+    ] {
+        tb.row(std::iter::once(name.to_string()).chain(d.counts().map(|v| v.to_string())));
     }
-    tb.row([
-        "total".to_string(),
-        fr.sent.to_string(),
-        fr.received.to_string(),
-        fr.rejected.to_string(),
-        fr.dropped.to_string(),
-        fr.in_flight.to_string(),
-    ]);
-    let _ = write!(s, "{tb}");
+    let _ = write!(
+        s,
+        "## Frames ({}; source: {})\n\n{tb}",
+        r.frames_verdict, fr.source
+    );
     if r.device_resets > 0 {
         let _ = writeln!(
             s,

@@ -247,12 +247,8 @@ pub fn failing(r: &RunReport) -> Vec<Failing> {
             check: "frames".into(),
             verdict: r.frames_verdict,
             reason: format!(
-                "sent {} = received {} + rejected {} + dropped {} + in flight {}{}",
-                f.sent,
-                f.received,
-                f.rejected,
-                f.dropped,
-                f.in_flight,
+                "{}{}",
+                f.total(),
                 if f.adds_up { "" } else { " does not add up" }
             ),
         });

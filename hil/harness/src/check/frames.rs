@@ -36,6 +36,29 @@ impl Direction {
     pub fn adds_up(&self) -> bool {
         self.sent == self.received + self.rejected + self.dropped + self.in_flight
     }
+
+    /// `[sent, received, rejected, dropped, in_flight]`.
+    #[must_use]
+    pub fn counts(&self) -> [u64; 5] {
+        [
+            self.sent,
+            self.received,
+            self.rejected,
+            self.dropped,
+            self.in_flight,
+        ]
+    }
+}
+
+/// `sent S = received R + rejected J + dropped D + in flight F`.
+impl std::fmt::Display for Direction {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let [s, r, j, d, i] = self.counts();
+        write!(
+            f,
+            "sent {s} = received {r} + rejected {j} + dropped {d} + in flight {i}"
+        )
+    }
 }
 
 /// The `frames` section of a run's report: totals of both directions, and each.
@@ -66,6 +89,18 @@ pub struct FramesReport {
 }
 
 impl FramesReport {
+    /// Both directions together.
+    #[must_use]
+    pub fn total(&self) -> Direction {
+        Direction {
+            sent: self.sent,
+            received: self.received,
+            rejected: self.rejected,
+            dropped: self.dropped,
+            in_flight: self.in_flight,
+        }
+    }
+
     fn new(up: Direction, down: Direction, source: &str) -> Self {
         Self {
             sent: up.sent + down.sent,

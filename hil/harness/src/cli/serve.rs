@@ -112,7 +112,7 @@ pub(crate) fn cmd_serve(a: &ServeArgs) -> Result<Verdict, Failure> {
         )
     };
     eprintln!(
-        "hil serve: the runtime (fixed point) free-running at {} Hz on {path}{behind};          `hil run --target serial:{path}`",
+        "hil serve: the runtime (fixed point) free-running at {} Hz on {path}{behind}; `hil run --target serial:{path}`",
         a.rate_hz
     );
     let stop = std::sync::atomic::AtomicBool::new(false);

@@ -102,6 +102,8 @@ fn realtime_options(
         cpu_hz,
         timeout: opts.timeout,
         want: opts.realtime,
+        // 5/8 of the period: under QEMU, whose UART is slow both ways, a Sensor frame
+        // needs most of half the period to reach the tick (docs: "QEMU free-running").
         lead_num: 5,
     }
 }
@@ -120,17 +122,12 @@ pub(super) fn open_qemu_free(opts: &RunOptions, rt: &RuntimeConfig) -> Result<Re
     let stream = q
         .tcp_stream()
         .map_err(|e| RunError::Target(TransportError::Unavailable(e.to_string())))?;
-    let o = RealTimeOptions {
-        // 5/8 of the period: QEMU's UART is slow both ways, so a Sensor frame needs most
-        // of half the period to reach the tick (docs: "QEMU free-running").
-        lead_num: 5,
-        ..realtime_options(
-            opts,
-            rt,
-            QEMU_FREE_BAUD,
-            wheelset_targets::qemu::target::MPS2_CPU_HZ,
-        )
-    };
+    let o = realtime_options(
+        opts,
+        rt,
+        QEMU_FREE_BAUD,
+        wheelset_targets::qemu::target::MPS2_CPU_HZ,
+    );
     let mut t = RealTime::on("qemu-free", Port::Tcp(stream, Some(q)), o);
     t.prepare(&cfg).map_err(RunError::Target)?;
     Ok(t)
