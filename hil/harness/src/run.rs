@@ -30,7 +30,7 @@ use wheelset_loop::exchange::{close_loop, LoopSetup};
 use wheelset_loop::inproc::DeviceFault;
 use wheelset_loop::transport::{Transport, TransportError};
 use wheelset_report::Verdict;
-use wheelset_targets::realtime::os::Want;
+use wheelset_targets::realtime::os::{self, Want};
 use wheelset_targets::realtime::RealTime;
 use wheelset_targets::serial::Pace;
 
@@ -203,11 +203,7 @@ impl Default for RunOptions {
             progress: false,
             rate_hz: None,
             delay_ticks: 1,
-            realtime: Want::all(
-                wheelset_targets::realtime::os::allowed_cpus()
-                    .last()
-                    .copied(),
-            ),
+            realtime: Want::all(os::allowed_cpus().last().copied()),
             params: Params::default(),
             wsp: None,
             monitor_safe: false,
@@ -434,7 +430,7 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     )
     .map_err(|e| RunError::Input(format!("scenario {}: {e}", sc.source)))?;
     // Back to the normal scheduler for the analysis.
-    wheelset_targets::realtime::os::release();
+    os::release();
     if let Some(e) = cl.rec.error.take() {
         return Err(RunError::Target(e));
     }

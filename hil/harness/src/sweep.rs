@@ -291,10 +291,9 @@ fn run_point(
 }
 
 /// Runs the points of `shard` (every point without one) on `jobs` threads, calling
-/// `progress(done, total)` after each point. The records come back in index order,
-/// whatever the threads' order. Also returns what the campaign cost
-/// ([`throughput::Throughput`]: CPU time of its threads and child processes, wall time), which is not part of
-/// the document.
+/// `progress(done, total)` after each point; the records in index order, whatever the
+/// threads' order. Also returns the campaign's cost ([`throughput::Throughput`]: CPU time
+/// of its threads and child processes, wall time), which is not part of the document.
 pub fn run_campaign(
     c: &Campaign,
     shard: Option<Shard>,
@@ -326,16 +325,12 @@ pub fn run_campaign(
             let (next, stop, mine) = (&next, &stop, &mine);
             let (cpu_ns, cpu_known) = (&cpu_ns, &cpu_known);
             s.spawn(move || {
-                loop {
-                    if stop.load(Ordering::Relaxed) {
-                        break;
-                    }
-                    let k = next.fetch_add(1, Ordering::Relaxed);
-                    let Some((i, (p, params))) = mine.get(k) else {
+                while !stop.load(Ordering::Relaxed) {
+                    let Some((i, (p, params))) = mine.get(next.fetch_add(1, Ordering::Relaxed))
+                    else {
                         break;
                     };
-                    let r = run_point(c, *i, p, params);
-                    if tx.send(r).is_err() {
+                    if tx.send(run_point(c, *i, p, params)).is_err() {
                         break;
                     }
                 }

@@ -203,10 +203,9 @@ pub fn alarms(samples: impl IntoIterator<Item = FlagSample>) -> Vec<Alarm> {
 /// One period's monitor flags: `(t_ns, hunting, actuator, drive)`.
 pub type FlagSample = (u64, bool, bool, bool);
 
-/// The device's monitor replayed on the samples it received (one per period from
-/// `t = 0`, wire codes), for the runtime configuration `rt` (its yaw mode decides whether
-/// the law commands) and the monitor configuration `p`: the mean square `(t_s, ms in
-/// (m/s)^2)` at each monitor step; `None` if the configuration does not compile.
+/// The device's monitor replayed on the samples it received (wire codes, one per period
+/// from `t = 0`) under `rt` (its yaw mode: whether the law commands) and `p`: the mean
+/// square `(t_s, (m/s)^2)` at each monitor step; `None` if `rt` does not compile.
 #[must_use]
 pub fn replay(
     codes: &[InputCodes],
@@ -383,10 +382,9 @@ pub fn judge(
     r
 }
 
-/// The drive check's expectation for a run of `sc` on the device configuration `rt`
-/// with the monitor `p` and `delay_ticks` of actuation delay (module docs, "The drive"):
-/// the current loop's fast pair at the plant's armature and the device's PI and rates,
-/// and from it the deadline.
+/// The drive check's expectation for a run of `sc` on `rt` with the monitor `p` and
+/// `delay_ticks` of delay (module docs, "The drive"): the current loop's fast pair at the
+/// plant's armature and the device's PI and rates, and from it the deadline.
 #[must_use]
 pub fn drive_expectation(
     sc: &Scenario,

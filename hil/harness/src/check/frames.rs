@@ -82,9 +82,8 @@ pub struct FramesReport {
     pub up: Direction,
     /// Device -> host.
     pub down: Direction,
-    /// Frames from the device discarded before the run (a free-running device talks
-    /// before the run's first Sensor frame is answered; `wheelset_targets::realtime`): never applied
-    /// to the plant and not part of the sums above.
+    /// Frames from a free-running device discarded before the run's first answer
+    /// (`wheelset_targets::realtime`): never applied, not part of the sums above.
     pub pre_run: u64,
 }
 

@@ -82,10 +82,8 @@ fn interval(t: &Trajectory) -> f64 {
     }
 }
 
-/// How many records of `fine` fall on one of `run`'s output intervals, if `fine`'s
-/// records are a whole number `m >= 1` of them per interval and land on `run`'s record
-/// instants (checked at the first and the last of the `n` compared): `fine.records[i m]`
-/// is at `run.records[i]`'s time.
+/// `m >= 1` records of `fine` per output interval of `run`, if `fine.records[i m]` is at
+/// `run.records[i]`'s time (checked at the first and the last of the `n` compared).
 fn per_interval(run: &Trajectory, fine: &Trajectory, n: usize) -> Option<usize> {
     let m = (interval(run) / interval(fine)).round();
     if !(1.0..=1e6).contains(&m) || n == 0 {
@@ -191,10 +189,9 @@ pub fn judged_errors(
 }
 
 /// Compares `run` with `reference` for every signal in `tolerances`, the tube taken over
-/// `fine` (the same reference run recorded at the control period: module docs) where
-/// given and aligned with `run`'s records; `reference` gives the peak, the length and the
-/// divergence. A `fine` whose records do not fall on `run`'s (not a whole number per
-/// output interval, or shorter) is not used: the tube is then `reference`'s.
+/// `fine` (the reference recorded at the control period: module docs) where it is given
+/// and its records fall on `run`'s (a whole number per output interval), else over
+/// `reference`, which gives the peak, the length and the divergence.
 #[must_use]
 pub fn compare_fine(
     run: &Trajectory,

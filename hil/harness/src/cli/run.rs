@@ -13,6 +13,7 @@ use wheelset_loop::sim_link::{Faults, LinkConfig};
 use wheelset_plant::params::Params;
 use wheelset_report::Verdict;
 use wheelset_targets::qemu::machine::Machine;
+use wheelset_targets::realtime::os::{self, Want};
 
 use super::{input, load_params, run_error, Control, Failure};
 
@@ -236,13 +237,9 @@ pub(crate) fn cmd_run(a: &RunArgs, command: &str) -> Result<Verdict, Failure> {
         monitor_safe: a.monitor_safe,
         clear_faults_at_s: a.clear_faults_at,
         realtime: if a.no_rt {
-            wheelset_targets::realtime::os::Want::none()
+            Want::none()
         } else {
-            wheelset_targets::realtime::os::Want::all(a.rt_cpu.or_else(|| {
-                wheelset_targets::realtime::os::allowed_cpus()
-                    .last()
-                    .copied()
-            }))
+            Want::all(a.rt_cpu.or_else(|| os::allowed_cpus().last().copied()))
         },
         params,
     };

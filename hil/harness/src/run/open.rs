@@ -133,10 +133,9 @@ pub(super) fn open_qemu_free(opts: &RunOptions, rt: &RuntimeConfig) -> Result<Re
     Ok(t)
 }
 
-/// The base rate of a run: `opts.rate_hz` or the control core's default, checked for the
-/// target (a whole number of ns per period in process; of us elsewhere, as the
-/// firmware's ticker needs), then the link against it ([`link_fits`]; not under
-/// lock-step, where the frames are the device's clock).
+/// The base rate of a run: `opts.rate_hz` or the control core's default, a whole number
+/// of ns per period in process, of us elsewhere (the firmware's ticker), then the link
+/// against it ([`link_fits`]; not under lock-step: the frames are the device's clock).
 pub(super) fn run_rate(opts: &RunOptions, default_hz: u32) -> Result<u32, RunError> {
     let hz = opts.rate_hz.unwrap_or(if opts.target == Target::QemuFree {
         QEMU_FREE_RATE_HZ
@@ -178,11 +177,10 @@ pub(super) fn run_rate(opts: &RunOptions, default_hz: u32) -> Result<u32, RunErr
     Ok(hz)
 }
 
-/// The link against the rate, before a run: the harness's worst-case exchange (the
-/// Sensor frame with one lateral value up, the Actuation frame down) must fit the one
-/// link budget ([`wheelset_loop::sim_link::check_budget`]). The refusal names the
-/// budget's numbers, the lowest baud this rate needs and the highest rate this baud
-/// carries.
+/// The link against the rate, before a run: the worst-case exchange (the Sensor frame
+/// with one lateral value up, the Actuation frame down) must fit the link budget
+/// ([`wheelset_loop::sim_link::check_budget`]); the refusal names the budget's numbers,
+/// the lowest baud this rate needs and the highest rate this baud carries.
 fn link_fits(baud: u32, rate_hz: u32, latency_ns: u64, delay_ticks: u8) -> Result<(), String> {
     let period_ns = 1_000_000_000 / u64::from(rate_hz.max(1));
     wheelset_loop::sim_link::check_budget(
@@ -203,9 +201,8 @@ fn link_fits(baud: u32, rate_hz: u32, latency_ns: u64, delay_ticks: u8) -> Resul
     })
 }
 
-/// The parameter keys that set the device's control gains and motor constants
-/// (`wheelset_loop::device_loop::control_config`): the lead, the pure gain, the traction PI and
-/// the motor.
+/// The parameter keys that set the device's gains and motor constants
+/// (`wheelset_loop::device_loop::control_config`): lead, pure gain, traction PI, motor.
 pub const DEVICE_KEYS: &[&str] = &[
     "k_active",
     "lead_gain",

@@ -16,6 +16,7 @@
 //! hour and at the end agree within [`RSS_GROWTH_MAX_KIB`]. The first failure stops the
 //! run, named with its simulated time and the seed.
 
+use std::collections::BTreeMap;
 use std::fmt;
 use std::time::Instant;
 
@@ -340,7 +341,7 @@ struct Soak {
     act: ActState,
     act_alarm_seen: bool,
     config_pending: Option<(Config, u32)>,
-    configs: [Option<Config>; 8],
+    configs: BTreeMap<(u32, bool), Config>,
     status_next_ns: u64,
     status_pending: bool,
     clear_next_ns: u64,
@@ -355,17 +356,6 @@ struct Soak {
     rss_at_ns: u64,
     report: SoakReport,
     failure: Option<SoakFailure>,
-}
-
-/// The Config index of a design point: rate and law.
-fn config_slot(rate_hz: u32, lead: bool) -> usize {
-    let r = match rate_hz {
-        1_000 => 0,
-        2_000 => 1,
-        2_500 => 2,
-        _ => 3,
-    };
-    2 * r + usize::from(lead)
 }
 
 /// The peak resident set of this process, KiB (`VmHWM`; 0 where unknown).
@@ -387,7 +377,7 @@ impl Soak {
         let base = runtime_config_for(&sc, Law::Lead);
         let mut rt = Runtime::<Fx>::try_new(base).map_err(|e| e.to_string())?;
         // Every design point of the service, computed once (`wheelset_runtime::rates_for`).
-        let mut configs = [None; 8];
+        let mut configs = BTreeMap::new();
         for &hz in &super::service::RATES_HZ {
             for lead in [false, true] {
                 let mut r = base.designed(hz, 1).map_err(|e| e.to_string())?;
@@ -397,7 +387,7 @@ impl Soak {
                     wheelset_control::YawMode::Gain
                 };
                 let cfg = device_config(&r, true, false).map_err(|e| e.to_string())?;
-                configs[config_slot(hz, lead)] = Some(cfg);
+                configs.insert((hz, lead), cfg);
             }
         }
         // The device's start: the run's Config (protection on, alarms reported) and every 32-bit
@@ -510,16 +500,14 @@ impl Soak {
         if self.failure.is_none() {
             let x = &self.x;
             let o = &self.opts;
-            let mut flags = String::new();
-            for (on, flag) in [
+            let mut flags: String = [
                 (o.service.low_adhesion, " --low-adhesion"),
                 (o.service.demand_steps, " --demand-steps"),
                 (o.service.gain_law, " --gain-law"),
-            ] {
-                if on {
-                    flags.push_str(flag);
-                }
-            }
+            ]
+            .into_iter()
+            .filter_map(|(on, flag)| on.then_some(flag))
+            .collect();
             if o.defect != Defect::None {
                 flags.push_str(&format!(" --defect {}", o.defect));
             }
@@ -604,7 +592,7 @@ impl Soak {
                 self.gain = 0.0;
             }
             Episode::Config { rate_hz, lead } => {
-                if let Some(cfg) = self.configs[config_slot(rate_hz, lead)] {
+                if let Some(&cfg) = self.configs.get(&(rate_hz, lead)) {
                     self.config_pending = Some((cfg, rate_hz));
                 }
             }
@@ -689,12 +677,9 @@ impl Soak {
         }
         let tick_at = t + PHASE_NS;
         let mut out = [0u8; TX_CAPACITY];
-        let n = {
-            let o = self.rt.tick(0);
-            let n = o.len().min(out.len());
-            out[..n].copy_from_slice(&o[..n]);
-            n
-        };
+        let o = self.rt.tick(0);
+        let n = o.len().min(TX_CAPACITY);
+        out[..n].copy_from_slice(&o[..n]);
         let out = &mut out[..n];
         self.after_tick(t, fresh, config_applied, status_requested, cleared, out);
         let mut fresh_act: Option<Actuation> = None;
