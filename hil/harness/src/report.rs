@@ -10,6 +10,7 @@ use std::path::{Path, PathBuf};
 use wheelset_plant::sim::{Record, Trajectory};
 use wheelset_report::svg::{Figure, Plot, Series, Style};
 
+use crate::check::numerics::column;
 use crate::run::{RunOutcome, RunReport};
 use crate::sweep::document::value_label;
 
@@ -40,28 +41,18 @@ fn series(tr: &Trajectory, label: &str, f: impl Fn(&Record) -> f64) -> Series {
     Series::line(label, tr.records.iter().map(|r| (r.t_s, f(r))).collect())
 }
 
-/// The plotted signals: (title, unit label, scale, CSV column judged by the numerics,
-/// accessor).
-type Signal = (
-    &'static str,
-    &'static str,
-    f64,
-    &'static str,
-    fn(&Record) -> f64,
-);
-
-const SIGNALS: [Signal; 5] = [
-    ("Lateral displacement y", "y (mm)", 1e3, "y_m", |r| r.y_m),
-    ("Yaw angle psi", "psi (mrad)", 1e3, "psi_rad", |r| r.psi_rad),
+/// The plotted signals: title, unit label, scale, CSV column (the numerics' name).
+const SIGNALS: [(&str, &str, f64, &str); 5] = [
+    ("Lateral displacement y", "y (mm)", 1e3, "y_m"),
+    ("Yaw angle psi", "psi (mrad)", 1e3, "psi_rad"),
     (
         "Control yaw torque T_ctrl",
         "T_ctrl (kN m)",
         1e-3,
         "T_ctrl_Nm",
-        |r| r.t_ctrl_nm,
     ),
-    ("Armature current i_a", "i_a (A)", 1.0, "i_a_A", |r| r.i_a_a),
-    ("Armature voltage u_a", "u_a (V)", 1.0, "u_a_V", |r| r.u_a_v),
+    ("Armature current i_a", "i_a (A)", 1.0, "i_a_A"),
+    ("Armature voltage u_a", "u_a (V)", 1.0, "u_a_V"),
 ];
 
 /// Colours of the marks: limits that pass, limits that fail, events.
@@ -86,32 +77,26 @@ fn trajectories(out: &RunOutcome) -> Figure {
         "{} on {}: device vs f64 reference, and the error judged{stopped}",
         r.scenario, r.target
     ));
-    let reference = |f: fn(&Record) -> f64, k: f64| {
-        Series::line(
-            "reference",
-            out.reference
-                .records
-                .iter()
-                .filter(|x| x.t_s <= end)
-                .map(|x| (x.t_s, f(x) * k))
-                .collect(),
-        )
-        .style(Style::Dashed)
+    // Column `col` of `tr` times `k`, up to the device's end.
+    let line = |tr: &Trajectory, label: &str, col: &str, k: f64| {
+        let at = |x: &Record| column(x, col).unwrap_or(f64::NAN) * k;
+        let pts = tr.records.iter().filter(|x| x.t_s <= end);
+        Series::line(label, pts.map(|x| (x.t_s, at(x))).collect())
     };
-    for (title, unit, k, column, f) in SIGNALS {
+    for (title, unit, k, col) in SIGNALS {
         let mut p = Plot::new(title)
             .x_label("t (s)")
             .y_label(unit)
             .size(860.0, 260.0)
             .x_range(0.0, end)
-            .series(series(&out.trajectory, "device", |x| f(x) * k))
-            .series(reference(f, k));
+            .series(line(&out.trajectory, "device", col, k))
+            .series(line(&out.reference, "reference", col, k).style(Style::Dashed));
         if let Some(t) = fault {
             p = p.vmark(t, "plant fault", EVENT_COLOUR);
         }
         fig = fig.panel(p);
-        let check = r.numerics.signals.iter().find(|c| c.name == column);
-        let errors = out.numerics_errors.iter().find(|(n, _)| n == column);
+        let check = r.numerics.signals.iter().find(|c| c.name == col);
+        let errors = out.numerics_errors.iter().find(|(n, _)| n == col);
         let (Some(c), Some((_, e))) = (check, errors) else {
             continue;
         };
@@ -133,19 +118,14 @@ fn trajectories(out: &RunOutcome) -> Figure {
         .y_label(&format!("error ({unit_only})"))
         .size(860.0, 190.0)
         .x_range(0.0, end)
-        .series(Series::line("judged error", pts).color("#0072B2"))
-        .hmark(
-            allowed,
-            &format!("allowed ±{} {unit_only}", value_label(allowed)),
-            PASS_COLOUR,
-        )
-        .hmark(-allowed, "", PASS_COLOUR)
-        .hmark(
-            fail,
-            &format!("fail above ±{} {unit_only}", value_label(fail)),
-            FAIL_COLOUR,
-        )
-        .hmark(-fail, "", FAIL_COLOUR);
+        .series(Series::line("judged error", pts).color("#0072B2"));
+        for (v, what, colour) in [
+            (allowed, "allowed", PASS_COLOUR),
+            (fail, "fail above", FAIL_COLOUR),
+        ] {
+            let label = format!("{what} ±{} {unit_only}", value_label(v));
+            p = p.hmark(v, &label, colour).hmark(-v, "", colour);
+        }
         if let Some(t) = fault {
             p = p.vmark(t, "judged up to the fault", EVENT_COLOUR);
         }
@@ -164,31 +144,20 @@ fn monitor(out: &RunOutcome) -> Figure {
     let thr = mp.threshold_m_s * 1e3;
     let rel = thr * mp.release;
     let ms: Vec<(f64, f64)> = out.monitor_ms.iter().map(|&(t, v)| (t, v * 1e6)).collect();
-    // Each event: its time, its name, its name with the time (the zoom's), its colour.
+    // Each event: its time, its name, its long name with the time (the zoom's), its colour.
     let mut events: Vec<(f64, String, String, &str)> = Vec::new();
+    let mut event = |t: f64, name: String, long: &str, colour| {
+        events.push((t, name, format!("{long} {t:.3} s"), colour));
+    };
     if let Some(t) = m.fault_s {
-        events.push((
-            t,
-            "fault".into(),
-            format!("plant fault {t:.3} s"),
-            EVENT_COLOUR,
-        ));
+        event(t, "fault".into(), "plant fault", EVENT_COLOUR);
     }
     for a in &m.alarms {
-        events.push((
-            a.t_s,
-            format!("{} alarm", a.kind),
-            format!("{} alarm {:.3} s", a.kind, a.t_s),
-            FAIL_COLOUR,
-        ));
+        let name = format!("{} alarm", a.kind);
+        event(a.t_s, name.clone(), &name, FAIL_COLOUR);
     }
     if let (Some(d), "alarm") = (m.deadline_s, m.expect) {
-        events.push((
-            d,
-            "deadline".into(),
-            format!("deadline {d:.3} s"),
-            "#777777",
-        ));
+        event(d, "deadline".into(), "deadline", "#777777");
     }
     let end = out.trajectory.records.last().map_or(1.0, |x| x.t_s);
     let peak = ms.iter().map(|p| p.1).fold(thr * thr, f64::max);
@@ -297,17 +266,13 @@ fn exec_histogram(r: &RunReport) -> Figure {
             EVENT_COLOUR,
         );
         if let Some(c) = cpu {
-            p = p
-                .vmark(
-                    c.limit.warn * period_us,
-                    &format!("CPU warn {:.0} % of T", c.limit.warn * 100.0),
-                    "#E69F00",
-                )
-                .vmark(
-                    c.limit.fail * period_us,
-                    &format!("CPU fail {:.0} % of T", c.limit.fail * 100.0),
-                    FAIL_COLOUR,
-                );
+            for (what, f, colour) in [
+                ("warn", c.limit.warn, "#E69F00"),
+                ("fail", c.limit.fail, FAIL_COLOUR),
+            ] {
+                let label = format!("CPU {what} {:.0} % of T", f * 100.0);
+                p = p.vmark(f * period_us, &label, colour);
+            }
         }
         p
     };
