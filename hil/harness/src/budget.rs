@@ -117,9 +117,8 @@ impl Default for Tolerance {
 }
 
 /// The signals compared with the reference (CSV column names) and their default
-/// tolerances: at least twice the measured error of the fixed-point device at 5 kHz with
-/// one period of delay, lead law, on `curve` (README, "The harness (hil)"), so the
-/// margin is known and a wrong sign or an unstable loop is far outside.
+/// tolerances: twice the fixed-point device's error or more (5 kHz, one tick of delay, lead
+/// law, `curve`; README, "The harness (hil)"): a wrong sign or an unstable loop is far out.
 pub fn default_tolerances() -> BTreeMap<String, Tolerance> {
     let t = |abs: f64, rel: f64, time_s: f64| Tolerance {
         abs,

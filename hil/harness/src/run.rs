@@ -57,10 +57,9 @@ pub enum Target {
     /// `127.0.0.1:PORT` (`qemu:PORT`; `cargo xtask qemu-cmd ELF --tcp PORT` prints the
     /// command line), lock-step. The harness connects and leaves QEMU running.
     QemuAt(u16),
-    /// The free-running firmware under QEMU (`qemu-free`): `wheelset-qemu-free.elf`,
-    /// ticking on its own TIMER0 with QEMU's clock following the host's (no
-    /// `-icount`), paced in real time over UART0's TCP chardev as a board on a serial
-    /// port is ([`wheelset_targets::realtime`]). Default rate [`QEMU_FREE_RATE_HZ`].
+    /// The free-running firmware under QEMU (`qemu-free`, `wheelset-qemu-free.elf`) on its
+    /// own TIMER0, QEMU's clock following the host's (no `-icount`), paced in real time over
+    /// UART0 as a serial board ([`wheelset_targets::realtime`]), at [`QEMU_FREE_RATE_HZ`].
     QemuFree,
     /// A board on a serial port.
     Serial(String),

@@ -197,68 +197,61 @@ pub fn prepare(c: &Campaign) -> Result<Vec<(Point, Params)>, String> {
 #[must_use]
 pub fn failing(r: &RunReport) -> Vec<Failing> {
     let mut out = Vec::new();
+    let mut add = |check: String, verdict, reason| {
+        out.push(Failing {
+            check,
+            verdict,
+            reason,
+        });
+    };
     for c in r
         .timing
         .checks
         .iter()
         .filter(|c| c.verdict != Verdict::Pass)
     {
-        out.push(Failing {
-            check: format!("timing.{}", c.name),
-            verdict: c.verdict,
-            reason: format!(
-                "{:.4} above the {} limit {} (warn {}, fail {})",
-                c.value,
-                c.verdict,
-                c.limit.crossed(c.verdict),
-                c.limit.warn,
-                c.limit.fail
-            ),
-        });
+        let (v, l) = (c.verdict, c.limit);
+        let why = format!(
+            "{:.4} above the {v} limit {} (warn {}, fail {})",
+            c.value,
+            l.crossed(v),
+            l.warn,
+            l.fail
+        );
+        add(format!("timing.{}", c.name), v, why);
     }
     let n = &r.numerics;
+    let diverged = n.verdict.max(Verdict::Warn);
     if let Some(t) = n.run_diverged_at_s {
-        out.push(Failing {
-            check: "numerics.diverged".into(),
-            verdict: n.verdict.max(Verdict::Warn),
-            reason: format!("the closed loop diverged at {t:.3} s (run stopped)"),
-        });
+        let why = format!("the closed loop diverged at {t:.3} s (run stopped)");
+        add("numerics.diverged".into(), diverged, why);
     }
     if let Some(t) = n.reference_diverged_at_s {
-        out.push(Failing {
-            check: "numerics.reference_diverged".into(),
-            verdict: n.verdict.max(Verdict::Warn),
-            reason: format!("the f64 reference ({}) diverged at {t:.3} s", n.reference),
-        });
+        let why = format!("the f64 reference ({}) diverged at {t:.3} s", n.reference);
+        add("numerics.reference_diverged".into(), diverged, why);
     }
     for s in n.signals.iter().filter(|s| s.verdict != Verdict::Pass) {
-        out.push(Failing {
-            check: format!("numerics.{}", s.name),
-            verdict: s.verdict,
-            reason: format!(
-                "max error {:.3e} at {:.3} s against {} (allowed {:.3e})",
-                s.max_err, s.max_err_t_s, n.reference, s.allowed
-            ),
-        });
+        let why = format!(
+            "max error {:.3e} at {:.3} s against {} (allowed {:.3e})",
+            s.max_err, s.max_err_t_s, n.reference, s.allowed
+        );
+        add(format!("numerics.{}", s.name), s.verdict, why);
     }
     if r.frames_verdict != Verdict::Pass {
         let f = &r.frames;
-        out.push(Failing {
-            check: "frames".into(),
-            verdict: r.frames_verdict,
-            reason: format!(
-                "{}{}",
-                f.total(),
-                if f.adds_up { "" } else { " does not add up" }
-            ),
-        });
+        let adds_up = if f.adds_up { "" } else { " does not add up" };
+        add(
+            "frames".into(),
+            r.frames_verdict,
+            format!("{}{adds_up}", f.total()),
+        );
     }
     if r.monitor.verdict != Verdict::Pass {
-        out.push(Failing {
-            check: "monitor".into(),
-            verdict: r.monitor.verdict,
-            reason: r.monitor.reason.clone(),
-        });
+        add(
+            "monitor".into(),
+            r.monitor.verdict,
+            r.monitor.reason.clone(),
+        );
     }
     out
 }

@@ -127,10 +127,9 @@ impl<'a> Tube<'a> {
         }
     }
 
-    /// The signed error of each of the first `n` records of `run` in signal `name`: how
-    /// far above the tube's top (> 0) or below its bottom (< 0) within `tol.time_s`, 0
-    /// inside it, infinite where either side is not finite (a diverged run or reference:
-    /// never hidden by the NaN-ignoring min/max).
+    /// The signed error of the first `n` records of `run` in signal `name`: above the
+    /// tube's top (> 0) or below its bottom (< 0) within `tol.time_s`, 0 inside, infinite
+    /// where either side is not finite (never hidden by the NaN-ignoring min/max).
     fn errors(&self, run: &Trajectory, name: &str, tol: &Tolerance) -> Vec<f64> {
         let m = self.m;
         let nt = ((self.n.saturating_sub(1)) * m + 1).min(self.tube.records.len());

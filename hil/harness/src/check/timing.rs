@@ -89,8 +89,7 @@ pub struct TimingReport {
     /// ns per exec unit.
     pub exec_ns_per_unit: f64,
     /// Whether the device measured its execution time (`false` in process: the figures
-    /// below are then zeros, not a measurement; `exec_note` says where real ones come
-    /// from).
+    /// below are zeros, not a measurement; `exec_note` says where real ones come from).
     pub exec_measured: bool,
     /// What the execution-time figures are, or where to get them when not measured.
     pub exec_note: String,

@@ -214,10 +214,9 @@ pub const DEVICE_KEYS: &[&str] = &[
     "n_gear",
 ];
 
-/// A device outside this process has its gains compiled in: a Config frame carries the
-/// rates (with their coefficients), the law and the limits, not the gains. Parameters
-/// that change the gains ([`DEVICE_KEYS`]) are refused there, naming them, instead of
-/// running a device that does not follow them.
+/// A device outside this process has its gains compiled in (a Config frame carries the
+/// rates with their coefficients, the law and the limits, not the gains): parameters that
+/// change them ([`DEVICE_KEYS`]) are refused there, named, rather than not followed.
 pub fn remote_gains(p: &Params, target: &Target) -> Result<(), RunError> {
     let d = Params::default();
     let (given, default) = (p.entries(), d.entries());

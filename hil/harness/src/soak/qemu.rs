@@ -80,9 +80,8 @@ impl QemuSoak {
     }
 }
 
-/// The generated track of `minutes`: one minute repeated (10 s straight, a 10 s
-/// transition into R = 2300 m with 6 deg of cant, 20 s of curve, 10 s out, 10 s
-/// straight), no drive, RK4 at 0.1 ms, records every 10 ms.
+/// The generated track, per minute: 10 s straight, 10 s into R = 2300 m (6 deg of cant),
+/// 20 s of curve, 10 s out, 10 s straight; no drive, RK4 at 0.1 ms, records every 10 ms.
 #[must_use]
 pub fn track_toml(minutes: u32) -> String {
     let mut s = format!(

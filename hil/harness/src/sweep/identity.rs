@@ -45,9 +45,8 @@ pub fn file_sha256(path: &Path) -> Result<String, String> {
         .map_err(|e| format!("{}: cannot read: {e}", path.display()))
 }
 
-/// SHA-256 of the running executable: `/proc/self/exe` where there is one (the file
-/// this process runs even if its path was rebuilt meanwhile), else the path it was
-/// started from.
+/// SHA-256 of the running executable: `/proc/self/exe` where there is one (the file this
+/// process runs, even if its path was rebuilt since), else the path it was started from.
 pub fn exe_sha256() -> Result<String, String> {
     if let Ok(f) = std::fs::File::open("/proc/self/exe") {
         return sha256_of(f).map_err(|e| format!("/proc/self/exe: cannot read: {e}"));
