@@ -348,13 +348,10 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
         }
     };
     let progress = opts.progress.then(|| {
-        let pb = ProgressBar::new(sc.duration_ns / 1_000_000);
-        pb.set_style(
-            ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} ms simulated")
-                .unwrap_or_else(|_| ProgressStyle::default_bar()),
-        );
-        pb.set_message(format!("hil run {} {}", tr.name(), sc.name));
-        pb
+        let style = ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} ms simulated");
+        ProgressBar::new(sc.duration_ns / 1_000_000)
+            .with_style(style.unwrap_or_else(|_| ProgressStyle::default_bar()))
+            .with_message(format!("hil run {} {}", tr.name(), sc.name))
     });
     let ctx = TimingContext {
         clock: tr.clock(),

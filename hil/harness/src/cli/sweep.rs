@@ -234,15 +234,13 @@ pub(crate) fn cmd_sweep(c: &SweepCmd, command: &str) -> Result<Verdict, Failure>
         },
     };
     let bar = (!a.quiet && std::io::stderr().is_terminal()).then(|| {
-        let pb = indicatif::ProgressBar::new(0);
-        pb.set_style(
-            indicatif::ProgressStyle::with_template(
-                "{msg} [{bar:40}] {pos}/{len} points ({elapsed}, eta {eta})",
-            )
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        use indicatif::{ProgressBar, ProgressStyle};
+        let style = ProgressStyle::with_template(
+            "{msg} [{bar:40}] {pos}/{len} points ({elapsed}, eta {eta})",
         );
-        pb.set_message(format!("hil sweep {} on {jobs} threads", a.scenario));
-        pb
+        ProgressBar::new(0)
+            .with_style(style.unwrap_or_else(|_| ProgressStyle::default_bar()))
+            .with_message(format!("hil sweep {} on {jobs} threads", a.scenario))
     });
     let mut tick = |done: usize, total: usize| {
         if let Some(pb) = &bar {

@@ -652,11 +652,8 @@ impl Soak {
         let mut at = t + n as u64 * 2_000;
         let mut config_applied = None;
         if let Some((cfg, hz)) = self.config_pending {
-            if let Ok(f) = encode_vec(&Message::Config(cfg)) {
-                if self.send_up(at, &f) == Fate::Valid {
-                    config_applied = Some((cfg, hz));
-                }
-                at += f.len() as u64 * 2_000;
+            if self.send(&mut at, &Message::Config(cfg)) {
+                config_applied = Some((cfg, hz));
             }
         }
         let mut status_requested = false;
@@ -666,14 +663,14 @@ impl Soak {
                 self.report.statuses_lost += 1;
             }
             self.status_pending = true;
-            status_requested = self.command(&mut at, Command::RequestStatus);
+            status_requested = self.send(&mut at, &Message::Command(Command::RequestStatus));
         }
         let mut cleared = false;
         if self.acc.latched && t >= self.clear_next_ns && !matches!(self.act, ActState::Failed(_)) {
             // The host clears a latched fault once the actuator works (at most every
             // 10 ms: its view of the latch comes with the Actuation frames).
             self.clear_next_ns = t + 10_000_000;
-            cleared = self.command(&mut at, Command::ClearFaults);
+            cleared = self.send(&mut at, &Message::Command(Command::ClearFaults));
         }
         let tick_at = t + PHASE_NS;
         let mut out = [0u8; TX_CAPACITY];
@@ -685,14 +682,7 @@ impl Soak {
         let mut fresh_act: Option<Actuation> = None;
         let mut status: Option<Status> = None;
         let mut at = tick_at;
-        let mut rest: &mut [u8] = out;
-        while !rest.is_empty() {
-            let len = rest
-                .iter()
-                .position(|&b| b == 0)
-                .map_or(rest.len(), |i| i + 1);
-            let (frame, more) = rest.split_at_mut(len);
-            rest = more;
+        for frame in out.split_inclusive_mut(|&b| b == 0) {
             self.frames_out += 1;
             if let Defect::Corrupt { every } = self.opts.defect {
                 if self.frames_out.is_multiple_of(every) && frame.len() > 3 {
@@ -715,7 +705,7 @@ impl Soak {
                     "device -> host: a frame {fate:?} on a line without faults (the device sent it broken)"
                 ));
             }
-            at += len as u64 * 2_000;
+            at += frame.len() as u64 * 2_000;
         }
         if let Some(s) = status {
             self.status_pending = false;
@@ -743,9 +733,10 @@ impl Soak {
         self.period_ns = 1_000_000_000 / u64::from(hz.max(1));
     }
 
-    /// A Command after the Sensor frame; whether the device received it valid.
-    fn command(&mut self, at: &mut u64, c: Command) -> bool {
-        let Ok(f) = encode_vec(&Message::Command(c)) else {
+    /// A Config or Command after the Sensor frame, sent at `at` (advanced by its wire
+    /// time); whether the device received it valid.
+    fn send(&mut self, at: &mut u64, m: &Message) -> bool {
+        let Ok(f) = encode_vec(m) else {
             return false;
         };
         let fate = self.send_up(*at, &f);
