@@ -462,15 +462,8 @@ pub fn markdown(out: &RunOutcome, command: &str) -> String {
             "**The reference diverged at {t:.3} s** (no yardstick).\n"
         );
     }
-    let mut tb = Table::new([
-        "signal",
-        "max error",
-        "at t (s)",
-        "RMS error",
-        "reference peak",
-        "allowed",
-        "verdict",
-    ]);
+    let mut tb =
+        Table::new("signal,max error,at t (s),RMS error,reference peak,allowed,verdict".split(','));
     for c in &n.signals {
         tb.row([
             c.name.to_string(),
@@ -507,14 +500,7 @@ pub fn markdown(out: &RunOutcome, command: &str) -> String {
         }
     );
     let fr = &r.frames;
-    let mut tb = Table::new([
-        "direction",
-        "sent",
-        "received",
-        "rejected",
-        "dropped",
-        "in flight",
-    ]);
+    let mut tb = Table::new("direction,sent,received,rejected,dropped,in flight".split(','));
     for (name, d) in [
         ("host -> device", fr.up),
         ("device -> host", fr.down),

@@ -85,8 +85,7 @@ pub struct Failing {
 pub struct Record {
     /// Index in the grid.
     pub index: usize,
-    /// The point's parameters: every axis key, and the keys that follow one (a JSON
-    /// object in axis order).
+    /// The point's parameters: the axis keys, then their followers (a JSON object, in order).
     #[serde(with = "ordered")]
     pub params: Vec<(String, f64)>,
     /// The run's verdict (worst of timing, numerics, frames, monitor).

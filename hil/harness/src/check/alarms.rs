@@ -76,8 +76,7 @@ pub struct MonitorReport {
     pub sigma_per_s: Option<f64>,
     /// Frequency of that mode, Hz (0: a real mode, a drift).
     pub mode_hz: Option<f64>,
-    /// The growth rate the deadline is stated from, 1/s (`min(sigma_g, sigma_0)`, module
-    /// docs).
+    /// The growth rate the deadline is stated from, 1/s (module docs: `sigma`).
     pub deadline_sigma_per_s: Option<f64>,
     /// When the wheelset diverged (|y| > 50 mm; the run stops there), s.
     pub diverged_s: Option<f64>,

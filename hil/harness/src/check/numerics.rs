@@ -99,8 +99,7 @@ fn per_interval(run: &Trajectory, fine: &Trajectory, n: usize) -> Option<usize> 
     Some(m)
 }
 
-/// The tube a run is judged against: `tube`'s records, `m` of them per output interval
-/// of the run, over the first `n` records of the run.
+/// The tube a run is judged against: `m` of `tube`'s records per output interval, over `n`.
 struct Tube<'a> {
     tube: &'a Trajectory,
     m: usize,
@@ -109,8 +108,7 @@ struct Tube<'a> {
 }
 
 impl<'a> Tube<'a> {
-    /// The tube of `run` against `reference`, taken over `fine` where it aligns (module
-    /// docs).
+    /// The tube of `run` against `reference`, over `fine` where it aligns (module docs).
     fn of(run: &Trajectory, reference: &'a Trajectory, fine: Option<&'a Trajectory>) -> Self {
         let dt = interval(run);
         let n = run.records.len().min(reference.records.len());

@@ -1056,8 +1056,7 @@ impl Soak {
     }
 }
 
-/// The runtime's receive counters: valid (`rx_ok + rx_unexpected`), then the rejects
-/// by kind.
+/// The runtime's receive counters: valid (`rx_ok + rx_unexpected`), rejects by kind.
 fn rx_counts(s: &Status) -> [u32; 6] {
     [
         s.rx_ok.wrapping_add(s.rx_unexpected),

@@ -9,8 +9,7 @@ use wheelset_plant::params::Params;
 
 /// Largest number of values on one axis.
 pub const MAX_AXIS_POINTS: usize = 10_000;
-/// Largest number of grid points of a campaign (the records are kept in memory:
-/// about 1 KiB each).
+/// Largest grid of a campaign, points (its records, about 1 KiB each, stay in memory).
 pub const MAX_GRID_POINTS: usize = 100_000;
 
 /// A grid point's values: `(key, value)` in axis order, then the keys that follow one.
