@@ -4,9 +4,8 @@
 //! the reference `run_continuous` with the same scenario and law (with `[[adhesion]]`:
 //! the f64 control core, `wheelset_loop::core`). The parameters are
 //! [`RunOptions::params`] with the scenario's `[params]` on top; the device's
-//! configuration follows them ([`runtime_config_for`], as `sim-host run --loop device`).
-//! A device on another target has its gains compiled in: parameters that change them
-//! are refused there ([`remote_gains`]).
+//! configuration follows them ([`runtime_config_for`], as `sim-host run --loop device`;
+//! a device elsewhere refuses those that change its gains: [`remote_gains`]).
 
 use std::borrow::Cow;
 use std::fmt;
@@ -484,8 +483,7 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     frames.pre_run = start.map_or(0, |s| s.pre_run);
     let frames_verdict = crate::check::frames::judge(&frames, &opts.budgets.frames);
     let mon_params = wheelset_control::MonitorParams::default();
-    // The mean square for the figure: the device's monitor code replayed on the samples
-    // it received. The alarms: the device's own flags, as its Actuation frames carried them.
+    // The figure's mean square replayed; the alarms: the flags of the Actuation frames.
     let monitor_ms = crate::check::alarms::replay(&sensor_codes, period_ns, &rt, &mon_params)
         .unwrap_or_default();
     let flags = cl.rec.actuations.iter().map(|a| {

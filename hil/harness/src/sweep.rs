@@ -12,9 +12,8 @@
 //!
 //! `--shard I/N` runs the points with `i mod N = I` ([`shard`]: Slurm's and Kubernetes'
 //! array variables); [`merge`] joins the shards into the single run's document, byte for
-//! byte. Shard documents are written atomically ([`atomic`]) and carry the campaign's
-//! [`Identity`] (digests of the binary, the ELF and the input files), so the merge
-//! refuses a shard of another build or of edited inputs. The documents hold no timing.
+//! byte. Shard documents, written atomically ([`atomic`]), carry the campaign's [`Identity`]:
+//! the merge refuses a shard of another build or of edited inputs. They hold no timing.
 
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::mpsc;

@@ -1,8 +1,7 @@
-//! The `monitor` section of `hil run`: the device's alarms (the rising edges of
-//! `Flags::HUNTING`, `ACTUATOR_FAULT`, `DRIVE_OSC` in the Actuation frames received;
-//! `source = "device-flags"`) judged against the scenario (`docs/monitor.md` in the
-//! book). The mean square of the figure is the device's monitor code replayed on the `y'`
-//! codes it received ([`replay`]): the wire does not carry it.
+//! The `monitor` section of `hil run`: the device's alarms (rising edges of `HUNTING`,
+//! `ACTUATOR_FAULT`, `DRIVE_OSC` in the Actuation frames; `source = "device-flags"`)
+//! judged against the scenario (`docs/monitor.md`). The figure's mean square, which the
+//! wire does not carry, is the device's monitor code replayed on its `y'` codes ([`replay`]).
 //!
 //! **Yaw.** Without a plant fault no alarm is allowed (unless the plant hunts on its
 //! own: then one is due before the divergence). With an `[actuator_fault]` from `t_f`
@@ -262,8 +261,7 @@ pub fn judge(
     p: &MonitorParams,
     alarms: Vec<Alarm>,
 ) -> MonitorReport {
-    // The yaw alarms before the first drive alarm (after it, an oscillating drive
-    // shakes the wheelset: reported, not judged); the drive's are judge_drive's.
+    // The yaw alarms judged: those before the first drive alarm (module docs, "The drive").
     let cut = alarms
         .iter()
         .find(|a| a.kind == "drive")
@@ -297,8 +295,7 @@ pub fn judge(
     // The passive law commands no torque: its actuator's fault changes nothing.
     let fault = sc.actuator_fault.filter(|_| law != YawLaw::Passive);
     let Some(f) = fault else {
-        // A plant that hunts on its own (passive control above its critical conicity):
-        // an alarm is due before the run diverges, and none is false.
+        // A plant that hunts on its own (passive control above its critical conicity).
         if let Some(d) = diverged {
             r.expect = "alarm";
             r.deadline_s = Some(d);

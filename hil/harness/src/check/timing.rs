@@ -222,8 +222,6 @@ pub fn analyse(
                 a.at_ns as f64 - wire_ns(a.wire_bytes, ctx.baud) as f64 - ctx.latency_ns as f64;
             ticks.push((j as f64, out));
         }
-        // The ideal schedule's phase is the earliest output: deviations are lateness >= 0,
-        // and their maximum is the peak-to-peak jitter.
         let t0 = ticks
             .iter()
             .map(|&(j, o)| o - j * t)

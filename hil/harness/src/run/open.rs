@@ -159,8 +159,6 @@ pub(super) fn run_rate(opts: &RunOptions, default_hz: u32) -> Result<u32, RunErr
     }
     let lockstep = matches!(opts.target, Target::Qemu | Target::QemuAt(_))
         || (matches!(opts.target, Target::Serial(_)) && opts.pace == Pace::LockStep);
-    // Lock-step: the host's frames are the device's clock, so the link need not carry
-    // an exchange per period of wall time (the run just takes longer).
     if !lockstep {
         let baud = if opts.target == Target::QemuFree {
             QEMU_FREE_BAUD
