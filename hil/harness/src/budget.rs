@@ -11,6 +11,7 @@ use std::fmt;
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
+use wheelset_plant::error::ConfigError;
 use wheelset_report::Verdict;
 
 /// A two-level limit: `value > warn` warns, `value > fail` fails.
@@ -116,9 +117,8 @@ impl Default for Tolerance {
 }
 
 /// The signals compared with the reference (CSV column names) and their default
-/// tolerances: at least twice the measured error of the fixed-point device at 5 kHz with
-/// one period of delay, lead law, on `curve` (README, "The harness (hil)"), so the
-/// margin is known and a wrong sign or an unstable loop is far outside.
+/// tolerances: twice the fixed-point device's error or more (5 kHz, one tick of delay, lead
+/// law, `curve`; README, "The harness (hil)"): a wrong sign or an unstable loop is far out.
 pub fn default_tolerances() -> BTreeMap<String, Tolerance> {
     let t = |abs: f64, rel: f64, time_s: f64| Tolerance {
         abs,
@@ -192,6 +192,15 @@ pub struct BudgetError {
     pub reason: String,
 }
 
+impl BudgetError {
+    fn new(source: impl Into<String>, reason: impl fmt::Display) -> Self {
+        Self {
+            source: source.into(),
+            reason: reason.to_string(),
+        }
+    }
+}
+
 impl fmt::Display for BudgetError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "{}: {}", self.source, self.reason)
@@ -215,58 +224,41 @@ impl Budgets {
     /// The defaults, then `file`, then each `KEY=VALUE` of `sets` (TOML dotted keys and
     /// values, e.g. `timing.cpu_max.fail=0.5`, `numerics.y_m.rel=0.1`).
     pub fn load(file: Option<&Path>, sets: &[String]) -> Result<Self, BudgetError> {
-        let defaults = toml::Table::try_from(Budgets::default()).map_err(|e| BudgetError {
-            source: "defaults".into(),
-            reason: e.to_string(),
-        })?;
-        let mut table = defaults;
+        let mut table = toml::Table::try_from(Budgets::default())
+            .map_err(|e| BudgetError::new("defaults", e))?;
         let mut last = "defaults".to_string();
         if let Some(path) = file {
             let src = path.display().to_string();
-            let text = wheelset_plant::input::read_input(path).map_err(|e| BudgetError {
-                source: src.clone(),
-                reason: match e {
-                    wheelset_plant::error::ConfigError::Io { reason, .. } => {
-                        format!("cannot read: {reason}")
+            let text = wheelset_plant::input::read_input(path).map_err(|e| {
+                let reason = match e {
+                    ConfigError::Io { reason, .. } => format!("cannot read: {reason}"),
+                    e => e.to_string(),
+                };
+                BudgetError::new(&src, reason)
+            })?;
+            // Typed from the text itself first: an error names the key and line as written.
+            if let Err(e) = toml::from_str::<Budgets>(&text) {
+                let reason = match wheelset_plant::error::from_toml(&src, &text, &e) {
+                    ConfigError::Parse {
+                        key, line, reason, ..
+                    } => {
+                        let line = line.map_or(String::new(), |l| format!("line {l}: "));
+                        let key = key.map_or(String::new(), |k| format!("key `{k}`: "));
+                        format!("{line}{key}{reason}")
                     }
                     e => e.to_string(),
-                },
-            })?;
-            // Typed once from the text itself, so an error names the key and the line
-            // as written in the file.
-            if let Err(e) = toml::from_str::<Budgets>(&text) {
-                let e = wheelset_plant::error::from_toml(&src, &text, &e);
-                return Err(BudgetError {
-                    source: src,
-                    reason: match e {
-                        wheelset_plant::error::ConfigError::Parse {
-                            key, line, reason, ..
-                        } => {
-                            let mut r = String::new();
-                            if let Some(l) = line {
-                                r += &format!("line {l}: ");
-                            }
-                            if let Some(k) = key {
-                                r += &format!("key `{k}`: ");
-                            }
-                            r + &reason
-                        }
-                        e => e.to_string(),
-                    },
-                });
+                };
+                return Err(BudgetError::new(src, reason));
             }
             Self::layer(&mut table, &text, &src)?;
             last = src;
         }
-        // Each `--set` parsed and typed alone (an error names it); the limits validated once, on
-        // the result, so a `warn`/`fail` pair may come in either order.
+        // Each `--set` typed alone (an error names it), the limits validated on the result
+        // (a `warn`/`fail` pair may come in either order).
         for s in sets {
             let src = format!("--set {s}");
             if !s.contains('=') {
-                return Err(BudgetError {
-                    source: src,
-                    reason: "expected KEY=VALUE".into(),
-                });
+                return Err(BudgetError::new(src, "expected KEY=VALUE"));
             }
             Self::layer(&mut table, s, &src)?;
         }
@@ -278,27 +270,22 @@ impl Budgets {
             };
         }
         let b = Self::typed(table, &last)?;
-        b.validate().map_err(|reason| BudgetError {
-            source: last,
-            reason,
-        })?;
+        b.validate()
+            .map_err(|reason| BudgetError::new(last, reason))?;
         Ok(b)
     }
 
     fn layer(table: &mut toml::Table, text: &str, src: &str) -> Result<(), BudgetError> {
-        let t: toml::Table = text.parse().map_err(|e: toml::de::Error| BudgetError {
-            source: src.to_string(),
-            reason: e.message().to_string(),
-        })?;
+        let t: toml::Table = text
+            .parse()
+            .map_err(|e: toml::de::Error| BudgetError::new(src, e.message()))?;
         merge(table, t);
         Self::typed(table.clone(), src).map(|_| ())
     }
 
     fn typed(t: toml::Table, src: &str) -> Result<Self, BudgetError> {
-        t.try_into().map_err(|e: toml::de::Error| BudgetError {
-            source: src.to_string(),
-            reason: e.message().to_string(),
-        })
+        t.try_into()
+            .map_err(|e: toml::de::Error| BudgetError::new(src, e.message()))
     }
 
     /// Refuses unknown signals, negative or NaN limits, and `warn > fail`.

@@ -10,6 +10,7 @@ use std::path::{Path, PathBuf};
 use wheelset_plant::sim::{Record, Trajectory};
 use wheelset_report::svg::{Figure, Plot, Series, Style};
 
+use crate::check::numerics::column;
 use crate::run::{RunOutcome, RunReport};
 use crate::sweep::document::value_label;
 
@@ -40,28 +41,18 @@ fn series(tr: &Trajectory, label: &str, f: impl Fn(&Record) -> f64) -> Series {
     Series::line(label, tr.records.iter().map(|r| (r.t_s, f(r))).collect())
 }
 
-/// The plotted signals: (title, unit label, scale, CSV column judged by the numerics,
-/// accessor).
-type Signal = (
-    &'static str,
-    &'static str,
-    f64,
-    &'static str,
-    fn(&Record) -> f64,
-);
-
-const SIGNALS: [Signal; 5] = [
-    ("Lateral displacement y", "y (mm)", 1e3, "y_m", |r| r.y_m),
-    ("Yaw angle psi", "psi (mrad)", 1e3, "psi_rad", |r| r.psi_rad),
+/// The plotted signals: title, unit label, scale, CSV column (the numerics' name).
+const SIGNALS: [(&str, &str, f64, &str); 5] = [
+    ("Lateral displacement y", "y (mm)", 1e3, "y_m"),
+    ("Yaw angle psi", "psi (mrad)", 1e3, "psi_rad"),
     (
         "Control yaw torque T_ctrl",
         "T_ctrl (kN m)",
         1e-3,
         "T_ctrl_Nm",
-        |r| r.t_ctrl_nm,
     ),
-    ("Armature current i_a", "i_a (A)", 1.0, "i_a_A", |r| r.i_a_a),
-    ("Armature voltage u_a", "u_a (V)", 1.0, "u_a_V", |r| r.u_a_v),
+    ("Armature current i_a", "i_a (A)", 1.0, "i_a_A"),
+    ("Armature voltage u_a", "u_a (V)", 1.0, "u_a_V"),
 ];
 
 /// Colours of the marks: limits that pass, limits that fail, events.
@@ -86,32 +77,26 @@ fn trajectories(out: &RunOutcome) -> Figure {
         "{} on {}: device vs f64 reference, and the error judged{stopped}",
         r.scenario, r.target
     ));
-    let reference = |f: fn(&Record) -> f64, k: f64| {
-        Series::line(
-            "reference",
-            out.reference
-                .records
-                .iter()
-                .filter(|x| x.t_s <= end)
-                .map(|x| (x.t_s, f(x) * k))
-                .collect(),
-        )
-        .style(Style::Dashed)
+    // Column `col` of `tr` times `k`, up to the device's end.
+    let line = |tr: &Trajectory, label: &str, col: &str, k: f64| {
+        let at = |x: &Record| column(x, col).unwrap_or(f64::NAN) * k;
+        let pts = tr.records.iter().filter(|x| x.t_s <= end);
+        Series::line(label, pts.map(|x| (x.t_s, at(x))).collect())
     };
-    for (title, unit, k, column, f) in SIGNALS {
+    for (title, unit, k, col) in SIGNALS {
         let mut p = Plot::new(title)
             .x_label("t (s)")
             .y_label(unit)
             .size(860.0, 260.0)
             .x_range(0.0, end)
-            .series(series(&out.trajectory, "device", |x| f(x) * k))
-            .series(reference(f, k));
+            .series(line(&out.trajectory, "device", col, k))
+            .series(line(&out.reference, "reference", col, k).style(Style::Dashed));
         if let Some(t) = fault {
             p = p.vmark(t, "plant fault", EVENT_COLOUR);
         }
         fig = fig.panel(p);
-        let check = r.numerics.signals.iter().find(|c| c.name == column);
-        let errors = out.numerics_errors.iter().find(|(n, _)| n == column);
+        let check = r.numerics.signals.iter().find(|c| c.name == col);
+        let errors = out.numerics_errors.iter().find(|(n, _)| n == col);
         let (Some(c), Some((_, e))) = (check, errors) else {
             continue;
         };
@@ -133,19 +118,14 @@ fn trajectories(out: &RunOutcome) -> Figure {
         .y_label(&format!("error ({unit_only})"))
         .size(860.0, 190.0)
         .x_range(0.0, end)
-        .series(Series::line("judged error", pts).color("#0072B2"))
-        .hmark(
-            allowed,
-            &format!("allowed ±{} {unit_only}", value_label(allowed)),
-            PASS_COLOUR,
-        )
-        .hmark(-allowed, "", PASS_COLOUR)
-        .hmark(
-            fail,
-            &format!("fail above ±{} {unit_only}", value_label(fail)),
-            FAIL_COLOUR,
-        )
-        .hmark(-fail, "", FAIL_COLOUR);
+        .series(Series::line("judged error", pts).color("#0072B2"));
+        for (v, what, colour) in [
+            (allowed, "allowed", PASS_COLOUR),
+            (fail, "fail above", FAIL_COLOUR),
+        ] {
+            let label = format!("{what} ±{} {unit_only}", value_label(v));
+            p = p.hmark(v, &label, colour).hmark(-v, "", colour);
+        }
         if let Some(t) = fault {
             p = p.vmark(t, "judged up to the fault", EVENT_COLOUR);
         }
@@ -164,31 +144,20 @@ fn monitor(out: &RunOutcome) -> Figure {
     let thr = mp.threshold_m_s * 1e3;
     let rel = thr * mp.release;
     let ms: Vec<(f64, f64)> = out.monitor_ms.iter().map(|&(t, v)| (t, v * 1e6)).collect();
-    // Each event: its time, its name, its name with the time (the zoom's), its colour.
+    // Each event: its time, its name, its long name with the time (the zoom's), its colour.
     let mut events: Vec<(f64, String, String, &str)> = Vec::new();
+    let mut event = |t: f64, name: String, long: &str, colour| {
+        events.push((t, name, format!("{long} {t:.3} s"), colour));
+    };
     if let Some(t) = m.fault_s {
-        events.push((
-            t,
-            "fault".into(),
-            format!("plant fault {t:.3} s"),
-            EVENT_COLOUR,
-        ));
+        event(t, "fault".into(), "plant fault", EVENT_COLOUR);
     }
     for a in &m.alarms {
-        events.push((
-            a.t_s,
-            format!("{} alarm", a.kind),
-            format!("{} alarm {:.3} s", a.kind, a.t_s),
-            FAIL_COLOUR,
-        ));
+        let name = format!("{} alarm", a.kind);
+        event(a.t_s, name.clone(), &name, FAIL_COLOUR);
     }
     if let (Some(d), "alarm") = (m.deadline_s, m.expect) {
-        events.push((
-            d,
-            "deadline".into(),
-            format!("deadline {d:.3} s"),
-            "#777777",
-        ));
+        event(d, "deadline".into(), "deadline", "#777777");
     }
     let end = out.trajectory.records.last().map_or(1.0, |x| x.t_s);
     let peak = ms.iter().map(|p| p.1).fold(thr * thr, f64::max);
@@ -297,17 +266,13 @@ fn exec_histogram(r: &RunReport) -> Figure {
             EVENT_COLOUR,
         );
         if let Some(c) = cpu {
-            p = p
-                .vmark(
-                    c.limit.warn * period_us,
-                    &format!("CPU warn {:.0} % of T", c.limit.warn * 100.0),
-                    "#E69F00",
-                )
-                .vmark(
-                    c.limit.fail * period_us,
-                    &format!("CPU fail {:.0} % of T", c.limit.fail * 100.0),
-                    FAIL_COLOUR,
-                );
+            for (what, f, colour) in [
+                ("warn", c.limit.warn, "#E69F00"),
+                ("fail", c.limit.fail, FAIL_COLOUR),
+            ] {
+                let label = format!("CPU {what} {:.0} % of T", f * 100.0);
+                p = p.vmark(f * period_us, &label, colour);
+            }
         }
         p
     };
@@ -415,73 +380,48 @@ fn f(x: f64) -> String {
 pub fn markdown(out: &RunOutcome, command: &str) -> String {
     let r = &out.report;
     let t = &r.timing;
-    let mut s = String::new();
-    let _ = writeln!(
-        s,
-        "# HIL run: {} on {} ({})\n",
-        r.scenario, r.target, r.verdict
-    );
-    let _ = writeln!(s, "Reproduce: `{command}`\n");
     let mut tb = Table::new(["", ""]);
-    tb.row(["verdict".to_string(), format!("**{}**", r.verdict)])
-        .row([
-            "target".to_string(),
-            format!("{} ({} clock)", r.target, t.clock),
-        ])
-        .row([
-            "scenario".to_string(),
+    let faults = if r.faults.is_empty() {
+        "none"
+    } else {
+        &r.faults
+    };
+    for (k, v) in [
+        ("verdict", format!("**{}**", r.verdict)),
+        ("target", format!("{} ({} clock)", r.target, t.clock)),
+        (
+            "scenario",
             format!("{} ({})", r.scenario, r.scenario_source),
-        ])
-        .row(["control".to_string(), r.control.words().to_string()])
-        .row([
-            "link faults".to_string(),
-            if r.faults.is_empty() {
-                "none".to_string()
-            } else {
-                r.faults.clone()
-            },
-        ])
-        .row(["device fault".to_string(), r.device_fault.to_string()]);
-    let _ = writeln!(s, "{tb}");
-    let _ = writeln!(s, "## Timing ({})\n", t.verdict);
-    let _ = writeln!(
-        s,
-        "Period T = {} ns, {} periods, {} baud.\n",
-        t.period_ns, t.periods, t.baud
+        ),
+        ("control", crate::run::law_words(r.control).to_string()),
+        ("link faults", faults.to_string()),
+        ("device fault", r.device_fault.to_string()),
+    ] {
+        tb.row([k.to_string(), v]);
+    }
+    let mut s = format!(
+        "# HIL run: {} on {} ({})\n\nReproduce: `{command}`\n\n{tb}\n## Timing ({})\n\n\
+         Period T = {} ns, {} periods, {} baud.\n\n",
+        r.scenario, r.target, r.verdict, t.verdict, t.period_ns, t.periods, t.baud
     );
     if !t.exec_measured {
         let _ = writeln!(s, "Execution time {}.\n", t.exec_note);
     }
     let shown = t.exec_measured || t.exec_units.max > 0.0;
-    let cell = |v: f64| {
-        if shown {
-            f(v)
-        } else {
-            "not measured".to_string()
-        }
-    };
+    let e = &t.exec_units;
+    let exec =
+        [e.min, e.mean, e.p99, e.max].map(|v| if shown { f(v) } else { "not measured".into() });
+    let l = &t.latency_ns;
+    let modelled = if t.latency_modelled { ", modelled" } else { "" };
     let mut tb = Table::new(["figure", "min", "mean", "p99", "max"]);
-    tb.row([
-        format!("execution time ({})", t.exec_unit),
-        cell(t.exec_units.min),
-        cell(t.exec_units.mean),
-        cell(t.exec_units.p99),
-        cell(t.exec_units.max),
-    ])
-    .row([
-        format!(
-            "latency (ns{})",
-            if t.latency_modelled { ", modelled" } else { "" }
-        ),
-        f(t.latency_ns.min),
-        f(t.latency_ns.mean),
-        f(t.latency_ns.p99),
-        f(t.latency_ns.max),
-    ]);
-    let _ = writeln!(s, "{tb}");
+    tb.row(std::iter::once(format!("execution time ({})", t.exec_unit)).chain(exec))
+        .row(
+            std::iter::once(format!("latency (ns{modelled})"))
+                .chain([l.min, l.mean, l.p99, l.max].map(f)),
+        );
     let _ = writeln!(
         s,
-        "Jitter max {} ns (RMS {} ns); missed ticks {}; device tick gaps {}; overruns {}; \
+        "{tb}\nJitter max {} ns (RMS {} ns); missed ticks {}; device tick gaps {}; overruns {}; \
          CPU mean {:.3} % / max {:.3} %; link {:.1} % ({:.1} + {:.1} bytes per period).\n",
         t.jitter_max_ns.map_or("n/a".into(), f),
         t.jitter_rms_ns.map_or("n/a".into(), f),
@@ -504,12 +444,10 @@ pub fn markdown(out: &RunOutcome, command: &str) -> String {
             format!("{}{}", c.verdict, if c.applicable { "" } else { " (n/a)" }),
         ]);
     }
-    let _ = write!(s, "{tb}");
-    let _ = writeln!(s, "\n![execution time](exec_histogram.svg)\n");
     let n = &r.numerics;
     let _ = writeln!(
         s,
-        "## Numerics ({})\n\nAgainst the {}.\n",
+        "{tb}\n![execution time](exec_histogram.svg)\n\n## Numerics ({})\n\nAgainst the {}.\n",
         n.verdict, n.reference
     );
     if let Some(t) = n.run_diverged_at_s {
@@ -524,15 +462,8 @@ pub fn markdown(out: &RunOutcome, command: &str) -> String {
             "**The reference diverged at {t:.3} s** (no yardstick).\n"
         );
     }
-    let mut tb = Table::new([
-        "signal",
-        "max error",
-        "at t (s)",
-        "RMS error",
-        "reference peak",
-        "allowed",
-        "verdict",
-    ]);
+    let mut tb =
+        Table::new("signal,max error,at t (s),RMS error,reference peak,allowed,verdict".split(','));
     for c in &n.signals {
         tb.row([
             c.name.to_string(),
@@ -544,22 +475,22 @@ pub fn markdown(out: &RunOutcome, command: &str) -> String {
             c.verdict.to_string(),
         ]);
     }
-    let _ = write!(s, "{tb}");
-    let _ = writeln!(s, "\n![trajectories](trajectories.svg)\n");
     let m = &r.monitor;
-    let _ = writeln!(s, "## Stability monitor ({})\n", m.verdict);
+    let alarms: Vec<String> = m
+        .alarms
+        .iter()
+        .map(|a| format!("{} at {:.3} s", a.kind, a.t_s))
+        .collect();
     let _ = writeln!(
         s,
-        "Alarms ({}): {}. Expected: {}.{}\n",
+        "{tb}\n![trajectories](trajectories.svg)\n\n## Stability monitor ({})\n\n\
+         Alarms ({}): {}. Expected: {}.{}\n\n![stability monitor](monitor.svg)\n",
+        m.verdict,
         m.source,
-        if m.alarms.is_empty() {
+        if alarms.is_empty() {
             "none".to_string()
         } else {
-            m.alarms
-                .iter()
-                .map(|a| format!("{} at {:.3} s", a.kind, a.t_s))
-                .collect::<Vec<_>>()
-                .join(", ")
+            alarms.join(", ")
         },
         m.expectation(),
         if m.reason.is_empty() {
@@ -568,40 +499,20 @@ pub fn markdown(out: &RunOutcome, command: &str) -> String {
             format!(" **{}**.", m.reason)
         }
     );
-    let _ = writeln!(s, "![stability monitor](monitor.svg)\n");
     let fr = &r.frames;
-    let _ = writeln!(
+    let mut tb = Table::new("direction,sent,received,rejected,dropped,in flight".split(','));
+    for (name, d) in [
+        ("host -> device", fr.up),
+        ("device -> host", fr.down),
+        ("total", fr.total()),
+    ] {
+        tb.row(std::iter::once(name.to_string()).chain(d.counts().map(|v| v.to_string())));
+    }
+    let _ = write!(
         s,
-        "## Frames ({}; source: {})\n",
+        "## Frames ({}; source: {})\n\n{tb}",
         r.frames_verdict, fr.source
     );
-    let mut tb = Table::new([
-        "direction",
-        "sent",
-        "received",
-        "rejected",
-        "dropped",
-        "in flight",
-    ]);
-    for (name, d) in [("host -> device", fr.up), ("device -> host", fr.down)] {
-        tb.row([
-            name.to_string(),
-            d.sent.to_string(),
-            d.received.to_string(),
-            d.rejected.to_string(),
-            d.dropped.to_string(),
-            d.in_flight.to_string(),
-        ]);
-    }
-    tb.row([
-        "total".to_string(),
-        fr.sent.to_string(),
-        fr.received.to_string(),
-        fr.rejected.to_string(),
-        fr.dropped.to_string(),
-        fr.in_flight.to_string(),
-    ]);
-    let _ = write!(s, "{tb}");
     if r.device_resets > 0 {
         let _ = writeln!(
             s,

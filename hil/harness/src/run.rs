@@ -4,19 +4,17 @@
 //! the reference `run_continuous` with the same scenario and law (with `[[adhesion]]`:
 //! the f64 control core, `wheelset_loop::core`). The parameters are
 //! [`RunOptions::params`] with the scenario's `[params]` on top; the device's
-//! configuration follows them ([`runtime_config_for`], as `sim-host run --loop device`).
-//! A device on another target has its gains compiled in: parameters that change them
-//! are refused there ([`remote_gains`]).
+//! configuration follows them ([`runtime_config_for`], as `sim-host run --loop device`;
+//! a device elsewhere refuses those that change its gains: [`remote_gains`]).
 
 use std::borrow::Cow;
 use std::fmt;
 use std::time::Duration;
 
 use indicatif::{ProgressBar, ProgressStyle};
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 use wheelset_loop::device_loop::{runtime_config, DeviceOptions};
 use wheelset_loop::sim_link::LinkConfig;
-use wheelset_plant::control::YawLaw;
 use wheelset_plant::params::Params;
 use wheelset_plant::scenario::Scenario;
 use wheelset_plant::sim::Trajectory;
@@ -31,7 +29,7 @@ use wheelset_loop::exchange::{close_loop, LoopSetup};
 use wheelset_loop::inproc::DeviceFault;
 use wheelset_loop::transport::{Transport, TransportError};
 use wheelset_report::Verdict;
-use wheelset_targets::realtime::os::Want;
+use wheelset_targets::realtime::os::{self, Want};
 use wheelset_targets::realtime::RealTime;
 use wheelset_targets::serial::Pace;
 
@@ -58,10 +56,9 @@ pub enum Target {
     /// `127.0.0.1:PORT` (`qemu:PORT`; `cargo xtask qemu-cmd ELF --tcp PORT` prints the
     /// command line), lock-step. The harness connects and leaves QEMU running.
     QemuAt(u16),
-    /// The free-running firmware under QEMU (`qemu-free`): `wheelset-qemu-free.elf`,
-    /// ticking on its own TIMER0 with QEMU's clock following the host's (no
-    /// `-icount`), paced in real time over UART0's TCP chardev as a board on a serial
-    /// port is ([`wheelset_targets::realtime`]). Default rate [`QEMU_FREE_RATE_HZ`].
+    /// The free-running firmware under QEMU (`qemu-free`, `wheelset-qemu-free.elf`) on its
+    /// own TIMER0, QEMU's clock following the host's (no `-icount`), paced in real time over
+    /// UART0 as a serial board ([`wheelset_targets::realtime`]), at [`QEMU_FREE_RATE_HZ`].
     QemuFree,
     /// A board on a serial port.
     Serial(String),
@@ -84,24 +81,18 @@ impl std::str::FromStr for Target {
             "inproc" => Ok(Self::InProc),
             "qemu" => Ok(Self::Qemu),
             "qemu-free" => Ok(Self::QemuFree),
-            _ => {
-                if let Some(port) = s.strip_prefix("qemu:") {
-                    return port
-                        .parse::<u16>()
-                        .ok()
-                        .filter(|&p| p > 0)
-                        .map(Self::QemuAt)
-                        .ok_or_else(|| {
-                            format!("target `{s}`: `{port}` is not a TCP port (1-65535)")
-                        });
-                }
-                match s.strip_prefix("serial:") {
-                    Some(p) if !p.is_empty() => Ok(Self::Serial(p.to_string())),
-                    _ => Err(format!(
-                        "unknown target `{s}` (expected inproc, qemu, qemu:PORT, qemu-free or serial:PATH)"
-                    )),
-                }
-            }
+            _ => match (s.strip_prefix("qemu:"), s.strip_prefix("serial:")) {
+                (Some(port), _) => port
+                    .parse::<u16>()
+                    .ok()
+                    .filter(|&p| p > 0)
+                    .map(Self::QemuAt)
+                    .ok_or_else(|| format!("target `{s}`: `{port}` is not a TCP port (1-65535)")),
+                (_, Some(p)) if !p.is_empty() => Ok(Self::Serial(p.to_string())),
+                _ => Err(format!(
+                    "unknown target `{s}` (expected inproc, qemu, qemu:PORT, qemu-free or serial:PATH)"
+                )),
+            },
         }
     }
 }
@@ -119,36 +110,15 @@ impl fmt::Display for Target {
 }
 
 /// The yaw law of the device (and of the reference).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Law {
-    /// The passive yaw spring in the plant; the device commands no yaw torque.
-    Passive,
-    /// `T_psi = K y'`.
-    Gain,
-    /// `T_psi = Ks(s) y'`.
-    Lead,
-}
+pub use wheelset_plant::control::YawLaw as Law;
 
-impl Law {
-    /// The law in an engineer's words: `phase lead`, `pure gain`, `passive yaw spring`.
-    #[must_use]
-    pub fn words(self) -> &'static str {
-        match self {
-            Self::Passive => "passive yaw spring",
-            Self::Gain => "pure gain",
-            Self::Lead => "phase lead",
-        }
-    }
-
-    /// The plant's yaw law.
-    #[must_use]
-    pub fn yaw(self) -> YawLaw {
-        match self {
-            Self::Passive => YawLaw::Passive,
-            Self::Gain => YawLaw::Gain,
-            Self::Lead => YawLaw::Lead,
-        }
+/// The law in an engineer's words: `phase lead`, `pure gain`, `passive yaw spring`.
+#[must_use]
+pub fn law_words(law: Law) -> &'static str {
+    match law {
+        Law::Passive => "passive yaw spring",
+        Law::Gain => "pure gain",
+        Law::Lead => "phase lead",
     }
 }
 
@@ -231,11 +201,7 @@ impl Default for RunOptions {
             progress: false,
             rate_hz: None,
             delay_ticks: 1,
-            realtime: Want::all(
-                wheelset_targets::realtime::os::allowed_cpus()
-                    .last()
-                    .copied(),
-            ),
+            realtime: Want::all(os::allowed_cpus().last().copied()),
             params: Params::default(),
             wsp: None,
             monitor_safe: false,
@@ -333,7 +299,7 @@ pub struct RunOutcome {
 /// (`wheelset_loop::device_loop::runtime_config`, as `sim-host run --loop device`).
 #[must_use]
 pub fn runtime_config_for(sc: &Scenario, law: Law) -> RuntimeConfig {
-    runtime_config(sc, law.yaw(), &DeviceOptions::default())
+    runtime_config(sc, law, &DeviceOptions::default())
 }
 
 /// Runs the closed loop and the checks.
@@ -372,23 +338,19 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
         _ => None,
     };
     let is_lockstep_remote = realtime.is_none() && opts.target != Target::InProc;
-    let mut other = match realtime {
-        Some(_) => None,
-        None => Some(open_transport(opts, rt)?),
-    };
-    let tr: &mut dyn Transport = match (realtime.as_mut(), other.as_mut()) {
-        (Some(r), _) => r,
-        (None, Some(b)) => b.as_mut(),
-        (None, None) => return Err(RunError::Input("no transport".into())),
+    let mut other: Box<dyn Transport>;
+    let tr: &mut dyn Transport = match realtime.as_mut() {
+        Some(r) => r,
+        None => {
+            other = open_transport(opts, rt)?;
+            other.as_mut()
+        }
     };
     let progress = opts.progress.then(|| {
-        let pb = ProgressBar::new(sc.duration_ns / 1_000_000);
-        pb.set_style(
-            ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} ms simulated")
-                .unwrap_or_else(|_| ProgressStyle::default_bar()),
-        );
-        pb.set_message(format!("hil run {} {}", tr.name(), sc.name));
-        pb
+        let style = ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} ms simulated");
+        ProgressBar::new(sc.duration_ns / 1_000_000)
+            .with_style(style.unwrap_or_else(|_| ProgressStyle::default_bar()))
+            .with_message(format!("hil run {} {}", tr.name(), sc.name))
     });
     let ctx = TimingContext {
         clock: tr.clock(),
@@ -405,11 +367,10 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
         exec_measured: opts.target != Target::InProc,
     };
     let target_name = tr.name();
-    let label = format!("{} on {}", law_name(opts.control), target_name);
+    let label = format!("{} on {}", opts.control.name(), target_name);
     let wsp = opts.wsp_on();
-    // A lock-step device gets the Config frame as the run's first (the in-process and
-    // free-running ones were configured before); at another rate or delay than the
-    // firmware's own it carries the design's rates and coefficients.
+    // A lock-step device gets the Config as the run's first frame (the others were
+    // configured before), with the design's rates at another rate or delay than its own.
     let default = runtime_config_for(&sc, opts.control).control;
     let other_point = rt.control.base_rate_hz != default.base_rate_hz
         || rt.control.delay_ticks != default.delay_ticks;
@@ -451,7 +412,7 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
         tr,
         LoopSetup {
             period_ns,
-            yaw_spring: opts.control.yaw().has_spring(),
+            yaw_spring: opts.control.has_spring(),
             progress,
             label: &label,
             config: lockstep_config,
@@ -463,8 +424,8 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
         },
     )
     .map_err(|e| RunError::Input(format!("scenario {}: {e}", sc.source)))?;
-    // The loop is over: back to the normal scheduler for the analysis.
-    wheelset_targets::realtime::os::release();
+    // Back to the normal scheduler for the analysis.
+    os::release();
     if let Some(e) = cl.rec.error.take() {
         return Err(RunError::Target(e));
     }
@@ -481,7 +442,7 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     }
     // At another rate or delay the yardstick is the f64 core with the gains designed for it.
     let designed = other_point.then_some(&rt.control);
-    let (reference, fine) = reference::make(&sc, opts.control.yaw(), wsp, period_ns, designed)?;
+    let (reference, fine) = reference::make(&sc, opts.control, wsp, period_ns, designed)?;
     let timing = analyse(
         &ctx,
         &cl.rec.periods,
@@ -522,9 +483,8 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     frames.pre_run = start.map_or(0, |s| s.pre_run);
     let frames_verdict = crate::check::frames::judge(&frames, &opts.budgets.frames);
     let mon_params = wheelset_control::MonitorParams::default();
-    // The mean square for the figure: the device's monitor code replayed on the samples
-    // it received. The alarms: the device's own flags, as its Actuation frames carried them.
-    let (_, monitor_ms) = crate::check::alarms::replay(&sensor_codes, period_ns, &rt, &mon_params)
+    // The figure's mean square replayed; the alarms: the flags of the Actuation frames.
+    let monitor_ms = crate::check::alarms::replay(&sensor_codes, period_ns, &rt, &mon_params)
         .unwrap_or_default();
     let flags = cl.rec.actuations.iter().map(|a| {
         (
@@ -536,7 +496,7 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     });
     let mut monitor = crate::check::alarms::judge(
         &sc,
-        opts.control.yaw(),
+        opts.control,
         &trajectory,
         &mon_params,
         crate::check::alarms::alarms(flags),
@@ -603,12 +563,4 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
         numerics_errors,
         runtime: rt,
     })
-}
-
-fn law_name(l: Law) -> &'static str {
-    match l {
-        Law::Passive => "passive",
-        Law::Gain => "gain",
-        Law::Lead => "lead",
-    }
 }

@@ -12,9 +12,8 @@
 //!
 //! `--shard I/N` runs the points with `i mod N = I` ([`shard`]: Slurm's and Kubernetes'
 //! array variables); [`merge`] joins the shards into the single run's document, byte for
-//! byte. Shard documents are written atomically ([`atomic`]) and carry the campaign's
-//! [`Identity`] (digests of the binary, the ELF and the input files), so the merge
-//! refuses a shard of another build or of edited inputs. The documents hold no timing.
+//! byte. Shard documents, written atomically ([`atomic`]), carry the campaign's [`Identity`]:
+//! the merge refuses a shard of another build or of edited inputs. They hold no timing.
 
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::mpsc;
@@ -85,8 +84,7 @@ pub struct Failing {
 pub struct Record {
     /// Index in the grid.
     pub index: usize,
-    /// The point's parameters: every axis key, and the keys that follow one (a JSON
-    /// object in axis order).
+    /// The point's parameters: the axis keys, then their followers (a JSON object, in order).
     #[serde(with = "ordered")]
     pub params: Vec<(String, f64)>,
     /// The run's verdict (worst of timing, numerics, frames, monitor).
@@ -197,72 +195,61 @@ pub fn prepare(c: &Campaign) -> Result<Vec<(Point, Params)>, String> {
 #[must_use]
 pub fn failing(r: &RunReport) -> Vec<Failing> {
     let mut out = Vec::new();
+    let mut add = |check: String, verdict, reason| {
+        out.push(Failing {
+            check,
+            verdict,
+            reason,
+        });
+    };
     for c in r
         .timing
         .checks
         .iter()
         .filter(|c| c.verdict != Verdict::Pass)
     {
-        out.push(Failing {
-            check: format!("timing.{}", c.name),
-            verdict: c.verdict,
-            reason: format!(
-                "{:.4} above the {} limit {} (warn {}, fail {})",
-                c.value,
-                c.verdict,
-                c.limit.crossed(c.verdict),
-                c.limit.warn,
-                c.limit.fail
-            ),
-        });
+        let (v, l) = (c.verdict, c.limit);
+        let why = format!(
+            "{:.4} above the {v} limit {} (warn {}, fail {})",
+            c.value,
+            l.crossed(v),
+            l.warn,
+            l.fail
+        );
+        add(format!("timing.{}", c.name), v, why);
     }
     let n = &r.numerics;
+    let diverged = n.verdict.max(Verdict::Warn);
     if let Some(t) = n.run_diverged_at_s {
-        out.push(Failing {
-            check: "numerics.diverged".into(),
-            verdict: n.verdict.max(Verdict::Warn),
-            reason: format!("the closed loop diverged at {t:.3} s (run stopped)"),
-        });
+        let why = format!("the closed loop diverged at {t:.3} s (run stopped)");
+        add("numerics.diverged".into(), diverged, why);
     }
     if let Some(t) = n.reference_diverged_at_s {
-        out.push(Failing {
-            check: "numerics.reference_diverged".into(),
-            verdict: n.verdict.max(Verdict::Warn),
-            reason: format!("the f64 reference ({}) diverged at {t:.3} s", n.reference),
-        });
+        let why = format!("the f64 reference ({}) diverged at {t:.3} s", n.reference);
+        add("numerics.reference_diverged".into(), diverged, why);
     }
     for s in n.signals.iter().filter(|s| s.verdict != Verdict::Pass) {
-        out.push(Failing {
-            check: format!("numerics.{}", s.name),
-            verdict: s.verdict,
-            reason: format!(
-                "max error {:.3e} at {:.3} s against {} (allowed {:.3e})",
-                s.max_err, s.max_err_t_s, n.reference, s.allowed
-            ),
-        });
+        let why = format!(
+            "max error {:.3e} at {:.3} s against {} (allowed {:.3e})",
+            s.max_err, s.max_err_t_s, n.reference, s.allowed
+        );
+        add(format!("numerics.{}", s.name), s.verdict, why);
     }
     if r.frames_verdict != Verdict::Pass {
         let f = &r.frames;
-        out.push(Failing {
-            check: "frames".into(),
-            verdict: r.frames_verdict,
-            reason: format!(
-                "sent {} = received {} + rejected {} + dropped {} + in flight {}{}",
-                f.sent,
-                f.received,
-                f.rejected,
-                f.dropped,
-                f.in_flight,
-                if f.adds_up { "" } else { " does not add up" }
-            ),
-        });
+        let adds_up = if f.adds_up { "" } else { " does not add up" };
+        add(
+            "frames".into(),
+            r.frames_verdict,
+            format!("{}{adds_up}", f.total()),
+        );
     }
     if r.monitor.verdict != Verdict::Pass {
-        out.push(Failing {
-            check: "monitor".into(),
-            verdict: r.monitor.verdict,
-            reason: r.monitor.reason.clone(),
-        });
+        add(
+            "monitor".into(),
+            r.monitor.verdict,
+            r.monitor.reason.clone(),
+        );
     }
     out
 }
@@ -295,10 +282,9 @@ fn run_point(
 }
 
 /// Runs the points of `shard` (every point without one) on `jobs` threads, calling
-/// `progress(done, total)` after each point. The records come back in index order,
-/// whatever the threads' order. Also returns what the campaign cost
-/// ([`throughput::Throughput`]: CPU time of its threads and child processes, wall time), which is not part of
-/// the document.
+/// `progress(done, total)` after each point; the records in index order, whatever the
+/// threads' order. Also returns the campaign's cost ([`throughput::Throughput`]: CPU time
+/// of its threads and child processes, wall time), which is not part of the document.
 pub fn run_campaign(
     c: &Campaign,
     shard: Option<Shard>,
@@ -330,16 +316,12 @@ pub fn run_campaign(
             let (next, stop, mine) = (&next, &stop, &mine);
             let (cpu_ns, cpu_known) = (&cpu_ns, &cpu_known);
             s.spawn(move || {
-                loop {
-                    if stop.load(Ordering::Relaxed) {
-                        break;
-                    }
-                    let k = next.fetch_add(1, Ordering::Relaxed);
-                    let Some((i, (p, params))) = mine.get(k) else {
+                while !stop.load(Ordering::Relaxed) {
+                    let Some((i, (p, params))) = mine.get(next.fetch_add(1, Ordering::Relaxed))
+                    else {
                         break;
                     };
-                    let r = run_point(c, *i, p, params);
-                    if tx.send(r).is_err() {
+                    if tx.send(run_point(c, *i, p, params)).is_err() {
                         break;
                     }
                 }

@@ -5,10 +5,10 @@
 
 use crate::params::Params;
 use crate::plant::{ix, Flags, Inputs, Plant, Scalar, NX};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// The yaw stabilisation law.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum YawLaw {
     /// Mechanical yaw spring `k_yaw psi` in the plant; controller torque zero.

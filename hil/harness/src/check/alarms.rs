@@ -1,8 +1,7 @@
-//! The `monitor` section of `hil run`: the device's alarms (the rising edges of
-//! `Flags::HUNTING`, `ACTUATOR_FAULT`, `DRIVE_OSC` in the Actuation frames received;
-//! `source = "device-flags"`) judged against the scenario (`docs/monitor.md` in the
-//! book). The mean square of the figure is the device's monitor code replayed on the `y'`
-//! codes it received ([`replay`]): the wire does not carry it.
+//! The `monitor` section of `hil run`: the device's alarms (rising edges of `HUNTING`,
+//! `ACTUATOR_FAULT`, `DRIVE_OSC` in the Actuation frames; `source = "device-flags"`)
+//! judged against the scenario (`docs/monitor.md`). The figure's mean square, which the
+//! wire does not carry, is the device's monitor code replayed on its `y'` codes ([`replay`]).
 //!
 //! **Yaw.** Without a plant fault no alarm is allowed (unless the plant hunts on its
 //! own: then one is due before the divergence). With an `[actuator_fault]` from `t_f`
@@ -76,8 +75,7 @@ pub struct MonitorReport {
     pub sigma_per_s: Option<f64>,
     /// Frequency of that mode, Hz (0: a real mode, a drift).
     pub mode_hz: Option<f64>,
-    /// The growth rate the deadline is stated from, 1/s (`min(sigma_g, sigma_0)`, module
-    /// docs).
+    /// The growth rate the deadline is stated from, 1/s (module docs: `sigma`).
     pub deadline_sigma_per_s: Option<f64>,
     /// When the wheelset diverged (|y| > 50 mm; the run stops there), s.
     pub diverged_s: Option<f64>,
@@ -123,6 +121,14 @@ pub struct DriveReport {
 }
 
 impl MonitorReport {
+    /// Fails the report, keeping an earlier failure's reason.
+    fn fail(&mut self, why: String) {
+        if self.verdict != Verdict::Fail {
+            self.reason = why;
+        }
+        self.verdict = Verdict::Fail;
+    }
+
     /// The expectation in words: what is due, by when, and from what (the `hil run`
     /// summary and the report).
     #[must_use]
@@ -194,42 +200,33 @@ pub fn alarms(samples: impl IntoIterator<Item = FlagSample>) -> Vec<Alarm> {
 
 /// One period's monitor flags: `(t_ns, hunting, actuator, drive)`.
 pub type FlagSample = (u64, bool, bool, bool);
-/// A replay: the flags per period and the mean square `(t_s, (m/s)^2)` per monitor step.
-pub type Replay = (Vec<FlagSample>, Vec<(f64, f64)>);
 
-/// The device's monitor replayed on the samples it received (one per period from
-/// `t = 0`, wire codes), for the runtime configuration `rt` (its yaw mode decides whether
-/// the law commands) and the monitor configuration `p`. Returns the flag samples `(t_ns, hunting, actuator,
-/// drive)` per period (the drive's always `false`: the replay has no current error)
-/// and the mean square `(t_s, ms in (m/s)^2)` at each monitor step; `None` if the
-/// configuration does not compile.
+/// The device's monitor replayed on the samples it received (wire codes, one per period
+/// from `t = 0`) under `rt` (its yaw mode: whether the law commands) and `p`: the mean
+/// square `(t_s, (m/s)^2)` at each monitor step; `None` if `rt` does not compile.
 #[must_use]
 pub fn replay(
     codes: &[InputCodes],
     period_ns: u64,
     rt: &RuntimeConfig,
     p: &MonitorParams,
-) -> Option<Replay> {
+) -> Option<Vec<(f64, f64)>> {
     let mut control = rt.control;
     control.wire = wheelset_control::WireLsb::default();
     let codec = *Compiled::<Fx>::try_new(&control).ok()?.codec();
     let m = Monitor::<Fx>::try_new(p, control.base_rate_hz).ok()?;
     let commanding = rt.enable && control.yaw_mode != YawMode::Passive;
     let mut s = MonitorState::<Fx>::default();
-    let mut flags = Vec::with_capacity(codes.len());
     let mut ms = Vec::with_capacity(codes.len() / usize::from(m.divisor().max(1)) + 1);
     for (k, c) in codes.iter().enumerate() {
-        let t_ns = k as u64 * period_ns;
         // The traction reference (0 here) moves only the actuator check's quiet blocks.
-        let ev = m.tick(&mut s, codec.decode(c).y_dot, commanding, Fx::ZERO);
-        // The actuation computed from sample k arrives one period later.
-        flags.push((t_ns + period_ns, ev.hunting, ev.actuator, false));
+        m.tick(&mut s, codec.decode(c).y_dot, commanding, Fx::ZERO);
         if s.phase == m.divisor() {
             // 1 pu of y' = 1 m/s: the mean square is in (m/s)^2.
-            ms.push((t_ns as f64 * 1e-9, s.ms.to_num::<f64>()));
+            ms.push(((k as u64 * period_ns) as f64 * 1e-9, s.ms.to_num::<f64>()));
         }
     }
-    Some((flags, ms))
+    Some(ms)
 }
 
 /// Band-passed RMS of the plant's `y'` over the block before `t_s`, with the device's
@@ -264,8 +261,7 @@ pub fn judge(
     p: &MonitorParams,
     alarms: Vec<Alarm>,
 ) -> MonitorReport {
-    // The yaw alarms before the first drive alarm (after it, an oscillating drive
-    // shakes the wheelset: reported, not judged); the drive's are judge_drive's.
+    // The yaw alarms judged: those before the first drive alarm (module docs, "The drive").
     let cut = alarms
         .iter()
         .find(|a| a.kind == "drive")
@@ -299,18 +295,19 @@ pub fn judge(
     // The passive law commands no torque: its actuator's fault changes nothing.
     let fault = sc.actuator_fault.filter(|_| law != YawLaw::Passive);
     let Some(f) = fault else {
-        // A plant that hunts on its own (passive control above its critical conicity):
-        // an alarm is due before the run diverges, and none is false.
+        // A plant that hunts on its own (passive control above its critical conicity).
         if let Some(d) = diverged {
             r.expect = "alarm";
             r.deadline_s = Some(d);
             if !r.first_alarm_s.is_some_and(|t| t <= d) {
-                r.verdict = Verdict::Fail;
-                r.reason = format!("the plant hunted (diverged at {d:.3} s) with no alarm before");
+                r.fail(format!(
+                    "the plant hunted (diverged at {d:.3} s) with no alarm before"
+                ));
             }
         } else if let Some(t) = first {
-            r.verdict = Verdict::Fail;
-            r.reason = format!("an alarm at {t:.3} s on a scenario without a fault");
+            r.fail(format!(
+                "an alarm at {t:.3} s on a scenario without a fault"
+            ));
         }
         return r;
     };
@@ -351,39 +348,39 @@ pub fn judge(
         r.deadline_s = Some(r.deadline_s.map_or(d, |x| x.min(d)));
     }
     if let Some(early) = r.alarms.iter().filter(judged).find(|a| a.t_s < t_f) {
-        r.verdict = Verdict::Fail;
-        r.reason = format!(
+        r.fail(format!(
             "a {} alarm at {:.3} s, before the fault at {t_f:.3} s",
             early.kind, early.t_s
-        );
+        ));
         return r;
     }
     if let Some(d) = diverged.filter(|&d| !r.first_alarm_s.is_some_and(|t| t <= d)) {
-        r.verdict = Verdict::Fail;
-        r.reason =
-            format!("the wheelset diverged at {d:.3} s with no alarm before (fault at {t_f:.3} s)");
+        r.fail(format!(
+            "the wheelset diverged at {d:.3} s with no alarm before (fault at {t_f:.3} s)"
+        ));
         return r;
     }
     if let (Some(d), "alarm") = (r.deadline_s, r.expect) {
         match first {
             Some(t) if t <= d => {}
             Some(t) => {
-                r.verdict = Verdict::Fail;
-                r.reason = format!("the first alarm at {t:.3} s is after the deadline {d:.3} s");
+                r.fail(format!(
+                    "the first alarm at {t:.3} s is after the deadline {d:.3} s"
+                ));
             }
             None => {
-                r.verdict = Verdict::Fail;
-                r.reason = format!("no alarm by the deadline {d:.3} s (fault at {t_f:.3} s)");
+                r.fail(format!(
+                    "no alarm by the deadline {d:.3} s (fault at {t_f:.3} s)"
+                ));
             }
         }
     }
     r
 }
 
-/// The drive check's expectation for a run of `sc` on the device configuration `rt`
-/// with the monitor `p` and `delay_ticks` of actuation delay (module docs, "The drive"):
-/// the current loop's fast pair at the plant's armature and the device's PI and rates,
-/// and from it the deadline.
+/// The drive check's expectation for a run of `sc` on `rt` with the monitor `p` and
+/// `delay_ticks` of delay (module docs, "The drive"): the current loop's fast pair at the
+/// plant's armature and the device's PI and rates, and from it the deadline.
 #[must_use]
 pub fn drive_expectation(
     sc: &Scenario,
@@ -437,12 +434,6 @@ pub fn judge_drive(r: &mut MonitorReport, mut drive: DriveReport, end_s: f64) {
     let first_drive = r.alarms.iter().find(|a| a.kind == "drive").map(|a| a.t_s);
     drive.first_alarm_s = first_drive;
     drive.device_first_alarm_tick = r.drive.device_first_alarm_tick;
-    let fail = |r: &mut MonitorReport, why: String| {
-        if r.verdict != Verdict::Fail {
-            r.reason = why;
-        }
-        r.verdict = Verdict::Fail;
-    };
     match (drive.expect, drive.deadline_s) {
         ("alarm", Some(due)) => {
             let first = r.alarms.first();
@@ -456,36 +447,29 @@ pub fn judge_drive(r: &mut MonitorReport, mut drive: DriveReport, end_s: f64) {
                             a.t_s,
                             drive.current_radius.unwrap_or(f64::NAN)
                         );
-                        fail(r, why);
+                        r.fail(why);
                     }
                 }
-                Some(t) => fail(
-                    r,
-                    format!("the drive alarm at {t:.3} s is after its deadline {due:.3} s"),
-                ),
+                Some(t) => r.fail(format!(
+                    "the drive alarm at {t:.3} s is after its deadline {due:.3} s"
+                )),
                 None if due > end_s => {}
-                None => fail(
-                    r,
-                    format!(
-                        "no drive alarm by {due:.3} s: the current loop is unstable (radius \
+                None => r.fail(format!(
+                    "no drive alarm by {due:.3} s: the current loop is unstable (radius \
                          {:.3} per tick, {:.0} Hz, l_a = {:.3e} H)",
-                        drive.current_radius.unwrap_or(f64::NAN),
-                        drive.mode_hz.unwrap_or(f64::NAN),
-                        drive.l_a_h
-                    ),
-                ),
+                    drive.current_radius.unwrap_or(f64::NAN),
+                    drive.mode_hz.unwrap_or(f64::NAN),
+                    drive.l_a_h
+                )),
             }
         }
         _ => {
             if let Some(t) = first_drive {
-                fail(
-                    r,
-                    format!(
-                        "a drive alarm at {t:.3} s on a drive whose current loop is stable \
+                r.fail(format!(
+                    "a drive alarm at {t:.3} s on a drive whose current loop is stable \
                          (radius {:.3} per tick)",
-                        drive.current_radius.unwrap_or(f64::NAN)
-                    ),
-                );
+                    drive.current_radius.unwrap_or(f64::NAN)
+                ));
             }
         }
     }

@@ -36,6 +36,29 @@ impl Direction {
     pub fn adds_up(&self) -> bool {
         self.sent == self.received + self.rejected + self.dropped + self.in_flight
     }
+
+    /// `[sent, received, rejected, dropped, in_flight]`.
+    #[must_use]
+    pub fn counts(&self) -> [u64; 5] {
+        [
+            self.sent,
+            self.received,
+            self.rejected,
+            self.dropped,
+            self.in_flight,
+        ]
+    }
+}
+
+/// `sent S = received R + rejected J + dropped D + in flight F`.
+impl std::fmt::Display for Direction {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let [s, r, j, d, i] = self.counts();
+        write!(
+            f,
+            "sent {s} = received {r} + rejected {j} + dropped {d} + in flight {i}"
+        )
+    }
 }
 
 /// The `frames` section of a run's report: totals of both directions, and each.
@@ -59,13 +82,24 @@ pub struct FramesReport {
     pub up: Direction,
     /// Device -> host.
     pub down: Direction,
-    /// Frames from the device discarded before the run (a free-running device talks
-    /// before the run's first Sensor frame is answered; `wheelset_targets::realtime`): never applied
-    /// to the plant and not part of the sums above.
+    /// Frames from a free-running device discarded before the run's first answer
+    /// (`wheelset_targets::realtime`): never applied, not part of the sums above.
     pub pre_run: u64,
 }
 
 impl FramesReport {
+    /// Both directions together.
+    #[must_use]
+    pub fn total(&self) -> Direction {
+        Direction {
+            sent: self.sent,
+            received: self.received,
+            rejected: self.rejected,
+            dropped: self.dropped,
+            in_flight: self.in_flight,
+        }
+    }
+
     fn new(up: Direction, down: Direction, source: &str) -> Self {
         Self {
             sent: up.sent + down.sent,

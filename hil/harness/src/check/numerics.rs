@@ -82,10 +82,8 @@ fn interval(t: &Trajectory) -> f64 {
     }
 }
 
-/// How many records of `fine` fall on one of `run`'s output intervals, if `fine`'s
-/// records are a whole number `m >= 1` of them per interval and land on `run`'s record
-/// instants (checked at the first and the last of the `n` compared): `fine.records[i m]`
-/// is at `run.records[i]`'s time.
+/// `m >= 1` records of `fine` per output interval of `run`, if `fine.records[i m]` is at
+/// `run.records[i]`'s time (checked at the first and the last of the `n` compared).
 fn per_interval(run: &Trajectory, fine: &Trajectory, n: usize) -> Option<usize> {
     let m = (interval(run) / interval(fine)).round();
     if !(1.0..=1e6).contains(&m) || n == 0 {
@@ -101,18 +99,7 @@ fn per_interval(run: &Trajectory, fine: &Trajectory, n: usize) -> Option<usize> 
     Some(m)
 }
 
-/// Compares `run` with `reference` for every signal in `tolerances`.
-#[must_use]
-pub fn compare(
-    run: &Trajectory,
-    reference: &Trajectory,
-    tolerances: &BTreeMap<String, Tolerance>,
-) -> NumericsReport {
-    compare_fine(run, reference, None, tolerances)
-}
-
-/// The tube a run is judged against: `tube`'s records, `m` of them per output interval
-/// of the run, over the first `n` records of the run.
+/// The tube a run is judged against: `m` of `tube`'s records per output interval, over `n`.
 struct Tube<'a> {
     tube: &'a Trajectory,
     m: usize,
@@ -121,8 +108,7 @@ struct Tube<'a> {
 }
 
 impl<'a> Tube<'a> {
-    /// The tube of `run` against `reference`, taken over `fine` where it aligns (module
-    /// docs).
+    /// The tube of `run` against `reference`, over `fine` where it aligns (module docs).
     fn of(run: &Trajectory, reference: &'a Trajectory, fine: Option<&'a Trajectory>) -> Self {
         let dt = interval(run);
         let n = run.records.len().min(reference.records.len());
@@ -139,10 +125,9 @@ impl<'a> Tube<'a> {
         }
     }
 
-    /// The signed error of each of the first `n` records of `run` in signal `name`: how
-    /// far above the tube's top (> 0) or below its bottom (< 0) within `tol.time_s`, 0
-    /// inside it, infinite where either side is not finite (a diverged run or reference:
-    /// never hidden by the NaN-ignoring min/max).
+    /// The signed error of the first `n` records of `run` in signal `name`: above the
+    /// tube's top (> 0) or below its bottom (< 0) within `tol.time_s`, 0 inside, infinite
+    /// where either side is not finite (never hidden by the NaN-ignoring min/max).
     fn errors(&self, run: &Trajectory, name: &str, tol: &Tolerance) -> Vec<f64> {
         let m = self.m;
         let nt = ((self.n.saturating_sub(1)) * m + 1).min(self.tube.records.len());
@@ -200,11 +185,10 @@ pub fn judged_errors(
         .collect()
 }
 
-/// [`compare`], with the tube taken over `fine` (the same reference run recorded at the
-/// control period: module docs) where given and aligned with `run`'s records; `reference`
-/// gives the peak, the length and the divergence as in [`compare`]. A `fine` whose records
-/// do not fall on `run`'s (not a whole number per output interval, or shorter) is not
-/// used: the tube is then `reference`'s.
+/// Compares `run` with `reference` for every signal in `tolerances`, the tube taken over
+/// `fine` (the reference recorded at the control period: module docs) where it is given
+/// and its records fall on `run`'s (a whole number per output interval), else over
+/// `reference`, which gives the peak, the length and the divergence.
 #[must_use]
 pub fn compare_fine(
     run: &Trajectory,
@@ -368,7 +352,7 @@ mod tests {
         assert!(reference.records.iter().all(|r| r.u_a_v == 100.0));
         assert_eq!(reference.records.len(), 2001);
         let run = u_a(1e-3, 5004, 40.0);
-        let coarse = compare(&run, &reference, &tol);
+        let coarse = compare_fine(&run, &reference, None, &tol);
         assert_eq!(coarse.verdict, Verdict::Fail, "{coarse:?}");
         assert!((coarse.signals[0].max_err - 60.0).abs() < 1e-9);
         let at_ticks = compare_fine(&run, &reference, Some(&fine), &tol);

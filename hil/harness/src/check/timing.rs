@@ -89,8 +89,7 @@ pub struct TimingReport {
     /// ns per exec unit.
     pub exec_ns_per_unit: f64,
     /// Whether the device measured its execution time (`false` in process: the figures
-    /// below are then zeros, not a measurement; `exec_note` says where real ones come
-    /// from).
+    /// below are zeros, not a measurement; `exec_note` says where real ones come from).
     pub exec_measured: bool,
     /// What the execution-time figures are, or where to get them when not measured.
     pub exec_note: String,
@@ -223,8 +222,6 @@ pub fn analyse(
                 a.at_ns as f64 - wire_ns(a.wire_bytes, ctx.baud) as f64 - ctx.latency_ns as f64;
             ticks.push((j as f64, out));
         }
-        // The ideal schedule's phase is the earliest output: deviations are lateness >= 0,
-        // and their maximum is the peak-to-peak jitter.
         let t0 = ticks
             .iter()
             .map(|&(j, o)| o - j * t)
@@ -254,42 +251,31 @@ pub fn analyse(
     let link = (line(up + down) / (d * t)).max(line(up.max(down)) / t);
     let cpu_mean = exec_ns.mean / t;
     let cpu_max = exec_ns.max / t;
-    let mut checks = Vec::new();
-    let mut check = |name: &str, value: f64, limit: Limit, applicable: bool| {
-        checks.push(Check {
-            name: name.into(),
-            value,
-            limit,
-            verdict: if applicable {
-                limit.judge(value)
-            } else {
-                Verdict::Pass
-            },
-            applicable,
-        });
-    };
-    check(
-        "latency_max",
-        latency_ns.max / (d * t),
-        b.latency_max,
-        !latency.is_empty(),
-    );
-    check(
-        "jitter_max",
-        jitter_max_ns.unwrap_or(0.0) / t,
-        b.jitter_max,
-        jitter_max_ns.is_some(),
-    );
-    check("missed_frac", missed as f64 / n, b.missed_frac, true);
-    check(
-        "overrun_frac",
-        overruns as f64 / exec_n.len().max(1) as f64,
-        b.overrun_frac,
-        !exec_n.is_empty(),
-    );
-    check("cpu_max", cpu_max, b.cpu_max, !exec_n.is_empty());
-    check("cpu_mean", cpu_mean, b.cpu_mean, !exec_n.is_empty());
-    check("link", link, b.link, true);
+    let measured = !exec_n.is_empty();
+    let overrun_frac = overruns as f64 / exec_n.len().max(1) as f64;
+    let (lat, jit) = (latency_ns.max / (d * t), jitter_max_ns.unwrap_or(0.0) / t);
+    let checks: Vec<Check> = [
+        ("latency_max", lat, b.latency_max, !latency.is_empty()),
+        ("jitter_max", jit, b.jitter_max, jitter_max_ns.is_some()),
+        ("missed_frac", missed as f64 / n, b.missed_frac, true),
+        ("overrun_frac", overrun_frac, b.overrun_frac, measured),
+        ("cpu_max", cpu_max, b.cpu_max, measured),
+        ("cpu_mean", cpu_mean, b.cpu_mean, measured),
+        ("link", link, b.link, true),
+    ]
+    .into_iter()
+    .map(|(name, value, limit, applicable)| Check {
+        name: name.into(),
+        value,
+        limit,
+        verdict: if applicable {
+            limit.judge(value)
+        } else {
+            Verdict::Pass
+        },
+        applicable,
+    })
+    .collect();
     let verdict = checks
         .iter()
         .map(|c| c.verdict)

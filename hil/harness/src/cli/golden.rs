@@ -8,7 +8,7 @@ use hil::run::{run, RunOptions, Target};
 use wheelset_report::Verdict;
 use wheelset_targets::qemu::machine::Machine;
 
-use super::{input, load_params, parse_machine, run_error, Failure};
+use super::{input, load_params, run_error, Failure};
 
 #[derive(Args, Clone)]
 pub(crate) struct GoldenArgs {
@@ -17,7 +17,7 @@ pub(crate) struct GoldenArgs {
     target: Target,
     /// The QEMU target's emulated board: mps2-an386 (Cortex-M4F) or mps2-an385
     /// (Cortex-M3, no FPU; `target/fw/wheelset-qemu-m3.elf`).
-    #[arg(long, default_value = "mps2-an386", value_parser = parse_machine)]
+    #[arg(long, default_value = "mps2-an386")]
     machine: Machine,
     /// Parameter file (TOML, as `sim-host --params`): the device's gains and motor
     /// constants on both sides follow it (a target other than inproc has its gains

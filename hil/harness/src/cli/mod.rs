@@ -18,7 +18,6 @@ use clap::ValueEnum;
 use hil::run::{Law, RunError, Target};
 use wheelset_loop::sim_link::Faults;
 use wheelset_plant::params::Params;
-use wheelset_targets::qemu::machine::Machine;
 use wheelset_targets::qemu::Channel;
 
 /// A failure with its exit code.
@@ -72,7 +71,7 @@ impl Control {
             Self::Lead => Law::Lead,
         };
         if let Ok(sc) = wheelset_plant::scenario::Scenario::load(scenario, params) {
-            if let Some(w) = sc.law_warning(law.yaw()) {
+            if let Some(w) = sc.law_warning(law) {
                 eprintln!("hil: warning: {w}");
             }
         }
@@ -105,12 +104,4 @@ pub(crate) fn inproc_or_qemu(s: &str, by_hand: &str, other: &str) -> Result<Targ
         Target::QemuAt(_) => Err(by_hand.into()),
         Target::Serial(_) | Target::QemuFree => Err(other.into()),
     }
-}
-
-pub(crate) fn parse_machine(s: &str) -> Result<Machine, String> {
-    s.parse()
-}
-
-pub(crate) fn parse_faults(s: &str) -> Result<Faults, String> {
-    s.parse::<Faults>().map_err(|e| e.to_string())
 }

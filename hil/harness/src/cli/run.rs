@@ -13,8 +13,9 @@ use wheelset_loop::sim_link::{Faults, LinkConfig};
 use wheelset_plant::params::Params;
 use wheelset_report::Verdict;
 use wheelset_targets::qemu::machine::Machine;
+use wheelset_targets::realtime::os::{self, Want};
 
-use super::{input, load_params, parse_faults, parse_machine, run_error, Control, Failure};
+use super::{input, load_params, run_error, Control, Failure};
 
 #[derive(Clone, Copy, ValueEnum)]
 pub(crate) enum PaceArg {
@@ -28,11 +29,11 @@ pub(crate) enum PaceArg {
 pub(crate) struct RunArgs {
     /// Where the device runs: inproc, qemu, qemu:PORT, qemu-free (the free-running
     /// firmware under QEMU without -icount, paced in real time) or serial:PATH.
-    #[arg(long, default_value = "inproc", value_parser = parse_target)]
+    #[arg(long, default_value = "inproc")]
     target: Target,
     /// The QEMU target's emulated board: mps2-an386 (Cortex-M4F) or mps2-an385
     /// (Cortex-M3, no FPU; `target/fw/wheelset-qemu-m3.elf`).
-    #[arg(long, default_value = "mps2-an386", value_parser = parse_machine)]
+    #[arg(long, default_value = "mps2-an386")]
     machine: Machine,
     /// The QEMU target's link: `uart` (UART0 over TCP, byte by byte through the emulated
     /// UART: the faithful path) or `bulk` (semihosting file I/O on two FIFOs, one trap
@@ -52,7 +53,7 @@ pub(crate) struct RunArgs {
     #[arg(long, value_enum, default_value = "lead")]
     control: Control,
     /// Link faults, e.g. `ber=1e-4,drop=0.01,outage=8:0.05` (simulated link only).
-    #[arg(long, default_value = "", value_parser = parse_faults)]
+    #[arg(long, default_value = "")]
     faults: Faults,
     /// Write the verdict document (JSON).
     #[arg(long)]
@@ -74,7 +75,7 @@ pub(crate) struct RunArgs {
     /// InjectStall at T, the firmware's watchdog resets the device, the host sends its
     /// Config again (the new boot drives the safe outputs until a ClearFaults, which
     /// `--clear-faults-at` sends).
-    #[arg(long, default_value = "none", value_parser = parse_device_fault)]
+    #[arg(long, default_value = "none")]
     device_fault: DeviceFault,
     /// Link baud (10 bits per byte).
     #[arg(long, default_value_t = wheelset_loop::sim_link::DEFAULT_BAUD, allow_negative_numbers = true)]
@@ -137,20 +138,12 @@ pub(crate) enum OnOffArg {
     Off,
 }
 
-pub(crate) fn parse_target(s: &str) -> Result<Target, String> {
-    s.parse()
-}
-
 pub(crate) fn parse_channel(s: &str) -> Result<wheelset_targets::qemu::Channel, String> {
     match s {
         "uart" => Ok(wheelset_targets::qemu::Channel::Uart),
         "bulk" => Ok(wheelset_targets::qemu::Channel::Bulk),
         _ => Err(format!("unknown QEMU link `{s}` (expected uart or bulk)")),
     }
-}
-
-pub(crate) fn parse_device_fault(s: &str) -> Result<DeviceFault, String> {
-    s.parse()
 }
 
 pub(crate) fn cmd_run(a: &RunArgs, command: &str) -> Result<Verdict, Failure> {
@@ -215,13 +208,12 @@ pub(crate) fn cmd_run(a: &RunArgs, command: &str) -> Result<Verdict, Failure> {
     if let Some(d) = &a.report {
         wheelset_report::output::check_dir_flag("--report", d).map_err(input)?;
     }
-    // The faults as applied (canonical spec), whichever form the flag took.
-    let faults_spec = a.faults.to_string();
     let opts = RunOptions {
         target: a.target.clone(),
         scenario: a.scenario.clone(),
         control: law,
-        faults_spec,
+        // The faults as applied (canonical spec), whichever form the flag took.
+        faults_spec: a.faults.to_string(),
         device_fault: a.device_fault,
         budgets,
         link: LinkConfig {
@@ -245,13 +237,9 @@ pub(crate) fn cmd_run(a: &RunArgs, command: &str) -> Result<Verdict, Failure> {
         monitor_safe: a.monitor_safe,
         clear_faults_at_s: a.clear_faults_at,
         realtime: if a.no_rt {
-            wheelset_targets::realtime::os::Want::none()
+            Want::none()
         } else {
-            wheelset_targets::realtime::os::Want::all(a.rt_cpu.or_else(|| {
-                wheelset_targets::realtime::os::allowed_cpus()
-                    .last()
-                    .copied()
-            }))
+            Want::all(a.rt_cpu.or_else(|| os::allowed_cpus().last().copied()))
         },
         params,
     };
@@ -297,7 +285,7 @@ pub(crate) fn print_summary(r: &hil::run::RunReport) {
         r.target,
         r.scenario,
         r.scenario_source,
-        r.control.words(),
+        hil::run::law_words(r.control),
         t.periods,
         t.period_ns
     );
@@ -362,14 +350,10 @@ pub(crate) fn print_summary(r: &hil::run::RunReport) {
     }
     let f = &r.frames;
     say!(
-        "frames {} ({}): sent {} = received {} + rejected {} + dropped {} + in flight {}{}",
+        "frames {} ({}): {}{}",
         r.frames_verdict,
         f.source,
-        f.sent,
-        f.received,
-        f.rejected,
-        f.dropped,
-        f.in_flight,
+        f.total(),
         if f.pre_run > 0 {
             format!("; {} frames before the run discarded (pre_run)", f.pre_run)
         } else {
@@ -377,14 +361,7 @@ pub(crate) fn print_summary(r: &hil::run::RunReport) {
         }
     );
     for (name, d) in [("host -> device", &f.up), ("device -> host", &f.down)] {
-        say!(
-            "  {name}: sent {} = received {} + rejected {} + dropped {} + in flight {}",
-            d.sent,
-            d.received,
-            d.rejected,
-            d.dropped,
-            d.in_flight
-        );
+        say!("  {name}: {d}");
     }
     if let Some(h) = r.transport.as_ref().and_then(|t| t.get("host")) {
         say!(

@@ -4,6 +4,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 use wheelset_report::Verdict;
+use wheelset_targets::realtime::os::{self, Want};
 
 use super::{input, Failure};
 
@@ -80,13 +81,9 @@ pub(crate) fn cmd_serve(a: &ServeArgs) -> Result<Verdict, Failure> {
         cpu_hz: a.cpu_hz,
         bridge,
         want: if a.no_rt {
-            wheelset_targets::realtime::os::Want::none()
+            Want::none()
         } else {
-            wheelset_targets::realtime::os::Want::all(a.cpu.or_else(|| {
-                wheelset_targets::realtime::os::allowed_cpus()
-                    .first()
-                    .copied()
-            }))
+            Want::all(a.cpu.or_else(|| os::allowed_cpus().first().copied()))
         },
     };
     let (mut master, slave, path) = serve::open_pty().map_err(|e| Failure {
@@ -112,7 +109,7 @@ pub(crate) fn cmd_serve(a: &ServeArgs) -> Result<Verdict, Failure> {
         )
     };
     eprintln!(
-        "hil serve: the runtime (fixed point) free-running at {} Hz on {path}{behind};          `hil run --target serial:{path}`",
+        "hil serve: the runtime (fixed point) free-running at {} Hz on {path}{behind}; `hil run --target serial:{path}`",
         a.rate_hz
     );
     let stop = std::sync::atomic::AtomicBool::new(false);

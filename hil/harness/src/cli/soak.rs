@@ -29,7 +29,7 @@ pub(crate) struct SoakArgs {
     seed: u64,
     /// A deliberately broken in-process device: corrupt:EVERY (every EVERY-th frame it
     /// sends has a bit flipped), to show that the soak catches it and names the seed.
-    #[arg(long, default_value = "none", value_parser = parse_defect)]
+    #[arg(long, default_value = "none")]
     defect: Defect,
     /// Adhesion patches may be low (leaves on the rail), not only wet.
     #[arg(long)]
@@ -47,10 +47,6 @@ pub(crate) struct SoakArgs {
     /// Write the figures (JSON).
     #[arg(long, value_name = "FILE")]
     json: Option<std::path::PathBuf>,
-}
-
-fn parse_defect(s: &str) -> Result<Defect, String> {
-    s.parse()
 }
 
 #[derive(Clone, Copy, PartialEq, Eq)]

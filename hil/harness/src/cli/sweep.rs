@@ -9,7 +9,7 @@ use hil::run::{RunOptions, Target};
 use wheelset_loop::sim_link::{Faults, LinkConfig};
 use wheelset_report::Verdict;
 
-use super::{input, load_params, parse_faults, run_error, Control, Failure};
+use super::{input, load_params, run_error, Control, Failure};
 
 #[derive(Args)]
 #[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
@@ -45,7 +45,7 @@ pub(crate) struct SweepArgs {
     /// One axis of the grid: `KEY=FROM..TO:N` (N linearly spaced values, both ends
     /// included) or `KEY=VALUE`; KEY is any parameter key (SI units). `f11` sets `f22`
     /// too unless `f22` is an axis. Repeatable; the last axis varies fastest.
-    #[arg(long = "param", value_name = "KEY=FROM..TO:N", required = true, value_parser = parse_axis)]
+    #[arg(long = "param", value_name = "KEY=FROM..TO:N", required = true)]
     axes: Vec<hil::sweep::Axis>,
     /// Built-in scenario or a scenario TOML file.
     #[arg(long, default_value = "curve")]
@@ -65,7 +65,7 @@ pub(crate) struct SweepArgs {
     #[arg(long, default_value = "uart", value_parser = super::run::parse_channel)]
     qemu_link: wheelset_targets::qemu::Channel,
     /// Link faults at every point, e.g. `ber=1e-4,drop=0.01` (in-process link only).
-    #[arg(long, default_value = "", value_parser = parse_faults)]
+    #[arg(long, default_value = "")]
     faults: Faults,
     /// Seed of the link's faults, the same at every point.
     #[arg(long, default_value_t = 1)]
@@ -81,7 +81,7 @@ pub(crate) struct SweepArgs {
     /// (SLURM_ARRAY_TASK_ID, _MIN, _STEP, _COUNT; the default inside one); `auto/N`: I
     /// from Kubernetes' JOB_COMPLETION_INDEX (or Slurm's); `all`: every point, whatever
     /// the environment.
-    #[arg(long, value_name = "I/N|auto|auto/N|all", value_parser = parse_shard)]
+    #[arg(long, value_name = "I/N|auto|auto/N|all")]
     shard: Option<hil::sweep::ShardSpec>,
     /// Threads (default: every core allowed).
     #[arg(long, value_name = "N")]
@@ -96,14 +96,6 @@ pub(crate) struct SweepArgs {
     /// Never show the progress bar.
     #[arg(long)]
     quiet: bool,
-}
-
-pub(crate) fn parse_axis(s: &str) -> Result<hil::sweep::Axis, String> {
-    s.parse()
-}
-
-pub(crate) fn parse_shard(s: &str) -> Result<hil::sweep::ShardSpec, String> {
-    s.parse()
 }
 
 /// The test hook of `hil::sweep::atomic::write_atomic`: while the file named by this
@@ -242,15 +234,13 @@ pub(crate) fn cmd_sweep(c: &SweepCmd, command: &str) -> Result<Verdict, Failure>
         },
     };
     let bar = (!a.quiet && std::io::stderr().is_terminal()).then(|| {
-        let pb = indicatif::ProgressBar::new(0);
-        pb.set_style(
-            indicatif::ProgressStyle::with_template(
-                "{msg} [{bar:40}] {pos}/{len} points ({elapsed}, eta {eta})",
-            )
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        use indicatif::{ProgressBar, ProgressStyle};
+        let style = ProgressStyle::with_template(
+            "{msg} [{bar:40}] {pos}/{len} points ({elapsed}, eta {eta})",
         );
-        pb.set_message(format!("hil sweep {} on {jobs} threads", a.scenario));
-        pb
+        ProgressBar::new(0)
+            .with_style(style.unwrap_or_else(|_| ProgressStyle::default_bar()))
+            .with_message(format!("hil sweep {} on {jobs} threads", a.scenario))
     });
     let mut tick = |done: usize, total: usize| {
         if let Some(pb) = &bar {

@@ -102,6 +102,8 @@ fn realtime_options(
         cpu_hz,
         timeout: opts.timeout,
         want: opts.realtime,
+        // 5/8 of the period: under QEMU, whose UART is slow both ways, a Sensor frame
+        // needs most of half the period to reach the tick (docs: "QEMU free-running").
         lead_num: 5,
     }
 }
@@ -120,26 +122,20 @@ pub(super) fn open_qemu_free(opts: &RunOptions, rt: &RuntimeConfig) -> Result<Re
     let stream = q
         .tcp_stream()
         .map_err(|e| RunError::Target(TransportError::Unavailable(e.to_string())))?;
-    let o = RealTimeOptions {
-        // 5/8 of the period: QEMU's UART is slow both ways, so a Sensor frame needs most
-        // of half the period to reach the tick (docs: "QEMU free-running").
-        lead_num: 5,
-        ..realtime_options(
-            opts,
-            rt,
-            QEMU_FREE_BAUD,
-            wheelset_targets::qemu::target::MPS2_CPU_HZ,
-        )
-    };
+    let o = realtime_options(
+        opts,
+        rt,
+        QEMU_FREE_BAUD,
+        wheelset_targets::qemu::target::MPS2_CPU_HZ,
+    );
     let mut t = RealTime::on("qemu-free", Port::Tcp(stream, Some(q)), o);
     t.prepare(&cfg).map_err(RunError::Target)?;
     Ok(t)
 }
 
-/// The base rate of a run: `opts.rate_hz` or the control core's default, checked for the
-/// target (a whole number of ns per period in process; of us elsewhere, as the
-/// firmware's ticker needs), then the link against it ([`link_fits`]; not under
-/// lock-step, where the frames are the device's clock).
+/// The base rate of a run: `opts.rate_hz` or the control core's default, a whole number
+/// of ns per period in process, of us elsewhere (the firmware's ticker), then the link
+/// against it ([`link_fits`]; not under lock-step: the frames are the device's clock).
 pub(super) fn run_rate(opts: &RunOptions, default_hz: u32) -> Result<u32, RunError> {
     let hz = opts.rate_hz.unwrap_or(if opts.target == Target::QemuFree {
         QEMU_FREE_RATE_HZ
@@ -163,8 +159,6 @@ pub(super) fn run_rate(opts: &RunOptions, default_hz: u32) -> Result<u32, RunErr
     }
     let lockstep = matches!(opts.target, Target::Qemu | Target::QemuAt(_))
         || (matches!(opts.target, Target::Serial(_)) && opts.pace == Pace::LockStep);
-    // Lock-step: the host's frames are the device's clock, so the link need not carry
-    // an exchange per period of wall time (the run just takes longer).
     if !lockstep {
         let baud = if opts.target == Target::QemuFree {
             QEMU_FREE_BAUD
@@ -181,11 +175,10 @@ pub(super) fn run_rate(opts: &RunOptions, default_hz: u32) -> Result<u32, RunErr
     Ok(hz)
 }
 
-/// The link against the rate, before a run: the harness's worst-case exchange (the
-/// Sensor frame with one lateral value up, the Actuation frame down) must fit the one
-/// link budget ([`wheelset_loop::sim_link::check_budget`]). The refusal names the
-/// budget's numbers, the lowest baud this rate needs and the highest rate this baud
-/// carries.
+/// The link against the rate, before a run: the worst-case exchange (the Sensor frame
+/// with one lateral value up, the Actuation frame down) must fit the link budget
+/// ([`wheelset_loop::sim_link::check_budget`]); the refusal names the budget's numbers,
+/// the lowest baud this rate needs and the highest rate this baud carries.
 fn link_fits(baud: u32, rate_hz: u32, latency_ns: u64, delay_ticks: u8) -> Result<(), String> {
     let period_ns = 1_000_000_000 / u64::from(rate_hz.max(1));
     wheelset_loop::sim_link::check_budget(
@@ -206,9 +199,8 @@ fn link_fits(baud: u32, rate_hz: u32, latency_ns: u64, delay_ticks: u8) -> Resul
     })
 }
 
-/// The parameter keys that set the device's control gains and motor constants
-/// (`wheelset_loop::device_loop::control_config`): the lead, the pure gain, the traction PI and
-/// the motor.
+/// The parameter keys that set the device's gains and motor constants
+/// (`wheelset_loop::device_loop::control_config`): lead, pure gain, traction PI, motor.
 pub const DEVICE_KEYS: &[&str] = &[
     "k_active",
     "lead_gain",
@@ -220,10 +212,9 @@ pub const DEVICE_KEYS: &[&str] = &[
     "n_gear",
 ];
 
-/// A device outside this process has its gains compiled in: a Config frame carries the
-/// rates (with their coefficients), the law and the limits, not the gains. Parameters
-/// that change the gains ([`DEVICE_KEYS`]) are refused there, naming them, instead of
-/// running a device that does not follow them.
+/// A device outside this process has its gains compiled in (a Config frame carries the
+/// rates with their coefficients, the law and the limits, not the gains): parameters that
+/// change them ([`DEVICE_KEYS`]) are refused there, named, rather than not followed.
 pub fn remote_gains(p: &Params, target: &Target) -> Result<(), RunError> {
     let d = Params::default();
     let (given, default) = (p.entries(), d.entries());

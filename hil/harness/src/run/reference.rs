@@ -11,13 +11,11 @@ use crate::check::numerics::{every_nth, gcd};
 
 /// The reference of `sc` under `law` at the output interval, and the same run recorded at
 /// the control period `period_ns` where there is one (for
-/// [`crate::check::numerics::compare_fine`]).
-///
-/// With `[[adhesion]]` sections (the continuous controllers have no wheel-slip
-/// protection) or at a designed rate other than the scenario's, the reference is the
-/// control core in f64 (`wheelset_loop::core`, the run's protection and gains), recorded
-/// at the gcd of the output interval and the control period; every `output / that`-th
-/// record is the output-interval reference, so the two agree on every record they share.
+/// [`crate::check::numerics::compare_fine`]). With `[[adhesion]]` sections (the continuous
+/// controllers have no wheel-slip protection) or at a designed rate other than the
+/// scenario's, the reference is the control core in f64 (`wheelset_loop::core`, the run's
+/// protection and gains), recorded at the gcd of the output interval and the control
+/// period; every `output / that`-th record is the output-interval reference.
 pub(super) fn make(
     sc: &Scenario,
     law: YawLaw,

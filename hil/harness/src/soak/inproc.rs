@@ -16,6 +16,7 @@
 //! hour and at the end agree within [`RSS_GROWTH_MAX_KIB`]. The first failure stops the
 //! run, named with its simulated time and the seed.
 
+use std::collections::BTreeMap;
 use std::fmt;
 use std::time::Instant;
 
@@ -37,6 +38,7 @@ use wheelset_runtime::{HoldPolicy, Runtime, SafeChange, TX_CAPACITY};
 use super::line::{Fate, Line, LineCounts, LineFaults};
 use super::service::{next_episode, Demand, Episode, ServiceOptions, Track};
 use crate::run::{device_config, runtime_config_for, Law};
+use crate::sweep::throughput::thread_cpu;
 
 /// The plant's integration step, ns: the built-in scenarios' (`sim.dt_s = 1e-4`), a
 /// whole number of steps in every period the soak moves between (1, 0.5, 0.4, 0.2 ms).
@@ -195,7 +197,7 @@ pub struct SoakReport {
     pub actuator_faults: u64,
     /// Alarms the device raised (rising edges: hunting, actuator, drive).
     pub alarms: [u64; 3],
-    /// Configs applied, and how many changed the rate.
+    /// Configs applied.
     pub configs: u64,
     /// Of them, rate changes.
     pub rate_changes: u64,
@@ -205,7 +207,7 @@ pub struct SoakReport {
     pub held_ticks: u64,
     /// When the device's 32-bit tick counter wrapped, s.
     pub tick_wrap_s: Option<f64>,
-    /// Peak RSS at the first checkpoint, KiB, and when, s.
+    /// Peak RSS at the first checkpoint, KiB.
     pub rss_first_kib: u64,
     /// When the first RSS figure was taken, s.
     pub rss_first_s: f64,
@@ -213,7 +215,7 @@ pub struct SoakReport {
     pub rss_end_kib: u64,
     /// Wall time, s.
     pub wall_s: f64,
-    /// CPU time of the process, s.
+    /// CPU time of the soak's thread, s (0 where unknown).
     pub cpu_s: f64,
     /// The first failure (none: clean).
     pub failure: Option<SoakFailure>,
@@ -223,25 +225,9 @@ impl SoakReport {
     /// The summary `hil soak` prints.
     #[must_use]
     pub fn summary(&self) -> String {
-        use std::fmt::Write as _;
-        let mut s = String::new();
-        let speed = self.simulated_s / self.wall_s.max(1e-9);
-        let _ = writeln!(
-            s,
-            "hil soak: seed {}, {} simulated ({} ticks)",
-            self.seed,
-            hms((self.simulated_s * 1e9) as u64),
-            self.ticks,
-        );
-        let _ = writeln!(
-            s,
-            "  time: {:.1} s wall, {:.1} s CPU ({:.0}x real time)",
-            self.wall_s, self.cpu_s, speed
-        );
-        for (name, c) in [("host -> device", &self.up), ("device -> host", &self.down)] {
-            let _ = writeln!(
-                s,
-                "  {name}: sent {} = received {} + rejected {} + dropped {} + in flight {} ({}); {} touched by the line",
+        let lines = [("host -> device", &self.up), ("device -> host", &self.down)].map(|(name, c)| {
+            format!(
+                "  {name}: sent {} = received {} + rejected {} + dropped {} + in flight {} ({}); {} touched by the line\n",
                 c.sent,
                 c.received,
                 c.rejected,
@@ -249,49 +235,48 @@ impl SoakReport {
                 c.in_flight,
                 if c.adds_up() { "adds up" } else { "DOES NOT ADD UP" },
                 c.touched
-            );
-        }
+            )
+        });
         let [ber, drop, outage, burst] = self.link_episodes;
-        let _ = writeln!(
-            s,
-            "  service: link faults {} (bit errors {ber}, drops {drop}, outages {outage}, bursts {burst}), adhesion patches {}, actuator faults {}, Configs {} ({} rate changes)",
+        let [h, a, d] = self.alarms;
+        let wrap = self
+            .tick_wrap_s
+            .map_or("its tick counter has not wrapped yet".into(), |t| {
+                format!("its tick counter wrapped at {t:.1} s")
+            });
+        let end = match &self.failure {
+            None => "soak: clean\n".to_string(),
+            Some(f) => format!("soak FAILED {f}\nreplay: {}\n", f.replay()),
+        };
+        format!(
+            "hil soak: seed {}, {} simulated ({} ticks)\n\
+             \x20 time: {:.1} s wall, {:.1} s CPU ({:.0}x real time)\n{}{}\
+             \x20 service: link faults {} (bit errors {ber}, drops {drop}, outages {outage}, bursts {burst}), adhesion patches {}, actuator faults {}, Configs {} ({} rate changes)\n\
+             \x20 device: alarms {} (hunting {h}, actuator {a}, drive {d}), every one expected; safe entries {}, held ticks {}; {wrap}\n\
+             \x20 Status frames checked {}, lost on the line {}\n\
+             \x20 memory: peak RSS {} KiB at {:.0} s, {} KiB at the end\n{end}",
+            self.seed,
+            hms((self.simulated_s * 1e9) as u64),
+            self.ticks,
+            self.wall_s,
+            self.cpu_s,
+            self.simulated_s / self.wall_s.max(1e-9),
+            lines[0],
+            lines[1],
             ber + drop + outage + burst,
             self.adhesion_patches,
             self.actuator_faults,
             self.configs,
-            self.rate_changes
-        );
-        let [h, a, d] = self.alarms;
-        let _ = writeln!(
-            s,
-            "  device: alarms {} (hunting {h}, actuator {a}, drive {d}), every one expected; safe entries {}, held ticks {}; {}",
+            self.rate_changes,
             h + a + d,
             self.safe_entries,
             self.held_ticks,
-            self.tick_wrap_s.map_or("its tick counter has not wrapped yet".into(), |t| {
-                format!("its tick counter wrapped at {t:.1} s")
-            }),
-        );
-        let _ = writeln!(
-            s,
-            "  Status frames checked {}, lost on the line {}",
-            self.statuses_checked, self.statuses_lost,
-        );
-        let _ = writeln!(
-            s,
-            "  memory: peak RSS {} KiB at {:.0} s, {} KiB at the end",
-            self.rss_first_kib, self.rss_first_s, self.rss_end_kib
-        );
-        match &self.failure {
-            None => {
-                let _ = writeln!(s, "soak: clean");
-            }
-            Some(f) => {
-                let _ = writeln!(s, "soak FAILED {f}");
-                let _ = writeln!(s, "replay: {}", f.replay());
-            }
-        }
-        s
+            self.statuses_checked,
+            self.statuses_lost,
+            self.rss_first_kib,
+            self.rss_first_s,
+            self.rss_end_kib
+        )
     }
 }
 
@@ -356,7 +341,7 @@ struct Soak {
     act: ActState,
     act_alarm_seen: bool,
     config_pending: Option<(Config, u32)>,
-    configs: [Option<Config>; 8],
+    configs: BTreeMap<(u32, bool), Config>,
     status_next_ns: u64,
     status_pending: bool,
     clear_next_ns: u64,
@@ -373,17 +358,6 @@ struct Soak {
     failure: Option<SoakFailure>,
 }
 
-/// The Config index of a design point: rate and law.
-fn config_slot(rate_hz: u32, lead: bool) -> usize {
-    let r = match rate_hz {
-        1_000 => 0,
-        2_000 => 1,
-        2_500 => 2,
-        _ => 3,
-    };
-    2 * r + usize::from(lead)
-}
-
 /// The peak resident set of this process, KiB (`VmHWM`; 0 where unknown).
 #[must_use]
 pub fn peak_rss_kib() -> u64 {
@@ -397,23 +371,13 @@ pub fn peak_rss_kib() -> u64 {
         .unwrap_or(0)
 }
 
-/// CPU time this process's main thread has run, s (`/proc/self/schedstat`; 0 where
-/// unknown).
-#[must_use]
-pub fn cpu_s() -> f64 {
-    std::fs::read_to_string("/proc/self/schedstat")
-        .ok()
-        .and_then(|s| s.split_whitespace().next()?.parse::<u64>().ok())
-        .map_or(0.0, |ns| ns as f64 * 1e-9)
-}
-
 impl Soak {
     fn new(opts: SoakOptions) -> Result<Self, String> {
         let sc = Scenario::load("curve", &Params::default()).map_err(|e| e.to_string())?;
         let base = runtime_config_for(&sc, Law::Lead);
         let mut rt = Runtime::<Fx>::try_new(base).map_err(|e| e.to_string())?;
         // Every design point of the service, computed once (`wheelset_runtime::rates_for`).
-        let mut configs = [None; 8];
+        let mut configs = BTreeMap::new();
         for &hz in &super::service::RATES_HZ {
             for lead in [false, true] {
                 let mut r = base.designed(hz, 1).map_err(|e| e.to_string())?;
@@ -423,7 +387,7 @@ impl Soak {
                     wheelset_control::YawMode::Gain
                 };
                 let cfg = device_config(&r, true, false).map_err(|e| e.to_string())?;
-                configs[config_slot(hz, lead)] = Some(cfg);
+                configs.insert((hz, lead), cfg);
             }
         }
         // The device's start: the run's Config (protection on, alarms reported) and every 32-bit
@@ -536,16 +500,14 @@ impl Soak {
         if self.failure.is_none() {
             let x = &self.x;
             let o = &self.opts;
-            let mut flags = String::new();
-            for (on, flag) in [
+            let mut flags: String = [
                 (o.service.low_adhesion, " --low-adhesion"),
                 (o.service.demand_steps, " --demand-steps"),
                 (o.service.gain_law, " --gain-law"),
-            ] {
-                if on {
-                    flags.push_str(flag);
-                }
-            }
+            ]
+            .into_iter()
+            .filter_map(|(on, flag)| on.then_some(flag))
+            .collect();
             if o.defect != Defect::None {
                 flags.push_str(&format!(" --defect {}", o.defect));
             }
@@ -630,7 +592,7 @@ impl Soak {
                 self.gain = 0.0;
             }
             Episode::Config { rate_hz, lead } => {
-                if let Some(cfg) = self.configs[config_slot(rate_hz, lead)] {
+                if let Some(&cfg) = self.configs.get(&(rate_hz, lead)) {
                     self.config_pending = Some((cfg, rate_hz));
                 }
             }
@@ -690,11 +652,8 @@ impl Soak {
         let mut at = t + n as u64 * 2_000;
         let mut config_applied = None;
         if let Some((cfg, hz)) = self.config_pending {
-            if let Ok(f) = encode_vec(&Message::Config(cfg)) {
-                if self.send_up(at, &f) == Fate::Valid {
-                    config_applied = Some((cfg, hz));
-                }
-                at += f.len() as u64 * 2_000;
+            if self.send(&mut at, &Message::Config(cfg)) {
+                config_applied = Some((cfg, hz));
             }
         }
         let mut status_requested = false;
@@ -704,36 +663,26 @@ impl Soak {
                 self.report.statuses_lost += 1;
             }
             self.status_pending = true;
-            status_requested = self.command(&mut at, Command::RequestStatus);
+            status_requested = self.send(&mut at, &Message::Command(Command::RequestStatus));
         }
         let mut cleared = false;
         if self.acc.latched && t >= self.clear_next_ns && !matches!(self.act, ActState::Failed(_)) {
             // The host clears a latched fault once the actuator works (at most every
             // 10 ms: its view of the latch comes with the Actuation frames).
             self.clear_next_ns = t + 10_000_000;
-            cleared = self.command(&mut at, Command::ClearFaults);
+            cleared = self.send(&mut at, &Message::Command(Command::ClearFaults));
         }
         let tick_at = t + PHASE_NS;
         let mut out = [0u8; TX_CAPACITY];
-        let n = {
-            let o = self.rt.tick(0);
-            let n = o.len().min(out.len());
-            out[..n].copy_from_slice(&o[..n]);
-            n
-        };
+        let o = self.rt.tick(0);
+        let n = o.len().min(TX_CAPACITY);
+        out[..n].copy_from_slice(&o[..n]);
         let out = &mut out[..n];
         self.after_tick(t, fresh, config_applied, status_requested, cleared, out);
         let mut fresh_act: Option<Actuation> = None;
         let mut status: Option<Status> = None;
         let mut at = tick_at;
-        let mut rest: &mut [u8] = out;
-        while !rest.is_empty() {
-            let len = rest
-                .iter()
-                .position(|&b| b == 0)
-                .map_or(rest.len(), |i| i + 1);
-            let (frame, more) = rest.split_at_mut(len);
-            rest = more;
+        for frame in out.split_inclusive_mut(|&b| b == 0) {
             self.frames_out += 1;
             if let Defect::Corrupt { every } = self.opts.defect {
                 if self.frames_out.is_multiple_of(every) && frame.len() > 3 {
@@ -756,7 +705,7 @@ impl Soak {
                     "device -> host: a frame {fate:?} on a line without faults (the device sent it broken)"
                 ));
             }
-            at += len as u64 * 2_000;
+            at += frame.len() as u64 * 2_000;
         }
         if let Some(s) = status {
             self.status_pending = false;
@@ -784,9 +733,10 @@ impl Soak {
         self.period_ns = 1_000_000_000 / u64::from(hz.max(1));
     }
 
-    /// A Command after the Sensor frame; whether the device received it valid.
-    fn command(&mut self, at: &mut u64, c: Command) -> bool {
-        let Ok(f) = encode_vec(&Message::Command(c)) else {
+    /// A Config or Command after the Sensor frame, sent at `at` (advanced by its wire
+    /// time); whether the device received it valid.
+    fn send(&mut self, at: &mut u64, m: &Message) -> bool {
+        let Ok(f) = encode_vec(m) else {
             return false;
         };
         let fate = self.send_up(*at, &f);
@@ -1106,8 +1056,7 @@ impl Soak {
     }
 }
 
-/// The runtime's receive counters: valid (`rx_ok + rx_unexpected`), then the rejects
-/// by kind.
+/// The runtime's receive counters: valid (`rx_ok + rx_unexpected`), rejects by kind.
 fn rx_counts(s: &Status) -> [u32; 6] {
     [
         s.rx_ok.wrapping_add(s.rx_unexpected),
@@ -1123,7 +1072,7 @@ fn rx_counts(s: &Status) -> [u32; 6] {
 /// happened. Errors: the set-up (scenario, configurations).
 pub fn soak(opts: SoakOptions) -> Result<SoakReport, String> {
     let wall = Instant::now();
-    let cpu0 = cpu_s();
+    let cpu0 = thread_cpu();
     let mut s = Soak::new(opts)?;
     let ran = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| s.run()));
     if let Err(p) = ran {
@@ -1154,6 +1103,8 @@ pub fn soak(opts: SoakOptions) -> Result<SoakReport, String> {
     }
     r.failure = s.failure.take();
     r.wall_s = wall.elapsed().as_secs_f64();
-    r.cpu_s = cpu_s() - cpu0;
+    r.cpu_s = thread_cpu()
+        .zip(cpu0)
+        .map_or(0.0, |(b, a)| b.saturating_sub(a).as_secs_f64());
     Ok(r)
 }

@@ -45,33 +45,24 @@ impl QemuSoak {
     /// The summary `hil soak --target qemu-free` prints.
     #[must_use]
     pub fn summary(&self) -> String {
-        let mut s = String::new();
         let st = self.status.as_ref();
-        let _ = writeln!(
-            s,
-            "hil soak qemu-free: {:.0} s of real time at {} Hz, {} periods",
-            self.duration_s, QEMU_FREE_RATE_HZ, self.periods
-        );
-        let _ = writeln!(
-            s,
-            "  device: ticks {}, boot {}, reset cause {}, resets seen {}, fault latched {}",
+        let mut s = format!(
+            "hil soak qemu-free: {:.0} s of real time at {} Hz, {} periods\n\
+             \x20 device: ticks {}, boot {}, reset cause {}, resets seen {}, fault latched {}\n\
+             \x20 deadlines: device ticks late {}, missed {}; host periods without their answer {} ({:.3} %)\n\
+             \x20 frames: {} sent, {}\n",
+            self.duration_s,
+            QEMU_FREE_RATE_HZ,
+            self.periods,
             st.map_or(0, |s| s.ticks),
             st.map_or(0, |s| s.boot_count),
             st.map_or(0, |s| s.reset_cause),
             self.device_resets,
             st.is_some_and(|s| s.flags.has(Flags::FAULT_LATCHED)),
-        );
-        let _ = writeln!(
-            s,
-            "  deadlines: device ticks late {}, missed {}; host periods without their answer {} ({:.3} %)",
             st.map_or(0, |s| s.ticks_late),
             st.map_or(0, |s| s.ticks_missed),
             self.missed_periods,
-            100.0 * self.missed_periods as f64 / self.periods.max(1) as f64
-        );
-        let _ = writeln!(
-            s,
-            "  frames: {} sent, {}",
+            100.0 * self.missed_periods as f64 / self.periods.max(1) as f64,
             self.frames_sent,
             if self.frames_add_up {
                 "every one accounted for"
@@ -80,7 +71,7 @@ impl QemuSoak {
             }
         );
         if self.failures.is_empty() {
-            let _ = writeln!(s, "soak: clean");
+            s.push_str("soak: clean\n");
         }
         for f in &self.failures {
             let _ = writeln!(s, "soak FAILED: {f}");
@@ -89,9 +80,8 @@ impl QemuSoak {
     }
 }
 
-/// The generated track of `minutes`: one minute repeated (10 s straight, a 10 s
-/// transition into R = 2300 m with 6 deg of cant, 20 s of curve, 10 s out, 10 s
-/// straight), no drive, RK4 at 0.1 ms, records every 10 ms.
+/// The generated track, per minute: 10 s straight, 10 s into R = 2300 m (6 deg of cant),
+/// 20 s of curve, 10 s out, 10 s straight; no drive, RK4 at 0.1 ms, records every 10 ms.
 #[must_use]
 pub fn track_toml(minutes: u32) -> String {
     let mut s = format!(

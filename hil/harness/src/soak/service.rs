@@ -63,8 +63,8 @@ impl Track {
 }
 
 /// What the service may do beyond its default day (each off by default): the two
-/// conditions under which the device's actuator check raises an alarm with nothing
-/// failed, and the pure gain law, with which the wheelset hunts on a wet patch (the book's soak section).
+/// conditions under which the device's actuator check alarms with nothing failed, and
+/// the pure gain law, with which the wheelset hunts on a wet patch (the book's soak section).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct ServiceOptions {
     /// Adhesion patches may be low (leaves), not only wet.

@@ -22,9 +22,9 @@ pub fn temp_path(path: &Path) -> PathBuf {
 }
 
 /// Writes `bytes` to `path` atomically (creating its directory). With `hold`, waits
-/// after the temporary file is written and before the rename for as long as that file
-/// exists (at most [`HOLD_LIMIT`]): a test hook (`HIL_SWEEP_TEST_HOLD`) that keeps a
-/// shard running at the one moment a kill must not matter. The error names the file.
+/// between the temporary file and the rename while that file exists (at most
+/// [`HOLD_LIMIT`]): a test hook (`HIL_SWEEP_TEST_HOLD`) holding a shard at the one moment
+/// a kill must not matter. The error names the file.
 pub fn write_atomic(path: &Path, bytes: &[u8], hold: Option<&Path>) -> Result<(), String> {
     if let Some(d) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(d).map_err(|e| format!("{}: cannot create: {e}", d.display()))?;

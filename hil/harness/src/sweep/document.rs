@@ -5,18 +5,6 @@ use std::fmt::Write as _;
 use std::io;
 use std::path::{Path, PathBuf};
 
-/// The axis indices of grid point `index` (the last axis fastest, as
-/// [`crate::sweep::points`] numbers them).
-fn axis_indices(axes: &[crate::sweep::Axis], index: usize) -> Vec<usize> {
-    let mut rest = index;
-    let mut idx = vec![0; axes.len()];
-    for (k, a) in axes.iter().enumerate().rev() {
-        idx[k] = rest % a.values.len().max(1);
-        rest /= a.values.len().max(1);
-    }
-    idx
-}
-
 /// A parameter value for a label: 3 significant digits (`1.00e6`, `0.167`).
 pub fn value_label(v: f64) -> String {
     if v == 0.0 {
@@ -67,7 +55,7 @@ fn heat_maps(
                 if r.index / per_map.max(1) != m {
                     continue;
                 }
-                let idx = axis_indices(axes, r.index);
+                let idx = crate::sweep::grid::axis_indices(axes, r.index);
                 let (i, j) = (idx[0], idx.get(1).copied().unwrap_or(0));
                 cells[j * nx + i] = cell(r);
                 if rest_label.is_empty() && axes.len() > 2 {

@@ -9,8 +9,7 @@ use wheelset_plant::params::Params;
 
 /// Largest number of values on one axis.
 pub const MAX_AXIS_POINTS: usize = 10_000;
-/// Largest number of grid points of a campaign (the records are kept in memory:
-/// about 1 KiB each).
+/// Largest grid of a campaign, points (its records, about 1 KiB each, stay in memory).
 pub const MAX_GRID_POINTS: usize = 100_000;
 
 /// A grid point's values: `(key, value)` in axis order, then the keys that follow one.
@@ -112,22 +111,28 @@ impl FromStr for Axis {
     }
 }
 
+/// The axis indices of grid point `index`: `index` in the mixed radix of the axis
+/// lengths, the last axis fastest.
+pub(crate) fn axis_indices(axes: &[Axis], index: usize) -> Vec<usize> {
+    let mut rest = index;
+    let mut idx = vec![0; axes.len()];
+    for (k, a) in axes.iter().enumerate().rev() {
+        idx[k] = rest % a.values.len().max(1);
+        rest /= a.values.len().max(1);
+    }
+    idx
+}
+
 /// The grid's points: `(index, values in axis order with the followers)`.
 #[must_use]
 pub fn points(axes: &[Axis], follows: &[(String, String)]) -> Vec<Point> {
     let n: usize = axes.iter().map(|a| a.values.len()).product();
     (0..n)
         .map(|i| {
-            let mut rest = i;
-            let mut idx = vec![0; axes.len()];
-            for (k, a) in axes.iter().enumerate().rev() {
-                idx[k] = rest % a.values.len();
-                rest /= a.values.len();
-            }
             let mut p: Vec<(String, f64)> = axes
                 .iter()
-                .zip(&idx)
-                .map(|(a, &j)| (a.key.clone(), a.values[j]))
+                .zip(axis_indices(axes, i))
+                .map(|(a, j)| (a.key.clone(), a.values[j]))
                 .collect();
             for (follower, leader) in follows {
                 if let Some(&(_, v)) = p.iter().find(|(k, _)| k == leader) {

@@ -31,16 +31,7 @@ pub struct Identity {
 /// SHA-256 of what `r` yields, in hex.
 pub fn sha256_of(mut r: impl Read) -> io::Result<String> {
     let mut h = Sha256::new();
-    let mut buf = vec![0u8; 1 << 16];
-    loop {
-        let n = match r.read(&mut buf) {
-            Ok(0) => break,
-            Ok(n) => n,
-            Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
-            Err(e) => return Err(e),
-        };
-        h.update(&buf[..n]);
-    }
+    io::copy(&mut r, &mut h)?;
     Ok(h.finalize()
         .iter()
         .map(|b| format!("{b:02x}"))
@@ -54,9 +45,8 @@ pub fn file_sha256(path: &Path) -> Result<String, String> {
         .map_err(|e| format!("{}: cannot read: {e}", path.display()))
 }
 
-/// SHA-256 of the running executable: `/proc/self/exe` where there is one (the file
-/// this process runs even if its path was rebuilt meanwhile), else the path it was
-/// started from.
+/// SHA-256 of the running executable: `/proc/self/exe` where there is one (the file this
+/// process runs, even if its path was rebuilt since), else the path it was started from.
 pub fn exe_sha256() -> Result<String, String> {
     if let Ok(f) = std::fs::File::open("/proc/self/exe") {
         return sha256_of(f).map_err(|e| format!("/proc/self/exe: cannot read: {e}"));
