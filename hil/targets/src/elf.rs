@@ -1,8 +1,6 @@
-//! The firmware's ELF images, read without binutils: [`check_target_elf`] (the 52-byte
-//! ELF32 header checked before QEMU is launched, so a host or garbage image is refused
-//! by name, not by a QEMU that never answers), [`sizes`] (flash and static RAM, `cargo
-//! fw`'s budget) and [`layout`] (the allocated sections and symbols, `cargo fw`'s check of
-//! each image's memory map).
+//! The firmware's ELF images, read without binutils: [`check_target_elf`] (so a host or
+//! garbage image is refused by name before QEMU is launched), [`sizes`] (flash and static
+//! RAM) and [`layout`] (sections and symbols, `cargo fw`'s memory-map check).
 
 use std::io::Read;
 use std::path::Path;

@@ -185,17 +185,14 @@ pub struct RealTime {
     origin: Instant,
     /// Chunks read and not yet delivered: (arrival ns after `origin`, bytes).
     pending: VecDeque<(u64, Vec<u8>)>,
-    /// The frame being assembled from the device's bytes, with its decoder.
     decoder: Decoder,
     frame: Vec<u8>,
     /// The seq of the run's first Sensor frame, once sent.
     first_seq: Option<u16>,
-    /// The seq of the latest Sensor frame sent.
     last_seq: u16,
     synced: bool,
     sync: SyncReport,
     baseline: Option<Status>,
-    /// The last Status seen during start-up.
     last_status: Option<Status>,
     /// Its arrival (ns after `origin`) and its bytes on the wire.
     last_status_at: Option<(u64, usize)>,
@@ -324,8 +321,7 @@ impl RealTime {
         }
     }
 
-    /// Splits the bytes into frames: discarded (counted) before the run's first echo,
-    /// then passed on.
+    /// Frames out of `bytes`: discarded (counted) before the run's first echo, then passed on.
     fn ingest(&mut self, at: u64, bytes: &[u8]) {
         let mut rest = bytes;
         while !rest.is_empty() {
@@ -467,7 +463,6 @@ pub(crate) fn poll_readable(fd: &impl std::os::fd::AsRawFd, wait: Duration) -> i
     Ok(r > 0)
 }
 
-/// Whether the frames in `bytes` hold a Status frame.
 fn is_status(bytes: &[u8]) -> bool {
     let mut d: Decoder = Decoder::new();
     let found = d

@@ -128,10 +128,9 @@ impl OneInFlight for Serial {
     }
 }
 
-/// A frame-clocked device on the other end of a port: every 0x00 delimiter received is
-/// one tick of `rt` (the firmware's runtime), whose output is written back at once
-/// (reporting 0 execution time). Runs until `stop` is set or the port fails; returns the
-/// ticks run.
+/// A frame-clocked device on a port: each 0x00 delimiter received is one tick of `rt`,
+/// whose output is written back at once (exec 0). Runs until `stop` is set or the port
+/// fails; returns the ticks run.
 pub fn serve_lockstep<P: Read + Write + ?Sized>(
     port: &mut P,
     rt: &mut Runtime<Fx>,

@@ -19,7 +19,6 @@ pub struct QemuTarget {
     baud: u32,
     cpu_hz: f64,
     expect: Expect,
-    /// Two exchanges in flight (the bulk channel).
     pipelined: bool,
 }
 
@@ -30,9 +29,8 @@ fn pipelined(channel: Channel) -> bool {
 }
 
 impl QemuTarget {
-    /// Starts QEMU with the default ELF (`cargo fw`); a clear error if QEMU or the ELF is
-    /// missing. `baud` is the line rate the timing model assumes; `timeout` bounds each
-    /// wait for an answer.
+    /// Starts QEMU with the default ELF (`cargo fw`), a clear error if either is missing;
+    /// `baud` is the line rate the timing model assumes, `timeout` bounds each wait.
     pub fn start(baud: u32, cpu_hz: f64, timeout: Duration) -> Result<Self, TransportError> {
         Self::start_on(Machine::default(), baud, cpu_hz, timeout)
     }

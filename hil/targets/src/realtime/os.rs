@@ -59,7 +59,6 @@ pub struct Obtained {
 }
 
 impl std::fmt::Display for Obtained {
-    /// `SCHED_FIFO 80, memory locked, pinned to CPU 1, timer slack 1 ns; refused: ...`.
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let mut got = Vec::new();
         if let Some(p) = self.sched_fifo {
@@ -186,8 +185,7 @@ pub fn obtain(want: Want) -> Obtained {
             }
         }
         if let Some(ns) = want.timer_slack_ns {
-            // SAFETY: PR_SET_TIMERSLACK takes one integer argument (the slack, ns; 0 would
-            // mean the default); the unused arguments are 0.
+            // SAFETY: PR_SET_TIMERSLACK takes the slack, ns (0: the default); the rest 0.
             let r = unsafe {
                 libc::prctl(
                     libc::PR_SET_TIMERSLACK,
