@@ -239,8 +239,7 @@ pub async fn control_loop<B: Board, D: Device>(
     make_device: impl FnOnce() -> D,
     mut stopwatch: B::Stopwatch,
 ) -> ! {
-    // Made here, not passed in: an async fn's arguments are kept twice in its future
-    // (rust-lang/rust#62958).
+    // Made here, not passed in: an async fn's arguments are kept twice in its future.
     let mut device = make_device();
     let (count, cause) = crate::boot::this_boot();
     device.set_boot(count, cause);

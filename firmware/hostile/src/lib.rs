@@ -1,8 +1,7 @@
-//! The hostile-Config table ([`rows`]): every Config a device must refuse, with its
-//! reason, and those just inside each limit, which it must apply; the [`procedure`] tries
-//! a row on the host runtime or the firmware under QEMU and judges it. This file holds one
-//! long idea, the table: each row the [`nominal`] Config with one thing changed, beside the
-//! limit it tests. `Bits` and `Unsupported` have no row (no Config reaches them).
+//! The hostile-Config table ([`rows`]): every Config a device must refuse, with its reason,
+//! and those just inside each limit, which it must apply, each the [`nominal`] Config with
+//! one thing changed; the [`procedure`] tries a row on the host runtime or the firmware
+//! under QEMU and judges it. `Bits` and `Unsupported` have no row (no Config reaches them).
 
 #![deny(missing_docs)]
 

@@ -374,10 +374,8 @@ impl<T: SampleBits> Runtime<T> {
     }
 
     /// The board's boot record, once before the first tick. A watchdog or fault reset latches
-    /// [`Flags::FAULT_LATCHED`] and holds the safe state at zero torque until
-    /// [`Command::ClearFaults`]: a device that has just crashed drives nothing until acknowledged.
-    ///
-    /// [`Command::ClearFaults`]: crate::Command::ClearFaults
+    /// [`Flags::FAULT_LATCHED`] and holds zero torque until [`crate::Command::ClearFaults`]: a
+    /// device that has just crashed drives nothing until acknowledged.
     pub fn set_boot(&mut self, boot_count: u32, reset_cause: u8) {
         self.counters.boot_count = boot_count;
         self.counters.reset_cause = reset_cause;

@@ -116,8 +116,7 @@ impl Batch {
     }
 }
 
-/// Moves every frame the TX pipe holds (the tick's answer) into the batch, so each tick
-/// starts with the pipe empty.
+/// Moves the TX pipe's frames (the tick's answer) into the batch: each tick starts it empty.
 fn take_answers() {
     critical_section::with(|cs| {
         let mut b = BATCH_OUT.borrow_ref_mut(cs);
@@ -125,8 +124,7 @@ fn take_answers() {
     });
 }
 
-/// Writes the answers held (the end of a read, or before the safe frame, which must
-/// follow them).
+/// Writes the answers held (the end of a read, or before the safe frame, which follows them).
 pub fn flush_answers() {
     critical_section::with(|cs| {
         if let Ok(mut b) = BATCH_OUT.borrow(cs).try_borrow_mut() {
