@@ -233,8 +233,7 @@ fn note_stack(device: &mut impl Device, ticks: &mut u32) {
     }
 }
 
-/// The control task's body; deadline one base period per tick. A Config that changes the
-/// base rate re-arms the schedule.
+/// The control task's body, one base period per tick; a Config changing the rate re-arms it.
 pub async fn control_loop<B: Board, D: Device>(
     make_device: impl FnOnce() -> D,
     mut stopwatch: B::Stopwatch,

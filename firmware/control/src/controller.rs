@@ -425,7 +425,6 @@ impl<T: Sample> Controller<T> {
     fn traction_step(&mut self, inp: &Inputs<T>, ev: &mut u32) {
         let law = &self.law;
         if !self.traction {
-            // Zero current, not 0 V (a short circuit at speed): the back-EMF of the present speed.
             let w = Self::input(inp.speed, law.speed_max, event::SPEED, ev);
             self.out.voltage = w.mul_c(law.back_emf).limit(law.pi.u_min, law.pi.u_max).0;
             self.armed = false;

@@ -373,18 +373,16 @@ impl<T: Sample> Monitor<T> {
         (self.drive_on, self.drive_off)
     }
 
-    /// The levels in pu^2 (`(m/s)^2`): mean square alarm on, alarm off; the check's
-    /// floor of the block energy.
+    /// The levels in pu^2 (`(m/s)^2`): alarm on, alarm off, the actuator check's floor.
     pub fn levels(&self) -> (T, T, T) {
         (self.on, self.off, self.floor)
     }
 
-    /// One base tick: every `div` ticks a monitor step on `y_dot` (pu), with
-    /// `commanding` = the yaw law is acting (an active mode, enabled, not safe) and
-    /// `iref` the traction current reference (pu of the current scale, after the
-    /// wheel-slip protection's cap). Returns the alarm states and their rising edges.
-    /// Never fails, never panics. The phase count is inlined, the step a call: ticks
-    /// without a step pay only the count.
+    /// One base tick: every `div` ticks a monitor step on `y_dot` (pu), `commanding` the yaw
+    /// law acting (an active mode, enabled, not safe), `iref` the current reference (pu of
+    /// the current scale, after the wheel-slip cap). The alarm states and their rising edges;
+    /// never panics. The phase count is inlined, the step a call: ticks without a step pay
+    /// only the count.
     #[inline(always)]
     pub fn tick(
         &self,

@@ -156,7 +156,6 @@ pub fn serve_lockstep<P: Read + Write + ?Sized>(
     Ok(ticks)
 }
 
-/// `path` did not open at `baud`.
 pub(crate) fn open_error(path: &str, baud: u32, e: &serialport::Error) -> TransportError {
     TransportError::Unavailable(format!(
         "serial:{path}: cannot open at {baud} baud: {e} (is the board connected, and is the \

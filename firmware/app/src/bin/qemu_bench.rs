@@ -303,7 +303,6 @@ mod bench {
         exit(debug::EXIT_SUCCESS)
     }
 
-    /// Ends the QEMU run with `status`.
     fn exit(status: debug::ExitStatus) -> ! {
         loop {
             debug::exit(status);

@@ -1,9 +1,7 @@
 //! The bulk channel: frames over semihosting file I/O on two host FIFOs (`bulk:DIR`)
-//! instead of UART0, for runs faster than real time; otherwise the UART build's path,
-//! so the same frames bit for bit. One `SYS_READ` takes whatever the host has sent (one
-//! frame or several); each frame edge polls the control executor in thread mode (its
-//! SWI0 masked: no exception per tick) and the tick's answer leaves the TX pipe at once,
-//! as on the UART; one `SYS_WRITE` sends the answers of the whole read.
+//! instead of UART0, for runs faster than real time; otherwise the UART build's path, so
+//! the same frames bit for bit. One `SYS_READ` takes whatever the host has sent, one
+//! `SYS_WRITE` sends the answers of the whole read ([`Bulk::run`]).
 
 use core::cell::RefCell;
 use core::sync::atomic::{AtomicI32, Ordering};
