@@ -1,7 +1,6 @@
 //! Supervision of the loops: a stability (hunting) monitor and a check that the yaw
 //! actuator acts, on `y'`; a check that the traction drive does not oscillate, on the
-//! current error (`monitor/drive.rs`). Generic over the sample type (`f64`, `f32`, Q4.28). The
-//! reasons and the measured margins are in the book (`docs/monitor.md`).
+//! current error (`monitor/drive.rs`). Reasons and measured margins: `docs/monitor.md`.
 //!
 //! The signal: the received `y'` (pu of 1 m/s, + right), sampled every `div` base ticks
 //! (the monitor's own rate, [`MonitorParams::rate_hz`], 500 Hz). With `T_m` its period:
