@@ -45,8 +45,7 @@ use crate::sample::Sample;
 mod drive;
 mod exact;
 
-/// The monitor's configuration in SI units (host and build script; the device starts
-/// from [`MonitorBits`]).
+/// The monitor's configuration, SI (host and build script; the device starts from [`MonitorBits`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MonitorParams {
     /// Monitor sample rate, Hz (the base rate divided by a whole number; 500).
@@ -69,8 +68,7 @@ pub struct MonitorParams {
     pub act_growth_per_s: f64,
     /// Actuator check: RMS floor below which growth is not judged, m/s.
     pub act_floor_m_s: f64,
-    /// Actuator check: a block end with `|l[n]|` (the low-passed `y'`) above this counts
-    /// as growth, m/s.
+    /// Actuator check: a block end with the low-passed `|l[n]|` above this counts as growth, m/s.
     pub act_drift_m_s: f64,
     /// Actuator check: a block over which the current reference moved by more than this
     /// (A, either sign) holds a traction change ([`QUIET_BLOCKS`]).
@@ -82,8 +80,7 @@ pub struct MonitorParams {
     pub drive_ripple_a: f64,
     /// Drive check: consecutive traction steps above the threshold that raise the alarm (`P`).
     pub drive_persist_steps: u16,
-    /// The current scale (`scales.current`), A per pu, the drive check's level is quantised
-    /// in (`RuntimeBits::try_new` sets it).
+    /// `scales.current`, A per pu: the drive check level's unit (set by `RuntimeBits::try_new`).
     pub current_scale_a: f64,
 }
 
@@ -114,8 +111,7 @@ impl Default for MonitorParams {
     }
 }
 
-/// `exp(x)` for `-2 <= x <= 0` without libm (construction time only): Taylor series to
-/// 30 terms, accurate to ~1e-16 there.
+/// `exp(x)` for `-2 <= x <= 0` without libm (construction only): 30 Taylor terms, ~1e-16 there.
 fn exp_small(x: f64) -> f64 {
     let (mut sum, mut term) = (1.0, 1.0);
     for n in 1..=30u8 {
@@ -200,8 +196,7 @@ pub struct MonitorEvents {
     pub hunting_rose: bool,
     /// The actuator alarm rose on this tick.
     pub actuator_rose: bool,
-    /// The drive check's alarm holds (`Flags::DRIVE_OSC`; its rising edge is
-    /// [`Monitor::drive_step`]'s return).
+    /// The drive alarm holds (`Flags::DRIVE_OSC`; rising edge: [`Monitor::drive_step`]'s return).
     pub drive: bool,
 }
 
@@ -366,8 +361,7 @@ impl<T: Sample> Monitor<T> {
         self.div
     }
 
-    /// The drive check's levels of the ripple's mean square, pu^2 of the current scale:
-    /// alarm on, alarm off.
+    /// The drive check's ripple mean-square levels, pu^2 of the current scale: alarm on, off.
     pub fn drive_levels(&self) -> (T, T) {
         (self.drive_on, self.drive_off)
     }

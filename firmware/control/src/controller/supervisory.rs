@@ -122,8 +122,7 @@ impl<T: Sample> Controller<T> {
     pub fn wheel_slip(&self) -> bool {
         self.wsp_acting
     }
-    /// The reference speed as motor speed `n v_ref / r0`, pu (held, sanitised, clamped;
-    /// 0: unknown).
+    /// The reference speed as motor speed `n v_ref / r0`, pu (held, sanitised, clamped; 0 unknown).
     pub fn set_v_ref(&mut self, w_ref: T) {
         let m = self.law.speed_max;
         self.wsp.w_ref = w_ref.sanitize().0.limit(T::ZERO.sat_sub(m), m).0;
