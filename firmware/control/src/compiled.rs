@@ -302,7 +302,8 @@ impl<T: SampleBits> Compiled<T> {
         }
     }
 
-    /// From exact bits, validated (integer work): limits in `(0, 2]` pu; see [`Self::with_schedule`].
+    /// From exact bits, validated (integer work): limits in `(0, 2]` pu, the schedule as
+    /// [`Self::with_schedule`].
     pub fn from_bits(b: &CompiledBits) -> Result<Self, BitsError> {
         if b.numeric != T::NUMERIC {
             return Err(BitsError { field: "numeric" });
