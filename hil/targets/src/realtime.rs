@@ -449,8 +449,7 @@ pub(crate) fn poll_readable(fd: &impl std::os::fd::AsRawFd, wait: Duration) -> i
         tv_sec: libc::time_t::try_from(wait.as_secs()).unwrap_or(libc::time_t::MAX),
         tv_nsec: libc::c_long::from(wait.subsec_nanos()),
     };
-    // SAFETY: one valid `pollfd` and one valid `timespec` for the call, no signal mask
-    // (null), an fd owned by the caller's `fd` and open throughout.
+    // SAFETY: one valid `pollfd` and `timespec` for the call, no signal mask, `fd` open throughout.
     let r = unsafe { libc::ppoll(&mut p, 1, &ts, std::ptr::null()) };
     if r < 0 {
         let e = io::Error::last_os_error();

@@ -30,8 +30,7 @@ fn open_file(path: &[u8], mode: usize) -> Option<usize> {
 pub fn open() -> Option<Bulk> {
     let mut cmd = [0u8; 256];
     let mut block = [cmd.as_mut_ptr() as usize, cmd.len() - 1];
-    // SAFETY: `SYS_GET_CMDLINE` writes at most `block[1]` bytes into `cmd`, both live and
-    // exclusively borrowed for the call.
+    // SAFETY: `SYS_GET_CMDLINE` writes at most `block[1]` bytes into `cmd`, both mutably borrowed.
     let r = unsafe { cortex_m_semihosting::syscall1(nr::GET_CMDLINE, block.as_mut_ptr() as usize) };
     if r != 0 {
         return None;

@@ -44,8 +44,7 @@ impl Stopwatch for SysTickStopwatch {
     /// padding keeping the sequence's instruction count, so `exec` keeps its golden values.
     fn start(&mut self) -> u32 {
         let start: u32;
-        // SAFETY: SysTick's registers (0xE000_E010/18), owned by this stopwatch; word accesses
-        // to the core's System Control Space, no program memory touched.
+        // SAFETY: word accesses to SysTick's registers (0xE000_E010/18), owned by this stopwatch.
         unsafe {
             core::arch::asm!(
                 "mov {tmp}, {reload}",
