@@ -18,8 +18,7 @@ const ET_EXEC: u16 = 2;
 /// Size of the ELF32 header.
 const HEADER: usize = 52;
 
-/// `Ok` when `path` starts with the ELF header of a 32-bit little-endian ARM
-/// executable; else why not.
+/// `Ok` if `path` starts with a 32-bit little-endian ARM executable's ELF header, else why not.
 pub fn check_target_elf(path: &Path) -> Result<(), String> {
     let mut h = [0u8; HEADER];
     let mut f = std::fs::File::open(path).map_err(|e| format!("cannot read: {e}"))?;

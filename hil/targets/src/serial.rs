@@ -35,8 +35,7 @@ pub struct Serial {
 }
 
 impl Serial {
-    /// Opens `path` at `baud` (8N1). `cpu_hz` converts the device's `exec` cycles to ns;
-    /// `timeout` bounds a lock-step wait.
+    /// Opens `path` at `baud` (8N1); `cpu_hz` turns `exec` cycles into ns, `timeout` bounds a wait.
     pub fn open(
         path: &str,
         baud: u32,

@@ -83,8 +83,7 @@ pub fn without_icount(args: Vec<String>) -> Vec<String> {
     out
 }
 
-/// The command line as one shell line (arguments with characters outside
-/// `[A-Za-z0-9_./=:,+-]` single-quoted).
+/// The command line as one shell line (arguments outside `[A-Za-z0-9_./=:,+-]` single-quoted).
 #[must_use]
 pub fn shell_line(args: &[String]) -> String {
     let quote = |a: &String| {

@@ -35,8 +35,7 @@ impl QemuTarget {
         Self::start_on(Machine::default(), baud, cpu_hz, timeout)
     }
 
-    /// [`Self::start`] on `machine` (mps2-an385: the Cortex-M3 build of the firmware,
-    /// `target/fw/wheelset-qemu-m3.elf`).
+    /// [`Self::start`] on `machine` (mps2-an385: the Cortex-M3 build, `wheelset-qemu-m3.elf`).
     pub fn start_on(
         machine: Machine,
         baud: u32,
@@ -46,8 +45,7 @@ impl QemuTarget {
         Self::start_with(machine, Channel::Uart, baud, cpu_hz, timeout)
     }
 
-    /// [`Self::start_on`] over `channel` (the UART, or the semihosting bulk channel:
-    /// the same frames, faster).
+    /// [`Self::start_on`] over `channel` (UART0, or the semihosting bulk channel: faster).
     pub fn start_with(
         machine: Machine,
         channel: Channel,

@@ -108,8 +108,7 @@ pub fn allowed_cpus() -> Vec<usize> {
     Vec::new()
 }
 
-/// The calling thread kept on one CPU ([`hold_on`]); dropped, it gets back the CPUs it
-/// had, from whichever thread drops it.
+/// The calling thread kept on one CPU ([`hold_on`]); dropped by any thread, it gets its CPUs back.
 #[derive(Debug)]
 pub struct HeldOn {
     #[cfg(target_os = "linux")]
@@ -117,8 +116,7 @@ pub struct HeldOn {
     before: Vec<usize>,
 }
 
-/// Keeps the calling thread on `cpu` until the returned value is dropped; `None` if the
-/// kernel refuses (the thread's CPUs unchanged).
+/// Keeps the calling thread on `cpu` until the value returned is dropped; `None` if refused.
 #[must_use]
 pub fn hold_on(cpu: usize) -> Option<HeldOn> {
     #[cfg(target_os = "linux")]
