@@ -121,7 +121,6 @@ fn new_ticker(period: u64) -> (Ticker, u64) {
         expires_at: 0,
         period,
     };
-    // `reset_at(t)` makes `t` the last tick: the next one is due at `t + period`.
     t.reset_at(start);
     (t, start.saturating_add(period))
 }

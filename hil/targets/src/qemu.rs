@@ -217,7 +217,6 @@ pub struct Qemu {
     /// Bytes received and not yet taken; frames start at `rx_at`.
     rx: Vec<u8>,
     rx_at: usize,
-    /// Bytes queued by [`Qemu::queue`], written before the next wait for the device.
     pending: Vec<u8>,
     timeout: Duration,
 }
