@@ -121,7 +121,6 @@ fn new_ticker(period: u64) -> (Ticker, u64) {
         expires_at: 0,
         period,
     };
-    // `reset_at(t)` makes `t` the last tick: the next one is due at `t + period`.
     t.reset_at(start);
     (t, start.saturating_add(period))
 }
@@ -233,14 +232,12 @@ fn note_stack(device: &mut impl Device, ticks: &mut u32) {
     }
 }
 
-/// The control task's body; deadline one base period per tick. A Config that changes the
-/// base rate re-arms the schedule.
+/// The control task's body, one base period per tick; a Config changing the rate re-arms it.
 pub async fn control_loop<B: Board, D: Device>(
     make_device: impl FnOnce() -> D,
     mut stopwatch: B::Stopwatch,
 ) -> ! {
-    // Made here, not passed in: an async fn's arguments are kept twice in its future
-    // (rust-lang/rust#62958).
+    // Made here, not passed in: an async fn's arguments are kept twice in its future.
     let mut device = make_device();
     let (count, cause) = crate::boot::this_boot();
     device.set_boot(count, cause);

@@ -106,7 +106,7 @@ impl TickMonitor {
                 TickWake::OnTime
             }
         } else {
-            // 32-bit division (a u64 one pulls in ~1 KiB of library code).
+            // 32-bit division (a u64 one pulls in a library routine).
             let period32 = u32::try_from(self.period).unwrap_or(u32::MAX);
             let missed = u32::try_from(lateness).unwrap_or(u32::MAX) / period32;
             let next_deadline =

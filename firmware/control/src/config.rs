@@ -175,7 +175,7 @@ pub struct Config {
     pub wsp: WspParams,
 }
 
-/// Default base rate, Hz (see the crate docs' rate analysis).
+/// Default base rate, Hz (the rate analysis: `docs/closed-loop.md`).
 pub const DEFAULT_BASE_RATE_HZ: u32 = 5000;
 /// Default yaw divisor.
 pub const DEFAULT_YAW_DIVISOR: u16 = 1;

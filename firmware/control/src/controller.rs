@@ -32,7 +32,6 @@ pub struct Controller<T: Sample> {
     pi_state: PiState<T>,
     /// Ramped current reference, pu.
     iref: T,
-    /// Present torque limit (ramps to 0 in the safe state), pu.
     torque_lim: T,
     /// A law change is being slewed: at most `torque_step` per yaw step towards the new law.
     slewing: bool,
@@ -55,7 +54,6 @@ pub struct Controller<T: Sample> {
     /// The ramp has settled on `settled_demand`: `iref` equals its target.
     ramp_settled: bool,
     settled_demand: T,
-    /// The traction step's error `i_ref - i_a`, pu (0 with traction off), for the drive check.
     i_err: T,
 }
 
@@ -425,7 +423,6 @@ impl<T: Sample> Controller<T> {
     fn traction_step(&mut self, inp: &Inputs<T>, ev: &mut u32) {
         let law = &self.law;
         if !self.traction {
-            // Zero current, not 0 V (a short circuit at speed): the back-EMF of the present speed.
             let w = Self::input(inp.speed, law.speed_max, event::SPEED, ev);
             self.out.voltage = w.mul_c(law.back_emf).limit(law.pi.u_min, law.pi.u_max).0;
             self.armed = false;

@@ -1,7 +1,6 @@
 //! Supervision of the loops: a stability (hunting) monitor and a check that the yaw
 //! actuator acts, on `y'`; a check that the traction drive does not oscillate, on the
-//! current error (`monitor/drive.rs`). Generic over the sample type (`f64`, `f32`, Q4.28). The
-//! reasons and the measured margins are in the book (`docs/monitor.md`).
+//! current error (`monitor/drive.rs`). Reasons and measured margins: `docs/monitor.md`.
 //!
 //! The signal: the received `y'` (pu of 1 m/s, + right), sampled every `div` base ticks
 //! (the monitor's own rate, [`MonitorParams::rate_hz`], 500 Hz). With `T_m` its period:
@@ -30,14 +29,11 @@
 //!               and run = 0
 //! ```
 //!
-//! A traction change (the current reference the PI follows, `i_ref` in pu of the current
-//! scale, moving by more than `D` over a block: a demand step, the wheel-slip
-//! protection's cut) steps the creep forces, and its lateral response grows over two
-//! blocks before it decays: the block holding it and the next are not judged (neither
-//! growth nor a break of the run). A failed actuator is then caught at most `Q B` later,
-//! while changes are at least `(Q + n) B` apart. `|l| > drift` catches a failed actuator
-//! pushing the wheelset to the flange at a nearly constant `y'`, which the band-pass
-//! rejects. Not seen: an actuator at a fraction of its command that still damps the mode.
+//! A traction change (`i_ref`, pu of the current scale, moving by more than `D` over a
+//! block) steps the creep forces, whose lateral response grows over two blocks: those are
+//! not judged. A failed actuator is caught at most `Q B` later while changes are at least
+//! `(Q + n) B` apart. `|l| > drift` catches one pushing the wheelset to the flange at a
+//! nearly constant `y'`. Not seen: an actuator at a fraction of its command that still damps.
 //!
 //! Fixed point: states are Q4.28 signals (the mean square in pu^2), coefficients Q1.31;
 //! `b^2` is the exact 64-bit product rounded and saturated (not below `|b|` = 2.8 m/s),
@@ -49,8 +45,7 @@ use crate::sample::Sample;
 mod drive;
 mod exact;
 
-/// The monitor's configuration in SI units (host and build script; the device starts
-/// from [`MonitorBits`]).
+/// The monitor's configuration, SI (host and build script; the device starts from [`MonitorBits`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MonitorParams {
     /// Monitor sample rate, Hz (the base rate divided by a whole number; 500).
@@ -73,39 +68,27 @@ pub struct MonitorParams {
     pub act_growth_per_s: f64,
     /// Actuator check: RMS floor below which growth is not judged, m/s.
     pub act_floor_m_s: f64,
-    /// Actuator check, drift: a block end at which the low-passed `y'` (the band-pass's
-    /// lower edge, `l[n]`) exceeds this in magnitude counts as growth, m/s.
+    /// Actuator check: a block end with the low-passed `|l[n]|` above this counts as growth, m/s.
     pub act_drift_m_s: f64,
-    /// Actuator check: a block over which the traction current reference moved by more
-    /// than this (A, either sign) holds a traction change, whatever moved it (the demand,
-    /// the wheel-slip protection): growth is not judged at its end nor at the next.
+    /// Actuator check: a block over which the current reference moved by more than this
+    /// (A, either sign) holds a traction change ([`QUIET_BLOCKS`]).
     pub act_traction_change_a: f64,
-    /// Drive check: time constant `N` of the ripple's exponential mean square, traction
-    /// steps.
+    /// Drive check: time constant `N` of the ripple's mean square, traction steps.
     pub drive_window_steps: u16,
     /// Drive check: the alarm rises when the RMS of the current error's ripple stays
     /// above this, A (it falls below `release x` this).
     pub drive_ripple_a: f64,
-    /// Drive check: consecutive traction steps above the threshold that raise the alarm
-    /// (`P`).
+    /// Drive check: consecutive traction steps above the threshold that raise the alarm (`P`).
     pub drive_persist_steps: u16,
-    /// The control core's current scale (`scales.current`), A per pu: what the drive
-    /// check's level is quantised in (`RuntimeBits::try_new` sets it from the control
-    /// configuration).
+    /// `scales.current`, A per pu: the drive check level's unit (set by `RuntimeBits::try_new`).
     pub current_scale_a: f64,
 }
 
 impl Default for MonitorParams {
-    /// Band 3-20 Hz around the kinematic mode (the failed wheelset's 4.9-11 Hz over
-    /// conicity 0.05-0.4 at 10 MN, `wheelset_plant::fault::failed_actuator_mode`; the active
-    /// loop's 8-13 Hz, `cargo sim modes`), W = 1.2 s (100 m at 83.3 m/s, EN 14363),
-    /// threshold RMS 30 mm/s with release at 0.7 of it; actuator check over 2 blocks of
-    /// 0.1 s at an amplitude growth rate of at least 3 1/s from an RMS of 1 mm/s, or a
-    /// drift of the low-passed `y'` above 25 mm/s (healthy runs peak at 10.3 mm/s, the
-    /// failed wheelset's drift holds 45 mm/s: module docs). Drive check: the ripple's
-    /// mean square over `N` = 64 traction steps, alarm when its RMS stays above 300 A for
-    /// `P` = 64 steps, in the default current scale of 1000 A per pu (`monitor/drive.rs`
-    /// gives the reasons). The README gives the margins measured over the scenarios.
+    /// The band brackets the kinematic mode (the failed wheelset's,
+    /// `wheelset_plant::fault::failed_actuator_mode`, and the active loop's, `cargo sim
+    /// modes`); `W` = 1.2 s is 100 m at 83.3 m/s (EN 14363). Margins: `docs/monitor.md`;
+    /// the drive check's reasons: `monitor/drive.rs`.
     fn default() -> Self {
         Self {
             rate_hz: 500,
@@ -128,8 +111,7 @@ impl Default for MonitorParams {
     }
 }
 
-/// `exp(x)` for `-2 <= x <= 0` without libm (construction time only): Taylor series to
-/// 30 terms, accurate to ~1e-16 there.
+/// `exp(x)` for `-2 <= x <= 0` without libm (construction only): 30 Taylor terms, ~1e-16 there.
 fn exp_small(x: f64) -> f64 {
     let (mut sum, mut term) = (1.0, 1.0);
     for n in 1..=30u8 {
@@ -156,8 +138,7 @@ pub struct MonitorBits {
     pub k_hi: u64,
     /// `k_ms`, coefficient.
     pub k_ms: u64,
-    /// Levels, pu^2 signals: mean square alarm on, alarm off, actuator-check floor of
-    /// the block energy (`N floor^2`).
+    /// Levels, pu^2 signals: alarm on, alarm off, the actuator check's floor `N floor^2`.
     pub levels: [u64; 3],
     /// Actuator check: `s = e^{-2 g B}`, coefficient.
     pub shrink: u64,
@@ -171,8 +152,7 @@ pub struct MonitorBits {
     pub traction_change: u64,
     /// Drive check: `k_d`, coefficient.
     pub drive_k: u64,
-    /// Drive check: levels of the ripple's mean square, pu^2 signals: alarm on, alarm
-    /// off.
+    /// Drive check: the ripple's mean-square levels, pu^2 signals: alarm on, alarm off.
     pub drive_levels: [u64; 2],
     /// Drive check: consecutive traction steps above the on level that raise the alarm.
     pub drive_persist: u16,
@@ -216,8 +196,7 @@ pub struct MonitorEvents {
     pub hunting_rose: bool,
     /// The actuator alarm rose on this tick.
     pub actuator_rose: bool,
-    /// The drive check's alarm holds (`Flags::DRIVE_OSC`; its rising edge is
-    /// [`Monitor::drive_step`]'s return).
+    /// The drive alarm holds (`Flags::DRIVE_OSC`; rising edge: [`Monitor::drive_step`]'s return).
     pub drive: bool,
 }
 
@@ -371,9 +350,8 @@ impl<T: Sample> Monitor<T> {
         Ok(m)
     }
 
-    /// Set the sub-rate for a base rate (a new [`crate::ScheduleBits`]): `div =
-    /// round(base/rate)` ticks per monitor step, at least 1 (integer work; a rate that
-    /// is not a multiple of the monitor's shifts its band and window by the ratio).
+    /// Set `div = round(base/rate)` ticks per step, at least 1, for a new base rate (a base
+    /// rate not a multiple of the monitor's shifts its band and window by the ratio).
     pub fn retime(&mut self, base_rate_hz: u32) {
         self.div = divisor_for(self.rate_hz, base_rate_hz);
     }
@@ -383,27 +361,21 @@ impl<T: Sample> Monitor<T> {
         self.div
     }
 
-    /// The drive check's levels of the ripple's mean square, pu^2 of the current scale:
-    /// alarm on, alarm off.
+    /// The drive check's ripple mean-square levels, pu^2 of the current scale: alarm on, off.
     pub fn drive_levels(&self) -> (T, T) {
         (self.drive_on, self.drive_off)
     }
 
-    /// The levels in pu^2 (`(m/s)^2`): mean square alarm on, alarm off; the check's
-    /// floor of the block energy.
+    /// The levels in pu^2 (`(m/s)^2`): alarm on, alarm off, the actuator check's floor.
     pub fn levels(&self) -> (T, T, T) {
         (self.on, self.off, self.floor)
     }
 
-    /// One base tick: every `div` ticks a monitor step on `y_dot` (pu), with
-    /// `commanding` = the yaw law is acting (an active mode, enabled, not safe) and
-    /// `iref` the traction current reference (pu of the current scale, after the
-    /// wheel-slip protection's cap). Returns the alarm states and their rising edges.
-    /// Never fails, never panics.
-    ///
-    /// The phase count is inlined into the caller and the step is a call, made only on
-    /// the ticks that run it: the ticks without a step pay only the count (`cargo xtask
-    /// fw-bench`, whole tick).
+    /// One base tick: every `div` ticks a monitor step on `y_dot` (pu), `commanding` the yaw
+    /// law acting (an active mode, enabled, not safe), `iref` the current reference (pu of
+    /// the current scale, after the wheel-slip cap). The alarm states and their rising edges;
+    /// never panics. The phase count is inlined, the step a call: ticks without a step pay
+    /// only the count.
     #[inline(always)]
     pub fn tick(
         &self,

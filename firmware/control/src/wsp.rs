@@ -14,15 +14,10 @@
 //!
 //! Positive slip: the wheel faster than the vehicle (motoring); traction only. Per-step
 //! quantities are ratios to the schedule's `iref_step`, so a new rate needs no
-//! discretisation on the device. Design and figures: `docs/adhesion.md`.
-//!
-//! # An unknown reference
-//!
-//! `v_ref_mm_s = 0` gives `w_ref = 0` exactly: no detection (a rolling wheel would read as
-//! slipping, and the gear's twist alone trips the acceleration test) and no regulation
-//! (a cap in force rises by `iref_step` per step and releases).
-//!
-//! # The scheduled lead
+//! discretisation on the device. Design and figures: `docs/adhesion.md`. An unknown
+//! reference, `v_ref_mm_s = 0`, gives `w_ref = 0` exactly: no detection (a rolling wheel
+//! would read as slipping, and the gear's twist alone trips the acceleration test) and no
+//! regulation (a cap in force rises by `iref_step` per step and releases).
 //!
 //! While `sched`, the lead runs as `0.3 K a (s + 15)/(s + 274)` on its own state:
 //!

@@ -1,8 +1,7 @@
-//! The hostile-Config table ([`rows`]): every Config a device must refuse, with its
-//! reason, and those just inside each limit, which it must apply; the [`procedure`] tries
-//! a row on the host runtime or the firmware under QEMU and judges it. This file holds one
-//! long idea, the table: each row the [`nominal`] Config with one thing changed, beside the
-//! limit it tests. `Bits` and `Unsupported` have no row (no Config reaches them).
+//! The hostile-Config table ([`rows`]): every Config a device must refuse, with its reason,
+//! and those just inside each limit, which it must apply, each the [`nominal`] Config with
+//! one thing changed; the [`procedure`] tries a row on the host runtime or the firmware
+//! under QEMU and judges it. `Bits` and `Unsupported` have no row (no Config reaches them).
 
 #![deny(missing_docs)]
 
@@ -227,7 +226,6 @@ pub fn rows<T: SampleBits>(mut each: impl FnMut(Row)) -> Result<(), RuntimeError
     let field = R::field;
     let no = Expect::Refused;
     let yes = |visible| Expect::Applied { visible };
-    // The mode: an index the protocol does not define.
     for (change, mode) in [("index 3", 3u8), ("index 127", 127)] {
         each(Row {
             field: field(R::UnknownRequest),
@@ -247,13 +245,11 @@ pub fn rows<T: SampleBits>(mut each: impl FnMut(Row)) -> Result<(), RuntimeError
         });
     };
     let wr = with_rates;
-    // A row refused for `why`: the nominal rates with one edit.
     let mut refuse = |why: R, change, edit: &dyn Fn(&mut Rates)| {
         let mut r = good;
         edit(&mut r);
         row(field(why), change, wr(r), no(why));
     };
-    // The core's identity.
     for (change, v) in [("the other sample type", n ^ 1), ("2", 2), ("255", 255)] {
         refuse(R::Numeric, change, &|r| r.numeric = v);
     }
@@ -480,7 +476,6 @@ pub fn rows<T: SampleBits>(mut each: impl FnMut(Row)) -> Result<(), RuntimeError
     ] {
         row("switches", change, config, yes(visible));
     }
-    // Nominal Configs at every design point (passive where only traction is designed).
     for p in wheelset_control::design::DESIGNED {
         let (hz, d) = (p.base_rate_hz, p.delay_ticks);
         let mode = if p.yaw {

@@ -11,8 +11,7 @@
 #[allow(clippy::wildcard_imports)]
 use super::*;
 
-/// A device that takes frames: the host runtime ([`Runtime`] implements it), the
-/// firmware over a link.
+/// A device taking frames: the host runtime ([`Runtime`] implements it), the firmware on a link.
 pub trait Device {
     /// Why an exchange failed (the link, a garbled answer).
     type Error;

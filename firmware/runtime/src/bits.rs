@@ -8,12 +8,9 @@ use wheelset_control::{
 
 use crate::{acc_factors, AccBits, Rates, DEFAULT_HOLD_TICKS};
 
-/// The runtime configuration: the core's configuration and the fault policy.
-///
-/// # The device's boot defaults
-///
-/// Protection on, monitor on, its safe action off: the actuator replaces the yaw spring,
-/// so zero torque would leave the wheelset with neither (`the_passive_less_wheelset_is_unstable`).
+/// The runtime configuration: the core's configuration and the fault policy. Boot defaults:
+/// protection on, monitor on, its safe action off: the actuator replaces the yaw spring, so
+/// zero torque would leave the wheelset with neither (`the_passive_less_wheelset_is_unstable`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RuntimeConfig {
     /// The core's configuration; its `wire` LSBs are overwritten with the protocol's.

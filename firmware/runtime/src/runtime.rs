@@ -64,7 +64,6 @@ pub struct Runtime<T: Sample> {
     rx_error: bool,
     refused: bool,
     refuse_reason: RefuseReason,
-    /// The first receive event since [`Self::take_rx_event`], and how many followed it.
     rx_event: Option<RxEvent>,
     rx_events_after: u32,
     monitor: Monitor<T>,
@@ -75,12 +74,9 @@ pub struct Runtime<T: Sample> {
     alarm_safe: bool,
     fault_latched: bool,
     status_requested: bool,
-    /// A fault injection the board is to carry out (feature `fault-inject`).
     injected: Option<Command>,
-    /// The board runs a watchdog that ends a stalled tick ([`Self::set_watchdog`]).
     watchdog: bool,
     ticks: u32,
-    /// The board's link limit: the highest base rate a Config may set, Hz.
     max_rate_hz: u32,
     counters: RuntimeCounters,
     tx: [u8; TX_CAPACITY],
@@ -374,10 +370,8 @@ impl<T: SampleBits> Runtime<T> {
     }
 
     /// The board's boot record, once before the first tick. A watchdog or fault reset latches
-    /// [`Flags::FAULT_LATCHED`] and holds the safe state at zero torque until
-    /// [`Command::ClearFaults`]: a device that has just crashed drives nothing until acknowledged.
-    ///
-    /// [`Command::ClearFaults`]: crate::Command::ClearFaults
+    /// [`Flags::FAULT_LATCHED`] and holds zero torque until [`crate::Command::ClearFaults`]: a
+    /// device that has just crashed drives nothing until acknowledged.
     pub fn set_boot(&mut self, boot_count: u32, reset_cause: u8) {
         self.counters.boot_count = boot_count;
         self.counters.reset_cause = reset_cause;

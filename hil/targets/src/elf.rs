@@ -1,8 +1,6 @@
-//! The firmware's ELF images, read without binutils: [`check_target_elf`] (the 52-byte
-//! ELF32 header checked before QEMU is launched, so a host or garbage image is refused
-//! by name, not by a QEMU that never answers), [`sizes`] (flash and static RAM, `cargo
-//! fw`'s budget) and [`layout`] (the allocated sections and symbols, `cargo fw`'s check of
-//! each image's memory map).
+//! The firmware's ELF images, read without binutils: [`check_target_elf`] (so a host or
+//! garbage image is refused by name before QEMU is launched), [`sizes`] (flash and static
+//! RAM) and [`layout`] (sections and symbols, `cargo fw`'s memory-map check).
 
 use std::io::Read;
 use std::path::Path;
@@ -20,8 +18,7 @@ const ET_EXEC: u16 = 2;
 /// Size of the ELF32 header.
 const HEADER: usize = 52;
 
-/// `Ok` when `path` starts with the ELF header of a 32-bit little-endian ARM
-/// executable; else why not.
+/// `Ok` if `path` starts with a 32-bit little-endian ARM executable's ELF header, else why not.
 pub fn check_target_elf(path: &Path) -> Result<(), String> {
     let mut h = [0u8; HEADER];
     let mut f = std::fs::File::open(path).map_err(|e| format!("cannot read: {e}"))?;

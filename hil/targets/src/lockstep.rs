@@ -95,8 +95,7 @@ impl Expect {
         self.owed
     }
 
-    /// Keeps bytes received before a send (answers to earlier frames) for the next
-    /// receive.
+    /// Keeps bytes received before a send (answers to earlier frames) for the next receive.
     pub fn stash(&mut self, bytes: &[u8]) {
         self.early.extend_from_slice(bytes);
     }
@@ -114,8 +113,7 @@ pub(crate) trait OneInFlight {
     /// Writes one part of a write ([`frames`]).
     fn write(&mut self, part: &[u8]) -> Result<(), TransportError>;
 
-    /// The next bytes from the device to `sink`, accounted as received; a timeout error
-    /// when the device stays silent for the link's timeout.
+    /// The next bytes from the device to `sink`, accounted as received; a timeout on silence.
     fn recv_some(&mut self, sink: &mut dyn FnMut(&[u8])) -> Result<(), TransportError>;
 
     fn wait_owed(&mut self, sink: &mut dyn FnMut(&[u8])) -> Result<(), TransportError> {
@@ -125,8 +123,7 @@ pub(crate) trait OneInFlight {
         Ok(())
     }
 
-    /// Sends each frame of `bytes` after the answers still owed (kept for the next
-    /// [`Self::recv_owed`]).
+    /// Sends each frame of `bytes` after the answers owed (kept for [`Self::recv_owed`]).
     fn send_frames(&mut self, bytes: &[u8]) -> Result<(), TransportError> {
         for part in frames(bytes) {
             let mut early = Vec::new();
@@ -138,8 +135,7 @@ pub(crate) trait OneInFlight {
         Ok(())
     }
 
-    /// The answers kept by [`Self::send_frames`], then every frame owed, all to `sink` at
-    /// `deadline_ns`.
+    /// The answers kept by [`Self::send_frames`], then all owed, to `sink` at `deadline_ns`.
     fn recv_owed(
         &mut self,
         deadline_ns: u64,

@@ -20,7 +20,6 @@ pub mod machine;
 mod pin;
 pub mod target;
 
-/// The command line's constants, defined once in [`crate::qemu::cmd`].
 pub use crate::qemu::cmd::{ICOUNT_SHIFT, QEMU_BIN};
 
 /// Budget of the firmware tick's mean, in QEMU instructions (`exec`; `cargo xtask fw-bench`).
@@ -218,7 +217,6 @@ pub struct Qemu {
     /// Bytes received and not yet taken; frames start at `rx_at`.
     rx: Vec<u8>,
     rx_at: usize,
-    /// Bytes queued by [`Qemu::queue`], written before the next wait for the device.
     pending: Vec<u8>,
     timeout: Duration,
 }
@@ -254,7 +252,6 @@ impl Qemu {
         Self::command_to(machine, elf, SerialTo::Tcp(port))
     }
 
-    /// The QEMU command line for `elf` on `machine` with the frames on `to`.
     fn command_to(machine: Machine, elf: &Path, to: SerialTo) -> Command {
         let mut cmd = Command::new(QEMU_BIN);
         cmd.args(qemu_args(
@@ -365,7 +362,6 @@ impl Qemu {
         let port = free_port().map_err(QemuError::Io)?;
         let stderr_path =
             std::env::temp_dir().join(format!("wheelset-qemu-{}-{port}.err", std::process::id()));
-        // From here on, `guard` kills QEMU on every early return.
         let mut guard = Self::spawn(cfg, SerialTo::Tcp(port), &stderr_path)?;
         let deadline = Instant::now() + Duration::from_secs(10);
         let stream = loop {
@@ -421,7 +417,6 @@ impl Qemu {
         stream
             .set_read_timeout(Some(timeout))
             .map_err(QemuError::Io)?;
-        // Started elsewhere: how is not known here.
         let (child, launch) = (None, Launch::default());
         Ok(Self::on_link(
             Link::Tcp(stream),
@@ -448,14 +443,12 @@ impl Qemu {
         self.flush()
     }
 
-    /// Queues bytes for the device: written, with any queued before, when the host next
+    /// Queues bytes for the device, written (after any queued before) when the host next
     /// waits for the device ([`Self::recv_frame`] with nothing left to take) or sends.
-    /// The device sees the same bytes in the same order, in fewer writes.
     pub fn queue(&mut self, bytes: &[u8]) {
         self.pending.extend_from_slice(bytes);
     }
 
-    /// Writes the queued bytes (one system call).
     fn flush(&mut self) -> Result<(), QemuError> {
         if self.pending.is_empty() {
             return Ok(());
@@ -589,8 +582,7 @@ pub struct Launch {
     pub pinned_cpu: Option<usize>,
     /// The `SCHED_RR` priority of `chrt -r`, if set.
     pub sched_rr: Option<u8>,
-    /// The thread that started it is held on the same core while it runs (lock-step; not
-    /// with `WHEELSET_QEMU_PIN=qemu`).
+    /// The starting thread is held on its core (lock-step; not with `WHEELSET_QEMU_PIN=qemu`).
     pub harness_beside: bool,
 }
 

@@ -185,17 +185,14 @@ pub struct RealTime {
     origin: Instant,
     /// Chunks read and not yet delivered: (arrival ns after `origin`, bytes).
     pending: VecDeque<(u64, Vec<u8>)>,
-    /// The frame being assembled from the device's bytes, with its decoder.
     decoder: Decoder,
     frame: Vec<u8>,
     /// The seq of the run's first Sensor frame, once sent.
     first_seq: Option<u16>,
-    /// The seq of the latest Sensor frame sent.
     last_seq: u16,
     synced: bool,
     sync: SyncReport,
     baseline: Option<Status>,
-    /// The last Status seen during start-up.
     last_status: Option<Status>,
     /// Its arrival (ns after `origin`) and its bytes on the wire.
     last_status_at: Option<(u64, usize)>,
@@ -324,8 +321,7 @@ impl RealTime {
         }
     }
 
-    /// Splits the bytes into frames: discarded (counted) before the run's first echo,
-    /// then passed on.
+    /// Frames out of `bytes`: discarded (counted) before the run's first echo, then passed on.
     fn ingest(&mut self, at: u64, bytes: &[u8]) {
         let mut rest = bytes;
         while !rest.is_empty() {
@@ -453,8 +449,7 @@ pub(crate) fn poll_readable(fd: &impl std::os::fd::AsRawFd, wait: Duration) -> i
         tv_sec: libc::time_t::try_from(wait.as_secs()).unwrap_or(libc::time_t::MAX),
         tv_nsec: libc::c_long::from(wait.subsec_nanos()),
     };
-    // SAFETY: one valid `pollfd` and one valid `timespec` for the call, no signal mask
-    // (null), an fd owned by the caller's `fd` and open throughout.
+    // SAFETY: one valid `pollfd` and `timespec` for the call, no signal mask, `fd` open throughout.
     let r = unsafe { libc::ppoll(&mut p, 1, &ts, std::ptr::null()) };
     if r < 0 {
         let e = io::Error::last_os_error();
@@ -467,7 +462,6 @@ pub(crate) fn poll_readable(fd: &impl std::os::fd::AsRawFd, wait: Duration) -> i
     Ok(r > 0)
 }
 
-/// Whether the frames in `bytes` hold a Status frame.
 fn is_status(bytes: &[u8]) -> bool {
     let mut d: Decoder = Decoder::new();
     let found = d

@@ -35,8 +35,7 @@ pub struct Serial {
 }
 
 impl Serial {
-    /// Opens `path` at `baud` (8N1). `cpu_hz` converts the device's `exec` cycles to ns;
-    /// `timeout` bounds a lock-step wait.
+    /// Opens `path` at `baud` (8N1); `cpu_hz` turns `exec` cycles into ns, `timeout` bounds a wait.
     pub fn open(
         path: &str,
         baud: u32,
@@ -128,10 +127,9 @@ impl OneInFlight for Serial {
     }
 }
 
-/// A frame-clocked device on the other end of a port: every 0x00 delimiter received is
-/// one tick of `rt` (the firmware's runtime), whose output is written back at once
-/// (reporting 0 execution time). Runs until `stop` is set or the port fails; returns the
-/// ticks run.
+/// A frame-clocked device on a port: each 0x00 delimiter received is one tick of `rt`,
+/// whose output is written back at once (exec 0). Runs until `stop` is set or the port
+/// fails; returns the ticks run.
 pub fn serve_lockstep<P: Read + Write + ?Sized>(
     port: &mut P,
     rt: &mut Runtime<Fx>,
@@ -157,7 +155,6 @@ pub fn serve_lockstep<P: Read + Write + ?Sized>(
     Ok(ticks)
 }
 
-/// `path` did not open at `baud`.
 pub(crate) fn open_error(path: &str, baud: u32, e: &serialport::Error) -> TransportError {
     TransportError::Unavailable(format!(
         "serial:{path}: cannot open at {baud} baud: {e} (is the board connected, and is the \

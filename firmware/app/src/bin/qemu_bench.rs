@@ -102,7 +102,7 @@ mod bench {
     const RING_TAU_S: f64 = 0.2;
     /// Initial y' amplitude (m/s).
     const RING_AMP_M_S: f64 = 0.02;
-    /// The vehicle's reference speed in the sensor frame (m/s; wire v2's `v_ref_mm_s`).
+    /// The vehicle's reference speed in the sensor frame (m/s; the Sensor's `v_ref_mm_s`).
     const V_REF_M_S: f64 = 83.3;
 
     /// `(cos x, sin x)` for small `|x|` by Taylor series to x^13 (no `sin` in `no_std`).
@@ -303,7 +303,6 @@ mod bench {
         exit(debug::EXIT_SUCCESS)
     }
 
-    /// Ends the QEMU run with `status`.
     fn exit(status: debug::ExitStatus) -> ! {
         loop {
             debug::exit(status);

@@ -111,9 +111,7 @@ pub(super) mod event {
     pub const WSP_STARTED: u32 = 16;
 }
 
-/// What one [`Controller::tick`] counted, one bit per [`Counters`] increment.
-///
-/// [`Controller::tick`]: super::Controller::tick
+/// What one [`super::Controller::tick`] counted, one bit per [`Counters`] increment.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct TickEvents(pub(super) u32);
 
@@ -215,9 +213,7 @@ pub struct OutputCodes {
     pub voltage: i32,
 }
 
-/// Wire-code <-> per-unit conversion, `pu = code * LSB/FS` (for [`Fx`] integer work).
-///
-/// [`Fx`]: crate::Fx
+/// Wire-code <-> per-unit conversion, `pu = code * LSB/FS` (for [`crate::Fx`] integer work).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Codec<T: Sample> {
     pub(crate) y_dot: T::Scale,

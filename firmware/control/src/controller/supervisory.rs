@@ -122,8 +122,7 @@ impl<T: Sample> Controller<T> {
     pub fn wheel_slip(&self) -> bool {
         self.wsp_acting
     }
-    /// The reference speed as motor speed `n v_ref / r0`, pu (held, sanitised, clamped); zero
-    /// means unknown.
+    /// The reference speed as motor speed `n v_ref / r0`, pu (held, sanitised, clamped; 0 unknown).
     pub fn set_v_ref(&mut self, w_ref: T) {
         let m = self.law.speed_max;
         self.wsp.w_ref = w_ref.sanitize().0.limit(T::ZERO.sat_sub(m), m).0;
@@ -182,8 +181,7 @@ impl<T: Sample> Controller<T> {
         self.iref
     }
     /// The current reference the PI follows, pu: the ramped reference, or the wheel-slip
-    /// protection's cap while it acts. What the actuator check's traction-change rule
-    /// watches ([`crate::Monitor::tick`]).
+    /// protection's cap while it acts (what [`crate::Monitor::tick`] takes as `iref`).
     pub fn applied_ref(&self) -> T {
         if self.wsp.active {
             self.wsp.cap

@@ -325,7 +325,6 @@ impl SampleBits for Fx {
         u64::from(c.to_bits() as u32)
     }
     fn coeff_from_bits64(b: u64) -> Option<Coef> {
-        // (-1, 1) strictly, as `quantise` (keeps `mul_q31` free of overflow).
         Some(Coef::from_bits(u32::try_from(b).ok()? as i32)).filter(|q| *q != Coef::MIN)
     }
     fn coeff_in_unit(c: Coef, zero_ok: bool) -> bool {

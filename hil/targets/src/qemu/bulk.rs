@@ -8,13 +8,11 @@ use std::time::{Duration, Instant};
 use super::{read_to_string, Link, Qemu, QemuConfig, QemuError};
 use crate::qemu::cmd::SerialTo;
 
-/// `O_NONBLOCK` (Linux).
 const O_NONBLOCK: i32 = libc::O_NONBLOCK;
 
 impl Qemu {
-    /// [`Self::start`] with the bulk channel: two FIFOs in a fresh directory, QEMU told
-    /// where (`arg=bulk:DIR`), the host's ends opened once the firmware has opened its
-    /// own (a non-blocking open of a FIFO's write end fails until it has a reader).
+    /// [`Self::start`] over the bulk channel (module docs): a non-blocking open of a FIFO's
+    /// write end fails until it has a reader.
     pub(super) fn start_bulk(cfg: &QemuConfig) -> Result<Self, QemuError> {
         use std::os::unix::fs::OpenOptionsExt;
         static SEQ: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);

@@ -26,9 +26,8 @@ pub enum SerialTo {
     /// A TCP server on `127.0.0.1:PORT` that waits for the harness to connect (the
     /// lock-step device), `nodelay` so each frame leaves at once.
     Tcp(u16),
-    /// Nowhere: the frames go over the semihosting bulk channel instead, the FIFOs
-    /// `DIR/rx` and `DIR/tx` (the firmware finds `DIR` in its semihosting arguments,
-    /// `arg=bulk:DIR`; firmware/app/src/board/qemu/bulk.rs).
+    /// Nowhere: the frames go over the semihosting bulk channel, FIFOs `DIR/rx` and `DIR/tx`
+    /// (`arg=bulk:DIR`; firmware/app/src/board/qemu/bulk.rs).
     Bulk(String),
 }
 
@@ -84,8 +83,7 @@ pub fn without_icount(args: Vec<String>) -> Vec<String> {
     out
 }
 
-/// The command line as one shell line (arguments with characters outside
-/// `[A-Za-z0-9_./=:,+-]` single-quoted).
+/// The command line as one shell line (arguments outside `[A-Za-z0-9_./=:,+-]` single-quoted).
 #[must_use]
 pub fn shell_line(args: &[String]) -> String {
     let quote = |a: &String| {

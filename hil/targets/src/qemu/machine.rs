@@ -1,9 +1,6 @@
-//! The emulated boards the QEMU target runs the firmware on: `mps2-an386` (Cortex-M4F,
-//! the default) and `mps2-an385` (Cortex-M3, no FPU). Both have the same memory map,
-//! CMSDK UART0 and interrupt numbers, so one board layer (`firmware/app`, `board-qemu`)
-//! serves both; `cargo fw` builds it for `thumbv7em-none-eabihf`
-//! (`target/fw/wheelset-qemu.elf`) and for `thumbv7m-none-eabi`
-//! (`target/fw/wheelset-qemu-m3.elf`). `hil run --target qemu --machine mps2-an385`.
+//! The emulated boards: `mps2-an386` (Cortex-M4F, the default) and `mps2-an385` (Cortex-M3,
+//! no FPU). Same memory map, CMSDK UART0 and interrupt numbers: one board layer
+//! (`firmware/app`, `board-qemu`) serves both, built by `cargo fw` for each core.
 
 use std::fmt;
 use std::str::FromStr;
@@ -35,8 +32,7 @@ impl Machine {
         }
     }
 
-    /// The file name `cargo fw` gives the firmware built for this machine's core (in
-    /// `target/fw/`).
+    /// The file name `cargo fw` gives this machine's firmware (in `target/fw/`).
     pub fn elf_name(self) -> &'static str {
         match self {
             Self::An386 => "wheelset-qemu.elf",

@@ -5,8 +5,7 @@
 
 use std::process::{Command, Stdio};
 
-/// The cores this process may run on, from `Cpus_allowed_list` in `/proc/self/status`
-/// (e.g. `0-1,4`); `None` where that is not available.
+/// The cores this process may run on (`Cpus_allowed_list` in `/proc/self/status`), if known.
 fn allowed_cores() -> Option<Vec<usize>> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;
     parse_cpu_list(
@@ -59,10 +58,9 @@ pub(super) fn next_core() -> Option<usize> {
     cores.get(k % cores.len()).copied()
 }
 
-/// Whether the thread that starts a lock-step QEMU is held on QEMU's core while it runs
-/// (not with `WHEELSET_QEMU_PIN=qemu`). Host and device take turns, so one core serves
-/// both, and each hand-over is a switch on that core rather than a wake-up on the other
-/// (a cross-core wake-up costs an inter-processor interrupt, dear on a virtual machine).
+/// Whether the thread starting a lock-step QEMU is held on QEMU's core (not with
+/// `WHEELSET_QEMU_PIN=qemu`): host and device take turns, so each hand-over is a switch on
+/// one core, not a cross-core wake-up (an inter-processor interrupt, dear on a VM).
 pub(super) fn beside() -> bool {
     std::env::var("WHEELSET_QEMU_PIN").map_or(true, |v| v != "qemu")
 }

@@ -19,7 +19,6 @@ pub struct QemuTarget {
     baud: u32,
     cpu_hz: f64,
     expect: Expect,
-    /// Two exchanges in flight (the bulk channel).
     pipelined: bool,
 }
 
@@ -30,15 +29,13 @@ fn pipelined(channel: Channel) -> bool {
 }
 
 impl QemuTarget {
-    /// Starts QEMU with the default ELF (`cargo fw`); a clear error if QEMU or the ELF is
-    /// missing. `baud` is the line rate the timing model assumes; `timeout` bounds each
-    /// wait for an answer.
+    /// Starts QEMU with the default ELF (`cargo fw`), a clear error if either is missing;
+    /// `baud` is the line rate the timing model assumes, `timeout` bounds each wait.
     pub fn start(baud: u32, cpu_hz: f64, timeout: Duration) -> Result<Self, TransportError> {
         Self::start_on(Machine::default(), baud, cpu_hz, timeout)
     }
 
-    /// [`Self::start`] on `machine` (mps2-an385: the Cortex-M3 build of the firmware,
-    /// `target/fw/wheelset-qemu-m3.elf`).
+    /// [`Self::start`] on `machine` (mps2-an385: the Cortex-M3 build, `wheelset-qemu-m3.elf`).
     pub fn start_on(
         machine: Machine,
         baud: u32,
@@ -48,8 +45,7 @@ impl QemuTarget {
         Self::start_with(machine, Channel::Uart, baud, cpu_hz, timeout)
     }
 
-    /// [`Self::start_on`] over `channel` (the UART, or the semihosting bulk channel:
-    /// the same frames, faster).
+    /// [`Self::start_on`] over `channel` (UART0, or the semihosting bulk channel: faster).
     pub fn start_with(
         machine: Machine,
         channel: Channel,

@@ -59,7 +59,6 @@ pub struct Obtained {
 }
 
 impl std::fmt::Display for Obtained {
-    /// `SCHED_FIFO 80, memory locked, pinned to CPU 1, timer slack 1 ns; refused: ...`.
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let mut got = Vec::new();
         if let Some(p) = self.sched_fifo {
@@ -109,8 +108,7 @@ pub fn allowed_cpus() -> Vec<usize> {
     Vec::new()
 }
 
-/// The calling thread kept on one CPU ([`hold_on`]); dropped, it gets back the CPUs it
-/// had, from whichever thread drops it.
+/// The calling thread kept on one CPU ([`hold_on`]); dropped by any thread, it gets its CPUs back.
 #[derive(Debug)]
 pub struct HeldOn {
     #[cfg(target_os = "linux")]
@@ -118,8 +116,7 @@ pub struct HeldOn {
     before: Vec<usize>,
 }
 
-/// Keeps the calling thread on `cpu` until the returned value is dropped; `None` if the
-/// kernel refuses (the thread's CPUs unchanged).
+/// Keeps the calling thread on `cpu` until the value returned is dropped; `None` if refused.
 #[must_use]
 pub fn hold_on(cpu: usize) -> Option<HeldOn> {
     #[cfg(target_os = "linux")]
@@ -186,8 +183,7 @@ pub fn obtain(want: Want) -> Obtained {
             }
         }
         if let Some(ns) = want.timer_slack_ns {
-            // SAFETY: PR_SET_TIMERSLACK takes one integer argument (the slack, ns; 0 would
-            // mean the default); the unused arguments are 0.
+            // SAFETY: PR_SET_TIMERSLACK takes the slack, ns (0: the default); the rest 0.
             let r = unsafe {
                 libc::prctl(
                     libc::PR_SET_TIMERSLACK,

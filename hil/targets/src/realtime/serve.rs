@@ -102,7 +102,6 @@ pub fn serve(
         realtime: rt_os::obtain(o.want),
         ..ServeReport::default()
     };
-    // The bridge's two directions (none without a model).
     let mut bridge =
         (!o.bridge.is_none()).then(|| (DelayLine::new(o.bridge, 0), DelayLine::new(o.bridge, 1)));
     let mut rate = rt.base_rate_hz();

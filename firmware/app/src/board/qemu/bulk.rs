@@ -1,9 +1,7 @@
 //! The bulk channel: frames over semihosting file I/O on two host FIFOs (`bulk:DIR`)
-//! instead of UART0, for runs faster than real time; otherwise the UART build's path,
-//! so the same frames bit for bit. One `SYS_READ` takes whatever the host has sent (one
-//! frame or several); each frame edge polls the control executor in thread mode (its
-//! SWI0 masked: no exception per tick) and the tick's answer leaves the TX pipe at once,
-//! as on the UART; one `SYS_WRITE` sends the answers of the whole read.
+//! instead of UART0, for runs faster than real time; otherwise the UART build's path, so
+//! the same frames bit for bit. One `SYS_READ` takes whatever the host has sent, one
+//! `SYS_WRITE` sends the answers of the whole read ([`Bulk::run`]).
 
 use core::cell::RefCell;
 use core::sync::atomic::{AtomicI32, Ordering};
@@ -32,8 +30,7 @@ fn open_file(path: &[u8], mode: usize) -> Option<usize> {
 pub fn open() -> Option<Bulk> {
     let mut cmd = [0u8; 256];
     let mut block = [cmd.as_mut_ptr() as usize, cmd.len() - 1];
-    // SAFETY: `SYS_GET_CMDLINE` writes at most `block[1]` bytes into `cmd`, both live and
-    // exclusively borrowed for the call.
+    // SAFETY: `SYS_GET_CMDLINE` writes at most `block[1]` bytes into `cmd`, both mutably borrowed.
     let r = unsafe { cortex_m_semihosting::syscall1(nr::GET_CMDLINE, block.as_mut_ptr() as usize) };
     if r != 0 {
         return None;
@@ -116,8 +113,7 @@ impl Batch {
     }
 }
 
-/// Moves every frame the TX pipe holds (the tick's answer) into the batch, so each tick
-/// starts with the pipe empty.
+/// Moves the TX pipe's frames (the tick's answer) into the batch: each tick starts it empty.
 fn take_answers() {
     critical_section::with(|cs| {
         let mut b = BATCH_OUT.borrow_ref_mut(cs);
@@ -125,8 +121,7 @@ fn take_answers() {
     });
 }
 
-/// Writes the answers held (the end of a read, or before the safe frame, which must
-/// follow them).
+/// Writes the answers held (the end of a read, or before the safe frame, which follows them).
 pub fn flush_answers() {
     critical_section::with(|cs| {
         if let Ok(mut b) = BATCH_OUT.borrow(cs).try_borrow_mut() {

@@ -40,13 +40,11 @@ impl SysTickStopwatch {
 }
 
 impl Stopwatch for SysTickStopwatch {
-    /// The held count, the enable: in assembly, so the order is kept. The register moves
-    /// are padding: under `-icount` every instruction counts, and this sequence is as long
-    /// as the one that also wrote the reload each tick, so `exec` keeps its golden values.
+    /// The held count, the enable: in assembly, so the order is kept. The register moves are
+    /// padding keeping the sequence's instruction count, so `exec` keeps its golden values.
     fn start(&mut self) -> u32 {
         let start: u32;
-        // SAFETY: SysTick's registers (0xE000_E010/18), owned by this stopwatch; word accesses
-        // to the core's System Control Space, no program memory touched.
+        // SAFETY: word accesses to SysTick's registers (0xE000_E010/18), owned by this stopwatch.
         unsafe {
             core::arch::asm!(
                 "mov {tmp}, {reload}",

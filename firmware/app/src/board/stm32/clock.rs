@@ -1,5 +1,4 @@
-//! The STM32 builds' clock-tree assumptions as pure functions, checked at start-up and
-//! tested on the host:
+//! The STM32 clock-tree assumptions as pure functions, checked at start-up, tested on the host:
 //! - USART (RM0390 25.4.4): `baud = f_PCLK / (8 * (2 - OVER8) * USARTDIV)`; embassy-stm32
 //!   takes `d = round(f_PCLK / baud)`: by 16 with `BRR = d` for `d >= 16`, else by 8 with
 //!   `BRR = (d / 8) << 4 | d % 8` down to `d = 8`.
