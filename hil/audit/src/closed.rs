@@ -178,40 +178,39 @@ pub fn limit_cycle(lead_err_nm: f64, params: &Params) -> Result<LimitCycleReport
     let device = of_trajectory(&dev.trajectory);
     let reference = of_trajectory(&run_continuous(&sc, law));
     let all = Sources::WIRE;
-    let core_all = core_run::<wheelset_control::Fx>(&sc, &cfg, all)?;
-    let mut removed = Vec::new();
-    removed.push((
-        "wire LSB of y'".to_string(),
-        core_run::<wheelset_control::Fx>(
-            &sc,
-            &cfg,
-            Sources {
-                y_wire: false,
-                ..all
-            },
-        )?,
-    ));
-    removed.push((
-        "internal rounding (core in f64)".to_string(),
-        core_run::<f64>(&sc, &cfg, all)?,
-    ));
-    let mut np = cfg;
-    np.yaw_predict_ticks = 0.0;
-    removed.push((
-        "predictor".to_string(),
-        core_run::<wheelset_control::Fx>(&sc, &np, all)?,
-    ));
-    removed.push((
-        "output wire LSB".to_string(),
-        core_run::<wheelset_control::Fx>(
-            &sc,
-            &cfg,
-            Sources {
-                out_wire: false,
-                ..all
-            },
-        )?,
-    ));
+    let fx = |cfg: &Config, src| core_run::<wheelset_control::Fx>(&sc, cfg, src);
+    let core_all = fx(&cfg, all)?;
+    let no_predictor = Config {
+        yaw_predict_ticks: 0.0,
+        ..cfg
+    };
+    let removed = vec![
+        (
+            "wire LSB of y'".to_string(),
+            fx(
+                &cfg,
+                Sources {
+                    y_wire: false,
+                    ..all
+                },
+            )?,
+        ),
+        (
+            "internal rounding (core in f64)".to_string(),
+            core_run::<f64>(&sc, &cfg, all)?,
+        ),
+        ("predictor".to_string(), fx(&no_predictor, all)?),
+        (
+            "output wire LSB".to_string(),
+            fx(
+                &cfg,
+                Sources {
+                    out_wire: false,
+                    ..all
+                },
+            )?,
+        ),
+    ];
     let attribution = removed
         .iter()
         .map(|(n, c)| (n.clone(), c.torque_p2p_nm))

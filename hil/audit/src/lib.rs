@@ -86,11 +86,19 @@ pub(crate) fn core_dyn(
     scenarios: &[Scenario],
     freqs_of: &dyn Fn(f64) -> Vec<(f64, bool)>,
 ) -> Result<Core, ConfigError> {
+    let (mut c, n) = counted(fmt, || core::<QDyn>(cfg, tol, &fmt, scenarios, freqs_of))?;
+    c.observed.arithmetic_saturations = Some(n);
+    Ok(c)
+}
+
+/// `f`'s result and the arithmetic saturations the instrumented type counted in it, at `fmt`.
+fn counted<R>(
+    fmt: Formats,
+    f: impl FnOnce() -> Result<R, ConfigError>,
+) -> Result<(R, u64), ConfigError> {
     qdyn::with_formats(fmt, || {
         qdyn::take_saturations();
-        let mut c = core::<QDyn>(cfg, tol, &fmt, scenarios, freqs_of)?;
-        c.observed.arithmetic_saturations = Some(qdyn::take_saturations());
-        Ok(c)
+        Ok((f()?, qdyn::take_saturations()))
     })
 }
 
@@ -138,11 +146,8 @@ pub fn run(args: &AuditArgs) -> Result<u8, AuditError> {
 
 /// Write `s` to `p`, creating the parent directory.
 pub(crate) fn write(p: &std::path::Path, s: &str) -> Result<(), AuditError> {
-    match p.parent() {
-        Some(d) if !d.as_os_str().is_empty() => {
-            std::fs::create_dir_all(d).map_err(AuditError::io(d))?;
-        }
-        _ => {}
+    if let Some(d) = p.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(d).map_err(AuditError::io(d))?;
     }
     std::fs::write(p, s).map_err(AuditError::io(p))
 }
@@ -172,11 +177,10 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
     let c = if production {
         let mut c = core::<Fx>(&cfg, &tol, &fmt, &scenarios, &|fs| grid(fs))?;
         // Fx's silent saturations, counted by the instrumented type (bit-identical here).
-        let o = qdyn::with_formats(fmt, || {
-            qdyn::take_saturations();
-            ranges::observe::<QDyn>(&cfg, &scenarios, fmt.signal).map(|_| qdyn::take_saturations())
+        let o = counted(fmt, || {
+            ranges::observe::<QDyn>(&cfg, &scenarios, fmt.signal)
         })?;
-        c.observed.arithmetic_saturations = Some(o);
+        c.observed.arithmetic_saturations = Some(o.1);
         c
     } else {
         core_dyn(&cfg, &tol, fmt, &scenarios, &|fs| grid(fs))?
@@ -251,12 +255,11 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
     };
     let recommendations = formats::recommend(&c.observed, &proofs);
     let diagnosis = if production {
-        let pi = match scenarios.iter().find(|s| s.name == "full_scale_steps") {
-            Some(sc) => Some(diagnose::pi_attribution(&cfg, sc)?),
-            None => None,
-        };
+        let steps = scenarios.iter().find(|s| s.name == "full_scale_steps");
         Some(diagnose::Diagnosis {
-            pi,
+            pi: steps
+                .map(|sc| diagnose::pi_attribution(&cfg, sc))
+                .transpose()?,
             lead_amplitude: diagnose::lead_amplitude(&cfg, &tol)?,
         })
     } else {

@@ -159,11 +159,7 @@ pub struct Proofs {
 
 /// Smallest integer bits (incl. sign) with `2^(i-1) > v`.
 pub fn int_bits_for(v: f64) -> u32 {
-    let mut i = 1u32;
-    while i < 64 && 2f64.powi(i as i32 - 1) <= v {
-        i += 1;
-    }
-    i
+    (1..64).take_while(|&i| 2f64.powi(i - 1) <= v).count() as u32 + 1
 }
 
 /// Smallest fraction bits `F` with `err_per_lsb 2^-F <= budget` (both pu).
@@ -270,35 +266,20 @@ pub fn prove(
     // of the chain's output (T_psi for the yaw signals, u_a for the traction ones).
     let budget_t = 0.5 * wire.torque / s.torque;
     let budget_u = 0.5 * wire.voltage / s.voltage;
-    let f_yaw = frac_bits_for(p.lead_err.max(p.gain_err) / q, budget_t);
+    let yaw_per = p.lead_err.max(p.gain_err) / q;
+    let f_yaw = frac_bits_for(yaw_per, budget_t);
     let f_tr = frac_bits_for(p.pi_err / q, budget_u);
     let proposals = p
         .signals
         .iter()
         .map(|(n, c, _, _, v, _)| {
             let i = int_bits_for(*v);
-            let (f, out, per, budget, lsb) = if c == "traction_pi" {
-                (
-                    f_tr,
-                    "u_a",
-                    p.pi_err / q,
-                    budget_u * s.voltage,
-                    wire.voltage,
-                )
+            let (f, out, per, fs, lsb) = if c == "traction_pi" {
+                (f_tr, "u_a", p.pi_err / q, s.voltage, wire.voltage)
             } else {
-                (
-                    f_yaw,
-                    "T_psi",
-                    p.lead_err.max(p.gain_err) / q,
-                    budget_t * s.torque,
-                    wire.torque,
-                )
+                (f_yaw, "T_psi", yaw_per, s.torque, wire.torque)
             };
-            let fs = if c == "traction_pi" {
-                s.voltage
-            } else {
-                s.torque
-            };
+            let budget = lsb / 2.0;
             let e = per * 2f64.powi(-(f as i32)) * fs;
             Proposal {
                 signal: n.clone(),
