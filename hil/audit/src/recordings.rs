@@ -172,11 +172,11 @@ fn record(
         name: name.to_string(),
         source: format!(
             "closed loop: sim-host plant, track `{track}`, f64 controller (yaw lead, \
-             traction on), one period of actuation delay, controller inputs recorded{}",
+             traction on), one period of actuation delay, controller inputs recorded{}{fault_note}",
             match faults {
                 Faults::None => String::new(),
-                Faults::Outage(a, b) => format!("; link outage {a} s .. {b} s{fault_note}"),
-                Faults::Drops(p) => format!("; random frame loss p = {p}{fault_note}"),
+                Faults::Outage(a, b) => format!("; link outage {a} s .. {b} s"),
+                Faults::Drops(p) => format!("; random frame loss p = {p}"),
             }
         ),
         ticks,
