@@ -334,19 +334,18 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
              WHEELSET_QEMU_ELF) and install qemu-system-arm, then run the audit again; or \
              say --no-target to audit the host alone",
         )),
-        on_target::TargetOutcome::Failed => {
-            let mut c = Check::not_run(
+        on_target::TargetOutcome::Failed => checks.push(Check {
+            status: Status::Fail,
+            not_run: false,
+            reason: target.note.clone(),
+            ..Check::not_run(
                 "all",
                 TARGET_ITEM,
                 "",
                 "the firmware under QEMU stopped answering the audit's Sensor frames: run \
                  `hil run --target qemu` to see where, and the QEMU tests of `cargo xtest`",
-            );
-            c.status = Status::Fail;
-            c.not_run = false;
-            c.reason = target.note.clone();
-            checks.push(c);
-        }
+            )
+        }),
         _ => {}
     }
     let verdict = checks
