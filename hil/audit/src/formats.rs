@@ -29,7 +29,6 @@ pub(crate) fn sweep(cfg: &Config, tol: &Tolerances, fmt: &Formats, coefs: &[Coef
     let mut eval = |f: u32| -> bool {
         let mut fm = *fmt;
         fm.signal = QFormat::new(fmt.signal.int_bits, f);
-        // The first failing check, or why the run failed (`None`: every check passes).
         let why = match core_dyn(cfg, tol, fm, &scen, &named) {
             Ok(c) => all_checks(&c, tol, cfg)
                 .into_iter()

@@ -11,7 +11,7 @@ use super::{Audit, Status};
 use wheelset_report::table::Table;
 
 /// The command the block comes from.
-pub const COMMAND: &str = "cargo run --release -q -p hil -- audit --no-target --readme-block";
+const COMMAND: &str = "cargo run --release -q -p hil -- audit --no-target --readme-block";
 
 /// The block's body for `a`, what goes between the `<!-- generated:audit -->` markers (every line ends
 /// in `\n`).

@@ -27,9 +27,9 @@ fn verdict_line(a: &Audit) -> String {
 }
 
 /// The full text: one line per controller with the headline figures, the noise per
-/// scenario, the proofs, then every check with its reason and remedy (only those not
-/// passed when `quiet`), then the verdict. The report directory keeps it as `audit.txt`.
-pub fn full_text(a: &Audit, quiet: bool) -> String {
+/// scenario, the proofs, then every check with its reason and remedy, then the verdict
+/// (the report's `audit.txt`).
+fn full_text(a: &Audit) -> String {
     let mut s = headline(a);
     for c in &a.controllers {
         let _ = writeln!(
@@ -47,13 +47,11 @@ pub fn full_text(a: &Audit, quiet: bool) -> String {
         );
     }
     for n in &a.observed.noise {
-        if !quiet {
-            let _ = writeln!(
-                s,
-                "  noise {:<6} {:<18} ({}, {}): max {:.2} LSB = {:.3e} {} ({:.3} wire LSB), rms {:.2} LSB",
-                n.output, n.scenario, n.yaw_mode, n.phase.words(), n.max_lsb, n.max_si, n.unit, n.max_wire_lsb, n.rms_lsb
-            );
-        }
+        let _ = writeln!(
+            s,
+            "  noise {:<6} {:<18} ({}, {}): max {:.2} LSB = {:.3e} {} ({:.3} wire LSB), rms {:.2} LSB",
+            n.output, n.scenario, n.yaw_mode, n.phase.words(), n.max_lsb, n.max_si, n.unit, n.max_wire_lsb, n.rms_lsb
+        );
     }
     let _ = writeln!(s, "  proofs: {}", a.proof_statement);
     if let Some(cl) = &a.closed_loop {
@@ -61,16 +59,14 @@ pub fn full_text(a: &Audit, quiet: bool) -> String {
     }
     let _ = writeln!(s, "  {}", a.target.note);
     for c in &a.checks {
-        if !quiet || c.status != Status::Pass {
-            let _ = writeln!(
-                s,
-                "  {:<4} {:<12} {}: {}",
-                c.status.as_str(),
-                c.controller,
-                c.item,
-                c.reason_and_remedy()
-            );
-        }
+        let _ = writeln!(
+            s,
+            "  {:<4} {:<12} {}: {}",
+            c.status.as_str(),
+            c.controller,
+            c.item,
+            c.reason_and_remedy()
+        );
     }
     s + &verdict_line(a)
 }
@@ -163,7 +159,7 @@ pub fn write_report(a: &Audit, dir: &Path) -> Result<(), AuditError> {
     std::fs::create_dir_all(dir).map_err(AuditError::io(dir))?;
     let plots = super::plots::write_plots(a, dir)?;
     let md = markdown(a, &plots);
-    super::write(&dir.join("audit.txt"), &full_text(a, false))?;
+    super::write(&dir.join("audit.txt"), &full_text(a))?;
     super::write(&dir.join("audit.md"), &md)
 }
 

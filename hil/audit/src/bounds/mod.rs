@@ -262,8 +262,8 @@ pub fn prove(
         ),
     ];
     let overflow_free = p.signals.iter().all(|x| x.4 < range);
-    // Proposals: integer bits from the proven bound; fraction bits from half a wire LSB
-    // of the chain's output (T_psi for the yaw signals, u_a for the traction ones).
+    // Proposals: integer bits from the proven bound, fraction bits from half a wire LSB
+    // of the chain's output (T_psi or u_a).
     let budget_t = 0.5 * wire.torque / s.torque;
     let budget_u = 0.5 * wire.voltage / s.voltage;
     let yaw_per = p.lead_err.max(p.gain_err) / q;
