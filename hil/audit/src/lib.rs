@@ -1,14 +1,11 @@
-//! `hil audit`: the fixed-point accuracy audit of the control core, per controller (yaw
-//! lead, yaw pure gain, PI traction), at the configured rates and Q formats
-//! (`docs/audit.md`): coefficients (f64 discretisation against the quantised values the
-//! controller multiplies by), poles, zeros and DC gain, frequency responses (the fixed
-//! point *measured* with sinusoids and a least-squares fit), ranges and noise
+//! `hil audit`: the fixed-point accuracy audit of the control core per controller (yaw
+//! lead, yaw gain, PI traction) at the configured rates and Q formats (`docs/audit.md`):
+//! coefficients, poles, zeros and DC gain (f64 against quantised), frequency responses
+//! (the fixed point *measured* with sinusoids and a least-squares fit), ranges and noise
 //! ([`ranges`]), proven bounds ([`bounds`], [`wcpg`]), limit cycles ([`limits`],
-//! [`closed`]), margins ([`closed::margins`]) and recommended formats ([`formats`]). Every figure
-//! is judged against [`Tolerances`]: pass, warn or fail; the exit code is 1 on any fail.
-//!
-//! `hil audit` parses [`AuditArgs`] (a `clap::Args`: the command line and the library's
-//! options are one type) and calls [`run`].
+//! [`closed`]), margins ([`closed::margins`]) and recommended formats ([`formats`]), each
+//! judged against [`Tolerances`] (exit code 1 on any fail). `hil audit` parses
+//! [`AuditArgs`] (one `clap::Args` for the command line and the library) and calls [`run`].
 #![deny(missing_docs)]
 
 pub mod args;
