@@ -1,15 +1,13 @@
 //! The closed-loop audit: the fixed-point runtime in the loop with the plant through the
-//! wire (`wheelset_loop::device_loop::run_device` on `curve`, every period recorded)
-//! against the continuous reference (`wheelset_plant::sim::run_continuous`); the
-//! straight-track limit cycle measured in the window [`WINDOW_S`] (the torque's peak to
-//! peak, RMS about its mean and dominant frequency, [`dominant_hz`]; `y` peak to peak)
-//! and attributed by re-running the control core ([`CoreController`]) with every source,
-//! then with one removed at a time: the wire LSB of `y'`, the internal rounding (the core
-//! in f64), the predictor, the output wire LSB.
+//! wire (`wheelset_loop::device_loop::run_device` on `curve`) against the continuous
+//! reference (`wheelset_plant::sim::run_continuous`). The straight-track limit cycle in
+//! [`WINDOW_S`] (torque peak to peak, RMS, [`dominant_hz`]; `y` peak to peak) is
+//! attributed by re-running the core ([`CoreController`]) with every source, then with
+//! one removed at a time (wire LSB of `y'`, internal rounding, predictor, output wire LSB).
 //!
-//! A **self-sustained oscillation** persists without an input and exceeds the output's
-//! proven rounding-error bound; a **bounded dither** stays within it (as
-//! [`super::limits`]). On straight track the plant input is zero.
+//! A **self-sustained oscillation** persists without an input (on straight track the
+//! plant input is zero) and exceeds the torque's proven rounding-error bound; a **bounded
+//! dither** stays within it (as [`super::limits`]).
 
 use serde::Serialize;
 use wheelset_control::{Config, SampleBits};
