@@ -206,61 +206,50 @@ pub fn prove(
         .collect();
     let s = &cfg.scales;
     let wire = &cfg.wire;
-    let eb =
-        |o: &str, obs: f64, pr: f64, fs: f64, unit: &str, lsb: f64, pts: Vec<(String, f64)>| {
-            ErrorBound {
-                output: o.into(),
-                observed: obs * fs,
-                proven: pr * fs,
-                unit: unit.into(),
-                proven_wire_lsb: pr * fs / lsb,
-                rounding_points: pts.into_iter().map(|(n, v)| (n, v * fs)).collect(),
-            }
-        };
-    let error_bounds = vec![
-        eb(
+    let torque = (s.torque, "N m", wire.torque);
+    let pts = |v: &[(&str, f64)]| v.iter().map(|&(n, x)| (n.to_string(), x)).collect();
+    // `(output, proven pu, (full scale, unit, wire LSB), rounding points pu)`.
+    let rows: [(_, _, _, Vec<(String, f64)>); 4] = [
+        (
             "T_psi (lead, with the predictor)",
-            obs_err[0],
             p.lead_err,
-            s.torque,
-            "N m",
-            wire.torque,
+            torque,
             p.lead_err_points.clone(),
         ),
-        eb(
+        (
             "T_psi (gain, with the predictor)",
-            obs_err[1],
             p.gain_err,
-            s.torque,
-            "N m",
-            wire.torque,
-            vec![
-                ("predictor".into(), p.gain_err - q / 2.0),
-                ("x k".into(), q / 2.0),
-            ],
+            torque,
+            pts(&[("predictor", p.gain_err - q / 2.0), ("x k", q / 2.0)]),
         ),
-        eb(
+        (
             "u_a (PI, given its error input)",
-            obs_err[2],
             p.pi_err,
-            s.voltage,
-            "V",
-            wire.voltage,
-            vec![
-                ("Kp e".into(), q / 2.0),
-                ("integrator (floored, remainder carried)".into(), q),
-            ],
+            (s.voltage, "V", wire.voltage),
+            pts(&[
+                ("Kp e", q / 2.0),
+                ("integrator (floored, remainder carried)", q),
+            ]),
         ),
-        eb(
+        (
             "i_ref (ramped reference)",
-            obs_err[3],
             p.iref_err,
-            s.current,
-            "A",
-            wire.current,
-            vec![("demand d2i".into(), q / 2.0)],
+            (s.current, "A", wire.current),
+            pts(&[("demand d2i", q / 2.0)]),
         ),
     ];
+    let error_bounds = rows
+        .into_iter()
+        .zip(obs_err)
+        .map(|((o, pr, (fs, unit, lsb), pts), obs)| ErrorBound {
+            output: o.into(),
+            observed: obs * fs,
+            proven: pr * fs,
+            unit: unit.into(),
+            proven_wire_lsb: pr * fs / lsb,
+            rounding_points: pts.into_iter().map(|(n, v)| (n, v * fs)).collect(),
+        })
+        .collect();
     let overflow_free = p.signals.iter().all(|x| x.4 < range);
     // Proposals: integer bits from the proven bound, fraction bits from half a wire LSB
     // of the chain's output (T_psi or u_a).
