@@ -318,8 +318,7 @@ pub fn isolate(kind: Kind, base: &Config) -> Config {
         Kind::YawGain | Kind::YawPredictor => (YawMode::Gain, false),
         Kind::TractionPi => (YawMode::Passive, true),
     };
-    // The y' predictor is not part of the lead's or the gain's transfer function: audited
-    // without it, and on its own behind the gain (whose quantised value is divided out).
+    // The y' predictor is audited on its own, behind the gain (its value divided out).
     let predictor = kind == Kind::YawPredictor;
     Config {
         yaw_mode,
