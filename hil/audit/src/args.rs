@@ -66,25 +66,14 @@ pub struct AuditArgs {
 }
 
 impl Default for AuditArgs {
+    /// The command line's defaults: `hil audit` with no option.
     fn default() -> Self {
-        Self {
-            rate: None,
-            yaw_divisor: None,
-            traction_divisor: None,
-            params: None,
-            json: None,
-            report: None,
-            signal_q: None,
-            coef_q: None,
-            no_sweep: false,
-            no_plant: false,
-            no_target: false,
-            no_closed_loop: false,
-            readme_block: false,
-            target_ticks: 2000,
-            yaw_predict_ticks: None,
-            quiet: true,
+        #[derive(clap::Parser)]
+        struct Cli {
+            #[command(flatten)]
+            args: AuditArgs,
         }
+        <Cli as clap::Parser>::parse_from(["hil audit"]).args
     }
 }
 

@@ -71,8 +71,7 @@ pub fn controller_checks(a: &ControllerAudit, tol: &Tolerances, cfg: &Config) ->
         (w.discrete_gain_db, tol.discrete_gain_db),
         (w.discrete_phase_deg, tol.discrete_phase_deg),
     ];
-    // The predictor approximates an ideal advance by design; its deviation from it is the
-    // sampled-data analysis' business, not a numerics figure: only its fixed point is judged.
+    // The predictor's deviation from an ideal advance is by design: only its fixed point.
     let predictor = n == "yaw_predictor";
     let kinds = [
         ("fixed vs f64", "", fixed, both.as_str()),
@@ -353,8 +352,7 @@ pub fn closed_loop_checks(
         "yaw_lead",
         "closed-loop limit cycle on straight track (device in the loop, curve 17-20 s)",
         lc.amplitude / lsb,
-        // A self-sustained cycle (above twice the proven rounding bound or one wire
-        // LSB, the dither limit of `closed`) warns; the loop stays bounded, so no fail.
+        // Above the dither limit of `closed` warns; the loop stays bounded, so no fail.
         ((2.0 * lc.dither_limit_nm).max(lsb) / lsb, f64::INFINITY),
         "wire LSB peak to peak",
         "torque peak to peak",

@@ -1,15 +1,13 @@
 //! The closed-loop audit: the fixed-point runtime in the loop with the plant through the
-//! wire (`wheelset_loop::device_loop::run_device` on `curve`, every period recorded)
-//! against the continuous reference (`wheelset_plant::sim::run_continuous`); the
-//! straight-track limit cycle measured in the window [`WINDOW_S`] (the torque's peak to
-//! peak, RMS about its mean and dominant frequency, [`dominant_hz`]; `y` peak to peak)
-//! and attributed by re-running the control core ([`CoreController`]) with every source,
-//! then with one removed at a time: the wire LSB of `y'`, the internal rounding (the core
-//! in f64), the predictor, the output wire LSB.
+//! wire (`wheelset_loop::device_loop::run_device` on `curve`) against the continuous
+//! reference (`wheelset_plant::sim::run_continuous`). The straight-track limit cycle in
+//! [`WINDOW_S`] (torque peak to peak, RMS, [`dominant_hz`]; `y` peak to peak) is
+//! attributed by re-running the core ([`CoreController`]) with every source, then with
+//! one removed at a time (wire LSB of `y'`, internal rounding, predictor, output wire LSB).
 //!
-//! A **self-sustained oscillation** persists without an input and exceeds the output's
-//! proven rounding-error bound; a **bounded dither** stays within it (as
-//! [`super::limits`]). On straight track the plant input is zero.
+//! A **self-sustained oscillation** persists without an input (on straight track the
+//! plant input is zero) and exceeds the torque's proven rounding-error bound; a **bounded
+//! dither** stays within it (as [`super::limits`]).
 
 use serde::Serialize;
 use wheelset_control::{Config, SampleBits};
@@ -178,40 +176,39 @@ pub fn limit_cycle(lead_err_nm: f64, params: &Params) -> Result<LimitCycleReport
     let device = of_trajectory(&dev.trajectory);
     let reference = of_trajectory(&run_continuous(&sc, law));
     let all = Sources::WIRE;
-    let core_all = core_run::<wheelset_control::Fx>(&sc, &cfg, all)?;
-    let mut removed = Vec::new();
-    removed.push((
-        "wire LSB of y'".to_string(),
-        core_run::<wheelset_control::Fx>(
-            &sc,
-            &cfg,
-            Sources {
-                y_wire: false,
-                ..all
-            },
-        )?,
-    ));
-    removed.push((
-        "internal rounding (core in f64)".to_string(),
-        core_run::<f64>(&sc, &cfg, all)?,
-    ));
-    let mut np = cfg;
-    np.yaw_predict_ticks = 0.0;
-    removed.push((
-        "predictor".to_string(),
-        core_run::<wheelset_control::Fx>(&sc, &np, all)?,
-    ));
-    removed.push((
-        "output wire LSB".to_string(),
-        core_run::<wheelset_control::Fx>(
-            &sc,
-            &cfg,
-            Sources {
-                out_wire: false,
-                ..all
-            },
-        )?,
-    ));
+    let fx = |cfg: &Config, src| core_run::<wheelset_control::Fx>(&sc, cfg, src);
+    let core_all = fx(&cfg, all)?;
+    let no_predictor = Config {
+        yaw_predict_ticks: 0.0,
+        ..cfg
+    };
+    let removed = vec![
+        (
+            "wire LSB of y'".to_string(),
+            fx(
+                &cfg,
+                Sources {
+                    y_wire: false,
+                    ..all
+                },
+            )?,
+        ),
+        (
+            "internal rounding (core in f64)".to_string(),
+            core_run::<f64>(&sc, &cfg, all)?,
+        ),
+        ("predictor".to_string(), fx(&no_predictor, all)?),
+        (
+            "output wire LSB".to_string(),
+            fx(
+                &cfg,
+                Sources {
+                    out_wire: false,
+                    ..all
+                },
+            )?,
+        ),
+    ];
     let attribution = removed
         .iter()
         .map(|(n, c)| (n.clone(), c.torque_p2p_nm))

@@ -179,21 +179,21 @@ pub fn lead_amplitude(cfg: &Config, tol: &Tolerances) -> Result<AmplitudeSweep, 
         .filter(|f| *f <= tol.frac_fs * fs)
         .collect();
     let amps = [1e-2, 3e-3, 1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 3e-6, 1e-6];
-    let mut points = Vec::new();
-    for a in amps {
-        let (mut g, mut p) = (0.0f64, 0.0f64);
+    let point = |a: f64| -> Result<AmplitudePoint, ConfigError> {
+        let (mut gain_db, mut phase_deg) = (0.0f64, 0.0f64);
         for &f in &freqs {
             let m = response::measured_at::<Fx>(kind, cfg, f, a)?;
             let d = ideal.response(f, t_s);
-            g = g.max(response::gain_err_db(m, d).abs());
-            p = p.max(response::phase_err_deg(m, d).abs());
+            gain_db = gain_db.max(response::gain_err_db(m, d).abs());
+            phase_deg = phase_deg.max(response::phase_err_deg(m, d).abs());
         }
-        points.push(AmplitudePoint {
+        Ok(AmplitudePoint {
             amplitude_mps: a,
-            gain_db: g,
-            phase_deg: p,
-        });
-    }
+            gain_db,
+            phase_deg,
+        })
+    };
+    let points = amps.into_iter().map(point).collect::<Result<Vec<_>, _>>()?;
     let ok = |x: &AmplitudePoint| {
         x.gain_db <= tol.fixed_gain_db.0 && x.phase_deg <= tol.fixed_phase_deg.0
     };

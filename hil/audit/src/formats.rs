@@ -29,19 +29,15 @@ pub(crate) fn sweep(cfg: &Config, tol: &Tolerances, fmt: &Formats, coefs: &[Coef
     let mut eval = |f: u32| -> bool {
         let mut fm = *fmt;
         fm.signal = QFormat::new(fmt.signal.int_bits, f);
-        let r = core_dyn(cfg, tol, fm, &scen, &named);
-        let (ok, why) = match r {
-            Ok(c) => {
-                let checks = all_checks(&c, tol, cfg);
-                match checks.iter().find(|c| c.status == Status::Fail) {
-                    Some(c) => (false, format!("{}: {}", c.controller, c.reason)),
-                    None => (true, String::new()),
-                }
-            }
-            Err(e) => (false, e.to_string()),
+        let why = match core_dyn(cfg, tol, fm, &scen, &named) {
+            Ok(c) => all_checks(&c, tol, cfg)
+                .into_iter()
+                .find(|c| c.status == Status::Fail)
+                .map(|c| format!("{}: {}", c.controller, c.reason)),
+            Err(e) => Some(e.to_string()),
         };
-        tried.push((f, ok, why));
-        ok
+        tried.push((f, why.is_none(), why.clone().unwrap_or_default()));
+        why.is_none()
     };
     let (mut lo, mut hi) = (4u32, max_f);
     let min = if !eval(hi) {

@@ -1,14 +1,11 @@
-//! `hil audit`: the fixed-point accuracy audit of the control core, per controller (yaw
-//! lead, yaw pure gain, PI traction), at the configured rates and Q formats
-//! (`docs/audit.md`): coefficients (f64 discretisation against the quantised values the
-//! controller multiplies by), poles, zeros and DC gain, frequency responses (the fixed
-//! point *measured* with sinusoids and a least-squares fit), ranges and noise
+//! `hil audit`: the fixed-point accuracy audit of the control core per controller (yaw
+//! lead, yaw gain, PI traction) at the configured rates and Q formats (`docs/audit.md`):
+//! coefficients, poles, zeros and DC gain (f64 against quantised), frequency responses
+//! (the fixed point *measured* with sinusoids and a least-squares fit), ranges and noise
 //! ([`ranges`]), proven bounds ([`bounds`], [`wcpg`]), limit cycles ([`limits`],
-//! [`closed`]), margins ([`closed::margins`]) and recommended formats ([`formats`]). Every figure
-//! is judged against [`Tolerances`]: pass, warn or fail; the exit code is 1 on any fail.
-//!
-//! `hil audit` parses [`AuditArgs`] (a `clap::Args`: the command line and the library's
-//! options are one type) and calls [`run`].
+//! [`closed`]), margins ([`closed::margins`]) and recommended formats ([`formats`]), each
+//! judged against [`Tolerances`] (exit code 1 on any fail). `hil audit` parses
+//! [`AuditArgs`] (one `clap::Args` for the command line and the library) and calls [`run`].
 #![deny(missing_docs)]
 
 pub mod args;
@@ -86,11 +83,19 @@ pub(crate) fn core_dyn(
     scenarios: &[Scenario],
     freqs_of: &dyn Fn(f64) -> Vec<(f64, bool)>,
 ) -> Result<Core, ConfigError> {
+    let (mut c, n) = counted(fmt, || core::<QDyn>(cfg, tol, &fmt, scenarios, freqs_of))?;
+    c.observed.arithmetic_saturations = Some(n);
+    Ok(c)
+}
+
+/// `f`'s result and the arithmetic saturations the instrumented type counted in it, at `fmt`.
+fn counted<R>(
+    fmt: Formats,
+    f: impl FnOnce() -> Result<R, ConfigError>,
+) -> Result<(R, u64), ConfigError> {
     qdyn::with_formats(fmt, || {
         qdyn::take_saturations();
-        let mut c = core::<QDyn>(cfg, tol, &fmt, scenarios, freqs_of)?;
-        c.observed.arithmetic_saturations = Some(qdyn::take_saturations());
-        Ok(c)
+        Ok((f()?, qdyn::take_saturations()))
     })
 }
 
@@ -138,11 +143,8 @@ pub fn run(args: &AuditArgs) -> Result<u8, AuditError> {
 
 /// Write `s` to `p`, creating the parent directory.
 pub(crate) fn write(p: &std::path::Path, s: &str) -> Result<(), AuditError> {
-    match p.parent() {
-        Some(d) if !d.as_os_str().is_empty() => {
-            std::fs::create_dir_all(d).map_err(AuditError::io(d))?;
-        }
-        _ => {}
+    if let Some(d) = p.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(d).map_err(AuditError::io(d))?;
     }
     std::fs::write(p, s).map_err(AuditError::io(p))
 }
@@ -172,11 +174,10 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
     let c = if production {
         let mut c = core::<Fx>(&cfg, &tol, &fmt, &scenarios, &|fs| grid(fs))?;
         // Fx's silent saturations, counted by the instrumented type (bit-identical here).
-        let o = qdyn::with_formats(fmt, || {
-            qdyn::take_saturations();
-            ranges::observe::<QDyn>(&cfg, &scenarios, fmt.signal).map(|_| qdyn::take_saturations())
+        let o = counted(fmt, || {
+            ranges::observe::<QDyn>(&cfg, &scenarios, fmt.signal)
         })?;
-        c.observed.arithmetic_saturations = Some(o);
+        c.observed.arithmetic_saturations = Some(o.1);
         c
     } else {
         core_dyn(&cfg, &tol, fmt, &scenarios, &|fs| grid(fs))?
@@ -251,12 +252,11 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
     };
     let recommendations = formats::recommend(&c.observed, &proofs);
     let diagnosis = if production {
-        let pi = match scenarios.iter().find(|s| s.name == "full_scale_steps") {
-            Some(sc) => Some(diagnose::pi_attribution(&cfg, sc)?),
-            None => None,
-        };
+        let steps = scenarios.iter().find(|s| s.name == "full_scale_steps");
         Some(diagnose::Diagnosis {
-            pi,
+            pi: steps
+                .map(|sc| diagnose::pi_attribution(&cfg, sc))
+                .transpose()?,
             lead_amplitude: diagnose::lead_amplitude(&cfg, &tol)?,
         })
     } else {
@@ -331,19 +331,18 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
              WHEELSET_QEMU_ELF) and install qemu-system-arm, then run the audit again; or \
              say --no-target to audit the host alone",
         )),
-        on_target::TargetOutcome::Failed => {
-            let mut c = Check::not_run(
+        on_target::TargetOutcome::Failed => checks.push(Check {
+            status: Status::Fail,
+            not_run: false,
+            reason: target.note.clone(),
+            ..Check::not_run(
                 "all",
                 TARGET_ITEM,
                 "",
                 "the firmware under QEMU stopped answering the audit's Sensor frames: run \
                  `hil run --target qemu` to see where, and the QEMU tests of `cargo xtest`",
-            );
-            c.status = Status::Fail;
-            c.not_run = false;
-            c.reason = target.note.clone();
-            checks.push(c);
-        }
+            )
+        }),
         _ => {}
     }
     let verdict = checks

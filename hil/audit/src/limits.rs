@@ -108,8 +108,7 @@ pub fn limit_cycles<T: Sample>(
         }
         let mean = ya.iter().sum::<f64>() / ya.len().max(1) as f64;
         let out_lsb = lsb * out_fs;
-        // For the PI a constant error makes the integrator ramp: an oscillation is
-        // judged on the first difference, the offset on the last sample.
+        // A constant error ramps the PI's integrator: judge its first difference.
         let (osc_src, last) = if kind == Kind::TractionPi {
             (
                 ya.windows(2).map(|w| w[1] - w[0]).collect::<Vec<_>>(),

@@ -104,17 +104,13 @@ pub fn audit_controller<T: Sample>(
         discrete_quantised: quant.dc_gain(),
         fixed_vs_continuous_rel: fixed_dc.zip(cdc).map(|(a, b)| (a - b) / b),
     };
-    let mut freq_response = Vec::with_capacity(freqs.len());
-    for &(f, named) in freqs {
-        if f >= 0.5 * fs {
-            continue;
-        }
+    let point = |&(f, named): &(f64, bool)| -> Result<FreqPoint, ConfigError> {
         let c = response::continuous(kind, cfg, f);
         let d = ideal.response(f, t_s);
         let dq = quant.response(f, t_s);
         let fx = response::measured::<T>(kind, cfg, f)?;
         let fm = response::measured::<f64>(kind, cfg, f)?;
-        freq_response.push(FreqPoint {
+        Ok(FreqPoint {
             f_hz: f,
             named,
             continuous: c.into(),
@@ -126,8 +122,13 @@ pub fn audit_controller<T: Sample>(
             fixed_vs_f64_deg: response::phase_err_deg(fx, d),
             f64_vs_continuous_db: response::gain_err_db(d, c),
             f64_vs_continuous_deg: response::phase_err_deg(d, c),
-        });
-    }
+        })
+    };
+    let freq_response = freqs
+        .iter()
+        .filter(|p| p.0 < 0.5 * fs)
+        .map(point)
+        .collect::<Result<Vec<_>, _>>()?;
     let below = tol.frac_fs * fs;
     let worst_of = |g: &dyn Fn(&FreqPoint) -> f64| {
         freq_response

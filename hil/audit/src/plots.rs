@@ -58,8 +58,7 @@ pub fn write_plots(a: &Audit, dir: &Path) -> Result<Vec<(String, String)>, Audit
                 .size(860.0, 280.0)
         };
         let bode = |title: &str, unit: &str| plain(title, unit).vmark(limit, &judged, EDGE_COLOUR);
-        // The three forms nearly coincide: continuous wide and pale beneath, discrete f64
-        // narrower and half transparent over it, fixed point thin on top, so each shows.
+        // The forms nearly coincide: continuous wide and pale, f64 translucent, fixed thin.
         let forms = |p: Plot, unwrap_phase: bool, g: &dyn Fn(&super::GainPhase) -> f64| {
             let u = |v: Vec<(f64, f64)>| if unwrap_phase { unwrap(v) } else { v };
             p.series(
@@ -79,8 +78,7 @@ pub fn write_plots(a: &Audit, dir: &Path) -> Result<Vec<(String, String)>, Audit
                     .width(1.2),
             )
         };
-        // An error panel against its tolerance: warn at +-w, fail at +-f over the band
-        // the check judges (no limits and no band where the figure is not judged).
+        // Warn at +-w, fail at +-f over the band the check judges (none where not judged).
         let error = |title: &str, unit: &str, tol: Option<(f64, f64)>, s: Series| match tol {
             Some((w, f)) => bode(title, unit)
                 .series(s)
@@ -171,8 +169,7 @@ pub fn write_plots(a: &Audit, dir: &Path) -> Result<Vec<(String, String)>, Audit
         })
         .collect();
     let range = a.formats.signal.range().log2();
-    // The names of the report's range table, and a y range that holds the format's
-    // range line as well as the peaks (the line sits above every peak with headroom).
+    // The range table's names; the y range holds the format's range line and the peaks.
     let names: Vec<String> = sigs
         .iter()
         .map(|s| format!("{}.{}", s.controller, s.name))

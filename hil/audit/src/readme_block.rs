@@ -4,27 +4,14 @@
 
 use std::fmt::Write as _;
 
-use super::model::ControllerAudit;
+use super::model::{CoefRow, ControllerAudit};
 use super::ranges::Phase;
 use super::writeup_sections::{bounds_table, error_bounds_table, Detail};
 use super::{Audit, Status};
 use wheelset_report::table::Table;
 
 /// The command the block comes from.
-pub const COMMAND: &str = "cargo run --release -q -p hil -- audit --no-target --readme-block";
-
-fn worst_coef(a: &Audit, name: &str) -> String {
-    a.controllers
-        .iter()
-        .find(|c| c.name == name)
-        .and_then(|c| {
-            c.coefficients
-                .iter()
-                .max_by(|x, y| x.rel_err.abs().total_cmp(&y.rel_err.abs()))
-        })
-        .map(|r| format!("{:.1e} (`{}`)", r.rel_err.abs(), r.name))
-        .unwrap_or_else(|| "-".into())
-}
+const COMMAND: &str = "cargo run --release -q -p hil -- audit --no-target --readme-block";
 
 /// The block's body for `a`, what goes between the `<!-- generated:audit -->` markers (every line ends
 /// in `\n`).
@@ -44,16 +31,25 @@ pub fn block(a: &Audit) -> String {
         let ctrl = |n: &str| a.controllers.iter().find(|c| c.name == n);
         t.row(std::iter::once(label).chain(names.iter().map(|n| cell(n, ctrl(n)))));
     };
-    row("largest coefficient relative error".into(), &|n, _| {
-        worst_coef(a, n)
+    row("largest coefficient relative error".into(), &|_, c| {
+        c.and_then(|c| {
+            let rel = |r: &&CoefRow| r.rel_err.abs();
+            c.coefficients
+                .iter()
+                .max_by(|x, y| rel(x).total_cmp(&rel(y)))
+        })
+        .map_or("-".into(), |r| {
+            format!("{:.1e} (`{}`)", r.rel_err.abs(), r.name)
+        })
     });
     row(
         "largest pole/zero relative shift (quantised vs f64)".into(),
         &|_, c| {
             c.map(|c| &c.poles_zeros.shift_quantisation_rel)
                 .filter(|v| !v.is_empty())
-                .map(|v| format!("{:.1e}", v.iter().fold(0.0f64, |m, x| m.max(x.abs()))))
-                .unwrap_or_else(|| "-".into())
+                .map_or("-".into(), |v| {
+                    format!("{:.1e}", v.iter().fold(0.0f64, |m, x| m.max(x.abs())))
+                })
         },
     );
     row(
@@ -66,7 +62,7 @@ pub fn block(a: &Audit) -> String {
                     d.continuous?, d.fixed?, d.fixed_vs_continuous_rel?
                 ))
             })
-            .unwrap_or_else(|| "integrator".into())
+            .unwrap_or("integrator".into())
         },
     );
     let db_deg = |(g, p): (f64, f64)| format!("{:.1e} dB / {:.1e} deg", g.abs(), p.abs());
@@ -103,10 +99,13 @@ pub fn block(a: &Audit) -> String {
             .unwrap_or_default()
         },
     );
-    let _ = writeln!(w, "{t}");
-    let _ = writeln!(w, "{}\n", a.proof_statement);
-    let _ = writeln!(w, "{}", bounds_table(a, Detail::Readme));
-    let _ = writeln!(w, "{}", error_bounds_table(a, Detail::Readme));
+    let _ = writeln!(
+        w,
+        "{t}\n{}\n\n{}\n{}",
+        a.proof_statement,
+        bounds_table(a, Detail::Readme),
+        error_bounds_table(a, Detail::Readme)
+    );
     // Noise against f64 (coefficients unquantised), normal running.
     for out in ["T_psi", "u_a"] {
         if let Some(n) = a
@@ -161,7 +160,7 @@ pub fn block(a: &Audit) -> String {
         );
         let (gm, pm) = super::checks::USUAL_MARGINS;
         for m in &cl.margins {
-            let o = |v: Option<f64>| v.map(|x| format!("{x:.3}")).unwrap_or_else(|| "-".into());
+            let o = |v: Option<f64>| v.map_or("-".into(), |x| format!("{x:.3}"));
             let low = m.gain_db_quantised.is_some_and(|g| g < gm)
                 || m.phase_deg_quantised.is_some_and(|p| p < pm);
             let _ = writeln!(

@@ -3,10 +3,9 @@
 //! on `curve` with link faults; the controller's inputs and events are recorded tick by
 //! tick and replayed through the fixed-point and f64 controllers ([`super::ranges`]).
 //!
-//! Fault runs apply the device runtime's own hold policy (`wheelset_runtime::HoldPolicy`,
-//! `DEFAULT_HOLD_TICKS`) at the controller: a missing frame holds the last valid inputs,
-//! then the safe state until the next valid frame. The plant sees the resulting
-//! actuation, so the recorded inputs include the wheelset's response to the safe state.
+//! Fault runs apply the runtime's hold policy (`wheelset_runtime::HoldPolicy`): a missing
+//! frame holds the last valid inputs, then the safe state until the next valid frame; the
+//! recorded inputs include the wheelset's response to the safe state.
 
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -172,11 +171,11 @@ fn record(
         name: name.to_string(),
         source: format!(
             "closed loop: sim-host plant, track `{track}`, f64 controller (yaw lead, \
-             traction on), one period of actuation delay, controller inputs recorded{}",
+             traction on), one period of actuation delay, controller inputs recorded{}{fault_note}",
             match faults {
                 Faults::None => String::new(),
-                Faults::Outage(a, b) => format!("; link outage {a} s .. {b} s{fault_note}"),
-                Faults::Drops(p) => format!("; random frame loss p = {p}{fault_note}"),
+                Faults::Outage(a, b) => format!("; link outage {a} s .. {b} s"),
+                Faults::Drops(p) => format!("; random frame loss p = {p}"),
             }
         ),
         ticks,

@@ -313,27 +313,23 @@ pub fn coefficients<T: Sample>(
 /// The configuration that isolates `kind` inside the whole controller: yaw mode lead or
 /// gain with traction off, or yaw passive with traction on; the y' predictor off.
 pub fn isolate(kind: Kind, base: &Config) -> Config {
-    let mut c = *base;
-    // The y' predictor is not part of the lead's or the gain's transfer function: audited
-    // without it, and on its own behind the gain (whose quantised value is divided out).
-    if kind != Kind::YawPredictor {
-        c.yaw_predict_ticks = 0.0;
+    let (yaw_mode, traction_enabled) = match kind {
+        Kind::YawLead => (YawMode::Lead, false),
+        Kind::YawGain | Kind::YawPredictor => (YawMode::Gain, false),
+        Kind::TractionPi => (YawMode::Passive, true),
+    };
+    // The y' predictor is audited on its own, behind the gain (its value divided out).
+    let predictor = kind == Kind::YawPredictor;
+    Config {
+        yaw_mode,
+        traction_enabled,
+        yaw_predict_ticks: if predictor {
+            base.yaw_predict_ticks
+        } else {
+            0.0
+        },
+        ..*base
     }
-    match kind {
-        Kind::YawLead => {
-            c.yaw_mode = YawMode::Lead;
-            c.traction_enabled = false;
-        }
-        Kind::YawGain | Kind::YawPredictor => {
-            c.yaw_mode = YawMode::Gain;
-            c.traction_enabled = false;
-        }
-        Kind::TractionPi => {
-            c.yaw_mode = YawMode::Passive;
-            c.traction_enabled = true;
-        }
-    }
-    c
 }
 
 /// Gain error `20 log10(|a|/|b|)`, dB.

@@ -122,17 +122,12 @@ impl Check {
     /// A check that could not run: `item` and why, with the way to run it.
     #[must_use]
     pub fn not_run(controller: &str, item: &str, why: &str, remedy: &str) -> Self {
+        let nan = f64::NAN;
+        let reason = format!("not run: {why}");
         Self {
-            controller: controller.to_string(),
-            item: item.to_string(),
-            value: f64::NAN,
-            warn: f64::NAN,
-            fail: f64::NAN,
-            unit: String::new(),
-            status: Status::Warn,
-            reason: format!("not run: {why}"),
             remedy: remedy.to_string(),
             not_run: true,
+            ..Self::new(controller, item, nan, (nan, nan), "", Status::Warn, reason)
         }
     }
 

@@ -27,9 +27,9 @@ fn verdict_line(a: &Audit) -> String {
 }
 
 /// The full text: one line per controller with the headline figures, the noise per
-/// scenario, the proofs, then every check with its reason and remedy (only those not
-/// passed when `quiet`), then the verdict. The report directory keeps it as `audit.txt`.
-pub fn full_text(a: &Audit, quiet: bool) -> String {
+/// scenario, the proofs, then every check with its reason and remedy, then the verdict
+/// (the report's `audit.txt`).
+fn full_text(a: &Audit) -> String {
     let mut s = headline(a);
     for c in &a.controllers {
         let _ = writeln!(
@@ -47,13 +47,11 @@ pub fn full_text(a: &Audit, quiet: bool) -> String {
         );
     }
     for n in &a.observed.noise {
-        if !quiet {
-            let _ = writeln!(
-                s,
-                "  noise {:<6} {:<18} ({}, {}): max {:.2} LSB = {:.3e} {} ({:.3} wire LSB), rms {:.2} LSB",
-                n.output, n.scenario, n.yaw_mode, n.phase.words(), n.max_lsb, n.max_si, n.unit, n.max_wire_lsb, n.rms_lsb
-            );
-        }
+        let _ = writeln!(
+            s,
+            "  noise {:<6} {:<18} ({}, {}): max {:.2} LSB = {:.3e} {} ({:.3} wire LSB), rms {:.2} LSB",
+            n.output, n.scenario, n.yaw_mode, n.phase.words(), n.max_lsb, n.max_si, n.unit, n.max_wire_lsb, n.rms_lsb
+        );
     }
     let _ = writeln!(s, "  proofs: {}", a.proof_statement);
     if let Some(cl) = &a.closed_loop {
@@ -61,16 +59,14 @@ pub fn full_text(a: &Audit, quiet: bool) -> String {
     }
     let _ = writeln!(s, "  {}", a.target.note);
     for c in &a.checks {
-        if !quiet || c.status != Status::Pass {
-            let _ = writeln!(
-                s,
-                "  {:<4} {:<12} {}: {}",
-                c.status.as_str(),
-                c.controller,
-                c.item,
-                c.reason_and_remedy()
-            );
-        }
+        let _ = writeln!(
+            s,
+            "  {:<4} {:<12} {}: {}",
+            c.status.as_str(),
+            c.controller,
+            c.item,
+            c.reason_and_remedy()
+        );
     }
     s + &verdict_line(a)
 }
@@ -163,7 +159,7 @@ pub fn write_report(a: &Audit, dir: &Path) -> Result<(), AuditError> {
     std::fs::create_dir_all(dir).map_err(AuditError::io(dir))?;
     let plots = super::plots::write_plots(a, dir)?;
     let md = markdown(a, &plots);
-    super::write(&dir.join("audit.txt"), &full_text(a, false))?;
+    super::write(&dir.join("audit.txt"), &full_text(a))?;
     super::write(&dir.join("audit.md"), &md)
 }
 
@@ -171,12 +167,11 @@ pub fn write_report(a: &Audit, dir: &Path) -> Result<(), AuditError> {
 pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
     let mut s = String::new();
     let w = &mut s;
-    let _ = writeln!(w, "# Fixed-point audit of the control core\n");
-    let _ = writeln!(w, "Command: `{}`\n", a.command);
     let _ = writeln!(
         w,
-        "Verdict: **{}** ({}). Base rate {} Hz; signals {} (LSB {:.3e} pu), coefficients \
+        "# Fixed-point audit of the control core\n\nCommand: `{}`\n\nVerdict: **{}** ({}). Base rate {} Hz; signals {} (LSB {:.3e} pu), coefficients \
          {} (LSB {:.3e}); sample type: {}.\n",
+        a.command,
         a.verdict.as_str().to_uppercase(),
         super::counts_words(&a.checks),
         a.base_rate_hz,
@@ -243,9 +238,11 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
         tol.frac_fs
     );
     for c in &a.controllers {
-        let _ = writeln!(w, "## Controller `{}` ({:.0} Hz)\n", c.name, c.rate_hz);
-        let _ = writeln!(w, "Law: {}. Gain unit: {}.\n", c.law, c.unit);
-        let _ = writeln!(w, "### Coefficients\n");
+        let _ = writeln!(
+            w,
+            "## Controller `{}` ({:.0} Hz)\n\nLaw: {}. Gain unit: {}.\n\n### Coefficients\n",
+            c.name, c.rate_hz, c.law, c.unit
+        );
         let mut t = Table::new([
             "name",
             "unit",
@@ -307,13 +304,11 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
             fmt_opt(d.discrete_quantised),
             fmt_opt(d.fixed),
             d.fixed_vs_continuous_rel
-                .map(|r| format!("{r:.3e} relative"))
-                .unwrap_or_else(|| "n/a".into())
+                .map_or("n/a".into(), |r| format!("{r:.3e} relative"))
         );
-        let _ = writeln!(w, "### Frequency response\n");
         let _ = writeln!(
             w,
-            "Fixed point measured on the running controller: input {} ({}), fitted sine + \
+            "### Frequency response\n\nFixed point measured on the running controller: input {} ({}), fitted sine + \
              cosine + constant over whole periods. The named frequencies:\n",
             c.measure_amplitude,
             if c.name == "traction_pi" {
@@ -365,10 +360,10 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
             wo.discrete_phase_deg.1,
             wo.measurement_gain_db
         );
-        let _ = writeln!(w, "### Limit cycles and dead bands\n");
         let _ = writeln!(
             w,
-            "After 0.2 s of random input, the input is held for 2 s; last second observed.\n"
+            "### Limit cycles and dead bands\n\nAfter 0.2 s of random input, the input is held \
+             for 2 s; last second observed.\n"
         );
         let mut t = Table::new([
             "hold input",
@@ -392,8 +387,7 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
                 format!("{:.2}", l.offset_lsb),
             ]);
         }
-        let _ = write!(w, "{t}");
-        let _ = writeln!(w);
+        let _ = writeln!(w, "{t}");
     }
     let o = &a.observed;
     let _ = writeln!(w, "## Scenarios\n");
@@ -454,8 +448,7 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
         c.voltage,
         c.integrator,
         o.arithmetic_saturations
-            .map(|n| n.to_string())
-            .unwrap_or_else(|| "not counted".into())
+            .map_or("not counted".into(), |n| n.to_string())
     );
     let _ = writeln!(w, "## Quantisation noise (fixed minus f64, same inputs)\n");
     let mut t = Table::new([
@@ -490,10 +483,9 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
     }
     let _ = write!(w, "{t}");
     super::writeup_sections::proofs_and_findings(a, w);
-    let _ = writeln!(w, "\n## Recommended formats\n");
     let _ = writeln!(
         w,
-        "From the proven bounds: integer bits hold the proven maximum (no overflow for any \
+        "\n## Recommended formats\n\nFrom the proven bounds: integer bits hold the proven maximum (no overflow for any \
          input within the clamps); fraction bits keep the proven rounding error of the \
          chain's output (T_psi, u_a) within half a wire LSB.\n"
     );
@@ -505,17 +497,15 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
              {} fraction bits are needed for every coefficient's relative error to stay \
              within {:.0e} (the audited format has {}).\n",
             a.formats.signal.int_bits,
-            sw.min_signal_frac_bits
-                .map(|f| format!("Q{}.{}", a.formats.signal.int_bits, f))
-                .unwrap_or_else(|| "none up to 32 bits".into()),
+            sw.min_signal_frac_bits.map_or("none up to 32 bits".into(), |f| format!(
+                "Q{}.{f}",
+                a.formats.signal.int_bits
+            )),
             sw.tried
                 .iter()
-                .map(|(f, ok, why)| {
-                    if *ok {
-                        format!("F={f} pass")
-                    } else {
-                        format!("F={f} fail ({why})")
-                    }
+                .map(|(f, ok, why)| match ok {
+                    true => format!("F={f} pass"),
+                    false => format!("F={f} fail ({why})"),
                 })
                 .collect::<Vec<_>>()
                 .join("; "),

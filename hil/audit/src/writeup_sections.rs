@@ -50,10 +50,9 @@ pub(crate) fn proofs_and_findings(a: &Audit, w: &mut String) {
         }
         let _ = write!(w, "{t}");
     }
-    let _ = writeln!(w, "\n## Proven bounds\n");
     let _ = writeln!(
         w,
-        "{}\n\nRanges: the worst-case peak gain (WCPG) of each linear part from the \
+        "\n## Proven bounds\n\n{}\n\nRanges: the worst-case peak gain (WCPG) of each linear part from the \
          quantised coefficients, times the input clamps, plus the rounding-error bound; \
          interval arithmetic through the clamps, ramps, predictor and anti-windup \
          (`wheelset_audit::bounds` states each step). Observed = the largest magnitude over \
@@ -84,10 +83,9 @@ pub(crate) fn proofs_and_findings(a: &Audit, w: &mut String) {
     let _ = write!(w, "{t}");
     if let Some(cl) = &a.closed_loop {
         let lc = &cl.limit_cycle;
-        let _ = writeln!(w, "\n## Closed loop (device in the loop)\n");
         let _ = writeln!(
             w,
-            "{}: {}.\n\nStraight track `curve` {:.0}-{:.0} s: torque {:.3} N m peak to peak \
+            "\n## Closed loop (device in the loop)\n\n{}: {}.\n\nStraight track `curve` {:.0}-{:.0} s: torque {:.3} N m peak to peak \
              (RMS {:.3} N m) at {:.2} Hz, `y` {:.1} nm peak to peak. Attribution: the core \
              in the loop with every source reproduces the device ({:.3} N m p2p), then one \
              source removed at a time:\n",
@@ -149,7 +147,7 @@ pub(crate) fn proofs_and_findings(a: &Audit, w: &mut String) {
             "gain interval (dB)",
             "phase lag / lead (deg)",
         ]);
-        let o = |v: Option<f64>| v.map(|x| format!("{x:.6}")).unwrap_or_else(|| "-".into());
+        let o = |v: Option<f64>| v.map_or("-".into(), |x| format!("{x:.6}"));
         for m in &cl.margins {
             t.row([
                 m.loop_name.clone(),
@@ -204,9 +202,7 @@ pub(crate) fn bounds_table(a: &Audit, d: Detail) -> Table {
                 format!("`{}`", b.signal)
             },
             b.unit.clone(),
-            b.observed_max
-                .map(|v| format!("{v:.p$e}"))
-                .unwrap_or_else(|| "-".into()),
+            b.observed_max.map_or("-".into(), |v| format!("{v:.p$e}")),
             format!("{:.p$e}", b.proven_max),
         ];
         if full {

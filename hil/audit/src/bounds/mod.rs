@@ -159,11 +159,7 @@ pub struct Proofs {
 
 /// Smallest integer bits (incl. sign) with `2^(i-1) > v`.
 pub fn int_bits_for(v: f64) -> u32 {
-    let mut i = 1u32;
-    while i < 64 && 2f64.powi(i as i32 - 1) <= v {
-        i += 1;
-    }
-    i
+    (1..64).take_while(|&i| 2f64.powi(i - 1) <= v).count() as u32 + 1
 }
 
 /// Smallest fraction bits `F` with `err_per_lsb 2^-F <= budget` (both pu).
@@ -210,95 +206,69 @@ pub fn prove(
         .collect();
     let s = &cfg.scales;
     let wire = &cfg.wire;
-    let eb =
-        |o: &str, obs: f64, pr: f64, fs: f64, unit: &str, lsb: f64, pts: Vec<(String, f64)>| {
-            ErrorBound {
-                output: o.into(),
-                observed: obs * fs,
-                proven: pr * fs,
-                unit: unit.into(),
-                proven_wire_lsb: pr * fs / lsb,
-                rounding_points: pts.into_iter().map(|(n, v)| (n, v * fs)).collect(),
-            }
-        };
-    let error_bounds = vec![
-        eb(
+    let torque = (s.torque, "N m", wire.torque);
+    let pts = |v: &[(&str, f64)]| v.iter().map(|&(n, x)| (n.to_string(), x)).collect();
+    // `(output, proven pu, (full scale, unit, wire LSB), rounding points pu)`.
+    let rows: [(_, _, _, Vec<(String, f64)>); 4] = [
+        (
             "T_psi (lead, with the predictor)",
-            obs_err[0],
             p.lead_err,
-            s.torque,
-            "N m",
-            wire.torque,
+            torque,
             p.lead_err_points.clone(),
         ),
-        eb(
+        (
             "T_psi (gain, with the predictor)",
-            obs_err[1],
             p.gain_err,
-            s.torque,
-            "N m",
-            wire.torque,
-            vec![
-                ("predictor".into(), p.gain_err - q / 2.0),
-                ("x k".into(), q / 2.0),
-            ],
+            torque,
+            pts(&[("predictor", p.gain_err - q / 2.0), ("x k", q / 2.0)]),
         ),
-        eb(
+        (
             "u_a (PI, given its error input)",
-            obs_err[2],
             p.pi_err,
-            s.voltage,
-            "V",
-            wire.voltage,
-            vec![
-                ("Kp e".into(), q / 2.0),
-                ("integrator (floored, remainder carried)".into(), q),
-            ],
+            (s.voltage, "V", wire.voltage),
+            pts(&[
+                ("Kp e", q / 2.0),
+                ("integrator (floored, remainder carried)", q),
+            ]),
         ),
-        eb(
+        (
             "i_ref (ramped reference)",
-            obs_err[3],
             p.iref_err,
-            s.current,
-            "A",
-            wire.current,
-            vec![("demand d2i".into(), q / 2.0)],
+            (s.current, "A", wire.current),
+            pts(&[("demand d2i", q / 2.0)]),
         ),
     ];
+    let error_bounds = rows
+        .into_iter()
+        .zip(obs_err)
+        .map(|((o, pr, (fs, unit, lsb), pts), obs)| ErrorBound {
+            output: o.into(),
+            observed: obs * fs,
+            proven: pr * fs,
+            unit: unit.into(),
+            proven_wire_lsb: pr * fs / lsb,
+            rounding_points: pts.into_iter().map(|(n, v)| (n, v * fs)).collect(),
+        })
+        .collect();
     let overflow_free = p.signals.iter().all(|x| x.4 < range);
-    // Proposals: integer bits from the proven bound; fraction bits from half a wire LSB
-    // of the chain's output (T_psi for the yaw signals, u_a for the traction ones).
+    // Proposals: integer bits from the proven bound, fraction bits from half a wire LSB
+    // of the chain's output (T_psi or u_a).
     let budget_t = 0.5 * wire.torque / s.torque;
     let budget_u = 0.5 * wire.voltage / s.voltage;
-    let f_yaw = frac_bits_for(p.lead_err.max(p.gain_err) / q, budget_t);
+    let yaw_per = p.lead_err.max(p.gain_err) / q;
+    let f_yaw = frac_bits_for(yaw_per, budget_t);
     let f_tr = frac_bits_for(p.pi_err / q, budget_u);
     let proposals = p
         .signals
         .iter()
         .map(|(n, c, _, _, v, _)| {
             let i = int_bits_for(*v);
-            let (f, out, per, budget, lsb) = if c == "traction_pi" {
-                (
-                    f_tr,
-                    "u_a",
-                    p.pi_err / q,
-                    budget_u * s.voltage,
-                    wire.voltage,
-                )
+            let (f, out, per, fs, lsb) = if c == "traction_pi" {
+                (f_tr, "u_a", p.pi_err / q, s.voltage, wire.voltage)
             } else {
-                (
-                    f_yaw,
-                    "T_psi",
-                    p.lead_err.max(p.gain_err) / q,
-                    budget_t * s.torque,
-                    wire.torque,
-                )
+                (f_yaw, "T_psi", yaw_per, s.torque, wire.torque)
             };
-            let fs = if c == "traction_pi" {
-                s.voltage
-            } else {
-                s.torque
-            };
+            let budget = lsb / 2.0;
             let e = per * 2f64.powi(-(f as i32)) * fs;
             Proposal {
                 signal: n.clone(),

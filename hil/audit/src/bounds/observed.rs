@@ -55,8 +55,7 @@ pub fn observed_errors<T: Sample>(
             let gf = xf.mul_c(gain).to_f64();
             worst[1] = worst[1].max((gf - xe * k.gain).abs());
         }
-        // Traction: the reference path (fixed vs exact ramp), and the PI on the fixed
-        // error (fixed vs exact PI on the same input).
+        // Traction: fixed vs exact ramp, and fixed vs exact PI on the same (fixed) error.
         let mut ps = PiState::<T>::new(T::ZERO);
         let mut ie = 0.0f64;
         let (mut rf, mut re) = (T::ZERO, 0.0f64);
