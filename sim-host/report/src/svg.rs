@@ -164,21 +164,17 @@ impl Plot {
         }
     }
     /// A labelled horizontal reference line at `y` ([`Mark`]).
-    pub fn hmark(mut self, y: f64, label: &str, color: &str) -> Self {
-        self.marks.push(Mark {
-            vertical: false,
-            at: y,
-            label: label.to_string(),
-            color: color.to_string(),
-            span: None,
-        });
-        self
+    pub fn hmark(self, y: f64, label: &str, color: &str) -> Self {
+        self.mark(false, y, label, color)
     }
     /// A labelled vertical reference line at `x` ([`Mark`]).
-    pub fn vmark(mut self, x: f64, label: &str, color: &str) -> Self {
+    pub fn vmark(self, x: f64, label: &str, color: &str) -> Self {
+        self.mark(true, x, label, color)
+    }
+    fn mark(mut self, vertical: bool, at: f64, label: &str, color: &str) -> Self {
         self.marks.push(Mark {
-            vertical: true,
-            at: x,
+            vertical,
+            at,
             label: label.to_string(),
             color: color.to_string(),
             span: None,
