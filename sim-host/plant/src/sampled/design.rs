@@ -93,7 +93,6 @@ pub fn judge(
         val(reference.gain_down).unwrap_or(f64::NEG_INFINITY),
         val(reference.phase).unwrap_or(180.0),
     );
-    // The first criterion `(failed, why)` that fails, in order.
     let first =
         |checks: Vec<(bool, String)>| checks.into_iter().find_map(|(f, why)| f.then_some(why));
     let traction_failed = first(vec![

@@ -434,7 +434,6 @@ fn read(n: &Nyquist, p: usize) -> Margins {
     let at = |(value, hz): (f64, f64)| At { value, hz };
     let db = |c: &(f64, f64)| (20.0 * c.0.log10(), c.1);
     let pick = |v: Option<At>| v.filter(|_| stable);
-    // The lowest (`min`) or the highest entry that `keep` keeps, by its first field.
     let pick_by = |list: &[(f64, f64)], keep: fn(f64) -> bool, min: bool| {
         let kept = list.iter().copied().filter(|c| keep(c.0));
         let cmp = |a: &(f64, f64), b: &(f64, f64)| a.0.total_cmp(&b.0);

@@ -417,7 +417,6 @@ impl Plot {
         // fewest data points and no other label.
         let placed_pts = self.drawn_px(&sx, &sy);
         let mut taken: Vec<Rect> = Vec::new();
-        // Each mark's line, px, and whether it is vertical.
         let lines: Vec<(f64, bool)> = self
             .marks
             .iter()
