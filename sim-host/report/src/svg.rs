@@ -1,8 +1,7 @@
-//! A small, dependency-free SVG plotting module: line plots, scatter plots (root loci),
-//! bar histograms, stacks of panels and heat maps ([`heatmap`]); linear or logarithmic
-//! axes and labelled marks that a plot's range always includes. Written by hand rather
-//! than with `plotters`, whose SVG backend takes whole-pixel coordinates (this module
-//! writes 0.1 px, so sub-pixel traces stay smooth) and estimates text sizes.
+//! SVG plots: lines, scatters (root loci), histograms, stacked panels and heat maps
+//! ([`heatmap`]), linear or log axes, labelled marks. By hand, not with `plotters`, whose
+//! SVG backend takes whole-pixel coordinates (this module writes 0.1 px, so sub-pixel
+//! traces stay smooth) and estimates text sizes.
 
 use std::fmt::Write as _;
 use std::path::Path;

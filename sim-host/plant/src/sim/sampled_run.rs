@@ -110,8 +110,7 @@ impl ActuatorModel {
     }
 }
 
-/// The sensor frame the plant produces at state `x` with actuation `held` in force, the
-/// other inputs `u`, and the demand and current reference of `e`.
+/// The sensor frame at state `x` with `held` in force, inputs `u`, `e`'s demand and `i_ref`.
 fn measure<F: Flags>(
     plant: &Plant,
     flags: F,
