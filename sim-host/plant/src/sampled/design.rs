@@ -1,7 +1,6 @@
-//! The design of the gains per base rate and delay, judged: the criteria every accepted
-//! point of `wheelset_control::design::DESIGNED` meets, the search for each point's
-//! lead gain, and the verdict on every candidate (`docs/closed-loop.md`, "Choosing the
-//! rates").
+//! The gains designed per base rate and delay: the criteria every point of
+//! `wheelset_control::design::DESIGNED` meets, the search for each point's lead gain, and
+//! the verdict on every candidate (`docs/closed-loop.md`, "Choosing the rates").
 
 use super::*;
 use crate::params::Params;
