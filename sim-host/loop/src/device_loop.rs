@@ -11,8 +11,9 @@ pub use crate::exchange::{LinkSample, LINK_COLUMNS};
 pub use crate::inproc::{DeviceFault, InProc};
 pub use wheelset_proto::LateralSensing;
 
-use crate::exchange::{close_loop, HostCounts, LoopSetup, Records};
+use crate::exchange::{close_loop, LoopRecords, LoopSetup, Records};
 use crate::sim_link::{Accounting, LinkBudgetError, LinkConfig};
+use crate::transport::LinkAccounting;
 use wheelset_plant::control::YawLaw;
 use wheelset_plant::params::Params;
 use wheelset_plant::scenario::Scenario;
@@ -23,11 +24,6 @@ const _: () = assert!(
     std::mem::size_of::<LinkSample>() as u64 + 16
         == wheelset_plant::memory::DEVICE_BYTES_PER_PERIOD
 );
-
-/// Worst-case Sensor frame on the wire, bytes ([`wheelset_proto::SENSOR_ONE_LATERAL_MAX_FRAME`]).
-pub const SENSOR_WORST_BYTES: usize = wheelset_proto::SENSOR_ONE_LATERAL_MAX_FRAME;
-/// Worst-case Actuation frame on the wire, bytes ([`wheelset_proto::ACTUATION_MAX_FRAME`]).
-pub const ACTUATION_WORST_BYTES: usize = wheelset_proto::ACTUATION_MAX_FRAME;
 
 /// Why the device loop cannot be built.
 #[derive(Debug, Clone, PartialEq)]
@@ -136,28 +132,22 @@ pub struct LinkReport {
 
 impl LinkReport {
     /// The report of a finished in-process run.
-    fn of(
-        log: &[LinkSample],
-        status: Option<Status>,
-        host: &HostCounts,
-        up: Accounting,
-        down: Accounting,
-    ) -> Self {
+    fn of(rec: &LoopRecords, acc: LinkAccounting) -> Self {
         let mut safe_periods = 0;
         let (mut entries, mut exits) = (0, 0);
         let mut prev = false;
-        for s in log {
+        for s in &rec.log {
             let safe = Flags(s.flags).has(Flags::SAFE);
             safe_periods += u64::from(safe);
             entries += u64::from(safe && !prev);
             exits += u64::from(!safe && prev);
             prev = safe;
         }
-        let n = log.len().max(1) as f64;
+        let (n, host) = (rec.log.len().max(1) as f64, &rec.host);
         LinkReport {
-            up,
-            down,
-            device: status,
+            up: acc.up,
+            down: acc.down,
+            device: rec.status,
             safe_periods,
             safe_entries_seen: entries,
             safe_exits_seen: exits,
@@ -407,10 +397,7 @@ pub fn run_device(
         },
     )
     .map_err(DeviceError::Sim)?;
-    // (The simulated link always accounts exactly.)
-    let acc = dev.accounting();
-    let (up, down) = (acc.up, acc.down);
-    let report = LinkReport::of(&run.rec.log, run.rec.status, &run.rec.host, up, down);
+    let report = LinkReport::of(&run.rec, dev.accounting());
     Ok(DeviceRun {
         trajectory: run.trajectory,
         link: run.rec.log,

@@ -396,17 +396,13 @@ impl SampledController for DeviceController<'_> {
             });
         }
         // After the Sensor frame, so this period's sample is on time.
-        if self
-            .clear_faults_at_ns
-            .is_some_and(|t| t_ns >= t && self.rec.clear_faults_sent_ns.is_none())
-        {
+        let due =
+            |at: Option<u64>, sent: Option<u64>| at.is_some_and(|t| t_ns >= t) && sent.is_none();
+        if due(self.clear_faults_at_ns, self.rec.clear_faults_sent_ns) {
             self.rec.clear_faults_sent_ns = Some(t_ns);
             self.send(t_ns, &Message::Command(Command::ClearFaults));
         }
-        if self
-            .stall_at_ns
-            .is_some_and(|t| t_ns >= t && self.rec.stall_sent_ns.is_none())
-        {
+        if due(self.stall_at_ns, self.rec.stall_sent_ns) {
             self.rec.stall_sent_ns = Some(t_ns);
             self.send(t_ns, &Message::Command(Command::InjectStall));
         }

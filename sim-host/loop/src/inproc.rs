@@ -6,11 +6,13 @@
 use std::time::Instant;
 
 use wheelset_control::{Fx, SampleBits};
-use wheelset_proto::{encode_vec, Decoder, Message};
+use wheelset_proto::{
+    encode_vec, Decoder, Message, ACTUATION_MAX_FRAME, SENSOR_ONE_LATERAL_MAX_FRAME,
+};
 use wheelset_report::stats::Stats;
 use wheelset_runtime::{Runtime, RuntimeConfig};
 
-use crate::device_loop::{DeviceError, ACTUATION_WORST_BYTES, SENSOR_WORST_BYTES};
+use crate::device_loop::DeviceError;
 use crate::sim_link::{check_budget, wire_ns, Link, LinkConfig, RxPort};
 use crate::transport::{Clock, FrameSink, LinkAccounting, Transport, TransportError};
 
@@ -148,8 +150,8 @@ impl<T: SampleBits> InProc<T> {
         }
         let period_ns = 1_000_000_000 / u64::from(hz);
         check_budget(
-            SENSOR_WORST_BYTES,
-            ACTUATION_WORST_BYTES,
+            SENSOR_ONE_LATERAL_MAX_FRAME,
+            ACTUATION_MAX_FRAME,
             link_cfg.baud,
             link_cfg.latency_ns,
             period_ns,
@@ -166,7 +168,7 @@ impl<T: SampleBits> InProc<T> {
             host_rx: RxPort::new(),
             fault,
             period_ns,
-            phase_ns: wire_ns(SENSOR_WORST_BYTES, link_cfg.baud) + link_cfg.latency_ns,
+            phase_ns: wire_ns(SENSOR_ONE_LATERAL_MAX_FRAME, link_cfg.baud) + link_cfg.latency_ns,
             next_tick: 0,
             last_exec: 0,
             frames_out: 0,

@@ -1,8 +1,8 @@
 //! Linearisation about straight-track pure rolling (`y = psi = 0`, wheels at `v/r0`,
 //! the PI integrator at the back-EMF): an analytic Jacobian ([`plant_jacobian`],
 //! checked against the complex step by a test) and central differences for the adhesion
-//! law. Free rolling is an
-//! equilibrium at any speed, so every model here has one eigenvalue at exactly zero.
+//! law. Free rolling is an equilibrium at any speed, so every model here has one
+//! eigenvalue at exactly zero.
 
 use crate::control::{closed_loop_rhs, ContinuousController, Exogenous, YawLaw};
 use crate::params::Params;

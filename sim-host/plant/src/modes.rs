@@ -96,9 +96,7 @@ pub(crate) struct CaseLoop {
     axle: Axle,
     drive: bool,
     ctrl: ContinuousController,
-    /// The closed loop's states.
     states: Vec<usize>,
-    /// The last matrix.
     a: DMatrix<f64>,
 }
 

@@ -1,7 +1,5 @@
 //! What every report of the workspace is made of, with no dependency of the workspace:
-//! SVG figures ([`svg`]), Markdown tables ([`table`]), the [`Verdict`] of a check, the
-//! [`Stats`] of a sample, quiet standard output ([`out`](mod@out)) and output paths
-//! checked before any work ([`output`]).
+//! [`svg`], [`table`], [`Verdict`], [`Stats`], [`out`](mod@out) and [`output`].
 #![deny(missing_docs)]
 
 pub mod out;

@@ -1,10 +1,6 @@
 //! The command lines' standard output: `sim-host ... | head` and `hil ... | head` end
 //! quietly with exit code 0 when the reader closes the pipe, as Unix tools do
 //! (`println!` panics there: Rust ignores `SIGPIPE`, so the write fails with `EPIPE`).
-//!
-//! [`outln!`](crate::outln) and [`out!`](macro@crate::out) are `println!` and `print!` through
-//! [`write`](fn@write): a closed pipe (`BrokenPipe`) exits with 0 at once, saying nothing; any other
-//! write error exits with 1 and the reason on standard error.
 
 use std::io::Write as _;
 
@@ -25,8 +21,7 @@ pub fn failed(e: &std::io::Error) -> ! {
     std::process::exit(1);
 }
 
-/// `print!` that ends the program quietly with success on a closed pipe
-/// ([`crate::out`](mod@crate::out)).
+/// `print!` that ends the program quietly with success on a closed pipe ([`write`](fn@write)).
 #[macro_export]
 macro_rules! out {
     ($($t:tt)*) => {
@@ -34,8 +29,7 @@ macro_rules! out {
     };
 }
 
-/// `println!` that ends the program quietly with success on a closed pipe
-/// ([`crate::out`](mod@crate::out)).
+/// `println!` that ends the program quietly with success on a closed pipe ([`write`](fn@write)).
 #[macro_export]
 macro_rules! outln {
     () => {

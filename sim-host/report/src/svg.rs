@@ -1,8 +1,7 @@
-//! A small, dependency-free SVG plotting module: line plots, scatter plots (root loci),
-//! bar histograms, stacks of panels and heat maps ([`heatmap`]); linear or logarithmic
-//! axes and labelled marks that a plot's range always includes. Written by hand rather
-//! than with `plotters`, whose SVG backend takes whole-pixel coordinates (this module
-//! writes 0.1 px, so sub-pixel traces stay smooth) and estimates text sizes.
+//! SVG plots: lines, scatters (root loci), histograms, stacked panels and heat maps
+//! ([`heatmap`]), linear or log axes, labelled marks. By hand, not with `plotters`, whose
+//! SVG backend takes whole-pixel coordinates (this module writes 0.1 px, so sub-pixel
+//! traces stay smooth) and estimates text sizes.
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -164,21 +163,17 @@ impl Plot {
         }
     }
     /// A labelled horizontal reference line at `y` ([`Mark`]).
-    pub fn hmark(mut self, y: f64, label: &str, color: &str) -> Self {
-        self.marks.push(Mark {
-            vertical: false,
-            at: y,
-            label: label.to_string(),
-            color: color.to_string(),
-            span: None,
-        });
-        self
+    pub fn hmark(self, y: f64, label: &str, color: &str) -> Self {
+        self.mark(false, y, label, color)
     }
     /// A labelled vertical reference line at `x` ([`Mark`]).
-    pub fn vmark(mut self, x: f64, label: &str, color: &str) -> Self {
+    pub fn vmark(self, x: f64, label: &str, color: &str) -> Self {
+        self.mark(true, x, label, color)
+    }
+    fn mark(mut self, vertical: bool, at: f64, label: &str, color: &str) -> Self {
         self.marks.push(Mark {
-            vertical: true,
-            at: x,
+            vertical,
+            at,
             label: label.to_string(),
             color: color.to_string(),
             span: None,

@@ -13,15 +13,7 @@ pub struct Table {
 
 /// `s` with `|` escaped and line breaks turned into spaces.
 fn cell(s: &str) -> String {
-    let mut o = String::with_capacity(s.len());
-    for ch in s.chars() {
-        match ch {
-            '|' => o.push_str("\\|"),
-            '\n' | '\r' => o.push(' '),
-            c => o.push(c),
-        }
-    }
-    o
+    s.replace('|', "\\|").replace(['\n', '\r'], " ")
 }
 
 impl Table {
@@ -65,22 +57,14 @@ impl Table {
 
     /// The Markdown text, every line ending in `\n`.
     pub fn render(&self) -> String {
-        let line = |v: &[String]| -> String {
-            let mut s = String::from("|");
-            for c in v {
-                s.push(' ');
-                s.push_str(c);
-                s.push_str(" |");
-            }
-            s.push('\n');
-            s
+        let line = |v: &[String]| {
+            format!(
+                "|{}\n",
+                v.iter().map(|c| format!(" {c} |")).collect::<String>()
+            )
         };
         let mut s = line(&self.header);
-        s.push('|');
-        for _ in &self.header {
-            s.push_str("---|");
-        }
-        s.push('\n');
+        s += &format!("|{}\n", "---|".repeat(self.header.len()));
         for r in &self.rows {
             s += &line(r);
         }

@@ -28,12 +28,10 @@ fn run_seeded(faults: &str, periods: u64, seed: u64) -> (Vec<LinkSample>, LinkRe
         let _ = c.step(k * t, &sample(k));
     }
     c.finish(periods * t);
-    let log = std::mem::take(&mut c.rec.log);
-    let (status, host) = (c.rec.status, c.rec.host);
+    let rec = std::mem::take(&mut c.rec);
     drop(c);
-    let acc = d.accounting();
-    let r = LinkReport::of(&log, status, &host, acc.up, acc.down);
-    (log, r)
+    let r = LinkReport::of(&rec, d.accounting());
+    (rec.log, r)
 }
 
 fn run(faults: &str, periods: u64) -> (Vec<LinkSample>, LinkReport) {

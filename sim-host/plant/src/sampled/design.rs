@@ -1,7 +1,6 @@
-//! The design of the gains per base rate and delay, judged: the criteria every accepted
-//! point of `wheelset_control::design::DESIGNED` meets, the search for each point's
-//! lead gain, and the verdict on every candidate (`docs/closed-loop.md`, "Choosing the
-//! rates").
+//! The gains designed per base rate and delay: the criteria every point of
+//! `wheelset_control::design::DESIGNED` meets, the search for each point's lead gain, and
+//! the verdict on every candidate (`docs/closed-loop.md`, "Choosing the rates").
 
 use super::*;
 use crate::params::Params;
@@ -87,65 +86,62 @@ pub fn judge(
     let traction = margins(p, &cfg, d, Loop::Traction)?;
     let current_radius = current_radius(p, &cfg, d)?;
     let current_decay = decay_of(current_radius, base_rate_hz, delay_ticks);
-    let mut newly_unstable = 0;
-    let grid = |newly_unstable: &mut usize| -> Result<(), String> {
-        for &creep in &CREEP_GRID {
-            for &lambda in &CONICITY_GRID {
-                let plant = Model::Full.plant(p, creep, lambda, false);
-                if continuous_closed_loop(&plant, base)
-                    .iter()
-                    .all(|e| e.re < 0.0)
-                    && !closed_loop(&plant, &cfg, d)?.stable()
-                {
-                    *newly_unstable += 1;
-                }
-            }
-        }
-        Ok(())
-    };
     let val = |a: Option<At>| a.map(|a| a.value);
     let (ry_up, ry_down, ry_ph) = (
         val(reference.gain_up).unwrap_or(f64::INFINITY),
         val(reference.gain_down).unwrap_or(f64::NEG_INFINITY),
         val(reference.phase).unwrap_or(180.0),
     );
-    let traction_failed = !traction.stable
-        || val(traction.gain_up).unwrap_or(f64::INFINITY) < TRACTION_GAIN_DB
-        || val(traction.phase).unwrap_or(180.0) < TRACTION_PHASE_DEG
-        || current_decay > CURRENT_DECAY;
-    let failed = if !traction.stable {
-        Some("traction loop unstable".to_string())
-    } else if val(traction.gain_up).unwrap_or(f64::INFINITY) < TRACTION_GAIN_DB {
-        Some(format!("traction gain margin below {TRACTION_GAIN_DB} dB"))
-    } else if val(traction.phase).unwrap_or(180.0) < TRACTION_PHASE_DEG {
-        Some(format!(
-            "traction phase margin below {TRACTION_PHASE_DEG} deg"
-        ))
-    } else if current_decay > CURRENT_DECAY {
-        Some(format!(
-            "current loop contracts by {current_decay:.3} > {CURRENT_DECAY:.3} per max(tau, 300 us)"
-        ))
-    } else if !yaw.stable {
-        Some("yaw loop unstable".to_string())
-    } else if val(yaw.gain_up).unwrap_or(f64::INFINITY) < ry_up - YAW_GAIN_SLACK_DB {
-        Some(format!(
-            "yaw gain margin (up) more than {YAW_GAIN_SLACK_DB} dB below the paper's {ry_up:.2} dB"
-        ))
-    } else if val(yaw.gain_down).unwrap_or(f64::NEG_INFINITY) > ry_down + YAW_GAIN_SLACK_DB {
-        Some(format!(
-            "yaw gain margin (down) more than {YAW_GAIN_SLACK_DB} dB below the paper's {:.2} dB",
-            -ry_down
-        ))
-    } else if val(yaw.phase).unwrap_or(180.0) < ry_ph - YAW_PHASE_SLACK_DEG {
-        Some(format!(
-            "yaw phase margin more than {YAW_PHASE_SLACK_DEG} deg below the paper's {ry_ph:.1} deg"
-        ))
-    } else {
-        grid(&mut newly_unstable)?;
-        (newly_unstable > 0).then(|| {
+    let first =
+        |checks: Vec<(bool, String)>| checks.into_iter().find_map(|(f, why)| f.then_some(why));
+    let traction_failed = first(vec![
+        (!traction.stable, "traction loop unstable".into()),
+        (
+            val(traction.gain_up).unwrap_or(f64::INFINITY) < TRACTION_GAIN_DB,
+            format!("traction gain margin below {TRACTION_GAIN_DB} dB"),
+        ),
+        (
+            val(traction.phase).unwrap_or(180.0) < TRACTION_PHASE_DEG,
+            format!("traction phase margin below {TRACTION_PHASE_DEG} deg"),
+        ),
+        (
+            current_decay > CURRENT_DECAY,
+            format!("current loop contracts by {current_decay:.3} > {CURRENT_DECAY:.3} per max(tau, 300 us)"),
+        ),
+    ]);
+    let traction_ok = traction_failed.is_none();
+    let mut failed = traction_failed.or_else(|| {
+        first(vec![
+            (!yaw.stable, "yaw loop unstable".into()),
+            (
+                val(yaw.gain_up).unwrap_or(f64::INFINITY) < ry_up - YAW_GAIN_SLACK_DB,
+                format!("yaw gain margin (up) more than {YAW_GAIN_SLACK_DB} dB below the paper's {ry_up:.2} dB"),
+            ),
+            (
+                val(yaw.gain_down).unwrap_or(f64::NEG_INFINITY) > ry_down + YAW_GAIN_SLACK_DB,
+                format!("yaw gain margin (down) more than {YAW_GAIN_SLACK_DB} dB below the paper's {:.2} dB", -ry_down),
+            ),
+            (
+                val(yaw.phase).unwrap_or(180.0) < ry_ph - YAW_PHASE_SLACK_DEG,
+                format!("yaw phase margin more than {YAW_PHASE_SLACK_DEG} deg below the paper's {ry_ph:.1} deg"),
+            ),
+        ])
+    });
+    let mut newly_unstable = 0;
+    if failed.is_none() {
+        for &creep in &CREEP_GRID {
+            for &lambda in &CONICITY_GRID {
+                let plant = Model::Full.plant(p, creep, lambda, false);
+                let held = continuous_closed_loop(&plant, base)
+                    .iter()
+                    .all(|e| e.re < 0.0);
+                newly_unstable += usize::from(held && !closed_loop(&plant, &cfg, d)?.stable());
+            }
+        }
+        failed = (newly_unstable > 0).then(|| {
             format!("{newly_unstable} grid point(s) held in continuous time lost by sampling")
-        })
-    };
+        });
+    }
     Ok(DesignRow {
         base_rate_hz,
         delay_ticks,
@@ -157,7 +153,7 @@ pub fn judge(
         current_decay,
         newly_unstable,
         failed,
-        traction_ok: !traction_failed,
+        traction_ok,
     })
 }
 
@@ -173,11 +169,7 @@ pub fn design_point(
     for g in LEAD_GAIN_STEPS {
         let row = judge(p, base, base_rate_hz, delay_ticks, g, reference)?;
         // A traction failure does not depend on the lead: no other step can mend it.
-        let traction_failed = row
-            .failed
-            .as_deref()
-            .is_some_and(|f| f.contains("traction") || f.contains("current"));
-        if row.failed.is_none() || traction_failed {
+        if row.failed.is_none() || !row.traction_ok {
             return Ok(row);
         }
         last = Some(row);

@@ -434,30 +434,19 @@ fn read(n: &Nyquist, p: usize) -> Margins {
     let at = |(value, hz): (f64, f64)| At { value, hz };
     let db = |c: &(f64, f64)| (20.0 * c.0.log10(), c.1);
     let pick = |v: Option<At>| v.filter(|_| stable);
-    let gain_down = n
-        .critical
-        .iter()
-        .filter(|c| c.0 < 1.0)
-        .max_by(|a, b| a.0.total_cmp(&b.0))
-        .map(|c| at(db(c)));
-    let gain_up = n
-        .critical
-        .iter()
-        .filter(|c| c.0 > 1.0)
-        .min_by(|a, b| a.0.total_cmp(&b.0))
-        .map(|c| at(db(c)));
-    let phase_lag = n
-        .crossovers
-        .iter()
-        .filter(|c| c.0 > 0.0)
-        .min_by(|a, b| a.0.total_cmp(&b.0))
-        .map(|&c| at(c));
-    let phase_lead = n
-        .crossovers
-        .iter()
-        .filter(|c| c.0 <= 0.0)
-        .max_by(|a, b| a.0.total_cmp(&b.0))
-        .map(|c| at((-c.0, c.1)));
+    let pick_by = |list: &[(f64, f64)], keep: fn(f64) -> bool, min: bool| {
+        let kept = list.iter().copied().filter(|c| keep(c.0));
+        let cmp = |a: &(f64, f64), b: &(f64, f64)| a.0.total_cmp(&b.0);
+        if min {
+            kept.min_by(cmp)
+        } else {
+            kept.max_by(cmp)
+        }
+    };
+    let gain_down = pick_by(&n.critical, |x| x < 1.0, false).map(|c| at(db(&c)));
+    let gain_up = pick_by(&n.critical, |x| x > 1.0, true).map(|c| at(db(&c)));
+    let phase_lag = pick_by(&n.crossovers, |x| x > 0.0, true).map(at);
+    let phase_lead = pick_by(&n.crossovers, |x| x <= 0.0, false).map(|c| at((-c.0, c.1)));
     Margins {
         stable,
         open_loop_unstable: p,

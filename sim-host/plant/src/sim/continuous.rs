@@ -114,7 +114,6 @@ impl<'a> Setup<'a> {
 
     /// The record of state `x` with inputs `e` at `t_ns` (by value, so a run's state
     /// need not stay in memory across this out-of-line call).
-    #[allow(clippy::too_many_arguments)]
     pub(super) fn record(&mut self, t_ns: u64, x: State, e: Exo, t_ctrl: f64, u_a: f64) -> Record {
         let (x, e) = (&x, &e);
         let mu_avail = self.mu_avail(x[ix::V]);
@@ -164,14 +163,10 @@ impl<'a> Setup<'a> {
             mu_used: (cr.fx_r + cr.fx_l) / (2.0 * p.q()),
         }
     }
-
-    pub(super) fn steps(&self) -> (u64, u64) {
-        steps(self.sc)
-    }
 }
 
 /// `(RK4 steps, steps per record)` of a run of `sc`.
-fn steps(sc: &Scenario) -> (u64, u64) {
+pub(super) fn steps(sc: &Scenario) -> (u64, u64) {
     (
         sc.duration_ns.div_ceil(sc.dt_ns),
         sc.output_dt_ns / sc.dt_ns,
@@ -215,7 +210,7 @@ fn continuous<F: Flags>(
     if drive {
         x[ix::PI] = plant.back_emf(&x);
     }
-    let (n_steps, every) = s.steps();
+    let (n_steps, every) = steps(sc);
     let h = sc.dt_ns as f64 * 1e-9;
     let mut diverged_at = None;
     // The next step that records (every `every`-th from step 0).

@@ -36,10 +36,6 @@ impl SensorModel {
         }
     }
 
-    fn gauss(&mut self) -> f64 {
-        self.rng.sample(StandardNormal)
-    }
-
     /// Applies noise then quantisation.
     #[inline]
     pub fn apply(&mut self, m: &Measurements) -> Measurements {
@@ -55,7 +51,7 @@ impl SensorModel {
         let mut ch = [m.yd_mps, m.ydd_mps2, m.i_a, m.w_m, m.w_wheel];
         for (i, v) in ch.iter_mut().enumerate() {
             if self.noise_std[i] > 0.0 {
-                *v += self.noise_std[i] * self.gauss();
+                *v += self.noise_std[i] * self.rng.sample::<f64, _>(StandardNormal);
             }
             if self.lsb[i] > 0.0 {
                 *v = (*v / self.lsb[i]).round() * self.lsb[i];
@@ -114,16 +110,14 @@ impl ActuatorModel {
     }
 }
 
-/// The sensor frame the plant produces at state `x` with actuation `held` in force.
-#[allow(clippy::too_many_arguments)]
+/// The sensor frame at state `x` with `held` in force, inputs `u`, `e`'s demand and `i_ref`.
 fn measure<F: Flags>(
     plant: &Plant,
     flags: F,
     x: &State,
     held: &Actuation,
     u: &Inputs<f64>,
-    demand: f64,
-    i_ref: f64,
+    e: &Exo,
 ) -> Measurements {
     let uu = Inputs {
         t_psi: held.t_psi,
@@ -146,8 +140,8 @@ fn measure<F: Flags>(
             plant.n() * 0.5 * (x[ix::WR] + w_l)
         },
         w_wheel: 0.5 * (x[ix::WR] + w_l),
-        demand_nm: demand,
-        i_ref,
+        demand_nm: e.demand,
+        i_ref: e.i_ref,
         v_mps: x[ix::V],
     }
 }
@@ -198,7 +192,7 @@ fn sampled<F: Flags>(
     let mut plant = s.plant;
     let drive = sc.drive;
     let mut x = s.plant.rolling_state(sc.params.v);
-    let (n_steps, every) = s.steps();
+    let (n_steps, every) = steps(sc);
     let h = sc.dt_ns as f64 * 1e-9;
     let mut records = Vec::with_capacity((n_steps / every + 2) as usize);
     let mut pending: VecDeque<(u64, Actuation)> = VecDeque::new();
@@ -230,8 +224,7 @@ fn sampled<F: Flags>(
         &x,
         &Actuation::default(),
         &inputs(&e0, 0, &Actuation::default()),
-        e0.demand,
-        e0.i_ref,
+        &e0,
     );
     let mut held = ctrl.initial(&m0, s.plant.k_m());
     let mut diverged_at = None;
@@ -246,15 +239,7 @@ fn sampled<F: Flags>(
         if k < n_steps && t_ns == next_call {
             next_call += period;
             let on = fault(t_ns, &held);
-            let m = measure(
-                &s.plant,
-                flags,
-                &x,
-                &on,
-                &inputs(&e, 0, &on),
-                e.demand,
-                e.i_ref,
-            );
+            let m = measure(&s.plant, flags, &x, &on, &inputs(&e, 0, &on), &e);
             let m = sensor.apply(&m);
             let a = ctrl.step(t_ns, &m);
             // A deferring controller's actuation is taken (and limited) when due.

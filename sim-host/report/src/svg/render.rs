@@ -417,19 +417,11 @@ impl Plot {
         // fewest data points and no other label.
         let placed_pts = self.drawn_px(&sx, &sy);
         let mut taken: Vec<Rect> = Vec::new();
-        let v_lines: Vec<f64> = self
+        let lines: Vec<(f64, bool)> = self
             .marks
             .iter()
-            .filter(|m| m.vertical)
-            .map(|m| px(m.at))
-            .filter(|x| x.is_finite())
-            .collect();
-        let h_lines: Vec<f64> = self
-            .marks
-            .iter()
-            .filter(|m| !m.vertical)
-            .map(|m| py(m.at))
-            .filter(|y| y.is_finite())
+            .map(|m| (if m.vertical { px(m.at) } else { py(m.at) }, m.vertical))
+            .filter(|l| l.0.is_finite())
             .collect();
         for m in &self.marks {
             let label = esc(&m.label);
@@ -492,13 +484,10 @@ impl Plot {
                 let outside = r.0 < ml || r.2 > ml + pw || r.1 < mt || r.3 > mt + ph;
                 let clash = taken.iter().any(|t| overlap(t, &r));
                 // Another mark's line through the label (its own runs beside it).
-                let other = |l: f64, vertical: bool| m.vertical != vertical || (l - at).abs() > 0.5;
-                let crosses = v_lines
-                    .iter()
-                    .any(|&x| other(x, true) && x > r.0 && x < r.2)
-                    || h_lines
-                        .iter()
-                        .any(|&y| other(y, false) && y > r.1 && y < r.3);
+                let crosses = lines.iter().any(|&(l, vertical)| {
+                    let (lo, hi) = if vertical { (r.0, r.2) } else { (r.1, r.3) };
+                    (m.vertical != vertical || (l - at).abs() > 0.5) && l > lo && l < hi
+                });
                 let hidden = placed_pts
                     .iter()
                     .filter(|p| p.0 >= r.0 && p.0 <= r.2 && p.1 >= r.1 && p.1 <= r.3)
