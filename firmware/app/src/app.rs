@@ -232,6 +232,18 @@ fn note_stack(device: &mut impl Device, ticks: &mut u32) {
     }
 }
 
+/// After every tick of either control task: the stack mark, the receive log, the
+/// watchdog's proof of life, a fault the Config injected.
+#[inline(always)]
+fn after_tick<B: Board>(device: &mut impl Device, stack_ticks: &mut u32, rx_quiet: &mut u32) {
+    note_stack(device, stack_ticks);
+    log_rx(device, rx_quiet);
+    crate::watchdog::tick_ran();
+    if let Some(c) = device.take_injected() {
+        B::inject(c);
+    }
+}
+
 /// The control task's body, one base period per tick; a Config changing the rate re-arms it.
 pub async fn control_loop<B: Board, D: Device>(
     make_device: impl FnOnce() -> D,
@@ -281,12 +293,7 @@ pub async fn control_loop<B: Board, D: Device>(
             }
         }
         last_exec = exchange(&mut device, &mut stopwatch, t0, last_exec, &mut note);
-        note_stack(&mut device, &mut stack_ticks);
-        log_rx(&mut device, &mut rx_quiet);
-        crate::watchdog::tick_ran();
-        if let Some(c) = device.take_injected() {
-            B::inject(c);
-        }
+        after_tick::<B>(&mut device, &mut stack_ticks, &mut rx_quiet);
         let now_rate = device.base_rate_hz();
         if now_rate != rate {
             match period_ticks(now_rate) {
@@ -334,12 +341,7 @@ pub async fn frame_loop<B: Board, D: Device>(
         edges::next().await;
         let t0 = stopwatch.start();
         last_exec = exchange(&mut device, &mut stopwatch, t0, last_exec, &mut note);
-        note_stack(&mut device, &mut stack_ticks);
-        log_rx(&mut device, &mut rx_quiet);
-        crate::watchdog::tick_ran();
-        if let Some(c) = device.take_injected() {
-            B::inject(c);
-        }
+        after_tick::<B>(&mut device, &mut stack_ticks, &mut rx_quiet);
     }
 }
 
