@@ -242,12 +242,7 @@ fn free_port() -> io::Result<u16> {
 }
 
 impl Qemu {
-    /// The full QEMU command line for `elf` with the serial chardev on `port`.
-    pub fn command(elf: &Path, port: u16) -> Command {
-        Self::command_on(Machine::default(), elf, port)
-    }
-
-    /// [`Self::command`] on `machine`.
+    /// The full QEMU command line for `elf` on `machine` with the serial chardev on `port`.
     pub fn command_on(machine: Machine, elf: &Path, port: u16) -> Command {
         Self::command_to(machine, elf, SerialTo::Tcp(port))
     }
