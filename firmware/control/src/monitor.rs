@@ -491,7 +491,7 @@ mod tests {
     }
 
     #[test]
-    fn the_divisor_is_at_least_one_and_at_most_u16_max() {
+    fn the_divisor_is_0_when_off_else_from_1_to_u16_max() {
         assert_eq!(divisor_for(0, 5000), 0);
         assert_eq!(divisor_for(10_000, 1), 1);
         assert_eq!(divisor_for(1, u32::MAX), u16::MAX);

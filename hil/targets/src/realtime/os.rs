@@ -121,7 +121,7 @@ pub struct HeldOn {
 pub fn hold_on(cpu: usize) -> Option<HeldOn> {
     #[cfg(target_os = "linux")]
     {
-        let before = allowed_cpus();
+        let before = Some(allowed_cpus()).filter(|c| !c.is_empty())?;
         // SAFETY: no arguments; returns the calling thread's id.
         let tid = unsafe { libc::gettid() };
         set_cpus(0, &[cpu]).ok()?;
