@@ -23,7 +23,7 @@ use wheelset_runtime::RuntimeConfig;
 
 use crate::budget::Budgets;
 use crate::check::frames::FramesReport;
-use crate::check::numerics::{compare_fine, judged_errors, NumericsReport};
+use crate::check::numerics::{compare_fine, JudgedErrors, NumericsReport};
 use crate::check::timing::{analyse, TimingContext, TimingReport};
 use wheelset_loop::exchange::{close_loop, LoopSetup};
 use wheelset_loop::inproc::DeviceFault;
@@ -288,9 +288,8 @@ pub struct RunOutcome {
     pub period_ns: u64,
     /// The monitor's mean square `(t_s, (m/s)^2)` at each of its steps.
     pub monitor_ms: Vec<(f64, f64)>,
-    /// The errors the numerics judged, per signal (CSV column): `(t_s, signed error)`
-    /// outside the reference's time tube.
-    pub numerics_errors: Vec<(String, Vec<(f64, f64)>)>,
+    /// The errors the numerics judged.
+    pub numerics_errors: JudgedErrors,
     /// The device's configuration as applied (from the parameters, the law and the rate).
     pub runtime: RuntimeConfig,
 }
@@ -461,8 +460,7 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
         None => (Cow::Borrowed(&trajectory), Cow::Borrowed(&reference), fine),
     };
     let tol = &opts.budgets.numerics;
-    let numerics = compare_fine(&judged, &yardstick, fine.as_ref(), tol);
-    let numerics_errors = judged_errors(&judged, &yardstick, fine.as_ref(), tol);
+    let (numerics, numerics_errors) = compare_fine(&judged, &yardstick, fine.as_ref(), tol);
     let (host, mut status) = (cl.rec.host, cl.rec.status);
     let (device_resets, first_reset_s) = (
         cl.rec.device_resets,
@@ -486,14 +484,7 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     // The figure's mean square replayed; the alarms: the flags of the Actuation frames.
     let monitor_ms = crate::check::alarms::replay(&sensor_codes, period_ns, &rt, &mon_params)
         .unwrap_or_default();
-    let flags = cl.rec.actuations.iter().map(|a| {
-        (
-            a.at_ns,
-            a.frame.flags.has(wheelset_proto::Flags::HUNTING),
-            a.frame.flags.has(wheelset_proto::Flags::ACTUATOR_FAULT),
-            a.frame.flags.has(wheelset_proto::Flags::DRIVE_OSC),
-        )
-    });
+    let flags = cl.rec.actuations.iter().map(|a| (a.at_ns, a.frame.flags));
     let mut monitor = crate::check::alarms::judge(
         &sc,
         opts.control,

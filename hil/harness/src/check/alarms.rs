@@ -40,6 +40,7 @@ use wheelset_plant::control::YawLaw;
 use wheelset_plant::fault::faulty_loop_mode;
 use wheelset_plant::scenario::Scenario;
 use wheelset_plant::sim::Trajectory;
+use wheelset_proto::Flags;
 use wheelset_runtime::RuntimeConfig;
 
 use wheelset_report::Verdict;
@@ -181,25 +182,27 @@ fn delivering(g: f64) -> String {
     }
 }
 
-/// Rising edges of `(t_ns, hunting, actuator, drive)` flag samples, in order.
+/// Rising edges of the alarm flags (`HUNTING`, `ACTUATOR_FAULT`, `DRIVE_OSC`) in
+/// `(t_ns, flags)` samples, in order.
 #[must_use]
-pub fn alarms(samples: impl IntoIterator<Item = FlagSample>) -> Vec<Alarm> {
+pub fn alarms(samples: impl IntoIterator<Item = (u64, Flags)>) -> Vec<Alarm> {
     let mut out = Vec::new();
-    let (mut h0, mut a0, mut d0) = (false, false, false);
-    for (t_ns, h, a, d) in samples {
+    let mut was = Flags(0);
+    for (t_ns, now) in samples {
         let t_s = t_ns as f64 * 1e-9;
-        for (kind, now, was) in [("drive", d, d0), ("actuator", a, a0), ("hunting", h, h0)] {
-            if now && !was {
+        for (kind, flag) in [
+            ("drive", Flags::DRIVE_OSC),
+            ("actuator", Flags::ACTUATOR_FAULT),
+            ("hunting", Flags::HUNTING),
+        ] {
+            if now.has(flag) && !was.has(flag) {
                 out.push(Alarm { kind, t_s });
             }
         }
-        (h0, a0, d0) = (h, a, d);
+        was = now;
     }
     out
 }
-
-/// One period's monitor flags: `(t_ns, hunting, actuator, drive)`.
-pub type FlagSample = (u64, bool, bool, bool);
 
 /// The device's monitor replayed on the samples it received (wire codes, one per period
 /// from `t = 0`) under `rt` (its yaw mode: whether the law commands) and `p`: the mean
@@ -482,14 +485,15 @@ mod tests {
 
     #[test]
     fn rising_edges_become_alarms() {
+        let (h, a, d) = (Flags::HUNTING, Flags::ACTUATOR_FAULT, Flags::DRIVE_OSC);
         let s = [
-            (0, false, false, false),
-            (1_000_000_000, false, true, false),
-            (1_100_000_000, true, true, true),
-            (1_200_000_000, false, true, true),
-            (1_300_000_000, true, false, false),
+            (0, 0),
+            (1_000_000_000, a),
+            (1_100_000_000, h | a | d),
+            (1_200_000_000, a | d),
+            (1_300_000_000, h),
         ];
-        let a = alarms(s);
+        let a = alarms(s.map(|(t, f)| (t, Flags(f))));
         let kinds: Vec<_> = a.iter().map(|a| (a.kind, a.t_s)).collect();
         assert_eq!(
             kinds,

@@ -23,7 +23,7 @@ use std::collections::BTreeMap;
 use serde::Serialize;
 use wheelset_plant::sim::{Record, Trajectory};
 
-use crate::budget::Tolerance;
+use crate::budget::{Limit, Tolerance};
 use wheelset_report::Verdict;
 
 /// One signal's comparison.
@@ -64,6 +64,10 @@ pub struct NumericsReport {
     /// Per signal.
     pub signals: Vec<SignalCheck>,
 }
+
+/// The errors judged, per signal (CSV column): `(t_s, signed error)` outside the
+/// reference's time tube.
+pub type JudgedErrors = Vec<(String, Vec<(f64, f64)>)>;
 
 /// The value of column `name` of a record (None: unknown column).
 #[must_use]
@@ -164,47 +168,29 @@ impl<'a> Tube<'a> {
     }
 }
 
-/// The error series the numerics judge, per signal of `tolerances`: `(t_s, signed
-/// error)` for each record compared (see [`compare_fine`]; `|error| <= allowed`
-/// passes), for plotting beside the signals.
-#[must_use]
-pub fn judged_errors(
-    run: &Trajectory,
-    reference: &Trajectory,
-    fine: Option<&Trajectory>,
-    tolerances: &BTreeMap<String, Tolerance>,
-) -> Vec<(String, Vec<(f64, f64)>)> {
-    let tube = Tube::of(run, reference, fine);
-    tolerances
-        .iter()
-        .map(|(name, tol)| {
-            let e = tube.errors(run, name, tol);
-            let pts = run.records.iter().zip(e).map(|(r, e)| (r.t_s, e)).collect();
-            (name.clone(), pts)
-        })
-        .collect()
-}
-
 /// Compares `run` with `reference` for every signal in `tolerances`, the tube taken over
 /// `fine` (the reference recorded at the control period: module docs) where it is given
 /// and its records fall on `run`'s (a whole number per output interval), else over
-/// `reference`, which gives the peak, the length and the divergence.
+/// `reference`, which gives the peak, the length and the divergence; with the errors
+/// judged (`|error| <= allowed` passes), for plotting beside the signals.
 #[must_use]
 pub fn compare_fine(
     run: &Trajectory,
     reference: &Trajectory,
     fine: Option<&Trajectory>,
     tolerances: &BTreeMap<String, Tolerance>,
-) -> NumericsReport {
+) -> (NumericsReport, JudgedErrors) {
     let tube = Tube::of(run, reference, fine);
     let n = tube.n;
     let mut signals = Vec::new();
+    let mut judged = Vec::new();
     for (name, tol) in tolerances {
         let mut max_err = 0.0f64;
         let mut max_t = 0.0;
         let mut sq = 0.0;
         let mut finite = true;
-        for (i, e) in tube.errors(run, name, tol).into_iter().enumerate() {
+        let errors = tube.errors(run, name, tol);
+        for (i, &e) in errors.iter().enumerate() {
             let e = e.abs();
             if !e.is_finite() {
                 finite = false;
@@ -227,13 +213,17 @@ pub fn compare_fine(
         } else {
             f64::INFINITY
         };
-        let verdict = if !finite || n == 0 || ratio.is_nan() || ratio > tol.warn_factor {
+        let verdict = if !finite || n == 0 {
             Verdict::Fail
-        } else if ratio > 1.0 {
-            Verdict::Warn
         } else {
-            Verdict::Pass
+            Limit {
+                warn: 1.0,
+                fail: tol.warn_factor,
+            }
+            .judge(ratio)
         };
+        let pts = run.records.iter().zip(errors).map(|(r, e)| (r.t_s, e));
+        judged.push((name.clone(), pts.collect()));
         signals.push(SignalCheck {
             name: name.clone(),
             max_err,
@@ -257,7 +247,7 @@ pub fn compare_fine(
             .max()
             .unwrap_or(Verdict::Pass)
     };
-    NumericsReport {
+    let report = NumericsReport {
         verdict,
         run_diverged_at_s: run_div,
         reference_diverged_at_s: ref_div,
@@ -271,7 +261,8 @@ pub fn compare_fine(
             }
         ),
         signals,
-    }
+    };
+    (report, judged)
 }
 
 /// Every `m`-th record of `t` from the first (and the last), the rest as `t`: a run
@@ -352,10 +343,10 @@ mod tests {
         assert!(reference.records.iter().all(|r| r.u_a_v == 100.0));
         assert_eq!(reference.records.len(), 2001);
         let run = u_a(1e-3, 5004, 40.0);
-        let coarse = compare_fine(&run, &reference, None, &tol);
+        let coarse = compare_fine(&run, &reference, None, &tol).0;
         assert_eq!(coarse.verdict, Verdict::Fail, "{coarse:?}");
         assert!((coarse.signals[0].max_err - 60.0).abs() < 1e-9);
-        let at_ticks = compare_fine(&run, &reference, Some(&fine), &tol);
+        let at_ticks = compare_fine(&run, &reference, Some(&fine), &tol).0;
         assert_eq!(at_ticks.verdict, Verdict::Pass, "{at_ticks:?}");
         assert_eq!(at_ticks.signals[0].max_err, 0.0);
         // The allowance is the reference's, from its output records: unchanged.
@@ -369,15 +360,15 @@ mod tests {
         let fine = u_a(2e-4, 5001, 40.0);
         let reference = every_nth(&fine, 5);
         // Deeper than the reference ever goes: 20 V below its range.
-        let deeper = compare_fine(&run_dip(5004, 20.0), &reference, Some(&fine), &tol);
+        let deeper = compare_fine(&run_dip(5004, 20.0), &reference, Some(&fine), &tol).0;
         assert_eq!(deeper.verdict, Verdict::Fail);
         assert!((deeper.signals[0].max_err - 20.0).abs() < 1e-9);
         // The same dip 10 ms late: beyond `tau` (8 ms), an error as before.
-        let late = compare_fine(&run_dip(5054, 40.0), &reference, Some(&fine), &tol);
+        let late = compare_fine(&run_dip(5054, 40.0), &reference, Some(&fine), &tol).0;
         assert_eq!(late.verdict, Verdict::Fail);
         // A fine run that does not land on the records is not used.
         let odd = u_a(6e-4, 5001, 40.0);
-        let r = compare_fine(&run_dip(5004, 40.0), &reference, Some(&odd), &tol);
+        let r = compare_fine(&run_dip(5004, 40.0), &reference, Some(&odd), &tol).0;
         assert_eq!(r.verdict, Verdict::Fail);
         assert!(!r.reference.contains("tube"));
     }
