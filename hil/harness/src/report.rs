@@ -37,10 +37,6 @@ pub fn write_csv(tr: &Trajectory, path: &Path) -> io::Result<()> {
     tr.write_csv(io::BufWriter::new(f))
 }
 
-fn series(tr: &Trajectory, label: &str, f: impl Fn(&Record) -> f64) -> Series {
-    Series::line(label, tr.records.iter().map(|r| (r.t_s, f(r))).collect())
-}
-
 /// The plotted signals: title, unit label, scale, CSV column (the numerics' name).
 const SIGNALS: [(&str, &str, f64, &str); 5] = [
     ("Lateral displacement y", "y (mm)", 1e3, "y_m"),
@@ -160,6 +156,12 @@ fn monitor(out: &RunOutcome) -> Figure {
         event(d, "deadline".into(), "deadline", "#777777");
     }
     let end = out.trajectory.records.last().map_or(1.0, |x| x.t_s);
+    let y_mm = out
+        .trajectory
+        .records
+        .iter()
+        .map(|x| (x.t_s, x.y_m * 1e3))
+        .collect();
     let peak = ms.iter().map(|p| p.1).fold(thr * thr, f64::max);
     // The smallest value above zero sits a decade above the floor; a mean square of exactly
     // zero (below the monitor's resolution) is drawn, in grey, at the floor.
@@ -220,7 +222,7 @@ fn monitor(out: &RunOutcome) -> Figure {
             .x_label("t (s)")
             .y_label("y (mm)")
             .x_range(0.0, end)
-            .series(series(&out.trajectory, "device", |x| x.y_m * 1e3)),
+            .series(Series::line("device", y_mm)),
         false,
     ))
     .panel(mark(
@@ -504,7 +506,7 @@ pub fn markdown(out: &RunOutcome, command: &str) -> String {
     for (name, d) in [
         ("host -> device", fr.up),
         ("device -> host", fr.down),
-        ("total", fr.total()),
+        ("total", fr.total),
     ] {
         tb.row(std::iter::once(name.to_string()).chain(d.counts().map(|v| v.to_string())));
     }

@@ -241,7 +241,7 @@ pub fn failing(r: &RunReport) -> Vec<Failing> {
         add(
             "frames".into(),
             r.frames_verdict,
-            format!("{}{adds_up}", f.total()),
+            format!("{}{adds_up}", f.total),
         );
     }
     if r.monitor.verdict != Verdict::Pass {
@@ -389,16 +389,11 @@ pub fn from_json(text: &str, name: &str) -> Result<SweepDoc, String> {
 /// `Vec<(String, f64)>` as a JSON object, in its order.
 mod ordered {
     use serde::de::{MapAccess, Visitor};
-    use serde::ser::SerializeMap;
     use serde::{Deserializer, Serializer};
     use std::fmt;
 
     pub fn serialize<S: Serializer>(v: &[(String, f64)], s: S) -> Result<S::Ok, S::Error> {
-        let mut m = s.serialize_map(Some(v.len()))?;
-        for (k, x) in v {
-            m.serialize_entry(k, x)?;
-        }
-        m.end()
+        s.collect_map(v.iter().map(|(k, x)| (k, x)))
     }
 
     pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<(String, f64)>, D::Error> {

@@ -38,7 +38,7 @@ fn the_in_process_device_closes_the_loop_and_passes() {
     // Every frame in both directions accounted for; nothing lost on a clean link.
     let f = &r.frames;
     assert!(f.adds_up && f.up.adds_up() && f.down.adds_up());
-    assert_eq!(f.sent, f.received);
+    assert_eq!(f.total.sent, f.total.received);
     assert_eq!(
         f.up.sent, 15_001,
         "15 000 sensor frames and the status request"
@@ -169,7 +169,7 @@ fn link_faults_are_accounted_and_reported() {
     let r = run(&opts).unwrap().report;
     assert!(r.frames.adds_up);
     assert!(
-        r.frames.rejected > 0 && r.frames.dropped > 0,
+        r.frames.total.rejected > 0 && r.frames.total.dropped > 0,
         "{:?}",
         r.frames
     );

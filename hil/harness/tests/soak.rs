@@ -42,8 +42,8 @@ fn a_simulated_hour_of_service_runs_clean() {
     );
     assert_eq!(r.alarms[2], 0, "no drive alarm");
     assert!(r.safe_entries > 0 && r.tick_wrap_s.is_some());
-    assert!(r.up.adds_up() && r.down.adds_up());
-    assert!(r.up.rejected > 0 && r.down.dropped > 0);
+    assert!(r.up.frames.adds_up() && r.down.frames.adds_up());
+    assert!(r.up.frames.rejected > 0 && r.down.frames.dropped > 0);
     assert!(r.statuses_checked > 500, "{}", r.statuses_checked);
 }
 

@@ -64,16 +64,9 @@ impl std::fmt::Display for Direction {
 /// The `frames` section of a run's report: totals of both directions, and each.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize)]
 pub struct FramesReport {
-    /// Frames sent (both directions).
-    pub sent: u64,
-    /// Frames received valid.
-    pub received: u64,
-    /// Frames rejected.
-    pub rejected: u64,
-    /// Frames dropped.
-    pub dropped: u64,
-    /// Frames in flight at the end.
-    pub in_flight: u64,
+    /// Both directions together (`sent`, `received`, ... at the top of the section).
+    #[serde(flatten)]
+    pub total: Direction,
     /// Whether every direction adds up.
     pub adds_up: bool,
     /// Where the numbers come from: `link` or `device-status`.
@@ -88,25 +81,15 @@ pub struct FramesReport {
 }
 
 impl FramesReport {
-    /// Both directions together.
-    #[must_use]
-    pub fn total(&self) -> Direction {
-        Direction {
-            sent: self.sent,
-            received: self.received,
-            rejected: self.rejected,
-            dropped: self.dropped,
-            in_flight: self.in_flight,
-        }
-    }
-
     fn new(up: Direction, down: Direction, source: &str) -> Self {
         Self {
-            sent: up.sent + down.sent,
-            received: up.received + down.received,
-            rejected: up.rejected + down.rejected,
-            dropped: up.dropped + down.dropped,
-            in_flight: up.in_flight + down.in_flight,
+            total: Direction {
+                sent: up.sent + down.sent,
+                received: up.received + down.received,
+                rejected: up.rejected + down.rejected,
+                dropped: up.dropped + down.dropped,
+                in_flight: up.in_flight + down.in_flight,
+            },
             adds_up: up.adds_up() && down.adds_up(),
             source: source.into(),
             up,
@@ -175,8 +158,9 @@ pub fn judge(f: &FramesReport, b: &crate::budget::FrameBudgets) -> wheelset_repo
     if !f.adds_up {
         return Verdict::Fail;
     }
-    let n = f.sent.max(1) as f64;
+    let t = &f.total;
+    let n = t.sent.max(1) as f64;
     b.rejected_frac
-        .judge(f.rejected as f64 / n)
-        .max(b.dropped_frac.judge(f.dropped as f64 / n))
+        .judge(t.rejected as f64 / n)
+        .max(b.dropped_frac.judge(t.dropped as f64 / n))
 }

@@ -353,7 +353,7 @@ pub(crate) fn print_summary(r: &hil::run::RunReport) {
         "frames {} ({}): {}{}",
         r.frames_verdict,
         f.source,
-        f.total(),
+        f.total,
         if f.pre_run > 0 {
             format!("; {} frames before the run discarded (pre_run)", f.pre_run)
         } else {

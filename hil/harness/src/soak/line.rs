@@ -14,6 +14,8 @@ use rand_distr::{Distribution, Exp, Geometric};
 use rand_pcg::Pcg64;
 use wheelset_proto::FrameError;
 
+use crate::check::frames::Direction;
+
 /// The faults of one episode on one direction (all off: a clean line).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct LineFaults {
@@ -35,21 +37,14 @@ impl LineFaults {
     }
 }
 
-/// Every frame sent, accounted for: `sent = received + rejected + dropped + in_flight`,
-/// as the receiving port of `sim_link` attributes them (a rejected frame merged with the
-/// next by a lost delimiter takes the next's fate too).
+/// Every frame sent, accounted for (`frames`: `sent = received + rejected + dropped +
+/// in_flight`, as the receiving port of `sim_link` attributes them: a rejected frame
+/// merged with the next by a lost delimiter takes the next's fate too), and the events.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
 pub struct LineCounts {
-    /// Frames sent.
-    pub sent: u64,
-    /// Frames received valid.
-    pub received: u64,
-    /// Frames part of a rejected frame.
-    pub rejected: u64,
-    /// Frames none of whose bytes reached the decoder.
-    pub dropped: u64,
-    /// Frames whose bytes wait in the decoder for a delimiter.
-    pub in_flight: u64,
+    /// The frames' fates (`sent`, `received`, ... in the JSON).
+    #[serde(flatten)]
+    pub frames: Direction,
     /// Valid frames the receiver's decoder closed (events).
     pub ok_events: u64,
     /// Rejects the receiver's decoder counted, by kind: CRC, COBS, version, length,
@@ -57,14 +52,6 @@ pub struct LineCounts {
     pub rejects: [u64; 5],
     /// Frames the line changed or cut (a fault touched them).
     pub touched: u64,
-}
-
-impl LineCounts {
-    /// `sent = received + rejected + dropped + in_flight`.
-    #[must_use]
-    pub fn adds_up(&self) -> bool {
-        self.sent == self.received + self.rejected + self.dropped + self.in_flight
-    }
 }
 
 /// One direction: the faults in force, their random state, the receiver's accounting.
@@ -146,7 +133,7 @@ impl Line {
         frame: &[u8],
         mut decode: impl FnMut(&[u8]) -> Option<Result<(), FrameError>>,
     ) -> Fate {
-        self.counts.sent += 1;
+        self.counts.frames.sent += 1;
         let bytes: &[u8] = if self.faults.any() {
             self.corrupt(t_ns, frame);
             if self.buf.as_slice() != frame {
@@ -165,7 +152,7 @@ impl Line {
             let closes = piece.last() == Some(&0);
             let content = piece.len() > usize::from(closes);
             if content && fate == Fate::Dropped {
-                c.in_flight += 1;
+                c.frames.in_flight += 1;
                 fate = Fate::InFlight;
             }
             let r = decode(piece);
@@ -179,17 +166,17 @@ impl Line {
                 continue;
             }
             // Every frame with bytes in the decoder takes the outcome of the one closed.
-            let n = std::mem::take(&mut c.in_flight);
+            let n = std::mem::take(&mut c.frames.in_flight);
             match r {
                 Some(Ok(())) => {
                     c.ok_events += 1;
-                    c.received += n;
+                    c.frames.received += n;
                 }
                 Some(Err(e)) => {
                     c.rejects[e.index()] += 1;
-                    c.rejected += n;
+                    c.frames.rejected += n;
                 }
-                None => c.rejected += n,
+                None => c.frames.rejected += n,
             }
             if fate == Fate::InFlight {
                 fate = if matches!(r, Some(Ok(()))) && n == 1 {
@@ -200,7 +187,7 @@ impl Line {
             }
         }
         if fate == Fate::Dropped {
-            c.dropped += 1;
+            c.frames.dropped += 1;
         }
         fate
     }
@@ -307,16 +294,19 @@ mod tests {
             line.set_faults(f, t);
             for _ in 0..2_000 {
                 line.carry(t, &frame, |p| decode(&mut dec, p));
-                assert!(line.counts.adds_up(), "{:?}", line.counts);
+                assert!(line.counts.frames.adds_up(), "{:?}", line.counts);
                 t += 200_000;
             }
         }
         let c = line.counts;
-        assert_eq!(c.sent, 10_000);
+        assert_eq!(c.frames.sent, 10_000);
         assert!(
-            c.received >= 2_000 && c.rejected > 0 && c.dropped >= 2_000,
+            c.frames.received >= 2_000 && c.frames.rejected > 0 && c.frames.dropped >= 2_000,
             "{c:?}"
         );
-        assert_eq!(c.ok_events, c.received, "one frame per valid close: {c:?}");
+        assert_eq!(
+            c.ok_events, c.frames.received,
+            "one frame per valid close: {c:?}"
+        );
     }
 }

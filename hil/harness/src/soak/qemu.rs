@@ -154,7 +154,7 @@ pub fn soak_qemu(minutes: u32) -> Result<QemuSoak, RunError> {
         missed_periods: r.timing.missed_ticks,
         device_resets: r.device_resets,
         status,
-        frames_sent: r.frames.sent,
+        frames_sent: r.frames.total.sent,
         frames_add_up: r.frames.adds_up,
         failures,
     })
