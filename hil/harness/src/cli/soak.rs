@@ -4,6 +4,7 @@
 use std::io::IsTerminal;
 
 use clap::Args;
+use hil::run::Target;
 use hil::soak::inproc::{soak, Defect, SoakOptions};
 use hil::soak::qemu::soak_qemu;
 use hil::soak::service::ServiceOptions;
@@ -16,7 +17,7 @@ pub(crate) struct SoakArgs {
     /// Where the device runs: inproc (the runtime over the simulated link, simulated
     /// time) or qemu-free (the free-running firmware under QEMU, real time).
     #[arg(long, default_value = "inproc", value_parser = parse_soak_target)]
-    target: SoakTarget,
+    target: Target,
     /// Hours of service to soak (simulated in process; real time under QEMU).
     #[arg(long, conflicts_with = "minutes", allow_negative_numbers = true)]
     hours: Option<f64>,
@@ -49,16 +50,10 @@ pub(crate) struct SoakArgs {
     json: Option<std::path::PathBuf>,
 }
 
-#[derive(Clone, Copy, PartialEq, Eq)]
-pub(crate) enum SoakTarget {
-    InProc,
-    QemuFree,
-}
-
-fn parse_soak_target(s: &str) -> Result<SoakTarget, String> {
+fn parse_soak_target(s: &str) -> Result<Target, String> {
     match s {
-        "inproc" => Ok(SoakTarget::InProc),
-        "qemu-free" => Ok(SoakTarget::QemuFree),
+        "inproc" => Ok(Target::InProc),
+        "qemu-free" => Ok(Target::QemuFree),
         _ => Err(format!(
             "unknown soak target `{s}` (expected inproc or qemu-free)"
         )),
@@ -84,10 +79,10 @@ fn duration_s(a: &SoakArgs) -> Result<f64, Failure> {
 pub(crate) fn cmd_soak(a: &SoakArgs) -> Result<Verdict, Failure> {
     let secs = duration_s(a)?;
     match a.target {
-        SoakTarget::QemuFree if a.defect != Defect::None => Err(input(
+        Target::QemuFree if a.defect != Defect::None => Err(input(
             "hil soak: --defect is the in-process device's (--target inproc)",
         )),
-        SoakTarget::QemuFree => {
+        Target::QemuFree => {
             let minutes = (secs / 60.0).ceil() as u32;
             let r = soak_qemu(minutes).map_err(run_error)?;
             say!("{}", r.summary().trim_end());
@@ -97,7 +92,7 @@ pub(crate) fn cmd_soak(a: &SoakArgs) -> Result<Verdict, Failure> {
                 Verdict::Fail
             })
         }
-        SoakTarget::InProc => {
+        _ => {
             let r = soak(SoakOptions {
                 duration_ns: (secs * 1e9).round() as u64,
                 seed: a.seed,

@@ -30,10 +30,10 @@ use wheelset_plant::scenario::{Axle, Scenario};
 use wheelset_plant::sim::rk4_step;
 use wheelset_proto::units::{TORQUE_LSB_NM, VOLTAGE_LSB_V};
 use wheelset_proto::{
-    encode, encode_vec, Actuation, Command, Config, Decoder, Flags, FrameError, LateralSensing,
-    Message, Sensor, SensorSi, Status, MAX_FRAME,
+    encode_vec, Actuation, Command, Config, Decoder, Flags, FrameError, LateralSensing, Message,
+    Sensor, SensorSi, Status,
 };
-use wheelset_runtime::{HoldPolicy, Runtime, SafeChange, TX_CAPACITY};
+use wheelset_runtime::{HoldPolicy, Runtime, SafeChange};
 
 use super::line::{Fate, Line, LineCounts, LineFaults};
 use super::service::{next_episode, Demand, Episode, ServiceOptions, Track};
@@ -225,18 +225,18 @@ impl SoakReport {
     /// The summary `hil soak` prints.
     #[must_use]
     pub fn summary(&self) -> String {
-        let lines = [("host -> device", &self.up), ("device -> host", &self.down)].map(|(name, c)| {
-            format!(
-                "  {name}: sent {} = received {} + rejected {} + dropped {} + in flight {} ({}); {} touched by the line\n",
-                c.sent,
-                c.received,
-                c.rejected,
-                c.dropped,
-                c.in_flight,
-                if c.adds_up() { "adds up" } else { "DOES NOT ADD UP" },
-                c.touched
-            )
-        });
+        let lines =
+            [("host -> device", &self.up), ("device -> host", &self.down)].map(|(name, c)| {
+                let adds_up = if c.frames.adds_up() {
+                    "adds up"
+                } else {
+                    "DOES NOT ADD UP"
+                };
+                format!(
+                    "  {name}: {} ({adds_up}); {} touched by the line\n",
+                    c.frames, c.touched
+                )
+            });
         let [ber, drop, outage, burst] = self.link_episodes;
         let [h, a, d] = self.alarms;
         let wrap = self
@@ -311,7 +311,6 @@ struct Account {
     safe_exits: u64,
     seq_gaps: u64,
     alarm_flags: u16,
-    rises: [u64; 3],
     first_alarm_tick: Option<u32>,
 }
 
@@ -339,7 +338,6 @@ struct Soak {
     /// peak `|y'|` of the block so far (m/s).
     onset: Option<(u64, f64)>,
     act: ActState,
-    act_alarm_seen: bool,
     config_pending: Option<(Config, u32)>,
     configs: BTreeMap<(u32, bool), Config>,
     status_next_ns: u64,
@@ -463,7 +461,6 @@ impl Soak {
             episode_end: None,
             onset: None,
             act: ActState::Idle,
-            act_alarm_seen: false,
             config_pending: None,
             configs,
             status_next_ns: 2_000_000_000,
@@ -588,7 +585,6 @@ impl Soak {
             Episode::Actuator => {
                 self.report.actuator_faults += 1;
                 self.act = ActState::Failed(t);
-                self.act_alarm_seen = false;
                 self.gain = 0.0;
             }
             Episode::Config { rate_hz, lead } => {
@@ -646,10 +642,8 @@ impl Soak {
         };
         let s: Sensor = Sensor::from_si(self.seq, t, &si, LateralSensing::Velocity).msg;
         self.trace_onset(t, &si);
-        let mut sbuf = [0u8; MAX_FRAME];
-        let n = encode(&Message::Sensor(s), &mut sbuf).unwrap_or(0);
-        let fresh = self.send_up(t, sbuf.get(..n).unwrap_or(&[])) == Fate::Valid;
-        let mut at = t + n as u64 * 2_000;
+        let mut at = t;
+        let fresh = self.send(&mut at, &Message::Sensor(s));
         let mut config_applied = None;
         if let Some((cfg, hz)) = self.config_pending {
             if self.send(&mut at, &Message::Config(cfg)) {
@@ -673,12 +667,8 @@ impl Soak {
             cleared = self.send(&mut at, &Message::Command(Command::ClearFaults));
         }
         let tick_at = t + PHASE_NS;
-        let mut out = [0u8; TX_CAPACITY];
-        let o = self.rt.tick(0);
-        let n = o.len().min(TX_CAPACITY);
-        out[..n].copy_from_slice(&o[..n]);
-        let out = &mut out[..n];
-        self.after_tick(t, fresh, config_applied, status_requested, cleared, out);
+        let mut out = self.rt.tick(0).to_vec();
+        self.after_tick(t, fresh, config_applied, status_requested, cleared, &out);
         let mut fresh_act: Option<Actuation> = None;
         let mut status: Option<Status> = None;
         let mut at = tick_at;
@@ -733,8 +723,8 @@ impl Soak {
         self.period_ns = 1_000_000_000 / u64::from(hz.max(1));
     }
 
-    /// A Config or Command after the Sensor frame, sent at `at` (advanced by its wire
-    /// time); whether the device received it valid.
+    /// One frame up, sent at `at` (advanced by its wire time); whether the device
+    /// received it valid.
     fn send(&mut self, at: &mut u64, m: &Message) -> bool {
         let Ok(f) = encode_vec(m) else {
             return false;
@@ -910,7 +900,6 @@ impl Soak {
             .enumerate()
         {
             if rose & flag != 0 {
-                acc.rises[i] += 1;
                 self.report.alarms[i] += 1;
                 acc.latched = true;
                 acc.first_alarm_tick.get_or_insert(tick_count.max(1));
@@ -978,6 +967,7 @@ impl Soak {
     fn check_status(&mut self, s: &Status) {
         self.report.statuses_checked += 1;
         let (st, acc, up, down) = (&self.start, &self.acc, &self.up.counts, &self.down.counts);
+        let alarms = self.report.alarms;
         let d = |f: fn(&Status) -> u32| f(s).wrapping_sub(f(st));
         let mut broke = Vec::new();
         for (name, device, harness) in [
@@ -995,16 +985,16 @@ impl Soak {
             (
                 "frames down (ticks + Status frames)",
                 d(|x| x.ticks).wrapping_add(acc.statuses as u32),
-                down.sent,
+                down.frames.sent,
             ),
             ("held ticks", d(|x| x.held_ticks), acc.held),
             ("safe ticks", d(|x| x.safe_ticks), acc.safe_ticks),
             ("safe entries", d(|x| x.safe_entries), acc.safe_entries),
             ("safe exits", d(|x| x.safe_exits), acc.safe_exits),
             ("seq gaps", d(|x| x.seq_gaps), acc.seq_gaps),
-            ("hunting alarms", d(|x| x.hunt_alarms), acc.rises[0]),
-            ("actuator alarms", d(|x| x.act_alarms), acc.rises[1]),
-            ("drive alarms", d(|x| x.drive_alarms), acc.rises[2]),
+            ("hunting alarms", d(|x| x.hunt_alarms), alarms[0]),
+            ("actuator alarms", d(|x| x.act_alarms), alarms[1]),
+            ("drive alarms", d(|x| x.drive_alarms), alarms[2]),
             ("refusals", d(|x| x.cmd_refused), 0),
             (
                 "first alarm tick",
@@ -1017,7 +1007,7 @@ impl Soak {
                 broke.push(format!("{name}: device {device}, harness {harness}"));
             }
         }
-        if !up.adds_up() || !down.adds_up() {
+        if !up.frames.adds_up() || !down.frames.adds_up() {
             broke.push(format!("frames do not add up: up {up:?}, down {down:?}"));
         }
         if !broke.is_empty() {

@@ -167,10 +167,9 @@ pub fn check_axes(axes: &[Axis]) -> Result<usize, String> {
             return Err(format!("--param {}: the key is given twice", a.key));
         }
     }
-    let mut n: usize = 1;
-    for a in axes {
-        n = n.saturating_mul(a.values.len());
-    }
+    let n = axes
+        .iter()
+        .fold(1, |n: usize, a| n.saturating_mul(a.values.len()));
     if n > MAX_GRID_POINTS {
         return Err(format!(
             "--param: the grid has {n} points, above the largest campaign of {MAX_GRID_POINTS}; \
