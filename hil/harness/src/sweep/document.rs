@@ -1,7 +1,6 @@
 //! The report of `hil sweep`: `report.md` (a table of every point, through
 //! [`wheelset_report::table`]) and the heat maps `verdict.svg` and `peak_y.svg`.
 
-use std::fmt::Write as _;
 use std::io;
 use std::path::{Path, PathBuf};
 
@@ -196,13 +195,6 @@ pub fn write_sweep_report(
 #[must_use]
 pub fn sweep_markdown(doc: &crate::sweep::SweepDoc, command: &str) -> String {
     let h = &doc.sweep;
-    let mut s = String::new();
-    let _ = writeln!(
-        s,
-        "# HIL sweep: {} with {:?} on {}\n",
-        h.scenario, h.control, h.target
-    );
-    let _ = writeln!(s, "Reproduce: `{command}`\n");
     let axes: Vec<String> = h
         .axes
         .iter()
@@ -219,39 +211,36 @@ pub fn sweep_markdown(doc: &crate::sweep::SweepDoc, command: &str) -> String {
             )
         })
         .collect();
-    let _ = writeln!(
-        s,
-        "{} points: {}{}. Link faults: {}, seed {}. Parameters: {}.\n",
+    let follows: String = h
+        .follows
+        .iter()
+        .map(|(k, l)| format!("; {k} follows {l}"))
+        .collect();
+    let faults = if h.faults.is_empty() {
+        "none"
+    } else {
+        &h.faults
+    };
+    let sm = &doc.summary;
+    let shard = doc.shard.map_or(String::new(), |sh| {
+        format!(" (shard {sh}: {} of the points)", doc.records.len())
+    });
+    let mut s = format!(
+        "# HIL sweep: {} with {:?} on {}\n\nReproduce: `{command}`\n\n\
+         {} points: {}{follows}. Link faults: {faults}, seed {}. Parameters: {}, with the \
+         scenario's [params] on top.\n\n**{} pass, {} warn, {} fail**{shard}.\n\n\
+         ![verdicts](verdict.svg)\n\n![peak |y|](peak_y.svg)\n\n",
+        h.scenario,
+        h.control,
+        h.target,
         h.points,
         axes.join("; "),
-        h.follows
-            .iter()
-            .map(|(k, l)| format!("; {k} follows {l}"))
-            .collect::<String>(),
-        if h.faults.is_empty() {
-            "none"
-        } else {
-            &h.faults
-        },
         h.seed,
-        h.params_file.as_deref().map_or(
-            "the paper's, with the scenario's [params] on top".to_string(),
-            |f| { format!("{f}, with the scenario's [params] on top") }
-        )
-    );
-    let sm = &doc.summary;
-    let _ = writeln!(
-        s,
-        "**{} pass, {} warn, {} fail**{}.\n",
+        h.params_file.as_deref().unwrap_or("the paper's"),
         sm.pass,
         sm.warn,
         sm.fail,
-        doc.shard.map_or(String::new(), |sh| format!(
-            " (shard {sh}: {} of the points)",
-            doc.records.len()
-        ))
     );
-    let _ = writeln!(s, "![verdicts](verdict.svg)\n\n![peak |y|](peak_y.svg)\n");
     let keys: Vec<String> = doc
         .records
         .first()
