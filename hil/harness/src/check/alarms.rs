@@ -56,7 +56,7 @@ pub struct Alarm {
 }
 
 /// The `monitor` section of the run report.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Default)]
 pub struct MonitorReport {
     /// Where the alarms come from (`device-flags`, see the module docs).
     pub source: &'static str,
@@ -276,23 +276,13 @@ pub fn judge(
         first_alarm_s: alarms.first().map(|a| a.t_s),
         alarms,
         expect: "none",
-        fault_s: None,
-        fault_gain: None,
-        sigma_per_s: None,
-        mode_hz: None,
-        deadline_sigma_per_s: None,
         diverged_s: tr.info.diverged_at_s,
-        rms_at_fault_m_s: None,
-        deadline_s: None,
-        verdict: Verdict::Pass,
-        reason: String::new(),
-        device_first_alarm_tick: None,
-        device_first_alarm_s: None,
         drive: DriveReport {
             expect: "none",
             l_a_h: sc.params.l_a,
             ..DriveReport::default()
         },
+        ..MonitorReport::default()
     };
     let diverged = tr.info.diverged_at_s;
     // The passive law commands no torque: its actuator's fault changes nothing.
