@@ -452,17 +452,13 @@ pub fn markdown(out: &RunOutcome, command: &str) -> String {
         "{tb}\n![execution time](exec_histogram.svg)\n\n## Numerics ({})\n\nAgainst the {}.\n",
         n.verdict, n.reference
     );
-    if let Some(t) = n.run_diverged_at_s {
-        let _ = writeln!(
-            s,
-            "**The closed loop diverged at {t:.3} s** (run stopped).\n"
-        );
-    }
-    if let Some(t) = n.reference_diverged_at_s {
-        let _ = writeln!(
-            s,
-            "**The reference diverged at {t:.3} s** (no yardstick).\n"
-        );
+    for (t, what, why) in [
+        (n.run_diverged_at_s, "closed loop", "run stopped"),
+        (n.reference_diverged_at_s, "reference", "no yardstick"),
+    ] {
+        if let Some(t) = t {
+            let _ = writeln!(s, "**The {what} diverged at {t:.3} s** ({why}).\n");
+        }
     }
     let mut tb =
         Table::new("signal,max error,at t (s),RMS error,reference peak,allowed,verdict".split(','));

@@ -8,7 +8,7 @@ use hil::run::{run, RunOptions, Target};
 use wheelset_report::Verdict;
 use wheelset_targets::qemu::machine::Machine;
 
-use super::{input, load_params, run_error, Failure};
+use super::{input, load_params, run_error, written, Failure};
 
 #[derive(Args, Clone)]
 pub(crate) struct GoldenArgs {
@@ -65,8 +65,7 @@ pub(crate) fn cmd_golden(g: &GoldenArgs) -> Result<Verdict, Failure> {
                 c.y_dot, c.current, c.speed, c.demand
             ));
         }
-        std::fs::write(path, text)
-            .map_err(|e| input(format!("{}: cannot write: {e}", path.display())))?;
+        written(path, std::fs::write(path, text))?;
         say!(
             "golden: recorded {} samples into {}",
             to - from,
@@ -144,8 +143,7 @@ pub(crate) fn cmd_golden(g: &GoldenArgs) -> Result<Verdict, Failure> {
             "target": g.target.to_string(),
             "vectors": results,
         });
-        hil::report::write_json(&doc, p)
-            .map_err(|e| input(format!("{}: cannot write: {e}", p.display())))?;
+        written(p, hil::report::write_json(&doc, p))?;
     }
     Ok(if all { Verdict::Pass } else { Verdict::Fail })
 }

@@ -33,6 +33,11 @@ pub(crate) fn input(msg: impl Into<String>) -> Failure {
     }
 }
 
+/// `r`, or the failure to write `path` (exit code 2).
+pub(crate) fn written<T>(path: &std::path::Path, r: std::io::Result<T>) -> Result<T, Failure> {
+    r.map_err(|e| input(format!("{}: cannot write: {e}", path.display())))
+}
+
 /// The parameters of `--params FILE` (the paper's without it); a bad file names the
 /// flag, the file and the key.
 pub(crate) fn load_params(path: Option<&std::path::Path>) -> Result<Params, Failure> {

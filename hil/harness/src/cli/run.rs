@@ -15,7 +15,7 @@ use wheelset_report::Verdict;
 use wheelset_targets::qemu::machine::Machine;
 use wheelset_targets::realtime::os::{self, Want};
 
-use super::{input, load_params, run_error, Control, Failure};
+use super::{input, load_params, run_error, written, Control, Failure};
 
 #[derive(Clone, Copy, ValueEnum)]
 pub(crate) enum PaceArg {
@@ -245,15 +245,12 @@ pub(crate) fn cmd_run(a: &RunArgs, command: &str) -> Result<Verdict, Failure> {
     };
     let out = run(&opts).map_err(run_error)?;
     print_summary(&out.report);
-    let io = |what: &std::path::Path, e: std::io::Error| {
-        input(format!("{}: cannot write: {e}", what.display()))
-    };
     if let Some(p) = &a.json {
-        report::write_json(&out.report, p).map_err(|e| io(p, e))?;
+        written(p, report::write_json(&out.report, p))?;
         say!("json: {}", p.display());
     }
     if let Some(p) = &a.csv {
-        report::write_csv(&out.trajectory, p).map_err(|e| io(p, e))?;
+        written(p, report::write_csv(&out.trajectory, p))?;
         say!(
             "csv: {} ({} rows)",
             p.display(),
@@ -261,8 +258,7 @@ pub(crate) fn cmd_run(a: &RunArgs, command: &str) -> Result<Verdict, Failure> {
         );
     }
     if let Some(d) = &a.report {
-        let files = report::write_report(&out, d, command).map_err(|e| io(d, e))?;
-        for f in files {
+        for f in written(d, report::write_report(&out, d, command))? {
             say!("report: {}", f.display());
         }
     }

@@ -150,8 +150,7 @@ pub(crate) fn cmd_serve(a: &ServeArgs) -> Result<Verdict, Failure> {
         );
     }
     if let Some(p) = &a.json {
-        hil::report::write_json(&rep, p)
-            .map_err(|e| input(format!("{}: cannot write: {e}", p.display())))?;
+        super::written(p, hil::report::write_json(&rep, p))?;
     }
     Ok(Verdict::Pass)
 }

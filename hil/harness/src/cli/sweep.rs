@@ -125,9 +125,8 @@ pub(crate) fn cmd_sweep(c: &SweepCmd, command: &str) -> Result<Verdict, Failure>
                 .map_err(input)?;
             say!("json: {}", json.display());
             if let Some(d) = report_dir {
-                let files = hil::sweep::document::write_sweep_report(doc, d, command)
-                    .map_err(|e| input(format!("{}: cannot write: {e}", d.display())))?;
-                for f in files {
+                let files = hil::sweep::document::write_sweep_report(doc, d, command);
+                for f in super::written(d, files)? {
                     say!("report: {}", f.display());
                 }
             }
