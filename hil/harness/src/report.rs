@@ -23,11 +23,16 @@ fn create_parent(path: &Path) -> io::Result<()> {
     }
 }
 
-/// Writes a document (the verdict document of a run) as pretty JSON, a newline after.
+/// A document as written (`--json`): pretty JSON, a newline after.
+#[must_use]
+pub fn to_json(doc: &impl serde::Serialize) -> String {
+    serde_json::to_string_pretty(doc).unwrap_or_default() + "\n"
+}
+
+/// Writes a document (the verdict document of a run) as [`to_json`] does.
 pub fn write_json(report: &impl serde::Serialize, path: &Path) -> io::Result<()> {
     create_parent(path)?;
-    let text = serde_json::to_string_pretty(report).map_err(io::Error::other)?;
-    std::fs::write(path, text + "\n")
+    std::fs::write(path, to_json(report))
 }
 
 /// Writes the closed-loop trajectory as CSV (the columns of `sim-host run --csv`).

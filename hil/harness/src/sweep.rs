@@ -15,7 +15,7 @@
 //! byte. Shard documents, written atomically ([`atomic`]), carry the campaign's [`Identity`]:
 //! the merge refuses a shard of another build or of edited inputs. They hold no timing.
 
-use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::mpsc;
 
 use serde::{Deserialize, Serialize};
@@ -304,36 +304,29 @@ pub fn run_campaign(
     let total = mine.len();
     let next = AtomicUsize::new(0);
     let stop = AtomicBool::new(false);
-    // CPU time of the worker threads, ns, and whether every one could read its own.
-    let cpu_ns = AtomicU64::new(0);
-    let cpu_known = AtomicBool::new(true);
     let (tx, rx) = mpsc::channel::<Result<Record, RunError>>();
     let mut records = Vec::with_capacity(total);
     let mut first_err = None;
-    std::thread::scope(|s| {
-        for _ in 0..jobs.clamp(1, total.max(1)) {
-            let tx = tx.clone();
-            let (next, stop, mine) = (&next, &stop, &mine);
-            let (cpu_ns, cpu_known) = (&cpu_ns, &cpu_known);
-            s.spawn(move || {
-                while !stop.load(Ordering::Relaxed) {
-                    let Some((i, (p, params))) = mine.get(next.fetch_add(1, Ordering::Relaxed))
-                    else {
-                        break;
-                    };
-                    if tx.send(run_point(c, *i, p, params)).is_err() {
-                        break;
+    // The CPU time of the worker threads (None: one could not read its own).
+    let workers_cpu = std::thread::scope(|s| {
+        let workers: Vec<_> = (0..jobs.clamp(1, total.max(1)))
+            .map(|_| {
+                let tx = tx.clone();
+                let (next, stop, mine) = (&next, &stop, &mine);
+                s.spawn(move || {
+                    while !stop.load(Ordering::Relaxed) {
+                        let Some((i, (p, params))) = mine.get(next.fetch_add(1, Ordering::Relaxed))
+                        else {
+                            break;
+                        };
+                        if tx.send(run_point(c, *i, p, params)).is_err() {
+                            break;
+                        }
                     }
-                }
-                match throughput::thread_cpu() {
-                    Some(t) => {
-                        let ns = u64::try_from(t.as_nanos()).unwrap_or(u64::MAX);
-                        cpu_ns.fetch_add(ns, Ordering::Relaxed);
-                    }
-                    None => cpu_known.store(false, Ordering::Relaxed),
-                }
-            });
-        }
+                    throughput::thread_cpu()
+                })
+            })
+            .collect();
         drop(tx);
         for r in rx {
             match r {
@@ -347,6 +340,10 @@ pub fn run_campaign(
                 }
             }
         }
+        workers
+            .into_iter()
+            .map(|w| w.join().unwrap_or_else(|p| std::panic::resume_unwind(p)))
+            .sum::<Option<std::time::Duration>>()
     });
     if let Some(e) = first_err {
         return Err(e);
@@ -362,8 +359,8 @@ pub fn run_campaign(
         points: records.len(),
         cpu: main
             .zip(children)
-            .filter(|_| cpu_known.load(Ordering::Relaxed))
-            .map(|(m, c)| m + c + std::time::Duration::from_nanos(cpu_ns.load(Ordering::Relaxed))),
+            .zip(workers_cpu)
+            .map(|((m, c), w)| m + c + w),
         wall: wall.elapsed(),
     };
     let doc = SweepDoc {
@@ -373,17 +370,6 @@ pub fn run_campaign(
         records,
     };
     Ok((doc, cost))
-}
-
-/// The document as written (`--json`): pretty JSON with a final newline.
-#[must_use]
-pub fn to_json(d: &SweepDoc) -> String {
-    serde_json::to_string_pretty(d).unwrap_or_default() + "\n"
-}
-
-/// Reads a document written by [`to_json`].
-pub fn from_json(text: &str, name: &str) -> Result<SweepDoc, String> {
-    serde_json::from_str(text).map_err(|e| format!("{name}: not a sweep document: {e}"))
 }
 
 /// `Vec<(String, f64)>` as a JSON object, in its order.
