@@ -42,6 +42,14 @@ pub fn write_csv(tr: &Trajectory, path: &Path) -> io::Result<()> {
     tr.write_csv(io::BufWriter::new(f))
 }
 
+/// A plot of `unit` against time over `[0, end]` s.
+fn over_time(title: &str, unit: &str, end: f64) -> Plot {
+    Plot::new(title)
+        .x_label("t (s)")
+        .y_label(unit)
+        .x_range(0.0, end)
+}
+
 /// The plotted signals: title, unit label, scale, CSV column (the numerics' name).
 const SIGNALS: [(&str, &str, f64, &str); 5] = [
     ("Lateral displacement y", "y (mm)", 1e3, "y_m"),
@@ -85,11 +93,8 @@ fn trajectories(out: &RunOutcome) -> Figure {
         Series::line(label, pts.map(|x| (x.t_s, at(x))).collect())
     };
     for (title, unit, k, col) in SIGNALS {
-        let mut p = Plot::new(title)
-            .x_label("t (s)")
-            .y_label(unit)
+        let mut p = over_time(title, unit, end)
             .size(860.0, 260.0)
-            .x_range(0.0, end)
             .series(line(&out.trajectory, "device", col, k))
             .series(line(&out.reference, "reference", col, k).style(Style::Dashed));
         if let Some(t) = fault {
@@ -108,18 +113,16 @@ fn trajectories(out: &RunOutcome) -> Figure {
         let fail = allowed * c.tolerance.warn_factor;
         let pts = e.iter().map(|&(t, v)| (t, v * k)).collect();
         let symbol = unit.split_once(" (").map_or(unit, |(s, _)| s);
-        let mut p = Plot::new(&format!(
+        let title = format!(
             "{symbol}: device - reference outside the ±{:.0} ms tube, max {} {unit_only} at {:.3} s ({})",
             c.tolerance.time_s * 1e3,
             value_label(c.max_err * k),
             c.max_err_t_s,
             c.verdict
-        ))
-        .x_label("t (s)")
-        .y_label(&format!("error ({unit_only})"))
-        .size(860.0, 190.0)
-        .x_range(0.0, end)
-        .series(Series::line("judged error", pts).color("#0072B2"));
+        );
+        let mut p = over_time(&title, &format!("error ({unit_only})"), end)
+            .size(860.0, 190.0)
+            .series(Series::line("judged error", pts).color("#0072B2"));
         for (v, what, colour) in [
             (allowed, "allowed", PASS_COLOUR),
             (fail, "fail above", FAIL_COLOUR),
@@ -183,9 +186,7 @@ fn monitor(out: &RunOutcome) -> Figure {
             .iter()
             .map(|&(t, v)| (t, if v == 0.0 { floor * 1.25 } else { f64::NAN }))
             .collect();
-        let mut p = Plot::new(title)
-            .x_label("t (s)")
-            .y_label("mean square ((mm/s)^2)")
+        let mut p = over_time(title, "mean square ((mm/s)^2)", end)
             .log_y()
             .y_range(floor, peak * 3.0)
             .series(Series::line("mean square", pts));
@@ -223,19 +224,14 @@ fn monitor(out: &RunOutcome) -> Figure {
         r.scenario, r.target, m.verdict
     ))
     .panel(mark(
-        Plot::new("Lateral displacement y")
-            .x_label("t (s)")
-            .y_label("y (mm)")
-            .x_range(0.0, end)
-            .series(Series::line("device", y_mm)),
+        over_time("Lateral displacement y", "y (mm)", end).series(Series::line("device", y_mm)),
         false,
     ))
     .panel(mark(
         ms_plot(
             "Band-passed mean square of y' against the hunting alarm's threshold",
             ms.clone(),
-        )
-        .x_range(0.0, end),
+        ),
         false,
     ));
     let first = events.iter().map(|e| e.0).fold(f64::INFINITY, f64::min);
@@ -312,28 +308,25 @@ fn exec_histogram(r: &RunReport) -> Figure {
     );
     let top = counts.iter().fold(1.0f64, |a, &b| a.max(b)) * 2.0;
     let lo_us = edges_us.first().copied().unwrap_or(worst_us);
-    let dist = Plot::histogram(
+    let hist = |title: &str, x_label: &str| {
+        let p = Plot::histogram(title, &edges_us, &counts);
+        p.x_label(x_label)
+            .y_label("ticks")
+            .log_y()
+            .y_range(0.5, top)
+    };
+    let dist = hist(
         "Distribution (log count: the worst tick shows)",
-        &edges_us,
-        &counts,
+        "execution time (us)",
     )
-    .x_label("execution time (us)")
-    .y_label("ticks")
-    .log_y()
-    .y_range(0.5, top)
     .vmark(worst_us, &worst, FAIL_COLOUR);
     let budget = budgets(
-        Plot::histogram(
+        hist(
             "Against the period T and the CPU budget",
-            &edges_us,
-            &counts,
+            "execution time (us, log axis)",
         )
-        .x_label("execution time (us, log axis)")
-        .y_label("ticks")
         .log_x()
-        .log_y()
-        .x_range(lo_us * 0.8, period_us * 1.25)
-        .y_range(0.5, top),
+        .x_range(lo_us * 0.8, period_us * 1.25),
     );
     Figure::new(&if t.exec_measured {
         format!(
