@@ -152,13 +152,9 @@ pub struct RunOptions {
     pub qemu_link: wheelset_targets::qemu::Channel,
     /// Show a progress bar.
     pub progress: bool,
-    /// Base rate of the device, Hz (None: the control core's default). The in-process
-    /// device is built at it; a device elsewhere is configured over the wire with the
-    /// rates and coefficients of `wheelset_runtime::rates_for`.
+    /// Base rate of the device, Hz (`--rate-hz`; None: the control core's default).
     pub rate_hz: Option<u32>,
-    /// Ticks from a sample to its actuation (1: lock-step; more: the host pipelines the
-    /// exchange and applies each actuation that many periods after its sample); the
-    /// device runs the gains designed for the rate and this delay.
+    /// Ticks from a sample to its actuation (`--delay-ticks`; 1: lock-step).
     pub delay_ticks: u8,
     /// What the real-time loop asks of the operating system (real-time pacing).
     pub realtime: Want,

@@ -47,7 +47,6 @@ pub(crate) fn cmd_golden(g: &GoldenArgs) -> Result<Verdict, Failure> {
     let params = load_params(g.params.as_deref())?;
     if let Some(path) = &g.record {
         let out = run(&RunOptions {
-            progress: false,
             params,
             ..RunOptions::default()
         })

@@ -215,7 +215,6 @@ pub(crate) fn cmd_sweep(c: &SweepCmd, command: &str) -> Result<Verdict, Failure>
                 seed: a.seed,
                 ..LinkConfig::default()
             },
-            progress: false,
             realtime: wheelset_targets::realtime::os::Want::none(),
             params,
             ..RunOptions::default()

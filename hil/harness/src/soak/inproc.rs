@@ -120,8 +120,7 @@ pub struct SoakOptions {
     pub defect: Defect,
     /// Print a line per simulated hour on stderr.
     pub progress: bool,
-    /// Print each episode of the service as it starts, the actuator's repairs and the
-    /// first second of each adhesion patch per 0.1 s, on stderr (what led up to a failure).
+    /// `hil soak --trace`: the episodes, repairs and adhesion onsets on stderr.
     pub trace: bool,
     /// What the service may do beyond its default day.
     pub service: ServiceOptions,
