@@ -206,22 +206,31 @@ pub fn analyse(
     let latency_ns = Stats::of(&latency);
     let missed = periods.iter().filter(|p| p.echo_at_ns.is_none()).count() as u64;
 
+    // Each frame's step of the device's tick counter from the frame before (0 first).
+    let steps: Vec<u16> = std::iter::once(0)
+        .chain(
+            acts.windows(2)
+                .map(|w| w[1].frame.tick.wrapping_sub(w[0].frame.tick)),
+        )
+        .collect();
+    let tick_gaps = steps
+        .iter()
+        .skip(1)
+        .map(|&s| u64::from(s.saturating_sub(1)))
+        .sum();
     // Device output instants against the ideal schedule, indexed by the tick counter.
     let (jitter_max_ns, jitter_rms_ns) = if lockstep || acts.is_empty() {
         (None, None)
     } else {
-        let mut ticks = Vec::with_capacity(acts.len());
-        let mut j: i64 = 0;
-        let mut prev: Option<u16> = None;
-        for a in acts {
-            if let Some(p) = prev {
-                j += i64::from(a.frame.tick.wrapping_sub(p));
-            }
-            prev = Some(a.frame.tick);
-            let out =
-                a.at_ns as f64 - wire_ns(a.wire_bytes, ctx.baud) as f64 - ctx.latency_ns as f64;
-            ticks.push((j as f64, out));
-        }
+        let ticks: Vec<(f64, f64)> = acts
+            .iter()
+            .zip(&steps)
+            .scan(0i64, |j, (a, &step)| {
+                *j += i64::from(step);
+                let wire = wire_ns(a.wire_bytes, ctx.baud) as f64;
+                Some((*j as f64, a.at_ns as f64 - wire - ctx.latency_ns as f64))
+            })
+            .collect();
         let t0 = ticks
             .iter()
             .map(|&(j, o)| o - j * t)
@@ -231,17 +240,6 @@ pub fn analyse(
         let rms = (dev.iter().map(|d| d * d).sum::<f64>() / dev.len() as f64).sqrt();
         (Some(max), Some(rms))
     };
-    let tick_gaps = acts
-        .windows(2)
-        .map(|w| {
-            u64::from(
-                w[1].frame
-                    .tick
-                    .wrapping_sub(w[0].frame.tick)
-                    .saturating_sub(1),
-            )
-        })
-        .sum();
 
     let n = periods.len().max(1) as f64;
     let (up, down) = (bytes.0 as f64 / n, bytes.1 as f64 / n);
