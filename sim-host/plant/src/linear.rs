@@ -199,7 +199,9 @@ pub fn closed_loop_states(cfg: &PlantConfig, law: YawLaw) -> Vec<usize> {
 
 /// Restricts a full-size matrix to the rows and columns in `states`.
 pub fn select(a: &Jac, states: &[usize]) -> DMatrix<f64> {
-    DMatrix::from_fn(states.len(), states.len(), |i, j| a[(states[i], states[j])])
+    let mut out = DMatrix::zeros(0, 0);
+    select_into(a, states, &mut out);
+    out
 }
 
 /// [`select`] into `out` (its storage reused when it already has the size).
@@ -240,26 +242,20 @@ pub fn closed_loop_a_with(
         yaw_spring: ctrl.law.has_spring(),
     };
     let states = closed_loop_states(&cfg, ctrl.law);
-    let mut a = DMatrix::zeros(states.len(), states.len());
-    closed_loop_a_into(p, axle, drive, ctrl, &states, &mut a);
+    let mut a = DMatrix::zeros(0, 0);
+    closed_loop_a_into(p, cfg, ctrl, &states, &mut a);
     (a, states)
 }
 
-/// The matrix of [`closed_loop_a_with`] into `out` (its storage reused), for `states` =
-/// the loop's [`closed_loop_states`].
-pub fn closed_loop_a_into(
+/// The matrix of [`closed_loop_a_with`] on the plant `cfg` into `out` (its storage
+/// reused), for `states` = the loop's [`closed_loop_states`].
+pub(crate) fn closed_loop_a_into(
     p: &Params,
-    axle: Axle,
-    drive: bool,
+    cfg: PlantConfig,
     ctrl: &ContinuousController,
     states: &[usize],
     out: &mut DMatrix<f64>,
 ) {
-    let cfg = PlantConfig {
-        axle,
-        drive,
-        yaw_spring: ctrl.law.has_spring(),
-    };
     let plant = Plant::new(p, cfg);
     let x = operating_point(&plant, p);
     let a = closed_loop_jacobian(&plant, p, ctrl, &x, &Exogenous::zero());
@@ -322,11 +318,6 @@ pub struct Reduced {
 }
 
 impl Reduced {
-    /// Build the linear plant with the parameters of `docs/model.md` (defaults).
-    pub fn plant(&self) -> LinearPlant {
-        self.plant_with(&Params::default())
-    }
-
     /// Build the linear plant with parameters `p` (creep and conicity from `self`).
     pub fn plant_with(&self, p: &Params) -> LinearPlant {
         let (m, j, c_lat, k_lat, k_yaw) = (p.m, p.j, p.c_lat, p.k_lat, p.k_yaw);
