@@ -308,19 +308,10 @@ pub fn closed_loop(
         .collect();
     // Leave out as many modes nearest mu = 1 as the continuous loop has zero eigenvalues.
     let nz = free_rolling_modes(plant, cfg);
-    modes.sort_by(|a, b| {
-        (a.mu - 1.0)
-            .norm()
-            .partial_cmp(&(b.mu - 1.0).norm())
-            .unwrap_or(std::cmp::Ordering::Equal)
-    });
+    modes.sort_by(|a, b| (a.mu - 1.0).norm().total_cmp(&(b.mu - 1.0).norm()));
     let excluded: Vec<Mode> = modes.drain(..nz.min(modes.len())).collect();
     // Drop the structurally zero eigenvalues of unused controller states.
-    modes.sort_by(|a, b| {
-        b.radius
-            .partial_cmp(&a.radius)
-            .unwrap_or(std::cmp::Ordering::Equal)
-    });
+    modes.sort_by(|a, b| b.radius.total_cmp(&a.radius));
     let spectral_radius = modes.first().map_or(0.0, |m| m.radius);
     let worst = modes
         .iter()
@@ -352,11 +343,7 @@ pub fn closed_loop(
 pub fn continuous_closed_loop(plant: &LinearPlant, cfg: &Config) -> Vec<Complex<f64>> {
     let mut ev: Vec<Complex<f64>> = continuous_closed_loop_all(plant, cfg);
     let nz = count_zeros(&ev);
-    ev.sort_by(|x, y| {
-        x.norm()
-            .partial_cmp(&y.norm())
-            .unwrap_or(std::cmp::Ordering::Equal)
-    });
+    ev.sort_by(|x, y| x.norm().total_cmp(&y.norm()));
     ev.drain(..nz.min(ev.len()));
     ev
 }

@@ -184,11 +184,7 @@ pub fn current_loop_mode(
         .modes
         .iter()
         .filter(|m| m.s.norm() > 50.0)
-        .max_by(|a, b| {
-            a.radius
-                .partial_cmp(&b.radius)
-                .unwrap_or(std::cmp::Ordering::Equal)
-        })
+        .max_by(|a, b| a.radius.total_cmp(&b.radius))
         .copied()
         .unwrap_or(cur.worst))
 }

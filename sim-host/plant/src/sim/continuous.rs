@@ -206,10 +206,14 @@ fn continuous<F: Flags>(
     let sc = s.sc;
     let mut plant = s.plant;
     let drive = sc.drive;
-    let mut x = plant.rolling_state(sc.params.v);
-    if drive {
-        x[ix::PI] = plant.back_emf(&x);
-    }
+    let mut x = crate::linear::operating_point(&plant, &sc.params);
+    let voltage = |c: &ContinuousController, x: &State, i_ref| {
+        if drive {
+            c.voltage(x, i_ref)
+        } else {
+            0.0
+        }
+    };
     let (n_steps, every) = steps(sc);
     let h = sc.dt_ns as f64 * 1e-9;
     let mut diverged_at = None;
@@ -231,11 +235,7 @@ fn continuous<F: Flags>(
         };
         if k == next_record {
             next_record += every;
-            let u_a = if drive {
-                ctrl.voltage(&x, e.i_ref)
-            } else {
-                0.0
-            };
+            let u_a = voltage(&ctrl, &x, e.i_ref);
             on_record(s.record(t_ns, x, e, ctrl.yaw_torque(&x), u_a));
             if diverged(x) {
                 diverged_at = Some(t_ns as f64 * 1e-9);
@@ -265,11 +265,7 @@ fn continuous<F: Flags>(
         let t_end = n_steps * sc.dt_ns;
         let e = s.exo(t_end);
         s.adhesion(t_end);
-        let u_a = if drive {
-            ctrl.voltage(&x, e.i_ref)
-        } else {
-            0.0
-        };
+        let u_a = voltage(&ctrl, &x, e.i_ref);
         let g = sc.actuator_fault.map_or(1.0, |f| f.gain(t_end));
         on_record(s.record(t_end, x, e, g * ctrl.yaw_torque(&x), u_a));
     }
