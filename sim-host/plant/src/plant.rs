@@ -150,12 +150,23 @@ impl PlantConfig {
 /// RK4 step is compiled once per configuration, without the branches). Both give the
 /// same floating-point operations in the same order.
 pub trait Flags: Copy {
+    /// The configuration.
+    fn cfg(&self) -> PlantConfig;
     /// Flexible axle (`WL`, `TWIST` are states).
-    fn flexible(&self) -> bool;
+    #[inline(always)]
+    fn flexible(&self) -> bool {
+        self.cfg().axle == Axle::Flexible
+    }
     /// Traction drive present.
-    fn drive(&self) -> bool;
+    #[inline(always)]
+    fn drive(&self) -> bool {
+        self.cfg().drive
+    }
     /// Passive yaw spring present.
-    fn yaw_spring(&self) -> bool;
+    #[inline(always)]
+    fn yaw_spring(&self) -> bool {
+        self.cfg().yaw_spring
+    }
     /// The adhesion law is known to be `None`, so [`Plant::creep_with`] need not look.
     #[inline(always)]
     fn linear_creep(&self) -> bool {
@@ -165,16 +176,8 @@ pub trait Flags: Copy {
 
 impl Flags for PlantConfig {
     #[inline(always)]
-    fn flexible(&self) -> bool {
-        self.axle == Axle::Flexible
-    }
-    #[inline(always)]
-    fn drive(&self) -> bool {
-        self.drive
-    }
-    #[inline(always)]
-    fn yaw_spring(&self) -> bool {
-        self.yaw_spring
+    fn cfg(&self) -> PlantConfig {
+        *self
     }
 }
 
@@ -187,16 +190,16 @@ impl<const FLEXIBLE: bool, const DRIVE: bool, const YAW_SPRING: bool> Flags
     for Fixed<FLEXIBLE, DRIVE, YAW_SPRING>
 {
     #[inline(always)]
-    fn flexible(&self) -> bool {
-        FLEXIBLE
-    }
-    #[inline(always)]
-    fn drive(&self) -> bool {
-        DRIVE
-    }
-    #[inline(always)]
-    fn yaw_spring(&self) -> bool {
-        YAW_SPRING
+    fn cfg(&self) -> PlantConfig {
+        PlantConfig {
+            axle: if FLEXIBLE {
+                Axle::Flexible
+            } else {
+                Axle::Rigid
+            },
+            drive: DRIVE,
+            yaw_spring: YAW_SPRING,
+        }
     }
 }
 
@@ -207,16 +210,8 @@ pub struct Linear<F>(pub F);
 
 impl<F: Flags> Flags for Linear<F> {
     #[inline(always)]
-    fn flexible(&self) -> bool {
-        self.0.flexible()
-    }
-    #[inline(always)]
-    fn drive(&self) -> bool {
-        self.0.drive()
-    }
-    #[inline(always)]
-    fn yaw_spring(&self) -> bool {
-        self.0.yaw_spring()
+    fn cfg(&self) -> PlantConfig {
+        self.0.cfg()
     }
     #[inline(always)]
     fn linear_creep(&self) -> bool {
@@ -406,7 +401,7 @@ impl Plant {
 
     /// Left wheel speed as the model sees it (the right one on a rigid axle).
     #[inline(always)]
-    fn w_l<S: Scalar, F: Flags>(&self, f: F, x: &[S; NX]) -> S {
+    pub(crate) fn w_l<S: Scalar, F: Flags>(&self, f: F, x: &[S; NX]) -> S {
         if f.flexible() {
             x[ix::WL]
         } else {
