@@ -114,15 +114,22 @@ impl ContinuousController {
         S::c(self.kp) * (i_ref - x[ix::IA]) + x[ix::PI]
     }
 
-    /// Writes the controller state derivatives into `dx`.
+    /// The plant's inputs under `e` at `x`: `T_psi` from the yaw law, and with the
+    /// `drive` `u_a` from the PI, without it the demand as a torque on the left wheel.
     #[inline(always)]
-    pub fn derivs<S: Scalar>(&self, x: &[S; NX], i_ref: S, drive: bool, dx: &mut [S; NX]) {
-        let c = S::c;
-        if self.law == YawLaw::Lead {
-            dx[ix::LEAD] = -c(self.lead_p) * x[ix::LEAD] + x[ix::YD];
-        }
-        if drive {
-            dx[ix::PI] = c(self.kp / self.ti) * (i_ref - x[ix::IA]);
+    pub fn inputs<S: Scalar>(&self, x: &[S; NX], e: &Exogenous<S>, drive: bool) -> Inputs<S> {
+        let zero = S::c(0.0);
+        Inputs {
+            t_psi: self.yaw_torque(x),
+            u_a: if drive {
+                self.voltage(x, e.i_ref)
+            } else {
+                zero
+            },
+            curvature: e.curvature,
+            cant: e.cant,
+            f_run: e.f_run,
+            t_drive: if drive { zero } else { e.demand },
         }
     }
 }
@@ -177,20 +184,14 @@ pub fn closed_loop_rhs_with<S: Scalar, F: Flags>(
     e: &Exogenous<S>,
 ) -> [S; NX] {
     let drive = f.drive();
-    let u = Inputs {
-        t_psi: ctrl.yaw_torque(x),
-        u_a: if drive {
-            ctrl.voltage(x, e.i_ref)
-        } else {
-            S::c(0.0)
-        },
-        curvature: e.curvature,
-        cant: e.cant,
-        f_run: e.f_run,
-        t_drive: if drive { S::c(0.0) } else { e.demand },
-    };
-    let (mut dx, _) = plant.rhs_with(f, x, &u);
-    ctrl.derivs(x, e.i_ref, drive, &mut dx);
+    let (mut dx, _) = plant.rhs_with(f, x, &ctrl.inputs(x, e, drive));
+    let c = S::c;
+    if ctrl.law == YawLaw::Lead {
+        dx[ix::LEAD] = -c(ctrl.lead_p) * x[ix::LEAD] + x[ix::YD];
+    }
+    if drive {
+        dx[ix::PI] = c(ctrl.kp / ctrl.ti) * (e.i_ref - x[ix::IA]);
+    }
     dx
 }
 

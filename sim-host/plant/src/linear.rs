@@ -119,15 +119,7 @@ pub fn closed_loop_jacobian(
     e: &Exogenous<f64>,
 ) -> Jac {
     let drive = plant.cfg.drive;
-    let u = Inputs {
-        t_psi: ctrl.yaw_torque(x),
-        u_a: if drive { ctrl.voltage(x, e.i_ref) } else { 0.0 },
-        curvature: e.curvature,
-        cant: e.cant,
-        f_run: e.f_run,
-        t_drive: if drive { 0.0 } else { e.demand },
-    };
-    let (mut a, b) = plant_jacobian(plant, p, x, &u);
+    let (mut a, b) = plant_jacobian(plant, p, x, &ctrl.inputs(x, e, drive));
     let mut dt = [0.0; NX];
     match ctrl.law {
         YawLaw::Passive => {}
