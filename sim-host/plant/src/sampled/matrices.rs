@@ -87,31 +87,6 @@ impl ClosedLoop {
 /// Largest hyper-period (ticks) and delay the analysis accepts.
 pub const MAX_HYPER_PERIOD: usize = 1000;
 
-/// Loop timing: the base rate, the divisors and the actuation delay.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Timing {
-    /// Base rate, Hz.
-    pub base_hz: f64,
-    /// Yaw loop every `yaw_divisor` ticks.
-    pub yaw_divisor: usize,
-    /// Traction loop every `traction_divisor` ticks.
-    pub traction_divisor: usize,
-    /// Ticks between sampling and applying (1 for the firmware).
-    pub delay_ticks: usize,
-}
-
-impl Timing {
-    /// The timing of a controller configuration with `delay_ticks` of delay.
-    pub fn of(cfg: &Config, delay_ticks: usize) -> Self {
-        Self {
-            base_hz: cfg.base_rate_hz as f64,
-            yaw_divisor: cfg.yaw_divisor as usize,
-            traction_divisor: cfg.traction_divisor as usize,
-            delay_ticks,
-        }
-    }
-}
-
 fn gcd(a: usize, b: usize) -> usize {
     if b == 0 {
         a
@@ -130,15 +105,15 @@ pub fn tick_matrices(
     cfg.validate().map_err(|e| e.to_string())?;
     let n = plant_order(plant)?;
     let traction = cfg.traction_enabled && plant.c.row(1).iter().any(|v| *v != 0.0);
-    let tm = Timing::of(cfg, delay_ticks);
-    let t0 = 1.0 / tm.base_hz;
+    let (yaw_div, tr_div) = (cfg.yaw_divisor as usize, cfg.traction_divisor as usize);
+    let t0 = 1.0 / cfg.base_rate_hz as f64;
     crate::finite::check_finite(&plant.a, "the plant matrix A")?;
     crate::finite::check_finite(&plant.b, "the plant matrix B")?;
     let (ad, bd) = zoh(&plant.a, &plant.b, t0);
     crate::finite::check_finite(&ad, "the discretised plant matrix Ad")?;
     crate::finite::check_finite(&bd, "the discretised plant matrix Bd")?;
     let (lead, pi) = discretised(cfg)?;
-    let d = tm.delay_ticks;
+    let d = delay_ticks;
     let nreg = d.max(1); // output registers o[k-1] .. o[k-nreg], 2 each
     let ir = n; // registers start
     let il = ir + 2 * nreg; // lead x1, z
@@ -188,11 +163,11 @@ pub fn tick_matrices(
         i_upd[(0, ii)] = 1.0;
     }
 
-    let l = tm.yaw_divisor / gcd(tm.yaw_divisor, tm.traction_divisor) * tm.traction_divisor;
+    let l = yaw_div / gcd(yaw_div, tr_div) * tr_div;
     if l > MAX_HYPER_PERIOD {
         return Err(format!(
             "hyper-period lcm(yaw_divisor {}, traction_divisor {}) = {l} ticks: at most {MAX_HYPER_PERIOD}",
-            tm.yaw_divisor, tm.traction_divisor
+            yaw_div, tr_div
         ));
     }
     if delay_ticks > MAX_HYPER_PERIOD {
@@ -202,8 +177,8 @@ pub fn tick_matrices(
     }
     let mut mats = Vec::with_capacity(l);
     for k in 0..l {
-        let yaw = k % tm.yaw_divisor == 0;
-        let tr = k % tm.traction_divisor == 0;
+        let yaw = k % yaw_div == 0;
+        let tr = k % tr_div == 0;
         // o[k] as rows over X (new or held register 0).
         let mut o = DMatrix::<f64>::zeros(2, nx);
         if yaw {
@@ -310,7 +285,6 @@ pub fn closed_loop(
     let nz = free_rolling_modes(plant, cfg);
     modes.sort_by(|a, b| (a.mu - 1.0).norm().total_cmp(&(b.mu - 1.0).norm()));
     let excluded: Vec<Mode> = modes.drain(..nz.min(modes.len())).collect();
-    // Drop the structurally zero eigenvalues of unused controller states.
     modes.sort_by(|a, b| b.radius.total_cmp(&a.radius));
     let spectral_radius = modes.first().map_or(0.0, |m| m.radius);
     let worst = modes
