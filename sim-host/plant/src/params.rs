@@ -290,15 +290,14 @@ impl Params {
 
     /// Applies a TOML table of overrides on top of `self` (unknown keys refused), validated.
     pub fn with_overrides(&self, table: &toml::Table, file: &str) -> Result<Params, ConfigError> {
-        let mut base = toml::Table::try_from(self).map_err(|e| ConfigError::Parse {
+        let parse = |reason: String| ConfigError::Parse {
             file: file.to_string(),
             key: None,
             line: None,
-            reason: e.to_string(),
-        })?;
-        for (k, v) in table {
-            base.insert(k.clone(), v.clone());
-        }
+            reason,
+        };
+        let mut base = toml::Table::try_from(self).map_err(|e| parse(e.to_string()))?;
+        base.extend(table.clone());
         let src = toml::to_string(table).unwrap_or_default();
         // Check the override table alone first, so an unknown key is reported as such.
         let _: Params = toml::from_str(&src).map_err(|e| {
@@ -310,12 +309,7 @@ impl Params {
         })?;
         let p: Params = base
             .try_into()
-            .map_err(|e: toml::de::Error| ConfigError::Parse {
-                file: file.to_string(),
-                key: None,
-                line: None,
-                reason: e.message().to_string(),
-            })?;
+            .map_err(|e: toml::de::Error| parse(e.message().to_string()))?;
         p.validate().map_err(|e| e.with_file(file))?;
         Ok(p)
     }

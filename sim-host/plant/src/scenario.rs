@@ -239,22 +239,16 @@ fn parse_laws(file: &str, laws: &Option<Vec<String>>) -> Result<Vec<YawLaw>, Con
     for (i, n) in names.iter().enumerate() {
         let law = [YawLaw::Passive, YawLaw::Gain, YawLaw::Lead]
             .into_iter()
-            .find(|l| l.name() == n)
-            .ok_or_else(|| {
-                invalid(
-                    file,
-                    format!("laws[{i}]"),
-                    format!("`{n}` is not a yaw law (passive, gain, lead)"),
-                )
-            })?;
-        let key = format!("laws[{i}]");
-        check(
-            !out.contains(&law),
-            file,
-            key,
-            format!("`{n}` is listed twice"),
-        )?;
-        out.push(law);
+            .find(|l| l.name() == n);
+        let reason = match law {
+            None => format!("`{n}` is not a yaw law (passive, gain, lead)"),
+            Some(l) if out.contains(&l) => format!("`{n}` is listed twice"),
+            Some(l) => {
+                out.push(l);
+                continue;
+            }
+        };
+        return Err(invalid(file, format!("laws[{i}]"), reason));
     }
     Ok(out)
 }
@@ -440,15 +434,11 @@ impl Scenario {
     /// section's, `dry` outside every section. Inlined: the runs ask every step.
     #[inline]
     pub fn condition_at(&self, t_ns: u64) -> Option<Condition> {
-        if self.adhesion.is_empty() {
-            return None;
-        }
-        Some(
-            self.adhesion
-                .iter()
-                .find(|s| t_ns >= s.t0_ns && t_ns < s.t1_ns)
-                .map_or(Condition::Dry, |s| s.condition),
-        )
+        let section = self
+            .adhesion
+            .iter()
+            .find(|s| (s.t0_ns..s.t1_ns).contains(&t_ns));
+        (!self.adhesion.is_empty()).then(|| section.map_or(Condition::Dry, |s| s.condition))
     }
 
     /// The adhesion law at `t_ns` ([`Self::condition_at`] with the wheel load `Q`).

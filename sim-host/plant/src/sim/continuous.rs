@@ -144,11 +144,7 @@ impl<'a> Setup<'a> {
             t_ctrl_nm: t_ctrl,
             t_spring_nm: t_spring,
             w_r_radps: x[ix::WR],
-            w_l_radps: if self.plant.cfg.axle == crate::scenario::Axle::Rigid {
-                x[ix::WR]
-            } else {
-                x[ix::WL]
-            },
+            w_l_radps: self.plant.w_l(self.plant.cfg, x),
             w_m_radps: x[ix::WM],
             twist_rad: x[ix::TWIST],
             wind_rad: x[ix::WIND],
