@@ -67,10 +67,8 @@ pub struct Mode {
 /// The closed loop's modes and verdict.
 #[derive(Debug, Clone)]
 pub struct ClosedLoop {
-    /// All modes, excluded ones removed, sorted by decreasing radius.
+    /// All modes but the free-rolling ones (nearest `mu = 1`), sorted by decreasing radius.
     pub modes: Vec<Mode>,
-    /// The free-rolling modes left out (nearest `mu = 1`).
-    pub excluded: Vec<Mode>,
     /// Largest radius per base tick among `modes` (< 1: stable).
     pub spectral_radius: f64,
     /// The least damped oscillatory mode (or the slowest real one).
@@ -284,7 +282,7 @@ pub fn closed_loop(
     // Leave out as many modes nearest mu = 1 as the continuous loop has zero eigenvalues.
     let nz = free_rolling_modes(plant, cfg);
     modes.sort_by(|a, b| (a.mu - 1.0).norm().total_cmp(&(b.mu - 1.0).norm()));
-    let excluded: Vec<Mode> = modes.drain(..nz.min(modes.len())).collect();
+    modes.drain(..nz.min(modes.len()));
     modes.sort_by(|a, b| b.radius.total_cmp(&a.radius));
     let spectral_radius = modes.first().map_or(0.0, |m| m.radius);
     let worst = modes
@@ -306,7 +304,6 @@ pub fn closed_loop(
         });
     Ok(ClosedLoop {
         modes,
-        excluded,
         spectral_radius,
         worst,
     })
