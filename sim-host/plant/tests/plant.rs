@@ -9,7 +9,7 @@ use wheelset_plant::control::{ContinuousController, YawLaw};
 use wheelset_plant::params::Params;
 use wheelset_plant::plant::{ix, Inputs, Plant, PlantConfig, NX};
 use wheelset_plant::scenario::{Axle, Scenario};
-use wheelset_plant::sim::{run_continuous, run_continuous_with};
+use wheelset_plant::sim::{run_continuous, run_continuous_each};
 
 fn full(spring: bool) -> PlantConfig {
     PlantConfig {
@@ -248,17 +248,15 @@ fn reversed_active_sign_diverges_and_correct_sign_does_not() {
         let mut bad = good;
         bad.k = -good.k;
         let max_y = |c| {
-            run_continuous_with(&sc, c)
-                .records
-                .iter()
-                .map(|r| {
-                    if r.y_m.is_finite() {
-                        r.y_m.abs()
-                    } else {
-                        f64::INFINITY
-                    }
+            let mut max = 0.0f64;
+            run_continuous_each(&sc, c, |r| {
+                max = max.max(if r.y_m.is_finite() {
+                    r.y_m.abs()
+                } else {
+                    f64::INFINITY
                 })
-                .fold(0.0, f64::max)
+            });
+            max
         };
         let (g, b) = (max_y(good), max_y(bad));
         assert!(g < 2e-3, "{law:?} stable run max |y| = {g}");

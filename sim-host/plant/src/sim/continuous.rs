@@ -172,18 +172,15 @@ pub(super) fn steps(sc: &Scenario) -> (u64, u64) {
 /// Runs `sc` with the continuous-time controllers (yaw `law`, PI current loop when the
 /// drive is modelled). The plant has the passive spring only for [`YawLaw::Passive`].
 pub fn run_continuous(sc: &Scenario, law: YawLaw) -> Trajectory {
-    run_continuous_with(sc, ContinuousController::new(&sc.params, law))
-}
-
-/// As [`run_continuous`] with an explicit controller (e.g. a reversed sign in tests).
-pub fn run_continuous_with(sc: &Scenario, ctrl: ContinuousController) -> Trajectory {
     let (n_steps, every) = steps(sc);
     let mut records = Vec::with_capacity((n_steps / every + 2) as usize);
+    let ctrl = ContinuousController::new(&sc.params, law);
     let info = run_continuous_each(sc, ctrl, |r| records.push(r));
     Trajectory { records, info }
 }
 
-/// [`run_continuous_with`] handing each record to `on_record` in time order, keeping none.
+/// [`run_continuous`] with the controller `ctrl`, handing each record to `on_record` in
+/// time order, keeping none.
 pub fn run_continuous_each(
     sc: &Scenario,
     ctrl: ContinuousController,
