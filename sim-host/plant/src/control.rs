@@ -183,7 +183,7 @@ pub fn closed_loop_rhs_with<S: Scalar, F: Flags>(
     x: &[S; NX],
     e: &Exogenous<S>,
 ) -> [S; NX] {
-    let drive = f.drive();
+    let drive = f.cfg().drive;
     let (mut dx, _) = plant.rhs_with(f, x, &ctrl.inputs(x, e, drive));
     let c = S::c;
     if ctrl.law == YawLaw::Lead {

@@ -130,11 +130,17 @@ pub struct PlantConfig {
 }
 
 impl PlantConfig {
+    /// Flexible axle (`WL`, `TWIST` are states).
+    #[inline(always)]
+    pub fn flexible(&self) -> bool {
+        self.axle == Axle::Flexible
+    }
+
     /// The states this configuration actually has (indices into the full vector),
     /// excluding controller states.
     pub fn plant_states(&self) -> Vec<usize> {
         let mut s = vec![ix::Y, ix::YD, ix::PSI, ix::PSID, ix::WR];
-        if self.axle == Axle::Flexible {
+        if self.flexible() {
             s.extend([ix::WL, ix::TWIST]);
         }
         if self.drive {
@@ -152,21 +158,6 @@ impl PlantConfig {
 pub trait Flags: Copy {
     /// The configuration.
     fn cfg(&self) -> PlantConfig;
-    /// Flexible axle (`WL`, `TWIST` are states).
-    #[inline(always)]
-    fn flexible(&self) -> bool {
-        self.cfg().axle == Axle::Flexible
-    }
-    /// Traction drive present.
-    #[inline(always)]
-    fn drive(&self) -> bool {
-        self.cfg().drive
-    }
-    /// Passive yaw spring present.
-    #[inline(always)]
-    fn yaw_spring(&self) -> bool {
-        self.cfg().yaw_spring
-    }
     /// The adhesion law is known to be `None`, so [`Plant::creep_with`] need not look.
     #[inline(always)]
     fn linear_creep(&self) -> bool {
@@ -239,8 +230,7 @@ macro_rules! with_creep_law {
 macro_rules! with_flags {
     ($cfg:expr, $f:ident => $body:expr) => {{
         let cfg: $crate::plant::PlantConfig = $cfg;
-        let flexible = cfg.axle == $crate::scenario::Axle::Flexible;
-        $crate::with_flags!(@ [flexible, cfg.drive, cfg.yaw_spring] [] $f => $body)
+        $crate::with_flags!(@ [cfg.flexible(), cfg.drive, cfg.yaw_spring] [] $f => $body)
     }};
     (@ [$c:expr $(, $rest:expr)*] [$($b:tt)*] $f:ident => $body:expr) => {
         if $c {
@@ -390,7 +380,7 @@ impl Plant {
     /// Left wheel speed as the model sees it (the right one on a rigid axle).
     #[inline(always)]
     pub(crate) fn w_l<S: Scalar, F: Flags>(&self, f: F, x: &[S; NX]) -> S {
-        if f.flexible() {
+        if f.cfg().flexible() {
             x[ix::WL]
         } else {
             x[ix::WR]
@@ -455,7 +445,7 @@ impl Plant {
     /// [`Plant::spring_torque`] with the configuration as [`Flags`].
     #[inline(always)]
     pub fn spring_torque_with<S: Scalar, F: Flags>(&self, f: F, x: &[S; NX]) -> S {
-        if f.yaw_spring() {
+        if f.cfg().yaw_spring {
             S::c(self.k_yaw) * x[ix::PSI]
         } else {
             S::c(0.0)
@@ -506,12 +496,12 @@ impl Plant {
                 * c(self.inv.j);
 
         // Torque on the left wheel from the transmission.
-        let t_gear = if f.drive() {
+        let t_gear = if f.cfg().drive {
             -c(self.k_gear) * x[ix::WIND]
         } else {
             u.t_drive
         };
-        if f.flexible() {
+        if f.cfg().flexible() {
             let t_tors = c(self.k_t) * x[ix::TWIST];
             dx[ix::WR] = (-c(self.r0) * cr.fx_r - t_tors) * c(self.inv.i_w);
             dx[ix::WL] = (-c(self.r0) * cr.fx_l + t_tors + t_gear) * c(self.inv.i_w);
@@ -521,7 +511,7 @@ impl Plant {
             dx[ix::WR] = a;
             dx[ix::WL] = a;
         }
-        if f.drive() {
+        if f.cfg().drive {
             let w_l = self.w_l(f, x);
             dx[ix::WIND] = w_l - x[ix::WM] * c(self.inv.n);
             dx[ix::WM] = (c(self.k_m) * x[ix::IA] + c(self.pre.k_gear_inv_n) * x[ix::WIND])

@@ -130,7 +130,7 @@ fn measure<F: Flags>(
         yd_mps: x[ix::YD],
         ydd_mps2: dx[ix::YD],
         i_a: x[ix::IA],
-        w_m: if flags.drive() {
+        w_m: if flags.cfg().drive {
             x[ix::WM]
         } else {
             plant.n() * 0.5 * (x[ix::WR] + w_l)
