@@ -134,8 +134,9 @@ impl ContinuousController {
     }
 }
 
-/// Exogenous inputs of a closed-loop run (SI).
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// Exogenous inputs of a closed-loop run (SI; default: straight level track, no traction,
+/// no resistance).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Exogenous<S> {
     /// Track curvature `1/R`, 1/m.
     pub curvature: S,
@@ -147,19 +148,6 @@ pub struct Exogenous<S> {
     pub i_ref: S,
     /// Traction demand at the wheel, N m (acts directly on the left wheel without drive).
     pub demand: S,
-}
-
-impl<S: Scalar> Exogenous<S> {
-    /// Straight level track, no traction, no resistance.
-    pub fn zero() -> Self {
-        Exogenous {
-            curvature: S::c(0.0),
-            cant: S::c(0.0),
-            f_run: S::c(0.0),
-            i_ref: S::c(0.0),
-            demand: S::c(0.0),
-        }
-    }
 }
 
 /// The closed loop's right-hand side: the plant with `T_psi` from the yaw law and `u_a`

@@ -250,7 +250,7 @@ pub(crate) fn closed_loop_a_into(
 ) {
     let plant = Plant::new(p, cfg);
     let x = operating_point(&plant, p);
-    let a = closed_loop_jacobian(&plant, p, ctrl, &x, &Exogenous::zero());
+    let a = closed_loop_jacobian(&plant, p, ctrl, &x, &Exogenous::default());
     select_into(&a, states, out);
 }
 
@@ -260,10 +260,11 @@ pub(crate) fn closed_loop_a_into(
 pub fn linear_plant(p: &Params, cfg: PlantConfig) -> (LinearPlant, Vec<usize>) {
     let plant = Plant::new(p, cfg);
     let x = operating_point(&plant, p);
-    let mut u = Inputs::zero();
-    if cfg.drive {
-        u.u_a = plant.back_emf(&x);
-    }
+    let u_a = if cfg.drive { plant.back_emf(&x) } else { 0.0 };
+    let u = Inputs {
+        u_a,
+        ..Inputs::default()
+    };
     let (a, b) = plant_jacobian(&plant, p, &x, &u);
     let states = cfg.plant_states();
     let n = states.len();

@@ -245,8 +245,8 @@ macro_rules! with_flags {
     }};
 }
 
-/// Plant inputs (SI).
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// Plant inputs (SI; default: all zero).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Inputs<S> {
     /// Yaw torque from the actuator `T_psi`, N m (eq. 5 sign).
     pub t_psi: S,
@@ -260,20 +260,6 @@ pub struct Inputs<S> {
     pub f_run: S,
     /// Direct traction torque on the left wheel, N m (used only without the drive).
     pub t_drive: S,
-}
-
-impl<S: Scalar> Inputs<S> {
-    /// All inputs zero.
-    pub fn zero() -> Self {
-        Inputs {
-            t_psi: S::c(0.0),
-            u_a: S::c(0.0),
-            curvature: S::c(0.0),
-            cant: S::c(0.0),
-            f_run: S::c(0.0),
-            t_drive: S::c(0.0),
-        }
-    }
 }
 
 /// Creep forces (eqs. 1-3), N: the rail's forces on the wheels.

@@ -37,8 +37,8 @@ pub fn s_to_ns(t: f64) -> u64 {
     (t * NS_PER_S).round() as u64
 }
 
-/// A step (or ramp) of a scalar input switched on at `t_on_ns`.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// A step (or ramp) of a scalar input switched on at `t_on_ns` (default: no input).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct StepInput {
     /// Final value (SI).
     pub value: f64,
@@ -49,13 +49,6 @@ pub struct StepInput {
 }
 
 impl StepInput {
-    /// No input at all.
-    pub const NONE: StepInput = StepInput {
-        value: 0.0,
-        t_on_ns: 0,
-        ramp_ns: 0,
-    };
-
     /// Value at time `t_ns`: 0 before `t_on`, then a linear ramp to `value`.
     pub fn at(&self, t_ns: u64) -> f64 {
         if t_ns < self.t_on_ns {
@@ -353,11 +346,11 @@ impl Scenario {
         };
         let traction = match raw.traction {
             Some(t) => step("traction.demand_nm", t.demand_nm, t.t_on_s, t.ramp_s, 1e5)?,
-            None => StepInput::NONE,
+            None => StepInput::default(),
         };
         let resistance = match raw.resistance {
             Some(r) => step("resistance.f_run_n", r.f_run_n, r.t_on_s, r.ramp_s, 1e6)?,
-            None => StepInput::NONE,
+            None => StepInput::default(),
         };
         let params = match &raw.params {
             Some(t) => base

@@ -33,8 +33,10 @@ fn pure_rolling_on_straight_track_is_an_equilibrium_with_zero_creep() {
     ] {
         let plant = Plant::new(&p, cfg);
         let x = plant.rolling_state(p.v);
-        let mut u = Inputs::<f64>::zero();
-        u.u_a = plant.back_emf(&x);
+        let u = Inputs {
+            u_a: plant.back_emf(&x),
+            ..Inputs::default()
+        };
         let (dx, cr) = plant.rhs(&x, &u);
         assert!(cr.fx_r.abs() < 1e-6 && cr.fx_l.abs() < 1e-6 && cr.fy.abs() < 1e-6);
         for (i, d) in dx.iter().enumerate() {
@@ -198,8 +200,10 @@ fn rigid_axle_sums_the_wheel_equations() {
     for _ in 0..50 {
         let mut x = random_state(&mut rng, &p);
         x[ix::WL] = x[ix::WR];
-        let mut u = Inputs::zero();
-        u.t_drive = 1000.0;
+        let u = Inputs {
+            t_drive: 1000.0,
+            ..Inputs::default()
+        };
         let (dx, cr) = plant.rhs(&x, &u);
         close(
             2.0 * p.i_w * dx[ix::WR],
