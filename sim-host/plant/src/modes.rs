@@ -52,11 +52,6 @@ impl Case {
         }
     }
 
-    /// Parses `a`..`d`.
-    pub fn parse(s: &str) -> Option<Case> {
-        Case::ALL.into_iter().find(|c| c.id() == s)
-    }
-
     /// Human-readable description.
     pub fn label(self) -> &'static str {
         match self {
@@ -343,18 +338,6 @@ pub struct CaseSweep {
     /// Points where the eigenvalue solver failed (skipped).
     pub failed_points: Vec<f64>,
 }
-
-/// Errors of a sweep.
-#[derive(Debug, Clone, PartialEq)]
-pub struct SweepError(pub String);
-
-impl std::fmt::Display for SweepError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.0)
-    }
-}
-
-impl std::error::Error for SweepError {}
 
 impl CaseSweep {
     /// Unique mode names in order of first appearance (structural zero excluded).
