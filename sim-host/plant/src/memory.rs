@@ -30,14 +30,6 @@ pub fn run_bytes(duration_ns: u64, output_dt_ns: u64, device_period_ns: Option<u
     bytes
 }
 
-/// Estimated bytes of a modal sweep of `points` creep values over `cases` cases.
-#[must_use]
-pub fn modes_bytes(points: u64, cases: u64) -> u64 {
-    points
-        .saturating_mul(cases)
-        .saturating_mul(MODES_BYTES_PER_POINT)
-}
-
 /// `bytes` in MiB or GiB, for messages.
 #[must_use]
 pub fn human(bytes: u64) -> String {
@@ -101,7 +93,9 @@ pub fn check_runs(
 
 /// Refuses a modal sweep above [`MAX_BYTES`], naming the largest `--points` that fits.
 pub fn check_modes(points: u64, cases: u64) -> Result<(), String> {
-    let bytes = modes_bytes(points, cases);
+    let bytes = points
+        .saturating_mul(cases)
+        .saturating_mul(MODES_BYTES_PER_POINT);
     if bytes <= MAX_BYTES {
         return Ok(());
     }

@@ -4,7 +4,7 @@
 //! actuator fault and integration settings. The built-in ones (`sim-host/scenarios/`)
 //! are embedded in the binary; the format is in `docs/model.md` and `docs/adhesion.md`.
 
-use crate::adhesion::{Adhesion, Condition};
+use crate::adhesion::Condition;
 use crate::control::YawLaw;
 use crate::error::{from_toml, ConfigError};
 use crate::fault::{ActuatorFault, RawActuatorFault};
@@ -432,12 +432,6 @@ impl Scenario {
             .iter()
             .find(|s| (s.t0_ns..s.t1_ns).contains(&t_ns));
         (!self.adhesion.is_empty()).then(|| section.map_or(Condition::Dry, |s| s.condition))
-    }
-
-    /// The adhesion law at `t_ns` ([`Self::condition_at`] with the wheel load `Q`).
-    pub fn adhesion_at(&self, t_ns: u64) -> Option<Adhesion> {
-        self.condition_at(t_ns)
-            .map(|c| Adhesion::new(c, self.params.q()))
     }
 
     /// The warning before running with a `law` that the scenario's `laws` key does not list.

@@ -280,7 +280,7 @@ pub fn closed_loop(
         })
         .collect();
     // Leave out as many modes nearest mu = 1 as the continuous loop has zero eigenvalues.
-    let nz = free_rolling_modes(plant, cfg);
+    let nz = count_zeros(&continuous_closed_loop_all(plant, cfg));
     modes.sort_by(|a, b| (a.mu - 1.0).norm().total_cmp(&(b.mu - 1.0).norm()));
     modes.drain(..nz.min(modes.len()));
     modes.sort_by(|a, b| b.radius.total_cmp(&a.radius));
@@ -371,12 +371,6 @@ pub fn continuous_matrix(plant: &LinearPlant, cfg: &Config) -> DMatrix<f64> {
 fn count_zeros(ev: &[Complex<f64>]) -> usize {
     let scale = ev.iter().map(|e| e.norm()).fold(1.0, f64::max);
     ev.iter().filter(|e| e.norm() < 1e-9 * scale).count()
-}
-
-/// The number of free-rolling modes: zero eigenvalues of the continuous closed loop.
-pub fn free_rolling_modes(plant: &LinearPlant, cfg: &Config) -> usize {
-    let ev = continuous_closed_loop_all(plant, cfg);
-    count_zeros(&ev)
 }
 
 fn continuous_closed_loop_all(plant: &LinearPlant, cfg: &Config) -> Vec<Complex<f64>> {

@@ -2,6 +2,7 @@
 //! shared with the sampled run.
 
 use super::*;
+use crate::adhesion::{Adhesion, Condition};
 use crate::control::{ContinuousController, Exogenous, YawLaw};
 use crate::plant::{ix, Flags, Plant, PlantConfig, State};
 use crate::scenario::{Scenario, TrackCursor};
@@ -32,11 +33,11 @@ pub(super) struct Setup<'a> {
     pub(super) track: TrackCursor,
     /// `(condition, v, peak)` of the last [`Setup::mu_avail`] (recomputed when the
     /// condition changes or the speed moves by more than 1 mm/s).
-    pub(super) peak_cache: Option<(crate::adhesion::Condition, f64, f64)>,
+    pub(super) peak_cache: Option<(Condition, f64, f64)>,
     /// `(t_ns, curvature, cant)` of the last step's end: the next step's start.
     pub(super) track_end: Option<(u64, f64, f64)>,
     /// The rail condition of the last [`Setup::adhesion`], `None` before the first.
-    pub(super) condition: Option<Option<crate::adhesion::Condition>>,
+    pub(super) condition: Option<Option<Condition>>,
 }
 
 impl<'a> Setup<'a> {
@@ -49,7 +50,7 @@ impl<'a> Setup<'a> {
         Setup {
             sc,
             plant: Plant::new(&sc.params, cfg),
-            track: TrackCursor::new(),
+            track: TrackCursor::default(),
             peak_cache: None,
             track_end: None,
             condition: None,
@@ -57,8 +58,11 @@ impl<'a> Setup<'a> {
     }
 
     /// Puts the rail condition of `t_ns` on the setup's plant and returns the law.
-    pub(super) fn adhesion(&mut self, t_ns: u64) -> Option<crate::adhesion::Adhesion> {
-        let a = self.sc.adhesion_at(t_ns);
+    pub(super) fn adhesion(&mut self, t_ns: u64) -> Option<Adhesion> {
+        let a = self
+            .sc
+            .condition_at(t_ns)
+            .map(|c| Adhesion::new(c, self.sc.params.q()));
         self.plant.adhesion = a;
         self.condition = Some(a.map(|a| a.condition));
         a
@@ -66,10 +70,7 @@ impl<'a> Setup<'a> {
 
     /// [`Setup::adhesion`] if the rail condition of `t_ns` is new since the last call, else `None`.
     #[inline(always)]
-    pub(super) fn adhesion_change(
-        &mut self,
-        t_ns: u64,
-    ) -> Option<Option<crate::adhesion::Adhesion>> {
+    pub(super) fn adhesion_change(&mut self, t_ns: u64) -> Option<Option<Adhesion>> {
         if self.condition == Some(self.sc.condition_at(t_ns)) {
             return None;
         }
