@@ -239,8 +239,7 @@ pub fn closed_loop_a_with(
     (a, states)
 }
 
-/// The matrix of [`closed_loop_a_with`] on the plant `cfg` into `out` (its storage
-/// reused), for `states` = the loop's [`closed_loop_states`].
+/// [`closed_loop_a_with`] on the plant `cfg` into `out`, `states` its [`closed_loop_states`].
 pub(crate) fn closed_loop_a_into(
     p: &Params,
     cfg: PlantConfig,

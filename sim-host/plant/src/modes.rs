@@ -309,13 +309,12 @@ pub struct ModeValue {
 
 impl ModeValue {
     fn new(name: &str, l: Complex<f64>) -> Self {
-        let mag = l.norm();
         ModeValue {
             name: name.to_string(),
             re: l.re,
             im: l.im.abs(),
             freq_hz: l.im.abs() / (2.0 * PI),
-            zeta: if mag > 0.0 { -l.re / mag } else { 0.0 },
+            zeta: crate::sampled::zeta_of(l),
         }
     }
 }

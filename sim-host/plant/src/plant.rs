@@ -398,13 +398,14 @@ impl Plant {
         let fx_l =
             -c(self.f11) * (c(1.0) + lg_psid_v - self.w_l(f, x) * (c(self.r0) - ly) * inv_v - lg_k);
         let fy = -c(self.f22) * (x[ix::YD] * inv_v - x[ix::PSI]);
+        let lin = Creep { fx_r, fx_l, fy };
         if f.linear_creep() {
             debug_assert!(self.adhesion.is_none());
-            return Creep { fx_r, fx_l, fy };
+            return lin;
         }
         match self.adhesion {
-            None => Creep { fx_r, fx_l, fy },
-            Some(a) => Self::limit(a, self.inv.f11, self.inv.f22, Creep { fx_r, fx_l, fy }, v),
+            None => lin,
+            Some(a) => Self::limit(a, self.inv.f11, self.inv.f22, lin, v),
         }
     }
 

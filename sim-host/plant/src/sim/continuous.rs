@@ -180,8 +180,7 @@ pub fn run_continuous(sc: &Scenario, law: YawLaw) -> Trajectory {
     Trajectory { records, info }
 }
 
-/// [`run_continuous`] with the controller `ctrl`, handing each record to `on_record` in
-/// time order, keeping none.
+/// [`run_continuous`] with `ctrl`, each record to `on_record` in time order, none kept.
 pub fn run_continuous_each(
     sc: &Scenario,
     ctrl: ContinuousController,
