@@ -114,21 +114,29 @@ impl ContinuousController {
         S::c(self.kp) * (i_ref - x[ix::IA]) + x[ix::PI]
     }
 
-    /// Writes the controller state derivatives into `dx`.
+    /// The plant's inputs under `e` at `x`: `T_psi` from the yaw law, and with the
+    /// `drive` `u_a` from the PI, without it the demand as a torque on the left wheel.
     #[inline(always)]
-    pub fn derivs<S: Scalar>(&self, x: &[S; NX], i_ref: S, drive: bool, dx: &mut [S; NX]) {
-        let c = S::c;
-        if self.law == YawLaw::Lead {
-            dx[ix::LEAD] = -c(self.lead_p) * x[ix::LEAD] + x[ix::YD];
-        }
-        if drive {
-            dx[ix::PI] = c(self.kp / self.ti) * (i_ref - x[ix::IA]);
+    pub fn inputs<S: Scalar>(&self, x: &[S; NX], e: &Exogenous<S>, drive: bool) -> Inputs<S> {
+        let zero = S::c(0.0);
+        Inputs {
+            t_psi: self.yaw_torque(x),
+            u_a: if drive {
+                self.voltage(x, e.i_ref)
+            } else {
+                zero
+            },
+            curvature: e.curvature,
+            cant: e.cant,
+            f_run: e.f_run,
+            t_drive: if drive { zero } else { e.demand },
         }
     }
 }
 
-/// Exogenous inputs of a closed-loop run (SI).
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// Exogenous inputs of a closed-loop run (SI; default: straight level track, no traction,
+/// no resistance).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Exogenous<S> {
     /// Track curvature `1/R`, 1/m.
     pub curvature: S,
@@ -140,19 +148,6 @@ pub struct Exogenous<S> {
     pub i_ref: S,
     /// Traction demand at the wheel, N m (acts directly on the left wheel without drive).
     pub demand: S,
-}
-
-impl<S: Scalar> Exogenous<S> {
-    /// Straight level track, no traction, no resistance.
-    pub fn zero() -> Self {
-        Exogenous {
-            curvature: S::c(0.0),
-            cant: S::c(0.0),
-            f_run: S::c(0.0),
-            i_ref: S::c(0.0),
-            demand: S::c(0.0),
-        }
-    }
 }
 
 /// The closed loop's right-hand side: the plant with `T_psi` from the yaw law and `u_a`
@@ -176,21 +171,15 @@ pub fn closed_loop_rhs_with<S: Scalar, F: Flags>(
     x: &[S; NX],
     e: &Exogenous<S>,
 ) -> [S; NX] {
-    let drive = f.drive();
-    let u = Inputs {
-        t_psi: ctrl.yaw_torque(x),
-        u_a: if drive {
-            ctrl.voltage(x, e.i_ref)
-        } else {
-            S::c(0.0)
-        },
-        curvature: e.curvature,
-        cant: e.cant,
-        f_run: e.f_run,
-        t_drive: if drive { S::c(0.0) } else { e.demand },
-    };
-    let (mut dx, _) = plant.rhs_with(f, x, &u);
-    ctrl.derivs(x, e.i_ref, drive, &mut dx);
+    let drive = f.cfg().drive;
+    let (mut dx, _) = plant.rhs_with(f, x, &ctrl.inputs(x, e, drive));
+    let c = S::c;
+    if ctrl.law == YawLaw::Lead {
+        dx[ix::LEAD] = -c(ctrl.lead_p) * x[ix::LEAD] + x[ix::YD];
+    }
+    if drive {
+        dx[ix::PI] = c(ctrl.kp / ctrl.ti) * (e.i_ref - x[ix::IA]);
+    }
     dx
 }
 

@@ -10,17 +10,13 @@ pub const ILL_CONDITIONED: f64 = 1e-6;
 
 /// `Ok` when every entry of `m` is finite; else names `what` and the first bad entry.
 pub fn check_finite(m: &DMatrix<f64>, what: &str) -> Result<(), String> {
-    for j in 0..m.ncols() {
-        for i in 0..m.nrows() {
-            let v = m[(i, j)];
-            if !v.is_finite() {
-                return Err(format!(
-                    "{what} is not finite (entry ({i}, {j}) = {v}): not passed to the eigenvalue solver"
-                ));
-            }
-        }
-    }
-    Ok(())
+    let Some(k) = m.iter().position(|v| !v.is_finite()) else {
+        return Ok(());
+    };
+    let (i, j, v) = (k % m.nrows(), k / m.nrows(), m[k]);
+    Err(format!(
+        "{what} is not finite (entry ({i}, {j}) = {v}): not passed to the eigenvalue solver"
+    ))
 }
 
 /// The eigenvalues of `m` ([`crate::modes::eigenvalues`]), or an error when an entry is

@@ -119,15 +119,7 @@ pub fn closed_loop_jacobian(
     e: &Exogenous<f64>,
 ) -> Jac {
     let drive = plant.cfg.drive;
-    let u = Inputs {
-        t_psi: ctrl.yaw_torque(x),
-        u_a: if drive { ctrl.voltage(x, e.i_ref) } else { 0.0 },
-        curvature: e.curvature,
-        cant: e.cant,
-        f_run: e.f_run,
-        t_drive: if drive { 0.0 } else { e.demand },
-    };
-    let (mut a, b) = plant_jacobian(plant, p, x, &u);
+    let (mut a, b) = plant_jacobian(plant, p, x, &ctrl.inputs(x, e, drive));
     let mut dt = [0.0; NX];
     match ctrl.law {
         YawLaw::Passive => {}
@@ -199,7 +191,9 @@ pub fn closed_loop_states(cfg: &PlantConfig, law: YawLaw) -> Vec<usize> {
 
 /// Restricts a full-size matrix to the rows and columns in `states`.
 pub fn select(a: &Jac, states: &[usize]) -> DMatrix<f64> {
-    DMatrix::from_fn(states.len(), states.len(), |i, j| a[(states[i], states[j])])
+    let mut out = DMatrix::zeros(0, 0);
+    select_into(a, states, &mut out);
+    out
 }
 
 /// [`select`] into `out` (its storage reused when it already has the size).
@@ -240,29 +234,22 @@ pub fn closed_loop_a_with(
         yaw_spring: ctrl.law.has_spring(),
     };
     let states = closed_loop_states(&cfg, ctrl.law);
-    let mut a = DMatrix::zeros(states.len(), states.len());
-    closed_loop_a_into(p, axle, drive, ctrl, &states, &mut a);
+    let mut a = DMatrix::zeros(0, 0);
+    closed_loop_a_into(p, cfg, ctrl, &states, &mut a);
     (a, states)
 }
 
-/// The matrix of [`closed_loop_a_with`] into `out` (its storage reused), for `states` =
-/// the loop's [`closed_loop_states`].
-pub fn closed_loop_a_into(
+/// [`closed_loop_a_with`] on the plant `cfg` into `out`, `states` its [`closed_loop_states`].
+pub(crate) fn closed_loop_a_into(
     p: &Params,
-    axle: Axle,
-    drive: bool,
+    cfg: PlantConfig,
     ctrl: &ContinuousController,
     states: &[usize],
     out: &mut DMatrix<f64>,
 ) {
-    let cfg = PlantConfig {
-        axle,
-        drive,
-        yaw_spring: ctrl.law.has_spring(),
-    };
     let plant = Plant::new(p, cfg);
     let x = operating_point(&plant, p);
-    let a = closed_loop_jacobian(&plant, p, ctrl, &x, &Exogenous::zero());
+    let a = closed_loop_jacobian(&plant, p, ctrl, &x, &Exogenous::default());
     select_into(&a, states, out);
 }
 
@@ -272,10 +259,11 @@ pub fn closed_loop_a_into(
 pub fn linear_plant(p: &Params, cfg: PlantConfig) -> (LinearPlant, Vec<usize>) {
     let plant = Plant::new(p, cfg);
     let x = operating_point(&plant, p);
-    let mut u = Inputs::zero();
-    if cfg.drive {
-        u.u_a = plant.back_emf(&x);
-    }
+    let u_a = if cfg.drive { plant.back_emf(&x) } else { 0.0 };
+    let u = Inputs {
+        u_a,
+        ..Inputs::default()
+    };
     let (a, b) = plant_jacobian(&plant, p, &x, &u);
     let states = cfg.plant_states();
     let n = states.len();
@@ -322,11 +310,6 @@ pub struct Reduced {
 }
 
 impl Reduced {
-    /// Build the linear plant with the parameters of `docs/model.md` (defaults).
-    pub fn plant(&self) -> LinearPlant {
-        self.plant_with(&Params::default())
-    }
-
     /// Build the linear plant with parameters `p` (creep and conicity from `self`).
     pub fn plant_with(&self, p: &Params) -> LinearPlant {
         let (m, j, c_lat, k_lat, k_yaw) = (p.m, p.j, p.c_lat, p.k_lat, p.k_yaw);

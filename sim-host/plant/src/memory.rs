@@ -30,14 +30,6 @@ pub fn run_bytes(duration_ns: u64, output_dt_ns: u64, device_period_ns: Option<u
     bytes
 }
 
-/// Estimated bytes of a modal sweep of `points` creep values over `cases` cases.
-#[must_use]
-pub fn modes_bytes(points: u64, cases: u64) -> u64 {
-    points
-        .saturating_mul(cases)
-        .saturating_mul(MODES_BYTES_PER_POINT)
-}
-
 /// `bytes` in MiB or GiB, for messages.
 #[must_use]
 pub fn human(bytes: u64) -> String {
@@ -67,15 +59,15 @@ pub fn check_runs(
     runs: u64,
 ) -> Result<(), String> {
     let runs = runs.max(1);
-    let extra = run_bytes(duration_ns, output_dt_ns, None).saturating_mul(runs - 1);
-    let bytes = run_bytes(duration_ns, output_dt_ns, device_period_ns).saturating_add(extra);
+    let bytes_for = |d: u64| {
+        let extra = run_bytes(d, output_dt_ns, None).saturating_mul(runs - 1);
+        run_bytes(d, output_dt_ns, device_period_ns).saturating_add(extra)
+    };
+    let bytes = bytes_for(duration_ns);
     if bytes <= MAX_BYTES {
         return Ok(());
     }
-    let per_s = run_bytes(1_000_000_000, output_dt_ns, device_period_ns)
-        .saturating_add(run_bytes(1_000_000_000, output_dt_ns, None).saturating_mul(runs - 1))
-        .max(1);
-    let fits_s = MAX_BYTES / per_s;
+    let fits_s = MAX_BYTES / bytes_for(1_000_000_000).max(1);
     Err(format!(
         "{} would keep about {} in memory ({} records of {RECORD_BYTES} B at sim.output_dt_s = {} s{}), \
          above the limit of {}: lower duration_s to at most about {fits_s} s, or raise sim.output_dt_s",
@@ -101,7 +93,9 @@ pub fn check_runs(
 
 /// Refuses a modal sweep above [`MAX_BYTES`], naming the largest `--points` that fits.
 pub fn check_modes(points: u64, cases: u64) -> Result<(), String> {
-    let bytes = modes_bytes(points, cases);
+    let bytes = points
+        .saturating_mul(cases)
+        .saturating_mul(MODES_BYTES_PER_POINT);
     if bytes <= MAX_BYTES {
         return Ok(());
     }

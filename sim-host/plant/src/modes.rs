@@ -5,7 +5,7 @@
 //! structural zero (free rolling) is reported apart and excluded from every verdict.
 
 use crate::control::{ContinuousController, YawLaw};
-use crate::linear::{closed_loop_a, closed_loop_a_into, closed_loop_states};
+use crate::linear::{closed_loop_a_into, closed_loop_states};
 use crate::params::Params;
 use crate::plant::PlantConfig;
 use crate::scenario::Axle;
@@ -52,11 +52,6 @@ impl Case {
         }
     }
 
-    /// Parses `a`..`d`.
-    pub fn parse(s: &str) -> Option<Case> {
-        Case::ALL.into_iter().find(|c| c.id() == s)
-    }
-
     /// Human-readable description.
     pub fn label(self) -> &'static str {
         match self {
@@ -79,22 +74,18 @@ impl Case {
 
     /// The closed-loop `A` and its state list at creep coefficient `creep` (N).
     pub fn matrix(self, p: &Params, creep: f64) -> (DMatrix<f64>, Vec<usize>) {
-        let mut q = p.clone();
-        q.f11 = creep;
-        q.f22 = creep;
-        let (axle, drive, law) = self.setup();
-        closed_loop_a(&q, axle, drive, law)
+        let mut lp = CaseLoop::new(self, p);
+        (lp.matrix(creep).clone(), lp.states)
     }
 }
 
-/// [`Case::matrix`] for many creep coefficients in a row (the same matrices, bit for
-/// bit): the parameters, controller and state list are made once.
+/// [`Case::matrix`] for many creep coefficients in a row: the parameters, controller
+/// and state list are made once.
 #[derive(Debug, Clone)]
 pub(crate) struct CaseLoop {
     /// The parameters, creep coefficients set per point.
     q: Params,
-    axle: Axle,
-    drive: bool,
+    cfg: PlantConfig,
     ctrl: ContinuousController,
     states: Vec<usize>,
     a: DMatrix<f64>,
@@ -108,14 +99,12 @@ impl CaseLoop {
             drive,
             yaw_spring: law.has_spring(),
         };
-        let states = closed_loop_states(&cfg, law);
         CaseLoop {
             q: p.clone(),
-            axle,
-            drive,
+            cfg,
             ctrl: ContinuousController::new(p, law),
-            a: DMatrix::zeros(states.len(), states.len()),
-            states,
+            states: closed_loop_states(&cfg, law),
+            a: DMatrix::zeros(0, 0),
         }
     }
 
@@ -123,14 +112,7 @@ impl CaseLoop {
     pub(crate) fn matrix(&mut self, creep: f64) -> &DMatrix<f64> {
         self.q.f11 = creep;
         self.q.f22 = creep;
-        closed_loop_a_into(
-            &self.q,
-            self.axle,
-            self.drive,
-            &self.ctrl,
-            &self.states,
-            &mut self.a,
-        );
+        closed_loop_a_into(&self.q, self.cfg, &self.ctrl, &self.states, &mut self.a);
         &self.a
     }
 }
@@ -327,13 +309,12 @@ pub struct ModeValue {
 
 impl ModeValue {
     fn new(name: &str, l: Complex<f64>) -> Self {
-        let mag = l.norm();
         ModeValue {
             name: name.to_string(),
             re: l.re,
             im: l.im.abs(),
             freq_hz: l.im.abs() / (2.0 * PI),
-            zeta: if mag > 0.0 { -l.re / mag } else { 0.0 },
+            zeta: crate::sampled::zeta_of(l),
         }
     }
 }
@@ -356,18 +337,6 @@ pub struct CaseSweep {
     /// Points where the eigenvalue solver failed (skipped).
     pub failed_points: Vec<f64>,
 }
-
-/// Errors of a sweep.
-#[derive(Debug, Clone, PartialEq)]
-pub struct SweepError(pub String);
-
-impl std::fmt::Display for SweepError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.0)
-    }
-}
-
-impl std::error::Error for SweepError {}
 
 impl CaseSweep {
     /// Unique mode names in order of first appearance (structural zero excluded).

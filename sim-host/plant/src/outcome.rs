@@ -57,11 +57,9 @@ fn non_finite(first: &Record, r: &Record) -> Vec<&'static str> {
 pub fn stop_of(tr: &Trajectory) -> Option<Stop> {
     let t = tr.info.diverged_at_s?;
     let first = tr.records.first()?;
-    if let Some(r) = tr.records.iter().find(|r| !non_finite(first, r).is_empty()) {
-        return Some(Stop::Numerical {
-            t_s: r.t_s,
-            columns: non_finite(first, r),
-        });
+    let mut numerical = tr.records.iter().map(|r| (r.t_s, non_finite(first, r)));
+    if let Some((t_s, columns)) = numerical.find(|(_, c)| !c.is_empty()) {
+        return Some(Stop::Numerical { t_s, columns });
     }
     Some(Stop::Unstable {
         t_s: t,

@@ -133,7 +133,7 @@ pub struct Range {
 /// Declares [`RANGES`] from rows `key, unit, min, max, why;` (one row per parameter).
 macro_rules! ranges {
     ($($key:ident, $unit:literal, $min:literal, $max:literal, $why:literal;)*) => {
-        /// Plausible range of every parameter (SI), in [`Params::entries`] order: physical
+        /// Plausible range of every parameter (SI), in the struct's order: physical
         /// limits with a generous margin (light rail to heavy freight, 0.1 m/s to the
         /// speed record); outside them the linear algebra is meaningless (`l_a = 1e-61` H
         /// puts `R_a / L_a = 4e59` 1/s in the plant matrix).
@@ -222,73 +222,47 @@ impl Params {
             .unwrap_or_else(|| (self.m + self.m_v / 2.0) * self.g / 2.0)
     }
 
-    /// The list of values with their keys (for reports and validation).
+    /// The values with their keys, in [`RANGES`] order (for reports and validation);
+    /// `k_t`, `k_gear` and `q` as used (explicit or derived).
     pub fn entries(&self) -> Vec<(&'static str, f64)> {
-        vec![
-            ("m", self.m),
-            ("m_v", self.m_v),
-            ("j", self.j),
-            ("i_w", self.i_w),
-            ("i_m", self.i_m),
-            ("f11", self.f11),
-            ("f22", self.f22),
-            ("c_lat", self.c_lat),
-            ("k_lat", self.k_lat),
-            ("k_yaw", self.k_yaw),
-            ("torsion_hz", self.torsion_hz),
-            ("k_t", self.k_t()),
-            ("gear_hz", self.gear_hz),
-            ("k_gear", self.k_gear()),
-            ("l_g", self.l_g),
-            ("r0", self.r0),
-            ("lambda", self.lambda),
-            ("g", self.g),
-            ("v", self.v),
-            ("n_gear", self.n_gear),
-            ("k_m", self.k_m),
-            ("l_a", self.l_a),
-            ("r_a", self.r_a),
-            ("k_active", self.k_active),
-            ("lead_gain", self.lead_gain),
-            ("lead_zero", self.lead_zero),
-            ("lead_pole", self.lead_pole),
-            ("pi_kp", self.pi_kp),
-            ("pi_ti", self.pi_ti),
-            ("q", self.q()),
-        ]
+        // Every field is an f64 or an Option<f64>: the table cannot fail to build.
+        let table = toml::Table::try_from(self).unwrap_or_default();
+        let value = |key| match key {
+            "k_t" => self.k_t(),
+            "k_gear" => self.k_gear(),
+            "q" => self.q(),
+            _ => table
+                .get(key)
+                .and_then(toml::Value::as_float)
+                .unwrap_or(f64::NAN),
+        };
+        RANGES.iter().map(|r| (r.key, value(r.key))).collect()
     }
 
     /// Checks every value against its plausible range ([`RANGES`]).
     pub fn validate(&self) -> Result<(), ConfigError> {
         // The values as given first, then the stiffnesses derived from them, so a bad
         // `n_gear` is named as such rather than through `k_gear`.
-        let derived = |key: &str| {
-            (key == "k_t" && self.k_t.is_none())
-                || (key == "k_gear" && self.k_gear.is_none())
-                || (key == "q" && self.q.is_none())
+        let from = |key: &str| match (key, self.k_t, self.k_gear, self.q) {
+            ("k_t", None, _, _) => " (derived from i_w and torsion_hz)",
+            ("k_gear", _, None, _) => " (derived from n_gear, i_m and gear_hz)",
+            ("q", _, _, None) => " (derived from m, m_v and g)",
+            _ => "",
         };
         let entries = self.entries();
-        let ordered = entries
+        let (given, derived): (Vec<_>, Vec<_>) = RANGES
             .iter()
-            .filter(|(k, _)| !derived(k))
-            .chain(entries.iter().filter(|(k, _)| derived(k)));
-        for &(key, value) in ordered {
-            let Some(r) = RANGES.iter().find(|r| r.key == key) else {
-                continue;
-            };
+            .zip(&entries)
+            .partition(|(r, _)| from(r.key).is_empty());
+        for (r, &(key, value)) in given.into_iter().chain(derived) {
             if !value.is_finite() || value < r.min || value > r.max {
-                let from = match (key, self.k_t, self.k_gear, self.q) {
-                    ("k_t", None, _, _) => " (derived from i_w and torsion_hz)",
-                    ("k_gear", _, None, _) => " (derived from n_gear, i_m and gear_hz)",
-                    ("q", _, _, None) => " (derived from m, m_v and g)",
-                    _ => "",
-                };
                 return Err(ConfigError::Invalid {
                     file: String::new(),
                     key: key.to_string(),
                     reason: format!(
-                        "value {}{from} is outside the plausible range [{}, {}] {}: {}",
+                        "value {}{} is outside the plausible range [{}, {}] {}: {}",
                         num(value),
+                        from(key),
                         num(r.min),
                         num(r.max),
                         r.unit,
@@ -316,15 +290,14 @@ impl Params {
 
     /// Applies a TOML table of overrides on top of `self` (unknown keys refused), validated.
     pub fn with_overrides(&self, table: &toml::Table, file: &str) -> Result<Params, ConfigError> {
-        let mut base = toml::Table::try_from(self).map_err(|e| ConfigError::Parse {
+        let parse = |reason: String| ConfigError::Parse {
             file: file.to_string(),
             key: None,
             line: None,
-            reason: e.to_string(),
-        })?;
-        for (k, v) in table {
-            base.insert(k.clone(), v.clone());
-        }
+            reason,
+        };
+        let mut base = toml::Table::try_from(self).map_err(|e| parse(e.to_string()))?;
+        base.extend(table.clone());
         let src = toml::to_string(table).unwrap_or_default();
         // Check the override table alone first, so an unknown key is reported as such.
         let _: Params = toml::from_str(&src).map_err(|e| {
@@ -336,12 +309,7 @@ impl Params {
         })?;
         let p: Params = base
             .try_into()
-            .map_err(|e: toml::de::Error| ConfigError::Parse {
-                file: file.to_string(),
-                key: None,
-                line: None,
-                reason: e.message().to_string(),
-            })?;
+            .map_err(|e: toml::de::Error| parse(e.message().to_string()))?;
         p.validate().map_err(|e| e.with_file(file))?;
         Ok(p)
     }

@@ -130,11 +130,17 @@ pub struct PlantConfig {
 }
 
 impl PlantConfig {
+    /// Flexible axle (`WL`, `TWIST` are states).
+    #[inline(always)]
+    pub fn flexible(&self) -> bool {
+        self.axle == Axle::Flexible
+    }
+
     /// The states this configuration actually has (indices into the full vector),
     /// excluding controller states.
     pub fn plant_states(&self) -> Vec<usize> {
         let mut s = vec![ix::Y, ix::YD, ix::PSI, ix::PSID, ix::WR];
-        if self.axle == Axle::Flexible {
+        if self.flexible() {
             s.extend([ix::WL, ix::TWIST]);
         }
         if self.drive {
@@ -150,12 +156,8 @@ impl PlantConfig {
 /// RK4 step is compiled once per configuration, without the branches). Both give the
 /// same floating-point operations in the same order.
 pub trait Flags: Copy {
-    /// Flexible axle (`WL`, `TWIST` are states).
-    fn flexible(&self) -> bool;
-    /// Traction drive present.
-    fn drive(&self) -> bool;
-    /// Passive yaw spring present.
-    fn yaw_spring(&self) -> bool;
+    /// The configuration.
+    fn cfg(&self) -> PlantConfig;
     /// The adhesion law is known to be `None`, so [`Plant::creep_with`] need not look.
     #[inline(always)]
     fn linear_creep(&self) -> bool {
@@ -165,16 +167,8 @@ pub trait Flags: Copy {
 
 impl Flags for PlantConfig {
     #[inline(always)]
-    fn flexible(&self) -> bool {
-        self.axle == Axle::Flexible
-    }
-    #[inline(always)]
-    fn drive(&self) -> bool {
-        self.drive
-    }
-    #[inline(always)]
-    fn yaw_spring(&self) -> bool {
-        self.yaw_spring
+    fn cfg(&self) -> PlantConfig {
+        *self
     }
 }
 
@@ -187,16 +181,16 @@ impl<const FLEXIBLE: bool, const DRIVE: bool, const YAW_SPRING: bool> Flags
     for Fixed<FLEXIBLE, DRIVE, YAW_SPRING>
 {
     #[inline(always)]
-    fn flexible(&self) -> bool {
-        FLEXIBLE
-    }
-    #[inline(always)]
-    fn drive(&self) -> bool {
-        DRIVE
-    }
-    #[inline(always)]
-    fn yaw_spring(&self) -> bool {
-        YAW_SPRING
+    fn cfg(&self) -> PlantConfig {
+        PlantConfig {
+            axle: if FLEXIBLE {
+                Axle::Flexible
+            } else {
+                Axle::Rigid
+            },
+            drive: DRIVE,
+            yaw_spring: YAW_SPRING,
+        }
     }
 }
 
@@ -207,16 +201,8 @@ pub struct Linear<F>(pub F);
 
 impl<F: Flags> Flags for Linear<F> {
     #[inline(always)]
-    fn flexible(&self) -> bool {
-        self.0.flexible()
-    }
-    #[inline(always)]
-    fn drive(&self) -> bool {
-        self.0.drive()
-    }
-    #[inline(always)]
-    fn yaw_spring(&self) -> bool {
-        self.0.yaw_spring()
+    fn cfg(&self) -> PlantConfig {
+        self.0.cfg()
     }
     #[inline(always)]
     fn linear_creep(&self) -> bool {
@@ -244,8 +230,7 @@ macro_rules! with_creep_law {
 macro_rules! with_flags {
     ($cfg:expr, $f:ident => $body:expr) => {{
         let cfg: $crate::plant::PlantConfig = $cfg;
-        let flexible = cfg.axle == $crate::scenario::Axle::Flexible;
-        $crate::with_flags!(@ [flexible, cfg.drive, cfg.yaw_spring] [] $f => $body)
+        $crate::with_flags!(@ [cfg.flexible(), cfg.drive, cfg.yaw_spring] [] $f => $body)
     }};
     (@ [$c:expr $(, $rest:expr)*] [$($b:tt)*] $f:ident => $body:expr) => {
         if $c {
@@ -260,8 +245,8 @@ macro_rules! with_flags {
     }};
 }
 
-/// Plant inputs (SI).
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// Plant inputs (SI; default: all zero).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Inputs<S> {
     /// Yaw torque from the actuator `T_psi`, N m (eq. 5 sign).
     pub t_psi: S,
@@ -275,20 +260,6 @@ pub struct Inputs<S> {
     pub f_run: S,
     /// Direct traction torque on the left wheel, N m (used only without the drive).
     pub t_drive: S,
-}
-
-impl<S: Scalar> Inputs<S> {
-    /// All inputs zero.
-    pub fn zero() -> Self {
-        Inputs {
-            t_psi: S::c(0.0),
-            u_a: S::c(0.0),
-            curvature: S::c(0.0),
-            cant: S::c(0.0),
-            f_run: S::c(0.0),
-            t_drive: S::c(0.0),
-        }
-    }
 }
 
 /// Creep forces (eqs. 1-3), N: the rail's forces on the wheels.
@@ -311,10 +282,6 @@ pub struct Plant {
     /// The adhesion law in force, set per integration step; `None` = linear creep law.
     pub adhesion: Option<Adhesion>,
     m: f64,
-    m_long: f64,
-    j: f64,
-    i_w: f64,
-    i_m: f64,
     f11: f64,
     f22: f64,
     c_lat: f64,
@@ -325,10 +292,8 @@ pub struct Plant {
     l_g: f64,
     r0: f64,
     lambda: f64,
-    g: f64,
     n: f64,
     k_m: f64,
-    l_a: f64,
     r_a: f64,
     inv: Inverses,
     pre: Products,
@@ -366,10 +331,6 @@ impl Plant {
             cfg,
             adhesion: None,
             m: p.m,
-            m_long: p.m + p.m_v / 2.0,
-            j: p.j,
-            i_w: p.i_w,
-            i_m: p.i_m,
             f11: p.f11,
             f22: p.f22,
             c_lat: p.c_lat,
@@ -380,10 +341,8 @@ impl Plant {
             l_g: p.l_g,
             r0: p.r0,
             lambda: p.lambda,
-            g: p.g,
             n: p.n_gear,
             k_m: p.k_m,
-            l_a: p.l_a,
             r_a: p.r_a,
             inv: Inverses {
                 m: 1.0 / p.m,
@@ -406,8 +365,8 @@ impl Plant {
 
     /// Left wheel speed as the model sees it (the right one on a rigid axle).
     #[inline(always)]
-    fn w_l<S: Scalar, F: Flags>(&self, f: F, x: &[S; NX]) -> S {
-        if f.flexible() {
+    pub(crate) fn w_l<S: Scalar, F: Flags>(&self, f: F, x: &[S; NX]) -> S {
+        if f.cfg().flexible() {
             x[ix::WL]
         } else {
             x[ix::WR]
@@ -439,13 +398,14 @@ impl Plant {
         let fx_l =
             -c(self.f11) * (c(1.0) + lg_psid_v - self.w_l(f, x) * (c(self.r0) - ly) * inv_v - lg_k);
         let fy = -c(self.f22) * (x[ix::YD] * inv_v - x[ix::PSI]);
+        let lin = Creep { fx_r, fx_l, fy };
         if f.linear_creep() {
             debug_assert!(self.adhesion.is_none());
-            return Creep { fx_r, fx_l, fy };
+            return lin;
         }
         match self.adhesion {
-            None => Creep { fx_r, fx_l, fy },
-            Some(a) => Self::limit(a, self.inv.f11, self.inv.f22, Creep { fx_r, fx_l, fy }, v),
+            None => lin,
+            Some(a) => Self::limit(a, self.inv.f11, self.inv.f22, lin, v),
         }
     }
 
@@ -472,7 +432,7 @@ impl Plant {
     /// [`Plant::spring_torque`] with the configuration as [`Flags`].
     #[inline(always)]
     pub fn spring_torque_with<S: Scalar, F: Flags>(&self, f: F, x: &[S; NX]) -> S {
-        if f.yaw_spring() {
+        if f.cfg().yaw_spring {
             S::c(self.k_yaw) * x[ix::PSI]
         } else {
             S::c(0.0)
@@ -523,12 +483,12 @@ impl Plant {
                 * c(self.inv.j);
 
         // Torque on the left wheel from the transmission.
-        let t_gear = if f.drive() {
+        let t_gear = if f.cfg().drive {
             -c(self.k_gear) * x[ix::WIND]
         } else {
             u.t_drive
         };
-        if f.flexible() {
+        if f.cfg().flexible() {
             let t_tors = c(self.k_t) * x[ix::TWIST];
             dx[ix::WR] = (-c(self.r0) * cr.fx_r - t_tors) * c(self.inv.i_w);
             dx[ix::WL] = (-c(self.r0) * cr.fx_l + t_tors + t_gear) * c(self.inv.i_w);
@@ -538,7 +498,7 @@ impl Plant {
             dx[ix::WR] = a;
             dx[ix::WL] = a;
         }
-        if f.drive() {
+        if f.cfg().drive {
             let w_l = self.w_l(f, x);
             dx[ix::WIND] = w_l - x[ix::WM] * c(self.inv.n);
             dx[ix::WM] = (c(self.k_m) * x[ix::IA] + c(self.pre.k_gear_inv_n) * x[ix::WIND])

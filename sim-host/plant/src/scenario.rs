@@ -4,7 +4,7 @@
 //! actuator fault and integration settings. The built-in ones (`sim-host/scenarios/`)
 //! are embedded in the binary; the format is in `docs/model.md` and `docs/adhesion.md`.
 
-use crate::adhesion::{Adhesion, Condition};
+use crate::adhesion::Condition;
 use crate::control::YawLaw;
 use crate::error::{from_toml, ConfigError};
 use crate::fault::{ActuatorFault, RawActuatorFault};
@@ -37,8 +37,8 @@ pub fn s_to_ns(t: f64) -> u64 {
     (t * NS_PER_S).round() as u64
 }
 
-/// A step (or ramp) of a scalar input switched on at `t_on_ns`.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// A step (or ramp) of a scalar input switched on at `t_on_ns` (default: no input).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct StepInput {
     /// Final value (SI).
     pub value: f64,
@@ -49,13 +49,6 @@ pub struct StepInput {
 }
 
 impl StepInput {
-    /// No input at all.
-    pub const NONE: StepInput = StepInput {
-        value: 0.0,
-        t_on_ns: 0,
-        ramp_ns: 0,
-    };
-
     /// Value at time `t_ns`: 0 before `t_on`, then a linear ramp to `value`.
     pub fn at(&self, t_ns: u64) -> f64 {
         if t_ns < self.t_on_ns {
@@ -239,22 +232,16 @@ fn parse_laws(file: &str, laws: &Option<Vec<String>>) -> Result<Vec<YawLaw>, Con
     for (i, n) in names.iter().enumerate() {
         let law = [YawLaw::Passive, YawLaw::Gain, YawLaw::Lead]
             .into_iter()
-            .find(|l| l.name() == n)
-            .ok_or_else(|| {
-                invalid(
-                    file,
-                    format!("laws[{i}]"),
-                    format!("`{n}` is not a yaw law (passive, gain, lead)"),
-                )
-            })?;
-        let key = format!("laws[{i}]");
-        check(
-            !out.contains(&law),
-            file,
-            key,
-            format!("`{n}` is listed twice"),
-        )?;
-        out.push(law);
+            .find(|l| l.name() == n);
+        let reason = match law {
+            None => format!("`{n}` is not a yaw law (passive, gain, lead)"),
+            Some(l) if out.contains(&l) => format!("`{n}` is listed twice"),
+            Some(l) => {
+                out.push(l);
+                continue;
+            }
+        };
+        return Err(invalid(file, format!("laws[{i}]"), reason));
     }
     Ok(out)
 }
@@ -359,11 +346,11 @@ impl Scenario {
         };
         let traction = match raw.traction {
             Some(t) => step("traction.demand_nm", t.demand_nm, t.t_on_s, t.ramp_s, 1e5)?,
-            None => StepInput::NONE,
+            None => StepInput::default(),
         };
         let resistance = match raw.resistance {
             Some(r) => step("resistance.f_run_n", r.f_run_n, r.t_on_s, r.ramp_s, 1e6)?,
-            None => StepInput::NONE,
+            None => StepInput::default(),
         };
         let params = match &raw.params {
             Some(t) => base
@@ -440,21 +427,11 @@ impl Scenario {
     /// section's, `dry` outside every section. Inlined: the runs ask every step.
     #[inline]
     pub fn condition_at(&self, t_ns: u64) -> Option<Condition> {
-        if self.adhesion.is_empty() {
-            return None;
-        }
-        Some(
-            self.adhesion
-                .iter()
-                .find(|s| t_ns >= s.t0_ns && t_ns < s.t1_ns)
-                .map_or(Condition::Dry, |s| s.condition),
-        )
-    }
-
-    /// The adhesion law at `t_ns` ([`Self::condition_at`] with the wheel load `Q`).
-    pub fn adhesion_at(&self, t_ns: u64) -> Option<Adhesion> {
-        self.condition_at(t_ns)
-            .map(|c| Adhesion::new(c, self.params.q()))
+        let section = self
+            .adhesion
+            .iter()
+            .find(|s| (s.t0_ns..s.t1_ns).contains(&t_ns));
+        (!self.adhesion.is_empty()).then(|| section.map_or(Condition::Dry, |s| s.condition))
     }
 
     /// The warning before running with a `law` that the scenario's `laws` key does not list.

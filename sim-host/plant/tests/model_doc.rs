@@ -47,8 +47,19 @@ fn the_documented_ranges_are_the_code_ranges() {
         "docs/model.md's table differs from params::RANGES"
     );
     // Every parameter has a range, and the defaults are inside.
-    let keys: Vec<&str> = Params::default().entries().iter().map(|e| e.0).collect();
-    let ranged: Vec<&str> = RANGES.iter().map(|r| r.key).collect();
+    let all = Params {
+        k_t: Some(1e6),
+        k_gear: Some(1e6),
+        q: Some(5e4),
+        ..Params::default()
+    };
+    let table = toml::Table::try_from(&all).expect("table");
+    let mut keys: Vec<&str> = table.keys().map(String::as_str).collect();
+    let mut ranged: Vec<&str> = RANGES.iter().map(|r| r.key).collect();
+    let entries: Vec<&str> = all.entries().iter().map(|e| e.0).collect();
+    assert_eq!(entries, ranged, "the entries in the ranges' order");
+    keys.sort();
+    ranged.sort();
     assert_eq!(keys, ranged, "a parameter without a plausible range");
     assert!(Params::default().validate().is_ok());
 }

@@ -9,7 +9,7 @@ use wheelset_plant::control::{ContinuousController, YawLaw};
 use wheelset_plant::params::Params;
 use wheelset_plant::plant::{ix, Inputs, Plant, PlantConfig, NX};
 use wheelset_plant::scenario::{Axle, Scenario};
-use wheelset_plant::sim::{run_continuous, run_continuous_with};
+use wheelset_plant::sim::{run_continuous, run_continuous_each};
 
 fn full(spring: bool) -> PlantConfig {
     PlantConfig {
@@ -33,8 +33,10 @@ fn pure_rolling_on_straight_track_is_an_equilibrium_with_zero_creep() {
     ] {
         let plant = Plant::new(&p, cfg);
         let x = plant.rolling_state(p.v);
-        let mut u = Inputs::<f64>::zero();
-        u.u_a = plant.back_emf(&x);
+        let u = Inputs {
+            u_a: plant.back_emf(&x),
+            ..Inputs::default()
+        };
         let (dx, cr) = plant.rhs(&x, &u);
         assert!(cr.fx_r.abs() < 1e-6 && cr.fx_l.abs() < 1e-6 && cr.fy.abs() < 1e-6);
         for (i, d) in dx.iter().enumerate() {
@@ -198,8 +200,10 @@ fn rigid_axle_sums_the_wheel_equations() {
     for _ in 0..50 {
         let mut x = random_state(&mut rng, &p);
         x[ix::WL] = x[ix::WR];
-        let mut u = Inputs::zero();
-        u.t_drive = 1000.0;
+        let u = Inputs {
+            t_drive: 1000.0,
+            ..Inputs::default()
+        };
         let (dx, cr) = plant.rhs(&x, &u);
         close(
             2.0 * p.i_w * dx[ix::WR],
@@ -248,17 +252,15 @@ fn reversed_active_sign_diverges_and_correct_sign_does_not() {
         let mut bad = good;
         bad.k = -good.k;
         let max_y = |c| {
-            run_continuous_with(&sc, c)
-                .records
-                .iter()
-                .map(|r| {
-                    if r.y_m.is_finite() {
-                        r.y_m.abs()
-                    } else {
-                        f64::INFINITY
-                    }
+            let mut max = 0.0f64;
+            run_continuous_each(&sc, c, |r| {
+                max = max.max(if r.y_m.is_finite() {
+                    r.y_m.abs()
+                } else {
+                    f64::INFINITY
                 })
-                .fold(0.0, f64::max)
+            });
+            max
         };
         let (g, b) = (max_y(good), max_y(bad));
         assert!(g < 2e-3, "{law:?} stable run max |y| = {g}");

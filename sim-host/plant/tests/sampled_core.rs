@@ -84,7 +84,7 @@ fn loop_matrices_reproduce_the_real_controller() {
             lambda: 0.2,
             yaw_spring: mode == YawMode::Passive,
         }
-        .plant();
+        .plant_with(&Params::default());
         let t0 = 1.0 / cfg.base_rate_hz as f64;
         let x0 = DMatrix::from_column_slice(5, 1, &[1e-3, 2e-3, -1e-3, 0.01, 5.0]);
         let real = simulate_controller(&p, &cfg, t0, &x0, 60);
@@ -158,7 +158,7 @@ fn opposite_active_sign_is_unstable() {
             lambda: 0.2,
             yaw_spring: false,
         }
-        .plant()
+        .plant_with(&Params::default())
     };
     assert!(closed_loop(&plant(10e6), &cfg, 1).expect("valid").stable());
     for c in CREEP_GRID {

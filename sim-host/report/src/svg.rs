@@ -108,8 +108,8 @@ impl Series {
     }
 }
 
-/// A single plot panel with axes, ticks, labels, grid and legend.
-#[derive(Debug, Clone, PartialEq)]
+/// A single plot panel with axes, ticks, labels, grid and legend (sized by [`Plot::new`]).
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct Plot {
     /// Title above the panel.
     pub title: String,
@@ -147,19 +147,9 @@ impl Plot {
     pub fn new(title: &str) -> Self {
         Plot {
             title: title.to_string(),
-            x_label: String::new(),
-            y_label: String::new(),
-            series: Vec::new(),
-            x_range: None,
-            y_range: None,
-            bars: Vec::new(),
             width: 860.0,
             height: 360.0,
-            note: String::new(),
-            marks: Vec::new(),
-            x_log: false,
-            y_log: false,
-            x_categories: Vec::new(),
+            ..Plot::default()
         }
     }
     /// A labelled horizontal reference line at `y` ([`Mark`]).

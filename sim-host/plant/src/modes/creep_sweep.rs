@@ -13,20 +13,20 @@ pub fn sweep_case(
     case: Case,
     grid: &[f64],
     tick: impl Fn() + Sync,
-) -> Result<CaseSweep, SweepError> {
+) -> Result<CaseSweep, String> {
     let mut desc: Vec<f64> = grid.to_vec();
     desc.sort_by(|a, b| b.total_cmp(a));
     let Some(&top) = desc.first() else {
-        return Err(SweepError("empty creep grid".into()));
+        return Err("empty creep grid".into());
     };
     let (a0, states) = case.matrix(p, top);
     // The eigenvalue problems are independent: solve them on all cores, then track.
     let all = eigen_sweep(p, case, &desc, &tick);
     let Some(e0) = all.first().cloned().flatten() else {
-        return Err(SweepError(format!(
+        return Err(format!(
             "case {}: eigenvalues not computable at {top} N",
             case.id()
-        )));
+        ));
     };
     let names = name_modes(&a0, &states, &e0, 2.0 * PI * p.kinematic_hz());
     let mut eig: Vec<Vec<Complex<f64>>> = vec![e0];

@@ -96,14 +96,23 @@ fn eigvec(a: &DMatrix<f64>, lambda: Complex<f64>, left: bool) -> DVector<Complex
     x
 }
 
-fn group(state: usize) -> usize {
-    match state {
-        ix::Y | ix::YD | ix::PSI | ix::PSID => 0,
-        ix::WR | ix::WL | ix::TWIST | ix::V => 1,
-        ix::WIND | ix::WM => 2,
-        ix::IA | ix::PI => 3,
-        _ => 4, // lead
+/// The participation of each group of [`GROUPS`] in the mode `lambda` of `a` (states
+/// `states`): the sum over the group's states of `|w_k v_k|` (left and right eigenvectors).
+fn participation(a: &DMatrix<f64>, states: &[usize], lambda: Complex<f64>) -> [f64; 5] {
+    let v = eigvec(a, lambda, false);
+    let w = eigvec(a, lambda, true);
+    let mut share = [0.0f64; 5];
+    for (k, &s) in states.iter().enumerate() {
+        let group = match s {
+            ix::Y | ix::YD | ix::PSI | ix::PSID => 0,
+            ix::WR | ix::WL | ix::TWIST | ix::V => 1,
+            ix::WIND | ix::WM => 2,
+            ix::IA | ix::PI => 3,
+            _ => 4, // lead
+        };
+        share[group] += (w[k] * v[k]).norm();
     }
+    share
 }
 
 /// Which of the eigenvalues `eig` of `a` is the structural zero: the one of least
@@ -130,19 +139,22 @@ pub fn name_modes(
     if let Some(iz) = structural_zero_index(a, eig) {
         names[iz] = STRUCTURAL_ZERO.to_string();
     }
-    let mut dom = vec![0usize; n];
-    for (i, &l) in eig.iter().enumerate() {
-        let v = eigvec(a, l, false);
-        let w = eigvec(a, l, true);
-        let mut share = [0.0f64; 5];
-        for (k, &s) in states.iter().enumerate() {
-            share[group(s)] += (w[k] * v[k]).norm();
-        }
-        dom[i] = (0..5)
-            .max_by(|&x, &y| share[x].total_cmp(&share[y]))
-            .unwrap_or(0);
-    }
+    let dom: Vec<usize> = eig
+        .iter()
+        .map(|&l| {
+            let share = participation(a, states, l);
+            (0..5)
+                .max_by(|&x, &y| share[x].total_cmp(&share[y]))
+                .unwrap_or(0)
+        })
+        .collect();
     let tol = |l: Complex<f64>| 1e-7 * (l.norm() + 1.0);
+    // The unnamed conjugate of eigenvalue `i`, other than `i`.
+    let partner = |names: &[String], i: usize| {
+        (0..n).find(|&j| {
+            j != i && names[j].is_empty() && (eig[j] - eig[i].conj()).norm() < tol(eig[i]) * 10.0
+        })
+    };
     // Kinematic: the lateral-dominated eigenvalue nearest the free wheelset's kinematic
     // eigenvalue `j omega_k`; other lateral complex pairs are high-frequency.
     let kin = Complex::new(0.0, kin_omega);
@@ -163,9 +175,7 @@ pub fn name_modes(
     if let Some(i) = kin_i {
         let name = unique("kinematic", &mut taken);
         names[i] = name.clone();
-        if let Some(j) = (0..n).find(|&j| {
-            j != i && names[j].is_empty() && (eig[j] - eig[i].conj()).norm() < tol(eig[i]) * 10.0
-        }) {
+        if let Some(j) = partner(&names, i) {
             names[j] = name;
         }
     }
@@ -199,14 +209,8 @@ pub fn name_modes(
             base.to_string()
         };
         names[i] = name.clone();
-        if complex {
-            if let Some(j) = (0..n).find(|&j| {
-                j != i
-                    && names[j].is_empty()
-                    && (eig[j] - eig[i].conj()).norm() < tol(eig[i]) * 10.0
-            }) {
-                names[j] = name;
-            }
+        if let Some(j) = partner(&names, i).filter(|_| complex) {
+            names[j] = name;
         }
     }
     names
@@ -220,8 +224,7 @@ pub const GROUPS: [&str; 5] = ["lateral/yaw", "wheels", "gear/motor", "armature/
 pub struct ModeAtPoint {
     /// Name, eigenvalue, frequency, damping.
     pub mode: ModeValue,
-    /// Participation of each group of [`GROUPS`]: the sum over the group's states of
-    /// `|w_k v_k|` (left and right eigenvectors), normalised to sum to 1.
+    /// Participation of each group of [`GROUPS`] (see `participation`), normalised to sum to 1.
     pub participation: [f64; 5],
 }
 
@@ -242,12 +245,7 @@ pub fn modes_at_point(
         .zip(&names)
         .filter(|(l, n)| *n != STRUCTURAL_ZERO && l.im >= 0.0)
         .map(|(&l, n)| {
-            let v = eigvec(&a, l, false);
-            let w = eigvec(&a, l, true);
-            let mut share = [0.0f64; 5];
-            for (k, &s) in states.iter().enumerate() {
-                share[group(s)] += (w[k] * v[k]).norm();
-            }
+            let mut share = participation(&a, &states, l);
             let sum: f64 = share.iter().sum();
             if sum > 0.0 {
                 share.iter_mut().for_each(|x| *x /= sum);

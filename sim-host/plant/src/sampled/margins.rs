@@ -225,9 +225,9 @@ pub fn margins_of(
     which: Loop,
     other: Other,
 ) -> Result<Margins, String> {
-    let (this, that) = match which {
-        Loop::Yaw => (&laws.yaw, &laws.traction),
-        Loop::Traction => (&laws.traction, &laws.yaw),
+    let (this, that, o) = match which {
+        Loop::Yaw => (&laws.yaw, &laws.traction, Loop::Traction),
+        Loop::Traction => (&laws.traction, &laws.yaw, Loop::Yaw),
     };
     let this = this
         .as_ref()
@@ -236,20 +236,9 @@ pub fn margins_of(
     let plant = Model::Full.plant(p, p.f11, p.lambda, sprung);
     plant_order(&plant)?;
     let (ad, bd) = zoh(&plant.a, &plant.b, t0);
-    let other_loop = match (other, that) {
-        (Other::Closed, Some(l)) => {
-            let o = if which == Loop::Yaw {
-                Loop::Traction
-            } else {
-                Loop::Yaw
-            };
-            Some((l, o))
-        }
-        _ => None,
-    };
-    let a_aug = match other_loop {
-        Some((l, o)) => close(&ad, &bd, &plant.c, l, o, delay_ticks),
-        None => ad.clone(),
+    let a_aug = match (other, that) {
+        (Other::Closed, Some(l)) => close(&ad, &bd, &plant.c, l, o, delay_ticks),
+        _ => ad.clone(),
     };
     let (input, output, sign) = which.port();
     let dim = a_aug.nrows();

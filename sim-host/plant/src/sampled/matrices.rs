@@ -67,10 +67,8 @@ pub struct Mode {
 /// The closed loop's modes and verdict.
 #[derive(Debug, Clone)]
 pub struct ClosedLoop {
-    /// All modes, excluded ones removed, sorted by decreasing radius.
+    /// All modes but the free-rolling ones (nearest `mu = 1`), sorted by decreasing radius.
     pub modes: Vec<Mode>,
-    /// The free-rolling modes left out (nearest `mu = 1`).
-    pub excluded: Vec<Mode>,
     /// Largest radius per base tick among `modes` (< 1: stable).
     pub spectral_radius: f64,
     /// The least damped oscillatory mode (or the slowest real one).
@@ -86,31 +84,6 @@ impl ClosedLoop {
 
 /// Largest hyper-period (ticks) and delay the analysis accepts.
 pub const MAX_HYPER_PERIOD: usize = 1000;
-
-/// Loop timing: the base rate, the divisors and the actuation delay.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Timing {
-    /// Base rate, Hz.
-    pub base_hz: f64,
-    /// Yaw loop every `yaw_divisor` ticks.
-    pub yaw_divisor: usize,
-    /// Traction loop every `traction_divisor` ticks.
-    pub traction_divisor: usize,
-    /// Ticks between sampling and applying (1 for the firmware).
-    pub delay_ticks: usize,
-}
-
-impl Timing {
-    /// The timing of a controller configuration with `delay_ticks` of delay.
-    pub fn of(cfg: &Config, delay_ticks: usize) -> Self {
-        Self {
-            base_hz: cfg.base_rate_hz as f64,
-            yaw_divisor: cfg.yaw_divisor as usize,
-            traction_divisor: cfg.traction_divisor as usize,
-            delay_ticks,
-        }
-    }
-}
 
 fn gcd(a: usize, b: usize) -> usize {
     if b == 0 {
@@ -130,15 +103,15 @@ pub fn tick_matrices(
     cfg.validate().map_err(|e| e.to_string())?;
     let n = plant_order(plant)?;
     let traction = cfg.traction_enabled && plant.c.row(1).iter().any(|v| *v != 0.0);
-    let tm = Timing::of(cfg, delay_ticks);
-    let t0 = 1.0 / tm.base_hz;
+    let (yaw_div, tr_div) = (cfg.yaw_divisor as usize, cfg.traction_divisor as usize);
+    let t0 = 1.0 / cfg.base_rate_hz as f64;
     crate::finite::check_finite(&plant.a, "the plant matrix A")?;
     crate::finite::check_finite(&plant.b, "the plant matrix B")?;
     let (ad, bd) = zoh(&plant.a, &plant.b, t0);
     crate::finite::check_finite(&ad, "the discretised plant matrix Ad")?;
     crate::finite::check_finite(&bd, "the discretised plant matrix Bd")?;
     let (lead, pi) = discretised(cfg)?;
-    let d = tm.delay_ticks;
+    let d = delay_ticks;
     let nreg = d.max(1); // output registers o[k-1] .. o[k-nreg], 2 each
     let ir = n; // registers start
     let il = ir + 2 * nreg; // lead x1, z
@@ -188,11 +161,11 @@ pub fn tick_matrices(
         i_upd[(0, ii)] = 1.0;
     }
 
-    let l = tm.yaw_divisor / gcd(tm.yaw_divisor, tm.traction_divisor) * tm.traction_divisor;
+    let l = yaw_div / gcd(yaw_div, tr_div) * tr_div;
     if l > MAX_HYPER_PERIOD {
         return Err(format!(
             "hyper-period lcm(yaw_divisor {}, traction_divisor {}) = {l} ticks: at most {MAX_HYPER_PERIOD}",
-            tm.yaw_divisor, tm.traction_divisor
+            yaw_div, tr_div
         ));
     }
     if delay_ticks > MAX_HYPER_PERIOD {
@@ -202,8 +175,8 @@ pub fn tick_matrices(
     }
     let mut mats = Vec::with_capacity(l);
     for k in 0..l {
-        let yaw = k % tm.yaw_divisor == 0;
-        let tr = k % tm.traction_divisor == 0;
+        let yaw = k % yaw_div == 0;
+        let tr = k % tr_div == 0;
         // o[k] as rows over X (new or held register 0).
         let mut o = DMatrix::<f64>::zeros(2, nx);
         if yaw {
@@ -307,20 +280,10 @@ pub fn closed_loop(
         })
         .collect();
     // Leave out as many modes nearest mu = 1 as the continuous loop has zero eigenvalues.
-    let nz = free_rolling_modes(plant, cfg);
-    modes.sort_by(|a, b| {
-        (a.mu - 1.0)
-            .norm()
-            .partial_cmp(&(b.mu - 1.0).norm())
-            .unwrap_or(std::cmp::Ordering::Equal)
-    });
-    let excluded: Vec<Mode> = modes.drain(..nz.min(modes.len())).collect();
-    // Drop the structurally zero eigenvalues of unused controller states.
-    modes.sort_by(|a, b| {
-        b.radius
-            .partial_cmp(&a.radius)
-            .unwrap_or(std::cmp::Ordering::Equal)
-    });
+    let nz = count_zeros(&continuous_closed_loop_all(plant, cfg));
+    modes.sort_by(|a, b| (a.mu - 1.0).norm().total_cmp(&(b.mu - 1.0).norm()));
+    modes.drain(..nz.min(modes.len()));
+    modes.sort_by(|a, b| b.radius.total_cmp(&a.radius));
     let spectral_radius = modes.first().map_or(0.0, |m| m.radius);
     let worst = modes
         .iter()
@@ -341,7 +304,6 @@ pub fn closed_loop(
         });
     Ok(ClosedLoop {
         modes,
-        excluded,
         spectral_radius,
         worst,
     })
@@ -352,11 +314,7 @@ pub fn closed_loop(
 pub fn continuous_closed_loop(plant: &LinearPlant, cfg: &Config) -> Vec<Complex<f64>> {
     let mut ev: Vec<Complex<f64>> = continuous_closed_loop_all(plant, cfg);
     let nz = count_zeros(&ev);
-    ev.sort_by(|x, y| {
-        x.norm()
-            .partial_cmp(&y.norm())
-            .unwrap_or(std::cmp::Ordering::Equal)
-    });
+    ev.sort_by(|x, y| x.norm().total_cmp(&y.norm()));
     ev.drain(..nz.min(ev.len()));
     ev
 }
@@ -413,12 +371,6 @@ pub fn continuous_matrix(plant: &LinearPlant, cfg: &Config) -> DMatrix<f64> {
 fn count_zeros(ev: &[Complex<f64>]) -> usize {
     let scale = ev.iter().map(|e| e.norm()).fold(1.0, f64::max);
     ev.iter().filter(|e| e.norm() < 1e-9 * scale).count()
-}
-
-/// The number of free-rolling modes: zero eigenvalues of the continuous closed loop.
-pub fn free_rolling_modes(plant: &LinearPlant, cfg: &Config) -> usize {
-    let ev = continuous_closed_loop_all(plant, cfg);
-    count_zeros(&ev)
 }
 
 fn continuous_closed_loop_all(plant: &LinearPlant, cfg: &Config) -> Vec<Complex<f64>> {

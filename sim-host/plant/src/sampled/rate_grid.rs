@@ -146,18 +146,17 @@ fn worst_continuous(ev: &[Complex<f64>]) -> (f64, f64) {
 }
 
 fn worst_sampled(cl: &ClosedLoop) -> (f64, f64) {
-    let unstable_real = cl
-        .modes
+    cl.modes
         .iter()
         .filter(|m| m.freq_hz <= 1e-6 && m.radius >= 1.0)
         .map(|m| (-1.0 - (m.radius - 1.0), 0.0))
-        .fold((1.0, 0.0), |a, z| if z.0 < a.0 { z } else { a });
-    let osc = (cl.worst.zeta, cl.worst.freq_hz);
-    if unstable_real.0 < osc.0 {
-        unstable_real
-    } else {
-        osc
-    }
+        .fold((cl.worst.zeta, cl.worst.freq_hz), |a, z| {
+            if z.0 < a.0 {
+                z
+            } else {
+                a
+            }
+        })
 }
 
 /// The current loop's fast mode: the PI of `cfg` on the armature circuit alone with
@@ -184,11 +183,7 @@ pub fn current_loop_mode(
         .modes
         .iter()
         .filter(|m| m.s.norm() > 50.0)
-        .max_by(|a, b| {
-            a.radius
-                .partial_cmp(&b.radius)
-                .unwrap_or(std::cmp::Ordering::Equal)
-        })
+        .max_by(|a, b| a.radius.total_cmp(&b.radius))
         .copied()
         .unwrap_or(cur.worst))
 }

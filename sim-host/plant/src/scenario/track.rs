@@ -56,7 +56,7 @@ fn lerp_over(a: &Knot, b: &Knot, span_ns: f64, t_ns: u64) -> (f64, f64) {
 /// [`track_at`] for monotone times, remembering the span of the last look-up over which
 /// the value holds (before the first knot, after the last, on a level segment) or one
 /// sloped segment interpolates; inside it a look-up is one comparison, the values
-/// bit-identical to [`track_at`]'s.
+/// bit-identical to [`track_at`]'s (default: at the start, an empty span).
 #[derive(Debug, Clone, Copy, Default)]
 pub struct TrackCursor {
     hint: usize,
@@ -68,12 +68,6 @@ pub struct TrackCursor {
 }
 
 impl TrackCursor {
-    /// A cursor at the start (empty span).
-    #[must_use]
-    pub fn new() -> Self {
-        Self::default()
-    }
-
     /// Curvature `1/R` (1/m) and cant (rad) at `t_ns`, as [`track_at`].
     #[inline]
     pub fn at(&mut self, track: &[Knot], t_ns: u64) -> (f64, f64) {
@@ -144,7 +138,7 @@ mod tests {
         for track in &tracks {
             let end = track.last().map_or(20_000, |k| k.t_ns + 20_000);
             let step = (end / 20_000).max(1);
-            let mut cur = TrackCursor::new();
+            let mut cur = TrackCursor::default();
             let mut spans = 0;
             let mut t = 0;
             while t <= end {
@@ -165,7 +159,7 @@ mod tests {
                 let near = (knot.t_ns.saturating_sub(2))..=(knot.t_ns + 2);
                 for p in near.clone() {
                     for q in near.clone() {
-                        let mut cur = TrackCursor::new();
+                        let mut cur = TrackCursor::default();
                         let _ = cur.at(track, p);
                         let (a, b) = (cur.at(track, q), track_at(track, q, &mut 0));
                         assert_eq!(

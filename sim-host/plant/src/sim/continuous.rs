@@ -2,6 +2,7 @@
 //! shared with the sampled run.
 
 use super::*;
+use crate::adhesion::{Adhesion, Condition};
 use crate::control::{ContinuousController, Exogenous, YawLaw};
 use crate::plant::{ix, Flags, Plant, PlantConfig, State};
 use crate::scenario::{Scenario, TrackCursor};
@@ -32,11 +33,11 @@ pub(super) struct Setup<'a> {
     pub(super) track: TrackCursor,
     /// `(condition, v, peak)` of the last [`Setup::mu_avail`] (recomputed when the
     /// condition changes or the speed moves by more than 1 mm/s).
-    pub(super) peak_cache: Option<(crate::adhesion::Condition, f64, f64)>,
+    pub(super) peak_cache: Option<(Condition, f64, f64)>,
     /// `(t_ns, curvature, cant)` of the last step's end: the next step's start.
     pub(super) track_end: Option<(u64, f64, f64)>,
     /// The rail condition of the last [`Setup::adhesion`], `None` before the first.
-    pub(super) condition: Option<Option<crate::adhesion::Condition>>,
+    pub(super) condition: Option<Option<Condition>>,
 }
 
 impl<'a> Setup<'a> {
@@ -49,7 +50,7 @@ impl<'a> Setup<'a> {
         Setup {
             sc,
             plant: Plant::new(&sc.params, cfg),
-            track: TrackCursor::new(),
+            track: TrackCursor::default(),
             peak_cache: None,
             track_end: None,
             condition: None,
@@ -57,8 +58,11 @@ impl<'a> Setup<'a> {
     }
 
     /// Puts the rail condition of `t_ns` on the setup's plant and returns the law.
-    pub(super) fn adhesion(&mut self, t_ns: u64) -> Option<crate::adhesion::Adhesion> {
-        let a = self.sc.adhesion_at(t_ns);
+    pub(super) fn adhesion(&mut self, t_ns: u64) -> Option<Adhesion> {
+        let a = self
+            .sc
+            .condition_at(t_ns)
+            .map(|c| Adhesion::new(c, self.sc.params.q()));
         self.plant.adhesion = a;
         self.condition = Some(a.map(|a| a.condition));
         a
@@ -66,10 +70,7 @@ impl<'a> Setup<'a> {
 
     /// [`Setup::adhesion`] if the rail condition of `t_ns` is new since the last call, else `None`.
     #[inline(always)]
-    pub(super) fn adhesion_change(
-        &mut self,
-        t_ns: u64,
-    ) -> Option<Option<crate::adhesion::Adhesion>> {
+    pub(super) fn adhesion_change(&mut self, t_ns: u64) -> Option<Option<Adhesion>> {
         if self.condition == Some(self.sc.condition_at(t_ns)) {
             return None;
         }
@@ -144,11 +145,7 @@ impl<'a> Setup<'a> {
             t_ctrl_nm: t_ctrl,
             t_spring_nm: t_spring,
             w_r_radps: x[ix::WR],
-            w_l_radps: if self.plant.cfg.axle == crate::scenario::Axle::Rigid {
-                x[ix::WR]
-            } else {
-                x[ix::WL]
-            },
+            w_l_radps: self.plant.w_l(self.plant.cfg, x),
             w_m_radps: x[ix::WM],
             twist_rad: x[ix::TWIST],
             wind_rad: x[ix::WIND],
@@ -176,18 +173,14 @@ pub(super) fn steps(sc: &Scenario) -> (u64, u64) {
 /// Runs `sc` with the continuous-time controllers (yaw `law`, PI current loop when the
 /// drive is modelled). The plant has the passive spring only for [`YawLaw::Passive`].
 pub fn run_continuous(sc: &Scenario, law: YawLaw) -> Trajectory {
-    run_continuous_with(sc, ContinuousController::new(&sc.params, law))
-}
-
-/// As [`run_continuous`] with an explicit controller (e.g. a reversed sign in tests).
-pub fn run_continuous_with(sc: &Scenario, ctrl: ContinuousController) -> Trajectory {
     let (n_steps, every) = steps(sc);
     let mut records = Vec::with_capacity((n_steps / every + 2) as usize);
+    let ctrl = ContinuousController::new(&sc.params, law);
     let info = run_continuous_each(sc, ctrl, |r| records.push(r));
     Trajectory { records, info }
 }
 
-/// [`run_continuous_with`] handing each record to `on_record` in time order, keeping none.
+/// [`run_continuous`] with `ctrl`, each record to `on_record` in time order, none kept.
 pub fn run_continuous_each(
     sc: &Scenario,
     ctrl: ContinuousController,
@@ -206,10 +199,14 @@ fn continuous<F: Flags>(
     let sc = s.sc;
     let mut plant = s.plant;
     let drive = sc.drive;
-    let mut x = plant.rolling_state(sc.params.v);
-    if drive {
-        x[ix::PI] = plant.back_emf(&x);
-    }
+    let mut x = crate::linear::operating_point(&plant, &sc.params);
+    let voltage = |c: &ContinuousController, x: &State, i_ref| {
+        if drive {
+            c.voltage(x, i_ref)
+        } else {
+            0.0
+        }
+    };
     let (n_steps, every) = steps(sc);
     let h = sc.dt_ns as f64 * 1e-9;
     let mut diverged_at = None;
@@ -231,11 +228,7 @@ fn continuous<F: Flags>(
         };
         if k == next_record {
             next_record += every;
-            let u_a = if drive {
-                ctrl.voltage(&x, e.i_ref)
-            } else {
-                0.0
-            };
+            let u_a = voltage(&ctrl, &x, e.i_ref);
             on_record(s.record(t_ns, x, e, ctrl.yaw_torque(&x), u_a));
             if diverged(x) {
                 diverged_at = Some(t_ns as f64 * 1e-9);
@@ -265,11 +258,7 @@ fn continuous<F: Flags>(
         let t_end = n_steps * sc.dt_ns;
         let e = s.exo(t_end);
         s.adhesion(t_end);
-        let u_a = if drive {
-            ctrl.voltage(&x, e.i_ref)
-        } else {
-            0.0
-        };
+        let u_a = voltage(&ctrl, &x, e.i_ref);
         let g = sc.actuator_fault.map_or(1.0, |f| f.gain(t_end));
         on_record(s.record(t_end, x, e, g * ctrl.yaw_torque(&x), u_a));
     }

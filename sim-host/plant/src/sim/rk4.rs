@@ -59,8 +59,8 @@ impl<F: Flags> Rhs for PlantStages<'_, F> {
 fn plant_state_moves<F: Flags>(f: F, i: usize) -> bool {
     match i {
         ix::LEAD | ix::PI => false,
-        ix::TWIST => f.flexible(),
-        ix::WIND | ix::WM | ix::IA => f.drive(),
+        ix::TWIST => f.cfg().flexible(),
+        ix::WIND | ix::WM | ix::IA => f.cfg().drive,
         _ => true,
     }
 }
@@ -86,7 +86,7 @@ impl<F: Flags> Rhs for ClosedLoopStages<'_, F> {
     fn moves(&self, i: usize) -> bool {
         match i {
             ix::LEAD => true,
-            ix::PI => self.flags.drive(),
+            ix::PI => self.flags.cfg().drive,
             _ => plant_state_moves(self.flags, i),
         }
     }

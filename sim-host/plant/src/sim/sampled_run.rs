@@ -125,16 +125,12 @@ fn measure<F: Flags>(
         ..*u
     };
     let (dx, _) = plant.rhs_with(flags, x, &uu);
-    let w_l = if flags.flexible() {
-        x[ix::WL]
-    } else {
-        x[ix::WR]
-    };
+    let w_l = plant.w_l(flags, x);
     Measurements {
         yd_mps: x[ix::YD],
         ydd_mps2: dx[ix::YD],
         i_a: x[ix::IA],
-        w_m: if flags.drive() {
+        w_m: if flags.cfg().drive {
             x[ix::WM]
         } else {
             plant.n() * 0.5 * (x[ix::WR] + w_l)
@@ -267,11 +263,7 @@ fn sampled<F: Flags>(
         }
         if record || k == n_steps {
             let t_psi = fault(t_ns, &held).t_psi;
-            let mut r = s.record(t_ns, x, e, t_psi, if drive { held.u_a } else { 0.0 });
-            if !drive {
-                r.u_a_v = 0.0;
-            }
-            records.push(r);
+            records.push(s.record(t_ns, x, e, t_psi, if drive { held.u_a } else { 0.0 }));
             if diverged(x) {
                 diverged_at = Some(t_ns as f64 * 1e-9);
                 break;

@@ -161,11 +161,7 @@ impl Trajectory {
 
     /// The record nearest to time `t_s`.
     pub fn at(&self, t_s: f64) -> Option<&Record> {
-        self.records.iter().min_by(|a, b| {
-            (a.t_s - t_s)
-                .abs()
-                .partial_cmp(&(b.t_s - t_s).abs())
-                .unwrap_or(std::cmp::Ordering::Equal)
-        })
+        let d = |r: &Record| (r.t_s - t_s).abs();
+        self.records.iter().min_by(|a, b| d(a).total_cmp(&d(b)))
     }
 }

@@ -235,13 +235,8 @@ impl Plot {
             .map_or(0.0, |n| n as f64 * 6.8 + 34.0)
     }
 
-    /// Renders the panel as an SVG group translated to `(ox, oy)`.
-    pub fn render_group(&self, ox: f64, oy: f64) -> String {
-        self.render_group_with(ox, oy, self.legend_width())
-    }
-
-    /// As [`Plot::render_group`] with the legend column `legend_w` px wide (a figure
-    /// uses its widest legend for every panel so the plotting areas line up).
+    /// The panel as an SVG group translated to `(ox, oy)`, its legend column `legend_w` px
+    /// wide or wider (a figure uses its widest legend so the plotting areas line up).
     pub fn render_group_with(&self, ox: f64, oy: f64, legend_w: f64) -> String {
         let legend_w = legend_w.max(self.legend_width());
         // Slanted category names (40 degrees, [`LABEL_CHAR_PX`] per character)
@@ -460,14 +455,8 @@ impl Plot {
                     cands.push((at - 3.0, y, true));
                 }
             } else {
-                for y in [
-                    at - 3.0,
-                    at + 12.0,
-                    at - 15.0,
-                    at + 24.0,
-                    at - 27.0,
-                    at + 36.0,
-                ] {
+                for dy in [-3.0, 12.0, -15.0, 24.0, -27.0, 36.0] {
+                    let y = at + dy;
                     cands.push((left + 4.0, y, false));
                     cands.push((right - 4.0, y, true));
                 }
