@@ -84,7 +84,7 @@ pub(crate) fn recommend(o: &Observed, p: &Proofs) -> Vec<Recommendation> {
                 .signals
                 .iter()
                 .find(|s| s.name == pr.signal && s.samples > 0)
-                .map(|s| s.min_pu.abs().max(s.max_pu.abs()));
+                .map(|s| s.peak());
             let word = pr.int_bits + pr.frac_bits;
             let note = if word > 32 {
                 format!("; {word} bits exceed an i32")

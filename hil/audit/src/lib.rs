@@ -39,7 +39,7 @@ pub use model::{
     Sweep, Worst,
 };
 pub use per_controller::{audit_controller, grid, NAMED_HZ};
-pub use tolerances::{counts, counts_words, Check, Status, Tolerances};
+pub use tolerances::{counts_words, Check, Status, Tolerances};
 
 use args::{command_line, formats_of};
 use qdyn::{Formats, QDyn};

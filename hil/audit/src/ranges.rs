@@ -171,7 +171,8 @@ pub struct SignalRange {
 }
 
 impl SignalRange {
-    fn peak(&self) -> f64 {
+    /// The largest magnitude, pu.
+    pub fn peak(&self) -> f64 {
         self.min_pu.abs().max(self.max_pu.abs())
     }
 }
