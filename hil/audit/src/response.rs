@@ -72,11 +72,16 @@ impl Kind {
             }
         }
     }
+    /// A filter of the yaw loop (`y'` in, `T_psi` out), not the traction PI.
+    pub fn is_yaw(self) -> bool {
+        self != Kind::TractionPi
+    }
     /// Sample rate of this controller under `cfg`, Hz.
     pub fn rate_hz(self, cfg: &Config) -> f64 {
-        match self {
-            Kind::YawLead | Kind::YawGain | Kind::YawPredictor => 1.0 / cfg.yaw_period(),
-            Kind::TractionPi => 1.0 / cfg.traction_period(),
+        1.0 / if self.is_yaw() {
+            cfg.yaw_period()
+        } else {
+            cfg.traction_period()
         }
     }
     /// SI per per-unit of the output over SI per per-unit of the input: a pu gain times
