@@ -57,8 +57,7 @@ pub fn limit_cycles<T: Sample>(
     }
     let fs = kind.rate_hz(cfg);
     let (s, w) = (&cfg.scales, &cfg.wire);
-    // Burst amplitude, scales, unit and wire LSB of the input; the PI's error is kept well
-    // inside the voltage limits.
+    // The burst's amplitude (the PI's error well inside the voltage limits), scales, unit.
     let (amp, in_fs, out_fs, unit, wire) = if kind.is_yaw() {
         (0.1 * cfg.limits.y_dot, s.y_dot, s.torque, "N m", w.y_dot)
     } else {

@@ -213,7 +213,6 @@ pub fn compare(scenarios: &[(&Scenario, f64)], window: usize, cfg: &Config) -> T
             }
             let m = &mut run.max_code_diff;
             *m = (m.0.max(d.0), m.1.max(d.1));
-            // Each output's largest error against f64 (wire codes: wire LSBs).
             for (m, a) in [
                 (&mut run.target_vs_f64_wire_lsb, &at),
                 (&mut run.host_vs_f64_wire_lsb, &ah),

@@ -180,8 +180,7 @@ pub fn write_plots(a: &Audit, dir: &Path) -> Result<Vec<(String, String)>, Audit
         .filter_map(|(i, s)| {
             a.bounds
                 .iter()
-                .find(|b| b.signal == s.name && s.controller.starts_with(b.controller.as_str()))
-                .or_else(|| a.bounds.iter().find(|b| b.signal == s.name))
+                .find(|b| b.signal == s.name)
                 .map(|b| (i as f64 + 0.5, b.margin_bits))
         })
         .collect();

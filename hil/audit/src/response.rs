@@ -31,16 +31,12 @@ pub enum Kind {
 }
 
 impl Kind {
-    /// The three controllers, in report order.
-    pub const ALL: [Kind; 3] = [Kind::YawLead, Kind::YawGain, Kind::TractionPi];
-
-    /// The filters active under `cfg`: [`Self::ALL`], plus the predictor if enabled.
+    /// The filters active under `cfg`, in report order: the three controllers, then the
+    /// predictor if enabled.
     pub fn active(cfg: &Config) -> Vec<Kind> {
-        let mut v = Self::ALL.to_vec();
-        if cfg.yaw_predict_ticks > 0.0 {
-            v.push(Kind::YawPredictor);
-        }
-        v
+        let predictor = (cfg.yaw_predict_ticks > 0.0).then_some(Kind::YawPredictor);
+        let all = [Kind::YawLead, Kind::YawGain, Kind::TractionPi];
+        all.into_iter().chain(predictor).collect()
     }
     /// Name in the JSON and the report.
     pub fn name(self) -> &'static str {

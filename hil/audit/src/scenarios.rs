@@ -85,7 +85,6 @@ pub fn synthetic(cfg: &Config) -> Vec<Scenario> {
         ticks,
     };
     let mut g = Pcg64::seed_from_u64(0x5eed_a0d1);
-    // Uniform in [-a, a).
     let mut uniform = |a: f64| a * g.random_range(-1.0..1.0);
     let ticks = (0..n(1.0))
         .map(|_| Tick {

@@ -203,7 +203,6 @@ pub fn proven(k: &Quantised, cfg: &Config, q: f64) -> Proven {
     let e = iref + k.i_max;
     let prop = k.kp.abs() * e + h;
     let u = k.u_min.abs().max(k.u_max.abs());
-    // The yaw's signals (m/s, N m) and the traction's, each at its full scale.
     let row = |n: &str, f: Fs, v: f64, proof: &str| {
         let c = match f {
             YDot | Torque => "yaw",
