@@ -92,41 +92,19 @@ impl Frame {
 impl Row {
     /// The row's frame: its Config, with the undefined mode index if it has one.
     pub fn frame(&self) -> Frame {
-        let Some(mode) = self.undefined_mode else {
-            return Frame::of(&Message::Config(self.config));
-        };
-        // The raw frame is `VERSION | type | body`; a Config's body starts with its mode index.
         let mut raw = [0u8; MAX_RAW];
         let n = encode_raw(&Message::Config(self.config), &mut raw).unwrap_or(0);
-        if let Some(b) = raw.get_mut(2) {
+        // The raw frame is `VERSION | type | body`; a Config's body starts with its mode index.
+        if let (Some(mode), Some(b)) = (self.undefined_mode, raw.get_mut(2)) {
             *b = mode;
         }
-        let mut out = Frame {
-            buf: [0; MAX_FRAME],
-            len: 0,
-        };
-        out.len = raw
-            .get(..n)
-            .and_then(|r| frame_raw(r, &mut out.buf).ok())
-            .unwrap_or(0);
-        out
+        let mut buf = [0; MAX_FRAME];
+        let len = raw.get(..n).and_then(|r| frame_raw(r, &mut buf).ok());
+        Frame {
+            buf,
+            len: len.unwrap_or(0),
+        }
     }
-}
-
-/// The runtime configuration at these rates with the paper's gains re-discretised: not a
-/// design unless 5 kHz / 1 / 1 ([`designed`] is).
-pub fn at_rates(base_rate_hz: u32, yaw_div: u16, traction_div: u16) -> RuntimeConfig {
-    let mut c = RuntimeConfig::default();
-    c.control.base_rate_hz = base_rate_hz;
-    c.control.yaw_divisor = yaw_div;
-    c.control.traction_divisor = traction_div;
-    c.control.yaw_predict_ticks = 1.0 + f64::from(yaw_div) / 2.0;
-    c
-}
-
-/// The runtime configuration designed for the rate and delay; errors: not a design point.
-pub fn designed(base_rate_hz: u32, delay_ticks: u8) -> Result<RuntimeConfig, RuntimeError> {
-    RuntimeConfig::default().designed(base_rate_hz, delay_ticks)
 }
 
 /// The nominal Config: lead, traction, outputs on, default hold and rates ([`rates_for`]).
@@ -221,8 +199,20 @@ pub fn rows<T: SampleBits>(mut each: impl FnMut(Row)) -> Result<(), RuntimeError
     let n = T::NUMERIC;
     let base = nominal::<T>()?;
     let good = rates_for::<T>(&RuntimeConfig::default())?;
-    let at = |hz, yd, td| rates_for::<T>(&at_rates(hz, yd, td));
-    let with = |c: RuntimeConfig| rates_for::<T>(&c);
+    // The paper's gains re-discretised at these rates: not a design unless 5 kHz / 1 / 1.
+    let at = |base_rate_hz, yaw_divisor: u16, traction_divisor| {
+        let mut c = RuntimeConfig::default();
+        c.control = wheelset_control::Config {
+            base_rate_hz,
+            yaw_divisor,
+            traction_divisor,
+            yaw_predict_ticks: 1.0 + f64::from(yaw_divisor) / 2.0,
+            ..c.control
+        };
+        rates_for::<T>(&c)
+    };
+    // The rates designed for the rate and delay (an error: not a design point).
+    let design = |hz, d| rates_for::<T>(&RuntimeConfig::default().designed(hz, d)?);
     let field = R::field;
     let no = Expect::Refused;
     let yes = |visible| Expect::Applied { visible };
@@ -294,7 +284,7 @@ pub fn rows<T: SampleBits>(mut each: impl FnMut(Row)) -> Result<(), RuntimeError
     for (change, v) in [("0", 0), ("4 at 5 kHz", 4), ("255", u8::MAX)] {
         refuse(R::Delay, change, &|r| r.delay_ticks = v);
     }
-    let k1 = with(designed(1_000, 1)?)?;
+    let k1 = design(1_000, 1)?;
     // An active yaw law where only the traction loop is designed: the passive law only.
     let y = field(R::YawNotDesigned);
     for (change, hz, d, mode) in [
@@ -305,7 +295,7 @@ pub fn rows<T: SampleBits>(mut each: impl FnMut(Row)) -> Result<(), RuntimeError
     ] {
         let c = Config {
             mode,
-            ..wr(with(designed(hz, d)?)?)
+            ..wr(design(hz, d)?)
         };
         row(y, change, c, no(R::YawNotDesigned));
     }
@@ -326,7 +316,7 @@ pub fn rows<T: SampleBits>(mut each: impl FnMut(Row)) -> Result<(), RuntimeError
         hold(u16::MAX, Some(good)),
         no(R::HoldTicks),
     );
-    let k10 = with(designed(10_000, 1)?)?;
+    let k10 = design(10_000, 1)?;
     row(h, "200 (20 ms at 10 kHz)", hold(200, Some(k10)), yes(true));
     row(h, "201 at 10 kHz", hold(201, Some(k10)), no(R::HoldTicks));
     row(h, "20 (20 ms at 1 kHz)", hold(20, Some(k1)), yes(true));
@@ -396,11 +386,7 @@ pub fn rows<T: SampleBits>(mut each: impl FnMut(Row)) -> Result<(), RuntimeError
         })
     };
     let rates = "rates";
-    let (k2, k5d2, k10d3) = (
-        with(designed(2_000, 1)?)?,
-        with(designed(5_000, 2)?)?,
-        with(designed(10_000, 3)?)?,
-    );
+    let (k2, k5d2, k10d3) = (design(2_000, 1)?, design(5_000, 2)?, design(10_000, 3)?);
     for (change, config, why) in [
         (
             "1 kHz with the paper's gains re-discretised (its current loop unstable)",
@@ -488,7 +474,7 @@ pub fn rows<T: SampleBits>(mut each: impl FnMut(Row)) -> Result<(), RuntimeError
             "a design point, as rates_for computes it",
             Config {
                 mode,
-                ..wr(with(designed(hz, d)?)?)
+                ..wr(design(hz, d)?)
             },
             yes((hz, d) != (5_000, 1)),
         );

@@ -148,7 +148,7 @@ pub fn observed_checks(o: &Observed, tol: &Tolerances) -> Vec<Check> {
                  {:.2} bits) in scenario {}",
                 s.name,
                 s.overflows,
-                s.min_pu.abs().max(s.max_pu.abs()),
+                s.peak(),
                 s.headroom_bits,
                 s.worst_scenario
             );

@@ -1,15 +1,14 @@
-//! Format proposals: the word-length bisection over the signal format and the
-//! recommended formats per signal.
+//! The word-length bisection over the signal format (the recommended formats per signal
+//! come from the proofs, [`super::bounds::prove`]).
 
 use wheelset_control::Config;
 
-use super::bounds::Proofs;
 use super::checks::all_checks;
 use super::core_dyn;
-use super::model::{CoefRow, Recommendation, Sweep};
+use super::model::{CoefRow, Sweep};
 use super::per_controller::NAMED_HZ;
 use super::qdyn::{Formats, QFormat};
-use super::ranges::{self, Observed};
+use super::ranges;
 use super::tolerances::{Status, Tolerances};
 
 /// Bisection over the signal fraction bits (integer bits as audited) for the smallest
@@ -70,40 +69,4 @@ pub(crate) fn sweep(cfg: &Config, tol: &Tolerances, fmt: &Formats, coefs: &[Coef
         tried,
         min_coef_frac_bits: min_coef,
     }
-}
-
-/// Recommended formats per signal, from the proofs ([`super::bounds`]): the fewest integer
-/// bits (incl. sign) with `2^(i-1)` above the *proven* bound, the fewest fraction bits
-/// keeping the proven rounding error of the chain's output within half a wire LSB.
-pub(crate) fn recommend(o: &Observed, p: &Proofs) -> Vec<Recommendation> {
-    p.proposals
-        .iter()
-        .zip(&p.bounds)
-        .map(|(pr, b)| {
-            let peak = o
-                .signals
-                .iter()
-                .find(|s| s.name == pr.signal && s.samples > 0)
-                .map(|s| s.min_pu.abs().max(s.max_pu.abs()));
-            let word = pr.int_bits + pr.frac_bits;
-            let note = if word > 32 {
-                format!("; {word} bits exceed an i32")
-            } else {
-                String::new()
-            };
-            Recommendation {
-                signal: pr.signal.clone(),
-                controller: b.controller.clone(),
-                peak_pu: peak.unwrap_or(0.0),
-                observed: peak.is_some(),
-                proven_max_pu: pr.proven_max_pu,
-                int_bits: pr.int_bits,
-                frac_bits: pr.frac_bits,
-                word,
-                format: pr.format.clone(),
-                margin: format!("integer bits from the proven bound{note}"),
-                guarantee: pr.guarantee.clone(),
-            }
-        })
-        .collect()
 }

@@ -39,7 +39,7 @@ pub use model::{
     Sweep, Worst,
 };
 pub use per_controller::{audit_controller, grid, NAMED_HZ};
-pub use tolerances::{counts, counts_words, Check, Status, Tolerances};
+pub use tolerances::{counts_words, Check, Status, Tolerances};
 
 use args::{command_line, formats_of};
 use qdyn::{Formats, QDyn};
@@ -250,7 +250,6 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
             }
         }
     };
-    let recommendations = formats::recommend(&c.observed, &proofs);
     let diagnosis = if production {
         let steps = scenarios.iter().find(|s| s.name == "full_scale_steps");
         Some(diagnose::Diagnosis {
@@ -375,7 +374,7 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
         linear_parts: proofs.linear_parts,
         proof_statement: proofs.statement,
         overflow_free: proofs.overflow_free,
-        recommendations,
+        recommendations: proofs.recommendations,
         closed_loop,
         diagnosis,
         sweep,

@@ -56,36 +56,21 @@ pub fn limit_cycles<T: Sample>(
         return Ok(Vec::new());
     }
     let fs = kind.rate_hz(cfg);
-    let (clamp, in_fs, out_fs, unit) = match kind {
-        Kind::YawLead | Kind::YawGain | Kind::YawPredictor => {
-            (cfg.limits.y_dot, cfg.scales.y_dot, cfg.scales.torque, "N m")
-        }
-        Kind::TractionPi => (
-            // The PI's error is kept well inside the voltage limits.
-            5.0,
-            cfg.scales.current,
-            cfg.scales.voltage,
-            "V",
-        ),
+    let (s, w) = (&cfg.scales, &cfg.wire);
+    // The burst's amplitude (the PI's error well inside the voltage limits), scales, unit.
+    let (amp, in_fs, out_fs, unit, wire) = if kind.is_yaw() {
+        (0.1 * cfg.limits.y_dot, s.y_dot, s.torque, "N m", w.y_dot)
+    } else {
+        (5.0, s.current, s.voltage, "V", w.current)
     };
     let burst = (0.2 * fs) as usize;
     let hold_n = (2.0 * fs) as usize;
     let win = (1.0 * fs) as usize;
-    let amp = match kind {
-        Kind::TractionPi => clamp,
-        _ => 0.1 * clamp,
-    };
     let holds = [
         (0.0, "zero".to_string()),
         (in_fs * lsb, "1 LSB of the signal format".to_string()),
         (in_fs * 3.0 * lsb, "3 LSB of the signal format".to_string()),
-        (
-            match kind {
-                Kind::TractionPi => cfg.wire.current,
-                _ => cfg.wire.y_dot,
-            },
-            "1 wire LSB".to_string(),
-        ),
+        (wire, "1 wire LSB".to_string()),
     ];
     let mut out = Vec::new();
     for (x_hold, label) in holds {

@@ -211,22 +211,18 @@ pub fn compare(scenarios: &[(&Scenario, f64)], window: usize, cfg: &Config) -> T
             if d != (0, 0) {
                 run.mismatches += 1;
             }
-            run.max_code_diff = (run.max_code_diff.0.max(d.0), run.max_code_diff.1.max(d.1));
-            let e = |a: &Actuation| {
-                (
-                    (a.t_psi_dnm as f64 - of.yaw_torque as f64).abs(),
-                    (a.u_a_cv as f64 - of.voltage as f64).abs(),
-                )
-            };
-            let (et, eh) = (e(&at), e(&ah));
-            run.target_vs_f64_wire_lsb = (
-                run.target_vs_f64_wire_lsb.0.max(et.0),
-                run.target_vs_f64_wire_lsb.1.max(et.1),
-            );
-            run.host_vs_f64_wire_lsb = (
-                run.host_vs_f64_wire_lsb.0.max(eh.0),
-                run.host_vs_f64_wire_lsb.1.max(eh.1),
-            );
+            let m = &mut run.max_code_diff;
+            *m = (m.0.max(d.0), m.1.max(d.1));
+            for (m, a) in [
+                (&mut run.target_vs_f64_wire_lsb, &at),
+                (&mut run.host_vs_f64_wire_lsb, &ah),
+            ] {
+                let e = |x: i32, y: i32| (f64::from(x) - f64::from(y)).abs();
+                *m = (
+                    m.0.max(e(a.t_psi_dnm, of.yaw_torque)),
+                    m.1.max(e(a.u_a_cv, of.voltage)),
+                );
+            }
             if k > 0 {
                 exec_sum += at.exec as f64;
             }

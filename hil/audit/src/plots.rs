@@ -161,12 +161,7 @@ pub fn write_plots(a: &Audit, dir: &Path) -> Result<Vec<(String, String)>, Audit
     let peaks: Vec<(f64, f64)> = sigs
         .iter()
         .enumerate()
-        .map(|(i, s)| {
-            (
-                i as f64 + 0.5,
-                s.min_pu.abs().max(s.max_pu.abs()).max(1e-12).log2(),
-            )
-        })
+        .map(|(i, s)| (i as f64 + 0.5, s.peak().max(1e-12).log2()))
         .collect();
     let range = a.formats.signal.range().log2();
     // The range table's names; the y range holds the format's range line and the peaks.
@@ -185,8 +180,7 @@ pub fn write_plots(a: &Audit, dir: &Path) -> Result<Vec<(String, String)>, Audit
         .filter_map(|(i, s)| {
             a.bounds
                 .iter()
-                .find(|b| b.signal == s.name && s.controller.starts_with(b.controller.as_str()))
-                .or_else(|| a.bounds.iter().find(|b| b.signal == s.name))
+                .find(|b| b.signal == s.name)
                 .map(|b| (i as f64 + 0.5, b.margin_bits))
         })
         .collect();

@@ -217,13 +217,7 @@ impl Sample for QDyn {
     }
     /// Mirrors `Fx::mul_c_acc`: floor with the remainder carried (error feedback).
     fn mul_c_acc(self, c: QCoef, r: &mut i64) -> Self {
-        let fm = formats();
-        let cf = fm.coef.frac_bits;
-        let p = self.0 as i128 * c.0 as i128 + *r as i128;
-        let mask = (1i128 << cf) - 1;
-        *r = (p & mask) as i64;
-        let q = (p >> cf).clamp(i64::MIN as i128, i64::MAX as i128) as i64;
-        QDyn(sat(q, &fm.signal))
+        self.mul_c_acc_shr(c, 0, r)
     }
     const ACC_SHIFT_MAX: u32 = 30;
     /// Mirrors `Fx::acc_shift`: the largest `s` in `1..=30` with `c_max 2^s` still a
@@ -246,7 +240,7 @@ impl Sample for QDyn {
         (1..=Self::ACC_SHIFT_MAX).contains(&s)
     }
     /// Mirrors `Fx::mul_c_acc_shr`: `floor((x c + r) / 2^(Fc+s))` with the remainder
-    /// carried.
+    /// carried (`mul_c_acc` at `s = 0`).
     fn mul_c_acc_shr(self, c: QCoef, s: u32, r: &mut i64) -> Self {
         let fm = formats();
         let k = fm.coef.frac_bits + s;

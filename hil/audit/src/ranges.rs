@@ -119,8 +119,9 @@ const SIGNALS: [(&str, &str, Fs, bool); 21] = [
     ),
 ];
 
+/// A signal's full scale in [`Config::scales`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Fs {
+pub(crate) enum Fs {
     YDot,
     Torque,
     Current,
@@ -128,7 +129,8 @@ enum Fs {
     Voltage,
 }
 
-fn fs_of(f: Fs, c: &Config) -> (f64, &'static str) {
+/// The full scale (SI per pu) and SI unit of `f`.
+pub(crate) fn fs_of(f: Fs, c: &Config) -> (f64, &'static str) {
     let s = &c.scales;
     match f {
         Fs::YDot => (s.y_dot, "m/s"),
@@ -171,7 +173,8 @@ pub struct SignalRange {
 }
 
 impl SignalRange {
-    fn peak(&self) -> f64 {
+    /// The largest magnitude, pu.
+    pub fn peak(&self) -> f64 {
         self.min_pu.abs().max(self.max_pu.abs())
     }
 }
@@ -268,7 +271,7 @@ pub struct Observed {
 }
 
 /// Quantise an input; a non-finite one becomes 0 (`Fx::from_f64` panics on NaN).
-fn q<T: Sample>(v: f64) -> T {
+pub(crate) fn q<T: Sample>(v: f64) -> T {
     T::from_f64(if v.is_finite() { v } else { 0.0 })
 }
 

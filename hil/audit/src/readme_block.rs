@@ -7,7 +7,7 @@ use std::fmt::Write as _;
 use super::model::{CoefRow, ControllerAudit};
 use super::ranges::Phase;
 use super::writeup_sections::{bounds_table, error_bounds_table, Detail};
-use super::{Audit, Status};
+use super::Audit;
 use wheelset_report::table::Table;
 
 /// The command the block comes from.
@@ -190,15 +190,8 @@ pub fn block(a: &Audit) -> String {
         a.verdict.as_str().to_uppercase(),
         super::counts_words(&a.checks)
     );
-    for c in a.checks.iter().filter(|c| c.status != Status::Pass) {
-        let _ = writeln!(
-            w,
-            "- {} `{}` {}: {}",
-            c.status_word(),
-            c.controller,
-            c.item,
-            c.reason_and_remedy()
-        );
+    for l in super::writeup::not_passed(a, false) {
+        let _ = writeln!(w, "{l}");
     }
     s
 }

@@ -31,16 +31,12 @@ pub enum Kind {
 }
 
 impl Kind {
-    /// The three controllers, in report order.
-    pub const ALL: [Kind; 3] = [Kind::YawLead, Kind::YawGain, Kind::TractionPi];
-
-    /// The filters active under `cfg`: [`Self::ALL`], plus the predictor if enabled.
+    /// The filters active under `cfg`, in report order: the three controllers, then the
+    /// predictor if enabled.
     pub fn active(cfg: &Config) -> Vec<Kind> {
-        let mut v = Self::ALL.to_vec();
-        if cfg.yaw_predict_ticks > 0.0 {
-            v.push(Kind::YawPredictor);
-        }
-        v
+        let predictor = (cfg.yaw_predict_ticks > 0.0).then_some(Kind::YawPredictor);
+        let all = [Kind::YawLead, Kind::YawGain, Kind::TractionPi];
+        all.into_iter().chain(predictor).collect()
     }
     /// Name in the JSON and the report.
     pub fn name(self) -> &'static str {
@@ -72,11 +68,16 @@ impl Kind {
             }
         }
     }
+    /// A filter of the yaw loop (`y'` in, `T_psi` out), not the traction PI.
+    pub fn is_yaw(self) -> bool {
+        self != Kind::TractionPi
+    }
     /// Sample rate of this controller under `cfg`, Hz.
     pub fn rate_hz(self, cfg: &Config) -> f64 {
-        match self {
-            Kind::YawLead | Kind::YawGain | Kind::YawPredictor => 1.0 / cfg.yaw_period(),
-            Kind::TractionPi => 1.0 / cfg.traction_period(),
+        1.0 / if self.is_yaw() {
+            cfg.yaw_period()
+        } else {
+            cfg.traction_period()
         }
     }
     /// SI per per-unit of the output over SI per per-unit of the input: a pu gain times

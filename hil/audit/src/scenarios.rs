@@ -16,7 +16,6 @@ pub fn synthetic(cfg: &Config) -> Vec<Scenario> {
     let n = |s: f64| (s * fs).round() as usize;
     let mut t = Vec::new();
     let levels = [1.0, -1.0, 1.5, -1.5, 0.0, 1.0, -1.0, 0.0];
-    let iref_max = l.demand / (cfg.motor.n * cfg.motor.k_m);
     for (k, lv) in levels.iter().enumerate() {
         for j in 0..n(0.2) {
             let mut tk = Tick {
@@ -54,7 +53,6 @@ pub fn synthetic(cfg: &Config) -> Vec<Scenario> {
             },
         });
     }
-    let _ = iref_max;
     let steps = Scenario {
         unstable: None,
         name: "full_scale_steps".into(),
@@ -87,7 +85,6 @@ pub fn synthetic(cfg: &Config) -> Vec<Scenario> {
         ticks,
     };
     let mut g = Pcg64::seed_from_u64(0x5eed_a0d1);
-    // Uniform in [-a, a).
     let mut uniform = |a: f64| a * g.random_range(-1.0..1.0);
     let ticks = (0..n(1.0))
         .map(|_| Tick {

@@ -152,29 +152,22 @@ impl Check {
     }
 }
 
-/// The counts of a verdict line: `(pass, warn, fail, not run)`; a check not run counts
-/// only as not run.
+/// The counts of a verdict line in words: `136 pass, 1 warn, 0 fail` and `, 1 not run`
+/// when any did not run (a check not run counts only as not run).
 #[must_use]
-pub fn counts(checks: &[Check]) -> (usize, usize, usize, usize) {
-    let n = |st: Status| {
+pub fn counts_words(checks: &[Check]) -> String {
+    let n = |st| {
         checks
             .iter()
             .filter(|c| c.status == st && !c.not_run)
             .count()
     };
-    let not_run = checks.iter().filter(|c| c.not_run).count();
-    (n(Status::Pass), n(Status::Warn), n(Status::Fail), not_run)
-}
-
-/// The counts in words: `136 pass, 1 warn, 0 fail` and `, 1 not run` when any did not run.
-#[must_use]
-pub fn counts_words(checks: &[Check]) -> String {
-    let (p, w, f, n) = counts(checks);
-    let mut s = format!("{p} pass, {w} warn, {f} fail");
-    if n > 0 {
-        s += &format!(", {n} not run");
+    let (p, w, f) = (n(Status::Pass), n(Status::Warn), n(Status::Fail));
+    let s = format!("{p} pass, {w} warn, {f} fail");
+    match checks.iter().filter(|c| c.not_run).count() {
+        0 => s,
+        n => s + &format!(", {n} not run"),
     }
-    s
 }
 
 pub(crate) fn judge(

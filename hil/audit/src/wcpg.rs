@@ -61,6 +61,16 @@ impl Siso {
         }
     }
 
+    /// The first-order recursion `y[n] = a y[n-1] + b u[n]` (state `y[n-1]`).
+    pub fn recursive(a: f64, b: f64) -> Self {
+        Self {
+            a: vec![vec![a]],
+            b: vec![b],
+            c: vec![a],
+            d: b,
+        }
+    }
+
     /// The same system with the output scaled by `k` (`C k`, `D k`).
     pub fn scaled(&self, k: f64) -> Self {
         Self {
@@ -191,13 +201,7 @@ mod tests {
     fn first_order_low_pass_has_the_geometric_sum() {
         // y[n] = a y[n-1] + b u[n]: s = y[n-1], y = a s + b u: h = b, a b, a^2 b, ...
         let (a, b) = (0.9, 0.3);
-        let s = Siso {
-            a: vec![vec![a]],
-            b: vec![b],
-            c: vec![a],
-            d: b,
-        };
-        let w = wcpg(&s).unwrap();
+        let w = wcpg(&Siso::recursive(a, b)).unwrap();
         let exact = b / (1.0 - a);
         assert!(
             w.value >= exact && w.value - exact < 1e-9,
@@ -231,13 +235,7 @@ mod tests {
 
     #[test]
     fn an_integrator_has_no_finite_wcpg() {
-        let s = Siso {
-            a: vec![vec![1.0]],
-            b: vec![1.0],
-            c: vec![1.0],
-            d: 1.0,
-        };
-        assert!(wcpg(&s).is_none());
+        assert!(wcpg(&Siso::recursive(1.0, 1.0)).is_none());
         assert_eq!(wcpg(&Siso::gain(-2.5)).unwrap().value, 2.5);
     }
 }

@@ -26,6 +26,16 @@ fn verdict_line(a: &Audit) -> String {
     )
 }
 
+/// One check's line of the terminal and the full text: status, controller, item, `text`.
+fn check_line(c: &super::Check, text: &str) -> String {
+    format!(
+        "  {:<4} {:<12} {}: {text}\n",
+        c.status.as_str(),
+        c.controller,
+        c.item
+    )
+}
+
 /// The full text: one line per controller with the headline figures, the noise per
 /// scenario, the proofs, then every check with its reason and remedy, then the verdict
 /// (the report's `audit.txt`).
@@ -59,14 +69,7 @@ fn full_text(a: &Audit) -> String {
     }
     let _ = writeln!(s, "  {}", a.target.note);
     for c in &a.checks {
-        let _ = writeln!(
-            s,
-            "  {:<4} {:<12} {}: {}",
-            c.status.as_str(),
-            c.controller,
-            c.item,
-            c.reason_and_remedy()
-        );
+        s += &check_line(c, &c.reason_and_remedy());
     }
     s + &verdict_line(a)
 }
@@ -131,13 +134,7 @@ pub fn summary(a: &Audit, report: Option<&Path>, quiet: bool) -> String {
         } else {
             format!("{:.3} {}", c.value, c.unit)
         };
-        let _ = writeln!(
-            s,
-            "  {:<4} {:<12} {}: {value}",
-            c.status.as_str(),
-            c.controller,
-            c.item
-        );
+        s += &check_line(c, &value);
     }
     let _ = match report {
         Some(d) => writeln!(
@@ -181,24 +178,9 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
         a.formats.coef.lsb(),
         a.sample_type
     );
-    let bad: Vec<_> = a
-        .checks
-        .iter()
-        .filter(|c| c.status != Status::Pass)
-        .collect();
+    let bad: Vec<String> = not_passed(a, true).collect();
     if !bad.is_empty() {
-        let _ = writeln!(w, "Checks not passed:\n");
-        for c in bad {
-            let _ = writeln!(
-                w,
-                "- **{}** `{}` {}: {}",
-                c.status_word(),
-                c.controller,
-                c.item,
-                c.reason_and_remedy()
-            );
-        }
-        let _ = writeln!(w);
+        let _ = writeln!(w, "Checks not passed:\n\n{}\n", bad.join("\n"));
     }
     let tol = &a.tolerances;
     let _ = writeln!(w, "## Tolerances (warn / fail)\n");
@@ -243,47 +225,35 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
             "## Controller `{}` ({:.0} Hz)\n\nLaw: {}. Gain unit: {}.\n\n### Coefficients\n",
             c.name, c.rate_hz, c.law, c.unit
         );
-        let mut t = Table::new([
-            "name",
-            "unit",
-            "ideal (f64)",
-            "quantised",
-            "abs error",
-            "rel error",
-        ]);
-        for r in &c.coefficients {
-            t.row([
-                r.name.to_string(),
-                r.unit.to_string(),
-                format!("{:.12e}", r.ideal),
-                format!("{:.12e}", r.quantised),
-                format!("{:.3e}", r.abs_err),
-                format!("{:.3e}", r.rel_err),
-            ]);
-        }
+        let t = table(
+            &c.coefficients,
+            &[
+                ("name", &|r| r.name.clone()),
+                ("unit", &|r| r.unit.clone()),
+                ("ideal (f64)", &|r| format!("{:.12e}", r.ideal)),
+                ("quantised", &|r| format!("{:.12e}", r.quantised)),
+                ("abs error", &|r| format!("{:.3e}", r.abs_err)),
+                ("rel error", &|r| format!("{:.3e}", r.rel_err)),
+            ],
+        );
         let _ = write!(w, "{t}");
         let pz = &c.poles_zeros;
         let _ = writeln!(w, "\n### Poles, zeros, DC gain\n");
-        let mut t = Table::new([
-            "form",
-            "poles (z)",
-            "zeros (z)",
-            "poles (rad/s)",
-            "zeros (rad/s)",
-        ]);
-        for (n, r) in [
+        let forms = [
             ("continuous", &pz.continuous),
             ("discrete f64", &pz.discrete_f64),
             ("discrete quantised", &pz.discrete_quantised),
-        ] {
-            t.row([
-                n.to_string(),
-                list(&r.poles_z).to_string(),
-                list(&r.zeros_z).to_string(),
-                list(&r.poles_s).to_string(),
-                list(&r.zeros_s).to_string(),
-            ]);
-        }
+        ];
+        let t = table(
+            forms,
+            &[
+                ("form", &|(n, _)| n.to_string()),
+                ("poles (z)", &|(_, r)| list(&r.poles_z)),
+                ("zeros (z)", &|(_, r)| list(&r.zeros_z)),
+                ("poles (rad/s)", &|(_, r)| list(&r.poles_s)),
+                ("zeros (rad/s)", &|(_, r)| list(&r.zeros_s)),
+            ],
+        );
         let _ = write!(w, "{t}");
         let _ = writeln!(
             w,
@@ -317,29 +287,24 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
                 "m/s of y'"
             }
         );
-        let mut t = Table::new([
-            "f (Hz)",
-            "continuous",
-            "discrete f64",
-            "fixed (measured)",
-            "fixed-f64 dB",
-            "fixed-f64 deg",
-            "f64-cont dB",
-            "f64-cont deg",
-        ]);
         let gp = |r: &super::model::GainPhase| format!("{:.6e} / {:.3} deg", r.gain, r.phase_deg);
-        for p in c.freq_response.iter().filter(|p| p.named) {
-            t.row([
-                p.f_hz.to_string(),
-                gp(&p.continuous),
-                gp(&p.discrete_f64),
-                gp(&p.fixed),
-                format!("{:.2e}", p.fixed_vs_f64_db),
-                format!("{:.2e}", p.fixed_vs_f64_deg),
-                format!("{:.2e}", p.f64_vs_continuous_db),
-                format!("{:.2e}", p.f64_vs_continuous_deg),
-            ]);
-        }
+        let t = table(
+            c.freq_response.iter().filter(|p| p.named),
+            &[
+                ("f (Hz)", &|p| p.f_hz.to_string()),
+                ("continuous", &|p| gp(&p.continuous)),
+                ("discrete f64", &|p| gp(&p.discrete_f64)),
+                ("fixed (measured)", &|p| gp(&p.fixed)),
+                ("fixed-f64 dB", &|p| format!("{:.2e}", p.fixed_vs_f64_db)),
+                ("fixed-f64 deg", &|p| format!("{:.2e}", p.fixed_vs_f64_deg)),
+                ("f64-cont dB", &|p| {
+                    format!("{:.2e}", p.f64_vs_continuous_db)
+                }),
+                ("f64-cont deg", &|p| {
+                    format!("{:.2e}", p.f64_vs_continuous_deg)
+                }),
+            ],
+        );
         let _ = write!(w, "{t}");
         let wo = &c.worst;
         let _ = writeln!(
@@ -365,28 +330,27 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
             "### Limit cycles and dead bands\n\nAfter 0.2 s of random input, the input is held \
              for 2 s; last second observed.\n"
         );
-        let mut t = Table::new([
-            "hold input",
-            "value (SI)",
-            "moves (definition: wheelset_audit::closed)",
-            "p2p (LSB)",
-            "amplitude",
-            "period (samples)",
-            "offset vs f64",
-            "offset (LSB)",
-        ]);
-        for l in &c.limit_cycles {
-            t.row([
-                l.hold.to_string(),
-                format!("{:.3e}", l.hold_input_si),
-                l.classification.clone(),
-                format!("{:.2}", l.p2p_lsb),
-                format!("{:.3e} {}", l.amplitude_si, l.unit),
-                l.period_samples.map_or("-".into(), |p| format!("{p:.1}")),
-                format!("{:.3e} {}", l.offset_si, l.unit),
-                format!("{:.2}", l.offset_lsb),
-            ]);
-        }
+        let t = table(
+            &c.limit_cycles,
+            &[
+                ("hold input", &|l| l.hold.clone()),
+                ("value (SI)", &|l| format!("{:.3e}", l.hold_input_si)),
+                ("moves (definition: wheelset_audit::closed)", &|l| {
+                    l.classification.clone()
+                }),
+                ("p2p (LSB)", &|l| format!("{:.2}", l.p2p_lsb)),
+                ("amplitude", &|l| {
+                    format!("{:.3e} {}", l.amplitude_si, l.unit)
+                }),
+                ("period (samples)", &|l| {
+                    l.period_samples.map_or("-".into(), |p| format!("{p:.1}"))
+                }),
+                ("offset vs f64", &|l| {
+                    format!("{:.3e} {}", l.offset_si, l.unit)
+                }),
+                ("offset (LSB)", &|l| format!("{:.2}", l.offset_lsb)),
+            ],
+        );
         let _ = writeln!(w, "{t}");
     }
     let o = &a.observed;
@@ -405,34 +369,24 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
          in lock-step on the same quantised inputs.\n"
     );
     let _ = writeln!(w, "## Ranges and headroom\n");
-    let mut t = Table::new([
-        "#",
-        "signal",
-        "controller",
-        "state",
-        "min (SI)",
-        "max (SI)",
-        "unit",
-        "peak (pu)",
-        "headroom (bits)",
-        "overflows",
-        "worst scenario",
-    ]);
-    for (i, r) in o.signals.iter().filter(|r| r.samples > 0).enumerate() {
-        t.row([
-            i.to_string(),
-            r.name.to_string(),
-            r.controller.to_string(),
-            if r.state { "yes" } else { "" }.to_string(),
-            format!("{:.4e}", r.min_si),
-            format!("{:.4e}", r.max_si),
-            r.unit.to_string(),
-            format!("{:.4}", r.min_pu.abs().max(r.max_pu.abs())),
-            format!("{:.2}", r.headroom_bits),
-            r.overflows.to_string(),
-            r.worst_scenario.to_string(),
-        ]);
-    }
+    let t = table(
+        o.signals.iter().filter(|r| r.samples > 0).enumerate(),
+        &[
+            ("#", &|(i, _)| i.to_string()),
+            ("signal", &|(_, r)| r.name.clone()),
+            ("controller", &|(_, r)| r.controller.clone()),
+            ("state", &|(_, r)| if r.state { "yes" } else { "" }.into()),
+            ("min (SI)", &|(_, r)| format!("{:.4e}", r.min_si)),
+            ("max (SI)", &|(_, r)| format!("{:.4e}", r.max_si)),
+            ("unit", &|(_, r)| r.unit.clone()),
+            ("peak (pu)", &|(_, r)| format!("{:.4}", r.peak())),
+            ("headroom (bits)", &|(_, r)| {
+                format!("{:.2}", r.headroom_bits)
+            }),
+            ("overflows", &|(_, r)| r.overflows.to_string()),
+            ("worst scenario", &|(_, r)| r.worst_scenario.clone()),
+        ],
+    );
     let _ = write!(w, "{t}");
     let c = &o.clamps;
     let _ = writeln!(
@@ -451,36 +405,24 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
             .map_or("not counted".into(), |n| n.to_string())
     );
     let _ = writeln!(w, "## Quantisation noise (fixed minus f64, same inputs)\n");
-    let mut t = Table::new([
-        "output",
-        "scenario",
-        "yaw mode",
-        "ticks",
-        "max (LSB)",
-        "rms (LSB)",
-        "max (SI)",
-        "rms (SI)",
-        "max (wire LSB)",
-        "bits lost",
-    ]);
-    for n in &o.noise {
-        t.row([
-            n.output.to_string(),
-            n.scenario.to_string(),
-            n.yaw_mode.to_string(),
-            match n.phase {
-                super::ranges::Phase::Normal => "normal",
-                super::ranges::Phase::SafeRamp => "safe-state ramps",
-            }
-            .to_string(),
-            format!("{:.2}", n.max_lsb),
-            format!("{:.2}", n.rms_lsb),
-            format!("{:.3e} {}", n.max_si, n.unit),
-            format!("{:.3e} {}", n.rms_si, n.unit),
-            format!("{:.3}", n.max_wire_lsb),
-            format!("{:.2}", n.bits_lost),
-        ]);
-    }
+    let t = table(
+        &o.noise,
+        &[
+            ("output", &|n| n.output.clone()),
+            ("scenario", &|n| n.scenario.clone()),
+            ("yaw mode", &|n| n.yaw_mode.clone()),
+            ("ticks", &|n| match n.phase {
+                super::ranges::Phase::Normal => "normal".into(),
+                super::ranges::Phase::SafeRamp => "safe-state ramps".into(),
+            }),
+            ("max (LSB)", &|n| format!("{:.2}", n.max_lsb)),
+            ("rms (LSB)", &|n| format!("{:.2}", n.rms_lsb)),
+            ("max (SI)", &|n| format!("{:.3e} {}", n.max_si, n.unit)),
+            ("rms (SI)", &|n| format!("{:.3e} {}", n.rms_si, n.unit)),
+            ("max (wire LSB)", &|n| format!("{:.3}", n.max_wire_lsb)),
+            ("bits lost", &|n| format!("{:.2}", n.bits_lost)),
+        ],
+    );
     let _ = write!(w, "{t}");
     super::writeup_sections::proofs_and_findings(a, w);
     let _ = writeln!(
@@ -514,56 +456,46 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
             a.formats.coef.frac_bits
         );
     }
-    let mut t = Table::new([
-        "signal",
-        "controller",
-        "observed peak (pu)",
-        "proven max (pu)",
-        "recommended",
-        "word",
-        "guarantee",
-    ]);
-    for r in &a.recommendations {
-        t.row([
-            r.signal.clone(),
-            r.controller.clone(),
-            if r.observed {
-                format!("{:.4}", r.peak_pu)
-            } else {
-                "-".into()
-            },
-            format!("{:.4}", r.proven_max_pu),
-            r.format.clone(),
-            r.word.to_string(),
-            r.guarantee.clone(),
-        ]);
-    }
+    let t = table(
+        &a.recommendations,
+        &[
+            ("signal", &|r| r.signal.clone()),
+            ("controller", &|r| r.controller.clone()),
+            ("observed peak (pu)", &|r| {
+                let peak = format!("{:.4}", r.peak_pu);
+                if r.observed {
+                    peak
+                } else {
+                    "-".into()
+                }
+            }),
+            ("proven max (pu)", &|r| format!("{:.4}", r.proven_max_pu)),
+            ("recommended", &|r| r.format.clone()),
+            ("word", &|r| r.word.to_string()),
+            ("guarantee", &|r| r.guarantee.clone()),
+        ],
+    );
     let _ = write!(w, "{t}");
     let _ = writeln!(w, "\n## Target (QEMU)\n\n{}.\n", a.target.note);
     if !a.target.runs.is_empty() {
-        let mut t = Table::new([
-            "scenario",
-            "from tick",
-            "ticks",
-            "frames differing",
-            "max code diff (T_psi dNm, u_a cV)",
-            "target vs f64 (wire LSB)",
-            "host vs f64 (wire LSB)",
-            "mean instructions/tick",
-        ]);
         let pair = |(x, y): (f64, f64)| format!("{x:.1}, {y:.1}");
-        for r in &a.target.runs {
-            t.row([
-                r.scenario.to_string(),
-                r.from_tick.to_string(),
-                r.ticks.to_string(),
-                r.mismatches.to_string(),
-                format!("{}, {}", r.max_code_diff.0, r.max_code_diff.1),
-                pair(r.target_vs_f64_wire_lsb),
-                pair(r.host_vs_f64_wire_lsb),
-                format!("{:.0}", r.mean_exec),
-            ]);
-        }
+        let t = table(
+            &a.target.runs,
+            &[
+                ("scenario", &|r| r.scenario.clone()),
+                ("from tick", &|r| r.from_tick.to_string()),
+                ("ticks", &|r| r.ticks.to_string()),
+                ("frames differing", &|r| r.mismatches.to_string()),
+                ("max code diff (T_psi dNm, u_a cV)", &|r| {
+                    format!("{}, {}", r.max_code_diff.0, r.max_code_diff.1)
+                }),
+                ("target vs f64 (wire LSB)", &|r| {
+                    pair(r.target_vs_f64_wire_lsb)
+                }),
+                ("host vs f64 (wire LSB)", &|r| pair(r.host_vs_f64_wire_lsb)),
+                ("mean instructions/tick", &|r| format!("{:.0}", r.mean_exec)),
+            ],
+        );
         let _ = write!(w, "{t}");
         let _ = writeln!(
             w,
@@ -579,18 +511,46 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
         }
     }
     let _ = writeln!(w, "## Checks\n");
-    let mut t = Table::new(["status", "controller", "item", "reason"]);
-    for c in &a.checks {
-        t.row([
-            c.status.as_str().to_string(),
-            c.controller.to_string(),
-            c.item.to_string(),
-            c.reason.to_string(),
-        ]);
-    }
+    let t = table(
+        &a.checks,
+        &[
+            ("status", &|c| c.status.as_str().into()),
+            ("controller", &|c| c.controller.clone()),
+            ("item", &|c| c.item.clone()),
+            ("reason", &|c| c.reason.clone()),
+        ],
+    );
     let _ = write!(w, "{t}");
     s
 }
+
+/// A Markdown list item per check not passed: status (in bold when `bold`), controller,
+/// item, reason and remedy.
+pub(crate) fn not_passed(a: &Audit, bold: bool) -> impl Iterator<Item = String> + '_ {
+    let bad = a.checks.iter().filter(|c| c.status != Status::Pass);
+    bad.map(move |c| {
+        let st = c.status_word();
+        let st = if bold { format!("**{st}**") } else { st.into() };
+        format!(
+            "- {st} `{}` {}: {}",
+            c.controller,
+            c.item,
+            c.reason_and_remedy()
+        )
+    })
+}
+
+/// The Markdown table of `rows`, one column per `(header, cell)`.
+pub(crate) fn table<R>(rows: impl IntoIterator<Item = R>, cols: &[Col<'_, R>]) -> Table {
+    let mut t = Table::new(cols.iter().map(|c| c.0));
+    for r in rows {
+        t.row(cols.iter().map(|c| c.1(&r)));
+    }
+    t
+}
+
+/// A column of a [`table`]: its header and a row's cell.
+pub(crate) type Col<'a, R> = (&'a str, &'a dyn Fn(&R) -> String);
 
 fn list(v: &[f64]) -> String {
     if v.is_empty() {

@@ -3,6 +3,8 @@
 
 use std::fmt::Write as _;
 
+use super::bounds::{Bound, ErrorBound};
+use super::writeup::{table, Col};
 use super::Audit;
 use wheelset_report::table::Table;
 
@@ -36,18 +38,18 @@ pub(crate) fn proofs_and_findings(a: &Audit, w: &mut String) {
              worst over {:?} Hz): {}.\n",
             la.freqs_hz, la.statement
         );
-        let mut t = Table::new([
-            "y' amplitude (m/s)",
-            "worst gain error (dB)",
-            "worst phase error (deg)",
-        ]);
-        for p in &la.points {
-            t.row([
-                format!("{:.0e}", p.amplitude_mps),
-                format!("{:.2e}", p.gain_db),
-                format!("{:.2e}", p.phase_deg),
-            ]);
-        }
+        let t = table(
+            &la.points,
+            &[
+                ("y' amplitude (m/s)", &|p| {
+                    format!("{:.0e}", p.amplitude_mps)
+                }),
+                ("worst gain error (dB)", &|p| format!("{:.2e}", p.gain_db)),
+                ("worst phase error (deg)", &|p| {
+                    format!("{:.2e}", p.phase_deg)
+                }),
+            ],
+        );
         let _ = write!(w, "{t}");
     }
     let _ = writeln!(
@@ -99,32 +101,28 @@ pub(crate) fn proofs_and_findings(a: &Audit, w: &mut String) {
             lc.device.y_p2p_m * 1e9,
             lc.core_all_sources.torque_p2p_nm
         );
-        let mut t = Table::new([
-            "run",
-            "torque p2p (N m)",
-            "torque RMS (N m)",
-            "frequency (Hz)",
-            "y p2p (nm)",
-        ]);
         let runs = [
             ("device (Runtime<Fx>, in-process link)", &lc.device),
             ("continuous f64 reference", &lc.reference),
             ("core in the loop, every source", &lc.core_all_sources),
         ];
         let removed = lc.removed.iter().map(|(n, c)| (format!("without {n}"), c));
-        for (n, c) in runs
-            .map(|(n, c)| (n.to_string(), c))
-            .into_iter()
-            .chain(removed)
-        {
-            t.row([
-                n,
-                format!("{:.4}", c.torque_p2p_nm),
-                format!("{:.4}", c.torque_rms_nm),
-                format!("{:.2}", c.freq_hz),
-                format!("{:.2}", c.y_p2p_m * 1e9),
-            ]);
-        }
+        let t = table(
+            runs.map(|(n, c)| (n.to_string(), c))
+                .into_iter()
+                .chain(removed),
+            &[
+                ("run", &|(n, _)| n.clone()),
+                ("torque p2p (N m)", &|(_, c)| {
+                    format!("{:.4}", c.torque_p2p_nm)
+                }),
+                ("torque RMS (N m)", &|(_, c)| {
+                    format!("{:.4}", c.torque_rms_nm)
+                }),
+                ("frequency (Hz)", &|(_, c)| format!("{:.2}", c.freq_hz)),
+                ("y p2p (nm)", &|(_, c)| format!("{:.2}", c.y_p2p_m * 1e9)),
+            ],
+        );
         let _ = write!(w, "{t}");
         let _ = writeln!(
             w,
@@ -136,36 +134,36 @@ pub(crate) fn proofs_and_findings(a: &Audit, w: &mut String) {
              the reduction and the increase that destabilise it, its phase margin the \
              smaller of the extra lag and lead:\n"
         );
-        let mut t = Table::new([
-            "loop",
-            "gain margin ideal (dB)",
-            "gain margin quantised (dB)",
-            "phase margin ideal (deg)",
-            "phase margin quantised (deg)",
-            "phase / gain crossover (Hz)",
-            "P, W: closed loop",
-            "gain interval (dB)",
-            "phase lag / lead (deg)",
-        ]);
         let o = |v: Option<f64>| v.map_or("-".into(), |x| format!("{x:.6}"));
-        for m in &cl.margins {
-            t.row([
-                m.loop_name.clone(),
-                o(m.gain_db_ideal),
-                o(m.gain_db_quantised),
-                o(m.phase_deg_ideal),
-                o(m.phase_deg_quantised),
-                format!("{} / {}", o(m.phase_crossover_hz), o(m.gain_crossover_hz)),
-                format!(
-                    "{}, {}: {}",
-                    m.open_loop_unstable_poles,
-                    m.encirclements,
-                    if m.stable { "stable" } else { "unstable" }
+        let t = table(
+            &cl.margins,
+            &[
+                ("loop", &|m| m.loop_name.clone()),
+                ("gain margin ideal (dB)", &|m| o(m.gain_db_ideal)),
+                ("gain margin quantised (dB)", &|m| o(m.gain_db_quantised)),
+                ("phase margin ideal (deg)", &|m| o(m.phase_deg_ideal)),
+                (
+                    "phase margin quantised (deg)",
+                    &|m| o(m.phase_deg_quantised),
                 ),
-                format!("{} to {}", o(m.gain_reduction_db), o(m.gain_increase_db)),
-                format!("{} / {}", o(m.phase_lag_deg), o(m.phase_lead_deg)),
-            ]);
-        }
+                ("phase / gain crossover (Hz)", &|m| {
+                    format!("{} / {}", o(m.phase_crossover_hz), o(m.gain_crossover_hz))
+                }),
+                ("P, W: closed loop", &|m| {
+                    let word = if m.stable { "stable" } else { "unstable" };
+                    format!(
+                        "{}, {}: {word}",
+                        m.open_loop_unstable_poles, m.encirclements
+                    )
+                }),
+                ("gain interval (dB)", &|m| {
+                    format!("{} to {}", o(m.gain_reduction_db), o(m.gain_increase_db))
+                }),
+                ("phase lag / lead (deg)", &|m| {
+                    format!("{} / {}", o(m.phase_lag_deg), o(m.phase_lead_deg))
+                }),
+            ],
+        );
         let _ = write!(w, "{t}");
     }
 }
@@ -180,41 +178,38 @@ pub(crate) enum Detail {
     Report,
 }
 
+impl Detail {
+    /// `cols` without those named in `report_only` unless this is the report's detail.
+    fn columns<'a, R>(
+        self,
+        cols: impl IntoIterator<Item = Col<'a, R>>,
+        report_only: &[&str],
+    ) -> Vec<Col<'a, R>> {
+        let keep = |c: &Col<R>| self == Detail::Report || !report_only.contains(&c.0);
+        cols.into_iter().filter(keep).collect()
+    }
+}
+
 /// The proven bounds per signal against the observed ones (one table for the README's
 /// block and the report).
 pub(crate) fn bounds_table(a: &Audit, d: Detail) -> Table {
     let full = d == Detail::Report;
     let p = if full { 6 } else { 4 };
-    let mut head = vec!["signal", "unit", "observed max", "proven max"];
-    if full {
-        head.push("format");
-    }
-    head.push("margin (bits)");
-    if full {
-        head.push("proof");
-    }
-    let mut t = Table::new(head);
-    for b in &a.bounds {
-        let mut r = vec![
-            if full {
-                b.signal.clone()
-            } else {
-                format!("`{}`", b.signal)
-            },
-            b.unit.clone(),
-            b.observed_max.map_or("-".into(), |v| format!("{v:.p$e}")),
-            format!("{:.p$e}", b.proven_max),
-        ];
-        if full {
-            r.push(b.format.clone());
-        }
-        r.push(format!("{:.2}", b.margin_bits));
-        if full {
-            r.push(b.proof.clone());
-        }
-        t.row(r);
-    }
-    t
+    let cols: [Col<&Bound>; 7] = [
+        ("signal", &|b| match full {
+            true => b.signal.clone(),
+            false => format!("`{}`", b.signal),
+        }),
+        ("unit", &|b| b.unit.clone()),
+        ("observed max", &|b| {
+            b.observed_max.map_or("-".into(), |v| format!("{v:.p$e}"))
+        }),
+        ("proven max", &|b| format!("{:.p$e}", b.proven_max)),
+        ("format", &|b| b.format.clone()),
+        ("margin (bits)", &|b| format!("{:.2}", b.margin_bits)),
+        ("proof", &|b| b.proof.clone()),
+    ];
+    table(&a.bounds, &d.columns(cols, &["format", "proof"]))
 }
 
 /// The rounding-error bounds per output against the observed errors (one table for the
@@ -222,34 +217,25 @@ pub(crate) fn bounds_table(a: &Audit, d: Detail) -> Table {
 pub(crate) fn error_bounds_table(a: &Audit, d: Detail) -> Table {
     let full = d == Detail::Report;
     let p = if full { 4 } else { 3 };
-    let first = if full {
-        "output"
-    } else {
-        "rounding error vs exact arithmetic"
+    let first = match full {
+        true => "output",
+        false => "rounding error vs exact arithmetic",
     };
-    let mut head = vec![first, "observed", "proven", "unit", "proven (wire LSB)"];
-    if full {
-        head.push("per rounding point");
-    }
-    let mut t = Table::new(head);
-    for e in &a.error_bounds {
-        let mut r = vec![
-            e.output.clone(),
-            format!("{:.p$e}", e.observed),
-            format!("{:.p$e}", e.proven),
-            e.unit.clone(),
-            format!("{:.p$}", e.proven_wire_lsb),
-        ];
-        if full {
-            r.push(
-                e.rounding_points
-                    .iter()
-                    .map(|(n, v)| format!("{n} {v:.2e}"))
-                    .collect::<Vec<_>>()
-                    .join("; "),
-            );
-        }
-        t.row(r);
-    }
-    t
+    let cols: [Col<&ErrorBound>; 6] = [
+        (first, &|e| e.output.clone()),
+        ("observed", &|e| format!("{:.p$e}", e.observed)),
+        ("proven", &|e| format!("{:.p$e}", e.proven)),
+        ("unit", &|e| e.unit.clone()),
+        ("proven (wire LSB)", &|e| {
+            format!("{:.p$}", e.proven_wire_lsb)
+        }),
+        ("per rounding point", &|e| {
+            let points = e
+                .rounding_points
+                .iter()
+                .map(|(n, v)| format!("{n} {v:.2e}"));
+            points.collect::<Vec<_>>().join("; ")
+        }),
+    ];
+    table(&a.error_bounds, &d.columns(cols, &["per rounding point"]))
 }

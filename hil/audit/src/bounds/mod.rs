@@ -66,6 +66,7 @@ pub(crate) use proven::{qc, quantise};
 use serde::Serialize;
 use wheelset_control::Config;
 
+use super::model::Recommendation;
 use super::qdyn::QFormat;
 use super::ranges::Observed;
 use super::wcpg::Wcpg;
@@ -123,23 +124,6 @@ pub struct LinearPart {
     pub note: String,
 }
 
-/// A format proposal from the bounds.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct Proposal {
-    /// Signal.
-    pub signal: String,
-    /// Proven |max|, pu.
-    pub proven_max_pu: f64,
-    /// Integer bits incl. sign: the smallest with `2^(i-1) > proven_max_pu`.
-    pub int_bits: u32,
-    /// Fraction bits: the smallest meeting the output-error budget of its chain.
-    pub frac_bits: u32,
-    /// `Qi.f`.
-    pub format: String,
-    /// What the proposal guarantees.
-    pub guarantee: String,
-}
-
 /// Everything proven.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Proofs {
@@ -149,8 +133,8 @@ pub struct Proofs {
     pub error_bounds: Vec<ErrorBound>,
     /// The linear parts' WCPGs.
     pub linear_parts: Vec<LinearPart>,
-    /// Format proposals from the bounds.
-    pub proposals: Vec<Proposal>,
+    /// Recommended formats per signal ([`prove`]).
+    pub recommendations: Vec<Recommendation>,
     /// The stated result.
     pub statement: String,
     /// Whether every proven bound lies inside the audited format.
@@ -251,14 +235,15 @@ pub fn prove(
         })
         .collect();
     let overflow_free = p.signals.iter().all(|x| x.4 < range);
-    // Proposals: integer bits from the proven bound, fraction bits from half a wire LSB
-    // of the chain's output (T_psi or u_a).
+    // Recommendations: integer bits (incl. sign) with `2^(i-1)` above the proven bound,
+    // fraction bits keeping the proven rounding error of the chain's output (T_psi or
+    // u_a) within half a wire LSB.
     let budget_t = 0.5 * wire.torque / s.torque;
     let budget_u = 0.5 * wire.voltage / s.voltage;
     let yaw_per = p.lead_err.max(p.gain_err) / q;
     let f_yaw = frac_bits_for(yaw_per, budget_t);
     let f_tr = frac_bits_for(p.pi_err / q, budget_u);
-    let proposals = p
+    let recommendations = p
         .signals
         .iter()
         .map(|(n, c, _, _, v, _)| {
@@ -270,12 +255,28 @@ pub fn prove(
             };
             let budget = lsb / 2.0;
             let e = per * 2f64.powi(-(f as i32)) * fs;
-            Proposal {
+            let peak = observed
+                .signals
+                .iter()
+                .find(|s| &s.name == n && s.samples > 0)
+                .map(|s| s.peak());
+            let word = i + f;
+            let note = if word > 32 {
+                format!("; {word} bits exceed an i32")
+            } else {
+                String::new()
+            };
+            Recommendation {
                 signal: n.clone(),
+                controller: c.clone(),
+                peak_pu: peak.unwrap_or(0.0),
+                observed: peak.is_some(),
                 proven_max_pu: *v,
                 int_bits: i,
                 frac_bits: f,
+                word,
                 format: format!("Q{i}.{f}"),
+                margin: format!("integer bits from the proven bound{note}"),
                 guarantee: format!(
                     "cannot overflow for any input within the clamps (proven {v:.4} pu < \
                      2^{}); {out} rounding error vs exact arithmetic <= {e:.3e} ({:.3} wire \
@@ -315,7 +316,7 @@ pub fn prove(
         bounds,
         error_bounds,
         linear_parts: p.parts,
-        proposals,
+        recommendations,
         statement,
         overflow_free,
     }

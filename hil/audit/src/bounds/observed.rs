@@ -23,29 +23,22 @@ pub fn observed_errors<T: Sample>(
     let s = cfg.scales;
     let l = &k.lead;
     let mut worst = [0.0f64; 4];
-    let clampf = |v: f64, m: f64| v.clamp(-m, m);
+    // `v` within `[-m, m]`, in T; an input quantised (NaN as 0) and clamped to `m` (pu).
+    let sym = |v: T, m: f64| v.limit(T::ZERO.sat_sub(T::from_f64(m)), T::from_f64(m)).0;
+    let input = |si: f64, fs: f64, m: f64| sym(crate::ranges::q::<T>(si / fs), m);
     let yd = cfg.yaw_divisor.max(1) as usize;
     let td = cfg.traction_divisor.max(1) as usize;
     for sc in scenarios {
         let mut st = wheelset_control::LeadState::<T>::default();
         let (mut ez, mut ex1) = (0.0f64, 0.0f64);
         let (mut yp_f, mut yp_e) = (T::ZERO, 0.0f64);
-        let tmax = T::from_f64(k.y_max);
-        let pmax = T::from_f64(k.p_max);
         for t in sc.ticks.iter().step_by(yd) {
-            let v = t.si[0] / s.y_dot;
-            let yf = T::from_f64(if v.is_finite() { v } else { 0.0 })
-                .limit(T::ZERO.sat_sub(tmax), tmax)
-                .0;
+            let yf = input(t.si[0], s.y_dot, k.y_max);
             let ye = yf.to_f64();
             let d = yf.sat_sub(yp_f).mul_c(ph);
-            let xf = yf
-                .sat_add(d)
-                .sat_add(d)
-                .limit(T::ZERO.sat_sub(pmax), pmax)
-                .0;
+            let xf = sym(yf.sat_add(d).sat_add(d), k.p_max);
             yp_f = yf;
-            let xe = clampf(ye + 2.0 * (ye - yp_e) * k.ph, k.p_max);
+            let xe = (ye + 2.0 * (ye - yp_e) * k.ph).clamp(-k.p_max, k.p_max);
             yp_e = ye;
             let of = lead.process(&mut st, xf).to_f64();
             ez = ez + l.kappa * (l.g_half * (xe + ex1) - ez);
@@ -59,18 +52,11 @@ pub fn observed_errors<T: Sample>(
         let mut ps = PiState::<T>::new(T::ZERO);
         let mut ie = 0.0f64;
         let (mut rf, mut re) = (T::ZERO, 0.0f64);
-        let step = T::from_f64(k.i_step);
-        let (imax, dmax) = (T::from_f64(k.i_max), T::from_f64(k.d_max));
         for t in sc.ticks.iter().step_by(td) {
-            let fin = |v: f64| if v.is_finite() { v } else { 0.0 };
-            let i = T::from_f64(fin(t.si[1] / s.current))
-                .limit(T::ZERO.sat_sub(imax), imax)
-                .0;
-            let d = T::from_f64(fin(t.si[3] / s.demand))
-                .limit(T::ZERO.sat_sub(dmax), dmax)
-                .0;
+            let i = input(t.si[1], s.current, k.i_max);
+            let d = input(t.si[3], s.demand, k.d_max);
             let tf = d.mul_c(d2i);
-            rf = rf.sat_add(tf.sat_sub(rf).limit(T::ZERO.sat_sub(step), step).0);
+            rf = rf.sat_add(sym(tf.sat_sub(rf), k.i_step));
             let te = d.to_f64() * k.d2i;
             re += (te - re).clamp(-k.i_step, k.i_step);
             worst[3] = worst[3].max((rf.to_f64() - re).abs());

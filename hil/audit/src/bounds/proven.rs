@@ -5,6 +5,7 @@
 use wheelset_control::{Config, ConfigError, Controller, LeadPu, Sample};
 
 use super::LinearPart;
+use crate::ranges::{fs_of, Fs, Fs::*};
 use crate::wcpg::{wcpg, Siso};
 
 /// The quantised constants of the core, pu (exact values of what `T` holds).
@@ -197,193 +198,137 @@ pub fn proven(k: &Quantised, cfg: &Config, q: f64) -> Proven {
     let y_lead = w_y * x + k_hf * dz + h;
     let y_gain = k.gain.abs() * x + h;
     let raw = y_lead.max(y_gain).max(k.t_max);
-    let fsy = s.y_dot;
-    let fst = s.torque;
-    let fsi = s.current;
-    let fsv = s.voltage;
-    let fsd = s.demand;
-    let mut sig: Vec<(String, String, String, f64, f64, String)> = Vec::new();
-    let mut put = |n: &str, c: &str, u: &str, fs: f64, v: f64, p: String| {
-        sig.push((n.into(), c.into(), u.into(), fs, v, p));
+    let target = k.d_max * k.d2i.abs() + h;
+    let iref = target;
+    let e = iref + k.i_max;
+    let prop = k.kp.abs() * e + h;
+    let u = k.u_min.abs().max(k.u_max.abs());
+    let row = |n: &str, f: Fs, v: f64, proof: &str| {
+        let c = match f {
+            YDot | Torque => "yaw",
+            _ => "traction_pi",
+        };
+        let (fs, unit) = fs_of(f, cfg);
+        (n.into(), c.into(), unit.into(), fs, v, proof.into())
     };
-    put(
-        "y_dot (clamped input)",
-        "yaw",
-        "m/s",
-        fsy,
-        y,
-        "input clamp limits.y_dot".into(),
-    );
-    put(
-        "predictor y' - y'[n-1]",
-        "yaw",
-        "m/s",
-        fsy,
-        2.0 * y,
-        "interval: difference of two clamped inputs".into(),
-    );
-    put(
-        "predictor y' + 2d (before clamp)",
-        "yaw",
-        "m/s",
-        fsy,
-        pred_raw,
-        format!("interval: Y (1 + 4 |p|) + q, p = {:.6e}", k.ph),
-    );
+    let mut sig: Vec<(String, String, String, f64, f64, String)> = vec![
+        row("y_dot (clamped input)", YDot, y, "input clamp limits.y_dot"),
+        row(
+            "predictor y' - y'[n-1]",
+            YDot,
+            2.0 * y,
+            "interval: difference of two clamped inputs",
+        ),
+        row(
+            "predictor y' + 2d (before clamp)",
+            YDot,
+            pred_raw,
+            &format!("interval: Y (1 + 4 |p|) + q, p = {:.6e}", k.ph),
+        ),
+    ];
     for (i, (n, _)) in sys.iter().enumerate() {
         let v = ws[i] * x + err[i];
-        put(
-            n,
-            "yaw_lead",
-            "m/s",
-            fsy,
-            v,
-            format!(
-                "WCPG {:.6} x X = {:.6} pu (lead input bound) + rounding error {:.2e} pu",
-                ws[i], x, err[i]
-            ),
+        let proof = format!(
+            "WCPG {:.6} x X = {:.6} pu (lead input bound) + rounding error {:.2e} pu",
+            ws[i], x, err[i]
         );
+        sig.push((
+            n.to_string(),
+            "yaw_lead".into(),
+            "m/s".into(),
+            s.y_dot,
+            v,
+            proof,
+        ));
     }
-    put(
-        "T_psi before limit",
-        "yaw",
-        "N m",
-        fst,
-        raw,
-        format!(
-            "max(lead K_hf WCPG(x - z) X + error = {y_lead:.6}, gain |k| X + q/2 = \
-             {y_gain:.6}, slewing within the torque limit {:.6}) pu",
-            k.t_max
+    sig.extend([
+        row(
+            "T_psi before limit",
+            Torque,
+            raw,
+            &format!(
+                "max(lead K_hf WCPG(x - z) X + error = {y_lead:.6}, gain |k| X + q/2 = \
+                 {y_gain:.6}, slewing within the torque limit {:.6}) pu",
+                k.t_max
+            ),
         ),
-    );
-    put(
-        "T_psi - previous output (slew)",
-        "yaw",
-        "N m",
-        fst,
-        raw + k.t_max,
-        "interval: raw + torque limit".into(),
-    );
-    put(
-        "torque limit +- step (before clamp)",
-        "yaw",
-        "N m",
-        fst,
-        k.t_max + k.t_step,
-        "interval: limit in [0, T_max] plus one ramp step".into(),
-    );
-    put(
-        "T_psi (output)",
-        "yaw",
-        "N m",
-        fst,
-        k.t_max,
-        "output limit limits.torque".into(),
-    );
-    put(
-        "i_a (clamped input)",
-        "traction_pi",
-        "A",
-        fsi,
-        k.i_max,
-        "input clamp limits.current".into(),
-    );
-    put(
-        "demand (clamped input)",
-        "traction_pi",
-        "N m",
-        fsd,
-        k.d_max,
-        "input clamp limits.demand".into(),
-    );
-    let target = k.d_max * k.d2i.abs() + h;
-    put(
-        "i_ref target",
-        "traction_pi",
-        "A",
-        fsi,
-        target,
-        "interval: Dm |d2i| + q/2".into(),
-    );
-    put(
-        "i_ref target - i_ref (ramp)",
-        "traction_pi",
-        "A",
-        fsi,
-        2.0 * target,
-        "interval: two values in the target hull".into(),
-    );
-    let iref = target;
-    put(
-        "i_ref (ramped, state)",
-        "traction_pi",
-        "A",
-        fsi,
-        iref,
-        "interval: the ramp stays in the hull of 0 and the targets; wheel-slip cap in \
-         [0, i_ref]"
-            .into(),
-    );
-    let e = iref + k.i_max;
-    put(
-        "e = i_ref - i_a",
-        "traction_pi",
-        "A",
-        fsi,
-        e,
-        "interval: Iref + I".into(),
-    );
-    let prop = k.kp.abs() * e + h;
-    put(
-        "PI Kp e",
-        "traction_pi",
-        "V",
-        fsv,
-        prop,
-        "|Kp| E + q/2".into(),
-    );
-    let u = k.u_min.abs().max(k.u_max.abs());
-    put(
-        "PI I + Ki e (before clamp)",
-        "traction_pi",
-        "V",
-        fsv,
-        u + k.ki.abs() * e + q,
-        "anti-windup clamp U + |Ki| E + q (floored increment)".into(),
-    );
-    put(
-        "PI I (state)",
-        "traction_pi",
-        "V",
-        fsv,
-        u,
-        "anti-windup clamp to the voltage limits".into(),
-    );
-    put(
-        "PI Kp e + I (before limit)",
-        "traction_pi",
-        "V",
-        fsv,
-        prop + u,
-        "interval: |Kp e| + U".into(),
-    );
-    put(
-        "u_a (output)",
-        "traction_pi",
-        "V",
-        fsv,
-        u,
-        "output limit to the voltage limits".into(),
-    );
-    put(
-        "back-EMF preset K_m omega",
-        "traction_pi",
-        "V",
-        fsv,
-        k.s_max * k.bemf.abs() + h,
-        "interval: S |K_m| + q/2".into(),
-    );
-    let _ = (k.i_step, k.i_safe_step);
+        row(
+            "T_psi - previous output (slew)",
+            Torque,
+            raw + k.t_max,
+            "interval: raw + torque limit",
+        ),
+        row(
+            "torque limit +- step (before clamp)",
+            Torque,
+            k.t_max + k.t_step,
+            "interval: limit in [0, T_max] plus one ramp step",
+        ),
+        row(
+            "T_psi (output)",
+            Torque,
+            k.t_max,
+            "output limit limits.torque",
+        ),
+        row(
+            "i_a (clamped input)",
+            Current,
+            k.i_max,
+            "input clamp limits.current",
+        ),
+        row(
+            "demand (clamped input)",
+            Demand,
+            k.d_max,
+            "input clamp limits.demand",
+        ),
+        row("i_ref target", Current, target, "interval: Dm |d2i| + q/2"),
+        row(
+            "i_ref target - i_ref (ramp)",
+            Current,
+            2.0 * target,
+            "interval: two values in the target hull",
+        ),
+        row(
+            "i_ref (ramped, state)",
+            Current,
+            iref,
+            "interval: the ramp stays in the hull of 0 and the targets; wheel-slip cap in \
+             [0, i_ref]",
+        ),
+        row("e = i_ref - i_a", Current, e, "interval: Iref + I"),
+        row("PI Kp e", Voltage, prop, "|Kp| E + q/2"),
+        row(
+            "PI I + Ki e (before clamp)",
+            Voltage,
+            u + k.ki.abs() * e + q,
+            "anti-windup clamp U + |Ki| E + q (floored increment)",
+        ),
+        row(
+            "PI I (state)",
+            Voltage,
+            u,
+            "anti-windup clamp to the voltage limits",
+        ),
+        row(
+            "PI Kp e + I (before limit)",
+            Voltage,
+            prop + u,
+            "interval: |Kp e| + U",
+        ),
+        row(
+            "u_a (output)",
+            Voltage,
+            u,
+            "output limit to the voltage limits",
+        ),
+        row(
+            "back-EMF preset K_m omega",
+            Voltage,
+            k.s_max * k.bemf.abs() + h,
+            "interval: S |K_m| + q/2",
+        ),
+    ]);
     let mut parts: Vec<LinearPart> = sys
         .iter()
         .map(|(n, s)| LinearPart {
@@ -424,12 +369,7 @@ pub fn proven(k: &Quantised, cfg: &Config, q: f64) -> Proven {
     parts.push(LinearPart {
         part: "PI".into(),
         path: "e -> integrator".into(),
-        wcpg: wcpg(&Siso {
-            a: vec![vec![1.0]],
-            b: vec![k.ki],
-            c: vec![1.0],
-            d: k.ki,
-        }),
+        wcpg: wcpg(&Siso::recursive(1.0, k.ki)),
         note: "infinite (pole z = 1): bounded by the anti-windup clamp only".into(),
     });
     // The runtime's y'' integrator: v[n] = (1 - T/tau) v[n-1] + 100 T a[n] um/s per
@@ -440,12 +380,7 @@ pub fn proven(k: &Quantised, cfg: &Config, q: f64) -> Proven {
     parts.push(LinearPart {
         part: "y'' integrator (runtime)".into(),
         path: "y'' code -> v (um/s)".into(),
-        wcpg: wcpg(&Siso {
-            a: vec![vec![1.0 - leak]],
-            b: vec![100.0 * t],
-            c: vec![1.0 - leak],
-            d: 100.0 * t,
-        }),
+        wcpg: wcpg(&Siso::recursive(1.0 - leak, 100.0 * t)),
         note: format!(
             "wash-out tau = {tau} s at {:.0} Hz: 100 tau um/s per code; the state is clamped \
              to +-(2^31 - 1) um/s and the result to the y' clamp",
@@ -455,12 +390,7 @@ pub fn proven(k: &Quantised, cfg: &Config, q: f64) -> Proven {
     parts.push(LinearPart {
         part: "y'' integrator (runtime)".into(),
         path: "y' -> v (wash-out reference)".into(),
-        wcpg: wcpg(&Siso {
-            a: vec![vec![1.0 - leak]],
-            b: vec![leak],
-            c: vec![1.0 - leak],
-            d: leak,
-        }),
+        wcpg: wcpg(&Siso::recursive(1.0 - leak, leak)),
         note: "the complementary filter's low-frequency path".into(),
     });
     Proven {

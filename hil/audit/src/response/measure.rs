@@ -21,9 +21,10 @@ impl<T: Sample> Drive<T> {
     /// Build from the isolated configuration of `kind`.
     pub fn new(kind: Kind, base: &Config) -> Result<Self, wheelset_control::ConfigError> {
         let cfg = isolate(kind, base);
-        let divisor = match kind {
-            Kind::YawLead | Kind::YawGain | Kind::YawPredictor => cfg.yaw_divisor,
-            Kind::TractionPi => cfg.traction_divisor,
+        let divisor = if kind.is_yaw() {
+            cfg.yaw_divisor
+        } else {
+            cfg.traction_divisor
         };
         let out_div = if kind == Kind::YawPredictor {
             coefficients::<T>(Kind::YawGain, &cfg)?
@@ -45,32 +46,28 @@ impl<T: Sample> Drive<T> {
     /// One controller step on the SI input `x` (m/s of `y'`, or A of current error).
     pub fn step(&mut self, x: f64) -> f64 {
         let s = self.scales;
-        let inp = match self.kind {
-            Kind::YawLead | Kind::YawGain | Kind::YawPredictor => Inputs {
+        let yaw = self.kind.is_yaw();
+        let inp = if yaw {
+            Inputs {
                 y_dot: T::from_f64(x / s.y_dot),
                 ..Inputs::default()
-            },
+            }
+        } else {
             // Reference 0 (no demand), so e = -i_a: drive i_a = -x.
-            Kind::TractionPi => Inputs {
+            Inputs {
                 current: T::from_f64(-x / s.current),
                 ..Inputs::default()
-            },
+            }
         };
         let mut out = self.ctrl.tick(&inp);
         for _ in 1..self.divisor {
             out = self.ctrl.tick(&inp);
         }
-        match self.kind {
-            Kind::YawLead | Kind::YawGain | Kind::YawPredictor => {
-                out.yaw_torque.to_f64() * s.torque / self.out_div
-            }
-            Kind::TractionPi => out.voltage.to_f64() * s.voltage,
+        if yaw {
+            out.yaw_torque.to_f64() * s.torque / self.out_div
+        } else {
+            out.voltage.to_f64() * s.voltage
         }
-    }
-
-    /// The controller (states, counters).
-    pub fn controller(&self) -> &Controller<T> {
-        &self.ctrl
     }
 }
 
@@ -94,9 +91,10 @@ fn fit_sine(y: &[f64], w: f64, n0: usize) -> (f64, f64, f64) {
 /// Stimulus amplitudes of the measured responses, SI: `y'` 10 mm/s (a typical hunting
 /// amplitude, the lead's output below the torque limit), a current error of 10 A.
 pub fn measure_amplitude(kind: Kind) -> f64 {
-    match kind {
-        Kind::YawLead | Kind::YawGain | Kind::YawPredictor => 0.01,
-        Kind::TractionPi => 10.0,
+    if kind.is_yaw() {
+        0.01
+    } else {
+        10.0
     }
 }
 
