@@ -324,14 +324,14 @@ impl<T: SampleBits> Compiled<T> {
         }
         let c = Self {
             lead: Lead {
-                k_hf: T::COEFF_ZERO,
+                k_hf: Default::default(),
                 g_half: coef("lead_g_half", b.lead_g_half)?,
-                kappa: T::COEFF_ZERO,
+                kappa: Default::default(),
             },
             gain: coef("gain", b.gain)?,
             pi: Pi {
-                kp: T::COEFF_ZERO,
-                ki: T::COEFF_ZERO,
+                kp: Default::default(),
+                ki: Default::default(),
                 ki_shift: 0,
                 u_min,
                 u_max,
@@ -343,7 +343,7 @@ impl<T: SampleBits> Compiled<T> {
             torque_max: limit("clamps.torque", torque)?,
             demand_to_iref: coef("demand_to_iref", b.demand_to_iref)?,
             back_emf: coef("back_emf", b.back_emf)?,
-            predict_half: T::COEFF_ZERO,
+            predict_half: Default::default(),
             y_dot_pred_max: limit("y_dot_pred_max", b.y_dot_pred_max)?,
             iref_step: T::ZERO,
             iref_safe_step: T::ZERO,

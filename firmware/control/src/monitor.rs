@@ -162,8 +162,8 @@ pub struct MonitorBits {
 /// block holding the change and the next, whatever its phase in the block (module docs).
 pub const QUIET_BLOCKS: u16 = 2;
 
-/// The monitor's quantised configuration (immutable while running).
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// The monitor's quantised configuration (immutable while running; `Default`: off).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Monitor<T: Sample> {
     rate_hz: u32,
     div: u16,
@@ -324,9 +324,9 @@ impl<T: Sample> Monitor<T> {
         };
         // 1 pu of y' is `scales.y_dot` = 1 m/s: the levels in pu^2 are (m/s)^2.
         let thr2 = p.threshold_m_s * p.threshold_m_s;
-        let mut m = Self {
+        Ok(Self {
             rate_hz: p.rate_hz,
-            div: 1,
+            div: divisor_for(p.rate_hz, base_rate_hz),
             k_lo: q("monitor.k_lo", pole(p.band_lo_hz, t))?,
             k_hi: q("monitor.k_hi", pole(p.band_hi_hz, t))?,
             k_ms: q("monitor.k_ms", 1.0 - exp_small(-t / (p.window_s / 2.0)))?,
@@ -345,9 +345,7 @@ impl<T: Sample> Monitor<T> {
             drive_on: T::from_f64(drive.on),
             drive_off: T::from_f64(drive.off),
             drive_persist: p.drive_persist_steps,
-        };
-        m.retime(base_rate_hz);
-        Ok(m)
+        })
     }
 
     /// Set `div = round(base/rate)` ticks per step, at least 1, for a new base rate (a base

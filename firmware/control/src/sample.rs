@@ -23,7 +23,7 @@ pub const COEF_FRAC: u32 = 31;
 /// A per-unit sample: the operations the filters use (no allocation, division or panic).
 pub trait Sample: Copy + Default + PartialEq + PartialOrd + core::fmt::Debug {
     /// Quantised coefficient (`Self` for floats, [`Coef`] Q1.31 for [`Fx`]).
-    type Coeff: Copy + core::fmt::Debug + PartialEq;
+    type Coeff: Copy + Default + core::fmt::Debug + PartialEq;
     /// An integrator's sub-LSB remainder (`()` for floats, `u64` for [`Fx`]).
     type Residue: Copy + Default + core::fmt::Debug + PartialEq;
     /// Precomputed wire-code scale (`Self` for floats, [`FxScale`] for [`Fx`]).
@@ -140,8 +140,6 @@ pub trait SampleBits: Sample {
     const NUMERIC: u8;
     /// The largest magnitude of a clamp or limit, 2 pu ([`crate::config::MAX_LIMIT_PU`]).
     const MAX_LIMIT: Self;
-    /// The zero coefficient.
-    const COEFF_ZERO: Self::Coeff;
 
     /// A signal's bit pattern (Q4.28 `i32` or IEEE bits), zero-extended to 64 bits.
     fn to_bits64(self) -> u64;
@@ -285,7 +283,6 @@ macro_rules! float_sample {
         impl SampleBits for $t {
             const NUMERIC: u8 = $numeric;
             const MAX_LIMIT: Self = 2.0;
-            const COEFF_ZERO: $t = 0.0;
 
             fn to_bits64(self) -> u64 {
                 u64::from(self.to_bits())

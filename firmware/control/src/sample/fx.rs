@@ -313,7 +313,6 @@ impl Sample for Fx {
 impl SampleBits for Fx {
     const NUMERIC: u8 = 0;
     const MAX_LIMIT: Self = Fx::from_bits(2 << FX_FRAC);
-    const COEFF_ZERO: Coef = Coef::ZERO;
 
     fn to_bits64(self) -> u64 {
         u64::from(self.to_bits() as u32)

@@ -235,7 +235,7 @@ impl<T: SampleBits> Wsp<T> {
             ki: unit("wsp.ki", b.ki, false)?,
             ki_shift: shift("wsp.ki_shift", b.ki_shift)?,
             // Rate-dependent: set by the schedule (`Compiled::with_schedule`).
-            lead_k_hf: T::COEFF_ZERO,
+            lead_k_hf: Default::default(),
             lead_rho: T::coeff_from_bits64(b.lead_rho).ok_or(e("wsp.lead_rho"))?,
             v_ref: T::scale_from_bits(b.v_ref.mul, b.v_ref.shift).ok_or(e("wsp.v_ref"))?,
         })
