@@ -415,11 +415,6 @@ impl<T: SampleBits> Runtime<T> {
         self.fault_latched
     }
 
-    /// The stability monitor's state (its filters and alarms).
-    pub fn monitor_state(&self) -> &MonitorState<T> {
-        &self.mon
-    }
-
     /// The control core (read only: coefficients, states, its own counters).
     pub fn core(&self) -> &Controller<T> {
         &self.core
