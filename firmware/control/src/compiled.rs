@@ -166,9 +166,7 @@ impl<T: Sample> Compiled<T> {
             l.voltage_min / s.voltage,
             l.voltage_max / s.voltage,
         )?;
-        let q = |name: &'static str, v: f64| {
-            T::quantise(v).ok_or(ConfigError::Coefficient { name, value: v })
-        };
+        let q = crate::config::coeff::<T>;
         let iref_max = l.demand / (config.motor.n * config.motor.k_m) / s.current;
         Ok(Self {
             lead,
@@ -314,8 +312,8 @@ impl<T: SampleBits> Compiled<T> {
             |field, s: ScaleBits| T::scale_from_bits(s.mul, s.shift).ok_or(BitsError { field });
         let [y_dot, current, speed, demand, torque] = b.clamps;
         let [sy, si, sw, sd, st, su] = b.codec;
-        let u_min = signal::<T>(b.u_min).ok_or(BitsError { field: "u_min" })?;
-        let u_max = signal::<T>(b.u_max).ok_or(BitsError { field: "u_max" })?;
+        let u_min = T::from_bits64(b.u_min).ok_or(BitsError { field: "u_min" })?;
+        let u_max = T::from_bits64(b.u_max).ok_or(BitsError { field: "u_max" })?;
         let m = T::MAX_LIMIT;
         if !(u_min < u_max && T::ZERO.sat_sub(m) <= u_min && u_max <= m) {
             return Err(BitsError {
@@ -380,14 +378,14 @@ impl<T: SampleBits> Compiled<T> {
         if s.traction_divisor == 0 {
             return Err(e("traction_divisor"));
         }
+        if s.delay_ticks == 0 {
+            return Err(e("delay_ticks"));
+        }
         let unit = |field, v, zero_ok| {
             T::coeff_from_bits64(v)
                 .filter(|c| T::coeff_in_unit(*c, zero_ok))
                 .ok_or(e(field))
         };
-        if s.delay_ticks == 0 {
-            return Err(e("delay_ticks"));
-        }
         let kappa = unit("kappa", s.kappa, false)?;
         let ki = unit("ki", s.ki, false)?;
         let kp = unit("kp", s.kp, false)?;
@@ -413,10 +411,6 @@ impl<T: SampleBits> Compiled<T> {
         c.base_rate_hz = s.base_rate_hz;
         Ok(c)
     }
-}
-
-fn signal<T: SampleBits>(v: u64) -> Option<T> {
-    T::from_bits64(v)
 }
 
 /// A positive per-unit limit or step, at most 2 pu.

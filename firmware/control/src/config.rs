@@ -2,6 +2,7 @@
 
 use crate::lead::LeadParams;
 use crate::pi::PiParams;
+use crate::sample::Sample;
 use crate::wsp::WspParams;
 use wheelset_proto::units;
 
@@ -251,6 +252,18 @@ impl core::fmt::Display for ConfigError {
 }
 
 impl core::error::Error for ConfigError {}
+
+impl ConfigError {
+    /// `v`, or the [`ConfigError::Coefficient`] `name` = `value` that did not fit.
+    pub(crate) fn fit<V>(v: Option<V>, name: &'static str, value: f64) -> Result<V, Self> {
+        v.ok_or(Self::Coefficient { name, value })
+    }
+}
+
+/// `value` quantised as a coefficient of `T`, or the error naming it.
+pub(crate) fn coeff<T: Sample>(name: &'static str, value: f64) -> Result<T::Coeff, ConfigError> {
+    ConfigError::fit(T::quantise(value), name, value)
+}
 
 /// `Ok` when `ok` holds for a finite `value`; else `NotFinite` or `Range` naming `field`.
 pub(crate) fn range(

@@ -198,9 +198,7 @@ pub struct LeadState<T> {
 impl<T: Sample> Lead<T> {
     /// Quantise per-unit coefficients. Error names the coefficient that does not fit.
     pub fn new(pu: &LeadPu) -> Result<Self, ConfigError> {
-        let q = |name: &'static str, v: f64| {
-            T::quantise(v).ok_or(ConfigError::Coefficient { name, value: v })
-        };
+        let q = crate::config::coeff::<T>;
         Ok(Self {
             k_hf: q("lead.k_hf (pu)", pu.k_hf)?,
             g_half: q("lead.g_half", pu.g_half)?,

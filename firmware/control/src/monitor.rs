@@ -319,9 +319,7 @@ impl<T: Sample> Monitor<T> {
             "at least one block",
         )?;
         let t = 1.0 / fs;
-        let q = |name: &'static str, v: f64| {
-            T::quantise(v).ok_or(ConfigError::Coefficient { name, value: v })
-        };
+        let q = crate::config::coeff::<T>;
         // 1 pu of y' is `scales.y_dot` = 1 m/s: the levels in pu^2 are (m/s)^2.
         let thr2 = p.threshold_m_s * p.threshold_m_s;
         Ok(Self {

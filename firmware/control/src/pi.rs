@@ -154,13 +154,8 @@ impl<T: Sample> Pi<T> {
         u_min: f64,
         u_max: f64,
     ) -> Result<Self, ConfigError> {
-        let q = |name: &'static str, v: f64| {
-            T::quantise(v).ok_or(ConfigError::Coefficient { name, value: v })
-        };
-        let ki_shift = T::acc_shift(ki_max.max(pu.ki)).ok_or(ConfigError::Coefficient {
-            name: "pi.ki (pu)",
-            value: pu.ki,
-        })?;
+        let q = crate::config::coeff::<T>;
+        let ki_shift = ConfigError::fit(T::acc_shift(ki_max.max(pu.ki)), "pi.ki (pu)", pu.ki)?;
         if u_min.partial_cmp(&u_max) != Some(core::cmp::Ordering::Less) {
             return Err(ConfigError::Range {
                 field: "limits.voltage_min/max",
