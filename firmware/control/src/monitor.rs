@@ -357,16 +357,6 @@ impl<T: Sample> Monitor<T> {
         self.div
     }
 
-    /// The drive check's ripple mean-square levels, pu^2 of the current scale: alarm on, off.
-    pub fn drive_levels(&self) -> (T, T) {
-        (self.drive_on, self.drive_off)
-    }
-
-    /// The levels in pu^2 (`(m/s)^2`): alarm on, alarm off, the actuator check's floor.
-    pub fn levels(&self) -> (T, T, T) {
-        (self.on, self.off, self.floor)
-    }
-
     /// One base tick: every `div` ticks a monitor step on `y_dot` (pu), `commanding` the yaw
     /// law acting (an active mode, enabled, not safe), `iref` the current reference (pu of
     /// the current scale, after the wheel-slip cap). The alarm states and their rising edges;
@@ -389,26 +379,14 @@ impl<T: Sample> Monitor<T> {
         self.tick_step(s, y_dot, commanding, iref)
     }
 
-    /// The rest of [`Self::tick`] on a tick whose phase count has run out.
+    /// The rest of [`Self::tick`] on a tick whose phase count has run out: one monitor step
+    /// (module docs).
     #[inline(never)]
-    fn tick_step(
-        &self,
-        s: &mut MonitorState<T>,
-        y_dot: T,
-        commanding: bool,
-        iref: T,
-    ) -> MonitorEvents {
+    fn tick_step(&self, s: &mut MonitorState<T>, x: T, commanding: bool, iref: T) -> MonitorEvents {
         if self.div == 0 {
             return s.ev;
         }
         s.phase = self.div;
-        self.step(s, y_dot, commanding, iref);
-        s.ev
-    }
-
-    /// One monitor step (see the module docs).
-    #[inline(always)]
-    fn step(&self, s: &mut MonitorState<T>, x: T, commanding: bool, iref: T) {
         s.lo = s.lo.sat_add(x.sat_sub(s.lo).mul_c(self.k_lo));
         let h = x.sat_sub(s.lo);
         s.band = s.band.sat_add(h.sat_sub(s.band).mul_c(self.k_hi));
@@ -425,7 +403,7 @@ impl<T: Sample> Monitor<T> {
         }
         if s.block_left > 1 {
             s.block_left -= 1;
-            return;
+            return s.ev;
         }
         s.block_left = self.block;
         if !iref.sat_sub(s.iref_block).abs_within(self.traction_change) {
@@ -453,6 +431,7 @@ impl<T: Sample> Monitor<T> {
             ev.actuator = true;
             ev.actuator_rose = true;
         }
+        s.ev
     }
 }
 
