@@ -110,8 +110,9 @@ impl<T: Sample> Wsp<T> {
             }
             q(name, c).map(|c| (c, sh))
         };
-        let slew = l.current_ref_rate / s.current; // pu/s
-                                                   // Half a motor-speed code above each threshold (module docs, "Exact decisions").
+        // The slew, pu/s; half a motor-speed code above each threshold (module docs, "Exact
+        // decisions").
+        let slew = l.current_ref_rate / s.current;
         let half = 0.5 * speed_lsb / s.speed;
         range(
             "wire.speed",
