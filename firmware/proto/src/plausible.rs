@@ -71,33 +71,16 @@ pub enum RefuseReason {
 }
 
 impl RefuseReason {
-    /// Every reason, in code order.
-    pub const ALL: [Self; 24] = [
-        Self::None,
-        Self::UnknownRequest,
-        Self::Numeric,
-        Self::Fingerprint,
-        Self::BaseRate,
-        Self::Period,
-        Self::YawDiv,
-        Self::TractionDiv,
-        Self::HoldTicks,
-        Self::Kappa,
-        Self::Ki,
-        Self::PredictHalf,
-        Self::IrefStep,
-        Self::IrefSafeStep,
-        Self::TorqueStep,
-        Self::AccGain,
-        Self::AccLeak,
-        Self::Bits,
-        Self::Unsupported,
-        Self::Delay,
-        Self::Kp,
-        Self::LeadKhf,
-        Self::WspLead,
-        Self::YawNotDesigned,
-    ];
+    /// Every reason, in code order: `None`, then the [`PLAUSIBLE`] table's (in code order).
+    pub const ALL: [Self; 24] = {
+        let mut all = [Self::None; 24];
+        let mut k = 1;
+        while k < all.len() {
+            all[k] = PLAUSIBLE[k - 1].reason;
+            k += 1;
+        }
+        all
+    };
 
     /// The wire code.
     #[must_use]
@@ -176,7 +159,7 @@ const AT_RATE: &str = "the runtime's value at the designed rate, bit for bit";
 const DESIGN: &str = "the design's";
 use RefuseReason as R;
 
-/// The plausibility table (module docs), one row per [`RefuseReason`] but `None`.
+/// The plausibility table (module docs), one row per [`RefuseReason`] but `None`, in code order.
 pub const PLAUSIBLE: [Plausible; 23] = [
     row(
         R::UnknownRequest,
