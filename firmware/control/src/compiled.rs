@@ -214,18 +214,6 @@ impl<T: Sample> Compiled<T> {
     pub fn base_rate_hz(&self) -> u32 {
         self.base_rate_hz
     }
-    /// Yaw divisor.
-    pub fn yaw_divisor(&self) -> u16 {
-        self.yaw_divisor
-    }
-    /// Traction divisor.
-    pub fn traction_divisor(&self) -> u16 {
-        self.traction_divisor
-    }
-    /// The lead as quantised.
-    pub fn lead(&self) -> &Lead<T> {
-        &self.lead
-    }
     /// The PI as quantised.
     pub fn pi(&self) -> &Pi<T> {
         &self.pi
@@ -233,10 +221,6 @@ impl<T: Sample> Compiled<T> {
     /// The wire codec.
     pub fn codec(&self) -> &Codec<T> {
         &self.codec
-    }
-    /// The wheel-slip protection as quantised.
-    pub fn wsp(&self) -> &Wsp<T> {
-        &self.wsp
     }
 }
 
