@@ -131,7 +131,7 @@ impl<T: SampleBits> Runtime<T> {
             leak_q32,
             seq: 0,
             fresh: false,
-            hold: HoldPolicy::new(),
+            hold: HoldPolicy::default(),
             enabled: enable,
             rx_error: false,
             refused: false,
