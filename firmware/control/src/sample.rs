@@ -174,12 +174,7 @@ macro_rules! float_sample {
                 self as f64
             }
             fn quantise(c: f64) -> Option<$t> {
-                let q = c as $t;
-                if q.is_finite() {
-                    Some(q)
-                } else {
-                    None
-                }
+                Some(c as $t).filter(|q| q.is_finite())
             }
             fn coeff_to_f64(c: $t) -> f64 {
                 c as f64
@@ -226,12 +221,7 @@ macro_rules! float_sample {
                 (if ok { self } else { 0.0 }, !ok)
             }
             fn scale_in(factor: f64) -> Option<$t> {
-                let q = factor as $t;
-                if q.is_finite() && q > 0.0 {
-                    Some(q)
-                } else {
-                    None
-                }
+                Self::quantise(factor).filter(|q| *q > 0.0)
             }
             fn scale_out(factor: f64) -> Option<$t> {
                 Self::scale_in(factor)
@@ -288,12 +278,7 @@ macro_rules! float_sample {
                 u64::from(self.to_bits())
             }
             fn from_bits64(b: u64) -> Option<Self> {
-                let v = <$t>::from_bits(<$bits>::try_from(b).ok()?);
-                if v.is_finite() {
-                    Some(v)
-                } else {
-                    None
-                }
+                Some(<$t>::from_bits(<$bits>::try_from(b).ok()?)).filter(|v| v.is_finite())
             }
             fn coeff_to_bits64(c: $t) -> u64 {
                 c.to_bits64()
