@@ -145,27 +145,6 @@ impl LeadDiscrete {
     }
 }
 
-impl core::fmt::Display for LeadDiscrete {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        let (b0, b1, a1) = self.direct_form();
-        write!(
-            f,
-            "lead Tustin T={:.3e} s: K_hf={:.6e} N m s/m, g={:.9}, c={:.9}, alpha={:.9}, \
-             kappa={:.9}; DC gain {:.6e}; direct form b0={:.9e} b1={:.9e} a1={:.9}",
-            self.t_s,
-            self.k_hf,
-            self.g,
-            self.c,
-            self.alpha,
-            self.kappa,
-            self.dc_gain(),
-            b0,
-            b1,
-            a1
-        )
-    }
-}
-
 /// Per-unit lead coefficients, the values the filter multiplies by.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LeadPu {

@@ -75,20 +75,6 @@ impl PiDiscrete {
     }
 }
 
-impl core::fmt::Display for PiDiscrete {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        write!(
-            f,
-            "PI backward Euler T={:.3e} s: Kp={:.6e} V/A, Ki=Kp T/Ti={:.9e} V/A per sample \
-             (Ti={:.6} s)",
-            self.t_s,
-            self.kp,
-            self.ki,
-            self.kp * self.t_s / self.ki
-        )
-    }
-}
-
 /// Per-unit PI coefficients.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PiPu {
