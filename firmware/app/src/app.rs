@@ -10,7 +10,7 @@ use embassy_sync::waitqueue::AtomicWaker;
 use embassy_time::Instant;
 
 use crate::board::Board;
-use crate::device::{new_runtime, Device, FwRuntime};
+use crate::device::{new_runtime, FwRuntime};
 use crate::ring::{ByteRing, Empty};
 use crate::settings::{RX_PIPE, TX_PIPE};
 use crate::tick::{period_ticks, TickMonitor, TickWake};
@@ -166,7 +166,7 @@ struct BoardNote {
 /// its tick, the frame queued whole or dropped. Returns the execution time.
 #[inline(always)]
 fn exchange(
-    device: &mut impl Device,
+    device: &mut FwRuntime,
     stopwatch: &mut impl Stopwatch,
     t0: u32,
     last_exec: u32,
@@ -207,7 +207,7 @@ pub const RX_LOG_QUIET_TICKS: u32 = 500;
 
 /// The receive log, after the frame went out: the held event once `quiet` ran down.
 #[inline(always)]
-fn log_rx(device: &mut impl Device, quiet: &mut u32) {
+fn log_rx(device: &mut FwRuntime, quiet: &mut u32) {
     if *quiet != 0 {
         *quiet -= 1;
     } else if let Some((e, more)) = device.take_rx_event() {
@@ -224,7 +224,7 @@ fn log_rx_event(e: wheelset_runtime::RxEvent, more: u32) {
 
 /// Every [`crate::stack::SCAN_TICKS`] ticks, the stack's high-water mark into the Status.
 #[inline(always)]
-fn note_stack(device: &mut impl Device, ticks: &mut u32) {
+fn note_stack(device: &mut FwRuntime, ticks: &mut u32) {
     *ticks = ticks.wrapping_add(1);
     if *ticks >= crate::stack::SCAN_TICKS {
         *ticks = 0;
@@ -235,7 +235,7 @@ fn note_stack(device: &mut impl Device, ticks: &mut u32) {
 /// After every tick of either control task: the stack mark, the receive log, the
 /// watchdog's proof of life, a fault the Config injected.
 #[inline(always)]
-fn after_tick<B: Board>(device: &mut impl Device, stack_ticks: &mut u32, rx_quiet: &mut u32) {
+fn after_tick<B: Board>(device: &mut FwRuntime, stack_ticks: &mut u32, rx_quiet: &mut u32) {
     note_stack(device, stack_ticks);
     log_rx(device, rx_quiet);
     crate::watchdog::tick_ran();
@@ -245,8 +245,8 @@ fn after_tick<B: Board>(device: &mut impl Device, stack_ticks: &mut u32, rx_quie
 }
 
 /// The control task's body, one base period per tick; a Config changing the rate re-arms it.
-pub async fn control_loop<B: Board, D: Device>(
-    make_device: impl FnOnce() -> D,
+pub async fn control_loop<B: Board>(
+    make_device: impl FnOnce() -> FwRuntime,
     mut stopwatch: B::Stopwatch,
 ) -> ! {
     // Made here, not passed in: an async fn's arguments are kept twice in its future.
@@ -321,8 +321,8 @@ pub async fn control_loop<B: Board, D: Device>(
 
 /// The frame-clocked control task (`frame-clock`): one tick per frame delimiter received.
 #[cfg(feature = "frame-clock")]
-pub async fn frame_loop<B: Board, D: Device>(
-    make_device: impl FnOnce() -> D,
+pub async fn frame_loop<B: Board>(
+    make_device: impl FnOnce() -> FwRuntime,
     mut stopwatch: B::Stopwatch,
 ) -> ! {
     let mut device = make_device();

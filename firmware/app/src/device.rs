@@ -1,8 +1,9 @@
-//! What the control task drives: bytes in, one encoded frame out per tick.
+//! What the control task drives, the firmware's [`FwRuntime`]: bytes in, one encoded frame
+//! out per tick.
 
-use wheelset_control::{Compiled, Monitor, SampleBits};
+use wheelset_control::{Compiled, Monitor};
 use wheelset_proto::{encode, Actuation, Flags, Message, MAX_FRAME};
-use wheelset_runtime::{Runtime, RuntimeBits, RuntimeError, RxEvent};
+use wheelset_runtime::{Runtime, RuntimeBits, RuntimeError};
 
 /// The default runtime compiled at build time (`build.rs`): the generated constant.
 mod generated {
@@ -11,60 +12,6 @@ mod generated {
     };
     use wheelset_runtime::{AccBits, Designs, Rates, RuntimeBits};
     include!(concat!(env!("OUT_DIR"), "/default_runtime.rs"));
-}
-
-/// The device side of the control loop, as the control task sees it.
-pub trait Device {
-    /// Feeds bytes received from the UART since the previous call (any split).
-    fn receive(&mut self, bytes: &[u8]);
-    /// Runs one tick (`last_exec`: the previous tick's cycles or instructions); the frames out.
-    fn tick(&mut self, last_exec: u32) -> &[u8];
-    /// The base rate in force, Hz (a Config may change it).
-    fn base_rate_hz(&self) -> u32;
-    /// The board's counters since the previous call, for the Status.
-    fn note_board(&mut self, late: u32, missed: u32, rx_overrun: u32, tx_dropped: u32);
-    /// The boot record: boots since power-on and `wheelset_proto::reset_cause`.
-    fn set_boot(&mut self, boot_count: u32, reset_cause: u8);
-    /// The board's stack high-water mark, bytes (reported in `Status.stack_peak`).
-    fn set_stack_peak(&mut self, bytes: u32);
-    /// A fault injection received (test builds with `fault-inject` only).
-    fn take_injected(&mut self) -> Option<wheelset_proto::Command>;
-    /// The first receive event since the previous call and the number after it.
-    fn take_rx_event(&mut self) -> Option<(RxEvent, u32)>;
-}
-
-impl<T: SampleBits> Device for Runtime<T> {
-    fn receive(&mut self, bytes: &[u8]) {
-        Runtime::receive(self, bytes);
-    }
-
-    fn tick(&mut self, last_exec: u32) -> &[u8] {
-        Runtime::tick(self, last_exec)
-    }
-
-    fn base_rate_hz(&self) -> u32 {
-        Runtime::base_rate_hz(self)
-    }
-
-    fn note_board(&mut self, late: u32, missed: u32, rx_overrun: u32, tx_dropped: u32) {
-        Runtime::note_board(self, late, missed, rx_overrun, tx_dropped);
-    }
-
-    fn set_boot(&mut self, boot_count: u32, reset_cause: u8) {
-        Runtime::set_boot(self, boot_count, reset_cause);
-    }
-
-    fn set_stack_peak(&mut self, bytes: u32) {
-        Runtime::set_stack_peak(self, bytes);
-    }
-
-    fn take_injected(&mut self) -> Option<wheelset_proto::Command> {
-        Runtime::take_injected(self)
-    }
-
-    fn take_rx_event(&mut self) -> Option<(RxEvent, u32)> {
-        Runtime::take_rx_event(self)
-    }
 }
 
 /// The core's sample type: fixed point (`I4F28`), or `f32` with the `f32` feature.
@@ -187,19 +134,16 @@ mod tests {
                 v_ref_mm_s: 0,
             };
             let f = encode_vec(&Message::Sensor(s)).unwrap();
-            Device::receive(&mut dev, &f);
+            dev.receive(&f);
             host.receive(&f);
-            assert_eq!(Device::tick(&mut dev, 0), host.tick(0), "tick {k}");
+            assert_eq!(dev.tick(0), host.tick(0), "tick {k}");
         }
     }
 
     #[test]
     fn the_device_interface_is_the_runtime() {
         let mut dev = new_runtime().unwrap();
-        assert_eq!(
-            Device::base_rate_hz(&dev),
-            wheelset_control::DEFAULT_BASE_RATE_HZ
-        );
+        assert_eq!(dev.base_rate_hz(), wheelset_control::DEFAULT_BASE_RATE_HZ);
         let s = Sensor {
             seq: 41,
             omega_m_mrad_s: 925_600,
@@ -208,9 +152,9 @@ mod tests {
         let frame = encode_vec(&Message::Sensor(s)).unwrap();
         // Any chunking.
         let (a, b) = frame.split_at(3);
-        Device::receive(&mut dev, a);
-        Device::receive(&mut dev, b);
-        let out = Device::tick(&mut dev, 1234).to_vec();
+        dev.receive(a);
+        dev.receive(b);
+        let out = dev.tick(1234).to_vec();
         let msgs = decode_all(&out);
         let [Message::Actuation(a)] = msgs.as_slice() else {
             panic!("{msgs:?}")

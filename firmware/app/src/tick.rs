@@ -2,19 +2,6 @@
 //! `late_after`, late below a period, else `missed = floor(lateness / period)` deadlines
 //! skipped and the next at `deadline + (missed + 1) * period` (no burst of catch-up ticks).
 
-/// Counters of the tick schedule, reported by the control task.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct TickCounters {
-    /// Ticks run.
-    pub ticks: u32,
-    /// Ticks that started more than `late_after` after their deadline (skips included).
-    pub late: u32,
-    /// Deadlines that passed without a tick (skipped, not caught up).
-    pub skipped_periods: u32,
-    /// Largest lateness seen, in timer ticks.
-    pub max_lateness: u64,
-}
-
 /// What the control task must do after a wake-up.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum TickWake {
@@ -49,7 +36,6 @@ pub struct TickMonitor {
     period: u64,
     late_after: u64,
     next_deadline: u64,
-    counters: TickCounters,
 }
 
 impl TickMonitor {
@@ -69,11 +55,10 @@ impl TickMonitor {
             period,
             late_after,
             next_deadline: first_deadline,
-            counters: TickCounters::default(),
         })
     }
 
-    /// A new period and first deadline, late after a quarter period; the counters carry on.
+    /// A new period and first deadline, late after a quarter period.
     pub fn rearm(&mut self, period: u64, first_deadline: u64) {
         self.period = period.max(1);
         self.late_after = self.period / 4;
@@ -85,22 +70,13 @@ impl TickMonitor {
         self.next_deadline
     }
 
-    /// The counters so far.
-    pub fn counters(&self) -> TickCounters {
-        self.counters
-    }
-
     /// Classifies a wake-up at `now` and advances the schedule (early counts as on time).
     pub fn on_wake(&mut self, now: u64) -> TickWake {
         let deadline = self.next_deadline;
         let lateness = now.saturating_sub(deadline);
-        let c = &mut self.counters;
-        c.ticks = c.ticks.saturating_add(1);
-        c.max_lateness = c.max_lateness.max(lateness);
         if lateness < self.period {
             self.next_deadline = deadline.saturating_add(self.period);
             if lateness > self.late_after {
-                c.late = c.late.saturating_add(1);
                 TickWake::Late { lateness }
             } else {
                 TickWake::OnTime
@@ -112,8 +88,6 @@ impl TickMonitor {
             let next_deadline =
                 deadline.saturating_add((u64::from(missed) + 1).saturating_mul(self.period));
             self.next_deadline = next_deadline;
-            c.late = c.late.saturating_add(1);
-            c.skipped_periods = c.skipped_periods.saturating_add(missed);
             TickWake::Skipped {
                 missed,
                 next_deadline,
@@ -148,15 +122,13 @@ mod tests {
     }
 
     #[test]
-    fn rearming_keeps_the_counters() {
+    fn rearming_moves_the_grid() {
         let mut m = TickMonitor::try_new(T, T, T / 4).unwrap();
         m.on_wake(3 * T);
         m.rearm(2 * T, 10 * T);
         assert_eq!(m.next_deadline(), 10 * T);
         assert_eq!(m.on_wake(10 * T), TickWake::OnTime);
         assert_eq!(m.next_deadline(), 12 * T);
-        assert_eq!(m.counters().skipped_periods, 2);
-        assert_eq!(m.counters().ticks, 2);
     }
 
     #[test]
@@ -179,9 +151,6 @@ mod tests {
             assert_eq!(m.on_wake(k * T + k % 5), TickWake::OnTime);
             assert_eq!(m.next_deadline(), (k + 1) * T);
         }
-        let c = m.counters();
-        assert_eq!((c.ticks, c.late, c.skipped_periods), (100, 0, 0));
-        assert_eq!(c.max_lateness, 4);
     }
 
     #[test]
@@ -190,8 +159,6 @@ mod tests {
         assert_eq!(m.on_wake(T + T / 2), TickWake::Late { lateness: T / 2 });
         assert_eq!(m.next_deadline(), 2 * T);
         assert_eq!(m.on_wake(2 * T), TickWake::OnTime);
-        assert_eq!(m.counters().late, 1);
-        assert_eq!(m.counters().skipped_periods, 0);
     }
 
     #[test]
@@ -210,9 +177,6 @@ mod tests {
         );
         // The next wake-up on the re-armed grid is on time: no burst of catch-up ticks.
         assert_eq!(m.on_wake(6 * T), TickWake::OnTime);
-        let c = m.counters();
-        assert_eq!((c.ticks, c.late, c.skipped_periods), (3, 1, 3));
-        assert_eq!(c.max_lateness, 3 * T + 10);
     }
 
     #[test]

@@ -166,9 +166,7 @@ impl<T: Sample> Compiled<T> {
             l.voltage_min / s.voltage,
             l.voltage_max / s.voltage,
         )?;
-        let q = |name: &'static str, v: f64| {
-            T::quantise(v).ok_or(ConfigError::Coefficient { name, value: v })
-        };
+        let q = crate::config::coeff::<T>;
         let iref_max = l.demand / (config.motor.n * config.motor.k_m) / s.current;
         Ok(Self {
             lead,
@@ -216,18 +214,6 @@ impl<T: Sample> Compiled<T> {
     pub fn base_rate_hz(&self) -> u32 {
         self.base_rate_hz
     }
-    /// Yaw divisor.
-    pub fn yaw_divisor(&self) -> u16 {
-        self.yaw_divisor
-    }
-    /// Traction divisor.
-    pub fn traction_divisor(&self) -> u16 {
-        self.traction_divisor
-    }
-    /// The lead as quantised.
-    pub fn lead(&self) -> &Lead<T> {
-        &self.lead
-    }
     /// The PI as quantised.
     pub fn pi(&self) -> &Pi<T> {
         &self.pi
@@ -235,10 +221,6 @@ impl<T: Sample> Compiled<T> {
     /// The wire codec.
     pub fn codec(&self) -> &Codec<T> {
         &self.codec
-    }
-    /// The wheel-slip protection as quantised.
-    pub fn wsp(&self) -> &Wsp<T> {
-        &self.wsp
     }
 }
 
@@ -314,8 +296,8 @@ impl<T: SampleBits> Compiled<T> {
             |field, s: ScaleBits| T::scale_from_bits(s.mul, s.shift).ok_or(BitsError { field });
         let [y_dot, current, speed, demand, torque] = b.clamps;
         let [sy, si, sw, sd, st, su] = b.codec;
-        let u_min = signal::<T>(b.u_min).ok_or(BitsError { field: "u_min" })?;
-        let u_max = signal::<T>(b.u_max).ok_or(BitsError { field: "u_max" })?;
+        let u_min = T::from_bits64(b.u_min).ok_or(BitsError { field: "u_min" })?;
+        let u_max = T::from_bits64(b.u_max).ok_or(BitsError { field: "u_max" })?;
         let m = T::MAX_LIMIT;
         if !(u_min < u_max && T::ZERO.sat_sub(m) <= u_min && u_max <= m) {
             return Err(BitsError {
@@ -324,14 +306,14 @@ impl<T: SampleBits> Compiled<T> {
         }
         let c = Self {
             lead: Lead {
-                k_hf: T::COEFF_ZERO,
+                k_hf: Default::default(),
                 g_half: coef("lead_g_half", b.lead_g_half)?,
-                kappa: T::COEFF_ZERO,
+                kappa: Default::default(),
             },
             gain: coef("gain", b.gain)?,
             pi: Pi {
-                kp: T::COEFF_ZERO,
-                ki: T::COEFF_ZERO,
+                kp: Default::default(),
+                ki: Default::default(),
                 ki_shift: 0,
                 u_min,
                 u_max,
@@ -343,7 +325,7 @@ impl<T: SampleBits> Compiled<T> {
             torque_max: limit("clamps.torque", torque)?,
             demand_to_iref: coef("demand_to_iref", b.demand_to_iref)?,
             back_emf: coef("back_emf", b.back_emf)?,
-            predict_half: T::COEFF_ZERO,
+            predict_half: Default::default(),
             y_dot_pred_max: limit("y_dot_pred_max", b.y_dot_pred_max)?,
             iref_step: T::ZERO,
             iref_safe_step: T::ZERO,
@@ -380,14 +362,14 @@ impl<T: SampleBits> Compiled<T> {
         if s.traction_divisor == 0 {
             return Err(e("traction_divisor"));
         }
+        if s.delay_ticks == 0 {
+            return Err(e("delay_ticks"));
+        }
         let unit = |field, v, zero_ok| {
             T::coeff_from_bits64(v)
                 .filter(|c| T::coeff_in_unit(*c, zero_ok))
                 .ok_or(e(field))
         };
-        if s.delay_ticks == 0 {
-            return Err(e("delay_ticks"));
-        }
         let kappa = unit("kappa", s.kappa, false)?;
         let ki = unit("ki", s.ki, false)?;
         let kp = unit("kp", s.kp, false)?;
@@ -413,10 +395,6 @@ impl<T: SampleBits> Compiled<T> {
         c.base_rate_hz = s.base_rate_hz;
         Ok(c)
     }
-}
-
-fn signal<T: SampleBits>(v: u64) -> Option<T> {
-    T::from_bits64(v)
 }
 
 /// A positive per-unit limit or step, at most 2 pu.

@@ -2,6 +2,7 @@
 
 use crate::lead::LeadParams;
 use crate::pi::PiParams;
+use crate::sample::Sample;
 use crate::wsp::WspParams;
 use wheelset_proto::units;
 
@@ -252,6 +253,18 @@ impl core::fmt::Display for ConfigError {
 
 impl core::error::Error for ConfigError {}
 
+impl ConfigError {
+    /// `v`, or the [`ConfigError::Coefficient`] `name` = `value` that did not fit.
+    pub(crate) fn fit<V>(v: Option<V>, name: &'static str, value: f64) -> Result<V, Self> {
+        v.ok_or(Self::Coefficient { name, value })
+    }
+}
+
+/// `value` quantised as a coefficient of `T`, or the error naming it.
+pub(crate) fn coeff<T: Sample>(name: &'static str, value: f64) -> Result<T::Coeff, ConfigError> {
+    ConfigError::fit(T::quantise(value), name, value)
+}
+
 /// `Ok` when `ok` holds for a finite `value`; else `NotFinite` or `Range` naming `field`.
 pub(crate) fn range(
     field: &'static str,
@@ -283,6 +296,13 @@ pub(crate) fn in_range(
     }
 }
 
+/// [`range`] of each `(field, value)` in turn: the value must be positive.
+fn positive(reason: &'static str, values: &[(&'static str, f64)]) -> Result<(), ConfigError> {
+    values
+        .iter()
+        .try_for_each(|&(field, v)| range(field, v, v > 0.0, reason))
+}
+
 /// Largest per-unit magnitude of a clamped input or limit (the Q4.28 range analysis).
 pub const MAX_LIMIT_PU: f64 = 2.0;
 
@@ -308,18 +328,12 @@ impl Config {
             (100..=100_000).contains(&self.base_rate_hz),
             "base rate must be 100 Hz .. 100 kHz",
         )?;
-        range(
-            "yaw_divisor",
-            self.yaw_divisor as f64,
-            self.yaw_divisor >= 1,
-            "divisor must be >= 1",
-        )?;
-        range(
-            "traction_divisor",
-            self.traction_divisor as f64,
-            self.traction_divisor >= 1,
-            "divisor must be >= 1",
-        )?;
+        for (field, d) in [
+            ("yaw_divisor", self.yaw_divisor),
+            ("traction_divisor", self.traction_divisor),
+        ] {
+            range(field, f64::from(d), d >= 1, "divisor must be >= 1")?;
+        }
         range(
             "delay_ticks",
             f64::from(self.delay_ticks),
@@ -357,23 +371,13 @@ impl Config {
             l.voltage_min.abs() / s.voltage <= MAX_LIMIT_PU,
             R,
         )?;
-        range(
-            "limits.current_ref_rate",
-            l.current_ref_rate,
-            l.current_ref_rate > 0.0,
+        positive(
             "must be positive",
-        )?;
-        range(
-            "motor.k_m",
-            self.motor.k_m,
-            self.motor.k_m > 0.0,
-            "must be positive",
-        )?;
-        range(
-            "motor.n",
-            self.motor.n,
-            self.motor.n > 0.0,
-            "must be positive",
+            &[
+                ("limits.current_ref_rate", l.current_ref_rate),
+                ("motor.k_m", self.motor.k_m),
+                ("motor.n", self.motor.n),
+            ],
         )?;
         range(
             "limits.demand",
@@ -389,17 +393,12 @@ impl Config {
             (0.0..2.0).contains(&alpha),
             "yaw_predict_ticks / yaw_divisor must be in [0, 2)",
         )?;
-        range(
-            "safe.yaw_s",
-            self.safe.yaw_s,
-            self.safe.yaw_s > 0.0,
+        positive(
             "must be positive",
-        )?;
-        range(
-            "safe.traction_s",
-            self.safe.traction_s,
-            self.safe.traction_s > 0.0,
-            "must be positive",
+            &[
+                ("safe.yaw_s", self.safe.yaw_s),
+                ("safe.traction_s", self.safe.traction_s),
+            ],
         )?;
         let w = &self.wire;
         for (field, v) in [

@@ -28,115 +28,35 @@ pub const LEAD_GAIN_STEPS: [f64; 6] = [1.0, 0.95, 0.9, 0.85, 0.8, 0.75];
 
 /// The accepted rates and delays, held to the host's analysis by `wheelset_plant::sampled::design`'s test.
 pub const DESIGNED: [DesignPoint; 18] = [
-    DesignPoint {
-        base_rate_hz: 500,
-        delay_ticks: 1,
-        lead_gain: 1.0,
-        yaw: false,
-    },
-    DesignPoint {
-        base_rate_hz: 500,
-        delay_ticks: 2,
-        lead_gain: 1.0,
-        yaw: false,
-    },
-    DesignPoint {
-        base_rate_hz: 500,
-        delay_ticks: 3,
-        lead_gain: 1.0,
-        yaw: false,
-    },
-    DesignPoint {
-        base_rate_hz: 1_000,
-        delay_ticks: 1,
-        lead_gain: 0.95,
-        yaw: true,
-    },
-    DesignPoint {
-        base_rate_hz: 1_000,
-        delay_ticks: 2,
-        lead_gain: 1.0,
-        yaw: false,
-    },
-    DesignPoint {
-        base_rate_hz: 1_000,
-        delay_ticks: 3,
-        lead_gain: 1.0,
-        yaw: false,
-    },
-    DesignPoint {
-        base_rate_hz: 2_000,
-        delay_ticks: 1,
-        lead_gain: 1.0,
-        yaw: true,
-    },
-    DesignPoint {
-        base_rate_hz: 2_000,
-        delay_ticks: 2,
-        lead_gain: 0.9,
-        yaw: true,
-    },
-    DesignPoint {
-        base_rate_hz: 2_000,
-        delay_ticks: 3,
-        lead_gain: 1.0,
-        yaw: false,
-    },
-    DesignPoint {
-        base_rate_hz: 2_500,
-        delay_ticks: 1,
-        lead_gain: 1.0,
-        yaw: true,
-    },
-    DesignPoint {
-        base_rate_hz: 2_500,
-        delay_ticks: 2,
-        lead_gain: 0.9,
-        yaw: true,
-    },
-    DesignPoint {
-        base_rate_hz: 2_500,
-        delay_ticks: 3,
-        lead_gain: 1.0,
-        yaw: false,
-    },
-    DesignPoint {
-        base_rate_hz: 5_000,
-        delay_ticks: 1,
-        lead_gain: 1.0,
-        yaw: true,
-    },
-    DesignPoint {
-        base_rate_hz: 5_000,
-        delay_ticks: 2,
-        lead_gain: 0.95,
-        yaw: true,
-    },
-    DesignPoint {
-        base_rate_hz: 5_000,
-        delay_ticks: 3,
-        lead_gain: 0.9,
-        yaw: true,
-    },
-    DesignPoint {
-        base_rate_hz: 10_000,
-        delay_ticks: 1,
-        lead_gain: 1.0,
-        yaw: true,
-    },
-    DesignPoint {
-        base_rate_hz: 10_000,
-        delay_ticks: 2,
-        lead_gain: 1.0,
-        yaw: true,
-    },
-    DesignPoint {
-        base_rate_hz: 10_000,
-        delay_ticks: 3,
-        lead_gain: 0.95,
-        yaw: true,
-    },
+    at(500, 1, 1.0, false),
+    at(500, 2, 1.0, false),
+    at(500, 3, 1.0, false),
+    at(1_000, 1, 0.95, true),
+    at(1_000, 2, 1.0, false),
+    at(1_000, 3, 1.0, false),
+    at(2_000, 1, 1.0, true),
+    at(2_000, 2, 0.9, true),
+    at(2_000, 3, 1.0, false),
+    at(2_500, 1, 1.0, true),
+    at(2_500, 2, 0.9, true),
+    at(2_500, 3, 1.0, false),
+    at(5_000, 1, 1.0, true),
+    at(5_000, 2, 0.95, true),
+    at(5_000, 3, 0.9, true),
+    at(10_000, 1, 1.0, true),
+    at(10_000, 2, 1.0, true),
+    at(10_000, 3, 0.95, true),
 ];
+
+/// A row of [`DESIGNED`].
+const fn at(base_rate_hz: u32, delay_ticks: u8, lead_gain: f64, yaw: bool) -> DesignPoint {
+    DesignPoint {
+        base_rate_hz,
+        delay_ticks,
+        lead_gain,
+        yaw,
+    }
+}
 
 /// The paper's effective delay `tau_0`, s: 1.5 ticks at 5 kHz.
 pub const TAU_0_S: f64 = 1.5 / 5_000.0;

@@ -145,27 +145,6 @@ impl LeadDiscrete {
     }
 }
 
-impl core::fmt::Display for LeadDiscrete {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        let (b0, b1, a1) = self.direct_form();
-        write!(
-            f,
-            "lead Tustin T={:.3e} s: K_hf={:.6e} N m s/m, g={:.9}, c={:.9}, alpha={:.9}, \
-             kappa={:.9}; DC gain {:.6e}; direct form b0={:.9e} b1={:.9e} a1={:.9}",
-            self.t_s,
-            self.k_hf,
-            self.g,
-            self.c,
-            self.alpha,
-            self.kappa,
-            self.dc_gain(),
-            b0,
-            b1,
-            a1
-        )
-    }
-}
-
 /// Per-unit lead coefficients, the values the filter multiplies by.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LeadPu {
@@ -198,9 +177,7 @@ pub struct LeadState<T> {
 impl<T: Sample> Lead<T> {
     /// Quantise per-unit coefficients. Error names the coefficient that does not fit.
     pub fn new(pu: &LeadPu) -> Result<Self, ConfigError> {
-        let q = |name: &'static str, v: f64| {
-            T::quantise(v).ok_or(ConfigError::Coefficient { name, value: v })
-        };
+        let q = crate::config::coeff::<T>;
         Ok(Self {
             k_hf: q("lead.k_hf (pu)", pu.k_hf)?,
             g_half: q("lead.g_half", pu.g_half)?,

@@ -162,8 +162,8 @@ pub struct MonitorBits {
 /// block holding the change and the next, whatever its phase in the block (module docs).
 pub const QUIET_BLOCKS: u16 = 2;
 
-/// The monitor's quantised configuration (immutable while running).
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// The monitor's quantised configuration (immutable while running; `Default`: off).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Monitor<T: Sample> {
     rate_hz: u32,
     div: u16,
@@ -319,14 +319,12 @@ impl<T: Sample> Monitor<T> {
             "at least one block",
         )?;
         let t = 1.0 / fs;
-        let q = |name: &'static str, v: f64| {
-            T::quantise(v).ok_or(ConfigError::Coefficient { name, value: v })
-        };
+        let q = crate::config::coeff::<T>;
         // 1 pu of y' is `scales.y_dot` = 1 m/s: the levels in pu^2 are (m/s)^2.
         let thr2 = p.threshold_m_s * p.threshold_m_s;
-        let mut m = Self {
+        Ok(Self {
             rate_hz: p.rate_hz,
-            div: 1,
+            div: divisor_for(p.rate_hz, base_rate_hz),
             k_lo: q("monitor.k_lo", pole(p.band_lo_hz, t))?,
             k_hi: q("monitor.k_hi", pole(p.band_hi_hz, t))?,
             k_ms: q("monitor.k_ms", 1.0 - exp_small(-t / (p.window_s / 2.0)))?,
@@ -345,9 +343,7 @@ impl<T: Sample> Monitor<T> {
             drive_on: T::from_f64(drive.on),
             drive_off: T::from_f64(drive.off),
             drive_persist: p.drive_persist_steps,
-        };
-        m.retime(base_rate_hz);
-        Ok(m)
+        })
     }
 
     /// Set `div = round(base/rate)` ticks per step, at least 1, for a new base rate (a base
@@ -359,16 +355,6 @@ impl<T: Sample> Monitor<T> {
     /// Ticks per monitor step (0: the monitor is off).
     pub fn divisor(&self) -> u16 {
         self.div
-    }
-
-    /// The drive check's ripple mean-square levels, pu^2 of the current scale: alarm on, off.
-    pub fn drive_levels(&self) -> (T, T) {
-        (self.drive_on, self.drive_off)
-    }
-
-    /// The levels in pu^2 (`(m/s)^2`): alarm on, alarm off, the actuator check's floor.
-    pub fn levels(&self) -> (T, T, T) {
-        (self.on, self.off, self.floor)
     }
 
     /// One base tick: every `div` ticks a monitor step on `y_dot` (pu), `commanding` the yaw
@@ -393,26 +379,14 @@ impl<T: Sample> Monitor<T> {
         self.tick_step(s, y_dot, commanding, iref)
     }
 
-    /// The rest of [`Self::tick`] on a tick whose phase count has run out.
+    /// The rest of [`Self::tick`] on a tick whose phase count has run out: one monitor step
+    /// (module docs).
     #[inline(never)]
-    fn tick_step(
-        &self,
-        s: &mut MonitorState<T>,
-        y_dot: T,
-        commanding: bool,
-        iref: T,
-    ) -> MonitorEvents {
+    fn tick_step(&self, s: &mut MonitorState<T>, x: T, commanding: bool, iref: T) -> MonitorEvents {
         if self.div == 0 {
             return s.ev;
         }
         s.phase = self.div;
-        self.step(s, y_dot, commanding, iref);
-        s.ev
-    }
-
-    /// One monitor step (see the module docs).
-    #[inline(always)]
-    fn step(&self, s: &mut MonitorState<T>, x: T, commanding: bool, iref: T) {
         s.lo = s.lo.sat_add(x.sat_sub(s.lo).mul_c(self.k_lo));
         let h = x.sat_sub(s.lo);
         s.band = s.band.sat_add(h.sat_sub(s.band).mul_c(self.k_hi));
@@ -429,7 +403,7 @@ impl<T: Sample> Monitor<T> {
         }
         if s.block_left > 1 {
             s.block_left -= 1;
-            return;
+            return s.ev;
         }
         s.block_left = self.block;
         if !iref.sat_sub(s.iref_block).abs_within(self.traction_change) {
@@ -457,6 +431,7 @@ impl<T: Sample> Monitor<T> {
             ev.actuator = true;
             ev.actuator_rose = true;
         }
+        s.ev
     }
 }
 

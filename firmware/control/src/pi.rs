@@ -75,20 +75,6 @@ impl PiDiscrete {
     }
 }
 
-impl core::fmt::Display for PiDiscrete {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        write!(
-            f,
-            "PI backward Euler T={:.3e} s: Kp={:.6e} V/A, Ki=Kp T/Ti={:.9e} V/A per sample \
-             (Ti={:.6} s)",
-            self.t_s,
-            self.kp,
-            self.ki,
-            self.kp * self.t_s / self.ki
-        )
-    }
-}
-
 /// Per-unit PI coefficients.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PiPu {
@@ -154,13 +140,8 @@ impl<T: Sample> Pi<T> {
         u_min: f64,
         u_max: f64,
     ) -> Result<Self, ConfigError> {
-        let q = |name: &'static str, v: f64| {
-            T::quantise(v).ok_or(ConfigError::Coefficient { name, value: v })
-        };
-        let ki_shift = T::acc_shift(ki_max.max(pu.ki)).ok_or(ConfigError::Coefficient {
-            name: "pi.ki (pu)",
-            value: pu.ki,
-        })?;
+        let q = crate::config::coeff::<T>;
+        let ki_shift = ConfigError::fit(T::acc_shift(ki_max.max(pu.ki)), "pi.ki (pu)", pu.ki)?;
         if u_min.partial_cmp(&u_max) != Some(core::cmp::Ordering::Less) {
             return Err(ConfigError::Range {
                 field: "limits.voltage_min/max",

@@ -23,7 +23,7 @@ pub const COEF_FRAC: u32 = 31;
 /// A per-unit sample: the operations the filters use (no allocation, division or panic).
 pub trait Sample: Copy + Default + PartialEq + PartialOrd + core::fmt::Debug {
     /// Quantised coefficient (`Self` for floats, [`Coef`] Q1.31 for [`Fx`]).
-    type Coeff: Copy + core::fmt::Debug + PartialEq;
+    type Coeff: Copy + Default + core::fmt::Debug + PartialEq;
     /// An integrator's sub-LSB remainder (`()` for floats, `u64` for [`Fx`]).
     type Residue: Copy + Default + core::fmt::Debug + PartialEq;
     /// Precomputed wire-code scale (`Self` for floats, [`FxScale`] for [`Fx`]).
@@ -140,8 +140,6 @@ pub trait SampleBits: Sample {
     const NUMERIC: u8;
     /// The largest magnitude of a clamp or limit, 2 pu ([`crate::config::MAX_LIMIT_PU`]).
     const MAX_LIMIT: Self;
-    /// The zero coefficient.
-    const COEFF_ZERO: Self::Coeff;
 
     /// A signal's bit pattern (Q4.28 `i32` or IEEE bits), zero-extended to 64 bits.
     fn to_bits64(self) -> u64;
@@ -176,12 +174,7 @@ macro_rules! float_sample {
                 self as f64
             }
             fn quantise(c: f64) -> Option<$t> {
-                let q = c as $t;
-                if q.is_finite() {
-                    Some(q)
-                } else {
-                    None
-                }
+                Some(c as $t).filter(|q| q.is_finite())
             }
             fn coeff_to_f64(c: $t) -> f64 {
                 c as f64
@@ -228,12 +221,7 @@ macro_rules! float_sample {
                 (if ok { self } else { 0.0 }, !ok)
             }
             fn scale_in(factor: f64) -> Option<$t> {
-                let q = factor as $t;
-                if q.is_finite() && q > 0.0 {
-                    Some(q)
-                } else {
-                    None
-                }
+                Self::quantise(factor).filter(|q| *q > 0.0)
             }
             fn scale_out(factor: f64) -> Option<$t> {
                 Self::scale_in(factor)
@@ -285,18 +273,12 @@ macro_rules! float_sample {
         impl SampleBits for $t {
             const NUMERIC: u8 = $numeric;
             const MAX_LIMIT: Self = 2.0;
-            const COEFF_ZERO: $t = 0.0;
 
             fn to_bits64(self) -> u64 {
                 u64::from(self.to_bits())
             }
             fn from_bits64(b: u64) -> Option<Self> {
-                let v = <$t>::from_bits(<$bits>::try_from(b).ok()?);
-                if v.is_finite() {
-                    Some(v)
-                } else {
-                    None
-                }
+                Some(<$t>::from_bits(<$bits>::try_from(b).ok()?)).filter(|v| v.is_finite())
             }
             fn coeff_to_bits64(c: $t) -> u64 {
                 c.to_bits64()

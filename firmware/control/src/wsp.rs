@@ -40,21 +40,6 @@
 //!   J_w = 2 I_w, J_m = n^2 I_m, J = J_w + J_m;  w_g = sqrt(k_gear (1/J_w + 1/J_m))
 //!   t_cut = t_detect + L_a/K_p              (`sim-host/cli/tests/adhesion.rs` computes it)
 //! ```
-//!
-//! ```
-//! use wheelset_control::{Config, F64Controller, Inputs};
-//! let mut cfg = Config::default();
-//! cfg.wsp.enabled = true;
-//! let mut c = F64Controller::try_new(&cfg).unwrap();
-//! let s = cfg.scales;
-//! // 83.3 m/s: motor 925.6 rad/s; the wheel slips 2 m/s (motor 22 rad/s faster).
-//! c.set_v_ref(83.3 * 5.0 / 0.45 / s.speed);
-//! let inp = Inputs::<f64>::from_si(&s, 0.0, 0.0, 925.6 + 22.2, 12_400.0);
-//! for _ in 0..100 {
-//!     c.tick(&inp);
-//! }
-//! assert!(c.wheel_slip() && c.counters().wsp_events == 1);
-//! ```
 
 use crate::compiled::ScaleBits;
 use crate::sample::Sample;

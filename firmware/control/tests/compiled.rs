@@ -328,11 +328,12 @@ fn limits_and_slews_are_their_si_values_over_their_scales() {
     let (s, l, m) = (&cfg.scales, &cfg.limits, &cfg.motor);
     let (t_yaw, t_tr) = (cfg.yaw_period(), cfg.traction_period());
     assert_eq!((t_yaw, t_tr), (1e-3, 2e-3));
+    let b = c.to_bits();
+    let sch = &b.schedule;
     assert_eq!(
-        (c.base_rate_hz(), c.yaw_divisor(), c.traction_divisor()),
+        (c.base_rate_hz(), sch.yaw_divisor, sch.traction_divisor),
         (2_000, 2, 4)
     );
-    let b = c.to_bits();
     let v = f64::from_bits;
     let close = |what: &str, got: u64, want: f64| {
         let got = v(got);

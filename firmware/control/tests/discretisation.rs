@@ -270,18 +270,6 @@ fn invalid_discretisations_are_refused() {
     .is_err());
 }
 
-#[test]
-fn coefficients_print_for_audit() {
-    let d = LeadParams::default().discretise(2e-4).expect("valid");
-    let s = format!("{d}");
-    assert!(
-        s.contains("alpha") && s.contains("b0") && s.contains("DC gain"),
-        "{s}"
-    );
-    let d = PiParams::default().discretise(2e-4).expect("valid");
-    assert!(format!("{d}").contains("Ki"));
-}
-
 /// The backward-Euler PI against `Kp (1 + 1/(Ti s))`: `1/(1 - z^-1) = 1/(jwT) + 1/2 +
 /// O(wT)`, a half-sample lead on the integral term only. Stated tolerance: within 0.1 %
 /// in magnitude and 0.1 deg in phase from 0.1 Hz to fs/20 for Ti = 0.5 s, and within

@@ -8,6 +8,12 @@ use wheelset_control::{Fx, Monitor, MonitorEvents, MonitorParams, MonitorState, 
 
 const BASE: u32 = 5000;
 
+/// The levels in (m/s)^2 from the exact bits: alarm on, alarm off, the actuator check's floor.
+fn levels(m: &Monitor<f64>) -> (f64, f64, f64) {
+    let [on, off, floor] = m.to_bits().levels.map(f64::from_bits);
+    (on, off, floor)
+}
+
 /// Runs `f(t)` (y' in m/s = pu) through a monitor at the base rate for `dur` seconds;
 /// returns the times of the rising edges (hunting, actuator) and the final events.
 fn drive<T: Sample>(
@@ -616,7 +622,7 @@ fn the_traction_change_range_and_the_window_coefficient() {
 fn the_levels_are_the_squares_of_the_parameters() {
     let d = MonitorParams::default();
     let m = Monitor::<f64>::try_new(&d, BASE).unwrap();
-    let (on, off, floor) = m.levels();
+    let (on, off, floor) = levels(&m);
     let thr2 = d.threshold_m_s * d.threshold_m_s;
     let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * b;
     assert!(close(on, thr2), "{on}");
@@ -681,7 +687,7 @@ fn block_end(m: &Monitor<f64>, energy: f64, s: &mut MonitorState<f64>) {
 #[test]
 fn a_block_at_the_energy_floor_is_not_growth() {
     let m = Monitor::<f64>::try_new(&MonitorParams::default(), BASE).unwrap();
-    let (_, _, floor) = m.levels();
+    let (_, _, floor) = levels(&m);
     let mut s = MonitorState::default();
     block_end(&m, floor, &mut s);
     assert_eq!(s.run, 0);
@@ -695,7 +701,7 @@ fn a_block_at_the_energy_floor_is_not_growth() {
 #[test]
 fn the_actuator_alarm_releases_when_growth_and_motion_stop() {
     let m = Monitor::<f64>::try_new(&MonitorParams::default(), BASE).unwrap();
-    let (_, off, floor) = m.levels();
+    let (_, off, floor) = levels(&m);
     let mut s = MonitorState::default();
     s.ev.actuator = true;
     // Still growing: held.
@@ -716,7 +722,7 @@ fn the_actuator_alarm_releases_when_growth_and_motion_stop() {
 #[test]
 fn a_block_grown_by_exactly_the_factor_is_not_growth() {
     let m = Monitor::<f64>::try_new(&MonitorParams::default(), BASE).unwrap();
-    let (_, _, floor) = m.levels();
+    let (_, _, floor) = levels(&m);
     let shrink = f64::from_bits(m.to_bits().shrink);
     let e = 4.0 * floor;
     let mut s = MonitorState::default();
@@ -737,7 +743,7 @@ fn a_block_grown_by_exactly_the_factor_is_not_growth() {
 #[test]
 fn the_hunting_alarm_rises_strictly_above_its_level() {
     let m = Monitor::<f64>::try_new(&MonitorParams::default(), BASE).unwrap();
-    let (on, _, _) = m.levels();
+    let (on, _, _) = levels(&m);
     let k = f64::from_bits(m.to_bits().k_ms);
     // A step on y' = 0 at rest decays the mean square by (1 - k): find the start that
     // lands on `on` exactly.

@@ -1,6 +1,6 @@
 //! The streaming frame accumulator: bytes in any chunking, frames out.
 
-use crate::frame::{check, message, request, FrameError, Request, MAX_FRAME};
+use crate::frame::{check, request, whole, FrameError, Request, MAX_FRAME};
 use crate::message::Message;
 
 /// Longest encoded frame (delimiter excluded) decoded; longer ones are [`FrameError::Length`].
@@ -59,7 +59,7 @@ impl Decoder {
 
     /// The host's decoder: `bytes` up to the first delimiter; that frame's result, and the rest.
     pub fn next_message<'b>(&mut self, bytes: &'b [u8]) -> Next<'b, Message> {
-        self.next_with(bytes, message)
+        self.next_with(bytes, whole::<Message>)
     }
 
     /// The device's decoder: the same decisions, decoding only what the device takes.

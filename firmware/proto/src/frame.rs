@@ -191,18 +191,14 @@ pub(crate) fn check(frame: &[u8]) -> Result<&[u8], FrameError> {
     }
 }
 
-/// One `T` from all of `bytes`: postcard's decision, then no bytes left over.
-fn whole<T: DeserializeOwned>(bytes: &[u8]) -> Result<T, FrameError> {
+/// One `T` from all of `bytes`: postcard's decision, then no bytes left over (the host's
+/// reading of a checked frame's message bytes, `T` = [`Message`]).
+pub(crate) fn whole<T: DeserializeOwned>(bytes: &[u8]) -> Result<T, FrameError> {
     match postcard::take_from_bytes::<T>(bytes) {
         Ok((v, [])) => Ok(v),
         Ok(_) => Err(FrameError::Length),
         Err(_) => Err(FrameError::Postcard),
     }
-}
-
-/// The host's reading of a checked frame's message bytes: any [`Message`].
-pub(crate) fn message(msg: &[u8]) -> Result<Message, FrameError> {
-    whole(msg)
 }
 
 /// What the device takes from a frame; Actuation and Status are known by type byte only.

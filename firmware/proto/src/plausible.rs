@@ -71,33 +71,16 @@ pub enum RefuseReason {
 }
 
 impl RefuseReason {
-    /// Every reason, in code order.
-    pub const ALL: [Self; 24] = [
-        Self::None,
-        Self::UnknownRequest,
-        Self::Numeric,
-        Self::Fingerprint,
-        Self::BaseRate,
-        Self::Period,
-        Self::YawDiv,
-        Self::TractionDiv,
-        Self::HoldTicks,
-        Self::Kappa,
-        Self::Ki,
-        Self::PredictHalf,
-        Self::IrefStep,
-        Self::IrefSafeStep,
-        Self::TorqueStep,
-        Self::AccGain,
-        Self::AccLeak,
-        Self::Bits,
-        Self::Unsupported,
-        Self::Delay,
-        Self::Kp,
-        Self::LeadKhf,
-        Self::WspLead,
-        Self::YawNotDesigned,
-    ];
+    /// Every reason, in code order: `None`, then the [`PLAUSIBLE`] table's (in code order).
+    pub const ALL: [Self; 24] = {
+        let mut all = [Self::None; 24];
+        let mut k = 1;
+        while k < all.len() {
+            all[k] = PLAUSIBLE[k - 1].reason;
+            k += 1;
+        }
+        all
+    };
 
     /// The wire code.
     #[must_use]
@@ -174,171 +157,110 @@ const YAW: &str = "the yaw loop's design for the rate and delay, bit for bit: an
                    leaves the yaw loop unstable or not shown stable";
 const AT_RATE: &str = "the runtime's value at the designed rate, bit for bit";
 const DESIGN: &str = "the design's";
+use RefuseReason as R;
 
-/// The plausibility table (module docs), one row per [`RefuseReason`] but `None`.
+/// The plausibility table (module docs), one row per [`RefuseReason`] but `None`, in code order.
 pub const PLAUSIBLE: [Plausible; 23] = [
+    row(
+        R::UnknownRequest,
+        "-",
+        "a Command variant or Config mode this protocol version does not define",
+    ),
+    row(
+        R::Numeric,
+        "code",
+        "must be the device's sample type (0 fixed point, 1 f32)",
+    ),
+    row(
+        R::Fingerprint,
+        "hash",
+        "must be the device's core (gains, limits, scales)",
+    ),
     Plausible {
-        reason: RefuseReason::UnknownRequest,
-        min: f64::NAN,
-        max: f64::NAN,
-        unit: "-",
-        why: "a Command variant or Config mode this protocol version does not define",
-    },
-    Plausible {
-        reason: RefuseReason::Numeric,
-        min: f64::NAN,
-        max: f64::NAN,
-        unit: "code",
-        why: "must be the device's sample type (0 fixed point, 1 f32)",
-    },
-    Plausible {
-        reason: RefuseReason::Fingerprint,
-        min: f64::NAN,
-        max: f64::NAN,
-        unit: "hash",
-        why: "must be the device's core (gains, limits, scales)",
-    },
-    Plausible {
-        reason: RefuseReason::BaseRate,
+        reason: R::BaseRate,
         min: BASE_RATE_MIN_HZ as f64,
         max: BASE_RATE_MAX_HZ as f64,
         unit: "Hz",
         why: "a rate of the device's design table (`sim-host rates` lists each refused one with the criterion it fails), within the board's link",
     },
+    row(
+        R::Period,
+        "us",
+        "the period must be a whole number of the board ticker's 1 us ticks",
+    ),
     Plausible {
-        reason: RefuseReason::Period,
-        min: f64::NAN,
-        max: f64::NAN,
-        unit: "us",
-        why: "the period must be a whole number of the board ticker's 1 us ticks",
-    },
-    Plausible {
-        reason: RefuseReason::YawDiv,
+        reason: R::YawDiv,
         min: 1.0,
         max: 1.0,
         unit: "-",
         why: "the designs run the yaw loop every tick",
     },
     Plausible {
-        reason: RefuseReason::TractionDiv,
+        reason: R::TractionDiv,
         min: 1.0,
         max: 1.0,
         unit: "-",
         why: "the designs run the traction loop every tick",
     },
     Plausible {
-        reason: RefuseReason::HoldTicks,
+        reason: R::HoldTicks,
         min: 0.0,
         max: HOLD_MAX_US as f64,
         unit: "us (hold_ticks / base_rate_hz)",
         why: "a fifth of the ~10 Hz kinematic period: an older y' is off by > 70 degrees",
     },
+    row(R::Kappa, DESIGN, YAW),
+    row(R::Ki, DESIGN, TRACTION),
     Plausible {
-        reason: RefuseReason::Kappa,
-        min: f64::NAN,
-        max: f64::NAN,
-        unit: DESIGN,
-        why: YAW,
-    },
-    Plausible {
-        reason: RefuseReason::Ki,
-        min: f64::NAN,
-        max: f64::NAN,
-        unit: DESIGN,
-        why: TRACTION,
-    },
-    Plausible {
-        reason: RefuseReason::PredictHalf,
+        reason: R::PredictHalf,
         min: 0.0,
         max: PREDICT_HALF_MAX_QUARTERS as f64 / 4.0,
         unit: "coefficient",
         why: YAW,
     },
+    row(R::IrefStep, DESIGN, TRACTION),
+    row(R::IrefSafeStep, DESIGN, TRACTION),
+    row(R::TorqueStep, DESIGN, YAW),
+    row(R::AccGain, DESIGN, AT_RATE),
+    row(R::AccLeak, DESIGN, AT_RATE),
+    row(
+        R::Bits,
+        "-",
+        "every value must be a valid bit pattern of the device's sample type",
+    ),
+    row(
+        R::Unsupported,
+        "-",
+        "a test-only fault injection on a build that does not honour it",
+    ),
     Plausible {
-        reason: RefuseReason::IrefStep,
-        min: f64::NAN,
-        max: f64::NAN,
-        unit: DESIGN,
-        why: TRACTION,
-    },
-    Plausible {
-        reason: RefuseReason::IrefSafeStep,
-        min: f64::NAN,
-        max: f64::NAN,
-        unit: DESIGN,
-        why: TRACTION,
-    },
-    Plausible {
-        reason: RefuseReason::TorqueStep,
-        min: f64::NAN,
-        max: f64::NAN,
-        unit: DESIGN,
-        why: YAW,
-    },
-    Plausible {
-        reason: RefuseReason::AccGain,
-        min: f64::NAN,
-        max: f64::NAN,
-        unit: DESIGN,
-        why: AT_RATE,
-    },
-    Plausible {
-        reason: RefuseReason::AccLeak,
-        min: f64::NAN,
-        max: f64::NAN,
-        unit: DESIGN,
-        why: AT_RATE,
-    },
-    Plausible {
-        reason: RefuseReason::Bits,
-        min: f64::NAN,
-        max: f64::NAN,
-        unit: "-",
-        why: "every value must be a valid bit pattern of the device's sample type",
-    },
-    Plausible {
-        reason: RefuseReason::Unsupported,
-        min: f64::NAN,
-        max: f64::NAN,
-        unit: "-",
-        why: "a test-only fault injection on a build that does not honour it",
-    },
-    Plausible {
-        reason: RefuseReason::Delay,
+        reason: R::Delay,
         min: 1.0,
         max: f64::NAN,
         unit: "ticks",
         why: "a delay the rate has a design for",
     },
-    Plausible {
-        reason: RefuseReason::Kp,
-        min: f64::NAN,
-        max: f64::NAN,
-        unit: DESIGN,
-        why: TRACTION,
-    },
-    Plausible {
-        reason: RefuseReason::LeadKhf,
-        min: f64::NAN,
-        max: f64::NAN,
-        unit: DESIGN,
-        why: YAW,
-    },
-    Plausible {
-        reason: RefuseReason::WspLead,
-        min: f64::NAN,
-        max: f64::NAN,
-        unit: DESIGN,
-        why: YAW,
-    },
-    Plausible {
-        reason: RefuseReason::YawNotDesigned,
-        min: f64::NAN,
-        max: f64::NAN,
-        unit: "-",
-        why: "no lead or gain holds the yaw loop at these rates and delay: the passive law only",
-    },
+    row(R::Kp, DESIGN, TRACTION),
+    row(R::LeadKhf, DESIGN, YAW),
+    row(R::WspLead, DESIGN, YAW),
+    row(
+        R::YawNotDesigned,
+        "-",
+        "no lead or gain holds the yaw loop at these rates and delay: the passive law only",
+    ),
 ];
+
+/// A row without bounds beyond the format (`min` and `max` NaN).
+const fn row(reason: RefuseReason, unit: &'static str, why: &'static str) -> Plausible {
+    let (min, max) = (f64::NAN, f64::NAN);
+    Plausible {
+        reason,
+        min,
+        max,
+        unit,
+        why,
+    }
+}
 
 #[cfg(test)]
 mod tests {

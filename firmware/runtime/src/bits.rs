@@ -138,8 +138,7 @@ pub struct Designs {
 impl RuntimeBits {
     /// Compile `cfg` for `T` (the protocol's wire LSBs replace `cfg.control.wire`). Host use.
     pub fn try_new<T: SampleBits>(cfg: &RuntimeConfig) -> Result<Self, RuntimeError> {
-        let mut control = cfg.control;
-        control.wire = WireLsb::default();
+        let control = &cfg.control;
         let monitor = match &cfg.monitor {
             Some(p) => {
                 // The drive check's level is in pu of the core's current scale.
@@ -151,13 +150,11 @@ impl RuntimeBits {
             }
             None => Monitor::<T>::off().to_bits(),
         };
-        let compiled = Compiled::<T>::try_new(&control)?.to_bits();
+        let compiled = compile::<T>(cfg)?;
         let mut designed = [rates_of(&compiled, acc_factors(cfg)?)?; DESIGNED.len()];
         for (slot, p) in designed.iter_mut().zip(DESIGNED) {
             let at = cfg.designed(p.base_rate_hz, p.delay_ticks)?;
-            let mut c = at.control;
-            c.wire = WireLsb::default();
-            let bits = Compiled::<T>::try_new(&c)?.to_bits();
+            let bits = compile::<T>(&at)?;
             if bits.fingerprint() != compiled.fingerprint() {
                 return Err(RuntimeError::Design);
             }
@@ -175,6 +172,15 @@ impl RuntimeBits {
             },
         })
     }
+}
+
+/// The bits of `cfg.control` with the protocol's wire LSBs.
+fn compile<T: SampleBits>(cfg: &RuntimeConfig) -> Result<CompiledBits, RuntimeError> {
+    let control = ControlConfig {
+        wire: WireLsb::default(),
+        ..cfg.control
+    };
+    Ok(Compiled::<T>::try_new(&control)?.to_bits())
 }
 
 /// The [`Rates`] of compiled bits and the `y''` integrator's factors.
@@ -206,9 +212,7 @@ fn rates_of(b: &CompiledBits, acc: AccBits) -> Result<Rates, RuntimeError> {
 /// The [`Rates`] that switch a device running `T` to the rates and gains of `cfg`; errors:
 /// `cfg` invalid, or `T` without a 32-bit wire form (`f64`).
 pub fn rates_for<T: SampleBits>(cfg: &RuntimeConfig) -> Result<Rates, RuntimeError> {
-    let mut control = cfg.control;
-    control.wire = WireLsb::default();
-    let b = Compiled::<T>::try_new(&control)?.to_bits();
+    let b = compile::<T>(cfg)?;
     if T::NUMERIC > 1 {
         return Err(RuntimeError::Bits(BitsError { field: "numeric" }));
     }

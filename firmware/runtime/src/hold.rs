@@ -6,7 +6,8 @@
 //! safe[n]    = (sampled[n] && m[n] > hold_ticks) || alarm_safe[n]
 //! ```
 
-/// The policy's state: ticks without a new frame and whether the safe state is in force.
+/// The policy's state: ticks without a new frame and whether the safe state is in force
+/// (`Default`: idle, no tick missed, not safe).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct HoldPolicy {
     missing: u32,
@@ -34,15 +35,6 @@ pub struct HoldStep {
 }
 
 impl HoldPolicy {
-    /// Idle: no tick missed, not safe.
-    #[must_use]
-    pub const fn new() -> Self {
-        Self {
-            missing: 0,
-            safe: false,
-        }
-    }
-
     /// One tick: `fresh` a new Sensor frame, `sampled` any ever, `alarm_safe` an alarm's hold.
     #[inline]
     pub fn step(

@@ -131,7 +131,7 @@ impl<T: SampleBits> Runtime<T> {
             leak_q32,
             seq: 0,
             fresh: false,
-            hold: HoldPolicy::new(),
+            hold: HoldPolicy::default(),
             enabled: enable,
             rx_error: false,
             refused: false,
@@ -413,11 +413,6 @@ impl<T: SampleBits> Runtime<T> {
     /// The sticky fault flag ([`Flags::FAULT_LATCHED`]).
     pub fn fault_latched(&self) -> bool {
         self.fault_latched
-    }
-
-    /// The stability monitor's state (its filters and alarms).
-    pub fn monitor_state(&self) -> &MonitorState<T> {
-        &self.mon
     }
 
     /// The control core (read only: coefficients, states, its own counters).

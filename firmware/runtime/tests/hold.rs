@@ -8,7 +8,7 @@ use wheelset_runtime::{HoldPolicy, SafeChange};
 
 /// Runs `ticks` (fresh, alarm_safe) with a sample present; returns the steps.
 fn run(hold_ticks: u16, ticks: &[(bool, bool)]) -> Vec<wheelset_runtime::HoldStep> {
-    let mut p = HoldPolicy::new();
+    let mut p = HoldPolicy::default();
     ticks
         .iter()
         .map(|&(fresh, alarm)| p.step(fresh, true, hold_ticks, alarm))
@@ -43,7 +43,7 @@ fn enters_on_the_tick_after_hold_ticks_missing_and_exits_on_the_next_frame() {
 
 #[test]
 fn before_the_first_sample_nothing_is_held_and_nothing_is_safe() {
-    let mut p = HoldPolicy::new();
+    let mut p = HoldPolicy::default();
     for _ in 0..100 {
         let s = p.step(false, false, 0, false);
         assert!(!s.holding && !s.safe && s.change.is_none());
@@ -69,7 +69,7 @@ fn the_alarm_holds_the_safe_state_with_frames_arriving() {
 
 #[test]
 fn the_missing_count_saturates_instead_of_wrapping() {
-    let mut p = HoldPolicy::new();
+    let mut p = HoldPolicy::default();
     p.step(true, true, u16::MAX, false);
     // Far more than u16::MAX ticks: safe from tick 65 536 on, and it stays.
     for n in 1..=70_000u32 {
@@ -87,7 +87,7 @@ proptest! {
         hold in 0u16..6,
         ticks in proptest::collection::vec((any::<bool>(), any::<bool>(), 0u8..10), 1..200),
     ) {
-        let mut p = HoldPolicy::new();
+        let mut p = HoldPolicy::default();
         let mut sampled = false;
         let mut hist: Vec<(bool, bool)> = Vec::new();
         let mut was_safe = false;

@@ -137,7 +137,7 @@ fn record(
         faults,
         rng: Pcg64::seed_from_u64(0x00fa_0175),
         held: [0.0; 4],
-        hold: HoldPolicy::new(),
+        hold: HoldPolicy::default(),
         tick: Tick::default(),
         steps: 0,
         frames_lost: 0,

@@ -81,14 +81,14 @@ mod bench {
             )
         }
         fn print(&self, what: &str, overhead: u32) {
-            let n = u64::from(self.n.max(1));
+            let (min, mean, max) = self.figures(overhead);
             hprintln!(
                 "{} [{}]: min {} mean {} max {} instructions (n = {}, stopwatch overhead {} removed)",
                 what,
                 wheelset_fw::settings::NUMERIC,
-                self.min.saturating_sub(overhead),
-                (self.sum / n).saturating_sub(u64::from(overhead)),
-                self.max.saturating_sub(overhead),
+                min,
+                mean,
+                max,
                 self.n,
                 overhead
             );

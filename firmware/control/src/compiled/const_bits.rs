@@ -82,15 +82,7 @@ const fn fx_coeff(v: u64) -> Coef {
     Coef::from_bits(v as u32 as i32)
 }
 const fn fx_scale(x: ScaleBits) -> FxScale {
-    FxScale::from_parts(
-        x.mul as u32 as i32,
-        x.shift as u32,
-        if x.shift == 0 || x.shift > 63 {
-            0
-        } else {
-            1i64 << (x.shift - 1)
-        },
-    )
+    FxScale::from_parts(x.mul as u32 as i32, x.shift as u32)
 }
 const fn f32_value(v: u64) -> f32 {
     f32::from_bits(v as u32)

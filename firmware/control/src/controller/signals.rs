@@ -227,12 +227,8 @@ pub struct Codec<T: Sample> {
 impl<T: Sample> Codec<T> {
     /// Precompute the six factors; an error names a factor that does not fit.
     pub fn try_new(lsb: &WireLsb, fs: &FullScales) -> Result<Self, ConfigError> {
-        let sc = |name: &'static str, f: f64| {
-            T::scale_in(f).ok_or(ConfigError::Coefficient { name, value: f })
-        };
-        let so = |name: &'static str, f: f64| {
-            T::scale_out(f).ok_or(ConfigError::Coefficient { name, value: f })
-        };
+        let sc = |name, f| ConfigError::fit(T::scale_in(f), name, f);
+        let so = |name, f| ConfigError::fit(T::scale_out(f), name, f);
         Ok(Self {
             y_dot: sc("wire.y_dot/scales.y_dot", lsb.y_dot / fs.y_dot)?,
             current: sc("wire.current/scales.current", lsb.current / fs.current)?,

@@ -6,26 +6,7 @@ use crate::sample::{Coef, Fx, SampleBits};
 impl<T: SampleBits> Monitor<T> {
     /// A monitor that never runs (rate 0): no alarms.
     pub fn off() -> Self {
-        let z = T::COEFF_ZERO;
-        Self {
-            rate_hz: 0,
-            div: 0,
-            k_lo: z,
-            k_hi: z,
-            k_ms: z,
-            on: T::ZERO,
-            off: T::ZERO,
-            floor: T::ZERO,
-            shrink: z,
-            block: 0,
-            blocks: 0,
-            drift: T::ZERO,
-            traction_change: T::ZERO,
-            drive_k: z,
-            drive_on: T::ZERO,
-            drive_off: T::ZERO,
-            drive_persist: 0,
-        }
+        Self::default()
     }
 
     /// The exact bits.
@@ -73,14 +54,9 @@ impl<T: SampleBits> Monitor<T> {
         if b.block == 0 || b.blocks == 0 {
             return Err(err("monitor.block"));
         }
-        let drift = sig("monitor.drift", b.drift)?;
-        if drift <= T::ZERO {
-            return Err(err("monitor.drift"));
-        }
-        let traction_change = sig("monitor.traction_change", b.traction_change)?;
-        if traction_change <= T::ZERO {
-            return Err(err("monitor.traction_change"));
-        }
+        let positive = |field, v: u64| T::from_bits64(v).filter(|x| *x > T::ZERO).ok_or(err(field));
+        let drift = positive("monitor.drift", b.drift)?;
+        let traction_change = positive("monitor.traction_change", b.traction_change)?;
         let [d_on, d_off] = b.drive_levels;
         let (drive_on, drive_off) = (
             sig("monitor.drive_levels", d_on)?,
@@ -92,9 +68,9 @@ impl<T: SampleBits> Monitor<T> {
         if b.drive_persist == 0 {
             return Err(err("monitor.drive_persist"));
         }
-        let mut m = Self {
+        Ok(Self {
             rate_hz: b.rate_hz,
-            div: 1,
+            div: divisor_for(b.rate_hz, base_rate_hz),
             k_lo: coef("monitor.k_lo", b.k_lo)?,
             k_hi: coef("monitor.k_hi", b.k_hi)?,
             k_ms: coef("monitor.k_ms", b.k_ms)?,
@@ -110,9 +86,7 @@ impl<T: SampleBits> Monitor<T> {
             drive_on,
             drive_off,
             drive_persist: b.drive_persist,
-        };
-        m.retime(base_rate_hz);
-        Ok(m)
+        })
     }
 }
 

@@ -47,8 +47,14 @@ impl Shift {
 }
 
 impl FxScale {
-    /// The scale from its parts (no validation); `const` for the compiled-in controllers.
-    pub(crate) const fn from_parts(mul: i32, shift: u32, round: i64) -> Self {
+    /// The scale from its parts (no validation; `round` 0 for a shift above 63); `const` for
+    /// the compiled-in controllers.
+    pub(crate) const fn from_parts(mul: i32, shift: u32) -> Self {
+        let round = if shift == 0 || shift > 63 {
+            0
+        } else {
+            1i64 << (shift - 1)
+        };
         let wide = shift >= 32;
         let (sh, sh_up) = if wide {
             let s = shift - 32;
@@ -71,21 +77,12 @@ impl FxScale {
         if !(1e-12..2_147_483_647.0).contains(&factor) {
             return None;
         }
-        let mut shift = 0u32;
-        let mut scaled = factor;
+        let (mut shift, mut scaled) = (0u8, factor);
         while shift < 62 && scaled * 2.0 < 2_147_483_647.0 {
             scaled *= 2.0;
             shift += 1;
         }
-        let mul = round_f64(scaled);
-        if !(1.0..2_147_483_648.0).contains(&mul) || mul < 1024.0 {
-            return None;
-        }
-        Some(Self::from_parts(
-            mul as i32,
-            shift,
-            if shift == 0 { 0 } else { 1i64 << (shift - 1) },
-        ))
+        Self::from_bits(round_f64(scaled) as u64, shift)
     }
 
     /// The scale from its parts: `None` unless `mul` in `[1024, 2^31)` and `shift <= 62`.
@@ -94,11 +91,7 @@ impl FxScale {
         if !(1024..(1u64 << 31)).contains(&mul) || shift > 62 {
             return None;
         }
-        Some(Self::from_parts(
-            mul as i32,
-            shift,
-            if shift == 0 { 0 } else { 1i64 << (shift - 1) },
-        ))
+        Some(Self::from_parts(mul as i32, shift))
     }
 
     /// `sat32((x * mul + round) >> shift)` without a 64-bit variable shift (a library call on
@@ -313,7 +306,6 @@ impl Sample for Fx {
 impl SampleBits for Fx {
     const NUMERIC: u8 = 0;
     const MAX_LIMIT: Self = Fx::from_bits(2 << FX_FRAC);
-    const COEFF_ZERO: Coef = Coef::ZERO;
 
     fn to_bits64(self) -> u64 {
         u64::from(self.to_bits() as u32)

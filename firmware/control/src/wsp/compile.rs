@@ -2,7 +2,7 @@
 
 use super::{Wsp, WspBits, WspParams, MAX_SHIFT};
 use crate::compiled::ScaleBits;
-use crate::config::{range, ConfigError, FullScales, Limits, Motor};
+use crate::config::{coeff, range, ConfigError, FullScales, Limits, Motor};
 use crate::lead::LeadParams;
 use crate::sample::{Sample, SampleBits};
 
@@ -98,11 +98,8 @@ impl<T: Sample> Wsp<T> {
             slip_on <= 0.5,
             "is more than 0.5 pu of motor speed",
         )?;
-        let q = |name: &'static str, v: f64| {
-            T::quantise(v)
-                .filter(|_| v > 0.0 && v < 1.0)
-                .ok_or(ConfigError::Coefficient { name, value: v })
-        };
+        let fit = ConfigError::fit;
+        let q = |name, v: f64| fit(T::quantise(v).filter(|_| v > 0.0 && v < 1.0), name, v);
         // A gain `g > 0` as `c 2^s`, `c` in [1/2, 1) (or `s = 0` and `c = g < 1`).
         let split = |name: &'static str, g: f64| {
             let mut sh = 0u8;
@@ -113,8 +110,9 @@ impl<T: Sample> Wsp<T> {
             }
             q(name, c).map(|c| (c, sh))
         };
-        let slew = l.current_ref_rate / s.current; // pu/s
-                                                   // Half a motor-speed code above each threshold (module docs, "Exact decisions").
+        // The slew, pu/s; half a motor-speed code above each threshold (module docs, "Exact
+        // decisions").
+        let slew = l.current_ref_rate / s.current;
         let half = 0.5 * speed_lsb / s.speed;
         range(
             "wire.speed",
@@ -132,18 +130,15 @@ impl<T: Sample> Wsp<T> {
             p.ki_a_per_s_per_mps / (pu * l.current_ref_rate),
         )?;
         let slope = 0.5 * p.slip_sp_per_a * s.current * pu;
-        let sp_half_slope = if slope == 0.0 {
-            T::quantise(0.0)
-        } else {
-            T::quantise(slope).filter(|_| slope < 1.0)
-        }
-        .ok_or(ConfigError::Coefficient {
-            name: "wsp slip_sp_per_a scales.current n/r0 / 2",
-            value: slope,
-        })?;
+        let sp_half_slope = fit(
+            T::quantise(slope).filter(|_| slope < 1.0),
+            "wsp slip_sp_per_a scales.current n/r0 / 2",
+            slope,
+        )?;
         // g' = (w2 - w1')/w2 = g (1 + rho), rho = (w1 - w1')/(w2 - w1).
         let k_hf = lead.k * lead.a * s.y_dot / s.torque;
         let rho = (lead.w1 - p.lead_w1_rad_s) / (lead.w2 - lead.w1);
+        let v_ref_pu = p.v_ref_lsb_m_per_s * pu;
         Ok(Self {
             enabled: p.enabled,
             slip_on: T::from_f64(slip_on + half),
@@ -160,20 +155,17 @@ impl<T: Sample> Wsp<T> {
             ki,
             ki_shift,
             // Signed, as the lead's own K_hf (a negative K is a sign test's lead).
-            lead_k_hf: T::quantise(p.lead_gain * k_hf).ok_or(ConfigError::Coefficient {
-                name: "wsp lead_gain lead.k a (pu)",
-                value: p.lead_gain * k_hf,
-            })?,
-            lead_rho: T::quantise(rho).filter(|_| rho.abs() < 1.0).ok_or(
-                ConfigError::Coefficient {
-                    name: "wsp lead rho = (w1 - w1')/(w2 - w1)",
-                    value: rho,
-                },
+            lead_k_hf: coeff::<T>("wsp lead_gain lead.k a (pu)", p.lead_gain * k_hf)?,
+            lead_rho: fit(
+                T::quantise(rho).filter(|_| rho.abs() < 1.0),
+                "wsp lead rho = (w1 - w1')/(w2 - w1)",
+                rho,
             )?,
-            v_ref: T::scale_in(p.v_ref_lsb_m_per_s * pu).ok_or(ConfigError::Coefficient {
-                name: "wsp v_ref lsb n/(r0 scales.speed)",
-                value: p.v_ref_lsb_m_per_s * pu,
-            })?,
+            v_ref: ConfigError::fit(
+                T::scale_in(v_ref_pu),
+                "wsp v_ref lsb n/(r0 scales.speed)",
+                v_ref_pu,
+            )?,
         })
     }
 }
@@ -235,7 +227,7 @@ impl<T: SampleBits> Wsp<T> {
             ki: unit("wsp.ki", b.ki, false)?,
             ki_shift: shift("wsp.ki_shift", b.ki_shift)?,
             // Rate-dependent: set by the schedule (`Compiled::with_schedule`).
-            lead_k_hf: T::COEFF_ZERO,
+            lead_k_hf: Default::default(),
             lead_rho: T::coeff_from_bits64(b.lead_rho).ok_or(e("wsp.lead_rho"))?,
             v_ref: T::scale_from_bits(b.v_ref.mul, b.v_ref.shift).ok_or(e("wsp.v_ref"))?,
         })

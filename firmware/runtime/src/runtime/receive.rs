@@ -160,7 +160,8 @@ impl<T: SampleBits> Runtime<T> {
         self.note_rx_event(RxEvent::Refused(why));
     }
 
-    /// Validates `r` against this core and its designs, then restarts the core on it.
+    /// Validates `r` against this core and its designs, then restarts the core on it (the
+    /// caller sets the modes and the protection after).
     #[inline(never)]
     fn apply_rates(
         &mut self,
@@ -213,13 +214,9 @@ impl<T: SampleBits> Runtime<T> {
         let t_psi = self.core.outputs().yaw_torque;
         // The safe state and its torque limit go on (a boot-held zero limit stays zero).
         let (safe, limit) = (self.core.is_safe(), self.core.torque_limit());
-        let wsp = self.core.wsp_enabled();
         self.core = Controller::new(&law);
         self.v_ref_held = None;
         self.core.continue_from(t_psi);
-        if wsp {
-            self.core.set_wsp(true);
-        }
         self.monitor.retime(r.base_rate_hz);
         self.mon = MonitorState::default();
         self.acc_gain_q32 = g;

@@ -90,7 +90,7 @@ impl Stopwatch for SysTickStopwatch {
 
 #[embassy_executor::task]
 async fn control_task(stopwatch: SysTickStopwatch) {
-    app::control_loop::<Board, _>(app::new_device::<Board>, stopwatch).await
+    app::control_loop::<Board>(app::new_device::<Board>, stopwatch).await
 }
 
 /// The UART's transmitter (the bulk channel's receiver sends its frames itself).

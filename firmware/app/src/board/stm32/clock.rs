@@ -46,11 +46,6 @@ pub const fn made_baud(pclk_hz: u32, baud: u32) -> Option<u32> {
     }
 }
 
-/// Whether USART2 on `pclk_hz` makes `baud` within `tolerance_permille` (0: exactly).
-pub const fn baud_fits(pclk_hz: u32, baud: u32, tolerance_permille: u32) -> bool {
-    within(made_baud(pclk_hz, baud), baud, tolerance_permille)
-}
-
 /// Whether the baud `made` (`None`: cannot) is `baud` within `tolerance_permille`.
 pub const fn within(made: Option<u32>, baud: u32, tolerance_permille: u32) -> bool {
     match made {
@@ -84,6 +79,11 @@ pub const fn timer_divides(timer_hz: u32, tick_hz: u32) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Whether USART2 on `pclk_hz` makes `baud` within `tolerance_permille` (0: exactly).
+    fn baud_fits(pclk_hz: u32, baud: u32, tolerance_permille: u32) -> bool {
+        within(made_baud(pclk_hz, baud), baud, tolerance_permille)
+    }
 
     #[test]
     fn brr_of_the_nucleo_links() {

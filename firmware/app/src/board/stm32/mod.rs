@@ -211,9 +211,9 @@ pub fn link(
 #[embassy_executor::task]
 async fn control_task() {
     #[cfg(not(feature = "frame-clock"))]
-    app::control_loop::<Selected, _>(app::new_device::<Selected>, DwtStopwatch).await;
+    app::control_loop::<Selected>(app::new_device::<Selected>, DwtStopwatch).await;
     #[cfg(feature = "frame-clock")]
-    app::frame_loop::<Selected, _>(app::new_device::<Selected>, DwtStopwatch).await
+    app::frame_loop::<Selected>(app::new_device::<Selected>, DwtStopwatch).await
 }
 
 /// The receive task: the DMA ring's bytes into the RX pipe; `rx_overrun` counts one per
