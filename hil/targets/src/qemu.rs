@@ -177,7 +177,6 @@ impl QemuConfig {
         Self {
             elf,
             free_run: true,
-            realtime: false,
             ..Self::new()
         }
     }
@@ -244,18 +243,13 @@ fn free_port() -> io::Result<u16> {
 impl Qemu {
     /// The full QEMU command line for `elf` on `machine` with the serial chardev on `port`.
     pub fn command_on(machine: Machine, elf: &Path, port: u16) -> Command {
-        Self::command_to(machine, elf, SerialTo::Tcp(port))
+        let mut cmd = Command::new(QEMU_BIN);
+        cmd.args(Self::args(machine, elf, SerialTo::Tcp(port)));
+        cmd
     }
 
-    fn command_to(machine: Machine, elf: &Path, to: SerialTo) -> Command {
-        let mut cmd = Command::new(QEMU_BIN);
-        cmd.args(qemu_args(
-            machine.name(),
-            machine.cpu(),
-            &elf.to_string_lossy(),
-            to,
-        ));
-        cmd
+    fn args(machine: Machine, elf: &Path, to: SerialTo) -> Vec<String> {
+        qemu_args(machine.name(), machine.cpu(), &elf.to_string_lossy(), to)
     }
 
     /// Launches QEMU as `cfg` says with the frames on `to`, pinned to [`next_core`]; the
@@ -266,15 +260,12 @@ impl Qemu {
             Some(p) => Stdio::from(File::create(p).map_err(QemuError::Io)?),
             None => Stdio::null(),
         };
-        let mut cmd = Self::command_to(cfg.machine, &cfg.elf, to);
+        let mut args = Self::args(cfg.machine, &cfg.elf, to);
         if cfg.free_run {
-            let args: Vec<String> = cmd
-                .get_args()
-                .map(|a| a.to_string_lossy().into_owned())
-                .collect();
-            cmd = Command::new(QEMU_BIN);
-            cmd.args(without_icount(args));
+            args = without_icount(args);
         }
+        let mut cmd = Command::new(QEMU_BIN);
+        cmd.args(args);
         let core = if cfg.free_run {
             pin::free_run_core()
         } else {
@@ -309,29 +300,16 @@ impl Qemu {
         Ok(Guard(Some(child), launch, held))
     }
 
-    /// The running QEMU of `guard` on `link`, no longer killed by the guard.
-    fn started(
-        mut guard: Guard,
-        link: Link,
-        stderr_path: PathBuf,
-        timeout: Duration,
-    ) -> Result<Self, QemuError> {
-        let child = guard.0.take().ok_or(QemuError::Exited(String::new()))?;
-        let mut q = Self::on_link(link, Some(child), guard.1, stderr_path, timeout);
-        q._held = guard.2.take();
-        Ok(q)
-    }
-
-    fn on_link(
-        link: Link,
-        child: Option<Child>,
-        launch: Launch,
-        stderr_path: PathBuf,
-        timeout: Duration,
-    ) -> Self {
+    /// The QEMU on `link`: the one `guard` started (no longer killed by the guard), or
+    /// none (started by hand).
+    fn on_link(link: Link, guard: Option<Guard>, stderr_path: PathBuf, timeout: Duration) -> Self {
+        let (child, launch, held) = match guard {
+            Some(mut g) => (g.0.take(), g.1, g.2.take()),
+            None => (None, Launch::default(), None),
+        };
         Self {
             launch,
-            _held: None,
+            _held: held,
             child,
             link,
             stderr_path,
@@ -358,68 +336,44 @@ impl Qemu {
         let stderr_path =
             std::env::temp_dir().join(format!("wheelset-qemu-{}-{port}.err", std::process::id()));
         let mut guard = Self::spawn(cfg, SerialTo::Tcp(port), &stderr_path)?;
-        let deadline = Instant::now() + Duration::from_secs(10);
-        let stream = loop {
-            match TcpStream::connect((Ipv4Addr::LOCALHOST, port)) {
-                Ok(s) => break s,
-                Err(_) if Instant::now() < deadline => {
-                    if guard.exited() {
-                        return Err(QemuError::Connect {
-                            port,
-                            stderr: read_to_string(&stderr_path),
-                        });
-                    }
-                    std::thread::sleep(Duration::from_millis(10));
-                }
-                Err(e) => {
-                    return Err(QemuError::Connect {
-                        port,
-                        stderr: format!("{e}; {}", read_to_string(&stderr_path)),
-                    })
-                }
-            }
-        };
-        stream.set_nodelay(true).map_err(QemuError::Io)?;
-        stream
-            .set_read_timeout(Some(cfg.timeout))
-            .map_err(QemuError::Io)?;
-        Self::started(guard, Link::Tcp(stream), stderr_path, cfg.timeout)
+        let stream = retry(
+            Duration::from_secs(10),
+            Duration::from_millis(10),
+            || TcpStream::connect((Ipv4Addr::LOCALHOST, port)),
+            || {
+                guard.exited().then(|| QemuError::Connect {
+                    port,
+                    stderr: read_to_string(&stderr_path),
+                })
+            },
+            |e| QemuError::Connect {
+                port,
+                stderr: format!("{e}; {}", read_to_string(&stderr_path)),
+            },
+        )?;
+        let link = tcp_link(stream, cfg.timeout)?;
+        Ok(Self::on_link(link, Some(guard), stderr_path, cfg.timeout))
     }
 
     /// Connects to a QEMU started by hand with UART0 on `127.0.0.1:port`, trying for
     /// `timeout`, which also bounds each read.
     pub fn connect(port: u16, timeout: Duration) -> Result<Self, QemuError> {
-        let deadline = Instant::now() + timeout;
-        let stream = loop {
-            match TcpStream::connect((Ipv4Addr::LOCALHOST, port)) {
-                Ok(s) => break s,
-                Err(_) if Instant::now() < deadline => {
-                    std::thread::sleep(Duration::from_millis(50));
-                }
-                Err(e) => {
-                    return Err(QemuError::Connect {
-                        port,
-                        stderr: format!(
-                            "{e} (is QEMU running with -serial tcp:127.0.0.1:{port},server=on? \
-                             `cargo xtask qemu-cmd target/fw/wheelset-qemu.elf --tcp {port}` \
-                             prints its command line)"
-                        ),
-                    })
-                }
-            }
-        };
-        stream.set_nodelay(true).map_err(QemuError::Io)?;
-        stream
-            .set_read_timeout(Some(timeout))
-            .map_err(QemuError::Io)?;
-        let (child, launch) = (None, Launch::default());
-        Ok(Self::on_link(
-            Link::Tcp(stream),
-            child,
-            launch,
-            PathBuf::new(),
+        let stream = retry(
             timeout,
-        ))
+            Duration::from_millis(50),
+            || TcpStream::connect((Ipv4Addr::LOCALHOST, port)),
+            || None,
+            |e| QemuError::Connect {
+                port,
+                stderr: format!(
+                    "{e} (is QEMU running with -serial tcp:127.0.0.1:{port},server=on? \
+                     `cargo xtask qemu-cmd target/fw/wheelset-qemu.elf --tcp {port}` \
+                     prints its command line)"
+                ),
+            },
+        )?;
+        let link = tcp_link(stream, timeout)?;
+        Ok(Self::on_link(link, None, PathBuf::new(), timeout))
     }
 
     /// A second handle on the TCP link to UART0; an error on the bulk channel.
@@ -595,6 +549,37 @@ impl Drop for Guard {
             let _ = c.wait();
         }
     }
+}
+
+/// `attempt` every `pause` until it succeeds; after `timeout` its last error through
+/// `timed_out`; `gone` ends the wait early with its error (QEMU exited).
+fn retry<T>(
+    timeout: Duration,
+    pause: Duration,
+    mut attempt: impl FnMut() -> io::Result<T>,
+    mut gone: impl FnMut() -> Option<QemuError>,
+    timed_out: impl FnOnce(io::Error) -> QemuError,
+) -> Result<T, QemuError> {
+    let deadline = Instant::now() + timeout;
+    loop {
+        match attempt() {
+            Ok(v) => return Ok(v),
+            Err(e) if Instant::now() >= deadline => return Err(timed_out(e)),
+            Err(_) => match gone() {
+                Some(e) => return Err(e),
+                None => std::thread::sleep(pause),
+            },
+        }
+    }
+}
+
+/// The TCP link on `stream`: no Nagle delay, each read bounded by `timeout`.
+fn tcp_link(stream: TcpStream, timeout: Duration) -> Result<Link, QemuError> {
+    stream.set_nodelay(true).map_err(QemuError::Io)?;
+    stream
+        .set_read_timeout(Some(timeout))
+        .map_err(QemuError::Io)?;
+    Ok(Link::Tcp(stream))
 }
 
 fn read_to_string(p: &Path) -> String {
