@@ -176,15 +176,8 @@ pub fn serve(
             }
         }
         let out = rt.tick(last_exec);
-        let len = out.len() as u64;
         match bridge.as_mut() {
-            None => {
-                if queue_frame(&mut queue, TX_QUEUE, out) {
-                    rep.tx_bytes += len;
-                } else {
-                    rep.tx_dropped += 1;
-                }
-            }
+            None => enqueue(&mut queue, out, &mut rep),
             Some((_, down)) => {
                 if !down.push(Instant::now(), out) {
                     rep.tx_dropped += 1;
@@ -247,16 +240,21 @@ fn release(
     let mut any = false;
     while let Some(run) = down.pop_due(now) {
         any = true;
-        if queue_frame(queue, TX_QUEUE, &run) {
-            rep.tx_bytes += run.len() as u64;
-        } else {
-            rep.tx_dropped += 1;
-        }
+        enqueue(queue, &run, rep);
     }
     if any {
         flush_queue(port, queue)?;
     }
     Ok(())
+}
+
+/// Queues `frame` for the pty, counted as sent, or as dropped when the queue is full.
+fn enqueue(queue: &mut VecDeque<u8>, frame: &[u8], rep: &mut ServeReport) {
+    if queue_frame(queue, TX_QUEUE, frame) {
+        rep.tx_bytes += frame.len() as u64;
+    } else {
+        rep.tx_dropped += 1;
+    }
 }
 
 /// Creates a pty pair: (master, slave, slave path). Keep the slave open, or the master
