@@ -373,7 +373,7 @@ pub(crate) fn write_run_summary(
         "wsp": wsp,
         "adhesion": adhesion,
     });
-    write_json(path, &json)
+    write_json(path, &json, true)
 }
 
 pub(crate) fn print_summary(sc: &Scenario, tr: &Trajectory) {
