@@ -118,7 +118,6 @@ fn bench_json(results: &[(&BenchConfig, BenchResult)]) -> String {
             m.min, m.mean, m.max
         )
     };
-    // The results come core by core.
     let per_core: Vec<String> = results
         .chunk_by(|a, b| a.0.core == b.0.core)
         .map(|core_results| {

@@ -34,7 +34,6 @@ mod size;
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
 
-// The QEMU command line, defined once (the harness's launcher uses it too).
 use wheelset_targets::qemu::cmd as qemu_cmd;
 
 const NO_STD_CRATES: &[&str] = &["wheelset-control", "wheelset-proto", "wheelset-runtime"];

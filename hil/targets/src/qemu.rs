@@ -149,22 +149,18 @@ impl QemuConfig {
             } else {
                 Self::built_elf(machine)
             },
-            machine,
-            ..Self::new()
-        }
-    }
-
-    /// The default ELF, no log, a 10 s timeout.
-    pub fn new() -> Self {
-        Self {
-            elf: Self::default_elf(),
             log: None,
             timeout: Duration::from_secs(10),
-            machine: Machine::default(),
+            machine,
             channel: Channel::Uart,
             free_run: false,
             realtime: false,
         }
+    }
+
+    /// [`Self::on`] the default machine.
+    pub fn new() -> Self {
+        Self::on(Machine::default())
     }
 
     /// The free-running firmware on mps2-an386 without `-icount` (TIMER0 on the host's clock).
@@ -207,10 +203,8 @@ impl Default for QemuConfig {
 /// A running emulated device; dropping it kills a QEMU that [`Qemu::start`] started.
 #[derive(Debug)]
 pub struct Qemu {
-    launch: Launch,
-    /// The starting thread held on QEMU's core, released on drop.
-    _held: Option<HeldOn>,
-    child: Option<Child>,
+    /// The QEMU [`Qemu::start`] started (none when started by hand).
+    guard: Guard,
     link: Link,
     stderr_path: PathBuf,
     /// Bytes received and not yet taken; frames start at `rx_at`.
@@ -297,20 +291,17 @@ impl Qemu {
             .spawn()
             .map_err(QemuError::QemuMissing)?;
         launch.harness_beside = held.is_some();
-        Ok(Guard(Some(child), launch, held))
-    }
-
-    /// The QEMU on `link`: the one `guard` started (no longer killed by the guard), or
-    /// none (started by hand).
-    fn on_link(link: Link, guard: Option<Guard>, stderr_path: PathBuf, timeout: Duration) -> Self {
-        let (child, launch, held) = match guard {
-            Some(mut g) => (g.0.take(), g.1, g.2.take()),
-            None => (None, Launch::default(), None),
-        };
-        Self {
+        Ok(Guard {
+            child: Some(child),
             launch,
             _held: held,
-            child,
+        })
+    }
+
+    /// The QEMU of `guard` on `link`.
+    fn on_link(link: Link, guard: Guard, stderr_path: PathBuf, timeout: Duration) -> Self {
+        Self {
+            guard,
             link,
             stderr_path,
             rx: Vec::with_capacity(RX_CHUNK + MAX_FRAME),
@@ -323,7 +314,7 @@ impl Qemu {
     /// How this QEMU was started (its core and real-time priority).
     #[must_use]
     pub fn launch(&self) -> Launch {
-        self.launch
+        self.guard.launch
     }
 
     /// Starts QEMU and connects to the firmware's UART0 (or [`QemuConfig::channel`]).
@@ -352,7 +343,7 @@ impl Qemu {
             },
         )?;
         let link = tcp_link(stream, cfg.timeout)?;
-        Ok(Self::on_link(link, Some(guard), stderr_path, cfg.timeout))
+        Ok(Self::on_link(link, guard, stderr_path, cfg.timeout))
     }
 
     /// Connects to a QEMU started by hand with UART0 on `127.0.0.1:port`, trying for
@@ -373,7 +364,12 @@ impl Qemu {
             },
         )?;
         let link = tcp_link(stream, timeout)?;
-        Ok(Self::on_link(link, None, PathBuf::new(), timeout))
+        let by_hand = Guard {
+            child: None,
+            launch: Launch::default(),
+            _held: None,
+        };
+        Ok(Self::on_link(link, by_hand, PathBuf::new(), timeout))
     }
 
     /// A second handle on the TCP link to UART0; an error on the bulk channel.
@@ -427,6 +423,7 @@ impl Qemu {
                     match rx.read(buf) {
                         Ok(0)
                             if self
+                                .guard
                                 .child
                                 .as_mut()
                                 .is_some_and(|c| c.try_wait().ok().flatten().is_none()) =>
@@ -499,7 +496,7 @@ impl Qemu {
 
     /// A link error, or QEMU's exit with its stderr if it is gone.
     fn link_error(&mut self, e: io::Error) -> QemuError {
-        match self.child.as_mut().map(Child::try_wait) {
+        match self.guard.child.as_mut().map(Child::try_wait) {
             Some(Ok(Some(status))) => {
                 QemuError::Exited(format!("{status}; {}", read_to_string(&self.stderr_path)))
             }
@@ -510,9 +507,7 @@ impl Qemu {
 
 impl Drop for Qemu {
     fn drop(&mut self) {
-        if let Some(c) = self.child.as_mut() {
-            let _ = c.kill();
-            let _ = c.wait();
+        if self.guard.kill() {
             let _ = std::fs::remove_file(&self.stderr_path);
         }
         if let Link::Bulk { dir, .. } = &self.link {
@@ -521,8 +516,14 @@ impl Drop for Qemu {
     }
 }
 
-/// Kills a child on drop unless taken.
-struct Guard(Option<Child>, Launch, Option<HeldOn>);
+/// A QEMU child, killed on drop.
+#[derive(Debug)]
+struct Guard {
+    child: Option<Child>,
+    launch: Launch,
+    /// The starting thread held on QEMU's core, released on drop.
+    _held: Option<HeldOn>,
+}
 
 /// How a QEMU was started: its pinned core and real-time priority, if any.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
@@ -538,21 +539,27 @@ pub struct Launch {
 impl Guard {
     /// The child has exited (QEMU gave up: its stderr says why).
     fn exited(&mut self) -> bool {
-        matches!(self.0.as_mut().map(Child::try_wait), Some(Ok(Some(_))))
+        matches!(self.child.as_mut().map(Child::try_wait), Some(Ok(Some(_))))
+    }
+
+    /// Kills and reaps the child; whether there was one.
+    fn kill(&mut self) -> bool {
+        let Some(mut c) = self.child.take() else {
+            return false;
+        };
+        let _ = c.kill();
+        let _ = c.wait();
+        true
     }
 }
 
 impl Drop for Guard {
     fn drop(&mut self) {
-        if let Some(c) = self.0.as_mut() {
-            let _ = c.kill();
-            let _ = c.wait();
-        }
+        self.kill();
     }
 }
 
-/// `attempt` every `pause` until it succeeds; after `timeout` its last error through
-/// `timed_out`; `gone` ends the wait early with its error (QEMU exited).
+/// `attempt` every `pause` until it succeeds, `gone` (QEMU exited) or `timeout` passes.
 fn retry<T>(
     timeout: Duration,
     pause: Duration,

@@ -32,8 +32,7 @@ fn drawing_order(n: usize) -> impl Iterator<Item = usize> {
     (1..n).chain(0..n.min(1))
 }
 
-/// Series `s` of run `k` in its colour, the others wide and pale beneath the main run's
-/// thin line, so that both show where they coincide.
+/// Run `k`'s series in its colour, the others' wide and pale beneath the main run's.
 fn overlaid(k: usize, s: Series) -> Series {
     let s = s.color(colour(k));
     if k == 0 {
@@ -50,7 +49,6 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
     let Some(main) = runs.first() else {
         return Ok(vec![]);
     };
-    // The title says what is compared: the main run's control against the others'.
     let others: Vec<String> = runs[1..].iter().map(label).collect();
     // How each figure draws the runs: the main run thin over the others' wide band, or
     // solid under the others dashed.
@@ -391,7 +389,6 @@ pub fn write_figure(
         .iter()
         .filter_map(|r| r.tr.records.last().map(|x| x.t_s))
         .fold(0.0f64, f64::max);
-    // (A run without records: no range given, the data's own.)
     let panel = |title: &str, y_label: &str| over_t(title, y_label).x_range(0.0, end);
     let mut force = panel("Traction force delivered F_xR + F_xL", "F (kN)");
     let mut mu = panel(

@@ -71,6 +71,6 @@ impl Qemu {
             .open(&rx_path)
             .map_err(QemuError::Io)?;
         let link = Link::Bulk { tx, rx, dir };
-        Ok(Self::on_link(link, Some(guard), stderr_path, cfg.timeout))
+        Ok(Self::on_link(link, guard, stderr_path, cfg.timeout))
     }
 }
