@@ -118,18 +118,12 @@ fn bench_json(results: &[(&BenchConfig, BenchResult)]) -> String {
             m.min, m.mean, m.max
         )
     };
-    let mut cores: Vec<&str> = Vec::new();
-    for (c, _) in results {
-        if !cores.contains(&c.core) {
-            cores.push(c.core);
-        }
-    }
-    let per_core: Vec<String> = cores
-        .iter()
-        .map(|core| {
-            let builds: Vec<String> = results
+    let per_core: Vec<String> = results
+        .chunk_by(|a, b| a.0.core == b.0.core)
+        .map(|core_results| {
+            let core = core_results.first().map_or("", |r| r.0.core);
+            let builds: Vec<String> = core_results
                 .iter()
-                .filter(|(c, _)| c.core == *core)
                 .map(|(c, r)| {
                     format!(
                         "\"{}\":{{\"law\":{},\"tick\":{},\"stack_peak_bytes\":{},\

@@ -34,7 +34,6 @@ mod size;
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
 
-// The QEMU command line, defined once (the harness's launcher uses it too).
 use wheelset_targets::qemu::cmd as qemu_cmd;
 
 const NO_STD_CRATES: &[&str] = &["wheelset-control", "wheelset-proto", "wheelset-runtime"];
@@ -345,20 +344,18 @@ fn test(extra: &[String]) -> Result<(), String> {
         cmd.env("WHEELSET_QEMU_ELF", qemu_elf);
     }
     run(&mut cmd)?;
-    // The device's crates with the firmware's features (no `std` in the wire crate).
+    // The device's crates with the firmware's features (no `std` in the wire crate), then
+    // the runtime as the QEMU firmware builds it (`fault-inject`).
     let device = features::DEVICE_TEST_PACKAGES
         .iter()
         .flat_map(|p| ["-p", p]);
-    run(cargo()
-        .args(["test", "--no-fail-fast"])
-        .args(device)
-        .args(extra))?;
-    // The runtime as the QEMU firmware builds it (`fault-inject`).
     let inject = ["-p", "wheelset-runtime", "--features", "fault-inject"];
-    run(cargo()
-        .args(["test", "--no-fail-fast"])
-        .args(inject)
-        .args(extra))?;
+    for packages in [device.collect(), inject.to_vec()] {
+        run(cargo()
+            .args(["test", "--no-fail-fast"])
+            .args(packages)
+            .args(extra))?;
+    }
     // The benchmarks compile (not run: timings are no tests).
     run(cargo().args(["test", "--workspace", "--benches", "--no-run"]))?;
     // The pages' instruction counts and stack figures against the bench (under QEMU).

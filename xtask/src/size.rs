@@ -51,13 +51,10 @@ pub fn map_path(board: &str) -> PathBuf {
 /// `0x2000_0000`, `512K`, `4M`, `65536`.
 fn number(s: &str) -> Option<u64> {
     let s = s.trim().replace('_', "");
-    let (digits, scale) = match s.strip_suffix('K') {
-        Some(d) => (d.to_string(), 1024),
-        None => match s.strip_suffix('M') {
-            Some(d) => (d.to_string(), 1024 * 1024),
-            None => (s.clone(), 1),
-        },
-    };
+    let (digits, scale) = [("K", 1024), ("M", 1024 * 1024)]
+        .into_iter()
+        .find_map(|(suffix, scale)| Some((s.strip_suffix(suffix)?, scale)))
+        .unwrap_or((s.as_str(), 1));
     let v = match digits.strip_prefix("0x") {
         Some(h) => u64::from_str_radix(h, 16).ok()?,
         None => digits.parse().ok()?,
@@ -225,21 +222,18 @@ pub fn check_sizes(elfs: &[(PathBuf, &str)]) -> Result<Vec<(String, elf::Sizes)>
     }
 }
 
-/// The table rows of the pages that state each enforced build's flash / static RAM.
-const README_SIZE_ROWS: &[(&str, &str)] = &[
-    ("wheelset-nucleo.elf", "| flash / static RAM, Nucleo |"),
-    (
-        "wheelset-nucleo-frame.elf",
-        "| flash / static RAM, Nucleo |",
-    ),
-    (
-        "wheelset-nucleo-g474.elf",
-        "| flash / static RAM, Nucleo-G474 |",
-    ),
-    ("wheelset-qemu.elf", "| flash / static RAM, QEMU |"),
-    ("wheelset-qemu-m3.elf", "| flash / static RAM, QEMU |"),
-    ("wheelset-qemu-free.elf", "| flash / static RAM, QEMU |"),
-];
+/// The pages' table row stating the flash / static RAM of the enforced build `elf`.
+fn size_row(elf: &str) -> Option<String> {
+    let boards = [
+        ("wheelset-nucleo-g474", "Nucleo-G474"),
+        ("wheelset-nucleo", "Nucleo"),
+        ("wheelset-qemu", "QEMU"),
+    ];
+    let (_, board) = boards
+        .iter()
+        .find(|(prefix, _)| elf.starts_with(prefix) && !elf.contains("-f32"))?;
+    Some(format!("| flash / static RAM, {board} |"))
+}
 
 /// `25464` as the pages write it: `25 464`.
 pub(crate) fn grouped(n: u64) -> String {
@@ -267,7 +261,7 @@ fn sizes_in_pages(
 ) -> Result<(), String> {
     let mut wrong = Vec::new();
     for (name, size) in sizes {
-        let Some((_, row)) = README_SIZE_ROWS.iter().find(|(n, _)| n == name) else {
+        let Some(row) = size_row(name) else {
             continue;
         };
         let want = format!("{} B / {} B", grouped(size.flash), grouped(size.ram));
@@ -276,7 +270,7 @@ fn sizes_in_pages(
             .iter()
             .flat_map(|(page, text)| {
                 text.lines()
-                    .filter(|l| l.starts_with(row))
+                    .filter(|l| l.starts_with(&row))
                     .map(move |l| (page.as_str(), l))
             })
             .collect();

@@ -13,7 +13,7 @@ use std::time::Duration;
 use hil::golden::{compare, run_host, run_target, vectors};
 use hil::run::DEFAULT_CPU_HZ;
 use wheelset_targets::qemu::target::QemuTarget;
-use wheelset_targets::qemu::{Machine, QemuConfig};
+use wheelset_targets::qemu::{Channel, Machine, QemuConfig};
 
 fn available(test: &str, m: Machine) -> bool {
     common::can_run(&format!("{test} ({m})"), &QemuConfig::on(m))
@@ -38,8 +38,9 @@ fn the_cortex_m3_build_is_bit_identical_with_the_host_and_the_cortex_m4_build() 
     }
     for (k, v) in vs.iter().enumerate() {
         let host = run_host(v).unwrap();
-        let mut t = QemuTarget::start_on(
+        let mut t = QemuTarget::start_with(
             Machine::An385,
+            Channel::Uart,
             4_000_000,
             DEFAULT_CPU_HZ,
             Duration::from_secs(10),
@@ -56,8 +57,9 @@ fn the_cortex_m3_build_is_bit_identical_with_the_host_and_the_cortex_m4_build() 
         );
         // One vector also directly against the Cortex-M4F build.
         if k == 0 {
-            let mut t4 = QemuTarget::start_on(
+            let mut t4 = QemuTarget::start_with(
                 Machine::An386,
+                Channel::Uart,
                 4_000_000,
                 DEFAULT_CPU_HZ,
                 Duration::from_secs(10),

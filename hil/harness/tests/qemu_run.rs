@@ -75,7 +75,9 @@ fn golden_vectors_agree_bit_for_bit_between_host_and_qemu() {
     }
     for v in vectors().unwrap() {
         let host = run_host(&v).unwrap();
-        let mut q = QemuTarget::start(
+        let mut q = QemuTarget::start_with(
+            wheelset_targets::qemu::Machine::default(),
+            wheelset_targets::qemu::Channel::Uart,
             wheelset_loop::sim_link::DEFAULT_BAUD,
             DEFAULT_CPU_HZ,
             std::time::Duration::from_secs(10),

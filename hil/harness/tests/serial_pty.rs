@@ -5,6 +5,7 @@
 
 mod common;
 
+use std::io::{Read, Write};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
@@ -13,7 +14,7 @@ use serialport::{SerialPort, TTYPort};
 use wheelset_control::Fx;
 use wheelset_report::Verdict;
 use wheelset_runtime::{Runtime, RuntimeConfig};
-use wheelset_targets::serial::{serve_lockstep, Pace};
+use wheelset_targets::serial::Pace;
 
 /// A pseudo-terminal pair with a device thread on its master side, running `serve` with a
 /// default runtime until [`PtyDevice::finish`].
@@ -56,6 +57,43 @@ impl<T: Send + 'static> PtyDevice<T> {
         drop(self.slave);
         out
     }
+}
+
+/// A frame-clocked device on a port: each 0x00 delimiter received is one tick of `rt`,
+/// whose output is written back at once (exec 0). Runs until `stop` is set or the port
+/// fails; returns the ticks run.
+fn serve_lockstep<P: Read + Write + ?Sized>(
+    port: &mut P,
+    rt: &mut Runtime<Fx>,
+    stop: &AtomicBool,
+) -> std::io::Result<u64> {
+    let mut buf = [0u8; 256];
+    let mut ticks = 0;
+    while !stop.load(Ordering::Relaxed) {
+        let n = match port.read(&mut buf) {
+            Ok(n) => n,
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    std::io::ErrorKind::TimedOut
+                        | std::io::ErrorKind::WouldBlock
+                        | std::io::ErrorKind::Interrupted
+                ) =>
+            {
+                continue
+            }
+            Err(e) => return Err(e),
+        };
+        for chunk in buf[..n].split_inclusive(|&b| b == 0) {
+            rt.receive(chunk);
+            if chunk.last() == Some(&0) {
+                let out = rt.tick(0).to_vec();
+                port.write_all(&out)?;
+                ticks += 1;
+            }
+        }
+    }
+    Ok(ticks)
 }
 
 #[test]
@@ -107,7 +145,6 @@ fn the_serial_transport_closes_the_loop_over_a_pty() {
 /// burst, however many delimiters it held (the tick monitor's skip policy). Returns the
 /// ticks run and the largest number of delimiters one burst held.
 fn serve_in_bursts(port: &mut TTYPort, rt: &mut Runtime<Fx>, stop: &AtomicBool) -> (u64, usize) {
-    use std::io::{Read, Write};
     let (mut ticks, mut most) = (0, 0);
     let mut buf = [0u8; 1024];
     while !stop.load(Ordering::Relaxed) {

@@ -149,22 +149,18 @@ impl QemuConfig {
             } else {
                 Self::built_elf(machine)
             },
-            machine,
-            ..Self::new()
-        }
-    }
-
-    /// The default ELF, no log, a 10 s timeout.
-    pub fn new() -> Self {
-        Self {
-            elf: Self::default_elf(),
             log: None,
             timeout: Duration::from_secs(10),
-            machine: Machine::default(),
+            machine,
             channel: Channel::Uart,
             free_run: false,
             realtime: false,
         }
+    }
+
+    /// [`Self::on`] the default machine.
+    pub fn new() -> Self {
+        Self::on(Machine::default())
     }
 
     /// The free-running firmware on mps2-an386 without `-icount` (TIMER0 on the host's clock).
@@ -177,7 +173,6 @@ impl QemuConfig {
         Self {
             elf,
             free_run: true,
-            realtime: false,
             ..Self::new()
         }
     }
@@ -208,10 +203,8 @@ impl Default for QemuConfig {
 /// A running emulated device; dropping it kills a QEMU that [`Qemu::start`] started.
 #[derive(Debug)]
 pub struct Qemu {
-    launch: Launch,
-    /// The starting thread held on QEMU's core, released on drop.
-    _held: Option<HeldOn>,
-    child: Option<Child>,
+    /// The QEMU [`Qemu::start`] started (none when started by hand).
+    guard: Guard,
     link: Link,
     stderr_path: PathBuf,
     /// Bytes received and not yet taken; frames start at `rx_at`.
@@ -244,18 +237,13 @@ fn free_port() -> io::Result<u16> {
 impl Qemu {
     /// The full QEMU command line for `elf` on `machine` with the serial chardev on `port`.
     pub fn command_on(machine: Machine, elf: &Path, port: u16) -> Command {
-        Self::command_to(machine, elf, SerialTo::Tcp(port))
+        let mut cmd = Command::new(QEMU_BIN);
+        cmd.args(Self::args(machine, elf, SerialTo::Tcp(port)));
+        cmd
     }
 
-    fn command_to(machine: Machine, elf: &Path, to: SerialTo) -> Command {
-        let mut cmd = Command::new(QEMU_BIN);
-        cmd.args(qemu_args(
-            machine.name(),
-            machine.cpu(),
-            &elf.to_string_lossy(),
-            to,
-        ));
-        cmd
+    fn args(machine: Machine, elf: &Path, to: SerialTo) -> Vec<String> {
+        qemu_args(machine.name(), machine.cpu(), &elf.to_string_lossy(), to)
     }
 
     /// Launches QEMU as `cfg` says with the frames on `to`, pinned to [`next_core`]; the
@@ -266,15 +254,12 @@ impl Qemu {
             Some(p) => Stdio::from(File::create(p).map_err(QemuError::Io)?),
             None => Stdio::null(),
         };
-        let mut cmd = Self::command_to(cfg.machine, &cfg.elf, to);
+        let mut args = Self::args(cfg.machine, &cfg.elf, to);
         if cfg.free_run {
-            let args: Vec<String> = cmd
-                .get_args()
-                .map(|a| a.to_string_lossy().into_owned())
-                .collect();
-            cmd = Command::new(QEMU_BIN);
-            cmd.args(without_icount(args));
+            args = without_icount(args);
         }
+        let mut cmd = Command::new(QEMU_BIN);
+        cmd.args(args);
         let core = if cfg.free_run {
             pin::free_run_core()
         } else {
@@ -306,33 +291,17 @@ impl Qemu {
             .spawn()
             .map_err(QemuError::QemuMissing)?;
         launch.harness_beside = held.is_some();
-        Ok(Guard(Some(child), launch, held))
-    }
-
-    /// The running QEMU of `guard` on `link`, no longer killed by the guard.
-    fn started(
-        mut guard: Guard,
-        link: Link,
-        stderr_path: PathBuf,
-        timeout: Duration,
-    ) -> Result<Self, QemuError> {
-        let child = guard.0.take().ok_or(QemuError::Exited(String::new()))?;
-        let mut q = Self::on_link(link, Some(child), guard.1, stderr_path, timeout);
-        q._held = guard.2.take();
-        Ok(q)
-    }
-
-    fn on_link(
-        link: Link,
-        child: Option<Child>,
-        launch: Launch,
-        stderr_path: PathBuf,
-        timeout: Duration,
-    ) -> Self {
-        Self {
+        Ok(Guard {
+            child: Some(child),
             launch,
-            _held: None,
-            child,
+            _held: held,
+        })
+    }
+
+    /// The QEMU of `guard` on `link`.
+    fn on_link(link: Link, guard: Guard, stderr_path: PathBuf, timeout: Duration) -> Self {
+        Self {
+            guard,
             link,
             stderr_path,
             rx: Vec::with_capacity(RX_CHUNK + MAX_FRAME),
@@ -345,7 +314,7 @@ impl Qemu {
     /// How this QEMU was started (its core and real-time priority).
     #[must_use]
     pub fn launch(&self) -> Launch {
-        self.launch
+        self.guard.launch
     }
 
     /// Starts QEMU and connects to the firmware's UART0 (or [`QemuConfig::channel`]).
@@ -358,68 +327,49 @@ impl Qemu {
         let stderr_path =
             std::env::temp_dir().join(format!("wheelset-qemu-{}-{port}.err", std::process::id()));
         let mut guard = Self::spawn(cfg, SerialTo::Tcp(port), &stderr_path)?;
-        let deadline = Instant::now() + Duration::from_secs(10);
-        let stream = loop {
-            match TcpStream::connect((Ipv4Addr::LOCALHOST, port)) {
-                Ok(s) => break s,
-                Err(_) if Instant::now() < deadline => {
-                    if guard.exited() {
-                        return Err(QemuError::Connect {
-                            port,
-                            stderr: read_to_string(&stderr_path),
-                        });
-                    }
-                    std::thread::sleep(Duration::from_millis(10));
-                }
-                Err(e) => {
-                    return Err(QemuError::Connect {
-                        port,
-                        stderr: format!("{e}; {}", read_to_string(&stderr_path)),
-                    })
-                }
-            }
-        };
-        stream.set_nodelay(true).map_err(QemuError::Io)?;
-        stream
-            .set_read_timeout(Some(cfg.timeout))
-            .map_err(QemuError::Io)?;
-        Self::started(guard, Link::Tcp(stream), stderr_path, cfg.timeout)
+        let stream = retry(
+            Duration::from_secs(10),
+            Duration::from_millis(10),
+            || TcpStream::connect((Ipv4Addr::LOCALHOST, port)),
+            || {
+                guard.exited().then(|| QemuError::Connect {
+                    port,
+                    stderr: read_to_string(&stderr_path),
+                })
+            },
+            |e| QemuError::Connect {
+                port,
+                stderr: format!("{e}; {}", read_to_string(&stderr_path)),
+            },
+        )?;
+        let link = tcp_link(stream, cfg.timeout)?;
+        Ok(Self::on_link(link, guard, stderr_path, cfg.timeout))
     }
 
     /// Connects to a QEMU started by hand with UART0 on `127.0.0.1:port`, trying for
     /// `timeout`, which also bounds each read.
     pub fn connect(port: u16, timeout: Duration) -> Result<Self, QemuError> {
-        let deadline = Instant::now() + timeout;
-        let stream = loop {
-            match TcpStream::connect((Ipv4Addr::LOCALHOST, port)) {
-                Ok(s) => break s,
-                Err(_) if Instant::now() < deadline => {
-                    std::thread::sleep(Duration::from_millis(50));
-                }
-                Err(e) => {
-                    return Err(QemuError::Connect {
-                        port,
-                        stderr: format!(
-                            "{e} (is QEMU running with -serial tcp:127.0.0.1:{port},server=on? \
-                             `cargo xtask qemu-cmd target/fw/wheelset-qemu.elf --tcp {port}` \
-                             prints its command line)"
-                        ),
-                    })
-                }
-            }
-        };
-        stream.set_nodelay(true).map_err(QemuError::Io)?;
-        stream
-            .set_read_timeout(Some(timeout))
-            .map_err(QemuError::Io)?;
-        let (child, launch) = (None, Launch::default());
-        Ok(Self::on_link(
-            Link::Tcp(stream),
-            child,
-            launch,
-            PathBuf::new(),
+        let stream = retry(
             timeout,
-        ))
+            Duration::from_millis(50),
+            || TcpStream::connect((Ipv4Addr::LOCALHOST, port)),
+            || None,
+            |e| QemuError::Connect {
+                port,
+                stderr: format!(
+                    "{e} (is QEMU running with -serial tcp:127.0.0.1:{port},server=on? \
+                     `cargo xtask qemu-cmd target/fw/wheelset-qemu.elf --tcp {port}` \
+                     prints its command line)"
+                ),
+            },
+        )?;
+        let link = tcp_link(stream, timeout)?;
+        let by_hand = Guard {
+            child: None,
+            launch: Launch::default(),
+            _held: None,
+        };
+        Ok(Self::on_link(link, by_hand, PathBuf::new(), timeout))
     }
 
     /// A second handle on the TCP link to UART0; an error on the bulk channel.
@@ -473,6 +423,7 @@ impl Qemu {
                     match rx.read(buf) {
                         Ok(0)
                             if self
+                                .guard
                                 .child
                                 .as_mut()
                                 .is_some_and(|c| c.try_wait().ok().flatten().is_none()) =>
@@ -545,7 +496,7 @@ impl Qemu {
 
     /// A link error, or QEMU's exit with its stderr if it is gone.
     fn link_error(&mut self, e: io::Error) -> QemuError {
-        match self.child.as_mut().map(Child::try_wait) {
+        match self.guard.child.as_mut().map(Child::try_wait) {
             Some(Ok(Some(status))) => {
                 QemuError::Exited(format!("{status}; {}", read_to_string(&self.stderr_path)))
             }
@@ -556,9 +507,7 @@ impl Qemu {
 
 impl Drop for Qemu {
     fn drop(&mut self) {
-        if let Some(c) = self.child.as_mut() {
-            let _ = c.kill();
-            let _ = c.wait();
+        if self.guard.kill() {
             let _ = std::fs::remove_file(&self.stderr_path);
         }
         if let Link::Bulk { dir, .. } = &self.link {
@@ -567,8 +516,14 @@ impl Drop for Qemu {
     }
 }
 
-/// Kills a child on drop unless taken.
-struct Guard(Option<Child>, Launch, Option<HeldOn>);
+/// A QEMU child, killed on drop.
+#[derive(Debug)]
+struct Guard {
+    child: Option<Child>,
+    launch: Launch,
+    /// The starting thread held on QEMU's core, released on drop.
+    _held: Option<HeldOn>,
+}
 
 /// How a QEMU was started: its pinned core and real-time priority, if any.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
@@ -584,17 +539,54 @@ pub struct Launch {
 impl Guard {
     /// The child has exited (QEMU gave up: its stderr says why).
     fn exited(&mut self) -> bool {
-        matches!(self.0.as_mut().map(Child::try_wait), Some(Ok(Some(_))))
+        matches!(self.child.as_mut().map(Child::try_wait), Some(Ok(Some(_))))
+    }
+
+    /// Kills and reaps the child; whether there was one.
+    fn kill(&mut self) -> bool {
+        let Some(mut c) = self.child.take() else {
+            return false;
+        };
+        let _ = c.kill();
+        let _ = c.wait();
+        true
     }
 }
 
 impl Drop for Guard {
     fn drop(&mut self) {
-        if let Some(c) = self.0.as_mut() {
-            let _ = c.kill();
-            let _ = c.wait();
+        self.kill();
+    }
+}
+
+/// `attempt` every `pause` until it succeeds, `gone` (QEMU exited) or `timeout` passes.
+fn retry<T>(
+    timeout: Duration,
+    pause: Duration,
+    mut attempt: impl FnMut() -> io::Result<T>,
+    mut gone: impl FnMut() -> Option<QemuError>,
+    timed_out: impl FnOnce(io::Error) -> QemuError,
+) -> Result<T, QemuError> {
+    let deadline = Instant::now() + timeout;
+    loop {
+        match attempt() {
+            Ok(v) => return Ok(v),
+            Err(e) if Instant::now() >= deadline => return Err(timed_out(e)),
+            Err(_) => match gone() {
+                Some(e) => return Err(e),
+                None => std::thread::sleep(pause),
+            },
         }
     }
+}
+
+/// The TCP link on `stream`: no Nagle delay, each read bounded by `timeout`.
+fn tcp_link(stream: TcpStream, timeout: Duration) -> Result<Link, QemuError> {
+    stream.set_nodelay(true).map_err(QemuError::Io)?;
+    stream
+        .set_read_timeout(Some(timeout))
+        .map_err(QemuError::Io)?;
+    Ok(Link::Tcp(stream))
 }
 
 fn read_to_string(p: &Path) -> String {

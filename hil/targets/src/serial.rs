@@ -1,16 +1,13 @@
 //! The serial-port target: a board on a serial port (`serialport`, default features off:
 //! no libudev). Two pacings: [`Pace::RealTime`] (the default, a board ticking on its own
-//! timer: [`crate::realtime::RealTime`]) and [`Pace::LockStep`] (a frame-clocked device,
-//! or [`serve_lockstep`] behind a pseudo-terminal in the tests: [`Serial`] waits for each
-//! tick's answer, and the timing is modelled from the baud and the reported `exec`).
+//! timer: [`crate::realtime::RealTime`]) and [`Pace::LockStep`] (a frame-clocked device:
+//! [`Serial`] waits for each tick's answer, and the timing is modelled from the baud and
+//! the reported `exec`).
 
 use std::io::{self, Read, Write};
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use serialport::SerialPort;
-use wheelset_control::Fx;
-use wheelset_runtime::Runtime;
 
 use crate::lockstep::{Expect, OneInFlight};
 use wheelset_loop::transport::{Clock, Transport, TransportError};
@@ -125,34 +122,6 @@ impl OneInFlight for Serial {
             }
         }
     }
-}
-
-/// A frame-clocked device on a port: each 0x00 delimiter received is one tick of `rt`,
-/// whose output is written back at once (exec 0). Runs until `stop` is set or the port
-/// fails; returns the ticks run.
-pub fn serve_lockstep<P: Read + Write + ?Sized>(
-    port: &mut P,
-    rt: &mut Runtime<Fx>,
-    stop: &AtomicBool,
-) -> io::Result<u64> {
-    let mut buf = [0u8; 256];
-    let mut ticks = 0;
-    while !stop.load(Ordering::Relaxed) {
-        let n = match port.read(&mut buf) {
-            Ok(n) => n,
-            Err(e) if nothing_yet(&e) => continue,
-            Err(e) => return Err(e),
-        };
-        for chunk in buf[..n].split_inclusive(|&b| b == 0) {
-            rt.receive(chunk);
-            if chunk.last() == Some(&0) {
-                let out = rt.tick(0).to_vec();
-                port.write_all(&out)?;
-                ticks += 1;
-            }
-        }
-    }
-    Ok(ticks)
 }
 
 pub(crate) fn open_error(path: &str, baud: u32, e: &serialport::Error) -> TransportError {

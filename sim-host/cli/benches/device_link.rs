@@ -8,7 +8,7 @@ mod common;
 use criterion::{criterion_group, criterion_main, Criterion};
 use wheelset_control::Fx;
 use wheelset_loop::device_loop::{DeviceFault, InProc};
-use wheelset_loop::exchange::DeviceController;
+use wheelset_loop::exchange::{DeviceController, LoopSetup};
 use wheelset_loop::sim_link::LinkConfig;
 use wheelset_plant::control::{Measurements, SampledController};
 use wheelset_runtime::RuntimeConfig;
@@ -22,7 +22,14 @@ fn exchanges() -> f64 {
     )
     .unwrap_or_else(|e| panic!("{e}"));
     let t = d.period_ns();
-    let mut ctrl = DeviceController::new(&mut d, t, 4.28, None);
+    let mut ctrl = DeviceController::new(
+        &mut d,
+        4.28,
+        LoopSetup {
+            period_ns: t,
+            ..LoopSetup::default()
+        },
+    );
     ctrl.reserve(100_000);
     let mut acc = 0.0;
     for k in 0..100_000u64 {

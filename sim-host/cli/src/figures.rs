@@ -22,6 +22,26 @@ fn label(tr: &Trajectory) -> String {
     tr.info.control.clone()
 }
 
+/// Run `k`'s colour, the same in every panel.
+fn colour(k: usize) -> &'static str {
+    PALETTE[k % PALETTE.len()]
+}
+
+/// The runs' drawing order: the others first, then the first (the main run) on top.
+fn drawing_order(n: usize) -> impl Iterator<Item = usize> {
+    (1..n).chain(0..n.min(1))
+}
+
+/// Run `k`'s series in its colour, the others' wide and pale beneath the main run's.
+fn overlaid(k: usize, s: Series) -> Series {
+    let s = s.color(colour(k));
+    if k == 0 {
+        s
+    } else {
+        s.width(4.0).opacity(0.5)
+    }
+}
+
 /// Writes the time-history figures of `runs` (first = main run, others overlaid) into
 /// `dir`: `lateral.svg` (Fig. 6 for `curve`, Fig. 9 for `beating`), `torque.svg` (Fig. 7),
 /// `creep.svg` (Fig. 8) and `traction.svg`; returns the files written.
@@ -29,7 +49,6 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
     let Some(main) = runs.first() else {
         return Ok(vec![]);
     };
-    // The title says what is compared: the main run's control against the others'.
     let others: Vec<String> = runs[1..].iter().map(label).collect();
     // How each figure draws the runs: the main run thin over the others' wide band, or
     // solid under the others dashed.
@@ -64,24 +83,13 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
         files.push(p);
         Ok(())
     };
-    // The compared runs first, wide, then the main run thin on top: both show.
-    let order: Vec<(usize, &Trajectory)> = runs
-        .iter()
-        .enumerate()
-        .skip(1)
-        .chain(runs.iter().enumerate().take(1))
-        .collect();
-    let styled = |k: usize, s: Series| -> Series {
-        let s = s.color(PALETTE[k % PALETTE.len()]);
-        if k == 0 {
-            s
-        } else {
-            s.width(4.0).opacity(0.5)
-        }
-    };
     let overlay = |mut p: Plot, prefix: &str, f: fn(&Record) -> f64| {
-        for &(k, tr) in &order {
-            p = p.series(styled(k, series(tr, &format!("{prefix}{}", label(tr)), f)));
+        for k in drawing_order(runs.len()) {
+            let tr = &runs[k];
+            p = p.series(overlaid(
+                k,
+                series(tr, &format!("{prefix}{}", label(tr)), f),
+            ));
         }
         p
     };
@@ -110,14 +118,15 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
         .map_or(5.0, |r| r.t_s);
     let mut zoom = over_t("y - y0 around the traction step", "y - y0 (mm)")
         .x_range(t_step - 0.2, t_step + 2.0);
-    for &(k, tr) in &order {
+    for k in drawing_order(runs.len()) {
+        let tr = &runs[k];
         let pts = tr
             .records
             .iter()
             .filter(|r| r.t_s >= t_step - 0.2 && r.t_s <= t_step + 2.0)
             .map(|r| (r.t_s, (r.y_m - r.y0_m) * 1e3))
             .collect();
-        zoom = zoom.series(styled(k, Series::line(&label(tr), pts)));
+        zoom = zoom.series(overlaid(k, Series::line(&label(tr), pts)));
     }
     save(
         "lateral.svg",
@@ -143,7 +152,7 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
     let per_run = |title: &str, y_label: &str, f: &dyn Fn(&Record) -> f64| {
         let mut p = over_t(title, y_label);
         for (k, tr) in runs.iter().enumerate() {
-            let s = series(tr, &label(tr), f).color(PALETTE[k % PALETTE.len()]);
+            let s = series(tr, &label(tr), f).color(colour(k));
             p = p.series(if k == 0 { s } else { s.style(Style::Dashed) });
         }
         p
@@ -375,31 +384,25 @@ pub fn write_figure(
     dir: &Path,
 ) -> std::io::Result<PathBuf> {
     std::fs::create_dir_all(dir)?;
-    let colour = |k: usize| PALETTE[k % PALETTE.len()];
     // One time axis for every panel: a run stopped as diverged ends early.
     let end = runs
         .iter()
         .filter_map(|r| r.tr.records.last().map(|x| x.t_s))
         .fold(0.0f64, f64::max);
-    // (A run without records: no range given, the data's own.)
     let panel = |title: &str, y_label: &str| over_t(title, y_label).x_range(0.0, end);
     let mut force = panel("Traction force delivered F_xR + F_xL", "F (kN)");
     let mut mu = panel(
         "Adhesion available (peak) and used",
         "F / Q (creep force over wheel load)",
     );
-    // The other runs first and wide, the first run thin on top.
-    let order: Vec<usize> = (1..runs.len()).chain(0..runs.len().min(1)).collect();
-    let width = |k: usize| if k == 0 { 1.4 } else { 4.0 };
-    let pale = |k: usize| if k == 0 { 1.0 } else { 0.5 };
-    for &k in &order {
+    for k in drawing_order(runs.len()) {
         let run = &runs[k];
-        let style = |s: Series| s.color(colour(k)).width(width(k)).opacity(pale(k));
-        force = force.series(style(series(run.tr, run.label, |r| {
-            (r.fx_r_n + r.fx_l_n) * 1e-3
-        })));
+        force = force.series(overlaid(
+            k,
+            series(run.tr, run.label, |r| (r.fx_r_n + r.fx_l_n) * 1e-3),
+        ));
         let used = format!("used, {}", run.label);
-        mu = mu.series(style(series(run.tr, &used, |r| r.mu_used)));
+        mu = mu.series(overlaid(k, series(run.tr, &used, |r| r.mu_used)));
     }
     if let Some(run) = runs.first() {
         mu = mu.series(

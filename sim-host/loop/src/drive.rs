@@ -1,8 +1,6 @@
 //! The one driver of a controller on the plant: `run_sampled` with an ideal sensor, the
 //! actuation computed from the sample at `t_k` in force from `t_k + d T` (ZOH), and each
 //! period's record handed to the caller as it happens (nothing kept per period here).
-//! It serves the control core ([`crate::core`]), the device through a transport
-//! ([`crate::exchange::close_loop`]) and the fixed-point audit's closed loops.
 
 use wheelset_plant::control::{Actuation, Measurements, SampledController};
 use wheelset_plant::scenario::Scenario;

@@ -117,17 +117,14 @@ pub struct LoopRecords {
 /// The device as a sampled controller of the plant, through a transport.
 pub struct DeviceController<'a> {
     tr: &'a mut dyn Transport,
-    period_ns: u64,
+    /// Back-EMF gain, V s/rad.
     k_m: f64,
-    lateral: LateralSensing,
-    config: Option<Config>,
+    setup: LoopSetup<'a>,
     config_sent: bool,
     decoder: Decoder,
     seq: u16,
     k: u64,
     held: Option<(SiActuation, Actuation)>,
-    /// Ticks from a sample to its actuation taking effect (at least 1).
-    delay_ticks: u64,
     /// Actuations received and not yet in force, with the sample each echoes, in order.
     early: std::collections::VecDeque<(Option<u64>, SiActuation, Actuation)>,
     /// The sample count of the step whose actuation is being received (`answer`).
@@ -139,18 +136,9 @@ pub struct DeviceController<'a> {
     /// What the loop records.
     pub rec: LoopRecords,
     config_echo_pending: bool,
-    progress: Option<ProgressBar>,
     status_seen: bool,
-    /// Send `Command::ClearFaults` once, at the first sample at or after this time, ns.
-    pub clear_faults_at_ns: Option<u64>,
-    /// Send `Command::InjectStall` once, at the first sample at or after this time, ns.
-    pub stall_at_ns: Option<u64>,
-    /// A Config frame sent again after a device reset (besides `config`).
-    pub reset_config: Option<Config>,
     last_tick: u16,
     last_latched: bool,
-    /// Which records are kept ([`Records::All`] unless set).
-    pub records: Records,
     deferred: bool,
     /// The steps sent whose actuation is not taken yet, oldest first (two in flight).
     awaiting: std::collections::VecDeque<Awaiting>,
@@ -169,25 +157,19 @@ struct Awaiting {
 }
 
 impl<'a> DeviceController<'a> {
-    /// A controller with period `period_ns` through `tr`; `k_m` (V s/rad): back-EMF gain.
-    pub fn new(
-        tr: &'a mut dyn Transport,
-        period_ns: u64,
-        k_m: f64,
-        progress: Option<ProgressBar>,
-    ) -> Self {
+    /// The device behind `tr` as `setup` says (its `yaw_spring` and `label` are the
+    /// plant's); `k_m` (V s/rad): back-EMF gain.
+    pub fn new(tr: &'a mut dyn Transport, k_m: f64, setup: LoopSetup<'a>) -> Self {
         Self {
+            deferred: tr.pipelined(),
             tr,
-            period_ns,
             k_m,
-            lateral: LateralSensing::Velocity,
-            config: None,
+            setup,
             config_sent: false,
             decoder: Decoder::new(),
             seq: 0,
             k: 0,
             held: None,
-            delay_ticks: 1,
             early: std::collections::VecDeque::new(),
             answering: 0,
             fresh: false,
@@ -195,23 +177,22 @@ impl<'a> DeviceController<'a> {
             frame_bytes: 0,
             rec: LoopRecords::default(),
             config_echo_pending: false,
-            progress,
             status_seen: false,
-            clear_faults_at_ns: None,
-            stall_at_ns: None,
-            reset_config: None,
             last_tick: 0,
             last_latched: false,
-            records: Records::All,
-            deferred: false,
             awaiting: std::collections::VecDeque::with_capacity(2),
         }
+    }
+
+    /// Ticks from a sample to its actuation taking effect (at least 1).
+    fn delay_ticks(&self) -> u64 {
+        u64::from(self.setup.delay_ticks.max(1))
     }
 
     /// Reserves the per-period records for `periods` periods.
     pub fn reserve(&mut self, periods: usize) {
         self.rec.log.reserve(periods);
-        if self.records == Records::All {
+        if self.setup.records == Records::All {
             self.rec.periods.reserve(periods);
             self.rec.actuations.reserve(periods);
             self.rec.sent_codes.reserve(periods);
@@ -278,7 +259,7 @@ impl<'a> DeviceController<'a> {
                     self.k.saturating_sub(u64::from(diff))
                 });
                 let echo = echo.map(|e| e.saturating_sub(1));
-                if self.records == Records::All {
+                if self.setup.records == Records::All {
                     self.rec.actuations.push(RxActuation {
                         at_ns,
                         wire_bytes,
@@ -296,11 +277,11 @@ impl<'a> DeviceController<'a> {
                     u_a: si.u_a,
                 };
                 // An answer to no sample (the Config's): the start-up output stands.
-                if echo.is_some() || self.answering >= self.delay_ticks {
+                if echo.is_some() || self.answering >= self.delay_ticks() {
                     self.early.push_back((echo, si, a));
                 }
                 // The period's echo, if it came by its deadline t_e + d T.
-                let due = self.delay_ticks * self.period_ns;
+                let due = self.delay_ticks() * self.setup.period_ns;
                 let p = echo.and_then(|e| self.rec.periods.get_mut(usize::try_from(e).ok()?));
                 if let Some(p) = p.filter(|p| p.echo_at_ns.is_none() && at_ns <= p.t_ns + due) {
                     p.echo_at_ns = Some(at_ns);
@@ -324,7 +305,7 @@ impl<'a> DeviceController<'a> {
             if went_back && (back < 0x8000 || (latched && !self.last_latched)) {
                 self.rec.device_resets += 1;
                 self.rec.first_reset_ns.get_or_insert(at_ns);
-                if self.config.is_some() || self.reset_config.is_some() {
+                if self.setup.config.is_some() || self.setup.reset_config.is_some() {
                     self.config_sent = false;
                 }
             }
@@ -339,14 +320,14 @@ impl<'a> DeviceController<'a> {
         for _ in 0..STATUS_TRIES {
             self.send(t, &Message::Command(Command::RequestStatus));
             for _ in 0..STATUS_WAIT_PERIODS {
-                t += self.period_ns;
+                t += self.setup.period_ns;
                 self.receive(t);
             }
             if self.status_seen || self.rec.error.is_some() {
                 break;
             }
         }
-        if let Some(pb) = &self.progress {
+        if let Some(pb) = &self.setup.progress {
             pb.finish_and_clear();
         }
     }
@@ -354,11 +335,14 @@ impl<'a> DeviceController<'a> {
 
 impl SampledController for DeviceController<'_> {
     fn period_ns(&self) -> u64 {
-        self.period_ns
+        self.setup.period_ns
     }
 
     fn step(&mut self, t_ns: u64, m: &Measurements) -> SiActuation {
-        if let (Some(cfg), false) = (self.config.or(self.reset_config), self.config_sent) {
+        if let (Some(cfg), false) = (
+            self.setup.config.or(self.setup.reset_config),
+            self.config_sent,
+        ) {
             self.config_sent = true;
             self.config_echo_pending = true;
             self.send(t_ns, &Message::Config(cfg));
@@ -373,10 +357,10 @@ impl SampledController for DeviceController<'_> {
             demand_nm: m.demand_nm,
             v_ref: m.v_mps,
         };
-        let q = Sensor::from_si(self.seq, t_ns, &sample, self.lateral);
+        let q = Sensor::from_si(self.seq, t_ns, &sample, self.setup.lateral);
         self.rec.host.clamped += u64::from(q.clamped);
         let sensor = q.msg;
-        let all = self.records == Records::All;
+        let all = self.setup.records == Records::All;
         if let (Lateral::Velocity(v), true) = (sensor.lateral, all) {
             self.rec.sent_codes.push(InputCodes {
                 y_dot: v,
@@ -398,15 +382,15 @@ impl SampledController for DeviceController<'_> {
         // After the Sensor frame, so this period's sample is on time.
         let due =
             |at: Option<u64>, sent: Option<u64>| at.is_some_and(|t| t_ns >= t) && sent.is_none();
-        if due(self.clear_faults_at_ns, self.rec.clear_faults_sent_ns) {
+        if due(self.setup.clear_faults_at_ns, self.rec.clear_faults_sent_ns) {
             self.rec.clear_faults_sent_ns = Some(t_ns);
             self.send(t_ns, &Message::Command(Command::ClearFaults));
         }
-        if due(self.stall_at_ns, self.rec.stall_sent_ns) {
+        if due(self.setup.stall_at_ns, self.rec.stall_sent_ns) {
             self.rec.stall_sent_ns = Some(t_ns);
             self.send(t_ns, &Message::Command(Command::InjectStall));
         }
-        if let Some(pb) = &self.progress {
+        if let Some(pb) = &self.setup.progress {
             if self.k.is_multiple_of(1024) {
                 pb.set_position(t_ns / 1_000_000);
             }
@@ -446,10 +430,10 @@ impl DeviceController<'_> {
     fn answer(&mut self, step: Awaiting) -> SiActuation {
         self.fresh = false;
         self.answering = step.k;
-        self.receive(step.t_ns + self.period_ns);
+        self.receive(step.t_ns + self.setup.period_ns);
         // Sample `e` (0-based) acts from t_e + d T, i.e. when e + d <= k (k from 1).
         while let Some(&(e, si, a)) = self.early.front() {
-            if e.is_some_and(|e| e + self.delay_ticks > step.k) {
+            if e.is_some_and(|e| e + self.delay_ticks() > step.k) {
                 break;
             }
             self.early.pop_front();
@@ -499,11 +483,11 @@ pub struct LoopSetup<'l> {
     pub lateral: LateralSensing,
     /// A Config frame to send before the first Sensor frame.
     pub config: Option<Config>,
-    /// [`DeviceController::clear_faults_at_ns`].
+    /// Send `Command::ClearFaults` once, at the first sample at or after this time, ns.
     pub clear_faults_at_ns: Option<u64>,
-    /// [`DeviceController::stall_at_ns`].
+    /// Send `Command::InjectStall` once, at the first sample at or after this time, ns.
     pub stall_at_ns: Option<u64>,
-    /// [`DeviceController::reset_config`].
+    /// A Config frame sent again after a device reset (besides `config`).
     pub reset_config: Option<Config>,
     /// Ticks from a sample to its actuation taking effect (0 or 1: lock-step).
     pub delay_ticks: u32,
@@ -530,27 +514,12 @@ pub fn close_loop(
     tr: &mut dyn Transport,
     setup: LoopSetup<'_>,
 ) -> Result<ClosedLoop, SimError> {
-    let period_ns = setup.period_ns;
-    let mut ctrl = DeviceController::new(tr, period_ns, sc.params.k_m, setup.progress);
-    ctrl.lateral = setup.lateral;
-    ctrl.config = setup.config;
-    ctrl.clear_faults_at_ns = setup.clear_faults_at_ns;
-    ctrl.stall_at_ns = setup.stall_at_ns;
-    ctrl.reset_config = setup.reset_config;
-    ctrl.records = setup.records;
-    ctrl.delay_ticks = u64::from(setup.delay_ticks.max(1));
-    ctrl.deferred = ctrl.tr.pipelined();
+    let (period_ns, yaw_spring, label) = (setup.period_ns, setup.yaw_spring, setup.label);
+    let mut ctrl = DeviceController::new(tr, sc.params.k_m, setup);
     // One record per period, reserved once; capped for a very long scenario.
     let periods = (sc.duration_ns / period_ns.max(1)).min(1 << 22);
     ctrl.reserve(usize::try_from(periods).unwrap_or(0).saturating_add(2));
-    let trajectory = drive(
-        sc,
-        &mut ctrl,
-        1,
-        setup.yaw_spring,
-        setup.label,
-        |_, _, _| {},
-    )?;
+    let trajectory = drive(sc, &mut ctrl, 1, yaw_spring, label, |_, _, _| {})?;
     let t_end = ctrl.rec.log.last().map_or(0, |p| p.t_ns + period_ns);
     ctrl.finish(t_end);
     Ok(ClosedLoop {

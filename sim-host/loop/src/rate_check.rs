@@ -9,10 +9,8 @@ use wheelset_plant::control::YawLaw;
 use wheelset_plant::sampled::{margins, Loop};
 use wheelset_plant::scenario::Scenario;
 
-/// A warning when a loop of `sc` with `law` at `base_rate_hz` and `delay_ticks` (its
-/// gains designed for that point where a design exists) is unstable at the scenario's operating point,
-/// naming the loop (traction, yaw); `None` when both are stable, or the rate is refused
-/// anyway (invalid).
+/// The warning naming the loop (traction, yaw) of `sc` with `law` at `base_rate_hz` and
+/// `delay_ticks` that is unstable there; `None` when both are stable or the rate is invalid.
 #[must_use]
 pub fn warning(sc: &Scenario, law: YawLaw, base_rate_hz: u32, delay_ticks: u8) -> Option<String> {
     let base = control_config(&sc.params, law, sc.drive);

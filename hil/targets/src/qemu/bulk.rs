@@ -3,9 +3,9 @@
 
 use std::io;
 use std::process::Command;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
-use super::{read_to_string, Link, Qemu, QemuConfig, QemuError};
+use super::{read_to_string, retry, Link, Qemu, QemuConfig, QemuError};
 use crate::qemu::cmd::SerialTo;
 
 const O_NONBLOCK: i32 = libc::O_NONBLOCK;
@@ -43,35 +43,34 @@ impl Qemu {
             .custom_flags(O_NONBLOCK)
             .open(&tx_path)
             .map_err(QemuError::Io)?;
-        let deadline = Instant::now() + Duration::from_secs(10);
-        let tx = loop {
-            match std::fs::OpenOptions::new()
-                .write(true)
-                .custom_flags(O_NONBLOCK)
-                .open(&rx_path)
-            {
-                // The firmware has it open for reading: open it again, blocking writes.
-                Ok(_probe) => {
-                    break std::fs::OpenOptions::new()
-                        .write(true)
-                        .open(&rx_path)
-                        .map_err(QemuError::Io)?
-                }
-                Err(e) if Instant::now() < deadline => {
-                    if guard.exited() {
-                        return Err(QemuError::Exited(read_to_string(&stderr_path)));
-                    }
-                    let _ = e;
-                    std::thread::sleep(Duration::from_millis(5));
-                }
-                Err(e) => {
-                    return Err(QemuError::Exited(format!(
-                        "the firmware did not open its bulk channel ({e}); {}",
-                        read_to_string(&stderr_path)
-                    )))
-                }
-            }
-        };
-        Self::started(guard, Link::Bulk { tx, rx, dir }, stderr_path, cfg.timeout)
+        let opened = retry(
+            Duration::from_secs(10),
+            Duration::from_millis(5),
+            || {
+                std::fs::OpenOptions::new()
+                    .write(true)
+                    .custom_flags(O_NONBLOCK)
+                    .open(&rx_path)
+            },
+            || {
+                guard
+                    .exited()
+                    .then(|| QemuError::Exited(read_to_string(&stderr_path)))
+            },
+            |e| {
+                QemuError::Exited(format!(
+                    "the firmware did not open its bulk channel ({e}); {}",
+                    read_to_string(&stderr_path)
+                ))
+            },
+        );
+        // The firmware has it open for reading: open it again, blocking writes.
+        drop(opened?);
+        let tx = std::fs::OpenOptions::new()
+            .write(true)
+            .open(&rx_path)
+            .map_err(QemuError::Io)?;
+        let link = Link::Bulk { tx, rx, dir };
+        Ok(Self::on_link(link, guard, stderr_path, cfg.timeout))
     }
 }

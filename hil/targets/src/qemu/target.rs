@@ -7,7 +7,7 @@
 use std::time::Duration;
 
 use crate::lockstep::{Expect, OneInFlight};
-use crate::qemu::{Channel, Machine, Qemu, QemuConfig};
+use crate::qemu::{Channel, Machine, Qemu, QemuConfig, QemuError};
 use wheelset_loop::transport::{Clock, Transport, TransportError};
 
 /// The emulated board's core clock, Hz (mps2-an386: 25 MHz).
@@ -29,23 +29,10 @@ fn pipelined(channel: Channel) -> bool {
 }
 
 impl QemuTarget {
-    /// Starts QEMU with the default ELF (`cargo fw`), a clear error if either is missing;
-    /// `baud` is the line rate the timing model assumes, `timeout` bounds each wait.
-    pub fn start(baud: u32, cpu_hz: f64, timeout: Duration) -> Result<Self, TransportError> {
-        Self::start_on(Machine::default(), baud, cpu_hz, timeout)
-    }
-
-    /// [`Self::start`] on `machine` (mps2-an385: the Cortex-M3 build, `wheelset-qemu-m3.elf`).
-    pub fn start_on(
-        machine: Machine,
-        baud: u32,
-        cpu_hz: f64,
-        timeout: Duration,
-    ) -> Result<Self, TransportError> {
-        Self::start_with(machine, Channel::Uart, baud, cpu_hz, timeout)
-    }
-
-    /// [`Self::start_on`] over `channel` (UART0, or the semihosting bulk channel: faster).
+    /// Starts QEMU on `machine` (mps2-an385: the Cortex-M3 build, `wheelset-qemu-m3.elf`)
+    /// over `channel` (UART0, or the semihosting bulk channel: faster), a clear error if
+    /// QEMU or the ELF (`cargo fw`) is missing; `baud` is the line rate the timing model
+    /// assumes, `timeout` bounds each wait.
     pub fn start_with(
         machine: Machine,
         channel: Channel,
@@ -58,18 +45,9 @@ impl QemuTarget {
             channel,
             ..QemuConfig::on(machine)
         };
-        let q = Qemu::start(&cfg).map_err(|e| TransportError::Unavailable(e.to_string()))?;
-        Ok(Self {
-            q,
-            baud,
-            cpu_hz,
-            expect: Expect::new(),
-            pipelined: pipelined(channel),
-        })
+        Self::on(Qemu::start(&cfg), baud, cpu_hz, pipelined(channel))
     }
-}
 
-impl QemuTarget {
     /// The firmware under a QEMU started by hand, its UART0 a TCP server on
     /// `127.0.0.1:port` ([`Qemu::connect`]); QEMU is left running at the end.
     pub fn connect(
@@ -78,14 +56,21 @@ impl QemuTarget {
         cpu_hz: f64,
         timeout: Duration,
     ) -> Result<Self, TransportError> {
-        let q =
-            Qemu::connect(port, timeout).map_err(|e| TransportError::Unavailable(e.to_string()))?;
+        Self::on(Qemu::connect(port, timeout), baud, cpu_hz, false)
+    }
+
+    fn on(
+        q: Result<Qemu, QemuError>,
+        baud: u32,
+        cpu_hz: f64,
+        pipelined: bool,
+    ) -> Result<Self, TransportError> {
         Ok(Self {
-            q,
+            q: q.map_err(|e| TransportError::Unavailable(e.to_string()))?,
             baud,
             cpu_hz,
             expect: Expect::new(),
-            pipelined: false,
+            pipelined,
         })
     }
 }

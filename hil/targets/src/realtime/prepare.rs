@@ -9,7 +9,19 @@ use wheelset_loop::transport::TransportError;
 
 use super::{lower_decile, median_exec_ns, wrap, Port, RealTime, PHASE_FRAMES, ROUND_TRIP_PROBES};
 
+/// A `RequestStatus` frame, delimiter included.
+fn status_request() -> Result<Vec<u8>, TransportError> {
+    encode_vec(&Message::Command(Command::RequestStatus))
+        .map(|f| f.to_vec())
+        .map_err(|e| TransportError::Io(format!("cannot encode a status request: {e:?}")))
+}
+
 impl RealTime {
+    /// How far ahead of the device's tick each Sensor frame is written, ns.
+    fn lead_ns(&self) -> u64 {
+        self.o.period_ns * self.o.lead_num.clamp(1, 7) / 8
+    }
+
     /// Reads until a Status frame arrives after this call (at most `timeout`).
     fn await_status(&mut self, what: &str) -> Result<Status, TransportError> {
         self.last_status = None;
@@ -36,16 +48,10 @@ impl RealTime {
             )));
         }
         // 2. The run's configuration, checked.
-        let mut out = Vec::new();
-        for m in [
-            Message::Config(*cfg),
-            Message::Command(Command::RequestStatus),
-        ] {
-            let f = encode_vec(&m).map_err(|e| {
-                TransportError::Io(format!("cannot encode the start-up frames: {e:?}"))
-            })?;
-            out.extend_from_slice(&f);
-        }
+        let mut out = encode_vec(&Message::Config(*cfg))
+            .map(|f| f.to_vec())
+            .map_err(|e| TransportError::Io(format!("cannot encode the start-up frames: {e:?}")))?;
+        out.extend(status_request()?);
         self.write(&out)?;
         let s = self.await_status("the Config frame")?;
         if s.flags.has(Flags::CMD_REFUSED) {
@@ -66,9 +72,7 @@ impl RealTime {
             let delay = cfg.rates.map_or(1, |r| r.delay_ticks);
             self.check_round_trip(delay)?;
         }
-        let f = encode_vec(&Message::Command(Command::RequestStatus))
-            .map_err(|e| TransportError::Io(format!("cannot encode a status request: {e:?}")))?;
-        self.write(&f)?;
+        self.write(&status_request()?)?;
         let b = self.await_status("the baseline status request")?;
         self.baseline = Some(b);
         // 4. The device's phase and period.
@@ -112,7 +116,7 @@ impl RealTime {
         let mut tick_at = phase - exec_ns;
         let k = ((now + 2.0 * tf - tick_at) / tf).ceil().max(0.0);
         tick_at += k * tf;
-        let lead = t * self.o.lead_num.clamp(1, 7) / 8;
+        let lead = self.lead_ns();
         self.sync.lead_ns = lead;
         let first = (tick_at - lead as f64).max(now) as u64;
         // The device's output phase on the run's clock (origin = `first`).
@@ -128,8 +132,7 @@ impl RealTime {
     /// must be within `lead + (d - 1) T` for a delay of `d` ticks (reported in `sync`).
     fn check_round_trip(&mut self, delay: u8) -> Result<(), TransportError> {
         let t = self.o.period_ns;
-        let req = encode_vec(&Message::Command(Command::RequestStatus))
-            .map_err(|e| TransportError::Io(format!("cannot encode a status request: {e:?}")))?;
+        let req = status_request()?;
         let step = t / ROUND_TRIP_PROBES;
         let mut best: Option<(f64, usize)> = None;
         for i in 0..ROUND_TRIP_PROBES {
@@ -164,7 +167,7 @@ impl RealTime {
         let before = (before - step as f64).max(0.0);
         self.sync.round_trip_ns = rt;
         self.sync.before_tick_ns = before;
-        let lead = (t * self.o.lead_num.clamp(1, 7) / 8) as f64;
+        let lead = self.lead_ns() as f64;
         let tf = t as f64;
         let allowed = lead + f64::from(delay.max(1) - 1) * tf;
         if before <= allowed {

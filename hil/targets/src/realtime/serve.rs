@@ -133,7 +133,9 @@ pub fn serve(
                         let wait = down
                             .next_release()
                             .map_or(wait, |r| wait.min(r.saturating_duration_since(now)));
-                        read_into(port, up, wait, &mut buf, &mut rep)?;
+                        read_into(port, wait, &mut buf, &mut rep, |b| {
+                            up.push(Instant::now(), b);
+                        })?;
                     }
                 }
             } else {
@@ -150,41 +152,22 @@ pub fn serve(
         } else if lateness > period / 4 {
             rep.late += 1;
         }
-        match bridge.as_mut() {
-            None => {
-                let _ = port.set_timeout(Duration::ZERO);
-                loop {
-                    match port.read(&mut buf) {
-                        Ok(0) => break,
-                        Ok(n) => {
-                            rep.rx_bytes += n as u64;
-                            rt.receive(buf.get(..n).unwrap_or(&[]));
-                            if n < buf.len() {
-                                break;
-                            }
-                        }
-                        Err(e) if nothing_yet(&e) => break,
-                        Err(e) => return Err(e),
-                    }
-                }
-            }
+        // What arrived: to the runtime, or into the bridge's up line.
+        let mut take = |b: &[u8]| match bridge.as_mut() {
+            None => rt.receive(b),
             Some((up, _)) => {
-                while read_into(port, up, Duration::ZERO, &mut buf, &mut rep)? == buf.len() {}
-                while let Some(run) = up.pop_due(woke) {
-                    rt.receive(&run);
-                }
+                up.push(Instant::now(), b);
+            }
+        };
+        while read_into(port, Duration::ZERO, &mut buf, &mut rep, &mut take)? == buf.len() {}
+        if let Some((up, _)) = bridge.as_mut() {
+            while let Some(run) = up.pop_due(woke) {
+                rt.receive(&run);
             }
         }
         let out = rt.tick(last_exec);
-        let len = out.len() as u64;
         match bridge.as_mut() {
-            None => {
-                if queue_frame(&mut queue, TX_QUEUE, out) {
-                    rep.tx_bytes += len;
-                } else {
-                    rep.tx_dropped += 1;
-                }
-            }
+            None => enqueue(&mut queue, out, &mut rep),
             Some((_, down)) => {
                 if !down.push(Instant::now(), out) {
                     rep.tx_dropped += 1;
@@ -216,19 +199,19 @@ pub fn serve(
     Ok(rep)
 }
 
-/// One read of the pty (waiting at most `wait`) into the bridge's `up` line; the bytes read.
+/// One read of the pty (waiting at most `wait`), its bytes to `sink`; how many.
 fn read_into(
     port: &mut TTYPort,
-    up: &mut DelayLine,
     wait: Duration,
     buf: &mut [u8],
     rep: &mut ServeReport,
+    mut sink: impl FnMut(&[u8]),
 ) -> io::Result<usize> {
     let _ = port.set_timeout(wait);
     match port.read(buf) {
         Ok(n) => {
             rep.rx_bytes += n as u64;
-            up.push(Instant::now(), buf.get(..n).unwrap_or(&[]));
+            sink(buf.get(..n).unwrap_or(&[]));
             Ok(n)
         }
         Err(e) if nothing_yet(&e) => Ok(0),
@@ -247,16 +230,21 @@ fn release(
     let mut any = false;
     while let Some(run) = down.pop_due(now) {
         any = true;
-        if queue_frame(queue, TX_QUEUE, &run) {
-            rep.tx_bytes += run.len() as u64;
-        } else {
-            rep.tx_dropped += 1;
-        }
+        enqueue(queue, &run, rep);
     }
     if any {
         flush_queue(port, queue)?;
     }
     Ok(())
+}
+
+/// Queues `frame` for the pty, counted as sent, or as dropped when the queue is full.
+fn enqueue(queue: &mut VecDeque<u8>, frame: &[u8], rep: &mut ServeReport) {
+    if queue_frame(queue, TX_QUEUE, frame) {
+        rep.tx_bytes += frame.len() as u64;
+    } else {
+        rep.tx_dropped += 1;
+    }
 }
 
 /// Creates a pty pair: (master, slave, slave path). Keep the slave open, or the master

@@ -115,10 +115,19 @@ pub(crate) fn create_file(path: &std::path::Path) -> Result<BufWriter<std::fs::F
     Ok(BufWriter::with_capacity(1 << 16, f))
 }
 
-/// Writes `value` as pretty JSON to `path` (directories created).
-pub(crate) fn write_json(path: &std::path::Path, value: &serde_json::Value) -> Result<(), Failure> {
+/// Writes `value` as JSON to `path` (directories created), `pretty` or compact.
+pub(crate) fn write_json(
+    path: &std::path::Path,
+    value: &impl serde::Serialize,
+    pretty: bool,
+) -> Result<(), Failure> {
     let mut f = create_file(path)?;
-    serde_json::to_writer_pretty(&mut f, value)
+    let written = if pretty {
+        serde_json::to_writer_pretty(&mut f, value)
+    } else {
+        serde_json::to_writer(&mut f, value)
+    };
+    written
         .map_err(std::io::Error::from)
         .and_then(|()| f.flush())
         .map_err(|e| io_fail(path, e))?;

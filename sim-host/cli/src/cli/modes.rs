@@ -2,12 +2,11 @@
 
 use clap::ValueEnum;
 use serde::{Serialize, Serializer};
-use std::io::Write;
 use std::path::PathBuf;
 use wheelset_plant::modes::{creep_grid, sweep_case, Case, CaseSweep};
 use wheelset_report::outln;
 
-use super::{create_file, io_fail, load_params, warn, Failure};
+use super::{io_fail, load_params, warn, Failure};
 
 /// Analysis case of docs/model.md.
 #[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
@@ -145,7 +144,6 @@ pub(crate) fn cmd_modes(a: &ModesArgs) -> Result<(), Failure> {
         "k_t": p.k_t(), "k_gear": p.k_gear(), "y0_at_2300m": p.pure_rolling_y(1.0 / 2300.0)
     });
     let params = serde_json::to_value(&p).map_err(|e| Failure::failed(e.to_string()))?;
-    let mut out = create_file(&a.json)?;
     let file = ModesFile {
         cases: Cases(&sweeps),
         derived: &derived,
@@ -154,11 +152,7 @@ pub(crate) fn cmd_modes(a: &ModesArgs) -> Result<(), Failure> {
         params: &params,
         speed_mps: p.v,
     };
-    serde_json::to_writer(&mut out, &file)
-        .map_err(std::io::Error::from)
-        .and_then(|()| out.flush())
-        .map_err(|e| io_fail(&a.json, e))?;
-    outln!("json: {}", a.json.display());
+    super::write_json(&a.json, &file, false)?;
     if let Some(dir) = &a.plot {
         for sw in &sweeps {
             let f = crate::figures::write_root_locus(sw, dir).map_err(|e| io_fail(dir, e))?;

@@ -303,32 +303,26 @@ pub(crate) fn cmd_run_core(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
         if !sc.adhesion.is_empty() {
             use crate::figures::FigureRun;
             let (other, oc) = run_core::<f64>(sc, a.control.into(), !wsp).map_err(fail)?;
-            let label = |on: bool| {
-                if on {
-                    "protection on"
-                } else {
-                    "protection off"
-                }
+            let this = (&runs[0], &c);
+            let (on, off) = if wsp {
+                (this, (&other, &oc))
+            } else {
+                ((&other, &oc), this)
             };
-            let (main, other) = (
-                FigureRun {
-                    label: label(wsp),
-                    tr: &runs[0],
-                    set_point: &c.set_point,
-                },
-                FigureRun {
-                    label: label(!wsp),
-                    tr: &other,
-                    set_point: &oc.set_point,
-                },
-            );
-            let (on, off) = if wsp { (main, other) } else { (other, main) };
             let slip_on =
                 wheelset_loop::device_loop::control_config(&sc.params, a.control.into(), sc.drive)
                     .wsp
                     .slip_on_mps;
-            let f = crate::figures::write_figure(&[on, off], slip_on, dir)
-                .map_err(|e| io_fail(dir, e))?;
+            let runs =
+                [("protection on", on), ("protection off", off)].map(|(label, (tr, core))| {
+                    FigureRun {
+                        label,
+                        tr,
+                        set_point: &core.set_point,
+                    }
+                });
+            let f =
+                crate::figures::write_figure(&runs, slip_on, dir).map_err(|e| io_fail(dir, e))?;
             outln!("plot: {}", f.display());
         }
     }
@@ -373,7 +367,7 @@ pub(crate) fn write_run_summary(
         "wsp": wsp,
         "adhesion": adhesion,
     });
-    write_json(path, &json)
+    write_json(path, &json, true)
 }
 
 pub(crate) fn print_summary(sc: &Scenario, tr: &Trajectory) {

@@ -23,7 +23,14 @@ fn run_seeded(faults: &str, periods: u64, seed: u64) -> (Vec<LinkSample>, LinkRe
     let mut d =
         InProc::<Fx>::try_new(RuntimeConfig::default(), &link, DeviceFault::None).expect("fits");
     let t = d.period_ns();
-    let mut c = DeviceController::new(&mut d, t, 4.28, None);
+    let mut c = DeviceController::new(
+        &mut d,
+        4.28,
+        LoopSetup {
+            period_ns: t,
+            ..LoopSetup::default()
+        },
+    );
     for k in 0..periods {
         let _ = c.step(k * t, &sample(k));
     }

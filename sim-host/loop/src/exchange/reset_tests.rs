@@ -67,10 +67,14 @@ fn a_tick_counter_that_goes_back_is_a_reset_and_the_config_goes_out_again() {
     let mut tr = Recorder::default();
     let cfg = crate::device_loop::run_config(&Default::default(), false, false);
     let period = 1_000_000;
-    let mut ctrl = DeviceController::new(&mut tr, period, 0.0, None);
-    ctrl.reset_config = Some(cfg);
+    let setup = LoopSetup {
+        period_ns: period,
+        reset_config: Some(cfg),
+        stall_at_ns: Some(2 * period),
+        ..LoopSetup::default()
+    };
+    let mut ctrl = DeviceController::new(&mut tr, 0.0, setup);
     ctrl.config_sent = true; // configured before the run, as RealTime::prepare does
-    ctrl.stall_at_ns = Some(2 * period);
     let m = Measurements::default();
     for k in 0..4u16 {
         ctrl.step(u64::from(k) * period, &m);

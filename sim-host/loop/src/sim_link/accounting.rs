@@ -20,17 +20,23 @@ enum Fate {
 #[derive(Debug, Clone, Default)]
 pub struct RxPort {
     decoder: Decoder,
+    book: Book,
+}
+
+/// The attribution state of an [`RxPort`], apart from its decoder.
+#[derive(Debug, Clone, Default)]
+struct Book {
     pending: Vec<FrameId>,
     fates: Vec<Fate>,
     reached: Vec<bool>,
     /// Valid frames.
-    pub received: u64,
+    received: u64,
     /// Frames that took part in a rejected frame.
-    pub rejected: u64,
+    rejected: u64,
     /// Decoder rejections by kind: CRC, COBS, version, length, postcard.
-    pub errors: [u64; 5],
+    errors: [u64; 5],
     /// Rejected frames by the kind of their reject (sums to `rejected`).
-    pub rejected_by: [u64; 5],
+    rejected_by: [u64; 5],
 }
 
 impl RxPort {
@@ -42,8 +48,8 @@ impl RxPort {
 
     /// Decodes delivered bytes of frame `id` with its own decoder; `on_msg` per valid message.
     pub fn push(&mut self, run: &[u8], id: FrameId, mut on_msg: impl FnMut(Message)) {
-        let (dec, mut book) = self.split();
-        book.attribute(run, id, |piece| {
+        let dec = &mut self.decoder;
+        self.book.attribute(run, id, |piece| {
             // A piece holds at most one delimiter, its last byte.
             dec.next_message(piece).0.map(|r| r.map(&mut on_msg))
         });
@@ -57,33 +63,7 @@ impl RxPort {
         id: FrameId,
         decode: impl FnMut(&[u8]) -> Option<Result<(), FrameError>>,
     ) {
-        self.split().1.attribute(run, id, decode);
-    }
-
-    /// The decoder and the bookkeeping, borrowed apart.
-    fn split(&mut self) -> (&mut Decoder, Book<'_>) {
-        let RxPort {
-            decoder,
-            pending,
-            fates,
-            reached,
-            received,
-            rejected,
-            errors,
-            rejected_by,
-        } = self;
-        (
-            decoder,
-            Book {
-                pending,
-                fates,
-                reached,
-                received,
-                rejected,
-                errors,
-                rejected_by,
-            },
-        )
+        self.book.attribute(run, id, decode);
     }
 
     /// The final accounting of `channel`'s frames at the end of a run.
@@ -91,43 +71,33 @@ impl RxPort {
     pub fn account(&self, channel: &Channel) -> Accounting {
         let sent = channel.counters().frames_sent;
         let mut in_flight: Vec<FrameId> = channel.queued_frames().collect();
-        in_flight.extend(self.pending.iter().copied());
+        let book = &self.book;
+        in_flight.extend(book.pending.iter().copied());
         in_flight.sort_unstable();
         in_flight.dedup();
-        let open = |id: FrameId| self.fates.get(id as usize).is_none_or(|f| *f == Fate::Open);
+        let open = |id: FrameId| book.fates.get(id as usize).is_none_or(|f| *f == Fate::Open);
         in_flight.retain(|&id| open(id));
         // Dropped: no byte reached the decoder, and none is on its way.
         let dropped = (0..sent as FrameId)
             .filter(|&id| {
-                !self.reached.get(id as usize).copied().unwrap_or(false)
+                !book.reached.get(id as usize).copied().unwrap_or(false)
                     && in_flight.binary_search(&id).is_err()
             })
             .count() as u64;
         Accounting {
             sent,
-            received: self.received,
-            rejected: self.rejected,
+            received: book.received,
+            rejected: book.rejected,
             dropped,
             in_flight: in_flight.len() as u64,
             link_dropped_whole: channel.counters().frames_dropped,
-            errors: self.errors,
-            rejected_by: self.rejected_by,
+            errors: book.errors,
+            rejected_by: book.rejected_by,
         }
     }
 }
 
-/// The attribution state of an [`RxPort`], borrowed apart from its decoder.
-struct Book<'a> {
-    pending: &'a mut Vec<FrameId>,
-    fates: &'a mut Vec<Fate>,
-    reached: &'a mut Vec<bool>,
-    received: &'a mut u64,
-    rejected: &'a mut u64,
-    errors: &'a mut [u64; 5],
-    rejected_by: &'a mut [u64; 5],
-}
-
-impl Book<'_> {
+impl Book {
     /// See [`RxPort::push_with`].
     fn attribute(
         &mut self,
@@ -177,11 +147,11 @@ impl Book<'_> {
         }
         let mut cause = None;
         let (to, count) = match r {
-            Some(Ok(())) => (Fate::Received, &mut *self.received),
+            Some(Ok(())) => (Fate::Received, &mut self.received),
             Some(Err(e)) => {
                 self.errors[e.index()] += 1;
                 cause = Some(e.index());
-                (Fate::Rejected, &mut *self.rejected)
+                (Fate::Rejected, &mut self.rejected)
             }
             None => {
                 self.pending.clear();

@@ -1,5 +1,7 @@
 //! One direction of the line with seeded faults ([`Channel`]), and both ([`Link`]).
 
+use std::collections::VecDeque;
+
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 
@@ -44,55 +46,17 @@ struct Segment {
     pos: usize,
 }
 
-/// The segments in flight, a ring over reused storage (no allocation once grown).
+/// The segments in flight, and spent ones whose buffers are reused (no allocation once
+/// grown).
 #[derive(Debug, Clone, Default)]
 struct Ring {
-    segs: Vec<Segment>,
-    head: usize,
-    len: usize,
+    segs: VecDeque<Segment>,
+    spare: Vec<Segment>,
 }
 
 impl Ring {
-    /// The free slot behind the last queued segment (queued by [`Self::commit`]).
-    #[inline(always)]
-    fn tail_slot(&mut self) -> &mut Segment {
-        if self.len == self.segs.len() {
-            self.segs.rotate_left(self.head);
-            self.head = 0;
-            self.segs.push(Segment::default());
-        }
-        // (No `%`: a division per frame shows in the loop.)
-        let mut i = self.head + self.len;
-        if i >= self.segs.len() {
-            i -= self.segs.len();
-        }
-        &mut self.segs[i]
-    }
-
-    /// Queues the segment filled in [`Self::tail_slot`].
-    fn commit(&mut self) {
-        self.len += 1;
-    }
-
-    fn front_mut(&mut self) -> Option<&mut Segment> {
-        if self.len == 0 {
-            return None;
-        }
-        self.segs.get_mut(self.head)
-    }
-
     fn pop_front(&mut self) {
-        if self.len > 0 {
-            self.head += 1;
-            if self.head == self.segs.len() {
-                self.head = 0;
-            }
-            self.len -= 1;
-        }
-    }
-
-    fn iter(&self) -> impl Iterator<Item = &Segment> + '_ {
-        (0..self.len).filter_map(|k| self.segs.get((self.head + k) % self.segs.len()))
+        self.spare.extend(self.segs.pop_front());
     }
 }
 
@@ -171,48 +135,34 @@ impl Channel {
             return id;
         }
         let (latency_ns, baud) = (self.latency_ns, self.baud);
-        let n = if self.active {
-            // (The slot's buffers are taken out while `corrupt` borrows the channel.)
-            let seg = self.queue.tail_slot();
-            let (mut kept, mut at_ns) = (
-                std::mem::take(&mut seg.bytes),
-                std::mem::take(&mut seg.at_ns),
-            );
-            kept.clear();
-            at_ns.clear();
+        let mut seg = self.queue.spare.pop().unwrap_or_default();
+        seg.frame = id;
+        seg.pos = 0;
+        seg.bytes.clear();
+        seg.at_ns.clear();
+        if self.active {
             for (k, &b) in bytes.iter().enumerate() {
                 let on_wire = start + at(k + 1, baud, &self.byte_ns);
                 if let Some(b) = self.corrupt(on_wire, b) {
-                    kept.push(b);
-                    at_ns.push(on_wire + latency_ns);
+                    seg.bytes.push(b);
+                    seg.at_ns.push(on_wire + latency_ns);
                 }
             }
-            let seg = self.queue.tail_slot();
-            seg.bytes = kept;
-            seg.at_ns = at_ns;
-            seg.frame = id;
-            seg.pos = 0;
-            seg.bytes.len()
         } else {
-            let table = self.byte_ns.len();
-            let seg = self.queue.tail_slot();
             let first = start + latency_ns;
-            seg.frame = id;
-            seg.pos = 0;
             seg.first_ns = first;
-            seg.bytes.clear();
             seg.bytes.extend_from_slice(bytes);
-            seg.at_ns.clear();
             // Within the table: times implied (see `Segment`); beyond it, listed.
-            if bytes.len() >= table {
+            if bytes.len() >= self.byte_ns.len() {
                 seg.at_ns
                     .extend((1..=bytes.len()).map(|k| first + wire_ns(k, baud)));
             }
-            bytes.len()
-        };
-        self.counters.bytes_delivered += n as u64;
-        if n > 0 {
-            self.queue.commit();
+        }
+        self.counters.bytes_delivered += seg.bytes.len() as u64;
+        if seg.bytes.is_empty() {
+            self.queue.spare.push(seg);
+        } else {
+            self.queue.segs.push_back(seg);
         }
         id
     }
@@ -264,7 +214,7 @@ impl Channel {
 
     /// Delivers every byte arrived by `t_ns`, in order, as runs of one frame: `f(bytes, frame)`.
     pub fn deliver(&mut self, t_ns: u64, mut f: impl FnMut(&[u8], FrameId)) {
-        while let Some(seg) = self.queue.front_mut() {
+        while let Some(seg) = self.queue.segs.front_mut() {
             let n = if seg.at_ns.is_empty() {
                 // Byte k arrived iff first + byte_ns[k + 1] <= t (the table rises).
                 let due = self
@@ -296,7 +246,7 @@ impl Channel {
 
     /// Frames with bytes still travelling.
     pub fn queued_frames(&self) -> impl Iterator<Item = FrameId> + '_ {
-        self.queue.iter().map(|s| s.frame)
+        self.queue.segs.iter().map(|s| s.frame)
     }
 
     /// When the line is free again, ns.
