@@ -739,7 +739,6 @@ impl Soak {
     fn send_up(&mut self, t: u64, frame: &[u8]) -> Fate {
         let clean = !self.up.faults().any() && !self.up.open();
         let rt = &mut self.rt;
-        // Valid (`rx_ok + rx_unexpected`) and the rejects by kind.
         let counts = |s: &Status| (s.rx_ok.wrapping_add(s.rx_unexpected), rejects(s));
         let fate = self.up.carry(t, frame, |piece| {
             let (ok, rej) = counts(rt.counters());
