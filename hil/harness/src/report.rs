@@ -24,15 +24,14 @@ fn create_parent(path: &Path) -> io::Result<()> {
 }
 
 /// A document as written (`--json`): pretty JSON, a newline after.
-#[must_use]
-pub fn to_json(doc: &impl serde::Serialize) -> String {
-    serde_json::to_string_pretty(doc).unwrap_or_default() + "\n"
+pub fn to_json(doc: &impl serde::Serialize) -> serde_json::Result<String> {
+    Ok(serde_json::to_string_pretty(doc)? + "\n")
 }
 
 /// Writes a document (the verdict document of a run) as [`to_json`] does.
 pub fn write_json(report: &impl serde::Serialize, path: &Path) -> io::Result<()> {
     create_parent(path)?;
-    std::fs::write(path, to_json(report))
+    std::fs::write(path, to_json(report).map_err(io::Error::other)?)
 }
 
 /// Writes the closed-loop trajectory as CSV (the columns of `sim-host run --csv`).

@@ -52,18 +52,14 @@ pub(crate) fn cmd_golden(g: &GoldenArgs) -> Result<Verdict, Failure> {
         })
         .map_err(|e| input(e.to_string()))?;
         let (from, to) = (4_900_000_000 / out.period_ns, 5_300_000_000 / out.period_ns);
-        let mut text = String::from("y_dot_um_s,i_a_ma,omega_mrad_s,demand_nm\n");
-        for c in out
+        let rows = out
             .sensor_codes
             .iter()
             .take(to as usize)
-            .skip(from as usize)
-        {
-            text.push_str(&format!(
-                "{},{},{},{}\n",
-                c.y_dot, c.current, c.speed, c.demand
-            ));
-        }
+            .skip(from as usize);
+        let text: String = std::iter::once("y_dot_um_s,i_a_ma,omega_mrad_s,demand_nm\n".into())
+            .chain(rows.map(|c| format!("{},{},{},{}\n", c.y_dot, c.current, c.speed, c.demand)))
+            .collect();
         written(path, std::fs::write(path, text))?;
         say!(
             "golden: recorded {} samples into {}",

@@ -118,57 +118,56 @@ pub(crate) fn parse_sweep_target(s: &str) -> Result<Target, String> {
 
 pub(crate) fn cmd_sweep(c: &SweepCmd, command: &str) -> Result<Verdict, Failure> {
     use hil::sweep;
-    let write = |doc: &sweep::SweepDoc,
-                 json: &std::path::Path,
-                 report_dir: Option<&std::path::Path>| {
-        let hold = std::env::var_os(HOLD_VAR).map(std::path::PathBuf::from);
-        sweep::atomic::write_atomic(json, hil::report::to_json(doc).as_bytes(), hold.as_deref())
-            .map_err(input)?;
-        say!("json: {}", json.display());
-        if let Some(d) = report_dir {
-            let files = hil::sweep::document::write_sweep_report(doc, d, command);
-            for f in super::written(d, files)? {
-                say!("report: {}", f.display());
-            }
-        }
-        for r in &doc.records {
-            let checks: Vec<&str> = r.failing.iter().map(|c| c.check.as_str()).collect();
-            say!(
-                "  {:>4}  {}: {}, peak |y| {:.3} mm{}{}",
-                r.index,
-                r.params
-                    .iter()
-                    .map(|(k, v)| format!("{k} = {}", hil::sweep::document::value_label(*v)))
-                    .collect::<Vec<_>>()
-                    .join(", "),
-                r.verdict,
-                r.peak_abs_y_m * 1e3,
-                r.diverged_at_s
-                    .map_or(String::new(), |t| format!(", diverged at {t:.3} s")),
-                if checks.is_empty() {
-                    String::new()
-                } else {
-                    format!("; not passed: {}", checks.join(", "))
+    let write =
+        |doc: &sweep::SweepDoc, json: &std::path::Path, report_dir: Option<&std::path::Path>| {
+            let hold = std::env::var_os(HOLD_VAR).map(std::path::PathBuf::from);
+            let text = hil::report::to_json(doc).map_err(|e| input(e.to_string()))?;
+            sweep::atomic::write_atomic(json, text.as_bytes(), hold.as_deref()).map_err(input)?;
+            say!("json: {}", json.display());
+            if let Some(d) = report_dir {
+                let files = hil::sweep::document::write_sweep_report(doc, d, command);
+                for f in super::written(d, files)? {
+                    say!("report: {}", f.display());
                 }
+            }
+            for r in &doc.records {
+                let checks: Vec<&str> = r.failing.iter().map(|c| c.check.as_str()).collect();
+                say!(
+                    "  {:>4}  {}: {}, peak |y| {:.3} mm{}{}",
+                    r.index,
+                    r.params
+                        .iter()
+                        .map(|(k, v)| format!("{k} = {}", hil::sweep::document::value_label(*v)))
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                    r.verdict,
+                    r.peak_abs_y_m * 1e3,
+                    r.diverged_at_s
+                        .map_or(String::new(), |t| format!(", diverged at {t:.3} s")),
+                    if checks.is_empty() {
+                        String::new()
+                    } else {
+                        format!("; not passed: {}", checks.join(", "))
+                    }
+                );
+            }
+            let s = &doc.summary;
+            say!(
+                "hil sweep: {} of {} points{}: {} pass, {} warn, {} fail",
+                doc.records.len(),
+                doc.sweep.points,
+                doc.shard
+                    .map_or(String::new(), |sh| format!(" (shard {sh})")),
+                s.pass,
+                s.warn,
+                s.fail
             );
-        }
-        let s = &doc.summary;
-        say!(
-            "hil sweep: {} of {} points{}: {} pass, {} warn, {} fail",
-            doc.records.len(),
-            doc.sweep.points,
-            doc.shard
-                .map_or(String::new(), |sh| format!(" (shard {sh})")),
-            s.pass,
-            s.warn,
-            s.fail
-        );
-        Ok(if s.fail > 0 {
-            Verdict::Fail
-        } else {
-            Verdict::Pass
-        })
-    };
+            Ok(if s.fail > 0 {
+                Verdict::Fail
+            } else {
+                Verdict::Pass
+            })
+        };
     if let Some(SweepSub::Merge(m)) = &c.sub {
         let mut parts = Vec::new();
         for f in &m.files {

@@ -37,6 +37,7 @@ use wheelset_runtime::{HoldPolicy, Runtime, SafeChange};
 
 use super::line::{Fate, Line, LineCounts, LineFaults};
 use super::service::{next_episode, Demand, Episode, ServiceOptions, Track};
+use crate::check::frames::rejects;
 use crate::run::{device_config, runtime_config_for, Law};
 use crate::sweep::throughput::thread_cpu;
 
@@ -738,17 +739,17 @@ impl Soak {
     fn send_up(&mut self, t: u64, frame: &[u8]) -> Fate {
         let clean = !self.up.faults().any() && !self.up.open();
         let rt = &mut self.rt;
+        let counts = |s: &Status| (s.rx_ok.wrapping_add(s.rx_unexpected), rejects(s));
         let fate = self.up.carry(t, frame, |piece| {
-            let before = rx_counts(rt.counters());
+            let (ok, rej) = counts(rt.counters());
             rt.receive(piece);
-            let after = rx_counts(rt.counters());
-            if after[0] != before[0] {
+            let (ok_after, rej_after) = counts(rt.counters());
+            if ok_after != ok {
                 return Some(Ok(()));
             }
-            (1..6)
-                .find(|&k| after[k] != before[k])
-                .and_then(|k| FrameError::KINDS.get(k - 1).copied())
-                .map(Err)
+            (0..5)
+                .find(|&k| rej_after[k] != rej[k])
+                .map(|k| Err(FrameError::KINDS[k]))
         });
         if clean && fate != Fate::Valid {
             self.fail(format!(
@@ -1043,18 +1044,6 @@ impl Soak {
             ));
         }
     }
-}
-
-/// The runtime's receive counters: valid (`rx_ok + rx_unexpected`), rejects by kind.
-fn rx_counts(s: &Status) -> [u32; 6] {
-    [
-        s.rx_ok.wrapping_add(s.rx_unexpected),
-        s.rx_crc,
-        s.rx_cobs,
-        s.rx_version,
-        s.rx_length,
-        s.rx_postcard,
-    ]
 }
 
 /// Runs the soak; a panic in the device or the harness is a failure at the time it
