@@ -178,17 +178,13 @@ pub struct Config {
 
 /// Default base rate, Hz (the rate analysis: `docs/closed-loop.md`).
 pub const DEFAULT_BASE_RATE_HZ: u32 = 5000;
-/// Default yaw divisor.
-pub const DEFAULT_YAW_DIVISOR: u16 = 1;
-/// Default traction divisor.
-pub const DEFAULT_TRACTION_DIVISOR: u16 = 1;
 
 impl Default for Config {
     fn default() -> Self {
         Self {
             base_rate_hz: DEFAULT_BASE_RATE_HZ,
-            yaw_divisor: DEFAULT_YAW_DIVISOR,
-            traction_divisor: DEFAULT_TRACTION_DIVISOR,
+            yaw_divisor: 1,
+            traction_divisor: 1,
             delay_ticks: 1,
             yaw_mode: YawMode::Lead,
             traction_enabled: true,

@@ -46,7 +46,7 @@ pub mod wsp;
 pub use compiled::{BitsError, Compiled, CompiledBits, ScaleBits, ScheduleBits};
 pub use config::{
     Config, ConfigError, FullScales, Limits, Motor, SafeRamps, WireLsb, YawMode,
-    DEFAULT_BASE_RATE_HZ, DEFAULT_TRACTION_DIVISOR, DEFAULT_YAW_DIVISOR,
+    DEFAULT_BASE_RATE_HZ,
 };
 pub use controller::{
     Codec, Controller, Counters, F32Controller, F64Controller, FixedController, InputCodes, Inputs,

@@ -162,7 +162,8 @@ pub struct MonitorBits {
 /// block holding the change and the next, whatever its phase in the block (module docs).
 pub const QUIET_BLOCKS: u16 = 2;
 
-/// The monitor's quantised configuration (immutable while running; `Default`: off).
+/// The monitor's quantised configuration (immutable while running; `Default`: off, rate 0,
+/// never runs, no alarms).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Monitor<T: Sample> {
     rate_hz: u32,

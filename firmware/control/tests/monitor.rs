@@ -486,7 +486,7 @@ fn bad_parameters_name_the_field() {
 
 #[test]
 fn an_off_monitor_never_alarms() {
-    let m = Monitor::<Fx>::off();
+    let m = Monitor::<Fx>::default();
     let mut s = MonitorState::default();
     for k in 0..10_000 {
         let ev = m.tick(

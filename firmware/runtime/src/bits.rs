@@ -148,7 +148,7 @@ impl RuntimeBits {
                 };
                 Monitor::<T>::try_new(&p, control.base_rate_hz)?.to_bits()
             }
-            None => Monitor::<T>::off().to_bits(),
+            None => Monitor::<T>::default().to_bits(),
         };
         let compiled = compile::<T>(cfg)?;
         let mut designed = [rates_of(&compiled, acc_factors(cfg)?)?; DESIGNED.len()];

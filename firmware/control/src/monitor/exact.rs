@@ -4,11 +4,6 @@ use super::{divisor_for, Monitor, MonitorBits};
 use crate::sample::{Coef, Fx, SampleBits};
 
 impl<T: SampleBits> Monitor<T> {
-    /// A monitor that never runs (rate 0): no alarms.
-    pub fn off() -> Self {
-        Self::default()
-    }
-
     /// The exact bits.
     pub fn to_bits(&self) -> MonitorBits {
         let c = |v: T::Coeff| T::coeff_to_bits64(v);
