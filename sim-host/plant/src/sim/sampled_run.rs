@@ -110,21 +110,9 @@ impl ActuatorModel {
     }
 }
 
-/// The sensor frame at state `x` with `held` in force, inputs `u`, `e`'s demand and `i_ref`.
-fn measure<F: Flags>(
-    plant: &Plant,
-    flags: F,
-    x: &State,
-    held: &Actuation,
-    u: &Inputs<f64>,
-    e: &Exo,
-) -> Measurements {
-    let uu = Inputs {
-        t_psi: held.t_psi,
-        u_a: held.u_a,
-        ..*u
-    };
-    let (dx, _) = plant.rhs_with(flags, x, &uu);
+/// The sensor frame at `x` under the inputs `u` (the actuation held), `e`'s demand and `i_ref`.
+fn measure<F: Flags>(plant: &Plant, flags: F, x: &State, u: &Inputs<f64>, e: &Exo) -> Measurements {
+    let (dx, _) = plant.rhs_with(flags, x, u);
     let w_l = plant.w_l(flags, x);
     Measurements {
         yd_mps: x[ix::YD],
@@ -218,7 +206,6 @@ fn sampled<F: Flags>(
         &s.plant,
         flags,
         &x,
-        &Actuation::default(),
         &inputs(&e0, 0, &Actuation::default()),
         &e0,
     );
@@ -235,7 +222,7 @@ fn sampled<F: Flags>(
         if k < n_steps && t_ns == next_call {
             next_call += period;
             let on = fault(t_ns, &held);
-            let m = measure(&s.plant, flags, &x, &on, &inputs(&e, 0, &on), &e);
+            let m = measure(&s.plant, flags, &x, &inputs(&e, 0, &on), &e);
             let m = sensor.apply(&m);
             let a = ctrl.step(t_ns, &m);
             // A deferring controller's actuation is taken (and limited) when due.
