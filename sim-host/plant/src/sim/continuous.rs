@@ -218,7 +218,6 @@ fn continuous<F: Flags>(
         if let Some(a) = s.adhesion_change(t_ns) {
             plant.adhesion = a;
         }
-        // A scenario's actuator fault scales the (linear) yaw law: the delivered torque.
         let ctrl = match &sc.actuator_fault {
             Some(f) => ContinuousController {
                 k: ctrl.k * f.gain(t_ns),

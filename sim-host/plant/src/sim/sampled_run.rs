@@ -192,7 +192,6 @@ fn sampled<F: Flags>(
         f_run: e.f_run,
         t_drive: if drive { 0.0 } else { e.demand },
     };
-    // The torque the actuator delivers for the held command (a scenario fault scales it).
     let fault = |t_ns: u64, a: &Actuation| match &sc.actuator_fault {
         Some(f) => Actuation {
             t_psi: f.delivered(t_ns, a.t_psi),
