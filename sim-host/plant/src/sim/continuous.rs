@@ -210,7 +210,6 @@ fn continuous<F: Flags>(
     let (n_steps, every) = steps(sc);
     let h = sc.dt_ns as f64 * 1e-9;
     let mut diverged_at = None;
-    // The next step that records (every `every`-th from step 0).
     let mut next_record = 0;
     for k in 0..n_steps {
         let t_ns = k * sc.dt_ns;

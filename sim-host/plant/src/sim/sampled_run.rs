@@ -210,7 +210,6 @@ fn sampled<F: Flags>(
     );
     let mut held = ctrl.initial(&m0, s.plant.k_m());
     let mut diverged_at = None;
-    // The next controller call and the next recording step.
     let (mut next_call, mut next_record) = (0, 0);
     for k in 0..=n_steps {
         let t_ns = k * sc.dt_ns;
