@@ -79,8 +79,7 @@ impl Case {
     }
 }
 
-/// [`Case::matrix`] for many creep coefficients in a row: the parameters, controller
-/// and state list are made once.
+/// [`Case::matrix`] for many creep coefficients: parameters, controller and states made once.
 #[derive(Debug, Clone)]
 pub(crate) struct CaseLoop {
     /// The parameters, creep coefficients set per point.

@@ -172,8 +172,7 @@ impl Flags for PlantConfig {
     }
 }
 
-/// A [`PlantConfig`] as constants (see [`Flags`]); [`with_flags!`](crate::with_flags)
-/// picks the one that matches a configuration.
+/// A [`PlantConfig`] as constants ([`Flags`]), picked by [`with_flags!`](crate::with_flags).
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Fixed<const FLEXIBLE: bool, const DRIVE: bool, const YAW_SPRING: bool>;
 
@@ -273,8 +272,7 @@ pub struct Creep<S> {
     pub fy: S,
 }
 
-/// The plant: parameters reduced to the coefficients the RHS needs, and its
-/// configuration. Cheap to copy; the RHS does not allocate.
+/// The plant: the coefficients the RHS needs and its configuration; cheap to copy, no allocation.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Plant {
     /// Configuration.
