@@ -134,8 +134,7 @@ impl ContinuousController {
     }
 }
 
-/// Exogenous inputs of a closed-loop run (SI; default: straight level track, no traction,
-/// no resistance).
+/// Exogenous inputs of a closed-loop run (SI; default: straight level track, nothing else).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Exogenous<S> {
     /// Track curvature `1/R`, 1/m.

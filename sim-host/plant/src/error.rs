@@ -107,8 +107,7 @@ impl fmt::Display for ConfigError {
 
 impl std::error::Error for ConfigError {}
 
-/// Converts a `toml` deserialisation error into [`ConfigError::Parse`], locating the
-/// key from the error's span in the source text.
+/// A `toml` error as [`ConfigError::Parse`], its key located from the error's span in `src`.
 pub fn from_toml(file: &str, src: &str, e: &toml::de::Error) -> ConfigError {
     let mut key = None;
     let mut line = None;

@@ -19,8 +19,7 @@ pub fn check_finite(m: &DMatrix<f64>, what: &str) -> Result<(), String> {
     ))
 }
 
-/// The eigenvalues of `m` ([`crate::modes::eigenvalues`]), or an error when an entry is
-/// not finite or the QR iteration does not converge.
+/// [`crate::modes::eigenvalues`] of `m`, refusing a non-finite entry or a QR not converged.
 pub fn eigenvalues(m: &DMatrix<f64>, what: &str) -> Result<Vec<Complex<f64>>, String> {
     check_finite(m, what)?;
     crate::modes::eigenvalues(m)

@@ -15,8 +15,7 @@ pub type Jac = SMatrix<f64, NX, NX>;
 /// Full-size input matrix for `[T_psi, u_a]`.
 pub type InJac = SMatrix<f64, NX, 2>;
 
-/// The operating point: pure rolling on straight track at the parameters' speed, with
-/// the PI integrator preset to the back-EMF.
+/// The operating point: pure rolling on straight track at `p.v`, the PI preset to the back-EMF.
 pub fn operating_point(plant: &Plant, p: &Params) -> State {
     let mut x = plant.rolling_state(p.v);
     if plant.cfg.drive {
@@ -176,8 +175,7 @@ pub fn closed_loop_jacobian_central(
     a
 }
 
-/// The states of a closed loop: the plant's, then the lead state (lead law) and the PI
-/// integrator (drive).
+/// A closed loop's states: the plant's, the lead state (lead law), the PI integrator (drive).
 pub fn closed_loop_states(cfg: &PlantConfig, law: YawLaw) -> Vec<usize> {
     let mut s = cfg.plant_states();
     if law == YawLaw::Lead {

@@ -17,8 +17,7 @@ pub const DEVICE_BYTES_PER_PERIOD: u64 = 24 + 16;
 /// Bytes per creep point and case of `sim-host modes`: an upper bound of what a sweep keeps.
 pub const MODES_BYTES_PER_POINT: u64 = 8_000;
 
-/// Estimated bytes of a run of `duration_ns` sampled every `output_dt_ns`, plus one
-/// device period's record every `device_period_ns` when given.
+/// Estimated bytes of a run (a record per `output_dt_ns`, one per `device_period_ns` if given).
 #[must_use]
 pub fn run_bytes(duration_ns: u64, output_dt_ns: u64, device_period_ns: Option<u64>) -> u64 {
     let records = duration_ns / output_dt_ns.max(1) + 2;

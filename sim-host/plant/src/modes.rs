@@ -79,8 +79,7 @@ impl Case {
     }
 }
 
-/// [`Case::matrix`] for many creep coefficients in a row: the parameters, controller
-/// and state list are made once.
+/// [`Case::matrix`] for many creep coefficients: parameters, controller and states made once.
 #[derive(Debug, Clone)]
 pub(crate) struct CaseLoop {
     /// The parameters, creep coefficients set per point.
@@ -117,11 +116,10 @@ impl CaseLoop {
     }
 }
 
-/// Eigenvalues of `a`: split into the strongly connected components of its sparsity
-/// graph (block triangular after a permutation), each block balanced (LAPACK `dgebal`'s
-/// scaling) and solved by nalgebra's real Schur form. Block by block, a complex pair
-/// adjacent (positive imaginary part first). `None` if `a` has a non-finite entry or
-/// the QR iteration does not converge.
+/// Eigenvalues of `a`: split into the strongly connected components of its sparsity graph
+/// (block triangular after a permutation), each balanced (LAPACK `dgebal`'s scaling) and
+/// solved by nalgebra's real Schur form; block by block, a complex pair adjacent (positive
+/// imaginary part first). `None` if `a` has a non-finite entry or the QR does not converge.
 pub fn eigenvalues(a: &DMatrix<f64>) -> Option<Vec<Complex<f64>>> {
     let mut out = Vec::with_capacity(a.nrows());
     Eigen::default().solve(a, &mut out).then_some(out)

@@ -114,8 +114,7 @@ impl Default for Params {
 }
 
 /// The plausible range of one parameter: values outside `[min, max]` are refused by
-/// [`Params::validate`] with `why`. `docs/model.md` prints the same rows (a test
-/// compares them).
+/// [`Params::validate`] with `why`; `docs/model.md` prints the rows (a test compares).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Range {
     /// The TOML key.

@@ -158,7 +158,7 @@ impl PlantConfig {
 pub trait Flags: Copy {
     /// The configuration.
     fn cfg(&self) -> PlantConfig;
-    /// The adhesion law is known to be `None`, so [`Plant::creep_with`] need not look.
+    /// The adhesion law is known to be `None`, so [`Plant::creep`] need not look.
     #[inline(always)]
     fn linear_creep(&self) -> bool {
         false
@@ -172,8 +172,7 @@ impl Flags for PlantConfig {
     }
 }
 
-/// A [`PlantConfig`] as constants (see [`Flags`]); [`with_flags!`](crate::with_flags)
-/// picks the one that matches a configuration.
+/// A [`PlantConfig`] as constants ([`Flags`]), picked by [`with_flags!`](crate::with_flags).
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Fixed<const FLEXIBLE: bool, const DRIVE: bool, const YAW_SPRING: bool>;
 
@@ -273,8 +272,7 @@ pub struct Creep<S> {
     pub fy: S,
 }
 
-/// The plant: parameters reduced to the coefficients the RHS needs, and its
-/// configuration. Cheap to copy; the RHS does not allocate.
+/// The plant: the coefficients the RHS needs and its configuration; cheap to copy, no allocation.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Plant {
     /// Configuration.
@@ -377,15 +375,9 @@ impl Plant {
     ///
     /// `F_xR =  f11 [-1 + Lg psi'/v + phi_R' (r0 + lambda y)/v - Lg/R]`,
     /// `F_xL = -f11 [ 1 + Lg psi'/v - phi_L' (r0 - lambda y)/v - Lg/R]`,
-    /// `F_y  = -f22 (y' - v psi)/v` per wheel.
+    /// `F_y  = -f22 (y' - v psi)/v` per wheel; under the configuration `f`.
     #[inline(always)]
-    pub fn creep<S: Scalar>(&self, x: &[S; NX], curvature: S) -> Creep<S> {
-        self.creep_with(self.cfg, x, curvature)
-    }
-
-    /// [`Plant::creep`] with the configuration as [`Flags`].
-    #[inline(always)]
-    pub fn creep_with<S: Scalar, F: Flags>(&self, f: F, x: &[S; NX], curvature: S) -> Creep<S> {
+    pub fn creep<S: Scalar, F: Flags>(&self, f: F, x: &[S; NX], curvature: S) -> Creep<S> {
         let c = S::c;
         let v = x[ix::V];
         let y = x[ix::Y];
@@ -423,15 +415,10 @@ impl Plant {
         }
     }
 
-    /// Passive spring torque `k_yaw psi` (zero when the spring is absent), N m.
+    /// Passive spring torque `k_yaw psi` under the configuration `f` (zero when the
+    /// spring is absent), N m.
     #[inline(always)]
-    pub fn spring_torque<S: Scalar>(&self, x: &[S; NX]) -> S {
-        self.spring_torque_with(self.cfg, x)
-    }
-
-    /// [`Plant::spring_torque`] with the configuration as [`Flags`].
-    #[inline(always)]
-    pub fn spring_torque_with<S: Scalar, F: Flags>(&self, f: F, x: &[S; NX]) -> S {
+    pub fn spring_torque<S: Scalar, F: Flags>(&self, f: F, x: &[S; NX]) -> S {
         if f.cfg().yaw_spring {
             S::c(self.k_yaw) * x[ix::PSI]
         } else {
@@ -467,7 +454,7 @@ impl Plant {
         let c = S::c;
         let zero = c(0.0);
         let mut dx = [zero; NX];
-        let cr = self.creep_with(f, x, u.curvature);
+        let cr = self.creep(f, x, u.curvature);
         let v = x[ix::V];
 
         // (4) lateral
@@ -478,9 +465,8 @@ impl Plant {
             * c(self.inv.m);
         // (5) yaw
         dx[ix::PSI] = x[ix::PSID];
-        dx[ix::PSID] =
-            (-c(self.l_g) * (cr.fx_r - cr.fx_l) - self.spring_torque_with(f, x) - u.t_psi)
-                * c(self.inv.j);
+        dx[ix::PSID] = (-c(self.l_g) * (cr.fx_r - cr.fx_l) - self.spring_torque(f, x) - u.t_psi)
+            * c(self.inv.j);
 
         // Torque on the left wheel from the transmission.
         let t_gear = if f.cfg().drive {

@@ -1,8 +1,6 @@
-//! Track scenarios as data: piecewise-linear curvature and cant in time, the traction
-//! demand and running-resistance steps, parameter overrides, rail-condition sections
-//! (`[[adhesion]]`: the law on for the whole run, `dry` outside every section), an
-//! actuator fault and integration settings. The built-in ones (`sim-host/scenarios/`)
-//! are embedded in the binary; the format is in `docs/model.md` and `docs/adhesion.md`.
+//! Track scenarios as data (`docs/model.md`, `docs/adhesion.md`; `sim-host/scenarios/`
+//! built in): piecewise-linear track, traction and resistance steps, parameter overrides,
+//! rail-condition sections (`dry` outside them), an actuator fault, integration settings.
 
 use crate::adhesion::Condition;
 use crate::control::YawLaw;

@@ -328,9 +328,8 @@ fn wrap(d: f64) -> f64 {
     }
 }
 
-/// `L` round the upper half of the contour: angles `w` (rad per tick, 0 to pi) and
-/// `L(r e^{jw})`, refined until successive samples of `L` and of `1 + L` turn by under
-/// 20 degrees.
+/// `(w, L(r e^{jw}))` round the upper half of the contour, `w` 0 to pi rad per tick, refined
+/// until successive samples of `L` and of `1 + L` turn by under 20 degrees.
 fn sample_half_contour(l: &dyn Fn(C64) -> C64, w_min: f64) -> Vec<(f64, C64)> {
     let at = |w: f64| (w, l(C64::from_polar(CONTOUR_RADIUS, w)));
     let m = 2000;

@@ -309,8 +309,7 @@ pub fn closed_loop(
     })
 }
 
-/// The continuous closed loop's eigenvalues (free-rolling ones removed); one NaN
-/// eigenvalue for a non-finite matrix.
+/// The continuous closed loop's eigenvalues, free rolling removed (one NaN if not finite).
 pub fn continuous_closed_loop(plant: &LinearPlant, cfg: &Config) -> Vec<Complex<f64>> {
     let mut ev: Vec<Complex<f64>> = continuous_closed_loop_all(plant, cfg);
     let nz = count_zeros(&ev);

@@ -269,8 +269,7 @@ pub fn rate_row(
     Ok(row)
 }
 
-/// The candidate timings the table covers: base rates 1-10 kHz, yaw at divisors giving
-/// 0.5-10 kHz, traction at the base rate.
+/// The candidate timings: base 1-10 kHz, yaw at divisors giving 0.5-10 kHz, traction at base.
 pub fn candidates() -> Vec<(u32, u16, u16)> {
     let mut v = Vec::new();
     for base in [1000u32, 2000, 2500, 4000, 5000, 8000, 10_000] {

@@ -119,17 +119,17 @@ impl<'a> Setup<'a> {
         let (x, e) = (&x, &e);
         let mu_avail = self.mu_avail(x[ix::V]);
         let p = &self.sc.params;
-        let cr = self.plant.creep(x, e.curv[0]);
+        let cr = self.plant.creep(self.plant.cfg, x, e.curv[0]);
         // The linear law's forces (those of the plant without its adhesion law).
         let lin = if self.plant.adhesion.is_none() {
             cr
         } else {
             let mut linear = self.plant;
             linear.adhesion = None;
-            linear.creep(x, e.curv[0])
+            linear.creep(linear.cfg, x, e.curv[0])
         };
         let slip = 0.5 * (lin.fx_r + lin.fx_l) / p.f11 * x[ix::V];
-        let t_spring = self.plant.spring_torque(x);
+        let t_spring = self.plant.spring_torque(self.plant.cfg, x);
         Record {
             t_s: t_ns as f64 * 1e-9,
             y_m: x[ix::Y],
@@ -210,7 +210,6 @@ fn continuous<F: Flags>(
     let (n_steps, every) = steps(sc);
     let h = sc.dt_ns as f64 * 1e-9;
     let mut diverged_at = None;
-    // The next step that records (every `every`-th from step 0).
     let mut next_record = 0;
     for k in 0..n_steps {
         let t_ns = k * sc.dt_ns;
@@ -218,7 +217,6 @@ fn continuous<F: Flags>(
         if let Some(a) = s.adhesion_change(t_ns) {
             plant.adhesion = a;
         }
-        // A scenario's actuator fault scales the (linear) yaw law: the delivered torque.
         let ctrl = match &sc.actuator_fault {
             Some(f) => ContinuousController {
                 k: ctrl.k * f.gain(t_ns),

@@ -110,21 +110,9 @@ impl ActuatorModel {
     }
 }
 
-/// The sensor frame at state `x` with `held` in force, inputs `u`, `e`'s demand and `i_ref`.
-fn measure<F: Flags>(
-    plant: &Plant,
-    flags: F,
-    x: &State,
-    held: &Actuation,
-    u: &Inputs<f64>,
-    e: &Exo,
-) -> Measurements {
-    let uu = Inputs {
-        t_psi: held.t_psi,
-        u_a: held.u_a,
-        ..*u
-    };
-    let (dx, _) = plant.rhs_with(flags, x, &uu);
+/// The sensor frame at `x` under the inputs `u` (the actuation held), `e`'s demand and `i_ref`.
+fn measure<F: Flags>(plant: &Plant, flags: F, x: &State, u: &Inputs<f64>, e: &Exo) -> Measurements {
+    let (dx, _) = plant.rhs_with(flags, x, u);
     let w_l = plant.w_l(flags, x);
     Measurements {
         yd_mps: x[ix::YD],
@@ -204,7 +192,6 @@ fn sampled<F: Flags>(
         f_run: e.f_run,
         t_drive: if drive { 0.0 } else { e.demand },
     };
-    // The torque the actuator delivers for the held command (a scenario fault scales it).
     let fault = |t_ns: u64, a: &Actuation| match &sc.actuator_fault {
         Some(f) => Actuation {
             t_psi: f.delivered(t_ns, a.t_psi),
@@ -218,13 +205,11 @@ fn sampled<F: Flags>(
         &s.plant,
         flags,
         &x,
-        &Actuation::default(),
         &inputs(&e0, 0, &Actuation::default()),
         &e0,
     );
     let mut held = ctrl.initial(&m0, s.plant.k_m());
     let mut diverged_at = None;
-    // The next controller call and the next recording step.
     let (mut next_call, mut next_record) = (0, 0);
     for k in 0..=n_steps {
         let t_ns = k * sc.dt_ns;
@@ -235,7 +220,7 @@ fn sampled<F: Flags>(
         if k < n_steps && t_ns == next_call {
             next_call += period;
             let on = fault(t_ns, &held);
-            let m = measure(&s.plant, flags, &x, &on, &inputs(&e, 0, &on), &e);
+            let m = measure(&s.plant, flags, &x, &inputs(&e, 0, &on), &e);
             let m = sensor.apply(&m);
             let a = ctrl.step(t_ns, &m);
             // A deferring controller's actuation is taken (and limited) when due.
