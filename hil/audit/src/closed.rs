@@ -182,33 +182,25 @@ pub fn limit_cycle(lead_err_nm: f64, params: &Params) -> Result<LimitCycleReport
         yaw_predict_ticks: 0.0,
         ..cfg
     };
-    let removed = vec![
+    let no_y_wire = Sources {
+        y_wire: false,
+        ..all
+    };
+    let no_out_wire = Sources {
+        out_wire: false,
+        ..all
+    };
+    let removed = [
+        ("wire LSB of y'", fx(&cfg, no_y_wire)?),
         (
-            "wire LSB of y'".to_string(),
-            fx(
-                &cfg,
-                Sources {
-                    y_wire: false,
-                    ..all
-                },
-            )?,
-        ),
-        (
-            "internal rounding (core in f64)".to_string(),
+            "internal rounding (core in f64)",
             core_run::<f64>(&sc, &cfg, all)?,
         ),
-        ("predictor".to_string(), fx(&no_predictor, all)?),
-        (
-            "output wire LSB".to_string(),
-            fx(
-                &cfg,
-                Sources {
-                    out_wire: false,
-                    ..all
-                },
-            )?,
-        ),
-    ];
+        ("predictor", fx(&no_predictor, all)?),
+        ("output wire LSB", fx(&cfg, no_out_wire)?),
+    ]
+    .map(|(n, c)| (n.to_string(), c))
+    .to_vec();
     let attribution = removed
         .iter()
         .map(|(n, c)| (n.clone(), c.torque_p2p_nm))

@@ -5,7 +5,7 @@ use wheelset_control::Config;
 
 use super::checks::all_checks;
 use super::core_dyn;
-use super::model::{CoefRow, Sweep};
+use super::model::{ControllerAudit, Sweep};
 use super::per_controller::NAMED_HZ;
 use super::qdyn::{Formats, QFormat};
 use super::ranges;
@@ -14,7 +14,12 @@ use super::tolerances::{Status, Tolerances};
 /// Bisection over the signal fraction bits (integer bits as audited) for the smallest
 /// format passing every accuracy check on the synthetic scenarios and the named
 /// frequencies.
-pub(crate) fn sweep(cfg: &Config, tol: &Tolerances, fmt: &Formats, coefs: &[CoefRow]) -> Sweep {
+pub(crate) fn sweep(
+    cfg: &Config,
+    tol: &Tolerances,
+    fmt: &Formats,
+    controllers: &[ControllerAudit],
+) -> Sweep {
     let scen = ranges::synthetic(cfg);
     let named = |fs: f64| -> Vec<(f64, bool)> {
         NAMED_HZ
@@ -54,8 +59,9 @@ pub(crate) fn sweep(cfg: &Config, tol: &Tolerances, fmt: &Formats, coefs: &[Coef
     };
     tried.sort_by_key(|t| t.0);
     // Coefficients: a relative error <= warn needs 2^-(F+1) <= warn |c_pu|.
-    let min_coef = coefs
+    let min_coef = controllers
         .iter()
+        .flat_map(|c| &c.coefficients)
         .filter(|c| c.ideal_pu != 0.0)
         .map(|c| {
             (-(tol.coef_rel.0 * c.ideal_pu.abs()).log2() - 1.0)

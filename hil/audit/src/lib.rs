@@ -153,12 +153,8 @@ pub(crate) fn write(p: &std::path::Path, s: &str) -> Result<(), AuditError> {
 pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
     let fmt = formats_of(args)?;
     let cfg = config_of(args);
-    let params = args
-        .params
-        .as_ref()
-        .map_or_else(wheelset_plant::params::Params::default, |p| {
-            p.params.clone()
-        });
+    let params = args.params.as_ref().map(|p| p.params.clone());
+    let params = params.unwrap_or_default();
     cfg.validate()?;
     let tol = Tolerances::default();
     let mut scenarios = ranges::synthetic(&cfg);
@@ -200,13 +196,8 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
             ),
         );
     }
-    let coefs: Vec<CoefRow> = c
-        .controllers
-        .iter()
-        .flat_map(|a| a.coefficients.clone())
-        .collect();
-    let sweep =
-        (!args.no_sweep && !args.readme_block).then(|| formats::sweep(&cfg, &tol, &fmt, &coefs));
+    let sweep = (!args.no_sweep && !args.readme_block)
+        .then(|| formats::sweep(&cfg, &tol, &fmt, &c.controllers));
     let proofs = if production {
         proofs_for::<Fx>(&cfg, fmt, &c.observed, &scenarios)?
     } else {

@@ -32,6 +32,7 @@
 //! rounding of `K` matrix-vector products and additions of dimension `n`), so the
 //! returned value is an upper bound of the true WCPG.
 
+use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 
 /// Largest power of `A` searched for a contraction.
@@ -97,29 +98,6 @@ pub struct Wcpg {
     pub theta: f64,
 }
 
-fn mat_mul(x: &[Vec<f64>], y: &[Vec<f64>]) -> Vec<Vec<f64>> {
-    let n = x.len();
-    (0..n)
-        .map(|i| {
-            (0..n)
-                .map(|j| (0..n).map(|k| x[i][k] * y[k][j]).sum())
-                .collect()
-        })
-        .collect()
-}
-
-fn mat_vec(x: &[Vec<f64>], v: &[f64]) -> Vec<f64> {
-    x.iter()
-        .map(|r| r.iter().zip(v).map(|(a, b)| a * b).sum())
-        .collect()
-}
-
-fn norm_inf(x: &[Vec<f64>]) -> f64 {
-    x.iter()
-        .map(|r| r.iter().map(|v| v.abs()).sum::<f64>())
-        .fold(0.0, f64::max)
-}
-
 /// The WCPG of `s`, or `None` when it is infinite (or not provably finite: no power of
 /// `A` up to [`MAX_POWER`] contracts to 1/2, or a non-finite entry).
 pub fn wcpg(s: &Siso) -> Option<Wcpg> {
@@ -143,8 +121,10 @@ pub fn wcpg(s: &Siso) -> Option<Wcpg> {
             theta: 0.0,
         });
     }
+    let a = DMatrix::from_fn(n, n, |i, j| s.a[i][j]);
+    let norm_inf = |x: &DMatrix<f64>| x.abs().column_sum().max();
     // Smallest N with ||A^N|| <= 1/2, and M = max_{r<N} ||A^r|| (||A^0|| = 1).
-    let mut p = s.a.clone();
+    let mut p = a.clone();
     let mut m = 1.0f64;
     let mut big_n = 0;
     for k in 1..=MAX_POWER {
@@ -157,7 +137,7 @@ pub fn wcpg(s: &Siso) -> Option<Wcpg> {
             break;
         }
         m = m.max(nk);
-        p = mat_mul(&p, &s.a);
+        p = &p * &a;
     }
     if big_n == 0 {
         return None;
@@ -168,13 +148,18 @@ pub fn wcpg(s: &Siso) -> Option<Wcpg> {
     let tail_of =
         |blocks: usize| c1 * binf * big_n as f64 * m * theta.powi(blocks as i32) / (1.0 - theta);
     let mut sum = s.d.abs();
-    let mut v = s.b.clone();
+    let mut v = DVector::from_column_slice(&s.b);
     let mut k = 0usize;
     let mut blocks = 0usize;
     loop {
         for _ in 0..big_n {
-            sum += s.c.iter().zip(&v).map(|(a, b)| a * b).sum::<f64>().abs();
-            v = mat_vec(&s.a, &v);
+            sum +=
+                s.c.iter()
+                    .zip(v.iter())
+                    .map(|(a, b)| a * b)
+                    .sum::<f64>()
+                    .abs();
+            v = &a * &v;
             k += 1;
         }
         blocks += 1;
@@ -226,7 +211,7 @@ mod tests {
         let (mut x, mut total): (Vec<f64>, f64) = (vec![1.0, 0.0], 0.0);
         for _ in 0..5000 {
             total += x[0].abs();
-            x = mat_vec(&a, &x);
+            x = vec![a[0][0] * x[0] + a[0][1] * x[1], x[0]];
         }
         let dc = 1.0 / (1.0 - 2.0 * r * th.cos() + r * r);
         assert!(w.value >= total && w.value - total < 1e-9 * total);
