@@ -72,29 +72,19 @@ fn parse_bench(output: &str) -> Result<BenchResult, String> {
         .find_map(|l| l.trim().strip_prefix("FWBENCH "))
         .ok_or("the bench printed no FWBENCH line")?;
     let w: Vec<&str> = line.split_whitespace().collect();
-    let num = |i: usize| -> Result<u64, String> {
-        w.get(i)
-            .and_then(|s| s.parse().ok())
-            .ok_or_else(|| format!("FWBENCH line `{line}`: field {i} is not a number"))
-    };
-    let key = |i: usize, k: &str| -> Result<(), String> {
-        if w.get(i) == Some(&k) {
-            Ok(())
-        } else {
-            Err(format!(
-                "FWBENCH line `{line}`: expected `{k}` at field {i}"
-            ))
-        }
-    };
-    key(0, "law")?;
-    key(4, "tick")?;
-    key(8, "stack")?;
+    let bad = |what: String| format!("FWBENCH line `{line}`: {what}");
     if w.len() != 10 {
-        return Err(format!(
-            "FWBENCH line `{line}`: {} fields, expected 10",
-            w.len()
-        ));
+        return Err(bad(format!("{} fields, expected 10", w.len())));
     }
+    for (i, k) in [(0, "law"), (4, "tick"), (8, "stack")] {
+        if w[i] != k {
+            return Err(bad(format!("expected `{k}` at field {i}")));
+        }
+    }
+    let num = |i: usize| {
+        w[i].parse::<u64>()
+            .map_err(|_| bad(format!("field {i} is not a number")))
+    };
     let mmm = |i: usize| -> Result<MinMeanMax, String> {
         Ok(MinMeanMax {
             min: num(i)?,

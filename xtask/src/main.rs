@@ -173,18 +173,12 @@ fn remap_flags() -> Vec<String> {
     let Some(home) = home else {
         return Vec::new();
     };
-    let mut flags = Vec::new();
-    let src = home.join("registry").join("src");
-    if let Ok(dirs) = std::fs::read_dir(&src) {
-        for d in dirs.flatten() {
-            flags.push(format!("--remap-path-prefix={}/=", d.path().display()));
-        }
-    }
-    flags.push(format!(
-        "--remap-path-prefix={}/=",
-        home.join("git").join("checkouts").display()
-    ));
-    flags
+    let registries = std::fs::read_dir(home.join("registry").join("src"));
+    let registries = registries.into_iter().flatten().flatten().map(|d| d.path());
+    registries
+        .chain([home.join("git").join("checkouts")])
+        .map(|p| format!("--remap-path-prefix={}/=", p.display()))
+        .collect()
 }
 
 const FLIP_LINK_CONFIG: &str = "target.thumbv7em-none-eabihf.linker=\"flip-link\"";

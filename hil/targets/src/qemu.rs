@@ -298,7 +298,6 @@ impl Qemu {
         })
     }
 
-    /// The QEMU of `guard` on `link`.
     fn on_link(link: Link, guard: Guard, stderr_path: PathBuf, timeout: Duration) -> Self {
         Self {
             guard,
@@ -542,7 +541,7 @@ impl Guard {
         matches!(self.child.as_mut().map(Child::try_wait), Some(Ok(Some(_))))
     }
 
-    /// Kills and reaps the child; whether there was one.
+    /// Whether there was a child to kill (and reap).
     fn kill(&mut self) -> bool {
         let Some(mut c) = self.child.take() else {
             return false;
@@ -580,7 +579,6 @@ fn retry<T>(
     }
 }
 
-/// The TCP link on `stream`: no Nagle delay, each read bounded by `timeout`.
 fn tcp_link(stream: TcpStream, timeout: Duration) -> Result<Link, QemuError> {
     stream.set_nodelay(true).map_err(QemuError::Io)?;
     stream

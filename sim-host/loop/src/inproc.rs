@@ -180,14 +180,6 @@ impl<T: SampleBits> InProc<T> {
         })
     }
 
-    /// Reserves room for the per-tick records of `ticks` ticks.
-    pub fn reserve(&mut self, ticks: usize) {
-        self.arrival_ns.reserve(ticks);
-        if self.timed {
-            self.host_tick_ns.reserve(ticks);
-        }
-    }
-
     /// Whether the host's wall time per [`Runtime::tick`] is measured for
     /// [`Transport::extra`] (default on; nothing the device does depends on it).
     pub fn time_ticks(&mut self, on: bool) {

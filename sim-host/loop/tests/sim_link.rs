@@ -71,6 +71,16 @@ fn fault_spec_parses_and_refuses() {
 }
 
 #[test]
+fn the_fault_spec_prints_its_canonical_form_which_parses_back() {
+    let f: Faults = " drop=0.05 ,ber=1e-3,outage=8:0.05:up"
+        .parse()
+        .expect("valid");
+    assert_eq!(f.to_string(), "ber=0.001,drop=0.05,outage=8:0.05:up");
+    assert_eq!(f.to_string().parse::<Faults>(), Ok(f));
+    assert_eq!(Faults::none().to_string(), "");
+}
+
+#[test]
 fn bytes_arrive_at_baud_plus_latency_in_order() {
     let cfg = LinkConfig {
         baud: 1_000_000,

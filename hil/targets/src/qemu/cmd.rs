@@ -70,17 +70,11 @@ pub fn qemu_args(machine: &str, cpu: &str, elf: &str, serial: SerialTo) -> Vec<S
 
 /// `args` ([`qemu_args`]) without `-icount`: the virtual clock follows the host's.
 #[must_use]
-pub fn without_icount(args: Vec<String>) -> Vec<String> {
-    let mut out = Vec::with_capacity(args.len());
-    let mut it = args.into_iter();
-    while let Some(a) = it.next() {
-        if a == "-icount" {
-            let _ = it.next();
-        } else {
-            out.push(a);
-        }
+pub fn without_icount(mut args: Vec<String>) -> Vec<String> {
+    if let Some(i) = args.iter().position(|a| a == "-icount") {
+        args.drain(i..(i + 2).min(args.len()));
     }
-    out
+    args
 }
 
 /// The command line as one shell line (arguments outside `[A-Za-z0-9_./=:,+-]` single-quoted).

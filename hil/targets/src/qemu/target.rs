@@ -29,10 +29,8 @@ fn pipelined(channel: Channel) -> bool {
 }
 
 impl QemuTarget {
-    /// Starts QEMU on `machine` (mps2-an385: the Cortex-M3 build, `wheelset-qemu-m3.elf`)
-    /// over `channel` (UART0, or the semihosting bulk channel: faster), a clear error if
-    /// QEMU or the ELF (`cargo fw`) is missing; `baud` is the line rate the timing model
-    /// assumes, `timeout` bounds each wait.
+    /// Starts QEMU on `machine` over `channel` (the bulk channel: faster), a clear error if
+    /// QEMU or the ELF (`cargo fw`) is missing; `baud`: the timing model's line rate.
     pub fn start_with(
         machine: Machine,
         channel: Channel,

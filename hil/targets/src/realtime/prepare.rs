@@ -9,7 +9,6 @@ use wheelset_loop::transport::TransportError;
 
 use super::{lower_decile, median_exec_ns, wrap, Port, RealTime, PHASE_FRAMES, ROUND_TRIP_PROBES};
 
-/// A `RequestStatus` frame, delimiter included.
 fn status_request() -> Result<Vec<u8>, TransportError> {
     encode_vec(&Message::Command(Command::RequestStatus))
         .map(|f| f.to_vec())
@@ -17,7 +16,7 @@ fn status_request() -> Result<Vec<u8>, TransportError> {
 }
 
 impl RealTime {
-    /// How far ahead of the device's tick each Sensor frame is written, ns.
+    /// [`SyncReport::lead_ns`](super::SyncReport::lead_ns).
     fn lead_ns(&self) -> u64 {
         self.o.period_ns * self.o.lead_num.clamp(1, 7) / 8
     }

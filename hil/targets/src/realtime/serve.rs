@@ -152,7 +152,6 @@ pub fn serve(
         } else if lateness > period / 4 {
             rep.late += 1;
         }
-        // What arrived: to the runtime, or into the bridge's up line.
         let mut take = |b: &[u8]| match bridge.as_mut() {
             None => rt.receive(b),
             Some((up, _)) => {

@@ -45,13 +45,6 @@ pub enum FaultDir {
 /// | `outage` | `START_S:LEN_S[:up\|down]` | outage from `START_S` seconds for `LEN_S` seconds (each at most [`MAX_OUTAGE_S`]), both directions or one (repeatable) |
 /// | `burst` | `RATE_HZ:LEN_BYTES` | error bursts, mean rate per second (at most [`MAX_BURST_RATE_HZ`]), bytes per burst (a whole number up to 1e6) |
 /// | `dir` | `both`, `up`, `down` | directions the faults apply to (default both) |
-///
-/// ```
-/// use wheelset_loop::sim_link::Faults;
-/// let f: Faults = "ber=1e-3,drop=0.1,outage=8.0:0.05".parse().unwrap();
-/// assert_eq!(f.outages[0].len_ns, 50_000_000);
-/// assert!("ber=2".parse::<Faults>().is_err());
-/// ```
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Faults {
     /// Bit error rate per data bit.
@@ -214,14 +207,6 @@ impl FromStr for Faults {
 }
 
 /// The canonical spec: the acting items in a fixed order; parses back to the same [`Faults`].
-///
-/// ```
-/// use wheelset_loop::sim_link::Faults;
-/// let f: Faults = " drop=0.05 ,ber=1e-3,outage=8:0.05:up".parse().unwrap();
-/// assert_eq!(f.to_string(), "ber=0.001,drop=0.05,outage=8:0.05:up");
-/// assert_eq!(f.to_string().parse::<Faults>().unwrap(), f);
-/// assert_eq!(Faults::none().to_string(), "");
-/// ```
 impl fmt::Display for Faults {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let mut items: Vec<String> = Vec::new();
