@@ -5,11 +5,9 @@
 use std::io::Read;
 use std::path::Path;
 
-mod layout;
-mod section_sizes;
-
-pub use layout::{layout, Layout, Section};
-pub use section_sizes::{sizes, Sizes};
+use object::elf::{SHF_ALLOC, SHF_WRITE, SHT_NOBITS};
+use object::read::elf::{ElfFile32, ElfSection32, SectionHeader};
+use object::{LittleEndian as LE, Object, ObjectSection, ObjectSymbol};
 
 /// `e_machine` of ARM (32-bit).
 const EM_ARM: u16 = 40;
@@ -54,9 +52,157 @@ pub fn check_target_elf(path: &Path) -> Result<(), String> {
     Ok(())
 }
 
+/// Memory use of one firmware image, bytes (what `arm-none-eabi-size -A` sums).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Sizes {
+    /// Loaded into flash: allocated sections with contents (vector table, code,
+    /// read-only data, the initial values of `.data`).
+    pub flash: u64,
+    /// Static RAM: allocated, writable sections (`.data`, `.bss`, `.uninit`).
+    pub ram: u64,
+}
+
+/// One allocated section.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Section {
+    /// Its name (`.text`, `.bss`, ...).
+    pub name: String,
+    /// Its run-time address.
+    pub addr: u64,
+    /// Its size, bytes.
+    pub size: u64,
+    /// Writable (it lives in RAM).
+    pub write: bool,
+}
+
+/// Where an image's allocated sections lie, and its symbols (what
+/// `arm-none-eabi-readelf -S -s` shows of a firmware's placement).
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Layout {
+    /// The allocated sections (`SHF_ALLOC`), in header order.
+    pub sections: Vec<Section>,
+    /// Every named symbol of the symbol table and its value.
+    pub symbols: Vec<(String, u64)>,
+}
+
+impl Layout {
+    /// The value of the symbol `name`, if the image has it.
+    pub fn symbol(&self, name: &str) -> Option<u64> {
+        self.symbols
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|&(_, v)| v)
+    }
+}
+
+/// The allocated sections of an ELF32 LE image with their `sh_type` and `sh_flags`.
+fn allocated<'a>(
+    f: &'a ElfFile32<'a, LE>,
+) -> impl Iterator<Item = (ElfSection32<'a, 'a, LE>, u32, u32)> {
+    f.sections().filter_map(|s| {
+        let h = s.elf_section_header();
+        let flags = h.sh_flags(LE);
+        (flags & SHF_ALLOC != 0).then(|| (s, h.sh_type(LE), flags))
+    })
+}
+
+fn parse(b: &[u8]) -> Result<ElfFile32<'_, LE>, String> {
+    ElfFile32::parse(b).map_err(|e| format!("not a 32-bit little-endian ELF: {e}"))
+}
+
+/// Sums the section sizes of an ELF32 LE image.
+pub fn sizes(b: &[u8]) -> Result<Sizes, String> {
+    let f = parse(b)?;
+    let mut s = Sizes { flash: 0, ram: 0 };
+    for (section, kind, flags) in allocated(&f) {
+        if kind != SHT_NOBITS {
+            s.flash += section.size();
+        }
+        if flags & SHF_WRITE != 0 {
+            s.ram += section.size();
+        }
+    }
+    Ok(s)
+}
+
+/// The allocated sections and the symbols of an ELF32 LE image.
+pub fn layout(b: &[u8]) -> Result<Layout, String> {
+    let f = parse(b)?;
+    let sections = allocated(&f)
+        .map(|(s, _, flags)| Section {
+            name: s.name().unwrap_or_default().to_string(),
+            addr: s.address(),
+            size: s.size(),
+            write: flags & SHF_WRITE != 0,
+        })
+        .collect();
+    let symbols = f
+        .symbols()
+        .filter_map(|s| {
+            let name = s.name().ok().filter(|n| !n.is_empty())?;
+            Some((name.to_string(), s.address()))
+        })
+        .collect();
+    Ok(Layout { sections, symbols })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A minimal ELF32 LE with a null section and the given (type, flags, size) ones.
+    fn elf(sections: &[(u32, u32, u32)]) -> Vec<u8> {
+        let mut b = vec![0u8; 0x34];
+        b[0..4].copy_from_slice(b"\x7fELF");
+        b[4..7].copy_from_slice(&[1, 1, 1]);
+        b[0x20..0x24].copy_from_slice(&0x34u32.to_le_bytes());
+        b[0x2E..0x30].copy_from_slice(&0x28u16.to_le_bytes());
+        b[0x30..0x32].copy_from_slice(&(sections.len() as u16 + 1).to_le_bytes());
+        b.extend_from_slice(&[0u8; 0x28]);
+        for &(kind, flags, size) in sections {
+            let mut h = [0u8; 0x28];
+            h[4..8].copy_from_slice(&kind.to_le_bytes());
+            h[8..12].copy_from_slice(&flags.to_le_bytes());
+            h[0x14..0x18].copy_from_slice(&size.to_le_bytes());
+            b.extend_from_slice(&h);
+        }
+        b
+    }
+
+    #[test]
+    fn counts_loaded_sections_as_flash_and_writable_ones_as_ram() {
+        let (progbits, alloc, write) = (1, SHF_ALLOC, SHF_WRITE);
+        let image = elf(&[
+            (progbits, alloc, 1000),         // .text
+            (progbits, alloc, 200),          // .rodata
+            (progbits, alloc | write, 16),   // .data: flash and RAM
+            (SHT_NOBITS, alloc | write, 64), // .bss: RAM only
+            (progbits, 0, 5000),             // .debug_info: neither
+        ]);
+        assert_eq!(
+            sizes(&image),
+            Ok(Sizes {
+                flash: 1216,
+                ram: 80
+            })
+        );
+        let l = layout(&image).expect("layout");
+        let written: Vec<(u64, bool)> = l.sections.iter().map(|s| (s.size, s.write)).collect();
+        assert_eq!(
+            written,
+            [(1000, false), (200, false), (16, true), (64, true)]
+        );
+    }
+
+    #[test]
+    fn refuses_what_is_not_an_elf32_le() {
+        assert!(sizes(b"hello").is_err());
+        let mut image = elf(&[]);
+        image[4] = 2; // 64-bit
+        assert!(sizes(&image).is_err());
+        assert!(layout(&image).is_err());
+        assert!(sizes(&elf(&[(1, SHF_ALLOC, 4)])[..0x40]).is_err());
+    }
 
     #[test]
     fn refuses_garbage_and_host_images() {
