@@ -150,22 +150,31 @@ pub fn layout(b: &[u8]) -> Result<Layout, String> {
 mod tests {
     use super::*;
 
-    /// A minimal ELF32 LE with a null section and the given (type, flags, size) ones.
+    /// A minimal ELF32 LE: a null section, the given (type, flags, size) ones, the names.
     fn elf(sections: &[(u32, u32, u32)]) -> Vec<u8> {
         let mut b = vec![0u8; 0x34];
         b[0..4].copy_from_slice(b"\x7fELF");
         b[4..7].copy_from_slice(&[1, 1, 1]);
         b[0x20..0x24].copy_from_slice(&0x34u32.to_le_bytes());
         b[0x2E..0x30].copy_from_slice(&0x28u16.to_le_bytes());
-        b[0x30..0x32].copy_from_slice(&(sections.len() as u16 + 1).to_le_bytes());
+        let n = sections.len() as u16 + 2;
+        b[0x30..0x32].copy_from_slice(&n.to_le_bytes());
+        b[0x32..0x34].copy_from_slice(&(n - 1).to_le_bytes()); // the names: last
         b.extend_from_slice(&[0u8; 0x28]);
-        for &(kind, flags, size) in sections {
+        let names_at = 0x34 + 0x28 * u32::from(n);
+        for (kind, flags, size, at) in sections
+            .iter()
+            .map(|&(k, f, s)| (k, f, s, 0))
+            .chain([(3, 0, 1, names_at)])
+        {
             let mut h = [0u8; 0x28];
             h[4..8].copy_from_slice(&kind.to_le_bytes());
             h[8..12].copy_from_slice(&flags.to_le_bytes());
+            h[0x10..0x14].copy_from_slice(&at.to_le_bytes());
             h[0x14..0x18].copy_from_slice(&size.to_le_bytes());
             b.extend_from_slice(&h);
         }
+        b.push(0); // the section-name table: one empty name
         b
     }
 
