@@ -10,7 +10,7 @@ use hil::soak::qemu::soak_qemu;
 use hil::soak::service::ServiceOptions;
 use wheelset_report::Verdict;
 
-use super::{input, run_error, Failure};
+use super::{input, run_error, written, Failure};
 
 #[derive(Args, Clone)]
 pub(crate) struct SoakArgs {
@@ -76,6 +76,13 @@ fn duration_s(a: &SoakArgs) -> Result<f64, Failure> {
     Ok(s)
 }
 
+/// `--json FILE`: the soak's figures, pretty-printed (nothing without the flag).
+fn write_json(path: Option<&std::path::Path>, r: &impl serde::Serialize) -> Result<(), Failure> {
+    let Some(p) = path else { return Ok(()) };
+    let text = serde_json::to_string_pretty(r).map_err(|e| input(e.to_string()))?;
+    written(p, std::fs::write(p, text))
+}
+
 pub(crate) fn cmd_soak(a: &SoakArgs) -> Result<Verdict, Failure> {
     let secs = duration_s(a)?;
     match a.target {
@@ -85,6 +92,7 @@ pub(crate) fn cmd_soak(a: &SoakArgs) -> Result<Verdict, Failure> {
         Target::QemuFree => {
             let minutes = (secs / 60.0).ceil() as u32;
             let r = soak_qemu(minutes).map_err(run_error)?;
+            write_json(a.json.as_deref(), &r)?;
             say!("{}", r.summary().trim_end());
             Ok(if r.clean() {
                 Verdict::Pass
@@ -106,10 +114,7 @@ pub(crate) fn cmd_soak(a: &SoakArgs) -> Result<Verdict, Failure> {
                 },
             })
             .map_err(input)?;
-            if let Some(p) = &a.json {
-                let text = serde_json::to_string_pretty(&r).map_err(|e| input(e.to_string()))?;
-                std::fs::write(p, text).map_err(|e| input(format!("{}: {e}", p.display())))?;
-            }
+            write_json(a.json.as_deref(), &r)?;
             say!("{}", r.summary().trim_end());
             Ok(if r.failure.is_none() {
                 Verdict::Pass
