@@ -161,9 +161,8 @@ fn core_run<T: SampleBits>(sc: &Track, cfg: &Config, src: Sources) -> Result<Cyc
     Ok(stats(&torque, &y, fs))
 }
 
-/// The straight-track limit cycle of the lead on `curve`, measured on the device and
-/// attributed with the core in the loop, at the operating point `params`; `lead_err_nm` is the proven rounding-error
-/// bound of the torque (the dither limit).
+/// The straight-track limit cycle (module docs) at the operating point `params`;
+/// `lead_err_nm` is the torque's proven rounding-error bound (the dither limit), N m.
 pub fn limit_cycle(lead_err_nm: f64, params: &Params) -> Result<LimitCycleReport, String> {
     let mut sc = Track::load("curve", params).map_err(|e| e.to_string())?;
     let law = YawLaw::Lead;

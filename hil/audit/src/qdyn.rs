@@ -226,15 +226,8 @@ impl Sample for QDyn {
         if !(c_max.is_finite() && c_max > 0.0) {
             return None;
         }
-        let fits = |s: u32| Self::quantise(c_max * pow2(s as i32)).is_some();
-        if !fits(1) {
-            return None;
-        }
-        let mut s = 1;
-        while s < Self::ACC_SHIFT_MAX && fits(s + 1) {
-            s += 1;
-        }
-        Some(s)
+        let fits = |s: &u32| Self::quantise(c_max * pow2(*s as i32)).is_some();
+        (1..=Self::ACC_SHIFT_MAX).take_while(fits).last()
     }
     fn acc_shift_ok(s: u32) -> bool {
         (1..=Self::ACC_SHIFT_MAX).contains(&s)

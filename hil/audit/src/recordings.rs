@@ -182,9 +182,8 @@ fn record(
     })
 }
 
-/// The closed-loop scenarios: `curve`, `beating`, `curve` with a 30 ms outage at 6 s (hold, then 20 ms in the safe state),
-/// `curve` with 2 % random frame loss. Returns the scenarios and a note per scenario
-/// that could not run.
+/// The closed-loop scenarios (`curve`, `beating`, `curve` with a 30 ms outage at 6 s, with
+/// 2 % random frame loss) and a note per scenario that could not run.
 pub fn scenarios(cfg: &Config, params: &Params) -> (Vec<Scenario>, Vec<String>) {
     let mut cfg = *cfg;
     cfg.yaw_mode = wheelset_control::YawMode::Lead;

@@ -18,17 +18,12 @@ pub fn synthetic(cfg: &Config) -> Vec<Scenario> {
     let levels = [1.0, -1.0, 1.5, -1.5, 0.0, 1.0, -1.0, 0.0];
     for (k, lv) in levels.iter().enumerate() {
         for j in 0..n(0.2) {
-            let mut tk = Tick {
+            // The safe state entered at the fifth level, left at the sixth.
+            let event = (j == 0 && (k == 4 || k == 5)).then_some(Event::Safe(k == 4));
+            t.push(Tick {
                 si: [lv * l.y_dot, -lv * l.current, l.speed, lv * l.demand],
-                event: None,
-            };
-            if k == 4 && j == 0 {
-                tk.event = Some(Event::Safe(true));
-            }
-            if k == 5 && j == 0 {
-                tk.event = Some(Event::Safe(false));
-            }
-            t.push(tk);
+                event,
+            });
         }
     }
     // Nyquist alternation at full scale, then traction off/on with the speed at its limit.
@@ -46,11 +41,7 @@ pub fn synthetic(cfg: &Config) -> Vec<Scenario> {
     for j in 0..n(0.3) {
         t.push(Tick {
             si: [0.0, l.current, -l.speed, -l.demand],
-            event: if j == 0 {
-                Some(Event::Traction(true))
-            } else {
-                None
-            },
+            event: (j == 0).then_some(Event::Traction(true)),
         });
     }
     let steps = Scenario {
