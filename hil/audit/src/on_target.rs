@@ -11,11 +11,11 @@ use wheelset_control::{Config, Controller, Fx, InputCodes};
 use wheelset_proto::{encode_vec, Actuation, Decoder, Lateral, Message, Sensor};
 use wheelset_runtime::{Runtime, RuntimeConfig};
 
-use super::ranges::Scenario;
-use wheelset_targets::qemu::{Qemu, QemuConfig};
+use super::ranges::{Scenario, Tick};
+use wheelset_targets::qemu::{Qemu, QemuConfig, QemuError};
 
 /// One scenario run on the target.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct TargetRun {
     /// Scenario.
     pub scenario: String,
@@ -80,7 +80,7 @@ impl TargetReport {
     }
 }
 
-fn codes(t: &super::ranges::Tick) -> InputCodes {
+fn codes(t: &Tick) -> InputCodes {
     let w = WireLsb::default();
     let c = |v: f64, lsb: f64| {
         let x = (v / lsb).round();
@@ -125,111 +125,42 @@ fn decode(bytes: &[u8], dec: &mut Decoder) -> Option<Actuation> {
     out
 }
 
+/// The comparison could not run here (a check not run).
+fn not_run(note: impl core::fmt::Display) -> TargetReport {
+    TargetReport::without(TargetOutcome::NotRun, format!("target: not run: {note}"))
+}
+
 /// Run `window` ticks of each scenario (from `from` seconds) on the target and the host.
 /// The firmware runs the runtime's default configuration: `cfg` must equal it (wire
 /// LSBs aside, which the runtime takes from the protocol).
 pub fn compare(scenarios: &[(&Scenario, f64)], window: usize, cfg: &Config) -> TargetReport {
-    let na = |note: String| {
-        TargetReport::without(TargetOutcome::NotRun, format!("target: not run: {note}"))
-    };
-    let broke = |note: String| {
-        TargetReport::without(TargetOutcome::Failed, format!("target: failed: {note}"))
-    };
     let rc = RuntimeConfig::default();
-    let mut mine = *cfg;
-    mine.wire = rc.control.wire;
-    if mine != rc.control {
+    if (Config {
+        wire: rc.control.wire,
+        ..*cfg
+    }) != rc.control
+    {
         return TargetReport::without(
             TargetOutcome::NotApplicable,
             "target: not applicable: the firmware runs the default configuration; this \
              audit's rate, divisors or predictor differ",
         );
     }
-    let base_rate_hz = cfg.base_rate_hz;
     let qc = QemuConfig::new();
     if let Err(e) = qc.check() {
-        return na(e.to_string());
+        return not_run(e);
     }
     let mut runs = Vec::new();
     for (sc, from_s) in scenarios {
-        let from = (from_s * base_rate_hz as f64) as usize;
+        let from = (from_s * cfg.base_rate_hz as f64) as usize;
         let ticks: Vec<_> = sc.ticks.iter().skip(from).take(window).collect();
         if ticks.is_empty() {
             continue;
         }
-        let mut q = match Qemu::start(&qc) {
-            Ok(q) => q,
-            Err(e) => return na(e.to_string()),
-        };
-        let mut host = match Runtime::<Fx>::try_new(rc) {
-            Ok(h) => h,
-            Err(e) => return na(format!("host runtime: {e}")),
-        };
-        let mut fcfg = rc.control;
-        fcfg.wire = WireLsb::default();
-        let mut fl = match Controller::<f64>::try_new(&fcfg) {
-            Ok(c) => c,
-            Err(e) => return na(format!("f64 core: {e}")),
-        };
-        let (mut dt, mut dh) = (Decoder::new(), Decoder::new());
-        let mut run = TargetRun {
-            scenario: sc.name.clone(),
-            from_tick: from,
-            ticks: 0,
-            mismatches: 0,
-            max_code_diff: (0, 0),
-            target_vs_f64_wire_lsb: (0.0, 0.0),
-            host_vs_f64_wire_lsb: (0.0, 0.0),
-            mean_exec: 0.0,
-        };
-        let mut exec_sum = 0.0;
-        for (k, t) in ticks.iter().enumerate() {
-            let c = codes(t);
-            let seq = (k as u16).wrapping_add(1);
-            let bytes = match sensor_frame(seq, &c) {
-                Ok(b) => b,
-                Err(e) => return na(format!("encode: {e}")),
-            };
-            if let Err(e) = q.send(&bytes) {
-                return broke(format!("scenario {} after {k} ticks: {e}", sc.name));
-            }
-            let mut tf = match q.recv_frame() {
-                Ok(f) => f,
-                Err(e) => return broke(format!("scenario {} after {k} ticks: {e}", sc.name)),
-            };
-            tf.push(0);
-            host.receive(&bytes);
-            let hb = host.tick(0).to_vec();
-            let (Some(at), Some(ah)) = (decode(&tf, &mut dt), decode(&hb, &mut dh)) else {
-                return broke(format!("scenario {} tick {k}: no Actuation frame", sc.name));
-            };
-            let of = fl.tick_codes(&c);
-            let d = (
-                (at.t_psi_dnm as i64 - ah.t_psi_dnm as i64).abs(),
-                (at.u_a_cv as i64 - ah.u_a_cv as i64).abs(),
-            );
-            if d != (0, 0) {
-                run.mismatches += 1;
-            }
-            let m = &mut run.max_code_diff;
-            *m = (m.0.max(d.0), m.1.max(d.1));
-            for (m, a) in [
-                (&mut run.target_vs_f64_wire_lsb, &at),
-                (&mut run.host_vs_f64_wire_lsb, &ah),
-            ] {
-                let e = |x: i32, y: i32| (f64::from(x) - f64::from(y)).abs();
-                *m = (
-                    m.0.max(e(a.t_psi_dnm, of.yaw_torque)),
-                    m.1.max(e(a.u_a_cv, of.voltage)),
-                );
-            }
-            if k > 0 {
-                exec_sum += at.exec as f64;
-            }
-            run.ticks += 1;
+        match run_window(&sc.name, from, &ticks, &qc, rc) {
+            Ok(run) => runs.push(run),
+            Err(report) => return report,
         }
-        run.mean_exec = exec_sum / (run.ticks.max(2) - 1) as f64;
-        runs.push(run);
     }
     let total: usize = runs.iter().map(|r| r.ticks).sum();
     let mism: usize = runs.iter().map(|r| r.mismatches).sum();
@@ -244,4 +175,75 @@ pub fn compare(scenarios: &[(&Scenario, f64)], window: usize, cfg: &Config) -> T
         ),
         runs,
     }
+}
+
+/// One scenario window on the target and the host (`Err`: the comparison not run or
+/// broken off).
+fn run_window(
+    name: &str,
+    from: usize,
+    ticks: &[&Tick],
+    qc: &QemuConfig,
+    rc: RuntimeConfig,
+) -> Result<TargetRun, TargetReport> {
+    let mut q = Qemu::start(qc).map_err(not_run)?;
+    let mut host = Runtime::<Fx>::try_new(rc).map_err(|e| not_run(format!("host runtime: {e}")))?;
+    let f64_cfg = Config {
+        wire: WireLsb::default(),
+        ..rc.control
+    };
+    let mut fl =
+        Controller::<f64>::try_new(&f64_cfg).map_err(|e| not_run(format!("f64 core: {e}")))?;
+    let broke = |note: String| {
+        TargetReport::without(TargetOutcome::Failed, format!("target: failed: {note}"))
+    };
+    let (mut dt, mut dh) = (Decoder::new(), Decoder::new());
+    let mut run = TargetRun {
+        scenario: name.to_string(),
+        from_tick: from,
+        ..TargetRun::default()
+    };
+    let mut exec_sum = 0.0;
+    for (k, t) in ticks.iter().enumerate() {
+        let c = codes(t);
+        let seq = (k as u16).wrapping_add(1);
+        let bytes = sensor_frame(seq, &c).map_err(|e| not_run(format!("encode: {e}")))?;
+        let lost = |e: QemuError| broke(format!("scenario {name} after {k} ticks: {e}"));
+        q.send(&bytes).map_err(lost)?;
+        let mut tf = q.recv_frame().map_err(lost)?;
+        tf.push(0);
+        host.receive(&bytes);
+        let hb = host.tick(0).to_vec();
+        let (Some(at), Some(ah)) = (decode(&tf, &mut dt), decode(&hb, &mut dh)) else {
+            return Err(broke(format!(
+                "scenario {name} tick {k}: no Actuation frame"
+            )));
+        };
+        let of = fl.tick_codes(&c);
+        let d = (
+            (at.t_psi_dnm as i64 - ah.t_psi_dnm as i64).abs(),
+            (at.u_a_cv as i64 - ah.u_a_cv as i64).abs(),
+        );
+        if d != (0, 0) {
+            run.mismatches += 1;
+        }
+        let m = &mut run.max_code_diff;
+        *m = (m.0.max(d.0), m.1.max(d.1));
+        for (m, a) in [
+            (&mut run.target_vs_f64_wire_lsb, &at),
+            (&mut run.host_vs_f64_wire_lsb, &ah),
+        ] {
+            let e = |x: i32, y: i32| (f64::from(x) - f64::from(y)).abs();
+            *m = (
+                m.0.max(e(a.t_psi_dnm, of.yaw_torque)),
+                m.1.max(e(a.u_a_cv, of.voltage)),
+            );
+        }
+        if k > 0 {
+            exec_sum += at.exec as f64;
+        }
+        run.ticks += 1;
+    }
+    run.mean_exec = exec_sum / (run.ticks.max(2) - 1) as f64;
+    Ok(run)
 }
