@@ -13,41 +13,41 @@ use crate::wcpg::{wcpg, Siso};
 pub struct Quantised {
     /// Lead coefficients.
     pub lead: LeadPu,
-    /// Gain law coefficient.
+    /// Gain law coefficient, torque pu per `y'` pu.
     pub gain: f64,
-    /// PI `Kp`, `Ki`.
+    /// PI `Kp`, voltage pu per current pu.
     pub kp: f64,
-    /// PI `Ki` per step.
+    /// PI `Ki` per step, voltage pu per current pu.
     pub ki: f64,
     /// `Ki`'s shift: held as `Ki 2^ki_shift` in the coefficient format (0 for floats).
     pub ki_shift: u32,
-    /// Voltage limits.
+    /// Lower voltage limit, pu.
     pub u_min: f64,
-    /// Voltage limits.
+    /// Upper voltage limit, pu.
     pub u_max: f64,
-    /// demand -> current reference.
+    /// Demand pu -> current reference pu.
     pub d2i: f64,
-    /// back-EMF constant.
+    /// Back-EMF constant, voltage pu per speed pu.
     pub bemf: f64,
     /// Predictor half factor.
     pub ph: f64,
-    /// Input clamps `y'`, current, speed, demand; torque limit; predictor clamp.
+    /// Input clamp of `y'`, pu.
     pub y_max: f64,
-    /// Current clamp.
+    /// Current clamp, pu.
     pub i_max: f64,
-    /// Speed clamp.
+    /// Speed clamp, pu.
     pub s_max: f64,
-    /// Demand clamp.
+    /// Demand clamp, pu.
     pub d_max: f64,
-    /// Torque limit.
+    /// Torque limit, pu.
     pub t_max: f64,
-    /// Predicted y' clamp.
+    /// Predicted `y'` clamp, pu.
     pub p_max: f64,
-    /// Torque ramp step.
+    /// Torque ramp step, pu.
     pub t_step: f64,
-    /// Current reference steps (normal, safe).
+    /// Current reference step per traction step, pu.
     pub i_step: f64,
-    /// Safe-state current reference step.
+    /// Safe-state current reference step per traction step, pu.
     pub i_safe_step: f64,
 }
 
