@@ -201,7 +201,7 @@ impl<T: SampleBits> Runtime<T> {
                 c.safe_exits = c.safe_exits.wrapping_add(1);
                 if let Some(s) = self.sample {
                     // Bumpless restart of traction from the back-EMF, reference ramping up from zero.
-                    let speed = self.core.codec().decode(&s).speed;
+                    let speed = self.core.compiled().codec().decode(&s).speed;
                     self.core.preset_back_emf(speed);
                 }
             }
@@ -226,7 +226,7 @@ impl<T: SampleBits> Runtime<T> {
             };
             s.y_dot = v;
         }
-        let inp = self.sample.map(|s| self.core.codec().decode(&s));
+        let inp = self.sample.map(|s| self.core.compiled().codec().decode(&s));
         if let Some(inp) = &inp {
             let commanding = self.enabled
                 && !self.hold.is_safe()
@@ -260,16 +260,20 @@ impl<T: SampleBits> Runtime<T> {
                 {
                     self.on_alarm(false, false, true);
                 }
-                let o = self.core.codec().encode(&out);
+                let o = self.core.compiled().codec().encode(&out);
                 (o.yaw_torque, o.voltage)
             }
             (Some(inp), false) => {
                 // Outputs disabled: zero torque, zero current (the back-EMF; 0 V would short the motor).
                 let speed = inp.speed;
-                let o = self.core.codec().encode(&wheelset_control::Outputs {
-                    yaw_torque: T::ZERO,
-                    voltage: self.core.back_emf(speed),
-                });
+                let o = self
+                    .core
+                    .compiled()
+                    .codec()
+                    .encode(&wheelset_control::Outputs {
+                        yaw_torque: T::ZERO,
+                        voltage: self.core.back_emf(speed),
+                    });
                 (o.yaw_torque, o.voltage)
             }
             (None, _) => {
@@ -408,11 +412,6 @@ impl<T: SampleBits> Runtime<T> {
     /// The stack's high-water mark in bytes, as the board measured it.
     pub fn set_stack_peak(&mut self, bytes: u32) {
         self.counters.stack_peak = bytes;
-    }
-
-    /// The sticky fault flag ([`Flags::FAULT_LATCHED`]).
-    pub fn fault_latched(&self) -> bool {
-        self.fault_latched
     }
 
     /// The control core (read only: coefficients, states, its own counters).
