@@ -83,7 +83,7 @@ fn continuous_lead(p: &LeadParams, w: f64) -> (f64, f64) {
 }
 
 fn discrete_response(d: &wheelset_control::LeadDiscrete, w: f64, t: f64) -> (f64, f64) {
-    let (b0, b1, a1) = direct_form(&d);
+    let (b0, b1, a1) = direct_form(d);
     // H(e^{jwT}) = (b0 + b1 e^{-jwT}) / (1 - a1 e^{-jwT})
     let (c, s) = ((w * t).cos(), -(w * t).sin());
     let (nr, ni) = (b0 + b1 * c, b1 * s);
