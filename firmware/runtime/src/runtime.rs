@@ -38,7 +38,6 @@ pub struct Runtime<T: Sample> {
     core: Controller<T>,
     /// [`CompiledBits::fingerprint`] of the core's rate-independent part.
     fingerprint: u32,
-    /// The designs a received [`Rates`] must be one of ([`RuntimeBits::designs`]).
     designs: Designs,
     /// An active yaw law is designed at the current rates (the boot core's: yes).
     yaw_ok: bool,
@@ -53,9 +52,8 @@ pub struct Runtime<T: Sample> {
     vel_q32: i64,
     /// What the estimate washes out towards, um/s in Q32: 0 or the measured `y'` (`Both`).
     acc_ref_q32: i64,
-    /// `T` in the integrator: um/s per (0.1 mm/s^2 code) per tick, Q32.
+    /// [`AccBits`]' `gain_q32` and `leak_q32`, checked.
     acc_gain_q32: i64,
-    /// Wash-out shift-free factor `T/tau` in Q32 (0: none).
     leak_q32: i64,
     seq: u16,
     fresh: bool,
