@@ -23,14 +23,16 @@ pub enum RxEvent {
     Refused(RefuseReason),
 }
 
-/// The outputs the device drives when it has nothing valid to say.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct SafeOutputs {
-    /// Yaw torque, 0.1 N m: 0.
-    pub t_psi_dnm: i32,
-    /// Motor voltage, 10 mV: 0.
-    pub u_a_cv: i32,
-}
+/// What the device drives when it has nothing valid to say (before any sample, and the
+/// panic handler's frame): zero torque, zero voltage, flag `SAFE` (the tick sets its own).
+pub const SAFE_ACTUATION: Actuation = Actuation {
+    seq_echo: 0,
+    tick: 0,
+    exec: 0,
+    flags: Flags(Flags::SAFE),
+    t_psi_dnm: 0,
+    u_a_cv: 0,
+};
 
 /// Control core + frame decoder + fault policy + counters. See the crate docs.
 #[derive(Debug, Clone)]
@@ -162,15 +164,6 @@ impl<T: SampleBits> Runtime<T> {
         self.watchdog = running;
     }
 
-    /// What a panic handler drives: zero torque, zero voltage.
-    #[must_use]
-    pub const fn safe_outputs() -> SafeOutputs {
-        SafeOutputs {
-            t_psi_dnm: 0,
-            u_a_cv: 0,
-        }
-    }
-
     /// One base-rate tick: the Actuation frame, then a Status frame if requested;
     /// `last_exec` is the previous tick's execution time. Never panics.
     pub fn tick(&mut self, last_exec: u32) -> &[u8] {
@@ -274,10 +267,7 @@ impl<T: SampleBits> Runtime<T> {
                     });
                 (o.yaw_torque, o.voltage)
             }
-            (None, _) => {
-                let s = Self::safe_outputs();
-                (s.t_psi_dnm, s.u_a_cv)
-            }
+            (None, _) => (SAFE_ACTUATION.t_psi_dnm, SAFE_ACTUATION.u_a_cv),
         };
         if events.any() {
             self.count_events(events);
