@@ -417,11 +417,6 @@ impl<T: SampleBits> Runtime<T> {
         self.hold_ticks
     }
 
-    /// Outputs enabled?
-    pub fn is_enabled(&self) -> bool {
-        self.enabled
-    }
-
     /// In the safe state?
     pub fn is_safe(&self) -> bool {
         self.hold.is_safe()
