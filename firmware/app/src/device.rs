@@ -2,8 +2,8 @@
 //! out per tick.
 
 use wheelset_control::{Compiled, Monitor};
-use wheelset_proto::{encode, Actuation, Flags, Message, MAX_FRAME};
-use wheelset_runtime::{Runtime, RuntimeBits, RuntimeError};
+use wheelset_proto::{encode, Message, MAX_FRAME};
+use wheelset_runtime::{Runtime, RuntimeBits, RuntimeError, SAFE_ACTUATION};
 
 /// The default runtime compiled at build time (`build.rs`): the generated constant.
 mod generated {
@@ -52,18 +52,9 @@ pub fn new_runtime() -> Result<FwRuntime, RuntimeError> {
     )
 }
 
-/// Encodes the safe-state frame ([`Runtime::safe_outputs`], flag `SAFE`) into `out`.
+/// Encodes the safe-state frame ([`SAFE_ACTUATION`]) into `out`.
 pub fn safe_frame(out: &mut [u8; MAX_FRAME]) -> &[u8] {
-    let safe = FwRuntime::safe_outputs();
-    let msg = Actuation {
-        seq_echo: 0,
-        tick: 0,
-        exec: 0,
-        flags: Flags(Flags::SAFE),
-        t_psi_dnm: safe.t_psi_dnm,
-        u_a_cv: safe.u_a_cv,
-    };
-    match encode(&Message::Actuation(msg), out) {
+    match encode(&Message::Actuation(SAFE_ACTUATION), out) {
         Ok(n) => out.get(..n).unwrap_or(&[]),
         Err(_) => &[],
     }
@@ -72,7 +63,7 @@ pub fn safe_frame(out: &mut [u8; MAX_FRAME]) -> &[u8] {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use wheelset_proto::{encode_vec, Decoder, Lateral, Sensor};
+    use wheelset_proto::{encode_vec, Decoder, Flags, Lateral, Sensor};
 
     fn decode_all(bytes: &[u8]) -> Vec<Message> {
         let mut dec: Decoder = Decoder::new();

@@ -214,6 +214,10 @@ impl<T: Sample> Compiled<T> {
     pub fn base_rate_hz(&self) -> u32 {
         self.base_rate_hz
     }
+    /// The lead as quantised.
+    pub fn lead(&self) -> &Lead<T> {
+        &self.lead
+    }
     /// The PI as quantised.
     pub fn pi(&self) -> &Pi<T> {
         &self.pi

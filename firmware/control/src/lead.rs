@@ -120,16 +120,6 @@ pub struct LeadDiscrete {
 }
 
 impl LeadDiscrete {
-    /// The direct form `y[n] = a1 y[n-1] + b0 x[n] + b1 x[n-1]`: `(b0, b1, a1)`, N m s/m (audit).
-    pub fn direct_form(&self) -> (f64, f64, f64) {
-        let h = self.kappa * self.g / 2.0;
-        (
-            self.k_hf * (1.0 - h),
-            -self.k_hf * (self.alpha + h),
-            self.alpha,
-        )
-    }
-
     /// DC gain of the discrete filter, `K_hf (1 - g)`, N m s/m.
     pub fn dc_gain(&self) -> f64 {
         self.k_hf * (1.0 - self.g)

@@ -97,32 +97,24 @@ impl Default for WspParams {
     }
 }
 
-/// The compiled protection for `T` (immutable while running).
+/// The compiled protection for `T` (immutable while running); each field in `T` is the
+/// [`WspBits`] field of that name, whose doc gives its unit and range.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Wsp<T: Sample> {
     pub(crate) enabled: bool,
-    /// `slip_on`, motor-speed pu.
     pub(crate) slip_on: T,
-    /// `slip_accel`, motor-speed pu.
     pub(crate) slip_accel: T,
-    /// Acceleration threshold per traction step over `iref_step`.
     pub(crate) accel_ratio: T::Coeff,
     pub(crate) cut: T::Coeff,
-    /// Half the set point at zero cap, motor-speed pu.
     pub(crate) sp_half: T,
-    /// Half the set point's slope, speed pu per current pu.
     pub(crate) sp_half_slope: T::Coeff,
-    /// `kp' / 2^kp_shift`, current pu per speed pu.
     pub(crate) kp: T::Coeff,
     pub(crate) kp_shift: u8,
-    /// `ki' / 2^ki_shift`, current pu per speed pu and per unit of `iref_step`.
     pub(crate) ki: T::Coeff,
     pub(crate) ki_shift: u8,
-    /// The scheduled lead's `K_hf'` (pu).
+    /// The scheduled lead's `K_hf'` (pu; the schedule's bits carry it, `wsp_lead_k_hf`).
     pub(crate) lead_k_hf: T::Coeff,
-    /// The scheduled lead's `rho`.
     pub(crate) lead_rho: T::Coeff,
-    /// Reference-speed code -> motor-speed pu: `lsb n / (r0 scales.speed)`.
     pub(crate) v_ref: T::Scale,
 }
 
@@ -131,29 +123,30 @@ pub struct Wsp<T: Sample> {
 pub struct WspBits {
     /// On at start.
     pub enabled: bool,
-    /// `slip_on`, pu signal in `(0, 2]`.
+    /// `slip_on`, motor-speed pu in `(0, 2]`.
     pub slip_on: u64,
-    /// `slip_accel`, pu signal in `(0, slip_on)`.
+    /// `slip_accel`, motor-speed pu in `(0, slip_on)`.
     pub slip_accel: u64,
-    /// Acceleration ratio, coefficient in `(0, 1)`.
+    /// Acceleration threshold per traction step over `iref_step`, coefficient in `(0, 1)`.
     pub accel_ratio: u64,
     /// Fraction kept at detection, coefficient in `(0, 1)`.
     pub cut: u64,
-    /// Half the set point at zero cap, pu signal in `(0, slip_on)`.
+    /// Half the set point at zero cap, motor-speed pu in `(0, slip_on)`.
     pub sp_half: u64,
-    /// Half the set point's slope, coefficient in `[0, 1)`.
+    /// Half the set point's slope, speed pu per current pu in `[0, 1)`.
     pub sp_half_slope: u64,
-    /// Regulator's proportional coefficient, in `(0, 1)`.
+    /// Regulator's `kp' / 2^kp_shift`, current pu per speed pu in `(0, 1)`.
     pub kp: u64,
     /// `kp`'s shift (`<= 16`).
     pub kp_shift: u8,
-    /// Regulator's integral coefficient, in `(0, 1)`.
+    /// Regulator's `ki' / 2^ki_shift`, current pu per speed pu and per unit of `iref_step`,
+    /// in `(0, 1)`.
     pub ki: u64,
     /// `ki`'s shift (`<= 16`).
     pub ki_shift: u8,
     /// Scheduled lead `rho`, a coefficient (`|rho| < 1`).
     pub lead_rho: u64,
-    /// The reference-speed scale.
+    /// Reference-speed code -> motor-speed pu: `lsb n / (r0 scales.speed)`.
     pub v_ref: ScaleBits,
 }
 

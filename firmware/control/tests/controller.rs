@@ -680,7 +680,7 @@ fn the_codec_decodes_by_lsb_over_full_scale() {
     let mut cfg = Config::default();
     cfg.scales.y_dot = 2.0;
     let c = F64Controller::try_new(&cfg).expect("valid");
-    let i = c.codec().decode(&wheelset_control::InputCodes {
+    let i = c.compiled().codec().decode(&wheelset_control::InputCodes {
         y_dot: 100_000,
         current: 50_000,
         speed: 30_000,
@@ -696,7 +696,7 @@ fn the_codec_decodes_by_lsb_over_full_scale() {
     ] {
         assert!(close(got, want), "{got} vs {want}");
     }
-    let o = c.codec().encode(&wheelset_control::Outputs {
+    let o = c.compiled().codec().encode(&wheelset_control::Outputs {
         yaw_torque: 0.25,
         voltage: -0.5,
     });

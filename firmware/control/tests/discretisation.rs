@@ -17,13 +17,19 @@ fn lead_f64(p: &LeadParams, t: f64) -> (Lead<f64>, wheelset_control::LeadDiscret
     (Lead::<f64>::new(&d.to_pu(1.0, 1.0)).expect("fits f64"), d)
 }
 
+/// The direct form `y[n] = a1 y[n-1] + b0 x[n] + b1 x[n-1]`: `(b0, b1, a1)`, N m s/m.
+fn direct_form(d: &wheelset_control::LeadDiscrete) -> (f64, f64, f64) {
+    let h = d.kappa * d.g / 2.0;
+    (d.k_hf * (1.0 - h), -d.k_hf * (d.alpha + h), d.alpha)
+}
+
 #[test]
 fn lead_direct_form_equals_textbook_tustin() {
     let p = LeadParams::default();
     for fs in RATES {
         let t = 1.0 / fs;
         let (_, d) = lead_f64(&p, t);
-        let (b0, b1, a1) = d.direct_form();
+        let (b0, b1, a1) = direct_form(&d);
         // H(z) = K a ((2/T + w1) + (w1 - 2/T) z^-1) / ((2/T + w2) + (w2 - 2/T) z^-1)
         let ka = p.k * p.a;
         let den = 2.0 / t + p.w2;
@@ -77,7 +83,7 @@ fn continuous_lead(p: &LeadParams, w: f64) -> (f64, f64) {
 }
 
 fn discrete_response(d: &wheelset_control::LeadDiscrete, w: f64, t: f64) -> (f64, f64) {
-    let (b0, b1, a1) = d.direct_form();
+    let (b0, b1, a1) = direct_form(d);
     // H(e^{jwT}) = (b0 + b1 e^{-jwT}) / (1 - a1 e^{-jwT})
     let (c, s) = ((w * t).cos(), -(w * t).sin());
     let (nr, ni) = (b0 + b1 * c, b1 * s);
@@ -116,7 +122,7 @@ fn lead_step_and_impulse_equal_the_difference_equation() {
     let p = LeadParams::default();
     for fs in RATES {
         let (lead, d) = lead_f64(&p, 1.0 / fs);
-        let (b0, b1, a1) = d.direct_form();
+        let (b0, b1, a1) = direct_form(&d);
         for input in [|n: usize| if n == 0 { 1.0 } else { 0.0 }, |_n: usize| 1.0] {
             let mut s = LeadState::default();
             let (mut y1, mut x1) = (0.0, 0.0);

@@ -378,8 +378,8 @@ fn wire_codes_round_trip_and_fixed_codec_matches_float() {
             speed: code,
             demand: code,
         };
-        let a = fx.codec().decode(&c);
-        let b = fl.codec().decode(&c);
+        let a = fx.compiled().codec().decode(&c);
+        let b = fl.compiled().codec().decode(&c);
         for (x, y) in [
             (a.y_dot, b.y_dot),
             (a.current, b.current),
@@ -399,7 +399,7 @@ fn wire_codes_round_trip_and_fixed_codec_matches_float() {
             yaw_torque: Fx::from_f64(t),
             voltage: Fx::from_f64(t),
         };
-        let c = fx.codec().encode(&o);
+        let c = fx.compiled().codec().encode(&o);
         let want_t = (o.yaw_torque.to_f64() * cfg.scales.torque / cfg.wire.torque).round();
         let want_u = (o.voltage.to_f64() * cfg.scales.voltage / cfg.wire.voltage).round();
         assert!((c.yaw_torque as f64 - want_t).abs() <= 1.0, "{t}: {c:?}");

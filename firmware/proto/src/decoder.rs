@@ -46,11 +46,6 @@ impl Decoder {
         }
     }
 
-    /// Discards any partial frame.
-    pub fn reset(&mut self) {
-        self.enc = 0;
-    }
-
     /// Bytes of the frame in progress (at most [`MAX_FRAME`]).
     #[must_use]
     pub fn pending(&self) -> usize {

@@ -1,6 +1,6 @@
 //! The decoder's state between calls: `Decoder::pending` is the number of bytes of the
 //! open frame (0 between frames, at most `MAX_FRAME` however long an overlong frame
-//! runs), and `Decoder::reset` discards the open frame so the next bytes start a new one.
+//! runs).
 
 use wheelset_proto::*;
 
@@ -31,25 +31,6 @@ fn pending_counts_the_bytes_of_the_open_frame() {
     assert_eq!(d.pending(), MAX_FRAME);
     assert_eq!(d.next_message(&[0]).0, Some(Err(FrameError::Length)));
     assert_eq!(d.pending(), 0);
-}
-
-#[test]
-fn reset_discards_the_open_frame() {
-    let f = reset_counters();
-    let mut d = Decoder::new();
-    // Half a frame, then the whole frame: without a reset the halves run together into
-    // one bad frame.
-    let half = &f[..f.len() / 2];
-    let _ = d.next_message(half);
-    assert_eq!(d.pending(), half.len());
-    let mut joined = d.clone();
-    assert!(matches!(joined.next_message(&f).0, Some(Err(_))));
-    d.reset();
-    assert_eq!(d.pending(), 0);
-    assert_eq!(
-        d.next_message(&f).0,
-        Some(Ok(Message::Command(Command::ResetCounters)))
-    );
 }
 
 #[test]

@@ -27,7 +27,7 @@
 //!    preset each tick to the back-EMF of the held speed (the stale current not integrated).
 //! 4. The first valid Sensor frame leaves it, bumpless.
 //! 5. Zero current, not 0 V (a short circuit at speed); before any sample
-//!    [`Runtime::safe_outputs`] (zero, zero).
+//!    [`SAFE_ACTUATION`] (zero, zero).
 //! 6. After a watchdog or fault reset ([`Runtime::set_boot`]): the safe state at zero
 //!    torque until [`Command::ClearFaults`].
 //!
@@ -57,7 +57,7 @@ pub use bits::{
     rates_for, Designs, RuntimeBits, RuntimeConfig, RuntimeError, DEFAULT_ACC_WASHOUT_S,
 };
 pub use hold::{HoldPolicy, HoldStep, SafeChange};
-pub use runtime::{Runtime, RxEvent, SafeOutputs};
+pub use runtime::{Runtime, RxEvent, SAFE_ACTUATION};
 pub use wheelset_proto::{Actuation, Command, Config, Flags, Message, Rates, Sensor, Status};
 
 /// The counters: the [`Status`] message is their only definition.

@@ -23,14 +23,16 @@ pub enum RxEvent {
     Refused(RefuseReason),
 }
 
-/// The outputs the device drives when it has nothing valid to say.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct SafeOutputs {
-    /// Yaw torque, 0.1 N m: 0.
-    pub t_psi_dnm: i32,
-    /// Motor voltage, 10 mV: 0.
-    pub u_a_cv: i32,
-}
+/// What the device drives when it has nothing valid to say (before any sample, and the
+/// panic handler's frame): zero torque, zero voltage, flag `SAFE` (the tick sets its own).
+pub const SAFE_ACTUATION: Actuation = Actuation {
+    seq_echo: 0,
+    tick: 0,
+    exec: 0,
+    flags: Flags(Flags::SAFE),
+    t_psi_dnm: 0,
+    u_a_cv: 0,
+};
 
 /// Control core + frame decoder + fault policy + counters. See the crate docs.
 #[derive(Debug, Clone)]
@@ -38,7 +40,6 @@ pub struct Runtime<T: Sample> {
     core: Controller<T>,
     /// [`CompiledBits::fingerprint`] of the core's rate-independent part.
     fingerprint: u32,
-    /// The designs a received [`Rates`] must be one of ([`RuntimeBits::designs`]).
     designs: Designs,
     /// An active yaw law is designed at the current rates (the boot core's: yes).
     yaw_ok: bool,
@@ -53,9 +54,8 @@ pub struct Runtime<T: Sample> {
     vel_q32: i64,
     /// What the estimate washes out towards, um/s in Q32: 0 or the measured `y'` (`Both`).
     acc_ref_q32: i64,
-    /// `T` in the integrator: um/s per (0.1 mm/s^2 code) per tick, Q32.
+    /// [`AccBits`]' `gain_q32` and `leak_q32`, checked.
     acc_gain_q32: i64,
-    /// Wash-out shift-free factor `T/tau` in Q32 (0: none).
     leak_q32: i64,
     seq: u16,
     fresh: bool,
@@ -164,15 +164,6 @@ impl<T: SampleBits> Runtime<T> {
         self.watchdog = running;
     }
 
-    /// What a panic handler drives: zero torque, zero voltage.
-    #[must_use]
-    pub const fn safe_outputs() -> SafeOutputs {
-        SafeOutputs {
-            t_psi_dnm: 0,
-            u_a_cv: 0,
-        }
-    }
-
     /// One base-rate tick: the Actuation frame, then a Status frame if requested;
     /// `last_exec` is the previous tick's execution time. Never panics.
     pub fn tick(&mut self, last_exec: u32) -> &[u8] {
@@ -201,7 +192,7 @@ impl<T: SampleBits> Runtime<T> {
                 c.safe_exits = c.safe_exits.wrapping_add(1);
                 if let Some(s) = self.sample {
                     // Bumpless restart of traction from the back-EMF, reference ramping up from zero.
-                    let speed = self.core.codec().decode(&s).speed;
+                    let speed = self.core.compiled().codec().decode(&s).speed;
                     self.core.preset_back_emf(speed);
                 }
             }
@@ -226,7 +217,7 @@ impl<T: SampleBits> Runtime<T> {
             };
             s.y_dot = v;
         }
-        let inp = self.sample.map(|s| self.core.codec().decode(&s));
+        let inp = self.sample.map(|s| self.core.compiled().codec().decode(&s));
         if let Some(inp) = &inp {
             let commanding = self.enabled
                 && !self.hold.is_safe()
@@ -260,22 +251,23 @@ impl<T: SampleBits> Runtime<T> {
                 {
                     self.on_alarm(false, false, true);
                 }
-                let o = self.core.codec().encode(&out);
+                let o = self.core.compiled().codec().encode(&out);
                 (o.yaw_torque, o.voltage)
             }
             (Some(inp), false) => {
                 // Outputs disabled: zero torque, zero current (the back-EMF; 0 V would short the motor).
                 let speed = inp.speed;
-                let o = self.core.codec().encode(&wheelset_control::Outputs {
-                    yaw_torque: T::ZERO,
-                    voltage: self.core.back_emf(speed),
-                });
+                let o = self
+                    .core
+                    .compiled()
+                    .codec()
+                    .encode(&wheelset_control::Outputs {
+                        yaw_torque: T::ZERO,
+                        voltage: self.core.back_emf(speed),
+                    });
                 (o.yaw_torque, o.voltage)
             }
-            (None, _) => {
-                let s = Self::safe_outputs();
-                (s.t_psi_dnm, s.u_a_cv)
-            }
+            (None, _) => (SAFE_ACTUATION.t_psi_dnm, SAFE_ACTUATION.u_a_cv),
         };
         if events.any() {
             self.count_events(events);
@@ -410,11 +402,6 @@ impl<T: SampleBits> Runtime<T> {
         self.counters.stack_peak = bytes;
     }
 
-    /// The sticky fault flag ([`Flags::FAULT_LATCHED`]).
-    pub fn fault_latched(&self) -> bool {
-        self.fault_latched
-    }
-
     /// The control core (read only: coefficients, states, its own counters).
     pub fn core(&self) -> &Controller<T> {
         &self.core
@@ -428,11 +415,6 @@ impl<T: SampleBits> Runtime<T> {
     /// Ticks bridged by the held sample before the safe state, in force.
     pub fn hold_ticks(&self) -> u16 {
         self.hold_ticks
-    }
-
-    /// Outputs enabled?
-    pub fn is_enabled(&self) -> bool {
-        self.enabled
     }
 
     /// In the safe state?

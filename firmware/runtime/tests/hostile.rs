@@ -5,14 +5,14 @@
 
 use wheelset_control::{Fx, SampleBits};
 use wheelset_hostile::{self as hostile, Expect, Row};
-use wheelset_proto::{Config, Flags, RefuseReason, YawMode};
+use wheelset_proto::{Actuation, Config, Flags, RefuseReason, YawMode};
 use wheelset_runtime::{Runtime, RuntimeConfig, DEFAULT_HOLD_TICKS};
 
-/// The runtime runs `c` (after an applied row): its switches, hold and, with rates, the
-/// schedule bit for bit.
-fn runs<T: SampleBits>(rt: &Runtime<T>, c: &Config, what: &str) {
+/// The runtime runs `c` (after an applied row): its switches (the outputs' on the trace's
+/// last Actuation), hold and, with rates, the schedule bit for bit.
+fn runs<T: SampleBits>(rt: &Runtime<T>, last: &Actuation, c: &Config, what: &str) {
     assert_eq!(rt.hold_ticks(), c.hold_ticks, "{what}");
-    assert_eq!(rt.is_enabled(), c.enable, "{what}");
+    assert_eq!(last.flags.has(Flags::ENABLED), c.enable, "{what}");
     assert_eq!(rt.core().mode(), c.mode, "{what}");
     assert_eq!(rt.core().wsp_enabled(), c.wsp, "{what}");
     if let Some(r) = &c.rates {
@@ -78,10 +78,15 @@ fn every_row<T: SampleBits>() -> Vec<Row> {
         match row.expect {
             Expect::Refused(_) => {
                 // The nominal configuration stayed.
-                runs(&rt, &nominal, &what);
+                runs(&rt, &trace.after[hostile::AFTER_TICKS - 1], &nominal, &what);
                 assert_eq!(rt.core().compiled(), fresh.core().compiled(), "{what}");
             }
-            Expect::Applied { .. } => runs(&rt, &row.config, &what),
+            Expect::Applied { .. } => runs(
+                &rt,
+                &trace.after[hostile::AFTER_TICKS - 1],
+                &row.config,
+                &what,
+            ),
         }
     }
     rows

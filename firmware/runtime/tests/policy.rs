@@ -19,7 +19,7 @@ fn no_sample_yet_drives_the_safe_outputs() {
     let mut r = rt();
     let a = act(r.tick(0));
     assert!(a.flags.has(Flags::NO_SAMPLE | Flags::ENABLED));
-    let s = Runtime::<Fx>::safe_outputs();
+    let s = SAFE_ACTUATION;
     assert_eq!((a.t_psi_dnm, a.u_a_cv), (s.t_psi_dnm, s.u_a_cv));
     assert_eq!((s.t_psi_dnm, s.u_a_cv), (0, 0));
 }

@@ -114,7 +114,6 @@ fn a_hunting_oscillation_raises_the_alarm_and_latches_the_fault() {
         r.receive(&sensor(k as u16, 0, 925_600, 0));
         let _ = r.tick(0);
     }
-    assert!(!r.fault_latched());
     let s = status(&mut r, 20_001);
     assert!(!s.flags.has(Flags::HUNTING) && !s.flags.has(Flags::FAULT_LATCHED));
 }

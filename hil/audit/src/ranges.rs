@@ -322,8 +322,8 @@ pub fn observe_against<T: Sample>(
             let mut fl = Controller::<f64>::try_new(&reference(&cfg))?;
             let s = cfg.scales;
             let l = cfg.limits;
-            let lead = fx.lead().quantised();
-            let pi = fx.pi().quantised();
+            let lead = fx.compiled().lead().quantised();
+            let pi = fx.compiled().pi().quantised();
             let k_gain = T::quantise(cfg.gain_k * s.y_dot / s.torque)
                 .map(T::coeff_to_f64)
                 .unwrap_or(0.0);

@@ -277,7 +277,7 @@ pub fn coefficients<T: Sample>(
                 .to_pu(s.y_dot, s.torque);
             (
                 Coeffs::lead(&ideal, cfg),
-                Coeffs::lead(&c.lead().quantised(), cfg),
+                Coeffs::lead(&c.compiled().lead().quantised(), cfg),
             )
         }
         Kind::YawGain => {
@@ -296,7 +296,7 @@ pub fn coefficients<T: Sample>(
                 .to_pu(s.current, s.voltage);
             (
                 Coeffs::pi(&ideal, cfg),
-                Coeffs::pi(&c.pi().quantised(), cfg),
+                Coeffs::pi(&c.compiled().pi().quantised(), cfg),
             )
         }
         Kind::YawPredictor => {

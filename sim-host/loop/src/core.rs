@@ -111,7 +111,7 @@ impl<T: SampleBits> SampledController for CoreController<T> {
         let c = if self.src == Sources::WIRE {
             self.core.tick_codes(&codes)
         } else {
-            let mut inp: Inputs<T> = self.core.codec().decode(&codes);
+            let mut inp: Inputs<T> = self.core.compiled().codec().decode(&codes);
             if !self.src.y_wire {
                 inp.y_dot = T::from_f64(m.yd_mps / self.cfg.scales.y_dot);
             }
@@ -120,7 +120,7 @@ impl<T: SampleBits> SampledController for CoreController<T> {
                 let (t_psi, u_a) = out.to_si(&self.cfg.scales);
                 return Actuation { t_psi, u_a };
             }
-            self.core.codec().encode(&out)
+            self.core.compiled().codec().encode(&out)
         };
         Actuation {
             t_psi: f64::from(c.yaw_torque) * TORQUE_LSB_NM,

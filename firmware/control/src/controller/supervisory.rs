@@ -4,12 +4,12 @@
 use super::{Controller, Counters};
 use crate::compiled::Compiled;
 use crate::config::YawMode;
-use crate::lead::{Lead, LeadState};
-use crate::pi::{Pi, PiState};
+use crate::lead::LeadState;
+use crate::pi::PiState;
 use crate::sample::Sample;
 use crate::wsp::WspState;
 
-use super::{Codec, Outputs};
+use super::Outputs;
 
 impl<T: Sample> Controller<T> {
     /// Turns the fast path off or back on; the general path gives the same results bit for bit.
@@ -155,18 +155,6 @@ impl<T: Sample> Controller<T> {
     /// The compiled (discretised, quantised) controller this runs.
     pub fn compiled(&self) -> &Compiled<T> {
         &self.law
-    }
-    /// The lead as quantised for `T`.
-    pub fn lead(&self) -> &Lead<T> {
-        &self.law.lead
-    }
-    /// The PI as quantised for `T`.
-    pub fn pi(&self) -> &Pi<T> {
-        &self.law.pi
-    }
-    /// The wire codec.
-    pub fn codec(&self) -> &Codec<T> {
-        &self.law.codec
     }
     /// The lead's state.
     pub fn lead_state(&self) -> &LeadState<T> {

@@ -15,8 +15,8 @@ pub fn observed_errors<T: Sample>(
     scenarios: &[Scenario],
 ) -> Result<[f64; 4], ConfigError> {
     let c = Controller::<T>::try_new(cfg)?;
-    let lead: Lead<T> = *c.lead();
-    let pi: Pi<T> = *c.pi();
+    let lead: Lead<T> = *c.compiled().lead();
+    let pi: Pi<T> = *c.compiled().pi();
     let ph = quantise::<T>("predict_half", k.ph)?;
     let gain = quantise::<T>("gain", k.gain)?;
     let d2i = quantise::<T>("demand_to_iref", k.d2i)?;

@@ -71,16 +71,16 @@ impl Quantised {
         let c = Controller::<T>::try_new(cfg)?;
         let s = &cfg.scales;
         let l = &cfg.limits;
-        let pi = c.pi().quantised();
+        let pi = c.compiled().pi().quantised();
         let iref_max = l.demand / (cfg.motor.n * cfg.motor.k_m) / s.current;
         Ok(Self {
-            lead: c.lead().quantised(),
+            lead: c.compiled().lead().quantised(),
             gain: qc::<T>("gain", cfg.gain_k * s.y_dot / s.torque)?,
             kp: pi.kp,
             ki: pi.ki,
-            ki_shift: c.pi().ki_shift(),
-            u_min: c.pi().u_min.to_f64(),
-            u_max: c.pi().u_max.to_f64(),
+            ki_shift: c.compiled().pi().ki_shift(),
+            u_min: c.compiled().pi().u_min.to_f64(),
+            u_max: c.compiled().pi().u_max.to_f64(),
             d2i: qc::<T>(
                 "demand_to_iref",
                 s.demand / (cfg.motor.n * cfg.motor.k_m * s.current),
