@@ -146,8 +146,8 @@ pub fn main(check: bool) -> Result<(), String> {
     }
     let share = l.comments as f64 / l.code.max(1) as f64;
     outln!(
-        "non-test Rust: {} lines (ceiling {CEILING}, aim {MAX_LINES}), {} comment lines = {:.1} % \
-         (under {:.0} %)",
+        "non-test Rust: {} lines (ceiling {CEILING}, aim {MAX_LINES}), {} comment lines = {:.2} % \
+         (must be under {:.0} %)",
         l.code,
         l.comments,
         100.0 * share,
