@@ -150,20 +150,9 @@ pub struct Exogenous<S> {
 }
 
 /// The closed loop's right-hand side: the plant with `T_psi` from the yaw law and `u_a`
-/// from the PI, plus the controller states (generic for the complex step).
+/// from the PI, plus the controller states (generic for the complex step and the flags).
 #[inline(always)]
-pub fn closed_loop_rhs<S: Scalar>(
-    plant: &Plant,
-    ctrl: &ContinuousController,
-    x: &[S; NX],
-    e: &Exogenous<S>,
-) -> [S; NX] {
-    closed_loop_rhs_with(plant, plant.cfg, ctrl, x, e)
-}
-
-/// [`closed_loop_rhs`] with the plant's configuration as [`Flags`] (the same arithmetic).
-#[inline(always)]
-pub fn closed_loop_rhs_with<S: Scalar, F: Flags>(
+pub fn closed_loop_rhs<S: Scalar, F: Flags>(
     plant: &Plant,
     f: F,
     ctrl: &ContinuousController,
@@ -171,7 +160,7 @@ pub fn closed_loop_rhs_with<S: Scalar, F: Flags>(
     e: &Exogenous<S>,
 ) -> [S; NX] {
     let drive = f.cfg().drive;
-    let (mut dx, _) = plant.rhs_with(f, x, &ctrl.inputs(x, e, drive));
+    let (mut dx, _) = plant.rhs(f, x, &ctrl.inputs(x, e, drive));
     let c = S::c;
     if ctrl.law == YawLaw::Lead {
         dx[ix::LEAD] = -c(ctrl.lead_p) * x[ix::LEAD] + x[ix::YD];

@@ -439,13 +439,7 @@ impl Plant {
     ///
     /// Rigid axle: `2 I_w phi'' = -r0 (F_xR + F_xL) + gear torque`.
     #[inline(always)]
-    pub fn rhs<S: Scalar>(&self, x: &[S; NX], u: &Inputs<S>) -> ([S; NX], Creep<S>) {
-        self.rhs_with(self.cfg, x, u)
-    }
-
-    /// [`Plant::rhs`] with the configuration as [`Flags`].
-    #[inline(always)]
-    pub fn rhs_with<S: Scalar, F: Flags>(
+    pub fn rhs<S: Scalar, F: Flags>(
         &self,
         f: F,
         x: &[S; NX],
