@@ -9,13 +9,14 @@ use serde::{Deserialize, Serialize};
 
 /// The yaw stabilisation law.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum YawLaw {
-    /// Mechanical yaw spring `k_yaw psi` in the plant; controller torque zero.
+    /// Mechanical yaw spring `k_yaw psi` (no actuator).
     Passive,
-    /// `T_psi = K y'`; no spring.
+    /// Active yaw damping, pure gain `T = K y'` (spring replaced by the actuator).
     Gain,
-    /// `T_psi = K a (s + z)/(s + p) y'`; no spring.
+    /// Active yaw damping with phase lead `K 7.5 (s+37)/(s+274)` on `y'`.
     Lead,
 }
 
