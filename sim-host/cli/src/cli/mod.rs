@@ -1,6 +1,5 @@
 //! The subcommands of `sim-host`, one module each with its arguments beside it, and
-//! what they share: the failure type with its exit code, the `--control` law, the
-//! `--params` loader and the JSON writer.
+//! what they share: the failure with its exit code, the `--params` loader, the JSON writer.
 
 mod adhesion;
 mod loop_device;
