@@ -216,9 +216,8 @@ pub trait SampledController {
             u_a: k_m * meas.w_m,
         }
     }
-    /// Whether the actuation is known only when due (a device answering one period
-    /// late): [`run_sampled`](crate::sim::run_sampled) then asks
-    /// [`Self::take_deferred`]. Default: `false`.
+    /// Whether the actuation is known only when due (a device answering one period late):
+    /// [`run_sampled`](crate::sim::run_sampled) then asks [`Self::take_deferred`].
     fn defers(&self) -> bool {
         false
     }

@@ -56,8 +56,7 @@ pub(crate) struct RunArgs {
     pub(crate) device: DeviceArgs,
 }
 
-/// The exit of a run: 1 when it diverged unexpectedly, or did not diverge though
-/// `--expect-divergence` said it would (after every output is written).
+/// The exit of a run as `--expect-divergence` says (after every output is written).
 pub(crate) fn judge_divergence(a: &RunArgs, tr: &Trajectory) -> Result<(), Failure> {
     match (wheelset_plant::outcome::stop_of(tr), a.expect_divergence) {
         (Some(stop), true) => {
