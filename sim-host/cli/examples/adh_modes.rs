@@ -230,7 +230,7 @@ fn main() -> ExitCode {
     );
     for &fr in &args.fractions {
         let pt = steady_point(&p, &adh, fr);
-        let dx = closed_loop_rhs(&plant, &ctrl, &pt.x, &pt.e);
+        let dx = closed_loop_rhs(&plant, plant.cfg, &ctrl, &pt.x, &pt.e);
         let resid = states.iter().map(|&i| dx[i].abs()).fold(0.0, f64::max);
         let a = select(
             &closed_loop_jacobian_central(&plant, &ctrl, &pt.x, &pt.e),

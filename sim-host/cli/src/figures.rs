@@ -50,8 +50,6 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
         return Ok(vec![]);
     };
     let others: Vec<String> = runs[1..].iter().map(label).collect();
-    // How each figure draws the runs: the main run thin over the others' wide band, or
-    // solid under the others dashed.
     let titled = |main_style: &str, others_style: &str| {
         if others.is_empty() {
             format!("scenario {}, control {}", main.info.scenario, label(main))

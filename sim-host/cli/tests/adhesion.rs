@@ -54,7 +54,7 @@ fn run_with(sc: &Scenario, law: Option<Adhesion>, t_end_s: f64) -> Vec<[f64; 13]
                 i_ref,
                 demand,
             };
-            closed_loop_rhs(&plant, &ctrl, xs, &e)
+            closed_loop_rhs(&plant, plant.cfg, &ctrl, xs, &e)
         });
     }
     out

@@ -34,7 +34,7 @@ fn plant_jacobian_complex_step(plant: &Plant, x: &State, u: &Inputs<f64>) -> (Ja
         t_drive: lift(u.t_drive),
     };
     let xc: [Complex<f64>; NX] = x.map(lift);
-    let a = complex_step(x, |xp| plant.rhs(xp, &uc).0);
+    let a = complex_step(x, |xp| plant.rhs(plant.cfg, xp, &uc).0);
     let mut b = InJac::zeros();
     for k in 0..2 {
         let mut up = uc;
@@ -43,7 +43,7 @@ fn plant_jacobian_complex_step(plant: &Plant, x: &State, u: &Inputs<f64>) -> (Ja
         } else {
             up.u_a.im = COMPLEX_STEP;
         }
-        let (f, _) = plant.rhs(&xc, &up);
+        let (f, _) = plant.rhs(plant.cfg, &xc, &up);
         for i in 0..NX {
             b[(i, k)] = f[i].im / COMPLEX_STEP;
         }
@@ -80,7 +80,7 @@ fn closed_loop_jacobian_complex_step(
         i_ref: lift(e.i_ref),
         demand: lift(e.demand),
     };
-    complex_step(x, |xp| closed_loop_rhs(plant, ctrl, xp, &ec))
+    complex_step(x, |xp| closed_loop_rhs(plant, plant.cfg, ctrl, xp, &ec))
 }
 
 fn configs() -> Vec<PlantConfig> {

@@ -96,13 +96,14 @@ impl Polach {
 
 /// A rail condition with its published (or stated) Polach parameters.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Hash)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum Condition {
     /// Dry rail.
     Dry,
     /// Wet rail.
     Wet,
-    /// Low adhesion: leaves, oil, contamination.
+    /// Low adhesion (leaves, contamination).
     Low,
 }
 

@@ -9,13 +9,14 @@ use serde::{Deserialize, Serialize};
 
 /// The yaw stabilisation law.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum YawLaw {
-    /// Mechanical yaw spring `k_yaw psi` in the plant; controller torque zero.
+    /// Mechanical yaw spring `k_yaw psi` (no actuator).
     Passive,
-    /// `T_psi = K y'`; no spring.
+    /// Active yaw damping, pure gain `T = K y'` (spring replaced by the actuator).
     Gain,
-    /// `T_psi = K a (s + z)/(s + p) y'`; no spring.
+    /// Active yaw damping with phase lead `K 7.5 (s+37)/(s+274)` on `y'`.
     Lead,
 }
 
@@ -150,20 +151,9 @@ pub struct Exogenous<S> {
 }
 
 /// The closed loop's right-hand side: the plant with `T_psi` from the yaw law and `u_a`
-/// from the PI, plus the controller states (generic for the complex step).
+/// from the PI, plus the controller states (generic for the complex step and the flags).
 #[inline(always)]
-pub fn closed_loop_rhs<S: Scalar>(
-    plant: &Plant,
-    ctrl: &ContinuousController,
-    x: &[S; NX],
-    e: &Exogenous<S>,
-) -> [S; NX] {
-    closed_loop_rhs_with(plant, plant.cfg, ctrl, x, e)
-}
-
-/// [`closed_loop_rhs`] with the plant's configuration as [`Flags`] (the same arithmetic).
-#[inline(always)]
-pub fn closed_loop_rhs_with<S: Scalar, F: Flags>(
+pub fn closed_loop_rhs<S: Scalar, F: Flags>(
     plant: &Plant,
     f: F,
     ctrl: &ContinuousController,
@@ -171,7 +161,7 @@ pub fn closed_loop_rhs_with<S: Scalar, F: Flags>(
     e: &Exogenous<S>,
 ) -> [S; NX] {
     let drive = f.cfg().drive;
-    let (mut dx, _) = plant.rhs_with(f, x, &ctrl.inputs(x, e, drive));
+    let (mut dx, _) = plant.rhs(f, x, &ctrl.inputs(x, e, drive));
     let c = S::c;
     if ctrl.law == YawLaw::Lead {
         dx[ix::LEAD] = -c(ctrl.lead_p) * x[ix::LEAD] + x[ix::YD];
@@ -226,9 +216,8 @@ pub trait SampledController {
             u_a: k_m * meas.w_m,
         }
     }
-    /// Whether the actuation is known only when due (a device answering one period
-    /// late): [`run_sampled`](crate::sim::run_sampled) then asks
-    /// [`Self::take_deferred`]. Default: `false`.
+    /// Whether the actuation is known only when due (a device answering one period late):
+    /// [`run_sampled`](crate::sim::run_sampled) then asks [`Self::take_deferred`].
     fn defers(&self) -> bool {
         false
     }

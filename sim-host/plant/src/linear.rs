@@ -166,8 +166,8 @@ pub fn closed_loop_jacobian_central(
         let (mut xp, mut xm) = (*x, *x);
         xp[j] += h;
         xm[j] -= h;
-        let fp = closed_loop_rhs(plant, ctrl, &xp, e);
-        let fm = closed_loop_rhs(plant, ctrl, &xm, e);
+        let fp = closed_loop_rhs(plant, plant.cfg, ctrl, &xp, e);
+        let fm = closed_loop_rhs(plant, plant.cfg, ctrl, &xm, e);
         for i in 0..NX {
             a[(i, j)] = (fp[i] - fm[i]) / (2.0 * h);
         }

@@ -71,8 +71,7 @@ pub struct Params {
     /// Traction PI integral time `Ti`, s (0.5 from `Kt = (0.5 s + 1)/(0.5 s)`; the
     /// appendix lists 0.05).
     pub pi_ti: f64,
-    /// Vertical wheel load `Q` per wheel, N, for the adhesion law ([`crate::adhesion`]);
-    /// absent: `(m + m_v/2) g / 2` (55.2 kN with the defaults).
+    /// Vertical wheel load `Q` per wheel, N, for the adhesion law (absent: [`Params::q`]).
     pub q: Option<f64>,
 }
 
@@ -196,8 +195,7 @@ impl Params {
             .unwrap_or_else(|| self.i_w * (2.0 * PI * self.torsion_hz).powi(2) / 2.0)
     }
 
-    /// Gear stiffness `k_gear`, N m/rad (explicit, or from `gear_hz`):
-    /// default `n^2 I_m (2 pi 20)^2` = 4.34e6.
+    /// Gear stiffness `k_gear`, N m/rad (explicit, or from `gear_hz`).
     pub fn k_gear(&self) -> f64 {
         self.k_gear.unwrap_or_else(|| {
             self.n_gear * self.n_gear * self.i_m * (2.0 * PI * self.gear_hz).powi(2)

@@ -1,8 +1,6 @@
 //! The nonlinear wheelset plant, eqs. (1)-(10) of `docs/model.md` as corrected, on
 //! relative angles (no absolute rotation angle is a state, so long runs keep full
 //! precision). States, units and sign conventions: [`ix`] and the book's chapter.
-//! The passive yaw spring is in the plant only with [`PlantConfig::yaw_spring`]: the
-//! active modes replace it by the actuator's `T_psi`.
 
 use crate::adhesion::Adhesion;
 use crate::params::Params;
@@ -125,7 +123,7 @@ pub struct PlantConfig {
     pub axle: Axle,
     /// Traction drive (gear spring, motor, armature) present.
     pub drive: bool,
-    /// Passive yaw spring `k_yaw psi` present (passive mode only; see module docs).
+    /// Yaw spring `k_yaw psi` present (passive mode; active modes replace it by `T_psi`).
     pub yaw_spring: bool,
 }
 
@@ -439,13 +437,7 @@ impl Plant {
     ///
     /// Rigid axle: `2 I_w phi'' = -r0 (F_xR + F_xL) + gear torque`.
     #[inline(always)]
-    pub fn rhs<S: Scalar>(&self, x: &[S; NX], u: &Inputs<S>) -> ([S; NX], Creep<S>) {
-        self.rhs_with(self.cfg, x, u)
-    }
-
-    /// [`Plant::rhs`] with the configuration as [`Flags`].
-    #[inline(always)]
-    pub fn rhs_with<S: Scalar, F: Flags>(
+    pub fn rhs<S: Scalar, F: Flags>(
         &self,
         f: F,
         x: &[S; NX],

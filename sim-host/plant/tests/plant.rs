@@ -37,7 +37,7 @@ fn pure_rolling_on_straight_track_is_an_equilibrium_with_zero_creep() {
             u_a: plant.back_emf(&x),
             ..Inputs::default()
         };
-        let (dx, cr) = plant.rhs(&x, &u);
+        let (dx, cr) = plant.rhs(plant.cfg, &x, &u);
         assert!(cr.fx_r.abs() < 1e-6 && cr.fx_l.abs() < 1e-6 && cr.fy.abs() < 1e-6);
         for (i, d) in dx.iter().enumerate() {
             assert!(d.abs() < 1e-9, "{cfg:?}: state {i} derivative {d}");
@@ -103,7 +103,7 @@ fn every_corrected_term_matches_its_derivation_from_the_creep_forces() {
             t_drive: 0.0,
         };
         let plant = Plant::new(&p, full(true));
-        let (dx, cr) = plant.rhs(&x, &u);
+        let (dx, cr) = plant.rhs(plant.cfg, &x, &u);
         let (f11, f22, lg, r0, lam) = (p.f11, p.f22, p.l_g, p.r0, p.lambda);
         let (y, yd, psi, psid) = (x[ix::Y], x[ix::YD], x[ix::PSI], x[ix::PSID]);
         let (wr, wl, tw, wind, wm, ia, v) = (
@@ -204,7 +204,7 @@ fn rigid_axle_sums_the_wheel_equations() {
             t_drive: 1000.0,
             ..Inputs::default()
         };
-        let (dx, cr) = plant.rhs(&x, &u);
+        let (dx, cr) = plant.rhs(plant.cfg, &x, &u);
         close(
             2.0 * p.i_w * dx[ix::WR],
             -p.r0 * (cr.fx_r + cr.fx_l) + 1000.0,

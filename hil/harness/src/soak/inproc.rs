@@ -1031,9 +1031,7 @@ impl Soak {
                 f_run: demand / self.params.r0 + m_long * (x[ix::V] - self.v0) / SPEED_HOLD_S,
                 t_drive: 0.0,
             };
-            x = rk4_step(&x, h, |_, x| {
-                plant.rhs_with(Fixed::<true, true, false>, x, &u).0
-            });
+            x = rk4_step(&x, h, |_, x| plant.rhs(Fixed::<true, true, false>, x, &u).0);
         }
         self.x = x;
         if !(x.iter().all(|v| v.is_finite()) && x[ix::Y].abs() < Y_MAX_M) {

@@ -1,38 +1,16 @@
 //! `sim-host adhesion`: Polach's creep characteristic of a rail condition.
 
-use clap::ValueEnum;
 use std::path::PathBuf;
+use wheelset_plant::adhesion::Condition;
 use wheelset_report::outln;
 
 use super::{io_fail, load_params, write_json, Failure};
-
-/// Rail condition on the command line.
-#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
-pub(crate) enum ConditionArg {
-    /// Dry rail.
-    Dry,
-    /// Wet rail.
-    Wet,
-    /// Low adhesion (leaves, contamination).
-    Low,
-}
-
-impl From<ConditionArg> for wheelset_plant::adhesion::Condition {
-    fn from(c: ConditionArg) -> Self {
-        use wheelset_plant::adhesion::Condition;
-        match c {
-            ConditionArg::Dry => Condition::Dry,
-            ConditionArg::Wet => Condition::Wet,
-            ConditionArg::Low => Condition::Low,
-        }
-    }
-}
 
 #[derive(clap::Args)]
 pub(crate) struct AdhesionArgs {
     /// Rail condition.
     #[arg(long, value_enum)]
-    condition: ConditionArg,
+    condition: Condition,
     /// Speed, m/s (default: the parameters' `v`, 83.3).
     #[arg(long = "v-mps")]
     v_mps: Option<f64>,
@@ -62,7 +40,7 @@ pub(crate) fn cmd_adhesion(a: &AdhesionArgs) -> Result<(), Failure> {
         &[("--json", Some(a.json.as_path()))],
         &[("--plot", a.plot.as_deref())],
     )?;
-    let ch = wheelset_plant::traction::characteristic(a.condition.into(), v, &p, a.points as usize);
+    let ch = wheelset_plant::traction::characteristic(a.condition, v, &p, a.points as usize);
     outln!(
         "adhesion {}: v {} m/s, Q {:.1} N, f11 {:.3e} N, mu0 {} A {} B {} s/m kA {} kS {}; peak F/Q {:.4} at creepage {:.5} (slip {:.3} m/s)",
         ch.condition, ch.v_mps, ch.q_n, ch.f11_n, ch.law.mu0, ch.law.a, ch.law.b, ch.law.ka, ch.law.ks,

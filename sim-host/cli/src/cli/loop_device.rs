@@ -167,7 +167,7 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
     let kept = 2 + a.compare.iter().filter(|&&c| c != a.control).count() as u64;
     wheelset_plant::memory::check_runs(sc.duration_ns, sc.output_dt_ns, Some(period_ns), kept)
         .map_err(|msg| Failure::bad(format!("{}: {msg}", sc.source)))?;
-    let rt = wheelset_loop::device_loop::runtime_config(sc, a.control.into(), &opt);
+    let rt = wheelset_loop::device_loop::runtime_config(sc, a.control, &opt);
     if let Some(why) = wheelset_loop::device_loop::base_rate_refusal(&rt) {
         return Err(Failure::bad(if delay_ticks > 1 {
             format!("--rate-hz {hz} --delay-ticks {delay_ticks}: {why}")
@@ -175,11 +175,10 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
             format!("--rate-hz {hz}: {why}")
         }));
     }
-    if let Some(w) = wheelset_loop::rate_check::warning(sc, a.control.into(), hz, delay_ticks) {
+    if let Some(w) = wheelset_loop::rate_check::warning(sc, a.control, hz, delay_ticks) {
         warn(&w);
     }
-    let mut run =
-        run_device(sc, a.control.into(), &opt).map_err(|e| Failure::bad(e.to_string()))?;
+    let mut run = run_device(sc, a.control, &opt).map_err(|e| Failure::bad(e.to_string()))?;
     print_summary(sc, &run.trajectory);
     let mut verdict = super::run::judge_divergence(a, &run.trajectory);
     if let Some(s) = &run.report.device {
@@ -227,18 +226,14 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
     let mut reference = Vec::new();
     let mut acc = DeviationAcc::new(CURVE_WINDOWS);
     let mut own = run.trajectory.records.iter();
-    let info = run_continuous_each(
-        sc,
-        ContinuousController::new(&sc.params, a.control.into()),
-        |r| {
-            if let Some(mine) = own.next() {
-                acc.push(mine, &r);
-            }
-            if a.plot.is_some() {
-                reference.push(r);
-            }
-        },
-    );
+    let info = run_continuous_each(sc, ContinuousController::new(&sc.params, a.control), |r| {
+        if let Some(mine) = own.next() {
+            acc.push(mine, &r);
+        }
+        if a.plot.is_some() {
+            reference.push(r);
+        }
+    });
     outln!("vs continuous reference: {}", acc.finish());
     if let Some(path) = &a.csv {
         run.write_csv(create_file(path)?)

@@ -1,6 +1,5 @@
 //! The subcommands of `sim-host`, one module each with its arguments beside it, and
-//! what they share: the failure type with its exit code, the `--control` law, the
-//! `--params` loader and the JSON writer.
+//! what they share: the failure with its exit code, the `--params` loader, the JSON writer.
 
 mod adhesion;
 mod loop_device;
@@ -13,7 +12,6 @@ pub(crate) use modes::{cmd_modes, ModesArgs};
 pub(crate) use rates::{cmd_rates, RatesArgs};
 pub(crate) use run::{cmd_run, RunArgs};
 
-use clap::ValueEnum;
 use std::io::{BufWriter, Write};
 use std::path::PathBuf;
 use wheelset_plant::control::YawLaw;
@@ -22,27 +20,6 @@ use wheelset_plant::params::Params;
 use wheelset_plant::scenario::Scenario;
 use wheelset_plant::sim::{run_continuous, Trajectory};
 use wheelset_report::outln;
-
-/// Yaw control mode.
-#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
-pub(crate) enum Control {
-    /// Mechanical yaw spring `k_yaw psi` (no actuator).
-    Passive,
-    /// Active yaw damping, pure gain `T = K y'` (spring replaced by the actuator).
-    Gain,
-    /// Active yaw damping with phase lead `K 7.5 (s+37)/(s+274)` on `y'`.
-    Lead,
-}
-
-impl From<Control> for YawLaw {
-    fn from(c: Control) -> Self {
-        match c {
-            Control::Passive => YawLaw::Passive,
-            Control::Gain => YawLaw::Gain,
-            Control::Lead => YawLaw::Lead,
-        }
-    }
-}
 
 /// A command failure with its exit code.
 pub(crate) struct Failure {
@@ -98,8 +75,8 @@ pub(crate) fn load_params(path: &Option<PathBuf>) -> Result<Params, ConfigError>
     }
 }
 
-pub(crate) fn simulate(sc: &Scenario, control: Control) -> Trajectory {
-    run_continuous(sc, control.into())
+pub(crate) fn simulate(sc: &Scenario, control: YawLaw) -> Trajectory {
+    run_continuous(sc, control)
 }
 
 pub(crate) fn warn(msg: &str) {

@@ -4,7 +4,7 @@ use clap::ValueEnum;
 use std::path::PathBuf;
 use wheelset_report::{out, outln};
 
-use super::{create_file, io_fail, load_params, Control, Failure};
+use super::{create_file, io_fail, load_params, Failure};
 use std::io::Write;
 use wheelset_plant::control::YawLaw;
 
@@ -21,7 +21,7 @@ pub(crate) enum RatesModel {
 pub(crate) struct RatesArgs {
     /// Yaw control mode analysed.
     #[arg(long, value_enum, default_value = "lead")]
-    control: Control,
+    control: YawLaw,
     /// Plant model.
     #[arg(long, value_enum, default_value = "full")]
     model: RatesModel,
@@ -63,7 +63,7 @@ pub(crate) fn cmd_rates(a: &RatesArgs) -> Result<(), Failure> {
     }
     let p = load_params(&a.params)?;
     super::check_outputs(&[("--json", a.json.as_deref())], &[])?;
-    let mode = YawLaw::from(a.control).into();
+    let mode = a.control.into();
     let model = match a.model {
         RatesModel::Full => Model::Full,
         RatesModel::Reduced => Model::Reduced,

@@ -9,7 +9,7 @@ use wheelset_report::outln;
 
 use super::loop_device::{cmd_run_device, DeviceArgs, LoopKind, OnOff};
 use super::{
-    check_outputs, create_file, io_fail, load_params, simulate, warn, write_json, Control, Failure,
+    check_outputs, create_file, io_fail, load_params, simulate, warn, write_json, Failure,
 };
 
 #[derive(clap::Args)]
@@ -19,7 +19,7 @@ pub(crate) struct RunArgs {
     pub(crate) scenario: String,
     /// Yaw control mode.
     #[arg(long, value_enum, default_value = "lead")]
-    pub(crate) control: Control,
+    pub(crate) control: YawLaw,
     /// Parameter file (TOML, any subset of the parameters); the scenario's [params]
     /// table is applied on top.
     #[arg(long)]
@@ -36,7 +36,7 @@ pub(crate) struct RunArgs {
     pub(crate) plot: Option<PathBuf>,
     /// Also run these modes and overlay them on the plots (e.g. `--compare passive`).
     #[arg(long, value_enum)]
-    pub(crate) compare: Vec<Control>,
+    pub(crate) compare: Vec<YawLaw>,
     /// Print the state of every run (this one and the `--compare` ones) at this time, s
     /// (repeatable; the nearest output sample), and each run's peaks.
     #[arg(long = "at", value_name = "T_S", allow_negative_numbers = true)]
@@ -56,8 +56,7 @@ pub(crate) struct RunArgs {
     pub(crate) device: DeviceArgs,
 }
 
-/// The exit of a run: 1 when it diverged unexpectedly, or did not diverge though
-/// `--expect-divergence` said it would (after every output is written).
+/// The exit of a run as `--expect-divergence` says (after every output is written).
 pub(crate) fn judge_divergence(a: &RunArgs, tr: &Trajectory) -> Result<(), Failure> {
     match (wheelset_plant::outcome::stop_of(tr), a.expect_divergence) {
         (Some(stop), true) => {
@@ -122,7 +121,7 @@ pub(crate) fn cmd_run(a: &RunArgs) -> Result<(), Failure> {
     wheelset_plant::memory::check_runs(sc.duration_ns, sc.output_dt_ns, None, kept)
         .map_err(|msg| Failure::bad(format!("{}: {msg}", sc.source)))?;
     for law in std::iter::once(a.control).chain(a.compare.iter().copied()) {
-        if let Some(w) = sc.law_warning(law.into()) {
+        if let Some(w) = sc.law_warning(law) {
             warn(&w);
         }
     }
@@ -174,9 +173,8 @@ pub(crate) fn write_plots(a: &RunArgs, runs: &[Trajectory]) -> Result<(), Failur
 
 /// Prints the linearised modes of the scenario's plant with `law` at its operating point,
 /// least damped first.
-pub(crate) fn print_modes(sc: &Scenario, law: Control) {
-    let Some(modes) =
-        wheelset_plant::modes::modes_at_point(&sc.params, sc.axle, sc.drive, law.into())
+pub(crate) fn print_modes(sc: &Scenario, law: YawLaw) {
+    let Some(modes) = wheelset_plant::modes::modes_at_point(&sc.params, sc.axle, sc.drive, law)
     else {
         return;
     };
@@ -271,12 +269,12 @@ pub(crate) fn cmd_run_core(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
     use wheelset_loop::core::run_core;
     let fail = |e: wheelset_loop::core::CoreError| Failure::bad(e.to_string());
     if a.sections_table {
-        let on = run_core::<f64>(sc, a.control.into(), true).map_err(fail)?;
-        let off = run_core::<f64>(sc, a.control.into(), false).map_err(fail)?;
+        let on = run_core::<f64>(sc, a.control, true).map_err(fail)?;
+        let off = run_core::<f64>(sc, a.control, false).map_err(fail)?;
         let shown = format!(
             "cargo sim run --scenario {} --control {} --loop core --sections-table",
             a.scenario,
-            YawLaw::from(a.control).name()
+            a.control.name()
         );
         let table =
             wheelset_plant::traction::sections_table(sc, &on.0, &off.0, &shown).unwrap_or_default();
@@ -284,7 +282,7 @@ pub(crate) fn cmd_run_core(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
         return Ok(());
     }
     let wsp = a.device.wsp != Some(OnOff::Off);
-    let (tr, c) = run_core::<f64>(sc, a.control.into(), wsp).map_err(fail)?;
+    let (tr, c) = run_core::<f64>(sc, a.control, wsp).map_err(fail)?;
     print_summary(sc, &tr);
     let verdict = judge_divergence(a, &tr);
     outln!(
@@ -302,7 +300,7 @@ pub(crate) fn cmd_run_core(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
     if let Some(dir) = &a.plot {
         if !sc.adhesion.is_empty() {
             use crate::figures::FigureRun;
-            let (other, oc) = run_core::<f64>(sc, a.control.into(), !wsp).map_err(fail)?;
+            let (other, oc) = run_core::<f64>(sc, a.control, !wsp).map_err(fail)?;
             let this = (&runs[0], &c);
             let (on, off) = if wsp {
                 (this, (&other, &oc))
@@ -310,7 +308,7 @@ pub(crate) fn cmd_run_core(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
                 ((&other, &oc), this)
             };
             let slip_on =
-                wheelset_loop::device_loop::control_config(&sc.params, a.control.into(), sc.drive)
+                wheelset_loop::device_loop::control_config(&sc.params, a.control, sc.drive)
                     .wsp
                     .slip_on_mps;
             let runs =

@@ -1,7 +1,7 @@
 //! Fixed-step RK4 on integer-nanosecond time, with the stage hook the runs use.
 
 use super::*;
-use crate::control::{closed_loop_rhs_with, ContinuousController, Exogenous};
+use crate::control::{closed_loop_rhs, ContinuousController, Exogenous};
 use crate::plant::{ix, Flags, Inputs, Plant, State, NX};
 
 /// One classical RK4 step of length `h` seconds. `f(stage, x)` returns `dx/dt`; stage 0
@@ -44,7 +44,7 @@ impl<F: Flags> Rhs for PlantStages<'_, F> {
     #[inline(always)]
     fn eval(&mut self, stage: usize, x: &State) -> State {
         let u = &self.u[stage_slot(stage)];
-        self.plant.rhs_with(self.flags, x, u).0
+        self.plant.rhs(self.flags, x, u).0
     }
 
     /// The controller states and the states of absent parts have `dx/dt = +0.0`.
@@ -78,7 +78,7 @@ impl<F: Flags> Rhs for ClosedLoopStages<'_, F> {
     #[inline(always)]
     fn eval(&mut self, stage: usize, x: &State) -> State {
         let e = &self.e[stage_slot(stage)];
-        closed_loop_rhs_with(self.plant, self.flags, self.ctrl, x, e)
+        closed_loop_rhs(self.plant, self.flags, self.ctrl, x, e)
     }
 
     /// [`PlantStages`]'s fixed states less the controller states in use.

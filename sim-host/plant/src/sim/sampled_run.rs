@@ -112,7 +112,7 @@ impl ActuatorModel {
 
 /// The sensor frame at `x` under the inputs `u` (the actuation held), `e`'s demand and `i_ref`.
 fn measure<F: Flags>(plant: &Plant, flags: F, x: &State, u: &Inputs<f64>, e: &Exo) -> Measurements {
-    let (dx, _) = plant.rhs_with(flags, x, u);
+    let (dx, _) = plant.rhs(flags, x, u);
     let w_l = plant.w_l(flags, x);
     Measurements {
         yd_mps: x[ix::YD],

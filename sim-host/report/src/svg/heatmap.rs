@@ -2,7 +2,6 @@
 //! grid), each cell with an optional text, and a legend of the colours.
 
 use std::fmt::Write as _;
-use std::path::Path;
 
 use super::esc;
 
@@ -192,17 +191,6 @@ impl HeatMap {
         o.push_str("</g>\n");
         o
     }
-
-    /// The complete SVG document of this map alone.
-    #[must_use]
-    pub fn to_svg(&self) -> String {
-        stack("", std::slice::from_ref(self))
-    }
-
-    /// Writes the SVG document to `path` (parent directories created).
-    pub fn save(&self, path: &Path) -> std::io::Result<()> {
-        super::write_file(path, &self.to_svg())
-    }
 }
 
 /// Several maps stacked vertically under an optional title, as one SVG document.
@@ -278,7 +266,7 @@ mod tests {
                 .collect(),
         )
         .legend("#009E73", "pass");
-        let s = h.to_svg();
+        let s = stack("", std::slice::from_ref(&h));
         assert_eq!(s.matches(r#"<rect class="cell""#).count(), 6);
         assert!(s.contains("a&lt;b") && s.contains("f11 (N)") && s.contains(">pass<"));
         // The first row is at the bottom: cell 0 below cell 3.

@@ -3,12 +3,10 @@
 //! column right of the plotting area.
 
 use std::fmt::Write as _;
-use std::path::Path;
 
 use super::ticks::{fmt_log, log_ticks};
 use super::{
-    axis_labels, decimate, esc, fmt_tick, nice_ticks, write_file, Figure, Plot, Series, Style,
-    PALETTE,
+    axis_labels, decimate, esc, fmt_tick, nice_ticks, Figure, Plot, Series, Style, PALETTE,
 };
 
 /// `v` on an axis: itself, or its `log10` on a log axis (NaN for `v <= 0`: never drawn).
@@ -580,11 +578,6 @@ impl Plot {
     /// The complete SVG document.
     pub fn to_svg(&self) -> String {
         Figure::new("").panel(self.clone()).to_svg()
-    }
-
-    /// Writes the SVG document to `path` (parent directories created).
-    pub fn save(&self, path: &Path) -> std::io::Result<()> {
-        write_file(path, &self.to_svg())
     }
 }
 
