@@ -161,22 +161,14 @@ pub struct RunOptions {
     /// The base parameters (`--params FILE`; default: the paper's), the scenario's
     /// `[params]` on top; the plant, the reference and the device all follow the result.
     pub params: Params,
-    /// Wheel-slip protection of the device (`--wsp on|off`, sent as `Config.wsp`); `None`:
-    /// on (every firmware build has the protection).
-    pub wsp: Option<bool>,
+    /// Wheel-slip protection of the device (`--wsp on|off`, sent as `Config.wsp`; default
+    /// on: every firmware build has the protection).
+    pub wsp: bool,
     /// A stability alarm holds the device's safe state until `ClearFaults`
     /// (`--monitor-safe`, sent as `Config.monitor_safe`).
     pub monitor_safe: bool,
     /// Send `Command::ClearFaults` at this time, s (`--clear-faults-at T`).
     pub clear_faults_at_s: Option<f64>,
-}
-
-impl RunOptions {
-    /// The wheel-slip protection this run asks of the device (see [`Self::wsp`]).
-    #[must_use]
-    pub fn wsp_on(&self) -> bool {
-        self.wsp.unwrap_or(true)
-    }
 }
 
 impl Default for RunOptions {
@@ -199,7 +191,7 @@ impl Default for RunOptions {
             delay_ticks: 1,
             realtime: Want::all(os::allowed_cpus().last().copied()),
             params: Params::default(),
-            wsp: None,
+            wsp: true,
             monitor_safe: false,
             clear_faults_at_s: None,
         }
@@ -363,7 +355,7 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     };
     let target_name = tr.name();
     let label = format!("{} on {}", opts.control.name(), target_name);
-    let wsp = opts.wsp_on();
+    let wsp = opts.wsp;
     // A lock-step device gets the Config as the run's first frame (the others were
     // configured before), with the design's rates at another rate or delay than its own.
     let default = runtime_config_for(&sc, opts.control).control;

@@ -74,7 +74,7 @@ pub(crate) fn cmd_golden(g: &GoldenArgs) -> Result<Verdict, Failure> {
         machine: g.machine,
         // As the host side's runtime (its own configuration: wheel-slip protection off until a
         // Config); `hil run` turns it on by default.
-        wsp: Some(false),
+        wsp: false,
         ..RunOptions::default()
     };
     if g.target != Target::InProc {
