@@ -441,8 +441,7 @@ pub struct WindowDeviation {
 /// traction step at 5 s (settled: 4.5-5 s) and after it (settled: 10-12 s).
 pub const CURVE_WINDOWS: [(f64, f64); 2] = [(4.5, 5.0), (10.0, 12.0)];
 
-/// Compares a run with a reference run: push `(run, reference)` records in time order,
-/// then finish.
+/// A run's deviation from a reference: push `(run, reference)` records in time order, then finish.
 #[derive(Debug, Clone)]
 pub struct DeviationAcc {
     d: Deviation,
