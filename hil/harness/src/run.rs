@@ -241,8 +241,7 @@ pub struct RunReport {
     pub numerics: NumericsReport,
     /// Frame accounting.
     pub frames: FramesReport,
-    /// Verdict of the frame accounting (fail if it does not add up; else the rejected and
-    /// dropped fractions against `frames.*` budgets).
+    /// Verdict of the frame accounting ([`crate::budget::FrameBudgets`]).
     pub frames_verdict: Verdict,
     /// The device's counters (its Status frame), if it arrived.
     pub device_status: Option<Status>,
@@ -257,8 +256,7 @@ pub struct RunReport {
     pub transport: Option<serde_json::Value>,
     /// The stability monitor's and actuator check's alarms, checked ([`crate::check::alarms`]).
     pub monitor: crate::check::alarms::MonitorReport,
-    /// The parameters the run applied (`--params` with the scenario's `[params]` on
-    /// top): the plant's, the reference's and the device's.
+    /// The parameters the run applied ([`RunOptions::params`]).
     pub params: Params,
 }
 
