@@ -158,14 +158,12 @@ pub struct RunOptions {
     pub delay_ticks: u8,
     /// What the real-time loop asks of the operating system (real-time pacing).
     pub realtime: Want,
-    /// The base parameters (`--params FILE`; default: the paper's), the scenario's
-    /// `[params]` on top; the plant, the reference and the device all follow the result.
+    /// The base parameters (`--params FILE`; default: the paper's), under the scenario's.
     pub params: Params,
     /// Wheel-slip protection of the device (`--wsp on|off`, sent as `Config.wsp`; default
     /// on: every firmware build has the protection).
     pub wsp: bool,
-    /// A stability alarm holds the device's safe state until `ClearFaults`
-    /// (`--monitor-safe`, sent as `Config.monitor_safe`).
+    /// An alarm holds the safe state until `ClearFaults` (`--monitor-safe`, `Config.monitor_safe`).
     pub monitor_safe: bool,
     /// Send `Command::ClearFaults` at this time, s (`--clear-faults-at T`).
     pub clear_faults_at_s: Option<f64>,
