@@ -33,15 +33,8 @@ pub(crate) struct SoakArgs {
     /// sends has a bit flipped), to show that the soak catches it and names the seed.
     #[arg(long, default_value = "none")]
     defect: Defect,
-    /// Adhesion patches may be low (leaves on the rail), not only wet.
-    #[arg(long)]
-    low_adhesion: bool,
-    /// The traction demand steps to its new levels instead of ramping over 2-6 s.
-    #[arg(long)]
-    demand_steps: bool,
-    /// Configs may choose the pure gain law, not only the phase lead.
-    #[arg(long)]
-    gain_law: bool,
+    #[command(flatten)]
+    service: ServiceOptions,
     /// Print each episode of the service as it starts, and the first second of each
     /// adhesion patch per 0.1 s (what led up to a failure).
     #[arg(long)]
@@ -96,11 +89,7 @@ pub(crate) fn cmd_soak(a: &SoakArgs) -> Result<Verdict, Failure> {
                 defect: a.defect,
                 progress: std::io::stderr().is_terminal() || secs >= 3_600.0,
                 trace: a.trace,
-                service: ServiceOptions {
-                    low_adhesion: a.low_adhesion,
-                    demand_steps: a.demand_steps,
-                    gain_law: a.gain_law,
-                },
+                service: a.service,
             })
             .map_err(input)?;
             (to_json(&r), r.summary(), r.failure.is_none())
