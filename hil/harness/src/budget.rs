@@ -1,10 +1,8 @@
 //! Budgets: the limits the checks compare against, with a pass/warn/fail verdict each
 //! (`docs/harness.md`). Defaults below ([`Budgets::default`]); override them with a TOML
 //! file (`--budget FILE`) and/or single keys (`--set timing.cpu_max.fail=0.5`), later
-//! ones winning. Timing limits are fractions of the control period `T`, frame limits
-//! fractions of the frames sent; a numerics entry has `abs` (SI), `rel` (of the
-//! reference's peak), `time_s` and `warn_factor`. A value above `warn` warns, above
-//! `fail` fails (`value > limit`), so `warn = 0` warns on any occurrence.
+//! ones winning. The units are the sections' ([`TimingBudgets`], [`FrameBudgets`],
+//! [`Tolerance`]); `warn = 0` warns on any occurrence ([`Limit`]).
 
 use std::collections::BTreeMap;
 use std::fmt;

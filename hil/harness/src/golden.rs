@@ -155,15 +155,9 @@ fn decode_actuations(bytes: &[u8], dec: &mut Decoder, out: &mut Vec<Out>) {
     }
 }
 
-/// The host result: the firmware's runtime in this process at its default
-/// configuration, one tick per sample.
-pub fn run_host(v: &Vector) -> Result<Vec<Out>, RuntimeError> {
-    run_host_with(v, RuntimeConfig::default())
-}
-
-/// The host result on the runtime configured by `cfg`
-/// ([`wheelset_loop::device_loop::runtime_for`]).
-pub fn run_host_with(v: &Vector, cfg: RuntimeConfig) -> Result<Vec<Out>, RuntimeError> {
+/// The host result: the firmware's runtime in this process configured by `cfg`
+/// ([`wheelset_loop::device_loop::runtime_for`]), one tick per sample.
+pub fn run_host(v: &Vector, cfg: RuntimeConfig) -> Result<Vec<Out>, RuntimeError> {
     let mut rt = Runtime::<Fx>::try_new(cfg)?;
     let mut dec = Decoder::new();
     let mut out = Vec::with_capacity(v.samples.len());
@@ -256,12 +250,12 @@ mod tests {
         let vs = vectors().unwrap();
         assert_eq!(vs.len(), 6);
         for v in &vs {
-            let host = run_host(v).unwrap();
+            let host = run_host(v, RuntimeConfig::default()).unwrap();
             assert_eq!(host.len(), v.samples.len(), "{}", v.name);
             let moving = host.windows(2).filter(|w| w[0] != w[1]).count();
             assert!(moving > 10, "{}: the outputs barely move", v.name);
             // The host result is deterministic and equals itself.
-            let c = compare(v, &host, &run_host(v).unwrap());
+            let c = compare(v, &host, &run_host(v, RuntimeConfig::default()).unwrap());
             assert!(c.identical, "{}", v.name);
         }
         assert!(vs.iter().all(|v| !v.samples.is_empty()));
@@ -271,7 +265,7 @@ mod tests {
     fn a_single_changed_bit_is_found() {
         let vs = vectors().unwrap();
         let v = &vs[0];
-        let host = run_host(v).unwrap();
+        let host = run_host(v, RuntimeConfig::default()).unwrap();
         let mut bad = host.clone();
         bad[1234].u_a_cv ^= 1;
         let c = compare(v, &host, &bad);

@@ -158,25 +158,15 @@ pub struct RunOptions {
     pub delay_ticks: u8,
     /// What the real-time loop asks of the operating system (real-time pacing).
     pub realtime: Want,
-    /// The base parameters (`--params FILE`; default: the paper's), the scenario's
-    /// `[params]` on top; the plant, the reference and the device all follow the result.
+    /// The base parameters (`--params FILE`; default: the paper's), under the scenario's.
     pub params: Params,
-    /// Wheel-slip protection of the device (`--wsp on|off`, sent as `Config.wsp`); `None`:
-    /// on (every firmware build has the protection).
-    pub wsp: Option<bool>,
-    /// A stability alarm holds the device's safe state until `ClearFaults`
-    /// (`--monitor-safe`, sent as `Config.monitor_safe`).
+    /// Wheel-slip protection of the device (`--wsp on|off`, sent as `Config.wsp`; default
+    /// on: every firmware build has the protection).
+    pub wsp: bool,
+    /// An alarm holds the safe state until `ClearFaults` (`--monitor-safe`, `Config.monitor_safe`).
     pub monitor_safe: bool,
     /// Send `Command::ClearFaults` at this time, s (`--clear-faults-at T`).
     pub clear_faults_at_s: Option<f64>,
-}
-
-impl RunOptions {
-    /// The wheel-slip protection this run asks of the device (see [`Self::wsp`]).
-    #[must_use]
-    pub fn wsp_on(&self) -> bool {
-        self.wsp.unwrap_or(true)
-    }
 }
 
 impl Default for RunOptions {
@@ -199,7 +189,7 @@ impl Default for RunOptions {
             delay_ticks: 1,
             realtime: Want::all(os::allowed_cpus().last().copied()),
             params: Params::default(),
-            wsp: None,
+            wsp: true,
             monitor_safe: false,
             clear_faults_at_s: None,
         }
@@ -249,8 +239,7 @@ pub struct RunReport {
     pub numerics: NumericsReport,
     /// Frame accounting.
     pub frames: FramesReport,
-    /// Verdict of the frame accounting (fail if it does not add up; else the rejected and
-    /// dropped fractions against `frames.*` budgets).
+    /// Verdict of the frame accounting ([`crate::budget::FrameBudgets`]).
     pub frames_verdict: Verdict,
     /// The device's counters (its Status frame), if it arrived.
     pub device_status: Option<Status>,
@@ -265,8 +254,7 @@ pub struct RunReport {
     pub transport: Option<serde_json::Value>,
     /// The stability monitor's and actuator check's alarms, checked ([`crate::check::alarms`]).
     pub monitor: crate::check::alarms::MonitorReport,
-    /// The parameters the run applied (`--params` with the scenario's `[params]` on
-    /// top): the plant's, the reference's and the device's.
+    /// The parameters the run applied ([`RunOptions::params`]).
     pub params: Params,
 }
 
@@ -363,7 +351,7 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     };
     let target_name = tr.name();
     let label = format!("{} on {}", opts.control.name(), target_name);
-    let wsp = opts.wsp_on();
+    let wsp = opts.wsp;
     // A lock-step device gets the Config as the run's first frame (the others were
     // configured before), with the design's rates at another rate or delay than its own.
     let default = runtime_config_for(&sc, opts.control).control;

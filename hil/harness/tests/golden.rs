@@ -15,7 +15,7 @@ fn target(fault: DeviceFault) -> InProc {
 #[test]
 fn host_and_in_process_target_agree_bit_for_bit() {
     for v in vectors().unwrap() {
-        let host = run_host(&v).unwrap();
+        let host = run_host(&v, RuntimeConfig::default()).unwrap();
         let got = run_target(&v, &mut target(DeviceFault::None), 200_000).unwrap();
         let c = compare(&v, &host, &got);
         assert!(c.identical, "{}: {c:?}", v.name);
@@ -27,7 +27,7 @@ fn host_and_in_process_target_agree_bit_for_bit() {
 fn a_target_with_different_arithmetic_is_caught() {
     let vs = vectors().unwrap();
     let v = vs.iter().find(|v| v.name == "y_step").unwrap();
-    let host = run_host(v).unwrap();
+    let host = run_host(v, RuntimeConfig::default()).unwrap();
     let got = run_target(v, &mut target(DeviceFault::WrongSign), 200_000).unwrap();
     let c = compare(v, &host, &got);
     assert!(!c.identical);

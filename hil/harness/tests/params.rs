@@ -161,14 +161,17 @@ fn gains_are_refused_for_a_device_elsewhere_naming_the_keys() {
 /// the default one at the default parameters and differs at other gains.
 #[test]
 fn golden_vectors_follow_the_gains() {
-    use hil::golden::{run_host, run_host_with, vectors};
+    use hil::golden::{run_host, vectors};
     use wheelset_loop::device_loop::runtime_for;
     assert_eq!(runtime_for(&Params::default()), RuntimeConfig::default());
     let (file, p) = params_file("golden.toml", "k_active = 5.0e4\n");
     let rt = runtime_for(&p);
     assert_eq!(rt.control.lead.k, 5.0e4);
     let v = &vectors().unwrap()[0];
-    assert_ne!(run_host_with(v, rt).unwrap(), run_host(v).unwrap());
+    assert_ne!(
+        run_host(v, rt).unwrap(),
+        run_host(v, RuntimeConfig::default()).unwrap()
+    );
     let out = hil(&["golden", "--params", file.to_str().unwrap()]);
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert_eq!(out.status.code(), Some(0), "{stdout}");

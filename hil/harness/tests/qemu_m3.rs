@@ -12,6 +12,7 @@ use std::time::Duration;
 
 use hil::golden::{compare, run_host, run_target, vectors};
 use hil::run::DEFAULT_CPU_HZ;
+use wheelset_runtime::RuntimeConfig;
 use wheelset_targets::qemu::target::QemuTarget;
 use wheelset_targets::qemu::{Channel, Machine, QemuConfig};
 
@@ -37,7 +38,7 @@ fn the_cortex_m3_build_is_bit_identical_with_the_host_and_the_cortex_m4_build() 
         v.samples.truncate(TICKS);
     }
     for (k, v) in vs.iter().enumerate() {
-        let host = run_host(v).unwrap();
+        let host = run_host(v, RuntimeConfig::default()).unwrap();
         let mut t = QemuTarget::start_with(
             Machine::An385,
             Channel::Uart,

@@ -9,6 +9,7 @@ mod common;
 use hil::golden::{compare, run_host, run_target, vectors};
 use hil::run::{run, RunOptions, Target, DEFAULT_CPU_HZ};
 use wheelset_report::Verdict;
+use wheelset_runtime::RuntimeConfig;
 use wheelset_targets::qemu::target::QemuTarget;
 use wheelset_targets::qemu::QemuConfig;
 
@@ -74,7 +75,7 @@ fn golden_vectors_agree_bit_for_bit_between_host_and_qemu() {
         return;
     }
     for v in vectors().unwrap() {
-        let host = run_host(&v).unwrap();
+        let host = run_host(&v, RuntimeConfig::default()).unwrap();
         let mut q = QemuTarget::start_with(
             wheelset_targets::qemu::Machine::default(),
             wheelset_targets::qemu::Channel::Uart,

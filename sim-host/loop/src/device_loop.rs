@@ -441,17 +441,7 @@ pub struct WindowDeviation {
 /// traction step at 5 s (settled: 4.5-5 s) and after it (settled: 10-12 s).
 pub const CURVE_WINDOWS: [(f64, f64); 2] = [(4.5, 5.0), (10.0, 12.0)];
 
-/// Compares `run` with `reference` record by record ([`DeviationAcc`]).
-#[must_use]
-pub fn deviation(run: &Trajectory, reference: &Trajectory, windows: [(f64, f64); 2]) -> Deviation {
-    let mut acc = DeviationAcc::new(windows);
-    for (a, b) in run.records.iter().zip(&reference.records) {
-        acc.push(a, b);
-    }
-    acc.finish()
-}
-
-/// [`deviation`] streamed: push `(run, reference)` pairs in time order, then finish.
+/// A run's deviation from a reference: push `(run, reference)` records in time order, then finish.
 #[derive(Debug, Clone)]
 pub struct DeviationAcc {
     d: Deviation,

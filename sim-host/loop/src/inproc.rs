@@ -132,7 +132,6 @@ pub struct InProc<T: SampleBits = Fx> {
     scratch: Vec<u8>,
     /// Arrival time of the last byte of each down-link frame (index: frame id).
     arrival_ns: Vec<u64>,
-    /// Whether the host's wall time per tick is measured ([`Self::time_ticks`]).
     timed: bool,
     host_tick_ns: Vec<f64>,
 }

@@ -3,12 +3,24 @@
 //! that carries the rate, against the continuous reference and the 5 kHz run.
 
 use wheelset_control::design::DESIGNED;
-use wheelset_loop::device_loop::{deviation, run_device, DeviceOptions, DeviceRun, CURVE_WINDOWS};
+use wheelset_loop::device_loop::{
+    run_device, Deviation, DeviationAcc, DeviceOptions, DeviceRun, CURVE_WINDOWS,
+};
 use wheelset_loop::sim_link::LinkConfig;
 use wheelset_plant::control::YawLaw;
 use wheelset_plant::params::Params;
 use wheelset_plant::scenario::Scenario;
 use wheelset_plant::sim::run_continuous;
+use wheelset_plant::sim::Trajectory;
+
+/// `run` against `reference` record by record (`DeviationAcc`).
+fn deviation(run: &Trajectory, reference: &Trajectory, windows: [(f64, f64); 2]) -> Deviation {
+    let mut acc = DeviationAcc::new(windows);
+    for (a, b) in run.records.iter().zip(&reference.records) {
+        acc.push(a, b);
+    }
+    acc.finish()
+}
 
 fn run_at(sc: &Scenario, hz: u32) -> DeviceRun {
     let opt = DeviceOptions {

@@ -2,14 +2,24 @@
 //! against the plant, compared with the continuous reference, and under faults.
 
 use wheelset_loop::device_loop::{
-    deviation, run_device, DeviceError, DeviceOptions, DeviceRun, CURVE_WINDOWS,
+    run_device, Deviation, DeviationAcc, DeviceError, DeviceOptions, DeviceRun, CURVE_WINDOWS,
 };
 use wheelset_loop::sim_link::LinkConfig;
 use wheelset_plant::control::YawLaw;
 use wheelset_plant::params::Params;
 use wheelset_plant::scenario::Scenario;
 use wheelset_plant::sim::run_continuous;
+use wheelset_plant::sim::Trajectory;
 use wheelset_proto::Flags;
+
+/// `run` against `reference` record by record (`DeviationAcc`).
+fn deviation(run: &Trajectory, reference: &Trajectory, windows: [(f64, f64); 2]) -> Deviation {
+    let mut acc = DeviationAcc::new(windows);
+    for (a, b) in run.records.iter().zip(&reference.records) {
+        acc.push(a, b);
+    }
+    acc.finish()
+}
 
 fn curve() -> Scenario {
     Scenario::load("curve", &Params::default()).expect("built-in scenario")

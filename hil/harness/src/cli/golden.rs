@@ -74,7 +74,7 @@ pub(crate) fn cmd_golden(g: &GoldenArgs) -> Result<Verdict, Failure> {
         machine: g.machine,
         // As the host side's runtime (its own configuration: wheel-slip protection off until a
         // Config); `hil run` turns it on by default.
-        wsp: Some(false),
+        wsp: false,
         ..RunOptions::default()
     };
     if g.target != Target::InProc {
@@ -84,7 +84,7 @@ pub(crate) fn cmd_golden(g: &GoldenArgs) -> Result<Verdict, Failure> {
     let period_ns = 1_000_000_000 / u64::from(rt.control.base_rate_hz);
     let mut results = Vec::new();
     for v in &vectors {
-        let host = golden::run_host_with(v, rt).map_err(|e| input(e.to_string()))?;
+        let host = golden::run_host(v, rt).map_err(|e| input(e.to_string()))?;
         // A fresh device per vector: every vector starts from reset.
         let mut tr = hil::run::open_transport(&opts, rt).map_err(run_error)?;
         let target = golden::run_target(v, tr.as_mut(), period_ns).map_err(|e| Failure {

@@ -233,7 +233,7 @@ pub(crate) fn cmd_run(a: &RunArgs, command: &str) -> Result<Verdict, Failure> {
         progress: !a.quiet && std::io::stderr().is_terminal(),
         rate_hz: a.rate_hz,
         delay_ticks: a.delay_ticks.unwrap_or(1),
-        wsp: a.wsp.map(|w| w == OnOffArg::On),
+        wsp: a.wsp != Some(OnOffArg::Off),
         monitor_safe: a.monitor_safe,
         clear_faults_at_s: a.clear_faults_at,
         realtime: if a.no_rt {

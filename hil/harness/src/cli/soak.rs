@@ -4,6 +4,7 @@
 use std::io::IsTerminal;
 
 use clap::Args;
+use hil::report::to_json;
 use hil::run::Target;
 use hil::soak::inproc::{soak, Defect, SoakOptions};
 use hil::soak::qemu::soak_qemu;
@@ -32,15 +33,8 @@ pub(crate) struct SoakArgs {
     /// sends has a bit flipped), to show that the soak catches it and names the seed.
     #[arg(long, default_value = "none")]
     defect: Defect,
-    /// Adhesion patches may be low (leaves on the rail), not only wet.
-    #[arg(long)]
-    low_adhesion: bool,
-    /// The traction demand steps to its new levels instead of ramping over 2-6 s.
-    #[arg(long)]
-    demand_steps: bool,
-    /// Configs may choose the pure gain law, not only the phase lead.
-    #[arg(long)]
-    gain_law: bool,
+    #[command(flatten)]
+    service: ServiceOptions,
     /// Print each episode of the service as it starts, and the first second of each
     /// adhesion patch per 0.1 s (what led up to a failure).
     #[arg(long)]
@@ -76,29 +70,17 @@ fn duration_s(a: &SoakArgs) -> Result<f64, Failure> {
     Ok(s)
 }
 
-/// `--json FILE`: the soak's figures, pretty-printed (nothing without the flag).
-fn write_json(path: Option<&std::path::Path>, r: &impl serde::Serialize) -> Result<(), Failure> {
-    let Some(p) = path else { return Ok(()) };
-    let text = serde_json::to_string_pretty(r).map_err(|e| input(e.to_string()))?;
-    written(p, std::fs::write(p, text))
-}
-
 pub(crate) fn cmd_soak(a: &SoakArgs) -> Result<Verdict, Failure> {
     let secs = duration_s(a)?;
-    match a.target {
-        Target::QemuFree if a.defect != Defect::None => Err(input(
-            "hil soak: --defect is the in-process device's (--target inproc)",
-        )),
+    let (json, summary, clean) = match a.target {
+        Target::QemuFree if a.defect != Defect::None => {
+            return Err(input(
+                "hil soak: --defect is the in-process device's (--target inproc)",
+            ))
+        }
         Target::QemuFree => {
-            let minutes = (secs / 60.0).ceil() as u32;
-            let r = soak_qemu(minutes).map_err(run_error)?;
-            write_json(a.json.as_deref(), &r)?;
-            say!("{}", r.summary().trim_end());
-            Ok(if r.clean() {
-                Verdict::Pass
-            } else {
-                Verdict::Fail
-            })
+            let r = soak_qemu((secs / 60.0).ceil() as u32).map_err(run_error)?;
+            (to_json(&r), r.summary(), r.clean())
         }
         _ => {
             let r = soak(SoakOptions {
@@ -107,20 +89,16 @@ pub(crate) fn cmd_soak(a: &SoakArgs) -> Result<Verdict, Failure> {
                 defect: a.defect,
                 progress: std::io::stderr().is_terminal() || secs >= 3_600.0,
                 trace: a.trace,
-                service: ServiceOptions {
-                    low_adhesion: a.low_adhesion,
-                    demand_steps: a.demand_steps,
-                    gain_law: a.gain_law,
-                },
+                service: a.service,
             })
             .map_err(input)?;
-            write_json(a.json.as_deref(), &r)?;
-            say!("{}", r.summary().trim_end());
-            Ok(if r.failure.is_none() {
-                Verdict::Pass
-            } else {
-                Verdict::Fail
-            })
+            (to_json(&r), r.summary(), r.failure.is_none())
         }
+    };
+    if let Some(p) = &a.json {
+        let text = json.map_err(|e| input(e.to_string()))?;
+        written(p, std::fs::write(p, text))?;
     }
+    say!("{}", summary.trim_end());
+    Ok(if clean { Verdict::Pass } else { Verdict::Fail })
 }

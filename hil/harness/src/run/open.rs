@@ -22,7 +22,7 @@ pub fn open_transport(
         Target::InProc => {
             let mut t = InProc::<Fx>::try_new(rt, &opts.link, opts.device_fault)
                 .map_err(|e| RunError::Input(e.to_string()))?;
-            let cfg = wheelset_loop::device_loop::run_config(&rt, opts.wsp_on(), opts.monitor_safe);
+            let cfg = wheelset_loop::device_loop::run_config(&rt, opts.wsp, opts.monitor_safe);
             t.configure(&cfg).map_err(|why| {
                 RunError::Target(TransportError::Unavailable(
                     wheelset_loop::device_loop::DeviceError::Refused(why, cfg).to_string(),
@@ -80,7 +80,7 @@ pub(super) fn open_realtime(
     opts: &RunOptions,
     rt: &RuntimeConfig,
 ) -> Result<RealTime, RunError> {
-    let cfg = device_config(rt, opts.wsp_on(), opts.monitor_safe)?;
+    let cfg = device_config(rt, opts.wsp, opts.monitor_safe)?;
     let mut t = RealTime::open(
         path,
         realtime_options(opts, rt, opts.link.baud, opts.cpu_hz),
@@ -111,7 +111,7 @@ fn realtime_options(
 /// Starts the free-running firmware under QEMU (no `-icount`), configures it and locks
 /// onto its tick. Its `exec` is SysTick counts of the 25 MHz clock.
 pub(super) fn open_qemu_free(opts: &RunOptions, rt: &RuntimeConfig) -> Result<RealTime, RunError> {
-    let cfg = device_config(rt, opts.wsp_on(), opts.monitor_safe)?;
+    let cfg = device_config(rt, opts.wsp, opts.monitor_safe)?;
     let qcfg = wheelset_targets::qemu::QemuConfig {
         timeout: opts.timeout,
         realtime: true,

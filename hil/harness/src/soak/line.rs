@@ -64,7 +64,6 @@ pub struct Line {
     next_burst_ns: u64,
     burst_left: u32,
     buf: Vec<u8>,
-    /// The decoder holds bytes of an unfinished frame.
     open: bool,
     /// The accounting.
     pub counts: LineCounts,

@@ -65,14 +65,16 @@ impl Track {
 /// What the service may do beyond its default day (each off by default): the two
 /// conditions under which the device's actuator check alarms with nothing failed, and
 /// the pure gain law, with which the wheelset hunts on a wet patch (the book's soak section).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::Args)]
 pub struct ServiceOptions {
-    /// Adhesion patches may be low (leaves), not only wet.
+    /// Adhesion patches may be low (leaves on the rail), not only wet.
+    #[arg(long)]
     pub low_adhesion: bool,
-    /// The traction demand steps rather than ramping.
+    /// The traction demand steps to its new levels instead of ramping over 2-6 s.
+    #[arg(long)]
     pub demand_steps: bool,
-    /// Configs may choose the pure gain law, not only the phase lead (on a wet patch
-    /// the gain-damped wheelset hunts: the device's hunting alarm, rightly).
+    /// Configs may choose the pure gain law, not only the phase lead.
+    #[arg(long)]
     pub gain_law: bool,
 }
 

@@ -4,6 +4,15 @@ use super::*;
 use crate::exchange::DeviceController;
 use wheelset_plant::control::{Measurements, SampledController};
 
+/// `run` against `reference` record by record ([`DeviationAcc`]).
+fn deviation(run: &Trajectory, reference: &Trajectory, windows: [(f64, f64); 2]) -> Deviation {
+    let mut acc = DeviationAcc::new(windows);
+    for (a, b) in run.records.iter().zip(&reference.records) {
+        acc.push(a, b);
+    }
+    acc.finish()
+}
+
 fn sample(k: u64) -> Measurements {
     Measurements {
         yd_mps: 1e-3 * ((k as f64) * 0.01).sin(),

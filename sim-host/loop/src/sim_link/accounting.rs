@@ -23,19 +23,15 @@ pub struct RxPort {
     book: Book,
 }
 
-/// The attribution state of an [`RxPort`], apart from its decoder.
+/// The attribution state of an [`RxPort`], apart from its decoder (the counts: [`Accounting`]'s).
 #[derive(Debug, Clone, Default)]
 struct Book {
     pending: Vec<FrameId>,
     fates: Vec<Fate>,
     reached: Vec<bool>,
-    /// Valid frames.
     received: u64,
-    /// Frames that took part in a rejected frame.
     rejected: u64,
-    /// Decoder rejections by kind: CRC, COBS, version, length, postcard.
     errors: [u64; 5],
-    /// Rejected frames by the kind of their reject (sums to `rejected`).
     rejected_by: [u64; 5],
 }
 
