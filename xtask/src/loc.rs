@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 pub const MAX_LINES: u64 = 42_000;
 /// The non-test lines the workspace may not grow past: the count when it was last
 /// lowered, above [`MAX_LINES`] until the aim is reached (lower it as code goes).
-pub const CEILING: u64 = 44_652;
+pub const CEILING: u64 = 43_044;
 /// Comment lines must stay under this share of the non-test lines.
 pub const MAX_COMMENT_SHARE: f64 = 0.15;
 
