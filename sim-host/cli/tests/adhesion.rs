@@ -4,6 +4,7 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+mod common;
 use std::process::Command;
 use wheelset_plant::adhesion::{Adhesion, Condition, Polach};
 use wheelset_plant::control::{closed_loop_rhs, ContinuousController, Exogenous, YawLaw};
@@ -191,20 +192,17 @@ fn low_adhesion_scenario_needs_a_quarter_of_adhesion_and_runs_away_unprotected()
 fn adhesion_command_writes_the_characteristic_fields() {
     let dir = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("adhesion");
     let json = dir.join("wet.json");
-    let out = Command::new(env!("CARGO_BIN_EXE_sim-host"))
-        .args(["adhesion", "--condition", "wet", "--v-mps", "50", "--json"])
-        .arg(&json)
-        .arg("--plot")
-        .arg(&dir)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let plots = dir.to_str().unwrap();
+    let args = [
+        "adhesion",
+        "--condition",
+        "wet",
+        "--v-mps",
+        "50",
+        "--plot",
+        plots,
+    ];
+    let v = common::run_json(&args, &json);
     for key in [
         "condition",
         "v_mps",

@@ -3,6 +3,7 @@
 
 #![allow(clippy::unwrap_used)]
 
+mod common;
 use nalgebra::Complex;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -402,20 +403,9 @@ fn structural_zero_is_reported_and_excluded_in_every_case() {
 fn modes_cli_writes_the_json_interface() {
     let dir = std::env::temp_dir().join(format!("sim-host-modes-{}", std::process::id()));
     let json = dir.join("sub/modes.json");
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_sim-host"))
-        .args(["modes", "--points", "20", "--json"])
-        .arg(&json)
-        .arg("--plot")
-        .arg(dir.join("plots"))
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let plots = dir.join("plots");
+    let args = ["modes", "--points", "20", "--plot", plots.to_str().unwrap()];
+    let v = common::run_json(&args, &json);
     let cases = v["cases"].as_array().unwrap();
     assert_eq!(cases.len(), 4);
     for (c, id) in cases.iter().zip(["a", "b", "c", "d"]) {

@@ -2,25 +2,14 @@
 //! `link` object.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use std::process::Command;
+mod common;
 
 #[test]
 fn the_rates_document_keeps_the_link_budget_beside_the_designed_points() {
     let dir = std::env::temp_dir().join(format!("wheelset-rates-json-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("rates.json");
-    let out = Command::new(env!("CARGO_BIN_EXE_sim-host"))
-        .args(["rates", "--json"])
-        .arg(&path)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    let v = common::run_json(&["rates"], &path);
     let _ = std::fs::remove_dir_all(&dir);
     let link = &v["link"];
     for key in [
