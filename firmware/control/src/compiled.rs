@@ -12,38 +12,32 @@ use crate::wsp::{Wsp, WspBits};
 
 mod const_bits;
 
-/// The discretised, quantised controller for `T` (immutable while running).
+pub(crate) use const_bits::{f32_value, fx_coeff, fx_signal};
+
+/// The discretised, quantised controller for `T` (immutable while running); each field in
+/// `T` is the [`CompiledBits`] or [`ScheduleBits`] field of that name (the clamps: `*_max`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 // `repr(C)`, the fast path's constants in its read order: neighbours load as one `LDRD`.
 #[repr(C)]
 pub struct Compiled<T: Sample> {
-    /// Input clamp of `y'`, pu.
     pub(crate) y_dot_max: T,
-    /// Half the prediction factor `alpha/2 = yaw_predict_ticks/(2 yaw_divisor)`.
     pub(crate) predict_half: T::Coeff,
-    /// Clamp of the predicted `y'`, pu ([`MAX_LIMIT_PU`]).
     pub(crate) y_dot_pred_max: T,
     pub(crate) lead: Lead<T>,
-    /// Output torque limit, pu.
     pub(crate) torque_max: T,
-    /// Input clamps, pu.
     pub(crate) current_max: T,
     pub(crate) demand_max: T,
-    /// `scales.demand/(n K_m scales.current)`: demand pu -> current-reference pu.
     pub(crate) demand_to_iref: T::Coeff,
-    /// Reference slew per traction step, pu (normal and safe state).
     pub(crate) iref_step: T,
     pub(crate) pi: Pi<T>,
     pub(crate) gain: T::Coeff,
     pub(crate) speed_max: T,
-    /// `K_m scales.speed/scales.voltage`: speed pu -> back-EMF pu.
     pub(crate) back_emf: T::Coeff,
     pub(crate) iref_safe_step: T,
-    /// Torque-limit ramp per yaw step, pu.
     pub(crate) torque_step: T,
     pub(crate) yaw_divisor: u16,
     pub(crate) traction_divisor: u16,
-    /// Ticks of delay the gains are designed for (not used by the tick).
+    /// Not used by the tick.
     pub(crate) delay_ticks: u8,
     pub(crate) base_rate_hz: u32,
     pub(crate) codec: Codec<T>,
@@ -110,11 +104,11 @@ pub struct CompiledBits {
     pub u_max: u64,
     /// Input clamps and the torque limit, pu in `(0, 2]`: `y'`, current, speed, demand, torque.
     pub clamps: [u64; 5],
-    /// Demand -> current reference, coefficient.
+    /// Demand pu -> current-reference pu, `scales.demand/(n K_m scales.current)`, coefficient.
     pub demand_to_iref: u64,
-    /// Speed -> back-EMF `K_m`, coefficient.
+    /// Speed pu -> back-EMF pu, `K_m scales.speed/scales.voltage`, coefficient.
     pub back_emf: u64,
-    /// Clamp of the predicted `y'`, pu signal in `(0, 2]`.
+    /// Clamp of the predicted `y'` ([`MAX_LIMIT_PU`]), pu signal in `(0, 2]`.
     pub y_dot_pred_max: u64,
     /// The wire codec's scales: `y'`, current, speed, demand (in), torque, voltage (out).
     pub codec: [ScaleBits; 6],

@@ -12,7 +12,7 @@ pub use wheelset_proto::YawMode;
 /// Per-unit full scales, `x_pu = x / FS`: signals within `[-2, 2]` pu at their limits.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FullScales {
-    /// Lateral velocity y', m/s (1).
+    /// Lateral velocity y' relative to the track (+ right), m/s (1).
     pub y_dot: f64,
     /// Yaw torque T_psi, N m (1e6: puts the lead's K_hf = 7.875e5 N m s/m at 0.7875 pu).
     pub torque: f64,

@@ -16,20 +16,12 @@
 //! assert!(out.yaw_torque > 0);
 //! ```
 //!
-//! | signal | SI | full scale (1 pu) | clamp / limit (default) | wire LSB (default) |
-//! |---|---|---|---|---|
-//! | `y'` lateral velocity rel. track, + right | m/s | 1 m/s | ±1 m/s | 1 um/s |
-//! | `T_psi` yaw torque | N m | 1e6 N m | ±2e4 N m | 0.1 N m |
-//! | `i_a` motor current | A | 1000 A | ±2000 A | 1 mA |
-//! | `u_a` motor voltage | V | 1e4 V | [-6000, 6000] V | 10 mV |
-//! | `theta_m'` motor speed | rad/s | 1000 rad/s | ±2000 rad/s | 1 mrad/s |
-//! | traction demand (wheel torque) | N m | 1e4 N m | ±2e4 N m | 1 N m |
-//!
 //! Yaw torque sign: eq. 5 of the model, `J psi'' + ... = -T_psi`; the active law is
 //! `T_psi = +K y'` (or `+Ks(s) y'`): a wheelset moving right is yawed nose-left. Current
 //! reference `i_ref = demand/(n K_m)`, ramped: `i_ref[n] = i_ref[n-1] + clamp(target -
 //! i_ref[n-1], ±r T)`; back-EMF `K_m theta_m'`. Ranges and rounding: `docs/audit.md`;
-//! rates and link budget: `docs/closed-loop.md`.
+//! rates and link budget: `docs/closed-loop.md`. Units, full scales, limits and wire LSBs:
+//! [`FullScales`], [`Limits`], [`WireLsb`].
 #![no_std]
 #![deny(missing_docs)]
 
