@@ -75,16 +75,16 @@ macro_rules! from_valid_bits {
     };
 }
 
-const fn fx_signal(v: u64) -> Fx {
+pub(crate) const fn fx_signal(v: u64) -> Fx {
     Fx::from_bits(v as u32 as i32)
 }
-const fn fx_coeff(v: u64) -> Coef {
+pub(crate) const fn fx_coeff(v: u64) -> Coef {
     Coef::from_bits(v as u32 as i32)
 }
 const fn fx_scale(x: ScaleBits) -> FxScale {
     FxScale::from_parts(x.mul as u32 as i32, x.shift as u32)
 }
-const fn f32_value(v: u64) -> f32 {
+pub(crate) const fn f32_value(v: u64) -> f32 {
     f32::from_bits(v as u32)
 }
 const fn f32_scale(x: ScaleBits) -> f32 {

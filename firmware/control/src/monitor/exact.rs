@@ -1,7 +1,8 @@
 //! The monitor as exact bits, and the `const` constructor of the firmware's boot monitor.
 
 use super::{divisor_for, Monitor, MonitorBits};
-use crate::sample::{Coef, Fx, SampleBits};
+use crate::compiled::{f32_value, fx_coeff, fx_signal};
+use crate::sample::{Fx, SampleBits};
 
 impl<T: SampleBits> Monitor<T> {
     /// The exact bits.
@@ -83,16 +84,6 @@ impl<T: SampleBits> Monitor<T> {
             drive_persist: b.drive_persist,
         })
     }
-}
-
-const fn fx_signal(v: u64) -> Fx {
-    Fx::from_bits(v as u32 as i32)
-}
-const fn fx_coeff(v: u64) -> Coef {
-    Coef::from_bits(v as u32 as i32)
-}
-const fn f32_value(v: u64) -> f32 {
-    f32::from_bits(v as u32)
 }
 
 macro_rules! from_valid_bits {
