@@ -29,11 +29,8 @@
 //!               and run = 0
 //! ```
 //!
-//! A traction change (`i_ref`, pu of the current scale, moving by more than `D` over a
-//! block) steps the creep forces, whose lateral response grows over two blocks: those are
-//! not judged. A failed actuator is caught at most `Q B` later while changes are at least
-//! `(Q + n) B` apart. `|l| > drift` catches one pushing the wheelset to the flange at a
-//! nearly constant `y'`. Not seen: an actuator at a fraction of its command that still damps.
+//! `i_ref` is pu of the current scale; why a traction change's blocks are not judged, and
+//! what the drift level catches: `docs/monitor.md`.
 //!
 //! Fixed point: states are Q4.28 signals (the mean square in pu^2), coefficients Q1.31;
 //! `b^2` is the exact 64-bit product rounded and saturated (not below `|b|` = 2.8 m/s),
@@ -87,8 +84,7 @@ pub struct MonitorParams {
 impl Default for MonitorParams {
     /// The band brackets the kinematic mode (the failed wheelset's,
     /// `wheelset_plant::fault::failed_actuator_mode`, and the active loop's, `cargo sim
-    /// modes`); `W` = 1.2 s is 100 m at 83.3 m/s (EN 14363). Margins: `docs/monitor.md`;
-    /// the drive check's reasons: `monitor/drive.rs`.
+    /// modes`); `W` (EN 14363) and the margins: `docs/monitor.md`.
     fn default() -> Self {
         Self {
             rate_hz: 500,
