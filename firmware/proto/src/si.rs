@@ -101,30 +101,6 @@ impl Sensor {
         };
         Quantized { msg, clamped }
     }
-
-    /// The sample back in SI (`count * LSB`); a lateral quantity not carried is 0.
-    #[must_use]
-    pub fn to_si(&self) -> SensorSi {
-        let (y_dot, y_ddot) = match self.lateral {
-            Lateral::Velocity(v) => (units::to_si(v, LAT_VEL_LSB_M_PER_S), 0.0),
-            Lateral::Acceleration(a) => (0.0, units::to_si(a, LAT_ACC_LSB_M_PER_S2)),
-            Lateral::Both {
-                vel_um_s,
-                acc_dmm_s2,
-            } => (
-                units::to_si(vel_um_s, LAT_VEL_LSB_M_PER_S),
-                units::to_si(acc_dmm_s2, LAT_ACC_LSB_M_PER_S2),
-            ),
-        };
-        SensorSi {
-            y_dot,
-            y_ddot,
-            i_a: units::to_si(self.i_a_ma, CURRENT_LSB_A),
-            w_m: units::to_si(self.omega_m_mrad_s, SPEED_LSB_RAD_PER_S),
-            demand_nm: units::to_si(self.demand_nm, DEMAND_LSB_NM),
-            v_ref: units::to_si(self.v_ref_mm_s, V_REF_LSB_M_PER_S),
-        }
-    }
 }
 
 impl Actuation {
