@@ -2,8 +2,8 @@
 //! extreme inputs, determinism, configuration errors, wire codes.
 
 use wheelset_control::{
-    Config, ConfigError, F32Controller, F64Controller, FixedController, Inputs, Pi, PiState,
-    Sample, YawMode,
+    Config, ConfigError, Counters, F32Controller, F64Controller, FixedController, Inputs, Pi,
+    PiState, Sample, YawMode,
 };
 
 fn si<T: Sample>(c: &Config, y_dot: f64, i: f64, w: f64, d: f64) -> Inputs<T> {
@@ -366,9 +366,19 @@ fn counters_count_per_signal() {
     assert_eq!((k.speed.clamped, k.speed.invalid), (0, 0));
     // -2000 A error at Kp = 1 V/A on 3961 V: not clamped at +-6000 V.
     assert_eq!(k.voltage.clamped, 0);
-    assert_eq!(k.total(), 10 + 3 + 17 + 3 + 3);
+    let all = [
+        k.y_dot,
+        k.current,
+        k.speed,
+        k.demand,
+        k.yaw_torque,
+        k.voltage,
+        k.integrator,
+    ];
+    let total: u32 = all.iter().map(|s| s.invalid + s.clamped).sum();
+    assert_eq!(total, 10 + 3 + 17 + 3 + 3);
     c.reset_counters();
-    assert_eq!(c.counters().total(), 0);
+    assert_eq!(*c.counters(), Counters::default());
 }
 
 /// The yaw loop's delay compensation: `x = y + alpha (y[n] - y[n-1])`,

@@ -173,22 +173,6 @@ impl Counters {
         self.wsp_ticks = self.wsp_ticks.wrapping_add(bit(event::WSP_ACTING) as u32);
         self.wsp_events = self.wsp_events.wrapping_add(bit(event::WSP_STARTED) as u32);
     }
-
-    /// Sum of all clamps and invalid inputs.
-    pub fn total(&self) -> u64 {
-        [
-            self.y_dot,
-            self.current,
-            self.speed,
-            self.demand,
-            self.yaw_torque,
-            self.voltage,
-            self.integrator,
-        ]
-        .iter()
-        .map(|c| c.invalid as u64 + c.clamped as u64)
-        .sum()
-    }
 }
 
 /// Integer wire codes of the inputs (LSBs in [`WireLsb`]).

@@ -115,15 +115,6 @@ impl FxScale {
             }
         }
     }
-
-    /// The factor this scale really applies, `mul / 2^shift`.
-    pub fn factor(&self) -> f64 {
-        let mut f = self.mul as f64;
-        for _ in 0..self.shift {
-            f *= 0.5;
-        }
-        f
-    }
 }
 
 /// Round half away from zero in `no_std` (construction-time only).
