@@ -14,15 +14,11 @@ pub fn write_polled(
     mut ready: impl FnMut() -> bool,
     mut write: impl FnMut(u8),
 ) -> usize {
-    let mut written = 0;
-    for &b in bytes {
-        if !poll_until(polls_per_byte, &mut ready) {
-            break;
-        }
-        write(b);
-        written += 1;
-    }
-    written
+    bytes
+        .iter()
+        .take_while(|_| poll_until(polls_per_byte, &mut ready))
+        .inspect(|&&b| write(b))
+        .count()
 }
 
 /// Polls of a UART's TXE flag lasting at least two 8N1 character times (a poll >= 1 cycle).

@@ -40,14 +40,9 @@ impl<const N: usize> ByteRing<N> {
     }
 
     /// Bytes held now.
-    pub fn len(&self) -> usize {
+    fn len(&self) -> usize {
         let head = self.head.load(Ordering::Acquire);
         head.wrapping_sub(self.tail.load(Ordering::Acquire))
-    }
-
-    /// No byte held?
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
     }
 
     /// Room for this many more bytes (`N - len`).
@@ -137,7 +132,7 @@ mod tests {
         assert_eq!(r.len(), 8);
         assert_eq!(r.try_read(&mut out), Ok(8));
         assert_eq!(out, [5, 6, 7, 8, 9, 10, 11, 12]);
-        assert!(r.is_empty());
+        assert_eq!(r.len(), 0);
         assert_eq!(r.try_write(&[]), Err(Empty));
     }
 
@@ -156,7 +151,7 @@ mod tests {
             assert!(n > 0);
         }
         assert_eq!(runs, [vec![7, 8], vec![9, 10, 11]]);
-        assert!(r.is_empty());
+        assert_eq!(r.len(), 0);
         assert_eq!(r.free_capacity(), 8);
     }
 

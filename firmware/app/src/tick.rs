@@ -65,11 +65,6 @@ impl TickMonitor {
         self.next_deadline = first_deadline;
     }
 
-    /// The deadline the next wake-up is expected for, in timer ticks.
-    pub fn next_deadline(&self) -> u64 {
-        self.next_deadline
-    }
-
     /// Classifies a wake-up at `now` and advances the schedule (early counts as on time).
     pub fn on_wake(&mut self, now: u64) -> TickWake {
         let deadline = self.next_deadline;
@@ -126,9 +121,9 @@ mod tests {
         let mut m = TickMonitor::try_new(T, T, T / 4).unwrap();
         m.on_wake(3 * T);
         m.rearm(2 * T, 10 * T);
-        assert_eq!(m.next_deadline(), 10 * T);
+        assert_eq!(m.next_deadline, 10 * T);
         assert_eq!(m.on_wake(10 * T), TickWake::OnTime);
-        assert_eq!(m.next_deadline(), 12 * T);
+        assert_eq!(m.next_deadline, 12 * T);
     }
 
     #[test]
@@ -149,7 +144,7 @@ mod tests {
         for k in 1..=100u64 {
             // A few ticks of wake-up latency, within tolerance.
             assert_eq!(m.on_wake(k * T + k % 5), TickWake::OnTime);
-            assert_eq!(m.next_deadline(), (k + 1) * T);
+            assert_eq!(m.next_deadline, (k + 1) * T);
         }
     }
 
@@ -157,7 +152,7 @@ mod tests {
     fn a_late_tick_is_counted_but_keeps_the_grid() {
         let mut m = TickMonitor::try_new(T, T, T / 4).unwrap();
         assert_eq!(m.on_wake(T + T / 2), TickWake::Late { lateness: T / 2 });
-        assert_eq!(m.next_deadline(), 2 * T);
+        assert_eq!(m.next_deadline, 2 * T);
         assert_eq!(m.on_wake(2 * T), TickWake::OnTime);
     }
 
@@ -195,7 +190,7 @@ mod tests {
     fn an_early_wake_is_on_time_and_saturates_nothing() {
         let mut m = TickMonitor::try_new(T, 10 * T, 0).unwrap();
         assert_eq!(m.on_wake(0), TickWake::OnTime);
-        assert_eq!(m.next_deadline(), 11 * T);
+        assert_eq!(m.next_deadline, 11 * T);
         // Far in the future: no overflow, a huge skip count saturates.
         let mut m = TickMonitor::try_new(1, 0, 0).unwrap();
         assert!(matches!(

@@ -1,24 +1,6 @@
 //! The device runtime, `no_std`, board independent: frame handling, the fault policy and
 //! the control tick, run by the board binaries and the host's in-process device alike.
 //!
-//! ```
-//! use wheelset_proto::{encode_vec, Lateral, Message, Sensor, Decoder, Flags};
-//! use wheelset_runtime::{Runtime, RuntimeConfig};
-//! use wheelset_control::Fx;
-//!
-//! let mut rt = Runtime::<Fx>::try_new(RuntimeConfig::default()).unwrap();
-//! let s = Sensor { seq: 7, t_us: 0, lateral: Lateral::Velocity(1_000),
-//!                  i_a_ma: 0, omega_m_mrad_s: 925_600, demand_nm: 0, v_ref_mm_s: 0 };
-//! rt.receive(&encode_vec(&Message::Sensor(s)).unwrap());
-//! let frame = rt.tick(0).to_vec();              // COBS frame incl. the 0x00 delimiter
-//! let mut dec: Decoder = Decoder::new();
-//! let (out, _) = dec.next_message(&frame);
-//! let Some(Ok(Message::Actuation(a))) = out else { panic!() };
-//! assert_eq!(a.seq_echo, 7);
-//! assert!(a.flags.has(Flags::ENABLED) && !a.flags.has(Flags::HOLDING));
-//! assert!((a.u_a_cv - 396_157).abs() <= 1);   // bumpless: u_a = K_m omega = 3961.57 V
-//! ```
-//!
 //! # Fault policy
 //!
 //! 1. Bad frames are dropped and counted by kind ([`Status`] `rx_*`), [`Flags::RX_ERROR`].
@@ -59,9 +41,6 @@ pub use bits::{
 pub use hold::{HoldPolicy, HoldStep, SafeChange};
 pub use runtime::{Runtime, RxEvent, SAFE_ACTUATION};
 pub use wheelset_proto::{Actuation, Command, Config, Flags, Message, Rates, Sensor, Status};
-
-/// The counters: the [`Status`] message is their only definition.
-pub type RuntimeCounters = Status;
 
 /// Default ticks bridged by the held sample before the safe state: 10 (2 ms at 5 kHz).
 pub const DEFAULT_HOLD_TICKS: u16 = 10;

@@ -9,8 +9,8 @@ use wheelset_control::{
 use wheelset_proto::{encode, Decoder, FrameError, Message, RefuseReason};
 
 use crate::{
-    AccBits, Actuation, Command, Flags, HoldPolicy, RuntimeBits, RuntimeConfig, RuntimeCounters,
-    RuntimeError, SafeChange, TX_CAPACITY,
+    AccBits, Actuation, Command, Flags, HoldPolicy, RuntimeBits, RuntimeConfig, RuntimeError,
+    SafeChange, Status, TX_CAPACITY,
 };
 
 /// A receive event worth a log record: a rejected frame or a refused request.
@@ -68,7 +68,6 @@ pub struct Runtime<T: Sample> {
     rx_events_after: u32,
     monitor: Monitor<T>,
     mon: MonitorState<T>,
-    /// A stability alarm holds the safe state until `Command::ClearFaults`.
     monitor_safe: bool,
     /// The safe state is held until `Command::ClearFaults` (an alarm, or a fault reset).
     alarm_safe: bool,
@@ -78,7 +77,7 @@ pub struct Runtime<T: Sample> {
     watchdog: bool,
     ticks: u32,
     max_rate_hz: u32,
-    counters: RuntimeCounters,
+    counters: Status,
     tx: [u8; TX_CAPACITY],
 }
 
@@ -148,7 +147,7 @@ impl<T: SampleBits> Runtime<T> {
             watchdog: false,
             ticks: 0,
             max_rate_hz: u32::MAX,
-            counters: RuntimeCounters::default(),
+            counters: Status::default(),
             tx: [0; TX_CAPACITY],
         })
     }
@@ -339,8 +338,8 @@ impl<T: SampleBits> Runtime<T> {
     }
 
     /// Starts the counters and the tick count at `start` (a host soak crosses the wrap).
-    pub fn preset_counters(&mut self, start: &RuntimeCounters) {
-        self.counters = RuntimeCounters {
+    pub fn preset_counters(&mut self, start: &Status) {
+        self.counters = Status {
             flags: self.counters.flags,
             ..*start
         };
@@ -348,7 +347,7 @@ impl<T: SampleBits> Runtime<T> {
     }
 
     /// The counters.
-    pub fn counters(&self) -> &RuntimeCounters {
+    pub fn counters(&self) -> &Status {
         &self.counters
     }
 

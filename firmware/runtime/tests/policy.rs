@@ -44,6 +44,23 @@ fn fresh_samples_are_echoed_and_exec_reported() {
 }
 
 #[test]
+fn the_first_sample_starts_traction_bumpless_from_the_back_emf() {
+    let mut r = rt();
+    let s = Sensor {
+        seq: 7,
+        lateral: Lateral::Velocity(1_000),
+        omega_m_mrad_s: 925_600,
+        ..Sensor::ZERO
+    };
+    r.receive(&encode_vec(&Message::Sensor(s)).expect("fits"));
+    let a = act(r.tick(0));
+    assert_eq!(a.seq_echo, 7);
+    assert!(a.flags.has(Flags::ENABLED) && !a.flags.has(Flags::HOLDING));
+    // No current, no demand: u_a = K_m omega = 4.28 x 925.6 = 3961.57 V (codes of 10 mV).
+    assert!((a.u_a_cv - 396_157).abs() <= 1, "{}", a.u_a_cv);
+}
+
+#[test]
 fn hold_then_safe_then_recover() {
     let hold = 4u16;
     let mut r: Runtime<Fx> = Runtime::try_new(RuntimeConfig {

@@ -4,7 +4,7 @@ use wheelset_control::{Controller, InputCodes, MonitorState, SampleBits, Schedul
 use wheelset_proto::{FrameError, Lateral, RefuseReason, Request, Sensor, YawMode};
 
 use crate::validate;
-use crate::{AccBits, Command, Config, Rates, Runtime, RuntimeCounters, RxEvent};
+use crate::{AccBits, Command, Config, Rates, Runtime, RxEvent, Status};
 
 impl<T: SampleBits> Runtime<T> {
     /// Takes received bytes in any chunking. Never panics.
@@ -53,7 +53,7 @@ impl<T: SampleBits> Runtime<T> {
             Request::Command(Command::ResetCounters) => {
                 // The board's boot record and stack measurement are not counters.
                 let keep = (c.boot_count, c.reset_cause, c.stack_peak);
-                *c = RuntimeCounters::default();
+                *c = Status::default();
                 (c.boot_count, c.reset_cause, c.stack_peak) = keep;
                 self.core.reset_counters();
                 self.refuse_reason = RefuseReason::None;
