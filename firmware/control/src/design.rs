@@ -66,16 +66,6 @@ pub fn effective_delay_s(base_rate_hz: u32, delay_ticks: u8) -> f64 {
     (f64::from(delay_ticks) + 0.5) / f64::from(base_rate_hz)
 }
 
-/// `Kp/Kp_0 = min(1, tau_0/tau)` (module docs).
-pub fn traction_gain_factor(base_rate_hz: u32, delay_ticks: u8) -> f64 {
-    (TAU_0_S / effective_delay_s(base_rate_hz, delay_ticks)).min(1.0)
-}
-
-/// The predictor's horizon `alpha = min(d + 1/2, 3/2)`, ticks.
-pub fn predict_ticks(delay_ticks: u8) -> f64 {
-    (f64::from(delay_ticks) + 0.5).min(1.5)
-}
-
 /// The design point of a rate and delay, if designed.
 pub fn point(base_rate_hz: u32, delay_ticks: u8) -> Option<DesignPoint> {
     DESIGNED
@@ -85,15 +75,17 @@ pub fn point(base_rate_hz: u32, delay_ticks: u8) -> Option<DesignPoint> {
 }
 
 impl Config {
-    /// This configuration redesigned for the rate, delay and `lead_gain` ([`Config::designed`]).
+    /// This configuration redesigned for the rate, delay and `lead_gain` ([`Config::designed`]):
+    /// `Kp`, `alpha` and `K` as the module docs give them.
     pub fn with_design(&self, base_rate_hz: u32, delay_ticks: u8, lead_gain: f64) -> Self {
+        let tau = effective_delay_s(base_rate_hz, delay_ticks);
         let mut c = *self;
         c.base_rate_hz = base_rate_hz;
         c.yaw_divisor = 1;
         c.traction_divisor = 1;
         c.delay_ticks = delay_ticks;
-        c.yaw_predict_ticks = predict_ticks(delay_ticks);
-        c.pi.kp = self.pi.kp * traction_gain_factor(base_rate_hz, delay_ticks);
+        c.yaw_predict_ticks = (f64::from(delay_ticks) + 0.5).min(1.5);
+        c.pi.kp = self.pi.kp * (TAU_0_S / tau).min(1.0);
         c.lead.k = self.lead.k * lead_gain;
         c
     }
@@ -140,8 +132,8 @@ mod tests {
         let c = base.designed(1_000, 1).expect("designed");
         assert!((c.pi.kp - 0.2 * base.pi.kp).abs() < 1e-12, "{}", c.pi.kp);
         assert_eq!(c.yaw_predict_ticks, 1.5);
-        assert_eq!(predict_ticks(2), 1.5);
-        assert_eq!(predict_ticks(0), 0.5);
+        assert_eq!(base.with_design(5_000, 2, 1.0).yaw_predict_ticks, 1.5);
+        assert_eq!(base.with_design(5_000, 0, 1.0).yaw_predict_ticks, 0.5);
     }
 
     #[test]

@@ -26,7 +26,6 @@ pub struct PiParams {
 }
 
 impl Default for PiParams {
-    /// `Kp = 1 V/A`, `Ti = 0.5 s` (`Kt(s) = (0.5 s + 1)/(0.5 s)`).
     fn default() -> Self {
         Self { kp: 1.0, ti: 0.5 }
     }
