@@ -30,23 +30,11 @@ pub union Vector {
     reserved: usize,
 }
 
+// The firmware's handlers (`device.x` provides `DefaultHandler` for one a build leaves out).
 unsafe extern "C" {
     fn UART0RX();
     fn UART0TX();
-    fn UART1RX();
-    fn UART1TX();
-    fn UART2RX();
-    fn UART2TX();
-    fn GPIO0();
-    fn GPIO1();
     fn TIMER0();
-    fn TIMER1();
-    fn DUALTIMER();
-    fn SPI();
-    fn UARTOVF();
-    fn ETHERNET();
-    fn I2S();
-    fn TOUCHSCREEN();
     fn SWI0();
     fn SWI1();
     fn DefaultHandler();
@@ -56,40 +44,18 @@ const fn h(handler: unsafe extern "C" fn()) -> Vector {
     Vector { handler }
 }
 
-/// The 32 external interrupt vectors, after the core exceptions (cortex-m-rt's `device`).
+/// The 32 external interrupt vectors, after the core exceptions (cortex-m-rt's `device`):
+/// [`Interrupt`]'s handlers, `DefaultHandler` for the rest, the last reserved.
 #[unsafe(link_section = ".vector_table.interrupts")]
 #[unsafe(no_mangle)]
-pub static __INTERRUPTS: [Vector; 32] = [
-    h(UART0RX),
-    h(UART0TX),
-    h(UART1RX),
-    h(UART1TX),
-    h(UART2RX),
-    h(UART2TX),
-    h(GPIO0),
-    h(GPIO1),
-    h(TIMER0),
-    h(TIMER1),
-    h(DUALTIMER),
-    h(SPI),
-    h(UARTOVF),
-    h(ETHERNET),
-    h(I2S),
-    h(TOUCHSCREEN),
-    h(SWI0),
-    h(SWI1),
-    h(DefaultHandler),
-    h(DefaultHandler),
-    h(DefaultHandler),
-    h(DefaultHandler),
-    h(DefaultHandler),
-    h(DefaultHandler),
-    h(DefaultHandler),
-    h(DefaultHandler),
-    h(DefaultHandler),
-    h(DefaultHandler),
-    h(DefaultHandler),
-    h(DefaultHandler),
-    h(DefaultHandler),
-    Vector { reserved: 0 },
-];
+pub static __INTERRUPTS: [Vector; 32] = {
+    const DEFAULT: Vector = h(DefaultHandler);
+    let mut v = [DEFAULT; 32];
+    v[Interrupt::Uart0Rx as usize] = h(UART0RX);
+    v[Interrupt::Uart0Tx as usize] = h(UART0TX);
+    v[Interrupt::Timer0 as usize] = h(TIMER0);
+    v[Interrupt::Swi0 as usize] = h(SWI0);
+    v[Interrupt::Swi1 as usize] = h(SWI1);
+    v[31] = Vector { reserved: 0 };
+    v
+};
