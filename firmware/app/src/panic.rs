@@ -8,18 +8,18 @@ use crate::board::{Board, Selected};
 
 static HALTING: AtomicBool = AtomicBool::new(false);
 
-/// Marks the board as halting; `true` if it already was (no second safe frame).
-pub fn enter_halt() -> bool {
-    HALTING.swap(true, Ordering::Relaxed)
+/// The safe frame ([`Board::send_safe_frame`]) by the first fault path only.
+pub fn send_safe_frame_once() {
+    if !HALTING.swap(true, Ordering::Relaxed) {
+        Selected::send_safe_frame();
+    }
 }
 
 /// The HardFault handler: the safe outputs (bounded), cause FAULT, then SYSRESETREQ.
 #[cortex_m_rt::exception(trampoline = false)]
 unsafe fn HardFault() -> ! {
     cortex_m::interrupt::disable();
-    if !enter_halt() {
-        Selected::send_safe_frame();
-    }
+    send_safe_frame_once();
     crate::boot::record_cause(wheelset_proto::reset_cause::FAULT);
     cortex_m::peripheral::SCB::sys_reset()
 }

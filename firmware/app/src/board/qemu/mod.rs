@@ -125,14 +125,21 @@ impl super::Board for Board {
     }
 
     fn send_safe_frame() {
-        send_safe_frame()
+        let mut buf = [0u8; wheelset_proto::MAX_FRAME];
+        let frame = crate::device::safe_frame(&mut buf);
+        if bulk::active() {
+            bulk::flush_answers();
+            bulk::write_all(frame);
+        } else {
+            // A lone delimiter ends a frame the interrupted TX task left half sent.
+            uart::write_blocking(&[0]);
+            uart::write_blocking(frame);
+        }
     }
 
     /// Sends the safe frame and exits QEMU with a failure status.
     fn halt() -> ! {
-        if !crate::panic::enter_halt() {
-            send_safe_frame();
-        }
+        crate::panic::send_safe_frame_once();
         loop {
             cortex_m_semihosting::debug::exit(cortex_m_semihosting::debug::EXIT_FAILURE);
         }
@@ -152,28 +159,13 @@ pub const LINK_MAX_RATE_HZ: u32 = u32::MAX;
 #[cfg(feature = "free-run")]
 pub const LINK_MAX_RATE_HZ: u32 = 500;
 
-fn send_safe_frame() {
-    let mut buf = [0u8; wheelset_proto::MAX_FRAME];
-    let frame = crate::device::safe_frame(&mut buf);
-    if bulk::active() {
-        bulk::flush_answers();
-        bulk::write_all(frame);
-    } else {
-        // A lone delimiter ends a frame the interrupted TX task left half sent.
-        uart::write_blocking(&[0]);
-        uart::write_blocking(frame);
-    }
-}
-
 /// The watchdog's first expiry (the NMI; free-running only): records WATCHDOG, sends the
 /// safe frame, waits for the second expiry's reset ([`wdog::GRACE_COUNTS`]).
 #[cortex_m_rt::exception]
 unsafe fn NonMaskableInt() {
     wdog::grace();
     crate::boot::record_cause(wheelset_proto::reset_cause::WATCHDOG);
-    if !crate::panic::enter_halt() {
-        send_safe_frame();
-    }
+    crate::panic::send_safe_frame_once();
     loop {
         core::hint::spin_loop();
     }

@@ -17,7 +17,7 @@ use embassy_stm32::usart::{self, RingBufferedUartRx, Uart, UartTx};
 use embassy_stm32::wdg::IndependentWatchdog;
 use embassy_stm32::Peri;
 
-use super::{Board as _, Selected};
+use super::Selected;
 use crate::app::{self, Stopwatch};
 use crate::bounded;
 use crate::exec::cyccnt_elapsed;
@@ -135,9 +135,7 @@ pub fn send_polled(
 /// FAULT, 0.1 s for a probe to read the log, SYSRESETREQ; no unbounded wait.
 pub fn halt() -> ! {
     cortex_m::interrupt::disable();
-    if !crate::panic::enter_halt() {
-        Selected::send_safe_frame();
-    }
+    crate::panic::send_safe_frame_once();
     crate::boot::record_cause(wheelset_proto::reset_cause::FAULT);
     cortex_m::asm::delay(CORE_HZ.load(Ordering::Relaxed) / 10);
     SCB::sys_reset()
