@@ -44,8 +44,7 @@ const fn h(handler: unsafe extern "C" fn()) -> Vector {
     Vector { handler }
 }
 
-/// The 32 external interrupt vectors, after the core exceptions (cortex-m-rt's `device`):
-/// [`Interrupt`]'s handlers, `DefaultHandler` for the rest, the last reserved.
+/// The 32 external interrupt vectors, after the core exceptions (cortex-m-rt's `device`).
 #[unsafe(link_section = ".vector_table.interrupts")]
 #[unsafe(no_mangle)]
 pub static __INTERRUPTS: [Vector; 32] = {
