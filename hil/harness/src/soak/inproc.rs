@@ -70,8 +70,7 @@ pub struct SoakOptions {
     pub duration_ns: u64,
     /// Seed of every random choice.
     pub seed: u64,
-    /// A deliberately broken device: `None` or `Corrupt` (`--defect`); the others are
-    /// `hil run`'s and change nothing here.
+    /// A deliberately broken device (`--defect`): `None` or `Corrupt`; the others do nothing.
     pub defect: DeviceFault,
     /// Print a line per simulated hour on stderr.
     pub progress: bool,
@@ -338,9 +337,9 @@ impl Soak {
                 configs.insert((hz, lead), cfg);
             }
         }
-        // The device's start: the run's Config (protection on, alarms reported) and every 32-bit
-        // counter near its wrap (tick and frame counts wrap halfway through the run, the others
-        // within a few hundred events; the host's `seq` within 100 periods).
+        // The device's start: the run's Config (protection on, alarms reported) and every
+        // 32-bit counter near its wrap (`START_TICKS_BEFORE_WRAP`; the others within a few
+        // hundred events).
         let boot = wheelset_loop::device_loop::run_config(&base, true, false);
         let frame = encode_vec(&Message::Config(boot)).map_err(|e| format!("{e:?}"))?;
         rt.receive(&frame);
@@ -842,8 +841,7 @@ impl Soak {
                 acc.first_alarm_tick.get_or_insert(tick_count.max(1));
             }
         }
-        // The safe state zeroes the yaw torque: the wheelset's kinematic mode grows
-        // meanwhile, as with a failed actuator, and the actuator check may see it.
+        // (The safe state's zero yaw torque: see `ALARM_GRACE_NS`.)
         let after_safe = safe || (acc.safe_exit_ns > 0 && t < acc.safe_exit_ns + ALARM_GRACE_NS);
         let expected = after_safe
             || match self.act {
