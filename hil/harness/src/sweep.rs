@@ -85,8 +85,7 @@ pub struct Record {
     /// Index in the grid.
     pub index: usize,
     /// The point's parameters: the axis keys, then their followers (a JSON object, in order).
-    #[serde(with = "ordered")]
-    pub params: Vec<(String, f64)>,
+    pub params: indexmap::IndexMap<String, f64>,
     /// The run's verdict (worst of timing, numerics, frames, monitor).
     pub verdict: Verdict,
     /// Peak `|y|` of the closed loop through the device, m.
@@ -273,7 +272,7 @@ fn run_point(
         .fold(0.0, f64::max);
     Ok(Record {
         index,
-        params: point.to_vec(),
+        params: point.iter().cloned().collect(),
         verdict: out.report.verdict,
         peak_abs_y_m: peak,
         diverged_at_s: out.trajectory.info.diverged_at_s,
@@ -370,33 +369,4 @@ pub fn run_campaign(
         records,
     };
     Ok((doc, cost))
-}
-
-/// `Vec<(String, f64)>` as a JSON object, in its order.
-mod ordered {
-    use serde::de::{MapAccess, Visitor};
-    use serde::{Deserializer, Serializer};
-    use std::fmt;
-
-    pub fn serialize<S: Serializer>(v: &[(String, f64)], s: S) -> Result<S::Ok, S::Error> {
-        s.collect_map(v.iter().map(|(k, x)| (k, x)))
-    }
-
-    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<(String, f64)>, D::Error> {
-        struct V;
-        impl<'de> Visitor<'de> for V {
-            type Value = Vec<(String, f64)>;
-            fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-                f.write_str("an object of parameter values")
-            }
-            fn visit_map<A: MapAccess<'de>>(self, mut a: A) -> Result<Self::Value, A::Error> {
-                let mut v = Vec::new();
-                while let Some(e) = a.next_entry::<String, f64>()? {
-                    v.push(e);
-                }
-                Ok(v)
-            }
-        }
-        d.deserialize_map(V)
-    }
 }
