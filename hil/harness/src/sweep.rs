@@ -10,10 +10,8 @@
 //! would override a swept key is refused. Every point runs the same fault seed, so the
 //! records depend on the grid and the seed only, not on threads, shards or machines.
 //!
-//! `--shard I/N` runs the points with `i mod N = I` ([`shard`]: Slurm's and Kubernetes'
-//! array variables); [`merge`] joins the shards into the single run's document, byte for
-//! byte. Shard documents, written atomically ([`atomic`]), carry the campaign's [`Identity`]:
-//! the merge refuses a shard of another build or of edited inputs. They hold no timing.
+//! `--shard I/N` runs part of the grid ([`shard`]); [`merge`] joins the shards' documents
+//! ([`atomic`], with the campaign's [`Identity`], no timing) into the single run's, byte for byte.
 
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::mpsc;
@@ -140,8 +138,7 @@ pub struct SweepDoc {
 /// A campaign's definition.
 #[derive(Debug, Clone)]
 pub struct Campaign {
-    /// What each point's run shares (scenario, law, target, faults, budgets, link,
-    /// base parameters); `params` is the base.
+    /// What each point's run shares; its `params` are the base.
     pub base: RunOptions,
     /// The header written into the document (the caller fills the file names).
     pub header: Header,
@@ -282,8 +279,7 @@ fn run_point(
 
 /// Runs the points of `shard` (every point without one) on `jobs` threads, calling
 /// `progress(done, total)` after each point; the records in index order, whatever the
-/// threads' order. Also returns the campaign's cost ([`throughput::Throughput`]: CPU time
-/// of its threads and child processes, wall time), which is not part of the document.
+/// threads' order; and the campaign's cost ([`throughput::Throughput`], not in the document).
 pub fn run_campaign(
     c: &Campaign,
     shard: Option<Shard>,
