@@ -181,31 +181,10 @@ impl Default for Budgets {
     }
 }
 
-/// A budget file or `--set` that cannot be used: names the source, the key, the reason.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct BudgetError {
-    /// The file (or `--set`).
-    pub source: String,
-    /// Why.
-    pub reason: String,
+/// A budget file or `--set` that cannot be used: `SOURCE: REASON` (the reason names the key).
+fn bad(source: &str, reason: impl fmt::Display) -> String {
+    format!("{source}: {reason}")
 }
-
-impl BudgetError {
-    fn new(source: impl Into<String>, reason: impl fmt::Display) -> Self {
-        Self {
-            source: source.into(),
-            reason: reason.to_string(),
-        }
-    }
-}
-
-impl fmt::Display for BudgetError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}: {}", self.source, self.reason)
-    }
-}
-
-impl std::error::Error for BudgetError {}
 
 fn merge(into: &mut toml::Table, from: toml::Table) {
     for (k, v) in from {
@@ -221,9 +200,9 @@ fn merge(into: &mut toml::Table, from: toml::Table) {
 impl Budgets {
     /// The defaults, then `file`, then each `KEY=VALUE` of `sets` (TOML dotted keys and
     /// values, e.g. `timing.cpu_max.fail=0.5`, `numerics.y_m.rel=0.1`).
-    pub fn load(file: Option<&Path>, sets: &[String]) -> Result<Self, BudgetError> {
-        let mut table = toml::Table::try_from(Budgets::default())
-            .map_err(|e| BudgetError::new("defaults", e))?;
+    pub fn load(file: Option<&Path>, sets: &[String]) -> Result<Self, String> {
+        let mut table =
+            toml::Table::try_from(Budgets::default()).map_err(|e| bad("defaults", e))?;
         let mut last = "defaults".to_string();
         if let Some(path) = file {
             let src = path.display().to_string();
@@ -232,7 +211,7 @@ impl Budgets {
                     ConfigError::Io { reason, .. } => format!("cannot read: {reason}"),
                     e => e.to_string(),
                 };
-                BudgetError::new(&src, reason)
+                bad(&src, reason)
             })?;
             // Typed from the text itself first: an error names the key and line as written.
             if let Err(e) = toml::from_str::<Budgets>(&text) {
@@ -246,7 +225,7 @@ impl Budgets {
                     }
                     e => e.to_string(),
                 };
-                return Err(BudgetError::new(src, reason));
+                return Err(bad(&src, reason));
             }
             Self::layer(&mut table, &text, &src)?;
             last = src;
@@ -256,7 +235,7 @@ impl Budgets {
         for s in sets {
             let src = format!("--set {s}");
             if !s.contains('=') {
-                return Err(BudgetError::new(src, "expected KEY=VALUE"));
+                return Err(bad(&src, "expected KEY=VALUE"));
             }
             Self::layer(&mut table, s, &src)?;
         }
@@ -268,22 +247,21 @@ impl Budgets {
             };
         }
         let b = Self::typed(table, &last)?;
-        b.validate()
-            .map_err(|reason| BudgetError::new(last, reason))?;
+        b.validate().map_err(|reason| bad(&last, reason))?;
         Ok(b)
     }
 
-    fn layer(table: &mut toml::Table, text: &str, src: &str) -> Result<(), BudgetError> {
+    fn layer(table: &mut toml::Table, text: &str, src: &str) -> Result<(), String> {
         let t: toml::Table = text
             .parse()
-            .map_err(|e: toml::de::Error| BudgetError::new(src, e.message()))?;
+            .map_err(|e: toml::de::Error| bad(src, e.message()))?;
         merge(table, t);
         Self::typed(table.clone(), src).map(|_| ())
     }
 
-    fn typed(t: toml::Table, src: &str) -> Result<Self, BudgetError> {
+    fn typed(t: toml::Table, src: &str) -> Result<Self, String> {
         t.try_into()
-            .map_err(|e: toml::de::Error| BudgetError::new(src, e.message()))
+            .map_err(|e: toml::de::Error| bad(src, e.message()))
     }
 
     /// Refuses unknown signals, negative or NaN limits, and `warn > fail`.

@@ -10,10 +10,8 @@
 //! would override a swept key is refused. Every point runs the same fault seed, so the
 //! records depend on the grid and the seed only, not on threads, shards or machines.
 //!
-//! `--shard I/N` runs the points with `i mod N = I` ([`shard`]: Slurm's and Kubernetes'
-//! array variables); [`merge`] joins the shards into the single run's document, byte for
-//! byte. Shard documents, written atomically ([`atomic`]), carry the campaign's [`Identity`]:
-//! the merge refuses a shard of another build or of edited inputs. They hold no timing.
+//! `--shard I/N` runs part of the grid ([`shard`]); [`merge`] joins the shards' documents
+//! ([`atomic`], with the campaign's [`Identity`], no timing) into the single run's, byte for byte.
 
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::mpsc;
@@ -85,8 +83,7 @@ pub struct Record {
     /// Index in the grid.
     pub index: usize,
     /// The point's parameters: the axis keys, then their followers (a JSON object, in order).
-    #[serde(with = "ordered")]
-    pub params: Vec<(String, f64)>,
+    pub params: indexmap::IndexMap<String, f64>,
     /// The run's verdict (worst of timing, numerics, frames, monitor).
     pub verdict: Verdict,
     /// Peak `|y|` of the closed loop through the device, m.
@@ -141,8 +138,7 @@ pub struct SweepDoc {
 /// A campaign's definition.
 #[derive(Debug, Clone)]
 pub struct Campaign {
-    /// What each point's run shares (scenario, law, target, faults, budgets, link,
-    /// base parameters); `params` is the base.
+    /// What each point's run shares; its `params` are the base.
     pub base: RunOptions,
     /// The header written into the document (the caller fills the file names).
     pub header: Header,
@@ -273,7 +269,7 @@ fn run_point(
         .fold(0.0, f64::max);
     Ok(Record {
         index,
-        params: point.to_vec(),
+        params: point.iter().cloned().collect(),
         verdict: out.report.verdict,
         peak_abs_y_m: peak,
         diverged_at_s: out.trajectory.info.diverged_at_s,
@@ -283,8 +279,7 @@ fn run_point(
 
 /// Runs the points of `shard` (every point without one) on `jobs` threads, calling
 /// `progress(done, total)` after each point; the records in index order, whatever the
-/// threads' order. Also returns the campaign's cost ([`throughput::Throughput`]: CPU time
-/// of its threads and child processes, wall time), which is not part of the document.
+/// threads' order; and the campaign's cost ([`throughput::Throughput`], not in the document).
 pub fn run_campaign(
     c: &Campaign,
     shard: Option<Shard>,
@@ -370,33 +365,4 @@ pub fn run_campaign(
         records,
     };
     Ok((doc, cost))
-}
-
-/// `Vec<(String, f64)>` as a JSON object, in its order.
-mod ordered {
-    use serde::de::{MapAccess, Visitor};
-    use serde::{Deserializer, Serializer};
-    use std::fmt;
-
-    pub fn serialize<S: Serializer>(v: &[(String, f64)], s: S) -> Result<S::Ok, S::Error> {
-        s.collect_map(v.iter().map(|(k, x)| (k, x)))
-    }
-
-    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<(String, f64)>, D::Error> {
-        struct V;
-        impl<'de> Visitor<'de> for V {
-            type Value = Vec<(String, f64)>;
-            fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-                f.write_str("an object of parameter values")
-            }
-            fn visit_map<A: MapAccess<'de>>(self, mut a: A) -> Result<Self::Value, A::Error> {
-                let mut v = Vec::new();
-                while let Some(e) = a.next_entry::<String, f64>()? {
-                    v.push(e);
-                }
-                Ok(v)
-            }
-        }
-        d.deserialize_map(V)
-    }
 }

@@ -6,12 +6,13 @@
 
 use std::process::Command;
 
-use hil::soak::inproc::{soak, Defect, SoakOptions};
+use hil::soak::inproc::{soak, SoakOptions};
 use hil::soak::service::ServiceOptions;
+use wheelset_loop::inproc::DeviceFault;
 
 const MINUTE_NS: u64 = 60_000_000_000;
 
-fn options(minutes: u64, seed: u64, defect: Defect) -> SoakOptions {
+fn options(minutes: u64, seed: u64, defect: DeviceFault) -> SoakOptions {
     SoakOptions {
         duration_ns: minutes * MINUTE_NS,
         seed,
@@ -24,7 +25,7 @@ fn options(minutes: u64, seed: u64, defect: Defect) -> SoakOptions {
 
 #[test]
 fn a_simulated_hour_of_service_runs_clean() {
-    let r = soak(options(60, 1, Defect::None)).expect("the soak starts");
+    let r = soak(options(60, 1, DeviceFault::None)).expect("the soak starts");
     eprintln!("{}", r.summary());
     assert!(r.failure.is_none(), "{}", r.summary());
     assert!((r.simulated_s - 3600.0).abs() < 0.01, "{}", r.simulated_s);
@@ -53,7 +54,7 @@ fn a_simulated_hour_of_service_runs_clean() {
 /// about 2 kN m, clean.
 #[test]
 fn demand_steps_raise_no_false_alarm() {
-    let mut o = options(5, 3, Defect::None);
+    let mut o = options(5, 3, DeviceFault::None);
     o.service.demand_steps = true;
     let r = soak(o).expect("the soak starts");
     assert!(r.failure.is_none(), "{}", r.summary());
@@ -63,7 +64,7 @@ fn demand_steps_raise_no_false_alarm() {
 #[test]
 fn a_broken_device_is_caught_named_and_replayed_in_a_shorter_run() {
     // Every 150 000th frame the device sends has a bit flipped: the first about 30 s in.
-    let broken = Defect::Corrupt { every: 150_000 };
+    let broken = DeviceFault::Corrupt { every: 150_000 };
     let r = soak(options(10, 7, broken)).expect("the soak starts");
     let f = r.failure.expect("the soak catches the broken frame");
     let text = f.to_string();

@@ -276,9 +276,9 @@ impl<T: SampleBits> InProc<T> {
     }
 }
 
-/// The runtime's rejection counters in [`outcome`]'s order (CRC, COBS, version, ...).
+/// A Status's receive rejects by kind, in [`wheelset_proto::FrameError::KINDS`]' order.
 #[inline(always)]
-fn rejections(s: &wheelset_proto::Status) -> [u32; 5] {
+pub fn rejections(s: &wheelset_proto::Status) -> [u32; 5] {
     [
         s.rx_crc,
         s.rx_cobs,

@@ -124,7 +124,10 @@ impl FramesReport {
             f.adds_up = false;
             return f;
         };
-        let rejected = rejects(s).into_iter().map(u64::from).sum();
+        let rejected = wheelset_loop::inproc::rejections(s)
+            .into_iter()
+            .map(u64::from)
+            .sum();
         let received = u64::from(s.rx_ok);
         let up = Direction {
             sent: host.sent,
@@ -144,17 +147,6 @@ impl FramesReport {
         };
         Self::new(up, down, "device-status")
     }
-}
-
-/// A Status's receive rejects by kind, in [`wheelset_proto::FrameError::KINDS`]' order.
-pub(crate) fn rejects(s: &Status) -> [u32; 5] {
-    [
-        s.rx_crc,
-        s.rx_cobs,
-        s.rx_version,
-        s.rx_length,
-        s.rx_postcard,
-    ]
 }
 
 /// The frames verdict: fail if the accounting does not add up, else the worst of the

@@ -13,7 +13,6 @@
 //!   the maximum lateness is the peak-to-peak jitter); not applicable under lock-step.
 //! - **missed ticks**: periods without an actuation echoing their own sample by
 //!   `t_k + d T` (tick-counter gaps counted apart); **overruns**: execution time > T.
-//! - **CPU utilisation**: execution time / T, mean and max.
 //! - **link utilisation**: mean bytes per period (both ways) x 10 bits / baud / T;
 //!   pipelined, the larger of each direction's share of `T` and both's share of `d T`.
 

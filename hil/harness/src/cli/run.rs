@@ -147,7 +147,7 @@ pub(crate) fn parse_channel(s: &str) -> Result<wheelset_targets::qemu::Channel, 
 }
 
 pub(crate) fn cmd_run(a: &RunArgs, command: &str) -> Result<Verdict, Failure> {
-    let budgets = Budgets::load(a.budget.as_deref(), &a.sets).map_err(|e| input(e.to_string()))?;
+    let budgets = Budgets::load(a.budget.as_deref(), &a.sets).map_err(input)?;
     let params = load_params(a.params.as_deref())?;
     if a.baud == 0 {
         return Err(input("--baud: must be positive"));

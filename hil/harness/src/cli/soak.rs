@@ -6,9 +6,10 @@ use std::io::IsTerminal;
 use clap::Args;
 use hil::report::to_json;
 use hil::run::Target;
-use hil::soak::inproc::{soak, Defect, SoakOptions};
+use hil::soak::inproc::{soak, SoakOptions};
 use hil::soak::qemu::soak_qemu;
 use hil::soak::service::ServiceOptions;
+use wheelset_loop::inproc::DeviceFault;
 use wheelset_report::Verdict;
 
 use super::{input, run_error, written, Failure};
@@ -31,8 +32,8 @@ pub(crate) struct SoakArgs {
     seed: u64,
     /// A deliberately broken in-process device: corrupt:EVERY (every EVERY-th frame it
     /// sends has a bit flipped), to show that the soak catches it and names the seed.
-    #[arg(long, default_value = "none")]
-    defect: Defect,
+    #[arg(long, default_value = "none", value_parser = parse_defect)]
+    defect: DeviceFault,
     #[command(flatten)]
     service: ServiceOptions,
     /// Print each episode of the service as it starts, and the first second of each
@@ -51,6 +52,16 @@ fn parse_soak_target(s: &str) -> Result<Target, String> {
         _ => Err(format!(
             "unknown soak target `{s}` (expected inproc or qemu-free)"
         )),
+    }
+}
+
+/// `--defect`: the device faults the soak simulates, `none` and `corrupt:EVERY`.
+fn parse_defect(s: &str) -> Result<DeviceFault, String> {
+    match s.strip_prefix("corrupt:").map(|_| s.parse()) {
+        _ if s == "none" => Ok(DeviceFault::None),
+        Some(Ok(d)) => Ok(d),
+        Some(Err(_)) => Err(format!("{s}: EVERY must be a whole number of frames >= 1")),
+        None => Err(format!("unknown defect `{s}` (known: none, corrupt:EVERY)")),
     }
 }
 
@@ -73,7 +84,7 @@ fn duration_s(a: &SoakArgs) -> Result<f64, Failure> {
 pub(crate) fn cmd_soak(a: &SoakArgs) -> Result<Verdict, Failure> {
     let secs = duration_s(a)?;
     let (json, summary, clean) = match a.target {
-        Target::QemuFree if a.defect != Defect::None => {
+        Target::QemuFree if a.defect != DeviceFault::None => {
             return Err(input(
                 "hil soak: --defect is the in-process device's (--target inproc)",
             ))

@@ -197,7 +197,7 @@ pub(crate) fn cmd_sweep(c: &SweepCmd, command: &str) -> Result<Verdict, Failure>
         None => std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get),
     };
     super::check_link_flags(&a.target, a.qemu_link, &a.faults)?;
-    let budgets = Budgets::load(a.budget.as_deref(), &a.sets).map_err(|e| input(e.to_string()))?;
+    let budgets = Budgets::load(a.budget.as_deref(), &a.sets).map_err(input)?;
     let params = load_params(a.params.as_deref())?;
     let identity = identity(a)?;
     let law = a.control.law_for(&a.scenario, &params);

@@ -4,17 +4,10 @@
 //! length. Each period `T` is the exchange of `wheelset_loop::exchange` (the actuation
 //! from `t_k + T`) on the flexible axle with the traction drive, RK4 at [`STEP_NS`].
 //!
-//! Checked at every tick on the device's own output (`docs/soak.md`): outputs within
-//! their limits; the flags the harness's own account predicts (`HOLDING`, `SAFE` after
-//! more than `hold_ticks` without a frame, `NO_SAMPLE`, `ENABLED`, never `CMD_REFUSED`),
-//! the `seq` echo and the tick count; alarms only around an actuator fault or a safe
-//! state ([`ALARM_GRACE_NS`]), every actuator fault alarmed within
-//! [`ALARM_DEADLINE_NS`], never `DRIVE_OSC`; `FAULT_LATCHED` until a ClearFaults. On a
-//! clean line every frame arrives valid. At every Status: every frame accounted for both
-//! ways and the device's counters against the harness's counts, modulo 2^32 from a start
-//! near the wrap. `|y|` stays under [`Y_MAX_M`]; the peak RSS after the first simulated
-//! hour and at the end agree within [`RSS_GROWTH_MAX_KIB`]. The first failure stops the
-//! run, named with its simulated time and the seed.
+//! The checks are `docs/soak.md`'s: at every tick on the device's own output
+//! (`after_tick`), at every Status (`check_status`), the plant's `|y|` and the peak RSS
+//! (the limits below); the first failure stops the run, named with its simulated time
+//! and the seed.
 
 use std::collections::BTreeMap;
 use std::fmt;
@@ -23,6 +16,7 @@ use std::time::Instant;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use wheelset_control::Fx;
+use wheelset_loop::inproc::{rejections, DeviceFault};
 use wheelset_plant::adhesion::{Adhesion, Condition};
 use wheelset_plant::params::Params;
 use wheelset_plant::plant::{ix, Fixed, Inputs, Plant, PlantConfig, State};
@@ -37,7 +31,6 @@ use wheelset_runtime::{HoldPolicy, Runtime, SafeChange};
 
 use super::line::{Fate, Line, LineCounts, LineFaults};
 use super::service::{next_episode, Demand, Episode, ServiceOptions, Track};
-use crate::check::frames::rejects;
 use crate::run::{device_config, runtime_config_for, Law};
 use crate::sweep::throughput::thread_cpu;
 
@@ -70,46 +63,6 @@ pub const START_TICKS_BEFORE_WRAP: u32 = 6_000_000;
 /// balances the demand plus `m_long (v - V0) / 30 s`.
 const SPEED_HOLD_S: f64 = 30.0;
 
-/// A deliberately broken device, to show the soak catches and replays it.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum Defect {
-    /// A correct device.
-    #[default]
-    None,
-    /// Every `every`-th frame the device sends has one bit flipped (a broken UART).
-    Corrupt {
-        /// Period of the corruption, frames (>= 1).
-        every: u64,
-    },
-}
-
-impl fmt::Display for Defect {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::None => f.write_str("none"),
-            Self::Corrupt { every } => write!(f, "corrupt:{every}"),
-        }
-    }
-}
-
-impl std::str::FromStr for Defect {
-    type Err = String;
-
-    /// `none` or `corrupt:EVERY` (a whole number of frames, >= 1).
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        match s.split_once(':') {
-            None if s == "none" => Ok(Self::None),
-            Some(("corrupt", n)) => match n.parse::<u64>() {
-                Ok(every) if every > 0 => Ok(Self::Corrupt { every }),
-                _ => Err(format!(
-                    "corrupt:{n}: EVERY must be a whole number of frames >= 1"
-                )),
-            },
-            _ => Err(format!("unknown defect `{s}` (known: none, corrupt:EVERY)")),
-        }
-    }
-}
-
 /// How the soak runs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct SoakOptions {
@@ -117,8 +70,8 @@ pub struct SoakOptions {
     pub duration_ns: u64,
     /// Seed of every random choice.
     pub seed: u64,
-    /// A deliberately broken device.
-    pub defect: Defect,
+    /// A deliberately broken device (`--defect`): `None` or `Corrupt`; the others do nothing.
+    pub defect: DeviceFault,
     /// Print a line per simulated hour on stderr.
     pub progress: bool,
     /// `hil soak --trace`: the episodes, repairs and adhesion onsets on stderr.
@@ -303,11 +256,8 @@ struct Account {
     last_seq: u16,
     latched: bool,
     rate_hz: u32,
-    ticks: u64,
     statuses: u64,
-    held: u64,
     safe_ticks: u64,
-    safe_entries: u64,
     safe_exits: u64,
     seq_gaps: u64,
     alarm_flags: u16,
@@ -327,7 +277,6 @@ struct Soak {
     x: State,
     v0: f64,
     held: (f64, f64),
-    gain: f64,
     track: Track,
     demand: Demand,
     rng_track: Pcg64,
@@ -388,9 +337,9 @@ impl Soak {
                 configs.insert((hz, lead), cfg);
             }
         }
-        // The device's start: the run's Config (protection on, alarms reported) and every 32-bit
-        // counter near its wrap (tick and frame counts wrap halfway through the run, the others
-        // within a few hundred events; the host's `seq` within 100 periods).
+        // The device's start: the run's Config (protection on, alarms reported) and every
+        // 32-bit counter near its wrap (`START_TICKS_BEFORE_WRAP`; the others within a few
+        // hundred events).
         let boot = wheelset_loop::device_loop::run_config(&base, true, false);
         let frame = encode_vec(&Message::Config(boot)).map_err(|e| format!("{e:?}"))?;
         rt.receive(&frame);
@@ -452,7 +401,6 @@ impl Soak {
             v0: params.v,
             params,
             x,
-            gain: 1.0,
             track: Track::default(),
             demand: Demand::new(opts.service.demand_steps),
             rng_track: Pcg64::seed_from_u64(opts.seed ^ 0x50a4_0004),
@@ -505,7 +453,7 @@ impl Soak {
             .into_iter()
             .filter_map(|(on, flag)| on.then_some(flag))
             .collect();
-            if o.defect != Defect::None {
+            if o.defect != DeviceFault::None {
                 flags.push_str(&format!(" --defect {}", o.defect));
             }
             self.failure = Some(SoakFailure {
@@ -539,7 +487,7 @@ impl Soak {
                     "hil soak: {} simulated, {:.1} s wall, {} ticks, peak RSS {} KiB",
                     hms(self.t_ns),
                     t0.elapsed().as_secs_f64(),
-                    self.acc.ticks,
+                    self.report.ticks,
                     peak_rss_kib()
                 );
             }
@@ -585,7 +533,6 @@ impl Soak {
             Episode::Actuator => {
                 self.report.actuator_faults += 1;
                 self.act = ActState::Failed(t);
-                self.gain = 0.0;
             }
             Episode::Config { rate_hz, lead } => {
                 if let Some(&cfg) = self.configs.get(&(rate_hz, lead)) {
@@ -674,12 +621,12 @@ impl Soak {
         let mut at = tick_at;
         for frame in out.split_inclusive_mut(|&b| b == 0) {
             self.frames_out += 1;
-            if let Defect::Corrupt { every } = self.opts.defect {
-                if self.frames_out.is_multiple_of(every) && frame.len() > 3 {
+            if let DeviceFault::Corrupt { every } = self.opts.defect {
+                if self.frames_out.is_multiple_of(u64::from(every)) && frame.len() > 3 {
                     frame[2] ^= 0x10;
                 }
             }
-            let clean = !self.down.faults().any() && !self.down.open();
+            let clean = self.down.clean();
             let dec = &mut self.host_dec;
             let fate = self.down.carry(at, frame, |piece| {
                 let (r, _) = dec.next_message(piece);
@@ -723,24 +670,17 @@ impl Soak {
         self.period_ns = 1_000_000_000 / u64::from(hz.max(1));
     }
 
-    /// One frame up, sent at `at` (advanced by its wire time); whether the device
-    /// received it valid.
+    /// One frame up, sent at `at` (advanced by its wire time), through the line into the
+    /// runtime, its fate attributed from the runtime's own counters
+    /// (`wheelset_loop::inproc`'s rule); whether the device received it valid.
     fn send(&mut self, at: &mut u64, m: &Message) -> bool {
-        let Ok(f) = encode_vec(m) else {
+        let Ok(frame) = encode_vec(m) else {
             return false;
         };
-        let fate = self.send_up(*at, &f);
-        *at += f.len() as u64 * 2_000;
-        fate == Fate::Valid
-    }
-
-    /// One frame up through the line into the runtime, its fate attributed from the
-    /// runtime's own counters (`wheelset_loop::inproc`'s rule).
-    fn send_up(&mut self, t: u64, frame: &[u8]) -> Fate {
-        let clean = !self.up.faults().any() && !self.up.open();
+        let clean = self.up.clean();
         let rt = &mut self.rt;
-        let counts = |s: &Status| (s.rx_ok.wrapping_add(s.rx_unexpected), rejects(s));
-        let fate = self.up.carry(t, frame, |piece| {
+        let counts = |s: &Status| (s.rx_ok.wrapping_add(s.rx_unexpected), rejections(s));
+        let fate = self.up.carry(*at, &frame, |piece| {
             let (ok, rej) = counts(rt.counters());
             rt.receive(piece);
             let (ok_after, rej_after) = counts(rt.counters());
@@ -751,12 +691,13 @@ impl Soak {
                 .find(|&k| rej_after[k] != rej[k])
                 .map(|k| Err(FrameError::KINDS[k]))
         });
+        *at += frame.len() as u64 * 2_000;
         if clean && fate != Fate::Valid {
             self.fail(format!(
                 "host -> device: a frame {fate:?} on a line without faults"
             ));
         }
-        fate
+        fate == Fate::Valid
     }
 
     /// The tick's checks against the account, on the device's own output.
@@ -770,7 +711,7 @@ impl Soak {
         out: &[u8],
     ) {
         let acc = &mut self.acc;
-        acc.ticks += 1;
+        self.report.ticks += 1;
         if let Some((cfg, hz)) = config {
             acc.hold_ticks = cfg.hold_ticks;
             self.report.configs += 1;
@@ -797,7 +738,7 @@ impl Soak {
         let (holding, safe) = (h.holding, h.safe);
         match h.change {
             Some(SafeChange::Enter) => {
-                acc.safe_entries += 1;
+                self.report.safe_entries += 1;
                 acc.safe_since_ns = t;
             }
             Some(SafeChange::Exit) => {
@@ -806,28 +747,23 @@ impl Soak {
             }
             None => {}
         }
-        acc.held += u64::from(holding);
+        self.report.held_ticks += u64::from(holding);
         acc.safe_ticks += u64::from(safe);
         if status_requested {
             acc.statuses += 1;
         }
-        let mut a = None;
-        let mut st = false;
-        let mut wrong = None;
-        for r in self.dev_dec.messages(out) {
+        let (mut a, mut st) = (None, false);
+        let wrong = self.dev_dec.messages(out).find_map(|r| {
             match r {
                 Ok(Message::Actuation(x)) => a = Some(x),
                 Ok(Message::Status(_)) => st = true,
-                other => {
-                    wrong = Some(other);
-                    break;
-                }
+                other => return Some(other),
             }
-        }
-        if let Some(other) = wrong {
+            None
+        });
+        if wrong.is_some() {
             self.fail(format!(
-                "the device sent {:?} where an Actuation or Status belongs",
-                Some(other)
+                "the device sent {wrong:?} where an Actuation or Status belongs"
             ));
             return;
         }
@@ -847,7 +783,7 @@ impl Soak {
         }
         let f = a.flags;
         let acc = &mut self.acc;
-        let tick_count = self.start.ticks.wrapping_add(acc.ticks as u32);
+        let tick_count = self.start.ticks.wrapping_add(self.report.ticks as u32);
         if tick_count == 0 {
             self.report.tick_wrap_s = Some(t as f64 * 1e-9);
         }
@@ -905,8 +841,7 @@ impl Soak {
                 acc.first_alarm_tick.get_or_insert(tick_count.max(1));
             }
         }
-        // The safe state zeroes the yaw torque: the wheelset's kinematic mode grows
-        // meanwhile, as with a failed actuator, and the actuator check may see it.
+        // (The safe state's zero yaw torque: see `ALARM_GRACE_NS`.)
         let after_safe = safe || (acc.safe_exit_ns > 0 && t < acc.safe_exit_ns + ALARM_GRACE_NS);
         let expected = after_safe
             || match self.act {
@@ -958,7 +893,6 @@ impl Soak {
                     );
                 }
                 self.act = ActState::Repaired(t);
-                self.gain = 1.0;
             }
         }
     }
@@ -967,7 +901,7 @@ impl Soak {
     fn check_status(&mut self, s: &Status) {
         self.report.statuses_checked += 1;
         let (st, acc, up, down) = (&self.start, &self.acc, &self.up.counts, &self.down.counts);
-        let alarms = self.report.alarms;
+        let r = &self.report;
         let d = |f: fn(&Status) -> u32| f(s).wrapping_sub(f(st));
         let mut broke = Vec::new();
         for (name, device, harness) in [
@@ -981,20 +915,20 @@ impl Soak {
             ("version rejects", d(|x| x.rx_version), up.rejects[2]),
             ("length rejects", d(|x| x.rx_length), up.rejects[3]),
             ("postcard rejects", d(|x| x.rx_postcard), up.rejects[4]),
-            ("ticks", d(|x| x.ticks), acc.ticks),
+            ("ticks", d(|x| x.ticks), r.ticks),
             (
                 "frames down (ticks + Status frames)",
                 d(|x| x.ticks).wrapping_add(acc.statuses as u32),
                 down.frames.sent,
             ),
-            ("held ticks", d(|x| x.held_ticks), acc.held),
+            ("held ticks", d(|x| x.held_ticks), r.held_ticks),
             ("safe ticks", d(|x| x.safe_ticks), acc.safe_ticks),
-            ("safe entries", d(|x| x.safe_entries), acc.safe_entries),
+            ("safe entries", d(|x| x.safe_entries), r.safe_entries),
             ("safe exits", d(|x| x.safe_exits), acc.safe_exits),
             ("seq gaps", d(|x| x.seq_gaps), acc.seq_gaps),
-            ("hunting alarms", d(|x| x.hunt_alarms), alarms[0]),
-            ("actuator alarms", d(|x| x.act_alarms), alarms[1]),
-            ("drive alarms", d(|x| x.drive_alarms), alarms[2]),
+            ("hunting alarms", d(|x| x.hunt_alarms), r.alarms[0]),
+            ("actuator alarms", d(|x| x.act_alarms), r.alarms[1]),
+            ("drive alarms", d(|x| x.drive_alarms), r.alarms[2]),
             ("refusals", d(|x| x.cmd_refused), 0),
             (
                 "first alarm tick",
@@ -1015,16 +949,21 @@ impl Soak {
         }
     }
 
-    /// The plant over one period under the held actuation (the actuator delivering
-    /// `gain` of its torque).
+    /// The plant over one period under the held actuation (a failed actuator delivering
+    /// none of its torque).
     fn integrate(&mut self, curvature: f64, cant: f64, demand: f64) {
         let h = STEP_NS as f64 * 1e-9;
         let m_long = self.params.m + self.params.m_v / 2.0;
         let plant = self.plant;
+        let gain = if matches!(self.act, ActState::Failed(_)) {
+            0.0
+        } else {
+            1.0
+        };
         let mut x = self.x;
         for _ in 0..self.period_ns / STEP_NS {
             let u = Inputs {
-                t_psi: self.gain * self.held.0,
+                t_psi: gain * self.held.0,
                 u_a: self.held.1,
                 curvature,
                 cant,
@@ -1061,11 +1000,8 @@ pub fn soak(opts: SoakOptions) -> Result<SoakReport, String> {
     }
     let mut r = std::mem::take(&mut s.report);
     r.simulated_s = s.t_ns as f64 * 1e-9;
-    r.ticks = s.acc.ticks;
     r.up = s.up.counts;
     r.down = s.down.counts;
-    r.safe_entries = s.acc.safe_entries;
-    r.held_ticks = s.acc.held;
     r.rss_end_kib = peak_rss_kib();
     if r.rss_first_kib == 0 {
         r.rss_first_kib = r.rss_end_kib;

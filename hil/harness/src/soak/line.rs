@@ -110,17 +110,11 @@ impl Line {
         };
     }
 
-    /// The faults in force.
+    /// A frame sent now arrives as sent: no fault in force, and no bytes of an unfinished
+    /// frame in the receiver's decoder for it to close with.
     #[must_use]
-    pub fn faults(&self) -> LineFaults {
-        self.faults
-    }
-
-    /// The receiver's decoder holds bytes of an unfinished frame (a frame sent now
-    /// closes with them).
-    #[must_use]
-    pub fn open(&self) -> bool {
-        self.open
+    pub fn clean(&self) -> bool {
+        !self.faults.any() && !self.open
     }
 
     /// Carries `frame` sent at `t_ns` and hands the bytes that survive, in pieces cut
