@@ -33,7 +33,6 @@ const PROOF_REMEDY: &str = "the proof is unsound for this signal: fix its bound 
      `hil::audit::bounds` (the observation is the counterexample) before trusting the \
      other proven figures";
 
-/// Judge one controller's figures.
 pub fn controller_checks(a: &ControllerAudit, tol: &Tolerances, cfg: &Config) -> Vec<Check> {
     let n = &a.name;
     let coef = |item: String, value: f64, limit, what| {
@@ -126,7 +125,6 @@ pub fn controller_checks(a: &ControllerAudit, tol: &Tolerances, cfg: &Config) ->
     v
 }
 
-/// Judge ranges and noise.
 pub fn observed_checks(o: &Observed, tol: &Tolerances) -> Vec<Check> {
     let mut v = Vec::new();
     for s in &o.signals {
@@ -229,11 +227,7 @@ pub fn all_checks(c: &Core, tol: &Tolerances, cfg: &Config) -> Vec<Check> {
 /// errors against the noise tolerance (wire LSBs).
 pub fn proof_checks(p: &Proofs, tol: &Tolerances) -> Vec<Check> {
     let mut v = Vec::new();
-    let (margin, worst) = p
-        .bounds
-        .iter()
-        .map(|b| (b.margin_bits, b.signal.as_str()))
-        .fold((f64::INFINITY, ""), |a, b| if b.0 < a.0 { b } else { a });
+    let (margin, worst) = super::bounds::smallest_margin(&p.bounds);
     let status = if !p.overflow_free || margin.is_nan() || margin <= 0.0 {
         Status::Fail
     } else {
@@ -457,7 +451,6 @@ fn nyquist_words(x: &Margin) -> String {
     }
 }
 
-/// The gain interval of a loop in words.
 fn gain_words(x: &Margin) -> String {
     let db = |v: Option<f64>, none: &str| v.map_or(none.to_string(), |d| format!("{d:+.2} dB"));
     format!(
@@ -467,7 +460,6 @@ fn gain_words(x: &Margin) -> String {
     )
 }
 
-/// The phase margins of a loop in words.
 fn phase_words(x: &Margin) -> String {
     let deg = |v: Option<f64>| v.map_or("none".to_string(), |d| format!("{d:.2} deg"));
     format!(

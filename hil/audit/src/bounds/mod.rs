@@ -141,6 +141,15 @@ pub struct Proofs {
     pub overflow_free: bool,
 }
 
+/// The smallest margin of `bounds`, bits, and its signal (the first of equals; infinite
+/// and `""` for none).
+pub(crate) fn smallest_margin(bounds: &[Bound]) -> (f64, &str) {
+    let m = bounds
+        .iter()
+        .min_by(|a, b| a.margin_bits.total_cmp(&b.margin_bits));
+    m.map_or((f64::INFINITY, ""), |b| (b.margin_bits, b.signal.as_str()))
+}
+
 /// Smallest integer bits (incl. sign) with `2^(i-1) > v`.
 pub fn int_bits_for(v: f64) -> u32 {
     (1..64).take_while(|&i| 2f64.powi(i - 1) <= v).count() as u32 + 1
@@ -167,15 +176,17 @@ pub fn prove(
     let range = fmt.range();
     let p = proven(k, cfg, q);
     let fmt_s = fmt.to_string();
+    let seen = |n: &str| {
+        observed
+            .signals
+            .iter()
+            .find(|r| r.name == n && r.samples > 0)
+    };
     let bounds: Vec<Bound> = p
         .signals
         .iter()
         .map(|(n, c, u, fs, v, proof)| {
-            let obs = observed
-                .signals
-                .iter()
-                .find(|r| &r.name == n && r.samples > 0)
-                .map(|r| r.min_si.abs().max(r.max_si.abs()));
+            let obs = seen(n).map(|r| r.min_si.abs().max(r.max_si.abs()));
             Bound {
                 signal: n.clone(),
                 controller: c.clone(),
@@ -255,11 +266,7 @@ pub fn prove(
             };
             let budget = lsb / 2.0;
             let e = per * 2f64.powi(-(f as i32)) * fs;
-            let peak = observed
-                .signals
-                .iter()
-                .find(|s| &s.name == n && s.samples > 0)
-                .map(|s| s.peak());
+            let peak = seen(n).map(|s| s.peak());
             let word = i + f;
             let note = if word > 32 {
                 format!("; {word} bits exceed an i32")
@@ -287,21 +294,15 @@ pub fn prove(
             }
         })
         .collect();
+    let tightest = smallest_margin(&bounds);
     let statement = if overflow_free {
         format!(
             "No overflow for any input within the clamps: every internal signal's proven \
              bound lies inside {fmt_s} (smallest margin {:.2} bits, {}); the rounding error \
              of T_psi against exact arithmetic on the quantised coefficients is at most \
              {:.3e} N m ({:.3} wire LSB), of u_a given the PI's input {:.3e} V.",
-            bounds
-                .iter()
-                .map(|b| b.margin_bits)
-                .fold(f64::INFINITY, f64::min),
-            bounds
-                .iter()
-                .min_by(|a, b| a.margin_bits.total_cmp(&b.margin_bits))
-                .map(|b| b.signal.as_str())
-                .unwrap_or(""),
+            tightest.0,
+            tightest.1,
             p.lead_err * s.torque,
             p.lead_err * s.torque / wire.torque,
             p.pi_err * s.voltage
