@@ -50,8 +50,6 @@ pub struct Scenario {
 }
 
 /// Index of each observed signal in [`Observed::signals`].
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[repr(usize)]
 enum Sig {
     YDot,
     PredDiff,
@@ -352,12 +350,8 @@ pub fn observe<T: Sample>(
                     }
                     None => {}
                 }
-                let inp = Inputs::<T> {
-                    y_dot: q(t.si[0] / s.y_dot),
-                    current: q(t.si[1] / s.current),
-                    speed: q(t.si[2] / s.speed),
-                    demand: q(t.si[3] / s.demand),
-                };
+                let [y, i, w, d] = t.si.map(|v| if v.is_finite() { v } else { 0.0 });
+                let inp = Inputs::<T>::from_si(&s, y, i, w, d);
                 let inf = Inputs::<f64> {
                     y_dot: inp.y_dot.to_f64(),
                     current: inp.current.to_f64(),
