@@ -451,47 +451,6 @@ fn nyquist_words(x: &Margin) -> String {
     }
 }
 
-fn gain_words(x: &Margin) -> String {
-    let db = |v: Option<f64>, none: &str| v.map_or(none.to_string(), |d| format!("{d:+.2} dB"));
-    format!(
-        "stable from {} to {} of loop gain",
-        db(x.gain_reduction_db, "no lower limit"),
-        db(x.gain_increase_db, "no upper limit")
-    )
-}
-
-fn phase_words(x: &Margin) -> String {
-    let deg = |v: Option<f64>| v.map_or("none".to_string(), |d| format!("{d:.2} deg"));
-    format!(
-        "extra lag to instability {}, extra lead {}",
-        deg(x.phase_lag_deg),
-        deg(x.phase_lead_deg)
-    )
-}
-
-/// The loop's stability by the Nyquist criterion: a fail when the closed loop has a pole
-/// outside the unit circle.
-fn stability_check(x: &Margin, remedy: String) -> Check {
-    let z = x.closed_loop_unstable_poles as f64;
-    let (status, word) = if x.stable {
-        (Status::Pass, "stable")
-    } else {
-        (Status::Fail, "unstable")
-    };
-    let item = "closed-loop stability (Nyquist: Z = P - W)";
-    let reason = format!("{} ({word})", nyquist_words(x));
-    Check::new(
-        &x.loop_name,
-        item,
-        z,
-        (f64::NAN, 0.5),
-        "unstable poles",
-        status,
-        reason,
-    )
-    .with_remedy(remedy)
-}
-
 /// The margins of one loop against [`USUAL_MARGINS`], with what sets them and what would
 /// raise them.
 fn usual_margin_checks(x: &Margin, cfg: &Config, p: &wheelset_plant::params::Params) -> Vec<Check> {
@@ -532,11 +491,32 @@ fn usual_margin_checks(x: &Margin, cfg: &Config, p: &wheelset_plant::params::Par
             )
         }
     };
-    let mut out = vec![stability_check(
-        x,
-        remedy(x.gain_crossover_hz.unwrap_or(0.0)),
-    )];
+    let (status, word) = if x.stable {
+        (Status::Pass, "stable")
+    } else {
+        (Status::Fail, "unstable")
+    };
+    let reason = format!("{} ({word})", nyquist_words(x));
+    let item = "closed-loop stability (Nyquist: Z = P - W)";
+    let z = x.closed_loop_unstable_poles as f64;
+    let stability = Check::new(
+        &x.loop_name,
+        item,
+        z,
+        (f64::NAN, 0.5),
+        "unstable poles",
+        status,
+        reason,
+    );
+    let mut out = vec![stability.with_remedy(remedy(x.gain_crossover_hz.unwrap_or(0.0)))];
     let (gm_usual, pm_usual) = USUAL_MARGINS;
+    let db = |v: Option<f64>, none: &str| v.map_or(none.to_string(), |d| format!("{d:+.2} dB"));
+    let deg = |v: Option<f64>| v.map_or("none".to_string(), |d| format!("{d:.2} deg"));
+    let (down, up) = (
+        db(x.gain_reduction_db, "no lower limit"),
+        db(x.gain_increase_db, "no upper limit"),
+    );
+    let (lag, lead) = (deg(x.phase_lag_deg), deg(x.phase_lead_deg));
     let rows = [
         (
             "gain margin against the usual 6 dB",
@@ -544,7 +524,7 @@ fn usual_margin_checks(x: &Margin, cfg: &Config, p: &wheelset_plant::params::Par
             x.phase_crossover_hz,
             gm_usual,
             "dB",
-            gain_words(x),
+            format!("stable from {down} to {up} of loop gain"),
             "",
         ),
         (
@@ -553,7 +533,7 @@ fn usual_margin_checks(x: &Margin, cfg: &Config, p: &wheelset_plant::params::Par
             x.gain_crossover_hz,
             pm_usual,
             "deg",
-            phase_words(x),
+            format!("extra lag to instability {lag}, extra lead {lead}"),
             " (30-45 deg is the usual range)",
         ),
     ];

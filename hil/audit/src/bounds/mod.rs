@@ -138,8 +138,7 @@ pub struct Proofs {
     pub overflow_free: bool,
 }
 
-/// The smallest margin of `bounds`, bits, and its signal (the first of equals; infinite
-/// and `""` for none).
+/// The smallest margin of `bounds` (bits) and its signal; `(inf, "")` for none.
 pub(crate) fn smallest_margin(bounds: &[Bound]) -> (f64, &str) {
     let m = bounds
         .iter()
