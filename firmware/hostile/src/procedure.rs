@@ -54,11 +54,7 @@ impl<T: SampleBits> Device for Runtime<T> {
                 _ => {}
             }
         }
-        let status = if status {
-            Some(got.ok_or(NoReply)?)
-        } else {
-            None
-        };
+        let status = status.then(|| got.ok_or(NoReply)).transpose()?;
         Ok(Reply {
             actuation: actuation.ok_or(NoReply)?,
             status,
