@@ -124,7 +124,6 @@ pub fn probe<D: Device>(dev: &mut D, nominal: &Config, frame: &[u8]) -> Result<T
     }
     let status = command(Command::RequestStatus);
     let s0 = dev.exchange(status.as_bytes(), true)?.status;
-    // The next Sensor frame's tick, or (`sensed` false) a tick without a frame.
     let mut seq = 0u16;
     let mut tick = |dev: &mut D, sensed: bool| {
         let f = sensed.then(|| {

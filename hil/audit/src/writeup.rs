@@ -507,7 +507,11 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
 pub(crate) fn not_passed(a: &Audit, bold: bool) -> impl Iterator<Item = String> + '_ {
     let bad = a.checks.iter().filter(|c| c.status != Status::Pass);
     bad.map(move |c| {
-        let st = c.status_word();
+        let st = if c.not_run {
+            "not run"
+        } else {
+            c.status.as_str()
+        };
         let st = if bold { format!("**{st}**") } else { st.into() };
         format!(
             "- {st} `{}` {}: {}",
