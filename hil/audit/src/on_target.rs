@@ -123,7 +123,6 @@ fn decode(bytes: &[u8], dec: &mut Decoder) -> Option<Actuation> {
     out
 }
 
-/// The comparison could not run here (a check not run).
 fn not_run(note: impl core::fmt::Display) -> TargetReport {
     TargetReport::without(TargetOutcome::NotRun, format!("target: not run: {note}"))
 }
