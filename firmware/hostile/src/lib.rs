@@ -199,16 +199,10 @@ pub fn rows<T: SampleBits>(mut each: impl FnMut(Row)) -> Result<(), RuntimeError
     let n = T::NUMERIC;
     let base = nominal::<T>()?;
     let good = rates_for::<T>(&RuntimeConfig::default())?;
-    // The paper's gains re-discretised at these rates: not a design unless 5 kHz / 1 / 1.
-    let at = |base_rate_hz, yaw_divisor: u16, traction_divisor| {
+    // The paper's gains re-discretised at this base rate: not a design unless 5 kHz.
+    let at = |base_rate_hz| {
         let mut c = RuntimeConfig::default();
-        c.control = wheelset_control::Config {
-            base_rate_hz,
-            yaw_divisor,
-            traction_divisor,
-            yaw_predict_ticks: 1.0 + f64::from(yaw_divisor) / 2.0,
-            ..c.control
-        };
+        c.control.base_rate_hz = base_rate_hz;
         rates_for::<T>(&c)
     };
     // The rates designed for the rate and delay (an error: not a design point).
@@ -267,7 +261,7 @@ pub fn rows<T: SampleBits>(mut each: impl FnMut(Row)) -> Result<(), RuntimeError
         (R::Period, "7 kHz (142.9 us)", 7_000),
         (R::Period, "19 999 Hz", 19_999),
     ] {
-        let k = at(hz, 1, 1)?;
+        let k = at(hz)?;
         refuse(why, change, &|r| *r = k);
     }
     // The divisors: the designs run both loops every tick.
@@ -390,12 +384,12 @@ pub fn rows<T: SampleBits>(mut each: impl FnMut(Row)) -> Result<(), RuntimeError
     for (change, config, why) in [
         (
             "1 kHz with the paper's gains re-discretised (its current loop unstable)",
-            wr(at(1_000, 1, 1)?),
+            wr(at(1_000)?),
             R::Kp,
         ),
         (
             "2 kHz with the paper's gains re-discretised (its current loop unstable)",
-            wr(at(2_000, 1, 1)?),
+            wr(at(2_000)?),
             R::Kp,
         ),
         (

@@ -54,11 +54,7 @@ impl<T: SampleBits> Device for Runtime<T> {
                 _ => {}
             }
         }
-        let status = if status {
-            Some(got.ok_or(NoReply)?)
-        } else {
-            None
-        };
+        let status = status.then(|| got.ok_or(NoReply)).transpose()?;
         Ok(Reply {
             actuation: actuation.ok_or(NoReply)?,
             status,
@@ -106,15 +102,6 @@ pub struct Trace {
     pub s1: Status,
 }
 
-const NO_ACTUATION: Actuation = Actuation {
-    seq_echo: 0,
-    tick: 0,
-    exec: 0,
-    flags: Flags(0),
-    t_psi_dnm: 0,
-    u_a_cv: 0,
-};
-
 /// Runs one row's frames on `dev` (module docs): the restore to `nominal`, then `frame`
 /// (the nominal run: [`null_frame`]) among the probe's Sensor frames.
 pub fn probe<D: Device>(dev: &mut D, nominal: &Config, frame: &[u8]) -> Result<Trace, D::Error> {
@@ -136,36 +123,33 @@ pub fn probe<D: Device>(dev: &mut D, nominal: &Config, frame: &[u8]) -> Result<T
         dev.exchange(f.as_bytes(), false)?;
     }
     let status = command(Command::RequestStatus);
-    let mut trace = Trace {
-        s0: dev
-            .exchange(status.as_bytes(), true)?
-            .status
-            .unwrap_or_default(),
-        before: [NO_ACTUATION; PROBE_TICKS],
-        at: NO_ACTUATION,
-        after: [NO_ACTUATION; AFTER_TICKS],
-        s1: Status::default(),
-    };
+    let s0 = dev.exchange(status.as_bytes(), true)?.status;
     let mut seq = 0u16;
-    for a in &mut trace.before {
-        seq += 1;
-        *a = dev.exchange(sensor(seq).as_bytes(), false)?.actuation;
-    }
-    trace.at = dev.exchange(frame, false)?.actuation;
-    for (k, a) in trace.after.iter_mut().enumerate() {
-        let gap = (PROBE_TICKS..PROBE_TICKS + GAP_TICKS).contains(&k);
-        let f = (!gap).then(|| {
+    let mut tick = |dev: &mut D, sensed: bool| {
+        let f = sensed.then(|| {
             seq += 1;
             sensor(seq)
         });
         let bytes = f.as_ref().map_or(&[0u8][..], Frame::as_bytes);
-        *a = dev.exchange(bytes, false)?.actuation;
+        dev.exchange(bytes, false).map(|r| r.actuation)
+    };
+    let mut before = [tick(dev, true)?; PROBE_TICKS];
+    for a in before.iter_mut().skip(1) {
+        *a = tick(dev, true)?;
     }
-    trace.s1 = dev
-        .exchange(status.as_bytes(), true)?
-        .status
-        .unwrap_or_default();
-    Ok(trace)
+    let at = dev.exchange(frame, false)?.actuation;
+    let mut after = [at; AFTER_TICKS];
+    for (k, a) in after.iter_mut().enumerate() {
+        *a = tick(dev, !(PROBE_TICKS..PROBE_TICKS + GAP_TICKS).contains(&k))?;
+    }
+    let s1 = dev.exchange(status.as_bytes(), true)?.status;
+    Ok(Trace {
+        s0: s0.unwrap_or_default(),
+        before,
+        at,
+        after,
+        s1: s1.unwrap_or_default(),
+    })
 }
 
 /// The nominal run's frame in place of a row's: `ClearFaults`, which changes nothing.

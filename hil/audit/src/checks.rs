@@ -33,7 +33,6 @@ const PROOF_REMEDY: &str = "the proof is unsound for this signal: fix its bound 
      `hil::audit::bounds` (the observation is the counterexample) before trusting the \
      other proven figures";
 
-/// Judge one controller's figures.
 pub fn controller_checks(a: &ControllerAudit, tol: &Tolerances, cfg: &Config) -> Vec<Check> {
     let n = &a.name;
     let coef = |item: String, value: f64, limit, what| {
@@ -126,7 +125,6 @@ pub fn controller_checks(a: &ControllerAudit, tol: &Tolerances, cfg: &Config) ->
     v
 }
 
-/// Judge ranges and noise.
 pub fn observed_checks(o: &Observed, tol: &Tolerances) -> Vec<Check> {
     let mut v = Vec::new();
     for s in &o.signals {
@@ -229,11 +227,7 @@ pub fn all_checks(c: &Core, tol: &Tolerances, cfg: &Config) -> Vec<Check> {
 /// errors against the noise tolerance (wire LSBs).
 pub fn proof_checks(p: &Proofs, tol: &Tolerances) -> Vec<Check> {
     let mut v = Vec::new();
-    let (margin, worst) = p
-        .bounds
-        .iter()
-        .map(|b| (b.margin_bits, b.signal.as_str()))
-        .fold((f64::INFINITY, ""), |a, b| if b.0 < a.0 { b } else { a });
+    let (margin, worst) = super::bounds::smallest_margin(&p.bounds);
     let status = if !p.overflow_free || margin.is_nan() || margin <= 0.0 {
         Status::Fail
     } else {
@@ -457,49 +451,6 @@ fn nyquist_words(x: &Margin) -> String {
     }
 }
 
-/// The gain interval of a loop in words.
-fn gain_words(x: &Margin) -> String {
-    let db = |v: Option<f64>, none: &str| v.map_or(none.to_string(), |d| format!("{d:+.2} dB"));
-    format!(
-        "stable from {} to {} of loop gain",
-        db(x.gain_reduction_db, "no lower limit"),
-        db(x.gain_increase_db, "no upper limit")
-    )
-}
-
-/// The phase margins of a loop in words.
-fn phase_words(x: &Margin) -> String {
-    let deg = |v: Option<f64>| v.map_or("none".to_string(), |d| format!("{d:.2} deg"));
-    format!(
-        "extra lag to instability {}, extra lead {}",
-        deg(x.phase_lag_deg),
-        deg(x.phase_lead_deg)
-    )
-}
-
-/// The loop's stability by the Nyquist criterion: a fail when the closed loop has a pole
-/// outside the unit circle.
-fn stability_check(x: &Margin, remedy: String) -> Check {
-    let z = x.closed_loop_unstable_poles as f64;
-    let (status, word) = if x.stable {
-        (Status::Pass, "stable")
-    } else {
-        (Status::Fail, "unstable")
-    };
-    let item = "closed-loop stability (Nyquist: Z = P - W)";
-    let reason = format!("{} ({word})", nyquist_words(x));
-    Check::new(
-        &x.loop_name,
-        item,
-        z,
-        (f64::NAN, 0.5),
-        "unstable poles",
-        status,
-        reason,
-    )
-    .with_remedy(remedy)
-}
-
 /// The margins of one loop against [`USUAL_MARGINS`], with what sets them and what would
 /// raise them.
 fn usual_margin_checks(x: &Margin, cfg: &Config, p: &wheelset_plant::params::Params) -> Vec<Check> {
@@ -540,11 +491,32 @@ fn usual_margin_checks(x: &Margin, cfg: &Config, p: &wheelset_plant::params::Par
             )
         }
     };
-    let mut out = vec![stability_check(
-        x,
-        remedy(x.gain_crossover_hz.unwrap_or(0.0)),
-    )];
+    let (status, word) = if x.stable {
+        (Status::Pass, "stable")
+    } else {
+        (Status::Fail, "unstable")
+    };
+    let reason = format!("{} ({word})", nyquist_words(x));
+    let item = "closed-loop stability (Nyquist: Z = P - W)";
+    let z = x.closed_loop_unstable_poles as f64;
+    let stability = Check::new(
+        &x.loop_name,
+        item,
+        z,
+        (f64::NAN, 0.5),
+        "unstable poles",
+        status,
+        reason,
+    );
+    let mut out = vec![stability.with_remedy(remedy(x.gain_crossover_hz.unwrap_or(0.0)))];
     let (gm_usual, pm_usual) = USUAL_MARGINS;
+    let db = |v: Option<f64>, none: &str| v.map_or(none.to_string(), |d| format!("{d:+.2} dB"));
+    let deg = |v: Option<f64>| v.map_or("none".to_string(), |d| format!("{d:.2} deg"));
+    let (down, up) = (
+        db(x.gain_reduction_db, "no lower limit"),
+        db(x.gain_increase_db, "no upper limit"),
+    );
+    let (lag, lead) = (deg(x.phase_lag_deg), deg(x.phase_lead_deg));
     let rows = [
         (
             "gain margin against the usual 6 dB",
@@ -552,7 +524,7 @@ fn usual_margin_checks(x: &Margin, cfg: &Config, p: &wheelset_plant::params::Par
             x.phase_crossover_hz,
             gm_usual,
             "dB",
-            gain_words(x),
+            format!("stable from {down} to {up} of loop gain"),
             "",
         ),
         (
@@ -561,7 +533,7 @@ fn usual_margin_checks(x: &Margin, cfg: &Config, p: &wheelset_plant::params::Par
             x.gain_crossover_hz,
             pm_usual,
             "deg",
-            phase_words(x),
+            format!("extra lag to instability {lag}, extra lead {lead}"),
             " (30-45 deg is the usual range)",
         ),
     ];

@@ -107,10 +107,15 @@ pub fn dominant_hz(x: &[f64], fs: f64, df: f64) -> f64 {
     bf
 }
 
-fn stats(t: &[(f64, f64)], y: &[(f64, f64)], fs: f64) -> Cycle {
-    let inw = |s: &&(f64, f64)| s.0 >= WINDOW_S.0 && s.0 <= WINDOW_S.1;
-    let tv: Vec<f64> = t.iter().filter(inw).map(|s| s.1).collect();
-    let yv: Vec<f64> = y.iter().filter(inw).map(|s| s.1).collect();
+fn stats(t: &[(f64, f64)], tr: &Trajectory, fs: f64) -> Cycle {
+    let inw = |t: f64| (WINDOW_S.0..=WINDOW_S.1).contains(&t);
+    let tv: Vec<f64> = t.iter().filter(|s| inw(s.0)).map(|s| s.1).collect();
+    let yv: Vec<f64> = tr
+        .records
+        .iter()
+        .filter(|r| inw(r.t_s))
+        .map(|r| r.y_m)
+        .collect();
     let p2p = |v: &[f64]| {
         v.iter().copied().fold(f64::NEG_INFINITY, f64::max)
             - v.iter().copied().fold(f64::INFINITY, f64::min)
@@ -133,14 +138,13 @@ fn stats(t: &[(f64, f64)], y: &[(f64, f64)], fs: f64) -> Cycle {
 
 fn of_trajectory(tr: &Trajectory) -> Cycle {
     let t: Vec<(f64, f64)> = tr.records.iter().map(|r| (r.t_s, r.t_psi_nm)).collect();
-    let y: Vec<(f64, f64)> = tr.records.iter().map(|r| (r.t_s, r.y_m)).collect();
     let dt = tr
         .records
         .windows(2)
         .next()
         .map(|w| w[1].t_s - w[0].t_s)
         .unwrap_or(1.0);
-    stats(&t, &y, 1.0 / dt)
+    stats(&t, tr, 1.0 / dt)
 }
 
 fn core_run<T: SampleBits>(sc: &Track, cfg: &Config, src: Sources) -> Result<Cycle, String> {
@@ -156,9 +160,8 @@ fn core_run<T: SampleBits>(sc: &Track, cfg: &Config, src: Sources) -> Result<Cyc
         }
     })
     .map_err(|e| e.to_string())?;
-    let y: Vec<(f64, f64)> = tr.records.iter().map(|r| (r.t_s, r.y_m)).collect();
     let fs = 1e9 / ctrl.period_ns() as f64;
-    Ok(stats(&torque, &y, fs))
+    Ok(stats(&torque, &tr, fs))
 }
 
 /// The straight-track limit cycle (module docs) at the operating point `params`;

@@ -7,7 +7,7 @@
 //!   rate, safe-state ramps); what remains is the arithmetic's rounding and the other
 //!   constants. The remedy recommended is the one that removes the largest share.
 //! - **Lead response over the stimulus amplitude**: the fixed-point lead measured (as
-//!   [`super::response::measured`]) at amplitudes from 10 mm/s down to the wire LSB of
+//!   the frequency responses are) at amplitudes from 10 mm/s down to the wire LSB of
 //!   `y'` (1 um/s), at the named frequencies up to `frac_fs` of the rate, against the
 //!   discrete f64 response; the amplitude below which it leaves the warn tolerance.
 
@@ -96,7 +96,7 @@ fn u_a_err(
     fmt: QFormat,
     adj: &dyn Fn(&Config) -> Config,
 ) -> Result<f64, ConfigError> {
-    let o = ranges::observe_against::<Fx>(cfg, std::slice::from_ref(sc), fmt, adj)?;
+    let o = ranges::observe::<Fx>(cfg, std::slice::from_ref(sc), fmt, adj)?;
     Ok(o.noise
         .iter()
         .filter(|n| n.output == "u_a" && n.phase == Phase::Normal && n.yaw_mode == "lead")

@@ -1,62 +1,56 @@
-//! `hil audit`: the fixed-point accuracy audit of the control core per controller (yaw
-//! lead, yaw gain, PI traction) at the configured rates and Q formats (`docs/audit.md`):
-//! coefficients, poles, zeros and DC gain (f64 against quantised), frequency responses
-//! (the fixed point *measured* with sinusoids and a least-squares fit), ranges and noise
-//! ([`ranges`]), proven bounds ([`bounds`], [`wcpg`]), limit cycles ([`limits`],
-//! [`closed`]), margins ([`closed::margins`]) and recommended formats ([`formats`]), each
+//! `hil audit`: the fixed-point accuracy audit of the control core per controller at the
+//! configured rates and Q formats (`docs/audit.md`; one module per part), each figure
 //! judged against [`Tolerances`] (exit code 1 on any fail). `hil audit` parses
 //! [`AuditArgs`] (one `clap::Args` for the command line and the library) and calls [`run`].
 #![deny(missing_docs)]
 
 pub mod args;
 pub mod bounds;
-pub mod checks;
+mod checks;
 pub mod closed;
 pub mod diagnose;
-pub mod formats;
+mod formats;
 pub mod limits;
 pub mod model;
 pub mod on_target;
-pub mod per_controller;
-pub mod plots;
+mod per_controller;
+mod plots;
 pub mod qdyn;
 pub mod ranges;
-pub mod readme_block;
-pub mod recordings;
-pub mod response;
-pub mod scenarios;
+mod readme_block;
+mod recordings;
+mod response;
+mod scenarios;
 pub mod tolerances;
 pub mod wcpg;
-pub mod writeup;
-pub mod writeup_sections;
+mod writeup;
+mod writeup_sections;
 
 use wheelset_control::{Config, ConfigError, Fx, Sample};
 
 pub use args::{config_of, AuditArgs, AuditError};
-pub use checks::{all_checks, controller_checks, observed_checks};
+use checks::all_checks;
 pub use model::{
     Audit, CoefRow, ControllerAudit, DcGain, FreqPoint, GainPhase, PoleZero, Recommendation, Roots,
     Sweep, Worst,
 };
-pub use per_controller::{audit_controller, grid, NAMED_HZ};
+use per_controller::{audit_controller, grid, NAMED_HZ};
 pub use tolerances::{counts_words, Check, Status, Tolerances};
 
 use args::{command_line, formats_of};
 use qdyn::{Formats, QDyn};
-use ranges::{Observed, Scenario};
+use ranges::{observe, Observed, Scenario};
 use response::Kind;
 use tolerances::judge;
 
 /// Every accuracy figure of sample type `T` (no recommendation, no sweep).
-pub struct Core {
-    /// Per controller.
-    pub controllers: Vec<ControllerAudit>,
-    /// Ranges and noise.
-    pub observed: Observed,
+pub(crate) struct Core {
+    pub(crate) controllers: Vec<ControllerAudit>,
+    pub(crate) observed: Observed,
 }
 
 /// Run the per-controller audits and the scenario observation with `T`.
-pub fn core<T: Sample>(
+pub(crate) fn core<T: Sample>(
     cfg: &Config,
     tol: &Tolerances,
     fmt: &Formats,
@@ -68,7 +62,7 @@ pub fn core<T: Sample>(
         .iter()
         .map(|&k| audit_controller::<T>(k, cfg, tol, lsb, &freqs_of(k.rate_hz(cfg))))
         .collect::<Result<Vec<_>, _>>()?;
-    let observed = ranges::observe::<T>(cfg, scenarios, fmt.signal)?;
+    let observed = observe::<T>(cfg, scenarios, fmt.signal, &|c| *c)?;
     Ok(Core {
         controllers,
         observed,
@@ -168,15 +162,15 @@ pub fn build(args: &AuditArgs) -> Result<Audit, AuditError> {
     }
     let production = fmt == Formats::PRODUCTION;
     let c = if production {
-        let mut c = core::<Fx>(&cfg, &tol, &fmt, &scenarios, &|fs| grid(fs))?;
+        let mut c = core::<Fx>(&cfg, &tol, &fmt, &scenarios, &grid)?;
         // Fx's silent saturations, counted by the instrumented type (bit-identical here).
         let o = counted(fmt, || {
-            ranges::observe::<QDyn>(&cfg, &scenarios, fmt.signal)
+            observe::<QDyn>(&cfg, &scenarios, fmt.signal, &|c| *c)
         })?;
         c.observed.arithmetic_saturations = Some(o.1);
         c
     } else {
-        core_dyn(&cfg, &tol, fmt, &scenarios, &|fs| grid(fs))?
+        core_dyn(&cfg, &tol, fmt, &scenarios, &grid)?
     };
     let mut checks = all_checks(&c, &tol, &cfg);
     if let Some(n) = c.observed.arithmetic_saturations {

@@ -121,7 +121,7 @@ pub fn limit_cycles<T: Sample>(
         };
         let offset = last - yb;
         out.push(LimitCycle {
-            controller: kind.name().to_string(),
+            controller: kind.words().0.to_string(),
             hold_input_si: x_hold,
             hold: label,
             p2p_lsb: op2p / out_lsb,

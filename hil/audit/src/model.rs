@@ -228,8 +228,7 @@ pub struct Audit {
     pub closed_loop: Option<super::closed::ClosedLoopAudit>,
     /// Findings attributed by experiment (production formats only).
     pub diagnosis: Option<super::diagnose::Diagnosis>,
-    /// The signal fraction bits found by the bisection (smallest passing) and the
-    /// coefficient fraction bits needed, if the sweep ran.
+    /// The word-length sweep, if it ran.
     pub sweep: Option<Sweep>,
     /// Target comparison.
     pub target: on_target::TargetReport,

@@ -82,13 +82,11 @@ impl TargetReport {
 
 fn codes(t: &Tick) -> InputCodes {
     let w = WireLsb::default();
+    // Rounded, saturated (`as`); a non-finite value is 0.
     let c = |v: f64, lsb: f64| {
-        let x = (v / lsb).round();
-        if x.is_finite() {
-            x.clamp(i32::MIN as f64, i32::MAX as f64) as i32
-        } else {
-            0
-        }
+        Some((v / lsb).round())
+            .filter(|x| x.is_finite())
+            .map_or(0, |x| x as i32)
     };
     InputCodes {
         y_dot: c(t.si[0], w.y_dot),
@@ -125,7 +123,6 @@ fn decode(bytes: &[u8], dec: &mut Decoder) -> Option<Actuation> {
     out
 }
 
-/// The comparison could not run here (a check not run).
 fn not_run(note: impl core::fmt::Display) -> TargetReport {
     TargetReport::without(TargetOutcome::NotRun, format!("target: not run: {note}"))
 }

@@ -29,7 +29,6 @@ pub fn grid(fs: f64) -> Vec<(f64, bool)> {
     v
 }
 
-/// Audit one controller with sample type `T`.
 pub fn audit_controller<T: Sample>(
     kind: Kind,
     cfg: &Config,
@@ -108,8 +107,9 @@ pub fn audit_controller<T: Sample>(
         let c = response::continuous(kind, cfg, f);
         let d = ideal.response(f, t_s);
         let dq = quant.response(f, t_s);
-        let fx = response::measured::<T>(kind, cfg, f)?;
-        let fm = response::measured::<f64>(kind, cfg, f)?;
+        let amp = response::measure_amplitude(kind);
+        let fx = response::measured_at::<T>(kind, cfg, f, amp)?;
+        let fm = response::measured_at::<f64>(kind, cfg, f, amp)?;
         Ok(FreqPoint {
             f_hz: f,
             named,
@@ -152,11 +152,12 @@ pub fn audit_controller<T: Sample>(
             .fold(0.0, f64::max),
     };
     let limit_cycles = limits::limit_cycles::<T>(kind, cfg, lsb)?;
+    let (name, unit, law) = kind.words();
     Ok(ControllerAudit {
-        name: kind.name().to_string(),
+        name: name.to_string(),
         rate_hz: fs,
-        law: kind.law().to_string(),
-        unit: kind.unit().to_string(),
+        law: law.to_string(),
+        unit: unit.to_string(),
         coefficients,
         poles_zeros,
         dc_gain,

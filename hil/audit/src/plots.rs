@@ -80,16 +80,14 @@ pub fn write_plots(a: &Audit, dir: &Path) -> Result<Vec<(String, String)>, Audit
         };
         // Warn at +-w, fail at +-f over the band the check judges (none where not judged).
         let error = |title: &str, unit: &str, tol: Option<(f64, f64)>, s: Series| match tol {
-            Some((w, f)) => bode(title, unit)
-                .series(s)
-                .hmark(w, &format!("warn above ±{w} {unit}"), WARN_COLOUR)
-                .over(f_lo, limit)
-                .hmark(-w, "", WARN_COLOUR)
-                .over(f_lo, limit)
-                .hmark(f, &format!("fail above ±{f} {unit}"), FAIL_COLOUR)
-                .over(f_lo, limit)
-                .hmark(-f, "", FAIL_COLOUR)
-                .over(f_lo, limit),
+            Some((w, f)) => [(w, "warn", WARN_COLOUR), (f, "fail", FAIL_COLOUR)]
+                .into_iter()
+                .fold(bode(title, unit).series(s), |p, (v, word, colour)| {
+                    p.hmark(v, &format!("{word} above ±{v} {unit}"), colour)
+                        .over(f_lo, limit)
+                        .hmark(-v, "", colour)
+                        .over(f_lo, limit)
+                }),
             None => plain(title, unit).series(s),
         };
         // The predictor's discretisation error is not judged (`checks`): no limits.

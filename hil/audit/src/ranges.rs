@@ -1,13 +1,10 @@
-//! Ranges, headroom and quantisation noise over input scenarios.
-//!
-//! A scenario is a per-tick sequence of the controller's four inputs (per unit) plus
-//! events (safe state, traction on/off). The fixed-point controller and the f64
-//! reference run in lock-step on the *same* inputs (the f64 one gets the fixed-point
-//! inputs exactly, so only arithmetic and coefficient quantisation count). After every
-//! tick the observer reads the fixed-point states through the controller's accessors and
-//! rebuilds each intermediate signal of the lead and the PI in f64 from them and the
-//! quantised coefficients (exact up to one LSB of rounding), *before* any saturation:
-//! a value outside the signal format's range is an overflow, counted per signal.
+//! Ranges, headroom and quantisation noise over input [`Scenario`]s: the fixed-point
+//! controller and the f64 reference run in lock-step on the *same* inputs (the f64 one gets
+//! the fixed-point inputs exactly, so only arithmetic and coefficient quantisation count).
+//! After every tick the observer rebuilds each intermediate signal of the lead and the PI
+//! in f64 from the fixed-point states and the quantised coefficients (exact up to one LSB
+//! of rounding), *before* any saturation: a value outside the signal format's range is an
+//! overflow, counted per signal.
 
 use serde::Serialize;
 use wheelset_control::{Config, Controller, Inputs, Sample, YawMode};
@@ -53,8 +50,6 @@ pub struct Scenario {
 }
 
 /// Index of each observed signal in [`Observed::signals`].
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[repr(usize)]
 enum Sig {
     YDot,
     PredDiff,
@@ -276,19 +271,11 @@ pub(crate) fn q<T: Sample>(v: f64) -> T {
 }
 
 /// Run every scenario twice (yaw mode lead, then gain; traction on) with sample type
-/// `T` (signal format `fmt`) against f64, collecting ranges, overflows and noise.
+/// `T` (signal format `fmt`) against f64 built from `reference(cfg)` (`cfg` itself but in
+/// the attribution experiments of [`super::diagnose`]: a reference that holds a quantised
+/// constant removes that constant's quantisation from the error), collecting ranges,
+/// overflows and noise.
 pub fn observe<T: Sample>(
-    base: &Config,
-    scenarios: &[Scenario],
-    fmt: QFormat,
-) -> Result<Observed, wheelset_control::ConfigError> {
-    observe_against::<T>(base, scenarios, fmt, &|c| *c)
-}
-
-/// As [`observe`], with the f64 reference built from `reference(cfg)` instead of `cfg`
-/// (the attribution experiments of [`super::diagnose`]: a reference that holds a
-/// quantised constant removes that constant's quantisation from the error).
-pub fn observe_against<T: Sample>(
     base: &Config,
     scenarios: &[Scenario],
     fmt: QFormat,
@@ -363,12 +350,8 @@ pub fn observe_against<T: Sample>(
                     }
                     None => {}
                 }
-                let inp = Inputs::<T> {
-                    y_dot: q(t.si[0] / s.y_dot),
-                    current: q(t.si[1] / s.current),
-                    speed: q(t.si[2] / s.speed),
-                    demand: q(t.si[3] / s.demand),
-                };
+                let [y, i, w, d] = t.si.map(|v| if v.is_finite() { v } else { 0.0 });
+                let inp = Inputs::<T>::from_si(&s, y, i, w, d);
                 let inf = Inputs::<f64> {
                     y_dot: inp.y_dot.to_f64(),
                     current: inp.current.to_f64(),

@@ -10,7 +10,6 @@ use super::writeup_sections::{bounds_table, error_bounds_table, Detail};
 use super::Audit;
 use wheelset_report::table::Table;
 
-/// The command the block comes from.
 const COMMAND: &str = "cargo run --release -q -p hil -- audit --no-target --readme-block";
 
 /// The block's body for `a`, what goes between the `<!-- generated:audit -->` markers (every line ends

@@ -6,18 +6,16 @@
 //! Units: the yaw controllers map `y'` (m/s) to `T_psi` (N m): gain in N m s/m; the PI
 //! maps the current error `e = i_ref - i_a` (A) to `u_a` (V): gain in V/A.
 
-use serde::Serialize;
 use wheelset_control::{Config, Controller, Inputs, LeadPu, PiPu, Sample, YawMode};
 
 mod measure;
-pub use measure::{measure_amplitude, measured, measured_at, measured_dc, Drive};
+pub use measure::{measure_amplitude, measured_at, measured_dc, Drive};
 
 /// A complex number (`num_complex`'s, as nalgebra re-exports it).
 pub type C64 = nalgebra::Complex<f64>;
 
 /// The audited controllers.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Kind {
     /// Phase-lead yaw damping `Ks(s) = K a (s + w1)/(s + w2)` on `y'`.
     YawLead,
@@ -38,34 +36,28 @@ impl Kind {
         let all = [Kind::YawLead, Kind::YawGain, Kind::TractionPi];
         all.into_iter().chain(predictor).collect()
     }
-    /// Name in the JSON and the report.
-    pub fn name(self) -> &'static str {
+    /// `(name in the JSON and the report, gain unit, the continuous law as in
+    /// docs/model.md)`.
+    pub fn words(self) -> (&'static str, &'static str, &'static str) {
         match self {
-            Kind::YawLead => "yaw_lead",
-            Kind::YawGain => "yaw_gain",
-            Kind::TractionPi => "traction_pi",
-            Kind::YawPredictor => "yaw_predictor",
-        }
-    }
-    /// Gain unit.
-    pub fn unit(self) -> &'static str {
-        match self {
-            Kind::YawLead | Kind::YawGain => "N m s/m",
-            Kind::TractionPi => "V/A",
-            Kind::YawPredictor => "1 (x per y')",
-        }
-    }
-    /// The continuous law, as in docs/model.md.
-    pub fn law(self) -> &'static str {
-        match self {
-            Kind::YawLead => "Ks(s) = K a (s + w1)/(s + w2), Tustin",
-            Kind::YawGain => "T_psi = K y'",
-            Kind::TractionPi => "Kt(s) = Kp (1 + 1/(Ti s)), backward-Euler integrator",
-            Kind::YawPredictor => {
+            Kind::YawLead => (
+                "yaw_lead",
+                "N m s/m",
+                "Ks(s) = K a (s + w1)/(s + w2), Tustin",
+            ),
+            Kind::YawGain => ("yaw_gain", "N m s/m", "T_psi = K y'"),
+            Kind::TractionPi => (
+                "traction_pi",
+                "V/A",
+                "Kt(s) = Kp (1 + 1/(Ti s)), backward-Euler integrator",
+            ),
+            Kind::YawPredictor => (
+                "yaw_predictor",
+                "1 (x per y')",
                 "x = y' + alpha (y'[n] - y'[n-1]), alpha = yaw_predict_ticks/yaw_divisor; \
                  reference: the ideal advance e^(s tau), tau = yaw_predict_ticks base periods \
-                 (FIR: no limit cycles)"
-            }
+                 (FIR: no limit cycles)",
+            ),
         }
     }
     /// A filter of the yaw loop (`y'` in, `T_psi` out), not the traction PI.
@@ -111,28 +103,19 @@ pub fn continuous(kind: Kind, cfg: &Config, f_hz: f64) -> C64 {
 }
 
 /// A controller's discrete coefficients in SI units (one set: f64 or quantised).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
-#[serde(tag = "form", rename_all = "snake_case")]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Coeffs {
     /// Lead: `y = K_hf (x - z)`, `z += kappa ((g/2)(x + x1) - z)`.
     Lead {
         /// `K_hf`, N m s/m.
         k_hf: f64,
-        /// `g/2`.
         g_half: f64,
-        /// `kappa`.
         kappa: f64,
     },
     /// Gain `K`, N m s/m.
-    Gain {
-        /// `K`.
-        k: f64,
-    },
+    Gain { k: f64 },
     /// Predictor `x = y + alpha (y[n] - y[n-1])`.
-    Predictor {
-        /// `alpha`.
-        alpha: f64,
-    },
+    Predictor { alpha: f64 },
     /// PI: `u = Kp e + I`, `I += Ki e`.
     Pi {
         /// `Kp`, V/A.
@@ -143,7 +126,6 @@ pub enum Coeffs {
 }
 
 impl Coeffs {
-    /// From per-unit lead coefficients.
     pub fn lead(pu: &LeadPu, cfg: &Config) -> Self {
         Coeffs::Lead {
             k_hf: pu.k_hf * Kind::YawLead.pu_to_si(cfg),
@@ -151,7 +133,6 @@ impl Coeffs {
             kappa: pu.kappa,
         }
     }
-    /// From per-unit PI coefficients.
     pub fn pi(pu: &PiPu, cfg: &Config) -> Self {
         let k = Kind::TractionPi.pu_to_si(cfg);
         Coeffs::Pi {

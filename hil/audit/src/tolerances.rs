@@ -131,16 +131,6 @@ impl Check {
         }
     }
 
-    /// `not run`, or the status's word (`pass`, `warn`, `fail`).
-    #[must_use]
-    pub fn status_word(&self) -> &'static str {
-        if self.not_run {
-            "not run"
-        } else {
-            self.status.as_str()
-        }
-    }
-
     /// `reason`, then `; remedy: ...` for a check that did not pass.
     #[must_use]
     pub fn reason_and_remedy(&self) -> String {

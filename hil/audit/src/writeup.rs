@@ -183,7 +183,6 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
         let _ = writeln!(w, "Checks not passed:\n\n{}\n", bad.join("\n"));
     }
     let tol = &a.tolerances;
-    let _ = writeln!(w, "## Tolerances (warn / fail)\n");
     let mut t = Table::new(["figure", "warn", "fail"]);
     let rows: [(&str, (f64, f64)); 11] = [
         (
@@ -213,19 +212,14 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
     for (n, (a_, b)) in rows {
         t.row([n.to_string(), format!("{a_:.1e}"), format!("{b:.1e}")]);
     }
-    let _ = write!(w, "{t}");
     let _ = writeln!(
         w,
-        "\nFrequency-response errors are judged for f <= {} x the controller's rate.\n",
+        "## Tolerances (warn / fail)\n\n{t}\nFrequency-response errors are judged for f <= {} x \
+         the controller's rate.\n",
         tol.frac_fs
     );
     for c in &a.controllers {
-        let _ = writeln!(
-            w,
-            "## Controller `{}` ({:.0} Hz)\n\nLaw: {}. Gain unit: {}.\n\n### Coefficients\n",
-            c.name, c.rate_hz, c.law, c.unit
-        );
-        let t = table(
+        let coefficients = table(
             &c.coefficients,
             &[
                 ("name", &|r| r.name.clone()),
@@ -236,15 +230,13 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
                 ("rel error", &|r| format!("{:.3e}", r.rel_err)),
             ],
         );
-        let _ = write!(w, "{t}");
         let pz = &c.poles_zeros;
-        let _ = writeln!(w, "\n### Poles, zeros, DC gain\n");
         let forms = [
             ("continuous", &pz.continuous),
             ("discrete f64", &pz.discrete_f64),
             ("discrete quantised", &pz.discrete_quantised),
         ];
-        let t = table(
+        let roots = table(
             forms,
             &[
                 ("form", &|(n, _)| n.to_string()),
@@ -254,20 +246,21 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
                 ("zeros (rad/s)", &|(_, r)| list(&r.zeros_s)),
             ],
         );
-        let _ = write!(w, "{t}");
-        let _ = writeln!(
-            w,
-            "\nShifts: quantisation (z-plane) {}; quantisation (relative, rad/s) {}; \
-             discretisation (rad/s, Tustin-mapped minus continuous) {}.\n",
-            list(&pz.shift_quantisation_z),
-            list(&pz.shift_quantisation_rel),
-            list(&pz.shift_discretisation_s)
-        );
         let d = &c.dc_gain;
         let _ = writeln!(
             w,
-            "DC gain ({}): continuous {}, discrete f64 {}, discrete quantised {}, fixed \
-             (measured) {}; fixed vs continuous {}.\n",
+            "## Controller `{}` ({:.0} Hz)\n\nLaw: {}. Gain unit: {}.\n\n### Coefficients\n\n\
+             {coefficients}\n### Poles, zeros, DC gain\n\n{roots}\nShifts: quantisation \
+             (z-plane) {}; quantisation (relative, rad/s) {}; discretisation (rad/s, \
+             Tustin-mapped minus continuous) {}.\n\nDC gain ({}): continuous {}, discrete f64 \
+             {}, discrete quantised {}, fixed (measured) {}; fixed vs continuous {}.\n",
+            c.name,
+            c.rate_hz,
+            c.law,
+            c.unit,
+            list(&pz.shift_quantisation_z),
+            list(&pz.shift_quantisation_rel),
+            list(&pz.shift_discretisation_s),
             c.unit,
             fmt_opt(d.continuous),
             fmt_opt(d.discrete_f64),
@@ -276,19 +269,8 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
             d.fixed_vs_continuous_rel
                 .map_or("n/a".into(), |r| format!("{r:.3e} relative"))
         );
-        let _ = writeln!(
-            w,
-            "### Frequency response\n\nFixed point measured on the running controller: input {} ({}), fitted sine + \
-             cosine + constant over whole periods. The named frequencies:\n",
-            c.measure_amplitude,
-            if c.name == "traction_pi" {
-                "A of current error"
-            } else {
-                "m/s of y'"
-            }
-        );
         let gp = |r: &super::model::GainPhase| format!("{:.6e} / {:.3} deg", r.gain, r.phase_deg);
-        let t = table(
+        let response = table(
             c.freq_response.iter().filter(|p| p.named),
             &[
                 ("f (Hz)", &|p| p.f_hz.to_string()),
@@ -305,32 +287,7 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
                 }),
             ],
         );
-        let _ = write!(w, "{t}");
-        let wo = &c.worst;
-        let _ = writeln!(
-            w,
-            "\nWorst on the dense grid ({} points) below {:.0} Hz: fixed vs f64 {:.3e} dB (at \
-             {:.3} Hz), {:.3e} deg (at {:.3} Hz); discrete f64 vs continuous {:.3e} dB (at \
-             {:.3} Hz), {:.3e} deg (at {:.3} Hz). The measurement's own error (f64 measured \
-             vs analytic) is at most {:.1e} dB.\n",
-            c.freq_response.len(),
-            wo.below_hz,
-            wo.fixed_gain_db.0,
-            wo.fixed_gain_db.1,
-            wo.fixed_phase_deg.0,
-            wo.fixed_phase_deg.1,
-            wo.discrete_gain_db.0,
-            wo.discrete_gain_db.1,
-            wo.discrete_phase_deg.0,
-            wo.discrete_phase_deg.1,
-            wo.measurement_gain_db
-        );
-        let _ = writeln!(
-            w,
-            "### Limit cycles and dead bands\n\nAfter 0.2 s of random input, the input is held \
-             for 2 s; last second observed.\n"
-        );
-        let t = table(
+        let cycles = table(
             &c.limit_cycles,
             &[
                 ("hold input", &|l| l.hold.clone()),
@@ -351,24 +308,45 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
                 ("offset (LSB)", &|l| format!("{:.2}", l.offset_lsb)),
             ],
         );
-        let _ = writeln!(w, "{t}");
+        let wo = &c.worst;
+        let _ = writeln!(
+            w,
+            "### Frequency response\n\nFixed point measured on the running controller: input {} ({}), fitted sine + \
+             cosine + constant over whole periods. The named frequencies:\n\n{response}\nWorst \
+             on the dense grid ({} points) below {:.0} Hz: fixed vs f64 {:.3e} dB (at \
+             {:.3} Hz), {:.3e} deg (at {:.3} Hz); discrete f64 vs continuous {:.3e} dB (at \
+             {:.3} Hz), {:.3e} deg (at {:.3} Hz). The measurement's own error (f64 measured \
+             vs analytic) is at most {:.1e} dB.\n\n### Limit cycles and dead bands\n\nAfter \
+             0.2 s of random input, the input is held for 2 s; last second observed.\n\n\
+             {cycles}",
+            c.measure_amplitude,
+            if c.name == "traction_pi" {
+                "A of current error"
+            } else {
+                "m/s of y'"
+            },
+            c.freq_response.len(),
+            wo.below_hz,
+            wo.fixed_gain_db.0,
+            wo.fixed_gain_db.1,
+            wo.fixed_phase_deg.0,
+            wo.fixed_phase_deg.1,
+            wo.discrete_gain_db.0,
+            wo.discrete_gain_db.1,
+            wo.discrete_phase_deg.0,
+            wo.discrete_phase_deg.1,
+            wo.measurement_gain_db
+        );
     }
     let o = &a.observed;
-    let _ = writeln!(w, "## Scenarios\n");
     let mut t = Table::new(["name", "ticks", "source"]);
     for (n, src, k) in &a.scenarios {
         t.row([n.to_string(), k.to_string(), src.to_string()]);
     }
-    let _ = write!(w, "{t}");
+    let _ = write!(w, "## Scenarios\n\n{t}");
     for n in &a.scenario_notes {
         let _ = writeln!(w, "\nNote: {n}.");
     }
-    let _ = writeln!(
-        w,
-        "\nEach scenario runs twice (yaw lead, yaw gain; traction on), fixed point and f64 \
-         in lock-step on the same quantised inputs.\n"
-    );
-    let _ = writeln!(w, "## Ranges and headroom\n");
     let t = table(
         o.signals.iter().filter(|r| r.samples > 0).enumerate(),
         &[
@@ -387,11 +365,12 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
             ("worst scenario", &|(_, r)| r.worst_scenario.clone()),
         ],
     );
-    let _ = write!(w, "{t}");
     let c = &o.clamps;
     let _ = writeln!(
         w,
-        "\nDesigned clamps counted by the controller (not overflows): y' {}, current {}, \
+        "\nEach scenario runs twice (yaw lead, yaw gain; traction on), fixed point and f64 \
+         in lock-step on the same quantised inputs.\n\n## Ranges and headroom\n\n{t}\n\
+         Designed clamps counted by the controller (not overflows): y' {}, current {}, \
          speed {}, demand {}, torque limit {}, voltage limit {}, integrator (anti-windup) {}. \
          Saturating operations inside the arithmetic (instrumented run): {}.\n",
         c.y_dot,
@@ -404,7 +383,6 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
         o.arithmetic_saturations
             .map_or("not counted".into(), |n| n.to_string())
     );
-    let _ = writeln!(w, "## Quantisation noise (fixed minus f64, same inputs)\n");
     let t = table(
         &o.noise,
         &[
@@ -423,7 +401,10 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
             ("bits lost", &|n| format!("{:.2}", n.bits_lost)),
         ],
     );
-    let _ = write!(w, "{t}");
+    let _ = write!(
+        w,
+        "## Quantisation noise (fixed minus f64, same inputs)\n\n{t}"
+    );
     super::writeup_sections::proofs_and_findings(a, w);
     let _ = writeln!(
         w,
@@ -475,8 +456,7 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
             ("guarantee", &|r| r.guarantee.clone()),
         ],
     );
-    let _ = write!(w, "{t}");
-    let _ = writeln!(w, "\n## Target (QEMU)\n\n{}.\n", a.target.note);
+    let _ = writeln!(w, "{t}\n## Target (QEMU)\n\n{}.\n", a.target.note);
     if !a.target.runs.is_empty() {
         let pair = |(x, y): (f64, f64)| format!("{x:.1}, {y:.1}");
         let t = table(
@@ -496,10 +476,9 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
                 ("mean instructions/tick", &|r| format!("{:.0}", r.mean_exec)),
             ],
         );
-        let _ = write!(w, "{t}");
         let _ = writeln!(
             w,
-            "\nThe target's outputs are visible only as wire codes (0.1 N m, 10 mV), so its \
+            "{t}\nThe target's outputs are visible only as wire codes (0.1 N m, 10 mV), so its \
              error against f64 is stated in wire LSBs; the host's internal-resolution figures \
              are in the noise table above.\n"
         );
@@ -510,7 +489,6 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
             let _ = writeln!(w, "![{cap}]({f})\n");
         }
     }
-    let _ = writeln!(w, "## Checks\n");
     let t = table(
         &a.checks,
         &[
@@ -520,7 +498,7 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
             ("reason", &|c| c.reason.clone()),
         ],
     );
-    let _ = write!(w, "{t}");
+    let _ = write!(w, "## Checks\n\n{t}");
     s
 }
 
@@ -529,7 +507,11 @@ pub fn markdown(a: &Audit, plots: &[(String, String)]) -> String {
 pub(crate) fn not_passed(a: &Audit, bold: bool) -> impl Iterator<Item = String> + '_ {
     let bad = a.checks.iter().filter(|c| c.status != Status::Pass);
     bad.map(move |c| {
-        let st = c.status_word();
+        let st = if c.not_run {
+            "not run"
+        } else {
+            c.status.as_str()
+        };
         let st = if bold { format!("**{st}**") } else { st.into() };
         format!(
             "- {st} `{}` {}: {}",

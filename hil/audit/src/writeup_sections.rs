@@ -32,12 +32,6 @@ pub(crate) fn proofs_and_findings(a: &Audit, w: &mut String) {
             );
         }
         let la = &d.lead_amplitude;
-        let _ = writeln!(
-            w,
-            "Lead response over the stimulus amplitude (fixed measured vs discrete f64, \
-             worst over {:?} Hz): {}.\n",
-            la.freqs_hz, la.statement
-        );
         let t = table(
             &la.points,
             &[
@@ -50,26 +44,13 @@ pub(crate) fn proofs_and_findings(a: &Audit, w: &mut String) {
                 }),
             ],
         );
-        let _ = write!(w, "{t}");
+        let _ = write!(
+            w,
+            "Lead response over the stimulus amplitude (fixed measured vs discrete f64, \
+             worst over {:?} Hz): {}.\n\n{t}",
+            la.freqs_hz, la.statement
+        );
     }
-    let _ = writeln!(
-        w,
-        "\n## Proven bounds\n\n{}\n\nRanges: the worst-case peak gain (WCPG) of each linear part from the \
-         quantised coefficients, times the input clamps, plus the rounding-error bound; \
-         interval arithmetic through the clamps, ramps, predictor and anti-windup \
-         (`wheelset_audit::bounds` states each step). Observed = the largest magnitude over \
-         the scenarios.\n",
-        a.proof_statement
-    );
-    let _ = write!(w, "{}", bounds_table(a, Detail::Report));
-    let _ = writeln!(
-        w,
-        "\nRounding error of the fixed-point core against exact arithmetic on the same \
-         quantised coefficients and inputs (each rounding point's error filter's peak gain \
-         x its rounding step):\n"
-    );
-    let _ = write!(w, "{}", error_bounds_table(a, Detail::Report));
-    let _ = writeln!(w, "\nWCPG per linear part (tail bound and terms summed):\n");
     let mut t = Table::new(["part", "path", "WCPG", "terms", "tail bound", "note"]);
     for l in &a.linear_parts {
         let (v, k, tb) = match &l.wcpg {
@@ -82,32 +63,29 @@ pub(crate) fn proofs_and_findings(a: &Audit, w: &mut String) {
         };
         t.row([l.part.clone(), l.path.clone(), v, k, tb, l.note.clone()]);
     }
-    let _ = write!(w, "{t}");
+    let _ = write!(
+        w,
+        "\n## Proven bounds\n\n{}\n\nRanges: the worst-case peak gain (WCPG) of each linear part from the \
+         quantised coefficients, times the input clamps, plus the rounding-error bound; \
+         interval arithmetic through the clamps, ramps, predictor and anti-windup \
+         (`wheelset_audit::bounds` states each step). Observed = the largest magnitude over \
+         the scenarios.\n\n{}\nRounding error of the fixed-point core against exact \
+         arithmetic on the same quantised coefficients and inputs (each rounding point's \
+         error filter's peak gain x its rounding step):\n\n{}\nWCPG per linear part (tail \
+         bound and terms summed):\n\n{t}",
+        a.proof_statement,
+        bounds_table(a, Detail::Report),
+        error_bounds_table(a, Detail::Report)
+    );
     if let Some(cl) = &a.closed_loop {
         let lc = &cl.limit_cycle;
-        let _ = writeln!(
-            w,
-            "\n## Closed loop (device in the loop)\n\n{}: {}.\n\nStraight track `curve` {:.0}-{:.0} s: torque {:.3} N m peak to peak \
-             (RMS {:.3} N m) at {:.2} Hz, `y` {:.1} nm peak to peak. Attribution: the core \
-             in the loop with every source reproduces the device ({:.3} N m p2p), then one \
-             source removed at a time:\n",
-            cl.note,
-            lc.classification,
-            lc.window_s.0,
-            lc.window_s.1,
-            lc.device.torque_p2p_nm,
-            lc.device.torque_rms_nm,
-            lc.device.freq_hz,
-            lc.device.y_p2p_m * 1e9,
-            lc.core_all_sources.torque_p2p_nm
-        );
         let runs = [
             ("device (Runtime<Fx>, in-process link)", &lc.device),
             ("continuous f64 reference", &lc.reference),
             ("core in the loop, every source", &lc.core_all_sources),
         ];
         let removed = lc.removed.iter().map(|(n, c)| (format!("without {n}"), c));
-        let t = table(
+        let runs = table(
             runs.map(|(n, c)| (n.to_string(), c))
                 .into_iter()
                 .chain(removed),
@@ -123,19 +101,8 @@ pub(crate) fn proofs_and_findings(a: &Audit, w: &mut String) {
                 ("y p2p (nm)", &|(_, c)| format!("{:.2}", c.y_p2p_m * 1e9)),
             ],
         );
-        let _ = write!(w, "{t}");
-        let _ = writeln!(
-            w,
-            "\nStability and margins (plant linearised on straight track, one period of \
-             delay, each loop broken with the other closed; see `wheelset_plant::sampled::margins_of`). \
-             P counts the open-loop poles outside the unit circle, W the counter-clockwise \
-             turns of the Nyquist plot round -1; the closed loop is stable when Z = P - W = \
-             0. A loop with P > 0 needs a minimum gain: its gain margin is the smaller of \
-             the reduction and the increase that destabilise it, its phase margin the \
-             smaller of the extra lag and lead:\n"
-        );
         let o = |v: Option<f64>| v.map_or("-".into(), |x| format!("{x:.6}"));
-        let t = table(
+        let margins = table(
             &cl.margins,
             &[
                 ("loop", &|m| m.loop_name.clone()),
@@ -164,7 +131,29 @@ pub(crate) fn proofs_and_findings(a: &Audit, w: &mut String) {
                 }),
             ],
         );
-        let _ = write!(w, "{t}");
+        let _ = write!(
+            w,
+            "\n## Closed loop (device in the loop)\n\n{}: {}.\n\nStraight track `curve` {:.0}-{:.0} s: torque {:.3} N m peak to peak \
+             (RMS {:.3} N m) at {:.2} Hz, `y` {:.1} nm peak to peak. Attribution: the core \
+             in the loop with every source reproduces the device ({:.3} N m p2p), then one \
+             source removed at a time:\n\n{runs}\nStability and margins (plant linearised on \
+             straight track, one period of delay, each loop broken with the other closed; see \
+             `wheelset_plant::sampled::margins_of`). P counts the open-loop poles outside the \
+             unit circle, W the counter-clockwise turns of the Nyquist plot round -1; the \
+             closed loop is stable when Z = P - W = 0. A loop with P > 0 needs a minimum \
+             gain: its gain margin is the smaller of the reduction and the increase that \
+             destabilise it, its phase margin the smaller of the extra lag and lead:\n\n\
+             {margins}",
+            cl.note,
+            lc.classification,
+            lc.window_s.0,
+            lc.window_s.1,
+            lc.device.torque_p2p_nm,
+            lc.device.torque_rms_nm,
+            lc.device.freq_hz,
+            lc.device.y_p2p_m * 1e9,
+            lc.core_all_sources.torque_p2p_nm
+        );
     }
 }
 

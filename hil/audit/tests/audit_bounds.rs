@@ -113,8 +113,14 @@ fn lead_wcpgs_agree_with_independent_sums() {
 fn the_lead_range_bound_is_attained_by_the_worst_case_input() {
     let cfg = Config::default();
     let k = Quantised::of::<Fx>(&cfg).unwrap();
-    let q = 2f64.powi(-28);
-    let p = bounds::proven(&k, &cfg, q);
+    let fmt = audit::qdyn::Formats::PRODUCTION.signal;
+    let none = audit::ranges::observe::<Fx>(&cfg, &[], fmt, &|c| *c).unwrap();
+    let p = bounds::prove(&cfg, &k, fmt, &none, [0.0; 4]);
+    // A lead signal's proven bound, pu of y'.
+    let pu =
+        |n: &str| p.bounds.iter().find(|b| b.signal == n).unwrap().proven_max / cfg.scales.y_dot;
+    // The lead's input bound X: the predicted y' clamped to `p_max`.
+    let x_max = k.p_max.min(pu("predictor y' + 2d (before clamp)"));
     let (_, s) = &bounds::lead_systems(&k.lead)[4];
     let w = wcpg(s).unwrap().value;
     // Impulse response h of x -> x - z, then x[n] = X sign h[N - n] maximises the
@@ -131,16 +137,16 @@ fn the_lead_range_bound_is_attained_by_the_worst_case_input() {
     let mut st = LeadState::<Fx>::default();
     let mut last = 0.0;
     for i in 0..n {
-        let x = Fx::from_f64(p.x * h[n - 1 - i].signum());
+        let x = Fx::from_f64(x_max * h[n - 1 - i].signum());
         let _ = lead.process(&mut st, x);
         last = x.to_f64() - st.z.to_f64();
     }
-    let proven = p.signals.iter().find(|s| s.0 == "lead x - z").unwrap().4;
+    let proven = pu("lead x - z");
     assert!(last.abs() <= proven, "{last} > {proven}");
     assert!(
-        last.abs() >= 0.999 * w * p.x,
+        last.abs() >= 0.999 * w * x_max,
         "{last} vs WCPG X {}",
-        w * p.x
+        w * x_max
     );
 }
 

@@ -60,15 +60,12 @@ mod observed;
 mod proven;
 
 pub use observed::observed_errors;
-pub use proven::{lead_error_systems, lead_systems, proven, Proven, Quantised};
+pub use proven::{lead_error_systems, lead_systems, prove, Quantised};
 pub(crate) use proven::{qc, quantise};
 
 use serde::Serialize;
-use wheelset_control::Config;
 
 use super::model::Recommendation;
-use super::qdyn::QFormat;
-use super::ranges::Observed;
 use super::wcpg::Wcpg;
 
 /// One signal's observed and proven magnitude (the audit's bound record).
@@ -141,6 +138,14 @@ pub struct Proofs {
     pub overflow_free: bool,
 }
 
+/// The smallest margin of `bounds` (bits) and its signal; `(inf, "")` for none.
+pub(crate) fn smallest_margin(bounds: &[Bound]) -> (f64, &str) {
+    let m = bounds
+        .iter()
+        .min_by(|a, b| a.margin_bits.total_cmp(&b.margin_bits));
+    m.map_or((f64::INFINITY, ""), |b| (b.margin_bits, b.signal.as_str()))
+}
+
 /// Smallest integer bits (incl. sign) with `2^(i-1) > v`.
 pub fn int_bits_for(v: f64) -> u32 {
     (1..64).take_while(|&i| 2f64.powi(i - 1) <= v).count() as u32 + 1
@@ -152,172 +157,4 @@ pub fn frac_bits_for(err_per_lsb: f64, budget: f64) -> u32 {
         return 0;
     }
     (err_per_lsb / budget).log2().ceil().max(0.0) as u32
-}
-
-/// Proofs for the audited configuration and format, with the observed ranges and the
-/// observed errors (pu, from [`observed_errors`]).
-pub fn prove(
-    cfg: &Config,
-    k: &Quantised,
-    fmt: QFormat,
-    observed: &Observed,
-    obs_err: [f64; 4],
-) -> Proofs {
-    let q = fmt.lsb();
-    let range = fmt.range();
-    let p = proven(k, cfg, q);
-    let fmt_s = fmt.to_string();
-    let bounds: Vec<Bound> = p
-        .signals
-        .iter()
-        .map(|(n, c, u, fs, v, proof)| {
-            let obs = observed
-                .signals
-                .iter()
-                .find(|r| &r.name == n && r.samples > 0)
-                .map(|r| r.min_si.abs().max(r.max_si.abs()));
-            Bound {
-                signal: n.clone(),
-                controller: c.clone(),
-                unit: u.clone(),
-                observed_max: obs,
-                proven_max: v * fs,
-                format: fmt_s.clone(),
-                margin_bits: (range / v).log2(),
-                proof: proof.clone(),
-            }
-        })
-        .collect();
-    let s = &cfg.scales;
-    let wire = &cfg.wire;
-    let torque = (s.torque, "N m", wire.torque);
-    let pts = |v: &[(&str, f64)]| v.iter().map(|&(n, x)| (n.to_string(), x)).collect();
-    // `(output, proven pu, (full scale, unit, wire LSB), rounding points pu)`.
-    let rows: [(_, _, _, Vec<(String, f64)>); 4] = [
-        (
-            "T_psi (lead, with the predictor)",
-            p.lead_err,
-            torque,
-            p.lead_err_points.clone(),
-        ),
-        (
-            "T_psi (gain, with the predictor)",
-            p.gain_err,
-            torque,
-            pts(&[("predictor", p.gain_err - q / 2.0), ("x k", q / 2.0)]),
-        ),
-        (
-            "u_a (PI, given its error input)",
-            p.pi_err,
-            (s.voltage, "V", wire.voltage),
-            pts(&[
-                ("Kp e", q / 2.0),
-                ("integrator (floored, remainder carried)", q),
-            ]),
-        ),
-        (
-            "i_ref (ramped reference)",
-            p.iref_err,
-            (s.current, "A", wire.current),
-            pts(&[("demand d2i", q / 2.0)]),
-        ),
-    ];
-    let error_bounds = rows
-        .into_iter()
-        .zip(obs_err)
-        .map(|((o, pr, (fs, unit, lsb), pts), obs)| ErrorBound {
-            output: o.into(),
-            observed: obs * fs,
-            proven: pr * fs,
-            unit: unit.into(),
-            proven_wire_lsb: pr * fs / lsb,
-            rounding_points: pts.into_iter().map(|(n, v)| (n, v * fs)).collect(),
-        })
-        .collect();
-    let overflow_free = p.signals.iter().all(|x| x.4 < range);
-    // Recommendations: integer bits (incl. sign) with `2^(i-1)` above the proven bound,
-    // fraction bits keeping the proven rounding error of the chain's output (T_psi or
-    // u_a) within half a wire LSB.
-    let budget_t = 0.5 * wire.torque / s.torque;
-    let budget_u = 0.5 * wire.voltage / s.voltage;
-    let yaw_per = p.lead_err.max(p.gain_err) / q;
-    let f_yaw = frac_bits_for(yaw_per, budget_t);
-    let f_tr = frac_bits_for(p.pi_err / q, budget_u);
-    let recommendations = p
-        .signals
-        .iter()
-        .map(|(n, c, _, _, v, _)| {
-            let i = int_bits_for(*v);
-            let (f, out, per, fs, lsb) = if c == "traction_pi" {
-                (f_tr, "u_a", p.pi_err / q, s.voltage, wire.voltage)
-            } else {
-                (f_yaw, "T_psi", yaw_per, s.torque, wire.torque)
-            };
-            let budget = lsb / 2.0;
-            let e = per * 2f64.powi(-(f as i32)) * fs;
-            let peak = observed
-                .signals
-                .iter()
-                .find(|s| &s.name == n && s.samples > 0)
-                .map(|s| s.peak());
-            let word = i + f;
-            let note = if word > 32 {
-                format!("; {word} bits exceed an i32")
-            } else {
-                String::new()
-            };
-            Recommendation {
-                signal: n.clone(),
-                controller: c.clone(),
-                peak_pu: peak.unwrap_or(0.0),
-                observed: peak.is_some(),
-                proven_max_pu: *v,
-                int_bits: i,
-                frac_bits: f,
-                word,
-                format: format!("Q{i}.{f}"),
-                margin: format!("integer bits from the proven bound{note}"),
-                guarantee: format!(
-                    "cannot overflow for any input within the clamps (proven {v:.4} pu < \
-                     2^{}); {out} rounding error vs exact arithmetic <= {e:.3e} ({:.3} wire \
-                     LSB, budget {budget:.3e} = half a wire LSB)",
-                    i - 1,
-                    e / lsb
-                ),
-            }
-        })
-        .collect();
-    let statement = if overflow_free {
-        format!(
-            "No overflow for any input within the clamps: every internal signal's proven \
-             bound lies inside {fmt_s} (smallest margin {:.2} bits, {}); the rounding error \
-             of T_psi against exact arithmetic on the quantised coefficients is at most \
-             {:.3e} N m ({:.3} wire LSB), of u_a given the PI's input {:.3e} V.",
-            bounds
-                .iter()
-                .map(|b| b.margin_bits)
-                .fold(f64::INFINITY, f64::min),
-            bounds
-                .iter()
-                .min_by(|a, b| a.margin_bits.total_cmp(&b.margin_bits))
-                .map(|b| b.signal.as_str())
-                .unwrap_or(""),
-            p.lead_err * s.torque,
-            p.lead_err * s.torque / wire.torque,
-            p.pi_err * s.voltage
-        )
-    } else {
-        format!(
-            "Overflow not excluded: {} proven bound(s) exceed the range of {fmt_s}.",
-            p.signals.iter().filter(|x| x.4 >= range).count()
-        )
-    };
-    Proofs {
-        bounds,
-        error_bounds,
-        linear_parts: p.parts,
-        recommendations,
-        statement,
-        overflow_free,
-    }
 }

@@ -4,8 +4,10 @@
 
 use wheelset_control::{Config, ConfigError, Controller, LeadPu, Sample};
 
-use super::LinearPart;
-use crate::ranges::{fs_of, Fs, Fs::*};
+use super::{frac_bits_for, int_bits_for, smallest_margin, Bound, ErrorBound, LinearPart, Proofs};
+use crate::model::Recommendation;
+use crate::qdyn::QFormat;
+use crate::ranges::{fs_of, Fs, Fs::*, Observed};
 use crate::wcpg::{wcpg, Siso};
 
 /// The quantised constants of the core, pu (exact values of what `T` holds).
@@ -139,33 +141,20 @@ pub fn lead_error_systems(l: &LeadPu) -> [Siso; 4] {
     ]
 }
 
-/// The proven quantities in pu (used by [`prove`](super::prove) and the tests).
-#[derive(Clone, Debug, PartialEq)]
-pub struct Proven {
-    /// Lead input bound `X`.
-    pub x: f64,
-    /// `(signal, controller, SI unit, full scale, proven pu, proof)`.
-    pub signals: Vec<(String, String, String, f64, f64, String)>,
-    /// Lead output error bound (pu of torque), with the predictor.
-    pub lead_err: f64,
-    /// Per rounding point, pu of torque.
-    pub lead_err_points: Vec<(String, f64)>,
-    /// Gain output error bound, pu.
-    pub gain_err: f64,
-    /// PI output error given `e`, pu.
-    pub pi_err: f64,
-    /// Reference error, pu of current.
-    pub iref_err: f64,
-    /// Linear parts.
-    pub parts: Vec<LinearPart>,
-}
-
 fn w(s: &Siso) -> f64 {
     wcpg(s).map(|w| w.value).unwrap_or(f64::INFINITY)
 }
 
-/// Derive every bound for the quantised constants `k` at signal LSB `q` (pu).
-pub fn proven(k: &Quantised, cfg: &Config, q: f64) -> Proven {
+/// Proofs for the audited configuration and format, with the observed ranges and the
+/// observed errors (pu, from [`super::observed_errors`]).
+pub fn prove(
+    cfg: &Config,
+    k: &Quantised,
+    fmt: QFormat,
+    observed: &Observed,
+    obs_err: [f64; 4],
+) -> Proofs {
+    let q = fmt.lsb();
     let s = &cfg.scales;
     let h = q / 2.0;
     let y = k.y_max;
@@ -393,14 +382,149 @@ pub fn proven(k: &Quantised, cfg: &Config, q: f64) -> Proven {
         wcpg: wcpg(&Siso::recursive(1.0 - leak, leak)),
         note: "the complementary filter's low-frequency path".into(),
     });
-    Proven {
-        x,
-        signals: sig,
-        lead_err,
-        lead_err_points: lead_points,
-        gain_err,
-        pi_err: h + q,
-        iref_err: h,
-        parts,
+    let (pi_err, iref_err) = (h + q, h);
+    let range = fmt.range();
+    let fmt_s = fmt.to_string();
+    let seen = |n: &str| {
+        observed
+            .signals
+            .iter()
+            .find(|r| r.name == n && r.samples > 0)
+    };
+    let bounds: Vec<Bound> = sig
+        .iter()
+        .map(|(n, c, u, fs, v, proof)| {
+            let obs = seen(n).map(|r| r.min_si.abs().max(r.max_si.abs()));
+            Bound {
+                signal: n.clone(),
+                controller: c.clone(),
+                unit: u.clone(),
+                observed_max: obs,
+                proven_max: v * fs,
+                format: fmt_s.clone(),
+                margin_bits: (range / v).log2(),
+                proof: proof.clone(),
+            }
+        })
+        .collect();
+    let wire = &cfg.wire;
+    let torque = (s.torque, "N m", wire.torque);
+    let pts = |v: &[(&str, f64)]| v.iter().map(|&(n, x)| (n.to_string(), x)).collect();
+    // `(output, proven pu, (full scale, unit, wire LSB), rounding points pu)`.
+    let rows: [(_, _, _, Vec<(String, f64)>); 4] = [
+        (
+            "T_psi (lead, with the predictor)",
+            lead_err,
+            torque,
+            lead_points,
+        ),
+        (
+            "T_psi (gain, with the predictor)",
+            gain_err,
+            torque,
+            pts(&[("predictor", gain_err - q / 2.0), ("x k", q / 2.0)]),
+        ),
+        (
+            "u_a (PI, given its error input)",
+            pi_err,
+            (s.voltage, "V", wire.voltage),
+            pts(&[
+                ("Kp e", q / 2.0),
+                ("integrator (floored, remainder carried)", q),
+            ]),
+        ),
+        (
+            "i_ref (ramped reference)",
+            iref_err,
+            (s.current, "A", wire.current),
+            pts(&[("demand d2i", q / 2.0)]),
+        ),
+    ];
+    let error_bounds = rows
+        .into_iter()
+        .zip(obs_err)
+        .map(|((o, pr, (fs, unit, lsb), pts), obs)| ErrorBound {
+            output: o.into(),
+            observed: obs * fs,
+            proven: pr * fs,
+            unit: unit.into(),
+            proven_wire_lsb: pr * fs / lsb,
+            rounding_points: pts.into_iter().map(|(n, v)| (n, v * fs)).collect(),
+        })
+        .collect();
+    let overflow_free = sig.iter().all(|x| x.4 < range);
+    // Recommendations: integer bits (incl. sign) with `2^(i-1)` above the proven bound,
+    // fraction bits keeping the proven rounding error of the chain's output (T_psi or
+    // u_a) within half a wire LSB.
+    let budget_t = 0.5 * wire.torque / s.torque;
+    let budget_u = 0.5 * wire.voltage / s.voltage;
+    let yaw_per = lead_err.max(gain_err) / q;
+    let f_yaw = frac_bits_for(yaw_per, budget_t);
+    let f_tr = frac_bits_for(pi_err / q, budget_u);
+    let recommendations = sig
+        .iter()
+        .map(|(n, c, _, _, v, _)| {
+            let i = int_bits_for(*v);
+            let (f, out, per, fs, lsb) = if c == "traction_pi" {
+                (f_tr, "u_a", pi_err / q, s.voltage, wire.voltage)
+            } else {
+                (f_yaw, "T_psi", yaw_per, s.torque, wire.torque)
+            };
+            let budget = lsb / 2.0;
+            let e = per * 2f64.powi(-(f as i32)) * fs;
+            let peak = seen(n).map(|s| s.peak());
+            let word = i + f;
+            let note = if word > 32 {
+                format!("; {word} bits exceed an i32")
+            } else {
+                String::new()
+            };
+            Recommendation {
+                signal: n.clone(),
+                controller: c.clone(),
+                peak_pu: peak.unwrap_or(0.0),
+                observed: peak.is_some(),
+                proven_max_pu: *v,
+                int_bits: i,
+                frac_bits: f,
+                word,
+                format: format!("Q{i}.{f}"),
+                margin: format!("integer bits from the proven bound{note}"),
+                guarantee: format!(
+                    "cannot overflow for any input within the clamps (proven {v:.4} pu < \
+                     2^{}); {out} rounding error vs exact arithmetic <= {e:.3e} ({:.3} wire \
+                     LSB, budget {budget:.3e} = half a wire LSB)",
+                    i - 1,
+                    e / lsb
+                ),
+            }
+        })
+        .collect();
+    let tightest = smallest_margin(&bounds);
+    let statement = if overflow_free {
+        format!(
+            "No overflow for any input within the clamps: every internal signal's proven \
+             bound lies inside {fmt_s} (smallest margin {:.2} bits, {}); the rounding error \
+             of T_psi against exact arithmetic on the quantised coefficients is at most \
+             {:.3e} N m ({:.3} wire LSB), of u_a given the PI's input {:.3e} V.",
+            tightest.0,
+            tightest.1,
+            lead_err * s.torque,
+            lead_err * s.torque / wire.torque,
+            pi_err * s.voltage
+        )
+    } else {
+        format!(
+            "Overflow not excluded: {} proven bound(s) exceed the range of {fmt_s}.",
+            sig.iter().filter(|x| x.4 >= range).count()
+        )
+    };
+    Proofs {
+        bounds,
+        error_bounds,
+        linear_parts: parts,
+        recommendations,
+        statement,
+        overflow_free,
     }
 }

@@ -116,17 +116,9 @@ fn settle_steps(kind: Kind, cfg: &Config) -> usize {
 }
 
 /// The response of the controller as it runs with sample type `T`, *measured*: drive it
-/// with `A sin(2 pi f n T)` (A from [`measure_amplitude`]), let it settle, fit a sine,
-/// cosine and constant over an integer number of periods of at least 2000 samples.
-pub fn measured<T: Sample>(
-    kind: Kind,
-    cfg: &Config,
-    f_hz: f64,
-) -> Result<C64, wheelset_control::ConfigError> {
-    measured_at::<T>(kind, cfg, f_hz, measure_amplitude(kind))
-}
-
-/// As [`measured`] with the stimulus amplitude `amp` (SI input unit).
+/// with `amp sin(2 pi f n T)` (`amp` in the SI input unit; the audit's from
+/// [`measure_amplitude`]), let it settle, fit a sine, cosine and constant over an integer
+/// number of periods of at least 2000 samples.
 pub fn measured_at<T: Sample>(
     kind: Kind,
     cfg: &Config,
