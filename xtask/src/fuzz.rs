@@ -133,11 +133,10 @@ fn host_expect(frame: &[u8]) -> Expect {
         Some(Ok(Message::Command(Command::ResetCounters))) => Expect::Ok { reset: true },
         Some(Ok(Message::Actuation(_) | Message::Status(_))) => Expect::Unexpected,
         Some(Ok(_)) => Expect::Ok { reset: false },
-        Some(Err(FrameError::Crc)) => Expect::Err(1),
-        Some(Err(FrameError::Cobs)) => Expect::Err(2),
-        Some(Err(FrameError::Version)) => Expect::Err(3),
-        Some(Err(FrameError::Length)) => Expect::ErrOrUnexpected(4),
-        Some(Err(FrameError::Postcard)) => Expect::ErrOrUnexpected(5),
+        Some(Err(e @ (FrameError::Length | FrameError::Postcard))) => {
+            Expect::ErrOrUnexpected(1 + e.index())
+        }
+        Some(Err(e)) => Expect::Err(1 + e.index()),
         // The host's decoder saw no frame: the device must not count one either.
         None => Expect::Err(usize::MAX),
     }
@@ -329,25 +328,34 @@ pub fn fuzz(a: Args) -> Result<(), String> {
 }
 
 fn print_report(r: &Report) {
-    let kinds: Vec<String> = KINDS
-        .iter()
-        .zip(r.generated)
-        .map(|(k, n)| format!("{k} {n}"))
-        .collect();
-    outln!("  Runtime<{}>: generated {}", r.numeric, kinds.join(", "));
+    let counts = |names: &[&str], n: &[u64]| {
+        let items: Vec<String> = names
+            .iter()
+            .zip(n)
+            .map(|(k, n)| format!("{k} {n}"))
+            .collect();
+        items.join(", ")
+    };
+    let rx = [
+        "ok",
+        "crc",
+        "cobs",
+        "version",
+        "length",
+        "postcard",
+        "unexpected",
+    ];
     outln!(
-        "    frames seen {}, ticks {}; rx ok {}, crc {}, cobs {}, version {}, length {}, \
-         postcard {}, unexpected {}; configs applied {} / refused {}; status frames {}; max |T_psi| {} \
-         dNm, max |u_a| {} cV",
+        "  Runtime<{}>: generated {}",
+        r.numeric,
+        counts(&KINDS, &r.generated)
+    );
+    outln!(
+        "    frames seen {}, ticks {}; rx {}; configs applied {} / refused {}; status frames {}; \
+         max |T_psi| {} dNm, max |u_a| {} cV",
         r.frames_seen,
         r.ticks,
-        r.rx[0],
-        r.rx[1],
-        r.rx[2],
-        r.rx[3],
-        r.rx[4],
-        r.rx[5],
-        r.rx[6],
+        counts(&rx, &r.rx),
         r.configs_applied,
         r.configs_refused,
         r.status_frames,

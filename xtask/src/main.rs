@@ -36,7 +36,9 @@ use std::process::{Command, ExitCode};
 
 use wheelset_targets::qemu::cmd as qemu_cmd;
 
-const NO_STD_CRATES: &[&str] = &["wheelset-control", "wheelset-proto", "wheelset-runtime"];
+/// The device crates: `no_std`, their features held to the board builds' ([`features`]), their
+/// mutants counted ([`mutants`]).
+const DEVICE_CRATES: [&str; 3] = ["wheelset-control", "wheelset-proto", "wheelset-runtime"];
 /// Cortex-M4F (the board and QEMU's mps2-an386) and Cortex-M0 (no FPU).
 const MCU_TARGETS: &[&str] = &["thumbv7em-none-eabihf", "thumbv6m-none-eabi"];
 const FW_TARGET: &str = "thumbv7em-none-eabihf";
@@ -157,7 +159,7 @@ fn ensure_targets() -> Result<(), String> {
 
 fn check_no_std() -> Result<(), String> {
     for target in MCU_TARGETS {
-        let crates = NO_STD_CRATES.iter().flat_map(|k| ["-p", k]);
+        let crates = DEVICE_CRATES.iter().flat_map(|k| ["-p", k]);
         run(cargo()
             .args(["build", "--release", "--target", target])
             .args(crates))?;
