@@ -328,38 +328,32 @@ pub fn fuzz(a: Args) -> Result<(), String> {
 }
 
 fn print_report(r: &Report) {
-    let counts = |names: &[&str], n: &[u64]| {
-        let items: Vec<String> = names
-            .iter()
-            .zip(n)
-            .map(|(k, n)| format!("{k} {n}"))
-            .collect();
-        items.join(", ")
-    };
-    let rx = [
-        "ok",
-        "crc",
-        "cobs",
-        "version",
-        "length",
-        "postcard",
-        "unexpected",
-    ];
+    let rx = "ok crc cobs version length postcard unexpected".split(' ');
     outln!(
         "  Runtime<{}>: generated {}",
         r.numeric,
-        counts(&KINDS, &r.generated)
+        counts(KINDS, &r.generated)
     );
     outln!(
         "    frames seen {}, ticks {}; rx {}; configs applied {} / refused {}; status frames {}; \
          max |T_psi| {} dNm, max |u_a| {} cV",
         r.frames_seen,
         r.ticks,
-        counts(&rx, &r.rx),
+        counts(rx, &r.rx),
         r.configs_applied,
         r.configs_refused,
         r.status_frames,
         r.max_torque,
         r.max_voltage
     );
+}
+
+/// `name count` of `names` and `n` side by side, comma-separated.
+fn counts<'a>(names: impl IntoIterator<Item = &'a str>, n: &[u64]) -> String {
+    let items: Vec<String> = names
+        .into_iter()
+        .zip(n)
+        .map(|(k, n)| format!("{k} {n}"))
+        .collect();
+    items.join(", ")
 }
