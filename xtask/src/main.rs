@@ -391,7 +391,8 @@ fn qemu_cmd_line(args: &[String]) -> Result<(), String> {
     };
     let mut elf = None;
     let mut serial = qemu_cmd::SerialTo::Null;
-    let (mut machine, mut cpu) = (qemu_cmd::MACHINE.to_string(), qemu_cmd::CPU.to_string());
+    let m = wheelset_targets::qemu::Machine::default();
+    let (mut machine, mut cpu) = (m.name().to_string(), m.cpu().to_string());
     let mut it = own.iter();
     while let Some(a) = it.next() {
         let mut value = || {

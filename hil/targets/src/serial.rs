@@ -50,7 +50,7 @@ impl Serial {
             baud,
             cpu_hz,
             timeout,
-            expect: Expect::new(),
+            expect: Expect::default(),
         })
     }
 

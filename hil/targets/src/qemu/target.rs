@@ -67,7 +67,7 @@ impl QemuTarget {
             q: q.map_err(|e| TransportError::Unavailable(e.to_string()))?,
             baud,
             cpu_hz,
-            expect: Expect::new(),
+            expect: Expect::default(),
             pipelined,
         })
     }
