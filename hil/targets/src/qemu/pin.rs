@@ -6,12 +6,7 @@ use std::process::{Command, Stdio};
 
 use crate::realtime::os::allowed_cpus;
 
-/// [`allowed_cpus`], `None` when unknown.
-fn allowed_cores() -> Option<Vec<usize>> {
-    Some(allowed_cpus()).filter(|c| !c.is_empty())
-}
-
-/// The core the next QEMU is pinned to: round robin over [`allowed_cores`], so that
+/// The core the next QEMU is pinned to: round robin over [`allowed_cpus`], so that
 /// QEMUs started side by side (parallel tests) spread over the cores. `None` (no
 /// pinning) with `WHEELSET_QEMU_PIN=off`, without `taskset`, or without the core list.
 pub(super) fn next_core() -> Option<usize> {
@@ -30,11 +25,7 @@ pub(super) fn next_core() -> Option<usize> {
                 .stderr(Stdio::null())
                 .status()
                 .is_ok_and(|s| s.success());
-            if taskset {
-                allowed_cores()
-            } else {
-                None
-            }
+            Some(allowed_cpus()).filter(|c| taskset && !c.is_empty())
         })
         .as_ref()?;
     let k = NEXT.fetch_add(1, Ordering::Relaxed);
@@ -55,7 +46,7 @@ pub(super) fn free_run_core() -> Option<usize> {
     if std::env::var("WHEELSET_QEMU_PIN").is_ok_and(|v| v == "off") {
         return None;
     }
-    allowed_cores()?.first().copied()
+    allowed_cpus().first().copied()
 }
 
 /// The real-time priority a free-running QEMU runs at (`SCHED_RR`, below the host loop's
