@@ -55,7 +55,6 @@ struct Firmware {
 }
 
 impl Firmware {
-    /// The Nucleo boards link with flip-link.
     fn flip_link(&self) -> bool {
         self.board.starts_with("nucleo")
     }
@@ -103,6 +102,22 @@ fn target_dir() -> PathBuf {
     std::env::var_os("CARGO_TARGET_DIR")
         .map(PathBuf::from)
         .unwrap_or_else(|| workspace_root().join("target"))
+}
+
+/// Adds the files under `dir` named `*.ext` to `out`, each folder's entries in name order,
+/// the folder `skip` left out.
+fn files_under(dir: &Path, ext: &str, skip: &Path, out: &mut Vec<PathBuf>) -> Result<(), String> {
+    let read = std::fs::read_dir(dir).map_err(|e| format!("cannot read {}: {e}", dir.display()))?;
+    let mut entries: Vec<PathBuf> = read.filter_map(|e| Some(e.ok()?.path())).collect();
+    entries.sort();
+    for p in entries {
+        if p.is_dir() && p != skip {
+            files_under(&p, ext, skip, out)?;
+        } else if p.extension().is_some_and(|x| x == ext) {
+            out.push(p);
+        }
+    }
+    Ok(())
 }
 
 /// A command as a user would type it (without the environment the task sets).
