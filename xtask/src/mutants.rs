@@ -90,7 +90,6 @@ impl Counts {
     }
 }
 
-/// The mutants cargo-mutants lists for `package`.
 fn listed(package: &str) -> Result<u64, String> {
     let out = cargo_mutants(package).arg("--list").output().map_err(|e| {
         format!("cargo mutants --list: {e} (install: cargo install cargo-mutants --locked)")
@@ -121,7 +120,6 @@ fn parse_shard(s: &str) -> Result<(u32, u32), String> {
     Ok((k, n))
 }
 
-/// What the command line asks for.
 #[derive(Debug, Default, PartialEq)]
 struct Args {
     packages: Vec<String>,

@@ -116,28 +116,22 @@ pub fn commands(readme: &str) -> Vec<ReadmeCommand> {
             line,
         });
     };
-    let mut in_sh = false;
-    let mut in_other = false;
+    // Inside a code block: whether it is a ```` ```sh ```` one.
+    let mut fence: Option<bool> = None;
     for (i, l) in readme.lines().enumerate() {
         let t = l.trim_start();
         if t.starts_with("```") {
-            if in_sh || in_other {
-                in_sh = false;
-                in_other = false;
-            } else if t == "```sh" {
-                in_sh = true;
-            } else {
-                in_other = true;
+            fence = fence.xor(Some(t == "```sh"));
+            continue;
+        }
+        match fence {
+            Some(false) => continue,
+            Some(true) => {
+                let (cmd, comment) = l.split_once('#').unwrap_or((l, ""));
+                push(cmd, comment, i + 1);
+                continue;
             }
-            continue;
-        }
-        if in_other {
-            continue;
-        }
-        if in_sh {
-            let (cmd, comment) = l.split_once('#').unwrap_or((l, ""));
-            push(cmd, comment, i + 1);
-            continue;
+            None => {}
         }
         // Inline code spans.
         let mut rest = l;
