@@ -131,7 +131,6 @@ pub struct LinkReport {
 }
 
 impl LinkReport {
-    /// The report of a finished in-process run.
     fn of(rec: &LoopRecords, acc: LinkAccounting) -> Self {
         let mut safe_periods = 0;
         let (mut entries, mut exits) = (0, 0);

@@ -122,7 +122,6 @@ pub struct DeviceController<'a> {
     setup: LoopSetup<'a>,
     config_sent: bool,
     decoder: Decoder,
-    /// Samples sent; the Sensor frame's `seq` is its low 16 bits.
     k: u64,
     held: Option<(SiActuation, Actuation)>,
     /// Actuations received and not yet in force, with the sample each echoes, in order.
@@ -182,7 +181,6 @@ impl<'a> DeviceController<'a> {
         }
     }
 
-    /// Ticks from a sample to its actuation taking effect (at least 1).
     fn delay_ticks(&self) -> u64 {
         u64::from(self.setup.delay_ticks.max(1))
     }
@@ -214,7 +212,6 @@ impl<'a> DeviceController<'a> {
         }
     }
 
-    /// Receives until `deadline_ns`, then takes each frame, in order.
     fn receive(&mut self, deadline_ns: u64) {
         if self.rec.error.is_some() {
             return;

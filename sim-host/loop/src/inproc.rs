@@ -325,7 +325,6 @@ fn negate_torque(out: &[u8], res: &mut Vec<u8>) {
 }
 
 impl<T: SampleBits> InProc<T> {
-    /// Runs every tick due by `deadline_ns`.
     fn ticks_until(&mut self, deadline_ns: u64) {
         loop {
             let t = self.next_tick * self.period_ns + self.phase_ns;
@@ -387,7 +386,6 @@ impl<T: SampleBits> Transport for InProc<T> {
         self.link.down.deliver(deadline_ns, |run, id| {
             let at = arrival.get(id as usize).copied().unwrap_or(deadline_ns);
             port.push_with(run, id, |piece| {
-                // A piece holds at most one delimiter, at its end.
                 let (r, _) = dec.next_message(piece);
                 let outcome = r.as_ref().map(|r| r.as_ref().map(|_| ()).map_err(|e| *e));
                 sink(at, piece.len(), r);
