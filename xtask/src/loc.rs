@@ -90,8 +90,7 @@ fn is_test_path(p: &Path) -> bool {
         .is_some_and(|n| n.ends_with("tests.rs"))
 }
 
-/// The workspace's count per crate folder (`firmware/control`, `xtask`, ...), from the
-/// workspace root `root`, largest first.
+/// The count per crate folder (`firmware/control`, `xtask`, ...) under `root`, largest first.
 pub fn workspace(root: &Path) -> Result<Vec<(String, Lines)>, String> {
     let mut files = Vec::new();
     for r in ROOTS {

@@ -36,8 +36,7 @@ use std::process::{Command, ExitCode};
 
 use wheelset_targets::qemu::cmd as qemu_cmd;
 
-/// The device crates: `no_std`, their features held to the board builds' ([`features`]), their
-/// mutants counted ([`mutants`]).
+/// The device crates (`no_std`; their features and mutants checked: [`features`], [`mutants`]).
 const DEVICE_CRATES: [&str; 3] = ["wheelset-control", "wheelset-proto", "wheelset-runtime"];
 /// Cortex-M4F (the board and QEMU's mps2-an386) and Cortex-M0 (no FPU).
 const MCU_TARGETS: &[&str] = &["thumbv7em-none-eabihf", "thumbv6m-none-eabi"];
@@ -104,8 +103,7 @@ fn target_dir() -> PathBuf {
         .unwrap_or_else(|| workspace_root().join("target"))
 }
 
-/// Adds the files under `dir` named `*.ext` to `out`, each folder's entries in name order,
-/// the folder `skip` left out.
+/// The `*.ext` files under `dir` into `out`, each folder in name order, `skip` left out.
 fn files_under(dir: &Path, ext: &str, skip: &Path, out: &mut Vec<PathBuf>) -> Result<(), String> {
     let read = std::fs::read_dir(dir).map_err(|e| format!("cannot read {}: {e}", dir.display()))?;
     let mut entries: Vec<PathBuf> = read.filter_map(|e| Some(e.ok()?.path())).collect();

@@ -9,8 +9,7 @@ use std::process::Command;
 
 use crate::DEVICE_CRATES;
 
-/// `cargo mutants` on `package` with the features its tests run with (`std` for the wire,
-/// `fault-inject` for the runtime; the other features only add derives).
+/// `cargo mutants` on `package` with its tests' features (the others only add derives).
 fn cargo_mutants(package: &str) -> Command {
     let mut c = Command::new("cargo");
     c.args(["mutants", "--package", package]);

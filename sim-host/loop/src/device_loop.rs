@@ -227,8 +227,8 @@ pub fn control_config(p: &Params, law: YawLaw, drive: bool) -> wheelset_control:
     }
 }
 
-/// The device's configuration at parameters `p`: the firmware's default with the gains and
-/// motor constants of `p` ([`control_config`]); `RuntimeConfig::default()` at the defaults.
+/// The firmware's default configuration with the gains and motor constants of `p`
+/// ([`control_config`]).
 #[must_use]
 pub fn runtime_for(p: &Params) -> RuntimeConfig {
     let d = RuntimeConfig::default();

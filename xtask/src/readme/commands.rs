@@ -78,8 +78,7 @@ pub fn classify(cmd: &str) -> Class {
         .map_or(Class::Skip("not a project command"), |&(_, c)| c)
 }
 
-/// One command of a page: the text, the exit code the page states for it (`exit N`
-/// after it on its line; 0 otherwise) and its line number.
+/// One command of a page (its exit code: `exit N` after it on its line).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct ReadmeCommand {
     /// The command as written.

@@ -4,8 +4,7 @@
 
 use std::path::Path;
 
-/// One committed figure: where the pages find it, the block whose command draws it and
-/// the file that command writes (paths from the workspace root).
+/// One committed figure (paths from the workspace root).
 #[derive(Debug, Clone, Copy)]
 pub struct Figure {
     /// The committed copy the pages reference, e.g. `docs/figures/low-adhesion.svg`.

@@ -6,9 +6,8 @@ use std::process::{Command, Stdio};
 
 use crate::realtime::os::allowed_cpus;
 
-/// The core the next QEMU is pinned to: round robin over [`allowed_cpus`], so that
-/// QEMUs started side by side (parallel tests) spread over the cores. `None` (no
-/// pinning) with `WHEELSET_QEMU_PIN=off`, without `taskset`, or without the core list.
+/// The core the next QEMU is pinned to (QEMUs of parallel tests spread over the cores);
+/// `None` with `WHEELSET_QEMU_PIN=off`, without `taskset`, or without the core list.
 pub(super) fn next_core() -> Option<usize> {
     use std::sync::atomic::{AtomicUsize, Ordering};
     use std::sync::OnceLock;
@@ -40,8 +39,7 @@ pub(super) fn beside() -> bool {
 }
 
 /// The core of a free-running QEMU: the first this process may use (the real-time host
-/// loop takes the last), so that the emulated board and the harness's loop never share a
-/// core; `None` as for [`next_core`].
+/// loop takes the last: they never share one); `None` as for [`next_core`].
 pub(super) fn free_run_core() -> Option<usize> {
     if std::env::var("WHEELSET_QEMU_PIN").is_ok_and(|v| v == "off") {
         return None;

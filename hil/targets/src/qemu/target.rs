@@ -46,8 +46,7 @@ impl QemuTarget {
         Self::on(Qemu::start(&cfg), baud, cpu_hz, pipelined(channel))
     }
 
-    /// The firmware under a QEMU started by hand, its UART0 a TCP server on
-    /// `127.0.0.1:port` ([`Qemu::connect`]); QEMU is left running at the end.
+    /// The firmware under a QEMU started by hand ([`Qemu::connect`]), left running at the end.
     pub fn connect(
         port: u16,
         baud: u32,
