@@ -10,8 +10,9 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::time::Instant;
 
 use wheelset_control::{Config as ControlConfig, Fx, SampleBits};
+use wheelset_loop::inproc::rx_counts;
 use wheelset_proto::units::{TORQUE_LSB_NM, VOLTAGE_LSB_V};
-use wheelset_proto::{Command, Decoder, FrameError, Message, Status};
+use wheelset_proto::{Command, Decoder, FrameError, Message};
 use wheelset_runtime::{Runtime, RuntimeConfig};
 
 mod gen;
@@ -84,8 +85,7 @@ pub struct Report {
     pub resets: u64,
     /// Ticks run.
     pub ticks: u64,
-    /// The device's receive counters summed over the run: valid, CRC, COBS, version,
-    /// length, postcard (rejections), unexpected (valid frames of a device -> host type).
+    /// The device's receive counters summed over the run, in [`rx_counts`]' order.
     pub rx: [u64; 7],
     /// Config frames the device took.
     pub configs_applied: u64,
@@ -97,19 +97,6 @@ pub struct Report {
     pub max_torque: i64,
     /// See `max_torque`.
     pub max_voltage: i64,
-}
-
-/// The device's receive counters, in [`Report::rx`] order.
-fn rx_counts(s: &Status) -> [u32; 7] {
-    [
-        s.rx_ok,
-        s.rx_crc,
-        s.rx_cobs,
-        s.rx_version,
-        s.rx_length,
-        s.rx_postcard,
-        s.rx_unexpected,
-    ]
 }
 
 /// Which receive counter a frame should move, by the host's decoder.

@@ -223,9 +223,9 @@ impl<T: SampleBits> InProc<T> {
         let (rt, port, open) = (&mut self.rt, &mut self.dev_rx, &mut self.dev_frame_open);
         self.link.up.deliver(t_ns, |run, id| {
             port.push_with(run, id, |piece| {
-                let before = rejections(rt.counters());
+                let before = rx_counts(rt.counters());
                 rt.receive(piece);
-                outcome(piece, open, before, rejections(rt.counters()))
+                outcome(piece, open, before, rx_counts(rt.counters()))
             });
         });
         let start = self.timed.then(Instant::now);
@@ -276,15 +276,19 @@ impl<T: SampleBits> InProc<T> {
     }
 }
 
-/// The runtime's rejection counters in [`outcome`]'s order (CRC, COBS, version, ...).
+/// The device's receive counters: valid, the rejections in [`wheelset_proto::FrameError::KINDS`]'
+/// order (CRC, COBS, version, length, postcard), unexpected.
 #[inline(always)]
-fn rejections(s: &wheelset_proto::Status) -> [u32; 5] {
+#[must_use]
+pub fn rx_counts(s: &wheelset_proto::Status) -> [u32; 7] {
     [
+        s.rx_ok,
         s.rx_crc,
         s.rx_cobs,
         s.rx_version,
         s.rx_length,
         s.rx_postcard,
+        s.rx_unexpected,
     ]
 }
 
@@ -293,8 +297,8 @@ fn rejections(s: &wheelset_proto::Status) -> [u32; 5] {
 fn outcome(
     piece: &[u8],
     open: &mut bool,
-    before: [u32; 5],
-    after: [u32; 5],
+    before: [u32; 7],
+    after: [u32; 7],
 ) -> Option<Result<(), wheelset_proto::FrameError>> {
     use wheelset_proto::FrameError;
     let closes = piece.last() == Some(&0);
@@ -303,9 +307,8 @@ fn outcome(
     if !(closes && nonempty) {
         return None;
     }
-    let kind = before
-        .into_iter()
-        .zip(after)
+    let kind = (before.into_iter().skip(1))
+        .zip(after.into_iter().skip(1))
         .zip(FrameError::KINDS)
         .find_map(|((b, a), e)| (a == b.wrapping_add(1)).then_some(e));
     Some(kind.map_or(Ok(()), Err))
