@@ -175,26 +175,24 @@ impl fmt::Display for LinkReport {
             self.host_clamped
         )?;
         match &self.device {
-            Some(s) => write!(
-                f,
-                "device status: ticks {}, rx ok {}, rejected crc {} cobs {} version {} length {} \
-                 postcard {}, seq gaps {}, held ticks {}, safe ticks {}, safe entries {}, exits {}, \
-                 yaw sat {}, traction sat {}",
-                s.ticks,
-                s.rx_ok,
-                s.rx_crc,
-                s.rx_cobs,
-                s.rx_version,
-                s.rx_length,
-                s.rx_postcard,
-                s.seq_gaps,
-                s.held_ticks,
-                s.safe_ticks,
-                s.safe_entries,
-                s.safe_exits,
-                s.yaw_sat,
-                s.traction_sat
-            ),
+            Some(s) => {
+                let [ok, crc, cobs, version, length, postcard, _] = crate::inproc::rx_counts(s);
+                write!(
+                    f,
+                    "device status: ticks {}, rx ok {ok}, rejected crc {crc} cobs {cobs} \
+                     version {version} length {length} postcard {postcard}, seq gaps {}, \
+                     held ticks {}, safe ticks {}, safe entries {}, exits {}, yaw sat {}, \
+                     traction sat {}",
+                    s.ticks,
+                    s.seq_gaps,
+                    s.held_ticks,
+                    s.safe_ticks,
+                    s.safe_entries,
+                    s.safe_exits,
+                    s.yaw_sat,
+                    s.traction_sat
+                )
+            }
             None => write!(f, "device status: the status frame was lost"),
         }
     }
