@@ -8,11 +8,9 @@ use std::process::Command;
 pub enum Class {
     /// Run in every `cargo xtest` (seconds each).
     Short,
-    /// Run with `--long` only (CI: `.ci/run`): QEMU runs, benchmarks, the firmware
-    /// builds, the test suites, lints.
+    /// Run with `--long` only (CI: `.ci/run`).
     Long,
-    /// Never run here: it needs a board, installs software, runs until killed, is the
-    /// test command itself, or is a form with placeholders.
+    /// Never run here, for the reason given.
     Skip(&'static str),
 }
 

@@ -22,8 +22,7 @@ pub struct QemuTarget {
     pipelined: bool,
 }
 
-/// Whether a target on `channel` keeps two exchanges in flight: on the bulk channel,
-/// unless `WHEELSET_QEMU_IN_FLIGHT=1`.
+/// Whether a target on `channel` keeps two exchanges in flight ([`Transport::pipelined`]).
 fn pipelined(channel: Channel) -> bool {
     channel == Channel::Bulk && std::env::var("WHEELSET_QEMU_IN_FLIGHT").as_deref() != Ok("1")
 }
