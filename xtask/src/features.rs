@@ -6,10 +6,7 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use crate::{cargo, Firmware};
-
-/// The crates whose behaviour the board builds share with the tested builds.
-pub const DEVICE_CRATES: &[&str] = &["wheelset-runtime", "wheelset-proto", "wheelset-control"];
+use crate::{cargo, Firmware, DEVICE_CRATES};
 
 /// The packages `cargo xtest` tests a second time with the device's features (without
 /// the `std` the workspace's host crates turn on in the wire crate).
@@ -70,7 +67,7 @@ pub fn parse_tree(out: &str) -> Result<Features, String> {
         }
     }
     for name in DEVICE_CRATES {
-        if !found.contains_key(*name) {
+        if !found.contains_key(name) {
             return Err(format!("{name} is not in the resolved build"));
         }
     }
@@ -142,8 +139,8 @@ pub fn compare(
     let empty = BTreeSet::new();
     let mut problems = Vec::new();
     for krate in DEVICE_CRATES {
-        let b = built.get(*krate).unwrap_or(&empty);
-        let t = tested.get(*krate).unwrap_or(&empty);
+        let b = built.get(krate).unwrap_or(&empty);
+        let t = tested.get(krate).unwrap_or(&empty);
         for f in b.difference(t).filter(|f| !allowed(f)) {
             problems.push(format!(
                 "{board}: {krate} has `{f}`, which {tested_name} does not"
@@ -250,8 +247,8 @@ mod tests {
         ]);
         let p = compare("n.elf", false, &off, "t", &tested);
         assert_eq!(p.len(), 2, "{p:?}");
-        assert!(p[0].contains("wheelset-runtime lacks `wsp`"), "{p:?}");
-        assert!(p[1].contains("wheelset-proto has `monitor`"), "{p:?}");
+        assert!(p[0].contains("wheelset-proto has `monitor`"), "{p:?}");
+        assert!(p[1].contains("wheelset-runtime lacks `wsp`"), "{p:?}");
         // The fault injection outside QEMU's builds is named.
         let p = compare("n.elf", false, &board, "t", &tested);
         assert_eq!(p.len(), 1, "{p:?}");

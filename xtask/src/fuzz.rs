@@ -10,8 +10,9 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::time::Instant;
 
 use wheelset_control::{Config as ControlConfig, Fx, SampleBits};
+use wheelset_loop::inproc::rx_counts;
 use wheelset_proto::units::{TORQUE_LSB_NM, VOLTAGE_LSB_V};
-use wheelset_proto::{Command, Decoder, FrameError, Message, Status};
+use wheelset_proto::{Command, Decoder, FrameError, Message};
 use wheelset_runtime::{Runtime, RuntimeConfig};
 
 mod gen;
@@ -84,8 +85,7 @@ pub struct Report {
     pub resets: u64,
     /// Ticks run.
     pub ticks: u64,
-    /// The device's receive counters summed over the run: valid, CRC, COBS, version,
-    /// length, postcard (rejections), unexpected (valid frames of a device -> host type).
+    /// The device's receive counters summed over the run, in [`rx_counts`]' order.
     pub rx: [u64; 7],
     /// Config frames the device took.
     pub configs_applied: u64,
@@ -97,19 +97,6 @@ pub struct Report {
     pub max_torque: i64,
     /// See `max_torque`.
     pub max_voltage: i64,
-}
-
-/// The device's receive counters, in [`Report::rx`] order.
-fn rx_counts(s: &Status) -> [u32; 7] {
-    [
-        s.rx_ok,
-        s.rx_crc,
-        s.rx_cobs,
-        s.rx_version,
-        s.rx_length,
-        s.rx_postcard,
-        s.rx_unexpected,
-    ]
 }
 
 /// Which receive counter a frame should move, by the host's decoder.
@@ -133,11 +120,10 @@ fn host_expect(frame: &[u8]) -> Expect {
         Some(Ok(Message::Command(Command::ResetCounters))) => Expect::Ok { reset: true },
         Some(Ok(Message::Actuation(_) | Message::Status(_))) => Expect::Unexpected,
         Some(Ok(_)) => Expect::Ok { reset: false },
-        Some(Err(FrameError::Crc)) => Expect::Err(1),
-        Some(Err(FrameError::Cobs)) => Expect::Err(2),
-        Some(Err(FrameError::Version)) => Expect::Err(3),
-        Some(Err(FrameError::Length)) => Expect::ErrOrUnexpected(4),
-        Some(Err(FrameError::Postcard)) => Expect::ErrOrUnexpected(5),
+        Some(Err(e @ (FrameError::Length | FrameError::Postcard))) => {
+            Expect::ErrOrUnexpected(1 + e.index())
+        }
+        Some(Err(e)) => Expect::Err(1 + e.index()),
         // The host's decoder saw no frame: the device must not count one either.
         None => Expect::Err(usize::MAX),
     }
@@ -329,29 +315,32 @@ pub fn fuzz(a: Args) -> Result<(), String> {
 }
 
 fn print_report(r: &Report) {
-    let kinds: Vec<String> = KINDS
-        .iter()
-        .zip(r.generated)
-        .map(|(k, n)| format!("{k} {n}"))
-        .collect();
-    outln!("  Runtime<{}>: generated {}", r.numeric, kinds.join(", "));
+    let rx = "ok crc cobs version length postcard unexpected".split(' ');
     outln!(
-        "    frames seen {}, ticks {}; rx ok {}, crc {}, cobs {}, version {}, length {}, \
-         postcard {}, unexpected {}; configs applied {} / refused {}; status frames {}; max |T_psi| {} \
-         dNm, max |u_a| {} cV",
+        "  Runtime<{}>: generated {}",
+        r.numeric,
+        counts(KINDS, &r.generated)
+    );
+    outln!(
+        "    frames seen {}, ticks {}; rx {}; configs applied {} / refused {}; status frames {}; \
+         max |T_psi| {} dNm, max |u_a| {} cV",
         r.frames_seen,
         r.ticks,
-        r.rx[0],
-        r.rx[1],
-        r.rx[2],
-        r.rx[3],
-        r.rx[4],
-        r.rx[5],
-        r.rx[6],
+        counts(rx, &r.rx),
         r.configs_applied,
         r.configs_refused,
         r.status_frames,
         r.max_torque,
         r.max_voltage
     );
+}
+
+/// `name count` of `names` and `n` side by side, comma-separated.
+fn counts<'a>(names: impl IntoIterator<Item = &'a str>, n: &[u64]) -> String {
+    let items: Vec<String> = names
+        .into_iter()
+        .zip(n)
+        .map(|(k, n)| format!("{k} {n}"))
+        .collect();
+    items.join(", ")
 }

@@ -13,7 +13,6 @@ pub const CEILING: u64 = 43_044;
 /// Comment lines must stay under this share of the non-test lines.
 pub const MAX_COMMENT_SHARE: f64 = 0.15;
 
-/// The folders holding the workspace's crates.
 const ROOTS: [&str; 4] = ["firmware", "sim-host", "hil", "xtask"];
 
 /// Lines of one body of code.
@@ -91,25 +90,11 @@ fn is_test_path(p: &Path) -> bool {
         .is_some_and(|n| n.ends_with("tests.rs"))
 }
 
-fn walk(dir: &Path, out: &mut Vec<PathBuf>) -> Result<(), String> {
-    let rd = std::fs::read_dir(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-    for e in rd {
-        let p = e.map_err(|e| format!("{}: {e}", dir.display()))?.path();
-        if p.is_dir() {
-            walk(&p, out)?;
-        } else if p.extension().is_some_and(|x| x == "rs") {
-            out.push(p);
-        }
-    }
-    Ok(())
-}
-
-/// The workspace's count per crate folder (`firmware/control`, `xtask`, ...), from the
-/// workspace root `root`, largest first.
+/// The count per crate folder (`firmware/control`, `xtask`, ...) under `root`, largest first.
 pub fn workspace(root: &Path) -> Result<Vec<(String, Lines)>, String> {
     let mut files = Vec::new();
     for r in ROOTS {
-        walk(&root.join(r), &mut files)?;
+        crate::files_under(&root.join(r), "rs", &root.join("target"), &mut files)?;
     }
     let mut by_crate = std::collections::BTreeMap::<String, Lines>::new();
     for f in &files {

@@ -36,7 +36,8 @@ use std::process::{Command, ExitCode};
 
 use wheelset_targets::qemu::cmd as qemu_cmd;
 
-const NO_STD_CRATES: &[&str] = &["wheelset-control", "wheelset-proto", "wheelset-runtime"];
+/// The device crates (`no_std`; their features and mutants checked: [`features`], [`mutants`]).
+const DEVICE_CRATES: [&str; 3] = ["wheelset-control", "wheelset-proto", "wheelset-runtime"];
 /// Cortex-M4F (the board and QEMU's mps2-an386) and Cortex-M0 (no FPU).
 const MCU_TARGETS: &[&str] = &["thumbv7em-none-eabihf", "thumbv6m-none-eabi"];
 const FW_TARGET: &str = "thumbv7em-none-eabihf";
@@ -53,7 +54,6 @@ struct Firmware {
 }
 
 impl Firmware {
-    /// The Nucleo boards link with flip-link.
     fn flip_link(&self) -> bool {
         self.board.starts_with("nucleo")
     }
@@ -101,6 +101,21 @@ fn target_dir() -> PathBuf {
     std::env::var_os("CARGO_TARGET_DIR")
         .map(PathBuf::from)
         .unwrap_or_else(|| workspace_root().join("target"))
+}
+
+/// The `*.ext` files under `dir` into `out`, each folder in name order, `skip` left out.
+fn files_under(dir: &Path, ext: &str, skip: &Path, out: &mut Vec<PathBuf>) -> Result<(), String> {
+    let read = std::fs::read_dir(dir).map_err(|e| format!("cannot read {}: {e}", dir.display()))?;
+    let mut entries: Vec<PathBuf> = read.filter_map(|e| Some(e.ok()?.path())).collect();
+    entries.sort();
+    for p in entries {
+        if p.is_dir() && p != skip {
+            files_under(&p, ext, skip, out)?;
+        } else if p.extension().is_some_and(|x| x == ext) {
+            out.push(p);
+        }
+    }
+    Ok(())
 }
 
 /// A command as a user would type it (without the environment the task sets).
@@ -157,7 +172,7 @@ fn ensure_targets() -> Result<(), String> {
 
 fn check_no_std() -> Result<(), String> {
     for target in MCU_TARGETS {
-        let crates = NO_STD_CRATES.iter().flat_map(|k| ["-p", k]);
+        let crates = DEVICE_CRATES.iter().flat_map(|k| ["-p", k]);
         run(cargo()
             .args(["build", "--release", "--target", target])
             .args(crates))?;
@@ -389,7 +404,8 @@ fn qemu_cmd_line(args: &[String]) -> Result<(), String> {
     };
     let mut elf = None;
     let mut serial = qemu_cmd::SerialTo::Null;
-    let (mut machine, mut cpu) = (qemu_cmd::MACHINE.to_string(), qemu_cmd::CPU.to_string());
+    let m = wheelset_targets::qemu::Machine::default();
+    let (mut machine, mut cpu) = (m.name().to_string(), m.cpu().to_string());
     let mut it = own.iter();
     while let Some(a) = it.next() {
         let mut value = || {

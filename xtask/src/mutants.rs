@@ -7,17 +7,18 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-/// The crates whose mutants are counted: the control core, the wire, the runtime.
-pub const DEVICE_CRATES: [&str; 3] = ["wheelset-control", "wheelset-proto", "wheelset-runtime"];
+use crate::DEVICE_CRATES;
 
-/// The features each crate's tests run with (`std` for the wire, `fault-inject` for the
-/// runtime); the other features only add derives.
-fn features(package: &str) -> &'static str {
+/// `cargo mutants` on `package` with its tests' features (the others only add derives).
+fn cargo_mutants(package: &str) -> Command {
+    let mut c = Command::new("cargo");
+    c.args(["mutants", "--package", package]);
     match package {
-        "wheelset-proto" => "std",
-        "wheelset-runtime" => "fault-inject",
-        _ => "",
-    }
+        "wheelset-proto" => c.args(["--features", "std"]),
+        "wheelset-runtime" => c.args(["--features", "fault-inject"]),
+        _ => &mut c,
+    };
+    c
 }
 
 /// The outcomes cargo-mutants writes, one mutant per line, in its `mutants.out`.
@@ -88,17 +89,8 @@ impl Counts {
     }
 }
 
-/// The mutants cargo-mutants lists for `package` (with the `--file` filters).
-fn listed(package: &str, files: &[String]) -> Result<u64, String> {
-    let mut c = Command::new("cargo");
-    c.args(["mutants", "--list", "--package", package]);
-    if !features(package).is_empty() {
-        c.args(["--features", features(package)]);
-    }
-    for f in files {
-        c.args(["--file", f]);
-    }
-    let out = c.output().map_err(|e| {
+fn listed(package: &str) -> Result<u64, String> {
+    let out = cargo_mutants(package).arg("--list").output().map_err(|e| {
         format!("cargo mutants --list: {e} (install: cargo install cargo-mutants --locked)")
     })?;
     if !out.status.success() {
@@ -127,7 +119,6 @@ fn parse_shard(s: &str) -> Result<(u32, u32), String> {
     Ok((k, n))
 }
 
-/// What the command line asks for.
 #[derive(Debug, Default, PartialEq)]
 struct Args {
     packages: Vec<String>,
@@ -204,7 +195,7 @@ pub fn main(args: &[String]) -> Result<bool, String> {
                 c.add_dir(d)?;
             }
             clean &= c.missed + c.timeout == 0;
-            outln!("{}", c.line(p, listed(p, &[]).ok()));
+            outln!("{}", c.line(p, listed(p).ok()));
         }
         return Ok(clean);
     }
@@ -220,12 +211,8 @@ pub fn main(args: &[String]) -> Result<bool, String> {
             None => root.join(p),
         };
         std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-        let mut c = Command::new("cargo");
-        c.args(["mutants", "--package", p, "--no-shuffle", "--output"])
-            .arg(&dir);
-        if !features(p).is_empty() {
-            c.args(["--features", features(p)]);
-        }
+        let mut c = cargo_mutants(p);
+        c.args(["--no-shuffle", "--output"]).arg(&dir);
         for f in &a.files {
             c.args(["--file", f]);
         }
@@ -246,7 +233,7 @@ pub fn main(args: &[String]) -> Result<bool, String> {
         clean &= counts.missed + counts.timeout == 0;
         // The denominator: the whole list, unless the run was a part of it by choice.
         let whole = if a.shard.is_none() && a.files.is_empty() {
-            Some(listed(p, &[])?)
+            Some(listed(p)?)
         } else {
             None
         };

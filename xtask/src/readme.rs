@@ -25,34 +25,15 @@ pub use markers::update;
 /// The pages: `README.md`, then every `.md` file under `docs/` (sorted, recursively; the
 /// mdBook's build output `docs/book/` left out), as `(path from the root with `/`, text)`.
 pub fn pages(root: &Path) -> Result<Vec<(String, String)>, String> {
-    fn walk(dir: &Path, rel: &str, out: &mut Vec<String>) -> Result<(), String> {
-        let mut entries: Vec<_> = std::fs::read_dir(dir)
-            .map_err(|e| format!("cannot read {}: {e}", dir.display()))?
-            .filter_map(Result::ok)
-            .map(|e| e.file_name().to_string_lossy().into_owned())
-            .collect();
-        entries.sort();
-        for name in entries {
-            let path = dir.join(&name);
-            let r = format!("{rel}/{name}");
-            if path.is_dir() {
-                if r != "docs/book" {
-                    walk(&path, &r, out)?;
-                }
-            } else if name.ends_with(".md") {
-                out.push(r);
-            }
-        }
-        Ok(())
-    }
-    let mut names = vec!["README.md".to_string()];
-    walk(&root.join("docs"), "docs", &mut names)?;
-    names
+    let mut files = vec![root.join("README.md")];
+    let docs = root.join("docs");
+    crate::files_under(&docs, "md", &docs.join("book"), &mut files)?;
+    files
         .into_iter()
-        .map(|n| {
-            let p = root.join(&n);
+        .map(|p| {
+            let name = p.strip_prefix(root).unwrap_or(&p).display().to_string();
             std::fs::read_to_string(&p)
-                .map(|t| (n, t))
+                .map(|t| (name, t))
                 .map_err(|e| format!("cannot read {}: {e}", p.display()))
         })
         .collect()

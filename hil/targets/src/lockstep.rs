@@ -30,12 +30,6 @@ pub struct Expect {
 }
 
 impl Expect {
-    /// Nothing owed.
-    #[must_use]
-    pub fn new() -> Self {
-        Self::default()
-    }
-
     /// Accounts for bytes sent: one frame per delimiter, two for a status request.
     pub fn sent(&mut self, bytes: &[u8]) {
         for (taken, r) in self.decoder.pieces(bytes) {
@@ -156,7 +150,7 @@ mod tests {
 
     #[test]
     fn a_frame_owes_one_a_status_request_two() {
-        let mut e = Expect::new();
+        let mut e = Expect::default();
         let s = Sensor {
             seq: 1,
             ..Sensor::ZERO
@@ -173,7 +167,7 @@ mod tests {
 
     #[test]
     fn answers_are_owed_by_send_time_oldest_first() {
-        let mut e = Expect::new();
+        let mut e = Expect::default();
         let s = |seq| {
             encode_vec(&Message::Sensor(Sensor {
                 seq,
@@ -210,7 +204,7 @@ mod tests {
 
     #[test]
     fn stashed_answers_come_back_once_in_order() {
-        let mut e = Expect::new();
+        let mut e = Expect::default();
         e.stash(&[1, 2, 0]);
         e.stash(&[3, 0]);
         assert_eq!(e.take_early(), vec![1, 2, 0, 3, 0]);

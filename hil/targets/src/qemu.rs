@@ -122,10 +122,8 @@ pub enum Channel {
 impl QemuConfig {
     /// The default ELF: `$WHEELSET_QEMU_ELF`, else `target/fw/wheelset-qemu.elf`.
     pub fn default_elf() -> PathBuf {
-        if let Some(p) = std::env::var_os("WHEELSET_QEMU_ELF") {
-            return PathBuf::from(p);
-        }
-        Self::built_elf(Machine::An386)
+        std::env::var_os("WHEELSET_QEMU_ELF")
+            .map_or_else(|| Self::built_elf(Machine::An386), PathBuf::from)
     }
 
     /// The ELF `cargo fw` builds for `machine`'s core.
@@ -363,11 +361,7 @@ impl Qemu {
             },
         )?;
         let link = tcp_link(stream, timeout)?;
-        let by_hand = Guard {
-            child: None,
-            launch: Launch::default(),
-            _held: None,
-        };
+        let by_hand = Guard::default();
         Ok(Self::on_link(link, by_hand, PathBuf::new(), timeout))
     }
 
@@ -516,7 +510,7 @@ impl Drop for Qemu {
 }
 
 /// A QEMU child, killed on drop.
-#[derive(Debug)]
+#[derive(Debug, Default)]
 struct Guard {
     child: Option<Child>,
     launch: Launch,

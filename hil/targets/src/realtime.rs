@@ -218,11 +218,7 @@ fn io_err(path: &str, e: &io::Error) -> TransportError {
 impl RealTime {
     /// Opens `path` at `o.baud` (8N1); asks the OS for `o.want` on the calling thread.
     pub fn open(path: &str, o: RealTimeOptions) -> Result<Self, TransportError> {
-        let port = serialport::new(path, o.baud)
-            .timeout(Duration::ZERO)
-            .open_native()
-            .map_err(|e| crate::serial::open_error(path, o.baud, &e))?;
-        let _ = port.clear(serialport::ClearBuffer::All);
+        let port = crate::serial::open_port(path, o.baud, Duration::ZERO)?;
         Ok(Self::on(&format!("serial:{path}"), Port::Tty(port), o))
     }
 

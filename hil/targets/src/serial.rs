@@ -7,7 +7,7 @@
 use std::io::{self, Read, Write};
 use std::time::{Duration, Instant};
 
-use serialport::SerialPort;
+use serialport::{SerialPort, TTYPort};
 
 use crate::lockstep::{Expect, OneInFlight};
 use wheelset_loop::transport::{Clock, Transport, TransportError};
@@ -24,7 +24,7 @@ pub enum Pace {
 /// A frame-clocked device on a serial port, in lock-step.
 pub struct Serial {
     path: String,
-    port: Box<dyn SerialPort>,
+    port: TTYPort,
     baud: u32,
     cpu_hz: f64,
     timeout: Duration,
@@ -39,18 +39,13 @@ impl Serial {
         cpu_hz: f64,
         timeout: Duration,
     ) -> Result<Self, TransportError> {
-        let port = serialport::new(path, baud)
-            .timeout(Duration::from_millis(1))
-            .open()
-            .map_err(|e| open_error(path, baud, &e))?;
-        let _ = port.clear(serialport::ClearBuffer::All);
         Ok(Self {
             path: path.to_string(),
-            port,
+            port: open_port(path, baud, Duration::from_millis(1))?,
             baud,
             cpu_hz,
             timeout,
-            expect: Expect::new(),
+            expect: Expect::default(),
         })
     }
 
@@ -124,11 +119,17 @@ impl OneInFlight for Serial {
     }
 }
 
-pub(crate) fn open_error(path: &str, baud: u32, e: &serialport::Error) -> TransportError {
-    TransportError::Unavailable(format!(
-        "serial:{path}: cannot open at {baud} baud: {e} (is the board connected, and is the \
-         path right?)"
-    ))
+/// `path` at `baud` (8N1), reads bounded by `wait`, both buffers cleared.
+pub(crate) fn open_port(path: &str, baud: u32, wait: Duration) -> Result<TTYPort, TransportError> {
+    let open = serialport::new(path, baud).timeout(wait).open_native();
+    let port = open.map_err(|e| {
+        TransportError::Unavailable(format!(
+            "serial:{path}: cannot open at {baud} baud: {e} (is the board connected, and is the \
+             path right?)"
+        ))
+    })?;
+    let _ = port.clear(serialport::ClearBuffer::All);
+    Ok(port)
 }
 
 /// A read that timed out or was interrupted: nothing arrived yet.

@@ -31,12 +31,6 @@ impl Sources {
     };
 }
 
-impl Default for Sources {
-    fn default() -> Self {
-        Self::WIRE
-    }
-}
-
 /// The core as a sampled controller: quantise to wire codes, tick, decode.
 pub struct CoreController<T: SampleBits> {
     core: Controller<T>,

@@ -131,7 +131,6 @@ pub struct LinkReport {
 }
 
 impl LinkReport {
-    /// The report of a finished in-process run.
     fn of(rec: &LoopRecords, acc: LinkAccounting) -> Self {
         let mut safe_periods = 0;
         let (mut entries, mut exits) = (0, 0);
@@ -176,26 +175,24 @@ impl fmt::Display for LinkReport {
             self.host_clamped
         )?;
         match &self.device {
-            Some(s) => write!(
-                f,
-                "device status: ticks {}, rx ok {}, rejected crc {} cobs {} version {} length {} \
-                 postcard {}, seq gaps {}, held ticks {}, safe ticks {}, safe entries {}, exits {}, \
-                 yaw sat {}, traction sat {}",
-                s.ticks,
-                s.rx_ok,
-                s.rx_crc,
-                s.rx_cobs,
-                s.rx_version,
-                s.rx_length,
-                s.rx_postcard,
-                s.seq_gaps,
-                s.held_ticks,
-                s.safe_ticks,
-                s.safe_entries,
-                s.safe_exits,
-                s.yaw_sat,
-                s.traction_sat
-            ),
+            Some(s) => {
+                let [ok, crc, cobs, version, length, postcard, _] = crate::inproc::rx_counts(s);
+                write!(
+                    f,
+                    "device status: ticks {}, rx ok {ok}, rejected crc {crc} cobs {cobs} \
+                     version {version} length {length} postcard {postcard}, seq gaps {}, \
+                     held ticks {}, safe ticks {}, safe entries {}, exits {}, yaw sat {}, \
+                     traction sat {}",
+                    s.ticks,
+                    s.seq_gaps,
+                    s.held_ticks,
+                    s.safe_ticks,
+                    s.safe_entries,
+                    s.safe_exits,
+                    s.yaw_sat,
+                    s.traction_sat
+                )
+            }
             None => write!(f, "device status: the status frame was lost"),
         }
     }
@@ -228,8 +225,8 @@ pub fn control_config(p: &Params, law: YawLaw, drive: bool) -> wheelset_control:
     }
 }
 
-/// The device's configuration at parameters `p`: the firmware's default with the gains and
-/// motor constants of `p` ([`control_config`]); `RuntimeConfig::default()` at the defaults.
+/// The firmware's default configuration with the gains and motor constants of `p`
+/// ([`control_config`]).
 #[must_use]
 pub fn runtime_for(p: &Params) -> RuntimeConfig {
     let d = RuntimeConfig::default();

@@ -122,7 +122,6 @@ pub struct DeviceController<'a> {
     setup: LoopSetup<'a>,
     config_sent: bool,
     decoder: Decoder,
-    seq: u16,
     k: u64,
     held: Option<(SiActuation, Actuation)>,
     /// Actuations received and not yet in force, with the sample each echoes, in order.
@@ -149,7 +148,6 @@ pub struct DeviceController<'a> {
 struct Awaiting {
     /// Its sample instant, ns.
     t_ns: u64,
-    seq: u16,
     /// Its sample count (1 for the first sample).
     k: u64,
     /// The measured motor speed, rad/s (for the back-EMF voltage before the first).
@@ -167,7 +165,6 @@ impl<'a> DeviceController<'a> {
             setup,
             config_sent: false,
             decoder: Decoder::new(),
-            seq: 0,
             k: 0,
             held: None,
             early: std::collections::VecDeque::new(),
@@ -184,7 +181,6 @@ impl<'a> DeviceController<'a> {
         }
     }
 
-    /// Ticks from a sample to its actuation taking effect (at least 1).
     fn delay_ticks(&self) -> u64 {
         u64::from(self.setup.delay_ticks.max(1))
     }
@@ -216,7 +212,6 @@ impl<'a> DeviceController<'a> {
         }
     }
 
-    /// Receives until `deadline_ns`, then takes each frame, in order.
     fn receive(&mut self, deadline_ns: u64) {
         if self.rec.error.is_some() {
             return;
@@ -255,7 +250,7 @@ impl<'a> DeviceController<'a> {
             Ok(Message::Actuation(a)) => {
                 // Unwrap the 16-bit echo against the host's own sample count.
                 let echo = (a.seq_echo != 0 || self.k > 0xffff).then(|| {
-                    let diff = self.seq.wrapping_sub(a.seq_echo);
+                    let diff = (self.k as u16).wrapping_sub(a.seq_echo);
                     self.k.saturating_sub(u64::from(diff))
                 });
                 let echo = echo.map(|e| e.saturating_sub(1));
@@ -347,7 +342,6 @@ impl SampledController for DeviceController<'_> {
             self.config_echo_pending = true;
             self.send(t_ns, &Message::Config(cfg));
         }
-        self.seq = self.seq.wrapping_add(1);
         self.k += 1;
         let sample = SensorSi {
             y_dot: m.yd_mps,
@@ -357,7 +351,7 @@ impl SampledController for DeviceController<'_> {
             demand_nm: m.demand_nm,
             v_ref: m.v_mps,
         };
-        let q = Sensor::from_si(self.seq, t_ns, &sample, self.setup.lateral);
+        let q = Sensor::from_si(self.k as u16, t_ns, &sample, self.setup.lateral);
         self.rec.host.clamped += u64::from(q.clamped);
         let sensor = q.msg;
         let all = self.setup.records == Records::All;
@@ -397,7 +391,6 @@ impl SampledController for DeviceController<'_> {
         }
         let step = Awaiting {
             t_ns,
-            seq: self.seq,
             k: self.k,
             w_m: m.w_m,
         };
@@ -444,11 +437,12 @@ impl DeviceController<'_> {
             .held
             .as_ref()
             .map_or((0, 0), |(_, a)| (a.seq_echo, a.flags.0));
+        let seq = step.k as u16;
         self.rec.log.push(LinkSample {
             t_ns: step.t_ns,
-            seq: step.seq,
+            seq,
             seq_echo,
-            age: step.seq.wrapping_sub(seq_echo),
+            age: seq.wrapping_sub(seq_echo),
             flags,
             fresh: self.fresh,
         });

@@ -162,9 +162,9 @@ impl<T: SampleBits> InProc<T> {
             latency_ns: link_cfg.latency_ns,
             baud: link_cfg.baud,
             rt,
-            dev_rx: RxPort::new(),
+            dev_rx: RxPort::default(),
             dev_frame_open: false,
-            host_rx: RxPort::new(),
+            host_rx: RxPort::default(),
             fault,
             period_ns,
             phase_ns: wire_ns(SENSOR_ONE_LATERAL_MAX_FRAME, link_cfg.baud) + link_cfg.latency_ns,
@@ -223,9 +223,9 @@ impl<T: SampleBits> InProc<T> {
         let (rt, port, open) = (&mut self.rt, &mut self.dev_rx, &mut self.dev_frame_open);
         self.link.up.deliver(t_ns, |run, id| {
             port.push_with(run, id, |piece| {
-                let before = rejections(rt.counters());
+                let before = rx_counts(rt.counters());
                 rt.receive(piece);
-                outcome(piece, open, before, rejections(rt.counters()))
+                outcome(piece, open, before, rx_counts(rt.counters()))
             });
         });
         let start = self.timed.then(Instant::now);
@@ -276,15 +276,19 @@ impl<T: SampleBits> InProc<T> {
     }
 }
 
-/// A Status's receive rejects by kind, in [`wheelset_proto::FrameError::KINDS`]' order.
+/// The device's receive counters: valid, the rejections in [`wheelset_proto::FrameError::KINDS`]'
+/// order (CRC, COBS, version, length, postcard), unexpected.
 #[inline(always)]
-pub fn rejections(s: &wheelset_proto::Status) -> [u32; 5] {
+#[must_use]
+pub fn rx_counts(s: &wheelset_proto::Status) -> [u32; 7] {
     [
+        s.rx_ok,
         s.rx_crc,
         s.rx_cobs,
         s.rx_version,
         s.rx_length,
         s.rx_postcard,
+        s.rx_unexpected,
     ]
 }
 
@@ -293,8 +297,8 @@ pub fn rejections(s: &wheelset_proto::Status) -> [u32; 5] {
 fn outcome(
     piece: &[u8],
     open: &mut bool,
-    before: [u32; 5],
-    after: [u32; 5],
+    before: [u32; 7],
+    after: [u32; 7],
 ) -> Option<Result<(), wheelset_proto::FrameError>> {
     use wheelset_proto::FrameError;
     let closes = piece.last() == Some(&0);
@@ -303,9 +307,8 @@ fn outcome(
     if !(closes && nonempty) {
         return None;
     }
-    let kind = before
-        .into_iter()
-        .zip(after)
+    let kind = (before.into_iter().skip(1))
+        .zip(after.into_iter().skip(1))
         .zip(FrameError::KINDS)
         .find_map(|((b, a), e)| (a == b.wrapping_add(1)).then_some(e));
     Some(kind.map_or(Ok(()), Err))
@@ -325,7 +328,6 @@ fn negate_torque(out: &[u8], res: &mut Vec<u8>) {
 }
 
 impl<T: SampleBits> InProc<T> {
-    /// Runs every tick due by `deadline_ns`.
     fn ticks_until(&mut self, deadline_ns: u64) {
         loop {
             let t = self.next_tick * self.period_ns + self.phase_ns;
@@ -387,7 +389,6 @@ impl<T: SampleBits> Transport for InProc<T> {
         self.link.down.deliver(deadline_ns, |run, id| {
             let at = arrival.get(id as usize).copied().unwrap_or(deadline_ns);
             port.push_with(run, id, |piece| {
-                // A piece holds at most one delimiter, at its end.
                 let (r, _) = dec.next_message(piece);
                 let outcome = r.as_ref().map(|r| r.as_ref().map(|_| ()).map_err(|e| *e));
                 sink(at, piece.len(), r);

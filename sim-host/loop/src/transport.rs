@@ -21,7 +21,6 @@ pub enum Clock {
 }
 
 impl std::fmt::Display for Clock {
-    /// `simulated`, `lock-step` or `real-time`.
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(match self {
             Clock::Simulated => "simulated",
@@ -54,7 +53,6 @@ impl fmt::Display for TransportError {
 
 impl std::error::Error for TransportError {}
 
-/// Frame accounting of one direction as the link itself saw it.
 pub use crate::sim_link::Accounting;
 
 /// Exact per-direction accounting a transport may provide at the end of a run.

@@ -163,7 +163,7 @@ fn frames_in_flight_wrap_the_ring_in_order() {
 
 fn run(cfg: &LinkConfig, frames: u16) -> (Vec<u8>, Accounting, ChannelCounters) {
     let mut link = Link::new(cfg);
-    let mut rx = RxPort::new();
+    let mut rx = RxPort::default();
     let mut out = Vec::new();
     let period = 200_000;
     for k in 0..frames {

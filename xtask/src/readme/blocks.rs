@@ -10,7 +10,6 @@ pub enum Bin {
 }
 
 impl Bin {
-    /// The cargo alias a reader types.
     fn alias(self) -> &'static str {
         match self {
             Bin::Sim => "cargo sim",
@@ -80,12 +79,10 @@ impl Block {
         self.args.split_whitespace()
     }
 
-    /// Expects exit code `code` instead of 0.
     const fn exit(self, code: i32) -> Self {
         Self { exit: code, ..self }
     }
 
-    /// Keeps these lines instead of the binary's default.
     const fn keep(self, keep: Keep) -> Self {
         Self { keep, ..self }
     }

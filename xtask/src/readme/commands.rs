@@ -8,11 +8,9 @@ use std::process::Command;
 pub enum Class {
     /// Run in every `cargo xtest` (seconds each).
     Short,
-    /// Run with `--long` only (CI: `.ci/run`): QEMU runs, benchmarks, the firmware
-    /// builds, the test suites, lints.
+    /// Run with `--long` only (CI: `.ci/run`).
     Long,
-    /// Never run here: it needs a board, installs software, runs until killed, is the
-    /// test command itself, or is a form with placeholders.
+    /// Never run here, for the reason given.
     Skip(&'static str),
 }
 
@@ -78,8 +76,7 @@ pub fn classify(cmd: &str) -> Class {
         .map_or(Class::Skip("not a project command"), |&(_, c)| c)
 }
 
-/// One command of a page: the text, the exit code the page states for it (`exit N`
-/// after it on its line; 0 otherwise) and its line number.
+/// One command of a page (its exit code: `exit N` after it on its line).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct ReadmeCommand {
     /// The command as written.
@@ -116,28 +113,22 @@ pub fn commands(readme: &str) -> Vec<ReadmeCommand> {
             line,
         });
     };
-    let mut in_sh = false;
-    let mut in_other = false;
+    // Inside a code block: whether it is a ```` ```sh ```` one.
+    let mut fence: Option<bool> = None;
     for (i, l) in readme.lines().enumerate() {
         let t = l.trim_start();
         if t.starts_with("```") {
-            if in_sh || in_other {
-                in_sh = false;
-                in_other = false;
-            } else if t == "```sh" {
-                in_sh = true;
-            } else {
-                in_other = true;
+            fence = fence.xor(Some(t == "```sh"));
+            continue;
+        }
+        match fence {
+            Some(false) => continue,
+            Some(true) => {
+                let (cmd, comment) = l.split_once('#').unwrap_or((l, ""));
+                push(cmd, comment, i + 1);
+                continue;
             }
-            continue;
-        }
-        if in_other {
-            continue;
-        }
-        if in_sh {
-            let (cmd, comment) = l.split_once('#').unwrap_or((l, ""));
-            push(cmd, comment, i + 1);
-            continue;
+            None => {}
         }
         // Inline code spans.
         let mut rest = l;

@@ -4,8 +4,7 @@
 
 use std::path::Path;
 
-/// One committed figure: where the pages find it, the block whose command draws it and
-/// the file that command writes (paths from the workspace root).
+/// One committed figure (paths from the workspace root).
 #[derive(Debug, Clone, Copy)]
 pub struct Figure {
     /// The committed copy the pages reference, e.g. `docs/figures/low-adhesion.svg`.
@@ -16,33 +15,20 @@ pub struct Figure {
     pub made: &'static str,
 }
 
+/// [`Figure`] rows: `path, block, made;`.
+macro_rules! figures {
+    ($($path:literal, $block:literal, $made:literal;)*) => {
+        &[$(Figure { path: $path, block: $block, made: $made }),*]
+    };
+}
+
 /// Every figure the README and the book show.
-pub const FIGURES: &[Figure] = &[
-    Figure {
-        path: "docs/figures/curve-lateral.svg",
-        block: "fig6-8",
-        made: "out/fig6-8/lateral.svg",
-    },
-    Figure {
-        path: "docs/figures/curve-creep.svg",
-        block: "fig6-8",
-        made: "out/fig6-8/creep.svg",
-    },
-    Figure {
-        path: "docs/figures/modes-case-c.svg",
-        block: "modes",
-        made: "out/modes/modes_case_c.svg",
-    },
-    Figure {
-        path: "docs/figures/low-adhesion.svg",
-        block: "low-adhesion-on",
-        made: "out/low/adhesion.svg",
-    },
-    Figure {
-        path: "docs/figures/actuator-fault-monitor.svg",
-        block: "actuator-fault",
-        made: "out/af/monitor.svg",
-    },
+pub const FIGURES: &[Figure] = figures![
+    "docs/figures/curve-lateral.svg", "fig6-8", "out/fig6-8/lateral.svg";
+    "docs/figures/curve-creep.svg", "fig6-8", "out/fig6-8/creep.svg";
+    "docs/figures/modes-case-c.svg", "modes", "out/modes/modes_case_c.svg";
+    "docs/figures/low-adhesion.svg", "low-adhesion-on", "out/low/adhesion.svg";
+    "docs/figures/actuator-fault-monitor.svg", "actuator-fault", "out/af/monitor.svg";
 ];
 
 /// After the blocks' commands ran from `root`: copies every drawn figure over its

@@ -108,8 +108,7 @@ pub fn diff(old: &str, new: &str) -> String {
     s
 }
 
-/// What [`update`] gives: each page's new text, and the blocks that drifted with their
-/// diffs.
+/// What [`update`] returns.
 pub type Updated = (Vec<String>, Vec<(String, String)>);
 
 /// Rewrites (or with `check`, compares) the blocks of `pages` with `fresh`, the new text

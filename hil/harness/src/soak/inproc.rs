@@ -16,7 +16,7 @@ use std::time::Instant;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use wheelset_control::Fx;
-use wheelset_loop::inproc::{rejections, DeviceFault};
+use wheelset_loop::inproc::{rx_counts, DeviceFault};
 use wheelset_plant::adhesion::{Adhesion, Condition};
 use wheelset_plant::params::Params;
 use wheelset_plant::plant::{ix, Fixed, Inputs, Plant, PlantConfig, State};
@@ -679,17 +679,16 @@ impl Soak {
         };
         let clean = self.up.clean();
         let rt = &mut self.rt;
-        let counts = |s: &Status| (s.rx_ok.wrapping_add(s.rx_unexpected), rejections(s));
         let fate = self.up.carry(*at, &frame, |piece| {
-            let (ok, rej) = counts(rt.counters());
+            let before = rx_counts(rt.counters());
             rt.receive(piece);
-            let (ok_after, rej_after) = counts(rt.counters());
-            if ok_after != ok {
+            let after = rx_counts(rt.counters());
+            if after[0] != before[0] || after[6] != before[6] {
                 return Some(Ok(()));
             }
-            (0..5)
-                .find(|&k| rej_after[k] != rej[k])
-                .map(|k| Err(FrameError::KINDS[k]))
+            (1..6)
+                .find(|&k| after[k] != before[k])
+                .map(|k| Err(FrameError::KINDS[k - 1]))
         });
         *at += frame.len() as u64 * 2_000;
         if clean && fate != Fate::Valid {

@@ -9,12 +9,6 @@ pub const QEMU_BIN: &str = "qemu-system-arm";
 /// `-icount shift` of every run: `2^10` ns of virtual time per instruction.
 pub const ICOUNT_SHIFT: u32 = 10;
 
-/// The default emulated board (an MPS2 with a Cortex-M4F image, the AN386).
-pub const MACHINE: &str = "mps2-an386";
-
-/// The default emulated CPU (of [`MACHINE`]).
-pub const CPU: &str = "cortex-m4";
-
 /// Semihosting on, to the host's files (stdout for the log, exit, the bulk channel).
 const SEMIHOSTING: &str = "enable=on,target=native";
 
@@ -117,7 +111,12 @@ mod tests {
             at("-serial").as_deref(),
             Some("tcp:127.0.0.1:4321,server=on,wait=on,nodelay=on")
         );
-        let c = qemu_args(MACHINE, CPU, "x", SerialTo::Bulk("/tmp/d".into()));
+        let c = qemu_args(
+            "mps2-an386",
+            "cortex-m4",
+            "x",
+            SerialTo::Bulk("/tmp/d".into()),
+        );
         assert!(c.windows(2).any(|w| w[0] == "-serial" && w[1] == "null"));
         assert!(c.windows(2).any(|w| w[0] == "-semihosting-config"
             && w[1] == "enable=on,target=native,arg=wheelset-qemu,arg=bulk:/tmp/d"));
@@ -127,9 +126,14 @@ mod tests {
         assert!(free
             .windows(2)
             .any(|w| w[0] == "-kernel" && w[1] == "fw.elf"));
-        let b = qemu_args(MACHINE, CPU, "x", SerialTo::Null);
+        let b = qemu_args("mps2-an386", "cortex-m4", "x", SerialTo::Null);
         assert!(b.windows(2).any(|w| w[0] == "-serial" && w[1] == "null"));
-        let line = shell_line(&qemu_args(MACHINE, CPU, "my fw.elf", SerialTo::Null));
+        let line = shell_line(&qemu_args(
+            "mps2-an386",
+            "cortex-m4",
+            "my fw.elf",
+            SerialTo::Null,
+        ));
         assert!(
             line.starts_with("qemu-system-arm -machine mps2-an386 "),
             "{line}"

@@ -1,36 +1,13 @@
 //! Pinning each QEMU to one core: round robin over the cores this process may use
-//! (`/proc/self/status` `Cpus_allowed_list`). `WHEELSET_QEMU_PIN`: `off` pins nothing,
-//! `qemu` pins QEMU alone; by default the thread that starts a lock-step QEMU is held on
-//! its core too ([`beside`]).
+//! ([`allowed_cpus`]). `WHEELSET_QEMU_PIN`: `off` pins nothing, `qemu` pins QEMU alone; by
+//! default the thread that starts a lock-step QEMU is held on its core too ([`beside`]).
 
 use std::process::{Command, Stdio};
 
-/// The cores this process may run on (`Cpus_allowed_list` in `/proc/self/status`), if known.
-fn allowed_cores() -> Option<Vec<usize>> {
-    let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    parse_cpu_list(
-        status
-            .lines()
-            .find_map(|l| l.strip_prefix("Cpus_allowed_list:"))?,
-    )
-}
+use crate::realtime::os::allowed_cpus;
 
-/// A Linux CPU list (`0-3,6`) as core numbers; `None` if malformed or empty.
-fn parse_cpu_list(list: &str) -> Option<Vec<usize>> {
-    let list = list.trim();
-    let mut cores = Vec::new();
-    for part in list.split(',') {
-        match part.split_once('-') {
-            Some((a, b)) => cores.extend(a.trim().parse::<usize>().ok()?..=b.trim().parse().ok()?),
-            None => cores.push(part.trim().parse().ok()?),
-        }
-    }
-    (!cores.is_empty()).then_some(cores)
-}
-
-/// The core the next QEMU is pinned to: round robin over [`allowed_cores`], so that
-/// QEMUs started side by side (parallel tests) spread over the cores. `None` (no
-/// pinning) with `WHEELSET_QEMU_PIN=off`, without `taskset`, or without the core list.
+/// The core the next QEMU is pinned to (QEMUs of parallel tests spread over the cores);
+/// `None` with `WHEELSET_QEMU_PIN=off`, without `taskset`, or without the core list.
 pub(super) fn next_core() -> Option<usize> {
     use std::sync::atomic::{AtomicUsize, Ordering};
     use std::sync::OnceLock;
@@ -47,11 +24,7 @@ pub(super) fn next_core() -> Option<usize> {
                 .stderr(Stdio::null())
                 .status()
                 .is_ok_and(|s| s.success());
-            if taskset {
-                allowed_cores()
-            } else {
-                None
-            }
+            Some(allowed_cpus()).filter(|c| taskset && !c.is_empty())
         })
         .as_ref()?;
     let k = NEXT.fetch_add(1, Ordering::Relaxed);
@@ -66,13 +39,12 @@ pub(super) fn beside() -> bool {
 }
 
 /// The core of a free-running QEMU: the first this process may use (the real-time host
-/// loop takes the last, [`crate::realtime::os::allowed_cpus`]), so that the emulated board and
-/// the harness's loop never share a core; `None` as for [`next_core`].
+/// loop takes the last: they never share one); `None` as for [`next_core`].
 pub(super) fn free_run_core() -> Option<usize> {
     if std::env::var("WHEELSET_QEMU_PIN").is_ok_and(|v| v == "off") {
         return None;
     }
-    allowed_cores()?.first().copied()
+    allowed_cpus().first().copied()
 }
 
 /// The real-time priority a free-running QEMU runs at (`SCHED_RR`, below the host loop's
@@ -96,19 +68,4 @@ pub(super) fn free_run_rr() -> bool {
             .status()
             .is_ok_and(|s| s.success())
     })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn cpu_lists_parse_and_malformed_ones_do_not() {
-        assert_eq!(parse_cpu_list("\t0-1\n"), Some(vec![0, 1]));
-        assert_eq!(parse_cpu_list("0-2,5,7-8"), Some(vec![0, 1, 2, 5, 7, 8]));
-        assert_eq!(parse_cpu_list("3"), Some(vec![3]));
-        assert_eq!(parse_cpu_list(""), None);
-        assert_eq!(parse_cpu_list("0-x"), None);
-        assert_eq!(parse_cpu_list("2-1"), None);
-    }
 }

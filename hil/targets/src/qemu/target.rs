@@ -22,8 +22,7 @@ pub struct QemuTarget {
     pipelined: bool,
 }
 
-/// Whether a target on `channel` keeps two exchanges in flight: on the bulk channel,
-/// unless `WHEELSET_QEMU_IN_FLIGHT=1`.
+/// Whether a target on `channel` keeps two exchanges in flight ([`Transport::pipelined`]).
 fn pipelined(channel: Channel) -> bool {
     channel == Channel::Bulk && std::env::var("WHEELSET_QEMU_IN_FLIGHT").as_deref() != Ok("1")
 }
@@ -46,8 +45,7 @@ impl QemuTarget {
         Self::on(Qemu::start(&cfg), baud, cpu_hz, pipelined(channel))
     }
 
-    /// The firmware under a QEMU started by hand, its UART0 a TCP server on
-    /// `127.0.0.1:port` ([`Qemu::connect`]); QEMU is left running at the end.
+    /// The firmware under a QEMU started by hand ([`Qemu::connect`]), left running at the end.
     pub fn connect(
         port: u16,
         baud: u32,
@@ -67,7 +65,7 @@ impl QemuTarget {
             q: q.map_err(|e| TransportError::Unavailable(e.to_string()))?,
             baud,
             cpu_hz,
-            expect: Expect::new(),
+            expect: Expect::default(),
             pipelined,
         })
     }

@@ -26,13 +26,7 @@ pub struct BridgeModel {
 }
 
 impl BridgeModel {
-    /// No bridge: bytes go through as the stand-in writes and reads them.
-    #[must_use]
-    pub fn none() -> Self {
-        Self::default()
-    }
-
-    /// Whether the model delays anything.
+    /// Whether the model delays nothing (the default: bytes go through as written and read).
     #[must_use]
     pub fn is_none(&self) -> bool {
         self.latency_ns == 0 && self.jitter_ns == 0 && self.baud == 0
@@ -286,7 +280,10 @@ mod tests {
 
     #[test]
     fn bad_values_are_refused_with_the_flag_and_the_range() {
-        assert_eq!(BridgeModel::from_us(0.0, 0.0, 0), Ok(BridgeModel::none()));
+        assert_eq!(
+            BridgeModel::from_us(0.0, 0.0, 0),
+            Ok(BridgeModel::default())
+        );
         assert_eq!(
             BridgeModel::from_us(1_000.0, 250.5, 9),
             Ok(model(1_000_000, 250_500, 9))

@@ -7,7 +7,7 @@
 use serde::{Deserialize, Serialize};
 
 /// What a real-time loop asks for.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct Want {
     /// `SCHED_FIFO` at this priority (1-99); `None`: the normal scheduler.
     pub fifo_priority: Option<i32>,
@@ -34,12 +34,7 @@ impl Want {
     /// Nothing (the normal scheduler, pageable memory, any core).
     #[must_use]
     pub fn none() -> Self {
-        Self {
-            fifo_priority: None,
-            lock_memory: false,
-            cpu: None,
-            timer_slack_ns: None,
-        }
+        Self::default()
     }
 }
 

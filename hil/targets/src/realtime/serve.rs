@@ -31,7 +31,7 @@ pub struct ServeOptions {
     pub cpu_hz: f64,
     /// What to ask of the operating system.
     pub want: Want,
-    /// The USB bridge between the stand-in and the host ([`BridgeModel::none`]: none).
+    /// The USB bridge between the stand-in and the host ([`BridgeModel::is_none`]: none).
     pub bridge: BridgeModel,
 }
 

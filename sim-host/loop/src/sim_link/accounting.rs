@@ -36,12 +36,6 @@ struct Book {
 }
 
 impl RxPort {
-    /// An idle port.
-    #[must_use]
-    pub fn new() -> Self {
-        Self::default()
-    }
-
     /// Decodes delivered bytes of frame `id` with its own decoder; `on_msg` per valid message.
     pub fn push(&mut self, run: &[u8], id: FrameId, mut on_msg: impl FnMut(Message)) {
         let dec = &mut self.decoder;

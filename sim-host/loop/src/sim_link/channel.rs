@@ -86,7 +86,7 @@ impl Channel {
         let stream = if up { 0x5eed_0001 } else { 0x5eed_0002 };
         let mut rng = Pcg64::seed_from_u64(cfg.seed ^ (stream << 32));
         let f = &cfg.faults;
-        let active = f.applies(up)
+        let active = f.dir.includes(up)
             && (f.ber > 0.0
                 || f.frame_drop > 0.0
                 || f.byte_drop > 0.0

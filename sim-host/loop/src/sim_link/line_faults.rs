@@ -249,10 +249,6 @@ impl Faults {
     pub fn none() -> Self {
         Self::default()
     }
-
-    pub(crate) fn applies(&self, up: bool) -> bool {
-        self.dir.includes(up)
-    }
 }
 
 impl FaultDir {
