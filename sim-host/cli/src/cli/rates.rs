@@ -1,21 +1,11 @@
 //! `sim-host rates`: the sampled-data rate analysis of the firmware's loops.
 
-use clap::ValueEnum;
 use std::path::PathBuf;
 use wheelset_report::{out, outln};
 
-use super::{create_file, io_fail, load_params, Failure};
-use std::io::Write;
+use super::{load_params, Failure};
 use wheelset_plant::control::YawLaw;
-
-/// Plant of the rate analysis.
-#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
-pub(crate) enum RatesModel {
-    /// Case (d) linearisation: flexible axle, motor on its gear spring, armature.
-    Full,
-    /// Case (a) lateral/yaw plus the armature circuit alone.
-    Reduced,
-}
+use wheelset_plant::sampled::Model;
 
 #[derive(clap::Args)]
 pub(crate) struct RatesArgs {
@@ -24,7 +14,7 @@ pub(crate) struct RatesArgs {
     control: YawLaw,
     /// Plant model.
     #[arg(long, value_enum, default_value = "full")]
-    model: RatesModel,
+    model: Model,
     /// Parameter file (TOML, any subset of the parameters).
     #[arg(long)]
     params: Option<PathBuf>,
@@ -45,7 +35,7 @@ pub(crate) struct RatesArgs {
 }
 
 pub(crate) fn cmd_rates(a: &RatesArgs) -> Result<(), Failure> {
-    use wheelset_plant::sampled::{rates, Criteria, LinkBudget, Model};
+    use wheelset_plant::sampled::{rates, Criteria, LinkBudget};
     if a.delay > 10 {
         return Err(Failure::bad(format!(
             "--delay {}: at most 10 ticks",
@@ -63,11 +53,7 @@ pub(crate) fn cmd_rates(a: &RatesArgs) -> Result<(), Failure> {
     }
     let p = load_params(&a.params)?;
     super::check_outputs(&[("--json", a.json.as_deref())], &[])?;
-    let mode = a.control.into();
-    let model = match a.model {
-        RatesModel::Full => Model::Full,
-        RatesModel::Reduced => Model::Reduced,
-    };
+    let (mode, model) = (a.control.into(), a.model);
     let mut cfg = wheelset_control::Config {
         yaw_mode: mode,
         ..wheelset_control::Config::default()
@@ -125,13 +111,7 @@ pub(crate) fn cmd_rates(a: &RatesArgs) -> Result<(), Failure> {
             }
             obj.insert("link".into(), both);
         }
-        let text = serde_json::to_string_pretty(&json)
-            .map_err(|e| Failure::failed(format!("JSON: {e}")))?;
-        let mut f = create_file(path)?;
-        f.write_all(text.as_bytes())
-            .and_then(|()| f.flush())
-            .map_err(|e| io_fail(path, e))?;
-        outln!("wrote {}", path.display());
+        super::write_json(path, &json, true, "wrote")?;
     }
     Ok(())
 }
