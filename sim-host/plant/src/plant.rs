@@ -191,8 +191,7 @@ impl<const FLEXIBLE: bool, const DRIVE: bool, const YAW_SPRING: bool> Flags
     }
 }
 
-/// Flags `F` on a plant whose adhesion law is `None` (only then): [`Flags::linear_creep`]
-/// is true, so the creep forces skip the test of the law.
+/// Flags `F` with [`Flags::linear_creep`] true: for a plant without an adhesion law only.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Linear<F>(pub F);
 

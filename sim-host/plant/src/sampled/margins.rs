@@ -11,17 +11,12 @@
 //! ```
 //!
 //! `T_psi = +C_y y'` acts through eq. 5's `-T_psi`, hence the yaw loop's minus sign; the
-//! PI acts on `i_ref - i_a`. The other loop is either closed round the plant as the
-//! device runs it ([`Other::Closed`]) or out of the way ([`Other::Open`]: the yaw loop
-//! without traction, the traction loop on the plant with the passive yaw spring).
-//! **Stability:** with `P` the open-loop poles outside the unit circle that the loop
-//! drives and sees, and `W` the counter-clockwise turns of `1 + L` round the origin on
-//! `|z| = 1 + 1e-6` (the PI's integrator inside), the closed loop has `Z = P - W`
-//! unstable poles. **Margins** of a stable loop: the loop-gain factors at which `L`
-//! crosses `-1` (a crossing of the negative real axis at `-x` is the factor `1/x`), the
-//! nearest above 1 (`gain_up`) and below (`gain_down`: an open-loop-unstable loop needs a
-//! minimum gain), and the extra phase lag and lead at a gain crossover that bring `L`
-//! onto `-1` (`docs/audit.md`).
+//! PI acts on `i_ref - i_a`; the other loop as [`Other`] says. **Stability:** `Z = P - W`
+//! ([`Margins`]), `W` counted on `|z| = 1 + 1e-6` (the PI's integrator inside).
+//! **Margins** of a stable loop: the loop-gain factors at which `L` crosses `-1` (a
+//! crossing of the negative real axis at `-x` is the factor `1/x`; an open-loop-unstable
+//! loop needs a minimum gain) and the extra phase lag and lead at a gain crossover that
+//! bring `L` onto `-1` (`docs/audit.md`).
 
 use super::*;
 use crate::params::Params;
@@ -66,7 +61,8 @@ impl Loop {
 pub enum Other {
     /// Closed round the plant as the device runs it.
     Closed,
-    /// Out of the way: no traction loop, or the passive yaw spring.
+    /// Out of the way: the yaw loop without traction, the traction loop on the plant
+    /// with the passive yaw spring.
     Open,
 }
 

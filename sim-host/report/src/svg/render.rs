@@ -5,9 +5,7 @@
 use std::fmt::Write as _;
 
 use super::ticks::{fmt_log, log_ticks};
-use super::{
-    axis_labels, decimate, esc, fmt_tick, nice_ticks, Figure, Plot, Series, Style, PALETTE,
-};
+use super::{axis_labels, decimate, esc, fmt_tick, nice_ticks, Plot, Series, Style, PALETTE};
 
 /// `v` on an axis: itself, or its `log10` on a log axis (NaN for `v <= 0`: never drawn).
 fn axis(log: bool, v: f64) -> f64 {
@@ -573,11 +571,6 @@ impl Plot {
         }
         o.push_str("</g>\n");
         o
-    }
-
-    /// The complete SVG document.
-    pub fn to_svg(&self) -> String {
-        Figure::new("").panel(self.clone()).to_svg()
     }
 }
 
