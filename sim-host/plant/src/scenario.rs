@@ -449,9 +449,4 @@ impl Scenario {
             }
         ))
     }
-
-    /// Track curvature and cant at `t_ns` (linear between knots, held outside).
-    pub fn track_at(&self, t_ns: u64) -> (f64, f64) {
-        track_at(&self.track, t_ns, &mut 0)
-    }
 }
