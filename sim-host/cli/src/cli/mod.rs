@@ -1,5 +1,4 @@
-//! The subcommands of `sim-host`, one module each with its arguments beside it, and
-//! what they share: the failure with its exit code, the `--params` loader, the JSON writer.
+//! The subcommands of `sim-host`, one module each with its arguments, and what they share.
 
 mod adhesion;
 mod loop_device;

@@ -1,6 +1,4 @@
-//! The loop matrices: the plant discretised with a zero-order hold, the tick matrices of
-//! the controllers at their divisors, the monodromy over the hyper-period and its modes;
-//! the continuous closed loop for comparison.
+//! The loop matrices and their modes, sampled and continuous.
 
 use super::*;
 use nalgebra::{Complex, DMatrix};

@@ -187,7 +187,10 @@ mod tests {
         let mut hint = 0;
         for k in 0..2000u64 {
             let t = k * 10_000_000;
-            assert_eq!(track_at(&s.track, t, &mut hint), track_at(&s.track, t, &mut 0));
+            assert_eq!(
+                track_at(&s.track, t, &mut hint),
+                track_at(&s.track, t, &mut 0)
+            );
         }
     }
 }

@@ -1,6 +1,4 @@
-//! Drawing a [`Plot`]: its data range, the axes with their ticks (linear or
-//! logarithmic), the series, the reference lines, marks and notes, and the legend in a
-//! column right of the plotting area.
+//! Drawing a [`Plot`], its legend in a column right of the plotting area.
 
 use std::fmt::Write as _;
 

@@ -1,6 +1,4 @@
-//! Axis ticks and labels: "nice" tick values (1, 2, 5 times a power of ten), their
-//! labels with just the decimals the step needs, XML escaping, and the decimation of long
-//! polylines.
+//! Axis ticks and their labels, XML escaping, and the decimation of long polylines.
 
 use std::cmp::Ordering::Equal;
 
