@@ -287,8 +287,8 @@ pub struct Plant {
     l_g: f64,
     r0: f64,
     lambda: f64,
-    n: f64,
-    k_m: f64,
+    pub(crate) n: f64,
+    pub(crate) k_m: f64,
     r_a: f64,
     inv: Inverses,
     pre: Products,
@@ -503,15 +503,5 @@ impl Plant {
     /// Motor back-EMF `K_m theta_m'`, V.
     pub fn back_emf(&self, x: &State) -> f64 {
         self.k_m * x[ix::WM]
-    }
-
-    /// Gear ratio `n`.
-    pub fn n(&self) -> f64 {
-        self.n
-    }
-
-    /// Motor constant `K_m`.
-    pub fn k_m(&self) -> f64 {
-        self.k_m
     }
 }

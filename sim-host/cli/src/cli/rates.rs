@@ -45,12 +45,7 @@ pub(crate) fn cmd_rates(a: &RatesArgs) -> Result<(), Failure> {
     if a.max_baud == 0 {
         return Err(Failure::bad("--max-baud 0: must be positive".into()));
     }
-    if !(a.latency_us.is_finite() && (0.0..=1e6).contains(&a.latency_us)) {
-        return Err(Failure::bad(format!(
-            "--latency-us {:e}: must be a finite value in [0, 1e6] us",
-            a.latency_us
-        )));
-    }
+    let latency_ns = super::loop_device::latency_ns(a.latency_us)?;
     let p = load_params(&a.params)?;
     super::check_outputs(&[("--json", a.json.as_deref())], &[])?;
     let (mode, model) = (a.control.into(), a.model);
@@ -87,11 +82,7 @@ pub(crate) fn cmd_rates(a: &RatesArgs) -> Result<(), Failure> {
     };
     // The designed points over the link: the fastest it carries.
     let delay = u8::try_from(a.delay).unwrap_or(u8::MAX);
-    let link = wheelset_plant::sampled::link_choice(
-        a.max_baud,
-        (a.latency_us * 1e3).round() as u64,
-        delay,
-    );
+    let link = wheelset_plant::sampled::link_choice(a.max_baud, latency_ns, delay);
     outln!();
     out!("{}", link.render());
     if let Some(path) = &a.json {

@@ -127,7 +127,7 @@ fn measure<F: Flags>(
         w_m: if flags.cfg().drive {
             x[ix::WM]
         } else {
-            plant.n() * 0.5 * (x[ix::WR] + w_l)
+            plant.n * 0.5 * (x[ix::WR] + w_l)
         },
         w_wheel: 0.5 * (x[ix::WR] + w_l),
         demand_nm: e.demand,
@@ -214,7 +214,7 @@ fn sampled<F: Flags>(
         &inputs(&e0, &Actuation::default()),
         &e0,
     );
-    let mut held = ctrl.initial(&m0, s.plant.k_m());
+    let mut held = ctrl.initial(&m0, s.plant.k_m);
     let mut diverged_at = None;
     let (mut next_call, mut next_record) = (0, 0);
     for k in 0..=n_steps {
