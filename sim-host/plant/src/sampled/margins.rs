@@ -289,9 +289,8 @@ fn close(
     let dim = n + m + d;
     let mut out = DMatrix::zeros(dim, dim);
     out.view_mut((0, 0), (n, n)).copy_from(ad);
-    for i in 0..n {
-        out[(i, n + m + d - 1)] = bd[(i, input)];
-    }
+    out.view_mut((0, n + m + d - 1), (n, 1))
+        .copy_from(&bd.column(input));
     // s+ = A_c s + B_c e, e = sign c x; h_1+ = C_c s + D e; h_k+ = h_(k-1).
     for i in 0..m {
         out[(n + i, n)] = -coef(&lp.den, i + 1);
@@ -299,16 +298,14 @@ fn close(
             out[(n + i, n + i + 1)] = 1.0;
         }
         let bc = coef(&lp.num, i + 1) - coef(&lp.den, i + 1) * n0;
-        for j in 0..n {
-            out[(n + i, j)] = bc * sign * c[(output, j)];
-        }
+        out.view_mut((n + i, 0), (1, n))
+            .copy_from(&(c.row(output) * (bc * sign)));
     }
     if m > 0 {
         out[(n + m, n)] = 1.0;
     }
-    for j in 0..n {
-        out[(n + m, j)] = n0 * sign * c[(output, j)];
-    }
+    out.view_mut((n + m, 0), (1, n))
+        .copy_from(&(c.row(output) * (n0 * sign)));
     for k in 1..d {
         out[(n + m + k, n + m + k - 1)] = 1.0;
     }
