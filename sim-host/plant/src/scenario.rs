@@ -291,7 +291,7 @@ impl Scenario {
         );
         let ok = out_ns > 0 && out_ns.is_multiple_of(dt_ns);
         check(ok, file, "sim.output_dt_s", reason)?;
-        crate::memory::check_run(duration_ns, out_ns, None)
+        crate::memory::check_runs(duration_ns, out_ns, None, 1)
             .map_err(|r| invalid(file, "duration_s", r))?;
         let laws = parse_laws(file, &raw.laws)?;
         let plant = raw.plant;
