@@ -87,21 +87,17 @@ pub(crate) fn cmd_rates(a: &RatesArgs) -> Result<(), Failure> {
     out!("{}", link.render());
     if let Some(path) = &a.json {
         let mut json = report.to_json();
-        if let Some(obj) = json.as_object_mut() {
-            if let Some(d) = design {
-                obj.insert("design".into(), d);
-            }
-            // The link's budget (the report's) and the designed points over it, one object.
-            let mut both = link.to_json();
-            if let (Some(b), Some(serde_json::Value::Object(budget))) =
-                (both.as_object_mut(), obj.remove("link"))
-            {
-                for (k, v) in budget {
-                    b.entry(k).or_insert(v);
-                }
-            }
-            obj.insert("link".into(), both);
+        if let Some(d) = design {
+            json["design"] = d;
         }
+        // The link's budget (the report's) and the designed points over it, one object.
+        let mut both = link.to_json();
+        if let (Some(b), Some(budget)) = (both.as_object_mut(), json["link"].as_object()) {
+            for (k, v) in budget {
+                b.entry(k).or_insert_with(|| v.clone());
+            }
+        }
+        json["link"] = both;
         super::write_json(path, &json, true, "wrote")?;
     }
     Ok(())

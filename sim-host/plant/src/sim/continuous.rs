@@ -200,13 +200,6 @@ fn continuous<F: Flags>(
     let mut plant = s.plant;
     let drive = sc.drive;
     let mut x = crate::linear::operating_point(&plant, &sc.params);
-    let voltage = |c: &ContinuousController, x: &State, i_ref| {
-        if drive {
-            c.voltage(x, i_ref)
-        } else {
-            0.0
-        }
-    };
     let (n_steps, every) = steps(sc);
     let h = sc.dt_ns as f64 * 1e-9;
     let mut diverged_at = None;
@@ -226,7 +219,7 @@ fn continuous<F: Flags>(
         };
         if k == next_record {
             next_record += every;
-            let u_a = voltage(&ctrl, &x, e[0].i_ref);
+            let u_a = ctrl.inputs(&x, &e[0], drive).u_a;
             on_record(s.record(t_ns, x, e[0], ctrl.yaw_torque(&x), u_a));
             if diverged(x) {
                 diverged_at = Some(t_ns as f64 * 1e-9);
@@ -248,7 +241,7 @@ fn continuous<F: Flags>(
         let t_end = n_steps * sc.dt_ns;
         let [e, ..] = s.exo(t_end);
         s.adhesion(t_end);
-        let u_a = voltage(&ctrl, &x, e.i_ref);
+        let u_a = ctrl.inputs(&x, &e, drive).u_a;
         let g = sc.actuator_fault.map_or(1.0, |f| f.gain(t_end));
         on_record(s.record(t_end, x, e, g * ctrl.yaw_torque(&x), u_a));
     }
