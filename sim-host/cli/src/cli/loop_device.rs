@@ -131,7 +131,6 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
         return Err(Failure::bad("--rate-hz 0: must be positive".into()));
     }
     let delay_ticks = d.delay_ticks.unwrap_or(1);
-    // The longest delay the device's table of designs holds.
     let max_delay = wheelset_control::design::DESIGNED
         .iter()
         .map(|p| p.delay_ticks)
@@ -194,7 +193,6 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
         );
     }
     outln!("{}", monitor_line(&run));
-    // A drive limit cycle fails the run as a divergence does, unless that is its point.
     let drive = run
         .report
         .device

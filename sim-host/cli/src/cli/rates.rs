@@ -62,7 +62,6 @@ pub(crate) fn cmd_rates(a: &RatesArgs) -> Result<(), Failure> {
     let report = rates(&p, model, &cfg, a.delay, &LinkBudget::default(), &criteria)
         .map_err(|e| Failure::bad(format!("rate analysis: {e}")))?;
     out!("{}", report.render());
-    // The designs a device accepts, judged on these parameters.
     let design = if mode == wheelset_control::YawMode::Lead && model == Model::Full {
         let base = wheelset_control::Config {
             motor: cfg.motor,
@@ -80,7 +79,6 @@ pub(crate) fn cmd_rates(a: &RatesArgs) -> Result<(), Failure> {
     } else {
         None
     };
-    // The designed points over the link: the fastest it carries.
     let delay = u8::try_from(a.delay).unwrap_or(u8::MAX);
     let link = wheelset_plant::sampled::link_choice(a.max_baud, latency_ns, delay);
     outln!();
