@@ -1,7 +1,5 @@
-//! The paper's figures from simulation results: time histories (Figs. 6-9) and root
-//! loci (Figs. 2-5, from [`wheelset_plant::modes`] sweeps), and the adhesion figures
-//! (the creep characteristic, traction and slip against time), written as SVG with
-//! [`wheelset_report::svg`].
+//! The commands' figures, as SVG ([`wheelset_report::svg`]): time histories, root loci
+//! and the adhesion figures.
 
 use std::path::{Path, PathBuf};
 use wheelset_plant::modes::{CaseSweep, STRUCTURAL_ZERO};
@@ -16,10 +14,6 @@ fn series(tr: &Trajectory, label: &str, f: impl Fn(&Record) -> f64) -> Series {
 /// A panel against time, s.
 fn over_t(title: &str, y_label: &str) -> Plot {
     Plot::new(title).x_label("t (s)").y_label(y_label)
-}
-
-fn label(tr: &Trajectory) -> String {
-    tr.info.control.clone()
 }
 
 /// Run `k`'s colour, the same in every panel.
@@ -49,21 +43,20 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
     let Some(main) = runs.first() else {
         return Ok(vec![]);
     };
-    let others: Vec<String> = runs[1..].iter().map(label).collect();
+    let others: Vec<&str> = runs[1..].iter().map(|r| r.info.control.as_str()).collect();
+    let main_law = &main.info.control;
     let titled = |main_style: &str, others_style: &str| {
         if others.is_empty() {
-            format!("scenario {}, control {}", main.info.scenario, label(main))
+            format!("scenario {}, control {main_law}", main.info.scenario)
         } else {
             format!(
-                "scenario {}: control {} ({main_style}) vs {} ({others_style})",
+                "scenario {}: control {main_law} ({main_style}) vs {} ({others_style})",
                 main.info.scenario,
-                label(main),
                 others.join(", ")
             )
         }
     };
     let title = titled("thin, on top", "wide, pale, beneath");
-    // `curve` is Figs. 6-8 of the paper, `beating` Fig. 9.
     let fig = |curve: &str, beating: &str| -> String {
         let n = match main.info.scenario.as_str() {
             "curve" => curve,
@@ -75,9 +68,10 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
             .map_or(String::new(), |n| format!(" (Fig. {n})"))
     };
     let mut files = Vec::new();
-    let mut save = |name: &str, fig: Figure| -> std::io::Result<()> {
+    let mut save = |name: &str, title: &str, panels: Vec<Plot>| -> std::io::Result<()> {
         let p = dir.join(name);
-        fig.save(&p)?;
+        let title = title.to_string();
+        Figure { title, panels }.save(&p)?;
         files.push(p);
         Ok(())
     };
@@ -86,13 +80,13 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
             let tr = &runs[k];
             p = p.series(overlaid(
                 k,
-                series(tr, &format!("{prefix}{}", label(tr)), f),
+                series(tr, &format!("{prefix}{}", tr.info.control), f),
             ));
         }
         p
     };
 
-    // Fig. 6: the pure rolling line as a wide grey band beneath the runs.
+    // The pure rolling line as a wide grey band beneath the runs.
     let p = over_t(
         &format!(
             "Lateral displacement y against the pure rolling line y0{}",
@@ -124,17 +118,14 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
             .filter(|r| r.t_s >= t_step - 0.2 && r.t_s <= t_step + 2.0)
             .map(|r| (r.t_s, (r.y_m - r.y0_m) * 1e3))
             .collect();
-        zoom = zoom.series(overlaid(k, Series::line(&label(tr), pts)));
+        zoom = zoom.series(overlaid(k, Series::line(&tr.info.control, pts)));
     }
     save(
         "lateral.svg",
-        Figure::new(&format!("Lateral motion, {title}"))
-            .panel(p)
-            .panel(psi)
-            .panel(zoom),
+        &format!("Lateral motion, {title}"),
+        vec![p, psi, zoom],
     )?;
 
-    // Fig. 7
     let p = over_t(
         &format!(
             "Yaw torque: control (active) / suspension (passive){}",
@@ -143,14 +134,13 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
         "T_psi (N m)",
     );
     let p = overlay(p, "T_psi, ", |r| r.t_psi_nm);
-    save("torque.svg", Figure::new(&title).panel(p))?;
+    save("torque.svg", &title, vec![p])?;
 
-    // Fig. 8: one panel per force, one colour per run (the main run solid, the compared
-    // ones dashed over it).
+    // One panel per force; the compared runs dashed over the main run.
     let per_run = |title: &str, y_label: &str, f: &dyn Fn(&Record) -> f64| {
         let mut p = over_t(title, y_label);
         for (k, tr) in runs.iter().enumerate() {
-            let s = series(tr, &label(tr), f).color(colour(k));
+            let s = series(tr, &tr.info.control, f).color(colour(k));
             p = p.series(if k == 0 { s } else { s.style(Style::Dashed) });
         }
         p
@@ -170,13 +160,10 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
     });
     save(
         "creep.svg",
-        Figure::new(&titled("solid", "dashed, on top"))
-            .panel(fxr)
-            .panel(fxl)
-            .panel(fy),
+        &titled("solid", "dashed, on top"),
+        vec![fxr, fxl, fy],
     )?;
 
-    // Traction and Fig. 9 view.
     let ia = over_t("Armature current", "i_a (A)")
         .series(series(main, "i_a", |r| r.i_a_a))
         .series(series(main, "i_ref", |r| r.i_ref_a).style(Style::Dashed));
@@ -190,18 +177,11 @@ pub fn write_time_histories(runs: &[Trajectory], dir: &Path) -> std::io::Result<
     }))
     .series(series(main, "twist phi_R - phi_L", |r| r.twist_rad * 1e3));
     let v = over_t("Forward speed", "v (m/s)").series(series(main, "v", |r| r.v_mps));
-    save(
-        "traction.svg",
-        Figure::new(&format!(
-            "scenario {}, control {}: the drive",
-            main.info.scenario,
-            label(main)
-        ))
-        .panel(ia)
-        .panel(ua)
-        .panel(wind)
-        .panel(v),
-    )?;
+    let drive = format!(
+        "scenario {}, control {main_law}: the drive",
+        main.info.scenario
+    );
+    save("traction.svg", &drive, vec![ia, ua, wind, v])?;
     Ok(files)
 }
 
@@ -346,11 +326,9 @@ pub fn write_root_locus(sw: &CaseSweep, dir: &Path) -> std::io::Result<std::path
         zeta = zeta.vmark(c.creep_n * 1e-6, "", AXIS_GREY);
     }
     let path = dir.join(format!("modes_case_{}.svg", sw.case.id()));
-    Figure::new(&format!("Case ({}): {}", sw.case.id(), sw.case.label()))
-        .panel(locus)
-        .panel(freq)
-        .panel(zeta)
-        .save(&path)?;
+    let title = format!("Case ({}): {}", sw.case.id(), sw.case.label());
+    let panels = vec![locus, freq, zeta];
+    Figure { title, panels }.save(&path)?;
     Ok(path)
 }
 
@@ -362,14 +340,12 @@ const MODE_COLOURS: [&str; 8] = [
     "#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#000000", "#999999", "#56B4E9",
 ];
 
-/// One run of [`write_figure`].
+/// One run of [`write_figure`]: its label (e.g. `protection on`), the run, and the slip
+/// regulator's set point while the protection acted, `(t_s, m/s)`.
 #[derive(Debug, Clone, Copy)]
 pub struct FigureRun<'a> {
-    /// Legend label (e.g. `protection on`).
     pub label: &'a str,
-    /// The run.
     pub tr: &'a Trajectory,
-    /// The slip regulator's set point while the protection acted, `(t_s, m/s)`.
     pub set_point: &'a [(f64, f64)],
 }
 
@@ -482,15 +458,12 @@ pub fn write_figure(
     }
     let path = dir.join("adhesion.svg");
     let names: Vec<&str> = runs.iter().map(|r| r.label).collect();
-    let mut fig = Figure::new(&format!(
+    let title = format!(
         "Low adhesion, {}: traction force, slip, adhesion",
         names.join(" vs ")
-    ))
-    .panel(force);
-    for p in slips {
-        fig = fig.panel(p);
-    }
-    fig.panel(mu).save(&path)?;
+    );
+    let panels = std::iter::once(force).chain(slips).chain([mu]).collect();
+    Figure { title, panels }.save(&path)?;
     Ok(path)
 }
 

@@ -34,15 +34,7 @@ enum Cmd {
 }
 
 fn main() -> ExitCode {
-    let cli = match Cli::try_parse() {
-        Ok(c) => c,
-        Err(e) => {
-            let code = if e.use_stderr() { 2 } else { 0 };
-            let _ = e.print();
-            return ExitCode::from(code);
-        }
-    };
-    let res = match &cli.cmd {
+    let res = match &Cli::parse().cmd {
         Cmd::Modes(a) => cmd_modes(a),
         Cmd::Run(a) => cmd_run(a),
         Cmd::Rates(a) => cmd_rates(a),

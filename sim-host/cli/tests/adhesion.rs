@@ -10,7 +10,7 @@ use wheelset_plant::adhesion::{Adhesion, Condition, Polach};
 use wheelset_plant::control::{closed_loop_rhs, ContinuousController, Exogenous, YawLaw};
 use wheelset_plant::params::Params;
 use wheelset_plant::plant::{ix, Plant, PlantConfig};
-use wheelset_plant::scenario::{Axle, Scenario};
+use wheelset_plant::scenario::{track_at, Axle, Scenario};
 use wheelset_plant::sim::{rk4_step, run_continuous};
 
 fn curve() -> Scenario {
@@ -41,7 +41,7 @@ fn run_with(sc: &Scenario, law: Option<Adhesion>, t_end_s: f64) -> Vec<[f64; 13]
         let demand = sc.traction.at(t);
         let f_run = sc.resistance.at(t);
         let i_ref = demand / (sc.params.n_gear * sc.params.k_m);
-        let tr = [t, t + sc.dt_ns / 2, t + sc.dt_ns].map(|tt| sc.track_at(tt));
+        let tr = [t, t + sc.dt_ns / 2, t + sc.dt_ns].map(|tt| track_at(&sc.track, tt, &mut 0));
         x = rk4_step(&x, h, |stage, xs| {
             let j = match stage {
                 0 => 0,

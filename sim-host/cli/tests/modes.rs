@@ -286,7 +286,12 @@ fn free_rigid_wheelset_approaches_the_kinematic_frequency_at_high_creep() {
             f22: creep,
             ..base.clone()
         };
-        let (a, _) = closed_loop_a(&p, Axle::Rigid, false, YawLaw::Passive);
+        let (a, _) = closed_loop_a(
+            &p,
+            Axle::Rigid,
+            false,
+            &ContinuousController::new(&p, YawLaw::Passive),
+        );
         let l = nearest(&eigenvalues(&a).unwrap(), 2.0 * PI * fk);
         errs.push((l.im.abs() / (2.0 * PI) - fk).abs() / fk);
     }
@@ -295,7 +300,12 @@ fn free_rigid_wheelset_approaches_the_kinematic_frequency_at_high_creep() {
 }
 
 fn max_re(case_law: (Axle, bool, YawLaw), p: &Params) -> f64 {
-    let (a, _) = closed_loop_a(p, case_law.0, case_law.1, case_law.2);
+    let (a, _) = closed_loop_a(
+        p,
+        case_law.0,
+        case_law.1,
+        &ContinuousController::new(p, case_law.2),
+    );
     eigenvalues(&a)
         .unwrap()
         .iter()

@@ -1,12 +1,11 @@
 //! Typed errors of parameter and scenario files: the file, the dotted key where known
 //! (`params.f11`, `track[2].t_s`) and the reason; the command line exits 2 on any.
 
-use std::fmt;
-
 /// A problem with a parameter or scenario file. Never a panic: every bad input ends here.
-#[derive(Debug)]
+#[derive(Debug, thiserror::Error)]
 pub enum ConfigError {
     /// The file could not be read.
+    #[error("{file}: cannot read: {reason}")]
     Io {
         /// The file as given.
         file: String,
@@ -14,6 +13,8 @@ pub enum ConfigError {
         reason: String,
     },
     /// The file is not valid TOML for this schema (syntax, unknown key, wrong type).
+    #[error("{file}{}{}: {reason}", .line.map_or(String::new(), |l| format!(":{l}")),
+        .key.as_ref().map_or(String::new(), |k| format!(": key `{k}`")))]
     Parse {
         /// The file as given.
         file: String,
@@ -25,6 +26,7 @@ pub enum ConfigError {
         reason: String,
     },
     /// A value parsed but is outside its allowed range or inconsistent with another.
+    #[error("{file}: key `{key}`: {reason}")]
     Invalid {
         /// The file as given.
         file: String,
@@ -34,6 +36,7 @@ pub enum ConfigError {
         reason: String,
     },
     /// `--scenario NAME` is neither a built-in scenario nor an existing file.
+    #[error("scenario `{name}`: not a built-in scenario ({}) and no such file", .builtin.join(", "))]
     UnknownScenario {
         /// What was asked for.
         name: String,
@@ -73,39 +76,6 @@ impl ConfigError {
         self
     }
 }
-
-impl fmt::Display for ConfigError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            ConfigError::Io { file, reason } => write!(f, "{file}: cannot read: {reason}"),
-            ConfigError::Parse {
-                file,
-                key,
-                line,
-                reason,
-            } => {
-                write!(f, "{file}")?;
-                if let Some(l) = line {
-                    write!(f, ":{l}")?;
-                }
-                if let Some(k) = key {
-                    write!(f, ": key `{k}`")?;
-                }
-                write!(f, ": {reason}")
-            }
-            ConfigError::Invalid { file, key, reason } => {
-                write!(f, "{file}: key `{key}`: {reason}")
-            }
-            ConfigError::UnknownScenario { name, builtin } => write!(
-                f,
-                "scenario `{name}`: not a built-in scenario ({}) and no such file",
-                builtin.join(", ")
-            ),
-        }
-    }
-}
-
-impl std::error::Error for ConfigError {}
 
 /// A `toml` error as [`ConfigError::Parse`], its key located from the error's span in `src`.
 pub fn from_toml(file: &str, src: &str, e: &toml::de::Error) -> ConfigError {

@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::control::{ContinuousController, YawLaw};
 use crate::error::ConfigError;
-use crate::linear::closed_loop_a_with;
+use crate::linear::closed_loop_a;
 use crate::modes::{eigenvalues, structural_zero_index};
 use crate::params::Params;
 use crate::scenario::Axle;
@@ -96,7 +96,7 @@ pub fn faulty_loop_mode(
 ) -> Option<FailedMode> {
     let mut ctrl = ContinuousController::new(p, law);
     ctrl.k *= gain;
-    let (a, _) = closed_loop_a_with(p, axle, drive, &ctrl);
+    let (a, _) = closed_loop_a(p, axle, drive, &ctrl);
     let mut eig = eigenvalues(&a)?;
     if let Some(iz) = structural_zero_index(&a, &eig) {
         eig.swap_remove(iz);

@@ -208,19 +208,10 @@ fn select_into(a: &Jac, states: &[usize], out: &mut DMatrix<f64>) {
     }
 }
 
-/// The closed-loop `A` at the operating point for `law` on the plant `cfg` (the yaw
-/// spring is set from the law), restricted to the loop's states, analytic.
+/// The closed-loop `A` at the operating point for the controller `ctrl` on the plant
+/// `axle`, `drive` (the yaw spring is set from `ctrl.law`), restricted to the loop's
+/// states, analytic.
 pub fn closed_loop_a(
-    p: &Params,
-    axle: Axle,
-    drive: bool,
-    law: YawLaw,
-) -> (DMatrix<f64>, Vec<usize>) {
-    closed_loop_a_with(p, axle, drive, &ContinuousController::new(p, law))
-}
-
-/// [`closed_loop_a`] for the controller `ctrl`; the yaw spring is set from `ctrl.law`.
-pub fn closed_loop_a_with(
     p: &Params,
     axle: Axle,
     drive: bool,
@@ -237,7 +228,7 @@ pub fn closed_loop_a_with(
     (a, states)
 }
 
-/// [`closed_loop_a_with`] on the plant `cfg` into `out`, `states` its [`closed_loop_states`].
+/// [`closed_loop_a`] on the plant `cfg` into `out`, `states` its [`closed_loop_states`].
 pub(crate) fn closed_loop_a_into(
     p: &Params,
     cfg: PlantConfig,
@@ -341,10 +332,11 @@ impl Reduced {
 
 /// The plant the rate table closes the loops on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Model {
-    /// Case (d): flexible axle, drive, armature ([`linear_plant`]).
+    /// Case (d) linearisation: flexible axle, motor on its gear spring, armature.
     Full,
-    /// [`Reduced`]: lateral/yaw of case (a) plus the armature circuit.
+    /// Case (a) lateral/yaw plus the armature circuit alone.
     Reduced,
 }
 

@@ -40,17 +40,9 @@ pub fn human(bytes: u64) -> String {
     }
 }
 
-/// Refuses a run whose estimate is above [`MAX_BYTES`]: the reason names the estimate,
-/// the limit, and the longest duration that fits at this output interval.
-pub fn check_run(
-    duration_ns: u64,
-    output_dt_ns: u64,
-    device_period_ns: Option<u64>,
-) -> Result<(), String> {
-    check_runs(duration_ns, output_dt_ns, device_period_ns, 1)
-}
-
-/// [`check_run`] for `runs` trajectories kept at once; the device records count once.
+/// Refuses `runs` trajectories kept at once (the device records count once) whose
+/// estimate is above [`MAX_BYTES`]: the reason names the estimate, the limit, and the
+/// longest duration that fits at this output interval.
 pub fn check_runs(
     duration_ns: u64,
     output_dt_ns: u64,
@@ -123,8 +115,8 @@ mod tests {
     #[test]
     fn estimates_scale_with_the_output_and_refuse_above_the_limit() {
         assert_eq!(RECORD_BYTES as usize, 8 * Record::COLUMNS.len());
-        assert!(check_run(20_000_000_000, 1_000_000, Some(200_000)).is_ok());
-        let e = check_run(100_000_000_000_000, 1_000_000, None).unwrap_err();
+        assert!(check_runs(20_000_000_000, 1_000_000, Some(200_000), 1).is_ok());
+        let e = check_runs(100_000_000_000_000, 1_000_000, None, 1).unwrap_err();
         assert!(
             e.contains(&format!(
                 "{:.1} GiB",
@@ -133,7 +125,7 @@ mod tests {
             "{e}"
         );
         // Raising the output interval is the way out that the message names.
-        assert!(check_run(100_000_000_000_000, 100_000_000, None).is_ok());
+        assert!(check_runs(100_000_000_000_000, 100_000_000, None, 1).is_ok());
         // Runs kept together count together.
         assert!(check_runs(2_000_000_000_000, 1_000_000, None, 1).is_ok());
         let e = check_runs(2_000_000_000_000, 1_000_000, None, 8).unwrap_err();

@@ -25,16 +25,17 @@ pub use naming::*;
 /// Name given to the structural zero eigenvalue.
 pub const STRUCTURAL_ZERO: &str = "rolling (structural zero)";
 
-/// The analysis cases of `docs/model.md`.
+/// The analysis cases of `docs/model.md` (each one's figure: [`Case::label`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Case {
-    /// (a) passive yaw spring, rigid axle, no traction dynamics.
+    /// Passive yaw spring, rigid axle, no traction dynamics.
     A,
-    /// (b) active pure gain, rigid axle.
+    /// Active pure gain, rigid axle.
     B,
-    /// (c) active phase lead, rigid axle, plus the compensator state.
+    /// Active phase lead, rigid axle.
     C,
-    /// (d) phase lead, flexible axle (40 Hz), motor on its gear spring, armature, PI.
+    /// Phase lead, flexible axle, gear spring, motor, armature, PI current loop.
     D,
 }
 

@@ -191,8 +191,7 @@ impl<const FLEXIBLE: bool, const DRIVE: bool, const YAW_SPRING: bool> Flags
     }
 }
 
-/// Flags `F` on a plant whose adhesion law is `None` (only then): [`Flags::linear_creep`]
-/// is true, so the creep forces skip the test of the law.
+/// Flags `F` with [`Flags::linear_creep`] true: for a plant without an adhesion law only.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Linear<F>(pub F);
 
@@ -288,8 +287,8 @@ pub struct Plant {
     l_g: f64,
     r0: f64,
     lambda: f64,
-    n: f64,
-    k_m: f64,
+    pub(crate) n: f64,
+    pub(crate) k_m: f64,
     r_a: f64,
     inv: Inverses,
     pre: Products,
@@ -504,15 +503,5 @@ impl Plant {
     /// Motor back-EMF `K_m theta_m'`, V.
     pub fn back_emf(&self, x: &State) -> f64 {
         self.k_m * x[ix::WM]
-    }
-
-    /// Gear ratio `n`.
-    pub fn n(&self) -> f64 {
-        self.n
-    }
-
-    /// Motor constant `K_m`.
-    pub fn k_m(&self) -> f64 {
-        self.k_m
     }
 }

@@ -291,7 +291,7 @@ impl Scenario {
         );
         let ok = out_ns > 0 && out_ns.is_multiple_of(dt_ns);
         check(ok, file, "sim.output_dt_s", reason)?;
-        crate::memory::check_run(duration_ns, out_ns, None)
+        crate::memory::check_runs(duration_ns, out_ns, None, 1)
             .map_err(|r| invalid(file, "duration_s", r))?;
         let laws = parse_laws(file, &raw.laws)?;
         let plant = raw.plant;
@@ -448,10 +448,5 @@ impl Scenario {
                 format!(" ({})", self.description)
             }
         ))
-    }
-
-    /// Track curvature and cant at `t_ns` (linear between knots, held outside).
-    pub fn track_at(&self, t_ns: u64) -> (f64, f64) {
-        track_at(&self.track, t_ns, &mut 0)
     }
 }

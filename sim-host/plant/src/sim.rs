@@ -3,8 +3,6 @@
 //! The track is evaluated at each RK4 stage; the step inputs (demand, `F_run`) once at
 //! each step's start, so a step at 5 s acts from exactly 5 s.
 
-use std::fmt;
-
 mod continuous;
 mod rk4;
 mod sampled_run;
@@ -16,9 +14,10 @@ pub use sampled_run::*;
 pub use trajectory::*;
 
 /// Errors of a sampled run's configuration.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SimError {
     /// The controller period is not a positive multiple of the integration step.
+    #[error("controller period {period_ns} ns is not a positive multiple of the integration step {dt_ns} ns")]
     Period {
         /// Period, ns.
         period_ns: u64,
@@ -26,6 +25,7 @@ pub enum SimError {
         dt_ns: u64,
     },
     /// The actuator delay is not a multiple of the integration step.
+    #[error("actuator delay {delay_ns} ns is not a multiple of the integration step {dt_ns} ns")]
     Delay {
         /// Delay, ns.
         delay_ns: u64,
@@ -33,20 +33,3 @@ pub enum SimError {
         dt_ns: u64,
     },
 }
-
-impl fmt::Display for SimError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            SimError::Period { period_ns, dt_ns } => write!(
-                f,
-                "controller period {period_ns} ns is not a positive multiple of the integration step {dt_ns} ns"
-            ),
-            SimError::Delay { delay_ns, dt_ns } => write!(
-                f,
-                "actuator delay {delay_ns} ns is not a multiple of the integration step {dt_ns} ns"
-            ),
-        }
-    }
-}
-
-impl std::error::Error for SimError {}

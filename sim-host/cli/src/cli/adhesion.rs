@@ -48,7 +48,7 @@ pub(crate) fn cmd_adhesion(a: &AdhesionArgs) -> Result<(), Failure> {
     );
     outln!("source: {}", ch.source);
     let json = serde_json::to_value(&ch).map_err(|e| Failure::failed(e.to_string()))?;
-    write_json(&a.json, &json, true)?;
+    write_json(&a.json, &json, true, "json:")?;
     if let Some(dir) = &a.plot {
         std::fs::create_dir_all(dir).map_err(|e| io_fail(dir, e))?;
         let path = dir.join(format!("adhesion-{}.svg", ch.condition));

@@ -93,8 +93,16 @@ impl DeviceArgs {
     }
 }
 
-/// Largest `--latency-us`: 1 s (a link slower than that cannot carry any control rate).
-pub(crate) const MAX_LATENCY_US: f64 = 1e6;
+/// `--latency-us` (of `run --loop device` and `rates`) in ns, refused outside `[0, 1e6]`
+/// us (1 s: a link slower than that cannot carry any control rate).
+pub(crate) fn latency_ns(us: f64) -> Result<u64, Failure> {
+    if !(us.is_finite() && (0.0..=1e6).contains(&us)) {
+        return Err(Failure::bad(format!(
+            "--latency-us {us:e}: must be a finite value in [0, 1e6] us"
+        )));
+    }
+    Ok((us * 1e3).round() as u64)
+}
 
 /// Lateral sensing over the link.
 #[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
@@ -114,11 +122,7 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
     let d = &a.device;
     let wsp = d.wsp != Some(OnOff::Off);
     let latency_us = d.latency_us.unwrap_or(2.0);
-    if !(latency_us.is_finite() && (0.0..=MAX_LATENCY_US).contains(&latency_us)) {
-        return Err(Failure::bad(format!(
-            "--latency-us {latency_us:e}: must be a finite value in [0, {MAX_LATENCY_US:e}] us"
-        )));
-    }
+    let latency_ns = latency_ns(latency_us)?;
     let baud = d.baud.unwrap_or(wheelset_loop::sim_link::DEFAULT_BAUD);
     if baud == 0 {
         return Err(Failure::bad("--baud 0: must be positive".into()));
@@ -127,7 +131,6 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
         return Err(Failure::bad("--rate-hz 0: must be positive".into()));
     }
     let delay_ticks = d.delay_ticks.unwrap_or(1);
-    // The longest delay the device's table of designs holds.
     let max_delay = wheelset_control::design::DESIGNED
         .iter()
         .map(|p| p.delay_ticks)
@@ -146,7 +149,7 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
     let opt = DeviceOptions {
         link: wheelset_loop::sim_link::LinkConfig {
             baud,
-            latency_ns: (latency_us * 1e3).round() as u64,
+            latency_ns,
             faults,
             seed: d.seed.unwrap_or(1),
         },
@@ -190,7 +193,6 @@ pub(crate) fn cmd_run_device(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> 
         );
     }
     outln!("{}", monitor_line(&run));
-    // A drive limit cycle fails the run as a divergence does, unless that is its point.
     let drive = run
         .report
         .device

@@ -1,5 +1,4 @@
-//! The subcommands of `sim-host`, one module each with its arguments beside it, and
-//! what they share: the failure with its exit code, the `--params` loader, the JSON writer.
+//! The subcommands of `sim-host`, one module each with its arguments, and what they share.
 
 mod adhesion;
 mod loop_device;
@@ -14,11 +13,8 @@ pub(crate) use run::{cmd_run, RunArgs};
 
 use std::io::{BufWriter, Write};
 use std::path::PathBuf;
-use wheelset_plant::control::YawLaw;
 use wheelset_plant::error::ConfigError;
 use wheelset_plant::params::Params;
-use wheelset_plant::scenario::Scenario;
-use wheelset_plant::sim::{run_continuous, Trajectory};
 use wheelset_report::outln;
 
 /// A command failure with its exit code.
@@ -75,10 +71,6 @@ pub(crate) fn load_params(path: &Option<PathBuf>) -> Result<Params, ConfigError>
     }
 }
 
-pub(crate) fn simulate(sc: &Scenario, control: YawLaw) -> Trajectory {
-    run_continuous(sc, control)
-}
-
 pub(crate) fn warn(msg: &str) {
     eprintln!("sim-host: warning: {msg}");
 }
@@ -92,11 +84,13 @@ pub(crate) fn create_file(path: &std::path::Path) -> Result<BufWriter<std::fs::F
     Ok(BufWriter::with_capacity(1 << 16, f))
 }
 
-/// Writes `value` as JSON to `path` (directories created), `pretty` or compact.
+/// Writes `value` as JSON to `path` (directories created), `pretty` or compact, and
+/// prints `{shown} {path}`.
 pub(crate) fn write_json(
     path: &std::path::Path,
     value: &impl serde::Serialize,
     pretty: bool,
+    shown: &str,
 ) -> Result<(), Failure> {
     let mut f = create_file(path)?;
     let written = if pretty {
@@ -108,6 +102,6 @@ pub(crate) fn write_json(
         .map_err(std::io::Error::from)
         .and_then(|()| f.flush())
         .map_err(|e| io_fail(path, e))?;
-    outln!("json: {}", path.display());
+    outln!("{shown} {}", path.display());
     Ok(())
 }

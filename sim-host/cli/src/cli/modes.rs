@@ -1,6 +1,5 @@
 //! `sim-host modes`: the modal analysis along the creep sweep.
 
-use clap::ValueEnum;
 use serde::{Serialize, Serializer};
 use std::path::PathBuf;
 use wheelset_plant::modes::{creep_grid, sweep_case, Case, CaseSweep};
@@ -8,24 +7,11 @@ use wheelset_report::outln;
 
 use super::{io_fail, load_params, warn, Failure};
 
-/// Analysis case of docs/model.md.
-#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
-pub(crate) enum CaseArg {
-    /// Passive yaw spring, rigid axle, no traction dynamics.
-    A,
-    /// Active pure gain, rigid axle.
-    B,
-    /// Active phase lead, rigid axle.
-    C,
-    /// Phase lead, flexible axle, gear spring, motor, armature, PI current loop.
-    D,
-}
-
 #[derive(clap::Args)]
 pub(crate) struct ModesArgs {
     /// Analyse only this case (default: all four).
     #[arg(long, value_enum)]
-    case: Option<CaseArg>,
+    case: Option<Case>,
     /// Points of the sweep, evenly spaced over 1-10 MN (1, 2, 5 and 10 MN are always
     /// included exactly).
     #[arg(long, default_value_t = 1000, allow_negative_numbers = true,
@@ -59,11 +45,7 @@ pub(crate) fn progress(total: u64, msg: &str) -> indicatif::ProgressBar {
 
 pub(crate) fn cmd_modes(a: &ModesArgs) -> Result<(), Failure> {
     let p = load_params(&a.params)?;
-    // `CaseArg` lists the cases in `Case::ALL`'s order.
-    let cases: Vec<Case> = match a.case {
-        None => Case::ALL.to_vec(),
-        Some(c) => vec![Case::ALL[c as usize]],
-    };
+    let cases: Vec<Case> = a.case.map_or(Case::ALL.to_vec(), |c| vec![c]);
     wheelset_plant::memory::check_modes(u64::from(a.points), cases.len() as u64)
         .map_err(Failure::bad)?;
     super::check_outputs(
@@ -152,7 +134,7 @@ pub(crate) fn cmd_modes(a: &ModesArgs) -> Result<(), Failure> {
         params: &params,
         speed_mps: p.v,
     };
-    super::write_json(&a.json, &file, false)?;
+    super::write_json(&a.json, &file, false, "json:")?;
     if let Some(dir) = &a.plot {
         for sw in &sweeps {
             let f = crate::figures::write_root_locus(sw, dir).map_err(|e| io_fail(dir, e))?;

@@ -1,21 +1,11 @@
 //! `sim-host rates`: the sampled-data rate analysis of the firmware's loops.
 
-use clap::ValueEnum;
 use std::path::PathBuf;
 use wheelset_report::{out, outln};
 
-use super::{create_file, io_fail, load_params, Failure};
-use std::io::Write;
+use super::{load_params, Failure};
 use wheelset_plant::control::YawLaw;
-
-/// Plant of the rate analysis.
-#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
-pub(crate) enum RatesModel {
-    /// Case (d) linearisation: flexible axle, motor on its gear spring, armature.
-    Full,
-    /// Case (a) lateral/yaw plus the armature circuit alone.
-    Reduced,
-}
+use wheelset_plant::sampled::Model;
 
 #[derive(clap::Args)]
 pub(crate) struct RatesArgs {
@@ -24,7 +14,7 @@ pub(crate) struct RatesArgs {
     control: YawLaw,
     /// Plant model.
     #[arg(long, value_enum, default_value = "full")]
-    model: RatesModel,
+    model: Model,
     /// Parameter file (TOML, any subset of the parameters).
     #[arg(long)]
     params: Option<PathBuf>,
@@ -45,7 +35,7 @@ pub(crate) struct RatesArgs {
 }
 
 pub(crate) fn cmd_rates(a: &RatesArgs) -> Result<(), Failure> {
-    use wheelset_plant::sampled::{rates, Criteria, LinkBudget, Model};
+    use wheelset_plant::sampled::{rates, Criteria, LinkBudget};
     if a.delay > 10 {
         return Err(Failure::bad(format!(
             "--delay {}: at most 10 ticks",
@@ -55,19 +45,10 @@ pub(crate) fn cmd_rates(a: &RatesArgs) -> Result<(), Failure> {
     if a.max_baud == 0 {
         return Err(Failure::bad("--max-baud 0: must be positive".into()));
     }
-    if !(a.latency_us.is_finite() && (0.0..=1e6).contains(&a.latency_us)) {
-        return Err(Failure::bad(format!(
-            "--latency-us {:e}: must be a finite value in [0, 1e6] us",
-            a.latency_us
-        )));
-    }
+    let latency_ns = super::loop_device::latency_ns(a.latency_us)?;
     let p = load_params(&a.params)?;
     super::check_outputs(&[("--json", a.json.as_deref())], &[])?;
-    let mode = a.control.into();
-    let model = match a.model {
-        RatesModel::Full => Model::Full,
-        RatesModel::Reduced => Model::Reduced,
-    };
+    let (mode, model) = (a.control.into(), a.model);
     let mut cfg = wheelset_control::Config {
         yaw_mode: mode,
         ..wheelset_control::Config::default()
@@ -81,7 +62,6 @@ pub(crate) fn cmd_rates(a: &RatesArgs) -> Result<(), Failure> {
     let report = rates(&p, model, &cfg, a.delay, &LinkBudget::default(), &criteria)
         .map_err(|e| Failure::bad(format!("rate analysis: {e}")))?;
     out!("{}", report.render());
-    // The designs a device accepts, judged on these parameters.
     let design = if mode == wheelset_control::YawMode::Lead && model == Model::Full {
         let base = wheelset_control::Config {
             motor: cfg.motor,
@@ -99,39 +79,24 @@ pub(crate) fn cmd_rates(a: &RatesArgs) -> Result<(), Failure> {
     } else {
         None
     };
-    // The designed points over the link: the fastest it carries.
     let delay = u8::try_from(a.delay).unwrap_or(u8::MAX);
-    let link = wheelset_plant::sampled::link_choice(
-        a.max_baud,
-        (a.latency_us * 1e3).round() as u64,
-        delay,
-    );
+    let link = wheelset_plant::sampled::link_choice(a.max_baud, latency_ns, delay);
     outln!();
     out!("{}", link.render());
     if let Some(path) = &a.json {
         let mut json = report.to_json();
-        if let Some(obj) = json.as_object_mut() {
-            if let Some(d) = design {
-                obj.insert("design".into(), d);
-            }
-            // The link's budget (the report's) and the designed points over it, one object.
-            let mut both = link.to_json();
-            if let (Some(b), Some(serde_json::Value::Object(budget))) =
-                (both.as_object_mut(), obj.remove("link"))
-            {
-                for (k, v) in budget {
-                    b.entry(k).or_insert(v);
-                }
-            }
-            obj.insert("link".into(), both);
+        if let Some(d) = design {
+            json["design"] = d;
         }
-        let text = serde_json::to_string_pretty(&json)
-            .map_err(|e| Failure::failed(format!("JSON: {e}")))?;
-        let mut f = create_file(path)?;
-        f.write_all(text.as_bytes())
-            .and_then(|()| f.flush())
-            .map_err(|e| io_fail(path, e))?;
-        outln!("wrote {}", path.display());
+        // The link's budget (the report's) and the designed points over it, one object.
+        let mut both = link.to_json();
+        if let (Some(b), Some(budget)) = (both.as_object_mut(), json["link"].as_object()) {
+            for (k, v) in budget {
+                b.entry(k).or_insert_with(|| v.clone());
+            }
+        }
+        json["link"] = both;
+        super::write_json(path, &json, true, "wrote")?;
     }
     Ok(())
 }

@@ -4,13 +4,11 @@
 use std::path::PathBuf;
 use wheelset_plant::control::YawLaw;
 use wheelset_plant::scenario::Scenario;
-use wheelset_plant::sim::{Record, Trajectory};
+use wheelset_plant::sim::{run_continuous, Record, Trajectory};
 use wheelset_report::outln;
 
 use super::loop_device::{cmd_run_device, DeviceArgs, LoopKind, OnOff};
-use super::{
-    check_outputs, create_file, io_fail, load_params, simulate, warn, write_json, Failure,
-};
+use super::{check_outputs, create_file, io_fail, load_params, warn, write_json, Failure};
 
 #[derive(clap::Args)]
 pub(crate) struct RunArgs {
@@ -131,7 +129,7 @@ pub(crate) fn cmd_run(a: &RunArgs) -> Result<(), Failure> {
     if a.device.loop_kind == LoopKind::Core {
         return cmd_run_core(a, &sc);
     }
-    let mut runs = vec![simulate(&sc, a.control)];
+    let mut runs = vec![run_continuous(&sc, a.control)];
     runs.extend(compared(a, &sc));
     let main = &runs[0];
     print_summary(&sc, main);
@@ -149,7 +147,7 @@ pub(crate) fn compared<'a>(
     a.compare
         .iter()
         .filter(|&&c| c != a.control)
-        .map(|&c| simulate(sc, c))
+        .map(|&c| run_continuous(sc, c))
 }
 
 fn write_csv_and_plots(a: &RunArgs, runs: &[Trajectory]) -> Result<(), Failure> {
@@ -294,7 +292,7 @@ pub(crate) fn cmd_run_core(a: &RunArgs, sc: &Scenario) -> Result<(), Failure> {
     write_run_summary(&a.json, sc, &tr, Some(wsp))?;
     let mut runs = vec![tr];
     if a.plot.is_some() {
-        runs.extend(a.compare.iter().map(|&k| simulate(sc, k)));
+        runs.extend(a.compare.iter().map(|&k| run_continuous(sc, k)));
     }
     write_csv_and_plots(a, &runs)?;
     if let Some(dir) = &a.plot {
@@ -365,7 +363,7 @@ pub(crate) fn write_run_summary(
         "wsp": wsp,
         "adhesion": adhesion,
     });
-    write_json(path, &json, true)
+    write_json(path, &json, true, "json:")
 }
 
 pub(crate) fn print_summary(sc: &Scenario, tr: &Trajectory) {

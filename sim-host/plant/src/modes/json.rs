@@ -20,23 +20,18 @@ pub struct PointJson {
     pub structural_zero: Option<[f64; 2]>,
 }
 
-/// JSON form of one case.
+/// JSON form of one case: [`CaseSweep`]'s fields, [`Case::id`] and [`Case::label`].
 #[derive(Debug, Serialize)]
 pub struct CaseJson {
-    /// Instability crossings.
-    pub crossings: Vec<Crossing>,
-    /// Creep values where the eigenvalue solver failed.
-    pub failed_points: Vec<f64>,
-    /// `a`..`d`.
-    pub id: &'static str,
-    /// Description.
-    pub label: &'static str,
+    crossings: Vec<Crossing>,
+    failed_points: Vec<f64>,
+    id: &'static str,
+    label: &'static str,
     /// Points, ascending creep.
-    pub points: Vec<PointJson>,
+    points: Vec<PointJson>,
     /// Stable at every point of the sweep (structural zero excluded).
-    pub stable_everywhere: bool,
-    /// Closed-loop states.
-    pub states: Vec<&'static str>,
+    stable_everywhere: bool,
+    states: Vec<&'static str>,
 }
 
 impl CaseSweep {

@@ -237,7 +237,7 @@ pub fn modes_at_point(
     drive: bool,
     law: YawLaw,
 ) -> Option<Vec<ModeAtPoint>> {
-    let (a, states) = closed_loop_a(p, axle, drive, law);
+    let (a, states) = closed_loop_a(p, axle, drive, &ContinuousController::new(p, law));
     let eig = eigenvalues(&a)?;
     let names = name_modes(&a, &states, &eig, 2.0 * PI * p.kinematic_hz());
     let mut out: Vec<ModeAtPoint> = eig

@@ -66,11 +66,6 @@ pub fn decay_of(radius: f64, base_rate_hz: u32, delay_ticks: u8) -> f64 {
     radius.powf(tau.max(wheelset_control::design::TAU_0_S) / t)
 }
 
-/// The current loop's fast pair, radius per tick ([`current_loop_mode`]).
-pub fn current_radius(p: &Params, cfg: &Config, delay_ticks: usize) -> Result<f64, String> {
-    current_loop_mode(&armature(p.l_a, p.r_a), cfg, delay_ticks).map(|m| m.radius)
-}
-
 /// Judge `base` redesigned for one rate, delay and lead gain (module docs).
 pub fn judge(
     p: &Params,
@@ -84,7 +79,7 @@ pub fn judge(
     let d = usize::from(delay_ticks);
     let yaw = margins(p, &cfg, d, Loop::Yaw)?;
     let traction = margins(p, &cfg, d, Loop::Traction)?;
-    let current_radius = current_radius(p, &cfg, d)?;
+    let current_radius = current_loop_mode(&armature(p.l_a, p.r_a), &cfg, d)?.radius;
     let current_decay = decay_of(current_radius, base_rate_hz, delay_ticks);
     let val = |a: Option<At>| a.map(|a| a.value);
     let (ry_up, ry_down, ry_ph) = (

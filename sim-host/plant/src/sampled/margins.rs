@@ -11,17 +11,12 @@
 //! ```
 //!
 //! `T_psi = +C_y y'` acts through eq. 5's `-T_psi`, hence the yaw loop's minus sign; the
-//! PI acts on `i_ref - i_a`. The other loop is either closed round the plant as the
-//! device runs it ([`Other::Closed`]) or out of the way ([`Other::Open`]: the yaw loop
-//! without traction, the traction loop on the plant with the passive yaw spring).
-//! **Stability:** with `P` the open-loop poles outside the unit circle that the loop
-//! drives and sees, and `W` the counter-clockwise turns of `1 + L` round the origin on
-//! `|z| = 1 + 1e-6` (the PI's integrator inside), the closed loop has `Z = P - W`
-//! unstable poles. **Margins** of a stable loop: the loop-gain factors at which `L`
-//! crosses `-1` (a crossing of the negative real axis at `-x` is the factor `1/x`), the
-//! nearest above 1 (`gain_up`) and below (`gain_down`: an open-loop-unstable loop needs a
-//! minimum gain), and the extra phase lag and lead at a gain crossover that bring `L`
-//! onto `-1` (`docs/audit.md`).
+//! PI acts on `i_ref - i_a`; the other loop as [`Other`] says. **Stability:** `Z = P - W`
+//! ([`Margins`]), `W` counted on `|z| = 1 + 1e-6` (the PI's integrator inside).
+//! **Margins** of a stable loop: the loop-gain factors at which `L` crosses `-1` (a
+//! crossing of the negative real axis at `-x` is the factor `1/x`; an open-loop-unstable
+//! loop needs a minimum gain) and the extra phase lag and lead at a gain crossover that
+//! bring `L` onto `-1` (`docs/audit.md`).
 
 use super::*;
 use crate::params::Params;
@@ -66,7 +61,8 @@ impl Loop {
 pub enum Other {
     /// Closed round the plant as the device runs it.
     Closed,
-    /// Out of the way: no traction loop, or the passive yaw spring.
+    /// Out of the way: the yaw loop without traction, the traction loop on the plant
+    /// with the passive yaw spring.
     Open,
 }
 
@@ -293,9 +289,8 @@ fn close(
     let dim = n + m + d;
     let mut out = DMatrix::zeros(dim, dim);
     out.view_mut((0, 0), (n, n)).copy_from(ad);
-    for i in 0..n {
-        out[(i, n + m + d - 1)] = bd[(i, input)];
-    }
+    out.view_mut((0, n + m + d - 1), (n, 1))
+        .copy_from(&bd.column(input));
     // s+ = A_c s + B_c e, e = sign c x; h_1+ = C_c s + D e; h_k+ = h_(k-1).
     for i in 0..m {
         out[(n + i, n)] = -coef(&lp.den, i + 1);
@@ -303,16 +298,14 @@ fn close(
             out[(n + i, n + i + 1)] = 1.0;
         }
         let bc = coef(&lp.num, i + 1) - coef(&lp.den, i + 1) * n0;
-        for j in 0..n {
-            out[(n + i, j)] = bc * sign * c[(output, j)];
-        }
+        out.view_mut((n + i, 0), (1, n))
+            .copy_from(&(c.row(output) * (bc * sign)));
     }
     if m > 0 {
         out[(n + m, n)] = 1.0;
     }
-    for j in 0..n {
-        out[(n + m, j)] = n0 * sign * c[(output, j)];
-    }
+    out.view_mut((n + m, 0), (1, n))
+        .copy_from(&(c.row(output) * (n0 * sign)));
     for k in 1..d {
         out[(n + m + k, n + m + k - 1)] = 1.0;
     }

@@ -1,6 +1,4 @@
-//! The loop matrices: the plant discretised with a zero-order hold, the tick matrices of
-//! the controllers at their divisors, the monodromy over the hyper-period and its modes;
-//! the continuous closed loop for comparison.
+//! The loop matrices and their modes, sampled and continuous.
 
 use super::*;
 use nalgebra::{Complex, DMatrix};
@@ -129,9 +127,8 @@ pub fn tick_matrices(
     match cfg.yaw_mode {
         YawMode::Passive => {}
         YawMode::Gain => {
-            for j in 0..n {
-                t_row[(0, j)] = cfg.gain_k * (1.0 + alpha) * cy[j];
-            }
+            let k = cfg.gain_k * (1.0 + alpha);
+            t_row.view_mut((0, 0), (1, n)).copy_from(&(cy * k));
             t_row[(0, ip)] = -cfg.gain_k * alpha;
         }
         YawMode::Lead => {
@@ -223,9 +220,7 @@ pub fn tick_matrices(
         // predictor state: y'[n-1] <- y' on yaw ticks (zeroed in passive mode)
         if cfg.yaw_mode != YawMode::Passive {
             if yaw {
-                for j in 0..n {
-                    m[(ip, j)] = cy[j];
-                }
+                m.view_mut((ip, 0), (1, n)).copy_from(&cy);
             } else {
                 m[(ip, ip)] = 1.0;
             }

@@ -7,16 +7,6 @@ use crate::control::{ContinuousController, Exogenous, YawLaw};
 use crate::plant::{ix, Flags, Plant, PlantConfig, State};
 use crate::scenario::{Scenario, TrackCursor};
 
-/// Per-step exogenous inputs shared by both run kinds.
-#[derive(Clone, Copy)]
-pub(super) struct Exo {
-    pub(super) demand: f64,
-    pub(super) f_run: f64,
-    pub(super) i_ref: f64,
-    pub(super) curv: [f64; 3],
-    pub(super) cant: [f64; 3],
-}
-
 #[inline(always)]
 pub(super) fn stage_slot(stage: usize) -> usize {
     match stage {
@@ -92,8 +82,9 @@ impl<'a> Setup<'a> {
         peak
     }
 
+    /// The exogenous inputs of the step from `t_ns` at its stage slots (start, midpoint, end).
     #[inline(always)]
-    pub(super) fn exo(&mut self, t_ns: u64) -> Exo {
+    pub(super) fn exo(&mut self, t_ns: u64) -> [Exogenous<f64>; 3] {
         let sc = self.sc;
         let h = sc.dt_ns;
         let (c0, th0) = match self.track_end {
@@ -104,29 +95,38 @@ impl<'a> Setup<'a> {
         let (c2, th2) = self.track.at(&sc.track, t_ns + h);
         self.track_end = Some((t_ns + h, c2, th2));
         let demand = sc.traction.at(t_ns);
-        Exo {
+        let f_run = sc.resistance.at(t_ns);
+        let i_ref = demand / (sc.params.n_gear * sc.params.k_m);
+        [(c0, th0), (c1, th1), (c2, th2)].map(|(curvature, cant)| Exogenous {
+            curvature,
+            cant,
+            f_run,
+            i_ref,
             demand,
-            f_run: sc.resistance.at(t_ns),
-            i_ref: demand / (sc.params.n_gear * sc.params.k_m),
-            curv: [c0, c1, c2],
-            cant: [th0, th1, th2],
-        }
+        })
     }
 
     /// The record of state `x` with inputs `e` at `t_ns` (by value, so a run's state
     /// need not stay in memory across this out-of-line call).
-    pub(super) fn record(&mut self, t_ns: u64, x: State, e: Exo, t_ctrl: f64, u_a: f64) -> Record {
+    pub(super) fn record(
+        &mut self,
+        t_ns: u64,
+        x: State,
+        e: Exogenous<f64>,
+        t_ctrl: f64,
+        u_a: f64,
+    ) -> Record {
         let (x, e) = (&x, &e);
         let mu_avail = self.mu_avail(x[ix::V]);
         let p = &self.sc.params;
-        let cr = self.plant.creep(self.plant.cfg, x, e.curv[0]);
+        let cr = self.plant.creep(self.plant.cfg, x, e.curvature);
         // The linear law's forces (those of the plant without its adhesion law).
         let lin = if self.plant.adhesion.is_none() {
             cr
         } else {
             let mut linear = self.plant;
             linear.adhesion = None;
-            linear.creep(linear.cfg, x, e.curv[0])
+            linear.creep(linear.cfg, x, e.curvature)
         };
         let slip = 0.5 * (lin.fx_r + lin.fx_l) / p.f11 * x[ix::V];
         let t_spring = self.plant.spring_torque(self.plant.cfg, x);
@@ -152,9 +152,9 @@ impl<'a> Setup<'a> {
             i_ref_a: e.i_ref,
             demand_nm: e.demand,
             f_run_n: e.f_run,
-            curvature_1pm: e.curv[0],
-            cant_rad: e.cant[0],
-            y0_m: p.pure_rolling_y(e.curv[0]),
+            curvature_1pm: e.curvature,
+            cant_rad: e.cant,
+            y0_m: p.pure_rolling_y(e.curvature),
             slip_mps: slip,
             mu_avail,
             mu_used: (cr.fx_r + cr.fx_l) / (2.0 * p.q()),
@@ -200,13 +200,6 @@ fn continuous<F: Flags>(
     let mut plant = s.plant;
     let drive = sc.drive;
     let mut x = crate::linear::operating_point(&plant, &sc.params);
-    let voltage = |c: &ContinuousController, x: &State, i_ref| {
-        if drive {
-            c.voltage(x, i_ref)
-        } else {
-            0.0
-        }
-    };
     let (n_steps, every) = steps(sc);
     let h = sc.dt_ns as f64 * 1e-9;
     let mut diverged_at = None;
@@ -226,21 +219,13 @@ fn continuous<F: Flags>(
         };
         if k == next_record {
             next_record += every;
-            let u_a = voltage(&ctrl, &x, e.i_ref);
-            on_record(s.record(t_ns, x, e, ctrl.yaw_torque(&x), u_a));
+            let u_a = ctrl.inputs(&x, &e[0], drive).u_a;
+            on_record(s.record(t_ns, x, e[0], ctrl.yaw_torque(&x), u_a));
             if diverged(x) {
                 diverged_at = Some(t_ns as f64 * 1e-9);
                 break;
             }
         }
-        let ex = |j: usize| Exogenous {
-            curvature: e.curv[j],
-            cant: e.cant[j],
-            f_run: e.f_run,
-            i_ref: e.i_ref,
-            demand: e.demand,
-        };
-        let e3 = [ex(0), ex(1), ex(2)];
         x = crate::with_creep_law!(plant, flags => rk4_step_with(
             &x,
             h,
@@ -248,15 +233,15 @@ fn continuous<F: Flags>(
                 plant: &plant,
                 flags,
                 ctrl: &ctrl,
-                e: e3,
+                e,
             },
         ));
     }
     if diverged_at.is_none() {
         let t_end = n_steps * sc.dt_ns;
-        let e = s.exo(t_end);
+        let [e, ..] = s.exo(t_end);
         s.adhesion(t_end);
-        let u_a = voltage(&ctrl, &x, e.i_ref);
+        let u_a = ctrl.inputs(&x, &e, drive).u_a;
         let g = sc.actuator_fault.map_or(1.0, |f| f.gain(t_end));
         on_record(s.record(t_end, x, e, g * ctrl.yaw_torque(&x), u_a));
     }

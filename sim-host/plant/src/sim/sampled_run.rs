@@ -2,7 +2,7 @@
 //! and actuator models, the plant between its calls.
 
 use super::*;
-use crate::control::{Actuation, Measurements, SampledController};
+use crate::control::{Actuation, Exogenous, Measurements, SampledController};
 use crate::plant::{ix, Flags, Inputs, Plant, State};
 use crate::scenario::Scenario;
 use rand::{Rng, SeedableRng};
@@ -111,7 +111,13 @@ impl ActuatorModel {
 }
 
 /// The sensor frame at `x` under the inputs `u` (the actuation held), `e`'s demand and `i_ref`.
-fn measure<F: Flags>(plant: &Plant, flags: F, x: &State, u: &Inputs<f64>, e: &Exo) -> Measurements {
+fn measure<F: Flags>(
+    plant: &Plant,
+    flags: F,
+    x: &State,
+    u: &Inputs<f64>,
+    e: &Exogenous<f64>,
+) -> Measurements {
     let (dx, _) = plant.rhs(flags, x, u);
     let w_l = plant.w_l(flags, x);
     Measurements {
@@ -121,7 +127,7 @@ fn measure<F: Flags>(plant: &Plant, flags: F, x: &State, u: &Inputs<f64>, e: &Ex
         w_m: if flags.cfg().drive {
             x[ix::WM]
         } else {
-            plant.n() * 0.5 * (x[ix::WR] + w_l)
+            plant.n * 0.5 * (x[ix::WR] + w_l)
         },
         w_wheel: 0.5 * (x[ix::WR] + w_l),
         demand_nm: e.demand,
@@ -184,11 +190,11 @@ fn sampled<F: Flags>(
     let mut next_due = u64::MAX;
     let mut calls = 0u64;
     let defers = ctrl.defers();
-    let inputs = |e: &Exo, j: usize, a: &Actuation| Inputs {
+    let inputs = |e: &Exogenous<f64>, a: &Actuation| Inputs {
         t_psi: a.t_psi,
         u_a: if drive { a.u_a } else { 0.0 },
-        curvature: e.curv[j],
-        cant: e.cant[j],
+        curvature: e.curvature,
+        cant: e.cant,
         f_run: e.f_run,
         t_drive: if drive { 0.0 } else { e.demand },
     };
@@ -199,16 +205,16 @@ fn sampled<F: Flags>(
         },
         None => *a,
     };
-    let e0 = s.exo(0);
+    let [e0, ..] = s.exo(0);
     plant.adhesion = s.adhesion(0);
     let m0 = measure(
         &s.plant,
         flags,
         &x,
-        &inputs(&e0, 0, &Actuation::default()),
+        &inputs(&e0, &Actuation::default()),
         &e0,
     );
-    let mut held = ctrl.initial(&m0, s.plant.k_m());
+    let mut held = ctrl.initial(&m0, s.plant.k_m);
     let mut diverged_at = None;
     let (mut next_call, mut next_record) = (0, 0);
     for k in 0..=n_steps {
@@ -220,7 +226,7 @@ fn sampled<F: Flags>(
         if k < n_steps && t_ns == next_call {
             next_call += period;
             let on = fault(t_ns, &held);
-            let m = measure(&s.plant, flags, &x, &inputs(&e, 0, &on), &e);
+            let m = measure(&s.plant, flags, &x, &inputs(&e[0], &on), &e[0]);
             let m = sensor.apply(&m);
             let a = ctrl.step(t_ns, &m);
             // A deferring controller's actuation is taken (and limited) when due.
@@ -248,7 +254,7 @@ fn sampled<F: Flags>(
         }
         if record || k == n_steps {
             let t_psi = fault(t_ns, &held).t_psi;
-            records.push(s.record(t_ns, x, e, t_psi, if drive { held.u_a } else { 0.0 }));
+            records.push(s.record(t_ns, x, e[0], t_psi, if drive { held.u_a } else { 0.0 }));
             if diverged(x) {
                 diverged_at = Some(t_ns as f64 * 1e-9);
                 break;
@@ -258,7 +264,7 @@ fn sampled<F: Flags>(
             break;
         }
         let a = fault(t_ns, &held);
-        let u = [inputs(&e, 0, &a), inputs(&e, 1, &a), inputs(&e, 2, &a)];
+        let u = e.map(|e| inputs(&e, &a));
         x = crate::with_creep_law!(plant, flags => rk4_step_with(
             &x,
             h,

@@ -1,5 +1,4 @@
-//! A [`Figure`]: plots stacked vertically, one legend width for all so their axes line
-//! up.
+//! A [`Figure`], one legend width for all its plots so their axes line up.
 
 use std::path::Path;
 

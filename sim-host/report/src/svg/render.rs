@@ -1,13 +1,9 @@
-//! Drawing a [`Plot`]: its data range, the axes with their ticks (linear or
-//! logarithmic), the series, the reference lines, marks and notes, and the legend in a
-//! column right of the plotting area.
+//! Drawing a [`Plot`], its legend in a column right of the plotting area.
 
 use std::fmt::Write as _;
 
 use super::ticks::{fmt_log, log_ticks};
-use super::{
-    axis_labels, decimate, esc, fmt_tick, nice_ticks, Figure, Plot, Series, Style, PALETTE,
-};
+use super::{axis_labels, decimate, esc, fmt_tick, nice_ticks, Plot, Series, Style, PALETTE};
 
 /// `v` on an axis: itself, or its `log10` on a log axis (NaN for `v <= 0`: never drawn).
 fn axis(log: bool, v: f64) -> f64 {
@@ -573,11 +569,6 @@ impl Plot {
         }
         o.push_str("</g>\n");
         o
-    }
-
-    /// The complete SVG document.
-    pub fn to_svg(&self) -> String {
-        Figure::new("").panel(self.clone()).to_svg()
     }
 }
 

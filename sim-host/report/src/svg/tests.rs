@@ -3,6 +3,17 @@
 use super::ticks::{fmt_log, log_ticks};
 use super::*;
 
+/// A panel alone as an SVG document.
+trait ToSvg {
+    fn to_svg(&self) -> String;
+}
+
+impl ToSvg for Plot {
+    fn to_svg(&self) -> String {
+        Figure::new("").panel(self.clone()).to_svg()
+    }
+}
+
 #[test]
 fn ticks_cover_range_with_nice_steps() {
     let t = nice_ticks(0.0, 20.0, 7);

@@ -1,6 +1,6 @@
-//! Axis ticks and labels: "nice" tick values (1, 2, 5 times a power of ten), their
-//! labels with just the decimals the step needs, XML escaping, and the decimation of long
-//! polylines.
+//! Axis ticks and their labels, XML escaping, and the decimation of long polylines.
+
+use std::cmp::Ordering::Equal;
 
 /// Escapes text for SVG.
 pub fn esc(s: &str) -> String {
@@ -102,17 +102,11 @@ pub(crate) fn decimate(p: &[(f64, f64)], max: usize) -> Vec<(f64, f64)> {
     let buckets = (max / 2).max(2);
     let per = p.len().div_ceil(buckets);
     let mut out = Vec::with_capacity(buckets * 2 + 1);
+    let by_y = |a: &&(f64, f64), b: &&(f64, f64)| a.1.partial_cmp(&b.1).unwrap_or(Equal);
     for chunk in p.chunks(per) {
-        let mut lo = chunk[0];
-        let mut hi = chunk[0];
-        for &q in chunk {
-            if q.1 < lo.1 {
-                lo = q;
-            }
-            if q.1 > hi.1 {
-                hi = q;
-            }
-        }
+        // The first lowest and the first highest (`max_by` keeps the last: reversed).
+        let lo = *chunk.iter().min_by(by_y).unwrap_or(&chunk[0]);
+        let hi = *chunk.iter().rev().max_by(by_y).unwrap_or(&chunk[0]);
         if lo.0 <= hi.0 {
             out.push(lo);
             out.push(hi);
