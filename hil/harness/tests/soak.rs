@@ -190,3 +190,9 @@ fn bad_soak_flags_are_refused_with_the_reason() {
         assert!(err.contains(says), "{args:?}: {err}");
     }
 }
+
+#[test]
+fn a_defect_the_soak_does_not_simulate_is_refused() {
+    let err = soak(options(1, 1, DeviceFault::WrongSign)).expect_err("refused");
+    assert!(err.contains("no defect"), "{err}");
+}

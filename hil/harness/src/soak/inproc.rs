@@ -70,7 +70,7 @@ pub struct SoakOptions {
     pub duration_ns: u64,
     /// Seed of every random choice.
     pub seed: u64,
-    /// A deliberately broken device (`--defect`): `None` or `Corrupt`; the others do nothing.
+    /// A deliberately broken device (`--defect`): `None` or `Corrupt` (the others are refused).
     pub defect: DeviceFault,
     /// Print a line per simulated hour on stderr.
     pub progress: bool,
@@ -320,6 +320,9 @@ pub fn peak_rss_kib() -> u64 {
 
 impl Soak {
     fn new(opts: SoakOptions) -> Result<Self, String> {
+        if !matches!(opts.defect, DeviceFault::None | DeviceFault::Corrupt { .. }) {
+            return Err(format!("the soak has no defect `{}`", opts.defect));
+        }
         let sc = Scenario::load("curve", &Params::default()).map_err(|e| e.to_string())?;
         let base = runtime_config_for(&sc, Law::Lead);
         let mut rt = Runtime::<Fx>::try_new(base).map_err(|e| e.to_string())?;
