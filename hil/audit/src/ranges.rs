@@ -313,9 +313,9 @@ pub fn observe<T: Sample>(
                 .unwrap_or(0.0);
             let d2i = s.demand / (cfg.motor.n * cfg.motor.k_m * s.current);
             let bemf = cfg.motor.k_m * s.speed / s.voltage;
-            let (mut ey, mut eu) = (Acc::default(), Acc::default());
-            // Ticks in the safe state or its ramp back (the ramps' steps accumulate): judged apart.
-            let (mut ry, mut ru) = (Acc::default(), Acc::default());
+            // Per output (T_psi, u_a): normal ticks, then those in the safe state or its ramp
+            // back (the ramps' steps accumulate), judged apart.
+            let mut acc: [[Acc; 2]; 2] = Default::default();
             let mut in_safe = false;
             let ramp_ticks = ((cfg.safe.yaw_s.max(cfg.safe.traction_s)) * cfg.base_rate_hz as f64)
                 .ceil() as usize
@@ -437,13 +437,9 @@ pub fn observe<T: Sample>(
                 }
                 let dy = o.yaw_torque.to_f64() - of.yaw_torque;
                 let du = o.voltage.to_f64() - of.voltage;
-                if in_safe || n < ramp_end {
-                    ry.add(dy);
-                    ru.add(du);
-                } else {
-                    ey.add(dy);
-                    eu.add(du);
-                }
+                let ramp = usize::from(in_safe || n < ramp_end);
+                acc[0][ramp].add(dy);
+                acc[1][ramp].add(du);
                 if mode == YawMode::Lead && n % dec == 0 {
                     trace.push((n as f64 * base_t, dy * s.torque, du * s.voltage));
                 }
@@ -461,8 +457,8 @@ pub fn observe<T: Sample>(
             } else {
                 "gain"
             };
-            let mut push = |out, accs: [&Acc; 2], (fs, wire, limit), unit| {
-                for (acc, phase) in accs.into_iter().zip([Phase::Normal, Phase::SafeRamp]) {
+            let mut push = |out, accs: &[Acc; 2], (fs, wire, limit), unit| {
+                for (acc, phase) in accs.iter().zip([Phase::Normal, Phase::SafeRamp]) {
                     if acc.n > 0 {
                         let n = acc.noise(out, &sc.name, mname, phase, lsb, fs, wire, limit, unit);
                         noise.push(n);
@@ -471,19 +467,14 @@ pub fn observe<T: Sample>(
             };
             push(
                 "T_psi",
-                [&ey, &ry],
+                &acc[0],
                 (s.torque, cfg.wire.torque, l.torque),
                 "N m",
             );
             // u_a once per scenario: from the lead run.
             if mode == YawMode::Lead {
                 let v_limit = l.voltage_max.abs().max(l.voltage_min.abs());
-                push(
-                    "u_a",
-                    [&eu, &ru],
-                    (s.voltage, cfg.wire.voltage, v_limit),
-                    "V",
-                );
+                push("u_a", &acc[1], (s.voltage, cfg.wire.voltage, v_limit), "V");
                 traces.push((sc.name.clone(), trace));
             }
         }

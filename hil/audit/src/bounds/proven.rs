@@ -449,9 +449,6 @@ pub fn prove(
         })
         .collect();
     let overflow_free = sig.iter().all(|x| x.4 < range);
-    // Recommendations: integer bits (incl. sign) with `2^(i-1)` above the proven bound,
-    // fraction bits keeping the proven rounding error of the chain's output (T_psi or
-    // u_a) within half a wire LSB.
     let budget_t = 0.5 * wire.torque / s.torque;
     let budget_u = 0.5 * wire.voltage / s.voltage;
     let yaw_per = lead_err.max(gain_err) / q;
