@@ -1,4 +1,4 @@
-//! The audit's synthetic input scenarios ([`synthetic`]); the closed-loop ones: [`super::recordings`].
+//! The synthetic input scenarios ([`synthetic`]); the closed-loop ones: [`super::recordings`].
 
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
