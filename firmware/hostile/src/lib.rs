@@ -188,11 +188,6 @@ fn negated(b: Bits, v: u64) -> u64 {
     }
 }
 
-/// `1 + k 2^-10` as `num / den` with `den = 10 240` (`k` in tenths).
-const fn tolerance(k_tenths: i32) -> (u32, u32) {
-    ((10_240 + k_tenths) as u32, 10_240)
-}
-
 /// Every row for `T`, in table order, handed to `each` (an error is a bug of the table).
 pub fn rows<T: SampleBits>(mut each: impl FnMut(Row)) -> Result<(), RuntimeError> {
     use RefuseReason as R;
@@ -294,27 +289,25 @@ pub fn rows<T: SampleBits>(mut each: impl FnMut(Row)) -> Result<(), RuntimeError
         row(y, change, c, no(R::YawNotDesigned));
     }
     // The hold: 20 ms at most (the probe's gap is past the default hold, so a longer one shows).
-    let hold = |hold_ticks, rates| Config {
-        hold_ticks,
-        rates,
-        ..base
-    };
-    let h = field(R::HoldTicks);
-    row(h, "0", hold(0, None), yes(true));
-    row(h, "100 (20 ms at 5 kHz)", hold(100, None), yes(true));
-    row(h, "101", hold(101, None), no(R::HoldTicks));
-    row(h, "65 535", hold(u16::MAX, None), no(R::HoldTicks));
-    row(
-        h,
-        "65 535 with rates",
-        hold(u16::MAX, Some(good)),
-        no(R::HoldTicks),
-    );
     let k10 = design(10_000, 1)?;
-    row(h, "200 (20 ms at 10 kHz)", hold(200, Some(k10)), yes(true));
-    row(h, "201 at 10 kHz", hold(201, Some(k10)), no(R::HoldTicks));
-    row(h, "20 (20 ms at 1 kHz)", hold(20, Some(k1)), yes(true));
-    row(h, "21 at 1 kHz", hold(21, Some(k1)), no(R::HoldTicks));
+    for (change, hold_ticks, rates, expect) in [
+        ("0", 0, None, yes(true)),
+        ("100 (20 ms at 5 kHz)", 100, None, yes(true)),
+        ("101", 101, None, no(R::HoldTicks)),
+        ("65 535", u16::MAX, None, no(R::HoldTicks)),
+        ("65 535 with rates", u16::MAX, Some(good), no(R::HoldTicks)),
+        ("200 (20 ms at 10 kHz)", 200, Some(k10), yes(true)),
+        ("201 at 10 kHz", 201, Some(k10), no(R::HoldTicks)),
+        ("20 (20 ms at 1 kHz)", 20, Some(k1), yes(true)),
+        ("21 at 1 kHz", 21, Some(k1), no(R::HoldTicks)),
+    ] {
+        let c = Config {
+            hold_ticks,
+            rates,
+            ..base
+        };
+        row(field(R::HoldTicks), change, c, expect);
+    }
     // Every coefficient, perturbed: only the design's bits are taken.
     for slot in RATED {
         // `r` with this value set to `v` (a 32-bit value takes the low 32 bits).
@@ -335,8 +328,8 @@ pub fn rows<T: SampleBits>(mut each: impl FnMut(Row)) -> Result<(), RuntimeError
         row(f, "+1 LSB", set(v + 1), no(why));
         row(f, "-1 LSB", set(v.saturating_sub(1)), no(why));
         for (change, (num, den)) in [
-            ("x(1 + 0.9 2^-10)", tolerance(9)),
-            ("x(1 - 0.9 2^-10)", tolerance(-9)),
+            ("x(1 + 0.9 2^-10)", (10_249, 10_240)),
+            ("x(1 - 0.9 2^-10)", (10_231, 10_240)),
             ("x1.01", (101, 100)),
             ("x2", (2, 1)),
             ("x10", (10, 1)),
@@ -433,28 +426,18 @@ pub fn rows<T: SampleBits>(mut each: impl FnMut(Row)) -> Result<(), RuntimeError
         row(rates, change, config, no(why));
     }
     // The switches, all taken by every build.
-    let switched = |f: fn(&mut Config)| {
+    let switches: [(_, fn(&mut Config), _); 6] = [
+        ("wheel-slip protection on", |c| c.wsp = true, true),
+        ("monitor_safe on", |c| c.monitor_safe = true, false),
+        ("mode passive", |c| c.mode = YawMode::Passive, true),
+        ("mode gain", |c| c.mode = YawMode::Gain, true),
+        ("traction off", |c| c.traction = false, true),
+        ("outputs off", |c| c.enable = false, true),
+    ];
+    for (change, switch, visible) in switches {
         let mut c = base;
-        f(&mut c);
-        c
-    };
-    for (change, config, visible) in [
-        ("wheel-slip protection on", switched(|c| c.wsp = true), true),
-        (
-            "monitor_safe on",
-            switched(|c| c.monitor_safe = true),
-            false,
-        ),
-        (
-            "mode passive",
-            switched(|c| c.mode = YawMode::Passive),
-            true,
-        ),
-        ("mode gain", switched(|c| c.mode = YawMode::Gain), true),
-        ("traction off", switched(|c| c.traction = false), true),
-        ("outputs off", switched(|c| c.enable = false), true),
-    ] {
-        row("switches", change, config, yes(visible));
+        switch(&mut c);
+        row("switches", change, c, yes(visible));
     }
     for p in wheelset_control::design::DESIGNED {
         let (hz, d) = (p.base_rate_hz, p.delay_ticks);

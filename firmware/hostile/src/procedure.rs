@@ -165,9 +165,12 @@ pub enum Fault {
         /// The probe frame (`None`: the Status).
         tick: Option<usize>,
     },
-    /// A refused row's Config was not refused once with its reason.
-    NotRefused {
-        /// `cmd_refused` after it (1 expected).
+    /// The row's Config was not refused once with its reason (`expect` refused) or was
+    /// refused (`expect` applied).
+    Refusal {
+        /// What the row expects.
+        expect: Expect,
+        /// `cmd_refused` after it.
         cmd_refused: u32,
         /// `refuse_reason` after it.
         reason: u8,
@@ -177,13 +180,6 @@ pub enum Fault {
     Changed {
         /// The tick (`None`: the Status).
         tick: Option<usize>,
-    },
-    /// An applied row was refused.
-    Refused {
-        /// `cmd_refused` after it.
-        cmd_refused: u32,
-        /// `refuse_reason` after it.
-        reason: u8,
     },
     /// An applied row that must show left every frame as in the nominal run.
     NotVisible,
@@ -196,7 +192,8 @@ impl fmt::Display for Fault {
             Self::Restore { tick: Some(k) } => {
                 write!(f, "restore: the Actuation of probe frame {k} differs")
             }
-            Self::NotRefused {
+            Self::Refusal {
+                expect: Expect::Refused(_),
                 cmd_refused,
                 reason,
             } => write!(
@@ -210,9 +207,10 @@ impl fmt::Display for Fault {
                 f,
                 "refused, but the Actuation {k} ticks after it differs from the nominal run's"
             ),
-            Self::Refused {
+            Self::Refusal {
                 cmd_refused,
                 reason,
+                ..
             } => write!(
                 f,
                 "refused (cmd_refused {cmd_refused}, refuse_reason {reason}), must be applied"
@@ -265,14 +263,19 @@ pub fn judge(expect: Expect, trace: &Trace, nominal: &Trace) -> Result<(), Fault
     let ticks = || core::iter::once(&trace.at).chain(&trace.after);
     let nominal_ticks = || core::iter::once(&nominal.at).chain(&nominal.after);
     let changed = first_difference(ticks(), nominal_ticks());
+    let as_expected = match expect {
+        Expect::Refused(why) => count == 1 && reason == why.code(),
+        Expect::Applied { .. } => count == 0 && reason == 0,
+    };
+    if !as_expected {
+        return Err(Fault::Refusal {
+            expect,
+            cmd_refused: count,
+            reason,
+        });
+    }
     match expect {
-        Expect::Refused(why) => {
-            if count != 1 || reason != why.code() {
-                return Err(Fault::NotRefused {
-                    cmd_refused: count,
-                    reason,
-                });
-            }
+        Expect::Refused(_) => {
             if let Some(k) = changed {
                 return Err(Fault::Changed { tick: Some(k) });
             }
@@ -281,12 +284,6 @@ pub fn judge(expect: Expect, trace: &Trace, nominal: &Trace) -> Result<(), Fault
             }
         }
         Expect::Applied { visible } => {
-            if count != 0 || reason != 0 {
-                return Err(Fault::Refused {
-                    cmd_refused: count,
-                    reason,
-                });
-            }
             if visible && changed.is_none() {
                 return Err(Fault::NotVisible);
             }

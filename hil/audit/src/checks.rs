@@ -228,10 +228,10 @@ pub fn all_checks(c: &Core, tol: &Tolerances, cfg: &Config) -> Vec<Check> {
 pub fn proof_checks(p: &Proofs, tol: &Tolerances) -> Vec<Check> {
     let mut v = Vec::new();
     let (margin, worst) = super::bounds::smallest_margin(&p.bounds);
-    let status = if !p.overflow_free || margin.is_nan() || margin <= 0.0 {
-        Status::Fail
-    } else {
+    let status = if p.overflow_free && margin > 0.0 {
         Status::Pass
+    } else {
+        Status::Fail
     };
     let reason = format!(
         "smallest margin of a proven bound to the format's range {margin:.2} bits ({worst}); \
@@ -459,15 +459,10 @@ fn usual_margin_checks(x: &Margin, cfg: &Config, p: &wheelset_plant::params::Par
     // One period of actuation delay plus the zero-order hold's half period.
     let lag_deg = |f_hz: f64| 360.0 * f_hz * 1.5 * t0;
     let torsion_hz = (2.0 * p.k_t() / p.i_w).sqrt() / (2.0 * std::f64::consts::PI);
-    let change = match (
-        x.gain_db_ideal,
-        x.gain_db_quantised,
-        x.phase_deg_ideal,
-        x.phase_deg_quantised,
-    ) {
-        (Some(a), Some(b), Some(c), Some(d)) => (b - a).abs().max((d - c).abs()),
-        _ => f64::NAN,
-    };
+    let moved = |ideal: Option<f64>, quantised: Option<f64>| Some((quantised? - ideal?).abs());
+    let change = moved(x.gain_db_ideal, x.gain_db_quantised)
+        .zip(moved(x.phase_deg_ideal, x.phase_deg_quantised))
+        .map_or(f64::NAN, |(g, p)| g.max(p));
     let remedy = |fc: f64| {
         let common = format!(
             "the margins are the controller's on this plant, not the fixed point's \

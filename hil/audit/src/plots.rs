@@ -229,7 +229,6 @@ pub fn write_plots(a: &Audit, dir: &Path) -> Result<Vec<(String, String)>, Audit
     );
     let f = save(&fig, dir, "ranges.svg")?;
     out.push(("Ranges and headroom per signal".to_string(), f));
-    // The noise traces against `noise_wire_lsb` (in wire LSBs of each output).
     let wire = wheelset_control::WireLsb::default();
     let (warn_lsb, fail_lsb) = tol.noise_wire_lsb;
     for (name, tr) in &a.observed.traces {

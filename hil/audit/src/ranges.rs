@@ -74,44 +74,29 @@ enum Sig {
     BackEmf,
 }
 
-/// `(name, kind, full scale selector, is a state)`.
-const SIGNALS: [(&str, &str, Fs, bool); 21] = [
-    ("y_dot (clamped input)", "yaw", Fs::YDot, false),
-    ("predictor y' - y'[n-1]", "yaw", Fs::YDot, false),
-    ("predictor y' + 2d (before clamp)", "yaw", Fs::YDot, false),
-    ("lead x + x1", "yaw_lead", Fs::YDot, false),
-    ("lead (g/2)(x + x1) - z", "yaw_lead", Fs::YDot, false),
-    ("lead z (state)", "yaw_lead", Fs::YDot, true),
-    ("lead x1 (state)", "yaw_lead", Fs::YDot, true),
-    ("lead x - z", "yaw_lead", Fs::YDot, false),
-    ("T_psi before limit", "yaw", Fs::Torque, false),
-    ("T_psi (output)", "yaw", Fs::Torque, false),
-    ("i_a (clamped input)", "traction_pi", Fs::Current, false),
-    ("demand (clamped input)", "traction_pi", Fs::Demand, false),
-    ("i_ref target", "traction_pi", Fs::Current, false),
-    ("i_ref (ramped, state)", "traction_pi", Fs::Current, true),
-    ("e = i_ref - i_a", "traction_pi", Fs::Current, false),
-    ("PI Kp e", "traction_pi", Fs::Voltage, false),
-    (
-        "PI I + Ki e (before clamp)",
-        "traction_pi",
-        Fs::Voltage,
-        false,
-    ),
-    ("PI I (state)", "traction_pi", Fs::Voltage, true),
-    (
-        "PI Kp e + I (before limit)",
-        "traction_pi",
-        Fs::Voltage,
-        false,
-    ),
-    ("u_a (output)", "traction_pi", Fs::Voltage, false),
-    (
-        "back-EMF preset K_m omega",
-        "traction_pi",
-        Fs::Voltage,
-        false,
-    ),
+/// `(name, full scale selector, is a state)`.
+const SIGNALS: [(&str, Fs, bool); 21] = [
+    ("y_dot (clamped input)", Fs::YDot, false),
+    ("predictor y' - y'[n-1]", Fs::YDot, false),
+    ("predictor y' + 2d (before clamp)", Fs::YDot, false),
+    ("lead x + x1", Fs::YDot, false),
+    ("lead (g/2)(x + x1) - z", Fs::YDot, false),
+    ("lead z (state)", Fs::YDot, true),
+    ("lead x1 (state)", Fs::YDot, true),
+    ("lead x - z", Fs::YDot, false),
+    ("T_psi before limit", Fs::Torque, false),
+    ("T_psi (output)", Fs::Torque, false),
+    ("i_a (clamped input)", Fs::Current, false),
+    ("demand (clamped input)", Fs::Demand, false),
+    ("i_ref target", Fs::Current, false),
+    ("i_ref (ramped, state)", Fs::Current, true),
+    ("e = i_ref - i_a", Fs::Current, false),
+    ("PI Kp e", Fs::Voltage, false),
+    ("PI I + Ki e (before clamp)", Fs::Voltage, false),
+    ("PI I (state)", Fs::Voltage, true),
+    ("PI Kp e + I (before limit)", Fs::Voltage, false),
+    ("u_a (output)", Fs::Voltage, false),
+    ("back-EMF preset K_m omega", Fs::Voltage, false),
 ];
 
 /// A signal's full scale in [`Config::scales`].
@@ -122,6 +107,18 @@ pub(crate) enum Fs {
     Current,
     Demand,
     Voltage,
+}
+
+impl Fs {
+    /// The controller of the signal `name` on this full scale: the lead's (`lead ...`),
+    /// the yaw loop's or the PI's.
+    pub(crate) fn controller(self, name: &str) -> &'static str {
+        match self {
+            _ if name.starts_with("lead ") => "yaw_lead",
+            Fs::YDot | Fs::Torque => "yaw",
+            _ => "traction_pi",
+        }
+    }
 }
 
 /// The full scale (SI per pu) and SI unit of `f`.
@@ -283,11 +280,11 @@ pub fn observe<T: Sample>(
 ) -> Result<Observed, wheelset_control::ConfigError> {
     let mut sig: Vec<SignalRange> = SIGNALS
         .iter()
-        .map(|&(n, k, f, state)| {
+        .map(|&(n, f, state)| {
             let (full_scale, unit) = fs_of(f, base);
             SignalRange {
                 name: n.to_string(),
-                controller: k.to_string(),
+                controller: f.controller(n).to_string(),
                 state,
                 unit: unit.to_string(),
                 full_scale,
@@ -316,9 +313,9 @@ pub fn observe<T: Sample>(
                 .unwrap_or(0.0);
             let d2i = s.demand / (cfg.motor.n * cfg.motor.k_m * s.current);
             let bemf = cfg.motor.k_m * s.speed / s.voltage;
-            let (mut ey, mut eu) = (Acc::default(), Acc::default());
-            // Ticks in the safe state or its ramp back (the ramps' steps accumulate): judged apart.
-            let (mut ry, mut ru) = (Acc::default(), Acc::default());
+            // Per output (T_psi, u_a): normal ticks, then those in the safe state or its ramp
+            // back (the ramps' steps accumulate), judged apart.
+            let mut acc: [[Acc; 2]; 2] = Default::default();
             let mut in_safe = false;
             let ramp_ticks = ((cfg.safe.yaw_s.max(cfg.safe.traction_s)) * cfg.base_rate_hz as f64)
                 .ceil() as usize
@@ -440,13 +437,9 @@ pub fn observe<T: Sample>(
                 }
                 let dy = o.yaw_torque.to_f64() - of.yaw_torque;
                 let du = o.voltage.to_f64() - of.voltage;
-                if in_safe || n < ramp_end {
-                    ry.add(dy);
-                    ru.add(du);
-                } else {
-                    ey.add(dy);
-                    eu.add(du);
-                }
+                let ramp = usize::from(in_safe || n < ramp_end);
+                acc[0][ramp].add(dy);
+                acc[1][ramp].add(du);
                 if mode == YawMode::Lead && n % dec == 0 {
                     trace.push((n as f64 * base_t, dy * s.torque, du * s.voltage));
                 }
@@ -464,8 +457,8 @@ pub fn observe<T: Sample>(
             } else {
                 "gain"
             };
-            let mut push = |out, accs: [&Acc; 2], (fs, wire, limit), unit| {
-                for (acc, phase) in accs.into_iter().zip([Phase::Normal, Phase::SafeRamp]) {
+            let mut push = |out, accs: &[Acc; 2], (fs, wire, limit), unit| {
+                for (acc, phase) in accs.iter().zip([Phase::Normal, Phase::SafeRamp]) {
                     if acc.n > 0 {
                         let n = acc.noise(out, &sc.name, mname, phase, lsb, fs, wire, limit, unit);
                         noise.push(n);
@@ -474,19 +467,14 @@ pub fn observe<T: Sample>(
             };
             push(
                 "T_psi",
-                [&ey, &ry],
+                &acc[0],
                 (s.torque, cfg.wire.torque, l.torque),
                 "N m",
             );
             // u_a once per scenario: from the lead run.
             if mode == YawMode::Lead {
                 let v_limit = l.voltage_max.abs().max(l.voltage_min.abs());
-                push(
-                    "u_a",
-                    [&eu, &ru],
-                    (s.voltage, cfg.wire.voltage, v_limit),
-                    "V",
-                );
+                push("u_a", &acc[1], (s.voltage, cfg.wire.voltage, v_limit), "V");
                 traces.push((sc.name.clone(), trace));
             }
         }

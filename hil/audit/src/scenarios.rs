@@ -1,5 +1,4 @@
-//! The synthetic input scenarios of the audit (full-scale steps, a chirp, random
-//! full-scale inputs); the closed-loop ones come from [`super::recordings`].
+//! The synthetic input scenarios ([`synthetic`]); the closed-loop ones: [`super::recordings`].
 
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;

@@ -4,8 +4,7 @@
 
 use serde::Serialize;
 
-/// Pass, warn or fail: the same type as the run budgets' verdict, ordered best to worst
-/// (the overall verdict is the maximum).
+/// Pass, warn or fail, ordered best to worst (the overall verdict is the maximum).
 pub use wheelset_report::Verdict as Status;
 
 /// The tolerances every figure is judged against. `warn` and `fail` are thresholds on
@@ -76,12 +75,10 @@ pub struct Check {
     pub status: Status,
     /// Why, in words.
     pub reason: String,
-    /// What to do when it does not pass (every check states one; the outputs show it
-    /// after the reason of a check that warns or fails).
+    /// What to do when it does not pass (every check states one; [`Self::reason_and_remedy`]).
     pub remedy: String,
-    /// The check could not run (e.g. the target comparison without QEMU or the
-    /// firmware): its status is `warn`, so the verdict does not claim it, and the
-    /// summary counts it as not run.
+    /// The check could not run (e.g. the target comparison without QEMU): its status is
+    /// `warn`, so the verdict does not claim it ([`counts_words`] counts it as not run).
     pub not_run: bool,
 }
 

@@ -90,8 +90,7 @@ pub struct Bound {
     pub proof: String,
 }
 
-/// One output's rounding error: observed and proven, against exact arithmetic on the
-/// same quantised coefficients and inputs.
+/// One output's rounding error, observed and proven (module docs).
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct ErrorBound {
     /// Output (`T_psi (lead)`, `T_psi (gain)`, `u_a (PI)`, `i_ref`).

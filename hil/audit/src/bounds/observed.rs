@@ -6,9 +6,8 @@ use wheelset_control::{Config, ConfigError, Controller, Lead, Pi, PiState, Sampl
 use super::{quantise, Quantised};
 use crate::ranges::Scenario;
 
-/// Largest |fixed - exact| over the scenarios for the lead (with the predictor), the
-/// gain, the PI given its input and the reference, pu: the exact runs use f64 on the
-/// quantised coefficients and the fixed runs' own inputs.
+/// Largest |fixed - exact| over the scenarios (module docs), pu: the lead (with the
+/// predictor), the gain, the PI given its input and the reference.
 pub fn observed_errors<T: Sample>(
     cfg: &Config,
     k: &Quantised,

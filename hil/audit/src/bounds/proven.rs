@@ -193,12 +193,15 @@ pub fn prove(
     let prop = k.kp.abs() * e + h;
     let u = k.u_min.abs().max(k.u_max.abs());
     let row = |n: &str, f: Fs, v: f64, proof: &str| {
-        let c = match f {
-            YDot | Torque => "yaw",
-            _ => "traction_pi",
-        };
         let (fs, unit) = fs_of(f, cfg);
-        (n.into(), c.into(), unit.into(), fs, v, proof.into())
+        (
+            n.into(),
+            f.controller(n).into(),
+            unit.into(),
+            fs,
+            v,
+            proof.into(),
+        )
     };
     let mut sig: Vec<(String, String, String, f64, f64, String)> = vec![
         row("y_dot (clamped input)", YDot, y, "input clamp limits.y_dot"),
@@ -221,14 +224,7 @@ pub fn prove(
             "WCPG {:.6} x X = {:.6} pu (lead input bound) + rounding error {:.2e} pu",
             ws[i], x, err[i]
         );
-        sig.push((
-            n.to_string(),
-            "yaw_lead".into(),
-            "m/s".into(),
-            s.y_dot,
-            v,
-            proof,
-        ));
+        sig.push(row(n, YDot, v, &proof));
     }
     sig.extend([
         row(
@@ -453,9 +449,6 @@ pub fn prove(
         })
         .collect();
     let overflow_free = sig.iter().all(|x| x.4 < range);
-    // Recommendations: integer bits (incl. sign) with `2^(i-1)` above the proven bound,
-    // fraction bits keeping the proven rounding error of the chain's output (T_psi or
-    // u_a) within half a wire LSB.
     let budget_t = 0.5 * wire.torque / s.torque;
     let budget_u = 0.5 * wire.voltage / s.voltage;
     let yaw_per = lead_err.max(gain_err) / q;

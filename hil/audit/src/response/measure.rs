@@ -132,11 +132,9 @@ pub fn measured_at<T: Sample>(
     let per = fs / f_hz;
     let cycles = (2000.0 / per).ceil().max(1.0);
     let n = (cycles * per).round().max(8.0) as usize;
-    for k in 0..settle {
-        d.step(amp * (w * k as f64).sin());
-    }
-    let y: Vec<f64> = (settle..settle + n)
+    let y: Vec<f64> = (0..settle + n)
         .map(|k| d.step(amp * (w * k as f64).sin()))
+        .skip(settle)
         .collect();
     let (a, b, _) = fit_sine(&y, w, settle);
     Ok(C64::new(a / amp, b / amp))
@@ -154,10 +152,7 @@ pub fn measured_dc<T: Sample>(
     let mut d = Drive::<T>::new(kind, cfg)?;
     let x = 0.15;
     let n = 2 * settle_steps(kind, cfg) + 2;
-    let mut y = 0.0;
-    for _ in 0..n {
-        y = d.step(x);
-    }
+    let y = (0..n).fold(0.0, |_, _| d.step(x));
     // The input as the controller saw it (quantised).
     let xq = T::from_f64(x / cfg.scales.y_dot).to_f64() * cfg.scales.y_dot;
     Ok(Some(y / xq))
