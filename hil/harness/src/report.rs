@@ -346,22 +346,30 @@ fn exec_histogram(r: &RunReport) -> Figure {
 
 /// Writes `report.md` and its SVG plots into `dir`; returns the files written.
 pub fn write_report(out: &RunOutcome, dir: &Path, command: &str) -> io::Result<Vec<PathBuf>> {
+    write_files(
+        dir,
+        [
+            ("trajectories.svg", trajectories(out).to_svg()),
+            ("monitor.svg", monitor(out).to_svg()),
+            ("exec_histogram.svg", exec_histogram(&out.report).to_svg()),
+            ("report.md", markdown(out, command)),
+        ],
+    )
+}
+
+/// Writes each `(name, text)` into `dir` (created); returns the files written.
+pub(crate) fn write_files<'a>(
+    dir: &Path,
+    files: impl IntoIterator<Item = (&'a str, String)>,
+) -> io::Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir)?;
-    let mut files = Vec::new();
-    for (name, fig) in [
-        ("trajectories.svg", trajectories(out)),
-        ("monitor.svg", monitor(out)),
-        ("exec_histogram.svg", exec_histogram(&out.report)),
-    ] {
-        let p = dir.join(name);
-        fig.save(&p)?;
-        files.push(p);
-    }
-    let md = markdown(out, command);
-    let p = dir.join("report.md");
-    std::fs::write(&p, md)?;
-    files.push(p);
-    Ok(files)
+    files
+        .into_iter()
+        .map(|(name, text)| {
+            let p = dir.join(name);
+            std::fs::write(&p, text).map(|()| p)
+        })
+        .collect()
 }
 
 fn f(x: f64) -> String {

@@ -100,8 +100,6 @@ pub fn write_sweep_report(
     command: &str,
 ) -> io::Result<Vec<PathBuf>> {
     use wheelset_report::svg::heatmap::{sequential, stack, Cell};
-    std::fs::create_dir_all(dir)?;
-    let mut files = Vec::new();
     let h = &doc.sweep;
     let what = format!(
         "{} with {:?} on {}{}",
@@ -125,15 +123,12 @@ pub fn write_sweep_report(
         .iter()
         .map(|(v, c)| ((*c).to_string(), v.to_string()))
         .collect();
-    let maps = heat_maps(
+    let verdicts = heat_maps(
         doc,
         &format!("Verdict: {what}"),
         &|r| Cell::new(colour(r.verdict), &r.verdict.to_string()),
         &legend,
     );
-    let p = dir.join("verdict.svg");
-    std::fs::write(&p, stack("", &maps))?;
-    files.push(p);
 
     let peaks: Vec<f64> = doc
         .records
@@ -169,7 +164,7 @@ pub fn write_sweep_report(
         }
         l
     };
-    let maps = heat_maps(
+    let peak_maps = heat_maps(
         doc,
         &format!("Peak |y| (mm): {what}"),
         &|r| {
@@ -181,14 +176,14 @@ pub fn write_sweep_report(
         },
         &legend,
     );
-    let p = dir.join("peak_y.svg");
-    std::fs::write(&p, stack("", &maps))?;
-    files.push(p);
-
-    let p = dir.join("report.md");
-    std::fs::write(&p, sweep_markdown(doc, command))?;
-    files.push(p);
-    Ok(files)
+    crate::report::write_files(
+        dir,
+        [
+            ("verdict.svg", stack("", &verdicts)),
+            ("peak_y.svg", stack("", &peak_maps)),
+            ("report.md", sweep_markdown(doc, command)),
+        ],
+    )
 }
 
 /// The Markdown text of a campaign's report.
