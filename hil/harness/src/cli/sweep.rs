@@ -34,7 +34,7 @@ pub(crate) struct MergeArgs {
     files: Vec<PathBuf>,
     /// Write the merged document here.
     #[arg(long, required = true, value_name = "OUT")]
-    json: Option<PathBuf>,
+    json: PathBuf,
     /// Also write the campaign's report (table and heat maps) into this directory.
     #[arg(long, value_name = "DIR")]
     report: Option<PathBuf>,
@@ -178,11 +178,7 @@ pub(crate) fn cmd_sweep(c: &SweepCmd, command: &str) -> Result<Verdict, Failure>
             parts.push((name, doc));
         }
         let doc = sweep::merge(&parts).map_err(input)?;
-        let json = m
-            .json
-            .as_deref()
-            .ok_or_else(|| input("--json OUT: needed"))?;
-        return write(&doc, json, m.report.as_deref());
+        return write(&doc, &m.json, m.report.as_deref());
     }
     let a = &c.args;
     let json = a
