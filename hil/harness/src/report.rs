@@ -85,7 +85,6 @@ fn trajectories(out: &RunOutcome) -> Figure {
         "{} on {}: device vs f64 reference, and the error judged{stopped}",
         r.scenario, r.target
     ));
-    // Column `col` of `tr` times `k`, up to the device's end.
     let line = |tr: &Trajectory, label: &str, col: &str, k: f64| {
         let at = |x: &Record| column(x, col).unwrap_or(f64::NAN) * k;
         let pts = tr.records.iter().filter(|x| x.t_s <= end);
@@ -235,7 +234,6 @@ fn monitor(out: &RunOutcome) -> Figure {
     ));
     let first = events.iter().map(|e| e.0).fold(f64::INFINITY, f64::min);
     let last = events.iter().map(|e| e.0).fold(f64::NEG_INFINITY, f64::max);
-    // Over the whole run the events are marked with their names; the zoom adds times.
     if first.is_finite() {
         let (t0, t1) = (
             (first - 0.3).max(0.0),

@@ -400,7 +400,6 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
         },
     )
     .map_err(|e| RunError::Input(format!("scenario {}: {e}", sc.source)))?;
-    // Back to the normal scheduler for the analysis.
     os::release();
     if let Some(e) = cl.rec.error.take() {
         return Err(RunError::Target(e));

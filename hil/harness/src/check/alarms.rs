@@ -402,7 +402,6 @@ pub fn drive_expectation(
     d.mode_hz = Some(mode.freq_hz);
     d.sigma_per_s = Some(sigma);
     if mode.radius >= 1.0 && sigma.is_finite() {
-        // One wire LSB of current (wheelset_proto::units::CURRENT_LSB_A) as the seed.
         let a0 = wheelset_proto::units::CURRENT_LSB_A;
         let (n, persist) = (
             f64::from(p.drive_window_steps),

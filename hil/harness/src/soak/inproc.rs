@@ -650,7 +650,6 @@ impl Soak {
         if let Some(a) = fresh_act {
             self.host_sees(t, &a);
         }
-        // The plant over the period under the actuation in force, then the new one.
         self.integrate(curvature, cant, demand);
         if let Some(a) = fresh_act {
             self.held = (
