@@ -8,6 +8,7 @@ use clap::{Args, ValueEnum};
 use hil::budget::Budgets;
 use hil::report;
 use hil::run::{run, RunOptions, Target};
+use serde::Deserialize as _;
 use wheelset_loop::inproc::DeviceFault;
 use wheelset_loop::sim_link::{Faults, LinkConfig};
 use wheelset_plant::params::Params;
@@ -359,7 +360,11 @@ pub(crate) fn print_summary(r: &hil::run::RunReport) {
     for (name, d) in [("host -> device", &f.up), ("device -> host", &f.down)] {
         say!("  {name}: {d}");
     }
-    if let Some(h) = r.transport.as_ref().and_then(|t| t.get("host")) {
+    let transport = r.transport.as_ref();
+    if let Some(h) = transport.and_then(|t| t.get("host")) {
+        let obtained = transport
+            .and_then(|t| t.get("realtime"))
+            .and_then(|v| wheelset_targets::realtime::os::Obtained::deserialize(v).ok());
         say!(
             "host (real time): missed {} of {} deadlines ({} late sends, {} late receives), \
              send lateness p99 {:.1} us; obtained {}",
@@ -368,16 +373,7 @@ pub(crate) fn print_summary(r: &hil::run::RunReport) {
             h["late_sends"],
             h["late_receives"],
             h["send_lateness_ns"]["p99"].as_f64().unwrap_or(0.0) * 1e-3,
-            r.transport
-                .as_ref()
-                .and_then(|t| t.get("realtime"))
-                .and_then(
-                    |v| serde_json::from_value::<wheelset_targets::realtime::os::Obtained>(
-                        v.clone()
-                    )
-                    .ok()
-                )
-                .map_or_else(|| "nothing reported".to_string(), |o| o.to_string())
+            obtained.map_or_else(|| "nothing reported".to_string(), |o| o.to_string())
         );
     }
     let default = Params::default().entries();
