@@ -277,11 +277,6 @@ pub fn judge(
         alarms,
         expect: "none",
         diverged_s: tr.info.diverged_at_s,
-        drive: DriveReport {
-            expect: "none",
-            l_a_h: sc.params.l_a,
-            ..DriveReport::default()
-        },
         ..MonitorReport::default()
     };
     let diverged = tr.info.diverged_at_s;

@@ -91,9 +91,7 @@ fn heat_maps(
         .collect()
 }
 
-/// Writes a campaign's report into `dir`: `report.md` (a table of every point) and the
-/// heat maps `verdict.svg` and `peak_y.svg` (peak |y| on a logarithmic colour scale);
-/// returns the files written.
+/// Writes a campaign's report (the module docs' three files) into `dir`; returns them.
 pub fn write_sweep_report(
     doc: &crate::sweep::SweepDoc,
     dir: &Path,
