@@ -276,13 +276,18 @@ fn exec_histogram(r: &RunReport) -> Figure {
         }
         p
     };
+    let what = if t.exec_ns.max <= 0.0 {
+        "not measured".to_string()
+    } else if t.exec_measured {
+        let each = value_label(t.exec_ns_per_unit);
+        format!("{} at {each} ns each", t.exec_unit)
+    } else {
+        format!("simulated by the device fault {}", r.device_fault)
+    };
+    let fig = Figure::new(&format!("Execution time per tick ({}: {what})", r.target));
     // In process (0 ns unless a device fault simulates it): the budgets and a note.
     if t.exec_ns.max <= 0.0 {
-        return Figure::new(&format!(
-            "Execution time per tick ({}: not measured)",
-            r.target
-        ))
-        .panel(budgets(
+        return fig.panel(budgets(
             Plot::new("The period T and the CPU budget a measured tick is held to")
                 .x_label("execution time (us)")
                 .y_label("ticks")
@@ -325,21 +330,7 @@ fn exec_histogram(r: &RunReport) -> Figure {
         .log_x()
         .x_range(lo_us * 0.8, period_us * 1.25),
     );
-    Figure::new(&if t.exec_measured {
-        format!(
-            "Execution time per tick ({}: {} at {} ns each)",
-            r.target,
-            t.exec_unit,
-            value_label(t.exec_ns_per_unit)
-        )
-    } else {
-        format!(
-            "Execution time per tick ({}: simulated by the device fault {})",
-            r.target, r.device_fault
-        )
-    })
-    .panel(dist)
-    .panel(budget)
+    fig.panel(dist).panel(budget)
 }
 
 /// Writes `report.md` and its SVG plots into `dir`; returns the files written.
