@@ -49,18 +49,19 @@ fn over_time(title: &str, unit: &str, end: f64) -> Plot {
         .x_range(0.0, end)
 }
 
-/// The plotted signals: title, unit label, scale, CSV column (the numerics' name).
-const SIGNALS: [(&str, &str, f64, &str); 5] = [
-    ("Lateral displacement y", "y (mm)", 1e3, "y_m"),
-    ("Yaw angle psi", "psi (mrad)", 1e3, "psi_rad"),
+/// The plotted signals: title, symbol, unit, scale, CSV column (the numerics' name).
+const SIGNALS: [(&str, &str, &str, f64, &str); 5] = [
+    ("Lateral displacement y", "y", "mm", 1e3, "y_m"),
+    ("Yaw angle psi", "psi", "mrad", 1e3, "psi_rad"),
     (
         "Control yaw torque T_ctrl",
-        "T_ctrl (kN m)",
+        "T_ctrl",
+        "kN m",
         1e-3,
         "T_ctrl_Nm",
     ),
-    ("Armature current i_a", "i_a (A)", 1.0, "i_a_A"),
-    ("Armature voltage u_a", "u_a (V)", 1.0, "u_a_V"),
+    ("Armature current i_a", "i_a", "A", 1.0, "i_a_A"),
+    ("Armature voltage u_a", "u_a", "V", 1.0, "u_a_V"),
 ];
 
 /// Colours of the marks: limits that pass, limits that fail, events.
@@ -90,8 +91,8 @@ fn trajectories(out: &RunOutcome) -> Figure {
         let pts = tr.records.iter().filter(|x| x.t_s <= end);
         Series::line(label, pts.map(|x| (x.t_s, at(x))).collect())
     };
-    for (title, unit, k, col) in SIGNALS {
-        let mut p = over_time(title, unit, end)
+    for (title, symbol, unit, k, col) in SIGNALS {
+        let mut p = over_time(title, &format!("{symbol} ({unit})"), end)
             .size(860.0, 260.0)
             .series(line(&out.trajectory, "device", col, k))
             .series(line(&out.reference, "reference", col, k).style(Style::Dashed));
@@ -104,28 +105,24 @@ fn trajectories(out: &RunOutcome) -> Figure {
         let (Some(c), Some((_, e))) = (check, errors) else {
             continue;
         };
-        let unit_only = unit
-            .split_once('(')
-            .map_or("", |(_, u)| u.trim_end_matches(')'));
         let allowed = c.allowed * k;
         let fail = allowed * c.tolerance.warn_factor;
         let pts = e.iter().map(|&(t, v)| (t, v * k)).collect();
-        let symbol = unit.split_once(" (").map_or(unit, |(s, _)| s);
         let title = format!(
-            "{symbol}: device - reference outside the ±{:.0} ms tube, max {} {unit_only} at {:.3} s ({})",
+            "{symbol}: device - reference outside the ±{:.0} ms tube, max {} {unit} at {:.3} s ({})",
             c.tolerance.time_s * 1e3,
             value_label(c.max_err * k),
             c.max_err_t_s,
             c.verdict
         );
-        let mut p = over_time(&title, &format!("error ({unit_only})"), end)
+        let mut p = over_time(&title, &format!("error ({unit})"), end)
             .size(860.0, 190.0)
             .series(Series::line("judged error", pts).color("#0072B2"));
         for (v, what, colour) in [
             (allowed, "allowed", PASS_COLOUR),
             (fail, "fail above", FAIL_COLOUR),
         ] {
-            let label = format!("{what} ±{} {unit_only}", value_label(v));
+            let label = format!("{what} ±{} {unit}", value_label(v));
             p = p.hmark(v, &label, colour).hmark(-v, "", colour);
         }
         if let Some(t) = fault {
