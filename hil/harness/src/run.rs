@@ -438,10 +438,6 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     let tol = &opts.budgets.numerics;
     let (numerics, numerics_errors) = compare_fine(&judged, &yardstick, fine.as_ref(), tol);
     let (host, mut status) = (cl.rec.host, cl.rec.status);
-    let (device_resets, first_reset_s) = (
-        cl.rec.device_resets,
-        cl.rec.first_reset_ns.map(|t| t as f64 * 1e-9),
-    );
     let sensor_codes = std::mem::take(&mut cl.rec.sent_codes);
     let transport = tr.extra();
     let link = tr.link_accounting();
@@ -515,8 +511,8 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
             frames,
             frames_verdict,
             device_status: status,
-            device_resets,
-            first_reset_s,
+            device_resets: cl.rec.device_resets,
+            first_reset_s: cl.rec.first_reset_ns.map(|t| t as f64 * 1e-9),
             host_clamped: host.clamped,
             transport,
             monitor,
