@@ -453,7 +453,6 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     frames.pre_run = start.map_or(0, |s| s.pre_run);
     let frames_verdict = crate::check::frames::judge(&frames, &opts.budgets.frames);
     let mon_params = wheelset_control::MonitorParams::default();
-    // The figure's mean square replayed; the alarms: the flags of the Actuation frames.
     let monitor_ms = crate::check::alarms::replay(&sensor_codes, period_ns, &rt, &mon_params)
         .unwrap_or_default();
     let flags = cl.rec.actuations.iter().map(|a| (a.at_ns, a.frame.flags));

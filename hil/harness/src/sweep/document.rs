@@ -148,7 +148,6 @@ pub fn write_sweep_report(
     let legend = if peaks.is_empty() {
         Vec::new()
     } else {
-        // Five steps of the logarithmic scale, then what a cell's "div" means.
         let mut l: Vec<(String, String)> = (0..5)
             .map(|k| {
                 let t = f64::from(k) / 4.0;
