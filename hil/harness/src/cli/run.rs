@@ -266,15 +266,6 @@ pub(crate) fn cmd_run(a: &RunArgs, command: &str) -> Result<Verdict, Failure> {
     Ok(out.report.verdict)
 }
 
-/// What a timing check's value is a fraction of (`hil::check::timing`'s checks).
-pub(crate) fn check_unit(name: &str) -> &'static str {
-    match name {
-        "missed_frac" | "overrun_frac" => "of the periods",
-        "link" => "of the link's capacity",
-        _ => "of T",
-    }
-}
-
 pub(crate) fn print_summary(r: &hil::run::RunReport) {
     let t = &r.timing;
     say!(
@@ -313,11 +304,17 @@ pub(crate) fn print_summary(r: &hil::run::RunReport) {
         t.link_utilisation * 100.0
     );
     for c in t.checks.iter().filter(|c| c.verdict != Verdict::Pass) {
+        // What the value is a fraction of.
+        let unit = match c.name.as_str() {
+            "missed_frac" | "overrun_frac" => "of the periods",
+            "link" => "of the link's capacity",
+            _ => "of T",
+        };
         say!(
             "  timing.{}: {:.4} {} > {} {} (warn {}, fail {})",
             c.name,
             c.value,
-            check_unit(&c.name),
+            unit,
             c.verdict,
             c.limit.crossed(c.verdict),
             c.limit.warn,
