@@ -79,7 +79,6 @@ impl Default for TimingBudgets {
             overrun_frac: lim(0.0, 0.0),
             cpu_max: lim(0.50, 0.80),
             cpu_mean: lim(0.30, 0.60),
-            // The link budget's two shares (`wheelset_proto::link`): design target, limit.
             link: lim(
                 f64::from(wheelset_proto::link::LINK_SHARE_WARN_PERMILLE) / 1000.0,
                 f64::from(wheelset_proto::link::LINK_SHARE_MAX_PERMILLE) / 1000.0,

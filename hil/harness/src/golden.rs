@@ -67,7 +67,6 @@ pub fn vectors() -> Result<Vec<Vector>, String> {
     let y_neg_step = (0..n)
         .map(|k| codes(if k >= 100 { -2_500 } else { 0 }, 0, OMEGA, 0))
         .collect();
-    // y' chirp, 20 mm/s, 0.5 Hz -> 500 Hz over 1 s at 5 kHz (linear sweep).
     let chirp = (0..5_000)
         .map(|k| {
             let t = f64::from(k) / 5_000.0;
@@ -75,7 +74,6 @@ pub fn vectors() -> Result<Vec<Vector>, String> {
             codes((20_000.0 * phase.sin()).round() as i32, 0, OMEGA, 0)
         })
         .collect();
-    // Traction demand step to 2460 N m at tick 100, the current following with 10 ms.
     let traction = (0..n)
         .map(|k| {
             let t = (f64::from(k) - 100.0).max(0.0) / 5_000.0;
@@ -84,7 +82,6 @@ pub fn vectors() -> Result<Vec<Vector>, String> {
             codes(0, i.round() as i32, OMEGA, d)
         })
         .collect();
-    // Far beyond every clamp, alternating: clamps, torque/voltage saturation, anti-windup.
     let saturation = (0..n)
         .map(|k| {
             let s = if (k / 250) % 2 == 0 { 1 } else { -1 };

@@ -49,18 +49,19 @@ fn over_time(title: &str, unit: &str, end: f64) -> Plot {
         .x_range(0.0, end)
 }
 
-/// The plotted signals: title, unit label, scale, CSV column (the numerics' name).
-const SIGNALS: [(&str, &str, f64, &str); 5] = [
-    ("Lateral displacement y", "y (mm)", 1e3, "y_m"),
-    ("Yaw angle psi", "psi (mrad)", 1e3, "psi_rad"),
+/// The plotted signals: title, symbol, unit, scale, CSV column (the numerics' name).
+const SIGNALS: [(&str, &str, &str, f64, &str); 5] = [
+    ("Lateral displacement y", "y", "mm", 1e3, "y_m"),
+    ("Yaw angle psi", "psi", "mrad", 1e3, "psi_rad"),
     (
         "Control yaw torque T_ctrl",
-        "T_ctrl (kN m)",
+        "T_ctrl",
+        "kN m",
         1e-3,
         "T_ctrl_Nm",
     ),
-    ("Armature current i_a", "i_a (A)", 1.0, "i_a_A"),
-    ("Armature voltage u_a", "u_a (V)", 1.0, "u_a_V"),
+    ("Armature current i_a", "i_a", "A", 1.0, "i_a_A"),
+    ("Armature voltage u_a", "u_a", "V", 1.0, "u_a_V"),
 ];
 
 /// Colours of the marks: limits that pass, limits that fail, events.
@@ -85,14 +86,13 @@ fn trajectories(out: &RunOutcome) -> Figure {
         "{} on {}: device vs f64 reference, and the error judged{stopped}",
         r.scenario, r.target
     ));
-    // Column `col` of `tr` times `k`, up to the device's end.
     let line = |tr: &Trajectory, label: &str, col: &str, k: f64| {
         let at = |x: &Record| column(x, col).unwrap_or(f64::NAN) * k;
         let pts = tr.records.iter().filter(|x| x.t_s <= end);
         Series::line(label, pts.map(|x| (x.t_s, at(x))).collect())
     };
-    for (title, unit, k, col) in SIGNALS {
-        let mut p = over_time(title, unit, end)
+    for (title, symbol, unit, k, col) in SIGNALS {
+        let mut p = over_time(title, &format!("{symbol} ({unit})"), end)
             .size(860.0, 260.0)
             .series(line(&out.trajectory, "device", col, k))
             .series(line(&out.reference, "reference", col, k).style(Style::Dashed));
@@ -105,28 +105,24 @@ fn trajectories(out: &RunOutcome) -> Figure {
         let (Some(c), Some((_, e))) = (check, errors) else {
             continue;
         };
-        let unit_only = unit
-            .split_once('(')
-            .map_or("", |(_, u)| u.trim_end_matches(')'));
         let allowed = c.allowed * k;
         let fail = allowed * c.tolerance.warn_factor;
         let pts = e.iter().map(|&(t, v)| (t, v * k)).collect();
-        let symbol = unit.split_once(" (").map_or(unit, |(s, _)| s);
         let title = format!(
-            "{symbol}: device - reference outside the ±{:.0} ms tube, max {} {unit_only} at {:.3} s ({})",
+            "{symbol}: device - reference outside the ±{:.0} ms tube, max {} {unit} at {:.3} s ({})",
             c.tolerance.time_s * 1e3,
             value_label(c.max_err * k),
             c.max_err_t_s,
             c.verdict
         );
-        let mut p = over_time(&title, &format!("error ({unit_only})"), end)
+        let mut p = over_time(&title, &format!("error ({unit})"), end)
             .size(860.0, 190.0)
             .series(Series::line("judged error", pts).color("#0072B2"));
         for (v, what, colour) in [
             (allowed, "allowed", PASS_COLOUR),
             (fail, "fail above", FAIL_COLOUR),
         ] {
-            let label = format!("{what} ±{} {unit_only}", value_label(v));
+            let label = format!("{what} ±{} {unit}", value_label(v));
             p = p.hmark(v, &label, colour).hmark(-v, "", colour);
         }
         if let Some(t) = fault {
@@ -235,7 +231,6 @@ fn monitor(out: &RunOutcome) -> Figure {
     ));
     let first = events.iter().map(|e| e.0).fold(f64::INFINITY, f64::min);
     let last = events.iter().map(|e| e.0).fold(f64::NEG_INFINITY, f64::max);
-    // Over the whole run the events are marked with their names; the zoom adds times.
     if first.is_finite() {
         let (t0, t1) = (
             (first - 0.3).max(0.0),
@@ -278,13 +273,18 @@ fn exec_histogram(r: &RunReport) -> Figure {
         }
         p
     };
+    let what = if t.exec_ns.max <= 0.0 {
+        "not measured".to_string()
+    } else if t.exec_measured {
+        let each = value_label(t.exec_ns_per_unit);
+        format!("{} at {each} ns each", t.exec_unit)
+    } else {
+        format!("simulated by the device fault {}", r.device_fault)
+    };
+    let fig = Figure::new(&format!("Execution time per tick ({}: {what})", r.target));
     // In process (0 ns unless a device fault simulates it): the budgets and a note.
     if t.exec_ns.max <= 0.0 {
-        return Figure::new(&format!(
-            "Execution time per tick ({}: not measured)",
-            r.target
-        ))
-        .panel(budgets(
+        return fig.panel(budgets(
             Plot::new("The period T and the CPU budget a measured tick is held to")
                 .x_label("execution time (us)")
                 .y_label("ticks")
@@ -327,41 +327,35 @@ fn exec_histogram(r: &RunReport) -> Figure {
         .log_x()
         .x_range(lo_us * 0.8, period_us * 1.25),
     );
-    Figure::new(&if t.exec_measured {
-        format!(
-            "Execution time per tick ({}: {} at {} ns each)",
-            r.target,
-            t.exec_unit,
-            value_label(t.exec_ns_per_unit)
-        )
-    } else {
-        format!(
-            "Execution time per tick ({}: simulated by the device fault {})",
-            r.target, r.device_fault
-        )
-    })
-    .panel(dist)
-    .panel(budget)
+    fig.panel(dist).panel(budget)
 }
 
 /// Writes `report.md` and its SVG plots into `dir`; returns the files written.
 pub fn write_report(out: &RunOutcome, dir: &Path, command: &str) -> io::Result<Vec<PathBuf>> {
+    write_files(
+        dir,
+        [
+            ("trajectories.svg", trajectories(out).to_svg()),
+            ("monitor.svg", monitor(out).to_svg()),
+            ("exec_histogram.svg", exec_histogram(&out.report).to_svg()),
+            ("report.md", markdown(out, command)),
+        ],
+    )
+}
+
+/// Writes each `(name, text)` into `dir` (created); returns the files written.
+pub(crate) fn write_files<'a>(
+    dir: &Path,
+    files: impl IntoIterator<Item = (&'a str, String)>,
+) -> io::Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir)?;
-    let mut files = Vec::new();
-    for (name, fig) in [
-        ("trajectories.svg", trajectories(out)),
-        ("monitor.svg", monitor(out)),
-        ("exec_histogram.svg", exec_histogram(&out.report)),
-    ] {
-        let p = dir.join(name);
-        fig.save(&p)?;
-        files.push(p);
-    }
-    let md = markdown(out, command);
-    let p = dir.join("report.md");
-    std::fs::write(&p, md)?;
-    files.push(p);
-    Ok(files)
+    files
+        .into_iter()
+        .map(|(name, text)| {
+            let p = dir.join(name);
+            std::fs::write(&p, text).map(|()| p)
+        })
+        .collect()
 }
 
 fn f(x: f64) -> String {

@@ -3,9 +3,9 @@
 //! The plant is `run_sampled` with the device as its controller ([`wheelset_loop::exchange`]);
 //! the reference `run_continuous` with the same scenario and law (with `[[adhesion]]`:
 //! the f64 control core, `wheelset_loop::core`). The parameters are
-//! [`RunOptions::params`] with the scenario's `[params]` on top; the device's
-//! configuration follows them ([`runtime_config_for`], as `sim-host run --loop device`;
-//! a device elsewhere refuses those that change its gains: [`remote_gains`]).
+//! [`RunOptions::params`] with the scenario's `[params]` on top; the device's configuration
+//! follows them ([`runtime_config`], as `sim-host run --loop device`; a device elsewhere
+//! refuses those that change its gains: [`remote_gains`]).
 
 use std::borrow::Cow;
 use std::fmt;
@@ -278,13 +278,6 @@ pub struct RunOutcome {
     pub runtime: RuntimeConfig,
 }
 
-/// The device's runtime configuration for a run of `sc` and `law`
-/// (`wheelset_loop::device_loop::runtime_config`, as `sim-host run --loop device`).
-#[must_use]
-pub fn runtime_config_for(sc: &Scenario, law: Law) -> RuntimeConfig {
-    runtime_config(sc, law, &DeviceOptions::default())
-}
-
 /// Runs the closed loop and the checks.
 pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     let sc =
@@ -292,7 +285,8 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     if opts.target != Target::InProc {
         remote_gains(&sc.params, &opts.target)?;
     }
-    let mut rt = runtime_config_for(&sc, opts.control);
+    let mut rt = runtime_config(&sc, opts.control, &DeviceOptions::default());
+    let default = rt.control;
     let hz = run_rate(opts, rt.control.base_rate_hz)?;
     // The gains designed for the rate and delay (a point without a design is refused below).
     let d = opts.delay_ticks.max(1);
@@ -354,7 +348,6 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     let wsp = opts.wsp;
     // A lock-step device gets the Config as the run's first frame (the others were
     // configured before), with the design's rates at another rate or delay than its own.
-    let default = runtime_config_for(&sc, opts.control).control;
     let other_point = rt.control.base_rate_hz != default.base_rate_hz
         || rt.control.delay_ticks != default.delay_ticks;
     let lockstep_config = match (is_lockstep_remote, other_point) {
@@ -407,7 +400,6 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
         },
     )
     .map_err(|e| RunError::Input(format!("scenario {}: {e}", sc.source)))?;
-    // Back to the normal scheduler for the analysis.
     os::release();
     if let Some(e) = cl.rec.error.take() {
         return Err(RunError::Target(e));
@@ -446,10 +438,6 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     let tol = &opts.budgets.numerics;
     let (numerics, numerics_errors) = compare_fine(&judged, &yardstick, fine.as_ref(), tol);
     let (host, mut status) = (cl.rec.host, cl.rec.status);
-    let (device_resets, first_reset_s) = (
-        cl.rec.device_resets,
-        cl.rec.first_reset_ns.map(|t| t as f64 * 1e-9),
-    );
     let sensor_codes = std::mem::take(&mut cl.rec.sent_codes);
     let transport = tr.extra();
     let link = tr.link_accounting();
@@ -465,7 +453,6 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
     frames.pre_run = start.map_or(0, |s| s.pre_run);
     let frames_verdict = crate::check::frames::judge(&frames, &opts.budgets.frames);
     let mon_params = wheelset_control::MonitorParams::default();
-    // The figure's mean square replayed; the alarms: the flags of the Actuation frames.
     let monitor_ms = crate::check::alarms::replay(&sensor_codes, period_ns, &rt, &mon_params)
         .unwrap_or_default();
     let flags = cl.rec.actuations.iter().map(|a| (a.at_ns, a.frame.flags));
@@ -523,8 +510,8 @@ pub fn run(opts: &RunOptions) -> Result<RunOutcome, RunError> {
             frames,
             frames_verdict,
             device_status: status,
-            device_resets,
-            first_reset_s,
+            device_resets: cl.rec.device_resets,
+            first_reset_s: cl.rec.first_reset_ns.map(|t| t as f64 * 1e-9),
             host_clamped: host.clamped,
             transport,
             monitor,

@@ -144,13 +144,6 @@ pub struct Campaign {
     pub header: Header,
 }
 
-fn fmt_point(p: &[(String, f64)]) -> String {
-    p.iter()
-        .map(|(k, v)| format!("{k} = {v}"))
-        .collect::<Vec<_>>()
-        .join(", ")
-}
-
 /// The parameters of one point: `base` with the point's values on top, validated. The
 /// error names the flag and the point.
 pub fn point_params(base: &Params, point: &[(String, f64)]) -> Result<Params, String> {
@@ -158,8 +151,10 @@ pub fn point_params(base: &Params, point: &[(String, f64)]) -> Result<Params, St
     for (k, v) in point {
         t.insert(k.clone(), toml::Value::Float(*v));
     }
-    base.with_overrides(&t, "--param")
-        .map_err(|e| format!("--param: at {}: {e}", fmt_point(point)))
+    base.with_overrides(&t, "--param").map_err(|e| {
+        let at: Vec<String> = point.iter().map(|(k, v)| format!("{k} = {v}")).collect();
+        format!("--param: at {}: {e}", at.join(", "))
+    })
 }
 
 /// Checks every point before any runs: its parameters are plausible, and the scenario's

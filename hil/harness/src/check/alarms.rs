@@ -277,11 +277,6 @@ pub fn judge(
         alarms,
         expect: "none",
         diverged_s: tr.info.diverged_at_s,
-        drive: DriveReport {
-            expect: "none",
-            l_a_h: sc.params.l_a,
-            ..DriveReport::default()
-        },
         ..MonitorReport::default()
     };
     let diverged = tr.info.diverged_at_s;
@@ -402,7 +397,6 @@ pub fn drive_expectation(
     d.mode_hz = Some(mode.freq_hz);
     d.sigma_per_s = Some(sigma);
     if mode.radius >= 1.0 && sigma.is_finite() {
-        // One wire LSB of current (wheelset_proto::units::CURRENT_LSB_A) as the seed.
         let a0 = wheelset_proto::units::CURRENT_LSB_A;
         let (n, persist) = (
             f64::from(p.drive_window_steps),

@@ -168,11 +168,9 @@ impl<'a> Tube<'a> {
     }
 }
 
-/// Compares `run` with `reference` for every signal in `tolerances`, the tube taken over
-/// `fine` (the reference recorded at the control period: module docs) where it is given
-/// and its records fall on `run`'s (a whole number per output interval), else over
-/// `reference`, which gives the peak, the length and the divergence; with the errors
-/// judged (`|error| <= allowed` passes), for plotting beside the signals.
+/// Compares `run` with `reference` for every signal in `tolerances`, the tube over `fine`
+/// where it falls on `run`'s records (module docs), else over `reference`, which gives the
+/// peak, the length and the divergence; with the judged errors, for the plots.
 #[must_use]
 pub fn compare_fine(
     run: &Trajectory,

@@ -205,7 +205,6 @@ pub fn analyse(
     let latency_ns = Stats::of(&latency);
     let missed = periods.iter().filter(|p| p.echo_at_ns.is_none()).count() as u64;
 
-    // Each frame's step of the device's tick counter from the frame before (0 first).
     let steps: Vec<u16> = std::iter::once(0)
         .chain(
             acts.windows(2)
@@ -217,7 +216,6 @@ pub fn analyse(
         .skip(1)
         .map(|&s| u64::from(s.saturating_sub(1)))
         .sum();
-    // Device output instants against the ideal schedule, indexed by the tick counter.
     let (jitter_max_ns, jitter_rms_ns) = if lockstep || acts.is_empty() {
         (None, None)
     } else {

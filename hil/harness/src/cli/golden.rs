@@ -8,7 +8,7 @@ use hil::run::{run, RunOptions, Target};
 use wheelset_report::Verdict;
 use wheelset_targets::qemu::machine::Machine;
 
-use super::{input, load_params, run_error, written, Failure};
+use super::{input, load_params, run_error, unavailable, written, Failure};
 
 #[derive(Args, Clone)]
 pub(crate) struct GoldenArgs {
@@ -87,10 +87,7 @@ pub(crate) fn cmd_golden(g: &GoldenArgs) -> Result<Verdict, Failure> {
         let host = golden::run_host(v, rt).map_err(|e| input(e.to_string()))?;
         // A fresh device per vector: every vector starts from reset.
         let mut tr = hil::run::open_transport(&opts, rt).map_err(run_error)?;
-        let target = golden::run_target(v, tr.as_mut(), period_ns).map_err(|e| Failure {
-            code: 3,
-            msg: e.to_string(),
-        })?;
+        let target = golden::run_target(v, tr.as_mut(), period_ns).map_err(unavailable)?;
         let c = golden::compare(v, &host, &target);
         say!(
             "{:<15} {:>5} ticks  host vs {}: {}  (peak |T_psi| {} x 0.1 N m, |u_a| {} x 10 mV)  {}",

@@ -33,6 +33,14 @@ pub(crate) fn input(msg: impl Into<String>) -> Failure {
     }
 }
 
+/// The target could not be used (exit code 3).
+pub(crate) fn unavailable(msg: impl ToString) -> Failure {
+    Failure {
+        code: 3,
+        msg: msg.to_string(),
+    }
+}
+
 /// `r`, or the failure to write `path` (exit code 2).
 pub(crate) fn written<T>(path: &std::path::Path, r: std::io::Result<T>) -> Result<T, Failure> {
     r.map_err(|e| input(format!("{}: cannot write: {e}", path.display())))
@@ -50,10 +58,7 @@ pub(crate) fn load_params(path: Option<&std::path::Path>) -> Result<Params, Fail
 pub(crate) fn run_error(e: RunError) -> Failure {
     match e {
         RunError::Input(m) => input(m),
-        RunError::Target(e) => Failure {
-            code: 3,
-            msg: e.to_string(),
-        },
+        RunError::Target(e) => unavailable(e),
     }
 }
 

@@ -8,6 +8,7 @@ use clap::{Args, ValueEnum};
 use hil::budget::Budgets;
 use hil::report;
 use hil::run::{run, RunOptions, Target};
+use serde::Deserialize as _;
 use wheelset_loop::inproc::DeviceFault;
 use wheelset_loop::sim_link::{Faults, LinkConfig};
 use wheelset_plant::params::Params;
@@ -265,15 +266,6 @@ pub(crate) fn cmd_run(a: &RunArgs, command: &str) -> Result<Verdict, Failure> {
     Ok(out.report.verdict)
 }
 
-/// What a timing check's value is a fraction of (`hil::check::timing`'s checks).
-pub(crate) fn check_unit(name: &str) -> &'static str {
-    match name {
-        "missed_frac" | "overrun_frac" => "of the periods",
-        "link" => "of the link's capacity",
-        _ => "of T",
-    }
-}
-
 pub(crate) fn print_summary(r: &hil::run::RunReport) {
     let t = &r.timing;
     say!(
@@ -312,11 +304,17 @@ pub(crate) fn print_summary(r: &hil::run::RunReport) {
         t.link_utilisation * 100.0
     );
     for c in t.checks.iter().filter(|c| c.verdict != Verdict::Pass) {
+        // What the value is a fraction of.
+        let unit = match c.name.as_str() {
+            "missed_frac" | "overrun_frac" => "of the periods",
+            "link" => "of the link's capacity",
+            _ => "of T",
+        };
         say!(
             "  timing.{}: {:.4} {} > {} {} (warn {}, fail {})",
             c.name,
             c.value,
-            check_unit(&c.name),
+            unit,
             c.verdict,
             c.limit.crossed(c.verdict),
             c.limit.warn,
@@ -359,7 +357,11 @@ pub(crate) fn print_summary(r: &hil::run::RunReport) {
     for (name, d) in [("host -> device", &f.up), ("device -> host", &f.down)] {
         say!("  {name}: {d}");
     }
-    if let Some(h) = r.transport.as_ref().and_then(|t| t.get("host")) {
+    let transport = r.transport.as_ref();
+    if let Some(h) = transport.and_then(|t| t.get("host")) {
+        let obtained = transport
+            .and_then(|t| t.get("realtime"))
+            .and_then(|v| wheelset_targets::realtime::os::Obtained::deserialize(v).ok());
         say!(
             "host (real time): missed {} of {} deadlines ({} late sends, {} late receives), \
              send lateness p99 {:.1} us; obtained {}",
@@ -368,16 +370,7 @@ pub(crate) fn print_summary(r: &hil::run::RunReport) {
             h["late_sends"],
             h["late_receives"],
             h["send_lateness_ns"]["p99"].as_f64().unwrap_or(0.0) * 1e-3,
-            r.transport
-                .as_ref()
-                .and_then(|t| t.get("realtime"))
-                .and_then(
-                    |v| serde_json::from_value::<wheelset_targets::realtime::os::Obtained>(
-                        v.clone()
-                    )
-                    .ok()
-                )
-                .map_or_else(|| "nothing reported".to_string(), |o| o.to_string())
+            obtained.map_or_else(|| "nothing reported".to_string(), |o| o.to_string())
         );
     }
     let default = Params::default().entries();

@@ -6,7 +6,7 @@ use clap::Args;
 use wheelset_report::Verdict;
 use wheelset_targets::realtime::os::{self, Want};
 
-use super::{input, Failure};
+use super::{input, unavailable, Failure};
 
 #[derive(Args, Clone)]
 pub(crate) struct ServeArgs {
@@ -86,10 +86,8 @@ pub(crate) fn cmd_serve(a: &ServeArgs) -> Result<Verdict, Failure> {
             Want::all(a.cpu.or_else(|| os::allowed_cpus().first().copied()))
         },
     };
-    let (mut master, slave, path) = serve::open_pty().map_err(|e| Failure {
-        code: 3,
-        msg: format!("cannot create a pseudo-terminal: {e}"),
-    })?;
+    let (mut master, slave, path) = serve::open_pty()
+        .map_err(|e| unavailable(format!("cannot create a pseudo-terminal: {e}")))?;
     // The path first, alone on its line, for whoever starts the stand-in.
     say!("{path}");
     let _ = std::io::stdout().flush();
@@ -113,10 +111,8 @@ pub(crate) fn cmd_serve(a: &ServeArgs) -> Result<Verdict, Failure> {
         a.rate_hz
     );
     let stop = std::sync::atomic::AtomicBool::new(false);
-    let rep = serve::serve(&mut master, rt, &opts, &stop).map_err(|e| Failure {
-        code: 3,
-        msg: format!("{path}: {e}"),
-    })?;
+    let rep = serve::serve(&mut master, rt, &opts, &stop)
+        .map_err(|e| unavailable(format!("{path}: {e}")))?;
     drop(slave);
     eprintln!(
         "hil serve: {} ticks, {} late, {} skipped (max lateness {:.1} us), rx {} B, tx {} B, \

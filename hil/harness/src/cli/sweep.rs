@@ -9,7 +9,7 @@ use hil::run::{RunOptions, Target};
 use wheelset_loop::sim_link::{Faults, LinkConfig};
 use wheelset_report::Verdict;
 
-use super::{input, load_params, run_error, Control, Failure};
+use super::{input, load_params, run_error, unavailable, Control, Failure};
 
 #[derive(Args)]
 #[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
@@ -34,7 +34,7 @@ pub(crate) struct MergeArgs {
     files: Vec<PathBuf>,
     /// Write the merged document here.
     #[arg(long, required = true, value_name = "OUT")]
-    json: Option<PathBuf>,
+    json: PathBuf,
     /// Also write the campaign's report (table and heat maps) into this directory.
     #[arg(long, value_name = "DIR")]
     report: Option<PathBuf>,
@@ -178,11 +178,7 @@ pub(crate) fn cmd_sweep(c: &SweepCmd, command: &str) -> Result<Verdict, Failure>
             parts.push((name, doc));
         }
         let doc = sweep::merge(&parts).map_err(input)?;
-        let json = m
-            .json
-            .as_deref()
-            .ok_or_else(|| input("--json OUT: needed"))?;
-        return write(&doc, json, m.report.as_deref());
+        return write(&doc, &m.json, m.report.as_deref());
     }
     let a = &c.args;
     let json = a
@@ -265,7 +261,6 @@ pub(crate) fn cmd_sweep(c: &SweepCmd, command: &str) -> Result<Verdict, Failure>
 /// 2); an unreadable ELF or binary, a target that cannot be used (exit 3).
 fn identity(a: &SweepArgs) -> Result<hil::sweep::Identity, Failure> {
     use hil::sweep::{exe_sha256, file_sha256};
-    let target = |msg: String| Failure { code: 3, msg };
     let file = |flag: &str, p: &Option<PathBuf>| {
         p.as_deref()
             .map(file_sha256)
@@ -275,11 +270,11 @@ fn identity(a: &SweepArgs) -> Result<hil::sweep::Identity, Failure> {
     let scenario = std::path::Path::new(&a.scenario);
     Ok(hil::sweep::Identity {
         hil_version: env!("CARGO_PKG_VERSION").to_string(),
-        hil_sha256: exe_sha256().map_err(target)?,
+        hil_sha256: exe_sha256().map_err(unavailable)?,
         elf_sha256: match a.target {
             Target::Qemu => Some(
                 file_sha256(&wheelset_targets::qemu::QemuConfig::default_elf())
-                    .map_err(|e| target(format!("the firmware ELF: {e}")))?,
+                    .map_err(|e| unavailable(format!("the firmware ELF: {e}")))?,
             ),
             _ => None,
         },

@@ -1,6 +1,7 @@
 //! The yardstick of a run's numerics: the f64 continuous-time controllers on the plant,
-//! or, on a track with `[[adhesion]]` sections or at a rate other than the paper's, the
-//! control core itself in f64.
+//! or, on a track with `[[adhesion]]` sections (the continuous controllers have no
+//! wheel-slip protection) or at a designed rate other than the scenario's, the control
+//! core itself in f64 (`wheelset_loop::core`, the run's protection and gains).
 
 use wheelset_plant::control::YawLaw;
 use wheelset_plant::scenario::Scenario;
@@ -9,13 +10,9 @@ use wheelset_plant::sim::{run_continuous, Trajectory};
 use super::RunError;
 use crate::check::numerics::{every_nth, gcd};
 
-/// The reference of `sc` under `law` at the output interval, and the same run recorded at
-/// the control period `period_ns` where there is one (for
-/// [`crate::check::numerics::compare_fine`]). With `[[adhesion]]` sections (the continuous
-/// controllers have no wheel-slip protection) or at a designed rate other than the
-/// scenario's, the reference is the control core in f64 (`wheelset_loop::core`, the run's
-/// protection and gains), recorded at the gcd of the output interval and the control
-/// period; every `output / that`-th record is the output-interval reference.
+/// The reference of `sc` under `law` at the output interval and, where it is the control
+/// core, the same run at the gcd of that and `period_ns` for
+/// [`crate::check::numerics::compare_fine`] (its every `output / gcd`-th record the first).
 pub(super) fn make(
     sc: &Scenario,
     law: YawLaw,

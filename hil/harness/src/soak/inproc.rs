@@ -31,7 +31,7 @@ use wheelset_runtime::{HoldPolicy, Runtime, SafeChange};
 
 use super::line::{Fate, Line, LineCounts, LineFaults};
 use super::service::{next_episode, Demand, Episode, ServiceOptions, Track};
-use crate::run::{device_config, runtime_config_for, Law};
+use crate::run::{device_config, Law};
 use crate::sweep::throughput::thread_cpu;
 
 /// The plant's integration step, ns: the built-in scenarios' (`sim.dt_s = 1e-4`), a
@@ -324,18 +324,14 @@ impl Soak {
             return Err(format!("the soak has no defect `{}`", opts.defect));
         }
         let sc = Scenario::load("curve", &Params::default()).map_err(|e| e.to_string())?;
-        let base = runtime_config_for(&sc, Law::Lead);
+        let base = wheelset_loop::device_loop::runtime_config(&sc, Law::Lead, &Default::default());
         let mut rt = Runtime::<Fx>::try_new(base).map_err(|e| e.to_string())?;
         // Every design point of the service, computed once (`wheelset_runtime::rates_for`).
         let mut configs = BTreeMap::new();
         for &hz in &super::service::RATES_HZ {
             for lead in [false, true] {
                 let mut r = base.designed(hz, 1).map_err(|e| e.to_string())?;
-                r.control.yaw_mode = if lead {
-                    wheelset_control::YawMode::Lead
-                } else {
-                    wheelset_control::YawMode::Gain
-                };
+                r.control.yaw_mode = if lead { Law::Lead } else { Law::Gain }.into();
                 let cfg = device_config(&r, true, false).map_err(|e| e.to_string())?;
                 configs.insert((hz, lead), cfg);
             }
@@ -654,7 +650,6 @@ impl Soak {
         if let Some(a) = fresh_act {
             self.host_sees(t, &a);
         }
-        // The plant over the period under the actuation in force, then the new one.
         self.integrate(curvature, cant, demand);
         if let Some(a) = fresh_act {
             self.held = (

@@ -91,17 +91,13 @@ fn heat_maps(
         .collect()
 }
 
-/// Writes a campaign's report into `dir`: `report.md` (a table of every point) and the
-/// heat maps `verdict.svg` and `peak_y.svg` (peak |y| on a logarithmic colour scale);
-/// returns the files written.
+/// Writes a campaign's report (the module docs' three files) into `dir`; returns them.
 pub fn write_sweep_report(
     doc: &crate::sweep::SweepDoc,
     dir: &Path,
     command: &str,
 ) -> io::Result<Vec<PathBuf>> {
     use wheelset_report::svg::heatmap::{sequential, stack, Cell};
-    std::fs::create_dir_all(dir)?;
-    let mut files = Vec::new();
     let h = &doc.sweep;
     let what = format!(
         "{} with {:?} on {}{}",
@@ -125,15 +121,12 @@ pub fn write_sweep_report(
         .iter()
         .map(|(v, c)| ((*c).to_string(), v.to_string()))
         .collect();
-    let maps = heat_maps(
+    let verdicts = heat_maps(
         doc,
         &format!("Verdict: {what}"),
         &|r| Cell::new(colour(r.verdict), &r.verdict.to_string()),
         &legend,
     );
-    let p = dir.join("verdict.svg");
-    std::fs::write(&p, stack("", &maps))?;
-    files.push(p);
 
     let peaks: Vec<f64> = doc
         .records
@@ -155,7 +148,6 @@ pub fn write_sweep_report(
     let legend = if peaks.is_empty() {
         Vec::new()
     } else {
-        // Five steps of the logarithmic scale, then what a cell's "div" means.
         let mut l: Vec<(String, String)> = (0..5)
             .map(|k| {
                 let t = f64::from(k) / 4.0;
@@ -169,7 +161,7 @@ pub fn write_sweep_report(
         }
         l
     };
-    let maps = heat_maps(
+    let peak_maps = heat_maps(
         doc,
         &format!("Peak |y| (mm): {what}"),
         &|r| {
@@ -181,14 +173,14 @@ pub fn write_sweep_report(
         },
         &legend,
     );
-    let p = dir.join("peak_y.svg");
-    std::fs::write(&p, stack("", &maps))?;
-    files.push(p);
-
-    let p = dir.join("report.md");
-    std::fs::write(&p, sweep_markdown(doc, command))?;
-    files.push(p);
-    Ok(files)
+    crate::report::write_files(
+        dir,
+        [
+            ("verdict.svg", stack("", &verdicts)),
+            ("peak_y.svg", stack("", &peak_maps)),
+            ("report.md", sweep_markdown(doc, command)),
+        ],
+    )
 }
 
 /// The Markdown text of a campaign's report.
