@@ -84,14 +84,6 @@ impl SampledController for Recorder {
     }
 }
 
-fn gcd(a: u64, b: u64) -> u64 {
-    if b == 0 {
-        a
-    } else {
-        gcd(b, a % b)
-    }
-}
-
 /// Run one closed loop; `Err` says why it could not run.
 fn record(
     cfg: &Config,
@@ -120,7 +112,7 @@ fn record(
         ));
     }
     if !period_ns.is_multiple_of(sc.dt_ns) {
-        let dt = gcd(period_ns, sc.dt_ns);
+        let dt = num_integer::gcd(period_ns, sc.dt_ns);
         if dt < 10_000 || !sc.output_dt_ns.is_multiple_of(dt) {
             return Err(format!(
                 "the control period {period_ns} ns does not fit the plant step {} ns",

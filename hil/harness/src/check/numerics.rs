@@ -281,16 +281,6 @@ pub fn every_nth(t: &Trajectory, m: usize) -> Trajectory {
     }
 }
 
-/// The greatest common divisor (`gcd(a, 0) = a`).
-#[must_use]
-pub fn gcd(a: u64, b: u64) -> u64 {
-    if b == 0 {
-        a
-    } else {
-        gcd(b, a % b)
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -376,7 +366,7 @@ mod tests {
     }
 
     #[test]
-    fn every_nth_keeps_the_first_and_the_last_and_gcd_is_the_interval() {
+    fn every_nth_keeps_the_first_and_the_last() {
         let fine = u_a(2e-4, 0, 0.0);
         let c = every_nth(&fine, 5);
         assert_eq!(c.records.len(), 2001);
@@ -385,8 +375,5 @@ mod tests {
             c.records.last().map(|r| r.t_s),
             fine.records.last().map(|r| r.t_s)
         );
-        assert_eq!(gcd(1_000_000, 200_000), 200_000);
-        assert_eq!(gcd(500_000, 200_000), 100_000);
-        assert_eq!(gcd(7, 0), 7);
     }
 }

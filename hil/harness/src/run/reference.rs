@@ -8,7 +8,8 @@ use wheelset_plant::scenario::Scenario;
 use wheelset_plant::sim::{run_continuous, Trajectory};
 
 use super::RunError;
-use crate::check::numerics::{every_nth, gcd};
+use crate::check::numerics::every_nth;
+use num_integer::gcd;
 
 /// The reference of `sc` under `law` at the output interval and, where it is the control
 /// core, the same run at the gcd of that and `period_ns` for
