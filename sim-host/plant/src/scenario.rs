@@ -332,7 +332,10 @@ impl Scenario {
                 cant: k.cant_deg.to_radians(),
             });
         }
-        let step = |key: &str, value: f64, t_on: f64, ramp: f64, max: f64| {
+        let step = |key: &str, raw: Option<(f64, f64, f64)>, max: f64| {
+            let Some((value, t_on, ramp)) = raw else {
+                return Ok(StepInput::default());
+            };
             let reason = format!("{value} is outside [-{max}, {max}]");
             check(value.is_finite() && value.abs() <= max, file, key, reason)?;
             let table = key.split('.').next().unwrap_or(key);
@@ -342,20 +345,13 @@ impl Scenario {
                 ramp_ns: time(file, &format!("{table}.ramp_s"), ramp, 1e5)?,
             })
         };
-        let traction = match raw.traction {
-            Some(t) => step("traction.demand_nm", t.demand_nm, t.t_on_s, t.ramp_s, 1e5)?,
-            None => StepInput::default(),
-        };
-        let resistance = match raw.resistance {
-            Some(r) => step("resistance.f_run_n", r.f_run_n, r.t_on_s, r.ramp_s, 1e6)?,
-            None => StepInput::default(),
-        };
-        let params = match &raw.params {
-            Some(t) => base
-                .with_overrides(t, file)
-                .map_err(|e| e.under("params"))?,
-            None => base.clone(),
-        };
+        let traction = raw.traction.map(|t| (t.demand_nm, t.t_on_s, t.ramp_s));
+        let traction = step("traction.demand_nm", traction, 1e5)?;
+        let resistance = raw.resistance.map(|r| (r.f_run_n, r.t_on_s, r.ramp_s));
+        let resistance = step("resistance.f_run_n", resistance, 1e6)?;
+        let params = (raw.params.as_ref())
+            .map_or_else(|| Ok(base.clone()), |t| base.with_overrides(t, file))
+            .map_err(|e| e.under("params"))?;
         let mut adhesion: Vec<AdhesionSection> = Vec::with_capacity(raw.adhesion.len());
         for (i, a) in raw.adhesion.iter().enumerate() {
             let key = |k: &str| format!("adhesion[{i}].{k}");
@@ -376,10 +372,9 @@ impl Scenario {
                 condition,
             });
         }
-        let actuator_fault = match &raw.actuator_fault {
-            Some(f) => Some(f.validate(file, raw.duration_s)?),
-            None => None,
-        };
+        let actuator_fault = (raw.actuator_fault.as_ref())
+            .map(|f| f.validate(file, raw.duration_s))
+            .transpose()?;
         let name = raw.name.unwrap_or_else(|| {
             Path::new(file)
                 .file_stem()
