@@ -300,22 +300,12 @@ pub fn write_root_locus(sw: &CaseSweep, dir: &Path) -> std::io::Result<std::path
         locus = locus.series(Series::scatter(&named, pts).color(col).width(width));
         let top = branch(n_pts - 1).collect();
         locus = locus.series(Series::scatter("", top).style(Style::Crosses).color(col));
-        freq = freq
-            .series(
-                Series::line(name, vals.iter().map(|v| (v.0, v.1)).collect())
-                    .color(col)
-                    .width(width),
-            )
-            .series(
-                Series::line("", vals.iter().map(|v| (v.0, v.3)).collect())
-                    .color(col)
-                    .style(Style::Dashed),
-            );
-        zeta = zeta.series(
-            Series::line(name, vals.iter().map(|v| (v.0, v.2)).collect())
-                .color(col)
-                .width(width),
-        );
+        let line = |label: &str, f: fn(&(f64, f64, f64, f64)) -> f64| {
+            Series::line(label, vals.iter().map(|v| (v.0, f(v))).collect()).color(col)
+        };
+        freq = (freq.series(line(name, |v| v.1).width(width)))
+            .series(line("", |v| v.3).style(Style::Dashed));
+        zeta = zeta.series(line(name, |v| v.2).width(width));
     }
     for c in &sw.crossings {
         zeta = zeta.vmark(c.creep_n * 1e-6, "", AXIS_GREY);
