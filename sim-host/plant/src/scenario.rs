@@ -27,12 +27,9 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ),
 ];
 
-/// Nanoseconds per second.
-pub const NS_PER_S: f64 = 1e9;
-
 /// Converts seconds to integer nanoseconds (rounded to nearest).
 pub fn s_to_ns(t: f64) -> u64 {
-    (t * NS_PER_S).round() as u64
+    (t * 1e9).round() as u64
 }
 
 /// A step (or ramp) of a scalar input switched on at `t_on_ns` (default: no input).
