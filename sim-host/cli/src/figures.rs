@@ -11,7 +11,6 @@ fn series(tr: &Trajectory, label: &str, f: impl Fn(&Record) -> f64) -> Series {
     Series::line(label, tr.records.iter().map(|r| (r.t_s, f(r))).collect())
 }
 
-/// A panel against time, s.
 fn over_t(title: &str, y_label: &str) -> Plot {
     Plot::new(title).x_label("t (s)").y_label(y_label)
 }

@@ -249,7 +249,6 @@ fn invalid(file: &str, key: impl Into<String>, reason: impl Into<String>) -> Con
     }
 }
 
-/// `Ok` when `ok`, else the [`invalid`] error of `key`.
 fn check(
     ok: bool,
     file: &str,
