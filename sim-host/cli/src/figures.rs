@@ -11,7 +11,6 @@ fn series(tr: &Trajectory, label: &str, f: impl Fn(&Record) -> f64) -> Series {
     Series::line(label, tr.records.iter().map(|r| (r.t_s, f(r))).collect())
 }
 
-/// A panel against time, s.
 fn over_t(title: &str, y_label: &str) -> Plot {
     Plot::new(title).x_label("t (s)").y_label(y_label)
 }
@@ -243,13 +242,6 @@ pub fn write_root_locus(sw: &CaseSweep, dir: &Path) -> std::io::Result<std::path
             .hmark(0.0, "", AXIS_GREY);
     // Modes real somewhere coincide there at zero frequency and zeta = 1: the ones drawn
     // first are wider, so they show as nested bands (nested dots on the real axis).
-    let hz_range = |name: &str, f: &dyn Fn(f64, f64) -> f64| {
-        (0..n_pts)
-            .filter_map(|k| sw.mode_eig(name, k))
-            .filter(|(_, l)| l.im.abs() > 0.0)
-            .map(|(_, l)| f(l.re, l.im) / (2.0 * std::f64::consts::PI))
-            .fold((f64::INFINITY, 0.0f64), |(a, b), f| (a.min(f), b.max(f)))
-    };
     let real: Vec<bool> = names
         .iter()
         .map(|n| (0..n_pts).any(|k| sw.mode_eig(n, k).is_some_and(|(_, l)| l.im == 0.0)))
@@ -270,24 +262,6 @@ pub fn write_root_locus(sw: &CaseSweep, dir: &Path) -> std::io::Result<std::path
                 .map(|(l, _)| (l.re, l.im))
         };
         let pts: Vec<(f64, f64)> = (0..n_pts).step_by(stride).flat_map(branch).collect();
-        // The legend names each mode with its natural frequency range over the sweep.
-        let (lo, hi) = hz_range(name, &f64::hypot);
-        let mut named = if hi > 0.0 {
-            format!("{name}: f_n {lo:.1}-{hi:.1} Hz")
-        } else if name.contains("real") {
-            name.clone()
-        } else {
-            format!("{name}: real")
-        };
-        // How far a branch runs past the axis's left end.
-        let far = (0..n_pts).flat_map(branch).map(|p| p.0).fold(0.0, f64::min);
-        if far < 1.05 * re_lo {
-            let sep = if named.contains(':') { "," } else { ":" };
-            named += &format!("{sep} to {far:.0} 1/s");
-        }
-        locus = locus.series(Series::scatter(&named, pts).color(col).width(width));
-        let top = branch(n_pts - 1).collect();
-        locus = locus.series(Series::scatter("", top).style(Style::Crosses).color(col));
         let vals: Vec<(f64, f64, f64, f64)> = (0..n_pts)
             .filter_map(|k| {
                 sw.mode_eig(name, k).map(|(_, l)| {
@@ -305,22 +279,32 @@ pub fn write_root_locus(sw: &CaseSweep, dir: &Path) -> std::io::Result<std::path
                 })
             })
             .collect();
-        freq = freq
-            .series(
-                Series::line(name, vals.iter().map(|v| (v.0, v.1)).collect())
-                    .color(col)
-                    .width(width),
-            )
-            .series(
-                Series::line("", vals.iter().map(|v| (v.0, v.3)).collect())
-                    .color(col)
-                    .style(Style::Dashed),
-            );
-        zeta = zeta.series(
-            Series::line(name, vals.iter().map(|v| (v.0, v.2)).collect())
-                .color(col)
-                .width(width),
-        );
+        // The legend names each mode with its natural frequency range (min/max skip NaN).
+        let (lo, hi) = (vals.iter()).fold((f64::INFINITY, 0.0f64), |(a, b), v| {
+            (a.min(v.3), b.max(v.3))
+        });
+        let mut named = if hi > 0.0 {
+            format!("{name}: f_n {lo:.1}-{hi:.1} Hz")
+        } else if name.contains("real") {
+            name.clone()
+        } else {
+            format!("{name}: real")
+        };
+        // How far a branch runs past the axis's left end.
+        let far = (0..n_pts).flat_map(branch).map(|p| p.0).fold(0.0, f64::min);
+        if far < 1.05 * re_lo {
+            let sep = if named.contains(':') { "," } else { ":" };
+            named += &format!("{sep} to {far:.0} 1/s");
+        }
+        locus = locus.series(Series::scatter(&named, pts).color(col).width(width));
+        let top = branch(n_pts - 1).collect();
+        locus = locus.series(Series::scatter("", top).style(Style::Crosses).color(col));
+        let line = |label: &str, f: fn(&(f64, f64, f64, f64)) -> f64| {
+            Series::line(label, vals.iter().map(|v| (v.0, f(v))).collect()).color(col)
+        };
+        freq = (freq.series(line(name, |v| v.1).width(width)))
+            .series(line("", |v| v.3).style(Style::Dashed));
+        zeta = zeta.series(line(name, |v| v.2).width(width));
     }
     for c in &sw.crossings {
         zeta = zeta.vmark(c.creep_n * 1e-6, "", AXIS_GREY);

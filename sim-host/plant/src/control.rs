@@ -1,7 +1,5 @@
-//! Controllers: the continuous-time references ([`ContinuousController`], ODE states
-//! integrated with the plant) and the interface of a discrete one
-//! ([`SampledController`], called once per period, its output held). Signs (eq. 5,
-//! `J psi'' + ... = -T_psi`): passive `T_psi = +k_yaw psi`, active `T_psi = +K y'`.
+//! The continuous and the sampled controllers. Signs (eq. 5, `J psi'' + ... = -T_psi`):
+//! passive `T_psi = +k_yaw psi`, active `T_psi = +K y'`.
 
 use crate::params::Params;
 use crate::plant::{ix, Flags, Inputs, Plant, Scalar, NX};

@@ -1,7 +1,5 @@
-//! The plant simulator: the railway wheelset with its traction drive on a canted curve
-//! (`docs/model.md`), its scenarios and faults, RK4 runs, linearisation, the modal
-//! sweep and the sampled-data rate analysis. The closed loop with the device is
-//! `wheelset-loop`; the figures are `sim-host`'s.
+//! The railway wheelset with its traction drive on a canted curve (`docs/model.md`) and
+//! its analysis; the closed loop with the device is `wheelset-loop`, the figures `sim-host`'s.
 #![deny(missing_docs)]
 
 pub mod adhesion;

@@ -297,11 +297,8 @@ pub struct Plant {
 /// Parameter products formed once with the same operations (the RHS is bit-identical).
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Products {
-    /// `m g`.
     m_g: f64,
-    /// `0.5 / I_w` as `0.5 * (1 / I_w)`.
     half_inv_i_w: f64,
-    /// `k_gear / n` as `k_gear * (1 / n)`.
     k_gear_inv_n: f64,
 }
 

@@ -27,12 +27,9 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ),
 ];
 
-/// Nanoseconds per second.
-pub const NS_PER_S: f64 = 1e9;
-
 /// Converts seconds to integer nanoseconds (rounded to nearest).
 pub fn s_to_ns(t: f64) -> u64 {
-    (t * NS_PER_S).round() as u64
+    (t * 1e9).round() as u64
 }
 
 /// A step (or ramp) of a scalar input switched on at `t_on_ns` (default: no input).
@@ -252,7 +249,6 @@ fn invalid(file: &str, key: impl Into<String>, reason: impl Into<String>) -> Con
     }
 }
 
-/// `Ok` when `ok`, else the [`invalid`] error of `key`.
 fn check(
     ok: bool,
     file: &str,
@@ -332,7 +328,10 @@ impl Scenario {
                 cant: k.cant_deg.to_radians(),
             });
         }
-        let step = |key: &str, value: f64, t_on: f64, ramp: f64, max: f64| {
+        let step = |key: &str, raw: Option<(f64, f64, f64)>, max: f64| {
+            let Some((value, t_on, ramp)) = raw else {
+                return Ok(StepInput::default());
+            };
             let reason = format!("{value} is outside [-{max}, {max}]");
             check(value.is_finite() && value.abs() <= max, file, key, reason)?;
             let table = key.split('.').next().unwrap_or(key);
@@ -342,20 +341,13 @@ impl Scenario {
                 ramp_ns: time(file, &format!("{table}.ramp_s"), ramp, 1e5)?,
             })
         };
-        let traction = match raw.traction {
-            Some(t) => step("traction.demand_nm", t.demand_nm, t.t_on_s, t.ramp_s, 1e5)?,
-            None => StepInput::default(),
-        };
-        let resistance = match raw.resistance {
-            Some(r) => step("resistance.f_run_n", r.f_run_n, r.t_on_s, r.ramp_s, 1e6)?,
-            None => StepInput::default(),
-        };
-        let params = match &raw.params {
-            Some(t) => base
-                .with_overrides(t, file)
-                .map_err(|e| e.under("params"))?,
-            None => base.clone(),
-        };
+        let traction = raw.traction.map(|t| (t.demand_nm, t.t_on_s, t.ramp_s));
+        let traction = step("traction.demand_nm", traction, 1e5)?;
+        let resistance = raw.resistance.map(|r| (r.f_run_n, r.t_on_s, r.ramp_s));
+        let resistance = step("resistance.f_run_n", resistance, 1e6)?;
+        let params = (raw.params.as_ref())
+            .map_or_else(|| Ok(base.clone()), |t| base.with_overrides(t, file))
+            .map_err(|e| e.under("params"))?;
         let mut adhesion: Vec<AdhesionSection> = Vec::with_capacity(raw.adhesion.len());
         for (i, a) in raw.adhesion.iter().enumerate() {
             let key = |k: &str| format!("adhesion[{i}].{k}");
@@ -376,10 +368,9 @@ impl Scenario {
                 condition,
             });
         }
-        let actuator_fault = match &raw.actuator_fault {
-            Some(f) => Some(f.validate(file, raw.duration_s)?),
-            None => None,
-        };
+        let actuator_fault = (raw.actuator_fault.as_ref())
+            .map(|f| f.validate(file, raw.duration_s))
+            .transpose()?;
         let name = raw.name.unwrap_or_else(|| {
             Path::new(file)
                 .file_stem()

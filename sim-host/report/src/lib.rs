@@ -1,5 +1,4 @@
-//! What every report of the workspace is made of, with no dependency of the workspace:
-//! [`svg`], [`table`], [`Verdict`], [`Stats`], [`out`](mod@out) and [`output`].
+//! What every report of the workspace is made of, with no dependency of the workspace.
 #![deny(missing_docs)]
 
 pub mod out;

@@ -133,30 +133,24 @@ fn worse(zeta: f64, worst: f64) -> bool {
     zeta < worst - ZETA_TIE
 }
 
+/// The `(zeta, freq_hz)` of least `zeta` from `first` on (ties: the earliest).
+fn least(first: (f64, f64), rest: impl Iterator<Item = (f64, f64)>) -> (f64, f64) {
+    rest.fold(first, |a, z| if z.0 < a.0 { z } else { a })
+}
+
 fn worst_continuous(ev: &[Complex<f64>]) -> (f64, f64) {
-    ev.iter()
-        .filter(|e| e.im.abs() > 1e-9)
-        .map(|e| (zeta_of(*e), e.im.abs() / (2.0 * std::f64::consts::PI)))
-        .chain(
-            ev.iter()
-                .filter(|e| e.im.abs() <= 1e-9 && e.re >= 0.0)
-                .map(|e| (-1.0 - e.re, 0.0)),
-        )
-        .fold((1.0, 0.0), |acc, z| if z.0 < acc.0 { z } else { acc })
+    let oscillating = (ev.iter().filter(|e| e.im.abs() > 1e-9))
+        .map(|e| (zeta_of(*e), e.im.abs() / (2.0 * std::f64::consts::PI)));
+    let real_unstable =
+        (ev.iter().filter(|e| e.im.abs() <= 1e-9 && e.re >= 0.0)).map(|e| (-1.0 - e.re, 0.0));
+    least((1.0, 0.0), oscillating.chain(real_unstable))
 }
 
 fn worst_sampled(cl: &ClosedLoop) -> (f64, f64) {
-    cl.modes
-        .iter()
+    let real_unstable = (cl.modes.iter())
         .filter(|m| m.freq_hz <= 1e-6 && m.radius >= 1.0)
-        .map(|m| (-1.0 - (m.radius - 1.0), 0.0))
-        .fold((cl.worst.zeta, cl.worst.freq_hz), |a, z| {
-            if z.0 < a.0 {
-                z
-            } else {
-                a
-            }
-        })
+        .map(|m| (-1.0 - (m.radius - 1.0), 0.0));
+    least((cl.worst.zeta, cl.worst.freq_hz), real_unstable)
 }
 
 /// The current loop's fast mode: the PI of `cfg` on the armature circuit alone with
@@ -297,10 +291,10 @@ pub fn critical_creep(
             .all(|e| e.re < 0.0)
     };
     let (mut lo, mut hi) = (0.1e6, 20e6);
-    if stable(lo) == stable(hi) {
+    let s_hi = stable(hi);
+    if stable(lo) == s_hi {
         return None;
     }
-    let s_hi = stable(hi);
     for _ in 0..40 {
         let mid = 0.5 * (lo + hi);
         if stable(mid) == s_hi {
@@ -349,11 +343,7 @@ fn choose(rows: &[RateRow], c: &Criteria) -> Option<RateRow> {
                 && r.min_baud <= c.max_baud
         })
         .min_by(|a, b| {
-            a.base_hz.cmp(&b.base_hz).then(
-                a.max_damping_loss
-                    .partial_cmp(&b.max_damping_loss)
-                    .unwrap_or(std::cmp::Ordering::Equal),
-            )
+            (a.base_hz.cmp(&b.base_hz)).then(a.max_damping_loss.total_cmp(&b.max_damping_loss))
         })
         .copied()
 }

@@ -4,8 +4,7 @@ use crate::plant::{ix, State};
 use serde::Serialize;
 use std::io::Write;
 
-/// Declares [`Record`] from rows `field => "CSV column",` (each an `f64`, SI), with its
-/// [`Record::COLUMNS`] and [`Record::values`] in the same order.
+/// Declares [`Record`] from rows `field => "CSV column",` (each an `f64`, SI).
 macro_rules! record {
     ($($(#[$doc:meta])* $field:ident => $col:literal,)*) => {
         /// One output sample. CSV column names are in [`Record::COLUMNS`] (SI, unit suffix).

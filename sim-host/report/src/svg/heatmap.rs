@@ -27,7 +27,7 @@ impl Cell {
 
 /// A heat map: `x_ticks.len()` columns by `y_ticks.len()` rows; the cells row by row,
 /// the first row at the bottom (the y axis grows upwards, as in a plot).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct HeatMap {
     /// Title above the map.
     pub title: String,
@@ -56,12 +56,9 @@ impl HeatMap {
     pub fn new(title: &str, x_ticks: Vec<String>, y_ticks: Vec<String>) -> Self {
         HeatMap {
             title: title.into(),
-            x_label: String::new(),
-            y_label: String::new(),
             x_ticks,
             y_ticks,
-            cells: Vec::new(),
-            legend: Vec::new(),
+            ..HeatMap::default()
         }
     }
     /// Sets the axis labels.

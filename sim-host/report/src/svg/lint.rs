@@ -97,13 +97,9 @@ pub fn text_boxes(svg: &str) -> ((f64, f64), Vec<TextBox>) {
             let fs = num(tag, "font-size")
                 .or_else(|| groups.iter().rev().find_map(|g| g.1))
                 .unwrap_or(11.0);
-            let ((x, y), rot) = match attr(tag, "transform").and_then(|t| transform(&t)) {
-                Some(t) => t,
-                None => (
-                    (num(tag, "x").unwrap_or(0.0), num(tag, "y").unwrap_or(0.0)),
-                    0.0,
-                ),
-            };
+            let at = |k| num(tag, k).unwrap_or(0.0);
+            let ((x, y), rot) = (attr(tag, "transform").and_then(|t| transform(&t)))
+                .unwrap_or(((at("x"), at("y")), 0.0));
             // Entities count as one character.
             let chars = text.chars().count() - text.matches('&').count() * 3;
             let w = chars as f64 * CHAR_WIDTH * fs;
@@ -121,15 +117,10 @@ pub fn text_boxes(svg: &str) -> ((f64, f64), Vec<TextBox>) {
             ];
             let (s, c) = rot.to_radians().sin_cos();
             let pts = corners.map(|(u, v)| (x + gx + u * c - v * s, y + gy + u * s + v * c));
-            let rect = pts.iter().fold(
-                (
-                    f64::INFINITY,
-                    f64::INFINITY,
-                    f64::NEG_INFINITY,
-                    f64::NEG_INFINITY,
-                ),
-                |r, p| (r.0.min(p.0), r.1.min(p.1), r.2.max(p.0), r.3.max(p.1)),
-            );
+            let inf = f64::INFINITY;
+            let rect = (pts.iter()).fold((inf, inf, -inf, -inf), |r, p| {
+                (r.0.min(p.0), r.1.min(p.1), r.2.max(p.0), r.3.max(p.1))
+            });
             out.push(TextBox {
                 text: text.to_string(),
                 rect,
