@@ -83,14 +83,6 @@ impl ClosedLoop {
 /// Largest hyper-period (ticks) and delay the analysis accepts.
 pub const MAX_HYPER_PERIOD: usize = 1000;
 
-fn gcd(a: usize, b: usize) -> usize {
-    if b == 0 {
-        a
-    } else {
-        gcd(b, a % b)
-    }
-}
-
 /// The per-tick loop matrices `M_0 .. M_{L-1}` over one hyper-period (`X` as in the
 /// module docs); no traction when it is off or the plant has no drive.
 pub fn tick_matrices(
@@ -158,7 +150,7 @@ pub fn tick_matrices(
         i_upd[(0, ii)] = 1.0;
     }
 
-    let l = yaw_div / gcd(yaw_div, tr_div) * tr_div;
+    let l = num_integer::lcm(yaw_div, tr_div);
     if l > MAX_HYPER_PERIOD {
         return Err(format!(
             "hyper-period lcm(yaw_divisor {}, traction_divisor {}) = {l} ticks: at most {MAX_HYPER_PERIOD}",
