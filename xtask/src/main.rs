@@ -1,9 +1,6 @@
-//! Project automation, run through cargo aliases (`.cargo/config.toml`): `cargo xtest`
-//! (the set-up a fresh machine lacks, the `no_std` and firmware builds with their size
-//! budget, the workspace's tests, the device-feature runs, the benches' build, the pages'
-//! fw-bench figures and generated blocks), `cargo fw [--f32]` (the board builds into
-//! `target/fw/`), and `cargo xtask fw-bench`, `fuzz`, `loc`, `mutants`, `qemu-cmd` and
-//! `readme` (each module's docs; the usage line is in `main`).
+//! Project automation, run through cargo aliases (`.cargo/config.toml`): `cargo xtest`,
+//! `cargo fw [--f32]` and `cargo xtask fw-bench`, `fuzz`, `loc`, `mutants`, `qemu-cmd` and
+//! `readme` (their steps in `test` and `fw`, or their module's docs; the usage line in `main`).
 
 /// `print!` for the tasks' output: a closed standard output ends the task quietly with
 /// exit code 0; another write error ends it with 1 and the reason.
