@@ -233,13 +233,6 @@ fn free_port() -> io::Result<u16> {
 }
 
 impl Qemu {
-    /// The full QEMU command line for `elf` on `machine` with the serial chardev on `port`.
-    pub fn command_on(machine: Machine, elf: &Path, port: u16) -> Command {
-        let mut cmd = Command::new(QEMU_BIN);
-        cmd.args(Self::args(machine, elf, SerialTo::Tcp(port)));
-        cmd
-    }
-
     fn args(machine: Machine, elf: &Path, to: SerialTo) -> Vec<String> {
         qemu_args(machine.name(), machine.cpu(), &elf.to_string_lossy(), to)
     }
