@@ -187,7 +187,6 @@ pub struct RealTime {
     run: RunState,
 }
 
-/// What [`RealTime`] tracks of the link and the run, all empty when it opens.
 #[derive(Default)]
 struct RunState {
     /// Chunks read and not yet delivered: (arrival ns after `origin`, bytes).

@@ -126,7 +126,6 @@ pub struct DeviceController<'a> {
     run: RunState,
 }
 
-/// What [`DeviceController`] tracks of the exchange, all empty before the first step.
 #[derive(Default)]
 struct RunState {
     config_sent: bool,
