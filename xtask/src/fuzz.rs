@@ -148,13 +148,11 @@ fn output_limits() -> OutputLimits {
     }
 }
 
-fn fail(numeric: &str, seed: u64, i: u64, what: String) -> String {
-    format!("fuzz FAILED ({numeric}, seed {seed}, frame {i}): {what}")
-}
-
 /// One sample type's run of `n` frames from `seed`.
 pub fn run<T: SampleBits>(n: u64, seed: u64) -> Result<Report, String> {
     let numeric = if T::NUMERIC == 0 { "Fx" } else { "f32" };
+    let fail =
+        |i: u64, what: String| format!("fuzz FAILED ({numeric}, seed {seed}, frame {i}): {what}");
     let mut g = Gen::new(seed ^ (u64::from(T::NUMERIC) << 56));
     let mut rt = Runtime::<T>::try_new(RuntimeConfig::default())
         .map_err(|e| format!("fuzz: the default runtime does not build: {e}"))?;
@@ -185,12 +183,7 @@ pub fn run<T: SampleBits>(n: u64, seed: u64) -> Result<Report, String> {
                 }
             }));
             if fed.is_err() {
-                return Err(fail(
-                    numeric,
-                    seed,
-                    i,
-                    format!("receive panicked on {bytes:02x?}"),
-                ));
+                return Err(fail(i, format!("receive panicked on {bytes:02x?}")));
             }
             rep.frames_seen += 1;
             let after = *rt.counters();
@@ -211,15 +204,11 @@ pub fn run<T: SampleBits>(n: u64, seed: u64) -> Result<Report, String> {
                 }
             };
             if !ok {
-                return Err(fail(
-                    numeric,
-                    seed,
-                    i,
-                    format!(
-                        "frame {bytes:02x?} not accounted: host expects {expect:?}, device \
-                         counters {b:?} -> {a:?}"
-                    ),
-                ));
+                let what = format!(
+                    "frame {bytes:02x?} not accounted: host expects {expect:?}, device \
+                     counters {b:?} -> {a:?}"
+                );
+                return Err(fail(i, what));
             }
             if matches!(expect, Expect::Ok { reset: true }) {
                 rep.resets += 1;
@@ -239,11 +228,11 @@ pub fn run<T: SampleBits>(n: u64, seed: u64) -> Result<Report, String> {
         for _ in 0..g.below(3) {
             let out = catch_unwind(AssertUnwindSafe(|| rt.tick(exec).to_vec()));
             let Ok(out) = out else {
-                return Err(fail(numeric, seed, i, "tick panicked".into()));
+                return Err(fail(i, "tick panicked".into()));
             };
             exec = g.u64() as u32;
             rep.ticks += 1;
-            check_output(&out, &rt, &lim, &mut rep).map_err(|e| fail(numeric, seed, i, e))?;
+            check_output(&out, &rt, &lim, &mut rep).map_err(|e| fail(i, e))?;
         }
     }
     Ok(rep)

@@ -1,9 +1,6 @@
-//! Project automation, run through cargo aliases (`.cargo/config.toml`): `cargo xtest`
-//! (the set-up a fresh machine lacks, the `no_std` and firmware builds with their size
-//! budget, the workspace's tests, the device-feature runs, the benches' build, the pages'
-//! fw-bench figures and generated blocks), `cargo fw [--f32]` (the board builds into
-//! `target/fw/`), and `cargo xtask fw-bench`, `fuzz`, `loc`, `mutants`, `qemu-cmd` and
-//! `readme` (each module's docs; the usage line is in `main`).
+//! Project automation, run through cargo aliases (`.cargo/config.toml`): `cargo xtest`,
+//! `cargo fw [--f32]` and `cargo xtask fw-bench`, `fuzz`, `loc`, `mutants`, `qemu-cmd` and
+//! `readme` (their steps in `test` and `fw`, or their module's docs; the usage line in `main`).
 
 /// `print!` for the tasks' output: a closed standard output ends the task quietly with
 /// exit code 0; another write error ends it with 1 and the reason.
@@ -315,19 +312,14 @@ fn ensure_qemu() -> bool {
 }
 
 fn fw(args: &[String]) -> Result<Vec<(PathBuf, &'static str)>, String> {
-    let mut list: Vec<&Firmware> = FIRMWARE.iter().collect();
-    for a in args {
-        match a.as_str() {
-            "--f32" => list.extend(FIRMWARE_F32.iter()),
-            other => {
-                return Err(format!(
-                    "cargo fw: unknown argument `{other}` (usage: cargo fw [--f32])"
-                ))
-            }
-        }
+    if let Some(other) = args.iter().find(|a| *a != "--f32") {
+        return Err(format!(
+            "cargo fw: unknown argument `{other}` (usage: cargo fw [--f32])"
+        ));
     }
+    let f32 = FIRMWARE_F32.iter().filter(|_| !args.is_empty());
     ensure_targets()?;
-    let elfs = build_firmware(list)?;
+    let elfs = build_firmware(FIRMWARE.iter().chain(f32))?;
     size::check_sizes(&elfs)?;
     Ok(elfs)
 }
@@ -462,10 +454,9 @@ fn main() -> ExitCode {
             Err(e) => return usage_error(e),
         },
         Some("readme") => return readme::main(&args[1..]),
-        Some("qemu-cmd") => match qemu_cmd_line(&args[1..]) {
-            Ok(()) => Ok(()),
-            Err(e) => return usage_error(e),
-        },
+        Some("qemu-cmd") => {
+            return qemu_cmd_line(&args[1..]).map_or_else(usage_error, |()| ExitCode::SUCCESS)
+        }
         _ => {
             eprintln!(
                 "usage: cargo xtask <test [cargo test args]|fw [--f32]|fw-bench [--json FILE] [--check]|\

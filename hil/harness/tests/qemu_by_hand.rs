@@ -1,5 +1,5 @@
 //! The README's by-hand QEMU run: QEMU started from the project's command line
-//! (`cargo xtask qemu-cmd ELF --tcp PORT`, here [`Qemu::command_on`]) waits for a client on
+//! (`cargo xtask qemu-cmd ELF --tcp PORT`, here [`qemu_args`]) waits for a client on
 //! its TCP port, and `hil run --target qemu:PORT` is that client: the same closed loop,
 //! bit for bit, as the in-process run; the defmt log goes where the shell sends QEMU's
 //! stdout. Skips when QEMU or the firmware ELF is missing, unless `REQUIRE_QEMU=1`.
@@ -10,7 +10,8 @@ use std::process::Stdio;
 
 use hil::run::{run, RunOptions, Target};
 use wheelset_report::Verdict;
-use wheelset_targets::qemu::{Machine, Qemu, QemuConfig};
+use wheelset_targets::qemu::cmd::{qemu_args, SerialTo};
+use wheelset_targets::qemu::{Machine, QemuConfig, QEMU_BIN};
 
 #[test]
 fn hil_run_target_qemu_port_is_the_client_of_a_qemu_started_by_hand() {
@@ -27,7 +28,9 @@ fn hil_run_target_qemu_port_is_the_client_of_a_qemu_started_by_hand() {
         .map(|a| a.port())
         .expect("a free port");
     let log = std::env::temp_dir().join(format!("qemu-by-hand-{}.bin", std::process::id()));
-    let mut qemu = Qemu::command_on(Machine::default(), &cfg.elf, port)
+    let (m, elf) = (Machine::default(), cfg.elf.to_string_lossy());
+    let mut qemu = std::process::Command::new(QEMU_BIN)
+        .args(qemu_args(m.name(), m.cpu(), &elf, SerialTo::Tcp(port)))
         .stdin(Stdio::null())
         .stdout(std::fs::File::create(&log).expect("log file"))
         .stderr(Stdio::null())

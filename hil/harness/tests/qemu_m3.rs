@@ -13,6 +13,7 @@ use std::time::Duration;
 use hil::golden::{compare, run_host, run_target, vectors};
 use hil::run::DEFAULT_CPU_HZ;
 use wheelset_runtime::RuntimeConfig;
+use wheelset_targets::qemu::cmd::{qemu_args, SerialTo};
 use wheelset_targets::qemu::target::QemuTarget;
 use wheelset_targets::qemu::{Channel, Machine, QemuConfig};
 
@@ -76,11 +77,8 @@ fn the_cortex_m3_build_is_bit_identical_with_the_host_and_the_cortex_m4_build() 
 fn the_machine_picks_its_cpu_and_elf() {
     let m3 = QemuConfig::on(Machine::An385);
     assert!(m3.elf.ends_with("wheelset-qemu-m3.elf"), "{:?}", m3.elf);
-    let cmd = wheelset_targets::qemu::Qemu::command_on(Machine::An385, &m3.elf, 1);
-    let args: Vec<String> = cmd
-        .get_args()
-        .map(|a| a.to_string_lossy().into_owned())
-        .collect();
+    let (m, elf) = (Machine::An385, m3.elf.to_string_lossy());
+    let args = qemu_args(m.name(), m.cpu(), &elf, SerialTo::Tcp(1));
     let after = |flag: &str| {
         args.iter()
             .position(|a| a == flag)

@@ -7,7 +7,7 @@ use std::fs::File;
 use std::io::{self, Read, Write};
 use std::net::{Ipv4Addr, TcpListener, TcpStream};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::{Child, Command, ExitStatus, Stdio};
 use std::time::{Duration, Instant};
 
 pub use crate::qemu::machine::Machine;
@@ -233,13 +233,6 @@ fn free_port() -> io::Result<u16> {
 }
 
 impl Qemu {
-    /// The full QEMU command line for `elf` on `machine` with the serial chardev on `port`.
-    pub fn command_on(machine: Machine, elf: &Path, port: u16) -> Command {
-        let mut cmd = Command::new(QEMU_BIN);
-        cmd.args(Self::args(machine, elf, SerialTo::Tcp(port)));
-        cmd
-    }
-
     fn args(machine: Machine, elf: &Path, to: SerialTo) -> Vec<String> {
         qemu_args(machine.name(), machine.cpu(), &elf.to_string_lossy(), to)
     }
@@ -329,7 +322,7 @@ impl Qemu {
             Duration::from_millis(10),
             || TcpStream::connect((Ipv4Addr::LOCALHOST, port)),
             || {
-                guard.exited().then(|| QemuError::Connect {
+                guard.exited().map(|_| QemuError::Connect {
                     port,
                     stderr: read_to_string(&stderr_path),
                 })
@@ -414,13 +407,7 @@ impl Qemu {
                         ));
                     }
                     match rx.read(buf) {
-                        Ok(0)
-                            if self
-                                .guard
-                                .child
-                                .as_mut()
-                                .is_some_and(|c| c.try_wait().ok().flatten().is_none()) =>
-                        {
+                        Ok(0) if self.guard.child.is_some() && self.guard.exited().is_none() => {
                             // No writer yet (the firmware opens `tx` after `rx`).
                             std::thread::sleep(Duration::from_millis(1));
                         }
@@ -489,11 +476,11 @@ impl Qemu {
 
     /// A link error, or QEMU's exit with its stderr if it is gone.
     fn link_error(&mut self, e: io::Error) -> QemuError {
-        match self.guard.child.as_mut().map(Child::try_wait) {
-            Some(Ok(Some(status))) => {
+        match self.guard.exited() {
+            Some(status) => {
                 QemuError::Exited(format!("{status}; {}", read_to_string(&self.stderr_path)))
             }
-            _ => QemuError::Link(e),
+            None => QemuError::Link(e),
         }
     }
 }
@@ -530,9 +517,9 @@ pub struct Launch {
 }
 
 impl Guard {
-    /// The child has exited (QEMU gave up: its stderr says why).
-    fn exited(&mut self) -> bool {
-        matches!(self.child.as_mut().map(Child::try_wait), Some(Ok(Some(_))))
+    /// The child's exit status once it has exited (QEMU gave up: its stderr says why).
+    fn exited(&mut self) -> Option<ExitStatus> {
+        self.child.as_mut()?.try_wait().ok().flatten()
     }
 
     /// Whether there was a child to kill (and reap).

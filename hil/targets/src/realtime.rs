@@ -183,6 +183,12 @@ pub struct RealTime {
     o: RealTimeOptions,
     /// Plant time zero on the host's clock.
     origin: Instant,
+    obtained: Obtained,
+    run: RunState,
+}
+
+#[derive(Default)]
+struct RunState {
     /// Chunks read and not yet delivered: (arrival ns after `origin`, bytes).
     pending: VecDeque<(u64, Vec<u8>)>,
     decoder: Decoder,
@@ -208,7 +214,6 @@ pub struct RealTime {
     missed: u64,
     period_missed: bool,
     status_owed: bool,
-    obtained: Obtained,
 }
 
 fn io_err(path: &str, e: &io::Error) -> TransportError {
@@ -225,33 +230,13 @@ impl RealTime {
     /// Real-time pacing over `port` (named `name`); asks the OS for `o.want` on this thread.
     #[must_use]
     pub fn on(name: &str, port: Port, o: RealTimeOptions) -> Self {
-        let obtained = rt_os::obtain(o.want);
         Self {
             path: name.to_string(),
             port,
             o,
+            obtained: rt_os::obtain(o.want),
             origin: Instant::now(),
-            pending: VecDeque::new(),
-            decoder: Decoder::new(),
-            frame: Vec::new(),
-            first_seq: None,
-            last_seq: 0,
-            synced: false,
-            sync: SyncReport::default(),
-            baseline: None,
-            last_status: None,
-            last_status_at: None,
-            seen: Vec::new(),
-            phase_ref_ns: 0.0,
-            window: Vec::with_capacity(TRACK_FRAMES),
-            send_late: Vec::new(),
-            recv_over: Vec::new(),
-            late_sends: 0,
-            late_receives: 0,
-            missed: 0,
-            period_missed: false,
-            status_owed: false,
-            obtained,
+            run: RunState::default(),
         }
     }
 
@@ -321,46 +306,48 @@ impl RealTime {
     fn ingest(&mut self, at: u64, bytes: &[u8]) {
         let mut rest = bytes;
         while !rest.is_empty() {
-            let (r, more) = self.decoder.next_message(rest);
-            self.frame
+            let (r, more) = self.run.decoder.next_message(rest);
+            self.run
+                .frame
                 .extend_from_slice(rest.get(..rest.len() - more.len()).unwrap_or(&[]));
             rest = more;
             let Some(r) = r else {
                 continue;
             };
-            let frame = std::mem::take(&mut self.frame);
+            let frame = std::mem::take(&mut self.run.frame);
             let n = frame.len();
             match r {
                 Ok(Message::Actuation(a)) => {
-                    if !self.synced
+                    if !self.run.synced
                         && self
+                            .run
                             .first_seq
-                            .is_some_and(|s| echoes_this_run(a.seq_echo, s, self.last_seq))
+                            .is_some_and(|s| echoes_this_run(a.seq_echo, s, self.run.last_seq))
                     {
-                        self.synced = true;
+                        self.run.synced = true;
                     }
-                    if self.synced {
+                    if self.run.synced {
                         self.track(at, n);
                     } else {
-                        self.seen.push((at, n, a.tick, a.exec));
+                        self.run.seen.push((at, n, a.tick, a.exec));
                     }
                 }
-                Ok(Message::Status(s)) if !self.synced => {
-                    self.last_status = Some(s);
-                    self.last_status_at = Some((at, n));
+                Ok(Message::Status(s)) if !self.run.synced => {
+                    self.run.last_status = Some(s);
+                    self.run.last_status_at = Some((at, n));
                 }
                 _ => {}
             }
-            if self.synced {
+            if self.run.synced {
                 // Stamped with the arrival of the frame's last byte, as received.
-                match self.pending.back_mut() {
+                match self.run.pending.back_mut() {
                     Some((t, v)) if *t == at => v.extend_from_slice(&frame),
-                    _ => self.pending.push_back((at, frame)),
+                    _ => self.run.pending.push_back((at, frame)),
                 }
             } else {
-                self.sync.pre_run += 1;
-                if self.baseline.is_some() {
-                    self.sync.ticks_before_run += 1;
+                self.run.sync.pre_run += 1;
+                if self.run.baseline.is_some() {
+                    self.run.sync.ticks_before_run += 1;
                 }
             }
         }
@@ -372,10 +359,10 @@ impl RealTime {
     fn track(&mut self, at: u64, wire_bytes: usize) {
         let t = self.o.period_ns as f64;
         let o = at as f64 - wire_ns(wire_bytes, self.o.baud) as f64;
-        self.window.push(wrap(o - self.phase_ref_ns, t));
-        if self.window.len() >= TRACK_FRAMES {
-            let drift = lower_decile(&mut self.window);
-            self.window.clear();
+        self.run.window.push(wrap(o - self.run.phase_ref_ns, t));
+        if self.run.window.len() >= TRACK_FRAMES {
+            let drift = lower_decile(&mut self.run.window);
+            self.run.window.clear();
             if drift.abs() > t / 50.0 {
                 // Follow at most an eighth of a period per window.
                 let step = drift.clamp(-t / 8.0, t / 8.0) as i64;
@@ -385,8 +372,8 @@ impl RealTime {
                     self.origin -= Duration::from_nanos(step.unsigned_abs());
                 }
                 // The reference is on the run's clock, which moved with the origin.
-                self.sync.phase_corrections += 1;
-                self.sync.phase_correction_ns += step;
+                self.run.sync.phase_corrections += 1;
+                self.run.sync.phase_correction_ns += step;
             }
         }
     }
@@ -402,25 +389,25 @@ impl RealTime {
     }
 
     fn host_report(&self) -> HostDeadlines {
-        let periods = self.send_late.len() as u64;
+        let periods = self.run.send_late.len() as u64;
         HostDeadlines {
             periods,
-            missed_deadlines: self.missed,
-            missed_frac: self.missed as f64 / periods.max(1) as f64,
-            late_sends: self.late_sends,
-            late_receives: self.late_receives,
-            send_lateness_ns: Stats::of(&self.send_late),
-            recv_overshoot_ns: Stats::of(&self.recv_over),
+            missed_deadlines: self.run.missed,
+            missed_frac: self.run.missed as f64 / periods.max(1) as f64,
+            late_sends: self.run.late_sends,
+            late_receives: self.run.late_receives,
+            send_lateness_ns: Stats::of(&self.run.send_late),
+            recv_overshoot_ns: Stats::of(&self.run.recv_over),
         }
     }
 
     /// The run's start for the frame accounting, once the baseline was taken.
     #[must_use]
     pub fn run_start(&self) -> Option<RunStart> {
-        self.baseline.map(|baseline| RunStart {
+        self.run.baseline.map(|baseline| RunStart {
             baseline,
-            ticks_before_run: self.sync.ticks_before_run,
-            pre_run: self.sync.pre_run,
+            ticks_before_run: self.run.sync.ticks_before_run,
+            pre_run: self.run.sync.pre_run,
         })
     }
 }

@@ -120,6 +120,14 @@ pub struct DeviceController<'a> {
     /// Back-EMF gain, V s/rad.
     k_m: f64,
     setup: LoopSetup<'a>,
+    deferred: bool,
+    /// What the loop records.
+    pub rec: LoopRecords,
+    run: RunState,
+}
+
+#[derive(Default)]
+struct RunState {
     config_sent: bool,
     decoder: Decoder,
     k: u64,
@@ -129,16 +137,13 @@ pub struct DeviceController<'a> {
     /// The sample count of the step whose actuation is being received (`answer`).
     answering: u64,
     fresh: bool,
-    /// The frames of one [`Self::receive`]: arrival, bytes on the wire, result.
+    /// The frames of one [`DeviceController::receive`]: arrival, bytes on the wire, result.
     rx_frames: Vec<(u64, usize, Result<Message, FrameError>)>,
     frame_bytes: usize,
-    /// What the loop records.
-    pub rec: LoopRecords,
     config_echo_pending: bool,
     status_seen: bool,
     last_tick: u16,
     last_latched: bool,
-    deferred: bool,
     /// The steps sent whose actuation is not taken yet, oldest first (two in flight).
     awaiting: std::collections::VecDeque<Awaiting>,
 }
@@ -163,21 +168,8 @@ impl<'a> DeviceController<'a> {
             tr,
             k_m,
             setup,
-            config_sent: false,
-            decoder: Decoder::new(),
-            k: 0,
-            held: None,
-            early: std::collections::VecDeque::new(),
-            answering: 0,
-            fresh: false,
-            rx_frames: Vec::new(),
-            frame_bytes: 0,
             rec: LoopRecords::default(),
-            config_echo_pending: false,
-            status_seen: false,
-            last_tick: 0,
-            last_latched: false,
-            awaiting: std::collections::VecDeque::with_capacity(2),
+            run: RunState::default(),
         }
     }
 
@@ -216,11 +208,11 @@ impl<'a> DeviceController<'a> {
         if self.rec.error.is_some() {
             return;
         }
-        let mut frames = std::mem::take(&mut self.rx_frames);
+        let mut frames = std::mem::take(&mut self.run.rx_frames);
         frames.clear();
         let (dec, frame_bytes, received) = (
-            &mut self.decoder,
-            &mut self.frame_bytes,
+            &mut self.run.decoder,
+            &mut self.run.frame_bytes,
             &mut self.rec.host.bytes_received,
         );
         if let Err(e) = self.tr.recv_frames(deadline_ns, dec, &mut |at, taken, r| {
@@ -235,12 +227,12 @@ impl<'a> DeviceController<'a> {
         for &(at, n, r) in &frames {
             self.on_frame(at, n, r);
         }
-        self.rx_frames = frames;
+        self.run.rx_frames = frames;
     }
 
     fn on_frame(&mut self, at_ns: u64, wire_bytes: usize, r: Result<Message, FrameError>) {
         // Counted up to the Status, as the Status's counters are.
-        if !self.status_seen {
+        if !self.run.status_seen {
             match r {
                 Ok(_) => self.rec.host.received += 1,
                 Err(_) => self.rec.host.rejected += 1,
@@ -249,9 +241,9 @@ impl<'a> DeviceController<'a> {
         match r {
             Ok(Message::Actuation(a)) => {
                 // Unwrap the 16-bit echo against the host's own sample count.
-                let echo = (a.seq_echo != 0 || self.k > 0xffff).then(|| {
-                    let diff = (self.k as u16).wrapping_sub(a.seq_echo);
-                    self.k.saturating_sub(u64::from(diff))
+                let echo = (a.seq_echo != 0 || self.run.k > 0xffff).then(|| {
+                    let diff = (self.run.k as u16).wrapping_sub(a.seq_echo);
+                    self.run.k.saturating_sub(u64::from(diff))
                 });
                 let echo = echo.map(|e| e.saturating_sub(1));
                 if self.setup.records == Records::All {
@@ -263,7 +255,7 @@ impl<'a> DeviceController<'a> {
                     });
                 }
                 self.note_tick(at_ns, &a);
-                if std::mem::take(&mut self.config_echo_pending) {
+                if std::mem::take(&mut self.run.config_echo_pending) {
                     self.rec.config_refused |= a.flags.has(Flags::CMD_REFUSED);
                 }
                 let si = a.to_si();
@@ -272,8 +264,8 @@ impl<'a> DeviceController<'a> {
                     u_a: si.u_a,
                 };
                 // An answer to no sample (the Config's): the start-up output stands.
-                if echo.is_some() || self.answering >= self.delay_ticks() {
-                    self.early.push_back((echo, si, a));
+                if echo.is_some() || self.run.answering >= self.delay_ticks() {
+                    self.run.early.push_back((echo, si, a));
                 }
                 // The period's echo, if it came by its deadline t_e + d T.
                 let due = self.delay_ticks() * self.setup.period_ns;
@@ -284,7 +276,7 @@ impl<'a> DeviceController<'a> {
             }
             Ok(Message::Status(s)) => {
                 self.rec.status = Some(s);
-                self.status_seen = true;
+                self.run.status_seen = true;
             }
             _ => {}
         }
@@ -295,17 +287,17 @@ impl<'a> DeviceController<'a> {
         let latched = a.flags.has(Flags::FAULT_LATCHED);
         // Tick 0 is the safe frame of a handler (no tick ran), not a new boot's.
         if a.tick != 0 {
-            let back = self.last_tick.wrapping_sub(a.tick);
-            let went_back = a.tick < self.last_tick;
-            if went_back && (back < 0x8000 || (latched && !self.last_latched)) {
+            let back = self.run.last_tick.wrapping_sub(a.tick);
+            let went_back = a.tick < self.run.last_tick;
+            if went_back && (back < 0x8000 || (latched && !self.run.last_latched)) {
                 self.rec.device_resets += 1;
                 self.rec.first_reset_ns.get_or_insert(at_ns);
                 if self.setup.config.is_some() || self.setup.reset_config.is_some() {
-                    self.config_sent = false;
+                    self.run.config_sent = false;
                 }
             }
-            self.last_tick = a.tick;
-            self.last_latched = latched;
+            self.run.last_tick = a.tick;
+            self.run.last_latched = latched;
         }
     }
 
@@ -318,7 +310,7 @@ impl<'a> DeviceController<'a> {
                 t += self.setup.period_ns;
                 self.receive(t);
             }
-            if self.status_seen || self.rec.error.is_some() {
+            if self.run.status_seen || self.rec.error.is_some() {
                 break;
             }
         }
@@ -336,13 +328,13 @@ impl SampledController for DeviceController<'_> {
     fn step(&mut self, t_ns: u64, m: &Measurements) -> SiActuation {
         if let (Some(cfg), false) = (
             self.setup.config.or(self.setup.reset_config),
-            self.config_sent,
+            self.run.config_sent,
         ) {
-            self.config_sent = true;
-            self.config_echo_pending = true;
+            self.run.config_sent = true;
+            self.run.config_echo_pending = true;
             self.send(t_ns, &Message::Config(cfg));
         }
-        self.k += 1;
+        self.run.k += 1;
         let sample = SensorSi {
             y_dot: m.yd_mps,
             y_ddot: m.ydd_mps2,
@@ -351,7 +343,7 @@ impl SampledController for DeviceController<'_> {
             demand_nm: m.demand_nm,
             v_ref: m.v_mps,
         };
-        let q = Sensor::from_si(self.k as u16, t_ns, &sample, self.setup.lateral);
+        let q = Sensor::from_si(self.run.k as u16, t_ns, &sample, self.setup.lateral);
         self.rec.host.clamped += u64::from(q.clamped);
         let sensor = q.msg;
         let all = self.setup.records == Records::All;
@@ -385,18 +377,18 @@ impl SampledController for DeviceController<'_> {
             self.send(t_ns, &Message::Command(Command::InjectStall));
         }
         if let Some(pb) = &self.setup.progress {
-            if self.k.is_multiple_of(1024) {
+            if self.run.k.is_multiple_of(1024) {
                 pb.set_position(t_ns / 1_000_000);
             }
         }
         let step = Awaiting {
             t_ns,
-            k: self.k,
+            k: self.run.k,
             w_m: m.w_m,
         };
         if self.deferred {
             // Taken at `t_ns + T` (`take_deferred`), after the next sample went out.
-            self.awaiting.push_back(step);
+            self.run.awaiting.push_back(step);
             return SiActuation::default();
         }
         self.answer(step)
@@ -407,13 +399,13 @@ impl SampledController for DeviceController<'_> {
     }
 
     fn take_deferred(&mut self, _due_ns: u64) -> SiActuation {
-        match self.awaiting.front().copied() {
+        match self.run.awaiting.front().copied() {
             Some(step) => {
                 let a = self.answer(step);
-                self.awaiting.pop_front();
+                self.run.awaiting.pop_front();
                 a
             }
-            None => self.held.map_or(SiActuation::default(), |(si, _)| si),
+            None => self.run.held.map_or(SiActuation::default(), |(si, _)| si),
         }
     }
 }
@@ -421,19 +413,20 @@ impl SampledController for DeviceController<'_> {
 impl DeviceController<'_> {
     /// Receives until `step.t_ns + T`, logs the period; the actuation in force from then.
     fn answer(&mut self, step: Awaiting) -> SiActuation {
-        self.fresh = false;
-        self.answering = step.k;
+        self.run.fresh = false;
+        self.run.answering = step.k;
         self.receive(step.t_ns + self.setup.period_ns);
         // Sample `e` (0-based) acts from t_e + d T, i.e. when e + d <= k (k from 1).
-        while let Some(&(e, si, a)) = self.early.front() {
+        while let Some(&(e, si, a)) = self.run.early.front() {
             if e.is_some_and(|e| e + self.delay_ticks() > step.k) {
                 break;
             }
-            self.early.pop_front();
-            self.held = Some((si, a));
-            self.fresh = true;
+            self.run.early.pop_front();
+            self.run.held = Some((si, a));
+            self.run.fresh = true;
         }
         let (seq_echo, flags) = self
+            .run
             .held
             .as_ref()
             .map_or((0, 0), |(_, a)| (a.seq_echo, a.flags.0));
@@ -444,9 +437,9 @@ impl DeviceController<'_> {
             seq_echo,
             age: seq.wrapping_sub(seq_echo),
             flags,
-            fresh: self.fresh,
+            fresh: self.run.fresh,
         });
-        self.held.map_or(
+        self.run.held.map_or(
             SiActuation {
                 t_psi: 0.0,
                 u_a: self.k_m * step.w_m,

@@ -1,8 +1,5 @@
 //! The closed loop of the plant with the device, wherever it runs, through one
-//! [`transport::Transport`]: the simulated link ([`sim_link`]), the in-process device
-//! ([`inproc`]), the exchange per period ([`exchange`]), a device run of a scenario
-//! ([`device_loop`]), the control core on the plant ([`core`]), the one driver of a
-//! controller on the plant ([`drive`]) and the rate warning ([`rate_check`]).
+//! [`transport::Transport`] (each module's docs say its part).
 #![deny(missing_docs)]
 
 pub mod core;

@@ -55,7 +55,7 @@ impl Qemu {
             || {
                 guard
                     .exited()
-                    .then(|| QemuError::Exited(read_to_string(&stderr_path)))
+                    .map(|_| QemuError::Exited(read_to_string(&stderr_path)))
             },
             |e| {
                 QemuError::Exited(format!(

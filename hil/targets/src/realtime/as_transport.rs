@@ -28,17 +28,17 @@ impl Transport for RealTime {
         for r in d.messages(bytes) {
             match r {
                 Ok(Message::Sensor(s)) => sensor = Some(s.seq),
-                Ok(Message::Command(Command::RequestStatus)) if self.synced => {
-                    self.status_owed = true;
+                Ok(Message::Command(Command::RequestStatus)) if self.run.synced => {
+                    self.run.status_owed = true;
                 }
                 _ => {}
             }
         }
-        if self.first_seq.is_none() {
-            self.first_seq = sensor;
+        if self.run.first_seq.is_none() {
+            self.run.first_seq = sensor;
         }
         if let Some(seq) = sensor {
-            self.last_seq = seq;
+            self.run.last_seq = seq;
         }
         let target = self.wall(t_ns);
         self.wait_until(target)?;
@@ -46,10 +46,10 @@ impl Transport for RealTime {
         let quarter = (self.o.period_ns / 4) as f64;
         self.write(bytes)?;
         if sensor.is_some() {
-            self.send_late.push(late);
-            self.period_missed = late > quarter;
-            if self.period_missed {
-                self.late_sends += 1;
+            self.run.send_late.push(late);
+            self.run.period_missed = late > quarter;
+            if self.run.period_missed {
+                self.run.late_sends += 1;
             }
         }
         Ok(())
@@ -63,10 +63,10 @@ impl Transport for RealTime {
         let deadline = self.wall(deadline_ns);
         self.wait_until(deadline)?;
         // A stalled device's closing Status may come after a period: waited for (bounded).
-        if self.status_owed {
-            self.wait_for(|s| s.pending.iter().any(|(_, f)| is_status(f)))?;
-            self.status_owed = false;
-            while let Some((at, bytes)) = self.pending.pop_front() {
+        if self.run.status_owed {
+            self.wait_for(|s| s.run.pending.iter().any(|(_, f)| is_status(f)))?;
+            self.run.status_owed = false;
+            while let Some((at, bytes)) = self.run.pending.pop_front() {
                 sink(at.min(deadline_ns), &bytes);
             }
             return Ok(());
@@ -74,21 +74,21 @@ impl Transport for RealTime {
         let over = Instant::now()
             .saturating_duration_since(deadline)
             .as_nanos() as f64;
-        if self.recv_over.len() < self.send_late.len() {
-            self.recv_over.push(over);
+        if self.run.recv_over.len() < self.run.send_late.len() {
+            self.run.recv_over.push(over);
             if over > (self.o.period_ns / 4) as f64 {
-                self.late_receives += 1;
-                self.period_missed = true;
+                self.run.late_receives += 1;
+                self.run.period_missed = true;
             }
-            if std::mem::take(&mut self.period_missed) {
-                self.missed += 1;
+            if std::mem::take(&mut self.run.period_missed) {
+                self.run.missed += 1;
             }
         }
-        while let Some((at, _)) = self.pending.front() {
+        while let Some((at, _)) = self.run.pending.front() {
             if *at > deadline_ns {
                 break;
             }
-            if let Some((at, bytes)) = self.pending.pop_front() {
+            if let Some((at, bytes)) = self.run.pending.pop_front() {
                 sink(at, &bytes);
             }
         }
@@ -100,7 +100,7 @@ impl Transport for RealTime {
             "pace": "realtime",
             "realtime": self.obtained,
             "host": self.host_report(),
-            "sync": self.sync,
+            "sync": self.run.sync,
             // The free-running QEMU's own core and priority (`--target qemu-free`).
             "device_process": match &self.port {
                 Port::Tcp(_, Some(q)) => serde_json::to_value(q.launch()).ok(),

@@ -23,9 +23,9 @@ impl RealTime {
 
     /// Reads until a Status frame arrives after this call (at most `timeout`).
     fn await_status(&mut self, what: &str) -> Result<Status, TransportError> {
-        self.last_status = None;
-        self.wait_for(|s| s.last_status.is_some())?;
-        self.last_status.take().ok_or_else(|| {
+        self.run.last_status = None;
+        self.wait_for(|s| s.run.last_status.is_some())?;
+        self.run.last_status.take().ok_or_else(|| {
             TransportError::Timeout(format!(
                 "{}: no Status frame within {:?} after {what}",
                 self.path, self.o.timeout
@@ -39,7 +39,7 @@ impl RealTime {
         // 1. Is anybody there, ticking on its own?
         let listen = Instant::now() + Duration::from_nanos((4 * t).max(20_000_000));
         self.wait_until(listen)?;
-        if !self.wait_for(|s| s.sync.pre_run != 0)? {
+        if !self.wait_for(|s| s.run.sync.pre_run != 0)? {
             return Err(TransportError::Timeout(format!(
                 "{}: the device sent nothing in {:?}: a free-running device \
                  answers every tick (a frame-clocked one needs --pace lockstep)",
@@ -73,11 +73,11 @@ impl RealTime {
         }
         self.write(&status_request()?)?;
         let b = self.await_status("the baseline status request")?;
-        self.baseline = Some(b);
+        self.run.baseline = Some(b);
         // 4. The device's phase and period.
-        self.seen.clear();
-        self.wait_for(|s| s.seen.len() >= PHASE_FRAMES)?;
-        let seen = std::mem::take(&mut self.seen);
+        self.run.seen.clear();
+        self.wait_for(|s| s.run.seen.len() >= PHASE_FRAMES)?;
+        let seen = std::mem::take(&mut self.run.seen);
         if seen.len() < PHASE_FRAMES {
             return Err(TransportError::Timeout(format!(
                 "{}: {} of {PHASE_FRAMES} Actuation frames within {:?} after the \
@@ -94,7 +94,7 @@ impl RealTime {
             .collect();
         // The period: the lower envelope's slope (robust to skipped ticks and bursts).
         let measured = envelope_period(&seen.iter().map(|s| s.2).collect::<Vec<_>>(), &outs, tf);
-        self.sync.device_period_ns = measured;
+        self.run.sync.device_period_ns = measured;
         if (measured - tf).abs() > 0.1 * tf {
             return Err(TransportError::Unavailable(format!(
                 "{}: the device ticks every {:.1} us, not every {:.1} us of the run's \
@@ -116,13 +116,13 @@ impl RealTime {
         let k = ((now + 2.0 * tf - tick_at) / tf).ceil().max(0.0);
         tick_at += k * tf;
         let lead = self.lead_ns();
-        self.sync.lead_ns = lead;
+        self.run.sync.lead_ns = lead;
         let first = (tick_at - lead as f64).max(now) as u64;
         // The device's output phase on the run's clock (origin = `first`).
-        self.phase_ref_ns = wrap(phase - first as f64, tf);
+        self.run.phase_ref_ns = wrap(phase - first as f64, tf);
         self.origin += Duration::from_nanos(first);
         // Everything read so far is pre-run (stamped against the old origin).
-        self.pending.clear();
+        self.run.pending.clear();
         Ok(())
     }
 
@@ -137,7 +137,7 @@ impl RealTime {
         for i in 0..ROUND_TRIP_PROBES {
             // Request i at i/32 of a period after the last Status: a later tick phase each.
             let now = Instant::now();
-            let mut at = self.last_status_at.map_or(now, |(at, _)| self.wall(at))
+            let mut at = self.run.last_status_at.map_or(now, |(at, _)| self.wall(at))
                 + Duration::from_nanos(i * step);
             while at < now {
                 at += self.period();
@@ -146,7 +146,7 @@ impl RealTime {
             let sent = self.at_ns(Instant::now());
             self.write(&req)?;
             self.await_status("a round-trip probe")?;
-            if let Some((at, n)) = self.last_status_at {
+            if let Some((at, n)) = self.run.last_status_at {
                 let rt = at.saturating_sub(sent) as f64;
                 if best.is_none_or(|(b, _)| rt < b) {
                     best = Some((rt, n));
@@ -155,7 +155,7 @@ impl RealTime {
         }
         let (rt, status_bytes) = best.unwrap_or((0.0, 0));
         let wire = |n: usize| wire_ns(n, self.o.baud) as f64;
-        let latest = self.seen.iter().rev().take(PHASE_FRAMES);
+        let latest = self.run.seen.iter().rev().take(PHASE_FRAMES);
         let exec = median_exec_ns(latest.map(|s| s.3), self.o.cpu_hz);
         let before = rt
             - exec
@@ -164,8 +164,8 @@ impl RealTime {
             - wire(req.len())
             + wire(wheelset_proto::SENSOR_ONE_LATERAL_MAX_FRAME);
         let before = (before - step as f64).max(0.0);
-        self.sync.round_trip_ns = rt;
-        self.sync.before_tick_ns = before;
+        self.run.sync.round_trip_ns = rt;
+        self.run.sync.before_tick_ns = before;
         let lead = self.lead_ns() as f64;
         let tf = t as f64;
         let allowed = lead + f64::from(delay.max(1) - 1) * tf;

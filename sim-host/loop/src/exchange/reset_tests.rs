@@ -74,7 +74,7 @@ fn a_tick_counter_that_goes_back_is_a_reset_and_the_config_goes_out_again() {
         ..LoopSetup::default()
     };
     let mut ctrl = DeviceController::new(&mut tr, 0.0, setup);
-    ctrl.config_sent = true; // configured before the run, as RealTime::prepare does
+    ctrl.run.config_sent = true; // configured before the run, as RealTime::prepare does
     let m = Measurements::default();
     for k in 0..4u16 {
         ctrl.step(u64::from(k) * period, &m);

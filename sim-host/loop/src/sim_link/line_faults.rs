@@ -78,39 +78,29 @@ impl fmt::Display for FaultSpecError {
 
 impl std::error::Error for FaultSpecError {}
 
-fn prob(item: &str, v: &str, upper_open: bool) -> Result<f64, FaultSpecError> {
-    let err = |reason: String| FaultSpecError {
-        item: item.to_owned(),
-        reason,
-    };
-    let p: f64 = v
-        .parse()
-        .map_err(|_| err(format!("`{v}` is not a number")))?;
+fn prob(v: &str, upper_open: bool) -> Result<f64, String> {
+    let p: f64 = v.parse().map_err(|_| format!("`{v}` is not a number"))?;
     let ok = p >= 0.0 && if upper_open { p < 1.0 } else { p <= 1.0 };
     if !ok {
         let range = if upper_open { "[0, 1)" } else { "[0, 1]" };
-        return Err(err(format!("{p} is outside {range}")));
+        return Err(format!("{p} is outside {range}"));
     }
     Ok(p)
 }
 
-fn pair(item: &str, v: &str, what: &str) -> Result<(f64, f64), FaultSpecError> {
-    let err = |reason: String| FaultSpecError {
-        item: item.to_owned(),
-        reason,
-    };
+fn pair(v: &str, what: &str) -> Result<(f64, f64), String> {
     let (a, b) = v
         .split_once(':')
-        .ok_or_else(|| err(format!("expected {what}")))?;
+        .ok_or_else(|| format!("expected {what}"))?;
     let num = |x: &str| {
         x.parse::<f64>()
-            .map_err(|_| err(format!("`{x}` is not a number ({what})")))
+            .map_err(|_| format!("`{x}` is not a number ({what})"))
     };
     let (a, b) = (num(a)?, num(b)?);
     if !(a.is_finite() && b.is_finite() && a >= 0.0 && b > 0.0) {
-        return Err(err(format!(
+        return Err(format!(
             "{what}: need finite values, first >= 0, second > 0"
-        )));
+        ));
     }
     Ok((a, b))
 }
@@ -149,9 +139,9 @@ impl FromStr for Faults {
                 seen.push(k);
             }
             match k {
-                "ber" => f.ber = prob(item, v.trim(), true)?,
-                "drop" => f.frame_drop = prob(item, v.trim(), false)?,
-                "byte_drop" => f.byte_drop = prob(item, v.trim(), false)?,
+                "ber" => f.ber = prob(v.trim(), true).map_err(|r| err(&r))?,
+                "drop" => f.frame_drop = prob(v.trim(), false).map_err(|r| err(&r))?,
+                "byte_drop" => f.byte_drop = prob(v.trim(), false).map_err(|r| err(&r))?,
                 "outage" => {
                     let v = v.trim();
                     let (v, dir) = match v.rsplit_once(':') {
@@ -159,7 +149,7 @@ impl FromStr for Faults {
                         Some((head, "down")) => (head, FaultDir::Down),
                         _ => (v, FaultDir::Both),
                     };
-                    let (s, l) = pair(item, v, "START_S:LEN_S[:up|down]")?;
+                    let (s, l) = pair(v, "START_S:LEN_S[:up|down]").map_err(|r| err(&r))?;
                     if s > MAX_OUTAGE_S || l > MAX_OUTAGE_S {
                         return Err(err(&format!(
                             "START_S and LEN_S must be at most {MAX_OUTAGE_S} s (the longest scenario)"
@@ -172,7 +162,7 @@ impl FromStr for Faults {
                     });
                 }
                 "burst" => {
-                    let (r, n) = pair(item, v.trim(), "RATE_HZ:LEN_BYTES")?;
+                    let (r, n) = pair(v.trim(), "RATE_HZ:LEN_BYTES").map_err(|r| err(&r))?;
                     if r > MAX_BURST_RATE_HZ {
                         return Err(err(&format!(
                             "RATE_HZ {r} is above the maximum {MAX_BURST_RATE_HZ} bursts per second \
