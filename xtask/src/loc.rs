@@ -5,11 +5,9 @@
 
 use std::path::{Path, PathBuf};
 
-/// The aim for the non-test lines.
-pub const MAX_LINES: u64 = 42_000;
 /// The non-test lines the workspace may not grow past: the count when it was last
-/// lowered, above [`MAX_LINES`] until the aim is reached (lower it as code goes).
-pub const CEILING: u64 = 43_044;
+/// lowered (lower it as code goes).
+pub const CEILING: u64 = 41_974;
 /// Comment lines must stay under this share of the non-test lines.
 pub const MAX_COMMENT_SHARE: f64 = 0.15;
 
@@ -131,7 +129,7 @@ pub fn main(check: bool) -> Result<(), String> {
     }
     let share = l.comments as f64 / l.code.max(1) as f64;
     outln!(
-        "non-test Rust: {} lines (ceiling {CEILING}, aim {MAX_LINES}), {} comment lines = {:.2} % \
+        "non-test Rust: {} lines (ceiling {CEILING}), {} comment lines = {:.2} % \
          (must be under {:.0} %)",
         l.code,
         l.comments,
