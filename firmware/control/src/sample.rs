@@ -76,7 +76,17 @@ pub trait Sample: Copy + Default + PartialEq + PartialOrd + core::fmt::Debug {
         self.mul_c_acc(c, r)
     }
     /// `clamp(self, lo, hi)` and whether it clamped (`lo <= hi` assumed).
-    fn limit(self, lo: Self, hi: Self) -> (Self, bool);
+    #[inline(always)]
+    fn limit(self, lo: Self, hi: Self) -> (Self, bool) {
+        let y = if self < lo {
+            lo
+        } else if self > hi {
+            hi
+        } else {
+            self
+        };
+        (y, y != self)
+    }
     /// Replace NaN by zero (floats); reports whether it did. Identity for fixed point.
     fn sanitize(self) -> (Self, bool);
     /// Input scale: `factor` = per-unit value of one wire code.
@@ -202,17 +212,6 @@ macro_rules! float_sample {
             #[inline(always)]
             fn mul_c_acc(self, c: $t, _r: &mut ()) -> Self {
                 self * c
-            }
-            #[inline(always)]
-            fn limit(self, lo: Self, hi: Self) -> (Self, bool) {
-                let y = if self < lo {
-                    lo
-                } else if self > hi {
-                    hi
-                } else {
-                    self
-                };
-                (y, y != self)
             }
             #[inline(always)]
             fn sanitize(self) -> (Self, bool) {

@@ -242,16 +242,6 @@ impl Sample for QDyn {
         let q = (p >> k).clamp(i64::MIN as i128, i64::MAX as i128) as i64;
         QDyn(sat(q, &fm.signal))
     }
-    fn limit(self, lo: Self, hi: Self) -> (Self, bool) {
-        let y = if self < lo {
-            lo
-        } else if self > hi {
-            hi
-        } else {
-            self
-        };
-        (y, y != self)
-    }
     fn sanitize(self) -> (Self, bool) {
         (self, false)
     }
