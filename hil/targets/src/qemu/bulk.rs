@@ -64,12 +64,10 @@ impl Qemu {
                 ))
             },
         );
-        // The firmware has it open for reading: open it again, blocking writes.
-        drop(opened?);
-        let tx = std::fs::OpenOptions::new()
-            .write(true)
-            .open(&rx_path)
-            .map_err(QemuError::Io)?;
+        // The firmware has it open for reading: writes block from here on (the same
+        // descriptor, so the firmware never sees the FIFO without a writer).
+        let tx = opened?;
+        crate::realtime::os::set_blocking(&tx).map_err(QemuError::Io)?;
         let link = Link::Bulk { tx, rx, dir };
         Ok(Self::on_link(link, guard, stderr_path, cfg.timeout))
     }

@@ -80,6 +80,19 @@ impl std::fmt::Display for Obtained {
     }
 }
 
+/// Clears `O_NONBLOCK` on an open file (a FIFO end opened without waiting, then used
+/// blocking).
+pub fn set_blocking(f: &std::fs::File) -> std::io::Result<()> {
+    use std::os::fd::AsRawFd;
+    let fd = f.as_raw_fd();
+    // SAFETY: `fcntl` on a descriptor `f` owns; no memory is passed.
+    let flags = unsafe { libc::fcntl(fd, libc::F_GETFL) };
+    if flags < 0 || unsafe { libc::fcntl(fd, libc::F_SETFL, flags & !libc::O_NONBLOCK) } < 0 {
+        return Err(std::io::Error::last_os_error());
+    }
+    Ok(())
+}
+
 /// The CPUs this process may run on (empty if unknown).
 #[must_use]
 pub fn allowed_cpus() -> Vec<usize> {
