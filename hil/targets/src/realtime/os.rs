@@ -87,6 +87,7 @@ pub fn set_blocking(f: &std::fs::File) -> std::io::Result<()> {
     let fd = f.as_raw_fd();
     // SAFETY: `fcntl` on a descriptor `f` owns; no memory is passed.
     let flags = unsafe { libc::fcntl(fd, libc::F_GETFL) };
+    // SAFETY: as above.
     if flags < 0 || unsafe { libc::fcntl(fd, libc::F_SETFL, flags & !libc::O_NONBLOCK) } < 0 {
         return Err(std::io::Error::last_os_error());
     }
