@@ -236,7 +236,11 @@ impl RealTime {
             o,
             obtained: rt_os::obtain(o.want),
             origin: Instant::now(),
-            run: RunState::default(),
+            // The residual window fills in the paced loop: no growth there.
+            run: RunState {
+                window: Vec::with_capacity(TRACK_FRAMES),
+                ..RunState::default()
+            },
         }
     }
 
